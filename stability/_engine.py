@@ -1,0 +1,137 @@
+"""The engine interface the stability extension drives, with a real and a fake engine.
+
+The extension needs five things from a physics engine: a body's pose, its velocity,
+the contact points, and a way to freeze (immovable but colliding) and restore a body.
+:class:`PyBulletEngine` provides them on any pybullet client; :class:`FakeEngine` holds
+them in plain attributes so that stability rules can be tested on hand-built contact
+graphs without a simulation.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+
+from ._geometry import Pose
+
+
+@dataclass(frozen=True)
+class ContactPoint:
+    """One contact point as seen from ``body`` (report Figure 3, ContactPoint).
+
+    Attributes:
+        body: the body this contact belongs to.
+        other: the body it touches.
+        position: shape (3,), metres, the point on ``other``'s surface.
+        normal: shape (3,), unit, pointing from ``other`` into ``body``.
+        normal_force: newtons (0 when the engine does not report it).
+
+    Source: report 3.3.1, Figure 3.
+    """
+
+    body: int
+    other: int
+    position: np.ndarray
+    normal: np.ndarray
+    normal_force: float = 0.0
+
+
+class Engine(Protocol):
+    """What the stability extension needs from a physics engine. Source: stackdsl's own."""
+
+    def pose(self, body: int) -> Pose:
+        """Current pose of ``body``."""
+
+    def velocity(self, body: int) -> tuple[np.ndarray, np.ndarray]:
+        """Linear (m/s) and angular (rad/s) velocity of ``body``, shape (3,) each."""
+
+    def contact_points(self) -> list[ContactPoint]:
+        """Every current contact point, once from each side."""
+
+    def set_frozen(self, body: int, frozen: bool, mass: float) -> None:
+        """Freeze (immovable, still colliding, velocity zeroed) or restore ``body``."""
+
+
+class PyBulletEngine:
+    """:class:`Engine` on a pybullet client.
+
+    Args:
+        client: a ``pybullet_utils.bullet_client.BulletClient`` or the ``pybullet``
+            module itself (its default client).
+
+    Freezing sets the mass to 0 after zeroing the velocities: a body made static while
+    moving keeps its velocity in pybullet. Restoring the mass restores the inertia.
+    pybullet reports no contacts between two static bodies, which is why the extension
+    keeps its own contact graph. Source: DESIGN.md, pybullet facts (3.2.7).
+    """
+
+    def __init__(self, client: Any) -> None:
+        self._client = client
+
+    def pose(self, body: int) -> Pose:
+        pos, orn = self._client.getBasePositionAndOrientation(body)
+        return Pose(np.array(pos), np.array(orn))
+
+    def velocity(self, body: int) -> tuple[np.ndarray, np.ndarray]:
+        lin, ang = self._client.getBaseVelocity(body)
+        return np.array(lin), np.array(ang)
+
+    def contact_points(self) -> list[ContactPoint]:
+        points = []
+        for c in self._client.getContactPoints():
+            a, b = c[1], c[2]
+            normal_on_b = np.array(c[7])
+            force = float(c[9])
+            points.append(ContactPoint(a, b, np.array(c[6]), normal_on_b, force))
+            points.append(ContactPoint(b, a, np.array(c[5]), -normal_on_b, force))
+        return points
+
+    def set_frozen(self, body: int, frozen: bool, mass: float) -> None:
+        self._client.resetBaseVelocity(body, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0])
+        self._client.changeDynamics(body, -1, mass=0.0 if frozen else mass)
+
+
+@dataclass
+class FakeEngine:
+    """An in-memory :class:`Engine` for tests: set poses, velocities and contacts by hand.
+
+    Attributes:
+        poses: body -> :class:`Pose`.
+        velocities: body -> (linear, angular); bodies not listed are at rest.
+        contacts: the contact points, each given once from each side
+            (use :meth:`touch` to add a pair).
+        frozen: the bodies currently frozen.
+
+    >>> eng = FakeEngine()
+    >>> eng.touch(1, 0, [[0, 0, 0]], normal=[0, 0, 1])
+    >>> [c.body for c in eng.contact_points()]
+    [1, 0]
+    """
+
+    poses: dict[int, Pose] = field(default_factory=dict)
+    velocities: dict[int, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    contacts: list[ContactPoint] = field(default_factory=list)
+    frozen: set[int] = field(default_factory=set)
+
+    def touch(self, body: int, other: int, points, normal, force: float = 0.0) -> None:
+        """Add contact points between ``body`` and ``other``; ``normal`` points into ``body``."""
+        n = np.asarray(normal, dtype=float)
+        n = n / np.linalg.norm(n)
+        for p in np.asarray(points, dtype=float).reshape(-1, 3):
+            self.contacts.append(ContactPoint(body, other, p, n, force))
+            self.contacts.append(ContactPoint(other, body, p, -n, force))
+
+    def pose(self, body: int) -> Pose:
+        return self.poses[body]
+
+    def velocity(self, body: int) -> tuple[np.ndarray, np.ndarray]:
+        return self.velocities.get(body, (np.zeros(3), np.zeros(3)))
+
+    def contact_points(self) -> list[ContactPoint]:
+        return [c for c in self.contacts if not (c.body in self.frozen and c.other in self.frozen)]
+
+    def set_frozen(self, body: int, frozen: bool, mass: float) -> None:
+        self.velocities.pop(body, None)
+        (self.frozen.add if frozen else self.frozen.discard)(body)

@@ -1,0 +1,219 @@
+"""Bodies, poses and contact areas: the geometry of report section 3.3.3.
+
+All lengths are metres, all areas square metres, quaternions are ``(x, y, z, w)``
+(pybullet's order). Polygons are shapely polygons in the horizontal (x, y) plane:
+the report projects contact areas on the ground plane ("a ray cast from the
+objects centre of mass straight down", 3.3.4), so stability only needs their
+horizontal projection plus a height.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import shapely
+from scipy.spatial.transform import Rotation
+from shapely.geometry import LineString, MultiPoint, Point, Polygon
+from shapely.geometry.base import BaseGeometry
+
+UP = np.array([0.0, 0.0, 1.0])
+
+
+@dataclass(frozen=True)
+class Pose:
+    """A rigid-body pose.
+
+    Attributes:
+        position: shape (3,), metres, world frame.
+        orientation: shape (4,), unit quaternion ``(x, y, z, w)``.
+
+    Source: stackdsl's own.
+
+    >>> Pose.from_euler([0, 0, 0.004], yaw=90).rotation.round(6)[:, 0]
+    array([0., 1., 0.])
+    """
+
+    position: np.ndarray
+    orientation: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 0.0, 1.0]))
+
+    @classmethod
+    def from_euler(
+        cls, position, yaw: float = 0.0, pitch: float = 0.0, roll: float = 0.0
+    ) -> "Pose":
+        """Pose from a position (m) and yaw/pitch/roll in degrees (z, y, x intrinsic)."""
+        quat = Rotation.from_euler("ZYX", [yaw, pitch, roll], degrees=True).as_quat()
+        return cls(np.asarray(position, dtype=float), quat)
+
+    @property
+    def rotation(self) -> np.ndarray:
+        """Rotation matrix, shape (3, 3); column i is the body's axis i in the world."""
+        return Rotation.from_quat(self.orientation).as_matrix()
+
+    def euler_degrees(self) -> np.ndarray:
+        """``(yaw, pitch, roll)`` in degrees, the inverse of :meth:`from_euler`."""
+        return Rotation.from_quat(self.orientation).as_euler("ZYX", degrees=True)
+
+
+@dataclass(frozen=True)
+class Box:
+    """A uniform rectangular block: the only body shape stackdsl stacks.
+
+    Attributes:
+        half_extents: shape (3,), metres (a KAPLA brick is 0.06, 0.012, 0.004).
+        mass: kilograms.
+
+    Source: report 3.2 (KAPLA bricks, uniform mass distribution).
+    """
+
+    half_extents: np.ndarray
+    mass: float
+
+    def corners(self, pose: Pose) -> np.ndarray:
+        """The eight corners in the world frame, shape (8, 3), metres."""
+        signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+        return pose.position + (signs * self.half_extents) @ pose.rotation.T
+
+    def face(self, pose: Pose, direction: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The face whose outward normal is closest to ``direction``.
+
+        Returns:
+            ``(corners, normal)``: corners shape (4, 3) in order around the face,
+            normal shape (3,), both world frame.
+        """
+        rot = pose.rotation
+        dots = rot.T @ np.asarray(direction, dtype=float)
+        axis = int(np.argmax(np.abs(dots)))
+        sign = 1.0 if dots[axis] >= 0 else -1.0
+        u, v = [i for i in range(3) if i != axis]
+        centre = pose.position + sign * self.half_extents[axis] * rot[:, axis]
+        eu = self.half_extents[u] * rot[:, u]
+        ev = self.half_extents[v] * rot[:, v]
+        corners = np.array([centre - eu - ev, centre + eu - ev, centre + eu + ev, centre - eu + ev])
+        return corners, sign * rot[:, axis]
+
+    def footprint(self, pose: Pose) -> Polygon:
+        """Horizontal projection of the whole box (convex hull of its corners)."""
+        return MultiPoint(self.corners(pose)[:, :2]).convex_hull
+
+
+@dataclass(frozen=True)
+class Plane:
+    """An infinite horizontal ground plane at ``height`` metres. Source: stackdsl's own."""
+
+    height: float = 0.0
+
+
+@dataclass(frozen=True)
+class ContactArea:
+    """The area through which one body rests on another (report Figure 3, SingleContactArea).
+
+    Attributes:
+        polygon: horizontal projection of the area (shapely, metres).
+        height: mean height of the contact, metres.
+        normal: shape (3,), unit normal pointing from the support into the supported body.
+        exact: True when computed from the two touching faces, False when it is the
+            convex hull of the engine's contact points (report 3.3.3).
+
+    Source: report 3.3.3; the exact face overlap is stackdsl's own (pybullet reports at
+    most four points a pair, see DESIGN.md).
+    """
+
+    polygon: Polygon
+    height: float
+    normal: np.ndarray
+    exact: bool
+
+    @property
+    def area(self) -> float:
+        """Area of the horizontal projection, square metres."""
+        return float(self.polygon.area)
+
+    @property
+    def centre(self) -> np.ndarray:
+        """Centroid of the area at its height, shape (3,), metres."""
+        c = self.polygon.centroid
+        return np.array([c.x, c.y, self.height])
+
+    @property
+    def vertices(self) -> np.ndarray:
+        """Vertices of the polygon's exterior, shape (k, 2), metres."""
+        return np.asarray(self.polygon.exterior.coords)[:-1]
+
+
+def padded_hull(points_xy: np.ndarray, pad: float) -> Polygon:
+    """Convex hull of contact points, padded when it has no area (report 3.3.3).
+
+    One point becomes a diamond centred on it, two points (or collinear ones) a thin
+    rectangle around the segment; ``pad`` is the half-width in metres. The report pads
+    two points on one side only; stackdsl pads both sides so the area is not biased.
+
+    Args:
+        points_xy: shape (k, 2), k >= 1, metres.
+        pad: metres, > 0.
+
+    Raises:
+        ValueError: when no point is given.
+
+    >>> round(padded_hull(np.array([[0.0, 0.0]]), 0.001).area * 1e6, 3)
+    2.0
+    """
+    points_xy = np.asarray(points_xy, dtype=float).reshape(-1, 2)
+    if len(points_xy) == 0:
+        raise ValueError("padded_hull needs at least one contact point")
+    hull = MultiPoint(points_xy).convex_hull
+    if isinstance(hull, Polygon) and hull.area > pad * pad * 1e-3:
+        return hull
+    if isinstance(hull, Point):
+        return hull.buffer(pad, quad_segs=1)
+    line = hull if isinstance(hull, LineString) else LineString(shapely.get_coordinates(hull))
+    return line.buffer(pad, cap_style="flat", quad_segs=1)
+
+
+def combined_hull(areas: list[ContactArea]) -> Polygon:
+    """The main contact area: convex hull of all individual contact areas (report 3.3.3)."""
+    return shapely.union_all([a.polygon for a in areas]).convex_hull
+
+
+def contains(polygon: BaseGeometry, xy, margin: float = 0.0) -> bool:
+    """True when point ``xy`` (metres) lies inside ``polygon`` by more than ``margin``.
+
+    A point on the boundary is outside: an exactly critical centre of mass is not
+    stable (DESIGN.md, geometry notes). Source: report 3.3.4 (the downward ray cast).
+    """
+    point = Point(float(xy[0]), float(xy[1]))
+    if not polygon.contains(point):
+        return False
+    return margin <= 0.0 or polygon.exterior.distance(point) > margin
+
+
+def face_overlap(
+    upper: Box, upper_pose: Pose, lower: Box | Plane, lower_pose: Pose | None, gap: float
+) -> ContactArea | None:
+    """The exact contact area of two bricks touching face to face, or None.
+
+    The upper body's bottom face and the lower body's top face (or the plane) must both
+    be horizontal to within ``gap`` metres over their corners and lie within ``gap`` of
+    each other; the area is the intersection of their horizontal projections.
+
+    Source: stackdsl's own (DESIGN.md: pybullet's four contact points cover only
+    60-70% of a turned brick's overlap; the faces give it exactly).
+    """
+    bottom, _ = upper.face(upper_pose, -UP)
+    if np.ptp(bottom[:, 2]) > gap:
+        return None
+    if isinstance(lower, Plane):
+        top_poly, top_z, normal = None, lower.height, UP
+    else:
+        top, normal = lower.face(lower_pose, UP)
+        if np.ptp(top[:, 2]) > gap:
+            return None
+        top_poly, top_z = Polygon(top[:, :2]), float(top[:, 2].mean())
+    if abs(float(bottom[:, 2].mean()) - top_z) > gap:
+        return None
+    poly = Polygon(bottom[:, :2])
+    if top_poly is not None:
+        poly = poly.intersection(top_poly)
+    if not isinstance(poly, Polygon) or poly.area <= 0.0:
+        return None
+    return ContactArea(poly, top_z, np.asarray(normal, dtype=float), exact=True)

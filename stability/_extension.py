@@ -217,6 +217,8 @@ class StabilityExtension:
             if not failing:
                 return events
             for rec in failing:
+                if rec.state is not BrickState.FROZEN:  # woken already, resting on one that failed
+                    continue
                 out = rec.main_contact.exterior.distance(Point(rec.com_above[:2])) * 1000
                 gave_way.add(rec.body)
                 for woken, node, event in self._wake(rec.body, time, f"centre of mass above {out:.1f} mm outside its support"):

@@ -120,7 +120,9 @@ def split_load(
     same offset, perpendicular to the line joining them, until the centre of mass lies
     on that line (the lever rule of equations 3-9 then acts along it); for more than two
     all centres are moved by the offset that puts their mean under the centre of mass.
-    A point moved outside its contact area is brought back to its nearest point.
+    A point outside its contact area is brought back to the area's nearest point: a
+    contact pushes only where the bodies touch (this matters only for a brick that is
+    failing itself, whose centre of mass above has left its support).
     (stackdsl's own choice: the report's equation 10 puts every share at the centre of
     mass, which fails a 4 stack at level 2; centres alone lose the overturning moment,
     so a slanted tower never fails.)
@@ -136,8 +138,8 @@ def split_load(
     if not supports:
         return {}
     if len(supports) == 1:
-        (s,) = supports
-        return {s: (mass_above, com_above)}
+        (s, area), = supports.items()
+        return {s: (mass_above, _inside(area, com_above))}
     over = [s for s, area in supports.items() if contains(area.polygon, com_above)]
     if over:
         s = min(over, key=lambda k: np.linalg.norm(supports[k].centre[:2] - com_above[:2]))

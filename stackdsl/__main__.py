@@ -1,0 +1,7 @@
+"""``python -m stackdsl``: the same as the ``stackdsl`` command."""
+
+import sys
+
+from ._cli import main
+
+sys.exit(main())

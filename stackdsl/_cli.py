@@ -1,0 +1,122 @@
+"""The ``stackdsl`` command: check, compile, run, schema.
+
+Exit status: 0 when everything holds, 1 when an expectation fails, 2 on bad input
+(nothing is simulated then). Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from ._check import ScenarioErrors, check
+from ._compiler import MODE_DEFAULTS, compile_scenario
+from ._errors import ScenarioError
+from ._expect import describe, evaluate
+from ._loader import load_scenario
+from ._program import format_program
+from ._runtime import run_program
+from ._schema import Scenario
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``stackdsl`` console script; returns the exit status."""
+    args = _parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except ScenarioErrors as exc:
+        for err in exc.errors:
+            print(err, file=sys.stderr)
+        return 2
+    except ScenarioError as exc:
+        print(exc, file=sys.stderr)
+        return 2
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="stackdsl", description="Declarative stacking scenarios for pybullet.")
+    sub = parser.add_subparsers(required=True, metavar="COMMAND")
+    modes = list(MODE_DEFAULTS)
+
+    p = sub.add_parser("check", help="run scenario files or folders and check their expectations")
+    p.add_argument("paths", nargs="+", metavar="PATH")
+    p.add_argument("--mode", choices=modes, help="override every scenario's engine mode")
+    p.add_argument("-j", "--jobs", type=int, default=None, help="worker processes (default: one per core)")
+    p.set_defaults(func=_check)
+
+    p = sub.add_parser("compile", help="print the program a scenario compiles to")
+    p.add_argument("file")
+    p.add_argument("--mode", choices=modes)
+    p.add_argument("--json", action="store_true", help="print JSON instead of text")
+    p.set_defaults(func=_compile)
+
+    p = sub.add_parser("run", help="run one scenario and print its timeline and outcome")
+    p.add_argument("file")
+    p.add_argument("--mode", choices=modes)
+    p.add_argument("--json", action="store_true", help="print the whole outcome as JSON")
+    p.set_defaults(func=_run)
+
+    p = sub.add_parser("schema", help="print the JSON Schema of scenario files (for editors)")
+    p.set_defaults(func=_schema)
+    return parser
+
+
+def _check(args: argparse.Namespace) -> int:
+    start = time.perf_counter()
+    results = []
+    print(f"{'':4}  {'scenario':<34} {'mode':<9}  {'expected':<18} {'measured':<32} {'simulated':>9} {'wall':>8}")
+    for r in check(args.paths, mode=args.mode, jobs=args.jobs):
+        results.append(r)
+        status = "PASS" if r.passed else "FAIL"
+        print(
+            f"{status:<4}  {_short(r.file):<34} {r.mode:<9}  {r.expected:<18} {r.measured:<32} "
+            f"{r.simulated_time:>7.1f} s {r.wall_time:>6.1f} s",
+            flush=True,
+        )
+    failed = sum(not r.passed for r in results)
+    wall = time.perf_counter() - start
+    print(f"{len(results)} scenarios: {len(results) - failed} passed, {failed} failed ({wall:.1f} s wall)")
+    return 1 if failed else 0
+
+
+def _short(file: str) -> str:
+    return file if len(file) <= 34 else "..." + file[-31:]
+
+
+def _compile(args: argparse.Namespace) -> int:
+    program = compile_scenario(load_scenario(args.file), args.mode)
+    print(program.model_dump_json(indent=2) if args.json else format_program(program))
+    return 0
+
+
+def _run(args: argparse.Namespace) -> int:
+    scenario = load_scenario(args.file)
+    program = compile_scenario(scenario, args.mode)
+    outcome = run_program(program)
+    verdicts = evaluate(scenario.expect, outcome, program.collapse_threshold)
+    if args.json:
+        print(outcome.model_dump_json(indent=2))
+    else:
+        for e in outcome.events:
+            level = "" if e.level is None else f"level {e.level}"
+            print(f"t={e.time:9.3f} s  {e.kind:<8} {e.brick:<10} {level:<9} {e.detail}")
+        print(
+            f"{Path(args.file).name}: {describe(outcome.collapse.level if outcome.collapse else None)} "
+            f"({outcome.levels_placed} levels placed), {outcome.simulated_time:.1f} s simulated, "
+            f"{outcome.wall_time:.2f} s wall, {outcome.steps} steps ({outcome.steps_skipped} skipped)"
+        )
+        for v in verdicts:
+            print(f"{'PASS' if v.passed else 'FAIL'}  expected {v.expected}, measured {v.measured}")
+    return 0 if all(v.passed for v in verdicts) else 1
+
+
+def _schema(args: argparse.Namespace) -> int:
+    print(json.dumps(Scenario.model_json_schema(), indent=2))
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

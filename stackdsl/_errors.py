@@ -1,0 +1,96 @@
+"""Scenario errors that point at the YAML: ``file:line:col: field: what was expected``.
+
+Source: stackdsl's own, modelled on Tavern (errors show the YAML line).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+Path = tuple  # a field path: keys (str) and list indices (int)
+
+
+def format_path(path: Path) -> str:
+    """``("structure", "bricks", 3, "at")`` -> ``"structure.bricks[3].at"``."""
+    out = ""
+    for seg in path:
+        out += f"[{seg}]" if isinstance(seg, int) else (f".{seg}" if out else str(seg))
+    return out or "(top level)"
+
+
+class ScenarioError(Exception):
+    """A scenario file that cannot be run; nothing was simulated.
+
+    Attributes:
+        file: the file name.
+        line, column: 1-based position, or None when unknown.
+        field: the dotted field path, or "" for the file as a whole.
+        message: what is wrong and what was expected.
+        source_line: the text of the offending line, or "".
+        more: how many further problems the same file has.
+    """
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        file: str = "<scenario>",
+        line: int | None = None,
+        column: int | None = None,
+        field: str = "",
+        source_line: str = "",
+        more: int = 0,
+    ) -> None:
+        super().__init__(message)
+        self.message, self.file, self.line, self.column = message, file, line, column
+        self.field, self.source_line, self.more = field, source_line, more
+
+    def __str__(self) -> str:
+        where = self.file if self.line is None else f"{self.file}:{self.line}:{self.column}"
+        head = f"{where}: {self.field}: {self.message}" if self.field else f"{where}: {self.message}"
+        lines = [head]
+        if self.source_line:
+            lines.append(f"    {self.source_line.rstrip()}")
+            lines.append("    " + " " * max((self.column or 1) - 1, 0) + "^")
+        if self.more:
+            lines.append(f"    ({self.more} more problem{'s' if self.more > 1 else ''} in this file)")
+        return "\n".join(lines)
+
+
+@dataclass(frozen=True)
+class SourceMap:
+    """Where each field of a scenario came from.
+
+    Attributes:
+        file: file name as given.
+        lines: the file's lines.
+        values: field path -> (line, column), 0-based, of the value node.
+        keys: field path -> (line, column), 0-based, of the mapping key naming it.
+    """
+
+    file: str
+    lines: tuple[str, ...] = ()
+    values: dict = field(default_factory=dict)
+    keys: dict = field(default_factory=dict)
+
+    def error(self, path: Path, message: str, *, at_key: bool = False, more: int = 0) -> ScenarioError:
+        """A :class:`ScenarioError` for ``path``, placed at the nearest YAML node.
+
+        Segments with no node (pydantic puts union tags in its paths) are skipped.
+        """
+        known: tuple = ()
+        for seg in path:
+            if known + (seg,) in self.values:
+                known += (seg,)
+        table = self.keys if at_key and known in self.keys else self.values
+        line, col = table.get(known, (None, None))
+        source = self.lines[line] if line is not None and line < len(self.lines) else ""
+        return ScenarioError(
+            message,
+            file=self.file,
+            line=None if line is None else line + 1,
+            column=None if col is None else col + 1,
+            field=format_path(path),
+            source_line=source,
+            more=more,
+        )

@@ -1,0 +1,152 @@
+"""The Outcome of a run: timeline, collapse record, brick graphs, timings.
+
+Brick graphs here are the snapshot form of :class:`stability.BrickGraph`: bricks named
+by their scenario ids, poses rounded to 0.1 mm and 0.1 deg, centre of mass above in mm,
+mass above in grams, contact areas in mm^2 and load shares to 0.001 (DESIGN.md, "brick
+graph"). Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict
+
+from stability import BrickGraph
+
+Vec3 = tuple[float, float, float]
+
+
+class _Frozen(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class Event(_Frozen):
+    """One entry of the timeline; ``time`` in seconds."""
+
+    time: float
+    kind: Literal["place", "launch", "freeze", "wake", "collapse"]
+    brick: str
+    level: int | None = None
+    detail: str = ""
+
+
+class Collapse(_Frozen):
+    """The first collapse (DESIGN.md): a structure brick left its placed pose by more than
+    the collapse threshold.
+
+    Attributes:
+        level: the highest level placed when it was detected (the collapse level).
+        time: seconds.
+        brick, brick_level: the brick that moved first, and its own level.
+        displacement: metres, how far it had moved.
+    """
+
+    level: int
+    time: float
+    brick: str
+    brick_level: int
+    displacement: float
+
+
+class Node(_Frozen):
+    """A brick of the graph (ground: level None, state "ground")."""
+
+    id: str
+    level: int | None
+    state: str
+    position_mm: Vec3
+    yaw_pitch_roll_deg: Vec3
+    com_above_mm: Vec3
+    mass_above_g: float
+
+
+class Edge(_Frozen):
+    """``upper`` rests on ``support`` through ``area_mm2``, passing it ``load_share`` of its load."""
+
+    upper: str
+    support: str
+    area_mm2: float
+    load_share: float
+
+
+class Graph(_Frozen):
+    """A brick graph in snapshot form."""
+
+    nodes: tuple[Node, ...]
+    edges: tuple[Edge, ...]
+
+    @classmethod
+    def from_stability(cls, graph: BrickGraph, levels: dict[str, int]) -> "Graph":
+        """Round and rename a :class:`stability.BrickGraph`; ``levels`` maps ids to levels."""
+        nodes = tuple(
+            Node(
+                id=n.label,
+                level=levels.get(n.label),
+                state=n.state.value,
+                position_mm=_mm(n.pose.position),
+                yaw_pitch_roll_deg=tuple(_deg(a) for a in n.pose.euler_degrees()),
+                com_above_mm=_mm(n.com_above),
+                mass_above_g=_round(n.mass_above * 1000, 1),
+            )
+            for n in graph.nodes
+        )
+        edges = tuple(Edge(upper=e.upper, support=e.support, area_mm2=_round(e.area * 1e6, 1), load_share=_round(e.load_share, 3)) for e in graph.edges)
+        return cls(nodes=nodes, edges=edges)
+
+
+class Outcome(_Frozen):
+    """What a run produced.
+
+    Attributes:
+        scenario, mode: what ran.
+        collapse: the first collapse, or None when the structure stood.
+        events: the timeline.
+        final_graph: the brick graph at the end; collapse_graph: at the first collapse.
+        displacement: structure brick id -> metres from its placed pose at the end.
+        levels_placed, bricks_placed: how much was built (building stops at a collapse).
+        simulated_time, wall_time: seconds; steps: physics steps taken; steps_skipped:
+            steps jumped over while every brick was frozen.
+    """
+
+    scenario: str
+    mode: str
+    collapse: Collapse | None
+    events: tuple[Event, ...]
+    final_graph: Graph
+    collapse_graph: Graph | None
+    displacement: dict[str, float]
+    levels_placed: int
+    bricks_placed: int
+    simulated_time: float
+    wall_time: float
+    steps: int
+    steps_skipped: int
+
+    def golden(self) -> dict:
+        """Plain JSON data for a golden snapshot: collapse record and brick graphs."""
+        collapse = None
+        if self.collapse:
+            c = self.collapse
+            collapse = {"level": c.level, "brick": c.brick, "brick_level": c.brick_level, "time_s": _round(c.time, 3)}
+        return {
+            "scenario": self.scenario,
+            "mode": self.mode,
+            "levels_placed": self.levels_placed,
+            "collapse": collapse,
+            "collapse_graph": self.collapse_graph.model_dump(mode="json") if self.collapse_graph else None,
+            "final_graph": self.final_graph.model_dump(mode="json"),
+        }
+
+
+def _round(x: float, digits: int) -> float:
+    return round(float(x), digits) + 0.0  # + 0.0 turns -0.0 into 0.0
+
+
+def _mm(v) -> Vec3:
+    return tuple(_round(c * 1000, 1) for c in v)
+
+
+def _deg(a: float) -> float:
+    a = _round(a, 1)
+    return 180.0 if a == -180.0 else a

@@ -1,0 +1,170 @@
+"""The stability extension's rules (report 3.3.1-3.3.7) on a fake engine, no simulation."""
+
+import numpy as np
+import pytest
+
+from stability import Box, BrickState, FakeEngine, Plane, Pose, StabilityConfig, StabilityExtension
+
+KAPLA = Box(np.array([0.06, 0.012, 0.004]), 0.0106)
+H = 0.008
+
+
+def corners(x, y, hx, hy, z):
+    return [[x - hx, y - hy, z], [x + hx, y - hy, z], [x + hx, y + hy, z], [x - hx, y + hy, z]]
+
+
+class Scene:
+    """Bricks laid flat along x, each resting face to face on the one below (or the ground)."""
+
+    def __init__(self, config=None):
+        self.engine = FakeEngine()
+        self.ext = StabilityExtension(self.engine, config or StabilityConfig(rest_duration=0.0))
+        self.engine.frozen.add(0)  # the ground is static
+        self.ext.add_ground(0, Plane(0.0))
+        self.n = 0
+
+    def brick(self, x, level, on=(0,), y=0.0, yaw=0.0):
+        self.n += 1
+        body = self.n
+        z = (level - 0.5) * H
+        self.engine.poses[body] = Pose.from_euler([x, y, z], yaw=yaw)
+        self.ext.add_brick(body, KAPLA, f"b{body}")
+        for other in on:
+            self.engine.touch(body, other, corners(x, y, 0.012, 0.012, z - H / 2), normal=[0, 0, 1])
+        return body
+
+
+def test_brick_at_rest_over_its_support_is_frozen():
+    s = Scene()
+    b = s.brick(0.0, 1)
+    events = s.ext.update(0.0)
+    assert [(e.kind, e.label) for e in events] == [("freeze", "b1")]
+    assert s.ext.state(b) is BrickState.FROZEN and b in s.engine.frozen
+    assert s.ext.quiet
+
+
+def test_moving_brick_is_not_admitted():
+    s = Scene()
+    b = s.brick(0.0, 1)
+    s.engine.velocities[b] = (np.array([0.05, 0, 0]), np.zeros(3))
+    assert s.ext.update(0.0) == []
+    s.engine.velocities[b] = (np.zeros(3), np.array([0, 0, 1.0]))
+    assert s.ext.update(0.1) == []
+    assert s.ext.state(b) is BrickState.ACTIVE
+
+
+def test_rest_must_last_the_rest_duration():
+    s = Scene(StabilityConfig(rest_duration=0.05))
+    s.brick(0.0, 1)
+    assert s.ext.update(0.00) == []
+    assert s.ext.update(0.03) == []
+    assert [e.kind for e in s.ext.update(0.05)] == ["freeze"]
+
+
+def test_brick_whose_com_overhangs_its_support_is_not_admitted():
+    s = Scene()
+    base = s.brick(0.0, 1)
+    s.ext.update(0.0)
+    top = s.brick(0.065, 2, on=(base,))  # 65 mm over a 60 mm half-length: COM outside
+    assert s.ext.update(0.1) == []
+    assert s.ext.state(top) is BrickState.ACTIVE
+
+
+def test_contacts_between_two_active_bricks_are_dropped():
+    s = Scene()
+    base = s.brick(0.0, 1)
+    s.engine.velocities[base] = (np.array([0.1, 0, 0]), np.zeros(3))  # still moving: not in the stack
+    top = s.brick(0.0, 2, on=(base,))
+    s.ext.update(0.0)
+    assert s.ext.state(top) is BrickState.ACTIVE
+
+
+def test_frozen_pairs_report_no_contacts_but_the_graph_remembers_them():
+    s = Scene()
+    base = s.brick(0.0, 1)
+    s.ext.update(0.0)
+    s.brick(0.03, 2, on=(base,))
+    s.ext.update(0.1)
+    assert s.engine.contact_points() == []  # everything static: the engine says nothing
+    graph = s.ext.graph()
+    assert [(e.upper, e.support) for e in graph.edges] == [("b1", "ground"), ("b2", "b1")]
+    assert graph.node("b1").mass_above == pytest.approx(2 * KAPLA.mass)
+    assert graph.node("b1").com_above[0] == pytest.approx(0.015)
+
+
+def test_stack_test_wakes_the_failing_brick_and_everything_above():
+    # A column leaning right by 35 mm a level: each brick lies over the one below, but
+    # once the fourth arrives the COM above the second is beyond the first's edge.
+    s = Scene()
+    b1 = s.brick(0.0, 1)
+    s.ext.update(0.0)
+    b2 = s.brick(0.035, 2, on=(b1,))
+    s.ext.update(0.1)
+    b3 = s.brick(0.07, 3, on=(b2,))
+    s.ext.update(0.2)
+    assert all(s.ext.state(b) is BrickState.FROZEN for b in (b1, b2, b3))
+    b4 = s.brick(0.105, 4, on=(b3,))
+    events = s.ext.update(0.3)
+    # b4 is admitted (its COM lies over b3), then the stack test finds b2's COM above
+    # at (35 + 70 + 105) / 3 = 70 mm > 60 mm, b1's edge: b2, b3 and b4 wake. b1's own
+    # COM above, (0 + 35 + 70 + 105) / 4 = 52.5 mm, stays over the ground: it holds.
+    assert [(e.kind, e.label) for e in events] == [("freeze", "b4"), ("wake", "b2"), ("wake", "b3"), ("wake", "b4")]
+    assert "outside its support" in events[1].reason and events[2].reason == "rests on b2"
+    assert s.ext.state(b1) is BrickState.FROZEN
+    assert all(s.ext.state(b) is BrickState.ACTIVE for b in (b2, b3, b4))
+    assert b2 not in s.engine.frozen
+
+
+def test_wake_clears_the_woken_brick_from_its_supports():
+    s = Scene()
+    b1 = s.brick(0.0, 1)
+    s.ext.update(0.0)
+    b2 = s.brick(0.0, 2, on=(b1,))
+    s.ext.update(0.1)
+    assert [e.label for e in s.ext.wake(b2, 0.2, "test")] == ["b2"]
+    assert s.ext.wake(b2, 0.3, "again") == []  # not frozen: nothing to wake
+    assert [e.label for e in s.ext.wake(b1, 0.4, "test")] == ["b1"]  # b2 no longer rests on it
+
+
+def test_a_woken_brick_is_not_refrozen_until_it_has_rested_again():
+    s = Scene(StabilityConfig(rest_duration=0.05))
+    b1 = s.brick(0.0, 1)
+    s.ext.update(0.0)
+    s.ext.update(0.05)
+    s.ext.wake(b1, 0.06, "test")
+    assert s.ext.update(0.07) == []  # at rest, but only since the wake
+    assert [e.kind for e in s.ext.update(0.12)] == ["freeze"]
+
+
+def test_co_supports_of_a_brick_that_gave_way_are_retested():
+    # Contact areas are the hulls of hand-placed points (face overlap off), so each patch
+    # is exactly as drawn. Two columns L, R (two bricks each) carry a beam B whose load
+    # sits over R. R2's COM above leaves its 4 mm patch: R2 gives way, B wakes with it.
+    # B now leans on L2 alone, whose COM above then lies outside its own patch: L2 wakes
+    # too (the report's wake-up alone would leave L2 frozen, holding B up).
+    engine = FakeEngine()
+    ext = StabilityExtension(engine, StabilityConfig(rest_duration=0.0, face_gap=-1.0))
+    engine.frozen.add(0)
+    ext.add_ground(0, Plane(0.0))
+
+    def brick(body, x, level, on, x0, x1):
+        engine.poses[body] = Pose.from_euler([x, 0, (level - 0.5) * H])
+        ext.add_brick(body, KAPLA, f"b{body}")
+        z = (level - 1) * H
+        engine.touch(body, on, [[x0, -0.01, z], [x1, -0.01, z], [x1, 0.01, z], [x0, 0.01, z]], normal=[0, 0, 1])
+        ext.update(0.1 * body)
+        return ext.state(body)
+
+    assert brick(1, -0.05, 1, 0, -0.06, -0.04) is BrickState.FROZEN  # L1
+    assert brick(2, 0.05, 1, 0, 0.04, 0.06) is BrickState.FROZEN  # R1
+    assert brick(3, -0.05, 2, 1, -0.052, -0.048) is BrickState.FROZEN  # L2
+    assert brick(4, 0.05, 2, 2, 0.048, 0.052) is BrickState.FROZEN  # R2
+    engine.poses[5] = Pose.from_euler([0.03, 0, 2.5 * H])  # B, on L2 and R2
+    ext.add_brick(5, KAPLA, "b5")
+    for on, (x0, x1) in ((3, (-0.046, -0.042)), (4, (0.054, 0.058))):
+        engine.touch(5, on, [[x0, -0.01, 2 * H], [x1, -0.01, 2 * H], [x1, 0.01, 2 * H], [x0, 0.01, 2 * H]], normal=[0, 0, 1])
+    events = ext.update(1.0)
+    # lever rule: R2 carries 0.74 of B at x = 56 mm -> COM above 52.55 mm, outside [48, 52]
+    assert [(e.kind, e.label) for e in events] == [("freeze", "b5"), ("wake", "b4"), ("wake", "b5"), ("wake", "b3")]
+    assert events[3].reason.startswith("centre of mass above")
+    assert [ext.state(b) for b in (1, 2)] == [BrickState.FROZEN, BrickState.FROZEN]

@@ -1,0 +1,88 @@
+"""Contact areas (report 3.3.3) against closed-form areas."""
+
+import math
+
+import numpy as np
+import pytest
+from shapely.geometry import box
+
+from stability import Box, Plane, Pose, combined_hull, contains, face_overlap, padded_hull
+
+KAPLA = Box(np.array([0.06, 0.012, 0.004]), 0.0106)
+
+
+def test_one_point_becomes_a_diamond_centred_on_it():
+    poly = padded_hull(np.array([[0.1, 0.2]]), 0.001)
+    assert poly.area == pytest.approx(2 * 0.001**2)  # diamond with half-diagonal pad
+    assert poly.centroid.x == pytest.approx(0.1) and poly.centroid.y == pytest.approx(0.2)
+
+
+def test_two_points_become_a_thin_rectangle_padded_on_both_sides():
+    poly = padded_hull(np.array([[0.0, 0.0], [0.03, 0.04]]), 0.001)
+    assert poly.area == pytest.approx(0.05 * 0.002)
+    assert poly.centroid.x == pytest.approx(0.015)
+
+
+def test_collinear_points_are_padded_like_two():
+    poly = padded_hull(np.array([[0.0, 0.0], [0.01, 0.0], [0.02, 0.0]]), 0.001)
+    assert poly.area == pytest.approx(0.02 * 0.002)
+
+
+def test_four_points_give_their_convex_hull():
+    pts = np.array([[0, 0], [0.024, 0], [0.024, 0.024], [0, 0.024], [0.012, 0.012]])
+    assert padded_hull(pts, 0.001).area == pytest.approx(0.024**2)
+
+
+def test_no_point_is_an_error():
+    with pytest.raises(ValueError):
+        padded_hull(np.zeros((0, 2)), 0.001)
+
+
+def test_crossed_bricks_touch_over_a_width_by_width_square():
+    lower = Pose.from_euler([0, 0, 0.004])
+    upper = Pose.from_euler([0, 0, 0.012], yaw=90)
+    area = face_overlap(KAPLA, upper, KAPLA, lower, gap=0.001)
+    assert area.exact
+    assert area.area == pytest.approx(0.024**2)
+    assert area.height == pytest.approx(0.008)
+
+
+def test_brick_at_45_degrees_gets_the_exact_octagon_not_four_points():
+    # Two 120 x 24 strips crossing at 45 deg overlap in a rhombus of area w^2 / sin(45).
+    lower = Pose.from_euler([0, 0, 0.004])
+    upper = Pose.from_euler([0, 0, 0.012], yaw=45)
+    area = face_overlap(KAPLA, upper, KAPLA, lower, gap=0.001)
+    assert area.area == pytest.approx(0.024**2 / math.sin(math.radians(45)), rel=1e-6)
+
+
+def test_overhanging_brick_touches_only_over_the_overlap():
+    lower = Pose.from_euler([0, 0, 0.004])
+    upper = Pose.from_euler([0.05, 0, 0.012])
+    assert face_overlap(KAPLA, upper, KAPLA, lower, gap=0.001).area == pytest.approx(0.07 * 0.024)
+
+
+def test_brick_on_the_ground_touches_with_its_whole_bottom():
+    area = face_overlap(KAPLA, Pose.from_euler([0.3, 0, 0.004], yaw=30), Plane(0.0), None, gap=0.001)
+    assert area.area == pytest.approx(0.12 * 0.024)
+
+
+def test_tilted_or_separated_faces_are_not_face_to_face():
+    lower = Pose.from_euler([0, 0, 0.004])
+    assert face_overlap(KAPLA, Pose.from_euler([0, 0, 0.012], roll=5), KAPLA, lower, gap=0.001) is None
+    assert face_overlap(KAPLA, Pose.from_euler([0, 0, 0.015]), KAPLA, lower, gap=0.001) is None
+
+
+def test_combined_hull_spans_both_supports():
+    from stability import ContactArea
+
+    up = np.array([0, 0, 1.0])
+    a = ContactArea(box(-0.06, -0.012, -0.036, 0.012), 0.008, up, True)
+    b = ContactArea(box(0.036, -0.012, 0.06, 0.012), 0.008, up, True)
+    assert combined_hull([a, b]).area == pytest.approx(0.12 * 0.024)
+
+
+def test_a_point_on_the_edge_is_outside_exactly_critical_is_not_stable():
+    square = box(0, 0, 1, 1)
+    assert contains(square, (0.5, 0.5))
+    assert not contains(square, (1.0, 0.5))
+    assert not contains(square, (0.5, 0.5), margin=0.6)

@@ -1,0 +1,94 @@
+"""Centre of mass above and mass above (report 3.3.5-3.3.6, eq. 1-11) on hand-built graphs."""
+
+import numpy as np
+import pytest
+from shapely.geometry import box
+
+from stability import ContactArea, LoadNode, propagate, split_load, torque_split
+
+UP = np.array([0.0, 0.0, 1.0])
+GROUND = 0
+
+
+def area(x0, y0, x1, y1, z=0.0):
+    return ContactArea(box(x0, y0, x1, y1), z, UP, True)
+
+
+def test_single_branch_equations_1_and_2():
+    # Three bricks in a column, each shifted: COM above is the mass-weighted mean (eq. 1),
+    # mass above the sum (eq. 2).
+    m = [0.01, 0.02, 0.03]
+    x = [0.0, 0.01, 0.03]
+    nodes = {
+        1: LoadNode(m[0], np.array([x[0], 0, 0.004]), {GROUND: area(-0.06, -0.01, 0.06, 0.01)}),
+        2: LoadNode(m[1], np.array([x[1], 0, 0.012]), {1: area(-0.05, -0.01, 0.06, 0.01, 0.008)}),
+        3: LoadNode(m[2], np.array([x[2], 0, 0.020]), {2: area(-0.03, -0.01, 0.07, 0.01, 0.016)}),
+    }
+    loads = propagate(nodes)
+    assert loads[3].mass_above == pytest.approx(m[2])
+    assert loads[2].com_above[0] == pytest.approx((m[1] * x[1] + m[2] * x[2]) / (m[1] + m[2]))
+    assert loads[1].mass_above == pytest.approx(sum(m))
+    assert loads[1].com_above[0] == pytest.approx(np.dot(m, x) / sum(m))
+    assert loads[1].shares == {GROUND: pytest.approx(1.0)}
+
+
+def test_split_branching_adds_every_brick_resting_on_one():
+    nodes = {
+        1: LoadNode(0.01, np.array([0, 0, 0.004]), {GROUND: area(-0.06, -0.06, 0.06, 0.06)}),
+        2: LoadNode(0.01, np.array([-0.03, 0, 0.012]), {1: area(-0.05, -0.01, -0.01, 0.01, 0.008)}),
+        3: LoadNode(0.02, np.array([0.03, 0, 0.012]), {1: area(0.01, -0.01, 0.05, 0.01, 0.008)}),
+    }
+    load = propagate(nodes)[1]
+    assert load.mass_above == pytest.approx(0.04)
+    assert load.com_above[0] == pytest.approx((0.01 * -0.03 + 0.02 * 0.03) / 0.04)
+
+
+def test_merging_one_support_carries_all_when_the_com_lies_over_it():
+    supports = {1: area(-0.06, -0.01, -0.02, 0.01), 2: area(0.0, -0.01, 0.06, 0.01)}
+    split = split_load(np.array([0.01, 0.0, 0.01]), 0.05, supports)
+    assert split[2][0] == pytest.approx(0.05)
+    assert split[1][0] == 0.0
+
+
+@pytest.mark.parametrize("x", [-0.02, 0.0, 0.015, 0.029])
+def test_merging_two_supports_is_the_lever_rule(x):
+    # A beam on two narrow supports at -0.03 and +0.03: the share of the right one is
+    # m (x - x_left) / (x_right - x_left), and the shares sum to the load.
+    supports = {1: area(-0.031, -0.01, -0.029, 0.01), 2: area(0.029, -0.01, 0.031, 0.01)}
+    split = split_load(np.array([x, 0.0, 0.01]), 1.0, supports)
+    assert split[2][0] == pytest.approx((x + 0.03) / 0.06, abs=1e-9)
+    assert split[1][0] + split[2][0] == pytest.approx(1.0)
+
+
+def test_torque_split_equations_4_to_9_with_a_vertical_offset():
+    # Heights do not matter: only horizontal lever arms enter (gravity is vertical).
+    com, pivot, at = np.array([0.02, 0.0, 0.5]), np.array([0.0, 0.0, 0.0]), np.array([0.08, 0.0, -0.3])
+    assert torque_split(com, 2.0, at, pivot) == pytest.approx(2.0 * 0.02 / 0.08)
+
+
+def test_two_supports_shares_pass_through_the_centre_of_mass():
+    # The shares' resultant passes through the centre of mass above (moment balance),
+    # also when the COM is off the line joining the two contact-area centres.
+    supports = {1: area(-0.06, -0.012, -0.036, 0.012), 2: area(0.036, -0.012, 0.06, 0.012)}
+    com = np.array([0.01, 0.005, 0.02])
+    split = split_load(com, 1.0, supports)
+    resultant = sum(m * p[:2] for m, p in split.values())
+    assert sum(m for m, _ in split.values()) == pytest.approx(1.0)
+    assert resultant == pytest.approx(com[:2])
+
+
+def test_more_than_two_supports_take_equal_shares():
+    supports = {k: area(x - 0.005, -0.01, x + 0.005, 0.01) for k, x in [(1, -0.05), (2, 0.0), (3, 0.05)]}
+    split = split_load(np.array([0.012, 0.0, 0.02]), 0.3, supports)
+    assert [split[k][0] for k in (1, 2, 3)] == pytest.approx([0.1, 0.1, 0.1])
+
+
+def test_four_stack_loads_stay_centred():
+    # Level 2 rests on two level-1 bricks: each carries half of it at its own centre line.
+    l1 = {1: -0.048, 2: 0.048}
+    nodes = {b: LoadNode(0.01, np.array([x, 0, 0.004]), {GROUND: area(x - 0.012, -0.06, x + 0.012, 0.06)}) for b, x in l1.items()}
+    nodes[3] = LoadNode(0.01, np.array([0, 0.048, 0.012]), {b: area(x - 0.012, 0.036, x + 0.012, 0.06, 0.008) for b, x in l1.items()})
+    loads = propagate(nodes)
+    assert loads[3].shares == {1: pytest.approx(0.5), 2: pytest.approx(0.5)}
+    assert loads[2].mass_above == pytest.approx(0.015)
+    assert loads[2].com_above[0] == pytest.approx(0.048)

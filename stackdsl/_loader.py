@@ -112,8 +112,9 @@ def _plain(node: Node, path: tuple, loader: yaml.SafeLoader, source: SourceMap, 
     if isinstance(node, MappingNode):
         out: dict[str, Any] = {}
         for key_node, value_node in node.value:
-            key = loader.construct_object(key_node) if isinstance(key_node, ScalarNode) else None
             where = (key_node.start_mark.line, key_node.start_mark.column)
+            merge = key_node.tag == "tag:yaml.org,2002:merge"
+            key = "<<" if merge else loader.construct_object(key_node) if isinstance(key_node, ScalarNode) else None
             if key == "<<":
                 source.values[path + ("<<",)] = where
                 raise source.error(path + ("<<",), "merge keys ('<<') are not supported; write the fields out")

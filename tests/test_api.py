@@ -1,0 +1,46 @@
+"""The public names of both packages are what they should be (httpx style)."""
+
+import stability
+import stackdsl
+
+
+def test_stackdsl_exports():
+    assert sorted(stackdsl.__all__) == sorted(
+        [
+            "MODE_DEFAULTS", "CheckResult", "Collapse", "End", "EngineSettings", "Event", "Graph",
+            "Launch", "Outcome", "Place", "Program", "Scenario", "ScenarioError", "ScenarioErrors",
+            "Verdict", "check", "compile_scenario", "evaluate", "format_program", "load_scenario",
+            "parse_scenario", "run_program",
+        ]
+    )
+
+
+def test_stability_exports():
+    assert sorted(stability.__all__) == sorted(
+        [
+            "Box", "BrickGraph", "BrickState", "ContactArea", "ContactPoint", "Engine", "FakeEngine",
+            "GraphEdge", "GraphNode", "Load", "LoadNode", "Plane", "Pose", "PyBulletEngine",
+            "StabilityConfig", "StabilityEvent", "StabilityExtension", "combined_hull", "contains",
+            "face_overlap", "padded_hull", "propagate", "split_load", "torque_split",
+        ]
+    )
+
+
+def test_every_exported_name_exists_and_is_documented():
+    for module in (stackdsl, stability):
+        for name in module.__all__:
+            obj = getattr(module, name)
+            if callable(obj):
+                assert obj.__doc__, f"{module.__name__}.{name} has no docstring"
+
+
+def test_stability_knows_nothing_of_yaml():
+    import ast
+    import pathlib
+
+    src = pathlib.Path(stability.__file__).parent
+    for path in src.glob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, (ast.Import, ast.ImportFrom)):
+                names = [a.name for a in node.names] + [getattr(node, "module", None) or ""]
+                assert not any(n.split(".")[0] in ("yaml", "stackdsl", "pydantic") for n in names), path.name

@@ -1,0 +1,116 @@
+"""Scenario -> Program: expansion, schedule, timestep checks, impacts."""
+
+import math
+
+import numpy as np
+import pytest
+
+from stackdsl import End, Launch, Place, ScenarioError, compile_scenario, format_program, parse_scenario
+
+
+def program(text: str, mode=None):
+    return compile_scenario(parse_scenario(text, "c.yaml"), mode)
+
+
+def test_four_stack_expands_layer_by_layer():
+    p = program("stackdsl: 1\nstructure: {tower: {levels: 3}}\n")
+    places = p.placements
+    assert [a.id for a in places] == ["L01.1", "L01.2", "L02.1", "L02.2", "L03.1", "L03.2"]
+    assert [a.level for a in places] == [1, 1, 2, 2, 3, 3]
+    # level 1 along x at y = -48, +48; level 2 turned 90 deg at x = +48, -48
+    assert np.allclose([a.position for a in places[:4]], [[0, -0.048, 0.004], [0, 0.048, 0.004], [0.048, 0, 0.012], [-0.048, 0, 0.012]])
+    assert [a.yaw for a in places[:4]] == [0.0, 0.0, 90.0, 90.0]
+    assert [a.time for a in places] == [0.0, 1.0, 2.0, 3.0, 4.0, 5.0]
+    assert [a.step for a in places] == [0, 240, 480, 720, 960, 1200]
+    assert isinstance(p.actions[-1], End) and p.actions[-1].time == 7.0  # last + 2 s settle
+    assert p.levels == 3 and p.collapse_threshold == pytest.approx(0.004)
+
+
+def test_slant_tower_moves_every_layer():
+    p = program("stackdsl: 1\nstructure: {tower: {levels: 4, spacing: 70 mm, shift: 12.9 mm}}\n")
+    centres = [np.mean([a.position for a in p.placements if a.level == lv], axis=0) for lv in range(1, 5)]
+    assert [c[0] for c in centres] == pytest.approx([0.0, 0.0129, 0.0258, 0.0387])
+
+
+def test_brick_mass_and_material_from_the_type():
+    p = program("stackdsl: 1\nstructure: {tower: {levels: 1, bricks_per_layer: 1}}\n")
+    brick = p.placements[0].brick
+    assert brick.mass == pytest.approx(0.12 * 0.024 * 0.008 * 460)
+    assert brick.friction == 0.5 and brick.half_extents == pytest.approx((0.06, 0.012, 0.004))
+
+
+def test_explicit_bricks_get_levels_from_height():
+    p = program(
+        "stackdsl: 1\nstructure:\n  bricks:\n"
+        "    - {at: [0, 0, 4 mm]}\n    - {at: [0, 0, 12 mm], yaw: 90}\n    - {at: [0.2, 0, 4 mm]}\n"
+        "    - {at: [0, 0, 20 mm], level: 7}\n"
+    )
+    assert [(a.id, a.level) for a in p.placements] == [("b001", 1), ("b002", 2), ("b003", 1), ("b004", 7)]
+
+
+@pytest.mark.parametrize("mode, dt, iterations", [("raw", 1 / 240, 50), ("tuned", 1 / 1000, 150), ("extension", 1 / 240, 50)])
+def test_mode_picks_engine_defaults(mode, dt, iterations):
+    e = program("stackdsl: 1\nstructure: {tower: {levels: 1}}\n", mode).engine
+    assert (e.mode, e.timestep, e.solver_iterations) == (mode, pytest.approx(dt), iterations)
+
+
+def test_explicit_engine_settings_win_over_mode_defaults():
+    e = program("stackdsl: 1\nstructure: {tower: {levels: 1}}\nengine: {mode: raw, timestep: 2 ms, solver_iterations: 80}\n").engine
+    assert (e.timestep, e.solver_iterations) == (0.002, 80)
+
+
+def test_times_must_be_whole_timesteps():
+    with pytest.raises(ScenarioError) as info:
+        program("stackdsl: 1\nstructure: {tower: {levels: 2}}\ntiming: {interval: 0.301 s}\n")
+    err = info.value
+    assert (err.line, err.field) == (3, "timing.interval")
+    assert "not a whole number of timesteps" in err.message and "0.3 s" in err.message
+    # the same interval is fine at 1 ms
+    program("stackdsl: 1\nstructure: {tower: {levels: 2}}\ntiming: {interval: 0.301 s}\nengine: {timestep: 1 ms}\n")
+
+
+def test_impact_after_a_level_is_aimed_to_arrive_at_the_target():
+    p = program(
+        "stackdsl: 1\nstructure: {tower: {levels: 13}}\n"
+        "impacts: [{target: {level: 13, side: +y}, speed: 1 m/s, at: after level 13, distance: 50 mm}]\n"
+    )
+    launch = next(a for a in p.actions if isinstance(a, Launch))
+    assert launch.time == pytest.approx(26.0)  # one interval after the 26th placement (t = 25 s)
+    assert launch.target == pytest.approx((0.0, 0.06, 0.1))  # middle of the outer face of level 13
+    assert launch.velocity == pytest.approx((0.0, -1.0, 0.0))
+    # Ballistic flight: the front face (half a length ahead) reaches the target in 50 ms.
+    t = launch.arrival - launch.time
+    assert t == pytest.approx(0.05)
+    front = np.array(launch.position) + np.array(launch.velocity) * t + [0, -0.06, -0.5 * 9.81 * t * t]
+    assert front == pytest.approx(launch.target, abs=1e-9)
+    assert launch.yaw == pytest.approx(-90.0)
+
+
+def test_impact_on_a_missing_level_is_an_error():
+    with pytest.raises(ScenarioError) as info:
+        program("stackdsl: 1\nstructure: {tower: {levels: 3}}\nimpacts: [{target: {level: 5, side: +x}, speed: 1, at: 10 s}]\n")
+    assert info.value.field == "impacts[0].target.level"
+
+
+def test_placement_error_is_seeded():
+    text = "stackdsl: 1\nseed: 7\nstructure: {tower: {levels: 2}}\ntiming: {placement_error: 1 mm}\n"
+    a, b = program(text), program(text)
+    other = program(text.replace("seed: 7", "seed: 8"))
+    assert [x.position for x in a.placements] == [x.position for x in b.placements]
+    assert [x.position for x in a.placements] != [x.position for x in other.placements]
+    exact = program("stackdsl: 1\nstructure: {tower: {levels: 2}}\n")
+    offsets = np.array([x.position for x in a.placements]) - np.array([x.position for x in exact.placements])
+    assert np.abs(offsets[:, :2]).max() <= 0.001 and np.abs(offsets[:, 2]).max() == 0
+
+
+def test_run_length_is_limited():
+    with pytest.raises(ScenarioError, match="at most 3600 s"):
+        program("stackdsl: 1\nstructure: {tower: {levels: 100}}\ntiming: {interval: 20 s}\n")
+
+
+def test_format_program_lists_every_action():
+    p = program("stackdsl: 1\nstructure: {tower: {levels: 2}}\nimpacts: [{target: {level: 2, side: +x}, speed: 1, at: after level 2}]\n")
+    text = format_program(p)
+    assert text.count("place  L0") == 4 and text.count("launch ") == 1 and text.rstrip().endswith("end")
+    assert "mode extension, timestep 4.167 ms" in text
+    assert not any(isinstance(a, Place) and math.isnan(a.time) for a in p.actions)

@@ -1,0 +1,101 @@
+"""Program -> Outcome in pybullet: collapse detection, friction, clean-up, determinism."""
+
+import pybullet
+import pytest
+
+from stackdsl import End, EngineSettings, Launch, Program, compile_scenario, parse_scenario, run_program
+from stackdsl import _runtime
+from stackdsl._compiler import _spec
+
+TWO_BRICKS = """
+stackdsl: 1
+structure:
+  bricks:
+    - {{at: [0, 0, 4 mm]}}
+    - {{at: [{x} mm, 0, 12 mm], yaw: 90}}
+"""
+
+
+def run(text: str, mode=None):
+    return run_program(compile_scenario(parse_scenario(text, "r.yaml"), mode))
+
+
+@pytest.mark.parametrize("mode", ["raw", "tuned", "extension"])
+def test_overhanging_brick_collapses_at_its_level_in_every_mode(mode):
+    # A crossed brick (24 mm wide along x) with its COM 10 mm beyond the lower one's end
+    # tips off it. (A long brick would only tilt until its far end touched the ground.)
+    outcome = run(TWO_BRICKS.format(x=70), mode)
+    assert outcome.collapse is not None
+    assert (outcome.collapse.level, outcome.collapse.brick, outcome.collapse.brick_level) == (2, "b002", 2)
+    assert outcome.collapse.displacement > 0.004
+    assert [e.kind for e in outcome.events].count("collapse") == 1
+
+
+@pytest.mark.parametrize("mode", ["raw", "extension"])
+def test_supported_brick_stands(mode):
+    outcome = run(TWO_BRICKS.format(x=50), mode)  # COM 10 mm inside the end
+    assert outcome.collapse is None
+    assert max(outcome.displacement.values()) < 0.004
+
+
+def test_extension_freezes_settled_bricks_and_skips_quiet_steps():
+    outcome = run(TWO_BRICKS.format(x=50), "extension")
+    kinds = [(e.kind, e.brick) for e in outcome.events]
+    assert kinds == [("place", "b001"), ("freeze", "b001"), ("place", "b002"), ("freeze", "b002")]
+    assert outcome.steps_skipped > outcome.steps
+    assert all(n.state in ("frozen", "ground") for n in outcome.final_graph.nodes)
+    edge = next(e for e in outcome.final_graph.edges if e.upper == "b002")
+    assert edge.support == "b001" and edge.area_mm2 == pytest.approx(22 * 24, abs=5)  # x from 38 to 60 mm
+
+
+def test_building_stops_at_the_first_collapse():
+    text = "stackdsl: 1\nstructure: {tower: {levels: 14, spacing: 70 mm, shift: 12.9 mm}}\ntiming: {settle: 1 s}\n"
+    outcome = run(text, "extension")
+    assert outcome.collapse.level == 9  # see scenarios/slant_tower.yaml
+    assert outcome.levels_placed == 9 and outcome.bricks_placed <= 18
+    assert outcome.simulated_time == pytest.approx(outcome.collapse.time + 1.0, abs=0.01)
+    assert outcome.collapse_graph is not None
+
+
+def test_friction_coefficient_of_a_pair_is_the_materials():
+    # A brick sliding on the ground at v stops after v^2 / (2 mu g). Bullet multiplies the
+    # two bodies' values: with 0.5 on each the pair would be 0.25 and the brick slide twice
+    # as far. stackdsl gives each body sqrt(0.5).
+    spec = _spec(parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 1}}\n"), "kapla")
+    v = 0.5
+    program = Program(
+        name="slide",
+        engine=EngineSettings(mode="raw", timestep=1 / 1000, solver_iterations=50, friction_anchors=False, maximal_coordinates=False),
+        ground_friction=0.5,
+        ground_restitution=0.0,
+        stability={},
+        collapse_threshold=0.004,
+        settle=0.0,
+        actions=(
+            Launch(step=0, time=0.0, id="slider", brick=spec, position=(0.0, 0.0, 0.004), yaw=0.0, pitch=0.0, velocity=(v, 0.0, 0.0), target=(0.0, 0.0, 0.0), arrival=0.0),
+            End(step=500, time=0.5),
+        ),
+    )
+    outcome = run_program(program)
+    x = outcome.final_graph.nodes[-1].position_mm[0] / 1000
+    assert x == pytest.approx(v * v / (2 * 0.5 * 9.81), rel=0.05)
+
+
+def test_the_client_is_closed_even_when_the_run_fails(monkeypatch):
+    seen = []
+
+    def boom(self):
+        seen.append(self.client._client)
+        raise RuntimeError("boom")
+
+    monkeypatch.setattr(_runtime._Runner, "execute", boom)
+    with pytest.raises(RuntimeError):
+        run(TWO_BRICKS.format(x=0))
+    assert seen and not pybullet.isConnected(physicsClientId=seen[0])
+
+
+def test_runs_are_repeatable():
+    text = "stackdsl: 1\nstructure: {tower: {levels: 10, spacing: 70 mm, shift: 12.9 mm}}\n"
+    first, second = run(text, "raw"), run(text, "raw")
+    assert first.golden() == second.golden()
+    assert first.displacement == second.displacement

@@ -117,6 +117,9 @@ def check(
 ) -> Iterator[CheckResult]:
     """Check every scenario under ``paths``; results come in file order as they finish.
 
+    Every file is loaded and compiled before this returns (so bad input raises here,
+    before anything is simulated); the runs happen as the iterator is consumed.
+
     Args:
         paths: files or folders.
         mode: overrides each scenario's engine mode.
@@ -127,7 +130,10 @@ def check(
     Raises:
         ScenarioErrors: a file is missing or invalid (before anything runs).
     """
-    prepared = prepare(discover(paths), mode)
+    return _results(prepare(discover(paths), mode), jobs, executor)
+
+
+def _results(prepared: list[tuple[Path, Program, Expect]], jobs: int | None, executor: Executor | None) -> Iterator[CheckResult]:
     own = executor is None
     if own:
         executor = make_executor(jobs or min(len(prepared), os.cpu_count() or 1))

@@ -67,8 +67,9 @@ def _parser() -> argparse.ArgumentParser:
 def _check(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     results = []
+    checks = check(args.paths, mode=args.mode, jobs=args.jobs)  # raises on bad input: nothing printed yet
     print(f"{'':4}  {'scenario':<34} {'mode':<9}  {'expected':<18} {'measured':<32} {'simulated':>9} {'wall':>8}")
-    for r in check(args.paths, mode=args.mode, jobs=args.jobs):
+    for r in checks:
         results.append(r)
         status = "PASS" if r.passed else "FAIL"
         print(

@@ -92,10 +92,6 @@ class Box:
         corners = np.array([centre - eu - ev, centre + eu - ev, centre + eu + ev, centre - eu + ev])
         return corners, sign * rot[:, axis]
 
-    def footprint(self, pose: Pose) -> Polygon:
-        """Horizontal projection of the whole box (convex hull of its corners)."""
-        return MultiPoint(self.corners(pose)[:, :2]).convex_hull
-
 
 @dataclass(frozen=True)
 class Plane:
@@ -134,11 +130,6 @@ class ContactArea:
         """Centroid of the area at its height, shape (3,), metres."""
         c = self.polygon.centroid
         return np.array([c.x, c.y, self.height])
-
-    @property
-    def vertices(self) -> np.ndarray:
-        """Vertices of the polygon's exterior, shape (k, 2), metres."""
-        return np.asarray(self.polygon.exterior.coords)[:-1]
 
 
 def padded_hull(points_xy: np.ndarray, pad: float) -> Polygon:

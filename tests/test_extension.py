@@ -22,6 +22,13 @@ class Scene:
         self.engine.frozen.add(0)  # the ground is static
         self.ext.add_ground(0, Plane(0.0))
         self.n = 0
+        self.time = 0.0
+
+    def place(self, x, level, on=(0,), y=0.0, yaw=0.0):
+        """Add a brick and run one update: returns the brick and the update's events."""
+        body = self.brick(x, level, on, y, yaw)
+        self.time += 0.1
+        return body, self.ext.update(self.time)
 
     def brick(self, x, level, on=(0,), y=0.0, yaw=0.0):
         self.n += 1
@@ -63,10 +70,9 @@ def test_rest_must_last_the_rest_duration():
 
 def test_brick_whose_com_overhangs_its_support_is_not_admitted():
     s = Scene()
-    base = s.brick(0.0, 1)
-    s.ext.update(0.0)
-    top = s.brick(0.065, 2, on=(base,))  # 65 mm over a 60 mm half-length: COM outside
-    assert s.ext.update(0.1) == []
+    base, _ = s.place(0.0, 1)
+    top, events = s.place(0.065, 2, on=(base,))  # 65 mm over a 60 mm half-length: COM outside
+    assert events == []
     assert s.ext.state(top) is BrickState.ACTIVE
 
 
@@ -81,10 +87,8 @@ def test_contacts_between_two_active_bricks_are_dropped():
 
 def test_frozen_pairs_report_no_contacts_but_the_graph_remembers_them():
     s = Scene()
-    base = s.brick(0.0, 1)
-    s.ext.update(0.0)
-    s.brick(0.03, 2, on=(base,))
-    s.ext.update(0.1)
+    base, _ = s.place(0.0, 1)
+    s.place(0.03, 2, on=(base,))
     assert s.engine.contact_points() == []  # everything static: the engine says nothing
     graph = s.ext.graph()
     assert [(e.upper, e.support) for e in graph.edges] == [("b1", "ground"), ("b2", "b1")]
@@ -96,15 +100,11 @@ def test_stack_test_wakes_the_failing_brick_and_everything_above():
     # A column leaning right by 35 mm a level: each brick lies over the one below, but
     # once the fourth arrives the COM above the second is beyond the first's edge.
     s = Scene()
-    b1 = s.brick(0.0, 1)
-    s.ext.update(0.0)
-    b2 = s.brick(0.035, 2, on=(b1,))
-    s.ext.update(0.1)
-    b3 = s.brick(0.07, 3, on=(b2,))
-    s.ext.update(0.2)
+    b1, _ = s.place(0.0, 1)
+    b2, _ = s.place(0.035, 2, on=(b1,))
+    b3, _ = s.place(0.07, 3, on=(b2,))
     assert all(s.ext.state(b) is BrickState.FROZEN for b in (b1, b2, b3))
-    b4 = s.brick(0.105, 4, on=(b3,))
-    events = s.ext.update(0.3)
+    b4, events = s.place(0.105, 4, on=(b3,))
     # b4 is admitted (its COM lies over b3), then the stack test finds b2's COM above
     # at (35 + 70 + 105) / 3 = 70 mm > 60 mm, b1's edge: b2, b3 and b4 wake. b1's own
     # COM above, (0 + 35 + 70 + 105) / 4 = 52.5 mm, stays over the ground: it holds.
@@ -117,10 +117,8 @@ def test_stack_test_wakes_the_failing_brick_and_everything_above():
 
 def test_wake_clears_the_woken_brick_from_its_supports():
     s = Scene()
-    b1 = s.brick(0.0, 1)
-    s.ext.update(0.0)
-    b2 = s.brick(0.0, 2, on=(b1,))
-    s.ext.update(0.1)
+    b1, _ = s.place(0.0, 1)
+    b2, _ = s.place(0.0, 2, on=(b1,))
     assert [e.label for e in s.ext.wake(b2, 0.2, "test")] == ["b2"]
     assert s.ext.wake(b2, 0.3, "again") == []  # not frozen: nothing to wake
     assert [e.label for e in s.ext.wake(b1, 0.4, "test")] == ["b1"]  # b2 no longer rests on it

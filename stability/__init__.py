@@ -9,9 +9,12 @@ Source: "Simulating Object Stacking Using Stack Stability", chapter 3.
 """
 
 from ._engine import ContactPoint, Engine, FakeEngine, PyBulletEngine
+from ._equilibrium import ContactPolygon, Equilibrium, RigidBlock, solve_equilibrium
 from ._extension import StabilityConfig, StabilityEvent, StabilityExtension
 from ._geometry import Box, ContactArea, Plane, Pose, combined_hull, contains, face_overlap, padded_hull
 from ._graph import BrickGraph, BrickState, GraphEdge, GraphNode
+from ._impact import breaks_loose, kinetic_energy, potential_energy
+from ._leaning import lean_polygon, leaning_stands, pair_friction
 from ._load import Load, LoadNode, propagate, split_load, torque_split
 
 __all__ = [
@@ -20,7 +23,9 @@ __all__ = [
     "BrickState",
     "ContactArea",
     "ContactPoint",
+    "ContactPolygon",
     "Engine",
+    "Equilibrium",
     "FakeEngine",
     "GraphEdge",
     "GraphNode",
@@ -29,14 +34,22 @@ __all__ = [
     "Plane",
     "Pose",
     "PyBulletEngine",
+    "RigidBlock",
     "StabilityConfig",
     "StabilityEvent",
     "StabilityExtension",
+    "breaks_loose",
     "combined_hull",
     "contains",
     "face_overlap",
+    "kinetic_energy",
+    "lean_polygon",
+    "leaning_stands",
     "padded_hull",
+    "pair_friction",
+    "potential_energy",
     "propagate",
+    "solve_equilibrium",
     "split_load",
     "torque_split",
 ]

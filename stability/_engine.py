@@ -41,6 +41,10 @@ class ContactPoint:
 class Engine(Protocol):
     """What the stability extension needs from a physics engine. Source: stackdsl's own."""
 
+    @property
+    def timestep(self) -> float:
+        """Seconds of one physics step."""
+
     def pose(self, body: int) -> Pose:
         """Current pose of ``body``."""
 
@@ -49,6 +53,9 @@ class Engine(Protocol):
 
     def contact_points(self) -> list[ContactPoint]:
         """Every current contact point, once from each side."""
+
+    def near(self, body: int, distance: float) -> list[ContactPoint]:
+        """Closest points between ``body`` and every body within ``distance`` metres, seen from ``body``."""
 
     def set_frozen(self, body: int, frozen: bool, mass: float) -> None:
         """Freeze (immovable, still colliding, velocity zeroed) or restore ``body``."""
@@ -70,6 +77,10 @@ class PyBulletEngine:
     def __init__(self, client: Any) -> None:
         self._client = client
 
+    @property
+    def timestep(self) -> float:
+        return float(self._client.getPhysicsEngineParameters()["fixedTimeStep"])
+
     def pose(self, body: int) -> Pose:
         pos, orn = self._client.getBasePositionAndOrientation(body)
         return Pose(np.array(pos), np.array(orn))
@@ -88,6 +99,16 @@ class PyBulletEngine:
             points.append(ContactPoint(b, a, np.array(c[5]), -normal_on_b, force))
         return points
 
+    def near(self, body: int, distance: float) -> list[ContactPoint]:
+        low, high = self._client.getAABB(body)
+        low, high = np.array(low) - distance, np.array(high) + distance
+        others = sorted({b for b, _ in self._client.getOverlappingObjects(low.tolist(), high.tolist()) or [] if b != body})
+        return [
+            ContactPoint(body, other, np.array(c[6]), np.array(c[7]), float(c[9]))
+            for other in others
+            for c in self._client.getClosestPoints(body, other, distance)
+        ]
+
     def set_frozen(self, body: int, frozen: bool, mass: float) -> None:
         self._client.resetBaseVelocity(body, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0])
         self._client.changeDynamics(body, -1, mass=0.0 if frozen else mass)
@@ -103,6 +124,7 @@ class FakeEngine:
         contacts: the contact points, each given once from each side
             (use :meth:`touch` to add a pair).
         frozen: the bodies currently frozen.
+        timestep: seconds of one step.
 
     >>> eng = FakeEngine()
     >>> eng.touch(1, 0, [[0, 0, 0]], normal=[0, 0, 1])
@@ -114,6 +136,7 @@ class FakeEngine:
     velocities: dict[int, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     contacts: list[ContactPoint] = field(default_factory=list)
     frozen: set[int] = field(default_factory=set)
+    timestep: float = 1 / 240
 
     def touch(self, body: int, other: int, points, normal, force: float = 0.0) -> None:
         """Add contact points between ``body`` and ``other``; ``normal`` points into ``body``."""
@@ -131,6 +154,10 @@ class FakeEngine:
 
     def contact_points(self) -> list[ContactPoint]:
         return [c for c in self.contacts if not (c.body in self.frozen and c.other in self.frozen)]
+
+    def near(self, body: int, distance: float) -> list[ContactPoint]:
+        """The fake has no distances: a body is near what it touches."""
+        return [c for c in self.contacts if c.body == body]
 
     def set_frozen(self, body: int, frozen: bool, mass: float) -> None:
         self.velocities.pop(body, None)

@@ -1,17 +1,20 @@
 """The stability extension: freeze what the graph proves stable, wake what it proves not.
 
-The report's basic version (3.3.1-3.3.7) on top of any :class:`Engine`. Each physics
-step the harness calls :meth:`StabilityExtension.update`; it
+The report's method (chapter 3) on top of any :class:`Engine`. Each physics step the
+harness calls :meth:`StabilityExtension.update`; it
 
-1. gathers contact points and drops those between two unstable (active) bricks
-   (3.3.1; contacts with a moving body, impacts included, never support a brick);
+1. gathers contact points and drops those between two unstable (active) bricks (3.3.1);
 2. builds contact areas per support and their convex hull, the main contact area (3.3.3);
 3. admits a brick whose speeds have stayed under the rest threshold for the rest
-   duration and whose centre of mass lies over its main contact area, and freezes it
-   (3.3.4);
+   duration and whose centre of mass lies over its main contact area (3.3.4), unless
+   it rests on contacts at different heights (3.5); otherwise, when leaning is on,
+   tests it as a leaning brick (3.4, :mod:`stability._leaning`); an admitted brick is
+   frozen (immovable, still colliding);
 4. when the stack changed, propagates centre of mass above and mass above (3.3.5-3.3.6)
    and wakes every brick whose centre of mass above lies outside its main contact area,
-   with everything resting on it (3.3.7).
+   with everything resting on it (3.3.7);
+5. when impacts are on, compares the kinetic energy of every fast body about to touch a
+   frozen brick with that brick's potential energy (3.6, :mod:`stability._impact`).
 
 Propagation and the stack-wide test run only when the stack changes (a freeze or a
 wake), never on a step where nothing did. pybullet reports no contacts between two
@@ -22,37 +25,48 @@ from __future__ import annotations
 
 import math
 from collections import defaultdict
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Iterable
 
 import numpy as np
 from shapely.geometry import Point, Polygon
 
 from ._engine import ContactPoint, Engine
+from ._equilibrium import GRAVITY, ContactPolygon
 from ._geometry import Box, ContactArea, Plane, Pose, combined_hull, contains, face_overlap, padded_hull
 from ._graph import BrickGraph, BrickState, GraphEdge, GraphNode
+from ._impact import breaks_loose, kinetic_energy, potential_energy
+from ._leaning import lean_polygon, leaning_stands, pair_friction
 from ._load import LoadNode, propagate
 
 
 @dataclass(frozen=True)
 class StabilityConfig:
-    """Thresholds of the stability extension (SI units).
+    """Thresholds and rules of the stability extension (SI units).
 
     Attributes:
-        rest_speed: m/s; a brick faster than this is not at rest (report 3.3.2).
+        rest_speed: m/s; a brick faster than this is not at rest, and a body faster
+            than this that is about to touch a frozen brick is an impact (report 3.3.2, 3.6).
         rest_angular_speed: rad/s; likewise for rotation (report 3.3.2).
         rest_duration: s; speeds must stay under both thresholds this long before a
             brick is admitted. The report tests one frame; a brick just woken is at rest
             for that frame and would be refrozen at once, so stackdsl asks for a duration
             (its own).
         contact_pad: m; half-width of the padding of one- and two-point contact areas
-            (report 3.3.3).
+            (report 3.3.3, 3.4.2).
         support_angle: degrees; a contact whose normal is within this angle of vertical
             is one the brick rests on (stackdsl's own).
         face_gap: m; two faces within this distance (and this flat) touch face to face,
             and their overlap is the exact contact area (stackdsl's own).
         com_margin: m; the centre of mass must lie this far inside the area (0: strictly
             inside; on the edge counts as unstable).
+        lean_height: m; a brick whose support areas differ in height by more than this
+            is not admitted by the basic test (report 3.5).
+        leaning: run the leaning rule (report 3.4).
+        max_leaning_bodies: a leaning brick may touch at most this many bodies (the
+            report's model handles two).
+        impacts: run the impact rule (report 3.6).
+        gravity: m/s^2.
     """
 
     rest_speed: float = 0.005
@@ -62,34 +76,45 @@ class StabilityConfig:
     support_angle: float = 30.0
     face_gap: float = 0.001
     com_margin: float = 0.0
+    lean_height: float = 0.002
+    leaning: bool = True
+    max_leaning_bodies: int = 2
+    impacts: bool = True
+    gravity: float = GRAVITY
 
 
 @dataclass(frozen=True)
 class StabilityEvent:
-    """Something the extension did: ``kind`` is ``"freeze"`` or ``"wake"``; time in s."""
+    """Something the extension did: ``kind`` is ``"freeze"``, ``"wake"`` or ``"impact"``
+    (an impact the stack held; every landing brick makes one); time in s; ``source`` is
+    the impactor of an impact or of the wake it caused."""
 
     time: float
     kind: str
     label: str
     reason: str
+    source: str = ""
 
 
 @dataclass
 class _Body:
-    """Per-body data of report Figure 3 (Brick): supports, main contact, loads, state."""
+    """Per-body data of report Figure 3 (Brick), with the leaning contacts of 3.4."""
 
     body: int
     label: str
     shape: Box | Plane
     state: BrickState
     order: int
+    friction: float
     rests_on: dict[int, ContactArea] = field(default_factory=dict)
     main_contact: Polygon | None = None
+    leans_on: list[ContactPolygon] = field(default_factory=list)
     objects_above: set[int] = field(default_factory=set)
     com_above: np.ndarray | None = None
     mass_above: float = 0.0
     rest_since: float | None = None
     frozen_pose: Pose | None = None
+    impacted: set[int] = field(default_factory=set)
 
 
 class StabilityExtension:
@@ -101,9 +126,9 @@ class StabilityExtension:
 
     Args:
         engine: the engine to drive.
-        config: thresholds.
+        config: thresholds and rules.
 
-    Source: report 3.3 (basic version).
+    Source: report chapter 3.
 
     >>> import numpy as np
     >>> from stability import Box, FakeEngine, Plane, Pose
@@ -124,13 +149,14 @@ class StabilityExtension:
         self._support_cos = math.cos(math.radians(self.config.support_angle))
 
     # registration -------------------------------------------------------------
-    def add_ground(self, body: int, shape: Box | Plane, label: str = "ground") -> None:
-        """Register an environment body (ground flag of report Figure 3)."""
-        self._add(_Body(body, label, shape, BrickState.GROUND, len(self._bodies)))
+    def add_ground(self, body: int, shape: Box | Plane, label: str = "ground", friction: float = 0.5) -> None:
+        """Register an environment body (ground flag of report Figure 3): the ground
+        plane or a fixed box; ``friction`` is its material's coefficient."""
+        self._add(_Body(body, label, shape, BrickState.GROUND, len(self._bodies), friction))
 
-    def add_brick(self, body: int, box: Box, label: str) -> None:
+    def add_brick(self, body: int, box: Box, label: str, friction: float = 0.5) -> None:
         """Register a brick; it starts active (simulated by the engine)."""
-        self._add(_Body(body, label, box, BrickState.ACTIVE, len(self._bodies)))
+        self._add(_Body(body, label, box, BrickState.ACTIVE, len(self._bodies), friction))
 
     def _add(self, rec: _Body) -> None:
         if rec.body in self._bodies:
@@ -149,17 +175,26 @@ class StabilityExtension:
 
     # the per-step hook --------------------------------------------------------
     def update(self, time: float) -> list[StabilityEvent]:
-        """One step of the algorithm of report 3.3.1. ``time`` in seconds."""
+        """One step of the algorithm of report 3.3.1 (and 3.4-3.6). ``time`` in seconds."""
         active = [r for r in self._bodies.values() if r.state is BrickState.ACTIVE]
         if not active:
             return []
         contacts = _by_body(self._engine.contact_points())
         events: list[StabilityEvent] = []
-        for rec in active:
-            if self._at_rest(rec, time):
-                events += self._admit(rec, contacts.get(rec.body, []), time)
+        resting = [rec for rec in active if self._at_rest(rec, time)]  # every clock first: partners
+        for rec in resting:
+            if rec.state is BrickState.ACTIVE:
+                found = self._admit(rec, contacts.get(rec.body, []), time)
+                if not found and self.config.leaning:
+                    found = self._admit_leaning(rec, contacts, time)
+                events += found
         if events:
             events += self._test_stack(time)
+        if self.config.impacts:
+            hits = self._impacts(active, self._engine.timestep, time)
+            events += hits
+            if any(e.kind == "wake" for e in hits):
+                events += self._test_stack(time)
         return events
 
     def _at_rest(self, rec: _Body, time: float) -> bool:
@@ -170,40 +205,113 @@ class StabilityExtension:
             return False
         if rec.rest_since is None:
             rec.rest_since = time
-        return time - rec.rest_since >= cfg.rest_duration - 1e-9
+        return self._rested(rec, time)
 
+    def _rested(self, rec: _Body, time: float) -> bool:
+        return rec.rest_since is not None and time - rec.rest_since >= self.config.rest_duration - 1e-9
+
+    # admission ------------------------------------------------------------------
     def _admit(self, rec: _Body, contacts: list[ContactPoint], time: float) -> list[StabilityEvent]:
         """Single object stability (report 3.3.4): freeze when the COM is over the support."""
         supports = self._supports(rec, contacts, stack_only=True)
         if not supports:
             return []
+        heights = [a.height for a in supports.values()]
+        if max(heights) - min(heights) > self.config.lean_height:
+            return []  # report 3.5: contacts at different heights: a leaning brick
         main = combined_hull(list(supports.values()))
-        pose = self._engine.pose(rec.body)
-        if not contains(main, pose.position[:2], self.config.com_margin):
+        if not contains(main, self._engine.pose(rec.body).position[:2], self.config.com_margin):
             return []
+        self._freeze(rec, supports, main)
+        names = ", ".join(self._bodies[s].label for s in supports)
+        return [StabilityEvent(time, "freeze", rec.label, f"at rest on {names}")]
+
+    def _admit_leaning(self, rec: _Body, contacts: dict[int, list[ContactPoint]], time: float) -> list[StabilityEvent]:
+        """Leaning stability (report 3.4): a brick touching two bodies, at least one of them
+        in the stack or the ground; with a leaning partner (a V), the two together."""
+        touching = self._touching(rec, contacts)
+        if not self._leans(touching):
+            return []
+        group = [rec]
+        partners = [self._bodies[o] for o in touching if self._bodies[o].state is BrickState.ACTIVE]
+        if partners:
+            (partner,) = partners
+            theirs = self._touching(partner, contacts)
+            if not (self._rested(partner, time) and rec.body in theirs and self._leans(theirs)):
+                return []
+            if any(self._bodies[o].state is BrickState.ACTIVE for o in theirs if o != rec.body):
+                return []
+            group.append(partner)
+        lean = {m.body: self._lean_contacts(m, contacts, skip={g.body for g in group[: i]}) for i, m in enumerate(group)}
+        members = {m.body: (self._engine.pose(m.body).position, m.shape.mass) for m in group}
+        if not leaning_stands(members, [c for cs in lean.values() for c in cs], self.config.gravity):
+            return []
+        events = []
+        shared = lean[rec.body]
+        for m in group:
+            areas = {c.other: _horizontal(c, self.config.contact_pad) for c in lean[m.body]}
+            if m is not rec:  # the contact between the two partners, seen from this side
+                areas.update({rec.body: _horizontal(c, self.config.contact_pad) for c in shared if c.other == m.body})
+            main = combined_hull(list(areas.values()))
+            self._freeze(m, {o: a for o, a in areas.items() if o not in members}, main)
+            m.leans_on = lean[m.body]
+            names = ", ".join(self._bodies[o].label for o in touching if o != m.body) if m is rec else rec.label
+            events.append(StabilityEvent(time, "freeze", m.label, f"leaning on {names}"))
+        if partners:  # partners wake together
+            rec.objects_above.add(partners[0].body)
+            partners[0].objects_above.add(rec.body)
+        return events
+
+    def _touching(self, rec: _Body, contacts: dict[int, list[ContactPoint]]) -> dict[int, list[ContactPoint]]:
+        """Registered bodies ``rec`` touches, with the contact points, in registration order."""
+        grouped: dict[int, list[ContactPoint]] = defaultdict(list)
+        for c in contacts.get(rec.body, []):
+            if c.other in self._bodies:
+                grouped[c.other].append(c)
+        return {o: grouped[o] for o in sorted(grouped, key=lambda b: self._bodies[b].order)}
+
+    def _leans(self, touching: dict[int, list[ContactPoint]]) -> bool:
+        """Two bodies (report 3.4.3; more when configured), at least one in the stack or the ground."""
+        held = [o for o in touching if self._bodies[o].state is not BrickState.ACTIVE]
+        return 2 <= len(touching) <= self.config.max_leaning_bodies and bool(held)
+
+    def _lean_contacts(self, rec: _Body, contacts: dict[int, list[ContactPoint]], skip: set[int]) -> list[ContactPolygon]:
+        """The leaning contact list of report 3.4.2: one polygon per touched body."""
+        out = []
+        for other, points in self._touching(rec, contacts).items():
+            if other in skip:
+                continue
+            normal = np.mean([c.normal for c in points], axis=0)
+            normal /= np.linalg.norm(normal)
+            polygon = lean_polygon(np.array([c.position for c in points]), normal, self.config.contact_pad)
+            out.append(ContactPolygon(rec.body, other, polygon, normal, pair_friction(rec.friction, self._bodies[other].friction)))
+        return out
+
+    def _freeze(self, rec: _Body, supports: dict[int, ContactArea], main: Polygon | None) -> None:
         self._engine.set_frozen(rec.body, True, rec.shape.mass)
         rec.state, rec.rests_on, rec.main_contact = BrickState.FROZEN, supports, main
         rec.frozen_pose = self._engine.pose(rec.body)
         for s in supports:
             self._bodies[s].objects_above.add(rec.body)
-        names = ", ".join(self._bodies[s].label for s in supports)
-        return [StabilityEvent(time, "freeze", rec.label, f"at rest on {names}")]
 
+    # the stack-wide test ---------------------------------------------------------
     def _test_stack(self, time: float) -> list[StabilityEvent]:
         """Stack-wide test (report 3.3.1, 3.3.5) with the wake-up cascade (3.3.7).
 
-        A brick whose centre of mass above lies outside its main contact area gives way:
-        it and everything above it wake. Beyond the report: the woken bricks above it that
-        also rest on other stack bricks now lean on those alone, so the test is repeated
-        with their load on them (co-support re-test). Without it a tower whose two
-        sibling bricks carry it together stays pinned by the sibling that did not fail
-        first (measured on the slant tower, README design notes).
+        A brick whose centre of mass above lies outside its main contact area gives way
+        (for a leaning brick the main contact area is the hull of all its contact areas,
+        the other brick of a V included): it and everything above it wake.
+        Beyond the report: the woken bricks above it that also rest on other stack bricks
+        now lean on those alone, so the test is repeated with their load on them
+        (co-support re-test). Without it a tower whose two sibling bricks carry it
+        together stays pinned by the sibling that did not fail first (measured on the
+        slant tower, README design notes).
         """
         events: list[StabilityEvent] = []
         gave_way: set[int] = set()
         leaning: dict[int, LoadNode] = {}
         while True:
-            nodes = {r.body: LoadNode(r.shape.mass, r.frozen_pose.position, r.rests_on) for r in self._frozen()}
+            nodes = self._nodes(self._frozen())
             for body, node in leaning.items():
                 kept = {s: a for s, a in node.supports.items() if s not in gave_way}
                 if kept:
@@ -219,15 +327,42 @@ class StabilityExtension:
             for rec in failing:
                 if rec.state is not BrickState.FROZEN:  # woken already, resting on one that failed
                     continue
-                out = rec.main_contact.exterior.distance(Point(rec.com_above[:2])) * 1000
                 gave_way.add(rec.body)
+                out = rec.main_contact.exterior.distance(Point(rec.com_above[:2])) * 1000
                 for woken, node, event in self._wake(rec.body, time, f"centre of mass above {out:.1f} mm outside its support"):
                     events.append(event)
                     if woken != rec.body:
                         leaning[woken] = node
 
+    def _nodes(self, bricks: Iterable[_Body]) -> dict[int, LoadNode]:
+        return {r.body: LoadNode(r.shape.mass, self._pose(r).position, r.rests_on) for r in bricks}
+
     def _frozen(self) -> list[_Body]:
         return [r for r in self._bodies.values() if r.state is BrickState.FROZEN]
+
+    # impacts (report 3.6) ------------------------------------------------------------
+    def _impacts(self, active: list[_Body], dt: float, time: float) -> list[StabilityEvent]:
+        """Fast bodies about to touch a frozen brick: wake it, or let the stack hold."""
+        events: list[StabilityEvent] = []
+        for rec in active:
+            speed = float(np.linalg.norm(self._engine.velocity(rec.body)[0]))
+            if speed <= self.config.rest_speed:
+                rec.impacted.clear()
+                continue
+            for hit in self._engine.near(rec.body, speed * dt * 1.5 + self.config.contact_pad):
+                other = self._bodies.get(hit.other)
+                if other is None or other.state is not BrickState.FROZEN or other.body in rec.impacted:
+                    continue
+                rec.impacted.add(other.body)
+                kinetic = kinetic_energy(rec.shape.mass, speed)
+                base = min(a.height for a in other.rests_on.values())
+                potential = potential_energy(other.mass_above, other.com_above[2], base, self.config.gravity)
+                detail = f"impact of {rec.label} at {speed:.2f} m/s: {kinetic * 1000:.3g} mJ against {potential * 1000:.3g} mJ"
+                if breaks_loose(kinetic, potential):
+                    events += [replace(e, source=rec.label) for e in self.wake(other.body, time, detail)]
+                else:
+                    events.append(StabilityEvent(time, "impact", other.label, f"held, {detail}", rec.label))
+        return events
 
     # wake-up (report 3.3.7) ---------------------------------------------------
     def wake(self, body: int, time: float, reason: str) -> list[StabilityEvent]:
@@ -248,6 +383,7 @@ class StabilityExtension:
         for s in rec.rests_on:
             self._bodies[s].objects_above.discard(body)
         rec.rests_on, rec.main_contact, rec.com_above, rec.mass_above = {}, None, None, 0.0
+        rec.leans_on = []
         woken = [(body, node, StabilityEvent(time, "wake", rec.label, reason))]
         for above in sorted(rec.objects_above, key=lambda b: self._bodies[b].order):
             woken += self._wake(above, time, f"rests on {rec.label}")
@@ -256,7 +392,7 @@ class StabilityExtension:
 
     # contact areas (report 3.3.3) ---------------------------------------------
     def _supports(self, rec: _Body, contacts: Iterable[ContactPoint], stack_only: bool) -> dict[int, ContactArea]:
-        """Contact areas of the bodies ``rec`` rests on, keyed by body, in registration order."""
+        """ContactPolygon areas of the bodies ``rec`` rests on, keyed by body, in registration order."""
         grouped: dict[int, list[ContactPoint]] = defaultdict(list)
         my_z = self._engine.pose(rec.body).position[2]
         for c in contacts:
@@ -291,11 +427,10 @@ class StabilityExtension:
         """
         contacts = _by_body(self._engine.contact_points())
         bricks = [r for r in self._bodies.values() if r.state is not BrickState.GROUND]
-        supports = {
-            r.body: r.rests_on if r.state is BrickState.FROZEN else self._supports(r, contacts.get(r.body, []), False)
-            for r in bricks
-        }
-        nodes = {r.body: LoadNode(r.shape.mass, self._pose(r).position, supports[r.body]) for r in bricks}
+        nodes = self._nodes(bricks)
+        for r in bricks:
+            if r.state is BrickState.ACTIVE:
+                nodes[r.body] = LoadNode(r.shape.mass, self._pose(r).position, self._supports(r, contacts.get(r.body, []), False))
         loads = propagate(nodes)
         graph_nodes, edges = [], []
         for rec in self._bodies.values():
@@ -303,9 +438,15 @@ class StabilityExtension:
             load = loads.get(rec.body)
             com = load.com_above if load else pose.position
             graph_nodes.append(GraphNode(rec.label, rec.state, pose, com, load.mass_above if load else 0.0))
-            for s, area in supports.get(rec.body, {}).items():
-                edges.append(GraphEdge(rec.label, self._bodies[s].label, area.area, load.shares[s], area.exact))
+            for s, area in nodes[rec.body].supports.items() if rec.body in nodes else ():
+                edges.append(GraphEdge(rec.label, self._bodies[s].label, area.area, load.shares.get(s, 0.0), area.exact))
         return BrickGraph(tuple(graph_nodes), tuple(edges))
+
+
+def _horizontal(contact: ContactPolygon, pad: float) -> ContactArea:
+    """The horizontal projection of a leaning contact, for the graph and the wake cascade."""
+    points = np.asarray(contact.points)
+    return ContactArea(padded_hull(points[:, :2], pad), float(points[:, 2].mean()), contact.normal, exact=False)
 
 
 def _by_body(points: Iterable[ContactPoint]) -> dict[int, list[ContactPoint]]:

@@ -133,8 +133,17 @@ def split_load(
         supports: support body -> contact area.
 
     Returns:
-        support body -> ``(equivalent mass in kg, point of application shape (3,))``.
+        support body -> ``(equivalent mass in kg, point of application shape (3,))``;
+        the point lies over the contact area, at the height of ``com_above`` (so that
+        the centre of mass above keeps the true height of the load, report 3.6.2).
     """
+    split = _split(com_above, mass_above, supports)
+    return {s: (m, np.array([p[0], p[1], com_above[2]])) for s, (m, p) in split.items()}
+
+
+def _split(
+    com_above: np.ndarray, mass_above: float, supports: Mapping[int, ContactArea]
+) -> dict[int, tuple[float, np.ndarray]]:
     if not supports:
         return {}
     if len(supports) == 1:

@@ -94,8 +94,8 @@ def discover(paths: list[str | Path]) -> list[Path]:
     return files
 
 
-def prepare(files: list[Path], mode: str | None = None) -> list[tuple[Path, Program, Expect]]:
-    """Load and compile every file; nothing is simulated.
+def prepare(files: list[Path], mode: str | None = None, modes: tuple[str, ...] = ()) -> list[tuple[Path, Program, Expect]]:
+    """Load and compile every file (in each of ``modes`` when given); nothing is simulated.
 
     Raises:
         ScenarioErrors: one error per bad file.
@@ -104,7 +104,8 @@ def prepare(files: list[Path], mode: str | None = None) -> list[tuple[Path, Prog
     for path in files:
         try:
             scenario = load_scenario(path)
-            prepared.append((path, compile_scenario(scenario, mode), scenario.expect))
+            for m in modes or (mode,):
+                prepared.append((path, compile_scenario(scenario, m), scenario.expect))
         except ScenarioError as exc:
             errors.append(exc)
     if errors:
@@ -144,6 +145,24 @@ def _results(prepared: list[tuple[Path, Program, Expect]], jobs: int | None, exe
     finally:
         if own:
             executor.shutdown(cancel_futures=True)
+
+
+def compare(
+    paths: list[str | Path], modes: tuple[str, ...] = ("raw", "tuned", "extension"), jobs: int | None = None
+) -> dict[str, dict[str, CheckResult]]:
+    """Check every scenario in every mode, all in one run on one executor.
+
+    Returns:
+        file -> mode -> :class:`CheckResult`, files in order.
+
+    Raises:
+        ScenarioErrors: a file is missing or invalid (before anything runs).
+    """
+    prepared = prepare(discover(paths), modes=modes)
+    table: dict[str, dict[str, CheckResult]] = {}
+    for r in _results(prepared, jobs, None):
+        table.setdefault(r.file, {})[r.mode] = r
+    return table
 
 
 def judge(file: str, program: Program, expect: Expect) -> CheckResult:

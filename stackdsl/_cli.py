@@ -12,7 +12,7 @@ import sys
 import time
 from pathlib import Path
 
-from ._check import ScenarioErrors, check
+from ._check import ScenarioErrors, check, compare
 from ._compiler import MODE_DEFAULTS, compile_scenario
 from ._errors import ScenarioError
 from ._expect import describe, evaluate
@@ -46,6 +46,12 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--mode", choices=modes, help="override every scenario's engine mode")
     p.add_argument("-j", "--jobs", type=int, default=None, help="worker processes (default: one per core)")
     p.set_defaults(func=_check)
+
+    p = sub.add_parser("compare", help="run scenario files or folders in every mode and print one table")
+    p.add_argument("paths", nargs="+", metavar="PATH")
+    p.add_argument("--modes", default=",".join(modes), help=f"comma-separated (default: {','.join(modes)})")
+    p.add_argument("-j", "--jobs", type=int, default=None, help="worker processes (default: one per core)")
+    p.set_defaults(func=_compare)
 
     p = sub.add_parser("compile", help="print the program a scenario compiles to")
     p.add_argument("file")
@@ -81,6 +87,22 @@ def _check(args: argparse.Namespace) -> int:
     wall = time.perf_counter() - start
     print(f"{len(results)} scenarios: {len(results) - failed} passed, {failed} failed ({wall:.1f} s wall)")
     return 1 if failed else 0
+
+
+def _compare(args: argparse.Namespace) -> int:
+    modes = tuple(m.strip() for m in args.modes.split(",") if m.strip())
+    unknown = [m for m in modes if m not in MODE_DEFAULTS]
+    if unknown or not modes:
+        raise ScenarioError(f"unknown mode {', '.join(unknown) or '(none)'}; known: {', '.join(MODE_DEFAULTS)}", file="--modes")
+    start = time.perf_counter()
+    table = compare(args.paths, modes, jobs=args.jobs)
+    print(f"{'scenario':<22} {'expected':<18} " + " ".join(f"{m:<29}" for m in modes))
+    for file, row in table.items():
+        first = next(iter(row.values()))
+        cells = [f"{'PASS' if r.passed else 'FAIL'} {describe(r.collapse_level):<13} {r.wall_time:>7.1f} s" for r in (row[m] for m in modes)]
+        print(f"{Path(file).stem:<22} {first.expected:<18} " + " ".join(f"{c:<29}" for c in cells))
+    print(f"{len(table)} scenarios x {len(modes)} modes ({time.perf_counter() - start:.1f} s wall)")
+    return 0
 
 
 def _short(file: str) -> str:

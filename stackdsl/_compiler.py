@@ -11,13 +11,13 @@ Source: stackdsl's own; the tower generator builds the report's 4 stack and slan
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from stability import Box, Pose
 
-from ._program import BrickSpec, End, EngineSettings, Launch, Place, Program
+from ._program import BrickSpec, End, EngineSettings, Fixture, Launch, Place, Program, Rule
 from ._schema import MAX_SIMULATED_TIME, SIDES, AfterLevel, Impact, Scenario
 
 #: Engine defaults per mode. ``raw`` is pybullet's own (240 Hz, 50 iterations);
@@ -42,6 +42,11 @@ class _Brick:
     yaw: float
     pitch: float = 0.0
     roll: float = 0.0
+    together: bool = False
+    fixed: bool = False
+
+    def pose(self) -> Pose:
+        return Pose.from_euler(self.position, self.yaw, self.pitch, self.roll)
 
 
 def compile_scenario(scenario: Scenario, mode: str | None = None) -> Program:
@@ -57,15 +62,19 @@ def compile_scenario(scenario: Scenario, mode: str | None = None) -> Program:
             names a level that is not built, or the run would exceed the time limit.
     """
     engine = _engine(scenario, mode)
-    bricks = _structure(scenario)
+    everything = _structure(scenario)
+    bricks = [b for b in everything if not b.fixed]
+    fixed = [b for b in everything if b.fixed]
     interval, dt = scenario.timing.interval, engine.timestep
-    per_brick = _steps(scenario, ("timing", "interval"), interval, dt)
+    per_slot = _steps(scenario, ("timing", "interval"), interval, dt)
     settle = _steps(scenario, ("timing", "settle"), scenario.timing.settle, dt)
-    specs = {name: _spec(scenario, name) for name in {b.type for b in bricks} | {i.projectile for i in scenario.impacts}}
+    names = {b.type for b in everything} | {i.projectile for i in scenario.impacts}
+    specs = {name: _spec(scenario, name) for name in sorted(names)}
+    slots = np.cumsum([not b.together for b in bricks]) - 1
     actions: list = [
         Place(
-            step=i * per_brick,
-            time=i * interval,
+            step=int(k) * per_slot,
+            time=int(k) * interval,
             id=b.id,
             level=b.level,
             brick=specs[b.type],
@@ -75,10 +84,10 @@ def compile_scenario(scenario: Scenario, mode: str | None = None) -> Program:
             roll=b.roll,
             drop=scenario.timing.drop_gap,
         )
-        for i, b in enumerate(bricks)
+        for b, k in zip(bricks, slots)
     ]
-    actions += [_launch(scenario, i, imp, bricks, specs[imp.projectile], dt) for i, imp in enumerate(scenario.impacts)]
-    actions.sort(key=lambda a: (a.step, a.kind != "place"))
+    launches = [_launch(scenario, i, imp, bricks, slots, specs[imp.projectile], dt) for i, imp in enumerate(scenario.impacts)]
+    actions = sorted(actions + launches, key=lambda a: (a.step, a.kind != "place"))
     end = actions[-1].time + scenario.timing.settle
     if end > MAX_SIMULATED_TIME:
         raise scenario.source.error(("timing",), f"the run would last {end:.0f} s; at most {MAX_SIMULATED_TIME:.0f} s are simulated")
@@ -90,10 +99,31 @@ def compile_scenario(scenario: Scenario, mode: str | None = None) -> Program:
         ground_friction=ground.friction,
         ground_restitution=ground.restitution,
         stability=scenario.stability.model_dump(exclude_none=True),
-        collapse_threshold=scenario.collapse_threshold or min(min(s.half_extents) for s in specs.values()),
+        rules=_rules(bricks, launches),
+        fixtures=tuple(Fixture(id=b.id, brick=specs[b.type], position=tuple(b.position), yaw=b.yaw, pitch=b.pitch, roll=b.roll) for b in fixed),
+        collapse_threshold=scenario.collapse_threshold or min(min(specs[b.type].half_extents) for b in bricks),
         settle=scenario.timing.settle,
         actions=tuple(actions),
     )
+
+
+def _rules(bricks: list[_Brick], launches: list[Launch]) -> tuple[Rule, ...]:
+    """The extension's rules this scene needs: leaning only if a brick does not lie flat or
+    something is thrown (it may come to rest leaning), impacts only if something is thrown
+    (DESIGN.md: model only what a scene needs)."""
+    tilted = [b.id for b in bricks if not _lies_flat(b)]
+    listed = ", ".join(tilted[:4]) + (f" and {len(tilted) - 4} more" if len(tilted) > 4 else "")
+    lean = f"bricks placed tilted: {listed}" if tilted else "a thrown brick may come to rest leaning" if launches else "every brick lies flat and nothing is thrown"
+    return (
+        Rule(name="basic", on=True, reason="every scene"),
+        Rule(name="leaning", on=bool(tilted or launches), reason=lean),
+        Rule(name="impacts", on=bool(launches), reason=f"{len(launches)} projectile{'s' * (len(launches) != 1)}" if launches else "nothing is thrown"),
+    )
+
+
+def _lies_flat(b: _Brick) -> bool:
+    """True when a brick's thinnest axis is vertical (within 1 deg)."""
+    return abs(b.pose().rotation[2, 2]) > math.cos(math.radians(1.0))
 
 
 def _engine(scenario: Scenario, mode: str | None) -> EngineSettings:
@@ -132,12 +162,12 @@ def _spec(scenario: Scenario, name: str) -> BrickSpec:
 def _structure(scenario: Scenario) -> list[_Brick]:
     """The structure's bricks in placement order, with levels and placement errors applied."""
     structure = scenario.structure
-    bricks = _tower(scenario) if structure.tower else _explicit(scenario)
+    bricks = _tower(scenario) if structure.tower else _card_house(scenario) if structure.card_house else _explicit(scenario)
     error = scenario.timing.placement_error
     if error > 0:
         rng = np.random.default_rng(np.random.SeedSequence(scenario.seed))
         offsets = rng.uniform(-error, error, size=(len(bricks), 2))
-        bricks = [_Brick(b.id, b.level, b.type, b.position + [dx, dy, 0.0], b.yaw, b.pitch, b.roll) for b, (dx, dy) in zip(bricks, offsets)]
+        bricks = [b if b.fixed else replace(b, position=b.position + [dx, dy, 0.0]) for b, (dx, dy) in zip(bricks, offsets)]
     return bricks
 
 
@@ -158,38 +188,86 @@ def _tower(scenario: Scenario) -> list[_Brick]:
 
 
 def _explicit(scenario: Scenario) -> list[_Brick]:
-    """Bricks placed by hand; a missing level is the rank of the brick's bottom height."""
+    """Bricks placed by hand; a missing level is the rank of the brick's bottom height
+    among the structure's bricks (fixed ones have none)."""
     placed = scenario.structure.bricks
     bottoms = [
         float(Box(np.array(scenario.brick_type(b.brick).size) / 2, 1.0).corners(Pose.from_euler(b.at, b.yaw, b.pitch, b.roll))[:, 2].min())
         for b in placed
     ]
     heights: list[float] = []
-    for z in sorted(bottoms):
+    for z in sorted(z for z, b in zip(bottoms, placed) if not b.fixed):
         if not heights or z - heights[-1] > _LEVEL_TOLERANCE:
             heights.append(z)
     return [
         _Brick(
-            b.id or f"b{i + 1:03d}",
-            b.level or 1 + sum(h < z - _LEVEL_TOLERANCE for h in heights),
+            b.id or (f"fixed{i + 1}" if b.fixed else f"b{i + 1:03d}"),
+            0 if b.fixed else b.level or 1 + sum(h < z - _LEVEL_TOLERANCE for h in heights),
             b.brick,
             np.array(b.at, dtype=float),
             b.yaw,
             b.pitch,
             b.roll,
+            together=b.together,
+            fixed=b.fixed,
         )
         for i, (b, z) in enumerate(zip(placed, bottoms))
     ]
 
 
-def _launch(scenario: Scenario, index: int, impact: Impact, bricks: list[_Brick], spec: BrickSpec, dt: float) -> Launch:
+def _card_house(scenario: Scenario) -> list[_Brick]:
+    """Rows of inverted V's with flat bricks across neighbouring peaks, up to one V.
+
+    In the x-z plane a brick of length L and thickness t leaning at angle a from vertical
+    spans a half-width L sin a + t cos a at the base of its V and reaches L cos a + t sin a,
+    its top corners t cos a either side of the peak. V row r (0-based, level 2r + 1) has
+    ``levels - r`` V's; the flat row above it (level 2r + 2) one fewer. Neighbouring flats
+    must not touch (spacing > L) yet each must reach a top corner of both V's under it
+    (spacing < L + 2 t cos a): the default spacing is L + 2 mm.
+
+    Raises:
+        ScenarioError: the spacing lets V's or flats collide, or flats miss the peaks.
+    """
+    c = scenario.structure.card_house
+    length, _, thick = scenario.brick_type(c.brick).size
+    a = math.radians(c.angle)
+    half = length * math.sin(a) + thick * math.cos(a)
+    height = length * math.cos(a) + thick * math.sin(a)
+    spacing = c.spacing or length + 0.002
+    where = ("structure", "card_house", "spacing" if c.spacing else "angle")
+    if c.levels > 1 and spacing <= 2 * half:
+        raise scenario.source.error(where, f"V's {2 * half * 1000:.1f} mm wide at the base would collide {spacing * 1000:.1f} mm apart")
+    if c.levels > 1 and not length < spacing < length + 2 * thick * math.cos(a):
+        raise scenario.source.error(
+            where,
+            f"flats {length * 1000:.0f} mm long need peaks between {length * 1000:.0f} and "
+            f"{(length + 2 * thick * math.cos(a)) * 1000:.1f} mm apart, got {spacing * 1000:.1f} mm",
+        )
+    x0, y0 = c.origin
+    dx = length / 2 * math.sin(a) + thick / 2 * math.cos(a)
+    dz = length / 2 * math.cos(a) + thick / 2 * math.sin(a)
+    bricks = []
+    for row in range(c.levels):
+        base = row * (height + thick)
+        peaks = [x0 + (k - (c.levels - row - 1) / 2) * spacing for k in range(c.levels - row)]
+        for k, x in enumerate(peaks):
+            for side, yaw in ((1, 0.0), (2, 180.0)):
+                position = np.array([x - dx if side == 1 else x + dx, y0, base + dz])
+                bricks.append(_Brick(f"V{2 * row + 1}.{k + 1}{'ab'[side - 1]}", 2 * row + 1, c.brick, position, yaw, c.angle - 90.0, together=side == 2))
+        for k in range(len(peaks) - 1):
+            position = np.array([(peaks[k] + peaks[k + 1]) / 2, y0, base + height + thick / 2])
+            bricks.append(_Brick(f"F{2 * row + 2}.{k + 1}", 2 * row + 2, c.brick, position, 0.0))
+    return bricks
+
+
+def _launch(scenario: Scenario, index: int, impact: Impact, bricks: list[_Brick], slots, spec: BrickSpec, dt: float) -> Launch:
     """A projectile aimed so that, falling under gravity, it reaches the target point."""
     path = ("impacts", index)
     direction = np.array(impact.direction if impact.direction else SIDES[impact.target.side], dtype=float)
     direction /= np.linalg.norm(direction)
     target = np.array(impact.target.point) if impact.target.point else _face_point(scenario, index, impact, bricks)
     if isinstance(impact.at, AfterLevel):
-        last = [i for i, b in enumerate(bricks) if b.level == impact.at.after_level]
+        last = [int(k) for b, k in zip(bricks, slots) if b.level == impact.at.after_level]
         if not last:
             raise scenario.source.error(path + ("at",), f"level {impact.at.after_level} is not built")
         launch_time = (last[-1] + 1) * scenario.timing.interval

@@ -25,7 +25,7 @@ class Event(_Frozen):
     """One entry of the timeline; ``time`` in seconds."""
 
     time: float
-    kind: Literal["place", "launch", "freeze", "wake", "collapse"]
+    kind: Literal["place", "launch", "freeze", "wake", "impact", "collapse"]
     brick: str
     level: int | None = None
     detail: str = ""

@@ -61,6 +61,25 @@ class Launch(_Frozen):
     arrival: float
 
 
+class Fixture(_Frozen):
+    """An immovable environment body (a wall, a ramp), in the world from the start."""
+
+    id: str
+    brick: BrickSpec
+    position: Vec3
+    yaw: float
+    pitch: float
+    roll: float
+
+
+class Rule(_Frozen):
+    """A rule of the stability extension and whether this scene runs it, with why."""
+
+    name: Literal["basic", "leaning", "impacts"]
+    on: bool
+    reason: str
+
+
 class End(_Frozen):
     """The run ends."""
 
@@ -91,6 +110,8 @@ class Program(_Frozen):
         engine: pybullet settings.
         ground_friction, ground_restitution: of the ground plane's material.
         stability: keyword arguments of :class:`stability.StabilityConfig` set by the scenario.
+        rules: the extension's rules this scene needs (model only what a scene needs).
+        fixtures: environment bodies, created first.
         collapse_threshold: metres a structure brick may leave its placed pose.
         settle: seconds the run goes on after the first collapse.
         actions: time-ordered; the last one is :class:`End`.
@@ -101,6 +122,8 @@ class Program(_Frozen):
     ground_friction: float
     ground_restitution: float
     stability: dict[str, float]
+    rules: tuple[Rule, ...]
+    fixtures: tuple[Fixture, ...] = ()
     collapse_threshold: float
     settle: float
     actions: tuple[Action, ...]
@@ -131,6 +154,11 @@ def format_program(program: Program) -> str:
         f"  {len(program.placements)} bricks in {program.levels} levels, collapse threshold "
         f"{program.collapse_threshold * 1000:.3g} mm, {program.duration:g} s simulated",
     ]
+    if e.mode == "extension":
+        lines += [f"  rule {r.name:<8} {'on ' if r.on else 'off'}  {r.reason}" for r in program.rules]
+    for f in program.fixtures:
+        x, y, z = (v * 1000 for v in f.position)
+        lines.append(f"  fixed  {f.id:<10} at ({x:.1f}, {y:.1f}, {z:.1f}) mm  yaw {f.yaw:.1f}  pitch {f.pitch:.1f}  roll {f.roll:.1f}  {f.brick.type}")
     for a in program.actions:
         head = f"  t={a.time:9.3f} s  step {a.step:>8}  "
         if isinstance(a, Place):

@@ -93,10 +93,16 @@ class _Runner:
         client.setPhysicsEngineParameter(numSolverIterations=e.solver_iterations)
         ground = client.createMultiBody(0.0, client.createCollisionShape(pybullet.GEOM_PLANE))
         self._material(ground, program.ground_friction, program.ground_restitution)
-        self.ext = StabilityExtension(PyBulletEngine(client), StabilityConfig(**program.stability))
-        self.ext.add_ground(ground, Plane(0.0))
+        rules = {r.name: r.on for r in program.rules}
+        config = StabilityConfig(**program.stability, leaning=rules["leaning"], impacts=rules["impacts"])
+        self.ext = StabilityExtension(PyBulletEngine(client), config)
+        self.ext.add_ground(ground, Plane(0.0), friction=program.ground_friction)
         self.shapes: dict[tuple, int] = {}
+        for f in program.fixtures:
+            body = self.create(f.brick, Pose.from_euler(f.position, f.yaw, f.pitch, f.roll), mass=0.0)
+            self.ext.add_ground(body, Box(np.array(f.brick.half_extents), f.brick.mass), f.id, f.brick.friction)
         self.bodies: dict[str, int] = {}
+        self.projectiles: set[str] = set()
         self.levels: dict[str, int] = {}
         self.targets: dict[int, tuple[str, np.ndarray]] = {}
         self.events: list[Event] = []
@@ -131,7 +137,8 @@ class _Runner:
             now = self.step * self.dt
             if self.acting:
                 for e in self.ext.update(now):
-                    self.events.append(Event(time=e.time, kind=e.kind, brick=e.label, level=self.levels.get(e.label), detail=e.reason))
+                    if e.kind != "impact" or e.source in self.projectiles:  # not every landing brick
+                        self.events.append(Event(time=e.time, kind=e.kind, brick=e.label, level=self.levels.get(e.label), detail=e.reason))
             if self.collapse is None:
                 self.check_collapse(now)
 
@@ -142,7 +149,7 @@ class _Runner:
     def place(self, a: Place) -> None:
         pose = Pose.from_euler(np.array(a.position) + [0.0, 0.0, a.drop], a.yaw, a.pitch, a.roll)
         body = self.create(a.brick, pose)
-        self.ext.add_brick(body, Box(np.array(a.brick.half_extents), a.brick.mass), a.id)
+        self.ext.add_brick(body, Box(np.array(a.brick.half_extents), a.brick.mass), a.id, a.brick.friction)
         self.bodies[a.id], self.levels[a.id] = body, a.level
         self.targets[body] = (a.id, np.array(a.position))
         self.events.append(Event(time=a.time, kind="place", brick=a.id, level=a.level))
@@ -150,17 +157,18 @@ class _Runner:
     def launch(self, a: Launch) -> None:
         body = self.create(a.brick, Pose.from_euler(a.position, a.yaw, a.pitch, 0.0))
         self.client.resetBaseVelocity(body, list(a.velocity), [0.0, 0.0, 0.0])
-        self.ext.add_brick(body, Box(np.array(a.brick.half_extents), a.brick.mass), a.id)
+        self.ext.add_brick(body, Box(np.array(a.brick.half_extents), a.brick.mass), a.id, a.brick.friction)
         self.bodies[a.id] = body
+        self.projectiles.add(a.id)
         speed = math.sqrt(sum(v * v for v in a.velocity))
         self.events.append(Event(time=a.time, kind="launch", brick=a.id, detail=f"{speed:.3g} m/s"))
 
-    def create(self, spec: BrickSpec, pose: Pose) -> int:
+    def create(self, spec: BrickSpec, pose: Pose, mass: float | None = None) -> int:
         key = spec.half_extents
         if key not in self.shapes:
             self.shapes[key] = self.client.createCollisionShape(self.p.GEOM_BOX, halfExtents=list(key))
         body = self.client.createMultiBody(
-            baseMass=spec.mass,
+            baseMass=spec.mass if mass is None else mass,
             baseCollisionShapeIndex=self.shapes[key],
             basePosition=pose.position.tolist(),
             baseOrientation=pose.orientation.tolist(),

@@ -75,7 +75,12 @@ class Tower(_Model):
 
 
 class BrickPlacement(_Model):
-    """One brick placed by hand: centre position ``at``, yaw/pitch/roll in degrees."""
+    """One brick placed by hand: centre position ``at``, yaw/pitch/roll in degrees.
+
+    ``fixed: true`` makes it part of the environment (a wall, a ramp): it is in the world
+    from the start, immovable, and not part of the structure. ``together: true`` places
+    it at the same moment as the brick before it (the two bricks of a V).
+    """
 
     id: Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]{1,40}$")] | None = None
     brick: str = "kapla"
@@ -84,18 +89,40 @@ class BrickPlacement(_Model):
     pitch: Angle = 0.0
     roll: Angle = 0.0
     level: Annotated[int, Field(ge=1, le=MAX_LEVELS)] | None = None
+    fixed: bool = False
+    together: bool = False
+
+
+class CardHouse(_Model):
+    """A card house: rows of inverted V's (two bricks leaning on each other at ``angle``
+    degrees from vertical), a flat brick across the peaks of every two neighbouring V's,
+    a V on every flat brick, up to a single V: a pyramid with ``levels`` V's at its base.
+    ``spacing`` is the distance between neighbouring peaks (default: the V's width + 2 mm).
+    """
+
+    brick: str = "kapla"
+    levels: Annotated[int, Field(ge=1, le=50)]
+    angle: Annotated[Angle, Field(gt=0, lt=60)] = 20.0
+    spacing: Annotated[Length, Field(gt=0)] | None = None
+    origin: Vector2 = (0.0, 0.0)
 
 
 class Structure(_Model):
-    """What is built: a ``tower`` generator or a list of ``bricks`` (exactly one of them)."""
+    """What is built: a ``tower``, a ``card_house`` or a list of ``bricks`` (exactly one)."""
 
     tower: Tower | None = None
+    card_house: CardHouse | None = None
     bricks: Annotated[list[BrickPlacement], Field(min_length=1, max_length=MAX_BRICKS)] | None = None
 
     @model_validator(mode="after")
     def _one_layout(self) -> "Structure":
-        if (self.tower is None) == (self.bricks is None):
-            raise ValueError("give exactly one of 'tower' or 'bricks'")
+        if sum(x is not None for x in (self.tower, self.card_house, self.bricks)) != 1:
+            raise ValueError("give exactly one of 'tower', 'card_house' or 'bricks'")
+        if self.bricks is not None:
+            if self.bricks[0].together:
+                raise ValueError("the first brick has no brick before it to be placed 'together' with")
+            if all(b.fixed for b in self.bricks):
+                raise ValueError("every brick is fixed: there is nothing to build")
         return self
 
 
@@ -318,6 +345,8 @@ def reference_errors(s: Scenario) -> list[tuple[tuple, str]]:
         problems.append((("ground", "material"), f"unknown material {s.ground.material!r}; known: {', '.join(sorted(materials))}"))
     if s.structure.tower:
         brick(("structure", "tower", "brick"), s.structure.tower.brick)
+    if s.structure.card_house:
+        brick(("structure", "card_house", "brick"), s.structure.card_house.brick)
     for i, b in enumerate(s.structure.bricks or []):
         brick(("structure", "bricks", i, "brick"), b.brick)
     ids = [b.id for b in s.structure.bricks or [] if b.id] + [imp.id for imp in s.impacts if imp.id]

@@ -18,10 +18,12 @@ def test_stackdsl_exports():
 def test_stability_exports():
     assert sorted(stability.__all__) == sorted(
         [
-            "Box", "BrickGraph", "BrickState", "ContactArea", "ContactPoint", "Engine", "FakeEngine",
-            "GraphEdge", "GraphNode", "Load", "LoadNode", "Plane", "Pose", "PyBulletEngine",
-            "StabilityConfig", "StabilityEvent", "StabilityExtension", "combined_hull", "contains",
-            "face_overlap", "padded_hull", "propagate", "split_load", "torque_split",
+            "Box", "BrickGraph", "BrickState", "ContactArea", "ContactPoint", "ContactPolygon", "Engine",
+            "Equilibrium", "FakeEngine", "GraphEdge", "GraphNode", "Load", "LoadNode", "Plane", "Pose",
+            "PyBulletEngine", "RigidBlock", "StabilityConfig", "StabilityEvent", "StabilityExtension",
+            "breaks_loose", "combined_hull", "contains", "face_overlap", "kinetic_energy", "lean_polygon",
+            "leaning_stands", "padded_hull", "pair_friction", "potential_energy", "propagate",
+            "solve_equilibrium", "split_load", "torque_split",
         ]
     )
 

@@ -94,3 +94,17 @@ def test_usage_errors_exit_2(bad, capsys):
     with pytest.raises(SystemExit) as info:
         main(["check", *bad.split()] if bad else [])
     assert info.value.code == 2
+
+
+def test_compare_prints_one_row_per_scenario_and_a_column_per_mode(tmp_path, capsys):
+    assert main(["compare", str(write(tmp_path, a=PASSING, b=FAILING)), "--modes", "raw,extension", "-j", "1"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].split() == ["scenario", "expected", "raw", "extension"]
+    assert out[1].split()[:4] == ["a", "stands", "PASS", "stands"] and out[1].count("PASS") == 2
+    assert out[2].startswith("b ") and out[2].count("FAIL") == 2
+    assert out[-1].startswith("2 scenarios x 2 modes")
+
+
+def test_compare_unknown_mode_exits_2(tmp_path, capsys):
+    assert main(["compare", str(write(tmp_path, a=PASSING)), "--modes", "raw,sideways"]) == 2
+    assert "unknown mode sideways" in capsys.readouterr().err

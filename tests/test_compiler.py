@@ -114,3 +114,57 @@ def test_format_program_lists_every_action():
     assert text.count("place  L0") == 4 and text.count("launch ") == 1 and text.rstrip().endswith("end")
     assert "mode extension, timestep 4.167 ms" in text
     assert not any(isinstance(a, Place) and math.isnan(a.time) for a in p.actions)
+
+
+def test_card_house_geometry():
+    # V's lean 20 deg: their feet are on the ground, the inner top corners meet at the
+    # peak, the flat bricks lie on the peaks' top corners.
+    from stability import Box, Pose
+
+    p = program("stackdsl: 1\nstructure: {card_house: {levels: 2, angle: 20}}\n")
+    places = p.placements
+    assert [a.id for a in places] == ["V1.1a", "V1.1b", "V1.2a", "V1.2b", "F2.1", "V3.1a", "V3.1b"]
+    assert [a.level for a in places] == [1, 1, 1, 1, 2, 3, 3]
+    assert [a.time for a in places] == [0.0, 0.0, 1.0, 1.0, 2.0, 3.0, 3.0]  # a V's bricks together
+    box = Box(np.array([0.06, 0.012, 0.004]), 1.0)
+    corners = {a.id: box.corners(Pose.from_euler(a.position, a.yaw, a.pitch, a.roll)) for a in places}
+    for v in ("V1.1", "V1.2"):
+        assert corners[v + "a"][:, 2].min() == pytest.approx(0.0, abs=1e-9)
+        top_a, top_b = corners[v + "a"], corners[v + "b"]
+        gap = np.linalg.norm(top_a[:, None, :] - top_b[None, :, :], axis=2).min()
+        assert gap == pytest.approx(0.0, abs=1e-9)  # the two bricks touch at the peak
+    peak_height = max(corners["V1.1a"][:, 2])
+    assert corners["F2.1"][:, 2].min() == pytest.approx(peak_height)
+    assert corners["V3.1a"][:, 2].min() == pytest.approx(peak_height + 0.008)
+
+
+def test_card_house_spacing_errors():
+    with pytest.raises(ScenarioError, match="need peaks between 120 and 135"):
+        program("stackdsl: 1\nstructure: {card_house: {levels: 2, spacing: 100 mm}}\n")
+    with pytest.raises(ScenarioError, match="would collide"):
+        program("stackdsl: 1\nstructure: {card_house: {levels: 2, angle: 40, spacing: 125 mm}}\n")
+    assert program("stackdsl: 1\nstructure: {card_house: {levels: 1, angle: 40}}\n").levels == 1
+
+
+def test_fixed_bricks_are_fixtures_and_together_shares_a_slot():
+    p = program(
+        "stackdsl: 1\nstructure:\n  bricks:\n"
+        "    - {id: wall, at: [0.1, 0, 0.05], pitch: 90, fixed: true}\n"
+        "    - {at: [0, 0, 4 mm]}\n    - {at: [0, 0.05, 4 mm], together: true}\n    - {at: [0, 0, 12 mm], yaw: 90}\n"
+    )
+    assert [f.id for f in p.fixtures] == ["wall"]
+    assert [(a.id, a.level, a.time) for a in p.placements] == [("b002", 1, 0.0), ("b003", 1, 0.0), ("b004", 2, 1.0)]
+    with pytest.raises(ScenarioError, match="first brick"):
+        program("stackdsl: 1\nstructure: {bricks: [{at: [0, 0, 0.004], together: true}]}\n")
+
+
+def test_rules_follow_the_scene():
+    def rules(text):
+        return {r.name: r.on for r in program(text).rules}
+
+    assert rules("stackdsl: 1\nstructure: {tower: {levels: 2}}\n") == {"basic": True, "leaning": False, "impacts": False}
+    assert rules("stackdsl: 1\nstructure: {card_house: {levels: 1}}\n")["leaning"]
+    thrown = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nimpacts: [{target: {level: 2, side: +x}, speed: 1, at: after level 2}]\n"
+    assert rules(thrown)["impacts"] and rules(thrown)["leaning"]
+    text = format_program(program("stackdsl: 1\nstructure: {card_house: {levels: 1}}\n"))
+    assert "rule leaning  on   bricks placed tilted: V1.1a, V1.1b" in text and "rule impacts  off  nothing is thrown" in text

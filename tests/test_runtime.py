@@ -6,6 +6,7 @@ import pytest
 from stackdsl import End, EngineSettings, Launch, Program, compile_scenario, parse_scenario, run_program
 from stackdsl import _runtime
 from stackdsl._compiler import _spec
+from stackdsl._program import Rule
 
 TWO_BRICKS = """
 stackdsl: 1
@@ -69,6 +70,7 @@ def test_friction_coefficient_of_a_pair_is_the_materials():
         ground_friction=0.5,
         ground_restitution=0.0,
         stability={},
+        rules=(Rule(name="basic", on=True, reason=""), Rule(name="leaning", on=False, reason=""), Rule(name="impacts", on=False, reason="")),
         collapse_threshold=0.004,
         settle=0.0,
         actions=(

@@ -1,0 +1,192 @@
+"""Rigid-block equilibrium as a linear program (Livesley 1978; Whiting, Ochsendorf & Durand 2009).
+
+A set of rigid blocks stands when contact forces exist that balance every block's
+weight: at each vertex of each contact polygon a compressive normal force (>= 0) and a
+friction force inside the Coulomb cone, and for every free block the six equations of
+static equilibrium (force, and torque about its centre of mass). Bodies that are not
+free blocks (the ground, fixed bodies, bricks held fixed) are supports: they take any
+force.
+
+The Coulomb cone |f_t| <= mu f_n is replaced by an *inscribed* pyramid: friction is a
+non-negative combination of ``sides`` unit tangents whose weights sum to at most
+mu f_n. Inscribed means every force the pyramid allows the true cone allows too, so the
+linearisation can only call a block unstable that is (barely) stable, never the
+reverse. The first tangent points downhill along the contact (or along x when the
+contact is horizontal), so for planar problems in the x-z plane, the slope, the ladder
+and the V, the pyramid is exact in the direction that matters.
+
+Each vertex may also carry a tension (a negative normal force), which the program
+minimises: the minimum total tension is 0 exactly when the blocks stand, and otherwise
+measures how far from standing they are (Whiting et al.'s infeasibility measure).
+Solved with scipy's HiGHS (``scipy.optimize.linprog``). Sources: Livesley, "Limit
+analysis of structures formed from rigid blocks" (1978); Whiting, Ochsendorf, Durand,
+"Procedural modeling of structurally-sound masonry buildings" (2009).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Hashable, Mapping, Sequence
+
+import numpy as np
+from scipy import sparse
+from scipy.optimize import linprog
+
+GRAVITY = 9.81
+
+
+@dataclass(frozen=True)
+class RigidBlock:
+    """A free rigid block: mass in kg, centre of mass shape (3,) in metres."""
+
+    mass: float
+    com: np.ndarray
+
+
+@dataclass(frozen=True)
+class ContactPolygon:
+    """A contact polygon between ``body`` and ``other``.
+
+    Attributes:
+        body: the body the normal points into; it receives the forces reported.
+        other: the other body (a free block or a support).
+        points: shape (k, 3), metres, the polygon's vertices (1 <= k).
+        normal: shape (3,), unit, from ``other`` into ``body``.
+        friction: Coulomb coefficient of the pair.
+    """
+
+    body: Hashable
+    other: Hashable
+    points: np.ndarray
+    normal: np.ndarray
+    friction: float
+
+
+@dataclass(frozen=True)
+class Equilibrium:
+    """The answer of :func:`solve`.
+
+    Attributes:
+        stands: True when forces exist that balance every free block.
+        tension: newtons, the least total tension the contacts would have to carry for
+            the blocks to stand (0 when they stand; ``inf`` when not even glue would do).
+        forces: per contact, shape (k, 3): the force on ``body`` at each vertex, newtons
+            (one solution of many; empty when no solution exists).
+        tension_by_body: free block -> newtons of tension at its contacts (both sides).
+    """
+
+    stands: bool
+    tension: float
+    forces: tuple[np.ndarray, ...]
+    tension_by_body: dict
+
+
+def solve_equilibrium(blocks: Mapping[Hashable, RigidBlock], contacts: Sequence[ContactPolygon], *, sides: int = 8, gravity: float = GRAVITY) -> Equilibrium:
+    """Do forces exist that hold every free block in ``blocks`` still?
+
+    Args:
+        blocks: free blocks by key; every other key named by a contact is a support.
+        contacts: the contact polygons.
+        sides: sides of the friction pyramid (>= 3).
+        gravity: m/s^2, acting along -z.
+
+    Returns:
+        :class:`Equilibrium`.
+
+    Raises:
+        ValueError: a contact has no point or a non-positive friction pyramid.
+
+    >>> import numpy as np
+    >>> ground = ContactPolygon("brick", "ground", np.array([[-0.06, -0.012, 0], [0.06, -0.012, 0],
+    ...     [0.06, 0.012, 0], [-0.06, 0.012, 0]]), np.array([0, 0, 1.0]), 0.5)
+    >>> solve_equilibrium({"brick": RigidBlock(0.0106, np.array([0, 0, 0.004]))}, [ground]).stands
+    True
+    """
+    if sides < 3:
+        raise ValueError("the friction pyramid needs at least 3 sides")
+    keys = list(blocks)
+    index = {k: i for i, k in enumerate(keys)}
+    weight = max((b.mass for b in blocks.values()), default=1.0) * gravity or 1.0
+    scale = 0.1  # metres: lever arms in units of 10 cm keep the rows comparable
+    per_point = 2 + sides  # normal, tension, friction weights
+    columns = sum(len(c.points) for c in contacts) * per_point
+    eq_rows, eq_cols, eq_vals = [], [], []
+    ub_rows, ub_cols, ub_vals = [], [], []
+    cost = np.zeros(columns)
+    col = 0
+    n_ub = 0
+    for contact in contacts:
+        points = np.asarray(contact.points, dtype=float).reshape(-1, 3)
+        if len(points) == 0:
+            raise ValueError("a contact needs at least one point")
+        normal = np.asarray(contact.normal, dtype=float)
+        normal = normal / np.linalg.norm(normal)
+        generators = [normal, -normal, *_tangents(normal, sides)]
+        for p in points:
+            for side, key in ((1.0, contact.body), (-1.0, contact.other)):
+                if key not in index:
+                    continue
+                b = index[key]
+                lever = (p - np.asarray(blocks[key].com, dtype=float)) / scale
+                for j, g in enumerate(generators):
+                    force = side * g
+                    torque = np.cross(lever, force)
+                    for axis in range(3):
+                        if force[axis]:
+                            eq_rows.append(6 * b + axis)
+                            eq_cols.append(col + j)
+                            eq_vals.append(force[axis])
+                        if torque[axis]:
+                            eq_rows.append(6 * b + 3 + axis)
+                            eq_cols.append(col + j)
+                            eq_vals.append(torque[axis])
+            # friction weights sum to at most mu times the normal force
+            ub_rows += [n_ub] * (sides + 1)
+            ub_cols += [col] + list(range(col + 2, col + per_point))
+            ub_vals += [-contact.friction] + [1.0] * sides
+            n_ub += 1
+            cost[col + 1] = 1.0
+            col += per_point
+    rhs = np.zeros(6 * len(keys))
+    for k, b in blocks.items():
+        rhs[6 * index[k] + 2] = b.mass * gravity / weight
+    a_eq = sparse.csr_matrix((eq_vals, (eq_rows, eq_cols)), shape=(6 * len(keys), columns))
+    a_ub = sparse.csr_matrix((ub_vals, (ub_rows, ub_cols)), shape=(n_ub, columns)) if n_ub else None
+    result = linprog(cost, A_ub=a_ub, b_ub=np.zeros(n_ub) if n_ub else None, A_eq=a_eq, b_eq=rhs, bounds=(0, None), method="highs")
+    if result.status != 0:
+        return Equilibrium(False, float("inf"), (), {k: float("inf") for k in keys})
+    tension = float(result.fun) * weight
+    total = sum(b.mass for b in blocks.values()) * gravity
+    forces, by_body = _forces(result.x * weight, contacts, sides, per_point, keys)
+    return Equilibrium(tension <= 1e-7 * max(total, 1e-12), tension, forces, by_body)
+
+
+def _tangents(normal: np.ndarray, sides: int) -> list[np.ndarray]:
+    """``sides`` unit tangents, the first downhill (or along x for a horizontal contact)."""
+    down = np.array([0.0, 0.0, -1.0])
+    first = down - (down @ normal) * normal
+    if np.linalg.norm(first) < 1e-6:
+        axis = np.array([1.0, 0.0, 0.0]) if abs(normal[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        first = axis - (axis @ normal) * normal
+    first /= np.linalg.norm(first)
+    second = np.cross(normal, first)
+    angles = 2 * np.pi * np.arange(sides) / sides
+    return [np.cos(a) * first + np.sin(a) * second for a in angles]
+
+
+def _forces(x: np.ndarray, contacts: Sequence[ContactPolygon], sides: int, per_point: int, keys: list) -> tuple[tuple[np.ndarray, ...], dict]:
+    forces, by_body, col = [], {k: 0.0 for k in keys}, 0
+    for contact in contacts:
+        normal = np.asarray(contact.normal, dtype=float)
+        normal = normal / np.linalg.norm(normal)
+        tangents = np.array(_tangents(normal, sides))
+        rows = []
+        for _ in np.asarray(contact.points).reshape(-1, 3):
+            v = x[col : col + per_point]
+            rows.append((v[0] - v[1]) * normal + v[2:] @ tangents)
+            for key in (contact.body, contact.other):
+                if key in by_body:
+                    by_body[key] += v[1]
+            col += per_point
+        forces.append(np.array(rows))
+    return tuple(forces), by_body

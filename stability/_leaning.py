@@ -1,0 +1,76 @@
+"""Leaning bricks (report 3.4): contact polygons across the contact normal, friction, balance.
+
+The report tests a brick touching two bodies, at least one of them in the stack or
+the ground: a pivot on the lowest contact, the torque of gravity about it (eq. 4),
+the force that torque induces at the other contact, its normal part by projection on
+the contact normal, Coulomb friction (eq. 12) and the force left for the pivot
+(eq. 13); stable when friction can hold the sliding force at both contacts.
+
+stackdsl solves exactly these balances, but asks whether *any* admissible split
+exists, as a small rigid-block equilibrium program (:mod:`stability._equilibrium`),
+instead of fixing one split in advance: the report's split fully mobilises friction at
+the upper contact and lets the pivot take the rest, which declares a ladder on
+mu = 0.5 stable at every angle (the false positives of its Figures 13-14), while the
+closed forms are tan(theta) <= 2 mu1 / (1 - mu1 mu2) for a ladder and
+tan(theta) <= 2 mu for a thin inverted V. Two bricks that lean on each other (a V) are
+balanced together: tested one at a time, each would see the other as a fixed wall and
+stand up to the ladder limit.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Hashable, Sequence
+
+import numpy as np
+
+from ._equilibrium import GRAVITY, ContactPolygon, RigidBlock, solve_equilibrium
+from ._geometry import padded_hull
+
+
+def pair_friction(a: float, b: float) -> float:
+    """Friction coefficient of a pair of bodies with coefficients ``a`` and ``b``.
+
+    Bullet multiplies the two bodies' values; stackdsl gives each body the square root
+    of its material's coefficient, so a pair has the geometric mean (a pair of one
+    material: exactly that material's coefficient). Source: DESIGN.md, pybullet facts.
+
+    >>> pair_friction(0.5, 0.5)
+    0.5
+    """
+    return math.sqrt(a * b)
+
+
+def lean_polygon(points: np.ndarray, normal: np.ndarray, pad: float) -> np.ndarray:
+    """ContactPolygon polygon in the plane across ``normal``, padded when it has no area (3.4.2).
+
+    Args:
+        points: shape (k, 3), metres, the engine's contact points of one pair.
+        normal: shape (3,), unit.
+        pad: metres, half-width of the padding (as :func:`padded_hull`).
+
+    Returns:
+        shape (m, 3), metres, the polygon's vertices.
+    """
+    points = np.asarray(points, dtype=float).reshape(-1, 3)
+    t1 = np.cross(normal, [1.0, 0.0, 0.0] if abs(normal[0]) < 0.9 else [0.0, 1.0, 0.0])
+    t1 /= np.linalg.norm(t1)
+    t2 = np.cross(normal, t1)
+    origin = points.mean(axis=0)
+    uv = np.column_stack([(points - origin) @ t1, (points - origin) @ t2])
+    ring = np.asarray(padded_hull(uv, pad).exterior.coords)[:-1]
+    return origin + ring[:, :1] * t1 + ring[:, 1:] * t2
+
+
+def leaning_stands(members: dict[Hashable, tuple[np.ndarray, float]], contacts: Sequence[ContactPolygon], gravity: float = GRAVITY) -> bool:
+    """Can friction hold a leaning brick, or two leaning on each other, where they are?
+
+    Args:
+        members: brick -> (centre of mass shape (3,) in metres, mass in kg).
+        contacts: every contact of the members, the one between two members once.
+        gravity: m/s^2.
+
+    Returns:
+        True when the members balance (report 3.4.3, solved as :func:`stability._equilibrium.solve`).
+    """
+    return solve_equilibrium({m: RigidBlock(mass, com) for m, (com, mass) in members.items()}, contacts, gravity=gravity).stands

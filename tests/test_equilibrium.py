@@ -1,0 +1,74 @@
+"""Rigid-block equilibrium as a linear program, against closed forms."""
+
+import math
+
+import numpy as np
+import pytest
+
+from stability import ContactPolygon, RigidBlock, solve_equilibrium
+
+M = 0.0106
+W = M * 9.81
+L = 0.12
+UP = np.array([0.0, 0.0, 1.0])
+
+
+def rectangle(x0, x1, z, y=0.012):
+    return np.array([[x0, -y, z], [x1, -y, z], [x1, y, z], [x0, y, z]])
+
+
+def overhang(d):
+    """A brick reaching d beyond the edge (x = 0) of the brick below it."""
+    return solve_equilibrium({"top": RigidBlock(M, np.array([d - L / 2, 0.0, 0.012]))}, [ContactPolygon("top", "base", rectangle(-(L - d), 0.0, 0.008), UP, 0.5)])
+
+
+@pytest.mark.parametrize("d", [0.05, 0.0599])
+def test_overhang_up_to_half_a_length_stands(d):
+    result = overhang(d)
+    assert result.stands and result.tension == pytest.approx(0.0, abs=1e-12)
+
+
+@pytest.mark.parametrize("d", [0.0601, 0.07, 0.09])
+def test_overhang_beyond_half_needs_the_closed_form_tension(d):
+    # Moments about the edge: W (d - L/2) = T (L - d).
+    result = overhang(d)
+    assert not result.stands
+    assert result.tension == pytest.approx(W * (d - L / 2) / (L - d), rel=1e-6)
+    assert result.tension_by_body["top"] == pytest.approx(result.tension)
+
+
+@pytest.mark.parametrize("angle, stands", [(26.0, True), (26.5, True), (26.6, False), (30.0, False)])
+def test_brick_on_a_slope_slides_at_tan_equal_mu(angle, stands):
+    a = math.radians(angle)  # limit: atan(0.5) = 26.565 deg
+    normal = np.array([-math.sin(a), 0.0, math.cos(a)])
+    along = np.array([math.cos(a), 0.0, math.sin(a)])
+    corners = np.array([sx * 0.06 * along + [0, sy * 0.012, 0] for sx in (-1, 1) for sy in (-1, 1)])
+    result = solve_equilibrium({"b": RigidBlock(M, 0.004 * normal)}, [ContactPolygon("b", "slope", corners, normal, 0.5)])
+    assert result.stands is stands
+
+
+def test_forces_balance_the_weight():
+    result = overhang(0.03)
+    assert result.forces[0].sum(axis=0) == pytest.approx([0.0, 0.0, W], abs=1e-9)
+    assert (result.forces[0][:, 2] >= -1e-12).all()
+
+
+def test_a_single_point_cannot_hold_a_brick_even_with_glue():
+    result = solve_equilibrium({"b": RigidBlock(M, np.array([0.03, 0.0, 0.004]))}, [ContactPolygon("b", "g", np.zeros((1, 3)), UP, 0.5)])
+    assert not result.stands and result.tension == math.inf
+
+
+def test_supports_take_any_force_and_free_blocks_push_each_other():
+    # Two bricks, one on the other on the ground: both free, all compressive.
+    blocks = {"a": RigidBlock(M, np.array([0, 0, 0.004])), "b": RigidBlock(M, np.array([0.03, 0, 0.012]))}
+    contacts = [ContactPolygon("a", "ground", rectangle(-0.06, 0.06, 0.0), UP, 0.5), ContactPolygon("b", "a", rectangle(-0.03, 0.06, 0.008), UP, 0.5)]
+    result = solve_equilibrium(blocks, contacts)
+    assert result.stands
+    assert result.forces[0][:, 2].sum() == pytest.approx(2 * W)  # the ground carries both
+
+
+def test_bad_input():
+    with pytest.raises(ValueError):
+        solve_equilibrium({"b": RigidBlock(M, np.zeros(3))}, [ContactPolygon("b", "g", np.zeros((0, 3)), UP, 0.5)])
+    with pytest.raises(ValueError):
+        solve_equilibrium({}, [], sides=2)

@@ -1,0 +1,248 @@
+"""Leaning bricks (report 3.4-3.5) and impacts (3.6) on hand-built contact graphs."""
+
+import math
+
+import numpy as np
+import pytest
+
+from stability import (
+    Box,
+    BrickState,
+    ContactPolygon,
+    FakeEngine,
+    Plane,
+    Pose,
+    StabilityConfig,
+    StabilityExtension,
+    breaks_loose,
+    kinetic_energy,
+    lean_polygon,
+    leaning_stands,
+    pair_friction,
+    potential_energy,
+)
+
+L = 0.12
+M = 0.0106
+UP = np.array([0.0, 0.0, 1.0])
+KAPLA = Box(np.array([0.06, 0.012, 0.004]), M)
+
+
+def thin_ladder(angle_deg: float, mu1: float, mu2: float) -> bool:
+    """A thin rod from the floor to a wall at ``angle_deg`` from vertical."""
+    a = math.radians(angle_deg)
+    axis = np.array([math.sin(a), 0.0, math.cos(a)])
+    contacts = [
+        ContactPolygon("rod", "floor", np.zeros((1, 3)), UP, mu1),
+        ContactPolygon("rod", "wall", (L * axis)[None], np.array([-1.0, 0.0, 0.0]), mu2),
+    ]
+    return leaning_stands({"rod": (L / 2 * axis, M)}, contacts)
+
+
+def thin_vee(angle_deg: float, mu: float) -> bool:
+    """Two thin rods leaning tip to tip, the force between them horizontal."""
+    a = math.radians(angle_deg)
+    left, right = np.array([-math.sin(a), 0, 0.0]) * L, np.array([math.sin(a), 0, 0.0]) * L
+    apex = np.array([0.0, 0.0, L * math.cos(a)])
+    contacts = [
+        ContactPolygon("A", "floor", left[None], UP, mu),
+        ContactPolygon("B", "floor", right[None], UP, mu),
+        ContactPolygon("A", "B", apex[None], np.array([-1.0, 0.0, 0.0]), mu),
+    ]
+    return leaning_stands({"A": ((left + apex) / 2, M), "B": ((right + apex) / 2, M)}, contacts)
+
+
+@pytest.mark.parametrize("mu1, mu2", [(0.5, 0.5), (0.4, 0.2), (0.6, 0.0)])
+def test_ladder_limit_is_tan_2mu1_over_1_minus_mu1mu2(mu1, mu2):
+    limit = math.degrees(math.atan(2 * mu1 / (1 - mu1 * mu2)))
+    assert thin_ladder(limit * 0.99, mu1, mu2)
+    assert not thin_ladder(limit * 1.01, mu1, mu2)
+
+
+@pytest.mark.parametrize("mu", [0.5, 0.3])
+def test_inverted_v_limit_is_tan_2mu_for_thin_bricks(mu):
+    limit = math.degrees(math.atan(2 * mu))
+    assert thin_vee(limit * 0.99, mu)
+    assert not thin_vee(limit * 1.01, mu)
+
+
+def test_one_v_brick_alone_against_a_fixed_partner_is_a_ladder():
+    # Why the two bricks of a V are balanced together: against a fixed partner one brick
+    # would stand up to the ladder limit (53.1 deg at mu = 0.5), beyond the V's 45 deg.
+    assert thin_ladder(50, 0.5, 0.5) and not thin_vee(50, 0.5)
+
+
+def test_friction_of_a_pair_is_the_geometric_mean():
+    assert pair_friction(0.5, 0.5) == pytest.approx(0.5)
+    assert pair_friction(0.8, 0.2) == pytest.approx(0.4)
+
+
+def test_lean_polygon_is_padded_across_the_normal():
+    # Two points along a vertical edge on a wall facing -x: the polygon lies in the wall.
+    points = np.array([[0.0, -0.012, 0.1], [0.0, 0.012, 0.1]])
+    poly = lean_polygon(points, np.array([-1.0, 0.0, 0.0]), pad=0.001)
+    assert np.allclose(poly[:, 0], 0.0)
+    span_y, span_z = np.ptp(poly[:, 1]), np.ptp(poly[:, 2])
+    assert span_y == pytest.approx(0.024) and span_z == pytest.approx(0.002)
+
+
+def test_impact_energies_report_3_6():
+    assert kinetic_energy(0.0106, 2.0) == pytest.approx(0.0212)
+    assert potential_energy(0.1, 0.05, 0.01, gravity=10.0) == pytest.approx(0.04)
+    assert potential_energy(0.1, 0.0, 0.01) == 0.0
+    assert breaks_loose(0.05, 0.04) and not breaks_loose(0.04, 0.04)
+
+
+# The rules inside the extension, on a fake engine ----------------------------------------
+class Scene:
+    def __init__(self, **config):
+        self.engine = FakeEngine()
+        self.ext = StabilityExtension(self.engine, StabilityConfig(rest_duration=0.0, **{"contact_pad": 1e-5, **config}))
+        self.engine.frozen.add(0)
+        self.ext.add_ground(0, Plane(0.0))
+
+    def leaner(self, body, angle_deg, x_foot=0.0, lean=+1):
+        """A KAPLA brick with its foot edge at x_foot, leaning toward +x (lean=+1) or -x."""
+        a = math.radians(angle_deg)
+        axis = np.array([lean * math.sin(a), 0.0, math.cos(a)])
+        foot = np.array([x_foot, 0.0, 0.0])
+        self.engine.poses[body] = Pose.from_euler(foot + L / 2 * axis, yaw=0 if lean > 0 else 180, pitch=angle_deg - 90)
+        self.ext.add_brick(body, KAPLA, f"b{body}")
+        self.engine.touch(body, 0, [foot + [0, -0.012, 0], foot + [0, 0.012, 0]], normal=UP)
+        return foot + L * axis  # the top end
+
+
+def wall_scene(angle_deg: float) -> tuple[Scene, int]:
+    s = Scene()
+    top = None
+    s.engine.frozen.add(9)
+    s.engine.poses[9] = Pose.from_euler([0.2, 0.0, 0.1])
+    s.ext.add_ground(9, Box(np.array([0.01, 0.1, 0.1]), 1.0), "wall")
+    top = s.leaner(1, angle_deg)
+    s.engine.touch(1, 9, [top + [0, -0.012, 0], top + [0, 0.012, 0]], normal=[-1, 0, 0])
+    return s, 1
+
+
+def test_brick_leaning_on_a_wall_is_admitted_only_inside_the_ladder_limit():
+    limit = math.degrees(math.atan(2 * 0.5 / (1 - 0.25)))
+    s, b = wall_scene(limit - 1)
+    events = s.ext.update(0.0)
+    assert [(e.kind, e.reason) for e in events] == [("freeze", "leaning on ground, wall")]
+    s, b = wall_scene(limit + 1)
+    assert s.ext.update(0.0) == [] and s.ext.state(b) is BrickState.ACTIVE
+
+
+def test_v_pair_is_admitted_together_and_wakes_together():
+    s = Scene()
+    top_a = s.leaner(1, 30, x_foot=-L * math.sin(math.radians(30)))
+    s.leaner(2, 30, x_foot=L * math.sin(math.radians(30)), lean=-1)
+    s.engine.touch(1, 2, [top_a + [0, -0.012, 0], top_a + [0, 0.012, 0]], normal=[-1, 0, 0])
+    events = s.ext.update(0.0)
+    assert [(e.kind, e.label) for e in events] == [("freeze", "b1"), ("freeze", "b2")]
+    assert events[0].reason == "leaning on ground, b2" and events[1].reason == "leaning on b1"
+    assert [e.label for e in s.ext.wake(2, 0.1, "test")] == ["b2", "b1"]
+
+
+def test_v_beyond_its_limit_is_not_admitted():
+    s = Scene()
+    top_a = s.leaner(1, 50, x_foot=-L * math.sin(math.radians(50)))
+    s.leaner(2, 50, x_foot=L * math.sin(math.radians(50)), lean=-1)
+    s.engine.touch(1, 2, [top_a + [0, -0.012, 0], top_a + [0, 0.012, 0]], normal=[-1, 0, 0])
+    assert s.ext.update(0.0) == []
+
+
+def test_leaning_on_a_moving_brick_is_not_admitted():
+    s = Scene()
+    top_a = s.leaner(1, 30, x_foot=-L * math.sin(math.radians(30)))
+    s.leaner(2, 30, x_foot=L * math.sin(math.radians(30)), lean=-1)
+    s.engine.touch(1, 2, [top_a + [0, -0.012, 0], top_a + [0, 0.012, 0]], normal=[-1, 0, 0])
+    s.engine.velocities[2] = (np.array([0.05, 0, 0]), np.zeros(3))
+    assert s.ext.update(0.0) == []
+
+
+def test_more_than_two_leaning_contacts_are_beyond_the_reports_model():
+    s, b = wall_scene(40)
+    s.engine.frozen.add(8)
+    s.engine.poses[8] = Pose.from_euler([0.03, 0.1, 0.1])
+    s.ext.add_ground(8, Box(np.array([0.01, 0.1, 0.1]), 1.0), "post")
+    s.engine.touch(b, 8, [[0.03, 0.0, 0.05]], normal=[0, -1, 0])
+    assert s.ext.update(0.0) == []
+    s2, b2 = wall_scene(40)
+    s2.ext.config = StabilityConfig(rest_duration=0.0, contact_pad=1e-5, max_leaning_bodies=3)
+    s2.engine.frozen.add(8)
+    s2.engine.poses[8] = Pose.from_euler([0.03, 0.1, 0.1])
+    s2.ext.add_ground(8, Box(np.array([0.01, 0.1, 0.1]), 1.0), "post")
+    s2.engine.touch(b2, 8, [[0.03, 0.0, 0.05]], normal=[0, -1, 0])
+    assert [e.kind for e in s2.ext.update(0.0)] == ["freeze"]
+
+
+def test_leaning_rule_off_leaves_the_brick_to_the_engine():
+    s, b = wall_scene(40)
+    s.ext.config = StabilityConfig(rest_duration=0.0, contact_pad=1e-5, leaning=False)
+    assert s.ext.update(0.0) == []
+
+
+def test_contacts_at_different_heights_are_not_admitted_by_the_basic_test():
+    # Report 3.5: a brick with one end on the ground and the other on a step 8 mm high is
+    # leaning, even though its COM lies over the hull of its two contacts.
+    s = Scene(leaning=False)
+    s.engine.frozen.add(7)
+    s.engine.poses[7] = Pose.from_euler([0.1, 0.0, 0.004])
+    s.ext.add_ground(7, Box(np.array([0.06, 0.06, 0.004]), 1.0), "step")
+    s.engine.poses[1] = Pose.from_euler([0.0, 0.0, 0.008], pitch=-3.8)
+    s.ext.add_brick(1, KAPLA, "plank")
+    s.engine.touch(1, 0, [[-0.06, -0.012, 0.0], [-0.06, 0.012, 0.0]], normal=UP)
+    s.engine.touch(1, 7, [[0.055, -0.012, 0.008], [0.055, 0.012, 0.008]], normal=UP)
+    assert s.ext.update(0.0) == []
+    flat = Scene(leaning=False, lean_height=0.01)  # the same brick with a looser threshold
+    flat.engine.frozen.add(7)
+    flat.engine.poses[7] = s.engine.poses[7]
+    flat.ext.add_ground(7, Box(np.array([0.06, 0.06, 0.004]), 1.0), "step")
+    flat.engine.poses[1] = s.engine.poses[1]
+    flat.ext.add_brick(1, KAPLA, "plank")
+    flat.engine.contacts = list(s.engine.contacts)
+    assert [e.kind for e in flat.ext.update(0.0)] == ["freeze"]
+
+
+def impact_scene(speed: float) -> tuple[Scene, list]:
+    """A frozen column of two bricks; a projectile about to hit the top one at ``speed``."""
+    s = Scene()
+    for body, z in ((1, 0.004), (2, 0.012)):
+        s.engine.poses[body] = Pose.from_euler([0.0, 0.0, z])
+        s.ext.add_brick(body, KAPLA, f"b{body}")
+        s.engine.touch(body, body - 1, [[-0.06, -0.012, z - 0.004], [0.06, 0.012, z - 0.004]], normal=UP)
+        s.ext.update(0.1 * body)
+    s.engine.poses[5] = Pose.from_euler([0.2, 0.0, 0.012])
+    s.ext.add_brick(5, KAPLA, "hammer")
+    s.engine.velocities[5] = (np.array([-speed, 0.0, 0.0]), np.zeros(3))
+    s.engine.touch(5, 2, [[0.06, 0.0, 0.012]], normal=[1, 0, 0])
+    return s, s.ext.update(1.0)
+
+
+def test_an_impact_above_the_potential_energy_wakes_the_hit_brick():
+    # The top brick's COM is 4 mm above its contact: PE = m g 0.004 = 0.42 mJ; KE at
+    # 1 m/s = 5.3 mJ.
+    s, events = impact_scene(1.0)
+    assert [(e.kind, e.label, e.source) for e in events] == [("wake", "b2", "hammer")]
+    assert "5.3 mJ against 0.416 mJ" in events[0].reason
+    assert s.ext.state(1) is BrickState.FROZEN
+
+
+def test_an_impact_below_the_potential_energy_is_held():
+    s, events = impact_scene(0.2)  # KE = 0.21 mJ
+    assert [(e.kind, e.label) for e in events] == [("impact", "b2")]
+    assert events[0].reason.startswith("held") and s.ext.state(2) is BrickState.FROZEN
+    assert s.ext.update(1.01) == []  # the same approach is judged once
+
+
+def test_impact_rule_off():
+    s = Scene(impacts=False)
+    s.engine.poses[1] = Pose.from_euler([0.0, 0.0, 0.004])
+    s.ext.add_brick(1, KAPLA, "b1")
+    s.engine.touch(1, 0, [[-0.06, -0.012, 0.0], [0.06, 0.012, 0.0]], normal=UP)
+    s.ext.update(0.0)
+    s.engine.poses[5] = Pose.from_euler([0.2, 0.0, 0.004])
+    s.ext.add_brick(5, KAPLA, "hammer")
+    s.engine.velocities[5] = (np.array([-5.0, 0.0, 0.0]), np.zeros(3))
+    s.engine.touch(5, 1, [[0.06, 0.0, 0.004]], normal=[1, 0, 0])
+    assert s.ext.update(1.0) == []

@@ -25,7 +25,7 @@ analysis of structures formed from rigid blocks" (1978); Whiting, Ochsendorf, Du
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Hashable, Mapping, Sequence
 
 import numpy as np
@@ -73,12 +73,20 @@ class Equilibrium:
         forces: per contact, shape (k, 3): the force on ``body`` at each vertex, newtons
             (one solution of many; empty when no solution exists).
         tension_by_body: free block -> newtons of tension at its contacts (both sides).
+        contact_tension: per contact, newtons of tension it carries (empty when no
+            solution exists).
+        mechanism: when the blocks do not stand, free block -> magnitude (0..1, relative
+            to the largest) of its virtual velocity in the collapse mechanism: the dual
+            solution of the program (Livesley 1978). The blocks with a non-zero value are
+            the ones that must move; the others can stay. Empty when they stand.
     """
 
     stands: bool
     tension: float
     forces: tuple[np.ndarray, ...]
     tension_by_body: dict
+    contact_tension: tuple[float, ...] = ()
+    mechanism: dict = field(default_factory=dict)
 
 
 def solve_equilibrium(blocks: Mapping[Hashable, RigidBlock], contacts: Sequence[ContactPolygon], *, sides: int = 8, gravity: float = GRAVITY) -> Equilibrium:
@@ -109,44 +117,41 @@ def solve_equilibrium(blocks: Mapping[Hashable, RigidBlock], contacts: Sequence[
     weight = max((b.mass for b in blocks.values()), default=1.0) * gravity or 1.0
     scale = 0.1  # metres: lever arms in units of 10 cm keep the rows comparable
     per_point = 2 + sides  # normal, tension, friction weights
-    columns = sum(len(c.points) for c in contacts) * per_point
-    eq_rows, eq_cols, eq_vals = [], [], []
-    ub_rows, ub_cols, ub_vals = [], [], []
-    cost = np.zeros(columns)
-    col = 0
-    n_ub = 0
+    eq_rows, eq_cols, eq_vals, ub_rows, ub_cols, ub_vals = [], [], [], [], [], []
+    col = n_ub = 0
     for contact in contacts:
         points = np.asarray(contact.points, dtype=float).reshape(-1, 3)
         if len(points) == 0:
             raise ValueError("a contact needs at least one point")
         normal = np.asarray(contact.normal, dtype=float)
         normal = normal / np.linalg.norm(normal)
-        generators = [normal, -normal, *_tangents(normal, sides)]
-        for p in points:
-            for side, key in ((1.0, contact.body), (-1.0, contact.other)):
-                if key not in index:
-                    continue
-                b = index[key]
-                lever = (p - np.asarray(blocks[key].com, dtype=float)) / scale
-                for j, g in enumerate(generators):
-                    force = side * g
-                    torque = np.cross(lever, force)
-                    for axis in range(3):
-                        if force[axis]:
-                            eq_rows.append(6 * b + axis)
-                            eq_cols.append(col + j)
-                            eq_vals.append(force[axis])
-                        if torque[axis]:
-                            eq_rows.append(6 * b + 3 + axis)
-                            eq_cols.append(col + j)
-                            eq_vals.append(torque[axis])
-            # friction weights sum to at most mu times the normal force
-            ub_rows += [n_ub] * (sides + 1)
-            ub_cols += [col] + list(range(col + 2, col + per_point))
-            ub_vals += [-contact.friction] + [1.0] * sides
-            n_ub += 1
-            cost[col + 1] = 1.0
-            col += per_point
+        generators = np.vstack([normal, -normal, _tangents(normal, sides)])  # (G, 3)
+        k = len(points)
+        cols = col + np.arange(k * per_point).reshape(k, per_point)  # (k, G)
+        for side, key in ((1.0, contact.body), (-1.0, contact.other)):
+            if key not in index:
+                continue
+            b = index[key]
+            force = side * generators
+            lever = (points - np.asarray(blocks[key].com, dtype=float)) / scale
+            torque = np.cross(lever[:, None, :], force[None, :, :])  # (k, G, 3)
+            for rows, values in ((6 * b + np.arange(3), np.broadcast_to(force, (k, per_point, 3))), (6 * b + 3 + np.arange(3), torque)):
+                keep = values != 0.0
+                eq_rows.append(np.broadcast_to(rows, values.shape)[keep])
+                eq_cols.append(np.broadcast_to(cols[:, :, None], values.shape)[keep])
+                eq_vals.append(values[keep])
+        # at each point, friction weights sum to at most mu times the normal force
+        ub_rows += [np.repeat(n_ub + np.arange(k), sides + 1)]
+        ub_cols += [np.concatenate([cols[:, :1], cols[:, 2:]], axis=1).ravel()]
+        ub_vals += [np.tile(np.concatenate([[-contact.friction], np.ones(sides)]), k)]
+        col += k * per_point
+        n_ub += k
+    columns = col
+    cost = np.zeros(columns)
+    cost[1::per_point] = 1.0  # the tension of every point
+    cat = lambda parts: np.concatenate(parts) if parts else np.zeros(0)  # noqa: E731
+    eq_rows, eq_cols, eq_vals = cat(eq_rows), cat(eq_cols), cat(eq_vals)
+    ub_rows, ub_cols, ub_vals = cat(ub_rows), cat(ub_cols), cat(ub_vals)
     rhs = np.zeros(6 * len(keys))
     for k, b in blocks.items():
         rhs[6 * index[k] + 2] = b.mass * gravity / weight
@@ -154,14 +159,23 @@ def solve_equilibrium(blocks: Mapping[Hashable, RigidBlock], contacts: Sequence[
     a_ub = sparse.csr_matrix((ub_vals, (ub_rows, ub_cols)), shape=(n_ub, columns)) if n_ub else None
     result = linprog(cost, A_ub=a_ub, b_ub=np.zeros(n_ub) if n_ub else None, A_eq=a_eq, b_eq=rhs, bounds=(0, None), method="highs")
     if result.status != 0:
-        return Equilibrium(False, float("inf"), (), {k: float("inf") for k in keys})
+        return Equilibrium(False, float("inf"), (), {k: float("inf") for k in keys}, (), {k: 1.0 for k in keys})
     tension = float(result.fun) * weight
     total = sum(b.mass for b in blocks.values()) * gravity
-    forces, by_body = _forces(result.x * weight, contacts, sides, per_point, keys)
-    return Equilibrium(tension <= 1e-7 * max(total, 1e-12), tension, forces, by_body)
+    forces, by_body, by_contact = _forces(result.x * weight, contacts, sides, per_point, keys)
+    stands = tension <= 1e-7 * max(total, 1e-12)
+    mechanism = {} if stands else _mechanism(result.eqlin.marginals, keys)
+    return Equilibrium(stands, tension, forces, by_body, by_contact, mechanism)
 
 
-def _tangents(normal: np.ndarray, sides: int) -> list[np.ndarray]:
+def _mechanism(duals: np.ndarray, keys: list) -> dict:
+    """Relative virtual-velocity magnitude of every block from the equilibrium rows' duals."""
+    magnitude = np.linalg.norm(np.asarray(duals).reshape(-1, 6), axis=1)
+    top = magnitude.max()
+    return {k: float(m / top) if top > 0 else 1.0 for k, m in zip(keys, magnitude)}
+
+
+def _tangents(normal: np.ndarray, sides: int) -> np.ndarray:
     """``sides`` unit tangents, the first downhill (or along x for a horizontal contact)."""
     down = np.array([0.0, 0.0, -1.0])
     first = down - (down @ normal) * normal
@@ -171,22 +185,24 @@ def _tangents(normal: np.ndarray, sides: int) -> list[np.ndarray]:
     first /= np.linalg.norm(first)
     second = np.cross(normal, first)
     angles = 2 * np.pi * np.arange(sides) / sides
-    return [np.cos(a) * first + np.sin(a) * second for a in angles]
+    return np.cos(angles)[:, None] * first + np.sin(angles)[:, None] * second
 
 
-def _forces(x: np.ndarray, contacts: Sequence[ContactPolygon], sides: int, per_point: int, keys: list) -> tuple[tuple[np.ndarray, ...], dict]:
-    forces, by_body, col = [], {k: 0.0 for k in keys}, 0
+def _forces(x: np.ndarray, contacts: Sequence[ContactPolygon], sides: int, per_point: int, keys: list) -> tuple[tuple[np.ndarray, ...], dict, tuple[float, ...]]:
+    forces, by_body, by_contact, col = [], {k: 0.0 for k in keys}, [], 0
     for contact in contacts:
         normal = np.asarray(contact.normal, dtype=float)
         normal = normal / np.linalg.norm(normal)
-        tangents = np.array(_tangents(normal, sides))
-        rows = []
+        tangents = _tangents(normal, sides)
+        rows, pulled = [], 0.0
         for _ in np.asarray(contact.points).reshape(-1, 3):
             v = x[col : col + per_point]
             rows.append((v[0] - v[1]) * normal + v[2:] @ tangents)
-            for key in (contact.body, contact.other):
-                if key in by_body:
-                    by_body[key] += v[1]
+            pulled += v[1]
             col += per_point
+        for key in (contact.body, contact.other):
+            if key in by_body:
+                by_body[key] += pulled
         forces.append(np.array(rows))
-    return tuple(forces), by_body
+        by_contact.append(pulled)
+    return tuple(forces), by_body, tuple(by_contact)

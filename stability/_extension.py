@@ -26,13 +26,13 @@ from __future__ import annotations
 import math
 from collections import defaultdict
 from dataclasses import dataclass, field, replace
-from typing import Iterable
+from typing import Iterable, NamedTuple
 
 import numpy as np
 from shapely.geometry import Point, Polygon
 
 from ._engine import ContactPoint, Engine
-from ._equilibrium import GRAVITY, ContactPolygon
+from ._equilibrium import GRAVITY, ContactPolygon, RigidBlock, solve_equilibrium
 from ._geometry import Box, ContactArea, Plane, Pose, combined_hull, contains, face_overlap, padded_hull
 from ._graph import BrickGraph, BrickState, GraphEdge, GraphNode
 from ._impact import breaks_loose, kinetic_energy, potential_energy
@@ -66,7 +66,13 @@ class StabilityConfig:
         max_leaning_bodies: a leaning brick may touch at most this many bodies (the
             report's model handles two).
         impacts: run the impact rule (report 3.6).
+        model: ``"report"``: the report's rules (basic test, leaning test, centre of mass
+            above against the main contact area); ``"equilibrium"``: admission and the
+            stack-wide test by rigid-block equilibrium (:mod:`stability._equilibrium`).
         gravity: m/s^2.
+
+    Raises:
+        ValueError: an unknown model.
     """
 
     rest_speed: float = 0.005
@@ -80,7 +86,12 @@ class StabilityConfig:
     leaning: bool = True
     max_leaning_bodies: int = 2
     impacts: bool = True
+    model: str = "report"
     gravity: float = GRAVITY
+
+    def __post_init__(self) -> None:
+        if self.model not in ("report", "equilibrium"):
+            raise ValueError(f"unknown stability model {self.model!r}: 'report' or 'equilibrium'")
 
 
 @dataclass(frozen=True)
@@ -96,6 +107,15 @@ class StabilityEvent:
     source: str = ""
 
 
+class _Woken(NamedTuple):
+    """A brick just woken, with the load node and contact polygons it had when frozen."""
+
+    body: int
+    node: LoadNode
+    contacts: list[ContactPolygon]
+    event: StabilityEvent
+
+
 @dataclass
 class _Body:
     """Per-body data of report Figure 3 (Brick), with the leaning contacts of 3.4."""
@@ -108,7 +128,7 @@ class _Body:
     friction: float
     rests_on: dict[int, ContactArea] = field(default_factory=dict)
     main_contact: Polygon | None = None
-    leans_on: list[ContactPolygon] = field(default_factory=list)
+    contacts: list[ContactPolygon] = field(default_factory=list)
     objects_above: set[int] = field(default_factory=set)
     com_above: np.ndarray | None = None
     mass_above: float = 0.0
@@ -183,11 +203,15 @@ class StabilityExtension:
         events: list[StabilityEvent] = []
         resting = [rec for rec in active if self._at_rest(rec, time)]  # every clock first: partners
         for rec in resting:
-            if rec.state is BrickState.ACTIVE:
-                found = self._admit(rec, contacts.get(rec.body, []), time)
-                if not found and self.config.leaning:
-                    found = self._admit_leaning(rec, contacts, time)
-                events += found
+            if rec.state is not BrickState.ACTIVE:
+                continue
+            if self.config.model == "equilibrium":
+                events += self._admit_group(rec, contacts, time, limit=None)
+                continue
+            found = self._admit(rec, contacts, time)
+            if not found and self.config.leaning:
+                found = self._admit_group(rec, contacts, time, limit=self.config.max_leaning_bodies)
+            events += found
         if events:
             events += self._test_stack(time)
         if self.config.impacts:
@@ -211,9 +235,9 @@ class StabilityExtension:
         return rec.rest_since is not None and time - rec.rest_since >= self.config.rest_duration - 1e-9
 
     # admission ------------------------------------------------------------------
-    def _admit(self, rec: _Body, contacts: list[ContactPoint], time: float) -> list[StabilityEvent]:
+    def _admit(self, rec: _Body, contacts: dict[int, list[ContactPoint]], time: float) -> list[StabilityEvent]:
         """Single object stability (report 3.3.4): freeze when the COM is over the support."""
-        supports = self._supports(rec, contacts, stack_only=True)
+        supports = self._supports(rec, contacts.get(rec.body, []), stack_only=True)
         if not supports:
             return []
         heights = [a.height for a in supports.values()]
@@ -222,80 +246,156 @@ class StabilityExtension:
         main = combined_hull(list(supports.values()))
         if not contains(main, self._engine.pose(rec.body).position[:2], self.config.com_margin):
             return []
-        self._freeze(rec, supports, main)
+        held = {o: pts for o, pts in self._touching(rec, contacts).items() if self._bodies[o].state is not BrickState.ACTIVE}
+        self._freeze(rec, supports, main, self._polygons(rec, held))
         names = ", ".join(self._bodies[s].label for s in supports)
         return [StabilityEvent(time, "freeze", rec.label, f"at rest on {names}")]
 
-    def _admit_leaning(self, rec: _Body, contacts: dict[int, list[ContactPoint]], time: float) -> list[StabilityEvent]:
-        """Leaning stability (report 3.4): a brick touching two bodies, at least one of them
-        in the stack or the ground; with a leaning partner (a V), the two together."""
+    def _admit_group(self, rec: _Body, contacts: dict[int, list[ContactPoint]], time: float, limit: int | None) -> list[StabilityEvent]:
+        """Admit ``rec`` (with a resting partner it leans on, if any) when friction holds it.
+
+        The report's leaning test (3.4): a brick touching two bodies (``limit``), at least
+        one of them in the stack or the ground; with the equilibrium model any number of
+        bodies (``limit`` None). A partner is an active brick at rest that touches ``rec``
+        and otherwise only the stack: the two are balanced together (a V).
+        """
         touching = self._touching(rec, contacts)
-        if not self._leans(touching):
+        if not self._leans(touching, limit):
             return []
         group = [rec]
         partners = [self._bodies[o] for o in touching if self._bodies[o].state is BrickState.ACTIVE]
         if partners:
+            if len(partners) > 1:
+                return []
             (partner,) = partners
             theirs = self._touching(partner, contacts)
-            if not (self._rested(partner, time) and rec.body in theirs and self._leans(theirs)):
+            if not (self._rested(partner, time) and rec.body in theirs and self._leans(theirs, limit)):
                 return []
             if any(self._bodies[o].state is BrickState.ACTIVE for o in theirs if o != rec.body):
                 return []
             group.append(partner)
-        lean = {m.body: self._lean_contacts(m, contacts, skip={g.body for g in group[: i]}) for i, m in enumerate(group)}
+        polygons = {m.body: self._polygons(m, self._touching(m, contacts), skip={g.body for g in group[:i]}) for i, m in enumerate(group)}
         members = {m.body: (self._engine.pose(m.body).position, m.shape.mass) for m in group}
-        if not leaning_stands(members, [c for cs in lean.values() for c in cs], self.config.gravity):
+        if not leaning_stands(members, [c for cs in polygons.values() for c in cs], self.config.gravity):
             return []
         events = []
-        shared = lean[rec.body]
+        shared = polygons[rec.body]
         for m in group:
-            areas = {c.other: _horizontal(c, self.config.contact_pad) for c in lean[m.body]}
+            areas = {c.other: _horizontal(c, self.config.contact_pad) for c in polygons[m.body]}
             if m is not rec:  # the contact between the two partners, seen from this side
                 areas.update({rec.body: _horizontal(c, self.config.contact_pad) for c in shared if c.other == m.body})
-            main = combined_hull(list(areas.values()))
-            self._freeze(m, {o: a for o, a in areas.items() if o not in members}, main)
-            m.leans_on = lean[m.body]
+            supports = {o: a for o, a in areas.items() if o not in members}
+            resting = {o: a for o, a in supports.items() if a.normal[2] >= self._support_cos} or supports
+            self._freeze(m, resting, combined_hull(list(areas.values())), polygons[m.body])
             names = ", ".join(self._bodies[o].label for o in touching if o != m.body) if m is rec else rec.label
-            events.append(StabilityEvent(time, "freeze", m.label, f"leaning on {names}"))
+            events.append(StabilityEvent(time, "freeze", m.label, f"{'leaning on' if len(touching) > 1 else 'at rest on'} {names}"))
         if partners:  # partners wake together
             rec.objects_above.add(partners[0].body)
             partners[0].objects_above.add(rec.body)
         return events
 
     def _touching(self, rec: _Body, contacts: dict[int, list[ContactPoint]]) -> dict[int, list[ContactPoint]]:
-        """Registered bodies ``rec`` touches, with the contact points, in registration order."""
+        """Registered bodies ``rec`` touches, with the contact points, in registration order.
+
+        An active brick lying on ``rec`` (its contact normal within the support angle of
+        straight down) is left out: it is a load, not a support (report 3.3.1 drops
+        contacts between two unstable bricks); the stack test counts it once it is frozen.
+        """
         grouped: dict[int, list[ContactPoint]] = defaultdict(list)
         for c in contacts.get(rec.body, []):
             if c.other in self._bodies:
                 grouped[c.other].append(c)
-        return {o: grouped[o] for o in sorted(grouped, key=lambda b: self._bodies[b].order)}
+        on_top = {
+            o for o, pts in grouped.items()
+            if self._bodies[o].state is BrickState.ACTIVE and np.mean([c.normal[2] for c in pts]) < -self._support_cos
+        }
+        return {o: grouped[o] for o in sorted(grouped, key=lambda b: self._bodies[b].order) if o not in on_top}
 
-    def _leans(self, touching: dict[int, list[ContactPoint]]) -> bool:
-        """Two bodies (report 3.4.3; more when configured), at least one in the stack or the ground."""
+    def _leans(self, touching: dict[int, list[ContactPoint]], limit: int | None) -> bool:
+        """Two bodies (report 3.4.3; up to ``limit``, any number for None), at least one in
+        the stack or the ground."""
         held = [o for o in touching if self._bodies[o].state is not BrickState.ACTIVE]
-        return 2 <= len(touching) <= self.config.max_leaning_bodies and bool(held)
+        if limit is None:
+            return bool(held)
+        return 2 <= len(touching) <= limit and bool(held)
 
-    def _lean_contacts(self, rec: _Body, contacts: dict[int, list[ContactPoint]], skip: set[int]) -> list[ContactPolygon]:
-        """The leaning contact list of report 3.4.2: one polygon per touched body."""
+    def _polygons(self, rec: _Body, touching: dict[int, list[ContactPoint]], skip: set[int] = frozenset()) -> list[ContactPolygon]:
+        """One contact polygon per touched body (report 3.4.2): the exact face overlap where
+        ``rec`` lies face to face on it, else the contact points padded across the normal."""
         out = []
-        for other, points in self._touching(rec, contacts).items():
+        pose = self._engine.pose(rec.body)
+        for other, points in touching.items():
             if other in skip:
+                continue
+            o = self._bodies[other]
+            friction = pair_friction(rec.friction, o.friction)
+            exact = face_overlap(rec.shape, pose, o.shape, None if isinstance(o.shape, Plane) else self._pose(o), self.config.face_gap)
+            if exact is not None:
+                ring = np.asarray(exact.polygon.exterior.coords)[:-1]
+                polygon = np.column_stack([ring, np.full(len(ring), exact.height)])
+                out.append(ContactPolygon(rec.body, other, polygon, exact.normal, friction))
                 continue
             normal = np.mean([c.normal for c in points], axis=0)
             normal /= np.linalg.norm(normal)
             polygon = lean_polygon(np.array([c.position for c in points]), normal, self.config.contact_pad)
-            out.append(ContactPolygon(rec.body, other, polygon, normal, pair_friction(rec.friction, self._bodies[other].friction)))
+            out.append(ContactPolygon(rec.body, other, polygon, normal, friction))
         return out
 
-    def _freeze(self, rec: _Body, supports: dict[int, ContactArea], main: Polygon | None) -> None:
+    def _freeze(self, rec: _Body, supports: dict[int, ContactArea], main: Polygon | None, polygons: list[ContactPolygon]) -> None:
         self._engine.set_frozen(rec.body, True, rec.shape.mass)
-        rec.state, rec.rests_on, rec.main_contact = BrickState.FROZEN, supports, main
+        rec.state, rec.rests_on, rec.main_contact, rec.contacts = BrickState.FROZEN, supports, main, polygons
         rec.frozen_pose = self._engine.pose(rec.body)
         for s in supports:
             self._bodies[s].objects_above.add(rec.body)
 
     # the stack-wide test ---------------------------------------------------------
     def _test_stack(self, time: float) -> list[StabilityEvent]:
+        """The stack-wide test of the configured model; returns the wake events."""
+        if self.config.model == "report":
+            return self._test_report(time)  # it computes the loads on the way
+        events = self._test_equilibrium(time)
+        self._refresh_loads()
+        return events
+
+    def _refresh_loads(self) -> None:
+        """com_above / mass_above of every frozen brick (the graph and the impact rule use them)."""
+        loads = propagate(self._nodes(self._frozen()))
+        for rec in self._frozen():
+            rec.com_above, rec.mass_above = loads[rec.body].com_above, loads[rec.body].mass_above
+
+    def _test_equilibrium(self, time: float) -> list[StabilityEvent]:
+        """Stack-wide test by rigid-block equilibrium (Livesley 1978; Whiting et al. 2009).
+
+        All frozen bricks are free blocks, the ground and fixed bodies supports, and the
+        contact polygons those remembered when each brick was frozen. When no set of
+        compressive, friction-bounded forces balances them, the program's dual is a
+        collapse mechanism: a virtual velocity for every brick (Livesley's kinematic
+        theorem). The bricks that move in it, and everything resting on them, wake;
+        bricks the mechanism leaves still stay frozen. That is the smallest set the
+        solution shows must move: waking only the bricks whose contacts would need glue
+        leaves their siblings frozen under a tipping block (the slant tower stayed pinned
+        by one of its two level-3 bricks), waking everything discards what still stands.
+        Solved only when the stack changes.
+        """
+        events: list[StabilityEvent] = []
+        while True:
+            frozen = {r.body: r for r in self._frozen()}
+            if not frozen:
+                return events
+            held = lambda k: k in frozen or self._bodies[k].state is BrickState.GROUND  # noqa: E731
+            polygons = [c for r in frozen.values() for c in r.contacts if held(c.other)]
+            touched = {c.body for c in polygons} | {c.other for c in polygons}
+            moving = {b for b in frozen if b not in touched}  # rests on nothing that stays
+            if not moving:
+                blocks = {b: RigidBlock(r.shape.mass, r.frozen_pose.position) for b, r in frozen.items()}
+                result = solve_equilibrium(blocks, polygons, gravity=self.config.gravity)
+                if result.stands:
+                    return events
+                moving = {b for b, v in result.mechanism.items() if v > 1e-4}
+            for b in sorted(moving, key=lambda k: self._bodies[k].order):
+                events += self.wake(b, time, "it moves in the collapse mechanism (rigid-block equilibrium)")
+
+    def _test_report(self, time: float) -> list[StabilityEvent]:
         """Stack-wide test (report 3.3.1, 3.3.5) with the wake-up cascade (3.3.7).
 
         A brick whose centre of mass above lies outside its main contact area gives way
@@ -329,10 +429,10 @@ class StabilityExtension:
                     continue
                 gave_way.add(rec.body)
                 out = rec.main_contact.exterior.distance(Point(rec.com_above[:2])) * 1000
-                for woken, node, event in self._wake(rec.body, time, f"centre of mass above {out:.1f} mm outside its support"):
-                    events.append(event)
-                    if woken != rec.body:
-                        leaning[woken] = node
+                for w in self._wake(rec.body, time, f"centre of mass above {out:.1f} mm outside its support"):
+                    events.append(w.event)
+                    if w.body != rec.body:
+                        leaning[w.body] = w.node
 
     def _nodes(self, bricks: Iterable[_Body]) -> dict[int, LoadNode]:
         return {r.body: LoadNode(r.shape.mass, self._pose(r).position, r.rests_on) for r in bricks}
@@ -370,10 +470,11 @@ class StabilityExtension:
 
         Returns the events, one per brick woken; nothing when ``body`` is not frozen.
         """
-        return [event for _, _, event in self._wake(body, time, reason)]
+        return [w.event for w in self._wake(body, time, reason)]
 
-    def _wake(self, body: int, time: float, reason: str) -> list[tuple[int, LoadNode, StabilityEvent]]:
-        """Wake ``body`` and, recursively, what rests on it; each with its last load node."""
+    def _wake(self, body: int, time: float, reason: str) -> list[_Woken]:
+        """Wake ``body`` and, recursively, what rests on it; each with its last load node
+        and contact polygons (a woken brick may still rest on the stack)."""
         rec = self._bodies[body]
         if rec.state is not BrickState.FROZEN:
             return []
@@ -383,8 +484,8 @@ class StabilityExtension:
         for s in rec.rests_on:
             self._bodies[s].objects_above.discard(body)
         rec.rests_on, rec.main_contact, rec.com_above, rec.mass_above = {}, None, None, 0.0
-        rec.leans_on = []
-        woken = [(body, node, StabilityEvent(time, "wake", rec.label, reason))]
+        rec.contacts = []
+        woken = [_Woken(body, node, rec.contacts, StabilityEvent(time, "wake", rec.label, reason))]
         for above in sorted(rec.objects_above, key=lambda b: self._bodies[b].order):
             woken += self._wake(above, time, f"rests on {rec.label}")
         rec.objects_above = set()

@@ -31,7 +31,7 @@ class CheckResult:
     """One scenario checked.
 
     Attributes:
-        file, scenario, mode: what ran.
+        file, scenario, mode, model: what ran (model: the stability model).
         verdicts: one per expectation (empty: the file expects nothing).
         collapse_level: measured, or None when the structure stood.
         levels_placed: how many levels were built.
@@ -41,6 +41,7 @@ class CheckResult:
     file: str
     scenario: str
     mode: str
+    model: str
     verdicts: tuple[Verdict, ...]
     collapse_level: int | None
     levels_placed: int
@@ -94,8 +95,11 @@ def discover(paths: list[str | Path]) -> list[Path]:
     return files
 
 
-def prepare(files: list[Path], mode: str | None = None, modes: tuple[str, ...] = ()) -> list[tuple[Path, Program, Expect]]:
-    """Load and compile every file (in each of ``modes`` when given); nothing is simulated.
+def prepare(
+    files: list[Path], mode: str | None = None, modes: tuple[str, ...] = (), model: str | None = None
+) -> list[tuple[Path, Program, Expect]]:
+    """Load and compile every file (in each of ``modes`` when given, with the stability
+    ``model`` when given); nothing is simulated.
 
     Raises:
         ScenarioErrors: one error per bad file.
@@ -105,7 +109,7 @@ def prepare(files: list[Path], mode: str | None = None, modes: tuple[str, ...] =
         try:
             scenario = load_scenario(path)
             for m in modes or (mode,):
-                prepared.append((path, compile_scenario(scenario, m), scenario.expect))
+                prepared.append((path, compile_scenario(scenario, m, model), scenario.expect))
         except ScenarioError as exc:
             errors.append(exc)
     if errors:
@@ -114,7 +118,11 @@ def prepare(files: list[Path], mode: str | None = None, modes: tuple[str, ...] =
 
 
 def check(
-    paths: list[str | Path], mode: str | None = None, jobs: int | None = None, executor: Executor | None = None
+    paths: list[str | Path],
+    mode: str | None = None,
+    jobs: int | None = None,
+    executor: Executor | None = None,
+    model: str | None = None,
 ) -> Iterator[CheckResult]:
     """Check every scenario under ``paths``; results come in file order as they finish.
 
@@ -124,6 +132,7 @@ def check(
     Args:
         paths: files or folders.
         mode: overrides each scenario's engine mode.
+        model: overrides each scenario's stability model.
         jobs: worker processes (default: one per core, at most one per file); 1 runs
             in this process.
         executor: run on this executor instead (e.g. a Dask client's executor).
@@ -131,7 +140,7 @@ def check(
     Raises:
         ScenarioErrors: a file is missing or invalid (before anything runs).
     """
-    return _results(prepare(discover(paths), mode), jobs, executor)
+    return _results(prepare(discover(paths), mode, model=model), jobs, executor)
 
 
 def _results(prepared: list[tuple[Path, Program, Expect]], jobs: int | None, executor: Executor | None) -> Iterator[CheckResult]:
@@ -148,7 +157,7 @@ def _results(prepared: list[tuple[Path, Program, Expect]], jobs: int | None, exe
 
 
 def compare(
-    paths: list[str | Path], modes: tuple[str, ...] = ("raw", "tuned", "extension"), jobs: int | None = None
+    paths: list[str | Path], modes: tuple[str, ...] = ("raw", "tuned", "extension"), jobs: int | None = None, model: str | None = None
 ) -> dict[str, dict[str, CheckResult]]:
     """Check every scenario in every mode, all in one run on one executor.
 
@@ -158,7 +167,7 @@ def compare(
     Raises:
         ScenarioErrors: a file is missing or invalid (before anything runs).
     """
-    prepared = prepare(discover(paths), modes=modes)
+    prepared = prepare(discover(paths), modes=modes, model=model)
     table: dict[str, dict[str, CheckResult]] = {}
     for r in _results(prepared, jobs, None):
         table.setdefault(r.file, {})[r.mode] = r
@@ -172,6 +181,7 @@ def judge(file: str, program: Program, expect: Expect) -> CheckResult:
         file=file,
         scenario=program.name,
         mode=program.engine.mode,
+        model=str(program.stability.get("model", "report")),
         verdicts=tuple(evaluate(expect, outcome, program.collapse_threshold)),
         collapse_level=outcome.collapse.level if outcome.collapse else None,
         levels_placed=outcome.levels_placed,

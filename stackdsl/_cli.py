@@ -12,6 +12,7 @@ import sys
 import time
 from pathlib import Path
 
+from ._bench import format_solve_times, solve_times
 from ._check import ScenarioErrors, check, compare
 from ._compiler import MODE_DEFAULTS, compile_scenario
 from ._errors import ScenarioError
@@ -20,6 +21,8 @@ from ._loader import load_scenario
 from ._program import format_program
 from ._runtime import run_program
 from ._schema import Scenario
+
+MODELS = ["report", "equilibrium"]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -44,26 +47,37 @@ def _parser() -> argparse.ArgumentParser:
     p = sub.add_parser("check", help="run scenario files or folders and check their expectations")
     p.add_argument("paths", nargs="+", metavar="PATH")
     p.add_argument("--mode", choices=modes, help="override every scenario's engine mode")
+    p.add_argument("--model", choices=MODELS, help="override every scenario's stability model")
     p.add_argument("-j", "--jobs", type=int, default=None, help="worker processes (default: one per core)")
     p.set_defaults(func=_check)
 
     p = sub.add_parser("compare", help="run scenario files or folders in every mode and print one table")
     p.add_argument("paths", nargs="+", metavar="PATH")
     p.add_argument("--modes", default=",".join(modes), help=f"comma-separated (default: {','.join(modes)})")
+    p.add_argument("--model", choices=MODELS, help="override every scenario's stability model")
     p.add_argument("-j", "--jobs", type=int, default=None, help="worker processes (default: one per core)")
     p.set_defaults(func=_compare)
 
     p = sub.add_parser("compile", help="print the program a scenario compiles to")
     p.add_argument("file")
     p.add_argument("--mode", choices=modes)
+    p.add_argument("--model", choices=MODELS)
     p.add_argument("--json", action="store_true", help="print JSON instead of text")
     p.set_defaults(func=_compile)
 
     p = sub.add_parser("run", help="run one scenario and print its timeline and outcome")
     p.add_argument("file")
     p.add_argument("--mode", choices=modes)
+    p.add_argument("--model", choices=MODELS)
     p.add_argument("--json", action="store_true", help="print the whole outcome as JSON")
     p.set_defaults(func=_run)
+
+    p = sub.add_parser("bench", help="benchmarks (longer than tests)")
+    bench = p.add_subparsers(required=True, metavar="BENCHMARK")
+    q = bench.add_parser("solve", help="equilibrium solve time for towers of 10 to 100 bricks")
+    q.add_argument("--sizes", default="10,25,50,100", help="bricks per tower, comma-separated")
+    q.add_argument("--repeats", type=int, default=5)
+    q.set_defaults(func=_bench_solve)
 
     p = sub.add_parser("schema", help="print the JSON Schema of scenario files (for editors)")
     p.set_defaults(func=_schema)
@@ -73,13 +87,13 @@ def _parser() -> argparse.ArgumentParser:
 def _check(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     results = []
-    checks = check(args.paths, mode=args.mode, jobs=args.jobs)  # raises on bad input: nothing printed yet
+    checks = check(args.paths, mode=args.mode, jobs=args.jobs, model=args.model)  # raises on bad input: nothing printed yet
     print(f"{'':4}  {'scenario':<34} {'mode':<9}  {'expected':<18} {'measured':<32} {'simulated':>9} {'wall':>8}")
     for r in checks:
         results.append(r)
         status = "PASS" if r.passed else "FAIL"
         print(
-            f"{status:<4}  {_short(r.file):<34} {r.mode:<9}  {r.expected:<18} {r.measured:<32} "
+            f"{status:<4}  {_short(r.file):<34} {_mode(r):<9}  {r.expected:<18} {r.measured:<32} "
             f"{r.simulated_time:>7.1f} s {r.wall_time:>6.1f} s",
             flush=True,
         )
@@ -95,7 +109,7 @@ def _compare(args: argparse.Namespace) -> int:
     if unknown or not modes:
         raise ScenarioError(f"unknown mode {', '.join(unknown) or '(none)'}; known: {', '.join(MODE_DEFAULTS)}", file="--modes")
     start = time.perf_counter()
-    table = compare(args.paths, modes, jobs=args.jobs)
+    table = compare(args.paths, modes, jobs=args.jobs, model=args.model)
     print(f"{'scenario':<22} {'expected':<18} " + " ".join(f"{m:<29}" for m in modes))
     for file, row in table.items():
         first = next(iter(row.values()))
@@ -105,19 +119,24 @@ def _compare(args: argparse.Namespace) -> int:
     return 0
 
 
+def _mode(r) -> str:
+    """The mode, with the stability model when the extension ran with the equilibrium one."""
+    return "ext/equil" if r.mode == "extension" and r.model == "equilibrium" else r.mode
+
+
 def _short(file: str) -> str:
     return file if len(file) <= 34 else "..." + file[-31:]
 
 
 def _compile(args: argparse.Namespace) -> int:
-    program = compile_scenario(load_scenario(args.file), args.mode)
+    program = compile_scenario(load_scenario(args.file), args.mode, args.model)
     print(program.model_dump_json(indent=2) if args.json else format_program(program))
     return 0
 
 
 def _run(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.file)
-    program = compile_scenario(scenario, args.mode)
+    program = compile_scenario(scenario, args.mode, args.model)
     outcome = run_program(program)
     verdicts = evaluate(scenario.expect, outcome, program.collapse_threshold)
     if args.json:
@@ -134,6 +153,12 @@ def _run(args: argparse.Namespace) -> int:
         for v in verdicts:
             print(f"{'PASS' if v.passed else 'FAIL'}  expected {v.expected}, measured {v.measured}")
     return 0 if all(v.passed for v in verdicts) else 1
+
+
+def _bench_solve(args: argparse.Namespace) -> int:
+    sizes = tuple(int(x) for x in args.sizes.split(","))
+    print(format_solve_times(solve_times(sizes, args.repeats)))
+    return 0
 
 
 def _schema(args: argparse.Namespace) -> int:

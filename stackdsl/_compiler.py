@@ -49,13 +49,14 @@ class _Brick:
         return Pose.from_euler(self.position, self.yaw, self.pitch, self.roll)
 
 
-def compile_scenario(scenario: Scenario, mode: str | None = None) -> Program:
+def compile_scenario(scenario: Scenario, mode: str | None = None, model: str | None = None) -> Program:
     """Compile a scenario into a :class:`Program`.
 
     Args:
         scenario: a validated scenario.
         mode: ``"raw"``, ``"tuned"`` or ``"extension"`` to override the scenario's mode;
             the mode picks the engine defaults the scenario does not set.
+        model: ``"report"`` or ``"equilibrium"`` to override the scenario's stability model.
 
     Raises:
         ScenarioError: an action time is not a whole number of timesteps, an impact
@@ -98,7 +99,7 @@ def compile_scenario(scenario: Scenario, mode: str | None = None) -> Program:
         engine=engine,
         ground_friction=ground.friction,
         ground_restitution=ground.restitution,
-        stability=scenario.stability.model_dump(exclude_none=True),
+        stability={**scenario.stability.model_dump(exclude_none=True), **({"model": model} if model else {})},
         rules=_rules(bricks, launches),
         fixtures=tuple(Fixture(id=b.id, brick=specs[b.type], position=tuple(b.position), yaw=b.yaw, pitch=b.pitch, roll=b.roll) for b in fixed),
         collapse_threshold=scenario.collapse_threshold or min(min(specs[b.type].half_extents) for b in bricks),

@@ -121,7 +121,7 @@ class Program(_Frozen):
     engine: EngineSettings
     ground_friction: float
     ground_restitution: float
-    stability: dict[str, float]
+    stability: dict[str, float | str]
     rules: tuple[Rule, ...]
     fixtures: tuple[Fixture, ...] = ()
     collapse_threshold: float
@@ -155,6 +155,7 @@ def format_program(program: Program) -> str:
         f"{program.collapse_threshold * 1000:.3g} mm, {program.duration:g} s simulated",
     ]
     if e.mode == "extension":
+        lines.append(f"  stability model {program.stability.get('model', 'report')}")
         lines += [f"  rule {r.name:<8} {'on ' if r.on else 'off'}  {r.reason}" for r in program.rules]
     for f in program.fixtures:
         x, y, z = (v * 1000 for v in f.position)

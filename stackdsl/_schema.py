@@ -218,8 +218,11 @@ class Engine(_Model):
 
 
 class Stability(_Model):
-    """Thresholds of the stability extension (report 3.3.2); defaults in :mod:`stability`."""
+    """The stability extension: its ``model`` (``report``: the report's rules;
+    ``equilibrium``: rigid-block equilibrium) and thresholds (report 3.3.2); defaults in
+    :mod:`stability`."""
 
+    model: Literal["report", "equilibrium"] = "report"
     rest_speed: Annotated[Speed, Field(gt=0)] | None = None
     rest_angular_speed: Annotated[AngularSpeed, Field(gt=0)] | None = None
     rest_duration: Annotated[Time, Field(ge=0, le=10)] | None = None

@@ -246,3 +246,48 @@ def test_impact_rule_off():
     s.engine.velocities[5] = (np.array([-5.0, 0.0, 0.0]), np.zeros(3))
     s.engine.touch(5, 1, [[0.06, 0.0, 0.004]], normal=[1, 0, 0])
     assert s.ext.update(1.0) == []
+
+
+def slope_scene(model: str, angle: float) -> Scene:
+    """A brick lying on a fixed ramp tilted ``angle`` deg, inside the 30 deg support angle."""
+    a = math.radians(angle)
+    s = Scene(model=model)
+    s.engine.frozen.add(7)
+    s.engine.poses[7] = Pose.from_euler([0.0, 0.0, -0.05], pitch=-angle)
+    s.ext.add_ground(7, Box(np.array([0.2, 0.1, 0.05]), 1.0), "ramp")
+    normal = np.array([math.sin(a), 0.0, math.cos(a)])
+    along = np.array([math.cos(a), 0.0, -math.sin(a)])
+    s.engine.poses[1] = Pose(0.004 * normal, Pose.from_euler([0, 0, 0], pitch=-angle).orientation)
+    s.ext.add_brick(1, KAPLA, "b1")
+    corners = [sx * 0.06 * along + [0, sy * 0.012, 0] for sx in (-1, 1) for sy in (-1, 1)]
+    s.engine.touch(1, 7, corners, normal=normal)
+    return s
+
+
+@pytest.mark.parametrize("angle, report, equilibrium", [(20.0, True, True), (28.0, True, False)])
+def test_on_a_slope_the_report_assumes_infinite_friction_equilibrium_does_not(angle, report, equilibrium):
+    # Report 3.3.2: bricks in the stack have infinite friction. Equilibrium: tan(a) <= mu.
+    assert bool(slope_scene("report", angle).ext.update(0.0)) is report
+    assert bool(slope_scene("equilibrium", angle).ext.update(0.0)) is equilibrium
+
+
+def test_equilibrium_model_wakes_the_mechanism_only():
+    # A column leaning right by 35 mm a level on a base brick: with the fourth brick on,
+    # the three upper bricks tip over the base's edge (their COM is at 70 mm, the edge at
+    # 60 mm); the base stays frozen.
+    s = Scene(model="equilibrium")
+    for body, x in ((1, 0.0), (2, 0.035), (3, 0.07), (4, 0.105)):
+        z = (body - 0.5) * 0.008
+        s.engine.poses[body] = Pose.from_euler([x, 0.0, z])
+        s.ext.add_brick(body, KAPLA, f"b{body}")
+        s.engine.touch(body, body - 1, [[x - 0.01, 0.0, z - 0.004]], normal=UP)  # areas come from the faces
+        events = s.ext.update(0.1 * body)
+    assert events[0].kind == "freeze" and events[0].label == "b4"
+    woken = [e.label for e in events if e.kind == "wake"]
+    assert sorted(woken) == ["b2", "b3", "b4"] and s.ext.state(1) is BrickState.FROZEN
+    assert "collapse mechanism" in next(e.reason for e in events if e.label == "b2")
+
+
+def test_unknown_model_is_refused():
+    with pytest.raises(ValueError, match="unknown stability model"):
+        StabilityConfig(model="physics")

@@ -36,3 +36,23 @@ def test_raw_mode_runs_and_reports_what_pybullet_alone_does(path):
     assert outcome.mode == "raw" and outcome.steps_skipped == 0
     assert outcome.collapse is not None  # whatever level pybullet alone reaches, it is reported
     assert all(n.state in ("active", "ground") for n in outcome.final_graph.nodes)
+
+
+CAPABILITY = ["four_stack", "card_house", "slant_tower", "impact_top", "impact_level3"]
+
+
+@pytest.mark.parametrize("name", CAPABILITY)
+def test_the_equilibrium_model_also_gives_the_capability_outcomes(name):
+    scenario = load_scenario(ROOT / "scenarios" / f"{name}.yaml")
+    program = compile_scenario(scenario, model="equilibrium")
+    outcome = run_program(program)
+    assert [v for v in evaluate(scenario.expect, outcome, program.collapse_threshold) if not v.passed] == []
+
+
+@pytest.mark.parametrize("name", ["fig13_loaded_vee", "fig14_leaning_on_upright"])
+def test_the_report_model_is_wrong_on_its_figures_13_and_14(name):
+    scenario = load_scenario(ROOT / "scenarios" / f"{name}.yaml")
+    assert scenario.stability.model == "equilibrium"
+    program = compile_scenario(scenario, model="report")
+    outcome = run_program(program)
+    assert outcome.collapse is None  # the report's model holds what falls

@@ -88,12 +88,12 @@ def _check(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     results = []
     checks = check(args.paths, mode=args.mode, jobs=args.jobs, model=args.model)  # raises on bad input: nothing printed yet
-    print(f"{'':4}  {'scenario':<34} {'mode':<9}  {'expected':<18} {'measured':<32} {'simulated':>9} {'wall':>8}")
+    print(f"{'':4}  {'scenario':<40} {'mode':<9}  {'expected':<18} {'measured':<32} {'simulated':>9} {'wall':>8}")
     for r in checks:
         results.append(r)
         status = "PASS" if r.passed else "FAIL"
         print(
-            f"{status:<4}  {_short(r.file):<34} {_mode(r):<9}  {r.expected:<18} {r.measured:<32} "
+            f"{status:<4}  {_short(r.file):<40} {_mode(r):<9}  {r.expected:<18} {r.measured:<32} "
             f"{r.simulated_time:>7.1f} s {r.wall_time:>6.1f} s",
             flush=True,
         )
@@ -125,7 +125,7 @@ def _mode(r) -> str:
 
 
 def _short(file: str) -> str:
-    return file if len(file) <= 34 else "..." + file[-31:]
+    return file if len(file) <= 40 else "..." + file[-37:]
 
 
 def _compile(args: argparse.Namespace) -> int:

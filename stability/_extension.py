@@ -29,7 +29,7 @@ from dataclasses import dataclass, field, replace
 from typing import Iterable, NamedTuple
 
 import numpy as np
-from shapely.geometry import Point, Polygon
+from shapely.geometry import Point
 
 from ._engine import ContactPoint, Engine
 from ._equilibrium import GRAVITY, ContactPolygon, RigidBlock, solve_equilibrium
@@ -66,6 +66,8 @@ class StabilityConfig:
         max_leaning_bodies: a leaning brick may touch at most this many bodies (the
             report's model handles two).
         impacts: run the impact rule (report 3.6).
+        per_event: run the stack-wide test only when the stack changes (a freeze or a
+            wake); False runs it on every step with an active brick (for measuring).
         model: ``"report"``: the report's rules (basic test, leaning test, centre of mass
             above against the main contact area); ``"equilibrium"``: admission and the
             stack-wide test by rigid-block equilibrium (:mod:`stability._equilibrium`).
@@ -86,6 +88,7 @@ class StabilityConfig:
     leaning: bool = True
     max_leaning_bodies: int = 2
     impacts: bool = True
+    per_event: bool = True
     model: str = "report"
     gravity: float = GRAVITY
 
@@ -127,13 +130,14 @@ class _Body:
     order: int
     friction: float
     rests_on: dict[int, ContactArea] = field(default_factory=dict)
-    main_contact: Polygon | None = None
+    main_contact: ContactArea | None = None
     contacts: list[ContactPolygon] = field(default_factory=list)
     objects_above: set[int] = field(default_factory=set)
     com_above: np.ndarray | None = None
     mass_above: float = 0.0
     rest_since: float | None = None
     frozen_pose: Pose | None = None
+    node: LoadNode | None = None
     impacted: set[int] = field(default_factory=set)
 
 
@@ -166,6 +170,8 @@ class StabilityExtension:
         self._engine = engine
         self.config = config or StabilityConfig()
         self._bodies: dict[int, _Body] = {}
+        self._active: dict[int, _Body] = {}  # the active bricks, so that a step costs what moves
+        self._stack: dict[int, _Body] = {}  # the frozen bricks in the order they froze: supports first
         self._support_cos = math.cos(math.radians(self.config.support_angle))
 
     # registration -------------------------------------------------------------
@@ -177,6 +183,7 @@ class StabilityExtension:
     def add_brick(self, body: int, box: Box, label: str, friction: float = 0.5) -> None:
         """Register a brick; it starts active (simulated by the engine)."""
         self._add(_Body(body, label, box, BrickState.ACTIVE, len(self._bodies), friction))
+        self._active[body] = self._bodies[body]
 
     def _add(self, rec: _Body) -> None:
         if rec.body in self._bodies:
@@ -191,14 +198,14 @@ class StabilityExtension:
     @property
     def quiet(self) -> bool:
         """True when no registered brick is active: nothing can move until an action."""
-        return all(r.state is not BrickState.ACTIVE for r in self._bodies.values())
+        return not self._active
 
     # the per-step hook --------------------------------------------------------
     def update(self, time: float) -> list[StabilityEvent]:
         """One step of the algorithm of report 3.3.1 (and 3.4-3.6). ``time`` in seconds."""
-        active = [r for r in self._bodies.values() if r.state is BrickState.ACTIVE]
-        if not active:
+        if not self._active:
             return []
+        active = sorted(self._active.values(), key=lambda r: r.order)
         contacts = _by_body(self._engine.contact_points())
         events: list[StabilityEvent] = []
         resting = [rec for rec in active if self._at_rest(rec, time)]  # every clock first: partners
@@ -212,7 +219,7 @@ class StabilityExtension:
             if not found and self.config.leaning:
                 found = self._admit_group(rec, contacts, time, limit=self.config.max_leaning_bodies)
             events += found
-        if events:
+        if events or not self.config.per_event:
             events += self._test_stack(time)
         if self.config.impacts:
             hits = self._impacts(active, self._engine.timestep, time)
@@ -243,8 +250,8 @@ class StabilityExtension:
         heights = [a.height for a in supports.values()]
         if max(heights) - min(heights) > self.config.lean_height:
             return []  # report 3.5: contacts at different heights: a leaning brick
-        main = combined_hull(list(supports.values()))
-        if not contains(main, self._engine.pose(rec.body).position[:2], self.config.com_margin):
+        main = _main(supports)
+        if not self._holds(main, self._engine.pose(rec.body).position):
             return []
         held = {o: pts for o, pts in self._touching(rec, contacts).items() if self._bodies[o].state is not BrickState.ACTIVE}
         self._freeze(rec, supports, main, self._polygons(rec, held))
@@ -286,7 +293,7 @@ class StabilityExtension:
                 areas.update({rec.body: _horizontal(c, self.config.contact_pad) for c in shared if c.other == m.body})
             supports = {o: a for o, a in areas.items() if o not in members}
             resting = {o: a for o, a in supports.items() if a.normal[2] >= self._support_cos} or supports
-            self._freeze(m, resting, combined_hull(list(areas.values())), polygons[m.body])
+            self._freeze(m, resting, _main(areas), polygons[m.body])
             names = ", ".join(self._bodies[o].label for o in touching if o != m.body) if m is rec else rec.label
             events.append(StabilityEvent(time, "freeze", m.label, f"{'leaning on' if len(touching) > 1 else 'at rest on'} {names}"))
         if partners:  # partners wake together
@@ -341,10 +348,19 @@ class StabilityExtension:
             out.append(ContactPolygon(rec.body, other, polygon, normal, friction))
         return out
 
-    def _freeze(self, rec: _Body, supports: dict[int, ContactArea], main: Polygon | None, polygons: list[ContactPolygon]) -> None:
+    def _holds(self, main: ContactArea, point: np.ndarray) -> bool:
+        """Centre of mass over the main contact area (by ``com_margin`` when it is set)."""
+        if self.config.com_margin > 0:
+            return contains(main.polygon, point, self.config.com_margin)
+        return main.holds(float(point[0]), float(point[1]))
+
+    def _freeze(self, rec: _Body, supports: dict[int, ContactArea], main: ContactArea, polygons: list[ContactPolygon]) -> None:
         self._engine.set_frozen(rec.body, True, rec.shape.mass)
         rec.state, rec.rests_on, rec.main_contact, rec.contacts = BrickState.FROZEN, supports, main, polygons
+        self._active.pop(rec.body, None)
         rec.frozen_pose = self._engine.pose(rec.body)
+        rec.node = LoadNode(rec.shape.mass, rec.frozen_pose.position, supports)
+        self._stack[rec.body] = rec
         for s in supports:
             self._bodies[s].objects_above.add(rec.body)
 
@@ -420,7 +436,7 @@ class StabilityExtension:
             failing = []
             for rec in self._frozen():
                 rec.com_above, rec.mass_above = loads[rec.body].com_above, loads[rec.body].mass_above
-                if not contains(rec.main_contact, rec.com_above, self.config.com_margin):
+                if not self._holds(rec.main_contact, rec.com_above):
                     failing.append(rec)
             if not failing:
                 return events
@@ -428,17 +444,18 @@ class StabilityExtension:
                 if rec.state is not BrickState.FROZEN:  # woken already, resting on one that failed
                     continue
                 gave_way.add(rec.body)
-                out = rec.main_contact.exterior.distance(Point(rec.com_above[:2])) * 1000
+                out = rec.main_contact.polygon.exterior.distance(Point(rec.com_above[:2])) * 1000
                 for w in self._wake(rec.body, time, f"centre of mass above {out:.1f} mm outside its support"):
                     events.append(w.event)
                     if w.body != rec.body:
                         leaning[w.body] = w.node
 
     def _nodes(self, bricks: Iterable[_Body]) -> dict[int, LoadNode]:
-        return {r.body: LoadNode(r.shape.mass, self._pose(r).position, r.rests_on) for r in bricks}
+        return {r.body: r.node or LoadNode(r.shape.mass, self._pose(r).position, r.rests_on) for r in bricks}
 
     def _frozen(self) -> list[_Body]:
-        return [r for r in self._bodies.values() if r.state is BrickState.FROZEN]
+        """The frozen bricks, in the order they froze (each after its supports)."""
+        return list(self._stack.values())
 
     # impacts (report 3.6) ------------------------------------------------------------
     def _impacts(self, active: list[_Body], dt: float, time: float) -> list[StabilityEvent]:
@@ -478,9 +495,11 @@ class StabilityExtension:
         rec = self._bodies[body]
         if rec.state is not BrickState.FROZEN:
             return []
-        node = LoadNode(rec.shape.mass, rec.frozen_pose.position, rec.rests_on)
+        node = rec.node
         self._engine.set_frozen(body, False, rec.shape.mass)
-        rec.state, rec.rest_since, rec.frozen_pose = BrickState.ACTIVE, None, None
+        rec.state, rec.rest_since, rec.frozen_pose, rec.node = BrickState.ACTIVE, None, None, None
+        self._active[body] = rec
+        del self._stack[body]
         for s in rec.rests_on:
             self._bodies[s].objects_above.discard(body)
         rec.rests_on, rec.main_contact, rec.com_above, rec.mass_above = {}, None, None, 0.0
@@ -542,6 +561,11 @@ class StabilityExtension:
             for s, area in nodes[rec.body].supports.items() if rec.body in nodes else ():
                 edges.append(GraphEdge(rec.label, self._bodies[s].label, area.area, load.shares.get(s, 0.0), area.exact))
         return BrickGraph(tuple(graph_nodes), tuple(edges))
+
+
+def _main(areas: dict[int, ContactArea]) -> ContactArea:
+    """The main contact area (report 3.3.3): the hull of the individual ones, at the lowest height."""
+    return ContactArea(combined_hull(list(areas.values())), min(a.height for a in areas.values()), np.array([0.0, 0.0, 1.0]), False)
 
 
 def _horizontal(contact: ContactPolygon, pad: float) -> ContactArea:

@@ -10,11 +10,13 @@ horizontal projection plus a height.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 import shapely
 from scipy.spatial.transform import Rotation
 from shapely.geometry import LineString, MultiPoint, Point, Polygon
+from shapely.geometry.polygon import orient
 from shapely.geometry.base import BaseGeometry
 
 UP = np.array([0.0, 0.0, 1.0])
@@ -105,7 +107,7 @@ class ContactArea:
     """The area through which one body rests on another (report Figure 3, SingleContactArea).
 
     Attributes:
-        polygon: horizontal projection of the area (shapely, metres).
+        polygon: horizontal projection of the area (shapely, metres); convex.
         height: mean height of the contact, metres.
         normal: shape (3,), unit normal pointing from the support into the supported body.
         exact: True when computed from the two touching faces, False when it is the
@@ -125,7 +127,55 @@ class ContactArea:
         """Area of the horizontal projection, square metres."""
         return float(self.polygon.area)
 
-    @property
+    @cached_property
+    def ring(self) -> tuple[tuple[float, float], ...]:
+        """The polygon's vertices counter-clockwise, as floats (for fast point tests)."""
+        return tuple((float(x), float(y)) for x, y in orient(self.polygon, 1.0).exterior.coords[:-1])
+
+    def holds(self, x: float, y: float, strict: bool = True) -> bool:
+        """Does the point (x, y) lie over the area? ``strict``: its edge counts as outside
+        (an exactly critical centre of mass is not stable). A fast test for the convex
+        areas stackdsl builds; ``contains`` is the general one.
+
+        >>> from shapely.geometry import box
+        >>> a = ContactArea(box(0, 0, 1, 1), 0.0, UP, True)
+        >>> a.holds(0.5, 0.5), a.holds(1.0, 0.5), a.holds(1.0, 0.5, strict=False)
+        (True, False, True)
+        """
+        x0, y0, x1, y1 = self.bounds
+        if x < x0 or x > x1 or y < y0 or y > y1:
+            return False
+        if self._axis_aligned:  # the bounding box is the area: done
+            return not strict or (x0 < x < x1 and y0 < y < y1)
+        ring = self.ring
+        n = len(ring)
+        for i in range(n):
+            (ax, ay), (bx, by) = ring[i], ring[(i + 1) % n]
+            cross = (bx - ax) * (y - ay) - (by - ay) * (x - ax)
+            if cross < 0 or (strict and cross == 0):
+                return False
+        return True
+
+    @cached_property
+    def _axis_aligned(self) -> bool:
+        """A rectangle with edges along x and y (most overlaps of bricks turned 0 or 90 deg)."""
+        ring = self.ring
+        return len(ring) == 4 and all(
+            abs(ax - bx) < 1e-12 or abs(ay - by) < 1e-12 for (ax, ay), (bx, by) in zip(ring, ring[1:] + ring[:1])
+        )
+
+    @cached_property
+    def bounds(self) -> tuple[float, float, float, float]:
+        """(min x, min y, max x, max y) of the polygon, metres."""
+        return tuple(float(v) for v in self.polygon.bounds)
+
+    @cached_property
+    def centre_xy(self) -> tuple[float, float]:
+        """(x, y) of the centroid as floats, metres."""
+        c = self.polygon.centroid
+        return float(c.x), float(c.y)
+
+    @cached_property
     def centre(self) -> np.ndarray:
         """Centroid of the area at its height, shape (3,), metres."""
         c = self.polygon.centroid
@@ -172,10 +222,9 @@ def contains(polygon: BaseGeometry, xy, margin: float = 0.0) -> bool:
     A point on the boundary is outside: an exactly critical centre of mass is not
     stable (DESIGN.md, geometry notes). Source: report 3.3.4 (the downward ray cast).
     """
-    point = Point(float(xy[0]), float(xy[1]))
-    if not polygon.contains(point):
+    if not shapely.contains_xy(polygon, float(xy[0]), float(xy[1])):
         return False
-    return margin <= 0.0 or polygon.exterior.distance(point) > margin
+    return margin <= 0.0 or polygon.exterior.distance(Point(float(xy[0]), float(xy[1]))) > margin
 
 
 def face_overlap(

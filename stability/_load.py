@@ -21,6 +21,7 @@ shares' resultant passes through A's centre of mass above (:func:`split_load`).
 from __future__ import annotations
 
 from dataclasses import dataclass
+import math
 from graphlib import TopologicalSorter
 from typing import Mapping
 
@@ -29,7 +30,7 @@ import numpy as np
 from shapely.geometry import Point
 from shapely.ops import nearest_points
 
-from ._geometry import ContactArea, contains
+from ._geometry import ContactArea
 
 
 @dataclass(frozen=True)
@@ -90,24 +91,45 @@ def propagate(nodes: Mapping[int, LoadNode]) -> dict[int, Load]:
     >>> round(loads[1].mass_above, 3), round(float(loads[1].com_above[0]), 3)
     (0.02, 0.015)
     """
+    # what each brick carries, summed: mass and its moments about the origin (x, y, z)
+    carried: dict[int, list[float]] = {b: [0.0, 0.0, 0.0, 0.0] for b in nodes}
+    loads: dict[int, Load] = {}
+    for b in _top_down(nodes):
+        node = nodes[b]
+        m0 = node.mass
+        x0, y0, z0 = node.com.tolist()
+        c = carried[b]
+        mass = m0 + c[0]
+        x, y, z = (m0 * x0 + c[1]) / mass, (m0 * y0 + c[2]) / mass, (m0 * z0 + c[3]) / mass  # eq. 1-2
+        shares = _split(x, y, mass, node.supports)
+        loads[b] = Load(np.array([x, y, z]), mass, {s: m / mass for s, m, _, _ in shares})
+        for s, m, px, py in shares:
+            if s in carried and m:
+                t = carried[s]
+                t[0] += m
+                t[1] += m * px
+                t[2] += m * py
+                t[3] += m * z
+    return loads
+
+
+def _top_down(nodes: Mapping[int, LoadNode]) -> list[int]:
+    """The nodes, each after every node resting on it. When every node comes after its
+    supports already (the order bricks are frozen in), that order reversed; otherwise a
+    topological sort."""
+    seen: set[int] = set()
+    for b, node in nodes.items():
+        if any(s in nodes and s not in seen for s in node.supports):
+            break
+        seen.add(b)
+    else:
+        return list(reversed(nodes))
     above: dict[int, list[int]] = {b: [] for b in nodes}
     for a, node in nodes.items():
         for s in node.supports:
             if s in above:
                 above[s].append(a)
-    carried: dict[int, list[tuple[float, np.ndarray]]] = {b: [] for b in nodes}
-    loads: dict[int, Load] = {}
-    for b in TopologicalSorter(above).static_order():
-        node = nodes[b]
-        mass = node.mass + sum(m for m, _ in carried[b])
-        moment = node.mass * node.com + sum((m * p for m, p in carried[b]), np.zeros(3))
-        com_above = moment / mass
-        split = split_load(com_above, mass, node.supports)
-        loads[b] = Load(com_above, mass, {s: m / mass for s, (m, _) in split.items()})
-        for s, share in split.items():
-            if s in carried:
-                carried[s].append(share)
-    return loads
+    return list(TopologicalSorter(above).static_order())
 
 
 def split_load(
@@ -130,56 +152,59 @@ def split_load(
     Args:
         com_above: shape (3,), metres.
         mass_above: kilograms.
-        supports: support body -> contact area.
+        supports: support body -> contact area (convex).
 
     Returns:
         support body -> ``(equivalent mass in kg, point of application shape (3,))``;
         the point lies over the contact area, at the height of ``com_above`` (so that
         the centre of mass above keeps the true height of the load, report 3.6.2).
     """
-    split = _split(com_above, mass_above, supports)
-    return {s: (m, np.array([p[0], p[1], com_above[2]])) for s, (m, p) in split.items()}
+    shares = _split(float(com_above[0]), float(com_above[1]), mass_above, supports)
+    return {s: (m, np.array([px, py, float(com_above[2])])) for s, m, px, py in shares}
 
 
-def _split(
-    com_above: np.ndarray, mass_above: float, supports: Mapping[int, ContactArea]
-) -> dict[int, tuple[float, np.ndarray]]:
+def _split(x: float, y: float, mass: float, supports: Mapping[int, ContactArea]) -> list[tuple[int, float, float, float]]:
+    """:func:`split_load` in plain floats: (support, mass, x, y) for each support."""
     if not supports:
-        return {}
+        return []
     if len(supports) == 1:
-        (s, area), = supports.items()
-        return {s: (mass_above, _inside(area, com_above))}
-    over = [s for s, area in supports.items() if contains(area.polygon, com_above)]
+        ((s, area),) = supports.items()
+        return [(s, mass, *_inside(area, x, y))]
+    over = [s for s, area in supports.items() if area.holds(x, y, strict=True)]
     if over:
-        s = min(over, key=lambda k: np.linalg.norm(supports[k].centre[:2] - com_above[:2]))
-        return {k: ((mass_above, com_above) if k == s else (0.0, supports[k].centre)) for k in supports}
-    centres = np.array([a.centre for a in supports.values()])
+        chosen = min(over, key=lambda k: math.hypot(supports[k].centre_xy[0] - x, supports[k].centre_xy[1] - y))
+        return [(k, mass, x, y) if k == chosen else (k, 0.0, *a.centre_xy) for k, a in supports.items()]
+    centres = [a.centre_xy for a in supports.values()]
     if len(supports) == 2:
-        axis = centres[1, :2] - centres[0, :2]
-        rel = com_above[:2] - centres[0, :2]
-        offset = rel - axis * (rel @ axis) / (axis @ axis)
+        (ax, ay), (bx, by) = centres
+        ux, uy, rx, ry = bx - ax, by - ay, x - ax, y - ay
+        along = (rx * ux + ry * uy) / (ux * ux + uy * uy)
+        dx, dy = rx - along * ux, ry - along * uy
     else:
-        offset = com_above[:2] - centres[:, :2].mean(axis=0)
-    points = {
-        s: _inside(area, centre + np.array([offset[0], offset[1], 0.0]))
-        for (s, area), centre in zip(supports.items(), centres)
-    }
+        dx = x - sum(c[0] for c in centres) / len(centres)
+        dy = y - sum(c[1] for c in centres) / len(centres)
+    points = [_inside(a, cx + dx, cy + dy) for a, (cx, cy) in zip(supports.values(), centres)]
     if len(supports) > 2:
-        equal = mass_above / len(supports)
-        return {s: (equal, points[s]) for s in supports}
-    first, second = supports
-    return {
-        first: (torque_split(com_above, mass_above, points[first], points[second]), points[first]),
-        second: (torque_split(com_above, mass_above, points[second], points[first]), points[second]),
-    }
+        equal = mass / len(supports)
+        return [(s, equal, *p) for s, p in zip(supports, points)]
+    (s1, s2), (p1, p2) = tuple(supports), points
+    return [(s1, _lever(x, y, mass, p1, p2), *p1), (s2, _lever(x, y, mass, p2, p1), *p2)]
 
 
-def _inside(area: ContactArea, point: np.ndarray) -> np.ndarray:
-    """``point`` if it lies over ``area``, else the nearest point of the area."""
-    if area.polygon.intersects(Point(point[0], point[1])):
-        return point
-    _, nearest = nearest_points(Point(point[0], point[1]), area.polygon)
-    return np.array([nearest.x, nearest.y, point[2]])
+def _inside(area: ContactArea, x: float, y: float) -> tuple[float, float]:
+    """(x, y) if it lies over ``area``, else the nearest point of the area."""
+    if area.holds(x, y, strict=False):
+        return x, y
+    _, nearest = nearest_points(Point(x, y), area.polygon)
+    return nearest.x, nearest.y
+
+
+def _lever(x: float, y: float, mass: float, at: tuple[float, float], pivot: tuple[float, float]) -> float:
+    """:func:`torque_split` in plain floats."""
+    lever = math.hypot(at[0] - pivot[0], at[1] - pivot[1])
+    if lever <= 1e-12:
+        return 0.5 * mass
+    return min(max(mass * math.hypot(x - pivot[0], y - pivot[1]) / lever, 0.0), mass)
 
 
 def torque_split(com_above: np.ndarray, mass_above: float, at: np.ndarray, pivot: np.ndarray) -> float:
@@ -189,12 +214,12 @@ def torque_split(com_above: np.ndarray, mass_above: float, at: np.ndarray, pivot
     (COM_above - pivot) x m g (eq. 4). The force that balances it at this support's
     point is |torque| / (|at - pivot| sin theta) (eq. 6), theta the angle between that
     lever and gravity, and the equivalent mass is |force| / |g| (eq. 9). With gravity
-    vertical, |r| sin theta is the horizontal length of r, so g cancels: this is the
-    lever rule. The report takes as pivot the other support's contact point closest to
-    the centre of mass and measures to the centre of this support's area; stackdsl takes
-    the points through which the two shares pass (:func:`split_load`), which is the same
-    for point contacts and keeps the two shares summing to the load. Clipped to
-    [0, mass_above].
+    vertical, |r x m g| = m |g| |r_h| and |r| sin theta = |r_h| (r_h the horizontal part
+    of r), so g cancels and this is the lever rule, computed so. The report takes as pivot
+    the other support's contact point closest to the centre of mass and measures to the
+    centre of this support's area; stackdsl takes the points through which the two shares
+    pass (:func:`split_load`), which is the same for point contacts and keeps the two shares
+    summing to the load. Clipped to [0, mass_above].
 
     Args:
         com_above, at, pivot: shape (3,), metres.
@@ -207,11 +232,6 @@ def torque_split(com_above: np.ndarray, mass_above: float, at: np.ndarray, pivot
     >>> round(torque_split(np.array([0.25, 0, 0.1]), 1.0, np.array([1.0, 0, 0]), np.zeros(3)), 3)
     0.25
     """
-    gravity = np.array([0.0, 0.0, -mass_above])  # m g with |g| = 1: it cancels in eq. 6-9
-    torque = np.cross(com_above - pivot, gravity)  # eq. 4
-    lever = at - pivot
-    lever_h = np.linalg.norm(np.cross(lever, gravity)) / mass_above  # |r| sin(theta)
-    if lever_h <= 1e-12:
-        return 0.5 * mass_above
-    force = np.linalg.norm(torque) / lever_h  # eq. 6
-    return float(np.clip(force, 0.0, mass_above))  # eq. 9 with |g| = 1
+    # |r| sin(theta) of eq. 6 is |at - pivot| horizontally; |torque| / (m g) of eq. 4 is
+    # |com - pivot| horizontally; their ratio times the mass is eq. 9.
+    return _lever(float(com_above[0]), float(com_above[1]), mass_above, (at[0], at[1]), (pivot[0], pivot[1]))

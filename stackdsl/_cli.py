@@ -12,7 +12,7 @@ import sys
 import time
 from pathlib import Path
 
-from ._bench import format_solve_times, solve_times
+from ._bench import SETTINGS, format_solve_times, run_matrix, savings, scenes, solve_times, write_outputs
 from ._check import ScenarioErrors, check, compare
 from ._compiler import MODE_DEFAULTS, compile_scenario
 from ._errors import ScenarioError
@@ -72,8 +72,16 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print the whole outcome as JSON")
     p.set_defaults(func=_run)
 
-    p = sub.add_parser("bench", help="benchmarks (longer than tests)")
-    bench = p.add_subparsers(required=True, metavar="BENCHMARK")
+    p = sub.add_parser("bench", help="speed against error: every engine setting on the same scenes (long)")
+    p.add_argument("--out", default="docs/bench", help="folder for bench.csv, bench.md and the plots")
+    p.add_argument("--settings", default=",".join(SETTINGS), help="comma-separated, of: " + ", ".join(SETTINGS))
+    p.add_argument("--families", default="slant log cabin,single file,upright", help="comma-separated scene families")
+    p.add_argument("--repeats", type=int, default=3, help="runs per cell (median), for cells faster than --repeat-below")
+    p.add_argument("--repeat-below", type=float, default=30.0, help="seconds; slower cells run once")
+    p.add_argument("--quick", action="store_true", help="one small cell per setting (a smoke test)")
+    p.add_argument("-j", "--jobs", type=int, default=2)
+    p.set_defaults(func=_bench)
+    bench = p.add_subparsers(metavar="BENCHMARK")
     q = bench.add_parser("solve", help="equilibrium solve time for towers of 10 to 100 bricks")
     q.add_argument("--sizes", default="10,25,50,100", help="bricks per tower, comma-separated")
     q.add_argument("--repeats", type=int, default=5)
@@ -153,6 +161,28 @@ def _run(args: argparse.Namespace) -> int:
         for v in verdicts:
             print(f"{'PASS' if v.passed else 'FAIL'}  expected {v.expected}, measured {v.measured}")
     return 0 if all(v.passed for v in verdicts) else 1
+
+
+def _bench(args: argparse.Namespace) -> int:
+    settings = [x.strip() for x in args.settings.split(",") if x.strip()]
+    families = {x.strip() for x in args.families.split(",") if x.strip()}
+    unknown = [x for x in settings if x not in SETTINGS]
+    if unknown:
+        raise ScenarioError(f"unknown setting {', '.join(unknown)}; known: {', '.join(SETTINGS)}", file="--settings")
+    chosen = [sc for sc in scenes(args.quick) if sc.family in families or args.quick]
+    start = time.perf_counter()
+    print(f"stackdsl bench: {len(chosen)} scenes x {len(settings)} settings, {args.jobs} workers", flush=True)
+
+    def progress(c):
+        print(f"  {c.setting:<22} {c.family:<16} {c.parameter:>5g}: collapse {c.collapse_level} (closed form {c.closed_form}), {c.wall:.2f} s", flush=True)
+
+    cells = run_matrix(settings, chosen, args.repeats, args.repeat_below, args.jobs, progress)
+    saved = [] if args.quick else savings(args.repeats)
+    targets = write_outputs(cells, saved, Path(args.out))
+    print((Path(args.out) / "bench.md").read_text())
+    print(f"targets: {targets}")
+    print(f"wrote {args.out}/bench.csv, bench.md, wall_vs_error.png, wall_vs_height.png ({time.perf_counter() - start:.0f} s wall)")
+    return 0
 
 
 def _bench_solve(args: argparse.Namespace) -> int:

@@ -104,6 +104,9 @@ class Outcome(_Frozen):
         events: the timeline.
         final_graph: the brick graph at the end; collapse_graph: at the first collapse.
         displacement: structure brick id -> metres from its placed pose at the end.
+        drift: metres, the largest displacement of a standing structure brick (one not
+            beyond the collapse threshold) seen before each placement until the first
+            collapse, and at the end if there was none.
         levels_placed, bricks_placed: how much was built (building stops at a collapse).
         simulated_time, wall_time: seconds; steps: physics steps taken; steps_skipped:
             steps jumped over while every brick was frozen.
@@ -116,6 +119,7 @@ class Outcome(_Frozen):
     final_graph: Graph
     collapse_graph: Graph | None
     displacement: dict[str, float]
+    drift: float
     levels_placed: int
     bricks_placed: int
     simulated_time: float

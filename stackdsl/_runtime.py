@@ -22,11 +22,13 @@ import os
 import sys
 import time as _time
 from contextlib import contextmanager
+from dataclasses import dataclass
 from typing import Any, Iterator
 
 import numpy as np
+from shapely.geometry import MultiPoint, Polygon
 
-from stability import Box, BrickState, Plane, Pose, PyBulletEngine, StabilityConfig, StabilityExtension
+from stability import Box, Plane, Pose, PyBulletEngine, StabilityConfig, StabilityExtension
 
 from ._outcome import Collapse, Event, Graph, Outcome
 from ._program import BrickSpec, Launch, Place, Program
@@ -65,7 +67,31 @@ def direct_client() -> Iterator[Any]:
         client.disconnect()
 
 
-def run_program(program: Program) -> Outcome:
+@dataclass(frozen=True)
+class RunOptions:
+    """How much of a scene the runtime simulates; each switch shows its saving in ``stackdsl bench``.
+
+    Attributes:
+        jump: in extension mode, jump to the next action while every brick is frozen
+            (nothing can move) instead of stepping.
+        lazy_bodies: bodies enter the engine when they are placed; False creates every
+            brick at the start, parked far away and immovable.
+        needed_rules: run only the stability rules the compiler chose for the scene;
+            False runs leaning and impacts always.
+        per_event: run the stack-wide test when the stack changes; False every step.
+        stop_at_collapse: place nothing after the first collapse and end ``settle`` later.
+
+    Source: stackdsl's own (DESIGN.md: model only what a scene needs).
+    """
+
+    jump: bool = True
+    lazy_bodies: bool = True
+    needed_rules: bool = True
+    per_event: bool = True
+    stop_at_collapse: bool = True
+
+
+def run_program(program: Program, options: RunOptions = RunOptions()) -> Outcome:
     """Run a compiled program and report what happened.
 
     Raises:
@@ -73,7 +99,7 @@ def run_program(program: Program) -> Outcome:
     """
     start = _time.perf_counter()
     with direct_client() as client:
-        runner = _Runner(client, program)
+        runner = _Runner(client, program, options)
         runner.execute()
         return runner.outcome(_time.perf_counter() - start)
 
@@ -81,10 +107,10 @@ def run_program(program: Program) -> Outcome:
 class _Runner:
     """The state of one run: engine, extension, bodies, timeline, collapse."""
 
-    def __init__(self, client: Any, program: Program) -> None:
+    def __init__(self, client: Any, program: Program, options: RunOptions) -> None:
         import pybullet
 
-        self.p, self.client, self.program = pybullet, client, program
+        self.p, self.client, self.program, self.options = pybullet, client, program, options
         e = program.engine
         self.dt = e.timestep
         self.acting = e.mode == "extension"
@@ -93,30 +119,44 @@ class _Runner:
         client.setPhysicsEngineParameter(numSolverIterations=e.solver_iterations)
         ground = client.createMultiBody(0.0, client.createCollisionShape(pybullet.GEOM_PLANE))
         self._material(ground, program.ground_friction, program.ground_restitution)
-        rules = {r.name: r.on for r in program.rules}
-        config = StabilityConfig(**program.stability, leaning=rules["leaning"], impacts=rules["impacts"])
+        rules = {r.name: r.on or not options.needed_rules for r in program.rules}
+        config = StabilityConfig(**program.stability, leaning=rules["leaning"], impacts=rules["impacts"], per_event=options.per_event)
         self.ext = StabilityExtension(PyBulletEngine(client), config)
         self.ext.add_ground(ground, Plane(0.0), friction=program.ground_friction)
         self.shapes: dict[tuple, int] = {}
         for f in program.fixtures:
             body = self.create(f.brick, Pose.from_euler(f.position, f.yaw, f.pitch, f.roll), mass=0.0)
             self.ext.add_ground(body, Box(np.array(f.brick.half_extents), f.brick.mass), f.id, f.brick.friction)
+        self.parked = {} if options.lazy_bodies else self._park()
         self.bodies: dict[str, int] = {}
+        self.labels: dict[str, int] = {}
         self.projectiles: set[str] = set()
         self.levels: dict[str, int] = {}
-        self.targets: dict[int, tuple[str, np.ndarray]] = {}
+        self.targets: dict[int, tuple[str, np.ndarray]] = {}  # body -> (id, placed position)
+        self.corners: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # body -> (signed half extents (8, 3), placed corners)
+        self.tops: dict[int, list[tuple[Polygon, int, float]]] = {}  # top height in 0.1 mm -> footprint, body, nominal z
+        self.settled: dict[int, float] = {}  # frozen structure bricks -> displacement when frozen
+        self.moving: set[int] = set()
         self.events: list[Event] = []
         self.collapse: Collapse | None = None
         self.collapse_graph: Graph | None = None
+        self.drift = 0.0
         self.stop_step: int | None = None
         self.step = 0
         self.skipped = 0
+
+    def _park(self) -> dict[str, int]:
+        """Every brick and projectile created at the start, immovable and far away."""
+        parked = {}
+        for i, a in enumerate(a for a in self.program.actions if isinstance(a, (Place, Launch))):
+            parked[a.id] = self.create(a.brick, Pose.from_euler([100.0 + 0.3 * i, 100.0, 1.0]), mass=0.0)
+        return parked
 
     # lifecycle ----------------------------------------------------------------
     def execute(self) -> None:
         for action in self.program.actions:
             self.advance(action.step)
-            if self.stop_step is not None:
+            if self.stop_step is not None and self.options.stop_at_collapse:
                 break
             if isinstance(action, Place):
                 self.place(action)
@@ -128,7 +168,7 @@ class _Runner:
     def advance(self, target: int) -> None:
         """Step the engine up to ``target`` (or to the end of the settle time after a collapse)."""
         while self.step < self._limit(target):
-            if self.acting and self.ext.quiet:
+            if self.acting and self.options.jump and self.ext.quiet:
                 self.skipped += self._limit(target) - self.step
                 self.step = self._limit(target)
                 return
@@ -136,32 +176,83 @@ class _Runner:
             self.step += 1
             now = self.step * self.dt
             if self.acting:
-                for e in self.ext.update(now):
-                    if e.kind != "impact" or e.source in self.projectiles:  # not every landing brick
-                        self.events.append(Event(time=e.time, kind=e.kind, brick=e.label, level=self.levels.get(e.label), detail=e.reason))
+                self._record(self.ext.update(now))
             if self.collapse is None:
                 self.check_collapse(now)
 
+    def _record(self, events) -> None:
+        for e in events:
+            body = self.labels.get(e.label)
+            if e.kind == "freeze" and body in self.targets:
+                self.moving.discard(body)
+                self.settled[body] = self.displacement(body)
+            elif e.kind == "wake" and body in self.targets:
+                self.moving.add(body)
+                self.settled.pop(body, None)
+            if e.kind != "impact" or e.source in self.projectiles:  # not every landing brick
+                self.events.append(Event(time=e.time, kind=e.kind, brick=e.label, level=self.levels.get(e.label), detail=e.reason))
+
     def _limit(self, target: int) -> int:
-        return target if self.stop_step is None else min(target, self.stop_step)
+        if self.stop_step is None or not self.options.stop_at_collapse:
+            return target
+        return min(target, self.stop_step)
 
     # actions ------------------------------------------------------------------
     def place(self, a: Place) -> None:
-        pose = Pose.from_euler(np.array(a.position) + [0.0, 0.0, a.drop], a.yaw, a.pitch, a.roll)
-        body = self.create(a.brick, pose)
-        self.ext.add_brick(body, Box(np.array(a.brick.half_extents), a.brick.mass), a.id, a.brick.friction)
-        self.bodies[a.id], self.levels[a.id] = body, a.level
-        self.targets[body] = (a.id, np.array(a.position))
-        self.events.append(Event(time=a.time, kind="place", brick=a.id, level=a.level))
+        """Put a brick at rest a drop gap above its pose, on what is actually below it.
+
+        The bricks below may have sunk into each other (contact penetration, about 0.05 mm
+        a level at 240 Hz): the brick is placed lower by the least they have sunk, as a
+        person puts a brick on the stack in front of them, so that a tall tower's newest
+        brick does not fall millimetres onto its supports.
+        """
+        box = Box(np.array(a.brick.half_extents), a.brick.mass)
+        nominal = Pose.from_euler(a.position, a.yaw, a.pitch, a.roll)
+        corners = box.corners(nominal)
+        footprint = MultiPoint(corners[:, :2]).convex_hull
+        sink = self._sink(float(corners[:, 2].min()), footprint)
+        target = np.array(a.position) - [0.0, 0.0, sink]
+        self.record_drift()
+        body = self.enter(a.id, a.brick, Pose(target + [0.0, 0.0, a.drop], nominal.orientation))
+        self.ext.add_brick(body, box, a.id, a.brick.friction)
+        self.levels[a.id] = a.level
+        self.targets[body] = (a.id, target)
+        local = box.corners(Pose(np.zeros(3)))
+        self.corners[body] = (local, box.corners(Pose(target, nominal.orientation)))
+        self.tops.setdefault(round(float(corners[:, 2].max()) * 1e4), []).append((footprint, body, float(a.position[2])))
+        self.moving.add(body)
+        detail = f"on bricks that have sunk {sink * 1000:.2f} mm" if sink > 5e-5 else ""
+        self.events.append(Event(time=a.time, kind="place", brick=a.id, level=a.level, detail=detail))
+
+    def _sink(self, bottom: float, footprint: Polygon) -> float:
+        """How far the placed bricks this one will rest on have sunk below their nominal poses (m)."""
+        key = round(bottom * 1e4)
+        below = [t for k in range(key - 10, key + 11) for t in self.tops.get(k, ())]  # within 1 mm
+        sunk = [
+            nominal_z - self.client.getBasePositionAndOrientation(body)[0][2]
+            for area, body, nominal_z in below
+            if area.intersection(footprint).area > 1e-8
+        ]
+        return max(0.0, min(sunk)) if sunk else 0.0
 
     def launch(self, a: Launch) -> None:
-        body = self.create(a.brick, Pose.from_euler(a.position, a.yaw, a.pitch, 0.0))
+        body = self.enter(a.id, a.brick, Pose.from_euler(a.position, a.yaw, a.pitch, 0.0))
         self.client.resetBaseVelocity(body, list(a.velocity), [0.0, 0.0, 0.0])
         self.ext.add_brick(body, Box(np.array(a.brick.half_extents), a.brick.mass), a.id, a.brick.friction)
-        self.bodies[a.id] = body
         self.projectiles.add(a.id)
         speed = math.sqrt(sum(v * v for v in a.velocity))
         self.events.append(Event(time=a.time, kind="launch", brick=a.id, detail=f"{speed:.3g} m/s"))
+
+    def enter(self, name: str, spec: BrickSpec, pose: Pose) -> int:
+        """The body for ``name`` in the engine at ``pose``: created now, or unparked."""
+        if name in self.parked:
+            body = self.parked[name]
+            self.client.resetBasePositionAndOrientation(body, pose.position.tolist(), pose.orientation.tolist())
+            self.client.changeDynamics(body, -1, mass=spec.mass)
+        else:
+            body = self.create(spec, pose)
+        self.bodies[name] = self.labels[name] = body
+        return body
 
     def create(self, spec: BrickSpec, pose: Pose, mass: float | None = None) -> int:
         key = spec.half_extents
@@ -187,30 +278,43 @@ class _Runner:
         )
 
     # collapse -----------------------------------------------------------------
+    def displacement(self, body: int) -> float:
+        """Metres a structure brick is from its placed pose: how far its farthest-moved
+        corner is from where it was placed (a brick tipping in place counts, not only one
+        whose centre moves)."""
+        position, orientation = self.client.getBasePositionAndOrientation(body)
+        rotation = np.reshape(self.client.getMatrixFromQuaternion(orientation), (3, 3))
+        local, placed = self.corners[body]
+        now = np.asarray(position) + local @ rotation.T
+        return float(np.sqrt(((now - placed) ** 2).sum(axis=1).max()))
+
     def check_collapse(self, now: float) -> None:
         """Record the first structure brick that left its placed pose (DESIGN.md, collapse)."""
         threshold = self.program.collapse_threshold
-        for body, (brick, target) in self.targets.items():
-            if self.acting and self.ext.state(body) is BrickState.FROZEN:
-                continue
-            moved = float(np.linalg.norm(np.array(self.client.getBasePositionAndOrientation(body)[0]) - target))
+        for body in sorted(self.moving):
+            moved = self.displacement(body)
             if moved > threshold:
+                brick = self.targets[body][0]
                 level = max(self.levels.values())
+                self.record_drift()
                 self.collapse = Collapse(level=level, time=now, brick=brick, brick_level=self.levels[brick], displacement=moved)
                 self.events.append(Event(time=now, kind="collapse", brick=brick, level=self.levels[brick], detail=f"moved {moved * 1000:.1f} mm; collapse level {level}"))
                 self.collapse_graph = self.graph()
                 self.stop_step = self.step + round(self.program.settle / self.dt)
                 return
 
+    def record_drift(self) -> None:
+        """Track the largest displacement of the standing structure until the first collapse."""
+        if self.collapse is None:
+            now = [*map(self.displacement, self.moving), *self.settled.values()]  # frozen bricks do not move
+            self.drift = max([self.drift, *(d for d in now if d <= self.program.collapse_threshold)])
+
     # results ------------------------------------------------------------------
     def graph(self) -> Graph:
         return Graph.from_stability(self.ext.graph(), self.levels)
 
     def outcome(self, wall_time: float) -> Outcome:
-        displacement = {
-            brick: float(np.linalg.norm(np.array(self.client.getBasePositionAndOrientation(body)[0]) - target))
-            for body, (brick, target) in self.targets.items()
-        }
+        self.record_drift()
         return Outcome(
             scenario=self.program.name,
             mode=self.program.engine.mode,
@@ -218,7 +322,8 @@ class _Runner:
             events=tuple(self.events),
             final_graph=self.graph(),
             collapse_graph=self.collapse_graph,
-            displacement=displacement,
+            displacement={brick: self.displacement(body) for body, (brick, _) in self.targets.items()},
+            drift=self.drift,
             levels_placed=max(self.levels.values(), default=0),
             bricks_placed=len(self.levels),
             simulated_time=self.step * self.dt,

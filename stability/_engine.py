@@ -27,6 +27,8 @@ class ContactPoint:
         position: shape (3,), metres, the point on ``other``'s surface.
         normal: shape (3,), unit, pointing from ``other`` into ``body``.
         normal_force: newtons (0 when the engine does not report it).
+        distance: metres between the two surfaces along the normal (negative when they
+            overlap; 0 for a contact the engine does not measure).
 
     Source: report 3.3.1, Figure 3.
     """
@@ -36,6 +38,7 @@ class ContactPoint:
     position: np.ndarray
     normal: np.ndarray
     normal_force: float = 0.0
+    distance: float = 0.0
 
 
 class Engine(Protocol):
@@ -94,9 +97,9 @@ class PyBulletEngine:
         for c in self._client.getContactPoints():
             a, b = c[1], c[2]
             normal_on_b = np.array(c[7])
-            force = float(c[9])
-            points.append(ContactPoint(a, b, np.array(c[6]), normal_on_b, force))
-            points.append(ContactPoint(b, a, np.array(c[5]), -normal_on_b, force))
+            force, distance = float(c[9]), float(c[8])
+            points.append(ContactPoint(a, b, np.array(c[6]), normal_on_b, force, distance))
+            points.append(ContactPoint(b, a, np.array(c[5]), -normal_on_b, force, distance))
         return points
 
     def near(self, body: int, distance: float) -> list[ContactPoint]:
@@ -104,7 +107,7 @@ class PyBulletEngine:
         low, high = np.array(low) - distance, np.array(high) + distance
         others = sorted({b for b, _ in self._client.getOverlappingObjects(low.tolist(), high.tolist()) or [] if b != body})
         return [
-            ContactPoint(body, other, np.array(c[6]), np.array(c[7]), float(c[9]))
+            ContactPoint(body, other, np.array(c[6]), np.array(c[7]), float(c[9]), float(c[8]))
             for other in others
             for c in self._client.getClosestPoints(body, other, distance)
         ]

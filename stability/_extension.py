@@ -466,9 +466,12 @@ class StabilityExtension:
             if speed <= self.config.rest_speed:
                 rec.impacted.clear()
                 continue
+            heading = self._engine.velocity(rec.body)[0] / speed
             for hit in self._engine.near(rec.body, speed * dt * 1.5 + self.config.contact_pad):
                 other = self._bodies.get(hit.other)
                 if other is None or other.state is not BrickState.FROZEN or other.body in rec.impacted:
+                    continue
+                if not _ahead(hit, heading, self.config.contact_pad):
                     continue
                 rec.impacted.add(other.body)
                 kinetic = kinetic_energy(rec.shape.mass, speed)
@@ -561,6 +564,21 @@ class StabilityExtension:
             for s, area in nodes[rec.body].supports.items() if rec.body in nodes else ():
                 edges.append(GraphEdge(rec.label, self._bodies[s].label, area.area, load.shares.get(s, 0.0), area.exact))
         return BrickGraph(tuple(graph_nodes), tuple(edges))
+
+
+def _ahead(hit: ContactPoint, heading: np.ndarray, pad: float) -> bool:
+    """Is the body of a closest point on the impactor's path (or already touching it)?
+
+    The gap between the two closest points runs along ``-hit.normal`` (the normal points
+    from the other body into the impactor). The impactor reaches that body if the gap runs
+    along its heading: forward, and less than a contact pad sideways. A body below or
+    beside the path is near but is not hit.
+    """
+    if hit.distance <= pad:  # touching already
+        return True
+    gap = -hit.normal * hit.distance
+    along = float(gap @ heading)
+    return along > 0 and float(np.linalg.norm(gap - along * heading)) <= 2 * pad
 
 
 def _main(areas: dict[int, ContactArea]) -> ContactArea:

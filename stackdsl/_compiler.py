@@ -25,9 +25,9 @@ from ._schema import MAX_SIMULATED_TIME, SIDES, AfterLevel, Impact, Scenario
 #: maximal coordinates, 1 ms, 150 iterations, friction anchors); ``extension`` is the
 #: report's set-up, the stability extension on the unmodified engine.
 MODE_DEFAULTS = {
-    "raw": dict(timestep=1 / 240, solver_iterations=50, friction_anchors=False, maximal_coordinates=False),
-    "tuned": dict(timestep=1 / 1000, solver_iterations=150, friction_anchors=True, maximal_coordinates=True),
-    "extension": dict(timestep=1 / 240, solver_iterations=50, friction_anchors=False, maximal_coordinates=False),
+    "raw": dict(timestep=1 / 240, solver_iterations=50, friction_anchors=False, maximal_coordinates=False, ccd=False),
+    "tuned": dict(timestep=1 / 1000, solver_iterations=150, friction_anchors=True, maximal_coordinates=True, ccd=True),
+    "extension": dict(timestep=1 / 240, solver_iterations=50, friction_anchors=False, maximal_coordinates=False, ccd=True),
 }
 GRAVITY = 9.81
 _LEVEL_TOLERANCE = 0.001  # m: bricks whose bottoms are this close share a level

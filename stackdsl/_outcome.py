@@ -107,6 +107,8 @@ class Outcome(_Frozen):
         drift: metres, the largest displacement of a standing structure brick (one not
             beyond the collapse threshold) seen before each placement until the first
             collapse, and at the end if there was none.
+        kinetic_energy: joules, of the structure's bricks at the end (their linear and
+            angular motion).
         levels_placed, bricks_placed: how much was built (building stops at a collapse).
         simulated_time, wall_time: seconds; steps: physics steps taken; steps_skipped:
             steps jumped over while every brick was frozen.
@@ -120,6 +122,7 @@ class Outcome(_Frozen):
     collapse_graph: Graph | None
     displacement: dict[str, float]
     drift: float
+    kinetic_energy: float
     levels_placed: int
     bricks_placed: int
     simulated_time: float

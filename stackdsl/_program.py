@@ -99,6 +99,7 @@ class EngineSettings(_Frozen):
     solver_iterations: int
     friction_anchors: bool
     maximal_coordinates: bool
+    ccd: bool = False
     gravity: float = 9.81
 
 
@@ -150,7 +151,8 @@ def format_program(program: Program) -> str:
     lines = [
         f"program {program.name}: mode {e.mode}, timestep {e.timestep * 1000:.4g} ms, "
         f"{e.solver_iterations} solver iterations, friction anchors {'on' if e.friction_anchors else 'off'}, "
-        f"maximal coordinates {'on' if e.maximal_coordinates else 'off'}",
+        f"maximal coordinates {'on' if e.maximal_coordinates else 'off'}, "
+        f"continuous collision detection for thrown bricks {'on' if e.ccd else 'off'}",
         f"  {len(program.placements)} bricks in {program.levels} levels, collapse threshold "
         f"{program.collapse_threshold * 1000:.3g} mm, {program.duration:g} s simulated",
     ]

@@ -144,12 +144,14 @@ class _Runner:
         self.stop_step: int | None = None
         self.step = 0
         self.skipped = 0
+        self.substeps = 1
 
     def _park(self) -> dict[str, int]:
         """Every brick and projectile created at the start, immovable and far away."""
         parked = {}
         for i, a in enumerate(a for a in self.program.actions if isinstance(a, (Place, Launch))):
-            parked[a.id] = self.create(a.brick, Pose.from_euler([100.0 + 0.3 * i, 100.0, 1.0]), mass=0.0)
+            maximal = self.program.engine.ccd or None if isinstance(a, Launch) else None
+            parked[a.id] = self.create(a.brick, Pose.from_euler([100.0 + 0.3 * i, 100.0, 1.0]), mass=0.0, maximal=maximal)
         return parked
 
     # lifecycle ----------------------------------------------------------------
@@ -162,6 +164,8 @@ class _Runner:
                 self.place(action)
             elif isinstance(action, Launch):
                 self.launch(action)
+                if self.acting:  # a fast projectile may reach its target within the first step
+                    self._record(self.ext.update(action.time))
         if self.stop_step is not None:
             self.advance(min(self.stop_step, self.program.actions[-1].step))
 
@@ -172,6 +176,8 @@ class _Runner:
                 self.skipped += self._limit(target) - self.step
                 self.step = self._limit(target)
                 return
+            if self.program.engine.ccd:
+                self._substeps()
             self.client.stepSimulation()
             self.step += 1
             now = self.step * self.dt
@@ -191,6 +197,22 @@ class _Runner:
                 self.settled.pop(body, None)
             if e.kind != "impact" or e.source in self.projectiles:  # not every landing brick
                 self.events.append(Event(time=e.time, kind=e.kind, brick=e.label, level=self.levels.get(e.label), detail=e.reason))
+
+    def _substeps(self) -> None:
+        """Split the step while something is fast, so that no body moves more than the
+        collapse threshold (half a brick's thinnest side) in one substep.
+
+        A brick thrown lengthwise at 5 m/s moves 21 mm in a 240 Hz step, more than the 8 mm
+        it overlaps its target: pybullet then pushes it out up or down and it slips past;
+        continuous collision detection does not help (its swept sphere is at the centre of
+        mass, 60 mm behind the front). Only while fast bodies move: none, no cost.
+        """
+        fast = [self.bodies[name] for name in self.projectiles] + sorted(self.moving)
+        speed = max((float(np.linalg.norm(self.client.getBaseVelocity(b)[0])) for b in fast), default=0.0)
+        substeps = max(1, math.ceil(speed * self.dt / self.program.collapse_threshold))
+        if substeps != self.substeps:
+            self.client.setPhysicsEngineParameter(numSubSteps=substeps if substeps > 1 else 0)
+            self.substeps = substeps
 
     def _limit(self, target: int) -> int:
         if self.stop_step is None or not self.options.stop_at_collapse:
@@ -236,25 +258,30 @@ class _Runner:
         return max(0.0, min(sunk)) if sunk else 0.0
 
     def launch(self, a: Launch) -> None:
-        body = self.enter(a.id, a.brick, Pose.from_euler(a.position, a.yaw, a.pitch, 0.0))
+        """Throw a projectile; with ``ccd`` it gets continuous collision detection (a swept
+        sphere of its half thickness, on a body in maximal coordinates)."""
+        ccd = self.program.engine.ccd
+        body = self.enter(a.id, a.brick, Pose.from_euler(a.position, a.yaw, a.pitch, 0.0), maximal=ccd or None)
+        if ccd:
+            self.client.changeDynamics(body, -1, ccdSweptSphereRadius=min(a.brick.half_extents))
         self.client.resetBaseVelocity(body, list(a.velocity), [0.0, 0.0, 0.0])
         self.ext.add_brick(body, Box(np.array(a.brick.half_extents), a.brick.mass), a.id, a.brick.friction)
         self.projectiles.add(a.id)
         speed = math.sqrt(sum(v * v for v in a.velocity))
         self.events.append(Event(time=a.time, kind="launch", brick=a.id, detail=f"{speed:.3g} m/s"))
 
-    def enter(self, name: str, spec: BrickSpec, pose: Pose) -> int:
+    def enter(self, name: str, spec: BrickSpec, pose: Pose, maximal: bool | None = None) -> int:
         """The body for ``name`` in the engine at ``pose``: created now, or unparked."""
         if name in self.parked:
             body = self.parked[name]
             self.client.resetBasePositionAndOrientation(body, pose.position.tolist(), pose.orientation.tolist())
             self.client.changeDynamics(body, -1, mass=spec.mass)
         else:
-            body = self.create(spec, pose)
+            body = self.create(spec, pose, maximal=maximal)
         self.bodies[name] = self.labels[name] = body
         return body
 
-    def create(self, spec: BrickSpec, pose: Pose, mass: float | None = None) -> int:
+    def create(self, spec: BrickSpec, pose: Pose, mass: float | None = None, maximal: bool | None = None) -> int:
         key = spec.half_extents
         if key not in self.shapes:
             self.shapes[key] = self.client.createCollisionShape(self.p.GEOM_BOX, halfExtents=list(key))
@@ -263,7 +290,7 @@ class _Runner:
             baseCollisionShapeIndex=self.shapes[key],
             basePosition=pose.position.tolist(),
             baseOrientation=pose.orientation.tolist(),
-            useMaximalCoordinates=self.program.engine.maximal_coordinates,
+            useMaximalCoordinates=self.program.engine.maximal_coordinates if maximal is None else maximal,
         )
         self._material(body, spec.friction, spec.restitution)
         return body
@@ -309,6 +336,14 @@ class _Runner:
             now = [*map(self.displacement, self.moving), *self.settled.values()]  # frozen bricks do not move
             self.drift = max([self.drift, *(d for d in now if d <= self.program.collapse_threshold)])
 
+    def kinetic_energy(self, body: int) -> float:
+        """Joules of a brick's linear and angular motion (its inertia as a uniform box)."""
+        linear, angular = (np.array(v) for v in self.client.getBaseVelocity(body))
+        mass, inertia = self.client.getDynamicsInfo(body, -1)[0], np.array(self.client.getDynamicsInfo(body, -1)[2])
+        rotation = np.reshape(self.client.getMatrixFromQuaternion(self.client.getBasePositionAndOrientation(body)[1]), (3, 3))
+        local = rotation.T @ angular
+        return 0.5 * mass * float(linear @ linear) + 0.5 * float(local @ (inertia * local))
+
     # results ------------------------------------------------------------------
     def graph(self) -> Graph:
         return Graph.from_stability(self.ext.graph(), self.levels)
@@ -324,6 +359,7 @@ class _Runner:
             collapse_graph=self.collapse_graph,
             displacement={brick: self.displacement(body) for body, (brick, _) in self.targets.items()},
             drift=self.drift,
+            kinetic_energy=sum(map(self.kinetic_energy, self.targets)),
             levels_placed=max(self.levels.values(), default=0),
             bricks_placed=len(self.levels),
             simulated_time=self.step * self.dt,

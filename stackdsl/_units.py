@@ -58,7 +58,10 @@ def parse_quantity(value: Any, dimension: str, unit: str, what: str, example: st
         match = _QUANTITY.match(value)
         if not match:
             raise ValueError(f"{expected}, got {value!r}")
-        number = float(match["num"]) / (float(match["den"]) if match["den"] else 1.0)
+        denominator = float(match["den"]) if match["den"] else 1.0
+        if denominator == 0:
+            raise ValueError(f"{expected}, got {value!r} (a division by zero)")
+        number = float(match["num"]) / denominator
         if match["unit"]:
             number *= _factor(match["unit"].strip(), dimension, unit, f"{expected}, got {value!r}")
     else:
@@ -69,8 +72,6 @@ def parse_quantity(value: Any, dimension: str, unit: str, what: str, example: st
 
 
 def _factor(text: str, dimension: str, unit: str, message: str) -> float:
-    import pint
-
     ureg = _registry()
     try:
         units = ureg.parse_units(text)
@@ -78,7 +79,7 @@ def _factor(text: str, dimension: str, unit: str, message: str) -> float:
         if quantity.dimensionality != ureg.get_dimensionality(dimension or "[]"):
             raise ValueError
         return float(quantity.to(unit).magnitude)
-    except (pint.PintError, ValueError, AttributeError, TypeError, AssertionError):
+    except Exception:  # pint's parser raises many kinds; any of them means: not a unit we know
         raise ValueError(message) from None
 
 

@@ -263,42 +263,53 @@ class StabilityExtension:
 
         The report's leaning test (3.4): a brick touching two bodies (``limit``), at least
         one of them in the stack or the ground; with the equilibrium model any number of
-        bodies (``limit`` None). A partner is an active brick at rest that touches ``rec``
-        and otherwise only the stack: the two are balanced together (a V).
+        bodies (``limit`` None). The members are balanced by rigid-block equilibrium
+        against what is frozen (:func:`stability.leaning_stands`).
         """
-        touching = self._touching(rec, contacts)
-        if not self._leans(touching, limit):
+        group = self._group(rec, contacts, time, limit)
+        if not group:
             return []
-        group = [rec]
-        partners = [self._bodies[o] for o in touching if self._bodies[o].state is BrickState.ACTIVE]
-        if partners:
-            if len(partners) > 1:
-                return []
-            (partner,) = partners
-            theirs = self._touching(partner, contacts)
-            if not (self._rested(partner, time) and rec.body in theirs and self._leans(theirs, limit)):
-                return []
-            if any(self._bodies[o].state is BrickState.ACTIVE for o in theirs if o != rec.body):
-                return []
-            group.append(partner)
         polygons = {m.body: self._polygons(m, self._touching(m, contacts), skip={g.body for g in group[:i]}) for i, m in enumerate(group)}
         members = {m.body: (self._engine.pose(m.body).position, m.shape.mass) for m in group}
         if not leaning_stands(members, [c for cs in polygons.values() for c in cs], self.config.gravity):
             return []
-        events = []
-        shared = polygons[rec.body]
+        return self._freeze_group(group, polygons, self._touching(rec, contacts), time)
+
+    def _group(self, rec: _Body, contacts: dict[int, list[ContactPoint]], time: float, limit: int | None) -> list[_Body]:
+        """``rec`` and its partner, if it leans on one: an active brick at rest that touches
+        ``rec`` and otherwise only the stack (the other brick of a V). Empty when ``rec``
+        cannot be admitted this way."""
+        touching = self._touching(rec, contacts)
+        if not self._leans(touching, limit):
+            return []
+        partners = [self._bodies[o] for o in touching if self._bodies[o].state is BrickState.ACTIVE]
+        if not partners:
+            return [rec]
+        if len(partners) > 1:
+            return []
+        (partner,) = partners
+        theirs = self._touching(partner, contacts)
+        if not (self._rested(partner, time) and rec.body in theirs and self._leans(theirs, limit)):
+            return []
+        if any(self._bodies[o].state is BrickState.ACTIVE for o in theirs if o != rec.body):
+            return []
+        return [rec, partner]
+
+    def _freeze_group(self, group: list[_Body], polygons: dict[int, list[ContactPolygon]], touching: dict, time: float) -> list[StabilityEvent]:
+        """Freeze the members of an admitted group; partners wake together."""
+        rec, members, events = group[0], {m.body for m in group}, []
         for m in group:
             areas = {c.other: _horizontal(c, self.config.contact_pad) for c in polygons[m.body]}
             if m is not rec:  # the contact between the two partners, seen from this side
-                areas.update({rec.body: _horizontal(c, self.config.contact_pad) for c in shared if c.other == m.body})
+                areas.update({rec.body: _horizontal(c, self.config.contact_pad) for c in polygons[rec.body] if c.other == m.body})
             supports = {o: a for o, a in areas.items() if o not in members}
             resting = {o: a for o, a in supports.items() if a.normal[2] >= self._support_cos} or supports
             self._freeze(m, resting, _main(areas), polygons[m.body])
             names = ", ".join(self._bodies[o].label for o in touching if o != m.body) if m is rec else rec.label
             events.append(StabilityEvent(time, "freeze", m.label, f"{'leaning on' if len(touching) > 1 else 'at rest on'} {names}"))
-        if partners:  # partners wake together
-            rec.objects_above.add(partners[0].body)
-            partners[0].objects_above.add(rec.body)
+        for a, b in zip(group, group[1:]):
+            a.objects_above.add(b.body)
+            b.objects_above.add(a.body)
         return events
 
     def _touching(self, rec: _Body, contacts: dict[int, list[ContactPoint]]) -> dict[int, list[ContactPoint]]:

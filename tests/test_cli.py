@@ -108,3 +108,13 @@ def test_compare_prints_one_row_per_scenario_and_a_column_per_mode(tmp_path, cap
 def test_compare_unknown_mode_exits_2(tmp_path, capsys):
     assert main(["compare", str(write(tmp_path, a=PASSING)), "--modes", "raw,sideways"]) == 2
     assert "unknown mode sideways" in capsys.readouterr().err
+
+
+def test_bench_quick_smoke_writes_every_output(tmp_path, capsys):
+    # One small cell per setting, in worker processes: the command cannot rot.
+    assert main(["bench", "--quick", "--out", str(tmp_path), "-j", "2"]) == 0
+    names = {p.name for p in tmp_path.iterdir()}
+    assert names == {"bench.csv", "bench.md", "wall_vs_error.png", "wall_vs_height.png"}
+    rows = (tmp_path / "bench.csv").read_text().splitlines()
+    assert rows[0].startswith("setting,family,parameter") and len(rows) == 1 + 5
+    assert "extension report" in capsys.readouterr().out

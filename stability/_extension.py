@@ -37,7 +37,7 @@ from ._geometry import Box, ContactArea, Plane, Pose, combined_hull, contains, f
 from ._graph import BrickGraph, BrickState, GraphEdge, GraphNode
 from ._impact import breaks_loose, kinetic_energy, potential_energy
 from ._leaning import lean_polygon, leaning_stands, pair_friction
-from ._load import LoadNode, propagate
+from ._load import LoadNode, propagate, propagate_fast
 
 
 @dataclass(frozen=True)
@@ -133,7 +133,7 @@ class _Body:
     main_contact: ContactArea | None = None
     contacts: list[ContactPolygon] = field(default_factory=list)
     objects_above: set[int] = field(default_factory=set)
-    com_above: np.ndarray | None = None
+    com_above: tuple[float, float, float] | None = None
     mass_above: float = 0.0
     rest_since: float | None = None
     frozen_pose: Pose | None = None
@@ -359,7 +359,7 @@ class StabilityExtension:
             out.append(ContactPolygon(rec.body, other, polygon, normal, friction))
         return out
 
-    def _holds(self, main: ContactArea, point: np.ndarray) -> bool:
+    def _holds(self, main: ContactArea, point) -> bool:
         """Centre of mass over the main contact area (by ``com_margin`` when it is set)."""
         if self.config.com_margin > 0:
             return contains(main.polygon, point, self.config.com_margin)
@@ -386,9 +386,9 @@ class StabilityExtension:
 
     def _refresh_loads(self) -> None:
         """com_above / mass_above of every frozen brick (the graph and the impact rule use them)."""
-        loads = propagate(self._nodes(self._frozen()))
+        loads = propagate_fast(self._nodes(self._frozen()))
         for rec in self._frozen():
-            rec.com_above, rec.mass_above = loads[rec.body].com_above, loads[rec.body].mass_above
+            rec.com_above, rec.mass_above = loads[rec.body][0], loads[rec.body][1]
 
     def _test_equilibrium(self, time: float) -> list[StabilityEvent]:
         """Stack-wide test by rigid-block equilibrium (Livesley 1978; Whiting et al. 2009).
@@ -443,10 +443,10 @@ class StabilityExtension:
                 kept = {s: a for s, a in node.supports.items() if s not in gave_way}
                 if kept:
                     nodes[body] = LoadNode(node.mass, node.com, kept)
-            loads = propagate(nodes)
+            loads = propagate_fast(nodes)
             failing = []
             for rec in self._frozen():
-                rec.com_above, rec.mass_above = loads[rec.body].com_above, loads[rec.body].mass_above
+                rec.com_above, rec.mass_above = loads[rec.body][0], loads[rec.body][1]
                 if not self._holds(rec.main_contact, rec.com_above):
                     failing.append(rec)
             if not failing:

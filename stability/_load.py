@@ -91,9 +91,22 @@ def propagate(nodes: Mapping[int, LoadNode]) -> dict[int, Load]:
     >>> round(loads[1].mass_above, 3), round(float(loads[1].com_above[0]), 3)
     (0.02, 0.015)
     """
+    return {
+        b: Load(np.array(com), mass, {s: m / mass for s, m, _, _ in shares})
+        for b, (com, mass, shares) in propagate_fast(nodes).items()
+    }
+
+
+def propagate_fast(nodes: Mapping[int, LoadNode]) -> dict[int, tuple[tuple[float, float, float], float, list]]:
+    """:func:`propagate` in plain floats, for the extension's stack test at every freeze.
+
+    Returns:
+        body -> ((x, y, z) of the centre of mass above in m, mass above in kg, shares as
+        a list of (support, equivalent mass in kg, x, y)).
+    """
     # what each brick carries, summed: mass and its moments about the origin (x, y, z)
     carried: dict[int, list[float]] = {b: [0.0, 0.0, 0.0, 0.0] for b in nodes}
-    loads: dict[int, Load] = {}
+    loads = {}
     for b in _top_down(nodes):
         node = nodes[b]
         m0 = node.mass
@@ -102,7 +115,7 @@ def propagate(nodes: Mapping[int, LoadNode]) -> dict[int, Load]:
         mass = m0 + c[0]
         x, y, z = (m0 * x0 + c[1]) / mass, (m0 * y0 + c[2]) / mass, (m0 * z0 + c[3]) / mass  # eq. 1-2
         shares = _split(x, y, mass, node.supports)
-        loads[b] = Load(np.array([x, y, z]), mass, {s: m / mass for s, m, _, _ in shares})
+        loads[b] = ((x, y, z), mass, shares)
         for s, m, px, py in shares:
             if s in carried and m:
                 t = carried[s]

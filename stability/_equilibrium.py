@@ -15,8 +15,10 @@ reverse. The first tangent points downhill along the contact (or along x when th
 contact is horizontal), so for planar problems in the x-z plane, the slope, the ladder
 and the V, the pyramid is exact in the direction that matters.
 
-Each vertex may also carry a tension (a negative normal force), which the program
-minimises: the minimum total tension is 0 exactly when the blocks stand, and otherwise
+When every contact is (nearly) level, a ten-times smaller program of vertical forces
+alone is tried first: if it balances the blocks, they stand (friction takes the rest);
+otherwise the full program decides. Each vertex may also carry a tension (a negative
+normal force), which the program minimises: the minimum total tension is 0 exactly when the blocks stand, and otherwise
 measures how far from standing they are (Whiting et al.'s infeasibility measure).
 Solved with scipy's HiGHS (``scipy.optimize.linprog``). Sources: Livesley, "Limit
 analysis of structures formed from rigid blocks" (1978); Whiting, Ochsendorf, Durand,
@@ -25,6 +27,7 @@ analysis of structures formed from rigid blocks" (1978); Whiting, Ochsendorf, Du
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Hashable, Mapping, Sequence
 
@@ -89,7 +92,9 @@ class Equilibrium:
     mechanism: dict = field(default_factory=dict)
 
 
-def solve_equilibrium(blocks: Mapping[Hashable, RigidBlock], contacts: Sequence[ContactPolygon], *, sides: int = 8, gravity: float = GRAVITY) -> Equilibrium:
+def solve_equilibrium(
+    blocks: Mapping[Hashable, RigidBlock], contacts: Sequence[ContactPolygon], *, sides: int = 8, gravity: float = GRAVITY, quick: bool = True
+) -> Equilibrium:
     """Do forces exist that hold every free block in ``blocks`` still?
 
     Args:
@@ -97,6 +102,7 @@ def solve_equilibrium(blocks: Mapping[Hashable, RigidBlock], contacts: Sequence[
         contacts: the contact polygons.
         sides: sides of the friction pyramid (>= 3).
         gravity: m/s^2, acting along -z.
+        quick: try the vertical-force program first when every contact is level.
 
     Returns:
         :class:`Equilibrium`.
@@ -112,6 +118,10 @@ def solve_equilibrium(blocks: Mapping[Hashable, RigidBlock], contacts: Sequence[
     """
     if sides < 3:
         raise ValueError("the friction pyramid needs at least 3 sides")
+    if quick and contacts and all(_level(c, sides) for c in contacts):
+        quick = _solve_vertical(blocks, contacts, gravity)
+        if quick is not None:
+            return quick
     keys = list(blocks)
     index = {k: i for i, k in enumerate(keys)}
     weight = max((b.mass for b in blocks.values()), default=1.0) * gravity or 1.0
@@ -166,6 +176,55 @@ def solve_equilibrium(blocks: Mapping[Hashable, RigidBlock], contacts: Sequence[
     stands = tension <= 1e-7 * max(total, 1e-12)
     mechanism = {} if stands else _mechanism(result.eqlin.marginals, keys)
     return Equilibrium(stands, tension, forces, by_body, by_contact, mechanism)
+
+
+def _level(contact: ContactPolygon, sides: int) -> bool:
+    """A contact so near horizontal that friction absorbs its normal's sideways part:
+    tan(tilt) <= mu cos(pi / sides) (the inscribed pyramid's reach)."""
+    normal = np.asarray(contact.normal, dtype=float)
+    cos = abs(normal[2]) / np.linalg.norm(normal)
+    tan = math.sqrt(max(1.0 - cos * cos, 0.0)) / max(cos, 1e-12)
+    return normal[2] > 0 and tan <= contact.friction * math.cos(math.pi / sides)
+
+
+def _solve_vertical(blocks: Mapping[Hashable, RigidBlock], contacts: Sequence[ContactPolygon], gravity: float) -> Equilibrium | None:
+    """Balance by vertical compressive forces alone: a fast sufficient test.
+
+    For contacts that are all (nearly) level, a balance of vertical forces extends to a
+    full one (friction takes each tilted normal's sideways part, :func:`_level`), so when
+    this program has one the blocks stand. When it has none, friction couples might still
+    help: None, and the full program decides. Three equations per block (vertical force,
+    torques about x and y), one force per vertex: a tenth of the full program's size.
+    """
+    keys = list(blocks)
+    index = {k: i for i, k in enumerate(keys)}
+    weight = max((b.mass for b in blocks.values()), default=1.0) * gravity or 1.0
+    rows, cols, vals, col = [], [], [], 0
+    for contact in contacts:
+        points = np.asarray(contact.points, dtype=float).reshape(-1, 3)
+        k = len(points)
+        for side, key in ((1.0, contact.body), (-1.0, contact.other)):
+            if key not in index:
+                continue
+            b = index[key]
+            lever = (points - np.asarray(blocks[key].com, dtype=float)) / 0.1
+            rows += [np.full(k, 3 * b), np.full(k, 3 * b + 1), np.full(k, 3 * b + 2)]
+            cols += [col + np.arange(k)] * 3
+            vals += [np.full(k, side), side * lever[:, 1], -side * lever[:, 0]]  # Fz, Mx = y Fz, My = -x Fz
+        col += k
+    rhs = np.zeros(3 * len(keys))
+    for k, b in blocks.items():
+        rhs[3 * index[k]] = b.mass * gravity / weight
+    a_eq = sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(3 * len(keys), col))
+    result = linprog(np.zeros(col), A_eq=a_eq, b_eq=rhs, bounds=(0, None), method="highs")
+    if result.status != 0:
+        return None
+    forces, at = [], 0
+    for contact in contacts:
+        k = len(np.asarray(contact.points).reshape(-1, 3))
+        forces.append(np.column_stack([np.zeros(k), np.zeros(k), result.x[at : at + k] * weight]))
+        at += k
+    return Equilibrium(True, 0.0, tuple(forces), {k: 0.0 for k in keys}, tuple(0.0 for _ in contacts), {})
 
 
 def _mechanism(duals: np.ndarray, keys: list) -> dict:

@@ -63,4 +63,11 @@ def test_the_oracle_refuses_bricks_that_do_not_lie_flat():
 
 def test_solve_time_benchmark_runs():
     (row,) = solve_times((10,), repeats=1)
-    assert row.bricks == 10 and row.contacts == 18 and 0 < row.median < 1.0
+    assert row.bricks == 10 and row.contacts == 18 and 0 < row.median < 1.0 and 0 < row.full < 1.0
+
+
+@pytest.mark.parametrize("spacing, shift, bricks", [(96, 8, 29), (96, 8, 30), (70, 12.9, 16), (70, 12.9, 17), (96, 0, 40), (96, 13, 4)])
+def test_the_vertical_program_agrees_with_the_full_one(spacing, shift, bricks):
+    program = tower(bricks // 2 + 1, spacing, shift)
+    blocks, contacts = structure(program.placements[:bricks], program.fixtures, program.ground_friction)
+    assert solve_equilibrium(blocks, contacts).stands == solve_equilibrium(blocks, contacts, quick=False).stands

@@ -114,11 +114,12 @@ def _compare(args: argparse.Namespace) -> int:
         raise ScenarioError(f"unknown mode {', '.join(unknown) or '(none)'}; known: {', '.join(MODE_DEFAULTS)}", file="--modes")
     start = time.perf_counter()
     table = compare(args.paths, modes, jobs=args.jobs, model=args.model)
-    print(f"{'scenario':<22} {'expected':<18} " + " ".join(f"{m:<29}" for m in modes))
+    width = max([len("scenario"), *(len(Path(f).stem) for f in table)])
+    print(f"{'scenario':<{width}} {'expected':<18} " + " ".join(f"{m:<29}" for m in modes).rstrip())
     for file, row in table.items():
         first = next(iter(row.values()))
         cells = [f"{'PASS' if r.passed else 'FAIL'} {describe(r.collapse_level):<13} {r.wall_time:>7.1f} s" for r in (row[m] for m in modes)]
-        print(f"{Path(file).stem:<22} {first.expected:<18} " + " ".join(f"{c:<29}" for c in cells))
+        print(f"{Path(file).stem:<{width}} {first.expected:<18} " + " ".join(f"{c:<29}" for c in cells).rstrip())
     print(f"{len(table)} scenarios x {len(modes)} modes ({time.perf_counter() - start:.1f} s wall)")
     return 0
 

@@ -22,6 +22,7 @@ import os
 import sys
 import time as _time
 from contextlib import contextmanager
+from functools import partial
 from dataclasses import dataclass
 from typing import Any, Iterator
 
@@ -91,6 +92,19 @@ class RunOptions:
     stop_at_collapse: bool = True
 
 
+def _rotations(quaternions: np.ndarray) -> np.ndarray:
+    """Rotation matrices, shape (n, 3, 3), of unit quaternions (x, y, z, w), shape (n, 4)."""
+    x, y, z, w = quaternions.T
+    return np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], axis=-1),
+            np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], axis=-1),
+            np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], axis=-1),
+        ],
+        axis=1,
+    )
+
+
 def run_program(program: Program, options: RunOptions = RunOptions()) -> Outcome:
     """Run a compiled program and report what happened.
 
@@ -111,6 +125,11 @@ class _Runner:
         import pybullet
 
         self.p, self.client, self.program, self.options = pybullet, client, program, options
+        # the calls made for every brick at every step, bound once (BulletClient builds a
+        # new partial on each attribute access)
+        self._state = partial(pybullet.getBasePositionAndOrientation, physicsClientId=client._client)
+        self._velocity = partial(pybullet.getBaseVelocity, physicsClientId=client._client)
+        self._stacked: tuple = ((), None, None)
         e = program.engine
         self.dt = e.timestep
         self.acting = e.mode == "extension"
@@ -207,8 +226,9 @@ class _Runner:
         continuous collision detection does not help (its swept sphere is at the centre of
         mass, 60 mm behind the front). Only while fast bodies move: none, no cost.
         """
-        fast = [self.bodies[name] for name in self.projectiles] + sorted(self.moving)
-        speed = max((float(np.linalg.norm(self.client.getBaseVelocity(b)[0])) for b in fast), default=0.0)
+        fast = [self.bodies[name] for name in self.projectiles] + (sorted(self.moving) if self.acting else [])
+        velocities = np.array([self._velocity(b)[0] for b in fast]).reshape(-1, 3)
+        speed = float(np.sqrt((velocities**2).sum(axis=1).max())) if len(fast) else 0.0
         substeps = max(1, math.ceil(speed * self.dt / self.program.collapse_threshold))
         if substeps != self.substeps:
             self.client.setPhysicsEngineParameter(numSubSteps=substeps if substeps > 1 else 0)
@@ -306,25 +326,33 @@ class _Runner:
 
     # collapse -----------------------------------------------------------------
     def displacement(self, body: int) -> float:
-        """Metres a structure brick is from its placed pose: how far its farthest-moved
-        corner is from where it was placed (a brick tipping in place counts, not only one
-        whose centre moves)."""
-        position, orientation = self.client.getBasePositionAndOrientation(body)
-        rotation = np.reshape(self.client.getMatrixFromQuaternion(orientation), (3, 3))
-        local, placed = self.corners[body]
-        now = np.asarray(position) + local @ rotation.T
-        return float(np.sqrt(((now - placed) ** 2).sum(axis=1).max()))
+        """Metres a structure brick is from its placed pose (see :meth:`displacements`)."""
+        return float(self.displacements([body])[0])
+
+    def displacements(self, bodies: list[int]) -> np.ndarray:
+        """How far each brick's farthest-moved corner is from where it was placed, metres
+        (a brick tipping in place counts, not only one whose centre moves); all bricks at
+        once, since raw and tuned modes ask this of every brick at every step."""
+        if not bodies:
+            return np.zeros(0)
+        states = [self._state(b) for b in bodies]
+        rotations = _rotations(np.array([q for _, q in states]))
+        if self._stacked[0] != tuple(bodies):
+            self._stacked = (tuple(bodies), np.stack([self.corners[b][0] for b in bodies]), np.stack([self.corners[b][1] for b in bodies]))
+        _, local, placed = self._stacked
+        now = np.array([p for p, _ in states])[:, None, :] + np.einsum("nij,nkj->nki", rotations, local)
+        return np.sqrt(((now - placed) ** 2).sum(axis=2).max(axis=1))
 
     def check_collapse(self, now: float) -> None:
         """Record the first structure brick that left its placed pose (DESIGN.md, collapse)."""
         threshold = self.program.collapse_threshold
-        for body in sorted(self.moving):
-            moved = self.displacement(body)
+        bodies = sorted(self.moving)
+        for body, moved in zip(bodies, self.displacements(bodies)):
             if moved > threshold:
                 brick = self.targets[body][0]
                 level = max(self.levels.values())
                 self.record_drift()
-                self.collapse = Collapse(level=level, time=now, brick=brick, brick_level=self.levels[brick], displacement=moved)
+                self.collapse = Collapse(level=level, time=now, brick=brick, brick_level=self.levels[brick], displacement=float(moved))
                 self.events.append(Event(time=now, kind="collapse", brick=brick, level=self.levels[brick], detail=f"moved {moved * 1000:.1f} mm; collapse level {level}"))
                 self.collapse_graph = self.graph()
                 self.stop_step = self.step + round(self.program.settle / self.dt)
@@ -333,7 +361,7 @@ class _Runner:
     def record_drift(self) -> None:
         """Track the largest displacement of the standing structure until the first collapse."""
         if self.collapse is None:
-            now = [*map(self.displacement, self.moving), *self.settled.values()]  # frozen bricks do not move
+            now = [*self.displacements(sorted(self.moving)), *self.settled.values()]  # frozen bricks do not move
             self.drift = max([self.drift, *(d for d in now if d <= self.program.collapse_threshold)])
 
     def kinetic_energy(self, body: int) -> float:
@@ -357,7 +385,7 @@ class _Runner:
             events=tuple(self.events),
             final_graph=self.graph(),
             collapse_graph=self.collapse_graph,
-            displacement={brick: self.displacement(body) for body, (brick, _) in self.targets.items()},
+            displacement={self.targets[b][0]: float(d) for b, d in zip(self.targets, self.displacements(list(self.targets)))},
             drift=self.drift,
             kinetic_energy=sum(map(self.kinetic_energy, self.targets)),
             levels_placed=max(self.levels.values(), default=0),

@@ -206,9 +206,9 @@ class StabilityExtension:
         if not self._active:
             return []
         active = sorted(self._active.values(), key=lambda r: r.order)
-        contacts = _by_body(self._engine.contact_points())
         events: list[StabilityEvent] = []
         resting = [rec for rec in active if self._at_rest(rec, time)]  # every clock first: partners
+        contacts = _by_body(self._engine.contact_points()) if resting else {}  # only a brick at rest asks
         for rec in resting:
             if rec.state is not BrickState.ACTIVE:
                 continue
@@ -231,7 +231,7 @@ class StabilityExtension:
     def _at_rest(self, rec: _Body, time: float) -> bool:
         lin, ang = self._engine.velocity(rec.body)
         cfg = self.config
-        if np.linalg.norm(lin) > cfg.rest_speed or np.linalg.norm(ang) > cfg.rest_angular_speed:
+        if float(lin @ lin) > cfg.rest_speed**2 or float(ang @ ang) > cfg.rest_angular_speed**2:
             rec.rest_since = None
             return False
         if rec.rest_since is None:
@@ -254,7 +254,7 @@ class StabilityExtension:
         if not self._holds(main, self._engine.pose(rec.body).position):
             return []
         held = {o: pts for o, pts in self._touching(rec, contacts).items() if self._bodies[o].state is not BrickState.ACTIVE}
-        self._freeze(rec, supports, main, self._polygons(rec, held))
+        self._freeze(rec, supports, main, self._polygons(rec, held, known=supports))
         names = ", ".join(self._bodies[s].label for s in supports)
         return [StabilityEvent(time, "freeze", rec.label, f"at rest on {names}")]
 
@@ -337,17 +337,24 @@ class StabilityExtension:
             return bool(held)
         return 2 <= len(touching) <= limit and bool(held)
 
-    def _polygons(self, rec: _Body, touching: dict[int, list[ContactPoint]], skip: set[int] = frozenset()) -> list[ContactPolygon]:
+    def _polygons(
+        self, rec: _Body, touching: dict[int, list[ContactPoint]], skip: set[int] = frozenset(), known: dict[int, ContactArea] | None = None
+    ) -> list[ContactPolygon]:
         """One contact polygon per touched body (report 3.4.2): the exact face overlap where
-        ``rec`` lies face to face on it, else the contact points padded across the normal."""
+        ``rec`` lies face to face on it, else the contact points padded across the normal.
+        ``known``: contact areas already found for some of these bodies (from :meth:`_supports`)."""
         out = []
         pose = self._engine.pose(rec.body)
+        known = known or {}
         for other, points in touching.items():
             if other in skip:
                 continue
             o = self._bodies[other]
             friction = pair_friction(rec.friction, o.friction)
-            exact = face_overlap(rec.shape, pose, o.shape, None if isinstance(o.shape, Plane) else self._pose(o), self.config.face_gap)
+            if other in known:
+                exact = known[other] if known[other].exact else None
+            else:
+                exact = face_overlap(rec.shape, pose, o.shape, None if isinstance(o.shape, Plane) else self._pose(o), self.config.face_gap)
             if exact is not None:
                 ring = np.asarray(exact.polygon.exterior.coords)[:-1]
                 polygon = np.column_stack([ring, np.full(len(ring), exact.height)])

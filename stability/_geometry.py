@@ -20,6 +20,7 @@ from shapely.geometry.polygon import orient
 from shapely.geometry.base import BaseGeometry
 
 UP = np.array([0.0, 0.0, 1.0])
+_CORNER_SIGNS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
 
 
 @dataclass(frozen=True)
@@ -47,10 +48,22 @@ class Pose:
         quat = Rotation.from_euler("ZYX", [yaw, pitch, roll], degrees=True).as_quat()
         return cls(np.asarray(position, dtype=float), quat)
 
-    @property
+    @cached_property
     def rotation(self) -> np.ndarray:
-        """Rotation matrix, shape (3, 3); column i is the body's axis i in the world."""
-        return Rotation.from_quat(self.orientation).as_matrix()
+        """Rotation matrix, shape (3, 3), read-only; column i is the body's axis i in the
+        world. The standard unit-quaternion formula (as scipy's ``Rotation.as_matrix``),
+        written out: the stability tests ask for it thousands of times a second."""
+        x, y, z, w = (float(c) for c in self.orientation)
+        n = 2.0 / (x * x + y * y + z * z + w * w)
+        m = np.array(
+            [
+                [1 - n * (y * y + z * z), n * (x * y - z * w), n * (x * z + y * w)],
+                [n * (x * y + z * w), 1 - n * (x * x + z * z), n * (y * z - x * w)],
+                [n * (x * z - y * w), n * (y * z + x * w), 1 - n * (x * x + y * y)],
+            ]
+        )
+        m.flags.writeable = False
+        return m
 
     def euler_degrees(self) -> np.ndarray:
         """``(yaw, pitch, roll)`` in degrees, the inverse of :meth:`from_euler`."""
@@ -73,8 +86,7 @@ class Box:
 
     def corners(self, pose: Pose) -> np.ndarray:
         """The eight corners in the world frame, shape (8, 3), metres."""
-        signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
-        return pose.position + (signs * self.half_extents) @ pose.rotation.T
+        return pose.position + (_CORNER_SIGNS * self.half_extents) @ pose.rotation.T
 
     def face(self, pose: Pose, direction: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The face whose outward normal is closest to ``direction``.

@@ -153,6 +153,7 @@ class _Runner:
         self.levels: dict[str, int] = {}
         self.targets: dict[int, tuple[str, np.ndarray]] = {}  # body -> (id, placed position)
         self.corners: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # body -> (signed half extents (8, 3), placed corners)
+        self.placed: dict[int, tuple[float, ...]] = {}  # body -> placed x, y, z, quaternion, half diagonal
         self.tops: dict[int, list[tuple[Polygon, int, float]]] = {}  # top height in 0.1 mm -> footprint, body, nominal z
         self.settled: dict[int, float] = {}  # frozen structure bricks -> displacement when frozen
         self.moving: set[int] = set()
@@ -261,6 +262,7 @@ class _Runner:
         self.targets[body] = (a.id, target)
         local = box.corners(Pose(np.zeros(3)))
         self.corners[body] = (local, box.corners(Pose(target, nominal.orientation)))
+        self.placed[body] = (*target.tolist(), *nominal.orientation.tolist(), float(np.linalg.norm(box.half_extents)))
         self.tops.setdefault(round(float(corners[:, 2].max()) * 1e4), []).append((footprint, body, float(a.position[2])))
         self.moving.add(body)
         detail = f"on bricks that have sunk {sink * 1000:.2f} mm" if sink > 5e-5 else ""
@@ -343,10 +345,21 @@ class _Runner:
         now = np.array([p for p, _ in states])[:, None, :] + np.einsum("nij,nkj->nki", rotations, local)
         return np.sqrt(((now - placed) ** 2).sum(axis=2).max(axis=1))
 
+    def _may_have_moved(self, body: int, threshold: float) -> bool:
+        """Could a corner of ``body`` be more than ``threshold`` from where it was placed?
+        A bound, in plain floats: the centre's displacement plus the most a corner can
+        move in the rotation since placing, 2 r sin(angle / 2) for the half diagonal r
+        (cos(angle / 2) = |q . q0| for unit quaternions)."""
+        (x, y, z), (qx, qy, qz, qw) = self._state(body)
+        x0, y0, z0, qx0, qy0, qz0, qw0, r = self.placed[body]
+        cos_half = abs(qx * qx0 + qy * qy0 + qz * qz0 + qw * qw0)
+        turn = 2.0 * r * math.sqrt(max(0.0, 1.0 - cos_half * cos_half))
+        return math.sqrt((x - x0) ** 2 + (y - y0) ** 2 + (z - z0) ** 2) + turn > threshold
+
     def check_collapse(self, now: float) -> None:
         """Record the first structure brick that left its placed pose (DESIGN.md, collapse)."""
         threshold = self.program.collapse_threshold
-        bodies = sorted(self.moving)
+        bodies = [b for b in sorted(self.moving) if self._may_have_moved(b, threshold)]
         for body, moved in zip(bodies, self.displacements(bodies)):
             if moved > threshold:
                 brick = self.targets[body][0]

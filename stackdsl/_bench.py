@@ -97,6 +97,10 @@ class Cell:
     steps_skipped: int
 
 
+WARM_UP = Scene("warm-up", 1, 1, "tower: {levels: 1}", None)
+"""The untimed scene each benchmark worker runs first (see :func:`measure`)."""
+
+
 def program_for(scene: Scene, setting: str):
     """Compile ``scene`` under ``setting`` (see :data:`SETTINGS`)."""
     mode, model, engine = SETTINGS[setting]
@@ -107,7 +111,12 @@ def program_for(scene: Scene, setting: str):
 
 def measure(scene: Scene, setting: str, repeats: int, repeat_below: float, options: RunOptions) -> Cell:
     """Run one cell (in its own process, for its peak memory): the median of ``repeats``
-    runs, or one run when that takes longer than ``repeat_below`` seconds."""
+    runs, or one run when that takes longer than ``repeat_below`` seconds.
+
+    A one-level tower in the same setting runs first, untimed: the worker is a fresh
+    process, and its first run would also pay one-off costs (lazy imports, first calls into
+    shapely and scipy, about 0.2 s) that belong to no scene."""
+    run_program(program_for(WARM_UP, setting), options)
     program = program_for(scene, setting)
     outcomes = [run_program(program, options)]
     while len(outcomes) < repeats and outcomes[0].wall_time < repeat_below:

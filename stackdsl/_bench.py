@@ -283,19 +283,17 @@ def plot_error(cells: list[Cell], path: Path) -> None:
 
     fig, ax = plt.subplots(figsize=(7, 4.5))
     points = []
-    for s in SETTINGS:
+    for i, s in enumerate(SETTINGS):
         mine = [c for c in cells if c.setting == s]
         if not mine:
             continue
         wall = sum(c.wall for c in mine)
         error = statistics.mean(abs(c.error) for c in mine)
         points.append((wall, error, s))
-        ax.scatter([c.wall for c in mine], [abs(c.error) for c in mine], s=12, alpha=0.3)
+        ax.scatter([c.wall for c in mine], [abs(c.error) for c in mine], s=12, alpha=0.35, color=f"C{i}")
+        ax.scatter([wall], [error], s=70, color=f"C{i}", edgecolor="k", zorder=3, label=s)
     front = _pareto(points)
-    ax.plot([p[0] for p in front], [p[1] for p in front], "k--", lw=1, label="Pareto front (per setting)")
-    for wall, error, s in points:
-        ax.scatter([wall], [error], s=60, edgecolor="k", zorder=3)
-        ax.annotate(s, (wall, error), textcoords="offset points", xytext=(6, 4), fontsize=8)
+    ax.plot([p[0] for p in front], [p[1] for p in front], "k--", lw=1, marker="o", mfc="none", ms=12, label="Pareto front (per setting)")
     ax.set_xscale("log")
     ax.set_xlabel("wall time, s (large: all scenes summed; small: one cell)")
     ax.set_ylabel("|collapse level - closed form|, levels (mean)")

@@ -300,14 +300,12 @@ def _face_point(scenario: Scenario, index: int, impact: Impact, bricks: list[_Br
     if not level:
         raise scenario.source.error(("impacts", index, "target", "level"), f"level {impact.target.level} is not built")
     outward = -np.array(SIDES[impact.target.side])
-    best, best_reach, best_face = None, -math.inf, None
-    for b in level:
-        box = Box(np.array(scenario.brick_type(b.type).size) / 2, 1.0)
-        corners, _ = box.face(Pose.from_euler(b.position, b.yaw, b.pitch, b.roll), outward)
-        reach = float((corners @ outward).max())
-        if reach > best_reach + 1e-9:
-            best, best_reach, best_face = b, reach, corners
-    return best_face.mean(axis=0)
+    faces = [
+        Box(np.array(scenario.brick_type(b.type).size) / 2, 1.0).face(Pose.from_euler(b.position, b.yaw, b.pitch, b.roll), outward)[0]
+        for b in level
+    ]
+    outermost = max(faces, key=lambda corners: round(float((corners @ outward).max()), 9))  # the first of equals
+    return outermost.mean(axis=0)
 
 
 def _wrap(angle: float) -> float:

@@ -36,6 +36,8 @@ class CheckResult:
         collapse_level: measured, or None when the structure stood.
         levels_placed: how many levels were built.
         simulated_time, wall_time: seconds.
+        drift: metres, the largest displacement of a brick that stood (``Outcome.drift``).
+        steps_per_brick: physics steps taken per placed brick.
     """
 
     file: str
@@ -47,6 +49,8 @@ class CheckResult:
     levels_placed: int
     simulated_time: float
     wall_time: float
+    drift: float = 0.0
+    steps_per_brick: float = 0.0
 
     @property
     def passed(self) -> bool:
@@ -187,6 +191,8 @@ def judge(file: str, program: Program, expect: Expect) -> CheckResult:
         levels_placed=outcome.levels_placed,
         simulated_time=outcome.simulated_time,
         wall_time=outcome.wall_time,
+        drift=outcome.drift,
+        steps_per_brick=outcome.steps / max(outcome.bricks_placed, 1),
     )
 
 

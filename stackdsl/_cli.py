@@ -16,6 +16,7 @@ from ._bench import SETTINGS, format_solve_times, run_matrix, savings, scenes, s
 from ._check import ScenarioErrors, check, compare
 from ._compiler import MODE_DEFAULTS, compile_scenario
 from ._errors import ScenarioError
+from ._hard import format_hard, format_limits, format_wall, leaning_limits, thrown_at_wall
 from ._expect import describe, evaluate
 from ._loader import load_scenario
 from ._program import format_program
@@ -82,6 +83,10 @@ def _parser() -> argparse.ArgumentParser:
     q.add_argument("--sizes", default="10,25,50,100", help="bricks per tower, comma-separated")
     q.add_argument("--repeats", type=int, default=5)
     q.set_defaults(func=_bench_solve)
+    q = bench.add_parser("hard", help="the hard cases in extension and raw mode, a brick thrown at a wall, the leaning limits swept")
+    q.add_argument("folder", nargs="?", default="scenarios/hard")
+    q.add_argument("-j", "--jobs", type=int, default=None, help="worker processes (default: one per core)")
+    q.set_defaults(func=_bench_hard)
 
     p = sub.add_parser("schema", help="print the JSON Schema of scenario files (for editors)")
     p.set_defaults(func=_schema)
@@ -185,6 +190,15 @@ def _bench(args: argparse.Namespace) -> int:
 def _bench_solve(args: argparse.Namespace) -> int:
     sizes = tuple(int(x) for x in args.sizes.split(","))
     print(format_solve_times(solve_times(sizes, args.repeats)))
+    return 0
+
+
+def _bench_hard(args: argparse.Namespace) -> int:
+    start = time.perf_counter()
+    print(format_hard(args.folder, args.jobs), end="\n\n", flush=True)
+    print(format_wall(thrown_at_wall()), end="\n\n", flush=True)
+    print(format_limits(leaning_limits()), end="\n\n")
+    print(f"({time.perf_counter() - start:.0f} s wall)")
     return 0
 
 

@@ -1,7 +1,7 @@
 """Hard cases: scenes that break simulators, each held to what stackdsl promises (extension mode).
 
 What raw pybullet does on the same scenes is recorded in the README's hard-case table
-(``stackdsl check scenarios/hard --mode raw``), not asserted here.
+(``stackdsl bench hard``), not asserted here.
 """
 
 import json
@@ -14,6 +14,7 @@ import pytest
 
 from stability import Box, BrickState, FakeEngine, Plane, Pose, StabilityConfig, StabilityExtension
 from stackdsl import ScenarioError, compile_scenario, evaluate, load_scenario, parse_scenario, run_program
+from stackdsl._hard import V_LIMIT, WALL_LIMIT, format_limits, lean_on_wall, leaning_limits, vee, wall_throw
 
 ROOT = Path(__file__).resolve().parents[1]
 HARD = sorted((ROOT / "scenarios" / "hard").glob("*.yaml"))
@@ -108,13 +109,7 @@ def test_a_thrown_brick_strikes_the_brick_it_is_aimed_at(speed):
 
 @pytest.mark.parametrize("speed", [5, 20, 50])
 def test_a_brick_thrown_at_a_fixed_wall_stays_on_its_side(speed):
-    text = (
-        "stackdsl: 1\nbrick_types: {wall: {size: [8 mm, 200 mm, 200 mm]}}\n"
-        "structure:\n  bricks:\n    - {id: wall, brick: wall, at: [0, 0, 100 mm], fixed: true}\n"
-        "    - {at: [-300 mm, 0, 4 mm]}\n"
-        f"impacts: [{{id: hammer, target: {{point: [-4 mm, 0, 60 mm]}}, direction: [1, 0, 0], speed: {speed} m/s, at: 1 s}}]\n"
-    )
-    outcome = run_program(compile_scenario(parse_scenario(text)))
+    outcome = run_program(compile_scenario(parse_scenario(wall_throw(speed, "extension"))))
     hammer = next(n for n in outcome.final_graph.nodes if n.id == "hammer")
     assert hammer.position_mm[0] < 0  # it did not pass through the wall
 
@@ -149,3 +144,25 @@ def test_a_tower_1_km_away_behaves_as_at_the_origin():
 
     assert frozen_before_collapse(far, (1_000_000.0, 0.0, 0.0)) == frozen_before_collapse(near, (0.0, 0.0, 0.0))
     assert all(n.state != BrickState.ACTIVE.value or n.id != "ground" for n in far.final_graph.nodes)
+
+
+# the leaning limits swept (stackdsl bench hard) ------------------------------------------------
+@pytest.mark.parametrize("name, scene", [("lean_wall_stands", lean_on_wall), ("lean_wall_slides", lean_on_wall), ("vee_stands", vee), ("vee_slides", vee)])
+def test_the_swept_scenes_are_the_library_scenarios(name, scene):
+    library = compile_scenario(load_scenario(ROOT / "scenarios" / f"{name}.yaml"))
+    angle = float(library.name.split(",")[-1].split()[0])  # "brick leaning on a wall, 45 deg"
+    swept = compile_scenario(parse_scenario(scene(angle, "extension")))
+    ours = [(p.id, p.position, p.yaw, p.pitch, p.roll) for p in library.placements]
+    theirs = [(p.id, p.position, p.yaw, p.pitch, p.roll) for p in swept.placements]
+    assert len(ours) == len(theirs)
+    for a, b in zip(ours, theirs):
+        assert np.allclose(a[1], b[1], atol=2e-5) and np.allclose(a[2:], b[2:], atol=1e-9)
+
+
+def test_the_sweep_brackets_each_closed_form_within_a_degree():
+    found = leaning_limits(modes=("extension",), step=1.0, span=2.0)
+    for (name, _), (stood, fell) in found.items():
+        limit = V_LIMIT if name == "inverted V" else WALL_LIMIT
+        assert stood is not None and fell is not None and stood < fell
+        assert limit - 1.0 <= stood and fell <= limit + 1.5
+    assert "| inverted V | 26.6 deg | extension |" in format_limits(found)

@@ -28,8 +28,8 @@ analysis of structures formed from rigid blocks" (1978); Whiting, Ochsendorf, Du
 from __future__ import annotations
 
 import math
+from collections.abc import Hashable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Hashable, Mapping, Sequence
 
 import numpy as np
 from scipy import sparse
@@ -93,7 +93,12 @@ class Equilibrium:
 
 
 def solve_equilibrium(
-    blocks: Mapping[Hashable, RigidBlock], contacts: Sequence[ContactPolygon], *, sides: int = 8, gravity: float = GRAVITY, quick: bool = True
+    blocks: Mapping[Hashable, RigidBlock],
+    contacts: Sequence[ContactPolygon],
+    *,
+    sides: int = 8,
+    gravity: float = GRAVITY,
+    quick: bool = True,
 ) -> Equilibrium:
     """Do forces exist that hold every free block in ``blocks`` still?
 
@@ -145,7 +150,10 @@ def solve_equilibrium(
             force = side * generators
             lever = (points - np.asarray(blocks[key].com, dtype=float)) / scale
             torque = np.cross(lever[:, None, :], force[None, :, :])  # (k, G, 3)
-            for rows, values in ((6 * b + np.arange(3), np.broadcast_to(force, (k, per_point, 3))), (6 * b + 3 + np.arange(3), torque)):
+            for rows, values in (
+                (6 * b + np.arange(3), np.broadcast_to(force, (k, per_point, 3))),
+                (6 * b + 3 + np.arange(3), torque),
+            ):
                 keep = values != 0.0
                 eq_rows.append(np.broadcast_to(rows, values.shape)[keep])
                 eq_cols.append(np.broadcast_to(cols[:, :, None], values.shape)[keep])
@@ -167,7 +175,9 @@ def solve_equilibrium(
         rhs[6 * index[k] + 2] = b.mass * gravity / weight
     a_eq = sparse.csr_matrix((eq_vals, (eq_rows, eq_cols)), shape=(6 * len(keys), columns))
     a_ub = sparse.csr_matrix((ub_vals, (ub_rows, ub_cols)), shape=(n_ub, columns)) if n_ub else None
-    result = linprog(cost, A_ub=a_ub, b_ub=np.zeros(n_ub) if n_ub else None, A_eq=a_eq, b_eq=rhs, bounds=(0, None), method="highs")
+    result = linprog(
+        cost, A_ub=a_ub, b_ub=np.zeros(n_ub) if n_ub else None, A_eq=a_eq, b_eq=rhs, bounds=(0, None), method="highs"
+    )
     if result.status != 0:
         return Equilibrium(False, float("inf"), (), {k: float("inf") for k in keys}, (), {k: 1.0 for k in keys})
     tension = float(result.fun) * weight
@@ -187,7 +197,9 @@ def _level(contact: ContactPolygon, sides: int) -> bool:
     return normal[2] > 0 and tan <= contact.friction * math.cos(math.pi / sides)
 
 
-def _solve_vertical(blocks: Mapping[Hashable, RigidBlock], contacts: Sequence[ContactPolygon], gravity: float) -> Equilibrium | None:
+def _solve_vertical(
+    blocks: Mapping[Hashable, RigidBlock], contacts: Sequence[ContactPolygon], gravity: float
+) -> Equilibrium | None:
     """Balance by vertical compressive forces alone: a fast sufficient test.
 
     For contacts that are all (nearly) level, a balance of vertical forces extends to a
@@ -247,7 +259,9 @@ def _tangents(normal: np.ndarray, sides: int) -> np.ndarray:
     return np.cos(angles)[:, None] * first + np.sin(angles)[:, None] * second
 
 
-def _forces(x: np.ndarray, contacts: Sequence[ContactPolygon], sides: int, per_point: int, keys: list) -> tuple[tuple[np.ndarray, ...], dict, tuple[float, ...]]:
+def _forces(
+    x: np.ndarray, contacts: Sequence[ContactPolygon], sides: int, per_point: int, keys: list
+) -> tuple[tuple[np.ndarray, ...], dict, tuple[float, ...]]:
     forces, by_body, by_contact, col = [], {k: 0.0 for k in keys}, [], 0
     for contact in contacts:
         normal = np.asarray(contact.normal, dtype=float)

@@ -23,10 +23,12 @@ frozen bodies, so the extension keeps the contact graph it had when it froze the
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections import defaultdict
+from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
-from typing import Iterable, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 from shapely.geometry import Point
@@ -258,7 +260,9 @@ class StabilityExtension:
         names = ", ".join(self._bodies[s].label for s in supports)
         return [StabilityEvent(time, "freeze", rec.label, f"at rest on {names}")]
 
-    def _admit_group(self, rec: _Body, contacts: dict[int, list[ContactPoint]], time: float, limit: int | None) -> list[StabilityEvent]:
+    def _admit_group(
+        self, rec: _Body, contacts: dict[int, list[ContactPoint]], time: float, limit: int | None
+    ) -> list[StabilityEvent]:
         """Admit ``rec`` (with a resting partner it leans on, if any) when friction holds it.
 
         The report's leaning test (3.4): a brick touching two bodies (``limit``), at least
@@ -269,7 +273,9 @@ class StabilityExtension:
         group = self._group(rec, contacts, time, limit)
         if not group:
             return []
-        polygons = {m.body: self._polygons(m, self._touching(m, contacts), skip={g.body for g in group[:i]}) for i, m in enumerate(group)}
+        polygons = {
+            m.body: self._polygons(m, self._touching(m, contacts), skip={g.body for g in group[:i]}) for i, m in enumerate(group)
+        }
         members = {m.body: (self._engine.pose(m.body).position, m.shape.mass) for m in group}
         if not leaning_stands(members, [c for cs in polygons.values() for c in cs], self.config.gravity):
             return []
@@ -295,19 +301,23 @@ class StabilityExtension:
             return []
         return [rec, partner]
 
-    def _freeze_group(self, group: list[_Body], polygons: dict[int, list[ContactPolygon]], touching: dict, time: float) -> list[StabilityEvent]:
+    def _freeze_group(
+        self, group: list[_Body], polygons: dict[int, list[ContactPolygon]], touching: dict, time: float
+    ) -> list[StabilityEvent]:
         """Freeze the members of an admitted group; partners wake together."""
         rec, members, events = group[0], {m.body for m in group}, []
         for m in group:
             areas = {c.other: _horizontal(c, self.config.contact_pad) for c in polygons[m.body]}
             if m is not rec:  # the contact between the two partners, seen from this side
-                areas.update({rec.body: _horizontal(c, self.config.contact_pad) for c in polygons[rec.body] if c.other == m.body})
+                areas.update((rec.body, _horizontal(c, self.config.contact_pad)) for c in polygons[rec.body] if c.other == m.body)
             supports = {o: a for o, a in areas.items() if o not in members}
             resting = {o: a for o, a in supports.items() if a.normal[2] >= self._support_cos} or supports
             self._freeze(m, resting, _main(areas), polygons[m.body])
             names = ", ".join(self._bodies[o].label for o in touching if o != m.body) if m is rec else rec.label
-            events.append(StabilityEvent(time, "freeze", m.label, f"{'leaning on' if len(touching) > 1 else 'at rest on'} {names}"))
-        for a, b in zip(group, group[1:]):
+            events.append(
+                StabilityEvent(time, "freeze", m.label, f"{'leaning on' if len(touching) > 1 else 'at rest on'} {names}")
+            )
+        for a, b in itertools.pairwise(group):
             a.objects_above.add(b.body)
             b.objects_above.add(a.body)
         return events
@@ -324,7 +334,8 @@ class StabilityExtension:
             if c.other in self._bodies:
                 grouped[c.other].append(c)
         on_top = {
-            o for o, pts in grouped.items()
+            o
+            for o, pts in grouped.items()
             if self._bodies[o].state is BrickState.ACTIVE and np.mean([c.normal[2] for c in pts]) < -self._support_cos
         }
         return {o: grouped[o] for o in sorted(grouped, key=lambda b: self._bodies[b].order) if o not in on_top}
@@ -338,7 +349,11 @@ class StabilityExtension:
         return 2 <= len(touching) <= limit and bool(held)
 
     def _polygons(
-        self, rec: _Body, touching: dict[int, list[ContactPoint]], skip: set[int] = frozenset(), known: dict[int, ContactArea] | None = None
+        self,
+        rec: _Body,
+        touching: dict[int, list[ContactPoint]],
+        skip: set[int] = frozenset(),
+        known: dict[int, ContactArea] | None = None,
     ) -> list[ContactPolygon]:
         """One contact polygon per touched body (report 3.4.2): the exact face overlap where
         ``rec`` lies face to face on it, else the contact points padded across the normal.
@@ -354,7 +369,9 @@ class StabilityExtension:
             if other in known:
                 exact = known[other] if known[other].exact else None
             else:
-                exact = face_overlap(rec.shape, pose, o.shape, None if isinstance(o.shape, Plane) else self._pose(o), self.config.face_gap)
+                exact = face_overlap(
+                    rec.shape, pose, o.shape, None if isinstance(o.shape, Plane) else self._pose(o), self.config.face_gap
+                )
             if exact is not None:
                 ring = np.asarray(exact.polygon.exterior.coords)[:-1]
                 polygon = np.column_stack([ring, np.full(len(ring), exact.height)])
@@ -416,8 +433,8 @@ class StabilityExtension:
             frozen = {r.body: r for r in self._frozen()}
             if not frozen:
                 return events
-            held = lambda k: k in frozen or self._bodies[k].state is BrickState.GROUND  # noqa: E731
-            polygons = [c for r in frozen.values() for c in r.contacts if held(c.other)]
+            ground = {k for k, r in self._bodies.items() if r.state is BrickState.GROUND}
+            polygons = [c for r in frozen.values() for c in r.contacts if c.other in frozen or c.other in ground]
             touched = {c.body for c in polygons} | {c.other for c in polygons}
             moving = {b for b in frozen if b not in touched}  # rests on nothing that stays
             if not moving:
@@ -601,7 +618,9 @@ def _ahead(hit: ContactPoint, heading: np.ndarray, pad: float) -> bool:
 
 def _main(areas: dict[int, ContactArea]) -> ContactArea:
     """The main contact area (report 3.3.3): the hull of the individual ones, at the lowest height."""
-    return ContactArea(combined_hull(list(areas.values())), min(a.height for a in areas.values()), np.array([0.0, 0.0, 1.0]), False)
+    return ContactArea(
+        combined_hull(list(areas.values())), min(a.height for a in areas.values()), np.array([0.0, 0.0, 1.0]), False
+    )
 
 
 def _horizontal(contact: ContactPolygon, pad: float) -> ContactArea:

@@ -16,8 +16,8 @@ import numpy as np
 import shapely
 from scipy.spatial.transform import Rotation
 from shapely.geometry import LineString, MultiPoint, Point, Polygon
-from shapely.geometry.polygon import orient
 from shapely.geometry.base import BaseGeometry
+from shapely.geometry.polygon import orient
 
 UP = np.array([0.0, 0.0, 1.0])
 _CORNER_SIGNS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
@@ -41,9 +41,7 @@ class Pose:
     orientation: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 0.0, 1.0]))
 
     @classmethod
-    def from_euler(
-        cls, position, yaw: float = 0.0, pitch: float = 0.0, roll: float = 0.0
-    ) -> "Pose":
+    def from_euler(cls, position, yaw: float = 0.0, pitch: float = 0.0, roll: float = 0.0) -> Pose:
         """Pose from a position (m) and yaw/pitch/roll in degrees (z, y, x intrinsic)."""
         quat = Rotation.from_euler("ZYX", [yaw, pitch, roll], degrees=True).as_quat()
         return cls(np.asarray(position, dtype=float), quat)
@@ -239,9 +237,7 @@ def contains(polygon: BaseGeometry, xy, margin: float = 0.0) -> bool:
     return margin <= 0.0 or polygon.exterior.distance(Point(float(xy[0]), float(xy[1]))) > margin
 
 
-def face_overlap(
-    upper: Box, upper_pose: Pose, lower: Box | Plane, lower_pose: Pose | None, gap: float
-) -> ContactArea | None:
+def face_overlap(upper: Box, upper_pose: Pose, lower: Box | Plane, lower_pose: Pose | None, gap: float) -> ContactArea | None:
     """The exact contact area of two bricks touching face to face, or None.
 
     The upper body's bottom face and the lower body's top face (or the plane) must both

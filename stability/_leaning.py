@@ -20,7 +20,7 @@ stand up to the ladder limit.
 from __future__ import annotations
 
 import math
-from typing import Hashable, Sequence
+from collections.abc import Hashable, Sequence
 
 import numpy as np
 
@@ -62,7 +62,9 @@ def lean_polygon(points: np.ndarray, normal: np.ndarray, pad: float) -> np.ndarr
     return origin + ring[:, :1] * t1 + ring[:, 1:] * t2
 
 
-def leaning_stands(members: dict[Hashable, tuple[np.ndarray, float]], contacts: Sequence[ContactPolygon], gravity: float = GRAVITY) -> bool:
+def leaning_stands(
+    members: dict[Hashable, tuple[np.ndarray, float]], contacts: Sequence[ContactPolygon], gravity: float = GRAVITY
+) -> bool:
     """Can friction hold a leaning brick, or two leaning on each other, where they are?
 
     Args:

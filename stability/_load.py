@@ -20,13 +20,12 @@ shares' resultant passes through A's centre of mass above (:func:`split_load`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 import math
+from collections.abc import Mapping
+from dataclasses import dataclass
 from graphlib import TopologicalSorter
-from typing import Mapping
 
 import numpy as np
-
 from shapely.geometry import Point
 from shapely.ops import nearest_points
 

@@ -14,10 +14,10 @@ import multiprocessing
 import resource
 import statistics
 import time
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
@@ -147,7 +147,11 @@ def measure(scene: Scene, setting: str, repeats: int, repeat_below: float, optio
 
 
 def run_matrix(
-    settings: list[str], scene_list: list[Scene], repeats: int = 3, repeat_below: float = 30.0, jobs: int = 2,
+    settings: list[str],
+    scene_list: list[Scene],
+    repeats: int = 3,
+    repeat_below: float = 30.0,
+    jobs: int = 2,
     progress: Callable[[Cell], None] = lambda c: None,
 ) -> list[Cell]:
     """Every setting on every scene, each cell in a fresh worker process (one process tree).
@@ -221,7 +225,9 @@ def check_targets(cells: list[Cell]) -> dict:
     """Issue 5's targets, as measured: slant errors, the 30-level speed ratio, exponents."""
     by = {(c.setting, c.family, c.parameter): c for c in cells}
     slant = [c for c in cells if c.family != "upright"]
-    out = {"slant errors": {s: [c.error for c in slant if c.setting == s] for s in SETTINGS if any(c.setting == s for c in slant)}}
+    out = {
+        "slant errors": {s: [c.error for c in slant if c.setting == s] for s in SETTINGS if any(c.setting == s for c in slant)}
+    }
     raw, ext = by.get(("raw 240 Hz", "upright", 30)), by.get(("extension report", "upright", 30))
     if raw and ext:
         out["30-level speed-up, raw 240 Hz / extension"] = raw.wall / ext.wall
@@ -246,10 +252,17 @@ def markdown(cells: list[Cell], saved: list[tuple[str, float, int]], targets: di
         row = []
         for s in settings:
             c = by.get((s, family, parameter))
-            row.append("" if c is None else f"{'stands' if c.collapse_level is None else c.collapse_level} ({c.error:+d}), {c.wall:.2f} s, {c.drift:.2f} mm")
+            row.append(
+                ""
+                if c is None
+                else f"{'stands' if c.collapse_level is None else c.collapse_level} ({c.error:+d}), {c.wall:.2f} s, {c.drift:.2f} mm"
+            )
         lines.append(f"| {label} | {expected} | " + " | ".join(row) + " |")
     lines += ["", "Each cell: collapse level (error in levels), median wall time, drift of the standing bricks.", ""]
-    lines += ["| setting | simulated s per wall s (all cells) | mean abs. error, slant scenes (levels) | peak memory (MB) | upright: exponent of wall time in bricks |", "|---|---:|---:|---:|---:|"]
+    lines += [
+        "| setting | simulated s per wall s (all cells) | mean abs. error, slant scenes (levels) | peak memory (MB) | upright: exponent of wall time in bricks |",
+        "|---|---:|---:|---:|---:|",
+    ]
     for s in settings:
         mine = [c for c in cells if c.setting == s]
         slant = [abs(c.error) for c in mine if c.family != "upright"]
@@ -293,7 +306,16 @@ def plot_error(cells: list[Cell], path: Path) -> None:
         ax.scatter([c.wall for c in mine], [abs(c.error) for c in mine], s=12, alpha=0.35, color=f"C{i}")
         ax.scatter([wall], [error], s=70, color=f"C{i}", edgecolor="k", zorder=3, label=s)
     front = _pareto(points)
-    ax.plot([p[0] for p in front], [p[1] for p in front], "k--", lw=1, marker="o", mfc="none", ms=12, label="Pareto front (per setting)")
+    ax.plot(
+        [p[0] for p in front],
+        [p[1] for p in front],
+        "k--",
+        lw=1,
+        marker="o",
+        mfc="none",
+        ms=12,
+        label="Pareto front (per setting)",
+    )
     ax.set_xscale("log")
     ax.set_xlabel("wall time, s (large: all scenes summed; small: one cell)")
     ax.set_ylabel("|collapse level - closed form|, levels (mean)")
@@ -370,6 +392,9 @@ def solve_times(sizes: tuple[int, ...] = (10, 25, 50, 100), repeats: int = 5) ->
 
 def format_solve_times(rows: list[SolveTime]) -> str:
     """The table ``stackdsl bench solve`` prints (markdown)."""
-    lines = ["| bricks | contacts | a solve (vertical program first) | the full program | its variables |", "|---:|---:|---:|---:|---:|"]
+    lines = [
+        "| bricks | contacts | a solve (vertical program first) | the full program | its variables |",
+        "|---:|---:|---:|---:|---:|",
+    ]
     lines += [f"| {r.bricks} | {r.contacts} | {r.median * 1000:.1f} ms | {r.full * 1000:.1f} ms | {r.variables} |" for r in rows]
     return "\n".join(lines)

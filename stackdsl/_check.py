@@ -12,10 +12,10 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+from collections.abc import Callable, Iterator
 from concurrent.futures import Executor, Future, ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Iterator
 
 from ._compiler import compile_scenario
 from ._errors import ScenarioError
@@ -161,7 +161,10 @@ def _results(prepared: list[tuple[Path, Program, Expect]], jobs: int | None, exe
 
 
 def compare(
-    paths: list[str | Path], modes: tuple[str, ...] = ("raw", "tuned", "extension"), jobs: int | None = None, model: str | None = None
+    paths: list[str | Path],
+    modes: tuple[str, ...] = ("raw", "tuned", "extension"),
+    jobs: int | None = None,
+    model: str | None = None,
 ) -> dict[str, dict[str, CheckResult]]:
     """Check every scenario in every mode, all in one run on one executor.
 

@@ -16,8 +16,8 @@ from ._bench import SETTINGS, format_solve_times, run_matrix, savings, scenes, s
 from ._check import ScenarioErrors, check, compare
 from ._compiler import MODE_DEFAULTS, compile_scenario
 from ._errors import ScenarioError
-from ._hard import format_hard, format_limits, format_wall, leaning_limits, thrown_at_wall
 from ._expect import describe, evaluate
+from ._hard import format_hard, format_limits, format_wall, leaning_limits, thrown_at_wall
 from ._loader import load_scenario
 from ._program import format_program
 from ._runtime import run_program
@@ -83,7 +83,9 @@ def _parser() -> argparse.ArgumentParser:
     q.add_argument("--sizes", default="10,25,50,100", help="bricks per tower, comma-separated")
     q.add_argument("--repeats", type=int, default=5)
     q.set_defaults(func=_bench_solve)
-    q = bench.add_parser("hard", help="the hard cases in extension and raw mode, a brick thrown at a wall, the leaning limits swept")
+    q = bench.add_parser(
+        "hard", help="the hard cases in extension and raw mode, a brick thrown at a wall, the leaning limits swept"
+    )
     q.add_argument("folder", nargs="?", default="scenarios/hard")
     q.add_argument("-j", "--jobs", type=int, default=None, help="worker processes (default: one per core)")
     q.set_defaults(func=_bench_hard)
@@ -123,7 +125,10 @@ def _compare(args: argparse.Namespace) -> int:
     print(f"{'scenario':<{width}} {'expected':<18} " + " ".join(f"{m:<29}" for m in modes).rstrip())
     for file, row in table.items():
         first = next(iter(row.values()))
-        cells = [f"{'PASS' if r.passed else 'FAIL'} {describe(r.collapse_level):<13} {r.wall_time:>7.1f} s" for r in (row[m] for m in modes)]
+        cells = [
+            f"{'PASS' if r.passed else 'FAIL'} {describe(r.collapse_level):<13} {r.wall_time:>7.1f} s"
+            for r in (row[m] for m in modes)
+        ]
         print(f"{Path(file).stem:<{width}} {first.expected:<18} " + " ".join(f"{c:<29}" for c in cells).rstrip())
     print(f"{len(table)} scenarios x {len(modes)} modes ({time.perf_counter() - start:.1f} s wall)")
     return 0
@@ -176,14 +181,19 @@ def _bench(args: argparse.Namespace) -> int:
     print(f"stackdsl bench: {len(chosen)} scenes x {len(settings)} settings, {args.jobs} workers", flush=True)
 
     def progress(c):
-        print(f"  {c.setting:<22} {c.family:<16} {c.parameter:>5g}: collapse {c.collapse_level} (closed form {c.closed_form}), {c.wall:.2f} s", flush=True)
+        print(
+            f"  {c.setting:<22} {c.family:<16} {c.parameter:>5g}: collapse {c.collapse_level} (closed form {c.closed_form}), {c.wall:.2f} s",
+            flush=True,
+        )
 
     cells = run_matrix(settings, chosen, args.repeats, args.repeat_below, args.jobs, progress)
     saved = [] if args.quick else savings(args.repeats)
     targets = write_outputs(cells, saved, Path(args.out))
     print((Path(args.out) / "bench.md").read_text())
     print(f"targets: {targets}")
-    print(f"wrote {args.out}/bench.csv, bench.md, wall_vs_error.png, wall_vs_height.png ({time.perf_counter() - start:.0f} s wall)")
+    print(
+        f"wrote {args.out}/bench.csv, bench.md, wall_vs_error.png, wall_vs_height.png ({time.perf_counter() - start:.0f} s wall)"
+    )
     return 0
 
 

@@ -91,7 +91,9 @@ def compile_scenario(scenario: Scenario, mode: str | None = None, model: str | N
     actions = sorted(actions + launches, key=lambda a: (a.step, a.kind != "place"))
     end = actions[-1].time + scenario.timing.settle
     if end > MAX_SIMULATED_TIME:
-        raise scenario.source.error(("timing",), f"the run would last {end:.0f} s; at most {MAX_SIMULATED_TIME:.0f} s are simulated")
+        raise scenario.source.error(
+            ("timing",), f"the run would last {end:.0f} s; at most {MAX_SIMULATED_TIME:.0f} s are simulated"
+        )
     actions.append(End(step=actions[-1].step + settle, time=end))
     ground = scenario.material(scenario.ground.material)
     return Program(
@@ -101,7 +103,10 @@ def compile_scenario(scenario: Scenario, mode: str | None = None, model: str | N
         ground_restitution=ground.restitution,
         stability={**scenario.stability.model_dump(exclude_none=True), **({"model": model} if model else {})},
         rules=_rules(bricks, launches),
-        fixtures=tuple(Fixture(id=b.id, brick=specs[b.type], position=tuple(b.position), yaw=b.yaw, pitch=b.pitch, roll=b.roll) for b in fixed),
+        fixtures=tuple(
+            Fixture(id=b.id, brick=specs[b.type], position=tuple(b.position), yaw=b.yaw, pitch=b.pitch, roll=b.roll)
+            for b in fixed
+        ),
         collapse_threshold=scenario.collapse_threshold or min(min(specs[b.type].half_extents) for b in bricks),
         settle=scenario.timing.settle,
         actions=tuple(actions),
@@ -114,11 +119,21 @@ def _rules(bricks: list[_Brick], launches: list[Launch]) -> tuple[Rule, ...]:
     (DESIGN.md: model only what a scene needs)."""
     tilted = [b.id for b in bricks if not _lies_flat(b)]
     listed = ", ".join(tilted[:4]) + (f" and {len(tilted) - 4} more" if len(tilted) > 4 else "")
-    lean = f"bricks placed tilted: {listed}" if tilted else "a thrown brick may come to rest leaning" if launches else "every brick lies flat and nothing is thrown"
+    lean = (
+        f"bricks placed tilted: {listed}"
+        if tilted
+        else "a thrown brick may come to rest leaning"
+        if launches
+        else "every brick lies flat and nothing is thrown"
+    )
     return (
         Rule(name="basic", on=True, reason="every scene"),
         Rule(name="leaning", on=bool(tilted or launches), reason=lean),
-        Rule(name="impacts", on=bool(launches), reason=f"{len(launches)} projectile{'s' * (len(launches) != 1)}" if launches else "nothing is thrown"),
+        Rule(
+            name="impacts",
+            on=bool(launches),
+            reason=f"{len(launches)} projectile{'s' * (len(launches) != 1)}" if launches else "nothing is thrown",
+        ),
     )
 
 
@@ -193,7 +208,11 @@ def _explicit(scenario: Scenario) -> list[_Brick]:
     among the structure's bricks (fixed ones have none)."""
     placed = scenario.structure.bricks
     bottoms = [
-        float(Box(np.array(scenario.brick_type(b.brick).size) / 2, 1.0).corners(Pose.from_euler(b.at, b.yaw, b.pitch, b.roll))[:, 2].min())
+        float(
+            Box(np.array(scenario.brick_type(b.brick).size) / 2, 1.0)
+            .corners(Pose.from_euler(b.at, b.yaw, b.pitch, b.roll))[:, 2]
+            .min()
+        )
         for b in placed
     ]
     heights: list[float] = []
@@ -237,7 +256,9 @@ def _card_house(scenario: Scenario) -> list[_Brick]:
     spacing = c.spacing or length + 0.002
     where = ("structure", "card_house", "spacing" if c.spacing else "angle")
     if c.levels > 1 and spacing <= 2 * half:
-        raise scenario.source.error(where, f"V's {2 * half * 1000:.1f} mm wide at the base would collide {spacing * 1000:.1f} mm apart")
+        raise scenario.source.error(
+            where, f"V's {2 * half * 1000:.1f} mm wide at the base would collide {spacing * 1000:.1f} mm apart"
+        )
     if c.levels > 1 and not length < spacing < length + 2 * thick * math.cos(a):
         raise scenario.source.error(
             where,
@@ -254,7 +275,17 @@ def _card_house(scenario: Scenario) -> list[_Brick]:
         for k, x in enumerate(peaks):
             for side, yaw in ((1, 0.0), (2, 180.0)):
                 position = np.array([x - dx if side == 1 else x + dx, y0, base + dz])
-                bricks.append(_Brick(f"V{2 * row + 1}.{k + 1}{'ab'[side - 1]}", 2 * row + 1, c.brick, position, yaw, c.angle - 90.0, together=side == 2))
+                bricks.append(
+                    _Brick(
+                        f"V{2 * row + 1}.{k + 1}{'ab'[side - 1]}",
+                        2 * row + 1,
+                        c.brick,
+                        position,
+                        yaw,
+                        c.angle - 90.0,
+                        together=side == 2,
+                    )
+                )
         for k in range(len(peaks) - 1):
             position = np.array([(peaks[k] + peaks[k + 1]) / 2, y0, base + height + thick / 2])
             bricks.append(_Brick(f"F{2 * row + 2}.{k + 1}", 2 * row + 2, c.brick, position, 0.0))
@@ -301,7 +332,9 @@ def _face_point(scenario: Scenario, index: int, impact: Impact, bricks: list[_Br
         raise scenario.source.error(("impacts", index, "target", "level"), f"level {impact.target.level} is not built")
     outward = -np.array(SIDES[impact.target.side])
     faces = [
-        Box(np.array(scenario.brick_type(b.type).size) / 2, 1.0).face(Pose.from_euler(b.position, b.yaw, b.pitch, b.roll), outward)[0]
+        Box(np.array(scenario.brick_type(b.type).size) / 2, 1.0).face(
+            Pose.from_euler(b.position, b.yaw, b.pitch, b.roll), outward
+        )[0]
         for b in level
     ]
     outermost = max(faces, key=lambda corners: round(float((corners @ outward).max()), 9))  # the first of equals

@@ -77,7 +77,9 @@ def lean_on_wall(angle: float, mode: str) -> str:
     )
 
 
-def leaning_limits(modes=("raw", "extension"), step: float = 0.5, span: float = 4.0) -> dict[tuple[str, str], tuple[float | None, float | None]]:
+def leaning_limits(
+    modes=("raw", "extension"), step: float = 0.5, span: float = 4.0
+) -> dict[tuple[str, str], tuple[float | None, float | None]]:
     """Sweep each leaning structure from ``span`` degrees below its closed-form limit to
     ``span`` above, in ``step`` degrees.
 
@@ -90,7 +92,10 @@ def leaning_limits(modes=("raw", "extension"), step: float = 0.5, span: float = 
         angles = np.round(np.arange(round(limit) - span, round(limit) + span + step / 2, step), 3)
         for mode in modes:
             stood = {float(a): run_program(compile_scenario(parse_scenario(scene(a, mode)))).collapse is None for a in angles}
-            found[name, mode] = (max((a for a, s in stood.items() if s), default=None), min((a for a, s in stood.items() if not s), default=None))
+            found[name, mode] = (
+                max((a for a, s in stood.items() if s), default=None),
+                min((a for a, s in stood.items() if not s), default=None),
+            )
     return found
 
 

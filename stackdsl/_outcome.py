@@ -77,7 +77,7 @@ class Graph(_Frozen):
     edges: tuple[Edge, ...]
 
     @classmethod
-    def from_stability(cls, graph: BrickGraph, levels: dict[str, int]) -> "Graph":
+    def from_stability(cls, graph: BrickGraph, levels: dict[str, int]) -> Graph:
         """Round and rename a :class:`stability.BrickGraph`; ``levels`` maps ids to levels."""
         nodes = tuple(
             Node(
@@ -91,7 +91,10 @@ class Graph(_Frozen):
             )
             for n in graph.nodes
         )
-        edges = tuple(Edge(upper=e.upper, support=e.support, area_mm2=_round(e.area * 1e6, 1), load_share=_round(e.load_share, 3)) for e in graph.edges)
+        edges = tuple(
+            Edge(upper=e.upper, support=e.support, area_mm2=_round(e.area * 1e6, 1), load_share=_round(e.load_share, 3))
+            for e in graph.edges
+        )
         return cls(nodes=nodes, edges=edges)
 
 

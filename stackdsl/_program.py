@@ -8,7 +8,7 @@ Source: DESIGN.md (data flow: Scenario -> Program).
 
 from __future__ import annotations
 
-from typing import Annotated, Literal, Union
+from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -88,7 +88,7 @@ class End(_Frozen):
     time: float
 
 
-Action = Annotated[Union[Place, Launch, End], Field(discriminator="kind")]
+Action = Annotated[Place | Launch | End, Field(discriminator="kind")]
 
 
 class EngineSettings(_Frozen):
@@ -161,7 +161,9 @@ def format_program(program: Program) -> str:
         lines += [f"  rule {r.name:<8} {'on ' if r.on else 'off'}  {r.reason}" for r in program.rules]
     for f in program.fixtures:
         x, y, z = (v * 1000 for v in f.position)
-        lines.append(f"  fixed  {f.id:<10} at ({x:.1f}, {y:.1f}, {z:.1f}) mm  yaw {f.yaw:.1f}  pitch {f.pitch:.1f}  roll {f.roll:.1f}  {f.brick.type}")
+        lines.append(
+            f"  fixed  {f.id:<10} at ({x:.1f}, {y:.1f}, {z:.1f}) mm  yaw {f.yaw:.1f}  pitch {f.pitch:.1f}  roll {f.roll:.1f}  {f.brick.type}"
+        )
     for a in program.actions:
         head = f"  t={a.time:9.3f} s  step {a.step:>8}  "
         if isinstance(a, Place):

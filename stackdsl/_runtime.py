@@ -21,10 +21,11 @@ import math
 import os
 import sys
 import time as _time
+from collections.abc import Iterator
 from contextlib import contextmanager
-from functools import partial
 from dataclasses import dataclass
-from typing import Any, Iterator
+from functools import partial
+from typing import Any
 
 import numpy as np
 from shapely.geometry import MultiPoint, Polygon
@@ -139,7 +140,9 @@ class _Runner:
         ground = client.createMultiBody(0.0, client.createCollisionShape(pybullet.GEOM_PLANE))
         self._material(ground, program.ground_friction, program.ground_restitution)
         rules = {r.name: r.on or not options.needed_rules for r in program.rules}
-        config = StabilityConfig(**program.stability, leaning=rules["leaning"], impacts=rules["impacts"], per_event=options.per_event)
+        config = StabilityConfig(
+            **program.stability, leaning=rules["leaning"], impacts=rules["impacts"], per_event=options.per_event
+        )
         self.ext = StabilityExtension(PyBulletEngine(client), config)
         self.ext.add_ground(ground, Plane(0.0), friction=program.ground_friction)
         self.shapes: dict[tuple, int] = {}
@@ -216,7 +219,9 @@ class _Runner:
                 self.moving.add(body)
                 self.settled.pop(body, None)
             if e.kind != "impact" or e.source in self.projectiles:  # not every landing brick
-                self.events.append(Event(time=e.time, kind=e.kind, brick=e.label, level=self.levels.get(e.label), detail=e.reason))
+                self.events.append(
+                    Event(time=e.time, kind=e.kind, brick=e.label, level=self.levels.get(e.label), detail=e.reason)
+                )
 
     def _substeps(self) -> None:
         """Split the step while something is fast, so that no body moves more than the
@@ -340,7 +345,11 @@ class _Runner:
         states = [self._state(b) for b in bodies]
         rotations = _rotations(np.array([q for _, q in states]))
         if self._stacked[0] != tuple(bodies):
-            self._stacked = (tuple(bodies), np.stack([self.corners[b][0] for b in bodies]), np.stack([self.corners[b][1] for b in bodies]))
+            self._stacked = (
+                tuple(bodies),
+                np.stack([self.corners[b][0] for b in bodies]),
+                np.stack([self.corners[b][1] for b in bodies]),
+            )
         _, local, placed = self._stacked
         now = np.array([p for p, _ in states])[:, None, :] + np.einsum("nij,nkj->nki", rotations, local)
         return np.sqrt(((now - placed) ** 2).sum(axis=2).max(axis=1))
@@ -365,8 +374,18 @@ class _Runner:
                 brick = self.targets[body][0]
                 level = max(self.levels.values())
                 self.record_drift()
-                self.collapse = Collapse(level=level, time=now, brick=brick, brick_level=self.levels[brick], displacement=float(moved))
-                self.events.append(Event(time=now, kind="collapse", brick=brick, level=self.levels[brick], detail=f"moved {moved * 1000:.1f} mm; collapse level {level}"))
+                self.collapse = Collapse(
+                    level=level, time=now, brick=brick, brick_level=self.levels[brick], displacement=float(moved)
+                )
+                self.events.append(
+                    Event(
+                        time=now,
+                        kind="collapse",
+                        brick=brick,
+                        level=self.levels[brick],
+                        detail=f"moved {moved * 1000:.1f} mm; collapse level {level}",
+                    )
+                )
                 self.collapse_graph = self.graph()
                 self.stop_step = self.step + round(self.program.settle / self.dt)
                 return

@@ -11,7 +11,7 @@ Source: DESIGN.md (KAPLA constants, words); report 3.2 and chapter 4.
 from __future__ import annotations
 
 import re
-from typing import Annotated, Any, Literal, Union
+from typing import Annotated, Any, Literal
 
 from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, PrivateAttr, WithJsonSchema, model_validator
 
@@ -115,7 +115,7 @@ class Structure(_Model):
     bricks: Annotated[list[BrickPlacement], Field(min_length=1, max_length=MAX_BRICKS)] | None = None
 
     @model_validator(mode="after")
-    def _one_layout(self) -> "Structure":
+    def _one_layout(self) -> Structure:
         if sum(x is not None for x in (self.tower, self.card_house, self.bricks)) != 1:
             raise ValueError("give exactly one of 'tower', 'card_house' or 'bricks'")
         if self.bricks is not None:
@@ -161,7 +161,7 @@ def _when(value: Any) -> Any:
 
 
 When = Annotated[
-    Union[AfterLevel, float],
+    AfterLevel | float,
     BeforeValidator(_when),
     WithJsonSchema({"anyOf": [{"type": "number"}, {"type": "string"}], "description": "a time ('14 s') or 'after level N'"}),
 ]
@@ -177,7 +177,7 @@ class Target(_Model):
     point: Vector3 | None = None
 
     @model_validator(mode="after")
-    def _one_target(self) -> "Target":
+    def _one_target(self) -> Target:
         if self.point is None and (self.level is None or self.side is None):
             raise ValueError("give 'level' and 'side', or a 'point'")
         if self.point is not None and (self.level is not None or self.side is not None):
@@ -199,7 +199,7 @@ class Impact(_Model):
     distance: Annotated[Length, Field(gt=0, le=1)] = 0.05
 
     @model_validator(mode="after")
-    def _direction(self) -> "Impact":
+    def _direction(self) -> Impact:
         if self.direction is None and self.target.side is None:
             raise ValueError("a 'point' target needs a 'direction'")
         if self.direction is not None and sum(c * c for c in self.direction) < 1e-12:
@@ -295,7 +295,7 @@ class Expect(_Model):
     may_fall: Levels | None = None
 
     @model_validator(mode="after")
-    def _consistent(self) -> "Expect":
+    def _consistent(self) -> Expect:
         if self.collapse is not None and self.stands:
             raise ValueError("a structure cannot both collapse and stand: give one of 'collapse' or 'stands'")
         if self.stays and self.may_fall and set(self.stays) & set(self.may_fall):
@@ -359,9 +359,13 @@ def reference_errors(s: Scenario) -> list[tuple[tuple, str]]:
 
     for name, bt in s.brick_types.items():
         if bt.material not in materials:
-            problems.append((("brick_types", name, "material"), f"unknown material {bt.material!r}; known: {', '.join(sorted(materials))}"))
+            problems.append(
+                (("brick_types", name, "material"), f"unknown material {bt.material!r}; known: {', '.join(sorted(materials))}")
+            )
     if s.ground.material not in materials:
-        problems.append((("ground", "material"), f"unknown material {s.ground.material!r}; known: {', '.join(sorted(materials))}"))
+        problems.append(
+            (("ground", "material"), f"unknown material {s.ground.material!r}; known: {', '.join(sorted(materials))}")
+        )
     if s.structure.tower:
         brick(("structure", "tower", "brick"), s.structure.tower.brick)
     if s.structure.card_house:

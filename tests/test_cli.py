@@ -84,7 +84,9 @@ def test_schema_is_json_schema_of_a_scenario(capsys):
 
 def test_console_script_output_has_no_engine_chatter(tmp_path):
     path = write(tmp_path, a=PASSING)
-    done = subprocess.run([sys.executable, "-m", "stackdsl", "check", str(path), "-j", "1"], capture_output=True, text=True, check=False)
+    done = subprocess.run(
+        [sys.executable, "-m", "stackdsl", "check", str(path), "-j", "1"], capture_output=True, text=True, check=False
+    )
     assert done.returncode == 0, done.stderr
     assert "argv[0]" not in done.stdout + done.stderr and "build time" not in done.stdout + done.stderr
 

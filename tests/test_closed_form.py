@@ -8,7 +8,9 @@ from stackdsl._oracle import equilibrium_collapse
 
 
 def oracle(structure: str) -> int | None:
-    return equilibrium_collapse(compile_scenario(parse_scenario(f"stackdsl: 1\nstructure: {{tower: {{{structure}}}}}\n"))).collapse_level
+    return equilibrium_collapse(
+        compile_scenario(parse_scenario(f"stackdsl: 1\nstructure: {{tower: {{{structure}}}}}\n"))
+    ).collapse_level
 
 
 @pytest.mark.parametrize("shift_mm", [8, 10, 11, 13, 14])

@@ -18,7 +18,9 @@ def test_four_stack_expands_layer_by_layer():
     assert [a.id for a in places] == ["L01.1", "L01.2", "L02.1", "L02.2", "L03.1", "L03.2"]
     assert [a.level for a in places] == [1, 1, 2, 2, 3, 3]
     # level 1 along x at y = -48, +48; level 2 turned 90 deg at x = +48, -48
-    assert np.allclose([a.position for a in places[:4]], [[0, -0.048, 0.004], [0, 0.048, 0.004], [0.048, 0, 0.012], [-0.048, 0, 0.012]])
+    assert np.allclose(
+        [a.position for a in places[:4]], [[0, -0.048, 0.004], [0, 0.048, 0.004], [0.048, 0, 0.012], [-0.048, 0, 0.012]]
+    )
     assert [a.yaw for a in places[:4]] == [0.0, 0.0, 90.0, 90.0]
     assert [a.time for a in places] == [0.0, 1.0, 2.0, 3.0, 4.0, 5.0]
     assert [a.step for a in places] == [0, 240, 480, 720, 960, 1200]
@@ -55,7 +57,9 @@ def test_mode_picks_engine_defaults(mode, dt, iterations):
 
 
 def test_explicit_engine_settings_win_over_mode_defaults():
-    e = program("stackdsl: 1\nstructure: {tower: {levels: 1}}\nengine: {mode: raw, timestep: 2 ms, solver_iterations: 80}\n").engine
+    e = program(
+        "stackdsl: 1\nstructure: {tower: {levels: 1}}\nengine: {mode: raw, timestep: 2 ms, solver_iterations: 80}\n"
+    ).engine
     assert (e.timestep, e.solver_iterations) == (0.002, 80)
 
 
@@ -109,7 +113,9 @@ def test_run_length_is_limited():
 
 
 def test_format_program_lists_every_action():
-    p = program("stackdsl: 1\nstructure: {tower: {levels: 2}}\nimpacts: [{target: {level: 2, side: +x}, speed: 1, at: after level 2}]\n")
+    p = program(
+        "stackdsl: 1\nstructure: {tower: {levels: 2}}\nimpacts: [{target: {level: 2, side: +x}, speed: 1, at: after level 2}]\n"
+    )
     text = format_program(p)
     assert text.count("place  L0") == 4 and text.count("launch ") == 1 and text.rstrip().endswith("end")
     assert "mode extension, timestep 4.167 ms" in text
@@ -164,7 +170,9 @@ def test_rules_follow_the_scene():
 
     assert rules("stackdsl: 1\nstructure: {tower: {levels: 2}}\n") == {"basic": True, "leaning": False, "impacts": False}
     assert rules("stackdsl: 1\nstructure: {card_house: {levels: 1}}\n")["leaning"]
-    thrown = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nimpacts: [{target: {level: 2, side: +x}, speed: 1, at: after level 2}]\n"
+    thrown = (
+        "stackdsl: 1\nstructure: {tower: {levels: 2}}\nimpacts: [{target: {level: 2, side: +x}, speed: 1, at: after level 2}]\n"
+    )
     assert rules(thrown)["impacts"] and rules(thrown)["leaning"]
     text = format_program(program("stackdsl: 1\nstructure: {card_house: {levels: 1}}\n"))
     assert "rule leaning  on   bricks placed tilted: V1.1a, V1.1b" in text and "rule impacts  off  nothing is thrown" in text

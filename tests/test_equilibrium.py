@@ -19,7 +19,10 @@ def rectangle(x0, x1, z, y=0.012):
 
 def overhang(d):
     """A brick reaching d beyond the edge (x = 0) of the brick below it."""
-    return solve_equilibrium({"top": RigidBlock(M, np.array([d - L / 2, 0.0, 0.012]))}, [ContactPolygon("top", "base", rectangle(-(L - d), 0.0, 0.008), UP, 0.5)])
+    return solve_equilibrium(
+        {"top": RigidBlock(M, np.array([d - L / 2, 0.0, 0.012]))},
+        [ContactPolygon("top", "base", rectangle(-(L - d), 0.0, 0.008), UP, 0.5)],
+    )
 
 
 @pytest.mark.parametrize("d", [0.05, 0.0599])
@@ -54,14 +57,19 @@ def test_forces_balance_the_weight():
 
 
 def test_a_single_point_cannot_hold_a_brick_even_with_glue():
-    result = solve_equilibrium({"b": RigidBlock(M, np.array([0.03, 0.0, 0.004]))}, [ContactPolygon("b", "g", np.zeros((1, 3)), UP, 0.5)])
+    result = solve_equilibrium(
+        {"b": RigidBlock(M, np.array([0.03, 0.0, 0.004]))}, [ContactPolygon("b", "g", np.zeros((1, 3)), UP, 0.5)]
+    )
     assert not result.stands and result.tension == math.inf
 
 
 def test_supports_take_any_force_and_free_blocks_push_each_other():
     # Two bricks, one on the other on the ground: both free, all compressive.
     blocks = {"a": RigidBlock(M, np.array([0, 0, 0.004])), "b": RigidBlock(M, np.array([0.03, 0, 0.012]))}
-    contacts = [ContactPolygon("a", "ground", rectangle(-0.06, 0.06, 0.0), UP, 0.5), ContactPolygon("b", "a", rectangle(-0.03, 0.06, 0.008), UP, 0.5)]
+    contacts = [
+        ContactPolygon("a", "ground", rectangle(-0.06, 0.06, 0.0), UP, 0.5),
+        ContactPolygon("b", "a", rectangle(-0.03, 0.06, 0.008), UP, 0.5),
+    ]
     result = solve_equilibrium(blocks, contacts)
     assert result.stands
     assert result.forces[0][:, 2].sum() == pytest.approx(2 * W)  # the ground carries both

@@ -13,7 +13,32 @@ from stackdsl import ScenarioError, compile_scenario, parse_scenario
 ROOT = Path(__file__).resolve().parents[1]
 SOURCES = [p.read_text() for p in sorted((ROOT / "scenarios").rglob("*.yaml"))]
 GOLDEN = ROOT / "golden"
-NASTY = ["1e999", "-0", "nan", "inf", "9" * 40, "no", "yes", "~", "null", "''", "[]", "{}", "&a", "*a", "!!python/object:os.system", "<<: *a", "\t", "0x1F", "1_000", "1/0 s", "5 furlongs", "-1 mm", "ä", "\u202e"]
+NASTY = [
+    "1e999",
+    "-0",
+    "nan",
+    "inf",
+    "9" * 40,
+    "no",
+    "yes",
+    "~",
+    "null",
+    "''",
+    "[]",
+    "{}",
+    "&a",
+    "*a",
+    "!!python/object:os.system",
+    "<<: *a",
+    "\t",
+    "0x1F",
+    "1_000",
+    "1/0 s",
+    "5 furlongs",
+    "-1 mm",
+    "ä",
+    "\u202e",
+]
 
 
 @st.composite
@@ -41,7 +66,7 @@ def mutated(draw) -> str:
 
 
 plain = st.recursive(
-    st.none() | st.booleans() | st.integers(-10**6, 10**6) | st.floats(allow_nan=True) | st.text(max_size=10),
+    st.none() | st.booleans() | st.integers(-(10**6), 10**6) | st.floats(allow_nan=True) | st.text(max_size=10),
     lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=8), inner, max_size=4),
     max_leaves=20,
 )
@@ -51,10 +76,19 @@ plain = st.recursive(
 def structured(draw) -> str:
     """A document shaped like a scenario, with random values where fields belong."""
     doc = {"stackdsl": draw(st.sampled_from([1, 2, "1", None]))}
-    for key in draw(st.lists(st.sampled_from(["structure", "timing", "engine", "expect", "impacts", "materials", "brick_types", "stability", "seed", "name"]), max_size=6)):
+    for key in draw(
+        st.lists(
+            st.sampled_from(
+                ["structure", "timing", "engine", "expect", "impacts", "materials", "brick_types", "stability", "seed", "name"]
+            ),
+            max_size=6,
+        )
+    ):
         doc[key] = draw(plain)
     if draw(st.booleans()):
-        doc["structure"] = {"tower": {"levels": draw(st.integers(-5, 2000)), "shift": draw(st.sampled_from(["3 mm", 1e9, -2, "x"]))}}
+        doc["structure"] = {
+            "tower": {"levels": draw(st.integers(-5, 2000)), "shift": draw(st.sampled_from(["3 mm", 1e9, -2, "x"]))}
+        }
     return yaml.safe_dump(doc)
 
 

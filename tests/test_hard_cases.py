@@ -140,14 +140,21 @@ def test_a_tower_1_km_away_behaves_as_at_the_origin():
     assert far.collapse.level == near.collapse.level == 9
 
     def frozen_before_collapse(outcome, shift):
-        return {n.id: tuple(round(p - s, 1) for p, s in zip(n.position_mm, shift)) for n in outcome.collapse_graph.nodes if n.state == "frozen"}
+        return {
+            n.id: tuple(round(p - s, 1) for p, s in zip(n.position_mm, shift))
+            for n in outcome.collapse_graph.nodes
+            if n.state == "frozen"
+        }
 
     assert frozen_before_collapse(far, (1_000_000.0, 0.0, 0.0)) == frozen_before_collapse(near, (0.0, 0.0, 0.0))
     assert all(n.state != BrickState.ACTIVE.value or n.id != "ground" for n in far.final_graph.nodes)
 
 
 # the leaning limits swept (stackdsl bench hard) ------------------------------------------------
-@pytest.mark.parametrize("name, scene", [("lean_wall_stands", lean_on_wall), ("lean_wall_slides", lean_on_wall), ("vee_stands", vee), ("vee_slides", vee)])
+@pytest.mark.parametrize(
+    "name, scene",
+    [("lean_wall_stands", lean_on_wall), ("lean_wall_slides", lean_on_wall), ("vee_stands", vee), ("vee_slides", vee)],
+)
 def test_the_swept_scenes_are_the_library_scenarios(name, scene):
     library = compile_scenario(load_scenario(ROOT / "scenarios" / f"{name}.yaml"))
     angle = float(library.name.split(",")[-1].split()[0])  # "brick leaning on a wall, 45 deg"

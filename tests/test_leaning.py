@@ -177,7 +177,7 @@ def test_more_than_two_leaning_contacts_are_beyond_the_reports_model():
 
 
 def test_leaning_rule_off_leaves_the_brick_to_the_engine():
-    s, b = wall_scene(40)
+    s, _b = wall_scene(40)
     s.ext.config = StabilityConfig(rest_duration=0.0, contact_pad=1e-5, leaning=False)
     assert s.ext.update(0.0) == []
 

@@ -87,7 +87,9 @@ def test_four_stack_loads_stay_centred():
     # Level 2 rests on two level-1 bricks: each carries half of it at its own centre line.
     l1 = {1: -0.048, 2: 0.048}
     nodes = {b: LoadNode(0.01, np.array([x, 0, 0.004]), {GROUND: area(x - 0.012, -0.06, x + 0.012, 0.06)}) for b, x in l1.items()}
-    nodes[3] = LoadNode(0.01, np.array([0, 0.048, 0.012]), {b: area(x - 0.012, 0.036, x + 0.012, 0.06, 0.008) for b, x in l1.items()})
+    nodes[3] = LoadNode(
+        0.01, np.array([0, 0.048, 0.012]), {b: area(x - 0.012, 0.036, x + 0.012, 0.06, 0.008) for b, x in l1.items()}
+    )
     loads = propagate(nodes)
     assert loads[3].shares == {1: pytest.approx(0.5), 2: pytest.approx(0.5)}
     assert loads[2].mass_above == pytest.approx(0.015)

@@ -167,7 +167,12 @@ def test_wrong_unit():
         ("stackdsl: 1\nstructure: {tower: {levels: 3, spacing: yes}}\n", 2, "structure.tower.spacing", "got True"),
         ("stackdsl: 1\nstructure: {tower: {levels: 3}}\n1: x\n", 3, "1", "keys must be names"),
         ("stackdsl: 1\nbase: &b {levels: 3}\nstructure: {tower: {<<: *b}}\n", 3, "structure.tower.<<", "merge keys"),
-        ("stackdsl: 1\nstructure: {tower: {levels: 3}}\nimpacts: [{target: {level: 1, side: +x}, speed: 1, at: soon}]\n", 3, "impacts[0].at", "after level N"),
+        (
+            "stackdsl: 1\nstructure: {tower: {levels: 3}}\nimpacts: [{target: {level: 1, side: +x}, speed: 1, at: soon}]\n",
+            3,
+            "impacts[0].at",
+            "after level N",
+        ),
     ],
 )
 def test_one_clear_error_per_problem(text, line, field, words):

@@ -2,10 +2,10 @@
 
 import pytest
 
+from stability import solve_equilibrium
 from stackdsl import compile_scenario, parse_scenario
 from stackdsl._bench import solve_times
 from stackdsl._oracle import equilibrium_collapse, structure
-from stability import solve_equilibrium
 
 L = 0.12
 
@@ -19,7 +19,13 @@ def harmonic(n: int, factor: float) -> str:
         edge += off  # the right end of this brick
         rows.append(f"    - {{at: [{edge - L / 2:.6f}, 0, {0.1 + 0.004 + 0.008 * i:.6f}], level: {i + 1}}}")
     table = "    - {id: table, brick: table, at: [-0.15, 0, 0.05], fixed: true}"
-    return "stackdsl: 1\nbrick_types: {table: {size: [300 mm, 100 mm, 100 mm]}}\nstructure:\n  bricks:\n" + table + "\n" + "\n".join(rows) + "\n"
+    return (
+        "stackdsl: 1\nbrick_types: {table: {size: [300 mm, 100 mm, 100 mm]}}\nstructure:\n  bricks:\n"
+        + table
+        + "\n"
+        + "\n".join(rows)
+        + "\n"
+    )
 
 
 @pytest.mark.parametrize("n", [5, 6])
@@ -30,7 +36,11 @@ def test_harmonic_stack_stands_below_its_critical_offsets_and_falls_above(n):
 
 
 def tower(levels: int, spacing_mm: float, shift_mm: float):
-    return compile_scenario(parse_scenario(f"stackdsl: 1\nstructure: {{tower: {{levels: {levels}, spacing: {spacing_mm} mm, shift: {shift_mm} mm}}}}\n"))
+    return compile_scenario(
+        parse_scenario(
+            f"stackdsl: 1\nstructure: {{tower: {{levels: {levels}, spacing: {spacing_mm} mm, shift: {shift_mm} mm}}}}\n"
+        )
+    )
 
 
 @pytest.mark.parametrize("spacing, shift, level", [(70, 12.9, 9), (96, 8, 15)])
@@ -66,7 +76,9 @@ def test_solve_time_benchmark_runs():
     assert row.bricks == 10 and row.contacts == 18 and 0 < row.median < 1.0 and 0 < row.full < 1.0
 
 
-@pytest.mark.parametrize("spacing, shift, bricks", [(96, 8, 29), (96, 8, 30), (70, 12.9, 16), (70, 12.9, 17), (96, 0, 40), (96, 13, 4)])
+@pytest.mark.parametrize(
+    "spacing, shift, bricks", [(96, 8, 29), (96, 8, 30), (70, 12.9, 16), (70, 12.9, 17), (96, 0, 40), (96, 13, 4)]
+)
 def test_the_vertical_program_agrees_with_the_full_one(spacing, shift, bricks):
     program = tower(bricks // 2 + 1, spacing, shift)
     blocks, contacts = structure(program.placements[:bricks], program.fixtures, program.ground_friction)

@@ -3,8 +3,7 @@
 import pybullet
 import pytest
 
-from stackdsl import End, EngineSettings, Launch, Program, compile_scenario, parse_scenario, run_program
-from stackdsl import _runtime
+from stackdsl import End, EngineSettings, Launch, Program, _runtime, compile_scenario, parse_scenario, run_program
 from stackdsl._compiler import _spec
 from stackdsl._program import Rule
 
@@ -66,15 +65,32 @@ def test_friction_coefficient_of_a_pair_is_the_materials():
     v = 0.5
     program = Program(
         name="slide",
-        engine=EngineSettings(mode="raw", timestep=1 / 1000, solver_iterations=50, friction_anchors=False, maximal_coordinates=False),
+        engine=EngineSettings(
+            mode="raw", timestep=1 / 1000, solver_iterations=50, friction_anchors=False, maximal_coordinates=False
+        ),
         ground_friction=0.5,
         ground_restitution=0.0,
         stability={},
-        rules=(Rule(name="basic", on=True, reason=""), Rule(name="leaning", on=False, reason=""), Rule(name="impacts", on=False, reason="")),
+        rules=(
+            Rule(name="basic", on=True, reason=""),
+            Rule(name="leaning", on=False, reason=""),
+            Rule(name="impacts", on=False, reason=""),
+        ),
         collapse_threshold=0.004,
         settle=0.0,
         actions=(
-            Launch(step=0, time=0.0, id="slider", brick=spec, position=(0.0, 0.0, 0.004), yaw=0.0, pitch=0.0, velocity=(v, 0.0, 0.0), target=(0.0, 0.0, 0.0), arrival=0.0),
+            Launch(
+                step=0,
+                time=0.0,
+                id="slider",
+                brick=spec,
+                position=(0.0, 0.0, 0.004),
+                yaw=0.0,
+                pitch=0.0,
+                velocity=(v, 0.0, 0.0),
+                target=(0.0, 0.0, 0.0),
+                arrival=0.0,
+            ),
             End(step=500, time=0.5),
         ),
     )

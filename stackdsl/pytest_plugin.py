@@ -1,22 +1,50 @@
-"""pytest plugin: the ``golden`` fixture, syrupy snapshots stored in the project's ``golden/``.
+"""pytest plugin: scenario files are test items, with golden snapshots in ``golden/``.
 
-Installed with stackdsl (entry point ``pytest11``). ``pytest --snapshot-update``
-rewrites the snapshots. Needs syrupy (``pip install 'stackdsl[test]'``).
+Installed with stackdsl (entry point ``pytest11``); it needs syrupy
+(``pip install 'stackdsl[test]'``). As Tavern does for its YAML tests, pytest collects
+every ``*.yaml``/``*.yml`` file below the folders named by the ini option
+``stackdsl_paths`` (default: ``scenarios``), relative to the project root::
 
-Source: DESIGN.md (conventions: golden snapshots), syrupy.
+    [tool.pytest.ini_options]
+    stackdsl_paths = ["scenarios", "more/scenarios"]
+
+Each file is one test item, ``scenarios/four_stack.yaml::four_stack``: it loads and
+compiles the scenario (a bad file fails with its ``file:line:col`` message), runs it,
+checks its expectations, then compares the outcome with its golden snapshot
+``golden/scenarios/four_stack.json`` (one brick per line, :mod:`stackdsl._snapshot`).
+``pytest --snapshot-update`` writes the snapshots; ``-k``, ``-x``, ``--lf``, ``-n``
+(pytest-xdist) and ``--junit-xml`` work as on any test.
+
+The ``golden`` fixture gives Python tests the same snapshots (JSON under ``golden/``,
+floats rounded).
+
+Source: stackdsl's own, after Tavern's pytest plugin and syrupy's single-file extensions.
 """
 
 from __future__ import annotations
 
+import os
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
 
+from ._compiler import compile_scenario
+from ._errors import ScenarioError
+from ._expect import evaluate
+from ._loader import load_scenario
+from ._runtime import run_program
+from ._snapshot import dumps, summarize
+
 try:
     from syrupy.extensions.json import JSONSnapshotExtension
+    from syrupy.extensions.single_file import SingleFileSnapshotExtension, WriteMode
+    from syrupy.terminal import disable_color
 except ImportError:  # pragma: no cover - syrupy is a test extra
-    JSONSnapshotExtension = None
+    JSONSnapshotExtension = SingleFileSnapshotExtension = None  # type: ignore[assignment,misc]
+
+SUFFIXES = (".yaml", ".yml")
 
 
 def golden_dir(test_file: str | Path) -> Path:
@@ -29,6 +57,22 @@ def golden_dir(test_file: str | Path) -> Path:
     return start / "golden"
 
 
+def scenario_golden_path(scenario: str | Path) -> Path:
+    """Where a scenario file's golden snapshot lives: ``golden/`` (see :func:`golden_dir`),
+    then the scenario's folder relative to the project root, then its stem and ``.json``.
+
+    >>> str(scenario_golden_path("scenarios/hard/tall_100.yaml").relative_to(Path.cwd()))
+    'golden/scenarios/hard/tall_100.json'
+    """
+    path = Path(scenario).resolve()
+    golden = golden_dir(path)
+    try:
+        folder = path.parent.relative_to(golden.parent)
+    except ValueError:  # a scenario outside the project: beside the project's goldens
+        folder = Path(path.parent.name)
+    return golden / folder / f"{path.stem}.json"
+
+
 def round_floats(data: Any, path: Any) -> Any:
     """syrupy matcher: floats to 6 decimals, so that last-bit noise never shows as a diff.
 
@@ -37,19 +81,125 @@ def round_floats(data: Any, path: Any) -> Any:
     return round(data, 6) + 0.0 if isinstance(data, float) else data
 
 
-if JSONSnapshotExtension is not None:
+def pytest_addoption(parser: pytest.Parser) -> None:
+    parser.addini(
+        "stackdsl_paths",
+        type="linelist",
+        default=["scenarios"],
+        help="folders (relative to the rootdir) whose *.yaml files are stackdsl scenario tests",
+    )
+
+
+def pytest_collect_file(file_path: Path, parent: pytest.Collector) -> pytest.Collector | None:
+    """Collect a YAML file below one of the configured scenario folders."""
+    if file_path.suffix not in SUFFIXES:
+        return None
+    config = parent.config
+    roots = [(config.rootpath / p).resolve() for p in config.getini("stackdsl_paths")]
+    here = file_path.resolve()
+    if any(here.is_relative_to(root) for root in roots):
+        return ScenarioFile.from_parent(parent, path=file_path)
+    return None
+
+
+class ScenarioFile(pytest.File):
+    """A scenario file: one test item, named after the file."""
+
+    def collect(self) -> Iterator[pytest.Item]:
+        yield pytest.Function.from_parent(self, name=self.path.stem, callobj=_scenario_test)
+
+
+def _scenario_test(request: pytest.FixtureRequest, scenario_golden: Any) -> None:
+    """Run one scenario file: expectations first, then the golden snapshot."""
+    path = Path(request.node.path)
+    try:
+        scenario = load_scenario(path)
+        program = compile_scenario(scenario)
+    except ScenarioError as exc:
+        pytest.fail(str(exc), pytrace=False)
+    outcome = run_program(program)
+    verdicts = evaluate(scenario.expect, outcome, program.collapse_threshold)
+    failed = [v for v in verdicts if not v.passed]
+    if failed:
+        lines = [f"{path.name}: expected {v.expected}, measured {v.measured}" for v in failed]
+        lines += _explain(scenario.expect, outcome, program.collapse_threshold)
+        lines.append(f"more: stackdsl run {_relative(path, request.config.rootpath)}")
+        pytest.fail("\n".join(lines), pytrace=False)
+    if not scenario_golden == outcome.golden():
+        with disable_color():  # plain text: the message also goes to JUnit XML and CI logs
+            diff = scenario_golden.get_assert_diff()
+        pytest.fail(
+            "\n".join(
+                [f"{path.name}: the outcome differs from {_relative(scenario_golden_path(path), request.config.rootpath)}", *diff]
+            ),
+            pytrace=False,
+        )
+
+
+def _explain(expect: Any, outcome: Any, threshold: float) -> list[str]:
+    """Which brick moved, how far, when: from ``stackdsl._expect.explain`` when it exists."""
+    from . import _expect
+
+    explain = getattr(_expect, "explain", None)
+    return list(explain(expect, outcome, threshold)) if explain else []
+
+
+def _relative(path: Path, root: Path) -> str:
+    try:
+        return os.path.relpath(path, root)
+    except ValueError:  # another drive
+        return str(path)
+
+
+if SingleFileSnapshotExtension is not None:
 
     class GoldenSnapshotExtension(JSONSnapshotExtension):
         """syrupy JSON snapshots in the project's top-level ``golden/`` folder."""
 
         @classmethod
-        def dirname(cls, *, test_location) -> str:
+        def dirname(cls, *, test_location: Any) -> str:
             return str(golden_dir(test_location.filepath))
+
+    class ScenarioSnapshotExtension(SingleFileSnapshotExtension):
+        """A scenario's golden snapshot: ``golden/<folder>/<file stem>.json``, mirroring the
+        scenario's place below the project root, written one brick per line
+        (:func:`stackdsl._snapshot.dumps`); a failing comparison starts with a per-brick
+        summary (:func:`stackdsl._snapshot.summarize`)."""
+
+        file_extension = "json"
+        _write_mode = WriteMode.TEXT
+
+        @classmethod
+        def dirname(cls, *, test_location: Any) -> str:
+            return str(scenario_golden_path(test_location.filepath).parent)
+
+        @classmethod
+        def get_snapshot_name(cls, *, test_location: Any, index: Any = 0) -> str:
+            return Path(test_location.filepath).stem
+
+        def serialize(self, data: Any, **kwargs: Any) -> str:
+            return dumps(data) + "\n"
+
+        def diff_lines(self, serialized_data: Any, snapshot_data: Any) -> Iterator[str]:
+            summary = summarize(str(snapshot_data), str(serialized_data))
+            if summary:
+                yield "what changed (stored -> this run):"
+                yield from (f"  {line}" for line in summary)
+                yield "the snapshot's diff:"
+            yield from super().diff_lines(serialized_data, snapshot_data)
 
 
 @pytest.fixture
-def golden(snapshot):
+def golden(snapshot: Any) -> Any:
     """A syrupy snapshot assertion that stores JSON under ``golden/`` with floats rounded."""
     if JSONSnapshotExtension is None:  # pragma: no cover
         pytest.fail("the golden fixture needs syrupy: pip install 'stackdsl[test]'")
     return snapshot.with_defaults(extension_class=GoldenSnapshotExtension, matcher=round_floats)
+
+
+@pytest.fixture
+def scenario_golden(snapshot: Any) -> Any:
+    """The snapshot assertion of a scenario file's test item (see the module docstring)."""
+    if SingleFileSnapshotExtension is None:  # pragma: no cover
+        pytest.fail("scenario snapshots need syrupy: pip install 'stackdsl[test]'")
+    return snapshot.with_defaults(extension_class=ScenarioSnapshotExtension)

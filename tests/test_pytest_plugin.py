@@ -1,0 +1,124 @@
+"""Scenario files as pytest items: collection, expectations, golden snapshots, pytest's own flags.
+
+Each test builds a small project of its own (pyproject.toml, scenarios/, golden/) and runs
+pytest in it, as a user would.
+"""
+
+import json
+import xml.etree.ElementTree as ET
+
+import pytest
+
+pytest_plugins = ["pytester"]
+
+TWO_BRICKS = """\
+stackdsl: 1
+structure:
+  bricks:
+    - {{id: base, at: [0, 0, 4 mm]}}
+    - {{id: top, at: [{x}, 0, 12 mm], yaw: 90}}
+timing: {{settle: 0.5 s}}
+expect: {{stands: true}}
+"""
+TOWER = "stackdsl: 1\nstructure: {tower: {levels: 2}}\ntiming: {settle: 0.5 s}\nexpect: {stands: true}\n"
+
+
+@pytest.fixture
+def project(pytester):
+    pytester.makefile(".toml", pyproject="[tool.pytest.ini_options]\nstackdsl_paths = ['scenarios']\n")
+    pytester.mkdir("scenarios")
+    return pytester
+
+
+def write(pytester, name: str, text: str) -> None:
+    (pytester.path / "scenarios" / f"{name}.yaml").write_text(text)
+
+
+def test_each_scenario_file_is_one_item_named_after_it(project):
+    write(project, "two", TWO_BRICKS.format(x="0 mm"))
+    write(project, "tower", TOWER)
+    (project.path / "notes.yaml").write_text("not: a scenario\n")  # outside the scenario folders
+    result = project.runpytest("--collect-only", "-q")
+    assert sorted(line for line in result.outlines if "::" in line) == [
+        "scenarios/tower.yaml::tower",
+        "scenarios/two.yaml::two",
+    ]
+
+
+def test_golden_written_on_update_then_matched(project):
+    write(project, "two", TWO_BRICKS.format(x="0 mm"))
+    project.runpytest("--snapshot-update").assert_outcomes(passed=1)
+    stored = project.path / "golden" / "scenarios" / "two.json"
+    data = json.loads(stored.read_text())
+    assert set(data["final_graph"]) == {"base", "top"}
+    assert data["final_graph"]["top"]["rests_on"] == {"base": pytest.approx(data["final_graph"]["top"]["rests_on"]["base"])}
+    assert [line.strip()[:7] for line in stored.read_text().splitlines() if '"state"' in line] == ['"base":', '"top": ']
+    project.runpytest().assert_outcomes(passed=1)
+
+
+def test_a_moved_brick_is_named_in_the_failure(project):
+    write(project, "two", TWO_BRICKS.format(x="0 mm"))
+    project.runpytest("--snapshot-update").assert_outcomes(passed=1)
+    write(project, "two", TWO_BRICKS.format(x="5 mm"))
+    result = project.runpytest()
+    result.assert_outcomes(failed=1)
+    out = result.stdout.str()
+    summary = out.index("what changed (stored -> this run):")
+    assert "final_graph top: x 0.0 -> 5.0 mm;" in out[summary:]
+    assert "final_graph base: com_above_mm" in out[summary:]  # the base did not move; the load on it did
+    assert "\x1b[" not in out  # plain text, also in JUnit XML
+    diff = out[out.index("the snapshot's diff:") :].splitlines()
+    assert [line[:12] for line in diff if line.startswith(("- ", "+ "))] == [
+        '-     "base"',
+        '+     "base"',
+        '-     "top":',
+        '+     "top":',
+    ]
+
+
+def test_a_failed_expectation_fails_the_item_with_the_verdict(project):
+    write(project, "tower", TOWER.replace("{stands: true}", "{collapse: 2}"))
+    result = project.runpytest("--snapshot-update")
+    result.assert_outcomes(failed=1)
+    assert "tower.yaml: expected collapse 2, measured stands" in result.stdout.str()
+    assert "stackdsl run scenarios/tower.yaml" in result.stdout.str()
+    assert not (project.path / "golden" / "scenarios" / "tower.json").exists()
+
+
+def test_a_bad_file_fails_with_file_line_col_and_no_traceback(project):
+    write(project, "bad", "stackdsl: 1\nstructure:\n  tower: {levles: 2}\n")
+    result = project.runpytest()
+    result.assert_outcomes(failed=1)
+    out = result.stdout.str()
+    assert "bad.yaml:3:11: structure.tower.levles: unknown key 'levles'; did you mean 'levels'?" in out
+    assert "Traceback" not in out and "def _scenario_test" not in out
+
+
+def test_k_x_lf_and_junit_xml_work_on_scenario_items(project):
+    write(project, "good", TOWER)
+    write(project, "wrong", TOWER.replace("{stands: true}", "{collapse: 2}"))
+    project.runpytest("--snapshot-update", "-k", "good").assert_outcomes(passed=1, deselected=1)
+    project.runpytest("-x").assert_outcomes(passed=1, failed=1)  # good runs first, wrong stops the run
+    project.runpytest("--lf").assert_outcomes(failed=1)  # only the failed one runs again
+    project.runpytest("--junit-xml=report.xml")
+    cases = ET.parse(project.path / "report.xml").getroot().iter("testcase")
+    assert {c.get("name"): c.find("failure") is not None for c in cases} == {"good": False, "wrong": True}
+
+
+def test_other_configured_folders_are_collected(pytester):
+    pytester.makefile(".toml", pyproject="[tool.pytest.ini_options]\nstackdsl_paths = ['lab/stacks']\n")
+    (pytester.path / "lab" / "stacks").mkdir(parents=True)
+    (pytester.path / "scenarios").mkdir()
+    (pytester.path / "lab" / "stacks" / "t.yaml").write_text(TOWER)
+    (pytester.path / "scenarios" / "ignored.yaml").write_text(TOWER)
+    result = pytester.runpytest("--snapshot-update")
+    result.assert_outcomes(passed=1)
+    assert (pytester.path / "golden" / "lab" / "stacks" / "t.json").is_file()
+
+
+def test_xdist_runs_scenario_items(project):
+    pytest.importorskip("xdist")
+    for name in ("a", "b"):
+        write(project, name, TOWER)
+    project.runpytest("--snapshot-update").assert_outcomes(passed=2)
+    project.runpytest("-n", "2").assert_outcomes(passed=2)

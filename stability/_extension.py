@@ -456,7 +456,7 @@ class StabilityExtension:
         now lean on those alone, so the test is repeated with their load on them
         (co-support re-test). Without it a tower whose two sibling bricks carry it
         together stays pinned by the sibling that did not fail first (measured on the
-        slant tower, README design notes).
+        slant tower; docs/design.md, where the code departs from the report).
         """
         events: list[StabilityEvent] = []
         gave_way: set[int] = set()

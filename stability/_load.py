@@ -11,7 +11,7 @@ share a brick A passes to one of its supports b follows the report:
 * A rests on exactly two supports: the torque split of equations 3 to 11;
 * A rests on more than two: equal shares (merging branching, second case).
 
-Departure from the report (see README, design notes): equation 10 adds the equivalent
+Departure from the report (see docs/design.md, where the code departs from the report): equation 10 adds the equivalent
 mass at A's centre of mass above. Taken literally every lower brick of a 4 stack fails
 at level 2 (A's centre lies between its two supports, outside each of them). stackdsl
 applies each merging share at a point of the A-b contact area, chosen so that the

@@ -5,7 +5,7 @@ before any simulation. Runs are farmed out through ``concurrent.futures.Executor
 in-process for one job, a spawn process pool otherwise (each worker creates its own
 pybullet client; clients do not survive pickling).
 
-Source: stackdsl's own (DESIGN.md, conventions: fan-out).
+Source: stackdsl's own (docs/design.md, data flow: check).
 """
 
 from __future__ import annotations

@@ -21,7 +21,7 @@ from ._program import BrickSpec, End, EngineSettings, Fixture, Launch, Place, Pr
 from ._schema import MAX_SIMULATED_TIME, SIDES, AfterLevel, Impact, Scenario
 
 #: Engine defaults per mode. ``raw`` is pybullet's own (240 Hz, 50 iterations);
-#: ``tuned`` is the most accurate setting measured for small bricks (DESIGN.md:
+#: ``tuned`` is the most accurate setting measured for small bricks (docs/design.md, modes:
 #: maximal coordinates, 1 ms, 150 iterations, friction anchors); ``extension`` is the
 #: report's set-up, the stability extension on the unmodified engine.
 MODE_DEFAULTS = {
@@ -116,7 +116,7 @@ def compile_scenario(scenario: Scenario, mode: str | None = None, model: str | N
 def _rules(bricks: list[_Brick], launches: list[Launch]) -> tuple[Rule, ...]:
     """The extension's rules this scene needs: leaning only if a brick does not lie flat or
     something is thrown (it may come to rest leaning), impacts only if something is thrown
-    (DESIGN.md: model only what a scene needs)."""
+    (docs/design.md: what the compiler switches on)."""
     tilted = [b.id for b in bricks if not _lies_flat(b)]
     listed = ", ".join(tilted[:4]) + (f" and {len(tilted) - 4} more" if len(tilted) > 4 else "")
     lean = (

@@ -1,6 +1,6 @@
 """Outcome + expectations -> verdicts.
 
-Source: stackdsl's own (DESIGN.md: collapse level, "stands").
+Source: stackdsl's own (docs/design.md, words: collapse level).
 """
 
 from __future__ import annotations

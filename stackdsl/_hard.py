@@ -1,4 +1,4 @@
-"""Hard-case measurements: the numbers behind the README's hard-case section.
+"""Hard-case measurements: the numbers behind docs/results.md, "Hard cases".
 
 ``stackdsl bench hard`` prints three tables, each the extension beside pybullet alone:
 

@@ -3,7 +3,7 @@
 Everything here is SI (metres, seconds, kilograms, m/s), angles in degrees. Every
 action carries the physics step it happens at; its time is that step times the timestep.
 
-Source: DESIGN.md (data flow: Scenario -> Program).
+Source: stackdsl's own (docs/design.md, data flow).
 """
 
 from __future__ import annotations

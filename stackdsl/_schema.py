@@ -5,7 +5,7 @@ Units: every length, time and speed may be written with a unit ("120 mm", "1 s",
 built-in material ``pine`` and brick type ``kapla`` (120 x 24 x 8 mm, 460 kg/m^3,
 friction coefficient 0.5) can be used without being declared.
 
-Source: DESIGN.md (KAPLA constants, words); report 3.2 and chapter 4.
+Source: stackdsl's own (docs/design.md, words); report 3.2 and chapter 4.
 """
 
 from __future__ import annotations
@@ -223,7 +223,7 @@ def _timestep(value: float) -> float:
 class Engine(_Model):
     """The physics engine: ``mode`` (raw, tuned, extension) picks the defaults of the rest.
     ``timestep`` is at most 10 ms: the capability scenarios give the same answers from
-    1/100 s to 1/2000 s and different ones beyond (README, hard cases)."""
+    1/100 s to 1/2000 s and different ones beyond (docs/results.md, hard cases)."""
 
     mode: Literal["raw", "tuned", "extension"] = "extension"
     timestep: Annotated[Time, Field(ge=1e-5), AfterValidator(_timestep)] | None = None

@@ -45,7 +45,7 @@ def tower(levels: int, spacing_mm: float, shift_mm: float):
 
 @pytest.mark.parametrize("spacing, shift, level", [(70, 12.9, 9), (96, 8, 15)])
 def test_slant_towers_collapse_where_the_closed_form_says(spacing, shift, level):
-    # closed forms: 1 + ceil((d + 24) / s) for spacing d < 96; ceil(120 / s) at 96 (README)
+    # closed forms: 1 + ceil((d + 24) / s) for spacing d < 96; ceil(120 / s) at 96 (stackdsl's own)
     assert equilibrium_collapse(tower(level + 2, spacing, shift)).collapse_level == level
 
 

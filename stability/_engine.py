@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 import numpy as np
+import numpy.typing as npt
 
 from ._geometry import Pose
 
@@ -74,7 +75,7 @@ class PyBulletEngine:
     Freezing sets the mass to 0 after zeroing the velocities: a body made static while
     moving keeps its velocity in pybullet. Restoring the mass restores the inertia.
     pybullet reports no contacts between two static bodies, which is why the extension
-    keeps its own contact graph. Source: DESIGN.md, pybullet facts (3.2.7).
+    keeps its own contact graph. Source: stackdsl's own, measured with pybullet 3.2.7.
     """
 
     def __init__(self, client: Any) -> None:
@@ -141,7 +142,7 @@ class FakeEngine:
     frozen: set[int] = field(default_factory=set)
     timestep: float = 1 / 240
 
-    def touch(self, body: int, other: int, points, normal, force: float = 0.0) -> None:
+    def touch(self, body: int, other: int, points: npt.ArrayLike, normal: npt.ArrayLike, force: float = 0.0) -> None:
         """Add contact points between ``body`` and ``other``; ``normal`` points into ``body``."""
         n = np.asarray(normal, dtype=float)
         n = n / np.linalg.norm(n)

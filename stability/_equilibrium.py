@@ -30,12 +30,15 @@ from __future__ import annotations
 import math
 from collections.abc import Hashable, Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Generic, TypeVar
 
 import numpy as np
 from scipy import sparse
 from scipy.optimize import linprog
 
 GRAVITY = 9.81
+
+BodyKey = TypeVar("BodyKey", bound=Hashable)  # how the caller names bodies (pybullet ids, labels)
 
 
 @dataclass(frozen=True)
@@ -47,7 +50,7 @@ class RigidBlock:
 
 
 @dataclass(frozen=True)
-class ContactPolygon:
+class ContactPolygon(Generic[BodyKey]):
     """A contact polygon between ``body`` and ``other``.
 
     Attributes:
@@ -58,15 +61,15 @@ class ContactPolygon:
         friction: Coulomb coefficient of the pair.
     """
 
-    body: Hashable
-    other: Hashable
+    body: BodyKey
+    other: BodyKey
     points: np.ndarray
     normal: np.ndarray
     friction: float
 
 
 @dataclass(frozen=True)
-class Equilibrium:
+class Equilibrium(Generic[BodyKey]):
     """The answer of :func:`solve`.
 
     Attributes:
@@ -87,19 +90,19 @@ class Equilibrium:
     stands: bool
     tension: float
     forces: tuple[np.ndarray, ...]
-    tension_by_body: dict
+    tension_by_body: dict[BodyKey, float]
     contact_tension: tuple[float, ...] = ()
-    mechanism: dict = field(default_factory=dict)
+    mechanism: dict[BodyKey, float] = field(default_factory=dict)
 
 
 def solve_equilibrium(
-    blocks: Mapping[Hashable, RigidBlock],
-    contacts: Sequence[ContactPolygon],
+    blocks: Mapping[BodyKey, RigidBlock],
+    contacts: Sequence[ContactPolygon[BodyKey]],
     *,
     sides: int = 8,
     gravity: float = GRAVITY,
     quick: bool = True,
-) -> Equilibrium:
+) -> Equilibrium[BodyKey]:
     """Do forces exist that hold every free block in ``blocks`` still?
 
     Args:
@@ -124,15 +127,20 @@ def solve_equilibrium(
     if sides < 3:
         raise ValueError("the friction pyramid needs at least 3 sides")
     if quick and contacts and all(_level(c, sides) for c in contacts):
-        quick = _solve_vertical(blocks, contacts, gravity)
-        if quick is not None:
-            return quick
+        vertical = _solve_vertical(blocks, contacts, gravity)
+        if vertical is not None:
+            return vertical
     keys = list(blocks)
     index = {k: i for i, k in enumerate(keys)}
     weight = max((b.mass for b in blocks.values()), default=1.0) * gravity or 1.0
     scale = 0.1  # metres: lever arms in units of 10 cm keep the rows comparable
     per_point = 2 + sides  # normal, tension, friction weights
-    eq_rows, eq_cols, eq_vals, ub_rows, ub_cols, ub_vals = [], [], [], [], [], []
+    eq_rows: list[np.ndarray] = []
+    eq_cols: list[np.ndarray] = []
+    eq_vals: list[np.ndarray] = []
+    ub_rows: list[np.ndarray] = []
+    ub_cols: list[np.ndarray] = []
+    ub_vals: list[np.ndarray] = []
     col = n_ub = 0
     for contact in contacts:
         points = np.asarray(contact.points, dtype=float).reshape(-1, 3)
@@ -167,14 +175,11 @@ def solve_equilibrium(
     columns = col
     cost = np.zeros(columns)
     cost[1::per_point] = 1.0  # the tension of every point
-    cat = lambda parts: np.concatenate(parts) if parts else np.zeros(0)  # noqa: E731
-    eq_rows, eq_cols, eq_vals = cat(eq_rows), cat(eq_cols), cat(eq_vals)
-    ub_rows, ub_cols, ub_vals = cat(ub_rows), cat(ub_cols), cat(ub_vals)
     rhs = np.zeros(6 * len(keys))
-    for k, b in blocks.items():
-        rhs[6 * index[k] + 2] = b.mass * gravity / weight
-    a_eq = sparse.csr_matrix((eq_vals, (eq_rows, eq_cols)), shape=(6 * len(keys), columns))
-    a_ub = sparse.csr_matrix((ub_vals, (ub_rows, ub_cols)), shape=(n_ub, columns)) if n_ub else None
+    for key, block in blocks.items():
+        rhs[6 * index[key] + 2] = block.mass * gravity / weight
+    a_eq = sparse.csr_matrix((_cat(eq_vals), (_cat(eq_rows), _cat(eq_cols))), shape=(6 * len(keys), columns))
+    a_ub = sparse.csr_matrix((_cat(ub_vals), (_cat(ub_rows), _cat(ub_cols))), shape=(n_ub, columns)) if n_ub else None
     result = linprog(
         cost, A_ub=a_ub, b_ub=np.zeros(n_ub) if n_ub else None, A_eq=a_eq, b_eq=rhs, bounds=(0, None), method="highs"
     )
@@ -188,18 +193,23 @@ def solve_equilibrium(
     return Equilibrium(stands, tension, forces, by_body, by_contact, mechanism)
 
 
-def _level(contact: ContactPolygon, sides: int) -> bool:
+def _cat(parts: list[np.ndarray]) -> np.ndarray:
+    """The parts end to end; an empty array when there are none."""
+    return np.concatenate(parts) if parts else np.zeros(0)
+
+
+def _level(contact: ContactPolygon[BodyKey], sides: int) -> bool:
     """A contact so near horizontal that friction absorbs its normal's sideways part:
     tan(tilt) <= mu cos(pi / sides) (the inscribed pyramid's reach)."""
     normal = np.asarray(contact.normal, dtype=float)
     cos = abs(normal[2]) / np.linalg.norm(normal)
     tan = math.sqrt(max(1.0 - cos * cos, 0.0)) / max(cos, 1e-12)
-    return normal[2] > 0 and tan <= contact.friction * math.cos(math.pi / sides)
+    return bool(normal[2] > 0) and tan <= contact.friction * math.cos(math.pi / sides)
 
 
 def _solve_vertical(
-    blocks: Mapping[Hashable, RigidBlock], contacts: Sequence[ContactPolygon], gravity: float
-) -> Equilibrium | None:
+    blocks: Mapping[BodyKey, RigidBlock], contacts: Sequence[ContactPolygon[BodyKey]], gravity: float
+) -> Equilibrium[BodyKey] | None:
     """Balance by vertical compressive forces alone: a fast sufficient test.
 
     For contacts that are all (nearly) level, a balance of vertical forces extends to a
@@ -211,7 +221,10 @@ def _solve_vertical(
     keys = list(blocks)
     index = {k: i for i, k in enumerate(keys)}
     weight = max((b.mass for b in blocks.values()), default=1.0) * gravity or 1.0
-    rows, cols, vals, col = [], [], [], 0
+    rows: list[np.ndarray] = []
+    cols: list[np.ndarray] = []
+    vals: list[np.ndarray] = []
+    col = 0
     for contact in contacts:
         points = np.asarray(contact.points, dtype=float).reshape(-1, 3)
         k = len(points)
@@ -225,13 +238,14 @@ def _solve_vertical(
             vals += [np.full(k, side), side * lever[:, 1], -side * lever[:, 0]]  # Fz, Mx = y Fz, My = -x Fz
         col += k
     rhs = np.zeros(3 * len(keys))
-    for k, b in blocks.items():
-        rhs[3 * index[k]] = b.mass * gravity / weight
+    for key, block in blocks.items():
+        rhs[3 * index[key]] = block.mass * gravity / weight
     a_eq = sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(3 * len(keys), col))
     result = linprog(np.zeros(col), A_eq=a_eq, b_eq=rhs, bounds=(0, None), method="highs")
     if result.status != 0:
         return None
-    forces, at = [], 0
+    forces: list[np.ndarray] = []
+    at = 0
     for contact in contacts:
         k = len(np.asarray(contact.points).reshape(-1, 3))
         forces.append(np.column_stack([np.zeros(k), np.zeros(k), result.x[at : at + k] * weight]))
@@ -239,7 +253,7 @@ def _solve_vertical(
     return Equilibrium(True, 0.0, tuple(forces), {k: 0.0 for k in keys}, tuple(0.0 for _ in contacts), {})
 
 
-def _mechanism(duals: np.ndarray, keys: list) -> dict:
+def _mechanism(duals: np.ndarray, keys: list[BodyKey]) -> dict[BodyKey, float]:
     """Relative virtual-velocity magnitude of every block from the equilibrium rows' duals."""
     magnitude = np.linalg.norm(np.asarray(duals).reshape(-1, 6), axis=1)
     top = magnitude.max()
@@ -256,13 +270,19 @@ def _tangents(normal: np.ndarray, sides: int) -> np.ndarray:
     first /= np.linalg.norm(first)
     second = np.cross(normal, first)
     angles = 2 * np.pi * np.arange(sides) / sides
-    return np.cos(angles)[:, None] * first + np.sin(angles)[:, None] * second
+    tangents: np.ndarray = np.cos(angles)[:, None] * first + np.sin(angles)[:, None] * second
+    return tangents
 
 
 def _forces(
-    x: np.ndarray, contacts: Sequence[ContactPolygon], sides: int, per_point: int, keys: list
-) -> tuple[tuple[np.ndarray, ...], dict, tuple[float, ...]]:
-    forces, by_body, by_contact, col = [], {k: 0.0 for k in keys}, [], 0
+    x: np.ndarray, contacts: Sequence[ContactPolygon[BodyKey]], sides: int, per_point: int, keys: list[BodyKey]
+) -> tuple[tuple[np.ndarray, ...], dict[BodyKey, float], tuple[float, ...]]:
+    """Per contact the force at each vertex (shape (k, 3), newtons) from the program's
+    solution ``x`` (newtons), the tension by free block and the tension by contact."""
+    forces: list[np.ndarray] = []
+    by_body: dict[BodyKey, float] = {k: 0.0 for k in keys}
+    by_contact: list[float] = []
+    col = 0
     for contact in contacts:
         normal = np.asarray(contact.normal, dtype=float)
         normal = normal / np.linalg.norm(normal)

@@ -26,9 +26,10 @@ from __future__ import annotations
 import itertools
 import math
 from collections import defaultdict
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
+from collections.abc import Set as AbstractSet
 from dataclasses import dataclass, field, replace
-from typing import NamedTuple
+from typing import Literal, NamedTuple
 
 import numpy as np
 from shapely.geometry import Point
@@ -106,7 +107,7 @@ class StabilityEvent:
     the impactor of an impact or of the wake it caused."""
 
     time: float
-    kind: str
+    kind: Literal["freeze", "wake", "impact"]
     label: str
     reason: str
     source: str = ""
@@ -117,7 +118,7 @@ class _Woken(NamedTuple):
 
     body: int
     node: LoadNode
-    contacts: list[ContactPolygon]
+    contacts: list[ContactPolygon[int]]
     event: StabilityEvent
 
 
@@ -133,7 +134,7 @@ class _Body:
     friction: float
     rests_on: dict[int, ContactArea] = field(default_factory=dict)
     main_contact: ContactArea | None = None
-    contacts: list[ContactPolygon] = field(default_factory=list)
+    contacts: list[ContactPolygon[int]] = field(default_factory=list)
     objects_above: set[int] = field(default_factory=set)
     com_above: tuple[float, float, float] | None = None
     mass_above: float = 0.0
@@ -141,6 +142,13 @@ class _Body:
     frozen_pose: Pose | None = None
     node: LoadNode | None = None
     impacted: set[int] = field(default_factory=set)
+
+    @property
+    def box(self) -> Box:
+        """The shape of a brick: only environment bodies may be planes. Raises TypeError for a plane."""
+        if not isinstance(self.shape, Box):
+            raise TypeError(f"{self.label} is a plane, not a brick")
+        return self.shape
 
 
 class StabilityExtension:
@@ -276,7 +284,7 @@ class StabilityExtension:
         polygons = {
             m.body: self._polygons(m, self._touching(m, contacts), skip={g.body for g in group[:i]}) for i, m in enumerate(group)
         }
-        members = {m.body: (self._engine.pose(m.body).position, m.shape.mass) for m in group}
+        members = {m.body: (self._engine.pose(m.body).position, m.box.mass) for m in group}
         if not leaning_stands(members, [c for cs in polygons.values() for c in cs], self.config.gravity):
             return []
         return self._freeze_group(group, polygons, self._touching(rec, contacts), time)
@@ -302,7 +310,11 @@ class StabilityExtension:
         return [rec, partner]
 
     def _freeze_group(
-        self, group: list[_Body], polygons: dict[int, list[ContactPolygon]], touching: dict, time: float
+        self,
+        group: list[_Body],
+        polygons: dict[int, list[ContactPolygon[int]]],
+        touching: dict[int, list[ContactPoint]],
+        time: float,
     ) -> list[StabilityEvent]:
         """Freeze the members of an admitted group; partners wake together."""
         rec, members, events = group[0], {m.body for m in group}, []
@@ -352,9 +364,9 @@ class StabilityExtension:
         self,
         rec: _Body,
         touching: dict[int, list[ContactPoint]],
-        skip: set[int] = frozenset(),
+        skip: AbstractSet[int] = frozenset(),
         known: dict[int, ContactArea] | None = None,
-    ) -> list[ContactPolygon]:
+    ) -> list[ContactPolygon[int]]:
         """One contact polygon per touched body (report 3.4.2): the exact face overlap where
         ``rec`` lies face to face on it, else the contact points padded across the normal.
         ``known``: contact areas already found for some of these bodies (from :meth:`_supports`)."""
@@ -370,7 +382,7 @@ class StabilityExtension:
                 exact = known[other] if known[other].exact else None
             else:
                 exact = face_overlap(
-                    rec.shape, pose, o.shape, None if isinstance(o.shape, Plane) else self._pose(o), self.config.face_gap
+                    rec.box, pose, o.shape, None if isinstance(o.shape, Plane) else self._pose(o), self.config.face_gap
                 )
             if exact is not None:
                 ring = np.asarray(exact.polygon.exterior.coords)[:-1]
@@ -383,18 +395,20 @@ class StabilityExtension:
             out.append(ContactPolygon(rec.body, other, polygon, normal, friction))
         return out
 
-    def _holds(self, main: ContactArea, point) -> bool:
+    def _holds(self, main: ContactArea, point: Sequence[float] | np.ndarray) -> bool:
         """Centre of mass over the main contact area (by ``com_margin`` when it is set)."""
         if self.config.com_margin > 0:
             return contains(main.polygon, point, self.config.com_margin)
         return main.holds(float(point[0]), float(point[1]))
 
-    def _freeze(self, rec: _Body, supports: dict[int, ContactArea], main: ContactArea, polygons: list[ContactPolygon]) -> None:
-        self._engine.set_frozen(rec.body, True, rec.shape.mass)
+    def _freeze(
+        self, rec: _Body, supports: dict[int, ContactArea], main: ContactArea, polygons: list[ContactPolygon[int]]
+    ) -> None:
+        self._engine.set_frozen(rec.body, True, rec.box.mass)
         rec.state, rec.rests_on, rec.main_contact, rec.contacts = BrickState.FROZEN, supports, main, polygons
         self._active.pop(rec.body, None)
         rec.frozen_pose = self._engine.pose(rec.body)
-        rec.node = LoadNode(rec.shape.mass, rec.frozen_pose.position, supports)
+        rec.node = LoadNode(rec.box.mass, rec.frozen_pose.position, supports)
         self._stack[rec.body] = rec
         for s in supports:
             self._bodies[s].objects_above.add(rec.body)
@@ -438,7 +452,7 @@ class StabilityExtension:
             touched = {c.body for c in polygons} | {c.other for c in polygons}
             moving = {b for b in frozen if b not in touched}  # rests on nothing that stays
             if not moving:
-                blocks = {b: RigidBlock(r.shape.mass, r.frozen_pose.position) for b, r in frozen.items()}
+                blocks = {b: RigidBlock(r.box.mass, self._pose(r).position) for b, r in frozen.items()}
                 result = solve_equilibrium(blocks, polygons, gravity=self.config.gravity)
                 if result.stands:
                     return events
@@ -471,6 +485,7 @@ class StabilityExtension:
             failing = []
             for rec in self._frozen():
                 rec.com_above, rec.mass_above = loads[rec.body][0], loads[rec.body][1]
+                assert rec.main_contact is not None, "a frozen brick has a main contact area"
                 if not self._holds(rec.main_contact, rec.com_above):
                     failing.append(rec)
             if not failing:
@@ -479,6 +494,7 @@ class StabilityExtension:
                 if rec.state is not BrickState.FROZEN:  # woken already, resting on one that failed
                     continue
                 gave_way.add(rec.body)
+                assert rec.main_contact is not None and rec.com_above is not None, "set for every frozen brick above"
                 out = rec.main_contact.polygon.exterior.distance(Point(rec.com_above[:2])) * 1000
                 for w in self._wake(rec.body, time, f"centre of mass above {out:.1f} mm outside its support"):
                     events.append(w.event)
@@ -486,7 +502,7 @@ class StabilityExtension:
                         leaning[w.body] = w.node
 
     def _nodes(self, bricks: Iterable[_Body]) -> dict[int, LoadNode]:
-        return {r.body: r.node or LoadNode(r.shape.mass, self._pose(r).position, r.rests_on) for r in bricks}
+        return {r.body: r.node or LoadNode(r.box.mass, self._pose(r).position, r.rests_on) for r in bricks}
 
     def _frozen(self) -> list[_Body]:
         """The frozen bricks, in the order they froze (each after its supports)."""
@@ -509,8 +525,9 @@ class StabilityExtension:
                 if not _ahead(hit, heading, self.config.contact_pad):
                     continue
                 rec.impacted.add(other.body)
-                kinetic = kinetic_energy(rec.shape.mass, speed)
+                kinetic = kinetic_energy(rec.box.mass, speed)
                 base = min(a.height for a in other.rests_on.values())
+                assert other.com_above is not None, "the stack test sets it for every frozen brick"
                 potential = potential_energy(other.mass_above, other.com_above[2], base, self.config.gravity)
                 detail = f"impact of {rec.label} at {speed:.2f} m/s: {kinetic * 1000:.3g} mJ against {potential * 1000:.3g} mJ"
                 if breaks_loose(kinetic, potential):
@@ -534,7 +551,8 @@ class StabilityExtension:
         if rec.state is not BrickState.FROZEN:
             return []
         node = rec.node
-        self._engine.set_frozen(body, False, rec.shape.mass)
+        assert node is not None, "a frozen brick has a load node"
+        self._engine.set_frozen(body, False, rec.box.mass)
         rec.state, rec.rest_since, rec.frozen_pose, rec.node = BrickState.ACTIVE, None, None, None
         self._active[body] = rec
         del self._stack[body]
@@ -565,7 +583,7 @@ class StabilityExtension:
 
     def _contact_area(self, rec: _Body, other: _Body, points: list[ContactPoint]) -> ContactArea:
         other_pose = None if isinstance(other.shape, Plane) else self._pose(other)
-        exact = face_overlap(rec.shape, self._engine.pose(rec.body), other.shape, other_pose, self.config.face_gap)
+        exact = face_overlap(rec.box, self._engine.pose(rec.body), other.shape, other_pose, self.config.face_gap)
         if exact is not None:
             return exact
         xyz = np.array([c.position for c in points])
@@ -588,7 +606,7 @@ class StabilityExtension:
         nodes = self._nodes(bricks)
         for r in bricks:
             if r.state is BrickState.ACTIVE:
-                nodes[r.body] = LoadNode(r.shape.mass, self._pose(r).position, self._supports(r, contacts.get(r.body, []), False))
+                nodes[r.body] = LoadNode(r.box.mass, self._pose(r).position, self._supports(r, contacts.get(r.body, []), False))
         loads = propagate(nodes)
         graph_nodes, edges = [], []
         for rec in self._bodies.values():
@@ -596,7 +614,9 @@ class StabilityExtension:
             load = loads.get(rec.body)
             com = load.com_above if load else pose.position
             graph_nodes.append(GraphNode(rec.label, rec.state, pose, com, load.mass_above if load else 0.0))
-            for s, area in nodes[rec.body].supports.items() if rec.body in nodes else ():
+            if load is None:  # the ground: no node, no supports
+                continue
+            for s, area in nodes[rec.body].supports.items():
                 edges.append(GraphEdge(rec.label, self._bodies[s].label, area.area, load.shares.get(s, 0.0), area.exact))
         return BrickGraph(tuple(graph_nodes), tuple(edges))
 
@@ -623,7 +643,7 @@ def _main(areas: dict[int, ContactArea]) -> ContactArea:
     )
 
 
-def _horizontal(contact: ContactPolygon, pad: float) -> ContactArea:
+def _horizontal(contact: ContactPolygon[int], pad: float) -> ContactArea:
     """The horizontal projection of a leaning contact, for the graph and the wake cascade."""
     points = np.asarray(contact.points)
     return ContactArea(padded_hull(points[:, :2], pad), float(points[:, 2].mean()), contact.normal, exact=False)

@@ -9,10 +9,12 @@ horizontal projection plus a height.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
+import numpy.typing as npt
 import shapely
 from scipy.spatial.transform import Rotation
 from shapely.geometry import LineString, MultiPoint, Point, Polygon
@@ -41,7 +43,7 @@ class Pose:
     orientation: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 0.0, 1.0]))
 
     @classmethod
-    def from_euler(cls, position, yaw: float = 0.0, pitch: float = 0.0, roll: float = 0.0) -> Pose:
+    def from_euler(cls, position: npt.ArrayLike, yaw: float = 0.0, pitch: float = 0.0, roll: float = 0.0) -> Pose:
         """Pose from a position (m) and yaw/pitch/roll in degrees (z, y, x intrinsic)."""
         quat = Rotation.from_euler("ZYX", [yaw, pitch, roll], degrees=True).as_quat()
         return cls(np.asarray(position, dtype=float), quat)
@@ -65,7 +67,7 @@ class Pose:
 
     def euler_degrees(self) -> np.ndarray:
         """``(yaw, pitch, roll)`` in degrees, the inverse of :meth:`from_euler`."""
-        return Rotation.from_quat(self.orientation).as_euler("ZYX", degrees=True)
+        return np.asarray(Rotation.from_quat(self.orientation).as_euler("ZYX", degrees=True), dtype=float)
 
 
 @dataclass(frozen=True)
@@ -84,7 +86,8 @@ class Box:
 
     def corners(self, pose: Pose) -> np.ndarray:
         """The eight corners in the world frame, shape (8, 3), metres."""
-        return pose.position + (_CORNER_SIGNS * self.half_extents) @ pose.rotation.T
+        corners: np.ndarray = pose.position + (_CORNER_SIGNS * self.half_extents) @ pose.rotation.T
+        return corners
 
     def face(self, pose: Pose, direction: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The face whose outward normal is closest to ``direction``.
@@ -124,7 +127,7 @@ class ContactArea:
             convex hull of the engine's contact points (report 3.3.3).
 
     Source: report 3.3.3; the exact face overlap is stackdsl's own (pybullet reports at
-    most four points a pair, see DESIGN.md).
+    most four points a pair).
     """
 
     polygon: Polygon
@@ -177,7 +180,8 @@ class ContactArea:
     @cached_property
     def bounds(self) -> tuple[float, float, float, float]:
         """(min x, min y, max x, max y) of the polygon, metres."""
-        return tuple(float(v) for v in self.polygon.bounds)
+        x0, y0, x1, y1 = self.polygon.bounds
+        return float(x0), float(y0), float(x1), float(y1)
 
     @cached_property
     def centre_xy(self) -> tuple[float, float]:
@@ -226,11 +230,11 @@ def combined_hull(areas: list[ContactArea]) -> Polygon:
     return shapely.union_all([a.polygon for a in areas]).convex_hull
 
 
-def contains(polygon: BaseGeometry, xy, margin: float = 0.0) -> bool:
+def contains(polygon: BaseGeometry, xy: Sequence[float] | np.ndarray, margin: float = 0.0) -> bool:
     """True when point ``xy`` (metres) lies inside ``polygon`` by more than ``margin``.
 
     A point on the boundary is outside: an exactly critical centre of mass is not
-    stable (DESIGN.md, geometry notes). Source: report 3.3.4 (the downward ray cast).
+    stable. Source: report 3.3.4 (the downward ray cast).
     """
     if not shapely.contains_xy(polygon, float(xy[0]), float(xy[1])):
         return False
@@ -244,8 +248,11 @@ def face_overlap(upper: Box, upper_pose: Pose, lower: Box | Plane, lower_pose: P
     be horizontal to within ``gap`` metres over their corners and lie within ``gap`` of
     each other; the area is the intersection of their horizontal projections.
 
-    Source: stackdsl's own (DESIGN.md: pybullet's four contact points cover only
+    Source: stackdsl's own (pybullet's four contact points cover only
     60-70% of a turned brick's overlap; the faces give it exactly).
+
+    Raises:
+        ValueError: ``lower`` is a :class:`Box` and ``lower_pose`` is None.
     """
     bottom, _ = upper.face(upper_pose, -UP)
     if np.ptp(bottom[:, 2]) > gap:
@@ -253,6 +260,8 @@ def face_overlap(upper: Box, upper_pose: Pose, lower: Box | Plane, lower_pose: P
     if isinstance(lower, Plane):
         top_poly, top_z, normal = None, lower.height, UP
     else:
+        if lower_pose is None:
+            raise ValueError("face_overlap needs the pose of a Box below")
         top, normal = lower.face(lower_pose, UP)
         if np.ptp(top[:, 2]) > gap:
             return None

@@ -1,4 +1,4 @@
-"""The brick graph: who rests on whom, with what area and load (DESIGN.md, "brick graph").
+"""The brick graph: who rests on whom, with what area and load.
 
 Plain frozen dataclasses in SI units; the harness rounds and renames them for
 snapshots. Source: report Figure 3 and 3.3.5-3.3.6; the graph form is stackdsl's own.

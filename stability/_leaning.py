@@ -20,11 +20,11 @@ stand up to the ladder limit.
 from __future__ import annotations
 
 import math
-from collections.abc import Hashable, Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from ._equilibrium import GRAVITY, ContactPolygon, RigidBlock, solve_equilibrium
+from ._equilibrium import GRAVITY, BodyKey, ContactPolygon, RigidBlock, solve_equilibrium
 from ._geometry import padded_hull
 
 
@@ -33,7 +33,7 @@ def pair_friction(a: float, b: float) -> float:
 
     Bullet multiplies the two bodies' values; stackdsl gives each body the square root
     of its material's coefficient, so a pair has the geometric mean (a pair of one
-    material: exactly that material's coefficient). Source: DESIGN.md, pybullet facts.
+    material: exactly that material's coefficient). Source: stackdsl's own.
 
     >>> pair_friction(0.5, 0.5)
     0.5
@@ -59,11 +59,12 @@ def lean_polygon(points: np.ndarray, normal: np.ndarray, pad: float) -> np.ndarr
     origin = points.mean(axis=0)
     uv = np.column_stack([(points - origin) @ t1, (points - origin) @ t2])
     ring = np.asarray(padded_hull(uv, pad).exterior.coords)[:-1]
-    return origin + ring[:, :1] * t1 + ring[:, 1:] * t2
+    polygon: np.ndarray = origin + ring[:, :1] * t1 + ring[:, 1:] * t2
+    return polygon
 
 
 def leaning_stands(
-    members: dict[Hashable, tuple[np.ndarray, float]], contacts: Sequence[ContactPolygon], gravity: float = GRAVITY
+    members: Mapping[BodyKey, tuple[np.ndarray, float]], contacts: Sequence[ContactPolygon[BodyKey]], gravity: float = GRAVITY
 ) -> bool:
     """Can friction hold a leaning brick, or two leaning on each other, where they are?
 

@@ -96,7 +96,9 @@ def propagate(nodes: Mapping[int, LoadNode]) -> dict[int, Load]:
     }
 
 
-def propagate_fast(nodes: Mapping[int, LoadNode]) -> dict[int, tuple[tuple[float, float, float], float, list]]:
+def propagate_fast(
+    nodes: Mapping[int, LoadNode],
+) -> dict[int, tuple[tuple[float, float, float], float, list[tuple[int, float, float, float]]]]:
     """:func:`propagate` in plain floats, for the extension's stack test at every freeze.
 
     Returns:
@@ -135,7 +137,7 @@ def _top_down(nodes: Mapping[int, LoadNode]) -> list[int]:
             break
         seen.add(b)
     else:
-        return list(reversed(nodes))
+        return list(nodes)[::-1]
     above: dict[int, list[int]] = {b: [] for b in nodes}
     for a, node in nodes.items():
         for s in node.supports:

@@ -4,7 +4,7 @@
 scenes, in one run. ``stackdsl bench solve``: the wall time of one rigid-block
 equilibrium solve for towers of 10 to 100 bricks.
 
-Source: stackdsl's own (DESIGN.md, "Speed against error").
+Source: stackdsl's own.
 """
 
 from __future__ import annotations
@@ -14,10 +14,10 @@ import multiprocessing
 import resource
 import statistics
 import time
-from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -27,10 +27,11 @@ from ._closed_form import log_cabin, single_file
 from ._compiler import compile_scenario
 from ._loader import parse_scenario
 from ._oracle import structure
+from ._program import Program
 from ._runtime import RunOptions, run_program
 
 #: Engine settings compared: (mode, stability model, engine overrides).
-SETTINGS: dict[str, tuple[str, str, dict]] = {
+SETTINGS: dict[str, tuple[str, str, dict[str, str | int]]] = {
     "raw 240 Hz": ("raw", "report", {}),
     "raw 1 kHz 150 it": ("raw", "report", {"timestep": "1 ms", "solver_iterations": 150}),
     "tuned": ("tuned", "report", {}),
@@ -101,7 +102,7 @@ WARM_UP = Scene("warm-up", 1, 1, "tower: {levels: 1}", None)
 """The untimed scene each benchmark worker runs first (see :func:`measure`)."""
 
 
-def program_for(scene: Scene, setting: str):
+def program_for(scene: Scene, setting: str) -> Program:
     """Compile ``scene`` under ``setting`` (see :data:`SETTINGS`)."""
     mode, model, engine = SETTINGS[setting]
     extra = "".join(f", {k}: {v}" for k, v in engine.items())
@@ -166,10 +167,13 @@ def run_matrix(
     tasks.sort(key=lambda t: -_cost(*t[:2]))  # the longest first: the pool ends together
     context = multiprocessing.get_context("spawn")
     cells = []
-    with ProcessPoolExecutor(max_workers=jobs, mp_context=context, max_tasks_per_child=1) as pool:
-        futures = [pool.submit(measure, scene, setting, repeats, repeat_below, options) for scene, setting, options in tasks]
-        for f in futures:
-            cell = f.result()
+    # a Pool, not a ProcessPoolExecutor: its max_tasks_per_child needs Python 3.11
+    with context.Pool(processes=jobs, maxtasksperchild=1) as pool:
+        results = [
+            pool.apply_async(measure, (scene, setting, repeats, repeat_below, options)) for scene, setting, options in tasks
+        ]
+        for r in results:
+            cell = r.get()
             progress(cell)
             cells.append(cell)
     order = {s: i for i, s in enumerate(settings)}
@@ -200,13 +204,13 @@ def savings(repeats: int = 3) -> list[tuple[str, float, int]]:
     return rows
 
 
-def fit_exponent(points: list[tuple[float, float]]) -> float:
+def fit_exponent(points: Sequence[tuple[float, float]]) -> float:
     """Slope of log(wall) against log(bricks): the exponent of a power law fit."""
     x, y = np.log([p[0] for p in points]), np.log([p[1] for p in points])
     return float(np.polyfit(x, y, 1)[0])
 
 
-def write_outputs(cells: list[Cell], saved: list[tuple[str, float, int]], folder: Path) -> dict:
+def write_outputs(cells: list[Cell], saved: list[tuple[str, float, int]], folder: Path) -> dict[str, Any]:
     """Write bench.csv, bench.md, wall_vs_error.png and wall_vs_height.png into ``folder``;
     return the target checks."""
     folder.mkdir(parents=True, exist_ok=True)
@@ -221,11 +225,11 @@ def write_outputs(cells: list[Cell], saved: list[tuple[str, float, int]], folder
     return targets
 
 
-def check_targets(cells: list[Cell]) -> dict:
-    """Issue 5's targets, as measured: slant errors, the 30-level speed ratio, exponents."""
+def check_targets(cells: list[Cell]) -> dict[str, Any]:
+    """The benchmark's targets, as measured: slant errors, the 30-level speed ratio, exponents."""
     by = {(c.setting, c.family, c.parameter): c for c in cells}
     slant = [c for c in cells if c.family != "upright"]
-    out = {
+    out: dict[str, Any] = {
         "slant errors": {s: [c.error for c in slant if c.setting == s] for s in SETTINGS if any(c.setting == s for c in slant)}
     }
     raw, ext = by.get(("raw 240 Hz", "upright", 30)), by.get(("extension report", "upright", 30))
@@ -239,7 +243,7 @@ def check_targets(cells: list[Cell]) -> dict:
     return out
 
 
-def markdown(cells: list[Cell], saved: list[tuple[str, float, int]], targets: dict) -> str:
+def markdown(cells: list[Cell], saved: list[tuple[str, float, int]], targets: dict[str, Any]) -> str:
     """The tables of ``bench.md``."""
     settings = [s for s in SETTINGS if any(c.setting == s for c in cells)]
     lines = ["| scene | closed form | " + " | ".join(settings) + " |", "|---|---|" + "---|" * len(settings)]
@@ -377,7 +381,7 @@ def solve_times(sizes: tuple[int, ...] = (10, 25, 50, 100), repeats: int = 5) ->
             raise ValueError(f"a tower needs at least one brick, got {n}")
         program = compile_scenario(parse_scenario(f"stackdsl: 1\nstructure: {{tower: {{levels: {(n + 1) // 2}}}}}\n"))
         blocks, contacts = structure(program.placements[:n], program.fixtures, program.ground_friction)
-        times = {True: [], False: []}
+        times: dict[bool, list[float]] = {True: [], False: []}
         for quick in (True, False):
             for _ in range(repeats):
                 start = time.perf_counter()

@@ -6,11 +6,12 @@ Source: stackdsl's own, modelled on Tavern (errors show the YAML line).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TypeAlias
 
-Path = tuple  # a field path: keys (str) and list indices (int)
+FieldPath: TypeAlias = tuple[str | int, ...]  # a field path: keys (str) and list indices (int)
 
 
-def format_path(path: Path) -> str:
+def format_path(path: FieldPath) -> str:
     """``("structure", "bricks", 3, "at")`` -> ``"structure.bricks[3].at"``."""
     out = ""
     for seg in path:
@@ -70,15 +71,15 @@ class SourceMap:
 
     file: str
     lines: tuple[str, ...] = ()
-    values: dict = field(default_factory=dict)
-    keys: dict = field(default_factory=dict)
+    values: dict[FieldPath, tuple[int, int]] = field(default_factory=dict)
+    keys: dict[FieldPath, tuple[int, int]] = field(default_factory=dict)
 
-    def error(self, path: Path, message: str, *, at_key: bool = False, more: int = 0) -> ScenarioError:
+    def error(self, path: FieldPath, message: str, *, at_key: bool = False, more: int = 0) -> ScenarioError:
         """A :class:`ScenarioError` for ``path``, placed at the nearest YAML node.
 
         Segments with no node (pydantic puts union tags in its paths) are skipped.
         """
-        known: tuple = ()
+        known: FieldPath = ()
         for seg in path:
             if known + (seg,) in self.values:
                 known += (seg,)

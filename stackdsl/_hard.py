@@ -8,13 +8,14 @@
 * the leaning limits swept (:func:`leaning_limits`): the largest angle at which an
   inverted V and a brick leaning on a wall stand, beside their closed forms.
 
-Source: stackdsl's own (issue 6); the closed forms are in ``scenarios/vee_stands.yaml``
+Source: stackdsl's own; the closed forms are in ``scenarios/vee_stands.yaml``
 and ``scenarios/lean_wall_stands.yaml``.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -46,7 +47,9 @@ def wall_throw(speed: float, mode: str) -> str:
     )
 
 
-def thrown_at_wall(speeds=(5, 20, 50), modes=("raw", "tuned", "extension")) -> dict[tuple[float, str], float]:
+def thrown_at_wall(
+    speeds: Sequence[float] = (5, 20, 50), modes: Sequence[str] = ("raw", "tuned", "extension")
+) -> dict[tuple[float, str], float]:
     """(speed in m/s, mode) -> the thrown brick's final x in metres (beyond the wall if > 0)."""
     ends = {}
     for speed in speeds:
@@ -78,7 +81,7 @@ def lean_on_wall(angle: float, mode: str) -> str:
 
 
 def leaning_limits(
-    modes=("raw", "extension"), step: float = 0.5, span: float = 4.0
+    modes: Sequence[str] = ("raw", "extension"), step: float = 0.5, span: float = 4.0
 ) -> dict[tuple[str, str], tuple[float | None, float | None]]:
     """Sweep each leaning structure from ``span`` degrees below its closed-form limit to
     ``span`` above, in ``step`` degrees.

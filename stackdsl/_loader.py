@@ -6,7 +6,7 @@ validated with pydantic; every error is mapped back to the nearest YAML node.
 Duplicate keys and merge keys are rejected (PyYAML would silently keep the last).
 Node count and file size are limited so that a hostile file (alias bombs) fails fast.
 
-Source: DESIGN.md (conventions: errors at file:line:col), Tavern.
+Source: stackdsl's own (errors at file:line:col), after Tavern.
 """
 
 from __future__ import annotations
@@ -19,9 +19,10 @@ from typing import Any
 
 import yaml
 from pydantic import BaseModel, ValidationError
+from pydantic_core import ErrorDetails
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
-from ._errors import ScenarioError, SourceMap
+from ._errors import FieldPath, ScenarioError, SourceMap
 from ._schema import Scenario, reference_errors
 
 MAX_FILE_BYTES = 1 << 20
@@ -103,7 +104,7 @@ def _read_yaml(text: str, source: SourceMap) -> Any:
         loader.dispose()
 
 
-def _plain(node: Node, path: tuple, loader: yaml.SafeLoader, source: SourceMap, budget: list[int]) -> Any:
+def _plain(node: Node, path: FieldPath, loader: yaml.SafeLoader, source: SourceMap, budget: list[int]) -> Any:
     """Plain Python data for ``node``, recording positions in ``source``."""
     budget[0] -= 1
     if budget[0] < 0:
@@ -138,7 +139,7 @@ def _first_error(exc: ValidationError, source: SourceMap) -> ScenarioError:
     typo_parents = {tuple(e["loc"][:-1]) for e in errors if e["type"] == "extra_forbidden"}
     errors = [e for e in errors if not (e["type"] == "missing" and tuple(e["loc"][:-1]) in typo_parents)]
 
-    def order(err: dict) -> tuple[int, int, int]:
+    def order(err: ErrorDetails) -> tuple[bool, int, int]:
         # An unknown key usually is a typo of a missing one: report it first.
         where = source.error(err["loc"], "")
         return err["type"] != "extra_forbidden", where.line or 0, where.column or 0
@@ -165,7 +166,7 @@ def _first_error(exc: ValidationError, source: SourceMap) -> ScenarioError:
     return source.error(loc, message, more=len(errors) - 1)
 
 
-def _fields_at(loc: tuple) -> list[str]:
+def _fields_at(loc: FieldPath) -> list[str]:
     """Field names of the model that ``loc`` (a pydantic location) leads to."""
     model: Any = Scenario
     for seg in loc:
@@ -176,7 +177,7 @@ def _fields_at(loc: tuple) -> list[str]:
     return sorted(model.model_fields) if isinstance(model, type) and issubclass(model, BaseModel) else []
 
 
-def _model_in(annotation: Any, loc: tuple) -> Any:
+def _model_in(annotation: Any, loc: FieldPath) -> Any:
     """The pydantic model inside ``annotation`` (through Optional, list, dict, Annotated)."""
     origin = typing.get_origin(annotation)
     if origin is typing.Annotated:

@@ -3,11 +3,11 @@
 :func:`equilibrium_collapse` places the program's bricks one by one at their exact target
 poses and asks rigid-block equilibrium (:func:`stability.solve_equilibrium`) after each
 whether the structure stands; the first brick after which it does not gives the collapse
-level (DESIGN.md: the highest level placed when the first collapse happens). Contacts
+level (the highest level placed when the first collapse happens). Contacts
 are the exact overlaps of touching faces, so the oracle takes bricks that lie flat (a
 tower, a wall, an explicit stack; each with an axis vertical); others are refused.
 
-Source: DESIGN.md ("oracle"); stackdsl's own.
+Source: stackdsl's own.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from stability import Box, ContactPolygon, Plane, Pose, RigidBlock, face_overlap, pair_friction, solve_equilibrium
+from stability import Box, ContactArea, ContactPolygon, Plane, Pose, RigidBlock, face_overlap, pair_friction, solve_equilibrium
 
 from ._program import Fixture, Place, Program
 
@@ -47,7 +47,8 @@ def equilibrium_collapse(program: Program) -> OracleResult:
     """
     places = program.placements
     fixtures = program.fixtures
-    for body in (*places, *fixtures):
+    bodies: list[Place | Fixture] = [*places, *fixtures]
+    for body in bodies:
         _flat(body)
     for k in range(1, len(places) + 1):
         blocks, contacts = structure(places[:k], fixtures, program.ground_friction)
@@ -56,7 +57,9 @@ def equilibrium_collapse(program: Program) -> OracleResult:
     return OracleResult(None, None, len(places))
 
 
-def structure(places: list[Place], fixtures: tuple[Fixture, ...], ground_friction: float) -> tuple[dict, list[ContactPolygon]]:
+def structure(
+    places: list[Place], fixtures: tuple[Fixture, ...], ground_friction: float
+) -> tuple[dict[str, RigidBlock], list[ContactPolygon[str]]]:
     """Free blocks and contact polygons of flat bricks at their placed poses.
 
     Returns:
@@ -65,7 +68,7 @@ def structure(places: list[Place], fixtures: tuple[Fixture, ...], ground_frictio
     """
     bodies = [(p.id, _box(p), _pose(p), p.brick.friction) for p in places]
     supports = [(f.id, _box(f), _pose(f), f.brick.friction) for f in fixtures]
-    contacts = []
+    contacts: list[ContactPolygon[str]] = []
     for i, (name, box, pose, mu) in enumerate(bodies):
         ground = face_overlap(box, pose, Plane(0.0), None, _GAP)
         if ground is not None:
@@ -78,7 +81,7 @@ def structure(places: list[Place], fixtures: tuple[Fixture, ...], ground_frictio
     return blocks, contacts
 
 
-def _contact(body: str, other: str, area, friction: float) -> ContactPolygon:
+def _contact(body: str, other: str, area: ContactArea, friction: float) -> ContactPolygon[str]:
     ring = np.asarray(area.polygon.exterior.coords)[:-1]
     return ContactPolygon(body, other, np.column_stack([ring, np.full(len(ring), area.height)]), area.normal, friction)
 

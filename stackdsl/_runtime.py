@@ -11,7 +11,7 @@ its placed pose by more than the collapse threshold, nothing more is placed and 
 ends ``settle`` seconds later. In extension mode, while every brick is frozen nothing
 can move, so the run jumps to the next action instead of stepping.
 
-Source: DESIGN.md (collapse, modes, pybullet facts).
+Source: stackdsl's own.
 """
 
 from __future__ import annotations
@@ -30,10 +30,10 @@ from typing import Any
 import numpy as np
 from shapely.geometry import MultiPoint, Polygon
 
-from stability import Box, Plane, Pose, PyBulletEngine, StabilityConfig, StabilityExtension
+from stability import Box, Plane, Pose, PyBulletEngine, StabilityConfig, StabilityEvent, StabilityExtension
 
 from ._outcome import Collapse, Event, Graph, Outcome
-from ._program import BrickSpec, Launch, Place, Program
+from ._program import BrickSpec, Launch, Place, Program, Vec3
 
 
 @contextmanager
@@ -83,7 +83,7 @@ class RunOptions:
         per_event: run the stack-wide test when the stack changes; False every step.
         stop_at_collapse: place nothing after the first collapse and end ``settle`` later.
 
-    Source: stackdsl's own (DESIGN.md: model only what a scene needs).
+    Source: stackdsl's own (model only what a scene needs).
     """
 
     jump: bool = True
@@ -130,7 +130,8 @@ class _Runner:
         # new partial on each attribute access)
         self._state = partial(pybullet.getBasePositionAndOrientation, physicsClientId=client._client)
         self._velocity = partial(pybullet.getBaseVelocity, physicsClientId=client._client)
-        self._stacked: tuple = ((), None, None)
+        # the bodies of the last displacements() call, with their corners' offsets and placed corners, (n, 8, 3) each
+        self._stacked: tuple[tuple[int, ...], np.ndarray, np.ndarray] = ((), np.zeros((0, 8, 3)), np.zeros((0, 8, 3)))
         e = program.engine
         self.dt = e.timestep
         self.acting = e.mode == "extension"
@@ -140,12 +141,11 @@ class _Runner:
         ground = client.createMultiBody(0.0, client.createCollisionShape(pybullet.GEOM_PLANE))
         self._material(ground, program.ground_friction, program.ground_restitution)
         rules = {r.name: r.on or not options.needed_rules for r in program.rules}
-        config = StabilityConfig(
-            **program.stability, leaning=rules["leaning"], impacts=rules["impacts"], per_event=options.per_event
-        )
+        settings: dict[str, Any] = dict(program.stability)  # the keys and types the schema allows
+        config = StabilityConfig(**settings, leaning=rules["leaning"], impacts=rules["impacts"], per_event=options.per_event)
         self.ext = StabilityExtension(PyBulletEngine(client), config)
         self.ext.add_ground(ground, Plane(0.0), friction=program.ground_friction)
-        self.shapes: dict[tuple, int] = {}
+        self.shapes: dict[Vec3, int] = {}  # half extents -> collision shape
         for f in program.fixtures:
             body = self.create(f.brick, Pose.from_euler(f.position, f.yaw, f.pitch, f.roll), mass=0.0)
             self.ext.add_ground(body, Box(np.array(f.brick.half_extents), f.brick.mass), f.id, f.brick.friction)
@@ -209,7 +209,7 @@ class _Runner:
             if self.collapse is None:
                 self.check_collapse(now)
 
-    def _record(self, events) -> None:
+    def _record(self, events: list[StabilityEvent]) -> None:
         for e in events:
             body = self.labels.get(e.label)
             if e.kind == "freeze" and body in self.targets:
@@ -312,7 +312,7 @@ class _Runner:
         key = spec.half_extents
         if key not in self.shapes:
             self.shapes[key] = self.client.createCollisionShape(self.p.GEOM_BOX, halfExtents=list(key))
-        body = self.client.createMultiBody(
+        body: int = self.client.createMultiBody(
             baseMass=spec.mass if mass is None else mass,
             baseCollisionShapeIndex=self.shapes[key],
             basePosition=pose.position.tolist(),
@@ -352,7 +352,8 @@ class _Runner:
             )
         _, local, placed = self._stacked
         now = np.array([p for p, _ in states])[:, None, :] + np.einsum("nij,nkj->nki", rotations, local)
-        return np.sqrt(((now - placed) ** 2).sum(axis=2).max(axis=1))
+        farthest: np.ndarray = np.sqrt(((now - placed) ** 2).sum(axis=2).max(axis=1))
+        return farthest
 
     def _may_have_moved(self, body: int, threshold: float) -> bool:
         """Could a corner of ``body`` be more than ``threshold`` from where it was placed?
@@ -366,7 +367,7 @@ class _Runner:
         return math.sqrt((x - x0) ** 2 + (y - y0) ** 2 + (z - z0) ** 2) + turn > threshold
 
     def check_collapse(self, now: float) -> None:
-        """Record the first structure brick that left its placed pose (DESIGN.md, collapse)."""
+        """Record the first structure brick that left its placed pose (the collapse level)."""
         threshold = self.program.collapse_threshold
         bodies = [b for b in sorted(self.moving) if self._may_have_moved(b, threshold)]
         for body, moved in zip(bodies, self.displacements(bodies)):
@@ -399,7 +400,7 @@ class _Runner:
     def kinetic_energy(self, body: int) -> float:
         """Joules of a brick's linear and angular motion (its inertia as a uniform box)."""
         linear, angular = (np.array(v) for v in self.client.getBaseVelocity(body))
-        mass, inertia = self.client.getDynamicsInfo(body, -1)[0], np.array(self.client.getDynamicsInfo(body, -1)[2])
+        mass, inertia = float(self.client.getDynamicsInfo(body, -1)[0]), np.array(self.client.getDynamicsInfo(body, -1)[2])
         rotation = np.reshape(self.client.getMatrixFromQuaternion(self.client.getBasePositionAndOrientation(body)[1]), (3, 3))
         local = rotation.T @ angular
         return 0.5 * mass * float(linear @ linear) + 0.5 * float(local @ (inertia * local))

@@ -21,7 +21,7 @@ Source: stackdsl's own (the brick graph of docs/design.md).
 }
 >>> moved = text.replace("[1.0, 2.0, 4.0]", "[6.0, 2.0, 4.0]").replace("frozen", "active")
 >>> summarize(text, moved)
-['final_graph b1: x 1.0 -> 6.0 mm; frozen -> active']
+['final_graph b1: frozen -> active; x 1.0 -> 6.0 mm']
 """
 
 from __future__ import annotations

@@ -6,12 +6,18 @@ here, not by pint, so that a hostile file cannot make pint evaluate ``9**9**9``;
 only converts the unit. PyYAML loads ``1e3`` as a string: it is accepted as the number
 1000.
 
+The grammar of the string is one regular expression, written so that it means the same
+in Python and in ECMA-262 (ASCII classes, no ``\\d``/``\\s``, no named groups): the JSON
+Schema of scenario files (:func:`quantity_pattern`) uses the same text as the loader.
+
 >>> length("120 mm")
 0.12
 >>> time("1/240 s")
 0.004166666666666667
 >>> angle(90), angle("0.5 rad")
 (90.0, 28.64788975654116)
+
+Source: stackdsl's own.
 """
 
 from __future__ import annotations
@@ -19,15 +25,38 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Callable
+from dataclasses import dataclass
 from functools import lru_cache
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
-from pydantic import BeforeValidator, WithJsonSchema
+from pydantic import BeforeValidator, GetJsonSchemaHandler
+from pydantic.json_schema import JsonSchemaValue
+from pydantic_core import CoreSchema
 
-_NUMBER = r"[-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d{1,3})?"
-_QUANTITY = re.compile(
-    rf"^\s*(?P<num>{_NUMBER})(?:\s*/\s*(?P<den>{_NUMBER}))?\s*(?P<unit>[A-Za-zµ°][A-Za-zµ°/^*·\d ]{{0,30}})?\s*$"
-)
+# Regular expressions valid and equal in Python `re` and ECMA-262 (also with the `u` flag).
+WHITESPACE = "[ \\t\\r\\n]"  # not \s, on which Python and ECMA-262 disagree
+SPACE = f"{WHITESPACE}*"  # what may surround the parts; a trailing newline is space, so `$` means the same in both
+_EXPONENT = "(?:[eE][-+]?[0-9]{1,3})?"
+UNSIGNED = f"(?:[0-9]+(?:\\.[0-9]*)?|\\.[0-9]+){_EXPONENT}"
+NONZERO = f"(?:[0-9]*[1-9][0-9]*(?:\\.[0-9]*)?|[0-9]*\\.[0-9]*[1-9][0-9]*){_EXPONENT}"  # an UNSIGNED with a nonzero digit
+ZERO = f"(?:0+(?:\\.0*)?|\\.0+){_EXPONENT}"  # an UNSIGNED with no nonzero digit
+UNIT = "[A-Za-zµ°][A-Za-zµ°/^*·0-9 ]{0,30}"
+_QUANTITY = re.compile(f"^{SPACE}([-+]?{UNSIGNED})(?:{SPACE}/{SPACE}({UNSIGNED}))?{SPACE}({UNIT})?{SPACE}$")
+
+Sign = Literal["any", "non-negative", "positive"]
+
+
+def quantity_pattern(sign: Sign = "any") -> str:
+    """The loader's grammar of a quantity string as a regular expression for a JSON Schema ``pattern``.
+
+    ``sign`` narrows the number for fields bounded below by 0: every unit's factor is
+    positive and the denominator is unsigned, so the sign of the value is the sign of the
+    numerator (``"-0 mm"`` is not negative). A zero denominator is left out: the loader
+    refuses it. What the pattern cannot say: the unit's dimension (pint decides), bounds
+    other than the sign, and numbers beyond a double (``1e999``, ``1e-999``).
+    """
+    numerator = {"any": f"[-+]?{UNSIGNED}", "non-negative": f"(?:\\+?{UNSIGNED}|-{ZERO})", "positive": f"\\+?{NONZERO}"}[sign]
+    return f"^{SPACE}{numerator}(?:{SPACE}/{SPACE}{NONZERO})?{SPACE}(?:{UNIT})?{SPACE}$"
 
 
 @lru_cache(maxsize=1)
@@ -55,18 +84,21 @@ def parse_quantity(value: Any, dimension: str, unit: str, what: str, example: st
     expected = f"expected {what} such as {example} or a number of {unit_name or unit}"
     if isinstance(value, bool) or not isinstance(value, (int, float, str)):
         raise ValueError(f"{expected}, got {value!r}")
-    if isinstance(value, str):
-        match = _QUANTITY.match(value)
-        if not match:
-            raise ValueError(f"{expected}, got {value!r}")
-        denominator = float(match["den"]) if match["den"] else 1.0
-        if denominator == 0:
-            raise ValueError(f"{expected}, got {value!r} (a division by zero)")
-        number = float(match["num"]) / denominator
-        if match["unit"]:
-            number *= _factor(match["unit"].strip(), dimension, unit, f"{expected}, got {value!r}")
-    else:
-        number = float(value)
+    try:
+        if isinstance(value, str):
+            match = _QUANTITY.match(value)
+            if not match:
+                raise ValueError(f"{expected}, got {value!r}")
+            numerator, denominator, unit_text = match.groups()
+            if float(denominator or 1) == 0:
+                raise ValueError(f"{expected}, got {value!r} (a division by zero)")
+            number = float(numerator) / float(denominator or 1)
+            if unit_text:
+                number *= _factor(unit_text.strip(), dimension, unit, f"{expected}, got {value!r}")
+        else:
+            number = float(value)
+    except OverflowError:  # an integer too large for a double
+        number = math.inf
     if not math.isfinite(number):
         raise ValueError(f"{expected}, got {value!r} (not finite)")
     return number
@@ -84,18 +116,34 @@ def _factor(text: str, dimension: str, unit: str, message: str) -> float:
         raise ValueError(message) from None
 
 
+_BOUNDS = {"gt": "exclusiveMinimum", "ge": "minimum", "lt": "exclusiveMaximum", "le": "maximum"}
+
+
+@dataclass(frozen=True)
+class _QuantityJsonSchema:
+    """JSON Schema of a quantity: a number within the field's bounds (SI units), or a string in the
+    loader's grammar (:func:`quantity_pattern`, narrowed to the sign the lower bound allows)."""
+
+    description: str
+
+    def __get_pydantic_json_schema__(self, core_schema: CoreSchema, handler: GetJsonSchemaHandler) -> JsonSchemaValue:
+        # Bounds set around the converter (Annotated[Length, Field(gt=0)]) are checked on the converted value, and
+        # pydantic hands them over by their pydantic names ("gt"): they become JSON Schema's ("exclusiveMinimum").
+        number = {_BOUNDS.get(key, key): value for key, value in handler(core_schema).items()}
+        lower = number.get("exclusiveMinimum", number.get("minimum"))
+        sign: Sign = (
+            "any" if lower is None or lower < 0 else "positive" if lower > 0 or "exclusiveMinimum" in number else "non-negative"
+        )
+        return {"anyOf": [number, {"type": "string", "pattern": quantity_pattern(sign)}], "description": self.description}
+
+
 def _kind(dimension: str, unit: str, what: str, example: str, unit_name: str = "") -> tuple[Callable[[Any], float], Any]:
     unit_name = unit_name or unit
 
     def convert(value: Any) -> float:
         return parse_quantity(value, dimension, unit, what, example, unit_name)
 
-    schema = WithJsonSchema(
-        {
-            "anyOf": [{"type": "number"}, {"type": "string"}],
-            "description": f"{what}: a number of {unit_name} or a string with a unit, e.g. {example}",
-        }
-    )
+    schema = _QuantityJsonSchema(f"{what}: a number of {unit_name} or a string with a unit, e.g. {example}")
     return convert, Annotated[float, BeforeValidator(convert), schema]
 
 

@@ -14,9 +14,11 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from stability import Box, Pose
 
+from ._precheck import Body, precheck
 from ._program import BrickSpec, End, EngineSettings, Fixture, Launch, Place, Program, Rule
 from ._schema import MAX_SIMULATED_TIME, SIDES, AfterLevel, Impact, Scenario
 
@@ -60,10 +62,13 @@ def compile_scenario(scenario: Scenario, mode: str | None = None, model: str | N
 
     Raises:
         ScenarioError: an action time is not a whole number of timesteps, an impact
-            names a level that is not built, or the run would exceed the time limit.
+            names a level that is not built, the run would exceed the time limit, or a
+            check before simulating fails (:mod:`stackdsl._precheck`: bricks that overlap
+            or rest on nothing where placed, expectations about levels never built).
     """
     engine = _engine(scenario, mode)
-    everything = _structure(scenario)
+    nominal = _layout(scenario)
+    everything = _placed(scenario, nominal)
     bricks = [b for b in everything if not b.fixed]
     fixed = [b for b in everything if b.fixed]
     interval, dt = scenario.timing.interval, engine.timestep
@@ -95,6 +100,7 @@ def compile_scenario(scenario: Scenario, mode: str | None = None, model: str | N
             ("timing",), f"the run would last {end:.0f} s; at most {MAX_SIMULATED_TIME:.0f} s are simulated"
         )
     actions.append(End(step=actions[-1].step + settle, time=end))
+    floating = precheck(scenario, _bodies(scenario, everything, nominal, specs, dict(zip(map(id, bricks), slots))))
     ground = scenario.material(scenario.ground.material)
     return Program(
         name=scenario.name or "scenario",
@@ -110,14 +116,38 @@ def compile_scenario(scenario: Scenario, mode: str | None = None, model: str | N
         collapse_threshold=scenario.collapse_threshold or min(min(specs[b.type].half_extents) for b in bricks),
         settle=scenario.timing.settle,
         actions=tuple(actions),
+        floating=floating,
     )
+
+
+def _bodies(scenario: Scenario, placed: list[_Brick], nominal: list[_Brick], specs: dict, slots: dict) -> list[Body]:
+    """The bricks and fixtures for :func:`stackdsl._precheck.precheck`, each with the field that made it."""
+    structure = scenario.structure
+    made_by = ("structure", "tower") if structure.tower else ("structure", "card_house") if structure.card_house else None
+    interval = scenario.timing.interval
+    return [
+        Body(
+            id=b.id,
+            half_extents=specs[b.type].half_extents,
+            position=tuple(b.position),
+            nominal=tuple(n.position),
+            yaw=b.yaw,
+            pitch=b.pitch,
+            roll=b.roll,
+            slot=-1 if b.fixed else int(slots[id(b)]),
+            time=0.0 if b.fixed else int(slots[id(b)]) * interval,
+            level=b.level,
+            path=made_by or ("structure", "bricks", i),
+        )
+        for i, (b, n) in enumerate(zip(placed, nominal))
+    ]
 
 
 def _rules(bricks: list[_Brick], launches: list[Launch]) -> tuple[Rule, ...]:
     """The extension's rules this scene needs: leaning only if a brick does not lie flat or
     something is thrown (it may come to rest leaning), impacts only if something is thrown
     (docs/design.md: what the compiler switches on)."""
-    tilted = [b.id for b in bricks if not _lies_flat(b)]
+    tilted = [b.id for b, flat in zip(bricks, _lie_flat(bricks)) if not flat]
     listed = ", ".join(tilted[:4]) + (f" and {len(tilted) - 4} more" if len(tilted) > 4 else "")
     lean = (
         f"bricks placed tilted: {listed}"
@@ -137,9 +167,15 @@ def _rules(bricks: list[_Brick], launches: list[Launch]) -> tuple[Rule, ...]:
     )
 
 
-def _lies_flat(b: _Brick) -> bool:
-    """True when a brick's thinnest axis is vertical (within 1 deg)."""
-    return abs(b.pose().rotation[2, 2]) > math.cos(math.radians(1.0))
+def _lie_flat(bricks: list[_Brick]) -> np.ndarray:
+    """For each brick, whether its own z axis (its height) is vertical within 1 deg; shape (n,).
+    One rotation for all bricks (as :meth:`stability.Pose.from_euler`): a 5000-brick tower
+    would spend 0.2 s in one call per brick."""
+    if not bricks:
+        return np.zeros(0, dtype=bool)
+    angles = [[b.yaw, b.pitch, b.roll] for b in bricks]
+    up = Rotation.from_euler("ZYX", angles, degrees=True).as_matrix()[:, 2, 2]
+    return np.abs(up) > math.cos(math.radians(1.0))
 
 
 def _engine(scenario: Scenario, mode: str | None) -> EngineSettings:
@@ -147,7 +183,7 @@ def _engine(scenario: Scenario, mode: str | None) -> EngineSettings:
     if chosen not in MODE_DEFAULTS:
         raise ValueError(f"unknown mode {chosen!r}; known: {', '.join(MODE_DEFAULTS)}")
     given = scenario.engine.model_dump(exclude_none=True, exclude={"mode"})
-    return EngineSettings(mode=chosen, gravity=GRAVITY, **{**MODE_DEFAULTS[chosen], **given})
+    return EngineSettings.model_validate({"mode": chosen, "gravity": GRAVITY, **MODE_DEFAULTS[chosen], **given})
 
 
 def _steps(scenario: Scenario, path: tuple, seconds: float, dt: float) -> int:
@@ -175,10 +211,14 @@ def _spec(scenario: Scenario, name: str) -> BrickSpec:
     )
 
 
-def _structure(scenario: Scenario) -> list[_Brick]:
-    """The structure's bricks in placement order, with levels and placement errors applied."""
+def _layout(scenario: Scenario) -> list[_Brick]:
+    """The structure's bricks (fixtures included) in placement order, with levels, as written or generated."""
     structure = scenario.structure
-    bricks = _tower(scenario) if structure.tower else _card_house(scenario) if structure.card_house else _explicit(scenario)
+    return _tower(scenario) if structure.tower else _card_house(scenario) if structure.card_house else _explicit(scenario)
+
+
+def _placed(scenario: Scenario, bricks: list[_Brick]) -> list[_Brick]:
+    """The bricks where the program puts them: moved by the placement error (drawn from the seed)."""
     error = scenario.timing.placement_error
     if error > 0:
         rng = np.random.default_rng(np.random.SeedSequence(scenario.seed))
@@ -190,6 +230,7 @@ def _structure(scenario: Scenario) -> list[_Brick]:
 def _tower(scenario: Scenario) -> list[_Brick]:
     """The tower generator: layer L turned (L-1) x turn, centred at origin + (L-1) x shift."""
     t = scenario.structure.tower
+    assert t is not None
     height = scenario.brick_type(t.brick).size[2]
     bricks = []
     for level in range(1, t.levels + 1):
@@ -206,7 +247,7 @@ def _tower(scenario: Scenario) -> list[_Brick]:
 def _explicit(scenario: Scenario) -> list[_Brick]:
     """Bricks placed by hand; a missing level is the rank of the brick's bottom height
     among the structure's bricks (fixed ones have none)."""
-    placed = scenario.structure.bricks
+    placed = scenario.structure.bricks or []
     bottoms = [
         float(
             Box(np.array(scenario.brick_type(b.brick).size) / 2, 1.0)
@@ -249,6 +290,7 @@ def _card_house(scenario: Scenario) -> list[_Brick]:
         ScenarioError: the spacing lets V's or flats collide, or flats miss the peaks.
     """
     c = scenario.structure.card_house
+    assert c is not None
     length, _, thick = scenario.brick_type(c.brick).size
     a = math.radians(c.angle)
     half = length * math.sin(a) + thick * math.cos(a)
@@ -295,7 +337,7 @@ def _card_house(scenario: Scenario) -> list[_Brick]:
 def _launch(scenario: Scenario, index: int, impact: Impact, bricks: list[_Brick], slots, spec: BrickSpec, dt: float) -> Launch:
     """A projectile aimed so that, falling under gravity, it reaches the target point."""
     path = ("impacts", index)
-    direction = np.array(impact.direction if impact.direction else SIDES[impact.target.side], dtype=float)
+    direction = np.array(impact.direction or _side(impact), dtype=np.float64)
     direction /= np.linalg.norm(direction)
     target = np.array(impact.target.point) if impact.target.point else _face_point(scenario, index, impact, bricks)
     if isinstance(impact.at, AfterLevel):
@@ -330,7 +372,7 @@ def _face_point(scenario: Scenario, index: int, impact: Impact, bricks: list[_Br
     level = [b for b in bricks if b.level == impact.target.level]
     if not level:
         raise scenario.source.error(("impacts", index, "target", "level"), f"level {impact.target.level} is not built")
-    outward = -np.array(SIDES[impact.target.side])
+    outward: np.ndarray = -np.array(_side(impact), dtype=np.float64)
     faces = [
         Box(np.array(scenario.brick_type(b.type).size) / 2, 1.0).face(
             Pose.from_euler(b.position, b.yaw, b.pitch, b.roll), outward
@@ -339,6 +381,12 @@ def _face_point(scenario: Scenario, index: int, impact: Impact, bricks: list[_Br
     ]
     outermost = max(faces, key=lambda corners: round(float((corners @ outward).max()), 9))  # the first of equals
     return outermost.mean(axis=0)
+
+
+def _side(impact: Impact) -> tuple[float, float, float]:
+    """The direction into the target's side (the schema requires a side unless a direction is given)."""
+    assert impact.target.side is not None
+    return SIDES[impact.target.side]
 
 
 def _wrap(angle: float) -> float:

@@ -116,6 +116,8 @@ class Program(_Frozen):
         collapse_threshold: metres a structure brick may leave its placed pose.
         settle: seconds the run goes on after the first collapse.
         actions: time-ordered; the last one is :class:`End`.
+        floating: ids of the bricks placed resting on nothing, which the scenario allows
+            (``allow: [floating]``); they drop when placed.
     """
 
     name: str
@@ -128,6 +130,7 @@ class Program(_Frozen):
     collapse_threshold: float
     settle: float
     actions: tuple[Action, ...]
+    floating: tuple[str, ...] = ()
 
     @property
     def placements(self) -> list[Place]:
@@ -159,6 +162,8 @@ def format_program(program: Program) -> str:
     if e.mode == "extension":
         lines.append(f"  stability model {program.stability.get('model', 'report')}")
         lines += [f"  rule {r.name:<8} {'on ' if r.on else 'off'}  {r.reason}" for r in program.rules]
+    if program.floating:
+        lines.append(f"  resting on nothing when placed, allowed (allow: [floating]): {', '.join(program.floating)}")
     for f in program.fixtures:
         x, y, z = (v * 1000 for v in f.position)
         lines.append(

@@ -1,29 +1,31 @@
-"""Check many scenario files: load all, compile all, then run them on an executor.
+"""Check many scenario files: load all, compile all, then run them.
 
 Nothing runs unless every file loads and compiles: a bad file stops the whole check
-before any simulation. Runs are farmed out through ``concurrent.futures.Executor``:
-in-process for one job, a spawn process pool otherwise (each worker creates its own
-pybullet client; clients do not survive pickling).
+before any simulation. Runs are shared between this process and spawned worker processes
+(:mod:`stackdsl._pool`; each run creates its own pybullet client, clients do not survive
+pickling), or farmed out on a caller's ``concurrent.futures.Executor``.
 
-Source: stackdsl's own (docs/design.md, data flow: check).
+Source: stackdsl's own.
 """
 
 from __future__ import annotations
 
-import multiprocessing
 import os
-from collections.abc import Callable, Iterator
-from concurrent.futures import Executor, Future, ProcessPoolExecutor
+from collections.abc import Callable, Generator, Iterable
+from concurrent.futures import Executor
 from dataclasses import dataclass
 from pathlib import Path
 
 from ._compiler import compile_scenario
 from ._errors import ScenarioError
-from ._expect import Verdict, describe, evaluate
+from ._expect import Verdict, describe, evaluate, explain
 from ._loader import load_scenario
+from ._pool import estimate, fan_out, on_executor
 from ._program import Program
 from ._runtime import run_program
 from ._schema import Expect
+
+Prepared = tuple[Path, Program, Expect]
 
 
 @dataclass(frozen=True)
@@ -38,6 +40,8 @@ class CheckResult:
         simulated_time, wall_time: seconds.
         drift: metres, the largest displacement of a brick that stood (``Outcome.drift``).
         steps_per_brick: physics steps taken per placed brick.
+        explanation: why the failed expectations failed, one line each (empty when all
+            held; see :func:`stackdsl._expect.explain`).
     """
 
     file: str
@@ -51,6 +55,7 @@ class CheckResult:
     wall_time: float
     drift: float = 0.0
     steps_per_brick: float = 0.0
+    explanation: tuple[str, ...] = ()
 
     @property
     def passed(self) -> bool:
@@ -59,10 +64,12 @@ class CheckResult:
 
     @property
     def expected(self) -> str:
+        """The expectations, as in check's table: ``'collapse 9±1'``, ``'stands'``."""
         return ", ".join(v.expected for v in self.verdicts) or "(nothing)"
 
     @property
     def measured(self) -> str:
+        """What was measured, as in check's table: ``'collapse 13, levels 1-12 stayed'``."""
         described = describe(self.collapse_level)
         extra = [v.measured for v in self.verdicts if v.name == "stays"]
         return ", ".join([described, *extra])
@@ -99,9 +106,7 @@ def discover(paths: list[str | Path]) -> list[Path]:
     return files
 
 
-def prepare(
-    files: list[Path], mode: str | None = None, modes: tuple[str, ...] = (), model: str | None = None
-) -> list[tuple[Path, Program, Expect]]:
+def prepare(files: list[Path], mode: str | None = None, modes: tuple[str, ...] = (), model: str | None = None) -> list[Prepared]:
     """Load and compile every file (in each of ``modes`` when given, with the stability
     ``model`` when given); nothing is simulated.
 
@@ -121,43 +126,68 @@ def prepare(
     return prepared
 
 
+def select(prepared: list[Prepared], pattern: str | None) -> list[Prepared]:
+    """The scenarios whose file path or name contains ``pattern`` (case-insensitive), in
+    order; all of them when ``pattern`` is None or empty.
+
+    Raises:
+        ScenarioErrors: ``pattern`` selects none.
+    """
+    if not pattern:
+        return prepared
+    text = pattern.casefold()
+    chosen = [p for p in prepared if text in str(p[0]).casefold() or text in p[1].name.casefold()]
+    if not chosen:
+        files = len({p[0] for p in prepared})
+        raise ScenarioErrors([ScenarioError(f"no scenario's path or name contains {pattern!r} ({files} files)", file="-k")])
+    return chosen
+
+
 def check(
     paths: list[str | Path],
     mode: str | None = None,
     jobs: int | None = None,
     executor: Executor | None = None,
     model: str | None = None,
-) -> Iterator[CheckResult]:
-    """Check every scenario under ``paths``; results come in file order as they finish.
+    pattern: str | None = None,
+) -> Generator[CheckResult, None, None]:
+    """Check every scenario under ``paths``; results come as each run finishes.
 
     Every file is loaded and compiled before this returns (so bad input raises here,
-    before anything is simulated); the runs happen as the iterator is consumed.
+    before anything is simulated); the runs happen as the iterator is consumed, and
+    closing it early (e.g. after the first failure) cancels the runs not yet started and
+    stops the workers. With one job, results come in file order.
 
     Args:
         paths: files or folders.
         mode: overrides each scenario's engine mode.
         model: overrides each scenario's stability model.
-        jobs: worker processes (default: one per core, at most one per file); 1 runs
-            in this process.
+        jobs: runs at the same time, this process included (default: one per core);
+            1 runs everything here. Work estimated below a worker's start-up runs here
+            whatever ``jobs`` says (see :mod:`stackdsl._pool`).
         executor: run on this executor instead (e.g. a Dask client's executor).
+        pattern: only the scenarios whose file path or name contains it (see :func:`select`).
 
     Raises:
-        ScenarioErrors: a file is missing or invalid (before anything runs).
+        ScenarioErrors: a file is missing or invalid, or ``pattern`` selects nothing
+            (before anything runs).
+        ValueError: ``jobs`` below 1.
     """
-    return _results(prepare(discover(paths), mode, model=model), jobs, executor)
+    prepared = select(prepare(discover(paths), mode, model=model), pattern)
+    return run_checks(prepared, jobs, executor)
 
 
-def _results(prepared: list[tuple[Path, Program, Expect]], jobs: int | None, executor: Executor | None) -> Iterator[CheckResult]:
-    own = executor is None
-    if own:
-        executor = make_executor(jobs or min(len(prepared), os.cpu_count() or 1))
-    try:
-        futures = [executor.submit(judge, str(path), program, expect) for path, program, expect in prepared]
-        for future in futures:
-            yield future.result()
-    finally:
-        if own:
-            executor.shutdown(cancel_futures=True)
+def run_checks(
+    prepared: list[Prepared], jobs: int | None = None, executor: Executor | None = None
+) -> Generator[CheckResult, None, None]:
+    """:func:`judge` every prepared scenario, yielding results as each finishes (see :func:`check`)."""
+    tasks = [(str(path), program, expect) for path, program, expect in prepared]
+    if executor is not None:
+        return on_executor(executor, judge, tasks)
+    jobs = (os.cpu_count() or 1) if jobs is None else jobs
+    if jobs < 1:
+        raise ValueError(f"jobs must be at least 1, not {jobs}")
+    return fan_out(judge, tasks, [estimate(program) for _, program, _ in prepared], jobs)
 
 
 def compare(
@@ -165,8 +195,13 @@ def compare(
     modes: tuple[str, ...] = ("raw", "tuned", "extension"),
     jobs: int | None = None,
     model: str | None = None,
+    pattern: str | None = None,
 ) -> dict[str, dict[str, CheckResult]]:
-    """Check every scenario in every mode, all in one run on one executor.
+    """Check every scenario in every mode, all in one run (one set of workers for all modes).
+
+    Args:
+        paths, jobs, model, pattern: as for :func:`check`.
+        modes: engine modes, one column each.
 
     Returns:
         file -> mode -> :class:`CheckResult`, files in order.
@@ -174,11 +209,23 @@ def compare(
     Raises:
         ScenarioErrors: a file is missing or invalid (before anything runs).
     """
-    prepared = prepare(discover(paths), modes=modes, model=model)
-    table: dict[str, dict[str, CheckResult]] = {}
-    for r in _results(prepared, jobs, None):
-        table.setdefault(r.file, {})[r.mode] = r
-    return table
+    prepared = select(prepare(discover(paths), modes=modes, model=model), pattern)
+    return tabulate(prepared, modes, run_checks(prepared, jobs))
+
+
+def tabulate(
+    prepared: list[Prepared],
+    modes: tuple[str, ...],
+    results: Iterable[CheckResult],
+    each: Callable[[CheckResult], None] = lambda r: None,
+) -> dict[str, dict[str, CheckResult]]:
+    """``results`` (in any order) as file -> mode -> result, files in the order of
+    ``prepared``; ``each`` is called with every result as it comes."""
+    table: dict[str, dict[str, CheckResult]] = {str(path): {} for path, _, _ in prepared}
+    for r in results:
+        table[r.file][r.mode] = r
+        each(r)
+    return {file: {m: row[m] for m in modes if m in row} for file, row in table.items()}
 
 
 def judge(file: str, program: Program, expect: Expect) -> CheckResult:
@@ -196,23 +243,5 @@ def judge(file: str, program: Program, expect: Expect) -> CheckResult:
         wall_time=outcome.wall_time,
         drift=outcome.drift,
         steps_per_brick=outcome.steps / max(outcome.bricks_placed, 1),
+        explanation=tuple(explain(expect, outcome, program.collapse_threshold)),
     )
-
-
-def make_executor(jobs: int) -> Executor:
-    """In-process for ``jobs <= 1``, else a pool of ``jobs`` spawned processes."""
-    if jobs <= 1:
-        return SerialExecutor()
-    return ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn"))
-
-
-class SerialExecutor(Executor):
-    """Runs each task in the calling process when it is submitted."""
-
-    def submit(self, fn: Callable, /, *args, **kwargs) -> Future:
-        future: Future = Future()
-        try:
-            future.set_result(fn(*args, **kwargs))
-        except BaseException as exc:  # handed to the caller through the future
-            future.set_exception(exc)
-        return future

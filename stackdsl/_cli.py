@@ -1,82 +1,213 @@
-"""The ``stackdsl`` command: check, compile, run, schema.
+"""The ``stackdsl`` command: check, compare, compile, run, bench, schema.
 
-Exit status: 0 when everything holds, 1 when an expectation fails, 2 on bad input
-(nothing is simulated then). Source: stackdsl's own.
+Exit status: 0 when everything holds, 1 when an expectation fails, 2 on bad input or a
+usage error (nothing is simulated then), 3 on an internal error, 130 on Ctrl-C, 141 when
+the output pipe closes early.
+Source: stackdsl's own.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
+import signal
 import sys
+import tempfile
+import threading
 import time
+import traceback
 from pathlib import Path
+from typing import Any
 
 from ._bench import SETTINGS, format_solve_times, run_matrix, savings, scenes, solve_times, write_outputs
-from ._check import ScenarioErrors, check, compare
+from ._check import CheckResult, ScenarioErrors, discover, prepare, run_checks, select, tabulate
 from ._compiler import MODE_DEFAULTS, compile_scenario
 from ._errors import ScenarioError
 from ._expect import describe, evaluate
 from ._hard import format_hard, format_limits, format_wall, leaning_limits, thrown_at_wall
 from ._loader import load_scenario
 from ._program import format_program
+from ._progress import Lines, is_live
+from ._report import HEADER, failure_lines, json_document, junit_xml, row, run_command, summary, version
 from ._runtime import run_program
-from ._schema import Scenario
+from ._schema import json_schema
 
 MODELS = ["report", "equilibrium"]
 
+EXIT_STATUS = """\
+exit status:
+  0    every expectation held
+  1    an expectation failed
+  2    bad input: a scenario file, a path or an option (nothing is simulated then)
+  3    internal error (set STACKDSL_TRACEBACK=1 to see the traceback)
+  130  interrupted (Ctrl-C)
+  141  the output pipe was closed early (as by | head); nothing more is printed"""
+
+#: Exit statuses (see :data:`EXIT_STATUS`).
+OK, FAILED, BAD_INPUT, INTERNAL, INTERRUPTED, BROKEN_PIPE = 0, 1, 2, 3, 130, 141
+
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``stackdsl`` console script; returns the exit status."""
+    """Entry point of the ``stackdsl`` console script; returns the exit status
+    (argparse's usage errors exit 2 through SystemExit)."""
     args = _parser().parse_args(argv)
+    # SIGTERM unwinds like Ctrl-C, so that workers are stopped on the way out (main thread only).
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _terminated) if main_thread else None
     try:
-        return args.func(args)
+        status = int(args.func(args))
+        sys.stdout.flush()
+        return status
     except ScenarioErrors as exc:
         for err in exc.errors:
             print(err, file=sys.stderr)
-        return 2
+        return BAD_INPUT
     except ScenarioError as exc:
         print(exc, file=sys.stderr)
-        return 2
+        return BAD_INPUT
+    except BrokenPipeError:
+        # The reader went away (``| head``): stop quietly, and let nothing flush into the
+        # closed pipe at exit.
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return BROKEN_PIPE
+    except KeyboardInterrupt:
+        print("stackdsl: interrupted", file=sys.stderr)
+        return INTERRUPTED
+    except Exception as exc:
+        if os.environ.get("STACKDSL_TRACEBACK", "") not in ("", "0"):
+            traceback.print_exc()
+        message = (str(exc).splitlines() or [""])[0]
+        print(f"stackdsl: internal error: {type(exc).__name__}: {message}", file=sys.stderr)
+        if os.environ.get("STACKDSL_TRACEBACK", "") in ("", "0"):
+            print("stackdsl: set STACKDSL_TRACEBACK=1 to see the traceback", file=sys.stderr)
+        return INTERNAL
+    finally:
+        if main_thread:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _terminated(signum: int, frame: Any) -> None:
+    raise SystemExit(128 + signum)
+
+
+def jobs_type(text: str) -> int:
+    """``-j``: ``'auto'`` (one per core) or a whole number from 1 to the number of cores.
+
+    Raises:
+        argparse.ArgumentTypeError: anything else (a usage error, exit 2).
+    """
+    cores = os.cpu_count() or 1
+    if text.strip().lower() == "auto":
+        return cores
+    try:
+        jobs = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number or 'auto'") from None
+    if not 1 <= jobs <= cores:
+        raise argparse.ArgumentTypeError(f"{jobs} is not from 1 to {cores} (this machine's cores) or 'auto'")
+    return jobs
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="stackdsl", description="Declarative stacking scenarios for pybullet.")
+    raw = argparse.RawDescriptionHelpFormatter
+    parser = argparse.ArgumentParser(
+        prog="stackdsl",
+        description="Declarative stacking scenarios for pybullet.",
+        epilog=EXIT_STATUS,
+        formatter_class=raw,
+    )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {version()}")
     sub = parser.add_subparsers(required=True, metavar="COMMAND")
     modes = list(MODE_DEFAULTS)
 
     many = argparse.ArgumentParser(add_help=False)
-    many.add_argument("paths", nargs="+", metavar="PATH")
+    many.add_argument("paths", nargs="+", metavar="PATH", help="scenario files, or folders searched for *.yaml")
     many.add_argument("--model", choices=MODELS, help="override every scenario's stability model")
-    many.add_argument("-j", "--jobs", type=int, default=None, help="worker processes (default: one per core)")
+    many.add_argument(
+        "-j",
+        "--jobs",
+        type=jobs_type,
+        default="auto",
+        help="runs at the same time, this process included: 1 to the number of cores, or auto (default: one per "
+        "core). Work estimated cheaper than starting a worker runs in this process whatever -j says",
+    )
+    many.add_argument(
+        "-k",
+        metavar="PATTERN",
+        dest="pattern",
+        help="only the scenarios whose file path or name contains PATTERN (plain text, case-insensitive)",
+    )
+    many.add_argument("--json", action="store_true", help="print one JSON document of every result instead of the table")
     one = argparse.ArgumentParser(add_help=False)
     one.add_argument("file")
     one.add_argument("--mode", choices=modes, help="override the scenario's engine mode")
     one.add_argument("--model", choices=MODELS, help="override the scenario's stability model")
-    one.add_argument("--json", action="store_true", help="print JSON instead of text")
 
-    p = sub.add_parser("check", parents=[many], help="run scenario files or folders and check their expectations")
+    p = sub.add_parser(
+        "check",
+        parents=[many],
+        help="run scenario files or folders and check their expectations",
+        description="Run scenario files or folders and check their expectations: a row per scenario as it "
+        "finishes (under a progress line on a terminal), what moved under each FAIL, then a summary.",
+        epilog=EXIT_STATUS,
+        formatter_class=raw,
+    )
     p.add_argument("--mode", choices=modes, help="override every scenario's engine mode")
+    p.add_argument("-x", "--exitfirst", action="store_true", help="stop after the first failure (runs not started are cancelled)")
+    p.add_argument("--junit-xml", metavar="FILE", help="also write JUnit XML to FILE: one testcase per scenario")
     p.set_defaults(func=_check)
 
-    p = sub.add_parser("compare", parents=[many], help="run scenario files or folders in every mode and print one table")
+    p = sub.add_parser(
+        "compare",
+        parents=[many],
+        help="run scenario files or folders in every mode and print one table",
+        description="Run scenario files or folders in every mode, in one run, and print one table.",
+        epilog=EXIT_STATUS.replace("  1    an expectation failed\n", "")
+        + "\n\nFAIL cells are results, not errors: compare exits 0 once its table is printed.",
+        formatter_class=raw,
+    )
     p.add_argument("--modes", default=",".join(modes), help=f"comma-separated (default: {','.join(modes)})")
     p.set_defaults(func=_compare)
 
-    p = sub.add_parser("compile", parents=[one], help="print the program a scenario compiles to")
+    one_status = EXIT_STATUS.replace("  1    an expectation failed\n", "")
+    p = sub.add_parser(
+        "compile", parents=[one], help="print the program a scenario compiles to", epilog=one_status, formatter_class=raw
+    )
+    p.add_argument("--json", action="store_true", help="print the Program as JSON")
     p.set_defaults(func=_compile)
 
-    p = sub.add_parser("run", parents=[one], help="run one scenario and print its timeline and outcome")
+    p = sub.add_parser(
+        "run",
+        parents=[one],
+        help="run one scenario and print its timeline and outcome",
+        epilog=EXIT_STATUS + "\n\nWith --json too, the exit status is 1 when an expectation failed.",
+        formatter_class=raw,
+    )
+    p.add_argument(
+        "--json", action="store_true", help="print the whole Outcome as JSON (exit 1 still means a failed expectation)"
+    )
     p.set_defaults(func=_run)
 
-    p = sub.add_parser("bench", help="speed against error: every engine setting on the same scenes (long)")
-    p.add_argument("--out", default="docs/bench", help="folder for bench.csv, bench.md and the plots")
+    default_out = Path(tempfile.gettempdir()) / "stackdsl-bench"
+    p = sub.add_parser(
+        "bench",
+        help="speed against error: every engine setting on the same scenes (long)",
+        description="Speed against error: every engine setting on the same scenes. "
+        "`stackdsl bench --out docs/bench` regenerates the committed figures.",
+        epilog=one_status,
+        formatter_class=raw,
+    )
+    p.add_argument(
+        "--out", default=str(default_out), help=f"folder for bench.csv, bench.md and the plots (default: {default_out})"
+    )
     p.add_argument("--settings", default=",".join(SETTINGS), help="comma-separated, of: " + ", ".join(SETTINGS))
     p.add_argument("--families", default="slant log cabin,single file,upright", help="comma-separated scene families")
     p.add_argument("--repeats", type=int, default=3, help="runs per cell (median), for cells faster than --repeat-below")
     p.add_argument("--repeat-below", type=float, default=30.0, help="seconds; slower cells run once")
     p.add_argument("--quick", action="store_true", help="one small cell per setting (a smoke test)")
-    p.add_argument("-j", "--jobs", type=int, default=2)
+    p.add_argument("-j", "--jobs", type=jobs_type, default=str(min(2, os.cpu_count() or 1)), help="worker processes")
     p.set_defaults(func=_bench)
     bench = p.add_subparsers(metavar="BENCHMARK")
     q = bench.add_parser("solve", help="equilibrium solve time for towers of 10 to 100 bricks")
@@ -87,31 +218,51 @@ def _parser() -> argparse.ArgumentParser:
         "hard", help="the hard cases in extension and raw mode, a brick thrown at a wall, the leaning limits swept"
     )
     q.add_argument("folder", nargs="?", default="scenarios/hard")
-    q.add_argument("-j", "--jobs", type=int, default=None, help="worker processes (default: one per core)")
+    q.add_argument("-j", "--jobs", type=jobs_type, default="auto", help="runs at the same time (default: one per core)")
     q.set_defaults(func=_bench_hard)
 
-    p = sub.add_parser("schema", help="print the JSON Schema of scenario files (for editors)")
-    p.set_defaults(func=_schema)
+    p = sub.add_parser(
+        "schema", help="print the JSON Schema of scenario files (for editors)", epilog=one_status, formatter_class=raw
+    )
+    p.set_defaults(func=_print_schema)
     return parser
 
 
 def _check(args: argparse.Namespace) -> int:
     start = time.perf_counter()
-    results = []
-    checks = check(args.paths, mode=args.mode, jobs=args.jobs, model=args.model)  # raises on bad input: nothing printed yet
-    print(f"{'':4}  {'scenario':<40} {'mode':<9}  {'expected':<18} {'measured':<32} {'simulated':>9} {'wall':>8}")
-    for r in checks:
-        results.append(r)
-        status = "PASS" if r.passed else "FAIL"
-        print(
-            f"{status:<4}  {_short(r.file):<40} {_mode(r):<9}  {r.expected:<18} {r.measured:<32} "
-            f"{r.simulated_time:>7.1f} s {r.wall_time:>6.1f} s",
-            flush=True,
-        )
-    failed = sum(not r.passed for r in results)
+    if args.junit_xml and not Path(args.junit_xml).parent.is_dir():
+        raise ScenarioError("no such folder for the JUnit XML file", file=args.junit_xml)
+    prepared = select(prepare(discover(args.paths), args.mode, model=args.model), args.pattern)  # bad input raises here
+    results: list[CheckResult] = []
+    commands: list[str] = []
+    stream = sys.stderr if args.json else sys.stdout  # with --json only the progress line, on a terminal
+    with Lines(len(prepared), "check", file=stream, live=is_live(stream)) as lines:
+        if not args.json:
+            lines.line(HEADER)
+        runs = run_checks(prepared, args.jobs)
+        try:
+            for r in runs:
+                results.append(r)
+                commands.append(run_command(r.file, args.mode, args.model))
+                if not args.json:
+                    lines.line(row(r))
+                    if not r.passed:
+                        for text in failure_lines(r, commands[-1]):
+                            lines.line(text)
+                lines.advance()
+                if args.exitfirst and not r.passed:
+                    break
+        finally:
+            runs.close()  # cancels what has not started and stops the workers
     wall = time.perf_counter() - start
-    print(f"{len(results)} scenarios: {len(results) - failed} passed, {failed} failed ({wall:.1f} s wall)")
-    return 1 if failed else 0
+    if args.junit_xml:
+        ran = {r.file for r in results}
+        junit_xml(results, commands, [str(path) for path, _, _ in prepared if str(path) not in ran], wall, args.junit_xml)
+    if args.json:
+        print(json.dumps(json_document("check", results, commands, len(prepared), wall), indent=2))
+    else:
+        print(summary(results, len(prepared), wall))
+    return FAILED if any(not r.passed for r in results) else OK
 
 
 def _compare(args: argparse.Namespace) -> int:
@@ -120,33 +271,45 @@ def _compare(args: argparse.Namespace) -> int:
     if unknown or not modes:
         raise ScenarioError(f"unknown mode {', '.join(unknown) or '(none)'}; known: {', '.join(MODE_DEFAULTS)}", file="--modes")
     start = time.perf_counter()
-    table = compare(args.paths, modes, jobs=args.jobs, model=args.model)
+    prepared = select(prepare(discover(args.paths), modes=modes, model=args.model), args.pattern)
+    done: list[CheckResult] = []
+    live = is_live(sys.stdout)
+    # On a terminal a progress line; elsewhere a line per finished cell on stderr, so that
+    # stdout holds the table (or the JSON) alone.
+    with Lines(len(prepared), "compare", file=sys.stdout if live else sys.stderr, live=live) as lines:
+
+        def each(r: CheckResult) -> None:
+            done.append(r)
+            lines.advance()
+            if not live:
+                lines.line(
+                    f"[{len(done)}/{len(prepared)}] {Path(r.file).stem} {r.mode}: "
+                    f"{'PASS' if r.passed else 'FAIL'} {describe(r.collapse_level)} ({r.wall_time:.1f} s)"
+                )
+
+        table = tabulate(prepared, modes, run_checks(prepared, args.jobs), each)
+    wall = time.perf_counter() - start
+    if args.json:
+        commands = [run_command(r.file, r.mode, args.model) for r in done]
+        print(json.dumps(json_document("compare", done, commands, len(prepared), wall), indent=2))
+        return OK
     width = max([len("scenario"), *(len(Path(f).stem) for f in table)])
     print(f"{'scenario':<{width}} {'expected':<18} " + " ".join(f"{m:<29}" for m in modes).rstrip())
-    for file, row in table.items():
-        first = next(iter(row.values()))
-        cells = [
+    for file, cells in table.items():
+        first = next(iter(cells.values()))
+        texts = [
             f"{'PASS' if r.passed else 'FAIL'} {describe(r.collapse_level):<13} {r.wall_time:>7.1f} s"
-            for r in (row[m] for m in modes)
+            for r in (cells[m] for m in modes)
         ]
-        print(f"{Path(file).stem:<{width}} {first.expected:<18} " + " ".join(f"{c:<29}" for c in cells).rstrip())
-    print(f"{len(table)} scenarios x {len(modes)} modes ({time.perf_counter() - start:.1f} s wall)")
-    return 0
-
-
-def _mode(r) -> str:
-    """The mode, with the stability model when the extension ran with the equilibrium one."""
-    return "ext/equil" if r.mode == "extension" and r.model == "equilibrium" else r.mode
-
-
-def _short(file: str) -> str:
-    return file if len(file) <= 40 else "..." + file[-37:]
+        print(f"{Path(file).stem:<{width}} {first.expected:<18} " + " ".join(f"{c:<29}" for c in texts).rstrip())
+    print(f"{len(table)} scenarios x {len(modes)} modes ({wall:.1f} s wall)")
+    return OK
 
 
 def _compile(args: argparse.Namespace) -> int:
     program = compile_scenario(load_scenario(args.file), args.mode, args.model)
     print(program.model_dump_json(indent=2) if args.json else format_program(program))
-    return 0
+    return OK
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -167,7 +330,7 @@ def _run(args: argparse.Namespace) -> int:
         )
         for v in verdicts:
             print(f"{'PASS' if v.passed else 'FAIL'}  expected {v.expected}, measured {v.measured}")
-    return 0 if all(v.passed for v in verdicts) else 1
+    return OK if all(v.passed for v in verdicts) else FAILED
 
 
 def _bench(args: argparse.Namespace) -> int:
@@ -177,30 +340,38 @@ def _bench(args: argparse.Namespace) -> int:
     if unknown:
         raise ScenarioError(f"unknown setting {', '.join(unknown)}; known: {', '.join(SETTINGS)}", file="--settings")
     chosen = [sc for sc in scenes(args.quick) if sc.family in families or args.quick]
+    out = Path(args.out)
     start = time.perf_counter()
-    print(f"stackdsl bench: {len(chosen)} scenes x {len(settings)} settings, {args.jobs} workers", flush=True)
+    total = len(chosen) * len(settings)
+    print(f"stackdsl bench: {len(chosen)} scenes x {len(settings)} settings, {args.jobs} workers, writing to {out}", flush=True)
+    with Lines(total, "bench") as lines:
+        count = 0
 
-    def progress(c):
-        print(
-            f"  {c.setting:<22} {c.family:<16} {c.parameter:>5g}: collapse {c.collapse_level} (closed form {c.closed_form}), {c.wall:.2f} s",
-            flush=True,
-        )
+        def progress(c: Any) -> None:
+            nonlocal count
+            count += 1
+            lines.line(
+                f"  [{count}/{total}] {c.setting:<22} {c.family:<16} {c.parameter:>5g}: collapse {c.collapse_level} "
+                f"(closed form {c.closed_form}), {c.wall:.2f} s"
+            )
+            lines.advance()
 
-    cells = run_matrix(settings, chosen, args.repeats, args.repeat_below, args.jobs, progress)
+        cells = run_matrix(settings, chosen, args.repeats, args.repeat_below, args.jobs, progress)
     saved = [] if args.quick else savings(args.repeats)
-    targets = write_outputs(cells, saved, Path(args.out))
-    print((Path(args.out) / "bench.md").read_text())
+    targets = write_outputs(cells, saved, out)
+    print((out / "bench.md").read_text())
     print(f"targets: {targets}")
     print(
-        f"wrote {args.out}/bench.csv, bench.md, wall_vs_error.png, wall_vs_height.png ({time.perf_counter() - start:.0f} s wall)"
+        f"wrote {out.resolve()}: bench.csv, bench.md, wall_vs_error.png, wall_vs_height.png "
+        f"({time.perf_counter() - start:.0f} s wall)"
     )
-    return 0
+    return OK
 
 
 def _bench_solve(args: argparse.Namespace) -> int:
     sizes = tuple(int(x) for x in args.sizes.split(","))
     print(format_solve_times(solve_times(sizes, args.repeats)))
-    return 0
+    return OK
 
 
 def _bench_hard(args: argparse.Namespace) -> int:
@@ -209,12 +380,12 @@ def _bench_hard(args: argparse.Namespace) -> int:
     print(format_wall(thrown_at_wall()), end="\n\n", flush=True)
     print(format_limits(leaning_limits()), end="\n\n")
     print(f"({time.perf_counter() - start:.0f} s wall)")
-    return 0
+    return OK
 
 
-def _schema(args: argparse.Namespace) -> int:
-    print(json.dumps(Scenario.model_json_schema(), indent=2))
-    return 0
+def _print_schema(args: argparse.Namespace) -> int:
+    print(json.dumps(json_schema(), indent=2))
+    return OK
 
 
 if __name__ == "__main__":  # pragma: no cover

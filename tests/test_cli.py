@@ -1,24 +1,44 @@
-"""The stackdsl command: check's table and exit codes, compile, run, schema."""
+"""The stackdsl command: check's rows, failure details, JSON, JUnit XML, selection, exit
+codes; compile, run, schema, compare, bench; the fan-out that runs scenarios."""
 
+import io
 import json
+import os
+import pickle
+import signal
 import subprocess
 import sys
+import tempfile
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
 
-from stackdsl import _check
+from stackdsl import _check, _cli, _pool, compile_scenario, parse_scenario, run_program
 from stackdsl._cli import main
+from stackdsl._expect import explain
+from stackdsl._progress import Lines, is_live
 
+ROOT = Path(__file__).resolve().parents[1]
 PASSING = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nexpect: {stands: true}\n"
 FAILING = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nexpect: {collapse: 2}\n"
 BAD = "stackdsl: 1\nstructure:\n  tower: {levels: 2, spacng: 96 mm}\n"
+# A brick whose centre of mass lies 0.5 mm beyond the edge of the one below: it tips over.
+TIPS = "stackdsl: 1\nstructure:\n  bricks:\n    - {id: base, at: [0, 0, 4 mm]}\n    - {id: top, at: [60.5 mm, 0, 12 mm]}\n"
+NAMED = "stackdsl: 1\nname: Leaning Tower\nstructure: {tower: {levels: 1}}\nexpect: {stands: true}\n"
 
 
 def write(folder: Path, **files: str) -> Path:
     for name, text in files.items():
         (folder / f"{name}.yaml").write_text(text)
     return folder
+
+
+def stackdsl_command(*args: str, **kwargs) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "stackdsl", *args], capture_output=True, text=True, check=False, **kwargs)
+
+
+# check: the table, and rows as each scenario finishes
 
 
 def test_check_passing_folder_exits_0_with_a_table(tmp_path, capsys):
@@ -30,10 +50,67 @@ def test_check_passing_folder_exits_0_with_a_table(tmp_path, capsys):
     assert out[-1].startswith("2 scenarios: 2 passed, 0 failed")
 
 
-def test_check_failing_expectation_exits_1(tmp_path, capsys):
+def test_check_prints_each_row_before_the_next_scenario_runs(tmp_path, capsys, monkeypatch):
+    printed_before_each_run = []
+
+    def spy(program, *args):
+        printed_before_each_run.append(capsys.readouterr().out)
+        return run_program(program, *args)
+
+    monkeypatch.setattr(_check, "run_program", spy)
     assert main(["check", str(write(tmp_path, a=PASSING, b=FAILING)), "-j", "1"]) == 1
-    out = capsys.readouterr().out
-    assert "FAIL" in out and "collapse 2" in out and "1 failed" in out
+    first, second = printed_before_each_run
+    assert "a.yaml" not in first and "PASS" in second and "a.yaml" in second and "b.yaml" not in second
+
+
+def test_check_failing_expectation_exits_1_and_says_what_moved(tmp_path, capsys):
+    assert main(["check", str(write(tmp_path, a=PASSING, b=FAILING)), "-j", "1", "--mode", "raw"]) == 1
+    out = capsys.readouterr().out.splitlines()
+    fail = next(i for i, line in enumerate(out) if line.startswith("FAIL"))
+    assert "b.yaml" in out[fail] and "collapse 2" in out[fail]
+    stood, more = out[fail + 1], out[fail + 2]
+    assert stood.startswith("      stood: the largest displacement") and " mm, brick L0" in stood and "(level " in stood
+    assert more == f"      more: stackdsl run {tmp_path / 'b.yaml'} --mode raw"
+    assert out[-1].startswith("2 scenarios: 1 passed, 1 failed")
+
+
+def test_explain_names_the_brick_distance_time_and_level():
+    collapse = parse_scenario(TIPS + "expect: {stands: true}\n")
+    program = compile_scenario(collapse)
+    outcome = run_program(program)
+    c = outcome.collapse
+    assert c is not None and c.brick == "top"
+    (line,) = explain(collapse.expect, outcome, program.collapse_threshold)
+    assert (
+        line == f"collapsed: brick top (level 2) moved {c.displacement * 1000:.1f} mm by t={c.time:.2f} s, with 2 levels placed"
+    )
+
+    stays = parse_scenario(TIPS + "expect: {stays: 1-2}\n")
+    (line,) = explain(stays.expect, outcome, program.collapse_threshold)
+    moved = outcome.displacement["top"] * 1000
+    assert moved > 4 and line.startswith(f"moved: brick top (level 2) moved {moved:.1f} mm by the end")
+
+    assert explain(parse_scenario(TIPS + "expect: {collapse: 2}\n").expect, outcome, program.collapse_threshold) == []
+
+
+def test_explain_a_collapse_expected_but_stood_gives_the_largest_displacement():
+    scenario = parse_scenario(FAILING)
+    program = compile_scenario(scenario)
+    outcome = run_program(program)
+    brick, largest = max(outcome.displacement.items(), key=lambda item: item[1])
+    (line,) = explain(scenario.expect, outcome, program.collapse_threshold)
+    assert line.startswith("stood: the largest displacement at the end (t=5.00 s) was ")
+    assert f"brick {brick} (level {brick[2]})" in line and "4.0 mm" in line
+    assert f"{largest * 1000:.2g} mm" in line
+
+
+def test_check_results_carry_their_explanation_and_pickle(tmp_path):
+    (r,) = _check.check([write(tmp_path, b=FAILING)], jobs=1)
+    assert not r.passed and r.explanation and r.explanation[0].startswith("stood:")
+    assert pickle.loads(pickle.dumps(r)) == r
+
+
+# check: bad input, selection, exit first, machine-readable output
 
 
 def test_check_bad_file_exits_2_and_simulates_nothing(tmp_path, capsys, monkeypatch):
@@ -57,9 +134,265 @@ def test_check_mode_override(tmp_path, capsys):
     assert " raw " in capsys.readouterr().out
 
 
-def test_check_runs_in_worker_processes(tmp_path):
+def test_k_selects_by_path_or_name_case_insensitively(tmp_path, capsys):
+    folder = write(tmp_path, a=PASSING, b=FAILING, tower=NAMED)
+    assert main(["check", str(folder), "-k", "A.YAML", "-j", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "a.yaml" in out and "b.yaml" not in out and out.splitlines()[-1].startswith("1 scenarios")
+    assert main(["check", str(folder), "-k", "leaning", "-j", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "tower.yaml" in out and "a.yaml" not in out
+
+
+def test_k_selecting_nothing_is_bad_input(tmp_path, capsys):
+    assert main(["check", str(write(tmp_path, a=PASSING)), "-k", "nothing-like-it"]) == 2
+    assert "no scenario's path or name contains 'nothing-like-it'" in capsys.readouterr().err
+
+
+def test_k_rule_is_in_the_help(capsys):
+    with pytest.raises(SystemExit):
+        main(["check", "--help"])
+    assert "path or name contains PATTERN" in " ".join(capsys.readouterr().out.split())
+
+
+def test_exitfirst_stops_after_the_first_failure(tmp_path, capsys, monkeypatch):
+    runs = []
+    monkeypatch.setattr(_check, "run_program", lambda program, *a: runs.append(program.name) or run_program(program, *a))
+    folder = write(tmp_path, a=FAILING, b=PASSING, c=PASSING)
+    assert main(["check", str(folder), "-x", "-j", "1", "--junit-xml", str(tmp_path / "junit.xml")]) == 1
+    out = capsys.readouterr().out.splitlines()
+    assert len(runs) == 1 and sum(line.startswith(("PASS", "FAIL")) for line in out) == 1
+    assert out[-1].startswith("3 scenarios: 0 passed, 1 failed, 2 not run: stopped after the first failure")
+    suite = ET.parse(tmp_path / "junit.xml").getroot().find("testsuite")
+    assert suite.get("skipped") == "2" and len(suite.findall("testcase/skipped")) == 2
+
+
+def test_json_is_one_document_of_every_result(tmp_path, capsys):
+    assert main(["check", str(write(tmp_path, a=PASSING, b=FAILING)), "-j", "1", "--json"]) == 1
+    doc = json.loads(capsys.readouterr().out)  # nothing else on stdout
+    assert doc["summary"] == {**doc["summary"], "total": 2, "passed": 1, "failed": 1, "not_run": 0}
+    by_file = {Path(r["file"]).name: r for r in doc["results"]}
+    assert by_file["a.yaml"]["passed"] and by_file["a.yaml"]["explanation"] == []
+    b = by_file["b.yaml"]
+    assert not b["passed"] and b["verdicts"][0]["expected"] == "collapse 2" and b["explanation"][0].startswith("stood:")
+    assert b["command"] == f"stackdsl run {tmp_path / 'b.yaml'}" and b["collapse_level"] is None
+
+
+def test_junit_xml_has_a_testcase_per_scenario_and_the_failure_text(tmp_path, capsys):
+    path = tmp_path / "out" / "junit.xml"
+    path.parent.mkdir()
+    assert main(["check", str(write(tmp_path, a=PASSING, b=FAILING)), "-j", "1", "--junit-xml", str(path)]) == 1
+    root = ET.parse(path).getroot()
+    suite = root.find("testsuite")
+    assert root.tag == "testsuites" and (suite.get("tests"), suite.get("failures")) == ("2", "1")
+    cases = {Path(c.get("name")).name: c for c in suite.findall("testcase")}
+    assert cases["a.yaml"].find("failure") is None and cases["a.yaml"].get("classname") == "stackdsl.extension"
+    failure = cases["b.yaml"].find("failure")
+    assert failure.get("message") == "expected collapse 2, measured stands"
+    assert failure.text.startswith("stood:") and failure.text.endswith(f"more: stackdsl run {tmp_path / 'b.yaml'}")
+
+
+def test_junit_xml_into_a_missing_folder_is_bad_input(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(_check, "run_program", lambda *a: pytest.fail("simulated before the output was known to be writable"))
+    assert main(["check", str(write(tmp_path, a=PASSING)), "--junit-xml", str(tmp_path / "no" / "junit.xml")]) == 2
+    assert "no such folder for the JUnit XML file" in capsys.readouterr().err
+
+
+# options and exit statuses
+
+
+@pytest.mark.parametrize("bad", ["", "--mode sideways", "-j 0", "-j 100000", "-j two", "-j 1.5"])
+def test_usage_errors_exit_2(bad, tmp_path, capsys):
+    with pytest.raises(SystemExit) as info:
+        main(["check", str(tmp_path), *bad.split()] if bad else [])
+    assert info.value.code == 2
+
+
+def test_jobs_accepts_auto_and_one_to_the_cores():
+    cores = os.cpu_count() or 1
+    assert _cli.jobs_type("auto") == cores and _cli.jobs_type(str(cores)) == cores and _cli.jobs_type("1") == 1
+
+
+def test_version(capsys):
+    with pytest.raises(SystemExit) as info:
+        main(["--version"])
+    assert info.value.code == 0
+    from importlib.metadata import version
+
+    assert capsys.readouterr().out.strip() == f"stackdsl {version('stackdsl')}"
+
+
+@pytest.mark.parametrize("command", [[], ["check"], ["compare"], ["run"], ["compile"], ["schema"], ["bench"]])
+def test_exit_statuses_are_in_the_help(command, capsys):
+    with pytest.raises(SystemExit):
+        main([*command, "--help"])
+    out = capsys.readouterr().out
+    assert "exit status:" in out and "2    bad input" in out and "3    internal error" in out
+    assert ("1    an expectation failed" in out) == (command in ([], ["check"], ["run"]))
+
+
+def test_run_json_help_says_a_failed_expectation_exits_1(capsys):
+    with pytest.raises(SystemExit):
+        main(["run", "--help"])
+    assert "With --json too, the exit status is 1 when an expectation failed" in capsys.readouterr().out
+
+
+def test_run_json_exits_1_on_a_failed_expectation(tmp_path, capsys):
+    assert main(["run", str(write(tmp_path, b=FAILING) / "b.yaml"), "--json"]) == 1
+    assert json.loads(capsys.readouterr().out)["collapse"] is None
+
+
+def test_an_unexpected_exception_is_one_line_and_exit_3(tmp_path, capsys, monkeypatch):
+    def broken(*args, **kwargs):
+        raise RuntimeError("wheels came off\nsecond line")
+
+    monkeypatch.setattr(_check, "run_program", broken)
+    monkeypatch.delenv("STACKDSL_TRACEBACK", raising=False)
+    assert main(["check", str(write(tmp_path, a=PASSING)), "-j", "1"]) == 3
+    err = capsys.readouterr().err.splitlines()
+    assert err == [
+        "stackdsl: internal error: RuntimeError: wheels came off",
+        "stackdsl: set STACKDSL_TRACEBACK=1 to see the traceback",
+    ]
+    monkeypatch.setenv("STACKDSL_TRACEBACK", "1")
+    assert main(["check", str(tmp_path), "-j", "1"]) == 3
+    err = capsys.readouterr().err
+    assert err.startswith("Traceback") and "stackdsl: internal error: RuntimeError: wheels came off" in err
+
+
+def test_ctrl_c_exits_130_without_a_traceback(tmp_path, capsys, monkeypatch):
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(_check, "run_program", interrupted)
+    assert main(["check", str(write(tmp_path, a=PASSING)), "-j", "1"]) == 130
+    assert capsys.readouterr().err == "stackdsl: interrupted\n"
+
+
+@pytest.mark.parametrize("command", ["compile", "run", "check"])
+def test_a_closed_pipe_ends_quietly(command, tmp_path):
+    # The reader is gone before the command writes anything: its first write meets a
+    # closed pipe.
+    path = write(tmp_path, a=PASSING) / "a.yaml"
+    args = [sys.executable, "-m", "stackdsl", command, str(path)] + (["-j", "1"] if command == "check" else [])
+    process = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    process.stdout.close()
+    err = process.stderr.read()
+    assert process.wait() == 141 and err == ""
+
+
+def test_console_script_output_has_no_engine_chatter(tmp_path):
+    done = stackdsl_command("check", str(write(tmp_path, a=PASSING)), "-j", "1")
+    assert done.returncode == 0, done.stderr
+    assert "argv[0]" not in done.stdout + done.stderr and "build time" not in done.stdout + done.stderr
+
+
+# progress: plain lines off a terminal, a live line on one
+
+
+def test_progress_is_live_only_on_a_terminal_outside_ci(monkeypatch):
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    monkeypatch.delenv("CI", raising=False)
+    monkeypatch.setenv("TERM", "xterm")
+    assert is_live(Terminal()) and not is_live(io.StringIO())
+    monkeypatch.setenv("CI", "true")
+    assert not is_live(Terminal())
+
+
+def test_live_progress_prints_rows_above_a_progress_line():
+    out = io.StringIO()
+    with Lines(2, "check", file=out, live=True) as lines:
+        lines.line("PASS  first row")
+        lines.advance()
+        lines.line("PASS  second row")
+        lines.advance()
+    text = out.getvalue()
+    assert "PASS  first row" in text and "PASS  second row" in text
+    assert "\x1b[" in text and "2/2" in text  # terminal control codes, and the count
+
+
+def test_plain_progress_is_just_the_lines():
+    out = io.StringIO()
+    with Lines(1, "check", file=out, live=False) as lines:
+        lines.line("PASS  a row")
+        lines.advance()
+    assert out.getvalue() == "PASS  a row\n"
+
+
+def test_check_on_a_terminal_shows_the_rows_and_a_progress_line(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(_cli, "is_live", lambda stream: True)
+    assert main(["check", str(write(tmp_path, a=PASSING, b=FAILING)), "-j", "1"]) == 1
+    out = capsys.readouterr().out
+    assert "\x1b[" in out and "2/2" in out and "a.yaml" in out and "      more: stackdsl run" in out
+    assert "\x1b[2K2 scenarios: 1 passed, 1 failed (" in out.splitlines()[-1]  # once the progress line is erased
+
+
+# the fan-out
+
+
+def test_estimate_grows_with_bricks_and_engine_work():
+    def program(levels: int, mode: str):
+        return compile_scenario(
+            parse_scenario(f"stackdsl: 1\nstructure: {{tower: {{levels: {levels}}}}}\nengine: {{mode: {mode}}}")
+        )
+
+    assert _pool.estimate(program(2, "extension")) < _pool.estimate(program(20, "extension"))
+    assert _pool.estimate(program(2, "raw")) < _pool.estimate(program(20, "raw")) < _pool.estimate(program(20, "tuned"))
+
+
+def test_cheap_work_runs_in_this_process(tmp_path, monkeypatch):
+    def no_workers(count):
+        raise AssertionError("started workers for work cheaper than their start-up")
+
+    monkeypatch.setattr(_pool, "Workers", no_workers)
     results = list(_check.check([write(tmp_path, a=PASSING, b=FAILING)], jobs=2))
     assert [(Path(r.file).name, r.passed) for r in results] == [("a.yaml", True), ("b.yaml", False)]
+
+
+def test_workers_run_checks_and_return_the_same_results(tmp_path):
+    ((path, program, expect),) = _check.prepare([write(tmp_path, b=FAILING) / "b.yaml"])
+    workers = _pool.Workers(1)
+    try:
+        there = workers.submit(_check.judge, str(path), program, expect).result(timeout=120)
+    finally:
+        workers.stop()
+    here = _check.judge(str(path), program, expect)
+    assert there.verdicts == here.verdicts and there.explanation == here.explanation and there.collapse_level is None
+
+
+def test_work_is_shared_with_workers_as_they_become_ready():
+    # Each task reports the process that ran it (sh's parent); 30 x 0.1 s is longer than a
+    # worker takes to start.
+    task = (["sh", "-c", "sleep 0.1; echo $PPID"],)
+    runners = [int(out) for out in _pool.fan_out(subprocess.check_output, [task] * 30, [1.0] * 30, jobs=2)]
+    assert len(runners) == 30 and os.getpid() in runners and len(set(runners)) == 2
+
+
+def test_closing_the_results_stops_the_workers(monkeypatch):
+    started = []
+
+    class Recorded(_pool.Workers):
+        def __init__(self, count):
+            super().__init__(count)
+            started.append(self)
+
+    monkeypatch.setattr(_pool, "Workers", Recorded)
+    results = _pool.fan_out(os.getpid, [()] * 4, [1.0] * 4, jobs=2)
+    assert next(results) == os.getpid()
+    processes = list(started[0]._pool._processes.values())
+    results.close()
+    assert processes and not any(p.is_alive() for p in processes)
+
+
+def test_jobs_below_one_is_an_error(tmp_path):
+    with pytest.raises(ValueError, match="at least 1"):
+        _check.check([write(tmp_path, a=PASSING)], jobs=0)
+
+
+# compile, run, schema
 
 
 def test_compile_prints_the_program(tmp_path, capsys):
@@ -76,40 +409,67 @@ def test_run_prints_the_timeline(tmp_path, capsys):
     assert "freeze   L01.1" in out and "PASS  expected stands" in out
 
 
-def test_schema_is_json_schema_of_a_scenario(capsys):
+def test_schema_prints_the_json_schema_of_a_scenario(capsys):
+    from stackdsl._schema import json_schema
+
     assert main(["schema"]) == 0
-    schema = json.loads(capsys.readouterr().out)
-    assert schema["title"] == "Scenario" and "structure" in schema["required"]
+    out = capsys.readouterr().out
+    assert out == json.dumps(json_schema(), indent=2) + "\n"
+    assert "structure" in json.loads(out)["required"]
 
 
-def test_console_script_output_has_no_engine_chatter(tmp_path):
-    path = write(tmp_path, a=PASSING)
-    done = subprocess.run(
-        [sys.executable, "-m", "stackdsl", "check", str(path), "-j", "1"], capture_output=True, text=True, check=False
-    )
-    assert done.returncode == 0, done.stderr
-    assert "argv[0]" not in done.stdout + done.stderr and "build time" not in done.stdout + done.stderr
-
-
-@pytest.mark.parametrize("bad", ["", "--mode sideways"])
-def test_usage_errors_exit_2(bad, capsys):
-    with pytest.raises(SystemExit) as info:
-        main(["check", *bad.split()] if bad else [])
-    assert info.value.code == 2
+# compare
 
 
 def test_compare_prints_one_row_per_scenario_and_a_column_per_mode(tmp_path, capsys):
     assert main(["compare", str(write(tmp_path, a=PASSING, b=FAILING)), "--modes", "raw,extension", "-j", "1"]) == 0
-    out = capsys.readouterr().out.splitlines()
+    captured = capsys.readouterr()
+    out = captured.out.splitlines()
     assert out[0].split() == ["scenario", "expected", "raw", "extension"]
     assert out[1].split()[:4] == ["a", "stands", "PASS", "stands"] and out[1].count("PASS") == 2
     assert out[2].startswith("b ") and out[2].count("FAIL") == 2
     assert out[-1].startswith("2 scenarios x 2 modes")
+    progress = captured.err.splitlines()  # a line per finished cell, off stdout
+    assert [line.split()[0] for line in progress] == ["[1/4]", "[2/4]", "[3/4]", "[4/4]"]
+    assert "a raw: PASS stands" in captured.err
+
+
+def test_compare_json_and_k(tmp_path, capsys):
+    folder = write(tmp_path, a=PASSING, b=FAILING)
+    assert main(["compare", str(folder), "--modes", "raw,extension", "-j", "1", "-k", "b.yaml", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert sorted((Path(r["file"]).name, r["mode"]) for r in doc["results"]) == [("b.yaml", "extension"), ("b.yaml", "raw")]
+    assert doc["command"] == "compare" and doc["summary"]["failed"] == 2
 
 
 def test_compare_unknown_mode_exits_2(tmp_path, capsys):
     assert main(["compare", str(write(tmp_path, a=PASSING)), "--modes", "raw,sideways"]) == 2
     assert "unknown mode sideways" in capsys.readouterr().err
+
+
+def test_compare_keeps_file_order_whatever_order_runs_finish(tmp_path):
+    modes = ("extension", "raw")
+    prepared = _check.prepare(_check.discover([write(tmp_path, b=PASSING, a=FAILING)]), modes=modes)
+    finished = list(_check.run_checks(prepared, jobs=1))[::-1]  # as if the last had finished first
+    seen = []
+    table = _check.tabulate(prepared, modes, finished, seen.append)
+    assert seen == finished and [Path(f).name for f in table] == ["a.yaml", "b.yaml"]
+    assert all(list(row) == list(modes) for row in table.values())
+    assert table[str(tmp_path / "a.yaml")]["raw"].mode == "raw"
+
+
+# bench
+
+
+def test_bench_writes_outside_the_repository_by_default():
+    out = Path(_cli._parser().parse_args(["bench"]).out).resolve()
+    assert out.is_relative_to(Path(tempfile.gettempdir()).resolve()) and not out.is_relative_to(ROOT)
+
+
+def test_bench_help_names_the_command_that_regenerates_the_figures(capsys):
+    with pytest.raises(SystemExit):
+        main(["bench", "--help"])
+    assert "stackdsl bench --out docs/bench" in capsys.readouterr().out
 
 
 def test_bench_quick_smoke_writes_every_output(tmp_path, capsys):
@@ -119,4 +479,14 @@ def test_bench_quick_smoke_writes_every_output(tmp_path, capsys):
     assert names == {"bench.csv", "bench.md", "wall_vs_error.png", "wall_vs_height.png"}
     rows = (tmp_path / "bench.csv").read_text().splitlines()
     assert rows[0].startswith("setting,family,parameter") and len(rows) == 1 + 5
-    assert "extension report" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "extension report" in out and "[5/5]" in out and f"wrote {tmp_path.resolve()}" in out
+
+
+def test_sigint_reaches_main_not_the_workers():
+    # Workers ignore Ctrl-C (the parent stops them); checked in a fresh worker.
+    workers = _pool.Workers(1)
+    try:
+        assert workers.submit(signal.getsignal, signal.SIGINT).result(timeout=120) == signal.SIG_IGN
+    finally:
+        workers.stop()

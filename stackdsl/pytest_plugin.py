@@ -32,7 +32,7 @@ import pytest
 
 from ._compiler import compile_scenario
 from ._errors import ScenarioError
-from ._expect import evaluate
+from ._expect import evaluate, explain
 from ._loader import load_scenario
 from ._runtime import run_program
 from ._snapshot import dumps, summarize
@@ -102,11 +102,43 @@ def pytest_collect_file(file_path: Path, parent: pytest.Collector) -> pytest.Col
     return None
 
 
+def orphan_goldens(config: pytest.Config) -> list[Path]:
+    """Golden snapshots under ``golden/<configured folder>/`` whose scenario file is gone."""
+    orphans = []
+    for folder in config.getini("stackdsl_paths"):
+        root = (config.rootpath / folder).resolve()
+        stored = scenario_golden_path(root / "x.yaml").parent
+        for golden in sorted(stored.rglob("*.json")) if stored.is_dir() else []:
+            place = root / golden.parent.relative_to(stored) / golden.stem
+            if not any(place.with_suffix(suffix).is_file() for suffix in SUFFIXES):
+                orphans.append(golden)
+    return orphans
+
+
+def pytest_terminal_summary(terminalreporter: Any, config: pytest.Config) -> None:
+    """Name golden snapshots left behind by scenario files that were removed or renamed."""
+    orphans = orphan_goldens(config)
+    if orphans:
+        terminalreporter.section("stackdsl: golden snapshots with no scenario file", yellow=True)
+        for golden in orphans:
+            terminalreporter.line(
+                f"{_relative(golden, config.rootpath)} (its scenario file is gone: delete it or restore the file)"
+            )
+
+
 class ScenarioFile(pytest.File):
     """A scenario file: one test item, named after the file."""
 
     def collect(self) -> Iterator[pytest.Item]:
-        yield pytest.Function.from_parent(self, name=self.path.stem, callobj=_scenario_test)
+        yield ScenarioItem.from_parent(self, name=self.path.stem, callobj=_scenario_test)
+
+
+class ScenarioItem(pytest.Function):
+    """The test item of one scenario file: a function item (so that fixtures, syrupy and
+    pytest's flags work as on any test) reported under the scenario file's name."""
+
+    def reportinfo(self) -> tuple[Path, int, str]:
+        return self.path, 0, f"scenario {self.path.name}"
 
 
 def _scenario_test(request: pytest.FixtureRequest, scenario_golden: Any) -> None:
@@ -122,7 +154,7 @@ def _scenario_test(request: pytest.FixtureRequest, scenario_golden: Any) -> None
     failed = [v for v in verdicts if not v.passed]
     if failed:
         lines = [f"{path.name}: expected {v.expected}, measured {v.measured}" for v in failed]
-        lines += _explain(scenario.expect, outcome, program.collapse_threshold)
+        lines += [f"  {line}" for line in explain(scenario.expect, outcome, program.collapse_threshold)]
         lines.append(f"more: stackdsl run {_relative(path, request.config.rootpath)}")
         pytest.fail("\n".join(lines), pytrace=False)
     if not scenario_golden == outcome.golden():
@@ -134,14 +166,6 @@ def _scenario_test(request: pytest.FixtureRequest, scenario_golden: Any) -> None
             ),
             pytrace=False,
         )
-
-
-def _explain(expect: Any, outcome: Any, threshold: float) -> list[str]:
-    """Which brick moved, how far, when: from ``stackdsl._expect.explain`` when it exists."""
-    from . import _expect
-
-    explain = getattr(_expect, "explain", None)
-    return list(explain(expect, outcome, threshold)) if explain else []
 
 
 def _relative(path: Path, root: Path) -> str:

@@ -122,3 +122,14 @@ def test_xdist_runs_scenario_items(project):
         write(project, name, TOWER)
     project.runpytest("--snapshot-update").assert_outcomes(passed=2)
     project.runpytest("-n", "2").assert_outcomes(passed=2)
+
+
+def test_a_golden_left_by_a_removed_scenario_is_named(project):
+    write(project, "kept", TOWER)
+    write(project, "gone", TOWER)
+    project.runpytest("--snapshot-update").assert_outcomes(passed=2)
+    (project.path / "scenarios" / "gone.yaml").unlink()
+    result = project.runpytest()
+    result.assert_outcomes(passed=1)
+    assert "golden/scenarios/gone.json (its scenario file is gone" in result.stdout.str()
+    assert "kept.json" not in result.stdout.str()

@@ -21,7 +21,7 @@ Source: stackdsl's own (the brick graph of docs/design.md).
 }
 >>> moved = text.replace("[1.0, 2.0, 4.0]", "[6.0, 2.0, 4.0]").replace("frozen", "active")
 >>> summarize(text, moved)
-['final_graph b1: frozen -> active; x 1.0 -> 6.0 mm']
+['final_graph b1: x 1.0 -> 6.0 mm; frozen -> active']
 """
 
 from __future__ import annotations
@@ -106,11 +106,9 @@ def _graph_changes(before: dict[str, Any], after: dict[str, Any]) -> list[str]:
 
 
 def _brick_changes(a: dict[str, Any], b: dict[str, Any]) -> list[str]:
-    changes = []
+    changes = _vector("position_mm", _AXES, "mm", a, b) + _vector("yaw_pitch_roll_deg", _ANGLES, "deg", a, b)
     if a.get("state") != b.get("state"):
         changes.append(f"{a.get('state')} -> {b.get('state')}")
-    changes += _vector("position_mm", _AXES, "mm", a, b)
-    changes += _vector("yaw_pitch_roll_deg", _ANGLES, "deg", a, b)
     if a.get("rests_on") != b.get("rests_on"):
         changes.append(f"rests on {_supports(a)} -> {_supports(b)}")
     for key in dict.fromkeys([*a, *b]):

@@ -31,7 +31,7 @@ from ._program import format_program
 from ._progress import Lines, is_live
 from ._report import HEADER, failure_lines, json_document, junit_xml, row, run_command, summary, version
 from ._runtime import run_program
-from ._schema import json_schema
+from ._jsonschema import json_schema
 
 MODELS = ["report", "equilibrium"]
 

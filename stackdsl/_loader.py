@@ -23,7 +23,7 @@ from pydantic_core import ErrorDetails
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
 from ._errors import FieldPath, ScenarioError, SourceMap
-from ._schema import Scenario, reference_errors
+from ._schema import BUILTIN_BRICKS, BUILTIN_MATERIALS, MAX_BRICKS, Scenario
 
 MAX_FILE_BYTES = 1 << 20
 MAX_NODES = 200_000
@@ -189,3 +189,40 @@ def _model_in(annotation: Any, loc: FieldPath) -> Any:
                 return found
         return None
     return annotation
+
+
+def reference_errors(s: Scenario) -> list[tuple[tuple, str]]:
+    """Names that point nowhere: (field path, message) for each, in file order."""
+    bricks = {**BUILTIN_BRICKS, **s.brick_types}
+    materials = {**BUILTIN_MATERIALS, **s.materials}
+    problems: list[tuple[tuple, str]] = []
+
+    def brick(path: tuple, name: str) -> None:
+        if name not in bricks:
+            problems.append((path, f"unknown brick type {name!r}; known: {', '.join(sorted(bricks))}"))
+
+    for name, bt in s.brick_types.items():
+        if bt.material not in materials:
+            problems.append(
+                (("brick_types", name, "material"), f"unknown material {bt.material!r}; known: {', '.join(sorted(materials))}")
+            )
+    if s.ground.material not in materials:
+        problems.append(
+            (("ground", "material"), f"unknown material {s.ground.material!r}; known: {', '.join(sorted(materials))}")
+        )
+    if s.structure.tower:
+        brick(("structure", "tower", "brick"), s.structure.tower.brick)
+    if s.structure.card_house:
+        brick(("structure", "card_house", "brick"), s.structure.card_house.brick)
+    for i, b in enumerate(s.structure.bricks or []):
+        brick(("structure", "bricks", i, "brick"), b.brick)
+    ids = [b.id for b in s.structure.bricks or [] if b.id] + [imp.id for imp in s.impacts if imp.id]
+    for i, b in enumerate(s.structure.bricks or []):
+        if b.id and ids.count(b.id) > 1:
+            problems.append((("structure", "bricks", i, "id"), f"brick id {b.id!r} is used more than once"))
+    for i, imp in enumerate(s.impacts):
+        brick(("impacts", i, "projectile"), imp.projectile)
+    n_bricks = s.structure.tower.levels * s.structure.tower.bricks_per_layer if s.structure.tower else 0
+    if n_bricks > MAX_BRICKS:
+        problems.append((("structure", "tower", "levels"), f"the tower has {n_bricks} bricks; at most {MAX_BRICKS} are allowed"))
+    return problems

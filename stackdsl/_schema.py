@@ -5,23 +5,15 @@ Units: every length, time and speed may be written with a unit ("120 mm", "1 s",
 built-in material ``pine`` and brick type ``kapla`` (120 x 24 x 8 mm, 460 kg/m^3,
 friction coefficient 0.5) can be used without being declared.
 
-:func:`json_schema` is the JSON Schema (Draft 2020-12) of scenario files for editors. It
-accepts what the loader accepts, except for what JSON Schema cannot say, where it is
-wider: a quantity string's unit dimension and bounds other than its sign (pint converts
-the unit), names of brick types and materials, the number of bricks of a tower,
-descending level ranges ("5-3"), levels both in ``stays`` and ``may_fall``, and numbers
-beyond a double (``.inf``, ``1e999``). Scalars are read as YAML writes them: an integer
-field takes ``5`` or ``5.0`` but not ``"5"`` or ``true``, a number field no string, a
-flag only ``true``/``false`` (pydantic's lax mode would read ``"5"``, ``true`` and ``1``).
+Integers, numbers and flags are read as YAML writes them (see :mod:`stackdsl._grammar`);
+:mod:`stackdsl._jsonschema` gives the JSON Schema of these models for editors.
 
 Source: stackdsl's own (docs/design.md, words); report 3.2 and chapter 4.
 """
 
 from __future__ import annotations
 
-import json
 import re
-from dataclasses import dataclass
 from typing import Annotated, Any, Literal
 
 from pydantic import (
@@ -30,19 +22,30 @@ from pydantic import (
     BeforeValidator,
     ConfigDict,
     Field,
-    GetJsonSchemaHandler,
     PrivateAttr,
     StrictBool,
     StrictFloat,
-    TypeAdapter,
     WithJsonSchema,
     model_validator,
 )
-from pydantic.json_schema import JsonSchemaValue
-from pydantic_core import CoreSchema
 
 from ._errors import SourceMap
-from ._units import WHITESPACE, Angle, AngularSpeed, Density, Length, Sign, Speed, Time, quantity_pattern, time
+from ._grammar import (
+    AFTER_LEVEL,
+    COLLAPSE,
+    LEVEL_NUMBER,
+    LEVEL_RANGE,
+    TOLERANCE_NUMBER,
+    WHOLE,
+    AlsoAccepts,
+    absent,
+    as_int,
+    flag,
+    given,
+    json_pattern,
+    whole,
+)
+from ._units import Angle, AngularSpeed, Density, Length, Speed, Time, quantity_pattern, time
 
 FORMAT_VERSION = 1
 MAX_BRICKS = 5000
@@ -50,78 +53,12 @@ MAX_LEVELS = 1000
 MAX_SIMULATED_TIME = 3600.0  # s
 MIN_DIRECTION = 1e-6  # the largest component of an impact's direction is at least this
 
-SCHEMA_ID = "urn:stackdsl:scenario:1"
-SCHEMA_DIALECT = "https://json-schema.org/draft/2020-12/schema"
-
-# Regular expressions shared by the validators and the JSON Schema, written to mean the same in
-# Python and ECMA-262 (see stackdsl._units). The JSON Schema narrows numbers to their ranges.
-_SPACE = f"{WHITESPACE}*"
-_LEVEL_NUMBER = "0*(?:[1-9][0-9]{0,2}|1000)"  # 1 to MAX_LEVELS
-_TOLERANCE_NUMBER = "0*(?:[0-9]{1,3}|1000)"  # 0 to MAX_LEVELS
-_COLLAPSE = f"{_SPACE}([0-9]+){_SPACE}(?:(?:±|\\+-|\\+/-){_SPACE}([0-9]+))?{_SPACE}"  # "9", "9±1", "9 +- 1", "9 +/- 1"
-_LEVEL_RANGE = f"{_SPACE}([0-9]+){_SPACE}(?:(?:-|\\.\\.){_SPACE}([0-9]+))?{_SPACE}"  # "5", "1-11", "1..11"
-_AFTER_LEVEL = f"{_SPACE}after{WHITESPACE}+level{WHITESPACE}+([0-9]+){_SPACE}"  # "after level 13"
-
-
-def _json_pattern(regex: str, *numbers: str) -> str:
-    """``regex`` anchored, its groups ``([0-9]+)`` narrowed to ``numbers`` in order."""
-    first, *rest = regex.split("([0-9]+)")
-    return "^" + first + "".join(f"(?:{number}){part}" for number, part in zip(numbers, rest, strict=True)) + "$"
-
-
-def _whole(value: Any) -> Any:
-    """An integer as YAML writes it, ``5`` or ``5.0``; not ``"5"`` or ``true``."""
-    if isinstance(value, (bool, str)):
-        raise ValueError(f"expected a valid integer, not {'true or false' if isinstance(value, bool) else 'text'}, got {value!r}")
-    if isinstance(value, float) and value.is_integer():
-        return int(value)
-    return value
-
-
-def _as_int(value: Any) -> int | None:
-    """``value`` as an int if it is an integer (``5`` or ``5.0``, not ``true``), else None."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        return None
-    if isinstance(value, float):
-        return int(value) if value.is_integer() else None
-    return value
-
-
-# An integer field: Annotated[int, Field(ge=..., le=...), _WHOLE], the bounds before _WHOLE so that they reach the
-# JSON Schema ({"type": "integer"}, which takes 5.0 too).
-_WHOLE = BeforeValidator(_whole)
-
 
 Number = Annotated[StrictFloat, Field(allow_inf_nan=False)]  # a YAML number, not a string or a flag
 PositiveLength = Annotated[Length, Field(gt=0)]
 NonNegativeLength = Annotated[Length, Field(ge=0)]
 Vector2 = tuple[Length, Length]
 Vector3 = tuple[Length, Length, Length]
-
-
-@dataclass(frozen=True, eq=False)
-class _AlsoAccepts:
-    """JSON Schema of a type whose BeforeValidator takes more than the type: the type's own schema,
-    or any of ``forms`` (JSON Schemas, or types whose schema pydantic derives)."""
-
-    forms: tuple[Any, ...]
-    description: str
-
-    def __get_pydantic_json_schema__(self, core_schema: CoreSchema, handler: GetJsonSchemaHandler) -> JsonSchemaValue:
-        own = handler(core_schema)
-        branches = own["anyOf"] if set(own) == {"anyOf"} else [own]
-        forms = [form if isinstance(form, dict) else TypeAdapter(form).json_schema() for form in self.forms]
-        return {"anyOf": [*branches, *forms], "description": self.description}
-
-
-def _given(*names: str) -> dict[str, Any]:
-    """JSON Schema: the fields ``names`` are present and not null."""
-    return {"required": list(names), "properties": {name: {"not": {"type": "null"}} for name in names}}
-
-
-def _absent(*names: str) -> dict[str, Any]:
-    """JSON Schema: the fields ``names`` are absent or null."""
-    return {"properties": {name: {"type": "null"} for name in names}}
 
 
 class _Model(BaseModel):
@@ -152,7 +89,7 @@ def _shift(value: Any) -> Any:
     return value if isinstance(value, (list, tuple)) else (value, 0.0)
 
 
-Shift = Annotated[Vector2, BeforeValidator(_shift), _AlsoAccepts((Length,), "one length (along x) or an (x, y) pair")]
+Shift = Annotated[Vector2, BeforeValidator(_shift), AlsoAccepts((Length,), "one length (along x) or an (x, y) pair")]
 
 
 class Tower(_Model):
@@ -163,8 +100,8 @@ class Tower(_Model):
     """
 
     brick: str = "kapla"
-    levels: Annotated[int, Field(ge=1, le=MAX_LEVELS), _WHOLE]
-    bricks_per_layer: Annotated[int, Field(ge=1, le=50), _WHOLE] = 2
+    levels: Annotated[int, Field(ge=1, le=MAX_LEVELS), WHOLE]
+    bricks_per_layer: Annotated[int, Field(ge=1, le=50), WHOLE] = 2
     spacing: NonNegativeLength = 0.096
     turn: Angle = 90.0
     shift: Shift = (0.0, 0.0)
@@ -186,7 +123,7 @@ class BrickPlacement(_Model):
     yaw: Angle = 0.0
     pitch: Angle = 0.0
     roll: Angle = 0.0
-    level: Annotated[int, Field(ge=1, le=MAX_LEVELS), _WHOLE] | None = None
+    level: Annotated[int, Field(ge=1, le=MAX_LEVELS), WHOLE] | None = None
     fixed: StrictBool = False
     together: StrictBool = False
 
@@ -199,7 +136,7 @@ class CardHouse(_Model):
     """
 
     brick: str = "kapla"
-    levels: Annotated[int, Field(ge=1, le=50), _WHOLE]
+    levels: Annotated[int, Field(ge=1, le=50), WHOLE]
     angle: Annotated[Angle, Field(gt=0, lt=60)] = 20.0
     spacing: PositiveLength | None = None
     origin: Vector2 = (0.0, 0.0)
@@ -208,7 +145,7 @@ class CardHouse(_Model):
 class Structure(_Model):
     """What is built: a ``tower``, a ``card_house`` or a list of ``bricks`` (exactly one)."""
 
-    model_config = ConfigDict(json_schema_extra={"oneOf": [_given("tower"), _given("card_house"), _given("bricks")]})
+    model_config = ConfigDict(json_schema_extra={"oneOf": [given("tower"), given("card_house"), given("bricks")]})
 
     tower: Tower | None = None
     card_house: CardHouse | None = None
@@ -247,7 +184,7 @@ class Timing(_Model):
 class AfterLevel(_Model):
     """The moment one interval after the last brick of ``level`` was placed."""
 
-    after_level: Annotated[int, Field(ge=1, le=MAX_LEVELS), _WHOLE]
+    after_level: Annotated[int, Field(ge=1, le=MAX_LEVELS), WHOLE]
 
 
 def _when(value: Any) -> Any:
@@ -255,7 +192,7 @@ def _when(value: Any) -> Any:
     if isinstance(value, (AfterLevel, dict)):
         return value
     if isinstance(value, str):
-        match = re.fullmatch(_AFTER_LEVEL, value)
+        match = re.fullmatch(AFTER_LEVEL, value)
         if match:
             if not 1 <= int(match[1]) <= MAX_LEVELS:
                 raise ValueError(f"expected a level from 1 to {MAX_LEVELS}, got {value!r}")
@@ -272,10 +209,10 @@ def _when(value: Any) -> Any:
 When = Annotated[
     AfterLevel | Annotated[float, Field(ge=0)],
     BeforeValidator(_when),
-    _AlsoAccepts(
+    AlsoAccepts(
         (
             {"type": "string", "pattern": quantity_pattern("non-negative")},
-            {"type": "string", "pattern": _json_pattern(_AFTER_LEVEL, _LEVEL_NUMBER)},
+            {"type": "string", "pattern": json_pattern(AFTER_LEVEL, LEVEL_NUMBER)},
         ),
         "a time >= 0 ('14 s'), 'after level N' or {after_level: N}",
     ),
@@ -289,11 +226,11 @@ class Target(_Model):
 
     model_config = ConfigDict(
         json_schema_extra={
-            "oneOf": [{**_given("level", "side"), **_absent("point")}, {**_given("point"), **_absent("level", "side")}]
+            "oneOf": [{**given("level", "side"), **absent("point")}, {**given("point"), **absent("level", "side")}]
         }
     )
 
-    level: Annotated[int, Field(ge=1, le=MAX_LEVELS), _WHOLE] | None = None
+    level: Annotated[int, Field(ge=1, le=MAX_LEVELS), WHOLE] | None = None
     side: Literal["+x", "-x", "+y", "-y"] | None = None
     point: Vector3 | None = None
 
@@ -311,7 +248,7 @@ class Impact(_Model):
     after launch; it flies along ``direction`` (default: into the target's side) with its
     long axis along the flight."""
 
-    model_config = ConfigDict(json_schema_extra={"anyOf": [_given("direction"), {"properties": {"target": _given("side")}}]})
+    model_config = ConfigDict(json_schema_extra={"anyOf": [given("direction"), {"properties": {"target": given("side")}}]})
 
     id: Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]{1,40}$")] | None = None
     projectile: str = "kapla"
@@ -357,7 +294,7 @@ class Engine(_Model):
     timestep: Annotated[Time, Field(ge=1e-5), AfterValidator(_timestep)] | None = Field(
         default=None, json_schema_extra={"maximum": MAX_TIMESTEP + 1e-12}
     )
-    solver_iterations: Annotated[int, Field(ge=1, le=10000), _WHOLE] | None = None
+    solver_iterations: Annotated[int, Field(ge=1, le=10000), WHOLE] | None = None
     friction_anchors: StrictBool | None = None
     maximal_coordinates: StrictBool | None = None
     ccd: StrictBool | None = None
@@ -377,17 +314,17 @@ class Stability(_Model):
 class CollapseLevel(_Model):
     """Expected collapse level with a tolerance in levels."""
 
-    level: Annotated[int, Field(ge=1, le=MAX_LEVELS), _WHOLE]
-    tolerance: Annotated[int, Field(ge=0, le=MAX_LEVELS), _WHOLE] = 0
+    level: Annotated[int, Field(ge=1, le=MAX_LEVELS), WHOLE]
+    tolerance: Annotated[int, Field(ge=0, le=MAX_LEVELS), WHOLE] = 0
 
 
 def _collapse(value: Any) -> Any:
     """``9``, ``"9±1"``, ``"9 +- 1"`` or ``{level: 9, tolerance: 1}``."""
-    number = _as_int(value)
+    number = as_int(value)
     if number is not None:
         return {"level": number}
     if isinstance(value, str):
-        match = re.fullmatch(_COLLAPSE, value)
+        match = re.fullmatch(COLLAPSE, value)
         if not match:
             raise ValueError(f"expected a level such as '9±1', '9 +- 1' or 9, got {value!r}")
         return {"level": int(match[1]), "tolerance": int(match[2] or 0)}
@@ -399,8 +336,8 @@ def _levels(value: Any) -> Any:
     items = value if isinstance(value, list) else [value]
     levels: set[int] = set()
     for item in items:
-        number = _as_int(item)
-        match = re.fullmatch(_LEVEL_RANGE, item) if isinstance(item, str) else None
+        number = as_int(item)
+        match = re.fullmatch(LEVEL_RANGE, item) if isinstance(item, str) else None
         if number is not None:
             first = last = number
         elif match:
@@ -417,7 +354,7 @@ _LEVEL_ITEM = {
     "anyOf": [
         {"type": "integer", "minimum": 1, "maximum": MAX_LEVELS},
         # a range's end below its start ("5-3") is refused by the loader only
-        {"type": "string", "pattern": _json_pattern(_LEVEL_RANGE, _LEVEL_NUMBER, _LEVEL_NUMBER)},
+        {"type": "string", "pattern": json_pattern(LEVEL_RANGE, LEVEL_NUMBER, LEVEL_NUMBER)},
     ]
 }
 Levels = Annotated[
@@ -429,34 +366,27 @@ Levels = Annotated[
 ]
 
 
-def _flag(value: Any) -> Any:
-    """``true`` or ``false`` only (pydantic's lax mode would take 1 for true)."""
-    if not isinstance(value, bool):
-        raise ValueError(f"expected true or false, got {value!r}")
-    return value
-
-
 class Expect(_Model):
     """What must hold: a ``collapse`` level, or that the structure ``stands``; after an
     impact, the levels that ``stay`` in place and the levels that ``may_fall``."""
 
-    model_config = ConfigDict(json_schema_extra={"not": _given("collapse", "stands")})
+    model_config = ConfigDict(json_schema_extra={"not": given("collapse", "stands")})
 
     collapse: (
         Annotated[
             CollapseLevel,
             BeforeValidator(_collapse),
-            _AlsoAccepts(
+            AlsoAccepts(
                 (
                     {"type": "integer", "minimum": 1, "maximum": MAX_LEVELS},
-                    {"type": "string", "pattern": _json_pattern(_COLLAPSE, _LEVEL_NUMBER, _TOLERANCE_NUMBER)},
+                    {"type": "string", "pattern": json_pattern(COLLAPSE, LEVEL_NUMBER, TOLERANCE_NUMBER)},
                 ),
                 "the level expected to collapse: 9, '9±1', '9 +- 1' or {level: 9, tolerance: 1}",
             ),
         ]
         | None
     ) = None
-    stands: Annotated[Literal[True], BeforeValidator(_flag)] | None = None
+    stands: Annotated[Literal[True], BeforeValidator(flag)] | None = None
     stays: Levels | None = None
     may_fall: Levels | None = None
 
@@ -483,10 +413,10 @@ class Scenario(_Model):
     came from, so later stages (the compiler) can point errors at the file.
     """
 
-    stackdsl: Annotated[Literal[1], BeforeValidator(_whole)]
+    stackdsl: Annotated[Literal[1], BeforeValidator(whole)]
     name: Annotated[str, Field(min_length=1, max_length=200)] | None = None
     description: str = ""
-    seed: Annotated[int, Field(ge=0), _WHOLE] = 0
+    seed: Annotated[int, Field(ge=0), WHOLE] = 0
     materials: dict[str, Material] = {}
     brick_types: dict[str, BrickType] = {}
     ground: Ground = Ground()
@@ -514,91 +444,3 @@ class Scenario(_Model):
     def brick_type(self, name: str) -> BrickType:
         """A declared or built-in brick type. Raises KeyError for an unknown name."""
         return {**BUILTIN_BRICKS, **self.brick_types}[name]
-
-
-_QUANTITY_STRINGS: dict[str, Sign] = {"Quantity": "any", "NonNegativeQuantity": "non-negative", "PositiveQuantity": "positive"}
-_QUANTITY_STRING_DESCRIPTION = (
-    "a number, an optional '/ number' and a unit ('120 mm', '1/240 s', '3 m/s'); the unit must be of the field's "
-    "kind (a length, a time...), which the loader checks"
-)
-
-
-def _key(node: Any) -> str:
-    return json.dumps(node, sort_keys=True)
-
-
-def _refer(node: Any, refs: dict[str, dict[str, str]]) -> Any:
-    """``node`` with every subschema found in ``refs`` (by :func:`_key`) replaced by its ``$ref``."""
-    if isinstance(node, dict):
-        if _key(node) in refs:
-            return refs[_key(node)]
-        return {key: _refer(value, refs) for key, value in node.items()}
-    if isinstance(node, list):
-        return [_refer(value, refs) for value in node]
-    return node
-
-
-def json_schema() -> dict[str, Any]:
-    """The JSON Schema (Draft 2020-12) of a scenario file, for editors and ``stackdsl schema``.
-
-    It is pydantic's schema of :class:`Scenario` with what the validators also accept
-    (quantities with units, the short forms of ``collapse``, ``shift``, levels and ``at``)
-    and the rules between fields that JSON Schema can say; where it cannot (see the module
-    docstring), it accepts more than the loader. Source: stackdsl's own.
-    """
-    schema = Scenario.model_json_schema()
-    schema.pop("title", None)
-    schema.pop("description", None)
-    # the quantity strings' grammar once each, not at every field
-    strings = {name: {"type": "string", "pattern": quantity_pattern(sign)} for name, sign in _QUANTITY_STRINGS.items()}
-    schema = _refer(schema, {_key(value): {"$ref": f"#/$defs/{name}"} for name, value in strings.items()})
-    schema["$defs"].update({name: {**value, "description": _QUANTITY_STRING_DESCRIPTION} for name, value in strings.items()})
-    return {
-        "$schema": SCHEMA_DIALECT,
-        "$id": SCHEMA_ID,
-        "title": "Scenario",
-        "description": (
-            f"A stackdsl scenario file (format 'stackdsl: {FORMAT_VERSION}'): KAPLA bricks stacked in pybullet and what "
-            "must hold. Lengths, times and speeds are numbers in SI units or strings with a unit ('120 mm', '1 s', "
-            "'3 m/s'); angles are degrees. The loader also checks what this schema cannot: the dimension of a unit, "
-            "names of brick types and materials, and a few rules between fields."
-        ),
-        **schema,
-    }
-
-
-def reference_errors(s: Scenario) -> list[tuple[tuple, str]]:
-    """Names that point nowhere: (field path, message) for each, in file order."""
-    bricks = {**BUILTIN_BRICKS, **s.brick_types}
-    materials = {**BUILTIN_MATERIALS, **s.materials}
-    problems: list[tuple[tuple, str]] = []
-
-    def brick(path: tuple, name: str) -> None:
-        if name not in bricks:
-            problems.append((path, f"unknown brick type {name!r}; known: {', '.join(sorted(bricks))}"))
-
-    for name, bt in s.brick_types.items():
-        if bt.material not in materials:
-            problems.append(
-                (("brick_types", name, "material"), f"unknown material {bt.material!r}; known: {', '.join(sorted(materials))}")
-            )
-    if s.ground.material not in materials:
-        problems.append(
-            (("ground", "material"), f"unknown material {s.ground.material!r}; known: {', '.join(sorted(materials))}")
-        )
-    if s.structure.tower:
-        brick(("structure", "tower", "brick"), s.structure.tower.brick)
-    if s.structure.card_house:
-        brick(("structure", "card_house", "brick"), s.structure.card_house.brick)
-    for i, b in enumerate(s.structure.bricks or []):
-        brick(("structure", "bricks", i, "brick"), b.brick)
-    ids = [b.id for b in s.structure.bricks or [] if b.id] + [imp.id for imp in s.impacts if imp.id]
-    for i, b in enumerate(s.structure.bricks or []):
-        if b.id and ids.count(b.id) > 1:
-            problems.append((("structure", "bricks", i, "id"), f"brick id {b.id!r} is used more than once"))
-    for i, imp in enumerate(s.impacts):
-        brick(("impacts", i, "projectile"), imp.projectile)
-    n_bricks = s.structure.tower.levels * s.structure.tower.bricks_per_layer if s.structure.tower else 0
-    if n_bricks > MAX_BRICKS:
-        problems.append((("structure", "tower", "levels"), f"the tower has {n_bricks} bricks; at most {MAX_BRICKS} are allowed"))
-    return problems

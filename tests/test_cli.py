@@ -410,7 +410,7 @@ def test_run_prints_the_timeline(tmp_path, capsys):
 
 
 def test_schema_prints_the_json_schema_of_a_scenario(capsys):
-    from stackdsl._schema import json_schema
+    from stackdsl._jsonschema import json_schema
 
     assert main(["schema"]) == 0
     out = capsys.readouterr().out

@@ -1,4 +1,4 @@
-"""The JSON Schema of scenario files (stackdsl._schema.json_schema) accepts what the loader accepts.
+"""The JSON Schema of scenario files (stackdsl._jsonschema.json_schema) accepts what the loader accepts.
 
 Files are read as an editor would, with yaml.safe_load, and validated with jsonschema
 (Draft 2020-12); the loader is stackdsl.parse_scenario / load_scenario. Where JSON Schema
@@ -17,7 +17,7 @@ import pytest
 import yaml
 
 from stackdsl import ScenarioError, load_scenario, parse_scenario
-from stackdsl._schema import SCHEMA_DIALECT, json_schema
+from stackdsl._jsonschema import SCHEMA_DIALECT, json_schema
 
 ROOT = Path(__file__).resolve().parents[1]
 SCHEMA_FILE = ROOT / "schema" / "scenario.schema.json"

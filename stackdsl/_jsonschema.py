@@ -1,0 +1,72 @@
+"""The JSON Schema (Draft 2020-12) of scenario files, for editors and ``stackdsl schema``.
+
+It accepts what the loader accepts, except for what JSON Schema cannot say, where it is
+wider: a quantity string's unit dimension and bounds other than its sign (pint converts
+the unit), names of brick types and materials, the number of bricks of a tower,
+descending level ranges ("5-3"), levels both in ``stays`` and ``may_fall``, and numbers
+beyond a double (``.inf``, ``1e999``). The shipped copy is ``schema/scenario.schema.json``
+(``stackdsl schema > schema/scenario.schema.json`` regenerates it).
+
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+from ._schema import FORMAT_VERSION, Scenario
+from ._units import Sign, quantity_pattern
+
+SCHEMA_ID = "urn:stackdsl:scenario:1"
+SCHEMA_DIALECT = "https://json-schema.org/draft/2020-12/schema"
+
+_QUANTITY_STRINGS: dict[str, Sign] = {"Quantity": "any", "NonNegativeQuantity": "non-negative", "PositiveQuantity": "positive"}
+_QUANTITY_STRING_DESCRIPTION = (
+    "a number, an optional '/ number' and a unit ('120 mm', '1/240 s', '3 m/s'); the unit must be of the field's "
+    "kind (a length, a time...), which the loader checks"
+)
+
+
+def _key(node: Any) -> str:
+    return json.dumps(node, sort_keys=True)
+
+
+def _refer(node: Any, refs: dict[str, dict[str, str]]) -> Any:
+    """``node`` with every subschema found in ``refs`` (by :func:`_key`) replaced by its ``$ref``."""
+    if isinstance(node, dict):
+        if _key(node) in refs:
+            return refs[_key(node)]
+        return {key: _refer(value, refs) for key, value in node.items()}
+    if isinstance(node, list):
+        return [_refer(value, refs) for value in node]
+    return node
+
+
+def json_schema() -> dict[str, Any]:
+    """The JSON Schema (Draft 2020-12) of a scenario file, for editors and ``stackdsl schema``.
+
+    It is pydantic's schema of :class:`Scenario` with what the validators also accept
+    (quantities with units, the short forms of ``collapse``, ``shift``, levels and ``at``)
+    and the rules between fields that JSON Schema can say; where it cannot (see the module
+    docstring), it accepts more than the loader. Source: stackdsl's own.
+    """
+    schema = Scenario.model_json_schema()
+    schema.pop("title", None)
+    schema.pop("description", None)
+    # the quantity strings' grammar once each, not at every field
+    strings = {name: {"type": "string", "pattern": quantity_pattern(sign)} for name, sign in _QUANTITY_STRINGS.items()}
+    schema = _refer(schema, {_key(value): {"$ref": f"#/$defs/{name}"} for name, value in strings.items()})
+    schema["$defs"].update({name: {**value, "description": _QUANTITY_STRING_DESCRIPTION} for name, value in strings.items()})
+    return {
+        "$schema": SCHEMA_DIALECT,
+        "$id": SCHEMA_ID,
+        "title": "Scenario",
+        "description": (
+            f"A stackdsl scenario file (format 'stackdsl: {FORMAT_VERSION}'): KAPLA bricks stacked in pybullet and what "
+            "must hold. Lengths, times and speeds are numbers in SI units or strings with a unit ('120 mm', '1 s', "
+            "'3 m/s'); angles are degrees. The loader also checks what this schema cannot: the dimension of a unit, "
+            "names of brick types and materials, and a few rules between fields."
+        ),
+        **schema,
+    }

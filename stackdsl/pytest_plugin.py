@@ -144,18 +144,23 @@ class ScenarioItem(pytest.Function):
 def _scenario_test(request: pytest.FixtureRequest, scenario_golden: Any) -> None:
     """Run one scenario file: expectations first, then the golden snapshot."""
     path = Path(request.node.path)
+    shown = _relative(path, request.config.rootpath)  # errors name the file as the user wrote it
     try:
-        scenario = load_scenario(path)
+        scenario = load_scenario(shown if not Path(shown).is_absolute() else path)
         program = compile_scenario(scenario)
     except ScenarioError as exc:
-        pytest.fail(str(exc), pytrace=False)
+        error = str(exc)  # failed outside the handler: no "during handling" chain in the report
+    else:
+        error = ""
+    if error:
+        pytest.fail(error, pytrace=False)
     outcome = run_program(program)
     verdicts = evaluate(scenario.expect, outcome, program.collapse_threshold)
     failed = [v for v in verdicts if not v.passed]
     if failed:
         lines = [f"{path.name}: expected {v.expected}, measured {v.measured}" for v in failed]
         lines += [f"  {line}" for line in explain(scenario.expect, outcome, program.collapse_threshold)]
-        lines.append(f"more: stackdsl run {_relative(path, request.config.rootpath)}")
+        lines.append(f"more: stackdsl run {shown}")
         pytest.fail("\n".join(lines), pytrace=False)
     if not scenario_golden == outcome.golden():
         with disable_color():  # plain text: the message also goes to JUnit XML and CI logs
@@ -178,11 +183,12 @@ def _relative(path: Path, root: Path) -> str:
 if SingleFileSnapshotExtension is not None:
 
     class GoldenSnapshotExtension(JSONSnapshotExtension):
-        """syrupy JSON snapshots in the project's top-level ``golden/`` folder."""
+        """syrupy JSON snapshots of Python tests: ``golden/<test file's folder>/<test file's
+        stem>/<test name>.json``, so that tests of the same name in two files never share one."""
 
         @classmethod
         def dirname(cls, *, test_location: Any) -> str:
-            return str(golden_dir(test_location.filepath))
+            return str(scenario_golden_path(test_location.filepath).with_suffix(""))
 
     class ScenarioSnapshotExtension(SingleFileSnapshotExtension):
         """A scenario's golden snapshot: ``golden/<folder>/<file stem>.json``, mirroring the
@@ -215,7 +221,9 @@ if SingleFileSnapshotExtension is not None:
 
 @pytest.fixture
 def golden(snapshot: Any) -> Any:
-    """A syrupy snapshot assertion that stores JSON under ``golden/`` with floats rounded."""
+    """A syrupy snapshot assertion that stores JSON under ``golden/`` with floats rounded:
+    ``assert golden == data`` (``data``: plain JSON values, e.g. ``outcome.golden()``);
+    ``pytest --snapshot-update`` writes it."""
     if JSONSnapshotExtension is None:  # pragma: no cover
         pytest.fail("the golden fixture needs syrupy: pip install 'stackdsl[test]'")
     return snapshot.with_defaults(extension_class=GoldenSnapshotExtension, matcher=round_floats)

@@ -92,6 +92,9 @@ def test_a_bad_file_fails_with_file_line_col_and_no_traceback(project):
     out = result.stdout.str()
     assert "bad.yaml:3:11: structure.tower.levles: unknown key 'levles'; did you mean 'levels'?" in out
     assert "Traceback" not in out and "def _scenario_test" not in out
+    assert out.count("unknown key 'levles'") == 1  # once, with no exception chain
+    failure = out[out.index("FAILURES") : out.index("short test summary")]
+    assert "During handling" not in failure and str(project.path) not in failure  # named as the user wrote it
 
 
 def test_k_x_lf_and_junit_xml_work_on_scenario_items(project):
@@ -133,3 +136,15 @@ def test_a_golden_left_by_a_removed_scenario_is_named(project):
     result.assert_outcomes(passed=1)
     assert "golden/scenarios/gone.json (its scenario file is gone" in result.stdout.str()
     assert "kept.json" not in result.stdout.str()
+
+
+def test_the_golden_fixture_keeps_same_named_tests_of_two_files_apart(pytester):
+    pytester.makefile(".toml", pyproject="[tool.pytest.ini_options]\n")
+    for name, value in (("test_g", 1), ("test_h", 2)):
+        pytester.makepyfile(**{name: f"def test_mine(golden):\n    assert golden == {{'value': {value}}}\n"})
+    pytester.runpytest("--snapshot-update").assert_outcomes(passed=2)
+    assert json.loads((pytester.path / "golden" / "test_g" / "test_mine.json").read_text()) == {"value": 1}
+    assert json.loads((pytester.path / "golden" / "test_h" / "test_mine.json").read_text()) == {"value": 2}
+    result = pytester.runpytest()
+    result.assert_outcomes(passed=2)
+    assert "Can not relate" not in result.stdout.str()

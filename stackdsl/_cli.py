@@ -26,12 +26,12 @@ from ._compiler import MODE_DEFAULTS, compile_scenario
 from ._errors import ScenarioError
 from ._expect import describe, evaluate
 from ._hard import format_hard, format_limits, format_wall, leaning_limits, thrown_at_wall
+from ._jsonschema import json_schema
 from ._loader import load_scenario
 from ._program import format_program
 from ._progress import Lines, is_live
 from ._report import HEADER, failure_lines, json_document, junit_xml, row, run_command, summary, version
 from ._runtime import run_program
-from ._jsonschema import json_schema
 
 MODELS = ["report", "equilibrium"]
 
@@ -255,6 +255,10 @@ def _check(args: argparse.Namespace) -> int:
         finally:
             runs.close()  # cancels what has not started and stops the workers
     wall = time.perf_counter() - start
+    # rows came as runs finished; the reports list them in file order, so that they diff from run to run
+    order = {str(path): i for i, (path, _, _) in enumerate(prepared)}
+    pairs = sorted(zip(results, commands, strict=True), key=lambda pair: order.get(pair[0].file, len(order)))
+    results, commands = [r for r, _ in pairs], [c for _, c in pairs]
     if args.junit_xml:
         ran = {r.file for r in results}
         junit_xml(results, commands, [str(path) for path, _, _ in prepared if str(path) not in ran], wall, args.junit_xml)

@@ -97,7 +97,7 @@ def json_document(
 ) -> dict[str, Any]:
     """Every result of one ``stackdsl`` command as one JSON document: the version, the
     command, a summary (``total``, ``passed``, ``failed``, ``not_run``, ``wall_time`` in s)
-    and the results in the order they finished (``commands``: one rerun command each)."""
+    and the results in the order given (``commands``: one rerun command each)."""
     failed = sum(not r.passed for r in results)
     return {
         "stackdsl": version(),

@@ -490,3 +490,14 @@ def test_sigint_reaches_main_not_the_workers():
         assert workers.submit(signal.getsignal, signal.SIGINT).result(timeout=120) == signal.SIG_IGN
     finally:
         workers.stop()
+
+
+def test_json_and_junit_list_results_in_file_order_whatever_finishes_first(tmp_path, capsys):
+    slow = "stackdsl: 1\nstructure: {tower: {levels: 6}}\nexpect: {stands: true}\n"
+    quick = "stackdsl: 1\nstructure: {tower: {levels: 1}}\ntiming: {settle: 0.1 s}\nexpect: {stands: true}\n"
+    folder = write(tmp_path, a_slow=slow, b_quick=quick, c_quick=quick)
+    assert main(["check", str(folder), "-j", "2", "--json", "--junit-xml", str(tmp_path / "j.xml")]) == 0
+    files = [Path(r["file"]).name for r in json.loads(capsys.readouterr().out)["results"]]
+    assert files == ["a_slow.yaml", "b_quick.yaml", "c_quick.yaml"]
+    cases = [c.get("name") for c in ET.parse(tmp_path / "j.xml").getroot().iter("testcase")]
+    assert [Path(c).name for c in cases] == files

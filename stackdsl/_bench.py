@@ -273,7 +273,7 @@ def markdown(cells: list[Cell], saved: list[tuple[str, float, int]], targets: di
         speed = sum(c.simulated for c in mine) / sum(c.wall for c in mine)
         exponent = targets["exponents"].get(s)
         lines.append(
-            f"| {s} | {speed:.1f} | {statistics.mean(slant) if slant else float('nan'):.2f} | "
+            f"| {s} | {speed:.1f} | {f'{statistics.mean(slant):.2f}' if slant else '-'} | "
             f"{max(c.peak_memory for c in mine):.0f} | {'' if exponent is None else f'{exponent:.2f}'} |"
         )
     if saved:

@@ -501,3 +501,20 @@ def test_json_and_junit_list_results_in_file_order_whatever_finishes_first(tmp_p
     assert files == ["a_slow.yaml", "b_quick.yaml", "c_quick.yaml"]
     cases = [c.get("name") for c in ET.parse(tmp_path / "j.xml").getroot().iter("testcase")]
     assert [Path(c).name for c in cases] == files
+
+
+def test_bench_targets_print_as_sentences():
+    from stackdsl._cli import _targets
+
+    lines = _targets(
+        {
+            "slant errors": {"raw 240 Hz": [-3, 0]},
+            "30-level speed-up, raw 240 Hz / extension": 130.4,
+            "exponents": {"tuned": 1.571},
+        }
+    )
+    assert lines == [
+        "slant error, raw 240 Hz: -3, +0 levels",
+        "30-level 4 stack: raw 240 Hz takes 130 times the extension's wall time",
+        "exponent of wall time in bricks, tuned: 1.57",
+    ]

@@ -164,14 +164,16 @@ def _parser() -> argparse.ArgumentParser:
         parents=[many],
         help="run scenario files or folders in every mode and print one table",
         description="Run scenario files or folders in every mode, in one run, and print one table.",
-        epilog=EXIT_STATUS.replace("  1    an expectation failed\n", "")
+        epilog=EXIT_STATUS.replace(
+            "  0    every expectation held\n  1    an expectation failed\n", "  0    the table was printed\n"
+        )
         + "\n\nFAIL cells are results, not errors: compare exits 0 once its table is printed.",
         formatter_class=raw,
     )
     p.add_argument("--modes", default=",".join(modes), help=f"comma-separated (default: {','.join(modes)})")
     p.set_defaults(func=_compare)
 
-    one_status = EXIT_STATUS.replace("  1    an expectation failed\n", "")
+    one_status = EXIT_STATUS.replace("  0    every expectation held\n  1    an expectation failed\n", "  0    done\n")
     p = sub.add_parser(
         "compile", parents=[one], help="print the program a scenario compiles to", epilog=one_status, formatter_class=raw
     )
@@ -209,7 +211,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--quick", action="store_true", help="one small cell per setting (a smoke test)")
     p.add_argument("-j", "--jobs", type=jobs_type, default=str(min(2, os.cpu_count() or 1)), help="worker processes")
     p.set_defaults(func=_bench)
-    bench = p.add_subparsers(metavar="BENCHMARK")
+    bench = p.add_subparsers(metavar="[solve | hard]", title="other benchmarks (optional)")
     q = bench.add_parser("solve", help="equilibrium solve time for towers of 10 to 100 bricks")
     q.add_argument("--sizes", default="10,25,50,100", help="bricks per tower, comma-separated")
     q.add_argument("--repeats", type=int, default=5)

@@ -25,7 +25,8 @@ class Verdict(BaseModel):
 def evaluate(expect: Expect, outcome: Outcome, threshold: float) -> list[Verdict]:
     """Check ``outcome`` against ``expect``; ``threshold`` (m) is how far a brick that
     stays in place may move. ``may_fall`` levels are not checked. An empty list means
-    nothing was expected.
+    nothing was expected. A run stopped early (``outcome.stopped``, a timeout) adds a
+    failed ``finished`` verdict: what it did not simulate was not checked.
     """
     verdicts = []
     measured = describe(outcome.collapse.level if outcome.collapse else None)
@@ -47,6 +48,8 @@ def evaluate(expect: Expect, outcome: Outcome, threshold: float) -> list[Verdict
                 measured=f"levels {_span(bad)} moved" if bad else f"levels {_span(expect.stays)} stayed",
             )
         )
+    if outcome.stopped:
+        verdicts.append(Verdict(name="finished", passed=False, expected="the run finishes", measured=outcome.stopped))
     return verdicts
 
 
@@ -95,6 +98,8 @@ def explain(expect: Expect, outcome: Outcome, threshold: float) -> list[str]:
             )
         else:
             lines.append("stood: no structure brick was placed")
+    if "finished" in failed:
+        lines.append(f"stopped: {outcome.stopped}; the rest of the run was not simulated")
     if "stays" in failed and expect.stays:
         keep = set(expect.stays)
         moved = sorted(((d, b) for b, d in outcome.displacement.items() if d > threshold and levels.get(b) in keep), reverse=True)

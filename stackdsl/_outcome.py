@@ -25,7 +25,7 @@ class Event(_Frozen):
     """One entry of the timeline; ``time`` in seconds."""
 
     time: float
-    kind: Literal["place", "launch", "freeze", "wake", "impact", "collapse"]
+    kind: Literal["place", "launch", "freeze", "wake", "impact", "collapse", "substeps"]
     brick: str
     level: int | None = None
     detail: str = ""
@@ -136,6 +136,10 @@ class Outcome(_Frozen):
         levels_placed, bricks_placed: how much was built (building stops at a collapse).
         simulated_time, wall_time: seconds; steps: physics steps taken; steps_skipped:
             steps jumped over while every brick was frozen.
+        stopped: None when the run went to its end; else why and where it stopped early,
+            e.g. ``"timeout after 120 s at t = 37.2 s simulated (of 201 s)"`` (the rest of
+            the outcome then covers the simulated time so far, and the expectations fail:
+            :func:`stackdsl.evaluate` adds a failed ``finished`` verdict).
     """
 
     scenario: str
@@ -153,6 +157,7 @@ class Outcome(_Frozen):
     wall_time: float
     steps: int
     steps_skipped: int
+    stopped: str | None = None
 
     def golden(self) -> dict[str, Any]:
         """Plain JSON data for a golden snapshot: what was built, the collapse record, and the

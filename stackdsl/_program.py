@@ -3,16 +3,66 @@
 Everything here is SI (metres, seconds, kilograms, m/s), angles in degrees. Every
 action carries the physics step it happens at; its time is that step times the timestep.
 
-Source: stackdsl's own (docs/design.md, data flow).
+The work of a run (:func:`estimate_work`, :attr:`Program.work`) is counted in
+*body-steps*: one body in the engine for one physics step (or substep). A moving body
+counts ``max(1, solver_iterations / 50)`` a step, a resting one (a fixture, a brick the
+extension froze) 1, and every step 1 more for the runtime's own loop:
+
+* raw and tuned modes step every body every step: each brick from when it is placed
+  to the end of the run, moving;
+* extension mode steps only while something is active and jumps over the rest: after
+  each placement, for the brick's fall from the drop gap plus :data:`SETTLING` plus the
+  rest duration (a group placed ``together``: that many times its size), with every
+  brick placed before it in the engine, resting; the equilibrium model adds
+  :data:`EQUILIBRIUM_SOLVE` x (frozen bricks)^3 each time a brick freezes;
+* a projectile: from its launch to :data:`IMPACT_WINDOW` after its arrival every body
+  counts as moving, and during its flight in as many substeps as its speed needs
+  (continuous collision detection on: speed x timestep / collapse threshold, at most
+  :data:`MAX_SUBSTEPS`).
+
+:func:`Work.seconds` turns the three parts into a wall time with constants measured on a
+2-core machine (a guess good to a factor of about two: contacts, collapses and the load
+of the machine change it).
+
+Source: stackdsl's own (docs/design.md, data flow; the work budget).
 """
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+import itertools
+import math
+from typing import Annotated, Literal, NamedTuple
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from stability import StabilityConfig
+
 Vec3 = tuple[float, float, float]
+
+#: A physics step is split into at most this many substeps, however fast a body moves
+#: (:mod:`stackdsl._runtime`).
+MAX_SUBSTEPS = 64
+#: Solver iterations of a reference body-step (pybullet's default, raw mode's).
+REFERENCE_ITERATIONS = 50
+#: Seconds a brick placed in extension mode stays active besides its fall and the rest
+#: duration, bouncing and settling (measured: 15 to 18 steps of 1/240 s a brick of a tower).
+SETTLING = 0.02
+#: Seconds after a projectile's arrival during which every body counts as moving.
+IMPACT_WINDOW = 1.0
+#: Body-steps per frozen brick cubed of the equilibrium model's solve each time a brick
+#: freezes (a linear program over every frozen brick; fitted on 4 stacks: 200 bricks 4.8 s,
+#: 500 bricks over 150 s of CPU, against 0.7 and 7 s with the report's model).
+EQUILIBRIUM_SOLVE = 0.006
+#: Wall seconds a run costs besides its steps (a pybullet client, the bodies, the graph).
+SECONDS_PER_RUN = 0.02
+#: Wall seconds of the runtime's loop per step (measured, see :class:`Work`).
+SECONDS_PER_STEP = 2e-5
+#: Wall seconds per body-step of a moving body (measured on towers in raw and tuned mode:
+#: 1.7e-5 standing, 3.9e-5 collapsing).
+SECONDS_PER_MOVING = 3e-5
+#: Wall seconds per body-step of a resting body in extension mode (measured on towers of
+#: 200 to 2000 bricks; most of it is the stack-wide test each time a brick freezes).
+SECONDS_PER_RESTING = 2.3e-6
 
 
 class _Frozen(BaseModel):
@@ -147,6 +197,93 @@ class Program(_Frozen):
         """Simulated seconds until :class:`End`."""
         return self.actions[-1].time
 
+    @property
+    def work(self) -> float:
+        """Body-steps the run is estimated to take (:func:`estimate_work`; the compiler's
+        budget, :data:`stackdsl._compiler.MAX_WORK`, bounds it)."""
+        return estimate_work(self).total
+
+    @property
+    def wall_estimate(self) -> float:
+        """Seconds of wall time the run is estimated to take (:meth:`Work.seconds`)."""
+        return estimate_work(self).seconds
+
+
+class Work(NamedTuple):
+    """The estimated work of a run, in body-steps (see the module's docstring).
+
+    Attributes:
+        steps: physics steps and substeps the engine takes (jumps left out).
+        moving: body-steps of moving bodies, weighted by solver iterations.
+        resting: body-steps of resting bodies (fixtures, frozen bricks).
+    """
+
+    steps: float
+    moving: float
+    resting: float
+
+    @property
+    def total(self) -> float:
+        """Body-steps: the runtime's loop counts one a step."""
+        return self.steps + self.moving + self.resting
+
+    @property
+    def seconds(self) -> float:
+        """Estimated wall seconds on the machine the constants were measured on (2 cores,
+        shared): :data:`SECONDS_PER_RUN` and :data:`SECONDS_PER_STEP`,
+        :data:`SECONDS_PER_MOVING` and :data:`SECONDS_PER_RESTING` per part."""
+        parts = self.steps * SECONDS_PER_STEP + self.moving * SECONDS_PER_MOVING + self.resting * SECONDS_PER_RESTING
+        return SECONDS_PER_RUN + parts
+
+
+def estimate_work(program: Program) -> Work:
+    """The work of running ``program`` (see the module's docstring): an upper bound for a
+    structure that stands, in the order of magnitude of the real cost otherwise.
+
+    In raw and tuned modes a collapse ends the run early, so the estimate is an upper
+    bound; in extension mode the bricks a collapse wakes move for ``settle`` seconds
+    (not counted: a run's timeout bounds it). Source: stackdsl's own.
+    """
+    e = program.engine
+    dt = e.timestep
+    end = program.actions[-1].step
+    weight = max(1.0, e.solver_iterations / REFERENCE_ITERATIONS)
+    entries = [a for a in program.actions if isinstance(a, (Place, Launch))]
+    fixtures = len(program.fixtures)
+    if e.mode != "extension":
+        steps = float(end)
+        moving = weight * sum(end - a.step for a in entries)
+        resting = float(fixtures * end)
+    else:
+        settings = program.stability
+        rest = float(settings.get("rest_duration", StabilityConfig.rest_duration))
+        drop = max((a.drop for a in program.placements), default=0.0)
+        active = math.ceil((math.sqrt(2 * drop / e.gravity) + SETTLING + rest) / dt)
+        slots: dict[int, int] = {}
+        for a in program.placements:
+            slots[a.step] = slots.get(a.step, 0) + 1
+        marks = sorted({*slots, *(a.step for a in entries), end})
+        steps = moving = resting = 0.0
+        present = fixtures
+        solve = EQUILIBRIUM_SOLVE if settings.get("model") == "equilibrium" else 0.0
+        for step, following in itertools.pairwise(marks):
+            placed = slots.get(step, 0)
+            stepped = min(following - step, active * placed)
+            steps += stepped
+            moving += stepped * weight * placed
+            resting += stepped * present + solve * placed * present**3
+            present += placed
+    for launch in (a for a in entries if isinstance(a, Launch)):
+        speed = math.sqrt(sum(v * v for v in launch.velocity))
+        substeps = min(MAX_SUBSTEPS, max(1, math.ceil(speed * dt / program.collapse_threshold))) if e.ccd else 1
+        flight = max(1, math.ceil((launch.arrival - launch.time) / dt))
+        after = max(0, min(end, math.ceil((launch.arrival + IMPACT_WINDOW) / dt)) - launch.step - flight)
+        extra = (substeps - 1) * flight + (0 if e.mode != "extension" else flight + after)  # raw, tuned: counted above
+        steps += extra
+        moving += extra * weight * sum(a.step <= launch.step for a in entries)
+        resting += extra * fixtures
+    return Work(steps, moving, resting)
+
 
 def format_program(program: Program) -> str:
     """The program as text, one line per action (what ``stackdsl compile`` prints)."""
@@ -158,6 +295,7 @@ def format_program(program: Program) -> str:
         f"continuous collision detection for thrown bricks {'on' if e.ccd else 'off'}",
         f"  {len(program.placements)} bricks in {program.levels} levels, collapse threshold "
         f"{program.collapse_threshold * 1000:.3g} mm, {program.duration:g} s simulated",
+        f"  estimated work {program.work:.2g} body-steps, about {program.wall_estimate:.2g} s of wall time",
     ]
     if e.mode == "extension":
         lines.append(f"  stability model {program.stability.get('model', 'report')}")

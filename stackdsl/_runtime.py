@@ -11,6 +11,15 @@ its placed pose by more than the collapse threshold, nothing more is placed and 
 ends ``settle`` seconds later. In extension mode, while every brick is frozen nothing
 can move, so the run jumps to the next action instead of stepping.
 
+Two guards keep a run finite (the compiler's work budget refuses the scenarios that
+would take too long before anything runs, :mod:`stackdsl._compiler`):
+
+* a step is split into at most :data:`MAX_SUBSTEPS` substeps however fast a body moves
+  (a ``substeps`` event says when the cap held);
+* ``run_program(..., timeout=SECONDS)`` stops a run after that much wall time, cleanly:
+  the outcome is built from what was simulated and :attr:`Outcome.stopped` says when.
+  The clock is read once per :data:`CLOCK_EVERY` steps and at every action.
+
 Source: stackdsl's own.
 """
 
@@ -33,7 +42,10 @@ from shapely.geometry import MultiPoint, Polygon
 from stability import Box, Plane, Pose, PyBulletEngine, StabilityConfig, StabilityEvent, StabilityExtension
 
 from ._outcome import Collapse, Event, Graph, Outcome
-from ._program import BrickSpec, Launch, Place, Program, Vec3
+from ._program import MAX_SUBSTEPS, BrickSpec, Launch, Place, Program, Vec3
+
+#: Steps between two readings of the wall clock when a run has a timeout.
+CLOCK_EVERY = 16
 
 
 @contextmanager
@@ -106,15 +118,28 @@ def _rotations(quaternions: np.ndarray) -> np.ndarray:
     )
 
 
-def run_program(program: Program, options: RunOptions = RunOptions()) -> Outcome:
+def run_program(program: Program, options: RunOptions = RunOptions(), *, timeout: float | None = None) -> Outcome:
     """Run a compiled program and report what happened.
 
+    Args:
+        program: a compiled program.
+        options: how much of the scene to simulate.
+        timeout: seconds of wall time after which the run stops (checked every
+            :data:`CLOCK_EVERY` steps and at every action); the outcome then covers the
+            simulated time so far and :attr:`Outcome.stopped` says where it stopped.
+            None: no limit.
+
     Raises:
+        ValueError: a negative or not-a-number timeout.
         pybullet.error: the engine failed (not expected for a compiled program).
     """
+    if timeout is not None and not timeout >= 0:
+        raise ValueError(f"timeout must be a number of seconds >= 0 or None, not {timeout!r}")
     start = _time.perf_counter()
     with direct_client() as client:
         runner = _Runner(client, program, options)
+        runner.deadline = None if timeout is None else start + timeout
+        runner.timeout = timeout
         runner.execute()
         return runner.outcome(_time.perf_counter() - start)
 
@@ -168,6 +193,9 @@ class _Runner:
         self.step = 0
         self.skipped = 0
         self.substeps = 1
+        self.deadline: float | None = None  # perf_counter() seconds; None: no limit
+        self.timeout: float | None = None
+        self.stopped: str | None = None
 
     def _park(self) -> dict[str, int]:
         """Every brick and projectile created at the start, immovable and far away."""
@@ -181,6 +209,8 @@ class _Runner:
     def execute(self) -> None:
         for action in self.program.actions:
             self.advance(action.step)
+            if self.stopped is not None or self._out_of_time():
+                return
             if self.stop_step is not None and self.options.stop_at_collapse:
                 break
             if isinstance(action, Place):
@@ -192,9 +222,21 @@ class _Runner:
         if self.stop_step is not None:
             self.advance(min(self.stop_step, self.program.actions[-1].step))
 
+    def _out_of_time(self) -> bool:
+        """Past the deadline? Then record where the run stopped (:attr:`Outcome.stopped`)."""
+        if self.deadline is None or _time.perf_counter() < self.deadline:
+            return False
+        self.stopped = (
+            f"timeout after {self.timeout:g} s at t = {self.step * self.dt:.1f} s simulated (of {self.program.duration:g} s)"
+        )
+        return True
+
     def advance(self, target: int) -> None:
-        """Step the engine up to ``target`` (or to the end of the settle time after a collapse)."""
+        """Step the engine up to ``target`` (or to the end of the settle time after a
+        collapse), or until the deadline passes."""
         while self.step < self._limit(target):
+            if self.deadline is not None and self.step % CLOCK_EVERY == 0 and self._out_of_time():
+                return
             if self.acting and self.options.jump and self.ext.quiet:
                 self.skipped += self._limit(target) - self.step
                 self.step = self._limit(target)
@@ -225,7 +267,9 @@ class _Runner:
 
     def _substeps(self) -> None:
         """Split the step while something is fast, so that no body moves more than the
-        collapse threshold (half a brick's thinnest side) in one substep.
+        collapse threshold (half a brick's thinnest side) in one substep, in at most
+        :data:`MAX_SUBSTEPS` (a ``substeps`` event when the cap starts to hold: faster
+        bodies then move further per substep, and the run's cost stays bounded).
 
         A brick thrown lengthwise at 5 m/s moves 21 mm in a 240 Hz step, more than the 8 mm
         it overlaps its target: pybullet then pushes it out up or down and it slips past;
@@ -235,7 +279,20 @@ class _Runner:
         fast = [self.bodies[name] for name in self.projectiles] + (sorted(self.moving) if self.acting else [])
         velocities = np.array([self._velocity(b)[0] for b in fast]).reshape(-1, 3)
         speed = float(np.sqrt((velocities**2).sum(axis=1).max())) if len(fast) else 0.0
-        substeps = max(1, math.ceil(speed * self.dt / self.program.collapse_threshold))
+        needed = max(1, math.ceil(speed * self.dt / self.program.collapse_threshold))
+        substeps = min(needed, MAX_SUBSTEPS)
+        if substeps == MAX_SUBSTEPS and self.substeps != MAX_SUBSTEPS:
+            fastest = fast[int(np.argmax((velocities**2).sum(axis=1)))]
+            name = next(n for n, b in self.bodies.items() if b == fastest)
+            self.events.append(
+                Event(
+                    time=self.step * self.dt,
+                    kind="substeps",
+                    brick=name,
+                    level=self.levels.get(name),
+                    detail=f"{speed:.3g} m/s needs {needed} substeps; capped at {MAX_SUBSTEPS}",
+                )
+            )
         if substeps != self.substeps:
             self.client.setPhysicsEngineParameter(numSubSteps=substeps if substeps > 1 else 0)
             self.substeps = substeps
@@ -427,4 +484,5 @@ class _Runner:
             wall_time=wall_time,
             steps=self.step - self.skipped,
             steps_skipped=self.skipped,
+            stopped=self.stopped,
         )

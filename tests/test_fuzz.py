@@ -1,14 +1,20 @@
 """Bad input, nothing lost: random and mutated scenario files only ever give a clean
 ScenarioError (file:line:col) or a program; never a traceback, never a hang, and no golden
-file is written."""
+file is written. Files of odd kinds and encodings load cleanly; the command's exit codes
+and positions agree with the API's; small random scenarios run to an Outcome."""
 
+import contextlib
+import inspect
+import io
+import tempfile
 from pathlib import Path
 
 import yaml
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from stackdsl import ScenarioError, compile_scenario, parse_scenario
+from stackdsl import Outcome, ScenarioError, compile_scenario, load_scenario, parse_scenario, run_program
+from stackdsl._cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
 SOURCES = [p.read_text() for p in sorted((ROOT / "scenarios").rglob("*.yaml"))]
@@ -118,3 +124,148 @@ def test_fuzzing_writes_no_golden_file():
     for text in SOURCES[:3]:
         check(text.replace("levels", "levles"))
     assert {p: p.stat().st_mtime_ns for p in GOLDEN.rglob("*")} == before
+
+
+# files of odd kinds and encodings ------------------------------------------------------------------
+
+ENCODINGS = ["utf-8", "utf-8-sig", "utf-16", "utf-16-le", "utf-16-be", "utf-32", "latin-1", "cp1252"]
+KINDS = ["regular", "symlink", "folder", "missing", "dangling symlink", "empty"]
+
+
+@st.composite
+def odd_file(draw) -> tuple[str, bytes]:
+    """(kind, content): a scenario, maybe mutated, in some encoding and line ends, maybe cut or spliced."""
+    text = draw(st.one_of(st.sampled_from(SOURCES), mutated()))
+    text = text.replace("\n", draw(st.sampled_from(["\n", "\r\n", "\r"])))
+    data = text.encode(draw(st.sampled_from(ENCODINGS)), errors="replace")
+    if draw(st.booleans()):  # cut anywhere, also inside a multi-byte character
+        data = data[: draw(st.integers(0, len(data)))]
+    if draw(st.booleans()):  # splice in raw bytes
+        at = draw(st.integers(0, len(data)))
+        data = data[:at] + draw(st.binary(max_size=6)) + data[at:]
+    return draw(st.sampled_from(KINDS)), data
+
+
+def make(folder: Path, kind: str, data: bytes) -> Path:
+    path = folder / "odd.yaml"
+    if kind in ("regular", "symlink", "empty"):
+        target = folder / "target.yaml" if kind == "symlink" else path
+        target.write_bytes(b"" if kind == "empty" else data)
+        if kind == "symlink":
+            path.symlink_to(target.name)
+    elif kind == "folder":
+        path.mkdir()
+    elif kind == "dangling symlink":
+        path.symlink_to("nowhere.yaml")
+    return path
+
+
+@settings(max_examples=150, deadline=5000, suppress_health_check=[HealthCheck.too_slow])
+@given(odd_file())
+def test_files_of_odd_kinds_and_encodings_load_cleanly(case):
+    kind, data = case
+    with tempfile.TemporaryDirectory() as folder:
+        path = make(Path(folder), kind, data)
+        try:
+            load_scenario(path)
+        except ScenarioError as err:
+            assert err.file == str(path) and err.message
+            lines = max(1, len(data.splitlines()))
+            assert err.line is None or 1 <= err.line <= lines + 1, (err.line, lines)
+            assert err.column is None or err.column >= 1
+            assert "Traceback" not in str(err)
+        else:
+            assert kind in ("regular", "symlink")
+
+
+# the command: exit codes, and the same positions as the API ------------------------------------------
+
+
+def command(*args: str) -> tuple[int, str, str]:
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        status = main(list(args))
+    return status, out.getvalue(), err.getvalue()
+
+
+# the command costs some 0.2 s of start-up an example: few examples (the API is fuzzed above)
+@settings(max_examples=25, deadline=5000, suppress_health_check=[HealthCheck.too_slow])
+@given(st.one_of(mutated(), structured()))
+def test_compile_command_exits_0_or_2_at_the_apis_position(text):
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "fuzz.yaml"
+        path.write_text(text)
+        try:
+            compile_scenario(load_scenario(path))
+            expected = None
+        except ScenarioError as exc:
+            expected = exc
+        status, out, err = command("compile", str(path))
+    assert "Traceback" not in err
+    if expected is None:
+        assert (status, err) == (0, "") and out
+    else:
+        assert status == 2 and not out
+        first = err.splitlines()[0]
+        assert first == str(expected).splitlines()[0]
+        where = str(path) if expected.line is None else f"{path}:{expected.line}:{expected.column}"
+        assert first.startswith(f"{where}: ")
+        if expected.line is not None:
+            assert 1 <= expected.line <= len(text.splitlines()) + 1
+            assert 1 <= expected.column <= len((text.splitlines() or [""])[min(expected.line, len(text.splitlines())) - 1]) + 1
+
+
+# small random scenarios run to an Outcome ------------------------------------------------------------
+
+BUDGET = 60.0  # wall seconds a run may take where the runtime takes a timeout; these take about one
+
+
+@st.composite
+def small(draw) -> str:
+    """A valid-looking scenario of at most 6 bricks and a few simulated seconds, in any mode."""
+    interval = draw(st.sampled_from(["0.25 s", "0.5 s", "1 s"]))
+    doc = {
+        "stackdsl": 1,
+        "structure": {
+            "tower": {
+                "levels": draw(st.integers(1, 3)),
+                "bricks_per_layer": draw(st.integers(1, 2)),
+                "spacing": draw(st.sampled_from(["48 mm", "96 mm", "100 mm"])),
+                "turn": draw(st.sampled_from([0, 30, 90, -45])),
+                "shift": f"{draw(st.integers(-40, 40))} mm",
+            }
+        },
+        "timing": {"interval": interval, "settle": draw(st.sampled_from([0, "0.5 s", "1 s"]))},
+        "engine": {"mode": draw(st.sampled_from(["raw", "tuned", "extension"]))},
+        "stability": {"model": draw(st.sampled_from(["report", "equilibrium"]))},
+        "allow": ["floating"],
+    }
+    if draw(st.booleans()):
+        doc["impacts"] = [
+            {
+                "target": {"level": 1, "side": draw(st.sampled_from(["+x", "-x", "+y", "-y"]))},
+                "speed": f"{draw(st.sampled_from([0.5, 2, 10]))} m/s",
+                "at": "after level 1",
+            }
+        ]
+    return yaml.safe_dump(doc)
+
+
+def run_small(program):
+    if "timeout" in inspect.signature(run_program).parameters:
+        return run_program(program, timeout=BUDGET)
+    return run_program(program)
+
+
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@given(small())
+def test_small_random_scenarios_run_to_an_outcome(text):
+    try:
+        program = compile_scenario(parse_scenario(text, "small.yaml"))
+    except ScenarioError:
+        assume(False)
+    assert len(program.placements) <= 6 and program.duration <= 6.0
+    outcome = run_small(program)
+    assert isinstance(outcome, Outcome)
+    assert outcome.simulated_time <= program.duration + 1e-9
+    assert outcome.collapse is None or 1 <= outcome.collapse.level <= 3

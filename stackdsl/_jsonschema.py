@@ -2,9 +2,12 @@
 
 It accepts what the loader accepts, except for what JSON Schema cannot say, where it is
 wider: a quantity string's unit dimension and bounds other than its sign (pint converts
-the unit), names of brick types and materials, the number of bricks of a tower,
-descending level ranges ("5-3"), levels both in ``stays`` and ``may_fall``, and numbers
-beyond a double (``.inf``, ``1e999``). The shipped copy is ``schema/scenario.schema.json``
+the unit: ``"120 parsec"`` passes where a spacing is at most 10 m), names of brick types and
+materials, the number of bricks of a tower, descending level ranges ("5-3"), levels both in
+``stays`` and ``may_fall``, a drop gap not below the collapse threshold (which may come from
+a brick type), NaN (JSON has none, and every comparison with it is false), and numbers beyond
+a double (``1e999``). Numeric bounds (sides from 3 mm to 10 m, positions within 1 km...) are
+``minimum``/``maximum`` of the number. The shipped copy is ``schema/scenario.schema.json``
 (``stackdsl schema > schema/scenario.schema.json`` regenerates it).
 
 Source: stackdsl's own.

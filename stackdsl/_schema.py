@@ -8,13 +8,19 @@ friction coefficient 0.5) can be used without being declared.
 Integers, numbers and flags are read as YAML writes them (see :mod:`stackdsl._grammar`);
 :mod:`stackdsl._jsonschema` gives the JSON Schema of these models for editors.
 
+Every number is finite and within a physical range, each refusal saying the range and
+why (the constants below): brick sides from 3 mm (measured: smaller bricks jitter more
+than half their side on the ground at 1/240 s) to 10 m; positions within 1 km; angles
+within ten turns; densities, speeds and thresholds within what a brick and pybullet
+can be; a collapse threshold from 1 mm, and a drop gap below it.
+
 Source: stackdsl's own (docs/design.md, words); report 3.2 and chapter 4.
 """
 
 from __future__ import annotations
 
 import re
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from pydantic import (
     AfterValidator,
@@ -25,9 +31,11 @@ from pydantic import (
     PrivateAttr,
     StrictBool,
     StrictFloat,
+    ValidationError,
     WithJsonSchema,
     model_validator,
 )
+from pydantic_core import InitErrorDetails, PydanticCustomError
 
 from ._errors import SourceMap
 from ._grammar import (
@@ -45,20 +53,175 @@ from ._grammar import (
     json_pattern,
     whole,
 )
-from ._units import Angle, AngularSpeed, Density, Length, Speed, Time, quantity_pattern, time
+from ._units import (
+    Angle,
+    AngularSpeed,
+    Density,
+    Length,
+    Speed,
+    Time,
+    angle,
+    angular_speed,
+    density,
+    length,
+    quantity_pattern,
+    real,
+    speed,
+    time,
+    within,
+)
 
 FORMAT_VERSION = 1
 MAX_BRICKS = 5000
 MAX_LEVELS = 1000
 MAX_SIMULATED_TIME = 3600.0  # s
 MIN_DIRECTION = 1e-6  # the largest component of an impact's direction is at least this
+# Each component of an impact's direction is at most this in size: only the direction counts, and within
+# this its length (at most 1.8e6) and its square are finite doubles (at 1e308 the norm overflows to inf).
+MAX_DIRECTION = 1e6
+# Angles (yaw, pitch, roll, turn) are degrees within +-10 turns: one turn reaches every pose; a larger
+# angle is a mistake, and a huge one (1e308) makes a tower's layer angles infinite. Not folded: an angle
+# given is the angle used.
+MAX_ANGLE = 3600.0
+# Brick sides, m. The floor is measured (stackdsl.run_program, one brick on the ground, raw and extension
+# modes at their 1/240 s timestep, the default drop gap): cubes of 1, 1.5, 2.5 mm move 0.77, 1.3, 1.26 mm as
+# they land and settle (contact penetration and its correction), more than half their side, which reads as a
+# collapse; cubes from 2.75 mm (and flatter bricks from 2 mm) stay within half their side. The ceiling is the
+# largest moving body Bullet is made for ("the size of a truck", its wiki's Scaling The World).
+MIN_SIDE = 0.003
+MAX_SIDE = 10.0
+# Positions (at, point, origin), m. Scenes are room-sized; the bound keeps every position a double holds to
+# far below a micrometre (1e-13 m at 1 km) and every brick's footprint a polygon shapely can build (at 1e15 m
+# a double's step is 0.125 m, more than a brick, and the footprint degenerates). A tower's own offsets
+# (shift, spacing) are at most MAX_SIDE, so its bricks stay within 1 km + 1000 x 10 m + 25 x 10 m.
+MAX_COORDINATE = 1000.0
+MIN_DENSITY = 1.0  # kg/m^3, about air's
+MAX_DENSITY = 100_000.0  # kg/m^3, over four times osmium's (22590), the densest element
+MIN_IMPACT_SPEED = 0.1  # m/s: slower, a throw is a drop (over the longest distance, 1 m, it falls 490 m)
+MAX_IMPACT_SPEED = 100.0  # m/s
+# Rest thresholds of the extension: bricks at rest in pybullet move at about 0.08 mm/s (median, a 5-level
+# tower at 1/240 s): below 1 mm/s a resting brick may never count as at rest; above 1 m/s a falling one does.
+MIN_REST_SPEED, MAX_REST_SPEED = 0.001, 1.0  # m/s
+MIN_REST_ANGULAR_SPEED, MAX_REST_ANGULAR_SPEED = 0.01, 10.0  # rad/s
+# Collapse threshold, m: one step of free fall at the longest timestep (10 ms) moves a brick g dt^2 = 0.98 mm
+# before contact holds it, so a smaller threshold reads that step as a collapse; it also bounds the runtime's
+# substeps (a thrown brick moves at most the threshold in a substep: at 100 m/s and 1/240 s, 417 substeps).
+MIN_COLLAPSE_THRESHOLD = 0.001
 
 
 Number = Annotated[StrictFloat, Field(allow_inf_nan=False)]  # a YAML number, not a string or a flag
-PositiveLength = Annotated[Length, Field(gt=0)]
-NonNegativeLength = Annotated[Length, Field(ge=0)]
-Vector2 = tuple[Length, Length]
-Vector3 = tuple[Length, Length, Length]
+if TYPE_CHECKING:  # to mypy, the bounded numbers are floats; to pydantic, the quantities below
+    Coordinate = float
+    Side = float
+    Offset = float
+    Spacing = float
+    PeakSpacing = float
+    BoundedAngle = float
+    BoundedDensity = float
+    ImpactSpeed = float
+    Component = float
+    RestSpeed = float
+    RestAngularSpeed = float
+    CollapseThreshold = float
+else:
+    Coordinate = within(
+        Length,
+        length,
+        -MAX_COORDINATE,
+        MAX_COORDINATE,
+        "a coordinate from -1 km to 1 km (-1000 to 1000 m)",
+        "scenes are room-sized, and far out a double cannot place a brick (at 1e15 m its step is 0.125 m)",
+    )
+    Side = within(
+        Length,
+        length,
+        MIN_SIDE,
+        MAX_SIDE,
+        "a side from 3 mm to 10 m",
+        (
+            "a smaller brick is below what pybullet resolves at 1/240 s: resting on the ground it moves 0.8 to 1.3 mm "
+            "as it lands and settles (measured on 1 to 2.5 mm cubes), more than half its side, which reads as a collapse",
+            "Bullet is made for moving bodies up to about 10 m",
+        ),
+    )
+    Offset = within(
+        Length,
+        length,
+        -MAX_SIDE,
+        MAX_SIDE,
+        "a length from -10 m to 10 m",
+        "no brick is longer: a layer moved further rests on nothing",
+    )
+    Spacing = within(
+        Length, length, 0.0, MAX_SIDE, "a length from 0 to 10 m", "no brick is longer: bricks further apart rest on nothing"
+    )
+    PeakSpacing = within(Length, length, 0.0, MAX_SIDE, "a length above 0 and at most 10 m", "no brick is longer", above=True)
+    BoundedAngle = within(
+        Angle,
+        angle,
+        -MAX_ANGLE,
+        MAX_ANGLE,
+        "an angle from -3600 to 3600 degrees (ten turns)",
+        "one turn reaches every orientation",
+    )
+    BoundedDensity = within(
+        Density,
+        density,
+        MIN_DENSITY,
+        MAX_DENSITY,
+        "a density from 1 to 100000 kg/m^3",
+        "from about air's to over four times osmium's, the densest element",
+    )
+    ImpactSpeed = within(
+        Speed,
+        speed,
+        MIN_IMPACT_SPEED,
+        MAX_IMPACT_SPEED,
+        "a speed from 0.1 to 100 m/s",
+        "slower, a throw is a drop (over 1 m it falls 490 m on its way)",
+    )
+    Component = within(
+        Number,
+        real,
+        -MAX_DIRECTION,
+        MAX_DIRECTION,
+        "a direction component from -1e6 to 1e6",
+        "only the direction counts; within this its length is a finite double",
+    )
+    RestSpeed = within(
+        Speed,
+        speed,
+        MIN_REST_SPEED,
+        MAX_REST_SPEED,
+        "a speed from 1 mm/s to 1 m/s",
+        (
+            "bricks at rest in pybullet move at about 0.1 mm/s: below 1 mm/s a brick at rest may never count as at rest",
+            "a brick moving this fast is not at rest",
+        ),
+    )
+    RestAngularSpeed = within(
+        AngularSpeed,
+        angular_speed,
+        MIN_REST_ANGULAR_SPEED,
+        MAX_REST_ANGULAR_SPEED,
+        "an angular speed from 0.01 to 10 rad/s",
+        ("bricks at rest in pybullet are not quite still", "a brick turning this fast is not at rest"),
+    )
+    CollapseThreshold = within(
+        Length,
+        length,
+        MIN_COLLAPSE_THRESHOLD,
+        MAX_SIDE,
+        "a length from 1 mm to 10 m",
+        (
+            "one step of free fall at the longest timestep (10 ms) moves a brick 0.98 mm before contact holds it, "
+            "which a smaller threshold reads as a collapse",
+            "no brick is longer",
+        ),
+    )
+
+Vector2 = tuple[Coordinate, Coordinate]
+Vector3 = tuple[Coordinate, Coordinate, Coordinate]
 
 
 class _Model(BaseModel):
@@ -68,15 +231,17 @@ class _Model(BaseModel):
 class Material(_Model):
     """A material: density, static friction coefficient and restitution of a pair of its bodies."""
 
-    density: Annotated[Density, Field(gt=0)] = 460.0
+    density: BoundedDensity = 460.0
     friction: Annotated[Number, Field(ge=0, le=10)] = 0.5
     restitution: Annotated[Number, Field(ge=0, le=1)] = 0.0
 
 
 class BrickType(_Model):
-    """A box-shaped brick: ``size`` is length, width, height (the KAPLA default 120 x 24 x 8 mm)."""
+    """A box-shaped brick: ``size`` is length, width, height (the KAPLA default 120 x 24 x 8 mm),
+    each from 3 mm (:data:`MIN_SIDE`, measured: below it pybullet does not hold a brick still on
+    the ground at 1/240 s) to 10 m."""
 
-    size: tuple[PositiveLength, PositiveLength, PositiveLength] = (0.12, 0.024, 0.008)
+    size: tuple[Side, Side, Side] = (0.12, 0.024, 0.008)
     material: str = "pine"
 
 
@@ -89,7 +254,11 @@ def _shift(value: Any) -> Any:
     return value if isinstance(value, (list, tuple)) else (value, 0.0)
 
 
-Shift = Annotated[Vector2, BeforeValidator(_shift), AlsoAccepts((Length,), "one length (along x) or an (x, y) pair")]
+Shift = Annotated[
+    tuple[Offset, Offset],
+    BeforeValidator(_shift),
+    AlsoAccepts((Offset,), "one length (along x) or an (x, y) pair, each within 10 m"),
+]
 
 
 class Tower(_Model):
@@ -97,20 +266,23 @@ class Tower(_Model):
     centre), each layer turned by ``turn`` degrees and moved by ``shift`` from the one below.
 
     Two bricks a layer turned 90 deg is the report's 4 stack; a shift makes it a slant tower.
+    ``turn`` and ``yaw`` are degrees within +-3600 (ten turns, :data:`MAX_ANGLE`; not folded);
+    ``spacing`` and each part of ``shift`` at most 10 m (no brick is longer), ``origin`` within 1 km.
     """
 
     brick: str = "kapla"
     levels: Annotated[int, Field(ge=1, le=MAX_LEVELS), WHOLE]
     bricks_per_layer: Annotated[int, Field(ge=1, le=50), WHOLE] = 2
-    spacing: NonNegativeLength = 0.096
-    turn: Angle = 90.0
+    spacing: Spacing = 0.096
+    turn: BoundedAngle = 90.0
     shift: Shift = (0.0, 0.0)
     origin: Vector2 = (0.0, 0.0)
-    yaw: Angle = 0.0
+    yaw: BoundedAngle = 0.0
 
 
 class BrickPlacement(_Model):
-    """One brick placed by hand: centre position ``at``, yaw/pitch/roll in degrees.
+    """One brick placed by hand: centre position ``at`` (each coordinate within 1 km), yaw/pitch/roll
+    in degrees within +-3600 (ten turns, :data:`MAX_ANGLE`; not folded).
 
     ``fixed: true`` makes it part of the environment (a wall, a ramp): it is in the world
     from the start, immovable, and not part of the structure. ``together: true`` places
@@ -120,9 +292,9 @@ class BrickPlacement(_Model):
     id: Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]{1,40}$")] | None = None
     brick: str = "kapla"
     at: Vector3
-    yaw: Angle = 0.0
-    pitch: Angle = 0.0
-    roll: Angle = 0.0
+    yaw: BoundedAngle = 0.0
+    pitch: BoundedAngle = 0.0
+    roll: BoundedAngle = 0.0
     level: Annotated[int, Field(ge=1, le=MAX_LEVELS), WHOLE] | None = None
     fixed: StrictBool = False
     together: StrictBool = False
@@ -132,13 +304,14 @@ class CardHouse(_Model):
     """A card house: rows of inverted V's (two bricks leaning on each other at ``angle``
     degrees from vertical), a flat brick across the peaks of every two neighbouring V's,
     a V on every flat brick, up to a single V: a pyramid with ``levels`` V's at its base.
-    ``spacing`` is the distance between neighbouring peaks (default: the V's width + 2 mm).
+    ``spacing`` is the distance between neighbouring peaks (default: the V's width + 2 mm), at most
+    10 m; ``angle`` is in degrees, above 0 and below 60.
     """
 
     brick: str = "kapla"
     levels: Annotated[int, Field(ge=1, le=50), WHOLE]
     angle: Annotated[Angle, Field(gt=0, lt=60)] = 20.0
-    spacing: PositiveLength | None = None
+    spacing: PeakSpacing | None = None
     origin: Vector2 = (0.0, 0.0)
 
 
@@ -244,17 +417,18 @@ class Target(_Model):
 
 
 class Impact(_Model):
-    """A projectile brick thrown at ``speed`` so that it reaches ``target`` ``distance``
-    after launch; it flies along ``direction`` (default: into the target's side) with its
-    long axis along the flight."""
+    """A projectile brick thrown at ``speed`` (0.1 to 100 m/s) so that it reaches ``target``
+    ``distance`` after launch; it flies along ``direction`` (default: into the target's side)
+    with its long axis along the flight. The direction need not be a unit vector: its
+    components are finite, each at most 1e6 in size, and one is at least 1e-6."""
 
     model_config = ConfigDict(json_schema_extra={"anyOf": [given("direction"), {"properties": {"target": given("side")}}]})
 
     id: Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]{1,40}$")] | None = None
     projectile: str = "kapla"
     target: Target
-    speed: Annotated[Speed, Field(gt=0, le=100)]
-    direction: tuple[Number, Number, Number] | None = Field(
+    speed: ImpactSpeed
+    direction: tuple[Component, Component, Component] | None = Field(
         default=None,
         json_schema_extra={
             "not": {"type": "array", "items": {"exclusiveMinimum": -MIN_DIRECTION, "exclusiveMaximum": MIN_DIRECTION}}
@@ -303,11 +477,12 @@ class Engine(_Model):
 class Stability(_Model):
     """The stability extension: its ``model`` (``report``: the report's rules;
     ``equilibrium``: rigid-block equilibrium) and thresholds (report 3.3.2); defaults in
-    :mod:`stability`."""
+    :mod:`stability`. ``rest_speed`` is from 1 mm/s to 1 m/s and ``rest_angular_speed`` from
+    0.01 to 10 rad/s: bricks at rest in pybullet are not quite still (:data:`MIN_REST_SPEED`)."""
 
     model: Literal["report", "equilibrium"] = "report"
-    rest_speed: Annotated[Speed, Field(gt=0)] | None = None
-    rest_angular_speed: Annotated[AngularSpeed, Field(gt=0)] | None = None
+    rest_speed: RestSpeed | None = None
+    rest_angular_speed: RestAngularSpeed | None = None
     rest_duration: Annotated[Time, Field(ge=0, le=10)] | None = None
 
 
@@ -425,12 +600,41 @@ class Scenario(_Model):
     impacts: Annotated[list[Impact], Field(max_length=100)] = []
     engine: Engine = Engine()
     stability: Stability = Stability()
-    collapse_threshold: PositiveLength | None = None
+    collapse_threshold: CollapseThreshold | None = None
     expect: Expect = Expect()
     # checks before simulating that this scene silences: "floating" lets bricks be placed resting on nothing
     allow: list[Literal["floating"]] = []
 
     _source: SourceMap = PrivateAttr(default_factory=lambda: SourceMap("<scenario>"))
+
+    @model_validator(mode="after")
+    def _drop_gap_below_threshold(self) -> Scenario:
+        """A brick is placed ``timing.drop_gap`` above its pose and counts as moved until it lands
+        (measured: a KAPLA tower with a 5 mm gap and the 4 mm default threshold collapses at its first
+        brick; with 3.5 mm it stands): the gap must be below the collapse threshold."""
+        threshold = self.collapse_threshold or self._thinnest_half_side()
+        gap = self.timing.drop_gap
+        if threshold is None or gap < threshold:
+            return self
+        own = "the collapse threshold" if self.collapse_threshold else "the collapse threshold (half the thinnest brick side)"
+        message = (
+            f"a drop gap of {gap * 1000:g} mm is not below {own}, {threshold * 1000:g} mm: a brick is placed this far "
+            "above its pose and counts as moved until it lands, so the first brick would read as a collapse; "
+            f"give a drop gap below {threshold * 1000:g} mm"
+        )
+        # the default gap (0.5 mm) is below every threshold (at least 1 mm): the gap was given
+        loc = ("timing", "drop_gap")
+        error = InitErrorDetails(type=PydanticCustomError("value_error", message), loc=loc, input=gap)
+        raise ValidationError.from_exception_data(type(self).__name__, [error])
+
+    def _thinnest_half_side(self) -> float | None:
+        """Half the thinnest side of the structure's bricks (not fixtures), the default collapse
+        threshold, m; None if they name no brick type known yet (the loader reports the name)."""
+        layout = self.structure.tower or self.structure.card_house
+        names = {layout.brick} if layout else {b.brick for b in self.structure.bricks or [] if not b.fixed}
+        types = {**BUILTIN_BRICKS, **self.brick_types}
+        sides = [min(types[n].size) for n in names if n in types]
+        return min(sides) / 2 if sides and len(sides) == len(names) else None
 
     @property
     def source(self) -> SourceMap:

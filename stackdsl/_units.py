@@ -29,7 +29,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 from typing import Annotated, Any, Literal
 
-from pydantic import BeforeValidator, GetJsonSchemaHandler
+from pydantic import BeforeValidator, Field, GetJsonSchemaHandler
 from pydantic.json_schema import JsonSchemaValue
 from pydantic_core import CoreSchema
 
@@ -145,6 +145,49 @@ def _kind(dimension: str, unit: str, what: str, example: str, unit_name: str = "
 
     schema = _QuantityJsonSchema(f"{what}: a number of {unit_name} or a string with a unit, e.g. {example}")
     return convert, Annotated[float, BeforeValidator(convert), schema]
+
+
+def within(
+    kind: Any,
+    convert: Callable[[Any], Any],
+    low: float,
+    high: float,
+    shown: str,
+    why: str | tuple[str, str] = "",
+    *,
+    above: bool = False,
+) -> Any:
+    """``kind`` (a quantity type such as :data:`Length`, or a number type) bounded to [``low``,
+    ``high``] (``(low, high]`` if ``above``) after ``convert`` (:func:`length`, :func:`real`...).
+
+    Refusals read ``expected <shown>, got <value>; <why>``: ``shown`` says the range with units
+    ("a length from 3 mm to 10 m"), ``why`` the physical reason for the bounds, or a pair: the
+    reason for the lower bound (given for a value below it) and for the upper one. The bounds reach
+    the JSON Schema as ``minimum``/``maximum``. Values that ``convert`` refuses keep its message;
+    ``convert`` may return ``value`` unchanged when it is not a number, for a later validator.
+    Source: stackdsl's own.
+    """
+
+    def check(value: Any) -> Any:
+        number = convert(value)
+        if isinstance(number, float) and math.isfinite(number) and not (low < number <= high if above else low <= number <= high):
+            reason = "" if number <= 0 < low else why if isinstance(why, str) else why[number > high]  # no reason for <= 0
+            raise ValueError(f"expected {shown}, got {value!r}" + (f"; {reason}" if reason else ""))
+        return number
+
+    bounds = Field(gt=low, le=high) if above else Field(ge=low, le=high)
+    return Annotated[kind, bounds, BeforeValidator(check)]
+
+
+def real(value: Any) -> Any:
+    """A YAML number as a float (for :func:`within`); anything else unchanged, for the field's own type to refuse."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        try:
+            number = float(value)
+        except OverflowError:  # an integer beyond a double
+            return value
+        return number if math.isfinite(number) else value
+    return value
 
 
 length, Length = _kind("[length]", "m", "a length", "'120 mm'", "metres")

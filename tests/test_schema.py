@@ -146,6 +146,31 @@ REFUSED = {
     "a shift of three": doc("structure: {tower: {levels: 3, shift: [1 mm, 2 mm, 3 mm]}}"),
     "a negative card-house angle": doc("structure: {card_house: {levels: 1, angle: -20 deg}}"),
     "a brick id with a space": doc("structure: {bricks: [{id: a b, at: [0, 0, 4 mm]}]}"),
+    # numbers outside their physical ranges (the bounds in stackdsl._schema)
+    "a turn of 1e308 degrees": doc("structure: {tower: {levels: 3, turn: 1.0e+308}}"),
+    "a yaw beyond ten turns": doc("structure: {bricks: [{at: [0, 0, 4 mm], yaw: 3601}]}"),
+    "a pitch beyond ten turns": doc("structure: {bricks: [{at: [0, 0, 4 mm], pitch: -3601}]}"),
+    "a direction whose norm overflows": doc(
+        "impacts: [{target: {level: 2, side: +x}, direction: [1.0e+308, 1.0e+308, 0], speed: 1, at: 1 s}]"
+    ),
+    "an infinite direction": doc("impacts: [{target: {level: 2, side: +x}, direction: [.inf, 1, 0], speed: 1, at: 1 s}]"),
+    "a brick side below 3 mm": doc("brick_types: {plank: {size: [0.12, 0.024, 0.0025]}}"),
+    "a brick side over 10 m": doc("brick_types: {plank: {size: [11, 1, 1]}}"),
+    "an origin 1e15 m away": doc("structure: {tower: {levels: 3, origin: [1.0e+15, 0]}}"),
+    "a brick placed over 1 km up": doc("structure: {bricks: [{at: [0, 0, 1001]}]}"),
+    "a point target 1e300 m up": doc("impacts: [{target: {point: [0, 0, 1.0e+300]}, direction: [1, 0, 0], speed: 1, at: 1 s}]"),
+    "a tower spacing over 10 m": doc("structure: {tower: {levels: 3, spacing: 10.5}}"),
+    "a tower shift over 10 m": doc("structure: {tower: {levels: 3, shift: [0, -10.5]}}"),
+    "a card-house spacing over 10 m": doc("structure: {card_house: {levels: 2, spacing: 11}}"),
+    "a density below air's": doc("materials: {foam: {density: 0.5}}"),
+    "a density of 1e300": doc("materials: {osmium: {density: 1.0e+300}}"),
+    "an impact at 1 cm/s": doc("impacts: [{target: {level: 2, side: +x}, speed: 0.01, at: 1 s}]"),
+    "a rest speed of 1 nm/s": doc("stability: {rest_speed: 1.0e-9}"),
+    "a rest speed of 2 m/s": doc("stability: {rest_speed: 2}"),
+    "a rest angular speed of 100 rad/s": doc("stability: {rest_angular_speed: 100}"),
+    "a collapse threshold of 1e-12 m": doc("collapse_threshold: 1.0e-12"),
+    "a collapse threshold below 1 mm": doc("collapse_threshold: 0.0009"),
+    "a collapse threshold over 10 m": doc("collapse_threshold: 11"),
 }
 
 ACCEPTED = {
@@ -178,6 +203,23 @@ ACCEPTED = {
     "a null optional field": doc("name: null", "collapse_threshold: null"),
     "version 1.0": doc().replace("stackdsl: 1", "stackdsl: 1.0"),
     "a stability model": doc("stability: {model: equilibrium, rest_speed: 5 mm/s, rest_angular_speed: 0.05 rad/s}"),
+    # the ends of the physical ranges
+    "angles of ten turns": doc("structure: {bricks: [{at: [0, 0, 4 mm], yaw: 3600, pitch: -3600, roll: 3600}]}"),
+    "a turn of -3600": doc("structure: {tower: {levels: 3, turn: -3600}}"),
+    "direction components of 1e6": doc(
+        "impacts: [{target: {level: 2, side: +x}, direction: [1000000, -1000000, 1000000], speed: 1, at: 1 s}]"
+    ),
+    "3 mm and 10 m sides": doc("brick_types: {cube: {size: [3 mm, 10 m, 0.003]}}"),
+    "positions at 1 km": doc("structure: {tower: {levels: 3, origin: [-1000, 1 km]}}"),
+    "a spacing and a shift of 10 m": doc("structure: {tower: {levels: 3, spacing: 10, shift: [-10, 10 m]}}"),
+    "densities of 1 and 100000 kg/m^3": doc("materials: {a: {density: 1}, b: {density: 100000}}"),
+    "impacts at 0.1 and 100 m/s": doc(
+        "impacts: [{target: {level: 2, side: +x}, speed: 0.1, at: 1 s}, {target: {level: 2, side: +x}, speed: 100, at: 2 s}]"
+    ),
+    "rest thresholds at their floors": doc("stability: {rest_speed: 1 mm/s, rest_angular_speed: 0.01}"),
+    "rest thresholds at their ceilings": doc("stability: {rest_speed: 1, rest_angular_speed: 10 rad/s}"),
+    "a collapse threshold of 1 mm": doc("collapse_threshold: 0.001"),
+    "a drop gap just below the collapse threshold": doc("timing: {drop_gap: 0.0039}"),
 }
 
 
@@ -207,6 +249,16 @@ SCHEMA_WIDER = {
     "a brick id used twice": doc("structure: {bricks: [{id: a, at: [0, 0, 4 mm]}, {id: a, at: [0, 0, 12 mm]}]}"),
     "a descending level range": doc("expect: {stays: 5-3}"),
     "levels that both stay and may fall": doc("expect: {stays: 1-3, may_fall: 3}"),
+    "a spacing of 120 parsecs (a bound beyond the sign, with a unit)": doc(
+        "structure: {tower: {levels: 3, spacing: 120 parsec}}"
+    ),
+    "a brick side of 1 mm, with a unit": doc("brick_types: {cube: {size: [1 mm, 1 mm, 1 mm]}}"),
+    "a NaN direction component (JSON has no NaN, and every comparison with it is false)": doc(
+        "impacts: [{target: {level: 2, side: +x}, direction: [.nan, 1, 0], speed: 1, at: 1 s}]"
+    ),
+    "a drop gap not below the collapse threshold (two fields, one of them a default from a brick type)": doc(
+        "timing: {drop_gap: 0.004}"
+    ),
 }
 
 
@@ -268,10 +320,12 @@ QUANTITY_STRINGS = [
     "-1e-5",
 ]
 QUANTITY_FIELDS = {  # one field of each sign the pattern can say
-    "any": "structure: {{tower: {{levels: 3, origin: [{}, 0]}}}}",
-    "non-negative": "structure: {{tower: {{levels: 3, spacing: {}}}}}",
-    "positive": "structure: {{card_house: {{levels: 1, spacing: {}}}}}",
+    "any": "structure: {{tower: {{levels: 3, origin: [{}, 0]}}}}",  # -1 km to 1 km
+    "non-negative": "structure: {{tower: {{levels: 3, spacing: {}}}}}",  # 0 to 10 m
+    "positive": "structure: {{card_house: {{levels: 1, spacing: {}}}}}",  # above 0, at most 10 m
 }
+# Strings beyond the field's upper bound: the pattern says only the sign, so the schema takes them (1e3 m > 10 m).
+BEYOND_THE_BOUND = {"any": [], "non-negative": ["1e3"], "positive": ["1e3"]}
 
 
 @pytest.mark.parametrize("sign", QUANTITY_FIELDS)
@@ -281,7 +335,7 @@ def test_quantity_strings_are_accepted_alike(sign, validator):
         text = doc(QUANTITY_FIELDS[sign].format(json.dumps(value)))  # a JSON string is a YAML double-quoted one
         if schema_accepts(validator, text) != loader_accepts(text):
             differ.append(value)
-    assert differ == []
+    assert differ == BEYOND_THE_BOUND[sign]
 
 
 DESCENDING = ["5-3", "1000..1"]  # JSON Schema cannot compare the two numbers of a range: only the loader refuses these
@@ -405,3 +459,118 @@ def test_patterns_mean_the_same_in_ecma_262_as_in_python():
     # Python's $ also matches before a final newline: the one pattern pydantic writes itself (a brick id) differs there
     assert all(s.endswith("\n") and p == "^[A-Za-z0-9_.-]{1,40}$" for p, s in differ), differ
     assert len(found) >= 6
+
+
+# numbers out of their physical ranges: one ScenarioError at the field, saying the range -------------
+OUT_OF_RANGE = {
+    # (the scenario's lines after the version line, field, line, column, what the message says)
+    "a turn of 1e308 (a math domain error once)": (
+        "structure: {tower: {levels: 3, turn: 1.0e308}}",
+        "structure.tower.turn",
+        2,
+        38,
+        "expected an angle from -3600 to 3600 degrees",
+    ),
+    "NaN in a direction": (
+        "structure: {tower: {levels: 2}}\nimpacts: [{target: {level: 2, side: +x}, direction: [.nan, 1, 0], speed: 1, at: 2 s}]",
+        "impacts[0].direction[0]",
+        3,
+        54,
+        "finite",
+    ),
+    "a direction whose norm overflows (a launch at 0 m/s once)": (
+        "structure: {tower: {levels: 2}}\n"
+        "impacts: [{target: {level: 2, side: +x}, direction: [1.0e+308, 1.0e+308, 0], speed: 1, at: 2 s}]",
+        "impacts[0].direction[0]",
+        3,
+        54,
+        "expected a direction component from -1e6 to 1e6",
+    ),
+    "a spacing of 120 parsecs (a shapely AttributeError once)": (
+        "structure: {tower: {levels: 2, spacing: 120 parsec}}",
+        "structure.tower.spacing",
+        2,
+        41,
+        "expected a length from 0 to 10 m, got '120 parsec'",
+    ),
+    "an origin 1e15 m away": (
+        "structure: {tower: {levels: 2, bricks_per_layer: 1, origin: [1.0e+15, 0]}}",
+        "structure.tower.origin[0]",
+        2,
+        62,
+        "expected a coordinate from -1 km to 1 km",
+    ),
+    "a collapse threshold of 1e-12 m (170 million substeps a step once)": (
+        "structure: {tower: {levels: 2}}\ncollapse_threshold: 1e-12",
+        "collapse_threshold",
+        3,
+        21,
+        "expected a length from 1 mm to 10 m",
+    ),
+    "a side of 1 mm (a brick that small 'collapses' on the ground)": (
+        "brick_types: {tiny: {size: [3 mm, 1 mm, 3 mm]}}\nstructure: {bricks: [{brick: tiny, at: [0, 0, 1.5 mm]}]}",
+        "brick_types.tiny.size[1]",
+        2,
+        35,
+        "expected a side from 3 mm to 10 m, got '1 mm'; a smaller brick is below what pybullet resolves at 1/240 s",
+    ),
+    "a density of 1e300 kg/m^3": (
+        "materials: {osmium: {density: 1e300 kg/m^3}}\nstructure: {tower: {levels: 2}}",
+        "materials.osmium.density",
+        2,
+        31,
+        "expected a density from 1 to 100000 kg/m^3",
+    ),
+    "a drop gap of 5 mm over KAPLA's 4 mm threshold (a collapse at the first brick once)": (
+        "structure: {tower: {levels: 2}}\ntiming: {drop_gap: 5 mm}",
+        "timing.drop_gap",
+        3,
+        20,
+        "a drop gap of 5 mm is not below the collapse threshold (half the thinnest brick side), 4 mm",
+    ),
+    "a drop gap over a given threshold": (
+        "structure: {tower: {levels: 2}}\ntiming: {drop_gap: 2 mm}\ncollapse_threshold: 1.5 mm",
+        "timing.drop_gap",
+        3,
+        20,
+        "give a drop gap below 1.5 mm",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", OUT_OF_RANGE.values(), ids=OUT_OF_RANGE.keys())
+def test_a_number_out_of_its_range_is_refused_at_its_field(case):
+    body, field, line, column, said = case
+    with pytest.raises(ScenarioError) as caught:
+        parse_scenario(f"stackdsl: 1\n{body}\n", "s.yaml")
+    err = caught.value
+    assert (err.field, err.line, err.column) == (field, line, column), str(err)
+    assert said in err.message
+
+
+def test_the_smallest_side_is_what_pybullet_resolves():
+    """The floor on brick sides (3 mm) is measured: a cube of 3 mm resting on the ground stays within
+    half its side (the default collapse threshold) in raw and extension modes, one of 2.5 mm does not
+    (it moves 1.26 mm as it lands and settles). The 2.5 mm cube is built from the 3 mm one's program,
+    since the loader refuses it."""
+    import stackdsl
+
+    scenario = parse_scenario(
+        "stackdsl: 1\nbrick_types: {cube: {size: [3 mm, 3 mm, 3 mm]}}\nstructure: {bricks: [{id: c, brick: cube, at: [0, 0, 1.5 mm]}]}\n",
+        "s.yaml",
+    )
+    for mode in ("raw", "extension"):
+        program = stackdsl.compile_scenario(scenario, mode=mode)
+        assert program.collapse_threshold == pytest.approx(0.0015)
+        assert stackdsl.run_program(program).collapse is None, mode
+        half = 0.00125
+        place = program.actions[0]
+        smaller = place.model_copy(
+            update={
+                "brick": place.brick.model_copy(update={"half_extents": (half,) * 3, "mass": 460.0 * (2 * half) ** 3}),
+                "position": (0.0, 0.0, half),
+            }
+        )
+        program = program.model_copy(update={"actions": (smaller, *program.actions[1:]), "collapse_threshold": half})
+        collapse = stackdsl.run_program(program).collapse
+        assert collapse is not None and collapse.displacement > half, mode

@@ -19,7 +19,7 @@ from pathlib import Path
 from ._compiler import compile_scenario
 from ._errors import ScenarioError
 from ._expect import Verdict, describe, evaluate, explain
-from ._loader import load_scenario
+from ._loader import file_problem, load_scenario
 from ._pool import estimate, fan_out, on_executor
 from ._program import Program
 from ._runtime import run_program
@@ -87,7 +87,9 @@ def discover(paths: list[str | Path]) -> list[Path]:
     """Scenario files named by ``paths``: files as given, folders searched for ``*.yaml``/``*.yml``.
 
     Raises:
-        ScenarioErrors: a path does not exist, or a folder holds no scenario file.
+        ScenarioErrors: a path does not exist, is not a regular file (a device, a FIFO) or
+            is over the loader's size cap (decided from ``os.stat``, nothing is opened), or a
+            folder holds no scenario file.
     """
     files, errors = [], []
     for raw in paths:
@@ -97,10 +99,10 @@ def discover(paths: list[str | Path]) -> list[Path]:
             if not found:
                 errors.append(ScenarioError("no scenario files (*.yaml) in this folder", file=str(path)))
             files += found
-        elif path.is_file():
+        elif (problem := file_problem(path)) is None:
             files.append(path)
         else:
-            errors.append(ScenarioError("no such file or folder", file=str(path)))
+            errors.append(ScenarioError(problem, file=str(path)))
     if errors:
         raise ScenarioErrors(errors)
     return files

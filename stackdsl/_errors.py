@@ -51,11 +51,32 @@ class ScenarioError(Exception):
         head = f"{where}: {self.field}: {self.message}" if self.field else f"{where}: {self.message}"
         lines = [head]
         if self.source_line:
-            lines.append(f"    {self.source_line.rstrip()}")
-            lines.append("    " + " " * max((self.column or 1) - 1, 0) + "^")
+            shown, caret = _excerpt(self.source_line, max((self.column or 1) - 1, 0))
+            lines.append(f"    {shown}")
+            lines.append("    " + " " * caret + "^")
         if self.more:
             lines.append(f"    ({self.more} more problem{'s' if self.more > 1 else ''} in this file)")
         return "\n".join(lines)
+
+
+SHOWN_LINE_CHARS = 120  # an error shows at most this much of its source line
+
+
+def _excerpt(line: str, column: int) -> tuple[str, int]:
+    """``line`` as shown under an error, and the caret's offset for 0-based ``column``.
+
+    Characters a terminal would act on or not show (controls, U+FFFE) become U+FFFD, one
+    for one so that the caret stays under its character; a long line is cut to a window of
+    :data:`SHOWN_LINE_CHARS` around the column, with "…" marking the cuts.
+    """
+    shown = "".join(c if c.isprintable() or c == "\t" else "\ufffd" for c in line).rstrip()
+    if len(shown) <= SHOWN_LINE_CHARS:
+        return shown, column
+    start = min(max(column - SHOWN_LINE_CHARS // 2, 0), len(shown) - SHOWN_LINE_CHARS)
+    window = shown[start : start + SHOWN_LINE_CHARS]
+    head = "…" if start > 0 else ""
+    tail = "…" if start + SHOWN_LINE_CHARS < len(shown) else ""
+    return head + window + tail, column - start + len(head)
 
 
 @dataclass(frozen=True)

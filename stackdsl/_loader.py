@@ -1,10 +1,18 @@
 """YAML -> :class:`Scenario`, with errors at ``file:line:col``.
 
-The file is composed with PyYAML's safe loader into nodes (no object construction),
-turned into plain data while a side table records each field's position, then
-validated with pydantic; every error is mapped back to the nearest YAML node.
-Duplicate keys and merge keys are rejected (PyYAML would silently keep the last).
-Node count and file size are limited so that a hostile file (alias bombs) fails fast.
+The file is read only if it is a regular file of at most :data:`MAX_FILE_BYTES` (decided
+from ``os.stat`` before opening: a FIFO, device or socket is never opened), decoded as
+UTF-8 (a UTF-8 byte order mark is skipped; UTF-16/32 are named and refused), checked for
+characters YAML does not allow, then composed with PyYAML's safe loader into nodes (no
+object construction), turned into plain data while a side table records each field's
+position, and validated with pydantic; every error is mapped back to the nearest YAML node.
+
+Hostile input fails fast and cleanly: duplicate keys, merge keys, recursive aliases and
+tags other than the plain ones (str, int, float, bool, null, seq, map) are refused;
+nesting is bounded by :data:`MAX_DEPTH` and the values a file expands to (aliases) by
+:data:`MAX_NODES`; a scalar PyYAML cannot convert (``!!int abc``) is an error at that node.
+Dates (``2024-01-01``) and ``=`` stay strings: the language has no use for YAML 1.1's
+timestamp and value types.
 
 Source: stackdsl's own (errors at file:line:col), after Tavern.
 """
@@ -12,42 +20,193 @@ Source: stackdsl's own (errors at file:line:col), after Tavern.
 from __future__ import annotations
 
 import difflib
+import os
+import re
+import stat
 import types
 import typing
+import unicodedata
 from pathlib import Path
 from typing import Any
 
+import pydantic
+import pydantic_core
 import yaml
 from pydantic import BaseModel, ValidationError
 from pydantic_core import ErrorDetails
+from yaml.events import AliasEvent, MappingStartEvent, SequenceStartEvent
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
 from ._errors import FieldPath, ScenarioError, SourceMap
 from ._schema import BUILTIN_BRICKS, BUILTIN_MATERIALS, MAX_BRICKS, Scenario
 
-MAX_FILE_BYTES = 1 << 20
-MAX_NODES = 200_000
+MAX_FILE_BYTES = 1 << 20  # a scenario file is at most 1 MiB
+MAX_NODES = 200_000  # values a file may expand to, counting each alias's copy
+MAX_DEPTH = 64  # lists and mappings nested in one another; scenarios need fewer than 10
+# Characters in an integer literal: enough for any integer a double holds, even written in
+# binary (0b + 1024 digits); longer ones are refused before PyYAML converts them (Python
+# refuses decimal strings of over 4300 digits, and 1:2:3... sexagesimal costs quadratic time).
+MAX_INTEGER_CHARS = 1100
+
+_YAML = "tag:yaml.org,2002:"
+_SCALAR_TAGS = {f"{_YAML}{t}": t for t in ("str", "int", "float", "bool", "null")}
+_READ_AS = {"int": " (an integer)", "float": " (a number)", "bool": " (true or false)"}
+# Line breaks as YAML counts them.
+_LINE_BREAK = re.compile(r"\r\n|[\r\n\x85\u2028\u2029]")
+_C0_NAMES = (
+    "NULL START_OF_HEADING START_OF_TEXT END_OF_TEXT END_OF_TRANSMISSION ENQUIRY ACKNOWLEDGE BELL "
+    "BACKSPACE CHARACTER_TABULATION LINE_FEED LINE_TABULATION FORM_FEED CARRIAGE_RETURN SHIFT_OUT "
+    "SHIFT_IN DATA_LINK_ESCAPE DEVICE_CONTROL_ONE DEVICE_CONTROL_TWO DEVICE_CONTROL_THREE "
+    "DEVICE_CONTROL_FOUR NEGATIVE_ACKNOWLEDGE SYNCHRONOUS_IDLE END_OF_TRANSMISSION_BLOCK CANCEL "
+    "END_OF_MEDIUM SUBSTITUTE ESCAPE INFORMATION_SEPARATOR_FOUR INFORMATION_SEPARATOR_THREE "
+    "INFORMATION_SEPARATOR_TWO INFORMATION_SEPARATOR_ONE"
+).split()
+_BOMS = (  # longest first: the UTF-32 LE mark starts with the UTF-16 LE one
+    (b"\xff\xfe\x00\x00", "UTF-32"),
+    (b"\x00\x00\xfe\xff", "UTF-32"),
+    (b"\xff\xfe", "UTF-16"),
+    (b"\xfe\xff", "UTF-16"),
+)
+_LIBRARIES = tuple(str(Path(m.__file__).parent) + os.sep for m in (yaml, pydantic, pydantic_core) if m.__file__)
 
 
 def load_scenario(path: str | Path) -> Scenario:
     """Read and validate a scenario file.
 
+    Only a regular file (or a symbolic link to one) of at most :data:`MAX_FILE_BYTES` is
+    read; anything else is refused before it is opened.
+
     Raises:
-        ScenarioError: the file cannot be read, is not valid YAML, or is not a valid
-            scenario; the error names file, line, column and field.
+        ScenarioError: the file is missing, not a regular file, too large, not UTF-8, not
+            valid YAML, or not a valid scenario; the error names file, line, column and field.
     """
     path = Path(path)
+    problem = file_problem(path)
+    if problem:
+        raise ScenarioError(problem, file=str(path))
+    raw = _read_bytes(path)
+    return parse_scenario(_decode(raw, str(path)), file=str(path))
+
+
+def file_problem(path: Path) -> str | None:
+    """Why ``path`` cannot be read as a scenario file, from ``os.stat`` alone (nothing is
+    opened); None for a regular file of at most :data:`MAX_FILE_BYTES`.
+
+    >>> file_problem(Path("/dev/null"))
+    'not a regular file: a character device'
+    """
     try:
-        raw = path.read_bytes()
+        info = path.stat()
+    except FileNotFoundError:
+        return "a broken symbolic link" if path.is_symlink() else "no such file or folder"
+    except OSError as exc:
+        return f"cannot read the file: {exc.strerror or exc}"
+    if not stat.S_ISREG(info.st_mode):
+        return f"not a regular file: {_file_kind(info.st_mode)}"
+    if info.st_size > MAX_FILE_BYTES:
+        return f"the file is larger than {MAX_FILE_BYTES} bytes ({info.st_size} bytes)"
+    return None
+
+
+def _file_kind(mode: int) -> str:
+    """A file that is not regular, in words."""
+    kinds = (
+        (stat.S_ISDIR, "a folder"),
+        (stat.S_ISCHR, "a character device"),
+        (stat.S_ISBLK, "a block device"),
+        (stat.S_ISFIFO, "a FIFO (named pipe)"),
+        (stat.S_ISSOCK, "a socket"),
+    )
+    return next((name for test, name in kinds if test(mode)), "a special file")
+
+
+def _read_bytes(path: Path) -> bytes:
+    """At most ``MAX_FILE_BYTES + 1`` bytes of the regular file ``path``.
+
+    Opened non-blocking, and checked again once open, so that a file swapped for a FIFO or
+    device after :func:`file_problem` neither blocks nor streams without end.
+    """
+    flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0) | getattr(os, "O_BINARY", 0)
+    try:
+        fd = os.open(path, flags)
     except OSError as exc:
         raise ScenarioError(f"cannot read the file: {exc.strerror or exc}", file=str(path)) from None
+    with os.fdopen(fd, "rb") as handle:
+        mode = os.fstat(handle.fileno()).st_mode
+        if not stat.S_ISREG(mode):
+            raise ScenarioError(f"not a regular file: {_file_kind(mode)}", file=str(path))
+        try:
+            raw = handle.read(MAX_FILE_BYTES + 1)
+        except OSError as exc:
+            raise ScenarioError(f"cannot read the file: {exc.strerror or exc}", file=str(path)) from None
     if len(raw) > MAX_FILE_BYTES:
         raise ScenarioError(f"the file is larger than {MAX_FILE_BYTES} bytes", file=str(path))
+    return raw
+
+
+def _decode(raw: bytes, file: str) -> str:
+    """UTF-8 text of ``raw`` (a UTF-8 byte order mark is dropped)."""
+    for bom, encoding in _BOMS:
+        if raw.startswith(bom):
+            raise ScenarioError(
+                f"the file is {encoding} text (it starts with a {encoding} byte order mark); save it as UTF-8", file=file
+            )
     try:
-        text = raw.decode("utf-8")
+        return raw.decode("utf-8").removeprefix("\ufeff")
     except UnicodeDecodeError as exc:
-        raise ScenarioError(f"the file is not UTF-8 text ({exc.reason} at byte {exc.start})", file=str(path)) from None
-    return parse_scenario(text, file=str(path))
+        before = raw[: exc.start].decode("utf-8").removeprefix("\ufeff")
+        line, column, text = _position(before + "\ufffd", len(before))
+        raise ScenarioError(
+            f"the file is not UTF-8 text: byte 0x{raw[exc.start]:02x} ({exc.reason})",
+            file=file,
+            line=line,
+            column=column,
+            source_line=text,
+        ) from None
+
+
+def _position(text: str, index: int) -> tuple[int, int, str]:
+    """1-based line and column of ``text[index]``, counting lines as YAML does, and its line."""
+    line, start = 1, 0
+    for brk in _LINE_BREAK.finditer(text, 0, index):
+        line, start = line + 1, brk.end()
+    found = _LINE_BREAK.search(text, index)
+    return line, index - start + 1, text[start : found.start() if found else len(text)]
+
+
+def _character_name(ch: str) -> str:
+    """``"\\x0c"`` -> ``"U+000C FORM FEED"``."""
+    code = ord(ch)
+    if code < len(_C0_NAMES):
+        name = _C0_NAMES[code].replace("_", " ")
+    elif code == 0x7F:
+        name = "DELETE"
+    elif 0x80 <= code <= 0x9F:
+        name = "(a C1 control character)"
+    elif 0xD800 <= code <= 0xDFFF:
+        name = "(a lone surrogate)"
+    elif code in (0xFFFE, 0xFFFF):
+        name = "(a noncharacter)"
+    else:
+        name = unicodedata.name(ch, "")
+    return f"U+{code:04X} {name}".rstrip()
+
+
+def _check_characters(text: str, file: str) -> None:
+    """Refuse the first character YAML does not allow (PyYAML's own test), at its line:col."""
+    bad = yaml.reader.Reader.NON_PRINTABLE.search(text)
+    found = [i for i in (bad.start() if bad else -1, text.find("\ufeff")) if i >= 0]  # the caller drops a leading BOM
+    if not found:
+        return
+    at = min(found)
+    line, column, shown = _position(text, at)
+    if text[at] == "\ufeff":
+        message = "U+FEFF (a byte order mark) is allowed only at the start of the file"
+    else:
+        message = f"{_character_name(text[at])} is not allowed in YAML"
+    if text[at] == "\x00":
+        message += " (is the file UTF-16, or not text at all?)"
+    raise ScenarioError(message, file=file, line=line, column=column, source_line=shown)
 
 
 def parse_scenario(text: str, file: str = "<scenario>") -> Scenario:
@@ -65,12 +224,18 @@ def parse_scenario(text: str, file: str = "<scenario>") -> Scenario:
         structure: {tower: {levles: 3}}
                             ^
     """
+    text = text.removeprefix("\ufeff")
+    _check_characters(text, file)
     source = SourceMap(file, tuple(text.splitlines()))
     data = _read_yaml(text, source)
     try:
         scenario = Scenario.model_validate(data)
     except ValidationError as exc:
         raise _first_error(exc, source) from None
+    except Exception as exc:
+        if not _raised_in_library(exc):
+            raise  # a bug of ours (a validator): not to be dressed up as the user's error
+        raise ScenarioError(f"cannot validate this file ({type(exc).__name__} in pydantic: {exc})", file=file) from None
     problems = reference_errors(scenario)
     if problems:
         path, message = problems[0]
@@ -81,18 +246,75 @@ def parse_scenario(text: str, file: str = "<scenario>") -> Scenario:
     return scenario
 
 
+def _raised_in_library(exc: BaseException) -> bool:
+    """Whether ``exc`` was raised inside PyYAML or pydantic (not in stackdsl's own code)."""
+    tb = exc.__traceback__
+    while tb is not None and tb.tb_next is not None:
+        tb = tb.tb_next
+    return tb is not None and tb.tb_frame.f_code.co_filename.startswith(_LIBRARIES)
+
+
+class _Loader(yaml.SafeLoader):
+    """PyYAML's safe loader without YAML 1.1's timestamp, value and merge types, that
+    refuses recursive aliases and nesting deeper than :data:`MAX_DEPTH` while composing."""
+
+    yaml_implicit_resolvers = {  # noqa: RUF012 (PyYAML's own class attribute, read only)
+        first: [(tag, regexp) for tag, regexp in resolvers if tag in _SCALAR_TAGS]
+        for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
+    }
+
+    def __init__(self, text: str, source: SourceMap) -> None:
+        super().__init__(text)
+        self.source = source
+        self.depth = 0
+        self.open_anchors: set[str] = set()
+
+    def compose_node(self, parent: Node | None, index: Any) -> Node | None:
+        event = self.peek_event()
+        if isinstance(event, AliasEvent) and event.anchor in self.open_anchors:
+            raise self.error(event.start_mark, f"the alias *{event.anchor} is inside the node it names (a recursive alias)")
+        if not isinstance(event, (SequenceStartEvent, MappingStartEvent)):
+            return super().compose_node(parent, index)
+        if self.depth >= MAX_DEPTH:
+            raise self.error(event.start_mark, f"lists and mappings are nested more than {MAX_DEPTH} levels deep")
+        anchor = event.anchor
+        self.depth += 1
+        if anchor is not None:
+            self.open_anchors.add(anchor)
+        try:
+            return super().compose_node(parent, index)
+        finally:
+            self.depth -= 1
+            if anchor is not None:
+                self.open_anchors.discard(anchor)
+
+    def error(self, mark: Any, message: str) -> ScenarioError:
+        """A :class:`ScenarioError` at ``mark`` (a PyYAML ``Mark``, or None)."""
+        if mark is None:
+            return ScenarioError(message, file=self.source.file)
+        lines = self.source.lines
+        return ScenarioError(
+            message,
+            file=self.source.file,
+            line=mark.line + 1,
+            column=mark.column + 1,
+            source_line=lines[mark.line] if mark.line < len(lines) else "",
+        )
+
+
 def _read_yaml(text: str, source: SourceMap) -> Any:
-    loader = yaml.SafeLoader(text)
+    loader = None
     try:
+        loader = _Loader(text, source)
         node = loader.get_single_node()
         if node is None:
             raise ScenarioError("the file is empty; a scenario starts with 'stackdsl: 1'", file=source.file)
-        return _plain(node, (), loader, source, [MAX_NODES])
+        return _plain(node, (), loader, source, [MAX_NODES], 1)
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         line = mark.line if mark else None
         raise ScenarioError(
-            f"not valid YAML: {exc.problem or exc.context}",
+            f"not valid YAML: {exc.problem or exc.context or exc}",
             file=source.file,
             line=None if line is None else line + 1,
             column=None if mark is None else mark.column + 1,
@@ -100,37 +322,80 @@ def _read_yaml(text: str, source: SourceMap) -> Any:
         ) from None
     except yaml.YAMLError as exc:
         raise ScenarioError(f"not valid YAML: {exc}", file=source.file) from None
+    except ScenarioError:
+        raise
+    except Exception as exc:
+        if loader is None or not _raised_in_library(exc):
+            raise  # a bug of ours: not to be dressed up as the user's error
+        # PyYAML failed without a YAML error (e.g. "\U0011ffff", beyond Unicode): where it was reading
+        where = loader.get_mark()
+        raise loader.error(where, f"not valid YAML: {type(exc).__name__}: {exc}") from None
     finally:
-        loader.dispose()
+        if loader is not None:
+            loader.dispose()
 
 
-def _plain(node: Node, path: FieldPath, loader: yaml.SafeLoader, source: SourceMap, budget: list[int]) -> Any:
-    """Plain Python data for ``node``, recording positions in ``source``."""
+def _plain(node: Node, path: FieldPath, loader: _Loader, source: SourceMap, budget: list[int], depth: int) -> Any:
+    """Plain Python data for ``node`` (at nesting ``depth``), recording positions in ``source``."""
     budget[0] -= 1
     if budget[0] < 0:
         raise source.error(path, f"the file expands to more than {MAX_NODES} values (aliases?)")
     source.values[path] = (node.start_mark.line, node.start_mark.column)
-    if isinstance(node, MappingNode):
-        out: dict[str, Any] = {}
-        for key_node, value_node in node.value:
-            where = (key_node.start_mark.line, key_node.start_mark.column)
-            merge = key_node.tag == "tag:yaml.org,2002:merge"
-            key = "<<" if merge else loader.construct_object(key_node) if isinstance(key_node, ScalarNode) else None
-            if key == "<<":
-                source.values[path + ("<<",)] = where
-                raise source.error(path + ("<<",), "merge keys ('<<') are not supported; write the fields out")
-            if not isinstance(key, str):
-                source.values[path + (str(key),)] = where
-                raise source.error(path + (str(key),), f"keys must be names, got {key!r} (quote it if it is meant as a name)")
-            if key in out:
-                source.values[path + (key,)] = where
-                raise source.error(path + (key,), f"duplicate key {key!r}")
-            source.keys[path + (key,)] = where
-            out[key] = _plain(value_node, path + (key,), loader, source, budget)
-        return out
+    if isinstance(node, ScalarNode):
+        return _scalar(node, path, loader, source)
+    kind, tag = ("mapping", "map") if isinstance(node, MappingNode) else ("list", "seq")
+    if node.tag != _YAML + tag:
+        raise source.error(path, _tag_problem(node.tag, kind))
+    if depth > MAX_DEPTH:  # only through aliases: composing bounds the written nesting
+        raise source.error(path, f"lists and mappings are nested more than {MAX_DEPTH} levels deep (through aliases)")
     if isinstance(node, SequenceNode):
-        return [_plain(item, path + (i,), loader, source, budget) for i, item in enumerate(node.value)]
-    return loader.construct_object(node, deep=True)
+        return [_plain(item, path + (i,), loader, source, budget, depth + 1) for i, item in enumerate(node.value)]
+    out: dict[str, Any] = {}
+    for key_node, value_node in node.value:
+        where = (key_node.start_mark.line, key_node.start_mark.column)
+        if not isinstance(key_node, ScalarNode):
+            shown = "a mapping" if isinstance(key_node, MappingNode) else "a list"
+            source.values[path + ("?",)] = where
+            raise source.error(path + ("?",), f"keys must be names, got {shown}")
+        source.values[path + (key_node.value,)] = where
+        key = _scalar(key_node, path + (key_node.value,), loader, source)
+        if key == "<<":
+            raise source.error(path + ("<<",), "merge keys ('<<') are not supported; write the fields out")
+        if not isinstance(key, str):
+            source.values[path + (str(key),)] = where
+            raise source.error(path + (str(key),), f"keys must be names, got {key!r} (quote it if it is meant as a name)")
+        if key in out:
+            source.values[path + (key,)] = where
+            raise source.error(path + (key,), f"duplicate key {key!r}")
+        source.keys[path + (key,)] = where
+        out[key] = _plain(value_node, path + (key,), loader, source, budget, depth + 1)
+    return out
+
+
+def _scalar(node: ScalarNode, path: FieldPath, loader: _Loader, source: SourceMap) -> Any:
+    """The value of a plain-typed scalar; any failure of PyYAML's converters is an error here."""
+    name = _SCALAR_TAGS.get(node.tag)
+    if name is None:
+        raise source.error(path, _tag_problem(node.tag, "scalar value"))
+    if name == "int" and len(node.value.replace("_", "")) > MAX_INTEGER_CHARS:
+        digits = len(node.value.replace("_", ""))
+        raise source.error(path, f"an integer written with {digits} digits is too large; a number must fit in a double")
+    try:
+        value = loader.construct_object(node, deep=True)
+    except Exception:  # only PyYAML's converters run here, on a node of a known tag
+        raise source.error(path, f"cannot read {_shown(node.value, 40)} as !!{name}{_READ_AS.get(name, '')}") from None
+    bad = yaml.reader.Reader.NON_PRINTABLE.search(value) if isinstance(value, str) else None
+    if bad:  # the file's own characters were checked: this one was written as an escape ("\e")
+        raise source.error(path, f"{_character_name(bad.group())}, written as an escape, is not allowed in a value")
+    return value
+
+
+def _tag_problem(tag: str, kind: str) -> str:
+    """Why a node with YAML tag ``tag`` is refused (``kind``: scalar value, list, mapping)."""
+    shown = "!!" + tag.removeprefix(_YAML) if tag.startswith(_YAML) else tag
+    if tag in _SCALAR_TAGS or tag in (_YAML + "seq", _YAML + "map"):
+        return f"the YAML tag {shown} does not fit a {kind}"
+    return f"the YAML tag {shown} is not supported; a scenario holds only strings, numbers, true/false, null, lists and mappings"
 
 
 def _first_error(exc: ValidationError, source: SourceMap) -> ScenarioError:
@@ -162,8 +427,14 @@ def _first_error(exc: ValidationError, source: SourceMap) -> ScenarioError:
         return source.error(loc, "a scenario file is a mapping of fields, starting with 'stackdsl: 1'")
     message = err["msg"].removeprefix("Value error, ")
     if "input" in err and err["type"] not in ("value_error",) and not isinstance(err["input"], (dict, list)):
-        message += f", got {err['input']!r}"
+        message += f", got {_shown(err['input'])}"
     return source.error(loc, message, more=len(errors) - 1)
+
+
+def _shown(value: Any, limit: int = 60) -> str:
+    """``repr(value)``, cut to about ``limit`` characters."""
+    text = repr(value)
+    return text if len(text) <= limit else f"{text[:limit]}… ({len(text)} characters)"
 
 
 def _fields_at(loc: FieldPath) -> list[str]:

@@ -1,10 +1,15 @@
 """YAML -> Scenario: units, defaults, and errors that point at file:line:col."""
 
+import os
+import socket
 import textwrap
+from pathlib import Path
 
 import pytest
 
-from stackdsl import ScenarioError, load_scenario, parse_scenario
+from stackdsl import ScenarioError, ScenarioErrors, _check, _cli, _loader, load_scenario, parse_scenario
+from stackdsl._check import discover
+from stackdsl._loader import MAX_DEPTH, MAX_FILE_BYTES
 from stackdsl._units import angle, density, length, speed, time
 
 
@@ -202,9 +207,344 @@ def test_alias_bomb_fails_fast():
 
 
 def test_missing_file_and_limits(tmp_path):
-    with pytest.raises(ScenarioError, match="cannot read"):
+    with pytest.raises(ScenarioError, match="no such file or folder"):
         load_scenario(tmp_path / "nope.yaml")
     err = error("stackdsl: 1\nstructure: {tower: {levels: 2000}}\n")
     assert err.field == "structure.tower.levels" and "less than or equal to 1000" in err.message
     err = error("stackdsl: 1\nstructure: {tower: {levels: 1000, bricks_per_layer: 6}}\n")
     assert "at most 5000" in err.message
+
+
+# hostile input: every file ends in one ScenarioError at file:line:col ------------------
+TAGS_REFUSED = "is not supported; a scenario holds only strings, numbers, true/false, null, lists and mappings"
+
+
+def first_line(text: str) -> str:
+    """The first line of the error ``text`` gives (file:line:col: field: message)."""
+    return str(error(text)).splitlines()[0]
+
+
+@pytest.mark.parametrize(
+    "text, expected",
+    [
+        # 500 levels of flow nesting: the root mapping and 63 lists are allowed, the 64th list is not
+        (
+            "stackdsl: 1\nx: " + "[" * 500 + "]" * 500 + "\n",
+            "s.yaml:2:67: lists and mappings are nested more than 64 levels deep",
+        ),
+        # block nesting, one level per line from line 3: line 66 holds the 64th list
+        (
+            "stackdsl: 1\nx:\n" + "".join("  " * i + "-\n" for i in range(1, 300)),
+            "s.yaml:66:129: lists and mappings are nested more than 64 levels deep",
+        ),
+        ("stackdsl: 1\nx: &a [*a]\n", "s.yaml:2:8: the alias *a is inside the node it names (a recursive alias)"),
+        ("stackdsl: 1\nx: &m {y: [1, {z: *m}]}\n", "s.yaml:2:19: the alias *m is inside the node it names (a recursive alias)"),
+    ],
+)
+def test_nesting_is_bounded_and_recursive_aliases_are_refused(text, expected):
+    assert first_line(text) == expected
+
+
+def test_the_deepest_nesting_allowed_loads_as_data():
+    depth = MAX_DEPTH - 1  # lists inside the root mapping
+    err = error("stackdsl: 1\nx: " + "[" * depth + "]" * depth + "\n")
+    assert str(err).splitlines()[0].startswith("s.yaml:2:1: x: unknown key 'x'")
+
+
+def test_nesting_through_aliases_is_bounded_too():
+    # each file-level nesting is within the limit; b expands a one level deeper than allowed
+    depth = MAX_DEPTH - 1
+    err = error(f"stackdsl: 1\na: &a {'[' * depth}1{']' * depth}\nb: [*a]\n")
+    assert err.message == f"lists and mappings are nested more than {MAX_DEPTH} levels deep (through aliases)"
+    assert err.field == "b" + "[0]" * depth  # b[0] is a's outermost list, this its innermost
+    assert (err.line, err.column) == (2, 6 + depth)  # where a's innermost list is written
+
+
+@pytest.mark.parametrize(
+    "text, expected",
+    [
+        ("stackdsl: 1\nstructure: {tower: {levels: 3}}\n\x0c\n", "s.yaml:3:1: U+000C FORM FEED is not allowed in YAML"),
+        (
+            "stackdsl: 1\nname: a\x00b\n",
+            "s.yaml:2:8: U+0000 NULL is not allowed in YAML (is the file UTF-16, or not text at all?)",
+        ),
+        ('stackdsl: 1\nname: "a\x1bb"\n', "s.yaml:2:9: U+001B ESCAPE is not allowed in YAML"),
+        ("stackdsl: 1\nname: a\ufffe\n", "s.yaml:2:8: U+FFFE (a noncharacter) is not allowed in YAML"),
+        ("stackdsl: 1\nname: a\x7f\n", "s.yaml:2:8: U+007F DELETE is not allowed in YAML"),
+        ("stackdsl: 1\nname: a\x9b\n", "s.yaml:2:8: U+009B (a C1 control character) is not allowed in YAML"),
+        # lines are counted as YAML counts them: CR LF, CR, NEL and LS each end one
+        ("stackdsl: 1\r\nname: x\r\x85\u2028  \x07\n", "s.yaml:5:3: U+0007 BELL is not allowed in YAML"),
+        ("stackdsl: 1\n\ufeffname: x\n", "s.yaml:2:1: U+FEFF (a byte order mark) is allowed only at the start of the file"),
+        ('stackdsl: 1\nname: "a\\eb"\n', "s.yaml:2:7: name: U+001B ESCAPE, written as an escape, is not allowed in a value"),
+        (
+            'stackdsl: 1\nname: "\\ud800"\n',
+            "s.yaml:2:7: name: U+D800 (a lone surrogate), written as an escape, is not allowed in a value",
+        ),
+    ],
+)
+def test_characters_yaml_does_not_allow_are_named_at_their_position(text, expected):
+    err = error(text)
+    assert str(err).splitlines()[0] == expected
+    shown = str(err).splitlines()[1]
+    assert shown.isprintable()  # the source line is shown without the control character itself
+
+
+def test_tabs_and_newlines_written_as_escapes_are_kept():
+    s = scenario('stackdsl: 1\ndescription: "a\\tb\\nc"\nstructure: {tower: {levels: 2}}\n')
+    assert s.description == "a\tb\nc"
+
+
+@pytest.mark.parametrize(
+    "text, expected",
+    [
+        (
+            "stackdsl: 1\nstructure: {tower: {levels: !!int abc}}\n",
+            "s.yaml:2:29: structure.tower.levels: cannot read 'abc' as !!int (an integer)",
+        ),
+        (
+            "stackdsl: 1\nstructure: {tower: {levels: !!int ''}}\n",
+            "s.yaml:2:29: structure.tower.levels: cannot read '' as !!int (an integer)",
+        ),
+        ("stackdsl: 1\nengine: {ccd: !!bool maybe}\n", "s.yaml:2:15: engine.ccd: cannot read 'maybe' as !!bool (true or false)"),
+        ("stackdsl: 1\nx: !!float abc\n", "s.yaml:2:4: x: cannot read 'abc' as !!float (a number)"),
+        ("stackdsl: 1\nname: !!timestamp xyz\n", f"s.yaml:2:7: name: the YAML tag !!timestamp {TAGS_REFUSED}"),
+        ("stackdsl: 1\nname: !!binary aGk=\n", f"s.yaml:2:7: name: the YAML tag !!binary {TAGS_REFUSED}"),
+        ("stackdsl: 1\nx: !!set {a, b}\n", f"s.yaml:2:4: x: the YAML tag !!set {TAGS_REFUSED}"),
+        ("stackdsl: 1\nx: !!omap [a: 1]\n", f"s.yaml:2:4: x: the YAML tag !!omap {TAGS_REFUSED}"),
+        (
+            "stackdsl: 1\nx: !!python/object/apply:os.system [ls]\n",
+            f"s.yaml:2:4: x: the YAML tag !!python/object/apply:os.system {TAGS_REFUSED}",
+        ),
+        ("stackdsl: 1\nx: !brick plank\n", f"s.yaml:2:4: x: the YAML tag !brick {TAGS_REFUSED}"),
+        ("stackdsl: 1\nx: !<tag:example.com,2000:x> 1\n", f"s.yaml:2:4: x: the YAML tag tag:example.com,2000:x {TAGS_REFUSED}"),
+        (
+            "%TAG !p! tag:yaml.org,2002:python/\n---\nstackdsl: 1\nx: !p!name:os {}\n",
+            f"s.yaml:4:4: x: the YAML tag !!python/name:os {TAGS_REFUSED}",
+        ),
+        ("stackdsl: 1\nx: !!merge y\n", f"s.yaml:2:4: x: the YAML tag !!merge {TAGS_REFUSED}"),
+        ("stackdsl: 1\n!!binary aGk=: 1\n", f"s.yaml:2:1: aGk=: the YAML tag !!binary {TAGS_REFUSED}"),
+        ("stackdsl: 1\nx: !!str [1]\n", "s.yaml:2:4: x: the YAML tag !!str does not fit a list"),
+        ("stackdsl: 1\nx: !!seq abc\n", "s.yaml:2:4: x: the YAML tag !!seq does not fit a scalar value"),
+        ("stackdsl: 1\nx: !!map [1]\n", "s.yaml:2:4: x: the YAML tag !!map does not fit a list"),
+        ("stackdsl: 1\n? [a]\n: 1\n", "s.yaml:2:3: ?: keys must be names, got a list"),
+        (
+            "stackdsl: 1\nstructure: {tower: {levels: " + "9" * 5000 + "}}\n",
+            "s.yaml:2:29: structure.tower.levels: an integer written with 5000 digits is too large; a number must fit in a double",
+        ),
+        (  # YAML 1.1's base-60 integers: refused before PyYAML multiplies them out
+            "stackdsl: 1\nx: 1" + ":1" * 100_000 + "\n",
+            "s.yaml:2:4: x: an integer written with 200001 digits is too large; a number must fit in a double",
+        ),
+        (  # PyYAML fails inside its scanner with a ValueError: placed where it was reading
+            'stackdsl: 1\nname: "ab\\U0011ffff"\n',
+            "s.yaml:2:12: not valid YAML: ValueError: chr() arg not in range(0x110000)",
+        ),
+    ],
+)
+def test_tags_and_values_pyyaml_cannot_convert_are_errors_at_the_node(text, expected):
+    assert first_line(text) == expected
+
+
+@pytest.mark.parametrize("written", ["2024-01-01", "2001-13-45", "=", "<<"])
+def test_dates_and_yaml_1_1_value_types_stay_strings(written):
+    s = scenario(f"stackdsl: 1\nname: {written}\nstructure: {{tower: {{levels: 2}}}}\n")
+    assert s.name == written
+
+
+def test_a_long_value_is_cut_in_the_message():
+    err = error("stackdsl: 1\nname: " + "k" * 100_000 + "\nstructure: {tower: {levels: 2}}\n")
+    assert (err.line, err.column, err.field) == (2, 7, "name")
+    assert err.message.endswith("… (100002 characters)") and len(err.message) < 200
+    shown = str(err).splitlines()[1]
+    assert len(shown) < 140 and shown.endswith("…")
+
+
+# files: what is read, and how ---------------------------------------------------------
+@pytest.fixture
+def nothing_opened(monkeypatch):
+    """Makes opening any file fail the test: a refusal must come from os.stat alone."""
+
+    def refuse(*args, **kwargs):
+        raise AssertionError(f"opened {args[0]!r}")
+
+    monkeypatch.setattr(os, "open", refuse)
+
+
+def load_error(path) -> str:
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(path)
+    assert info.value.line is None  # no position applies
+    return str(info.value)
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs here")
+def test_a_fifo_is_refused_without_opening_it(tmp_path, nothing_opened):
+    fifo = tmp_path / "pipe.yaml"
+    os.mkfifo(fifo)
+    assert load_error(fifo) == f"{fifo}: not a regular file: a FIFO (named pipe)"
+    with pytest.raises(ScenarioErrors) as info:
+        discover([fifo])
+    assert [str(e) for e in info.value.errors] == [f"{fifo}: not a regular file: a FIFO (named pipe)"]
+
+
+@pytest.mark.skipif(not Path("/dev/zero").exists(), reason="no /dev/zero here")
+def test_a_device_is_refused_without_opening_it(tmp_path, nothing_opened):
+    assert load_error("/dev/zero") == "/dev/zero: not a regular file: a character device"
+    with pytest.raises(ScenarioErrors) as info:
+        discover(["/dev/zero"])
+    assert str(info.value) == "/dev/zero: not a regular file: a character device"
+    link = tmp_path / "zero.yaml"
+    link.symlink_to("/dev/zero")
+    assert load_error(link) == f"{link}: not a regular file: a character device"
+
+
+@pytest.mark.skipif(not hasattr(socket, "AF_UNIX"), reason="no Unix sockets here")
+def test_a_socket_and_a_folder_are_refused(tmp_path, nothing_opened):
+    path = tmp_path / "s.yaml"
+    if len(str(path)) > 100:
+        pytest.skip("the temporary folder's path is too long for a socket")
+    with socket.socket(socket.AF_UNIX) as sock:
+        sock.bind(str(path))
+        assert load_error(path) == f"{path}: not a regular file: a socket"
+    assert load_error(tmp_path) == f"{tmp_path}: not a regular file: a folder"
+
+
+def test_symlinks_to_files_are_followed_and_broken_ones_named(tmp_path):
+    (tmp_path / "real.yaml").write_text("stackdsl: 1\nstructure: {tower: {levels: 2}}\n")
+    (tmp_path / "link.yaml").symlink_to("real.yaml")
+    assert load_scenario(tmp_path / "link.yaml").structure.tower.levels == 2
+    (tmp_path / "broken.yaml").symlink_to("gone.yaml")
+    assert load_error(tmp_path / "broken.yaml") == f"{tmp_path / 'broken.yaml'}: a broken symbolic link"
+    assert load_error(tmp_path / "nope.yaml") == f"{tmp_path / 'nope.yaml'}: no such file or folder"
+
+
+def test_the_size_cap_is_checked_before_reading(tmp_path, nothing_opened):
+    big = tmp_path / "big.yaml"
+    with big.open("wb") as f:  # sparse: no bytes written
+        f.truncate(MAX_FILE_BYTES + 1)
+    assert load_error(big) == f"{big}: the file is larger than {MAX_FILE_BYTES} bytes ({MAX_FILE_BYTES + 1} bytes)"
+
+
+def test_a_file_that_grows_after_the_check_is_read_only_to_the_cap(tmp_path, monkeypatch):
+    path = tmp_path / "grows.yaml"
+    path.write_text("stackdsl: 1\n" + "# padding\n" * 20)
+    monkeypatch.setattr(_loader, "file_problem", lambda _: None)  # as if the file grew after os.stat
+    monkeypatch.setattr(_loader, "MAX_FILE_BYTES", 64)
+    reads = []
+    real_fdopen = os.fdopen
+
+    class Spy:
+        """The opened file, recording how much is asked of each read."""
+
+        def __init__(self, fd, mode):
+            self.file = real_fdopen(fd, mode)
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            self.file.close()
+
+        def fileno(self):
+            return self.file.fileno()
+
+        def read(self, n=-1):
+            reads.append(n)
+            return self.file.read(n)
+
+    monkeypatch.setattr(os, "fdopen", Spy)
+    assert load_error(path) == f"{path}: the file is larger than 64 bytes"
+    assert reads == [65]
+
+
+@pytest.mark.parametrize(
+    "data, expected",
+    [
+        (
+            "stackdsl: 1\n".encode("utf-16"),
+            "{}: the file is UTF-16 text (it starts with a UTF-16 byte order mark); save it as UTF-8",
+        ),
+        (
+            "\ufeffstackdsl: 1\n".encode("utf-16-be"),
+            "{}: the file is UTF-16 text (it starts with a UTF-16 byte order mark); save it as UTF-8",
+        ),
+        (
+            "\ufeffstackdsl: 1\n".encode("utf-32-le"),
+            "{}: the file is UTF-32 text (it starts with a UTF-32 byte order mark); save it as UTF-8",
+        ),
+        (
+            "stackdsl: 1\n".encode("utf-16-le"),
+            "{}:1:2: U+0000 NULL is not allowed in YAML (is the file UTF-16, or not text at all?)",
+        ),
+        (b"stackdsl: 1\nname: caf\xe9\n", "{}:2:10: the file is not UTF-8 text: byte 0xe9 (invalid continuation byte)"),
+        (b"\xef\xbb\xbfstackdsl: 1\nname: \xff\n", "{}:2:7: the file is not UTF-8 text: byte 0xff (invalid start byte)"),
+    ],
+)
+def test_encodings_other_than_utf8_are_named(tmp_path, data, expected):
+    path = tmp_path / "e.yaml"
+    path.write_bytes(data)
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(path)
+    assert str(info.value).splitlines()[0] == expected.format(path)
+
+
+def test_a_utf8_byte_order_mark_is_accepted_and_not_counted(tmp_path):
+    path = tmp_path / "bom.yaml"
+    path.write_bytes(b"\xef\xbb\xbfstackdsl: 1\nstructure: {tower: {levels: 2}}\n")
+    assert load_scenario(path).structure.tower.levels == 2
+    path.write_bytes(b"\xef\xbb\xbfstackdsl: 1\nstructure: {tower: {levles: 2}}\n")
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(path)
+    assert (info.value.line, info.value.column) == (2, 21)
+    assert info.value.source_line == "structure: {tower: {levles: 2}}"
+    assert "\ufeff" not in str(parse_scenario("\ufeffstackdsl: 1\nstructure: {tower: {levels: 2}}\n", "b.yaml").name)
+
+
+# the guard that turns library failures into errors hides no bug of ours ------------------
+def test_an_exception_in_stackdsls_own_code_is_not_dressed_up(monkeypatch):
+    def broken(*args, **kwargs):
+        raise ZeroDivisionError("a bug")
+
+    monkeypatch.setattr(_loader, "_plain", broken)
+    with pytest.raises(ZeroDivisionError):
+        parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 2}}\n", "s.yaml")
+    monkeypatch.undo()
+    monkeypatch.setattr(_loader.Scenario, "model_validate", broken)
+    with pytest.raises(ZeroDivisionError):
+        parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 2}}\n", "s.yaml")
+
+
+# end to end: bad files stop the command before anything is compiled or simulated ----------
+HOSTILE = {
+    "deep": ("stackdsl: 1\nx: " + "[" * 500 + "]" * 500 + "\n", ":2:67: lists and mappings are nested"),
+    "alias": ("stackdsl: 1\nx: &a [*a]\n", ":2:8: the alias *a"),
+    "formfeed": ("stackdsl: 1\n\x0c\n", ":2:1: U+000C FORM FEED"),
+    "tag": ("stackdsl: 1\nstructure: {tower: {levels: !!int abc}}\n", ":2:29: structure.tower.levels: cannot read"),
+    "digits": ("stackdsl: 1\nstructure: {tower: {levels: " + "9" * 5000 + "}}\n", ":2:29: structure.tower.levels: an integer"),
+}
+
+
+@pytest.fixture
+def never_compiled(monkeypatch):
+    def refuse(*args, **kwargs):
+        raise AssertionError("compiled a bad file")
+
+    monkeypatch.setattr(_check, "compile_scenario", refuse)
+    monkeypatch.setattr(_cli, "compile_scenario", refuse)
+
+
+def test_check_and_compile_stop_at_bad_files(tmp_path, capsys, never_compiled):
+    for name, (text, _) in HOSTILE.items():
+        (tmp_path / f"{name}.yaml").write_text(text)
+    assert _cli.main(["check", str(tmp_path), "-j", "1"]) == 2
+    err = capsys.readouterr().err
+    for name, (_, where) in HOSTILE.items():
+        assert f"{tmp_path / name}.yaml{where}" in err
+    assert "Traceback" not in err and "internal error" not in err
+    for name, (_, where) in HOSTILE.items():
+        assert _cli.main(["compile", str(tmp_path / f"{name}.yaml")]) == 2
+        assert f"{name}.yaml{where}" in capsys.readouterr().err
+    if Path("/dev/zero").exists():
+        for command in ("check", "compile"):
+            assert _cli.main([command, "/dev/zero"]) == 2
+            assert "/dev/zero: not a regular file: a character device" in capsys.readouterr().err

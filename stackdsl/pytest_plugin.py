@@ -38,6 +38,7 @@ from ._runtime import run_program
 from ._snapshot import dumps, summarize
 
 try:
+    from syrupy.data import SnapshotCollection
     from syrupy.extensions.json import JSONSnapshotExtension
     from syrupy.extensions.single_file import SingleFileSnapshotExtension, WriteMode
     from syrupy.terminal import disable_color
@@ -45,6 +46,7 @@ except ImportError:  # pragma: no cover - syrupy is a test extra
     JSONSnapshotExtension = SingleFileSnapshotExtension = None  # type: ignore[assignment,misc]
 
 SUFFIXES = (".yaml", ".yml")
+_rename = os.replace  # atomic within a folder (POSIX); a name of its own, so a test can fail it alone
 
 
 def golden_dir(test_file: str | Path) -> Path:
@@ -182,7 +184,29 @@ def _relative(path: Path, root: Path) -> str:
 
 if SingleFileSnapshotExtension is not None:
 
-    class GoldenSnapshotExtension(JSONSnapshotExtension):
+    class _AtomicWrites(SingleFileSnapshotExtension):
+        """Golden files written whole or not at all: to a hidden temporary file beside the
+        golden file, flushed to disk, then renamed over it (a rename within a folder is atomic
+        on POSIX), so an update interrupted even by SIGKILL leaves the old file or the new one,
+        never a truncated one."""
+
+        @classmethod
+        def write_snapshot_collection(cls, *, snapshot_collection: Any, name_order: Any = None) -> None:
+            final = Path(snapshot_collection.location)
+            final.parent.mkdir(parents=True, exist_ok=True)
+            temporary = final.with_name(f".{final.name}.{os.getpid()}.tmp")  # not *.json: never taken for a snapshot
+            staged = SnapshotCollection(location=str(temporary))
+            for snapshot in snapshot_collection:
+                staged.add(snapshot)
+            try:
+                super().write_snapshot_collection(snapshot_collection=staged, name_order=name_order)
+                with open(temporary, "rb+") as written:
+                    os.fsync(written.fileno())
+                _rename(temporary, final)
+            finally:
+                temporary.unlink(missing_ok=True)
+
+    class GoldenSnapshotExtension(_AtomicWrites, JSONSnapshotExtension):
         """syrupy JSON snapshots of Python tests: ``golden/<test file's folder>/<test file's
         stem>/<test name>.json``, so that tests of the same name in two files never share one."""
 
@@ -190,7 +214,7 @@ if SingleFileSnapshotExtension is not None:
         def dirname(cls, *, test_location: Any) -> str:
             return str(scenario_golden_path(test_location.filepath).with_suffix(""))
 
-    class ScenarioSnapshotExtension(SingleFileSnapshotExtension):
+    class ScenarioSnapshotExtension(_AtomicWrites):
         """A scenario's golden snapshot: ``golden/<folder>/<file stem>.json``, mirroring the
         scenario's place below the project root, written one brick per line
         (:func:`stackdsl._snapshot.dumps`); a failing comparison starts with a per-brick

@@ -148,3 +148,30 @@ def test_the_golden_fixture_keeps_same_named_tests_of_two_files_apart(pytester):
     result = pytester.runpytest()
     result.assert_outcomes(passed=2)
     assert "Can not relate" not in result.stdout.str()
+
+
+def test_an_interrupted_golden_update_leaves_the_old_file_whole(tmp_path, monkeypatch):
+    from syrupy.data import Snapshot, SnapshotCollection
+
+    from stackdsl.pytest_plugin import ScenarioSnapshotExtension
+
+    stored = tmp_path / "golden" / "two.json"
+
+    def update(text: str) -> None:
+        collection = SnapshotCollection(location=str(stored))
+        collection.add(Snapshot(name="two", data=text))
+        ScenarioSnapshotExtension.write_snapshot_collection(snapshot_collection=collection)
+
+    update("old\n")
+
+    def killed(src, dst):  # the update fails between writing the new file and renaming it
+        raise OSError("interrupted")
+
+    monkeypatch.setattr("stackdsl.pytest_plugin._rename", killed)
+    with pytest.raises(OSError):
+        update("new\n")
+    assert stored.read_text() == "old\n"  # the old snapshot, whole
+    assert [p.name for p in stored.parent.iterdir()] == ["two.json"]  # no temporary file left
+    monkeypatch.undo()
+    update("new\n")
+    assert stored.read_text() == "new\n"

@@ -160,7 +160,7 @@ def _budget(scenario: Scenario, program: Program) -> None:
     head = (
         f"the run would take too long: {bricks} brick{'s' * (bricks != 1)} over {program.duration:g} s simulated, "
         f"{e.timestep * 1000:.3g} ms steps, {e.solver_iterations} solver iterations, mode {e.mode}, is "
-        f"{work:.2g} body-steps (about {_duration(program.wall_estimate)}); at most {MAX_WORK:.0e} are allowed"
+        f"{work:,.0f} body-steps (about {_duration(program.wall_estimate)}); at most {MAX_WORK:,.0f} are allowed"
     )
     default = MODE_DEFAULTS[e.mode]
     options: list[tuple[tuple, str, Program]] = []

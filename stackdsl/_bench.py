@@ -10,7 +10,6 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 import csv
-import multiprocessing
 import resource
 import statistics
 import time
@@ -27,6 +26,7 @@ from ._closed_form import log_cabin, single_file
 from ._compiler import compile_scenario
 from ._loader import parse_scenario
 from ._oracle import structure
+from ._pool import SPAWN
 from ._program import Program
 from ._runtime import RunOptions, run_program
 
@@ -165,7 +165,7 @@ def run_matrix(
         options = RunOptions(stop_at_collapse=scene.closed_form is not None)
         tasks += [(scene, setting, options) for setting in settings]
     tasks.sort(key=lambda t: -_cost(*t[:2]))  # the longest first: the pool ends together
-    context = multiprocessing.get_context("spawn")
+    context = SPAWN  # spawned workers that end with this process and leave Ctrl-C to it
     cells = []
     # a Pool, not a ProcessPoolExecutor: its max_tasks_per_child needs Python 3.11
     with context.Pool(processes=jobs, maxtasksperchild=1) as pool:

@@ -5,12 +5,19 @@ before any simulation. Runs are shared between this process and spawned worker p
 (:mod:`stackdsl._pool`; each run creates its own pybullet client, clients do not survive
 pickling), or farmed out on a caller's ``concurrent.futures.Executor``.
 
+Every run has a wall-clock limit (``timeout``, default :data:`TIMEOUT`); workers also have
+a memory limit (:data:`stackdsl._pool.MEMORY_LIMIT`). A run that raises, runs out of memory
+or whose worker dies is that scenario's internal error (``CheckResult.error``); the other
+scenarios still run.
+
 Source: stackdsl's own.
 """
 
 from __future__ import annotations
 
+import inspect
 import os
+import traceback
 from collections.abc import Callable, Generator, Iterable
 from concurrent.futures import Executor
 from dataclasses import dataclass
@@ -20,12 +27,20 @@ from ._compiler import compile_scenario
 from ._errors import ScenarioError
 from ._expect import Verdict, describe, evaluate, explain
 from ._loader import file_problem, load_scenario
-from ._pool import estimate, fan_out, on_executor
+from ._outcome import Graph, Outcome
+from ._pool import WorkerLost, WorkerTimedOut, estimate, fan_out, on_executor
 from ._program import Program
 from ._runtime import run_program
 from ._schema import Expect
 
 Prepared = tuple[Path, Program, Expect]
+
+#: Wall seconds a scenario may run before it is stopped (``--timeout``): generous, about a
+#: hundred times the slowest shipped scenario in raw mode.
+TIMEOUT = 600.0
+#: A worker whose run has not stopped itself this many seconds after its timeout (the
+#: engine stuck inside one call) is ended from outside.
+KILL_AFTER = 30.0
 
 
 @dataclass(frozen=True)
@@ -42,6 +57,10 @@ class CheckResult:
         steps_per_brick: physics steps taken per placed brick.
         explanation: why the failed expectations failed, one line each (empty when all
             held; see :func:`stackdsl._expect.explain`).
+        error: one line when the run itself failed (an internal error: an exception, out of
+            memory, its worker died), else empty; traceback: the exception's traceback, if any.
+        stopped: one line when a guard stopped the run before its end (its wall-clock
+            limit), else empty.
     """
 
     file: str
@@ -56,11 +75,14 @@ class CheckResult:
     drift: float = 0.0
     steps_per_brick: float = 0.0
     explanation: tuple[str, ...] = ()
+    error: str = ""
+    stopped: str = ""
+    traceback: str = ""
 
     @property
     def passed(self) -> bool:
-        """True when every expectation held."""
-        return all(v.passed for v in self.verdicts)
+        """True when the run ended normally and every expectation held."""
+        return not self.error and not self.stopped and all(v.passed for v in self.verdicts)
 
     @property
     def expected(self) -> str:
@@ -69,7 +91,10 @@ class CheckResult:
 
     @property
     def measured(self) -> str:
-        """What was measured, as in check's table: ``'collapse 13, levels 1-12 stayed'``."""
+        """What was measured, as in check's table: ``'collapse 13, levels 1-12 stayed'``; the
+        error or what stopped the run when either happened."""
+        if self.error or self.stopped:
+            return self.error or self.stopped
         described = describe(self.collapse_level)
         extra = [v.measured for v in self.verdicts if v.name == "stays"]
         return ", ".join([described, *extra])
@@ -152,6 +177,7 @@ def check(
     executor: Executor | None = None,
     model: str | None = None,
     pattern: str | None = None,
+    timeout: float | None = TIMEOUT,
 ) -> Generator[CheckResult, None, None]:
     """Check every scenario under ``paths``; results come as each run finishes.
 
@@ -169,6 +195,8 @@ def check(
             whatever ``jobs`` says (see :mod:`stackdsl._pool`).
         executor: run on this executor instead (e.g. a Dask client's executor).
         pattern: only the scenarios whose file path or name contains it (see :func:`select`).
+        timeout: wall seconds each run may take (None: no limit); a run stopped by it is
+            a failed result whose ``stopped`` says so.
 
     Raises:
         ScenarioErrors: a file is missing or invalid, or ``pattern`` selects nothing
@@ -176,20 +204,22 @@ def check(
         ValueError: ``jobs`` below 1.
     """
     prepared = select(prepare(discover(paths), mode, model=model), pattern)
-    return run_checks(prepared, jobs, executor)
+    return run_checks(prepared, jobs, executor, timeout)
 
 
 def run_checks(
-    prepared: list[Prepared], jobs: int | None = None, executor: Executor | None = None
+    prepared: list[Prepared], jobs: int | None = None, executor: Executor | None = None, timeout: float | None = TIMEOUT
 ) -> Generator[CheckResult, None, None]:
     """:func:`judge` every prepared scenario, yielding results as each finishes (see :func:`check`)."""
-    tasks = [(str(path), program, expect) for path, program, expect in prepared]
+    tasks = [(str(path), program, expect, timeout) for path, program, expect in prepared]
     if executor is not None:
         return on_executor(executor, judge, tasks)
     jobs = (os.cpu_count() or 1) if jobs is None else jobs
     if jobs < 1:
         raise ValueError(f"jobs must be at least 1, not {jobs}")
-    return fan_out(judge, tasks, [estimate(program) for _, program, _ in prepared], jobs)
+    costs = [estimate(program) for _, program, _ in prepared]
+    limit = None if timeout is None else timeout + KILL_AFTER
+    return fan_out(judge, tasks, costs, jobs, limit=limit, lost=lost)
 
 
 def compare(
@@ -198,11 +228,12 @@ def compare(
     jobs: int | None = None,
     model: str | None = None,
     pattern: str | None = None,
+    timeout: float | None = TIMEOUT,
 ) -> dict[str, dict[str, CheckResult]]:
     """Check every scenario in every mode, all in one run (one set of workers for all modes).
 
     Args:
-        paths, jobs, model, pattern: as for :func:`check`.
+        paths, jobs, model, pattern, timeout: as for :func:`check`.
         modes: engine modes, one column each.
 
     Returns:
@@ -212,7 +243,7 @@ def compare(
         ScenarioErrors: a file is missing or invalid (before anything runs).
     """
     prepared = select(prepare(discover(paths), modes=modes, model=model), pattern)
-    return tabulate(prepared, modes, run_checks(prepared, jobs))
+    return tabulate(prepared, modes, run_checks(prepared, jobs, timeout=timeout))
 
 
 def tabulate(
@@ -230,20 +261,86 @@ def tabulate(
     return {file: {m: row[m] for m in modes if m in row} for file, row in table.items()}
 
 
-def judge(file: str, program: Program, expect: Expect) -> CheckResult:
-    """Run one program and check its expectations (the unit of work sent to workers)."""
-    outcome = run_program(program)
+def run_guarded(program: Program, timeout: float | None = TIMEOUT) -> Outcome:
+    """``run_program(program)`` with a wall-clock limit of ``timeout`` seconds (None: none),
+    where the runtime takes one (see :func:`stopped_by`)."""
+    if timeout is not None and "timeout" in inspect.signature(run_program).parameters:
+        return run_program(program, timeout=timeout)  # type: ignore[call-arg]
+    return run_program(program)
+
+
+def stopped_by(outcome: Outcome) -> str:
+    """What stopped a run before its end, one line (the runtime's ``Outcome.stopped``:
+    ``'timeout after 600 s at t = 12.5 s simulated (of 201 s)'``), or ``''`` when it ran to
+    its end."""
+    return str(getattr(outcome, "stopped", None) or "")
+
+
+def judge(file: str, program: Program, expect: Expect, timeout: float | None = TIMEOUT) -> CheckResult:
+    """Run one program and check its expectations (the unit of work sent to workers).
+
+    An exception in the run (MemoryError included) is returned as the result's ``error``,
+    with its traceback, not raised; Ctrl-C still interrupts.
+    """
+    try:
+        outcome = run_guarded(program, timeout)
+        stopped = stopped_by(outcome)
+        return CheckResult(
+            file=file,
+            scenario=program.name,
+            mode=program.engine.mode,
+            model=_model(program),
+            verdicts=tuple(evaluate(expect, outcome, program.collapse_threshold)),
+            collapse_level=outcome.collapse.level if outcome.collapse else None,
+            levels_placed=outcome.levels_placed,
+            simulated_time=outcome.simulated_time,
+            wall_time=outcome.wall_time,
+            drift=outcome.drift,
+            steps_per_brick=outcome.steps / max(outcome.bricks_placed, 1),
+            explanation=() if stopped else tuple(explain(expect, outcome, program.collapse_threshold)),
+            stopped=stopped,
+        )
+    except MemoryError:
+        return failed(file, program, expect, "internal error: out of memory", traceback.format_exc())
+    except Exception as exc:
+        message = (str(exc).splitlines() or [""])[0]
+        return failed(file, program, expect, f"internal error: {type(exc).__name__}: {message}", traceback.format_exc())
+
+
+def lost(task: tuple, error: WorkerLost) -> CheckResult:
+    """The result of a task (as :func:`judge` takes it) whose worker died or was stopped."""
+    file, program, expect, timeout = task
+    if isinstance(error, WorkerTimedOut):
+        return failed(file, program, expect, stopped=f"timeout after {timeout:g} s (the run did not stop; its worker was ended)")
+    return failed(file, program, expect, f"internal error: {error} running this scenario")
+
+
+def failed(file: str, program: Program, expect: Expect, error: str = "", traceback: str = "", stopped: str = "") -> CheckResult:
+    """A result for a run that produced no outcome: ``error`` or ``stopped`` says why (one line)."""
     return CheckResult(
         file=file,
         scenario=program.name,
         mode=program.engine.mode,
-        model=str(program.stability.get("model", "report")),
-        verdicts=tuple(evaluate(expect, outcome, program.collapse_threshold)),
-        collapse_level=outcome.collapse.level if outcome.collapse else None,
-        levels_placed=outcome.levels_placed,
-        simulated_time=outcome.simulated_time,
-        wall_time=outcome.wall_time,
-        drift=outcome.drift,
-        steps_per_brick=outcome.steps / max(outcome.bricks_placed, 1),
-        explanation=tuple(explain(expect, outcome, program.collapse_threshold)),
+        model=_model(program),
+        verdicts=unmeasured(expect, program),
+        collapse_level=None,
+        levels_placed=0,
+        simulated_time=0.0,
+        wall_time=0.0,
+        error=error,
+        stopped=stopped,
+        traceback=traceback,
     )
+
+
+def unmeasured(expect: Expect, program: Program) -> tuple[Verdict, ...]:
+    """A failed verdict per expectation, measured as ``'not measured'`` (a run without an outcome)."""
+    nothing = Outcome.model_construct(collapse=None, displacement={}, final_graph=Graph(nodes=(), edges=()))
+    return tuple(
+        v.model_copy(update={"passed": False, "measured": "not measured"})
+        for v in evaluate(expect, nothing, program.collapse_threshold)
+    )
+
+
+def _model(program: Program) -> str:
+    return str(program.stability.get("model", "report"))

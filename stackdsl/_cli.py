@@ -1,14 +1,17 @@
 """The ``stackdsl`` command: check, compare, compile, run, bench, schema.
 
-Exit status: 0 when everything holds, 1 when an expectation fails, 2 on bad input or a
-usage error (nothing is simulated then), 3 on an internal error, 130 on Ctrl-C, 141 when
-the output pipe closes early.
+Exit status: 0 when everything holds, 1 when an expectation fails (or a run reaches its
+``--timeout``), 2 on bad input or a usage error (nothing is simulated then), 3 on an internal
+error (one line on stderr; ``--debug`` shows the traceback), 130 on Ctrl-C, 141 when the
+output pipe closes early. No Python traceback reaches stderr without ``--debug`` (or
+``STACKDSL_TRACEBACK=1``).
 Source: stackdsl's own.
 """
 
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import os
 import signal
@@ -21,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from ._bench import SETTINGS, format_solve_times, run_matrix, savings, scenes, solve_times, write_outputs
-from ._check import CheckResult, ScenarioErrors, discover, prepare, run_checks, select, tabulate
+from ._check import TIMEOUT, CheckResult, ScenarioErrors, discover, prepare, run_checks, run_guarded, select, stopped_by, tabulate
 from ._compiler import MODE_DEFAULTS, compile_scenario
 from ._errors import ScenarioError
 from ._expect import describe, evaluate
@@ -31,18 +34,20 @@ from ._loader import load_scenario
 from ._program import format_program
 from ._progress import Lines, is_live
 from ._report import HEADER, failure_lines, json_document, junit_xml, row, run_command, summary, version
-from ._runtime import run_program
 
 MODELS = ["report", "equilibrium"]
 
 EXIT_STATUS = """\
 exit status:
   0    every expectation held
-  1    an expectation failed
+  1    an expectation failed, or a run reached its --timeout
   2    bad input: a scenario file, a path or an option (nothing is simulated then)
-  3    internal error (set STACKDSL_TRACEBACK=1 to see the traceback)
+  3    internal error: a bug, out of memory, a worker died (one line; --debug shows the traceback)
   130  interrupted (Ctrl-C)
   141  the output pipe was closed early (as by | head); nothing more is printed"""
+
+#: Ends the one line of an internal error.
+HINT = " (run with --debug for the traceback)"
 
 #: Exit statuses (see :data:`EXIT_STATUS`).
 OK, FAILED, BAD_INPUT, INTERNAL, INTERRUPTED, BROKEN_PIPE = 0, 1, 2, 3, 130, 141
@@ -50,12 +55,28 @@ OK, FAILED, BAD_INPUT, INTERNAL, INTERRUPTED, BROKEN_PIPE = 0, 1, 2, 3, 130, 141
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``stackdsl`` console script; returns the exit status
-    (argparse's usage errors exit 2 through SystemExit)."""
-    args = _parser().parse_args(argv)
+    (argparse's usage errors exit 2 through SystemExit).
+
+    Without ``--debug`` nothing Python prints as a traceback reaches stderr: not the
+    exceptions caught here, and not the "Exception ignored in" reports of objects torn down
+    half-built by Ctrl-C (kept quiet until exit when called as the command, with no ``argv``).
+    """
+    command = argv is None
+    argv = sys.argv[1:] if argv is None else argv
+    debug = "--debug" in argv or os.environ.get("STACKDSL_TRACEBACK", "") not in ("", "0")
     # SIGTERM unwinds like Ctrl-C, so that workers are stopped on the way out (main thread only).
     main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, _terminated) if main_thread else None
+    interrupt = signal.getsignal(signal.SIGINT) if main_thread else None
+    hook, variable = sys.unraisablehook, os.environ.get("STACKDSL_TRACEBACK")
+    interrupted = False
+    if debug:
+        os.environ["STACKDSL_TRACEBACK"] = "1"  # for the workers
+    else:
+        sys.unraisablehook = _ignore
     try:
+        args = _parser().parse_args(argv)
+        args.debug = debug
         status = int(args.func(args))
         sys.stdout.flush()
         return status
@@ -73,23 +94,52 @@ def main(argv: list[str] | None = None) -> int:
         os.dup2(devnull, sys.stdout.fileno())
         return BROKEN_PIPE
     except KeyboardInterrupt:
+        interrupted = True
+        if main_thread:  # a second Ctrl-C while this line is printed must not show a traceback
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
         print("stackdsl: interrupted", file=sys.stderr)
         return INTERRUPTED
     except Exception as exc:
-        if os.environ.get("STACKDSL_TRACEBACK", "") not in ("", "0"):
+        if debug:
             traceback.print_exc()
-        message = (str(exc).splitlines() or [""])[0]
-        print(f"stackdsl: internal error: {type(exc).__name__}: {message}", file=sys.stderr)
-        if os.environ.get("STACKDSL_TRACEBACK", "") in ("", "0"):
-            print("stackdsl: set STACKDSL_TRACEBACK=1 to see the traceback", file=sys.stderr)
+        message = (str(exc).splitlines() or [""])[0] or "(no message)"
+        print(f"stackdsl: internal error: {type(exc).__name__}: {message}{'' if debug else HINT}", file=sys.stderr)
         return INTERNAL
     finally:
         if main_thread:
             signal.signal(signal.SIGTERM, previous)
+            signal.signal(signal.SIGINT, interrupt)
+        if not command:
+            if interrupted or sys.exc_info()[0] is not None:
+                gc.collect()  # what an interrupted run left half-built goes now, quietly
+            sys.unraisablehook = hook
+            if variable is None:
+                os.environ.pop("STACKDSL_TRACEBACK", None)
+            else:
+                os.environ["STACKDSL_TRACEBACK"] = variable
+
+
+def _ignore(unraisable: Any) -> None:
+    """An ``sys.unraisablehook`` that prints nothing."""
 
 
 def _terminated(signum: int, frame: Any) -> None:
     raise SystemExit(128 + signum)
+
+
+def timeout_type(text: str) -> float:
+    """``--timeout``: wall seconds, a number above 0.
+
+    Raises:
+        argparse.ArgumentTypeError: anything else (a usage error, exit 2).
+    """
+    try:
+        seconds = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds") from None
+    if not 0 < seconds < float("inf"):
+        raise argparse.ArgumentTypeError(f"{text} is not a number of seconds above 0")
+    return seconds
 
 
 def jobs_type(text: str) -> int:
@@ -119,10 +169,23 @@ def _parser() -> argparse.ArgumentParser:
         formatter_class=raw,
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {version()}")
+    debug_help = "on an internal error, print the traceback (also STACKDSL_TRACEBACK=1)"
+    parser.add_argument("--debug", action="store_true", help=debug_help)
     sub = parser.add_subparsers(required=True, metavar="COMMAND")
     modes = list(MODE_DEFAULTS)
+    common = argparse.ArgumentParser(add_help=False)  # --debug after the command too
+    common.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=debug_help)
+    guarded = argparse.ArgumentParser(add_help=False)
+    guarded.add_argument(
+        "--timeout",
+        type=timeout_type,
+        default=TIMEOUT,
+        metavar="SECONDS",
+        help=f"wall seconds a scenario may run before it is stopped and fails (default: {TIMEOUT:g}); "
+        "worker processes may also map at most 4 GiB each",
+    )
 
-    many = argparse.ArgumentParser(add_help=False)
+    many = argparse.ArgumentParser(add_help=False, parents=[common, guarded])
     many.add_argument("paths", nargs="+", metavar="PATH", help="scenario files, or folders searched for *.yaml")
     many.add_argument("--model", choices=MODELS, help="override every scenario's stability model")
     many.add_argument(
@@ -140,7 +203,7 @@ def _parser() -> argparse.ArgumentParser:
         help="only the scenarios whose file path or name contains PATTERN (plain text, case-insensitive)",
     )
     many.add_argument("--json", action="store_true", help="print one JSON document of every result instead of the table")
-    one = argparse.ArgumentParser(add_help=False)
+    one = argparse.ArgumentParser(add_help=False, parents=[common])
     one.add_argument("file")
     one.add_argument("--mode", choices=modes, help="override the scenario's engine mode")
     one.add_argument("--model", choices=MODELS, help="override the scenario's stability model")
@@ -165,7 +228,8 @@ def _parser() -> argparse.ArgumentParser:
         help="run scenario files or folders in every mode and print one table",
         description="Run scenario files or folders in every mode, in one run, and print one table.",
         epilog=EXIT_STATUS.replace(
-            "  0    every expectation held\n  1    an expectation failed\n", "  0    the table was printed\n"
+            "  0    every expectation held\n  1    an expectation failed, or a run reached its --timeout\n",
+            "  0    the table was printed\n",
         )
         + "\n\nFAIL cells are results, not errors: compare exits 0 once its table is printed.",
         formatter_class=raw,
@@ -173,7 +237,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--modes", default=",".join(modes), help=f"comma-separated (default: {','.join(modes)})")
     p.set_defaults(func=_compare)
 
-    one_status = EXIT_STATUS.replace("  0    every expectation held\n  1    an expectation failed\n", "  0    done\n")
+    one_status = EXIT_STATUS.replace(
+        "  0    every expectation held\n  1    an expectation failed, or a run reached its --timeout\n", "  0    done\n"
+    )
     p = sub.add_parser(
         "compile", parents=[one], help="print the program a scenario compiles to", epilog=one_status, formatter_class=raw
     )
@@ -182,7 +248,7 @@ def _parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser(
         "run",
-        parents=[one],
+        parents=[one, guarded],
         help="run one scenario and print its timeline and outcome",
         epilog=EXIT_STATUS + "\n\nWith --json too, the exit status is 1 when an expectation failed.",
         formatter_class=raw,
@@ -195,6 +261,7 @@ def _parser() -> argparse.ArgumentParser:
     default_out = Path(tempfile.gettempdir()) / "stackdsl-bench"
     p = sub.add_parser(
         "bench",
+        parents=[common],
         help="speed against error: every engine setting on the same scenes (long)",
         description="Speed against error: every engine setting on the same scenes. "
         "`stackdsl bench --out docs/bench` regenerates the committed figures.",
@@ -224,7 +291,11 @@ def _parser() -> argparse.ArgumentParser:
     q.set_defaults(func=_bench_hard)
 
     p = sub.add_parser(
-        "schema", help="print the JSON Schema of scenario files (for editors)", epilog=one_status, formatter_class=raw
+        "schema",
+        parents=[common],
+        help="print the JSON Schema of scenario files (for editors)",
+        epilog=one_status,
+        formatter_class=raw,
     )
     p.set_defaults(func=_print_schema)
     return parser
@@ -241,7 +312,7 @@ def _check(args: argparse.Namespace) -> int:
     with Lines(len(prepared), "check", file=stream, live=is_live(stream)) as lines:
         if not args.json:
             lines.line(HEADER)
-        runs = run_checks(prepared, args.jobs)
+        runs = run_checks(prepared, args.jobs, timeout=args.timeout)
         try:
             for r in runs:
                 results.append(r)
@@ -268,7 +339,26 @@ def _check(args: argparse.Namespace) -> int:
         print(json.dumps(json_document("check", results, commands, len(prepared), wall), indent=2))
     else:
         print(summary(results, len(prepared), wall))
+    if _internal_errors(results, args.debug):
+        return INTERNAL
     return FAILED if any(not r.passed for r in results) else OK
+
+
+def _internal_errors(results: list[CheckResult], debug: bool) -> bool:
+    """Say on stderr, in one line, that runs hit internal errors (their tracebacks before it
+    with ``debug``); False when none did."""
+    errors = [r for r in results if r.error]
+    if not errors:
+        return False
+    sys.stdout.flush()
+    if debug:
+        for r in errors:
+            print(f"stackdsl: {r.file} ({r.mode}): {r.error}", file=sys.stderr)
+            print(r.traceback or "(no traceback: the worker process died)", file=sys.stderr)
+    many = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
+    first = errors[0]
+    print(f"stackdsl: {first.error} in {first.file} ({first.mode}){many}{'' if debug else HINT}", file=sys.stderr)
+    return True
 
 
 def _compare(args: argparse.Namespace) -> int:
@@ -290,26 +380,30 @@ def _compare(args: argparse.Namespace) -> int:
             if not live:
                 lines.line(
                     f"[{len(done)}/{len(prepared)}] {Path(r.file).stem} {r.mode}: "
-                    f"{'PASS' if r.passed else 'FAIL'} {describe(r.collapse_level)} ({r.wall_time:.1f} s)"
+                    f"{'PASS' if r.passed else 'FAIL'} {r.error or r.stopped or describe(r.collapse_level)} ({r.wall_time:.1f} s)"
                 )
 
-        table = tabulate(prepared, modes, run_checks(prepared, args.jobs), each)
+        table = tabulate(prepared, modes, run_checks(prepared, args.jobs, timeout=args.timeout), each)
     wall = time.perf_counter() - start
     if args.json:
         commands = [run_command(r.file, r.mode, args.model) for r in done]
         print(json.dumps(json_document("compare", done, commands, len(prepared), wall), indent=2))
-        return OK
+        return INTERNAL if _internal_errors(done, args.debug) else OK
     width = max([len("scenario"), *(len(Path(f).stem) for f in table)])
     print(f"{'scenario':<{width}} {'expected':<18} " + " ".join(f"{m:<29}" for m in modes).rstrip())
     for file, cells in table.items():
         first = next(iter(cells.values()))
-        texts = [
-            f"{'PASS' if r.passed else 'FAIL'} {describe(r.collapse_level):<13} {r.wall_time:>7.1f} s"
-            for r in (cells[m] for m in modes)
-        ]
+        texts = [f"{'PASS' if r.passed else 'FAIL'} {_cell(r):<13} {r.wall_time:>7.1f} s" for r in (cells[m] for m in modes)]
         print(f"{Path(file).stem:<{width}} {first.expected:<18} " + " ".join(f"{c:<29}" for c in texts).rstrip())
     print(f"{len(table)} scenarios x {len(modes)} modes ({wall:.1f} s wall)")
-    return OK
+    return INTERNAL if _internal_errors(done, args.debug) else OK
+
+
+def _cell(r: CheckResult) -> str:
+    """What compare's table shows of a result: the collapse level, or what went wrong."""
+    if r.error:
+        return "out of memory" if "out of memory" in r.error else "internal error"
+    return "timeout" if r.stopped else describe(r.collapse_level)
 
 
 def _compile(args: argparse.Namespace) -> int:
@@ -321,7 +415,8 @@ def _compile(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.file)
     program = compile_scenario(scenario, args.mode, args.model)
-    outcome = run_program(program)
+    outcome = run_guarded(program, args.timeout)
+    stopped = stopped_by(outcome)
     verdicts = evaluate(scenario.expect, outcome, program.collapse_threshold)
     if args.json:
         print(outcome.model_dump_json(indent=2))
@@ -336,7 +431,9 @@ def _run(args: argparse.Namespace) -> int:
         )
         for v in verdicts:
             print(f"{'PASS' if v.passed else 'FAIL'}  expected {v.expected}, measured {v.measured}")
-    return OK if all(v.passed for v in verdicts) else FAILED
+        if stopped and all(v.passed for v in verdicts):  # no verdict says it
+            print(f"FAIL  {stopped}")
+    return OK if all(v.passed for v in verdicts) and not stopped else FAILED
 
 
 def _bench(args: argparse.Namespace) -> int:

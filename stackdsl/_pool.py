@@ -14,18 +14,47 @@ on, longer when the cores are busy). So:
 Results come back as each run finishes. Closing the iterator early (or an exception in
 this process) cancels what has not started and stops the workers.
 
+Every worker (these and the ones :data:`SPAWN` starts for others, such as ``stackdsl
+bench``'s pool) is guarded from its first instruction on:
+
+- it ends with this process: on Linux, for a worker started from the main thread, the
+  kernel kills it when its parent dies, whatever the parent died of, SIGKILL included
+  (``prctl(PR_SET_PDEATHSIG)``); otherwise a thread polls the parent's id once a second
+  (the kernel's signal follows the starting *thread*: a pool's worker started by the pool's
+  own thread would be killed when that thread ends, maybe holding the pool's queue lock);
+- it never sees Ctrl-C (SIGINT is blocked while it is started and ignored in it): the
+  terminal's Ctrl-C is this process's to handle, and it stops the workers;
+- its address space is limited to :data:`MEMORY_LIMIT` (``RLIMIT_AS``), so that a run that
+  grows without bound fails alone (a MemoryError, or the worker dies) instead of the
+  machine swapping;
+- it runs one task at a time on a pipe of its own, so a worker that dies (killed, a
+  segmentation fault in the engine, out of memory) loses that one task, reported as
+  :class:`WorkerDied`, and the others go on; a task still running ``limit`` seconds after
+  it was handed over ends its worker and is reported as :class:`WorkerTimedOut`.
+  (``concurrent.futures``' pool breaks as a whole when one worker dies; pools that share
+  one pipe between workers can be left locked by a worker killed while writing.)
+
 Source: stackdsl's own.
 """
 
 from __future__ import annotations
 
+import ctypes
 import importlib
 import multiprocessing
+import multiprocessing.connection
+import multiprocessing.context
 import os
 import signal
+import sys
+import threading
+import time
+import traceback
 from collections import deque
-from collections.abc import Callable, Generator, Sequence
-from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, as_completed, wait
+from collections.abc import Callable, Generator, Iterator, Sequence
+from concurrent.futures import Executor, as_completed
+from contextlib import contextmanager
+from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
 from ._program import Launch, Program
@@ -35,6 +64,12 @@ T = TypeVar("T")
 #: Seconds of estimated work below which no worker process is started.
 STARTUP = 1.0
 
+#: Bytes of address space a worker may map (``RLIMIT_AS``): 4 GiB, about ten times what a
+#: worker maps after running a 30-level tower (about 0.4 GiB, most of it the libraries).
+#: A worker that had already mapped more than a quarter of it at start (many cores' worth
+#: of math-library threads) gets that much plus 3 GiB instead.
+MEMORY_LIMIT = 4 * 2**30
+
 #: Wall seconds per brick of an extension-mode run (the extension skips the steps in
 #: which every brick is frozen, so its cost follows the bricks, not the steps).
 EXTENSION_PER_BRICK = 4e-3
@@ -42,6 +77,9 @@ EXTENSION_PER_BRICK = 4e-3
 EXTENSION_PER_STEP = 2e-6
 #: Wall seconds per step, brick and solver iteration of a raw or tuned run.
 ENGINE_PER_ITERATION = 1.2e-7
+
+#: Linux's prctl option that sends a signal to a process when its parent dies.
+PR_SET_PDEATHSIG = 1
 
 
 def estimate(program: Program) -> float:
@@ -60,17 +98,75 @@ def estimate(program: Program) -> float:
     return steps * bricks * program.engine.solver_iterations * ENGINE_PER_ITERATION
 
 
-def fan_out(fn: Callable[..., T], tasks: Sequence[tuple], costs: Sequence[float], jobs: int) -> Generator[T, None, None]:
+class WorkerLost(RuntimeError):
+    """A task's worker ended before it returned a result; the message is one line."""
+
+
+class WorkerDied(WorkerLost):
+    """A worker died running a task: ``signal`` is the signal that killed it (None when it
+    exited, with ``exitcode``)."""
+
+    def __init__(self, exitcode: int | None) -> None:
+        self.exitcode = exitcode
+        self.signal = -exitcode if exitcode is not None and exitcode < 0 else None
+        if self.signal is not None:
+            try:
+                name = signal.Signals(self.signal).name
+            except ValueError:
+                name = "unknown"
+            how = f"{name}, signal {self.signal}"
+        else:
+            how = f"exit status {exitcode}"
+        super().__init__(f"worker died ({how})")
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return type(self), (self.exitcode,)
+
+
+class WorkerTimedOut(WorkerLost):
+    """A task was still running ``limit`` seconds after it was handed to its worker, which
+    was stopped."""
+
+    def __init__(self, limit: float) -> None:
+        self.limit = limit
+        super().__init__(f"still running after {limit:g} s, worker stopped")
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return type(self), (self.limit,)
+
+
+class RemoteTraceback(Exception):
+    """The traceback, as text, of an exception raised in a worker (its ``__cause__``)."""
+
+    def __str__(self) -> str:
+        return str(self.args[0]) if self.args else ""
+
+
+def fan_out(
+    fn: Callable[..., T],
+    tasks: Sequence[tuple],
+    costs: Sequence[float],
+    jobs: int,
+    *,
+    limit: float | None = None,
+    lost: Callable[[tuple, WorkerLost], T] | None = None,
+) -> Generator[T, None, None]:
     """``fn(*task)`` for every task, yielded as each finishes.
 
     Args:
         fn: a module-level function (it is pickled to the workers), as are the tasks.
         costs: one estimate per task (seconds, see :func:`estimate`).
         jobs: runs at the same time, this process included (>= 1).
+        limit: wall seconds a worker may spend on one task before it is stopped (None: no
+            limit). Tasks run in this process are not limited here.
+        lost: ``lost(task, error)`` is yielded for a task whose worker died or was stopped
+            (``error`` a :class:`WorkerDied` or :class:`WorkerTimedOut`); a new worker takes
+            the dead one's place while tasks remain. None: the error is raised.
 
     Raises:
-        whatever ``fn`` raises, when its result is reached; concurrent.futures'
-        BrokenProcessPool when a worker dies.
+        whatever ``fn`` raises, when its result is reached (from a worker, with the worker's
+        traceback as a :class:`RemoteTraceback` cause); :class:`WorkerLost` when a worker
+        is lost and ``lost`` is None.
     """
     if jobs < 1:
         raise ValueError(f"jobs must be at least 1, not {jobs}")
@@ -83,19 +179,24 @@ def fan_out(fn: Callable[..., T], tasks: Sequence[tuple], costs: Sequence[float]
     pending = deque(tasks[i] for i in by_cost)  # longest first
     pool = Workers(workers)
     try:
-        running: set[Future] = set()
+        running: dict[int, tuple] = {}
         while pending or running:
-            pool.poll()
-            done = {f for f in running if f.done()}
-            running -= done
-            for f in done:
-                yield f.result()
-            while pending and len(running) < pool.ready:
-                running.add(pool.submit(fn, *pending.popleft()))
+            finished = pool.collect(timeout=0 if pending else None)
+            for done in finished:
+                task = running.pop(done.ticket)
+                if isinstance(done.error, WorkerLost):
+                    if pending:
+                        pool.add()
+                    if lost is None:
+                        raise done.error
+                    yield lost(task, done.error)
+                else:
+                    yield done.value()
+            while pending and pool.ready:
+                task = pending.popleft()
+                running[pool.submit(fn, *task, limit=limit)] = task
             if pending:
                 yield fn(*pending.pop())  # the cheapest, here
-            elif running:
-                wait(running, return_when=FIRST_COMPLETED)
     finally:
         pool.stop()
 
@@ -112,46 +213,312 @@ def on_executor(executor: Executor, fn: Callable[..., T], tasks: Sequence[tuple]
             future.cancel()
 
 
-class Workers:
-    """A spawn process pool whose workers each report when they are ready to run.
+@dataclass
+class Done:
+    """A task a worker finished: its ``ticket`` (from :meth:`Workers.submit`) and what it
+    returned, or the exception it raised or the :class:`WorkerLost` that ended it."""
 
-    ``ready`` counts the workers that have imported stackdsl; :meth:`stop` cancels what
-    is queued and terminates the workers at once (a run in progress is abandoned).
+    ticket: int
+    result: Any = None
+    error: BaseException | None = None
+
+    def value(self) -> Any:
+        """The result, or raise the error."""
+        if self.error is not None:
+            raise self.error
+        return self.result
+
+
+@dataclass(eq=False)
+class _Worker:
+    process: multiprocessing.process.BaseProcess
+    conn: multiprocessing.connection.Connection
+    ready: bool = False
+    ticket: int | None = None
+    limit: float | None = None
+    deadline: float = float("inf")
+    pid: int = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.pid = self.process.pid or 0
+
+
+class Workers:
+    """Spawned worker processes (see the module's description), each running one task at a
+    time on a pipe of its own; this process is their only client and polls them.
+
+    ``ready`` counts the workers that have imported stackdsl and have no task;
+    :meth:`stop` ends them all at once (a task in progress is abandoned).
+
+    Args:
+        count: workers to start.
+        memory_limit: bytes of address space per worker (None: no limit).
     """
 
-    def __init__(self, count: int) -> None:
-        context = multiprocessing.get_context("spawn")
-        self._signals = context.SimpleQueue()
-        self._pool = ProcessPoolExecutor(count, mp_context=context, initializer=_start_worker, initargs=(self._signals,))
-        self.ready = 0
-        for _ in range(count):  # the pool starts a process for each task that finds none idle
-            self._pool.submit(os.getpid)
+    def __init__(self, count: int, memory_limit: int | None = MEMORY_LIMIT) -> None:
+        self._memory_limit = memory_limit
+        self._workers: list[_Worker] = []
+        self._tickets = 0
+        self._stopped = False
+        for _ in range(count):
+            self.add()
 
-    def poll(self) -> None:
-        """Count the workers that have become ready since the last call."""
-        while not self._signals.empty():
-            self._signals.get()
-            self.ready += 1
+    @property
+    def ready(self) -> int:
+        """Workers started and idle."""
+        return sum(w.ready and w.ticket is None for w in self._workers)
 
-    def submit(self, fn: Callable[..., T], *args: Any) -> Future:
-        return self._pool.submit(fn, *args)
+    @property
+    def busy(self) -> int:
+        """Workers running a task."""
+        return sum(w.ticket is not None for w in self._workers)
+
+    @property
+    def pids(self) -> list[int]:
+        """The workers' process ids."""
+        return [w.pid for w in self._workers]
+
+    def add(self) -> None:
+        """Start one more worker."""
+        ours, theirs = multiprocessing.Pipe()
+        process = SPAWN.Process(target=_serve, args=(theirs,), daemon=True, name="stackdsl-worker")
+        process.memory_limit = self._memory_limit  # type: ignore[attr-defined]
+        process.start()
+        theirs.close()
+        self._workers.append(_Worker(process, ours))
+
+    def submit(self, fn: Callable[..., Any], *args: Any, limit: float | None = None) -> int:
+        """Hand ``fn(*args)`` to a ready worker; returns its ticket (see :meth:`collect`).
+
+        Raises:
+            RuntimeError: no worker is ready.
+        """
+        worker = next((w for w in self._workers if w.ready and w.ticket is None), None)
+        if worker is None:
+            raise RuntimeError("no worker is ready")
+        self._tickets += 1
+        worker.ticket, worker.limit = self._tickets, limit
+        worker.deadline = time.monotonic() + limit if limit is not None else float("inf")
+        try:
+            worker.conn.send((fn, args))
+        except (OSError, ValueError):  # it died while idle; collect() will report the task
+            pass
+        return self._tickets
+
+    def run(self, fn: Callable[..., T], *args: Any, limit: float | None = None) -> T:
+        """``fn(*args)`` on a worker, waiting for it to be ready and for the result."""
+        while not self.ready:
+            if not self._workers:
+                raise WorkerLost("no worker left")
+            self.collect(timeout=None)
+        ticket = self.submit(fn, *args, limit=limit)
+        while True:
+            for done in self.collect(timeout=None):
+                if done.ticket == ticket:
+                    return done.value()  # type: ignore[no-any-return]
+
+    def collect(self, timeout: float | None = 0) -> list[Done]:
+        """Count the workers that have become ready and return the tasks that ended, waiting
+        up to ``timeout`` seconds (None: until something happens) for either."""
+        if not self._workers:
+            return []
+        now = time.monotonic()
+        nearest = min(w.deadline for w in self._workers) - now
+        wait = max(0.0, min(nearest, timeout if timeout is not None else float("inf")))
+        handles: list[Any] = [w.conn for w in self._workers] + [w.process.sentinel for w in self._workers]
+        ready = set(multiprocessing.connection.wait(handles, None if wait == float("inf") else wait))
+        finished: list[Done] = []
+        for worker in list(self._workers):
+            if worker.conn in ready:
+                try:
+                    message = worker.conn.recv()
+                except Exception:  # died while writing, or a result that cannot be read
+                    self._end(worker, finished, died=True)
+                    continue
+                if message[0] == "ready":
+                    worker.ready = True
+                else:
+                    ticket, worker.ticket, worker.deadline = worker.ticket, None, float("inf")
+                    finished.append(Done(ticket or 0, *_unpack(message)))
+            elif worker.process.sentinel in ready:
+                self._end(worker, finished, died=True)
+            elif worker.ticket is not None and time.monotonic() >= worker.deadline:
+                self._end(worker, finished, died=False)
+        return finished
+
+    def _end(self, worker: _Worker, finished: list[Done], died: bool) -> None:
+        self._workers.remove(worker)
+        _terminate([worker.process])
+        worker.conn.close()
+        if worker.ticket is None:
+            return
+        if died:
+            error: WorkerLost = WorkerDied(worker.process.exitcode)
+        else:
+            error = WorkerTimedOut(worker.limit or 0.0)
+        finished.append(Done(worker.ticket, error=error))
 
     def stop(self) -> None:
-        terminate = getattr(self._pool, "terminate_workers", None)  # Python 3.14
-        if terminate is not None:
-            terminate()
-        else:  # no public way before 3.14: cancel what is queued, end the processes
-            processes = list((getattr(self._pool, "_processes", None) or {}).values())
-            self._pool.shutdown(wait=False, cancel_futures=True)
-            for process in processes:
-                process.terminate()
-            for process in processes:
-                process.join()
-        self._signals.close()
+        """End every worker now (SIGTERM, then SIGKILL for one that lingers)."""
+        workers, self._workers = self._workers, []
+        _terminate([w.process for w in workers])
+        for w in workers:
+            w.conn.close()
 
 
-def _start_worker(signals: Any) -> None:
-    """Worker initializer: Ctrl-C is the parent's to handle; import what runs use, then say so."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+def _unpack(message: tuple) -> tuple[Any, BaseException | None]:
+    if message[0] == "ok":
+        return message[1], None
+    error, text = message[1], message[2]
+    if text:
+        error.__cause__ = RemoteTraceback(text)
+    return None, error
+
+
+def _terminate(processes: Sequence[multiprocessing.process.BaseProcess]) -> None:
+    for process in processes:
+        if process.exitcode is None:
+            process.terminate()
+    for process in processes:
+        process.join(5)
+        if process.exitcode is None:
+            process.kill()
+            process.join()
+
+
+def _serve(conn: multiprocessing.connection.Connection) -> None:
+    """A worker's loop: import what runs use, say so, then run each task sent and send back
+    ``('ok', result)`` or ``('raised', exception, traceback text)``, until the pipe closes."""
     importlib.import_module("stackdsl._check")
-    signals.put(os.getpid())
+    conn.send(("ready", os.getpid()))
+    while True:
+        try:
+            fn, args = conn.recv()
+        except (EOFError, OSError):
+            return
+        try:
+            reply: tuple = ("ok", fn(*args))
+        except BaseException as exc:
+            reply = ("raised", exc, traceback.format_exc())
+        try:
+            conn.send(reply)
+        except (EOFError, OSError):
+            return
+        except Exception as exc:  # a result or an exception that cannot be pickled
+            conn.send(("raised", RuntimeError(f"{type(exc).__name__}: {exc}"), traceback.format_exc()))
+
+
+# Worker processes guarded from birth
+
+
+@contextmanager
+def interrupts_blocked() -> Iterator[None]:
+    """Block SIGINT in the calling thread for the ``with`` block: processes started in it
+    inherit the blocked signal, so a Ctrl-C during their start-up cannot reach them."""
+    if not hasattr(signal, "pthread_sigmask"):  # pragma: no cover (Windows)
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
+class GuardedProcess(multiprocessing.context.SpawnProcess):  # type: ignore[name-defined]
+    """A spawned process that ends with its parent, ignores Ctrl-C and has its address
+    space limited to ``memory_limit`` bytes (class default :data:`MEMORY_LIMIT`; None: no
+    limit). See the module's description."""
+
+    memory_limit: int | None = MEMORY_LIMIT
+    parent: int | None = None
+    from_main_thread = True
+
+    def start(self) -> None:
+        self.parent = os.getpid()
+        self.from_main_thread = threading.current_thread() is threading.main_thread()
+        with interrupts_blocked():
+            super().start()
+
+    def run(self) -> None:
+        guard_worker(self.parent, self.memory_limit, self.from_main_thread)
+        try:
+            super().run()
+        except Exception as exc:  # one line, as the command's own internal errors (traceback: --debug)
+            if os.environ.get("STACKDSL_TRACEBACK", "") not in ("", "0"):
+                raise
+            message = (str(exc).splitlines() or [""])[0]
+            hint = "(run with --debug for the traceback)"
+            print(f"stackdsl: internal error in a worker: {type(exc).__name__}: {message} {hint}", file=sys.stderr, flush=True)
+            sys.exit(1)
+
+
+class GuardedContext(multiprocessing.context.SpawnContext):
+    """The spawn context whose processes (and so whose pools' workers) are
+    :class:`GuardedProcess` es."""
+
+    Process = GuardedProcess
+
+
+#: The multiprocessing context every stackdsl worker is started from.
+SPAWN = GuardedContext()
+
+
+def guard_worker(parent: int | None, memory_limit: int | None, from_main_thread: bool = True) -> None:
+    """In a worker: ignore Ctrl-C, end with ``parent`` (a process id), limit the address
+    space to ``memory_limit`` bytes (see :data:`MEMORY_LIMIT`); ``from_main_thread``: the
+    worker was started by the parent's main thread (so the kernel may watch the parent)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    if parent is not None:
+        _end_with_parent(parent, from_main_thread)
+    if memory_limit is not None:
+        _limit_memory(memory_limit)
+
+
+def _end_with_parent(parent: int, from_main_thread: bool) -> None:
+    watched = False
+    if sys.platform.startswith("linux") and from_main_thread:
+        try:
+            watched = ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0) == 0
+        except (OSError, AttributeError):
+            watched = False
+    if os.getppid() != parent:  # the parent died before the watch began
+        os._exit(1)
+    if not watched:
+        threading.Thread(target=_watch_parent, args=(parent,), name="stackdsl-parent-watch", daemon=True).start()
+
+
+def _watch_parent(parent: int) -> None:
+    while os.getppid() == parent:
+        time.sleep(1.0)
+    os._exit(1)
+
+
+def _limit_memory(limit: int) -> None:
+    try:
+        import resource
+    except ImportError:  # pragma: no cover (Windows)
+        return
+    mapped = _mapped_bytes()
+    if mapped > limit // 4:
+        limit = mapped + 3 * 2**30
+    _, hard = resource.getrlimit(resource.RLIMIT_AS)
+    soft = limit if hard == resource.RLIM_INFINITY else min(limit, hard)
+    try:
+        resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
+    except (ValueError, OSError):
+        pass
+
+
+def _mapped_bytes() -> int:
+    """This process's address space in bytes (``VmSize``), 0 where /proc is missing."""
+    try:
+        with open(f"/proc/{os.getpid()}/status") as status:
+            for line in status:
+                if line.startswith("VmSize:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return 0

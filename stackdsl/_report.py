@@ -56,15 +56,22 @@ def run_command(file: str, mode: str | None = None, model: str | None = None) ->
 
 
 def failure_lines(r: CheckResult, command: str) -> list[str]:
-    """The indented lines under a FAIL row: the result's explanation, then ``command``."""
+    """The indented lines under a FAIL row: the result's explanation, then ``command``
+    (with ``--debug`` after an internal error, to show its traceback)."""
+    if r.error:
+        command = command.replace("stackdsl run", "stackdsl --debug run", 1)
     return [INDENT + line for line in r.explanation] + [f"{INDENT}more: {command}"]
 
 
 def summary(results: Sequence[CheckResult], total: int, wall: float) -> str:
-    """``'29 scenarios: 28 passed, 1 failed (3.8 s wall)'``, with how many did not run when
-    fewer than ``total`` did."""
+    """``'29 scenarios: 28 passed, 1 failed (3.8 s wall)'``, with how many hit an internal
+    error (counted among the failed) when any did, and how many did not run when fewer than
+    ``total`` did."""
     failed = sum(not r.passed for r in results)
+    errors = sum(bool(r.error) for r in results)
     counts = f"{len(results) - failed} passed, {failed} failed"
+    if errors:
+        counts += f" ({errors} of them internal error{'s' if errors > 1 else ''})"
     if len(results) < total:
         counts += f", {total - len(results)} {NOT_RUN}"
     return f"{total} scenarios: {counts} ({wall:.1f} s wall)"
@@ -82,6 +89,8 @@ def result_data(r: CheckResult, command: str) -> dict[str, Any]:
         "measured": r.measured,
         "verdicts": [v.model_dump() for v in r.verdicts],
         "explanation": list(r.explanation),
+        "error": r.error or None,
+        "stopped": r.stopped or None,
         "collapse_level": r.collapse_level,
         "levels_placed": r.levels_placed,
         "simulated_time": r.simulated_time,
@@ -96,7 +105,8 @@ def json_document(
     command: str, results: Sequence[CheckResult], commands: Sequence[str], total: int, wall: float
 ) -> dict[str, Any]:
     """Every result of one ``stackdsl`` command as one JSON document: the version, the
-    command, a summary (``total``, ``passed``, ``failed``, ``not_run``, ``wall_time`` in s)
+    command, a summary (``total``, ``passed``, ``failed``, ``errors`` (internal errors, among
+    the failed), ``not_run``, ``wall_time`` in s)
     and the results in the order given (``commands``: one rerun command each)."""
     failed = sum(not r.passed for r in results)
     return {
@@ -106,6 +116,7 @@ def json_document(
             "total": total,
             "passed": len(results) - failed,
             "failed": failed,
+            "errors": sum(bool(r.error) for r in results),
             "not_run": total - len(results),
             "wall_time": round(wall, 3),
         },
@@ -117,9 +128,11 @@ def junit_xml(
     results: Sequence[CheckResult], commands: Sequence[str], not_run: Sequence[str], wall: float, path: str | Path
 ) -> None:
     """Write JUnit XML to ``path``: one testcase per scenario run (classname ``stackdsl.<mode>``,
-    name the file, time its wall seconds), a ``failure`` with the explanation and the rerun
-    command for each failed one, and a ``skipped`` testcase for each file in ``not_run``."""
-    failed = sum(not r.passed for r in results)
+    name the file, time its wall seconds), an ``error`` with the traceback for each internal
+    error, a ``failure`` with the explanation and the rerun command for each other failed
+    one, and a ``skipped`` testcase for each file in ``not_run``."""
+    errors = sum(bool(r.error) for r in results)
+    failed = sum(not r.passed for r in results) - errors
     suites = ET.Element("testsuites")
     suite = ET.SubElement(
         suites,
@@ -127,14 +140,17 @@ def junit_xml(
         name="stackdsl check",
         tests=str(len(results) + len(not_run)),
         failures=str(failed),
-        errors="0",
+        errors=str(errors),
         skipped=str(len(not_run)),
         time=f"{wall:.3f}",
     )
     ET.SubElement(ET.SubElement(suite, "properties"), "property", name="stackdsl", value=version())
     for r, command in zip(results, commands, strict=True):
         case = ET.SubElement(suite, "testcase", classname=f"stackdsl.{r.mode}", name=r.file, time=f"{r.wall_time:.3f}")
-        if not r.passed:
+        if r.error:
+            error = ET.SubElement(case, "error", message=r.error)
+            error.text = r.traceback or None
+        elif not r.passed:
             failure = ET.SubElement(case, "failure", message=f"expected {r.expected}, measured {r.measured}")
             failure.text = "\n".join([*r.explanation, f"more: {command}"])
     for file in not_run:

@@ -1,11 +1,11 @@
 """The stackdsl command: check's rows, failure details, JSON, JUnit XML, selection, exit
 codes; compile, run, schema, compare, bench; the fan-out that runs scenarios."""
 
+import inspect
 import io
 import json
 import os
 import pickle
-import signal
 import subprocess
 import sys
 import tempfile
@@ -242,22 +242,129 @@ def test_run_json_exits_1_on_a_failed_expectation(tmp_path, capsys):
     assert json.loads(capsys.readouterr().out)["collapse"] is None
 
 
-def test_an_unexpected_exception_is_one_line_and_exit_3(tmp_path, capsys, monkeypatch):
+def test_an_exception_in_a_run_is_its_rows_internal_error_and_exit_3(tmp_path, capsys, monkeypatch):
     def broken(*args, **kwargs):
         raise RuntimeError("wheels came off\nsecond line")
 
     monkeypatch.setattr(_check, "run_program", broken)
     monkeypatch.delenv("STACKDSL_TRACEBACK", raising=False)
-    assert main(["check", str(write(tmp_path, a=PASSING)), "-j", "1"]) == 3
-    err = capsys.readouterr().err.splitlines()
-    assert err == [
-        "stackdsl: internal error: RuntimeError: wheels came off",
-        "stackdsl: set STACKDSL_TRACEBACK=1 to see the traceback",
+    folder = write(tmp_path, a=PASSING)
+    assert main(["check", str(folder), "-j", "1"]) == 3
+    captured = capsys.readouterr()
+    fail = next(line for line in captured.out.splitlines() if line.startswith("FAIL"))
+    assert "a.yaml" in fail and "stands" in fail and "internal error: RuntimeError: wheels came off" in fail
+    assert f"      more: stackdsl --debug run {folder / 'a.yaml'}" in captured.out.splitlines()
+    assert "1 scenarios: 0 passed, 1 failed (1 of them internal error)" in captured.out
+    assert captured.err.splitlines() == [
+        f"stackdsl: internal error: RuntimeError: wheels came off in {folder / 'a.yaml'} (extension)"
+        " (run with --debug for the traceback)"
     ]
+    for debug in (["--debug", "check"], ["check", "--debug"]):
+        assert main([*debug, str(folder), "-j", "1"]) == 3
+        err = capsys.readouterr().err
+        assert "Traceback (most recent call last)" in err and 'raise RuntimeError("wheels came off' in err
+        assert err.splitlines()[-1].endswith("wheels came off in " + str(folder / "a.yaml") + " (extension)")
     monkeypatch.setenv("STACKDSL_TRACEBACK", "1")
-    assert main(["check", str(tmp_path), "-j", "1"]) == 3
+    assert main(["check", str(folder), "-j", "1"]) == 3
+    assert "Traceback (most recent call last)" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("command", ["compile", "run", "schema", "bench", "compare"])
+def test_an_internal_error_in_any_command_is_one_line_and_exit_3(command, tmp_path, capsys, monkeypatch):
+    def broken(*args, **kwargs):
+        raise KeyError("wheels")
+
+    monkeypatch.delenv("STACKDSL_TRACEBACK", raising=False)
+    for module, name in [(_cli, "compile_scenario"), (_check, "run_program"), (_cli, "json_schema"), (_cli, "run_matrix")]:
+        monkeypatch.setattr(module, name, broken)
+    path = write(tmp_path, a=PASSING) / "a.yaml"
+    args = {"schema": [], "bench": ["--quick", "--out", str(tmp_path)], "compare": [str(path), "-j", "1"]}.get(
+        command, [str(path)]
+    )
+    assert main([command, *args]) == 3
     err = capsys.readouterr().err
-    assert err.startswith("Traceback") and "stackdsl: internal error: RuntimeError: wheels came off" in err
+    # compare's progress (a line per finished cell) goes to stderr off a terminal
+    (line,) = [x for x in err.splitlines() if not x.startswith("[")]
+    assert (
+        "Traceback" not in err
+        and line.startswith("stackdsl: internal error: KeyError: 'wheels'")
+        and line.endswith(" (run with --debug for the traceback)")
+    )
+    assert main(["--debug", command, *args]) == 3
+    err = capsys.readouterr().err
+    assert "Traceback (most recent call last)" in err and err.splitlines()[-1].startswith("stackdsl: internal error: KeyError")
+
+
+def test_an_internal_error_is_an_error_in_json_and_junit(tmp_path, capsys, monkeypatch):
+    def broken(*args, **kwargs):
+        raise RuntimeError("wheels came off")
+
+    monkeypatch.setattr(_check, "run_program", broken)
+    folder = write(tmp_path, a=PASSING)
+    assert main(["check", str(folder), "-j", "1", "--json", "--junit-xml", str(tmp_path / "j.xml")]) == 3
+    document = json.loads(capsys.readouterr().out)
+    assert document["summary"]["errors"] == 1 and document["summary"]["failed"] == 1
+    (result,) = document["results"]
+    assert result["error"] == "internal error: RuntimeError: wheels came off" and result["stopped"] is None
+    suite = ET.parse(tmp_path / "j.xml").getroot().find("testsuite")
+    assert suite.get("errors") == "1" and suite.get("failures") == "0"
+    error = suite.find("testcase/error")
+    assert error.get("message") == result["error"] and "Traceback" in error.text
+
+
+def test_timeout_is_passed_to_every_run_and_validated(tmp_path, capsys, monkeypatch):
+    seen = []
+
+    def timed(program, options=None, *, timeout=None):
+        seen.append(timeout)
+        return run_program(program)
+
+    monkeypatch.setattr(_check, "run_program", timed)
+    path = write(tmp_path, a=PASSING) / "a.yaml"
+    assert main(["check", str(path), "-j", "1", "--timeout", "7.5"]) == 0
+    assert main(["run", str(path), "--timeout", "8"]) == 0
+    assert main(["compare", str(path), "-j", "1", "--modes", "raw", "--timeout", "9"]) == 0
+    assert main(["check", str(path), "-j", "1"]) == 0
+    assert seen == [7.5, 8.0, 9.0, _check.TIMEOUT]
+    for bad in ["0", "-1", "soon", "inf"]:
+        with pytest.raises(SystemExit) as info:
+            main(["check", str(path), "--timeout", bad])
+        assert info.value.code == 2
+
+
+def test_a_run_stopped_by_its_timeout_fails_and_says_when(tmp_path, capsys, monkeypatch):
+    class Stopped:
+        """An outcome as the runtime returns it when its wall-clock limit stopped the run."""
+
+        def __init__(self, outcome):
+            self._outcome = outcome
+            self.stopped = "timeout after 42 s at t = 5.0 s simulated (of 7 s)"
+
+        def __getattr__(self, name):
+            return getattr(self._outcome, name)
+
+    def timed(program, options=None, *, timeout=None):
+        return Stopped(run_program(program))
+
+    monkeypatch.setattr(_check, "run_program", timed)
+    path = write(tmp_path, a=PASSING) / "a.yaml"
+    assert main(["check", str(path), "-j", "1", "--timeout", "42"]) == 1
+    out = capsys.readouterr().out
+    fail = next(line for line in out.splitlines() if line.startswith("FAIL"))
+    assert "timeout after 42 s at t = 5.0 s simulated" in fail
+    assert main(["run", str(path), "--timeout", "42"]) == 1
+    lines = capsys.readouterr().out.splitlines()
+    assert any(x.startswith("FAIL  ") and x.endswith("timeout after 42 s at t = 5.0 s simulated (of 7 s)") for x in lines)
+
+
+@pytest.mark.skipif("timeout" not in inspect.signature(run_program).parameters, reason="the runtime takes no timeout")
+def test_a_short_timeout_stops_the_run_here_and_in_a_worker(tmp_path, capsys):
+    slow = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nengine: {mode: raw, timestep: 0.1 ms}\ntiming: {settle: 600 s}\n"
+    folder = write(tmp_path, a=slow, b=slow)
+    for jobs in ("1", str(min(2, os.cpu_count() or 1))):
+        assert main(["check", str(folder), "-j", jobs, "--timeout", "0.5"]) == 1
+        rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith(("PASS", "FAIL"))]
+        assert len(rows) == 2 and all(r.startswith("FAIL") and "timeout after 0.5 s at t = " in r for r in rows)
 
 
 def test_ctrl_c_exits_130_without_a_traceback(tmp_path, capsys, monkeypatch):
@@ -341,50 +448,6 @@ def test_estimate_grows_with_bricks_and_engine_work():
 
     assert _pool.estimate(program(2, "extension")) < _pool.estimate(program(20, "extension"))
     assert _pool.estimate(program(2, "raw")) < _pool.estimate(program(20, "raw")) < _pool.estimate(program(20, "tuned"))
-
-
-def test_cheap_work_runs_in_this_process(tmp_path, monkeypatch):
-    def no_workers(count):
-        raise AssertionError("started workers for work cheaper than their start-up")
-
-    monkeypatch.setattr(_pool, "Workers", no_workers)
-    results = list(_check.check([write(tmp_path, a=PASSING, b=FAILING)], jobs=2))
-    assert [(Path(r.file).name, r.passed) for r in results] == [("a.yaml", True), ("b.yaml", False)]
-
-
-def test_workers_run_checks_and_return_the_same_results(tmp_path):
-    ((path, program, expect),) = _check.prepare([write(tmp_path, b=FAILING) / "b.yaml"])
-    workers = _pool.Workers(1)
-    try:
-        there = workers.submit(_check.judge, str(path), program, expect).result(timeout=120)
-    finally:
-        workers.stop()
-    here = _check.judge(str(path), program, expect)
-    assert there.verdicts == here.verdicts and there.explanation == here.explanation and there.collapse_level is None
-
-
-def test_work_is_shared_with_workers_as_they_become_ready():
-    # Each task reports the process that ran it (sh's parent); 30 x 0.1 s is longer than a
-    # worker takes to start.
-    task = (["sh", "-c", "sleep 0.1; echo $PPID"],)
-    runners = [int(out) for out in _pool.fan_out(subprocess.check_output, [task] * 30, [1.0] * 30, jobs=2)]
-    assert len(runners) == 30 and os.getpid() in runners and len(set(runners)) == 2
-
-
-def test_closing_the_results_stops_the_workers(monkeypatch):
-    started = []
-
-    class Recorded(_pool.Workers):
-        def __init__(self, count):
-            super().__init__(count)
-            started.append(self)
-
-    monkeypatch.setattr(_pool, "Workers", Recorded)
-    results = _pool.fan_out(os.getpid, [()] * 4, [1.0] * 4, jobs=2)
-    assert next(results) == os.getpid()
-    processes = list(started[0]._pool._processes.values())
-    results.close()
-    assert processes and not any(p.is_alive() for p in processes)
 
 
 def test_jobs_below_one_is_an_error(tmp_path):
@@ -481,15 +544,6 @@ def test_bench_quick_smoke_writes_every_output(tmp_path, capsys):
     assert rows[0].startswith("setting,family,parameter") and len(rows) == 1 + 5
     out = capsys.readouterr().out
     assert "extension report" in out and "[5/5]" in out and f"wrote {tmp_path.resolve()}" in out
-
-
-def test_sigint_reaches_main_not_the_workers():
-    # Workers ignore Ctrl-C (the parent stops them); checked in a fresh worker.
-    workers = _pool.Workers(1)
-    try:
-        assert workers.submit(signal.getsignal, signal.SIGINT).result(timeout=120) == signal.SIG_IGN
-    finally:
-        workers.stop()
 
 
 def test_json_and_junit_list_results_in_file_order_whatever_finishes_first(tmp_path, capsys):

@@ -1,0 +1,326 @@
+"""The fan-out and its workers: sharing work, results in any order, a dead or stuck worker
+lost alone, the guards every worker has (Ctrl-C ignored, memory limited, ended with its
+parent), and no process left behind by `stackdsl check` however it ends."""
+
+import ctypes
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import ClassVar
+
+import pytest
+
+from stackdsl import _check, _pool
+from stackdsl._cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+PASSING = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nexpect: {stands: true}\n"
+# About a second of CPU per second of settle: raw mode at 10 kHz steps every body every step.
+SLOW = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nengine: {mode: raw, timestep: 0.1 ms}\ntiming: {settle: %d s}\n"
+two_cores = pytest.mark.skipif((os.cpu_count() or 1) < 2, reason="-j 2 needs two cores")
+
+
+class ReadyWorkers(_pool.Workers):
+    """Workers that are all ready before fan_out hands out anything, so that the longest
+    task goes to a worker whatever the machine's load."""
+
+    started: ClassVar[list["ReadyWorkers"]] = []
+
+    def __init__(self, count, memory_limit=_pool.MEMORY_LIMIT):
+        super().__init__(count, memory_limit)
+        while self.ready < count:
+            assert len(self.pids) == count, "a worker died while starting"
+            self.collect(timeout=None)
+        self.first_pids = set(self.pids)
+        ReadyWorkers.started.append(self)
+
+
+@pytest.fixture
+def ready_workers(monkeypatch):
+    ReadyWorkers.started = []
+    monkeypatch.setattr(_pool, "Workers", ReadyWorkers)
+    return ReadyWorkers.started
+
+
+def alive(pid: int) -> bool:
+    """The process exists and is not a zombie."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False
+    return stat.rsplit(")", 1)[1].split()[0] != "Z"
+
+
+def descendants(pid: int) -> set[int]:
+    """The living processes under ``pid``, from /proc."""
+    parents = {}
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            if fields[0] != "Z":
+                parents[int(entry.name)] = int(fields[1])
+    found, frontier = set(), {pid}
+    while frontier:
+        frontier = {child for child, parent in parents.items() if parent in frontier} - found
+        found |= frontier
+    return found
+
+
+def gone(pids: set[int], within: float = 30.0) -> set[int]:
+    """The processes of ``pids`` still alive after waiting up to ``within`` seconds."""
+    deadline = time.monotonic() + within
+    while (left := {p for p in pids if alive(p)}) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    return left
+
+
+# sharing work
+
+
+def test_work_is_shared_with_the_workers(ready_workers):
+    # Each task reports the process that ran it (sh's parent).
+    task = (["sh", "-c", "sleep 0.1; echo $PPID"],)
+    runners = [int(out) for out in _pool.fan_out(subprocess.check_output, [task] * 6, [1.0] * 6, jobs=2)]
+    assert len(runners) == 6 and os.getpid() in runners and set(runners) - {os.getpid()} == ready_workers[0].first_pids
+
+
+def test_cheap_work_starts_no_worker(monkeypatch):
+    def no_workers(count):
+        raise AssertionError("started workers for work cheaper than their start-up")
+
+    monkeypatch.setattr(_pool, "Workers", no_workers)
+    assert list(_pool.fan_out(abs, [(-1,), (-2,)], [0.1, 0.1], jobs=2)) == [1, 2]
+
+
+def test_closing_the_results_stops_the_workers(ready_workers):
+    results = _pool.fan_out(os.getpid, [()] * 4, [1.0] * 4, jobs=2)
+    first = next(results)
+    pids = ready_workers[0].first_pids
+    results.close()
+    assert first in pids | {os.getpid()} and pids and not gone(pids, within=0)
+
+
+def test_an_exception_in_a_worker_comes_with_its_traceback():
+    workers = _pool.Workers(1)
+    try:
+        with pytest.raises(ValueError, match="invalid literal") as info:
+            workers.run(int, "x")
+        assert isinstance(info.value.__cause__, _pool.RemoteTraceback) and "Traceback" in str(info.value.__cause__)
+        assert workers.run(abs, -3) == 3  # the worker is still there
+    finally:
+        workers.stop()
+
+
+# a worker lost: the others go on
+
+
+def test_a_dead_worker_loses_its_task_alone(ready_workers):
+    # The costliest task goes to the (ready) worker, which it kills; the guard keeps the
+    # kill from reaching this process if the task ever ran here.
+    me = os.getpid()
+    killer = (["sh", "-c", f'[ "$PPID" != {me} ] && kill -9 $PPID; echo $PPID'],)
+    quick = (["sh", "-c", "echo $PPID"],)
+    results = list(
+        _pool.fan_out(
+            subprocess.check_output, [quick, killer, quick], [1.0, 9.0, 1.0], jobs=2, lost=lambda task, error: (task, error)
+        )
+    )
+    lost = [r for r in results if isinstance(r, tuple)]
+    assert len(results) == 3 and [task for task, _ in lost] == [killer]
+    error = lost[0][1]
+    assert isinstance(error, _pool.WorkerDied) and error.signal == signal.SIGKILL
+    assert str(error) == "worker died (SIGKILL, signal 9)"
+    assert [int(r) for r in results if not isinstance(r, tuple)] == [me, me]
+
+
+def test_a_dead_worker_without_a_lost_callback_raises(ready_workers):
+    me = os.getpid()
+    killer = (["sh", "-c", f'[ "$PPID" != {me} ] && kill -9 $PPID; echo $PPID'],)
+    with pytest.raises(_pool.WorkerDied):
+        list(_pool.fan_out(subprocess.check_output, [killer, (["true"],)], [9.0, 1.0], jobs=2))
+
+
+def test_a_task_over_its_limit_ends_its_worker(ready_workers):
+    results = list(_pool.fan_out(time.sleep, [(0,), (600,)], [1.0, 9.0], jobs=2, limit=0.5, lost=lambda task, error: error))
+    (error,) = [r for r in results if r is not None]
+    assert isinstance(error, _pool.WorkerTimedOut) and error.limit == 0.5
+    assert str(error) == "still running after 0.5 s, worker stopped"
+    assert not gone(ready_workers[0].first_pids, within=0)
+
+
+def test_a_dead_worker_is_its_scenarios_internal_error(tmp_path, ready_workers, monkeypatch, capsys):
+    # The slow scenario goes to the worker, which is killed as soon as it has it.
+    killed = []
+
+    def kill_on_submit(self, fn, *args, limit=None):
+        ticket = super(ReadyWorkers, self).submit(fn, *args, limit=limit)
+        if not killed:
+            killed.extend(self.pids)
+            os.kill(killed[0], signal.SIGKILL)
+        return ticket
+
+    monkeypatch.setattr(ReadyWorkers, "submit", kill_on_submit, raising=False)
+    (tmp_path / "a.yaml").write_text(PASSING)
+    (tmp_path / "slow.yaml").write_text(SLOW % 600)
+    (tmp_path / "z.yaml").write_text(PASSING)
+    assert main(["check", str(tmp_path), "-j", "2"]) == 3
+    captured = capsys.readouterr()
+    rows = {Path(line.split()[1]).name: line for line in captured.out.splitlines() if line.startswith(("PASS", "FAIL"))}
+    assert sorted(rows) == ["a.yaml", "slow.yaml", "z.yaml"]
+    assert rows["slow.yaml"].startswith("FAIL")
+    assert "internal error: worker died (SIGKILL, signal 9) running this scenario" in rows["slow.yaml"]
+    assert rows["a.yaml"].startswith("PASS") and rows["z.yaml"].startswith("PASS")
+    assert "3 scenarios: 2 passed, 1 failed (1 of them internal error)" in captured.out
+    (line,) = captured.err.splitlines()
+    assert line.startswith("stackdsl: internal error: worker died") and line.endswith("(run with --debug for the traceback)")
+
+
+# the guards in every worker
+
+
+def test_workers_ignore_ctrl_c_and_have_a_memory_limit():
+    workers = _pool.Workers(1, memory_limit=3 * 2**30)
+    try:
+        assert workers.run(signal.getsignal, signal.SIGINT) == signal.SIG_IGN
+        (pid,) = workers.pids
+        limits = Path(f"/proc/{pid}/limits").read_text().splitlines()
+        (line,) = [x for x in limits if x.startswith("Max address space")]
+        assert line.split()[3] == str(3 * 2**30)
+        with pytest.raises(MemoryError):
+            workers.run(bytearray, 4 * 2**30)
+        assert workers.run(abs, -1) == 1  # a MemoryError does not end the worker
+    finally:
+        workers.stop()
+
+
+def test_out_of_memory_is_the_scenarios_internal_error(tmp_path, monkeypatch):
+    def greedy(program, *args, **kwargs):
+        raise MemoryError
+
+    monkeypatch.setattr(_check, "run_program", greedy)
+    (tmp_path / "a.yaml").write_text(PASSING)
+    (r,) = _check.check([tmp_path], jobs=1)
+    assert not r.passed and r.error == "internal error: out of memory" and "MemoryError" in r.traceback
+    assert r.expected == "stands" and r.measured == "internal error: out of memory"
+
+
+def test_a_worker_started_by_another_thread_outlives_that_thread():
+    # The kernel's parent-death signal follows the starting thread: a worker started (and
+    # ready) in a thread that then ends must go on, as a pool's replacement workers must.
+    started = []
+
+    def start():
+        workers = _pool.Workers(1)
+        started.append((workers, workers.run(os.getpid)))
+
+    thread = threading.Thread(target=start)
+    thread.start()
+    thread.join()
+    ((workers, pid),) = started
+    try:
+        assert workers.run(os.getpid) == pid and alive(pid)
+    finally:
+        workers.stop()
+
+
+def test_other_pools_get_the_same_guards():
+    with _pool.SPAWN.Pool(1) as pool:
+        assert pool.apply(signal.getsignal, (signal.SIGINT,)) == signal.SIG_IGN
+        pid = pool.apply(os.getpid)
+        assert "Max address space" in Path(f"/proc/{pid}/limits").read_text()
+        assert str(_pool.MEMORY_LIMIT) in Path(f"/proc/{pid}/limits").read_text()
+
+
+# `stackdsl check -j 2` however it ends: nothing left behind
+
+
+def start_check(tmp_path: Path) -> tuple[subprocess.Popen, Path, Path]:
+    folder = tmp_path / "slow"
+    folder.mkdir()
+    (folder / "a_medium.yaml").write_text(SLOW % 3)
+    (folder / "b_slow.yaml").write_text(SLOW % 600)
+    (folder / "c_slow.yaml").write_text(SLOW % 600)
+    out, err = tmp_path / "out.txt", tmp_path / "err.txt"
+    env = {**os.environ, "CI": "true"}
+    with out.open("w") as stdout, err.open("w") as stderr:
+        process = subprocess.Popen(
+            [sys.executable, "-m", "stackdsl", "check", str(folder), "-j", "2"],
+            stdout=stdout,
+            stderr=stderr,
+            env=env,
+            cwd=ROOT,
+            start_new_session=True,  # its own process group, for the Ctrl-C test
+            preexec_fn=die_with_this_process,
+        )
+    return process, out, err
+
+
+def die_with_this_process() -> None:
+    """In the check's process before it starts: end it if the test run ends first (it has a
+    session of its own, so a signal to the test run's group would miss it)."""
+    ctypes.CDLL(None).prctl(_pool.PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+
+
+def wait_for_workers(process: subprocess.Popen, out: Path) -> set[int]:
+    """The check's processes once its first row is printed and its worker is started."""
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and process.poll() is None:
+        below = descendants(process.pid)
+        workers = [p for p in below if b"spawn_main" in Path(f"/proc/{p}/cmdline").read_bytes()]
+        if workers and "PASS" in out.read_text():
+            return below
+        time.sleep(0.1)
+    raise AssertionError(f"no worker and no first row within 120 s:\n{out.read_text()}")
+
+
+@two_cores
+@pytest.mark.parametrize("signum", [signal.SIGKILL, signal.SIGTERM])
+def test_killing_check_leaves_no_process_behind(tmp_path, signum):
+    process, out, err = start_check(tmp_path)
+    try:
+        below = wait_for_workers(process, out)
+        assert len(below) >= 2  # a worker and multiprocessing's resource tracker
+        os.kill(process.pid, signum)
+        status = process.wait(60)
+        assert status == (-signal.SIGKILL if signum == signal.SIGKILL else 128 + signal.SIGTERM)
+        assert not gone(below), "processes left after the check ended"
+        if signum == signal.SIGTERM:
+            assert "Traceback" not in err.read_text()
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
+
+
+@two_cores
+def test_ctrl_c_is_one_line_exit_130_and_no_worker_left(tmp_path):
+    process, out, err = start_check(tmp_path)
+    try:
+        below = wait_for_workers(process, out)
+        os.killpg(process.pid, signal.SIGINT)  # as a terminal does: the whole process group
+        assert process.wait(60) == 130
+        assert err.read_text() == "stackdsl: interrupted\n"
+        assert not gone(below)
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
+
+
+def test_a_worker_that_fails_says_so_in_one_line(capfd, monkeypatch):
+    monkeypatch.delenv("STACKDSL_TRACEBACK", raising=False)
+    process = _pool.SPAWN.Process(target=int, args=("x",))
+    process.start()
+    process.join(120)
+    assert process.exitcode == 1
+    assert capfd.readouterr().err == (
+        "stackdsl: internal error in a worker: ValueError: invalid literal for int() with base 10: 'x'"
+        " (run with --debug for the traceback)\n"
+    )

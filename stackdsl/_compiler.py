@@ -121,9 +121,9 @@ def compile_scenario(scenario: Scenario, mode: str | None = None, model: str | N
     actions = sorted(actions + launches, key=lambda a: (a.step, a.kind != "place"))
     end = actions[-1].time + scenario.timing.settle
     if end > MAX_SIMULATED_TIME:
-        raise scenario.source.error(
-            ("timing",), f"the run would last {end:.0f} s; at most {MAX_SIMULATED_TIME:.0f} s are simulated"
-        )
+        last = actions[-1]  # what makes the run long: the last impact's time, or the placements' interval
+        where = ("impacts", launches.index(last), "at") if last in launches else ("timing", "interval")
+        raise scenario.source.error(where, f"the run would last {end:.0f} s; at most {MAX_SIMULATED_TIME:.0f} s are simulated")
     actions.append(End(step=actions[-1].step + settle, time=end))
     ground = scenario.material(scenario.ground.material)
     program = Program(

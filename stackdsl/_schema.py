@@ -416,6 +416,13 @@ class Target(_Model):
         return self
 
 
+def _nonzero(direction: tuple[float, float, float]) -> tuple[float, float, float]:
+    """An impact's direction with a component of at least :data:`MIN_DIRECTION` in size."""
+    if all(abs(c) < MIN_DIRECTION for c in direction):
+        raise ValueError(f"'direction' must not be zero: give it a component of at least {MIN_DIRECTION:g}")
+    return direction
+
+
 class Impact(_Model):
     """A projectile brick thrown at ``speed`` (0.1 to 100 m/s) so that it reaches ``target``
     ``distance`` after launch; it flies along ``direction`` (default: into the target's side)
@@ -428,7 +435,7 @@ class Impact(_Model):
     projectile: str = "kapla"
     target: Target
     speed: ImpactSpeed
-    direction: tuple[Component, Component, Component] | None = Field(
+    direction: Annotated[tuple[Component, Component, Component], AfterValidator(_nonzero)] | None = Field(
         default=None,
         json_schema_extra={
             "not": {"type": "array", "items": {"exclusiveMinimum": -MIN_DIRECTION, "exclusiveMaximum": MIN_DIRECTION}}
@@ -441,8 +448,6 @@ class Impact(_Model):
     def _direction(self) -> Impact:
         if self.direction is None and self.target.side is None:
             raise ValueError("a 'point' target needs a 'direction'")
-        if self.direction is not None and all(abs(c) < MIN_DIRECTION for c in self.direction):
-            raise ValueError(f"'direction' must not be zero: give it a component of at least {MIN_DIRECTION:g}")
         return self
 
 

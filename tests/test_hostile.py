@@ -60,10 +60,7 @@ MEMORY_LIMIT = 2 << 30  # bytes of peak resident memory a campaign run may use
 
 # Not yet handled by the product: file stem -> what happens instead. A fix flips the test to
 # passing, which strict=True reports as a failure: remove the entry then.
-XFAIL = {
-    "impact_at_1e9_s": "the simulated-time limit is reported at 'timing' (the top of the file), not at the impact's 'at'",
-    "numeric_impact_direction_zero": "the zero-direction check points at the impact (its first key), not at 'direction'",
-}
+XFAIL: dict[str, str] = {}
 
 
 # the header's grammar ------------------------------------------------------------------------

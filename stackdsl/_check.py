@@ -28,7 +28,7 @@ from ._errors import ScenarioError
 from ._expect import Verdict, describe, evaluate, explain
 from ._loader import file_problem, load_scenario
 from ._outcome import Graph, Outcome
-from ._pool import WorkerLost, WorkerTimedOut, estimate, fan_out, on_executor
+from ._pool import WorkerLost, WorkerTimedOut, fan_out, on_executor
 from ._program import Program
 from ._runtime import run_program
 from ._schema import Expect
@@ -217,7 +217,7 @@ def run_checks(
     jobs = (os.cpu_count() or 1) if jobs is None else jobs
     if jobs < 1:
         raise ValueError(f"jobs must be at least 1, not {jobs}")
-    costs = [estimate(program) for _, program, _ in prepared]
+    costs = [program.wall_estimate for _, program, _ in prepared]  # the compiler's work budget, in seconds
     limit = None if timeout is None else timeout + KILL_AFTER
     return fan_out(judge, tasks, costs, jobs, limit=limit, lost=lost)
 

@@ -4,7 +4,7 @@ Starting a worker is not free: a spawned process imports pybullet, numpy, scipy,
 pydantic before it can run anything (about 0.5 s of CPU on the machine this was measured
 on, longer when the cores are busy). So:
 
-- when the estimated work (:func:`estimate`) is below :data:`STARTUP`, or one job is asked
+- when the estimated work (:attr:`stackdsl.Program.wall_estimate`) is below :data:`STARTUP`, or one job is asked
   for, every run happens in this process, in the order given;
 - otherwise ``jobs - 1`` worker processes are started and this process works too: it runs
   the cheapest runs left while the workers, as each one reports itself ready, are handed
@@ -57,8 +57,6 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
-from ._program import Launch, Program
-
 T = TypeVar("T")
 
 #: Seconds of estimated work below which no worker process is started.
@@ -70,32 +68,8 @@ STARTUP = 1.0
 #: of math-library threads) gets that much plus 3 GiB instead.
 MEMORY_LIMIT = 4 * 2**30
 
-#: Wall seconds per brick of an extension-mode run (the extension skips the steps in
-#: which every brick is frozen, so its cost follows the bricks, not the steps).
-EXTENSION_PER_BRICK = 4e-3
-#: Wall seconds per physics step of an extension-mode run.
-EXTENSION_PER_STEP = 2e-6
-#: Wall seconds per step, brick and solver iteration of a raw or tuned run.
-ENGINE_PER_ITERATION = 1.2e-7
-
 #: Linux's prctl option that sends a signal to a process when its parent dies.
 PR_SET_PDEATHSIG = 1
-
-
-def estimate(program: Program) -> float:
-    """A rough guess of a run's wall time in seconds, from the Program alone.
-
-    Raw and tuned runs step every body every step: steps x bricks x solver iterations.
-    Extension runs skip the steps in which everything is frozen: bricks, plus a little per
-    step. The constants were fitted on the shipped scenarios (``scenarios/``) on a 2-core
-    machine; a guess good to a factor of a few, used to order runs (longest first) and to
-    decide whether workers are worth starting. Source: stackdsl's own.
-    """
-    bricks = len(program.placements) + len(program.fixtures) + sum(isinstance(a, Launch) for a in program.actions)
-    steps = program.duration / program.engine.timestep
-    if program.engine.mode == "extension":
-        return bricks * EXTENSION_PER_BRICK + steps * EXTENSION_PER_STEP
-    return steps * bricks * program.engine.solver_iterations * ENGINE_PER_ITERATION
 
 
 class WorkerLost(RuntimeError):
@@ -155,7 +129,7 @@ def fan_out(
 
     Args:
         fn: a module-level function (it is pickled to the workers), as are the tasks.
-        costs: one estimate per task (seconds, see :func:`estimate`).
+        costs: one estimate per task (seconds, :attr:`stackdsl.Program.wall_estimate`).
         jobs: runs at the same time, this process included (>= 1).
         limit: wall seconds a worker may spend on one task before it is stopped (None: no
             limit). Tasks run in this process are not limited here.

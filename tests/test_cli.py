@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from stackdsl import _check, _cli, _pool, compile_scenario, parse_scenario, run_program
+from stackdsl import _check, _cli, compile_scenario, parse_scenario, run_program
 from stackdsl._cli import main
 from stackdsl._expect import explain
 from stackdsl._progress import Lines, is_live
@@ -446,8 +446,8 @@ def test_estimate_grows_with_bricks_and_engine_work():
             parse_scenario(f"stackdsl: 1\nstructure: {{tower: {{levels: {levels}}}}}\nengine: {{mode: {mode}}}")
         )
 
-    assert _pool.estimate(program(2, "extension")) < _pool.estimate(program(20, "extension"))
-    assert _pool.estimate(program(2, "raw")) < _pool.estimate(program(20, "raw")) < _pool.estimate(program(20, "tuned"))
+    assert program(2, "extension").wall_estimate < program(20, "extension").wall_estimate
+    assert program(2, "raw").wall_estimate < program(20, "raw").wall_estimate < program(20, "tuned").wall_estimate
 
 
 def test_jobs_below_one_is_an_error(tmp_path):

@@ -258,8 +258,8 @@ class StabilityExtension:
         if not supports:
             return []
         heights = [a.height for a in supports.values()]
-        if max(heights) - min(heights) > self.config.lean_height:
-            return []  # report 3.5: contacts at different heights: a leaning brick
+        if max(heights) - min(heights) > self.config.lean_height and not all(a.exact for a in supports.values()):
+            return []  # report 3.5: contacts at different heights (not face to face on each): a leaning brick
         main = _main(supports)
         if not self._holds(main, self._engine.pose(rec.body).position):
             return []

@@ -244,9 +244,11 @@ def contains(polygon: BaseGeometry, xy: Sequence[float] | np.ndarray, margin: fl
 def face_overlap(upper: Box, upper_pose: Pose, lower: Box | Plane, lower_pose: Pose | None, gap: float) -> ContactArea | None:
     """The exact contact area of two bricks touching face to face, or None.
 
-    The upper body's bottom face and the lower body's top face (or the plane) must both
-    be horizontal to within ``gap`` metres over their corners and lie within ``gap`` of
-    each other; the area is the intersection of their horizontal projections.
+    The upper body's bottom face and the lower body's top face (or the plane) must lie
+    within ``gap`` metres of each other at every corner of their overlap: flat faces,
+    horizontal or tilted together (a tall tower settles a degree or so out of level).
+    The area is the intersection of their horizontal projections, at the mean height
+    of the lower face over it.
 
     Source: stackdsl's own (pybullet's four contact points cover only
     60-70% of a turned brick's overlap; the faces give it exactly).
@@ -254,23 +256,27 @@ def face_overlap(upper: Box, upper_pose: Pose, lower: Box | Plane, lower_pose: P
     Raises:
         ValueError: ``lower`` is a :class:`Box` and ``lower_pose`` is None.
     """
-    bottom, _ = upper.face(upper_pose, -UP)
-    if np.ptp(bottom[:, 2]) > gap:
-        return None
+    bottom, down = upper.face(upper_pose, -UP)
+    poly = Polygon(bottom[:, :2])
     if isinstance(lower, Plane):
-        top_poly, top_z, normal = None, lower.height, UP
+        top_centre, normal = np.array([0.0, 0.0, lower.height]), UP
     else:
         if lower_pose is None:
             raise ValueError("face_overlap needs the pose of a Box below")
         top, normal = lower.face(lower_pose, UP)
-        if np.ptp(top[:, 2]) > gap:
-            return None
-        top_poly, top_z = Polygon(top[:, :2]), float(top[:, 2].mean())
-    if abs(float(bottom[:, 2].mean()) - top_z) > gap:
+        top_centre = top.mean(axis=0)
+        poly = poly.intersection(Polygon(top[:, :2]))
+    if not isinstance(poly, Polygon) or poly.area <= 0.0 or normal[2] <= 0.5 or down[2] >= -0.5:
         return None
-    poly = Polygon(bottom[:, :2])
-    if top_poly is not None:
-        poly = poly.intersection(top_poly)
-    if not isinstance(poly, Polygon) or poly.area <= 0.0:
+    ring = np.asarray(poly.exterior.coords)[:-1]
+    lower_z = _plane_height(top_centre, normal, ring)
+    upper_z = _plane_height(bottom.mean(axis=0), -down, ring)
+    if np.max(np.abs(upper_z - lower_z)) > gap:
         return None
-    return ContactArea(poly, top_z, np.asarray(normal, dtype=float), exact=True)
+    return ContactArea(poly, float(lower_z.mean()), np.asarray(normal, dtype=float), exact=True)
+
+
+def _plane_height(point: np.ndarray, normal: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    """Heights (m) over the points ``xy`` (shape (n, 2)) of the plane through ``point`` with ``normal``."""
+    heights: np.ndarray = point[2] - ((xy[:, 0] - point[0]) * normal[0] + (xy[:, 1] - point[1]) * normal[1]) / normal[2]
+    return heights

@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 from shapely.geometry import box
 
 from stability import Box, Plane, Pose, combined_hull, contains, face_overlap, padded_hull
@@ -70,6 +71,22 @@ def test_tilted_or_separated_faces_are_not_face_to_face():
     lower = Pose.from_euler([0, 0, 0.004])
     assert face_overlap(KAPLA, Pose.from_euler([0, 0, 0.012], roll=5), KAPLA, lower, gap=0.001) is None
     assert face_overlap(KAPLA, Pose.from_euler([0, 0, 0.015]), KAPLA, lower, gap=0.001) is None
+
+
+def test_faces_tilted_together_touch_face_to_face():
+    # A tall tower settles a degree or so out of level: a brick crossing a brick tilted
+    # 1.5 degrees, lying on its top face, still touches it over the exact square.
+    tilt = Rotation.from_euler("y", 1.5, degrees=True)
+    lower = Pose(np.array([0, 0, 0.004]), tilt.as_quat())
+    up = tilt.apply([0, 0, 1.0])
+    upper = Pose(lower.position + 0.008 * up, (tilt * Rotation.from_euler("z", 90, degrees=True)).as_quat())
+    area = face_overlap(KAPLA, upper, KAPLA, lower, gap=0.001)
+    assert area is not None and area.exact
+    assert area.area == pytest.approx(0.024**2 * math.cos(math.radians(1.5)), rel=1e-6)
+    assert area.normal == pytest.approx(up)
+    # the same brick tilted alone, on a level brick, meets it along an edge only
+    alone = Pose(np.array([0, 0, 0.012]), Rotation.from_euler("y", 1.5, degrees=True).as_quat())
+    assert face_overlap(KAPLA, alone, KAPLA, Pose.from_euler([0, 0, 0.004]), gap=0.001) is None
 
 
 def test_combined_hull_spans_both_supports():

@@ -14,15 +14,48 @@ Data flows one way, one module per step::
 2
 """
 
-from ._check import CheckResult, ScenarioErrors, check
-from ._compiler import MODE_DEFAULTS, compile_scenario
-from ._errors import ScenarioError
-from ._expect import Verdict, evaluate
-from ._loader import load_scenario, parse_scenario
-from ._outcome import Collapse, Event, Graph, Outcome
-from ._program import End, EngineSettings, Launch, Place, Program, format_program
-from ._runtime import run_program
-from ._schema import Scenario
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from ._check import CheckResult, ScenarioErrors, check
+    from ._compiler import MODE_DEFAULTS, compile_scenario
+    from ._errors import ScenarioError
+    from ._expect import Verdict, evaluate
+    from ._loader import load_scenario, parse_scenario
+    from ._outcome import Collapse, Event, Graph, Outcome
+    from ._program import End, EngineSettings, Launch, Place, Program, format_program
+    from ._runtime import run_program
+    from ._schema import Scenario
+
+#: Where each public name lives. The modules load on first use, so that the ``stackdsl``
+#: command can take Ctrl-C while numpy, pybullet and shapely load (about 0.7 s).
+_HOME = {
+    "CheckResult": "_check",
+    "ScenarioErrors": "_check",
+    "check": "_check",
+    "MODE_DEFAULTS": "_compiler",
+    "compile_scenario": "_compiler",
+    "ScenarioError": "_errors",
+    "Verdict": "_expect",
+    "evaluate": "_expect",
+    "load_scenario": "_loader",
+    "parse_scenario": "_loader",
+    "Collapse": "_outcome",
+    "Event": "_outcome",
+    "Graph": "_outcome",
+    "Outcome": "_outcome",
+    "End": "_program",
+    "EngineSettings": "_program",
+    "Launch": "_program",
+    "Place": "_program",
+    "Program": "_program",
+    "format_program": "_program",
+    "run_program": "_runtime",
+    "Scenario": "_schema",
+}
 
 __all__ = [
     "MODE_DEFAULTS",
@@ -48,3 +81,17 @@ __all__ = [
     "parse_scenario",
     "run_program",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    """Load a public name's module on first use (PEP 562)."""
+    home = _HOME.get(name)
+    if home is None:
+        raise AttributeError(f"module 'stackdsl' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{home}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -1,5 +1,9 @@
 """The public names of both packages are what they should be (httpx style)."""
 
+import importlib
+import subprocess
+import sys
+
 import stability
 import stackdsl
 
@@ -92,3 +96,18 @@ def test_stability_knows_nothing_of_yaml():
             if isinstance(node, (ast.Import, ast.ImportFrom)):
                 names = [a.name for a in node.names] + [getattr(node, "module", None) or ""]
                 assert not any(n.split(".")[0] in ("yaml", "stackdsl", "pydantic") for n in names), path.name
+
+
+def test_every_stackdsl_export_loads_from_its_module():
+    assert set(stackdsl.__all__) == set(stackdsl._HOME)
+    for name in stackdsl.__all__:
+        assert getattr(stackdsl, name) is getattr(importlib.import_module(f"stackdsl.{stackdsl._HOME[name]}"), name)
+    assert set(stackdsl.__all__) <= set(dir(stackdsl))
+
+
+def test_the_command_starts_without_the_heavy_modules():
+    # Ctrl-C while the command loads must end as "interrupted", so the entry point loads
+    # only the standard library before it guards the rest.
+    code = "import sys, stackdsl._entry; print(sorted({'numpy', 'pybullet', 'shapely', 'pydantic'} & set(sys.modules)))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"

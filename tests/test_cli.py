@@ -6,15 +6,18 @@ import io
 import json
 import os
 import pickle
+import signal
 import subprocess
 import sys
 import tempfile
+import time
+import types
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
 
-from stackdsl import _check, _cli, compile_scenario, parse_scenario, run_program
+from stackdsl import _check, _cli, _entry, compile_scenario, parse_scenario, run_program
 from stackdsl._cli import main
 from stackdsl._expect import explain
 from stackdsl._progress import Lines, is_live
@@ -374,6 +377,33 @@ def test_ctrl_c_exits_130_without_a_traceback(tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(_check, "run_program", interrupted)
     assert main(["check", str(write(tmp_path, a=PASSING)), "-j", "1"]) == 130
     assert capsys.readouterr().err == "stackdsl: interrupted\n"
+
+
+def test_ctrl_c_while_the_command_loads_exits_130_without_a_traceback(capsys, monkeypatch):
+    class Loading(types.ModuleType):
+        def __getattr__(self, name):
+            raise KeyboardInterrupt
+
+    monkeypatch.setitem(sys.modules, "stackdsl._cli", Loading("stackdsl._cli"))
+    assert _entry.main() == 130
+    assert capsys.readouterr().err == "stackdsl: interrupted\n"
+
+
+@pytest.mark.parametrize("delay", [0.3, 0.6, 1.5])
+def test_ctrl_c_at_any_moment_of_a_real_command_exits_130(delay, tmp_path):
+    # loading the modules takes about 0.7 s, the run 60 s of raw pybullet at 0.1 ms
+    slow = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nengine: {mode: raw, timestep: 0.1 ms}\ntiming: {settle: 60 s}\n"
+    process = subprocess.Popen(
+        [sys.executable, "-m", "stackdsl", "check", str(write(tmp_path, slow=slow)), "-j", "1"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "CI": "true"},
+    )
+    time.sleep(delay)
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 130 and err == "stackdsl: interrupted\n"
 
 
 @pytest.mark.parametrize("command", ["compile", "run", "check"])

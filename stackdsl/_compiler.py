@@ -304,9 +304,10 @@ def _engine(scenario: Scenario, mode: str | None) -> EngineSettings:
 
 
 def _steps(scenario: Scenario, path: tuple, seconds: float, dt: float) -> int:
-    """``seconds`` as a whole number of timesteps, or a ScenarioError at ``path``."""
+    """``seconds`` as a whole number of timesteps, or a ScenarioError at ``path``
+    (also for a positive duration shorter than one timestep)."""
     steps = seconds / dt
-    if abs(steps - round(steps)) > 1e-6 * max(1.0, steps):
+    if abs(steps - round(steps)) > 1e-6 * max(1.0, steps) or (seconds > 0 and round(steps) == 0):
         raise scenario.source.error(
             path,
             f"{seconds:g} s is not a whole number of timesteps ({dt * 1000:.4g} ms); "

@@ -73,6 +73,13 @@ def test_times_must_be_whole_timesteps():
     program("stackdsl: 1\nstructure: {tower: {levels: 2}}\ntiming: {interval: 0.301 s}\nengine: {timestep: 1 ms}\n")
 
 
+def test_a_duration_shorter_than_one_timestep_is_refused_not_rounded_to_nothing():
+    # 1 ns is within rounding of 0 steps: every brick would be placed at once
+    with pytest.raises(ScenarioError) as info:
+        program("stackdsl: 1\nstructure: {tower: {levels: 2}}\ntiming: {interval: 0.000000001 s}\n")
+    assert info.value.field == "timing.interval" and "0.00416667 s" in info.value.message
+
+
 def test_impact_after_a_level_is_aimed_to_arrive_at_the_target():
     p = program(
         "stackdsl: 1\nstructure: {tower: {levels: 13}}\n"

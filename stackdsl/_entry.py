@@ -1,23 +1,36 @@
-"""The ``stackdsl`` console script: :func:`stackdsl._cli.main`, loaded under a Ctrl-C guard.
+"""The ``stackdsl`` console script: :func:`stackdsl._cli.main`, loaded with Ctrl-C held back.
 
 The command's modules pull in numpy, scipy, pybullet and shapely, which takes about 0.7 s.
-Ctrl-C in that time ends the command as it does later, "stackdsl: interrupted" and exit
-130, not with a traceback from the import machinery. Source: stackdsl's own.
+A KeyboardInterrupt raised in the middle of that import breaks it in ways no handler can
+catch cleanly (a C extension's initialisation reports it as an ImportError; the
+interpreter may end by the signal after the message), so Ctrl-C is only noted while the
+modules load, and ends the command as it does later: "stackdsl: interrupted", exit 130.
+Source: stackdsl's own.
 """
 
 from __future__ import annotations
 
+import signal
 import sys
+from typing import Any
 
 #: Exit status on Ctrl-C (as :data:`stackdsl._cli.INTERRUPTED`).
 INTERRUPTED = 130
 
 
 def main() -> int:
-    """Load the command and run it; returns the exit status."""
+    """Load the command, then run it unless Ctrl-C came meanwhile; returns the exit status."""
+    pressed: list[int] = []
+
+    def note(signum: int, frame: Any) -> None:
+        pressed.append(signum)
+
+    previous = signal.signal(signal.SIGINT, note)
     try:
         from ._cli import main as run
-    except KeyboardInterrupt:
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if pressed:
         print("stackdsl: interrupted", file=sys.stderr)
         return INTERRUPTED
     return run()

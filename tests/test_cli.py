@@ -382,7 +382,8 @@ def test_ctrl_c_exits_130_without_a_traceback(tmp_path, capsys, monkeypatch):
 def test_ctrl_c_while_the_command_loads_exits_130_without_a_traceback(capsys, monkeypatch):
     class Loading(types.ModuleType):
         def __getattr__(self, name):
-            raise KeyboardInterrupt
+            os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C in the middle of the import
+            return lambda: 0
 
     monkeypatch.setitem(sys.modules, "stackdsl._cli", Loading("stackdsl._cli"))
     assert _entry.main() == 130
@@ -394,7 +395,7 @@ def test_ctrl_c_at_any_moment_of_a_real_command_exits_130(delay, tmp_path):
     # loading the modules takes about 0.7 s, the run 60 s of raw pybullet at 0.1 ms
     slow = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nengine: {mode: raw, timestep: 0.1 ms}\ntiming: {settle: 60 s}\n"
     process = subprocess.Popen(
-        [sys.executable, "-m", "stackdsl", "check", str(write(tmp_path, slow=slow)), "-j", "1"],
+        [str(Path(sys.executable).parent / "stackdsl"), "check", str(write(tmp_path, slow=slow)), "-j", "1"],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,

@@ -380,6 +380,9 @@ def _scalar(node: ScalarNode, path: FieldPath, loader: _Loader, source: SourceMa
     if name == "int" and len(node.value.replace("_", "")) > MAX_INTEGER_CHARS:
         digits = len(node.value.replace("_", ""))
         raise source.error(path, f"an integer written with {digits} digits is too large; a number must fit in a double")
+    surprise = _yaml11_number(node.value) if name in ("int", "float") else None
+    if surprise:
+        raise source.error(path, surprise)
     try:
         value = loader.construct_object(node, deep=True)
     except Exception:  # only PyYAML's converters run here, on a node of a known tag
@@ -388,6 +391,17 @@ def _scalar(node: ScalarNode, path: FieldPath, loader: _Loader, source: SourceMa
     if bad:  # the file's own characters were checked: this one was written as an escape ("\e")
         raise source.error(path, f"{_character_name(bad.group())}, written as an escape, is not allowed in a value")
     return value
+
+
+def _yaml11_number(text: str) -> str | None:
+    """Why a number written as ``text`` is refused: YAML 1.1 reads ``1:30`` as base 60 (90)
+    and ``010`` as octal (8), which no one writing a scenario means; None when it is plain."""
+    digits = text.replace("_", "")
+    if ":" in digits:
+        return f"{text} is a base-60 number in YAML 1.1 (1:30 is 90); write the number itself, or quote it"
+    if re.fullmatch(r"[-+]?0[0-7]+", digits):
+        return f"{text} is an octal number in YAML 1.1 ({text.lstrip('+-')} is {int(digits.lstrip('+-'), 8)}); write it without the leading 0"
+    return None
 
 
 def _tag_problem(tag: str, kind: str) -> str:

@@ -37,8 +37,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from stability import Box, Pose
+from stability import Box, Pose, StabilityConfig
 
+from ._clearance import check_launch
 from ._precheck import Body, precheck
 from ._program import BrickSpec, End, EngineSettings, Fixture, Launch, Place, Program, Rule
 from ._schema import MAX_SIMULATED_TIME, SIDES, AfterLevel, Impact, Scenario
@@ -118,6 +119,9 @@ def compile_scenario(scenario: Scenario, mode: str | None = None, model: str | N
         for b, k in zip(bricks, slots)
     ]
     launches = [_launch(scenario, i, imp, bricks, slots, specs[imp.projectile], dt) for i, imp in enumerate(scenario.impacts)]
+    for i, (imp, launch) in enumerate(zip(scenario.impacts, launches)):
+        present = [(b.id, specs[b.type], b.pose()) for b, k in zip(bricks, slots) if int(k) * per_slot <= launch.step]
+        check_launch(scenario, i, imp, launch, present + [(b.id, specs[b.type], b.pose()) for b in fixed])
     actions = sorted(actions + launches, key=lambda a: (a.step, a.kind != "place"))
     end = actions[-1].time + scenario.timing.settle
     if end > MAX_SIMULATED_TIME:
@@ -126,13 +130,16 @@ def compile_scenario(scenario: Scenario, mode: str | None = None, model: str | N
         raise scenario.source.error(where, f"the run would last {end:.0f} s; at most {MAX_SIMULATED_TIME:.0f} s are simulated")
     actions.append(End(step=actions[-1].step + settle, time=end))
     ground = scenario.material(scenario.ground.material)
+    rules = _rules(bricks, launches)
+    on = {r.name: r.on for r in rules}
+    settings = {**scenario.stability.model_dump(exclude_none=True), **({"model": model} if model else {})}
     program = Program(
         name=scenario.name or "scenario",
         engine=engine,
         ground_friction=ground.friction,
         ground_restitution=ground.restitution,
-        stability={**scenario.stability.model_dump(exclude_none=True), **({"model": model} if model else {})},
-        rules=_rules(bricks, launches),
+        stability=StabilityConfig(**settings, gravity=engine.gravity, leaning=on["leaning"], impacts=on["impacts"]),
+        rules=rules,
         fixtures=tuple(
             Fixture(id=b.id, brick=specs[b.type], position=tuple(b.position), yaw=b.yaw, pitch=b.pitch, roll=b.roll)
             for b in fixed
@@ -175,8 +182,8 @@ def _budget(scenario: Scenario, program: Program) -> None:
     if e.mode != "extension":
         extension = _retimed(program, _engine(scenario, "extension"))
         options.append((("engine", "mode"), "extension (it skips the time in which every brick is frozen)", extension))
-    if program.stability.get("model") == "equilibrium":
-        report = program.model_copy(update={"stability": {**program.stability, "model": "report"}})
+    if program.stability.model == "equilibrium":
+        report = program.model_copy(update={"stability": replace(program.stability, model="report")})
         options.append((("stability", "model"), "the report's model (no linear program each time a brick freezes)", report))
     for path, change, other in options:
         if other.work <= MAX_WORK:

@@ -272,7 +272,7 @@ def _tilted_supports(
     """The pairs ``(brick, support)`` among the candidates where the brick rests on the
     support, by pybullet's closest points: lowered by the rest tolerance, the brick sinks
     deeper into the support at a point below its centre."""
-    from ._runtime import direct_client  # pybullet only when a tilted brick needs it
+    from ._world import direct_client  # pybullet only when a tilted brick needs it
 
     found = []
     with direct_client() as client:

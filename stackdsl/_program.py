@@ -160,7 +160,8 @@ class Program(_Frozen):
         name: the scenario's name.
         engine: pybullet settings.
         ground_friction, ground_restitution: of the ground plane's material.
-        stability: keyword arguments of :class:`stability.StabilityConfig` set by the scenario.
+        stability: the stability extension's settings, fully resolved: the scenario's,
+            the engine's gravity, and the rules this scene needs (``leaning``, ``impacts``).
         rules: the extension's rules this scene needs (model only what a scene needs).
         fixtures: environment bodies, created first.
         collapse_threshold: metres a structure brick may leave its placed pose.
@@ -174,7 +175,7 @@ class Program(_Frozen):
     engine: EngineSettings
     ground_friction: float
     ground_restitution: float
-    stability: dict[str, float | str]
+    stability: StabilityConfig
     rules: tuple[Rule, ...]
     fixtures: tuple[Fixture, ...] = ()
     collapse_threshold: float
@@ -255,8 +256,7 @@ def estimate_work(program: Program) -> Work:
         moving = weight * sum(end - a.step for a in entries)
         resting = float(fixtures * end)
     else:
-        settings = program.stability
-        rest = float(settings.get("rest_duration", StabilityConfig.rest_duration))
+        rest = program.stability.rest_duration
         drop = max((a.drop for a in program.placements), default=0.0)
         active = math.ceil((math.sqrt(2 * drop / e.gravity) + SETTLING + rest) / dt)
         slots: dict[int, int] = {}
@@ -265,7 +265,7 @@ def estimate_work(program: Program) -> Work:
         marks = sorted({*slots, *(a.step for a in entries), end})
         steps = moving = resting = 0.0
         present = fixtures
-        solve = EQUILIBRIUM_SOLVE if settings.get("model") == "equilibrium" else 0.0
+        solve = EQUILIBRIUM_SOLVE if program.stability.model == "equilibrium" else 0.0
         for step, following in itertools.pairwise(marks):
             placed = slots.get(step, 0)
             stepped = min(following - step, active * placed)
@@ -298,7 +298,7 @@ def format_program(program: Program) -> str:
         f"  estimated work {program.work:.2g} body-steps, about {program.wall_estimate:.2g} s of wall time",
     ]
     if e.mode == "extension":
-        lines.append(f"  stability model {program.stability.get('model', 'report')}")
+        lines.append(f"  stability model {program.stability.model}")
         lines += [f"  rule {r.name:<8} {'on ' if r.on else 'off'}  {r.reason}" for r in program.rules]
     if program.floating:
         lines.append(f"  resting on nothing when placed, allowed (allow: [floating]): {', '.join(program.floating)}")

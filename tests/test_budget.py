@@ -5,7 +5,16 @@ from pathlib import Path
 
 import pytest
 
-from stackdsl import ScenarioError, _runtime, compile_scenario, evaluate, load_scenario, parse_scenario, run_program
+from stackdsl import (
+    ScenarioError,
+    _loop,
+    _subscribers,
+    compile_scenario,
+    evaluate,
+    load_scenario,
+    parse_scenario,
+    run_program,
+)
 from stackdsl._bench import SETTINGS, program_for, scenes
 from stackdsl._compiler import MAX_WORK
 from stackdsl._expect import explain
@@ -93,7 +102,7 @@ def test_runaway_scenes_are_refused_at_the_field_to_change(name, monkeypatch):
     def no_simulation(*args, **kwargs):
         raise AssertionError("simulated")
 
-    monkeypatch.setattr(_runtime._Runner, "__init__", no_simulation)
+    monkeypatch.setattr(_loop.StepLoop, "__init__", no_simulation)
     text, field = RUNAWAYS[name]
     err = refusal("stackdsl: 1\n" + text)
     assert err.field == field and err.line is not None, str(err)
@@ -139,13 +148,13 @@ def test_every_shipped_scenario_and_bench_scene_fits_the_budget():
 def test_substeps_are_capped_and_the_cap_is_recorded(monkeypatch):
     # 50 m/s at 240 Hz with a 1 mm threshold would need 209 substeps a step
     seen = []
-    substeps = _runtime._Runner._substeps
+    before_step = _subscribers.Substeps.before_step
 
-    def spy(self):
-        substeps(self)
+    def spy(self, loop):
+        before_step(self, loop)
         seen.append(self.substeps)
 
-    monkeypatch.setattr(_runtime._Runner, "_substeps", spy)
+    monkeypatch.setattr(_subscribers.Substeps, "before_step", spy)
     outcome = run_program(
         program(
             "stackdsl: 1\nstructure: {tower: {levels: 1}}\ncollapse_threshold: 1 mm\ntiming: {settle: 0.5 s}\n"

@@ -3,7 +3,8 @@
 import pybullet
 import pytest
 
-from stackdsl import End, EngineSettings, Launch, Program, _runtime, compile_scenario, parse_scenario, run_program
+from stability import StabilityConfig
+from stackdsl import End, EngineSettings, Launch, Program, _loop, compile_scenario, parse_scenario, run_program
 from stackdsl._compiler import _spec
 from stackdsl._program import Rule
 
@@ -70,7 +71,7 @@ def test_friction_coefficient_of_a_pair_is_the_materials():
         ),
         ground_friction=0.5,
         ground_restitution=0.0,
-        stability={},
+        stability=StabilityConfig(leaning=False, impacts=False),
         rules=(
             Rule(name="basic", on=True, reason=""),
             Rule(name="leaning", on=False, reason=""),
@@ -103,10 +104,10 @@ def test_the_client_is_closed_even_when_the_run_fails(monkeypatch):
     seen = []
 
     def boom(self):
-        seen.append(self.client._client)
+        seen.append(self.world._client._client)
         raise RuntimeError("boom")
 
-    monkeypatch.setattr(_runtime._Runner, "execute", boom)
+    monkeypatch.setattr(_loop.StepLoop, "run", boom)
     with pytest.raises(RuntimeError):
         run(TWO_BRICKS.format(x=0))
     assert seen and not pybullet.isConnected(physicsClientId=seen[0])

@@ -88,6 +88,8 @@ class Structure:
     def __init__(self, world: World) -> None:
         self.world = world
         self.records: dict[str, BrickRecord] = {}
+        self.placed: list[BrickRecord] = []  # the structure bricks, in the order they were placed
+        self.projectiles: list[BrickRecord] = []
         self._by_body: dict[int, BrickRecord] = {}
         self._tops: dict[int, list[BrickRecord]] = {}  # top height in 0.1 mm -> bricks
         self._cached: tuple[tuple[int, ...], np.ndarray, np.ndarray] = ((), np.zeros((0, 8, 3)), np.zeros((0, 8, 3)))
@@ -96,6 +98,7 @@ class Structure:
         """Register a brick that entered the world."""
         self.records[record.id] = record
         self._by_body[record.body] = record
+        (self.placed if record.structure else self.projectiles).append(record)
         if record.structure:
             self._tops.setdefault(round(record.top * 1e4), []).append(record)
 
@@ -104,14 +107,9 @@ class Structure:
         return self._by_body.get(body)
 
     @property
-    def placed(self) -> list[BrickRecord]:
-        """The structure bricks, in the order they were placed."""
-        return [r for r in self.records.values() if r.structure]
-
-    @property
     def levels(self) -> dict[str, int]:
         """Structure brick id -> level."""
-        return {r.id: r.level for r in self.records.values() if r.level is not None}
+        return {r.id: r.level for r in self.placed if r.level is not None}
 
     def sink(self, bottom: float, footprint: Polygon) -> float:
         """How far the placed bricks a new brick will rest on have sunk below their heights

@@ -146,10 +146,8 @@ class Substeps(Subscriber):
         self.substeps = 1
 
     def before_step(self, loop: StepLoop) -> None:
-        records = loop.structure.records.values()
-        fast = [r for r in records if not r.structure] + (
-            [r for r in records if r.structure and r.moving] if self.bricks_too else []
-        )
+        structure = loop.structure
+        fast = structure.projectiles + ([r for r in structure.placed if r.moving] if self.bricks_too else [])
         velocities, _ = loop.world.velocities_of([r.body for r in fast])
         squared = (velocities**2).sum(axis=1)
         speed = float(math.sqrt(squared.max())) if len(fast) else 0.0

@@ -50,6 +50,8 @@ class GraphEdge:
         area: square metres, horizontal projection of the contact area.
         load_share: fraction (0..1) of ``upper``'s mass above passed to ``support``.
         exact: True when the area is the exact face overlap, False for a point hull.
+        polygon: the area's outline, counter-clockwise (x, y) vertices in metres, not
+            repeating the first (the horizontal projection whose area is ``area``).
     """
 
     upper: str
@@ -57,6 +59,7 @@ class GraphEdge:
     area: float
     load_share: float
     exact: bool
+    polygon: tuple[tuple[float, float], ...] = ()
 
 
 @dataclass(frozen=True)

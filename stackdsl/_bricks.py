@@ -35,6 +35,7 @@ class BrickRecord:
         nominal: its pose in the scenario; a brick is placed lower by as much as the
             bricks below it have sunk (:attr:`sink`).
         moving: simulated by the engine (not frozen by the stability extension).
+        was_frozen: the stability extension has frozen it at least once (moving again: woken).
         settled: metres it had moved when last frozen (frozen bricks do not move), or None.
         corners: shape (8, 3), the placed corners in the world, m.
         footprint: the placed horizontal footprint.
@@ -47,6 +48,7 @@ class BrickRecord:
     pose: Pose
     nominal: Pose
     moving: bool = True
+    was_frozen: bool = False
     settled: float | None = None
     box: Box = field(init=False)
     corners: np.ndarray = field(init=False)

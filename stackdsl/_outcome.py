@@ -62,12 +62,15 @@ class Node(_Frozen):
 
 
 class Edge(_Frozen):
-    """``upper`` rests on ``support`` through ``area_mm2``, passing it ``load_share`` of its load."""
+    """``upper`` rests on ``support`` through ``area_mm2``, passing it ``load_share`` of its load;
+    ``polygon_mm`` is the contact area's horizontal outline, (x, y) in mm counter-clockwise
+    (drawn by the brick-graph plot; not part of a golden snapshot)."""
 
     upper: str
     support: str
     area_mm2: float
     load_share: float
+    polygon_mm: tuple[tuple[float, float], ...] = ()
 
 
 class Graph(_Frozen):
@@ -92,7 +95,13 @@ class Graph(_Frozen):
             for n in graph.nodes
         )
         edges = tuple(
-            Edge(upper=e.upper, support=e.support, area_mm2=_round(e.area * 1e6, 1), load_share=_round(e.load_share, 3))
+            Edge(
+                upper=e.upper,
+                support=e.support,
+                area_mm2=_round(e.area * 1e6, 1),
+                load_share=_round(e.load_share, 3),
+                polygon_mm=tuple((_round(x * 1000, 2), _round(y * 1000, 2)) for x, y in e.polygon),
+            )
             for e in graph.edges
         )
         return cls(nodes=nodes, edges=edges)

@@ -59,6 +59,7 @@ class Stability(Subscriber):
             record = records.get(e.label)
             if record is not None and record.structure and e.kind in ("freeze", "wake"):
                 record.moving = e.kind == "wake"
+                record.was_frozen = True
                 record.settled = None if record.moving else float(loop.structure.displacements([record])[0])
             source = records.get(e.source)
             if e.kind != "impact" or (source is not None and not source.structure):

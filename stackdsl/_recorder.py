@@ -13,9 +13,7 @@ A run without a recorder does none of this: recording off is the runtime as it i
 
 >>> import stackdsl
 >>> program = stackdsl.compile_scenario(stackdsl.parse_scenario("stackdsl: 1\\nstructure: {tower: {levels: 2}}"))
->>> recorder = Recorder(program)
->>> outcome = stackdsl.run_program(program, subscribers=(recorder,))
->>> trajectory = recorder.trajectory(outcome)
+>>> outcome, trajectory = record_program(program)  # or attach Recorder(program) to run_program
 >>> from stackdsl._trajectory import STATES
 >>> trajectory.ids.tolist(), [STATES[s] for s in trajectory.at(trajectory.end).states]
 (['L01.1', 'L01.2', 'L02.1', 'L02.2'], ['frozen', 'frozen', 'frozen', 'frozen'])
@@ -36,6 +34,7 @@ from ._bricks import BrickRecord
 from ._loop import StepLoop, Subscriber
 from ._outcome import Outcome
 from ._program import Program
+from ._runtime import run_program
 from ._trajectory import (
     ABSENT,
     ACTIVE,
@@ -209,4 +208,23 @@ class Recorder(Subscriber):
         )
 
 
-__all__ = ["RATE", "Recorder"]
+def record_program(
+    program: Program, rate: float = RATE, *, source: str = "", timeout: float | None = None
+) -> tuple[Outcome, Trajectory]:
+    """Run ``program`` with a :class:`Recorder` attached: its outcome and its trajectory.
+
+    Args:
+        program: a compiled program.
+        rate: frames a simulated second while anything moves (Hz).
+        source: the scenario file, kept in the trajectory.
+        timeout: as :func:`stackdsl.run_program`'s.
+
+    Raises:
+        ValueError: a bad ``rate`` or ``timeout``.
+    """
+    recorder = Recorder(program, rate, source)
+    outcome = run_program(program, timeout=timeout, subscribers=(recorder,))
+    return outcome, recorder.trajectory(outcome)
+
+
+__all__ = ["RATE", "Recorder", "record_program"]

@@ -1,0 +1,156 @@
+"""The recorder and the trajectory file: frames, states, rate, and a faithful round trip."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from stackdsl import compile_scenario, load_scenario, parse_scenario, run_program
+from stackdsl._fake_world import FakeWorld
+from stackdsl._loop import Subscriber
+from stackdsl._recorder import Recorder, record_program
+from stackdsl._runtime import outcome, run_in
+from stackdsl._trajectory import ABSENT, ACTIVE, FALLEN, FROZEN, POSITION_TOLERANCE, STATES, WOKEN, load_trajectory
+
+OVERHANG = "scenarios/hard/overhang_falls.yaml"  # the top brick tips off at level 2
+TOWER = "stackdsl: 1\nstructure: {tower: {levels: 3}}\n"
+
+
+def recorded(path_or_text: str, mode: str | None = None, rate: float = 30.0):
+    scenario = load_scenario(path_or_text) if path_or_text.endswith(".yaml") else parse_scenario(path_or_text)
+    program = compile_scenario(scenario, mode)
+    return (program, *record_program(program, rate))
+
+
+def test_recording_changes_nothing_of_the_outcome():
+    program = compile_scenario(load_scenario(OVERHANG))
+    plain = run_program(program)
+    _, with_recorder, _ = recorded(OVERHANG)
+    assert with_recorder.collapse == plain.collapse and with_recorder.collapse is not None
+    assert with_recorder.final_graph == plain.final_graph
+    assert with_recorder.events == plain.events
+
+
+def test_a_brick_is_absent_before_it_is_placed_and_recorded_where_it_was_placed():
+    program, _, trajectory = recorded(TOWER)
+    for k, a in enumerate(program.placements):
+        i = trajectory.ids.tolist().index(a.id)
+        if k:  # (the first frame is the first placement)
+            before = trajectory.at(a.time - 1e-3)
+            assert before.states[i] == ABSENT and np.isnan(before.positions[i]).all()
+        at = trajectory.at(a.time)
+        assert at.states[i] != ABSENT
+        # placed at rest a drop gap above its pose (less what the bricks below have sunk)
+        assert at.positions[i] == pytest.approx(np.array(a.position) + [0, 0, a.drop], abs=2e-4)
+    assert trajectory.times[0] == pytest.approx(program.placements[0].time)
+
+
+def test_the_last_frame_is_the_engines_end_state_within_the_row_tolerance():
+    _, result, trajectory = recorded(TOWER)
+    end = trajectory.frame(-1)
+    assert end.time == pytest.approx(result.simulated_time)
+    assert [STATES[s] for s in end.states] == ["frozen"] * 6
+    final = {n.id: np.array(n.position_mm) / 1000 for n in result.final_graph.nodes}
+    for i, brick in enumerate(trajectory.ids):
+        assert np.linalg.norm(end.positions[i] - final[str(brick)]) < POSITION_TOLERANCE + 1e-4  # the graph rounds to 0.1 mm
+
+
+def test_frames_follow_the_rate_while_something_moves_and_stop_when_all_rests():
+    _, _, fast = recorded(OVERHANG, rate=30.0)
+    _, _, slow = recorded(OVERHANG, rate=5.0)
+    assert len(slow.times) < len(fast.times)
+    gaps = np.diff(fast.times)
+    assert gaps.min() >= 0
+    # the top brick tips for about a second: frames come at least every 1/30 s then
+    falling = (fast.times > fast.collapse_time) & (fast.times < fast.collapse_time + 0.5)
+    assert np.diff(fast.times[falling]).max() <= 1 / 30 + 1e-9
+    # a standing tower: a few frames a brick (placed, landing, frozen), no frame while all is frozen
+    program, _, tower = recorded(TOWER)
+    waits = np.diff(tower.times)
+    assert waits.max() > 0.5  # the quiet wait for the next placement has no frame
+    assert len(tower.times) < 15 * len(program.placements)
+
+
+def test_states_active_frozen_woken_fallen():
+    _, _, trajectory = recorded(OVERHANG)
+    top = trajectory.ids.tolist().index("top")
+    codes = {int(f.states[top]) for f in trajectory.frames()}
+    assert {ACTIVE, FALLEN} <= codes
+    assert trajectory.frame(-1).states[top] == FALLEN
+    assert trajectory.at(trajectory.collapse_time - 0.5).states[top] != FALLEN
+    base = trajectory.ids.tolist().index("base")
+    assert trajectory.frame(-1).states[base] == FROZEN
+    # the slant tower's top part is woken before it falls: a brick frozen, then woken, is WOKEN
+    _, _, slant = recorded("scenarios/slant_tower.yaml")
+    seen = {int(s) for f in slant.frames() for s in f.states}
+    assert {FROZEN, WOKEN, FALLEN} <= seen
+
+
+def test_raw_mode_records_active_bricks_and_only_while_they_move():
+    _, _, trajectory = recorded(TOWER, mode="raw")
+    assert set(trajectory.frame(-1).states.tolist()) == {ACTIVE}
+    assert np.diff(trajectory.times).max() > 0.5  # pybullet alone comes to rest between placements too
+
+
+def test_a_trajectory_file_round_trip_is_exact(tmp_path):
+    _, _, trajectory = recorded(OVERHANG)
+    path = tmp_path / "run.npz"
+    trajectory.save(path)
+    loaded = load_trajectory(path)
+    for name in (
+        "ids",
+        "levels",
+        "half_extents",
+        "times",
+        "row_frame",
+        "row_body",
+        "row_position",
+        "row_orientation",
+        "row_state",
+    ):
+        assert np.array_equal(getattr(loaded, name), getattr(trajectory, name)), name
+    assert loaded.events == trajectory.events and loaded.graphs == trajectory.graphs and loaded.meta == trajectory.meta
+    # a plain numpy archive: no pickles
+    with np.load(path, allow_pickle=False) as data:
+        assert data["ids"].tolist() == ["base", "top"]
+
+
+def test_a_file_that_is_not_a_trajectory_is_refused(tmp_path):
+    other = tmp_path / "other.npz"
+    np.savez(other, x=np.zeros(3))
+    with pytest.raises(ValueError, match="not a stackdsl trajectory"):
+        load_trajectory(other)
+    text = tmp_path / "text.npz"
+    text.write_text("hello")
+    with pytest.raises(ValueError, match="not a stackdsl trajectory"):
+        load_trajectory(text)
+
+
+@pytest.mark.parametrize("rate", [0, -1, float("nan"), float("inf")])
+def test_a_bad_rate_is_refused(rate):
+    with pytest.raises(ValueError, match="recording rate"):
+        Recorder(compile_scenario(parse_scenario(TOWER)), rate)
+
+
+def test_frames_in_a_fake_world_take_rows_only_for_what_moved():
+    # raw mode on the fake world: nothing moves unless pushed, so after the placements the
+    # trajectory has one row per brick, and a pushed brick gets a row each sampled step
+    program = compile_scenario(parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 1}}\nengine: {mode: raw}\n"))
+    recorder = Recorder(program, rate=1 / (4 * program.engine.timestep))  # a sample every 4 steps
+
+    class Push(Subscriber):
+        def on_place(self, loop, record):
+            if record.id == "L01.2":
+                loop.world.throw(record.body, (0.01, 0.0, 0.0), None)  # 10 mm/s: above the rest speed
+
+    loop = run_in(FakeWorld(timestep=program.engine.timestep), program, subscribers=(Push(), recorder))
+    trajectory = recorder.trajectory(outcome(loop, 0.0))
+    still, pushed = (trajectory.row_body == 0).sum(), (trajectory.row_body == 1).sum()
+    assert still == 1  # placed, never moved
+    moving_steps = loop.step - program.placements[1].step
+    # a row at each sample, plus its placement, the collapse (an event: a frame of its own) and the end
+    assert pushed == pytest.approx(moving_steps / recorder.every + 3, abs=1)
+    placed = program.placements[1]
+    assert trajectory.frame(-1).positions[1][0] == pytest.approx(
+        placed.position[0] + 0.01 * (trajectory.end - placed.time), abs=1e-6
+    )

@@ -617,7 +617,9 @@ class StabilityExtension:
             if load is None:  # the ground: no node, no supports
                 continue
             for s, area in nodes[rec.body].supports.items():
-                edges.append(GraphEdge(rec.label, self._bodies[s].label, area.area, load.shares.get(s, 0.0), area.exact, area.ring))
+                edges.append(
+                    GraphEdge(rec.label, self._bodies[s].label, area.area, load.shares.get(s, 0.0), area.exact, area.ring)
+                )
         return BrickGraph(tuple(graph_nodes), tuple(edges))
 
 

@@ -20,9 +20,10 @@ import os
 import traceback
 from collections.abc import Callable, Generator, Iterable
 from concurrent.futures import Executor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
+from ._artefacts import DRAW_ESTIMATE, DRAW_LIMIT, draw_run
 from ._compiler import compile_scenario
 from ._errors import ScenarioError
 from ._expect import Verdict, describe, evaluate, explain
@@ -30,6 +31,7 @@ from ._loader import file_problem, load_scenario
 from ._outcome import Graph, Outcome
 from ._pool import WorkerLost, WorkerTimedOut, fan_out, on_executor
 from ._program import Program
+from ._recorder import record_program
 from ._runtime import run_program
 from ._schema import Expect
 
@@ -62,6 +64,10 @@ class CheckResult:
             memory, its worker died), else empty; traceback: the exception's traceback, if any.
         stopped: one line when a guard stopped the run before its end (its wall-clock
             limit), else empty.
+        folder: with a report, the folder of the run's files (:mod:`stackdsl._artefacts`);
+            artefacts: kind -> file name in it (trajectory, picture, graph, clip);
+            draw_error: the first file that could not be drawn, one line, else empty;
+            draw_time: wall seconds the drawing took.
     """
 
     file: str
@@ -79,6 +85,10 @@ class CheckResult:
     error: str = ""
     stopped: str = ""
     traceback: str = ""
+    folder: str = ""
+    artefacts: tuple[tuple[str, str], ...] = ()
+    draw_error: str = ""
+    draw_time: float = 0.0
 
     @property
     def passed(self) -> bool:
@@ -209,17 +219,27 @@ def check(
 
 
 def run_checks(
-    prepared: list[Prepared], jobs: int | None = None, executor: Executor | None = None, timeout: float | None = TIMEOUT
+    prepared: list[Prepared],
+    jobs: int | None = None,
+    executor: Executor | None = None,
+    timeout: float | None = TIMEOUT,
+    folders: list[str] | None = None,
 ) -> Generator[CheckResult, None, None]:
-    """:func:`judge` every prepared scenario, yielding results as each finishes (see :func:`check`)."""
-    tasks = [(str(path), program, expect, timeout) for path, program, expect in prepared]
+    """:func:`judge` every prepared scenario, yielding results as each finishes (see
+    :func:`check`); with ``folders`` (one per prepared scenario), each run is recorded and
+    drawn into its folder (:func:`stackdsl._artefacts.draw_run`)."""
+    if folders is not None and len(folders) != len(prepared):
+        raise ValueError(f"{len(folders)} folders for {len(prepared)} scenarios")
+    where: list[str | None] = list(folders) if folders is not None else [None] * len(prepared)
+    tasks = [(str(path), program, expect, timeout, folder) for (path, program, expect), folder in zip(prepared, where)]
     if executor is not None:
         return on_executor(executor, judge, tasks)
     jobs = (os.cpu_count() or 1) if jobs is None else jobs
     if jobs < 1:
         raise ValueError(f"jobs must be at least 1, not {jobs}")
-    costs = [program.wall_estimate for _, program, _ in prepared]  # the compiler's work budget, in seconds
-    limit = None if timeout is None else timeout + KILL_AFTER
+    drawing = DRAW_ESTIMATE if folders else 0.0
+    costs = [program.wall_estimate + drawing for _, program, _ in prepared]  # the compiler's work budget, in seconds
+    limit = None if timeout is None else timeout + KILL_AFTER + (DRAW_LIMIT if folders else 0.0)
     return fan_out(judge, tasks, costs, jobs, limit=limit, lost=lost)
 
 
@@ -277,16 +297,21 @@ def stopped_by(outcome: Outcome) -> str:
     return str(getattr(outcome, "stopped", None) or "")
 
 
-def judge(file: str, program: Program, expect: Expect, timeout: float | None = TIMEOUT) -> CheckResult:
-    """Run one program and check its expectations (the unit of work sent to workers).
+def judge(file: str, program: Program, expect: Expect, timeout: float | None = TIMEOUT, folder: str | None = None) -> CheckResult:
+    """Run one program and check its expectations (the unit of work sent to workers); with
+    ``folder``, record the run and draw its files there (a file that cannot be drawn is
+    the result's ``draw_error``, not a failed expectation).
 
     An exception in the run (MemoryError included) is returned as the result's ``error``,
     with its traceback, not raised; Ctrl-C still interrupts.
     """
     try:
-        outcome = run_guarded(program, timeout)
+        if folder is None:
+            outcome, trajectory = run_guarded(program, timeout), None
+        else:
+            outcome, trajectory = record_program(program, source=file, timeout=timeout)
         stopped = stopped_by(outcome)
-        return CheckResult(
+        result = CheckResult(
             file=file,
             scenario=program.name,
             mode=program.engine.mode,
@@ -301,6 +326,10 @@ def judge(file: str, program: Program, expect: Expect, timeout: float | None = T
             explanation=() if stopped else tuple(explain(expect, outcome, program.collapse_threshold)),
             stopped=stopped,
         )
+        if folder is None or trajectory is None:
+            return result
+        written, draw_error, draw_time = draw_run(trajectory, folder)
+        return replace(result, folder=folder, artefacts=tuple(written.items()), draw_error=draw_error, draw_time=draw_time)
     except MemoryError:
         return failed(file, program, expect, "internal error: out of memory", traceback.format_exc())
     except Exception as exc:
@@ -310,7 +339,7 @@ def judge(file: str, program: Program, expect: Expect, timeout: float | None = T
 
 def lost(task: tuple, error: WorkerLost) -> CheckResult:
     """The result of a task (as :func:`judge` takes it) whose worker died or was stopped."""
-    file, program, expect, timeout = task
+    file, program, expect, timeout, _ = task
     if isinstance(error, WorkerTimedOut):
         return failed(file, program, expect, stopped=f"timeout after {timeout:g} s (the run did not stop; its worker was ended)")
     return failed(file, program, expect, f"internal error: {error} running this scenario")

@@ -23,8 +23,10 @@ import traceback
 from pathlib import Path
 from typing import Any
 
+from ._artefacts import folder_name
 from ._bench import SETTINGS, format_solve_times, run_matrix, savings, scenes, solve_times, write_outputs
 from ._check import TIMEOUT, CheckResult, ScenarioErrors, discover, prepare, run_checks, run_guarded, select, stopped_by, tabulate
+from ._cli_draw import add_commands, add_record_options
 from ._compiler import MODE_DEFAULTS, compile_scenario
 from ._errors import ScenarioError
 from ._expect import describe, evaluate
@@ -220,6 +222,12 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--mode", choices=modes, help="override every scenario's engine mode")
     p.add_argument("-x", "--exitfirst", action="store_true", help="stop after the first failure (runs not started are cancelled)")
     p.add_argument("--junit-xml", metavar="FILE", help="also write JUnit XML to FILE: one testcase per scenario")
+    p.add_argument(
+        "--report",
+        metavar="DIR",
+        help="also record every run and write DIR/index.html: a row per scenario (failures first) with a picture at "
+        "the collapse or the end, the timeline, a clip and a brick-graph plot, then a summary (made if missing)",
+    )
     p.set_defaults(func=_check)
 
     p = sub.add_parser(
@@ -256,7 +264,10 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--json", action="store_true", help="print the whole Outcome as JSON (exit 1 still means a failed expectation)"
     )
+    add_record_options(p)
     p.set_defaults(func=_run)
+
+    add_commands(sub, [one, guarded], one_status)
 
     default_out = Path(tempfile.gettempdir()) / "stackdsl-bench"
     p = sub.add_parser(
@@ -278,7 +289,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--quick", action="store_true", help="one small cell per setting (a smoke test)")
     p.add_argument("-j", "--jobs", type=jobs_type, default=str(min(2, os.cpu_count() or 1)), help="worker processes")
     p.set_defaults(func=_bench)
-    bench = p.add_subparsers(metavar="[solve | hard]", title="other benchmarks (optional)")
+    bench = p.add_subparsers(metavar="[solve | hard | record]", title="other benchmarks (optional)")
     q = bench.add_parser("solve", help="equilibrium solve time for towers of 10 to 100 bricks")
     q.add_argument("--sizes", default="10,25,50,100", help="bricks per tower, comma-separated")
     q.add_argument("--repeats", type=int, default=5)
@@ -289,6 +300,11 @@ def _parser() -> argparse.ArgumentParser:
     q.add_argument("folder", nargs="?", default="scenarios/hard")
     q.add_argument("-j", "--jobs", type=jobs_type, default="auto", help="runs at the same time (default: one per core)")
     q.set_defaults(func=_bench_hard)
+    q = bench.add_parser("record", help="what recording costs: the 30-level tower with recording off and on, alternately")
+    q.add_argument("scenario", nargs="?", default="scenarios/four_stack.yaml")
+    q.add_argument("--repeats", type=int, default=7, help="runs of each setting (default: 7)")
+    q.add_argument("--mode", choices=modes, help="override the scenario's engine mode")
+    q.set_defaults(func=_bench_record)
 
     p = sub.add_parser(
         "schema",
@@ -305,14 +321,23 @@ def _check(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     if args.junit_xml and not Path(args.junit_xml).parent.is_dir():
         raise ScenarioError("no such folder for the JUnit XML file", file=args.junit_xml)
+    report = Path(args.report) if args.report else None
+    if report is not None and report.exists() and not report.is_dir():
+        raise ScenarioError("the report must go to a folder, and this is a file", file=args.report)
     prepared = select(prepare(discover(args.paths), args.mode, model=args.model), args.pattern)  # bad input raises here
+    folders = None
+    if report is not None:
+        report.mkdir(parents=True, exist_ok=True)
+        taken: set[str] = set()
+        base = os.path.commonpath([path.resolve().parent for path, _, _ in prepared])  # names relative to it
+        folders = [str(report / folder_name(os.path.relpath(path.resolve(), base), taken=taken)) for path, _, _ in prepared]
     results: list[CheckResult] = []
     commands: list[str] = []
     stream = sys.stderr if args.json else sys.stdout  # with --json only the progress line, on a terminal
     with Lines(len(prepared), "check", file=stream, live=is_live(stream)) as lines:
         if not args.json:
             lines.line(HEADER)
-        runs = run_checks(prepared, args.jobs, timeout=args.timeout)
+        runs = run_checks(prepared, args.jobs, timeout=args.timeout, folders=folders)
         try:
             for r in runs:
                 results.append(r)
@@ -335,6 +360,12 @@ def _check(args: argparse.Namespace) -> int:
     if args.junit_xml:
         ran = {r.file for r in results}
         junit_xml(results, commands, [str(path) for path, _, _ in prepared if str(path) not in ran], wall, args.junit_xml)
+    if report is not None:
+        from ._htmlreport import write_report
+
+        page = write_report(results, report, total=len(prepared), wall=wall, commands=commands, argv=sys.argv[1:] or ["check"])
+        drawn = [r for r in results if r.draw_error]
+        print(f"report: {page}" + (f" ({len(drawn)} runs not fully drawn: {drawn[0].draw_error})" if drawn else ""), file=stream)
     if args.json:
         print(json.dumps(json_document("check", results, commands, len(prepared), wall), indent=2))
     else:
@@ -415,7 +446,22 @@ def _compile(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.file)
     program = compile_scenario(scenario, args.mode, args.model)
-    outcome = run_guarded(program, args.timeout)
+    if args.record:
+        record = Path(args.record)
+        if not record.parent.is_dir() or record.is_dir():
+            raise ScenarioError(
+                "no such folder for the trajectory file" if not record.parent.is_dir() else "a folder", file=args.record
+            )
+        from ._recorder import record_program
+
+        outcome, trajectory = record_program(program, args.rate, source=args.file, timeout=args.timeout)
+        trajectory.save(record)
+        print(
+            f"wrote {record}: {len(trajectory.times)} frames of {len(trajectory.ids)} bodies",
+            file=sys.stderr if args.json else sys.stdout,
+        )
+    else:
+        outcome = run_guarded(program, args.timeout)
     stopped = stopped_by(outcome)
     verdicts = evaluate(scenario.expect, outcome, program.collapse_threshold)
     if args.json:
@@ -496,6 +542,15 @@ def _bench_hard(args: argparse.Namespace) -> int:
     print(format_wall(thrown_at_wall()), end="\n\n", flush=True)
     print(format_limits(leaning_limits()), end="\n\n")
     print(f"({time.perf_counter() - start:.0f} s wall)")
+    return OK
+
+
+def _bench_record(args: argparse.Namespace) -> int:
+    from ._bench_record import format_record_costs, record_costs
+
+    if args.repeats < 1:
+        raise ScenarioError(f"--repeats must be at least 1, not {args.repeats}", file="--repeats")
+    print(format_record_costs(record_costs(args.scenario, args.repeats, args.mode), args.scenario))
     return OK
 
 

@@ -1,0 +1,222 @@
+"""The drawing commands of ``stackdsl``: render, animate, graph.
+
+Each draws from a trajectory: a scenario file (``.yaml``) is run with a recorder first; a
+trajectory file (``.npz``, from ``stackdsl run FILE --record PATH``) is read as it is.
+
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+from typing import Any
+
+from ._errors import ScenarioError
+from ._recorder import RATE
+
+#: Suffixes of trajectory files; anything else is read as a scenario.
+TRAJECTORY_SUFFIXES = (".npz",)
+
+
+def at_type(text: str) -> str | float:
+    """``--at``: ``collapse``, ``end`` or a number of seconds at or above 0.
+
+    Raises:
+        argparse.ArgumentTypeError: anything else (a usage error, exit 2).
+    """
+    word = text.strip().lower()
+    if word in ("collapse", "end"):
+        return word
+    try:
+        seconds = float(word.removesuffix("s").strip())
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not 'collapse', 'end' or a number of seconds") from None
+    if not 0 <= seconds < math.inf:
+        raise argparse.ArgumentTypeError(f"{text} is not a number of seconds at or above 0")
+    return seconds
+
+
+def rate_type(text: str) -> float:
+    """``--rate``: frames a simulated second, a number above 0.
+
+    Raises:
+        argparse.ArgumentTypeError: anything else (a usage error, exit 2).
+    """
+    try:
+        rate = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of frames a second") from None
+    if not 0 < rate < math.inf:
+        raise argparse.ArgumentTypeError(f"{text} is not a number of frames a second above 0")
+    return rate
+
+
+def add_commands(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -> None:
+    """Add render, animate and graph to the ``stackdsl`` parser's subcommands; ``parents``
+    give --debug, --timeout, --mode and --model."""
+    raw = argparse.RawDescriptionHelpFormatter
+    source = "FILE: a scenario (run and recorded first) or a trajectory file (.npz) from 'stackdsl run FILE --record PATH'."
+
+    p = sub.add_parser(
+        "render",
+        parents=parents,
+        help="draw a picture of a run: bricks coloured by state, with a scale bar",
+        description="Draw the scene at one moment as a PNG, framed on the structure, bricks coloured by state "
+        "(frozen, active, woken, fallen), with the ground, fixed bodies and a scale bar. " + source,
+        epilog=epilog,
+        formatter_class=raw,
+    )
+    p.add_argument(
+        "--at",
+        type=at_type,
+        default=None,
+        metavar="collapse|end|SECONDS",
+        help="when: just after the first collapse, when its bricks are seen falling; the end; or a time in seconds "
+        "(default: collapse if the structure collapsed, else end)",
+    )
+    p.add_argument("-o", "--output", required=True, metavar="OUT.png", help="the picture to write")
+    p.add_argument("--size", default="800x600", metavar="WxH", help="pixels (default: 800x600)")
+    p.set_defaults(func=_render)
+
+    p = sub.add_parser(
+        "animate",
+        parents=parents,
+        help="make a clip of a run (GIF or MP4)",
+        description="A clip of the run from the first placement to the end (2 s after a collapse), in real time "
+        "while anything moves, the quiet waits between placements shortened. " + source,
+        epilog=epilog,
+        formatter_class=raw,
+    )
+    p.add_argument("-o", "--output", required=True, metavar="OUT.gif|OUT.mp4", help="the clip to write")
+    p.add_argument("--fps", type=rate_type, default=30.0, help="frames a second of the clip (default: 30)")
+    p.add_argument("--size", default="480x360", metavar="WxH", help="pixels (default: 480x360)")
+    p.set_defaults(func=_animate)
+
+    p = sub.add_parser(
+        "graph",
+        parents=parents,
+        help="plot the brick graph: rests-on edges, load shares, centres of mass against support polygons",
+        description="Plot the brick graph as a PNG: who rests on whom with the share of the load each support "
+        "takes, and each brick's centre of mass above against its support polygon. " + source,
+        epilog=epilog,
+        formatter_class=raw,
+    )
+    p.add_argument(
+        "--at",
+        choices=["collapse", "end"],
+        default=None,
+        help="the graph at the first collapse or at the end (default: collapse if the structure collapsed, else end)",
+    )
+    p.add_argument("-o", "--output", required=True, metavar="OUT.png", help="the plot to write")
+    p.set_defaults(func=_graph)
+
+
+def add_record_options(p: argparse.ArgumentParser) -> None:
+    """``run``'s --record and --rate."""
+    p.add_argument(
+        "--record",
+        metavar="OUT.npz",
+        help="also write the trajectory: every brick's pose and state at each placement and event, and every "
+        "1/RATE s while anything moves (read it with stackdsl.load_trajectory)",
+    )
+    p.add_argument(
+        "--rate",
+        type=rate_type,
+        default=RATE,
+        metavar="HZ",
+        help=f"frames a simulated second while anything moves (default: {RATE:g})",
+    )
+
+
+def trajectory_of(args: argparse.Namespace) -> Any:
+    """The trajectory ``args.file`` names: read, or run and recorded (with ``args.mode``,
+    ``args.model``, ``args.timeout``).
+
+    Raises:
+        ScenarioError: a bad scenario, or a file that is not a trajectory.
+    """
+    from ._compiler import compile_scenario
+    from ._loader import load_scenario
+    from ._recorder import record_program
+    from ._trajectory import load_trajectory
+
+    path = Path(args.file)
+    if path.suffix.lower() in TRAJECTORY_SUFFIXES:
+        if args.mode or args.model:
+            raise ScenarioError("--mode and --model apply to a scenario, not to a recorded trajectory", file=args.file)
+        try:
+            return load_trajectory(path)
+        except (OSError, ValueError) as exc:
+            raise ScenarioError(str(exc).removeprefix(f"{path}: "), file=args.file) from None
+    program = compile_scenario(load_scenario(path), args.mode, args.model)
+    _, trajectory = record_program(program, source=args.file, timeout=args.timeout)
+    return trajectory
+
+
+def size_of(text: str, option: str = "--size") -> tuple[int, int]:
+    """``'800x600'`` -> (800, 600); each side 16 to 4096 pixels.
+
+    Raises:
+        ScenarioError: anything else (exit 2).
+    """
+    try:
+        width, height = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise ScenarioError(f"{text!r} is not WIDTHxHEIGHT in pixels, such as 800x600", file=option) from None
+    if not (16 <= width <= 4096 and 16 <= height <= 4096):
+        raise ScenarioError(f"{text}: each side must be 16 to 4096 pixels", file=option)
+    return width, height
+
+
+def _output(args: argparse.Namespace, suffixes: tuple[str, ...]) -> Path:
+    out = Path(args.output)
+    if out.suffix.lower() not in suffixes:
+        raise ScenarioError(f"the output must end in {' or '.join(suffixes)}", file=args.output)
+    if not out.parent.is_dir():
+        raise ScenarioError("no such folder for the output", file=args.output)
+    return out
+
+
+def _render(args: argparse.Namespace) -> int:
+    from ._render import picture
+
+    out = _output(args, (".png",))
+    width, height = size_of(args.size)
+    trajectory = trajectory_of(args)
+    at = args.at or ("collapse" if trajectory.collapse_time is not None else "end")
+    try:
+        picture(trajectory, at, out, width=width, height=height)
+    except ValueError as exc:  # --at collapse with no collapse, a time past the end
+        raise ScenarioError(str(exc), file="--at") from None
+    print(f"wrote {out}")
+    return 0
+
+
+def _animate(args: argparse.Namespace) -> int:
+    from ._animate import animate
+
+    out = _output(args, (".gif", ".mp4"))
+    width, height = size_of(args.size)
+    trajectory = trajectory_of(args)
+    try:
+        animate(trajectory, out, fps=args.fps, width=width, height=height)
+    except ValueError as exc:  # a GIF above 50 frames a second
+        raise ScenarioError(str(exc), file="--fps") from None
+    print(f"wrote {out}")
+    return 0
+
+
+def _graph(args: argparse.Namespace) -> int:
+    from ._graphplot import plot_graph
+
+    out = _output(args, (".png",))
+    trajectory = trajectory_of(args)
+    at = args.at or ("collapse" if "collapse" in trajectory.graphs else "end")
+    if at == "collapse" and "collapse" not in trajectory.graphs:
+        raise ScenarioError("nothing collapsed in this run: there is no graph at the collapse (use --at end)", file="--at")
+    graph = trajectory.graphs["collapse" if at == "collapse" else "final"]
+    plot_graph(graph, out, title=f"{trajectory.meta.get('scenario', '')}: brick graph at the {at}")
+    print(f"wrote {out}")
+    return 0

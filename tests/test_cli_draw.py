@@ -1,0 +1,167 @@
+"""The commands that keep or draw a run: run --record, render, animate, graph, bench record."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from stackdsl import _cli
+from stackdsl._cli import main
+from stackdsl._trajectory import load_trajectory
+
+STANDS = "stackdsl: 1\nname: small tower\nstructure: {tower: {levels: 2}}\nexpect: {stands: true}\n"
+TIPS = "stackdsl: 1\nstructure:\n  bricks:\n    - {id: base, at: [0, 0, 4 mm]}\n    - {id: top, at: [60.5 mm, 0, 12 mm]}\n"
+
+
+@pytest.fixture
+def files(tmp_path):
+    (tmp_path / "stands.yaml").write_text(STANDS)
+    (tmp_path / "tips.yaml").write_text(TIPS)
+    return tmp_path
+
+
+def pixels(path) -> np.ndarray:
+    with Image.open(path) as image:
+        return np.asarray(image.convert("RGB"))
+
+
+def test_run_record_writes_a_trajectory_that_loads_and_keeps_the_verdict(files, capsys):
+    out = files / "run.npz"
+    assert main(["run", str(files / "stands.yaml"), "--record", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "PASS  expected stands" in printed and f"wrote {out}: " in printed
+    trajectory = load_trajectory(out)
+    assert trajectory.ids.tolist() == ["L01.1", "L01.2", "L02.1", "L02.2"]
+    assert trajectory.meta["file"] == str(files / "stands.yaml") and trajectory.meta["rate"] == 30
+    assert [e.kind for e in trajectory.events].count("place") == 4
+    # a lower rate takes fewer frames; the JSON outcome stays alone on stdout
+    slow = files / "slow.npz"
+    assert main(["run", str(files / "tips.yaml"), "--record", str(slow), "--rate", "5", "--json"]) == 0
+    captured = capsys.readouterr()
+    assert captured.out.lstrip().startswith("{") and "wrote" in captured.err
+    main(["run", str(files / "tips.yaml"), "--record", str(out)])
+    assert len(load_trajectory(slow).times) < len(load_trajectory(out).times)
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--record", "{tmp}/missing/run.npz"], "no such folder for the trajectory file"),
+        (["--record", "{tmp}/run.npz", "--rate", "0"], "not a number of frames a second above 0"),
+    ],
+)
+def test_run_record_bad_options_simulate_nothing(files, capsys, monkeypatch, args, message):
+    def never(*a, **k):
+        raise AssertionError("simulated")
+
+    monkeypatch.setattr("stackdsl._recorder.run_program", never)
+    argv = ["run", str(files / "stands.yaml"), *(a.replace("{tmp}", str(files)) for a in args)]
+    try:
+        status = main(argv)
+    except SystemExit as exc:  # argparse's usage errors
+        status = exc.code
+    assert status == 2
+    assert message in capsys.readouterr().err
+
+
+def test_render_from_a_scenario_or_its_trajectory_is_the_same_picture(files, capsys):
+    direct, replayed, npz = files / "a.png", files / "b.png", files / "tips.npz"
+    assert main(["render", str(files / "tips.yaml"), "-o", str(direct)]) == 0
+    assert main(["run", str(files / "tips.yaml"), "--record", str(npz)]) == 0
+    assert main(["render", str(npz), "-o", str(replayed)]) == 0
+    assert "wrote" in capsys.readouterr().out
+    first, second = pixels(direct), pixels(replayed)
+    assert first.shape == (600, 800, 3) and np.array_equal(first, second)  # pybullet repeats a run bitwise
+
+
+def test_render_at_a_time_and_a_size(files):
+    out = files / "x.png"
+    assert main(["render", str(files / "stands.yaml"), "--at", "1.5", "--size", "320x240", "-o", str(out)]) == 0
+    assert pixels(out).shape == (240, 320, 3)
+    assert main(["render", str(files / "stands.yaml"), "--at", "end", "-o", str(out)]) == 0
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--at", "collapse"], "did not collapse"),
+        (["--at", "99"], "outside the run"),
+        (["--size", "big"], "is not WIDTHxHEIGHT"),
+        (["--size", "8x8"], "16 to 4096 pixels"),
+        (["-o", "{tmp}/x.jpg"], "the output must end in .png"),
+        (["-o", "{tmp}/missing/x.png"], "no such folder for the output"),
+        (["--at", "soon"], "is not 'collapse', 'end' or a number of seconds"),
+    ],
+)
+def test_render_refuses_bad_requests_with_exit_2(files, capsys, args, message):
+    argv = ["render", str(files / "stands.yaml"), "-o", str(files / "x.png")]
+    argv += [a.replace("{tmp}", str(files)) for a in args]
+    try:
+        status = main(argv)
+    except SystemExit as exc:
+        status = exc.code
+    assert status == 2
+    assert message in capsys.readouterr().err
+    assert not (files / "x.png").exists()
+
+
+def test_a_file_that_is_not_a_trajectory_and_mode_on_a_trajectory_are_bad_input(files, capsys):
+    (files / "junk.npz").write_bytes(b"junk")
+    assert main(["render", str(files / "junk.npz"), "-o", str(files / "x.png")]) == 2
+    assert "not a stackdsl trajectory" in capsys.readouterr().err
+    main(["run", str(files / "stands.yaml"), "--record", str(files / "t.npz")])
+    assert main(["render", str(files / "t.npz"), "--mode", "raw", "-o", str(files / "x.png")]) == 2
+    assert "--mode and --model apply to a scenario" in capsys.readouterr().err
+
+
+def test_animate_writes_a_gif_and_an_mp4(files):
+    gif, mp4 = files / "x.gif", files / "x.mp4"
+    assert main(["animate", str(files / "tips.yaml"), "-o", str(gif), "--size", "160x120"]) == 0
+    with Image.open(gif) as image:
+        assert image.n_frames > 10 and image.size == (160, 120)
+    assert main(["animate", str(files / "tips.yaml"), "-o", str(mp4), "--size", "160x120"]) == 0
+    assert mp4.read_bytes()[4:8] == b"ftyp"  # an MP4 container
+
+
+@pytest.mark.parametrize(("args", "message"), [(["-o", "{tmp}/x.avi"], ".gif or .mp4"), (["--fps", "60"], "at most 50")])
+def test_animate_refuses_bad_requests_with_exit_2(files, capsys, args, message):
+    argv = ["animate", str(files / "tips.yaml"), "-o", str(files / "x.gif"), *(a.replace("{tmp}", str(files)) for a in args)]
+    assert main(argv) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_graph_plots_the_collapse_by_default_and_refuses_a_collapse_that_did_not_happen(files, capsys):
+    out = files / "g.png"
+    assert main(["graph", str(files / "tips.yaml"), "-o", str(out)]) == 0
+    assert pixels(out).shape[0] > 300
+    assert main(["graph", str(files / "stands.yaml"), "--at", "collapse", "-o", str(out)]) == 2
+    assert "nothing collapsed in this run" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("command", ["render", "animate", "graph"])
+def test_drawing_commands_have_exit_statuses_in_their_help(command, capsys):
+    with pytest.raises(SystemExit):
+        main([command, "--help"])
+    out = capsys.readouterr().out
+    assert "exit status:" in out and "2    bad input" in out and "a trajectory file (.npz)" in out
+
+
+def test_bench_record_times_recording_off_and_on_alternately(files, capsys):
+    assert main(["bench", "record", str(files / "stands.yaml"), "--repeats", "2"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].endswith("2 runs each, alternating, in one process")
+    rows = {line.split("  ")[0]: line for line in lines[2:]}
+    assert set(rows) == {"recording off", "recording at 30 Hz while moving", "recording every step while moving"}
+    assert " 1.000 " in rows["recording off"]
+    assert main(["bench", "record", str(files / "stands.yaml"), "--repeats", "0"]) == 2
+
+
+def test_the_drawing_modules_load_only_when_a_drawing_command_runs():
+    import subprocess
+    import sys
+
+    code = "import sys, stackdsl._cli; print(sorted({'stackdsl._render', 'stackdsl._animate', 'stackdsl._graphplot'} & set(sys.modules)))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
+    assert _cli.main  # the command module itself loads

@@ -5,6 +5,7 @@ Data flows one way, one module per step::
     load_scenario(path)        YAML -> Scenario         (_loader)
     compile_scenario(scenario) Scenario -> Program      (_compiler)
     run_program(program)       Program -> Outcome       (_runtime, with stability/)
+    record_program(program)    Program -> Outcome, Trajectory  (_recorder: every brick's pose and state)
     evaluate(expect, outcome)  Outcome -> verdicts      (_expect)
     check(paths)               all of it over files     (_check)
 
@@ -27,8 +28,10 @@ if TYPE_CHECKING:
     from ._loader import load_scenario, parse_scenario
     from ._outcome import Collapse, Event, Graph, Outcome
     from ._program import End, EngineSettings, Launch, Place, Program, format_program
+    from ._recorder import Recorder, record_program
     from ._runtime import run_program
     from ._schema import Scenario
+    from ._trajectory import Frame, Trajectory, load_trajectory
 
 #: Where each public name lives. The modules load on first use, so that the ``stackdsl``
 #: command can take Ctrl-C while numpy, pybullet and shapely load (about 0.7 s).
@@ -53,8 +56,13 @@ _HOME = {
     "Place": "_program",
     "Program": "_program",
     "format_program": "_program",
+    "Recorder": "_recorder",
+    "record_program": "_recorder",
     "run_program": "_runtime",
     "Scenario": "_schema",
+    "Frame": "_trajectory",
+    "Trajectory": "_trajectory",
+    "load_trajectory": "_trajectory",
 }
 
 __all__ = [
@@ -64,21 +72,26 @@ __all__ = [
     "End",
     "EngineSettings",
     "Event",
+    "Frame",
     "Graph",
     "Launch",
     "Outcome",
     "Place",
     "Program",
+    "Recorder",
     "Scenario",
     "ScenarioError",
     "ScenarioErrors",
+    "Trajectory",
     "Verdict",
     "check",
     "compile_scenario",
     "evaluate",
     "format_program",
     "load_scenario",
+    "load_trajectory",
     "parse_scenario",
+    "record_program",
     "run_program",
 ]
 

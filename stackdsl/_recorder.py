@@ -14,8 +14,7 @@ A run without a recorder does none of this: recording off is the runtime as it i
 >>> import stackdsl
 >>> program = stackdsl.compile_scenario(stackdsl.parse_scenario("stackdsl: 1\\nstructure: {tower: {levels: 2}}"))
 >>> outcome, trajectory = record_program(program)  # or attach Recorder(program) to run_program
->>> from stackdsl._trajectory import STATES
->>> trajectory.ids.tolist(), [STATES[s] for s in trajectory.at(trajectory.end).states]
+>>> trajectory.ids.tolist(), trajectory.at(trajectory.end).state_names
 (['L01.1', 'L01.2', 'L02.1', 'L02.2'], ['frozen', 'frozen', 'frozen', 'frozen'])
 
 Source: stackdsl's own.

@@ -13,7 +13,7 @@ array is a number or text array, no pickles)::
     trajectory = stackdsl.load_trajectory("out.npz")
     frame = trajectory.at(trajectory.collapse_time or trajectory.end)
     frame.positions        # (bodies, 3), metres
-    frame.states           # (bodies,), codes of STATES
+    frame.states           # (bodies,), codes of STATES; frame.state_names: the same as words
 
 Source: stackdsl's own.
 """
@@ -60,6 +60,11 @@ class Frame:
     positions: np.ndarray
     orientations: np.ndarray
     states: np.ndarray
+
+    @property
+    def state_names(self) -> list[str]:
+        """Each body's state by name: ``"absent"``, ``"active"``, ``"frozen"``, ``"woken"`` or ``"fallen"``."""
+        return [STATES[s] for s in self.states]
 
 
 @dataclass(frozen=True)

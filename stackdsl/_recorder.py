@@ -25,7 +25,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from stability import Pose
 
@@ -47,6 +46,7 @@ from ._trajectory import (
 
 #: Frames a simulated second while anything moves, by default.
 RATE = 30.0
+_COS_HALF_TOLERANCE = math.cos(ANGLE_TOLERANCE / 2.0)
 
 
 class Recorder(Subscriber):
@@ -133,9 +133,9 @@ class Recorder(Subscriber):
         chosen = [records[i] for i in watched]
         positions, quaternions = loop.world.poses_of([r.body for r in chosen])
         states = self._states(loop, chosen)
-        last_q = Rotation.from_quat(self._last_orientation[watched])
         moved = ((positions - self._last_position[watched]) ** 2).sum(axis=1) > POSITION_TOLERANCE**2
-        turned = (last_q.inv() * Rotation.from_quat(quaternions)).magnitude() > ANGLE_TOLERANCE
+        # turned by more than the tolerance: cos(angle / 2) = |q . q0| for unit quaternions
+        turned = np.abs((quaternions * self._last_orientation[watched]).sum(axis=1)) < _COS_HALF_TOLERANCE
         changed = moved | turned | (states != self._last_state[watched]) | np.isnan(self._last_position[watched, 0])
         bodies = watched[changed]
         self._last_position[bodies], self._last_orientation[bodies] = positions[changed], quaternions[changed]

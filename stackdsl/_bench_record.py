@@ -6,6 +6,10 @@ with the recorder at its default rate and with a frame at every physics step, ``
 times each, in this one process; the medians and their ratios to "off" are the result.
 Alternating spreads the machine's drift over every setting alike.
 
+With ``--before PYTHON`` it also times the same check in another stackdsl install (the
+virtualenv of an older commit, say) and in this one, round after round, so that "recording
+off costs nothing" is measured against the code from before recording existed.
+
 Source: stackdsl's own.
 """
 
@@ -92,4 +96,56 @@ def format_record_costs(rows: list[RecordCost], scenario: str) -> str:
         size = f"{r.size / 1024:.0f} KiB" if r.size else "-"
         runs = " ".join(f"{t:.3f}" for t in r.runs)
         lines.append(f"{r.setting:<38} {r.wall:>10.3f} s {r.wall / base:>13.3f} {r.frames or '-':>7} {size:>9}   {runs}")
+    return "\n".join(lines)
+
+
+#: The check timed in each interpreter by :func:`before_and_after` (a program text, run with ``python -c``).
+_TIMED_CHECK = """
+import statistics, sys, time, stackdsl
+path, runs = sys.argv[1], int(sys.argv[2])
+list(stackdsl.check([path], jobs=1))  # warm-up: imports, caches
+for _ in range(runs):
+    start = time.perf_counter()
+    results = list(stackdsl.check([path], jobs=1))
+    print(f"{time.perf_counter() - start:.6f}")
+"""
+
+
+def before_and_after(
+    before: str, scenario: str | Path = "scenarios/four_stack.yaml", rounds: int = 10, runs: int = 5
+) -> dict[str, list[float]]:
+    """Time ``stackdsl.check([scenario])`` (one job, in-process, so without the command's start-up)
+    in another install's Python (``before``: e.g. the virtualenv of an older commit) and in this
+    one, ``runs`` times each per round, the two alternating for ``rounds`` rounds.
+
+    Returns:
+        ``{"before": seconds, "after": seconds}``, every run.
+
+    Raises:
+        subprocess.CalledProcessError: an interpreter failed (not a stackdsl, a bad scenario).
+        ValueError: ``rounds`` or ``runs`` below 1.
+    """
+    import subprocess
+    import sys
+
+    if rounds < 1 or runs < 1:
+        raise ValueError(f"rounds and runs must be at least 1, not {rounds} and {runs}")
+    path = str(Path(scenario).resolve())
+    times: dict[str, list[float]] = {"before": [], "after": []}
+    for _ in range(rounds):
+        for name, python in (("before", before), ("after", sys.executable)):
+            out = subprocess.run(
+                [python, "-c", _TIMED_CHECK, path, str(runs)], capture_output=True, text=True, check=True, cwd=Path(path).parent
+            )
+            times[name] += [float(x) for x in out.stdout.split()]
+    return times
+
+
+def format_before_and_after(times: dict[str, list[float]], before: str, scenario: str) -> str:
+    """The medians, quartiles and the ratio after / before, as lines."""
+    lines = [f"{scenario}: check in-process, {len(times['after'])} runs each, alternating rounds"]
+    for name, label in (("before", f"before ({before})"), ("after", "after (this stackdsl, recording off)")):
+        q = statistics.quantiles(times[name], n=4) if len(times[name]) > 1 else [times[name][0]] * 3
+        lines.append(f"  {label}: median {statistics.median(times[name]):.3f} s, quartiles {q[0]:.3f}-{q[2]:.3f} s")
+    lines.append(f"  ratio after / before: {statistics.median(times['after']) / statistics.median(times['before']):.3f}")
     return "\n".join(lines)

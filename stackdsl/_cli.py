@@ -304,6 +304,13 @@ def _parser() -> argparse.ArgumentParser:
     q.add_argument("scenario", nargs="?", default="scenarios/four_stack.yaml")
     q.add_argument("--repeats", type=int, default=7, help="runs of each setting (default: 7)")
     q.add_argument("--mode", choices=modes, help="override the scenario's engine mode")
+    q.add_argument(
+        "--before",
+        metavar="PYTHON",
+        help="also time the check in another stackdsl's Python (e.g. the virtualenv of an older commit) and in this one, "
+        "alternately, and print the ratio",
+    )
+    q.add_argument("--rounds", type=int, default=10, help="with --before: alternating rounds of --repeats runs (default: 10)")
     q.set_defaults(func=_bench_record)
 
     p = sub.add_parser(
@@ -550,7 +557,14 @@ def _bench_record(args: argparse.Namespace) -> int:
 
     if args.repeats < 1:
         raise ScenarioError(f"--repeats must be at least 1, not {args.repeats}", file="--repeats")
-    print(format_record_costs(record_costs(args.scenario, args.repeats, args.mode), args.scenario))
+    print(format_record_costs(record_costs(args.scenario, args.repeats, args.mode), args.scenario), flush=True)
+    if args.before:
+        from ._bench_record import before_and_after, format_before_and_after
+
+        if args.rounds < 1:
+            raise ScenarioError(f"--rounds must be at least 1, not {args.rounds}", file="--rounds")
+        times = before_and_after(args.before, args.scenario, args.rounds, args.repeats)
+        print(format_before_and_after(times, args.before, args.scenario))
     return OK
 
 

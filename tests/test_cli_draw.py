@@ -165,3 +165,13 @@ def test_the_drawing_modules_load_only_when_a_drawing_command_runs():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
     assert _cli.main  # the command module itself loads
+
+
+def test_bench_record_before_times_another_install_and_this_one_alternately(files, capsys):
+    import sys
+
+    assert main(["bench", "record", str(files / "stands.yaml"), "--repeats", "1", "--before", sys.executable, "--rounds", "2"]) == 0
+    out = capsys.readouterr().out
+    assert "check in-process, 2 runs each, alternating rounds" in out
+    assert f"before ({sys.executable}): median" in out and "after (this stackdsl, recording off): median" in out
+    assert "ratio after / before: " in out

@@ -5,6 +5,30 @@ mass above), freezes the bricks it proves stable and wakes them when it proves t
 unstable. It attaches to any pybullet client through :class:`PyBulletEngine` and knows
 nothing of YAML or scenarios.
 
+Register the ground and every brick, call ``update`` once per step, read the brick graph:
+
+>>> import numpy as np, pybullet
+>>> from pybullet_utils.bullet_client import BulletClient
+>>> from stability import Box, Plane, PyBulletEngine, StabilityExtension
+>>> client = BulletClient(connection_mode=pybullet.DIRECT)
+>>> client.setGravity(0, 0, -9.81)
+>>> plane = client.createMultiBody(0, client.createCollisionShape(pybullet.GEOM_PLANE))
+>>> half = np.array([0.06, 0.012, 0.004])  # a KAPLA brick, metres
+>>> ext = StabilityExtension(PyBulletEngine(client))
+>>> ext.add_ground(plane, Plane(0.0))
+>>> shape = client.createCollisionShape(pybullet.GEOM_BOX, halfExtents=half.tolist())
+>>> for i, z in enumerate([0.0045, 0.0125]):  # two bricks, 0.5 mm above their rest
+...     ext.add_brick(client.createMultiBody(0.0106, shape, basePosition=[0, 0, z]), Box(half, 0.0106), f"b{i + 1}")
+>>> events = []
+>>> for step in range(240):  # one second at 240 Hz
+...     _ = client.stepSimulation()
+...     events += ext.update(step / 240)
+>>> [(e.kind, e.label, e.reason) for e in events]
+[('freeze', 'b1', 'at rest on ground'), ('freeze', 'b2', 'at rest on b1')]
+>>> [(e.upper, e.support, round(e.area * 1e6)) for e in ext.graph().edges]  # contact areas in mm^2
+[('b1', 'ground', 2880), ('b2', 'b1', 2880)]
+>>> client.disconnect()
+
 Source: "Simulating Object Stacking Using Stack Stability", chapter 3.
 """
 

@@ -96,7 +96,7 @@ def test_the_readme_examples_run_as_written(tmp_path, monkeypatch):
     (tmp_path / "my_scenarios" / "tower.yaml").write_text(scenario)
     monkeypatch.chdir(tmp_path)
     examples = blocks(text, "pycon")
-    assert len(examples) >= 2
+    assert len(examples) >= 1  # (the stability example is a doctest of stability/__init__.py)
     runner = doctest.DocTestRunner(optionflags=doctest.NORMALIZE_WHITESPACE)
     for i, example in enumerate(examples):
         test = doctest.DocTestParser().get_doctest(example, {}, f"README.md pycon block {i + 1}", str(README), 0)

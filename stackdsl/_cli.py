@@ -16,7 +16,6 @@ import json
 import os
 import signal
 import sys
-import tempfile
 import threading
 import time
 import traceback
@@ -24,13 +23,13 @@ from pathlib import Path
 from typing import Any
 
 from ._artefacts import folder_name
-from ._bench import SETTINGS, format_solve_times, run_matrix, savings, scenes, solve_times, write_outputs
 from ._check import TIMEOUT, CheckResult, ScenarioErrors, discover, prepare, run_checks, run_guarded, select, stopped_by, tabulate
+from ._cli_args import jobs_type, timeout_type
+from ._cli_bench import add_bench
 from ._cli_draw import add_commands, add_record_options
 from ._compiler import MODE_DEFAULTS, compile_scenario
 from ._errors import ScenarioError
 from ._expect import describe, evaluate
-from ._hard import format_hard, format_limits, format_wall, leaning_limits, thrown_at_wall
 from ._jsonschema import json_schema
 from ._loader import load_scenario
 from ._program import format_program
@@ -127,39 +126,6 @@ def _ignore(unraisable: Any) -> None:
 
 def _terminated(signum: int, frame: Any) -> None:
     raise SystemExit(128 + signum)
-
-
-def timeout_type(text: str) -> float:
-    """``--timeout``: wall seconds, a number above 0.
-
-    Raises:
-        argparse.ArgumentTypeError: anything else (a usage error, exit 2).
-    """
-    try:
-        seconds = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds") from None
-    if not 0 < seconds < float("inf"):
-        raise argparse.ArgumentTypeError(f"{text} is not a number of seconds above 0")
-    return seconds
-
-
-def jobs_type(text: str) -> int:
-    """``-j``: ``'auto'`` (one per core) or a whole number from 1 to the number of cores.
-
-    Raises:
-        argparse.ArgumentTypeError: anything else (a usage error, exit 2).
-    """
-    cores = os.cpu_count() or 1
-    if text.strip().lower() == "auto":
-        return cores
-    try:
-        jobs = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number or 'auto'") from None
-    if not 1 <= jobs <= cores:
-        raise argparse.ArgumentTypeError(f"{jobs} is not from 1 to {cores} (this machine's cores) or 'auto'")
-    return jobs
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -269,49 +235,7 @@ def _parser() -> argparse.ArgumentParser:
 
     add_commands(sub, [one, guarded], one_status)
 
-    default_out = Path(tempfile.gettempdir()) / "stackdsl-bench"
-    p = sub.add_parser(
-        "bench",
-        parents=[common],
-        help="speed against error: every engine setting on the same scenes (long)",
-        description="Speed against error: every engine setting on the same scenes. "
-        "`stackdsl bench --out docs/bench` regenerates the committed figures.",
-        epilog=one_status,
-        formatter_class=raw,
-    )
-    p.add_argument(
-        "--out", default=str(default_out), help=f"folder for bench.csv, bench.md and the plots (default: {default_out})"
-    )
-    p.add_argument("--settings", default=",".join(SETTINGS), help="comma-separated, of: " + ", ".join(SETTINGS))
-    p.add_argument("--families", default="slant log cabin,single file,upright", help="comma-separated scene families")
-    p.add_argument("--repeats", type=int, default=3, help="runs per cell (median), for cells faster than --repeat-below")
-    p.add_argument("--repeat-below", type=float, default=30.0, help="seconds; slower cells run once")
-    p.add_argument("--quick", action="store_true", help="one small cell per setting (a smoke test)")
-    p.add_argument("-j", "--jobs", type=jobs_type, default=str(min(2, os.cpu_count() or 1)), help="worker processes")
-    p.set_defaults(func=_bench)
-    bench = p.add_subparsers(metavar="[solve | hard | record]", title="other benchmarks (optional)")
-    q = bench.add_parser("solve", help="equilibrium solve time for towers of 10 to 100 bricks")
-    q.add_argument("--sizes", default="10,25,50,100", help="bricks per tower, comma-separated")
-    q.add_argument("--repeats", type=int, default=5)
-    q.set_defaults(func=_bench_solve)
-    q = bench.add_parser(
-        "hard", help="the hard cases in extension and raw mode, a brick thrown at a wall, the leaning limits swept"
-    )
-    q.add_argument("folder", nargs="?", default="scenarios/hard")
-    q.add_argument("-j", "--jobs", type=jobs_type, default="auto", help="runs at the same time (default: one per core)")
-    q.set_defaults(func=_bench_hard)
-    q = bench.add_parser("record", help="what recording costs: the 30-level tower with recording off and on, alternately")
-    q.add_argument("scenario", nargs="?", default="scenarios/four_stack.yaml")
-    q.add_argument("--repeats", type=int, default=7, help="runs of each setting (default: 7)")
-    q.add_argument("--mode", choices=modes, help="override the scenario's engine mode")
-    q.add_argument(
-        "--before",
-        metavar="PYTHON",
-        help="also time the check in another stackdsl's Python (e.g. the virtualenv of an older commit) and in this one, "
-        "alternately, and print the ratio",
-    )
-    q.add_argument("--rounds", type=int, default=10, help="with --before: alternating rounds of --repeats runs (default: 10)")
-    q.set_defaults(func=_bench_record)
+    add_bench(sub, [common], one_status, modes)
 
     p = sub.add_parser(
         "schema",
@@ -487,85 +411,6 @@ def _run(args: argparse.Namespace) -> int:
         if stopped and all(v.passed for v in verdicts):  # no verdict says it
             print(f"FAIL  {stopped}")
     return OK if all(v.passed for v in verdicts) and not stopped else FAILED
-
-
-def _bench(args: argparse.Namespace) -> int:
-    settings = [x.strip() for x in args.settings.split(",") if x.strip()]
-    families = {x.strip() for x in args.families.split(",") if x.strip()}
-    unknown = [x for x in settings if x not in SETTINGS]
-    if unknown:
-        raise ScenarioError(f"unknown setting {', '.join(unknown)}; known: {', '.join(SETTINGS)}", file="--settings")
-    chosen = [sc for sc in scenes(args.quick) if sc.family in families or args.quick]
-    out = Path(args.out)
-    start = time.perf_counter()
-    total = len(chosen) * len(settings)
-    print(f"stackdsl bench: {len(chosen)} scenes x {len(settings)} settings, {args.jobs} workers, writing to {out}", flush=True)
-    with Lines(total, "bench") as lines:
-        count = 0
-
-        def progress(c: Any) -> None:
-            nonlocal count
-            count += 1
-            lines.line(
-                f"  [{count}/{total}] {c.setting:<22} {c.family:<16} {c.parameter:>5g}: {describe(c.collapse_level)} "
-                f"(closed form: {describe(c.closed_form)}), {c.wall:.2f} s"
-            )
-            lines.advance()
-
-        cells = run_matrix(settings, chosen, args.repeats, args.repeat_below, args.jobs, progress)
-    saved = [] if args.quick else savings(args.repeats)
-    targets = write_outputs(cells, saved, out)
-    print((out / "bench.md").read_text())
-    for line in _targets(targets):
-        print(line)
-    print(
-        f"wrote {out.resolve()}: bench.csv, bench.md, wall_vs_error.png, wall_vs_height.png "
-        f"({time.perf_counter() - start:.0f} s wall)"
-    )
-    return OK
-
-
-def _targets(targets: dict[str, Any]) -> list[str]:
-    """The benchmark's targets as lines: slant errors per setting, the 30-level speed-up, exponents."""
-    lines = [
-        f"slant error, {s}: " + ", ".join(f"{e:+g}" for e in errors) + " levels" for s, errors in targets["slant errors"].items()
-    ]
-    ratio = targets.get("30-level speed-up, raw 240 Hz / extension")
-    if ratio:
-        lines.append(f"30-level 4 stack: raw 240 Hz takes {ratio:.0f} times the extension's wall time")
-    lines += [f"exponent of wall time in bricks, {s}: {x:.2f}" for s, x in targets["exponents"].items()]
-    return lines or ["(no slant scene and fewer than two upright towers: no target measured)"]
-
-
-def _bench_solve(args: argparse.Namespace) -> int:
-    sizes = tuple(int(x) for x in args.sizes.split(","))
-    print(format_solve_times(solve_times(sizes, args.repeats)))
-    return OK
-
-
-def _bench_hard(args: argparse.Namespace) -> int:
-    start = time.perf_counter()
-    print(format_hard(args.folder, args.jobs), end="\n\n", flush=True)
-    print(format_wall(thrown_at_wall()), end="\n\n", flush=True)
-    print(format_limits(leaning_limits()), end="\n\n")
-    print(f"({time.perf_counter() - start:.0f} s wall)")
-    return OK
-
-
-def _bench_record(args: argparse.Namespace) -> int:
-    from ._bench_record import format_record_costs, record_costs
-
-    if args.repeats < 1:
-        raise ScenarioError(f"--repeats must be at least 1, not {args.repeats}", file="--repeats")
-    print(format_record_costs(record_costs(args.scenario, args.repeats, args.mode), args.scenario), flush=True)
-    if args.before:
-        from ._bench_record import before_and_after, format_before_and_after
-
-        if args.rounds < 1:
-            raise ScenarioError(f"--rounds must be at least 1, not {args.rounds}", file="--rounds")
-        times = before_and_after(args.before, args.scenario, args.rounds, args.repeats)
-        print(format_before_and_after(times, args.before, args.scenario))
-    return OK
 
 
 def _print_schema(args: argparse.Namespace) -> int:

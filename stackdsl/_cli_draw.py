@@ -9,48 +9,16 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 import argparse
-import math
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from ._cli_args import at_type, rate_type
 from ._errors import ScenarioError
 from ._recorder import RATE
 
 #: Suffixes of trajectory files; anything else is read as a scenario.
 TRAJECTORY_SUFFIXES = (".npz",)
-
-
-def at_type(text: str) -> str | float:
-    """``--at``: ``collapse``, ``end`` or a number of seconds at or above 0.
-
-    Raises:
-        argparse.ArgumentTypeError: anything else (a usage error, exit 2).
-    """
-    word = text.strip().lower()
-    if word in ("collapse", "end"):
-        return word
-    try:
-        seconds = float(word.removesuffix("s").strip())
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not 'collapse', 'end' or a number of seconds") from None
-    if not 0 <= seconds < math.inf:
-        raise argparse.ArgumentTypeError(f"{text} is not a number of seconds at or above 0")
-    return seconds
-
-
-def rate_type(text: str) -> float:
-    """``--rate``: frames a simulated second, a number above 0.
-
-    Raises:
-        argparse.ArgumentTypeError: anything else (a usage error, exit 2).
-    """
-    try:
-        rate = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number of frames a second") from None
-    if not 0 < rate < math.inf:
-        raise argparse.ArgumentTypeError(f"{text} is not a number of frames a second above 0")
-    return rate
 
 
 def add_commands(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -> None:
@@ -151,6 +119,9 @@ def trajectory_of(args: argparse.Namespace) -> Any:
         except (OSError, ValueError) as exc:
             raise ScenarioError(str(exc).removeprefix(f"{path}: "), file=args.file) from None
     program = compile_scenario(load_scenario(path), args.mode, args.model)
+    at = getattr(args, "at", None)
+    if isinstance(at, float) and at > program.duration:  # refused before anything is simulated
+        raise ScenarioError(f"t = {at:g} s is outside the run, which lasts from 0 to {program.duration:g} s", file="--at")
     _, trajectory = record_program(program, source=args.file, timeout=args.timeout)
     return trajectory
 
@@ -179,33 +150,38 @@ def _output(args: argparse.Namespace, suffixes: tuple[str, ...]) -> Path:
     return out
 
 
+def _draw(args: argparse.Namespace, suffixes: tuple[str, ...], option: str, draw: Callable[[Any, Path, int, int], Any]) -> int:
+    """Check the output and the size, get the trajectory, ``draw(trajectory, out, width,
+    height)``; a ValueError of the drawing (a request the run cannot meet) is bad input at
+    ``option``."""
+    out = _output(args, suffixes)
+    width, height = size_of(args.size)
+    trajectory = trajectory_of(args)
+    try:
+        draw(trajectory, out, width, height)
+    except ValueError as exc:
+        raise ScenarioError(str(exc), file=option) from None
+    print(f"wrote {out}")
+    return 0
+
+
 def _render(args: argparse.Namespace) -> int:
     from ._render import picture
 
-    out = _output(args, (".png",))
-    width, height = size_of(args.size)
-    trajectory = trajectory_of(args)
-    at = args.at or ("collapse" if trajectory.collapse_time is not None else "end")
-    try:
-        picture(trajectory, at, out, width=width, height=height)
-    except ValueError as exc:  # --at collapse with no collapse, a time past the end
-        raise ScenarioError(str(exc), file="--at") from None
-    print(f"wrote {out}")
-    return 0
+    def draw(trajectory: Any, out: Path, width: int, height: int) -> None:
+        at = args.at or ("collapse" if trajectory.collapse_time is not None else "end")
+        picture(trajectory, at, out, width=width, height=height)  # ValueError: no collapse, a time past the end
+
+    return _draw(args, (".png",), "--at", draw)
 
 
 def _animate(args: argparse.Namespace) -> int:
     from ._animate import animate
 
-    out = _output(args, (".gif", ".mp4"))
-    width, height = size_of(args.size)
-    trajectory = trajectory_of(args)
-    try:
-        animate(trajectory, out, fps=args.fps, width=width, height=height)
-    except ValueError as exc:  # a GIF above 50 frames a second
-        raise ScenarioError(str(exc), file="--fps") from None
-    print(f"wrote {out}")
-    return 0
+    def draw(trajectory: Any, out: Path, width: int, height: int) -> None:
+        animate(trajectory, out, fps=args.fps, width=width, height=height)  # ValueError: a GIF above 50 frames a second
+
+    return _draw(args, (".gif", ".mp4"), "--fps", draw)
 
 
 def _graph(args: argparse.Namespace) -> int:

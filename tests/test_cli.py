@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from stackdsl import _check, _cli, _entry, compile_scenario, parse_scenario, run_program
+from stackdsl import _check, _cli, _cli_bench, _entry, compile_scenario, parse_scenario, run_program
 from stackdsl._cli import main
 from stackdsl._expect import explain
 from stackdsl._progress import Lines, is_live
@@ -278,7 +278,7 @@ def test_an_internal_error_in_any_command_is_one_line_and_exit_3(command, tmp_pa
         raise KeyError("wheels")
 
     monkeypatch.delenv("STACKDSL_TRACEBACK", raising=False)
-    for module, name in [(_cli, "compile_scenario"), (_check, "run_program"), (_cli, "json_schema"), (_cli, "run_matrix")]:
+    for module, name in [(_cli, "compile_scenario"), (_check, "run_program"), (_cli, "json_schema"), (_cli_bench, "run_matrix")]:
         monkeypatch.setattr(module, name, broken)
     path = write(tmp_path, a=PASSING) / "a.yaml"
     args = {"schema": [], "bench": ["--quick", "--out", str(tmp_path)], "compare": [str(path), "-j", "1"]}.get(
@@ -589,7 +589,7 @@ def test_json_and_junit_list_results_in_file_order_whatever_finishes_first(tmp_p
 
 
 def test_bench_targets_print_as_sentences():
-    from stackdsl._cli import _targets
+    from stackdsl._cli_bench import _targets
 
     lines = _targets(
         {

@@ -170,7 +170,9 @@ def test_the_drawing_modules_load_only_when_a_drawing_command_runs():
 def test_bench_record_before_times_another_install_and_this_one_alternately(files, capsys):
     import sys
 
-    assert main(["bench", "record", str(files / "stands.yaml"), "--repeats", "1", "--before", sys.executable, "--rounds", "2"]) == 0
+    assert (
+        main(["bench", "record", str(files / "stands.yaml"), "--repeats", "1", "--before", sys.executable, "--rounds", "2"]) == 0
+    )
     out = capsys.readouterr().out
     assert "check in-process, 2 runs each, alternating rounds" in out
     assert f"before ({sys.executable}): median" in out and "after (this stackdsl, recording off): median" in out

@@ -1,0 +1,72 @@
+"""Argument types of the ``stackdsl`` command: each turns one option's text into a value or
+raises ``argparse.ArgumentTypeError`` (argparse then exits 2 with the message).
+
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+
+
+def positive_number(text: str, unit: str) -> float:
+    """``text`` as a finite number above 0 of ``unit`` (``'seconds'``, ``'frames a second'``).
+
+    Raises:
+        argparse.ArgumentTypeError: anything else.
+    """
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of {unit}") from None
+    if not 0 < value < math.inf:
+        raise argparse.ArgumentTypeError(f"{text} is not a number of {unit} above 0")
+    return value
+
+
+def timeout_type(text: str) -> float:
+    """``--timeout``: wall seconds, a number above 0."""
+    return positive_number(text, "seconds")
+
+
+def rate_type(text: str) -> float:
+    """``--rate`` and ``--fps``: frames a second, a number above 0."""
+    return positive_number(text, "frames a second")
+
+
+def jobs_type(text: str) -> int:
+    """``-j``: ``'auto'`` (one per core) or a whole number from 1 to the number of cores.
+
+    Raises:
+        argparse.ArgumentTypeError: anything else (a usage error, exit 2).
+    """
+    cores = os.cpu_count() or 1
+    if text.strip().lower() == "auto":
+        return cores
+    try:
+        jobs = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number or 'auto'") from None
+    if not 1 <= jobs <= cores:
+        raise argparse.ArgumentTypeError(f"{jobs} is not from 1 to {cores} (this machine's cores) or 'auto'")
+    return jobs
+
+
+def at_type(text: str) -> str | float:
+    """``--at``: ``collapse``, ``end`` or a number of seconds at or above 0.
+
+    Raises:
+        argparse.ArgumentTypeError: anything else (a usage error, exit 2).
+    """
+    word = text.strip().lower()
+    if word in ("collapse", "end"):
+        return word
+    try:
+        seconds = float(word.removesuffix("s").strip())
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not 'collapse', 'end' or a number of seconds") from None
+    if not 0 <= seconds < math.inf:
+        raise argparse.ArgumentTypeError(f"{text} is not a number of seconds at or above 0")
+    return seconds

@@ -126,7 +126,7 @@ def _browser_missing() -> str:
     from browser_check import chromium
 
     if chromium() is None:
-        return "Chromium is not installed (Debian: apt-get install -y chromium); run: python -m pytest tests/test_report.py"
+        return "Chromium is not installed: apt-get install -y chromium (Debian), then python -m pytest tests/test_report.py"
     if importlib.util.find_spec("playwright") is None:
         return "playwright is not installed (pip install -e '.[test]')"
     return ""

@@ -15,6 +15,12 @@ checks its expectations, then compares the outcome with its golden snapshot
 ``pytest --snapshot-update`` writes the snapshots; ``-k``, ``-x``, ``--lf``, ``-n``
 (pytest-xdist) and ``--junit-xml`` work as on any test.
 
+As pytest-playwright keeps a screenshot of a failed test, ``--stackdsl-pictures
+only-on-failure`` keeps what a person needs to look at a failed scenario: its picture at the
+collapse (or the end), a clip, the brick-graph plot and the trajectory file, in a folder of
+its own under ``--stackdsl-output`` (default ``test-results``), named in the failure message
+(``on``: for every scenario; ``off``, the default: none, and nothing is recorded).
+
 The ``golden`` fixture gives Python tests the same snapshots (JSON under ``golden/``,
 floats rounded).
 
@@ -30,10 +36,12 @@ from typing import Any
 
 import pytest
 
+from ._artefacts import draw_run, folder_name
 from ._compiler import compile_scenario
 from ._errors import ScenarioError
 from ._expect import evaluate, explain
 from ._loader import load_scenario
+from ._recorder import record_program
 from ._runtime import run_program
 from ._snapshot import dumps, summarize
 
@@ -83,12 +91,30 @@ def round_floats(data: Any, path: Any) -> Any:
     return round(data, 6) + 0.0 if isinstance(data, float) else data
 
 
+#: When scenario items keep their pictures (``--stackdsl-pictures``).
+PICTURES = ("off", "only-on-failure", "on")
+
+
 def pytest_addoption(parser: pytest.Parser) -> None:
     parser.addini(
         "stackdsl_paths",
         type="linelist",
         default=["scenarios"],
         help="folders (relative to the rootdir) whose *.yaml files are stackdsl scenario tests",
+    )
+    group = parser.getgroup("stackdsl", "stackdsl scenario files")
+    group.addoption(
+        "--stackdsl-pictures",
+        choices=PICTURES,
+        default="off",
+        help="keep a scenario's picture, clip, brick-graph plot and trajectory: only-on-failure, on (every "
+        "scenario) or off (default; nothing is recorded)",
+    )
+    group.addoption(
+        "--stackdsl-output",
+        default="test-results",
+        metavar="DIR",
+        help="folder for --stackdsl-pictures, relative to the rootdir (default: test-results)",
     )
 
 
@@ -156,23 +182,38 @@ def _scenario_test(request: pytest.FixtureRequest, scenario_golden: Any) -> None
         error = ""
     if error:
         pytest.fail(error, pytrace=False)
-    outcome = run_program(program)
+    pictures = request.config.getoption("stackdsl_pictures")
+    trajectory = None
+    if pictures == "off":
+        outcome = run_program(program)
+    else:
+        outcome, trajectory = record_program(program, source=shown)
     verdicts = evaluate(scenario.expect, outcome, program.collapse_threshold)
     failed = [v for v in verdicts if not v.passed]
+    lines: list[str] = []
     if failed:
         lines = [f"{path.name}: expected {v.expected}, measured {v.measured}" for v in failed]
         lines += [f"  {line}" for line in explain(scenario.expect, outcome, program.collapse_threshold)]
         lines.append(f"more: stackdsl run {shown}")
-        pytest.fail("\n".join(lines), pytrace=False)
-    if not scenario_golden == outcome.golden():
+    elif not scenario_golden == outcome.golden():
         with disable_color():  # plain text: the message also goes to JUnit XML and CI logs
             diff = scenario_golden.get_assert_diff()
-        pytest.fail(
-            "\n".join(
-                [f"{path.name}: the outcome differs from {_relative(scenario_golden_path(path), request.config.rootpath)}", *diff]
-            ),
-            pytrace=False,
-        )
+        golden = _relative(scenario_golden_path(path), request.config.rootpath)
+        lines = [f"{path.name}: the outcome differs from {golden}", *diff]
+    if trajectory is not None and (lines or pictures == "on"):
+        kept = _keep_pictures(trajectory, shown, request.config)
+        if lines:  # a failure: say where to look
+            lines.append(kept)
+    if lines:
+        pytest.fail("\n".join(lines), pytrace=False)
+
+
+def _keep_pictures(trajectory: Any, shown: str, config: pytest.Config) -> str:
+    """Draw a run into ``--stackdsl-output``/<its folder>; one line saying where (or what failed)."""
+    folder = Path(config.rootpath) / config.getoption("stackdsl_output") / folder_name(shown)
+    written, failure, _ = draw_run(trajectory, folder)
+    where = _relative(folder, config.rootpath)
+    return f"pictures: {where}/ ({', '.join(written.values())})" + (f"; {failure}" if failure else "")
 
 
 def _relative(path: Path, root: Path) -> str:

@@ -175,3 +175,28 @@ def test_an_interrupted_golden_update_leaves_the_old_file_whole(tmp_path, monkey
     monkeypatch.undo()
     update("new\n")
     assert stored.read_text() == "new\n"
+
+
+def test_a_failed_scenario_keeps_its_pictures_when_asked(project):
+    write(project, "tower", TOWER.replace("{stands: true}", "{collapse: 2}"))
+    write(project, "fine", TOWER)
+    result = project.runpytest("--snapshot-update", "--stackdsl-pictures", "only-on-failure")
+    result.assert_outcomes(failed=1, passed=1)
+    kept = project.path / "test-results" / "scenarios-tower"
+    assert "pictures: test-results/scenarios-tower/ (trajectory.npz, picture.png, graph.png, clip.gif)" in result.stdout.str()
+    assert sorted(p.name for p in kept.iterdir()) == ["clip.gif", "graph.png", "picture.png", "trajectory.npz"]
+    assert all((kept / name).stat().st_size > 0 for name in ("clip.gif", "graph.png", "picture.png"))
+    assert not (project.path / "test-results" / "scenarios-fine").exists()  # it passed
+
+
+def test_pictures_for_every_scenario_and_none_by_default(project):
+    write(project, "fine", TOWER)
+    project.runpytest("--snapshot-update").assert_outcomes(passed=1)
+    assert not (project.path / "test-results").exists()  # off: nothing recorded, nothing written
+    write(project, "tower", TOWER.replace("{stands: true}", "{collapse: 2}"))
+    result = project.runpytest("--stackdsl-pictures", "on", "--stackdsl-output", "seen")
+    result.assert_outcomes(failed=1, passed=1)
+    assert (project.path / "seen" / "scenarios-fine" / "picture.png").is_file()
+    assert (project.path / "seen" / "scenarios-tower" / "picture.png").is_file()
+    result = project.runpytest()
+    assert "pictures:" not in result.stdout.str()

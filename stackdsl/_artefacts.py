@@ -9,6 +9,7 @@ Source: stackdsl's own.
 
 from __future__ import annotations
 
+import hashlib
 import re
 import time
 from pathlib import Path
@@ -20,13 +21,16 @@ FILES = {"trajectory": "trajectory.npz", "picture": "picture.png", "graph": "gra
 #: Wall seconds the drawing of one run is budgeted in the pool's estimates (picture, plot and
 #: a clip of a few hundred frames: measured 2 to 15 s on the shipped scenarios).
 DRAW_ESTIMATE = 6.0
+#: Characters a folder name has at most.
+MAX_NAME = 80
 #: Wall seconds drawing may add to a run's own limit before its worker is stopped.
 DRAW_LIMIT = 300.0
 
 
 def folder_name(file: str, mode: str = "", taken: set[str] | None = None) -> str:
     """A folder name for one scenario's files: its path with every run of characters other
-    than letters, digits, ``_`` and ``-`` turned into ``-`` (and the mode, when given);
+    than letters, digits, ``_`` and ``-`` turned into ``-`` (and the mode, when given), at
+    most :data:`MAX_NAME` characters (a longer one keeps its end and a hash of the whole);
     ``-2``, ``-3``... when ``taken`` already holds it (the name is then added to ``taken``).
 
     >>> folder_name("scenarios/hard/tall_100.yaml")
@@ -36,6 +40,8 @@ def folder_name(file: str, mode: str = "", taken: set[str] | None = None) -> str
     """
     stem = re.sub(r"\.(yaml|yml)$", "", file)
     name = re.sub(r"[^A-Za-z0-9_-]+", "-", f"{stem}-{mode}" if mode else stem).strip("-") or "scenario"
+    if len(name) > MAX_NAME:  # file systems allow 255 bytes a name: the end, and a hash of the whole
+        name = f"{name[-(MAX_NAME - 9) :].lstrip('-')}-{hashlib.sha1(name.encode()).hexdigest()[:8]}"
     if taken is None:
         return name
     unique, k = name, 1

@@ -111,6 +111,21 @@ for _ in range(runs):
 """
 
 
+def check_interpreter(python: str) -> str:
+    """What is wrong with ``python`` as the ``--before`` interpreter (not there, not a Python,
+    no stackdsl in it), in one line, or ``''``."""
+    import subprocess
+
+    try:
+        done = subprocess.run([python, "-c", "import stackdsl"], capture_output=True, text=True, timeout=60)
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        return f"cannot run it: {exc}"
+    if done.returncode:
+        last = (done.stderr.strip().splitlines() or ["(no message)"])[-1]
+        return f"not a Python with stackdsl installed: {last}"
+    return ""
+
+
 def before_and_after(
     before: str, scenario: str | Path = "scenarios/four_stack.yaml", rounds: int = 10, runs: int = 5
 ) -> dict[str, list[float]]:

@@ -20,7 +20,7 @@ import threading
 import time
 import traceback
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 from ._artefacts import folder_name
 from ._check import TIMEOUT, CheckResult, ScenarioErrors, discover, prepare, run_checks, run_guarded, select, stopped_by, tabulate
@@ -128,9 +128,17 @@ def _terminated(signum: int, frame: Any) -> None:
     raise SystemExit(128 + signum)
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser with a usage error on one line: what is wrong and where the help is
+    (argparse prints the whole usage first); the subcommands' parsers are of this class too."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(BAD_INPUT, f"{self.prog}: error: {message} (see: {self.prog} --help)\n")
+
+
 def _parser() -> argparse.ArgumentParser:
     raw = argparse.RawDescriptionHelpFormatter
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="stackdsl",
         description="Declarative stacking scenarios for pybullet.",
         epilog=EXIT_STATUS,
@@ -141,9 +149,9 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--debug", action="store_true", help=debug_help)
     sub = parser.add_subparsers(required=True, metavar="COMMAND")
     modes = list(MODE_DEFAULTS)
-    common = argparse.ArgumentParser(add_help=False)  # --debug after the command too
+    common = _Parser(add_help=False)  # --debug after the command too
     common.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=debug_help)
-    guarded = argparse.ArgumentParser(add_help=False)
+    guarded = _Parser(add_help=False)
     guarded.add_argument(
         "--timeout",
         type=timeout_type,
@@ -153,7 +161,7 @@ def _parser() -> argparse.ArgumentParser:
         "worker processes may also map at most 4 GiB each",
     )
 
-    many = argparse.ArgumentParser(add_help=False, parents=[common, guarded])
+    many = _Parser(add_help=False, parents=[common, guarded])
     many.add_argument("paths", nargs="+", metavar="PATH", help="scenario files, or folders searched for *.yaml")
     many.add_argument("--model", choices=MODELS, help="override every scenario's stability model")
     many.add_argument(
@@ -171,7 +179,7 @@ def _parser() -> argparse.ArgumentParser:
         help="only the scenarios whose file path or name contains PATTERN (plain text, case-insensitive)",
     )
     many.add_argument("--json", action="store_true", help="print one JSON document of every result instead of the table")
-    one = argparse.ArgumentParser(add_help=False, parents=[common])
+    one = _Parser(add_help=False, parents=[common])
     one.add_argument("file")
     one.add_argument("--mode", choices=modes, help="override the scenario's engine mode")
     one.add_argument("--model", choices=MODELS, help="override the scenario's stability model")
@@ -252,13 +260,21 @@ def _check(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     if args.junit_xml and not Path(args.junit_xml).parent.is_dir():
         raise ScenarioError("no such folder for the JUnit XML file", file=args.junit_xml)
+    if args.report is not None and not args.report.strip():
+        raise ScenarioError("give the folder for the report", file="--report")
     report = Path(args.report) if args.report else None
     if report is not None and report.exists() and not report.is_dir():
         raise ScenarioError("the report must go to a folder, and this is a file", file=args.report)
     prepared = select(prepare(discover(args.paths), args.mode, model=args.model), args.pattern)  # bad input raises here
     folders = None
     if report is not None:
-        report.mkdir(parents=True, exist_ok=True)
+        try:
+            report.mkdir(parents=True, exist_ok=True)
+            probe = report / ".stackdsl-write-test"
+            probe.touch()
+            probe.unlink()
+        except OSError as exc:
+            raise ScenarioError(f"cannot write the report there: {exc.strerror or exc}", file=args.report) from None
         taken: set[str] = set()
         base = os.path.commonpath([path.resolve().parent for path, _, _ in prepared])  # names relative to it
         folders = [str(report / folder_name(os.path.relpath(path.resolve(), base), taken=taken)) for path, _, _ in prepared]
@@ -292,9 +308,12 @@ def _check(args: argparse.Namespace) -> int:
         ran = {r.file for r in results}
         junit_xml(results, commands, [str(path) for path, _, _ in prepared if str(path) not in ran], wall, args.junit_xml)
     if report is not None:
-        from ._htmlreport import write_report
+        from ._htmlreport import remove_stale_folders, write_report
 
         page = write_report(results, report, total=len(prepared), wall=wall, commands=commands, argv=sys.argv[1:] or ["check"])
+        stale = remove_stale_folders(report, {Path(f).name for f in folders or []})
+        if stale:
+            print(f"report: removed {stale} folders of an earlier report in {report}", file=stream)
         drawn = [r for r in results if r.draw_error]
         print(f"report: {page}" + (f" ({len(drawn)} runs not fully drawn: {drawn[0].draw_error})" if drawn else ""), file=stream)
     if args.json:
@@ -377,15 +396,19 @@ def _compile(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.file)
     program = compile_scenario(scenario, args.mode, args.model)
+    if args.rate is not None and not args.record:
+        raise ScenarioError("--rate is the recording's: give --record OUT.npz too", file="--rate")
     if args.record:
         record = Path(args.record)
+        if record.suffix.lower() != ".npz":
+            raise ScenarioError("a trajectory file must end in .npz", file=args.record)
         if not record.parent.is_dir() or record.is_dir():
             raise ScenarioError(
                 "no such folder for the trajectory file" if not record.parent.is_dir() else "a folder", file=args.record
             )
-        from ._recorder import record_program
+        from ._recorder import RATE, record_program
 
-        outcome, trajectory = record_program(program, args.rate, source=args.file, timeout=args.timeout)
+        outcome, trajectory = record_program(program, args.rate or RATE, source=args.file, timeout=args.timeout)
         trajectory.save(record)
         print(
             f"wrote {record}: {len(trajectory.times)} frames of {len(trajectory.ids)} bodies",

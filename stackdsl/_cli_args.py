@@ -32,8 +32,20 @@ def timeout_type(text: str) -> float:
 
 
 def rate_type(text: str) -> float:
-    """``--rate`` and ``--fps``: frames a second, a number above 0."""
+    """``--rate``: frames a simulated second, a number above 0."""
     return positive_number(text, "frames a second")
+
+
+def fps_type(text: str) -> float:
+    """``--fps``: frames a second of a clip, 1 to 120.
+
+    Raises:
+        argparse.ArgumentTypeError: anything else.
+    """
+    fps = positive_number(text, "frames a second")
+    if not 1 <= fps <= 120:
+        raise argparse.ArgumentTypeError(f"{text} is not from 1 to 120 frames a second")
+    return fps
 
 
 def jobs_type(text: str) -> int:

@@ -66,7 +66,7 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
         help="also time the check in another stackdsl's Python (e.g. the virtualenv of an older commit) and in this one, "
         "alternately, and print the ratio",
     )
-    q.add_argument("--rounds", type=int, default=10, help="with --before: alternating rounds of --repeats runs (default: 10)")
+    q.add_argument("--rounds", type=int, default=None, help="with --before: alternating rounds of --repeats runs (default: 10)")
     q.set_defaults(func=_bench_record)
 
 
@@ -138,10 +138,19 @@ def _bench_record(args: argparse.Namespace) -> int:
 
     if args.repeats < 1:
         raise ScenarioError(f"--repeats must be at least 1, not {args.repeats}", file="--repeats")
+    if args.rounds is not None and not args.before:
+        raise ScenarioError("--rounds is the comparison's: give --before PYTHON too", file="--rounds")
+    if args.before:
+        from ._bench_record import check_interpreter
+
+        problem = check_interpreter(args.before)
+        if problem:
+            raise ScenarioError(problem, file=args.before)
     print(format_record_costs(record_costs(args.scenario, args.repeats, args.mode), args.scenario), flush=True)
     if args.before:
         from ._bench_record import before_and_after, format_before_and_after
 
+        args.rounds = 10 if args.rounds is None else args.rounds
         if args.rounds < 1:
             raise ScenarioError(f"--rounds must be at least 1, not {args.rounds}", file="--rounds")
         times = before_and_after(args.before, args.scenario, args.rounds, args.repeats)

@@ -9,16 +9,20 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 import argparse
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from ._cli_args import at_type, rate_type
+from ._cli_args import at_type, fps_type, rate_type
 from ._errors import ScenarioError
 from ._recorder import RATE
 
-#: Suffixes of trajectory files; anything else is read as a scenario.
+#: Suffixes of trajectory files and of scenario files: what the drawing commands read.
 TRAJECTORY_SUFFIXES = (".npz",)
+SCENARIO_SUFFIXES = (".yaml", ".yml")
+#: Pixels a side of a picture or a clip, at least and at most (a picture keeps a title strip).
+MIN_SIDE, MAX_SIDE = 64, 4096
 
 
 def add_commands(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -> None:
@@ -45,7 +49,7 @@ def add_commands(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) 
         "(default: collapse if the structure collapsed, else end)",
     )
     p.add_argument("-o", "--output", required=True, metavar="OUT.png", help="the picture to write")
-    p.add_argument("--size", default="800x600", metavar="WxH", help="pixels (default: 800x600)")
+    p.add_argument("--size", default="800x600", metavar="WxH", help=f"pixels, {MIN_SIDE} to {MAX_SIDE} a side (default: 800x600)")
     p.set_defaults(func=_render)
 
     p = sub.add_parser(
@@ -58,8 +62,10 @@ def add_commands(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) 
         formatter_class=raw,
     )
     p.add_argument("-o", "--output", required=True, metavar="OUT.gif|OUT.mp4", help="the clip to write")
-    p.add_argument("--fps", type=rate_type, default=30.0, help="frames a second of the clip (default: 30)")
-    p.add_argument("--size", default="480x360", metavar="WxH", help="pixels (default: 480x360)")
+    p.add_argument(
+        "--fps", type=fps_type, default=30.0, help="frames a second of the clip, 1 to 120 (a GIF: at most 50; default: 30)"
+    )
+    p.add_argument("--size", default="480x360", metavar="WxH", help=f"pixels, {MIN_SIDE} to {MAX_SIDE} a side (default: 480x360)")
     p.set_defaults(func=_animate)
 
     p = sub.add_parser(
@@ -92,7 +98,7 @@ def add_record_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--rate",
         type=rate_type,
-        default=RATE,
+        default=None,
         metavar="HZ",
         help=f"frames a simulated second while anything moves (default: {RATE:g})",
     )
@@ -111,6 +117,10 @@ def trajectory_of(args: argparse.Namespace) -> Any:
     from ._trajectory import load_trajectory
 
     path = Path(args.file)
+    if path.suffix.lower() not in TRAJECTORY_SUFFIXES + SCENARIO_SUFFIXES:
+        raise ScenarioError(
+            "give a scenario (.yaml, .yml) or a trajectory file (.npz) from 'stackdsl run FILE --record'", file=args.file
+        )
     if path.suffix.lower() in TRAJECTORY_SUFFIXES:
         if args.mode or args.model:
             raise ScenarioError("--mode and --model apply to a scenario, not to a recorded trajectory", file=args.file)
@@ -127,7 +137,7 @@ def trajectory_of(args: argparse.Namespace) -> Any:
 
 
 def size_of(text: str, option: str = "--size") -> tuple[int, int]:
-    """``'800x600'`` -> (800, 600); each side 16 to 4096 pixels.
+    """``'800x600'`` -> (800, 600); each side :data:`MIN_SIDE` to :data:`MAX_SIDE` pixels.
 
     Raises:
         ScenarioError: anything else (exit 2).
@@ -136,8 +146,8 @@ def size_of(text: str, option: str = "--size") -> tuple[int, int]:
         width, height = (int(v) for v in text.lower().split("x"))
     except ValueError:
         raise ScenarioError(f"{text!r} is not WIDTHxHEIGHT in pixels, such as 800x600", file=option) from None
-    if not (16 <= width <= 4096 and 16 <= height <= 4096):
-        raise ScenarioError(f"{text}: each side must be 16 to 4096 pixels", file=option)
+    if not (MIN_SIDE <= width <= MAX_SIDE and MIN_SIDE <= height <= MAX_SIDE):
+        raise ScenarioError(f"{text}: each side must be {MIN_SIDE} to {MAX_SIDE} pixels", file=option)
     return width, height
 
 
@@ -147,6 +157,8 @@ def _output(args: argparse.Namespace, suffixes: tuple[str, ...]) -> Path:
         raise ScenarioError(f"the output must end in {' or '.join(suffixes)}", file=args.output)
     if not out.parent.is_dir():
         raise ScenarioError("no such folder for the output", file=args.output)
+    if out.is_dir():
+        raise ScenarioError("this is a folder: give the file to write", file=args.output)
     return out
 
 
@@ -161,7 +173,16 @@ def _draw(args: argparse.Namespace, suffixes: tuple[str, ...], option: str, draw
         draw(trajectory, out, width, height)
     except ValueError as exc:
         raise ScenarioError(str(exc), file=option) from None
+    return _wrote(out, trajectory)
+
+
+def _wrote(out: Path, trajectory: Any) -> int:
+    """Say what was written; 1 when the run was stopped early (its ``--timeout``), else 0."""
     print(f"wrote {out}")
+    stopped = trajectory.meta.get("stopped")
+    if stopped:
+        print(f"stackdsl: the run was stopped early: {stopped}; the file shows it until then", file=sys.stderr)
+        return 1
     return 0
 
 
@@ -194,5 +215,4 @@ def _graph(args: argparse.Namespace) -> int:
         raise ScenarioError("nothing collapsed in this run: there is no graph at the collapse (use --at end)", file="--at")
     graph = trajectory.graphs["collapse" if at == "collapse" else "final"]
     plot_graph(graph, out, title=f"{trajectory.meta.get('scenario', '')}: brick graph at the {at}")
-    print(f"wrote {out}")
-    return 0
+    return _wrote(out, trajectory)

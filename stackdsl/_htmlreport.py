@@ -42,7 +42,7 @@ code { background: #f3f3f3; padding: 0 0.25em; border-radius: 3px; }
 .nothumb { width: 320px; height: 240px; display: flex; align-items: center; justify-content: center;
            background: #fafafa; border: 1px solid #ddd; color: #777; flex: none; }
 .body { flex: 1; min-width: 0; }
-.body h3 { margin: 0 0 0.3em; font-size: 1.05em; }
+.body h3 { margin: 0 0 0.3em; font-size: 1.05em; overflow-wrap: anywhere; }
 table.facts td { padding: 0 1em 0 0; vertical-align: top; }
 table.facts td:first-child { color: #666; }
 ul.why { color: #b71c1c; margin: 0.4em 0; }
@@ -51,7 +51,8 @@ details { margin-top: 0.4em; }
 table.timeline { border-collapse: collapse; font-size: 0.9em; }
 table.timeline td { padding: 0 0.8em 0 0; white-space: nowrap; }
 table.summary { border-collapse: collapse; width: 100%; }
-table.summary th, table.summary td { text-align: left; padding: 0.2em 0.8em 0.2em 0; border-bottom: 1px solid #eee; }
+table.summary th, table.summary td { text-align: left; padding: 0.2em 0.8em 0.2em 0; border-bottom: 1px solid #eee;
+                                     overflow-wrap: anywhere; }
 td.num, th.num { text-align: right; }
 """
 
@@ -101,6 +102,25 @@ def write_report(
     page = out / "index.html"
     page.write_text("\n".join(parts) + "\n", encoding="utf-8")
     return page
+
+
+def remove_stale_folders(folder: str | Path, keep: set[str]) -> int:
+    """Remove the folders of an earlier report in ``folder`` that this one did not write: those
+    not in ``keep`` that hold nothing but a run's files (:data:`stackdsl._artefacts.FILES`), so
+    that no folder a person put there is touched. Returns how many were removed."""
+    import shutil
+
+    from ._artefacts import FILES
+
+    removed = 0
+    for sub in Path(folder).iterdir():
+        if sub.name in keep or not sub.is_dir() or sub.is_symlink():
+            continue
+        names = {f.name for f in sub.iterdir()}
+        if names and names <= set(FILES.values()) and all((sub / n).is_file() for n in names):
+            shutil.rmtree(sub)
+            removed += 1
+    return removed
 
 
 def _e(text: object) -> str:

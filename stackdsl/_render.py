@@ -370,7 +370,10 @@ def headline(trajectory: Trajectory, time: float) -> str:
     result = "stopped early" if meta.get("stopped") else "stands"
     if collapse is not None:
         result = f"collapse at level {collapse['level']} (detected at {float(collapse['time']):.2f} s)"
-    return f"{meta.get('scenario') or meta.get('file') or 'run'}  ·  {meta.get('mode', '?')}  ·  t = {time:.2f} s  ·  {result}"
+    name = str(meta.get("scenario") or meta.get("file") or "run")
+    if len(name) > 60:
+        name = name[:57] + "..."
+    return f"{name}  ·  {meta.get('mode', '?')}  ·  t = {time:.2f} s  ·  {result}"
 
 
 def picture(

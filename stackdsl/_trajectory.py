@@ -22,6 +22,8 @@ from __future__ import annotations
 
 import json
 import os
+import zipfile
+import zlib
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -218,10 +220,13 @@ def load_trajectory(path: str | os.PathLike[str]) -> Trajectory:
         with np.load(Path(path), allow_pickle=False) as data:
             header = json.loads(str(data["header"]))
             arrays = {name: data[name] for name in _ARRAYS}
-    except (KeyError, json.JSONDecodeError, EOFError) as exc:
-        raise ValueError(f"{path}: not a stackdsl trajectory ({exc})") from None
-    except ValueError as exc:  # numpy: not a zip or npy file, or a pickle
-        raise ValueError(f"{path}: not a stackdsl trajectory ({exc})") from None
+    except KeyError as exc:
+        raise ValueError(f"{path}: not a stackdsl trajectory (no {exc} array)") from None
+    except (json.JSONDecodeError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
+        raise ValueError(f"{path}: not a stackdsl trajectory, or a damaged one ({type(exc).__name__}: {exc})") from None
+    except ValueError as exc:  # numpy: not an archive at all, or one holding pickled objects
+        why = "it holds pickled objects, which stackdsl never writes" if "pickle" in str(exc) else "not a numpy archive"
+        raise ValueError(f"{path}: not a stackdsl trajectory ({why})") from None
     if not isinstance(header, dict) or header.get("format") != FORMAT:
         raise ValueError(
             f"{path}: a trajectory of format {header.get('format') if isinstance(header, dict) else '?'}; this stackdsl reads {FORMAT}"

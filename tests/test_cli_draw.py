@@ -88,7 +88,7 @@ def test_render_at_a_time_and_a_size(files):
         (["--at", "collapse"], "did not collapse"),
         (["--at", "99"], "outside the run"),
         (["--size", "big"], "is not WIDTHxHEIGHT"),
-        (["--size", "8x8"], "16 to 4096 pixels"),
+        (["--size", "8x8"], "64 to 4096 pixels"),
         (["-o", "{tmp}/x.jpg"], "the output must end in .png"),
         (["-o", "{tmp}/missing/x.png"], "no such folder for the output"),
         (["--at", "soon"], "is not 'collapse', 'end' or a number of seconds"),
@@ -177,3 +177,89 @@ def test_bench_record_before_times_another_install_and_this_one_alternately(file
     assert "check in-process, 2 runs each, alternating rounds" in out
     assert f"before ({sys.executable}): median" in out and "after (this stackdsl, recording off): median" in out
     assert "ratio after / before: " in out
+
+
+# careless input, as a new user gave it: each one line, exit 2 (1 for a run stopped by its timeout)
+
+
+def status_of(argv: list[str]) -> int:
+    try:
+        return main(argv)
+    except SystemExit as exc:  # argparse's usage errors
+        return int(exc.code)
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["render", "{tmp}/stands.yaml", "-o", "{tmp}/dir.png"], "this is a folder: give the file to write"),
+        (["render", "{tmp}/notes.json", "-o", "{tmp}/x.png"], "give a scenario (.yaml, .yml) or a trajectory file (.npz)"),
+        (["render", "{tmp}/stands.yaml", "-o", "{tmp}/x.png", "--size", "16x16"], "each side must be 64 to 4096 pixels"),
+        (["animate", "{tmp}/stands.yaml", "-o", "{tmp}/x.mp4", "--fps", "1e-3"], "is not from 1 to 120 frames a second"),
+        (["run", "{tmp}/stands.yaml", "--record", "{tmp}/x.json"], "a trajectory file must end in .npz"),
+        (["run", "{tmp}/stands.yaml", "--rate", "5"], "--rate is the recording's: give --record OUT.npz too"),
+        (["check", "{tmp}/stands.yaml", "--report", ""], "give the folder for the report"),
+        (["check", "{tmp}/stands.yaml", "--report", "{tmp}/stands.yaml/sub"], "cannot write the report there"),
+        (["bench", "record", "{tmp}/stands.yaml", "--before", "{tmp}/no-python"], "cannot run it"),
+        (["bench", "record", "{tmp}/stands.yaml", "--rounds", "3"], "--rounds is the comparison's"),
+    ],
+)
+def test_careless_input_is_one_line_and_exit_2_before_anything_runs(files, capsys, monkeypatch, argv, message):
+    def never(*a, **k):
+        raise AssertionError("simulated")
+
+    monkeypatch.setattr("stackdsl._recorder.run_program", never)
+    monkeypatch.setattr("stackdsl._bench_record.run_program", never)
+    monkeypatch.setattr("stackdsl._check.run_program", never)
+    (files / "notes.json").write_text("{}")
+    (files / "dir.png").mkdir()
+    assert status_of([a.replace("{tmp}", str(files)) for a in argv]) == 2
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_a_usage_error_is_one_line_naming_the_option_and_the_help(capsys):
+    assert status_of(["check", "x", "-j", "0"]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith("stackdsl check: error: argument -j/--jobs: 0 is not from 1") and line.endswith(
+        "(see: stackdsl check --help)"
+    )
+
+
+def test_a_damaged_or_foreign_trajectory_file_is_bad_input(files, capsys):
+    main(["run", str(files / "tips.yaml"), "--record", str(files / "t.npz")])
+    whole = (files / "t.npz").read_bytes()
+    (files / "cut.npz").write_bytes(whole[: len(whole) // 2])
+    assert main(["render", str(files / "cut.npz"), "-o", str(files / "x.png")]) == 2
+    assert "not a stackdsl trajectory, or a damaged one" in capsys.readouterr().err
+    np.save(files / "obj.npy", np.array([{"a": 1}], dtype=object), allow_pickle=True)
+    (files / "obj.npz").write_bytes((files / "obj.npy").read_bytes())
+    assert main(["graph", str(files / "obj.npz"), "-o", str(files / "x.png")]) == 2
+    assert "it holds pickled objects, which stackdsl never writes" in capsys.readouterr().err
+
+
+def test_a_drawing_of_a_run_stopped_by_its_timeout_is_written_and_exits_1(files, capsys):
+    out = files / "x.png"
+    tall = "stackdsl: 1\nstructure: {tower: {levels: 20}}\n"
+    (files / "tall.yaml").write_text(tall)
+    assert main(["render", str(files / "tall.yaml"), "-o", str(out), "--timeout", "0.05"]) == 1
+    assert out.is_file() and "the run was stopped early: timeout after 0.05 s" in capsys.readouterr().err
+
+
+def test_report_folder_names_stay_short_and_distinct():
+    from stackdsl._artefacts import MAX_NAME, folder_name
+
+    long_a, long_b = "x" * 200 + "/a.yaml", "x" * 200 + "/b.yaml"
+    a, b = folder_name(long_a), folder_name(long_b)
+    assert len(a) <= MAX_NAME and len(b) <= MAX_NAME and a != b and a.endswith(folder_name(long_a)[-8:])
+
+
+def test_an_earlier_reports_folders_go_and_a_persons_folders_stay(files, capsys):
+    report = files / "report"
+    main(["check", str(files / "stands.yaml"), str(files / "tips.yaml"), "-j", "1", "--report", str(report)])
+    (report / "mine").mkdir()
+    (report / "mine" / "notes.txt").write_text("keep me")
+    capsys.readouterr()
+    main(["check", str(files / "stands.yaml"), "-j", "1", "--report", str(report)])
+    assert "removed 1 folders of an earlier report" in capsys.readouterr().out
+    assert sorted(p.name for p in report.iterdir()) == ["index.html", "mine", "stands"]

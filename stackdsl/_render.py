@@ -36,7 +36,7 @@ from scipy.spatial.transform import Rotation
 
 from stability import Box, Pose
 
-from ._trajectory import ABSENT, FROZEN, STATES, Frame, Trajectory
+from ._trajectory import ABSENT, FALLEN, FROZEN, STATES, Frame, Trajectory
 from ._world import direct_client
 
 #: RGB (0 to 1) of a structure brick in each state, of projectiles, fixtures, the ground and
@@ -62,6 +62,8 @@ DEBRIS_REACH = 0.5
 #: The camera: its horizontal view direction is turned this far (deg) from +y towards +x, and
 #: it looks down at this pitch (deg, negative: down).
 CAMERA_YAW, CAMERA_PITCH = 40.0, -25.0
+#: After a collapse the camera looks across the fall, this far (deg) off square and this far down.
+FALL_YAW, FALL_PITCH = 15.0, -15.0
 #: Empty space left around the framed bricks, a fraction of their largest extent in the picture.
 MARGIN = 0.08
 #: A picture as TinyRenderer gives it: RGB (h, w, 3) uint8, depth (h, w) (smaller is nearer), body id (h, w) (-1: none).
@@ -108,15 +110,15 @@ class Camera:
     pixels_per_metre: float
 
     @classmethod
-    def framing(cls, points: np.ndarray, width: int, height: int, yaw: float = CAMERA_YAW) -> Camera:
-        """The camera looking along ``yaw`` (deg, from +y towards +x) at :data:`CAMERA_PITCH`
-        whose picture of ``width`` x ``height`` pixels holds ``points`` ((n, 3), metres) with
+    def framing(cls, points: np.ndarray, width: int, height: int, yaw: float = CAMERA_YAW, pitch: float = CAMERA_PITCH) -> Camera:
+        """The camera looking along ``yaw`` (deg, from +y towards +x) at ``pitch`` (deg, negative:
+        down) whose picture of ``width`` x ``height`` pixels holds ``points`` ((n, 3), metres) with
         :data:`MARGIN` around them."""
         import pybullet
 
         low, high = points.min(axis=0), points.max(axis=0)
         target = (low + high) / 2.0
-        yaw, pitch = math.radians(yaw), math.radians(CAMERA_PITCH)
+        yaw, pitch = math.radians(yaw), math.radians(pitch)
         forward = np.array([math.cos(pitch) * math.sin(yaw), math.cos(pitch) * math.cos(yaw), math.sin(pitch)])
         distance = float(np.linalg.norm(high - low)) + 1.0
         eye = target - distance * forward
@@ -179,17 +181,53 @@ def placed_corners(trajectory: Trajectory) -> np.ndarray:
     return np.concatenate([placed, (trajectory.row_position[later][:, None, :] + turned).reshape(-1, 3)])
 
 
-def camera_yaw(trajectory: Trajectory, centre: np.ndarray) -> float:
-    """Degrees: :data:`CAMERA_YAW`, or with a projectile the diagonal view (40, -40, 140 or
-    -140 deg) that has the first projectile's launch point nearest the camera, so that the throw
-    is not hidden behind the structure (``centre``: (3,), metres, what the camera looks at)."""
+def camera_view(trajectory: Trajectory, centre: np.ndarray) -> tuple[float, float]:
+    """The camera's yaw and pitch, degrees (``centre``: (3,), metres, what it looks at):
+
+    * with a projectile, the diagonal view (yaw 40, -40, 140 or -140 at :data:`CAMERA_PITCH`)
+      that has the first projectile's launch point nearest the camera, so that the throw is not
+      hidden behind the structure;
+    * after a collapse, a view across the direction the fallen bricks moved (their mean
+      horizontal displacement), :data:`FALL_YAW` off square and :data:`FALL_PITCH` down, so
+      that a tipping part is seen in profile rather than foreshortened;
+    * else the 3/4 view :data:`CAMERA_YAW`, :data:`CAMERA_PITCH`.
+    """
     projectiles = np.flatnonzero(trajectory.projectiles)
     rows = np.flatnonzero(np.isin(trajectory.row_body, projectiles))
-    if not len(rows):
-        return CAMERA_YAW
-    away = trajectory.row_position[rows[0], :2] - centre[:2]
-    views = [CAMERA_YAW, -CAMERA_YAW, 180.0 - CAMERA_YAW, CAMERA_YAW - 180.0]
-    return min(views, key=lambda yaw: float(np.dot(away, [math.sin(math.radians(yaw)), math.cos(math.radians(yaw))])))
+    if len(rows):
+        away = trajectory.row_position[rows[0], :2] - centre[:2]
+        views = [CAMERA_YAW, -CAMERA_YAW, 180.0 - CAMERA_YAW, CAMERA_YAW - 180.0]
+        return min(views, key=lambda yaw: float(np.dot(away, _horizontal(yaw)))), CAMERA_PITCH
+    fall = _fall(trajectory)
+    if fall is None:
+        return CAMERA_YAW, CAMERA_PITCH
+    across = math.degrees(math.atan2(fall[0], fall[1]))  # the fall's own yaw; a view across it is 90 deg off
+    views = [across + side * 90.0 + turn * FALL_YAW for side in (-1, 1) for turn in (-1, 1)]
+    yaw = min(views, key=lambda v: abs((v - CAMERA_YAW + 180.0) % 360.0 - 180.0))  # nearest the usual view
+    return (yaw + 180.0) % 360.0 - 180.0, FALL_PITCH
+
+
+def _horizontal(yaw: float) -> list[float]:
+    return [math.sin(math.radians(yaw)), math.cos(math.radians(yaw))]
+
+
+def _fall(trajectory: Trajectory) -> np.ndarray | None:
+    """(2,) metres: the mean horizontal displacement, from their first to their last row, of the
+    structure bricks that end fallen; None when none did or they moved less than a millimetre."""
+    fallen = [b for b in np.flatnonzero(~trajectory.projectiles) if _last_state(trajectory, int(b)) == FALLEN]
+    if not fallen:
+        return None
+    moves = []
+    for b in fallen:
+        rows = np.flatnonzero(trajectory.row_body == b)
+        moves.append(trajectory.row_position[rows[-1], :2] - trajectory.row_position[rows[0], :2])
+    mean = np.mean(moves, axis=0)
+    return mean if float(np.linalg.norm(mean)) > 1e-3 else None
+
+
+def _last_state(trajectory: Trajectory, body: int) -> int:
+    rows = np.flatnonzero(trajectory.row_body == body)
+    return int(trajectory.row_state[rows[-1]]) if len(rows) else ABSENT
 
 
 def colour_keys(trajectory: Trajectory, states: np.ndarray) -> list[str]:
@@ -225,7 +263,7 @@ class Scene:
         corners = placed_corners(trajectory)
         low, high = corners.min(axis=0), corners.max(axis=0)
         centre = (low + high) / 2.0
-        self.camera = camera = Camera.framing(corners, self.width, self.height, camera_yaw(trajectory, centre))
+        self.camera = camera = Camera.framing(corners, self.width, self.height, *camera_view(trajectory, centre))
         towards, right = camera.view[2, :3], camera.view[0, :3]  # to the camera, to the picture's right
         self._light = (towards - 0.7 * right + [0.0, 0.0, 1.5]).tolist()  # from the upper left, behind the camera
         self._shapes: dict[tuple[float, ...], int] = {}

@@ -10,8 +10,8 @@ from PIL import Image
 
 from stackdsl import compile_scenario, parse_scenario
 from stackdsl._animate import KEY_EVENTS, animate, speed_text, timeline
-from stackdsl._recorder import record_program
 from stackdsl._camera import placed_corners
+from stackdsl._recorder import record_program
 from stackdsl._render import COLLAPSE_DELAY, COLOURS, Scene, picture, render, resolve_time, scale_bar
 from stackdsl._trajectory import FALLEN, STATES, Trajectory
 

@@ -27,6 +27,7 @@ from ._check import TIMEOUT, CheckResult, ScenarioErrors, discover, prepare, run
 from ._cli_args import jobs_type, timeout_type
 from ._cli_bench import add_bench
 from ._cli_draw import add_commands, add_record_options
+from ._cli_sweep import add_sweep
 from ._compiler import MODE_DEFAULTS, compile_scenario
 from ._errors import ScenarioError
 from ._expect import describe, evaluate
@@ -242,6 +243,17 @@ def _parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_run)
 
     add_commands(sub, [one, guarded], one_status)
+    add_sweep(
+        sub,
+        [common, guarded],
+        EXIT_STATUS.replace("  0    every expectation held", "  0    every statistical expectation held (PASS)").replace(
+            "  1    an expectation failed, or a run reached its --timeout",
+            "  1    an expectation failed or was inconclusive, or a run reached its --timeout",
+        ),
+        jobs_type,
+        MODELS,
+        modes,
+    )
 
     add_bench(sub, [common], one_status, modes)
 

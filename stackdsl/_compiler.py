@@ -353,19 +353,22 @@ def _placed(scenario: Scenario, bricks: list[_Brick]) -> list[_Brick]:
 
 
 def _tower(scenario: Scenario) -> list[_Brick]:
-    """The tower generator: layer L turned (L-1) x turn, centred at origin + (L-1) x shift."""
+    """The tower generator: layer L turned (L-1) x turn, centred at origin plus the shifts of
+    the layers below it ((L-1) x shift, or the sum of ``shifts``); each brick turned by its
+    ``yaw_jitter`` more, about its own centre."""
     t = scenario.structure.tower
     assert t is not None
     height = scenario.brick_type(t.brick).size[2]
-    bricks = []
+    bricks: list[_Brick] = []
     for level in range(1, t.levels + 1):
         yaw = t.yaw + (level - 1) * t.turn
         across = np.array([-math.sin(math.radians(yaw)), math.cos(math.radians(yaw))])
-        centre = np.array(t.origin) + (level - 1) * np.array(t.shift)
+        centre = np.array(t.origin) + np.array(t.layer_shift(level))
         for k in range(t.bricks_per_layer):
             xy = centre + (k - (t.bricks_per_layer - 1) / 2) * t.spacing * across
             position = np.array([xy[0], xy[1], (level - 0.5) * height])
-            bricks.append(_Brick(f"L{level:02d}.{k + 1}", level, t.brick, position, _wrap(yaw)))
+            jitter = t.jitter(len(bricks))
+            bricks.append(_Brick(f"L{level:02d}.{k + 1}", level, t.brick, position, _wrap(yaw + jitter)))
     return bricks
 
 

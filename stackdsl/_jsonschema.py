@@ -46,11 +46,75 @@ def _refer(node: Any, refs: dict[str, dict[str, str]]) -> Any:
     return node
 
 
+#: What a number of the scene may be written as instead (stackdsl._distributions).
+DISTRIBUTION: dict[str, Any] = {
+    "type": "object",
+    "description": "a random value: {uniform: [low, high]}, {normal: {mean, sd, clip: [low, high]}} or {choice: [...]}, "
+    "drawn once a sample, or a layer or a brick ('per', on a tower's shift and yaw_jitter)",
+    "oneOf": [{"required": ["uniform"]}, {"required": ["normal"]}, {"required": ["choice"]}],
+    "properties": {
+        "uniform": {"type": "array", "minItems": 2, "maxItems": 2, "items": {"type": ["number", "string"]}},
+        "normal": {
+            "type": "object",
+            "required": ["mean", "sd"],
+            "additionalProperties": False,
+            "properties": {
+                "mean": {"type": ["number", "string"]},
+                "sd": {"type": ["number", "string"]},
+                "clip": {"type": "array", "minItems": 2, "maxItems": 2, "items": {"type": ["number", "string"]}},
+            },
+        },
+        "choice": {"type": "array", "minItems": 1, "maxItems": 1000, "items": {"type": ["number", "string"]}},
+        "per": {"enum": ["sample", "layer", "brick"]},
+    },
+    "additionalProperties": False,
+}
+#: Models and top-level fields whose numbers are not the scene's: no distribution there.
+_NOT_RANDOM = {"Expect", "CollapseLevel", "CollapseStatistic", "Within", "Quantile", "Probability", "Sweep"}
+_NOT_RANDOM_FIELDS = {"stackdsl", "seed"}
+
+
+def _numeric(node: Any) -> bool:
+    """A subschema that takes a number (alone or among other forms)."""
+    if not isinstance(node, dict):
+        return False
+    return node.get("type") in ("number", "integer") or any(_numeric(n) for n in node.get("anyOf", []))
+
+
+def _random(node: Any) -> Any:
+    """``node`` with every field or list item that takes a number also taking a distribution."""
+    if isinstance(node, list):
+        return [_random(n) for n in node]
+    if not isinstance(node, dict):
+        return node
+    out = {}
+    for key, value in node.items():
+        if key == "properties":
+            value = {name: _or_random(v) if name not in _NOT_RANDOM_FIELDS else v for name, v in value.items()}
+        elif key in ("prefixItems",):
+            value = [_or_random(v) for v in value]
+        elif key == "items":
+            value = _or_random(value)
+        out[key] = _random(value) if key not in ("properties", "prefixItems", "items") else value
+    return out
+
+
+def _or_random(node: Any) -> Any:
+    """``node``, or a distribution in its place if it takes a number (its title, description and
+    default kept outside, where editors show them)."""
+    if not _numeric(node):
+        return _random(node)
+    meta = {k: node[k] for k in ("title", "description", "default") if k in node}
+    inner = {k: v for k, v in node.items() if k not in meta}
+    return {"anyOf": [_random(inner), {"$ref": "#/$defs/Distribution"}], **meta}
+
+
 def json_schema() -> dict[str, Any]:
     """The JSON Schema (Draft 2020-12) of a scenario file, for editors and ``stackdsl schema``.
 
     It is pydantic's schema of :class:`Scenario` with what the validators also accept
-    (quantities with units, the short forms of ``collapse``, ``shift``, levels and ``at``)
+    (quantities with units, the short forms of ``collapse``, ``shift``, levels and ``at``, and
+    a distribution wherever the scene takes a number)
     and the rules between fields that JSON Schema can say; where it cannot (see the module
     docstring), it accepts more than the loader. Source: stackdsl's own.
     """
@@ -61,6 +125,12 @@ def json_schema() -> dict[str, Any]:
     strings = {name: {"type": "string", "pattern": quantity_pattern(sign)} for name, sign in _QUANTITY_STRINGS.items()}
     schema = _refer(schema, {_key(value): {"$ref": f"#/$defs/{name}"} for name, value in strings.items()})
     schema["$defs"].update({name: {**value, "description": _QUANTITY_STRING_DESCRIPTION} for name, value in strings.items()})
+    # a distribution wherever the scene takes a number
+    schema["$defs"] = {name: value if name in _NOT_RANDOM else _random(value) for name, value in schema["$defs"].items()}
+    schema["properties"] = {
+        name: value if name in _NOT_RANDOM_FIELDS else _or_random(value) for name, value in schema["properties"].items()
+    }
+    schema["$defs"]["Distribution"] = DISTRIBUTION
     return {
         "$schema": SCHEMA_DIALECT,
         "$id": SCHEMA_ID,

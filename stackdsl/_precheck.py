@@ -45,7 +45,7 @@ from scipy.spatial.transform import Rotation
 
 from ._errors import FieldPath
 from ._expect import _span
-from ._schema import Scenario
+from ._schema import CollapseLevel, Scenario
 
 REST_TOLERANCE = 0.001
 """Metres: a brick rests on a body when lowered this far it would sink into it (from below its centre)."""
@@ -411,6 +411,12 @@ def _tower_floating(scenario: Scenario, bodies: Sequence[Body], b: int, floating
             f"{_mm(limit)} ((length + width) / (bricks_per_layer - 1)) and at least {_mm(width)} (the width), "
             f"or at most {most} brick{'s' * (most != 1)} a layer"
         )
+    if t.shifts is not None and brick.level is not None and brick.level > 1:
+        x, y = t.shifts[brick.level - 2]
+        return tower + ("shifts", brick.level - 2), (
+            f"{head}: it is moved ({_millimetres(x)}, {_millimetres(y)}) mm from the layer below, too far for its "
+            f"bricks to reach it ({n} a layer, {_mm(t.spacing)} apart, each layer turned {t.turn:g} deg); use a smaller shift"
+        )
     if any(abs(v) > 0 for v in t.shift):
         return tower + ("shift",), (
             f"{head}: each layer is moved ({_millimetres(t.shift[0])}, {_millimetres(t.shift[1])}) mm from the one "
@@ -451,7 +457,7 @@ def _expectation_problems(scenario: Scenario, top: int) -> list[_Problem]:
     expect = scenario.expect
     problems = []
     c = expect.collapse
-    if c is not None and c.level - c.tolerance > top:
+    if isinstance(c, CollapseLevel) and c.level - c.tolerance > top:
         written = (
             f"collapse {c.level}±{c.tolerance} (levels {c.level - c.tolerance}-{c.level + c.tolerance})"
             if c.tolerance

@@ -27,10 +27,12 @@ from pydantic import (
     BaseModel,
     BeforeValidator,
     ConfigDict,
+    Discriminator,
     Field,
     PrivateAttr,
     StrictBool,
     StrictFloat,
+    Tag,
     ValidationError,
     WithJsonSchema,
     model_validator,
@@ -40,9 +42,11 @@ from pydantic_core import InitErrorDetails, PydanticCustomError
 from ._errors import SourceMap
 from ._grammar import (
     AFTER_LEVEL,
+    BOUND,
     COLLAPSE,
     LEVEL_NUMBER,
     LEVEL_RANGE,
+    PLUS_MINUS,
     TOLERANCE_NUMBER,
     WHOLE,
     AlsoAccepts,
@@ -266,6 +270,9 @@ class Tower(_Model):
     centre), each layer turned by ``turn`` degrees and moved by ``shift`` from the one below.
 
     Two bricks a layer turned 90 deg is the report's 4 stack; a shift makes it a slant tower.
+    ``shifts`` gives each layer above the first its own shift from the layer below (a random
+    walk when drawn ``per: layer``); ``yaw_jitter`` turns each brick by that many degrees
+    more (one number for all, or one a brick), its position unchanged.
     ``turn`` and ``yaw`` are degrees within +-3600 (ten turns, :data:`MAX_ANGLE`; not folded);
     ``spacing`` and each part of ``shift`` at most 10 m (no brick is longer), ``origin`` within 1 km.
     """
@@ -276,8 +283,35 @@ class Tower(_Model):
     spacing: Spacing = 0.096
     turn: BoundedAngle = 90.0
     shift: Shift = (0.0, 0.0)
+    shifts: Annotated[list[Shift], Field(max_length=MAX_LEVELS - 1)] | None = None
     origin: Vector2 = (0.0, 0.0)
     yaw: BoundedAngle = 0.0
+    yaw_jitter: BoundedAngle | Annotated[list[BoundedAngle], Field(max_length=MAX_BRICKS)] = 0.0
+
+    @model_validator(mode="after")
+    def _per_layer_and_brick(self) -> Tower:
+        if self.shifts is not None:
+            if any(self.shift):
+                raise ValueError("give 'shift' (every layer alike) or 'shifts' (one a layer), not both")
+            if len(self.shifts) != self.levels - 1:
+                raise ValueError(
+                    f"'shifts' has one shift a layer above the first: {self.levels - 1} for {self.levels} levels, not {len(self.shifts)}"
+                )
+        if isinstance(self.yaw_jitter, list) and len(self.yaw_jitter) != self.levels * self.bricks_per_layer:
+            bricks = self.levels * self.bricks_per_layer
+            raise ValueError(f"a 'yaw_jitter' list has one angle a brick: {bricks}, not {len(self.yaw_jitter)}")
+        return self
+
+    def layer_shift(self, level: int) -> tuple[float, float]:
+        """Where level ``level``'s centre is from ``origin``, m: the sum of the shifts below it."""
+        if self.shifts is None:
+            return (level - 1) * self.shift[0], (level - 1) * self.shift[1]
+        below = self.shifts[: level - 1]
+        return sum(x for x, _ in below), sum(y for _, y in below)
+
+    def jitter(self, index: int) -> float:
+        """Degrees added to brick ``index``'s yaw (bricks counted from 0, level 1 first)."""
+        return self.yaw_jitter[index] if isinstance(self.yaw_jitter, list) else self.yaw_jitter
 
 
 class BrickPlacement(_Model):
@@ -546,29 +580,126 @@ Levels = Annotated[
 ]
 
 
+def _plus_minus(value: Any) -> Any:
+    """``"7 ± 0.5"`` (or ``+-``, ``+/-``) -> ``{"target": 7.0, "tolerance": 0.5}``."""
+    match = re.fullmatch(PLUS_MINUS, value) if isinstance(value, str) else None
+    if match:
+        return {"target": float(match[1]), "tolerance": float(match[2])}
+    if isinstance(value, dict):
+        return value
+    raise ValueError(f"expected a level and a tolerance such as '7 ± 0.5', got {value!r}")
+
+
+class Within(_Model):
+    """A number of levels within a tolerance: written ``"7 ± 0.5"``."""
+
+    target: Annotated[float, Field(ge=0, le=MAX_LEVELS)]
+    tolerance: Annotated[float, Field(gt=0, le=MAX_LEVELS)]
+
+
+PlusMinus = Annotated[
+    Within,
+    BeforeValidator(_plus_minus),
+    AlsoAccepts(({"type": "string", "pattern": f"^{PLUS_MINUS}$"},), "a level and a tolerance: '7 ± 0.5'"),
+]
+
+
+class Quantile(_Model):
+    """The ``q`` quantile of the collapse level (0 < q < 1; 0.5: the median) within ``level``."""
+
+    q: Annotated[float, Field(gt=0, lt=1)]
+    level: PlusMinus
+
+
+class CollapseStatistic(_Model):
+    """A sweep's collapse level as a statistic: its ``mean`` over the samples that collapsed, or
+    a ``quantile`` (standing samples count as above every level), each within a tolerance."""
+
+    model_config = ConfigDict(json_schema_extra={"oneOf": [given("mean"), given("quantile")]})
+
+    mean: PlusMinus | None = None
+    quantile: Quantile | None = None
+
+    @model_validator(mode="after")
+    def _one(self) -> CollapseStatistic:
+        if (self.mean is None) == (self.quantile is None):
+            raise ValueError("give one of 'mean' ('7 ± 0.5') or 'quantile' ({q: 0.5, level: '7 ± 1'})")
+        return self
+
+
+def _bound(value: Any) -> Any:
+    """``">= 0.9"`` -> ``{"op": ">=", "bound": 0.9}``."""
+    if isinstance(value, str):
+        match = re.fullmatch(BOUND, value)
+        if not match:
+            raise ValueError(f"expected a comparison with a probability such as '>= 0.9', got {value!r}")
+        return {"op": match[1], "bound": float(match[2])}
+    return value
+
+
+class Probability(_Model):
+    """A bound on a probability: written ``">= 0.9"`` (also ``<=``, ``>``, ``<``)."""
+
+    op: Literal[">=", "<=", ">", "<"]
+    bound: Annotated[float, Field(ge=0, le=1)]
+
+
+def _collapse_form(value: Any) -> str:
+    """Which form ``expect.collapse`` is written in: a sweep's ``statistic`` or a run's ``level``."""
+    if isinstance(value, CollapseStatistic) or (isinstance(value, dict) and {"mean", "quantile"} & set(value)):
+        return "statistic"
+    return "level"
+
+
 class Expect(_Model):
     """What must hold: a ``collapse`` level, or that the structure ``stands``; after an
-    impact, the levels that ``stay`` in place and the levels that ``may_fall``."""
+    impact, the levels that ``stay`` in place and the levels that ``may_fall``. A sweep's
+    expectations are statistics over its samples instead: ``collapse: {mean: '7 ± 0.5'}``,
+    ``collapse: {quantile: {q: 0.5, level: '7 ± 1'}}`` and ``p_stands: '>= 0.9'``, each decided
+    by its 95% confidence interval."""
 
     model_config = ConfigDict(json_schema_extra={"not": given("collapse", "stands")})
 
     collapse: (
         Annotated[
-            CollapseLevel,
-            BeforeValidator(_collapse),
-            AlsoAccepts(
-                (
-                    {"type": "integer", "minimum": 1, "maximum": MAX_LEVELS},
-                    {"type": "string", "pattern": json_pattern(COLLAPSE, LEVEL_NUMBER, TOLERANCE_NUMBER)},
+            Annotated[
+                CollapseLevel,
+                BeforeValidator(_collapse),
+                AlsoAccepts(
+                    (
+                        {"type": "integer", "minimum": 1, "maximum": MAX_LEVELS},
+                        {"type": "string", "pattern": json_pattern(COLLAPSE, LEVEL_NUMBER, TOLERANCE_NUMBER)},
+                    ),
+                    "the level expected to collapse: 9, '9±1', '9 +- 1' or {level: 9, tolerance: 1}",
                 ),
-                "the level expected to collapse: 9, '9±1', '9 +- 1' or {level: 9, tolerance: 1}",
-            ),
+                Tag("level"),
+            ]
+            | Annotated[CollapseStatistic, Tag("statistic")],
+            Discriminator(_collapse_form),
         ]
         | None
     ) = None
     stands: Annotated[Literal[True], BeforeValidator(flag)] | None = None
     stays: Levels | None = None
     may_fall: Levels | None = None
+    p_stands: (
+        Annotated[
+            Probability,
+            BeforeValidator(_bound),
+            AlsoAccepts(({"type": "string", "pattern": f"^{BOUND}$"},), "a bound on P(stands): '>= 0.9'"),
+        ]
+        | None
+    ) = None
+
+    @property
+    def statistical(self) -> bool:
+        """Expectations about a sweep's statistics (``collapse: {mean...}``, ``p_stands``)."""
+        return isinstance(self.collapse, CollapseStatistic) or self.p_stands is not None
+
+    @property
+    def per_run(self) -> bool:
+        """Expectations about one run (a collapse level, ``stands``, ``stays``)."""
+        return isinstance(self.collapse, CollapseLevel) or bool(self.stands) or self.stays is not None
 
     @model_validator(mode="after")
     def _consistent(self) -> Expect:
@@ -577,6 +708,38 @@ class Expect(_Model):
         # JSON Schema cannot compare two lists of ranges: the schema leaves this to the loader
         if self.stays and self.may_fall and set(self.stays) & set(self.may_fall):
             raise ValueError("a level cannot both stay and fall: 'stays' and 'may_fall' overlap")
+        return self
+
+
+MAX_SAMPLES = 100_000
+MAX_CELLS = 1000
+MAX_SWEEP_RUNS = 200_000
+
+
+class Sweep(_Model):
+    """Many runs of one scenario: ``samples`` draws of its random fields (sample k seeded by the
+    k-th child of the scenario's seed), for each cell of ``grid``: field paths (``timing.placement_error``)
+    each with a list of values, run as their product; every cell's sample k has the same seed."""
+
+    samples: Annotated[int, Field(ge=1, le=MAX_SAMPLES), WHOLE] = 1
+    grid: Annotated[dict[str, Annotated[list[Any], Field(min_length=1, max_length=100)]], Field(max_length=4)] = {}
+
+    @property
+    def cells(self) -> int:
+        """How many parameter combinations the grid makes (1 without a grid)."""
+        count = 1
+        for values in self.grid.values():
+            count *= len(values)
+        return count
+
+    @model_validator(mode="after")
+    def _bounded(self) -> Sweep:
+        if self.cells > MAX_CELLS:
+            raise ValueError(f"the grid makes {self.cells} cells; at most {MAX_CELLS}")
+        if self.cells * self.samples > MAX_SWEEP_RUNS:
+            raise ValueError(
+                f"{self.cells} cells x {self.samples} samples is {self.cells * self.samples} runs; at most {MAX_SWEEP_RUNS}"
+            )
         return self
 
 
@@ -609,8 +772,30 @@ class Scenario(_Model):
     expect: Expect = Expect()
     # checks before simulating that this scene silences: "floating" lets bricks be placed resting on nothing
     allow: list[Literal["floating"]] = []
+    sweep: Sweep | None = None
+
+    @model_validator(mode="after")
+    def _expectations_fit_the_sweep(self) -> Scenario:
+        """A sweep's expectations are statistics; one run's are not."""
+        if self.sweep is None and self.expect.statistical:
+            field = "p_stands" if self.expect.p_stands is not None else "collapse"
+            self._refuse(("expect", field), "a statistical expectation needs a sweep: add 'sweep: {samples: N}'")
+        if self.sweep is not None and self.expect.per_run:
+            field = next(f for f in ("collapse", "stands", "stays") if getattr(self.expect, f) is not None)
+            self._refuse(
+                ("expect", field),
+                "a sweep's expectations are statistics over its samples: collapse: {mean: '7 ± 0.5'}, "
+                "collapse: {quantile: {q: 0.5, level: '7 ± 1'}} or p_stands: '>= 0.9'",
+            )
+        return self
+
+    def _refuse(self, loc: tuple[str, ...], message: str) -> None:
+        error = InitErrorDetails(type=PydanticCustomError("value_error", message), loc=loc, input=None)
+        raise ValidationError.from_exception_data(type(self).__name__, [error])
 
     _source: SourceMap = PrivateAttr(default_factory=lambda: SourceMap("<scenario>"))
+    _template: Any = PrivateAttr(default=None)  # a stackdsl._sampling.Template when the file is random or a sweep
+    _sample: tuple[int, int] = PrivateAttr(default=(0, 0))  # this one's (grid cell, sample)
 
     @model_validator(mode="after")
     def _drop_gap_below_threshold(self) -> Scenario:
@@ -645,6 +830,17 @@ class Scenario(_Model):
     def source(self) -> SourceMap:
         """Where the fields came from (:class:`SourceMap`)."""
         return self._source
+
+    @property
+    def template(self) -> Any:
+        """The file's :class:`stackdsl._sampling.Template` when it has random fields or a sweep
+        (this scenario is then one of its samples: :attr:`sample`), else None."""
+        return self._template
+
+    @property
+    def sample(self) -> tuple[int, int]:
+        """(grid cell, sample index) of this scenario in its file's sweep; (0, 0) otherwise."""
+        return self._sample
 
     def material(self, name: str) -> Material:
         """A declared or built-in material. Raises KeyError for an unknown name."""

@@ -196,3 +196,60 @@ speed, Speed = _kind("[length]/[time]", "m/s", "a speed", "'3 m/s'")
 density, Density = _kind("[mass]/[length]**3", "kg/m**3", "a density", "'460 kg/m^3'", "kg/m^3")
 angular_speed, AngularSpeed = _kind("1/[time]", "rad/s", "an angular speed", "'0.05 rad/s'")
 angle, Angle = _kind("", "degree", "an angle", "'30 deg' or '0.5 rad'", "degrees")
+
+
+def split_quantity(value: Any) -> tuple[float, str]:
+    """A number or a quantity string as (number, unit as written; ``""`` for a bare number).
+
+    >>> split_quantity("12.5 mm"), split_quantity(3), split_quantity("1/240 s")
+    ((12.5, 'mm'), (3.0, ''), (0.004166666666666667, 's'))
+
+    Raises:
+        ValueError: not a finite number or a quantity string.
+    """
+    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
+        raise ValueError(f"expected a number or a quantity such as '12 mm', got {value!r}")
+    if isinstance(value, str):
+        match = _QUANTITY.match(value)
+        if not match:
+            raise ValueError(f"expected a number or a quantity such as '12 mm', got {value!r}")
+        numerator, denominator, unit_text = match.groups()
+        if float(denominator or 1) == 0:
+            raise ValueError(f"expected a number or a quantity such as '12 mm', got {value!r} (a division by zero)")
+        number, unit = float(numerator) / float(denominator or 1), (unit_text or "").strip()
+    else:
+        try:
+            number, unit = float(value), ""
+        except OverflowError:
+            number, unit = math.inf, ""
+    if not math.isfinite(number):
+        raise ValueError(f"expected a finite number, got {value!r}")
+    return number, unit
+
+
+def in_unit(value: Any, unit: str) -> float:
+    """``value`` (a number or a quantity string) as a number of ``unit`` (as written in a file,
+    ``""``: a bare number, whose own unit is the field's).
+
+    >>> in_unit("2 cm", "mm"), in_unit(4, "")
+    (20.0, 4.0)
+
+    Raises:
+        ValueError: not a number or a quantity; a unit of another kind than ``unit``'s; a bare
+            number where ``unit`` is given, or a quantity where it is not.
+    """
+    number, own = split_quantity(value)
+    if own == unit:
+        return number
+    if not own or not unit:
+        raise ValueError(
+            f"give every value of a distribution with the same kind of unit, or none: {value!r} and {unit or 'no unit'!r}"
+        )
+    ureg = _registry()
+    try:
+        quantity = ureg.Quantity(number, ureg.parse_units(own))
+        return float(quantity.to(ureg.parse_units(unit)).magnitude)
+    except Exception:  # pint raises many kinds: a unit it does not know, or of another dimension
+        raise ValueError(
+            f"{value!r} cannot be written in {unit!r}: give every value of a distribution in units of one kind"
+        ) from None

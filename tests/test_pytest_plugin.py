@@ -7,6 +7,11 @@ pytest in it, as a user would.
 import json
 import xml.etree.ElementTree as ET
 
+# pint (stackdsl reads units with it) imports importlib_metadata and toolz, which put finders on
+# sys.meta_path. Imported for the first time inside one of pytester's in-process runs, they are
+# unloaded after it while their finders stay, and the next run can read no package's metadata
+# (PackageNotFoundError: pluggy). Imported here, they stay loaded for every run.
+import pint  # noqa: F401
 import pytest
 
 pytest_plugins = ["pytester"]

@@ -118,7 +118,8 @@ def _numeric_grid(template: Template) -> tuple[str, str, list[float]] | None:
     _, key, values = template.grid[0]
     try:
         unit = next((split_quantity(v)[1] for v in values if split_quantity(v)[1]), "")
-        return key, unit, [in_unit(v, unit) if unit or isinstance(v, str) else float(v) for v in values]
+        # a bare 0 is 0 of any unit; other bare numbers among values with units are SI: not compared here
+        return key, unit, [0.0 if v == 0 and not isinstance(v, str) else in_unit(v, unit) for v in values]
     except ValueError:
         return None
 

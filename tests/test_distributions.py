@@ -1,0 +1,144 @@
+"""Distributions in scenario files and sweeps: what is drawn, from which seed, and where errors point."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from stackdsl import ScenarioError, compile_scenario, parse_scenario
+from stackdsl._distributions import sample_seed
+
+WALK = """stackdsl: 1
+structure:
+  tower:
+    levels: 8
+    bricks_per_layer: 1
+    turn: 0
+    shift: {uniform: [-60 mm, 60 mm], per: layer}
+    yaw_jitter: {normal: {mean: 0, sd: 2, clip: [-3, 3]}, per: brick}
+    spacing: {choice: [90 mm, 96 mm]}
+sweep: {samples: 50}
+"""
+
+
+def template(text: str = WALK):
+    scenario = parse_scenario(text, "t.yaml")
+    assert scenario.template is not None
+    return scenario.template
+
+
+def test_sample_k_is_the_kth_child_of_the_seed_whoever_draws_it():
+    t = template()
+    first = [t.parameters(0, k) for k in range(10)]
+    again = [t.parameters(0, k) for k in reversed(range(10))][::-1]  # another order, the same draws
+    assert first == again
+    assert len({str(p) for p in first}) == 10  # and they differ between samples
+    assert sample_seed(7, 3).generate_state(2).tolist() == np.random.SeedSequence(7).spawn(4)[3].generate_state(2).tolist()
+    other = template(WALK + "seed: 1\n")
+    assert other.parameters(0, 0) != t.parameters(0, 0)
+
+
+def test_per_layer_shift_is_a_random_walk_and_per_brick_yaw_a_jitter():
+    t = template()
+    for k in range(20):
+        s = t.scenario(0, k)
+        tower = s.structure.tower
+        assert tower.shifts is not None and len(tower.shifts) == 7 and tower.shift == (0.0, 0.0)
+        assert all(-0.06 <= x <= 0.06 and y == 0.0 for x, y in tower.shifts)
+        assert isinstance(tower.yaw_jitter, list) and len(tower.yaw_jitter) == 8 and all(-3 <= j <= 3 for j in tower.yaw_jitter)
+        program = compile_scenario(s)
+        xs = [p.position[0] for p in program.placements]
+        # each layer's centre is the one below plus its own shift: a walk, up to the placement error (0 here)
+        assert np.allclose(np.diff(xs), [x for x, _ in tower.shifts])
+        assert [p.yaw for p in program.placements] == pytest.approx(tower.yaw_jitter)
+    # the draws are uniform over the range: their mean over many samples is near 0
+    shifts = [x for k in range(50) for x, _ in t.scenario(0, k).structure.tower.shifts]
+    assert abs(np.mean(shifts)) < 0.006 and max(shifts) > 0.05 and min(shifts) < -0.05
+
+
+def test_a_distribution_draws_in_the_unit_written_and_the_field_checks_it():
+    s = parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 2, spacing: {uniform: [9 cm, 10 cm]}}}\n", "t.yaml")
+    t = s.template
+    values = [t.parameters(0, k)["structure.tower.spacing"] for k in range(20)]
+    assert all(9 <= v <= 10 for v in values)  # centimetres, as written
+    assert all(0.09 <= t.scenario(0, k).structure.tower.spacing <= 0.10 for k in range(20))  # metres inside
+
+
+@pytest.mark.parametrize(
+    ("field", "message", "column"),
+    [
+        (
+            "spacing: {uniform: [90 mm, 20 m]}",
+            "a value this distribution can draw, '20000.0 mm': expected a length from 0 to 10 m",
+            14,
+        ),
+        ("spacing: {uniform: [1 s, 2 s]}", "expected a length", 14),
+        ("spacing: {uniform: [90 mm, 2]}", "same kind of unit, or none", 24),
+        ("spacing: {uniform: [100 mm, 90 mm]}", "low '100 mm' is above high '90 mm'", 24),
+        ("spacing: {uniform: [90 mm, 100 mm], per: layer}", "'per: layer' is not allowed here", 46),
+        ("spacing: {normal: {mean: 96 mm, sd: -1 mm}}", "the standard deviation must be at least 0", 23),
+        ("spacing: {uniform: [90 mm, 100 mm], pre: layer}", "unknown key 'pre'", 14),
+        ("levels: {choice: [3, 2000]}", "a value this distribution can draw, 2000", 13),
+    ],
+)
+def test_a_bad_distribution_is_one_error_at_its_node(field, message, column):
+    text = f"stackdsl: 1\nstructure:\n  tower:\n    levels: 3\n    {field}\n"
+    if field.startswith("levels"):
+        text = f"stackdsl: 1\nstructure:\n  tower:\n    {field}\n"
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(text, "t.yaml")
+    error = info.value
+    assert message in error.message and error.column == column and error.line == (4 if field.startswith("levels") else 5)
+
+
+@pytest.mark.parametrize(
+    ("text", "where", "message"),
+    [
+        ("sweep: {samples: 3}\nexpect:\n  p_stands: {choice: ['>= 0.5']}\n", "expect.p_stands", "cannot stand in 'expect'"),
+        (
+            "sweep: {samples: 2, grid: {timing.placement_eror: [0, 1 mm]}}\n",
+            "sweep.grid.timing.placement_eror",
+            "has no field 'placement_eror'",
+        ),
+        (
+            "sweep: {samples: 2, grid: {timing.placement_error: [0, 50 mm]}}\n",
+            "sweep.grid.timing.placement_error[1]",
+            "the grid value '50 mm'",
+        ),
+        ("expect: {p_stands: '>= 0.9'}\n", "expect.p_stands", "a statistical expectation needs a sweep"),
+        ("sweep: {samples: 2}\nexpect: {stands: true}\n", "expect.stands", "a sweep's expectations are statistics"),
+        ("sweep: {samples: 2}\nexpect: {collapse: {mean: 7}}\n", "expect.collapse.mean", "such as '7 ± 0.5', got 7"),
+        ("sweep: {samples: 100000, grid: {timing.interval: [0.5, 1, 2]}}\n", "sweep", "runs; at most 200000"),
+    ],
+)
+def test_sweep_and_expectation_errors_point_at_the_field(text, where, message):
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 3}}\n" + text, "t.yaml")
+    assert info.value.field == where and message in info.value.message
+
+
+def test_a_grid_runs_every_combination_with_the_same_draws_in_each_cell():
+    grid = "sweep:\n  samples: 5\n  grid: {timing.placement_error: [0, 2 mm], timing.interval: [0.5, 1]}\n"
+    t = template(WALK.replace("sweep: {samples: 50}\n", grid))
+    assert t.cells == 4 and [t.cell(c) for c in range(4)] == [
+        {"timing.placement_error": 0, "timing.interval": 0.5},
+        {"timing.placement_error": 0, "timing.interval": 1},
+        {"timing.placement_error": "2 mm", "timing.interval": 0.5},
+        {"timing.placement_error": "2 mm", "timing.interval": 1},
+    ]
+    # common random numbers: the random fields of sample k are the same in every cell
+    shifts = [t.scenario(c, 3).structure.tower.shifts for c in range(4)]
+    assert all(s == shifts[0] for s in shifts)
+    assert t.scenario(2, 3).timing.placement_error == 0.002
+
+
+def test_explicit_shifts_and_yaw_jitter_are_checked():
+    ok = parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 3, shifts: [1 mm, [2 mm, 1 mm]], yaw_jitter: 1}}\n")
+    assert ok.structure.tower.layer_shift(3) == pytest.approx((0.003, 0.001))
+    for bad, message in [
+        ("shifts: [1 mm]", "'shifts' has one shift a layer above the first: 2 for 3 levels, not 1"),
+        ("shift: 1 mm, shifts: [1 mm, 2 mm]", "give 'shift' (every layer alike) or 'shifts' (one a layer), not both"),
+        ("yaw_jitter: [1, 2]", "a 'yaw_jitter' list has one angle a brick: 6, not 2"),
+    ]:
+        with pytest.raises(ScenarioError, match=message.replace("(", r"\(").replace(")", r"\)")):
+            parse_scenario(f"stackdsl: 1\nstructure: {{tower: {{levels: 3, {bad}}}}}\n")

@@ -1,0 +1,138 @@
+"""Sweeps: the same per-sample results on every executor, batching, files, verdicts, exit codes."""
+
+from __future__ import annotations
+
+import csv
+import json
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+
+from stackdsl import load_scenario, parse_scenario
+from stackdsl._cli import main
+from stackdsl._random_stack import mean_collapse_level
+from stackdsl._sweep import SweepOptions, batches, collect, dask_executor, run_sweep
+
+ROOT = Path(__file__).resolve().parents[1]
+STACK = """stackdsl: 1
+name: random single-file stack
+structure:
+  tower:
+    levels: {levels}
+    bricks_per_layer: 1
+    turn: 0
+    shift: {{uniform: [-60 mm, 60 mm], per: layer}}
+timing: {{settle: 0.2 s}}
+sweep: {{samples: {samples}}}
+"""
+
+
+def template(levels: int = 6, samples: int = 12):
+    return parse_scenario(STACK.format(levels=levels, samples=samples), "stack.yaml").template
+
+
+def without_wall_time(results):
+    return [replace(r, wall_time=0.0) for r in results]
+
+
+def test_every_executor_gives_the_same_per_sample_results():
+    t = template()
+    here = collect(run_sweep(t, jobs=1))
+    assert [(r.cell, r.sample) for r in here] == [(0, k) for k in range(12)]
+    assert not any(r.error or r.bad_input or r.stopped for r in here)
+    pool = collect(run_sweep(t, jobs=2))
+    with dask_executor("local:2") as (executor, threads):
+        assert threads == 2
+        dask = collect(run_sweep(t, executor=executor, workers=threads))
+    assert without_wall_time(here) == without_wall_time(pool) == without_wall_time(dask)
+    assert len({r.collapse_level for r in here}) > 1  # the samples differ
+
+
+def test_batches_cover_every_sample_once_and_never_mix_cells():
+    text = STACK.format(levels=4, samples=50).replace(
+        "sweep: {samples: 50}", "sweep:\n  samples: 50\n  grid: {timing.interval: [0.5, 1, 2]}"
+    )
+    t = parse_scenario(text, "g.yaml").template
+    t = replace(t, samples=50)
+    plan = batches(t, workers=2)
+    seen = [(c, k) for c, samples in plan for k in samples]
+    assert sorted(seen) == [(c, k) for c in range(3) for k in range(50)]
+    assert all(len(samples) <= 32 for _, samples in plan) and len(plan) >= 2 * 6
+
+
+def test_a_local_dask_cluster_needs_a_sensible_size():
+    with pytest.raises(ValueError, match="local:N needs N from 1 to 64"):
+        with dask_executor("local:0"):
+            pass
+
+
+def test_the_simulated_mean_collapse_level_agrees_with_an_independent_monte_carlo():
+    # the shipped random single-file stack: 40 levels, so that nearly every sample collapses
+    t = replace(load_scenario(ROOT / "sweeps" / "random_single_file.yaml").template, samples=40)
+    results = collect(run_sweep(t, SweepOptions(oracle=True), jobs=2))
+    levels = [r.collapse_level for r in results]
+    assert None not in levels
+    from stackdsl._stats import mean_interval
+
+    low, high = mean_interval([float(x) for x in levels if x is not None], 0.95)
+    reference, *_ = mean_collapse_level(200_000, seed=1)
+    assert low <= reference <= high, (low, reference, high)
+    # rigid-block equilibrium on each sample's placed poses gives the same level
+    assert sum(r.oracle_level == r.collapse_level for r in results) >= 0.95 * len(results)
+
+
+def test_the_sweep_command_writes_every_sample_and_decides_by_the_interval(tmp_path, capsys):
+    (tmp_path / "s.yaml").write_text(STACK.format(levels=6, samples=16) + "expect:\n  p_stands: '<= 0.9'\n")
+    out = tmp_path / "out"
+    assert main(["sweep", str(tmp_path / "s.yaml"), "-j", "1", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "PASS" in printed and "expected P(stands) <= 0.9" in printed
+    rows = list(csv.DictReader(open(out / "samples.csv")))
+    assert [int(r["sample"]) for r in rows] == list(range(16))
+    assert {
+        "cell",
+        "sample",
+        "seed",
+        "collapse_level",
+        "levels_placed",
+        "wall_time",
+        "simulated_time",
+        "structure.tower.shift",
+    } <= set(rows[0])
+    lines = [json.loads(line) for line in open(out / "samples.jsonl")]
+    assert len(lines) == 16 and len(lines[0]["structure.tower.shift"]) == 5  # one draw a layer above the first
+    assert [str(r["collapse_level"] or "") for r in lines] == [r["collapse_level"] for r in rows]
+    assert (out / "histogram.png").stat().st_size > 5000
+
+
+def test_an_undecided_or_failed_expectation_exits_1(tmp_path, capsys):
+    (tmp_path / "s.yaml").write_text(STACK.format(levels=10, samples=10) + "expect:\n  collapse: {mean: '4.5 ± 0.2'}\n")
+    assert main(["sweep", str(tmp_path / "s.yaml"), "-j", "1", "--out", str(tmp_path / "o")]) == 1
+    verdict = next(line for line in capsys.readouterr().out.splitlines() if "expected mean 4.5±0.2" in line)
+    assert verdict.split()[0] in ("INCONCLUSIVE", "FAIL")
+
+
+def test_a_grid_sweep_plots_against_its_parameter(tmp_path, capsys):
+    text = STACK.format(levels=4, samples=4).replace(
+        "sweep: {samples: 4}", "sweep:\n  samples: 4\n  grid: {timing.placement_error: [0, 5 mm]}"
+    )
+    (tmp_path / "g.yaml").write_text(text)
+    assert main(["sweep", str(tmp_path / "g.yaml"), "-j", "1", "--out", str(tmp_path / "o")]) == 0
+    out = capsys.readouterr().out
+    assert "cell 0: timing.placement_error = 0" in out and "cell 1: timing.placement_error = 5 mm" in out
+    assert (tmp_path / "o" / "grid_p_stands.png").is_file() and (tmp_path / "o" / "grid_mean.png").is_file()
+
+
+def test_sweep_refuses_what_it_cannot_run(tmp_path, capsys):
+    (tmp_path / "plain.yaml").write_text("stackdsl: 1\nstructure: {tower: {levels: 2}}\n")
+    assert main(["sweep", str(tmp_path / "plain.yaml")]) == 2
+    assert "no sweep and no random field" in capsys.readouterr().err
+    far = STACK.format(levels=4, samples=8).replace("[-60 mm, 60 mm]", "[-60 mm, 200 mm]")
+    (tmp_path / "far.yaml").write_text(far)
+    assert main(["sweep", str(tmp_path / "far.yaml"), "-j", "1", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "far.yaml:8:12: structure.tower.shifts" in err and "rests on nothing when placed" in err and "sample " in err
+    assert not (tmp_path / "o").exists()  # nothing written
+    (tmp_path / "s.yaml").write_text(STACK.format(levels=4, samples=8))
+    assert main(["sweep", str(tmp_path / "s.yaml"), "--samples", "0"]) == 2

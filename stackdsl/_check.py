@@ -22,8 +22,10 @@ from collections.abc import Callable, Generator, Iterable
 from concurrent.futures import Executor
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any, NamedTuple
 
 from ._artefacts import DRAW_ESTIMATE, DRAW_LIMIT, draw_run
+from ._check_sweep import run_unit, sweep_result, sweep_tasks
 from ._compiler import compile_scenario
 from ._errors import ScenarioError
 from ._expect import Verdict, describe, evaluate, explain
@@ -33,9 +35,20 @@ from ._pool import WorkerLost, WorkerTimedOut, fan_out, on_executor
 from ._program import Program
 from ._recorder import record_program
 from ._runtime import run_program
+from ._sampling import Template
 from ._schema import Expect
+from ._sweep import SampleResult
 
-Prepared = tuple[Path, Program, Expect]
+
+class Prepared(NamedTuple):
+    """A scenario file ready to run: its compiled ``program`` (a sweep's: sample 0 of cell 0),
+    ``expect``, and the sweep's ``template`` (None: one run)."""
+
+    path: Path
+    program: Program
+    expect: Expect
+    template: Template | None = None
+
 
 #: Wall seconds a scenario may run before it is stopped (``--timeout``): generous, about 25
 #: times the slowest shipped scenario in raw mode, and short enough that a careless scene (a
@@ -68,6 +81,9 @@ class CheckResult:
             artefacts: kind -> file name in it (trajectory, picture, graph, clip);
             draw_error: the first file that could not be drawn, one line, else empty;
             draw_time: wall seconds the drawing took.
+        bad_input: a sweep's sample the language refuses (a drawn value out of range), the
+            message at file:line:col, else empty; sweep: a sweep's measured summary, else empty
+            (a sweep's verdicts are its statistical expectations, one a grid cell).
     """
 
     file: str
@@ -89,23 +105,27 @@ class CheckResult:
     artefacts: tuple[tuple[str, str], ...] = ()
     draw_error: str = ""
     draw_time: float = 0.0
+    bad_input: str = ""
+    sweep: str = ""
 
     @property
     def passed(self) -> bool:
         """True when the run ended normally and every expectation held."""
-        return not self.error and not self.stopped and all(v.passed for v in self.verdicts)
+        return not self.error and not self.stopped and not self.bad_input and all(v.passed for v in self.verdicts)
 
     @property
     def expected(self) -> str:
         """The expectations, as in check's table: ``'collapse 9±1'``, ``'stands'``."""
-        return ", ".join(v.expected for v in self.verdicts) or "(nothing)"
+        return ", ".join(dict.fromkeys(v.expected for v in self.verdicts)) or "(nothing)"
 
     @property
     def measured(self) -> str:
         """What was measured, as in check's table: ``'collapse 13, levels 1-12 stayed'``; the
         error or what stopped the run when either happened."""
-        if self.error or self.stopped:
-            return self.error or self.stopped
+        if self.error or self.stopped or self.bad_input:
+            return self.error or self.stopped or "bad input in a sample"
+        if self.sweep:
+            return self.sweep
         described = describe(self.collapse_level)
         extra = [v.measured for v in self.verdicts if v.name == "stays"]
         return ", ".join([described, *extra])
@@ -156,7 +176,8 @@ def prepare(files: list[Path], mode: str | None = None, modes: tuple[str, ...] =
         try:
             scenario = load_scenario(path)
             for m in modes or (mode,):
-                prepared.append((path, compile_scenario(scenario, m, model), scenario.expect))
+                sweep = scenario.template if scenario.sweep is not None else None
+                prepared.append(Prepared(path, compile_scenario(scenario, m, model), scenario.expect, sweep))
         except ScenarioError as exc:
             errors.append(exc)
     if errors:
@@ -231,16 +252,51 @@ def run_checks(
     if folders is not None and len(folders) != len(prepared):
         raise ValueError(f"{len(folders)} folders for {len(prepared)} scenarios")
     where: list[str | None] = list(folders) if folders is not None else [None] * len(prepared)
-    tasks = [(str(path), program, expect, timeout, folder) for (path, program, expect), folder in zip(prepared, where)]
-    if executor is not None:
-        return on_executor(executor, judge, tasks)
     jobs = (os.cpu_count() or 1) if jobs is None else jobs
     if jobs < 1:
         raise ValueError(f"jobs must be at least 1, not {jobs}")
+    tasks: list[tuple[Any, ...]] = []
+    costs: list[float] = []
+    pending: dict[int, int] = {}
     drawing = DRAW_ESTIMATE if folders else 0.0
-    costs = [program.wall_estimate + drawing for _, program, _ in prepared]  # the compiler's work budget, in seconds
-    limit = None if timeout is None else timeout + KILL_AFTER + (DRAW_LIMIT if folders else 0.0)
-    return fan_out(judge, tasks, costs, jobs, limit=limit, lost=lost)
+    for i, (p, folder) in enumerate(zip(prepared, where)):
+        if p.template is None:
+            tasks.append(("run", str(p.path), p.program, p.expect, timeout, folder))
+            costs.append(p.program.wall_estimate + drawing)  # the compiler's work budget, in seconds
+        else:
+            units = sweep_tasks(i, p.template, p.program, timeout, jobs)
+            tasks += units
+            costs += [p.program.wall_estimate * len(u[4]) for u in units]
+            pending[i] = len(units)
+    if executor is not None:
+        stream = on_executor(executor, run_unit, tasks)
+    else:
+        longest = max([len(t[4]) for t in tasks if t[0] == "batch"], default=1)
+        limit = None if timeout is None else (timeout + KILL_AFTER) * longest + (DRAW_LIMIT if folders else 0.0)
+        stream = fan_out(run_unit, tasks, costs, jobs, limit=limit, lost=lost)
+    return _gathered(stream, prepared, pending, where)
+
+
+def _gathered(
+    stream: Generator[Any, None, None], prepared: list[Prepared], pending: dict[int, int], where: list[str | None]
+) -> Generator[CheckResult, None, None]:
+    """Results as they finish: single runs at once, a sweep when its last batch is back."""
+    samples: dict[int, list[SampleResult]] = {i: [] for i in pending}
+    try:
+        for item in stream:
+            if isinstance(item, CheckResult):
+                yield item
+                continue
+            _, i, results = item
+            samples[i] += results
+            pending[i] -= 1
+            if not pending[i]:
+                p = prepared[i]
+                assert p.template is not None
+                ordered = sorted(samples.pop(i), key=lambda r: (r.cell, r.sample))
+                yield sweep_result(str(p.path), p.template, p.program, p.expect, ordered, where[i])
+    finally:
+        stream.close()
 
 
 def compare(
@@ -275,7 +331,7 @@ def tabulate(
 ) -> dict[str, dict[str, CheckResult]]:
     """``results`` (in any order) as file -> mode -> result, files in the order of
     ``prepared``; ``each`` is called with every result as it comes."""
-    table: dict[str, dict[str, CheckResult]] = {str(path): {} for path, _, _ in prepared}
+    table: dict[str, dict[str, CheckResult]] = {str(p.path): {} for p in prepared}
     for r in results:
         table[r.file][r.mode] = r
         each(r)
@@ -337,9 +393,17 @@ def judge(file: str, program: Program, expect: Expect, timeout: float | None = T
         return failed(file, program, expect, f"internal error: {type(exc).__name__}: {message}", traceback.format_exc())
 
 
-def lost(task: tuple, error: WorkerLost) -> CheckResult:
-    """The result of a task (as :func:`judge` takes it) whose worker died or was stopped."""
-    file, program, expect, timeout, _ = task
+def lost(task: tuple, error: WorkerLost) -> Any:
+    """The result of a task (as :func:`stackdsl._check_sweep.run_unit` takes it) whose worker
+    died or was stopped: a run's failed result, or a batch's samples each with the error."""
+    if task[0] == "batch":
+        _, index, _, cell, samples, _ = task
+        return (
+            "batch",
+            index,
+            [SampleResult(cell, k, 0, {}, None, 0, 0.0, 0.0, error=f"internal error: {error}") for k in samples],
+        )
+    _, file, program, expect, timeout, _ = task
     if isinstance(error, WorkerTimedOut):
         return failed(file, program, expect, stopped=f"timeout after {timeout:g} s (the run did not stop; its worker was ended)")
     return failed(file, program, expect, f"internal error: {error} running this scenario")

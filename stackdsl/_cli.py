@@ -288,8 +288,8 @@ def _check(args: argparse.Namespace) -> int:
         except OSError as exc:
             raise ScenarioError(f"cannot write the report there: {exc.strerror or exc}", file=args.report) from None
         taken: set[str] = set()
-        base = os.path.commonpath([path.resolve().parent for path, _, _ in prepared])  # names relative to it
-        folders = [str(report / folder_name(os.path.relpath(path.resolve(), base), taken=taken)) for path, _, _ in prepared]
+        base = os.path.commonpath([path.resolve().parent for path, *_ in prepared])  # names relative to it
+        folders = [str(report / folder_name(os.path.relpath(path.resolve(), base), taken=taken)) for path, *_ in prepared]
     results: list[CheckResult] = []
     commands: list[str] = []
     stream = sys.stderr if args.json else sys.stdout  # with --json only the progress line, on a terminal
@@ -313,12 +313,12 @@ def _check(args: argparse.Namespace) -> int:
             runs.close()  # cancels what has not started and stops the workers
     wall = time.perf_counter() - start
     # rows came as runs finished; the reports list them in file order, so that they diff from run to run
-    order = {str(path): i for i, (path, _, _) in enumerate(prepared)}
+    order = {str(p.path): i for i, p in enumerate(prepared)}
     pairs = sorted(zip(results, commands, strict=True), key=lambda pair: order.get(pair[0].file, len(order)))
     results, commands = [r for r, _ in pairs], [c for _, c in pairs]
     if args.junit_xml:
         ran = {r.file for r in results}
-        junit_xml(results, commands, [str(path) for path, _, _ in prepared if str(path) not in ran], wall, args.junit_xml)
+        junit_xml(results, commands, [str(p.path) for p in prepared if str(p.path) not in ran], wall, args.junit_xml)
     if report is not None:
         from ._htmlreport import remove_stale_folders, write_report
 
@@ -334,6 +334,11 @@ def _check(args: argparse.Namespace) -> int:
         print(summary(results, len(prepared), wall))
     if _internal_errors(results, args.debug):
         return INTERNAL
+    refused = [r for r in results if r.bad_input]
+    for r in refused:  # a sweep's sample the language refuses: bad input, found once it was drawn
+        print(r.bad_input, file=sys.stderr)
+    if refused:
+        return BAD_INPUT
     return FAILED if any(not r.passed for r in results) else OK
 
 

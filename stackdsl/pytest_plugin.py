@@ -15,6 +15,10 @@ checks its expectations, then compares the outcome with its golden snapshot
 ``pytest --snapshot-update`` writes the snapshots; ``-k``, ``-x``, ``--lf``, ``-n``
 (pytest-xdist) and ``--junit-xml`` work as on any test.
 
+A sweep file (``sweep:``) is one item too: its samples run one after the other, each
+statistical expectation must be decided PASS in every grid cell (its 95% interval inside the
+tolerance), and its golden snapshot holds every sample's collapse level, a line a cell.
+
 As pytest-playwright keeps a screenshot of a failed test, ``--stackdsl-pictures
 only-on-failure`` keeps what a person needs to look at a failed scenario: its picture at the
 collapse (or the end), a clip, the brick-graph plot and the trajectory file, in a folder of
@@ -182,6 +186,9 @@ def _scenario_test(request: pytest.FixtureRequest, scenario_golden: Any) -> None
         error = ""
     if error:
         pytest.fail(error, pytrace=False)
+    if scenario.sweep is not None:
+        _sweep_test(request, scenario, program, shown, scenario_golden)
+        return
     pictures = request.config.getoption("stackdsl_pictures")
     trajectory = None
     if pictures == "off":
@@ -206,6 +213,38 @@ def _scenario_test(request: pytest.FixtureRequest, scenario_golden: Any) -> None
             lines.append(kept)
     if lines:
         pytest.fail("\n".join(lines), pytrace=False)
+
+
+def _sweep_test(request: pytest.FixtureRequest, scenario: Any, program: Any, shown: str, scenario_golden: Any) -> None:
+    """A sweep's item: every sample here, one after the other; each statistical expectation must
+    be decided PASS in every grid cell; the golden snapshot holds every sample's collapse level,
+    one line a cell (sample k of a cell is the same run on any machine)."""
+    from ._sweep import SweepOptions, collect, run_sweep
+    from ._sweep_out import by_cell, verdicts
+
+    template = scenario.template
+    results = collect(run_sweep(template, SweepOptions(program.engine.mode, program.stability.model, False, None), jobs=1))
+    refused = [r for r in results if r.bad_input or r.error]
+    if refused:
+        pytest.fail(refused[0].bad_input or f"{refused[0].error} (sample {refused[0].sample})", pytrace=False)
+    failed = [(c, v) for c, v in verdicts(template, scenario.expect, results) if v.outcome != "PASS"]
+    if failed:
+        lines = [
+            f"{Path(shown).name}: {v.outcome}"
+            + (f" in cell {c} ({', '.join(f'{k} = {x}' for k, x in template.cell(c).items())})" if template.grid else "")
+            + f": expected {v.expected}, measured {v.measured}"
+            + (f"; about {v.samples_to_decide} samples would decide it" if v.samples_to_decide else "")
+            for c, v in failed
+        ]
+        pytest.fail("\n".join([*lines, f"more: stackdsl sweep {shown}"]), pytrace=False)
+    golden = {"scenario": program.name, "mode": program.engine.mode, "samples": template.samples}
+    for c, rs in enumerate(by_cell(results, template.cells)):
+        golden[f"cell {c}"] = {"grid": template.cell(c), "collapse_levels": [r.collapse_level for r in rs]}
+    if not scenario_golden == golden:
+        with disable_color():
+            diff = scenario_golden.get_assert_diff()
+        where = _relative(scenario_golden_path(Path(request.node.path)), request.config.rootpath)
+        pytest.fail("\n".join([f"{Path(shown).name}: the samples differ from {where}", *diff]), pytrace=False)
 
 
 def _keep_pictures(trajectory: Any, shown: str, config: pytest.Config) -> str:

@@ -170,7 +170,7 @@ def check_in_process(path: str, capsys) -> tuple[int | None, str, list]:
     try:
         status = _cli.main(["check", "-j", "1", path])
     except Compiled as compiled:
-        return None, capsys.readouterr().err, [program for _, program, _ in compiled.prepared]
+        return None, capsys.readouterr().err, [p.program for p in compiled.prepared]
     except SystemExit as exc:  # argparse
         return int(exc.code or 0), capsys.readouterr().err, []
     return status, capsys.readouterr().err, []

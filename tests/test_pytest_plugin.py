@@ -205,3 +205,31 @@ def test_pictures_for_every_scenario_and_none_by_default(project):
     assert (project.path / "seen" / "scenarios-tower" / "picture.png").is_file()
     result = project.runpytest()
     assert "pictures:" not in result.stdout.str()
+
+
+SWEEP = """\
+stackdsl: 1
+structure:
+  tower:
+    levels: 8
+    bricks_per_layer: 1
+    turn: 0
+    shift: {{uniform: [-60 mm, 60 mm], per: layer}}
+timing: {{settle: 0.2 s}}
+sweep: {{samples: 12}}
+expect:
+  p_stands: '{bound}'
+"""
+
+
+def test_a_sweep_file_is_one_item_decided_by_its_interval_with_every_sample_in_its_golden(project):
+    write(project, "walk", SWEEP.format(bound="<= 0.95"))
+    project.runpytest("--snapshot-update").assert_outcomes(passed=1)
+    stored = json.loads((project.path / "golden" / "scenarios" / "walk.json").read_text())
+    assert stored["samples"] == 12 and len(stored["cell 0"]["collapse_levels"]) == 12
+    project.runpytest().assert_outcomes(passed=1)
+    write(project, "walk", SWEEP.format(bound=">= 0.99"))  # far more stand than that can allow: FAIL
+    result = project.runpytest()
+    result.assert_outcomes(failed=1)
+    out = result.stdout.str()
+    assert "walk.yaml: FAIL: expected P(stands) >= 0.99" in out and "more: stackdsl sweep scenarios/walk.yaml" in out

@@ -136,3 +136,28 @@ def test_sweep_refuses_what_it_cannot_run(tmp_path, capsys):
     assert not (tmp_path / "o").exists()  # nothing written
     (tmp_path / "s.yaml").write_text(STACK.format(levels=4, samples=8))
     assert main(["sweep", str(tmp_path / "s.yaml"), "--samples", "0"]) == 2
+
+
+def test_check_runs_a_sweep_as_one_row_beside_single_runs(tmp_path, capsys):
+    (tmp_path / "walk.yaml").write_text(STACK.format(levels=6, samples=10) + "expect:\n  p_stands: '<= 0.95'\n")
+    (tmp_path / "tower.yaml").write_text("stackdsl: 1\nstructure: {tower: {levels: 2}}\nexpect: {stands: true}\n")
+    report = tmp_path / "report"
+    assert main(["check", str(tmp_path), "-j", "2", "--report", str(report)]) == 0
+    out = capsys.readouterr().out
+    row = next(line for line in out.splitlines() if "walk.yaml" in line)
+    assert row.startswith("PASS") and "P(stands) <= 0.95" in row and "n=10" in row
+    assert (report / "walk" / "samples.csv").is_file() and (report / "walk" / "histogram.png").is_file()
+    assert "walk/histogram.png" in (report / "index.html").read_text()
+
+
+def test_check_says_why_a_sweep_did_not_hold_and_refuses_a_bad_sample(tmp_path, capsys):
+    (tmp_path / "walk.yaml").write_text(STACK.format(levels=6, samples=10) + "expect:\n  collapse: {mean: '4.5 ± 0.1'}\n")
+    assert main(["check", str(tmp_path / "walk.yaml"), "-j", "1"]) == 1
+    out = capsys.readouterr().out
+    assert (
+        "INCONCLUSIVE: expected mean 4.5±0.1" in out and "samples would decide it" in out
+    ) or "FAIL: expected mean 4.5±0.1" in out
+    far = STACK.format(levels=4, samples=8).replace("[-60 mm, 60 mm]", "[-60 mm, 200 mm]")
+    (tmp_path / "far.yaml").write_text(far)
+    assert main(["check", str(tmp_path / "far.yaml"), "-j", "1"]) == 2
+    assert "rests on nothing when placed" in capsys.readouterr().err

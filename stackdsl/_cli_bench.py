@@ -45,7 +45,7 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     p.add_argument("--quick", action="store_true", help="one small cell per setting (a smoke test)")
     p.add_argument("-j", "--jobs", type=jobs_type, default=str(min(2, os.cpu_count() or 1)), help="worker processes")
     p.set_defaults(func=_bench)
-    bench = p.add_subparsers(metavar="[solve | hard | record]", title="other benchmarks (optional)")
+    bench = p.add_subparsers(metavar="[solve | hard | record | sweep]", title="other benchmarks (optional)")
     q = bench.add_parser("solve", help="equilibrium solve time for towers of 10 to 100 bricks")
     q.add_argument("--sizes", default="10,25,50,100", help="bricks per tower, comma-separated")
     q.add_argument("--repeats", type=int, default=5)
@@ -68,6 +68,11 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     )
     q.add_argument("--rounds", type=int, default=None, help="with --before: alternating rounds of --repeats runs (default: 10)")
     q.set_defaults(func=_bench_record)
+    q = bench.add_parser(
+        "sweep", help="samples a second of a random 10-level single-file stack: 1 process, 2, a 2-worker Dask LocalCluster"
+    )
+    q.add_argument("--samples", type=int, default=1000, help="samples on each executor (default: 1000)")
+    q.set_defaults(func=_bench_sweep)
 
 
 def _bench(args: argparse.Namespace) -> int:
@@ -155,4 +160,13 @@ def _bench_record(args: argparse.Namespace) -> int:
             raise ScenarioError(f"--rounds must be at least 1, not {args.rounds}", file="--rounds")
         times = before_and_after(args.before, args.scenario, args.rounds, args.repeats)
         print(format_before_and_after(times, args.before, args.scenario))
+    return OK
+
+
+def _bench_sweep(args: argparse.Namespace) -> int:
+    from ._bench_sweep import format_throughputs, throughputs
+
+    if args.samples < 1:
+        raise ScenarioError(f"--samples must be at least 1, not {args.samples}", file="--samples")
+    print(format_throughputs(*throughputs(args.samples)))
     return OK

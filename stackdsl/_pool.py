@@ -124,6 +124,7 @@ def fan_out(
     *,
     limit: float | None = None,
     lost: Callable[[tuple, WorkerLost], T] | None = None,
+    here: bool = True,
 ) -> Generator[T, None, None]:
     """``fn(*task)`` for every task, yielded as each finishes.
 
@@ -136,6 +137,10 @@ def fan_out(
         lost: ``lost(task, error)`` is yielded for a task whose worker died or was stopped
             (``error`` a :class:`WorkerDied` or :class:`WorkerTimedOut`); a new worker takes
             the dead one's place while tasks remain. None: the error is raised.
+        here: this process runs tasks too (``jobs - 1`` workers); False: ``jobs`` workers run
+            them and this process only hands them out and collects, so that a worker that
+            finishes never waits for this one to finish a task of its own (for many tasks of
+            about the same size, such as a sweep's batches).
 
     Raises:
         whatever ``fn`` raises, when its result is reached (from a worker, with the worker's
@@ -144,7 +149,7 @@ def fan_out(
     """
     if jobs < 1:
         raise ValueError(f"jobs must be at least 1, not {jobs}")
-    workers = min(jobs, len(tasks)) - 1
+    workers = min(jobs, len(tasks)) - (1 if here or jobs == 1 else 0)
     if workers < 1 or sum(costs) < STARTUP:
         for task in tasks:
             yield fn(*task)
@@ -155,7 +160,8 @@ def fan_out(
     try:
         running: dict[int, tuple] = {}
         while pending or running:
-            finished = pool.collect(timeout=0 if pending else None)
+            # this process waits for a worker unless it has a task of its own to run meanwhile
+            finished = pool.collect(timeout=0 if pending and (here or pool.ready) else None)
             for done in finished:
                 task = running.pop(done.ticket)
                 if isinstance(done.error, WorkerLost):
@@ -169,7 +175,7 @@ def fan_out(
             while pending and pool.ready:
                 task = pending.popleft()
                 running[pool.submit(fn, *task, limit=limit)] = task
-            if pending:
+            if pending and here:
                 yield fn(*pending.pop())  # the cheapest, here
     finally:
         pool.stop()

@@ -91,6 +91,13 @@ def test_work_is_shared_with_the_workers(ready_workers):
     assert len(runners) == 6 and os.getpid() in runners and set(runners) - {os.getpid()} == ready_workers[0].first_pids
 
 
+def test_with_here_false_every_task_runs_in_a_worker_and_none_here(ready_workers):
+    task = (["sh", "-c", "sleep 0.05; echo $PPID"],)
+    runners = [int(out) for out in _pool.fan_out(subprocess.check_output, [task] * 8, [1.0] * 8, jobs=2, here=False)]
+    workers = ready_workers[0].first_pids
+    assert len(runners) == 8 and os.getpid() not in runners and set(runners) == workers and len(workers) == 2
+
+
 def test_cheap_work_starts_no_worker(monkeypatch):
     def no_workers(count):
         raise AssertionError("started workers for work cheaper than their start-up")

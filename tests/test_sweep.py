@@ -161,3 +161,17 @@ def test_check_says_why_a_sweep_did_not_hold_and_refuses_a_bad_sample(tmp_path, 
     (tmp_path / "far.yaml").write_text(far)
     assert main(["check", str(tmp_path / "far.yaml"), "-j", "1"]) == 2
     assert "rests on nothing when placed" in capsys.readouterr().err
+
+
+def test_the_throughput_table_gives_each_executors_efficiency_with_and_without_its_start_up():
+    from stackdsl._bench_sweep import Throughput, format_throughputs
+
+    rows = [
+        Throughput("1 process (-j 1)", 100, 10.0),
+        Throughput("2 processes (-j 2)", 100, 6.0, 1.0),
+        Throughput("Dask", 100, 5.5, 2.0),
+    ]
+    lines = format_throughputs(rows, True).splitlines()
+    # the pool started within its 6 s: 83% with start-up, 100% once up; Dask's 2 s came before its 5.5 s: 67%, 91%
+    assert lines[3].split()[-2:] == ["83%", "100%"] and lines[4].split()[-2:] == ["67%", "91%"]
+    assert lines[-2].endswith("yes")

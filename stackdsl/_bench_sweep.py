@@ -1,0 +1,132 @@
+"""``stackdsl bench sweep``: samples a second of a sweep, on each executor, in one run.
+
+The scene is the shipped random single-file stack (``sweeps/random_single_file.yaml``) built
+to 10 levels. The same samples run with one process, with two (stackdsl's pool: this process
+and one worker) and on a local Dask cluster of two single-threaded worker processes; the
+cluster's start and a warm-up batch on each of its workers are timed apart, as a cluster is
+started once for many sweeps; stackdsl's pool starts its workers within its time (measured
+apart too, for the table). Parallel efficiency is the two-way rate over twice the one-way
+rate. Every executor's per-sample results but the wall time must be the same.
+
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, replace
+
+from ._loader import parse_scenario
+from ._sampling import Template
+from ._sweep import SampleResult, SweepOptions, collect, dask_executor, run_batch, run_sweep
+
+SCENE = """stackdsl: 1
+name: random single-file stack, 10 levels
+structure:
+  tower:
+    levels: 10
+    bricks_per_layer: 1
+    turn: 0
+    shift: {uniform: [-60 mm, 60 mm], per: layer}
+timing:
+  settle: 0.2 s
+sweep:
+  samples: 1
+"""
+
+
+@dataclass(frozen=True)
+class Throughput:
+    """One executor's run: ``seconds`` of wall time for ``samples``; ``startup``: seconds to start
+    its workers (a Dask cluster: before, not in ``seconds``; stackdsl's pool: within ``seconds``,
+    measured apart), 0 for one process."""
+
+    executor: str
+    samples: int
+    seconds: float
+    startup: float = 0.0
+
+    @property
+    def rate(self) -> float:
+        """Samples a second."""
+        return self.samples / self.seconds
+
+
+def template(samples: int) -> Template:
+    """The benchmark's scene with ``samples`` samples."""
+    scenario = parse_scenario(SCENE, "bench-sweep.yaml")
+    assert scenario.template is not None
+    return replace(scenario.template, samples=samples)
+
+
+def throughputs(samples: int = 1000) -> tuple[list[Throughput], bool]:
+    """Run the scene's ``samples`` on each executor: (their throughputs, whether every executor
+    gave the same per-sample results).
+
+    Raises:
+        ValueError: ``samples`` below 1.
+    """
+    if samples < 1:
+        raise ValueError(f"samples must be at least 1, not {samples}")
+    t = template(samples)
+    options = SweepOptions(timeout=None)
+    rows, runs = [], []
+    for jobs in (1, 2):
+        start = time.perf_counter()
+        runs.append(collect(run_sweep(t, options, jobs=jobs)))
+        startup = _pool_startup(jobs) if jobs > 1 else 0.0
+        rows.append(Throughput(f"{jobs} process{'es' * (jobs > 1)} (-j {jobs})", samples, time.perf_counter() - start, startup))
+    start = time.perf_counter()
+    with dask_executor("local:2") as (executor, threads):
+        warm = [executor.submit(run_batch, t, 0, [0], options) for _ in range(threads)]
+        for future in warm:  # each worker imports stackdsl and pybullet once
+            future.result()
+        ready = time.perf_counter() - start
+        start = time.perf_counter()
+        runs.append(collect(run_sweep(t, options, executor=executor, workers=threads)))
+        rows.append(Throughput(f"Dask LocalCluster, {threads} workers", samples, time.perf_counter() - start, ready))
+    same = all(_plain(r) == _plain(runs[0]) for r in runs[1:])
+    return rows, same
+
+
+def _pool_startup(workers: int) -> float:
+    """Seconds for stackdsl's pool to start ``workers`` processes and have each import what a
+    run needs (part of the pool's wall time above, measured alone here)."""
+    from ._pool import Workers
+
+    start = time.perf_counter()
+    pool = Workers(workers)
+    try:
+        while pool.ready < workers:
+            pool.collect(timeout=None)
+        return time.perf_counter() - start
+    finally:
+        pool.stop()
+
+
+def _plain(results: list[SampleResult]) -> list[SampleResult]:
+    return [replace(r, wall_time=0.0) for r in results]
+
+
+def format_throughputs(rows: list[Throughput], same: bool) -> str:
+    """The table: each executor's wall time and rate, its parallel efficiency with its workers'
+    start-up counted and once they are up (the rate over the workers' count times the one-process
+    rate), and whether every executor gave the same per-sample results."""
+    one = rows[0].rate
+    lines = [
+        f"random single-file stack, 10 levels: {rows[0].samples} samples on each executor",
+        f"{'executor':<32} {'wall':>9} {'samples/s':>10} {'start-up':>9} {'efficiency: with start-up':>26} {'once up':>8}",
+    ]
+    for r in rows:
+        workers = 1 if r is rows[0] else 2
+        within = r is not rows[-1]  # stackdsl's pool starts within its wall time, Dask's cluster before it
+        total = r.seconds + (0.0 if within else r.startup)
+        running = r.seconds - (r.startup if within else 0.0)
+        startup = f"{r.startup:.1f} s" if r.startup else "-"
+        lines.append(
+            f"{r.executor:<32} {r.seconds:>7.1f} s {r.rate:>10.1f} {startup:>9} "
+            f"{r.samples / total / (workers * one):>26.0%} {r.samples / running / (workers * one):>8.0%}"
+        )
+    lines.append("per-sample results identical on every executor: " + ("yes" if same else "NO"))
+    lines.append("(Dask's wall is from its first batch on: its cluster and a warm-up batch a worker are its start-up)")
+    return "\n".join(lines)

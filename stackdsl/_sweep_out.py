@@ -104,7 +104,17 @@ def write_plots(template: Template, results: Sequence[SampleResult], levels_buil
         key, unit, values = numeric
         for statistic in ("p_stands", "mean"):
             path = folder / f"grid_{statistic}.png"
-            plot_grid(key, values, [measured(rs) for rs in cells], path, unit=unit, statistic=statistic)
+            name = str(template.data.get("name", ""))
+            plot_grid(
+                key,
+                values,
+                [measured(rs) for rs in cells],
+                path,
+                unit=unit,
+                statistic=statistic,
+                levels_built=levels_built or None,
+                title=name,
+            )
             written.append(path)
     return written
 

@@ -69,9 +69,14 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     q.add_argument("--rounds", type=int, default=None, help="with --before: alternating rounds of --repeats runs (default: 10)")
     q.set_defaults(func=_bench_record)
     q = bench.add_parser(
-        "sweep", help="samples a second of a random 10-level single-file stack: 1 process, 2, a 2-worker Dask LocalCluster"
+        "sweep",
+        help="samples a second of a random 10-level single-file stack (or of FILE's sweep): 1 process, 2, "
+        "a 2-worker Dask LocalCluster",
     )
-    q.add_argument("--samples", type=int, default=1000, help="samples on each executor (default: 1000)")
+    q.add_argument("file", nargs="?", metavar="FILE", help="a sweep file (default: a random 10-level single-file stack)")
+    q.add_argument(
+        "--samples", type=int, default=None, help="samples a grid cell on each executor (default: 1000, or FILE's own)"
+    )
     q.set_defaults(func=_bench_sweep)
 
 
@@ -164,9 +169,18 @@ def _bench_record(args: argparse.Namespace) -> int:
 
 
 def _bench_sweep(args: argparse.Namespace) -> int:
-    from ._bench_sweep import format_throughputs, throughputs
+    from ._bench_sweep import HEADER, Throughput, footer, format_row, template, throughputs, title
 
-    if args.samples < 1:
-        raise ScenarioError(f"--samples must be at least 1, not {args.samples}", file="--samples")
-    print(format_throughputs(*throughputs(args.samples)))
+    if args.samples is not None and not 1 <= args.samples <= 100_000:
+        raise ScenarioError(f"--samples must be from 1 to 100000, not {args.samples}", file="--samples")
+    t = template(args.samples if args.samples or args.file else 1000, args.file)
+    print(title(t), HEADER, sep="\n", flush=True)
+    rows: list[Throughput] = []
+
+    def each(row: Throughput) -> None:
+        rows.append(row)
+        print(format_row(row, rows[0]), flush=True)
+
+    _, same = throughputs(t, each)
+    print(footer(same))
     return OK

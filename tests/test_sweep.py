@@ -171,7 +171,24 @@ def test_the_throughput_table_gives_each_executors_efficiency_with_and_without_i
         Throughput("2 processes (-j 2)", 100, 6.0, 1.0),
         Throughput("Dask", 100, 5.5, 2.0),
     ]
-    lines = format_throughputs(rows, True).splitlines()
+    lines = format_throughputs("random stack: 100 samples on each executor", rows, True).splitlines()
     # the pool started within its 6 s: 83% with start-up, 100% once up; Dask's 2 s came before its 5.5 s: 67%, 91%
     assert lines[3].split()[-2:] == ["83%", "100%"] and lines[4].split()[-2:] == ["67%", "91%"]
     assert lines[-2].endswith("yes")
+
+
+def test_bench_sweep_measures_a_sweep_file_on_every_executor(tmp_path, capsys):
+    path = tmp_path / "stack.yaml"
+    path.write_text(STACK.format(levels=4, samples=50))
+    assert main(["bench", "sweep", str(path), "--samples", "6"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0] == "random single-file stack: 6 samples on each executor"
+    rows = [line for line in lines if line.split()[0] in ("1", "2", "Dask")]
+    assert len(rows) == 3 and all(float(row.split(" s ")[0].split()[-1]) > 0 for row in rows)
+    assert lines[-2].endswith("identical on every executor: yes")
+
+
+def test_bench_sweep_refuses_a_file_with_nothing_to_sample(tmp_path, capsys):
+    assert main(["bench", "sweep", str(ROOT / "scenarios" / "four_stack.yaml")]) == 2
+    assert "nothing to sample" in capsys.readouterr().err
+    assert main(["bench", "sweep", "--samples", "0"]) == 2

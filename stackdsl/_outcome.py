@@ -33,13 +33,16 @@ class Event(_Frozen):
 
 class Collapse(_Frozen):
     """The first collapse (docs/design.md, words): a structure brick left its placed pose by more than
-    the collapse threshold.
+    the collapse threshold and stayed moved (:mod:`stackdsl._collapse`).
 
     Attributes:
-        level: the highest level placed when it was detected (the collapse level).
-        time: seconds.
+        level: the highest level placed when the brick first moved past the threshold (the
+            collapse level).
+        time: seconds, when it first moved past the threshold.
         brick, brick_level: the brick that moved first, and its own level.
-        displacement: metres, how far it had moved.
+        displacement: metres, how far it had moved when the collapse was decided.
+        decided: seconds, when it was known to stay moved (moving away, at rest displaced or
+            displaced at the end); the run ends the scenario's settle time after it.
     """
 
     level: int
@@ -47,6 +50,7 @@ class Collapse(_Frozen):
     brick: str
     brick_level: int
     displacement: float
+    decided: float
 
 
 class Node(_Frozen):

@@ -29,10 +29,11 @@ from __future__ import annotations
 import time as _time
 from dataclasses import dataclass, replace
 
+from ._collapse import CollapseMonitor
 from ._loop import CLOCK_EVERY, StepLoop, Subscriber
 from ._outcome import Outcome
 from ._program import Program
-from ._subscribers import CollapseMonitor, Stability, Substeps
+from ._subscribers import Stability, Substeps
 from ._world import World, pybullet_world
 
 __all__ = ["CLOCK_EVERY", "RunOptions", "run_in", "run_program"]
@@ -109,7 +110,8 @@ def run_in(
     config = replace(config, per_event=options.per_event)
     acting = program.engine.mode == "extension"
     stability = Stability(world, program, config, acting)
-    monitor = CollapseMonitor(program.collapse_threshold, program.settle, stability.graph)
+    rest = (program.stability.rest_speed, program.stability.rest_angular_speed, program.stability.rest_duration)
+    monitor = CollapseMonitor(program.collapse_threshold, program.settle, stability.graph, *rest)
     own: list[Subscriber] = [Substeps(program.collapse_threshold, acting)] if program.engine.ccd else []
     loop = StepLoop(
         world,

@@ -108,7 +108,7 @@ MAX_IMPACT_SPEED = 100.0  # m/s
 MIN_REST_SPEED, MAX_REST_SPEED = 0.001, 1.0  # m/s
 MIN_REST_ANGULAR_SPEED, MAX_REST_ANGULAR_SPEED = 0.01, 10.0  # rad/s
 # Collapse threshold, m: one step of free fall at the longest timestep (10 ms) moves a brick g dt^2 = 0.98 mm
-# before contact holds it, so a smaller threshold reads that step as a collapse; it also bounds the runtime's
+# before contact holds it, so a smaller threshold sees every landing brick displaced; it also bounds the runtime's
 # substeps (a thrown brick moves at most the threshold in a substep: at 100 m/s and 1/240 s, 417 substeps).
 MIN_COLLAPSE_THRESHOLD = 0.001
 
@@ -144,7 +144,7 @@ else:
         "a side from 3 mm to 10 m",
         (
             "a smaller brick is below what pybullet resolves at 1/240 s: resting on the ground it moves 0.8 to 1.3 mm "
-            "as it lands and settles (measured on 1 to 2.5 mm cubes), more than half its side, which reads as a collapse",
+            "as it lands (measured on 1 to 2.5 mm cubes), more than half its side",
             "Bullet is made for moving bodies up to about 10 m",
         ),
     )
@@ -219,7 +219,7 @@ else:
         "a length from 1 mm to 10 m",
         (
             "one step of free fall at the longest timestep (10 ms) moves a brick 0.98 mm before contact holds it, "
-            "which a smaller threshold reads as a collapse",
+            "so a smaller threshold sees every landing brick displaced",
             "no brick is longer",
         ),
     )
@@ -799,9 +799,9 @@ class Scenario(_Model):
 
     @model_validator(mode="after")
     def _drop_gap_below_threshold(self) -> Scenario:
-        """A brick is placed ``timing.drop_gap`` above its pose and counts as moved until it lands
-        (measured: a KAPLA tower with a 5 mm gap and the 4 mm default threshold collapses at its first
-        brick; with 3.5 mm it stands): the gap must be below the collapse threshold."""
+        """A brick is placed ``timing.drop_gap`` above its pose, displaced by the gap until it lands:
+        the gap must be below the collapse threshold, so that every brick starts within it and a
+        fall from the gap is never taken for a brick that moved (stackdsl's own rule)."""
         threshold = self.collapse_threshold or self._thinnest_half_side()
         gap = self.timing.drop_gap
         if threshold is None or gap < threshold:

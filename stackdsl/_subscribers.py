@@ -1,4 +1,5 @@
-"""The step loop's subscribers: the stability extension, the collapse monitor, the substep control.
+"""The step loop's subscribers: the stability extension and the substep control (the collapse
+monitor is :mod:`stackdsl._collapse`).
 
 Source: stackdsl's own; the extension is the report's method (:mod:`stability`).
 """
@@ -6,7 +7,6 @@ Source: stackdsl's own; the extension is the report's method (:mod:`stability`).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 
 import numpy as np
 
@@ -14,7 +14,7 @@ from stability import Box, Plane, Pose, StabilityConfig, StabilityEvent, Stabili
 
 from ._bricks import BrickRecord
 from ._loop import StepLoop, Subscriber
-from ._outcome import Collapse, Event, Graph
+from ._outcome import Event, Graph
 from ._program import MAX_SUBSTEPS, Program
 from ._world import World
 
@@ -69,61 +69,6 @@ class Stability(Subscriber):
     def graph(self, loop: StepLoop) -> Graph:
         """The brick graph now."""
         return Graph.from_stability(self.extension.graph(), loop.structure.levels)
-
-
-class CollapseMonitor(Subscriber):
-    """The first collapse: a structure brick more than ``threshold`` m from its placed pose.
-
-    At the collapse the monitor records it (level: the highest level placed), takes the
-    brick graph and asks the loop to end ``settle`` seconds later. Until then it tracks the
-    drift, the largest displacement of a standing brick seen before each placement.
-
-    Args:
-        threshold: metres (the program's collapse threshold).
-        settle: seconds the run goes on after the collapse.
-        graph: the brick graph now.
-    """
-
-    def __init__(self, threshold: float, settle: float, graph: Callable[[StepLoop], Graph]) -> None:
-        self.threshold, self.settle, self._graph = threshold, settle, graph
-        self.collapse: Collapse | None = None
-        self.collapse_graph: Graph | None = None
-        self.drift = 0.0
-
-    def on_place(self, loop: StepLoop, record: BrickRecord) -> None:
-        self.record_drift(loop, exclude=record)
-
-    def at_end(self, loop: StepLoop) -> None:
-        self.record_drift(loop)
-
-    def after_step(self, loop: StepLoop) -> None:
-        if self.collapse is not None:
-            return
-        structure = loop.structure
-        candidates = [r for r in structure.placed if r.moving and structure.may_have_moved(r, self.threshold)]
-        for record, moved in zip(candidates, structure.displacements(candidates)):
-            if moved > self.threshold:
-                self._collapsed(loop, record, float(moved))
-                return
-
-    def _collapsed(self, loop: StepLoop, record: BrickRecord, moved: float) -> None:
-        level = max(loop.structure.levels.values())
-        assert record.level is not None
-        self.record_drift(loop)
-        self.collapse = Collapse(level=level, time=loop.now, brick=record.id, brick_level=record.level, displacement=moved)
-        detail = f"moved {moved * 1000:.1f} mm; collapse level {level}"
-        loop.events.append(Event(time=loop.now, kind="collapse", brick=record.id, level=record.level, detail=detail))
-        self.collapse_graph = self._graph(loop)
-        loop.stop_after(self.settle)
-
-    def record_drift(self, loop: StepLoop, exclude: BrickRecord | None = None) -> None:
-        """Track the largest displacement of the standing structure until the first collapse."""
-        if self.collapse is not None:
-            return
-        structure = loop.structure
-        moving = [r for r in structure.placed if r.moving and r is not exclude]
-        now = [*structure.displacements(moving), *(r.settled for r in structure.placed if r.settled is not None)]
-        self.drift = max([self.drift, *(float(d) for d in now if d <= self.threshold)])
 
 
 class Substeps(Subscriber):

@@ -92,3 +92,56 @@ def test_parked_bodies_enter_where_they_are_placed():
     for a in p.placements:
         record = loop.structure.records[a.id]
         assert np.allclose(loop.world.pose(record.body).position, np.array(a.position) + [0, 0, a.drop])
+
+
+class Script(Subscriber):
+    """Moves one brick by a velocity that is a function of the time since it was placed."""
+
+    def __init__(self, brick: str, velocity) -> None:
+        self.brick, self.velocity, self.placed = brick, velocity, None
+
+    def on_place(self, loop, record):
+        if record.id == self.brick:
+            self.placed = record
+
+    def before_step(self, loop):
+        if self.placed is not None and self.placed.moving:
+            v = self.velocity(loop.now - self.placed_time(loop))
+            loop.world.throw(self.placed.body, (v, 0.0, 0.0), None)
+
+    def placed_time(self, loop):
+        return next(e.time for e in loop.events if e.kind == "place" and e.brick == self.brick)
+
+
+def scripted(velocity):
+    p = program(TOWER.replace("settle: 1 s", "settle: 2 s"))
+    last = p.placements[-1]
+    loop = run_in(FakeWorld(timestep=p.engine.timestep), p, subscribers=(Script(last.id, velocity),))
+    return p, last, outcome(loop, 0.0), loop
+
+
+def test_a_brick_that_rocks_past_the_threshold_and_returns_has_not_collapsed():
+    # out at 0.1 m/s for 60 ms (6 mm, past the 4 mm threshold), back for 60 ms, then still
+    p, last, result, _ = scripted(lambda t: 0.1 if t < 0.06 else -0.1 if t < 0.12 else 0.0)
+    assert result.collapse is None
+    assert result.displacement[last.id] < p.collapse_threshold
+
+
+def test_a_brick_that_comes_to_rest_displaced_has_collapsed_since_it_first_moved_past_the_threshold():
+    # out at 0.1 m/s for 60 ms (6 mm: displaced, not yet twice the threshold), then at rest there
+    p, last, result, _ = scripted(lambda t: 0.1 if t < 0.06 else 0.0)
+    collapse = result.collapse
+    assert collapse is not None and collapse.brick == last.id and collapse.level == 2
+    first_past = last.time + np.sqrt(p.collapse_threshold**2 - last.drop**2) / 0.1
+    assert collapse.time == pytest.approx(first_past, abs=2 * p.engine.timestep)
+    # decided once at rest for the rest duration (0.05 s) after it stopped at 60 ms
+    stopped = last.time + 0.06
+    assert collapse.decided == pytest.approx(stopped + p.stability.rest_duration, abs=2 * p.engine.timestep)
+    assert [e.kind for e in result.events].count("collapse") == 1
+
+
+def test_a_brick_moving_away_has_collapsed_at_twice_the_threshold():
+    p, _, result, _ = scripted(lambda t: 0.1)  # never stops
+    collapse = result.collapse
+    assert collapse is not None and collapse.displacement > 2 * p.collapse_threshold
+    assert collapse.decided - collapse.time == pytest.approx(p.collapse_threshold / 0.1, abs=2 * p.engine.timestep)

@@ -45,7 +45,7 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     p.add_argument("--quick", action="store_true", help="one small cell per setting (a smoke test)")
     p.add_argument("-j", "--jobs", type=jobs_type, default=str(min(2, os.cpu_count() or 1)), help="worker processes")
     p.set_defaults(func=_bench)
-    bench = p.add_subparsers(metavar="[solve | hard | record | sweep]", title="other benchmarks (optional)")
+    bench = p.add_subparsers(metavar="[solve | hard | record | sweep | verdicts]", title="other benchmarks (optional)")
     q = bench.add_parser("solve", help="equilibrium solve time for towers of 10 to 100 bricks")
     q.add_argument("--sizes", default="10,25,50,100", help="bricks per tower, comma-separated")
     q.add_argument("--repeats", type=int, default=5)
@@ -78,6 +78,12 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
         "--samples", type=int, default=None, help="samples a grid cell on each executor (default: 1000, or FILE's own)"
     )
     q.set_defaults(func=_bench_sweep)
+    q = bench.add_parser("verdicts", help="every mode's collapse verdicts on random assemblies against rigid-block equilibrium")
+    q.add_argument("--count", type=int, default=1000, help="assemblies (default: 1000)")
+    q.add_argument("--seed", type=int, default=1, help="assembly k is drawn from SeedSequence(seed, spawn_key=(k,))")
+    q.add_argument("-j", "--jobs", type=jobs_type, default="auto", help="worker processes (default: one per core)")
+    q.add_argument("--out", help="folder for the misjudged assemblies' files (default: a new temporary folder)")
+    q.set_defaults(func=_bench_verdicts)
 
 
 def _bench(args: argparse.Namespace) -> int:
@@ -183,4 +189,21 @@ def _bench_sweep(args: argparse.Namespace) -> int:
 
     _, same = throughputs(t, each)
     print(footer(same))
+    return OK
+
+
+def _bench_verdicts(args: argparse.Namespace) -> int:
+    from ._bench_verdicts import format_verdicts, timed
+    from ._progress import Lines
+
+    if not 1 <= args.count <= 100_000:
+        raise ScenarioError(f"--count must be from 1 to 100000, not {args.count}", file="--count")
+    if args.seed < 0:
+        raise ScenarioError(f"--seed must be 0 or more, not {args.seed}", file="--seed")
+    out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="stackdsl-verdicts-"))
+    if out.exists() and not out.is_dir():
+        raise ScenarioError("the output must be a folder, and this is a file", file=str(out))
+    with Lines(args.count, "assemblies") as progress:
+        results, seconds = timed(args.seed, args.count, args.jobs, lambda v: progress.advance())
+    print(format_verdicts(results, out, seconds))
     return OK

@@ -1,0 +1,193 @@
+"""Random assemblies of KAPLA bricks, and what rigid-block equilibrium says of them.
+
+:func:`assembly` draws one small structure from a ``numpy.random.Generator``: 2 to 4 levels
+and 3 to 12 bricks lying flat, level 1 on the ground, each higher brick resting on one brick
+of the level below or bridging two, parallel to its support or crossed over it, with its
+centre of mass a signed *margin* from the edge of its support (log-uniform from 0.1 to
+20 mm; inside for most bricks, outside for some, which tip). A draw that the language refuses
+(bricks that overlap, or rest on nothing) is drawn again.
+
+:func:`judge` gives the oracle's verdict on it (:func:`stackdsl._oracle.equilibrium_collapse`,
+the bricks placed one by one in order) and its margin: how far the centre of mass of every
+brick can move, together, in any of eight horizontal directions, before the verdict of some
+placement step flips (found to :data:`RESOLUTION` by bisection up to :data:`MAX_MARGIN`).
+
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from shapely.affinity import rotate, translate
+from shapely.geometry import Polygon, box
+
+from stability import RigidBlock, solve_equilibrium
+
+from ._oracle import equilibrium_collapse, structure
+from ._program import Program
+
+LENGTH, WIDTH, HEIGHT = 0.120, 0.024, 0.008
+#: Metres: margins are found to this resolution, up to this distance.
+RESOLUTION = 0.0001
+MAX_MARGIN = 0.020
+_DIRECTIONS = [np.array([math.cos(a), math.sin(a), 0.0]) for a in np.arange(8) * math.pi / 4]
+
+
+@dataclass(frozen=True)
+class Brick:
+    """A brick of an assembly: centre (x, y) in metres, level (1: on the ground), yaw in degrees."""
+
+    x: float
+    y: float
+    level: int
+    yaw: float
+
+    @property
+    def footprint(self) -> Polygon:
+        return translate(rotate(box(-LENGTH / 2, -WIDTH / 2, LENGTH / 2, WIDTH / 2), self.yaw), self.x, self.y)
+
+    def axis(self) -> np.ndarray:
+        """Unit vector along its length."""
+        a = math.radians(self.yaw)
+        return np.array([math.cos(a), math.sin(a)])
+
+
+def assembly(rng: np.random.Generator, name: str = "assembly") -> str:
+    """One random assembly as a scenario file's text (see the module's description), one that
+    the language accepts."""
+    from ._compiler import compile_scenario
+    from ._errors import ScenarioError
+    from ._loader import parse_scenario
+
+    while True:
+        bricks = _draw(rng)
+        if bricks is None:
+            continue
+        text = _yaml(bricks, name)
+        try:
+            compile_scenario(parse_scenario(text, f"{name}.yaml"))
+        except ScenarioError:
+            continue
+        return text
+
+
+def _draw(rng: np.random.Generator) -> list[Brick] | None:
+    levels = int(rng.integers(2, 5))
+    total = int(rng.integers(max(3, levels), 13))
+    counts = [1] * levels
+    for _ in range(total - levels):
+        counts[int(rng.integers(levels))] += 1
+    bricks: list[Brick] = []
+    for level, count in enumerate(counts, start=1):
+        below = [b for b in bricks if b.level == level - 1]
+        for _ in range(count):
+            for _attempt in range(20):
+                brick = _ground_brick(rng) if level == 1 else _upper_brick(rng, level, below)
+                same = [b for b in bricks if b.level == level]
+                if brick is not None and all(brick.footprint.intersection(b.footprint).area < 1e-9 for b in same):
+                    bricks.append(brick)
+                    break
+            else:
+                return None
+    return bricks
+
+
+def _ground_brick(rng: np.random.Generator) -> Brick:
+    return Brick(float(rng.uniform(-0.1, 0.1)), float(rng.uniform(-0.1, 0.1)), 1, float(rng.choice([0.0, 90.0])))
+
+
+def _margin(rng: np.random.Generator) -> float:
+    """Signed metres: inside the support's edge (positive) for 4 bricks in 5, outside for 1."""
+    size = math.exp(rng.uniform(math.log(0.0001), math.log(MAX_MARGIN)))
+    return size if rng.random() < 0.8 else -size
+
+
+def _upper_brick(rng: np.random.Generator, level: int, below: list[Brick]) -> Brick | None:
+    if len(below) >= 2 and rng.random() < 0.4:
+        a, b = rng.choice(len(below), size=2, replace=False)
+        return _bridge(rng, level, below[int(a)], below[int(b)])
+    support = below[int(rng.integers(len(below)))]
+    crossed = bool(rng.random() < 0.5)
+    yaw = support.yaw + (90.0 if crossed else 0.0)
+    # the centre of mass a margin inside (or outside) one edge of the support, along one of its axes
+    along = support.axis()
+    across = np.array([-along[1], along[0]])
+    if rng.random() < 0.5:
+        direction, half = along, LENGTH / 2
+        other, spread = across, WIDTH / 2
+    else:
+        direction, half = across, WIDTH / 2
+        other, spread = along, LENGTH / 2
+    sign = 1.0 if rng.random() < 0.5 else -1.0
+    offset = sign * (half - _margin(rng)) * direction + rng.uniform(-0.8, 0.8) * spread * other
+    return Brick(support.x + float(offset[0]), support.y + float(offset[1]), level, float(yaw % 180.0))
+
+
+def _bridge(rng: np.random.Generator, level: int, a: Brick, b: Brick) -> Brick | None:
+    """A brick along the line from ``a`` to ``b``, its centre of mass a margin inside (or
+    outside) the far edge of one of them, when the two are close enough to bridge."""
+    gap = np.array([b.x - a.x, b.y - a.y])
+    distance = float(np.linalg.norm(gap))
+    if distance < WIDTH or distance > LENGTH:
+        return None
+    u = gap / distance
+    middle = np.array([a.x, a.y]) + gap / 2
+    # its centre anywhere between the supports' centres, or past one by a margin from its far side
+    reach = distance / 2 + WIDTH / 2 - _margin(rng)
+    centre = middle + (rng.uniform(-1, 1) * distance / 2 if rng.random() < 0.5 else rng.choice([-1, 1]) * reach) * u
+    return Brick(float(centre[0]), float(centre[1]), level, float(math.degrees(math.atan2(u[1], u[0])) % 180.0))
+
+
+def _yaml(bricks: list[Brick], name: str) -> str:
+    lines = [f"stackdsl: 1\nname: {name}\nstructure:\n  bricks:"]
+    for i, b in enumerate(bricks, start=1):
+        z = (b.level - 0.5) * HEIGHT
+        lines.append(
+            f"    - {{id: b{i:02d}, at: [{b.x * 1000:.3f} mm, {b.y * 1000:.3f} mm, {z * 1000:.1f} mm], yaw: {b.yaw:.3f}, level: {b.level}}}"
+        )
+    lines.append("timing: {interval: 0.5 s, settle: 1 s}")
+    return "\n".join(lines) + "\n"
+
+
+@dataclass(frozen=True)
+class Judgement:
+    """The oracle's collapse level (None: stands) and margin (metres, at most :data:`MAX_MARGIN`)."""
+
+    collapse_level: int | None
+    margin: float
+
+
+def judge(program: Program) -> Judgement:
+    """The oracle's verdict on ``program``'s bricks, placed one by one, and its margin.
+
+    Raises:
+        ValueError: a brick does not lie flat.
+    """
+    verdict = equilibrium_collapse(program)
+    steps = len(program.placements) if verdict.brick is None else verdict.bricks_standing + 1
+    margin = min(_step_margin(program, k) for k in range(1, steps + 1))
+    return Judgement(verdict.collapse_level, margin)
+
+
+def _step_margin(program: Program, k: int) -> float:
+    """How far every centre of mass can move together before step ``k``'s verdict flips."""
+    blocks, contacts = structure(list(program.placements[:k]), program.fixtures, program.ground_friction)
+
+    def stands(shift: np.ndarray) -> bool:
+        moved = {name: RigidBlock(b.mass, b.com + shift) for name, b in blocks.items()}
+        return solve_equilibrium(moved, contacts).stands
+
+    verdict = stands(np.zeros(3))
+    best = MAX_MARGIN
+    for u in _DIRECTIONS:
+        if stands(u * best) == verdict:
+            continue
+        low, high = 0.0, best
+        while high - low > RESOLUTION:
+            mid = (low + high) / 2
+            low, high = (mid, high) if stands(u * mid) == verdict else (low, mid)
+        best = high
+    return best

@@ -1,0 +1,64 @@
+"""Random assemblies: drawn reproducibly, accepted by the language, judged with a margin; the
+verdicts benchmark against the oracle."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from stackdsl import compile_scenario, parse_scenario
+from stackdsl._assemblies import MAX_MARGIN, RESOLUTION, assembly, judge
+from stackdsl._bench_verdicts import SETTINGS, Verdicts, format_verdicts, verdicts
+from stackdsl._cli import main
+
+
+def rng(k: int) -> np.random.Generator:
+    return np.random.default_rng(np.random.SeedSequence(5, spawn_key=(k,)))
+
+
+def test_assemblies_are_reproducible_valid_and_varied():
+    texts = [assembly(rng(k), f"a{k}") for k in range(12)]
+    assert texts == [assembly(rng(k), f"a{k}") for k in range(12)]
+    programs = [compile_scenario(parse_scenario(t, f"a{k}.yaml")) for k, t in enumerate(texts)]
+    sizes = [len(p.placements) for p in programs]
+    levels = [max(a.level for a in p.placements) for p in programs]
+    assert all(3 <= n <= 12 for n in sizes) and all(2 <= n <= 4 for n in levels)
+    assert len(set(sizes)) > 2 and len(set(texts)) == 12
+    judged = [judge(p) for p in programs]
+    assert {j.collapse_level is None for j in judged} == {True, False}  # some stand, some fall
+
+
+def overhang(inside_mm: float) -> str:
+    return f"stackdsl: 1\nstructure:\n  bricks:\n    - {{at: [0, 0, 4 mm]}}\n    - {{at: [{60 - inside_mm} mm, 0, 12 mm]}}\n"
+
+
+@pytest.mark.parametrize("inside", [0.5, 3.0, 7.0])
+def test_the_margin_is_how_far_the_centre_of_mass_can_move(inside):
+    # the top brick's centre of mass `inside` mm inside the lower brick's end: moving every
+    # centre of mass that far along +x tips it; the bottom brick holds far longer
+    j = judge(compile_scenario(parse_scenario(overhang(inside))))
+    assert j.collapse_level is None
+    assert j.margin == pytest.approx(inside / 1000, abs=2 * RESOLUTION)
+
+
+def test_a_collapsing_assembly_has_the_margin_that_would_make_it_stand():
+    j = judge(compile_scenario(parse_scenario(overhang(-2.0))))  # 2 mm past the edge
+    assert j.collapse_level == 2 and j.margin == pytest.approx(0.002, abs=2 * RESOLUTION)
+    assert judge(compile_scenario(parse_scenario(overhang(30.0)))).margin <= MAX_MARGIN
+
+
+def test_verdicts_compares_every_setting_with_the_oracle(tmp_path):
+    v = verdicts(3, 0)
+    assert set(v.levels) == set(SETTINGS) and not v.error
+    wrong = Verdicts(7, "stackdsl: 1\n", 3, 2, 0.005, {name: None for name in SETTINGS}, {name: 0.1 for name in SETTINGS})
+    table = format_verdicts([v, wrong], tmp_path, 1.0)
+    assert "assembly_0007.yaml" in table and (tmp_path / "assembly_0007.yaml").read_text() == "stackdsl: 1\n"
+    raw = next(line for line in table.splitlines() if line.startswith("raw "))
+    assert "/2" in raw  # both assemblies have a margin above 1 mm
+
+
+def test_bench_verdicts_runs_and_refuses_nonsense(capsys, tmp_path):
+    assert main(["bench", "verdicts", "--count", "2", "-j", "1", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("2 random assemblies") and all(name in out for name in SETTINGS)
+    assert main(["bench", "verdicts", "--count", "0"]) == 2

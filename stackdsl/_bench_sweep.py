@@ -143,7 +143,8 @@ def footer(same: bool) -> str:
     """The table's last lines: whether every executor gave the same per-sample results."""
     return (
         "per-sample results identical on every executor: " + ("yes" if same else "NO") + "\n"
-        "(Dask's wall is from its first batch on: its cluster and a warm-up batch a worker are its start-up)"
+        "(the pool's wall includes starting its workers; Dask's is from its first batch on, its cluster and a "
+        "warm-up batch a worker being its start-up)"
     )
 
 

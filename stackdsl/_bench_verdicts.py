@@ -128,6 +128,10 @@ def format_verdicts(results: list[Verdicts], out: Path | None, seconds: float) -
         lines.append(
             f"  {v.index:4d}  {name:<24} {_level(v.levels.get(name))} (oracle {_level(v.oracle)}), margin {v.margin * 1000:.1f} mm{where}"
         )
+    if not wrong:
+        lines.append(f"no assembly with a margin above {MARGIN * 1000:g} mm misjudged: no files written")
+    elif out is not None:
+        lines.append(f"(their files are in {out})")
     errors = [v for v in results if v.error]
     for v in errors:
         lines.append(f"  {v.index:4d}  internal error: {v.error}")

@@ -35,8 +35,13 @@ def add_sweep(
     )
     p.add_argument("file", help="a scenario with a sweep: or random fields")
     p.add_argument("--samples", type=int, help="override the sweep's samples a cell")
-    p.add_argument("-j", "--jobs", type=jobs_type, default="auto", help="processes, this one included (default: one per core)")
-    p.add_argument("--dask", metavar="ADDRESS", help="run on a Dask cluster: a scheduler's address (tcp://host:8786) or local:N")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument(
+        "-j", "--jobs", type=jobs_type, default="auto", help="processes, this one included (default: one per core)"
+    )
+    where.add_argument(
+        "--dask", metavar="ADDRESS", help="run on a Dask cluster: a scheduler's address (tcp://host:8786) or local:N"
+    )
     p.add_argument(
         "--oracle", action="store_true", help="also the equilibrium oracle's collapse level of each sample, and the agreement"
     )
@@ -68,25 +73,23 @@ def _sweep(args: argparse.Namespace) -> int:
     options = SweepOptions(args.mode, args.model, args.oracle, args.timeout)
     levels_built = scenario.structure.tower.levels if scenario.structure.tower else None
     total = template.cells * template.samples
-    where = f"Dask {args.dask}" if args.dask else f"{args.jobs} processes"
-    print(f"stackdsl sweep: {template.cells} cells x {template.samples} samples on {where}, writing to {out}", flush=True)
     start = time.perf_counter()
-    with Lines(total, "sweep") as lines:
 
-        def each(batch: list[Any]) -> None:
-            for _ in batch:
-                lines.advance()
+    def run(where: str, **executor: Any) -> list[Any]:
+        print(f"stackdsl sweep: {template.cells} cells x {template.samples} samples on {where}, writing to {out}", flush=True)
+        with Lines(total, "sweep") as lines:
+            return collect(run_sweep(template, options, **executor), lambda batch: lines.advance(len(batch)))
 
-        if args.dask:
-            try:
-                with dask_executor(args.dask) as (executor, threads):
-                    results = collect(run_sweep(template, options, executor=executor, workers=threads), each)
-            except ValueError as exc:
-                raise ScenarioError(str(exc), file="--dask") from None
-            except (OSError, TimeoutError) as exc:
-                raise ScenarioError(f"cannot reach the Dask scheduler: {exc}", file="--dask") from None
-        else:
-            results = collect(run_sweep(template, options, jobs=args.jobs), each)
+    if args.dask:
+        try:
+            with dask_executor(args.dask) as (executor, threads):  # reached before anything is said
+                results = run(f"Dask {args.dask}", executor=executor, workers=threads)
+        except ValueError as exc:
+            raise ScenarioError(str(exc), file="--dask") from None
+        except (OSError, TimeoutError) as exc:
+            raise ScenarioError(f"cannot reach the Dask scheduler: {exc}", file="--dask") from None
+    else:
+        results = run(f"{args.jobs} processes", jobs=args.jobs)
     wall = time.perf_counter() - start
     bad = [r for r in results if r.bad_input]
     if bad:

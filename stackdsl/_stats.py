@@ -164,7 +164,7 @@ class CellSummary:
 
         >>> print(summary([3, 4, 4, None], levels_built=10).text())
         n=4: 3 collapsed, 1 stood (10 levels)
-        mean collapse level 3.67 [2.23, 5.10] (collapsed only)
+        mean collapse level 3.67, 95% CI [2.23, 5.10] (of the 3 that collapsed)
         quantiles 5% 3, 25% 3, 50% 4, 75% 4, 95% stands
         P(stands) 0.250 [0.006, 0.806]
         histogram 3:1 4:2
@@ -172,7 +172,9 @@ class CellSummary:
         built = f" ({self.levels_built} levels)" if self.levels_built is not None else ""
         lines = [f"n={self.n}: {self.collapsed} collapsed, {self.stood} stood{built}"]
         if self.mean is not None:
-            lines.append(f"mean collapse level {self.mean:.2f} {_span(self.mean_interval, '.2f')} (collapsed only)")
+            span = _span(self.mean_interval, ".2f")
+            level = f"{100 * self.confidence:g}% CI {span}"
+            lines.append(f"mean collapse level {self.mean:.2f}, {level} (of the {self.collapsed} that collapsed)")
         if self.quantiles:
             lines.append("quantiles " + ", ".join(f"{100 * q:g}% {format_level(v)}" for q, v in self.quantiles.items()))
         if self.p_stands is not None:
@@ -307,13 +309,21 @@ def summary(levels: Sequence[int | None], levels_built: int | None = None, confi
         stood=stood,
         levels_built=levels_built,
         mean=float(np.mean(collapsed)) if collapsed else None,
-        mean_interval=mean_interval(collapsed, confidence),
+        mean_interval=_feasible(mean_interval(collapsed, confidence), levels_built),
         quantiles=quantiles,
         p_stands=stood / n if n else None,
         p_stands_interval=proportion_interval(stood, n, confidence) if n else None,
         histogram=dict(sorted(Counter(collapsed).items())),
         confidence=confidence,
     )
+
+
+def _feasible(interval: tuple[float, float] | None, levels_built: int | None) -> tuple[float, float] | None:
+    """The interval within the levels a collapse can have, 1 to ``levels_built``: the mean lies
+    there, so the intersection covers it as often as the interval does."""
+    if interval is None:
+        return None
+    return (max(interval[0], 1.0), min(interval[1], float(levels_built)) if levels_built else interval[1])
 
 
 def _decide_mean(e: MeanWithin, collapsed: list[int], n: int, c: float) -> StatVerdict:

@@ -238,3 +238,13 @@ def test_summary_degenerate():
     one = summary([7] * 5)
     assert one.mean_interval == (7.0, 7.0) and one.p_stands_interval == proportion_interval(0, 5)
     assert [format_level(v) for v in (math.inf, -math.inf, 3.0, 3.25)] == ["stands", "-inf", "3", "3.25"]
+
+
+def test_the_mean_interval_shown_stays_within_the_levels_a_collapse_can_have():
+    from stackdsl._stats import mean_interval, summary
+
+    levels = [1, 2, 29]
+    assert mean_interval(levels)[0] < 1 and mean_interval(levels)[1] > 30  # the t interval alone
+    shown = summary(levels, levels_built=30).mean_interval
+    assert shown[0] == 1.0 and shown[1] == 30.0
+    assert "95% CI [1.00, 30.00] (of the 3 that collapsed)" in summary(levels, levels_built=30).text()

@@ -192,3 +192,15 @@ def test_bench_sweep_refuses_a_file_with_nothing_to_sample(tmp_path, capsys):
     assert main(["bench", "sweep", str(ROOT / "scenarios" / "four_stack.yaml")]) == 2
     assert "nothing to sample" in capsys.readouterr().err
     assert main(["bench", "sweep", "--samples", "0"]) == 2
+
+
+def test_sweep_takes_one_executor_and_checks_the_dask_address_before_saying_anything(tmp_path, capsys):
+    path = tmp_path / "stack.yaml"
+    path.write_text(STACK.format(levels=3, samples=2))
+    with pytest.raises(SystemExit) as usage:
+        main(["sweep", str(path), "-j", "1", "--dask", "local:2"])
+    assert usage.value.code == 2 and "not allowed with" in capsys.readouterr().err
+    assert main(["sweep", str(path), "--dask", "local:0", "--out", str(tmp_path / "out")]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and "local:N needs N from 1 to 64" in captured.err
+    assert not (tmp_path / "out").exists()

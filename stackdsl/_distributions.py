@@ -30,6 +30,7 @@ Source: stackdsl's own (distributions on parameters as in Scenic and OpenSCENARI
 from __future__ import annotations
 
 import copy
+import difflib
 import math
 from dataclasses import dataclass
 from typing import Any, Literal
@@ -48,6 +49,8 @@ PER: dict[FieldPath, tuple[str, ...]] = {
 #: Sections whose values are not the scene's and take no distribution.
 NOT_RANDOM = ("stackdsl", "seed", "sweep", "expect", "name", "description", "allow")
 MAX_CHOICES = 1000
+#: Mappings keyed by names the file chooses, not by fields: their keys are never distributions.
+NAMED = (("materials",), ("brick_types",))
 
 
 @dataclass(frozen=True)
@@ -103,9 +106,17 @@ def find(data: Any, source: SourceMap) -> list[Distribution]:
 
 def _walk(value: Any, path: FieldPath, source: SourceMap, found: list[Distribution]) -> None:
     if isinstance(value, dict):
+        if path in NAMED:  # keyed by names the file chooses ("normal" may be a material)
+            for key, item in value.items():
+                _walk(item, path + (key,), source, found)
+            return
         if any(k in value for k in KINDS):
             found.append(_parse(value, path, source))
             return
+        for key in value:  # no field of the language is named like a distribution: a misspelt one
+            near = difflib.get_close_matches(str(key), KINDS, n=1, cutoff=0.75)
+            if near:
+                raise source.error(path + (key,), f"unknown key {key!r}; did you mean the distribution {near[0]!r}?", at_key=True)
         for key, item in value.items():
             _walk(item, path + (key,), source, found)
     elif isinstance(value, list):

@@ -79,6 +79,8 @@ def test_a_distribution_draws_in_the_unit_written_and_the_field_checks_it():
         ("spacing: {normal: {mean: 96 mm, sd: -1 mm}}", "the standard deviation must be at least 0", 23),
         ("spacing: {uniform: [90 mm, 100 mm], pre: layer}", "unknown key 'pre'", 14),
         ("levels: {choice: [3, 2000]}", "a value this distribution can draw, 2000", 13),
+        ("spacing: {unifrom: [90 mm, 100 mm]}", "unknown key 'unifrom'; did you mean the distribution 'uniform'?", 15),
+        ("spacing: {Normal: {mean: 96 mm, sd: 1 mm}}", "did you mean the distribution 'normal'?", 15),
     ],
 )
 def test_a_bad_distribution_is_one_error_at_its_node(field, message, column):
@@ -142,3 +144,15 @@ def test_explicit_shifts_and_yaw_jitter_are_checked():
     ]:
         with pytest.raises(ScenarioError, match=message.replace("(", r"\(").replace(")", r"\)")):
             parse_scenario(f"stackdsl: 1\nstructure: {{tower: {{levels: 3, {bad}}}}}\n")
+
+
+def test_names_a_file_chooses_are_not_taken_for_distributions():
+    text = (
+        "stackdsl: 1\nmaterials: {normal: {density: 500 kg/m^3}, choise: {density: {uniform: [400 kg/m^3, 500 kg/m^3]}}}\n"
+        "brick_types: {uniform: {size: [120 mm, 24 mm, 8 mm], material: normal}}\n"
+        "structure: {tower: {levels: 2, brick: uniform}}\nsweep: {samples: 2}\n"
+    )
+    scenario = parse_scenario(text, "names.yaml")
+    assert scenario.materials["normal"].density == 500.0 and set(scenario.template.parameters(0, 0)) == {
+        "materials.choise.density"
+    }

@@ -82,26 +82,31 @@ def parse_quantity(value: Any, dimension: str, unit: str, what: str, example: st
         ValueError: not a number, a unit of the wrong kind, or not finite.
     """
     expected = f"expected {what} such as {example} or a number of {unit_name or unit}"
-    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
-        raise ValueError(f"{expected}, got {value!r}")
-    try:
-        if isinstance(value, str):
-            match = _QUANTITY.match(value)
-            if not match:
-                raise ValueError(f"{expected}, got {value!r}")
-            numerator, denominator, unit_text = match.groups()
-            if float(denominator or 1) == 0:
-                raise ValueError(f"{expected}, got {value!r} (a division by zero)")
-            number = float(numerator) / float(denominator or 1)
-            if unit_text:
-                number *= _factor(unit_text.strip(), dimension, unit, f"{expected}, got {value!r}")
-        else:
-            number = float(value)
-    except OverflowError:  # an integer too large for a double
-        number = math.inf
+    number, unit_text = _split(value, f"{expected}, got {value!r}")
+    if unit_text:
+        number *= _factor(unit_text, dimension, unit, f"{expected}, got {value!r}")
     if not math.isfinite(number):
         raise ValueError(f"{expected}, got {value!r} (not finite)")
     return number
+
+
+def _split(value: Any, message: str) -> tuple[float, str]:
+    """(number, unit as written, ``""`` for none) of a number or a quantity string, not checked
+    for finiteness; ``message`` is the ValueError's for anything else."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
+        raise ValueError(message)
+    if not isinstance(value, str):
+        try:
+            return float(value), ""
+        except OverflowError:  # an integer too large for a double
+            return math.inf, ""
+    match = _QUANTITY.match(value)
+    if not match:
+        raise ValueError(message)
+    numerator, denominator, unit_text = match.groups()
+    if float(denominator or 1) == 0:
+        raise ValueError(f"{message} (a division by zero)")
+    return float(numerator) / float(denominator or 1), (unit_text or "").strip()
 
 
 def _factor(text: str, dimension: str, unit: str, message: str) -> float:
@@ -207,21 +212,7 @@ def split_quantity(value: Any) -> tuple[float, str]:
     Raises:
         ValueError: not a finite number or a quantity string.
     """
-    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
-        raise ValueError(f"expected a number or a quantity such as '12 mm', got {value!r}")
-    if isinstance(value, str):
-        match = _QUANTITY.match(value)
-        if not match:
-            raise ValueError(f"expected a number or a quantity such as '12 mm', got {value!r}")
-        numerator, denominator, unit_text = match.groups()
-        if float(denominator or 1) == 0:
-            raise ValueError(f"expected a number or a quantity such as '12 mm', got {value!r} (a division by zero)")
-        number, unit = float(numerator) / float(denominator or 1), (unit_text or "").strip()
-    else:
-        try:
-            number, unit = float(value), ""
-        except OverflowError:
-            number, unit = math.inf, ""
+    number, unit = _split(value, f"expected a number or a quantity such as '12 mm', got {value!r}")
     if not math.isfinite(number):
         raise ValueError(f"expected a finite number, got {value!r}")
     return number, unit

@@ -60,23 +60,16 @@ def verdicts(seed: int, index: int) -> Verdicts:
     oracle = judge(compile_scenario(scenario))
     levels: dict[str, int | None] = {}
     walls: dict[str, float] = {}
+    error = ""
     try:
         for name, (mode, model) in SETTINGS.items():
             outcome = run_program(compile_scenario(scenario, mode, model), timeout=60.0)
             levels[name] = outcome.collapse.level if outcome.collapse else None
             walls[name] = outcome.wall_time
     except Exception as exc:  # this assembly's internal error, reported with it
-        return Verdicts(
-            index,
-            text,
-            len(scenario.structure.bricks or []),
-            oracle.collapse_level,
-            oracle.margin,
-            levels,
-            walls,
-            f"{type(exc).__name__}: {exc}",
-        )
-    return Verdicts(index, text, len(scenario.structure.bricks or []), oracle.collapse_level, oracle.margin, levels, walls)
+        error = f"{type(exc).__name__}: {exc}"
+    bricks = len(scenario.structure.bricks or [])
+    return Verdicts(index, text, bricks, oracle.collapse_level, oracle.margin, levels, walls, error)
 
 
 def run_verdicts(seed: int, count: int, jobs: int, each: Callable[[Verdicts], None] = lambda v: None) -> list[Verdicts]:

@@ -33,13 +33,14 @@ Source: "Simulating Object Stacking Using Stack Stability", chapter 3.
 """
 
 from ._engine import ContactPoint, Engine, FakeEngine, PyBulletEngine
-from ._equilibrium import ContactPolygon, Equilibrium, RigidBlock, solve_equilibrium
+from ._equilibrium import ContactPolygon, Equilibrium, RigidBlock, is_level, solve_equilibrium
 from ._extension import StabilityConfig, StabilityEvent, StabilityExtension
 from ._geometry import Box, ContactArea, Plane, Pose, combined_hull, contains, face_overlap, padded_hull
 from ._graph import BrickGraph, BrickState, GraphEdge, GraphNode
 from ._impact import breaks_loose, kinetic_energy, potential_energy
 from ._leaning import lean_polygon, leaning_stands, pair_friction
 from ._load import Load, LoadNode, propagate, split_load, torque_split
+from ._load_path import load_path, proven, support_piece
 
 __all__ = [
     "Box",
@@ -66,14 +67,18 @@ __all__ = [
     "combined_hull",
     "contains",
     "face_overlap",
+    "is_level",
     "kinetic_energy",
     "lean_polygon",
     "leaning_stands",
+    "load_path",
     "padded_hull",
     "pair_friction",
     "potential_energy",
     "propagate",
+    "proven",
     "solve_equilibrium",
     "split_load",
+    "support_piece",
     "torque_split",
 ]

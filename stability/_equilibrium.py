@@ -126,7 +126,7 @@ def solve_equilibrium(
     """
     if sides < 3:
         raise ValueError("the friction pyramid needs at least 3 sides")
-    if quick and contacts and all(_level(c, sides) for c in contacts):
+    if quick and contacts and all(is_level(c, sides) for c in contacts):
         vertical = _solve_vertical(blocks, contacts, gravity)
         if vertical is not None:
             return vertical
@@ -198,13 +198,21 @@ def _cat(parts: list[np.ndarray]) -> np.ndarray:
     return np.concatenate(parts) if parts else np.zeros(0)
 
 
-def _level(contact: ContactPolygon[BodyKey], sides: int) -> bool:
-    """A contact so near horizontal that friction absorbs its normal's sideways part:
-    tan(tilt) <= mu cos(pi / sides) (the inscribed pyramid's reach)."""
+def is_level(contact: ContactPolygon[BodyKey], sides: int = 8) -> bool:
+    """Is the contact so near horizontal that friction takes the sideways part of a vertical
+    force on it: tan(tilt) <= mu cos(pi / sides), the reach of the inscribed friction
+    pyramid, and its normal pointing up into ``contact.body``? Source: stackdsl's own.
+
+    >>> import numpy as np
+    >>> flat = ContactPolygon(1, 0, np.zeros((1, 3)), np.array([0, 0, 1.0]), 0.5)
+    >>> steep = ContactPolygon(1, 0, np.zeros((1, 3)), np.array([0.5, 0, 0.866]), 0.5)
+    >>> is_level(flat), is_level(steep)
+    (True, False)
+    """
     normal = np.asarray(contact.normal, dtype=float)
     cos = abs(normal[2]) / np.linalg.norm(normal)
     tan = math.sqrt(max(1.0 - cos * cos, 0.0)) / max(cos, 1e-12)
-    return bool(normal[2] > 0) and tan <= contact.friction * math.cos(math.pi / sides)
+    return bool(normal[2] > 0 and tan <= contact.friction * math.cos(math.pi / sides))
 
 
 def _solve_vertical(
@@ -213,7 +221,7 @@ def _solve_vertical(
     """Balance by vertical compressive forces alone: a fast sufficient test.
 
     For contacts that are all (nearly) level, a balance of vertical forces extends to a
-    full one (friction takes each tilted normal's sideways part, :func:`_level`), so when
+    full one (friction takes each tilted normal's sideways part, :func:`is_level`), so when
     this program has one the blocks stand. When it has none, friction couples might still
     help: None, and the full program decides. Three equations per block (vertical force,
     torques about x and y), one force per vertex: a tenth of the full program's size.

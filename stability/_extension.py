@@ -33,14 +33,16 @@ from typing import Literal, NamedTuple
 
 import numpy as np
 from shapely.geometry import Point
+from shapely.geometry.base import BaseGeometry
 
 from ._engine import ContactPoint, Engine
-from ._equilibrium import GRAVITY, ContactPolygon, RigidBlock, solve_equilibrium
+from ._equilibrium import GRAVITY, ContactPolygon, RigidBlock, is_level, solve_equilibrium
 from ._geometry import Box, ContactArea, Plane, Pose, combined_hull, contains, face_overlap, padded_hull
 from ._graph import BrickGraph, BrickState, GraphEdge, GraphNode
 from ._impact import breaks_loose, kinetic_energy, potential_energy
 from ._leaning import lean_polygon, leaning_stands, pair_friction
 from ._load import LoadNode, propagate, propagate_fast
+from ._load_path import load_path, proven, support_piece
 
 
 @dataclass(frozen=True)
@@ -142,6 +144,7 @@ class _Body:
     frozen_pose: Pose | None = None
     node: LoadNode | None = None
     impacted: set[int] = field(default_factory=set)
+    load_path: BaseGeometry | None = None
 
     @property
     def box(self) -> Box:
@@ -182,6 +185,8 @@ class StabilityExtension:
         self._bodies: dict[int, _Body] = {}
         self._active: dict[int, _Body] = {}  # the active bricks, so that a step costs what moves
         self._stack: dict[int, _Body] = {}  # the frozen bricks in the order they froze: supports first
+        self._unproven: set[int] = set()  # frozen bricks with no load path under their centre of mass
+        self._loads_fresh = True  # com_above / mass_above of every frozen brick are up to date
         self._support_cos = math.cos(math.radians(self.config.support_angle))
 
     # registration -------------------------------------------------------------
@@ -410,23 +415,41 @@ class StabilityExtension:
         rec.frozen_pose = self._engine.pose(rec.body)
         rec.node = LoadNode(rec.box.mass, rec.frozen_pose.position, supports)
         self._stack[rec.body] = rec
+        self._loads_fresh = False
         for s in supports:
             self._bodies[s].objects_above.add(rec.body)
+        if self.config.model == "equilibrium":
+            self._prove(rec)
+
+    def _prove(self, rec: _Body) -> None:
+        """Find the load path of a brick being frozen (:mod:`stability._load_path`) and note
+        it when its centre of mass is not over it."""
+        pieces = []
+        for c in rec.contacts:
+            support = self._bodies[c.other]
+            if c.other in rec.rests_on and is_level(c):
+                pieces.append(support_piece(c.points, support.load_path, support.state is BrickState.GROUND))
+        rec.load_path = load_path([p for p in pieces if p is not None])
+        assert rec.frozen_pose is not None, "set by _freeze"
+        if not proven(rec.frozen_pose.position, rec.load_path):
+            self._unproven.add(rec.body)
 
     # the stack-wide test ---------------------------------------------------------
     def _test_stack(self, time: float) -> list[StabilityEvent]:
         """The stack-wide test of the configured model; returns the wake events."""
         if self.config.model == "report":
             return self._test_report(time)  # it computes the loads on the way
-        events = self._test_equilibrium(time)
-        self._refresh_loads()
-        return events
+        return self._test_equilibrium(time)
 
     def _refresh_loads(self) -> None:
-        """com_above / mass_above of every frozen brick (the graph and the impact rule use them)."""
+        """com_above / mass_above of every frozen brick, when the stack changed since they were
+        last propagated (the impact rule uses them)."""
+        if self._loads_fresh:
+            return
         loads = propagate_fast(self._nodes(self._frozen()))
         for rec in self._frozen():
             rec.com_above, rec.mass_above = loads[rec.body][0], loads[rec.body][1]
+        self._loads_fresh = True
 
     def _test_equilibrium(self, time: float) -> list[StabilityEvent]:
         """Stack-wide test by rigid-block equilibrium (Livesley 1978; Whiting et al. 2009).
@@ -440,12 +463,14 @@ class StabilityExtension:
         solution shows must move: waking only the bricks whose contacts would need glue
         leaves their siblings frozen under a tipping block (the slant tower stayed pinned
         by one of its two level-3 bricks), waking everything discards what still stands.
-        Solved only when the stack changes.
+        Solved only when the stack changes, and only when some frozen brick has no load path
+        under its centre of mass (:mod:`stability._load_path`): when every one has, the
+        program has a solution already, so the stack stands.
         """
         events: list[StabilityEvent] = []
         while True:
             frozen = {r.body: r for r in self._frozen()}
-            if not frozen:
+            if not frozen or not self._unproven:
                 return events
             ground = {k for k, r in self._bodies.items() if r.state is BrickState.GROUND}
             polygons = [c for r in frozen.values() for c in r.contacts if c.other in frozen or c.other in ground]
@@ -489,6 +514,7 @@ class StabilityExtension:
                 if not self._holds(rec.main_contact, rec.com_above):
                     failing.append(rec)
             if not failing:
+                self._loads_fresh = True
                 return events
             for rec in failing:
                 if rec.state is not BrickState.FROZEN:  # woken already, resting on one that failed
@@ -527,6 +553,7 @@ class StabilityExtension:
                 rec.impacted.add(other.body)
                 kinetic = kinetic_energy(rec.box.mass, speed)
                 base = min(a.height for a in other.rests_on.values())
+                self._refresh_loads()
                 assert other.com_above is not None, "the stack test sets it for every frozen brick"
                 potential = potential_energy(other.mass_above, other.com_above[2], base, self.config.gravity)
                 detail = f"impact of {rec.label} at {speed:.2f} m/s: {kinetic * 1000:.3g} mJ against {potential * 1000:.3g} mJ"
@@ -556,6 +583,8 @@ class StabilityExtension:
         rec.state, rec.rest_since, rec.frozen_pose, rec.node = BrickState.ACTIVE, None, None, None
         self._active[body] = rec
         del self._stack[body]
+        self._unproven.discard(body)
+        rec.load_path, self._loads_fresh = None, False
         for s in rec.rests_on:
             self._bodies[s].objects_above.discard(body)
         rec.rests_on, rec.main_contact, rec.com_above, rec.mass_above = {}, None, None, 0.0

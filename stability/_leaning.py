@@ -24,8 +24,9 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from ._equilibrium import GRAVITY, BodyKey, ContactPolygon, RigidBlock, solve_equilibrium
+from ._equilibrium import GRAVITY, BodyKey, ContactPolygon, RigidBlock, is_level, solve_equilibrium
 from ._geometry import padded_hull
+from ._load_path import load_path, proven, support_piece
 
 
 def pair_friction(a: float, b: float) -> float:
@@ -75,5 +76,12 @@ def leaning_stands(
 
     Returns:
         True when the members balance (report 3.4.3, solved as :func:`stability._equilibrium.solve`).
+        A single brick whose centre of mass lies over the hull of its level contacts stands
+        without a program: vertical forces at their vertices hold it (:mod:`stability._load_path`).
     """
+    if len(members) == 1:
+        ((com, _),) = members.values()
+        level = [support_piece(c.points, None, ground=True) for c in contacts if is_level(c)]
+        if proven(com, load_path([p for p in level if p is not None])):
+            return True
     return solve_equilibrium({m: RigidBlock(mass, com) for m, (com, mass) in members.items()}, contacts, gravity=gravity).stands

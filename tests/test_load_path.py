@@ -1,0 +1,121 @@
+"""Load paths: a sufficient test of rigid-block equilibrium, never wrong when it says 'stands'."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from shapely.geometry import box
+
+from stability import ContactPolygon, RigidBlock, load_path, proven, solve_equilibrium, support_piece
+from stackdsl._bench import Scene, program_for
+from stackdsl._runtime import RunOptions, run_program
+
+HALF = np.array([0.06, 0.012, 0.004])
+UP = np.array([0.0, 0.0, 1.0])
+
+
+def _overlap(a: np.ndarray, b: np.ndarray) -> np.ndarray | None:
+    """Corners (4, 3) of the overlap of two axis-aligned brick footprints at b's top, or None."""
+    x0, x1 = max(a[0] - HALF[0], b[0] - HALF[0]), min(a[0] + HALF[0], b[0] + HALF[0])
+    y0, y1 = max(a[1] - HALF[1], b[1] - HALF[1]), min(a[1] + HALF[1], b[1] + HALF[1])
+    if x1 - x0 < 1e-6 or y1 - y0 < 1e-6:
+        return None
+    z = b[2] + HALF[2]
+    return np.array([[x0, y0, z], [x1, y0, z], [x1, y1, z], [x0, y1, z]])
+
+
+def _random_stack(rng: np.random.Generator, levels: int) -> tuple[list[np.ndarray], list[ContactPolygon[int]]]:
+    """Bricks along x, level by level, one or two a level, each over the level below."""
+    centres: list[np.ndarray] = []
+    contacts: list[ContactPolygon[int]] = []
+    below: list[int] = []
+    for level in range(levels):
+        z = HALF[2] * (2 * level + 1)
+        here = []
+        for _ in range(int(rng.integers(1, 3))):
+            anchor = centres[below[int(rng.integers(len(below)))]] if below else np.zeros(3)
+            c = np.array([anchor[0] + rng.uniform(-0.07, 0.07), anchor[1] + rng.uniform(-0.02, 0.02), z])
+            if any(abs(c[1] - centres[j][1]) < 2 * HALF[1] and abs(c[0] - centres[j][0]) < 2 * HALF[0] for j in here):
+                continue  # the bricks of a level do not overlap
+            k = len(centres)
+            centres.append(c)
+            here.append(k)
+            if not below:
+                ring = np.array([[c[0] - HALF[0], c[1] - HALF[1], 0], [c[0] + HALF[0], c[1] - HALF[1], 0]])
+                ring = np.vstack([ring, ring[::-1] + [0, 2 * HALF[1], 0]])
+                contacts.append(ContactPolygon(k, -1, ring, UP, 0.5))
+            for j in below:
+                overlap = _overlap(c, centres[j])
+                if overlap is not None:
+                    contacts.append(ContactPolygon(k, j, overlap, UP, 0.5))
+        below = here
+    return centres, contacts
+
+
+def _all_proven(centres: list[np.ndarray], contacts: list[ContactPolygon[int]]) -> bool:
+    paths: dict[int, object] = {}
+    for k, c in enumerate(centres):
+        pieces = [support_piece(p.points, paths.get(p.other), ground=p.other == -1) for p in contacts if p.body == k]
+        paths[k] = load_path([p for p in pieces if p is not None])
+        if not proven(c, paths[k]):  # type: ignore[arg-type]
+            return False
+    return True
+
+
+def test_a_proven_stack_stands_by_the_equilibrium_program() -> None:
+    rng = np.random.default_rng(7)
+    outcomes = {True: 0, False: 0}
+    for _ in range(300):
+        centres, contacts = _random_stack(rng, int(rng.integers(2, 6)))
+        blocks = {k: RigidBlock(0.0106, c) for k, c in enumerate(centres)}
+        stands = solve_equilibrium(blocks, contacts).stands
+        if _all_proven(centres, contacts):
+            assert stands, "a load path is a solution of the program: it cannot be wrong"
+        outcomes[stands] += 1
+    assert outcomes[True] > 50 and outcomes[False] > 50  # both kinds were drawn
+
+
+def test_a_single_file_slant_stack_is_proven_while_each_brick_is_over_the_first_ones_path() -> None:
+    """Shift s a level: the load path of brick k reaches from (k - 1) s - 60 mm to 60 mm, so the
+    test proves brick k while (k - 1) s <= 60 mm; beyond, only the full program can tell."""
+    shift = 0.013
+    centres = [np.array([k * shift, 0.0, HALF[2] * (2 * k + 1)]) for k in range(8)]
+    contacts = [ContactPolygon(0, -1, np.array([[-0.06, -0.012, 0], [0.06, -0.012, 0], [0.06, 0.012, 0]]), UP, 0.5)]
+    contacts += [ContactPolygon(k, k - 1, _overlap(centres[k], centres[k - 1]), UP, 0.5) for k in range(1, 8)]  # type: ignore[arg-type]
+    provable = [_all_proven(centres[: n + 1], contacts[: n + 1]) for n in range(8)]
+    assert provable == [k * shift <= 0.06 for k in range(8)]
+
+
+def test_proven_counts_the_edge_and_nothing_beyond() -> None:
+    path = box(-0.06, -0.012, 0.06, 0.012)
+    assert proven([0.06, 0.0, 0.0], path) and not proven([0.0601, 0.0, 0.0], path) and not proven([0, 0, 0], None)
+
+
+def _count_solves(monkeypatch: pytest.MonkeyPatch) -> list[int]:
+    import stability._extension as extension
+
+    calls: list[int] = []
+    real = extension.solve_equilibrium
+
+    def counting(*args, **kwargs):  # type: ignore[no-untyped-def]
+        calls.append(len(args[0]))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(extension, "solve_equilibrium", counting)
+    return calls
+
+
+def test_an_upright_tower_needs_no_equilibrium_program(monkeypatch: pytest.MonkeyPatch) -> None:
+    calls = _count_solves(monkeypatch)
+    outcome = run_program(
+        program_for(Scene("upright", 12, 12, "tower: {levels: 12}", None), "extension equilibrium"), RunOptions()
+    )
+    assert outcome.collapse is None and calls == []
+
+
+def test_a_slant_stack_falls_where_the_program_says(monkeypatch: pytest.MonkeyPatch) -> None:
+    calls = _count_solves(monkeypatch)
+    scene = Scene("single file", 13, 12, "tower: {levels: 12, bricks_per_layer: 1, turn: 0, shift: 13 mm}", 10)
+    outcome = run_program(program_for(scene, "extension equilibrium"), RunOptions(stop_at_collapse=True))
+    assert outcome.collapse is not None and outcome.collapse.level == 10
+    assert calls and min(calls) >= 5  # solved once the upper bricks reach beyond the lower paths

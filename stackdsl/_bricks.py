@@ -39,6 +39,7 @@ class BrickRecord:
         settled: metres it had moved when last frozen (frozen bricks do not move), or None.
         corners: shape (8, 3), the placed corners in the world, m.
         footprint: the placed horizontal footprint.
+        order: its place in the order bricks entered the world (set by :class:`Structure`).
     """
 
     id: str
@@ -50,6 +51,7 @@ class BrickRecord:
     moving: bool = True
     was_frozen: bool = False
     settled: float | None = None
+    order: int = -1
     box: Box = field(init=False)
     corners: np.ndarray = field(init=False)
     footprint: Polygon = field(init=False)
@@ -91,6 +93,7 @@ class Structure:
         self.world = world
         self.records: dict[str, BrickRecord] = {}
         self.placed: list[BrickRecord] = []  # the structure bricks, in the order they were placed
+        self.moving: dict[str, BrickRecord] = {}  # the structure bricks the engine simulates, by id
         self.projectiles: list[BrickRecord] = []
         self._by_body: dict[int, BrickRecord] = {}
         self._tops: dict[int, list[BrickRecord]] = {}  # top height in 0.1 mm -> bricks
@@ -98,11 +101,23 @@ class Structure:
 
     def add(self, record: BrickRecord) -> None:
         """Register a brick that entered the world."""
+        record.order = len(self.records)
         self.records[record.id] = record
         self._by_body[record.body] = record
         (self.placed if record.structure else self.projectiles).append(record)
         if record.structure:
             self._tops.setdefault(round(record.top * 1e4), []).append(record)
+            self.set_moving(record, record.moving)
+
+    def set_moving(self, record: BrickRecord, moving: bool) -> None:
+        """Mark a brick frozen (``moving`` False) or simulated by the engine again."""
+        record.moving = moving
+        if not record.structure:
+            return
+        if moving:
+            self.moving[record.id] = record
+        else:
+            self.moving.pop(record.id, None)
 
     def by_body(self, body: int) -> BrickRecord | None:
         """The record of an engine body, or None (the ground, a fixture)."""

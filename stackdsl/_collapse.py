@@ -95,9 +95,11 @@ class CollapseMonitor(Subscriber):
 
     def _decide(self, loop: StepLoop, displaced_at_end: bool = False) -> None:
         structure = loop.structure
-        watched = [
-            r for r in structure.placed if r.id in self._displaced or (r.moving and structure.may_have_moved(r, self.threshold))
+        watched = [structure.records[i] for i in self._displaced if not structure.records[i].moving]
+        watched += [
+            r for r in structure.moving.values() if r.id in self._displaced or structure.may_have_moved(r, self.threshold)
         ]
+        watched.sort(key=lambda r: r.order)
         moved = structure.displacements(watched)
         for record, distance in zip(watched, moved):
             if distance <= self.threshold:
@@ -149,6 +151,6 @@ class CollapseMonitor(Subscriber):
         if self.collapse is not None:
             return
         structure = loop.structure
-        moving = [r for r in structure.placed if r.moving and r is not exclude]
+        moving = [r for r in structure.moving.values() if r is not exclude]
         now = [*structure.displacements(moving), *(r.settled for r in structure.placed if r.settled is not None)]
         self.drift = max([self.drift, *(float(d) for d in now if d <= self.threshold)])

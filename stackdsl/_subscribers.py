@@ -58,7 +58,7 @@ class Stability(Subscriber):
         for e in events:
             record = records.get(e.label)
             if record is not None and record.structure and e.kind in ("freeze", "wake"):
-                record.moving = e.kind == "wake"
+                loop.structure.set_moving(record, e.kind == "wake")
                 record.was_frozen = True
                 record.settled = None if record.moving else float(loop.structure.displacements([record])[0])
             source = records.get(e.source)
@@ -93,7 +93,7 @@ class Substeps(Subscriber):
 
     def before_step(self, loop: StepLoop) -> None:
         structure = loop.structure
-        fast = structure.projectiles + ([r for r in structure.placed if r.moving] if self.bricks_too else [])
+        fast = structure.projectiles + (list(structure.moving.values()) if self.bricks_too else [])
         velocities, _ = loop.world.velocities_of([r.body for r in fast])
         squared = (velocities**2).sum(axis=1)
         speed = float(math.sqrt(squared.max())) if len(fast) else 0.0

@@ -44,6 +44,9 @@ from ._leaning import lean_polygon, leaning_stands, pair_friction
 from ._load import LoadNode, propagate, propagate_fast
 from ._load_path import load_path, proven, support_piece
 
+MAX_PILE = 32
+"""Most bricks the debris rule admits at once (one equilibrium program over all of them)."""
+
 
 @dataclass(frozen=True)
 class StabilityConfig:
@@ -71,6 +74,10 @@ class StabilityConfig:
         max_leaning_bodies: a leaning brick may touch at most this many bodies (the
             report's model handles two).
         impacts: run the impact rule (report 3.6).
+        debris: admit a resting brick the other rules refuse together with every resting
+            brick it touches, and they with theirs, when rigid-block equilibrium holds them
+            all against what is frozen (stackdsl's own): fallen bricks leaning on each other
+            are frozen again, so that what lies still costs nothing.
         per_event: run the stack-wide test only when the stack changes (a freeze or a
             wake); False runs it on every step with an active brick (for measuring).
         model: ``"report"``: the report's rules (basic test, leaning test, centre of mass
@@ -93,6 +100,7 @@ class StabilityConfig:
     leaning: bool = True
     max_leaning_bodies: int = 2
     impacts: bool = True
+    debris: bool = True
     per_event: bool = True
     model: str = "report"
     gravity: float = GRAVITY
@@ -145,6 +153,7 @@ class _Body:
     node: LoadNode | None = None
     impacted: set[int] = field(default_factory=set)
     load_path: BaseGeometry | None = None
+    failed: tuple[object, ...] | None = None  # what its last refused admission depended on
 
     @property
     def box(self) -> Box:
@@ -187,6 +196,7 @@ class StabilityExtension:
         self._stack: dict[int, _Body] = {}  # the frozen bricks in the order they froze: supports first
         self._unproven: set[int] = set()  # frozen bricks with no load path under their centre of mass
         self._loads_fresh = True  # com_above / mass_above of every frozen brick are up to date
+        self._version = 0  # counts the changes of the frozen stack (freezes and wakes)
         self._support_cos = math.cos(math.radians(self.config.support_angle))
 
     # registration -------------------------------------------------------------
@@ -227,12 +237,18 @@ class StabilityExtension:
         for rec in resting:
             if rec.state is not BrickState.ACTIVE:
                 continue
+            tried = self._attempt(rec, contacts, time)
+            if tried == rec.failed:
+                continue  # refused already, and nothing it rests on, touches or is has changed
             if self.config.model == "equilibrium":
-                events += self._admit_group(rec, contacts, time, limit=None)
-                continue
-            found = self._admit(rec, contacts, time)
-            if not found and self.config.leaning:
-                found = self._admit_group(rec, contacts, time, limit=self.config.max_leaning_bodies)
+                found = self._admit_group(rec, contacts, time, limit=None)
+            else:
+                found = self._admit(rec, contacts, time)
+                if not found and self.config.leaning:
+                    found = self._admit_group(rec, contacts, time, limit=self.config.max_leaning_bodies)
+            if not found and self.config.debris:
+                found = self._admit_debris(rec, contacts, time)
+            rec.failed = None if found else tried
             events += found
         if events or not self.config.per_event:
             events += self._test_stack(time)
@@ -257,6 +273,21 @@ class StabilityExtension:
         return rec.rest_since is not None and time - rec.rest_since >= self.config.rest_duration - 1e-9
 
     # admission ------------------------------------------------------------------
+    def _attempt(self, rec: _Body, contacts: dict[int, list[ContactPoint]], time: float) -> tuple[object, ...]:
+        """What an admission of ``rec`` depends on: the stack (its version), the brick's pose
+        to 0.1 mm and 0.01 rad, and the bodies it touches with whether each is frozen or
+        at rest. A brick refused once is not asked again until one of them changes."""
+        pose = self._engine.pose(rec.body)
+        where = tuple(round(float(v) * 1e4) for v in pose.position) + tuple(round(float(v) * 200) for v in pose.orientation)
+        around = tuple(
+            sorted(
+                (o, self._bodies[o].state is not BrickState.ACTIVE or self._rested(self._bodies[o], time))
+                for o in {c.other for c in contacts.get(rec.body, [])}
+                if o in self._bodies
+            )
+        )
+        return (self._version, where, around)
+
     def _admit(self, rec: _Body, contacts: dict[int, list[ContactPoint]], time: float) -> list[StabilityEvent]:
         """Single object stability (report 3.3.4): freeze when the COM is over the support."""
         supports = self._supports(rec, contacts.get(rec.body, []), stack_only=True)
@@ -314,6 +345,49 @@ class StabilityExtension:
             return []
         return [rec, partner]
 
+    def _admit_debris(self, rec: _Body, contacts: dict[int, list[ContactPoint]], time: float) -> list[StabilityEvent]:
+        """Admit ``rec`` with the resting bricks it touches, and they with theirs (all of the
+        connected pile at once), when rigid-block equilibrium holds them against what is
+        frozen; nothing while a brick of the pile still moves or it touches nothing frozen."""
+        group = self._pile(rec, contacts, time)
+        if len(group) < 2:
+            return []
+        skip: set[int] = set()
+        polygons = {}
+        for m in group:
+            polygons[m.body] = self._polygons(m, self._around(m, contacts), skip=skip)
+            skip.add(m.body)
+        members = {m.body: (self._engine.pose(m.body).position, m.box.mass) for m in group}
+        if not leaning_stands(members, [c for cs in polygons.values() for c in cs], self.config.gravity):
+            return []
+        inside = {m.body for m in group}
+        held: dict[int, list[ContactPoint]] = {o: [] for m in group for o in self._around(m, contacts) if o not in inside}
+        return self._freeze_group(group, polygons, dict(sorted(held.items(), key=lambda i: self._bodies[i[0]].order)), time)
+
+    def _pile(self, rec: _Body, contacts: dict[int, list[ContactPoint]], time: float) -> list[_Body]:
+        """``rec`` and the active bricks connected to it by contacts, in registration order;
+        empty when one of them is not at rest, or none touches a frozen brick or the ground."""
+        pile, queue, held = {rec.body: rec}, [rec], False
+        while queue:
+            for other in self._around(queue.pop(), contacts):
+                o = self._bodies[other]
+                if o.state is not BrickState.ACTIVE:
+                    held = True
+                elif other not in pile:
+                    if not self._rested(o, time) or len(pile) >= MAX_PILE:
+                        return []
+                    pile[other] = o
+                    queue.append(o)
+        return sorted(pile.values(), key=lambda r: r.order) if held else []
+
+    def _around(self, rec: _Body, contacts: dict[int, list[ContactPoint]]) -> dict[int, list[ContactPoint]]:
+        """Every registered body ``rec`` touches, with the contact points, in registration order."""
+        grouped: dict[int, list[ContactPoint]] = defaultdict(list)
+        for c in contacts.get(rec.body, []):
+            if c.other in self._bodies:
+                grouped[c.other].append(c)
+        return {o: grouped[o] for o in sorted(grouped, key=lambda b: self._bodies[b].order)}
+
     def _freeze_group(
         self,
         group: list[_Body],
@@ -321,19 +395,31 @@ class StabilityExtension:
         touching: dict[int, list[ContactPoint]],
         time: float,
     ) -> list[StabilityEvent]:
-        """Freeze the members of an admitted group; partners wake together."""
+        """Freeze the members of an admitted group (``group[0]`` the brick that asked, each
+        member's contacts in ``polygons``, the one between two members under the later of
+        them); the members wake together."""
         rec, members, events = group[0], {m.body for m in group}, []
+        pad = self.config.contact_pad
         for m in group:
-            areas = {c.other: _horizontal(c, self.config.contact_pad) for c in polygons[m.body]}
-            if m is not rec:  # the contact between the two partners, seen from this side
-                areas.update((rec.body, _horizontal(c, self.config.contact_pad)) for c in polygons[rec.body] if c.other == m.body)
+            areas = {c.other: _horizontal(c, pad) for c in polygons[m.body]}
+            for g in group:  # the contacts with the other members, seen from this side
+                if g is not m:
+                    areas.update((g.body, _horizontal(c, pad, flip=True)) for c in polygons[g.body] if c.other == m.body)
             supports = {o: a for o, a in areas.items() if o not in members}
-            resting = {o: a for o, a in supports.items() if a.normal[2] >= self._support_cos} or supports
+            resting = {o: a for o, a in supports.items() if a.normal[2] >= self._support_cos}
+            if not resting:  # lying only on other members: on those lower than itself (no cycle)
+                z = self._engine.pose(m.body).position[2]
+                lower = {o: a for o, a in areas.items() if o in members and self._engine.pose(o).position[2] < z}
+                resting = {o: a for o, a in lower.items() if a.normal[2] >= self._support_cos} or supports
             self._freeze(m, resting, _main(areas), polygons[m.body])
-            names = ", ".join(self._bodies[o].label for o in touching if o != m.body) if m is rec else rec.label
-            events.append(
-                StabilityEvent(time, "freeze", m.label, f"{'leaning on' if len(touching) > 1 else 'at rest on'} {names}")
-            )
+            if len(group) > 2:
+                reason = f"at rest in a pile of {len(group)} bricks with {rec.label}" if m is not rec else ""
+                reason = reason or f"at rest in a pile of {len(group)} bricks on {_names(self._bodies, touching, m)}"
+            elif m is rec:
+                reason = f"{'leaning on' if len(touching) > 1 else 'at rest on'} {_names(self._bodies, touching, m)}"
+            else:
+                reason = f"{'leaning on' if len(touching) > 1 else 'at rest on'} {rec.label}"
+            events.append(StabilityEvent(time, "freeze", m.label, reason))
         for a, b in itertools.pairwise(group):
             a.objects_above.add(b.body)
             b.objects_above.add(a.body)
@@ -415,7 +501,7 @@ class StabilityExtension:
         rec.frozen_pose = self._engine.pose(rec.body)
         rec.node = LoadNode(rec.box.mass, rec.frozen_pose.position, supports)
         self._stack[rec.body] = rec
-        self._loads_fresh = False
+        self._loads_fresh, self._version = False, self._version + 1
         for s in supports:
             self._bodies[s].objects_above.add(rec.body)
         if self.config.model == "equilibrium":
@@ -584,7 +670,7 @@ class StabilityExtension:
         self._active[body] = rec
         del self._stack[body]
         self._unproven.discard(body)
-        rec.load_path, self._loads_fresh = None, False
+        rec.load_path, self._loads_fresh, self._version = None, False, self._version + 1
         for s in rec.rests_on:
             self._bodies[s].objects_above.discard(body)
         rec.rests_on, rec.main_contact, rec.com_above, rec.mass_above = {}, None, None, 0.0
@@ -674,10 +760,17 @@ def _main(areas: dict[int, ContactArea]) -> ContactArea:
     )
 
 
-def _horizontal(contact: ContactPolygon[int], pad: float) -> ContactArea:
-    """The horizontal projection of a leaning contact, for the graph and the wake cascade."""
+def _horizontal(contact: ContactPolygon[int], pad: float, flip: bool = False) -> ContactArea:
+    """The horizontal projection of a leaning contact, for the graph and the wake cascade;
+    ``flip``: seen from ``contact.other`` (its normal reversed)."""
     points = np.asarray(contact.points)
-    return ContactArea(padded_hull(points[:, :2], pad), float(points[:, 2].mean()), contact.normal, exact=False)
+    normal = -contact.normal if flip else contact.normal
+    return ContactArea(padded_hull(points[:, :2], pad), float(points[:, 2].mean()), normal, exact=False)
+
+
+def _names(bodies: dict[int, _Body], touching: Iterable[int], but: _Body) -> str:
+    """The labels of the touched bodies other than ``but``, in order."""
+    return ", ".join(bodies[o].label for o in touching if o != but.body)
 
 
 def _by_body(points: Iterable[ContactPoint]) -> dict[int, list[ContactPoint]]:

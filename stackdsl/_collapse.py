@@ -124,6 +124,8 @@ class CollapseMonitor(Subscriber):
     def _resting(self, loop: StepLoop, records: list[BrickRecord]) -> list[bool]:
         """Whether each brick's speeds are under the rest thresholds now (a frozen one's are)."""
         moving = [r for r in records if r.moving]
+        if not moving:
+            return [True] * len(records)
         lin, ang = loop.world.velocities_of([r.body for r in moving])
         slow = iter(((lin**2).sum(axis=1) <= self._rest[0] ** 2) & ((ang**2).sum(axis=1) <= self._rest[1] ** 2))
         return [bool(next(slow)) if r.moving else True for r in records]

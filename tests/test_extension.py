@@ -166,3 +166,23 @@ def test_co_supports_of_a_brick_that_gave_way_are_retested():
     assert [(e.kind, e.label) for e in events] == [("freeze", "b5"), ("wake", "b4"), ("wake", "b5"), ("wake", "b3")]
     assert events[3].reason.startswith("centre of mass above")
     assert [ext.state(b) for b in (1, 2)] == [BrickState.FROZEN, BrickState.FROZEN]
+
+
+def test_a_refused_brick_is_asked_again_only_when_something_changed(monkeypatch):
+    s = Scene()
+    s.brick(0.0, 1)
+    s.ext.update(0.0)  # b1 frozen on the ground
+    b = s.brick(0.065, 2, on=(1,))  # centre of mass 65 mm out, beyond b1's end: refused
+    asked = []
+    real = s.ext._admit
+    monkeypatch.setattr(s.ext, "_admit", lambda *a: asked.append(a[0].body) or real(*a))
+    for k in range(5):
+        assert s.ext.update(0.1 * (k + 1)) == []
+    assert asked == [b]  # once: nothing changed since
+    s.engine.poses[b] = Pose.from_euler([0.0652, 0.0, 1.5 * H])  # it crept 0.2 mm
+    s.ext.update(0.6)
+    assert asked == [b, b]
+    s.brick(0.3, 1)  # another brick freezes: the stack changed
+    s.ext.update(0.7)
+    s.ext.update(0.8)
+    assert asked.count(b) == 3

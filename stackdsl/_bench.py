@@ -1,8 +1,8 @@
 """Benchmarks: measurements that take too long for the tests, each a command with its output.
 
 ``stackdsl bench`` runs the speed-against-error matrix: every engine setting on the same
-scenes, in one run. ``stackdsl bench solve``: the wall time of one rigid-block
-equilibrium solve for towers of 10 to 100 bricks.
+scenes, in one run, with each setting's wall time as a ratio to the extension's on the same
+scene (:func:`ratios`). The stability models' own costs are in :mod:`stackdsl._bench_cost`.
 
 Source: stackdsl's own.
 """
@@ -12,7 +12,6 @@ from __future__ import annotations
 import csv
 import resource
 import statistics
-import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -20,12 +19,9 @@ from typing import Any
 
 import numpy as np
 
-from stability import solve_equilibrium
-
 from ._closed_form import log_cabin, single_file
 from ._compiler import compile_scenario
 from ._loader import parse_scenario
-from ._oracle import structure
 from ._pool import SPAWN
 from ._program import Program
 from ._runtime import RunOptions, run_program
@@ -276,6 +272,7 @@ def markdown(cells: list[Cell], saved: list[tuple[str, float, int]], targets: di
             f"| {s} | {speed:.1f} | {f'{statistics.mean(slant):.2f}' if slant else '-'} | "
             f"{max(c.peak_memory for c in mine):.0f} | {'' if exponent is None else f'{exponent:.2f}'} |"
         )
+    lines += ["", *ratios(cells)]
     if saved:
         lines += ["", "| switched off (30-level 4 stack, extension) | median wall time | physics steps |", "|---|---:|---:|"]
         lines += [f"| {name} | {wall:.3f} s | {steps} |" for name, wall, steps in saved]
@@ -356,49 +353,35 @@ def plot_height(cells: list[Cell], path: Path) -> None:
     plt.close(fig)
 
 
-@dataclass(frozen=True)
-class SolveTime:
-    """One row of ``stackdsl bench solve``: bricks, contacts, and the median wall time (s)
-    of a solve as the model does it (level contacts: the vertical program first) and of the
-    full program alone, with the full program's number of variables."""
-
-    bricks: int
-    contacts: int
-    variables: int
-    median: float
-    full: float
+BASE = "extension report"
+"""The setting every other is measured against in :func:`ratios`."""
 
 
-def solve_times(sizes: tuple[int, ...] = (10, 25, 50, 100), repeats: int = 5) -> list[SolveTime]:
-    """Time the equilibrium solve of the first ``n`` bricks of a 4 stack, for each n in ``sizes``.
-
-    Raises:
-        ValueError: a size below 1.
-    """
-    rows = []
-    for n in sizes:
-        if n < 1:
-            raise ValueError(f"a tower needs at least one brick, got {n}")
-        program = compile_scenario(parse_scenario(f"stackdsl: 1\nstructure: {{tower: {{levels: {(n + 1) // 2}}}}}\n"))
-        blocks, contacts = structure(program.placements[:n], program.fixtures, program.ground_friction)
-        times: dict[bool, list[float]] = {True: [], False: []}
-        for quick in (True, False):
-            for _ in range(repeats):
-                start = time.perf_counter()
-                result = solve_equilibrium(blocks, contacts, quick=quick)
-                times[quick].append(time.perf_counter() - start)
-                if not result.stands:
-                    raise AssertionError(f"the {n}-brick tower should stand")
-        variables = sum(len(c.points) for c in contacts) * 10
-        rows.append(SolveTime(n, len(contacts), variables, statistics.median(times[True]), statistics.median(times[False])))
-    return rows
-
-
-def format_solve_times(rows: list[SolveTime]) -> str:
-    """The table ``stackdsl bench solve`` prints (markdown)."""
+def ratios(cells: list[Cell], base: str = BASE) -> list[str]:
+    """Markdown lines: per scene, each setting's wall time divided by ``base``'s on the same
+    scene in the same run (above 1: slower than ``base``), then the geometric mean per setting
+    over the scenes of each family. Empty without ``base``'s cells."""
+    settings = [s for s in SETTINGS if s != base and any(c.setting == s for c in cells)]
+    by = {(c.setting, c.family, c.parameter): c for c in cells}
+    keys = sorted({(c.family, c.parameter) for c in cells if c.setting == base})
+    if not keys or not settings:
+        return []
     lines = [
-        "| bricks | contacts | a solve (vertical program first) | the full program | its variables |",
-        "|---:|---:|---:|---:|---:|",
+        f"| scene | {base} | " + " | ".join(f"{s} / {base}" for s in settings) + " |",
+        "|---|---:|" + "---:|" * len(settings),
     ]
-    lines += [f"| {r.bricks} | {r.contacts} | {r.median * 1000:.1f} ms | {r.full * 1000:.1f} ms | {r.variables} |" for r in rows]
-    return "\n".join(lines)
+    logs: dict[tuple[str, str], list[float]] = {}
+    for family, parameter in keys:
+        ref = by[(base, family, parameter)]
+        row = []
+        for s in settings:
+            c = by.get((s, family, parameter))
+            row.append(f"{c.wall / ref.wall:.2f}" if c else "")
+            if c:
+                logs.setdefault((family, s), []).append(float(np.log(c.wall / ref.wall)))
+        label = f"{family}, {parameter:g} {'levels' if family == 'upright' else 'mm'}"
+        lines.append(f"| {label} | {ref.wall:.2f} s | " + " | ".join(row) + " |")
+    for family in sorted({f for f, _ in keys}):
+        means = [f"{np.exp(np.mean(logs[(family, s)])):.2f}" if (family, s) in logs else "" for s in settings]
+        lines.append(f"| {family}: geometric mean | | " + " | ".join(means) + " |")
+    return lines

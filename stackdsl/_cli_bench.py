@@ -1,4 +1,4 @@
-"""``stackdsl bench``: speed against error, and its sub-benchmarks solve, hard and record.
+"""``stackdsl bench``: speed against error, and its sub-benchmarks solve, height, hard, record, sweep and verdicts.
 
 Source: stackdsl's own.
 """
@@ -12,7 +12,8 @@ import time
 from pathlib import Path
 from typing import Any
 
-from ._bench import SETTINGS, format_solve_times, run_matrix, savings, scenes, solve_times, write_outputs
+from ._bench import SETTINGS, run_matrix, savings, scenes, write_outputs
+from ._bench_cost import format_solve_times, solve_times
 from ._cli_args import jobs_type
 from ._errors import ScenarioError
 from ._expect import describe
@@ -45,11 +46,25 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     p.add_argument("--quick", action="store_true", help="one small cell per setting (a smoke test)")
     p.add_argument("-j", "--jobs", type=jobs_type, default=str(min(2, os.cpu_count() or 1)), help="worker processes")
     p.set_defaults(func=_bench)
-    bench = p.add_subparsers(metavar="[solve | hard | record | sweep | verdicts]", title="other benchmarks (optional)")
+    bench = p.add_subparsers(metavar="[solve | height | hard | record | sweep | verdicts]", title="other benchmarks (optional)")
     q = bench.add_parser("solve", help="equilibrium solve time for towers of 10 to 100 bricks")
     q.add_argument("--sizes", default="10,25,50,100", help="bricks per tower, comma-separated")
     q.add_argument("--repeats", type=int, default=5)
     q.set_defaults(func=_bench_solve)
+    q = bench.add_parser(
+        "height",
+        help="upright towers of 10 to 200 levels per stability model: wall time per brick, ratios, exponent, profile",
+    )
+    q.add_argument("--levels", default="10,20,30,60,100,200", help="tower heights, comma-separated")
+    q.add_argument(
+        "--settings",
+        default="extension report,extension equilibrium",
+        help="comma-separated, of: " + ", ".join(SETTINGS) + " (ratios are to the first)",
+    )
+    q.add_argument("--repeats", type=int, default=5, help="runs per cell under 30 s (median; default: 5)")
+    q.add_argument("--no-profile", action="store_true", help="skip the profile of the tallest tower")
+    q.add_argument("-j", "--jobs", type=jobs_type, default="1", help="worker processes (default: 1, for steady timings)")
+    q.set_defaults(func=_bench_height)
     q = bench.add_parser(
         "hard", help="the hard cases in extension and raw mode, a brick thrown at a wall, the leaning limits swept"
     )
@@ -137,6 +152,30 @@ def _targets(targets: dict[str, Any]) -> list[str]:
 def _bench_solve(args: argparse.Namespace) -> int:
     sizes = tuple(int(x) for x in args.sizes.split(","))
     print(format_solve_times(solve_times(sizes, args.repeats)))
+    return OK
+
+
+def _bench_height(args: argparse.Namespace) -> int:
+    from ._bench_cost import format_heights, format_profiles, measure_heights, profile_tower
+
+    try:
+        levels = [int(x) for x in args.levels.split(",") if x.strip()]
+    except ValueError:
+        raise ScenarioError(f"--levels must be whole numbers separated by commas, not {args.levels!r}", file="--levels") from None
+    if not levels or not all(1 <= n <= 1000 for n in levels):
+        raise ScenarioError(f"--levels must be from 1 to 1000, not {args.levels!r}", file="--levels")
+    settings = [s.strip() for s in args.settings.split(",") if s.strip()]
+    unknown = [s for s in settings if s not in SETTINGS]
+    if unknown or not settings:
+        raise ScenarioError(f"unknown setting {unknown[0] if unknown else ''!r}; known: {', '.join(SETTINGS)}", file="--settings")
+    if args.repeats < 1:
+        raise ScenarioError(f"--repeats must be at least 1, not {args.repeats}", file="--repeats")
+    with Lines(len(levels) * len(settings), "towers") as progress:
+        cells = measure_heights(settings, levels, args.repeats, args.jobs, lambda c: progress.advance())
+    print(format_heights(cells, settings), flush=True)
+    if not args.no_profile:
+        print()
+        print(format_profiles([profile_tower(s, max(levels)) for s in settings]))
     return OK
 
 

@@ -1,11 +1,14 @@
 """Random assemblies of KAPLA bricks, and what rigid-block equilibrium says of them.
 
 :func:`assembly` draws one small structure from a ``numpy.random.Generator``: 2 to 4 levels
-and 3 to 12 bricks lying flat, level 1 on the ground, each higher brick resting on one brick
+and 3 to 12 bricks, level 1 on the ground, each higher brick resting on one brick
 of the level below or bridging two, parallel to its support or crossed over it, with its
 centre of mass a signed *margin* from the edge of its support (log-uniform from 0.1 to
-20 mm; inside for most bricks, outside for some, which tip). A draw that the language refuses
-(bricks that overlap, or rest on nothing) is drawn again.
+20 mm; inside for most bricks, outside for some, which tip). In :data:`LEANING` of the
+assemblies the last brick (and level) leans on a fixed wall beside the others, its foot on the
+ground and its top edge against the wall, at 20 to 70 degrees from the ground (friction holds
+it above an angle near 37 degrees, a ladder's). A draw that the language refuses (bricks that overlap, or rest
+on nothing) is drawn again.
 
 :func:`judge` gives the oracle's verdict on it (:func:`stackdsl._oracle.equilibrium_collapse`,
 the bricks placed one by one in order) and its margin: how far the centre of mass of every
@@ -34,6 +37,10 @@ LENGTH, WIDTH, HEIGHT = 0.120, 0.024, 0.008
 RESOLUTION = 0.0001
 MAX_MARGIN = 0.020
 _DIRECTIONS = [np.array([math.cos(a), math.sin(a), 0.0]) for a in np.arange(8) * math.pi / 4]
+#: The share of assemblies with a brick leaning on a wall.
+LEANING = 0.3
+WALL = (0.020, 0.200, 0.200)  # m: the fixed wall's thickness, width and height
+_WALL_GAP = 0.00005  # m between the leaning brick's top edge and the wall (the oracle's contacts take 0.1 mm)
 
 
 @dataclass(frozen=True)
@@ -55,6 +62,32 @@ class Brick:
         return np.array([math.cos(a), math.sin(a)])
 
 
+@dataclass(frozen=True)
+class Leaner:
+    """A brick leaning on a fixed wall. (x, y): metres, the foot of the wall's face; yaw:
+    degrees, the direction from the brick to the wall; angle: degrees from the ground."""
+
+    x: float
+    y: float
+    yaw: float
+    angle: float
+
+    def _place(self, local: tuple[float, float, float]) -> tuple[float, float, float]:
+        a = math.radians(self.yaw)
+        u, v, z = local
+        return (self.x + u * math.cos(a) - v * math.sin(a), self.y + u * math.sin(a) + v * math.cos(a), z)
+
+    def centre(self) -> tuple[float, float, float]:
+        """The brick's centre, metres: its near bottom edge on the ground, its far one at the wall."""
+        t = math.radians(self.angle)
+        reach = LENGTH / 2 * math.cos(t) + HEIGHT / 2 * math.sin(t)
+        return self._place((-reach - _WALL_GAP, 0.0, LENGTH / 2 * math.sin(t) + HEIGHT / 2 * math.cos(t)))
+
+    def wall(self) -> tuple[float, float, float]:
+        """The wall's centre, metres."""
+        return self._place((WALL[0] / 2, 0.0, WALL[2] / 2))
+
+
 def assembly(rng: np.random.Generator, name: str = "assembly") -> str:
     """One random assembly as a scenario file's text (see the module's description), one that
     the language accepts."""
@@ -63,10 +96,11 @@ def assembly(rng: np.random.Generator, name: str = "assembly") -> str:
     from ._loader import parse_scenario
 
     while True:
-        bricks = _draw(rng)
+        leaner = _leaner(rng) if rng.random() < LEANING else None
+        bricks = _draw(rng, leaning=leaner is not None)
         if bricks is None:
             continue
-        text = _yaml(bricks, name)
+        text = _yaml(bricks, name, leaner)
         try:
             compile_scenario(parse_scenario(text, f"{name}.yaml"))
         except ScenarioError:
@@ -74,9 +108,11 @@ def assembly(rng: np.random.Generator, name: str = "assembly") -> str:
         return text
 
 
-def _draw(rng: np.random.Generator) -> list[Brick] | None:
-    levels = int(rng.integers(2, 5))
-    total = int(rng.integers(max(3, levels), 13))
+def _draw(rng: np.random.Generator, leaning: bool = False) -> list[Brick] | None:
+    """The flat bricks: 2 to 4 levels and 3 to 12 bricks, one level and one brick fewer when a
+    leaning brick comes last (it is the last level)."""
+    levels = int(rng.integers(2, 5)) - leaning
+    total = int(rng.integers(max(3, levels + 1), 13)) - 1 if leaning else int(rng.integers(max(3, levels), 13))
     counts = [1] * levels
     for _ in range(total - levels):
         counts[int(rng.integers(levels))] += 1
@@ -93,6 +129,12 @@ def _draw(rng: np.random.Generator) -> list[Brick] | None:
             else:
                 return None
     return bricks
+
+
+def _leaner(rng: np.random.Generator) -> Leaner:
+    """A leaning brick and its wall 0.35 m from the origin, clear of the flat bricks."""
+    around = rng.uniform(0, 2 * math.pi)
+    return Leaner(0.35 * math.cos(around), 0.35 * math.sin(around), float(rng.uniform(0, 360)), float(rng.uniform(20, 70)))
 
 
 def _ground_brick(rng: np.random.Generator) -> Brick:
@@ -141,12 +183,26 @@ def _bridge(rng: np.random.Generator, level: int, a: Brick, b: Brick) -> Brick |
     return Brick(float(centre[0]), float(centre[1]), level, float(math.degrees(math.atan2(u[1], u[0])) % 180.0))
 
 
-def _yaml(bricks: list[Brick], name: str) -> str:
-    lines = [f"stackdsl: 1\nname: {name}\nstructure:\n  bricks:"]
+def _yaml(bricks: list[Brick], name: str, leaner: Leaner | None = None) -> str:
+    lines = [f"stackdsl: 1\nname: {name}"]
+    if leaner is not None:
+        size = ", ".join(f"{v * 1000:g} mm" for v in WALL)
+        lines.append(f"brick_types:\n  wall: {{size: [{size}], material: pine}}")
+    lines.append("structure:\n  bricks:")
     for i, b in enumerate(bricks, start=1):
         z = (b.level - 0.5) * HEIGHT
         lines.append(
             f"    - {{id: b{i:02d}, at: [{b.x * 1000:.3f} mm, {b.y * 1000:.3f} mm, {z * 1000:.1f} mm], yaw: {b.yaw:.3f}, level: {b.level}}}"
+        )
+    if leaner is not None:
+        (wx, wy, wz), (x, y, z) = leaner.wall(), leaner.centre()
+        top = max(b.level for b in bricks) + 1
+        lines.append(
+            f"    - {{id: wall, brick: wall, at: [{wx * 1000:.3f} mm, {wy * 1000:.3f} mm, {wz * 1000:.3f} mm], yaw: {leaner.yaw:.3f}, fixed: true}}"
+        )
+        lines.append(
+            f"    - {{id: b{len(bricks) + 1:02d}, at: [{x * 1000:.4f} mm, {y * 1000:.4f} mm, {z * 1000:.4f} mm], "
+            f"yaw: {leaner.yaw:.3f}, pitch: {-leaner.angle:.3f}, level: {top}}}"
         )
     lines.append("timing: {interval: 0.5 s, settle: 1 s}")
     return "\n".join(lines) + "\n"

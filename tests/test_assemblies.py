@@ -22,7 +22,7 @@ def test_assemblies_are_reproducible_valid_and_varied():
     programs = [compile_scenario(parse_scenario(t, f"a{k}.yaml")) for k, t in enumerate(texts)]
     sizes = [len(p.placements) for p in programs]
     levels = [max(a.level for a in p.placements) for p in programs]
-    assert all(3 <= n <= 12 for n in sizes) and all(2 <= n <= 4 for n in levels)
+    assert all(3 <= n <= 12 for n in sizes) and all(2 <= n <= 4 for n in levels), (sizes, levels)
     assert len(set(sizes)) > 2 and len(set(texts)) == 12
     judged = [judge(p) for p in programs]
     assert {j.collapse_level is None for j in judged} == {True, False}  # some stand, some fall
@@ -62,3 +62,43 @@ def test_bench_verdicts_runs_and_refuses_nonsense(capsys, tmp_path):
     out = capsys.readouterr().out
     assert out.startswith("2 random assemblies") and all(name in out for name in SETTINGS)
     assert main(["bench", "verdicts", "--count", "0"]) == 2
+
+
+def _ladder(angle: float) -> str:
+    from stackdsl._assemblies import Brick, Leaner, _yaml
+
+    return _yaml([Brick(-0.4, 0.0, 1, 0.0)], "ladder", Leaner(0.0, 0.0, 0.0, angle))
+
+
+def test_a_brick_leaning_on_a_wall_stands_above_the_ladder_angle():
+    """A ladder with its feet at the bottom edges of its end faces: friction mu_g on the
+    ground and mu_w on the wall hold it while (L/2 cos t - h/2 sin t)(1 + mu_g mu_w) <=
+    mu_g L (sin t + mu_w cos t), h its thickness; the oracle must say the same to 0.5 deg."""
+    from stability import pair_friction
+    from stackdsl._assemblies import HEIGHT, LENGTH
+
+    program = compile_scenario(parse_scenario(_ladder(45.0)))
+    leaner, wall = program.placements[-1], program.fixtures[0]
+    mu_g = pair_friction(leaner.brick.friction, program.ground_friction)
+    mu_w = pair_friction(leaner.brick.friction, wall.brick.friction)
+
+    def holds(t: float) -> bool:
+        lhs = (LENGTH / 2 * np.cos(t) - HEIGHT / 2 * np.sin(t)) * (1 + mu_g * mu_w)
+        return bool(lhs <= mu_g * LENGTH * (np.sin(t) + mu_w * np.cos(t)))
+
+    low, high = np.radians(5.0), np.radians(85.0)
+    while high - low > 1e-6:
+        mid = (low + high) / 2
+        low, high = (low, mid) if holds(mid) else (mid, high)
+    critical = np.degrees(high)
+    assert 30 < critical < 45
+    for angle, stands in ((critical + 0.5, True), (critical - 0.5, False)):
+        assert (judge(compile_scenario(parse_scenario(_ladder(angle)))).collapse_level is None) is stands
+
+
+def test_some_assemblies_lean_on_a_wall():
+    texts = [assembly(rng(k), f"a{k}") for k in range(30)]
+    leaning = [t for t in texts if "fixed: true" in t]
+    assert 3 <= len(leaning) <= 20
+    program = compile_scenario(parse_scenario(leaning[0]))
+    assert program.placements[-1].pitch != 0.0 and judge(program).margin > 0

@@ -9,6 +9,7 @@ graphs without a simulation.
 
 from __future__ import annotations
 
+from collections.abc import Collection
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
@@ -55,8 +56,9 @@ class Engine(Protocol):
     def velocity(self, body: int) -> tuple[np.ndarray, np.ndarray]:
         """Linear (m/s) and angular (rad/s) velocity of ``body``, shape (3,) each."""
 
-    def contact_points(self) -> list[ContactPoint]:
-        """Every current contact point, once from each side."""
+    def contact_points(self, bodies: Collection[int] | None = None) -> list[ContactPoint]:
+        """Every current contact point, once from each side; with ``bodies``, only those seen
+        from one of them."""
 
     def near(self, body: int, distance: float) -> list[ContactPoint]:
         """Closest points between ``body`` and every body within ``distance`` metres, seen from ``body``."""
@@ -93,7 +95,13 @@ class PyBulletEngine:
         lin, ang = self._client.getBaseVelocity(body)
         return np.array(lin), np.array(ang)
 
-    def contact_points(self) -> list[ContactPoint]:
+    def contact_points(self, bodies: Collection[int] | None = None) -> list[ContactPoint]:
+        if bodies is not None:  # asked of each body: its side only
+            return [
+                ContactPoint(body, c[2], np.array(c[6]), np.array(c[7]), float(c[9]), float(c[8]))
+                for body in bodies
+                for c in self._client.getContactPoints(bodyA=body)
+            ]
         points = []
         for c in self._client.getContactPoints():
             a, b = c[1], c[2]
@@ -156,8 +164,12 @@ class FakeEngine:
     def velocity(self, body: int) -> tuple[np.ndarray, np.ndarray]:
         return self.velocities.get(body, (np.zeros(3), np.zeros(3)))
 
-    def contact_points(self) -> list[ContactPoint]:
-        return [c for c in self.contacts if not (c.body in self.frozen and c.other in self.frozen)]
+    def contact_points(self, bodies: Collection[int] | None = None) -> list[ContactPoint]:
+        return [
+            c
+            for c in self.contacts
+            if not (c.body in self.frozen and c.other in self.frozen) and (bodies is None or c.body in bodies)
+        ]
 
     def near(self, body: int, distance: float) -> list[ContactPoint]:
         """The fake has no distances: a body is near what it touches."""

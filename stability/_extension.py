@@ -153,7 +153,7 @@ class _Body:
     node: LoadNode | None = None
     impacted: set[int] = field(default_factory=set)
     load_path: BaseGeometry | None = None
-    failed: tuple[object, ...] | None = None  # what its last refused admission depended on
+    failed: tuple[tuple[object, ...], float] | None = None  # its last refusal: what it depended on, when
 
     @property
     def box(self) -> Box:
@@ -233,12 +233,13 @@ class StabilityExtension:
         active = sorted(self._active.values(), key=lambda r: r.order)
         events: list[StabilityEvent] = []
         resting = [rec for rec in active if self._at_rest(rec, time)]  # every clock first: partners
-        contacts = _by_body(self._engine.contact_points()) if resting else {}  # only a brick at rest asks
+        # only a brick at rest asks, and only of its own contacts (and its resting partners')
+        contacts = _by_body(self._engine.contact_points([r.body for r in resting])) if resting else {}
         for rec in resting:
             if rec.state is not BrickState.ACTIVE:
                 continue
             tried = self._attempt(rec, contacts, time)
-            if tried == rec.failed:
+            if rec.failed is not None and (tried == rec.failed[0] or self._soon(rec.failed, time)):
                 continue  # refused already, and nothing it rests on, touches or is has changed
             if self.config.model == "equilibrium":
                 found = self._admit_group(rec, contacts, time, limit=None)
@@ -248,7 +249,7 @@ class StabilityExtension:
                     found = self._admit_group(rec, contacts, time, limit=self.config.max_leaning_bodies)
             if not found and self.config.debris:
                 found = self._admit_debris(rec, contacts, time)
-            rec.failed = None if found else tried
+            rec.failed = None if found else (tried, time)
             events += found
         if events or not self.config.per_event:
             events += self._test_stack(time)
@@ -287,6 +288,12 @@ class StabilityExtension:
             )
         )
         return (self._version, where, around)
+
+    def _soon(self, failed: tuple[tuple[object, ...], float], time: float) -> bool:
+        """Was the refusal ``failed`` (what it depended on, when) less than a rest duration ago,
+        on the same stack? Then the brick waits: in a heap that still settles around it, it
+        would be asked every step."""
+        return failed[0][0] == self._version and time - failed[1] < self.config.rest_duration
 
     def _admit(self, rec: _Body, contacts: dict[int, list[ContactPoint]], time: float) -> list[StabilityEvent]:
         """Single object stability (report 3.3.4): freeze when the COM is over the support."""

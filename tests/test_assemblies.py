@@ -64,16 +64,18 @@ def test_bench_verdicts_runs_and_refuses_nonsense(capsys, tmp_path):
     assert main(["bench", "verdicts", "--count", "0"]) == 2
 
 
-def _ladder(angle: float) -> str:
+def _ladder(angle: float, yaw: float = 0.0) -> str:
     from stackdsl._assemblies import Brick, Leaner, _yaml
 
-    return _yaml([Brick(-0.4, 0.0, 1, 0.0)], "ladder", Leaner(0.0, 0.0, 0.0, angle))
+    return _yaml([Brick(-0.4, 0.0, 1, 0.0)], "ladder", Leaner(0.0, 0.0, yaw, angle))
 
 
-def test_a_brick_leaning_on_a_wall_stands_above_the_ladder_angle():
+@pytest.mark.parametrize("yaw", [0.0, 22.5, 200.0])
+def test_a_brick_leaning_on_a_wall_stands_above_the_ladder_angle(yaw):
     """A ladder with its feet at the bottom edges of its end faces: friction mu_g on the
     ground and mu_w on the wall hold it while (L/2 cos t - h/2 sin t)(1 + mu_g mu_w) <=
-    mu_g L (sin t + mu_w cos t), h its thickness; the oracle must say the same to 0.5 deg."""
+    mu_g L (sin t + mu_w cos t), h its thickness; the oracle must say the same to 0.5 deg,
+    whichever way the wall faces (its friction pyramid turned toward the wall)."""
     from stability import pair_friction
     from stackdsl._assemblies import HEIGHT, LENGTH
 
@@ -93,7 +95,7 @@ def test_a_brick_leaning_on_a_wall_stands_above_the_ladder_angle():
     critical = np.degrees(high)
     assert 30 < critical < 45
     for angle, stands in ((critical + 0.5, True), (critical - 0.5, False)):
-        assert (judge(compile_scenario(parse_scenario(_ladder(angle)))).collapse_level is None) is stands
+        assert (judge(compile_scenario(parse_scenario(_ladder(angle, yaw)))).collapse_level is None) is stands
 
 
 def test_some_assemblies_lean_on_a_wall():

@@ -37,8 +37,8 @@ DEFAULT_SETTINGS = ("extension report", "extension equilibrium")
 PARTS = {
     "physics steps (pybullet)": ("_world.py", "step"),
     "stability extension, all of it": ("_extension.py", "update"),
-    "  admission (freezing)": ("_extension.py", "_admit_group"),
-    "  admission, report model": ("_extension.py", "_admit"),
+    "  admission by rigid-block equilibrium": ("_extension.py", "_admit_group"),
+    "  admission by the basic test": ("_extension.py", "_admit"),
     "  stack-wide test": ("_extension.py", "_test_stack"),
     "collapse monitor": ("_collapse.py", "after_step"),
 }

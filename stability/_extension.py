@@ -439,16 +439,11 @@ class StabilityExtension:
         straight down) is left out: it is a load, not a support (report 3.3.1 drops
         contacts between two unstable bricks); the stack test counts it once it is frozen.
         """
-        grouped: dict[int, list[ContactPoint]] = defaultdict(list)
-        for c in contacts.get(rec.body, []):
-            if c.other in self._bodies:
-                grouped[c.other].append(c)
-        on_top = {
-            o
-            for o, pts in grouped.items()
-            if self._bodies[o].state is BrickState.ACTIVE and np.mean([c.normal[2] for c in pts]) < -self._support_cos
+        return {
+            o: pts
+            for o, pts in self._around(rec, contacts).items()
+            if not (self._bodies[o].state is BrickState.ACTIVE and np.mean([c.normal[2] for c in pts]) < -self._support_cos)
         }
-        return {o: grouped[o] for o in sorted(grouped, key=lambda b: self._bodies[b].order) if o not in on_top}
 
     def _leans(self, touching: dict[int, list[ContactPoint]], limit: int | None) -> bool:
         """Two bodies (report 3.4.3; up to ``limit``, any number for None), at least one in

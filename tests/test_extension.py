@@ -186,3 +186,24 @@ def test_a_refused_brick_is_asked_again_only_when_something_changed(monkeypatch)
     s.ext.update(0.7)
     s.ext.update(0.8)
     assert asked.count(b) == 3
+
+
+def test_a_refused_brick_waits_a_rest_duration_on_the_same_stack(monkeypatch):
+    s = Scene(StabilityConfig(rest_duration=0.05))
+    s.brick(0.0, 1)
+    s.ext.update(0.0)
+    s.ext.update(0.1)  # b1 frozen on the ground
+    b = s.brick(0.065, 2, on=(1,))  # refused: its centre of mass is beyond b1's end
+    asked = []
+    real = s.ext._admit
+    monkeypatch.setattr(s.ext, "_admit", lambda *a: asked.append(a[0].body) or real(*a))
+    s.ext.update(1.0)
+    s.ext.update(1.06)  # at rest for the rest duration: asked, refused
+    assert asked == [b]
+    for t, x in ((1.07, 0.0652), (1.08, 0.0654)):  # it creeps, but on the same stack it waits
+        s.engine.poses[b] = Pose.from_euler([x, 0.0, 1.5 * H])
+        s.ext.update(t)
+    assert asked == [b]
+    s.engine.poses[b] = Pose.from_euler([0.0656, 0.0, 1.5 * H])
+    s.ext.update(1.12)  # a rest duration after the refusal
+    assert asked == [b, b]

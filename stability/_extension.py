@@ -238,8 +238,7 @@ class StabilityExtension:
         for rec in resting:
             if rec.state is not BrickState.ACTIVE:
                 continue
-            tried = self._attempt(rec, contacts, time)
-            if rec.failed is not None and (tried == rec.failed[0] or self._soon(rec.failed, time)):
+            if rec.failed is not None and (self._soon(rec.failed, time) or self._attempt(rec, contacts, time) == rec.failed[0]):
                 continue  # refused already, and nothing it rests on, touches or is has changed
             if self.config.model == "equilibrium":
                 found = self._admit_group(rec, contacts, time, limit=None)
@@ -249,7 +248,7 @@ class StabilityExtension:
                     found = self._admit_group(rec, contacts, time, limit=self.config.max_leaning_bodies)
             if not found and self.config.debris:
                 found = self._admit_debris(rec, contacts, time)
-            rec.failed = None if found else (tried, time)
+            rec.failed = None if found else (self._attempt(rec, contacts, time), time)  # nothing changed since asking
             events += found
         if events or not self.config.per_event:
             events += self._test_stack(time)
@@ -419,13 +418,11 @@ class StabilityExtension:
                 lower = {o: a for o, a in areas.items() if o in members and self._engine.pose(o).position[2] < z}
                 resting = {o: a for o, a in lower.items() if a.normal[2] >= self._support_cos} or supports
             self._freeze(m, resting, _main(areas), polygons[m.body])
+            on = _names(self._bodies, touching, m) if m is rec else rec.label
             if len(group) > 2:
-                reason = f"at rest in a pile of {len(group)} bricks with {rec.label}" if m is not rec else ""
-                reason = reason or f"at rest in a pile of {len(group)} bricks on {_names(self._bodies, touching, m)}"
-            elif m is rec:
-                reason = f"{'leaning on' if len(touching) > 1 else 'at rest on'} {_names(self._bodies, touching, m)}"
+                reason = f"at rest in a pile of {len(group)} bricks {'on' if m is rec else 'with'} {on}"
             else:
-                reason = f"{'leaning on' if len(touching) > 1 else 'at rest on'} {rec.label}"
+                reason = f"{'leaning on' if len(touching) > 1 else 'at rest on'} {on}"
             events.append(StabilityEvent(time, "freeze", m.label, reason))
         for a, b in itertools.pairwise(group):
             a.objects_above.add(b.body)

@@ -10,7 +10,7 @@ Source: stackdsl's own.
 
 from __future__ import annotations
 
-import math
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -76,7 +76,7 @@ class BrickRecord:
         """Metres, the height of its highest corner in the scenario."""
         return float(self.box.corners(self.nominal)[:, 2].max())
 
-    @property
+    @functools.cached_property
     def half_diagonal(self) -> float:
         """Metres from the centre to a corner."""
         return float(np.linalg.norm(self.box.half_extents))
@@ -159,15 +159,20 @@ class Structure:
         farthest: np.ndarray = np.sqrt(((now - placed) ** 2).sum(axis=2).max(axis=1))
         return farthest
 
-    def may_have_moved(self, record: BrickRecord, threshold: float) -> bool:
-        """Could a corner of the brick be more than ``threshold`` m from where it was placed?
-        A bound in plain floats: the centre's displacement plus the most a corner can move
+    def may_have_moved(self, records: list[BrickRecord], threshold: float) -> list[BrickRecord]:
+        """The bricks whose corner could be more than ``threshold`` m from where it was placed.
+        A bound, for all at once: the centre's displacement plus the most a corner can move
         in the rotation since placing, 2 r sin(angle / 2) for the half diagonal r
         (cos(angle / 2) = |q . q0| for unit quaternions)."""
-        pose = self.world.pose(record.body)
-        cos_half = min(1.0, abs(float(pose.orientation @ record.pose.orientation)))
-        turn = 2.0 * record.half_diagonal * math.sqrt(1.0 - cos_half * cos_half)
-        return float(np.linalg.norm(pose.position - record.pose.position)) + turn > threshold
+        if not records:
+            return []
+        positions, quaternions = self.world.poses_of([r.body for r in records])
+        placed = np.array([r.pose.position for r in records])
+        placed_q = np.array([r.pose.orientation for r in records])
+        radius = np.array([r.half_diagonal for r in records])
+        cos_half = np.minimum(1.0, np.abs((quaternions * placed_q).sum(axis=1)))
+        bound = np.linalg.norm(positions - placed, axis=1) + 2.0 * radius * np.sqrt(1.0 - cos_half**2)
+        return [r for r, b in zip(records, bound) if b > threshold]
 
     def kinetic_energy(self) -> float:
         """Joules of the structure's bricks: linear (report 3.6.2) and rotational motion, each

@@ -96,9 +96,9 @@ class CollapseMonitor(Subscriber):
     def _decide(self, loop: StepLoop, displaced_at_end: bool = False) -> None:
         structure = loop.structure
         watched = [structure.records[i] for i in self._displaced if not structure.records[i].moving]
-        watched += [
-            r for r in structure.moving.values() if r.id in self._displaced or structure.may_have_moved(r, self.threshold)
-        ]
+        moving = list(structure.moving.values())
+        watched += [r for r in moving if r.id in self._displaced]
+        watched += [r for r in structure.may_have_moved(moving, self.threshold) if r.id not in self._displaced]
         watched.sort(key=lambda r: r.order)
         moved = structure.displacements(watched)
         for record, distance in zip(watched, moved):

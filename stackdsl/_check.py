@@ -64,7 +64,8 @@ class CheckResult:
     """One scenario checked.
 
     Attributes:
-        file, scenario, mode, model: what ran (model: the stability model).
+        file, scenario, mode, model, backend: what ran (model: the stability model; backend:
+            the engine, pybullet or mujoco).
         verdicts: one per expectation (empty: the file expects nothing).
         collapse_level: measured, or None when the structure stood.
         levels_placed: how many levels were built.
@@ -101,6 +102,7 @@ class CheckResult:
     error: str = ""
     stopped: str = ""
     traceback: str = ""
+    backend: str = "pybullet"
     folder: str = ""
     artefacts: tuple[tuple[str, str], ...] = ()
     draw_error: str = ""
@@ -164,9 +166,15 @@ def discover(paths: list[str | Path]) -> list[Path]:
     return files
 
 
-def prepare(files: list[Path], mode: str | None = None, modes: tuple[str, ...] = (), model: str | None = None) -> list[Prepared]:
-    """Load and compile every file (in each of ``modes`` when given, with the stability
-    ``model`` when given); nothing is simulated.
+def prepare(
+    files: list[Path],
+    mode: str | None = None,
+    modes: tuple[str, ...] = (),
+    model: str | None = None,
+    backends: tuple[str | None, ...] = (None,),
+) -> list[Prepared]:
+    """Load and compile every file (on each of ``backends``, in each of ``modes`` when
+    given, with the stability ``model`` when given); nothing is simulated.
 
     Raises:
         ScenarioErrors: one error per bad file.
@@ -175,9 +183,10 @@ def prepare(files: list[Path], mode: str | None = None, modes: tuple[str, ...] =
     for path in files:
         try:
             scenario = load_scenario(path)
-            for m in modes or (mode,):
-                sweep = scenario.template if scenario.sweep is not None else None
-                prepared.append(Prepared(path, compile_scenario(scenario, m, model), scenario.expect, sweep))
+            sweep = scenario.template if scenario.sweep is not None else None
+            for backend in backends:
+                for m in modes or (mode,):
+                    prepared.append(Prepared(path, compile_scenario(scenario, m, model, backend), scenario.expect, sweep))
         except ScenarioError as exc:
             errors.append(exc)
     if errors:
@@ -329,11 +338,12 @@ def tabulate(
     results: Iterable[CheckResult],
     each: Callable[[CheckResult], None] = lambda r: None,
 ) -> dict[str, dict[str, CheckResult]]:
-    """``results`` (in any order) as file -> mode -> result, files in the order of
-    ``prepared``; ``each`` is called with every result as it comes."""
+    """``results`` (in any order) as file -> column -> result, files in the order of
+    ``prepared``; a column is a mode, or ``"backend mode"`` when ``modes`` name backends
+    too; ``each`` is called with every result as it comes."""
     table: dict[str, dict[str, CheckResult]] = {str(p.path): {} for p in prepared}
     for r in results:
-        table[r.file][r.mode] = r
+        table[r.file][r.mode if r.mode in modes else f"{r.backend} {r.mode}"] = r
         each(r)
     return {file: {m: row[m] for m in modes if m in row} for file, row in table.items()}
 
@@ -372,6 +382,7 @@ def judge(file: str, program: Program, expect: Expect, timeout: float | None = T
             scenario=program.name,
             mode=program.engine.mode,
             model=_model(program),
+            backend=program.engine.backend,
             verdicts=tuple(evaluate(expect, outcome, program.collapse_threshold)),
             collapse_level=outcome.collapse.level if outcome.collapse else None,
             levels_placed=outcome.levels_placed,
@@ -416,6 +427,7 @@ def failed(file: str, program: Program, expect: Expect, error: str = "", traceba
         scenario=program.name,
         mode=program.engine.mode,
         model=_model(program),
+        backend=program.engine.backend,
         verdicts=unmeasured(expect, program),
         collapse_level=None,
         levels_placed=0,

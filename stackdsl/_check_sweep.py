@@ -27,7 +27,7 @@ from ._sweep_out import by_cell, measured, verdicts, write_plots, write_samples
 def sweep_tasks(index: int, template: Template, program: Any, timeout: float | None, workers: int) -> list[tuple[Any, ...]]:
     """The batch tasks of prepared scenario ``index``: ``("batch", index, template, cell, samples,
     options)``, run with the compiled program's mode and model."""
-    options = SweepOptions(program.engine.mode, program.stability.model, False, timeout)
+    options = SweepOptions(program.engine.mode, program.stability.model, False, timeout, program.engine.backend)
     return [("batch", index, template, cell, samples, options) for cell, samples in batches(template, workers)]
 
 

@@ -28,7 +28,7 @@ from ._cli_args import jobs_type, timeout_type
 from ._cli_bench import add_bench
 from ._cli_draw import add_commands, add_record_options
 from ._cli_sweep import add_sweep
-from ._compiler import MODE_DEFAULTS, compile_scenario
+from ._compiler import BACKEND_DEFAULTS, MODE_DEFAULTS, compile_scenario
 from ._errors import ScenarioError
 from ._expect import describe, evaluate
 from ._jsonschema import json_schema
@@ -166,6 +166,11 @@ def _parser() -> argparse.ArgumentParser:
     many.add_argument("paths", nargs="+", metavar="PATH", help="scenario files, or folders searched for *.yaml")
     many.add_argument("--model", choices=MODELS, help="override every scenario's stability model")
     many.add_argument(
+        "--backend",
+        metavar="ENGINE",
+        help=f"override every scenario's engine: {' or '.join(BACKEND_DEFAULTS)} (compare: several, comma-separated)",
+    )
+    many.add_argument(
         "-j",
         "--jobs",
         type=jobs_type,
@@ -184,6 +189,7 @@ def _parser() -> argparse.ArgumentParser:
     one.add_argument("file")
     one.add_argument("--mode", choices=modes, help="override the scenario's engine mode")
     one.add_argument("--model", choices=MODELS, help="override the scenario's stability model")
+    one.add_argument("--backend", choices=list(BACKEND_DEFAULTS), help="override the scenario's engine")
 
     p = sub.add_parser(
         "check",
@@ -277,7 +283,10 @@ def _check(args: argparse.Namespace) -> int:
     report = Path(args.report) if args.report else None
     if report is not None and report.exists() and not report.is_dir():
         raise ScenarioError("the report must go to a folder, and this is a file", file=args.report)
-    prepared = select(prepare(discover(args.paths), args.mode, model=args.model), args.pattern)  # bad input raises here
+    backends = _backends(args.backend, several=False)
+    prepared = select(
+        prepare(discover(args.paths), args.mode, model=args.model, backends=backends), args.pattern
+    )  # bad input raises here
     folders = None
     if report is not None:
         try:
@@ -300,7 +309,7 @@ def _check(args: argparse.Namespace) -> int:
         try:
             for r in runs:
                 results.append(r)
-                commands.append(run_command(r.file, args.mode, args.model))
+                commands.append(run_command(r.file, args.mode, args.model, args.backend))
                 if not args.json:
                     lines.line(row(r))
                     if not r.passed:
@@ -364,8 +373,12 @@ def _compare(args: argparse.Namespace) -> int:
     unknown = [m for m in modes if m not in MODE_DEFAULTS]
     if unknown or not modes:
         raise ScenarioError(f"unknown mode {', '.join(unknown) or '(none)'}; known: {', '.join(MODE_DEFAULTS)}", file="--modes")
+    backends = _backends(args.backend, several=True)
+    if len(backends) > 1:
+        modes = tuple(f"{b} {m}" for b in backends for m in modes)
     start = time.perf_counter()
-    prepared = select(prepare(discover(args.paths), modes=modes, model=args.model), args.pattern)
+    plain = tuple(dict.fromkeys(m.split()[-1] for m in modes))
+    prepared = select(prepare(discover(args.paths), modes=plain, model=args.model, backends=backends), args.pattern)
     done: list[CheckResult] = []
     live = is_live(sys.stdout)
     # On a terminal a progress line; elsewhere a line per finished cell on stderr, so that
@@ -384,7 +397,7 @@ def _compare(args: argparse.Namespace) -> int:
         table = tabulate(prepared, modes, run_checks(prepared, args.jobs, timeout=args.timeout), each)
     wall = time.perf_counter() - start
     if args.json:
-        commands = [run_command(r.file, r.mode, args.model) for r in done]
+        commands = [run_command(r.file, r.mode, args.model, r.backend if args.backend else None) for r in done]
         print(json.dumps(json_document("compare", done, commands, len(prepared), wall), indent=2))
         return INTERNAL if _internal_errors(done, args.debug) else OK
     width = max([len("scenario"), *(len(Path(f).stem) for f in table)])
@@ -397,6 +410,23 @@ def _compare(args: argparse.Namespace) -> int:
     return INTERNAL if _internal_errors(done, args.debug) else OK
 
 
+def _backends(given: str | None, several: bool) -> tuple[str | None, ...]:
+    """The backends ``--backend`` names: one (or, with ``several``, a comma-separated list);
+    (None,): each scenario's own.
+
+    Raises:
+        ScenarioError: an unknown backend, or several where one is expected.
+    """
+    if given is None:
+        return (None,)
+    names = tuple(dict.fromkeys(b.strip() for b in given.split(",") if b.strip()))
+    unknown = [b for b in names if b not in BACKEND_DEFAULTS]
+    if unknown or not names or (len(names) > 1 and not several):
+        what = "one of" if not several else "one or more of"
+        raise ScenarioError(f"unknown backend {given!r}: give {what} {', '.join(BACKEND_DEFAULTS)}", file="--backend")
+    return names
+
+
 def _cell(r: CheckResult) -> str:
     """What compare's table shows of a result: the collapse level, or what went wrong."""
     if r.error:
@@ -405,14 +435,14 @@ def _cell(r: CheckResult) -> str:
 
 
 def _compile(args: argparse.Namespace) -> int:
-    program = compile_scenario(load_scenario(args.file), args.mode, args.model)
+    program = compile_scenario(load_scenario(args.file), args.mode, args.model, args.backend)
     print(program.model_dump_json(indent=2) if args.json else format_program(program))
     return OK
 
 
 def _run(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.file)
-    program = compile_scenario(scenario, args.mode, args.model)
+    program = compile_scenario(scenario, args.mode, args.model, args.backend)
     if args.rate is not None and not args.record:
         raise ScenarioError("--rate is the recording's: give --record OUT.npz too", file="--rate")
     if args.record:

@@ -122,13 +122,13 @@ def trajectory_of(args: argparse.Namespace) -> Any:
             "give a scenario (.yaml, .yml) or a trajectory file (.npz) from 'stackdsl run FILE --record'", file=args.file
         )
     if path.suffix.lower() in TRAJECTORY_SUFFIXES:
-        if args.mode or args.model:
-            raise ScenarioError("--mode and --model apply to a scenario, not to a recorded trajectory", file=args.file)
+        if args.mode or args.model or args.backend:
+            raise ScenarioError("--mode, --model and --backend apply to a scenario, not to a recorded trajectory", file=args.file)
         try:
             return load_trajectory(path)
         except (OSError, ValueError) as exc:
             raise ScenarioError(str(exc).removeprefix(f"{path}: "), file=args.file) from None
-    program = compile_scenario(load_scenario(path), args.mode, args.model)
+    program = compile_scenario(load_scenario(path), args.mode, args.model, args.backend)
     at = getattr(args, "at", None)
     if isinstance(at, float) and at > program.duration:  # refused before anything is simulated
         raise ScenarioError(f"t = {at:g} s is outside the run, which lasts from 0 to {program.duration:g} s", file="--at")

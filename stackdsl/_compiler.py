@@ -42,17 +42,38 @@ from stability import Box, Pose, StabilityConfig
 from ._clearance import check_launch
 from ._precheck import Body, precheck
 from ._program import BrickSpec, End, EngineSettings, Fixture, Launch, Place, Program, Rule
-from ._schema import MAX_SIMULATED_TIME, SIDES, AfterLevel, Impact, Scenario
+from ._schema import BACKEND_FIELDS, MAX_SIMULATED_TIME, SIDES, AfterLevel, Impact, Scenario
 
-#: Engine defaults per mode. ``raw`` is pybullet's own (240 Hz, 50 iterations);
-#: ``tuned`` is the most accurate setting measured for small bricks (docs/design.md, modes:
-#: maximal coordinates, 1 ms, 150 iterations, friction anchors); ``extension`` is the
-#: report's set-up, the stability extension on the unmodified engine.
-MODE_DEFAULTS = {
-    "raw": dict(timestep=1 / 240, solver_iterations=50, friction_anchors=False, maximal_coordinates=False, ccd=False),
-    "tuned": dict(timestep=1 / 1000, solver_iterations=150, friction_anchors=True, maximal_coordinates=True, ccd=True),
-    "extension": dict(timestep=1 / 240, solver_iterations=50, friction_anchors=False, maximal_coordinates=False, ccd=True),
+#: Engine defaults per backend and mode. pybullet: ``raw`` is its own (240 Hz, 50
+#: iterations); ``tuned`` is the most accurate setting measured for small bricks
+#: (docs/design.md, modes: maximal coordinates, 1 ms, 150 iterations, friction anchors);
+#: ``extension`` is the report's set-up, the stability extension on the unmodified engine.
+#: MuJoCo: ``raw`` is its own (2 ms, pyramidal cones, Euler, solref 0.02 s and damping ratio
+#: 1); ``tuned`` the most accurate measured for KAPLA bricks (docs/results.md, MuJoCo:
+#: elliptic cones, impratio 10, implicitfast, solref 0.004 s and damping ratio 2, solimp
+#: 0.99, 0.999, 0.1 mm); ``extension`` the extension on its own settings.
+BACKEND_DEFAULTS: dict[str, dict[str, dict[str, object]]] = {
+    "pybullet": {
+        "raw": dict(timestep=1 / 240, solver_iterations=50, friction_anchors=False, maximal_coordinates=False, ccd=False),
+        "tuned": dict(timestep=1 / 1000, solver_iterations=150, friction_anchors=True, maximal_coordinates=True, ccd=True),
+        "extension": dict(timestep=1 / 240, solver_iterations=50, friction_anchors=False, maximal_coordinates=False, ccd=True),
+    },
+    "mujoco": {
+        "raw": dict(timestep=0.002, solver_iterations=100, ccd=False),
+        "tuned": dict(
+            timestep=0.002,
+            solver_iterations=100,
+            ccd=True,
+            elliptic_cones=True,
+            impratio=10.0,
+            integrator="implicitfast",
+            solref=(0.004, 2.0),
+            solimp=(0.99, 0.999, 1e-4),
+        ),
+        "extension": dict(timestep=0.002, solver_iterations=100, ccd=True),
+    },
 }
+MODE_DEFAULTS = BACKEND_DEFAULTS["pybullet"]
 GRAVITY = 9.81
 _LEVEL_TOLERANCE = 0.001  # m: bricks whose bottoms are this close share a level
 
@@ -76,7 +97,9 @@ class _Brick:
         return Pose.from_euler(self.position, self.yaw, self.pitch, self.roll)
 
 
-def compile_scenario(scenario: Scenario, mode: str | None = None, model: str | None = None) -> Program:
+def compile_scenario(
+    scenario: Scenario, mode: str | None = None, model: str | None = None, backend: str | None = None
+) -> Program:
     """Compile a scenario into a :class:`Program`.
 
     Args:
@@ -84,6 +107,8 @@ def compile_scenario(scenario: Scenario, mode: str | None = None, model: str | N
         mode: ``"raw"``, ``"tuned"`` or ``"extension"`` to override the scenario's mode;
             the mode picks the engine defaults the scenario does not set.
         model: ``"report"`` or ``"equilibrium"`` to override the scenario's stability model.
+        backend: ``"pybullet"`` or ``"mujoco"`` to override the scenario's engine; the
+            other engine's own settings in the scenario are then left out.
 
     Raises:
         ScenarioError: an action time is not a whole number of timesteps, an impact
@@ -92,7 +117,7 @@ def compile_scenario(scenario: Scenario, mode: str | None = None, model: str | N
             (:mod:`stackdsl._precheck`: bricks that overlap or rest on nothing where
             placed, expectations about levels never built).
     """
-    engine = _engine(scenario, mode)
+    engine = _engine(scenario, mode, backend)
     nominal = _layout(scenario)
     everything = _placed(scenario, nominal)
     bricks = [b for b in everything if not b.fixed]
@@ -169,18 +194,18 @@ def _budget(scenario: Scenario, program: Program) -> None:
         f"{e.timestep * 1000:.3g} ms steps, {e.solver_iterations} solver iterations, mode {e.mode}, is "
         f"{work:,.0f} body-steps (about {_duration(program.wall_estimate)}); at most {MAX_WORK:,.0f} are allowed"
     )
-    default = MODE_DEFAULTS[e.mode]
+    default = EngineSettings.model_validate({"mode": e.mode, "backend": e.backend, **BACKEND_DEFAULTS[e.backend][e.mode]})
     options: list[tuple[tuple, str, Program]] = []
-    if given.timestep is not None and e.timestep < default["timestep"]:
-        step = float(default["timestep"])
+    if given.timestep is not None and e.timestep < default.timestep:
+        step = default.timestep
         faster = _retimed(program, e.model_copy(update={"timestep": step}))
         options.append((("engine", "timestep"), f"the {e.mode} default, {step * 1000:.3g} ms,", faster))
-    if given.solver_iterations is not None and e.solver_iterations > default["solver_iterations"]:
-        n = int(default["solver_iterations"])
+    if given.solver_iterations is not None and e.solver_iterations > default.solver_iterations:
+        n = default.solver_iterations
         fewer = e.model_copy(update={"solver_iterations": n})
         options.append((("engine", "solver_iterations"), f"the {e.mode} default, {n},", _retimed(program, fewer)))
     if e.mode != "extension":
-        extension = _retimed(program, _engine(scenario, "extension"))
+        extension = _retimed(program, _engine(scenario, "extension", e.backend))
         options.append((("engine", "mode"), "extension (it skips the time in which every brick is frozen)", extension))
     if program.stability.model == "equilibrium":
         report = program.model_copy(update={"stability": replace(program.stability, model="report")})
@@ -302,12 +327,18 @@ def _lie_flat(bricks: list[_Brick]) -> np.ndarray:
     return np.abs(up) > math.cos(math.radians(1.0))
 
 
-def _engine(scenario: Scenario, mode: str | None) -> EngineSettings:
+def _engine(scenario: Scenario, mode: str | None, backend: str | None = None) -> EngineSettings:
     chosen = mode or scenario.engine.mode
-    if chosen not in MODE_DEFAULTS:
-        raise ValueError(f"unknown mode {chosen!r}; known: {', '.join(MODE_DEFAULTS)}")
-    given = scenario.engine.model_dump(exclude_none=True, exclude={"mode"})
-    return EngineSettings.model_validate({"mode": chosen, "gravity": GRAVITY, **MODE_DEFAULTS[chosen], **given})
+    engine = backend or scenario.engine.backend
+    if engine not in BACKEND_DEFAULTS:
+        raise ValueError(f"unknown backend {engine!r}; known: {', '.join(BACKEND_DEFAULTS)}")
+    if chosen not in BACKEND_DEFAULTS[engine]:
+        raise ValueError(f"unknown mode {chosen!r}; known: {', '.join(BACKEND_DEFAULTS[engine])}")
+    given = scenario.engine.model_dump(exclude_none=True, exclude={"mode", "backend"})
+    if backend is not None and backend != scenario.engine.backend:  # the other backend's own settings do not apply
+        given = {k: v for k, v in given.items() if k not in BACKEND_FIELDS[scenario.engine.backend]}
+    defaults = BACKEND_DEFAULTS[engine][chosen]
+    return EngineSettings.model_validate({"mode": chosen, "backend": engine, "gravity": GRAVITY, **defaults, **given})
 
 
 def _steps(scenario: Scenario, path: tuple, seconds: float, dt: float) -> int:

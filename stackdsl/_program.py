@@ -142,15 +142,27 @@ Action = Annotated[Place | Launch | End, Field(discriminator="kind")]
 
 
 class EngineSettings(_Frozen):
-    """pybullet settings of one run (see :data:`stackdsl._compiler.MODE_DEFAULTS`)."""
+    """Engine settings of one run (see :data:`stackdsl._compiler.MODE_DEFAULTS`).
+
+    ``friction_anchors`` and ``maximal_coordinates`` are pybullet's; ``elliptic_cones``,
+    ``impratio``, ``integrator``, ``solref`` (time constant in s, damping ratio), ``solimp``
+    (MuJoCo's impedance: d0, dwidth, width in m) and ``sleep_tolerance`` (MuJoCo's own
+    sleeping, None: off) are MuJoCo's; each backend ignores the other's."""
 
     mode: Literal["raw", "tuned", "extension"]
+    backend: Literal["pybullet", "mujoco"] = "pybullet"
     timestep: float
     solver_iterations: int
-    friction_anchors: bool
-    maximal_coordinates: bool
+    friction_anchors: bool = False
+    maximal_coordinates: bool = False
     ccd: bool = False
     gravity: float = 9.81
+    elliptic_cones: bool = False
+    impratio: float = 1.0
+    integrator: Literal["euler", "implicitfast"] = "euler"
+    solref: tuple[float, float] = (0.02, 1.0)
+    solimp: tuple[float, float, float] = (0.9, 0.95, 0.001)
+    sleep_tolerance: float | None = None
 
 
 class Program(_Frozen):
@@ -285,14 +297,28 @@ def estimate_work(program: Program) -> Work:
     return Work(steps, moving, resting)
 
 
+def engine_details(e: EngineSettings) -> str:
+    """The backend's own settings of ``e``, as text."""
+    on = {True: "on", False: "off"}
+    if e.backend == "pybullet":
+        return (
+            f"friction anchors {on[e.friction_anchors]}, maximal coordinates {on[e.maximal_coordinates]}, "
+            f"continuous collision detection for thrown bricks {on[e.ccd]}"
+        )
+    sleep = "off" if e.sleep_tolerance is None else f"tolerance {e.sleep_tolerance:g}"
+    return (
+        f"{'elliptic' if e.elliptic_cones else 'pyramidal'} cones, impratio {e.impratio:g}, {e.integrator}, "
+        f"solref ({e.solref[0]:g} s, {e.solref[1]:g}), solimp ({', '.join(f'{v:g}' for v in e.solimp)}), "
+        f"MuJoCo's sleeping {sleep}, substeps for thrown bricks {on[e.ccd]}"
+    )
+
+
 def format_program(program: Program) -> str:
     """The program as text, one line per action (what ``stackdsl compile`` prints)."""
     e = program.engine
     lines = [
-        f"program {program.name}: mode {e.mode}, timestep {e.timestep * 1000:.4g} ms, "
-        f"{e.solver_iterations} solver iterations, friction anchors {'on' if e.friction_anchors else 'off'}, "
-        f"maximal coordinates {'on' if e.maximal_coordinates else 'off'}, "
-        f"continuous collision detection for thrown bricks {'on' if e.ccd else 'off'}",
+        f"program {program.name}: {e.backend}, mode {e.mode}, timestep {e.timestep * 1000:.4g} ms, "
+        f"{e.solver_iterations} solver iterations, {engine_details(e)}",
         f"  {len(program.placements)} bricks in {program.levels} levels, collapse threshold "
         f"{program.collapse_threshold * 1000:.3g} mm, {program.duration:g} s simulated",
         f"  estimated work {program.work:.2g} body-steps, about {program.wall_estimate:.2g} s of wall time",

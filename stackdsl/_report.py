@@ -45,13 +45,14 @@ def row(r: CheckResult) -> str:
     )
 
 
-def run_command(file: str, mode: str | None = None, model: str | None = None) -> str:
+def run_command(file: str, mode: str | None = None, model: str | None = None, backend: str | None = None) -> str:
     """The ``stackdsl run`` command that shows one scenario's timeline (shell-quoted).
 
     >>> run_command("scenarios/slant tower.yaml", mode="raw")
     "stackdsl run 'scenarios/slant tower.yaml' --mode raw"
     """
     words = ["stackdsl", "run", file] + (["--mode", mode] if mode else []) + (["--model", model] if model else [])
+    words += ["--backend", backend] if backend else []
     return shlex.join(words)
 
 

@@ -1,11 +1,12 @@
 """Program -> Outcome: run a program in a world, with or without the stability extension.
 
-:func:`run_program` builds a :class:`stackdsl._world.PyBulletWorld` (one DIRECT client
-per run, closed in all cases), a :class:`stackdsl._loop.StepLoop` over the program, and
+:func:`run_program` builds a world on the program's backend (:func:`world_for`: a
+:class:`stackdsl._world.PyBulletWorld` on one DIRECT client per run, closed in all cases,
+or a :class:`stackdsl._mujoco_world.MuJoCoWorld`), a :class:`stackdsl._loop.StepLoop` over the program, and
 attaches its subscribers: the substep control, the stability extension, the collapse
 monitor and, when asked, a recorder. Bodies enter the engine when they are placed, in
 program order, so creation order is a function of the scenario alone (pybullet is
-bitwise repeatable only then).
+bitwise repeatable only then; MuJoCo compiles its model again for each, keeping the state).
 
 Collapse detection is the same in every mode: after the first structure brick leaves
 its placed pose by more than the collapse threshold, nothing more is placed and the run
@@ -27,6 +28,8 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 import time as _time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, replace
 
 from ._collapse import CollapseMonitor
@@ -88,9 +91,27 @@ def run_program(
     if timeout is not None and not timeout >= 0:
         raise ValueError(f"timeout must be a number of seconds >= 0 or None, not {timeout!r}")
     start = _time.perf_counter()
-    with pybullet_world(program.engine, program.ground_friction, program.ground_restitution) as world:
+    with world_for(program) as world:
         loop = run_in(world, program, options, timeout=timeout, started=start, subscribers=subscribers)
         return outcome(loop, _time.perf_counter() - start)
+
+
+@contextmanager
+def world_for(program: Program) -> Iterator[World]:
+    """A new world for ``program``: on its backend's engine, closed on exit.
+
+    Raises:
+        ImportError: the MuJoCo backend without the ``mujoco`` package.
+    """
+    engine, friction, restitution = program.engine, program.ground_friction, program.ground_restitution
+    if engine.backend == "mujoco":
+        from ._mujoco_world import mujoco_world
+
+        with mujoco_world(engine, friction, restitution) as mujoco:
+            yield mujoco
+    else:
+        with pybullet_world(engine, friction, restitution) as pybullet:
+            yield pybullet
 
 
 def run_in(

@@ -498,11 +498,19 @@ def _timestep(value: float) -> float:
     return value
 
 
-class Engine(_Model):
-    """The physics engine: ``mode`` (raw, tuned, extension) picks the defaults of the rest.
-    ``timestep`` is at most 10 ms: the capability scenarios give the same answers from
-    1/100 s to 1/2000 s and different ones beyond (docs/results.md, hard cases)."""
+#: Engine fields that only one backend has.
+BACKEND_FIELDS = {"pybullet": ("friction_anchors", "maximal_coordinates"), "mujoco": ("sleep_tolerance",)}
 
+
+class Engine(_Model):
+    """The physics engine: ``backend`` (pybullet, mujoco) and ``mode`` (raw, tuned,
+    extension) pick the defaults of the rest. ``timestep`` is at most 10 ms: the capability
+    scenarios give the same answers from 1/100 s to 1/2000 s and different ones beyond
+    (docs/results.md, hard cases). ``friction_anchors`` and ``maximal_coordinates`` are
+    pybullet's; ``sleep_tolerance`` turns MuJoCo's own sleeping on (a body sleeps below this
+    speed, MuJoCo's units)."""
+
+    backend: Literal["pybullet", "mujoco"] = "pybullet"
     mode: Literal["raw", "tuned", "extension"] = "extension"
     timestep: Annotated[Time, Field(ge=1e-5), AfterValidator(_timestep)] | None = Field(
         default=None, json_schema_extra={"maximum": MAX_TIMESTEP + 1e-12}
@@ -511,6 +519,15 @@ class Engine(_Model):
     friction_anchors: StrictBool | None = None
     maximal_coordinates: StrictBool | None = None
     ccd: StrictBool | None = None
+    sleep_tolerance: Annotated[Number, Field(gt=0, le=1)] | None = None
+
+    @model_validator(mode="after")
+    def _one_backend(self) -> Engine:
+        for backend, fields in BACKEND_FIELDS.items():
+            given = [f for f in fields if getattr(self, f) is not None]
+            if given and self.backend != backend:
+                raise ValueError(f"{given[0]} is a {backend} setting; this engine's backend is {self.backend}")
+        return self
 
 
 class Stability(_Model):

@@ -72,13 +72,14 @@ class SampleResult:
 
 @dataclass(frozen=True)
 class SweepOptions:
-    """How each sample runs: ``mode`` and ``model`` override the file's; ``oracle`` also asks
-    rigid-block equilibrium; ``timeout``: wall seconds a run may take (None: no limit)."""
+    """How each sample runs: ``mode``, ``model`` and ``backend`` override the file's; ``oracle``
+    also asks rigid-block equilibrium; ``timeout``: wall seconds a run may take (None: no limit)."""
 
     mode: str | None = None
     model: str | None = None
     oracle: bool = False
     timeout: float | None = 100.0
+    backend: str | None = None
 
 
 def run_batch(template: Template, cell: int, samples: list[int], options: SweepOptions) -> list[SampleResult]:
@@ -97,7 +98,7 @@ def _one(template: Template, cell: int, k: int, options: SweepOptions) -> Sample
         parameters = template.parameters(cell, k)
         scenario = template.scenario(cell, k)
         seed = scenario.seed
-        program = compile_scenario(scenario, options.mode, options.model)
+        program = compile_scenario(scenario, options.mode, options.model, options.backend)
     except ScenarioError as exc:
         if not exc.message.startswith("sample "):  # the compiler's checks: say which sample
             exc.message = f"sample {k}" + (f" of grid cell {cell}" if template.grid else "") + f": {exc.message}"
@@ -177,7 +178,7 @@ def run_sweep(
 def _estimate(template: Template, options: SweepOptions) -> float:
     """Wall seconds a sample takes, by the compiler's estimate for sample 0 of cell 0."""
     try:
-        return compile_scenario(template.scenario(0, 0), options.mode, options.model).wall_estimate
+        return compile_scenario(template.scenario(0, 0), options.mode, options.model, options.backend).wall_estimate
     except ScenarioError:
         return 0.1
 

@@ -223,7 +223,11 @@ def _sweep_test(request: pytest.FixtureRequest, scenario: Any, program: Any, sho
     from ._sweep_out import by_cell, verdicts
 
     template = scenario.template
-    results = collect(run_sweep(template, SweepOptions(program.engine.mode, program.stability.model, False, None), jobs=1))
+    results = collect(
+        run_sweep(
+            template, SweepOptions(program.engine.mode, program.stability.model, False, None, program.engine.backend), jobs=1
+        )
+    )
     refused = [r for r in results if r.bad_input or r.error]
     if refused:
         pytest.fail(refused[0].bad_input or f"{refused[0].error} (sample {refused[0].sample})", pytrace=False)

@@ -1,0 +1,393 @@
+"""The world on MuJoCo: :class:`MuJoCoWorld`, a :class:`stackdsl._world.World` through MuJoCo's public API.
+
+MuJoCo compiles a model before it simulates, and a model's bodies are fixed when it is
+compiled. Bodies are declared to an ``mujoco.MjSpec``; the model is compiled when the
+world is first stepped or read, and compiled again, keeping the state (``MjSpec.recompile``),
+when a body is created after that. ``RunOptions(lazy_bodies=False)`` declares every brick
+up front, frozen and far away, so that the model is compiled once.
+
+Each brick is two bodies of the same box: a *free* body (a free joint), which the engine
+simulates, and a *held* body (a mocap body, which the engine moves only when told), which
+stands in for it while it is frozen. Freezing puts the held body at the free body's pose
+and takes the free body out of the scene (collisions off, gravity compensated, far away,
+at rest); restoring does the opposite. A frozen brick is then static geometry: it costs
+no degrees of freedom and MuJoCo makes no contacts between two frozen bricks, as pybullet
+makes none between two bodies of mass 0 (docs/design.md, "MuJoCo", gives the measurements
+that chose this over a weld equality or MuJoCo's own sleeping).
+
+Materials:
+
+* Friction: a pair of bodies has the geometric mean of their materials' coefficients,
+  as on pybullet (:func:`stability.pair_friction`): bodies of one material collide by
+  MuJoCo's own rule (the geom's coefficient, since both are equal); a pair of different
+  materials is declared as an explicit contact pair with the mean.
+* Restitution ``e`` becomes the damping ratio of the contact's spring-damper,
+  ``zeta = -ln e / sqrt(pi^2 + ln^2 e)`` (the damped oscillator's coefficient of
+  restitution); ``e = 0`` keeps the setting's own ratio (at least 1: no bounce).
+* Density: each body's mass is the brick's, with the inertia of a uniform box.
+
+Source: stackdsl's own, on MuJoCo 4.0's Python bindings.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Collection, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from stability import ContactPoint, Pose
+
+from ._program import BrickSpec, EngineSettings, Vec3
+
+#: Where the free body of a frozen brick waits, and the held body of an active one: far
+#: from any scene (positions are within 1 km), one slot per brick so that none overlap.
+_AWAY = np.array([5000.0, 5000.0, 100.0])
+_SLOT = 0.5  # m between two waiting bodies
+
+
+def damping_ratio(restitution: float, default: float) -> float:
+    """The contact damping ratio for a coefficient of restitution (0 to 1).
+
+    A linear spring-damper with damping ratio ``zeta`` < 1 rebounds with
+    ``e = exp(-zeta pi / sqrt(1 - zeta^2))``; this is its inverse. ``e = 0`` gives
+    ``default``. Source: the damped harmonic oscillator (any mechanics text).
+
+    >>> round(damping_ratio(0.5, 1.0), 3)
+    0.215
+    >>> damping_ratio(0.0, 2.0)
+    2.0
+    """
+    if restitution <= 0.0:
+        return default
+    log_e = math.log(min(restitution, 1.0 - 1e-9))
+    return -log_e / math.sqrt(math.pi**2 + log_e**2)
+
+
+@dataclass
+class _Brick:
+    """One brick's two bodies and their geoms (ids in the compiled model), and its state."""
+
+    spec: BrickSpec
+    free: Any  # mjsBody
+    held: Any  # mjsBody
+    slot: int
+    frozen: bool
+    mass: float
+    joint: str
+    free_geom: int = -1
+    held_geom: int = -1
+    mocap: int = -1
+    qpos: int = -1
+    dof: int = -1
+
+
+class MuJoCoWorld:
+    """:class:`stackdsl._world.World` on MuJoCo (see the module's docstring).
+
+    Args:
+        engine: the run's engine settings (``backend: mujoco``).
+        ground_friction, ground_restitution: of the ground's material.
+
+    Body ids are stackdsl's: 0 is the ground, bricks are numbered from 1 as they are
+    created; a brick keeps its id whether frozen (its held body) or not.
+
+    >>> from stackdsl._program import BrickSpec, EngineSettings
+    >>> world = MuJoCoWorld(EngineSettings(mode="raw", backend="mujoco", timestep=0.002, solver_iterations=100, friction_anchors=False, maximal_coordinates=False), 0.5, 0.0)
+    >>> b = world.create(BrickSpec(type="kapla", half_extents=(0.06, 0.012, 0.004), mass=0.0106, friction=0.5, restitution=0.0), Pose.from_euler([0, 0, 0.0045]))
+    >>> for _ in range(200): world.step()
+    >>> round(float(world.pose(b).position[2]), 4)
+    0.004
+    """
+
+    def __init__(self, engine: EngineSettings, ground_friction: float, ground_restitution: float) -> None:
+        import mujoco
+
+        self._mj, self._engine = mujoco, engine
+        self.ground = 0
+        self._substeps = 1
+        self._bricks: list[_Brick] = []
+        self._materials: dict[tuple[float, float], int] = {}  # (friction, restitution) -> group
+        self._model: Any = None
+        self._data: Any = None
+        self._geom_body: np.ndarray = np.zeros(0, dtype=int)
+        self._qpos = self._dof = self._mocap = np.zeros(0, dtype=int)
+        self._frozen = np.zeros(0, dtype=bool)
+        spec = mujoco.MjSpec()
+        option = spec.option
+        option.timestep = engine.timestep
+        option.gravity = [0.0, 0.0, -engine.gravity]
+        option.iterations = engine.solver_iterations
+        option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC if engine.elliptic_cones else mujoco.mjtCone.mjCONE_PYRAMIDAL
+        option.impratio = engine.impratio
+        option.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{engine.integrator.upper()}")
+        if engine.sleep_tolerance is not None:
+            option.enableflags |= mujoco.mjtEnableBit.mjENBL_SLEEP
+            option.sleep_tolerance = engine.sleep_tolerance
+        self._spec = spec
+        ground = spec.worldbody.add_geom(name="ground", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0.0, 0.0, 1.0])
+        self._ground_material = (ground_friction, ground_restitution)
+        self._surface(ground, ground_friction, ground_restitution)
+
+    # building -----------------------------------------------------------------
+    def _group(self, friction: float, restitution: float) -> int:
+        key = (friction, restitution)
+        if key not in self._materials:
+            if len(self._materials) >= 30:
+                raise ValueError("the MuJoCo backend takes at most 30 materials in one scene")
+            self._materials[key] = len(self._materials)
+        return self._materials[key]
+
+    def _surface(self, geom: Any, friction: float, restitution: float) -> None:
+        """Friction, contact softness and collision group of ``geom`` for its material."""
+        e = self._engine
+        bit = 1 << self._group(friction, restitution)
+        geom.contype = geom.conaffinity = bit
+        geom.friction = [friction, 0.005, 0.0001]
+        geom.solref = [e.solref[0], damping_ratio(restitution, e.solref[1])]
+        geom.solimp = [*e.solimp, 0.5, 2.0]
+
+    def _pairs(self, new: _Brick) -> None:
+        """Explicit contact pairs between ``new``'s geoms and every geom of another material."""
+        mine = (new.spec.friction, new.spec.restitution)
+        others: list[tuple[str, tuple[float, float]]] = [("ground", self._ground_material)]
+        others += [(f"{s}{i}", (b.spec.friction, b.spec.restitution)) for i, b in enumerate(self._bricks, 1) for s in "fh"]
+        i = len(self._bricks) + 1
+        for name, material in others:
+            if material == mine or name in (f"f{i}", f"h{i}"):
+                continue
+            mu = math.sqrt(mine[0] * material[0])
+            e = math.sqrt(mine[1] * material[1])
+            for own in (f"f{i}", f"h{i}"):
+                pair = self._spec.add_pair(geomname1=own, geomname2=name)
+                pair.friction = [mu, mu, 0.005, 0.0001, 0.0001]
+                pair.solref = [self._engine.solref[0], damping_ratio(e, self._engine.solref[1])]
+                pair.solimp = [*self._engine.solimp, 0.5, 2.0]
+
+    def create(self, spec: BrickSpec, pose: Pose, mass: float | None = None, maximal: bool | None = None) -> int:
+        """A new brick at ``pose``; ``mass`` 0 creates it frozen. ``maximal`` is pybullet's and ignored."""
+        mj = self._mj
+        body = len(self._bricks) + 1
+        frozen = mass is not None and mass <= 0.0
+        free_at = self._away(body) if frozen else pose.position
+        free = self._spec.worldbody.add_body(name=f"free{body}", pos=list(free_at), quat=_wxyz(pose.orientation))
+        joint = free.add_freejoint(name=f"joint{body}")
+        held_at = pose.position if frozen else self._away(body)
+        held = self._spec.worldbody.add_body(name=f"held{body}", pos=list(held_at), quat=_wxyz(pose.orientation), mocap=True)
+        for name, owner in ((f"f{body}", free), (f"h{body}", held)):
+            geom = owner.add_geom(name=name, type=mj.mjtGeom.mjGEOM_BOX, size=list(spec.half_extents), mass=spec.mass)
+            self._surface(geom, spec.friction, spec.restitution)
+        del joint
+        brick = _Brick(spec, free, held, body, frozen, spec.mass if mass is None or frozen else mass, f"joint{body}")
+        self._pairs(brick)
+        self._bricks.append(brick)
+        if self._model is not None:
+            self._compile()
+        self._apply(brick)
+        return body
+
+    def _away(self, body: int) -> np.ndarray:
+        return _AWAY + [_SLOT * body, 0.0, 0.0]
+
+    def _compile(self) -> None:
+        mj = self._mj
+        if self._model is None:
+            self._model = self._spec.compile()
+            self._data = mj.MjData(self._model)
+        else:
+            self._model, self._data = self._spec.recompile(self._model, self._data)
+        m = self._model
+        geom_body = np.zeros(m.ngeom, dtype=int)
+        for brick in self._bricks:
+            brick.free_geom = mj.mj_name2id(m, mj.mjtObj.mjOBJ_GEOM, f"f{brick.slot}")
+            brick.held_geom = mj.mj_name2id(m, mj.mjtObj.mjOBJ_GEOM, f"h{brick.slot}")
+            brick.mocap = int(m.body_mocapid[mj.mj_name2id(m, mj.mjtObj.mjOBJ_BODY, f"held{brick.slot}")])
+            jnt = mj.mj_name2id(m, mj.mjtObj.mjOBJ_JOINT, brick.joint)
+            brick.qpos, brick.dof = int(m.jnt_qposadr[jnt]), int(m.jnt_dofadr[jnt])
+            geom_body[[brick.free_geom, brick.held_geom]] = brick.slot
+        self._geom_body = geom_body
+        self._qpos = np.array([b.qpos for b in self._bricks], dtype=int)
+        self._dof = np.array([b.dof for b in self._bricks], dtype=int)
+        self._mocap = np.array([b.mocap for b in self._bricks], dtype=int)
+        self._frozen = np.array([b.frozen for b in self._bricks], dtype=bool)
+        for brick in self._bricks:
+            self._apply(brick)
+        mj.mj_forward(m, self._data)
+
+    def _ready(self) -> tuple[Any, Any]:
+        if self._model is None:
+            self._compile()
+        return self._model, self._data
+
+    def _apply(self, brick: _Brick) -> None:
+        """Collisions and gravity compensation of ``brick``'s two bodies for its state."""
+        if self._model is None:
+            return
+        m = self._model
+        bit = 1 << self._group(brick.spec.friction, brick.spec.restitution)
+        on, off = (brick.held_geom, brick.free_geom) if brick.frozen else (brick.free_geom, brick.held_geom)
+        m.geom_contype[on] = m.geom_conaffinity[on] = bit
+        m.geom_contype[off] = m.geom_conaffinity[off] = 0
+        m.body_gravcomp[m.geom_bodyid[brick.free_geom]] = 1.0 if brick.frozen else 0.0
+
+    # stability.Engine ----------------------------------------------------------
+    @property
+    def timestep(self) -> float:
+        return self._engine.timestep
+
+    def _brick(self, body: int) -> _Brick:
+        return self._bricks[body - 1]
+
+    def pose(self, body: int) -> Pose:
+        _, d = self._ready()
+        brick = self._brick(body)
+        if brick.frozen:
+            position, (w, x, y, z) = d.mocap_pos[brick.mocap].copy(), d.mocap_quat[brick.mocap]
+        else:
+            position, (w, x, y, z) = d.qpos[brick.qpos : brick.qpos + 3].copy(), d.qpos[brick.qpos + 3 : brick.qpos + 7]
+        return Pose(position, np.array([x, y, z, w]) / math.sqrt(w * w + x * x + y * y + z * z))
+
+    def velocity(self, body: int) -> tuple[np.ndarray, np.ndarray]:
+        _, d = self._ready()
+        brick = self._brick(body)
+        if brick.frozen:
+            return np.zeros(3), np.zeros(3)
+        angular = np.zeros(3)  # a free joint's angular velocity is in the body frame
+        self._mj.mju_rotVecQuat(angular, d.qvel[brick.dof + 3 : brick.dof + 6], d.qpos[brick.qpos + 3 : brick.qpos + 7])
+        return d.qvel[brick.dof : brick.dof + 3].copy(), angular
+
+    def contact_points(self, bodies: Collection[int] | None = None) -> list[ContactPoint]:
+        m, d = self._ready()
+        mj = self._mj
+        wanted = None if bodies is None else set(bodies)
+        force = np.zeros(6)
+        points = []
+        for i in range(d.ncon):
+            c = d.contact[i]
+            a, b = int(self._geom_body[c.geom1]), int(self._geom_body[c.geom2])
+            if c.exclude != 0 or (wanted is not None and a not in wanted and b not in wanted):
+                continue
+            mj.mj_contactForce(m, d, i, force)
+            normal = np.array(c.frame[:3])  # from geom1 into geom2
+            at = np.array(c.pos)
+            dist = float(c.dist)
+            if wanted is None or a in wanted:
+                points.append(ContactPoint(a, b, at - normal * dist / 2, -normal, float(force[0]), dist))
+            if wanted is None or b in wanted:
+                points.append(ContactPoint(b, a, at + normal * dist / 2, normal, float(force[0]), dist))
+        return points
+
+    def near(self, body: int, distance: float) -> list[ContactPoint]:
+        m, d = self._ready()
+        mj = self._mj
+        brick = self._brick(body)
+        own = brick.held_geom if brick.frozen else brick.free_geom
+        reach = float(m.geom_rbound[own]) + distance
+        fromto = np.zeros(6)
+        out = []
+        for geom in range(m.ngeom):
+            if geom == own or m.geom_contype[geom] == 0:
+                continue
+            other = int(self._geom_body[geom])
+            if other == body:
+                continue
+            if m.geom_type[geom] != mj.mjtGeom.mjGEOM_PLANE:
+                if np.linalg.norm(d.geom_xpos[geom] - d.geom_xpos[own]) > reach + m.geom_rbound[geom]:
+                    continue
+            gap = mj.mj_geomDistance(m, d, own, geom, distance, fromto)
+            if gap < distance:
+                mine, theirs = fromto[:3], fromto[3:]
+                n = mine - theirs
+                n = n / np.linalg.norm(n) if np.linalg.norm(n) > 1e-12 else np.array([0.0, 0.0, 1.0])
+                out.append(ContactPoint(body, other, theirs.copy(), n, 0.0, float(gap)))
+        return out
+
+    def set_frozen(self, body: int, frozen: bool, mass: float) -> None:
+        if frozen != self._brick(body).frozen:
+            self._put(body, self.pose(body), frozen)
+
+    def _put(self, body: int, pose: Pose, frozen: bool) -> None:
+        """``body`` at ``pose``, at rest, frozen (its held body there) or not (its free body)."""
+        _, d = self._ready()
+        brick = self._brick(body)
+        if frozen:
+            d.mocap_pos[brick.mocap] = pose.position
+            d.mocap_quat[brick.mocap] = _wxyz(pose.orientation)
+            d.qpos[brick.qpos : brick.qpos + 3] = self._away(body)
+        else:
+            d.qpos[brick.qpos : brick.qpos + 3] = pose.position
+            d.qpos[brick.qpos + 3 : brick.qpos + 7] = _wxyz(pose.orientation)
+            d.mocap_pos[brick.mocap] = self._away(body)
+        d.qvel[brick.dof : brick.dof + 6] = 0.0
+        brick.frozen = self._frozen[body - 1] = frozen
+        self._apply(brick)
+        self._wake(brick)
+
+    def _wake(self, brick: _Brick) -> None:
+        """With MuJoCo's sleeping on, a body changed by hand must be awake."""
+        if self._engine.sleep_tolerance is None:
+            return
+        m, d = self._model, self._data
+        tree = int(m.body_treeid[m.geom_bodyid[brick.free_geom]])
+        if tree >= 0 and d.tree_asleep[tree] >= 0:
+            d.tree_asleep[tree] = -(1 + 10)  # mjMINAWAKE: awake for at least 10 steps
+            self._mj.mj_forward(m, d)
+
+    # stackdsl._world.World -----------------------------------------------------
+    def move(self, body: int, pose: Pose, mass: float) -> None:
+        self._put(body, pose, mass <= 0.0)
+
+    def throw(self, body: int, velocity: Vec3, swept_radius: float | None) -> None:
+        """Give ``body`` a linear velocity; MuJoCo has no continuous collision detection, so
+        ``swept_radius`` is ignored (the substep control splits fast steps instead)."""
+        _, d = self._ready()
+        brick = self._brick(body)
+        d.qvel[brick.dof : brick.dof + 3] = velocity
+        self._wake(brick)
+
+    def step(self) -> None:
+        m, d = self._ready()
+        for _ in range(self._substeps):
+            self._mj.mj_step(m, d)
+
+    def set_substeps(self, substeps: int) -> None:
+        m, _ = self._ready()
+        self._substeps = max(1, substeps)
+        m.opt.timestep = self._engine.timestep / self._substeps
+
+    def poses_of(self, bodies: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+        _, d = self._ready()
+        index = np.asarray(bodies, dtype=int) - 1
+        frozen = self._frozen[index]
+        qpos = self._qpos[index]
+        positions = np.where(frozen[:, None], d.mocap_pos[self._mocap[index]], d.qpos[qpos[:, None] + np.arange(3)])
+        wxyz = np.where(frozen[:, None], d.mocap_quat[self._mocap[index]], d.qpos[qpos[:, None] + np.arange(3, 7)])
+        quaternions = wxyz[:, [1, 2, 3, 0]]
+        return positions.reshape(-1, 3), (quaternions / np.linalg.norm(quaternions, axis=1)[:, None]).reshape(-1, 4)
+
+    def velocities_of(self, bodies: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+        _, d = self._ready()
+        index = np.asarray(bodies, dtype=int) - 1
+        moving = ~self._frozen[index]
+        dof, qpos = self._dof[index], self._qpos[index]
+        linear = d.qvel[dof[:, None] + np.arange(3)] * moving[:, None]
+        local = d.qvel[dof[:, None] + np.arange(3, 6)] * moving[:, None]  # a free joint's angular velocity is in the body frame
+        wxyz = d.qpos[qpos[:, None] + np.arange(3, 7)]
+        angular = Rotation.from_quat(wxyz[:, [1, 2, 3, 0]]).apply(local) if len(index) else local
+        return linear.reshape(-1, 3), np.asarray(angular).reshape(-1, 3)
+
+
+def _wxyz(quaternion: Sequence[float] | np.ndarray) -> list[float]:
+    """(x, y, z, w), stackdsl's and scipy's order, as (w, x, y, z), MuJoCo's."""
+    x, y, z, w = (float(v) for v in quaternion)
+    return [w, x, y, z]
+
+
+@contextmanager
+def mujoco_world(engine: EngineSettings, ground_friction: float, ground_restitution: float) -> Iterator[MuJoCoWorld]:
+    """A :class:`MuJoCoWorld` for one run."""
+    yield MuJoCoWorld(engine, ground_friction, ground_restitution)

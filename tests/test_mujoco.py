@@ -1,0 +1,186 @@
+"""The MuJoCo backend: materials, freezing, and the scenario library's verdicts on it.
+
+The extension drives MuJoCo through the same ``stability.Engine`` protocol as pybullet;
+these tests check the world adapter against closed forms and the library's expectations.
+"""
+
+import ast
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from stability import Pose
+from stackdsl import compile_scenario, evaluate, load_scenario, parse_scenario, run_program
+from stackdsl._compiler import BACKEND_DEFAULTS
+from stackdsl._mujoco_world import MuJoCoWorld, damping_ratio
+from stackdsl._program import BrickSpec, EngineSettings
+
+ROOT = Path(__file__).resolve().parents[1]
+KAPLA = (0.06, 0.012, 0.004)
+G = 9.81
+
+
+def _world(mode: str = "tuned", ground_friction: float = 0.5, **extra) -> MuJoCoWorld:
+    settings = EngineSettings.model_validate({"mode": mode, "backend": "mujoco", **BACKEND_DEFAULTS["mujoco"][mode], **extra})
+    return MuJoCoWorld(settings, ground_friction, 0.0)
+
+
+def _brick(friction: float = 0.5, restitution: float = 0.0) -> BrickSpec:
+    mass = 8 * math.prod(KAPLA) * 460.0
+    return BrickSpec(type="kapla", half_extents=KAPLA, mass=mass, friction=friction, restitution=restitution)
+
+
+def _slide(ground: float, brick: float, speed: float = 0.4) -> float:
+    """Metres a brick thrown along the ground at ``speed`` slides before it stops."""
+    world = _world(ground_friction=ground)
+    body = world.create(_brick(brick), Pose.from_euler([0.0, 0.0, 0.004]))
+    for _ in range(50):  # settle onto the ground first
+        world.step()
+    start = world.pose(body).position.copy()
+    world.throw(body, (speed, 0.0, 0.0), None)
+    for _ in range(500):
+        world.step()
+    return float(world.pose(body).position[0] - start[0])
+
+
+@pytest.mark.parametrize(("ground", "brick"), [(0.5, 0.5), (0.2, 0.8)])
+def test_a_pair_has_the_geometric_mean_of_its_materials_friction(ground, brick):
+    """Sliding distance under Coulomb friction: v^2 / (2 mu g), mu the pair's coefficient,
+    sqrt(ground * brick) as on pybullet (MuJoCo's own rule would take the larger)."""
+    mu = math.sqrt(ground * brick)
+    expected = 0.4**2 / (2 * mu * G)
+    assert _slide(ground, brick) == pytest.approx(expected, rel=0.05)
+
+
+def test_restitution_becomes_a_damping_ratio_whose_bounce_is_that_restitution():
+    """A linear spring-damper with damping ratio zeta rebounds with exp(-zeta pi / sqrt(1 - zeta^2))."""
+    for e in (0.1, 0.5, 0.9):
+        zeta = damping_ratio(e, 1.0)
+        assert math.exp(-zeta * math.pi / math.sqrt(1 - zeta**2)) == pytest.approx(e)
+
+
+def test_a_frozen_brick_does_not_move_when_a_brick_lands_on_it():
+    world = _world()
+    low = world.create(_brick(), Pose.from_euler([0.0, 0.0, 0.004]))
+    for _ in range(50):
+        world.step()
+    world.set_frozen(low, True, _brick().mass)
+    held = world.pose(low)
+    top = world.create(_brick(), Pose.from_euler([0.01, 0.0, 0.0125], yaw=90.0))  # created after: the model is rebuilt
+    for _ in range(200):
+        world.step()
+    assert np.array_equal(world.pose(low).position, held.position)
+    assert np.allclose(world.velocity(low)[0], 0.0)
+    assert world.pose(top).position[2] == pytest.approx(0.012, abs=2e-4)  # it landed on the frozen brick
+    assert {c.other for c in world.contact_points([top])} == {low}
+    world.set_frozen(top, True, _brick().mass)
+    world.step()
+    assert world.contact_points() == []  # two frozen bricks: no contact between them, none with the ground
+
+
+def test_a_restored_brick_falls_again():
+    world = _world()
+    body = world.create(_brick(), Pose.from_euler([0.0, 0.0, 0.05]), mass=0.0)  # created frozen, in the air
+    for _ in range(100):
+        world.step()
+    assert world.pose(body).position[2] == pytest.approx(0.05)
+    world.set_frozen(body, False, _brick().mass)
+    for _ in range(150):
+        world.step()
+    assert world.pose(body).position[2] == pytest.approx(0.004, abs=2e-4)
+
+
+def test_velocities_are_in_the_world_frame():
+    world = _world()
+    body = world.create(_brick(), Pose.from_euler([0.0, 0.0, 0.5], yaw=90.0, pitch=30.0))
+    world.step()
+    world._data.qvel[3:6] = [0.0, 0.0, 2.0]  # about the body's own z axis
+    _, angular = world.velocity(body)
+    axis = Pose.from_euler([0, 0, 0], yaw=90.0, pitch=30.0).rotation @ [0.0, 0.0, 2.0]
+    assert np.allclose(angular, axis)
+    assert np.allclose(world.velocities_of([body])[1][0], axis)
+
+
+def test_bricks_declared_up_front_or_as_they_come_give_the_same_answer():
+    """Parked (every body in the first model) and rebuilt (the model compiled again as each
+    brick enters) both build a 3-level tower that stands."""
+    from stackdsl._runtime import RunOptions
+
+    program = compile_scenario(parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 3}}\n"), "extension", backend="mujoco")
+    for lazy in (True, False):
+        outcome = run_program(program, RunOptions(lazy_bodies=lazy))
+        assert outcome.collapse is None and outcome.bricks_placed == 6
+        assert max(outcome.displacement.values()) < 0.001
+
+
+SCENARIOS = sorted((ROOT / "scenarios").rglob("*.yaml"))
+#: Where the MuJoCo extension's verdict differs from the shipped expectation: the
+#: expectation holds only with pybullet's extension; tuned pybullet and tuned MuJoCo also
+#: move a brick of level 7 (docs/results.md, MuJoCo).
+ENGINE_DISAGREES = {"heavy_hit": "tuned MuJoCo and tuned pybullet also move level 7"}
+
+
+@pytest.mark.parametrize("path", SCENARIOS, ids=[p.stem for p in SCENARIOS])
+def test_the_extension_on_mujoco_gives_the_librarys_verdicts(path):
+    if path.stem in ENGINE_DISAGREES:
+        pytest.xfail(ENGINE_DISAGREES[path.stem])
+    scenario = load_scenario(path)
+    program = compile_scenario(scenario, "extension", backend="mujoco")
+    outcome = run_program(program)
+    failed = [v for v in evaluate(scenario.expect, outcome, program.collapse_threshold) if not v.passed]
+    assert failed == []
+
+
+def test_heavy_hit_really_differs_on_mujoco():
+    """The known disagreement above is real: the MuJoCo extension moves level 7."""
+    scenario = load_scenario(ROOT / "scenarios" / "hard" / "heavy_hit.yaml")
+    program = compile_scenario(scenario, "extension", backend="mujoco")
+    outcome = run_program(program)
+    assert not all(v.passed for v in evaluate(scenario.expect, outcome, program.collapse_threshold))
+
+
+def test_the_stability_package_knows_no_engine():
+    """stability/ imports neither engine nor stackdsl, and names no backend: it sees an
+    engine only through its Engine protocol."""
+    for file in (ROOT / "stability").glob("*.py"):
+        tree = ast.parse(file.read_text())
+        imported = {a.name.split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
+        imported |= {
+            n.module.split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.module and n.level == 0
+        }
+        assert imported <= {
+            "__future__",
+            "collections",
+            "dataclasses",
+            "enum",
+            "graphlib",
+            "functools",
+            "itertools",
+            "math",
+            "typing",
+            "numpy",
+            "scipy",
+            "shapely",
+        }, file.name
+        assert "mujoco" not in file.read_text().lower(), file.name
+
+
+def test_a_mujoco_setting_on_pybullet_is_bad_input(tmp_path):
+    path = tmp_path / "s.yaml"
+    path.write_text("stackdsl: 1\nstructure: {tower: {levels: 2}}\nengine:\n  sleep_tolerance: 0.0001\n")
+    result = subprocess.run([sys.executable, "-m", "stackdsl", "check", str(path)], capture_output=True, text=True)
+    assert result.returncode == 2
+    assert "s.yaml:4:3:" in result.stderr and "sleep_tolerance is a mujoco setting" in result.stderr
+
+
+def test_an_unknown_backend_is_bad_input(tmp_path):
+    result = subprocess.run(
+        [sys.executable, "-m", "stackdsl", "check", str(ROOT / "scenarios" / "vee_stands.yaml"), "--backend", "bullet"],
+        capture_output=True,
+        text=True,
+    )
+    assert result.returncode == 2 and "unknown backend 'bullet'" in result.stderr

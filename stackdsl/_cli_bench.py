@@ -1,4 +1,4 @@
-"""``stackdsl bench``: speed against error, and its sub-benchmarks solve, height, hard, record, sweep and verdicts.
+"""``stackdsl bench``: speed against error, and its sub-benchmarks solve, height, hard, record, sweep, verdicts and freeze.
 
 Source: stackdsl's own.
 """
@@ -46,7 +46,9 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     p.add_argument("--quick", action="store_true", help="one small cell per setting (a smoke test)")
     p.add_argument("-j", "--jobs", type=jobs_type, default=str(min(2, os.cpu_count() or 1)), help="worker processes")
     p.set_defaults(func=_bench)
-    bench = p.add_subparsers(metavar="[solve | height | hard | record | sweep | verdicts]", title="other benchmarks (optional)")
+    bench = p.add_subparsers(
+        metavar="[solve | height | hard | record | sweep | verdicts | freeze]", title="other benchmarks (optional)"
+    )
     q = bench.add_parser("solve", help="equilibrium solve time for towers of 10 to 100 bricks")
     q.add_argument("--sizes", default="10,25,50,100", help="bricks per tower, comma-separated")
     q.add_argument("--repeats", type=int, default=5)
@@ -99,6 +101,9 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     q.add_argument("-j", "--jobs", type=jobs_type, default="auto", help="worker processes (default: one per core)")
     q.add_argument("--out", help="folder for the misjudged assemblies' files (default: a new temporary folder)")
     q.set_defaults(func=_bench_verdicts)
+    q = bench.add_parser("freeze", help="the ways to freeze a brick on MuJoCo: weld, its own sleeping, a held mocap body")
+    q.add_argument("--levels", default="10,30,60", help="tower heights, comma-separated")
+    q.set_defaults(func=_bench_freeze)
 
 
 def _bench(args: argparse.Namespace) -> int:
@@ -228,6 +233,24 @@ def _bench_sweep(args: argparse.Namespace) -> int:
 
     _, same = throughputs(t, each)
     print(footer(same))
+    return OK
+
+
+def _bench_freeze(args: argparse.Namespace) -> int:
+    from ._bench_freeze import MEANS, format_freeze, freeze_cost
+
+    try:
+        levels = [int(v) for v in args.levels.split(",")]
+    except ValueError:
+        raise ScenarioError("give whole numbers of levels, comma-separated", file="--levels") from None
+    if not levels or min(levels) < 2 or max(levels) > 200:
+        raise ScenarioError("levels are from 2 to 200", file="--levels")
+    costs = []
+    for n in levels:
+        for means in MEANS:
+            costs.append(freeze_cost(n, means))
+            print(f"{n} levels, {means}: {costs[-1].us_per_step:.1f} us a step", flush=True)
+    print(format_freeze(costs))
     return OK
 
 

@@ -130,6 +130,9 @@ class MuJoCoWorld:
             option.sleep_tolerance = engine.sleep_tolerance
         self._spec = spec
         ground = spec.worldbody.add_geom(name="ground", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0.0, 0.0, 1.0])
+        # MuJoCo compensates gravity only in a model compiled with a body that asks for it; this
+        # static body (no joint, no geom) does, so that a waiting body's switch works at run time
+        spec.worldbody.add_body(name="gravcomp", gravcomp=1.0)
         self._ground_material = (ground_friction, ground_restitution)
         self._surface(ground, ground_friction, ground_restitution)
 

@@ -50,7 +50,10 @@ class RunOptions:
         jump: in extension mode, jump to the next action while every brick is frozen
             (nothing can move) instead of stepping.
         lazy_bodies: bodies enter the engine when they are placed; False creates every
-            brick at the start, parked far away and immovable.
+            brick at the start, parked far away and immovable; None (the default): the
+            cheaper on the program's backend, measured (docs/results.md, MuJoCo): when placed
+            on pybullet, at the start on MuJoCo (which compiles its model again for a new
+            body, and whose own sleeping that wakes).
         needed_rules: run only the stability rules the compiler chose for the scene;
             False runs leaning and impacts always.
         per_event: run the stack-wide test when the stack changes; False every step.
@@ -60,7 +63,7 @@ class RunOptions:
     """
 
     jump: bool = True
-    lazy_bodies: bool = True
+    lazy_bodies: bool | None = None
     needed_rules: bool = True
     per_event: bool = True
     stop_at_collapse: bool = True
@@ -140,7 +143,7 @@ def run_in(
         [*own, stability, monitor, *subscribers],
         jump=options.jump,
         stop_at_collapse=options.stop_at_collapse,
-        lazy_bodies=options.lazy_bodies,
+        lazy_bodies=options.lazy_bodies if options.lazy_bodies is not None else program.engine.backend == "pybullet",
         timeout=timeout,
         started=started,
     )

@@ -112,7 +112,7 @@ def test_a_file_that_is_not_a_trajectory_and_mode_on_a_trajectory_are_bad_input(
     assert "not a stackdsl trajectory" in capsys.readouterr().err
     main(["run", str(files / "stands.yaml"), "--record", str(files / "t.npz")])
     assert main(["render", str(files / "t.npz"), "--mode", "raw", "-o", str(files / "x.png")]) == 2
-    assert "--mode and --model apply to a scenario" in capsys.readouterr().err
+    assert "--mode, --model and --backend apply to a scenario" in capsys.readouterr().err
 
 
 def test_animate_writes_a_gif_and_an_mp4(files):

@@ -184,3 +184,16 @@ def test_an_unknown_backend_is_bad_input(tmp_path):
         text=True,
     )
     assert result.returncode == 2 and "unknown backend 'bullet'" in result.stderr
+
+
+def test_the_freeze_means_chosen_holds_and_the_others_do_not():
+    """Why frozen bricks are held mocap bodies (stackdsl bench freeze): a brick landing on a
+    sleeping stack wakes it, and welded bricks move as free ones do; held ones stay put."""
+    from stackdsl._bench_freeze import freeze_cost
+
+    free, weld, sleep, held = (freeze_cost(6, m, seconds=0.3) for m in ("free", "weld", "sleep", "held"))
+    assert held.frozen_moved_mm == 0.0
+    assert weld.frozen_moved_mm > 0.5 * free.frozen_moved_mm > 0.0
+    assert sleep.frozen_moved_mm > 0.5 * free.frozen_moved_mm
+    with pytest.raises(ValueError, match="means is one of"):
+        freeze_cost(6, "glue")

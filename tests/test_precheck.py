@@ -273,7 +273,7 @@ def test_compile_prints_the_program_first_with_no_engine_chatter():
         text=True,
         check=True,
     )
-    assert done.stdout.startswith("program inverted V, 20 deg: mode extension")
+    assert done.stdout.startswith("program inverted V, 20 deg: pybullet, mode extension")
     assert "argv[0]" not in done.stdout + done.stderr
 
 

@@ -35,7 +35,7 @@ from dataclasses import dataclass, replace
 from ._collapse import CollapseMonitor
 from ._loop import CLOCK_EVERY, StepLoop, Subscriber
 from ._outcome import Outcome
-from ._program import Program
+from ._program import EngineSettings, Program
 from ._subscribers import Stability, Substeps
 from ._world import World, pybullet_world
 
@@ -51,9 +51,10 @@ class RunOptions:
             (nothing can move) instead of stepping.
         lazy_bodies: bodies enter the engine when they are placed; False creates every
             brick at the start, parked far away and immovable; None (the default): the
-            cheaper on the program's backend, measured (docs/results.md, MuJoCo): when placed
-            on pybullet, at the start on MuJoCo (which compiles its model again for a new
-            body, and whose own sleeping that wakes).
+            backend's best, measured (docs/results.md, MuJoCo): when placed on pybullet; at the
+            start on MuJoCo (it compiles its model again for each new body), but when placed
+            with MuJoCo's own sleeping on (a parked body moved onto a sleeping stack does not
+            wake it: the slant tower stood).
         needed_rules: run only the stability rules the compiler chose for the scene;
             False runs leaning and impacts always.
         per_event: run the stack-wide test when the stack changes; False every step.
@@ -143,12 +144,16 @@ def run_in(
         [*own, stability, monitor, *subscribers],
         jump=options.jump,
         stop_at_collapse=options.stop_at_collapse,
-        lazy_bodies=options.lazy_bodies if options.lazy_bodies is not None else program.engine.backend == "pybullet",
+        lazy_bodies=options.lazy_bodies if options.lazy_bodies is not None else _lazy(program.engine),
         timeout=timeout,
         started=started,
     )
     loop.run()
     return loop
+
+
+def _lazy(engine: EngineSettings) -> bool:
+    return engine.backend == "pybullet" or engine.sleep_tolerance is not None
 
 
 def outcome(loop: StepLoop, wall_time: float) -> Outcome:

@@ -197,3 +197,13 @@ def test_the_freeze_means_chosen_holds_and_the_others_do_not():
     assert sleep.frozen_moved_mm > 0.5 * free.frozen_moved_mm
     with pytest.raises(ValueError, match="means is one of"):
         freeze_cost(6, "glue")
+
+
+def test_mujocos_own_sleeping_still_drops_the_slant_tower_at_its_closed_form():
+    """With MuJoCo's sleeping on, bricks enter as they are placed: a parked brick moved onto
+    a sleeping stack did not wake it, and the slant tower stood."""
+    scenario = load_scenario(ROOT / "scenarios" / "slant_tower.yaml")
+    program = compile_scenario(scenario, "tuned", backend="mujoco")
+    program = program.model_copy(update={"engine": program.engine.model_copy(update={"sleep_tolerance": 1e-4})})
+    outcome = run_program(program)
+    assert outcome.collapse is not None and outcome.collapse.level == 9

@@ -1,6 +1,6 @@
 """``stackdsl bench freeze``: the ways to freeze a brick on MuJoCo, measured side by side.
 
-A 4 stack of N levels is assembled at its poses, tuned MuJoCo settings; every brick but the
+A 4 stack of N levels is assembled at its poses, MuJoCo's tuned settings (the compiler's); every brick but the
 top one is frozen by one means, the top one is placed 0.5 mm above its pose, and one second
 is simulated. Each means is timed per step, with how far its frozen bricks moved and, for
 MuJoCo's sleeping, how many bricks were awake at the end:
@@ -21,9 +21,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._compiler import BACKEND_DEFAULTS
+from ._program import EngineSettings
+
 MEANS = ("free", "weld", "sleep", "held")
 _HALF = (0.06, 0.012, 0.004)
-_SOLREF, _SOLIMP = [0.004, 2.0], [0.99, 0.999, 1e-4, 0.5, 2.0]
+_TUNED = EngineSettings.model_validate({"mode": "tuned", "backend": "mujoco", **BACKEND_DEFAULTS["mujoco"]["tuned"]})
+_SOLREF, _SOLIMP = list(_TUNED.solref), [*_TUNED.solimp, 0.5, 2.0]
 
 
 @dataclass(frozen=True)
@@ -53,8 +57,9 @@ def _model(levels: int, means: str) -> tuple[object, object]:
 
     spec = mujoco.MjSpec()
     option = spec.option
-    option.timestep, option.iterations, option.impratio = 0.002, 100, 10.0
-    option.cone, option.integrator = mujoco.mjtCone.mjCONE_ELLIPTIC, mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    option.timestep, option.iterations, option.impratio = _TUNED.timestep, _TUNED.solver_iterations, _TUNED.impratio
+    option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC if _TUNED.elliptic_cones else mujoco.mjtCone.mjCONE_PYRAMIDAL
+    option.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{_TUNED.integrator.upper()}")
     if means == "sleep":
         option.enableflags |= mujoco.mjtEnableBit.mjENBL_SLEEP
         option.sleep_tolerance = 1e-4

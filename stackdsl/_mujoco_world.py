@@ -32,9 +32,7 @@ Source: stackdsl's own, on MuJoCo 4.0's Python bindings.
 from __future__ import annotations
 
 import math
-from collections.abc import Collection, Iterator, Sequence
-from contextlib import contextmanager
-from dataclasses import dataclass
+from collections.abc import Collection, Sequence
 from typing import Any
 
 import numpy as np
@@ -68,24 +66,6 @@ def damping_ratio(restitution: float, default: float) -> float:
     return -log_e / math.sqrt(math.pi**2 + log_e**2)
 
 
-@dataclass
-class _Brick:
-    """One brick's two bodies and their geoms (ids in the compiled model), and its state."""
-
-    spec: BrickSpec
-    free: Any  # mjsBody
-    held: Any  # mjsBody
-    slot: int
-    frozen: bool
-    mass: float
-    joint: str
-    free_geom: int = -1
-    held_geom: int = -1
-    mocap: int = -1
-    qpos: int = -1
-    dof: int = -1
-
-
 class MuJoCoWorld:
     """:class:`stackdsl._world.World` on MuJoCo (see the module's docstring).
 
@@ -94,10 +74,12 @@ class MuJoCoWorld:
         ground_friction, ground_restitution: of the ground's material.
 
     Body ids are stackdsl's: 0 is the ground, bricks are numbered from 1 as they are
-    created; a brick keeps its id whether frozen (its held body) or not.
+    created; a brick keeps its id whether frozen (its held body) or not. Whether each brick
+    is frozen is kept in one array, as are its bodies' addresses in the compiled model
+    (found again at each compile), so that many bricks are read at once.
 
     >>> from stackdsl._program import BrickSpec, EngineSettings
-    >>> world = MuJoCoWorld(EngineSettings(mode="raw", backend="mujoco", timestep=0.002, solver_iterations=100, friction_anchors=False, maximal_coordinates=False), 0.5, 0.0)
+    >>> world = MuJoCoWorld(EngineSettings(mode="raw", backend="mujoco", timestep=0.002, solver_iterations=100), 0.5, 0.0)
     >>> b = world.create(BrickSpec(type="kapla", half_extents=(0.06, 0.012, 0.004), mass=0.0106, friction=0.5, restitution=0.0), Pose.from_euler([0, 0, 0.0045]))
     >>> for _ in range(200): world.step()
     >>> round(float(world.pose(b).position[2]), 4)
@@ -110,13 +92,15 @@ class MuJoCoWorld:
         self._mj, self._engine = mujoco, engine
         self.ground = 0
         self._substeps = 1
-        self._bricks: list[_Brick] = []
+        self._specs: list[BrickSpec] = []
         self._materials: dict[tuple[float, float], int] = {}  # (friction, restitution) -> group
         self._model: Any = None
         self._data: Any = None
-        self._geom_body: np.ndarray = np.zeros(0, dtype=int)
-        self._qpos = self._dof = self._mocap = np.zeros(0, dtype=int)
         self._frozen = np.zeros(0, dtype=bool)
+        # addresses in the compiled model, per brick: qpos and dof of its free joint, its mocap
+        # index, its free and held geoms; geom -> stackdsl body id
+        self._qpos = self._dof = self._mocap = self._free_geom = self._held_geom = np.zeros(0, dtype=int)
+        self._geom_body = np.zeros(0, dtype=int)
         spec = mujoco.MjSpec()
         option = spec.option
         option.timestep = engine.timestep
@@ -154,18 +138,19 @@ class MuJoCoWorld:
         geom.solref = [e.solref[0], damping_ratio(restitution, e.solref[1])]
         geom.solimp = [*e.solimp, 0.5, 2.0]
 
-    def _pairs(self, new: _Brick) -> None:
-        """Explicit contact pairs between ``new``'s geoms and every geom of another material."""
-        mine = (new.spec.friction, new.spec.restitution)
-        others: list[tuple[str, tuple[float, float]]] = [("ground", self._ground_material)]
-        others += [(f"{s}{i}", (b.spec.friction, b.spec.restitution)) for i, b in enumerate(self._bricks, 1) for s in "fh"]
-        i = len(self._bricks) + 1
+    def _pairs(self, body: int, spec: BrickSpec) -> None:
+        """Explicit contact pairs between ``body``'s geoms and every geom of another material."""
+        mine = (spec.friction, spec.restitution)
+        if set(self._materials) == {mine}:
+            return  # one material in the scene so far: MuJoCo's own rule gives its coefficient
+        others = [("ground", self._ground_material)]
+        others += [(f"{s}{i}", (b.friction, b.restitution)) for i, b in enumerate(self._specs, 1) if i != body for s in "fh"]
         for name, material in others:
-            if material == mine or name in (f"f{i}", f"h{i}"):
+            if material == mine:
                 continue
             mu = math.sqrt(mine[0] * material[0])
             e = math.sqrt(mine[1] * material[1])
-            for own in (f"f{i}", f"h{i}"):
+            for own in (f"f{body}", f"h{body}"):
                 pair = self._spec.add_pair(geomname1=own, geomname2=name)
                 pair.friction = [mu, mu, 0.005, 0.0001, 0.0001]
                 pair.solref = [self._engine.solref[0], damping_ratio(e, self._engine.solref[1])]
@@ -174,23 +159,20 @@ class MuJoCoWorld:
     def create(self, spec: BrickSpec, pose: Pose, mass: float | None = None, maximal: bool | None = None) -> int:
         """A new brick at ``pose``; ``mass`` 0 creates it frozen. ``maximal`` is pybullet's and ignored."""
         mj = self._mj
-        body = len(self._bricks) + 1
+        body = len(self._specs) + 1
         frozen = mass is not None and mass <= 0.0
-        free_at = self._away(body) if frozen else pose.position
+        free_at, held_at = (self._away(body), pose.position) if frozen else (pose.position, self._away(body))
         free = self._spec.worldbody.add_body(name=f"free{body}", pos=list(free_at), quat=_wxyz(pose.orientation))
-        joint = free.add_freejoint(name=f"joint{body}")
-        held_at = pose.position if frozen else self._away(body)
+        free.add_freejoint(name=f"joint{body}")
         held = self._spec.worldbody.add_body(name=f"held{body}", pos=list(held_at), quat=_wxyz(pose.orientation), mocap=True)
         for name, owner in ((f"f{body}", free), (f"h{body}", held)):
             geom = owner.add_geom(name=name, type=mj.mjtGeom.mjGEOM_BOX, size=list(spec.half_extents), mass=spec.mass)
             self._surface(geom, spec.friction, spec.restitution)
-        del joint
-        brick = _Brick(spec, free, held, body, frozen, spec.mass if mass is None or frozen else mass, f"joint{body}")
-        self._pairs(brick)
-        self._bricks.append(brick)
+        self._specs.append(spec)
+        self._frozen = np.append(self._frozen, frozen)
+        self._pairs(body, spec)
         if self._model is not None:
             self._compile()
-        self._apply(brick)
         return body
 
     def _away(self, body: int) -> np.ndarray:
@@ -204,21 +186,19 @@ class MuJoCoWorld:
         else:
             self._model, self._data = self._spec.recompile(self._model, self._data)
         m = self._model
-        geom_body = np.zeros(m.ngeom, dtype=int)
-        for brick in self._bricks:
-            brick.free_geom = mj.mj_name2id(m, mj.mjtObj.mjOBJ_GEOM, f"f{brick.slot}")
-            brick.held_geom = mj.mj_name2id(m, mj.mjtObj.mjOBJ_GEOM, f"h{brick.slot}")
-            brick.mocap = int(m.body_mocapid[mj.mj_name2id(m, mj.mjtObj.mjOBJ_BODY, f"held{brick.slot}")])
-            jnt = mj.mj_name2id(m, mj.mjtObj.mjOBJ_JOINT, brick.joint)
-            brick.qpos, brick.dof = int(m.jnt_qposadr[jnt]), int(m.jnt_dofadr[jnt])
-            geom_body[[brick.free_geom, brick.held_geom]] = brick.slot
-        self._geom_body = geom_body
-        self._qpos = np.array([b.qpos for b in self._bricks], dtype=int)
-        self._dof = np.array([b.dof for b in self._bricks], dtype=int)
-        self._mocap = np.array([b.mocap for b in self._bricks], dtype=int)
-        self._frozen = np.array([b.frozen for b in self._bricks], dtype=bool)
-        for brick in self._bricks:
-            self._apply(brick)
+        m.opt.timestep = self._engine.timestep / self._substeps  # a recompile takes the spec's
+
+        def ids(kind: Any, prefix: str) -> np.ndarray:
+            return np.array([mj.mj_name2id(m, kind, f"{prefix}{i}") for i in range(1, len(self._specs) + 1)], dtype=int)
+
+        joints = ids(mj.mjtObj.mjOBJ_JOINT, "joint")
+        self._qpos, self._dof = m.jnt_qposadr[joints].astype(int), m.jnt_dofadr[joints].astype(int)
+        self._mocap = m.body_mocapid[ids(mj.mjtObj.mjOBJ_BODY, "held")].astype(int)
+        self._free_geom, self._held_geom = ids(mj.mjtObj.mjOBJ_GEOM, "f"), ids(mj.mjtObj.mjOBJ_GEOM, "h")
+        self._geom_body = np.zeros(m.ngeom, dtype=int)
+        self._geom_body[self._free_geom] = self._geom_body[self._held_geom] = np.arange(1, len(self._specs) + 1)
+        for body in range(1, len(self._specs) + 1):
+            self._apply(body)
         mj.mj_forward(m, self._data)
 
     def _ready(self) -> tuple[Any, Any]:
@@ -226,42 +206,41 @@ class MuJoCoWorld:
             self._compile()
         return self._model, self._data
 
-    def _apply(self, brick: _Brick) -> None:
-        """Collisions and gravity compensation of ``brick``'s two bodies for its state."""
-        if self._model is None:
-            return
-        m = self._model
-        bit = 1 << self._group(brick.spec.friction, brick.spec.restitution)
-        on, off = (brick.held_geom, brick.free_geom) if brick.frozen else (brick.free_geom, brick.held_geom)
+    def _apply(self, body: int) -> None:
+        """Collisions and gravity compensation of ``body``'s two bodies for its state."""
+        m, i = self._model, body - 1
+        spec = self._specs[i]
+        bit = 1 << self._group(spec.friction, spec.restitution)
+        free, held = self._free_geom[i], self._held_geom[i]
+        on, off = (held, free) if self._frozen[i] else (free, held)
         m.geom_contype[on] = m.geom_conaffinity[on] = bit
         m.geom_contype[off] = m.geom_conaffinity[off] = 0
-        m.body_gravcomp[m.geom_bodyid[brick.free_geom]] = 1.0 if brick.frozen else 0.0
+        m.body_gravcomp[m.geom_bodyid[free]] = 1.0 if self._frozen[i] else 0.0
 
     # stability.Engine ----------------------------------------------------------
     @property
     def timestep(self) -> float:
         return self._engine.timestep
 
-    def _brick(self, body: int) -> _Brick:
-        return self._bricks[body - 1]
-
     def pose(self, body: int) -> Pose:
         _, d = self._ready()
-        brick = self._brick(body)
-        if brick.frozen:
-            position, (w, x, y, z) = d.mocap_pos[brick.mocap].copy(), d.mocap_quat[brick.mocap]
+        i = body - 1
+        if self._frozen[i]:
+            position, (w, x, y, z) = d.mocap_pos[self._mocap[i]].copy(), d.mocap_quat[self._mocap[i]]
         else:
-            position, (w, x, y, z) = d.qpos[brick.qpos : brick.qpos + 3].copy(), d.qpos[brick.qpos + 3 : brick.qpos + 7]
+            q = self._qpos[i]
+            position, (w, x, y, z) = d.qpos[q : q + 3].copy(), d.qpos[q + 3 : q + 7]
         return Pose(position, np.array([x, y, z, w]) / math.sqrt(w * w + x * x + y * y + z * z))
 
     def velocity(self, body: int) -> tuple[np.ndarray, np.ndarray]:
         _, d = self._ready()
-        brick = self._brick(body)
-        if brick.frozen:
+        i = body - 1
+        if self._frozen[i]:
             return np.zeros(3), np.zeros(3)
+        v, q = self._dof[i], self._qpos[i]
         angular = np.zeros(3)  # a free joint's angular velocity is in the body frame
-        self._mj.mju_rotVecQuat(angular, d.qvel[brick.dof + 3 : brick.dof + 6], d.qpos[brick.qpos + 3 : brick.qpos + 7])
-        return d.qvel[brick.dof : brick.dof + 3].copy(), angular
+        self._mj.mju_rotVecQuat(angular, d.qvel[v + 3 : v + 6], d.qpos[q + 3 : q + 7])
+        return d.qvel[v : v + 3].copy(), angular
 
     def contact_points(self, bodies: Collection[int] | None = None) -> list[ContactPoint]:
         m, d = self._ready()
@@ -287,16 +266,14 @@ class MuJoCoWorld:
     def near(self, body: int, distance: float) -> list[ContactPoint]:
         m, d = self._ready()
         mj = self._mj
-        brick = self._brick(body)
-        own = brick.held_geom if brick.frozen else brick.free_geom
+        i = body - 1
+        own = self._held_geom[i] if self._frozen[i] else self._free_geom[i]
         reach = float(m.geom_rbound[own]) + distance
         fromto = np.zeros(6)
         out = []
         for geom in range(m.ngeom):
-            if geom == own or m.geom_contype[geom] == 0:
-                continue
             other = int(self._geom_body[geom])
-            if other == body:
+            if other == body or m.geom_contype[geom] == 0:
                 continue
             if m.geom_type[geom] != mj.mjtGeom.mjGEOM_PLANE:
                 if np.linalg.norm(d.geom_xpos[geom] - d.geom_xpos[own]) > reach + m.geom_rbound[geom]:
@@ -304,38 +281,40 @@ class MuJoCoWorld:
             gap = mj.mj_geomDistance(m, d, own, geom, distance, fromto)
             if gap < distance:
                 mine, theirs = fromto[:3], fromto[3:]
-                n = mine - theirs
-                n = n / np.linalg.norm(n) if np.linalg.norm(n) > 1e-12 else np.array([0.0, 0.0, 1.0])
+                n = (mine - theirs) * (1.0 if gap >= 0 else -1.0)  # from the other body into this one
+                length = float(np.linalg.norm(n))
+                n = n / length if length > 1e-12 else np.array([0.0, 0.0, 1.0])
                 out.append(ContactPoint(body, other, theirs.copy(), n, 0.0, float(gap)))
         return out
 
     def set_frozen(self, body: int, frozen: bool, mass: float) -> None:
-        if frozen != self._brick(body).frozen:
+        if frozen != self._frozen[body - 1]:
             self._put(body, self.pose(body), frozen)
 
     def _put(self, body: int, pose: Pose, frozen: bool) -> None:
         """``body`` at ``pose``, at rest, frozen (its held body there) or not (its free body)."""
         _, d = self._ready()
-        brick = self._brick(body)
+        i = body - 1
+        q, mocap = self._qpos[i], self._mocap[i]
         if frozen:
-            d.mocap_pos[brick.mocap] = pose.position
-            d.mocap_quat[brick.mocap] = _wxyz(pose.orientation)
-            d.qpos[brick.qpos : brick.qpos + 3] = self._away(body)
+            d.mocap_pos[mocap] = pose.position
+            d.mocap_quat[mocap] = _wxyz(pose.orientation)
+            d.qpos[q : q + 3] = self._away(body)
         else:
-            d.qpos[brick.qpos : brick.qpos + 3] = pose.position
-            d.qpos[brick.qpos + 3 : brick.qpos + 7] = _wxyz(pose.orientation)
-            d.mocap_pos[brick.mocap] = self._away(body)
-        d.qvel[brick.dof : brick.dof + 6] = 0.0
-        brick.frozen = self._frozen[body - 1] = frozen
-        self._apply(brick)
-        self._wake(brick)
+            d.qpos[q : q + 3] = pose.position
+            d.qpos[q + 3 : q + 7] = _wxyz(pose.orientation)
+            d.mocap_pos[mocap] = self._away(body)
+        d.qvel[self._dof[i] : self._dof[i] + 6] = 0.0
+        self._frozen[i] = frozen
+        self._apply(body)
+        self._wake(body)
 
-    def _wake(self, brick: _Brick) -> None:
+    def _wake(self, body: int) -> None:
         """With MuJoCo's sleeping on, a body changed by hand must be awake."""
         if self._engine.sleep_tolerance is None:
             return
         m, d = self._model, self._data
-        tree = int(m.body_treeid[m.geom_bodyid[brick.free_geom]])
+        tree = int(m.body_treeid[m.geom_bodyid[self._free_geom[body - 1]]])
         if tree >= 0 and d.tree_asleep[tree] >= 0:
             d.tree_asleep[tree] = -(1 + 10)  # mjMINAWAKE: awake for at least 10 steps
             self._mj.mj_forward(m, d)
@@ -348,9 +327,9 @@ class MuJoCoWorld:
         """Give ``body`` a linear velocity; MuJoCo has no continuous collision detection, so
         ``swept_radius`` is ignored (the substep control splits fast steps instead)."""
         _, d = self._ready()
-        brick = self._brick(body)
-        d.qvel[brick.dof : brick.dof + 3] = velocity
-        self._wake(brick)
+        v = self._dof[body - 1]
+        d.qvel[v : v + 3] = velocity
+        self._wake(body)
 
     def step(self) -> None:
         m, d = self._ready()
@@ -388,9 +367,3 @@ def _wxyz(quaternion: Sequence[float] | np.ndarray) -> list[float]:
     """(x, y, z, w), stackdsl's and scipy's order, as (w, x, y, z), MuJoCo's."""
     x, y, z, w = (float(v) for v in quaternion)
     return [w, x, y, z]
-
-
-@contextmanager
-def mujoco_world(engine: EngineSettings, ground_friction: float, ground_restitution: float) -> Iterator[MuJoCoWorld]:
-    """A :class:`MuJoCoWorld` for one run."""
-    yield MuJoCoWorld(engine, ground_friction, ground_restitution)

@@ -109,10 +109,9 @@ def world_for(program: Program) -> Iterator[World]:
     """
     engine, friction, restitution = program.engine, program.ground_friction, program.ground_restitution
     if engine.backend == "mujoco":
-        from ._mujoco_world import mujoco_world
+        from ._mujoco_world import MuJoCoWorld
 
-        with mujoco_world(engine, friction, restitution) as mujoco:
-            yield mujoco
+        yield MuJoCoWorld(engine, friction, restitution)
     else:
         with pybullet_world(engine, friction, restitution) as pybullet:
             yield pybullet

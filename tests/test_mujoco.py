@@ -207,3 +207,21 @@ def test_mujocos_own_sleeping_still_drops_the_slant_tower_at_its_closed_form():
     program = program.model_copy(update={"engine": program.engine.model_copy(update={"sleep_tolerance": 1e-4})})
     outcome = run_program(program)
     assert outcome.collapse is not None and outcome.collapse.level == 9
+
+
+def test_substeps_survive_a_brick_entering():
+    """A recompiled model takes the spec's timestep; the split step must stay split."""
+    world = _world()
+    world.create(_brick(), Pose.from_euler([0.0, 0.0, 0.004]))
+    world.set_substeps(4)
+    world.create(_brick(), Pose.from_euler([0.3, 0.0, 0.004]))  # the model is compiled again
+    assert world._model.opt.timestep == pytest.approx(world.timestep / 4)
+
+
+def test_near_points_from_the_other_body_into_this_one():
+    world = _world()
+    low = world.create(_brick(), Pose.from_euler([0.0, 0.0, 0.004]), mass=0.0)
+    high = world.create(_brick(), Pose.from_euler([0.0, 0.0, 0.013]), mass=0.0)  # 1 mm above it
+    (hit,) = [c for c in world.near(high, 0.002) if c.other == low]
+    assert hit.distance == pytest.approx(0.001, abs=1e-6)
+    assert np.allclose(hit.normal, [0.0, 0.0, 1.0])

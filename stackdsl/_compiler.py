@@ -70,7 +70,7 @@ BACKEND_DEFAULTS: dict[str, dict[str, dict[str, object]]] = {
             solref=(0.004, 2.0),
             solimp=(0.99, 0.999, 1e-4),
         ),
-        "extension": dict(timestep=0.002, solver_iterations=100, ccd=True),
+        "extension": dict(timestep=0.002, solver_iterations=100, ccd=True, solref=(0.004, 2.0), solimp=(0.99, 0.999, 1e-4)),
     },
 }
 MODE_DEFAULTS = BACKEND_DEFAULTS["pybullet"]

@@ -36,7 +36,6 @@ from collections.abc import Collection, Sequence
 from typing import Any
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from stability import ContactPoint, Pose
 
@@ -244,23 +243,25 @@ class MuJoCoWorld:
 
     def contact_points(self, bodies: Collection[int] | None = None) -> list[ContactPoint]:
         m, d = self._ready()
-        mj = self._mj
-        wanted = None if bodies is None else set(bodies)
+        if d.ncon == 0:
+            return []
+        contact = d.contact  # MuJoCo's contacts as arrays, one row each
+        pair = self._geom_body[contact.geom]  # (ncon, 2) bodies
+        keep = contact.exclude == 0
+        if bodies is not None:
+            wanted = np.zeros(len(self._frozen) + 1, dtype=bool)
+            wanted[np.asarray(list(bodies), dtype=int)] = True
+            keep &= wanted[pair].any(axis=1)
         force = np.zeros(6)
+        normals, at, dist = contact.frame[:, :3], contact.pos, contact.dist  # frame: from geom1 into geom2
         points = []
-        for i in range(d.ncon):
-            c = d.contact[i]
-            a, b = int(self._geom_body[c.geom1]), int(self._geom_body[c.geom2])
-            if c.exclude != 0 or (wanted is not None and a not in wanted and b not in wanted):
-                continue
-            mj.mj_contactForce(m, d, i, force)
-            normal = np.array(c.frame[:3])  # from geom1 into geom2
-            at = np.array(c.pos)
-            dist = float(c.dist)
-            if wanted is None or a in wanted:
-                points.append(ContactPoint(a, b, at - normal * dist / 2, -normal, float(force[0]), dist))
-            if wanted is None or b in wanted:
-                points.append(ContactPoint(b, a, at + normal * dist / 2, normal, float(force[0]), dist))
+        for i in np.flatnonzero(keep):
+            self._mj.mj_contactForce(m, d, i, force)
+            a, b, gap, n = int(pair[i, 0]), int(pair[i, 1]), float(dist[i]), normals[i]
+            if bodies is None or wanted[a]:
+                points.append(ContactPoint(a, b, at[i] - n * gap / 2, -n, float(force[0]), gap))
+            if bodies is None or wanted[b]:
+                points.append(ContactPoint(b, a, at[i] + n * gap / 2, n.copy(), float(force[0]), gap))
         return points
 
     def near(self, body: int, distance: float) -> list[ContactPoint]:
@@ -343,24 +344,28 @@ class MuJoCoWorld:
 
     def poses_of(self, bodies: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
         _, d = self._ready()
-        index = np.asarray(bodies, dtype=int) - 1
-        frozen = self._frozen[index]
-        qpos = self._qpos[index]
-        positions = np.where(frozen[:, None], d.mocap_pos[self._mocap[index]], d.qpos[qpos[:, None] + np.arange(3)])
-        wxyz = np.where(frozen[:, None], d.mocap_quat[self._mocap[index]], d.qpos[qpos[:, None] + np.arange(3, 7)])
+        positions, wxyz = np.empty((len(bodies), 3)), np.empty((len(bodies), 4))
+        for row, body in enumerate(bodies):  # a loop: mostly one or two bodies, and numpy's fancy indexing costs more
+            i = body - 1
+            if self._frozen[i]:
+                positions[row], wxyz[row] = d.mocap_pos[self._mocap[i]], d.mocap_quat[self._mocap[i]]
+            else:
+                q = self._qpos[i]
+                positions[row], wxyz[row] = d.qpos[q : q + 3], d.qpos[q + 3 : q + 7]
         quaternions = wxyz[:, [1, 2, 3, 0]]
-        return positions.reshape(-1, 3), (quaternions / np.linalg.norm(quaternions, axis=1)[:, None]).reshape(-1, 4)
+        return positions, quaternions / np.linalg.norm(quaternions, axis=1)[:, None]
 
     def velocities_of(self, bodies: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
         _, d = self._ready()
-        index = np.asarray(bodies, dtype=int) - 1
-        moving = ~self._frozen[index]
-        dof, qpos = self._dof[index], self._qpos[index]
-        linear = d.qvel[dof[:, None] + np.arange(3)] * moving[:, None]
-        local = d.qvel[dof[:, None] + np.arange(3, 6)] * moving[:, None]  # a free joint's angular velocity is in the body frame
-        wxyz = d.qpos[qpos[:, None] + np.arange(3, 7)]
-        angular = Rotation.from_quat(wxyz[:, [1, 2, 3, 0]]).apply(local) if len(index) else local
-        return linear.reshape(-1, 3), np.asarray(angular).reshape(-1, 3)
+        linear, angular = np.zeros((len(bodies), 3)), np.zeros((len(bodies), 3))
+        for row, body in enumerate(bodies):
+            i = body - 1
+            if not self._frozen[i]:
+                v, q = self._dof[i], self._qpos[i]
+                linear[row] = d.qvel[v : v + 3]
+                # a free joint's angular velocity is in the body frame
+                self._mj.mju_rotVecQuat(angular[row], d.qvel[v + 3 : v + 6], d.qpos[q + 3 : q + 7])
+        return linear, angular
 
 
 def _wxyz(quaternion: Sequence[float] | np.ndarray) -> list[float]:

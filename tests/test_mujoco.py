@@ -118,29 +118,15 @@ def test_bricks_declared_up_front_or_as_they_come_give_the_same_answer():
 
 
 SCENARIOS = sorted((ROOT / "scenarios").rglob("*.yaml"))
-#: Where the MuJoCo extension's verdict differs from the shipped expectation: the
-#: expectation holds only with pybullet's extension; tuned pybullet and tuned MuJoCo also
-#: move a brick of level 7 (docs/results.md, MuJoCo).
-ENGINE_DISAGREES = {"heavy_hit": "tuned MuJoCo and tuned pybullet also move level 7"}
 
 
 @pytest.mark.parametrize("path", SCENARIOS, ids=[p.stem for p in SCENARIOS])
 def test_the_extension_on_mujoco_gives_the_librarys_verdicts(path):
-    if path.stem in ENGINE_DISAGREES:
-        pytest.xfail(ENGINE_DISAGREES[path.stem])
     scenario = load_scenario(path)
     program = compile_scenario(scenario, "extension", backend="mujoco")
     outcome = run_program(program)
     failed = [v for v in evaluate(scenario.expect, outcome, program.collapse_threshold) if not v.passed]
     assert failed == []
-
-
-def test_heavy_hit_really_differs_on_mujoco():
-    """The known disagreement above is real: the MuJoCo extension moves level 7."""
-    scenario = load_scenario(ROOT / "scenarios" / "hard" / "heavy_hit.yaml")
-    program = compile_scenario(scenario, "extension", backend="mujoco")
-    outcome = run_program(program)
-    assert not all(v.passed for v in evaluate(scenario.expect, outcome, program.collapse_threshold))
 
 
 def test_the_stability_package_knows_no_engine():

@@ -1,21 +1,19 @@
 """Benchmarks: measurements that take too long for the tests, each a command with its output.
 
-``stackdsl bench`` runs the speed-against-error matrix: every engine setting on the same
-scenes, in one run, with each setting's wall time as a ratio to the extension's on the same
-scene (:func:`ratios`). The stability models' own costs are in :mod:`stackdsl._bench_cost`.
+``stackdsl bench`` runs the speed-against-error matrix: every engine setting (:data:`SETTINGS`,
+pybullet's and MuJoCo's) on the same scenes, in one run. What it writes, with each setting's
+wall time as a ratio to the extension's on the same scene, is :mod:`stackdsl._bench_out`'s.
+The stability models' own costs are in :mod:`stackdsl._bench_cost`.
 
 Source: stackdsl's own.
 """
 
 from __future__ import annotations
 
-import csv
 import resource
 import statistics
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass
-from pathlib import Path
-from typing import Any
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -26,14 +24,40 @@ from ._pool import SPAWN
 from ._program import Program
 from ._runtime import RunOptions, run_program
 
-#: Engine settings compared: (mode, stability model, engine overrides).
-SETTINGS: dict[str, tuple[str, str, dict[str, str | int]]] = {
-    "raw 240 Hz": ("raw", "report", {}),
-    "raw 1 kHz 150 it": ("raw", "report", {"timestep": "1 ms", "solver_iterations": 150}),
-    "tuned": ("tuned", "report", {}),
-    "extension report": ("extension", "report", {}),
-    "extension equilibrium": ("extension", "equilibrium", {}),
+
+@dataclass(frozen=True)
+class Setting:
+    """One row of the matrix: the scenario's ``mode`` and stability ``model``, engine fields
+    written into it (``backend`` among them), and whether bricks enter the world as they
+    are placed (``lazy_bodies``, see :class:`stackdsl._runtime.RunOptions`; None: the
+    runtime's rule)."""
+
+    mode: str
+    model: str = "report"
+    engine: tuple[tuple[str, str | int | float], ...] = ()
+    lazy_bodies: bool | None = None
+
+
+_MUJOCO = (("backend", "mujoco"),)
+_SLEEPING = (*_MUJOCO, ("sleep_tolerance", 1e-4))
+
+SETTINGS: dict[str, Setting] = {
+    "raw 240 Hz": Setting("raw"),
+    "raw 1 kHz 150 it": Setting("raw", engine=(("timestep", "1 ms"), ("solver_iterations", 150))),
+    "tuned": Setting("tuned"),
+    "extension report": Setting("extension"),
+    "extension equilibrium": Setting("extension", "equilibrium"),
+    "MuJoCo raw": Setting("raw", engine=_MUJOCO),
+    "MuJoCo tuned": Setting("tuned", engine=_MUJOCO),
+    "MuJoCo tuned sleeping": Setting("tuned", engine=_SLEEPING),
+    "MuJoCo tuned sleeping parked": Setting("tuned", engine=_SLEEPING, lazy_bodies=False),
+    "MuJoCo extension": Setting("extension", engine=_MUJOCO),
 }
+"""Engine settings compared, by name. pybullet's first; then MuJoCo's: its defaults, the
+tuned settings, those with MuJoCo's own sleeping (tolerance 1e-4) with bricks entering as
+they are placed (the runtime's rule with sleeping on) and with every brick declared up front
+and parked (faster, but a parked brick moved onto a sleeping stack can leave it standing:
+docs/results.md, MuJoCo), and the extension."""
 
 
 @dataclass(frozen=True)
@@ -100,10 +124,10 @@ WARM_UP = Scene("warm-up", 1, 1, "tower: {levels: 1}", None)
 
 def program_for(scene: Scene, setting: str) -> Program:
     """Compile ``scene`` under ``setting`` (see :data:`SETTINGS`)."""
-    mode, model, engine = SETTINGS[setting]
-    extra = "".join(f", {k}: {v}" for k, v in engine.items())
-    text = f"stackdsl: 1\nstructure: {{{scene.structure}}}\nengine: {{mode: {mode}{extra}}}\n"
-    return compile_scenario(parse_scenario(text, f"{scene.family}-{scene.parameter}.yaml"), model=model)
+    chosen = SETTINGS[setting]
+    extra = "".join(f", {k}: {v}" for k, v in chosen.engine)
+    text = f"stackdsl: 1\nstructure: {{{scene.structure}}}\nengine: {{mode: {chosen.mode}{extra}}}\n"
+    return compile_scenario(parse_scenario(text, f"{scene.family}-{scene.parameter}.yaml"), model=chosen.model)
 
 
 def measure(scene: Scene, setting: str, repeats: int, repeat_below: float, options: RunOptions) -> Cell:
@@ -113,6 +137,7 @@ def measure(scene: Scene, setting: str, repeats: int, repeat_below: float, optio
     A one-level tower in the same setting runs first, untimed: the worker is a fresh
     process, and its first run would also pay one-off costs (lazy imports, first calls into
     shapely and scipy, about 0.2 s) that belong to no scene."""
+    options = replace(options, lazy_bodies=SETTINGS[setting].lazy_bodies)
     run_program(program_for(WARM_UP, setting), options)
     program = program_for(scene, setting)
     outcomes = [run_program(program, options)]
@@ -178,7 +203,15 @@ def run_matrix(
 
 def _cost(scene: Scene, setting: str) -> float:
     """A guess of a cell's wall time, to start the longest first."""
-    steps_per_second = {"raw 240 Hz": 240, "raw 1 kHz 150 it": 3000, "tuned": 3000}.get(setting, 5)
+    steps_per_second = {
+        "raw 240 Hz": 240,
+        "raw 1 kHz 150 it": 3000,
+        "tuned": 3000,
+        "MuJoCo raw": 300,
+        "MuJoCo tuned": 1500,
+        "MuJoCo tuned sleeping": 1500,
+        "MuJoCo tuned sleeping parked": 500,
+    }.get(setting, 5)
     return scene.levels * 2 * steps_per_second * scene.levels
 
 
@@ -204,184 +237,3 @@ def fit_exponent(points: Sequence[tuple[float, float]]) -> float:
     """Slope of log(wall) against log(bricks): the exponent of a power law fit."""
     x, y = np.log([p[0] for p in points]), np.log([p[1] for p in points])
     return float(np.polyfit(x, y, 1)[0])
-
-
-def write_outputs(cells: list[Cell], saved: list[tuple[str, float, int]], folder: Path) -> dict[str, Any]:
-    """Write bench.csv, bench.md, wall_vs_error.png and wall_vs_height.png into ``folder``;
-    return the target checks."""
-    folder.mkdir(parents=True, exist_ok=True)
-    with open(folder / "bench.csv", "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(asdict(cells[0])))
-        writer.writeheader()
-        writer.writerows(asdict(c) for c in cells)
-    targets = check_targets(cells)
-    (folder / "bench.md").write_text(markdown(cells, saved, targets))
-    plot_error(cells, folder / "wall_vs_error.png")
-    plot_height(cells, folder / "wall_vs_height.png")
-    return targets
-
-
-def check_targets(cells: list[Cell]) -> dict[str, Any]:
-    """The benchmark's targets, as measured: slant errors, the 30-level speed ratio, exponents."""
-    by = {(c.setting, c.family, c.parameter): c for c in cells}
-    slant = [c for c in cells if c.family != "upright"]
-    out: dict[str, Any] = {
-        "slant errors": {s: [c.error for c in slant if c.setting == s] for s in SETTINGS if any(c.setting == s for c in slant)}
-    }
-    raw, ext = by.get(("raw 240 Hz", "upright", 30)), by.get(("extension report", "upright", 30))
-    if raw and ext:
-        out["30-level speed-up, raw 240 Hz / extension"] = raw.wall / ext.wall
-    out["exponents"] = {
-        s: fit_exponent([(c.bricks, c.wall) for c in cells if c.setting == s and c.family == "upright"])
-        for s in SETTINGS
-        if sum(c.setting == s and c.family == "upright" for c in cells) >= 2
-    }
-    return out
-
-
-def markdown(cells: list[Cell], saved: list[tuple[str, float, int]], targets: dict[str, Any]) -> str:
-    """The tables of ``bench.md``."""
-    settings = [s for s in SETTINGS if any(c.setting == s for c in cells)]
-    lines = ["| scene | closed form | " + " | ".join(settings) + " |", "|---|---|" + "---|" * len(settings)]
-    keys = sorted({(c.family, c.parameter) for c in cells}, key=lambda k: (k[0], k[1]))
-    by = {(c.setting, c.family, c.parameter): c for c in cells}
-    for family, parameter in keys:
-        first = next(c for c in cells if (c.family, c.parameter) == (family, parameter))
-        label = f"{family}, {parameter:g} {'levels' if family == 'upright' else 'mm'}"
-        expected = "stands" if first.closed_form is None else str(first.closed_form)
-        row = []
-        for s in settings:
-            c = by.get((s, family, parameter))
-            row.append(
-                ""
-                if c is None
-                else f"{'stands' if c.collapse_level is None else c.collapse_level} ({c.error:+d}), {c.wall:.2f} s, {c.drift:.2f} mm"
-            )
-        lines.append(f"| {label} | {expected} | " + " | ".join(row) + " |")
-    lines += ["", "Each cell: collapse level (error in levels), median wall time, drift of the standing bricks.", ""]
-    lines += [
-        "| setting | simulated s per wall s (all cells) | mean abs. error, slant scenes (levels) | peak memory (MB) | upright: exponent of wall time in bricks |",
-        "|---|---:|---:|---:|---:|",
-    ]
-    for s in settings:
-        mine = [c for c in cells if c.setting == s]
-        slant = [abs(c.error) for c in mine if c.family != "upright"]
-        speed = sum(c.simulated for c in mine) / sum(c.wall for c in mine)
-        exponent = targets["exponents"].get(s)
-        lines.append(
-            f"| {s} | {speed:.1f} | {f'{statistics.mean(slant):.2f}' if slant else '-'} | "
-            f"{max(c.peak_memory for c in mine):.0f} | {'' if exponent is None else f'{exponent:.2f}'} |"
-        )
-    lines += ["", *ratios(cells)]
-    if saved:
-        lines += ["", "| switched off (30-level 4 stack, extension) | median wall time | physics steps |", "|---|---:|---:|"]
-        lines += [f"| {name} | {wall:.3f} s | {steps} |" for name, wall, steps in saved]
-    ratio = targets.get("30-level speed-up, raw 240 Hz / extension")
-    if ratio:
-        lines += ["", f"30-level 4 stack: raw 240 Hz takes {ratio:.0f} times the extension's wall time."]
-    return "\n".join(lines) + "\n"
-
-
-def _pareto(points: list[tuple[float, float, str]]) -> list[tuple[float, float, str]]:
-    """The points no other point beats in both wall time and error."""
-    front = [p for p in points if not any(q[0] <= p[0] and q[1] <= p[1] and q != p for q in points)]
-    return sorted(front)
-
-
-def plot_error(cells: list[Cell], path: Path) -> None:
-    """Wall time against error, one point per setting (all scenes summed), Pareto front drawn."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    points = []
-    for i, s in enumerate(SETTINGS):
-        mine = [c for c in cells if c.setting == s]
-        if not mine:
-            continue
-        wall = sum(c.wall for c in mine)
-        error = statistics.mean(abs(c.error) for c in mine)
-        points.append((wall, error, s))
-        ax.scatter([c.wall for c in mine], [abs(c.error) for c in mine], s=12, alpha=0.35, color=f"C{i}")
-        ax.scatter([wall], [error], s=70, color=f"C{i}", edgecolor="k", zorder=3, label=s)
-    front = _pareto(points)
-    ax.plot(
-        [p[0] for p in front],
-        [p[1] for p in front],
-        "k--",
-        lw=1,
-        marker="o",
-        mfc="none",
-        ms=12,
-        label="Pareto front (per setting)",
-    )
-    ax.set_xscale("log")
-    ax.set_xlabel("wall time, s (large: all scenes summed; small: one cell)")
-    ax.set_ylabel("|collapse level - closed form|, levels (mean)")
-    ax.set_title("Speed against error: every setting on the same scenes")
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-
-
-def plot_height(cells: list[Cell], path: Path) -> None:
-    """Wall time against tower height (bricks), log-log, with the fitted exponent per setting."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    for s in SETTINGS:
-        mine = sorted((c.bricks, c.wall) for c in cells if c.setting == s and c.family == "upright")
-        if len(mine) < 2:
-            continue
-        k = fit_exponent(mine)
-        ax.plot([m[0] for m in mine], [m[1] for m in mine], "o-", label=f"{s}: wall ~ bricks^{k:.2f}")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("bricks in the upright 4 stack")
-    ax.set_ylabel("wall time, s")
-    ax.set_title("Cost against tower height")
-    if ax.get_legend_handles_labels()[0]:
-        ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-
-
-BASE = "extension report"
-"""The setting every other is measured against in :func:`ratios`."""
-
-
-def ratios(cells: list[Cell], base: str = BASE) -> list[str]:
-    """Markdown lines: per scene, each setting's wall time divided by ``base``'s on the same
-    scene in the same run (above 1: slower than ``base``), then the geometric mean per setting
-    over the scenes of each family. Empty without ``base``'s cells."""
-    settings = [s for s in SETTINGS if s != base and any(c.setting == s for c in cells)]
-    by = {(c.setting, c.family, c.parameter): c for c in cells}
-    keys = sorted({(c.family, c.parameter) for c in cells if c.setting == base})
-    if not keys or not settings:
-        return []
-    lines = [
-        f"| scene | {base} | " + " | ".join(f"{s} / {base}" for s in settings) + " |",
-        "|---|---:|" + "---:|" * len(settings),
-    ]
-    logs: dict[tuple[str, str], list[float]] = {}
-    for family, parameter in keys:
-        ref = by[(base, family, parameter)]
-        row = []
-        for s in settings:
-            c = by.get((s, family, parameter))
-            row.append(f"{c.wall / ref.wall:.2f}" if c else "")
-            if c:
-                logs.setdefault((family, s), []).append(float(np.log(c.wall / ref.wall)))
-        label = f"{family}, {parameter:g} {'levels' if family == 'upright' else 'mm'}"
-        lines.append(f"| {label} | {ref.wall:.2f} s | " + " | ".join(row) + " |")
-    for family in sorted({f for f, _ in keys}):
-        means = [f"{np.exp(np.mean(logs[(family, s)])):.2f}" if (family, s) in logs else "" for s in settings]
-        lines.append(f"| {family}: geometric mean | | " + " | ".join(means) + " |")
-    return lines

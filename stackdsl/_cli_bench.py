@@ -12,8 +12,9 @@ import time
 from pathlib import Path
 from typing import Any
 
-from ._bench import SETTINGS, run_matrix, savings, scenes, write_outputs
+from ._bench import SETTINGS, run_matrix, savings, scenes
 from ._bench_cost import format_solve_times, solve_times
+from ._bench_out import write_outputs
 from ._cli_args import jobs_type
 from ._errors import ScenarioError
 from ._expect import describe
@@ -143,13 +144,24 @@ def _bench(args: argparse.Namespace) -> int:
 
 
 def _targets(targets: dict[str, Any]) -> list[str]:
-    """The benchmark's targets as lines: slant errors per setting, the 30-level speed-up, exponents."""
+    """The benchmark's targets as lines: slant errors per setting, the 30-level speed-up, the
+    extension against the peer, exponents."""
     lines = [
         f"slant error, {s}: " + ", ".join(f"{e:+g}" for e in errors) + " levels" for s, errors in targets["slant errors"].items()
     ]
     ratio = targets.get("30-level speed-up, raw 240 Hz / extension")
     if ratio:
         lines.append(f"30-level 4 stack: raw 240 Hz takes {ratio:.0f} times the extension's wall time")
+    for r in targets.get("peer", []):
+        for levels, (x, e, p) in r.upright.items():
+            lines.append(
+                f"{levels}-level 4 stack: {r.peer} takes {x:.1f} times {r.extension}'s wall time (errors {e:+d}, {p:+d})"
+            )
+        if r.slant_least is not None:
+            lines.append(
+                f"slant scenes: {r.peer} takes at least {r.slant_least:.1f} times {r.extension}'s wall time "
+                f"(geometric mean {r.slant_mean:.1f})"
+            )
     lines += [f"exponent of wall time in bricks, {s}: {x:.2f}" for s, x in targets["exponents"].items()]
     return lines or ["(no slant scene and fewer than two upright towers: no target measured)"]
 

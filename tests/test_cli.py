@@ -18,6 +18,7 @@ from pathlib import Path
 import pytest
 
 from stackdsl import _check, _cli, _cli_bench, _entry, compile_scenario, parse_scenario, run_program
+from stackdsl._bench import SETTINGS
 from stackdsl._cli import main
 from stackdsl._expect import explain
 from stackdsl._progress import Lines, is_live
@@ -572,9 +573,11 @@ def test_bench_quick_smoke_writes_every_output(tmp_path, capsys):
     names = {p.name for p in tmp_path.iterdir()}
     assert names == {"bench.csv", "bench.md", "wall_vs_error.png", "wall_vs_height.png"}
     rows = (tmp_path / "bench.csv").read_text().splitlines()
-    assert rows[0].startswith("setting,family,parameter") and len(rows) == 1 + 5
+    n = len(SETTINGS)
+    assert rows[0].startswith("setting,family,parameter") and len(rows) == 1 + n
+    assert {r.split(",")[0] for r in rows[1:]} == set(SETTINGS)  # both backends, every setting
     out = capsys.readouterr().out
-    assert "extension report" in out and "[5/5]" in out and f"wrote {tmp_path.resolve()}" in out
+    assert "extension report" in out and "MuJoCo extension" in out and f"[{n}/{n}]" in out and f"wrote {tmp_path.resolve()}" in out
 
 
 def test_json_and_junit_list_results_in_file_order_whatever_finishes_first(tmp_path, capsys):
@@ -589,17 +592,43 @@ def test_json_and_junit_list_results_in_file_order_whatever_finishes_first(tmp_p
 
 
 def test_bench_targets_print_as_sentences():
+    from stackdsl._bench_out import PeerRatio
     from stackdsl._cli_bench import _targets
 
     lines = _targets(
         {
             "slant errors": {"raw 240 Hz": [-3, 0]},
             "30-level speed-up, raw 240 Hz / extension": 130.4,
+            "peer": [PeerRatio("MuJoCo extension", "MuJoCo tuned sleeping", {30: (7.04, 0, 0)}, 1.26, 3.1)],
             "exponents": {"tuned": 1.571},
         }
     )
     assert lines == [
         "slant error, raw 240 Hz: -3, +0 levels",
         "30-level 4 stack: raw 240 Hz takes 130 times the extension's wall time",
+        "30-level 4 stack: MuJoCo tuned sleeping takes 7.0 times MuJoCo extension's wall time (errors +0, +0)",
+        "slant scenes: MuJoCo tuned sleeping takes at least 1.3 times MuJoCo extension's wall time (geometric mean 3.1)",
         "exponent of wall time in bricks, tuned: 1.57",
     ]
+
+
+def test_bench_peer_ratios_divide_the_peers_wall_by_the_extensions_on_the_same_scene():
+    from stackdsl._bench import Cell
+    from stackdsl._bench_out import peer_lines, peer_ratios
+
+    def cell(setting, family, parameter, wall, error=0):
+        return Cell(setting, family, parameter, 1, None, None, error, 0.0, wall, "", 1.0, 1.0, 1.0, 1, 0)
+
+    cells = [
+        cell("MuJoCo extension", "upright", 30, 2.0),
+        cell("MuJoCo tuned sleeping", "upright", 30, 10.0, error=-1),
+        cell("MuJoCo extension", "slant log cabin", 9, 4.0),
+        cell("MuJoCo tuned sleeping", "slant log cabin", 9, 2.0),
+        cell("MuJoCo extension", "single file", 9, 1.0),
+        cell("MuJoCo tuned sleeping", "single file", 9, 8.0),
+        cell("extension report", "upright", 60, 1.0),  # no peer on this scene: no row
+    ]
+    [r] = peer_ratios(cells)
+    assert (r.extension, r.peer) == ("MuJoCo extension", "MuJoCo tuned sleeping")
+    assert r.upright == {30: (5.0, 0, -1)} and r.slant_least == 0.5 and r.slant_mean == pytest.approx(2.0)
+    assert peer_lines([r])[2] == "| MuJoCo extension | MuJoCo tuned sleeping | 5.0 (errors +0, -1) |  | 0.5 | 2.0 |"

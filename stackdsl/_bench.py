@@ -75,9 +75,13 @@ class Scene:
     closed_form: int | None
 
 
-def scenes(quick: bool = False) -> list[Scene]:
+UPRIGHT = (10, 20, 30, 60, 100)
+"""The heights of the upright 4 stacks, in levels."""
+
+
+def scenes(quick: bool = False, upright: Sequence[int] = UPRIGHT) -> list[Scene]:
     """The scene families: slanted log-cabin towers (shifts 3 to 14 mm), single-file slanted
-    stacks, and upright 4 stacks of 10 to 100 levels."""
+    stacks, and upright 4 stacks of ``upright`` levels."""
     if quick:
         return [Scene("upright", 3, 3, "tower: {levels: 3}", None)]
     out = []
@@ -87,7 +91,7 @@ def scenes(quick: bool = False) -> list[Scene]:
     for s in (7, 9, 11, 13):
         n = single_file(s / 1000)
         out.append(Scene("single file", s, n + 2, f"tower: {{levels: {n + 2}, bricks_per_layer: 1, turn: 0, shift: {s} mm}}", n))
-    for levels in (10, 20, 30, 60, 100):
+    for levels in upright:
         out.append(Scene("upright", levels, levels, f"tower: {{levels: {levels}}}", None))
     return out
 
@@ -190,15 +194,16 @@ def run_matrix(
     cells = []
     # a Pool, not a ProcessPoolExecutor: its max_tasks_per_child needs Python 3.11
     with context.Pool(processes=jobs, maxtasksperchild=1) as pool:
-        results = [
-            pool.apply_async(measure, (scene, setting, repeats, repeat_below, options)) for scene, setting, options in tasks
-        ]
-        for r in results:
-            cell = r.get()
+        arguments = [(scene, setting, repeats, repeat_below, options) for scene, setting, options in tasks]
+        for cell in pool.imap_unordered(_measure, arguments):  # each as it finishes
             progress(cell)
             cells.append(cell)
     order = {s: i for i, s in enumerate(settings)}
     return sorted(cells, key=lambda c: (c.family, c.parameter, order[c.setting]))
+
+
+def _measure(arguments: tuple[Scene, str, int, float, RunOptions]) -> Cell:
+    return measure(*arguments)
 
 
 def _cost(scene: Scene, setting: str) -> float:

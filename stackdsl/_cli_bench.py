@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from ._bench import SETTINGS, run_matrix, savings, scenes
+from ._bench import SETTINGS, UPRIGHT, run_matrix, savings, scenes
 from ._bench_cost import format_solve_times, solve_times
 from ._bench_out import write_outputs
 from ._cli_args import jobs_type
@@ -42,6 +42,9 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     )
     p.add_argument("--settings", default=",".join(SETTINGS), help="comma-separated, of: " + ", ".join(SETTINGS))
     p.add_argument("--families", default="slant log cabin,single file,upright", help="comma-separated scene families")
+    p.add_argument(
+        "--upright", default=",".join(map(str, UPRIGHT)), help="comma-separated heights of the upright towers, in levels"
+    )
     p.add_argument("--repeats", type=int, default=3, help="runs per cell (median), for cells faster than --repeat-below")
     p.add_argument("--repeat-below", type=float, default=30.0, help="seconds; slower cells run once")
     p.add_argument("--quick", action="store_true", help="one small cell per setting (a smoke test)")
@@ -113,7 +116,13 @@ def _bench(args: argparse.Namespace) -> int:
     unknown = [x for x in settings if x not in SETTINGS]
     if unknown:
         raise ScenarioError(f"unknown setting {', '.join(unknown)}; known: {', '.join(SETTINGS)}", file="--settings")
-    chosen = [sc for sc in scenes(args.quick) if sc.family in families or args.quick]
+    try:
+        heights = [int(x) for x in args.upright.split(",") if x.strip()]
+    except ValueError:
+        raise ScenarioError(f"whole numbers of levels, not {args.upright!r}", file="--upright") from None
+    if any(not 1 <= h <= 1000 for h in heights):
+        raise ScenarioError("each height from 1 to 1000 levels", file="--upright")
+    chosen = [sc for sc in scenes(args.quick, heights) if sc.family in families or args.quick]
     out = Path(args.out)
     start = time.perf_counter()
     total = len(chosen) * len(settings)

@@ -36,6 +36,7 @@ from collections.abc import Collection, Sequence
 from typing import Any
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from stability import ContactPoint, Pose
 
@@ -344,28 +345,43 @@ class MuJoCoWorld:
 
     def poses_of(self, bodies: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
         _, d = self._ready()
-        positions, wxyz = np.empty((len(bodies), 3)), np.empty((len(bodies), 4))
-        for row, body in enumerate(bodies):  # a loop: mostly one or two bodies, and numpy's fancy indexing costs more
-            i = body - 1
-            if self._frozen[i]:
-                positions[row], wxyz[row] = d.mocap_pos[self._mocap[i]], d.mocap_quat[self._mocap[i]]
-            else:
-                q = self._qpos[i]
-                positions[row], wxyz[row] = d.qpos[q : q + 3], d.qpos[q + 3 : q + 7]
+        index = np.asarray(bodies, dtype=int) - 1
+        if len(index) <= _FEW:  # a loop: numpy's fancy indexing costs more for one or two bodies
+            positions, wxyz = np.empty((len(index), 3)), np.empty((len(index), 4))
+            for row, i in enumerate(index):
+                if self._frozen[i]:
+                    positions[row], wxyz[row] = d.mocap_pos[self._mocap[i]], d.mocap_quat[self._mocap[i]]
+                else:
+                    q = self._qpos[i]
+                    positions[row], wxyz[row] = d.qpos[q : q + 3], d.qpos[q + 3 : q + 7]
+        else:
+            frozen, qpos, mocap = self._frozen[index][:, None], self._qpos[index][:, None], self._mocap[index]
+            positions = np.where(frozen, d.mocap_pos[mocap], d.qpos[qpos + np.arange(3)])
+            wxyz = np.where(frozen, d.mocap_quat[mocap], d.qpos[qpos + np.arange(3, 7)])
         quaternions = wxyz[:, [1, 2, 3, 0]]
         return positions, quaternions / np.linalg.norm(quaternions, axis=1)[:, None]
 
     def velocities_of(self, bodies: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
         _, d = self._ready()
-        linear, angular = np.zeros((len(bodies), 3)), np.zeros((len(bodies), 3))
-        for row, body in enumerate(bodies):
-            i = body - 1
-            if not self._frozen[i]:
-                v, q = self._dof[i], self._qpos[i]
-                linear[row] = d.qvel[v : v + 3]
-                # a free joint's angular velocity is in the body frame
-                self._mj.mju_rotVecQuat(angular[row], d.qvel[v + 3 : v + 6], d.qpos[q + 3 : q + 7])
+        index = np.asarray(bodies, dtype=int) - 1
+        rows = np.flatnonzero(~self._frozen[index])
+        moving = index[rows]
+        linear, angular = np.zeros((len(index), 3)), np.zeros((len(index), 3))
+        dof = self._dof[moving][:, None]
+        linear[rows] = d.qvel[dof + np.arange(3)]
+        local = d.qvel[dof + np.arange(3, 6)]  # a free joint's angular velocity is in the body frame
+        wxyz = d.qpos[self._qpos[moving][:, None] + np.arange(3, 7)]
+        if len(rows) <= _FEW:
+            for row, w, q in zip(rows, local, wxyz):
+                self._mj.mju_rotVecQuat(angular[row], w, q)
+        else:
+            angular[rows] = Rotation.from_quat(wxyz[:, [1, 2, 3, 0]]).apply(local)
         return linear, angular
+
+
+_FEW = 8
+"""Up to this many bodies, :meth:`MuJoCoWorld.poses_of` and :meth:`MuJoCoWorld.velocities_of`
+read them one by one (numpy's and scipy's fixed costs are larger for one or two)."""
 
 
 def _wxyz(quaternion: Sequence[float] | np.ndarray) -> list[float]:

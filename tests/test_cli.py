@@ -567,6 +567,20 @@ def test_bench_help_names_the_command_that_regenerates_the_figures(capsys):
     assert "stackdsl bench --out docs/bench" in capsys.readouterr().out
 
 
+@pytest.mark.parametrize("heights", ["10,x", "0", "2000"])
+def test_bench_refuses_bad_upright_heights_before_running(heights, capsys):
+    assert main(["bench", "--upright", heights]) == 2
+    err = capsys.readouterr().err
+    assert "--upright" in err and "Traceback" not in err
+
+
+def test_bench_upright_heights_pick_the_towers():
+    from stackdsl._bench import scenes
+
+    upright = [s.levels for s in scenes(upright=(10, 60)) if s.family == "upright"]
+    assert upright == [10, 60]
+
+
 def test_bench_quick_smoke_writes_every_output(tmp_path, capsys):
     # One small cell per setting, in worker processes: the command cannot rot.
     assert main(["bench", "--quick", "--out", str(tmp_path), "-j", "2"]) == 0

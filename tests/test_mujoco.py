@@ -105,6 +105,30 @@ def test_velocities_are_in_the_world_frame():
     assert np.allclose(world.velocities_of([body])[1][0], axis)
 
 
+def test_many_bodies_read_at_once_match_one_by_one():
+    """poses_of and velocities_of read few bodies one by one and many at once: the same numbers,
+    frozen bodies included (at rest, at their held pose)."""
+    world = _world()
+    bodies = [world.create(_brick(), Pose.from_euler([0.2 * k, 0.0, 0.5], yaw=10.0 * k, pitch=5.0 * k)) for k in range(12)]
+    world.step()
+    world.set_frozen(bodies[3], True, 0.0)
+    rng = np.random.default_rng(0)
+    for b in bodies:
+        if b != bodies[3]:
+            world.throw(b, rng.normal(size=3), None)
+            v = world._dof[b - 1]
+            world._data.qvel[v + 3 : v + 6] = rng.normal(size=3)
+    for chosen in (bodies[:2], bodies):  # one by one, and at once
+        positions, quaternions = world.poses_of(chosen)
+        linear, angular = world.velocities_of(chosen)
+        for k, b in enumerate(chosen):
+            pose = world.pose(b)
+            assert np.allclose(positions[k], pose.position) and np.allclose(quaternions[k], pose.orientation)
+            lin, ang = world.velocity(b)
+            assert np.allclose(linear[k], lin) and np.allclose(angular[k], ang)
+    assert not world.velocities_of(bodies)[1][3].any()
+
+
 def test_bricks_declared_up_front_or_as_they_come_give_the_same_answer():
     """Parked (every body in the first model) and rebuilt (the model compiled again as each
     brick enters) both build a 3-level tower that stands."""

@@ -591,7 +591,9 @@ def test_bench_quick_smoke_writes_every_output(tmp_path, capsys):
     assert rows[0].startswith("setting,family,parameter") and len(rows) == 1 + n
     assert {r.split(",")[0] for r in rows[1:]} == set(SETTINGS)  # both backends, every setting
     out = capsys.readouterr().out
-    assert "extension report" in out and "MuJoCo extension" in out and f"[{n}/{n}]" in out and f"wrote {tmp_path.resolve()}" in out
+    assert (
+        "extension report" in out and "MuJoCo extension" in out and f"[{n}/{n}]" in out and f"wrote {tmp_path.resolve()}" in out
+    )
 
 
 def test_json_and_junit_list_results_in_file_order_whatever_finishes_first(tmp_path, capsys):

@@ -56,7 +56,7 @@ SETTINGS: dict[str, Setting] = {
 """Engine settings compared, by name. pybullet's first; then MuJoCo's: its defaults, the
 tuned settings, those with MuJoCo's own sleeping (tolerance 1e-4) with bricks entering as
 they are placed (the runtime's rule with sleeping on) and with every brick declared up front
-and parked (faster, but a parked brick moved onto a sleeping stack can leave it standing:
+and parked (no valid peer: a parked brick moved in stays asleep where it is put, above its pose:
 docs/results.md, MuJoCo), and the extension."""
 
 

@@ -53,8 +53,8 @@ class RunOptions:
             brick at the start, parked far away and immovable; None (the default): the
             backend's best, measured (docs/results.md, MuJoCo): when placed on pybullet; at the
             start on MuJoCo (it compiles its model again for each new body), but when placed
-            with MuJoCo's own sleeping on (a parked body moved onto a sleeping stack does not
-            wake it: the slant tower stood).
+            with MuJoCo's own sleeping on (a parked body moved in stays asleep where it is
+            put, above its pose: the slant tower stood).
         needed_rules: run only the stability rules the compiler chose for the scene;
             False runs leaning and impacts always.
         per_event: run the stack-wide test when the stack changes; False every step.

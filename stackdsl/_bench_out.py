@@ -56,13 +56,14 @@ def check_targets(cells: list[Cell]) -> dict[str, Any]:
 
 EXTENSIONS = ("extension report", "MuJoCo extension")
 PEERS = ("MuJoCo tuned sleeping", "MuJoCo tuned sleeping parked")
-"""The extension on each backend, and the strongest peer: tuned MuJoCo with its own sleeping."""
+"""The extension on each backend, and the strongest peer: tuned MuJoCo with its own sleeping
+(bricks added as placed; the parked form leaves them asleep above their poses, docs/results.md)."""
 
 
 @dataclass(frozen=True)
 class PeerRatio:
     """The peer's wall time over the extension's on the same scene, in the same run: on the
-    upright towers of 30 and 60 levels (None when not measured), with each side's error in
+    upright towers of 30 and 60 levels (a height not measured is absent), with each side's error in
     levels, and over the slant (collapsing) scenes, the least ratio and the geometric mean."""
 
     extension: str

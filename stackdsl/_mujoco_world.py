@@ -253,17 +253,29 @@ class MuJoCoWorld:
             wanted = np.zeros(len(self._frozen) + 1, dtype=bool)
             wanted[np.asarray(list(bodies), dtype=int)] = True
             keep &= wanted[pair].any(axis=1)
-        force = np.zeros(6)
-        normals, at, dist = contact.frame[:, :3], contact.pos, contact.dist  # frame: from geom1 into geom2
+        rows = np.flatnonzero(keep)
+        force = self._normal_forces(m, d, rows)
+        n, dist = contact.frame[rows, :3], contact.dist[rows]  # frame: from geom1 into geom2
+        lower, upper = contact.pos[rows] - n * (dist / 2)[:, None], contact.pos[rows] + n * (dist / 2)[:, None]
+        a, b = pair[rows, 0].tolist(), pair[rows, 1].tolist()
+        f, gap = force.tolist(), dist.tolist()
         points = []
-        for i in np.flatnonzero(keep):
-            self._mj.mj_contactForce(m, d, i, force)
-            a, b, gap, n = int(pair[i, 0]), int(pair[i, 1]), float(dist[i]), normals[i]
-            if bodies is None or wanted[a]:
-                points.append(ContactPoint(a, b, at[i] - n * gap / 2, -n, float(force[0]), gap))
-            if bodies is None or wanted[b]:
-                points.append(ContactPoint(b, a, at[i] + n * gap / 2, n.copy(), float(force[0]), gap))
+        for k in range(len(rows)):
+            if bodies is None or wanted[a[k]]:
+                points.append(ContactPoint(a[k], b[k], lower[k], -n[k], f[k], gap[k]))
+            if bodies is None or wanted[b[k]]:
+                points.append(ContactPoint(b[k], a[k], upper[k], n[k], f[k], gap[k]))
         return points
+
+    def _normal_forces(self, m: Any, d: Any, rows: np.ndarray) -> np.ndarray:
+        """Normal force in N of each contact in ``rows``, as ``mj_contactForce`` gives it, read
+        from the constraint forces at once: the first row of an elliptic cone or frictionless
+        contact, the sum of a pyramidal cone's 2 (dim - 1) edge rows."""
+        address, dim = d.contact.efc_address[rows], d.contact.dim[rows]
+        if m.opt.cone == self._mj.mjtCone.mjCONE_ELLIPTIC:
+            return np.asarray(d.efc_force[address], dtype=float)
+        edges = np.where(dim > 1, 2 * (dim - 1), 1)
+        return np.array([d.efc_force[i : i + e].sum() for i, e in zip(address.tolist(), edges.tolist(), strict=True)])
 
     def near(self, body: int, distance: float) -> list[ContactPoint]:
         m, d = self._ready()

@@ -129,6 +129,27 @@ def test_many_bodies_read_at_once_match_one_by_one():
     assert not world.velocities_of(bodies)[1][3].any()
 
 
+@pytest.mark.parametrize("mode", ["raw", "tuned"])  # pyramidal and elliptic friction cones
+def test_contact_points_carry_mujocos_own_normal_force(mode):
+    """The normal forces read at once from the constraint forces are mj_contactForce's, and a
+    brick resting on the ground carries its weight."""
+    import mujoco
+
+    world = _world(mode)
+    body = world.create(_brick(), Pose.from_euler([0.0, 0.0, 0.0041]))
+    for _ in range(100):
+        world.step()
+    points = world.contact_points([body])
+    m, d = world._ready()
+    force = np.zeros(6)
+    own = []
+    for i in range(d.ncon):
+        mujoco.mj_contactForce(m, d, i, force)
+        own.append(force[0])
+    assert sorted(c.normal_force for c in points) == pytest.approx(sorted(own))
+    assert sum(c.normal_force for c in points) == pytest.approx(_brick().mass * G, rel=0.02)
+
+
 def test_bricks_declared_up_front_or_as_they_come_give_the_same_answer():
     """Parked (every body in the first model) and rebuilt (the model compiled again as each
     brick enters) both build a 3-level tower that stands."""

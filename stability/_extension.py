@@ -197,6 +197,7 @@ class StabilityExtension:
         self._unproven: set[int] = set()  # frozen bricks with no load path under their centre of mass
         self._loads_fresh = True  # com_above / mass_above of every frozen brick are up to date
         self._version = 0  # counts the changes of the frozen stack (freezes and wakes)
+        self._refused: tuple[int, set[tuple[tuple[int, float | None], ...]]] = (0, set())  # piles refused, at a version
         self._support_cos = math.cos(math.radians(self.config.support_angle))
 
     # registration -------------------------------------------------------------
@@ -233,13 +234,16 @@ class StabilityExtension:
         active = sorted(self._active.values(), key=lambda r: r.order)
         events: list[StabilityEvent] = []
         resting = [rec for rec in active if self._at_rest(rec, time)]  # every clock first: partners
-        # only a brick at rest asks, and only of its own contacts (and its resting partners')
-        contacts = _by_body(self._engine.contact_points([r.body for r in resting])) if resting else {}
-        for rec in resting:
+        # only a brick at rest asks, only of its own contacts (and its resting partners'), and a
+        # brick refused asks again once a rest duration has passed and something has changed
+        due = [rec for rec in resting if rec.failed is None or not self._soon(rec.failed, time)]
+        contacts = _by_body(self._engine.contact_points([r.body for r in resting])) if due else {}
+        for rec in due:
             if rec.state is not BrickState.ACTIVE:
                 continue
-            if rec.failed is not None and (self._soon(rec.failed, time) or self._attempt(rec, contacts, time) == rec.failed[0]):
-                continue  # refused already, and nothing it rests on, touches or is has changed
+            if rec.failed is not None and (attempt := self._attempt(rec, contacts, time)) == rec.failed[0]:
+                rec.failed = (attempt, time)  # nothing it rests on, touches or is has changed: wait again
+                continue
             if self.config.model == "equilibrium":
                 found = self._admit_group(rec, contacts, time, limit=None)
             else:
@@ -354,9 +358,22 @@ class StabilityExtension:
     def _admit_debris(self, rec: _Body, contacts: dict[int, list[ContactPoint]], time: float) -> list[StabilityEvent]:
         """Admit ``rec`` with the resting bricks it touches, and they with theirs (all of the
         connected pile at once), when rigid-block equilibrium holds them against what is
-        frozen; nothing while a brick of the pile still moves or it touches nothing frozen."""
+        frozen and, with the report model, the stack test would keep them frozen; nothing
+        while a brick of the pile still moves or it touches nothing frozen.
+
+        A refused pile is refused for every member: none of them asks again until something
+        it depends on changes (:meth:`_attempt`), and the pile is not solved again until the
+        stack changes or one of its bricks moves faster than the rest thresholds: a pile that
+        creeps below them is still the pile refused. A pile that rests on the stack and on
+        the ground at once (a tower fallen against the floor) stands by friction, but the
+        report's load tree cannot carry it: frozen, the stack test would wake it at once, and
+        it would be frozen and woken again every rest duration (stackdsl's own).
+        """
         group = self._pile(rec, contacts, time)
-        if len(group) < 2:
+        if self._refused[0] != self._version:
+            self._refused = (self._version, set())
+        key = tuple((m.body, m.rest_since) for m in group)
+        if not group or key in self._refused[1]:
             return []
         skip: set[int] = set()
         polygons = {}
@@ -364,11 +381,32 @@ class StabilityExtension:
             polygons[m.body] = self._polygons(m, self._around(m, contacts), skip=skip)
             skip.add(m.body)
         members = {m.body: (self._engine.pose(m.body).position, m.box.mass) for m in group}
-        if not leaning_stands(members, [c for cs in polygons.values() for c in cs], self.config.gravity):
+        plan = self._plan(group, polygons)
+        stands = self._carried(group, plan) and leaning_stands(
+            members, [c for cs in polygons.values() for c in cs], self.config.gravity
+        )
+        if not stands:
+            self._refused[1].add(key)
+            for m in group:
+                m.failed = (self._attempt(m, contacts, time), time)
             return []
         inside = {m.body for m in group}
         held: dict[int, list[ContactPoint]] = {o: [] for m in group for o in self._around(m, contacts) if o not in inside}
-        return self._freeze_group(group, polygons, dict(sorted(held.items(), key=lambda i: self._bodies[i[0]].order)), time)
+        return self._freeze_group(group, polygons, dict(sorted(held.items(), key=lambda i: self._bodies[i[0]].order)), time, plan)
+
+    def _carried(self, group: list[_Body], plan: dict[int, tuple[dict[int, ContactArea], ContactArea]]) -> bool:
+        """Would the report's stack test (:meth:`_test_report`) keep ``group`` frozen, frozen
+        as ``plan`` says? Always True with the equilibrium model (its stack test is the
+        equilibrium that :func:`stability.leaning_stands` checks)."""
+        if self.config.model != "report":
+            return True
+        nodes = self._nodes(self._frozen())
+        mains = {r.body: r.main_contact for r in self._frozen()}
+        for m in group:
+            nodes[m.body] = LoadNode(m.box.mass, self._engine.pose(m.body).position, plan[m.body][0])
+            mains[m.body] = plan[m.body][1]
+        loads = propagate_fast(nodes)
+        return all(main is not None and self._holds(main, loads[b][0]) for b, main in mains.items())
 
     def _pile(self, rec: _Body, contacts: dict[int, list[ContactPoint]], time: float) -> list[_Body]:
         """``rec`` and the active bricks connected to it by contacts, in registration order;
@@ -394,17 +432,13 @@ class StabilityExtension:
                 grouped[c.other].append(c)
         return {o: grouped[o] for o in sorted(grouped, key=lambda b: self._bodies[b].order)}
 
-    def _freeze_group(
-        self,
-        group: list[_Body],
-        polygons: dict[int, list[ContactPolygon[int]]],
-        touching: dict[int, list[ContactPoint]],
-        time: float,
-    ) -> list[StabilityEvent]:
-        """Freeze the members of an admitted group (``group[0]`` the brick that asked, each
-        member's contacts in ``polygons``, the one between two members under the later of
-        them); the members wake together."""
-        rec, members, events = group[0], {m.body for m in group}, []
+    def _plan(
+        self, group: list[_Body], polygons: dict[int, list[ContactPolygon[int]]]
+    ) -> dict[int, tuple[dict[int, ContactArea], ContactArea]]:
+        """How the members of a group would be frozen: each one's supports and main contact
+        area, from its contacts in ``polygons`` (the one between two members under the later
+        of them). A member lying only on other members rests on those lower than itself."""
+        members, plan = {m.body for m in group}, {}
         pad = self.config.contact_pad
         for m in group:
             areas = {c.other: _horizontal(c, pad) for c in polygons[m.body]}
@@ -417,7 +451,24 @@ class StabilityExtension:
                 z = self._engine.pose(m.body).position[2]
                 lower = {o: a for o, a in areas.items() if o in members and self._engine.pose(o).position[2] < z}
                 resting = {o: a for o, a in lower.items() if a.normal[2] >= self._support_cos} or supports
-            self._freeze(m, resting, _main(areas), polygons[m.body])
+            plan[m.body] = (resting, _main(areas))
+        return plan
+
+    def _freeze_group(
+        self,
+        group: list[_Body],
+        polygons: dict[int, list[ContactPolygon[int]]],
+        touching: dict[int, list[ContactPoint]],
+        time: float,
+        plan: dict[int, tuple[dict[int, ContactArea], ContactArea]] | None = None,
+    ) -> list[StabilityEvent]:
+        """Freeze the members of an admitted group (``group[0]`` the brick that asked) as
+        ``plan`` says (:meth:`_plan` when None); the members wake together."""
+        rec, events = group[0], []
+        plan = plan or self._plan(group, polygons)
+        for m in group:
+            resting, main = plan[m.body]
+            self._freeze(m, resting, main, polygons[m.body])
             on = _names(self._bodies, touching, m) if m is rec else rec.label
             if len(group) > 2:
                 reason = f"at rest in a pile of {len(group)} bricks {'on' if m is rec else 'with'} {on}"

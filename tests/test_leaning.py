@@ -161,7 +161,10 @@ def test_leaning_on_a_moving_brick_is_not_admitted():
 
 
 def test_more_than_two_leaning_contacts_are_beyond_the_reports_model():
+    """The report's rules refuse a brick on three bodies; the debris rule's equilibrium, which
+    counts any number, admits it."""
     s, b = wall_scene(40)
+    s.ext.config = StabilityConfig(rest_duration=0.0, contact_pad=1e-5, debris=False)
     s.engine.frozen.add(8)
     s.engine.poses[8] = Pose.from_euler([0.03, 0.1, 0.1])
     s.ext.add_ground(8, Box(np.array([0.01, 0.1, 0.1]), 1.0), "post")
@@ -174,18 +177,32 @@ def test_more_than_two_leaning_contacts_are_beyond_the_reports_model():
     s2.ext.add_ground(8, Box(np.array([0.01, 0.1, 0.1]), 1.0), "post")
     s2.engine.touch(b2, 8, [[0.03, 0.0, 0.05]], normal=[0, -1, 0])
     assert [e.kind for e in s2.ext.update(0.0)] == ["freeze"]
+    s3, b3 = wall_scene(40)
+    s3.engine.frozen.add(8)
+    s3.engine.poses[8] = Pose.from_euler([0.03, 0.1, 0.1])
+    s3.ext.add_ground(8, Box(np.array([0.01, 0.1, 0.1]), 1.0), "post")
+    s3.engine.touch(b3, 8, [[0.03, 0.0, 0.05]], normal=[0, -1, 0])
+    assert [(e.kind, e.label) for e in s3.ext.update(0.0)] == [("freeze", "b1")]  # debris on: by equilibrium
 
 
 def test_leaning_rule_off_leaves_the_brick_to_the_engine():
+    """With neither the leaning rule nor the debris rule, a leaning brick is never frozen; the
+    debris rule alone admits it (within the ladder's limit) and refuses it beyond."""
     s, _b = wall_scene(40)
-    s.ext.config = StabilityConfig(rest_duration=0.0, contact_pad=1e-5, leaning=False)
+    s.ext.config = StabilityConfig(rest_duration=0.0, contact_pad=1e-5, leaning=False, debris=False)
     assert s.ext.update(0.0) == []
+    limit = math.degrees(math.atan(2 * 0.5 / (1 - 0.25)))
+    for angle, frozen in ((limit - 1, True), (limit + 1, False)):
+        s, b = wall_scene(angle)
+        s.ext.config = StabilityConfig(rest_duration=0.0, contact_pad=1e-5, leaning=False)
+        s.ext.update(0.0)
+        assert (s.ext.state(b) is BrickState.FROZEN) is frozen
 
 
 def test_contacts_at_different_heights_are_not_admitted_by_the_basic_test():
     # Report 3.5: a brick with one end on the ground and the other on a step 8 mm high is
     # leaning, even though its COM lies over the hull of its two contacts.
-    s = Scene(leaning=False)
+    s = Scene(leaning=False, debris=False)
     s.engine.frozen.add(7)
     s.engine.poses[7] = Pose.from_euler([0.1, 0.0, 0.004])
     s.ext.add_ground(7, Box(np.array([0.06, 0.06, 0.004]), 1.0), "step")
@@ -194,7 +211,7 @@ def test_contacts_at_different_heights_are_not_admitted_by_the_basic_test():
     s.engine.touch(1, 0, [[-0.06, -0.012, 0.0], [-0.06, 0.012, 0.0]], normal=UP)
     s.engine.touch(1, 7, [[0.055, -0.012, 0.008], [0.055, 0.012, 0.008]], normal=UP)
     assert s.ext.update(0.0) == []
-    flat = Scene(leaning=False, lean_height=0.01)  # the same brick with a looser threshold
+    flat = Scene(leaning=False, debris=False, lean_height=0.01)  # the same brick with a looser threshold
     flat.engine.frozen.add(7)
     flat.engine.poses[7] = s.engine.poses[7]
     flat.ext.add_ground(7, Box(np.array([0.06, 0.06, 0.004]), 1.0), "step")

@@ -101,6 +101,7 @@ class MuJoCoWorld:
         # index, its free and held geoms; geom -> stackdsl body id
         self._qpos = self._dof = self._mocap = self._free_geom = self._held_geom = np.zeros(0, dtype=int)
         self._geom_body = np.zeros(0, dtype=int)
+        self._read: tuple[np.ndarray, np.ndarray] | None = None  # every body's velocities, this step
         spec = mujoco.MjSpec()
         option = spec.option
         option.timestep = engine.timestep
@@ -187,6 +188,7 @@ class MuJoCoWorld:
             self._model, self._data = self._spec.recompile(self._model, self._data)
         m = self._model
         m.opt.timestep = self._engine.timestep / self._substeps  # a recompile takes the spec's
+        self._read = None
 
         def ids(kind: Any, prefix: str) -> np.ndarray:
             return np.array([mj.mj_name2id(m, kind, f"{prefix}{i}") for i in range(1, len(self._specs) + 1)], dtype=int)
@@ -233,14 +235,8 @@ class MuJoCoWorld:
         return Pose(position, np.array([x, y, z, w]) / math.sqrt(w * w + x * x + y * y + z * z))
 
     def velocity(self, body: int) -> tuple[np.ndarray, np.ndarray]:
-        _, d = self._ready()
-        i = body - 1
-        if self._frozen[i]:
-            return np.zeros(3), np.zeros(3)
-        v, q = self._dof[i], self._qpos[i]
-        angular = np.zeros(3)  # a free joint's angular velocity is in the body frame
-        self._mj.mju_rotVecQuat(angular, d.qvel[v + 3 : v + 6], d.qpos[q + 3 : q + 7])
-        return d.qvel[v : v + 3].copy(), angular
+        linear, angular = self._velocities()
+        return linear[body - 1].copy(), angular[body - 1].copy()
 
     def contact_points(self, bodies: Collection[int] | None = None) -> list[ContactPoint]:
         m, d = self._ready()
@@ -320,6 +316,7 @@ class MuJoCoWorld:
             d.mocap_pos[mocap] = self._away(body)
         d.qvel[self._dof[i] : self._dof[i] + 6] = 0.0
         self._frozen[i] = frozen
+        self._read = None
         self._apply(body)
         self._wake(body)
 
@@ -343,10 +340,12 @@ class MuJoCoWorld:
         _, d = self._ready()
         v = self._dof[body - 1]
         d.qvel[v : v + 3] = velocity
+        self._read = None
         self._wake(body)
 
     def step(self) -> None:
         m, d = self._ready()
+        self._read = None
         for _ in range(self._substeps):
             self._mj.mj_step(m, d)
 
@@ -374,21 +373,30 @@ class MuJoCoWorld:
         return positions, quaternions / np.linalg.norm(quaternions, axis=1)[:, None]
 
     def velocities_of(self, bodies: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
-        _, d = self._ready()
+        linear, angular = self._velocities()
         index = np.asarray(bodies, dtype=int) - 1
-        rows = np.flatnonzero(~self._frozen[index])
-        moving = index[rows]
-        linear, angular = np.zeros((len(index), 3)), np.zeros((len(index), 3))
-        dof = self._dof[moving][:, None]
+        return linear[index], angular[index]
+
+    def _velocities(self) -> tuple[np.ndarray, np.ndarray]:
+        """Linear (m/s) and angular (rad/s) velocity of every body in the world frame, shape
+        (bodies, 3) each, zero for a frozen one: read once a step, however many ask (the
+        extension body by body, the substep control and the collapse monitor at once)."""
+        if self._read is not None:
+            return self._read
+        _, d = self._ready()
+        rows = np.flatnonzero(~self._frozen)
+        linear, angular = np.zeros((len(self._frozen), 3)), np.zeros((len(self._frozen), 3))
+        dof = self._dof[rows][:, None]
         linear[rows] = d.qvel[dof + np.arange(3)]
         local = d.qvel[dof + np.arange(3, 6)]  # a free joint's angular velocity is in the body frame
-        wxyz = d.qpos[self._qpos[moving][:, None] + np.arange(3, 7)]
+        wxyz = d.qpos[self._qpos[rows][:, None] + np.arange(3, 7)]
         if len(rows) <= _FEW:
-            for row, w, q in zip(rows, local, wxyz):
+            for row, w, q in zip(rows, local, wxyz, strict=True):
                 self._mj.mju_rotVecQuat(angular[row], w, q)
         else:
             angular[rows] = Rotation.from_quat(wxyz[:, [1, 2, 3, 0]]).apply(local)
-        return linear, angular
+        self._read = (linear, angular)
+        return self._read
 
 
 _FEW = 8

@@ -10,7 +10,15 @@ impactor alone (against immovable bricks). Threshold-based, as the report's.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
+import numpy as np
+
+from ._engine import ContactPoint
 from ._equilibrium import GRAVITY
+from ._graph import BrickState
+from ._stack import Record, StabilityEvent, Stack
+from ._stack_test import StackTest
 
 
 def kinetic_energy(mass: float, speed: float) -> float:
@@ -37,3 +45,63 @@ def potential_energy(mass_above: float, com_above_z: float, base_z: float, gravi
 def breaks_loose(kinetic: float, potential: float) -> bool:
     """True when the impact wakes the hit part: kinetic energy above potential (report 3.6.2)."""
     return kinetic > potential
+
+
+class Impacts:
+    """The impact rule of one extension: fast bodies about to touch a frozen brick.
+
+    Args:
+        stack: the registered bodies.
+        tests: the stack-wide test (the loads the potential energy needs).
+
+    Source: report 3.6; which body an impactor is about to hit is stackdsl's own.
+    """
+
+    def __init__(self, stack: Stack, tests: StackTest) -> None:
+        self.stack, self.tests = stack, tests
+
+    def check(self, active: list[Record], dt: float, time: float) -> list[StabilityEvent]:
+        """Each active body faster than the rest speed that will touch a frozen brick within
+        1.5 steps of ``dt`` s: wake that brick (with what is above it) when the blow breaks
+        it loose, else an ``impact`` event: the stack held."""
+        stack, config = self.stack, self.stack.config
+        events: list[StabilityEvent] = []
+        for rec in active:
+            speed = float(np.linalg.norm(stack.engine.velocity(rec.body)[0]))
+            if speed <= config.rest_speed:
+                rec.impacted.clear()
+                continue
+            heading = stack.engine.velocity(rec.body)[0] / speed
+            for hit in stack.engine.near(rec.body, speed * dt * 1.5 + config.contact_pad):
+                other = stack.bodies.get(hit.other)
+                if other is None or other.state is not BrickState.FROZEN or other.body in rec.impacted:
+                    continue
+                if not _ahead(hit, heading, config.contact_pad):
+                    continue
+                rec.impacted.add(other.body)
+                kinetic = kinetic_energy(rec.box.mass, speed)
+                base = min(a.height for a in other.rests_on.values())
+                self.tests.refresh_loads()
+                assert other.com_above is not None, "the stack test sets it for every frozen brick"
+                potential = potential_energy(other.mass_above, other.com_above[2], base, config.gravity)
+                detail = f"impact of {rec.label} at {speed:.2f} m/s: {kinetic * 1000:.3g} mJ against {potential * 1000:.3g} mJ"
+                if breaks_loose(kinetic, potential):
+                    events += [replace(w.event, source=rec.label) for w in stack.wake(other.body, time, detail)]
+                else:
+                    events.append(StabilityEvent(time, "impact", other.label, f"held, {detail}", rec.label))
+        return events
+
+
+def _ahead(hit: ContactPoint, heading: np.ndarray, pad: float) -> bool:
+    """Is the body of a closest point on the impactor's path (or already touching it)?
+
+    The gap between the two closest points runs along ``-hit.normal`` (the normal points
+    from the other body into the impactor). The impactor reaches that body if the gap runs
+    along its heading: forward, and less than a contact pad sideways. A body below or
+    beside the path is near but is not hit.
+    """
+    if hit.distance <= pad:  # touching already
+        return True
+    gap = -hit.normal * hit.distance
+    along = float(gap @ heading)
+    return along > 0 and float(np.linalg.norm(gap - along * heading)) <= 2 * pad

@@ -37,9 +37,10 @@ DEFAULT_SETTINGS = ("extension report", "extension equilibrium")
 PARTS = {
     "physics steps (pybullet)": ("_world.py", "step"),
     "stability extension, all of it": ("_extension.py", "update"),
-    "  admission by rigid-block equilibrium": ("_extension.py", "_admit_group"),
-    "  admission by the basic test": ("_extension.py", "_admit"),
-    "  stack-wide test": ("_extension.py", "_test_stack"),
+    "  admission by rigid-block equilibrium": ("_admission.py", "leaning"),
+    "  admission by the basic test": ("_admission.py", "basic"),
+    "  the debris rule": ("_debris.py", "admit"),
+    "  stack-wide test": ("_stack_test.py", "run"),
     "collapse monitor": ("_collapse.py", "after_step"),
 }
 """Profile rows: label -> (file name, function name) whose cumulative time is shown."""

@@ -174,8 +174,8 @@ def test_a_refused_brick_is_asked_again_only_when_something_changed(monkeypatch)
     s.ext.update(0.0)  # b1 frozen on the ground
     b = s.brick(0.065, 2, on=(1,))  # centre of mass 65 mm out, beyond b1's end: refused
     asked = []
-    real = s.ext._admit
-    monkeypatch.setattr(s.ext, "_admit", lambda *a: asked.append(a[0].body) or real(*a))
+    real = s.ext._admission.basic
+    monkeypatch.setattr(s.ext._admission, "basic", lambda *a: asked.append(a[0].body) or real(*a))
     for k in range(5):
         assert s.ext.update(0.1 * (k + 1)) == []
     assert asked == [b]  # once: nothing changed since
@@ -195,8 +195,8 @@ def test_a_refused_brick_waits_a_rest_duration_on_the_same_stack(monkeypatch):
     s.ext.update(0.1)  # b1 frozen on the ground
     b = s.brick(0.065, 2, on=(1,))  # refused: its centre of mass is beyond b1's end
     asked = []
-    real = s.ext._admit
-    monkeypatch.setattr(s.ext, "_admit", lambda *a: asked.append(a[0].body) or real(*a))
+    real = s.ext._admission.basic
+    monkeypatch.setattr(s.ext._admission, "basic", lambda *a: asked.append(a[0].body) or real(*a))
     s.ext.update(1.0)
     s.ext.update(1.06)  # at rest for the rest duration: asked, refused
     assert asked == [b]
@@ -207,3 +207,18 @@ def test_a_refused_brick_waits_a_rest_duration_on_the_same_stack(monkeypatch):
     s.engine.poses[b] = Pose.from_euler([0.0656, 0.0, 1.5 * H])
     s.ext.update(1.12)  # a rest duration after the refusal
     assert asked == [b, b]
+
+
+def test_the_profile_rows_of_the_bench_name_functions_that_exist():
+    """``stackdsl bench height`` finds each part of the profile by file and function name: a
+    rename must not leave a row that silently reads 0 s."""
+    import ast
+    from pathlib import Path
+
+    from stackdsl._bench_cost import PARTS
+
+    root = Path(__file__).resolve().parents[1]
+    for label, (file, function) in PARTS.items():
+        (path,) = [p for p in (root / "stability" / file, root / "stackdsl" / file) if p.exists()]
+        names = {n.name for n in ast.walk(ast.parse(path.read_text())) if isinstance(n, ast.FunctionDef)}
+        assert function in names, label

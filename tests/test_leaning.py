@@ -112,8 +112,8 @@ class Scene:
         return foot + L * axis  # the top end
 
 
-def wall_scene(angle_deg: float) -> tuple[Scene, int]:
-    s = Scene()
+def wall_scene(angle_deg: float, **config) -> tuple[Scene, int]:
+    s = Scene(**config)
     top = None
     s.engine.frozen.add(9)
     s.engine.poses[9] = Pose.from_euler([0.2, 0.0, 0.1])
@@ -163,15 +163,13 @@ def test_leaning_on_a_moving_brick_is_not_admitted():
 def test_more_than_two_leaning_contacts_are_beyond_the_reports_model():
     """The report's rules refuse a brick on three bodies; the debris rule's equilibrium, which
     counts any number, admits it."""
-    s, b = wall_scene(40)
-    s.ext.config = StabilityConfig(rest_duration=0.0, contact_pad=1e-5, debris=False)
+    s, b = wall_scene(40, debris=False)
     s.engine.frozen.add(8)
     s.engine.poses[8] = Pose.from_euler([0.03, 0.1, 0.1])
     s.ext.add_ground(8, Box(np.array([0.01, 0.1, 0.1]), 1.0), "post")
     s.engine.touch(b, 8, [[0.03, 0.0, 0.05]], normal=[0, -1, 0])
     assert s.ext.update(0.0) == []
-    s2, b2 = wall_scene(40)
-    s2.ext.config = StabilityConfig(rest_duration=0.0, contact_pad=1e-5, max_leaning_bodies=3)
+    s2, b2 = wall_scene(40, max_leaning_bodies=3)
     s2.engine.frozen.add(8)
     s2.engine.poses[8] = Pose.from_euler([0.03, 0.1, 0.1])
     s2.ext.add_ground(8, Box(np.array([0.01, 0.1, 0.1]), 1.0), "post")
@@ -188,13 +186,11 @@ def test_more_than_two_leaning_contacts_are_beyond_the_reports_model():
 def test_leaning_rule_off_leaves_the_brick_to_the_engine():
     """With neither the leaning rule nor the debris rule, a leaning brick is never frozen; the
     debris rule alone admits it (within the ladder's limit) and refuses it beyond."""
-    s, _b = wall_scene(40)
-    s.ext.config = StabilityConfig(rest_duration=0.0, contact_pad=1e-5, leaning=False, debris=False)
+    s, _b = wall_scene(40, leaning=False, debris=False)
     assert s.ext.update(0.0) == []
     limit = math.degrees(math.atan(2 * 0.5 / (1 - 0.25)))
     for angle, frozen in ((limit - 1, True), (limit + 1, False)):
-        s, b = wall_scene(angle)
-        s.ext.config = StabilityConfig(rest_duration=0.0, contact_pad=1e-5, leaning=False)
+        s, b = wall_scene(angle, leaning=False)
         s.ext.update(0.0)
         assert (s.ext.state(b) is BrickState.FROZEN) is frozen
 

@@ -92,7 +92,7 @@ def test_proven_counts_the_edge_and_nothing_beyond() -> None:
 
 
 def _count_solves(monkeypatch: pytest.MonkeyPatch) -> list[int]:
-    import stability._extension as extension
+    import stability._stack_test as extension
 
     calls: list[int] = []
     real = extension.solve_equilibrium

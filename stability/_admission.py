@@ -1,0 +1,148 @@
+"""Admission: when a brick at rest is frozen (report 3.3.4, 3.4, 3.5).
+
+The basic test freezes a brick whose centre of mass lies over its main contact area, unless
+it rests on contacts at different heights (3.5); the leaning test freezes a brick that
+touches two bodies, with a resting partner it leans on (the other brick of a V), when
+friction holds them (3.4). Source: report 3.3.4, 3.4 and 3.5.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+from ._areas import ContactAreas, Contacts, horizontal, main_area
+from ._equilibrium import ContactPolygon
+from ._geometry import ContactArea
+from ._graph import BrickState
+from ._leaning import leaning_stands
+from ._stack import Record, StabilityEvent, Stack
+
+Plan = dict[int, tuple[dict[int, ContactArea], ContactArea]]
+"""How the members of a group are frozen: body -> (its supports, its main contact area)."""
+
+
+class Admission:
+    """The admission tests of one extension, on its stack and contact areas.
+
+    Args:
+        stack: the registered bodies.
+        areas: their contact areas.
+
+    Source: report 3.3.4, 3.4 and 3.5.
+    """
+
+    def __init__(self, stack: Stack, areas: ContactAreas) -> None:
+        self.stack, self.areas, self.config = stack, areas, stack.config
+
+    def basic(self, rec: Record, contacts: Contacts, time: float) -> list[StabilityEvent]:
+        """Single object stability (report 3.3.4): freeze when the COM is over the support."""
+        areas, stack = self.areas, self.stack
+        supports = areas.supports(rec, contacts.get(rec.body, []), stack_only=True)
+        if not supports:
+            return []
+        heights = [a.height for a in supports.values()]
+        if max(heights) - min(heights) > self.config.lean_height and not all(a.exact for a in supports.values()):
+            return []  # report 3.5: contacts at different heights (not face to face on each): a leaning brick
+        main = main_area(supports)
+        if not areas.holds(main, stack.engine.pose(rec.body).position):
+            return []
+        held = {o: pts for o, pts in areas.touching(rec, contacts).items() if stack.bodies[o].state is not BrickState.ACTIVE}
+        stack.freeze(rec, supports, main, areas.polygons(rec, held, known=supports))
+        names = ", ".join(stack.bodies[s].label for s in supports)
+        return [StabilityEvent(time, "freeze", rec.label, f"at rest on {names}")]
+
+    def leaning(self, rec: Record, contacts: Contacts, time: float, limit: int | None) -> list[StabilityEvent]:
+        """Admit ``rec`` (with a resting partner it leans on, if any) when friction holds it.
+
+        The report's leaning test (3.4): a brick touching two bodies (``limit``), at least
+        one of them in the stack or the ground; with the equilibrium model any number of
+        bodies (``limit`` None). The members are balanced by rigid-block equilibrium
+        against what is frozen (:func:`stability.leaning_stands`).
+        """
+        group = self._group(rec, contacts, time, limit)
+        if not group:
+            return []
+        areas = self.areas
+        polygons = {
+            m.body: areas.polygons(m, areas.touching(m, contacts), skip={g.body for g in group[:i]}) for i, m in enumerate(group)
+        }
+        members = {m.body: (self.stack.engine.pose(m.body).position, m.box.mass) for m in group}
+        if not leaning_stands(members, [c for cs in polygons.values() for c in cs], self.config.gravity):
+            return []
+        return self.freeze_group(group, polygons, areas.touching(rec, contacts), time)
+
+    def _group(self, rec: Record, contacts: Contacts, time: float, limit: int | None) -> list[Record]:
+        """``rec`` and its partner, if it leans on one: an active brick at rest that touches
+        ``rec`` and otherwise only the stack (the other brick of a V). Empty when ``rec``
+        cannot be admitted this way."""
+        bodies = self.stack.bodies
+        touching = self.areas.touching(rec, contacts)
+        if not self._leans(touching, limit):
+            return []
+        partners = [bodies[o] for o in touching if bodies[o].state is BrickState.ACTIVE]
+        if not partners:
+            return [rec]
+        if len(partners) > 1:
+            return []
+        (partner,) = partners
+        theirs = self.areas.touching(partner, contacts)
+        if not (self.stack.rested(partner, time) and rec.body in theirs and self._leans(theirs, limit)):
+            return []
+        if any(bodies[o].state is BrickState.ACTIVE for o in theirs if o != rec.body):
+            return []
+        return [rec, partner]
+
+    def _leans(self, touching: Contacts, limit: int | None) -> bool:
+        """Two bodies (report 3.4.3; up to ``limit``, any number for None), at least one in
+        the stack or the ground."""
+        held = [o for o in touching if self.stack.bodies[o].state is not BrickState.ACTIVE]
+        if limit is None:
+            return bool(held)
+        return 2 <= len(touching) <= limit and bool(held)
+
+    def plan(self, group: list[Record], polygons: dict[int, list[ContactPolygon[int]]]) -> Plan:
+        """How the members of a group would be frozen: each one's supports and main contact
+        area, from its contacts in ``polygons`` (the one between two members under the later
+        of them). A member lying only on other members rests on those lower than itself."""
+        members, plan = {m.body for m in group}, {}
+        pad, up, engine = self.config.contact_pad, self.areas.support_cos, self.stack.engine
+        for m in group:
+            areas = {c.other: horizontal(c, pad) for c in polygons[m.body]}
+            for g in group:  # the contacts with the other members, seen from this side
+                if g is not m:
+                    areas.update((g.body, horizontal(c, pad, flip=True)) for c in polygons[g.body] if c.other == m.body)
+            supports = {o: a for o, a in areas.items() if o not in members}
+            resting = {o: a for o, a in supports.items() if a.normal[2] >= up}
+            if not resting:  # lying only on other members: on those lower than itself (no cycle)
+                z = engine.pose(m.body).position[2]
+                lower = {o: a for o, a in areas.items() if o in members and engine.pose(o).position[2] < z}
+                resting = {o: a for o, a in lower.items() if a.normal[2] >= up} or supports
+            plan[m.body] = (resting, main_area(areas))
+        return plan
+
+    def freeze_group(
+        self,
+        group: list[Record],
+        polygons: dict[int, list[ContactPolygon[int]]],
+        touching: Contacts,
+        time: float,
+        plan: Plan | None = None,
+    ) -> list[StabilityEvent]:
+        """Freeze the members of an admitted group (``group[0]`` the brick that asked) as
+        ``plan`` says (:meth:`plan` when None); the members wake together."""
+        rec, events = group[0], []
+        plan = plan or self.plan(group, polygons)
+        names = ", ".join(self.stack.bodies[o].label for o in touching if o != rec.body)
+        for m in group:
+            resting, main = plan[m.body]
+            self.stack.freeze(m, resting, main, polygons[m.body])
+            on = names if m is rec else rec.label
+            if len(group) > 2:
+                reason = f"at rest in a pile of {len(group)} bricks {'on' if m is rec else 'with'} {on}"
+            else:
+                reason = f"{'leaning on' if len(touching) > 1 else 'at rest on'} {on}"
+            events.append(StabilityEvent(time, "freeze", m.label, reason))
+        for a, b in itertools.pairwise(group):
+            a.objects_above.add(b.body)
+            b.objects_above.add(a.body)
+        return events

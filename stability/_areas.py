@@ -1,0 +1,153 @@
+"""Contact areas (report 3.3.3, 3.4.2): what a brick rests on and how it touches its neighbours.
+
+From the engine's contact points of a brick, grouped by the body they touch: the exact face
+overlap where the brick lies face to face on a body, else the points padded into an area
+(3.3.3); the main contact area is the hull of a brick's areas. For a leaning brick each
+contact becomes a polygon in its contact plane, with the pair's friction coefficient (3.4.2).
+Source: report 3.3.3 and 3.4.2.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+from collections.abc import Iterable, Sequence
+from collections.abc import Set as AbstractSet
+
+import numpy as np
+
+from ._engine import ContactPoint
+from ._equilibrium import ContactPolygon
+from ._geometry import ContactArea, Plane, combined_hull, contains, face_overlap, padded_hull
+from ._graph import BrickState
+from ._leaning import lean_polygon, pair_friction
+from ._stack import Record, Stack
+
+Contacts = dict[int, list[ContactPoint]]
+"""Contact points by the body they are seen from."""
+
+
+class ContactAreas:
+    """The contact areas and polygons of the bricks of ``stack``, from their contact points.
+
+    Args:
+        stack: the registered bodies (their shapes, states and poses).
+
+    Source: report 3.3.3 and 3.4.2; the support angle and the face gap are stackdsl's own.
+    """
+
+    def __init__(self, stack: Stack) -> None:
+        self.stack = stack
+        self.config = stack.config
+        self.support_cos = math.cos(math.radians(self.config.support_angle))
+
+    def supports(self, rec: Record, contacts: Iterable[ContactPoint], stack_only: bool) -> dict[int, ContactArea]:
+        """Contact areas of the bodies ``rec`` rests on (a contact normal within the support
+        angle of straight up), keyed by body, in registration order; active bricks only when
+        not ``stack_only`` and lower than ``rec``."""
+        grouped: dict[int, list[ContactPoint]] = defaultdict(list)
+        bodies, engine = self.stack.bodies, self.stack.engine
+        my_z = engine.pose(rec.body).position[2]
+        for c in contacts:
+            other = bodies.get(c.other)
+            if other is None or c.normal[2] < self.support_cos:
+                continue
+            if other.state is BrickState.ACTIVE and (stack_only or engine.pose(other.body).position[2] >= my_z):
+                continue
+            grouped[c.other].append(c)
+        return {o: self._contact_area(rec, bodies[o], grouped[o]) for o in self.stack.ordered(grouped)}
+
+    def _contact_area(self, rec: Record, other: Record, points: list[ContactPoint]) -> ContactArea:
+        other_pose = None if isinstance(other.shape, Plane) else self.stack.pose(other)
+        exact = face_overlap(rec.box, self.stack.engine.pose(rec.body), other.shape, other_pose, self.config.face_gap)
+        if exact is not None:
+            return exact
+        xyz = np.array([c.position for c in points])
+        normal = np.mean([c.normal for c in points], axis=0)
+        polygon = padded_hull(xyz[:, :2], self.config.contact_pad)
+        return ContactArea(polygon, float(xyz[:, 2].mean()), normal / np.linalg.norm(normal), exact=False)
+
+    def polygons(
+        self,
+        rec: Record,
+        touching: dict[int, list[ContactPoint]],
+        skip: AbstractSet[int] = frozenset(),
+        known: dict[int, ContactArea] | None = None,
+    ) -> list[ContactPolygon[int]]:
+        """One contact polygon per touched body (report 3.4.2): the exact face overlap where
+        ``rec`` lies face to face on it, else the contact points padded across the normal.
+        ``known``: contact areas already found for some of these bodies (from :meth:`supports`)."""
+        out = []
+        pose = self.stack.engine.pose(rec.body)
+        known = known or {}
+        for other, points in touching.items():
+            if other in skip:
+                continue
+            o = self.stack.bodies[other]
+            friction = pair_friction(rec.friction, o.friction)
+            if other in known:
+                exact = known[other] if known[other].exact else None
+            else:
+                other_pose = None if isinstance(o.shape, Plane) else self.stack.pose(o)
+                exact = face_overlap(rec.box, pose, o.shape, other_pose, self.config.face_gap)
+            if exact is not None:
+                ring = np.asarray(exact.polygon.exterior.coords)[:-1]
+                polygon = np.column_stack([ring, np.full(len(ring), exact.height)])
+                out.append(ContactPolygon(rec.body, other, polygon, exact.normal, friction))
+                continue
+            normal = np.mean([c.normal for c in points], axis=0)
+            normal /= np.linalg.norm(normal)
+            polygon = lean_polygon(np.array([c.position for c in points]), normal, self.config.contact_pad)
+            out.append(ContactPolygon(rec.body, other, polygon, normal, friction))
+        return out
+
+    def holds(self, main: ContactArea, point: Sequence[float] | np.ndarray) -> bool:
+        """Centre of mass ``point`` over the main contact area ``main`` (by ``com_margin`` when it is set)."""
+        if self.config.com_margin > 0:
+            return contains(main.polygon, point, self.config.com_margin)
+        return main.holds(float(point[0]), float(point[1]))
+
+    def around(self, rec: Record, contacts: Contacts) -> dict[int, list[ContactPoint]]:
+        """Every registered body ``rec`` touches, with the contact points, in registration order."""
+        grouped: dict[int, list[ContactPoint]] = defaultdict(list)
+        for c in contacts.get(rec.body, []):
+            if c.other in self.stack.bodies:
+                grouped[c.other].append(c)
+        return {o: grouped[o] for o in self.stack.ordered(grouped)}
+
+    def touching(self, rec: Record, contacts: Contacts) -> dict[int, list[ContactPoint]]:
+        """Registered bodies ``rec`` touches, with the contact points, in registration order.
+
+        An active brick lying on ``rec`` (its contact normal within the support angle of
+        straight down) is left out: it is a load, not a support (report 3.3.1 drops
+        contacts between two unstable bricks); the stack test counts it once it is frozen.
+        """
+        bodies = self.stack.bodies
+        return {
+            o: pts
+            for o, pts in self.around(rec, contacts).items()
+            if not (bodies[o].state is BrickState.ACTIVE and np.mean([c.normal[2] for c in pts]) < -self.support_cos)
+        }
+
+
+def main_area(areas: dict[int, ContactArea]) -> ContactArea:
+    """The main contact area (report 3.3.3): the hull of the individual ones, at the lowest height."""
+    return ContactArea(
+        combined_hull(list(areas.values())), min(a.height for a in areas.values()), np.array([0.0, 0.0, 1.0]), False
+    )
+
+
+def horizontal(contact: ContactPolygon[int], pad: float, flip: bool = False) -> ContactArea:
+    """The horizontal projection of a leaning contact, for the graph and the wake cascade;
+    ``flip``: seen from ``contact.other`` (its normal reversed)."""
+    points = np.asarray(contact.points)
+    normal = -contact.normal if flip else contact.normal
+    return ContactArea(padded_hull(points[:, :2], pad), float(points[:, 2].mean()), normal, exact=False)
+
+
+def by_body(points: Iterable[ContactPoint]) -> Contacts:
+    """Contact points grouped by the body they are seen from."""
+    grouped: dict[int, list[ContactPoint]] = defaultdict(list)
+    for c in points:
+        grouped[c.body].append(c)
+    return grouped

@@ -1,0 +1,72 @@
+"""The stability extension's thresholds and rules (SI units).
+
+Source: report chapter 3; each field says where it departs from the report.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ._equilibrium import GRAVITY
+
+
+@dataclass(frozen=True)
+class StabilityConfig:
+    """Thresholds and rules of the stability extension (SI units).
+
+    Attributes:
+        rest_speed: m/s; a brick faster than this is not at rest, and a body faster
+            than this that is about to touch a frozen brick is an impact (report 3.3.2, 3.6).
+        rest_angular_speed: rad/s; likewise for rotation (report 3.3.2).
+        rest_duration: s; speeds must stay under both thresholds this long before a
+            brick is admitted. The report tests one frame; a brick just woken is at rest
+            for that frame and would be refrozen at once, so stackdsl asks for a duration
+            (its own).
+        contact_pad: m; half-width of the padding of one- and two-point contact areas
+            (report 3.3.3, 3.4.2).
+        support_angle: degrees; a contact whose normal is within this angle of vertical
+            is one the brick rests on (stackdsl's own).
+        face_gap: m; two faces within this distance (and this flat) touch face to face,
+            and their overlap is the exact contact area (stackdsl's own).
+        com_margin: m; the centre of mass must lie this far inside the area (0: strictly
+            inside; on the edge counts as unstable).
+        lean_height: m; a brick whose support areas differ in height by more than this
+            is not admitted by the basic test (report 3.5).
+        leaning: run the leaning rule (report 3.4).
+        max_leaning_bodies: a leaning brick may touch at most this many bodies (the
+            report's model handles two).
+        impacts: run the impact rule (report 3.6).
+        debris: admit a resting brick the other rules refuse together with every resting
+            brick it touches, and they with theirs, when rigid-block equilibrium holds them
+            all against what is frozen (stackdsl's own): fallen bricks leaning on each other
+            are frozen again, so that what lies still costs nothing.
+        per_event: run the stack-wide test only when the stack changes (a freeze or a
+            wake); False runs it on every step with an active brick (for measuring).
+        model: ``"report"``: the report's rules (basic test, leaning test, centre of mass
+            above against the main contact area); ``"equilibrium"``: admission and the
+            stack-wide test by rigid-block equilibrium (:mod:`stability._equilibrium`).
+        gravity: m/s^2.
+
+    Raises:
+        ValueError: an unknown model.
+    """
+
+    rest_speed: float = 0.005
+    rest_angular_speed: float = 0.05
+    rest_duration: float = 0.05
+    contact_pad: float = 0.001
+    support_angle: float = 30.0
+    face_gap: float = 0.001
+    com_margin: float = 0.0
+    lean_height: float = 0.002
+    leaning: bool = True
+    max_leaning_bodies: int = 2
+    impacts: bool = True
+    debris: bool = True
+    per_event: bool = True
+    model: str = "report"
+    gravity: float = GRAVITY
+
+    def __post_init__(self) -> None:
+        if self.model not in ("report", "equilibrium"):
+            raise ValueError(f"unknown stability model {self.model!r}: 'report' or 'equilibrium'")

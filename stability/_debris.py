@@ -1,0 +1,108 @@
+"""The debris rule: fallen bricks at rest are frozen again (stackdsl's own).
+
+A brick the admission tests refuse is admitted with every resting brick it touches, and they
+with theirs (the connected pile), when rigid-block equilibrium holds them all against what
+is frozen (:func:`stability.leaning_stands`): bricks that fell and lie still, alone or leaning
+on each other, then cost nothing. Source: stackdsl's own, on the report's rigid-block
+reading of leaning (3.4).
+"""
+
+from __future__ import annotations
+
+from ._admission import Admission, Plan
+from ._areas import ContactAreas, Contacts
+from ._graph import BrickState
+from ._leaning import leaning_stands
+from ._load import LoadNode, propagate_fast
+from ._stack import Record, StabilityEvent, Stack
+
+MAX_PILE = 32
+"""Most bricks the debris rule admits at once (one equilibrium program over all of them)."""
+
+
+class Debris:
+    """The debris rule of one extension.
+
+    A refused pile is not solved again until the stack changes or one of its bricks moves
+    faster than the rest thresholds: a pile that creeps below them is still the pile refused.
+
+    Args:
+        stack: the registered bodies.
+        areas: their contact areas.
+        admission: the admission tests (how a group is frozen).
+
+    Source: stackdsl's own.
+    """
+
+    def __init__(self, stack: Stack, areas: ContactAreas, admission: Admission) -> None:
+        self.stack, self.areas, self.admission = stack, areas, admission
+        self._refused: tuple[int, set[tuple[tuple[int, float | None], ...]]] = (0, set())  # piles refused, at a version
+
+    def admit(self, rec: Record, contacts: Contacts, time: float) -> list[StabilityEvent]:
+        """Admit ``rec`` with its pile when rigid-block equilibrium holds it against what is
+        frozen and, with the report model, the stack test would keep it frozen; nothing while
+        a brick of the pile still moves or it touches nothing frozen. A refused pile is
+        refused for every member: none of them asks again until something it depends on
+        changes (:meth:`Stack.attempt`).
+
+        A pile that rests on the stack and on the ground at once (a tower fallen against the
+        floor) stands by friction, but the report's load tree cannot carry it: frozen, the
+        stack test would wake it at once, and it would be frozen and woken again every rest
+        duration.
+        """
+        stack, areas = self.stack, self.areas
+        group = self._pile(rec, contacts, time)
+        if self._refused[0] != stack.version:
+            self._refused = (stack.version, set())
+        key = tuple((m.body, m.rest_since) for m in group)
+        if not group or key in self._refused[1]:
+            return []
+        skip: set[int] = set()
+        polygons = {}
+        for m in group:
+            polygons[m.body] = areas.polygons(m, areas.around(m, contacts), skip=skip)
+            skip.add(m.body)
+        members = {m.body: (stack.engine.pose(m.body).position, m.box.mass) for m in group}
+        plan = self.admission.plan(group, polygons)
+        polygon_list = [c for cs in polygons.values() for c in cs]
+        if not (self._carried(group, plan) and leaning_stands(members, polygon_list, stack.config.gravity)):
+            self._refused[1].add(key)
+            for m in group:
+                m.failed = (stack.attempt(m, contacts, time), time)
+            return []
+        inside = {m.body for m in group}
+        held: Contacts = {o: [] for m in group for o in areas.around(m, contacts) if o not in inside}
+        touching = {o: held[o] for o in stack.ordered(held)}
+        return self.admission.freeze_group(group, polygons, touching, time, plan)
+
+    def _carried(self, group: list[Record], plan: Plan) -> bool:
+        """Would the report's stack test keep ``group`` frozen, frozen as ``plan`` says?
+        Always True with the equilibrium model (its stack test is the equilibrium that
+        :func:`stability.leaning_stands` checks)."""
+        stack = self.stack
+        if stack.config.model != "report":
+            return True
+        frozen = stack.in_order()
+        nodes = stack.nodes(frozen)
+        mains = {r.body: r.main_contact for r in frozen}
+        for m in group:
+            nodes[m.body] = LoadNode(m.box.mass, stack.engine.pose(m.body).position, plan[m.body][0])
+            mains[m.body] = plan[m.body][1]
+        loads = propagate_fast(nodes)
+        return all(main is not None and self.areas.holds(main, loads[b][0]) for b, main in mains.items())
+
+    def _pile(self, rec: Record, contacts: Contacts, time: float) -> list[Record]:
+        """``rec`` and the active bricks connected to it by contacts, in registration order;
+        empty when one of them is not at rest, or none touches a frozen brick or the ground."""
+        pile, queue, held = {rec.body: rec}, [rec], False
+        while queue:
+            for other in self.areas.around(queue.pop(), contacts):
+                o = self.stack.bodies[other]
+                if o.state is not BrickState.ACTIVE:
+                    held = True
+                elif other not in pile:
+                    if not self.stack.rested(o, time) or len(pile) >= MAX_PILE:
+                        return []
+                    pile[other] = o
+                    queue.append(o)
+        return sorted(pile.values(), key=lambda r: r.order) if held else []

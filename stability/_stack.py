@@ -1,0 +1,203 @@
+"""The registered bodies and the frozen stack: who is active, who is frozen and on what.
+
+Each body's record holds what report Figure 3 keeps of a brick (its supports, main contact
+area, the bricks above it, centre of mass above and mass above) with the contact polygons of
+3.4. The stack freezes a body on the engine (recording what it rests on) and wakes it with
+everything resting on it (3.3.7). Source: report 3.3.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from typing import Literal, NamedTuple
+
+from shapely.geometry.base import BaseGeometry
+
+from ._config import StabilityConfig
+from ._engine import ContactPoint, Engine
+from ._equilibrium import ContactPolygon, is_level
+from ._geometry import Box, ContactArea, Plane, Pose
+from ._graph import BrickState
+from ._load import LoadNode
+from ._load_path import load_path, proven, support_piece
+
+
+@dataclass(frozen=True)
+class StabilityEvent:
+    """Something the extension did: ``kind`` is ``"freeze"``, ``"wake"`` or ``"impact"``
+    (an impact the stack held; every landing brick makes one); time in s; ``source`` is
+    the impactor of an impact or of the wake it caused."""
+
+    time: float
+    kind: Literal["freeze", "wake", "impact"]
+    label: str
+    reason: str
+    source: str = ""
+
+
+class Woken(NamedTuple):
+    """A brick just woken, with the load node and contact polygons it had when frozen."""
+
+    body: int
+    node: LoadNode
+    contacts: list[ContactPolygon[int]]
+    event: StabilityEvent
+
+
+@dataclass
+class Record:
+    """Per-body data of report Figure 3 (Brick), with the leaning contacts of 3.4."""
+
+    body: int
+    label: str
+    shape: Box | Plane
+    state: BrickState
+    order: int
+    friction: float
+    rests_on: dict[int, ContactArea] = field(default_factory=dict)
+    main_contact: ContactArea | None = None
+    contacts: list[ContactPolygon[int]] = field(default_factory=list)
+    objects_above: set[int] = field(default_factory=set)
+    com_above: tuple[float, float, float] | None = None
+    mass_above: float = 0.0
+    rest_since: float | None = None
+    frozen_pose: Pose | None = None
+    node: LoadNode | None = None
+    impacted: set[int] = field(default_factory=set)
+    load_path: BaseGeometry | None = None
+    failed: tuple[tuple[object, ...], float] | None = None  # its last refusal: what it depended on, when
+
+    @property
+    def box(self) -> Box:
+        """The shape of a brick: only environment bodies may be planes. Raises TypeError for a plane."""
+        if not isinstance(self.shape, Box):
+            raise TypeError(f"{self.label} is a plane, not a brick")
+        return self.shape
+
+
+class Stack:
+    """The registered bodies of one extension, with the frozen stack: the active ones, the
+    frozen ones in the order they froze (each after its supports), and a version that counts
+    the stack's changes (freezes and wakes). It freezes and wakes them on the engine.
+
+    Args:
+        engine: the engine the bodies live in.
+        config: the extension's thresholds and rules.
+
+    Source: report 3.3.1 (Figure 3) and 3.3.7; the load paths are stackdsl's own
+    (:mod:`stability._load_path`).
+    """
+
+    def __init__(self, engine: Engine, config: StabilityConfig) -> None:
+        self.engine, self.config = engine, config
+        self.bodies: dict[int, Record] = {}
+        self.active: dict[int, Record] = {}  # the active bricks, so that a step costs what moves
+        self.frozen: dict[int, Record] = {}  # the frozen bricks in the order they froze: supports first
+        self.unproven: set[int] = set()  # frozen bricks with no load path under their centre of mass
+        self.loads_fresh = True  # com_above / mass_above of every frozen brick are up to date
+        self.version = 0  # counts the changes of the frozen stack (freezes and wakes)
+
+    def add(self, rec: Record) -> None:
+        """Register ``rec``. Raises ValueError for a body registered already."""
+        if rec.body in self.bodies:
+            raise ValueError(f"body {rec.body} is registered already")
+        self.bodies[rec.body] = rec
+        if rec.state is BrickState.ACTIVE:
+            self.active[rec.body] = rec
+
+    def ordered(self, bodies: Iterable[int]) -> list[int]:
+        """``bodies`` in registration order."""
+        return sorted(bodies, key=lambda b: self.bodies[b].order)
+
+    def pose(self, rec: Record) -> Pose:
+        """Where ``rec`` is: as frozen, or the engine's pose."""
+        return rec.frozen_pose if rec.frozen_pose is not None else self.engine.pose(rec.body)
+
+    def nodes(self, bricks: Iterable[Record]) -> dict[int, LoadNode]:
+        """The load node of each brick: as frozen, or where it is on what it rests on."""
+        return {r.body: r.node or LoadNode(r.box.mass, self.pose(r).position, r.rests_on) for r in bricks}
+
+    def in_order(self) -> list[Record]:
+        """The frozen bricks, in the order they froze (each after its supports)."""
+        return list(self.frozen.values())
+
+    def rested(self, rec: Record, time: float) -> bool:
+        """Has ``rec`` been under the rest thresholds for the rest duration at ``time`` s?"""
+        return rec.rest_since is not None and time - rec.rest_since >= self.config.rest_duration - 1e-9
+
+    def attempt(self, rec: Record, contacts: dict[int, list[ContactPoint]], time: float) -> tuple[object, ...]:
+        """What an admission of ``rec`` depends on: the stack (its version), the brick's pose
+        to 0.1 mm and 0.01 rad, and the bodies it touches with whether each is frozen or
+        at rest. A brick refused once is not asked again until one of them changes."""
+        pose = self.engine.pose(rec.body)
+        where = tuple(round(float(v) * 1e4) for v in pose.position) + tuple(round(float(v) * 200) for v in pose.orientation)
+        around = tuple(
+            sorted(
+                (o, self.bodies[o].state is not BrickState.ACTIVE or self.rested(self.bodies[o], time))
+                for o in {c.other for c in contacts.get(rec.body, [])}
+                if o in self.bodies
+            )
+        )
+        return (self.version, where, around)
+
+    def soon(self, failed: tuple[tuple[object, ...], float], time: float) -> bool:
+        """Was the refusal ``failed`` (what it depended on, when) less than a rest duration ago,
+        on the same stack? Then the brick waits: in a heap that still settles around it, it
+        would be asked every step."""
+        return failed[0][0] == self.version and time - failed[1] < self.config.rest_duration
+
+    def freeze(
+        self, rec: Record, supports: dict[int, ContactArea], main: ContactArea, polygons: list[ContactPolygon[int]]
+    ) -> None:
+        """Freeze ``rec`` on ``supports`` (its main contact area ``main``, every contact polygon
+        ``polygons``); with the equilibrium model, find its load path."""
+        self.engine.set_frozen(rec.body, True, rec.box.mass)
+        rec.state, rec.rests_on, rec.main_contact, rec.contacts = BrickState.FROZEN, supports, main, polygons
+        self.active.pop(rec.body, None)
+        rec.frozen_pose = self.engine.pose(rec.body)
+        rec.node = LoadNode(rec.box.mass, rec.frozen_pose.position, supports)
+        self.frozen[rec.body] = rec
+        self.loads_fresh, self.version = False, self.version + 1
+        for s in supports:
+            self.bodies[s].objects_above.add(rec.body)
+        if self.config.model == "equilibrium":
+            self._prove(rec)
+
+    def _prove(self, rec: Record) -> None:
+        """Find the load path of a brick being frozen (:mod:`stability._load_path`) and note
+        it when its centre of mass is not over it."""
+        pieces = []
+        for c in rec.contacts:
+            support = self.bodies[c.other]
+            if c.other in rec.rests_on and is_level(c):
+                pieces.append(support_piece(c.points, support.load_path, support.state is BrickState.GROUND))
+        rec.load_path = load_path([p for p in pieces if p is not None])
+        assert rec.frozen_pose is not None, "set by freeze"
+        if not proven(rec.frozen_pose.position, rec.load_path):
+            self.unproven.add(rec.body)
+
+    def wake(self, body: int, time: float, reason: str) -> list[Woken]:
+        """Wake ``body`` and, recursively, what rests on it (report 3.3.7); each with its last
+        load node and contact polygons (a woken brick may still rest on the stack). Nothing
+        when ``body`` is not frozen."""
+        rec = self.bodies[body]
+        if rec.state is not BrickState.FROZEN:
+            return []
+        node = rec.node
+        assert node is not None, "a frozen brick has a load node"
+        self.engine.set_frozen(body, False, rec.box.mass)
+        rec.state, rec.rest_since, rec.frozen_pose, rec.node = BrickState.ACTIVE, None, None, None
+        self.active[body] = rec
+        del self.frozen[body]
+        self.unproven.discard(body)
+        rec.load_path, self.loads_fresh, self.version = None, False, self.version + 1
+        for s in rec.rests_on:
+            self.bodies[s].objects_above.discard(body)
+        rec.rests_on, rec.main_contact, rec.com_above, rec.mass_above = {}, None, None, 0.0
+        rec.contacts = []
+        woken = [Woken(body, node, rec.contacts, StabilityEvent(time, "wake", rec.label, reason))]
+        for above in self.ordered(rec.objects_above):
+            woken += self.wake(above, time, f"rests on {rec.label}")
+        rec.objects_above = set()
+        return woken

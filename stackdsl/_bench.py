@@ -49,15 +49,14 @@ SETTINGS: dict[str, Setting] = {
     "extension equilibrium": Setting("extension", "equilibrium"),
     "MuJoCo raw": Setting("raw", engine=_MUJOCO),
     "MuJoCo tuned": Setting("tuned", engine=_MUJOCO),
-    "MuJoCo tuned sleeping": Setting("tuned", engine=_SLEEPING),
+    "MuJoCo tuned sleeping": Setting("tuned", engine=_SLEEPING, lazy_bodies=True),
     "MuJoCo tuned sleeping parked": Setting("tuned", engine=_SLEEPING, lazy_bodies=False),
     "MuJoCo extension": Setting("extension", engine=_MUJOCO),
 }
 """Engine settings compared, by name. pybullet's first; then MuJoCo's: its defaults, the
-tuned settings, those with MuJoCo's own sleeping (tolerance 1e-4) with bricks entering as
-they are placed (the runtime's rule with sleeping on) and with every brick declared up front
-and parked (no valid peer: a parked brick moved in stays asleep where it is put, above its pose:
-docs/results.md, MuJoCo), and the extension."""
+tuned settings, those with MuJoCo's own sleeping (tolerance 1e-4) with bricks added to the
+model as they are placed and with every brick declared up front and parked (the runtime's
+default on MuJoCo), and the extension."""
 
 
 @dataclass(frozen=True)

@@ -56,8 +56,8 @@ def check_targets(cells: list[Cell]) -> dict[str, Any]:
 
 EXTENSIONS = ("extension report", "MuJoCo extension")
 PEERS = ("MuJoCo tuned sleeping", "MuJoCo tuned sleeping parked")
-"""The extension on each backend, and the strongest peer: tuned MuJoCo with its own sleeping
-(bricks added as placed; the parked form leaves them asleep above their poses, docs/results.md)."""
+"""The extension on each backend, and the strongest peer: tuned MuJoCo with its own sleeping,
+in both of its forms (bricks added to the model as they are placed, or parked up front)."""
 
 
 @dataclass(frozen=True)

@@ -262,8 +262,9 @@ def test_the_freeze_means_chosen_holds_and_the_others_do_not():
 
 
 def test_mujocos_own_sleeping_still_drops_the_slant_tower_at_its_closed_form():
-    """With MuJoCo's sleeping on, bricks enter as they are placed: a parked brick moved in
-    stayed asleep where it was put, and the slant tower stood."""
+    """With MuJoCo's sleeping on (bricks parked up front, the runtime's default on MuJoCo) the
+    slant tower falls at its closed form; when a parked brick moved in stayed asleep where it
+    was put, the tower stood."""
     scenario = load_scenario(ROOT / "scenarios" / "slant_tower.yaml")
     program = compile_scenario(scenario, "tuned", backend="mujoco")
     program = program.model_copy(update={"engine": program.engine.model_copy(update={"sleep_tolerance": 1e-4})})

@@ -37,11 +37,11 @@ class StabilityEvent:
 
 
 class Woken(NamedTuple):
-    """A brick just woken, with the load node and contact polygons it had when frozen."""
+    """A brick just woken, with the load node it had when frozen (a woken brick may still
+    rest on the stack: the stack test reloads what it still rests on)."""
 
     body: int
     node: LoadNode
-    contacts: list[ContactPolygon[int]]
     event: StabilityEvent
 
 
@@ -179,8 +179,7 @@ class Stack:
 
     def wake(self, body: int, time: float, reason: str) -> list[Woken]:
         """Wake ``body`` and, recursively, what rests on it (report 3.3.7); each with its last
-        load node and contact polygons (a woken brick may still rest on the stack). Nothing
-        when ``body`` is not frozen."""
+        load node. Nothing when ``body`` is not frozen."""
         rec = self.bodies[body]
         if rec.state is not BrickState.FROZEN:
             return []
@@ -196,7 +195,7 @@ class Stack:
             self.bodies[s].objects_above.discard(body)
         rec.rests_on, rec.main_contact, rec.com_above, rec.mass_above = {}, None, None, 0.0
         rec.contacts = []
-        woken = [Woken(body, node, rec.contacts, StabilityEvent(time, "wake", rec.label, reason))]
+        woken = [Woken(body, node, StabilityEvent(time, "wake", rec.label, reason))]
         for above in self.ordered(rec.objects_above):
             woken += self.wake(above, time, f"rests on {rec.label}")
         rec.objects_above = set()

@@ -396,8 +396,9 @@ class MuJoCoWorld:
 
 
 _FEW = 8
-"""Up to this many bodies, :meth:`MuJoCoWorld.poses_of` and :meth:`MuJoCoWorld.velocities_of`
-read them one by one (numpy's and scipy's fixed costs are larger for one or two)."""
+"""Up to this many bodies, :meth:`MuJoCoWorld.poses_of` reads them one by one, and so does the
+velocity read for this many moving bodies (numpy's and scipy's fixed costs are larger for one
+or two)."""
 
 
 def _wxyz(quaternion: Sequence[float] | np.ndarray) -> list[float]:

@@ -106,8 +106,12 @@ def test_velocities_are_in_the_world_frame():
 
 
 def test_many_bodies_read_at_once_match_one_by_one():
-    """poses_of and velocities_of read few bodies one by one and many at once: the same numbers,
-    frozen bodies included (at rest, at their held pose)."""
+    """poses_of reads few bodies one by one and many at once: the same numbers, frozen bodies
+    included (at their held pose). Velocities, read once a step for every body (one by one for
+    few moving bodies, at once for many), are MuJoCo's own (mj_objectVelocity, world frame),
+    zero for a frozen body, and read again after a step."""
+    import mujoco
+
     world = _world()
     bodies = [world.create(_brick(), Pose.from_euler([0.2 * k, 0.0, 0.5], yaw=10.0 * k, pitch=5.0 * k)) for k in range(12)]
     world.step()
@@ -120,13 +124,29 @@ def test_many_bodies_read_at_once_match_one_by_one():
             world._data.qvel[v + 3 : v + 6] = rng.normal(size=3)
     for chosen in (bodies[:2], bodies):  # one by one, and at once
         positions, quaternions = world.poses_of(chosen)
-        linear, angular = world.velocities_of(chosen)
         for k, b in enumerate(chosen):
             pose = world.pose(b)
             assert np.allclose(positions[k], pose.position) and np.allclose(quaternions[k], pose.orientation)
-            lin, ang = world.velocity(b)
-            assert np.allclose(linear[k], lin) and np.allclose(angular[k], ang)
-    assert not world.velocities_of(bodies)[1][3].any()
+
+    def own(body):  # MuJoCo's (angular, linear) of the free body, world frame
+        m, d = world._ready()
+        out = np.zeros(6)
+        mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_BODY, int(m.geom_bodyid[world._free_geom[body - 1]]), out, 0)
+        return out[3:], out[:3]
+
+    for moving in (bodies, bodies[:3]):  # many moving bodies, then few
+        for b in bodies:
+            if b not in moving:
+                world.set_frozen(b, True, 0.0)
+        mujoco.mj_forward(*world._ready())
+        linear, angular = world.velocities_of(bodies)
+        for k, b in enumerate(bodies):
+            lin, ang = own(b) if b in moving and b != bodies[3] else (np.zeros(3), np.zeros(3))
+            assert np.allclose(linear[k], lin) and np.allclose(angular[k], ang), (len(moving), k)
+            assert np.allclose(world.velocity(b)[0], lin) and np.allclose(world.velocity(b)[1], ang)
+        before = world.velocity(bodies[0])[0]
+        world.step()  # gravity: 2 ms later the body falls faster
+        assert world.velocity(bodies[0])[0][2] == pytest.approx(before[2] - G * 0.002, abs=1e-4)
 
 
 @pytest.mark.parametrize("mode", ["raw", "tuned"])  # pyramidal and elliptic friction cones

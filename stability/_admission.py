@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import itertools
 
-from ._areas import ContactAreas, Contacts, horizontal, main_area
+from ._areas import ContactAreas, Contacts, horizontal, main_area, overlap
 from ._equilibrium import ContactPolygon
 from ._geometry import ContactArea
 from ._graph import BrickState
@@ -47,7 +47,8 @@ class Admission:
         if not areas.holds(main, stack.engine.pose(rec.body).position):
             return []
         held = {o: pts for o, pts in areas.touching(rec, contacts).items() if stack.bodies[o].state is not BrickState.ACTIVE}
-        stack.freeze(rec, supports, main, areas.polygons(rec, held, known=supports))
+        lift = overlap(contacts.get(rec.body, []), supports, areas.support_cos)
+        stack.freeze(rec, supports, main, areas.polygons(rec, held, known=supports), lift)
         names = ", ".join(stack.bodies[s].label for s in supports)
         return [StabilityEvent(time, "freeze", rec.label, f"at rest on {names}")]
 
@@ -69,7 +70,7 @@ class Admission:
         members = {m.body: (self.stack.engine.pose(m.body).position, m.box.mass) for m in group}
         if not leaning_stands(members, [c for cs in polygons.values() for c in cs], self.config.gravity):
             return []
-        return self.freeze_group(group, polygons, areas.touching(rec, contacts), time)
+        return self.freeze_group(group, polygons, areas.touching(rec, contacts), contacts, time)
 
     def _group(self, rec: Record, contacts: Contacts, time: float, limit: int | None) -> list[Record]:
         """``rec`` and its partner, if it leans on one: an active brick at rest that touches
@@ -125,17 +126,22 @@ class Admission:
         group: list[Record],
         polygons: dict[int, list[ContactPolygon[int]]],
         touching: Contacts,
+        contacts: Contacts,
         time: float,
         plan: Plan | None = None,
     ) -> list[StabilityEvent]:
         """Freeze the members of an admitted group (``group[0]`` the brick that asked) as
-        ``plan`` says (:meth:`plan` when None); the members wake together."""
+        ``plan`` says (:meth:`plan` when None), each raised out of what it rests on outside
+        the group (:func:`stability._areas.overlap`, from ``contacts``); the members wake
+        together."""
         rec, events = group[0], []
         plan = plan or self.plan(group, polygons)
         names = ", ".join(self.stack.bodies[o].label for o in touching if o != rec.body)
+        inside = {m.body for m in group}
         for m in group:
             resting, main = plan[m.body]
-            self.stack.freeze(m, resting, main, polygons[m.body])
+            lift = overlap(contacts.get(m.body, []), resting.keys() - inside, self.areas.support_cos)
+            self.stack.freeze(m, resting, main, polygons[m.body], lift)
             on = names if m is rec else rec.label
             if len(group) > 2:
                 reason = f"at rest in a pile of {len(group)} bricks {'on' if m is rec else 'with'} {on}"

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from collections import defaultdict
-from collections.abc import Iterable, Sequence
+from collections.abc import Collection, Iterable, Sequence
 from collections.abc import Set as AbstractSet
 
 import numpy as np
@@ -143,6 +143,27 @@ def horizontal(contact: ContactPolygon[int], pad: float, flip: bool = False) -> 
     points = np.asarray(contact.points)
     normal = -contact.normal if flip else contact.normal
     return ContactArea(padded_hull(points[:, :2], pad), float(points[:, 2].mean()), normal, exact=False)
+
+
+def overlap(points: Iterable[ContactPoint], supports: Collection[int], up: float) -> float:
+    """Metres a brick at rest has sunk into its supports: the mean depth, straight down, of
+    its contact points with them that overlap (0 when none does). ``points``: the brick's
+    contact points; ``supports``: the bodies it rests on; ``up``: the least vertical
+    component of a support's normal.
+
+    An engine's contacts are soft: a brick at rest overlaps what it rests on by a fraction
+    of a millimetre (about 0.05 mm for a KAPLA brick on pybullet at 240 Hz). Frozen there,
+    the overlaps of a tall tower add up, unevenly, and a brick placed across two supports
+    sunk to different depths rocks before it rests. The stack freezes a brick raised by
+    this much, so that a frozen tower keeps its heights. Source: stackdsl's own.
+
+    >>> import numpy as np
+    >>> down = [ContactPoint(1, 0, np.zeros(3), np.array([0.0, 0.0, 1.0]), distance=d) for d in (-1e-4, -3e-4, 1e-5)]
+    >>> round(overlap(down, {0}, 0.9) * 1e3, 3)
+    0.2
+    """
+    depths = [-c.distance / c.normal[2] for c in points if c.other in supports and c.normal[2] >= up and c.distance < 0]
+    return float(np.mean(depths)) if depths else 0.0
 
 
 def by_body(points: Iterable[ContactPoint]) -> Contacts:

@@ -73,7 +73,7 @@ class Debris:
         inside = {m.body for m in group}
         held: Contacts = {o: [] for m in group for o in areas.around(m, contacts) if o not in inside}
         touching = {o: held[o] for o in stack.ordered(held)}
-        return self.admission.freeze_group(group, polygons, touching, time, plan)
+        return self.admission.freeze_group(group, polygons, touching, contacts, time, plan)
 
     def _carried(self, group: list[Record], plan: Plan) -> bool:
         """Would the report's stack test keep ``group`` frozen, frozen as ``plan`` says?

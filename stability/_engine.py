@@ -63,8 +63,9 @@ class Engine(Protocol):
     def near(self, body: int, distance: float) -> list[ContactPoint]:
         """Closest points between ``body`` and every body within ``distance`` metres, seen from ``body``."""
 
-    def set_frozen(self, body: int, frozen: bool, mass: float) -> None:
-        """Freeze (immovable, still colliding, velocity zeroed) or restore ``body``."""
+    def set_frozen(self, body: int, frozen: bool, mass: float, at: Pose | None = None) -> None:
+        """Freeze (immovable, still colliding, velocity zeroed) or restore ``body``; frozen
+        at the pose ``at`` when it is given, else where it is."""
 
 
 class PyBulletEngine:
@@ -121,8 +122,10 @@ class PyBulletEngine:
             for c in self._client.getClosestPoints(body, other, distance)
         ]
 
-    def set_frozen(self, body: int, frozen: bool, mass: float) -> None:
+    def set_frozen(self, body: int, frozen: bool, mass: float, at: Pose | None = None) -> None:
         self._client.resetBaseVelocity(body, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0])
+        if frozen and at is not None:
+            self._client.resetBasePositionAndOrientation(body, at.position.tolist(), at.orientation.tolist())
         self._client.changeDynamics(body, -1, mass=0.0 if frozen else mass)
 
 
@@ -150,13 +153,22 @@ class FakeEngine:
     frozen: set[int] = field(default_factory=set)
     timestep: float = 1 / 240
 
-    def touch(self, body: int, other: int, points: npt.ArrayLike, normal: npt.ArrayLike, force: float = 0.0) -> None:
-        """Add contact points between ``body`` and ``other``; ``normal`` points into ``body``."""
+    def touch(
+        self,
+        body: int,
+        other: int,
+        points: npt.ArrayLike,
+        normal: npt.ArrayLike,
+        force: float = 0.0,
+        distance: float = 0.0,
+    ) -> None:
+        """Add contact points between ``body`` and ``other``; ``normal`` points into ``body``;
+        ``distance``: metres between them, negative where they overlap."""
         n = np.asarray(normal, dtype=float)
         n = n / np.linalg.norm(n)
         for p in np.asarray(points, dtype=float).reshape(-1, 3):
-            self.contacts.append(ContactPoint(body, other, p, n, force))
-            self.contacts.append(ContactPoint(other, body, p, -n, force))
+            self.contacts.append(ContactPoint(body, other, p, n, force, distance))
+            self.contacts.append(ContactPoint(other, body, p, -n, force, distance))
 
     def pose(self, body: int) -> Pose:
         return self.poses[body]
@@ -175,6 +187,8 @@ class FakeEngine:
         """The fake has no distances: a body is near what it touches."""
         return [c for c in self.contacts if c.body == body]
 
-    def set_frozen(self, body: int, frozen: bool, mass: float) -> None:
+    def set_frozen(self, body: int, frozen: bool, mass: float, at: Pose | None = None) -> None:
         self.velocities.pop(body, None)
+        if frozen and at is not None:
+            self.poses[body] = at
         (self.frozen.add if frozen else self.frozen.discard)(body)

@@ -148,11 +148,21 @@ class Stack:
         return failed[0][0] == self.version and time - failed[1] < self.config.rest_duration
 
     def freeze(
-        self, rec: Record, supports: dict[int, ContactArea], main: ContactArea, polygons: list[ContactPolygon[int]]
+        self,
+        rec: Record,
+        supports: dict[int, ContactArea],
+        main: ContactArea,
+        polygons: list[ContactPolygon[int]],
+        lift: float = 0.0,
     ) -> None:
         """Freeze ``rec`` on ``supports`` (its main contact area ``main``, every contact polygon
-        ``polygons``); with the equilibrium model, find its load path."""
-        self.engine.set_frozen(rec.body, True, rec.box.mass)
+        ``polygons``), raised ``lift`` metres out of them (see :func:`stability._areas.overlap`);
+        with the equilibrium model, find its load path."""
+        at = None
+        if lift > 0.0:
+            pose = self.engine.pose(rec.body)
+            at = Pose(pose.position + [0.0, 0.0, lift], pose.orientation)
+        self.engine.set_frozen(rec.body, True, rec.box.mass, at)
         rec.state, rec.rests_on, rec.main_contact, rec.contacts = BrickState.FROZEN, supports, main, polygons
         self.active.pop(rec.body, None)
         rec.frozen_pose = self.engine.pose(rec.body)

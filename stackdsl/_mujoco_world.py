@@ -305,9 +305,9 @@ class MuJoCoWorld:
                 out.append(ContactPoint(body, other, theirs.copy(), n, 0.0, float(gap)))
         return out
 
-    def set_frozen(self, body: int, frozen: bool, mass: float) -> None:
+    def set_frozen(self, body: int, frozen: bool, mass: float, at: Pose | None = None) -> None:
         if frozen != self._frozen[body - 1]:
-            self._put(body, self.pose(body), frozen)
+            self._put(body, at if frozen and at is not None else self.pose(body), frozen)
 
     def _put(self, body: int, pose: Pose, frozen: bool) -> None:
         """``body`` at ``pose``, at rest, frozen (its held body there) or not (its free body)."""

@@ -50,6 +50,22 @@ def test_brick_at_rest_over_its_support_is_frozen():
     assert s.ext.quiet
 
 
+@pytest.mark.parametrize("model", ["report", "equilibrium"])
+def test_a_brick_is_frozen_out_of_the_overlap_with_its_supports(model):
+    # the engine's soft contacts let a brick at rest sink a little into its support;
+    # frozen there, a tall tower's overlaps would add up
+    s = Scene(StabilityConfig(rest_duration=0.0, model=model))
+    b = s.brick(0.0, 1, on=())
+    s.engine.touch(b, 0, corners(0.0, 0.0, 0.06, 0.012, -1e-4), normal=[0, 0, 1], distance=-1e-4)
+    s.engine.poses[b] = Pose.from_euler([0.0, 0.0, H / 2 - 1e-4])
+    assert [e.kind for e in s.ext.update(0.0)] == ["freeze"]
+    assert s.engine.poses[b].position[2] == pytest.approx(H / 2, abs=1e-9)
+    # a brick that only touches (no overlap) stays where it is
+    c = s.brick(0.2, 1)
+    s.ext.update(0.1)
+    assert s.ext.state(c) is BrickState.FROZEN and s.engine.poses[c].position[2] == pytest.approx(H / 2, abs=1e-12)
+
+
 def test_moving_brick_is_not_admitted():
     s = Scene()
     b = s.brick(0.0, 1)

@@ -140,7 +140,8 @@ class Admission:
         inside = {m.body for m in group}
         for m in group:
             resting, main = plan[m.body]
-            lift = overlap(contacts.get(m.body, []), resting.keys() - inside, self.areas.support_cos)
+            outside = {o: self.areas.face_to_face(m, self.stack.bodies[o]) or a for o, a in resting.items() if o not in inside}
+            lift = overlap(contacts.get(m.body, []), outside, self.areas.support_cos)
             self.stack.freeze(m, resting, main, polygons[m.body], lift)
             on = names if m is rec else rec.label
             if len(group) > 2:

@@ -125,6 +125,8 @@ class ContactArea:
         normal: shape (3,), unit normal pointing from the support into the supported body.
         exact: True when computed from the two touching faces, False when it is the
             convex hull of the engine's contact points (report 3.3.3).
+        depth: metres the upper face lies below the lower one, mean over the area
+            (positive where they overlap); exact areas only, else 0.
 
     Source: report 3.3.3; the exact face overlap is stackdsl's own (pybullet reports at
     most four points a pair).
@@ -134,6 +136,7 @@ class ContactArea:
     height: float
     normal: np.ndarray
     exact: bool
+    depth: float = 0.0
 
     @property
     def area(self) -> float:
@@ -248,7 +251,8 @@ def face_overlap(upper: Box, upper_pose: Pose, lower: Box | Plane, lower_pose: P
     within ``gap`` metres of each other at every corner of their overlap: flat faces,
     horizontal or tilted together (a tall tower settles a degree or so out of level).
     The area is the intersection of their horizontal projections, at the mean height
-    of the lower face over it.
+    of the lower face over it; its depth is how far the upper face lies below the lower
+    one there, on the mean.
 
     Source: stackdsl's own (pybullet's four contact points cover only
     60-70% of a turned brick's overlap; the faces give it exactly).
@@ -273,7 +277,8 @@ def face_overlap(upper: Box, upper_pose: Pose, lower: Box | Plane, lower_pose: P
     upper_z = _plane_height(bottom.mean(axis=0), -down, ring)
     if np.max(np.abs(upper_z - lower_z)) > gap:
         return None
-    return ContactArea(poly, float(lower_z.mean()), np.asarray(normal, dtype=float), exact=True)
+    depth = float((lower_z - upper_z).mean())
+    return ContactArea(poly, float(lower_z.mean()), np.asarray(normal, dtype=float), exact=True, depth=depth)
 
 
 def _plane_height(point: np.ndarray, normal: np.ndarray, xy: np.ndarray) -> np.ndarray:

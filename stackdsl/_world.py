@@ -122,9 +122,6 @@ class PyBulletWorld(PyBulletEngine):
 
         super().__init__(client)
         self._p, self._engine = pybullet, engine
-        # called for every brick at every step: bound once (BulletClient builds a new partial on each access)
-        self._state = lambda b, c=client._client: pybullet.getBasePositionAndOrientation(b, physicsClientId=c)
-        self._velocity = lambda b, c=client._client: pybullet.getBaseVelocity(b, physicsClientId=c)
         self._shapes: dict[Vec3, int] = {}  # half extents -> collision shape
         self._substeps = 1
         client.setGravity(0.0, 0.0, -engine.gravity)
@@ -178,9 +175,9 @@ class PyBulletWorld(PyBulletEngine):
             self._substeps = substeps
 
     def poses_of(self, bodies: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
-        states = [self._state(b) for b in bodies]
+        states = [self._get_pose(b) for b in bodies]
         return np.array([p for p, _ in states]).reshape(-1, 3), np.array([q for _, q in states]).reshape(-1, 4)
 
     def velocities_of(self, bodies: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
-        v = [self._velocity(b) for b in bodies]
+        v = [self._get_velocity(b) for b in bodies]
         return np.array([lin for lin, _ in v]).reshape(-1, 3), np.array([ang for _, ang in v]).reshape(-1, 3)

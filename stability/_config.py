@@ -39,7 +39,8 @@ class StabilityConfig:
         debris: admit a resting brick the other rules refuse together with every resting
             brick it touches, and they with theirs, when rigid-block equilibrium holds them
             all against what is frozen (stackdsl's own): fallen bricks leaning on each other
-            are frozen again, so that what lies still costs nothing.
+            are frozen again, so that what lies still costs nothing. A brick once woken is
+            then at rest by the windowed test of :mod:`stability._rest`.
         per_event: run the stack-wide test only when the stack changes (a freeze or a
             wake); False runs it on every step with an active brick (for measuring).
         model: ``"report"``: the report's rules (basic test, leaning test, centre of mass

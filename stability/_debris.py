@@ -54,7 +54,7 @@ class Debris:
         group = self._pile(rec, contacts, time)
         if self._refused[0] != stack.version:
             self._refused = (stack.version, set())
-        key = tuple((m.body, m.rest_since) for m in group)
+        key = tuple((m.body, m.clock.since) for m in group)
         if not group or key in self._refused[1]:
             return []
         skip: set[int] = set()

@@ -21,6 +21,7 @@ from ._geometry import Box, ContactArea, Plane, Pose
 from ._graph import BrickState
 from ._load import LoadNode
 from ._load_path import load_path, proven, support_piece
+from ._rest import RestClock
 
 
 @dataclass(frozen=True)
@@ -61,7 +62,7 @@ class Record:
     objects_above: set[int] = field(default_factory=set)
     com_above: tuple[float, float, float] | None = None
     mass_above: float = 0.0
-    rest_since: float | None = None
+    clock: RestClock = field(default_factory=RestClock)
     frozen_pose: Pose | None = None
     node: LoadNode | None = None
     impacted: set[int] = field(default_factory=set)
@@ -124,7 +125,7 @@ class Stack:
 
     def rested(self, rec: Record, time: float) -> bool:
         """Has ``rec`` been under the rest thresholds for the rest duration at ``time`` s?"""
-        return rec.rest_since is not None and time - rec.rest_since >= self.config.rest_duration - 1e-9
+        return rec.clock.rested(time, self.config)
 
     def attempt(self, rec: Record, contacts: dict[int, list[ContactPoint]], time: float) -> tuple[object, ...]:
         """What an admission of ``rec`` depends on: the stack (its version), the brick's pose
@@ -196,7 +197,9 @@ class Stack:
         node = rec.node
         assert node is not None, "a frozen brick has a load node"
         self.engine.set_frozen(body, False, rec.box.mass)
-        rec.state, rec.rest_since, rec.frozen_pose, rec.node = BrickState.ACTIVE, None, None, None
+        rec.state, rec.frozen_pose, rec.node = BrickState.ACTIVE, None, None
+        rec.clock.stop()
+        rec.clock.fallen = self.config.debris  # fallen: the windowed rest test (with the debris rule)
         self.active[body] = rec
         del self.frozen[body]
         self.unproven.discard(body)

@@ -87,7 +87,7 @@ class RestClock:
         return self.since is not None and time - self.since >= config.rest_duration - 1e-9
 
     def stop(self) -> None:
-        """Forget the present spell at rest (the brick was frozen or woken)."""
+        """Forget the present spell at rest (the brick was woken)."""
         self.since = self.window = None
 
 

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from stability import Box, BrickState, FakeEngine, Plane, Pose, StabilityConfig, StabilityExtension
+from stability._areas import by_body
 from stability._rest import JITTER, RestClock, still
 
 CONFIG = StabilityConfig()
@@ -98,7 +99,7 @@ def test_a_pile_is_frozen_raised_out_of_its_supports_and_its_members():
     stack = ext._stack
     group = [stack.bodies[1], stack.bodies[2]]
     plan = {1: ({0: None}, None), 2: ({1: None}, None)}
-    contacts = {c.body: [d for d in engine.contacts if d.body == c.body] for c in engine.contacts}
+    contacts = by_body(engine.contact_points())
     lifts = ext._admission.lifts(group, plan, contacts)  # type: ignore[arg-type]
     assert lifts[1] == pytest.approx(sink, abs=1e-6)
     assert lifts[2] == pytest.approx(2 * sink, abs=1e-6)

@@ -101,7 +101,9 @@ class Cell:
 
     ``error`` is the collapse level measured minus the closed form, in levels, with
     "stands" counted as one level above the top; ``drift`` the largest displacement of a
-    standing structure brick before the first collapse.
+    standing structure brick before the first collapse. ``engine`` and ``after_collapse``
+    are parts of the median run's wall time: in the engine's own steps, and after the
+    collapse was decided (:class:`stackdsl.Outcome`).
     """
 
     setting: str
@@ -114,6 +116,8 @@ class Cell:
     drift: float
     wall: float
     walls: str
+    engine: float
+    after_collapse: float
     simulated: float
     speed: float
     peak_memory: float
@@ -149,6 +153,7 @@ def measure(scene: Scene, setting: str, repeats: int, repeat_below: float, optio
     o = outcomes[0]
     walls = sorted(x.wall_time for x in outcomes)
     wall = statistics.median(walls)
+    middle = min(outcomes, key=lambda x: abs(x.wall_time - wall))
     measured = o.collapse.level if o.collapse else None
     top = scene.levels + 1
     error = (measured or top) - (scene.closed_form or top)
@@ -163,6 +168,8 @@ def measure(scene: Scene, setting: str, repeats: int, repeat_below: float, optio
         drift=round(o.drift * 1000, 3),
         wall=round(wall, 4),
         walls=" ".join(f"{w:.3f}" for w in walls),
+        engine=round(middle.engine_time, 4),
+        after_collapse=round(middle.after_collapse, 4),
         simulated=round(o.simulated_time, 3),
         speed=round(o.simulated_time / wall, 1),
         peak_memory=round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),

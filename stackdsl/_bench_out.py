@@ -147,7 +147,7 @@ def markdown(cells: list[Cell], saved: list[tuple[str, float, int]], targets: di
             f"| {s} | {speed:.1f} | {f'{statistics.mean(slant):.2f}' if slant else '-'} | "
             f"{max(c.peak_memory for c in mine):.0f} | {'' if exponent is None else f'{exponent:.2f}'} |"
         )
-    lines += ["", *ratios(cells)]
+    lines += ["", *ratios(cells), "", *phase_lines(cells)]
     if saved:
         lines += ["", "| switched off (30-level 4 stack, extension) | median wall time | physics steps |", "|---|---:|---:|"]
         lines += [f"| {name} | {wall:.3f} s | {steps} |" for name, wall, steps in saved]
@@ -157,6 +157,26 @@ def markdown(cells: list[Cell], saved: list[tuple[str, float, int]], targets: di
     if ratio:
         lines += ["", f"30-level 4 stack: raw 240 Hz takes {ratio:.0f} times the extension's wall time."]
     return "\n".join(lines) + "\n"
+
+
+def phase_lines(cells: list[Cell]) -> list[str]:
+    """Markdown lines: where the wall time of each collapsing scene goes, per setting: the
+    seconds in the engine's own steps and the seconds after the collapse was decided (the
+    settle time). Empty without collapsing scenes."""
+    slant = [c for c in cells if c.closed_form is not None]
+    settings = [s for s in SETTINGS if any(c.setting == s for c in slant)]
+    if not settings:
+        return []
+    by = {(c.setting, c.family, c.parameter): c for c in slant}
+    lines = ["| scene | " + " | ".join(settings) + " |", "|---|" + "---:|" * len(settings)]
+    for family, parameter in sorted({(c.family, c.parameter) for c in slant}):
+        row = [
+            f"{c.wall:.2f}: {c.engine:.2f}, {c.after_collapse:.2f}" if (c := by.get((s, family, parameter))) else ""
+            for s in settings
+        ]
+        lines.append(f"| {family}, {parameter:g} mm | " + " | ".join(row) + " |")
+    lines += ["", "Each cell: wall time: the seconds of it in the engine's own steps, and after the collapse was decided."]
+    return lines
 
 
 BASE = "extension report"

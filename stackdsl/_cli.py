@@ -474,7 +474,9 @@ def _run(args: argparse.Namespace) -> int:
         print(
             f"{Path(args.file).name}: {describe(outcome.collapse.level if outcome.collapse else None)} "
             f"({outcome.levels_placed} levels placed), {outcome.simulated_time:.1f} s simulated, "
-            f"{outcome.wall_time:.2f} s wall, {outcome.steps} steps ({outcome.steps_skipped} skipped)"
+            f"{outcome.wall_time:.2f} s wall ({outcome.engine_time:.2f} s in the engine's steps"
+            + (f", {outcome.after_collapse:.2f} s after the collapse" if outcome.collapse else "")
+            + f"), {outcome.steps} steps ({outcome.steps_skipped} skipped)"
         )
         for v in verdicts:
             print(f"{'PASS' if v.passed else 'FAIL'}  expected {v.expected}, measured {v.measured}")

@@ -75,7 +75,9 @@ class StepLoop:
 
     Attributes:
         structure: the bricks in the world; events: the timeline; step: steps reached;
-        skipped: steps jumped over; stopped: why the run stopped early, or None.
+        skipped: steps jumped over; stopped: why the run stopped early, or None;
+        engine_time: wall seconds spent in the engine's steps; stop_clock: the wall clock
+        (``time.perf_counter()`` seconds) when :meth:`stop_after` was called, or None.
     """
 
     def __init__(
@@ -98,6 +100,8 @@ class StepLoop:
         self.events: list[Event] = []
         self.step = 0
         self.skipped = 0
+        self.engine_time = 0.0
+        self.stop_clock: float | None = None
         self.stop_step: int | None = None
         self.stopped: str | None = None
         self._parked = {} if lazy_bodies else self._park()
@@ -110,6 +114,7 @@ class StepLoop:
     def stop_after(self, seconds: float) -> None:
         """End the run ``seconds`` from now (a collapse's settle time), placing nothing more."""
         self.stop_step = self.step + round(seconds / self.dt)
+        self.stop_clock = _time.perf_counter()
 
     def _park(self) -> dict[str, int]:
         parked = {}
@@ -162,7 +167,9 @@ class StepLoop:
                 return
             for s in self.subscribers:
                 s.before_step(self)
+            started = _time.perf_counter()
             self.world.step()
+            self.engine_time += _time.perf_counter() - started
             self.step += 1
             for s in self.subscribers:
                 s.after_step(self)

@@ -149,6 +149,10 @@ class Outcome(_Frozen):
         levels_placed, bricks_placed: how much was built (building stops at a collapse).
         simulated_time, wall_time: seconds; steps: physics steps taken; steps_skipped:
             steps jumped over while every brick was frozen.
+        engine_time: seconds of the wall time spent in the engine's own steps (the rest is
+            stackdsl's: the extension, the monitor, placing).
+        after_collapse: seconds of the wall time after the collapse was decided (0 without
+            one): the settle time's cost.
         stopped: None when the run went to its end; else why and where it stopped early,
             e.g. ``"timeout after 120 s at t = 37.2 s simulated (of 201 s)"`` (the rest of
             the outcome then covers the simulated time so far, and the expectations fail:
@@ -170,6 +174,8 @@ class Outcome(_Frozen):
     wall_time: float
     steps: int
     steps_skipped: int
+    engine_time: float = 0.0
+    after_collapse: float = 0.0
     stopped: str | None = None
 
     def golden(self) -> dict[str, Any]:

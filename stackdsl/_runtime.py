@@ -156,6 +156,7 @@ def _lazy(engine: EngineSettings) -> bool:
 
 def outcome(loop: StepLoop, wall_time: float) -> Outcome:
     """What a finished loop produced (:class:`Outcome`)."""
+    ended = _time.perf_counter()
     monitor = next(s for s in loop.subscribers if isinstance(s, CollapseMonitor))
     stability = next(s for s in loop.subscribers if isinstance(s, Stability))
     structure = loop.structure
@@ -176,5 +177,7 @@ def outcome(loop: StepLoop, wall_time: float) -> Outcome:
         wall_time=wall_time,
         steps=loop.step - loop.skipped,
         steps_skipped=loop.skipped,
+        engine_time=loop.engine_time,
+        after_collapse=0.0 if loop.stop_clock is None else ended - loop.stop_clock,
         stopped=loop.stopped,
     )

@@ -628,12 +628,24 @@ def test_bench_targets_print_as_sentences():
     ]
 
 
+def test_bench_phase_table_splits_each_collapsing_scenes_wall_time():
+    from stackdsl._bench import Cell
+    from stackdsl._bench_out import phase_lines
+
+    slant = Cell("raw 240 Hz", "single file", 9, 1, 14, 8, -6, 0.0, 2.0, "", 1.5, 0.25, 1.0, 1.0, 1.0, 1, 0)
+    upright = Cell("raw 240 Hz", "upright", 30, 1, None, None, 0, 0.0, 9.0, "", 8.0, 0.0, 1.0, 1.0, 1.0, 1, 0)
+    lines = phase_lines([slant, upright])
+    assert lines[0] == "| scene | raw 240 Hz |" and lines[2] == "| single file, 9 mm | 2.00: 1.50, 0.25 |"
+    assert len(lines) == 5  # header, rule, one scene (the standing tower is left out), blank, legend
+    assert phase_lines([upright]) == []
+
+
 def test_bench_peer_ratios_divide_the_peers_wall_by_the_extensions_on_the_same_scene():
     from stackdsl._bench import Cell
     from stackdsl._bench_out import peer_lines, peer_ratios
 
     def cell(setting, family, parameter, wall, error=0):
-        return Cell(setting, family, parameter, 1, None, None, error, 0.0, wall, "", 1.0, 1.0, 1.0, 1, 0)
+        return Cell(setting, family, parameter, 1, None, None, error, 0.0, wall, "", wall / 2, 0.0, 1.0, 1.0, 1.0, 1, 0)
 
     cells = [
         cell("MuJoCo extension", "upright", 30, 2.0),

@@ -39,6 +39,13 @@ def test_supported_brick_stands(mode):
     assert max(outcome.displacement.values()) < 0.004
 
 
+def test_the_wall_time_is_split_into_the_engines_steps_and_the_time_after_the_collapse():
+    falls, stands = run(TWO_BRICKS.format(x=70), "raw"), run(TWO_BRICKS.format(x=50), "raw")
+    for outcome in (falls, stands):
+        assert 0 < outcome.engine_time < outcome.wall_time
+    assert stands.after_collapse == 0.0 and 0 < falls.after_collapse < falls.wall_time
+
+
 def test_extension_freezes_settled_bricks_and_skips_quiet_steps():
     outcome = run(TWO_BRICKS.format(x=50), "extension")
     kinds = [(e.kind, e.brick) for e in outcome.events]

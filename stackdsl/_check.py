@@ -29,6 +29,7 @@ from ._check_sweep import run_unit, sweep_result, sweep_tasks
 from ._compiler import compile_scenario
 from ._errors import ScenarioError
 from ._expect import Verdict, describe, evaluate, explain
+from ._expectations import Expect
 from ._loader import file_problem, load_scenario
 from ._outcome import Graph, Outcome
 from ._pool import WorkerLost, WorkerTimedOut, fan_out, on_executor
@@ -36,7 +37,6 @@ from ._program import Program
 from ._recorder import record_program
 from ._runtime import run_program
 from ._sampling import Template
-from ._schema import Expect
 from ._sweep import SampleResult
 
 

@@ -17,8 +17,8 @@ from pathlib import Path
 from typing import Any
 
 from ._expect import Verdict
+from ._expectations import Expect
 from ._sampling import Template
-from ._schema import Expect
 from ._stats import summary
 from ._sweep import SampleResult, SweepOptions, batches, run_batch
 from ._sweep_out import by_cell, measured, verdicts, write_plots, write_samples

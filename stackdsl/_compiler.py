@@ -39,10 +39,11 @@ from scipy.spatial.transform import Rotation
 
 from stability import Box, Pose, StabilityConfig
 
+from ._bounds import MAX_SIMULATED_TIME
 from ._clearance import check_launch
 from ._precheck import Body, precheck
 from ._program import BrickSpec, End, EngineSettings, Fixture, Launch, Place, Program, Rule
-from ._schema import BACKEND_FIELDS, MAX_SIMULATED_TIME, SIDES, AfterLevel, Impact, Scenario
+from ._schema import BACKEND_FIELDS, SIDES, AfterLevel, Impact, Scenario
 
 #: Engine defaults per backend and mode. pybullet: ``raw`` is its own (240 Hz, 50
 #: iterations); ``tuned`` is the most accurate setting measured for small bricks

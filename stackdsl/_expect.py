@@ -7,8 +7,8 @@ from __future__ import annotations
 
 from pydantic import BaseModel, ConfigDict
 
+from ._expectations import CollapseLevel, Expect
 from ._outcome import Outcome
-from ._schema import CollapseLevel, Expect
 
 
 class Verdict(BaseModel):

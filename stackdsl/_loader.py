@@ -37,8 +37,10 @@ from pydantic_core import ErrorDetails
 from yaml.events import AliasEvent, MappingStartEvent, SequenceStartEvent
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
+from ._bounds import MAX_BRICKS
 from ._errors import FieldPath, ScenarioError, SourceMap
-from ._schema import BUILTIN_BRICKS, BUILTIN_MATERIALS, MAX_BRICKS, CollapseLevel, CollapseStatistic, Scenario
+from ._expectations import CollapseLevel, CollapseStatistic
+from ._schema import BUILTIN_BRICKS, BUILTIN_MATERIALS, Scenario
 
 MAX_FILE_BYTES = 1 << 20  # a scenario file is at most 1 MiB
 MAX_NODES = 200_000  # values a file may expand to, counting each alias's copy

@@ -45,7 +45,8 @@ from scipy.spatial.transform import Rotation
 
 from ._errors import FieldPath
 from ._expect import _span
-from ._schema import CollapseLevel, Scenario
+from ._expectations import CollapseLevel
+from ._schema import Scenario
 
 REST_TOLERANCE = 0.001
 """Metres: a brick rests on a body when lowered this far it would sink into it (from below its centre)."""

@@ -20,8 +20,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from ._expectations import Expect
 from ._sampling import Template
-from ._schema import Expect
 from ._stats import MeanWithin, ProportionBound, QuantileWithin, StatVerdict, decide, summary
 from ._sweep import SampleResult
 

@@ -146,7 +146,7 @@ REFUSED = {
     "a shift of three": doc("structure: {tower: {levels: 3, shift: [1 mm, 2 mm, 3 mm]}}"),
     "a negative card-house angle": doc("structure: {card_house: {levels: 1, angle: -20 deg}}"),
     "a brick id with a space": doc("structure: {bricks: [{id: a b, at: [0, 0, 4 mm]}]}"),
-    # numbers outside their physical ranges (the bounds in stackdsl._schema)
+    # numbers outside their physical ranges (the bounds in stackdsl._bounds)
     "a turn of 1e308 degrees": doc("structure: {tower: {levels: 3, turn: 1.0e+308}}"),
     "a yaw beyond ten turns": doc("structure: {bricks: [{at: [0, 0, 4 mm], yaw: 3601}]}"),
     "a pitch beyond ten turns": doc("structure: {bricks: [{at: [0, 0, 4 mm], pitch: -3601}]}"),

@@ -25,22 +25,23 @@ minutes); measured on a 2-core machine a body-step costs 1.7e-5 to 3.9e-5 s movi
 2.3e-6 s resting, so a refused run would take over an hour in raw or tuned mode and over
 about 4 minutes in extension mode (a 5000-brick tower: 2.4e8 body-steps, over 10 minutes).
 
-Source: stackdsl's own; the tower generator builds the report's 4 stack and slant tower
-(chapter 4).
+The layouts themselves (tower, card house, bricks by hand) are :mod:`stackdsl._layouts`'.
+
+Source: stackdsl's own.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from stability import Box, Pose, StabilityConfig
 
 from ._bounds import MAX_SIMULATED_TIME
 from ._clearance import check_launch
+from ._layouts import LaidBrick, layout, lie_flat, with_placement_error
 from ._precheck import Body, precheck
 from ._program import BrickSpec, End, EngineSettings, Fixture, Launch, Place, Program, Rule
 from ._schema import BACKEND_FIELDS, SIDES, AfterLevel, Impact, Scenario
@@ -79,26 +80,9 @@ BACKEND_DEFAULTS: dict[str, dict[str, dict[str, object]]] = {
 BACKEND_DEFAULTS["mujoco"]["extension"] = dict(BACKEND_DEFAULTS["mujoco"]["tuned"])
 MODE_DEFAULTS = BACKEND_DEFAULTS["pybullet"]
 GRAVITY = 9.81
-_LEVEL_TOLERANCE = 0.001  # m: bricks whose bottoms are this close share a level
 
 MAX_WORK = 1e8
 """Body-steps a run may take at most (see the module's docstring); more is a ScenarioError."""
-
-
-@dataclass(frozen=True)
-class _Brick:
-    id: str
-    level: int
-    type: str
-    position: np.ndarray
-    yaw: float
-    pitch: float = 0.0
-    roll: float = 0.0
-    together: bool = False
-    fixed: bool = False
-
-    def pose(self) -> Pose:
-        return Pose.from_euler(self.position, self.yaw, self.pitch, self.roll)
 
 
 def compile_scenario(
@@ -122,8 +106,8 @@ def compile_scenario(
             placed, expectations about levels never built).
     """
     engine = _engine(scenario, mode, backend)
-    nominal = _layout(scenario)
-    everything = _placed(scenario, nominal)
+    nominal = layout(scenario)
+    everything = with_placement_error(scenario, nominal)
     bricks = [b for b in everything if not b.fixed]
     fixed = [b for b in everything if b.fixed]
     interval, dt = scenario.timing.interval, engine.timestep
@@ -273,7 +257,7 @@ def _duration(seconds: float) -> str:
     return f"{seconds / 3600:.1f} h"
 
 
-def _bodies(scenario: Scenario, placed: list[_Brick], nominal: list[_Brick], specs: dict, slots: dict) -> list[Body]:
+def _bodies(scenario: Scenario, placed: list[LaidBrick], nominal: list[LaidBrick], specs: dict, slots: dict) -> list[Body]:
     """The bricks and fixtures for :func:`stackdsl._precheck.precheck`, each with the field that made it."""
     structure = scenario.structure
     made_by = ("structure", "tower") if structure.tower else ("structure", "card_house") if structure.card_house else None
@@ -296,11 +280,11 @@ def _bodies(scenario: Scenario, placed: list[_Brick], nominal: list[_Brick], spe
     ]
 
 
-def _rules(bricks: list[_Brick], launches: list[Launch]) -> tuple[Rule, ...]:
+def _rules(bricks: list[LaidBrick], launches: list[Launch]) -> tuple[Rule, ...]:
     """The extension's rules this scene needs: leaning only if a brick does not lie flat or
     something is thrown (it may come to rest leaning), impacts only if something is thrown
     (docs/design.md: what the compiler switches on)."""
-    tilted = [b.id for b, flat in zip(bricks, _lie_flat(bricks)) if not flat]
+    tilted = [b.id for b, flat in zip(bricks, lie_flat(bricks)) if not flat]
     listed = ", ".join(tilted[:4]) + (f" and {len(tilted) - 4} more" if len(tilted) > 4 else "")
     lean = (
         f"bricks placed tilted: {listed}"
@@ -318,17 +302,6 @@ def _rules(bricks: list[_Brick], launches: list[Launch]) -> tuple[Rule, ...]:
             reason=f"{len(launches)} projectile{'s' * (len(launches) != 1)}" if launches else "nothing is thrown",
         ),
     )
-
-
-def _lie_flat(bricks: list[_Brick]) -> np.ndarray:
-    """For each brick, whether its own z axis (its height) is vertical within 1 deg; shape (n,).
-    One rotation for all bricks (as :meth:`stability.Pose.from_euler`): a 5000-brick tower
-    would spend 0.2 s in one call per brick."""
-    if not bricks:
-        return np.zeros(0, dtype=bool)
-    angles = [[b.yaw, b.pitch, b.roll] for b in bricks]
-    up = Rotation.from_euler("ZYX", angles, degrees=True).as_matrix()[:, 2, 2]
-    return np.abs(up) > math.cos(math.radians(1.0))
 
 
 def _engine(scenario: Scenario, mode: str | None, backend: str | None = None) -> EngineSettings:
@@ -371,133 +344,7 @@ def _spec(scenario: Scenario, name: str) -> BrickSpec:
     )
 
 
-def _layout(scenario: Scenario) -> list[_Brick]:
-    """The structure's bricks (fixtures included) in placement order, with levels, as written or generated."""
-    structure = scenario.structure
-    return _tower(scenario) if structure.tower else _card_house(scenario) if structure.card_house else _explicit(scenario)
-
-
-def _placed(scenario: Scenario, bricks: list[_Brick]) -> list[_Brick]:
-    """The bricks where the program puts them: moved by the placement error (drawn from the seed)."""
-    error = scenario.timing.placement_error
-    if error > 0:
-        rng = np.random.default_rng(np.random.SeedSequence(scenario.seed))
-        offsets = rng.uniform(-error, error, size=(len(bricks), 2))
-        bricks = [b if b.fixed else replace(b, position=b.position + [dx, dy, 0.0]) for b, (dx, dy) in zip(bricks, offsets)]
-    return bricks
-
-
-def _tower(scenario: Scenario) -> list[_Brick]:
-    """The tower generator: layer L turned (L-1) x turn, centred at origin plus the shifts of
-    the layers below it ((L-1) x shift, or the sum of ``shifts``); each brick turned by its
-    ``yaw_jitter`` more, about its own centre."""
-    t = scenario.structure.tower
-    assert t is not None
-    height = scenario.brick_type(t.brick).size[2]
-    bricks: list[_Brick] = []
-    for level in range(1, t.levels + 1):
-        yaw = t.yaw + (level - 1) * t.turn
-        across = np.array([-math.sin(math.radians(yaw)), math.cos(math.radians(yaw))])
-        centre = np.array(t.origin) + np.array(t.layer_shift(level))
-        for k in range(t.bricks_per_layer):
-            xy = centre + (k - (t.bricks_per_layer - 1) / 2) * t.spacing * across
-            position = np.array([xy[0], xy[1], (level - 0.5) * height])
-            jitter = t.jitter(len(bricks))
-            bricks.append(_Brick(f"L{level:02d}.{k + 1}", level, t.brick, position, _wrap(yaw + jitter)))
-    return bricks
-
-
-def _explicit(scenario: Scenario) -> list[_Brick]:
-    """Bricks placed by hand; a missing level is the rank of the brick's bottom height
-    among the structure's bricks (fixed ones have none)."""
-    placed = scenario.structure.bricks or []
-    bottoms = [
-        float(
-            Box(np.array(scenario.brick_type(b.brick).size) / 2, 1.0)
-            .corners(Pose.from_euler(b.at, b.yaw, b.pitch, b.roll))[:, 2]
-            .min()
-        )
-        for b in placed
-    ]
-    heights: list[float] = []
-    for z in sorted(z for z, b in zip(bottoms, placed) if not b.fixed):
-        if not heights or z - heights[-1] > _LEVEL_TOLERANCE:
-            heights.append(z)
-    return [
-        _Brick(
-            b.id or (f"fixed{i + 1}" if b.fixed else f"b{i + 1:03d}"),
-            0 if b.fixed else b.level or 1 + sum(h < z - _LEVEL_TOLERANCE for h in heights),
-            b.brick,
-            np.array(b.at, dtype=float),
-            b.yaw,
-            b.pitch,
-            b.roll,
-            together=b.together,
-            fixed=b.fixed,
-        )
-        for i, (b, z) in enumerate(zip(placed, bottoms))
-    ]
-
-
-def _card_house(scenario: Scenario) -> list[_Brick]:
-    """Rows of inverted V's with flat bricks across neighbouring peaks, up to one V.
-
-    In the x-z plane a brick of length L and thickness t leaning at angle a from vertical
-    spans a half-width L sin a + t cos a at the base of its V and reaches L cos a + t sin a,
-    its top corners t cos a either side of the peak. V row r (0-based, level 2r + 1) has
-    ``levels - r`` V's; the flat row above it (level 2r + 2) one fewer. Neighbouring flats
-    must not touch (spacing > L) yet each must reach a top corner of both V's under it
-    (spacing < L + 2 t cos a): the default spacing is L + 2 mm.
-
-    Raises:
-        ScenarioError: the spacing lets V's or flats collide, or flats miss the peaks.
-    """
-    c = scenario.structure.card_house
-    assert c is not None
-    length, _, thick = scenario.brick_type(c.brick).size
-    a = math.radians(c.angle)
-    half = length * math.sin(a) + thick * math.cos(a)
-    height = length * math.cos(a) + thick * math.sin(a)
-    spacing = c.spacing or length + 0.002
-    where = ("structure", "card_house", "spacing" if c.spacing else "angle")
-    if c.levels > 1 and spacing <= 2 * half:
-        raise scenario.source.error(
-            where, f"V's {2 * half * 1000:.1f} mm wide at the base would collide {spacing * 1000:.1f} mm apart"
-        )
-    if c.levels > 1 and not length < spacing < length + 2 * thick * math.cos(a):
-        raise scenario.source.error(
-            where,
-            f"flats {length * 1000:.0f} mm long need peaks between {length * 1000:.0f} and "
-            f"{(length + 2 * thick * math.cos(a)) * 1000:.1f} mm apart, got {spacing * 1000:.1f} mm",
-        )
-    x0, y0 = c.origin
-    dx = length / 2 * math.sin(a) + thick / 2 * math.cos(a)
-    dz = length / 2 * math.cos(a) + thick / 2 * math.sin(a)
-    bricks = []
-    for row in range(c.levels):
-        base = row * (height + thick)
-        peaks = [x0 + (k - (c.levels - row - 1) / 2) * spacing for k in range(c.levels - row)]
-        for k, x in enumerate(peaks):
-            for side, yaw in ((1, 0.0), (2, 180.0)):
-                position = np.array([x - dx if side == 1 else x + dx, y0, base + dz])
-                bricks.append(
-                    _Brick(
-                        f"V{2 * row + 1}.{k + 1}{'ab'[side - 1]}",
-                        2 * row + 1,
-                        c.brick,
-                        position,
-                        yaw,
-                        c.angle - 90.0,
-                        together=side == 2,
-                    )
-                )
-        for k in range(len(peaks) - 1):
-            position = np.array([(peaks[k] + peaks[k + 1]) / 2, y0, base + height + thick / 2])
-            bricks.append(_Brick(f"F{2 * row + 2}.{k + 1}", 2 * row + 2, c.brick, position, 0.0))
-    return bricks
-
-
-def _launch(scenario: Scenario, index: int, impact: Impact, bricks: list[_Brick], slots, spec: BrickSpec, dt: float) -> Launch:
+def _launch(scenario: Scenario, index: int, impact: Impact, bricks: list[LaidBrick], slots, spec: BrickSpec, dt: float) -> Launch:
     """A projectile aimed so that, falling under gravity, it reaches the target point."""
     path = ("impacts", index)
     direction = np.array(impact.direction or _side(impact), dtype=np.float64)
@@ -530,7 +377,7 @@ def _launch(scenario: Scenario, index: int, impact: Impact, bricks: list[_Brick]
     )
 
 
-def _face_point(scenario: Scenario, index: int, impact: Impact, bricks: list[_Brick]) -> np.ndarray:
+def _face_point(scenario: Scenario, index: int, impact: Impact, bricks: list[LaidBrick]) -> np.ndarray:
     """Middle of the outer face, on the target side, of the level's outermost brick."""
     level = [b for b in bricks if b.level == impact.target.level]
     if not level:
@@ -550,9 +397,3 @@ def _side(impact: Impact) -> tuple[float, float, float]:
     """The direction into the target's side (the schema requires a side unless a direction is given)."""
     assert impact.target.side is not None
     return SIDES[impact.target.side]
-
-
-def _wrap(angle: float) -> float:
-    """An angle in degrees wrapped to (-180, 180]."""
-    wrapped = math.fmod(angle + 180.0, 360.0)
-    return (wrapped + 360.0 if wrapped <= 0 else wrapped) - 180.0

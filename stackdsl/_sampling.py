@@ -215,11 +215,11 @@ def _ends(d: Distribution) -> list[Any]:
 
 def _grid_field(key: str, values: list[Any], source: SourceMap) -> tuple[FieldPath, str, tuple[Any, ...]]:
     """A grid key (``timing.placement_error``, ``structure.bricks.1.at.0``) as a field path."""
-    from ._loader import _fields_at
+    from ._validation_errors import fields_at
 
     path: FieldPath = tuple(int(part) if part.isdigit() else part for part in key.split("."))
     for i, part in enumerate(path):
-        allowed = _fields_at(path[:i]) if isinstance(part, str) else []
+        allowed = fields_at(path[:i]) if isinstance(part, str) else []
         if allowed and part not in allowed:
             raise source.error(
                 ("sweep", "grid", key),

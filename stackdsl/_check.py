@@ -6,7 +6,7 @@ before any simulation. Runs are shared between this process and spawned worker p
 pickling), or farmed out on a caller's ``concurrent.futures.Executor``.
 
 Every run has a wall-clock limit (``timeout``, default :data:`TIMEOUT`); workers also have
-a memory limit (:data:`stackdsl._pool.MEMORY_LIMIT`). A run that raises, runs out of memory
+a memory limit (:data:`stackdsl._guard.MEMORY_LIMIT`). A run that raises, runs out of memory
 or whose worker dies is that scenario's internal error (``CheckResult.error``); the other
 scenarios still run.
 

@@ -14,7 +14,7 @@ from typing import ClassVar
 
 import pytest
 
-from stackdsl import _check, _pool
+from stackdsl import _check, _guard, _pool
 from stackdsl._cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -30,7 +30,7 @@ class ReadyWorkers(_pool.Workers):
 
     started: ClassVar[list["ReadyWorkers"]] = []
 
-    def __init__(self, count, memory_limit=_pool.MEMORY_LIMIT):
+    def __init__(self, count, memory_limit=_guard.MEMORY_LIMIT):
         super().__init__(count, memory_limit)
         while self.ready < count:
             assert len(self.pids) == count, "a worker died while starting"
@@ -238,11 +238,11 @@ def test_a_worker_started_by_another_thread_outlives_that_thread():
 
 
 def test_other_pools_get_the_same_guards():
-    with _pool.SPAWN.Pool(1) as pool:
+    with _guard.SPAWN.Pool(1) as pool:
         assert pool.apply(signal.getsignal, (signal.SIGINT,)) == signal.SIG_IGN
         pid = pool.apply(os.getpid)
         assert "Max address space" in Path(f"/proc/{pid}/limits").read_text()
-        assert str(_pool.MEMORY_LIMIT) in Path(f"/proc/{pid}/limits").read_text()
+        assert str(_guard.MEMORY_LIMIT) in Path(f"/proc/{pid}/limits").read_text()
 
 
 # `stackdsl check -j 2` however it ends: nothing left behind
@@ -272,7 +272,7 @@ def start_check(tmp_path: Path) -> tuple[subprocess.Popen, Path, Path]:
 def die_with_this_process() -> None:
     """In the check's process before it starts: end it if the test run ends first (it has a
     session of its own, so a signal to the test run's group would miss it)."""
-    ctypes.CDLL(None).prctl(_pool.PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    ctypes.CDLL(None).prctl(_guard.PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
 
 
 def wait_for_workers(process: subprocess.Popen, out: Path) -> set[int]:
@@ -323,7 +323,7 @@ def test_ctrl_c_is_one_line_exit_130_and_no_worker_left(tmp_path):
 
 def test_a_worker_that_fails_says_so_in_one_line(capfd, monkeypatch):
     monkeypatch.delenv("STACKDSL_TRACEBACK", raising=False)
-    process = _pool.SPAWN.Process(target=int, args=("x",))
+    process = _guard.SPAWN.Process(target=int, args=("x",))
     process.start()
     process.join(120)
     assert process.exitcode == 1

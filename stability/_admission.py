@@ -37,7 +37,7 @@ class Admission:
     def basic(self, rec: Record, contacts: Contacts, time: float) -> list[StabilityEvent]:
         """Single object stability (report 3.3.4): freeze when the COM is over the support."""
         areas, stack = self.areas, self.stack
-        supports = areas.supports(rec, contacts.get(rec.body, []), stack_only=True)
+        supports = areas.supports(rec, contacts[rec.body], stack_only=True)
         if not supports:
             return []
         heights = [a.height for a in supports.values()]
@@ -47,7 +47,7 @@ class Admission:
         if not areas.holds(main, stack.engine.pose(rec.body).position):
             return []
         held = {o: pts for o, pts in areas.touching(rec, contacts).items() if stack.bodies[o].state is not BrickState.ACTIVE}
-        lift = overlap(contacts.get(rec.body, []), supports, areas.support_cos)
+        lift = overlap(contacts[rec.body], supports, areas.support_cos)
         stack.freeze(rec, supports, main, areas.polygons(rec, held, known=supports), lift)
         names = ", ".join(stack.bodies[s].label for s in supports)
         return [StabilityEvent(time, "freeze", rec.label, f"at rest on {names}")]
@@ -163,6 +163,6 @@ class Admission:
             resting = plan[m.body][0]
             faces = {o: self.areas.face_to_face(m, self.stack.bodies[o]) or a for o, a in resting.items()}
             carried = [lifts.get(o, 0.0) for o in resting]
-            own = overlap(contacts.get(m.body, []), faces, self.areas.support_cos)
+            own = overlap(contacts[m.body], faces, self.areas.support_cos)
             lifts[m.body] = own + (sum(carried) / len(carried) if carried else 0.0)
         return lifts

@@ -115,10 +115,15 @@ class ContactAreas:
     def around(self, rec: Record, contacts: Contacts) -> dict[int, list[ContactPoint]]:
         """Every registered body ``rec`` touches, with the contact points, in registration order."""
         grouped: dict[int, list[ContactPoint]] = defaultdict(list)
-        for c in contacts.get(rec.body, []):
+        for c in contacts[rec.body]:
             if c.other in self.stack.bodies:
                 grouped[c.other].append(c)
         return {o: grouped[o] for o in self.stack.ordered(grouped)}
+
+    def neighbours(self, rec: Record, contacts: Contacts) -> set[int]:
+        """The registered bodies ``rec`` touches, in no order (:meth:`around` without the points)."""
+        bodies = self.stack.bodies
+        return {c.other for c in contacts[rec.body] if c.other in bodies}
 
     def touching(self, rec: Record, contacts: Contacts) -> dict[int, list[ContactPoint]]:
         """Registered bodies ``rec`` touches, with the contact points, in registration order.

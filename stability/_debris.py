@@ -96,7 +96,7 @@ class Debris:
         empty when one of them is not at rest, or none touches a frozen brick or the ground."""
         pile, queue, held = {rec.body: rec}, [rec], False
         while queue:
-            for other in self.areas.around(queue.pop(), contacts):
+            for other in self.areas.neighbours(queue.pop(), contacts):  # the pile is the same in any order
                 o = self.stack.bodies[other]
                 if o.state is not BrickState.ACTIVE:
                     held = True

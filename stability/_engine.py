@@ -133,6 +133,41 @@ class PyBulletEngine:
         self._client.changeDynamics(body, -1, mass=0.0 if frozen else mass)
 
 
+class ContactBook(dict[int, list[ContactPoint]]):
+    """One step's contact points by the body they are seen from, read from ``engine`` for a
+    body the first time it is looked up, and only for one of ``bodies`` (any other has none
+    here); those of ``now`` are read at once.
+
+    A settling heap has hundreds of contact points and a step's admissions read those of a few
+    bricks. :meth:`fill` reads the rest: call it before freezing or waking a body, because
+    pybullet then drops that body's contacts until its next step. Source: stackdsl's own.
+
+    >>> eng = FakeEngine()
+    >>> eng.touch(1, 0, [[0, 0, 0]], normal=[0, 0, 1])
+    >>> book = ContactBook(eng, [0, 1])
+    >>> [c.other for c in book[1]], sorted(book), book[2]
+    ([0], [1], [])
+    >>> book.fill(); sorted(book)
+    [0, 1, 2]
+    """
+
+    def __init__(self, engine: Engine, bodies: Collection[int], now: Collection[int] = ()) -> None:
+        super().__init__()
+        self._engine, self._bodies = engine, frozenset(bodies)
+        for body in now:
+            self[body]
+
+    def __missing__(self, body: int) -> list[ContactPoint]:
+        points = self._engine.contact_points([body]) if body in self._bodies else []
+        self[body] = points
+        return points
+
+    def fill(self) -> None:
+        """Read the contact points of every body not looked up yet."""
+        for body in self._bodies.difference(self):
+            self[body]
+
+
 @dataclass
 class FakeEngine:
     """An in-memory :class:`Engine` for tests: set poses, velocities and contacts by hand.

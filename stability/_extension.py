@@ -3,7 +3,8 @@
 The report's method (chapter 3) on top of any :class:`Engine`. Each physics step the
 harness calls :meth:`StabilityExtension.update`; it
 
-1. gathers contact points and drops those between two unstable (active) bricks (3.3.1);
+1. gathers contact points, of bricks at rest and when first needed, and drops those between
+   two unstable (active) bricks (3.3.1);
 2. builds contact areas per support and their convex hull, the main contact area (3.3.3);
 3. admits a brick whose speeds have stayed under the rest threshold for the rest
    duration and whose centre of mass lies over its main contact area (3.3.4), unless
@@ -112,11 +113,12 @@ class StabilityExtension:
         # only a brick at rest asks, only of its own contacts (and its resting partners'), and a
         # brick refused asks again once a rest duration has passed and something has changed
         due = [rec for rec in resting if rec.failed is None or not stack.soon(rec.failed, time)]
-        contacts = by_body(stack.engine.contact_points([r.body for r in resting])) if due else {}
+        contacts = stack.contacts([r.body for r in resting], [r.body for r in due])
         for rec in due:
             if rec.state is not BrickState.ACTIVE:
                 continue
-            if rec.failed is not None and (attempt := stack.attempt(rec, contacts, time)) == rec.failed[0]:
+            attempt = None if rec.failed is None else stack.attempt(rec, contacts, time)
+            if rec.failed is not None and attempt == rec.failed[0]:
                 rec.failed = (attempt, time)  # nothing it rests on, touches or is has changed: wait again
                 continue
             if config.model == "equilibrium":
@@ -127,8 +129,12 @@ class StabilityExtension:
                     found = self._admission.leaning(rec, contacts, time, limit=config.max_leaning_bodies)
             if not found and config.debris:
                 found = self._debris.admit(rec, contacts, time)
-            rec.failed = None if found else (stack.attempt(rec, contacts, time), time)  # nothing changed since asking
+            if found:
+                rec.failed = None
+            else:  # a refusal changes nothing: what it depended on is as it was before asking
+                rec.failed = (attempt or stack.attempt(rec, contacts, time), time)
             events += found
+        stack.forget_contacts()
         if events or not config.per_event:
             events += self._tests.run(time)
         if config.impacts:
@@ -165,7 +171,7 @@ class StabilityExtension:
         for r in bricks:
             if r.state is BrickState.ACTIVE:
                 nodes[r.body] = LoadNode(
-                    r.box.mass, self._stack.pose(r).position, self._areas.supports(r, contacts.get(r.body, []), False)
+                    r.box.mass, self._stack.pose(r).position, self._areas.supports(r, contacts[r.body], False)
                 )
         loads = propagate(nodes)
         graph_nodes, edges = [], []

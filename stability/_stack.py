@@ -8,14 +8,14 @@ everything resting on it (3.3.7). Source: report 3.3.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Collection, Iterable
 from dataclasses import dataclass, field
 from typing import Literal, NamedTuple
 
 from shapely.geometry.base import BaseGeometry
 
 from ._config import StabilityConfig
-from ._engine import ContactPoint, Engine
+from ._engine import ContactBook, ContactPoint, Engine
 from ._equilibrium import ContactPolygon, is_level
 from ._geometry import Box, ContactArea, Plane, Pose
 from ._graph import BrickState
@@ -98,6 +98,7 @@ class Stack:
         self.unproven: set[int] = set()  # frozen bricks with no load path under their centre of mass
         self.loads_fresh = True  # com_above / mass_above of every frozen brick are up to date
         self.version = 0  # counts the changes of the frozen stack (freezes and wakes)
+        self._contacts: ContactBook | None = None  # this step's, read in full before a change
 
     def add(self, rec: Record) -> None:
         """Register ``rec``. Raises ValueError for a body registered already."""
@@ -136,7 +137,7 @@ class Stack:
         around = tuple(
             sorted(
                 (o, self.bodies[o].state is not BrickState.ACTIVE or self.rested(self.bodies[o], time))
-                for o in {c.other for c in contacts.get(rec.body, [])}
+                for o in {c.other for c in contacts[rec.body]}
                 if o in self.bodies
             )
         )
@@ -147,6 +148,17 @@ class Stack:
         on the same stack? Then the brick waits: in a heap that still settles around it, it
         would be asked every step."""
         return failed[0][0] == self.version and time - failed[1] < self.config.rest_duration
+
+    def contacts(self, bodies: Collection[int], now: Collection[int]) -> ContactBook:
+        """This step's contact points of ``bodies`` (those of ``now`` read at once, the others
+        when first looked up, and all of them before the stack next freezes or wakes a body:
+        pybullet drops a body's contacts when its mass changes)."""
+        self._contacts = ContactBook(self.engine, bodies, now)
+        return self._contacts
+
+    def forget_contacts(self) -> None:
+        """End the step's contact points (:meth:`contacts`): the engine steps on."""
+        self._contacts = None
 
     def freeze(
         self,
@@ -163,6 +175,8 @@ class Stack:
         if lift > 0.0:
             pose = self.engine.pose(rec.body)
             at = Pose(pose.position + [0.0, 0.0, lift], pose.orientation)
+        if self._contacts is not None:
+            self._contacts.fill()
         self.engine.set_frozen(rec.body, True, rec.box.mass, at)
         rec.state, rec.rests_on, rec.main_contact, rec.contacts = BrickState.FROZEN, supports, main, polygons
         self.active.pop(rec.body, None)
@@ -196,6 +210,8 @@ class Stack:
             return []
         node = rec.node
         assert node is not None, "a frozen brick has a load node"
+        if self._contacts is not None:
+            self._contacts.fill()
         self.engine.set_frozen(body, False, rec.box.mass)
         rec.state, rec.frozen_pose, rec.node = BrickState.ACTIVE, None, None
         rec.clock.stop()

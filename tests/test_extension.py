@@ -225,6 +225,34 @@ def test_a_refused_brick_waits_a_rest_duration_on_the_same_stack(monkeypatch):
     assert asked == [b, b]
 
 
+class DroppingEngine(FakeEngine):
+    """Forgets every contact of a body whose mass changes until the next step, as pybullet does."""
+
+    def set_frozen(self, body, frozen, mass, at=None):
+        super().set_frozen(body, frozen, mass, at)
+        self.contacts = [c for c in self.contacts if body not in (c.body, c.other)]
+
+
+def test_a_steps_contacts_are_read_in_full_before_a_freeze_drops_some():
+    from shapely.geometry import box
+
+    from stability._geometry import ContactArea
+
+    s = Scene()
+    s.engine = DroppingEngine(frozen={0})
+    s.ext = StabilityExtension(s.engine, StabilityConfig(rest_duration=0.0))
+    s.ext.add_ground(0, Plane(0.0))
+    s.brick(0.0, 1)
+    s.brick(0.0, 2, on=(1,))
+    stack = s.ext._stack
+    book = stack.contacts([1, 2], now=[1])  # b2's contacts are read when first needed
+    assert sorted(book) == [1]
+    area = ContactArea(box(-0.06, -0.012, 0.06, 0.012), 0.0, np.array([0.0, 0.0, 1.0]), exact=False)
+    stack.freeze(stack.bodies[1], {0: area}, area, [])
+    assert s.engine.contact_points([2]) == []  # the engine forgot b2's contacts with b1
+    assert {c.other for c in book[2]} == {1}  # read before the freeze
+
+
 def test_the_profile_rows_of_the_bench_name_functions_that_exist():
     """``stackdsl bench height`` finds each part of the profile by file and function name: a
     rename must not leave a row that silently reads 0 s."""

@@ -3,7 +3,8 @@
 A brick the admission tests refuse is admitted with every resting brick it touches, and they
 with theirs (the connected pile), when rigid-block equilibrium holds them all against what
 is frozen (:func:`stability.leaning_stands`): bricks that fell and lie still, alone or leaning
-on each other, then cost nothing. Source: stackdsl's own, on the report's rigid-block
+on each other, then cost nothing. That equilibrium, not the report's centre-of-mass test,
+then holds the bricks that fell, until something else comes to rest on one of them. Source: stackdsl's own, on the report's rigid-block
 reading of leaning (3.4).
 """
 
@@ -45,10 +46,13 @@ class Debris:
         refused for every member: none of them asks again until something it depends on
         changes (:meth:`Stack.attempt`).
 
-        A pile that rests on the stack and on the ground at once (a tower fallen against the
-        floor) stands by friction, but the report's load tree cannot carry it: frozen, the
-        stack test would wake it at once, and it would be frozen and woken again every rest
-        duration.
+        With the report model the pile must also leave the frozen stack under it standing by
+        the report's stack test, with the pile's loads on it. The members that fell are not
+        tested by it while nothing else rests on them (:meth:`Record.held_by_pile`): a pile
+        that rests on the stack and on the ground at once (a tower fallen against the floor)
+        stands by friction, which the report's load tree cannot carry (it sends every load
+        down to the stack), so the test would wake it at once and it would be frozen and
+        woken again every rest duration.
         """
         stack, areas = self.stack, self.areas
         group = self._pile(rec, contacts, time)
@@ -73,10 +77,16 @@ class Debris:
         inside = {m.body for m in group}
         held: Contacts = {o: [] for m in group for o in areas.around(m, contacts) if o not in inside}
         touching = {o: held[o] for o in stack.ordered(held)}
-        return self.admission.freeze_group(group, polygons, touching, contacts, time, plan)
+        events = self.admission.freeze_group(group, polygons, touching, contacts, time, plan)
+        for m in group:
+            m.pile = frozenset(inside) if m.clock.fallen else frozenset()
+        return events
 
     def _carried(self, group: list[Record], plan: Plan) -> bool:
-        """Would the report's stack test keep ``group`` frozen, frozen as ``plan`` says?
+        """Would the report's stack test keep the frozen stack under ``group`` frozen, with
+        ``group`` frozen as ``plan`` says? The members that fell are held by rigid-block
+        equilibrium, which the test then leaves to them (:meth:`Record.held_by_pile`); a
+        member never woken is tested as the report tests a placed brick.
         Always True with the equilibrium model (its stack test is the equilibrium that
         :func:`stability.leaning_stands` checks)."""
         stack = self.stack
@@ -89,7 +99,12 @@ class Debris:
             nodes[m.body] = LoadNode(m.box.mass, stack.engine.pose(m.body).position, plan[m.body][0])
             mains[m.body] = plan[m.body][1]
         loads = propagate_fast(nodes)
-        return all(main is not None and self.areas.holds(main, loads[b][0]) for b, main in mains.items())
+        fallen = {m.body for m in group if m.clock.fallen}
+        return all(
+            main is not None and self.areas.holds(main, loads[b][0])
+            for b, main in mains.items()
+            if b not in fallen and not stack.bodies[b].held_by_pile()
+        )
 
     def _pile(self, rec: Record, contacts: Contacts, time: float) -> list[Record]:
         """``rec`` and the active bricks connected to it by contacts, in registration order;

@@ -68,6 +68,13 @@ class Record:
     impacted: set[int] = field(default_factory=set)
     load_path: BaseGeometry | None = None
     failed: tuple[tuple[object, ...], float] | None = None  # its last refusal: what it depended on, when
+    pile: frozenset[int] = frozenset()  # a fallen brick's debris pile, which rigid-block equilibrium holds
+
+    def held_by_pile(self) -> bool:
+        """Fallen, frozen again with a debris pile that rigid-block equilibrium holds, and
+        nothing else has come to rest on it since: the report's centre-of-mass test does not
+        apply to it (stackdsl's own, :mod:`stability._debris`)."""
+        return bool(self.pile) and self.objects_above <= self.pile
 
     @property
     def box(self) -> Box:
@@ -223,7 +230,7 @@ class Stack:
         for s in rec.rests_on:
             self.bodies[s].objects_above.discard(body)
         rec.rests_on, rec.main_contact, rec.com_above, rec.mass_above = {}, None, None, 0.0
-        rec.contacts = []
+        rec.contacts, rec.pile = [], frozenset()
         woken = [Woken(body, node, StabilityEvent(time, "wake", rec.label, reason))]
         for above in self.ordered(rec.objects_above):
             woken += self.wake(above, time, f"rests on {rec.label}")

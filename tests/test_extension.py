@@ -266,3 +266,13 @@ def test_the_profile_rows_of_the_bench_name_functions_that_exist():
         (path,) = [p for p in (root / "stability" / file, root / "stackdsl" / file) if p.exists()]
         names = {n.name for n in ast.walk(ast.parse(path.read_text())) if isinstance(n, ast.FunctionDef)}
         assert function in names, label
+
+
+def test_a_debris_pile_is_held_by_equilibrium_until_something_else_rests_on_it():
+    from stability._stack import Record
+
+    rec = Record(1, "b1", KAPLA, BrickState.FROZEN, 1, 0.5, pile=frozenset({1, 2}), objects_above={2})
+    assert rec.held_by_pile()
+    rec.objects_above.add(5)  # a brick from outside the pile came to rest on it
+    assert not rec.held_by_pile()
+    assert not Record(3, "b3", KAPLA, BrickState.FROZEN, 3, 0.5, objects_above={2}).held_by_pile()

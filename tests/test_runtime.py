@@ -145,3 +145,18 @@ def test_fallen_bricks_are_frozen_again_where_they_lie(model):
     assert len(piles) >= 5
     assert not [e for e in off.events if e.kind == "freeze" and "pile" in e.detail]
     assert on.steps < off.steps
+
+
+def test_a_tower_fallen_against_the_floor_is_frozen_again_with_the_report_model():
+    """A log cabin shifted 9.5 mm a level falls at level 12 and lies against the floor and its
+    own first level, held there by friction. The report's load tree cannot carry such a pile
+    (every load goes down to the stack), but rigid-block equilibrium holds it: it is frozen
+    as one pile and stays frozen, and the run skips to its end."""
+    text = "stackdsl: 1\nstructure: {tower: {levels: 14, spacing: 96 mm, shift: 9.5 mm}}\n"
+    outcome = run_program(compile_scenario(parse_scenario(text, "cabin.yaml"), model="report"))
+    assert outcome.collapse is not None and outcome.collapse.level == 12
+    after = [e for e in outcome.events if e.time > outcome.collapse.time and e.kind in ("freeze", "wake")]
+    piles = [e for e in after if e.kind == "freeze" and "pile of" in e.detail]
+    assert len(piles) >= 15
+    assert not [e for e in after if e.kind == "wake" and e.time >= piles[0].time]
+    assert outcome.steps_skipped > 0

@@ -98,6 +98,8 @@ class Structure:
         self._by_body: dict[int, BrickRecord] = {}
         self._tops: dict[int, list[BrickRecord]] = {}  # top height in 0.1 mm -> bricks
         self._cached: tuple[tuple[int, ...], np.ndarray, np.ndarray] = ((), np.zeros((0, 8, 3)), np.zeros((0, 8, 3)))
+        # the placed positions, orientations and half diagonals of the bricks last bounded
+        self._placed: tuple[tuple[int, ...], np.ndarray, np.ndarray, np.ndarray] = ((), *(np.zeros(0),) * 3)
 
     def add(self, record: BrickRecord) -> None:
         """Register a brick that entered the world."""
@@ -166,10 +168,13 @@ class Structure:
         (cos(angle / 2) = |q . q0| for unit quaternions)."""
         if not records:
             return []
-        positions, quaternions = self.world.poses_of([r.body for r in records])
-        placed = np.array([r.pose.position for r in records])
-        placed_q = np.array([r.pose.orientation for r in records])
-        radius = np.array([r.half_diagonal for r in records])
+        bodies = tuple(r.body for r in records)
+        positions, quaternions = self.world.poses_of(bodies)
+        if self._placed[0] != bodies:  # the same bricks step after step: read their placing once
+            placed = np.array([r.pose.position for r in records])
+            placed_q = np.array([r.pose.orientation for r in records])
+            self._placed = (bodies, placed, placed_q, np.array([r.half_diagonal for r in records]))
+        _, placed, placed_q, radius = self._placed
         cos_half = np.minimum(1.0, np.abs((quaternions * placed_q).sum(axis=1)))
         bound = np.linalg.norm(positions - placed, axis=1) + 2.0 * radius * np.sqrt(1.0 - cos_half**2)
         return [r for r, b in zip(records, bound) if b > threshold]

@@ -3,8 +3,10 @@
 A brick the admission tests refuse is admitted with every resting brick it touches, and they
 with theirs (the connected pile), when rigid-block equilibrium holds them all against what
 is frozen (:func:`stability.leaning_stands`): bricks that fell and lie still, alone or leaning
-on each other, then cost nothing. That equilibrium, not the report's centre-of-mass test,
-then holds the bricks that fell, until something else comes to rest on one of them. Source: stackdsl's own, on the report's rigid-block
+on each other, then cost nothing. When the whole pile does not stand, the bricks its collapse
+mechanism moves are left out and the rest is tried again. That equilibrium, not the report's
+centre-of-mass test, then holds the bricks that fell, until something else comes to rest on
+one of them. Source: stackdsl's own, on the report's rigid-block
 reading of leaning (3.4).
 """
 
@@ -12,13 +14,18 @@ from __future__ import annotations
 
 from ._admission import Admission, Plan
 from ._areas import ContactAreas, Contacts
+from ._equilibrium import ContactPolygon, RigidBlock, solve_equilibrium
 from ._graph import BrickState
 from ._leaning import leaning_stands
 from ._load import LoadNode, propagate_fast
 from ._stack import Record, StabilityEvent, Stack
 
-MAX_PILE = 32
+MAX_PILE = 64
 """Most bricks the debris rule admits at once (one equilibrium program over all of them)."""
+
+MAX_TRIMS = 3
+"""How many times a pile that does not stand is tried again without the bricks its collapse
+mechanism moves."""
 
 
 class Debris:
@@ -40,11 +47,11 @@ class Debris:
         self._refused: tuple[int, set[tuple[tuple[int, float | None], ...]]] = (0, set())  # piles refused, at a version
 
     def admit(self, rec: Record, contacts: Contacts, time: float) -> list[StabilityEvent]:
-        """Admit ``rec`` with its pile when rigid-block equilibrium holds it against what is
-        frozen and, with the report model, the stack test would keep it frozen; nothing while
-        a brick of the pile still moves or it touches nothing frozen. A refused pile is
-        refused for every member: none of them asks again until something it depends on
-        changes (:meth:`Stack.attempt`).
+        """Admit ``rec`` with its pile, or the part of it that stands (:meth:`_standing`), when
+        rigid-block equilibrium holds it against what is frozen and, with the report model,
+        the stack test would keep it frozen; nothing while a brick of the pile still moves or
+        it touches nothing frozen. A refused pile is refused for every member: none of them
+        asks again until something it depends on changes (:meth:`Stack.attempt`).
 
         With the report model the pile must also leave the frozen stack under it standing by
         the report's stack test, with the pile's loads on it. The members that fell are not
@@ -66,21 +73,54 @@ class Debris:
         for m in group:
             polygons[m.body] = areas.polygons(m, areas.around(m, contacts), skip=skip)
             skip.add(m.body)
-        members = {m.body: (stack.engine.pose(m.body).position, m.box.mass) for m in group}
-        plan = self.admission.plan(group, polygons)
-        polygon_list = [c for cs in polygons.values() for c in cs]
-        if not (self._carried(group, plan) and leaning_stands(members, polygon_list, stack.config.gravity)):
+        whole = group
+        group, polygons = self._standing(group, polygons)
+        plan = self.admission.plan(group, polygons) if group else {}
+        if not (group and self._carried(group, plan)):
             self._refused[1].add(key)
-            for m in group:
+            for m in whole:
                 m.failed = (stack.attempt(m, contacts, time), time)
             return []
         inside = {m.body for m in group}
-        held: Contacts = {o: [] for m in group for o in areas.around(m, contacts) if o not in inside}
+        held: Contacts = {
+            o: []
+            for m in group
+            for o in areas.around(m, contacts)
+            if o not in inside and stack.bodies[o].state is not BrickState.ACTIVE
+        }
         touching = {o: held[o] for o in stack.ordered(held)}
         events = self.admission.freeze_group(group, polygons, touching, contacts, time, plan)
         for m in group:
             m.pile = frozenset(inside) if m.clock.fallen else frozenset()
         return events
+
+    def _standing(
+        self, group: list[Record], polygons: dict[int, list[ContactPolygon[int]]]
+    ) -> tuple[list[Record], dict[int, list[ContactPolygon[int]]]]:
+        """The part of ``group`` that rigid-block equilibrium holds against what is frozen, with
+        its contact polygons (``polygons``: each member's, the one between two members once):
+        the whole pile, or, when it does not stand, the pile without the bricks its collapse
+        mechanism moves, tried again up to :data:`MAX_TRIMS` times. Empty when no part stands.
+
+        The bricks left out stay in the engine, on the part frozen, and are asked again: the
+        top bricks of a fallen log cabin that lean on the pile by less friction than they need
+        must not keep the 30 bricks under them in the engine."""
+        gravity = self.stack.config.gravity
+        for _ in range(MAX_TRIMS + 1):
+            members = {m.body: (self.stack.engine.pose(m.body).position, m.box.mass) for m in group}
+            contacts = [c for cs in polygons.values() for c in cs]
+            if len(group) == 1:
+                return (group, polygons) if leaning_stands(members, contacts, gravity) else ([], {})
+            blocks = {b: RigidBlock(mass, com) for b, (com, mass) in members.items()}
+            result = solve_equilibrium(blocks, contacts, gravity=gravity)
+            if result.stands:
+                return group, polygons
+            out = {b for b, v in result.mechanism.items() if v > 1e-4}
+            group = [m for m in group if m.body not in out]
+            polygons = {b: [c for c in cs if c.other not in out] for b, cs in polygons.items() if b not in out}
+            if not group:
+                break
+        return [], {}
 
     def _carried(self, group: list[Record], plan: Plan) -> bool:
         """Would the report's stack test keep the frozen stack under ``group`` frozen, with

@@ -73,10 +73,14 @@ class Debris:
         for m in group:
             polygons[m.body] = areas.polygons(m, areas.around(m, contacts), skip=skip)
             skip.add(m.body)
-        whole = group
-        group, polygons = self._standing(group, polygons)
-        plan = self.admission.plan(group, polygons) if group else {}
-        if not (group and self._carried(group, plan)):
+        whole, plan = group, self.admission.plan(group, polygons)
+        carried = self._carried(group, plan)  # first: the report's test costs far less than equilibrium
+        if carried:
+            group, polygons = self._standing(group, polygons)
+            if group and len(group) < len(whole):
+                plan = self.admission.plan(group, polygons)
+                carried = self._carried(group, plan)
+        if not (group and carried):
             self._refused[1].add(key)
             for m in whole:
                 m.failed = (stack.attempt(m, contacts, time), time)

@@ -132,7 +132,7 @@ class StabilityExtension:
             if found:
                 rec.failed = None
             else:  # a refusal changes nothing: what it depended on is as it was before asking
-                rec.failed = (attempt or stack.attempt(rec, contacts, time), time)
+                rec.failed = (stack.attempt(rec, contacts, time) if attempt is None else attempt, time)
             events += found
         stack.forget_contacts()
         if events or not config.per_event:

@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._admission import Admission
-from ._areas import ContactAreas, by_body
+from ._areas import ContactAreas, Contacts, by_body
 from ._config import StabilityConfig
 from ._debris import Debris
 from ._engine import Engine
@@ -113,28 +113,11 @@ class StabilityExtension:
         # only a brick at rest asks, only of its own contacts (and its resting partners'), and a
         # brick refused asks again once a rest duration has passed and something has changed
         due = [rec for rec in resting if rec.failed is None or not stack.soon(rec.failed, time)]
-        contacts = stack.contacts([r.body for r in resting], [r.body for r in due])
-        for rec in due:
-            if rec.state is not BrickState.ACTIVE:
-                continue
-            attempt = None if rec.failed is None else stack.attempt(rec, contacts, time)
-            if rec.failed is not None and attempt == rec.failed[0]:
-                rec.failed = (attempt, time)  # nothing it rests on, touches or is has changed: wait again
-                continue
-            if config.model == "equilibrium":
-                found = self._admission.leaning(rec, contacts, time, limit=None)
-            else:
-                found = self._admission.basic(rec, contacts, time)
-                if not found and config.leaning:
-                    found = self._admission.leaning(rec, contacts, time, limit=config.max_leaning_bodies)
-            if not found and config.debris:
-                found = self._debris.admit(rec, contacts, time)
-            if found:
-                rec.failed = None
-            else:  # a refusal changes nothing: what it depended on is as it was before asking
-                rec.failed = (stack.attempt(rec, contacts, time) if attempt is None else attempt, time)
-            events += found
-        stack.forget_contacts()
+        if due:  # the step's contacts, read only when some brick asks
+            contacts = stack.contacts([r.body for r in resting], [r.body for r in due])
+            for rec in due:
+                events += self._admit(rec, contacts, time)
+            stack.forget_contacts()
         if events or not config.per_event:
             events += self._tests.run(time)
         if config.impacts:
@@ -143,6 +126,30 @@ class StabilityExtension:
             if any(e.kind == "wake" for e in hits):
                 events += self._tests.run(time)
         return events
+
+    def _admit(self, rec: Record, contacts: Contacts, time: float) -> list[StabilityEvent]:
+        """Ask the admission tests (report 3.3.4, 3.4; the debris rule) of a resting brick that
+        is due; a refused brick remembers what the refusal depended on."""
+        stack, config = self._stack, self._stack.config
+        if rec.state is not BrickState.ACTIVE:  # frozen with a pile earlier in this step
+            return []
+        attempt = None if rec.failed is None else stack.attempt(rec, contacts, time)
+        if rec.failed is not None and attempt == rec.failed[0]:
+            rec.failed = (attempt, time)  # nothing it rests on, touches or is has changed: wait again
+            return []
+        if config.model == "equilibrium":
+            found = self._admission.leaning(rec, contacts, time, limit=None)
+        else:
+            found = self._admission.basic(rec, contacts, time)
+            if not found and config.leaning:
+                found = self._admission.leaning(rec, contacts, time, limit=config.max_leaning_bodies)
+        if not found and config.debris:
+            found = self._debris.admit(rec, contacts, time)
+        if found:
+            rec.failed = None
+        else:  # a refusal changes nothing: what it depended on is as it was before asking
+            rec.failed = (stack.attempt(rec, contacts, time) if attempt is None else attempt, time)
+        return found
 
     def _at_rest(self, rec: Record, time: float) -> bool:
         """At rest for the rest duration (report 3.3.2; a fallen brick by the windowed test

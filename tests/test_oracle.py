@@ -2,7 +2,8 @@
 
 import pytest
 
-from stability import solve_equilibrium
+from stability import _equilibrium, solve_equilibrium
+from stability._equilibrium import GRAVITY, _solve_vertical
 from stackdsl import compile_scenario, parse_scenario
 from stackdsl._bench_cost import solve_times
 from stackdsl._oracle import equilibrium_collapse, structure
@@ -83,3 +84,16 @@ def test_the_vertical_program_agrees_with_the_full_one(spacing, shift, bricks):
     program = tower(bricks // 2 + 1, spacing, shift)
     blocks, contacts = structure(program.placements[:bricks], program.fixtures, program.ground_friction)
     assert solve_equilibrium(blocks, contacts).stands == solve_equilibrium(blocks, contacts, quick=False).stands
+
+
+@pytest.mark.parametrize("bricks", [29, 30])
+def test_the_vertical_program_gives_way_to_the_full_one_past_its_budget(monkeypatch, bricks):
+    # With no iterations to spend, the vertical program decides nothing, and the full
+    # program still gives the closed form's answer on either side of the collapse.
+    program = tower(bricks // 2 + 1, 96, 8)
+    blocks, contacts = structure(program.placements[:bricks], program.fixtures, program.ground_friction)
+    expected = solve_equilibrium(blocks, contacts, quick=False).stands
+    assert _solve_vertical(blocks, contacts, GRAVITY) is not None or not expected
+    monkeypatch.setattr(_equilibrium, "VERTICAL_PIVOTS", 0.001)  # one iteration
+    assert _solve_vertical(blocks, contacts, GRAVITY) is None
+    assert solve_equilibrium(blocks, contacts).stands == expected

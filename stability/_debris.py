@@ -6,15 +6,18 @@ is frozen (:func:`stability.leaning_stands`): bricks that fell and lie still, al
 on each other, then cost nothing. When the whole pile does not stand, the bricks its collapse
 mechanism moves are left out and the rest is tried again. That equilibrium, not the report's
 centre-of-mass test, then holds the bricks that fell, until something else comes to rest on
-one of them. Source: stackdsl's own, on the report's rigid-block
+one of them; a pile that comes to rest on bricks frozen with an earlier pile is solved and
+frozen with them as one pile. Source: stackdsl's own, on the report's rigid-block
 reading of leaning (3.4).
 """
 
 from __future__ import annotations
 
+import itertools
+
 from ._admission import Admission, Plan
 from ._areas import ContactAreas, Contacts
-from ._equilibrium import ContactPolygon, RigidBlock, solve_equilibrium
+from ._equilibrium import ContactPolygon, Equilibrium, RigidBlock, solve_equilibrium
 from ._graph import BrickState
 from ._leaning import leaning_stands
 from ._load import LoadNode, propagate_fast
@@ -73,14 +76,9 @@ class Debris:
         for m in group:
             polygons[m.body] = areas.polygons(m, areas.around(m, contacts), skip=skip)
             skip.add(m.body)
-        whole, plan = group, self.admission.plan(group, polygons)
-        carried = self._carried(group, plan)  # first: the report's test costs far less than equilibrium
-        if carried:
-            group, polygons = self._standing(group, polygons)
-            if group and len(group) < len(whole):
-                plan = self.admission.plan(group, polygons)
-                carried = self._carried(group, plan)
-        if not (group and carried):
+        whole = group
+        group, polygons, plan, earlier = self._admissible(group, polygons, self._earlier(group, contacts))
+        if not group:
             self._refused[1].add(key)
             for m in whole:
                 m.failed = (stack.attempt(m, contacts, time), time)
@@ -94,17 +92,64 @@ class Debris:
         }
         touching = {o: held[o] for o in stack.ordered(held)}
         events = self.admission.freeze_group(group, polygons, touching, contacts, time, plan)
+        pile = frozenset(inside | {r.body for r in earlier})
         for m in group:
-            m.pile = frozenset(inside) if m.clock.fallen else frozenset()
+            m.pile = pile if m.clock.fallen else frozenset()
+        for a, b in itertools.pairwise([group[0], *earlier]):  # one pile: its bricks wake together
+            a.objects_above.add(b.body)
+            b.objects_above.add(a.body)
+            b.pile = pile
         return events
 
+    def _admissible(
+        self, group: list[Record], polygons: dict[int, list[ContactPolygon[int]]], earlier: list[Record]
+    ) -> tuple[list[Record], dict[int, list[ContactPolygon[int]]], Plan, list[Record]]:
+        """The part of ``group`` that may be frozen, its polygons, its plan, and the bricks of
+        earlier piles it is frozen with (``earlier``, :meth:`_earlier`, or none): the
+        report's test of the stack under it first (it costs far less than equilibrium),
+        with ``earlier`` as stack bricks; when that fails, with ``earlier`` in the pile.
+        An empty part when none may be frozen."""
+        plan = self.admission.plan(group, polygons)
+        for together in ([], earlier) if earlier else ([],):
+            if not self._carried(group, plan, together):
+                continue
+            part, parts = self._standing(group, polygons, together)
+            if part and len(part) < len(group):
+                plan = self.admission.plan(part, parts)
+                if not self._carried(part, plan, together):
+                    return [], {}, {}, []
+            return part, parts, plan, together
+        return [], {}, {}, []
+
+    def _earlier(self, group: list[Record], contacts: Contacts) -> list[Record]:
+        """With the report model, the frozen bricks that ``group`` touches and that an earlier
+        debris pile holds (:meth:`Record.held_by_pile`; a fallen brick frozen alone is a pile
+        of one), with the rest of their piles, in registration order. When the report's test
+        cannot hold them as stack bricks under ``group`` (a brick that fell onto its edge on
+        the floor, under the heap of the rest of the tower), they are solved with ``group``
+        as free blocks (:meth:`_together`) and the two become one pile. Empty with the
+        equilibrium model, whose stack test solves every frozen brick anyway."""
+        stack = self.stack
+        if stack.config.model != "report":
+            return []
+        found: dict[int, Record] = {}
+        for m in group:
+            for o in self.areas.neighbours(m, contacts):
+                held = stack.bodies[o]
+                if held.state is BrickState.FROZEN and held.held_by_pile() and o not in found:
+                    members = (stack.bodies[b] for b in held.pile)
+                    found.update((r.body, r) for r in members if r.state is BrickState.FROZEN and r.held_by_pile())
+        return sorted(found.values(), key=lambda r: r.order)
+
     def _standing(
-        self, group: list[Record], polygons: dict[int, list[ContactPolygon[int]]]
+        self, group: list[Record], polygons: dict[int, list[ContactPolygon[int]]], earlier: list[Record]
     ) -> tuple[list[Record], dict[int, list[ContactPolygon[int]]]]:
         """The part of ``group`` that rigid-block equilibrium holds against what is frozen, with
         its contact polygons (``polygons``: each member's, the one between two members once):
         the whole pile, or, when it does not stand, the pile without the bricks its collapse
         mechanism moves, tried again up to :data:`MAX_TRIMS` times. Empty when no part stands.
+        With ``earlier`` (frozen bricks of earlier piles, :meth:`_earlier`), the part found
+        must also stand with them as free blocks (:meth:`_together`).
 
         The bricks left out stay in the engine, on the part frozen, and are asked again: the
         top bricks of a fallen log cabin that lean on the pile by less friction than they need
@@ -113,24 +158,46 @@ class Debris:
         for _ in range(MAX_TRIMS + 1):
             members = {m.body: (self.stack.engine.pose(m.body).position, m.box.mass) for m in group}
             contacts = [c for cs in polygons.values() for c in cs]
-            if len(group) == 1:
+            if len(group) == 1 and not earlier:
                 return (group, polygons) if leaning_stands(members, contacts, gravity) else ([], {})
             blocks = {b: RigidBlock(mass, com) for b, (com, mass) in members.items()}
-            result = solve_equilibrium(blocks, contacts, gravity=gravity)
+            if earlier:
+                result = self._together(blocks, contacts, earlier)
+            else:
+                result = solve_equilibrium(blocks, contacts, gravity=gravity)
             if result.stands:
                 return group, polygons
-            out = {b for b, v in result.mechanism.items() if v > 1e-4}
+            out = {b for b, v in result.mechanism.items() if v > 1e-4 and b in members}
             group = [m for m in group if m.body not in out]
             polygons = {b: [c for c in cs if c.other not in out] for b, cs in polygons.items() if b not in out}
-            if not group:
+            if not (group and out):
                 break
         return [], {}
 
-    def _carried(self, group: list[Record], plan: Plan) -> bool:
+    def _together(
+        self, blocks: dict[int, RigidBlock], contacts: list[ContactPolygon[int]], earlier: list[Record]
+    ) -> Equilibrium[int]:
+        """Rigid-block equilibrium of ``blocks`` on ``contacts`` with the frozen bricks
+        ``earlier`` as free blocks too, on the contacts remembered from when they, or the
+        frozen bricks they touch, were frozen (two frozen bodies report no contacts)."""
+        stack = self.stack
+        together = dict(blocks)
+        together.update((r.body, RigidBlock(r.box.mass, stack.pose(r).position)) for r in earlier)
+        pile = {r.body for r in earlier}
+        remembered = [
+            c
+            for r in stack.in_order()
+            for c in r.contacts
+            if (c.body in pile or c.other in pile) and stack.bodies[c.other].state is not BrickState.ACTIVE
+        ]
+        return solve_equilibrium(together, contacts + remembered, gravity=stack.config.gravity)
+
+    def _carried(self, group: list[Record], plan: Plan, earlier: list[Record]) -> bool:
         """Would the report's stack test keep the frozen stack under ``group`` frozen, with
-        ``group`` frozen as ``plan`` says? The members that fell are held by rigid-block
-        equilibrium, which the test then leaves to them (:meth:`Record.held_by_pile`); a
-        member never woken is tested as the report tests a placed brick.
+        ``group`` frozen as ``plan`` says? The members that fell, and the bricks of an earlier
+        pile solved with them (``earlier``), are held by rigid-block equilibrium, which the
+        test then leaves to them (:meth:`Record.held_by_pile`); a member never woken is
+        tested as the report tests a placed brick.
         Always True with the equilibrium model (its stack test is the equilibrium that
         :func:`stability.leaning_stands` checks)."""
         stack = self.stack
@@ -143,11 +210,12 @@ class Debris:
             nodes[m.body] = LoadNode(m.box.mass, stack.engine.pose(m.body).position, plan[m.body][0])
             mains[m.body] = plan[m.body][1]
         loads = propagate_fast(nodes)
-        fallen = {m.body for m in group if m.clock.fallen}
+        fallen = {m.body for m in group if m.clock.fallen} | {r.body for r in earlier}
+        loaded = {s for m in group for s in plan[m.body][0]}  # they lose the exemption unless in the pile
         return all(
             main is not None and self.areas.holds(main, loads[b][0])
             for b, main in mains.items()
-            if b not in fallen and not stack.bodies[b].held_by_pile()
+            if b not in fallen and (b in loaded or not stack.bodies[b].held_by_pile())
         )
 
     def _pile(self, rec: Record, contacts: Contacts, time: float) -> list[Record]:

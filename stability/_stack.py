@@ -68,7 +68,7 @@ class Record:
     impacted: set[int] = field(default_factory=set)
     load_path: BaseGeometry | None = None
     failed: tuple[tuple[object, ...], float] | None = None  # its last refusal: what it depended on, when
-    pile: frozenset[int] = frozenset()  # a fallen brick's debris pile, which rigid-block equilibrium holds
+    pile: frozenset[int] = frozenset()  # a fallen brick's debris pile (itself, frozen alone), which rigid-block equilibrium holds
 
     def held_by_pile(self) -> bool:
         """Fallen, frozen again with a debris pile that rigid-block equilibrium holds, and
@@ -186,6 +186,7 @@ class Stack:
             self._contacts.fill()
         self.engine.set_frozen(rec.body, True, rec.box.mass, at)
         rec.state, rec.rests_on, rec.main_contact, rec.contacts = BrickState.FROZEN, supports, main, polygons
+        rec.pile = frozenset({rec.body}) if rec.clock.fallen else frozenset()  # a debris pile's admission widens it
         self.active.pop(rec.body, None)
         rec.frozen_pose = self.engine.pose(rec.body)
         rec.node = LoadNode(rec.box.mass, rec.frozen_pose.position, supports)

@@ -162,6 +162,21 @@ def test_a_tower_fallen_against_the_floor_is_frozen_again_with_the_report_model(
     assert outcome.steps_skipped > 0
 
 
+def test_a_heap_resting_on_a_brick_that_fell_before_it_is_frozen_with_it():
+    """A log cabin shifted 4.5 mm a level falls at level 26. One of its bricks falls first
+    and is frozen alone on its edge on the floor; the heap of 41 then comes to rest against
+    it. The report's test cannot hold that brick as a stack brick under the heap, but
+    rigid-block equilibrium holds the two together: the heap is frozen as one pile with it,
+    and every woken brick is frozen again before the run ends."""
+    text = "stackdsl: 1\nstructure: {tower: {levels: 28, spacing: 96 mm, shift: 4.5 mm}}\n"
+    outcome = run_program(compile_scenario(parse_scenario(text, "cabin.yaml"), model="report"))
+    assert outcome.collapse is not None and outcome.collapse.level == 26
+    woken = {e.brick for e in outcome.events if e.kind == "wake"}
+    after = [e for e in outcome.events if e.kind == "freeze" and e.time > outcome.collapse.time]
+    assert len(woken) > 40 and len([e for e in after if "pile of" in e.detail]) > 30
+    assert woken <= {e.brick for e in after}
+
+
 def test_a_pile_whose_top_bricks_slide_is_frozen_without_them():
     """A log cabin shifted 5.5 mm a level falls at level 21; its 39 woken bricks come to rest
     in a heap whose top four lean by less friction than they need, so the whole heap does not

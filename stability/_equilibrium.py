@@ -137,64 +137,88 @@ def solve_equilibrium(
     keys = list(blocks)
     index = {k: i for i, k in enumerate(keys)}
     weight = max((b.mass for b in blocks.values()), default=1.0) * gravity or 1.0
-    scale = 0.1  # metres: lever arms in units of 10 cm keep the rows comparable
     per_point = 2 + sides  # normal, tension, friction weights
-    eq_rows: list[np.ndarray] = []
-    eq_cols: list[np.ndarray] = []
-    eq_vals: list[np.ndarray] = []
-    ub_rows: list[np.ndarray] = []
-    ub_cols: list[np.ndarray] = []
-    ub_vals: list[np.ndarray] = []
-    col = n_ub = 0
+    generators, owner = _generators(contacts, blocks, sides)
+    a_eq = _balance(contacts, blocks, index, generators, owner)
+    points = len(owner)
+    # at each point, friction weights sum to at most mu times the normal force
+    cols = np.arange(points * per_point).reshape(points, per_point)
+    friction = np.array([c.friction for c in contacts], dtype=float)[owner]
+    ub_vals = np.column_stack([-friction, np.ones((points, sides))]).ravel()
+    ub = (ub_vals, (np.repeat(np.arange(points), sides + 1), np.column_stack([cols[:, :1], cols[:, 2:]]).ravel()))
+    a_ub = sparse.csr_matrix(ub, shape=(points, points * per_point)) if points else None
+    cost = np.zeros(points * per_point)
+    cost[1::per_point] = 1.0  # the tension of every point
+    rhs = np.zeros(6 * len(keys))
+    for key, block in blocks.items():
+        rhs[6 * index[key] + 2] = block.mass * gravity / weight
+    result = linprog(
+        cost, A_ub=a_ub, b_ub=np.zeros(points) if points else None, A_eq=a_eq, b_eq=rhs, bounds=(0, None), method="highs"
+    )
+    if result.status != 0:
+        return Equilibrium(False, float("inf"), (), {k: float("inf") for k in keys}, (), {k: 1.0 for k in keys})
+    tension = float(result.fun) * weight
+    total = sum(b.mass for b in blocks.values()) * gravity
+    forces, by_body, by_contact = _forces(result.x.reshape(points, per_point) * weight, contacts, generators, owner, keys)
+    stands = tension <= 1e-7 * max(total, 1e-12)
+    mechanism = {} if stands else _mechanism(result.eqlin.marginals, keys)
+    return Equilibrium(stands, tension, forces, by_body, by_contact, mechanism)
+
+
+def _generators(
+    contacts: Sequence[ContactPolygon[BodyKey]], blocks: Mapping[BodyKey, RigidBlock], sides: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per contact the force directions of each of its vertices, shape (C, 2 + sides, 3):
+    the unit normal, its opposite (a tension) and the friction pyramid's tangents; and per
+    vertex, shape (P,), the index of its contact. Raises ValueError for a contact without
+    points."""
+    generators, counts = [], []
     for contact in contacts:
         points = np.asarray(contact.points, dtype=float).reshape(-1, 3)
         if len(points) == 0:
             raise ValueError("a contact needs at least one point")
         normal = np.asarray(contact.normal, dtype=float)
         normal = normal / np.linalg.norm(normal)
-        generators = np.vstack([normal, -normal, _tangents(normal, sides, _toward(contact, points, blocks))])  # (G, 3)
-        k = len(points)
-        cols = col + np.arange(k * per_point).reshape(k, per_point)  # (k, G)
-        for side, key in ((1.0, contact.body), (-1.0, contact.other)):
-            if key not in index:
-                continue
-            b = index[key]
-            force = side * generators
-            lever = (points - np.asarray(blocks[key].com, dtype=float)) / scale
-            torque = np.cross(lever[:, None, :], force[None, :, :])  # (k, G, 3)
-            for rows, values in (
-                (6 * b + np.arange(3), np.broadcast_to(force, (k, per_point, 3))),
-                (6 * b + 3 + np.arange(3), torque),
-            ):
-                keep = values != 0.0
-                eq_rows.append(np.broadcast_to(rows, values.shape)[keep])
-                eq_cols.append(np.broadcast_to(cols[:, :, None], values.shape)[keep])
-                eq_vals.append(values[keep])
-        # at each point, friction weights sum to at most mu times the normal force
-        ub_rows += [np.repeat(n_ub + np.arange(k), sides + 1)]
-        ub_cols += [np.concatenate([cols[:, :1], cols[:, 2:]], axis=1).ravel()]
-        ub_vals += [np.tile(np.concatenate([[-contact.friction], np.ones(sides)]), k)]
-        col += k * per_point
-        n_ub += k
-    columns = col
-    cost = np.zeros(columns)
-    cost[1::per_point] = 1.0  # the tension of every point
-    rhs = np.zeros(6 * len(keys))
-    for key, block in blocks.items():
-        rhs[6 * index[key] + 2] = block.mass * gravity / weight
-    a_eq = sparse.csr_matrix((_cat(eq_vals), (_cat(eq_rows), _cat(eq_cols))), shape=(6 * len(keys), columns))
-    a_ub = sparse.csr_matrix((_cat(ub_vals), (_cat(ub_rows), _cat(ub_cols))), shape=(n_ub, columns)) if n_ub else None
-    result = linprog(
-        cost, A_ub=a_ub, b_ub=np.zeros(n_ub) if n_ub else None, A_eq=a_eq, b_eq=rhs, bounds=(0, None), method="highs"
-    )
-    if result.status != 0:
-        return Equilibrium(False, float("inf"), (), {k: float("inf") for k in keys}, (), {k: 1.0 for k in keys})
-    tension = float(result.fun) * weight
-    total = sum(b.mass for b in blocks.values()) * gravity
-    forces, by_body, by_contact = _forces(result.x * weight, contacts, sides, per_point, keys, blocks)
-    stands = tension <= 1e-7 * max(total, 1e-12)
-    mechanism = {} if stands else _mechanism(result.eqlin.marginals, keys)
-    return Equilibrium(stands, tension, forces, by_body, by_contact, mechanism)
+        generators.append(np.vstack([normal, -normal, _tangents(normal, sides, _toward(contact, points, blocks))]))
+        counts.append(len(points))
+    if not generators:
+        return np.zeros((0, 2 + sides, 3)), np.zeros(0, dtype=int)
+    return np.stack(generators), np.repeat(np.arange(len(counts)), counts)
+
+
+def _balance(
+    contacts: Sequence[ContactPolygon[BodyKey]],
+    blocks: Mapping[BodyKey, RigidBlock],
+    index: Mapping[BodyKey, int],
+    generators: np.ndarray,
+    owner: np.ndarray,
+) -> sparse.csr_matrix:
+    """The equilibrium rows of the full program, shape (6 blocks, P (2 + sides)): for each
+    free block its force and its torque about its centre of mass (lever arms in units of
+    10 cm, which keep the rows comparable), from the generators of every vertex it touches;
+    one column per vertex and generator."""
+    scale = 0.1
+    points = np.vstack([np.asarray(c.points, dtype=float).reshape(-1, 3) for c in contacts]) if contacts else np.zeros((0, 3))
+    per_point = generators.shape[1]
+    cols = np.arange(len(owner) * per_point).reshape(len(owner), per_point)
+    rows_out, cols_out, vals_out = [], [], []
+    for side, ends in ((1.0, [c.body for c in contacts]), (-1.0, [c.other for c in contacts])):
+        block = np.array([index.get(k, -1) for k in ends], dtype=int)[owner] if contacts else np.zeros(0, dtype=int)
+        free = block >= 0
+        if not free.any():
+            continue
+        com = np.array([np.asarray(blocks[k].com, dtype=float) if k in index else np.zeros(3) for k in ends])[owner]
+        force = side * generators[owner[free]]  # (F, G, 3)
+        lever = (points[free] - com[free]) / scale
+        torque = np.cross(lever[:, None, :], force)  # (F, G, 3)
+        base = 6 * block[free][:, None, None] + np.arange(3)
+        for rows, values in ((base, force), (base + 3, torque)):
+            keep = values != 0.0
+            rows_out.append(np.broadcast_to(rows, values.shape)[keep])
+            cols_out.append(np.broadcast_to(cols[free][:, :, None], values.shape)[keep])
+            vals_out.append(values[keep])
+    shape = (6 * len(index), len(owner) * per_point)
+    return sparse.csr_matrix((_cat(vals_out), (_cat(rows_out), _cat(cols_out))), shape=shape)
 
 
 def _cat(parts: list[np.ndarray]) -> np.ndarray:
@@ -309,31 +333,21 @@ def _tangents(normal: np.ndarray, sides: int, toward: np.ndarray | None = None) 
 def _forces(
     x: np.ndarray,
     contacts: Sequence[ContactPolygon[BodyKey]],
-    sides: int,
-    per_point: int,
+    generators: np.ndarray,
+    owner: np.ndarray,
     keys: list[BodyKey],
-    blocks: Mapping[BodyKey, RigidBlock],
 ) -> tuple[tuple[np.ndarray, ...], dict[BodyKey, float], tuple[float, ...]]:
     """Per contact the force at each vertex (shape (k, 3), newtons) from the program's
-    solution ``x`` (newtons), the tension by free block and the tension by contact."""
-    forces: list[np.ndarray] = []
+    solution ``x`` (shape (P, 2 + sides), newtons: normal, tension and friction weights of
+    each vertex), the tension by free block and the tension by contact."""
+    normal = generators[owner, 0]  # (P, 3)
+    vertex = (x[:, 0] - x[:, 1])[:, None] * normal + np.einsum("pg,pgd->pd", x[:, 2:], generators[owner, 2:])
+    ends = np.cumsum(np.bincount(owner, minlength=len(contacts)))[:-1]
+    forces = tuple(np.split(vertex, ends)) if len(contacts) else ()
+    by_contact = tuple(float(t) for t in np.bincount(owner, weights=x[:, 1], minlength=len(contacts)))
     by_body: dict[BodyKey, float] = {k: 0.0 for k in keys}
-    by_contact: list[float] = []
-    col = 0
-    for contact in contacts:
-        normal = np.asarray(contact.normal, dtype=float)
-        normal = normal / np.linalg.norm(normal)
-        points = np.asarray(contact.points, dtype=float).reshape(-1, 3)
-        tangents = _tangents(normal, sides, _toward(contact, points, blocks))
-        rows, pulled = [], 0.0
-        for _ in np.asarray(contact.points).reshape(-1, 3):
-            v = x[col : col + per_point]
-            rows.append((v[0] - v[1]) * normal + v[2:] @ tangents)
-            pulled += v[1]
-            col += per_point
+    for contact, pulled in zip(contacts, by_contact):
         for key in (contact.body, contact.other):
             if key in by_body:
                 by_body[key] += pulled
-        forces.append(np.array(rows))
-        by_contact.append(pulled)
-    return tuple(forces), by_body, tuple(by_contact)
+    return forces, by_body, by_contact

@@ -198,16 +198,14 @@ def _balance(
     10 cm, which keep the rows comparable), from the generators of every vertex it touches;
     one column per vertex and generator."""
     scale = 0.1
-    points = np.vstack([np.asarray(c.points, dtype=float).reshape(-1, 3) for c in contacts]) if contacts else np.zeros((0, 3))
+    points, _ = _vertices(contacts)
     per_point = generators.shape[1]
     cols = np.arange(len(owner) * per_point).reshape(len(owner), per_point)
     rows_out, cols_out, vals_out = [], [], []
-    for side, ends in ((1.0, [c.body for c in contacts]), (-1.0, [c.other for c in contacts])):
-        block = np.array([index.get(k, -1) for k in ends], dtype=int)[owner] if contacts else np.zeros(0, dtype=int)
+    for side, block, com in _ends(contacts, blocks, index, owner):
         free = block >= 0
         if not free.any():
             continue
-        com = np.array([np.asarray(blocks[k].com, dtype=float) if k in index else np.zeros(3) for k in ends])[owner]
         force = side * generators[owner[free]]  # (F, G, 3)
         lever = (points[free] - com[free]) / scale
         torque = np.cross(lever[:, None, :], force)  # (F, G, 3)
@@ -261,37 +259,56 @@ def _solve_vertical(
     keys = list(blocks)
     index = {k: i for i, k in enumerate(keys)}
     weight = max((b.mass for b in blocks.values()), default=1.0) * gravity or 1.0
+    points, owner = _vertices(contacts)
     rows: list[np.ndarray] = []
     cols: list[np.ndarray] = []
     vals: list[np.ndarray] = []
-    col = 0
-    for contact in contacts:
-        points = np.asarray(contact.points, dtype=float).reshape(-1, 3)
-        k = len(points)
-        for side, key in ((1.0, contact.body), (-1.0, contact.other)):
-            if key not in index:
-                continue
-            b = index[key]
-            lever = (points - np.asarray(blocks[key].com, dtype=float)) / 0.1
-            rows += [np.full(k, 3 * b), np.full(k, 3 * b + 1), np.full(k, 3 * b + 2)]
-            cols += [col + np.arange(k)] * 3
-            vals += [np.full(k, side), side * lever[:, 1], -side * lever[:, 0]]  # Fz, Mx = y Fz, My = -x Fz
-        col += k
+    for side, block, com in _ends(contacts, blocks, index, owner):
+        free = np.flatnonzero(block >= 0)
+        lever = (points[free] - com[free]) / 0.1
+        rows += [3 * block[free], 3 * block[free] + 1, 3 * block[free] + 2]
+        cols += [free] * 3
+        vals += [np.full(len(free), side), side * lever[:, 1], -side * lever[:, 0]]  # Fz, Mx = y Fz, My = -x Fz
     rhs = np.zeros(3 * len(keys))
-    for key, block in blocks.items():
-        rhs[3 * index[key]] = block.mass * gravity / weight
-    a_eq = sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(3 * len(keys), col))
+    for key, b in blocks.items():
+        rhs[3 * index[key]] = b.mass * gravity / weight
+    a_eq = sparse.csr_matrix((_cat(vals), (_cat(rows), _cat(cols))), shape=(3 * len(keys), len(owner)))
     budget = max(1, round(VERTICAL_PIVOTS * a_eq.shape[0]))
-    result = linprog(np.zeros(col), A_eq=a_eq, b_eq=rhs, bounds=(0, None), method="highs", options={"maxiter": budget})
+    result = linprog(np.zeros(len(owner)), A_eq=a_eq, b_eq=rhs, bounds=(0, None), method="highs", options={"maxiter": budget})
     if result.status != 0:  # no balance, or none found within the budget
         return None
-    forces: list[np.ndarray] = []
-    at = 0
-    for contact in contacts:
-        k = len(np.asarray(contact.points).reshape(-1, 3))
-        forces.append(np.column_stack([np.zeros(k), np.zeros(k), result.x[at : at + k] * weight]))
-        at += k
-    return Equilibrium(True, 0.0, tuple(forces), {k: 0.0 for k in keys}, tuple(0.0 for _ in contacts), {})
+    vertical = np.zeros((len(owner), 3))
+    vertical[:, 2] = result.x * weight
+    forces = tuple(np.split(vertical, np.cumsum(np.bincount(owner, minlength=len(contacts)))[:-1])) if contacts else ()
+    return Equilibrium(True, 0.0, forces, {k: 0.0 for k in keys}, tuple(0.0 for _ in contacts), {})
+
+
+def _vertices(contacts: Sequence[ContactPolygon[BodyKey]]) -> tuple[np.ndarray, np.ndarray]:
+    """Every contact's vertices end to end, shape (P, 3) in metres, and the index of each
+    one's contact, shape (P,). Raises ValueError for a contact without points."""
+    polygons = [np.asarray(c.points, dtype=float).reshape(-1, 3) for c in contacts]
+    if any(len(p) == 0 for p in polygons):
+        raise ValueError("a contact needs at least one point")
+    if not polygons:
+        return np.zeros((0, 3)), np.zeros(0, dtype=int)
+    return np.vstack(polygons), np.repeat(np.arange(len(polygons)), [len(p) for p in polygons])
+
+
+def _ends(
+    contacts: Sequence[ContactPolygon[BodyKey]],
+    blocks: Mapping[BodyKey, RigidBlock],
+    index: Mapping[BodyKey, int],
+    owner: np.ndarray,
+) -> list[tuple[float, np.ndarray, np.ndarray]]:
+    """For each end of the contacts (``body``, sign +1; ``other``, sign -1), per vertex the
+    free block it belongs to (its index, -1 for a support, shape (P,)) and that block's centre
+    of mass (shape (P, 3), metres; zeros for a support)."""
+    out = []
+    for side, ends in ((1.0, [c.body for c in contacts]), (-1.0, [c.other for c in contacts])):
+        block = np.array([index.get(k, -1) for k in ends], dtype=int)
+        com = np.array([np.asarray(blocks[k].com, dtype=float) if k in index else np.zeros(3) for k in ends]).reshape(-1, 3)
+        out.append((side, block[owner], com[owner]))
+    return out
 
 
 def _mechanism(duals: np.ndarray, keys: list[BodyKey]) -> dict[BodyKey, float]:

@@ -17,15 +17,14 @@ import os
 import signal
 import sys
 import threading
-import time
 import traceback
 from pathlib import Path
 from typing import Any, NoReturn
 
-from ._artefacts import folder_name
-from ._check import TIMEOUT, CheckResult, ScenarioErrors, discover, prepare, run_checks, run_guarded, select, stopped_by, tabulate
-from ._cli_args import jobs_type, timeout_type
+from ._check import TIMEOUT, ScenarioErrors, run_guarded, stopped_by
+from ._cli_args import BAD_INPUT, BROKEN_PIPE, EXIT_STATUS, FAILED, HINT, INTERNAL, INTERRUPTED, OK, jobs_type, timeout_type
 from ._cli_bench import add_bench
+from ._cli_check import check_command, compare_command
 from ._cli_draw import add_commands, add_record_options
 from ._cli_sweep import add_sweep
 from ._compiler import BACKEND_DEFAULTS, MODE_DEFAULTS, compile_scenario
@@ -34,25 +33,9 @@ from ._expect import describe, evaluate
 from ._jsonschema import json_schema
 from ._loader import load_scenario
 from ._program import format_program
-from ._progress import Lines, is_live
-from ._report import HEADER, failure_lines, json_document, junit_xml, row, run_command, summary, version
+from ._report import version
 
 MODELS = ["report", "equilibrium"]
-
-EXIT_STATUS = """\
-exit status:
-  0    every expectation held
-  1    an expectation failed, or a run reached its --timeout
-  2    bad input: a scenario file, a path or an option (nothing is simulated then)
-  3    internal error: a bug, out of memory, a worker died (one line; --debug shows the traceback)
-  130  interrupted (Ctrl-C)
-  141  the output pipe was closed early (as by | head); nothing more is printed"""
-
-#: Ends the one line of an internal error.
-HINT = " (run with --debug for the traceback)"
-
-#: Exit statuses (see :data:`EXIT_STATUS`).
-OK, FAILED, BAD_INPUT, INTERNAL, INTERRUPTED, BROKEN_PIPE = 0, 1, 2, 3, 130, 141
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -209,7 +192,7 @@ def _parser() -> argparse.ArgumentParser:
         help="also record every run and write DIR/index.html: a row per scenario (failures first) with a picture at "
         "the collapse or the end, the timeline, a clip and a brick-graph plot, then a summary (made if missing)",
     )
-    p.set_defaults(func=_check)
+    p.set_defaults(func=check_command)
 
     p = sub.add_parser(
         "compare",
@@ -224,7 +207,7 @@ def _parser() -> argparse.ArgumentParser:
         formatter_class=raw,
     )
     p.add_argument("--modes", default=",".join(modes), help=f"comma-separated (default: {','.join(modes)})")
-    p.set_defaults(func=_compare)
+    p.set_defaults(func=compare_command)
 
     one_status = EXIT_STATUS.replace(
         "  0    every expectation held\n  1    an expectation failed, or a run reached its --timeout\n", "  0    done\n"
@@ -272,166 +255,6 @@ def _parser() -> argparse.ArgumentParser:
     )
     p.set_defaults(func=_print_schema)
     return parser
-
-
-def _check(args: argparse.Namespace) -> int:
-    start = time.perf_counter()
-    if args.junit_xml and not Path(args.junit_xml).parent.is_dir():
-        raise ScenarioError("no such folder for the JUnit XML file", file=args.junit_xml)
-    if args.report is not None and not args.report.strip():
-        raise ScenarioError("give the folder for the report", file="--report")
-    report = Path(args.report) if args.report else None
-    if report is not None and report.exists() and not report.is_dir():
-        raise ScenarioError("the report must go to a folder, and this is a file", file=args.report)
-    backends = _backends(args.backend, several=False)
-    prepared = select(
-        prepare(discover(args.paths), args.mode, model=args.model, backends=backends), args.pattern
-    )  # bad input raises here
-    folders = None
-    if report is not None:
-        try:
-            report.mkdir(parents=True, exist_ok=True)
-            probe = report / ".stackdsl-write-test"
-            probe.touch()
-            probe.unlink()
-        except OSError as exc:
-            raise ScenarioError(f"cannot write the report there: {exc.strerror or exc}", file=args.report) from None
-        taken: set[str] = set()
-        base = os.path.commonpath([path.resolve().parent for path, *_ in prepared])  # names relative to it
-        folders = [str(report / folder_name(os.path.relpath(path.resolve(), base), taken=taken)) for path, *_ in prepared]
-    results: list[CheckResult] = []
-    commands: list[str] = []
-    stream = sys.stderr if args.json else sys.stdout  # with --json only the progress line, on a terminal
-    with Lines(len(prepared), "check", file=stream, live=is_live(stream)) as lines:
-        if not args.json:
-            lines.line(HEADER)
-        runs = run_checks(prepared, args.jobs, timeout=args.timeout, folders=folders)
-        try:
-            for r in runs:
-                results.append(r)
-                commands.append(run_command(r.file, args.mode, args.model, args.backend))
-                if not args.json:
-                    lines.line(row(r))
-                    if not r.passed:
-                        for text in failure_lines(r, commands[-1]):
-                            lines.line(text)
-                lines.advance()
-                if args.exitfirst and not r.passed:
-                    break
-        finally:
-            runs.close()  # cancels what has not started and stops the workers
-    wall = time.perf_counter() - start
-    # rows came as runs finished; the reports list them in file order, so that they diff from run to run
-    order = {str(p.path): i for i, p in enumerate(prepared)}
-    pairs = sorted(zip(results, commands, strict=True), key=lambda pair: order.get(pair[0].file, len(order)))
-    results, commands = [r for r, _ in pairs], [c for _, c in pairs]
-    if args.junit_xml:
-        ran = {r.file for r in results}
-        junit_xml(results, commands, [str(p.path) for p in prepared if str(p.path) not in ran], wall, args.junit_xml)
-    if report is not None:
-        from ._htmlreport import remove_stale_folders, write_report
-
-        page = write_report(results, report, total=len(prepared), wall=wall, commands=commands, argv=sys.argv[1:] or ["check"])
-        stale = remove_stale_folders(report, {Path(f).name for f in folders or []})
-        if stale:
-            print(f"report: removed {stale} folders of an earlier report in {report}", file=stream)
-        drawn = [r for r in results if r.draw_error]
-        print(f"report: {page}" + (f" ({len(drawn)} runs not fully drawn: {drawn[0].draw_error})" if drawn else ""), file=stream)
-    if args.json:
-        print(json.dumps(json_document("check", results, commands, len(prepared), wall), indent=2))
-    else:
-        print(summary(results, len(prepared), wall))
-    if _internal_errors(results, args.debug):
-        return INTERNAL
-    refused = [r for r in results if r.bad_input]
-    for r in refused:  # a sweep's sample the language refuses: bad input, found once it was drawn
-        print(r.bad_input, file=sys.stderr)
-    if refused:
-        return BAD_INPUT
-    return FAILED if any(not r.passed for r in results) else OK
-
-
-def _internal_errors(results: list[CheckResult], debug: bool) -> bool:
-    """Say on stderr, in one line, that runs hit internal errors (their tracebacks before it
-    with ``debug``); False when none did."""
-    errors = [r for r in results if r.error]
-    if not errors:
-        return False
-    sys.stdout.flush()
-    if debug:
-        for r in errors:
-            print(f"stackdsl: {r.file} ({r.mode}): {r.error}", file=sys.stderr)
-            print(r.traceback or "(no traceback: the worker process died)", file=sys.stderr)
-    many = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
-    first = errors[0]
-    print(f"stackdsl: {first.error} in {first.file} ({first.mode}){many}{'' if debug else HINT}", file=sys.stderr)
-    return True
-
-
-def _compare(args: argparse.Namespace) -> int:
-    modes = tuple(m.strip() for m in args.modes.split(",") if m.strip())
-    unknown = [m for m in modes if m not in MODE_DEFAULTS]
-    if unknown or not modes:
-        raise ScenarioError(f"unknown mode {', '.join(unknown) or '(none)'}; known: {', '.join(MODE_DEFAULTS)}", file="--modes")
-    backends = _backends(args.backend, several=True)
-    if len(backends) > 1:
-        modes = tuple(f"{b} {m}" for b in backends for m in modes)
-    start = time.perf_counter()
-    plain = tuple(dict.fromkeys(m.split()[-1] for m in modes))
-    prepared = select(prepare(discover(args.paths), modes=plain, model=args.model, backends=backends), args.pattern)
-    done: list[CheckResult] = []
-    live = is_live(sys.stdout)
-    # On a terminal a progress line; elsewhere a line per finished cell on stderr, so that
-    # stdout holds the table (or the JSON) alone.
-    with Lines(len(prepared), "compare", file=sys.stdout if live else sys.stderr, live=live) as lines:
-
-        def each(r: CheckResult) -> None:
-            done.append(r)
-            lines.advance()
-            if not live:
-                lines.line(
-                    f"[{len(done)}/{len(prepared)}] {Path(r.file).stem} {r.mode}: "
-                    f"{'PASS' if r.passed else 'FAIL'} {r.error or r.stopped or describe(r.collapse_level)} ({r.wall_time:.1f} s)"
-                )
-
-        table = tabulate(prepared, modes, run_checks(prepared, args.jobs, timeout=args.timeout), each)
-    wall = time.perf_counter() - start
-    if args.json:
-        commands = [run_command(r.file, r.mode, args.model, r.backend if args.backend else None) for r in done]
-        print(json.dumps(json_document("compare", done, commands, len(prepared), wall), indent=2))
-        return INTERNAL if _internal_errors(done, args.debug) else OK
-    width = max([len("scenario"), *(len(Path(f).stem) for f in table)])
-    print(f"{'scenario':<{width}} {'expected':<18} " + " ".join(f"{m:<29}" for m in modes).rstrip())
-    for file, cells in table.items():
-        first = next(iter(cells.values()))
-        texts = [f"{'PASS' if r.passed else 'FAIL'} {_cell(r):<13} {r.wall_time:>7.1f} s" for r in (cells[m] for m in modes)]
-        print(f"{Path(file).stem:<{width}} {first.expected:<18} " + " ".join(f"{c:<29}" for c in texts).rstrip())
-    print(f"{len(table)} scenarios x {len(modes)} modes ({wall:.1f} s wall)")
-    return INTERNAL if _internal_errors(done, args.debug) else OK
-
-
-def _backends(given: str | None, several: bool) -> tuple[str | None, ...]:
-    """The backends ``--backend`` names: one (or, with ``several``, a comma-separated list);
-    (None,): each scenario's own.
-
-    Raises:
-        ScenarioError: an unknown backend, or several where one is expected.
-    """
-    if given is None:
-        return (None,)
-    names = tuple(dict.fromkeys(b.strip() for b in given.split(",") if b.strip()))
-    unknown = [b for b in names if b not in BACKEND_DEFAULTS]
-    if unknown or not names or (len(names) > 1 and not several):
-        what = "one of" if not several else "one or more of"
-        raise ScenarioError(f"unknown backend {given!r}: give {what} {', '.join(BACKEND_DEFAULTS)}", file="--backend")
-    return names
-
-
-def _cell(r: CheckResult) -> str:
-    """What compare's table shows of a result: the collapse level, or what went wrong."""
-    if r.error:
-        return "out of memory" if "out of memory" in r.error else "internal error"
-    return "timeout" if r.stopped else describe(r.collapse_level)
 
 
 def _compile(args: argparse.Namespace) -> int:

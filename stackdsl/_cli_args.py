@@ -1,5 +1,6 @@
-"""Argument types of the ``stackdsl`` command: each turns one option's text into a value or
-raises ``argparse.ArgumentTypeError`` (argparse then exits 2 with the message).
+"""Argument types and exit statuses of the ``stackdsl`` command. Each type turns one option's
+text into a value or raises ``argparse.ArgumentTypeError`` (argparse then exits 2 with the
+message).
 
 Source: stackdsl's own.
 """
@@ -9,6 +10,21 @@ from __future__ import annotations
 import argparse
 import math
 import os
+
+EXIT_STATUS = """\
+exit status:
+  0    every expectation held
+  1    an expectation failed, or a run reached its --timeout
+  2    bad input: a scenario file, a path or an option (nothing is simulated then)
+  3    internal error: a bug, out of memory, a worker died (one line; --debug shows the traceback)
+  130  interrupted (Ctrl-C)
+  141  the output pipe was closed early (as by | head); nothing more is printed"""
+
+#: Ends the one line of an internal error.
+HINT = " (run with --debug for the traceback)"
+
+#: Exit statuses (see :data:`EXIT_STATUS`).
+OK, FAILED, BAD_INPUT, INTERNAL, INTERRUPTED, BROKEN_PIPE = 0, 1, 2, 3, 130, 141
 
 
 def positive_number(text: str, unit: str) -> float:

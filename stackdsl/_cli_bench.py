@@ -15,13 +15,11 @@ from typing import Any
 from ._bench import SETTINGS, UPRIGHT, run_matrix, savings, scenes
 from ._bench_cost import format_solve_times, solve_times
 from ._bench_out import write_outputs
-from ._cli_args import jobs_type
+from ._cli_args import OK, jobs_type
 from ._errors import ScenarioError
 from ._expect import describe
 from ._hard import format_hard, format_limits, format_wall, leaning_limits, thrown_at_wall
 from ._progress import Lines
-
-OK = 0
 
 
 def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, modes: list[str]) -> None:

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from stackdsl import _check, _cli, _cli_bench, _entry, compile_scenario, parse_scenario, run_program
+from stackdsl import _check, _cli, _cli_bench, _cli_check, _entry, compile_scenario, parse_scenario, run_program
 from stackdsl._bench import SETTINGS
 from stackdsl._cli import main
 from stackdsl._expect import explain
@@ -462,7 +462,7 @@ def test_plain_progress_is_just_the_lines():
 
 
 def test_check_on_a_terminal_shows_the_rows_and_a_progress_line(tmp_path, capsys, monkeypatch):
-    monkeypatch.setattr(_cli, "is_live", lambda stream: True)
+    monkeypatch.setattr(_cli_check, "is_live", lambda stream: True)
     assert main(["check", str(write(tmp_path, a=PASSING, b=FAILING)), "-j", "1"]) == 1
     out = capsys.readouterr().out
     assert "\x1b[" in out and "2/2" in out and "a.yaml" in out and "      more: stackdsl run" in out

@@ -50,7 +50,7 @@ from pathlib import Path
 
 import pytest
 
-from stackdsl import _check, _cli
+from stackdsl import _check, _cli, _cli_check
 
 ROOT = Path(__file__).resolve().parents[1]
 CORPUS = ROOT / "tests" / "hostile"
@@ -160,8 +160,7 @@ def no_simulation(monkeypatch):
         raise Compiled(real(*args, **kwargs))
 
     monkeypatch.setattr(_check, "prepare", prepare)
-    if hasattr(_cli, "prepare"):
-        monkeypatch.setattr(_cli, "prepare", prepare)
+    monkeypatch.setattr(_cli_check, "prepare", prepare)
 
 
 def check_in_process(path: str, capsys) -> tuple[int | None, str, list]:

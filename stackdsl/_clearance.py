@@ -18,7 +18,7 @@ import numpy as np
 from stability import Box, Pose
 
 from ._errors import FieldPath
-from ._precheck import _depth
+from ._overlap import penetration
 from ._program import BrickSpec, Launch
 from ._schema import Impact, Scenario
 
@@ -52,7 +52,7 @@ def check_launch(
     rotations = np.array([p.rotation for _, _, p in bodies])
     halves = np.array([s.half_extents for _, s, _ in bodies])
     n = len(bodies)
-    depth = _depth(
+    depth = penetration(
         np.repeat(pose.position[None], n, axis=0),
         np.repeat(pose.rotation[None], n, axis=0),
         np.repeat(box.half_extents[None], n, axis=0),

@@ -42,7 +42,8 @@ from stability import Box, Pose, StabilityConfig
 from ._bounds import MAX_SIMULATED_TIME
 from ._clearance import check_launch
 from ._layouts import LaidBrick, layout, lie_flat, with_placement_error
-from ._precheck import Body, precheck
+from ._overlap import Body
+from ._precheck import precheck
 from ._program import BrickSpec, End, EngineSettings, Fixture, Launch, Place, Program, Rule
 from ._schema import BACKEND_FIELDS, SIDES, AfterLevel, Impact, Scenario
 

@@ -13,7 +13,7 @@ from scipy.spatial.transform import Rotation
 
 from stackdsl import ScenarioError, _check, compile_scenario, format_program, load_scenario, parse_scenario
 from stackdsl._cli import main
-from stackdsl._precheck import OVERLAP_TOLERANCE, REST_TOLERANCE, _depth
+from stackdsl._overlap import OVERLAP_TOLERANCE, REST_TOLERANCE, penetration
 
 ROOT = Path(__file__).resolve().parents[1]
 SHIPPED = sorted((ROOT / "scenarios").rglob("*.yaml"))
@@ -284,10 +284,10 @@ def test_separating_axis_depth_of_boxes():
     identity = np.eye(3)[None]
     half = np.array([[0.06, 0.012, 0.004]])
     # axis-aligned: the shortest way out
-    depth = _depth(np.zeros((1, 3)), identity, half, np.array([[0.01, 0.02, 0.0075]]), identity, half)
+    depth = penetration(np.zeros((1, 3)), identity, half, np.array([[0.01, 0.02, 0.0075]]), identity, half)
     assert depth == pytest.approx([0.0005])
     # apart: minus a bound of the distance
-    assert _depth(np.zeros((1, 3)), identity, half, np.array([[0.0, 0.0, 0.011]]), identity, half) == pytest.approx([-0.003])
+    assert penetration(np.zeros((1, 3)), identity, half, np.array([[0.0, 0.0, 0.011]]), identity, half) == pytest.approx([-0.003])
     # a tilted brick's lowest corner pushed d into the middle of a wide slab: depth d
     rng = np.random.default_rng(3)
     slab = np.array([[1.0, 1.0, 0.1]])
@@ -296,4 +296,4 @@ def test_separating_axis_depth_of_boxes():
         lowest = np.abs(rotation[2]) @ half[0]
         d = rng.uniform(0.0001, 0.002)
         centre = np.array([[0.0, 0.0, 0.1 + lowest - d]])
-        assert _depth(np.zeros((1, 3)), identity, slab, centre, rotation[None], half) == pytest.approx([d], abs=1e-12)
+        assert penetration(np.zeros((1, 3)), identity, slab, centre, rotation[None], half) == pytest.approx([d], abs=1e-12)

@@ -20,7 +20,8 @@ from stability import Box, Pose
 from ._errors import FieldPath
 from ._overlap import penetration
 from ._program import BrickSpec, Launch
-from ._schema import Impact, Scenario
+from ._schema import Scenario
+from ._schema_impacts import Impact
 
 #: Metres a projectile may reach into the ground or a body at its start (contact, not overlap).
 TOLERANCE = 0.0005

@@ -45,7 +45,8 @@ from ._layouts import LaidBrick, layout, lie_flat, with_placement_error
 from ._overlap import Body
 from ._precheck import precheck
 from ._program import BrickSpec, End, EngineSettings, Fixture, Launch, Place, Program, Rule
-from ._schema import BACKEND_FIELDS, SIDES, AfterLevel, Impact, Scenario
+from ._schema import BACKEND_FIELDS, Scenario
+from ._schema_impacts import SIDES, AfterLevel, Impact
 
 #: Engine defaults per backend and mode. pybullet: ``raw`` is its own (240 Hz, 50
 #: iterations); ``tuned`` is the most accurate setting measured for small bricks

@@ -114,11 +114,13 @@ class Debris:
             if not self._carried(group, plan, together):
                 continue
             part, parts = self._standing(group, polygons, together)
-            if part and len(part) < len(group):
-                plan = self.admission.plan(part, parts)
-                if not self._carried(part, plan, together):
-                    return [], {}, {}, []
-            return part, parts, plan, together
+            if not part:
+                return [], {}, {}, []  # with ``earlier`` free too it would not stand either
+            if len(part) == len(group):
+                return part, parts, plan, together
+            kept = self.admission.plan(part, parts)  # the trimmed part: its loads on the stack again
+            if self._carried(part, kept, together):
+                return part, parts, kept, together
         return [], {}, {}, []
 
     def _earlier(self, group: list[Record], contacts: Contacts) -> list[Record]:

@@ -138,52 +138,50 @@ def solve_equilibrium(
     index = {k: i for i, k in enumerate(keys)}
     weight = max((b.mass for b in blocks.values()), default=1.0) * gravity or 1.0
     per_point = 2 + sides  # normal, tension, friction weights
-    generators, owner = _generators(contacts, blocks, sides)
-    a_eq = _balance(contacts, blocks, index, generators, owner)
-    points = len(owner)
+    points, owner = _vertices(contacts)
+    generators = _generators(contacts, blocks, sides, points, owner)
+    a_eq = _balance(contacts, blocks, index, generators, points, owner)
+    n = len(owner)
     # at each point, friction weights sum to at most mu times the normal force
-    cols = np.arange(points * per_point).reshape(points, per_point)
+    cols = np.arange(n * per_point).reshape(n, per_point)
     friction = np.array([c.friction for c in contacts], dtype=float)[owner]
-    ub_vals = np.column_stack([-friction, np.ones((points, sides))]).ravel()
-    ub = (ub_vals, (np.repeat(np.arange(points), sides + 1), np.column_stack([cols[:, :1], cols[:, 2:]]).ravel()))
-    a_ub = sparse.csr_matrix(ub, shape=(points, points * per_point)) if points else None
-    cost = np.zeros(points * per_point)
+    ub_vals = np.column_stack([-friction, np.ones((n, sides))]).ravel()
+    ub = (ub_vals, (np.repeat(np.arange(n), sides + 1), np.column_stack([cols[:, :1], cols[:, 2:]]).ravel()))
+    a_ub = sparse.csr_matrix(ub, shape=(n, n * per_point)) if n else None
+    cost = np.zeros(n * per_point)
     cost[1::per_point] = 1.0  # the tension of every point
     rhs = np.zeros(6 * len(keys))
     for key, block in blocks.items():
         rhs[6 * index[key] + 2] = block.mass * gravity / weight
-    result = linprog(
-        cost, A_ub=a_ub, b_ub=np.zeros(points) if points else None, A_eq=a_eq, b_eq=rhs, bounds=(0, None), method="highs"
-    )
+    result = linprog(cost, A_ub=a_ub, b_ub=np.zeros(n) if n else None, A_eq=a_eq, b_eq=rhs, bounds=(0, None), method="highs")
     if result.status != 0:
         return Equilibrium(False, float("inf"), (), {k: float("inf") for k in keys}, (), {k: 1.0 for k in keys})
     tension = float(result.fun) * weight
     total = sum(b.mass for b in blocks.values()) * gravity
-    forces, by_body, by_contact = _forces(result.x.reshape(points, per_point) * weight, contacts, generators, owner, keys)
+    forces, by_body, by_contact = _forces(result.x.reshape(n, per_point) * weight, contacts, generators, owner, keys)
     stands = tension <= 1e-7 * max(total, 1e-12)
     mechanism = {} if stands else _mechanism(result.eqlin.marginals, keys)
     return Equilibrium(stands, tension, forces, by_body, by_contact, mechanism)
 
 
 def _generators(
-    contacts: Sequence[ContactPolygon[BodyKey]], blocks: Mapping[BodyKey, RigidBlock], sides: int
-) -> tuple[np.ndarray, np.ndarray]:
+    contacts: Sequence[ContactPolygon[BodyKey]],
+    blocks: Mapping[BodyKey, RigidBlock],
+    sides: int,
+    points: np.ndarray,
+    owner: np.ndarray,
+) -> np.ndarray:
     """Per contact the force directions of each of its vertices, shape (C, 2 + sides, 3):
-    the unit normal, its opposite (a tension) and the friction pyramid's tangents; and per
-    vertex, shape (P,), the index of its contact. Raises ValueError for a contact without
-    points."""
-    generators, counts = [], []
-    for contact in contacts:
-        points = np.asarray(contact.points, dtype=float).reshape(-1, 3)
-        if len(points) == 0:
-            raise ValueError("a contact needs at least one point")
+    the unit normal, its opposite (a tension) and the friction pyramid's tangents; ``points``
+    and ``owner`` are the contacts' vertices as :func:`_vertices` gives them."""
+    if not contacts:
+        return np.zeros((0, 2 + sides, 3))
+    generators = []
+    for contact, polygon in zip(contacts, np.split(points, np.flatnonzero(np.diff(owner)) + 1)):
         normal = np.asarray(contact.normal, dtype=float)
         normal = normal / np.linalg.norm(normal)
-        generators.append(np.vstack([normal, -normal, _tangents(normal, sides, _toward(contact, points, blocks))]))
-        counts.append(len(points))
-    if not generators:
-        return np.zeros((0, 2 + sides, 3)), np.zeros(0, dtype=int)
-    return np.stack(generators), np.repeat(np.arange(len(counts)), counts)
+        generators.append(np.vstack([normal, -normal, _tangents(normal, sides, _toward(contact, polygon, blocks))]))
+    return np.stack(generators)
 
 
 def _balance(
@@ -191,14 +189,14 @@ def _balance(
     blocks: Mapping[BodyKey, RigidBlock],
     index: Mapping[BodyKey, int],
     generators: np.ndarray,
+    points: np.ndarray,
     owner: np.ndarray,
 ) -> sparse.csr_matrix:
     """The equilibrium rows of the full program, shape (6 blocks, P (2 + sides)): for each
     free block its force and its torque about its centre of mass (lever arms in units of
-    10 cm, which keep the rows comparable), from the generators of every vertex it touches;
-    one column per vertex and generator."""
+    10 cm, which keep the rows comparable), from the generators of every vertex it touches
+    (``points``, ``owner``: :func:`_vertices`); one column per vertex and generator."""
     scale = 0.1
-    points, _ = _vertices(contacts)
     per_point = generators.shape[1]
     cols = np.arange(len(owner) * per_point).reshape(len(owner), per_point)
     rows_out, cols_out, vals_out = [], [], []

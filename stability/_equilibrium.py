@@ -135,6 +135,10 @@ def solve_equilibrium(
         if vertical is not None:
             return vertical
     keys = list(blocks)
+    if not contacts:  # nothing holds them: every block falls (none at all: they stand)
+        return Equilibrium(
+            not keys, float("inf") if keys else 0.0, (), dict.fromkeys(keys, float("inf")), (), dict.fromkeys(keys, 1.0)
+        )
     index = {k: i for i, k in enumerate(keys)}
     weight = max((b.mass for b in blocks.values()), default=1.0) * gravity or 1.0
     per_point = 2 + sides  # normal, tension, friction weights

@@ -80,3 +80,10 @@ def test_bad_input():
         solve_equilibrium({"b": RigidBlock(M, np.zeros(3))}, [ContactPolygon("b", "g", np.zeros((0, 3)), UP, 0.5)])
     with pytest.raises(ValueError):
         solve_equilibrium({}, [], sides=2)
+
+
+def test_a_block_that_touches_nothing_falls():
+    # no contact at all: no program to solve, and the block is the whole collapse mechanism
+    result = solve_equilibrium({"brick": RigidBlock(0.01, np.zeros(3))}, [])
+    assert not result.stands and result.mechanism == {"brick": 1.0}
+    assert solve_equilibrium({}, []).stands

@@ -142,7 +142,8 @@ class Admission:
             self.stack.freeze(m, resting, main, polygons[m.body], lifts[m.body])
             on = names if m is rec else rec.label
             if len(group) > 2:
-                reason = f"at rest in a pile of {len(group)} bricks {'on' if m is rec else 'with'} {on}"
+                still = "at rest" if self.stack.rested(m, time) else "creeping"  # the debris rule's (stability._debris)
+                reason = f"{still} in a pile of {len(group)} bricks {'on' if m is rec else 'with'} {on}"
             else:
                 reason = f"{'leaning on' if len(touching) > 1 else 'at rest on'} {on}"
             events.append(StabilityEvent(time, "freeze", m.label, reason))

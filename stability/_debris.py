@@ -3,12 +3,15 @@
 A brick the admission tests refuse is admitted with every resting brick it touches, and they
 with theirs (the connected pile), when rigid-block equilibrium holds them all against what
 is frozen (:func:`stability.leaning_stands`): bricks that fell and lie still, alone or leaning
-on each other, then cost nothing. When the whole pile does not stand, the bricks its collapse
-mechanism moves are left out and the rest is tried again. That equilibrium, not the report's
-centre-of-mass test, then holds the bricks that fell, until something else comes to rest on
-one of them; a pile that comes to rest on bricks frozen with an earlier pile is solved and
-frozen with them as one pile. Source: stackdsl's own, on the report's rigid-block
-reading of leaning (3.4).
+on each other, then cost nothing. A pile at rest may take along one brick in ten that still
+creeps (a fallen brick under :data:`CREEP` times the rest thresholds, not yet at rest by the
+windowed test of :mod:`stability._rest`): a few bricks that turn at about the rest angular
+speed must not keep a heap of forty in the engine. When the whole pile does not stand, the
+bricks its collapse mechanism moves are left out and the rest is tried again. That
+equilibrium, not the report's centre-of-mass test, then holds the bricks that fell, until
+something else comes to rest on one of them; a pile that comes to rest on bricks frozen with
+an earlier pile is solved and frozen with them as one pile. Source: stackdsl's own, on the
+report's rigid-block reading of leaning (3.4).
 """
 
 from __future__ import annotations
@@ -25,6 +28,12 @@ from ._stack import Record, StabilityEvent, Stack
 
 MAX_PILE = 64
 """Most bricks the debris rule admits at once (one equilibrium program over all of them)."""
+
+CREEPING_SHARE = 10
+"""A pile at rest may have one brick that still creeps for every this many bricks in it (:meth:`Debris._pile`)."""
+
+CREEP = 2.0
+"""A creeping brick's speeds are under this many times the rest thresholds."""
 
 MAX_TRIMS = 3
 """How many times a pile that does not stand is tried again without the bricks its collapse
@@ -222,16 +231,32 @@ class Debris:
 
     def _pile(self, rec: Record, contacts: Contacts, time: float) -> list[Record]:
         """``rec`` and the active bricks connected to it by contacts, in registration order;
-        empty when one of them is not at rest, or none touches a frozen brick or the ground."""
-        pile, queue, held = {rec.body: rec}, [rec], False
+        empty when one of them is not at rest, or none touches a frozen brick or the ground.
+        One brick in :data:`CREEPING_SHARE` of the pile may be a fallen brick that is not at
+        rest yet but creeps (:meth:`_creeping`)."""
+        pile, queue, held, creeping = {rec.body: rec}, [rec], False, 0
         while queue:
             for other in self.areas.neighbours(queue.pop(), contacts):  # the pile is the same in any order
                 o = self.stack.bodies[other]
                 if o.state is not BrickState.ACTIVE:
                     held = True
                 elif other not in pile:
-                    if not self.stack.rested(o, time) or len(pile) >= MAX_PILE:
+                    if len(pile) >= MAX_PILE:
                         return []
+                    if not self.stack.rested(o, time):
+                        if not self._creeping(o):
+                            return []
+                        creeping += 1
                     pile[other] = o
                     queue.append(o)
-        return sorted(pile.values(), key=lambda r: r.order) if held else []
+        if not held or creeping * CREEPING_SHARE > len(pile):
+            return []
+        return sorted(pile.values(), key=lambda r: r.order)
+
+    def _creeping(self, rec: Record) -> bool:
+        """A fallen brick whose speeds are under :data:`CREEP` times the rest thresholds now."""
+        if not rec.clock.fallen:
+            return False
+        lin, ang = self.stack.engine.velocity(rec.body)
+        config = self.stack.config
+        return bool(lin @ lin <= (CREEP * config.rest_speed) ** 2 and ang @ ang <= (CREEP * config.rest_angular_speed) ** 2)

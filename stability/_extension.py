@@ -114,7 +114,8 @@ class StabilityExtension:
         # brick refused asks again once a rest duration has passed and something has changed
         due = [rec for rec in resting if rec.failed is None or not stack.soon(rec.failed, time)]
         if due:  # the step's contacts, read only when some brick asks
-            contacts = stack.contacts([r.body for r in resting], [r.body for r in due])
+            settling = [r.body for r in active if r.clock.since is not None]  # the resting, and those slowing down
+            contacts = stack.contacts(settling, [r.body for r in due])
             for rec in due:
                 events += self._admit(rec, contacts, time)
             stack.forget_contacts()

@@ -186,7 +186,14 @@ def run_matrix(
     jobs: int = 2,
     progress: Callable[[Cell], None] = lambda c: None,
 ) -> list[Cell]:
-    """Every setting on every scene, each cell in a fresh worker process (one process tree).
+    """Every setting on every scene, each run in a fresh worker process (one process tree).
+
+    A cell is measured ``repeats`` times in rounds, every cell once a round, and its wall
+    time is the median (:func:`combine`); a cell whose first run takes ``repeat_below``
+    seconds or more runs once. Rounds, not runs back to back, because the machine's speed
+    drifts: on the development machine the same Python loop took 0.24 to 0.41 s within a
+    minute, so the settings compared on a scene must sample the same stretches of the run.
+    ``progress`` is called with each cell once its last run is in.
 
     Slant towers stop at their first collapse; upright towers are built to the top
     whatever happens, so that every setting simulates the same seconds.
@@ -197,15 +204,47 @@ def run_matrix(
         tasks += [(scene, setting, options) for setting in settings]
     tasks.sort(key=lambda t: -_cost(*t[:2]))  # the longest first: the pool ends together
     context = SPAWN  # spawned workers that end with this process and leave Ctrl-C to it
+    runs: dict[tuple[str, float, str], list[Cell]] = {}
     cells = []
     # a Pool, not a ProcessPoolExecutor: its max_tasks_per_child needs Python 3.11
     with context.Pool(processes=jobs, maxtasksperchild=1) as pool:
-        arguments = [(scene, setting, repeats, repeat_below, options) for scene, setting, options in tasks]
-        for cell in pool.imap_unordered(_measure, arguments):  # each as it finishes
-            progress(cell)
-            cells.append(cell)
+        rounds = max(1, repeats)
+        for round_ in range(rounds):
+            arguments = [(scene, setting, 1, repeat_below, options) for scene, setting, options in tasks]
+            for run in pool.imap_unordered(_measure, arguments):  # each as it finishes
+                done = runs.setdefault((run.family, run.parameter, run.setting), [])
+                done.append(run)
+                if round_ == rounds - 1 or done[0].wall >= repeat_below:
+                    cells.append(combine(done))
+                    progress(cells[-1])
+            tasks = [t for t in tasks if runs[(t[0].family, t[0].parameter, t[1])][0].wall < repeat_below]
     order = {s: i for i, s in enumerate(settings)}
     return sorted(cells, key=lambda c: (c.family, c.parameter, order[c.setting]))
+
+
+def combine(runs: list[Cell]) -> Cell:
+    """One cell from its runs (one run each): the median wall time, every run's wall time,
+    the engine and after-collapse split of the run nearest the median, the largest peak
+    memory. Raises ValueError for no runs.
+
+    >>> a, b, c = (Cell("s", "f", 1.0, 2, None, None, 0, 0.0, w, f"{w:.3f}", w / 2, 0.0, 1.0, 1 / w, m, 10, 0)
+    ...            for w, m in ((0.3, 90.0), (0.1, 95.0), (0.2, 99.0)))
+    >>> cell = combine([a, b, c]); cell.wall, cell.walls, cell.engine, cell.peak_memory
+    (0.2, '0.100 0.200 0.300', 0.1, 99.0)
+    """
+    if not runs:
+        raise ValueError("a cell needs at least one run")
+    wall = statistics.median(r.wall for r in runs)
+    middle = min(runs, key=lambda r: abs(r.wall - wall))
+    return replace(
+        runs[0],
+        wall=round(wall, 4),
+        walls=" ".join(f"{r.wall:.3f}" for r in sorted(runs, key=lambda r: r.wall)),
+        engine=middle.engine,
+        after_collapse=middle.after_collapse,
+        speed=round(runs[0].simulated / wall, 1) if wall > 0 else 0.0,
+        peak_memory=max(r.peak_memory for r in runs),
+    )
 
 
 def _measure(arguments: tuple[Scene, str, int, float, RunOptions]) -> Cell:

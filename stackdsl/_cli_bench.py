@@ -137,7 +137,8 @@ def _bench(args: argparse.Namespace) -> int:
             )
             lines.advance()
 
-        cells = run_matrix(settings, chosen, args.repeats, args.repeat_below, args.jobs, progress)
+        repeats = 1 if args.quick else args.repeats  # a smoke test: one round
+        cells = run_matrix(settings, chosen, repeats, args.repeat_below, args.jobs, progress)
     saved = [] if args.quick else savings(args.repeats)
     targets = write_outputs(cells, saved, out)
     print((out / "bench.md").read_text())

@@ -596,6 +596,20 @@ def test_bench_quick_smoke_writes_every_output(tmp_path, capsys):
     )
 
 
+def test_bench_measures_each_fast_cell_once_a_round_and_a_slow_one_once():
+    from stackdsl._bench import Scene, run_matrix
+
+    tiny = Scene("upright", 2, 2, "tower: {levels: 2}", None)
+    seen = []
+    cells = run_matrix(["raw 240 Hz", "extension report"], [tiny], repeats=3, repeat_below=30.0, jobs=2, progress=seen.append)
+    assert [c.setting for c in cells] == ["raw 240 Hz", "extension report"] and len(seen) == 2
+    for cell in cells:
+        walls = [float(w) for w in cell.walls.split()]
+        assert len(walls) == 3 and walls == sorted(walls) and cell.wall == pytest.approx(walls[1], abs=1e-3)
+    (once,) = run_matrix(["raw 240 Hz"], [tiny], repeats=3, repeat_below=0.0, jobs=1)
+    assert len(once.walls.split()) == 1
+
+
 def test_json_and_junit_list_results_in_file_order_whatever_finishes_first(tmp_path, capsys):
     slow = "stackdsl: 1\nstructure: {tower: {levels: 6}}\nexpect: {stands: true}\n"
     quick = "stackdsl: 1\nstructure: {tower: {levels: 1}}\ntiming: {settle: 0.1 s}\nexpect: {stands: true}\n"

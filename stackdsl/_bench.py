@@ -137,9 +137,9 @@ def program_for(scene: Scene, setting: str) -> Program:
     return compile_scenario(parse_scenario(text, f"{scene.family}-{scene.parameter}.yaml"), model=chosen.model)
 
 
-def measure(scene: Scene, setting: str, repeats: int, repeat_below: float, options: RunOptions) -> Cell:
-    """Run one cell (in its own process, for its peak memory): the median of ``repeats``
-    runs, or one run when that takes longer than ``repeat_below`` seconds.
+def measure(scene: Scene, setting: str, options: RunOptions) -> Cell:
+    """Run one cell once (in its own process, for its peak memory); :func:`run_matrix`
+    repeats it in rounds and :func:`combine` takes the median.
 
     A one-level tower in the same setting runs first, untimed: the worker is a fresh
     process, and its first run would also pay one-off costs (lazy imports, first calls into
@@ -147,13 +147,7 @@ def measure(scene: Scene, setting: str, repeats: int, repeat_below: float, optio
     options = replace(options, lazy_bodies=SETTINGS[setting].lazy_bodies)
     run_program(program_for(WARM_UP, setting), options)
     program = program_for(scene, setting)
-    outcomes = [run_program(program, options)]
-    while len(outcomes) < repeats and outcomes[0].wall_time < repeat_below:
-        outcomes.append(run_program(program, options))
-    o = outcomes[0]
-    walls = sorted(x.wall_time for x in outcomes)
-    wall = statistics.median(walls)
-    middle = min(outcomes, key=lambda x: abs(x.wall_time - wall))
+    o = run_program(program, options)
     measured = o.collapse.level if o.collapse else None
     top = scene.levels + 1
     error = (measured or top) - (scene.closed_form or top)
@@ -166,12 +160,12 @@ def measure(scene: Scene, setting: str, repeats: int, repeat_below: float, optio
         collapse_level=measured,
         error=error,
         drift=round(o.drift * 1000, 3),
-        wall=round(wall, 4),
-        walls=" ".join(f"{w:.3f}" for w in walls),
-        engine=round(middle.engine_time, 4),
-        after_collapse=round(middle.after_collapse, 4),
+        wall=round(o.wall_time, 4),
+        walls=f"{o.wall_time:.3f}",
+        engine=round(o.engine_time, 4),
+        after_collapse=round(o.after_collapse, 4),
         simulated=round(o.simulated_time, 3),
-        speed=round(o.simulated_time / wall, 1),
+        speed=round(o.simulated_time / o.wall_time, 1) if o.wall_time > 0 else 0.0,
         peak_memory=round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
         steps=o.steps,
         steps_skipped=o.steps_skipped,
@@ -210,7 +204,7 @@ def run_matrix(
     with context.Pool(processes=jobs, maxtasksperchild=1) as pool:
         rounds = max(1, repeats)
         for round_ in range(rounds):
-            arguments = [(scene, setting, 1, repeat_below, options) for scene, setting, options in tasks]
+            arguments = [(scene, setting, options) for scene, setting, options in tasks]
             for run in pool.imap_unordered(_measure, arguments):  # each as it finishes
                 done = runs.setdefault((run.family, run.parameter, run.setting), [])
                 done.append(run)
@@ -247,7 +241,7 @@ def combine(runs: list[Cell]) -> Cell:
     )
 
 
-def _measure(arguments: tuple[Scene, str, int, float, RunOptions]) -> Cell:
+def _measure(arguments: tuple[Scene, str, RunOptions]) -> Cell:
     return measure(*arguments)
 
 

@@ -1,5 +1,7 @@
 """Program -> Outcome in pybullet: collapse detection, friction, clean-up, determinism."""
 
+import gc
+
 import pybullet
 import pytest
 
@@ -120,6 +122,20 @@ def test_the_client_is_closed_even_when_the_run_fails(monkeypatch):
     with pytest.raises(RuntimeError):
         run(TWO_BRICKS.format(x=0))
     assert seen and not pybullet.isConnected(physicsClientId=seen[0])
+
+
+def test_the_objects_older_than_a_run_are_left_out_of_the_garbage_collection_while_it_lasts(monkeypatch):
+    older, seen = ["made before the run"], []
+
+    def run_and_look(self):
+        seen.append((gc.get_freeze_count(), any(o is older for o in gc.get_objects())))
+
+    assert gc.get_freeze_count() == 0 and any(o is older for o in gc.get_objects())
+    monkeypatch.setattr(_loop.StepLoop, "run", run_and_look)
+    run(TWO_BRICKS.format(x=0))
+    frozen, visible = seen[0]
+    assert frozen > 1000 and not visible  # left alone during the run
+    assert gc.get_freeze_count() == 0 and any(o is older for o in gc.get_objects())  # and seen again after
 
 
 def test_runs_are_repeatable():

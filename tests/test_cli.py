@@ -674,3 +674,37 @@ def test_bench_peer_ratios_divide_the_peers_wall_by_the_extensions_on_the_same_s
     assert (r.extension, r.peer) == ("MuJoCo extension", "MuJoCo tuned sleeping")
     assert r.upright == {30: (5.0, 0, -1)} and r.slant_least == 0.5 and r.slant_mean == pytest.approx(2.0)
     assert peer_lines([r])[2] == "| MuJoCo extension | MuJoCo tuned sleeping | 5.0 (errors +0, -1) |  | 0.5 | 2.0 |"
+
+
+def test_bench_ratios_come_from_the_medians_and_again_from_each_cells_fastest_round():
+    from stackdsl._bench import Cell
+    from stackdsl._bench_out import fastest, ratios
+
+    def cell(setting, walls):
+        runs = sorted(walls)
+        median = runs[len(runs) // 2]
+        return Cell(
+            setting,
+            "single file",
+            9,
+            1,
+            14,
+            14,
+            0,
+            0.0,
+            median,
+            " ".join(f"{w:.3f}" for w in runs),
+            0.1,
+            0.0,
+            1.0,
+            1.0,
+            1.0,
+            1,
+            0,
+        )
+
+    cells = [cell("extension report", [0.2, 0.4, 0.1]), cell("raw 240 Hz", [0.3, 0.25, 0.35])]
+    median = ratios(cells)
+    assert median[2] == "| single file, 9 mm | 0.20 s | 1.50 |"  # 0.30 / 0.20
+    assert median[3] == "| single file: geometric mean | | 1.50 |"
+    assert ratios(cells, wall=fastest)[2] == "| single file, 9 mm | 0.10 s | 2.50 |"  # 0.25 / 0.10

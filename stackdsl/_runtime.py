@@ -109,7 +109,12 @@ def run_program(
 
 @contextmanager
 def _older_objects_left_alone() -> Iterator[None]:
-    """The garbage collector's passes look only at objects made inside the block (module docstring)."""
+    """The garbage collector's passes look only at objects made inside the block (module docstring).
+    A caller that froze objects itself (:func:`gc.freeze` before forking workers) keeps its own
+    arrangement: nothing is frozen here, so nothing of it is unfrozen at the end."""
+    if gc.get_freeze_count():
+        yield
+        return
     gc.freeze()
     try:
         yield

@@ -138,6 +138,16 @@ def test_the_objects_older_than_a_run_are_left_out_of_the_garbage_collection_whi
     assert gc.get_freeze_count() == 0 and any(o is older for o in gc.get_objects())  # and seen again after
 
 
+def test_a_callers_own_frozen_objects_stay_frozen_after_a_run():
+    kept = ["frozen by the caller"]
+    gc.freeze()
+    try:
+        run(TWO_BRICKS.format(x=0))
+        assert gc.get_freeze_count() > 1000 and not any(o is kept for o in gc.get_objects())
+    finally:
+        gc.unfreeze()
+
+
 def test_runs_are_repeatable():
     text = "stackdsl: 1\nstructure: {tower: {levels: 10, spacing: 70 mm, shift: 12.9 mm}}\n"
     first, second = run(text, "raw"), run(text, "raw")

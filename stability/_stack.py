@@ -12,6 +12,7 @@ from collections.abc import Collection, Iterable
 from dataclasses import dataclass, field
 from typing import Literal, NamedTuple
 
+import numpy as np
 from shapely.geometry.base import BaseGeometry
 
 from ._config import StabilityConfig
@@ -20,7 +21,7 @@ from ._equilibrium import ContactPolygon, is_level
 from ._geometry import Box, ContactArea, Plane, Pose
 from ._graph import BrickState
 from ._load import LoadNode
-from ._load_path import load_path, proven, support_piece
+from ._load_path import load_path, proven, share_region, support_piece
 from ._rest import RestClock
 
 
@@ -67,6 +68,7 @@ class Record:
     node: LoadNode | None = None
     impacted: set[int] = field(default_factory=set)
     load_path: BaseGeometry | None = None
+    support_regions: dict[int, BaseGeometry] = field(default_factory=dict)  # where it may push on each support
     failed: tuple[tuple[object, ...], float] | None = None  # its last refusal: what it depended on, when
     pile: frozenset[int] = frozenset()  # a fallen brick's debris pile (itself, frozen alone), which rigid-block equilibrium holds
 
@@ -198,14 +200,17 @@ class Stack:
             self._prove(rec)
 
     def _prove(self, rec: Record) -> None:
-        """Find the load path of a brick being frozen (:mod:`stability._load_path`) and note
-        it when its centre of mass is not over it."""
+        """Find the load path of a brick being frozen and where it may push on each support
+        (:mod:`stability._load_path`), and note it when its centre of mass is not over its path."""
         pieces = []
+        level: dict[int, list[np.ndarray]] = {}  # support -> its level contact polygons' points
         for c in rec.contacts:
             support = self.bodies[c.other]
             if c.other in rec.rests_on and is_level(c):
                 pieces.append(support_piece(c.points, support.load_path, support.state is BrickState.GROUND))
+                level.setdefault(c.other, []).append(c.points)
         rec.load_path = load_path([p for p in pieces if p is not None])
+        rec.support_regions = {s: r for s, points in level.items() if (r := share_region(points)) is not None}
         assert rec.frozen_pose is not None, "set by freeze"
         if not proven(rec.frozen_pose.position, rec.load_path):
             self.unproven.add(rec.body)
@@ -227,7 +232,7 @@ class Stack:
         self.active[body] = rec
         del self.frozen[body]
         self.unproven.discard(body)
-        rec.load_path, self.loads_fresh, self.version = None, False, self.version + 1
+        rec.load_path, rec.support_regions, self.loads_fresh, self.version = None, {}, False, self.version + 1
         for s in rec.rests_on:
             self.bodies[s].objects_above.discard(body)
         rec.rests_on, rec.main_contact, rec.com_above, rec.mass_above = {}, None, None, 0.0

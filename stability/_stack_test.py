@@ -9,12 +9,15 @@ the equilibrium model is Livesley (1978) and Whiting et al. (2009).
 
 from __future__ import annotations
 
+from graphlib import CycleError
+
 from shapely.geometry import Point
 
 from ._areas import ContactAreas
 from ._equilibrium import RigidBlock, solve_equilibrium
 from ._graph import BrickState
 from ._load import LoadNode, propagate_fast
+from ._load_path import loads_balance
 from ._stack import StabilityEvent, Stack
 
 
@@ -61,8 +64,9 @@ class StackTest:
         leaves their siblings frozen under a tipping block (the slant tower stayed pinned
         by one of its two level-3 bricks), waking everything discards what still stands.
         Solved only when the stack changes, and only when some frozen brick has no load path
-        under its centre of mass (:mod:`stability._load_path`): when every one has, the
-        program has a solution already, so the stack stands.
+        under its centre of mass and the report's propagated loads do not balance the stack
+        either (:mod:`stability._load_path`): either is a solution of the program already, so
+        the stack stands.
         """
         stack = self.stack
         events: list[StabilityEvent] = []
@@ -75,6 +79,8 @@ class StackTest:
             touched = {c.body for c in polygons} | {c.other for c in polygons}
             moving = {b for b in frozen if b not in touched}  # rests on nothing that stays
             if not moving:
+                if self._balanced_by_loads():
+                    return events
                 blocks = {b: RigidBlock(r.box.mass, stack.pose(r).position) for b, r in frozen.items()}
                 result = solve_equilibrium(blocks, polygons, gravity=stack.config.gravity)
                 if result.stands:
@@ -83,6 +89,16 @@ class StackTest:
             for b in stack.ordered(moving):
                 reason = "it moves in the collapse mechanism (rigid-block equilibrium)"
                 events += [w.event for w in stack.wake(b, time, reason)]
+
+    def _balanced_by_loads(self) -> bool:
+        """Do the report's loads, propagated down the frozen stack, balance it
+        (:func:`stability._load_path.loads_balance`)? A cycle of supports has no such order: False."""
+        frozen = self.stack.in_order()
+        try:
+            loads = propagate_fast(self.stack.nodes(frozen))
+        except CycleError:
+            return False
+        return loads_balance(loads, {r.body: r.support_regions for r in frozen})
 
     def _report(self, time: float) -> list[StabilityEvent]:
         """Stack-wide test (report 3.3.1, 3.3.5) with the wake-up cascade (3.3.7).

@@ -21,7 +21,8 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from ._check import CheckResult, ScenarioErrors, check
+    from ._check import ScenarioErrors, check
+    from ._check_result import CheckResult
     from ._compiler import MODE_DEFAULTS, compile_scenario
     from ._errors import ScenarioError
     from ._expect import Verdict, evaluate
@@ -36,7 +37,7 @@ if TYPE_CHECKING:
 #: Where each public name lives. The modules load on first use, so that the ``stackdsl``
 #: command can take Ctrl-C while numpy, pybullet and shapely load (about 0.7 s).
 _HOME = {
-    "CheckResult": "_check",
+    "CheckResult": "_check_result",
     "ScenarioErrors": "_check",
     "check": "_check",
     "MODE_DEFAULTS": "_compiler",

@@ -46,7 +46,7 @@ def sweep_result(
     file: str, template: Template, program: Any, expect: Expect, results: Sequence[SampleResult], folder: str | None
 ) -> Any:
     """One :class:`stackdsl.CheckResult` for a whole sweep."""
-    from ._check import CheckResult
+    from ._check_result import CheckResult
 
     judged = []
     explanation = []

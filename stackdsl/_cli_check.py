@@ -14,7 +14,8 @@ import time
 from pathlib import Path
 
 from ._artefacts import folder_name
-from ._check import CheckResult, discover, prepare, run_checks, select, tabulate
+from ._check import discover, prepare, run_checks, select, tabulate
+from ._check_result import CheckResult
 from ._cli_args import BAD_INPUT, FAILED, HINT, INTERNAL, OK
 from ._compiler import BACKEND_DEFAULTS, MODE_DEFAULTS
 from ._errors import ScenarioError

@@ -20,7 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ._check import CheckResult, compare
+from ._check import compare
+from ._check_result import CheckResult
 from ._compiler import compile_scenario
 from ._loader import parse_scenario
 from ._runtime import run_program

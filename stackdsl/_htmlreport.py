@@ -19,7 +19,7 @@ import shlex
 from collections.abc import Sequence
 from pathlib import Path
 
-from ._check import CheckResult
+from ._check_result import CheckResult
 from ._expect import describe
 from ._outcome import Event
 from ._report import mode_label, version

@@ -13,7 +13,7 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-from ._check import CheckResult
+from ._check_result import CheckResult
 
 #: The header of check's table; :func:`row` lines up under it.
 HEADER = f"{'':4}  {'scenario':<40} {'mode':<9}  {'expected':<18} {'measured':<32} {'simulated':>9} {'wall':>8}"

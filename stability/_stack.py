@@ -107,6 +107,7 @@ class Stack:
         self.unproven: set[int] = set()  # frozen bricks with no load path under their centre of mass
         self.loads_fresh = True  # com_above / mass_above of every frozen brick are up to date
         self.version = 0  # counts the changes of the frozen stack (freezes and wakes)
+        self.standing_version: int | None = None  # a version whose whole frozen stack a program showed to stand
         self._contacts: ContactBook | None = None  # this step's, read in full before a change
 
     def add(self, rec: Record) -> None:

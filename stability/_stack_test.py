@@ -66,13 +66,14 @@ class StackTest:
         Solved only when the stack changes, and only when some frozen brick has no load path
         under its centre of mass and the report's propagated loads do not balance the stack
         either (:mod:`stability._load_path`): either is a solution of the program already, so
-        the stack stands.
+        the stack stands. Nor is it solved again for a debris pile that was solved with the whole
+        frozen stack before it froze (:meth:`stability._debris.Debris.admit`).
         """
         stack = self.stack
         events: list[StabilityEvent] = []
         while True:
             frozen = {r.body: r for r in stack.in_order()}
-            if not frozen or not stack.unproven:
+            if not frozen or not stack.unproven or stack.standing_version == stack.version:
                 return events
             ground = {k for k, r in stack.bodies.items() if r.state is BrickState.GROUND}
             polygons = [c for r in frozen.values() for c in r.contacts if c.other in frozen or c.other in ground]

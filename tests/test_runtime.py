@@ -173,6 +173,31 @@ def test_fallen_bricks_are_frozen_again_where_they_lie(model):
     assert on.steps < off.steps
 
 
+def test_a_pile_frozen_in_the_equilibrium_model_is_solved_once_with_the_whole_stack(monkeypatch):
+    """The single-file stack shifted 13 mm falls at level 10 and its row of bricks comes to
+    rest as one pile. With the equilibrium model the pile is solved with every frozen brick as
+    a free block, the program the stack test would solve next: the stack test then solves
+    nothing more after the collapse (it used to solve the whole stack once the pile froze)."""
+    import stability._debris as debris
+    import stability._stack_test as stack_test
+
+    calls: dict[str, list[int]] = {"debris": [], "stack": []}
+    for module, name in ((debris, "debris"), (stack_test, "stack")):
+
+        def counting(blocks, *args, _real=module.solve_equilibrium, _name=name, **kwargs):
+            calls[_name].append(len(blocks))
+            return _real(blocks, *args, **kwargs)
+
+        monkeypatch.setattr(module, "solve_equilibrium", counting)
+    text = "stackdsl: 1\nstructure: {tower: {levels: 12, bricks_per_layer: 1, turn: 0, shift: 13 mm}}\n"
+    outcome = run_program(compile_scenario(parse_scenario(text, "slant.yaml"), model="equilibrium"))
+    assert outcome.collapse is not None and outcome.collapse.level == 10
+    piles = [e for e in outcome.events if e.kind == "freeze" and "pile" in e.detail]
+    assert len(piles) >= 5
+    assert calls["stack"] == [10]  # the collapse only
+    assert calls["debris"] and max(calls["debris"]) == 10  # the pile with the bricks still frozen
+
+
 def test_a_tower_fallen_against_the_floor_is_frozen_again_with_the_report_model():
     """A log cabin shifted 9.5 mm a level falls at level 12 and lies against the floor and its
     own first level, held there by friction. The report's load tree cannot carry such a pile

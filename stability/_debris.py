@@ -86,9 +86,10 @@ class Debris:
             polygons[m.body] = areas.polygons(m, areas.around(m, contacts), skip=skip)
             skip.add(m.body)
         whole = group
-        with_stack = self._stands_with_stack(group, polygons)
+        with_stack = self._with_stack(group, polygons)
         earlier: list[Record] = []
-        if with_stack:
+        if with_stack is not None:
+            group, polygons = with_stack
             plan = self.admission.plan(group, polygons)
         else:
             group, polygons, plan, earlier = self._admissible(group, polygons, self._earlier(group, contacts))
@@ -106,7 +107,7 @@ class Debris:
         }
         touching = {o: held[o] for o in stack.ordered(held)}
         events = self.admission.freeze_group(group, polygons, touching, contacts, time, plan)
-        if with_stack:
+        if with_stack is not None:
             stack.standing_version = stack.version  # the stack test's program, solved already
         pile = frozenset(inside | {r.body for r in earlier})
         for m in group:
@@ -117,24 +118,43 @@ class Debris:
             b.pile = pile
         return events
 
-    def _stands_with_stack(self, group: list[Record], polygons: dict[int, list[ContactPolygon[int]]]) -> bool:
-        """With the equilibrium model, does a pile of two or more bricks stand with every frozen
-        brick a free block too, on the contacts remembered from their freezes? That is the
-        program the stack test would solve once the pile is frozen, so one program does for
-        both (:attr:`Stack.standing_version`). When it fails, the pile is solved against the
-        frozen bricks as supports (:meth:`_admissible`) and the stack test decides as before.
-        A pile of one is left to :func:`stability.leaning_stands`, which needs no program
-        while its centre of mass lies over its level contacts."""
+    def _with_stack(
+        self, group: list[Record], polygons: dict[int, list[ContactPolygon[int]]]
+    ) -> tuple[list[Record], dict[int, list[ContactPolygon[int]]]] | None:
+        """With the equilibrium model, the part of a pile of two or more bricks that stands
+        with every frozen brick a free block too, on the contacts remembered from their
+        freezes, and its polygons. That is the program the stack test would solve once the
+        pile is frozen, so one program does for both (:attr:`Stack.standing_version`). When
+        the pile does not stand, the members its collapse mechanism moves are left out and the
+        rest is tried again, as :meth:`_standing` does. None when the mechanism moves a frozen
+        brick, or fewer than two members are left: then the pile is solved against the frozen
+        bricks as supports (:meth:`_admissible`) and the stack test decides, as before. Tried
+        only for a pile at least as large as the frozen stack, so that the program is at most
+        twice the pile's own: a few bricks that come to rest on a large stack are refused and
+        asked again many times, and each refusal would cost the program of the whole stack. A
+        pile of one is left to :func:`stability.leaning_stands`, which needs no program while
+        its centre of mass lies over its level contacts."""
         stack = self.stack
-        if stack.config.model != "equilibrium" or len(group) < 2:
-            return False
-        frozen = stack.in_order()
-        blocks = {m.body: RigidBlock(m.box.mass, stack.engine.pose(m.body).position) for m in group}
-        blocks.update((r.body, RigidBlock(r.box.mass, stack.pose(r).position)) for r in frozen)
+        if stack.config.model != "equilibrium" or not 2 <= len(group) >= len(stack.frozen):
+            return None
+        frozen = {r.body: RigidBlock(r.box.mass, stack.pose(r).position) for r in stack.in_order()}
         ground = {b for b, r in stack.bodies.items() if r.state is BrickState.GROUND}
-        contacts = [c for cs in polygons.values() for c in cs]
-        contacts += [c for r in frozen for c in r.contacts if c.other in blocks or c.other in ground]
-        return solve_equilibrium(blocks, contacts, gravity=stack.config.gravity).stands
+        for _ in range(MAX_TRIMS + 1):
+            blocks = {m.body: RigidBlock(m.box.mass, stack.engine.pose(m.body).position) for m in group}
+            blocks.update(frozen)
+            contacts = [c for cs in polygons.values() for c in cs]
+            contacts += [c for r in stack.in_order() for c in r.contacts if c.other in blocks or c.other in ground]
+            result = solve_equilibrium(blocks, contacts, gravity=stack.config.gravity)
+            if result.stands:
+                return group, polygons
+            out = {b for b, v in result.mechanism.items() if v > 1e-4}
+            if not out or any(b in frozen for b in out):
+                return None
+            group = [m for m in group if m.body not in out]
+            polygons = {b: [c for c in cs if c.other not in out] for b, cs in polygons.items() if b not in out}
+            if len(group) < 2:
+                return None
+        return None
 
     def _admissible(
         self, group: list[Record], polygons: dict[int, list[ContactPolygon[int]]], earlier: list[Record]

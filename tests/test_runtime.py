@@ -198,6 +198,31 @@ def test_a_pile_frozen_in_the_equilibrium_model_is_solved_once_with_the_whole_st
     assert calls["debris"] and max(calls["debris"]) == 10  # the pile with the bricks still frozen
 
 
+def test_a_few_bricks_at_rest_on_a_large_frozen_stack_are_solved_alone(monkeypatch):
+    """A log cabin shifted 5.5 mm a level falls at level 21 (equilibrium model). Its heap is
+    solved with the bricks still frozen and frozen, trimmed of its top six, which slide
+    on it and are refused and asked again until they rest: each time they are solved against
+    the 36 frozen bricks as supports, not with them (a program six times their own)."""
+    import stability._debris as debris
+
+    calls: list[tuple[int, bool]] = []
+
+    def counting(blocks, *args, _real=debris.solve_equilibrium, **kwargs):
+        result = _real(blocks, *args, **kwargs)
+        calls.append((len(blocks), result.stands))
+        return result
+
+    monkeypatch.setattr(debris, "solve_equilibrium", counting)
+    text = "stackdsl: 1\nstructure: {tower: {levels: 23, spacing: 96 mm, shift: 5.5 mm}}\n"
+    outcome = run_program(compile_scenario(parse_scenario(text, "cabin.yaml"), model="equilibrium"))
+    assert outcome.collapse is not None and outcome.collapse.level == 21
+    heap = next(i for i, (_, stands) in enumerate(calls) if stands)
+    piles = [int(e.detail.split("pile of ")[1].split()[0]) for e in outcome.events if "pile of" in e.detail]
+    assert piles[0] > 30 and calls[heap][0] > piles[0]  # the heap was solved with the frozen bricks
+    assert calls[0][0] == calls[heap][0] + 6  # less its top six
+    assert len(calls) > heap + 3 and all(n <= 6 for n, _ in calls[heap + 1 :])
+
+
 def test_a_tower_fallen_against_the_floor_is_frozen_again_with_the_report_model():
     """A log cabin shifted 9.5 mm a level falls at level 12 and lies against the floor and its
     own first level, held there by friction. The report's load tree cannot carry such a pile

@@ -135,7 +135,7 @@ class Debris:
         pile of one is left to :func:`stability.leaning_stands`, which needs no program while
         its centre of mass lies over its level contacts."""
         stack = self.stack
-        if stack.config.model != "equilibrium" or not 2 <= len(group) >= len(stack.frozen):
+        if stack.config.model != "equilibrium" or len(group) < max(2, len(stack.frozen)):
             return None
         frozen = {r.body: RigidBlock(r.box.mass, stack.pose(r).position) for r in stack.in_order()}
         ground = {b for b, r in stack.bodies.items() if r.state is BrickState.GROUND}
@@ -150,8 +150,7 @@ class Debris:
             out = {b for b, v in result.mechanism.items() if v > 1e-4}
             if not out or any(b in frozen for b in out):
                 return None
-            group = [m for m in group if m.body not in out]
-            polygons = {b: [c for c in cs if c.other not in out] for b, cs in polygons.items() if b not in out}
+            group, polygons = _without(group, polygons, out)
             if len(group) < 2:
                 return None
         return None
@@ -225,8 +224,7 @@ class Debris:
             if result.stands:
                 return group, polygons
             out = {b for b, v in result.mechanism.items() if v > 1e-4 and b in members}
-            group = [m for m in group if m.body not in out]
-            polygons = {b: [c for c in cs if c.other not in out] for b, cs in polygons.items() if b not in out}
+            group, polygons = _without(group, polygons, out)
             if not (group and out):
                 break
         return [], {}
@@ -306,3 +304,11 @@ class Debris:
         lin, ang = self.stack.engine.velocity(rec.body)
         config = self.stack.config
         return bool(lin @ lin <= (CREEP * config.rest_speed) ** 2 and ang @ ang <= (CREEP * config.rest_angular_speed) ** 2)
+
+
+def _without(
+    group: list[Record], polygons: dict[int, list[ContactPolygon[int]]], out: set[int]
+) -> tuple[list[Record], dict[int, list[ContactPolygon[int]]]]:
+    """``group`` and its contact polygons without the bricks ``out`` (a collapse mechanism's)."""
+    kept = {b: [c for c in cs if c.other not in out] for b, cs in polygons.items() if b not in out}
+    return [m for m in group if m.body not in out], kept

@@ -31,13 +31,14 @@ from ._compiler import compile_scenario
 from ._errors import ScenarioError
 from ._expect import Verdict, evaluate, explain
 from ._expectations import Expect
-from ._loader import file_problem, load_scenario
+from ._loader import load_scenario
 from ._outcome import Graph, Outcome
 from ._pool import WorkerLost, WorkerTimedOut, fan_out, on_executor
 from ._program import Program
 from ._recorder import record_program
 from ._runtime import run_program
 from ._sampling import Template
+from ._scenario_file import file_problem
 from ._sweep import SampleResult
 
 

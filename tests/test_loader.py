@@ -7,9 +7,10 @@ from pathlib import Path
 
 import pytest
 
-from stackdsl import ScenarioError, ScenarioErrors, _check, _cli, _loader, load_scenario, parse_scenario
+from stackdsl import ScenarioError, ScenarioErrors, _check, _cli, _loader, _scenario_file, load_scenario, parse_scenario
 from stackdsl._check import discover
-from stackdsl._loader import MAX_DEPTH, MAX_FILE_BYTES
+from stackdsl._loader import MAX_DEPTH
+from stackdsl._scenario_file import MAX_FILE_BYTES
 from stackdsl._units import angle, density, length, speed, time
 
 
@@ -429,7 +430,7 @@ def test_a_file_that_grows_after_the_check_is_read_only_to_the_cap(tmp_path, mon
     path = tmp_path / "grows.yaml"
     path.write_text("stackdsl: 1\n" + "# padding\n" * 20)
     monkeypatch.setattr(_loader, "file_problem", lambda _: None)  # as if the file grew after os.stat
-    monkeypatch.setattr(_loader, "MAX_FILE_BYTES", 64)
+    monkeypatch.setattr(_scenario_file, "MAX_FILE_BYTES", 64)
     reads = []
     real_fdopen = os.fdopen
 

@@ -6,7 +6,6 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 import argparse
-import os
 import tempfile
 import time
 from pathlib import Path
@@ -46,7 +45,13 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     p.add_argument("--repeats", type=int, default=3, help="runs per cell (median), for cells faster than --repeat-below")
     p.add_argument("--repeat-below", type=float, default=30.0, help="seconds; slower cells run once")
     p.add_argument("--quick", action="store_true", help="one small cell per setting (a smoke test)")
-    p.add_argument("-j", "--jobs", type=jobs_type, default=str(min(2, os.cpu_count() or 1)), help="worker processes")
+    p.add_argument(
+        "-j",
+        "--jobs",
+        type=jobs_type,
+        default="1",
+        help="worker processes (default: 1, for steady timings: two cells at once on two cores slow each other unevenly)",
+    )
     p.set_defaults(func=_bench)
     bench = p.add_subparsers(
         metavar="[solve | height | hard | record | sweep | verdicts | freeze]", title="other benchmarks (optional)"

@@ -195,7 +195,7 @@ def fastest(cell: Cell) -> float:
     >>> fastest(Cell("s", "f", 1.0, 2, None, None, 0, 0.0, 0.2, "0.150 0.200 0.310", 0.1, 0.0, 1.0, 5.0, 90.0, 10, 0))
     0.15
     """
-    return float(cell.walls.split()[0]) if cell.walls.strip() else cell.wall
+    return min((float(w) for w in cell.walls.split()), default=cell.wall)
 
 
 def ratios(cells: list[Cell], base: str = BASE, wall: Callable[[Cell], float] = lambda c: c.wall) -> list[str]:

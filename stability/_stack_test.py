@@ -14,6 +14,7 @@ from graphlib import CycleError
 from shapely.geometry import Point
 
 from ._areas import ContactAreas
+from ._cut import falling_part
 from ._equilibrium import RigidBlock, solve_equilibrium
 from ._graph import BrickState
 from ._load import LoadNode, propagate_fast
@@ -66,7 +67,8 @@ class StackTest:
         Solved only when the stack changes, and only when some frozen brick has no load path
         under its centre of mass and the report's propagated loads do not balance the stack
         either (:mod:`stability._load_path`): either is a solution of the program already, so
-        the stack stands. Nor is it solved again for a debris pile that was solved with the whole
+        the stack stands. Nor when a level cut proves that the part above it falls
+        (:mod:`stability._cut`): that part is a collapse mechanism, and it wakes. Nor is it solved again for a debris pile that was solved with the whole
         frozen stack before it froze (:meth:`stability._debris.Debris.admit`).
         """
         stack = self.stack
@@ -83,10 +85,12 @@ class StackTest:
                 if self._balanced_by_loads():
                     return events
                 blocks = {b: RigidBlock(r.box.mass, stack.pose(r).position) for b, r in frozen.items()}
-                result = solve_equilibrium(blocks, polygons, gravity=stack.config.gravity)
-                if result.stands:
-                    return events
-                moving = {b for b, v in result.mechanism.items() if v > 1e-4}
+                moving = set(falling_part(blocks, polygons) or ()) if stack.config.gravity > 0 else set()
+                if not moving:
+                    result = solve_equilibrium(blocks, polygons, gravity=stack.config.gravity)
+                    if result.stands:
+                        return events
+                    moving = {b for b, v in result.mechanism.items() if v > 1e-4}
             for b in stack.ordered(moving):
                 reason = "it moves in the collapse mechanism (rigid-block equilibrium)"
                 events += [w.event for w in stack.wake(b, time, reason)]

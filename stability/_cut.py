@@ -141,10 +141,10 @@ def _edges(xy: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
     try:
         hull = ConvexHull(xy)
     except (QhullError, ValueError):  # collinear or too few points: the segment's two sides
-        span = xy.max(axis=0) - xy.min(axis=0)
-        if not span.any():
+        reach = np.linalg.norm(xy - xy[0], axis=1)
+        if reach.max() == 0:
             return []
-        along = span / np.linalg.norm(span)
+        along = (xy[np.argmax(reach)] - xy[0]) / reach.max()
         normal = np.array([-along[1], along[0]])
         return [(xy[0], normal), (xy[0], -normal)]
     corners = xy[hull.vertices]  # counter-clockwise

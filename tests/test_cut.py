@@ -156,3 +156,15 @@ def test_a_block_on_steep_contacts_is_said_to_fall_only_where_the_program_agrees
             assert not solve_equilibrium(blocks, contacts).stands
             said += 1
     assert said > 100
+
+
+@pytest.mark.parametrize("side", [1.0, -1.0])
+def test_a_block_on_a_slanting_knife_edge_falls_to_the_side_of_its_centre_of_mass(side: float) -> None:
+    """A line contact running down to the right in plan (collinear points: no hull, its two sides
+    instead), the centre of mass 5 mm off it on either side: the block turns about the line."""
+    line = np.array([[-0.03, 0.03, 0.0], [0.0, 0.0, 0.0], [0.03, -0.03, 0.0]])
+    off = side * 0.005 * np.array([1.0, 1.0, 0.0]) / np.sqrt(2)
+    blocks = {1: RigidBlock(MASS, np.array([0.0, 0.0, 0.01]) + off)}
+    contacts = [ContactPolygon(1, 0, line, UP, 0.5)]
+    assert not solve_equilibrium(blocks, contacts).stands
+    assert falling_part(blocks, contacts) == frozenset({1})

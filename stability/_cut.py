@@ -25,7 +25,7 @@ from typing import TypeVar
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
-from ._equilibrium import ContactPolygon, RigidBlock
+from ._equilibrium import ContactPolygon, RigidBlock, _vertices
 
 BodyKey = TypeVar("BodyKey", bound=Hashable)
 
@@ -49,6 +49,9 @@ def falling_part(blocks: Mapping[BodyKey, RigidBlock], contacts: Sequence[Contac
         The blocks of a collapse mechanism (they turn together); None when none of the parts
         tried falls (the stack may still fall: the equilibrium program decides).
 
+    Raises:
+        ValueError: a contact has no point.
+
     >>> import numpy as np
     >>> up = np.array([0, 0, 1.0])
     >>> def face(x0, x1, z):  # a contact polygon 24 mm wide
@@ -65,13 +68,11 @@ def falling_part(blocks: Mapping[BodyKey, RigidBlock], contacts: Sequence[Contac
     index = {k: i for i, k in enumerate(keys)}
     mass = np.array([blocks[k].mass for k in keys])
     com = np.array([np.asarray(blocks[k].com, dtype=float) for k in keys])
-    polygons = [np.asarray(c.points, dtype=float).reshape(-1, 3) for c in contacts]
-    counts = [len(p) for p in polygons]
-    points = np.vstack(polygons)
-    normals = np.repeat([np.asarray(c.normal, dtype=float) / np.linalg.norm(c.normal) for c in contacts], counts, axis=0)
-    friction = np.repeat([c.friction for c in contacts], counts)
-    body = np.repeat([index.get(c.body, -1) for c in contacts], counts)
-    other = np.repeat([index.get(c.other, -1) for c in contacts], counts)
+    points, owner = _vertices(contacts)
+    normals = np.array([np.asarray(c.normal, dtype=float) / np.linalg.norm(c.normal) for c in contacts])[owner]
+    friction = np.array([c.friction for c in contacts])[owner]
+    body = np.array([index.get(c.body, -1) for c in contacts])[owner]
+    other = np.array([index.get(c.other, -1) for c in contacts])[owner]
     for part in _parts(com[:, 2]):
         inside = np.append(part, False)  # a support (index -1) is never in the part
         holding = inside[body] != inside[other]

@@ -67,9 +67,10 @@ class StackTest:
         Solved only when the stack changes, and only when some frozen brick has no load path
         under its centre of mass and the report's propagated loads do not balance the stack
         either (:mod:`stability._load_path`): either is a solution of the program already, so
-        the stack stands. Nor when a level cut proves that the part above it falls
-        (:mod:`stability._cut`): that part is a collapse mechanism, and it wakes. Nor is it solved again for a debris pile that was solved with the whole
-        frozen stack before it froze (:meth:`stability._debris.Debris.admit`).
+        the stack stands. Nor when a part of the stack provably turns out about an edge of its
+        footing (:mod:`stability._cut`): that part is a collapse mechanism, and it wakes. Nor is
+        it solved again for a debris pile that was solved with the whole frozen stack before it
+        froze (:meth:`stability._debris.Debris.admit`).
         """
         stack = self.stack
         events: list[StabilityEvent] = []

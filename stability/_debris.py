@@ -301,9 +301,9 @@ class Debris:
         """A fallen brick whose speeds are under :data:`CREEP` times the rest thresholds now."""
         if not rec.clock.fallen:
             return False
-        lin, ang = self.stack.engine.velocity(rec.body)
+        speed, angular_speed = self.stack.engine.speeds(rec.body)
         config = self.stack.config
-        return bool(lin @ lin <= (CREEP * config.rest_speed) ** 2 and ang @ ang <= (CREEP * config.rest_angular_speed) ** 2)
+        return speed <= CREEP * config.rest_speed and angular_speed <= CREEP * config.rest_angular_speed
 
 
 def _without(

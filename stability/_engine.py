@@ -9,6 +9,7 @@ graphs without a simulation.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Collection
 from dataclasses import dataclass, field
 from typing import Any, Protocol
@@ -56,6 +57,10 @@ class Engine(Protocol):
     def velocity(self, body: int) -> tuple[np.ndarray, np.ndarray]:
         """Linear (m/s) and angular (rad/s) velocity of ``body``, shape (3,) each."""
 
+    def speeds(self, body: int) -> tuple[float, float]:
+        """Linear speed (m/s) and angular speed (rad/s) of ``body``: the norms of
+        :meth:`velocity`, which the rest test asks of every active brick at every step."""
+
     def contact_points(self, bodies: Collection[int] | None = None) -> list[ContactPoint]:
         """Every current contact point, once from each side; with ``bodies``, only those seen
         from one of them."""
@@ -99,6 +104,10 @@ class PyBulletEngine:
     def velocity(self, body: int) -> tuple[np.ndarray, np.ndarray]:
         lin, ang = self._get_velocity(body)
         return np.array(lin), np.array(ang)
+
+    def speeds(self, body: int) -> tuple[float, float]:
+        lin, ang = self._get_velocity(body)
+        return math.hypot(*lin), math.hypot(*ang)
 
     def contact_points(self, bodies: Collection[int] | None = None) -> list[ContactPoint]:
         if bodies is not None:  # asked of each body: its side only
@@ -214,6 +223,10 @@ class FakeEngine:
 
     def velocity(self, body: int) -> tuple[np.ndarray, np.ndarray]:
         return self.velocities.get(body, (np.zeros(3), np.zeros(3)))
+
+    def speeds(self, body: int) -> tuple[float, float]:
+        lin, ang = self.velocity(body)
+        return float(np.linalg.norm(lin)), float(np.linalg.norm(ang))
 
     def contact_points(self, bodies: Collection[int] | None = None) -> list[ContactPoint]:
         return [

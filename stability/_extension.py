@@ -155,8 +155,8 @@ class StabilityExtension:
     def _at_rest(self, rec: Record, time: float) -> bool:
         """At rest for the rest duration (report 3.3.2; a fallen brick by the windowed test
         of :mod:`stability._rest`)."""
-        lin, ang = self._stack.engine.velocity(rec.body)
-        return rec.clock.tick(lin, ang, lambda: self._stack.engine.pose(rec.body), time, self._stack.config)
+        speed, angular_speed = self._stack.engine.speeds(rec.body)
+        return rec.clock.tick(speed, angular_speed, lambda: self._stack.engine.pose(rec.body), time, self._stack.config)
 
     # wake-up (report 3.3.7) ---------------------------------------------------
     def wake(self, body: int, time: float, reason: str) -> list[StabilityEvent]:

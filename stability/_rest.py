@@ -45,11 +45,11 @@ class RestClock:
     >>> import numpy as np
     >>> from stability._config import StabilityConfig
     >>> clock, still = RestClock(fallen=True), Pose(np.zeros(3))
-    >>> fast = np.array([0.02, 0.0, 0.0])  # 20 mm/s: above the 5 mm/s threshold
-    >>> [clock.tick(fast if i % 2 else -fast, np.zeros(3), lambda: still, i / 240, StabilityConfig()) for i in range(14)][-1]
+    >>> fast = 0.02  # 20 mm/s: above the 5 mm/s threshold
+    >>> [clock.tick(fast, 0.0, lambda: still, i / 240, StabilityConfig()) for i in range(14)][-1]
     True
     >>> placed = RestClock()  # the report's test: one step above the threshold starts again
-    >>> [placed.tick(fast if i % 2 else -fast, np.zeros(3), lambda: still, i / 240, StabilityConfig()) for i in range(14)][-1]
+    >>> [placed.tick(fast, 0.0, lambda: still, i / 240, StabilityConfig()) for i in range(14)][-1]
     False
     """
 
@@ -57,17 +57,12 @@ class RestClock:
     fallen: bool = False
     window: tuple[Pose, float] | None = None
 
-    def tick(
-        self, linear: np.ndarray, angular: np.ndarray, pose: Callable[[], Pose], time: float, config: StabilityConfig
-    ) -> bool:
-        """Advance the clock to ``time`` (s) with the brick's speeds now (m/s and rad/s,
-        shape (3,) each); ``pose`` reads its pose, asked only when a window closes. Returns
-        whether the brick has been at rest for the rest duration."""
+    def tick(self, speed: float, angular_speed: float, pose: Callable[[], Pose], time: float, config: StabilityConfig) -> bool:
+        """Advance the clock to ``time`` (s) with the brick's speeds now (m/s and rad/s);
+        ``pose`` reads its pose, asked only when a window closes. Returns whether the brick
+        has been at rest for the rest duration."""
         cap = JITTER if self.fallen else 1.0
-        if (
-            float(linear @ linear) > (cap * config.rest_speed) ** 2
-            or float(angular @ angular) > (cap * config.rest_angular_speed) ** 2
-        ):
+        if speed > cap * config.rest_speed or angular_speed > cap * config.rest_angular_speed:
             self.since = self.window = None
             return False
         if self.since is None:

@@ -246,6 +246,10 @@ class MuJoCoWorld:
         linear, angular = self._velocities()
         return linear[body - 1].copy(), angular[body - 1].copy()
 
+    def speeds(self, body: int) -> tuple[float, float]:
+        linear, angular = self._velocities()
+        return math.hypot(*linear[body - 1].tolist()), math.hypot(*angular[body - 1].tolist())
+
     def contact_points(self, bodies: Collection[int] | None = None) -> list[ContactPoint]:
         m, d = self._ready()
         if d.ncon == 0:

@@ -94,13 +94,10 @@ class Substeps(Subscriber):
     def before_step(self, loop: StepLoop) -> None:
         structure = loop.structure
         fast = structure.projectiles + (list(structure.moving.values()) if self.bricks_too else [])
-        velocities, _ = loop.world.velocities_of([r.body for r in fast])
-        squared = (velocities**2).sum(axis=1)
-        speed = float(math.sqrt(squared.max())) if len(fast) else 0.0
+        speed, fastest = max(((loop.world.speeds(r.body)[0], r) for r in fast), key=lambda s: s[0], default=(0.0, None))
         needed = max(1, math.ceil(speed * loop.dt / self.threshold))
         substeps = min(needed, MAX_SUBSTEPS)
-        if substeps == MAX_SUBSTEPS and self.substeps != MAX_SUBSTEPS:
-            fastest = fast[int(np.argmax(squared))]
+        if substeps == MAX_SUBSTEPS and self.substeps != MAX_SUBSTEPS and fastest is not None:
             detail = f"{speed:.3g} m/s needs {needed} substeps; capped at {MAX_SUBSTEPS}"
             loop.events.append(Event(time=loop.now, kind="substeps", brick=fastest.id, level=fastest.level, detail=detail))
         self.substeps = substeps

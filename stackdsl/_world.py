@@ -111,6 +111,10 @@ class PyBulletWorld(PyBulletEngine):
     """:class:`World` on a pybullet client: gravity, timestep, solver iterations and the
     ground plane are set up at once; ``ground`` is the plane's body id.
 
+    A body's velocity is read from pybullet once a step, however many ask (the rest test
+    brick by brick, the substep control and the collapse monitor), and read again after
+    anything that changes it (a step, a placement, a throw, a freeze or a wake).
+
     Args:
         client: a ``pybullet_utils.bullet_client.BulletClient``.
         engine: the run's engine settings.
@@ -122,6 +126,9 @@ class PyBulletWorld(PyBulletEngine):
 
         super().__init__(client)
         self._p, self._engine = pybullet, engine
+        self._velocities: dict[int, Any] = {}  # this step's pybullet velocities, by body
+        self._read_velocity = client.getBaseVelocity
+        self._get_velocity = self._velocity_now
         self._shapes: dict[Vec3, int] = {}  # half extents -> collision shape
         self._substeps = 1
         client.setGravity(0.0, 0.0, -engine.gravity)
@@ -157,16 +164,30 @@ class PyBulletWorld(PyBulletEngine):
             frictionAnchor=int(self._engine.friction_anchors),
         )
 
+    def _velocity_now(self, body: int) -> Any:
+        """pybullet's (linear, angular) velocity of ``body`` this step, read once."""
+        read = self._velocities.get(body)
+        if read is None:
+            read = self._velocities[body] = self._read_velocity(body)
+        return read
+
+    def set_frozen(self, body: int, frozen: bool, mass: float, at: Pose | None = None) -> None:
+        self._velocities.pop(body, None)
+        super().set_frozen(body, frozen, mass, at)
+
     def move(self, body: int, pose: Pose, mass: float) -> None:
+        self._velocities.pop(body, None)
         self._client.resetBasePositionAndOrientation(body, pose.position.tolist(), pose.orientation.tolist())
         self._client.changeDynamics(body, -1, mass=mass)
 
     def throw(self, body: int, velocity: Vec3, swept_radius: float | None) -> None:
+        self._velocities.pop(body, None)
         if swept_radius is not None:
             self._client.changeDynamics(body, -1, ccdSweptSphereRadius=swept_radius)
         self._client.resetBaseVelocity(body, list(velocity), [0.0, 0.0, 0.0])
 
     def step(self) -> None:
+        self._velocities.clear()
         self._client.stepSimulation()
 
     def set_substeps(self, substeps: int) -> None:

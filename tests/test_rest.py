@@ -19,7 +19,7 @@ def run(clock: RestClock, speeds: list[float], creep: float = 0.0) -> list[bool]
     out = []
     for i, v in enumerate(speeds):
         pose = Pose(np.array([creep * i * DT, 0.0, 0.004]))
-        out.append(clock.tick(np.array([v, 0.0, 0.0]), ZERO, lambda p=pose: p, i * DT, CONFIG))
+        out.append(clock.tick(abs(v), 0.0, lambda p=pose: p, i * DT, CONFIG))
     return out
 
 

@@ -2,13 +2,15 @@
 
 import gc
 
+import numpy as np
 import pybullet
 import pytest
 
-from stability import StabilityConfig
+from stability import Pose, StabilityConfig
 from stackdsl import End, EngineSettings, Launch, Program, _loop, compile_scenario, parse_scenario, run_program
 from stackdsl._compiler import _spec
 from stackdsl._program import Rule
+from stackdsl._world import pybullet_world
 
 TWO_BRICKS = """
 stackdsl: 1
@@ -285,3 +287,27 @@ def test_a_pile_whose_top_bricks_slide_is_frozen_without_them():
     assert len(woken) > 30 and woken <= {e.brick for e in piles}
     assert len({e.time for e in piles}) >= 2  # the heap first, the bricks left out later
     assert outcome.steps_skipped > 0
+
+
+def test_the_world_reads_a_velocity_from_pybullet_once_a_step_and_again_after_a_change():
+    spec = _spec(parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 1}}\n"), "kapla")
+    settings = EngineSettings(
+        mode="raw", timestep=1 / 240, solver_iterations=50, friction_anchors=False, maximal_coordinates=False
+    )
+    with pybullet_world(settings, 0.5, 0.0) as world:
+        body = world.create(spec, Pose.from_euler([0.0, 0.0, 0.5]))
+        read, calls = world._read_velocity, []
+        world._read_velocity = lambda b: calls.append(b) or read(b)
+        world.step()
+        linear, angular = world.velocity(body)
+        assert world.speeds(body) == pytest.approx((np.linalg.norm(linear), np.linalg.norm(angular)))
+        assert world.velocities_of([body])[0][0] == pytest.approx(linear)
+        assert calls == [body] and linear[2] == pytest.approx(-9.81 / 240)  # falling, read once
+        world.throw(body, (1.0, 0.0, 0.0), None)
+        assert world.velocity(body)[0] == pytest.approx([1.0, 0.0, 0.0])  # the throw, not the step before
+        world.set_frozen(body, True, spec.mass)
+        assert world.speeds(body) == (0.0, 0.0)
+        world.set_frozen(body, False, spec.mass)
+        world.step()
+        assert world.velocity(body)[0][2] == pytest.approx(-9.81 / 240)
+        assert calls == [body] * 4

@@ -3,20 +3,22 @@
 A brick the admission tests refuse is admitted with every resting brick it touches, and they
 with theirs (the connected pile), when rigid-block equilibrium holds them all against what
 is frozen (:func:`stability.leaning_stands`): bricks that fell and lie still, alone or leaning
-on each other, then cost nothing. A pile at rest may take along one brick in ten that still
-creeps (a fallen brick under :data:`CREEP` times the rest thresholds, not yet at rest by the
-windowed test of :mod:`stability._rest`): a few bricks that turn at about the rest angular
-speed must not keep a heap of forty in the engine. When the whole pile does not stand, the
-bricks its collapse mechanism moves are left out and the rest is tried again. That
-equilibrium, not the report's centre-of-mass test, then holds the bricks that fell, until
-something else comes to rest on one of them; a pile that comes to rest on bricks frozen with
-an earlier pile is solved and frozen with them as one pile. Source: stackdsl's own, on the
-report's rigid-block reading of leaning (3.4).
+on each other, then cost nothing. A pile is at rest as a whole when its kinetic energy is at
+most what it would carry if every brick in it moved at the rest thresholds, and each of its
+fallen bricks is within the instantaneous bounds of the windowed test of
+:mod:`stability._rest` (:meth:`Debris._at_rest`): the bricks of a settling heap that ring on
+for a few tenths of a second, each in turn, must not keep the whole heap in the engine.
+When the whole pile does not stand, the bricks its collapse mechanism moves are left out and
+the rest is tried again. That equilibrium, not the report's centre-of-mass test, then holds
+the bricks that fell, until something else comes to rest on one of them; a pile that comes to
+rest on bricks frozen with an earlier pile is solved and frozen with them as one pile.
+Source: stackdsl's own, on the report's rigid-block reading of leaning (3.4).
 """
 
 from __future__ import annotations
 
 import itertools
+from collections.abc import Iterable
 
 from ._admission import Admission, Plan
 from ._areas import ContactAreas, Contacts
@@ -28,12 +30,6 @@ from ._stack import Record, StabilityEvent, Stack
 
 MAX_PILE = 64
 """Most bricks the debris rule admits at once (one equilibrium program over all of them)."""
-
-CREEPING_SHARE = 10
-"""A pile at rest may have one brick that still creeps for every this many bricks in it (:meth:`Debris._pile`)."""
-
-CREEP = 2.0
-"""A creeping brick's speeds are under this many times the rest thresholds."""
 
 MAX_TRIMS = 3
 """How many times a pile that does not stand is tried again without the bricks its collapse
@@ -275,35 +271,42 @@ class Debris:
 
     def _pile(self, rec: Record, contacts: Contacts, time: float) -> list[Record]:
         """``rec`` and the active bricks connected to it by contacts, in registration order;
-        empty when one of them is not at rest, or none touches a frozen brick or the ground.
-        One brick in :data:`CREEPING_SHARE` of the pile may be a fallen brick that is not at
-        rest yet but creeps (:meth:`_creeping`)."""
-        pile, queue, held, creeping = {rec.body: rec}, [rec], False, 0
+        empty when none of them touches a frozen brick or the ground, or the pile is not at
+        rest as a whole (:meth:`_at_rest`)."""
+        pile, queue, held = {rec.body: rec}, [rec], False
         while queue:
             for other in self.areas.neighbours(queue.pop(), contacts):  # the pile is the same in any order
                 o = self.stack.bodies[other]
                 if o.state is not BrickState.ACTIVE:
                     held = True
                 elif other not in pile:
-                    if len(pile) >= MAX_PILE:
+                    if len(pile) >= MAX_PILE or o.clock.since is None:  # too many, or one still moves
                         return []
-                    if not self.stack.rested(o, time):
-                        if not self._creeping(o):
-                            return []
-                        creeping += 1
                     pile[other] = o
                     queue.append(o)
-        if not held or creeping * CREEPING_SHARE > len(pile):
+        if not held or not self._at_rest(pile.values(), time):
             return []
         return sorted(pile.values(), key=lambda r: r.order)
 
-    def _creeping(self, rec: Record) -> bool:
-        """A fallen brick whose speeds are under :data:`CREEP` times the rest thresholds now."""
-        if not rec.clock.fallen:
-            return False
-        speed, angular_speed = self.stack.engine.speeds(rec.body)
+    def _at_rest(self, pile: Iterable[Record], time: float) -> bool:
+        """Is a pile at rest as a whole? Each member is at rest (:meth:`Stack.rested`) or is a
+        fallen brick that creeps: its rest clock runs (its speeds are within the windowed
+        test's bounds, :data:`stability._rest.JITTER` times the thresholds) but it has not yet
+        been still for a whole window. And the pile's kinetic energy is at most what it would
+        carry if every member moved at the rest thresholds: its root-mean-square motion is
+        under them. Spin counts about each brick's largest moment of inertia (an upper bound).
+        """
         config = self.stack.config
-        return speed <= CREEP * config.rest_speed and angular_speed <= CREEP * config.rest_angular_speed
+        energy = allowed = 0.0
+        for m in pile:
+            if not (self.stack.rested(m, time) or (m.clock.fallen and m.clock.since is not None)):
+                return False
+            speed, angular_speed = self.stack.engine.speeds(m.body)
+            a, b = sorted(m.box.half_extents)[1:]
+            spin = (a * a + b * b) / 3  # the largest moment of inertia over the mass, m^2
+            energy += m.box.mass * (speed**2 + spin * angular_speed**2)
+            allowed += m.box.mass * (config.rest_speed**2 + spin * config.rest_angular_speed**2)
+        return energy <= allowed
 
 
 def _without(

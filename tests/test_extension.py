@@ -276,3 +276,22 @@ def test_a_debris_pile_is_held_by_equilibrium_until_something_else_rests_on_it()
     rec.objects_above.add(5)  # a brick from outside the pile came to rest on it
     assert not rec.held_by_pile()
     assert not Record(3, "b3", KAPLA, BrickState.FROZEN, 3, 0.5, objects_above={2}).held_by_pile()
+
+
+@pytest.mark.parametrize("speed, at_rest", [(0.006, True), (0.009, False)])
+def test_a_fallen_pile_is_at_rest_when_its_kinetic_energy_is_under_that_at_the_rest_thresholds(speed, at_rest):
+    """Two fallen bricks, one at rest and one whose rest clock has only just started: the
+    pile is at rest as a whole while its kinetic energy is at most what both would carry at
+    the rest thresholds (5 mm/s and 0.05 rad/s: the second may move at up to 7.5 mm/s)."""
+    s = Scene(StabilityConfig(rest_duration=0.05))
+    b1, b2 = s.brick(0.0, 1), s.brick(0.03, 2, on=(1,))
+    stack = s.ext._stack
+    for body, since in ((b1, 0.5), (b2, 1.0)):
+        stack.bodies[body].clock.fallen, stack.bodies[body].clock.since = True, since
+    s.engine.velocities[b2] = (np.array([speed, 0.0, 0.0]), np.zeros(3))
+    contacts = stack.contacts([b1, b2], now=[b1, b2])
+    pile = s.ext._debris._pile(stack.bodies[b1], contacts, 1.0)
+    assert [r.body for r in pile] == ([b1, b2] if at_rest else [])
+    s.engine.velocities[b2] = (np.array([0.0, 0.0, 0.0]), np.zeros(3))
+    stack.bodies[b2].clock.fallen = False  # a placed brick is not taken along before it is at rest
+    assert s.ext._debris._pile(stack.bodies[b1], contacts, 1.0) == []

@@ -1,6 +1,7 @@
 """Program -> Outcome in pybullet: collapse detection, friction, clean-up, determinism."""
 
 import gc
+import re
 
 import numpy as np
 import pybullet
@@ -261,32 +262,33 @@ def test_a_heap_resting_on_a_brick_that_fell_before_it_is_frozen_with_it(cabin_f
     assert woken <= {e.brick for e in after}
 
 
-def test_a_heap_at_rest_is_frozen_with_the_few_bricks_that_still_creep(cabin_falling_at_26):
-    """The same heap of 41: all but a few of its bricks are at rest 1.1 s after the collapse,
-    and those few turn at about the rest angular speed for 0.4 s more. They are frozen with
-    the heap (one in ten of its bricks may creep, under twice the rest thresholds), which is
-    then out of the engine 1.2 s after the collapse instead of 1.5 s."""
+def test_a_heap_at_rest_as_a_whole_is_frozen_with_the_bricks_that_still_creep(cabin_falling_at_26):
+    """The same heap: 0.8 s after the collapse its motion as a whole is under the rest
+    thresholds (its kinetic energy is less than at them), though many of its bricks have not
+    yet been still for a whole window. It is frozen then, with those bricks; waiting for each
+    of them kept it in the engine until 1.1 s after the collapse."""
     outcome = cabin_falling_at_26
     assert outcome.collapse is not None
-    heap = [e for e in outcome.events if e.kind == "freeze" and "pile of 41" in e.detail]
-    creeping = [e for e in heap if e.detail.startswith("creeping")]
-    assert len(heap) == 41 and 1 <= len(creeping) <= 4
-    assert heap[0].time - outcome.collapse.time < 1.25
+    piles = [e for e in outcome.events if e.kind == "freeze" and e.time > outcome.collapse.time and "pile of" in e.detail]
+    big = [e for e in piles if int(re.search(r"pile of (\d+)", e.detail).group(1)) > 40]
+    creeping = [e for e in big if e.detail.startswith("creeping")]
+    assert len(big) > 40 and len({e.time for e in big}) == 1
+    assert 0 < len(creeping) < len(big)
+    assert big[0].time - outcome.collapse.time < 0.9
 
 
 def test_a_pile_whose_top_bricks_slide_is_frozen_without_them():
     """A log cabin shifted 5.5 mm a level falls at level 21; its 39 woken bricks come to rest
-    in a heap whose top four lean by less friction than they need, so the whole heap does not
-    stand. The heap is frozen without the bricks its collapse mechanism moves, and those,
-    lying on it, are frozen in turn: every woken brick is frozen again before the run ends."""
+    in a heap whose top bricks lean by less friction than they need, so the whole heap does
+    not stand. The heap is frozen without the bricks its collapse mechanism moves; those stay
+    in the engine, on it."""
     text = "stackdsl: 1\nstructure: {tower: {levels: 23, spacing: 96 mm, shift: 5.5 mm}}\n"
     outcome = run_program(compile_scenario(parse_scenario(text, "cabin.yaml"), model="report"))
     assert outcome.collapse is not None and outcome.collapse.level == 21
     woken = {e.brick for e in outcome.events if e.kind == "wake"}
     piles = [e for e in outcome.events if e.kind == "freeze" and "pile of" in e.detail and e.time > outcome.collapse.time]
-    assert len(woken) > 30 and woken <= {e.brick for e in piles}
-    assert len({e.time for e in piles}) >= 2  # the heap first, the bricks left out later
-    assert outcome.steps_skipped > 0
+    heap = {e.brick for e in piles if e.time == piles[0].time}
+    assert len(woken) > 30 and len(heap) > 30 and heap < woken
 
 
 def test_the_world_reads_a_velocity_from_pybullet_once_a_step_and_again_after_a_change():

@@ -96,9 +96,7 @@ class ContactAreas:
                 other_pose = None if isinstance(o.shape, Plane) else self.stack.pose(o)
                 exact = face_overlap(rec.box, pose, o.shape, other_pose, self.config.face_gap)
             if exact is not None:
-                ring = np.asarray(exact.polygon.exterior.coords)[:-1]
-                polygon = np.column_stack([ring, np.full(len(ring), exact.height)])
-                out.append(ContactPolygon(rec.body, other, polygon, exact.normal, friction))
+                out.append(ContactPolygon(rec.body, other, exact.corners(), exact.normal, friction))
                 continue
             normal = np.mean([c.normal for c in points], axis=0)
             normal /= np.linalg.norm(normal)

@@ -88,8 +88,7 @@ def structure(
 
 
 def _contact(body: str, other: str, area: ContactArea, friction: float) -> ContactPolygon[str]:
-    ring = np.asarray(area.polygon.exterior.coords)[:-1]
-    return ContactPolygon(body, other, np.column_stack([ring, np.full(len(ring), area.height)]), area.normal, friction)
+    return ContactPolygon(body, other, area.corners(), area.normal, friction)
 
 
 def _box(p: Place | Fixture) -> Box:

@@ -295,3 +295,23 @@ def test_a_fallen_pile_is_at_rest_when_its_kinetic_energy_is_under_that_at_the_r
     s.engine.velocities[b2] = (np.array([0.0, 0.0, 0.0]), np.zeros(3))
     stack.bodies[b2].clock.fallen = False  # a placed brick is not taken along before it is at rest
     assert s.ext._debris._pile(stack.bodies[b1], contacts, 1.0) == []
+
+
+def test_a_contact_polygon_between_tilted_faces_lies_on_them():
+    """The equilibrium program's polygon for a brick lying face to face on a fixed brick tilted
+    30 deg: its vertices on the support's top face (they were at its mean height)."""
+    from scipy.spatial.transform import Rotation
+
+    s = Scene()
+    tilt = Rotation.from_euler("y", 30, degrees=True)
+    up = tilt.apply([0, 0, 1.0])
+    support = Pose(np.array([0.0, 0.0, 0.1]), tilt.as_quat())
+    s.engine.poses[7], s.engine.frozen = support, s.engine.frozen | {7}
+    s.ext.add_ground(7, KAPLA, "ramp")
+    body = s.brick(0.0, 1, on=())
+    s.engine.poses[body] = Pose(support.position + 0.008 * up, tilt.as_quat())
+    s.engine.touch(body, 7, [support.position + 0.004 * up], normal=up)
+    points = [c for c in s.engine.contacts if c.body == body]
+    (polygon,) = s.ext._areas.polygons(s.ext._stack.bodies[body], {7: points})
+    assert len(polygon.points) == 4
+    assert np.abs((polygon.points - (support.position + 0.004 * up)) @ up).max() < 1e-9

@@ -89,6 +89,22 @@ def test_faces_tilted_together_touch_face_to_face():
     assert face_overlap(KAPLA, alone, KAPLA, Pose.from_euler([0, 0, 0.004]), gap=0.001) is None
 
 
+@pytest.mark.parametrize("degrees", [1.5, 40.0])
+def test_the_corners_of_a_tilted_face_overlap_lie_on_the_faces(degrees):
+    """A brick lying along another tilted by ``degrees`` about y: the overlap's corners lie on
+    the lower brick's top face, not at the mean height (38 mm off it at the ends, at 40 deg)."""
+    tilt = Rotation.from_euler("y", degrees, degrees=True)
+    lower = Pose(np.array([0, 0, 0.1]), tilt.as_quat())
+    up = tilt.apply([0, 0, 1.0])
+    upper = Pose(lower.position + 0.008 * up, tilt.as_quat())
+    area = face_overlap(KAPLA, upper, KAPLA, lower, gap=0.001)
+    assert area is not None
+    corners = area.corners()
+    top = lower.position + 0.004 * up
+    assert np.abs((corners - top) @ up).max() < 1e-9
+    assert np.ptp(corners[:, 2]) == pytest.approx(0.12 * math.sin(math.radians(degrees)), rel=1e-6)
+
+
 def test_combined_hull_spans_both_supports():
     from stability import ContactArea
 

@@ -29,7 +29,10 @@ TOWER = "stackdsl: 1\nstructure: {tower: {levels: 2}}\ntiming: {settle: 0.5 s}\n
 
 
 @pytest.fixture
-def project(pytester):
+def project(pytester, monkeypatch):
+    # the inner run is not an xdist worker even when this one is (``pytest -n 2``): syrupy reads
+    # the variable and would leave its report to a controller that the inner run does not have
+    monkeypatch.delenv("PYTEST_XDIST_WORKER", raising=False)
     pytester.makefile(".toml", pyproject="[tool.pytest.ini_options]\nstackdsl_paths = ['scenarios']\n")
     pytester.mkdir("scenarios")
     return pytester

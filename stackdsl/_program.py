@@ -123,9 +123,12 @@ class Fixture(_Frozen):
 
 
 class Rule(_Frozen):
-    """A rule of the stability extension and whether this scene runs it, with why."""
+    """A rule of the extension mode and whether this scene runs it, with why: the stability
+    extension's ``basic``, ``leaning`` and ``impacts`` rules, and ``rigid``, fallen bricks
+    settling as rigid bodies once a collapse is decided
+    (:class:`stackdsl._subscribers.RigidDebris`)."""
 
-    name: Literal["basic", "leaning", "impacts"]
+    name: Literal["basic", "leaning", "impacts", "rigid"]
     on: bool
     reason: str
 
@@ -174,7 +177,7 @@ class Program(_Frozen):
         ground_friction, ground_restitution: of the ground plane's material.
         stability: the stability extension's settings, fully resolved: the scenario's,
             the engine's gravity, and the rules this scene needs (``leaning``, ``impacts``).
-        rules: the extension's rules this scene needs (model only what a scene needs).
+        rules: the extension mode's rules this scene needs (model only what a scene needs).
         fixtures: environment bodies, created first.
         collapse_threshold: metres a structure brick may leave its placed pose.
         settle: seconds the run goes on after the first collapse.

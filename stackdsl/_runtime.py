@@ -11,7 +11,9 @@ bitwise repeatable only then; MuJoCo compiles its model again for each, keeping 
 Collapse detection is the same in every mode: after the first structure brick leaves
 its placed pose by more than the collapse threshold, nothing more is placed and the run
 ends ``settle`` seconds later. In extension mode, while every brick is frozen nothing
-can move, so the run jumps to the next action instead of stepping.
+can move, so the run jumps to the next action instead of stepping; and once a collapse is
+decided, the bricks still moving become rigid bodies on pybullet (half the cost a step),
+unless the scene judges what stays after the collapse (the program's ``rigid`` rule).
 
 Two guards keep a run finite (the compiler's work budget refuses the scenarios that
 would take too long before anything runs, :mod:`stackdsl._compiler`):
@@ -44,8 +46,8 @@ from ._collapse import CollapseMonitor
 from ._loop import CLOCK_EVERY, StepLoop, Subscriber
 from ._outcome import Outcome
 from ._program import EngineSettings, Program
-from ._subscribers import Stability, Substeps
-from ._world import World, pybullet_world
+from ._subscribers import RigidDebris, Stability, Substeps
+from ._world import PyBulletWorld, World, pybullet_world
 
 __all__ = ["CLOCK_EVERY", "RunOptions", "run_in", "run_program"]
 
@@ -66,6 +68,10 @@ class RunOptions:
             False runs leaning and impacts always.
         per_event: run the stack-wide test when the stack changes; False every step.
         stop_at_collapse: place nothing after the first collapse and end ``settle`` later.
+        rigid_debris: in extension mode on pybullet, with ``stop_at_collapse`` and the
+            program's ``rigid`` rule on, the bricks that move once the collapse is decided are
+            re-created as rigid bodies (maximal coordinates), cheaper to step
+            (:class:`stackdsl._subscribers.RigidDebris`).
 
     Source: stackdsl's own (model only what a scene needs).
     """
@@ -75,6 +81,7 @@ class RunOptions:
     needed_rules: bool = True
     per_event: bool = True
     stop_at_collapse: bool = True
+    rigid_debris: bool = True
 
 
 def run_program(
@@ -159,10 +166,14 @@ def run_in(
     rest = (program.stability.rest_speed, program.stability.rest_angular_speed, program.stability.rest_duration)
     monitor = CollapseMonitor(program.collapse_threshold, program.settle, stability.graph, *rest)
     own: list[Subscriber] = [Substeps(program.collapse_threshold, acting)] if program.engine.ccd else []
+    after: list[Subscriber] = []
+    rigid = any(r.name == "rigid" and r.on for r in program.rules)
+    if acting and rigid and options.rigid_debris and isinstance(world, PyBulletWorld):
+        after.append(RigidDebris(world.make_rigid))
     loop = StepLoop(
         world,
         program,
-        [*own, stability, monitor, *subscribers],
+        [*own, stability, monitor, *after, *subscribers],
         jump=options.jump,
         stop_at_collapse=options.stop_at_collapse,
         lazy_bodies=options.lazy_bodies if options.lazy_bodies is not None else _lazy(program.engine),

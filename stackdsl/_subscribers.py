@@ -1,5 +1,5 @@
-"""The step loop's subscribers: the stability extension and the substep control (the collapse
-monitor is :mod:`stackdsl._collapse`).
+"""The step loop's subscribers: the stability extension, the substep control and the rigid
+debris (the collapse monitor is :mod:`stackdsl._collapse`).
 
 Source: stackdsl's own; the extension is the report's method (:mod:`stability`).
 """
@@ -7,6 +7,7 @@ Source: stackdsl's own; the extension is the report's method (:mod:`stability`).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -102,3 +103,25 @@ class Substeps(Subscriber):
             loop.events.append(Event(time=loop.now, kind="substeps", brick=fastest.id, level=fastest.level, detail=detail))
         self.substeps = substeps
         loop.world.set_substeps(substeps)
+
+
+class RigidDebris(Subscriber):
+    """Once the run only settles after a collapse (nothing more is placed or thrown, the
+    collapse level is decided), the bricks the engine moves become rigid bodies: ``make_rigid``
+    re-creates them so (:meth:`stackdsl._world.PyBulletWorld.make_rigid`), once, on the step
+    the collapse is decided. What falls then costs the engine about half as much a step;
+    bricks frozen then stay as they are.
+
+    Args:
+        make_rigid: re-creates the given bodies; returns those it re-created.
+
+    Source: stackdsl's own (docs/design.md, modes; measured in docs/results.md).
+    """
+
+    def __init__(self, make_rigid: Callable[[Sequence[int]], list[int]]) -> None:
+        self.make_rigid = make_rigid
+        self.made: list[int] | None = None  # the bodies re-created, once it has happened
+
+    def after_step(self, loop: StepLoop) -> None:
+        if self.made is None and loop.stop_step is not None and loop.stop_at_collapse:
+            self.made = self.make_rigid([r.body for r in loop.structure.moving.values()])

@@ -14,6 +14,9 @@ pybullet facts this adapter encodes (measured with pybullet 3.2.7):
 * Friction anchors stop a resting brick's creep; continuous collision detection needs a
   body in maximal coordinates.
 * Bodies are created in program order, so that a run is bitwise repeatable.
+* A body created right after one was removed gets the removed body's id.
+* A step of a settling heap costs about half as much in rigid bodies (maximal coordinates)
+  as in one-link multibodies (docs/results.md, the collapse phase).
 
 Source: stackdsl's own (the world adapter of dm_control's composer).
 """
@@ -130,6 +133,7 @@ class PyBulletWorld(PyBulletEngine):
         self._read_velocity = client.getBaseVelocity
         self._get_velocity = self._velocity_now
         self._shapes: dict[Vec3, int] = {}  # half extents -> collision shape
+        self._multibodies: dict[int, BrickSpec] = {}  # the bodies created in reduced coordinates
         self._substeps = 1
         client.setGravity(0.0, 0.0, -engine.gravity)
         client.setTimeStep(engine.timestep)
@@ -145,15 +149,49 @@ class PyBulletWorld(PyBulletEngine):
         key = spec.half_extents
         if key not in self._shapes:
             self._shapes[key] = self._client.createCollisionShape(self._p.GEOM_BOX, halfExtents=list(key))
+        maximal = self._engine.maximal_coordinates if maximal is None else maximal
         body: int = self._client.createMultiBody(
             baseMass=spec.mass if mass is None else mass,
             baseCollisionShapeIndex=self._shapes[key],
             basePosition=pose.position.tolist(),
             baseOrientation=pose.orientation.tolist(),
-            useMaximalCoordinates=self._engine.maximal_coordinates if maximal is None else maximal,
+            useMaximalCoordinates=maximal,
         )
         self._material(body, spec.friction, spec.restitution)
+        if not maximal:
+            self._multibodies[body] = spec
         return body
+
+    def make_rigid(self, bodies: Sequence[int]) -> list[int]:
+        """Re-create in maximal coordinates (pybullet's rigid bodies) each of ``bodies`` that
+        is a multibody pybullet moves (mass above 0), at the same pose and velocity, under the
+        same id; returns the ids re-created.
+
+        A step of a settling heap of rigid bodies costs pybullet about half what it costs in
+        multibodies (docs/results.md, the collapse phase). pybullet gives a new body the id
+        the last one removed had, which keeps every id the run holds valid.
+
+        Raises:
+            RuntimeError: pybullet gave a re-created body another id.
+        """
+        made = []
+        for body in bodies:
+            spec = self._multibodies.get(body)
+            if spec is None:
+                continue  # created rigid
+            mass = float(self._client.getDynamicsInfo(body, -1)[0])
+            if mass == 0.0:
+                continue  # frozen or parked: pybullet does not move it
+            (position, orientation), (linear, angular) = self._get_pose(body), self._read_velocity(body)
+            self._client.removeBody(body)
+            del self._multibodies[body]
+            self._velocities.pop(body, None)
+            again = self.create(spec, Pose(np.array(position), np.array(orientation)), mass=mass, maximal=True)
+            if again != body:
+                raise RuntimeError(f"pybullet re-created body {body} as {again}")
+            self._client.resetBaseVelocity(body, linear, angular)
+            made.append(body)
+        return made
 
     def _material(self, body: int, friction: float, restitution: float) -> None:
         self._client.changeDynamics(

@@ -175,11 +175,16 @@ def test_rules_follow_the_scene():
     def rules(text):
         return {r.name: r.on for r in program(text).rules}
 
-    assert rules("stackdsl: 1\nstructure: {tower: {levels: 2}}\n") == {"basic": True, "leaning": False, "impacts": False}
+    tower = {"basic": True, "leaning": False, "impacts": False, "rigid": True}
+    assert rules("stackdsl: 1\nstructure: {tower: {levels: 2}}\n") == tower
     assert rules("stackdsl: 1\nstructure: {card_house: {levels: 1}}\n")["leaning"]
     thrown = (
         "stackdsl: 1\nstructure: {tower: {levels: 2}}\nimpacts: [{target: {level: 2, side: +x}, speed: 1, at: after level 2}]\n"
     )
-    assert rules(thrown)["impacts"] and rules(thrown)["leaning"]
+    assert rules(thrown)["impacts"] and rules(thrown)["leaning"] and rules(thrown)["rigid"]
+    assert not rules(thrown + "expect: {stays: 1}\n")["rigid"] and not rules(thrown + "expect: {may_fall: 2}\n")["rigid"]
     text = format_program(program("stackdsl: 1\nstructure: {card_house: {levels: 1}}\n"))
     assert "rule leaning  on   bricks placed tilted: V1.1a, V1.1b" in text and "rule impacts  off  nothing is thrown" in text
+    assert "rule rigid    off  expect.stays is judged after a collapse" in format_program(
+        program(thrown + "expect: {stays: 1}\n")
+    )

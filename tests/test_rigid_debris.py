@@ -1,0 +1,79 @@
+"""Fallen bricks settle as rigid bodies once a collapse is decided: the world re-creates them
+under the same ids, the verdict and the collapse graph are those of the multibody run, and a
+scene that judges what stays after a collapse keeps its multibodies."""
+
+from __future__ import annotations
+
+import pytest
+
+from stability import Pose
+from stackdsl import EngineSettings, compile_scenario, parse_scenario
+from stackdsl._compiler import _spec
+from stackdsl._runtime import RunOptions, run_in
+from stackdsl._subscribers import RigidDebris
+from stackdsl._world import pybullet_world
+
+SINGLE_FILE = "stackdsl: 1\nstructure: {tower: {levels: 12, bricks_per_layer: 1, turn: 0, shift: 13 mm}}\n"
+
+
+def test_the_world_re_creates_a_moving_multibody_as_a_rigid_body_under_its_id():
+    spec = _spec(parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 1}}\n"), "kapla")
+    settings = EngineSettings(mode="extension", timestep=1 / 240, solver_iterations=50)
+    with pybullet_world(settings, 0.5, 0.0) as world:
+        moving = world.create(spec, Pose.from_euler([0.0, 0.0, 0.2], yaw=0.3))
+        frozen = world.create(spec, Pose.from_euler([0.5, 0.0, 0.004]))
+        world.set_frozen(frozen, True, spec.mass)
+        thrown = world.create(spec, Pose.from_euler([-0.5, 0.0, 0.2]), maximal=True)
+        world.throw(moving, (0.1, 0.0, 0.0), None)
+        world.step()
+        pose, (linear, angular) = world.pose(moving), world.velocity(moving)
+        assert world.make_rigid([moving, frozen, thrown]) == [moving]  # neither the frozen nor the rigid one
+        assert world.pose(moving).position == pytest.approx(pose.position)
+        assert world.pose(moving).orientation == pytest.approx(pose.orientation)
+        assert world.velocity(moving)[0] == pytest.approx(linear) and world.velocity(moving)[1] == pytest.approx(angular)
+        assert world.make_rigid([moving]) == []  # rigid now
+        for _ in range(240):
+            world.step()
+        assert world.pose(moving).position[2] == pytest.approx(0.004, abs=2e-4)  # it landed on the ground
+        assert world.speeds(moving)[0] < 1e-3
+        world.set_frozen(frozen, False, spec.mass)
+        assert world.make_rigid([frozen]) == [frozen]  # woken, it moves again
+
+
+def _run(text: str, options: RunOptions | None = None):
+    options = options or RunOptions()
+    program = compile_scenario(parse_scenario(text, "slant.yaml"))
+    with pybullet_world(program.engine, program.ground_friction, program.ground_restitution) as world:
+        loop = run_in(world, program, options)
+    rigid = [s for s in loop.subscribers if isinstance(s, RigidDebris)]
+    return loop, rigid[0] if rigid else None
+
+
+def test_fallen_bricks_become_rigid_when_the_collapse_is_decided_and_the_verdict_is_unchanged():
+    rigid_loop, rigid = _run(SINGLE_FILE)
+    loop, none = _run(SINGLE_FILE, RunOptions(rigid_debris=False))
+    assert none is None and rigid is not None and rigid.made
+    collapse = next(s for s in rigid_loop.subscribers if hasattr(s, "collapse_graph"))
+    before = next(s for s in loop.subscribers if hasattr(s, "collapse_graph"))
+    assert collapse.collapse == before.collapse and collapse.collapse.level == 10
+    assert collapse.collapse_graph == before.collapse_graph
+    decided = collapse.collapse.decided
+    assert [e for e in rigid_loop.events if e.time <= decided] == [e for e in loop.events if e.time <= decided]
+    last: dict[str, str] = {}  # each brick's last freeze or wake by the decision
+    for e in rigid_loop.events:
+        if e.time <= decided and e.kind in ("place", "freeze", "wake"):
+            last[e.brick] = e.kind
+    moving = {name for name, kind in last.items() if kind != "freeze"}
+    records = {r.body: r.id for r in rigid_loop.structure.records.values()}
+    assert {records[b] for b in rigid.made} == moving and len(moving) >= 3
+
+
+def test_a_scene_judged_after_its_collapse_keeps_its_multibodies():
+    impact = "impacts: [{target: {level: 12, side: +x}, speed: 3, at: after level 12}]\n"
+    tower = "stackdsl: 1\nstructure: {tower: {levels: 12}}\n" + impact
+    _, rigid = _run(tower + "expect: {stays: 1-10}\n")
+    assert rigid is None
+    _, rigid = _run(tower)
+    assert rigid is not None
+    _, unused = _run(SINGLE_FILE, RunOptions(stop_at_collapse=False))
+    assert unused is not None and unused.made is None  # placing goes on after the collapse: no settle yet

@@ -41,11 +41,11 @@ from stability import Box, Pose, StabilityConfig
 
 from ._bounds import MAX_SIMULATED_TIME
 from ._clearance import check_launch
-from ._expectations import Expect
-from ._layouts import LaidBrick, layout, lie_flat, with_placement_error
+from ._layouts import LaidBrick, layout, with_placement_error
 from ._overlap import Body
 from ._precheck import precheck
-from ._program import BrickSpec, End, EngineSettings, Fixture, Launch, Place, Program, Rule
+from ._program import BrickSpec, End, EngineSettings, Fixture, Launch, Place, Program
+from ._rules import choose_rules
 from ._schema import BACKEND_FIELDS, Scenario
 from ._schema_impacts import SIDES, AfterLevel, Impact
 
@@ -146,7 +146,7 @@ def compile_scenario(
         raise scenario.source.error(where, f"the run would last {end:.0f} s; at most {MAX_SIMULATED_TIME:.0f} s are simulated")
     actions.append(End(step=actions[-1].step + settle, time=end))
     ground = scenario.material(scenario.ground.material)
-    rules = _rules(bricks, launches, scenario.expect)
+    rules = choose_rules(bricks, launches, scenario.expect)
     on = {r.name: r.on for r in rules}
     settings = {**scenario.stability.model_dump(exclude_none=True), **({"model": model} if model else {})}
     program = Program(
@@ -281,39 +281,6 @@ def _bodies(scenario: Scenario, placed: list[LaidBrick], nominal: list[LaidBrick
         )
         for i, (b, n) in enumerate(zip(placed, nominal))
     ]
-
-
-def _rules(bricks: list[LaidBrick], launches: list[Launch], expect: Expect) -> tuple[Rule, ...]:
-    """The extension mode's rules this scene needs: leaning only if a brick does not lie flat
-    or something is thrown (it may come to rest leaning), impacts only if something is thrown,
-    fallen bricks as rigid bodies unless levels are expected to stay or may fall, which is
-    judged after the collapse (docs/design.md: what the compiler switches on)."""
-    tilted = [b.id for b, flat in zip(bricks, lie_flat(bricks)) if not flat]
-    judged_after = next((name for name in ("stays", "may_fall") if getattr(expect, name) is not None), None)
-    listed = ", ".join(tilted[:4]) + (f" and {len(tilted) - 4} more" if len(tilted) > 4 else "")
-    lean = (
-        f"bricks placed tilted: {listed}"
-        if tilted
-        else "a thrown brick may come to rest leaning"
-        if launches
-        else "every brick lies flat and nothing is thrown"
-    )
-    return (
-        Rule(name="basic", on=True, reason="every scene"),
-        Rule(name="leaning", on=bool(tilted or launches), reason=lean),
-        Rule(
-            name="impacts",
-            on=bool(launches),
-            reason=f"{len(launches)} projectile{'s' * (len(launches) != 1)}" if launches else "nothing is thrown",
-        ),
-        Rule(
-            name="rigid",
-            on=judged_after is None,
-            reason=f"expect.{judged_after} is judged after a collapse"
-            if judged_after
-            else "nothing is judged on bricks after a collapse: they settle as rigid bodies",
-        ),
-    )
 
 
 def _engine(scenario: Scenario, mode: str | None, backend: str | None = None) -> EngineSettings:

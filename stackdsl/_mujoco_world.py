@@ -15,16 +15,7 @@ no degrees of freedom and MuJoCo makes no contacts between two frozen bricks, as
 makes none between two bodies of mass 0 (docs/design.md, "MuJoCo", gives the measurements
 that chose this over a weld equality or MuJoCo's own sleeping).
 
-Materials:
-
-* Friction: a pair of bodies has the geometric mean of their materials' coefficients,
-  as on pybullet (:func:`stability.pair_friction`): bodies of one material collide by
-  MuJoCo's own rule (the geom's coefficient, since both are equal); a pair of different
-  materials is declared as an explicit contact pair with the mean.
-* Restitution ``e`` becomes the damping ratio of the contact's spring-damper,
-  ``zeta = -ln e / sqrt(pi^2 + ln^2 e)`` (the damped oscillator's coefficient of
-  restitution); ``e = 0`` keeps the setting's own ratio (at least 1: no bounce).
-* Density: each body's mass is the brick's, with the inertia of a uniform box.
+Materials (friction of a pair, restitution, density): :mod:`stackdsl._mujoco_materials`.
 
 Source: stackdsl's own, on MuJoCo 4.0's Python bindings.
 """
@@ -40,30 +31,13 @@ from scipy.spatial.transform import Rotation
 
 from stability import ContactPoint, Pose
 
+from ._mujoco_materials import Materials
 from ._program import BrickSpec, EngineSettings, Vec3
 
 #: Where the free body of a frozen brick waits, and the held body of an active one: far
 #: from any scene (positions are within 1 km), one slot per brick so that none overlap.
 _AWAY = np.array([5000.0, 5000.0, 100.0])
 _SLOT = 0.5  # m between two waiting bodies
-
-
-def damping_ratio(restitution: float, default: float) -> float:
-    """The contact damping ratio for a coefficient of restitution (0 to 1).
-
-    A linear spring-damper with damping ratio ``zeta`` < 1 rebounds with
-    ``e = exp(-zeta pi / sqrt(1 - zeta^2))``; this is its inverse. ``e = 0`` gives
-    ``default``. Source: the damped harmonic oscillator (any mechanics text).
-
-    >>> round(damping_ratio(0.5, 1.0), 3)
-    0.215
-    >>> damping_ratio(0.0, 2.0)
-    2.0
-    """
-    if restitution <= 0.0:
-        return default
-    log_e = math.log(min(restitution, 1.0 - 1e-9))
-    return -log_e / math.sqrt(math.pi**2 + log_e**2)
 
 
 class MuJoCoWorld:
@@ -93,7 +67,6 @@ class MuJoCoWorld:
         self.ground = 0
         self._substeps = 1
         self._specs: list[BrickSpec] = []
-        self._materials: dict[tuple[float, float], int] = {}  # (friction, restitution) -> group
         self._model: Any = None
         self._data: Any = None
         self._frozen = np.zeros(0, dtype=bool)
@@ -118,45 +91,10 @@ class MuJoCoWorld:
         # MuJoCo compensates gravity only in a model compiled with a body that asks for it; this
         # static body (no joint, no geom) does, so that a waiting body's switch works at run time
         spec.worldbody.add_body(name="gravcomp", gravcomp=1.0)
-        self._ground_material = (ground_friction, ground_restitution)
-        self._surface(ground, ground_friction, ground_restitution)
+        self._materials = Materials(engine, (ground_friction, ground_restitution))
+        self._materials.surface(ground, ground_friction, ground_restitution)
 
     # building -----------------------------------------------------------------
-    def _group(self, friction: float, restitution: float) -> int:
-        key = (friction, restitution)
-        if key not in self._materials:
-            if len(self._materials) >= 30:
-                raise ValueError("the MuJoCo backend takes at most 30 materials in one scene")
-            self._materials[key] = len(self._materials)
-        return self._materials[key]
-
-    def _surface(self, geom: Any, friction: float, restitution: float) -> None:
-        """Friction, contact softness and collision group of ``geom`` for its material."""
-        e = self._engine
-        bit = 1 << self._group(friction, restitution)
-        geom.contype = geom.conaffinity = bit
-        geom.friction = [friction, 0.005, 0.0001]
-        geom.solref = [e.solref[0], damping_ratio(restitution, e.solref[1])]
-        geom.solimp = [*e.solimp, 0.5, 2.0]
-
-    def _pairs(self, body: int, spec: BrickSpec) -> None:
-        """Explicit contact pairs between ``body``'s geoms and every geom of another material."""
-        mine = (spec.friction, spec.restitution)
-        if set(self._materials) == {mine}:
-            return  # one material in the scene so far: MuJoCo's own rule gives its coefficient
-        others = [("ground", self._ground_material)]
-        others += [(f"{s}{i}", (b.friction, b.restitution)) for i, b in enumerate(self._specs, 1) if i != body for s in "fh"]
-        for name, material in others:
-            if material == mine:
-                continue
-            mu = math.sqrt(mine[0] * material[0])
-            e = math.sqrt(mine[1] * material[1])
-            for own in (f"f{body}", f"h{body}"):
-                pair = self._spec.add_pair(geomname1=own, geomname2=name)
-                pair.friction = [mu, mu, 0.005, 0.0001, 0.0001]
-                pair.solref = [self._engine.solref[0], damping_ratio(e, self._engine.solref[1])]
-                pair.solimp = [*self._engine.solimp, 0.5, 2.0]
-
     def create(self, spec: BrickSpec, pose: Pose, mass: float | None = None, maximal: bool | None = None) -> int:
         """A new brick at ``pose``; ``mass`` 0 creates it frozen. ``maximal`` is pybullet's and ignored."""
         mj = self._mj
@@ -168,10 +106,10 @@ class MuJoCoWorld:
         held = self._spec.worldbody.add_body(name=f"held{body}", pos=list(held_at), quat=_wxyz(pose.orientation), mocap=True)
         for name, owner in ((f"f{body}", free), (f"h{body}", held)):
             geom = owner.add_geom(name=name, type=mj.mjtGeom.mjGEOM_BOX, size=list(spec.half_extents), mass=spec.mass)
-            self._surface(geom, spec.friction, spec.restitution)
+            self._materials.surface(geom, spec.friction, spec.restitution)
         self._specs.append(spec)
         self._frozen = np.append(self._frozen, frozen)
-        self._pairs(body, spec)
+        self._materials.pairs(self._spec, body, spec, self._specs)
         if self._model is not None:
             self._compile()
         return body
@@ -216,7 +154,7 @@ class MuJoCoWorld:
         measured on 4.0: a parked brick moved in stayed asleep where it was put)."""
         m, i = self._model, body - 1
         spec = self._specs[i]
-        bit = 1 << self._group(spec.friction, spec.restitution)
+        bit = 1 << self._materials.group(spec.friction, spec.restitution)
         free, held = self._free_geom[i], self._held_geom[i]
         on, off = (held, free) if self._frozen[i] else (free, held)
         m.geom_contype[on] = m.geom_conaffinity[on] = bit

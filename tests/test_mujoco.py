@@ -16,7 +16,8 @@ import pytest
 from stability import Pose
 from stackdsl import compile_scenario, evaluate, load_scenario, parse_scenario, run_program
 from stackdsl._compiler import BACKEND_DEFAULTS
-from stackdsl._mujoco_world import MuJoCoWorld, damping_ratio
+from stackdsl._mujoco_materials import damping_ratio
+from stackdsl._mujoco_world import MuJoCoWorld
 from stackdsl._program import BrickSpec, EngineSettings
 
 ROOT = Path(__file__).resolve().parents[1]

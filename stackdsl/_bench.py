@@ -278,9 +278,18 @@ def savings(repeats: int = 3) -> list[tuple[str, str, float, int]]:
     ):
         program = program_for(scene, "extension report")
         outcomes = [run_program(program, options) for _ in range(repeats)]
-        label = f"{scene.family}, {scene.parameter:g} {'levels' if scene.family == 'upright' else 'mm'}"
-        rows.append((name, label, statistics.median(o.wall_time for o in outcomes), outcomes[0].steps))
+        median = statistics.median(o.wall_time for o in outcomes)
+        rows.append((name, scene_label(scene.family, scene.parameter), median, outcomes[0].steps))
     return rows
+
+
+def scene_label(family: str, parameter: float) -> str:
+    """A scene as the bench's tables name it.
+
+    >>> scene_label("slant log cabin", 3.5), scene_label("upright", 30)
+    ('slant log cabin, 3.5 mm', 'upright, 30 levels')
+    """
+    return f"{family}, {parameter:g} {'levels' if family == 'upright' else 'mm'}"
 
 
 def fit_exponent(points: Sequence[tuple[float, float]]) -> float:

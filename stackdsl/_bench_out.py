@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from ._bench import SETTINGS, Cell, fit_exponent
+from ._bench import SETTINGS, Cell, fit_exponent, scene_label
 from ._bench_plot import plot_error, plot_height
 
 
@@ -123,7 +123,7 @@ def markdown(cells: list[Cell], saved: list[tuple[str, str, float, int]], target
     by = {(c.setting, c.family, c.parameter): c for c in cells}
     for family, parameter in keys:
         first = next(c for c in cells if (c.family, c.parameter) == (family, parameter))
-        label = f"{family}, {parameter:g} {'levels' if family == 'upright' else 'mm'}"
+        label = scene_label(family, parameter)
         expected = "stands" if first.closed_form is None else str(first.closed_form)
         row = []
         for s in settings:
@@ -221,7 +221,7 @@ def ratios(cells: list[Cell], base: str = BASE, wall: Callable[[Cell], float] = 
             row.append(f"{wall(c) / wall(ref):.2f}" if c else "")
             if c:
                 logs.setdefault((family, s), []).append(float(np.log(wall(c) / wall(ref))))
-        label = f"{family}, {parameter:g} {'levels' if family == 'upright' else 'mm'}"
+        label = scene_label(family, parameter)
         lines.append(f"| {label} | {wall(ref):.2f} s | " + " | ".join(row) + " |")
     for family in sorted({f for f, _ in keys}):
         means = [f"{np.exp(np.mean(logs[(family, s)])):.2f}" if (family, s) in logs else "" for s in settings]

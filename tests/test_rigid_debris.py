@@ -8,6 +8,7 @@ import pytest
 
 from stability import Pose
 from stackdsl import EngineSettings, compile_scenario, parse_scenario
+from stackdsl._collapse import CollapseMonitor
 from stackdsl._compiler import _spec
 from stackdsl._runtime import RunOptions, run_in
 from stackdsl._subscribers import RigidDebris
@@ -53,8 +54,8 @@ def test_fallen_bricks_become_rigid_when_the_collapse_is_decided_and_the_verdict
     rigid_loop, rigid = _run(SINGLE_FILE)
     loop, none = _run(SINGLE_FILE, RunOptions(rigid_debris=False))
     assert none is None and rigid is not None and rigid.made
-    collapse = next(s for s in rigid_loop.subscribers if hasattr(s, "collapse_graph"))
-    before = next(s for s in loop.subscribers if hasattr(s, "collapse_graph"))
+    collapse = next(s for s in rigid_loop.subscribers if isinstance(s, CollapseMonitor))
+    before = next(s for s in loop.subscribers if isinstance(s, CollapseMonitor))
     assert collapse.collapse == before.collapse and collapse.collapse.level == 10
     assert collapse.collapse_graph == before.collapse_graph
     decided = collapse.collapse.decided

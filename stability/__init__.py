@@ -32,8 +32,9 @@ Register the ground and every brick, call ``update`` once per step, read the bri
 Source: "Simulating Object Stacking Using Stack Stability", chapter 3.
 """
 
+from ._certificate import Certificate
 from ._engine import ContactPoint, Engine, FakeEngine, PyBulletEngine
-from ._equilibrium import ContactPolygon, Equilibrium, RigidBlock, is_level, solve_equilibrium
+from ._equilibrium import ContactPolygon, Equilibrium, RigidBlock, equilibrium_margin, is_level, solve_equilibrium
 from ._extension import StabilityConfig, StabilityEvent, StabilityExtension
 from ._geometry import Box, ContactArea, Plane, Pose, combined_hull, contains, face_overlap, padded_hull
 from ._graph import BrickGraph, BrickState, GraphEdge, GraphNode
@@ -46,6 +47,7 @@ __all__ = [
     "Box",
     "BrickGraph",
     "BrickState",
+    "Certificate",
     "ContactArea",
     "ContactPoint",
     "ContactPolygon",
@@ -66,6 +68,7 @@ __all__ = [
     "breaks_loose",
     "combined_hull",
     "contains",
+    "equilibrium_margin",
     "face_overlap",
     "is_level",
     "kinetic_energy",

@@ -18,7 +18,7 @@ import numpy as np
 
 from ._engine import ContactPoint
 from ._equilibrium import ContactPolygon
-from ._geometry import ContactArea, Plane, combined_hull, contains, face_overlap, padded_hull
+from ._geometry import ContactArea, Plane, Pose, combined_hull, contains, face_overlap, padded_hull
 from ._graph import BrickState
 from ._leaning import lean_polygon, pair_friction
 from ._stack import Record, Stack
@@ -102,6 +102,45 @@ class ContactAreas:
             normal /= np.linalg.norm(normal)
             polygon = lean_polygon(np.array([c.position for c in points]), normal, self.config.contact_pad)
             out.append(ContactPolygon(rec.body, other, polygon, normal, friction))
+        return out
+
+    def lying_on(self, rec: Record, pose: Pose, active: bool = False) -> dict[int, ContactArea]:
+        """The frozen bricks and environment bodies (and with ``active`` the active bricks too)
+        ``rec`` lies on face to face at ``pose`` (its bottom face within the face gap of their
+        top faces), with the exact contact areas (:func:`stability._geometry.face_overlap`), in
+        registration order. From the poses alone: no contact point is read."""
+        gap = self.config.face_gap
+        corners = rec.box.corners(pose)
+        bottom = float(corners[:, 2].min())
+        x0, y0 = corners[:, :2].min(axis=0)
+        x1, y1 = corners[:, :2].max(axis=0)
+        out = {}
+        for other in self.stack.bodies.values():
+            if (other.state is BrickState.ACTIVE and not active) or other is rec:
+                continue
+            if isinstance(other.shape, Plane):
+                area = face_overlap(rec.box, pose, other.shape, None, gap)
+            else:
+                extent = other.extent
+                if extent is None:  # an environment box (still: found once), or an active brick
+                    c = other.shape.corners(self.stack.pose(other))
+                    low, high = c.min(axis=0), c.max(axis=0)
+                    extent = (float(high[2]), float(low[0]), float(high[0]), float(low[1]), float(high[1]))
+                    if other.state is BrickState.GROUND:
+                        other.extent = extent
+                top, ox0, ox1, oy0, oy1 = extent
+                if (
+                    bottom > top + gap
+                    or bottom < top - float(other.shape.half_extents.min())
+                    or ox0 >= x1
+                    or ox1 <= x0
+                    or oy0 >= y1
+                    or oy1 <= y0
+                ):
+                    continue
+                area = face_overlap(rec.box, pose, other.shape, self.stack.pose(other), gap)
+            if area is not None and area.area > 0.0:
+                out[other.body] = area
         return out
 
     def holds(self, main: ContactArea, point: Sequence[float] | np.ndarray) -> bool:

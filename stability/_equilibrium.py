@@ -369,3 +369,111 @@ def _forces(
             if key in by_body:
                 by_body[key] += pulled
     return forces, by_body, by_contact
+
+
+def equilibrium_margin(
+    blocks: Mapping[BodyKey, RigidBlock],
+    contacts: Sequence[ContactPolygon[BodyKey]],
+    *,
+    directions: int = 4,
+    limit: float = 0.02,
+    sides: int = 8,
+    gravity: float = GRAVITY,
+) -> float | None:
+    """How far every centre of mass can move together, horizontally, before no compressive,
+    friction-bounded contact forces balance the blocks: the least over ``directions`` evenly
+    spaced directions (the first along x), metres, at most ``limit``; None when they do not
+    stand as they are (then :func:`solve_equilibrium` gives the mechanism).
+
+    One linear program: moving a block's centre of mass by ``d u`` changes only its torque
+    rows, by ``d u x (the sum of its contact forces)``, and force balance fixes that sum at the
+    block's weight, so the shift enters the rows linearly. The program holds one set of forces
+    per direction, all sharing ``d``, and maximises ``d``: the feasible shifts in each direction
+    form an interval from 0, so the largest common one is the least of their ends. Where every
+    contact is level the vertical-force program is used (:func:`solve_equilibrium`'s quick
+    test): it is sufficient, so its margin is a lower bound of the full program's, and its
+    None leaves the answer to the full one. Source: stackdsl's own, on the program of Livesley
+    (1978) and Whiting et al. (2009).
+
+    Raises:
+        ValueError: a contact has no point, ``directions`` < 1 or ``limit`` <= 0.
+
+    >>> import numpy as np
+    >>> ground = ContactPolygon("brick", "ground", np.array([[-0.06, -0.012, 0], [0.06, -0.012, 0],
+    ...     [0.06, 0.012, 0], [-0.06, 0.012, 0]]), np.array([0, 0, 1.0]), 0.5)
+    >>> round(equilibrium_margin({"brick": RigidBlock(0.0106, np.array([0, 0, 0.004]))}, [ground]) * 1000, 3)  # mm
+    12.0
+    >>> equilibrium_margin({"brick": RigidBlock(0.0106, np.array([0.07, 0, 0.004]))}, [ground]) is None
+    True
+    """
+    if directions < 1 or not limit > 0:
+        raise ValueError("equilibrium_margin needs at least one direction and a positive limit")
+    if not blocks:
+        return limit
+    if not contacts:
+        return None
+    if all(is_level(c, sides) for c in contacts):
+        found = _margin(blocks, contacts, directions, limit, sides, gravity, level=True)
+        if found is not None:
+            return found
+    return _margin(blocks, contacts, directions, limit, sides, gravity, level=False)
+
+
+def _margin(
+    blocks: Mapping[BodyKey, RigidBlock],
+    contacts: Sequence[ContactPolygon[BodyKey]],
+    directions: int,
+    limit: float,
+    sides: int,
+    gravity: float,
+    level: bool,
+) -> float | None:
+    """:func:`equilibrium_margin` by the vertical-force program (``level``) or the full one."""
+    keys = list(blocks)
+    index = {k: i for i, k in enumerate(keys)}
+    weight = max(b.mass for b in blocks.values()) * gravity or 1.0
+    points, owner = _vertices(contacts)
+    scale = 0.1
+    torque_rows: tuple[int, ...]
+    if level:
+        rows: list[np.ndarray] = []
+        cols: list[np.ndarray] = []
+        vals: list[np.ndarray] = []
+        for side, block, com in _ends(contacts, blocks, index, owner):
+            free = np.flatnonzero(block >= 0)
+            lever = (points[free] - com[free]) / scale
+            rows += [3 * block[free], 3 * block[free] + 1, 3 * block[free] + 2]
+            cols += [free] * 3
+            vals += [np.full(len(free), side), side * lever[:, 1], -side * lever[:, 0]]
+        a_eq = sparse.csr_matrix((_cat(vals), (_cat(rows), _cat(cols))), shape=(3 * len(keys), len(owner)))
+        per_block, vertical, torque_rows, fixed = 3, 0, (1, 2), np.zeros(a_eq.shape[1], dtype=bool)
+    else:
+        generators = _generators(contacts, blocks, sides, points, owner)
+        a_eq = _balance(contacts, blocks, index, generators, points, owner)
+        per_block, vertical, torque_rows = 6, 2, (3, 4, 5)
+        fixed = np.arange(a_eq.shape[1]) % (1 + sides) == 0  # no tension
+    rhs = np.zeros(per_block * len(keys))
+    loads = np.zeros(len(keys))
+    for key, b in blocks.items():
+        rhs[per_block * index[key] + vertical] = b.mass * gravity / weight
+        loads[index[key]] = b.mass * gravity / weight / scale
+    columns = []
+    for angle in 2 * math.pi * np.arange(directions) / directions:
+        u = (math.cos(angle), math.sin(angle))
+        # the weight moved by d u turns about the old centre of mass by d (u x z) = d (u_y, -u_x, 0),
+        # which the contact forces must balance: in the vertical program's rows Mx = y Fz, My = -x Fz too
+        moment = (u[1], -u[0])
+        column = np.zeros(per_block * len(keys))
+        for r, m in zip(torque_rows, moment):
+            column[per_block * np.arange(len(keys)) + r] = -m * loads
+        columns.append(column)
+    a = sparse.hstack([sparse.block_diag([a_eq] * directions), sparse.csr_matrix(np.concatenate(columns)[:, None])]).tocsr()
+    cost = np.zeros(a.shape[1])
+    cost[-1] = -1.0
+    upper = np.concatenate([np.where(fixed, 0.0, np.inf)] * directions + [np.array([limit])])
+    result = linprog(
+        cost, A_eq=a, b_eq=np.tile(rhs, directions), bounds=np.column_stack([np.zeros(len(upper)), upper]), method="highs"
+    )
+    if result.status != 0:
+        return None
+    return float(min(result.x[-1], limit))

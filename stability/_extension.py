@@ -28,6 +28,7 @@ import numpy as np
 
 from ._admission import Admission
 from ._areas import ContactAreas, Contacts, by_body
+from ._certificate import Certificate, certify
 from ._config import StabilityConfig
 from ._debris import Debris
 from ._engine import Engine
@@ -38,7 +39,10 @@ from ._load import LoadNode, propagate
 from ._stack import Record, StabilityEvent, Stack
 from ._stack_test import StackTest
 
-__all__ = ["StabilityConfig", "StabilityEvent", "StabilityExtension"]
+__all__ = ["LINGER", "StabilityConfig", "StabilityEvent", "StabilityExtension"]
+
+#: Rest durations a placed brick may stay active before the stack is checked against its weight.
+LINGER = 4.0
 
 
 class StabilityExtension:
@@ -119,6 +123,8 @@ class StabilityExtension:
             for rec in due:
                 events += self._admit(rec, contacts, time)
             stack.forget_contacts()
+        if stack.frozen:
+            events += self._lingering(active, time)
         if events or not config.per_event:
             events += self._tests.run(time)
         if config.impacts:
@@ -148,15 +154,65 @@ class StabilityExtension:
             found = self._debris.admit(rec, contacts, time)
         if found:
             rec.failed = None
-        else:  # a refusal changes nothing: what it depended on is as it was before asking
-            rec.failed = (stack.attempt(rec, contacts, time) if attempt is None else attempt, time)
-        return found
+            return found
+        # a refusal changes nothing: what it depended on is as it was before asking; but the
+        # frozen bricks it lies on carry it, so they are checked against its weight
+        rec.failed = (stack.attempt(rec, contacts, time) if attempt is None else attempt, time)
+        woken = self.carry(rec.body, time)
+        if woken:
+            rec.failed = None
+        return woken
+
+    def _lingering(self, active: list[Record], time: float) -> list[StabilityEvent]:
+        """Check the frozen stack against the weight of every brick that has stayed active since
+        it was placed for :data:`LINGER` rest durations (:meth:`carry`): once, and again a rest
+        duration later if the stack or its pose (by 0.1 mm or 0.01 rad) has changed. A brick
+        the engine cannot bring to rest (one that keeps trembling on a compliant contact) would
+        otherwise lie on immovable bricks that no test ever asked to carry it. Bricks woken from
+        the stack are left to the debris rule, which solves them with the stack."""
+        stack, events = self._stack, []
+        for rec in active:
+            if rec.state is not BrickState.ACTIVE or rec.was_frozen:
+                continue
+            if rec.placed_at is None:
+                rec.placed_at = time
+                continue
+            if time - rec.placed_at < LINGER * stack.config.rest_duration:
+                continue
+            if rec.carried is not None and time - float(rec.carried[0]) < stack.config.rest_duration:  # type: ignore[arg-type]
+                continue
+            pose = stack.engine.pose(rec.body)
+            key = (
+                stack.version,
+                *(round(float(v) * 1e4) for v in pose.position),
+                *(round(float(v) * 200) for v in pose.orientation),
+            )
+            if rec.carried is not None and rec.carried[1:] == key:
+                rec.carried = (time, *key)
+                continue
+            rec.carried = (time, *key)
+            events += self.carry(rec.body, time, pose)
+        return events
 
     def _at_rest(self, rec: Record, time: float) -> bool:
         """At rest for the rest duration (report 3.3.2; a fallen brick by the windowed test
         of :mod:`stability._rest`)."""
         speed, angular_speed = self._stack.engine.speeds(rec.body)
         return rec.clock.tick(speed, angular_speed, lambda: self._stack.engine.pose(rec.body), time, self._stack.config)
+
+    def carry(self, body: int, time: float, pose: Pose | None = None) -> list[StabilityEvent]:
+        """Check the frozen stack against the weight of an active brick lying on it: at
+        ``pose`` (where it is about to rest: a placed brick's target) or, when None, where the
+        engine has it. The frozen bricks that cannot carry it wake, with what rests on them;
+        returns the events. The harness calls it when a brick is placed; the extension itself
+        when a brick at rest on the stack is refused admission (it stays active, and the bricks
+        under it are immovable). Source: stackdsl's own (:meth:`stability._stack_test.StackTest.carry`).
+        """
+        rec = self._stack.bodies[body]
+        if rec.state is not BrickState.ACTIVE or not self._stack.frozen:
+            return []
+        where = pose if pose is not None else self._stack.engine.pose(body)
+        return self._tests.carry(rec, where, self._areas.lying_on(rec, where), time)
 
     # wake-up (report 3.3.7) ---------------------------------------------------
     def wake(self, body: int, time: float, reason: str) -> list[StabilityEvent]:
@@ -165,6 +221,12 @@ class StabilityExtension:
         Returns the events, one per brick woken; nothing when ``body`` is not frozen.
         """
         return [w.event for w in self._stack.wake(body, time, reason)]
+
+    def certificate(self) -> Certificate:
+        """Rigid-block equilibrium of every registered brick where it is now, frozen or not
+        (:mod:`stability._certificate`): the proof that a structure stands, with its margin,
+        or the bricks of its collapse mechanism."""
+        return certify(self._stack, self._areas)
 
     # the brick graph ----------------------------------------------------------
     def graph(self) -> BrickGraph:

@@ -9,6 +9,7 @@ everything resting on it (3.3.7). Source: report 3.3.
 from __future__ import annotations
 
 from collections.abc import Collection, Iterable
+from collections.abc import Set as AbstractSet
 from dataclasses import dataclass, field
 from typing import Literal, NamedTuple
 
@@ -29,13 +30,16 @@ from ._rest import RestClock
 class StabilityEvent:
     """Something the extension did: ``kind`` is ``"freeze"``, ``"wake"`` or ``"impact"``
     (an impact the stack held; every landing brick makes one); time in s; ``source`` is
-    the impactor of an impact or of the wake it caused."""
+    the impactor of an impact or of the wake it caused; ``proved``: a wake of a brick that
+    moves in a collapse mechanism statics proved (rigid-block equilibrium, or a part that
+    turns out about an edge of its footing), not only one the report's rules suspect."""
 
     time: float
     kind: Literal["freeze", "wake", "impact"]
     label: str
     reason: str
     source: str = ""
+    proved: bool = False
 
 
 class Woken(NamedTuple):
@@ -70,6 +74,10 @@ class Record:
     load_path: BaseGeometry | None = None
     support_regions: dict[int, BaseGeometry] = field(default_factory=dict)  # where it may push on each support
     failed: tuple[tuple[object, ...], float] | None = None  # its last refusal: what it depended on, when
+    extent: tuple[float, float, float, float, float] | None = None  # frozen: top z, x min, x max, y min, y max (m)
+    placed_at: float | None = None  # s: when the extension's update first saw it
+    was_frozen: bool = False  # frozen at least once (a woken brick is the debris rule's)
+    carried: tuple[object, ...] | None = None  # what its last load check (carry) depended on
     pile: frozenset[int] = frozenset()  # a fallen brick's debris pile (itself, frozen alone), which rigid-block equilibrium holds
 
     def held_by_pile(self) -> bool:
@@ -179,8 +187,8 @@ class Stack:
         lift: float = 0.0,
     ) -> None:
         """Freeze ``rec`` on ``supports`` (its main contact area ``main``, every contact polygon
-        ``polygons``), raised ``lift`` metres out of them (see :func:`stability._areas.overlap`);
-        with the equilibrium model, find its load path."""
+        ``polygons``), raised ``lift`` metres out of them (see :func:`stability._areas.overlap`),
+        and find its load path."""
         at = None
         if lift > 0.0:
             pose = self.engine.pose(rec.body)
@@ -192,17 +200,21 @@ class Stack:
         rec.pile = frozenset({rec.body}) if rec.clock.fallen else frozenset()  # a debris pile's admission widens it
         self.active.pop(rec.body, None)
         rec.frozen_pose = self.engine.pose(rec.body)
+        corners = rec.box.corners(rec.frozen_pose)
+        low, high = corners.min(axis=0), corners.max(axis=0)
+        rec.extent = (float(high[2]), float(low[0]), float(high[0]), float(low[1]), float(high[1]))
+        rec.was_frozen = True
         rec.node = LoadNode(rec.box.mass, rec.frozen_pose.position, supports)
         self.frozen[rec.body] = rec
         self.loads_fresh, self.version = False, self.version + 1
         for s in supports:
             self.bodies[s].objects_above.add(rec.body)
-        if self.config.model == "equilibrium":
-            self._prove(rec)
+        self._prove(rec)  # both models: the load path also certifies a standing stack (stability._certificate)
 
     def _prove(self, rec: Record) -> None:
-        """Find the load path of a brick being frozen and where it may push on each support
-        (:mod:`stability._load_path`), and note it when its centre of mass is not over its path."""
+        """Find the load path of a brick being frozen and, with the equilibrium model, where it may
+        push on each support (:mod:`stability._load_path`); note it when its centre of mass is
+        not over its path."""
         pieces = []
         level: dict[int, list[np.ndarray]] = {}  # support -> its level contact polygons' points
         for c in rec.contacts:
@@ -211,14 +223,16 @@ class Stack:
                 pieces.append(support_piece(c.points, support.load_path, support.state is BrickState.GROUND))
                 level.setdefault(c.other, []).append(c.points)
         rec.load_path = load_path([p for p in pieces if p is not None])
-        rec.support_regions = {s: r for s, points in level.items() if (r := share_region(points)) is not None}
+        if self.config.model == "equilibrium":  # for its stack test's propagated loads only
+            rec.support_regions = {s: r for s, points in level.items() if (r := share_region(points)) is not None}
         assert rec.frozen_pose is not None, "set by freeze"
         if not proven(rec.frozen_pose.position, rec.load_path):
             self.unproven.add(rec.body)
 
-    def wake(self, body: int, time: float, reason: str) -> list[Woken]:
+    def wake(self, body: int, time: float, reason: str, proved: AbstractSet[int] = frozenset()) -> list[Woken]:
         """Wake ``body`` and, recursively, what rests on it (report 3.3.7); each with its last
-        load node. Nothing when ``body`` is not frozen."""
+        load node. Nothing when ``body`` is not frozen. The events of the bodies in ``proved``
+        (those a proved collapse mechanism moves) say so (:attr:`StabilityEvent.proved`)."""
         rec = self.bodies[body]
         if rec.state is not BrickState.FROZEN:
             return []
@@ -227,7 +241,7 @@ class Stack:
         if self._contacts is not None:
             self._contacts.fill()
         self.engine.set_frozen(body, False, rec.box.mass)
-        rec.state, rec.frozen_pose, rec.node = BrickState.ACTIVE, None, None
+        rec.state, rec.frozen_pose, rec.node, rec.extent = BrickState.ACTIVE, None, None, None
         rec.clock.stop()
         rec.clock.fallen = self.config.debris  # fallen: the windowed rest test (with the debris rule)
         self.active[body] = rec
@@ -238,8 +252,8 @@ class Stack:
             self.bodies[s].objects_above.discard(body)
         rec.rests_on, rec.main_contact, rec.com_above, rec.mass_above = {}, None, None, 0.0
         rec.contacts, rec.pile = [], frozenset()
-        woken = [Woken(body, node, StabilityEvent(time, "wake", rec.label, reason))]
+        woken = [Woken(body, node, StabilityEvent(time, "wake", rec.label, reason, proved=body in proved))]
         for above in self.ordered(rec.objects_above):
-            woken += self.wake(above, time, f"rests on {rec.label}")
+            woken += self.wake(above, time, f"rests on {rec.label}", proved)
         rec.objects_above = set()
         return woken

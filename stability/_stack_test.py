@@ -13,13 +13,15 @@ from graphlib import CycleError
 
 from shapely.geometry import Point
 
-from ._areas import ContactAreas
+from ._areas import ContactAreas, main_area
 from ._cut import falling_part
-from ._equilibrium import RigidBlock, solve_equilibrium
+from ._equilibrium import ContactPolygon, RigidBlock, is_level, solve_equilibrium
+from ._geometry import ContactArea, Pose
 from ._graph import BrickState
+from ._leaning import pair_friction
 from ._load import LoadNode, propagate_fast
-from ._load_path import loads_balance
-from ._stack import StabilityEvent, Stack
+from ._load_path import load_path, loads_balance, proven, support_piece
+from ._stack import Record, StabilityEvent, Stack
 
 
 class StackTest:
@@ -40,6 +42,77 @@ class StackTest:
         if self.stack.config.model == "report":
             return self._report(time)  # it computes the loads on the way
         return self._equilibrium(time)
+
+    def carry(self, rec: Record, pose: Pose, areas: dict[int, ContactArea], time: float) -> list[StabilityEvent]:
+        """Can the frozen stack carry ``rec``, an active brick lying at ``pose`` on the frozen
+        bricks and the ground of ``areas`` (body -> exact contact area)? The bricks that give
+        way under its load wake; returns their events.
+
+        A frozen brick is immovable in the engine: the weight of an active brick lying on it
+        would otherwise be carried unchecked until that brick freezes (if it ever does). Only a
+        brick that would stand where it lies on rigid supports is a load: one that will tip or
+        slide off loads the stack for a moment only, and the engine and the collapse monitor
+        follow it. With the report's model its load is propagated with the frozen stack's
+        (report 3.3.5-3.3.7); with the equilibrium model it is a free block of the stack's
+        program, after the load paths (:mod:`stability._load_path`) and the turning parts
+        (:mod:`stability._cut`), as in the stack-wide test. Source: stackdsl's own.
+        """
+        stack = self.stack
+        frozen = {r.body: r for r in stack.in_order()}
+        if not any(b in frozen for b in areas):
+            return []
+        mass, com = rec.box.mass, pose.position
+        if stack.config.model == "report":
+            if not self.areas.holds(main_area(areas), com):
+                return []
+            nodes = stack.nodes(frozen.values())
+            nodes[rec.body] = LoadNode(mass, com, areas)
+            try:
+                loads = propagate_fast(nodes)
+            except CycleError:
+                return []
+            failing = []
+            for r in frozen.values():
+                assert r.main_contact is not None, "a frozen brick has a main contact area"
+                if not r.held_by_pile() and not self.areas.holds(r.main_contact, loads[r.body][0]):
+                    failing.append(r)
+            events: list[StabilityEvent] = []
+            for r in failing:
+                assert r.main_contact is not None, "a frozen brick has a main contact area"
+                out = r.main_contact.polygon.exterior.distance(Point(loads[r.body][0][:2])) * 1000
+                reason = f"centre of mass above {out:.1f} mm outside its support with {rec.label} on the stack"
+                events += [w.event for w in stack.wake(r.body, time, reason)]
+            return events + (self.run(time) if events else [])
+        polygons = [
+            ContactPolygon(
+                rec.body, other, area.corners(), area.normal, pair_friction(rec.friction, stack.bodies[other].friction)
+            )
+            for other, area in areas.items()
+        ]
+        pieces = [
+            support_piece(c.points, stack.bodies[c.other].load_path, stack.bodies[c.other].state is BrickState.GROUND)
+            for c in polygons
+            if is_level(c)
+        ]
+        if not stack.unproven and proven(com, load_path([p for p in pieces if p is not None])):
+            return []  # every brick, the new one too, passes its load down a path: the stack stands
+        block = RigidBlock(mass, com)
+        if not solve_equilibrium({rec.body: block}, polygons, gravity=stack.config.gravity).stands:
+            return []  # it will not stay where it lies
+        ground = {k for k, r in stack.bodies.items() if r.state is BrickState.GROUND}
+        contacts = [c for r in frozen.values() for c in r.contacts if c.other in frozen or c.other in ground] + polygons
+        blocks = {b: RigidBlock(r.box.mass, stack.pose(r).position) for b, r in frozen.items()} | {rec.body: block}
+        moving = set(falling_part(blocks, contacts) or ()) if stack.config.gravity > 0 else set()
+        if not moving:
+            result = solve_equilibrium(blocks, contacts, gravity=stack.config.gravity)
+            if result.stands:
+                return []
+            moving = {b for b, v in result.mechanism.items() if v > 1e-4}
+        events = []
+        reason = f"it moves in the collapse mechanism (rigid-block equilibrium) with {rec.label} on the stack"
+        for b in stack.ordered(moving & frozen.keys()):
+            events += [w.event for w in stack.wake(b, time, reason, moving)]
+        return events + (self.run(time) if events else [])
 
     def refresh_loads(self) -> None:
         """com_above / mass_above of every frozen brick, when the stack changed since they were
@@ -94,7 +167,20 @@ class StackTest:
                     moving = {b for b, v in result.mechanism.items() if v > 1e-4}
             for b in stack.ordered(moving):
                 reason = "it moves in the collapse mechanism (rigid-block equilibrium)"
-                events += [w.event for w in stack.wake(b, time, reason)]
+                events += [w.event for w in stack.wake(b, time, reason, moving)]
+
+    def _turning_part(self) -> frozenset[int]:
+        """The bricks of a part of the frozen stack that provably turns out about an edge of its
+        footing (:func:`stability._cut.falling_part`), or none. The report's rule wakes what it
+        suspects; this says which of those bricks a collapse mechanism moves for certain."""
+        stack = self.stack
+        frozen = {r.body: r for r in stack.in_order()}
+        if stack.config.gravity <= 0:
+            return frozenset()
+        ground = {k for k, r in stack.bodies.items() if r.state is BrickState.GROUND}
+        polygons = [c for r in frozen.values() for c in r.contacts if c.other in frozen or c.other in ground]
+        blocks = {b: RigidBlock(r.box.mass, stack.pose(r).position) for b, r in frozen.items()}
+        return frozenset(falling_part(blocks, polygons) or ())
 
     def _balanced_by_loads(self) -> bool:
         """Do the report's loads, propagated down the frozen stack, balance it
@@ -112,7 +198,9 @@ class StackTest:
         A brick whose centre of mass above lies outside its main contact area gives way
         (for a leaning brick the main contact area is the hull of all its contact areas,
         the other brick of a V included): it and everything above it wake.
-        Beyond the report: the woken bricks above it that also rest on other stack bricks
+        The bricks a part that provably turns out moves (:meth:`_turning_part`) are marked as
+        proved (:attr:`StabilityEvent.proved`). Beyond the report: the woken bricks above it
+        that also rest on other stack bricks
         now lean on those alone, so the test is repeated with their load on them
         (co-support re-test). Without it a tower whose two sibling bricks carry it
         together stays pinned by the sibling that did not fail first (measured on the
@@ -122,6 +210,7 @@ class StackTest:
         events: list[StabilityEvent] = []
         gave_way: set[int] = set()
         leaning: dict[int, LoadNode] = {}
+        proved: frozenset[int] | None = None
         while True:
             nodes = stack.nodes(stack.in_order())
             for body, node in leaning.items():
@@ -138,13 +227,15 @@ class StackTest:
             if not failing:
                 stack.loads_fresh = True
                 return events
+            if proved is None:  # what statics proves of the stack as it stands, before any of it wakes
+                proved = self._turning_part()
             for rec in failing:
                 if rec.state is not BrickState.FROZEN:  # woken already, resting on one that failed
                     continue
                 gave_way.add(rec.body)
                 assert rec.main_contact is not None and rec.com_above is not None, "set for every frozen brick above"
                 out = rec.main_contact.polygon.exterior.distance(Point(rec.com_above[:2])) * 1000
-                for w in stack.wake(rec.body, time, f"centre of mass above {out:.1f} mm outside its support"):
+                for w in stack.wake(rec.body, time, f"centre of mass above {out:.1f} mm outside its support", proved):
                     events.append(w.event)
                     if w.body != rec.body:
                         leaning[w.body] = w.node

@@ -27,7 +27,7 @@ if TYPE_CHECKING:
     from ._errors import ScenarioError
     from ._expect import Verdict, evaluate
     from ._loader import load_scenario, parse_scenario
-    from ._outcome import Collapse, Event, Graph, Outcome
+    from ._outcome import Certificate, Collapse, Event, Graph, Outcome
     from ._program import End, EngineSettings, Launch, Place, Program, format_program
     from ._recorder import Recorder, record_program
     from ._runtime import run_program
@@ -47,6 +47,7 @@ _HOME = {
     "evaluate": "_expect",
     "load_scenario": "_loader",
     "parse_scenario": "_loader",
+    "Certificate": "_outcome",
     "Collapse": "_outcome",
     "Event": "_outcome",
     "Graph": "_outcome",
@@ -68,6 +69,7 @@ _HOME = {
 
 __all__ = [
     "MODE_DEFAULTS",
+    "Certificate",
     "CheckResult",
     "Collapse",
     "End",

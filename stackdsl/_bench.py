@@ -101,9 +101,9 @@ class Cell:
 
     ``error`` is the collapse level measured minus the closed form, in levels, with
     "stands" counted as one level above the top; ``drift`` the largest displacement of a
-    standing structure brick before the first collapse. ``engine`` and ``after_collapse``
-    are parts of the median run's wall time: in the engine's own steps, and after the
-    collapse was decided (:class:`stackdsl.Outcome`).
+    standing structure brick before the first collapse. ``engine``, ``after_collapse`` and
+    ``certificate`` are parts of the median run's wall time: in the engine's own steps, after
+    the collapse was decided, and proving that the structure stands (:class:`stackdsl.Outcome`).
     """
 
     setting: str
@@ -123,6 +123,7 @@ class Cell:
     peak_memory: float
     steps: int
     steps_skipped: int
+    certificate: float = 0.0
 
 
 WARM_UP = Scene("warm-up", 1, 1, "tower: {levels: 1}", None)
@@ -169,6 +170,7 @@ def measure(scene: Scene, setting: str, options: RunOptions) -> Cell:
         peak_memory=round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
         steps=o.steps,
         steps_skipped=o.steps_skipped,
+        certificate=round(o.certificate_time, 5),
     )
 
 
@@ -236,6 +238,7 @@ def combine(runs: list[Cell]) -> Cell:
         walls=" ".join(f"{r.wall:.3f}" for r in sorted(runs, key=lambda r: r.wall)),
         engine=middle.engine,
         after_collapse=middle.after_collapse,
+        certificate=middle.certificate,
         speed=round(runs[0].simulated / wall, 1) if wall > 0 else 0.0,
         peak_memory=max(r.peak_memory for r in runs),
     )

@@ -152,7 +152,7 @@ def markdown(cells: list[Cell], saved: list[tuple[str, str, float, int]], target
     if any(len(c.walls.split()) > 1 for c in cells):
         lines += ["", "The same ratios from each cell's fastest round (the machine's other work only ever slows a run):", ""]
         lines += ratios(cells, wall=fastest)
-    lines += ["", *phase_lines(cells)]
+    lines += ["", *phase_lines(cells), "", *certificate_lines(cells)]
     if saved:
         lines += ["", "| switched off (extension report) | scene | median wall time | physics steps |", "|---|---|---:|---:|"]
         lines += [f"| {name} | {scene} | {wall:.3f} s | {steps} |" for name, scene, wall, steps in saved]
@@ -181,6 +181,21 @@ def phase_lines(cells: list[Cell]) -> list[str]:
         ]
         lines.append(f"| {family}, {parameter:g} mm | " + " | ".join(row) + " |")
     lines += ["", "Each cell: wall time: the seconds of it in the engine's own steps, and after the collapse was decided."]
+    return lines
+
+
+def certificate_lines(cells: list[Cell]) -> list[str]:
+    """Markdown lines: the most any run of each setting spent proving that its structure stands
+    (rigid-block equilibrium of the final state, :class:`stackdsl.Certificate`), in seconds and
+    as a share of that run's wall time."""
+    lines = ["| setting | certificate, most | share of the run's wall time, most (scene) |", "|---|---:|---:|"]
+    for s in [s for s in SETTINGS if any(c.setting == s for c in cells)]:
+        mine = [c for c in cells if c.setting == s and c.wall > 0]
+        worst = max(mine, key=lambda c: c.certificate / c.wall)
+        lines.append(
+            f"| {s} | {max(c.certificate for c in mine) * 1000:.1f} ms | "
+            f"{worst.certificate / worst.wall:.1%} ({scene_label(worst.family, worst.parameter)}) |"
+        )
     return lines
 
 

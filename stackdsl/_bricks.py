@@ -130,13 +130,18 @@ class Structure:
         """Structure brick id -> level."""
         return {r.id: r.level for r in self.placed if r.level is not None}
 
+    def under(self, bottom: float, footprint: Polygon) -> list[BrickRecord]:
+        """The placed bricks whose tops in the scenario lie within 1 mm of ``bottom`` (m) and
+        whose footprints overlap ``footprint``: those a brick placed there rests on."""
+        key = round(bottom * 1e4)
+        below = [r for k in range(key - 10, key + 11) for r in self._tops.get(k, ())]  # within 1 mm
+        return [r for r in below if r.footprint.intersection(footprint).area > 1e-8]
+
     def sink(self, bottom: float, footprint: Polygon) -> float:
         """How far the placed bricks a new brick will rest on have sunk below their heights
         in the scenario (m): the least of them, 0 for none. ``bottom``: m, the new brick's
         lowest corner in the scenario; ``footprint``: its horizontal footprint."""
-        key = round(bottom * 1e4)
-        below = [r for k in range(key - 10, key + 11) for r in self._tops.get(k, ())]  # within 1 mm
-        below = [r for r in below if r.footprint.intersection(footprint).area > 1e-8]
+        below = self.under(bottom, footprint)
         if not below:
             return 0.0
         positions, _ = self.world.poses_of([r.body for r in below])

@@ -32,7 +32,7 @@ from ._errors import ScenarioError
 from ._expect import Verdict, evaluate, explain
 from ._expectations import Expect
 from ._loader import load_scenario
-from ._outcome import Graph, Outcome
+from ._outcome import Graph, Outcome, describe_certificate
 from ._pool import WorkerLost, WorkerTimedOut, fan_out, on_executor
 from ._program import Program
 from ._recorder import record_program
@@ -320,6 +320,7 @@ def judge(file: str, program: Program, expect: Expect, timeout: float | None = T
             steps_per_brick=outcome.steps / max(outcome.bricks_placed, 1),
             explanation=() if stopped else tuple(explain(expect, outcome, program.collapse_threshold)),
             stopped=stopped,
+            certificate=describe_certificate(outcome.certificate) if outcome.certificate else "",
         )
         if folder is None or trajectory is None:
             return result

@@ -34,6 +34,8 @@ class CheckResult:
             artefacts: kind -> file name in it (trajectory, picture, graph, clip);
             draw_error: the first file that could not be drawn, one line, else empty;
             draw_time: wall seconds the drawing took.
+        certificate: the proof of the verdict in one line (:func:`stackdsl._outcome.describe_certificate`),
+            else empty.
         bad_input: a sweep's sample the language refuses (a drawn value out of range), the
             message at file:line:col, else empty; sweep: a sweep's measured summary, else empty
             (a sweep's verdicts are its statistical expectations, one a grid cell).
@@ -61,6 +63,7 @@ class CheckResult:
     draw_time: float = 0.0
     bad_input: str = ""
     sweep: str = ""
+    certificate: str = ""
 
     @property
     def passed(self) -> bool:

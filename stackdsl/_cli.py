@@ -32,6 +32,7 @@ from ._errors import ScenarioError
 from ._expect import describe, evaluate
 from ._jsonschema import json_schema
 from ._loader import load_scenario
+from ._outcome import describe_certificate
 from ._program import format_program
 from ._report import version
 
@@ -301,6 +302,8 @@ def _run(args: argparse.Namespace) -> int:
             + (f", {outcome.after_collapse:.2f} s after the collapse" if outcome.collapse else "")
             + f"), {outcome.steps} steps ({outcome.steps_skipped} skipped)"
         )
+        if outcome.certificate is not None:
+            print(f"certificate: {describe_certificate(outcome.certificate)}")
         for v in verdicts:
             print(f"{'PASS' if v.passed else 'FAIL'}  expected {v.expected}, measured {v.measured}")
         if stopped and all(v.passed for v in verdicts):  # no verdict says it

@@ -165,6 +165,7 @@ def _row(r: CheckResult, command: str, folder: Path) -> str:
         ("expected", r.expected),
         ("measured", r.measured),
         ("mode", mode_label(r)),
+        *((("certificate", r.certificate),) if r.certificate else ()),
         ("simulated", f"{r.simulated_time:.1f} s"),
         ("wall", f"{r.wall_time:.2f} s" + (f" (drawing {r.draw_time:.1f} s)" if r.draw_time else "")),
     ]

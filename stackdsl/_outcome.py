@@ -41,8 +41,9 @@ class Collapse(_Frozen):
         time: seconds, when it first moved past the threshold.
         brick, brick_level: the brick that moved first, and its own level.
         displacement: metres, how far it had moved when the collapse was decided.
-        decided: seconds, when it was known to stay moved (moving away, at rest displaced or
-            displaced at the end); the run ends the scenario's settle time after it.
+        decided: seconds, when it was known to stay moved (its certificate says how: at rest
+            displaced, off its support, in a proved mechanism, displaced at the end, or no
+            equilibrium at the end); the run ends the scenario's settle time after it.
     """
 
     level: int
@@ -51,6 +52,38 @@ class Collapse(_Frozen):
     brick_level: int
     displacement: float
     decided: float
+
+
+class Certificate(_Frozen):
+    """The proof of a verdict (docs/design.md, "collapse" and "certificate").
+
+    Attributes:
+        verdict: ``"stands"`` or ``"collapse"``.
+        kind: how it was proved. For ``stands``: ``"equilibrium"``, rigid-block equilibrium of
+            every brick where it is at the end (:meth:`stability.StabilityExtension.certificate`).
+            For ``collapse``: ``"at rest displaced"`` (a brick came to rest out of its place),
+            ``"off its support"`` (its centre of mass left the support polygon it was placed
+            on), ``"mechanism"`` (it moves in a collapse mechanism statics proved),
+            ``"displaced at the end"``, or ``"no equilibrium"`` (the final state has none).
+        detail: the proof in words.
+        bricks: the bricks involved: those displaced at the collapse, those of the mechanism
+            with no equilibrium; for ``stands``, the bricks the engine still moved at the end
+            (solved on their live contacts).
+        margin_mm: for ``stands``, how far every centre of mass could move together before
+            it would not (at most 20 mm); else None.
+    """
+
+    verdict: Literal["stands", "collapse"]
+    kind: Literal["equilibrium", "at rest displaced", "off its support", "mechanism", "displaced at the end", "no equilibrium"]
+    detail: str
+    bricks: tuple[str, ...] = ()
+    margin_mm: float | None = None
+
+
+def describe_certificate(c: Certificate) -> str:
+    """One line for a person: ``"stands: rigid-block equilibrium of ... (margin 12.0 mm)"``."""
+    margin = f" (margin {c.margin_mm:.1f} mm)" if c.margin_mm is not None else ""
+    return f"{c.verdict}, {c.kind}: {c.detail}{margin}"
 
 
 class Node(_Frozen):
@@ -153,6 +186,8 @@ class Outcome(_Frozen):
             stackdsl's: the extension, the monitor, placing).
         after_collapse: seconds of the wall time after the collapse was decided (0 without
             one): the settle time's cost.
+        certificate: the proof of the verdict (None when the run stopped early).
+        certificate_time: seconds of the wall time spent proving that the structure stands.
         stopped: None when the run went to its end; else why and where it stopped early,
             e.g. ``"timeout after 120 s at t = 37.2 s simulated (of 201 s)"`` (the rest of
             the outcome then covers the simulated time so far, and the expectations fail:
@@ -176,22 +211,28 @@ class Outcome(_Frozen):
     steps_skipped: int
     engine_time: float = 0.0
     after_collapse: float = 0.0
+    certificate: Certificate | None = None
+    certificate_time: float = 0.0
     stopped: str | None = None
 
     def golden(self) -> dict[str, Any]:
-        """Plain JSON data for a golden snapshot: what was built, the collapse record, and the
-        brick graphs at the collapse and at the end, each brick keyed by its id (see
-        :func:`Graph.bricks`). The collapse time is left out: the level and the brick are
+        """Plain JSON data for a golden snapshot: what was built, the collapse record, the
+        certificate (without its words, which carry unrounded numbers), and the brick graphs at
+        the collapse and at the end, each brick keyed by its id (see :func:`Graph.bricks`). The collapse time is left out: the level and the brick are
         what a scenario asserts, and the time would show every small change as a diff."""
         collapse = None
         if self.collapse:
             c = self.collapse
             collapse = {"level": c.level, "brick": c.brick, "brick_level": c.brick_level}
+        certificate = None
+        if self.certificate:
+            certificate = self.certificate.model_dump(mode="json", exclude={"detail"})
         return {
             "scenario": self.scenario,
             "mode": self.mode,
             "levels_placed": self.levels_placed,
             "collapse": collapse,
+            "certificate": certificate,
             "collapse_graph": self.collapse_graph.bricks() if self.collapse_graph else None,
             "final_graph": self.final_graph.bricks(),
         }

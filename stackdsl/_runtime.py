@@ -164,7 +164,9 @@ def run_in(
     acting = program.engine.mode == "extension"
     stability = Stability(world, program, config, acting)
     rest = (program.stability.rest_speed, program.stability.rest_angular_speed, program.stability.rest_duration)
-    monitor = CollapseMonitor(program.collapse_threshold, program.settle, stability.graph, *rest)
+    monitor = CollapseMonitor(
+        program.collapse_threshold, program.settle, stability.graph, stability.extension.certificate, stability.proved, *rest
+    )
     own: list[Subscriber] = [Substeps(program.collapse_threshold, acting)] if program.engine.ccd else []
     after: list[Subscriber] = []
     rigid = any(r.name == "rigid" and r.on for r in program.rules)
@@ -213,5 +215,7 @@ def outcome(loop: StepLoop, wall_time: float) -> Outcome:
         steps_skipped=loop.skipped,
         engine_time=loop.engine_time,
         after_collapse=0.0 if loop.stop_clock is None else ended - loop.stop_clock,
+        certificate=monitor.certificate,
+        certificate_time=monitor.certify_time,
         stopped=loop.stopped,
     )

@@ -31,6 +31,7 @@ class Stability(Subscriber):
     def __init__(self, world: World, program: Program, config: StabilityConfig, acting: bool) -> None:
         self.extension = StabilityExtension(world, config)
         self.acting = acting
+        self.mechanisms: dict[str, str] = {}  # brick id -> the proved collapse mechanism it was woken in
         self.extension.add_ground(world.ground, Plane(0.0), friction=program.ground_friction)
         for f in program.fixtures:
             body = world.create(f.brick, Pose.from_euler(f.position, f.yaw, f.pitch, f.roll), mass=0.0)
@@ -58,6 +59,10 @@ class Stability(Subscriber):
         records = loop.structure.records
         for e in events:
             record = records.get(e.label)
+            if e.kind == "wake" and e.proved:
+                self.mechanisms[e.label] = f"a collapse mechanism proved at {e.time:.3f} s ({e.reason})"
+            elif e.kind == "freeze":
+                self.mechanisms.pop(e.label, None)
             if record is not None and record.structure and e.kind in ("freeze", "wake"):
                 loop.structure.set_moving(record, e.kind == "wake")
                 record.was_frozen = True
@@ -66,6 +71,10 @@ class Stability(Subscriber):
             if e.kind != "impact" or (source is not None and not source.structure):
                 level = record.level if record is not None else None
                 loop.events.append(Event(time=e.time, kind=e.kind, brick=e.label, level=level, detail=e.reason))
+
+    def proved(self, brick: str) -> str | None:
+        """The proved collapse mechanism ``brick`` was woken in and has not been frozen since, or None."""
+        return self.mechanisms.get(brick)
 
     def graph(self, loop: StepLoop) -> Graph:
         """The brick graph now."""

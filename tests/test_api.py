@@ -13,6 +13,7 @@ def test_stackdsl_exports():
         [
             "MODE_DEFAULTS",
             "CheckResult",
+            "Certificate",
             "Collapse",
             "End",
             "EngineSettings",
@@ -48,6 +49,7 @@ def test_stability_exports():
             "Box",
             "BrickGraph",
             "BrickState",
+            "Certificate",
             "ContactArea",
             "ContactPoint",
             "ContactPolygon",
@@ -68,6 +70,7 @@ def test_stability_exports():
             "breaks_loose",
             "combined_hull",
             "contains",
+            "equilibrium_margin",
             "face_overlap",
             "is_level",
             "kinetic_energy",

@@ -110,3 +110,40 @@ def test_a_block_that_touches_nothing_falls():
     result = solve_equilibrium({"brick": RigidBlock(0.01, np.zeros(3))}, [])
     assert not result.stands and result.mechanism == {"brick": 1.0}
     assert solve_equilibrium({}, []).stands
+
+
+def test_the_margin_program_agrees_with_bisection_on_random_assemblies():
+    # equilibrium_margin finds the largest common shift of every centre of mass in one program;
+    # a bisection on solve_equilibrium (the oracle's way) must find the same, to its resolution
+    from stability import equilibrium_margin
+    from stackdsl import compile_scenario, parse_scenario
+    from stackdsl._assemblies import _DIRECTIONS, MAX_MARGIN, RESOLUTION, assembly
+    from stackdsl._oracle import structure
+
+    def bisection(blocks, contacts):
+        def stands(shift):
+            return solve_equilibrium({n: RigidBlock(b.mass, b.com + shift) for n, b in blocks.items()}, contacts).stands
+
+        best = MAX_MARGIN
+        for u in _DIRECTIONS:
+            if stands(u * best):
+                continue
+            low, high = 0.0, best
+            while high - low > RESOLUTION:
+                mid = (low + high) / 2
+                low, high = (mid, high) if stands(u * mid) else (low, mid)
+            best = high
+        return best
+
+    checked = 0
+    for k in (0, 4, 20, 33, 47):
+        rng = np.random.default_rng(np.random.SeedSequence(3, spawn_key=(k,)))
+        program = compile_scenario(parse_scenario(assembly(rng, f"assembly {k}")))
+        blocks, contacts = structure(list(program.placements), program.fixtures, program.ground_friction)
+        if not solve_equilibrium(blocks, contacts).stands:
+            assert equilibrium_margin(blocks, contacts) is None
+            continue
+        margin, bisected = equilibrium_margin(blocks, contacts, directions=8), bisection(blocks, contacts)
+        assert margin is not None and bisected - 2 * RESOLUTION <= margin <= bisected
+        checked += 1
+    assert checked >= 4

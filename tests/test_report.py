@@ -76,6 +76,8 @@ def test_the_report_has_a_row_per_scenario_failures_first(report):
     # each row: expected and measured, and the timeline of the run
     assert "collapse 2" in text and "stands" in text
     assert text.count("timeline (") == 2 and "place" in text and "freeze" in text
+    # each verdict with its proof
+    assert "stands, equilibrium" in text and "collapse, " in text and text.count("certificate") >= 2
 
 
 def test_every_picture_and_link_of_the_report_is_on_disk(report):

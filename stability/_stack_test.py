@@ -169,18 +169,14 @@ class StackTest:
                 reason = "it moves in the collapse mechanism (rigid-block equilibrium)"
                 events += [w.event for w in stack.wake(b, time, reason, moving)]
 
-    def _turning_part(self) -> frozenset[int]:
-        """The bricks of a part of the frozen stack that provably turns out about an edge of its
-        footing (:func:`stability._cut.falling_part`), or none. The report's rule wakes what it
-        suspects; this says which of those bricks a collapse mechanism moves for certain."""
+    def _frozen_problem(self) -> tuple[dict[int, RigidBlock], list[ContactPolygon[int]]]:
+        """The frozen stack as free blocks, on the contact polygons remembered from the freezes
+        (with each other, the ground and fixed bodies)."""
         stack = self.stack
         frozen = {r.body: r for r in stack.in_order()}
-        if stack.config.gravity <= 0:
-            return frozenset()
         ground = {k for k, r in stack.bodies.items() if r.state is BrickState.GROUND}
         polygons = [c for r in frozen.values() for c in r.contacts if c.other in frozen or c.other in ground]
-        blocks = {b: RigidBlock(r.box.mass, stack.pose(r).position) for b, r in frozen.items()}
-        return frozenset(falling_part(blocks, polygons) or ())
+        return {b: RigidBlock(r.box.mass, stack.pose(r).position) for b, r in frozen.items()}, polygons
 
     def _balanced_by_loads(self) -> bool:
         """Do the report's loads, propagated down the frozen stack, balance it
@@ -198,8 +194,14 @@ class StackTest:
         A brick whose centre of mass above lies outside its main contact area gives way
         (for a leaning brick the main contact area is the hull of all its contact areas,
         the other brick of a V included): it and everything above it wake.
-        The bricks a part that provably turns out moves (:meth:`_turning_part`) are marked as
-        proved (:attr:`StabilityEvent.proved`). Beyond the report: the woken bricks above it
+        Beyond the report, twice. When the rule finds a failing brick, rigid-block equilibrium
+        of the frozen stack is asked first: when it stands, nothing wakes. The report's load
+        tree sends each load down its own supports only, so it fails a bridge or a counterweight
+        that holds (a brick propped by a brick lying across it onto another support); woken,
+        such bricks only sag, and on MuJoCo's compliant contacts they sagged past the collapse
+        threshold. When it does not stand, the bricks of a part that provably turns out about an
+        edge (:func:`stability._cut.falling_part`) are marked as proved
+        (:attr:`StabilityEvent.proved`). And the woken bricks above it
         that also rest on other stack bricks
         now lean on those alone, so the test is repeated with their load on them
         (co-support re-test). Without it a tower whose two sibling bricks carry it
@@ -227,8 +229,12 @@ class StackTest:
             if not failing:
                 stack.loads_fresh = True
                 return events
-            if proved is None:  # what statics proves of the stack as it stands, before any of it wakes
-                proved = self._turning_part()
+            if proved is None:  # before any of it wakes: what statics says of the stack as it stands
+                blocks, polygons = self._frozen_problem()
+                if stack.config.gravity > 0 and solve_equilibrium(blocks, polygons, gravity=stack.config.gravity).stands:
+                    stack.loads_fresh = True  # a bridge or a counterweight the rule cannot see: it stands
+                    return events
+                proved = frozenset(falling_part(blocks, polygons) or ())
             for rec in failing:
                 if rec.state is not BrickState.FROZEN:  # woken already, resting on one that failed
                     continue

@@ -175,10 +175,12 @@ def test_co_supports_of_a_brick_that_gave_way_are_retested():
     assert brick(4, 0.05, 2, 2, 0.048, 0.052) is BrickState.FROZEN  # R2
     engine.poses[5] = Pose.from_euler([0.03, 0, 2.5 * H])  # B, on L2 and R2
     ext.add_brick(5, KAPLA, "b5")
-    for on, (x0, x1) in ((3, (-0.046, -0.042)), (4, (0.054, 0.058))):
+    for on, (x0, x1) in ((3, (-0.046, -0.042)), (4, (0.058, 0.062))):
         engine.touch(5, on, [[x0, -0.01, 2 * H], [x1, -0.01, 2 * H], [x1, 0.01, 2 * H], [x0, 0.01, 2 * H]], normal=[0, 0, 1])
     events = ext.update(1.0)
-    # lever rule: R2 carries 0.74 of B at x = 56 mm -> COM above 52.55 mm, outside [48, 52]
+    # lever rule: R2 carries 0.71 of B at x = 60 mm -> COM above 53.7 mm, outside [48, 52]; and
+    # rigid-block equilibrium agrees (with B's force anywhere on its patch, padded by 1 mm, R2
+    # needs f (x - 53 mm) <= 3 mm for B's share f at x, and f >= 0.69 at x >= 57 mm)
     assert [(e.kind, e.label) for e in events] == [("freeze", "b5"), ("wake", "b4"), ("wake", "b5"), ("wake", "b3")]
     assert events[3].reason.startswith("centre of mass above")
     assert [ext.state(b) for b in (1, 2)] == [BrickState.FROZEN, BrickState.FROZEN]
@@ -315,3 +317,32 @@ def test_a_contact_polygon_between_tilted_faces_lies_on_them():
     (polygon,) = s.ext._areas.polygons(s.ext._stack.bodies[body], {7: points})
     assert len(polygon.points) == 4
     assert np.abs((polygon.points - (support.position + 0.004 * up)) @ up).max() < 1e-9
+
+
+def test_the_report_rule_wakes_nothing_that_rigid_block_equilibrium_holds():
+    # The same columns and beam, B's load over R2's inner edge: the lever rule puts R2's share at
+    # the middle of B's patch (56 mm) and finds R2's centre of mass above 0.55 mm outside its own
+    # patch [48, 52] mm; but B may push anywhere on its patch, at 54 mm R2 holds (f (x - 52 mm)
+    # = 0.755 x 2 mm <= 2 mm), so the program holds the stack and nothing wakes.
+    engine = FakeEngine()
+    ext = StabilityExtension(engine, StabilityConfig(rest_duration=0.0, face_gap=-1.0))
+    engine.frozen.add(0)
+    ext.add_ground(0, Plane(0.0))
+    for body, x, level, on, (x0, x1) in (
+        (1, -0.05, 1, 0, (-0.06, -0.04)),
+        (2, 0.05, 1, 0, (0.04, 0.06)),
+        (3, -0.05, 2, 1, (-0.052, -0.048)),
+        (4, 0.05, 2, 2, (0.048, 0.052)),
+    ):
+        engine.poses[body] = Pose.from_euler([x, 0, (level - 0.5) * H])
+        ext.add_brick(body, KAPLA, f"b{body}")
+        z = (level - 1) * H
+        engine.touch(body, on, [[x0, -0.01, z], [x1, -0.01, z], [x1, 0.01, z], [x0, 0.01, z]], normal=[0, 0, 1])
+        ext.update(0.1 * body)
+    engine.poses[5] = Pose.from_euler([0.03, 0, 2.5 * H])
+    ext.add_brick(5, KAPLA, "b5")
+    for on, (x0, x1) in ((3, (-0.046, -0.042)), (4, (0.054, 0.058))):
+        engine.touch(5, on, [[x0, -0.01, 2 * H], [x1, -0.01, 2 * H], [x1, 0.01, 2 * H], [x0, 0.01, 2 * H]], normal=[0, 0, 1])
+    events = ext.update(1.0)
+    assert [(e.kind, e.label) for e in events] == [("freeze", "b5")]
+    assert all(ext.state(b) is BrickState.FROZEN for b in range(1, 6))

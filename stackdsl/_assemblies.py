@@ -5,10 +5,12 @@ and 3 to 12 bricks, level 1 on the ground, each higher brick resting on one bric
 of the level below or bridging two, parallel to its support or crossed over it, with its
 centre of mass a signed *margin* from the edge of its support (log-uniform from 0.1 to
 20 mm; inside for most bricks, outside for some, which tip). In :data:`LEANING` of the
-assemblies the last brick (and level) leans on a fixed wall beside the others, its foot on the
-ground and its top edge against the wall, at 20 to 70 degrees from the ground (friction holds
-it above an angle near 37 degrees, a ladder's). A draw that the language refuses (bricks that overlap, or rest
-on nothing) is drawn again.
+assemblies the last brick (and level) leans on a fixed wall beside the others, its top edge
+against the wall, at 20 to 70 degrees from the ground (friction holds it above an angle near 37
+degrees, a ladder's). Its foot is on the ground, or in :data:`STEP` of them on a *step*: a flat
+brick lying across its foot on the ground, placed just before it, which its push can slide (the
+oracle takes a tilted brick's corners on flat faces). A draw that the language refuses (bricks
+that overlap, or rest on nothing) is drawn again.
 
 :func:`judge` gives the oracle's verdict on it (:func:`stackdsl._oracle.equilibrium_collapse`,
 the bricks placed one by one in order) and its margin: how far the centre of mass of every
@@ -37,8 +39,11 @@ LENGTH, WIDTH, HEIGHT = 0.120, 0.024, 0.008
 RESOLUTION = 0.0001
 MAX_MARGIN = 0.020
 _DIRECTIONS = [np.array([math.cos(a), math.sin(a), 0.0]) for a in np.arange(8) * math.pi / 4]
-#: The share of assemblies with a brick leaning on a wall.
-LEANING = 0.3
+#: The share of assemblies with a brick leaning on a wall (half of them, so that agreement can
+#: be reported for each kind with about as many assemblies), and the share of those whose
+#: leaning brick stands on a step brick rather than on the ground.
+LEANING = 0.5
+STEP = 0.5
 WALL = (0.020, 0.200, 0.200)  # m: the fixed wall's thickness, width and height
 _WALL_GAP = 0.00005  # m between the leaning brick's top edge and the wall (the oracle's contacts take 0.1 mm)
 
@@ -65,12 +70,15 @@ class Brick:
 @dataclass(frozen=True)
 class Leaner:
     """A brick leaning on a fixed wall. (x, y): metres, the foot of the wall's face; yaw:
-    degrees, the direction from the brick to the wall; angle: degrees from the ground."""
+    degrees, the direction from the brick to the wall; angle: degrees from the ground; step:
+    metres along the brick (positive: toward the wall) and across it from its foot's middle to
+    the centre of the step brick under its foot, or None: the foot is on the ground."""
 
     x: float
     y: float
     yaw: float
     angle: float
+    step: tuple[float, float] | None = None
 
     def _place(self, local: tuple[float, float, float]) -> tuple[float, float, float]:
         a = math.radians(self.yaw)
@@ -81,7 +89,17 @@ class Leaner:
         """The brick's centre, metres: its near bottom edge on the ground, its far one at the wall."""
         t = math.radians(self.angle)
         reach = LENGTH / 2 * math.cos(t) + HEIGHT / 2 * math.sin(t)
-        return self._place((-reach - _WALL_GAP, 0.0, LENGTH / 2 * math.sin(t) + HEIGHT / 2 * math.cos(t)))
+        lift = 0.0 if self.step is None else HEIGHT
+        return self._place((-reach - _WALL_GAP, 0.0, lift + LENGTH / 2 * math.sin(t) + HEIGHT / 2 * math.cos(t)))
+
+    def step_brick(self) -> Brick | None:
+        """The flat brick under the foot (level 1, lying across the leaning brick), or None."""
+        if self.step is None:
+            return None
+        foot = LENGTH * math.cos(math.radians(self.angle)) + _WALL_GAP  # m from the wall to the bottom near edge
+        along, across = self.step
+        x, y, _ = self._place((-foot + along, across, 0.0))
+        return Brick(x, y, 1, (self.yaw + 90.0) % 180.0)
 
     def wall(self) -> tuple[float, float, float]:
         """The wall's centre, metres."""
@@ -97,7 +115,7 @@ def assembly(rng: np.random.Generator, name: str = "assembly") -> str:
 
     while True:
         leaner = _leaner(rng) if rng.random() < LEANING else None
-        bricks = _draw(rng, leaning=leaner is not None)
+        bricks = _draw(rng, extra=0 if leaner is None else 1 + (leaner.step is not None))
         if bricks is None:
             continue
         text = _yaml(bricks, name, leaner)
@@ -108,11 +126,12 @@ def assembly(rng: np.random.Generator, name: str = "assembly") -> str:
         return text
 
 
-def _draw(rng: np.random.Generator, leaning: bool = False) -> list[Brick] | None:
-    """The flat bricks: 2 to 4 levels and 3 to 12 bricks, one level and one brick fewer when a
-    leaning brick comes last (it is the last level)."""
-    levels = int(rng.integers(2, 5)) - leaning
-    total = int(rng.integers(max(3, levels + 1), 13)) - 1 if leaning else int(rng.integers(max(3, levels), 13))
+def _draw(rng: np.random.Generator, extra: int = 0) -> list[Brick] | None:
+    """The flat bricks: 2 to 4 levels and 3 to 12 bricks in all, one level fewer when a leaning
+    brick comes last (it is the last level) and ``extra`` bricks fewer: the leaning brick and its
+    step brick, if any."""
+    levels = int(rng.integers(2, 5)) - (extra > 0)
+    total = int(rng.integers(max(3, levels + extra), 13)) - extra
     counts = [1] * levels
     for _ in range(total - levels):
         counts[int(rng.integers(levels))] += 1
@@ -134,7 +153,10 @@ def _draw(rng: np.random.Generator, leaning: bool = False) -> list[Brick] | None
 def _leaner(rng: np.random.Generator) -> Leaner:
     """A leaning brick and its wall 0.35 m from the origin, clear of the flat bricks."""
     around = rng.uniform(0, 2 * math.pi)
-    return Leaner(0.35 * math.cos(around), 0.35 * math.sin(around), float(rng.uniform(0, 360)), float(rng.uniform(20, 70)))
+    x, y, yaw, angle = 0.35 * math.cos(around), 0.35 * math.sin(around), float(rng.uniform(0, 360)), float(rng.uniform(20, 70))
+    # the foot's edge 4 mm or more inside the step's 24 mm width, its corners (12 mm out) well inside its length
+    step = (float(rng.uniform(-0.008, 0.008)), float(rng.uniform(-0.03, 0.03))) if rng.random() < STEP else None
+    return Leaner(x, y, yaw, angle, step)
 
 
 def _ground_brick(rng: np.random.Generator) -> Brick:
@@ -189,6 +211,8 @@ def _yaml(bricks: list[Brick], name: str, leaner: Leaner | None = None) -> str:
         size = ", ".join(f"{v * 1000:g} mm" for v in WALL)
         lines.append(f"brick_types:\n  wall: {{size: [{size}], material: pine}}")
     lines.append("structure:\n  bricks:")
+    step = leaner.step_brick() if leaner is not None else None
+    bricks = bricks + ([step] if step is not None else [])  # placed just before the leaning brick
     for i, b in enumerate(bricks, start=1):
         z = (b.level - 0.5) * HEIGHT
         lines.append(

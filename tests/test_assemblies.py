@@ -101,6 +101,26 @@ def test_a_brick_leaning_on_a_wall_stands_above_the_ladder_angle(yaw):
 def test_some_assemblies_lean_on_a_wall():
     texts = [assembly(rng(k), f"a{k}") for k in range(30)]
     leaning = [t for t in texts if "fixed: true" in t]
-    assert 3 <= len(leaning) <= 20
+    assert 8 <= len(leaning) <= 22  # LEANING = 0.5
     program = compile_scenario(parse_scenario(leaning[0]))
     assert program.placements[-1].pitch != 0.0 and judge(program).margin > 0
+
+
+def test_some_leaning_bricks_stand_on_a_step_brick_the_oracle_sees():
+    """A step brick lies across the leaning brick's foot on the ground, placed just before it:
+    the oracle's contacts are the foot's two corners on the step's top face, the top edge's two
+    on the wall, the step's face on the ground; and the leaning brick touches nothing else."""
+    from stackdsl._oracle import structure
+
+    programs = [compile_scenario(parse_scenario(assembly(rng(k), f"a{k}"))) for k in range(30)]
+    stepped = [
+        p
+        for p in programs
+        if p.fixtures and p.placements[-2].level == 1 and abs((p.placements[-2].yaw - p.placements[-1].yaw) % 180 - 90) < 1e-6
+    ]
+    assert 3 <= len(stepped) <= 14, len(stepped)  # STEP = 0.5 of the leaning half
+    for p in stepped:
+        leaner, step = p.placements[-1].id, p.placements[-2].id
+        _, contacts = structure(list(p.placements), p.fixtures, p.ground_friction)
+        touching = {(c.body, c.other): len(c.points) for c in contacts if {leaner, step} & {c.body, c.other}}
+        assert touching == {(step, "ground"): 4, (leaner, "wall"): 2, (leaner, step): 2}, touching

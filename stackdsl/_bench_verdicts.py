@@ -1,133 +1,321 @@
-"""``stackdsl bench verdicts``: each mode's verdicts on random assemblies against the oracle.
+"""``stackdsl bench verdicts``: each setting's verdicts on random assemblies against the oracle.
 
 Assembly ``k`` is drawn from ``SeedSequence(seed, spawn_key=(k,))`` (:mod:`stackdsl._assemblies`),
-judged by rigid-block equilibrium brick by brick in placing order, and run in every setting
-of :data:`SETTINGS`. A setting agrees with the oracle on an assembly when it gives the same
-collapse level (or both say it stands). Agreement is reported over every assembly and over
-those whose oracle margin exceeds :data:`MARGIN` (a verdict that a smaller move of the
-centres of mass would flip is one no simulation can be held to); the misjudged ones are
-written out as scenario files.
+judged by rigid-block equilibrium brick by brick in placing order, and run in every
+:class:`Setting` of the plan: raw and tuned pybullet, tuned MuJoCo, and the extension with
+each stability model on each engine, the extension at each drop gap of :data:`GAPS` (the
+others at the scenario's, 0.5 mm). One task runs every setting and gap of one assembly. A run
+agrees with the oracle when it gives the same collapse level (or both say it stands).
+Agreement is reported over every assembly, over those whose oracle margin exceeds
+:data:`MARGIN` (a verdict that a smaller move of the centres of mass would flip is one no
+simulation can be held to), over those from :data:`NEAR` to :data:`MARGIN`, and above the
+margin for the assemblies without and with a leaning brick apart. A run that says the
+structure stands while a structure brick is still simulated by the engine at its end (state
+``active`` in the final brick graph) is counted per setting: the target is none. The
+misjudged assemblies are written out as scenario files.
 
-Source: stackdsl's own.
+Units: metres and seconds in code; the tables print millimetres. Source: stackdsl's own.
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-#: Metres: the oracle margin above which a setting must agree.
-MARGIN = 0.001
+if TYPE_CHECKING:
+    from ._schema import Scenario
 
-#: name -> (mode, stability model).
-SETTINGS: dict[str, tuple[str, str]] = {
-    "raw": ("raw", "report"),
-    "tuned": ("tuned", "report"),
-    "extension (report)": ("extension", "report"),
-    "extension (equilibrium)": ("extension", "equilibrium"),
+#: Metres: the oracle margin above which a setting must agree, and the lower end of the
+#: near-tie column (from NEAR to MARGIN).
+MARGIN = 0.001
+NEAR = 0.0002
+#: Metres: the drop gaps the extension settings run at (the scenario's own is 0.5 mm).
+GAPS: tuple[float, ...] = (0.0, 0.0005, 0.001, 0.002)
+DEFAULT_GAP = 0.0005
+ENGINES: tuple[str, ...] = ("pybullet", "mujoco")
+#: Wall seconds a run may take.
+TIMEOUT = 60.0
+
+
+@dataclass(frozen=True)
+class Setting:
+    """How one run goes: its table name, mode, stability model and engine (backend)."""
+
+    name: str
+    mode: str
+    model: str
+    backend: str
+
+    @property
+    def extension(self) -> bool:
+        """Whether the stability extension runs (it is what the drop gaps and the
+        "stands with an active brick" count are about)."""
+        return self.mode == "extension"
+
+
+#: Every setting, in table order.
+SETTINGS: dict[str, Setting] = {
+    s.name: s
+    for s in (
+        Setting("raw pybullet", "raw", "report", "pybullet"),
+        Setting("tuned pybullet", "tuned", "report", "pybullet"),
+        Setting("tuned mujoco", "tuned", "report", "mujoco"),
+        Setting("ext report pybullet", "extension", "report", "pybullet"),
+        Setting("ext equilibrium pybullet", "extension", "equilibrium", "pybullet"),
+        Setting("ext report mujoco", "extension", "report", "mujoco"),
+        Setting("ext equilibrium mujoco", "extension", "equilibrium", "mujoco"),
+    )
 }
+
+#: (setting name, drop gap in metres) pairs to run.
+Plan = tuple[tuple[str, float], ...]
+
+
+def plan(engines: Sequence[str] = ENGINES, gaps: Sequence[float] = GAPS, baselines: bool = True) -> Plan:
+    """The runs of each assembly: the extension settings of ``engines`` at each of ``gaps``,
+    and with ``baselines`` the raw and tuned settings of ``engines`` at :data:`DEFAULT_GAP`.
+
+    Raises:
+        ValueError: an unknown engine, no engine, or no gap.
+    """
+    unknown = [e for e in engines if e not in ENGINES]
+    if unknown or not engines:
+        raise ValueError(f"engines are some of {', '.join(ENGINES)}, not {', '.join(unknown) or 'none'}")
+    if not gaps:
+        raise ValueError("give at least one drop gap")
+    out: list[tuple[str, float]] = []
+    for s in SETTINGS.values():
+        if s.backend not in engines:
+            continue
+        if s.extension:
+            out += [(s.name, float(g)) for g in gaps]
+        elif baselines:
+            out.append((s.name, DEFAULT_GAP))
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class Run:
+    """One run: its setting's name and drop gap (m), collapse level (None: stands), wall time
+    (s), the structure bricks still ``active`` in its final brick graph, and an internal error
+    or the reason it stopped early ('' when it ran to its end)."""
+
+    setting: str
+    gap: float
+    level: int | None
+    wall: float
+    active: tuple[str, ...] = ()
+    error: str = ""
+
+    @property
+    def stands_active(self) -> bool:
+        """It says the structure stands while a structure brick is still simulated at the end."""
+        return not self.error and self.level is None and bool(self.active)
 
 
 @dataclass(frozen=True)
 class Verdicts:
-    """One assembly: its index, file text, bricks, the oracle's level (None: stands) and margin
-    (m), and each setting's level and wall time (s); ``error``: a run's internal error, else ''."""
+    """One assembly: its index, file text, bricks, whether a brick leans (is placed tilted),
+    the oracle's level (None: stands) and margin (m), and its runs; ``error``: an internal
+    error that kept it from being drawn, judged or run, else ''."""
 
     index: int
     text: str
     bricks: int
+    leaning: bool
     oracle: int | None
     margin: float
-    levels: dict[str, int | None]
-    walls: dict[str, float]
+    runs: tuple[Run, ...]
     error: str = ""
 
+    def run(self, setting: str, gap: float) -> Run | None:
+        """The run of ``setting`` at ``gap`` (m), or None."""
+        return next((r for r in self.runs if r.setting == setting and abs(r.gap - gap) < 1e-9), None)
 
-def verdicts(seed: int, index: int) -> Verdicts:
-    """Draw, judge and run assembly ``index`` of ``seed`` (a worker's task)."""
+
+def run_setting(scenario: Scenario, setting: Setting, gap: float, timeout: float = TIMEOUT) -> Run:
+    """Compile ``scenario`` in ``setting`` with the drop gap ``gap`` (m, put in its ``timing``)
+    and run it for at most ``timeout`` wall seconds; an internal error is the run's ``error``,
+    not an exception."""
+    from ._compiler import compile_scenario
+    from ._runtime import run_program
+
+    try:
+        timing = scenario.timing.model_copy(update={"drop_gap": gap})
+        program = compile_scenario(scenario.model_copy(update={"timing": timing}), setting.mode, setting.model, setting.backend)
+        outcome = run_program(program, timeout=timeout)
+    except Exception as exc:  # this run's internal error, reported with it
+        message = (str(exc).splitlines() or [""])[0]
+        return Run(setting.name, gap, None, 0.0, error=f"{type(exc).__name__}: {message}")
+    active = tuple(n.id for n in outcome.final_graph.nodes if n.state == "active" and n.level is not None)
+    level = outcome.collapse.level if outcome.collapse else None
+    return Run(setting.name, gap, level, outcome.wall_time, active, outcome.stopped or "")
+
+
+def verdicts(seed: int, index: int, runs: Plan | None = None) -> Verdicts:
+    """Draw, judge and run assembly ``index`` of ``seed`` in every (setting, gap) of ``runs``
+    (default: :func:`plan`'s); a worker's task."""
     from ._assemblies import assembly, judge
     from ._compiler import compile_scenario
     from ._loader import parse_scenario
-    from ._runtime import run_program
+    from ._oracle import _flat
 
+    runs = plan() if runs is None else runs
     rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(index,)))
-    text = assembly(rng, f"assembly {seed}-{index}")
-    scenario = parse_scenario(text, f"assembly_{index}.yaml")
-    oracle = judge(compile_scenario(scenario))
-    levels: dict[str, int | None] = {}
-    walls: dict[str, float] = {}
-    error = ""
+    text = ""
     try:
-        for name, (mode, model) in SETTINGS.items():
-            outcome = run_program(compile_scenario(scenario, mode, model), timeout=60.0)
-            levels[name] = outcome.collapse.level if outcome.collapse else None
-            walls[name] = outcome.wall_time
+        text = assembly(rng, f"assembly {seed}-{index}")
+        scenario = parse_scenario(text, f"assembly_{index}.yaml")
+        program = compile_scenario(scenario)
+        oracle = judge(program)
     except Exception as exc:  # this assembly's internal error, reported with it
-        error = f"{type(exc).__name__}: {exc}"
-    bricks = len(scenario.structure.bricks or [])
-    return Verdicts(index, text, bricks, oracle.collapse_level, oracle.margin, levels, walls, error)
+        return Verdicts(index, text, 0, False, None, 0.0, (), f"{type(exc).__name__}: {exc}")
+    leaning = not all(_flat(p) for p in program.placements)
+    done = tuple(run_setting(scenario, SETTINGS[name], gap) for name, gap in runs)
+    return Verdicts(index, text, len(program.placements), leaning, oracle.collapse_level, oracle.margin, done)
 
 
-def run_verdicts(seed: int, count: int, jobs: int, each: Callable[[Verdicts], None] = lambda v: None) -> list[Verdicts]:
-    """Assemblies 0 to ``count - 1`` of ``seed`` on ``jobs`` processes, in index order."""
-    from ._pool import fan_out
+def run_verdicts(
+    seed: int, count: int, jobs: int, each: Callable[[Verdicts], None] = lambda v: None, runs: Plan | None = None
+) -> list[Verdicts]:
+    """Assemblies 0 to ``count - 1`` of ``seed`` on ``jobs`` processes, in index order; each
+    runs ``runs`` (default: :func:`plan`'s). A task whose worker dies is that assembly's error."""
+    from ._pool import WorkerLost, fan_out
 
-    tasks = [(seed, k) for k in range(count)]
+    runs = plan() if runs is None else runs
+    tasks = [(seed, k, runs) for k in range(count)]
+
+    def lost(task: tuple, error: WorkerLost) -> Verdicts:
+        return Verdicts(task[1], "", 0, False, None, 0.0, (), f"worker lost: {error}")
+
     results: list[Verdicts] = []
-    iterator: Iterator[Verdicts] = fan_out(verdicts, tasks, [2.0] * count, jobs, here=False)
+    iterator: Iterator[Verdicts] = fan_out(verdicts, tasks, [0.3 * len(runs)] * count, jobs, here=False, lost=lost)
     for v in iterator:
         results.append(v)
         each(v)
     return sorted(results, key=lambda v: v.index)
 
 
-def agrees(v: Verdicts, setting: str) -> bool:
-    """The setting's collapse level is the oracle's (both None: both stand)."""
-    return setting in v.levels and v.levels[setting] == v.oracle
+def agrees(v: Verdicts, setting: str, gap: float = DEFAULT_GAP) -> bool:
+    """The run's collapse level is the oracle's (both None: both stand); False without a run."""
+    r = v.run(setting, gap)
+    return r is not None and not r.error and r.level == v.oracle
 
 
-def format_verdicts(results: list[Verdicts], out: Path | None, seconds: float) -> str:
-    """The agreement table, and the misjudged assemblies with a margin above :data:`MARGIN`
-    (written to ``out`` as scenario files when it is given)."""
-    sure = [v for v in results if v.margin > MARGIN and not v.error]
-    stands = sum(v.oracle is None for v in results)
-    lines = [
-        f"{len(results)} random assemblies ({stands} stand by the oracle), {len(sure)} with an oracle margin above "
-        f"{MARGIN * 1000:g} mm; {seconds:.0f} s wall",
-        f"{'setting':<26} {'agree, all':>12} {'agree, margin > 1 mm':>22} {'median wall':>12}",
-    ]
-    for name in SETTINGS:
-        every = sum(agrees(v, name) for v in results)
-        margin = sum(agrees(v, name) for v in sure)
-        wall = float(np.median([v.walls[name] for v in results if name in v.walls] or [0.0]))
-        lines.append(
-            f"{name:<26} {every / max(1, len(results)):>11.1%} {margin:>10}/{len(sure):<5} {margin / max(1, len(sure)):>5.1%} "
-            f"{wall * 1000:>9.0f} ms"
+@dataclass(frozen=True)
+class Row:
+    """One (setting, gap) row of the agreement table: for each subset of assemblies,
+    (agreeing runs, runs), runs with an error or a stop left out; ``stands_active``: runs
+    that say "stands" with a structure brick still active at the end; ``errors``: runs with
+    an error or stopped early; ``wall``: median wall seconds a run."""
+
+    setting: str
+    gap: float
+    every: tuple[int, int]
+    sure: tuple[int, int]
+    near: tuple[int, int]
+    flat: tuple[int, int]
+    leaning: tuple[int, int]
+    stands_active: int
+    errors: int
+    wall: float
+
+
+def rows(results: Sequence[Verdicts], runs: Plan) -> list[Row]:
+    """The agreement table's rows, one per (setting, gap) of ``runs``, counted from the runs."""
+    good = [v for v in results if not v.error]
+    sure = [v for v in good if v.margin > MARGIN]
+    near = [v for v in good if NEAR < v.margin <= MARGIN]
+
+    def count(subset: Sequence[Verdicts], name: str, gap: float) -> tuple[int, int]:
+        ran = [v for v in subset if (r := v.run(name, gap)) is not None and not r.error]
+        return sum(agrees(v, name, gap) for v in ran), len(ran)
+
+    out = []
+    for name, gap in runs:
+        mine = [r for v in good if (r := v.run(name, gap)) is not None]
+        out.append(
+            Row(
+                name,
+                gap,
+                count(good, name, gap),
+                count(sure, name, gap),
+                count(near, name, gap),
+                count([v for v in sure if not v.leaning], name, gap),
+                count([v for v in sure if v.leaning], name, gap),
+                sum(r.stands_active for r in mine),
+                sum(bool(r.error) for r in mine),
+                float(np.median([r.wall for r in mine if not r.error] or [0.0])),
+            )
         )
-    wrong = [(v, n) for v in sure for n in SETTINGS if not agrees(v, n)]
+    return out
+
+
+def _cell(pair: tuple[int, int]) -> str:
+    agree, total = pair
+    return f"{agree:>4}/{total:<4} {agree / total:>4.0%}" if total else f"{'-':>9}     "
+
+
+def format_verdicts(results: list[Verdicts], out: Path | None, seconds: float, runs: Plan | None = None) -> str:
+    """The agreement table of ``runs`` (default: :func:`plan`'s), and the misjudged assemblies
+    with a margin above :data:`MARGIN` (written to ``out`` as scenario files when it is given)."""
+    runs = plan() if runs is None else runs
+    good = [v for v in results if not v.error]
+    sure = [v for v in good if v.margin > MARGIN]
+    near = [v for v in good if NEAR < v.margin <= MARGIN]
+    stands = sum(v.oracle is None for v in good)
+    leaning = sum(v.leaning for v in good)
+    lines = [
+        f"{len(results)} random assemblies ({stands} stand by the oracle, {leaning} with a leaning brick), "
+        f"{len(sure)} with an oracle margin above {MARGIN * 1000:g} mm ({sum(v.leaning for v in sure)} leaning), "
+        f"{len(near)} from {NEAR * 1000:g} to {MARGIN * 1000:g} mm; {seconds:.0f} s wall",
+        "agreement with the oracle, agreeing/runs: every assembly; margin > 1 mm; margin 0.2-1 mm; margin > 1 mm "
+        "without and with a leaning brick. 'stand+active': stands with a structure brick still active at the end",
+        f"{'setting':<25} {'gap':>6}  {'all':^14} {'margin > 1 mm':^14} {'0.2-1 mm':^14} {'flat, > 1 mm':^14} "
+        f"{'leaning, > 1':^14} {'stand+active':>12} {'errors':>6} {'median wall':>11}",
+    ]
+    for row in rows(results, runs):
+        active = f"{row.stands_active:>12}" if SETTINGS[row.setting].extension else f"{'(no ext.)':>12}"
+        lines.append(
+            f"{row.setting:<25} {row.gap * 1000:>3.1f} mm  {_cell(row.every)} {_cell(row.sure)} {_cell(row.near)} "
+            f"{_cell(row.flat)} {_cell(row.leaning)} {active} {row.errors:>6} {row.wall * 1000:>8.0f} ms"
+        )
+    wrong = [
+        (v, name, gap) for v in sure for name, gap in runs if (r := v.run(name, gap)) and not r.error and not agrees(v, name, gap)
+    ]
     if wrong:
-        lines.append("misjudged (margin above 1 mm): assembly, setting, measured, oracle, margin")
-    for v, name in wrong:
+        lines.append("misjudged (margin above 1 mm): assembly, setting, gap, measured, oracle, margin")
+    written: set[int] = set()
+    for v, name, gap in wrong:
         where = ""
         if out is not None:
-            out.mkdir(parents=True, exist_ok=True)
             path = out / f"assembly_{v.index:04d}.yaml"
-            path.write_text(v.text)
-            where = f"  {path}"
+            if v.index not in written:
+                out.mkdir(parents=True, exist_ok=True)
+                path.write_text(v.text)
+                written.add(v.index)
+            where = f"  {path.name}"
+        r = v.run(name, gap)
+        lean = ", leaning" if v.leaning else ""
         lines.append(
-            f"  {v.index:4d}  {name:<24} {_level(v.levels.get(name))} (oracle {_level(v.oracle)}), margin {v.margin * 1000:.1f} mm{where}"
+            f"  {v.index:4d}  {name:<25} {gap * 1000:.1f} mm  {_level(r.level if r else None)} (oracle {_level(v.oracle)}), "
+            f"margin {v.margin * 1000:.1f} mm{lean}{where}"
         )
     if not wrong:
         lines.append(f"no assembly with a margin above {MARGIN * 1000:g} mm misjudged: no files written")
     elif out is not None:
         lines.append(f"(their files are in {out})")
-    errors = [v for v in results if v.error]
-    for v in errors:
-        lines.append(f"  {v.index:4d}  internal error: {v.error}")
+    for v in results:
+        if v.error:
+            lines.append(f"  {v.index:4d}  internal error: {v.error}")
+        for r in v.runs:
+            if r.error:
+                lines.append(f"  {v.index:4d}  {r.setting} at {r.gap * 1000:.1f} mm: {r.error}")
     return "\n".join(lines)
 
 
@@ -135,8 +323,10 @@ def _level(level: int | None) -> str:
     return "stands" if level is None else f"collapse {level}"
 
 
-def timed(seed: int, count: int, jobs: int, each: Callable[[Verdicts], None] = lambda v: None) -> tuple[list[Verdicts], float]:
+def timed(
+    seed: int, count: int, jobs: int, each: Callable[[Verdicts], None] = lambda v: None, runs: Plan | None = None
+) -> tuple[list[Verdicts], float]:
     """:func:`run_verdicts` and its wall seconds."""
     start = time.perf_counter()
-    results = run_verdicts(seed, count, jobs, each)
+    results = run_verdicts(seed, count, jobs, each, runs)
     return results, time.perf_counter() - start

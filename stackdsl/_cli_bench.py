@@ -102,9 +102,18 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
         "--samples", type=int, default=None, help="samples a grid cell on each executor (default: 1000, or FILE's own)"
     )
     q.set_defaults(func=_bench_sweep)
-    q = bench.add_parser("verdicts", help="every mode's collapse verdicts on random assemblies against rigid-block equilibrium")
+    q = bench.add_parser(
+        "verdicts",
+        help="each setting's collapse verdicts on random assemblies against rigid-block equilibrium, on both engines "
+        "and at several drop gaps",
+    )
     q.add_argument("--count", type=int, default=1000, help="assemblies (default: 1000)")
     q.add_argument("--seed", type=int, default=1, help="assembly k is drawn from SeedSequence(seed, spawn_key=(k,))")
+    q.add_argument("--engines", default="pybullet,mujoco", help="comma-separated, of: pybullet, mujoco (default: both)")
+    q.add_argument(
+        "--gaps", default="0,0.5,1,2", help="drop gaps of the extension settings, mm, comma-separated (default: 0,0.5,1,2)"
+    )
+    q.add_argument("--no-baselines", action="store_true", help="leave out raw and tuned (run the extension settings only)")
     q.add_argument("-j", "--jobs", type=jobs_type, default="auto", help="worker processes (default: one per core)")
     q.add_argument("--out", help="folder for the misjudged assemblies' files (default: a new temporary folder)")
     q.set_defaults(func=_bench_verdicts)
@@ -280,17 +289,28 @@ def _bench_freeze(args: argparse.Namespace) -> int:
 
 
 def _bench_verdicts(args: argparse.Namespace) -> int:
-    from ._bench_verdicts import format_verdicts, timed
+    from ._bench_verdicts import format_verdicts, plan, timed
     from ._progress import Lines
 
     if not 1 <= args.count <= 100_000:
         raise ScenarioError(f"--count must be from 1 to 100000, not {args.count}", file="--count")
     if args.seed < 0:
         raise ScenarioError(f"--seed must be 0 or more, not {args.seed}", file="--seed")
+    engines = [e.strip() for e in args.engines.split(",") if e.strip()]
+    try:
+        gaps = [float(g) / 1000 for g in args.gaps.split(",") if g.strip()]
+    except ValueError:
+        raise ScenarioError(f"--gaps must be millimetres separated by commas, not {args.gaps!r}", file="--gaps") from None
+    if not gaps or not all(0 <= g <= 0.003 for g in gaps):
+        raise ScenarioError(f"--gaps must be from 0 to 3 mm (below the collapse threshold), not {args.gaps!r}", file="--gaps")
+    try:
+        runs = plan(engines, gaps, baselines=not args.no_baselines)
+    except ValueError as exc:
+        raise ScenarioError(str(exc), file="--engines") from None
     out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="stackdsl-verdicts-"))
     if out.exists() and not out.is_dir():
         raise ScenarioError("the output must be a folder, and this is a file", file=str(out))
     with Lines(args.count, "assemblies") as progress:
-        results, seconds = timed(args.seed, args.count, args.jobs, lambda v: progress.advance())
-    print(format_verdicts(results, out, seconds))
+        results, seconds = timed(args.seed, args.count, args.jobs, lambda v: progress.advance(), runs)
+    print(format_verdicts(results, out, seconds, runs))
     return OK

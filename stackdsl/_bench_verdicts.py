@@ -14,6 +14,12 @@ structure stands while a structure brick is still simulated by the engine at its
 ``active`` in the final brick graph) is counted per setting: the target is none. The
 misjudged assemblies are written out as scenario files.
 
+:func:`run_single_file` runs the random single-file stack (``sweeps/random_single_file.yaml``,
+:data:`SINGLE_FILE`) in the extension settings and compares each sample's collapse level with
+the exact centre-of-mass rule of :mod:`stackdsl._random_stack` (the harmonic stack's condition)
+on its placed centres, listing every disagreement with the sample's margin
+(:func:`exact_margin`).
+
 Units: metres and seconds in code; the tables print millimetres. Source: stackdsl's own.
 """
 
@@ -330,3 +336,148 @@ def timed(
     start = time.perf_counter()
     results = run_verdicts(seed, count, jobs, each, runs)
     return results, time.perf_counter() - start
+
+
+# --- the random single-file stack against the exact rule -----------------------------------
+
+#: The random single-file stack of ``sweeps/random_single_file.yaml``: 40 levels, each brick's
+#: centre x(k+1) = x(k) + U(-60 mm, 60 mm); ``{seed}`` is put in.
+SINGLE_FILE = """stackdsl: 1
+name: random single-file stack
+seed: {seed}
+structure:
+  tower:
+    levels: 40
+    bricks_per_layer: 1
+    turn: 0
+    shift: {{uniform: [-60 mm, 60 mm], per: layer}}
+timing:
+  settle: 0.2 s
+sweep:
+  samples: 1
+"""
+#: Samples a single-file task runs (each in every setting).
+SINGLE_FILE_BATCH = 25
+
+
+@dataclass(frozen=True)
+class Sample:
+    """One random single-file stack: its sample number, the exact rule's collapse level on its
+    placed centres (None: all 40 stand) and margin (m, :func:`exact_margin`), and its runs
+    (at the scenario's drop gap); ``error``: why it could not be drawn, else ''."""
+
+    sample: int
+    exact: int | None
+    margin: float
+    runs: tuple[Run, ...]
+    error: str = ""
+
+
+def exact_margin(x: Sequence[float] | np.ndarray, length: float = 0.120) -> tuple[int | None, float]:
+    """The exact rule's collapse level of bricks placed at centres ``x`` (m, bottom first,
+    shape (N,)) and its margin (m): how far the centre of mass of the bricks above some brick
+    must move (relative to that brick) to change the level. Each prefix that stands could fail
+    by its smallest interface margin; the prefix that fails would stand only if its largest
+    overhang were undone. (:func:`stackdsl._random_stack.interface_margins`: L/2 - |mean of
+    x(j+1..n) - x(j)|.)
+
+    >>> level, margin = exact_margin([0.0, 0.05, 0.1])  # fails at 3 by 15 mm; 2 stood by 10 mm
+    >>> level, round(margin * 1000, 3)
+    (3, 10.0)
+    """
+    from ._random_stack import collapse_level, interface_margins
+
+    x = np.asarray(x, dtype=float)
+    level = collapse_level(x, length)
+    last = len(x) if level is None else level
+    margin = float("inf")
+    for n in range(2, last + 1):
+        m = interface_margins(x[:n], length)
+        margin = min(margin, float(-m.min()) if n == level else float(m.min()))
+    return level, margin
+
+
+def single_file_batch(seed: int, samples: Sequence[int], settings: Sequence[str]) -> list[Sample]:
+    """Draw and run ``samples`` of the random single-file stack of ``seed`` in each of
+    ``settings`` (names of :data:`SETTINGS`); a worker's task."""
+    from ._compiler import compile_scenario
+    from ._loader import parse_scenario
+
+    sweep = parse_scenario(SINGLE_FILE.format(seed=seed), "single_file.yaml").template
+    assert sweep is not None
+    out = []
+    for k in samples:
+        try:
+            scenario = sweep.scenario(0, k)
+            places = sorted(compile_scenario(scenario).placements, key=lambda p: p.level)
+            level, margin = exact_margin([p.position[0] for p in places])
+        except Exception as exc:  # this sample's internal error, reported with it
+            out.append(Sample(k, None, 0.0, (), f"{type(exc).__name__}: {exc}"))
+            continue
+        runs = tuple(run_setting(scenario, SETTINGS[name], scenario.timing.drop_gap) for name in settings)
+        out.append(Sample(k, level, margin, runs))
+    return out
+
+
+def run_single_file(
+    seed: int, count: int, jobs: int, settings: Sequence[str], each: Callable[[list[Sample]], None] = lambda b: None
+) -> list[Sample]:
+    """Samples 0 to ``count - 1`` of the random single-file stack of ``seed``, each run in
+    ``settings``, on ``jobs`` processes, in sample order."""
+    from ._pool import WorkerLost, fan_out
+
+    tasks = [
+        (seed, tuple(range(s, min(s + SINGLE_FILE_BATCH, count))), tuple(settings)) for s in range(0, count, SINGLE_FILE_BATCH)
+    ]
+
+    def lost(task: tuple, error: WorkerLost) -> list[Sample]:
+        return [Sample(k, None, 0.0, (), f"worker lost: {error}") for k in task[1]]
+
+    results: list[Sample] = []
+    costs = [0.3 * len(t[1]) * len(settings) for t in tasks]
+    for batch in fan_out(single_file_batch, tasks, costs, jobs, here=False, lost=lost):
+        results += batch
+        each(batch)
+    return sorted(results, key=lambda s: s.sample)
+
+
+def format_single_file(samples: list[Sample], settings: Sequence[str], seconds: float) -> str:
+    """Agreement of each setting with the exact rule, and every disagreement with its margin
+    (a near tie when under :data:`MARGIN`)."""
+    good = [s for s in samples if not s.error]
+    sure = [s for s in good if s.margin > MARGIN]
+    lines = [
+        f"{len(samples)} random single-file stacks (seed's samples 0-{len(samples) - 1}), {len(sure)} with a margin "
+        f"above {MARGIN * 1000:g} mm; {seconds:.0f} s wall",
+        "agreement with the exact centre-of-mass rule, agreeing/runs",
+        f"{'setting':<25} {'all':^14} {'margin > 1 mm':^14} {'0.2-1 mm':^14} {'stand+active':>12} {'errors':>6} {'median wall':>11}",
+    ]
+    for name in settings:
+
+        def count(subset: Sequence[Sample], name: str = name) -> tuple[int, int]:
+            ran = [(s, r) for s in subset for r in s.runs if r.setting == name and not r.error]
+            return sum(r.level == s.exact for s, r in ran), len(ran)
+
+        mine = [r for s in good for r in s.runs if r.setting == name]
+        walls = [r.wall for r in mine if not r.error] or [0.0]
+        lines.append(
+            f"{name:<25} {_cell(count(good))} {_cell(count(sure))} {_cell(count([s for s in good if NEAR < s.margin <= MARGIN]))} "
+            f"{sum(r.stands_active for r in mine):>12} {sum(bool(r.error) for r in mine):>6} {float(np.median(walls)) * 1000:>8.0f} ms"
+        )
+    wrong = [(s, r) for s in good for r in s.runs if not r.error and r.level != s.exact]
+    lines.append(
+        f"disagreements: {len(wrong)} ({sum(s.margin < MARGIN for s, _ in wrong)} near ties under {MARGIN * 1000:g} mm)"
+        + (": sample, setting, measured, exact rule, margin" if wrong else "")
+    )
+    for s, r in wrong:
+        tie = "  near tie" if s.margin < MARGIN else ""
+        lines.append(
+            f"  {s.sample:5d}  {r.setting:<25} {_level(r.level)} (exact {_level(s.exact)}), margin {s.margin * 1000:.2f} mm{tie}"
+        )
+    for s in samples:
+        if s.error:
+            lines.append(f"  {s.sample:5d}  internal error: {s.error}")
+        for r in s.runs:
+            if r.error:
+                lines.append(f"  {s.sample:5d}  {r.setting}: {r.error}")
+    return "\n".join(lines)

@@ -105,15 +105,22 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     q = bench.add_parser(
         "verdicts",
         help="each setting's collapse verdicts on random assemblies against rigid-block equilibrium, on both engines "
-        "and at several drop gaps",
+        "and at several drop gaps; random single-file stacks against the exact centre-of-mass rule",
     )
-    q.add_argument("--count", type=int, default=1000, help="assemblies (default: 1000)")
+    q.add_argument("--count", type=int, default=1000, help="assemblies (default: 1000; 0: none)")
     q.add_argument("--seed", type=int, default=1, help="assembly k is drawn from SeedSequence(seed, spawn_key=(k,))")
     q.add_argument("--engines", default="pybullet,mujoco", help="comma-separated, of: pybullet, mujoco (default: both)")
     q.add_argument(
         "--gaps", default="0,0.5,1,2", help="drop gaps of the extension settings, mm, comma-separated (default: 0,0.5,1,2)"
     )
     q.add_argument("--no-baselines", action="store_true", help="leave out raw and tuned (run the extension settings only)")
+    q.add_argument(
+        "--single-file",
+        type=int,
+        default=1000,
+        metavar="N",
+        help="random single-file stacks run in the extension settings against the exact rule (default: 1000; 0: none)",
+    )
     q.add_argument("-j", "--jobs", type=jobs_type, default="auto", help="worker processes (default: one per core)")
     q.add_argument("--out", help="folder for the misjudged assemblies' files (default: a new temporary folder)")
     q.set_defaults(func=_bench_verdicts)
@@ -289,11 +296,15 @@ def _bench_freeze(args: argparse.Namespace) -> int:
 
 
 def _bench_verdicts(args: argparse.Namespace) -> int:
-    from ._bench_verdicts import format_verdicts, plan, timed
+    from ._bench_verdicts import SETTINGS, format_single_file, format_verdicts, plan, run_single_file, timed
     from ._progress import Lines
 
-    if not 1 <= args.count <= 100_000:
-        raise ScenarioError(f"--count must be from 1 to 100000, not {args.count}", file="--count")
+    if not 0 <= args.count <= 100_000:
+        raise ScenarioError(f"--count must be from 0 to 100000, not {args.count}", file="--count")
+    if not 0 <= args.single_file <= 100_000:
+        raise ScenarioError(f"--single-file must be from 0 to 100000, not {args.single_file}", file="--single-file")
+    if args.count == 0 and args.single_file == 0:
+        raise ScenarioError("nothing to run: give --count or --single-file above 0", file="--count")
     if args.seed < 0:
         raise ScenarioError(f"--seed must be 0 or more, not {args.seed}", file="--seed")
     engines = [e.strip() for e in args.engines.split(",") if e.strip()]
@@ -310,7 +321,14 @@ def _bench_verdicts(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="stackdsl-verdicts-"))
     if out.exists() and not out.is_dir():
         raise ScenarioError("the output must be a folder, and this is a file", file=str(out))
-    with Lines(args.count, "assemblies") as progress:
-        results, seconds = timed(args.seed, args.count, args.jobs, lambda v: progress.advance(), runs)
-    print(format_verdicts(results, out, seconds, runs))
+    if args.count:
+        with Lines(args.count, "assemblies") as progress:
+            results, seconds = timed(args.seed, args.count, args.jobs, lambda v: progress.advance(), runs)
+        print(format_verdicts(results, out, seconds, runs), flush=True)
+    if args.single_file:
+        chosen = [n for n in SETTINGS if SETTINGS[n].extension and SETTINGS[n].backend in engines]
+        start = time.perf_counter()
+        with Lines(args.single_file, "single-file stacks") as progress:
+            samples = run_single_file(args.seed, args.single_file, args.jobs, chosen, lambda b: progress.advance(len(b)))
+        print("\n" * bool(args.count) + format_single_file(samples, chosen, time.perf_counter() - start))
     return OK

@@ -1,22 +1,29 @@
-"""``stackdsl bench verdicts``: the plan of settings and drop gaps, and the agreement table
-counted from the runs."""
+"""``stackdsl bench verdicts``: the plan of settings and drop gaps, the agreement table counted
+from the runs, and the random single-file stack against the exact centre-of-mass rule."""
 
 from __future__ import annotations
 
 from dataclasses import replace
 
+import numpy as np
 import pytest
 
 from stackdsl._bench_verdicts import (
     MARGIN,
     SETTINGS,
+    Run,
+    Sample,
     Verdicts,
+    exact_margin,
+    format_single_file,
     format_verdicts,
     plan,
     rows,
     run_verdicts,
+    single_file_batch,
 )
 from stackdsl._cli import main
+from stackdsl._random_stack import collapse_level
 
 PYBULLET = plan(["pybullet"], [0.0005], baselines=False)
 
@@ -81,12 +88,38 @@ def test_the_table_counts_agreement_from_the_runs(few, tmp_path):
     assert counted.stands_active == 1 and counted.errors == 1 and counted.every[1] == 1
 
 
+def test_the_exact_margin_is_how_far_a_verdict_is_from_flipping():
+    assert exact_margin([0.0, 0.05, 0.1]) == (3, pytest.approx(0.010))
+    assert exact_margin([0.0, 0.03, 0.0]) == (None, pytest.approx(0.03))
+    rng = np.random.default_rng(4)
+    for _ in range(200):
+        x = np.concatenate([[0.0], np.cumsum(rng.uniform(-0.06, 0.06, 11))])
+        level, margin = exact_margin(x)
+        assert level == collapse_level(x) and margin > 0
+        # moving each brick by under half the margin moves no centre of mass above a brick by the margin
+        jiggled = x + rng.uniform(-0.49, 0.49, len(x)) * margin
+        assert collapse_level(jiggled) == level
+
+
+def test_single_file_samples_are_judged_by_the_exact_rule_on_their_placed_centres():
+    samples = single_file_batch(1, [0, 2], ["ext report pybullet"])
+    assert [s.sample for s in samples] == [0, 2] and all(not s.error for s in samples)
+    assert [s.exact for s in samples] == [12, 4]  # seed 1's samples 0 and 2
+    assert all(len(s.runs) == 1 and s.runs[0].setting == "ext report pybullet" for s in samples)
+    off = Sample(7, 5, 0.0004, (Run("ext report pybullet", 0.0005, 6, 0.1),))
+    table = format_single_file([*samples, off], ["ext report pybullet"], 1.0)
+    agree = sum(s.runs[0].level == s.exact for s in samples)
+    assert f"{agree}/3" in table.splitlines()[3]
+    assert "collapse 6 (exact collapse 5), margin 0.40 mm  near tie" in table
+
+
 def test_bench_verdicts_runs_and_refuses_nonsense(capsys, tmp_path):
     args = ["bench", "verdicts", "--count", "1", "--engines", "pybullet", "--gaps", "2", "--no-baselines"]
-    assert main([*args, "-j", "1", "--out", str(tmp_path)]) == 0
+    assert main([*args, "--single-file", "1", "-j", "1", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert out.startswith("1 random assemblies") and "ext equilibrium pybullet  2.0 mm" in out
-    assert "mujoco" not in out
+    assert "1 random single-file stacks" in out and "mujoco" not in out
     assert main(["bench", "verdicts", "--count", "-1"]) == 2
+    assert main(["bench", "verdicts", "--count", "0", "--single-file", "0"]) == 2
     assert main(["bench", "verdicts", "--gaps", "5"]) == 2
     assert main(["bench", "verdicts", "--engines", "bullet"]) == 2

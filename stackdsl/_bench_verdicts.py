@@ -109,7 +109,8 @@ def plan(engines: Sequence[str] = ENGINES, gaps: Sequence[float] = GAPS, baselin
 class Run:
     """One run: its setting's name and drop gap (m), collapse level (None: stands), wall time
     (s), the structure bricks still ``active`` in its final brick graph, and an internal error
-    or the reason it stopped early ('' when it ran to its end)."""
+    or the reason it stopped early ('' when it ran to its end); ``certified``: its verdict has a
+    certificate (:class:`stackdsl.Certificate`; a "stands" one of rigid-block equilibrium)."""
 
     setting: str
     gap: float
@@ -117,6 +118,7 @@ class Run:
     wall: float
     active: tuple[str, ...] = ()
     error: str = ""
+    certified: bool = True
 
     @property
     def stands_active(self) -> bool:
@@ -160,7 +162,9 @@ def run_setting(scenario: Scenario, setting: Setting, gap: float, timeout: float
         return Run(setting.name, gap, None, 0.0, error=f"{type(exc).__name__}: {message}")
     active = tuple(n.id for n in outcome.final_graph.nodes if n.state == "active" and n.level is not None)
     level = outcome.collapse.level if outcome.collapse else None
-    return Run(setting.name, gap, level, outcome.wall_time, active, outcome.stopped or "")
+    c = outcome.certificate
+    certified = c is not None and (c.verdict == "collapse" if level is not None else c.kind == "equilibrium")
+    return Run(setting.name, gap, level, outcome.wall_time, active, outcome.stopped or "", certified)
 
 
 def verdicts(seed: int, index: int, runs: Plan | None = None) -> Verdicts:
@@ -217,8 +221,9 @@ def agrees(v: Verdicts, setting: str, gap: float = DEFAULT_GAP) -> bool:
 class Row:
     """One (setting, gap) row of the agreement table: for each subset of assemblies,
     (agreeing runs, runs), runs with an error or a stop left out; ``stands_active``: runs
-    that say "stands" with a structure brick still active at the end; ``errors``: runs with
-    an error or stopped early; ``wall``: median wall seconds a run."""
+    that say "stands" with a structure brick still active at the end; ``uncertified``: runs
+    whose verdict has no certificate; ``errors``: runs with an error or stopped early;
+    ``wall``: median wall seconds a run."""
 
     setting: str
     gap: float
@@ -230,6 +235,7 @@ class Row:
     stands_active: int
     errors: int
     wall: float
+    uncertified: int = 0
 
 
 def rows(results: Sequence[Verdicts], runs: Plan) -> list[Row]:
@@ -257,6 +263,7 @@ def rows(results: Sequence[Verdicts], runs: Plan) -> list[Row]:
                 sum(r.stands_active for r in mine),
                 sum(bool(r.error) for r in mine),
                 float(np.median([r.wall for r in mine if not r.error] or [0.0])),
+                sum(not r.error and not r.certified for r in mine),
             )
         )
     return out
@@ -281,15 +288,16 @@ def format_verdicts(results: list[Verdicts], out: Path | None, seconds: float, r
         f"{len(sure)} with an oracle margin above {MARGIN * 1000:g} mm ({sum(v.leaning for v in sure)} leaning), "
         f"{len(near)} from {NEAR * 1000:g} to {MARGIN * 1000:g} mm; {seconds:.0f} s wall",
         "agreement with the oracle, agreeing/runs: every assembly; margin > 1 mm; margin 0.2-1 mm; margin > 1 mm "
-        "without and with a leaning brick. 'stand+active': stands with a structure brick still active at the end",
+        "without and with a leaning brick. 'stand+active': stands with a structure brick still active at the end; "
+        "'no cert.': a verdict without its certificate",
         f"{'setting':<25} {'gap':>6}  {'all':^14} {'margin > 1 mm':^14} {'0.2-1 mm':^14} {'flat, > 1 mm':^14} "
-        f"{'leaning, > 1':^14} {'stand+active':>12} {'errors':>6} {'median wall':>11}",
+        f"{'leaning, > 1':^14} {'stand+active':>12} {'no cert.':>8} {'errors':>6} {'median wall':>11}",
     ]
     for row in rows(results, runs):
         active = f"{row.stands_active:>12}" if SETTINGS[row.setting].extension else f"{'(no ext.)':>12}"
         lines.append(
             f"{row.setting:<25} {row.gap * 1000:>3.1f} mm  {_cell(row.every)} {_cell(row.sure)} {_cell(row.near)} "
-            f"{_cell(row.flat)} {_cell(row.leaning)} {active} {row.errors:>6} {row.wall * 1000:>8.0f} ms"
+            f"{_cell(row.flat)} {_cell(row.leaning)} {active} {row.uncertified:>8} {row.errors:>6} {row.wall * 1000:>8.0f} ms"
         )
     wrong = [
         (v, name, gap) for v in sure for name, gap in runs if (r := v.run(name, gap)) and not r.error and not agrees(v, name, gap)
@@ -450,7 +458,8 @@ def format_single_file(samples: list[Sample], settings: Sequence[str], seconds: 
         f"{len(samples)} random single-file stacks (seed's samples 0-{len(samples) - 1}), {len(sure)} with a margin "
         f"above {MARGIN * 1000:g} mm; {seconds:.0f} s wall",
         "agreement with the exact centre-of-mass rule, agreeing/runs",
-        f"{'setting':<25} {'all':^14} {'margin > 1 mm':^14} {'0.2-1 mm':^14} {'stand+active':>12} {'errors':>6} {'median wall':>11}",
+        f"{'setting':<25} {'all':^14} {'margin > 1 mm':^14} {'0.2-1 mm':^14} {'stand+active':>12} {'no cert.':>8} "
+        f"{'errors':>6} {'median wall':>11}",
     ]
     for name in settings:
 
@@ -462,7 +471,8 @@ def format_single_file(samples: list[Sample], settings: Sequence[str], seconds: 
         walls = [r.wall for r in mine if not r.error] or [0.0]
         lines.append(
             f"{name:<25} {_cell(count(good))} {_cell(count(sure))} {_cell(count([s for s in good if NEAR < s.margin <= MARGIN]))} "
-            f"{sum(r.stands_active for r in mine):>12} {sum(bool(r.error) for r in mine):>6} {float(np.median(walls)) * 1000:>8.0f} ms"
+            f"{sum(r.stands_active for r in mine):>12} {sum(not r.error and not r.certified for r in mine):>8} "
+            f"{sum(bool(r.error) for r in mine):>6} {float(np.median(walls)) * 1000:>8.0f} ms"
         )
     wrong = [(s, r) for s in good for r in s.runs if not r.error and r.level != s.exact]
     lines.append(

@@ -179,7 +179,7 @@ class StabilityExtension:
                 continue
             if time - rec.placed_at < LINGER * stack.config.rest_duration:
                 continue
-            if rec.carried is not None and time - float(rec.carried[0]) < stack.config.rest_duration:  # type: ignore[arg-type]
+            if rec.carried is not None and time - rec.carried[0] < stack.config.rest_duration:
                 continue
             pose = stack.engine.pose(rec.body)
             key = (
@@ -187,10 +187,10 @@ class StabilityExtension:
                 *(round(float(v) * 1e4) for v in pose.position),
                 *(round(float(v) * 200) for v in pose.orientation),
             )
-            if rec.carried is not None and rec.carried[1:] == key:
-                rec.carried = (time, *key)
+            unchanged = rec.carried is not None and rec.carried[1] == key
+            rec.carried = (time, key)
+            if unchanged:  # the stack and its pose as they were: asked again a rest duration on
                 continue
-            rec.carried = (time, *key)
             events += self.carry(rec.body, time, pose)
         return events
 

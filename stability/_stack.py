@@ -77,7 +77,7 @@ class Record:
     extent: tuple[float, float, float, float, float] | None = None  # frozen: top z, x min, x max, y min, y max (m)
     placed_at: float | None = None  # s: when the extension's update first saw it
     was_frozen: bool = False  # frozen at least once (a woken brick is the debris rule's)
-    carried: tuple[object, ...] | None = None  # what its last load check (carry) depended on
+    carried: tuple[float, tuple[int, ...]] | None = None  # its last load check (carry): when (s), and on what
     pile: frozenset[int] = frozenset()  # a fallen brick's debris pile (itself, frozen alone), which rigid-block equilibrium holds
 
     def held_by_pile(self) -> bool:

@@ -198,7 +198,7 @@ class StackTest:
         of the frozen stack is asked first: when it stands, nothing wakes. The report's load
         tree sends each load down its own supports only, so it fails a bridge or a counterweight
         that holds (a brick propped by a brick lying across it onto another support); woken,
-        such bricks only sag, and on MuJoCo's compliant contacts they sagged past the collapse
+        such bricks only sag, and on an engine's compliant contacts they sagged past the collapse
         threshold. When it does not stand, the bricks of a part that provably turns out about an
         edge (:func:`stability._cut.falling_part`) are marked as proved
         (:attr:`StabilityEvent.proved`). And the woken bricks above it

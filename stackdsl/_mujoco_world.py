@@ -274,11 +274,12 @@ class MuJoCoWorld:
         self._put(body, pose, mass <= 0.0)
 
     def throw(self, body: int, velocity: Vec3, swept_radius: float | None) -> None:
-        """Give ``body`` a linear velocity; MuJoCo has no continuous collision detection, so
-        ``swept_radius`` is ignored (the substep control splits fast steps instead)."""
+        """Give ``body`` a linear velocity, and no spin; MuJoCo has no continuous collision
+        detection, so ``swept_radius`` is ignored (the substep control splits fast steps instead)."""
         _, d = self._ready()
         v = self._dof[body - 1]
         d.qvel[v : v + 3] = velocity
+        d.qvel[v + 3 : v + 6] = 0.0
         self._read = None
 
     def step(self) -> None:

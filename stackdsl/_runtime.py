@@ -46,7 +46,7 @@ from ._collapse import CollapseMonitor
 from ._loop import CLOCK_EVERY, StepLoop, Subscriber
 from ._outcome import Outcome
 from ._program import EngineSettings, Program
-from ._subscribers import RigidDebris, Stability, Substeps
+from ._subscribers import RigidDebris, SoftLanding, Stability, Substeps
 from ._world import PyBulletWorld, World, pybullet_world
 
 __all__ = ["CLOCK_EVERY", "RunOptions", "run_in", "run_program"]
@@ -68,6 +68,8 @@ class RunOptions:
             False runs leaning and impacts always.
         per_event: run the stack-wide test when the stack changes; False every step.
         stop_at_collapse: place nothing after the first collapse and end ``settle`` later.
+        soft_landing: a placed brick is let go of when it arrives at its resting height
+            (:class:`stackdsl._subscribers.SoftLanding`); False drops it freely from its gap.
         rigid_debris: in extension mode on pybullet, with ``stop_at_collapse`` and the
             program's ``rigid`` rule on, the bricks that move once the collapse is decided are
             re-created as rigid bodies (maximal coordinates), cheaper to step
@@ -82,6 +84,7 @@ class RunOptions:
     per_event: bool = True
     stop_at_collapse: bool = True
     rigid_debris: bool = True
+    soft_landing: bool = True
 
 
 def run_program(
@@ -167,7 +170,8 @@ def run_in(
     monitor = CollapseMonitor(
         program.collapse_threshold, program.settle, stability.graph, stability.extension.certificate, stability.proved, *rest
     )
-    own: list[Subscriber] = [Substeps(program.collapse_threshold, acting)] if program.engine.ccd else []
+    own: list[Subscriber] = [SoftLanding(program.engine.gravity)] if options.soft_landing else []
+    own += [Substeps(program.collapse_threshold, acting)] if program.engine.ccd else []
     after: list[Subscriber] = []
     rigid = any(r.name == "rigid" and r.on for r in program.rules)
     if acting and rigid and options.rigid_debris and isinstance(world, PyBulletWorld):

@@ -54,7 +54,7 @@ class World(Engine, Protocol):
         """Put ``body`` at ``pose`` at rest with ``mass`` (a parked body entering the scene)."""
 
     def throw(self, body: int, velocity: Vec3, swept_radius: float | None) -> None:
-        """Give ``body`` a linear velocity (m/s); with ``swept_radius`` (m), continuous
+        """Give ``body`` a linear velocity (m/s) and no spin; with ``swept_radius`` (m), continuous
         collision detection by a swept sphere of that radius."""
 
     def step(self) -> None:

@@ -136,9 +136,11 @@ def test_the_margin_program_agrees_with_bisection_on_random_assemblies():
         return best
 
     checked = 0
-    for k in (0, 4, 20, 33, 47):
+    for k in range(40):
         rng = np.random.default_rng(np.random.SeedSequence(3, spawn_key=(k,)))
         program = compile_scenario(parse_scenario(assembly(rng, f"assembly {k}")))
+        if any(p.pitch or p.roll for p in program.placements):
+            continue  # flat assemblies: the oracle's own contacts, no leaning brick
         blocks, contacts = structure(list(program.placements), program.fixtures, program.ground_friction)
         if not solve_equilibrium(blocks, contacts).stands:
             assert equilibrium_margin(blocks, contacts) is None
@@ -146,4 +148,6 @@ def test_the_margin_program_agrees_with_bisection_on_random_assemblies():
         margin, bisected = equilibrium_margin(blocks, contacts, directions=8), bisection(blocks, contacts)
         assert margin is not None and bisected - 2 * RESOLUTION <= margin <= bisected
         checked += 1
-    assert checked >= 4
+        if checked == 5:
+            break
+    assert checked == 5

@@ -182,7 +182,9 @@ def test_plot_a_collapse_shows_red_and_the_shares(tmp_path, monkeypatch):
     assert g is not None
     fig, image = plot(g, tmp_path / "slant.png", monkeypatch, max_panels=6)
     words = fig.words()
-    assert "shares not labelled" not in words and "0.69" in words  # L09.1 passes 0.686 of its load to L08.2
+    share = next(e.load_share for e in g.edges if (e.upper, e.support) == ("L09.1", "L08.2"))
+    assert 0.6 < share < 0.75  # L09.1 passes most of its load to L08.2
+    assert "shares not labelled" not in words and f"{share:.2f}" in words
     worst = min(margins(g).values())
     assert f"margin {worst:+.1f} mm" in fig.axes[1].get_title()  # the most critical brick comes first
     assert red_pixels(image) > 20

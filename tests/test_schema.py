@@ -556,7 +556,7 @@ def test_the_smallest_side_is_what_pybullet_resolves():
     program, since the loader refuses it."""
     import stackdsl
     from stackdsl._loop import Subscriber
-    from stackdsl._runtime import run_in
+    from stackdsl._runtime import RunOptions, run_in
     from stackdsl._world import pybullet_world
 
     class Peak(Subscriber):
@@ -566,10 +566,10 @@ def test_the_smallest_side_is_what_pybullet_resolves():
             placed = loop.structure.placed
             self.farthest = max(self.farthest, float(loop.structure.displacements(placed).max(initial=0.0)))
 
-    def peak(program):
+    def peak(program):  # dropped freely, the harder landing (a brick is let go of on arrival by default)
         spy = Peak()
         with pybullet_world(program.engine, program.ground_friction, program.ground_restitution) as world:
-            loop = run_in(world, program, subscribers=(spy,))
+            loop = run_in(world, program, RunOptions(soft_landing=False), subscribers=(spy,))
         return spy.farthest, loop
 
     scenario = parse_scenario(

@@ -49,22 +49,34 @@ class Farthest(Subscriber):
 
 
 def test_a_brick_that_rocks_past_twice_the_threshold_and_returns_stands():
-    # 1.5 mm inside its support's edge, the far end of the top brick lifts 8 mm on landing at
-    # some drop gaps (past twice the 4 mm threshold) and comes back: it stands at every gap
+    # 1.5 mm inside its support's edge, the top brick dropped freely rocks on landing at some
+    # gaps until its far end is 8 mm up (past twice the 4 mm threshold), and comes back: it
+    # stands at every gap (the old rule called it collapse 3 at 0.1 and 1 mm)
+    from stackdsl._runtime import RunOptions, outcome
+    from stackdsl._world import pybullet_world
+
     farthest = []
     for gap in GAPS_MM:
         program = compile_scenario(parse_scenario(crosswise(10.5, gap)))
         rocking = Farthest("b3")
-        from stackdsl._runtime import outcome
-        from stackdsl._world import pybullet_world
-
         with pybullet_world(program.engine, program.ground_friction, program.ground_restitution) as world:
-            result = outcome(run_in(world, program, subscribers=(rocking,)), 0.0)
+            result = outcome(run_in(world, program, RunOptions(soft_landing=False), subscribers=(rocking,)), 0.0)
         assert result.collapse is None, f"drop gap {gap} mm"
         assert result.certificate is not None and result.certificate.kind == "equilibrium"
         assert result.certificate.margin_mm == pytest.approx(1.5, abs=0.15)
         farthest.append(rocking.farthest)
     assert max(farthest) > 2 * program.collapse_threshold  # the rock did pass the old "moving away" line
+
+
+def test_a_slanted_cabin_with_a_1_mm_margin_falls_at_its_closed_form_at_every_gap():
+    # levels shifted 11 mm: the level-4 brick lies 1 mm inside its supports' ends; the tower
+    # falls at 10 (closed form). Dropped freely from 1 mm, that brick slid off on pybullet (4).
+    for gap in GAPS_MM:
+        text = (
+            f"stackdsl: 1\nstructure: {{tower: {{levels: 12, spacing: 96 mm, shift: 11 mm}}}}\ntiming: {{drop_gap: {gap} mm}}\n"
+        )
+        result = run_program(compile_scenario(parse_scenario(text)))
+        assert result.collapse is not None and result.collapse.level == 10, f"drop gap {gap} mm"
 
 
 @pytest.mark.parametrize("backend", ["pybullet", "mujoco"])

@@ -325,12 +325,18 @@ def format_verdicts(results: list[Verdicts], out: Path | None, seconds: float, r
     elif out is not None:
         lines.append(f"(their files are in {out})")
     for v in results:
-        if v.error:
-            lines.append(f"  {v.index:4d}  internal error: {v.error}")
-        for r in v.runs:
-            if r.error:
-                lines.append(f"  {v.index:4d}  {r.setting} at {r.gap * 1000:.1f} mm: {r.error}")
+        lines += _failures(f"{v.index:4d}", v.error, v.runs, at_gap=True)
     return "\n".join(lines)
+
+
+def _failures(label: str, error: str, runs: Sequence[Run], at_gap: bool) -> list[str]:
+    """One line for a task's internal error and one for each of its runs that failed or stopped."""
+    lines = [f"  {label}  internal error: {error}"] if error else []
+    for r in runs:
+        if r.error:
+            where = f" at {r.gap * 1000:.1f} mm" if at_gap else ""
+            lines.append(f"  {label}  {r.setting}{where}: {r.error}")
+    return lines
 
 
 def _level(level: int | None) -> str:
@@ -485,9 +491,5 @@ def format_single_file(samples: list[Sample], settings: Sequence[str], seconds: 
             f"  {s.sample:5d}  {r.setting:<25} {_level(r.level)} (exact {_level(s.exact)}), margin {s.margin * 1000:.2f} mm{tie}"
         )
     for s in samples:
-        if s.error:
-            lines.append(f"  {s.sample:5d}  internal error: {s.error}")
-        for r in s.runs:
-            if r.error:
-                lines.append(f"  {s.sample:5d}  {r.setting}: {r.error}")
+        lines += _failures(f"{s.sample:5d}", s.error, s.runs, at_gap=False)
     return "\n".join(lines)

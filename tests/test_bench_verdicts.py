@@ -86,6 +86,8 @@ def test_the_table_counts_agreement_from_the_runs(few, tmp_path):
     failed = replace(run, level=None, error="RuntimeError: boom")
     counted = rows([replace(v, runs=(active, *v.runs[1:])), replace(few[0], runs=(failed, *few[0].runs[1:]))], PYBULLET)[0]
     assert counted.stands_active == 1 and counted.errors == 1 and counted.every[1] == 1
+    broken = format_verdicts([replace(few[0], runs=(failed, *few[0].runs[1:]))], None, 1.0, PYBULLET)
+    assert f"{failed.setting} at {failed.gap * 1000:.1f} mm: RuntimeError: boom" in broken
     # every real run has its certificate; one without is counted
     assert all(r.certified for u in few for r in u.runs if not r.error)
     bare = replace(run, certified=False)

@@ -126,7 +126,8 @@ class CollapseMonitor(Subscriber):
         settle: seconds the run goes on after the collapse is decided.
         graph: the brick graph now.
         certify: rigid-block equilibrium of the bricks where they are now.
-        proved: brick id -> the collapse mechanism statics proved it moves in, or None.
+        proved: brick id -> the collapse mechanism statics proved it moves in (in words, and
+            the bricks it moves), or None.
         rest_speed, rest_angular_speed: m/s and rad/s under which a brick is at rest.
         rest_duration: seconds a displaced brick must stay at rest to have come to rest.
 
@@ -143,7 +144,7 @@ class CollapseMonitor(Subscriber):
         settle: float,
         graph: Callable[[StepLoop], Graph],
         certify: Callable[[], Equilibrium],
-        proved: Callable[[str], str | None],
+        proved: Callable[[str], tuple[str, tuple[str, ...]] | None],
         rest_speed: float = 0.005,
         rest_angular_speed: float = 0.05,
         rest_duration: float = 0.05,
@@ -251,15 +252,19 @@ class CollapseMonitor(Subscriber):
             elif state.resting_since is None:
                 state.resting_since = loop.now
             rested = state.resting_since is not None and loop.now - state.resting_since >= self._rest[2] - 1e-9
-            proof = None
+            proof: tuple[str, str, tuple[str, ...]] | None = None
             if displaced_at_end:
-                proof = ("displaced at the end", f"{record.id} was {distance * 1000:.1f} mm from its place when the run ended")
+                proof = (
+                    "displaced at the end",
+                    f"{record.id} was {distance * 1000:.1f} mm from its place when the run ended",
+                    (),
+                )
             elif not record.moving or rested:
-                proof = ("at rest displaced", f"{record.id} came to rest {distance * 1000:.1f} mm from its place")
-            elif (why := self._proved(record.id)) is not None:
-                proof = ("mechanism", f"{record.id} moves in {why}")
+                proof = ("at rest displaced", f"{record.id} came to rest {distance * 1000:.1f} mm from its place", ())
+            elif (mechanism := self._proved(record.id)) is not None:
+                proof = ("mechanism", f"{record.id} moves in {mechanism[0]}", mechanism[1])
             elif (out := self._off_support(loop, record)) > 0.0:
-                proof = ("off its support", f"{record.id}'s centre of mass left its support polygon by {out * 1000:.1f} mm")
+                proof = ("off its support", f"{record.id}'s centre of mass left its support polygon by {out * 1000:.1f} mm", ())
             if proof is not None:
                 self._collapsed(loop, record, distance, proof)
                 return
@@ -283,14 +288,16 @@ class CollapseMonitor(Subscriber):
         slow = iter(((lin**2).sum(axis=1) <= self._rest[0] ** 2) & ((ang**2).sum(axis=1) <= self._rest[1] ** 2))
         return [bool(next(slow)) if r.moving else True for r in records]
 
-    def _collapsed(self, loop: StepLoop, record: BrickRecord, moved: float, proof: tuple[str, str]) -> None:
+    def _collapsed(self, loop: StepLoop, record: BrickRecord, moved: float, proof: tuple[str, str, tuple[str, ...]]) -> None:
         """``record`` stays moved: the collapse began when the first of the bricks displaced now
-        was displaced; that brick is the one named."""
+        was displaced; that brick is the one named. The bricks involved: those displaced now,
+        and those of the proved mechanism."""
         first_id = min(self._displaced, key=lambda i: self._displaced[i].since)
         first, state = loop.structure.records[first_id], self._displaced[first_id]
         farthest = moved if first is record else state.farthest
-        bricks = tuple(sorted(self._displaced, key=lambda i: loop.structure.records[i].order))
-        kind, detail = proof
+        kind, detail, moved_too = proof
+        records = loop.structure.records
+        bricks = tuple(sorted({*self._displaced, *(b for b in moved_too if b in records)}, key=lambda i: records[i].order))
         certificate = Certificate(verdict="collapse", kind=kind, detail=detail, bricks=bricks)  # type: ignore[arg-type]
         self._record(loop, first, state.level, state.since, farthest, loop.now, certificate, state.graph)
 

@@ -31,7 +31,7 @@ class Stability(Subscriber):
     def __init__(self, world: World, program: Program, config: StabilityConfig, acting: bool) -> None:
         self.extension = StabilityExtension(world, config)
         self.acting = acting
-        self.mechanisms: dict[str, str] = {}  # brick id -> the proved collapse mechanism it was woken in
+        self.mechanisms: dict[str, tuple[float, str]] = {}  # brick id -> when and why a proved mechanism woke it
         self.extension.add_ground(world.ground, Plane(0.0), friction=program.ground_friction)
         for f in program.fixtures:
             body = world.create(f.brick, Pose.from_euler(f.position, f.yaw, f.pitch, f.roll), mass=0.0)
@@ -60,7 +60,7 @@ class Stability(Subscriber):
         for e in events:
             record = records.get(e.label)
             if e.kind == "wake" and e.proved:
-                self.mechanisms[e.label] = f"a collapse mechanism proved at {e.time:.3f} s ({e.reason})"
+                self.mechanisms[e.label] = (e.time, e.reason)
             elif e.kind == "freeze":
                 self.mechanisms.pop(e.label, None)
             if record is not None and record.structure and e.kind in ("freeze", "wake"):
@@ -72,9 +72,14 @@ class Stability(Subscriber):
                 level = record.level if record is not None else None
                 loop.events.append(Event(time=e.time, kind=e.kind, brick=e.label, level=level, detail=e.reason))
 
-    def proved(self, brick: str) -> str | None:
-        """The proved collapse mechanism ``brick`` was woken in and has not been frozen since, or None."""
-        return self.mechanisms.get(brick)
+    def proved(self, brick: str) -> tuple[str, tuple[str, ...]] | None:
+        """The proved collapse mechanism ``brick`` was woken in and has not been frozen since, in
+        words, with every brick it woke then (in the order they entered); None when there is none."""
+        if brick not in self.mechanisms:
+            return None
+        time, reason = self.mechanisms[brick]
+        bricks = tuple(b for b, (t, _) in self.mechanisms.items() if t == time)
+        return f"a collapse mechanism proved at {time:.3f} s ({reason})", bricks
 
     def graph(self, loop: StepLoop) -> Graph:
         """The brick graph now."""

@@ -44,7 +44,7 @@ from stability import Certificate as Equilibrium
 
 from ._bricks import BrickRecord
 from ._loop import StepLoop, Subscriber
-from ._outcome import Certificate, Collapse, Event, Graph
+from ._outcome import Certificate, Collapse, Event, Graph, ProofKind
 from ._program import Fixture
 
 #: Metres: the bottom face of a placed brick and the top face of what it rests on lie within this.
@@ -252,7 +252,7 @@ class CollapseMonitor(Subscriber):
             elif state.resting_since is None:
                 state.resting_since = loop.now
             rested = state.resting_since is not None and loop.now - state.resting_since >= self._rest[2] - 1e-9
-            proof: tuple[str, str, tuple[str, ...]] | None = None
+            proof: tuple[ProofKind, str, tuple[str, ...]] | None = None
             if displaced_at_end:
                 proof = (
                     "displaced at the end",
@@ -288,7 +288,9 @@ class CollapseMonitor(Subscriber):
         slow = iter(((lin**2).sum(axis=1) <= self._rest[0] ** 2) & ((ang**2).sum(axis=1) <= self._rest[1] ** 2))
         return [bool(next(slow)) if r.moving else True for r in records]
 
-    def _collapsed(self, loop: StepLoop, record: BrickRecord, moved: float, proof: tuple[str, str, tuple[str, ...]]) -> None:
+    def _collapsed(
+        self, loop: StepLoop, record: BrickRecord, moved: float, proof: tuple[ProofKind, str, tuple[str, ...]]
+    ) -> None:
         """``record`` stays moved: the collapse began when the first of the bricks displaced now
         was displaced; that brick is the one named. The bricks involved: those displaced now,
         and those of the proved mechanism."""
@@ -298,7 +300,7 @@ class CollapseMonitor(Subscriber):
         kind, detail, moved_too = proof
         records = loop.structure.records
         bricks = tuple(sorted({*self._displaced, *(b for b in moved_too if b in records)}, key=lambda i: records[i].order))
-        certificate = Certificate(verdict="collapse", kind=kind, detail=detail, bricks=bricks)  # type: ignore[arg-type]
+        certificate = Certificate(verdict="collapse", kind=kind, detail=detail, bricks=bricks)
         self._record(loop, first, state.level, state.since, farthest, loop.now, certificate, state.graph)
 
     def _record(

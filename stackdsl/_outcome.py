@@ -54,6 +54,10 @@ class Collapse(_Frozen):
     decided: float
 
 
+ProofKind = Literal["equilibrium", "at rest displaced", "off its support", "mechanism", "displaced at the end", "no equilibrium"]
+"""How a verdict was proved (:class:`Certificate`)."""
+
+
 class Certificate(_Frozen):
     """The proof of a verdict (docs/design.md, "collapse" and "certificate").
 
@@ -74,7 +78,7 @@ class Certificate(_Frozen):
     """
 
     verdict: Literal["stands", "collapse"]
-    kind: Literal["equilibrium", "at rest displaced", "off its support", "mechanism", "displaced at the end", "no equilibrium"]
+    kind: ProofKind
     detail: str
     bricks: tuple[str, ...] = ()
     margin_mm: float | None = None

@@ -1,13 +1,13 @@
 """stackdsl: declarative stacking scenarios for pybullet, checked against expectations.
 
-Data flows one way, one module per step::
+Data flows one way, one floor (subpackage) per step::
 
-    load_scenario(path)        YAML -> Scenario         (_loader)
-    compile_scenario(scenario) Scenario -> Program      (_compiler)
-    run_program(program)       Program -> Outcome       (_runtime, with stability/)
-    record_program(program)    Program -> Outcome, Trajectory  (_recorder: every brick's pose and state)
-    evaluate(expect, outcome)  Outcome -> verdicts      (_expect)
-    check(paths)               all of it over files     (_check)
+    load_scenario(path)        YAML -> Scenario         (lang/)
+    compile_scenario(scenario) Scenario -> Program      (compile/)
+    run_program(program)       Program -> Outcome       (runtime/, with stability/)
+    record_program(program)    Program -> Outcome, Trajectory  (runtime/recorder: every brick's pose and state)
+    evaluate(expect, outcome)  Outcome -> verdicts      (verdicts/)
+    check(paths)               all of it over files     (batch/)
 
 >>> import stackdsl
 >>> s = stackdsl.parse_scenario("stackdsl: 1\\nstructure: {tower: {levels: 2}}\\nexpect: {stands: true}")
@@ -21,50 +21,50 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from ._check import ScenarioErrors, check
-    from ._check_result import CheckResult
-    from ._compiler import MODE_DEFAULTS, compile_scenario
-    from ._errors import ScenarioError
-    from ._expect import Verdict, evaluate
-    from ._loader import load_scenario, parse_scenario
-    from ._outcome import Certificate, Collapse, Event, Graph, Outcome
-    from ._program import End, EngineSettings, Launch, Place, Program, format_program
-    from ._recorder import Recorder, record_program
-    from ._runtime import run_program
-    from ._schema import Scenario
-    from ._trajectory import Frame, Trajectory, load_trajectory
+    from .batch.check import ScenarioErrors, check
+    from .compile.compiler import MODE_DEFAULTS, compile_scenario
+    from .compile.program import End, EngineSettings, Launch, Place, Program, format_program
+    from .lang.errors import ScenarioError
+    from .lang.loader import load_scenario, parse_scenario
+    from .lang.schema import Scenario
+    from .runtime.outcome import Certificate, Collapse, Event, Graph, Outcome
+    from .runtime.recorder import Recorder, record_program
+    from .runtime.run import run_program
+    from .runtime.trajectory import Frame, Trajectory, load_trajectory
+    from .verdicts.check_result import CheckResult
+    from .verdicts.expect import Verdict, evaluate
 
 #: Where each public name lives. The modules load on first use, so that the ``stackdsl``
 #: command can take Ctrl-C while numpy, pybullet and shapely load (about 0.7 s).
 _HOME = {
-    "CheckResult": "_check_result",
-    "ScenarioErrors": "_check",
-    "check": "_check",
-    "MODE_DEFAULTS": "_compiler",
-    "compile_scenario": "_compiler",
-    "ScenarioError": "_errors",
-    "Verdict": "_expect",
-    "evaluate": "_expect",
-    "load_scenario": "_loader",
-    "parse_scenario": "_loader",
-    "Certificate": "_outcome",
-    "Collapse": "_outcome",
-    "Event": "_outcome",
-    "Graph": "_outcome",
-    "Outcome": "_outcome",
-    "End": "_program",
-    "EngineSettings": "_program",
-    "Launch": "_program",
-    "Place": "_program",
-    "Program": "_program",
-    "format_program": "_program",
-    "Recorder": "_recorder",
-    "record_program": "_recorder",
-    "run_program": "_runtime",
-    "Scenario": "_schema",
-    "Frame": "_trajectory",
-    "Trajectory": "_trajectory",
-    "load_trajectory": "_trajectory",
+    "CheckResult": "verdicts.check_result",
+    "ScenarioErrors": "batch.check",
+    "check": "batch.check",
+    "MODE_DEFAULTS": "compile.compiler",
+    "compile_scenario": "compile.compiler",
+    "ScenarioError": "lang.errors",
+    "Verdict": "verdicts.expect",
+    "evaluate": "verdicts.expect",
+    "load_scenario": "lang.loader",
+    "parse_scenario": "lang.loader",
+    "Certificate": "runtime.outcome",
+    "Collapse": "runtime.outcome",
+    "Event": "runtime.outcome",
+    "Graph": "runtime.outcome",
+    "Outcome": "runtime.outcome",
+    "End": "compile.program",
+    "EngineSettings": "compile.program",
+    "Launch": "compile.program",
+    "Place": "compile.program",
+    "Program": "compile.program",
+    "format_program": "compile.program",
+    "Recorder": "runtime.recorder",
+    "record_program": "runtime.recorder",
+    "run_program": "runtime.run",
+    "Scenario": "lang.schema",
+    "Frame": "runtime.trajectory",
+    "Trajectory": "runtime.trajectory",
+    "load_trajectory": "runtime.trajectory",
 }
 
 __all__ = [

@@ -1,4 +1,4 @@
-"""The ``stackdsl`` console script: :func:`stackdsl._cli.main`, loaded with Ctrl-C held back.
+"""The ``stackdsl`` console script: :func:`stackdsl.cli.main.main`, loaded with Ctrl-C held back.
 
 The command's modules pull in numpy, scipy, pybullet and shapely, which takes about 0.7 s.
 A KeyboardInterrupt raised in the middle of that import breaks it in ways no handler can
@@ -14,7 +14,7 @@ import signal
 import sys
 from typing import Any
 
-#: Exit status on Ctrl-C (as :data:`stackdsl._cli.INTERRUPTED`).
+#: Exit status on Ctrl-C (as :data:`stackdsl.cli.main.INTERRUPTED`).
 INTERRUPTED = 130
 
 
@@ -27,7 +27,7 @@ def main() -> int:
 
     previous = signal.signal(signal.SIGINT, note)
     try:
-        from ._cli import main as run
+        from .cli.main import main as run
     finally:
         signal.signal(signal.SIGINT, previous)
     if pressed:

@@ -11,7 +11,7 @@ every ``*.yaml``/``*.yml`` file below the folders named by the ini option
 Each file is one test item, ``scenarios/four_stack.yaml::four_stack``: it loads and
 compiles the scenario (a bad file fails with its ``file:line:col`` message), runs it,
 checks its expectations, then compares the outcome with its golden snapshot
-``golden/scenarios/four_stack.json`` (one brick per line, :mod:`stackdsl._snapshot`).
+``golden/scenarios/four_stack.json`` (one brick per line, :mod:`stackdsl.verdicts.snapshot`).
 ``pytest --snapshot-update`` writes the snapshots; ``-k``, ``-x``, ``--lf``, ``-n``
 (pytest-xdist) and ``--junit-xml`` work as on any test.
 
@@ -40,14 +40,14 @@ from typing import Any
 
 import pytest
 
-from ._artefacts import draw_run, folder_name
-from ._compiler import compile_scenario
-from ._errors import ScenarioError
-from ._expect import evaluate, explain
-from ._loader import load_scenario
-from ._recorder import record_program
-from ._runtime import run_program
-from ._snapshot import dumps, summarize
+from .compile.compiler import compile_scenario
+from .draw.artefacts import draw_run, folder_name
+from .lang.errors import ScenarioError
+from .lang.loader import load_scenario
+from .runtime.recorder import record_program
+from .runtime.run import run_program
+from .verdicts.expect import evaluate, explain
+from .verdicts.snapshot import dumps, summarize
 
 try:
     from syrupy.data import SnapshotCollection
@@ -219,8 +219,8 @@ def _sweep_test(request: pytest.FixtureRequest, scenario: Any, program: Any, sho
     """A sweep's item: every sample here, one after the other; each statistical expectation must
     be decided PASS in every grid cell; the golden snapshot holds every sample's collapse level,
     one line a cell (sample k of a cell is the same run on any machine)."""
-    from ._sweep import SweepOptions, collect, run_sweep
-    from ._sweep_out import by_cell, verdicts
+    from .batch.sweep import SweepOptions, collect, run_sweep
+    from .batch.sweep_out import by_cell, verdicts
 
     template = scenario.template
     results = collect(
@@ -301,8 +301,8 @@ if SingleFileSnapshotExtension is not None:
     class ScenarioSnapshotExtension(_AtomicWrites):
         """A scenario's golden snapshot: ``golden/<folder>/<file stem>.json``, mirroring the
         scenario's place below the project root, written one brick per line
-        (:func:`stackdsl._snapshot.dumps`); a failing comparison starts with a per-brick
-        summary (:func:`stackdsl._snapshot.summarize`)."""
+        (:func:`stackdsl.verdicts.snapshot.dumps`); a failing comparison starts with a per-brick
+        summary (:func:`stackdsl.verdicts.snapshot.summarize`)."""
 
         file_extension = "json"
         _write_mode = WriteMode.TEXT

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from stackdsl import compile_scenario, parse_scenario
-from stackdsl._assemblies import MAX_MARGIN, RESOLUTION, assembly, judge
+from stackdsl.verdicts.assemblies import MAX_MARGIN, RESOLUTION, assembly, judge
 
 
 def rng(k: int) -> np.random.Generator:
@@ -46,7 +46,7 @@ def test_a_collapsing_assembly_has_the_margin_that_would_make_it_stand():
 
 
 def _ladder(angle: float, yaw: float = 0.0) -> str:
-    from stackdsl._assemblies import Brick, Leaner, _yaml
+    from stackdsl.verdicts.assemblies import Brick, Leaner, _yaml
 
     return _yaml([Brick(-0.4, 0.0, 1, 0.0)], "ladder", Leaner(0.0, 0.0, yaw, angle))
 
@@ -58,7 +58,7 @@ def test_a_brick_leaning_on_a_wall_stands_above_the_ladder_angle(yaw):
     mu_g L (sin t + mu_w cos t), h its thickness; the oracle must say the same to 0.5 deg,
     whichever way the wall faces (its friction pyramid turned toward the wall)."""
     from stability import pair_friction
-    from stackdsl._assemblies import HEIGHT, LENGTH
+    from stackdsl.verdicts.assemblies import HEIGHT, LENGTH
 
     program = compile_scenario(parse_scenario(_ladder(45.0)))
     leaner, wall = program.placements[-1], program.fixtures[0]
@@ -91,7 +91,7 @@ def test_some_leaning_bricks_stand_on_a_step_brick_the_oracle_sees():
     """A step brick lies across the leaning brick's foot on the ground, placed just before it:
     the oracle's contacts are the foot's two corners on the step's top face, the top edge's two
     on the wall, the step's face on the ground; and the leaning brick touches nothing else."""
-    from stackdsl._oracle import structure
+    from stackdsl.verdicts.oracle import structure
 
     programs = [compile_scenario(parse_scenario(assembly(rng(k), f"a{k}"))) for k in range(30)]
     stepped = [

@@ -8,7 +8,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from stackdsl._bench_verdicts import (
+from stackdsl.bench.random_stack import collapse_level
+from stackdsl.bench.verdicts import (
     MARGIN,
     SETTINGS,
     Run,
@@ -22,8 +23,7 @@ from stackdsl._bench_verdicts import (
     run_verdicts,
     single_file_batch,
 )
-from stackdsl._cli import main
-from stackdsl._random_stack import collapse_level
+from stackdsl.cli.main import main
 
 PYBULLET = plan(["pybullet"], [0.0005], baselines=False)
 

@@ -5,20 +5,13 @@ from pathlib import Path
 
 import pytest
 
-from stackdsl import (
-    ScenarioError,
-    _loop,
-    _subscribers,
-    compile_scenario,
-    evaluate,
-    load_scenario,
-    parse_scenario,
-    run_program,
-)
-from stackdsl._bench import SETTINGS, program_for, scenes
-from stackdsl._compiler import MAX_WORK
-from stackdsl._expect import explain
-from stackdsl._program import MAX_SUBSTEPS, SETTLING, estimate_work
+from stackdsl import ScenarioError, compile_scenario, evaluate, load_scenario, parse_scenario, run_program
+from stackdsl.bench.bench import SETTINGS, program_for, scenes
+from stackdsl.compile.compiler import MAX_WORK
+from stackdsl.compile.program import MAX_SUBSTEPS, SETTLING, estimate_work
+from stackdsl.runtime import loop as _loop
+from stackdsl.runtime import subscribers as _subscribers
+from stackdsl.verdicts.expect import explain
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -17,11 +17,16 @@ from pathlib import Path
 
 import pytest
 
-from stackdsl import _check, _cli, _cli_bench, _cli_check, _entry, compile_scenario, parse_scenario, run_program
-from stackdsl._bench import SETTINGS
-from stackdsl._cli import main
-from stackdsl._expect import explain
-from stackdsl._progress import Lines, is_live
+from stackdsl import _entry, compile_scenario, parse_scenario, run_program
+from stackdsl.batch import check as _check
+from stackdsl.batch import judge as _judge
+from stackdsl.bench.bench import SETTINGS
+from stackdsl.cli import bench as _cli_bench
+from stackdsl.cli import check as _cli_check
+from stackdsl.cli import main as _cli
+from stackdsl.cli.main import main
+from stackdsl.cli.progress import Lines, is_live
+from stackdsl.verdicts.expect import explain
 
 ROOT = Path(__file__).resolve().parents[1]
 PASSING = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nexpect: {stands: true}\n"
@@ -61,7 +66,7 @@ def test_check_prints_each_row_before_the_next_scenario_runs(tmp_path, capsys, m
         printed_before_each_run.append(capsys.readouterr().out)
         return run_program(program, *args)
 
-    monkeypatch.setattr(_check, "run_program", spy)
+    monkeypatch.setattr(_judge, "run_program", spy)
     assert main(["check", str(write(tmp_path, a=PASSING, b=FAILING)), "-j", "1"]) == 1
     first, second = printed_before_each_run
     assert "a.yaml" not in first and "PASS" in second and "a.yaml" in second and "b.yaml" not in second
@@ -121,7 +126,7 @@ def test_check_bad_file_exits_2_and_simulates_nothing(tmp_path, capsys, monkeypa
     def no_simulation(*args, **kwargs):
         raise AssertionError("simulated although a file was bad")
 
-    monkeypatch.setattr(_check, "run_program", no_simulation)
+    monkeypatch.setattr(_judge, "run_program", no_simulation)
     assert main(["check", str(write(tmp_path, a=PASSING, z=BAD)), "-j", "1"]) == 2
     err = capsys.readouterr().err
     assert err.count("^") == 1
@@ -161,7 +166,7 @@ def test_k_rule_is_in_the_help(capsys):
 
 def test_exitfirst_stops_after_the_first_failure(tmp_path, capsys, monkeypatch):
     runs = []
-    monkeypatch.setattr(_check, "run_program", lambda program, *a: runs.append(program.name) or run_program(program, *a))
+    monkeypatch.setattr(_judge, "run_program", lambda program, *a: runs.append(program.name) or run_program(program, *a))
     folder = write(tmp_path, a=FAILING, b=PASSING, c=PASSING)
     assert main(["check", str(folder), "-x", "-j", "1", "--junit-xml", str(tmp_path / "junit.xml")]) == 1
     out = capsys.readouterr().out.splitlines()
@@ -197,7 +202,7 @@ def test_junit_xml_has_a_testcase_per_scenario_and_the_failure_text(tmp_path, ca
 
 
 def test_junit_xml_into_a_missing_folder_is_bad_input(tmp_path, capsys, monkeypatch):
-    monkeypatch.setattr(_check, "run_program", lambda *a: pytest.fail("simulated before the output was known to be writable"))
+    monkeypatch.setattr(_judge, "run_program", lambda *a: pytest.fail("simulated before the output was known to be writable"))
     assert main(["check", str(write(tmp_path, a=PASSING)), "--junit-xml", str(tmp_path / "no" / "junit.xml")]) == 2
     assert "no such folder for the JUnit XML file" in capsys.readouterr().err
 
@@ -250,7 +255,7 @@ def test_an_exception_in_a_run_is_its_rows_internal_error_and_exit_3(tmp_path, c
     def broken(*args, **kwargs):
         raise RuntimeError("wheels came off\nsecond line")
 
-    monkeypatch.setattr(_check, "run_program", broken)
+    monkeypatch.setattr(_judge, "run_program", broken)
     monkeypatch.delenv("STACKDSL_TRACEBACK", raising=False)
     folder = write(tmp_path, a=PASSING)
     assert main(["check", str(folder), "-j", "1"]) == 3
@@ -279,7 +284,7 @@ def test_an_internal_error_in_any_command_is_one_line_and_exit_3(command, tmp_pa
         raise KeyError("wheels")
 
     monkeypatch.delenv("STACKDSL_TRACEBACK", raising=False)
-    for module, name in [(_cli, "compile_scenario"), (_check, "run_program"), (_cli, "json_schema"), (_cli_bench, "run_matrix")]:
+    for module, name in [(_cli, "compile_scenario"), (_judge, "run_program"), (_cli, "json_schema"), (_cli_bench, "run_matrix")]:
         monkeypatch.setattr(module, name, broken)
     path = write(tmp_path, a=PASSING) / "a.yaml"
     args = {"schema": [], "bench": ["--quick", "--out", str(tmp_path)], "compare": [str(path), "-j", "1"]}.get(
@@ -303,7 +308,7 @@ def test_an_internal_error_is_an_error_in_json_and_junit(tmp_path, capsys, monke
     def broken(*args, **kwargs):
         raise RuntimeError("wheels came off")
 
-    monkeypatch.setattr(_check, "run_program", broken)
+    monkeypatch.setattr(_judge, "run_program", broken)
     folder = write(tmp_path, a=PASSING)
     assert main(["check", str(folder), "-j", "1", "--json", "--junit-xml", str(tmp_path / "j.xml")]) == 3
     document = json.loads(capsys.readouterr().out)
@@ -323,7 +328,7 @@ def test_timeout_is_passed_to_every_run_and_validated(tmp_path, capsys, monkeypa
         seen.append(timeout)
         return run_program(program)
 
-    monkeypatch.setattr(_check, "run_program", timed)
+    monkeypatch.setattr(_judge, "run_program", timed)
     path = write(tmp_path, a=PASSING) / "a.yaml"
     assert main(["check", str(path), "-j", "1", "--timeout", "7.5"]) == 0
     assert main(["run", str(path), "--timeout", "8"]) == 0
@@ -350,7 +355,7 @@ def test_a_run_stopped_by_its_timeout_fails_and_says_when(tmp_path, capsys, monk
     def timed(program, options=None, *, timeout=None):
         return Stopped(run_program(program))
 
-    monkeypatch.setattr(_check, "run_program", timed)
+    monkeypatch.setattr(_judge, "run_program", timed)
     path = write(tmp_path, a=PASSING) / "a.yaml"
     assert main(["check", str(path), "-j", "1", "--timeout", "42"]) == 1
     out = capsys.readouterr().out
@@ -375,7 +380,7 @@ def test_ctrl_c_exits_130_without_a_traceback(tmp_path, capsys, monkeypatch):
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(_check, "run_program", interrupted)
+    monkeypatch.setattr(_judge, "run_program", interrupted)
     assert main(["check", str(write(tmp_path, a=PASSING)), "-j", "1"]) == 130
     assert capsys.readouterr().err == "stackdsl: interrupted\n"
 
@@ -386,7 +391,7 @@ def test_ctrl_c_while_the_command_loads_exits_130_without_a_traceback(capsys, mo
             os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C in the middle of the import
             return lambda: 0
 
-    monkeypatch.setitem(sys.modules, "stackdsl._cli", Loading("stackdsl._cli"))
+    monkeypatch.setitem(sys.modules, "stackdsl.cli.main", Loading("stackdsl.cli.main"))
     assert _entry.main() == 130
     assert capsys.readouterr().err == "stackdsl: interrupted\n"
 
@@ -505,7 +510,7 @@ def test_run_prints_the_timeline(tmp_path, capsys):
 
 
 def test_schema_prints_the_json_schema_of_a_scenario(capsys):
-    from stackdsl._jsonschema import json_schema
+    from stackdsl.lang.jsonschema import json_schema
 
     assert main(["schema"]) == 0
     out = capsys.readouterr().out
@@ -581,7 +586,7 @@ def test_bench_refuses_bad_upright_heights_before_running(heights, capsys):
 
 
 def test_bench_upright_heights_pick_the_towers():
-    from stackdsl._bench import scenes
+    from stackdsl.bench.bench import scenes
 
     upright = [s.levels for s in scenes(upright=(10, 60)) if s.family == "upright"]
     assert upright == [10, 60]
@@ -603,7 +608,7 @@ def test_bench_quick_smoke_writes_every_output(tmp_path, capsys):
 
 
 def test_bench_measures_each_fast_cell_once_a_round_and_a_slow_one_once():
-    from stackdsl._bench import Scene, run_matrix
+    from stackdsl.bench.bench import Scene, run_matrix
 
     tiny = Scene("upright", 2, 2, "tower: {levels: 2}", None)
     seen = []
@@ -628,8 +633,8 @@ def test_json_and_junit_list_results_in_file_order_whatever_finishes_first(tmp_p
 
 
 def test_bench_targets_print_as_sentences():
-    from stackdsl._bench_out import PeerRatio
-    from stackdsl._cli_bench import _targets
+    from stackdsl.bench.out import PeerRatio
+    from stackdsl.cli.bench import _targets
 
     lines = _targets(
         {
@@ -649,8 +654,8 @@ def test_bench_targets_print_as_sentences():
 
 
 def test_bench_phase_table_splits_each_collapsing_scenes_wall_time():
-    from stackdsl._bench import Cell
-    from stackdsl._bench_out import phase_lines
+    from stackdsl.bench.bench import Cell
+    from stackdsl.bench.out import phase_lines
 
     slant = Cell("raw 240 Hz", "single file", 9, 1, 14, 8, -6, 0.0, 2.0, "", 1.5, 0.25, 1.0, 1.0, 1.0, 1, 0)
     upright = Cell("raw 240 Hz", "upright", 30, 1, None, None, 0, 0.0, 9.0, "", 8.0, 0.0, 1.0, 1.0, 1.0, 1, 0)
@@ -661,8 +666,8 @@ def test_bench_phase_table_splits_each_collapsing_scenes_wall_time():
 
 
 def test_bench_peer_ratios_divide_the_peers_wall_by_the_extensions_on_the_same_scene():
-    from stackdsl._bench import Cell
-    from stackdsl._bench_out import peer_lines, peer_ratios
+    from stackdsl.bench.bench import Cell
+    from stackdsl.bench.out import peer_lines, peer_ratios
 
     def cell(setting, family, parameter, wall, error=0):
         return Cell(setting, family, parameter, 1, None, None, error, 0.0, wall, "", wall / 2, 0.0, 1.0, 1.0, 1.0, 1, 0)
@@ -683,8 +688,8 @@ def test_bench_peer_ratios_divide_the_peers_wall_by_the_extensions_on_the_same_s
 
 
 def test_bench_ratios_come_from_the_medians_and_again_from_each_cells_fastest_round():
-    from stackdsl._bench import Cell
-    from stackdsl._bench_out import fastest, ratios
+    from stackdsl.bench.bench import Cell
+    from stackdsl.bench.out import fastest, ratios
 
     def cell(setting, walls):
         runs = sorted(walls)

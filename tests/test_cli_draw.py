@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from stackdsl import _cli
-from stackdsl._cli import main
-from stackdsl._trajectory import load_trajectory
+from stackdsl.cli import main as _cli
+from stackdsl.cli.main import main
+from stackdsl.runtime.trajectory import load_trajectory
 
 STANDS = "stackdsl: 1\nname: small tower\nstructure: {tower: {levels: 2}}\nexpect: {stands: true}\n"
 TIPS = "stackdsl: 1\nstructure:\n  bricks:\n    - {id: base, at: [0, 0, 4 mm]}\n    - {id: top, at: [60.5 mm, 0, 12 mm]}\n"
@@ -55,7 +55,7 @@ def test_run_record_bad_options_simulate_nothing(files, capsys, monkeypatch, arg
     def never(*a, **k):
         raise AssertionError("simulated")
 
-    monkeypatch.setattr("stackdsl._recorder.run_program", never)
+    monkeypatch.setattr("stackdsl.runtime.recorder.run_program", never)
     argv = ["run", str(files / "stands.yaml"), *(a.replace("{tmp}", str(files)) for a in args)]
     try:
         status = main(argv)
@@ -161,7 +161,7 @@ def test_the_drawing_modules_load_only_when_a_drawing_command_runs():
     import subprocess
     import sys
 
-    code = "import sys, stackdsl._cli; print(sorted({'stackdsl._render', 'stackdsl._animate', 'stackdsl._graphplot'} & set(sys.modules)))"
+    code = "import sys, stackdsl.cli.main; print(sorted({'stackdsl.draw.render', 'stackdsl.draw.animate', 'stackdsl.draw.graphplot'} & set(sys.modules)))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
     assert _cli.main  # the command module itself loads
@@ -208,9 +208,9 @@ def test_careless_input_is_one_line_and_exit_2_before_anything_runs(files, capsy
     def never(*a, **k):
         raise AssertionError("simulated")
 
-    monkeypatch.setattr("stackdsl._recorder.run_program", never)
-    monkeypatch.setattr("stackdsl._bench_record.run_program", never)
-    monkeypatch.setattr("stackdsl._check.run_program", never)
+    monkeypatch.setattr("stackdsl.runtime.recorder.run_program", never)
+    monkeypatch.setattr("stackdsl.bench.record.run_program", never)
+    monkeypatch.setattr("stackdsl.batch.judge.run_program", never)
     (files / "notes.json").write_text("{}")
     (files / "dir.png").mkdir()
     assert status_of([a.replace("{tmp}", str(files)) for a in argv]) == 2
@@ -247,7 +247,7 @@ def test_a_drawing_of_a_run_stopped_by_its_timeout_is_written_and_exits_1(files,
 
 
 def test_report_folder_names_stay_short_and_distinct():
-    from stackdsl._artefacts import MAX_NAME, folder_name
+    from stackdsl.draw.artefacts import MAX_NAME, folder_name
 
     long_a, long_b = "x" * 200 + "/a.yaml", "x" * 200 + "/b.yaml"
     a, b = folder_name(long_a), folder_name(long_b)

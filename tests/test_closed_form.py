@@ -3,8 +3,8 @@
 import pytest
 
 from stackdsl import compile_scenario, parse_scenario
-from stackdsl._closed_form import log_cabin, single_file
-from stackdsl._oracle import equilibrium_collapse
+from stackdsl.verdicts.closed_form import log_cabin, single_file
+from stackdsl.verdicts.oracle import equilibrium_collapse
 
 
 def oracle(structure: str) -> int | None:

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from stackdsl import ScenarioError, compile_scenario, parse_scenario
-from stackdsl._distributions import sample_seed
+from stackdsl.lang.distributions import sample_seed
 
 WALK = """stackdsl: 1
 structure:

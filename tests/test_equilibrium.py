@@ -117,8 +117,8 @@ def test_the_margin_program_agrees_with_bisection_on_random_assemblies():
     # a bisection on solve_equilibrium (the oracle's way) must find the same, to its resolution
     from stability import equilibrium_margin
     from stackdsl import compile_scenario, parse_scenario
-    from stackdsl._assemblies import _DIRECTIONS, MAX_MARGIN, RESOLUTION, assembly
-    from stackdsl._oracle import structure
+    from stackdsl.verdicts.assemblies import _DIRECTIONS, MAX_MARGIN, RESOLUTION, assembly
+    from stackdsl.verdicts.oracle import structure
 
     def bisection(blocks, contacts):
         def stands(shift):

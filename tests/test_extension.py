@@ -261,7 +261,7 @@ def test_the_profile_rows_of_the_bench_name_functions_that_exist():
     import ast
     from pathlib import Path
 
-    from stackdsl._bench_cost import PARTS
+    from stackdsl.bench.cost import PARTS
 
     root = Path(__file__).resolve().parents[1]
     for label, (file, function) in PARTS.items():

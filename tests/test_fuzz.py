@@ -14,7 +14,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from stackdsl import Outcome, ScenarioError, compile_scenario, load_scenario, parse_scenario, run_program
-from stackdsl._cli import main
+from stackdsl.cli.main import main
 
 ROOT = Path(__file__).resolve().parents[1]
 SOURCES = [p.read_text() for p in sorted((ROOT / "scenarios").rglob("*.yaml"))]

@@ -1,4 +1,4 @@
-"""The brick-graph plot (stackdsl._graphplot): margins on hand-built graphs and real runs, and
+"""The brick-graph plot (stackdsl.draw.graphplot): margins on hand-built graphs and real runs, and
 the PNG for every kind of graph the shipped scenarios make, degenerate ones included."""
 
 from __future__ import annotations
@@ -13,9 +13,9 @@ import pytest
 from PIL import Image
 
 import stackdsl
-from stackdsl import _graphplot
-from stackdsl._graphplot import KAPLA_MM, footprint_mm, margins, plot_graph, support_polygon
-from stackdsl._outcome import Edge, Graph, Node
+from stackdsl.draw import graphplot as _graphplot
+from stackdsl.draw.graphplot import KAPLA_MM, footprint_mm, margins, plot_graph, support_polygon
+from stackdsl.runtime.outcome import Edge, Graph, Node
 
 ROOT = Path(__file__).resolve().parent.parent
 RED = (214, 39, 40)  # the colour of a centre of mass outside its support polygon

@@ -14,7 +14,7 @@ import pytest
 
 from stability import Box, BrickState, FakeEngine, Plane, Pose, StabilityConfig, StabilityExtension
 from stackdsl import ScenarioError, compile_scenario, evaluate, load_scenario, parse_scenario, run_program
-from stackdsl._hard import V_LIMIT, WALL_LIMIT, format_limits, lean_on_wall, leaning_limits, vee, wall_throw
+from stackdsl.bench.hard import V_LIMIT, WALL_LIMIT, format_limits, lean_on_wall, leaning_limits, vee, wall_throw
 
 ROOT = Path(__file__).resolve().parents[1]
 HARD = sorted((ROOT / "scenarios" / "hard").glob("*.yaml"))

@@ -50,7 +50,9 @@ from pathlib import Path
 
 import pytest
 
-from stackdsl import _check, _cli, _cli_check
+from stackdsl.batch import check as _check
+from stackdsl.cli import check as _cli_check
+from stackdsl.cli import main as _cli
 
 ROOT = Path(__file__).resolve().parents[1]
 CORPUS = ROOT / "tests" / "hostile"

@@ -11,8 +11,8 @@ from shapely.geometry import box
 from stability import ContactArea, ContactPolygon, LoadNode, RigidBlock, load_path, proven, solve_equilibrium, support_piece
 from stability._load import propagate_fast
 from stability._load_path import loads_balance, share_region
-from stackdsl._bench import Scene, program_for
-from stackdsl._runtime import RunOptions, run_program
+from stackdsl.bench.bench import Scene, program_for
+from stackdsl.runtime.run import RunOptions, run_program
 
 HALF = np.array([0.06, 0.012, 0.004])
 UP = np.array([0.0, 0.0, 1.0])

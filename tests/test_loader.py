@@ -7,11 +7,15 @@ from pathlib import Path
 
 import pytest
 
-from stackdsl import ScenarioError, ScenarioErrors, _check, _cli, _loader, _scenario_file, load_scenario, parse_scenario
-from stackdsl._check import discover
-from stackdsl._loader import MAX_DEPTH
-from stackdsl._scenario_file import MAX_FILE_BYTES
-from stackdsl._units import angle, density, length, speed, time
+from stackdsl import ScenarioError, ScenarioErrors, load_scenario, parse_scenario
+from stackdsl.batch import check as _check
+from stackdsl.batch.check import discover
+from stackdsl.cli import main as _cli
+from stackdsl.lang import loader as _loader
+from stackdsl.lang import scenario_file as _scenario_file
+from stackdsl.lang.loader import MAX_DEPTH
+from stackdsl.lang.scenario_file import MAX_FILE_BYTES
+from stackdsl.lang.units import angle, density, length, speed, time
 
 
 def scenario(text: str):

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from stackdsl import compile_scenario, parse_scenario
-from stackdsl._fake_world import FakeWorld
-from stackdsl._loop import Subscriber
-from stackdsl._runtime import RunOptions, outcome, run_in
+from stackdsl.runtime.engines.fake import FakeWorld
+from stackdsl.runtime.loop import Subscriber
+from stackdsl.runtime.run import RunOptions, outcome, run_in
 
 TOWER = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nengine: {mode: raw}\ntiming: {settle: 1 s}\n"
 

@@ -15,10 +15,10 @@ import pytest
 
 from stability import Pose
 from stackdsl import compile_scenario, evaluate, load_scenario, parse_scenario, run_program
-from stackdsl._compiler import BACKEND_DEFAULTS
-from stackdsl._mujoco_materials import damping_ratio
-from stackdsl._mujoco_world import MuJoCoWorld
-from stackdsl._program import BrickSpec, EngineSettings
+from stackdsl.compile.compiler import BACKEND_DEFAULTS
+from stackdsl.compile.program import BrickSpec, EngineSettings
+from stackdsl.runtime.engines.mujoco_materials import damping_ratio
+from stackdsl.runtime.engines.mujoco_world import MuJoCoWorld
 
 ROOT = Path(__file__).resolve().parents[1]
 KAPLA = (0.06, 0.012, 0.004)
@@ -178,7 +178,7 @@ def test_a_pile_that_the_stack_test_would_wake_is_not_frozen():
     and each of its bricks was woken 29 times, once every rest duration. Now the pile is refused."""
     from collections import Counter
 
-    from stackdsl._runtime import RunOptions
+    from stackdsl.runtime.run import RunOptions
 
     text = "stackdsl: 1\nstructure: {tower: {levels: 20, bricks_per_layer: 1, turn: 0, shift: 7 mm}}\n"
     text += "engine: {mode: extension, backend: mujoco}\n"
@@ -191,7 +191,7 @@ def test_a_pile_that_the_stack_test_would_wake_is_not_frozen():
 def test_bricks_declared_up_front_or_as_they_come_give_the_same_answer():
     """Parked (every body in the first model) and rebuilt (the model compiled again as each
     brick enters) both build a 3-level tower that stands."""
-    from stackdsl._runtime import RunOptions
+    from stackdsl.runtime.run import RunOptions
 
     program = compile_scenario(parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 3}}\n"), "extension", backend="mujoco")
     for lazy in (True, False):
@@ -204,7 +204,7 @@ def test_with_mujocos_sleeping_a_parked_brick_lands_where_it_is_put():
     """A parked body asleep far away and moved in stayed asleep 0.5 mm above its pose, in the
     air (every brick of the bench's parked peer drifted exactly the drop gap): a body out of
     the scene now never sleeps. Declared up front or as they come, the bricks land."""
-    from stackdsl._runtime import RunOptions
+    from stackdsl.runtime.run import RunOptions
 
     text = "stackdsl: 1\nstructure: {tower: {levels: 3}}\nengine: {mode: tuned, backend: mujoco, sleep_tolerance: 0.0001}\n"
     program = compile_scenario(parse_scenario(text))
@@ -272,7 +272,7 @@ def test_an_unknown_backend_is_bad_input(tmp_path):
 def test_the_freeze_means_chosen_holds_and_the_others_do_not():
     """Why frozen bricks are held mocap bodies (stackdsl bench freeze): a brick landing on a
     sleeping stack wakes it, and welded bricks move as free ones do; held ones stay put."""
-    from stackdsl._bench_freeze import freeze_cost
+    from stackdsl.bench.freeze import freeze_cost
 
     free, weld, sleep, held = (freeze_cost(6, m, seconds=0.3) for m in ("free", "weld", "sleep", "held"))
     assert held.frozen_moved_mm == 0.0

@@ -5,8 +5,8 @@ import pytest
 from stability import _equilibrium, solve_equilibrium
 from stability._equilibrium import GRAVITY, _solve_vertical
 from stackdsl import compile_scenario, parse_scenario
-from stackdsl._bench_cost import solve_times
-from stackdsl._oracle import equilibrium_collapse, structure
+from stackdsl.bench.cost import solve_times
+from stackdsl.verdicts.oracle import equilibrium_collapse, structure
 
 L = 0.12
 

@@ -14,8 +14,11 @@ from typing import ClassVar
 
 import pytest
 
-from stackdsl import _check, _guard, _pool
-from stackdsl._cli import main
+from stackdsl.batch import check as _check
+from stackdsl.batch import guard as _guard
+from stackdsl.batch import judge as _judge
+from stackdsl.batch import pool as _pool
+from stackdsl.cli.main import main
 
 ROOT = Path(__file__).resolve().parents[1]
 PASSING = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nexpect: {stands: true}\n"
@@ -211,7 +214,7 @@ def test_out_of_memory_is_the_scenarios_internal_error(tmp_path, monkeypatch):
     def greedy(program, *args, **kwargs):
         raise MemoryError
 
-    monkeypatch.setattr(_check, "run_program", greedy)
+    monkeypatch.setattr(_judge, "run_program", greedy)
     (tmp_path / "a.yaml").write_text(PASSING)
     (r,) = _check.check([tmp_path], jobs=1)
     assert not r.passed and r.error == "internal error: out of memory" and "MemoryError" in r.traceback

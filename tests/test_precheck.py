@@ -11,9 +11,10 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from stackdsl import ScenarioError, _check, compile_scenario, format_program, load_scenario, parse_scenario
-from stackdsl._cli import main
-from stackdsl._overlap import OVERLAP_TOLERANCE, REST_TOLERANCE, penetration
+from stackdsl import ScenarioError, compile_scenario, format_program, load_scenario, parse_scenario
+from stackdsl.batch import judge as _judge
+from stackdsl.cli.main import main
+from stackdsl.compile.overlap import OVERLAP_TOLERANCE, REST_TOLERANCE, penetration
 
 ROOT = Path(__file__).resolve().parents[1]
 SHIPPED = sorted((ROOT / "scenarios").rglob("*.yaml"))
@@ -259,7 +260,7 @@ def test_check_simulates_nothing_when_a_check_fails(tmp_path, capsys, monkeypatc
     def no_simulation(*args, **kwargs):
         raise AssertionError("simulated although a check failed")
 
-    monkeypatch.setattr(_check, "run_program", no_simulation)
+    monkeypatch.setattr(_judge, "run_program", no_simulation)
     (tmp_path / "tower.yaml").write_text("stackdsl: 1\nstructure: {tower: {levels: 3, bricks_per_layer: 3}}\n")
     assert main(["check", str(tmp_path), "-j", "1"]) == 2
     assert f"{tmp_path / 'tower.yaml'}:2:50: structure.tower.bricks_per_layer: level 2" in capsys.readouterr().err

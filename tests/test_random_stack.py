@@ -1,4 +1,4 @@
-"""The independent Monte Carlo of the random single-file stack (stackdsl._random_stack): the
+"""The independent Monte Carlo of the random single-file stack (stackdsl.bench.random_stack): the
 stability condition on hand-made stacks, the vectorised walk against the scalar reference,
 known probabilities, and the mean collapse level against the 10^6-sample figure."""
 
@@ -9,8 +9,8 @@ import math
 import numpy as np
 import pytest
 
-from stackdsl import _random_stack
-from stackdsl._random_stack import (
+from stackdsl.bench import random_stack as _random_stack
+from stackdsl.bench.random_stack import (
     LENGTH,
     collapse_level,
     collapse_levels,

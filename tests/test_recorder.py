@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 from stackdsl import compile_scenario, load_scenario, parse_scenario, run_program
-from stackdsl._fake_world import FakeWorld
-from stackdsl._loop import Subscriber
-from stackdsl._recorder import Recorder, record_program
-from stackdsl._runtime import outcome, run_in
-from stackdsl._trajectory import ABSENT, ACTIVE, FALLEN, FROZEN, POSITION_TOLERANCE, STATES, WOKEN, load_trajectory
+from stackdsl.runtime.engines.fake import FakeWorld
+from stackdsl.runtime.loop import Subscriber
+from stackdsl.runtime.recorder import Recorder, record_program
+from stackdsl.runtime.run import outcome, run_in
+from stackdsl.runtime.trajectory import ABSENT, ACTIVE, FALLEN, FROZEN, POSITION_TOLERANCE, STATES, WOKEN, load_trajectory
 
 OVERHANG = "scenarios/hard/overhang_falls.yaml"  # the top brick tips off at level 2
 TOWER = "stackdsl: 1\nstructure: {tower: {levels: 3}}\n"

@@ -9,11 +9,11 @@ import pytest
 from PIL import Image
 
 from stackdsl import compile_scenario, parse_scenario
-from stackdsl._animate import KEY_EVENTS, animate, speed_text, timeline
-from stackdsl._camera import placed_corners
-from stackdsl._recorder import record_program
-from stackdsl._render import COLLAPSE_DELAY, COLOURS, Scene, picture, render, resolve_time, scale_bar
-from stackdsl._trajectory import FALLEN, STATES, Trajectory
+from stackdsl.draw.animate import KEY_EVENTS, animate, speed_text, timeline
+from stackdsl.draw.camera import placed_corners
+from stackdsl.draw.render import COLLAPSE_DELAY, COLOURS, Scene, picture, render, resolve_time, scale_bar
+from stackdsl.runtime.recorder import record_program
+from stackdsl.runtime.trajectory import FALLEN, STATES, Trajectory
 
 TOWER = "stackdsl: 1\nstructure: {tower: {levels: 2}}\n"
 THROW = TOWER + "impacts: [{id: hammer, target: {level: 2, side: +y}, speed: 1 m/s, at: after level 2}]\n"

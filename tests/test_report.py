@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from stackdsl._cli import main
+from stackdsl.cli.main import main
 
 STANDS = "stackdsl: 1\nname: small tower\nstructure: {tower: {levels: 2}}\nexpect: {stands: true}\n"
 # the top brick's centre of mass 0.5 mm beyond the lower brick's end: it falls, so "stands" fails
@@ -102,12 +102,12 @@ def test_the_page_is_self_contained(report):
 
 
 def test_a_picture_that_cannot_be_drawn_leaves_the_verdict_and_the_other_files(tmp_path, monkeypatch, capsys):
-    import stackdsl._render
+    import stackdsl.draw.render
 
     def broken(*args, **kwargs):
         raise RuntimeError("no renderer today")
 
-    monkeypatch.setattr(stackdsl._render, "picture", broken)
+    monkeypatch.setattr(stackdsl.draw.render, "picture", broken)
     (tmp_path / "a.yaml").write_text(STANDS)
     status = main(["check", str(tmp_path / "a.yaml"), "-j", "1", "--report", str(tmp_path / "out")])
     assert status == 0

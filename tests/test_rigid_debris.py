@@ -8,11 +8,11 @@ import pytest
 
 from stability import Pose
 from stackdsl import EngineSettings, compile_scenario, parse_scenario
-from stackdsl._collapse import CollapseMonitor
-from stackdsl._compiler import _spec
-from stackdsl._runtime import RunOptions, run_in
-from stackdsl._subscribers import RigidDebris
-from stackdsl._world import pybullet_world
+from stackdsl.compile.compiler import _spec
+from stackdsl.runtime.collapse import CollapseMonitor
+from stackdsl.runtime.engines.world import pybullet_world
+from stackdsl.runtime.run import RunOptions, run_in
+from stackdsl.runtime.subscribers import RigidDebris
 
 SINGLE_FILE = "stackdsl: 1\nstructure: {tower: {levels: 12, bricks_per_layer: 1, turn: 0, shift: 13 mm}}\n"
 

@@ -8,11 +8,12 @@ import pybullet
 import pytest
 
 from stability import Pose, StabilityConfig
-from stackdsl import End, EngineSettings, Launch, Program, _loop, compile_scenario, parse_scenario, run_program
-from stackdsl._compiler import _spec
-from stackdsl._program import Rule
-from stackdsl._runtime import RunOptions
-from stackdsl._world import pybullet_world
+from stackdsl import End, EngineSettings, Launch, Program, compile_scenario, parse_scenario, run_program
+from stackdsl.compile.compiler import _spec
+from stackdsl.compile.program import Rule
+from stackdsl.runtime import loop as _loop
+from stackdsl.runtime.engines.world import pybullet_world
+from stackdsl.runtime.run import RunOptions
 
 TWO_BRICKS = """
 stackdsl: 1

@@ -1,4 +1,4 @@
-"""The JSON Schema of scenario files (stackdsl._jsonschema.json_schema) accepts what the loader accepts.
+"""The JSON Schema of scenario files (stackdsl.lang.jsonschema.json_schema) accepts what the loader accepts.
 
 Files are read as an editor would, with yaml.safe_load, and validated with jsonschema
 (Draft 2020-12); the loader is stackdsl.parse_scenario / load_scenario. Where JSON Schema
@@ -17,7 +17,7 @@ import pytest
 import yaml
 
 from stackdsl import ScenarioError, load_scenario, parse_scenario
-from stackdsl._jsonschema import SCHEMA_DIALECT, json_schema
+from stackdsl.lang.jsonschema import SCHEMA_DIALECT, json_schema
 
 ROOT = Path(__file__).resolve().parents[1]
 SCHEMA_FILE = ROOT / "schema" / "scenario.schema.json"
@@ -146,7 +146,7 @@ REFUSED = {
     "a shift of three": doc("structure: {tower: {levels: 3, shift: [1 mm, 2 mm, 3 mm]}}"),
     "a negative card-house angle": doc("structure: {card_house: {levels: 1, angle: -20 deg}}"),
     "a brick id with a space": doc("structure: {bricks: [{id: a b, at: [0, 0, 4 mm]}]}"),
-    # numbers outside their physical ranges (the bounds in stackdsl._bounds)
+    # numbers outside their physical ranges (the bounds in stackdsl.lang.bounds)
     "a turn of 1e308 degrees": doc("structure: {tower: {levels: 3, turn: 1.0e+308}}"),
     "a yaw beyond ten turns": doc("structure: {bricks: [{at: [0, 0, 4 mm], yaw: 3601}]}"),
     "a pitch beyond ten turns": doc("structure: {bricks: [{at: [0, 0, 4 mm], pitch: -3601}]}"),
@@ -555,9 +555,9 @@ def test_the_smallest_side_is_what_pybullet_resolves():
     stay moved, but pybullet does not hold it). The 2.5 mm cube is built from the 3 mm one's
     program, since the loader refuses it."""
     import stackdsl
-    from stackdsl._loop import Subscriber
-    from stackdsl._runtime import RunOptions, run_in
-    from stackdsl._world import pybullet_world
+    from stackdsl.runtime.engines.world import pybullet_world
+    from stackdsl.runtime.loop import Subscriber
+    from stackdsl.runtime.run import RunOptions, run_in
 
     class Peak(Subscriber):
         farthest = 0.0

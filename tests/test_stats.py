@@ -1,4 +1,4 @@
-"""Statistical verdicts (stackdsl._stats): the intervals against scipy and known cases, their
+"""Statistical verdicts (stackdsl.verdicts.stats): the intervals against scipy and known cases, their
 coverage, the PASS/FAIL/INCONCLUSIVE rule on constructed data, and samples_to_decide against
 what more samples actually do."""
 
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from stackdsl._stats import (
+from stackdsl.verdicts.stats import (
     MeanWithin,
     ProportionBound,
     QuantileWithin,
@@ -241,7 +241,7 @@ def test_summary_degenerate():
 
 
 def test_the_mean_interval_shown_stays_within_the_levels_a_collapse_can_have():
-    from stackdsl._stats import mean_interval, summary
+    from stackdsl.verdicts.stats import mean_interval, summary
 
     levels = [1, 2, 29]
     assert mean_interval(levels)[0] < 1 and mean_interval(levels)[1] > 30  # the t interval alone

@@ -10,9 +10,9 @@ from pathlib import Path
 import pytest
 
 from stackdsl import load_scenario, parse_scenario
-from stackdsl._cli import main
-from stackdsl._random_stack import mean_collapse_level
-from stackdsl._sweep import SweepOptions, batches, collect, dask_executor, run_sweep
+from stackdsl.batch.sweep import SweepOptions, batches, collect, dask_executor, run_sweep
+from stackdsl.bench.random_stack import mean_collapse_level
+from stackdsl.cli.main import main
 
 ROOT = Path(__file__).resolve().parents[1]
 STACK = """stackdsl: 1
@@ -73,7 +73,7 @@ def test_the_simulated_mean_collapse_level_agrees_with_an_independent_monte_carl
     results = collect(run_sweep(t, SweepOptions(oracle=True), jobs=2))
     levels = [r.collapse_level for r in results]
     assert None not in levels
-    from stackdsl._stats import mean_interval
+    from stackdsl.verdicts.stats import mean_interval
 
     low, high = mean_interval([float(x) for x in levels if x is not None], 0.95)
     reference, *_ = mean_collapse_level(200_000, seed=1)
@@ -164,7 +164,7 @@ def test_check_says_why_a_sweep_did_not_hold_and_refuses_a_bad_sample(tmp_path, 
 
 
 def test_the_throughput_table_gives_each_executors_efficiency_with_and_without_its_start_up():
-    from stackdsl._bench_sweep import Throughput, format_throughputs
+    from stackdsl.bench.sweep import Throughput, format_throughputs
 
     rows = [
         Throughput("1 process (-j 1)", 100, 10.0),

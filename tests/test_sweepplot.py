@@ -1,4 +1,4 @@
-"""Sweep plots (stackdsl._sweepplot): PNGs on ordinary and degenerate input, with the marks
+"""Sweep plots (stackdsl.draw.sweepplot): PNGs on ordinary and degenerate input, with the marks
 that should be there (and not the ones that should not), found by their colours."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import pytest
 from matplotlib.colors import to_rgb
 from PIL import Image
 
-from stackdsl._sweepplot import COLLAPSED, MEAN, POINT, STOOD, plot_grid, plot_histogram
+from stackdsl.draw.sweepplot import COLLAPSED, MEAN, POINT, STOOD, plot_grid, plot_histogram
 
 
 def png(path: Path) -> np.ndarray:

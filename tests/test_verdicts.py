@@ -11,8 +11,8 @@ import pytest
 
 from stability import Box, BrickState, FakeEngine, Plane, Pose, StabilityConfig, StabilityExtension
 from stackdsl import compile_scenario, parse_scenario, run_program
-from stackdsl._loop import Subscriber
-from stackdsl._runtime import run_in
+from stackdsl.runtime.loop import Subscriber
+from stackdsl.runtime.run import run_in
 
 KAPLA = Box(np.array([0.06, 0.012, 0.004]), 0.0106)
 GAPS_MM = (0.0, 0.1, 0.5, 1.0, 2.0)
@@ -52,8 +52,8 @@ def test_a_brick_that_rocks_past_twice_the_threshold_and_returns_stands():
     # 1.5 mm inside its support's edge, the top brick dropped freely rocks on landing at some
     # gaps until its far end is 8 mm up (past twice the 4 mm threshold), and comes back: it
     # stands at every gap (the old rule called it collapse 3 at 0.1 and 1 mm)
-    from stackdsl._runtime import RunOptions, outcome
-    from stackdsl._world import pybullet_world
+    from stackdsl.runtime.engines.world import pybullet_world
+    from stackdsl.runtime.run import RunOptions, outcome
 
     farthest = []
     for gap in GAPS_MM:
@@ -193,7 +193,7 @@ def test_a_run_whose_end_has_no_equilibrium_is_not_a_stand(monkeypatch):
 
 @pytest.mark.parametrize("offset, verdict", [(10.5, "stands"), (13.5, "collapse")])
 def test_run_json_shows_the_certificate(tmp_path, offset, verdict):
-    from stackdsl._cli import main
+    from stackdsl.cli.main import main
 
     path = tmp_path / "scene.yaml"
     path.write_text(crosswise(offset, 0.5))

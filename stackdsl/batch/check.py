@@ -1,0 +1,261 @@
+"""Check many scenario files: load all, compile all, then run them.
+
+Nothing runs unless every file loads and compiles: a bad file stops the whole check
+before any simulation. Runs are shared between this process and spawned worker processes
+(:mod:`stackdsl.batch.pool`; each run creates its own pybullet client, clients do not survive
+pickling), or farmed out on a caller's ``concurrent.futures.Executor``.
+
+Every run has a wall-clock limit (``timeout``, default :data:`stackdsl.batch.judge.TIMEOUT`); workers also have
+a memory limit (:data:`stackdsl.batch.guard.MEMORY_LIMIT`). A run that raises, runs out of memory
+or whose worker dies is that scenario's internal error (``CheckResult.error``); the other
+scenarios still run.
+
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Generator, Iterable
+from concurrent.futures import Executor
+from pathlib import Path
+from typing import Any, NamedTuple
+
+from ..compile.compiler import compile_scenario
+from ..compile.program import Program
+from ..draw.artefacts import DRAW_ESTIMATE, DRAW_LIMIT
+from ..lang.errors import ScenarioError
+from ..lang.expectations import Expect
+from ..lang.loader import load_scenario
+from ..lang.sampling import Template
+from ..lang.scenario_file import file_problem
+from ..verdicts.check_result import CheckResult
+from .check_sweep import run_unit, sweep_result, sweep_tasks
+from .judge import KILL_AFTER, TIMEOUT, lost
+from .pool import fan_out, on_executor
+from .sweep import SampleResult
+
+
+class Prepared(NamedTuple):
+    """A scenario file ready to run: its compiled ``program`` (a sweep's: sample 0 of cell 0),
+    ``expect``, and the sweep's ``template`` (None: one run)."""
+
+    path: Path
+    program: Program
+    expect: Expect
+    template: Template | None = None
+
+
+class ScenarioErrors(Exception):
+    """Several files failed to load or compile; ``errors`` holds one ScenarioError each."""
+
+    def __init__(self, errors: list[ScenarioError]) -> None:
+        super().__init__("\n".join(str(e) for e in errors))
+        self.errors = errors
+
+
+def discover(paths: list[str | Path]) -> list[Path]:
+    """Scenario files named by ``paths``: files as given, folders searched for ``*.yaml``/``*.yml``.
+
+    Raises:
+        ScenarioErrors: a path does not exist, is not a regular file (a device, a FIFO) or
+            is over the loader's size cap (decided from ``os.stat``, nothing is opened), or a
+            folder holds no scenario file.
+    """
+    files, errors = [], []
+    for raw in paths:
+        path = Path(raw)
+        if path.is_dir():
+            found = sorted(p for p in path.rglob("*") if p.suffix in (".yaml", ".yml") and p.is_file())
+            if not found:
+                errors.append(ScenarioError("no scenario files (*.yaml) in this folder", file=str(path)))
+            files += found
+        elif (problem := file_problem(path)) is None:
+            files.append(path)
+        else:
+            errors.append(ScenarioError(problem, file=str(path)))
+    if errors:
+        raise ScenarioErrors(errors)
+    return files
+
+
+def prepare(
+    files: list[Path],
+    mode: str | None = None,
+    modes: tuple[str, ...] = (),
+    model: str | None = None,
+    backends: tuple[str | None, ...] = (None,),
+) -> list[Prepared]:
+    """Load and compile every file (on each of ``backends``, in each of ``modes`` when
+    given, with the stability ``model`` when given); nothing is simulated.
+
+    Raises:
+        ScenarioErrors: one error per bad file.
+    """
+    prepared, errors = [], []
+    for path in files:
+        try:
+            scenario = load_scenario(path)
+            sweep = scenario.template if scenario.sweep is not None else None
+            for backend in backends:
+                for m in modes or (mode,):
+                    prepared.append(Prepared(path, compile_scenario(scenario, m, model, backend), scenario.expect, sweep))
+        except ScenarioError as exc:
+            errors.append(exc)
+    if errors:
+        raise ScenarioErrors(errors)
+    return prepared
+
+
+def select(prepared: list[Prepared], pattern: str | None) -> list[Prepared]:
+    """The scenarios whose file path or name contains ``pattern`` (case-insensitive), in
+    order; all of them when ``pattern`` is None or empty.
+
+    Raises:
+        ScenarioErrors: ``pattern`` selects none.
+    """
+    if not pattern:
+        return prepared
+    text = pattern.casefold()
+    chosen = [p for p in prepared if text in str(p[0]).casefold() or text in p[1].name.casefold()]
+    if not chosen:
+        files = len({p[0] for p in prepared})
+        raise ScenarioErrors([ScenarioError(f"no scenario's path or name contains {pattern!r} ({files} files)", file="-k")])
+    return chosen
+
+
+def check(
+    paths: list[str | Path],
+    mode: str | None = None,
+    jobs: int | None = None,
+    executor: Executor | None = None,
+    model: str | None = None,
+    pattern: str | None = None,
+    timeout: float | None = TIMEOUT,
+) -> Generator[CheckResult, None, None]:
+    """Check every scenario under ``paths``; results come as each run finishes.
+
+    Every file is loaded and compiled before this returns (so bad input raises here,
+    before anything is simulated); the runs happen as the iterator is consumed, and
+    closing it early (e.g. after the first failure) cancels the runs not yet started and
+    stops the workers. With one job, results come in file order.
+
+    Args:
+        paths: files or folders.
+        mode: overrides each scenario's engine mode.
+        model: overrides each scenario's stability model.
+        jobs: runs at the same time, this process included (default: one per core);
+            1 runs everything here. Work estimated below a worker's start-up runs here
+            whatever ``jobs`` says (see :mod:`stackdsl.batch.pool`).
+        executor: run on this executor instead (e.g. a Dask client's executor).
+        pattern: only the scenarios whose file path or name contains it (see :func:`select`).
+        timeout: wall seconds each run may take (None: no limit); a run stopped by it is
+            a failed result whose ``stopped`` says so.
+
+    Raises:
+        ScenarioErrors: a file is missing or invalid, or ``pattern`` selects nothing
+            (before anything runs).
+        ValueError: ``jobs`` below 1.
+    """
+    prepared = select(prepare(discover(paths), mode, model=model), pattern)
+    return run_checks(prepared, jobs, executor, timeout)
+
+
+def run_checks(
+    prepared: list[Prepared],
+    jobs: int | None = None,
+    executor: Executor | None = None,
+    timeout: float | None = TIMEOUT,
+    folders: list[str] | None = None,
+) -> Generator[CheckResult, None, None]:
+    """:func:`judge` every prepared scenario, yielding results as each finishes (see
+    :func:`check`); with ``folders`` (one per prepared scenario), each run is recorded and
+    drawn into its folder (:func:`stackdsl.draw.artefacts.draw_run`)."""
+    if folders is not None and len(folders) != len(prepared):
+        raise ValueError(f"{len(folders)} folders for {len(prepared)} scenarios")
+    where: list[str | None] = list(folders) if folders is not None else [None] * len(prepared)
+    jobs = (os.cpu_count() or 1) if jobs is None else jobs
+    if jobs < 1:
+        raise ValueError(f"jobs must be at least 1, not {jobs}")
+    tasks: list[tuple[Any, ...]] = []
+    costs: list[float] = []
+    pending: dict[int, int] = {}
+    drawing = DRAW_ESTIMATE if folders else 0.0
+    for i, (p, folder) in enumerate(zip(prepared, where)):
+        if p.template is None:
+            tasks.append(("run", str(p.path), p.program, p.expect, timeout, folder))
+            costs.append(p.program.wall_estimate + drawing)  # the compiler's work budget, in seconds
+        else:
+            units = sweep_tasks(i, p.template, p.program, timeout, jobs)
+            tasks += units
+            costs += [p.program.wall_estimate * len(u[4]) for u in units]
+            pending[i] = len(units)
+    if executor is not None:
+        stream = on_executor(executor, run_unit, tasks)
+    else:
+        longest = max([len(t[4]) for t in tasks if t[0] == "batch"], default=1)
+        limit = None if timeout is None else (timeout + KILL_AFTER) * longest + (DRAW_LIMIT if folders else 0.0)
+        stream = fan_out(run_unit, tasks, costs, jobs, limit=limit, lost=lost)
+    return _gathered(stream, prepared, pending, where)
+
+
+def _gathered(
+    stream: Generator[Any, None, None], prepared: list[Prepared], pending: dict[int, int], where: list[str | None]
+) -> Generator[CheckResult, None, None]:
+    """Results as they finish: single runs at once, a sweep when its last batch is back."""
+    samples: dict[int, list[SampleResult]] = {i: [] for i in pending}
+    try:
+        for item in stream:
+            if isinstance(item, CheckResult):
+                yield item
+                continue
+            _, i, results = item
+            samples[i] += results
+            pending[i] -= 1
+            if not pending[i]:
+                p = prepared[i]
+                assert p.template is not None
+                ordered = sorted(samples.pop(i), key=lambda r: (r.cell, r.sample))
+                yield sweep_result(str(p.path), p.template, p.program, p.expect, ordered, where[i])
+    finally:
+        stream.close()
+
+
+def compare(
+    paths: list[str | Path],
+    modes: tuple[str, ...] = ("raw", "tuned", "extension"),
+    jobs: int | None = None,
+    model: str | None = None,
+    pattern: str | None = None,
+    timeout: float | None = TIMEOUT,
+) -> dict[str, dict[str, CheckResult]]:
+    """Check every scenario in every mode, all in one run (one set of workers for all modes).
+
+    Args:
+        paths, jobs, model, pattern, timeout: as for :func:`check`.
+        modes: engine modes, one column each.
+
+    Returns:
+        file -> mode -> :class:`CheckResult`, files in order.
+
+    Raises:
+        ScenarioErrors: a file is missing or invalid (before anything runs).
+    """
+    prepared = select(prepare(discover(paths), modes=modes, model=model), pattern)
+    return tabulate(prepared, modes, run_checks(prepared, jobs, timeout=timeout))
+
+
+def tabulate(
+    prepared: list[Prepared],
+    modes: tuple[str, ...],
+    results: Iterable[CheckResult],
+    each: Callable[[CheckResult], None] = lambda r: None,
+) -> dict[str, dict[str, CheckResult]]:
+    """``results`` (in any order) as file -> column -> result, files in the order of
+    ``prepared``; a column is a mode, or ``"backend mode"`` when ``modes`` name backends
+    too; ``each`` is called with every result as it comes."""
+    table: dict[str, dict[str, CheckResult]] = {str(p.path): {} for p in prepared}
+    for r in results:
+        table[r.file][r.mode if r.mode in modes else f"{r.backend} {r.mode}"] = r
+        each(r)
+    return {file: {m: row[m] for m in modes if m in row} for file, row in table.items()}

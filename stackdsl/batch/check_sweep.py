@@ -1,0 +1,107 @@
+"""A sweep as one row of ``stackdsl check``: its batches beside the other runs, one verdict.
+
+``check`` sends a sweep's batches (:func:`stackdsl.batch.sweep.batches`) to the same pool as the
+other scenarios' runs, so one set of workers serves every file; when a sweep's last batch is
+back, :func:`sweep_result` turns its samples into a :class:`stackdsl.CheckResult`: one verdict
+per statistical expectation and grid cell (PASS or FAIL when the 95% interval decides, else
+not held: INCONCLUSIVE, with the samples that would decide it), the samples' files and plots
+in the report folder when there is one.
+
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from ..lang.expectations import Expect
+from ..lang.sampling import Template
+from ..verdicts.expect import Verdict
+from ..verdicts.stats import summary
+from .judge import judge
+from .sweep import SampleResult, SweepOptions, batches, run_batch
+from .sweep_out import by_cell, measured, verdicts, write_plots, write_samples
+
+
+def sweep_tasks(index: int, template: Template, program: Any, timeout: float | None, workers: int) -> list[tuple[Any, ...]]:
+    """The batch tasks of prepared scenario ``index``: ``("batch", index, template, cell, samples,
+    options)``, run with the compiled program's mode and model."""
+    options = SweepOptions(program.engine.mode, program.stability.model, False, timeout, program.engine.backend)
+    return [("batch", index, template, cell, samples, options) for cell, samples in batches(template, workers)]
+
+
+def run_unit(kind: str, *args: Any) -> Any:
+    """One task of ``check``: ``("batch", index, ...)`` runs a sweep's batch and returns
+    ``("batch", index, results)``; anything else is :func:`stackdsl.batch.judge.judge`'s."""
+    if kind == "batch":
+        index, template, cell, samples, options = args
+        return ("batch", index, run_batch(template, cell, samples, options))
+    return judge(*args)
+
+
+def sweep_result(
+    file: str, template: Template, program: Any, expect: Expect, results: Sequence[SampleResult], folder: str | None
+) -> Any:
+    """One :class:`stackdsl.CheckResult` for a whole sweep."""
+    from ..verdicts.check_result import CheckResult
+
+    judged = []
+    explanation = []
+    for c, v in verdicts(template, expect, results):
+        where = f" in cell {c} ({_cell(template, c)})" if template.grid else ""
+        judged.append(
+            Verdict(
+                name="statistic", passed=v.outcome == "PASS", expected=v.expected, measured=f"{v.outcome.lower()}: {v.measured}"
+            )
+        )
+        if v.outcome != "PASS":
+            more = (
+                f"; about {v.samples_to_decide} samples would decide it"
+                if v.outcome == "INCONCLUSIVE" and v.samples_to_decide
+                else ""
+            )
+            explanation.append(f"{v.outcome}{where}: expected {v.expected}, measured {v.measured}{more}")
+    errors = [r for r in results if r.error]
+    stopped = [r for r in results if r.stopped]
+    bad = [r for r in results if r.bad_input]
+    levels = max((r.levels_placed for r in results), default=0)
+    artefacts: tuple[tuple[str, str], ...] = ()
+    if folder is not None and not bad:
+        out = Path(folder)
+        table, _ = write_samples(results, out)
+        plots = write_plots(template, results, program.levels, out)
+        artefacts = (("picture", plots[0].name),) if plots else ()
+        artefacts += (("samples", table.name),)
+    return CheckResult(
+        file=file,
+        scenario=program.name,
+        mode=program.engine.mode,
+        model=program.stability.model,
+        verdicts=tuple(judged),
+        collapse_level=None,
+        levels_placed=levels,
+        simulated_time=sum(r.simulated_time for r in results),
+        wall_time=sum(r.wall_time for r in results),
+        explanation=tuple(explanation),
+        error=f"{errors[0].error} (sample {errors[0].sample})" if errors else "",
+        stopped=f"{len(stopped)} samples stopped early: {stopped[0].stopped}" if stopped else "",
+        bad_input=bad[0].bad_input if bad else "",
+        sweep=_described(template, results, program.levels),
+        folder=folder or "",
+        artefacts=artefacts,
+    )
+
+
+def _described(template: Template, results: Sequence[SampleResult], levels_built: int) -> str:
+    """check's "measured" text of a sweep: the mean level and P(stands) of its one cell, or its size."""
+    if template.cells > 1:
+        return f"{template.cells} cells x {template.samples} samples"
+    s = summary(measured(by_cell(results, 1)[0]), levels_built)
+    mean = "no collapse" if s.mean is None else f"mean {s.mean:.2f}"
+    return f"{mean}, P(stands) {s.p_stands:.2f}, n={s.n}"
+
+
+def _cell(template: Template, c: int) -> str:
+    return ", ".join(f"{k} = {v}" for k, v in template.cell(c).items())

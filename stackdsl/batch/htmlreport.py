@@ -1,0 +1,231 @@
+"""The HTML report of a check: one self-contained page beside each scenario's pictures.
+
+``stackdsl check PATHS --report DIR`` writes ``DIR/index.html`` and a folder per scenario
+(:mod:`stackdsl.draw.artefacts`: picture, clip, brick-graph plot, trajectory file). The page
+has no script and loads nothing from elsewhere: its style is inline and its images are
+the files beside it, so the folder can be copied, archived by a CI server or opened from
+disk. Failures come first, then the scenarios that passed, then a summary table.
+
+Source: stackdsl's own (the layout of pytest-html's report: a row per test, failures
+first, the test's extras linked from its row).
+"""
+
+from __future__ import annotations
+
+import datetime
+import html
+import os
+import shlex
+from collections.abc import Sequence
+from pathlib import Path
+
+from ..runtime.outcome import Event
+from ..runtime.trajectory import load_trajectory
+from ..verdicts.check_result import CheckResult
+from ..verdicts.expect import describe
+from .report import mode_label, version
+
+#: Events listed in a row's timeline at most (a 100-level tower has about 400).
+TIMELINE_LIMIT = 600
+
+STYLE = """
+body { font: 14px/1.45 system-ui, sans-serif; margin: 1.5em auto; max-width: 72em; padding: 0 1em; color: #222; }
+h1 { font-size: 1.5em; margin-bottom: 0.2em; }
+h2 { font-size: 1.2em; margin: 1.6em 0 0.6em; border-bottom: 1px solid #ccc; }
+.meta { color: #555; margin: 0; }
+code { background: #f3f3f3; padding: 0 0.25em; border-radius: 3px; }
+.verdict { font-weight: bold; padding: 0.1em 0.5em; border-radius: 3px; color: #fff; }
+.pass { background: #2e7d32; } .fail { background: #c62828; }
+.scenario { display: flex; gap: 1.2em; padding: 0.9em 0; border-bottom: 1px solid #eee; }
+.scenario.failed { background: #fff5f5; }
+.thumb { width: 320px; height: 240px; object-fit: contain; background: #fafafa; border: 1px solid #ddd; flex: none; }
+.nothumb { width: 320px; height: 240px; display: flex; align-items: center; justify-content: center;
+           background: #fafafa; border: 1px solid #ddd; color: #777; flex: none; }
+.body { flex: 1; min-width: 0; }
+.body h3 { margin: 0 0 0.3em; font-size: 1.05em; overflow-wrap: anywhere; }
+table.facts td { padding: 0 1em 0 0; vertical-align: top; }
+table.facts td:first-child { color: #666; }
+ul.why { color: #b71c1c; margin: 0.4em 0; }
+.links a { margin-right: 1em; }
+details { margin-top: 0.4em; }
+table.timeline { border-collapse: collapse; font-size: 0.9em; }
+table.timeline td { padding: 0 0.8em 0 0; white-space: nowrap; }
+table.summary { border-collapse: collapse; width: 100%; }
+table.summary th, table.summary td { text-align: left; padding: 0.2em 0.8em 0.2em 0; border-bottom: 1px solid #eee;
+                                     overflow-wrap: anywhere; }
+td.num, th.num { text-align: right; }
+"""
+
+
+def write_report(
+    results: Sequence[CheckResult],
+    folder: str | Path,
+    *,
+    total: int,
+    wall: float,
+    commands: Sequence[str],
+    argv: Sequence[str] = (),
+) -> Path:
+    """Write ``folder/index.html`` for ``results`` (in file order), whose pictures are
+    already in their folders under ``folder``; its path.
+
+    Args:
+        results: one per scenario run; ``commands``: the ``stackdsl run`` command of each.
+        total: scenarios selected (more than ``len(results)`` when check stopped early).
+        wall: seconds the whole check took; argv: the command line, shown on the page.
+
+    Raises:
+        OSError: the page cannot be written.
+    """
+    out = Path(folder)
+    failed = [(r, c) for r, c in zip(results, commands, strict=True) if not r.passed]
+    passed = [(r, c) for r, c in zip(results, commands, strict=True) if r.passed]
+    now = datetime.datetime.now().astimezone().strftime("%Y-%m-%d %H:%M %Z")
+    command = shlex.join(["stackdsl", *argv]) if argv else "stackdsl check"
+    parts = [
+        "<!DOCTYPE html>",
+        '<html lang="en"><head><meta charset="utf-8">',
+        '<meta name="viewport" content="width=device-width, initial-scale=1">',
+        f"<title>stackdsl check: {len(failed)} failed, {len(passed)} passed</title>",
+        f"<style>{STYLE}</style></head><body>",
+        "<h1>stackdsl check</h1>",
+        f'<p class="meta">{_e(_counts(results, total, wall))}</p>',
+        f'<p class="meta"><code>{_e(command)}</code> &middot; stackdsl {_e(version())} &middot; {_e(now)}</p>',
+    ]
+    if failed:
+        parts.append(f'<h2 id="failed">Failed ({len(failed)})</h2>')
+        parts += [_row(r, c, out) for r, c in failed]
+    if passed:
+        parts.append(f'<h2 id="passed">Passed ({len(passed)})</h2>')
+        parts += [_row(r, c, out) for r, c in passed]
+    parts += ['<h2 id="summary">Summary</h2>', _summary(results, total, wall), "</body></html>"]
+    page = out / "index.html"
+    page.write_text("\n".join(parts) + "\n", encoding="utf-8")
+    return page
+
+
+def remove_stale_folders(folder: str | Path, keep: set[str]) -> int:
+    """Remove the folders of an earlier report in ``folder`` that this one did not write: those
+    not in ``keep`` that hold nothing but a run's files (:data:`stackdsl.draw.artefacts.FILES`), so
+    that no folder a person put there is touched. Returns how many were removed."""
+    import shutil
+
+    from ..draw.artefacts import FILES
+
+    removed = 0
+    for sub in Path(folder).iterdir():
+        if sub.name in keep or not sub.is_dir() or sub.is_symlink():
+            continue
+        names = {f.name for f in sub.iterdir()}
+        if names and names <= set(FILES.values()) and all((sub / n).is_file() for n in names):
+            shutil.rmtree(sub)
+            removed += 1
+    return removed
+
+
+def _e(text: object) -> str:
+    return html.escape(str(text), quote=True)
+
+
+def _counts(results: Sequence[CheckResult], total: int, wall: float) -> str:
+    failed = sum(not r.passed for r in results)
+    text = f"{total} scenarios: {len(results) - failed} passed, {failed} failed"
+    if len(results) < total:
+        text += f", {total - len(results)} not run (stopped after the first failure)"
+    return text + f"; {wall:.1f} s wall"
+
+
+def _anchor(r: CheckResult) -> str:
+    return "s-" + (Path(r.folder).name if r.folder else "".join(c if c.isalnum() else "-" for c in r.file))
+
+
+def _link(r: CheckResult, kind: str, folder: Path) -> str | None:
+    """The page-relative address of a run's file of ``kind``, or None when it was not written."""
+    name = dict(r.artefacts).get(kind)
+    if not name or not r.folder:
+        return None
+    path = Path(r.folder) / name
+    try:
+        return Path(os.path.relpath(path, folder)).as_posix()
+    except ValueError:  # another drive (Windows)
+        return path.resolve().as_uri()
+
+
+def _row(r: CheckResult, command: str, folder: Path) -> str:
+    verdict = '<span class="verdict pass">PASS</span>' if r.passed else '<span class="verdict fail">FAIL</span>'
+    picture = _link(r, "picture", folder)
+    when = "at the collapse" if r.collapse_level is not None else "at the end"
+    thumb = (
+        f'<a href="{_e(picture)}"><img class="thumb" src="{_e(picture)}" alt="{_e(r.scenario)} {when}" '
+        f'title="{_e(r.scenario)}, {when}"></a>'
+        if picture
+        else f'<div class="nothumb">{_e(r.draw_error or r.error or "no picture")}</div>'
+    )
+    facts = [
+        ("expected", r.expected),
+        ("measured", r.measured),
+        ("mode", mode_label(r)),
+        *((("certificate", r.certificate),) if r.certificate else ()),
+        ("simulated", f"{r.simulated_time:.1f} s"),
+        ("wall", f"{r.wall_time:.2f} s" + (f" (drawing {r.draw_time:.1f} s)" if r.draw_time else "")),
+    ]
+    rows = "".join(f"<tr><td>{_e(k)}</td><td>{_e(v)}</td></tr>" for k, v in facts)
+    why = "".join(f"<li>{_e(line)}</li>" for line in r.explanation)
+    links = [
+        f'<a href="{_e(href)}">{label}</a>'
+        for label, kind in (("clip", "clip"), ("brick graph", "graph"), ("trajectory (.npz)", "trajectory"))
+        if (href := _link(r, kind, folder))
+    ]
+    problems = [p for p in (r.draw_error,) if p]
+    return "\n".join(
+        [
+            f'<section class="scenario{"" if r.passed else " failed"}" id="{_e(_anchor(r))}">',
+            thumb,
+            '<div class="body">',
+            f"<h3>{verdict} {_e(r.file)} <small>{_e(r.scenario)}</small></h3>",
+            f'<table class="facts">{rows}</table>',
+            f'<ul class="why">{why}</ul>' if why else "",
+            f'<p class="links">{" ".join(links)} <code>{_e(command)}</code></p>',
+            "".join(f'<p class="meta">{_e(p)}</p>' for p in problems),
+            _timeline(r),
+            "</div></section>",
+        ]
+    )
+
+
+def _timeline(r: CheckResult) -> str:
+    """The run's events (from its trajectory file) in a closed ``details`` element."""
+    name = dict(r.artefacts).get("trajectory")
+    if not name:
+        return ""
+    try:
+        events: Sequence[Event] = load_trajectory(Path(r.folder) / name).events
+    except (OSError, ValueError) as exc:
+        return f'<p class="meta">timeline not read: {_e(exc)}</p>'
+    shown = events[:TIMELINE_LIMIT]
+    rows = "".join(
+        f"<tr><td>{e.time:.3f} s</td><td>{_e(e.kind)}</td><td>{_e(e.brick)}</td>"
+        f"<td>{'' if e.level is None else f'level {e.level}'}</td><td>{_e(e.detail)}</td></tr>"
+        for e in shown
+    )
+    more = f"<p>({len(events) - len(shown)} more events in the trajectory file)</p>" if len(events) > len(shown) else ""
+    return f'<details><summary>timeline ({len(events)} events)</summary><table class="timeline">{rows}</table>{more}</details>'
+
+
+def _summary(results: Sequence[CheckResult], total: int, wall: float) -> str:
+    head = (
+        "<tr><th>verdict</th><th>scenario</th><th>mode</th><th>expected</th><th>measured</th>"
+        '<th class="num">simulated</th><th class="num">wall</th></tr>'
+    )
+    rows = "".join(
+        f'<tr><td>{"PASS" if r.passed else "FAIL"}</td><td><a href="#{_e(_anchor(r))}">{_e(r.file)}</a></td>'
+        f"<td>{_e(mode_label(r))}</td><td>{_e(r.expected)}</td><td>{_e(r.measured)}</td>"
+        f'<td class="num">{r.simulated_time:.1f} s</td><td class="num">{r.wall_time:.2f} s</td></tr>'
+        for r in sorted(results, key=lambda r: r.passed)
+    )
+    collapsed = sum(r.collapse_level is not None for r in results)
+    line = (
+        f"{_counts(results, total, wall)}; {collapsed} collapsed ({describe(None)}: {len(results) - collapsed}); "
+        f"{sum(r.simulated_time for r in results):.1f} s simulated in {sum(r.wall_time for r in results):.1f} s of runs"
+    )
+    return f'<p>{_e(line)}</p><table class="summary">{head}{rows}</table>'

@@ -1,0 +1,161 @@
+"""Check results as text rows, as one JSON document, and as JUnit XML.
+
+Source: stackdsl's own; the JUnit XML shape is the one pytest writes (``testsuites`` /
+``testsuite`` / ``testcase`` with ``failure`` and ``skipped``), read by CI servers.
+"""
+
+from __future__ import annotations
+
+import shlex
+import xml.etree.ElementTree as ET
+from collections.abc import Sequence
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+from ..verdicts.check_result import CheckResult
+
+#: The header of check's table; :func:`row` lines up under it.
+HEADER = f"{'':4}  {'scenario':<40} {'mode':<9}  {'expected':<18} {'measured':<32} {'simulated':>9} {'wall':>8}"
+#: Indentation of the lines under a FAIL row.
+INDENT = " " * 6
+#: Why a scenario did not run when check stopped early.
+NOT_RUN = "not run: stopped after the first failure"
+
+
+def version() -> str:
+    """The installed stackdsl's version (``importlib.metadata``), or ``'unknown'``."""
+    try:
+        return metadata.version("stackdsl")
+    except metadata.PackageNotFoundError:
+        return "unknown"
+
+
+def mode_label(r: CheckResult) -> str:
+    """The mode, with the stability model when the extension ran with the equilibrium one."""
+    return "ext/equil" if r.mode == "extension" and r.model == "equilibrium" else r.mode
+
+
+def row(r: CheckResult) -> str:
+    """One line of check's table: verdict, file, mode, expected, measured, simulated and wall seconds."""
+    file = r.file if len(r.file) <= 40 else "..." + r.file[-37:]
+    return (
+        f"{'PASS' if r.passed else 'FAIL':<4}  {file:<40} {mode_label(r):<9}  {r.expected:<18} {r.measured:<32} "
+        f"{r.simulated_time:>7.1f} s {r.wall_time:>6.1f} s"
+    )
+
+
+def run_command(file: str, mode: str | None = None, model: str | None = None, backend: str | None = None) -> str:
+    """The ``stackdsl run`` command that shows one scenario's timeline (shell-quoted).
+
+    >>> run_command("scenarios/slant tower.yaml", mode="raw")
+    "stackdsl run 'scenarios/slant tower.yaml' --mode raw"
+    """
+    words = ["stackdsl", "run", file] + (["--mode", mode] if mode else []) + (["--model", model] if model else [])
+    words += ["--backend", backend] if backend else []
+    return shlex.join(words)
+
+
+def failure_lines(r: CheckResult, command: str) -> list[str]:
+    """The indented lines under a FAIL row: the result's explanation, then ``command``
+    (with ``--debug`` after an internal error, to show its traceback)."""
+    if r.error:
+        command = command.replace("stackdsl run", "stackdsl --debug run", 1)
+    return [INDENT + line for line in r.explanation] + [f"{INDENT}more: {command}"]
+
+
+def summary(results: Sequence[CheckResult], total: int, wall: float) -> str:
+    """``'29 scenarios: 28 passed, 1 failed (3.8 s wall)'``, with how many hit an internal
+    error (counted among the failed) when any did, and how many did not run when fewer than
+    ``total`` did."""
+    failed = sum(not r.passed for r in results)
+    errors = sum(bool(r.error) for r in results)
+    counts = f"{len(results) - failed} passed, {failed} failed"
+    if errors:
+        counts += f" ({errors} of them internal error{'s' if errors > 1 else ''})"
+    if len(results) < total:
+        counts += f", {total - len(results)} {NOT_RUN}"
+    return f"{total} scenarios: {counts} ({wall:.1f} s wall)"
+
+
+def result_data(r: CheckResult, command: str) -> dict[str, Any]:
+    """One result as plain JSON data (seconds, metres; ``command`` reruns it)."""
+    return {
+        "file": r.file,
+        "scenario": r.scenario,
+        "mode": r.mode,
+        "model": r.model,
+        "passed": r.passed,
+        "expected": r.expected,
+        "measured": r.measured,
+        "verdicts": [v.model_dump() for v in r.verdicts],
+        "explanation": list(r.explanation),
+        "error": r.error or None,
+        "stopped": r.stopped or None,
+        "collapse_level": r.collapse_level,
+        "levels_placed": r.levels_placed,
+        "simulated_time": r.simulated_time,
+        "wall_time": r.wall_time,
+        "drift": r.drift,
+        "steps_per_brick": r.steps_per_brick,
+        "command": command,
+    }
+
+
+def json_document(
+    command: str, results: Sequence[CheckResult], commands: Sequence[str], total: int, wall: float
+) -> dict[str, Any]:
+    """Every result of one ``stackdsl`` command as one JSON document: the version, the
+    command, a summary (``total``, ``passed``, ``failed``, ``errors`` (internal errors, among
+    the failed), ``not_run``, ``wall_time`` in s)
+    and the results in the order given (``commands``: one rerun command each)."""
+    failed = sum(not r.passed for r in results)
+    return {
+        "stackdsl": version(),
+        "command": command,
+        "summary": {
+            "total": total,
+            "passed": len(results) - failed,
+            "failed": failed,
+            "errors": sum(bool(r.error) for r in results),
+            "not_run": total - len(results),
+            "wall_time": round(wall, 3),
+        },
+        "results": [result_data(r, c) for r, c in zip(results, commands, strict=True)],
+    }
+
+
+def junit_xml(
+    results: Sequence[CheckResult], commands: Sequence[str], not_run: Sequence[str], wall: float, path: str | Path
+) -> None:
+    """Write JUnit XML to ``path``: one testcase per scenario run (classname ``stackdsl.<mode>``,
+    name the file, time its wall seconds), an ``error`` with the traceback for each internal
+    error, a ``failure`` with the explanation and the rerun command for each other failed
+    one, and a ``skipped`` testcase for each file in ``not_run``."""
+    errors = sum(bool(r.error) for r in results)
+    failed = sum(not r.passed for r in results) - errors
+    suites = ET.Element("testsuites")
+    suite = ET.SubElement(
+        suites,
+        "testsuite",
+        name="stackdsl check",
+        tests=str(len(results) + len(not_run)),
+        failures=str(failed),
+        errors=str(errors),
+        skipped=str(len(not_run)),
+        time=f"{wall:.3f}",
+    )
+    ET.SubElement(ET.SubElement(suite, "properties"), "property", name="stackdsl", value=version())
+    for r, command in zip(results, commands, strict=True):
+        case = ET.SubElement(suite, "testcase", classname=f"stackdsl.{r.mode}", name=r.file, time=f"{r.wall_time:.3f}")
+        if r.error:
+            error = ET.SubElement(case, "error", message=r.error)
+            error.text = r.traceback or None
+        elif not r.passed:
+            failure = ET.SubElement(case, "failure", message=f"expected {r.expected}, measured {r.measured}")
+            failure.text = "\n".join([*r.explanation, f"more: {command}"])
+    for file in not_run:
+        case = ET.SubElement(suite, "testcase", classname="stackdsl", name=file, time="0")
+        ET.SubElement(case, "skipped", message=NOT_RUN)
+    ET.indent(suites)
+    ET.ElementTree(suites).write(path, encoding="utf-8", xml_declaration=True)

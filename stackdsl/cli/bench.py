@@ -1,0 +1,334 @@
+"""``stackdsl bench``: speed against error, and its sub-benchmarks solve, height, hard, record, sweep, verdicts and freeze.
+
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from ..bench.bench import SETTINGS, UPRIGHT, run_matrix, savings, scenes
+from ..bench.cost import format_solve_times, solve_times
+from ..bench.hard import format_hard, format_limits, format_wall, leaning_limits, thrown_at_wall
+from ..bench.out import write_outputs
+from ..lang.errors import ScenarioError
+from ..verdicts.expect import describe
+from .args import OK, jobs_type
+from .progress import Lines
+
+
+def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, modes: list[str]) -> None:
+    """Add ``bench`` and its sub-benchmarks to the ``stackdsl`` parser's subcommands."""
+    raw = argparse.RawDescriptionHelpFormatter
+    default_out = Path(tempfile.gettempdir()) / "stackdsl-bench"
+    p = sub.add_parser(
+        "bench",
+        parents=parents,
+        help="speed against error: every engine setting on the same scenes (long)",
+        description="Speed against error: every engine setting on the same scenes. "
+        "`stackdsl bench --out docs/bench` regenerates the committed figures.",
+        epilog=epilog,
+        formatter_class=raw,
+    )
+    p.add_argument(
+        "--out", default=str(default_out), help=f"folder for bench.csv, bench.md and the plots (default: {default_out})"
+    )
+    p.add_argument("--settings", default=",".join(SETTINGS), help="comma-separated, of: " + ", ".join(SETTINGS))
+    p.add_argument("--families", default="slant log cabin,single file,upright", help="comma-separated scene families")
+    p.add_argument(
+        "--upright", default=",".join(map(str, UPRIGHT)), help="comma-separated heights of the upright towers, in levels"
+    )
+    p.add_argument("--repeats", type=int, default=3, help="runs per cell (median), for cells faster than --repeat-below")
+    p.add_argument("--repeat-below", type=float, default=30.0, help="seconds; slower cells run once")
+    p.add_argument("--quick", action="store_true", help="one small cell per setting (a smoke test)")
+    p.add_argument(
+        "-j",
+        "--jobs",
+        type=jobs_type,
+        default="1",
+        help="worker processes (default: 1, for steady timings: two cells at once on two cores slow each other unevenly)",
+    )
+    p.set_defaults(func=_bench)
+    bench = p.add_subparsers(
+        metavar="[solve | height | hard | record | sweep | verdicts | freeze]", title="other benchmarks (optional)"
+    )
+    q = bench.add_parser("solve", help="equilibrium solve time for towers of 10 to 100 bricks")
+    q.add_argument("--sizes", default="10,25,50,100", help="bricks per tower, comma-separated")
+    q.add_argument("--repeats", type=int, default=5)
+    q.set_defaults(func=_bench_solve)
+    q = bench.add_parser(
+        "height",
+        help="upright towers of 10 to 200 levels per stability model: wall time per brick, ratios, exponent, profile",
+    )
+    q.add_argument("--levels", default="10,20,30,60,100,200", help="tower heights, comma-separated")
+    q.add_argument(
+        "--settings",
+        default="extension report,extension equilibrium",
+        help="comma-separated, of: " + ", ".join(SETTINGS) + " (ratios are to the first)",
+    )
+    q.add_argument("--repeats", type=int, default=5, help="runs per cell under 30 s (median; default: 5)")
+    q.add_argument("--no-profile", action="store_true", help="skip the profile of the tallest tower")
+    q.add_argument("-j", "--jobs", type=jobs_type, default="1", help="worker processes (default: 1, for steady timings)")
+    q.set_defaults(func=_bench_height)
+    q = bench.add_parser(
+        "hard", help="the hard cases in extension and raw mode, a brick thrown at a wall, the leaning limits swept"
+    )
+    q.add_argument("folder", nargs="?", default="scenarios/hard")
+    q.add_argument("-j", "--jobs", type=jobs_type, default="auto", help="runs at the same time (default: one per core)")
+    q.set_defaults(func=_bench_hard)
+    q = bench.add_parser("record", help="what recording costs: the 30-level tower with recording off and on, alternately")
+    q.add_argument("scenario", nargs="?", default="scenarios/four_stack.yaml")
+    q.add_argument("--repeats", type=int, default=7, help="runs of each setting (default: 7)")
+    q.add_argument("--mode", choices=modes, help="override the scenario's engine mode")
+    q.add_argument(
+        "--before",
+        metavar="PYTHON",
+        help="also time the check in another stackdsl's Python (e.g. the virtualenv of an older commit) and in this one, "
+        "alternately, and print the ratio",
+    )
+    q.add_argument("--rounds", type=int, default=None, help="with --before: alternating rounds of --repeats runs (default: 10)")
+    q.set_defaults(func=_bench_record)
+    q = bench.add_parser(
+        "sweep",
+        help="samples a second of a random 10-level single-file stack (or of FILE's sweep): 1 process, 2, "
+        "a 2-worker Dask LocalCluster",
+    )
+    q.add_argument("file", nargs="?", metavar="FILE", help="a sweep file (default: a random 10-level single-file stack)")
+    q.add_argument(
+        "--samples", type=int, default=None, help="samples a grid cell on each executor (default: 1000, or FILE's own)"
+    )
+    q.set_defaults(func=_bench_sweep)
+    q = bench.add_parser(
+        "verdicts",
+        help="each setting's collapse verdicts on random assemblies against rigid-block equilibrium, on both engines "
+        "and at several drop gaps; random single-file stacks against the exact centre-of-mass rule",
+    )
+    q.add_argument("--count", type=int, default=1000, help="assemblies (default: 1000; 0: none)")
+    q.add_argument("--seed", type=int, default=1, help="assembly k is drawn from SeedSequence(seed, spawn_key=(k,))")
+    q.add_argument("--engines", default="pybullet,mujoco", help="comma-separated, of: pybullet, mujoco (default: both)")
+    q.add_argument(
+        "--gaps", default="0,0.5,1,2", help="drop gaps of the extension settings, mm, comma-separated (default: 0,0.5,1,2)"
+    )
+    q.add_argument("--no-baselines", action="store_true", help="leave out raw and tuned (run the extension settings only)")
+    q.add_argument(
+        "--single-file",
+        type=int,
+        default=1000,
+        metavar="N",
+        help="random single-file stacks run in the extension settings against the exact rule (default: 1000; 0: none)",
+    )
+    q.add_argument("-j", "--jobs", type=jobs_type, default="auto", help="worker processes (default: one per core)")
+    q.add_argument("--out", help="folder for the misjudged assemblies' files (default: a new temporary folder)")
+    q.set_defaults(func=_bench_verdicts)
+    q = bench.add_parser("freeze", help="the ways to freeze a brick on MuJoCo: weld, its own sleeping, a held mocap body")
+    q.add_argument("--levels", default="10,30,60", help="tower heights, comma-separated")
+    q.set_defaults(func=_bench_freeze)
+
+
+def _bench(args: argparse.Namespace) -> int:
+    settings = [x.strip() for x in args.settings.split(",") if x.strip()]
+    families = {x.strip() for x in args.families.split(",") if x.strip()}
+    unknown = [x for x in settings if x not in SETTINGS]
+    if unknown:
+        raise ScenarioError(f"unknown setting {', '.join(unknown)}; known: {', '.join(SETTINGS)}", file="--settings")
+    try:
+        heights = [int(x) for x in args.upright.split(",") if x.strip()]
+    except ValueError:
+        raise ScenarioError(f"whole numbers of levels, not {args.upright!r}", file="--upright") from None
+    if any(not 1 <= h <= 1000 for h in heights):
+        raise ScenarioError("each height from 1 to 1000 levels", file="--upright")
+    chosen = [sc for sc in scenes(args.quick, heights) if sc.family in families or args.quick]
+    out = Path(args.out)
+    start = time.perf_counter()
+    total = len(chosen) * len(settings)
+    print(f"stackdsl bench: {len(chosen)} scenes x {len(settings)} settings, {args.jobs} workers, writing to {out}", flush=True)
+    with Lines(total, "bench") as lines:
+        count = 0
+
+        def progress(c: Any) -> None:
+            nonlocal count
+            count += 1
+            lines.line(
+                f"  [{count}/{total}] {c.setting:<22} {c.family:<16} {c.parameter:>5g}: {describe(c.collapse_level)} "
+                f"(closed form: {describe(c.closed_form)}), {c.wall:.2f} s"
+            )
+            lines.advance()
+
+        repeats = 1 if args.quick else args.repeats  # a smoke test: one round
+        cells = run_matrix(settings, chosen, repeats, args.repeat_below, args.jobs, progress)
+    saved = [] if args.quick else savings(args.repeats)
+    targets = write_outputs(cells, saved, out)
+    print((out / "bench.md").read_text())
+    for line in _targets(targets):
+        print(line)
+    print(
+        f"wrote {out.resolve()}: bench.csv, bench.md, wall_vs_error.png, wall_vs_height.png "
+        f"({time.perf_counter() - start:.0f} s wall)"
+    )
+    return OK
+
+
+def _targets(targets: dict[str, Any]) -> list[str]:
+    """The benchmark's targets as lines: slant errors per setting, the 30-level speed-up, the
+    extension against the peer, exponents."""
+    lines = [
+        f"slant error, {s}: " + ", ".join(f"{e:+g}" for e in errors) + " levels" for s, errors in targets["slant errors"].items()
+    ]
+    ratio = targets.get("30-level speed-up, raw 240 Hz / extension")
+    if ratio:
+        lines.append(f"30-level 4 stack: raw 240 Hz takes {ratio:.0f} times the extension's wall time")
+    for r in targets.get("peer", []):
+        for levels, (x, e, p) in r.upright.items():
+            lines.append(
+                f"{levels}-level 4 stack: {r.peer} takes {x:.1f} times {r.extension}'s wall time (errors {e:+d}, {p:+d})"
+            )
+        if r.slant_least is not None:
+            lines.append(
+                f"slant scenes: {r.peer} takes at least {r.slant_least:.1f} times {r.extension}'s wall time "
+                f"(geometric mean {r.slant_mean:.1f})"
+            )
+    lines += [f"exponent of wall time in bricks, {s}: {x:.2f}" for s, x in targets["exponents"].items()]
+    return lines or ["(no slant scene and fewer than two upright towers: no target measured)"]
+
+
+def _bench_solve(args: argparse.Namespace) -> int:
+    sizes = tuple(int(x) for x in args.sizes.split(","))
+    print(format_solve_times(solve_times(sizes, args.repeats)))
+    return OK
+
+
+def _bench_height(args: argparse.Namespace) -> int:
+    from ..bench.cost import format_heights, format_profiles, measure_heights, profile_tower
+
+    try:
+        levels = [int(x) for x in args.levels.split(",") if x.strip()]
+    except ValueError:
+        raise ScenarioError(f"--levels must be whole numbers separated by commas, not {args.levels!r}", file="--levels") from None
+    if not levels or not all(1 <= n <= 1000 for n in levels):
+        raise ScenarioError(f"--levels must be from 1 to 1000, not {args.levels!r}", file="--levels")
+    settings = [s.strip() for s in args.settings.split(",") if s.strip()]
+    unknown = [s for s in settings if s not in SETTINGS]
+    if unknown or not settings:
+        raise ScenarioError(f"unknown setting {unknown[0] if unknown else ''!r}; known: {', '.join(SETTINGS)}", file="--settings")
+    if args.repeats < 1:
+        raise ScenarioError(f"--repeats must be at least 1, not {args.repeats}", file="--repeats")
+    with Lines(len(levels) * len(settings), "towers") as progress:
+        cells = measure_heights(settings, levels, args.repeats, args.jobs, lambda c: progress.advance())
+    print(format_heights(cells, settings), flush=True)
+    if not args.no_profile:
+        print()
+        print(format_profiles([profile_tower(s, max(levels)) for s in settings]))
+    return OK
+
+
+def _bench_hard(args: argparse.Namespace) -> int:
+    start = time.perf_counter()
+    print(format_hard(args.folder, args.jobs), end="\n\n", flush=True)
+    print(format_wall(thrown_at_wall()), end="\n\n", flush=True)
+    print(format_limits(leaning_limits()), end="\n\n")
+    print(f"({time.perf_counter() - start:.0f} s wall)")
+    return OK
+
+
+def _bench_record(args: argparse.Namespace) -> int:
+    from ..bench.record import format_record_costs, record_costs
+
+    if args.repeats < 1:
+        raise ScenarioError(f"--repeats must be at least 1, not {args.repeats}", file="--repeats")
+    if args.rounds is not None and not args.before:
+        raise ScenarioError("--rounds is the comparison's: give --before PYTHON too", file="--rounds")
+    if args.before:
+        from ..bench.record import check_interpreter
+
+        problem = check_interpreter(args.before)
+        if problem:
+            raise ScenarioError(problem, file=args.before)
+    print(format_record_costs(record_costs(args.scenario, args.repeats, args.mode), args.scenario), flush=True)
+    if args.before:
+        from ..bench.record import before_and_after, format_before_and_after
+
+        args.rounds = 10 if args.rounds is None else args.rounds
+        if args.rounds < 1:
+            raise ScenarioError(f"--rounds must be at least 1, not {args.rounds}", file="--rounds")
+        times = before_and_after(args.before, args.scenario, args.rounds, args.repeats)
+        print(format_before_and_after(times, args.before, args.scenario))
+    return OK
+
+
+def _bench_sweep(args: argparse.Namespace) -> int:
+    from ..bench.sweep import HEADER, Throughput, footer, format_row, template, throughputs, title
+
+    if args.samples is not None and not 1 <= args.samples <= 100_000:
+        raise ScenarioError(f"--samples must be from 1 to 100000, not {args.samples}", file="--samples")
+    t = template(args.samples if args.samples or args.file else 1000, args.file)
+    print(title(t), HEADER, sep="\n", flush=True)
+    rows: list[Throughput] = []
+
+    def each(row: Throughput) -> None:
+        rows.append(row)
+        print(format_row(row, rows[0]), flush=True)
+
+    _, same = throughputs(t, each)
+    print(footer(same))
+    return OK
+
+
+def _bench_freeze(args: argparse.Namespace) -> int:
+    from ..bench.freeze import MEANS, format_freeze, freeze_cost
+
+    try:
+        levels = [int(v) for v in args.levels.split(",")]
+    except ValueError:
+        raise ScenarioError("give whole numbers of levels, comma-separated", file="--levels") from None
+    if not levels or min(levels) < 2 or max(levels) > 200:
+        raise ScenarioError("levels are from 2 to 200", file="--levels")
+    costs = []
+    for n in levels:
+        for means in MEANS:
+            costs.append(freeze_cost(n, means))
+            print(f"{n} levels, {means}: {costs[-1].us_per_step:.1f} us a step", flush=True)
+    print(format_freeze(costs))
+    return OK
+
+
+def _bench_verdicts(args: argparse.Namespace) -> int:
+    from ..bench.verdicts import SETTINGS, format_single_file, format_verdicts, plan, run_single_file, timed
+    from .progress import Lines
+
+    if not 0 <= args.count <= 100_000:
+        raise ScenarioError(f"--count must be from 0 to 100000, not {args.count}", file="--count")
+    if not 0 <= args.single_file <= 100_000:
+        raise ScenarioError(f"--single-file must be from 0 to 100000, not {args.single_file}", file="--single-file")
+    if args.count == 0 and args.single_file == 0:
+        raise ScenarioError("nothing to run: give --count or --single-file above 0", file="--count")
+    if args.seed < 0:
+        raise ScenarioError(f"--seed must be 0 or more, not {args.seed}", file="--seed")
+    engines = [e.strip() for e in args.engines.split(",") if e.strip()]
+    try:
+        gaps = [float(g) / 1000 for g in args.gaps.split(",") if g.strip()]
+    except ValueError:
+        raise ScenarioError(f"--gaps must be millimetres separated by commas, not {args.gaps!r}", file="--gaps") from None
+    if not gaps or not all(0 <= g <= 0.003 for g in gaps):
+        raise ScenarioError(f"--gaps must be from 0 to 3 mm (below the collapse threshold), not {args.gaps!r}", file="--gaps")
+    try:
+        runs = plan(engines, gaps, baselines=not args.no_baselines)
+    except ValueError as exc:
+        raise ScenarioError(str(exc), file="--engines") from None
+    out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="stackdsl-verdicts-"))
+    if out.exists() and not out.is_dir():
+        raise ScenarioError("the output must be a folder, and this is a file", file=str(out))
+    if args.count:
+        with Lines(args.count, "assemblies") as progress:
+            results, seconds = timed(args.seed, args.count, args.jobs, lambda v: progress.advance(), runs)
+        print(format_verdicts(results, out, seconds, runs), flush=True)
+    if args.single_file:
+        chosen = [n for n in SETTINGS if SETTINGS[n].extension and SETTINGS[n].backend in engines]
+        start = time.perf_counter()
+        with Lines(args.single_file, "single-file stacks") as progress:
+            samples = run_single_file(args.seed, args.single_file, args.jobs, chosen, lambda b: progress.advance(len(b)))
+        print("\n" * bool(args.count) + format_single_file(samples, chosen, time.perf_counter() - start))
+    return OK

@@ -1,0 +1,186 @@
+"""The ``stackdsl check`` and ``stackdsl compare`` commands: scenarios run in their modes,
+a line (or a table cell) each, and the exit status of the whole.
+
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+from ..batch.check import discover, prepare, run_checks, select, tabulate
+from ..batch.report import HEADER, failure_lines, json_document, junit_xml, row, run_command, summary
+from ..compile.compiler import BACKEND_DEFAULTS, MODE_DEFAULTS
+from ..draw.artefacts import folder_name
+from ..lang.errors import ScenarioError
+from ..verdicts.check_result import CheckResult
+from ..verdicts.expect import describe
+from .args import BAD_INPUT, FAILED, HINT, INTERNAL, OK
+from .progress import Lines, is_live
+
+
+def check_command(args: argparse.Namespace) -> int:
+    """``stackdsl check``: run every scenario under ``args.paths``; the exit status."""
+    start = time.perf_counter()
+    if args.junit_xml and not Path(args.junit_xml).parent.is_dir():
+        raise ScenarioError("no such folder for the JUnit XML file", file=args.junit_xml)
+    if args.report is not None and not args.report.strip():
+        raise ScenarioError("give the folder for the report", file="--report")
+    report = Path(args.report) if args.report else None
+    if report is not None and report.exists() and not report.is_dir():
+        raise ScenarioError("the report must go to a folder, and this is a file", file=args.report)
+    backends = _backends(args.backend, several=False)
+    prepared = select(
+        prepare(discover(args.paths), args.mode, model=args.model, backends=backends), args.pattern
+    )  # bad input raises here
+    folders = None
+    if report is not None:
+        try:
+            report.mkdir(parents=True, exist_ok=True)
+            probe = report / ".stackdsl-write-test"
+            probe.touch()
+            probe.unlink()
+        except OSError as exc:
+            raise ScenarioError(f"cannot write the report there: {exc.strerror or exc}", file=args.report) from None
+        taken: set[str] = set()
+        base = os.path.commonpath([path.resolve().parent for path, *_ in prepared])  # names relative to it
+        folders = [str(report / folder_name(os.path.relpath(path.resolve(), base), taken=taken)) for path, *_ in prepared]
+    results: list[CheckResult] = []
+    commands: list[str] = []
+    stream = sys.stderr if args.json else sys.stdout  # with --json only the progress line, on a terminal
+    with Lines(len(prepared), "check", file=stream, live=is_live(stream)) as lines:
+        if not args.json:
+            lines.line(HEADER)
+        runs = run_checks(prepared, args.jobs, timeout=args.timeout, folders=folders)
+        try:
+            for r in runs:
+                results.append(r)
+                commands.append(run_command(r.file, args.mode, args.model, args.backend))
+                if not args.json:
+                    lines.line(row(r))
+                    if not r.passed:
+                        for text in failure_lines(r, commands[-1]):
+                            lines.line(text)
+                lines.advance()
+                if args.exitfirst and not r.passed:
+                    break
+        finally:
+            runs.close()  # cancels what has not started and stops the workers
+    wall = time.perf_counter() - start
+    # rows came as runs finished; the reports list them in file order, so that they diff from run to run
+    order = {str(p.path): i for i, p in enumerate(prepared)}
+    pairs = sorted(zip(results, commands, strict=True), key=lambda pair: order.get(pair[0].file, len(order)))
+    results, commands = [r for r, _ in pairs], [c for _, c in pairs]
+    if args.junit_xml:
+        ran = {r.file for r in results}
+        junit_xml(results, commands, [str(p.path) for p in prepared if str(p.path) not in ran], wall, args.junit_xml)
+    if report is not None:
+        from ..batch.htmlreport import remove_stale_folders, write_report
+
+        page = write_report(results, report, total=len(prepared), wall=wall, commands=commands, argv=sys.argv[1:] or ["check"])
+        stale = remove_stale_folders(report, {Path(f).name for f in folders or []})
+        if stale:
+            print(f"report: removed {stale} folders of an earlier report in {report}", file=stream)
+        drawn = [r for r in results if r.draw_error]
+        print(f"report: {page}" + (f" ({len(drawn)} runs not fully drawn: {drawn[0].draw_error})" if drawn else ""), file=stream)
+    if args.json:
+        print(json.dumps(json_document("check", results, commands, len(prepared), wall), indent=2))
+    else:
+        print(summary(results, len(prepared), wall))
+    if _internal_errors(results, args.debug):
+        return INTERNAL
+    refused = [r for r in results if r.bad_input]
+    for r in refused:  # a sweep's sample the language refuses: bad input, found once it was drawn
+        print(r.bad_input, file=sys.stderr)
+    if refused:
+        return BAD_INPUT
+    return FAILED if any(not r.passed for r in results) else OK
+
+
+def _internal_errors(results: list[CheckResult], debug: bool) -> bool:
+    """Say on stderr, in one line, that runs hit internal errors (their tracebacks before it
+    with ``debug``); False when none did."""
+    errors = [r for r in results if r.error]
+    if not errors:
+        return False
+    sys.stdout.flush()
+    if debug:
+        for r in errors:
+            print(f"stackdsl: {r.file} ({r.mode}): {r.error}", file=sys.stderr)
+            print(r.traceback or "(no traceback: the worker process died)", file=sys.stderr)
+    many = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
+    first = errors[0]
+    print(f"stackdsl: {first.error} in {first.file} ({first.mode}){many}{'' if debug else HINT}", file=sys.stderr)
+    return True
+
+
+def compare_command(args: argparse.Namespace) -> int:
+    """``stackdsl compare``: every scenario in every mode, as one table; the exit status."""
+    modes = tuple(m.strip() for m in args.modes.split(",") if m.strip())
+    unknown = [m for m in modes if m not in MODE_DEFAULTS]
+    if unknown or not modes:
+        raise ScenarioError(f"unknown mode {', '.join(unknown) or '(none)'}; known: {', '.join(MODE_DEFAULTS)}", file="--modes")
+    backends = _backends(args.backend, several=True)
+    if len(backends) > 1:
+        modes = tuple(f"{b} {m}" for b in backends for m in modes)
+    start = time.perf_counter()
+    plain = tuple(dict.fromkeys(m.split()[-1] for m in modes))
+    prepared = select(prepare(discover(args.paths), modes=plain, model=args.model, backends=backends), args.pattern)
+    done: list[CheckResult] = []
+    live = is_live(sys.stdout)
+    # On a terminal a progress line; elsewhere a line per finished cell on stderr, so that
+    # stdout holds the table (or the JSON) alone.
+    with Lines(len(prepared), "compare", file=sys.stdout if live else sys.stderr, live=live) as lines:
+
+        def each(r: CheckResult) -> None:
+            done.append(r)
+            lines.advance()
+            if not live:
+                lines.line(
+                    f"[{len(done)}/{len(prepared)}] {Path(r.file).stem} {r.mode}: "
+                    f"{'PASS' if r.passed else 'FAIL'} {r.error or r.stopped or describe(r.collapse_level)} ({r.wall_time:.1f} s)"
+                )
+
+        table = tabulate(prepared, modes, run_checks(prepared, args.jobs, timeout=args.timeout), each)
+    wall = time.perf_counter() - start
+    if args.json:
+        commands = [run_command(r.file, r.mode, args.model, r.backend if args.backend else None) for r in done]
+        print(json.dumps(json_document("compare", done, commands, len(prepared), wall), indent=2))
+        return INTERNAL if _internal_errors(done, args.debug) else OK
+    width = max([len("scenario"), *(len(Path(f).stem) for f in table)])
+    print(f"{'scenario':<{width}} {'expected':<18} " + " ".join(f"{m:<29}" for m in modes).rstrip())
+    for file, cells in table.items():
+        first = next(iter(cells.values()))
+        texts = [f"{'PASS' if r.passed else 'FAIL'} {_cell(r):<13} {r.wall_time:>7.1f} s" for r in (cells[m] for m in modes)]
+        print(f"{Path(file).stem:<{width}} {first.expected:<18} " + " ".join(f"{c:<29}" for c in texts).rstrip())
+    print(f"{len(table)} scenarios x {len(modes)} modes ({wall:.1f} s wall)")
+    return INTERNAL if _internal_errors(done, args.debug) else OK
+
+
+def _backends(given: str | None, several: bool) -> tuple[str | None, ...]:
+    """The backends ``--backend`` names: one (or, with ``several``, a comma-separated list);
+    (None,): each scenario's own.
+
+    Raises:
+        ScenarioError: an unknown backend, or several where one is expected.
+    """
+    if given is None:
+        return (None,)
+    names = tuple(dict.fromkeys(b.strip() for b in given.split(",") if b.strip()))
+    unknown = [b for b in names if b not in BACKEND_DEFAULTS]
+    if unknown or not names or (len(names) > 1 and not several):
+        what = "one of" if not several else "one or more of"
+        raise ScenarioError(f"unknown backend {given!r}: give {what} {', '.join(BACKEND_DEFAULTS)}", file="--backend")
+    return names
+
+
+def _cell(r: CheckResult) -> str:
+    """What compare's table shows of a result: the collapse level, or what went wrong."""
+    if r.error:
+        return "out of memory" if "out of memory" in r.error else "internal error"
+    return "timeout" if r.stopped else describe(r.collapse_level)

@@ -1,0 +1,218 @@
+"""The drawing commands of ``stackdsl``: render, animate, graph.
+
+Each draws from a trajectory: a scenario file (``.yaml``) is run with a recorder first; a
+trajectory file (``.npz``, from ``stackdsl run FILE --record PATH``) is read as it is.
+
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from ..lang.errors import ScenarioError
+from ..runtime.recorder import RATE
+from .args import at_type, fps_type, rate_type
+
+#: Suffixes of trajectory files and of scenario files: what the drawing commands read.
+TRAJECTORY_SUFFIXES = (".npz",)
+SCENARIO_SUFFIXES = (".yaml", ".yml")
+#: Pixels a side of a picture or a clip, at least and at most (a picture keeps a title strip).
+MIN_SIDE, MAX_SIDE = 64, 4096
+
+
+def add_commands(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -> None:
+    """Add render, animate and graph to the ``stackdsl`` parser's subcommands; ``parents``
+    give --debug, --timeout, --mode and --model."""
+    raw = argparse.RawDescriptionHelpFormatter
+    source = "FILE: a scenario (run and recorded first) or a trajectory file (.npz) from 'stackdsl run FILE --record PATH'."
+
+    p = sub.add_parser(
+        "render",
+        parents=parents,
+        help="draw a picture of a run: bricks coloured by state, with a scale bar",
+        description="Draw the scene at one moment as a PNG, framed on the structure, bricks coloured by state "
+        "(frozen, active, woken, fallen), with the ground, fixed bodies and a scale bar. " + source,
+        epilog=epilog,
+        formatter_class=raw,
+    )
+    p.add_argument(
+        "--at",
+        type=at_type,
+        default=None,
+        metavar="collapse|end|SECONDS",
+        help="when: just after the first collapse, when its bricks are seen falling; the end; or a time in seconds "
+        "(default: collapse if the structure collapsed, else end)",
+    )
+    p.add_argument("-o", "--output", required=True, metavar="OUT.png", help="the picture to write")
+    p.add_argument("--size", default="800x600", metavar="WxH", help=f"pixels, {MIN_SIDE} to {MAX_SIDE} a side (default: 800x600)")
+    p.set_defaults(func=_render)
+
+    p = sub.add_parser(
+        "animate",
+        parents=parents,
+        help="make a clip of a run (GIF or MP4)",
+        description="A clip of the run from the first placement to the end (2 s after a collapse), in real time "
+        "while anything moves, the quiet waits between placements shortened. " + source,
+        epilog=epilog,
+        formatter_class=raw,
+    )
+    p.add_argument("-o", "--output", required=True, metavar="OUT.gif|OUT.mp4", help="the clip to write")
+    p.add_argument(
+        "--fps", type=fps_type, default=30.0, help="frames a second of the clip, 1 to 120 (a GIF: at most 50; default: 30)"
+    )
+    p.add_argument("--size", default="480x360", metavar="WxH", help=f"pixels, {MIN_SIDE} to {MAX_SIDE} a side (default: 480x360)")
+    p.set_defaults(func=_animate)
+
+    p = sub.add_parser(
+        "graph",
+        parents=parents,
+        help="plot the brick graph: rests-on edges, load shares, centres of mass against support polygons",
+        description="Plot the brick graph as a PNG: who rests on whom with the share of the load each support "
+        "takes, and each brick's centre of mass above against its support polygon. " + source,
+        epilog=epilog,
+        formatter_class=raw,
+    )
+    p.add_argument(
+        "--at",
+        choices=["collapse", "end"],
+        default=None,
+        help="the graph at the first collapse or at the end (default: collapse if the structure collapsed, else end)",
+    )
+    p.add_argument("-o", "--output", required=True, metavar="OUT.png", help="the plot to write")
+    p.set_defaults(func=_graph)
+
+
+def add_record_options(p: argparse.ArgumentParser) -> None:
+    """``run``'s --record and --rate."""
+    p.add_argument(
+        "--record",
+        metavar="OUT.npz",
+        help="also write the trajectory: every brick's pose and state at each placement and event, and every "
+        "1/RATE s while anything moves (read it with stackdsl.load_trajectory)",
+    )
+    p.add_argument(
+        "--rate",
+        type=rate_type,
+        default=None,
+        metavar="HZ",
+        help=f"frames a simulated second while anything moves (default: {RATE:g})",
+    )
+
+
+def trajectory_of(args: argparse.Namespace) -> Any:
+    """The trajectory ``args.file`` names: read, or run and recorded (with ``args.mode``,
+    ``args.model``, ``args.timeout``).
+
+    Raises:
+        ScenarioError: a bad scenario, or a file that is not a trajectory.
+    """
+    from ..compile.compiler import compile_scenario
+    from ..lang.loader import load_scenario
+    from ..runtime.recorder import record_program
+    from ..runtime.trajectory import load_trajectory
+
+    path = Path(args.file)
+    if path.suffix.lower() not in TRAJECTORY_SUFFIXES + SCENARIO_SUFFIXES:
+        raise ScenarioError(
+            "give a scenario (.yaml, .yml) or a trajectory file (.npz) from 'stackdsl run FILE --record'", file=args.file
+        )
+    if path.suffix.lower() in TRAJECTORY_SUFFIXES:
+        if args.mode or args.model or args.backend:
+            raise ScenarioError("--mode, --model and --backend apply to a scenario, not to a recorded trajectory", file=args.file)
+        try:
+            return load_trajectory(path)
+        except (OSError, ValueError) as exc:
+            raise ScenarioError(str(exc).removeprefix(f"{path}: "), file=args.file) from None
+    program = compile_scenario(load_scenario(path), args.mode, args.model, args.backend)
+    at = getattr(args, "at", None)
+    if isinstance(at, float) and at > program.duration:  # refused before anything is simulated
+        raise ScenarioError(f"t = {at:g} s is outside the run, which lasts from 0 to {program.duration:g} s", file="--at")
+    _, trajectory = record_program(program, source=args.file, timeout=args.timeout)
+    return trajectory
+
+
+def size_of(text: str, option: str = "--size") -> tuple[int, int]:
+    """``'800x600'`` -> (800, 600); each side :data:`MIN_SIDE` to :data:`MAX_SIDE` pixels.
+
+    Raises:
+        ScenarioError: anything else (exit 2).
+    """
+    try:
+        width, height = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise ScenarioError(f"{text!r} is not WIDTHxHEIGHT in pixels, such as 800x600", file=option) from None
+    if not (MIN_SIDE <= width <= MAX_SIDE and MIN_SIDE <= height <= MAX_SIDE):
+        raise ScenarioError(f"{text}: each side must be {MIN_SIDE} to {MAX_SIDE} pixels", file=option)
+    return width, height
+
+
+def _output(args: argparse.Namespace, suffixes: tuple[str, ...]) -> Path:
+    out = Path(args.output)
+    if out.suffix.lower() not in suffixes:
+        raise ScenarioError(f"the output must end in {' or '.join(suffixes)}", file=args.output)
+    if not out.parent.is_dir():
+        raise ScenarioError("no such folder for the output", file=args.output)
+    if out.is_dir():
+        raise ScenarioError("this is a folder: give the file to write", file=args.output)
+    return out
+
+
+def _draw(args: argparse.Namespace, suffixes: tuple[str, ...], option: str, draw: Callable[[Any, Path, int, int], Any]) -> int:
+    """Check the output and the size, get the trajectory, ``draw(trajectory, out, width,
+    height)``; a ValueError of the drawing (a request the run cannot meet) is bad input at
+    ``option``."""
+    out = _output(args, suffixes)
+    width, height = size_of(args.size)
+    trajectory = trajectory_of(args)
+    try:
+        draw(trajectory, out, width, height)
+    except ValueError as exc:
+        raise ScenarioError(str(exc), file=option) from None
+    return _wrote(out, trajectory)
+
+
+def _wrote(out: Path, trajectory: Any) -> int:
+    """Say what was written; 1 when the run was stopped early (its ``--timeout``), else 0."""
+    print(f"wrote {out}")
+    stopped = trajectory.meta.get("stopped")
+    if stopped:
+        print(f"stackdsl: the run was stopped early: {stopped}; the file shows it until then", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _render(args: argparse.Namespace) -> int:
+    from ..draw.render import picture
+
+    def draw(trajectory: Any, out: Path, width: int, height: int) -> None:
+        at = args.at or ("collapse" if trajectory.collapse_time is not None else "end")
+        picture(trajectory, at, out, width=width, height=height)  # ValueError: no collapse, a time past the end
+
+    return _draw(args, (".png",), "--at", draw)
+
+
+def _animate(args: argparse.Namespace) -> int:
+    from ..draw.animate import animate
+
+    def draw(trajectory: Any, out: Path, width: int, height: int) -> None:
+        animate(trajectory, out, fps=args.fps, width=width, height=height)  # ValueError: a GIF above 50 frames a second
+
+    return _draw(args, (".gif", ".mp4"), "--fps", draw)
+
+
+def _graph(args: argparse.Namespace) -> int:
+    from ..draw.graphplot import plot_graph
+
+    out = _output(args, (".png",))
+    trajectory = trajectory_of(args)
+    at = args.at or ("collapse" if "collapse" in trajectory.graphs else "end")
+    if at == "collapse" and "collapse" not in trajectory.graphs:
+        raise ScenarioError("nothing collapsed in this run: there is no graph at the collapse (use --at end)", file="--at")
+    graph = trajectory.graphs["collapse" if at == "collapse" else "final"]
+    plot_graph(graph, out, title=f"{trajectory.meta.get('scenario', '')}: brick graph at the {at}")
+    return _wrote(out, trajectory)

@@ -1,0 +1,321 @@
+"""The ``stackdsl`` command: check, compare, compile, run, bench, schema.
+
+Exit status: 0 when everything holds, 1 when an expectation fails (or a run reaches its
+``--timeout``), 2 on bad input or a usage error (nothing is simulated then), 3 on an internal
+error (one line on stderr; ``--debug`` shows the traceback), 130 on Ctrl-C, 141 when the
+output pipe closes early. No Python traceback reaches stderr without ``--debug`` (or
+``STACKDSL_TRACEBACK=1``).
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import json
+import os
+import signal
+import sys
+import threading
+import traceback
+from pathlib import Path
+from typing import Any, NoReturn
+
+from ..batch.check import ScenarioErrors
+from ..batch.judge import TIMEOUT, run_guarded, stopped_by
+from ..batch.report import version
+from ..compile.compiler import BACKEND_DEFAULTS, MODE_DEFAULTS, compile_scenario
+from ..compile.program import format_program
+from ..lang.errors import ScenarioError
+from ..lang.jsonschema import json_schema
+from ..lang.loader import load_scenario
+from ..runtime.outcome import describe_certificate
+from ..verdicts.expect import describe, evaluate
+from .args import BAD_INPUT, BROKEN_PIPE, EXIT_STATUS, FAILED, HINT, INTERNAL, INTERRUPTED, OK, jobs_type, timeout_type
+from .bench import add_bench
+from .check import check_command, compare_command
+from .draw import add_commands, add_record_options
+from .sweep import add_sweep
+
+MODELS = ["report", "equilibrium"]
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``stackdsl`` console script; returns the exit status
+    (argparse's usage errors exit 2 through SystemExit).
+
+    Without ``--debug`` nothing Python prints as a traceback reaches stderr: not the
+    exceptions caught here, and not the "Exception ignored in" reports of objects torn down
+    half-built by Ctrl-C (kept quiet until exit when called as the command, with no ``argv``).
+    """
+    command = argv is None
+    argv = sys.argv[1:] if argv is None else argv
+    debug = "--debug" in argv or os.environ.get("STACKDSL_TRACEBACK", "") not in ("", "0")
+    # SIGTERM unwinds like Ctrl-C, so that workers are stopped on the way out (main thread only).
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _terminated) if main_thread else None
+    interrupt = signal.getsignal(signal.SIGINT) if main_thread else None
+    hook, variable = sys.unraisablehook, os.environ.get("STACKDSL_TRACEBACK")
+    interrupted = False
+    if debug:
+        os.environ["STACKDSL_TRACEBACK"] = "1"  # for the workers
+    else:
+        sys.unraisablehook = _ignore
+    try:
+        args = _parser().parse_args(argv)
+        args.debug = debug
+        status = int(args.func(args))
+        sys.stdout.flush()
+        return status
+    except ScenarioErrors as exc:
+        for err in exc.errors:
+            print(err, file=sys.stderr)
+        return BAD_INPUT
+    except ScenarioError as exc:
+        print(exc, file=sys.stderr)
+        return BAD_INPUT
+    except BrokenPipeError:
+        # The reader went away (``| head``): stop quietly, and let nothing flush into the
+        # closed pipe at exit.
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return BROKEN_PIPE
+    except KeyboardInterrupt:
+        interrupted = True
+        if main_thread:  # a second Ctrl-C while this line is printed must not show a traceback
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+        print("stackdsl: interrupted", file=sys.stderr)
+        return INTERRUPTED
+    except Exception as exc:
+        if debug:
+            traceback.print_exc()
+        message = (str(exc).splitlines() or [""])[0] or "(no message)"
+        print(f"stackdsl: internal error: {type(exc).__name__}: {message}{'' if debug else HINT}", file=sys.stderr)
+        return INTERNAL
+    finally:
+        if main_thread:
+            signal.signal(signal.SIGTERM, previous)
+            signal.signal(signal.SIGINT, interrupt)
+        if not command:
+            if interrupted or sys.exc_info()[0] is not None:
+                gc.collect()  # what an interrupted run left half-built goes now, quietly
+            sys.unraisablehook = hook
+            if variable is None:
+                os.environ.pop("STACKDSL_TRACEBACK", None)
+            else:
+                os.environ["STACKDSL_TRACEBACK"] = variable
+
+
+def _ignore(unraisable: Any) -> None:
+    """An ``sys.unraisablehook`` that prints nothing."""
+
+
+def _terminated(signum: int, frame: Any) -> None:
+    raise SystemExit(128 + signum)
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser with a usage error on one line: what is wrong and where the help is
+    (argparse prints the whole usage first); the subcommands' parsers are of this class too."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(BAD_INPUT, f"{self.prog}: error: {message} (see: {self.prog} --help)\n")
+
+
+def _parser() -> argparse.ArgumentParser:
+    raw = argparse.RawDescriptionHelpFormatter
+    parser = _Parser(
+        prog="stackdsl",
+        description="Declarative stacking scenarios for pybullet.",
+        epilog=EXIT_STATUS,
+        formatter_class=raw,
+    )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {version()}")
+    debug_help = "on an internal error, print the traceback (also STACKDSL_TRACEBACK=1)"
+    parser.add_argument("--debug", action="store_true", help=debug_help)
+    sub = parser.add_subparsers(required=True, metavar="COMMAND")
+    modes = list(MODE_DEFAULTS)
+    common = _Parser(add_help=False)  # --debug after the command too
+    common.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=debug_help)
+    guarded = _Parser(add_help=False)
+    guarded.add_argument(
+        "--timeout",
+        type=timeout_type,
+        default=TIMEOUT,
+        metavar="SECONDS",
+        help=f"wall seconds a scenario may run before it is stopped and fails (default: {TIMEOUT:g}); "
+        "worker processes may also map at most 4 GiB each",
+    )
+
+    many = _Parser(add_help=False, parents=[common, guarded])
+    many.add_argument("paths", nargs="+", metavar="PATH", help="scenario files, or folders searched for *.yaml")
+    many.add_argument("--model", choices=MODELS, help="override every scenario's stability model")
+    many.add_argument(
+        "--backend",
+        metavar="ENGINE",
+        help=f"override every scenario's engine: {' or '.join(BACKEND_DEFAULTS)} (compare: several, comma-separated)",
+    )
+    many.add_argument(
+        "-j",
+        "--jobs",
+        type=jobs_type,
+        default="auto",
+        help="runs at the same time, this process included: 1 to the number of cores, or auto (default: one per "
+        "core). Work estimated cheaper than starting a worker runs in this process whatever -j says",
+    )
+    many.add_argument(
+        "-k",
+        metavar="PATTERN",
+        dest="pattern",
+        help="only the scenarios whose file path or name contains PATTERN (plain text, case-insensitive)",
+    )
+    many.add_argument("--json", action="store_true", help="print one JSON document of every result instead of the table")
+    one = _Parser(add_help=False, parents=[common])
+    one.add_argument("file")
+    one.add_argument("--mode", choices=modes, help="override the scenario's engine mode")
+    one.add_argument("--model", choices=MODELS, help="override the scenario's stability model")
+    one.add_argument("--backend", choices=list(BACKEND_DEFAULTS), help="override the scenario's engine")
+
+    p = sub.add_parser(
+        "check",
+        parents=[many],
+        help="run scenario files or folders and check their expectations",
+        description="Run scenario files or folders and check their expectations: a row per scenario as it "
+        "finishes (under a progress line on a terminal), what moved under each FAIL, then a summary.",
+        epilog=EXIT_STATUS,
+        formatter_class=raw,
+    )
+    p.add_argument("--mode", choices=modes, help="override every scenario's engine mode")
+    p.add_argument("-x", "--exitfirst", action="store_true", help="stop after the first failure (runs not started are cancelled)")
+    p.add_argument("--junit-xml", metavar="FILE", help="also write JUnit XML to FILE: one testcase per scenario")
+    p.add_argument(
+        "--report",
+        metavar="DIR",
+        help="also record every run and write DIR/index.html: a row per scenario (failures first) with a picture at "
+        "the collapse or the end, the timeline, a clip and a brick-graph plot, then a summary (made if missing)",
+    )
+    p.set_defaults(func=check_command)
+
+    p = sub.add_parser(
+        "compare",
+        parents=[many],
+        help="run scenario files or folders in every mode and print one table",
+        description="Run scenario files or folders in every mode, in one run, and print one table.",
+        epilog=EXIT_STATUS.replace(
+            "  0    every expectation held\n  1    an expectation failed, or a run reached its --timeout\n",
+            "  0    the table was printed\n",
+        )
+        + "\n\nFAIL cells are results, not errors: compare exits 0 once its table is printed.",
+        formatter_class=raw,
+    )
+    p.add_argument("--modes", default=",".join(modes), help=f"comma-separated (default: {','.join(modes)})")
+    p.set_defaults(func=compare_command)
+
+    one_status = EXIT_STATUS.replace(
+        "  0    every expectation held\n  1    an expectation failed, or a run reached its --timeout\n", "  0    done\n"
+    )
+    p = sub.add_parser(
+        "compile", parents=[one], help="print the program a scenario compiles to", epilog=one_status, formatter_class=raw
+    )
+    p.add_argument("--json", action="store_true", help="print the Program as JSON")
+    p.set_defaults(func=_compile)
+
+    p = sub.add_parser(
+        "run",
+        parents=[one, guarded],
+        help="run one scenario and print its timeline and outcome",
+        epilog=EXIT_STATUS + "\n\nWith --json too, the exit status is 1 when an expectation failed.",
+        formatter_class=raw,
+    )
+    p.add_argument(
+        "--json", action="store_true", help="print the whole Outcome as JSON (exit 1 still means a failed expectation)"
+    )
+    add_record_options(p)
+    p.set_defaults(func=_run)
+
+    add_commands(sub, [one, guarded], one_status)
+    add_sweep(
+        sub,
+        [common, guarded],
+        EXIT_STATUS.replace("  0    every expectation held", "  0    every statistical expectation held (PASS)").replace(
+            "  1    an expectation failed, or a run reached its --timeout",
+            "  1    an expectation failed or was inconclusive, or a run reached its --timeout",
+        ),
+        jobs_type,
+        MODELS,
+        modes,
+    )
+
+    add_bench(sub, [common], one_status, modes)
+
+    p = sub.add_parser(
+        "schema",
+        parents=[common],
+        help="print the JSON Schema of scenario files (for editors)",
+        epilog=one_status,
+        formatter_class=raw,
+    )
+    p.set_defaults(func=_print_schema)
+    return parser
+
+
+def _compile(args: argparse.Namespace) -> int:
+    program = compile_scenario(load_scenario(args.file), args.mode, args.model, args.backend)
+    print(program.model_dump_json(indent=2) if args.json else format_program(program))
+    return OK
+
+
+def _run(args: argparse.Namespace) -> int:
+    scenario = load_scenario(args.file)
+    program = compile_scenario(scenario, args.mode, args.model, args.backend)
+    if args.rate is not None and not args.record:
+        raise ScenarioError("--rate is the recording's: give --record OUT.npz too", file="--rate")
+    if args.record:
+        record = Path(args.record)
+        if record.suffix.lower() != ".npz":
+            raise ScenarioError("a trajectory file must end in .npz", file=args.record)
+        if not record.parent.is_dir() or record.is_dir():
+            raise ScenarioError(
+                "no such folder for the trajectory file" if not record.parent.is_dir() else "a folder", file=args.record
+            )
+        from ..runtime.recorder import RATE, record_program
+
+        outcome, trajectory = record_program(program, args.rate or RATE, source=args.file, timeout=args.timeout)
+        trajectory.save(record)
+        print(
+            f"wrote {record}: {len(trajectory.times)} frames of {len(trajectory.ids)} bodies",
+            file=sys.stderr if args.json else sys.stdout,
+        )
+    else:
+        outcome = run_guarded(program, args.timeout)
+    stopped = stopped_by(outcome)
+    verdicts = evaluate(scenario.expect, outcome, program.collapse_threshold)
+    if args.json:
+        print(outcome.model_dump_json(indent=2))
+    else:
+        for e in outcome.events:
+            level = "" if e.level is None else f"level {e.level}"
+            print(f"t={e.time:9.3f} s  {e.kind:<8} {e.brick:<10} {level:<9} {e.detail}")
+        print(
+            f"{Path(args.file).name}: {describe(outcome.collapse.level if outcome.collapse else None)} "
+            f"({outcome.levels_placed} levels placed), {outcome.simulated_time:.1f} s simulated, "
+            f"{outcome.wall_time:.2f} s wall ({outcome.engine_time:.2f} s in the engine's steps"
+            + (f", {outcome.after_collapse:.2f} s after the collapse" if outcome.collapse else "")
+            + f"), {outcome.steps} steps ({outcome.steps_skipped} skipped)"
+        )
+        if outcome.certificate is not None:
+            print(f"certificate: {describe_certificate(outcome.certificate)}")
+        for v in verdicts:
+            print(f"{'PASS' if v.passed else 'FAIL'}  expected {v.expected}, measured {v.measured}")
+        if stopped and all(v.passed for v in verdicts):  # no verdict says it
+            print(f"FAIL  {stopped}")
+    return OK if all(v.passed for v in verdicts) and not stopped else FAILED
+
+
+def _print_schema(args: argparse.Namespace) -> int:
+    print(json.dumps(json_schema(), indent=2))
+    return OK
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,111 @@
+"""``stackdsl sweep``: every sample of a scenario's sweep, its files, summary and verdicts.
+
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from ..lang.errors import ScenarioError
+
+DEFAULT_OUT = Path(tempfile.gettempdir()) / "stackdsl-sweep"
+
+
+def add_sweep(
+    sub: Any, parents: list[argparse.ArgumentParser], epilog: str, jobs_type: Any, models: list[str], modes: list[str]
+) -> None:
+    """Add ``sweep`` to the ``stackdsl`` parser's subcommands."""
+    p = sub.add_parser(
+        "sweep",
+        parents=parents,
+        help="run every sample of a scenario's sweep: per-sample files, a summary a grid cell, verdicts, plots",
+        description="Run every sample of FILE's sweep (its random fields drawn from the k-th child of its seed, for each "
+        "grid cell), write samples.csv and samples.jsonl, histograms and the grid plot to --out, and print for each "
+        "grid cell the distribution of collapse levels and the verdict of each statistical expectation (PASS or "
+        "FAIL when its 95%% confidence interval decides, else INCONCLUSIVE with the samples that would decide it).",
+        epilog=epilog,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("file", help="a scenario with a sweep: or random fields")
+    p.add_argument("--samples", type=int, help="override the sweep's samples a cell")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument(
+        "-j", "--jobs", type=jobs_type, default="auto", help="processes, this one included (default: one per core)"
+    )
+    where.add_argument(
+        "--dask", metavar="ADDRESS", help="run on a Dask cluster: a scheduler's address (tcp://host:8786) or local:N"
+    )
+    p.add_argument(
+        "--oracle", action="store_true", help="also the equilibrium oracle's collapse level of each sample, and the agreement"
+    )
+    p.add_argument("--out", default=None, help=f"folder for the files (default: {DEFAULT_OUT}/NAME)")
+    p.add_argument("--mode", choices=modes, help="override the scenario's engine mode")
+    p.add_argument("--model", choices=models, help="override the scenario's stability model")
+    p.set_defaults(func=_sweep)
+
+
+def _sweep(args: argparse.Namespace) -> int:
+    from ..batch.sweep import SweepOptions, collect, dask_executor, run_sweep
+    from ..batch.sweep_out import report, verdicts, write_plots, write_samples
+    from ..lang.loader import load_scenario
+    from .progress import Lines
+
+    scenario = load_scenario(args.file)
+    template = scenario.template
+    if template is None:
+        raise ScenarioError(
+            "this scenario has no sweep and no random field: each run would be the same (use stackdsl run)", file=args.file
+        )
+    if args.samples is not None:
+        if not 1 <= args.samples <= 100_000:
+            raise ScenarioError(f"--samples must be from 1 to 100000, not {args.samples}", file="--samples")
+        template = dataclasses.replace(template, samples=args.samples)
+    out = Path(args.out) if args.out else DEFAULT_OUT / Path(args.file).stem
+    if out.exists() and not out.is_dir():
+        raise ScenarioError("the output must be a folder, and this is a file", file=str(out))
+    options = SweepOptions(args.mode, args.model, args.oracle, args.timeout)
+    levels_built = scenario.structure.tower.levels if scenario.structure.tower else None
+    total = template.cells * template.samples
+    start = time.perf_counter()
+
+    def run(where: str, **executor: Any) -> list[Any]:
+        print(f"stackdsl sweep: {template.cells} cells x {template.samples} samples on {where}, writing to {out}", flush=True)
+        with Lines(total, "sweep") as lines:
+            return collect(run_sweep(template, options, **executor), lambda batch: lines.advance(len(batch)))
+
+    if args.dask:
+        try:
+            with dask_executor(args.dask) as (executor, threads):  # reached before anything is said
+                results = run(f"Dask {args.dask}", executor=executor, workers=threads)
+        except ValueError as exc:
+            raise ScenarioError(str(exc), file="--dask") from None
+        except (OSError, TimeoutError) as exc:
+            raise ScenarioError(f"cannot reach the Dask scheduler: {exc}", file="--dask") from None
+    else:
+        results = run(f"{args.jobs} processes", jobs=args.jobs)
+    wall = time.perf_counter() - start
+    bad = [r for r in results if r.bad_input]
+    if bad:
+        print(bad[0].bad_input, file=sys.stderr)
+        print(f"stackdsl: {len(bad)} of {total} samples refused as bad input; nothing written", file=sys.stderr)
+        return 2
+    table, jsonl = write_samples(results, out)
+    plots = write_plots(template, results, levels_built or 0, out)
+    for line in report(template, scenario.expect, results, levels_built or 0):
+        print(line)
+    print(
+        f"{total} samples in {wall:.1f} s ({total / wall:.1f} a second); wrote {table}, {jsonl.name}, "
+        + ", ".join(p.name for p in plots)
+    )
+    judged = verdicts(template, scenario.expect, results)
+    if any(r.error for r in results):
+        print(f"stackdsl: {sum(bool(r.error) for r in results)} samples hit an internal error", file=sys.stderr)
+        return 3
+    return 0 if all(v.outcome == "PASS" for _, v in judged) and not any(r.stopped for r in results) else 1

@@ -1,0 +1,378 @@
+"""Scenario -> Program: expand generators, schedule placements and impacts, check times.
+
+Every action time must be a whole number of timesteps (as dm_control's composer checks
+control timesteps): an interval of 0.301 s at 1/240 s is an error pointing at the file,
+not a silently rounded schedule.
+
+The work budget: every run is estimated before anything is simulated, in *body-steps*
+(one body in the engine for one physics step or substep; :func:`stackdsl.compile.program.estimate_work`)::
+
+    raw, tuned:  sum over bricks of (steps from its placement to the end) x max(1, iterations / 50)
+                 + steps (the runtime's loop) + fixtures x steps
+    extension:   after each placement, only the steps until the brick is at rest
+                 (fall + 20 ms + rest_duration) x (every body in the engine); the run jumps
+                 over the time in which every brick is frozen
+    projectiles: every body moving from launch to 1 s after arrival, x substeps
+
+and refused over :data:`MAX_WORK` with a ScenarioError at the field to change: a
+timestep below the mode's default (``engine.timestep``), more solver iterations than the
+default (``engine.solver_iterations``), raw or tuned mode where extension mode would fit
+(``engine.mode``), or else the size (``structure.tower.levels``,
+``structure.card_house.levels``, ``structure.bricks``), with how many levels or bricks
+would fit. The bound admits every shipped scenario and every scene of ``stackdsl bench``
+(its longest, a 100-level tower at 1 ms and 150 iterations, is 6.1e7 body-steps and 39
+minutes); measured on a 2-core machine a body-step costs 1.7e-5 to 3.9e-5 s moving and
+2.3e-6 s resting, so a refused run would take over an hour in raw or tuned mode and over
+about 4 minutes in extension mode (a 5000-brick tower: 2.4e8 body-steps, over 10 minutes).
+
+The layouts themselves (tower, card house, bricks by hand) are :mod:`stackdsl.compile.layouts`'.
+
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+
+from stability import Box, Pose, StabilityConfig
+
+from ..lang.bounds import MAX_SIMULATED_TIME
+from ..lang.schema import BACKEND_FIELDS, Scenario
+from ..lang.schema_impacts import SIDES, AfterLevel, Impact
+from .clearance import check_launch
+from .layouts import LaidBrick, layout, with_placement_error
+from .overlap import Body
+from .precheck import precheck
+from .program import BrickSpec, End, EngineSettings, Fixture, Launch, Place, Program
+from .rules import choose_rules
+
+#: Engine defaults per backend and mode. pybullet: ``raw`` is its own (240 Hz, 50
+#: iterations); ``tuned`` is the most accurate setting measured for small bricks
+#: (docs/design.md, modes: maximal coordinates, 1 ms, 150 iterations, friction anchors);
+#: ``extension`` is the report's set-up, the stability extension on the unmodified engine.
+#: MuJoCo: ``raw`` is its own (2 ms, pyramidal cones, Euler, solref 0.02 s and damping ratio
+#: 1); ``tuned`` the most accurate measured for KAPLA bricks (docs/results.md, MuJoCo:
+#: elliptic cones, impratio 10, implicitfast, solref 0.004 s and damping ratio 2, solimp
+#: 0.99, 0.999, 0.1 mm); ``extension`` the extension on its own settings.
+BACKEND_DEFAULTS: dict[str, dict[str, dict[str, object]]] = {
+    "pybullet": {
+        "raw": dict(timestep=1 / 240, solver_iterations=50, friction_anchors=False, maximal_coordinates=False, ccd=False),
+        "tuned": dict(timestep=1 / 1000, solver_iterations=150, friction_anchors=True, maximal_coordinates=True, ccd=True),
+        "extension": dict(timestep=1 / 240, solver_iterations=50, friction_anchors=False, maximal_coordinates=False, ccd=True),
+    },
+    "mujoco": {
+        "raw": dict(timestep=0.002, solver_iterations=100, ccd=False),
+        "tuned": dict(
+            timestep=0.002,
+            solver_iterations=100,
+            ccd=True,
+            elliptic_cones=True,
+            impratio=10.0,
+            integrator="implicitfast",
+            solref=(0.004, 2.0),
+            solimp=(0.99, 0.999, 1e-4),
+        ),
+    },
+}
+# on MuJoCo the extension runs on the tuned settings: with MuJoCo's default contacts a placed brick
+# rings 134 ms before it can be frozen (62 ms tuned), and with the tuned contacts but pyramidal
+# cones two slant towers fell 2 levels late (docs/results.md, MuJoCo)
+BACKEND_DEFAULTS["mujoco"]["extension"] = dict(BACKEND_DEFAULTS["mujoco"]["tuned"])
+MODE_DEFAULTS = BACKEND_DEFAULTS["pybullet"]
+GRAVITY = 9.81
+
+MAX_WORK = 1e8
+"""Body-steps a run may take at most (see the module's docstring); more is a ScenarioError."""
+
+
+def compile_scenario(
+    scenario: Scenario, mode: str | None = None, model: str | None = None, backend: str | None = None
+) -> Program:
+    """Compile a scenario into a :class:`Program`.
+
+    Args:
+        scenario: a validated scenario.
+        mode: ``"raw"``, ``"tuned"`` or ``"extension"`` to override the scenario's mode;
+            the mode picks the engine defaults the scenario does not set.
+        model: ``"report"`` or ``"equilibrium"`` to override the scenario's stability model.
+        backend: ``"pybullet"`` or ``"mujoco"`` to override the scenario's engine; the
+            other engine's own settings in the scenario are then left out.
+
+    Raises:
+        ScenarioError: an action time is not a whole number of timesteps, an impact
+            names a level that is not built, the run would exceed the time limit or the
+            work budget (:data:`MAX_WORK`), or a check before simulating fails
+            (:mod:`stackdsl.compile.precheck`: bricks that overlap or rest on nothing where
+            placed, expectations about levels never built).
+    """
+    engine = _engine(scenario, mode, backend)
+    nominal = layout(scenario)
+    everything = with_placement_error(scenario, nominal)
+    bricks = [b for b in everything if not b.fixed]
+    fixed = [b for b in everything if b.fixed]
+    interval, dt = scenario.timing.interval, engine.timestep
+    per_slot = _steps(scenario, ("timing", "interval"), interval, dt)
+    settle = _steps(scenario, ("timing", "settle"), scenario.timing.settle, dt)
+    names = {b.type for b in everything} | {i.projectile for i in scenario.impacts}
+    specs = {name: _spec(scenario, name) for name in sorted(names)}
+    slots = np.cumsum([not b.together for b in bricks]) - 1
+    actions: list = [
+        Place(
+            step=int(k) * per_slot,
+            time=int(k) * interval,
+            id=b.id,
+            level=b.level,
+            brick=specs[b.type],
+            position=tuple(b.position),
+            yaw=b.yaw,
+            pitch=b.pitch,
+            roll=b.roll,
+            drop=scenario.timing.drop_gap,
+        )
+        for b, k in zip(bricks, slots)
+    ]
+    launches = [_launch(scenario, i, imp, bricks, slots, specs[imp.projectile], dt) for i, imp in enumerate(scenario.impacts)]
+    for i, (imp, launch) in enumerate(zip(scenario.impacts, launches)):
+        present = [(b.id, specs[b.type], b.pose()) for b, k in zip(bricks, slots) if int(k) * per_slot <= launch.step]
+        check_launch(scenario, i, imp, launch, present + [(b.id, specs[b.type], b.pose()) for b in fixed])
+    actions = sorted(actions + launches, key=lambda a: (a.step, a.kind != "place"))
+    end = actions[-1].time + scenario.timing.settle
+    if end > MAX_SIMULATED_TIME:
+        last = actions[-1]  # what makes the run long: the last impact's time, or the placements' interval
+        where = ("impacts", launches.index(last), "at") if last in launches else ("timing", "interval")
+        raise scenario.source.error(where, f"the run would last {end:.0f} s; at most {MAX_SIMULATED_TIME:.0f} s are simulated")
+    actions.append(End(step=actions[-1].step + settle, time=end))
+    ground = scenario.material(scenario.ground.material)
+    rules = choose_rules(bricks, launches, scenario.expect)
+    on = {r.name: r.on for r in rules}
+    settings = {**scenario.stability.model_dump(exclude_none=True), **({"model": model} if model else {})}
+    program = Program(
+        name=scenario.name or "scenario",
+        engine=engine,
+        ground_friction=ground.friction,
+        ground_restitution=ground.restitution,
+        stability=StabilityConfig(**settings, gravity=engine.gravity, leaning=on["leaning"], impacts=on["impacts"]),
+        rules=rules,
+        fixtures=tuple(
+            Fixture(id=b.id, brick=specs[b.type], position=tuple(b.position), yaw=b.yaw, pitch=b.pitch, roll=b.roll)
+            for b in fixed
+        ),
+        collapse_threshold=scenario.collapse_threshold or min(min(specs[b.type].half_extents) for b in bricks),
+        settle=scenario.timing.settle,
+        actions=tuple(actions),
+    )
+    _budget(scenario, program)  # before the checks of the placements, which take a while on a huge scene
+    floating = precheck(scenario, _bodies(scenario, everything, nominal, specs, dict(zip(map(id, bricks), slots))))
+    return program.model_copy(update={"floating": floating})
+
+
+def _budget(scenario: Scenario, program: Program) -> None:
+    """Refuse a run whose estimated work exceeds :data:`MAX_WORK`, at the field to change:
+    the first of a short timestep, many solver iterations, a mode without jumps or the
+    equilibrium model whose default would fit, else the structure's size (with how much of
+    it fits)."""
+    work = program.work
+    if work <= MAX_WORK:
+        return
+    e = program.engine
+    given = scenario.engine
+    bricks = len(program.placements)
+    head = (
+        f"the run would take too long: {bricks} brick{'s' * (bricks != 1)} over {program.duration:g} s simulated, "
+        f"{e.timestep * 1000:.3g} ms steps, {e.solver_iterations} solver iterations, mode {e.mode}, is "
+        f"{work:,.0f} body-steps (about {_duration(program.wall_estimate)}); at most {MAX_WORK:,.0f} are allowed"
+    )
+    default = EngineSettings.model_validate({"mode": e.mode, "backend": e.backend, **BACKEND_DEFAULTS[e.backend][e.mode]})
+    options: list[tuple[tuple, str, Program]] = []
+    if given.timestep is not None and e.timestep < default.timestep:
+        step = default.timestep
+        faster = _retimed(program, e.model_copy(update={"timestep": step}))
+        options.append((("engine", "timestep"), f"the {e.mode} default, {step * 1000:.3g} ms,", faster))
+    if given.solver_iterations is not None and e.solver_iterations > default.solver_iterations:
+        n = default.solver_iterations
+        fewer = e.model_copy(update={"solver_iterations": n})
+        options.append((("engine", "solver_iterations"), f"the {e.mode} default, {n},", _retimed(program, fewer)))
+    if e.mode != "extension":
+        extension = _retimed(program, _engine(scenario, "extension", e.backend))
+        options.append((("engine", "mode"), "extension (it skips the time in which every brick is frozen)", extension))
+    if program.stability.model == "equilibrium":
+        report = program.model_copy(update={"stability": replace(program.stability, model="report")})
+        options.append((("stability", "model"), "the report's model (no linear program each time a brick freezes)", report))
+    for path, change, other in options:
+        if other.work <= MAX_WORK:
+            raise scenario.source.error(
+                path, f"{head}. With {change} it would be {other.work:.2g} (about {_duration(other.wall_estimate)})"
+            )
+    raise scenario.source.error(_size_field(scenario), f"{head}. {_what_fits(program, tower=bool(scenario.structure.tower))}")
+
+
+def _retimed(program: Program, engine: EngineSettings) -> Program:
+    """``program`` with other engine settings, its actions moved to the new timestep (for estimates only)."""
+    actions = tuple(a.model_copy(update={"step": round(a.time / engine.timestep)}) for a in program.actions)
+    return program.model_copy(update={"engine": engine, "actions": actions})
+
+
+def _size_field(scenario: Scenario) -> tuple:
+    structure = scenario.structure
+    if structure.tower:
+        return ("structure", "tower", "levels")
+    if structure.card_house:
+        return ("structure", "card_house", "levels")
+    return ("structure", "bricks")
+
+
+def _what_fits(program: Program, tower: bool) -> str:
+    """How many of the program's levels (of a tower) or bricks fit the budget, built in order."""
+    places = program.placements
+    levels = sorted({a.level for a in places})
+    settle = round(program.settle / program.engine.timestep)
+
+    def fits(top: int) -> bool:
+        last = max((a for a in places if a.level <= top), key=lambda a: a.step)
+        kept = [a for a in program.actions[:-1] if (a.level <= top if isinstance(a, Place) else a.step <= last.step)]
+        tail = End(step=kept[-1].step + settle, time=kept[-1].time + program.settle)
+        return program.model_copy(update={"actions": (*kept, tail)}).work <= MAX_WORK
+
+    low, high = 0, len(levels)  # levels[:low] fit, levels[:high + 1] do not
+    while low < high:
+        mid = (low + high + 1) // 2
+        if fits(levels[mid - 1]):
+            low = mid
+        else:
+            high = mid - 1
+    if low == 0:
+        return "Not even the first level fits: make the run shorter (timing.settle, timing.interval)"
+    fitting = sum(a.level <= levels[low - 1] for a in places)
+    if tower:
+        return f"At most {levels[low - 1]} levels ({fitting} bricks) would fit"
+    return f"The first {fitting} of its {len(places)} bricks would fit"
+
+
+def _duration(seconds: float) -> str:
+    """``42.0`` -> ``'42 s'``, ``5400.0`` -> ``'1.5 h'``."""
+    if seconds < 120:
+        return f"{seconds:.2g} s"
+    if seconds < 7200:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"
+
+
+def _bodies(scenario: Scenario, placed: list[LaidBrick], nominal: list[LaidBrick], specs: dict, slots: dict) -> list[Body]:
+    """The bricks and fixtures for :func:`stackdsl.compile.precheck.precheck`, each with the field that made it."""
+    structure = scenario.structure
+    made_by = ("structure", "tower") if structure.tower else ("structure", "card_house") if structure.card_house else None
+    interval = scenario.timing.interval
+    return [
+        Body(
+            id=b.id,
+            half_extents=specs[b.type].half_extents,
+            position=tuple(b.position),
+            nominal=tuple(n.position),
+            yaw=b.yaw,
+            pitch=b.pitch,
+            roll=b.roll,
+            slot=-1 if b.fixed else int(slots[id(b)]),
+            time=0.0 if b.fixed else int(slots[id(b)]) * interval,
+            level=b.level,
+            path=made_by or ("structure", "bricks", i),
+        )
+        for i, (b, n) in enumerate(zip(placed, nominal))
+    ]
+
+
+def _engine(scenario: Scenario, mode: str | None, backend: str | None = None) -> EngineSettings:
+    chosen = mode or scenario.engine.mode
+    engine = backend or scenario.engine.backend
+    if engine not in BACKEND_DEFAULTS:
+        raise ValueError(f"unknown backend {engine!r}; known: {', '.join(BACKEND_DEFAULTS)}")
+    if chosen not in BACKEND_DEFAULTS[engine]:
+        raise ValueError(f"unknown mode {chosen!r}; known: {', '.join(BACKEND_DEFAULTS[engine])}")
+    given = scenario.engine.model_dump(exclude_none=True, exclude={"mode", "backend"})
+    if backend is not None and backend != scenario.engine.backend:  # the other backend's own settings do not apply
+        given = {k: v for k, v in given.items() if k not in BACKEND_FIELDS[scenario.engine.backend]}
+    defaults = BACKEND_DEFAULTS[engine][chosen]
+    return EngineSettings.model_validate({"mode": chosen, "backend": engine, "gravity": GRAVITY, **defaults, **given})
+
+
+def _steps(scenario: Scenario, path: tuple, seconds: float, dt: float) -> int:
+    """``seconds`` as a whole number of timesteps, or a ScenarioError at ``path``
+    (also for a positive duration shorter than one timestep)."""
+    steps = seconds / dt
+    if abs(steps - round(steps)) > 1e-6 * max(1.0, steps) or (seconds > 0 and round(steps) == 0):
+        raise scenario.source.error(
+            path,
+            f"{seconds:g} s is not a whole number of timesteps ({dt * 1000:.4g} ms); "
+            f"use a multiple such as {max(1, round(steps)) * dt:.6g} s",
+        )
+    return round(steps)
+
+
+def _spec(scenario: Scenario, name: str) -> BrickSpec:
+    bt = scenario.brick_type(name)
+    mat = scenario.material(bt.material)
+    size = np.array(bt.size)
+    return BrickSpec(
+        type=name,
+        half_extents=tuple(size / 2),
+        mass=float(np.prod(size) * mat.density),
+        friction=mat.friction,
+        restitution=mat.restitution,
+    )
+
+
+def _launch(scenario: Scenario, index: int, impact: Impact, bricks: list[LaidBrick], slots, spec: BrickSpec, dt: float) -> Launch:
+    """A projectile aimed so that, falling under gravity, it reaches the target point."""
+    path = ("impacts", index)
+    direction = np.array(impact.direction or _side(impact), dtype=np.float64)
+    direction /= np.linalg.norm(direction)
+    target = np.array(impact.target.point) if impact.target.point else _face_point(scenario, index, impact, bricks)
+    if isinstance(impact.at, AfterLevel):
+        last = [int(k) for b, k in zip(bricks, slots) if b.level == impact.at.after_level]
+        if not last:
+            raise scenario.source.error(path + ("at",), f"level {impact.at.after_level} is not built")
+        launch_time = (last[-1] + 1) * scenario.timing.interval
+    else:
+        launch_time = impact.at
+    step = _steps(scenario, path + ("at",), launch_time, dt)
+    flight = impact.distance / impact.speed
+    start = target - direction * (impact.distance + spec.half_extents[0])
+    start[2] += 0.5 * GRAVITY * flight**2
+    yaw = math.degrees(math.atan2(direction[1], direction[0]))
+    pitch = -math.degrees(math.asin(np.clip(direction[2], -1.0, 1.0)))
+    return Launch(
+        step=step,
+        time=launch_time,
+        id=impact.id or f"impact{index + 1}",
+        brick=spec,
+        position=tuple(start),
+        yaw=yaw,
+        pitch=pitch,
+        velocity=tuple(direction * impact.speed),
+        target=tuple(target),
+        arrival=launch_time + flight,
+    )
+
+
+def _face_point(scenario: Scenario, index: int, impact: Impact, bricks: list[LaidBrick]) -> np.ndarray:
+    """Middle of the outer face, on the target side, of the level's outermost brick."""
+    level = [b for b in bricks if b.level == impact.target.level]
+    if not level:
+        raise scenario.source.error(("impacts", index, "target", "level"), f"level {impact.target.level} is not built")
+    outward: np.ndarray = -np.array(_side(impact), dtype=np.float64)
+    faces = [
+        Box(np.array(scenario.brick_type(b.type).size) / 2, 1.0).face(
+            Pose.from_euler(b.position, b.yaw, b.pitch, b.roll), outward
+        )[0]
+        for b in level
+    ]
+    outermost = max(faces, key=lambda corners: round(float((corners @ outward).max()), 9))  # the first of equals
+    return outermost.mean(axis=0)
+
+
+def _side(impact: Impact) -> tuple[float, float, float]:
+    """The direction into the target's side (the schema requires a side unless a direction is given)."""
+    assert impact.target.side is not None
+    return SIDES[impact.target.side]

@@ -1,0 +1,271 @@
+"""Checks before simulating: mistakes the compiler can see in the placements themselves.
+
+Every brick is tested where the program will put it (after the placement error), against
+what exists at the moment it is placed: the ground plane (z = 0), the fixtures, and the
+bricks placed before it at their target poses; bricks placed ``together`` exist together.
+
+* **Overlap** (always an error): two bricks, a brick and a fixture, or a brick and the
+  ground interpenetrate by more than :data:`OVERLAP_TOLERANCE`. pybullet would push them
+  apart at the first step, and the scene would collapse for a reason that is no part of it.
+* **Floating**: a brick rests on nothing when it is placed. It *rests on* a body when,
+  lowered by :data:`REST_TOLERANCE`, it would sink into that body deeper than it already
+  is, at a point below its centre: a contact from below within the tolerance. A brick
+  only touching something sideways, or hanging by its top on another brick's corner,
+  rests on nothing. Tower generators report this at their own fields (``spacing``,
+  ``bricks_per_layer``, ``shift``). Dropping a brick from the air may be meant: a
+  top-level ``allow: [floating]`` silences this check (the program lists those bricks).
+* **Expectations about levels never built**: ``expect.stays`` and ``expect.may_fall``
+  may only name built levels (1 to the highest placed); an expected ``collapse`` level
+  L ± t is checkable when its range reaches a built level, L - t <= the highest level
+  (``9±1`` on an 8-level tower is fine, ``7`` on a 3-level tower is not).
+
+The geometry (overlap depths, what a brick rests on) is :mod:`stackdsl.compile.overlap`.
+
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from ..lang.errors import FieldPath
+from ..lang.expectations import CollapseLevel, span
+from ..lang.schema import Scenario
+from .overlap import GROUND, OVERLAP_TOLERANCE, REST_TOLERANCE, Body, inspect_bodies
+
+FLOATING = "floating"
+"""The ``allow`` entry that silences the floating check."""
+
+
+@dataclass(frozen=True)
+class _Problem:
+    key: tuple  # what is wrong, independent of where it is reported
+    order: tuple  # report order: overlaps first, then floating bricks in placement order, then expectations
+    path: FieldPath
+    message: str
+    effect: str = ""  # what happens to the brick, for a message at timing.placement_error
+
+
+def precheck(scenario: Scenario, bodies: Sequence[Body]) -> tuple[str, ...]:
+    """Check the placements and expectations of a compiled scenario before anything runs.
+
+    Args:
+        scenario: the scenario (for its source map, generators, timing, ``allow`` and ``expect``).
+        bodies: every brick and fixture in placement order (fixtures anywhere).
+
+    Returns:
+        The ids of the bricks that rest on nothing when placed and are allowed to
+        (``allow: [floating]``), in placement order.
+
+    Raises:
+        ScenarioError: at the field to change, for the first problem in placement order
+            (overlaps before floating bricks before expectations); ``more`` counts the rest
+            (a generator's bricks count once per kind of problem; past 1000 overlaps the
+            search stops, so the count is then a lower bound).
+    """
+    overlaps, floating = inspect_bodies(bodies, [b.position for b in bodies])
+    allowed = FLOATING in scenario.allow
+    found: list[tuple[tuple[int, int, int], tuple[Any, ...], float]] = sorted(
+        [((0, bodies[b].slot, b), ("overlap", b, s), d) for b, s, d in overlaps]
+        + ([] if allowed else [((1, bodies[b].slot, b), ("floating", b), 0.0) for b in floating])
+    )
+    expectations = _expectation_problems(scenario, max(b.level for b in bodies))
+    if found:
+        _, key, depth = found[0]
+        if key[0] == "overlap":
+            first = _overlap_problem(scenario, bodies, key[1], key[2], depth)
+        else:
+            first = _floating_problem(scenario, bodies, key[1], floating)
+        if scenario.timing.placement_error > 0:
+            first = _blame_placement_error(scenario, bodies, first, allowed)
+        # a generator's bricks that miss for one reason are one problem: count one per generator and kind
+        causes = {(key[0], key[1] if bodies[key[1]].path[1] == "bricks" else bodies[key[1]].path) for _, key, _ in found}
+        raise scenario.source.error(first.path, first.message, more=len(causes) - 1 + len(expectations))
+    if expectations:
+        first = expectations[0]
+        raise scenario.source.error(first.path, first.message, more=len(expectations) - 1)
+    return tuple(bodies[i].id for i in floating)
+
+
+# messages -------------------------------------------------------------------------
+
+
+def _millimetres(metres: float) -> str:
+    mm = metres * 1000
+    return f"{mm:.1f}" if abs(mm) < 1e9 else f"{mm:.4g}"
+
+
+def _mm(metres: float) -> str:
+    return f"{_millimetres(metres)} mm"
+
+
+def _at(position: Sequence[float]) -> str:
+    return "(" + ", ".join(_millimetres(v) for v in position) + ") mm"
+
+
+def _name(body: Body) -> str:
+    if body.path[:2] == ("structure", "bricks"):
+        return f"brick {body.id!r} (structure.bricks[{body.path[2]}])"
+    return f"brick {body.id}"
+
+
+def _overlap_problem(scenario: Scenario, bodies: Sequence[Body], b: int, s: int, depth: float) -> _Problem:
+    brick = bodies[b]
+    key, order = ("overlap", b, s), (0, brick.slot, b)
+    into = "the ground" if s == GROUND else _name(bodies[s])
+    effect = f"reaches {depth * 1000:.2f} mm into {into}"
+    what = f"{_name(brick)} placed at {_at(brick.position)} {effect}"
+    limit = f"bodies may touch, or overlap by at most {_mm(OVERLAP_TOLERANCE)} (pybullet would push them apart)"
+    if brick.path[1] == "bricks":
+        fix = f"raise it by {depth * 1000:.2f} mm" if s == GROUND else "move one of them"
+        return _Problem(key, order, brick.path + ("at",), f"{what}; {limit}: {fix}", effect)
+    if brick.path[1] == "tower" and s != GROUND:
+        t = scenario.structure.tower
+        assert t is not None
+        width = float(scenario.brick_type(t.brick).size[1])
+        return _Problem(
+            key,
+            order,
+            ("structure", "tower", "spacing"),
+            f"{what}: the bricks of a layer are {_mm(t.spacing)} apart centre to centre and {_mm(width)} wide; "
+            f"use a spacing of at least {_mm(width)}",
+            effect,
+        )
+    return _Problem(key, order, _generator_field(scenario), f"{what}; {limit}", effect)
+
+
+def _floating_problem(scenario: Scenario, bodies: Sequence[Body], b: int, floating: list[int]) -> _Problem:
+    brick = bodies[b]
+    key, order = ("floating", b), (1, brick.slot, b)
+    silence = f"or add 'allow: [{FLOATING}]' at the top level if it is meant to drop"
+    effect = "rests on nothing"
+    what = (
+        f"{_name(brick)} rests on nothing when it is placed (t = {brick.time:g} s): no ground, fixture or brick "
+        f"placed before it is within {_mm(REST_TOLERANCE)} below it"
+    )
+    if brick.path[1] == "bricks":
+        return _Problem(
+            key,
+            order,
+            brick.path + ("at",),
+            f"{what} (its lowest point is {_mm(_lowest(brick))} above the ground); lower it onto what should hold it, "
+            f"list it after that, {silence}",
+            effect,
+        )
+    if brick.path[1] == "tower":
+        path, message = _tower_floating(scenario, bodies, b, floating)
+        return _Problem(key, order, path, f"{message}; {silence}", effect)
+    return _Problem(key, order, _generator_field(scenario), f"{what}; {silence}", effect)
+
+
+def _lowest(body: Body) -> float:
+    rotation = Rotation.from_euler("ZYX", [body.yaw, body.pitch, body.roll], degrees=True).as_matrix()
+    return float(body.position[2] - np.abs(rotation[2]) @ np.array(body.half_extents))
+
+
+def _tower_floating(scenario: Scenario, bodies: Sequence[Body], b: int, floating: list[int]) -> tuple[FieldPath, str]:
+    """The field to change and the message for a tower whose bricks miss the layer below."""
+    t = scenario.structure.tower
+    assert t is not None
+    length, width = (float(v) for v in scenario.brick_type(t.brick).size[:2])
+    brick = bodies[b]
+    level = [bodies[i].id for i in floating if bodies[i].level == brick.level]
+    head = f"level {brick.level} of the tower: {', '.join(level)} rest{'s' * (len(level) == 1)} on nothing when placed"
+    square = abs(math.remainder(t.turn, 180.0)) == 90.0
+    n = t.bricks_per_layer
+    tower: FieldPath = ("structure", "tower")
+    if square and n > 1 and t.spacing >= (length + width) / (n - 1) - 1e-12:
+        limit = (length + width) / (n - 1)
+        outer = (n - 1) * t.spacing / 2
+        most = max(1, math.ceil((length + width) / t.spacing - 1e-9))
+        written = t.model_fields_set
+        field = "bricks_per_layer" if "bricks_per_layer" in written and "spacing" not in written else "spacing"
+        return tower + (field,), (
+            f"{head}: with {n} bricks a layer {_mm(t.spacing)} apart, the outer ones are centred {_mm(outer)} "
+            f"from the middle of their layer, so their near edge ({_mm(outer - width / 2)} out) is not inside "
+            f"the {_mm(length / 2)} that the layer below reaches (half a brick's length); use a spacing below "
+            f"{_mm(limit)} ((length + width) / (bricks_per_layer - 1)) and at least {_mm(width)} (the width), "
+            f"or at most {most} brick{'s' * (most != 1)} a layer"
+        )
+    if t.shifts is not None and brick.level is not None and brick.level > 1:
+        x, y = t.shifts[brick.level - 2]
+        return tower + ("shifts", brick.level - 2), (
+            f"{head}: it is moved ({_millimetres(x)}, {_millimetres(y)}) mm from the layer below, too far for its "
+            f"bricks to reach it ({n} a layer, {_mm(t.spacing)} apart, each layer turned {t.turn:g} deg); use a smaller shift"
+        )
+    if any(abs(v) > 0 for v in t.shift):
+        return tower + ("shift",), (
+            f"{head}: each layer is moved ({_millimetres(t.shift[0])}, {_millimetres(t.shift[1])}) mm from the one "
+            f"below, too far for its bricks to reach the layer below ({n} a layer, {_mm(t.spacing)} apart, each "
+            f"layer turned {t.turn:g} deg); use a smaller shift"
+        )
+    return tower + ("spacing",), (
+        f"{head}: the layer below does not reach under them ({n} bricks a layer, {_mm(t.spacing)} apart, each "
+        f"layer turned {t.turn:g} deg); bring the bricks of a layer closer together"
+    )
+
+
+def _generator_field(scenario: Scenario) -> FieldPath:
+    """The field of a card house to change (its own checks keep its bricks apart and on the peaks)."""
+    c = scenario.structure.card_house
+    return ("structure", "card_house", "spacing" if c is not None and c.spacing else "angle")
+
+
+def _blame_placement_error(scenario: Scenario, bodies: Sequence[Body], problem: _Problem, allowed: bool) -> _Problem:
+    """A problem that the placement error made (the poses as written have none) is
+    reported at ``timing.placement_error``."""
+    overlaps, floating = inspect_bodies(bodies, [b.nominal for b in bodies])
+    nominal = {("overlap", b, s) for b, s, _ in overlaps} | ({("floating", b) for b in floating} if not allowed else set())
+    if problem.key in nominal:
+        return problem
+    brick = bodies[problem.key[1]]
+    silence = f" (or add 'allow: [{FLOATING}]' at the top level)" if problem.key[0] == "floating" else ""
+    message = (
+        f"a placement error of up to {_mm(scenario.timing.placement_error)} (seed {scenario.seed}) moves "
+        f"{_name(brick)} to {_at(brick.position)}, where it {problem.effect}; as written it does not: use a smaller "
+        f"placement error or another seed{silence}"
+    )
+    return _Problem(problem.key, problem.order, ("timing", "placement_error"), message, problem.effect)
+
+
+def _expectation_problems(scenario: Scenario, top: int) -> list[_Problem]:
+    """Expectations about levels above the highest level placed (``top``)."""
+    expect = scenario.expect
+    problems = []
+    c = expect.collapse
+    if isinstance(c, CollapseLevel) and c.level - c.tolerance > top:
+        written = (
+            f"collapse {c.level}±{c.tolerance} (levels {c.level - c.tolerance}-{c.level + c.tolerance})"
+            if c.tolerance
+            else f"collapse {c.level}"
+        )
+        problems.append(
+            _Problem(
+                ("expect", "collapse"),
+                (2, 0),
+                ("expect", "collapse"),
+                f"{written} can never be measured: the structure has {top} level{'s' * (top != 1)}, and the "
+                f"collapse level is the highest level placed when a brick first moves; expect a level from 1 to "
+                f"{top} (or a tolerance that reaches one), or 'stands: true'",
+            )
+        )
+    for name in ("stays", "may_fall"):
+        levels = getattr(expect, name)
+        beyond = [lv for lv in levels or () if lv > top]
+        if beyond:
+            problems.append(
+                _Problem(
+                    ("expect", name),
+                    (2, 1 if name == "stays" else 2),
+                    ("expect", name),
+                    f"level{'s' * (len(beyond) != 1)} {span(beyond)} {'are' if len(beyond) != 1 else 'is'} never built: "
+                    f"the structure has {top} level{'s' * (top != 1)}; name levels from 1 to {top}",
+                )
+            )
+    return problems

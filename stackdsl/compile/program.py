@@ -1,0 +1,356 @@
+"""The Program: a scenario compiled to time-ordered concrete actions, no generators left.
+
+Everything here is SI (metres, seconds, kilograms, m/s), angles in degrees. Every
+action carries the physics step it happens at; its time is that step times the timestep.
+
+The work of a run (:func:`estimate_work`, :attr:`Program.work`) is counted in
+*body-steps*: one body in the engine for one physics step (or substep). A moving body
+counts ``max(1, solver_iterations / 50)`` a step, a resting one (a fixture, a brick the
+extension froze) 1, and every step 1 more for the runtime's own loop:
+
+* raw and tuned modes step every body every step: each brick from when it is placed
+  to the end of the run, moving;
+* extension mode steps only while something is active and jumps over the rest: after
+  each placement, for the brick's fall from the drop gap plus :data:`SETTLING` plus the
+  rest duration (a group placed ``together``: that many times its size), with every
+  brick placed before it in the engine, resting; the equilibrium model adds
+  :data:`EQUILIBRIUM_SOLVE` x (frozen bricks)^3 each time a brick freezes;
+* a projectile: from its launch to :data:`IMPACT_WINDOW` after its arrival every body
+  counts as moving, and during its flight in as many substeps as its speed needs
+  (continuous collision detection on: speed x timestep / collapse threshold, at most
+  :data:`MAX_SUBSTEPS`).
+
+:func:`Work.seconds` turns the three parts into a wall time with constants measured on a
+2-core machine (a guess good to a factor of about two: contacts, collapses and the load
+of the machine change it).
+
+Source: stackdsl's own (docs/design.md, data flow; the work budget).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from typing import Annotated, Literal, NamedTuple
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from stability import StabilityConfig
+
+Vec3 = tuple[float, float, float]
+
+#: A physics step is split into at most this many substeps, however fast a body moves
+#: (:mod:`stackdsl.runtime.run`).
+MAX_SUBSTEPS = 64
+#: Solver iterations of a reference body-step (pybullet's default, raw mode's).
+REFERENCE_ITERATIONS = 50
+#: Seconds a brick placed in extension mode stays active besides its fall and the rest
+#: duration, bouncing and settling (measured: 15 to 18 steps of 1/240 s a brick of a tower).
+SETTLING = 0.02
+#: Seconds after a projectile's arrival during which every body counts as moving.
+IMPACT_WINDOW = 1.0
+#: Body-steps per frozen brick cubed of the equilibrium model's solve each time a brick
+#: freezes (a linear program over every frozen brick; fitted on 4 stacks: 200 bricks 4.8 s,
+#: 500 bricks over 150 s of CPU, against 0.7 and 7 s with the report's model).
+EQUILIBRIUM_SOLVE = 0.006
+#: Wall seconds a run costs besides its steps (a pybullet client, the bodies, the graph).
+SECONDS_PER_RUN = 0.02
+#: Wall seconds of the runtime's loop per step (measured, see :class:`Work`).
+SECONDS_PER_STEP = 2e-5
+#: Wall seconds per body-step of a moving body (measured on towers in raw and tuned mode:
+#: 1.7e-5 standing, 3.9e-5 collapsing).
+SECONDS_PER_MOVING = 3e-5
+#: Wall seconds per body-step of a resting body in extension mode (measured on towers of
+#: 200 to 2000 bricks; most of it is the stack-wide test each time a brick freezes).
+SECONDS_PER_RESTING = 2.3e-6
+
+
+class _Frozen(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class BrickSpec(_Frozen):
+    """A brick's body: half extents (m), mass (kg), material friction coefficient and restitution."""
+
+    type: str
+    half_extents: Vec3
+    mass: float
+    friction: float
+    restitution: float
+
+
+class Place(_Frozen):
+    """Put brick ``id`` of ``level`` into the world at rest, ``drop`` metres above its pose."""
+
+    kind: Literal["place"] = "place"
+    step: int
+    time: float
+    id: str
+    level: int
+    brick: BrickSpec
+    position: Vec3
+    yaw: float
+    pitch: float
+    roll: float
+    drop: float
+
+
+class Launch(_Frozen):
+    """Throw projectile ``id`` from ``position`` with ``velocity``; it reaches ``target`` at ``arrival``."""
+
+    kind: Literal["launch"] = "launch"
+    step: int
+    time: float
+    id: str
+    brick: BrickSpec
+    position: Vec3
+    yaw: float
+    pitch: float
+    velocity: Vec3
+    target: Vec3
+    arrival: float
+
+
+class Fixture(_Frozen):
+    """An immovable environment body (a wall, a ramp), in the world from the start."""
+
+    id: str
+    brick: BrickSpec
+    position: Vec3
+    yaw: float
+    pitch: float
+    roll: float
+
+
+class Rule(_Frozen):
+    """A rule of the extension mode and whether this scene runs it, with why: the stability
+    extension's ``basic``, ``leaning`` and ``impacts`` rules, and ``rigid``, fallen bricks
+    settling as rigid bodies once a collapse is decided
+    (:class:`stackdsl.runtime.subscribers.RigidDebris`)."""
+
+    name: Literal["basic", "leaning", "impacts", "rigid"]
+    on: bool
+    reason: str
+
+
+class End(_Frozen):
+    """The run ends."""
+
+    kind: Literal["end"] = "end"
+    step: int
+    time: float
+
+
+Action = Annotated[Place | Launch | End, Field(discriminator="kind")]
+
+
+class EngineSettings(_Frozen):
+    """Engine settings of one run (see :data:`stackdsl.compile.compiler.MODE_DEFAULTS`).
+
+    ``friction_anchors`` and ``maximal_coordinates`` are pybullet's; ``elliptic_cones``,
+    ``impratio``, ``integrator``, ``solref`` (time constant in s, damping ratio), ``solimp``
+    (MuJoCo's impedance: d0, dwidth, width in m) and ``sleep_tolerance`` (MuJoCo's own
+    sleeping, None: off) are MuJoCo's; each backend ignores the other's."""
+
+    mode: Literal["raw", "tuned", "extension"]
+    backend: Literal["pybullet", "mujoco"] = "pybullet"
+    timestep: float
+    solver_iterations: int
+    friction_anchors: bool = False
+    maximal_coordinates: bool = False
+    ccd: bool = False
+    gravity: float = 9.81
+    elliptic_cones: bool = False
+    impratio: float = 1.0
+    integrator: Literal["euler", "implicitfast"] = "euler"
+    solref: tuple[float, float] = (0.02, 1.0)
+    solimp: tuple[float, float, float] = (0.9, 0.95, 0.001)
+    sleep_tolerance: float | None = None
+
+
+class Program(_Frozen):
+    """A compiled scenario.
+
+    Attributes:
+        name: the scenario's name.
+        engine: pybullet settings.
+        ground_friction, ground_restitution: of the ground plane's material.
+        stability: the stability extension's settings, fully resolved: the scenario's,
+            the engine's gravity, and the rules this scene needs (``leaning``, ``impacts``).
+        rules: the extension mode's rules this scene needs (model only what a scene needs).
+        fixtures: environment bodies, created first.
+        collapse_threshold: metres a structure brick may leave its placed pose.
+        settle: seconds the run goes on after the first collapse.
+        actions: time-ordered; the last one is :class:`End`.
+        floating: ids of the bricks placed resting on nothing, which the scenario allows
+            (``allow: [floating]``); they drop when placed.
+    """
+
+    name: str
+    engine: EngineSettings
+    ground_friction: float
+    ground_restitution: float
+    stability: StabilityConfig
+    rules: tuple[Rule, ...]
+    fixtures: tuple[Fixture, ...] = ()
+    collapse_threshold: float
+    settle: float
+    actions: tuple[Action, ...]
+    floating: tuple[str, ...] = ()
+
+    @property
+    def placements(self) -> list[Place]:
+        """The :class:`Place` actions, in order."""
+        return [a for a in self.actions if isinstance(a, Place)]
+
+    @property
+    def levels(self) -> int:
+        """The highest level placed."""
+        return max((a.level for a in self.placements), default=0)
+
+    @property
+    def duration(self) -> float:
+        """Simulated seconds until :class:`End`."""
+        return self.actions[-1].time
+
+    @property
+    def work(self) -> float:
+        """Body-steps the run is estimated to take (:func:`estimate_work`; the compiler's
+        budget, :data:`stackdsl.compile.compiler.MAX_WORK`, bounds it)."""
+        return estimate_work(self).total
+
+    @property
+    def wall_estimate(self) -> float:
+        """Seconds of wall time the run is estimated to take (:meth:`Work.seconds`)."""
+        return estimate_work(self).seconds
+
+
+class Work(NamedTuple):
+    """The estimated work of a run, in body-steps (see the module's docstring).
+
+    Attributes:
+        steps: physics steps and substeps the engine takes (jumps left out).
+        moving: body-steps of moving bodies, weighted by solver iterations.
+        resting: body-steps of resting bodies (fixtures, frozen bricks).
+    """
+
+    steps: float
+    moving: float
+    resting: float
+
+    @property
+    def total(self) -> float:
+        """Body-steps: the runtime's loop counts one a step."""
+        return self.steps + self.moving + self.resting
+
+    @property
+    def seconds(self) -> float:
+        """Estimated wall seconds on the machine the constants were measured on (2 cores,
+        shared): :data:`SECONDS_PER_RUN` and :data:`SECONDS_PER_STEP`,
+        :data:`SECONDS_PER_MOVING` and :data:`SECONDS_PER_RESTING` per part."""
+        parts = self.steps * SECONDS_PER_STEP + self.moving * SECONDS_PER_MOVING + self.resting * SECONDS_PER_RESTING
+        return SECONDS_PER_RUN + parts
+
+
+def estimate_work(program: Program) -> Work:
+    """The work of running ``program`` (see the module's docstring): an upper bound for a
+    structure that stands, in the order of magnitude of the real cost otherwise.
+
+    In raw and tuned modes a collapse ends the run early, so the estimate is an upper
+    bound; in extension mode the bricks a collapse wakes move for ``settle`` seconds
+    (not counted: a run's timeout bounds it). Source: stackdsl's own.
+    """
+    e = program.engine
+    dt = e.timestep
+    end = program.actions[-1].step
+    weight = max(1.0, e.solver_iterations / REFERENCE_ITERATIONS)
+    entries = [a for a in program.actions if isinstance(a, (Place, Launch))]
+    fixtures = len(program.fixtures)
+    if e.mode != "extension":
+        steps = float(end)
+        moving = weight * sum(end - a.step for a in entries)
+        resting = float(fixtures * end)
+    else:
+        rest = program.stability.rest_duration
+        drop = max((a.drop for a in program.placements), default=0.0)
+        active = math.ceil((math.sqrt(2 * drop / e.gravity) + SETTLING + rest) / dt)
+        slots: dict[int, int] = {}
+        for a in program.placements:
+            slots[a.step] = slots.get(a.step, 0) + 1
+        marks = sorted({*slots, *(a.step for a in entries), end})
+        steps = moving = resting = 0.0
+        present = fixtures
+        solve = EQUILIBRIUM_SOLVE if program.stability.model == "equilibrium" else 0.0
+        for step, following in itertools.pairwise(marks):
+            placed = slots.get(step, 0)
+            stepped = min(following - step, active * placed)
+            steps += stepped
+            moving += stepped * weight * placed
+            resting += stepped * present + solve * placed * present**3
+            present += placed
+    for launch in (a for a in entries if isinstance(a, Launch)):
+        speed = math.sqrt(sum(v * v for v in launch.velocity))
+        substeps = min(MAX_SUBSTEPS, max(1, math.ceil(speed * dt / program.collapse_threshold))) if e.ccd else 1
+        flight = max(1, math.ceil((launch.arrival - launch.time) / dt))
+        after = max(0, min(end, math.ceil((launch.arrival + IMPACT_WINDOW) / dt)) - launch.step - flight)
+        extra = (substeps - 1) * flight + (0 if e.mode != "extension" else flight + after)  # raw, tuned: counted above
+        steps += extra
+        moving += extra * weight * sum(a.step <= launch.step for a in entries)
+        resting += extra * fixtures
+    return Work(steps, moving, resting)
+
+
+def engine_details(e: EngineSettings) -> str:
+    """The backend's own settings of ``e``, as text."""
+    on = {True: "on", False: "off"}
+    if e.backend == "pybullet":
+        return (
+            f"friction anchors {on[e.friction_anchors]}, maximal coordinates {on[e.maximal_coordinates]}, "
+            f"continuous collision detection for thrown bricks {on[e.ccd]}"
+        )
+    sleep = "off" if e.sleep_tolerance is None else f"tolerance {e.sleep_tolerance:g}"
+    return (
+        f"{'elliptic' if e.elliptic_cones else 'pyramidal'} cones, impratio {e.impratio:g}, {e.integrator}, "
+        f"solref ({e.solref[0]:g} s, {e.solref[1]:g}), solimp ({', '.join(f'{v:g}' for v in e.solimp)}), "
+        f"MuJoCo's sleeping {sleep}, substeps for thrown bricks {on[e.ccd]}"
+    )
+
+
+def format_program(program: Program) -> str:
+    """The program as text, one line per action (what ``stackdsl compile`` prints)."""
+    e = program.engine
+    lines = [
+        f"program {program.name}: {e.backend}, mode {e.mode}, timestep {e.timestep * 1000:.4g} ms, "
+        f"{e.solver_iterations} solver iterations, {engine_details(e)}",
+        f"  {len(program.placements)} bricks in {program.levels} levels, collapse threshold "
+        f"{program.collapse_threshold * 1000:.3g} mm, {program.duration:g} s simulated",
+        f"  estimated work {program.work:.2g} body-steps, about {program.wall_estimate:.2g} s of wall time",
+    ]
+    if e.mode == "extension":
+        lines.append(f"  stability model {program.stability.model}")
+        lines += [f"  rule {r.name:<8} {'on ' if r.on else 'off'}  {r.reason}" for r in program.rules]
+    if program.floating:
+        lines.append(f"  resting on nothing when placed, allowed (allow: [floating]): {', '.join(program.floating)}")
+    for f in program.fixtures:
+        x, y, z = (v * 1000 for v in f.position)
+        lines.append(
+            f"  fixed  {f.id:<10} at ({x:.1f}, {y:.1f}, {z:.1f}) mm  yaw {f.yaw:.1f}  pitch {f.pitch:.1f}  roll {f.roll:.1f}  {f.brick.type}"
+        )
+    for a in program.actions:
+        head = f"  t={a.time:9.3f} s  step {a.step:>8}  "
+        if isinstance(a, Place):
+            x, y, z = (v * 1000 for v in a.position)
+            lines.append(
+                f"{head}place  {a.id:<10} level {a.level:>3}  at ({x:8.1f}, {y:8.1f}, {z:7.1f}) mm  "
+                f"yaw {a.yaw:6.1f}  pitch {a.pitch:5.1f}  roll {a.roll:5.1f}  {a.brick.type}"
+            )
+        elif isinstance(a, Launch):
+            x, y, z = (v * 1000 for v in a.target)
+            speed = sum(v * v for v in a.velocity) ** 0.5
+            lines.append(
+                f"{head}launch {a.id:<10} {speed:.3g} m/s at ({x:.1f}, {y:.1f}, {z:.1f}) mm, "
+                f"arriving t={a.arrival:.3f} s  {a.brick.type}"
+            )
+        else:
+            lines.append(f"{head}end")
+    return "\n".join(lines)

@@ -1,0 +1,274 @@
+"""Clips of a recorded run: a :class:`stackdsl.Trajectory` as a GIF or an MP4.
+
+A clip runs from the first placement to the end of the run (2 s after a collapse). While
+anything moves (the recorder's frames are 1/30 s apart) it plays in real time; each quiet
+stretch between two placements is cut to at most :data:`QUIET_HOLD` seconds of clip; and when
+that is still more than ``max_frames`` frames, the whole clip is sped up evenly. The frames of
+a launch, an impact and the collapse are always drawn. Every frame carries the simulated time
+and the speed-up (``t = 12.30 s  x4``), a legend of the state colours and a scale bar.
+
+Pictures come from :class:`stackdsl.draw.render.Scene` (pybullet's TinyRenderer); a GIF is written
+by Pillow with one fixed palette, an MP4 (H.264) by the ffmpeg of the ``imageio-ffmpeg`` package.
+
+>>> import stackdsl
+>>> from stackdsl.runtime.recorder import record_program
+>>> program = stackdsl.compile_scenario(stackdsl.parse_scenario("stackdsl: 1\\nstructure: {tower: {levels: 2}}"))
+>>> outcome, trajectory = record_program(program)
+>>> plan = timeline(trajectory)
+>>> round(float(plan.times[0]), 2), round(float(plan.times[-1]), 2), len(plan.frames) < 60
+(0.0, 5.0, True)
+
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from PIL import Image, ImageDraw, ImageFont
+
+from ..runtime.trajectory import STATES, Trajectory
+from .render import COLOURS, Scene, legend_keys, scale_bar
+
+#: Frames a second of a clip, by default.
+FPS = 30.0
+#: At most this many frames (the clip is sped up evenly to fit), by default: 20 s at 30 frames a second.
+MAX_FRAMES = 600
+#: Seconds of clip a quiet stretch (nothing moves, e.g. the wait between two placements) lasts at most.
+QUIET_HOLD = 0.1
+#: Seconds the last picture stays on before the clip ends (or a GIF starts again).
+END_HOLD = 1.0
+#: Events whose frames every clip draws.
+KEY_EVENTS = ("launch", "impact", "collapse")
+#: A GIF's frame times are whole hundredths of a second, and players slow down shorter ones than 0.02 s.
+GIF_MAX_FPS = 50.0
+
+
+@dataclass(frozen=True)
+class Timeline:
+    """What each frame of a clip shows.
+
+    Attributes:
+        frames: (n,) the trajectory frame drawn, non-decreasing.
+        times: (n,) the simulated time shown, seconds, increasing.
+        speeds: (n,) the speed-up: simulated seconds a second of clip (1: real time).
+    """
+
+    frames: np.ndarray
+    times: np.ndarray
+    speeds: np.ndarray
+
+
+def timeline(trajectory: Trajectory, fps: float = FPS, max_frames: int = MAX_FRAMES) -> Timeline:
+    """The frames of a clip of ``trajectory`` at ``fps`` frames a second.
+
+    The recorded frames fall into bursts (frames at most 1.5 recording intervals apart: something
+    moves) and the quiet stretches between them. A burst is drawn in real time from its first
+    frame on (a placement, a launch); a quiet stretch gets at most :data:`QUIET_HOLD` seconds of
+    clip, never less than real time. When that makes more than ``max_frames`` frames, everything
+    is sped up by the least even factor that fits (and when one frame a burst is still too many,
+    frames are dropped evenly). The frames of :data:`KEY_EVENTS` are drawn even when mid-burst.
+
+    Raises:
+        ValueError: ``fps`` not above 0; ``max_frames`` below 2; a trajectory with no frame.
+    """
+    if not (isinstance(fps, (int, float)) and 0 < fps < math.inf):
+        raise ValueError(f"a clip needs a number of frames a second above 0, not {fps!r}")
+    if max_frames < 2:
+        raise ValueError(f"a clip needs at least 2 frames, not {max_frames}")
+    times = trajectory.times
+    if not len(times):
+        raise ValueError("the trajectory has no frame")
+    quiet = np.diff(times) > 1.5 / float(trajectory.meta.get("rate") or 30.0)
+    first, last = np.r_[0, np.flatnonzero(quiet) + 1], np.r_[np.flatnonzero(quiet), len(times) - 1]  # of each burst
+    lengths, pauses = times[last] - times[first], times[first[1:]] - times[last[:-1]]  # s
+
+    def counts(speed: float) -> tuple[np.ndarray, np.ndarray]:  # frames of each burst and each pause
+        burst = np.floor(lengths * fps / speed + 1e-9).astype(int) + 1
+        hold = np.minimum(np.round(QUIET_HOLD * fps / speed), np.floor(pauses * fps / speed + 1e-9) - 1)
+        return burst, hold.clip(0).astype(int)
+
+    speed, slowest, fastest = 1.0, 1.0, max(2.0, float(times[-1] - times[0]) * fps)
+    if sum(map(int, map(np.sum, counts(speed)))) > max_frames:
+        for _ in range(60):  # bisection, on a log scale, for the least speed-up that fits
+            speed = math.sqrt(slowest * fastest)
+            slowest, fastest = (speed, fastest) if sum(map(int, map(np.sum, counts(speed)))) > max_frames else (slowest, speed)
+        speed = fastest
+    burst, hold = counts(speed)
+    at, rate, still = [], [], []  # each clip frame: simulated time, speed-up, in a quiet stretch
+    for b, start in enumerate(times[first]):
+        at.append(start + np.arange(burst[b]) * speed / fps)
+        rate.append(np.full(burst[b], speed))
+        still.append(np.zeros(burst[b], bool))
+        if b < len(pauses) and hold[b]:
+            at.append(times[last[b]] + pauses[b] * np.arange(1, hold[b] + 1) / (hold[b] + 1))
+            rate.append(np.full(hold[b], pauses[b] * fps / (hold[b] + 1)))
+            still.append(np.ones(hold[b], bool))
+    shown, speeds, stills = np.concatenate(at), np.concatenate(rate), np.concatenate(still)
+    if len(shown) > max_frames:  # more bursts than frames: drop frames evenly, keep the first and last
+        keep = np.unique(np.round(np.linspace(0, len(shown) - 1, max_frames)).astype(int))
+        shown, speeds, stills = shown[keep], speeds[keep] * len(shown) / len(keep), stills[keep]
+    before = np.clip(np.searchsorted(times, shown + 1e-9, side="right") - 1, 0, len(times) - 1)
+    after = np.minimum(before + 1, len(times) - 1)
+    nearer = ~stills & (times[after] - shown < shown - times[before])  # a burst shows its nearest frame
+    frames = np.where(nearer, after, before)
+    forced: set[int] = set()
+    for index in sorted({trajectory.frame_index(e.time) for e in trajectory.events if e.kind in KEY_EVENTS}):
+        if index in frames:
+            continue
+        for k in np.argsort(np.abs(shown - times[index]))[:3]:  # a near frame of the clip draws it instead
+            lower, upper = frames[k - 1] if k else -1, frames[k + 1] if k + 1 < len(frames) else len(times)
+            if lower <= index <= upper and int(frames[k]) not in forced:
+                frames[k] = index
+                forced.add(index)
+                break
+    return Timeline(frames, shown, speeds)
+
+
+def speed_text(speed: float) -> str:
+    """``x1``, ``x2.5``, ``x28``: a speed-up as the clip shows it."""
+    return f"x{round(speed)}" if speed >= 9.95 else f"x{speed:.1f}".removesuffix(".0")
+
+
+def _font(size: int) -> ImageFont.FreeTypeFont | ImageFont.ImageFont:
+    """Pillow's TrueType DejaVu Sans (matplotlib ships it) at ``size`` pixels."""
+    from matplotlib import font_manager
+
+    try:
+        return ImageFont.truetype(font_manager.findfont("DejaVu Sans"), size)
+    except OSError:  # pragma: no cover - matplotlib always ships DejaVu Sans
+        return ImageFont.load_default()
+
+
+class _Overlay:
+    """Draws the time, speed-up, legend and scale bar on each picture of a clip."""
+
+    def __init__(self, trajectory: Trajectory, width: int, height: int, pixels_per_metre: float) -> None:
+        self.width, self.height = width, height
+        self.big, self.small = _font(max(10, height // 24)), _font(max(8, height // 32))
+        self.bar = scale_bar(pixels_per_metre, width)
+        self.length = self.bar[0] * pixels_per_metre
+        projectile = trajectory.projectiles[trajectory.row_body]
+        seen = {"projectile" if p else STATES[s] for p, s in zip(projectile, trajectory.row_state)}
+        self.keys = legend_keys(trajectory, seen)
+        meta = trajectory.meta
+        self.name = f"{meta.get('scenario') or meta.get('file') or 'run'} · {meta.get('mode', '?')}"
+        collapse = meta.get("collapse")
+        self.collapse = None if collapse is None else (float(collapse["time"]), f"collapse at level {collapse['level']}")
+
+    def draw(self, image: np.ndarray, time: float, speed: float) -> np.ndarray:
+        picture = Image.fromarray(image)
+        draw = ImageDraw.Draw(picture, "RGBA")
+        pad, line = 4, self.height // 22 + 4
+        text = f"t = {time:5.2f} s  {speed_text(speed)}"
+        draw.rectangle((0, 0, draw.textlength(text, font=self.big) + 2 * pad, 2 * line + pad), fill=(255, 255, 255, 190))
+        draw.text((pad, pad), text, fill=(0, 0, 0), font=self.big)
+        draw.text((pad, pad + line), self.name, fill=(40, 40, 40), font=self.small)
+        if self.collapse is not None and time >= self.collapse[0]:
+            draw.text((pad, pad + 2 * line), self.collapse[1], fill=(200, 20, 20), font=self.small)
+        box = max(8, self.height // 40)
+        for i, key in enumerate(self.keys):  # the legend, top right
+            right, top = self.width - pad, pad + i * (box + 4)
+            width = draw.textlength(key, font=self.small)
+            draw.rectangle((right - width - box - 2 * pad, top - 2, right, top + box + 2), fill=(255, 255, 255, 190))
+            draw.rectangle((right - box, top, right, top + box), fill=_rgb(COLOURS[key]), outline=(60, 60, 60))
+            draw.text((right - box - pad, top + box / 2), key, fill=(0, 0, 0), font=self.small, anchor="rm")
+        left, bottom = 0.04 * self.width, self.height - 0.05 * self.height
+        draw.rectangle((left, bottom - 3, left + self.length, bottom), fill=(0, 0, 0))
+        draw.text((left + self.length / 2, bottom - 5), self.bar[1], fill=(0, 0, 0), font=self.small, anchor="mb")
+        return np.asarray(picture)
+
+
+def _rgb(colour: tuple[float, float, float]) -> tuple[int, int, int]:
+    r, g, b = (round(255 * c) for c in colour)
+    return r, g, b
+
+
+def _palette() -> Image.Image:
+    """A fixed GIF palette: every colour of :data:`COLOURS` from dark to light, and greys."""
+    shades = [np.clip(np.array(c) * k, 0.0, 1.0) for c in COLOURS.values() for k in np.linspace(0.3, 1.1, 24)]
+    shades += [np.full(3, g) for g in np.linspace(0.0, 1.0, 256 - len(shades))]
+    palette = Image.new("P", (1, 1))
+    palette.putpalette((np.round(np.array(shades) * 255).astype(np.uint8)).ravel().tolist())
+    return palette
+
+
+def _pictures(scene: Scene, plan: Timeline) -> Iterator[np.ndarray]:
+    """The clip's pictures, (height, width, 3) uint8, one per frame of ``plan``; each
+    trajectory frame is rendered once."""
+    trajectory = scene.trajectory
+    overlay = _Overlay(trajectory, scene.width, scene.height, scene.camera.pixels_per_metre)
+    renders = ((f.index, scene.render(f)) for f in trajectory.frames(sorted(set(plan.frames.tolist()))))
+    current, image = -1, np.zeros((scene.height, scene.width, 3), np.uint8)
+    for index, time, speed in zip(plan.frames.tolist(), plan.times, plan.speeds):
+        while current != index:  # plan.frames never decreases
+            current, image = next(renders)
+        yield overlay.draw(image, float(time), float(speed))
+
+
+def animate(
+    trajectory: Trajectory,
+    path: str | os.PathLike[str],
+    *,
+    fps: float = FPS,
+    width: int = 480,
+    height: int = 360,
+    max_frames: int = MAX_FRAMES,
+) -> Timeline:
+    """Write a clip of ``trajectory`` at ``path``: ``.gif`` (Pillow) or ``.mp4`` (H.264 by
+    imageio-ffmpeg's ffmpeg), ``width`` x ``height`` pixels at ``fps`` frames a second, its
+    frames chosen by :func:`timeline`; the last picture stays :data:`END_HOLD` seconds.
+    Returns the timeline drawn.
+
+    Raises:
+        ValueError: another suffix; ``fps`` not above 0 (above :data:`GIF_MAX_FPS` for a GIF);
+            ``max_frames`` below 2; a picture smaller than 16 x 16 pixels; no frame.
+        OSError: the file cannot be written (ffmpeg failing included).
+    """
+    suffix = Path(path).suffix.lower()
+    if suffix not in (".gif", ".mp4"):
+        raise ValueError(f"a clip is written as .gif or .mp4, not {Path(path).name!r}")
+    if suffix == ".gif" and isinstance(fps, (int, float)) and fps > GIF_MAX_FPS:
+        raise ValueError(f"a GIF plays at most {GIF_MAX_FPS:g} frames a second, not {fps:g}")
+    plan = timeline(trajectory, fps, max_frames)
+    with Scene(trajectory, width, height) as scene:  # before the file is opened: it checks the size
+        if suffix == ".gif":
+            _write_gif(_pictures(scene, plan), Path(path), fps, len(plan.frames))
+        else:
+            _write_mp4(_pictures(scene, plan), Path(path), fps, width, height)
+    return plan
+
+
+def _write_gif(pictures: Iterator[np.ndarray], path: Path, fps: float, count: int) -> None:
+    palette = _palette()
+    frames = (Image.fromarray(p).quantize(palette=palette, dither=Image.Dither.NONE) for p in pictures)
+    ticks = np.round(np.arange(count + 1) * 100.0 / fps)  # hundredths of a second, so that the frames average 1 / fps
+    durations = (np.diff(ticks) * 10).astype(int)
+    durations[-1] += round(END_HOLD * 1000)
+    first = next(frames)
+    first.save(path, save_all=True, append_images=frames, duration=durations.tolist(), loop=0, optimize=False)
+
+
+def _write_mp4(pictures: Iterator[np.ndarray], path: Path, fps: float, width: int, height: int) -> None:
+    import imageio_ffmpeg
+
+    even = (width + width % 2, height + height % 2)  # H.264 in yuv420p needs even sides
+    pad = ((0, even[1] - height), (0, even[0] - width), (0, 0))
+    writer = imageio_ffmpeg.write_frames(str(path), even, fps=fps, codec="libx264", pix_fmt_out="yuv420p", macro_block_size=2)
+    writer.send(None)
+    try:
+        last = np.zeros((even[1], even[0], 3), np.uint8)
+        for picture in pictures:
+            last = np.ascontiguousarray(np.pad(picture, pad, mode="edge"))
+            writer.send(last)
+        for _ in range(round(END_HOLD * fps)):
+            writer.send(last)
+    except (BrokenPipeError, RuntimeError) as exc:
+        raise OSError(f"{path}: ffmpeg failed: {exc}") from None
+    finally:
+        writer.close()

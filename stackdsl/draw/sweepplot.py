@@ -1,0 +1,159 @@
+"""Monte-Carlo sweep plots as PNGs: one cell's collapse levels as a histogram, and a grid of
+cells over one numeric parameter as a statistic with its 95 % interval against the value.
+
+Samples are collapse levels (an int) or None for a structure that stood. Statistics and
+intervals come from :mod:`stackdsl.verdicts.stats` (Student t for the mean over collapsed samples,
+Clopper-Pearson for P(stands)). Drawn on matplotlib's Agg canvas directly (no pyplot): safe in
+threads and with no display. Empty or degenerate input (no samples, all stood, one level, one
+cell) gives a plot that says so; it raises nothing but the errors listed.
+
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Sequence
+from typing import Literal
+
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
+
+from ..verdicts import stats as _stats
+
+#: Colours: collapse-level bars, the "stood" bar, the mean and its interval, grid points.
+COLLAPSED, STOOD, MEAN, POINT = "#4c72b0", "#55a868", "#c44e52", "#8172b2"
+Statistic = Literal["p_stands", "mean"]
+_CONFIDENCE = 0.95
+
+
+def plot_histogram(
+    levels: Sequence[int | None], path: str | os.PathLike[str], *, title: str = "", levels_built: int | None = None
+) -> None:
+    """Write a PNG histogram of one cell's collapse levels to ``path``.
+
+    Left panel: one bar per collapse level (counts of samples), the mean collapse level over
+    the collapsed samples as a vertical line with its 95 % t interval shaded. Right panel: one
+    bar for the samples that stood (labelled with ``levels_built`` when given). The title
+    adds n, the mean and P(stands) with their intervals. Raises ValueError on a level that is
+    not None or an int >= 1 (as :func:`stackdsl.verdicts.stats.summary`), OSError if ``path`` cannot be
+    written.
+    """
+    s = _stats.summary(levels, levels_built, _CONFIDENCE)
+    fig = Figure(figsize=(8.0, 4.2), dpi=100)
+    FigureCanvasAgg(fig)
+    grid = fig.add_gridspec(
+        1, 2, width_ratios=(6, 1), wspace=0.05, left=0.08, right=0.97, bottom=0.13, top=0.8 if title else 0.87
+    )
+    ax = fig.add_subplot(grid[0, 0])
+    side = fig.add_subplot(grid[0, 1], sharey=ax)
+    if s.histogram:
+        ax.bar(list(s.histogram), list(s.histogram.values()), width=0.8, color=COLLAPSED, label="collapsed")
+        low, high = min(s.histogram), max(s.histogram)
+        ax.set_xlim(low - 1, high + 1)
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    else:
+        ax.text(0.5, 0.5, "no collapse" if s.n else "no samples", transform=ax.transAxes, ha="center", va="center")
+        ax.set_xticks([])
+    if s.mean is not None:
+        label = f"mean {s.mean:.2f}"
+        if s.mean_interval is not None:
+            lo, hi = s.mean_interval
+            ax.axvspan(lo, hi, color=MEAN, alpha=0.25, lw=0)
+            label += f", 95% CI [{lo:.2f}, {hi:.2f}]"
+        ax.axvline(s.mean, color=MEAN, lw=2, label=label)
+        ax.legend(loc="best", fontsize=8, frameon=False)
+    ax.yaxis.set_major_locator(MaxNLocator(integer=True))
+    ax.set_xlabel("collapse level")
+    ax.set_ylabel("samples")
+    side.bar([0], [s.stood], width=0.6, color=STOOD, hatch="//", edgecolor="white")
+    side.set_xlim(-0.7, 0.7)
+    side.set_xticks([0], ["stood" if levels_built is None else f"stood\n({levels_built} levels)"])
+    side.tick_params(axis="y", labelleft=False)
+    if s.n == 0:
+        ax.set_ylim(0, 1)
+    fig.suptitle(_heading(title, s), fontsize=10)
+    fig.savefig(os.fspath(path), format="png")
+
+
+def plot_grid(
+    parameter: str,
+    values: Sequence[float],
+    cells: Sequence[Sequence[int | None]],
+    path: str | os.PathLike[str],
+    *,
+    unit: str = "",
+    statistic: Statistic = "p_stands",
+    scale: float = 1.0,
+    levels_built: int | None = None,
+    title: str = "",
+) -> None:
+    """Write a PNG of a statistic per cell against a numeric parameter, with 95 % error bars.
+
+    ``values[i]`` is the parameter's value of ``cells[i]`` (that cell's samples: collapse
+    levels or None). The value is drawn times ``scale`` (e.g. values in metres, ``scale=1000``,
+    ``unit="mm"``); ``unit`` labels the axis. ``statistic``: "p_stands" (fraction that stood,
+    Clopper-Pearson interval; "at N levels" when ``levels_built`` is given) or "mean" (mean
+    collapse level over collapsed samples, t interval). A cell with no estimate (no samples;
+    for the mean, no collapse) is left out and counted in a note; one with an estimate but no
+    interval (a single collapse) is a point without a bar.
+
+    Raises ValueError when values and cells differ in length, on an unknown statistic, or a
+    bad level (as :func:`stackdsl.verdicts.stats.summary`); OSError if ``path`` cannot be written.
+    """
+    if len(values) != len(cells):
+        raise ValueError(f"{len(values)} values for {len(cells)} cells")
+    if statistic not in ("p_stands", "mean"):
+        raise ValueError(f"statistic must be 'p_stands' or 'mean', got {statistic!r}")
+    points: list[tuple[float, float, float, float]] = []  # (x, estimate, low, high)
+    sizes: set[int] = set()
+    for value, cell in zip(values, cells):
+        s = _stats.summary(cell, levels_built, _CONFIDENCE)
+        sizes.add(s.n)
+        estimate, interval = (s.p_stands, s.p_stands_interval) if statistic == "p_stands" else (s.mean, s.mean_interval)
+        if estimate is not None:
+            low, high = interval if interval is not None else (estimate, estimate)
+            points.append((float(value) * scale, estimate, low, high))
+    points.sort()
+    fig = Figure(figsize=(7.0, 4.5), dpi=100)
+    FigureCanvasAgg(fig)
+    ax = fig.add_axes((0.12, 0.13, 0.84, 0.75 if title else 0.79))
+    if points:
+        xs = [p[0] for p in points]
+        ys = [p[1] for p in points]
+        below = [p[1] - p[2] for p in points]
+        above = [p[3] - p[1] for p in points]
+        ax.errorbar(xs, ys, yerr=[below, above], color=POINT, marker="o", ms=5, capsize=4, lw=1.5, label="estimate, 95% CI")
+        ax.legend(loc="best", fontsize=8, frameon=False)
+        if len(set(xs)) == 1:
+            ax.set_xlim(xs[0] - 1, xs[0] + 1)
+    missing = len(cells) - len(points)
+    if missing or not cells:
+        note = "no cells" if not cells else f"{missing} cell(s) without an estimate left out"
+        ax.text(0.5, 0.5 if not points else 0.03, note, transform=ax.transAxes, ha="center", va="center", fontsize=9)
+    if statistic == "p_stands":
+        ax.set_ylim(-0.03, 1.03)
+        ax.set_ylabel("P(stands)" if levels_built is None else f"P(stands at {levels_built} levels)")
+    else:
+        ax.set_ylabel("mean collapse level (collapsed samples)")
+    ax.set_xlabel(f"{parameter} ({unit})" if unit else parameter)
+    ax.grid(True, alpha=0.3)
+    per_cell = f"n = {sizes.pop()} per cell" if len(sizes) == 1 else f"n = {min(sizes)}..{max(sizes)} per cell" if sizes else ""
+    fig.suptitle(", ".join(t for t in (title, per_cell) if t), fontsize=10)
+    fig.savefig(os.fspath(path), format="png")
+
+
+def _heading(title: str, s: _stats.CellSummary) -> str:
+    parts = [f"n={s.n}: {s.collapsed} collapsed, {s.stood} stood"]
+    if s.mean is not None:
+        parts.append(f"mean {s.mean:.2f}" + (_ci(s.mean_interval, ".2f") if s.mean_interval else ""))
+    if s.p_stands is not None and s.p_stands_interval is not None:
+        parts.append(f"P(stands) {s.p_stands:.3f}" + _ci(s.p_stands_interval, ".3f"))
+    return "\n".join([title, "; ".join(parts)] if title else ["; ".join(parts)])
+
+
+def _ci(interval: tuple[float, float], spec: str) -> str:
+    low, high = interval
+    return f" [{low:{spec}}, {high:{spec}}]" if math.isfinite(low) and math.isfinite(high) else ""

@@ -1,0 +1,240 @@
+"""Random values in scenario files: distributions on numbers, drawn per sample, layer or brick.
+
+Any number or quantity of a scenario may be written as a distribution instead::
+
+    spacing: {uniform: [90 mm, 100 mm]}                        # drawn once a sample
+    placement_error: {choice: [0, 2 mm, 4 mm]}
+    settle: {normal: {mean: 2 s, sd: 0.1 s, clip: [1.5 s, 2.5 s]}}
+    shift: {uniform: [-60 mm, 60 mm], per: layer}             # a tower: one draw a layer (a random walk)
+    yaw_jitter: {normal: {mean: 0, sd: 2}, per: brick}         # a tower: one draw a brick
+
+``uniform: [low, high]`` draws uniformly; ``normal`` draws from a normal distribution,
+then clips to ``clip`` when given; ``choice`` picks one of its items, each as likely. Every
+value of a distribution is written with units of one kind (the first value's unit is the
+one the drawn value is written in) or with none; the field then checks the drawn value as
+if it had been written there, so units, ranges and error positions are those of the field.
+
+``per: layer`` (a tower's ``shift``, ``yaw_jitter``) and ``per: brick`` (its ``yaw_jitter``)
+draw one value a layer or a brick: the sample then has the tower's ``shifts`` (one a layer
+above the first, each relative to the layer below) or a ``yaw_jitter`` list (one a brick).
+
+Every draw of sample ``k`` comes from one ``numpy.random.Generator`` seeded with
+``SeedSequence(seed, spawn_key=(k,))``, the k-th child ``SeedSequence(seed).spawn`` would
+give: sample ``k`` is the same whoever draws it, in whatever order. Distributions are drawn in
+the order they appear in the file, ``per: layer`` and ``per: brick`` ones last (they need the
+number of levels and bricks, which may be drawn too).
+
+Source: stackdsl's own (distributions on parameters as in Scenic and OpenSCENARIO).
+"""
+
+from __future__ import annotations
+
+import copy
+import difflib
+import math
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+
+from .errors import FieldPath, ScenarioError, SourceMap
+from .units import in_unit, split_quantity
+
+KINDS = ("uniform", "normal", "choice")
+#: Where a distribution may be drawn more often than once a sample, and how often.
+PER: dict[FieldPath, tuple[str, ...]] = {
+    ("structure", "tower", "shift"): ("layer",),
+    ("structure", "tower", "yaw_jitter"): ("layer", "brick"),
+}
+#: Sections whose values are not the scene's and take no distribution.
+NOT_RANDOM = ("stackdsl", "seed", "sweep", "expect", "name", "description", "allow")
+MAX_CHOICES = 1000
+#: Mappings keyed by names the file chooses, not by fields: their keys are never distributions.
+NAMED = (("materials",), ("brick_types",))
+
+
+@dataclass(frozen=True)
+class Distribution:
+    """One distribution in a scenario file.
+
+    Attributes:
+        path: where it stands (field path; a tower's ``shift`` may have it on one of its parts).
+        kind: ``"uniform"``, ``"normal"`` or ``"choice"``.
+        values: uniform: (low, high); normal: (mean, sd, clip low, clip high) (clip: -inf, inf
+            when not given); all numbers of ``unit``. choice: the items as written.
+        unit: the unit the values are numbers of, as written (``""``: bare numbers).
+        per: ``"sample"``, ``"layer"`` or ``"brick"``.
+    """
+
+    path: FieldPath
+    kind: Literal["uniform", "normal", "choice"]
+    values: tuple[Any, ...]
+    unit: str
+    per: Literal["sample", "layer", "brick"] = "sample"
+
+    def draw(self, rng: np.random.Generator, count: int | None = None) -> Any:
+        """One value as a file would write it (``count`` None) or a list of ``count`` values."""
+        n = 1 if count is None else count
+        if self.kind == "choice":
+            picked = [self.values[i] for i in rng.integers(0, len(self.values), size=n)]
+        else:
+            if self.kind == "uniform":
+                numbers = rng.uniform(self.values[0], self.values[1], size=n)
+            else:
+                mean, sd, low, high = self.values
+                numbers = np.clip(rng.normal(mean, sd, size=n), low, high)
+            picked = [float(x) if not self.unit else f"{float(x)!r} {self.unit}" for x in numbers]
+        return picked[0] if count is None else picked
+
+    @property
+    def label(self) -> str:
+        """The field it draws, as a dotted path (``structure.tower.shift``)."""
+        return ".".join(str(p) for p in self.path)
+
+
+def find(data: Any, source: SourceMap) -> list[Distribution]:
+    """Every distribution in ``data`` (a scenario file as plain data), in file order.
+
+    Raises:
+        ScenarioError: a malformed distribution, one where none may stand (the format version,
+            the seed, ``sweep``, ``expect``...), or a ``per`` its field does not take; at its node.
+    """
+    found: list[Distribution] = []
+    _walk(data, (), source, found)
+    return found
+
+
+def _walk(value: Any, path: FieldPath, source: SourceMap, found: list[Distribution]) -> None:
+    if isinstance(value, dict):
+        if path in NAMED:  # keyed by names the file chooses ("normal" may be a material)
+            for key, item in value.items():
+                _walk(item, path + (key,), source, found)
+            return
+        if any(k in value for k in KINDS):
+            found.append(_parse(value, path, source))
+            return
+        for key in value:  # no field of the language is named like a distribution: a misspelt one
+            near = difflib.get_close_matches(str(key), KINDS, n=1, cutoff=0.75)
+            if near:
+                raise source.error(path + (key,), f"unknown key {key!r}; did you mean the distribution {near[0]!r}?", at_key=True)
+        for key, item in value.items():
+            _walk(item, path + (key,), source, found)
+    elif isinstance(value, list):
+        for i, item in enumerate(value):
+            _walk(item, path + (i,), source, found)
+
+
+def _parse(node: dict[str, Any], path: FieldPath, source: SourceMap) -> Distribution:
+    """One distribution node, checked."""
+    if path and path[0] in NOT_RANDOM:
+        raise source.error(path, f"a distribution cannot stand in '{path[0]}': only the scene's numbers are drawn")
+    kinds = [k for k in KINDS if k in node]
+    unknown = [k for k in node if k not in (*KINDS, "per")]
+    if len(kinds) != 1 or unknown:
+        extra = f"; unknown key {unknown[0]!r}" if unknown else ""
+        raise source.error(
+            path, f"a distribution is one of {{uniform: ...}}, {{normal: ...}}, {{choice: ...}}, with an optional 'per'{extra}"
+        )
+    kind = kinds[0]
+    per = node.get("per", "sample")
+    field = path[:3] if path[:3] in PER else path
+    allowed = ("sample", *PER.get(field, ()))
+    if per not in allowed:
+        where = "a tower's shift (per: layer) and yaw_jitter (per: layer or brick)"
+        raise source.error(
+            path + ("per",), f"'per: {per}' is not allowed here: once a sample is the default; only {where} draw more often"
+        )
+    if per != "sample" and field != path and field != ("structure", "tower", "shift"):
+        raise source.error(path + ("per",), "'per' goes on the whole field")
+    at = path + (kind,)
+    try:
+        if kind == "choice":
+            items = node[kind]
+            if not isinstance(items, list) or not items or len(items) > MAX_CHOICES:
+                raise ValueError(f"expected a list of 1 to {MAX_CHOICES} values to choose from")
+            if any(isinstance(i, (dict, list)) for i in items):
+                raise ValueError("each choice is a number or a quantity such as '12 mm'")
+            return Distribution(path, "choice", tuple(items), "", per)
+        if kind == "uniform":
+            ends = node[kind]
+            if not isinstance(ends, list) or len(ends) != 2:
+                raise ValueError("expected [low, high], such as [90 mm, 100 mm]")
+            unit = split_quantity(ends[0])[1]
+            low, high = (in_unit(v, unit) for v in ends)
+            if low > high:
+                raise ValueError(f"low {ends[0]!r} is above high {ends[1]!r}")
+            return Distribution(path, "uniform", (low, high), unit, per)
+        spec = node[kind]
+        if not isinstance(spec, dict) or not {"mean", "sd"} <= set(spec) or set(spec) - {"mean", "sd", "clip"}:
+            raise ValueError("expected {mean: ..., sd: ...} and an optional clip: [low, high]")
+        unit = split_quantity(spec["mean"])[1]
+        mean = in_unit(spec["mean"], unit)
+        sd = in_unit(spec["sd"], unit)
+        if sd < 0:
+            raise ValueError(f"the standard deviation must be at least 0, not {spec['sd']!r}")
+        low, high = -math.inf, math.inf
+        if "clip" in spec:
+            clip = spec["clip"]
+            if not isinstance(clip, list) or len(clip) != 2:
+                raise ValueError("expected clip: [low, high]")
+            low, high = (in_unit(v, unit) for v in clip)
+            if low > high:
+                raise ValueError(f"clip's low {clip[0]!r} is above its high {clip[1]!r}")
+        return Distribution(path, "normal", (mean, sd, low, high), unit, per)
+    except ValueError as exc:
+        raise source.error(at, str(exc)) from None
+
+
+def sample_seed(seed: int, k: int) -> np.random.SeedSequence:
+    """The seed sequence of sample ``k``: the k-th child of ``SeedSequence(seed)``."""
+    return np.random.SeedSequence(seed, spawn_key=(k,))
+
+
+def draw(data: dict[str, Any], distributions: list[Distribution], seed: int, k: int) -> dict[str, Any]:
+    """Sample ``k`` of a scenario: ``data`` (plain, with distributions) with each one drawn.
+
+    The sample's own ``seed`` (which the compiler's placement error draws from) is taken from
+    the same generator, so every random part of sample ``k`` is the same whoever draws it.
+    """
+    rng = np.random.default_rng(sample_seed(seed, k))
+    out = copy.deepcopy(data)
+    later = []
+    for d in distributions:
+        if d.per == "sample":
+            _put(out, d.path, d.draw(rng))
+        else:
+            later.append(d)
+    tower = out.get("structure", {}).get("tower", {}) if isinstance(out.get("structure"), dict) else {}
+    for d in later:
+        levels, across = _whole(tower.get("levels")), _whole(tower.get("bricks_per_layer", 2))
+        if levels is None or across is None:  # the tower's own validation says what is wrong
+            continue
+        if d.path[:3] == ("structure", "tower", "shift"):
+            if "shifts" not in tower:  # one shift a layer above the first, each a copy of the field
+                shift = tower.pop("shift")
+                tower["shifts"] = [copy.deepcopy(shift) for _ in range(levels - 1)]
+            for i, value in enumerate(d.draw(rng, levels - 1)):
+                if len(d.path) == 3:
+                    tower["shifts"][i] = value
+                else:  # one part of an (x, y) pair
+                    tower["shifts"][i][d.path[3]] = value
+        else:
+            values = d.draw(rng, levels if d.per == "layer" else levels * across)
+            tower["yaw_jitter"] = [v for v in values for _ in range(across)] if d.per == "layer" else values
+    out["seed"] = int(rng.integers(0, 2**63 - 1))
+    return out
+
+
+def _whole(value: Any) -> int | None:
+    return value if isinstance(value, int) and not isinstance(value, bool) and value >= 1 else None
+
+
+def _put(data: Any, path: FieldPath, value: Any) -> None:
+    for key in path[:-1]:
+        data = data[key]
+    data[path[-1]] = value
+
+
+def error_at(source: SourceMap, path: FieldPath, message: str, k: int) -> ScenarioError:
+    """An error found in sample ``k``, at the distribution that drew it."""
+    return source.error(path, f"sample {k}: {message}")

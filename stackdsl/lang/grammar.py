@@ -1,0 +1,99 @@
+"""The grammar shared by the scenario validators and the JSON Schema of scenario files.
+
+The regular expressions here mean the same in Python and in ECMA-262 (the regex dialect of
+JSON Schema and of editors): no ``\\d``, ``\\s`` or named groups. Scalars are read as YAML
+writes them: an integer is ``5`` or ``5.0``, not ``"5"`` or ``true``; a flag is ``true`` or
+``false``, not ``1``.
+
+Source: stackdsl's own.
+
+>>> import re
+>>> re.fullmatch(COLLAPSE, "9 +- 1").groups()
+('9', '1')
+>>> whole(5.0), as_int(True)
+(5, None)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from pydantic import BeforeValidator, GetJsonSchemaHandler, TypeAdapter
+from pydantic.json_schema import JsonSchemaValue
+from pydantic_core import CoreSchema
+
+from .units import WHITESPACE
+
+# Regular expressions shared by the validators and the JSON Schema, written to mean the same in
+# Python and ECMA-262 (see stackdsl.lang.units). The JSON Schema narrows numbers to their ranges.
+SPACE = f"{WHITESPACE}*"
+LEVEL_NUMBER = "0*(?:[1-9][0-9]{0,2}|1000)"  # 1 to MAX_LEVELS
+TOLERANCE_NUMBER = "0*(?:[0-9]{1,3}|1000)"  # 0 to MAX_LEVELS
+COLLAPSE = f"{SPACE}([0-9]+){SPACE}(?:(?:±|\\+-|\\+/-){SPACE}([0-9]+))?{SPACE}"  # "9", "9±1", "9 +- 1", "9 +/- 1"
+LEVEL_RANGE = f"{SPACE}([0-9]+){SPACE}(?:(?:-|\\.\\.){SPACE}([0-9]+))?{SPACE}"  # "5", "1-11", "1..11"
+AFTER_LEVEL = f"{SPACE}after{WHITESPACE}+level{WHITESPACE}+([0-9]+){SPACE}"  # "after level 13"
+_DECIMAL = "([0-9]+(?:\\.[0-9]*)?)"
+PLUS_MINUS = f"{SPACE}{_DECIMAL}{SPACE}(?:±|\\+-|\\+/-){SPACE}{_DECIMAL}{SPACE}"  # "7 ± 0.5", "7 +- 0.5"
+BOUND = f"{SPACE}(>=|<=|>|<){SPACE}([0-9]*\\.?[0-9]+){SPACE}"  # ">= 0.9"
+
+
+def json_pattern(regex: str, *numbers: str) -> str:
+    """``regex`` anchored, its groups ``([0-9]+)`` narrowed to ``numbers`` in order."""
+    first, *rest = regex.split("([0-9]+)")
+    return "^" + first + "".join(f"(?:{number}){part}" for number, part in zip(numbers, rest, strict=True)) + "$"
+
+
+def whole(value: Any) -> Any:
+    """An integer as YAML writes it, ``5`` or ``5.0``; not ``"5"`` or ``true``."""
+    if isinstance(value, (bool, str)):
+        raise ValueError(f"expected a valid integer, not {'true or false' if isinstance(value, bool) else 'text'}, got {value!r}")
+    if isinstance(value, float) and value.is_integer():
+        return int(value)
+    return value
+
+
+def as_int(value: Any) -> int | None:
+    """``value`` as an int if it is an integer (``5`` or ``5.0``, not ``true``), else None."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return None
+    if isinstance(value, float):
+        return int(value) if value.is_integer() else None
+    return value
+
+
+# An integer field: Annotated[int, Field(ge=..., le=...), WHOLE], the bounds before WHOLE so that they reach the
+# JSON Schema ({"type": "integer"}, which takes 5.0 too).
+WHOLE = BeforeValidator(whole)
+
+
+@dataclass(frozen=True, eq=False)
+class AlsoAccepts:
+    """JSON Schema of a type whose BeforeValidator takes more than the type: the type's own schema,
+    or any of ``forms`` (JSON Schemas, or types whose schema pydantic derives)."""
+
+    forms: tuple[Any, ...]
+    description: str
+
+    def __get_pydantic_json_schema__(self, core_schema: CoreSchema, handler: GetJsonSchemaHandler) -> JsonSchemaValue:
+        own = handler(core_schema)
+        branches = own["anyOf"] if set(own) == {"anyOf"} else [own]
+        forms = [form if isinstance(form, dict) else TypeAdapter(form).json_schema() for form in self.forms]
+        return {"anyOf": [*branches, *forms], "description": self.description}
+
+
+def given(*names: str) -> dict[str, Any]:
+    """JSON Schema: the fields ``names`` are present and not null."""
+    return {"required": list(names), "properties": {name: {"not": {"type": "null"}} for name in names}}
+
+
+def absent(*names: str) -> dict[str, Any]:
+    """JSON Schema: the fields ``names`` are absent or null."""
+    return {"properties": {name: {"type": "null"} for name in names}}
+
+
+def flag(value: Any) -> Any:
+    """``true`` or ``false`` only (pydantic's lax mode would take 1 for true)."""
+    if not isinstance(value, bool):
+        raise ValueError(f"expected true or false, got {value!r}")
+    return value

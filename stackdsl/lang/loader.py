@@ -1,0 +1,246 @@
+"""YAML -> :class:`Scenario`, with errors at ``file:line:col``.
+
+The file's text is read by :mod:`stackdsl.lang.scenario_file` (a regular file of at most 1 MiB,
+never a FIFO, device or socket; UTF-8; only the characters YAML allows), then composed with
+PyYAML's safe loader into nodes (no object construction), turned into plain data while a side
+table records each field's position, and validated with pydantic; every error is mapped back
+to the nearest YAML node.
+
+Hostile input fails fast and cleanly: duplicate keys, merge keys, recursive aliases and
+tags other than the plain ones (str, int, float, bool, null, seq, map) are refused;
+nesting is bounded by :data:`MAX_DEPTH` and the values a file expands to (aliases) by
+:data:`MAX_NODES`; a scalar PyYAML cannot convert (``!!int abc``) is an error at that node.
+Dates (``2024-01-01``) and ``=`` stay strings: the language has no use for YAML 1.1's
+timestamp and value types.
+
+Source: stackdsl's own (errors at file:line:col), after Tavern.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import Any
+
+import yaml
+from yaml.events import AliasEvent, MappingStartEvent, SequenceStartEvent
+from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
+
+from .errors import FieldPath, ScenarioError, SourceMap
+from .sampling import Template
+from .scenario_file import character_name, check_characters, file_problem, read_text
+from .schema import Scenario
+from .validate import raised_in_library, validate
+from .validation_errors import shown
+
+MAX_NODES = 200_000  # values a file may expand to, counting each alias's copy
+MAX_DEPTH = 64  # lists and mappings nested in one another; scenarios need fewer than 10
+# Characters in an integer literal: enough for any integer a double holds, even written in
+# binary (0b + 1024 digits); longer ones are refused before PyYAML converts them (Python
+# refuses decimal strings of over 4300 digits, and 1:2:3... sexagesimal costs quadratic time).
+MAX_INTEGER_CHARS = 1100
+
+_YAML = "tag:yaml.org,2002:"
+_SCALAR_TAGS = {f"{_YAML}{t}": t for t in ("str", "int", "float", "bool", "null")}
+_READ_AS = {"int": " (an integer)", "float": " (a number)", "bool": " (true or false)"}
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a scenario file.
+
+    Only a regular file (or a symbolic link to one) of at most
+    :data:`stackdsl.lang.scenario_file.MAX_FILE_BYTES` is read; anything else is refused before
+    it is opened.
+
+    Raises:
+        ScenarioError: the file is missing, not a regular file, too large, not UTF-8, not
+            valid YAML, or not a valid scenario; the error names file, line, column and field.
+    """
+    path = Path(path)
+    problem = file_problem(path)
+    if problem:
+        raise ScenarioError(problem, file=str(path))
+    return parse_scenario(read_text(path), file=str(path))
+
+
+def parse_scenario(text: str, file: str = "<scenario>") -> Scenario:
+    """Validate scenario YAML given as text; ``file`` names it in errors.
+
+    Raises:
+        ScenarioError: as :func:`load_scenario`.
+
+    >>> parse_scenario("stackdsl: 1\\nstructure: {tower: {levels: 3}}", "t.yaml").structure.tower.levels
+    3
+    >>> parse_scenario("stackdsl: 1\\nstructure: {tower: {levles: 3}}", "t.yaml")
+    Traceback (most recent call last):
+    ...
+    stackdsl.lang.errors.ScenarioError: t.yaml:2:21: structure.tower.levles: unknown key 'levles'; did you mean 'levels'?
+        structure: {tower: {levles: 3}}
+                            ^
+    """
+    text = text.removeprefix("\ufeff")
+    check_characters(text, file)
+    source = SourceMap(file, tuple(text.splitlines()))
+    data = _read_yaml(text, source)
+    template = Template.of(data, source)
+    if template is not None:
+        return template.scenario(0, 0, checked=True)
+    return validate(data, source)
+
+
+class _Loader(yaml.SafeLoader):
+    """PyYAML's safe loader without YAML 1.1's timestamp, value and merge types, that
+    refuses recursive aliases and nesting deeper than :data:`MAX_DEPTH` while composing."""
+
+    yaml_implicit_resolvers = {  # noqa: RUF012 (PyYAML's own class attribute, read only)
+        first: [(tag, regexp) for tag, regexp in resolvers if tag in _SCALAR_TAGS]
+        for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
+    }
+
+    def __init__(self, text: str, source: SourceMap) -> None:
+        super().__init__(text)
+        self.source = source
+        self.depth = 0
+        self.open_anchors: set[str] = set()
+
+    def compose_node(self, parent: Node | None, index: Any) -> Node | None:
+        event = self.peek_event()
+        if isinstance(event, AliasEvent) and event.anchor in self.open_anchors:
+            raise self.error(event.start_mark, f"the alias *{event.anchor} is inside the node it names (a recursive alias)")
+        if not isinstance(event, (SequenceStartEvent, MappingStartEvent)):
+            return super().compose_node(parent, index)
+        if self.depth >= MAX_DEPTH:
+            raise self.error(event.start_mark, f"lists and mappings are nested more than {MAX_DEPTH} levels deep")
+        anchor = event.anchor
+        self.depth += 1
+        if anchor is not None:
+            self.open_anchors.add(anchor)
+        try:
+            return super().compose_node(parent, index)
+        finally:
+            self.depth -= 1
+            if anchor is not None:
+                self.open_anchors.discard(anchor)
+
+    def error(self, mark: Any, message: str) -> ScenarioError:
+        """A :class:`ScenarioError` at ``mark`` (a PyYAML ``Mark``, or None)."""
+        if mark is None:
+            return ScenarioError(message, file=self.source.file)
+        lines = self.source.lines
+        return ScenarioError(
+            message,
+            file=self.source.file,
+            line=mark.line + 1,
+            column=mark.column + 1,
+            source_line=lines[mark.line] if mark.line < len(lines) else "",
+        )
+
+
+def _read_yaml(text: str, source: SourceMap) -> Any:
+    loader = None
+    try:
+        loader = _Loader(text, source)
+        node = loader.get_single_node()
+        if node is None:
+            raise ScenarioError("the file is empty; a scenario starts with 'stackdsl: 1'", file=source.file)
+        return _plain(node, (), loader, source, [MAX_NODES], 1)
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        line = mark.line if mark else None
+        raise ScenarioError(
+            f"not valid YAML: {exc.problem or exc.context or exc}",
+            file=source.file,
+            line=None if line is None else line + 1,
+            column=None if mark is None else mark.column + 1,
+            source_line=source.lines[line] if line is not None and line < len(source.lines) else "",
+        ) from None
+    except yaml.YAMLError as exc:
+        raise ScenarioError(f"not valid YAML: {exc}", file=source.file) from None
+    except ScenarioError:
+        raise
+    except Exception as exc:
+        if loader is None or not raised_in_library(exc):
+            raise  # a bug of ours: not to be dressed up as the user's error
+        # PyYAML failed without a YAML error (e.g. "\U0011ffff", beyond Unicode): where it was reading
+        where = loader.get_mark()
+        raise loader.error(where, f"not valid YAML: {type(exc).__name__}: {exc}") from None
+    finally:
+        if loader is not None:
+            loader.dispose()
+
+
+def _plain(node: Node, path: FieldPath, loader: _Loader, source: SourceMap, budget: list[int], depth: int) -> Any:
+    """Plain Python data for ``node`` (at nesting ``depth``), recording positions in ``source``."""
+    budget[0] -= 1
+    if budget[0] < 0:
+        raise source.error(path, f"the file expands to more than {MAX_NODES} values (aliases?)")
+    source.values[path] = (node.start_mark.line, node.start_mark.column)
+    if isinstance(node, ScalarNode):
+        return _scalar(node, path, loader, source)
+    kind, tag = ("mapping", "map") if isinstance(node, MappingNode) else ("list", "seq")
+    if node.tag != _YAML + tag:
+        raise source.error(path, _tag_problem(node.tag, kind))
+    if depth > MAX_DEPTH:  # only through aliases: composing bounds the written nesting
+        raise source.error(path, f"lists and mappings are nested more than {MAX_DEPTH} levels deep (through aliases)")
+    if isinstance(node, SequenceNode):
+        return [_plain(item, path + (i,), loader, source, budget, depth + 1) for i, item in enumerate(node.value)]
+    out: dict[str, Any] = {}
+    for key_node, value_node in node.value:
+        where = (key_node.start_mark.line, key_node.start_mark.column)
+        if not isinstance(key_node, ScalarNode):
+            shown = "a mapping" if isinstance(key_node, MappingNode) else "a list"
+            source.values[path + ("?",)] = where
+            raise source.error(path + ("?",), f"keys must be names, got {shown}")
+        source.values[path + (key_node.value,)] = where
+        key = _scalar(key_node, path + (key_node.value,), loader, source)
+        if key == "<<":
+            raise source.error(path + ("<<",), "merge keys ('<<') are not supported; write the fields out")
+        if not isinstance(key, str):
+            source.values[path + (str(key),)] = where
+            raise source.error(path + (str(key),), f"keys must be names, got {key!r} (quote it if it is meant as a name)")
+        if key in out:
+            source.values[path + (key,)] = where
+            raise source.error(path + (key,), f"duplicate key {key!r}")
+        source.keys[path + (key,)] = where
+        out[key] = _plain(value_node, path + (key,), loader, source, budget, depth + 1)
+    return out
+
+
+def _scalar(node: ScalarNode, path: FieldPath, loader: _Loader, source: SourceMap) -> Any:
+    """The value of a plain-typed scalar; any failure of PyYAML's converters is an error here."""
+    name = _SCALAR_TAGS.get(node.tag)
+    if name is None:
+        raise source.error(path, _tag_problem(node.tag, "scalar value"))
+    if name == "int" and len(node.value.replace("_", "")) > MAX_INTEGER_CHARS:
+        digits = len(node.value.replace("_", ""))
+        raise source.error(path, f"an integer written with {digits} digits is too large; a number must fit in a double")
+    surprise = _yaml11_number(node.value) if name in ("int", "float") else None
+    if surprise:
+        raise source.error(path, surprise)
+    try:
+        value = loader.construct_object(node, deep=True)
+    except Exception:  # only PyYAML's converters run here, on a node of a known tag
+        raise source.error(path, f"cannot read {shown(node.value, 40)} as !!{name}{_READ_AS.get(name, '')}") from None
+    bad = yaml.reader.Reader.NON_PRINTABLE.search(value) if isinstance(value, str) else None
+    if bad:  # the file's own characters were checked: this one was written as an escape ("\e")
+        raise source.error(path, f"{character_name(bad.group())}, written as an escape, is not allowed in a value")
+    return value
+
+
+def _yaml11_number(text: str) -> str | None:
+    """Why a number written as ``text`` is refused: YAML 1.1 reads ``1:30`` as base 60 (90)
+    and ``010`` as octal (8), which no one writing a scenario means; None when it is plain."""
+    digits = text.replace("_", "")
+    if ":" in digits:
+        return f"{text} is a base-60 number in YAML 1.1 (1:30 is 90); write the number itself, or quote it"
+    if re.fullmatch(r"[-+]?0[0-7]+", digits):
+        return f"{text} is an octal number in YAML 1.1 ({text.lstrip('+-')} is {int(digits.lstrip('+-'), 8)}); write it without the leading 0"
+    return None
+
+
+def _tag_problem(tag: str, kind: str) -> str:
+    """Why a node with YAML tag ``tag`` is refused (``kind``: scalar value, list, mapping)."""
+    shown = "!!" + tag.removeprefix(_YAML) if tag.startswith(_YAML) else tag
+    if tag in _SCALAR_TAGS or tag in (_YAML + "seq", _YAML + "map"):
+        return f"the YAML tag {shown} does not fit a {kind}"
+    return f"the YAML tag {shown} is not supported; a scenario holds only strings, numbers, true/false, null, lists and mappings"

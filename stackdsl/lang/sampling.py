@@ -1,0 +1,260 @@
+"""A scenario with random fields or a sweep: the file as a template, and its samples.
+
+A :class:`Template` keeps a scenario file as read (plain data, its distributions in place,
+see :mod:`stackdsl.lang.distributions`) with its ``sweep``: ``samples`` draws for each cell of
+``grid`` (field paths, each with a list of values, run as their product). Sample ``k`` of
+cell ``c`` is the file with the cell's values put in and every distribution drawn from the
+k-th child of the file's seed (the same in every cell: cells are compared on the same draws),
+validated as a file is. An error in a sample is reported at the distribution or the grid value
+that put the wrong value there.
+
+>>> t = Template.of({"stackdsl": 1, "structure": {"tower": {"levels": {"choice": [2, 3]}}},
+...                  "sweep": {"samples": 4, "grid": {"timing.interval": [0.5, 1]}}}, SourceMap("t.yaml"))
+>>> t.cells, t.samples, [t.scenario(1, k).structure.tower.levels for k in range(8)]
+(2, 4, [3, 3, 3, 3, 2, 2, 2, 3])
+>>> t.parameters(1, 4)
+{'timing.interval': 1, 'structure.tower.levels': 2}
+
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import copy
+import itertools
+from dataclasses import dataclass
+from typing import Any
+
+from .distributions import Distribution, draw, find
+from .errors import FieldPath, ScenarioError, SourceMap
+from .schema import Scenario
+from .units import in_unit, split_quantity
+from .validate import validate
+
+#: Fields the concrete form of a tower's per-layer and per-brick draws lands in, and the field written.
+_DRAWN_INTO = {("structure", "tower", "shifts"): ("structure", "tower", "shift")}
+
+
+@dataclass(frozen=True)
+class Template:
+    """A scenario file with random fields or a sweep (see the module docstring).
+
+    Attributes:
+        data: the file as plain data, distributions in place.
+        source: where each field came from.
+        distributions: in file order.
+        grid: (field path, the key as written, its values) for each grid field.
+        samples: draws a cell; seed: the file's seed.
+    """
+
+    data: dict[str, Any]
+    source: SourceMap
+    distributions: tuple[Distribution, ...]
+    grid: tuple[tuple[FieldPath, str, tuple[Any, ...]], ...]
+    samples: int
+    seed: int
+
+    @classmethod
+    def of(cls, data: Any, source: SourceMap) -> Template | None:
+        """The template of a file's plain ``data``, or None when it has neither random fields nor
+        a sweep (it is then one scenario, validated as usual).
+
+        Raises:
+            ScenarioError: a malformed distribution, sweep or grid field, at its node.
+        """
+        if not isinstance(data, dict):
+            return None
+        distributions = find(data, source)
+        if not distributions and "sweep" not in data:
+            return None
+        plain = dict(data)
+        sweep = data.get("sweep")
+        samples: int = 1
+        grid: tuple[tuple[FieldPath, str, tuple[Any, ...]], ...] = ()
+        if sweep is not None:
+            checked = validate({"stackdsl": 1, "structure": {"tower": {"levels": 1}}, "sweep": sweep}, source)
+            assert checked.sweep is not None
+            samples = checked.sweep.samples
+            grid = tuple(_grid_field(key, values, source) for key, values in checked.sweep.grid.items())
+        for into, written in _DRAWN_INTO.items():  # errors at a tower's drawn shifts point at its 'shift'
+            if written in source.values and any(d.path[:3] == written and d.per != "sample" for d in distributions):
+                source.values[into] = source.values[written]
+                source.keys[into] = source.keys.get(written, source.values[written])
+        seed = plain.get("seed", 0)
+        seed = seed if isinstance(seed, int) and not isinstance(seed, bool) and seed >= 0 else 0
+        return cls(plain, source, tuple(distributions), grid, samples, seed)
+
+    @property
+    def cells(self) -> int:
+        """How many combinations of grid values (1 without a grid)."""
+        count = 1
+        for _, _, values in self.grid:
+            count *= len(values)
+        return count
+
+    def cell(self, c: int) -> dict[str, Any]:
+        """The grid values of cell ``c`` (key as written -> value as written), cells in the
+        order of ``itertools.product`` over the grid fields in file order.
+
+        Raises:
+            IndexError: no such cell.
+        """
+        if not 0 <= c < self.cells:
+            raise IndexError(f"cell {c} of {self.cells}")
+        combination = list(itertools.product(*(values for _, _, values in self.grid)))[c]
+        return {key: value for (_, key, _), value in zip(self.grid, combination)}
+
+    def _data(self, c: int, k: int) -> dict[str, Any]:
+        """Cell ``c``'s sample ``k`` as plain data: grid values put in, distributions drawn."""
+        data = copy.deepcopy(self.data)
+        values = self.cell(c)
+        for path, key, _ in self.grid:
+            _put(data, path, values[key])
+        grid_paths = [path for path, _, _ in self.grid]
+        drawn = [d for d in self.distributions if not any(d.path[: len(p)] == p for p in grid_paths)]
+        return draw(data, drawn, self.seed, k)
+
+    def scenario(self, c: int, k: int, *, checked: bool = False) -> Scenario:
+        """The validated scenario of cell ``c``'s sample ``k``; with ``checked``, every value each
+        distribution and grid field can give is validated first (the file's own check).
+
+        Raises:
+            ScenarioError: a sample or a value is refused by its field, at the distribution or
+                grid value that gave it; an unknown grid cell.
+        """
+
+        if checked:
+            self._check_values()
+        note = f"sample {k}" + (f" of grid cell {c} ({_shown(self.cell(c))})" if self.grid else "")
+        scenario = validate(self._data(c, k), self.source, self._blame(c), note)
+        scenario._template = self
+        scenario._sample = (c, k)
+        return scenario
+
+    def parameters(self, c: int, k: int) -> dict[str, Any]:
+        """What cell ``c``'s sample ``k`` drew and took from the grid: field -> value, each a
+        number of the unit its distribution or grid field is written in (a list for a tower's
+        per-layer or per-brick draws)."""
+        data = self._data(c, k)
+        out: dict[str, Any] = dict(self.cell(c))
+        grid_paths = [path for path, _, _ in self.grid]
+        for d in self.distributions:
+            if any(d.path[: len(p)] == p for p in grid_paths):
+                continue
+            if d.per == "sample":
+                out[d.label] = _number(_get(data, d.path), d.unit)
+            elif d.path[:3] == ("structure", "tower", "shift"):
+                part = d.path[3:]
+                out[d.label] = [
+                    _number(_get(s, part) if part else s, d.unit) for s in _get(data, ("structure", "tower", "shifts"))
+                ]
+            else:
+                out[d.label] = [_number(v, d.unit) for v in _get(data, d.path)]
+        return out
+
+    def _check_values(self) -> None:
+        """Every grid value, and each end of every distribution (both ends of a uniform, every
+        choice, a normal's clip), validated with the other fields at sample 0 of cell 0."""
+
+        for path, key, values in self.grid:
+            for i, value in enumerate(values):
+                data = self._data(0, 0)
+                _put(data, path, value)
+                validate(
+                    data,
+                    self.source,
+                    _at_grid(path, key, i),
+                    f"the grid value {value!r}",
+                )
+        for d in self.distributions:
+            for end in _ends(d):
+                fixed = Distribution(d.path, "choice", (end,), "", d.per)
+                others = [x if x is not d else fixed for x in self.distributions]
+                data = draw(copy.deepcopy(self.data), others, self.seed, 0)
+                validate(data, self.source, self._blame(0, only=d), f"a value this distribution can draw, {end!r}")
+
+    def _blame(self, c: int, only: Distribution | None = None) -> Any:
+        """``relocate`` for :func:`stackdsl.lang.validate.validate`: a field a distribution (or the grid)
+        filled in -> the distribution's (or grid value's) node."""
+        values = self.cell(c) if self.grid else {}
+        index = {key: list(vs).index(values[key]) if key in values else 0 for _, key, vs in self.grid}
+        distributions = [only] if only is not None else list(self.distributions)
+
+        def relocate(loc: FieldPath) -> FieldPath | None:
+            for path, key, _ in self.grid:
+                if loc[: len(path)] == path:
+                    return ("sweep", "grid", key, index[key])
+            loc = next((written + loc[len(into) + 1 :] for into, written in _DRAWN_INTO.items() if loc[: len(into)] == into), loc)
+            for d in distributions:
+                if loc[: len(d.path)] == d.path or (d.path[: len(loc)] == loc and d.per != "sample"):
+                    return d.path
+            return None
+
+        return relocate
+
+
+def _at_grid(path: FieldPath, key: str, i: int) -> Any:
+    """``relocate``: a field under ``path`` -> the grid's value ``i`` of ``key``."""
+
+    def relocate(loc: FieldPath) -> FieldPath | None:
+        return ("sweep", "grid", key, i) if loc[: len(path)] == path else None
+
+    return relocate
+
+
+def _ends(d: Distribution) -> list[Any]:
+    """The values of ``d`` that bound what it can draw, as a file would write them."""
+    if d.kind == "choice":
+        return list(d.values)
+    numbers = d.values[:2] if d.kind == "uniform" else [v for v in d.values[2:] if abs(v) != float("inf")] or [d.values[0]]
+    return [float(n) if not d.unit else f"{float(n)!r} {d.unit}" for n in numbers]
+
+
+def _grid_field(key: str, values: list[Any], source: SourceMap) -> tuple[FieldPath, str, tuple[Any, ...]]:
+    """A grid key (``timing.placement_error``, ``structure.bricks.1.at.0``) as a field path."""
+    from .validation_errors import fields_at
+
+    path: FieldPath = tuple(int(part) if part.isdigit() else part for part in key.split("."))
+    for i, part in enumerate(path):
+        allowed = fields_at(path[:i]) if isinstance(part, str) else []
+        if allowed and part not in allowed:
+            raise source.error(
+                ("sweep", "grid", key),
+                f"the grid names {key!r}, but {'.'.join(map(str, path[:i])) or 'a scenario'} has no field {part!r}; it has: {', '.join(allowed)}",
+                at_key=True,
+            )
+        if path[0] in ("stackdsl", "sweep", "expect", "seed"):
+            raise source.error(("sweep", "grid", key), f"the grid varies the scene: {key!r} is not part of it", at_key=True)
+    return path, key, tuple(values)
+
+
+def _put(data: Any, path: FieldPath, value: Any) -> None:
+    for key in path[:-1]:
+        if isinstance(key, str) and isinstance(data, dict):
+            data = data.setdefault(key, {})
+        else:
+            data = data[key]
+    data[path[-1]] = value
+
+
+def _get(data: Any, path: FieldPath) -> Any:
+    for key in path:
+        data = data[key]
+    return data
+
+
+def _number(value: Any, unit: str) -> Any:
+    """A drawn value as a number of ``unit`` (as written when it is not a number)."""
+    if not unit and isinstance(value, (int, float)) and not isinstance(value, bool):
+        return value
+    try:
+        return in_unit(value, unit) if unit else split_quantity(value)[0]
+    except ValueError:
+        return value
+
+
+def _shown(values: dict[str, Any]) -> str:
+    return ", ".join(f"{k} = {v}" for k, v in values.items())
+
+
+__all__ = ["ScenarioError", "Template"]

@@ -1,0 +1,45 @@
+"""The scenario language's sweeps: many runs of one scenario, its random fields drawn per
+sample over a grid of field values, as a pydantic model of :mod:`stackdsl.lang.schema`.
+
+Source: stackdsl's own (docs/design.md, words).
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any
+
+from pydantic import Field, model_validator
+
+from .bounds import StrictModel
+from .grammar import WHOLE
+
+MAX_SAMPLES = 100_000
+MAX_CELLS = 1000
+MAX_SWEEP_RUNS = 200_000
+
+
+class Sweep(StrictModel):
+    """Many runs of one scenario: ``samples`` draws of its random fields (sample k seeded by the
+    k-th child of the scenario's seed), for each cell of ``grid``: field paths (``timing.placement_error``)
+    each with a list of values, run as their product; every cell's sample k has the same seed."""
+
+    samples: Annotated[int, Field(ge=1, le=MAX_SAMPLES), WHOLE] = 1
+    grid: Annotated[dict[str, Annotated[list[Any], Field(min_length=1, max_length=100)]], Field(max_length=4)] = {}
+
+    @property
+    def cells(self) -> int:
+        """How many parameter combinations the grid makes (1 without a grid)."""
+        count = 1
+        for values in self.grid.values():
+            count *= len(values)
+        return count
+
+    @model_validator(mode="after")
+    def _bounded(self) -> Sweep:
+        if self.cells > MAX_CELLS:
+            raise ValueError(f"the grid makes {self.cells} cells; at most {MAX_CELLS}")
+        if self.cells * self.samples > MAX_SWEEP_RUNS:
+            raise ValueError(
+                f"{self.cells} cells x {self.samples} samples is {self.cells * self.samples} runs; at most {MAX_SWEEP_RUNS}"
+            )
+        return self

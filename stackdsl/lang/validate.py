@@ -1,0 +1,63 @@
+"""Plain data read from YAML to a validated :class:`~stackdsl.lang.schema.Scenario`, the first
+problem as one :class:`~stackdsl.lang.errors.ScenarioError` at its node.
+
+Source: stackdsl's own (errors at file:line:col), after Tavern.
+"""
+
+from __future__ import annotations
+
+import os
+import typing
+from pathlib import Path
+from typing import Any
+
+import pydantic
+import pydantic_core
+import yaml
+from pydantic import ValidationError
+
+from .errors import FieldPath, ScenarioError, SourceMap
+from .schema import Scenario
+from .validation_errors import first_error, reference_errors
+
+#: Where PyYAML and pydantic live: an exception raised there is the input's, not a bug of ours.
+LIBRARIES = tuple(str(Path(m.__file__).parent) + os.sep for m in (yaml, pydantic, pydantic_core) if m.__file__)
+
+
+def validate(
+    data: Any, source: SourceMap, relocate: typing.Callable[[FieldPath], FieldPath | None] | None = None, note: str = ""
+) -> Scenario:
+    """A :class:`Scenario` from plain ``data`` read from ``source``.
+
+    Args:
+        relocate: gives, for a field path, the node to blame instead (a distribution or a grid
+            value that put the value there), or None to keep it.
+        note: put before the message of an error at a relocated field ("sample 3 draws 61 mm").
+
+    Raises:
+        ScenarioError: the first problem, at its node.
+    """
+    try:
+        scenario = Scenario.model_validate(data)
+    except ValidationError as exc:
+        raise first_error(exc, source, relocate, note) from None
+    except Exception as exc:
+        if not raised_in_library(exc):
+            raise  # a bug of ours (a validator): not to be dressed up as the user's error
+        raise ScenarioError(f"cannot validate this file ({type(exc).__name__} in pydantic: {exc})", file=source.file) from None
+    problems = reference_errors(scenario)
+    if problems:
+        path, message = problems[0]
+        raise source.error(path, message, more=len(problems) - 1)
+    if scenario.name is None:
+        scenario = scenario.model_copy(update={"name": Path(source.file).stem})
+    scenario._source = source
+    return scenario
+
+
+def raised_in_library(exc: BaseException) -> bool:
+    """Whether ``exc`` was raised inside PyYAML or pydantic (not in stackdsl's own code)."""
+    tb = exc.__traceback__
+    while tb is not None and tb.tb_next is not None:
+        tb = tb.tb_next
+    return tb is not None and tb.tb_frame.f_code.co_filename.startswith(LIBRARIES)

@@ -1,0 +1,166 @@
+"""pydantic's validation errors as one :class:`ScenarioError` at the YAML node, and the
+references the schema cannot check (names of brick types and materials, brick ids).
+
+Unknown keys come first (with the closest allowed key), then the rest in file order; a
+discriminated union's tag, which pydantic puts in an error's location, is taken out so the
+location is the field as written.
+
+Source: stackdsl's own (errors at file:line:col), after Tavern.
+"""
+
+from __future__ import annotations
+
+import difflib
+import types
+import typing
+from typing import Any
+
+from pydantic import BaseModel, ValidationError
+from pydantic_core import ErrorDetails
+
+from .bounds import MAX_BRICKS
+from .errors import FieldPath, ScenarioError, SourceMap
+from .expectations import CollapseLevel, CollapseStatistic
+from .schema import BUILTIN_BRICKS, BUILTIN_MATERIALS, Scenario
+
+
+def first_error(
+    exc: ValidationError,
+    source: SourceMap,
+    relocate: typing.Callable[[FieldPath], FieldPath | None] | None = None,
+    note: str = "",
+) -> ScenarioError:
+    """The first of pydantic's errors as a ScenarioError: unknown keys first, then by position
+    (an error at a field that ``relocate`` moves is placed at the node it gives, after ``note``)."""
+    error = _first_error_here(exc, source)
+    if relocate is None:
+        return error
+    for err in exc.errors(include_url=False):
+        moved = relocate(_untagged(tuple(err["loc"])))
+        if moved is not None:
+            message = err["msg"].removeprefix("Value error, ")
+            return source.error(moved, f"{note}: {message}" if note else message)
+    return error
+
+
+def _first_error_here(exc: ValidationError, source: SourceMap) -> ScenarioError:
+    """The first of pydantic's errors as a ScenarioError: unknown keys first, then by position."""
+    errors = exc.errors(include_url=False)
+    typo_parents = {tuple(e["loc"][:-1]) for e in errors if e["type"] == "extra_forbidden"}
+    errors = [e for e in errors if not (e["type"] == "missing" and tuple(e["loc"][:-1]) in typo_parents)]
+
+    def order(err: ErrorDetails) -> tuple[bool, int, int]:
+        # An unknown key usually is a typo of a missing one: report it first.
+        where = source.error(err["loc"], "")
+        return err["type"] != "extra_forbidden", where.line or 0, where.column or 0
+
+    errors.sort(key=order)
+    err = errors[0]
+    tagged = tuple(err["loc"])
+    loc = _untagged(tagged)
+    if err["type"] == "extra_forbidden":
+        key = str(loc[-1])
+        message = f"unknown key {key!r}"
+        allowed = fields_at(tagged[:-1])
+        close = difflib.get_close_matches(key, allowed, n=1)
+        message += f"; did you mean {close[0]!r}?" if close else f"; allowed: {', '.join(allowed)}"
+        return source.error(loc, message, at_key=True, more=len(errors) - 1)
+    if err["type"] == "missing":
+        message = "required field is missing"
+        if loc == ("stackdsl",):
+            message += "; a scenario file starts with 'stackdsl: 1' (the format version)"
+        return source.error(loc, message, more=len(errors) - 1)
+    if not loc:
+        return source.error(loc, "a scenario file is a mapping of fields, starting with 'stackdsl: 1'")
+    message = err["msg"].removeprefix("Value error, ")
+    if "input" in err and err["type"] not in ("value_error",) and not isinstance(err["input"], (dict, list)):
+        message += f", got {shown(err['input'])}"
+    return source.error(loc, message, more=len(errors) - 1)
+
+
+def shown(value: Any, limit: int = 60) -> str:
+    """``repr(value)``, cut to about ``limit`` characters."""
+    text = repr(value)
+    return text if len(text) <= limit else f"{text[:limit]}… ({len(text)} characters)"
+
+
+#: Discriminated unions of the schema: where they stand, and each tag's model. pydantic puts the
+#: tag in an error's location (``expect.collapse.statistic.mean``); the file has no node for it.
+_TAGGED: dict[FieldPath, dict[str, type[BaseModel]]] = {
+    ("expect", "collapse"): {"level": CollapseLevel, "statistic": CollapseStatistic},
+}
+
+
+def _untagged(loc: FieldPath) -> FieldPath:
+    """A pydantic location without the tags of :data:`_TAGGED` unions: the field as written."""
+    for where, tags in _TAGGED.items():
+        n = len(where)
+        if loc[:n] == where and len(loc) > n and loc[n] in tags:
+            return loc[:n] + loc[n + 1 :]
+    return loc
+
+
+def fields_at(loc: FieldPath) -> list[str]:
+    """Field names of the model that ``loc`` (a pydantic location, tags included) leads to."""
+    model: Any = Scenario
+    for i, seg in enumerate(loc):
+        tags = _TAGGED.get(tuple(loc[:i]), {})
+        if isinstance(seg, str) and seg in tags:
+            model = tags[seg]
+            continue
+        if not (isinstance(model, type) and issubclass(model, BaseModel)) or seg not in model.model_fields:
+            continue
+        annotation: Any = model.model_fields[seg].annotation
+        model = _model_in(annotation, loc)
+    return sorted(model.model_fields) if isinstance(model, type) and issubclass(model, BaseModel) else []
+
+
+def _model_in(annotation: Any, loc: FieldPath) -> Any:
+    """The pydantic model inside ``annotation`` (through Optional, list, dict, Annotated)."""
+    origin = typing.get_origin(annotation)
+    if origin is typing.Annotated:
+        return _model_in(typing.get_args(annotation)[0], loc)
+    if origin in (typing.Union, types.UnionType, list, dict, tuple):
+        for arg in typing.get_args(annotation):
+            found = _model_in(arg, loc)
+            if isinstance(found, type) and issubclass(found, BaseModel):
+                return found
+        return None
+    return annotation
+
+
+def reference_errors(s: Scenario) -> list[tuple[tuple, str]]:
+    """Names that point nowhere: (field path, message) for each, in file order."""
+    bricks = {**BUILTIN_BRICKS, **s.brick_types}
+    materials = {**BUILTIN_MATERIALS, **s.materials}
+    problems: list[tuple[tuple, str]] = []
+
+    def brick(path: tuple, name: str) -> None:
+        if name not in bricks:
+            problems.append((path, f"unknown brick type {name!r}; known: {', '.join(sorted(bricks))}"))
+
+    for name, bt in s.brick_types.items():
+        if bt.material not in materials:
+            problems.append(
+                (("brick_types", name, "material"), f"unknown material {bt.material!r}; known: {', '.join(sorted(materials))}")
+            )
+    if s.ground.material not in materials:
+        problems.append(
+            (("ground", "material"), f"unknown material {s.ground.material!r}; known: {', '.join(sorted(materials))}")
+        )
+    if s.structure.tower:
+        brick(("structure", "tower", "brick"), s.structure.tower.brick)
+    if s.structure.card_house:
+        brick(("structure", "card_house", "brick"), s.structure.card_house.brick)
+    for i, b in enumerate(s.structure.bricks or []):
+        brick(("structure", "bricks", i, "brick"), b.brick)
+    ids = [b.id for b in s.structure.bricks or [] if b.id] + [imp.id for imp in s.impacts if imp.id]
+    for i, b in enumerate(s.structure.bricks or []):
+        if b.id and ids.count(b.id) > 1:
+            problems.append((("structure", "bricks", i, "id"), f"brick id {b.id!r} is used more than once"))
+    for i, imp in enumerate(s.impacts):
+        brick(("impacts", i, "projectile"), imp.projectile)
+    n_bricks = s.structure.tower.levels * s.structure.tower.bricks_per_layer if s.structure.tower else 0
+    if n_bricks > MAX_BRICKS:
+        problems.append((("structure", "tower", "levels"), f"the tower has {n_bricks} bricks; at most {MAX_BRICKS} are allowed"))
+    return problems

@@ -1,0 +1,201 @@
+"""The bricks of a run: one record per brick in the world, and the structure they form.
+
+A :class:`BrickRecord` owns everything the run knows of one brick: its body, its level,
+where it was placed, whether it moves. :class:`Structure` holds the records and answers
+the questions asked of all of them at once: how far each has moved from where it was
+placed, and how far the bricks under a new one have sunk.
+
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+from shapely.geometry import MultiPoint, Polygon
+
+from stability import Box, Pose, kinetic_energy
+
+from ..compile.program import BrickSpec
+from .engines.world import World
+
+
+@dataclass
+class BrickRecord:
+    """One brick (or projectile) in the world.
+
+    Attributes:
+        id: the scenario's id; body: the engine's.
+        spec: size, mass and material; box: the same as a :class:`stability.Box`.
+        level: the structure level, None for a projectile.
+        pose: the placed pose (a projectile: its launch pose).
+        nominal: its pose in the scenario; a brick is placed lower by as much as the
+            bricks below it have sunk (:attr:`sink`).
+        moving: simulated by the engine (not frozen by the stability extension).
+        was_frozen: the stability extension has frozen it at least once (moving again: woken).
+        settled: metres it had moved when last frozen (frozen bricks do not move), or None.
+        corners: shape (8, 3), the placed corners in the world, m.
+        footprint: the placed horizontal footprint.
+        order: its place in the order bricks entered the world (set by :class:`Structure`).
+    """
+
+    id: str
+    body: int
+    spec: BrickSpec
+    level: int | None
+    pose: Pose
+    nominal: Pose
+    moving: bool = True
+    was_frozen: bool = False
+    settled: float | None = None
+    order: int = -1
+    box: Box = field(init=False)
+    corners: np.ndarray = field(init=False)
+    footprint: Polygon = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.box = Box(np.array(self.spec.half_extents), self.spec.mass)
+        self.corners = self.box.corners(self.pose)
+        self.footprint = MultiPoint(self.corners[:, :2]).convex_hull
+
+    @property
+    def structure(self) -> bool:
+        """Part of the structure (placed, with a level), not a projectile."""
+        return self.level is not None
+
+    @property
+    def sink(self) -> float:
+        """Metres it was placed below its pose in the scenario."""
+        return float(self.nominal.position[2] - self.pose.position[2])
+
+    @property
+    def top(self) -> float:
+        """Metres, the height of its highest corner in the scenario."""
+        return float(self.box.corners(self.nominal)[:, 2].max())
+
+    @functools.cached_property
+    def half_diagonal(self) -> float:
+        """Metres from the centre to a corner."""
+        return float(np.linalg.norm(self.box.half_extents))
+
+
+class Structure:
+    """The records of a run, by id and by body, in the order they entered.
+
+    Args:
+        world: where the bodies are.
+    """
+
+    def __init__(self, world: World) -> None:
+        self.world = world
+        self.records: dict[str, BrickRecord] = {}
+        self.placed: list[BrickRecord] = []  # the structure bricks, in the order they were placed
+        self.moving: dict[str, BrickRecord] = {}  # the structure bricks the engine simulates, by id
+        self.projectiles: list[BrickRecord] = []
+        self._by_body: dict[int, BrickRecord] = {}
+        self._tops: dict[int, list[BrickRecord]] = {}  # top height in 0.1 mm -> bricks
+        self._cached: tuple[tuple[int, ...], np.ndarray, np.ndarray] = ((), np.zeros((0, 8, 3)), np.zeros((0, 8, 3)))
+        # the placed positions, orientations and half diagonals of the bricks last bounded
+        self._placed: tuple[tuple[int, ...], np.ndarray, np.ndarray, np.ndarray] = ((), *(np.zeros(0),) * 3)
+
+    def add(self, record: BrickRecord) -> None:
+        """Register a brick that entered the world."""
+        record.order = len(self.records)
+        self.records[record.id] = record
+        self._by_body[record.body] = record
+        (self.placed if record.structure else self.projectiles).append(record)
+        if record.structure:
+            self._tops.setdefault(round(record.top * 1e4), []).append(record)
+            self.set_moving(record, record.moving)
+
+    def set_moving(self, record: BrickRecord, moving: bool) -> None:
+        """Mark a brick frozen (``moving`` False) or simulated by the engine again."""
+        record.moving = moving
+        if not record.structure:
+            return
+        if moving:
+            self.moving[record.id] = record
+        else:
+            self.moving.pop(record.id, None)
+
+    def by_body(self, body: int) -> BrickRecord | None:
+        """The record of an engine body, or None (the ground, a fixture)."""
+        return self._by_body.get(body)
+
+    @property
+    def levels(self) -> dict[str, int]:
+        """Structure brick id -> level."""
+        return {r.id: r.level for r in self.placed if r.level is not None}
+
+    def under(self, bottom: float, footprint: Polygon) -> list[BrickRecord]:
+        """The placed bricks whose tops in the scenario lie within 1 mm of ``bottom`` (m) and
+        whose footprints overlap ``footprint``: those a brick placed there rests on."""
+        key = round(bottom * 1e4)
+        below = [r for k in range(key - 10, key + 11) for r in self._tops.get(k, ())]  # within 1 mm
+        return [r for r in below if r.footprint.intersection(footprint).area > 1e-8]
+
+    def sink(self, bottom: float, footprint: Polygon) -> float:
+        """How far the placed bricks a new brick will rest on have sunk below their heights
+        in the scenario (m): the least of them, 0 for none. ``bottom``: m, the new brick's
+        lowest corner in the scenario; ``footprint``: its horizontal footprint."""
+        below = self.under(bottom, footprint)
+        if not below:
+            return 0.0
+        positions, _ = self.world.poses_of([r.body for r in below])
+        return max(0.0, min(float(r.nominal.position[2]) - float(z) for r, z in zip(below, positions[:, 2])))
+
+    def displacements(self, records: list[BrickRecord]) -> np.ndarray:
+        """How far each brick's farthest-moved corner is from where it was placed, m (a
+        brick tipping in place counts, not only one whose centre moves); all at once, as
+        raw and tuned modes ask it of every brick at every step."""
+        if not records:
+            return np.zeros(0)
+        bodies = tuple(r.body for r in records)
+        positions, quaternions = self.world.poses_of(bodies)
+        if self._cached[0] != bodies:
+            self._cached = (
+                bodies,
+                np.stack([r.box.corners(Pose(np.zeros(3))) for r in records]),
+                np.stack([r.corners for r in records]),
+            )
+        _, local, placed = self._cached
+        now = positions[:, None, :] + np.einsum("nij,nkj->nki", Rotation.from_quat(quaternions).as_matrix(), local)
+        farthest: np.ndarray = np.sqrt(((now - placed) ** 2).sum(axis=2).max(axis=1))
+        return farthest
+
+    def may_have_moved(self, records: list[BrickRecord], threshold: float) -> list[BrickRecord]:
+        """The bricks whose corner could be more than ``threshold`` m from where it was placed.
+        A bound, for all at once: the centre's displacement plus the most a corner can move
+        in the rotation since placing, 2 r sin(angle / 2) for the half diagonal r
+        (cos(angle / 2) = |q . q0| for unit quaternions)."""
+        if not records:
+            return []
+        bodies = tuple(r.body for r in records)
+        positions, quaternions = self.world.poses_of(bodies)
+        if self._placed[0] != bodies:  # the same bricks step after step: read their placing once
+            placed = np.array([r.pose.position for r in records])
+            placed_q = np.array([r.pose.orientation for r in records])
+            self._placed = (bodies, placed, placed_q, np.array([r.half_diagonal for r in records]))
+        _, placed, placed_q, radius = self._placed
+        cos_half = np.minimum(1.0, np.abs((quaternions * placed_q).sum(axis=1)))
+        bound = np.linalg.norm(positions - placed, axis=1) + 2.0 * radius * np.sqrt(1.0 - cos_half**2)
+        return [r for r, b in zip(records, bound) if b > threshold]
+
+    def kinetic_energy(self) -> float:
+        """Joules of the structure's bricks: linear (report 3.6.2) and rotational motion, each
+        brick's inertia that of a uniform box."""
+        records = self.placed
+        if not records:
+            return 0.0
+        linear, angular = self.world.velocities_of([r.body for r in records])
+        _, quaternions = self.world.poses_of([r.body for r in records])
+        local = np.einsum("nji,nj->ni", Rotation.from_quat(quaternions).as_matrix(), angular)
+        total = 0.0
+        for r, v, w in zip(records, linear, local):
+            a, b, c = (2 * h for h in r.box.half_extents)
+            inertia = r.spec.mass / 12.0 * np.array([b * b + c * c, a * a + c * c, a * a + b * b])
+            total += kinetic_energy(r.spec.mass, float(np.linalg.norm(v))) + 0.5 * float(w @ (inertia * w))
+        return total

@@ -1,0 +1,344 @@
+"""The collapse monitor: the first structure brick that stays moved, and the proof of it.
+
+A structure brick is *displaced* when its farthest-moved corner is more than the collapse
+threshold from where it was placed. A displaced brick has *collapsed* when physics says it
+stays so:
+
+- it comes to rest displaced: its speeds stay under the rest thresholds for the rest
+  duration (or the stability extension freezes it) while it is displaced; or
+- it cannot come back: its centre of mass has left the support polygon it was placed on (the
+  overlaps of its bottom face with what it rested on, carried along with those supports as
+  they move), so its weight turns it on away from its place and only a push could bring it
+  back; or it moves in a collapse mechanism that statics proved (the stability extension's
+  equilibrium model: rigid-block equilibrium, or a part turning out about an edge); or
+- the run ends while it is displaced.
+
+How far a brick has moved is no proof by itself: a brick whose centre of mass lies 1.5 mm
+inside its support's edge can rock on landing until its far end is 8 mm up, and comes back.
+A brick that tips over, slides off or is knocked away has collapsed. The collapse is dated
+from the moment the brick was first displaced, and its level is the highest level placed
+then: bricks placed while the monitor waits to tell a rock from a fall do not raise the level.
+The definition is the same in every mode.
+
+When the run ends without a collapse, the monitor asks for the certificate of the structure
+as it stands (:meth:`stability.StabilityExtension.certificate`): rigid-block equilibrium of
+every brick where it is. A structure with no equilibrium has not stood: that is a collapse
+too, proved by its mechanism.
+
+Source: stackdsl's own (the report declares a collapse when a brick falls off the stack,
+without a threshold).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from shapely import contains_xy
+from shapely.geometry import MultiPoint, Point
+
+from stability import Box, Plane, Pose, face_overlap
+from stability import Certificate as Equilibrium
+
+from ..compile.program import Fixture
+from .bricks import BrickRecord
+from .loop import StepLoop, Subscriber
+from .outcome import Certificate, Collapse, Event, Graph, ProofKind
+
+#: Metres: the bottom face of a placed brick and the top face of what it rests on lie within this.
+FACE_GAP = 0.001
+
+
+@dataclass
+class _Displaced:
+    """A brick past the threshold, not yet known to stay so: since when (s), the level
+    placed then, the farthest it went (m), and since when it has been at rest (s, or None)."""
+
+    since: float
+    level: int
+    farthest: float
+    graph: Graph
+    resting_since: float | None = None
+
+
+@dataclass
+class SupportPolygon:
+    """Where a brick was placed to rest: the overlap of its bottom face with each body under it,
+    each kept in the frame of that body so that it moves with it. Found when first asked
+    (only a displaced brick is), from the poses at placing.
+
+    Args:
+        box, pose: the brick and its placed pose.
+        below: (body or None for a fixed one, shape, pose at placing or None for the ground)
+            of each body it may rest on.
+
+    Source: stackdsl's own (the support polygon of report 3.3.3, from the placed poses).
+    """
+
+    box: Box
+    pose: Pose
+    below: list[tuple[int | None, Box | Plane, Pose | None]]
+    _pieces: tuple[tuple[int | None, np.ndarray], ...] | None = None
+
+    @property
+    def pieces(self) -> tuple[tuple[int | None, np.ndarray], ...]:
+        """(support body or None for a fixed one, the overlap's vertices shape (k, 3), metres: in
+        the support's frame, in the world for a fixed one) for each body whose top face lies
+        within :data:`FACE_GAP` of the brick's bottom face; none for a tilted brick."""
+        if self._pieces is None:
+            pieces = []
+            for body, shape, where in self.below:
+                area = face_overlap(self.box, self.pose, shape, where, FACE_GAP)
+                if area is None or area.area <= 0.0:
+                    continue
+                corners = area.corners()
+                if body is not None and where is not None:
+                    corners = (corners - where.position) @ where.rotation  # into the support's frame
+                pieces.append((body, corners))
+            self._pieces = tuple(pieces)
+        return self._pieces
+
+    def outside(self, com: np.ndarray, poses: dict[int, Pose]) -> float:
+        """Metres the horizontal projection of ``com`` (shape (3,)) lies outside the polygon,
+        the supports at ``poses`` (body -> pose now); 0 inside, and when there are no pieces."""
+        if not self.pieces:
+            return 0.0
+        points = [c if b is None else c @ poses[b].rotation.T + poses[b].position for b, c in self.pieces]
+        hull = MultiPoint(np.vstack(points)[:, :2].tolist()).convex_hull
+        x, y = float(com[0]), float(com[1])
+        if contains_xy(hull, x, y):
+            return 0.0
+        return float(hull.distance(Point(x, y)))
+
+
+class CollapseMonitor(Subscriber):
+    """The first collapse (see the module's description), and the certificate of the verdict.
+
+    At the collapse the monitor records it with its proof, keeps the brick graph of the moment
+    the brick was first displaced and asks the loop to end ``settle`` seconds later. Until then
+    it tracks the drift, the largest displacement within the threshold of a standing brick,
+    seen before each placement.
+
+    Args:
+        threshold: metres (the program's collapse threshold).
+        settle: seconds the run goes on after the collapse is decided.
+        graph: the brick graph now.
+        certify: rigid-block equilibrium of the bricks where they are now.
+        proved: brick id -> the collapse mechanism statics proved it moves in (in words, and
+            the bricks it moves), or None.
+        rest_speed, rest_angular_speed: m/s and rad/s under which a brick is at rest.
+        rest_duration: seconds a displaced brick must stay at rest to have come to rest.
+
+    Attributes:
+        collapse: the first collapse, or None; collapse_graph: the graph when it began;
+        certificate: how the verdict was proved (None until the collapse or the end, and
+        when the run stopped early); drift: metres; certify_time: wall seconds the
+        equilibrium certificate of a standing structure took.
+    """
+
+    def __init__(
+        self,
+        threshold: float,
+        settle: float,
+        graph: Callable[[StepLoop], Graph],
+        certify: Callable[[], Equilibrium],
+        proved: Callable[[str], tuple[str, tuple[str, ...]] | None],
+        rest_speed: float = 0.005,
+        rest_angular_speed: float = 0.05,
+        rest_duration: float = 0.05,
+    ) -> None:
+        self.threshold, self.settle, self._graph = threshold, settle, graph
+        self._certify, self._proved = certify, proved
+        self._rest = (rest_speed, rest_angular_speed, rest_duration)
+        self.collapse: Collapse | None = None
+        self.collapse_graph: Graph | None = None
+        self.certificate: Certificate | None = None
+        self.drift = 0.0
+        self.certify_time = 0.0
+        self._displaced: dict[str, _Displaced] = {}
+        self._supports: dict[str, SupportPolygon] = {}
+
+    @property
+    def quiet(self) -> bool:
+        """Not while a displaced brick is yet to be told rocking from falling."""
+        return not self._displaced
+
+    def on_place(self, loop: StepLoop, record: BrickRecord) -> None:
+        self.record_drift(loop, exclude=record)
+        structure = loop.structure
+        others = [
+            r for r in structure.under(float(record.corners[:, 2].min()) + record.sink, record.footprint) if r is not record
+        ]
+        positions, quaternions = loop.world.poses_of([r.body for r in others]) if others else (np.zeros((0, 3)),) * 2
+        below: list[tuple[int | None, Box | Plane, Pose | None]] = [(None, Plane(0.0), None)]
+        below += [(None, Box(np.array(f.brick.half_extents), f.brick.mass), _fixture_pose(f)) for f in loop.program.fixtures]
+        below += [(r.body, r.box, Pose(p, q)) for r, p, q in zip(others, positions, quaternions)]
+        self._supports[record.id] = SupportPolygon(record.box, record.pose, below)
+
+    def at_end(self, loop: StepLoop) -> None:
+        if self.collapse is None and self._displaced:
+            self._decide(loop, displaced_at_end=True)
+        self.record_drift(loop)
+        if self.collapse is not None or loop.stopped is not None:
+            return
+        started = time.perf_counter()
+        certificate = self._certify()
+        self.certify_time = time.perf_counter() - started
+        if certificate.stands:
+            self.certificate = Certificate(
+                verdict="stands",
+                kind="equilibrium",
+                detail=(
+                    f"each of {certificate.bricks} bricks frozen over its load path to the ground"
+                    if certificate.method == "load paths"
+                    else f"the equilibrium program balances {certificate.bricks} bricks on {certificate.contacts} contacts"
+                ),
+                bricks=certificate.active,
+                margin_mm=round(certificate.margin * 1000, 1) + 0.0,
+            )
+            return
+        bricks = [loop.structure.records[i] for i in certificate.mechanism if i in loop.structure.records]
+        first = min((r for r in bricks if r.level is not None), key=lambda r: r.order, default=None)
+        if first is None:  # only projectiles move in it: the structure stands on what holds it
+            self.certificate = Certificate(
+                verdict="stands", kind="equilibrium", detail="the structure's bricks balance", bricks=()
+            )
+            return
+        level = max(loop.structure.levels.values())
+        detail = f"no equilibrium at the end: {certificate.tension:.3g} N of tension needed"
+        self._record(
+            loop,
+            first,
+            level,
+            loop.now,
+            0.0,
+            loop.now,
+            Certificate(verdict="collapse", kind="no equilibrium", detail=detail, bricks=certificate.mechanism),
+            None,
+        )
+
+    def after_step(self, loop: StepLoop) -> None:
+        if self.collapse is None:
+            self._decide(loop)
+
+    def _decide(self, loop: StepLoop, displaced_at_end: bool = False) -> None:
+        structure = loop.structure
+        watched = [structure.records[i] for i in self._displaced if not structure.records[i].moving]
+        moving = list(structure.moving.values())
+        watched += [r for r in moving if r.id in self._displaced]
+        watched += [r for r in structure.may_have_moved(moving, self.threshold) if r.id not in self._displaced]
+        watched.sort(key=lambda r: r.order)
+        moved = structure.displacements(watched)
+        for record, distance in zip(watched, moved):
+            if distance <= self.threshold:
+                self._displaced.pop(record.id, None)  # within the threshold, or rocked and came back
+        displaced = [(r, float(d)) for r, d in zip(watched, moved) if d > self.threshold]
+        resting = self._resting(loop, [r for r, _ in displaced])
+        for (record, distance), rests in zip(displaced, resting):
+            state = self._displaced.get(record.id)
+            if state is None:
+                level = max(structure.levels.values())
+                # the graph of the moment the first pending brick was displaced serves the others
+                # (a collapse is dated at the earliest of them; one graph a brick cost 85 ms each
+                # for the 50 bricks of a falling tower)
+                pending = [d for d in self._displaced.values() if d.level == level]
+                graph = min(pending, key=lambda d: d.since).graph if pending else self._graph(loop)
+                state = self._displaced[record.id] = _Displaced(loop.now, level, distance, graph)
+            state.farthest = max(state.farthest, distance)
+            if not rests:
+                state.resting_since = None
+            elif state.resting_since is None:
+                state.resting_since = loop.now
+            rested = state.resting_since is not None and loop.now - state.resting_since >= self._rest[2] - 1e-9
+            proof: tuple[ProofKind, str, tuple[str, ...]] | None = None
+            if displaced_at_end:
+                proof = (
+                    "displaced at the end",
+                    f"{record.id} was {distance * 1000:.1f} mm from its place when the run ended",
+                    (),
+                )
+            elif not record.moving or rested:
+                proof = ("at rest displaced", f"{record.id} came to rest {distance * 1000:.1f} mm from its place", ())
+            elif (mechanism := self._proved(record.id)) is not None:
+                proof = ("mechanism", f"{record.id} moves in {mechanism[0]}", mechanism[1])
+            elif (out := self._off_support(loop, record)) > 0.0:
+                proof = ("off its support", f"{record.id}'s centre of mass left its support polygon by {out * 1000:.1f} mm", ())
+            if proof is not None:
+                self._collapsed(loop, record, distance, proof)
+                return
+
+    def _off_support(self, loop: StepLoop, record: BrickRecord) -> float:
+        """Metres ``record``'s centre of mass lies outside the support polygon it was placed on."""
+        support = self._supports.get(record.id)
+        if support is None or not support.pieces:
+            return 0.0
+        bodies = [record.body, *(b for b, _ in support.pieces if b is not None)]
+        positions, quaternions = loop.world.poses_of(bodies)
+        poses = {b: Pose(p, q) for b, p, q in zip(bodies, positions, quaternions)}
+        return support.outside(positions[0], poses)
+
+    def _resting(self, loop: StepLoop, records: list[BrickRecord]) -> list[bool]:
+        """Whether each brick's speeds are under the rest thresholds now (a frozen one's are)."""
+        moving = [r for r in records if r.moving]
+        if not moving:
+            return [True] * len(records)
+        lin, ang = loop.world.velocities_of([r.body for r in moving])
+        slow = iter(((lin**2).sum(axis=1) <= self._rest[0] ** 2) & ((ang**2).sum(axis=1) <= self._rest[1] ** 2))
+        return [bool(next(slow)) if r.moving else True for r in records]
+
+    def _collapsed(
+        self, loop: StepLoop, record: BrickRecord, moved: float, proof: tuple[ProofKind, str, tuple[str, ...]]
+    ) -> None:
+        """``record`` stays moved: the collapse began when the first of the bricks displaced now
+        was displaced; that brick is the one named. The bricks involved: those displaced now,
+        and those of the proved mechanism."""
+        first_id = min(self._displaced, key=lambda i: self._displaced[i].since)
+        first, state = loop.structure.records[first_id], self._displaced[first_id]
+        farthest = moved if first is record else state.farthest
+        kind, detail, moved_too = proof
+        records = loop.structure.records
+        bricks = tuple(sorted({*self._displaced, *(b for b in moved_too if b in records)}, key=lambda i: records[i].order))
+        certificate = Certificate(verdict="collapse", kind=kind, detail=detail, bricks=bricks)
+        self._record(loop, first, state.level, state.since, farthest, loop.now, certificate, state.graph)
+
+    def _record(
+        self,
+        loop: StepLoop,
+        first: BrickRecord,
+        level: int,
+        since: float,
+        farthest: float,
+        decided: float,
+        proof: Certificate,
+        graph: Graph | None,
+    ) -> None:
+        """Record the collapse of ``first`` (the brick named), proved by ``proof``."""
+        assert first.level is not None
+        self.record_drift(loop)
+        self.collapse = Collapse(
+            level=level, time=since, brick=first.id, brick_level=first.level, displacement=farthest, decided=decided
+        )
+        self.certificate = proof
+        detail = f"moved {farthest * 1000:.1f} mm; collapse level {level}; {proof.kind}"
+        if proof.kind == "no equilibrium":
+            detail = f"collapse level {level}; {proof.detail}"
+        loop.events.append(Event(time=since, kind="collapse", brick=first.id, level=first.level, detail=detail))
+        loop.events.sort(key=lambda e: e.time)
+        self.collapse_graph = graph if graph is not None else self._graph(loop)
+        self._displaced.clear()
+        loop.stop_after(self.settle)
+
+    def record_drift(self, loop: StepLoop, exclude: BrickRecord | None = None) -> None:
+        """Track the largest displacement of the standing structure until the first collapse."""
+        if self.collapse is not None:
+            return
+        structure = loop.structure
+        moving = [r for r in structure.moving.values() if r is not exclude]
+        now = [*structure.displacements(moving), *(r.settled for r in structure.placed if r.settled is not None)]
+        self.drift = max([self.drift, *(float(d) for d in now if d <= self.threshold)])
+
+
+def _fixture_pose(f: Fixture) -> Pose:
+    return Pose.from_euler(f.position, f.yaw, f.pitch, f.roll)

@@ -1,0 +1,363 @@
+"""The world on MuJoCo: :class:`MuJoCoWorld`, a :class:`stackdsl.runtime.engines.world.World` through MuJoCo's public API.
+
+MuJoCo compiles a model before it simulates, and a model's bodies are fixed when it is
+compiled. Bodies are declared to an ``mujoco.MjSpec``; the model is compiled when the
+world is first stepped or read, and compiled again, keeping the state (``MjSpec.recompile``),
+when a body is created after that. ``RunOptions(lazy_bodies=False)`` declares every brick
+up front, frozen and far away, so that the model is compiled once.
+
+Each brick is two bodies of the same box: a *free* body (a free joint), which the engine
+simulates, and a *held* body (a mocap body, which the engine moves only when told), which
+stands in for it while it is frozen. Freezing puts the held body at the free body's pose
+and takes the free body out of the scene (collisions off, gravity compensated, far away,
+at rest); restoring does the opposite. A frozen brick is then static geometry: it costs
+no degrees of freedom and MuJoCo makes no contacts between two frozen bricks, as pybullet
+makes none between two bodies of mass 0 (docs/design.md, "MuJoCo", gives the measurements
+that chose this over a weld equality or MuJoCo's own sleeping).
+
+Materials (friction of a pair, restitution, density): :mod:`stackdsl.runtime.engines.mujoco_materials`.
+
+Source: stackdsl's own, on MuJoCo 4.0's Python bindings.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Collection, Sequence
+from typing import Any
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from stability import ContactPoint, Pose
+
+from ...compile.program import BrickSpec, EngineSettings, Vec3
+from .mujoco_materials import Materials
+
+#: Where the free body of a frozen brick waits, and the held body of an active one: far
+#: from any scene (positions are within 1 km), one slot per brick so that none overlap.
+_AWAY = np.array([5000.0, 5000.0, 100.0])
+_SLOT = 0.5  # m between two waiting bodies
+
+
+class MuJoCoWorld:
+    """:class:`stackdsl.runtime.engines.world.World` on MuJoCo (see the module's docstring).
+
+    Args:
+        engine: the run's engine settings (``backend: mujoco``).
+        ground_friction, ground_restitution: of the ground's material.
+
+    Body ids are stackdsl's: 0 is the ground, bricks are numbered from 1 as they are
+    created; a brick keeps its id whether frozen (its held body) or not. Whether each brick
+    is frozen is kept in one array, as are its bodies' addresses in the compiled model
+    (found again at each compile), so that many bricks are read at once.
+
+    >>> from stackdsl.compile.program import BrickSpec, EngineSettings
+    >>> world = MuJoCoWorld(EngineSettings(mode="raw", backend="mujoco", timestep=0.002, solver_iterations=100), 0.5, 0.0)
+    >>> b = world.create(BrickSpec(type="kapla", half_extents=(0.06, 0.012, 0.004), mass=0.0106, friction=0.5, restitution=0.0), Pose.from_euler([0, 0, 0.0045]))
+    >>> for _ in range(200): world.step()
+    >>> round(float(world.pose(b).position[2]), 4)
+    0.004
+    """
+
+    def __init__(self, engine: EngineSettings, ground_friction: float, ground_restitution: float) -> None:
+        import mujoco
+
+        self._mj, self._engine = mujoco, engine
+        self._mesh = engine.mode == "extension"  # bricks as convex meshes (see create)
+        self.ground = 0
+        self._substeps = 1
+        self._specs: list[BrickSpec] = []
+        self._model: Any = None
+        self._data: Any = None
+        self._frozen = np.zeros(0, dtype=bool)
+        # addresses in the compiled model, per brick: qpos and dof of its free joint, its mocap
+        # index, its free and held geoms; geom -> stackdsl body id
+        self._qpos = self._dof = self._mocap = self._free_geom = self._held_geom = np.zeros(0, dtype=int)
+        self._geom_body = np.zeros(0, dtype=int)
+        self._read: tuple[np.ndarray, np.ndarray] | None = None  # every body's velocities, this step
+        spec = mujoco.MjSpec()
+        option = spec.option
+        option.timestep = engine.timestep
+        option.gravity = [0.0, 0.0, -engine.gravity]
+        option.iterations = engine.solver_iterations
+        option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC if engine.elliptic_cones else mujoco.mjtCone.mjCONE_PYRAMIDAL
+        option.impratio = engine.impratio
+        option.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{engine.integrator.upper()}")
+        if engine.sleep_tolerance is not None:
+            option.enableflags |= mujoco.mjtEnableBit.mjENBL_SLEEP
+            option.sleep_tolerance = engine.sleep_tolerance
+        self._spec = spec
+        ground = spec.worldbody.add_geom(name="ground", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0.0, 0.0, 1.0])
+        # MuJoCo compensates gravity only in a model compiled with a body that asks for it; this
+        # static body (no joint, no geom) does, so that a waiting body's switch works at run time
+        spec.worldbody.add_body(name="gravcomp", gravcomp=1.0)
+        self._materials = Materials(engine, (ground_friction, ground_restitution))
+        self._materials.surface(ground, ground_friction, ground_restitution)
+
+    # building -----------------------------------------------------------------
+    def create(self, spec: BrickSpec, pose: Pose, mass: float | None = None, maximal: bool | None = None) -> int:
+        """A new brick at ``pose``; ``mass`` 0 creates it frozen. ``maximal`` is pybullet's and ignored."""
+        mj = self._mj
+        body = len(self._specs) + 1
+        frozen = mass is not None and mass <= 0.0
+        free_at, held_at = (self._away(body), pose.position) if frozen else (pose.position, self._away(body))
+        free = self._spec.worldbody.add_body(name=f"free{body}", pos=list(free_at), quat=_wxyz(pose.orientation))
+        free.add_freejoint(name=f"joint{body}")
+        held = self._spec.worldbody.add_body(name=f"held{body}", pos=list(held_at), quat=_wxyz(pose.orientation), mocap=True)
+        # With the extension, a convex mesh of the box's eight corners, not MuJoCo's box primitive:
+        # the box-box collider gives two bricks crossed at an odd yaw a single contact point every
+        # 16 to 30 ms, which kicks the upper one to 1.2 rad/s, so that it never stays under the
+        # rest thresholds (it stayed active to the end of the run); the general convex collider
+        # gives a steady set. MuJoCo alone (raw, tuned) keeps its own primitive, at its best.
+        hx, hy, hz = spec.half_extents
+        if self._mesh:
+            corners = [c for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1) for c in (sx * hx, sy * hy, sz * hz)]
+            self._spec.add_mesh(name=f"m{body}", uservert=corners)
+        for name, owner in ((f"f{body}", free), (f"h{body}", held)):
+            if self._mesh:
+                geom = owner.add_geom(name=name, type=mj.mjtGeom.mjGEOM_MESH, meshname=f"m{body}", mass=spec.mass)
+            else:
+                geom = owner.add_geom(name=name, type=mj.mjtGeom.mjGEOM_BOX, size=[hx, hy, hz], mass=spec.mass)
+            self._materials.surface(geom, spec.friction, spec.restitution)
+        self._specs.append(spec)
+        self._frozen = np.append(self._frozen, frozen)
+        self._materials.pairs(self._spec, body, spec, self._specs)
+        if self._model is not None:
+            self._compile()
+        return body
+
+    def _away(self, body: int) -> np.ndarray:
+        return _AWAY + [_SLOT * body, 0.0, 0.0]
+
+    def _compile(self) -> None:
+        mj = self._mj
+        if self._model is None:
+            self._model = self._spec.compile()
+            self._data = mj.MjData(self._model)
+        else:
+            self._model, self._data = self._spec.recompile(self._model, self._data)
+        m = self._model
+        m.opt.timestep = self._engine.timestep / self._substeps  # a recompile takes the spec's
+        self._read = None
+
+        def ids(kind: Any, prefix: str) -> np.ndarray:
+            return np.array([mj.mj_name2id(m, kind, f"{prefix}{i}") for i in range(1, len(self._specs) + 1)], dtype=int)
+
+        joints = ids(mj.mjtObj.mjOBJ_JOINT, "joint")
+        self._qpos, self._dof = m.jnt_qposadr[joints].astype(int), m.jnt_dofadr[joints].astype(int)
+        self._mocap = m.body_mocapid[ids(mj.mjtObj.mjOBJ_BODY, "held")].astype(int)
+        self._free_geom, self._held_geom = ids(mj.mjtObj.mjOBJ_GEOM, "f"), ids(mj.mjtObj.mjOBJ_GEOM, "h")
+        self._geom_body = np.zeros(m.ngeom, dtype=int)
+        self._geom_body[self._free_geom] = self._geom_body[self._held_geom] = np.arange(1, len(self._specs) + 1)
+        for body in range(1, len(self._specs) + 1):
+            self._apply(body)
+        mj.mj_forward(m, self._data)
+
+    def _ready(self) -> tuple[Any, Any]:
+        if self._model is None:
+            self._compile()
+        return self._model, self._data
+
+    def _apply(self, body: int) -> None:
+        """Collisions, gravity compensation and, with MuJoCo's sleeping on, the sleep policy
+        of ``body``'s two bodies for its state: a free body out of the scene (frozen or not yet
+        placed) never sleeps, so that it moves when it is put back; MuJoCo wakes no tree
+        that is changed by hand (setting ``tree_asleep`` leaves its awake lists as they are,
+        measured on 4.0: a parked brick moved in stayed asleep where it was put)."""
+        m, i = self._model, body - 1
+        spec = self._specs[i]
+        bit = 1 << self._materials.group(spec.friction, spec.restitution)
+        free, held = self._free_geom[i], self._held_geom[i]
+        on, off = (held, free) if self._frozen[i] else (free, held)
+        m.geom_contype[on] = m.geom_conaffinity[on] = bit
+        m.geom_contype[off] = m.geom_conaffinity[off] = 0
+        m.body_gravcomp[m.geom_bodyid[free]] = 1.0 if self._frozen[i] else 0.0
+        if self._engine.sleep_tolerance is not None:
+            policy = self._mj.mjtSleepPolicy
+            tree = m.body_treeid[m.geom_bodyid[free]]
+            m.tree_sleep_policy[tree] = policy.mjSLEEP_NEVER if self._frozen[i] else policy.mjSLEEP_AUTO_ALLOWED
+
+    # stability.Engine ----------------------------------------------------------
+    @property
+    def timestep(self) -> float:
+        return self._engine.timestep
+
+    def pose(self, body: int) -> Pose:
+        _, d = self._ready()
+        i = body - 1
+        if self._frozen[i]:
+            position, (w, x, y, z) = d.mocap_pos[self._mocap[i]].copy(), d.mocap_quat[self._mocap[i]]
+        else:
+            q = self._qpos[i]
+            position, (w, x, y, z) = d.qpos[q : q + 3].copy(), d.qpos[q + 3 : q + 7]
+        return Pose(position, np.array([x, y, z, w]) / math.sqrt(w * w + x * x + y * y + z * z))
+
+    def velocity(self, body: int) -> tuple[np.ndarray, np.ndarray]:
+        linear, angular = self._velocities()
+        return linear[body - 1].copy(), angular[body - 1].copy()
+
+    def speeds(self, body: int) -> tuple[float, float]:
+        linear, angular = self._velocities()
+        return math.hypot(*linear[body - 1].tolist()), math.hypot(*angular[body - 1].tolist())
+
+    def contact_points(self, bodies: Collection[int] | None = None) -> list[ContactPoint]:
+        m, d = self._ready()
+        if d.ncon == 0:
+            return []
+        contact = d.contact  # MuJoCo's contacts as arrays, one row each
+        pair = self._geom_body[contact.geom]  # (ncon, 2) bodies
+        keep = contact.exclude == 0
+        if bodies is not None:
+            wanted = np.zeros(len(self._frozen) + 1, dtype=bool)
+            wanted[np.asarray(list(bodies), dtype=int)] = True
+            keep &= wanted[pair].any(axis=1)
+        rows = np.flatnonzero(keep)
+        force = self._normal_forces(m, d, rows)
+        n, dist = contact.frame[rows, :3], contact.dist[rows]  # frame: from geom1 into geom2
+        lower, upper = contact.pos[rows] - n * (dist / 2)[:, None], contact.pos[rows] + n * (dist / 2)[:, None]
+        a, b = pair[rows, 0].tolist(), pair[rows, 1].tolist()
+        f, gap = force.tolist(), dist.tolist()
+        points = []
+        for k in range(len(rows)):
+            if bodies is None or wanted[a[k]]:
+                points.append(ContactPoint(a[k], b[k], lower[k], -n[k], f[k], gap[k]))
+            if bodies is None or wanted[b[k]]:
+                points.append(ContactPoint(b[k], a[k], upper[k], n[k], f[k], gap[k]))
+        return points
+
+    def _normal_forces(self, m: Any, d: Any, rows: np.ndarray) -> np.ndarray:
+        """Normal force in N of each contact in ``rows``, as ``mj_contactForce`` gives it, read
+        from the constraint forces at once: the first row of an elliptic cone or frictionless
+        contact, the sum of a pyramidal cone's 2 (dim - 1) edge rows."""
+        address, dim = d.contact.efc_address[rows], d.contact.dim[rows]
+        if m.opt.cone == self._mj.mjtCone.mjCONE_ELLIPTIC:
+            return np.asarray(d.efc_force[address], dtype=float)
+        edges = np.where(dim > 1, 2 * (dim - 1), 1)
+        return np.array([d.efc_force[i : i + e].sum() for i, e in zip(address.tolist(), edges.tolist(), strict=True)])
+
+    def near(self, body: int, distance: float) -> list[ContactPoint]:
+        m, d = self._ready()
+        mj = self._mj
+        i = body - 1
+        own = self._held_geom[i] if self._frozen[i] else self._free_geom[i]
+        reach = float(m.geom_rbound[own]) + distance
+        fromto = np.zeros(6)
+        out = []
+        for geom in range(m.ngeom):
+            other = int(self._geom_body[geom])
+            if other == body or m.geom_contype[geom] == 0:
+                continue
+            if m.geom_type[geom] != mj.mjtGeom.mjGEOM_PLANE:
+                if np.linalg.norm(d.geom_xpos[geom] - d.geom_xpos[own]) > reach + m.geom_rbound[geom]:
+                    continue
+            gap = mj.mj_geomDistance(m, d, own, geom, distance, fromto)
+            if gap < distance:
+                mine, theirs = fromto[:3], fromto[3:]
+                n = (mine - theirs) * (1.0 if gap >= 0 else -1.0)  # from the other body into this one
+                length = float(np.linalg.norm(n))
+                n = n / length if length > 1e-12 else np.array([0.0, 0.0, 1.0])
+                out.append(ContactPoint(body, other, theirs.copy(), n, 0.0, float(gap)))
+        return out
+
+    def set_frozen(self, body: int, frozen: bool, mass: float, at: Pose | None = None) -> None:
+        if frozen != self._frozen[body - 1]:
+            self._put(body, at if frozen and at is not None else self.pose(body), frozen)
+
+    def _put(self, body: int, pose: Pose, frozen: bool) -> None:
+        """``body`` at ``pose``, at rest, frozen (its held body there) or not (its free body)."""
+        _, d = self._ready()
+        i = body - 1
+        q, mocap = self._qpos[i], self._mocap[i]
+        if frozen:
+            d.mocap_pos[mocap] = pose.position
+            d.mocap_quat[mocap] = _wxyz(pose.orientation)
+            d.qpos[q : q + 3] = self._away(body)
+        else:
+            d.qpos[q : q + 3] = pose.position
+            d.qpos[q + 3 : q + 7] = _wxyz(pose.orientation)
+            d.mocap_pos[mocap] = self._away(body)
+        d.qvel[self._dof[i] : self._dof[i] + 6] = 0.0
+        self._frozen[i] = frozen
+        self._read = None
+        self._apply(body)
+
+    # stackdsl.runtime.engines.world.World -----------------------------------------------------
+    def move(self, body: int, pose: Pose, mass: float) -> None:
+        self._put(body, pose, mass <= 0.0)
+
+    def throw(self, body: int, velocity: Vec3, swept_radius: float | None) -> None:
+        """Give ``body`` a linear velocity, and no spin; MuJoCo has no continuous collision
+        detection, so ``swept_radius`` is ignored (the substep control splits fast steps instead)."""
+        _, d = self._ready()
+        v = self._dof[body - 1]
+        d.qvel[v : v + 3] = velocity
+        d.qvel[v + 3 : v + 6] = 0.0
+        self._read = None
+
+    def step(self) -> None:
+        m, d = self._ready()
+        self._read = None
+        for _ in range(self._substeps):
+            self._mj.mj_step(m, d)
+
+    def set_substeps(self, substeps: int) -> None:
+        m, _ = self._ready()
+        self._substeps = max(1, substeps)
+        m.opt.timestep = self._engine.timestep / self._substeps
+
+    def poses_of(self, bodies: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+        _, d = self._ready()
+        index = np.asarray(bodies, dtype=int) - 1
+        if len(index) <= _FEW:  # a loop: numpy's fancy indexing costs more for one or two bodies
+            positions, wxyz = np.empty((len(index), 3)), np.empty((len(index), 4))
+            for row, i in enumerate(index):
+                if self._frozen[i]:
+                    positions[row], wxyz[row] = d.mocap_pos[self._mocap[i]], d.mocap_quat[self._mocap[i]]
+                else:
+                    q = self._qpos[i]
+                    positions[row], wxyz[row] = d.qpos[q : q + 3], d.qpos[q + 3 : q + 7]
+        else:
+            frozen, qpos, mocap = self._frozen[index][:, None], self._qpos[index][:, None], self._mocap[index]
+            positions = np.where(frozen, d.mocap_pos[mocap], d.qpos[qpos + np.arange(3)])
+            wxyz = np.where(frozen, d.mocap_quat[mocap], d.qpos[qpos + np.arange(3, 7)])
+        quaternions = wxyz[:, [1, 2, 3, 0]]
+        return positions, quaternions / np.linalg.norm(quaternions, axis=1)[:, None]
+
+    def velocities_of(self, bodies: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+        linear, angular = self._velocities()
+        index = np.asarray(bodies, dtype=int) - 1
+        return linear[index], angular[index]
+
+    def _velocities(self) -> tuple[np.ndarray, np.ndarray]:
+        """Linear (m/s) and angular (rad/s) velocity of every body in the world frame, shape
+        (bodies, 3) each, zero for a frozen one: read once a step, however many ask (the
+        extension body by body, the substep control and the collapse monitor at once)."""
+        if self._read is not None:
+            return self._read
+        _, d = self._ready()
+        rows = np.flatnonzero(~self._frozen)
+        linear, angular = np.zeros((len(self._frozen), 3)), np.zeros((len(self._frozen), 3))
+        dof = self._dof[rows][:, None]
+        linear[rows] = d.qvel[dof + np.arange(3)]
+        local = d.qvel[dof + np.arange(3, 6)]  # a free joint's angular velocity is in the body frame
+        wxyz = d.qpos[self._qpos[rows][:, None] + np.arange(3, 7)]
+        if len(rows) <= _FEW:
+            for row, w, q in zip(rows, local, wxyz, strict=True):
+                self._mj.mju_rotVecQuat(angular[row], w, q)
+        else:
+            angular[rows] = Rotation.from_quat(wxyz[:, [1, 2, 3, 0]]).apply(local)
+        self._read = (linear, angular)
+        return self._read
+
+
+_FEW = 8
+"""Up to this many bodies, :meth:`MuJoCoWorld.poses_of` reads them one by one, and so does the
+velocity read for this many moving bodies (numpy's and scipy's fixed costs are larger for one
+or two)."""
+
+
+def _wxyz(quaternion: Sequence[float] | np.ndarray) -> list[float]:
+    """(x, y, z, w), stackdsl's and scipy's order, as (w, x, y, z), MuJoCo's."""
+    x, y, z, w = (float(v) for v in quaternion)
+    return [w, x, y, z]

@@ -1,0 +1,261 @@
+"""The Outcome of a run: timeline, collapse record, brick graphs, timings.
+
+Brick graphs here are the snapshot form of :class:`stability.BrickGraph`: bricks named
+by their scenario ids, poses rounded to 0.1 mm and 0.1 deg, centre of mass above in mm,
+mass above in grams, contact areas in mm^2 and load shares to 0.001 (docs/design.md, "brick
+graph"). Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict
+
+from stability import BrickGraph
+
+Vec3 = tuple[float, float, float]
+
+
+class _Frozen(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class Event(_Frozen):
+    """One entry of the timeline; ``time`` in seconds."""
+
+    time: float
+    kind: Literal["place", "launch", "freeze", "wake", "impact", "collapse", "substeps"]
+    brick: str
+    level: int | None = None
+    detail: str = ""
+
+
+class Collapse(_Frozen):
+    """The first collapse (docs/design.md, words): a structure brick left its placed pose by more than
+    the collapse threshold and stayed moved (:mod:`stackdsl.runtime.collapse`).
+
+    Attributes:
+        level: the highest level placed when the brick first moved past the threshold (the
+            collapse level).
+        time: seconds, when it first moved past the threshold.
+        brick, brick_level: the brick that moved first, and its own level.
+        displacement: metres, how far it had moved when the collapse was decided.
+        decided: seconds, when it was known to stay moved (its certificate says how: at rest
+            displaced, off its support, in a proved mechanism, displaced at the end, or no
+            equilibrium at the end); the run ends the scenario's settle time after it.
+    """
+
+    level: int
+    time: float
+    brick: str
+    brick_level: int
+    displacement: float
+    decided: float
+
+
+ProofKind = Literal["equilibrium", "at rest displaced", "off its support", "mechanism", "displaced at the end", "no equilibrium"]
+"""How a verdict was proved (:class:`Certificate`)."""
+
+
+class Certificate(_Frozen):
+    """The proof of a verdict (docs/design.md, "collapse" and "certificate").
+
+    Attributes:
+        verdict: ``"stands"`` or ``"collapse"``.
+        kind: how it was proved. For ``stands``: ``"equilibrium"``, rigid-block equilibrium of
+            every brick where it is at the end (:meth:`stability.StabilityExtension.certificate`).
+            For ``collapse``: ``"at rest displaced"`` (a brick came to rest out of its place),
+            ``"off its support"`` (its centre of mass left the support polygon it was placed
+            on), ``"mechanism"`` (it moves in a collapse mechanism statics proved),
+            ``"displaced at the end"``, or ``"no equilibrium"`` (the final state has none).
+        detail: the proof in words.
+        bricks: the bricks involved: those displaced at the collapse, those of the mechanism
+            with no equilibrium; for ``stands``, the bricks the engine still moved at the end
+            (solved on their live contacts).
+        margin_mm: for ``stands``, how far every centre of mass could move together before
+            it would not (at most 20 mm); else None.
+    """
+
+    verdict: Literal["stands", "collapse"]
+    kind: ProofKind
+    detail: str
+    bricks: tuple[str, ...] = ()
+    margin_mm: float | None = None
+
+
+def describe_certificate(c: Certificate) -> str:
+    """One line for a person: ``"stands: rigid-block equilibrium of ... (margin 12.0 mm)"``."""
+    margin = f" (margin {c.margin_mm:.1f} mm)" if c.margin_mm is not None else ""
+    return f"{c.verdict}, {c.kind}: {c.detail}{margin}"
+
+
+class Node(_Frozen):
+    """A brick of the graph (ground: level None, state "ground")."""
+
+    id: str
+    level: int | None
+    state: str
+    position_mm: Vec3
+    yaw_pitch_roll_deg: Vec3
+    com_above_mm: Vec3
+    mass_above_g: float
+
+
+class Edge(_Frozen):
+    """``upper`` rests on ``support`` through ``area_mm2``, passing it ``load_share`` of its load;
+    ``polygon_mm`` is the contact area's horizontal outline, (x, y) in mm counter-clockwise
+    (drawn by the brick-graph plot; not part of a golden snapshot)."""
+
+    upper: str
+    support: str
+    area_mm2: float
+    load_share: float
+    polygon_mm: tuple[tuple[float, float], ...] = ()
+
+
+class Graph(_Frozen):
+    """A brick graph in snapshot form."""
+
+    nodes: tuple[Node, ...]
+    edges: tuple[Edge, ...]
+
+    @classmethod
+    def from_stability(cls, graph: BrickGraph, levels: dict[str, int]) -> Graph:
+        """Round and rename a :class:`stability.BrickGraph`; ``levels`` maps ids to levels."""
+        nodes = tuple(
+            Node(
+                id=n.label,
+                level=levels.get(n.label),
+                state=n.state.value,
+                position_mm=_mm(n.pose.position),
+                yaw_pitch_roll_deg=_degrees(n.pose.euler_degrees()),
+                com_above_mm=_mm(n.com_above),
+                mass_above_g=_round(n.mass_above * 1000, 1),
+            )
+            for n in graph.nodes
+        )
+        edges = tuple(
+            Edge(
+                upper=e.upper,
+                support=e.support,
+                area_mm2=_round(e.area * 1e6, 1),
+                load_share=_round(e.load_share, 3),
+                polygon_mm=tuple((_round(x * 1000, 2), _round(y * 1000, 2)) for x, y in e.polygon),
+            )
+            for e in graph.edges
+        )
+        return cls(nodes=nodes, edges=edges)
+
+    def bricks(self) -> dict[str, dict[str, Any]]:
+        """The graph as plain data, one entry per brick (the ground left out): brick id ->
+        level, state, position (mm), yaw/pitch/roll (deg), centre of mass above (mm), mass
+        above (g), and ``rests_on``: support id -> contact area (mm^2) and load share."""
+        supports: dict[str, dict[str, dict[str, float]]] = {}
+        for e in self.edges:
+            supports.setdefault(e.upper, {})[e.support] = {"area_mm2": e.area_mm2, "load_share": e.load_share}
+        return {
+            n.id: {
+                "level": n.level,
+                "state": n.state,
+                "position_mm": list(n.position_mm),
+                "yaw_pitch_roll_deg": list(n.yaw_pitch_roll_deg),
+                "com_above_mm": list(n.com_above_mm),
+                "mass_above_g": n.mass_above_g,
+                "rests_on": supports.get(n.id, {}),
+            }
+            for n in self.nodes
+            if n.state != "ground"
+        }
+
+
+class Outcome(_Frozen):
+    """What a run produced.
+
+    Attributes:
+        scenario, mode: what ran.
+        collapse: the first collapse, or None when the structure stood.
+        events: the timeline.
+        final_graph: the brick graph at the end; collapse_graph: at the first collapse.
+        displacement: structure brick id -> metres from its placed pose at the end.
+        drift: metres, the largest displacement of a standing structure brick (one not
+            beyond the collapse threshold) seen before each placement until the first
+            collapse, and at the end if there was none.
+        kinetic_energy: joules, of the structure's bricks at the end (their linear and
+            angular motion).
+        levels_placed, bricks_placed: how much was built (building stops at a collapse).
+        simulated_time, wall_time: seconds; steps: physics steps taken; steps_skipped:
+            steps jumped over while every brick was frozen.
+        engine_time: seconds of the wall time spent in the engine's own steps (the rest is
+            stackdsl's: the extension, the monitor, placing).
+        after_collapse: seconds of the wall time after the collapse was decided (0 without
+            one): the settle time's cost.
+        certificate: the proof of the verdict (None when the run stopped early).
+        certificate_time: seconds of the wall time spent proving that the structure stands.
+        stopped: None when the run went to its end; else why and where it stopped early,
+            e.g. ``"timeout after 120 s at t = 37.2 s simulated (of 201 s)"`` (the rest of
+            the outcome then covers the simulated time so far, and the expectations fail:
+            :func:`stackdsl.evaluate` adds a failed ``finished`` verdict).
+    """
+
+    scenario: str
+    mode: str
+    collapse: Collapse | None
+    events: tuple[Event, ...]
+    final_graph: Graph
+    collapse_graph: Graph | None
+    displacement: dict[str, float]
+    drift: float
+    kinetic_energy: float
+    levels_placed: int
+    bricks_placed: int
+    simulated_time: float
+    wall_time: float
+    steps: int
+    steps_skipped: int
+    engine_time: float = 0.0
+    after_collapse: float = 0.0
+    certificate: Certificate | None = None
+    certificate_time: float = 0.0
+    stopped: str | None = None
+
+    def golden(self) -> dict[str, Any]:
+        """Plain JSON data for a golden snapshot: what was built, the collapse record, the
+        certificate (without its words, which carry unrounded numbers), and the brick graphs at
+        the collapse and at the end, each brick keyed by its id (see :func:`Graph.bricks`). The collapse time is left out: the level and the brick are
+        what a scenario asserts, and the time would show every small change as a diff."""
+        collapse = None
+        if self.collapse:
+            c = self.collapse
+            collapse = {"level": c.level, "brick": c.brick, "brick_level": c.brick_level}
+        certificate = None
+        if self.certificate:
+            certificate = self.certificate.model_dump(mode="json", exclude={"detail"})
+        return {
+            "scenario": self.scenario,
+            "mode": self.mode,
+            "levels_placed": self.levels_placed,
+            "collapse": collapse,
+            "certificate": certificate,
+            "collapse_graph": self.collapse_graph.bricks() if self.collapse_graph else None,
+            "final_graph": self.final_graph.bricks(),
+        }
+
+
+def _round(x: float, digits: int) -> float:
+    return round(float(x), digits) + 0.0  # + 0.0 turns -0.0 into 0.0
+
+
+def _mm(v: Any) -> Vec3:
+    x, y, z = (_round(c * 1000, 1) for c in v)
+    return x, y, z
+
+
+def _degrees(angles: Any) -> Vec3:
+    yaw, pitch, roll = (_deg(a) for a in angles)
+    return yaw, pitch, roll
+
+
+def _deg(a: float) -> float:
+    a = _round(a, 1)
+    return 180.0 if a == -180.0 else a

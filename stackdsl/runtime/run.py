@@ -1,0 +1,225 @@
+"""Program -> Outcome: run a program in a world, with or without the stability extension.
+
+:func:`run_program` builds a world on the program's backend (:func:`world_for`: a
+:class:`stackdsl.runtime.engines.world.PyBulletWorld` on one DIRECT client per run, closed in all cases,
+or a :class:`stackdsl.runtime.engines.mujoco_world.MuJoCoWorld`), a :class:`stackdsl.runtime.loop.StepLoop` over the program, and
+attaches its subscribers: the substep control, the stability extension, the collapse
+monitor and, when asked, a recorder. Bodies enter the engine when they are placed, in
+program order, so creation order is a function of the scenario alone (pybullet is
+bitwise repeatable only then; MuJoCo compiles its model again for each, keeping the state).
+
+Collapse detection is the same in every mode: after the first structure brick leaves
+its placed pose by more than the collapse threshold, nothing more is placed and the run
+ends ``settle`` seconds later. In extension mode, while every brick is frozen nothing
+can move, so the run jumps to the next action instead of stepping; and once a collapse is
+decided, the bricks still moving become rigid bodies on pybullet (half the cost a step),
+unless the scene judges what stays after the collapse (the program's ``rigid`` rule).
+
+Two guards keep a run finite (the compiler's work budget refuses the scenarios that
+would take too long before anything runs, :mod:`stackdsl.compile.compiler`):
+
+* a step is split into at most :data:`MAX_SUBSTEPS` substeps however fast a body moves
+  (a ``substeps`` event says when the cap held);
+* ``run_program(..., timeout=SECONDS)`` stops a run after that much wall time, cleanly:
+  the outcome is built from what was simulated and :attr:`Outcome.stopped` says when.
+  The clock is read once per :data:`CLOCK_EVERY` steps and at every action.
+
+While a run lasts, the objects that existed before it (some 90,000 after the imports of
+numpy, scipy, shapely and pydantic) are left out of Python's garbage collector
+(:func:`gc.freeze`, undone by :func:`gc.unfreeze` when the run ends: what they leave as
+garbage is collected after it). A full collection during a run scanned them all: 50 to 65 ms
+of a 1.2 to 1.5 s run of a collapsing slant log cabin in extension mode, which makes more
+objects than the raw one (timed ad hoc with :data:`gc.callbacks`).
+
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import gc
+import time as _time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, replace
+
+from ..compile.program import EngineSettings, Program
+from .collapse import CollapseMonitor
+from .engines.world import PyBulletWorld, World, pybullet_world
+from .loop import CLOCK_EVERY, StepLoop, Subscriber
+from .outcome import Outcome
+from .subscribers import RigidDebris, SoftLanding, Stability, Substeps
+
+__all__ = ["CLOCK_EVERY", "RunOptions", "run_in", "run_program"]
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """How much of a scene the runtime simulates; each switch shows its saving in ``stackdsl bench``.
+
+    Attributes:
+        jump: in extension mode, jump to the next action while every brick is frozen
+            (nothing can move) instead of stepping.
+        lazy_bodies: bodies enter the engine when they are placed; False creates every
+            brick at the start, parked far away and immovable; None (the default): the
+            backend's best, measured (docs/results.md, MuJoCo): when placed on pybullet; at the
+            start on MuJoCo, which compiles its model again for each new body (with its own
+            sleeping too: the 60-level 4 stack takes 54 s parked against 134 s rebuilt).
+        needed_rules: run only the stability rules the compiler chose for the scene;
+            False runs leaning and impacts always.
+        per_event: run the stack-wide test when the stack changes; False every step.
+        stop_at_collapse: place nothing after the first collapse and end ``settle`` later.
+        soft_landing: a placed brick is let go of when it arrives at its resting height
+            (:class:`stackdsl.runtime.subscribers.SoftLanding`); False drops it freely from its gap.
+        rigid_debris: in extension mode on pybullet, with ``stop_at_collapse`` and the
+            program's ``rigid`` rule on, the bricks that move once the collapse is decided are
+            re-created as rigid bodies (maximal coordinates), cheaper to step
+            (:class:`stackdsl.runtime.subscribers.RigidDebris`).
+
+    Source: stackdsl's own (model only what a scene needs).
+    """
+
+    jump: bool = True
+    lazy_bodies: bool | None = None
+    needed_rules: bool = True
+    per_event: bool = True
+    stop_at_collapse: bool = True
+    rigid_debris: bool = True
+    soft_landing: bool = True
+
+
+def run_program(
+    program: Program,
+    options: RunOptions = RunOptions(),
+    *,
+    timeout: float | None = None,
+    subscribers: tuple[Subscriber, ...] = (),
+) -> Outcome:
+    """Run a compiled program and report what happened.
+
+    Args:
+        program: a compiled program.
+        options: how much of the scene to simulate.
+        timeout: seconds of wall time after which the run stops (checked every
+            :data:`CLOCK_EVERY` steps and at every action); the outcome then covers the
+            simulated time so far and :attr:`Outcome.stopped` says where it stopped.
+            None: no limit.
+        subscribers: more subscribers for the step loop (a recorder), after the run's own.
+
+    Raises:
+        ValueError: a negative or not-a-number timeout.
+        pybullet.error: the engine failed (not expected for a compiled program).
+    """
+    if timeout is not None and not timeout >= 0:
+        raise ValueError(f"timeout must be a number of seconds >= 0 or None, not {timeout!r}")
+    start = _time.perf_counter()
+    with _older_objects_left_alone(), world_for(program) as world:
+        loop = run_in(world, program, options, timeout=timeout, started=start, subscribers=subscribers)
+        return outcome(loop, _time.perf_counter() - start)
+
+
+@contextmanager
+def _older_objects_left_alone() -> Iterator[None]:
+    """The garbage collector's passes look only at objects made inside the block (module docstring).
+    A caller that froze objects itself (:func:`gc.freeze` before forking workers) keeps its own
+    arrangement: nothing is frozen here, so nothing of it is unfrozen at the end."""
+    if gc.get_freeze_count():
+        yield
+        return
+    gc.freeze()
+    try:
+        yield
+    finally:
+        gc.unfreeze()
+
+
+@contextmanager
+def world_for(program: Program) -> Iterator[World]:
+    """A new world for ``program``: on its backend's engine, closed on exit.
+
+    Raises:
+        ImportError: the MuJoCo backend without the ``mujoco`` package.
+    """
+    engine, friction, restitution = program.engine, program.ground_friction, program.ground_restitution
+    if engine.backend == "mujoco":
+        from .engines.mujoco_world import MuJoCoWorld
+
+        yield MuJoCoWorld(engine, friction, restitution)
+    else:
+        with pybullet_world(engine, friction, restitution) as pybullet:
+            yield pybullet
+
+
+def run_in(
+    world: World,
+    program: Program,
+    options: RunOptions = RunOptions(),
+    *,
+    timeout: float | None = None,
+    started: float | None = None,
+    subscribers: tuple[Subscriber, ...] = (),
+) -> StepLoop:
+    """Run ``program`` in ``world`` (a real or a fake one) and return the finished loop;
+    :func:`outcome` reads it. ``timeout`` and ``started``: as :class:`StepLoop`'s."""
+    config = program.stability
+    if not options.needed_rules:
+        config = replace(config, leaning=True, impacts=True)
+    config = replace(config, per_event=options.per_event)
+    acting = program.engine.mode == "extension"
+    stability = Stability(world, program, config, acting)
+    rest = (program.stability.rest_speed, program.stability.rest_angular_speed, program.stability.rest_duration)
+    monitor = CollapseMonitor(
+        program.collapse_threshold, program.settle, stability.graph, stability.extension.certificate, stability.proved, *rest
+    )
+    own: list[Subscriber] = [SoftLanding(program.engine.gravity)] if options.soft_landing else []
+    own += [Substeps(program.collapse_threshold, acting)] if program.engine.ccd else []
+    after: list[Subscriber] = []
+    rigid = any(r.name == "rigid" and r.on for r in program.rules)
+    if acting and rigid and options.rigid_debris and isinstance(world, PyBulletWorld):
+        after.append(RigidDebris(world.make_rigid))
+    loop = StepLoop(
+        world,
+        program,
+        [*own, stability, monitor, *after, *subscribers],
+        jump=options.jump,
+        stop_at_collapse=options.stop_at_collapse,
+        lazy_bodies=options.lazy_bodies if options.lazy_bodies is not None else _lazy(program.engine),
+        timeout=timeout,
+        started=started,
+    )
+    loop.run()
+    return loop
+
+
+def _lazy(engine: EngineSettings) -> bool:
+    return engine.backend == "pybullet"
+
+
+def outcome(loop: StepLoop, wall_time: float) -> Outcome:
+    """What a finished loop produced (:class:`Outcome`)."""
+    ended = _time.perf_counter()
+    monitor = next(s for s in loop.subscribers if isinstance(s, CollapseMonitor))
+    stability = next(s for s in loop.subscribers if isinstance(s, Stability))
+    structure = loop.structure
+    placed = structure.placed
+    return Outcome(
+        scenario=loop.program.name,
+        mode=loop.program.engine.mode,
+        collapse=monitor.collapse,
+        events=tuple(loop.events),
+        final_graph=stability.graph(loop),
+        collapse_graph=monitor.collapse_graph,
+        displacement={r.id: float(d) for r, d in zip(placed, structure.displacements(placed))},
+        drift=monitor.drift,
+        kinetic_energy=structure.kinetic_energy(),
+        levels_placed=max(structure.levels.values(), default=0),
+        bricks_placed=len(placed),
+        simulated_time=loop.now,
+        wall_time=wall_time,
+        steps=loop.step - loop.skipped,
+        steps_skipped=loop.skipped,
+        engine_time=loop.engine_time,
+        after_collapse=0.0 if loop.stop_clock is None else ended - loop.stop_clock,
+        certificate=monitor.certificate,
+        certificate_time=monitor.certify_time,
+        stopped=loop.stopped,
+    )

@@ -1,0 +1,200 @@
+"""The step loop's subscribers: the stability extension, the substep control and the rigid
+debris (the collapse monitor is :mod:`stackdsl.runtime.collapse`).
+
+Source: stackdsl's own; the extension is the report's method (:mod:`stability`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from stability import Box, Plane, Pose, StabilityConfig, StabilityEvent, StabilityExtension
+
+from ..compile.program import MAX_SUBSTEPS, Program
+from .bricks import BrickRecord
+from .engines.world import World
+from .loop import StepLoop, Subscriber
+from .outcome import Event, Graph
+
+
+class Stability(Subscriber):
+    """The stability extension on the world: every brick is registered with it (its brick
+    graph is the run's in every mode); with ``acting`` it freezes and wakes them.
+
+    A brick's record follows the extension: frozen, it stops ``moving`` and keeps how far
+    it had moved (``settled``); woken, it moves again.
+    """
+
+    def __init__(self, world: World, program: Program, config: StabilityConfig, acting: bool) -> None:
+        self.extension = StabilityExtension(world, config)
+        self.acting = acting
+        self.mechanisms: dict[str, tuple[float, str]] = {}  # brick id -> when and why a proved mechanism woke it
+        self.extension.add_ground(world.ground, Plane(0.0), friction=program.ground_friction)
+        for f in program.fixtures:
+            body = world.create(f.brick, Pose.from_euler(f.position, f.yaw, f.pitch, f.roll), mass=0.0)
+            self.extension.add_ground(body, Box(np.array(f.brick.half_extents), f.brick.mass), f.id, f.brick.friction)
+
+    @property
+    def quiet(self) -> bool:
+        return self.acting and self.extension.quiet  # without the extension anything may move
+
+    def on_place(self, loop: StepLoop, record: BrickRecord) -> None:
+        self.extension.add_brick(record.body, record.box, record.id, record.spec.friction)
+
+    def on_launch(self, loop: StepLoop, record: BrickRecord) -> None:
+        self.extension.add_brick(record.body, record.box, record.id, record.spec.friction)
+        if self.acting:  # a fast projectile may reach its target within the first step
+            self._follow(loop, self.extension.update(loop.events[-1].time))
+
+    def after_step(self, loop: StepLoop) -> None:
+        if self.acting:
+            self._follow(loop, self.extension.update(loop.now))
+
+    def _follow(self, loop: StepLoop, events: list[StabilityEvent]) -> None:
+        """Update the records of frozen and woken bricks; put the events in the timeline
+        (impacts only of projectiles, not of every landing brick)."""
+        records = loop.structure.records
+        for e in events:
+            record = records.get(e.label)
+            if e.kind == "wake" and e.proved:
+                self.mechanisms[e.label] = (e.time, e.reason)
+            elif e.kind == "freeze":
+                self.mechanisms.pop(e.label, None)
+            if record is not None and record.structure and e.kind in ("freeze", "wake"):
+                loop.structure.set_moving(record, e.kind == "wake")
+                record.was_frozen = True
+                record.settled = None if record.moving else float(loop.structure.displacements([record])[0])
+            source = records.get(e.source)
+            if e.kind != "impact" or (source is not None and not source.structure):
+                level = record.level if record is not None else None
+                loop.events.append(Event(time=e.time, kind=e.kind, brick=e.label, level=level, detail=e.reason))
+
+    def proved(self, brick: str) -> tuple[str, tuple[str, ...]] | None:
+        """The proved collapse mechanism ``brick`` was woken in and has not been frozen since, in
+        words, with every brick it woke then (in the order they entered); None when there is none."""
+        if brick not in self.mechanisms:
+            return None
+        time, reason = self.mechanisms[brick]
+        bricks = tuple(b for b, (t, _) in self.mechanisms.items() if t == time)
+        return f"a collapse mechanism proved at {time:.3f} s ({reason})", bricks
+
+    def graph(self, loop: StepLoop) -> Graph:
+        """The brick graph now."""
+        return Graph.from_stability(self.extension.graph(), loop.structure.levels)
+
+
+class SoftLanding(Subscriber):
+    """A placed brick is let go of once it has arrived: at the first step after it began to fall
+    at which something has slowed its fall (its downward speed grew by less than half of what
+    gravity adds in a step) or it has come down to its resting height (within :data:`ARRIVED`),
+    its velocities are set to zero, once, as a hand that lowers a brick onto the stack and opens.
+    A brick placed in contact never falls and is left alone.
+
+    The drop gap then only says where the brick starts, not how hard it lands. Dropped freely, a
+    brick whose centre of mass lies 1 mm inside its support's edge landed 1 mm from above with
+    enough spin on pybullet to slide off: a slanted log cabin whose closed-form level is 10 fell
+    at level 4 with a 1 mm gap and at 10 with the others. Let go of on arrival, it gives 10 at
+    every gap from 0 to 2 mm, down to 0.3 mm inside. Same in every mode, so modes compare.
+    A brick watched longer than :data:`WATCH` is forgotten.
+
+    Source: stackdsl's own (docs/design.md, placement independence).
+    """
+
+    ARRIVED = 1e-4
+    """Metres above its resting height at which a falling brick has arrived."""
+
+    WATCH = 0.25
+    """Seconds after its placement a brick is watched."""
+
+    FALLING = 1e-3
+    """m/s downward from which a brick has begun to fall."""
+
+    def __init__(self, gravity: float) -> None:
+        self.gravity = gravity
+        self.falling: dict[str, tuple[BrickRecord, float, float | None]] = {}  # id -> (record, placed, last vz)
+
+    @property
+    def quiet(self) -> bool:
+        return not self.falling
+
+    def on_place(self, loop: StepLoop, record: BrickRecord) -> None:
+        self.falling[record.id] = (record, loop.events[-1].time, None)
+
+    def after_step(self, loop: StepLoop) -> None:
+        if not self.falling:
+            return
+        watched = [r for r, _, _ in self.falling.values()]
+        positions, _ = loop.world.poses_of([r.body for r in watched])
+        velocities, _ = loop.world.velocities_of([r.body for r in watched])
+        slowed = 0.5 * self.gravity * loop.dt
+        for record, position, velocity in zip(watched, positions, velocities):
+            _, placed, last = self.falling[record.id]
+            vz = float(velocity[2])
+            fell = last is not None or vz < -self.FALLING
+            arrived = fell and (
+                position[2] <= record.pose.position[2] + self.ARRIVED or (last is not None and vz > last - slowed)
+            )
+            if arrived and record.moving:
+                loop.world.throw(record.body, (0.0, 0.0, 0.0), None)
+            if arrived or not record.moving or loop.now - placed > self.WATCH:
+                del self.falling[record.id]
+            elif fell:
+                self.falling[record.id] = (record, placed, vz)
+
+
+class Substeps(Subscriber):
+    """Split a step while something is fast, so that no body moves more than the collapse
+    threshold (half a brick's thinnest side) in one substep, in at most
+    :data:`MAX_SUBSTEPS` (a ``substeps`` event when the cap starts to hold: faster bodies
+    then move further per substep, and the run's cost stays bounded).
+
+    A brick thrown lengthwise at 5 m/s moves 21 mm in a 240 Hz step, more than the 8 mm it
+    overlaps its target: pybullet then pushes it out up or down and it slips past;
+    continuous collision detection does not help (its swept sphere is at the centre of
+    mass, 60 mm behind the front). Only while fast bodies move: none, no cost.
+
+    Args:
+        threshold: metres a body may move in one substep.
+        bricks_too: watch the moving structure bricks as well as the projectiles.
+    """
+
+    def __init__(self, threshold: float, bricks_too: bool) -> None:
+        self.threshold, self.bricks_too = threshold, bricks_too
+        self.substeps = 1
+
+    def before_step(self, loop: StepLoop) -> None:
+        structure = loop.structure
+        fast = structure.projectiles + (list(structure.moving.values()) if self.bricks_too else [])
+        speed, fastest = max(((loop.world.speeds(r.body)[0], r) for r in fast), key=lambda s: s[0], default=(0.0, None))
+        needed = max(1, math.ceil(speed * loop.dt / self.threshold))
+        substeps = min(needed, MAX_SUBSTEPS)
+        if substeps == MAX_SUBSTEPS and self.substeps != MAX_SUBSTEPS and fastest is not None:
+            detail = f"{speed:.3g} m/s needs {needed} substeps; capped at {MAX_SUBSTEPS}"
+            loop.events.append(Event(time=loop.now, kind="substeps", brick=fastest.id, level=fastest.level, detail=detail))
+        self.substeps = substeps
+        loop.world.set_substeps(substeps)
+
+
+class RigidDebris(Subscriber):
+    """Once the run only settles after a collapse (nothing more is placed or thrown, the
+    collapse level is decided), the bricks the engine moves become rigid bodies: ``make_rigid``
+    re-creates them so (:meth:`stackdsl.runtime.engines.world.PyBulletWorld.make_rigid`), once, on the step
+    the collapse is decided. What falls then costs the engine about half as much a step;
+    bricks frozen then stay as they are.
+
+    Args:
+        make_rigid: re-creates the given bodies; returns those it re-created.
+
+    Source: stackdsl's own (docs/design.md, modes; measured in docs/results.md).
+    """
+
+    def __init__(self, make_rigid: Callable[[Sequence[int]], list[int]]) -> None:
+        self.make_rigid = make_rigid
+        self.made: list[int] | None = None  # the bodies re-created, once it has happened
+
+    def after_step(self, loop: StepLoop) -> None:
+        if self.made is None and loop.stop_step is not None and loop.stop_at_collapse:
+            self.made = self.make_rigid([r.body for r in loop.structure.moving.values()])

@@ -1,0 +1,88 @@
+"""The result of checking one scenario: what ran, each expectation's verdict, what was
+measured, and why a run failed or stopped, if it did.
+
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .expect import Verdict, describe
+
+
+@dataclass(frozen=True)
+class CheckResult:
+    """One scenario checked.
+
+    Attributes:
+        file, scenario, mode, model, backend: what ran (model: the stability model; backend:
+            the engine, pybullet or mujoco).
+        verdicts: one per expectation (empty: the file expects nothing).
+        collapse_level: measured, or None when the structure stood.
+        levels_placed: how many levels were built.
+        simulated_time, wall_time: seconds.
+        drift: metres, the largest displacement of a brick that stood (``Outcome.drift``).
+        steps_per_brick: physics steps taken per placed brick.
+        explanation: why the failed expectations failed, one line each (empty when all
+            held; see :func:`stackdsl.verdicts.expect.explain`).
+        error: one line when the run itself failed (an internal error: an exception, out of
+            memory, its worker died), else empty; traceback: the exception's traceback, if any.
+        stopped: one line when a guard stopped the run before its end (its wall-clock
+            limit), else empty.
+        folder: with a report, the folder of the run's files (:mod:`stackdsl.draw.artefacts`);
+            artefacts: kind -> file name in it (trajectory, picture, graph, clip);
+            draw_error: the first file that could not be drawn, one line, else empty;
+            draw_time: wall seconds the drawing took.
+        certificate: the proof of the verdict in one line (:func:`stackdsl.runtime.outcome.describe_certificate`),
+            else empty.
+        bad_input: a sweep's sample the language refuses (a drawn value out of range), the
+            message at file:line:col, else empty; sweep: a sweep's measured summary, else empty
+            (a sweep's verdicts are its statistical expectations, one a grid cell).
+    """
+
+    file: str
+    scenario: str
+    mode: str
+    model: str
+    verdicts: tuple[Verdict, ...]
+    collapse_level: int | None
+    levels_placed: int
+    simulated_time: float
+    wall_time: float
+    drift: float = 0.0
+    steps_per_brick: float = 0.0
+    explanation: tuple[str, ...] = ()
+    error: str = ""
+    stopped: str = ""
+    traceback: str = ""
+    backend: str = "pybullet"
+    folder: str = ""
+    artefacts: tuple[tuple[str, str], ...] = ()
+    draw_error: str = ""
+    draw_time: float = 0.0
+    bad_input: str = ""
+    sweep: str = ""
+    certificate: str = ""
+
+    @property
+    def passed(self) -> bool:
+        """True when the run ended normally and every expectation held."""
+        return not self.error and not self.stopped and not self.bad_input and all(v.passed for v in self.verdicts)
+
+    @property
+    def expected(self) -> str:
+        """The expectations, as in check's table: ``'collapse 9±1'``, ``'stands'``."""
+        return ", ".join(dict.fromkeys(v.expected for v in self.verdicts)) or "(nothing)"
+
+    @property
+    def measured(self) -> str:
+        """What was measured, as in check's table: ``'collapse 13, levels 1-12 stayed'``; the
+        error or what stopped the run when either happened."""
+        if self.error or self.stopped or self.bad_input:
+            return self.error or self.stopped or "bad input in a sample"
+        if self.sweep:
+            return self.sweep
+        described = describe(self.collapse_level)
+        extra = [v.measured for v in self.verdicts if v.name == "stays"]
+        return ", ".join([described, *extra])

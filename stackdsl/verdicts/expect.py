@@ -1,0 +1,132 @@
+"""Outcome + expectations -> verdicts.
+
+Source: stackdsl's own (docs/design.md, words: collapse level).
+"""
+
+from __future__ import annotations
+
+from pydantic import BaseModel, ConfigDict
+
+from ..lang.expectations import CollapseLevel, Expect, span
+from ..runtime.outcome import Outcome
+
+
+class Verdict(BaseModel):
+    """One expectation checked: what was expected, what was measured, and whether it held."""
+
+    model_config = ConfigDict(frozen=True)
+
+    name: str
+    passed: bool
+    expected: str
+    measured: str
+
+
+def evaluate(expect: Expect, outcome: Outcome, threshold: float) -> list[Verdict]:
+    """Check ``outcome`` against ``expect``; ``threshold`` (m) is how far a brick that
+    stays in place may move. ``may_fall`` levels are not checked. An empty list means
+    nothing was expected. A run stopped early (``outcome.stopped``, a timeout) adds a
+    failed ``finished`` verdict: what it did not simulate was not checked.
+    """
+    verdicts = []
+    measured = describe(outcome.collapse.level if outcome.collapse else None)
+    if isinstance(expect.collapse, CollapseLevel):  # a sweep's statistics are decided over its samples
+        c = expect.collapse
+        passed = outcome.collapse is not None and abs(outcome.collapse.level - c.level) <= c.tolerance
+        expected = f"collapse {c.level}" + (f"±{c.tolerance}" if c.tolerance else "")
+        verdicts.append(Verdict(name="collapse", passed=passed, expected=expected, measured=measured))
+    if expect.stands:
+        verdicts.append(Verdict(name="stands", passed=outcome.collapse is None, expected="stands", measured=measured))
+    if expect.stays:
+        moved = _moved_levels(outcome, threshold)
+        bad = sorted(set(expect.stays) & moved)
+        verdicts.append(
+            Verdict(
+                name="stays",
+                passed=not bad,
+                expected=f"levels {span(expect.stays)} stay",
+                measured=f"levels {span(bad)} moved" if bad else f"levels {span(expect.stays)} stayed",
+            )
+        )
+    if outcome.stopped:
+        verdicts.append(Verdict(name="finished", passed=False, expected="the run finishes", measured=outcome.stopped))
+    return verdicts
+
+
+def _moved_levels(outcome: Outcome, threshold: float) -> set[int]:
+    levels = _levels(outcome)
+    return {lv for b, d in outcome.displacement.items() if d > threshold and (lv := levels.get(b)) is not None}
+
+
+def _levels(outcome: Outcome) -> dict[str, int | None]:
+    return {n.id: n.level for n in outcome.final_graph.nodes}
+
+
+#: At most this many moved bricks are named for a failed ``stays``; the rest are counted.
+MOVED_SHOWN = 3
+
+
+def explain(expect: Expect, outcome: Outcome, threshold: float) -> list[str]:
+    """Why the expectations that failed did so, one line each, from the outcome's collapse
+    record and its displacements: which brick moved, how far (mm), when (s) and at what
+    level. Empty when every expectation held (see :func:`evaluate`; ``threshold`` in m).
+
+    - collapse or stands failed and the structure collapsed: the brick that moved first,
+      its displacement when detected, the time and how many levels were placed;
+    - a collapse was expected but the structure stood: the largest displacement at the
+      end and its brick;
+    - stays failed: the bricks of the levels that must stay that moved beyond
+      ``threshold`` by the end, the farthest first (at most :data:`MOVED_SHOWN`).
+
+    Source: stackdsl's own.
+    """
+    failed = {v.name for v in evaluate(expect, outcome, threshold) if not v.passed}
+    levels = _levels(outcome)
+    lines = []
+    if failed & {"collapse", "stands"}:
+        c = outcome.collapse
+        if c is not None:
+            lines.append(
+                f"collapsed: {_brick(c.brick, c.brick_level)} moved {_mm(c.displacement)} by t={c.time:.2f} s, "
+                f"with {c.level} level{'s' * (c.level != 1)} placed"
+            )
+        elif outcome.displacement:
+            brick, largest = max(outcome.displacement.items(), key=lambda item: item[1])
+            lines.append(
+                f"stood: the largest displacement at the end (t={outcome.simulated_time:.2f} s) was {_mm(largest)}, "
+                f"{_brick(brick, levels.get(brick))}; a collapse is a move beyond {_mm(threshold)}"
+            )
+        else:
+            lines.append("stood: no structure brick was placed")
+    if "finished" in failed:
+        lines.append(f"stopped: {outcome.stopped}; the rest of the run was not simulated")
+    if "stays" in failed and expect.stays:
+        keep = set(expect.stays)
+        moved = sorted(((d, b) for b, d in outcome.displacement.items() if d > threshold and levels.get(b) in keep), reverse=True)
+        for d, b in moved[:MOVED_SHOWN]:
+            lines.append(
+                f"moved: {_brick(b, levels[b])} moved {_mm(d)} by the end, t={outcome.simulated_time:.2f} s "
+                f"(allowed {_mm(threshold)})"
+            )
+        if len(moved) > MOVED_SHOWN:
+            lines.append(f"moved: and {len(moved) - MOVED_SHOWN} more bricks of levels that must stay")
+    return lines
+
+
+def _brick(brick: str, level: int | None) -> str:
+    return brick if level is None else f"brick {brick} (level {level})"
+
+
+def _mm(metres: float) -> str:
+    """``0.0081`` -> ``'8.1 mm'``, ``1.2e-05`` -> ``'0.012 mm'``."""
+    mm = metres * 1000
+    return f"{mm:.1f} mm" if mm >= 1 else f"{mm:.2g} mm"
+
+
+def describe(collapse_level: int | None) -> str:
+    """``'collapse 9'`` or ``'stands'``.
+
+    >>> describe(9), describe(None)
+    ('collapse 9', 'stands')
+    """
+    return "stands" if collapse_level is None else f"collapse {collapse_level}"

@@ -7,7 +7,7 @@ import pytest
 
 from stackdsl import compile_scenario, parse_scenario
 from stackdsl.runtime.engines.fake import FakeWorld
-from stackdsl.runtime.loop import Subscriber
+from stackdsl.runtime.loop import StepLoop, Subscriber
 from stackdsl.runtime.run import RunOptions, outcome, run_in
 
 TOWER = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nengine: {mode: raw}\ntiming: {settle: 1 s}\n"
@@ -51,6 +51,37 @@ def test_hooks_run_in_order_and_the_run_reaches_its_end():
     assert [e.kind for e in result.events] == ["place"] * 4
     # nothing falls in the fake: each brick stays its drop gap above where it was placed
     assert max(result.displacement.values()) == pytest.approx(p.placements[0].drop)
+
+
+class EndOnly(Subscriber):
+    def __init__(self) -> None:
+        self.ended = 0
+
+    def at_end(self, loop):
+        self.ended += 1
+
+
+class Duck:
+    """Not a Subscriber: every hook it has is called."""
+
+    quiet = True
+
+    def __init__(self) -> None:
+        self.steps = 0
+
+    def after_step(self, loop):
+        self.steps += 1
+
+
+def test_the_loop_binds_only_the_hooks_a_subscriber_overrides():
+    p, log, end, duck = program(), Log(), EndOnly(), Duck()
+    loop = StepLoop(FakeWorld(timestep=p.engine.timestep), p, (log, end, duck), jump=False)
+    assert [h.__self__ for h in loop._before_step] == [log]
+    assert [h.__self__ for h in loop._after_step] == [log, duck]
+    assert [h.__self__ for h in loop._at_end] == [log, end]
+    assert loop._watchers == (duck,)  # only Duck says whether it is quiet
+    loop.run()
+    assert end.ended == 1 and duck.steps == loop.step == log.calls.count("after_step") > 0
 
 
 def test_a_brick_that_moves_past_the_threshold_is_the_collapse_and_the_run_ends_settle_later():

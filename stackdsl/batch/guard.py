@@ -53,7 +53,7 @@ def interrupts_blocked() -> Iterator[None]:
         signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
-class GuardedProcess(multiprocessing.context.SpawnProcess):  # type: ignore[name-defined]
+class GuardedProcess(multiprocessing.context.SpawnProcess):
     """A spawned process that ends with its parent, ignores Ctrl-C and has its address
     space limited to ``memory_limit`` bytes (class default :data:`MEMORY_LIMIT`; None: no
     limit). See the module's description."""

@@ -38,7 +38,7 @@ def run_guarded(program: Program, timeout: float | None = TIMEOUT) -> Outcome:
     """``run_program(program)`` with a wall-clock limit of ``timeout`` seconds (None: none),
     where the runtime takes one (see :func:`stopped_by`)."""
     if timeout is not None and "timeout" in inspect.signature(run_program).parameters:
-        return run_program(program, timeout=timeout)  # type: ignore[call-arg]
+        return run_program(program, timeout=timeout)
     return run_program(program)
 
 
@@ -91,7 +91,7 @@ def judge(file: str, program: Program, expect: Expect, timeout: float | None = T
         return failed(file, program, expect, f"internal error: {type(exc).__name__}: {message}", traceback.format_exc())
 
 
-def lost(task: tuple, error: WorkerLost) -> Any:
+def lost(task: tuple[Any, ...], error: WorkerLost) -> Any:
     """The result of a task (as :func:`stackdsl.batch.check_sweep.run_unit` takes it) whose worker
     died or was stopped: a run's failed result, or a batch's samples each with the error."""
     if task[0] == "batch":

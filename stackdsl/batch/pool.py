@@ -96,12 +96,12 @@ class RemoteTraceback(Exception):
 
 def fan_out(
     fn: Callable[..., T],
-    tasks: Sequence[tuple],
+    tasks: Sequence[tuple[Any, ...]],
     costs: Sequence[float],
     jobs: int,
     *,
     limit: float | None = None,
-    lost: Callable[[tuple, WorkerLost], T] | None = None,
+    lost: Callable[[tuple[Any, ...], WorkerLost], T] | None = None,
     here: bool = True,
 ) -> Generator[T, None, None]:
     """``fn(*task)`` for every task, yielded as each finishes.
@@ -136,7 +136,7 @@ def fan_out(
     pending = deque(tasks[i] for i in by_cost)  # longest first
     pool = Workers(workers)
     try:
-        running: dict[int, tuple] = {}
+        running: dict[int, tuple[Any, ...]] = {}
         while pending or running:
             # this process waits for a worker unless it has a task of its own to run meanwhile
             finished = pool.collect(timeout=0 if pending and (here or pool.ready) else None)
@@ -159,7 +159,7 @@ def fan_out(
         pool.stop()
 
 
-def on_executor(executor: Executor, fn: Callable[..., T], tasks: Sequence[tuple]) -> Generator[T, None, None]:
+def on_executor(executor: Executor, fn: Callable[..., T], tasks: Sequence[tuple[Any, ...]]) -> Generator[T, None, None]:
     """``fn(*task)`` for every task on a caller's executor, yielded as each finishes;
     closing the iterator cancels what has not started."""
     futures = [executor.submit(fn, *task) for task in tasks]
@@ -240,7 +240,7 @@ class Workers:
         """Start one more worker."""
         ours, theirs = multiprocessing.Pipe()
         process = SPAWN.Process(target=_serve, args=(theirs,), daemon=True, name="stackdsl-worker")
-        process.memory_limit = self._memory_limit  # type: ignore[attr-defined]
+        process.memory_limit = self._memory_limit
         process.start()
         theirs.close()
         self._workers.append(_Worker(process, ours))
@@ -324,7 +324,7 @@ class Workers:
             w.conn.close()
 
 
-def _unpack(message: tuple) -> tuple[Any, BaseException | None]:
+def _unpack(message: tuple[Any, ...]) -> tuple[Any, BaseException | None]:
     if message[0] == "ok":
         return message[1], None
     error, text = message[1], message[2]
@@ -355,7 +355,7 @@ def _serve(conn: multiprocessing.connection.Connection) -> None:
         except (EOFError, OSError):
             return
         try:
-            reply: tuple = ("ok", fn(*args))
+            reply: tuple[Any, ...] = ("ok", fn(*args))
         except BaseException as exc:
             reply = ("raised", exc, traceback.format_exc())
         try:

@@ -17,7 +17,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..batch.pool import SPAWN
+from ..batch.guard import SPAWN
 from ..compile.compiler import compile_scenario
 from ..compile.program import Program
 from ..lang.loader import parse_scenario

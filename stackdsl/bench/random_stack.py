@@ -56,7 +56,7 @@ def interface_margins(x: Sequence[float] | np.ndarray, length: float = LENGTH) -
     if x.ndim != 1:
         raise ValueError(f"x must be one-dimensional, got shape {x.shape}")
     above = np.cumsum(x[::-1])[::-1][1:] / np.arange(len(x) - 1, 0, -1)  # mean of x[j+1:]
-    return length / 2 - np.abs(above - x[:-1])
+    return np.asarray(length / 2 - np.abs(above - x[:-1]))
 
 
 def stands(x: Sequence[float] | np.ndarray, length: float = LENGTH) -> bool:

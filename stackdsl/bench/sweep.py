@@ -66,7 +66,8 @@ def template(samples: int | None, scene: str | Path | None = None) -> Template:
     scenario = parse_scenario(SCENE, "bench-sweep.yaml") if scene is None else load_scenario(scene)
     if scenario.template is None:
         raise ScenarioError("this scenario has no sweep and no random field: nothing to sample", file=str(scene))
-    return scenario.template if samples is None else replace(scenario.template, samples=samples)
+    template: Template = scenario.template
+    return template if samples is None else replace(template, samples=samples)
 
 
 def title(t: Template) -> str:

@@ -29,7 +29,7 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -200,7 +200,7 @@ def run_verdicts(
     runs = plan() if runs is None else runs
     tasks = [(seed, k, runs) for k in range(count)]
 
-    def lost(task: tuple, error: WorkerLost) -> Verdicts:
+    def lost(task: tuple[Any, ...], error: WorkerLost) -> Verdicts:
         return Verdicts(task[1], "", 0, False, None, 0.0, (), f"worker lost: {error}")
 
     results: list[Verdicts] = []
@@ -444,7 +444,7 @@ def run_single_file(
         (seed, tuple(range(s, min(s + SINGLE_FILE_BATCH, count))), tuple(settings)) for s in range(0, count, SINGLE_FILE_BATCH)
     ]
 
-    def lost(task: tuple, error: WorkerLost) -> list[Sample]:
+    def lost(task: tuple[Any, ...], error: WorkerLost) -> list[Sample]:
         return [Sample(k, None, 0.0, (), f"worker lost: {error}") for k in task[1]]
 
     results: list[Sample] = []

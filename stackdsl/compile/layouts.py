@@ -174,7 +174,7 @@ def lie_flat(bricks: list[LaidBrick]) -> np.ndarray:
         return np.zeros(0, dtype=bool)
     angles = [[b.yaw, b.pitch, b.roll] for b in bricks]
     up = Rotation.from_euler("ZYX", angles, degrees=True).as_matrix()[:, 2, 2]
-    return np.abs(up) > math.cos(math.radians(1.0))
+    return np.asarray(np.abs(up) > math.cos(math.radians(1.0)))
 
 
 def _wrap(angle: float) -> float:

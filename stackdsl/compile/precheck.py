@@ -45,8 +45,8 @@ FLOATING = "floating"
 
 @dataclass(frozen=True)
 class _Problem:
-    key: tuple  # what is wrong, independent of where it is reported
-    order: tuple  # report order: overlaps first, then floating bricks in placement order, then expectations
+    key: tuple[Any, ...]  # what is wrong, independent of where it is reported
+    order: tuple[Any, ...]  # report order: overlaps first, then floating bricks in placement order, then expectations
     path: FieldPath
     message: str
     effect: str = ""  # what happens to the brick, for a message at timing.placement_error

@@ -104,7 +104,7 @@ class _Loader(yaml.SafeLoader):
         self.open_anchors: set[str] = set()
 
     def compose_node(self, parent: Node | None, index: Any) -> Node | None:
-        event = self.peek_event()
+        event = self.peek_event()  # type: ignore[no-untyped-call]  # PyYAML's stubs leave it untyped
         if isinstance(event, AliasEvent) and event.anchor in self.open_anchors:
             raise self.error(event.start_mark, f"the alias *{event.anchor} is inside the node it names (a recursive alias)")
         if not isinstance(event, (SequenceStartEvent, MappingStartEvent)):

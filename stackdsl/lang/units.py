@@ -60,7 +60,7 @@ def quantity_pattern(sign: Sign = "any") -> str:
 
 
 @lru_cache(maxsize=1)
-def _registry():
+def _registry() -> Any:
     import pint  # imported lazily: it takes a third of a second
 
     return pint.UnitRegistry()

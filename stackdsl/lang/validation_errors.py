@@ -129,13 +129,13 @@ def _model_in(annotation: Any, loc: FieldPath) -> Any:
     return annotation
 
 
-def reference_errors(s: Scenario) -> list[tuple[tuple, str]]:
+def reference_errors(s: Scenario) -> list[tuple[FieldPath, str]]:
     """Names that point nowhere: (field path, message) for each, in file order."""
     bricks = {**BUILTIN_BRICKS, **s.brick_types}
     materials = {**BUILTIN_MATERIALS, **s.materials}
-    problems: list[tuple[tuple, str]] = []
+    problems: list[tuple[FieldPath, str]] = []
 
-    def brick(path: tuple, name: str) -> None:
+    def brick(path: FieldPath, name: str) -> None:
         if name not in bricks:
             problems.append((path, f"unknown brick type {name!r}; known: {', '.join(sorted(bricks))}"))
 

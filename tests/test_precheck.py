@@ -14,7 +14,7 @@ from scipy.spatial.transform import Rotation
 from stackdsl import ScenarioError, compile_scenario, format_program, load_scenario, parse_scenario
 from stackdsl.batch import judge as _judge
 from stackdsl.cli.main import main
-from stackdsl.compile.overlap import OVERLAP_TOLERANCE, REST_TOLERANCE, penetration
+from stackdsl.compile.overlap import OVERLAP_TOLERANCE, REST_TOLERANCE, Body, inspect_bodies, penetration
 
 ROOT = Path(__file__).resolve().parents[1]
 SHIPPED = sorted((ROOT / "scenarios").rglob("*.yaml"))
@@ -298,3 +298,39 @@ def test_separating_axis_depth_of_boxes():
         d = rng.uniform(0.0001, 0.002)
         centre = np.array([[0.0, 0.0, 0.1 + lowest - d]])
         assert penetration(np.zeros((1, 3)), identity, slab, centre, rotation[None], half) == pytest.approx([d], abs=1e-12)
+
+
+def test_where_two_boxes_meet_is_found_without_an_engine():
+    from stackdsl.compile.overlap import _overlap_centroid
+
+    identity = np.eye(3)
+    half = np.array([0.06, 0.012, 0.004])
+    # two flat bricks overlapping 1 mm in z and 20 mm in x: the intersection is a box
+    middle = _overlap_centroid(np.zeros(3), identity, half, np.array([0.1, 0.0, 0.007]), identity, half)
+    assert middle == pytest.approx([0.05, 0.0, 0.0035], abs=1e-9)
+    # touching only (no thickness) or apart: no intersection
+    assert _overlap_centroid(np.zeros(3), identity, half, np.array([0.0, 0.0, 0.008]), identity, half) is None
+    assert _overlap_centroid(np.zeros(3), identity, half, np.array([0.0, 0.0, 0.02]), identity, half) is None
+
+
+def test_a_tilted_brick_rests_on_what_it_touches_below_its_centre_not_above():
+    half = np.array([0.06, 0.012, 0.004])
+    top = 0.104  # the upper face of a flat brick 100 mm up (itself allowed to float)
+    base = Body("base", tuple(half), (0.0, 0.0, 0.1), (0.0, 0.0, 0.1), 0.0, 0.0, 0.0, 0, 0.0, 1, ("structure", "bricks", 0))
+    pitch = -30.0  # the brick's long axis rises to +x
+    rotation = Rotation.from_euler("ZYX", [0.0, pitch, 0.0], degrees=True).as_matrix()
+
+    def leaning(at: tuple[float, float, float], along: float) -> list[int]:
+        """Floating bricks when the point ``along`` metres up the brick's underside (0.05 mm
+        deep) is at ``at``."""
+        centre = np.array(at) - rotation @ [along, 0.0, -half[2] + 0.00005]
+        c = tuple(centre.tolist())
+        brick = Body("b", tuple(half), c, c, 0.0, pitch, 0.0, 1, 1.0, 2, ("structure", "bricks", 1))
+        overlaps, floating = inspect_bodies([base, brick], [base.position, c])
+        assert overlaps == []
+        return floating
+
+    # its lower edge on the base's upper face: it rests on the base
+    assert leaning((0.0, 0.0, top), -0.06) == [0]
+    # its underside over the base's upper edge, far up the brick: it hangs above its own centre
+    assert leaning((-0.06, 0.0, top), 0.04) == [0, 1]

@@ -4,9 +4,9 @@ Overlap depths are found by the separating-axis test on each pair of boxes
 (15 axes: 3 face normals of each box and the 9 cross products of their edges), which for
 convex polyhedra gives the exact penetration depth. Resting contacts between boxes that
 both have an axis vertical (lying flat, on a side or on an end) are decided by the same
-test on the lowered box; a contact involving a tilted box is found with pybullet's
-``getClosestPoints`` on a DIRECT client, nothing stepped, with a collision margin of
-0.01 mm (pybullet's default 1 mm margin rounds corners and edges by as much). Candidate
+test on the lowered box; for a contact involving a tilted box the same test is followed by
+where the boxes meet: the centroid of their intersection (a convex polytope, scipy's
+``HalfspaceIntersection``) must lie below the brick's centre. No engine is involved. Candidate
 pairs come from a sweep over axis-aligned bounding boxes, so a tall tower costs little.
 
 Source: stackdsl's own; the separating-axis test is the standard one for oriented boxes
@@ -16,11 +16,12 @@ Source: stackdsl's own; the separating-axis test is the standard one for oriente
 from __future__ import annotations
 
 import itertools
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import linprog
+from scipy.spatial import HalfspaceIntersection, QhullError
 from scipy.spatial.transform import Rotation
 
 from ..lang.errors import FieldPath
@@ -29,7 +30,6 @@ REST_TOLERANCE = 0.001
 """Metres: a brick rests on a body when lowered this far it would sink into it (from below its centre)."""
 OVERLAP_TOLERANCE = 0.0001
 """Metres: bodies may interpenetrate this deep where placed (rounding of hand-written poses); deeper is an error."""
-_MARGIN = 1e-5  # m: pybullet collision margin of the query bodies (its default, 1 mm, rounds corners by as much)
 _EPS = 1e-6  # m: deeper by less than this is no deeper (numerical noise of the distance queries)
 _VERTICAL = 1.0 - 1e-12  # |cosine| of an axis with z above which the axis counts as vertical
 _CHUNK = 100_000  # candidate pairs tested at once (bounds memory on hostile files)
@@ -125,8 +125,7 @@ def inspect_bodies(bodies: Sequence[Body], positions: Sequence[tuple[float, floa
     supports = list(zip(up[exact][rests].tolist(), down[exact][rests].tolist()))
     tilted = ~exact
     if tilted.any():
-        quats = rotation.as_quat().reshape(n, 4)
-        supports += _tilted_supports(up[tilted], down[tilted], centre, half, quats)
+        supports += _tilted_supports(up[tilted], down[tilted], centre, half, axes)
 
     return overlaps, _floating(slot, grounded, supports)
 
@@ -196,45 +195,52 @@ def penetration(ca: np.ndarray, ra: np.ndarray, ha: np.ndarray, cb: np.ndarray, 
 
 
 def _tilted_supports(
-    up: np.ndarray, down: np.ndarray, centre: np.ndarray, half: np.ndarray, quats: np.ndarray
+    up: np.ndarray, down: np.ndarray, centre: np.ndarray, half: np.ndarray, axes: np.ndarray
 ) -> list[tuple[int, int]]:
     """The pairs ``(brick, support)`` among the candidates where the brick rests on the
-    support, by pybullet's closest points: lowered by the rest tolerance, the brick sinks
-    deeper into the support at a point below its centre."""
-    from ..runtime.engines.world import direct_client  # pybullet only when a tilted brick needs it
+    support: lowered by the rest tolerance, the brick sinks deeper into the support
+    (:func:`penetration`), and the two boxes then overlap below the brick's centre (the
+    centroid of their intersection, a convex polytope, is lower than the centre).
 
+    Args:
+        up, down: shape (m,), indices of the brick and its candidate support.
+        centre, half: shape (n, 3), metres; axes: shape (n, 3, 3), each body's axes as columns.
+    """
+    lowered = centre[up] - [0.0, 0.0, REST_TOLERANCE]
+    before = penetration(centre[up], axes[up], half[up], centre[down], axes[down], half[down])
+    after = penetration(lowered, axes[up], half[up], centre[down], axes[down], half[down])
     found = []
-    with direct_client() as client:
-        import pybullet
-
-        shapes: dict[tuple[float, ...], int] = {}
-        bodies: dict[int, int] = {}
-        for i in sorted(set(up.tolist()) | set(down.tolist())):
-            key = tuple(half[i].tolist())
-            if key not in shapes:
-                shapes[key] = client.createCollisionShape(pybullet.GEOM_BOX, halfExtents=list(key))
-            bodies[i] = client.createMultiBody(
-                0.0, shapes[key], basePosition=centre[i].tolist(), baseOrientation=quats[i].tolist()
-            )
-            client.changeDynamics(bodies[i], -1, collisionMargin=_MARGIN)
-
-        def deepest(a: int, b: int) -> tuple[float, float]:
-            points = client.getClosestPoints(bodies[a], bodies[b], REST_TOLERANCE)
-            if not points:
-                return math.inf, math.inf
-            p = min(points, key=lambda q: q[8])
-            return float(p[8]), float(p[5][2])  # distance, height of the point on a
-
-        pairs: dict[int, list[int]] = {}
-        for b, s in zip(up.tolist(), down.tolist()):
-            pairs.setdefault(b, []).append(s)
-        for b, below in pairs.items():
-            before = {s: deepest(b, s)[0] for s in below}
-            lowered = centre[b] - [0.0, 0.0, REST_TOLERANCE]
-            client.resetBasePositionAndOrientation(bodies[b], lowered.tolist(), quats[b].tolist())
-            for s in below:
-                distance, height = deepest(b, s)
-                if distance < -_EPS and distance < before[s] - _EPS and height < lowered[2]:
-                    found.append((b, s))
-            client.resetBasePositionAndOrientation(bodies[b], centre[b].tolist(), quats[b].tolist())
+    for k in np.flatnonzero((after > _EPS) & (after > np.maximum(before, 0.0) + _EPS)):
+        b, s = int(up[k]), int(down[k])
+        middle = _overlap_centroid(lowered[k], axes[b], half[b], centre[s], axes[s], half[s])
+        if middle is not None and middle[2] < lowered[k][2]:
+            found.append((b, s))
     return found
+
+
+def _box_halfspaces(centre: np.ndarray, axes: np.ndarray, half: np.ndarray) -> np.ndarray:
+    """A box as 6 half-spaces ``[n, d]`` with ``n . x + d <= 0`` (scipy's convention)."""
+    normals = np.concatenate([axes.T, -axes.T])  # (6, 3): outward face normals
+    offsets = np.concatenate([half, half])
+    return np.column_stack([normals, -(normals @ centre) - offsets])
+
+
+def _overlap_centroid(
+    ca: np.ndarray, ra: np.ndarray, ha: np.ndarray, cb: np.ndarray, rb: np.ndarray, hb: np.ndarray
+) -> np.ndarray | None:
+    """The centroid of the vertices of the intersection of two boxes (metres, shape (3,)), or
+    None when they do not overlap with some thickness. The interior point scipy's
+    ``HalfspaceIntersection`` needs is the centre of the largest ball inside both boxes
+    (``linprog``, HiGHS)."""
+    spaces = np.concatenate([_box_halfspaces(ca, ra, ha), _box_halfspaces(cb, rb, hb)])
+    normals, offsets = spaces[:, :3], spaces[:, 3]
+    norm = np.linalg.norm(normals, axis=1)
+    # maximise r subject to n . x + r |n| <= -d
+    ball = linprog([0.0, 0.0, 0.0, -1.0], A_ub=np.column_stack([normals, norm]), b_ub=-offsets, bounds=[(None, None)] * 4)
+    if ball.status != 0 or ball.x[3] < 1e-9:
+        return None
+    try:
+        vertices = HalfspaceIntersection(spaces, ball.x[:3]).intersections
+    except QhullError:
+        return None
+    return np.asarray(vertices.mean(axis=0))

@@ -22,6 +22,7 @@ from typing import Any
 
 from ..compile.compiler import compile_scenario
 from ..lang.errors import ScenarioError
+from ..lang.extras import installed, missing
 from ..lang.sampling import Template
 from ..runtime.run import run_program
 from .pool import WorkerLost, fan_out, on_executor
@@ -203,7 +204,10 @@ def dask_executor(address: str) -> Iterator[tuple[Executor, int]]:
     Raises:
         ValueError: ``local:N`` with N not a whole number from 1 to 64.
         OSError, TimeoutError: the scheduler cannot be reached.
+        ScenarioError: Dask's distributed is not installed (the ``dask`` extra).
     """
+    if not installed("dask"):
+        raise ScenarioError(missing("dask", f"--dask {address}"), file="--dask")
     import dask
     from distributed import Client, LocalCluster
 

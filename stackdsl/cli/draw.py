@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from ..lang.errors import ScenarioError
+from ..lang.extras import installed, missing
 from ..runtime.recorder import RATE
 from .args import at_type, fps_type, rate_type
 
@@ -198,6 +199,9 @@ def _render(args: argparse.Namespace) -> int:
 
 def _animate(args: argparse.Namespace) -> int:
     from ..draw.animate import animate
+
+    if str(args.output).lower().endswith(".mp4") and not installed("video"):  # said before anything runs
+        raise ScenarioError(missing("video", "an MP4 clip"), file=str(args.output))
 
     def draw(trajectory: Any, out: Path, width: int, height: int) -> None:
         animate(trajectory, out, fps=args.fps, width=width, height=height)  # ValueError: a GIF above 50 frames a second

@@ -40,6 +40,7 @@ import numpy as np
 from stability import Box, Pose, StabilityConfig
 
 from ..lang.bounds import MAX_SIMULATED_TIME
+from ..lang.extras import installed, missing
 from ..lang.schema import BACKEND_FIELDS, Scenario
 from ..lang.schema_impacts import SIDES, AfterLevel, Impact
 from .clearance import check_launch
@@ -106,9 +107,12 @@ def compile_scenario(
             names a level that is not built, the run would exceed the time limit or the
             work budget (:data:`MAX_WORK`), or a check before simulating fails
             (:mod:`stackdsl.compile.precheck`: bricks that overlap or rest on nothing where
-            placed, expectations about levels never built).
+            placed, expectations about levels never built), or the engine is MuJoCo and
+            it is not installed (the ``mujoco`` extra).
     """
     engine = _engine(scenario, mode, backend)
+    if engine.backend == "mujoco" and not installed("mujoco"):
+        raise scenario.source.error(("engine", "backend"), missing("mujoco"))
     nominal = layout(scenario)
     everything = with_placement_error(scenario, nominal)
     bricks = [b for b in everything if not b.fixed]

@@ -32,6 +32,8 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
+from ..lang.errors import ScenarioError
+from ..lang.extras import installed, missing
 from ..runtime.trajectory import STATES, Trajectory
 from .render import COLOURS, Scene, legend_keys, scale_bar
 
@@ -255,6 +257,8 @@ def _write_gif(pictures: Iterator[np.ndarray], path: Path, fps: float, count: in
 
 
 def _write_mp4(pictures: Iterator[np.ndarray], path: Path, fps: float, width: int, height: int) -> None:
+    if not installed("video"):
+        raise ScenarioError(missing("video", "an MP4 clip"), file=str(path))
     import imageio_ffmpeg
 
     even = (width + width % 2, height + height % 2)  # H.264 in yuv420p needs even sides

@@ -1,0 +1,86 @@
+"""Optional features without their extra: one line naming the pip install, exit 2, nothing run."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from stackdsl.cli.main import main
+from stackdsl.lang import extras
+
+ROOT = Path(__file__).resolve().parents[1]
+MUJOCO = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nengine:\n  backend: mujoco\nexpect: {stands: true}\n"
+
+
+@pytest.fixture
+def without(monkeypatch):
+    """Make the modules of the given extras unimportable (as if not installed)."""
+
+    def hide(*names: str) -> None:
+        for name in names:
+            module, _ = extras.EXTRAS[name]
+            monkeypatch.setitem(sys.modules, module, None)
+
+    return hide
+
+
+def one_line(capsys) -> str:
+    err = capsys.readouterr().err.strip()
+    assert "Traceback" not in err and len(err.splitlines()) == 1, err
+    return err
+
+
+def test_an_installed_extra_is_found_and_a_hidden_one_is_not(without):
+    assert extras.installed("mujoco") and extras.installed("dask")
+    without("mujoco")
+    assert not extras.installed("mujoco") and extras.installed("dask")
+
+
+def test_a_mujoco_scenario_without_mujoco_points_at_its_backend(tmp_path, capsys, monkeypatch, without):
+    path = tmp_path / "m.yaml"
+    path.write_text(MUJOCO)
+    without("mujoco")
+    monkeypatch.setattr("stackdsl.batch.judge.run_program", lambda *a, **k: pytest.fail("simulated"))
+    assert main(["check", str(path), "-j", "1"]) == 2
+    first, *shown = capsys.readouterr().err.splitlines()  # the message, then the YAML line and a caret
+    assert first == f"{path}:4:12: engine.backend: MuJoCo is not installed: pip install 'stackdsl[mujoco]'"
+    assert shown[0].strip() == "backend: mujoco"
+
+
+def test_a_sweep_on_dask_without_distributed_names_the_extra(capsys, without):
+    without("dask")
+    assert main(["sweep", str(ROOT / "sweeps" / "random_single_file.yaml"), "--dask", "local:1", "--samples", "2"]) == 2
+    assert one_line(capsys).endswith("needs Dask's distributed, which is not installed: pip install 'stackdsl[dask]'")
+
+
+def test_an_mp4_without_ffmpeg_names_the_extra_before_anything_runs(tmp_path, capsys, monkeypatch, without):
+    without("video")
+    monkeypatch.setattr("stackdsl.runtime.recorder.record_program", lambda *a, **k: pytest.fail("simulated"))
+    assert main(["animate", str(ROOT / "scenarios" / "four_stack.yaml"), "-o", str(tmp_path / "clip.mp4")]) == 2
+    assert one_line(capsys).endswith(
+        "an MP4 clip needs imageio-ffmpeg (the ffmpeg that writes MP4), which is not installed: pip install 'stackdsl[video]'"
+    )
+
+
+def test_import_stackdsl_loads_no_heavy_library():
+    code = (
+        "import stackdsl, sys; "
+        "print(sorted(m for m in ('scipy','pybullet','mujoco','matplotlib','distributed','numpy') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
+
+
+def test_bench_says_when_the_engines_are_not_the_measured_versions(tmp_path, monkeypatch):
+    from stackdsl.bench import versions
+
+    pins = tmp_path / "constraints.txt"
+    pins.write_text("pybullet==0.0.1  # an old one\nmujoco==4.0.0\n")
+    monkeypatch.setattr(versions, "installed_versions", lambda: {"pybullet": "3.2.7", "mujoco": "4.0.0"})
+    assert versions.version_line(pins).endswith("NOT the versions of constraints.txt: pybullet 3.2.7 (measured with 0.0.1)")
+    pins.write_text("pybullet==3.2.7\nmujoco==4.0.0\n")
+    assert versions.version_line(pins).endswith("(the versions of constraints.txt)")
+    assert "no constraints.txt" in versions.version_line(tmp_path / "absent.txt")

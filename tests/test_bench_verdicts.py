@@ -123,8 +123,10 @@ def test_bench_verdicts_runs_and_refuses_nonsense(capsys, tmp_path):
     args = ["bench", "verdicts", "--count", "1", "--engines", "pybullet", "--gaps", "2", "--no-baselines"]
     assert main([*args, "--single-file", "1", "-j", "1", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
-    assert out.startswith("1 random assemblies") and "ext equilibrium pybullet  2.0 mm" in out
-    assert "1 random single-file stacks" in out and "mujoco" not in out
+    first, second = out.splitlines()[:2]
+    assert first.startswith("engines: pybullet ") and second.startswith("1 random assemblies")
+    assert "ext equilibrium pybullet  2.0 mm" in out
+    assert "1 random single-file stacks" in out and "mujoco" not in out.split("\n", 1)[1]  # (the first line: versions)
     assert main(["bench", "verdicts", "--count", "-1"]) == 2
     assert main(["bench", "verdicts", "--count", "0", "--single-file", "0"]) == 2
     assert main(["bench", "verdicts", "--gaps", "5"]) == 2

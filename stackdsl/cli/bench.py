@@ -15,6 +15,7 @@ from ..bench.bench import SETTINGS, UPRIGHT, run_matrix, savings, scenes
 from ..bench.cost import format_solve_times, solve_times
 from ..bench.hard import format_hard, format_limits, format_wall, leaning_limits, thrown_at_wall
 from ..bench.out import write_outputs
+from ..bench.versions import version_line
 from ..lang.errors import ScenarioError
 from ..verdicts.expect import describe
 from .args import OK, jobs_type
@@ -145,6 +146,7 @@ def _bench(args: argparse.Namespace) -> int:
     out = Path(args.out)
     start = time.perf_counter()
     total = len(chosen) * len(settings)
+    print(version_line())
     print(f"stackdsl bench: {len(chosen)} scenes x {len(settings)} settings, {args.jobs} workers, writing to {out}", flush=True)
     with Lines(total, "bench") as lines:
         count = 0
@@ -216,6 +218,7 @@ def _bench_height(args: argparse.Namespace) -> int:
         raise ScenarioError(f"unknown setting {unknown[0] if unknown else ''!r}; known: {', '.join(SETTINGS)}", file="--settings")
     if args.repeats < 1:
         raise ScenarioError(f"--repeats must be at least 1, not {args.repeats}", file="--repeats")
+    print(version_line(), flush=True)
     with Lines(len(levels) * len(settings), "towers") as progress:
         cells = measure_heights(settings, levels, args.repeats, args.jobs, lambda c: progress.advance())
     print(format_heights(cells, settings), flush=True)
@@ -227,6 +230,7 @@ def _bench_height(args: argparse.Namespace) -> int:
 
 def _bench_hard(args: argparse.Namespace) -> int:
     start = time.perf_counter()
+    print(version_line(), flush=True)
     print(format_hard(args.folder, args.jobs), end="\n\n", flush=True)
     print(format_wall(thrown_at_wall()), end="\n\n", flush=True)
     print(format_limits(leaning_limits()), end="\n\n")
@@ -286,6 +290,7 @@ def _bench_freeze(args: argparse.Namespace) -> int:
         raise ScenarioError("give whole numbers of levels, comma-separated", file="--levels") from None
     if not levels or min(levels) < 2 or max(levels) > 200:
         raise ScenarioError("levels are from 2 to 200", file="--levels")
+    print(version_line(), flush=True)
     costs = []
     for n in levels:
         for means in MEANS:
@@ -321,6 +326,7 @@ def _bench_verdicts(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="stackdsl-verdicts-"))
     if out.exists() and not out.is_dir():
         raise ScenarioError("the output must be a folder, and this is a file", file=str(out))
+    print(version_line(), flush=True)
     if args.count:
         with Lines(args.count, "assemblies") as progress:
             results, seconds = timed(args.seed, args.count, args.jobs, lambda v: progress.advance(), runs)

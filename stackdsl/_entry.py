@@ -5,6 +5,7 @@ A KeyboardInterrupt raised in the middle of that import breaks it in ways no han
 catch cleanly (a C extension's initialisation reports it as an ImportError; the
 interpreter may end by the signal after the message), so Ctrl-C is only noted while the
 modules load, and ends the command as it does later: "stackdsl: interrupted", exit 130.
+``stackdsl --version`` alone is answered before any of them loads.
 Source: stackdsl's own.
 """
 
@@ -20,6 +21,11 @@ INTERRUPTED = 130
 
 def main() -> int:
     """Load the command, then run it unless Ctrl-C came meanwhile; returns the exit status."""
+    if sys.argv[1:] == ["--version"]:
+        from ._version import version
+
+        print(f"stackdsl {version()}")
+        return 0
     pressed: list[int] = []
 
     def note(signum: int, frame: Any) -> None:

@@ -84,3 +84,17 @@ def test_bench_says_when_the_engines_are_not_the_measured_versions(tmp_path, mon
     pins.write_text("pybullet==3.2.7\nmujoco==4.0.0\n")
     assert versions.version_line(pins).endswith("(the versions of constraints.txt)")
     assert "no constraints.txt" in versions.version_line(tmp_path / "absent.txt")
+
+
+def test_version_loads_nothing_heavy_and_the_startup_bench_runs():
+    code = (
+        "import sys; sys.argv = ['stackdsl', '--version']; from stackdsl._entry import main; main(); "
+        "print(sorted(m for m in ('scipy','pybullet','mujoco','matplotlib','distributed','numpy','pydantic') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.splitlines()
+    assert out[0].startswith("stackdsl ") and out[1] == "[]"
+    from stackdsl.bench.startup import format_startup, measure
+
+    rows = measure(repeats=1)
+    assert [r.what.split()[0] for r in rows] == ["stackdsl", "python", "stackdsl"] and all(r.median > 0 for r in rows)
+    assert format_startup(rows).count("\n") == 4

@@ -9,10 +9,10 @@ from __future__ import annotations
 import shlex
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
-from importlib import metadata
 from pathlib import Path
 from typing import Any
 
+from .._version import version
 from ..verdicts.check_result import CheckResult
 
 #: The header of check's table; :func:`row` lines up under it.
@@ -21,14 +21,6 @@ HEADER = f"{'':4}  {'scenario':<40} {'mode':<9}  {'expected':<18} {'measured':<3
 INDENT = " " * 6
 #: Why a scenario did not run when check stopped early.
 NOT_RUN = "not run: stopped after the first failure"
-
-
-def version() -> str:
-    """The installed stackdsl's version (``importlib.metadata``), or ``'unknown'``."""
-    try:
-        return metadata.version("stackdsl")
-    except metadata.PackageNotFoundError:
-        return "unknown"
 
 
 def mode_label(r: CheckResult) -> str:

@@ -1,4 +1,5 @@
-"""``stackdsl bench``: speed against error, and its sub-benchmarks solve, height, hard, record, sweep, verdicts and freeze.
+"""``stackdsl bench``: speed against error, and its sub-benchmarks solve, height, hard, record, sweep, verdicts,
+freeze and startup.
 
 Source: stackdsl's own.
 """
@@ -12,10 +13,6 @@ from pathlib import Path
 from typing import Any
 
 from ..bench.bench import SETTINGS, UPRIGHT, run_matrix, savings, scenes
-from ..bench.cost import format_solve_times, solve_times
-from ..bench.hard import format_hard, format_limits, format_wall, leaning_limits, thrown_at_wall
-from ..bench.out import write_outputs
-from ..bench.versions import version_line
 from ..lang.errors import ScenarioError
 from ..verdicts.expect import describe
 from .args import OK, jobs_type
@@ -55,7 +52,7 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     )
     p.set_defaults(func=_bench)
     bench = p.add_subparsers(
-        metavar="[solve | height | hard | record | sweep | verdicts | freeze]", title="other benchmarks (optional)"
+        metavar="[solve | height | hard | record | sweep | verdicts | freeze | startup]", title="other benchmarks (optional)"
     )
     q = bench.add_parser("solve", help="equilibrium solve time for towers of 10 to 100 bricks")
     q.add_argument("--sizes", default="10,25,50,100", help="bricks per tower, comma-separated")
@@ -128,9 +125,15 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     q = bench.add_parser("freeze", help="the ways to freeze a brick on MuJoCo: weld, its own sleeping, a held mocap body")
     q.add_argument("--levels", default="10,30,60", help="tower heights, comma-separated")
     q.set_defaults(func=_bench_freeze)
+    q = bench.add_parser("startup", help="how long stackdsl takes to start: --version, import, a one-file check")
+    q.add_argument("--repeats", type=int, default=5, help="runs of each command (median; default: 5)")
+    q.set_defaults(func=_bench_startup)
 
 
 def _bench(args: argparse.Namespace) -> int:
+    from ..bench.out import write_outputs
+    from ..bench.versions import version_line
+
     settings = [x.strip() for x in args.settings.split(",") if x.strip()]
     families = {x.strip() for x in args.families.split(",") if x.strip()}
     unknown = [x for x in settings if x not in SETTINGS]
@@ -198,6 +201,8 @@ def _targets(targets: dict[str, Any]) -> list[str]:
 
 
 def _bench_solve(args: argparse.Namespace) -> int:
+    from ..bench.cost import format_solve_times, solve_times
+
     sizes = tuple(int(x) for x in args.sizes.split(","))
     print(format_solve_times(solve_times(sizes, args.repeats)))
     return OK
@@ -205,6 +210,7 @@ def _bench_solve(args: argparse.Namespace) -> int:
 
 def _bench_height(args: argparse.Namespace) -> int:
     from ..bench.cost import format_heights, format_profiles, measure_heights, profile_tower
+    from ..bench.versions import version_line
 
     try:
         levels = [int(x) for x in args.levels.split(",") if x.strip()]
@@ -229,6 +235,9 @@ def _bench_height(args: argparse.Namespace) -> int:
 
 
 def _bench_hard(args: argparse.Namespace) -> int:
+    from ..bench.hard import format_hard, format_limits, format_wall, leaning_limits, thrown_at_wall
+    from ..bench.versions import version_line
+
     start = time.perf_counter()
     print(version_line(), flush=True)
     print(format_hard(args.folder, args.jobs), end="\n\n", flush=True)
@@ -283,6 +292,7 @@ def _bench_sweep(args: argparse.Namespace) -> int:
 
 def _bench_freeze(args: argparse.Namespace) -> int:
     from ..bench.freeze import MEANS, format_freeze, freeze_cost
+    from ..bench.versions import version_line
 
     try:
         levels = [int(v) for v in args.levels.split(",")]
@@ -302,6 +312,7 @@ def _bench_freeze(args: argparse.Namespace) -> int:
 
 def _bench_verdicts(args: argparse.Namespace) -> int:
     from ..bench.verdicts import SETTINGS, format_single_file, format_verdicts, plan, run_single_file, timed
+    from ..bench.versions import version_line
     from .progress import Lines
 
     if not 0 <= args.count <= 100_000:
@@ -337,4 +348,13 @@ def _bench_verdicts(args: argparse.Namespace) -> int:
         with Lines(args.single_file, "single-file stacks") as progress:
             samples = run_single_file(args.seed, args.single_file, args.jobs, chosen, lambda b: progress.advance(len(b)))
         print("\n" * bool(args.count) + format_single_file(samples, chosen, time.perf_counter() - start))
+    return OK
+
+
+def _bench_startup(args: argparse.Namespace) -> int:
+    from ..bench.startup import format_startup, measure
+
+    if not 1 <= args.repeats <= 100:
+        raise ScenarioError(f"--repeats must be from 1 to 100, not {args.repeats}", file="--repeats")
+    print(format_startup(measure(args.repeats)))
     return OK

@@ -23,7 +23,6 @@ from typing import Any, NoReturn
 
 from ..batch.check import ScenarioErrors
 from ..batch.judge import TIMEOUT, run_guarded, stopped_by
-from ..batch.report import version
 from ..compile.compiler import BACKEND_DEFAULTS, MODE_DEFAULTS, compile_scenario
 from ..compile.program import format_program
 from ..lang.errors import ScenarioError
@@ -106,6 +105,16 @@ def main(argv: list[str] | None = None) -> int:
                 os.environ["STACKDSL_TRACEBACK"] = variable
 
 
+class _Version(argparse.Action):
+    """``--version``: the installed version, read only when asked (importlib.metadata takes 20 ms)."""
+
+    def __call__(self, parser: argparse.ArgumentParser, *args: Any) -> NoReturn:
+        from .._version import version
+
+        print(f"{parser.prog} {version()}")  # on standard output, as argparse's own version action
+        parser.exit()
+
+
 def _ignore(unraisable: Any) -> None:
     """An ``sys.unraisablehook`` that prints nothing."""
 
@@ -130,7 +139,7 @@ def _parser() -> argparse.ArgumentParser:
         epilog=EXIT_STATUS,
         formatter_class=raw,
     )
-    parser.add_argument("--version", action="version", version=f"%(prog)s {version()}")
+    parser.add_argument("--version", action=_Version, nargs=0, help="show the version and exit")
     debug_help = "on an internal error, print the traceback (also STACKDSL_TRACEBACK=1)"
     parser.add_argument("--debug", action="store_true", help=debug_help)
     sub = parser.add_subparsers(required=True, metavar="COMMAND")

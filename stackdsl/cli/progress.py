@@ -12,10 +12,10 @@ from __future__ import annotations
 import os
 import sys
 from types import TracebackType
-from typing import IO
+from typing import IO, TYPE_CHECKING
 
-from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+if TYPE_CHECKING:
+    from rich.progress import Progress
 
 
 def is_live(stream: IO[str]) -> bool:
@@ -44,7 +44,10 @@ class Lines:
         self.live = is_live(self.file) if live is None else live
         self._progress: Progress | None = None
         self._task = None
-        if self.live:
+        if self.live:  # rich only on a terminal (a pipe, a file or CI never loads it)
+            from rich.console import Console
+            from rich.progress import BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+
             console = Console(file=self.file, force_terminal=True, highlight=False, emoji=False, markup=False)
             self._progress = Progress(
                 SpinnerColumn(),

@@ -9,9 +9,16 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
-from scipy import stats
+
+
+def scipy_stats() -> Any:
+    """scipy.stats, imported on first use (a third of a second): a plain check never needs it."""
+    from scipy import stats
+
+    return stats
 
 
 def mean_interval(values: Sequence[float], confidence: float = 0.95) -> tuple[float, float] | None:
@@ -28,7 +35,7 @@ def mean_interval(values: Sequence[float], confidence: float = 0.95) -> tuple[fl
     if x.size < 2:
         return None
     mean, sem = float(x.mean()), float(x.std(ddof=1)) / math.sqrt(x.size)
-    half = float(stats.t.ppf((1 + confidence) / 2, x.size - 1)) * sem
+    half = float(scipy_stats().t.ppf((1 + confidence) / 2, x.size - 1)) * sem
     return (mean - half, mean + half)
 
 
@@ -43,7 +50,7 @@ def proportion_interval(k: int, n: int, confidence: float = 0.95) -> tuple[float
     check_confidence(confidence)
     if not (n >= 1 and 0 <= k <= n):
         raise ValueError(f"need 0 <= k <= n and n >= 1, got k={k}, n={n}")
-    ci = stats.binomtest(k, n).proportion_ci(confidence_level=confidence, method="exact")
+    ci = scipy_stats().binomtest(k, n).proportion_ci(confidence_level=confidence, method="exact")
     return (float(ci.low), float(ci.high))
 
 
@@ -64,7 +71,7 @@ def quantile_interval(values: Sequence[float], q: float, confidence: float = 0.9
         raise ValueError("no values")
     if not 0.0 < q < 1.0:
         raise ValueError(f"q must lie in (0, 1), got {q}")
-    ci = stats.quantile_test(x, p=q).confidence_interval(confidence)
+    ci = scipy_stats().quantile_test(x, p=q).confidence_interval(confidence)
     low = -math.inf if math.isnan(ci.low) else float(ci.low)
     high = math.inf if math.isnan(ci.high) else float(ci.high)
     return (float(np.quantile(x, q, method="inverted_cdf")), low, high)

@@ -45,9 +45,8 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
-from scipy import stats
 
-from .intervals import check_confidence, mean_interval, proportion_interval, quantile_interval
+from .intervals import check_confidence, mean_interval, proportion_interval, quantile_interval, scipy_stats
 
 Outcome = Literal["PASS", "FAIL", "INCONCLUSIVE"]
 Op = Literal[">=", "<=", ">", "<"]
@@ -287,7 +286,7 @@ def _decide_mean(e: MeanWithin, collapsed: list[int], n: int, c: float) -> StatV
     s = float(np.std(collapsed, ddof=1))
 
     def narrow(m: int) -> bool:
-        return bool(stats.t.ppf((1 + c) / 2, m - 1) * s / math.sqrt(m) < d)
+        return bool(scipy_stats().t.ppf((1 + c) / 2, m - 1) * s / math.sqrt(m) < d)
 
     m = _first(narrow, len(collapsed)) if d > 0 else None
     total = None if m is None else max(math.ceil(m * n / len(collapsed) - 1e-9), n + 1)  # standing samples too
@@ -306,8 +305,8 @@ def _decide_proportion(e: ProportionBound, stood: int, n: int, c: float) -> Stat
 
     def decides(m: int) -> bool:  # Clopper-Pearson's beta quantiles, continued to k = p·m successes
         a = (1 - c) / 2
-        low = 0.0 if p == 0 else float(stats.beta.ppf(a, p * m, m - p * m + 1))
-        high = 1.0 if p == 1 else float(stats.beta.ppf(1 - a, p * m + 1, m - p * m))
+        low = 0.0 if p == 0 else float(scipy_stats().beta.ppf(a, p * m, m - p * m + 1))
+        high = 1.0 if p == 1 else float(scipy_stats().beta.ppf(1 - a, p * m + 1, m - p * m))
         return _judge_bound((low, high), e.op, e.bound) != "INCONCLUSIVE"
 
     m = _first(decides, n) if p != e.bound else None
@@ -330,7 +329,7 @@ def _decide_quantile(e: QuantileWithin, collapsed: list[int], n: int, c: float) 
     upto_b = sum(v <= b for v in collapsed) / n  # empirical CDF at b
 
     def decides(m: int) -> bool:
-        bd = stats.binom(m, e.q)
+        bd = scipy_stats().binom(m, e.q)
         lo_i, hi_i = int(bd.ppf((1 - c) / 2)) - 1, int(bd.isf((1 - c) / 2))  # as quantile_test's interval
         lo_v = -math.inf if lo_i < 0 else _projected(below_a * m, upto_b * m, lo_i, a, b)
         hi_v = math.inf if hi_i >= m else _projected(below_a * m, upto_b * m, hi_i, a, b)

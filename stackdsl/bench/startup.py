@@ -1,0 +1,69 @@
+"""``stackdsl bench startup``: how long the command takes to start, each in a fresh process.
+
+Three rows, each the median of ``repeats`` runs of a new interpreter (no warm import cache
+in the process; the operating system's file cache is warm after the first run):
+``stackdsl --version``, ``python -c "import stackdsl"`` and a one-file ``stackdsl check``
+of a small shipped scenario, beside their targets.
+
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import statistics
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+#: The small scenario a one-file check runs (a 2-brick vee, 0.1 s of simulation).
+SMALL = Path(__file__).resolve().parents[2] / "scenarios" / "vee_stands.yaml"
+
+
+@dataclass(frozen=True)
+class Startup:
+    """One row: what ran, its median wall time (s) over ``runs`` and the target (s)."""
+
+    what: str
+    median: float
+    runs: int
+    target: float
+
+
+def commands(scenario: Path = SMALL) -> list[tuple[str, list[str], float]]:
+    """(label, argv, target in s) of each row; the command is this interpreter's ``stackdsl``."""
+    here = [sys.executable, "-m", "stackdsl"]
+    entry = Path(sys.executable).with_name("stackdsl")
+    command = [str(entry)] if entry.exists() else here
+    return [
+        ("stackdsl --version", [*command, "--version"], 0.3),
+        ("python -c 'import stackdsl'", [sys.executable, "-c", "import stackdsl"], 0.3),
+        (f"stackdsl check {scenario.name}", [*command, "check", str(scenario), "-j", "1"], 1.0),
+    ]
+
+
+def measure(repeats: int = 5, scenario: Path = SMALL) -> list[Startup]:
+    """Each of :func:`commands`, ``repeats`` times after one untimed run.
+
+    Raises:
+        subprocess.CalledProcessError: a command failed (a broken install).
+    """
+    rows = []
+    for what, argv, target in commands(scenario):
+        subprocess.run(argv, check=True, capture_output=True)
+        times = []
+        for _ in range(repeats):
+            start = time.perf_counter()
+            subprocess.run(argv, check=True, capture_output=True)
+            times.append(time.perf_counter() - start)
+        rows.append(Startup(what, statistics.median(times), repeats, target))
+    return rows
+
+
+def format_startup(rows: list[Startup]) -> str:
+    """The table: median wall time, target, met or not."""
+    lines = ["| command | median wall | target | |", "|---|---:|---:|---|"]
+    for r in rows:
+        lines.append(f"| {r.what} | {r.median:.2f} s | {r.target:.1f} s | {'met' if r.median < r.target else 'NOT met'} |")
+    return "\n".join(lines)

@@ -19,11 +19,12 @@ import shlex
 from collections.abc import Sequence
 from pathlib import Path
 
+from .._version import version
 from ..runtime.outcome import Event
 from ..runtime.trajectory import load_trajectory
 from ..verdicts.check_result import CheckResult
 from ..verdicts.expect import describe
-from .report import mode_label, version
+from .report import mode_label
 
 #: Events listed in a row's timeline at most (a 100-level tower has about 400).
 TIMELINE_LIMIT = 600

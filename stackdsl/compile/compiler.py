@@ -40,6 +40,7 @@ import numpy as np
 from stability import Box, Pose, StabilityConfig
 
 from ..lang.bounds import MAX_SIMULATED_TIME
+from ..lang.errors import FieldPath
 from ..lang.extras import installed, missing
 from ..lang.schema import BACKEND_FIELDS, Scenario
 from ..lang.schema_impacts import SIDES, AfterLevel, Impact
@@ -123,7 +124,7 @@ def compile_scenario(
     names = {b.type for b in everything} | {i.projectile for i in scenario.impacts}
     specs = {name: _spec(scenario, name) for name in sorted(names)}
     slots = np.cumsum([not b.together for b in bricks]) - 1
-    actions: list = [
+    placements: list[Place | Launch | End] = [
         Place(
             step=int(k) * per_slot,
             time=int(k) * interval,
@@ -142,7 +143,7 @@ def compile_scenario(
     for i, (imp, launch) in enumerate(zip(scenario.impacts, launches)):
         present = [(b.id, specs[b.type], b.pose()) for b, k in zip(bricks, slots) if int(k) * per_slot <= launch.step]
         check_launch(scenario, i, imp, launch, present + [(b.id, specs[b.type], b.pose()) for b in fixed])
-    actions = sorted(actions + launches, key=lambda a: (a.step, a.kind != "place"))
+    actions = sorted([*placements, *launches], key=lambda a: (a.step, a.kind != "place"))
     end = actions[-1].time + scenario.timing.settle
     if end > MAX_SIMULATED_TIME:
         last = actions[-1]  # what makes the run long: the last impact's time, or the placements' interval
@@ -190,7 +191,7 @@ def _budget(scenario: Scenario, program: Program) -> None:
         f"{work:,.0f} body-steps (about {_duration(program.wall_estimate)}); at most {MAX_WORK:,.0f} are allowed"
     )
     default = EngineSettings.model_validate({"mode": e.mode, "backend": e.backend, **BACKEND_DEFAULTS[e.backend][e.mode]})
-    options: list[tuple[tuple, str, Program]] = []
+    options: list[tuple[FieldPath, str, Program]] = []
     if given.timestep is not None and e.timestep < default.timestep:
         step = default.timestep
         faster = _retimed(program, e.model_copy(update={"timestep": step}))
@@ -219,7 +220,7 @@ def _retimed(program: Program, engine: EngineSettings) -> Program:
     return program.model_copy(update={"engine": engine, "actions": actions})
 
 
-def _size_field(scenario: Scenario) -> tuple:
+def _size_field(scenario: Scenario) -> FieldPath:
     structure = scenario.structure
     if structure.tower:
         return ("structure", "tower", "levels")
@@ -264,7 +265,9 @@ def _duration(seconds: float) -> str:
     return f"{seconds / 3600:.1f} h"
 
 
-def _bodies(scenario: Scenario, placed: list[LaidBrick], nominal: list[LaidBrick], specs: dict, slots: dict) -> list[Body]:
+def _bodies(
+    scenario: Scenario, placed: list[LaidBrick], nominal: list[LaidBrick], specs: dict[str, BrickSpec], slots: dict[int, int]
+) -> list[Body]:
     """The bricks and fixtures for :func:`stackdsl.compile.precheck.precheck`, each with the field that made it."""
     structure = scenario.structure
     made_by = ("structure", "tower") if structure.tower else ("structure", "card_house") if structure.card_house else None
@@ -301,7 +304,7 @@ def _engine(scenario: Scenario, mode: str | None, backend: str | None = None) ->
     return EngineSettings.model_validate({"mode": chosen, "backend": engine, "gravity": GRAVITY, **defaults, **given})
 
 
-def _steps(scenario: Scenario, path: tuple, seconds: float, dt: float) -> int:
+def _steps(scenario: Scenario, path: FieldPath, seconds: float, dt: float) -> int:
     """``seconds`` as a whole number of timesteps, or a ScenarioError at ``path``
     (also for a positive duration shorter than one timestep)."""
     steps = seconds / dt
@@ -327,7 +330,9 @@ def _spec(scenario: Scenario, name: str) -> BrickSpec:
     )
 
 
-def _launch(scenario: Scenario, index: int, impact: Impact, bricks: list[LaidBrick], slots, spec: BrickSpec, dt: float) -> Launch:
+def _launch(
+    scenario: Scenario, index: int, impact: Impact, bricks: list[LaidBrick], slots: np.ndarray, spec: BrickSpec, dt: float
+) -> Launch:
     """A projectile aimed so that, falling under gravity, it reaches the target point."""
     path = ("impacts", index)
     direction = np.array(impact.direction or _side(impact), dtype=np.float64)
@@ -373,7 +378,7 @@ def _face_point(scenario: Scenario, index: int, impact: Impact, bricks: list[Lai
         for b in level
     ]
     outermost = max(faces, key=lambda corners: round(float((corners @ outward).max()), 9))  # the first of equals
-    return outermost.mean(axis=0)
+    return np.asarray(outermost.mean(axis=0))
 
 
 def _side(impact: Impact) -> tuple[float, float, float]:

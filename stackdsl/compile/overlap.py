@@ -16,7 +16,7 @@ Source: stackdsl's own; the separating-axis test is the standard one for oriente
 from __future__ import annotations
 
 import itertools
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -68,7 +68,9 @@ class Body:
     path: FieldPath
 
 
-def inspect_bodies(bodies: Sequence[Body], positions: Sequence[tuple[float, float, float]]) -> tuple[list, list[int]]:
+def inspect_bodies(
+    bodies: Sequence[Body], positions: Sequence[tuple[float, float, float]]
+) -> tuple[list[tuple[int, int, float]], list[int]]:
     """The overlaps and the floating bricks of ``bodies`` placed at ``positions`` (metres,
     one centre each), each tested against what exists when it is placed.
 
@@ -150,7 +152,7 @@ def _floating(slot: np.ndarray, grounded: np.ndarray, supports: list[tuple[int, 
     return [int(i) for i in order]
 
 
-def _candidates(low: np.ndarray, high: np.ndarray, gap: float):
+def _candidates(low: np.ndarray, high: np.ndarray, gap: float) -> Iterator[tuple[np.ndarray, np.ndarray]]:
     """Index pairs ``(a, b)`` whose bounding boxes come within ``gap`` of each other, in
     chunks: sweep and prune along the axis on which the bodies spread most."""
     n = len(low)
@@ -191,7 +193,7 @@ def penetration(ca: np.ndarray, ra: np.ndarray, ha: np.ndarray, cb: np.ndarray, 
     radius_a = (np.abs(np.swapaxes(ra, 1, 2) @ normals) * ha[:, :, None]).sum(axis=1)
     radius_b = (np.abs(np.swapaxes(rb, 1, 2) @ normals) * hb[:, :, None]).sum(axis=1)
     apart = np.abs(((cb - ca)[:, :, None] * normals).sum(axis=1))
-    return np.where(valid, radius_a + radius_b - apart, np.inf).min(axis=1)
+    return np.asarray(np.where(valid, radius_a + radius_b - apart, np.inf).min(axis=1))
 
 
 def _tilted_supports(

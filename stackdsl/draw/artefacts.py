@@ -12,6 +12,7 @@ from __future__ import annotations
 import hashlib
 import re
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 from ..runtime.trajectory import Trajectory
@@ -72,7 +73,7 @@ def draw_run(trajectory: Trajectory, folder: str | Path) -> tuple[dict[str, str]
     collapsed = trajectory.collapse_time is not None
     graph = trajectory.graphs.get("collapse" if collapsed else "final", trajectory.graphs["final"])
     name = trajectory.meta.get("scenario", "")
-    steps = {
+    steps: dict[str, Callable[[Path], object]] = {
         "trajectory": lambda path: trajectory.save(path),
         "picture": lambda path: picture(trajectory, "collapse" if collapsed else "end", path),
         "graph": lambda path: plot_graph(graph, path, title=f"{name}: brick graph at the {'collapse' if collapsed else 'end'}"),

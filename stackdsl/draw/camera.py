@@ -79,7 +79,7 @@ class Camera:
     def pixels(self, points: np.ndarray) -> np.ndarray:
         """(n, 2) pixel coordinates (column, row; row 0 at the top) of ``points`` (n, 3), metres."""
         clip = np.c_[points, np.ones(len(points))] @ (self.projection @ self.view).T
-        return np.c_[(clip[:, 0] + 1.0) / 2.0 * self.width, (1.0 - clip[:, 1]) / 2.0 * self.height]
+        return np.asarray(np.c_[(clip[:, 0] + 1.0) / 2.0 * self.width, (1.0 - clip[:, 1]) / 2.0 * self.height])
 
     def ground_point(self, column: float, row: float) -> np.ndarray:
         """(3,) metres: the point of the ground plane (z = 0) seen at pixel (``column``, ``row``)."""

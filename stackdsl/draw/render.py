@@ -303,7 +303,7 @@ def picture(
     title = figure.text(
         6.0 / width, 1.0 - band / 2.0 / height, headline(trajectory, time), fontsize=points, va="center", ha="left"
     )
-    wide = title.get_window_extent(FigureCanvasAgg(figure).get_renderer()).width
+    wide = title.get_window_extent(FigureCanvasAgg(figure).get_renderer()).width  # type: ignore[no-untyped-call]
     if wide > width - 12:  # a long scenario name: a smaller font, so that the line ends inside the picture
         title.set_fontsize(max(5.0, points * (width - 12) / wide))
     metres, label = scale_bar(pixels_per_metre, width)

@@ -9,7 +9,22 @@ Data flows one way, one floor (subpackage) per step::
     evaluate(expect, outcome)  Outcome -> verdicts      (verdicts/)
     check(paths)               all of it over files     (batch/)
 
+The seam to an engine is public, as httpx's transports are: a :class:`World` (one adapter
+per engine; :class:`FakeWorld` moves bodies in memory, for tests), a :class:`StepLoop`
+with named hooks, and :class:`Subscriber` s attached to it (only the hooks they override
+are called). ``run_in(world, program, subscribers=...)`` runs a program in any world:
+
 >>> import stackdsl
+>>> class Counter(stackdsl.Subscriber):
+...     placed = 0
+...     def on_place(self, loop, record):
+...         self.placed += 1
+>>> p = stackdsl.compile_scenario(stackdsl.parse_scenario("stackdsl: 1\\nstructure: {tower: {levels: 2}}"))
+>>> counter = Counter()
+>>> loop = stackdsl.run_in(stackdsl.FakeWorld(timestep=p.engine.timestep), p, subscribers=(counter,))
+>>> counter.placed, loop.step == p.actions[-1].step
+(4, True)
+
 >>> s = stackdsl.parse_scenario("stackdsl: 1\\nstructure: {tower: {levels: 2}}\\nexpect: {stands: true}")
 >>> stackdsl.compile_scenario(s).levels
 2
@@ -27,9 +42,12 @@ if TYPE_CHECKING:
     from .lang.errors import ScenarioError
     from .lang.loader import load_scenario, parse_scenario
     from .lang.schema import Scenario
+    from .runtime.engines.fake import FakeWorld
+    from .runtime.engines.protocol import World
+    from .runtime.loop import StepLoop, Subscriber
     from .runtime.outcome import Certificate, Collapse, Event, Graph, Outcome
     from .runtime.recorder import Recorder, record_program
-    from .runtime.run import run_program
+    from .runtime.run import run_in, run_program
     from .runtime.trajectory import Frame, Trajectory, load_trajectory
     from .verdicts.check_result import CheckResult
     from .verdicts.expect import Verdict, evaluate
@@ -65,6 +83,11 @@ _HOME = {
     "Frame": "runtime.trajectory",
     "Trajectory": "runtime.trajectory",
     "load_trajectory": "runtime.trajectory",
+    "StepLoop": "runtime.loop",
+    "Subscriber": "runtime.loop",
+    "run_in": "runtime.run",
+    "World": "runtime.engines.protocol",
+    "FakeWorld": "runtime.engines.fake",
 }
 
 __all__ = [
@@ -75,6 +98,7 @@ __all__ = [
     "End",
     "EngineSettings",
     "Event",
+    "FakeWorld",
     "Frame",
     "Graph",
     "Launch",
@@ -85,8 +109,11 @@ __all__ = [
     "Scenario",
     "ScenarioError",
     "ScenarioErrors",
+    "StepLoop",
+    "Subscriber",
     "Trajectory",
     "Verdict",
+    "World",
     "check",
     "compile_scenario",
     "evaluate",
@@ -95,6 +122,7 @@ __all__ = [
     "load_trajectory",
     "parse_scenario",
     "record_program",
+    "run_in",
     "run_program",
 ]
 

@@ -18,6 +18,7 @@ def test_stackdsl_exports():
             "End",
             "EngineSettings",
             "Event",
+            "FakeWorld",
             "Frame",
             "Graph",
             "Launch",
@@ -28,8 +29,11 @@ def test_stackdsl_exports():
             "Scenario",
             "ScenarioError",
             "ScenarioErrors",
+            "StepLoop",
+            "Subscriber",
             "Trajectory",
             "Verdict",
+            "World",
             "check",
             "compile_scenario",
             "evaluate",
@@ -38,6 +42,7 @@ def test_stackdsl_exports():
             "load_trajectory",
             "parse_scenario",
             "record_program",
+            "run_in",
             "run_program",
         ]
     )

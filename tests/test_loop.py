@@ -189,3 +189,24 @@ def test_a_brick_still_displaced_when_the_run_ends_has_collapsed():
     assert result.collapse is not None and result.certificate is not None
     assert result.certificate.kind == "displaced at the end"
     assert result.collapse.decided == pytest.approx(result.simulated_time, abs=2 * p.engine.timestep)
+
+
+def test_an_engine_without_cheap_debris_gets_no_debris_subscriber_and_the_runtime_names_no_engine():
+    import ast
+    from pathlib import Path
+
+    from stackdsl.runtime.engines.protocol import World
+    from stackdsl.runtime.subscribers import RigidDebris
+
+    p = program(TOWER.replace("mode: raw", "mode: extension"))
+    fake = FakeWorld(timestep=p.engine.timestep)
+    assert World in type(fake).__mro__ and not fake.rigid_debris and fake.make_rigid([1, 2]) == []
+    loop = run_in(fake, p)
+    assert not any(isinstance(s, RigidDebris) for s in loop.subscribers)
+    # no module outside the adapters asks which engine it drives
+    adapters = {"PyBulletWorld", "MuJoCoWorld", "FakeWorld", "PyBulletEngine"}
+    for path in (Path(__file__).resolve().parents[1] / "stackdsl").rglob("*.py"):
+        for call in ast.walk(ast.parse(path.read_text())):
+            if isinstance(call, ast.Call) and getattr(call.func, "id", "") in ("isinstance", "issubclass"):
+                named = {n.id for n in ast.walk(call.args[1]) if isinstance(n, ast.Name)}
+                assert not named & adapters, f"{path.name}:{call.lineno}"

@@ -10,7 +10,7 @@ from stability import Pose
 from stackdsl import EngineSettings, compile_scenario, parse_scenario
 from stackdsl.compile.compiler import _spec
 from stackdsl.runtime.collapse import CollapseMonitor
-from stackdsl.runtime.engines.world import pybullet_world
+from stackdsl.runtime.engines.pybullet_world import pybullet_world
 from stackdsl.runtime.run import RunOptions, run_in
 from stackdsl.runtime.subscribers import RigidDebris
 
@@ -24,7 +24,7 @@ def test_the_world_re_creates_a_moving_multibody_as_a_rigid_body_under_its_id():
         moving = world.create(spec, Pose.from_euler([0.0, 0.0, 0.2], yaw=0.3))
         frozen = world.create(spec, Pose.from_euler([0.5, 0.0, 0.004]))
         world.set_frozen(frozen, True, spec.mass)
-        thrown = world.create(spec, Pose.from_euler([-0.5, 0.0, 0.2]), maximal=True)
+        thrown = world.create(spec, Pose.from_euler([-0.5, 0.0, 0.2]), projectile=True)
         world.throw(moving, (0.1, 0.0, 0.0), None)
         world.step()
         pose, (linear, angular) = world.pose(moving), world.velocity(moving)

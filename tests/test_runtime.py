@@ -12,7 +12,7 @@ from stackdsl import End, EngineSettings, Launch, Program, compile_scenario, par
 from stackdsl.compile.compiler import _spec
 from stackdsl.compile.program import Rule
 from stackdsl.runtime import loop as _loop
-from stackdsl.runtime.engines.world import pybullet_world
+from stackdsl.runtime.engines.pybullet_world import pybullet_world
 from stackdsl.runtime.run import RunOptions
 
 TWO_BRICKS = """

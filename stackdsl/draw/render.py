@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from ..runtime.engines.world import direct_client
+from ..runtime.engines.pybullet_world import direct_client
 from ..runtime.trajectory import ABSENT, FROZEN, STATES, Frame, Trajectory
 from .camera import Camera, camera_view, placed_corners
 

@@ -20,7 +20,7 @@ from shapely.geometry import MultiPoint, Polygon
 from stability import Box, Pose, kinetic_energy
 
 from ..compile.program import BrickSpec
-from .engines.world import World
+from .engines.protocol import World
 
 
 @dataclass

@@ -27,7 +27,7 @@ from stability import Pose
 
 from ..compile.program import BrickSpec, Launch, Place, Program
 from .bricks import BrickRecord, Structure
-from .engines.world import World
+from .engines.protocol import World
 from .outcome import Event
 
 #: Steps between two readings of the wall clock when a run has a deadline.
@@ -149,8 +149,10 @@ class StepLoop:
     def _park(self) -> dict[str, int]:
         parked = {}
         for i, a in enumerate(a for a in self.program.actions if isinstance(a, (Place, Launch))):
-            maximal = self.program.engine.ccd or None if isinstance(a, Launch) else None
-            parked[a.id] = self.world.create(a.brick, Pose.from_euler([100.0 + 0.3 * i, 100.0, 1.0]), mass=0.0, maximal=maximal)
+            projectile = self.program.engine.ccd and isinstance(a, Launch)
+            parked[a.id] = self.world.create(
+                a.brick, Pose.from_euler([100.0 + 0.3 * i, 100.0, 1.0]), mass=0.0, projectile=projectile
+            )
         return parked
 
     # lifecycle ----------------------------------------------------------------
@@ -229,10 +231,10 @@ class StepLoop:
 
     def launch(self, a: Launch) -> BrickRecord:
         """Throw a projectile; with ``ccd`` it gets continuous collision detection (a swept
-        sphere of its half thickness, on a body in maximal coordinates)."""
+        sphere of its half thickness, on the kind of body its engine needs for that)."""
         ccd = self.program.engine.ccd
         pose = Pose.from_euler(a.position, a.yaw, a.pitch, 0.0)
-        body = self._enter(a.id, a.brick, pose, maximal=ccd or None)
+        body = self._enter(a.id, a.brick, pose, projectile=ccd)
         self.world.throw(body, a.velocity, min(a.brick.half_extents) if ccd else None)
         record = BrickRecord(a.id, body, a.brick, None, pose, pose)
         self.structure.add(record)
@@ -242,10 +244,10 @@ class StepLoop:
             on_launch(self, record)
         return record
 
-    def _enter(self, name: str, spec: BrickSpec, pose: Pose, maximal: bool | None = None) -> int:
+    def _enter(self, name: str, spec: BrickSpec, pose: Pose, projectile: bool = False) -> int:
         """The body for ``name`` in the world at ``pose``: created now, or unparked."""
         if name in self._parked:
             body = self._parked[name]
             self.world.move(body, pose, spec.mass)
             return body
-        return self.world.create(spec, pose, maximal=maximal)
+        return self.world.create(spec, pose, projectile=projectile)

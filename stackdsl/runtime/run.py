@@ -1,7 +1,7 @@
 """Program -> Outcome: run a program in a world, with or without the stability extension.
 
 :func:`run_program` builds a world on the program's backend (:func:`world_for`: a
-:class:`stackdsl.runtime.engines.world.PyBulletWorld` on one DIRECT client per run, closed in all cases,
+:class:`stackdsl.runtime.engines.pybullet_world.PyBulletWorld` on one DIRECT client per run, closed in all cases,
 or a :class:`stackdsl.runtime.engines.mujoco_world.MuJoCoWorld`), a :class:`stackdsl.runtime.loop.StepLoop` over the program, and
 attaches its subscribers: the substep control, the stability extension, the collapse
 monitor and, when asked, a recorder. Bodies enter the engine when they are placed, in
@@ -44,7 +44,7 @@ from dataclasses import dataclass, replace
 
 from ..compile.program import EngineSettings, Program
 from .collapse import CollapseMonitor
-from .engines.world import PyBulletWorld, World, pybullet_world
+from .engines.protocol import World
 from .loop import CLOCK_EVERY, StepLoop, Subscriber
 from .outcome import Outcome
 from .subscribers import RigidDebris, SoftLanding, Stability, Substeps
@@ -145,6 +145,8 @@ def world_for(program: Program) -> Iterator[World]:
 
         yield MuJoCoWorld(engine, friction, restitution)
     else:
+        from .engines.pybullet_world import pybullet_world
+
         with pybullet_world(engine, friction, restitution) as pybullet:
             yield pybullet
 
@@ -174,7 +176,7 @@ def run_in(
     own += [Substeps(program.collapse_threshold, acting)] if program.engine.ccd else []
     after: list[Subscriber] = []
     rigid = any(r.name == "rigid" and r.on for r in program.rules)
-    if acting and rigid and options.rigid_debris and isinstance(world, PyBulletWorld):
+    if acting and rigid and options.rigid_debris and world.rigid_debris:
         after.append(RigidDebris(world.make_rigid))
     loop = StepLoop(
         world,

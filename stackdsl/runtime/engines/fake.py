@@ -13,11 +13,12 @@ import numpy as np
 from stability import FakeEngine, Pose
 
 from ...compile.program import BrickSpec, Vec3
+from .protocol import World
 
 
 @dataclass
-class FakeWorld(FakeEngine):
-    """:class:`stackdsl.runtime.engines.world.World` in memory. Each step moves every body with mass by
+class FakeWorld(FakeEngine, World):
+    """:class:`stackdsl.runtime.engines.protocol.World` in memory. Each step moves every body with mass by
     its linear velocity (no gravity, no contacts, no rotation); a test sets velocities and
     contacts by hand (``velocities``, :meth:`FakeEngine.touch`).
 
@@ -38,7 +39,7 @@ class FakeWorld(FakeEngine):
     substeps: int = 1
     ground: int = 0
 
-    def create(self, spec: BrickSpec, pose: Pose, mass: float | None = None, maximal: bool | None = None) -> int:
+    def create(self, spec: BrickSpec, pose: Pose, mass: float | None = None, projectile: bool = False) -> int:
         body = len(self.masses) + 1  # 0 is the ground
         self.poses[body] = pose
         self.masses[body] = spec.mass if mass is None else mass

@@ -1,4 +1,4 @@
-"""The world on MuJoCo: :class:`MuJoCoWorld`, a :class:`stackdsl.runtime.engines.world.World` through MuJoCo's public API.
+"""The world on MuJoCo: :class:`MuJoCoWorld`, a :class:`stackdsl.runtime.engines.protocol.World` through MuJoCo's public API.
 
 MuJoCo compiles a model before it simulates, and a model's bodies are fixed when it is
 compiled. Bodies are declared to an ``mujoco.MjSpec``; the model is compiled when the
@@ -33,6 +33,7 @@ from stability import ContactPoint, Pose
 
 from ...compile.program import BrickSpec, EngineSettings, Vec3
 from .mujoco_materials import Materials
+from .protocol import World
 
 #: Where the free body of a frozen brick waits, and the held body of an active one: far
 #: from any scene (positions are within 1 km), one slot per brick so that none overlap.
@@ -40,8 +41,8 @@ _AWAY = np.array([5000.0, 5000.0, 100.0])
 _SLOT = 0.5  # m between two waiting bodies
 
 
-class MuJoCoWorld:
-    """:class:`stackdsl.runtime.engines.world.World` on MuJoCo (see the module's docstring).
+class MuJoCoWorld(World):
+    """:class:`stackdsl.runtime.engines.protocol.World` on MuJoCo (see the module's docstring).
 
     Args:
         engine: the run's engine settings (``backend: mujoco``).
@@ -96,8 +97,8 @@ class MuJoCoWorld:
         self._materials.surface(ground, ground_friction, ground_restitution)
 
     # building -----------------------------------------------------------------
-    def create(self, spec: BrickSpec, pose: Pose, mass: float | None = None, maximal: bool | None = None) -> int:
-        """A new brick at ``pose``; ``mass`` 0 creates it frozen. ``maximal`` is pybullet's and ignored."""
+    def create(self, spec: BrickSpec, pose: Pose, mass: float | None = None, projectile: bool = False) -> int:
+        """A new brick at ``pose``; ``mass`` 0 creates it frozen. MuJoCo needs nothing special for a ``projectile``."""
         mj = self._mj
         body = len(self._specs) + 1
         frozen = mass is not None and mass <= 0.0
@@ -282,7 +283,7 @@ class MuJoCoWorld:
         self._read = None
         self._apply(body)
 
-    # stackdsl.runtime.engines.world.World -----------------------------------------------------
+    # stackdsl.runtime.engines.protocol.World -----------------------------------------------------
     def move(self, body: int, pose: Pose, mass: float) -> None:
         self._put(body, pose, mass <= 0.0)
 

@@ -1,10 +1,5 @@
-"""The world: the one adapter between a run and its physics engine.
-
-A :class:`World` creates bodies, sets their materials, steps, and reads poses and
-velocities of many bodies at once; it is also the :class:`stability.Engine` the
-stability extension drives. :class:`PyBulletWorld` is the real one (a pybullet DIRECT
-client); :class:`stackdsl.runtime.engines.fake.FakeWorld` moves bodies at constant velocity, for
-testing the step loop without an engine.
+"""The world on pybullet: :class:`PyBulletWorld`, a :class:`~stackdsl.runtime.engines.protocol.World`
+on a pybullet DIRECT client.
 
 pybullet facts this adapter encodes (measured with pybullet 3.2.7):
 
@@ -29,45 +24,14 @@ import os
 import sys
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 
-from stability import Engine, Pose, PyBulletEngine
+from stability import Pose, PyBulletEngine
 
 from ...compile.program import BrickSpec, EngineSettings, Vec3
-
-
-class World(Engine, Protocol):
-    """What the step loop needs from an engine, beyond :class:`stability.Engine`.
-
-    Attributes:
-        ground: the body id of the ground plane.
-    """
-
-    ground: int
-
-    def create(self, spec: BrickSpec, pose: Pose, mass: float | None = None, maximal: bool | None = None) -> int:
-        """A new box body of ``spec`` at ``pose`` (``mass`` 0: immovable); its id."""
-
-    def move(self, body: int, pose: Pose, mass: float) -> None:
-        """Put ``body`` at ``pose`` at rest with ``mass`` (a parked body entering the scene)."""
-
-    def throw(self, body: int, velocity: Vec3, swept_radius: float | None) -> None:
-        """Give ``body`` a linear velocity (m/s) and no spin; with ``swept_radius`` (m), continuous
-        collision detection by a swept sphere of that radius."""
-
-    def step(self) -> None:
-        """Advance one timestep."""
-
-    def set_substeps(self, substeps: int) -> None:
-        """Split each following step into ``substeps`` (1: no split)."""
-
-    def poses_of(self, bodies: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
-        """Positions (n, 3) in m and unit quaternions (x, y, z, w), (n, 4), of ``bodies``."""
-
-    def velocities_of(self, bodies: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
-        """Linear (n, 3) in m/s and angular (n, 3) in rad/s velocities of ``bodies``."""
+from .protocol import World
 
 
 @contextmanager
@@ -110,7 +74,7 @@ def pybullet_world(engine: EngineSettings, ground_friction: float, ground_restit
         yield PyBulletWorld(client, engine, ground_friction, ground_restitution)
 
 
-class PyBulletWorld(PyBulletEngine):
+class PyBulletWorld(PyBulletEngine, World):
     """:class:`World` on a pybullet client: gravity, timestep, solver iterations and the
     ground plane are set up at once; ``ground`` is the plane's body id.
 
@@ -145,11 +109,17 @@ class PyBulletWorld(PyBulletEngine):
     def timestep(self) -> float:
         return self._engine.timestep
 
-    def create(self, spec: BrickSpec, pose: Pose, mass: float | None = None, maximal: bool | None = None) -> int:
+    rigid_debris = True
+
+    def create(self, spec: BrickSpec, pose: Pose, mass: float | None = None, projectile: bool = False) -> int:
+        """A body in maximal coordinates for a ``projectile`` (continuous collision detection
+        needs one), else in the coordinates of the engine settings."""
+        return self._create(spec, pose, mass, True if projectile else self._engine.maximal_coordinates)
+
+    def _create(self, spec: BrickSpec, pose: Pose, mass: float | None, maximal: bool) -> int:
         key = spec.half_extents
         if key not in self._shapes:
             self._shapes[key] = self._client.createCollisionShape(self._p.GEOM_BOX, halfExtents=list(key))
-        maximal = self._engine.maximal_coordinates if maximal is None else maximal
         body: int = self._client.createMultiBody(
             baseMass=spec.mass if mass is None else mass,
             baseCollisionShapeIndex=self._shapes[key],
@@ -186,7 +156,7 @@ class PyBulletWorld(PyBulletEngine):
             self._client.removeBody(body)
             del self._multibodies[body]
             self._velocities.pop(body, None)
-            again = self.create(spec, Pose(np.array(position), np.array(orientation)), mass=mass, maximal=True)
+            again = self._create(spec, Pose(np.array(position), np.array(orientation)), mass, True)
             if again != body:
                 raise RuntimeError(f"pybullet re-created body {body} as {again}")
             self._client.resetBaseVelocity(body, linear, angular)

@@ -1,0 +1,70 @@
+"""The seam between a run and its physics engine: the :class:`World` protocol.
+
+A world creates bodies, sets their materials, steps, and reads poses and velocities of many
+bodies at once; it is also the :class:`stability.Engine` the stability extension drives.
+One adapter per engine implements it: :class:`~stackdsl.runtime.engines.pybullet_world.PyBulletWorld`,
+:class:`~stackdsl.runtime.engines.mujoco_world.MuJoCoWorld`, and
+:class:`~stackdsl.runtime.engines.fake.FakeWorld` (in memory, for tests). Capabilities only some
+engines have are declared here with a default, so that the runtime never asks which engine it
+drives.
+
+Source: stackdsl's own (the world adapter of dm_control's composer).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Protocol
+
+import numpy as np
+
+from stability import Engine, Pose
+
+from ...compile.program import BrickSpec, Vec3
+
+
+class World(Engine, Protocol):
+    """What the step loop needs from an engine, beyond :class:`stability.Engine`.
+
+    An adapter subclasses it (so that the optional capabilities' defaults apply) and
+    implements the rest; no code outside an adapter asks which engine it is.
+
+    Attributes:
+        ground: the body id of the ground plane.
+        rigid_debris: whether :meth:`make_rigid` re-creates anything (an optional capability;
+            default False).
+    """
+
+    ground: int
+    rigid_debris: bool = False
+
+    def create(self, spec: BrickSpec, pose: Pose, mass: float | None = None, projectile: bool = False) -> int:
+        """A new box body of ``spec`` at ``pose`` (``mass`` 0: immovable); its id. A
+        ``projectile`` is thrown fast with continuous collision detection: an engine that
+        needs a kind of body for that (pybullet: maximal coordinates) makes it so."""
+
+    def move(self, body: int, pose: Pose, mass: float) -> None:
+        """Put ``body`` at ``pose`` at rest with ``mass`` (a parked body entering the scene)."""
+
+    def throw(self, body: int, velocity: Vec3, swept_radius: float | None) -> None:
+        """Give ``body`` a linear velocity (m/s) and no spin; with ``swept_radius`` (m), continuous
+        collision detection by a swept sphere of that radius."""
+
+    def step(self) -> None:
+        """Advance one timestep."""
+
+    def set_substeps(self, substeps: int) -> None:
+        """Split each following step into ``substeps`` (1: no split)."""
+
+    def poses_of(self, bodies: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+        """Positions (n, 3) in m and unit quaternions (x, y, z, w), (n, 4), of ``bodies``."""
+
+    def velocities_of(self, bodies: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+        """Linear (n, 3) in m/s and angular (n, 3) in rad/s velocities of ``bodies``."""
+
+    # optional capabilities, with their defaults -------------------------------------
+    def make_rigid(self, bodies: Sequence[int]) -> list[int]:
+        """Re-create ``bodies`` as bodies cheaper to step while debris settles, at the same
+        pose and velocity under the same ids; the ids re-created. Default: none (an engine
+        whose bodies are all alike, or that has no cheaper kind)."""
+        return []

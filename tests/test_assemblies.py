@@ -14,6 +14,7 @@ def rng(k: int) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence(5, spawn_key=(k,)))
 
 
+@pytest.mark.slow
 def test_assemblies_are_reproducible_valid_and_varied():
     texts = [assembly(rng(k), f"a{k}") for k in range(12)]
     assert texts == [assembly(rng(k), f"a{k}") for k in range(12)]

@@ -592,6 +592,7 @@ def test_bench_upright_heights_pick_the_towers():
     assert upright == [10, 60]
 
 
+@pytest.mark.slow
 def test_bench_quick_smoke_writes_every_output(tmp_path, capsys):
     # One small cell per setting, in worker processes: the command cannot rot.
     assert main(["bench", "--quick", "--out", str(tmp_path), "-j", "2"]) == 0
@@ -607,6 +608,7 @@ def test_bench_quick_smoke_writes_every_output(tmp_path, capsys):
     )
 
 
+@pytest.mark.slow
 def test_bench_measures_each_fast_cell_once_a_round_and_a_slow_one_once():
     from stackdsl.bench.bench import Scene, run_matrix
 

@@ -84,6 +84,7 @@ def test_a_100_level_tower_costs_no_more_steps_per_brick_than_a_10_level_one():
     assert steps_per_brick(100) <= 1.2 * steps_per_brick(10)
 
 
+@pytest.mark.slow
 def test_a_250_level_tower_keeps_its_heights_and_stands():
     # An engine's contacts are soft: a brick at rest overlaps its supports by a few
     # hundredths of a millimetre. Frozen with those overlaps, a 250-level tower had sunk

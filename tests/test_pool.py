@@ -291,7 +291,7 @@ def wait_for_workers(process: subprocess.Popen, out: Path) -> set[int]:
 
 
 @two_cores
-@pytest.mark.parametrize("signum", [signal.SIGKILL, signal.SIGTERM])
+@pytest.mark.parametrize("signum", [signal.SIGKILL, pytest.param(signal.SIGTERM, marks=pytest.mark.slow)])
 def test_killing_check_leaves_no_process_behind(tmp_path, signum):
     process, out, err = start_check(tmp_path)
     try:

@@ -67,6 +67,7 @@ def test_a_local_dask_cluster_needs_a_sensible_size():
             pass
 
 
+@pytest.mark.slow
 def test_the_simulated_mean_collapse_level_agrees_with_an_independent_monte_carlo():
     # the shipped random single-file stack: 40 levels, so that nearly every sample collapses
     t = replace(load_scenario(ROOT / "sweeps" / "random_single_file.yaml").template, samples=40)

@@ -105,7 +105,7 @@ def certify(stack: Stack, areas: ContactAreas) -> Certificate:
     if shift is not None:  # one program: it stands, and by how much
         return Certificate(True, 0.0, shift, (), len(bricks), on_engine, len(polygons))
     result = solve_equilibrium(blocks, polygons, gravity=stack.config.gravity)
-    mechanism = tuple(labels[b] for b in stack.ordered(b for b, v in result.mechanism.items() if v > 1e-4))
+    mechanism = tuple(labels[b] for b in stack.ordered(result.moving()))
     return Certificate(result.stands, result.tension, 0.0, mechanism, len(bricks), on_engine, len(polygons))
 
 

@@ -143,7 +143,7 @@ class Debris:
             result = solve_equilibrium(blocks, contacts, gravity=stack.config.gravity)
             if result.stands:
                 return group, polygons
-            out = {b for b, v in result.mechanism.items() if v > 1e-4}
+            out = result.moving()
             if not out or any(b in frozen for b in out):
                 return None
             group, polygons = _without(group, polygons, out)
@@ -219,7 +219,7 @@ class Debris:
                 result = solve_equilibrium(blocks, contacts, gravity=gravity)
             if result.stands:
                 return group, polygons
-            out = {b for b, v in result.mechanism.items() if v > 1e-4 and b in members}
+            out = result.moving() & members.keys()
             group, polygons = _without(group, polygons, out)
             if not (group and out):
                 break

@@ -76,6 +76,11 @@ class ContactPolygon(Generic[BodyKey]):
     friction: float
 
 
+MOVES = 1e-4
+"""Relative virtual velocity above which a block moves in a collapse mechanism (below it:
+the program's round-off)."""
+
+
 @dataclass(frozen=True)
 class Equilibrium(Generic[BodyKey]):
     """The answer of :func:`solve`.
@@ -101,6 +106,13 @@ class Equilibrium(Generic[BodyKey]):
     tension_by_body: dict[BodyKey, float]
     contact_tension: tuple[float, ...] = ()
     mechanism: dict[BodyKey, float] = field(default_factory=dict)
+
+    def moving(self) -> set[BodyKey]:
+        """The blocks that move in the collapse mechanism, however little: every block whose
+        virtual velocity is above :data:`MOVES` of the largest. A tower that topples about
+        its base's edge moves its lowest brick least (a quarter of the top's, say); it must
+        move all the same. Empty when the blocks stand. Source: stackdsl's own."""
+        return {b for b, v in self.mechanism.items() if v > MOVES}
 
 
 def solve_equilibrium(

@@ -107,7 +107,7 @@ class StackTest:
             result = solve_equilibrium(blocks, contacts, gravity=stack.config.gravity)
             if result.stands:
                 return []
-            moving = {b for b, v in result.mechanism.items() if v > 1e-4}
+            moving = result.moving()
         events = []
         reason = f"it moves in the collapse mechanism (rigid-block equilibrium) with {rec.label} on the stack"
         for b in stack.ordered(moving & frozen.keys()):
@@ -164,7 +164,7 @@ class StackTest:
                     result = solve_equilibrium(blocks, polygons, gravity=stack.config.gravity)
                     if result.stands:
                         return events
-                    moving = {b for b, v in result.mechanism.items() if v > 1e-4}
+                    moving = result.moving()
             for b in stack.ordered(moving):
                 reason = "it moves in the collapse mechanism (rigid-block equilibrium)"
                 events += [w.event for w in stack.wake(b, time, reason, moving)]

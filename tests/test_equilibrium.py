@@ -151,3 +151,20 @@ def test_the_margin_program_agrees_with_bisection_on_random_assemblies():
         if checked == 5:
             break
     assert checked == 5
+
+
+def test_every_brick_of_a_toppling_tower_moves_in_its_mechanism_the_base_included():
+    """Four bricks, each 40-50 mm past the one below: the tower topples about its base's edge,
+    and the base moves least (about a quarter of the top's virtual velocity); it moves all the same."""
+    blocks, contacts, centres = {}, [], [0.0, 0.04, 0.09, 0.14]
+    for k, x in enumerate(centres):
+        blocks[k] = RigidBlock(M, np.array([x, 0.0, 0.004 + 0.008 * k]))
+        if k == 0:
+            contacts.append(ContactPolygon(0, "ground", rectangle(-L / 2, L / 2, 0.0), UP, 0.5))
+        else:
+            low, high = x - L / 2, centres[k - 1] + L / 2
+            contacts.append(ContactPolygon(k, k - 1, rectangle(low, high, 0.008 * k), UP, 0.5))
+    result = solve_equilibrium(blocks, contacts)
+    assert not result.stands
+    assert result.mechanism[3] == pytest.approx(1.0) and 0.0 < result.mechanism[0] < 0.5
+    assert result.moving() == {0, 1, 2, 3}

@@ -7,7 +7,7 @@ that is still more than ``max_frames`` frames, the whole clip is sped up evenly.
 a launch, an impact and the collapse are always drawn. Every frame carries the simulated time
 and the speed-up (``t = 12.30 s  x4``), a legend of the state colours and a scale bar.
 
-Pictures come from :class:`stackdsl.draw.render.Scene` (pybullet's TinyRenderer); a GIF is written
+Pictures come from :class:`stackdsl.draw.render.Scene` (a numpy z-buffer); a GIF is written
 by Pillow with one fixed palette, an MP4 (H.264) by the ffmpeg of the ``imageio-ffmpeg`` package.
 
 >>> import stackdsl

@@ -48,15 +48,13 @@ class Camera:
         """The camera looking along ``yaw`` (deg, from +y towards +x) at ``pitch`` (deg, negative:
         down) whose picture of ``width`` x ``height`` pixels holds ``points`` ((n, 3), metres) with
         :data:`MARGIN` around them."""
-        import pybullet
-
         low, high = points.min(axis=0), points.max(axis=0)
         target = (low + high) / 2.0
         yaw, pitch = math.radians(yaw), math.radians(pitch)
         forward = np.array([math.cos(pitch) * math.sin(yaw), math.cos(pitch) * math.cos(yaw), math.sin(pitch)])
         distance = float(np.linalg.norm(high - low)) + 1.0
         eye = target - distance * forward
-        view = np.array(pybullet.computeViewMatrix(eye.tolist(), target.tolist(), [0.0, 0.0, 1.0])).reshape(4, 4).T
+        view = look_at(eye, target)
         seen = (np.c_[points, np.ones(len(points))] @ view.T)[:, :3]  # camera frame: x right, y up, -z ahead
         (left, bottom, _), (right, top, _) = seen.min(axis=0), seen.max(axis=0)
         pad = MARGIN * max(right - left, top - bottom, 1e-3)
@@ -65,13 +63,7 @@ class Camera:
         middle_x, middle_y = (left + right) / 2.0, (top + bottom) / 2.0
         left, right = middle_x - scale * width / 2.0, middle_x + scale * width / 2.0
         bottom, top = middle_y - scale * height / 2.0, middle_y + scale * height / 2.0
-        # TinyRenderer drops a fragment unless -a <= clip z <= b, with a and b read off the matrix as
-        # if it were a perspective one (a = P[2,3] / (P[2,2] - 1), b = P[2,3] / (P[2,2] + 1)): choose the
-        # orthographic near and far planes that make a and b the depths (m) to keep.
-        closest, farthest = 0.01, 2.0 * distance + 20.0
-        depth_range = 2.0 * (farthest - closest) / (farthest + closest)
-        near = (closest * (2.0 + depth_range) - depth_range) / 2.0
-        far = near + depth_range
+        near, far = 0.01, 2.0 * distance + 20.0  # metres in front of the eye: everything framed is between
         projection = np.diag([2.0 / (right - left), 2.0 / (top - bottom), -2.0 / (far - near), 1.0])  # OpenGL's glOrtho
         projection[:3, 3] = [-(right + left) / (right - left), -(top + bottom) / (top - bottom), -(far + near) / (far - near)]
         return cls(view, projection, width, height, 1.0 / scale)
@@ -88,6 +80,24 @@ class Camera:
         a, b = ((inverse @ [x, y, depth, 1.0])[:3] for depth in (-1.0, 1.0))  # two points on the pixel's ray
         result: np.ndarray = a + (b - a) * (a[2] / (a[2] - b[2]))
         return result
+
+
+def look_at(eye: np.ndarray, target: np.ndarray, up: tuple[float, float, float] = (0.0, 0.0, 1.0)) -> np.ndarray:
+    """The 4 x 4 view matrix (row-major) of a camera at ``eye`` looking at ``target`` ((3,),
+    metres) with ``up`` upwards in the picture: world to camera coordinates, x right, y up,
+    -z ahead (OpenGL's ``gluLookAt``).
+
+    >>> look_at(np.array([0.0, -1.0, 0.0]), np.zeros(3)) @ [0.0, 0.0, 0.0, 1.0]
+    array([ 0.,  0., -1.,  1.])
+    """
+    forward = (target - eye) / np.linalg.norm(target - eye)
+    side = np.cross(forward, up)
+    side /= np.linalg.norm(side)
+    upward = np.cross(side, forward)
+    view = np.eye(4)
+    view[0, :3], view[1, :3], view[2, :3] = side, upward, -forward
+    view[:3, 3] = -view[:3, :3] @ eye
+    return view
 
 
 def placed_corners(trajectory: Trajectory) -> np.ndarray:

@@ -1,10 +1,10 @@
 """Pictures of a recorded run: a :class:`stackdsl.Trajectory` drawn at one moment.
 
-The bricks are drawn by pybullet's TinyRenderer in a DIRECT client of their own: a z-buffered
-software rasteriser that runs headless and ships with pybullet, so a picture needs no display,
-no GPU and no new dependency. The camera is orthographic (a length measures the same at every
+The bricks are drawn from the recorded poses alone, by a z-buffer in numpy (:class:`Scene`):
+no engine, no display, no GPU. The camera is orthographic (a length measures the same at every
 depth, so the scale bar is exact), looks at the structure from above at a 3/4 angle and is
-framed once per trajectory on every brick's placed pose and the fixtures.
+framed once per trajectory on every brick's placed pose and the fixtures; matplotlib puts the
+title, the scale bar and the legend around it.
 
 Colours say each brick's state (:data:`stackdsl.runtime.trajectory.STATES`): see :data:`COLOURS`.
 
@@ -25,14 +25,12 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Iterable
-from contextlib import ExitStack
 from pathlib import Path
 from types import TracebackType
-from typing import Any
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
-from ..runtime.engines.pybullet_world import direct_client
 from ..runtime.trajectory import ABSENT, FROZEN, STATES, Frame, Trajectory
 from .camera import Camera, camera_view, placed_corners
 
@@ -54,9 +52,12 @@ COLOURS: dict[str, tuple[float, float, float]] = {
 #: piece (0.1 s: barely moved; 0.3 s: a slab lying almost on its side, hard to read), and the top
 #: brick of scenarios/hard/overhang_falls.yaml has tipped onto the ground (it does by 0.1 s).
 COLLAPSE_DELAY = 0.2
-#: A picture as TinyRenderer gives it: RGB (h, w, 3) uint8, depth (h, w) (smaller is nearer), body id (h, w) (-1: none).
+#: A picture being drawn: RGB (h, w, 3) uint8, depth (h, w) in m ahead of the camera (smaller
+#: is nearer), and the body seen at each pixel (h, w): a brick's index, -2 the ground, -3 and on
+#: the fixtures, -1 nothing.
 Layer = tuple[np.ndarray, np.ndarray, np.ndarray]
-_HIDDEN, _GROUND = (1.0e3, 1.0e3, -1.0e3), 0.001  # where an absent brick is parked (out of view); the ground's half thickness, m
+_GROUND = 0.001  # the ground's half thickness, m
+_AMBIENT, _DIFFUSE = 0.5, 0.5  # the light: a face lit head-on shows its colour, one turned away half of it
 
 
 def resolve_time(trajectory: Trajectory, at: str | float) -> float:
@@ -93,92 +94,65 @@ def colour_keys(trajectory: Trajectory, states: np.ndarray) -> list[str]:
 
 
 class Scene:
-    """The bodies of ``trajectory`` in a TinyRenderer client of their own, for pictures of
-    ``width`` x ``height`` pixels: a box for each brick, fixture and the ground, built once;
-    :meth:`render` only moves and recolours them. A context manager (or call :meth:`close`).
+    """The bodies of ``trajectory`` ready to draw as pictures of ``width`` x ``height`` pixels:
+    the camera, the light, the ground and the fixtures are set up once; :meth:`render` draws
+    each frame. A context manager (or call :meth:`close`).
 
-    A picture is two renders merged by depth: the still layer (ground, fixtures, frozen bricks),
-    kept until it changes (bricks that froze since are drawn alone and merged in), and the
-    bricks that may move. Raises ValueError for fewer than 16 x 16 pixels. Source: stackdsl's own.
+    A picture is a z-buffer: every box's faces that look towards the camera are filled pixel
+    by pixel with numpy, the nearest face winning, shaded by one light (ambient plus diffuse,
+    the same factor on red, green and blue). The still layer (ground, fixtures, frozen
+    bricks) is kept until it changes; the bricks that may move are drawn over a copy of it.
+    Raises ValueError for fewer than 16 x 16 pixels. Source: stackdsl's own.
     """
 
     def __init__(self, trajectory: Trajectory, width: int, height: int) -> None:
         if width < 16 or height < 16:
             raise ValueError(f"a picture must be at least 16 x 16 pixels, not {width} x {height}")
         self.trajectory, self.width, self.height = trajectory, int(width), int(height)
-        self._stack = ExitStack()
-        self._client: Any = self._stack.enter_context(direct_client())  # first: it silences pybullet's import
-        try:
-            self._build(trajectory)
-        except BaseException:
-            self.close()
-            raise
+        self._build(trajectory)
 
     def _build(self, trajectory: Trajectory) -> None:
-        """The camera, the light, and a body for the ground, each fixture and each brick (hidden)."""
+        """The camera, the light, the ground and each fixture."""
         corners = placed_corners(trajectory)
         low, high = corners.min(axis=0), corners.max(axis=0)
         centre = (low + high) / 2.0
         self.camera = camera = Camera.framing(corners, self.width, self.height, *camera_view(trajectory, centre))
         towards, right = camera.view[2, :3], camera.view[0, :3]  # to the camera, to the picture's right
-        self._light = (towards - 0.7 * right + [0.0, 0.0, 1.5]).tolist()  # from the upper left, behind the camera
-        self._shapes: dict[tuple[float, ...], int] = {}
+        light = towards - 0.7 * right + [0.0, 0.0, 1.5]  # from the upper left, behind the camera
+        self._light, self._towards = light / np.linalg.norm(light), towards
         # the ground: a square under the structure reaching past the picture's bottom corners
         seen = [camera.ground_point(column, self.height) for column in (0, self.width)]
         reach = max(float(np.abs(p[:2] - centre[:2]).max()) for p in seen) * 1.05
         reach = max(reach, float(max(high[0] - low[0], high[1] - low[1])) / 2.0 + 0.1)
-        fixed = [((reach, reach, _GROUND), (*centre[:2], -_GROUND), (0, 0, 0, 1), "ground")]
+        fixed: list[Box3] = [(-2, np.array([reach, reach, _GROUND]), np.array([*centre[:2], -_GROUND]), _UPRIGHT, "ground")]
         fixtures = zip(trajectory.fixture_half_extents, trajectory.fixture_positions, trajectory.fixture_orientations)
-        fixed += [(tuple(half), tuple(position), tuple(quaternion), "fixture") for half, position, quaternion in fixtures]
-        self._fixed = [(self._body(half, at, quaternion, key), at, quaternion) for half, at, quaternion, key in fixed]
-        self.bodies = [self._body(tuple(half), _HIDDEN, (0, 0, 0, 1), "") for half in trajectory.half_extents]
-        self._colours: list[str] = [""] * len(self.bodies)
-        self._shown = np.full((len(self.bodies), 7), np.nan)  # where each brick's body is: NaN when hidden
-        # the still layer: RGB, depth, body of each pixel, which bricks it holds, the poses it was drawn at
+        fixed += [(-3 - k, np.asarray(h), np.asarray(at), np.asarray(q), "fixture") for k, (h, at, q) in enumerate(fixtures)]
+        self._fixed = fixed
         self._still: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
 
-    def _body(self, half: tuple[float, ...], position: tuple[float, ...], quaternion: tuple[float, ...], colour: str) -> int:
-        import pybullet
-
-        key = tuple(round(h, 9) for h in half)
-        if key not in self._shapes:
-            self._shapes[key] = self._client.createVisualShape(pybullet.GEOM_BOX, halfExtents=list(half))
-        body = int(self._client.createMultiBody(0.0, -1, self._shapes[key], list(position), list(quaternion)))
-        if colour:
-            self._client.changeVisualShape(body, -1, rgbaColor=[*COLOURS[colour], 1.0])
-        return body
-
-    def _show(self, wanted: np.ndarray, poses: np.ndarray) -> None:
-        """Put each brick in ``wanted`` at its row of ``poses`` ((bodies, 7): position,
-        quaternion), hide every other."""
-        target = np.where(wanted[:, None], poses, np.nan)
-        for i in np.flatnonzero(~((target == self._shown) | (np.isnan(target) & np.isnan(self._shown))).all(axis=1)):
-            hidden = bool(np.isnan(target[i, 0]))
-            position, quaternion = (_HIDDEN, (0.0, 0.0, 0.0, 1.0)) if hidden else (target[i, :3].tolist(), target[i, 3:].tolist())
-            self._client.resetBasePositionAndOrientation(self.bodies[i], position, quaternion)
-        self._shown = target
-
-    def _shoot(self, fixed: bool) -> Layer:
-        """A TinyRenderer :data:`Layer` of the bricks in view, with (``fixed``) or without the ground and fixtures."""
-        import pybullet
-
-        client, camera = self._client, self.camera
-        for body, position, quaternion in self._fixed:
-            client.resetBasePositionAndOrientation(body, position if fixed else _HIDDEN, quaternion)
-        _, _, rgba, depth, segmentation = client.getCameraImage(
-            self.width,
-            self.height,
-            viewMatrix=camera.view.T.ravel().tolist(),
-            projectionMatrix=camera.projection.T.ravel().tolist(),
-            lightDirection=self._light,
-            lightAmbientCoeff=0.55,
-            lightDiffuseCoeff=0.5,
-            lightSpecularCoeff=0.05,
-            shadow=0,
-            renderer=pybullet.ER_TINY_RENDERER,
-        )
+    def _canvas(self) -> Layer:
+        """An empty :data:`Layer`: no colour, infinite depth, no body."""
         shape = (self.height, self.width)
-        return np.asarray(rgba, np.uint8).reshape(*shape, 4)[:, :, :3], np.reshape(depth, shape), np.reshape(segmentation, shape)
+        return np.zeros((*shape, 3), np.uint8), np.full(shape, np.inf), np.full(shape, -1, np.int64)
+
+    def _draw(self, layer: Layer, boxes: Iterable[Box3]) -> None:
+        """Draw each box into ``layer`` in place, nearer faces hiding farther ones."""
+        for ident, half, position, quaternion, key in boxes:
+            axes = Rotation.from_quat(quaternion).as_matrix()  # columns: the box's axes in the world
+            corners = position + (_SIGNS * half) @ axes.T
+            pixels = self.camera.pixels(corners)
+            ahead = -(np.c_[corners, np.ones(8)] @ self.camera.view.T)[:, 2]  # m in front of the camera
+            colour = np.array(COLOURS[key]) * 255.0
+            for (axis, side), face in _FACES.items():
+                normal = side * axes[:, axis]
+                if float(normal @ self._towards) <= 1e-9:
+                    continue  # the face looks away from the camera
+                shade = _AMBIENT + _DIFFUSE * max(0.0, float(normal @ self._light))
+                _fill(layer, pixels[face], ahead[face], np.round(colour * shade).astype(np.uint8), ident)
+
+    def _bricks(self, which: np.ndarray, poses: np.ndarray, keys: list[str]) -> list[Box3]:
+        half = self.trajectory.half_extents
+        return [(int(i), half[i], poses[i, :3], poses[i, 3:], keys[i]) for i in np.flatnonzero(which)]
 
     def render(self, frame: Frame) -> np.ndarray:
         """The picture of ``frame`` (of this scene's trajectory): (height, width, 3) uint8 RGB,
@@ -186,26 +160,22 @@ class Scene:
         keys = colour_keys(self.trajectory, frame.states)
         present = (frame.states != ABSENT) & ~np.isnan(frame.positions[:, 0])
         poses = np.c_[frame.positions, frame.orientations]
-        for i in np.flatnonzero(present):
-            if keys[i] != self._colours[i]:
-                self._client.changeVisualShape(self.bodies[i], -1, rgbaColor=[*COLOURS[keys[i]], 1.0])
-                self._colours[i] = keys[i]
         still = present & (frame.states == FROZEN)  # frozen bricks cannot move: drawn once, kept
         kept = self._still
         if kept is None or (kept[3] & ~still).any() or not np.array_equal(poses[kept[3]], kept[4][kept[3]]):
-            self._show(still, poses)  # one left the still layer or moved: draw it again
-            kept = (*self._shoot(fixed=True), still, poses)
+            layer = self._canvas()  # one left the still layer or moved: draw it again
+            self._draw(layer, [*self._fixed, *self._bricks(still, poses, keys)])
+            kept = (*layer, still, poses)
         elif (still & ~kept[3]).any():  # bricks froze since: add them to it
-            self._show(still & ~kept[3], poses)
-            kept = (*_nearer(kept[:3], self._shoot(fixed=False)), still, poses)
+            layer = (kept[0].copy(), kept[1].copy(), kept[2].copy())
+            self._draw(layer, self._bricks(still & ~kept[3], poses, keys))
+            kept = (*layer, still, poses)
         self._still = kept
-        rgb, depth, segmentation = kept[:3]
+        rgb, depth, segmentation = kept[0].copy(), kept[1].copy(), kept[2].copy()
         moving = present & ~still
         if moving.any():
-            self._show(moving, poses)
-            rgb, depth, segmentation = _nearer((rgb, depth, segmentation), self._shoot(fixed=False))
-        rgb = rgb.copy()
-        rgb[segmentation < 0] = np.round(np.array(COLOURS["background"]) * 255).astype(np.uint8)
+            self._draw((rgb, depth, segmentation), self._bricks(moving, poses, keys))
+        rgb[segmentation == -1] = np.round(np.array(COLOURS["background"]) * 255).astype(np.uint8)
         edge = np.zeros(segmentation.shape, bool)
         edge[:, 1:] |= segmentation[:, 1:] != segmentation[:, :-1]
         edge[1:, :] |= segmentation[1:, :] != segmentation[:-1, :]
@@ -213,8 +183,8 @@ class Scene:
         return rgb
 
     def close(self) -> None:
-        """Disconnect the renderer's client."""
-        self._stack.close()
+        """Drop the kept still layer (a scene holds nothing outside this process)."""
+        self._still = None
 
     def __enter__(self) -> Scene:
         return self
@@ -223,11 +193,54 @@ class Scene:
         self.close()
 
 
-def _nearer(base: Layer, layer: Layer) -> Layer:
-    """Two pictures of one camera merged by depth, as if drawn together."""
-    nearer = (layer[2] >= 0) & (layer[1] < base[1])
-    rgb = np.where(nearer[..., None], layer[0], base[0])
-    return rgb, np.where(nearer, layer[1], base[1]), np.where(nearer, layer[2], base[2])
+#: A box to draw: (body id in the picture, half extents (3,) m, position (3,) m, quaternion (x, y, z, w), colour key).
+Box3 = tuple[int, np.ndarray, np.ndarray, np.ndarray, str]
+_UPRIGHT = np.array([0.0, 0.0, 0.0, 1.0])
+#: The 8 corners of a box as signs of its half extents, x slowest.
+_SIGNS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
+#: (axis, side) -> the 4 corners (rows of :data:`_SIGNS`) of that face, in order around it.
+_FACES = {
+    (0, -1): [0, 1, 3, 2],
+    (0, 1): [4, 5, 7, 6],
+    (1, -1): [0, 1, 5, 4],
+    (1, 1): [2, 3, 7, 6],
+    (2, -1): [0, 2, 6, 4],
+    (2, 1): [1, 3, 7, 5],
+}
+
+
+def _fill(layer: Layer, corners: np.ndarray, ahead: np.ndarray, colour: np.ndarray, ident: int) -> None:
+    """Fill the convex polygon of pixel ``corners`` ((k, 2): column, row, in order around it)
+    into ``layer`` where it is nearer than what is there: its depth is the plane through the
+    corners' ``ahead`` (m; an orthographic projection keeps a face's depth linear over the
+    picture). A pixel is filled when its centre is inside."""
+    rgb, depth, body = layer
+    height, width = depth.shape
+    low = np.maximum(np.floor(corners.min(axis=0)), 0).astype(int)
+    high = np.minimum(np.ceil(corners.max(axis=0)), [width, height]).astype(int)
+    if (high <= low).any():
+        return
+    (x0, y0), (x1, y1), (x2, y2) = corners[0], corners[1], corners[2]
+    determinant = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+    if abs(determinant) < 1e-9:
+        return  # seen edge-on
+    columns = np.arange(low[0], high[0]) + 0.5
+    rows = (np.arange(low[1], high[1]) + 0.5)[:, None]
+    sign = 1.0 if determinant > 0 else -1.0
+    inside = np.ones((len(rows), len(columns)), bool)
+    for k in range(len(corners)):
+        (xa, ya), (xb, yb) = corners[k], corners[(k + 1) % len(corners)]
+        inside &= sign * ((xb - xa) * (rows - ya) - (yb - ya) * (columns - xa)) >= 0.0
+    if not inside.any():
+        return
+    a = ((ahead[1] - ahead[0]) * (y2 - y0) - (ahead[2] - ahead[0]) * (y1 - y0)) / determinant
+    b = ((ahead[2] - ahead[0]) * (x1 - x0) - (ahead[1] - ahead[0]) * (x2 - x0)) / determinant
+    z = ahead[0] + a * (columns - x0) + b * (rows - y0)
+    window = (slice(low[1], high[1]), slice(low[0], high[0]))
+    nearer = inside & (z < depth[window])
+    depth[window][nearer] = z[nearer]
+    body[window][nearer] = ident
+    rgb[window][nearer] = colour
 
 
 def render(trajectory: Trajectory, time: float, width: int = 800, height: int = 600) -> np.ndarray:

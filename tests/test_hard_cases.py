@@ -1,6 +1,6 @@
 """Hard cases: scenes that break simulators, each held to what stackdsl promises (extension mode).
 
-What raw pybullet does on the same scenes is recorded in docs/results.md's hard-case table
+What raw pybullet does on the same scenes is recorded in docs/results/hard-cases.md
 (``stackdsl bench hard``), not asserted here.
 """
 

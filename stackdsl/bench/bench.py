@@ -84,7 +84,7 @@ def scenes(quick: bool = False, upright: Sequence[int] = UPRIGHT) -> list[Scene]
     if quick:
         return [Scene("upright", 3, 3, "tower: {levels: 3}", None)]
     out = []
-    for s in (3.5, 4.5, 5.5, 6.5, 9, 9.5, 10.5, 11, 13, 14):  # no ties (docs/results.md): not 3, 5, 8
+    for s in (3.5, 4.5, 5.5, 6.5, 9, 9.5, 10.5, 11, 13, 14):  # no ties (docs/results/speed-against-error.md): not 3, 5, 8
         n = log_cabin(s / 1000)
         out.append(Scene("slant log cabin", s, n + 2, f"tower: {{levels: {n + 2}, spacing: 96 mm, shift: {s} mm}}", n))
     for s in (7, 9, 11, 13):

@@ -1,4 +1,4 @@
-"""Hard-case measurements: the numbers behind docs/results.md, "Hard cases".
+"""Hard-case measurements: the numbers behind docs/results/hard-cases.md.
 
 ``stackdsl bench hard`` prints three tables, each the extension beside pybullet alone:
 

@@ -56,7 +56,7 @@ from .rules import choose_rules
 #: (docs/design.md, modes: maximal coordinates, 1 ms, 150 iterations, friction anchors);
 #: ``extension`` is the report's set-up, the stability extension on the unmodified engine.
 #: MuJoCo: ``raw`` is its own (2 ms, pyramidal cones, Euler, solref 0.02 s and damping ratio
-#: 1); ``tuned`` the most accurate measured for KAPLA bricks (docs/results.md, MuJoCo:
+#: 1); ``tuned`` the most accurate measured for KAPLA bricks (docs/results/mujoco.md:
 #: elliptic cones, impratio 10, implicitfast, solref 0.004 s and damping ratio 2, solimp
 #: 0.99, 0.999, 0.1 mm); ``extension`` the extension on its own settings.
 BACKEND_DEFAULTS: dict[str, dict[str, dict[str, object]]] = {
@@ -81,7 +81,7 @@ BACKEND_DEFAULTS: dict[str, dict[str, dict[str, object]]] = {
 }
 # on MuJoCo the extension runs on the tuned settings: with MuJoCo's default contacts a placed brick
 # rings 134 ms before it can be frozen (62 ms tuned), and with the tuned contacts but pyramidal
-# cones two slant towers fell 2 levels late (docs/results.md, MuJoCo)
+# cones two slant towers fell 2 levels late (docs/results/mujoco.md)
 BACKEND_DEFAULTS["mujoco"]["extension"] = dict(BACKEND_DEFAULTS["mujoco"]["tuned"])
 MODE_DEFAULTS = BACKEND_DEFAULTS["pybullet"]
 GRAVITY = 9.81

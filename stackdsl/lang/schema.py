@@ -243,7 +243,7 @@ class Engine(StrictModel):
     """The physics engine: ``backend`` (pybullet, mujoco) and ``mode`` (raw, tuned,
     extension) pick the defaults of the rest. ``timestep`` is at most 10 ms: the capability
     scenarios give the same answers from 1/100 s to 1/2000 s and different ones beyond
-    (docs/results.md, hard cases). ``friction_anchors`` and ``maximal_coordinates`` are
+    (docs/results/hard-cases.md). ``friction_anchors`` and ``maximal_coordinates`` are
     pybullet's; ``sleep_tolerance`` turns MuJoCo's own sleeping on (a body sleeps below this
     speed, MuJoCo's units)."""
 

@@ -61,7 +61,7 @@ class RunOptions:
             (nothing can move) instead of stepping.
         lazy_bodies: bodies enter the engine when they are placed; False creates every
             brick at the start, parked far away and immovable; None (the default): the
-            backend's best, measured (docs/results.md, MuJoCo): when placed on pybullet; at the
+            backend's best, measured (docs/results/mujoco.md): when placed on pybullet; at the
             start on MuJoCo, which compiles its model again for each new body (with its own
             sleeping too: the 60-level 4 stack takes 54 s parked against 134 s rebuilt).
         needed_rules: run only the stability rules the compiler chose for the scene;

@@ -188,7 +188,7 @@ class RigidDebris(Subscriber):
     Args:
         make_rigid: re-creates the given bodies; returns those it re-created.
 
-    Source: stackdsl's own (docs/design.md, modes; measured in docs/results.md).
+    Source: stackdsl's own (docs/design.md, modes; measured in docs/results/collapse-phase.md).
     """
 
     def __init__(self, make_rigid: Callable[[Sequence[int]], list[int]]) -> None:

@@ -5,7 +5,7 @@ edge; ``tests/test_closed_form.py`` checks them against rigid-block equilibrium 
 placed poses (:mod:`stackdsl.verdicts.oracle`). An exactly critical centre of mass counts as
 standing (equilibrium has a solution on the edge), so the shifts used avoid ties.
 
-Source: stackdsl's own derivations (docs/results.md, "Speed against error").
+Source: stackdsl's own derivations (docs/results/speed-against-error.md).
 """
 
 from __future__ import annotations

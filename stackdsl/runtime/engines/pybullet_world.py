@@ -11,7 +11,7 @@ pybullet facts this adapter encodes (measured with pybullet 3.2.7):
 * Bodies are created in program order, so that a run is bitwise repeatable.
 * A body created right after one was removed gets the removed body's id.
 * A step of a settling heap costs about half as much in rigid bodies (maximal coordinates)
-  as in one-link multibodies (docs/results.md, the collapse phase).
+  as in one-link multibodies (docs/results/collapse-phase.md).
 
 Source: stackdsl's own (the world adapter of dm_control's composer).
 """
@@ -138,7 +138,7 @@ class PyBulletWorld(PyBulletEngine, World):
         same id; returns the ids re-created.
 
         A step of a settling heap of rigid bodies costs pybullet about half what it costs in
-        multibodies (docs/results.md, the collapse phase). pybullet gives a new body the id
+        multibodies (docs/results/collapse-phase.md). pybullet gives a new body the id
         the last one removed had, which keeps every id the run holds valid.
 
         Raises:

@@ -38,12 +38,12 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from .batch.check import ScenarioErrors, check
     from .compile.compiler import MODE_DEFAULTS, compile_scenario
-    from .compile.program import End, EngineSettings, Launch, Place, Program, format_program
+    from .compile.program import End, Launch, Place, Program, format_program
+    from .engines.fake import FakeWorld
+    from .engines.protocol import EngineSettings, World
     from .lang.errors import ScenarioError
     from .lang.loader import load_scenario, parse_scenario
     from .lang.schema import Scenario
-    from .runtime.engines.fake import FakeWorld
-    from .runtime.engines.protocol import World
     from .runtime.loop import StepLoop, Subscriber
     from .runtime.outcome import Certificate, Collapse, Event, Graph, Outcome
     from .runtime.recorder import Recorder, record_program
@@ -71,7 +71,7 @@ _HOME = {
     "Graph": "runtime.outcome",
     "Outcome": "runtime.outcome",
     "End": "compile.program",
-    "EngineSettings": "compile.program",
+    "EngineSettings": "engines.protocol",
     "Launch": "compile.program",
     "Place": "compile.program",
     "Program": "compile.program",
@@ -86,8 +86,8 @@ _HOME = {
     "StepLoop": "runtime.loop",
     "Subscriber": "runtime.loop",
     "run_in": "runtime.run",
-    "World": "runtime.engines.protocol",
-    "FakeWorld": "runtime.engines.fake",
+    "World": "engines.protocol",
+    "FakeWorld": "engines.fake",
 }
 
 __all__ = [

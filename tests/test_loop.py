@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from stackdsl import compile_scenario, parse_scenario
-from stackdsl.runtime.engines.fake import FakeWorld
+from stackdsl.engines.fake import FakeWorld
 from stackdsl.runtime.loop import StepLoop, Subscriber
 from stackdsl.runtime.run import RunOptions, outcome, run_in
 
@@ -195,7 +195,7 @@ def test_an_engine_without_cheap_debris_gets_no_debris_subscriber_and_the_runtim
     import ast
     from pathlib import Path
 
-    from stackdsl.runtime.engines.protocol import World
+    from stackdsl.engines.protocol import World
     from stackdsl.runtime.subscribers import RigidDebris
 
     p = program(TOWER.replace("mode: raw", "mode: extension"))

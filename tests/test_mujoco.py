@@ -15,10 +15,10 @@ import pytest
 
 from stability import Pose
 from stackdsl import compile_scenario, evaluate, load_scenario, parse_scenario, run_program
-from stackdsl.compile.compiler import BACKEND_DEFAULTS
-from stackdsl.compile.program import BrickSpec, EngineSettings
-from stackdsl.runtime.engines.mujoco_materials import damping_ratio
-from stackdsl.runtime.engines.mujoco_world import MuJoCoWorld
+from stackdsl.engines.mujoco.materials import damping_ratio
+from stackdsl.engines.mujoco.settings import MuJoCoSettings
+from stackdsl.engines.mujoco.world import MuJoCoWorld
+from stackdsl.engines.protocol import BrickSpec
 
 ROOT = Path(__file__).resolve().parents[1]
 KAPLA = (0.06, 0.012, 0.004)
@@ -26,7 +26,7 @@ G = 9.81
 
 
 def _world(mode: str = "tuned", ground_friction: float = 0.5, **extra) -> MuJoCoWorld:
-    settings = EngineSettings.model_validate({"mode": mode, "backend": "mujoco", **BACKEND_DEFAULTS["mujoco"][mode], **extra})
+    settings = MuJoCoSettings.model_validate({"mode": mode, **MuJoCoSettings.DEFAULTS[mode], **extra})
     return MuJoCoWorld(settings, ground_friction, 0.0)
 
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from stackdsl import compile_scenario, load_scenario, parse_scenario, run_program
-from stackdsl.runtime.engines.fake import FakeWorld
+from stackdsl.engines.fake import FakeWorld
 from stackdsl.runtime.loop import Subscriber
 from stackdsl.runtime.recorder import Recorder, record_program
 from stackdsl.runtime.run import outcome, run_in

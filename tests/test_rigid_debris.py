@@ -7,10 +7,11 @@ from __future__ import annotations
 import pytest
 
 from stability import Pose
-from stackdsl import EngineSettings, compile_scenario, parse_scenario
+from stackdsl import compile_scenario, parse_scenario
 from stackdsl.compile.compiler import _spec
+from stackdsl.engines.pybullet.settings import PyBulletSettings
+from stackdsl.engines.pybullet.world import pybullet_world
 from stackdsl.runtime.collapse import CollapseMonitor
-from stackdsl.runtime.engines.pybullet_world import pybullet_world
 from stackdsl.runtime.run import RunOptions, run_in
 from stackdsl.runtime.subscribers import RigidDebris
 
@@ -19,7 +20,7 @@ SINGLE_FILE = "stackdsl: 1\nstructure: {tower: {levels: 12, bricks_per_layer: 1,
 
 def test_the_world_re_creates_a_moving_multibody_as_a_rigid_body_under_its_id():
     spec = _spec(parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 1}}\n"), "kapla")
-    settings = EngineSettings(mode="extension", timestep=1 / 240, solver_iterations=50)
+    settings = PyBulletSettings(mode="extension", timestep=1 / 240, solver_iterations=50)
     with pybullet_world(settings, 0.5, 0.0) as world:
         moving = world.create(spec, Pose.from_euler([0.0, 0.0, 0.2], yaw=0.3))
         frozen = world.create(spec, Pose.from_euler([0.5, 0.0, 0.004]))

@@ -8,11 +8,12 @@ import pybullet
 import pytest
 
 from stability import Pose, StabilityConfig
-from stackdsl import End, EngineSettings, Launch, Program, compile_scenario, parse_scenario, run_program
+from stackdsl import End, Launch, Program, compile_scenario, parse_scenario, run_program
 from stackdsl.compile.compiler import _spec
 from stackdsl.compile.program import Rule
+from stackdsl.engines.pybullet.settings import PyBulletSettings
+from stackdsl.engines.pybullet.world import pybullet_world
 from stackdsl.runtime import loop as _loop
-from stackdsl.runtime.engines.pybullet_world import pybullet_world
 from stackdsl.runtime.run import RunOptions
 
 TWO_BRICKS = """
@@ -82,7 +83,7 @@ def test_friction_coefficient_of_a_pair_is_the_materials():
     v = 0.5
     program = Program(
         name="slide",
-        engine=EngineSettings(
+        engine=PyBulletSettings(
             mode="raw", timestep=1 / 1000, solver_iterations=50, friction_anchors=False, maximal_coordinates=False
         ),
         ground_friction=0.5,
@@ -300,7 +301,7 @@ def test_a_pile_whose_top_bricks_slide_is_frozen_without_them():
 
 def test_the_world_reads_a_velocity_from_pybullet_once_a_step_and_again_after_a_change():
     spec = _spec(parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 1}}\n"), "kapla")
-    settings = EngineSettings(
+    settings = PyBulletSettings(
         mode="raw", timestep=1 / 240, solver_iterations=50, friction_anchors=False, maximal_coordinates=False
     )
     with pybullet_world(settings, 0.5, 0.0) as world:

@@ -555,7 +555,7 @@ def test_the_smallest_side_is_what_pybullet_resolves():
     stay moved, but pybullet does not hold it). The 2.5 mm cube is built from the 3 mm one's
     program, since the loader refuses it."""
     import stackdsl
-    from stackdsl.runtime.engines.pybullet_world import pybullet_world
+    from stackdsl.engines.pybullet.world import pybullet_world
     from stackdsl.runtime.loop import Subscriber
     from stackdsl.runtime.run import RunOptions, run_in
 

@@ -52,7 +52,7 @@ def test_a_brick_that_rocks_past_twice_the_threshold_and_returns_stands():
     # 1.5 mm inside its support's edge, the top brick dropped freely rocks on landing at some
     # gaps until its far end is 8 mm up (past twice the 4 mm threshold), and comes back: it
     # stands at every gap (the old rule called it collapse 3 at 0.1 and 1 mm)
-    from stackdsl.runtime.engines.pybullet_world import pybullet_world
+    from stackdsl.engines.pybullet.world import pybullet_world
     from stackdsl.runtime.run import RunOptions, outcome
 
     farthest = []

@@ -35,7 +35,7 @@ DEFAULT_LEVELS = (10, 20, 30, 60, 100, 200)
 DEFAULT_SETTINGS = ("extension report", "extension equilibrium")
 
 PARTS = {
-    "physics steps (pybullet)": ("runtime/engines/pybullet_world.py", "step"),
+    "physics steps (pybullet)": ("engines/pybullet/world.py", "step"),
     "stability extension, all of it": ("_extension.py", "update"),
     "  admission by rigid-block equilibrium": ("_admission.py", "leaning"),
     "  admission by the basic test": ("_admission.py", "basic"),

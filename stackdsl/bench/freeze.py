@@ -8,7 +8,7 @@ MuJoCo's sleeping, how many bricks were awake at the end:
 * ``free``: nothing frozen (the reference);
 * ``weld``: a weld equality to the world on each frozen brick, active;
 * ``sleep``: MuJoCo's own sleeping (tolerance 1e-4), each frozen brick's tree put to sleep;
-* ``held``: each frozen brick a mocap body (what :class:`stackdsl.runtime.engines.mujoco_world.MuJoCoWorld` does).
+* ``held``: each frozen brick a mocap body (what :class:`stackdsl.engines.mujoco.world.MuJoCoWorld` does).
 
 Source: stackdsl's own, on MuJoCo 4.0's Python bindings.
 """
@@ -21,12 +21,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..compile.compiler import BACKEND_DEFAULTS
-from ..compile.program import EngineSettings
+from ..engines.mujoco.settings import MuJoCoSettings
 
 MEANS = ("free", "weld", "sleep", "held")
 _HALF = (0.06, 0.012, 0.004)
-_TUNED = EngineSettings.model_validate({"mode": "tuned", "backend": "mujoco", **BACKEND_DEFAULTS["mujoco"]["tuned"]})
+_TUNED = MuJoCoSettings.model_validate({"mode": "tuned", **MuJoCoSettings.DEFAULTS["tuned"]})
 _SOLREF, _SOLIMP = list(_TUNED.solref), [*_TUNED.solimp, 0.5, 2.0]
 
 

@@ -17,11 +17,12 @@ import numpy as np
 
 from stability import Box, Pose
 
+from ..engines.protocol import BrickSpec
 from ..lang.errors import FieldPath
 from ..lang.schema import Scenario
 from ..lang.schema_impacts import Impact
 from .overlap import penetration
-from .program import BrickSpec, Launch
+from .program import Launch
 
 #: Metres a projectile may reach into the ground or a body at its start (contact, not overlap).
 TOLERANCE = 0.0005

@@ -39,6 +39,10 @@ import numpy as np
 
 from stability import Box, Pose, StabilityConfig
 
+from ..engines.mujoco.settings import MuJoCoSettings
+from ..engines.protocol import BrickSpec, EngineSettings
+from ..engines.pybullet.settings import PyBulletSettings
+from ..engines.settings import SETTINGS, defaults, settings
 from ..lang.bounds import MAX_SIMULATED_TIME
 from ..lang.errors import FieldPath
 from ..lang.extras import installed, missing
@@ -48,41 +52,12 @@ from .clearance import check_launch
 from .layouts import LaidBrick, layout, with_placement_error
 from .overlap import Body
 from .precheck import precheck
-from .program import BrickSpec, End, EngineSettings, Fixture, Launch, Place, Program
+from .program import End, Fixture, Launch, Place, Program
 from .rules import choose_rules
 
-#: Engine defaults per backend and mode. pybullet: ``raw`` is its own (240 Hz, 50
-#: iterations); ``tuned`` is the most accurate setting measured for small bricks
-#: (docs/design.md, modes: maximal coordinates, 1 ms, 150 iterations, friction anchors);
-#: ``extension`` is the report's set-up, the stability extension on the unmodified engine.
-#: MuJoCo: ``raw`` is its own (2 ms, pyramidal cones, Euler, solref 0.02 s and damping ratio
-#: 1); ``tuned`` the most accurate measured for KAPLA bricks (docs/results/mujoco.md:
-#: elliptic cones, impratio 10, implicitfast, solref 0.004 s and damping ratio 2, solimp
-#: 0.99, 0.999, 0.1 mm); ``extension`` the extension on its own settings.
-BACKEND_DEFAULTS: dict[str, dict[str, dict[str, object]]] = {
-    "pybullet": {
-        "raw": dict(timestep=1 / 240, solver_iterations=50, friction_anchors=False, maximal_coordinates=False, ccd=False),
-        "tuned": dict(timestep=1 / 1000, solver_iterations=150, friction_anchors=True, maximal_coordinates=True, ccd=True),
-        "extension": dict(timestep=1 / 240, solver_iterations=50, friction_anchors=False, maximal_coordinates=False, ccd=True),
-    },
-    "mujoco": {
-        "raw": dict(timestep=0.002, solver_iterations=100, ccd=False),
-        "tuned": dict(
-            timestep=0.002,
-            solver_iterations=100,
-            ccd=True,
-            elliptic_cones=True,
-            impratio=10.0,
-            integrator="implicitfast",
-            solref=(0.004, 2.0),
-            solimp=(0.99, 0.999, 1e-4),
-        ),
-    },
-}
-# on MuJoCo the extension runs on the tuned settings: with MuJoCo's default contacts a placed brick
-# rings 134 ms before it can be frozen (62 ms tuned), and with the tuned contacts but pyramidal
-# cones two slant towers fell 2 levels late (docs/results/mujoco.md)
-BACKEND_DEFAULTS["mujoco"]["extension"] = dict(BACKEND_DEFAULTS["mujoco"]["tuned"])
+#: Engine defaults per backend and mode, as each engine's settings class owns them
+#: (:mod:`stackdsl.engines.pybullet.settings`, :mod:`stackdsl.engines.mujoco.settings`).
+BACKEND_DEFAULTS: dict[str, dict[str, dict[str, object]]] = {name: cls.DEFAULTS for name, cls in SETTINGS.items()}
 MODE_DEFAULTS = BACKEND_DEFAULTS["pybullet"]
 GRAVITY = 9.81
 
@@ -190,7 +165,7 @@ def _budget(scenario: Scenario, program: Program) -> None:
         f"{e.timestep * 1000:.3g} ms steps, {e.solver_iterations} solver iterations, mode {e.mode}, is "
         f"{work:,.0f} body-steps (about {_duration(program.wall_estimate)}); at most {MAX_WORK:,.0f} are allowed"
     )
-    default = EngineSettings.model_validate({"mode": e.mode, "backend": e.backend, **BACKEND_DEFAULTS[e.backend][e.mode]})
+    default = settings(e.backend, mode=e.mode, **defaults(e.backend, e.mode))
     options: list[tuple[FieldPath, str, Program]] = []
     if given.timestep is not None and e.timestep < default.timestep:
         step = default.timestep
@@ -290,7 +265,7 @@ def _bodies(
     ]
 
 
-def _engine(scenario: Scenario, mode: str | None, backend: str | None = None) -> EngineSettings:
+def _engine(scenario: Scenario, mode: str | None, backend: str | None = None) -> PyBulletSettings | MuJoCoSettings:
     chosen = mode or scenario.engine.mode
     engine = backend or scenario.engine.backend
     if engine not in BACKEND_DEFAULTS:
@@ -300,8 +275,7 @@ def _engine(scenario: Scenario, mode: str | None, backend: str | None = None) ->
     given = scenario.engine.model_dump(exclude_none=True, exclude={"mode", "backend"})
     if backend is not None and backend != scenario.engine.backend:  # the other backend's own settings do not apply
         given = {k: v for k, v in given.items() if k not in BACKEND_FIELDS[scenario.engine.backend]}
-    defaults = BACKEND_DEFAULTS[engine][chosen]
-    return EngineSettings.model_validate({"mode": chosen, "backend": engine, "gravity": GRAVITY, **defaults, **given})
+    return settings(engine, mode=chosen, gravity=GRAVITY, **{**defaults(engine, chosen), **given})
 
 
 def _steps(scenario: Scenario, path: FieldPath, seconds: float, dt: float) -> int:

@@ -37,7 +37,8 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from stability import StabilityConfig
 
-Vec3 = tuple[float, float, float]
+from ..engines.protocol import BrickSpec, Vec3
+from ..engines.settings import AnySettings
 
 #: A physics step is split into at most this many substeps, however fast a body moves
 #: (:mod:`stackdsl.runtime.run`).
@@ -67,16 +68,6 @@ SECONDS_PER_RESTING = 2.3e-6
 
 class _Frozen(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
-
-
-class BrickSpec(_Frozen):
-    """A brick's body: half extents (m), mass (kg), material friction coefficient and restitution."""
-
-    type: str
-    half_extents: Vec3
-    mass: float
-    friction: float
-    restitution: float
 
 
 class Place(_Frozen):
@@ -144,36 +135,12 @@ class End(_Frozen):
 Action = Annotated[Place | Launch | End, Field(discriminator="kind")]
 
 
-class EngineSettings(_Frozen):
-    """Engine settings of one run (see :data:`stackdsl.compile.compiler.MODE_DEFAULTS`).
-
-    ``friction_anchors`` and ``maximal_coordinates`` are pybullet's; ``elliptic_cones``,
-    ``impratio``, ``integrator``, ``solref`` (time constant in s, damping ratio), ``solimp``
-    (MuJoCo's impedance: d0, dwidth, width in m) and ``sleep_tolerance`` (MuJoCo's own
-    sleeping, None: off) are MuJoCo's; each backend ignores the other's."""
-
-    mode: Literal["raw", "tuned", "extension"]
-    backend: Literal["pybullet", "mujoco"] = "pybullet"
-    timestep: float
-    solver_iterations: int
-    friction_anchors: bool = False
-    maximal_coordinates: bool = False
-    ccd: bool = False
-    gravity: float = 9.81
-    elliptic_cones: bool = False
-    impratio: float = 1.0
-    integrator: Literal["euler", "implicitfast"] = "euler"
-    solref: tuple[float, float] = (0.02, 1.0)
-    solimp: tuple[float, float, float] = (0.9, 0.95, 0.001)
-    sleep_tolerance: float | None = None
-
-
 class Program(_Frozen):
     """A compiled scenario.
 
     Attributes:
         name: the scenario's name.
-        engine: pybullet settings.
+        engine: the engine's settings (:mod:`stackdsl.engines.settings`).
         ground_friction, ground_restitution: of the ground plane's material.
         stability: the stability extension's settings, fully resolved: the scenario's,
             the engine's gravity, and the rules this scene needs (``leaning``, ``impacts``).
@@ -187,7 +154,7 @@ class Program(_Frozen):
     """
 
     name: str
-    engine: EngineSettings
+    engine: AnySettings
     ground_friction: float
     ground_restitution: float
     stability: StabilityConfig
@@ -300,28 +267,12 @@ def estimate_work(program: Program) -> Work:
     return Work(steps, moving, resting)
 
 
-def engine_details(e: EngineSettings) -> str:
-    """The backend's own settings of ``e``, as text."""
-    on = {True: "on", False: "off"}
-    if e.backend == "pybullet":
-        return (
-            f"friction anchors {on[e.friction_anchors]}, maximal coordinates {on[e.maximal_coordinates]}, "
-            f"continuous collision detection for thrown bricks {on[e.ccd]}"
-        )
-    sleep = "off" if e.sleep_tolerance is None else f"tolerance {e.sleep_tolerance:g}"
-    return (
-        f"{'elliptic' if e.elliptic_cones else 'pyramidal'} cones, impratio {e.impratio:g}, {e.integrator}, "
-        f"solref ({e.solref[0]:g} s, {e.solref[1]:g}), solimp ({', '.join(f'{v:g}' for v in e.solimp)}), "
-        f"MuJoCo's sleeping {sleep}, substeps for thrown bricks {on[e.ccd]}"
-    )
-
-
 def format_program(program: Program) -> str:
     """The program as text, one line per action (what ``stackdsl compile`` prints)."""
     e = program.engine
     lines = [
         f"program {program.name}: {e.backend}, mode {e.mode}, timestep {e.timestep * 1000:.4g} ms, "
-        f"{e.solver_iterations} solver iterations, {engine_details(e)}",
+        f"{e.solver_iterations} solver iterations, {e.details()}",
         f"  {len(program.placements)} bricks in {program.levels} levels, collapse threshold "
         f"{program.collapse_threshold * 1000:.3g} mm, {program.duration:g} s simulated",
         f"  estimated work {program.work:.2g} body-steps, about {program.wall_estimate:.2g} s of wall time",

@@ -1,4 +1,4 @@
-"""World adapters, one per engine, behind the :class:`~stackdsl.runtime.engines.protocol.World` protocol.
+"""World adapters, one per engine, behind the :class:`~stackdsl.engines.protocol.World` protocol.
 
 Source: stackdsl's own.
 """

@@ -12,13 +12,12 @@ import numpy as np
 
 from stability import FakeEngine, Pose
 
-from ...compile.program import BrickSpec, Vec3
-from .protocol import World
+from .protocol import BrickSpec, Vec3, World
 
 
 @dataclass
 class FakeWorld(FakeEngine, World):
-    """:class:`stackdsl.runtime.engines.protocol.World` in memory. Each step moves every body with mass by
+    """:class:`stackdsl.engines.protocol.World` in memory. Each step moves every body with mass by
     its linear velocity (no gravity, no contacts, no rotation); a test sets velocities and
     contacts by hand (``velocities``, :meth:`FakeEngine.touch`).
 
@@ -26,7 +25,7 @@ class FakeWorld(FakeEngine, World):
         masses: body -> kg (0: immovable).
         steps: steps taken; substeps: the current split.
 
-    >>> from stackdsl.compile.program import BrickSpec
+    >>> from stackdsl.engines.protocol import BrickSpec
     >>> world = FakeWorld()
     >>> b = world.create(BrickSpec(type="kapla", half_extents=(0.06, 0.012, 0.004), mass=0.01, friction=0.5, restitution=0.0), Pose.from_euler([0, 0, 0.004]))
     >>> world.throw(b, (1.0, 0.0, 0.0), None); world.step()

@@ -2,9 +2,9 @@
 
 A world creates bodies, sets their materials, steps, and reads poses and velocities of many
 bodies at once; it is also the :class:`stability.Engine` the stability extension drives.
-One adapter per engine implements it: :class:`~stackdsl.runtime.engines.pybullet_world.PyBulletWorld`,
-:class:`~stackdsl.runtime.engines.mujoco_world.MuJoCoWorld`, and
-:class:`~stackdsl.runtime.engines.fake.FakeWorld` (in memory, for tests). Capabilities only some
+One adapter per engine implements it: :class:`~stackdsl.engines.pybullet.world.PyBulletWorld`,
+:class:`~stackdsl.engines.mujoco.world.MuJoCoWorld`, and
+:class:`~stackdsl.engines.fake.FakeWorld` (in memory, for tests). Capabilities only some
 engines have are declared here with a default, so that the runtime never asks which engine it
 drives.
 
@@ -14,13 +14,59 @@ Source: stackdsl's own (the world adapter of dm_control's composer).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Protocol
+from typing import ClassVar, Protocol
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict
 
 from stability import Engine, Pose
 
-from ...compile.program import BrickSpec, Vec3
+Vec3 = tuple[float, float, float]
+
+
+class _Frozen(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class BrickSpec(_Frozen):
+    """A brick's body: half extents (m), mass (kg), material friction coefficient and restitution."""
+
+    type: str
+    half_extents: Vec3
+    mass: float
+    friction: float
+    restitution: float
+
+
+class EngineSettings(_Frozen):
+    """The settings every engine has, for one run; each adapter's own class adds its own
+    (:mod:`stackdsl.engines.pybullet.settings`, :mod:`stackdsl.engines.mujoco.settings`) and
+    owns its defaults per mode (:attr:`DEFAULTS`).
+
+    Attributes:
+        mode: ``raw``, ``tuned`` or ``extension``.
+        backend: the engine's name.
+        timestep: seconds a physics step; solver_iterations: the solver's iterations a step.
+        ccd: continuous collision detection (or substeps) for thrown bricks.
+        gravity: m/s^2, downwards.
+    """
+
+    #: mode -> the engine's own values of that mode (fields of this class).
+    DEFAULTS: ClassVar[dict[str, dict[str, object]]] = {}
+    #: Whether bodies enter the engine when placed (False: every body is created up front,
+    #: parked far away, and moved in when placed: cheaper where creating a body rebuilds the model).
+    enters_when_placed: ClassVar[bool] = True
+
+    mode: str
+    backend: str
+    timestep: float
+    solver_iterations: int
+    ccd: bool = False
+    gravity: float = 9.81
+
+    def details(self) -> str:
+        """The engine's own settings, as text (``stackdsl compile``)."""
+        return f"continuous collision detection for thrown bricks {'on' if self.ccd else 'off'}"
 
 
 class World(Engine, Protocol):

@@ -19,8 +19,7 @@ from shapely.geometry import MultiPoint, Polygon
 
 from stability import Box, Pose, kinetic_energy
 
-from ..compile.program import BrickSpec
-from .engines.protocol import World
+from ..engines.protocol import BrickSpec, World
 
 
 @dataclass

@@ -25,9 +25,9 @@ import numpy as np
 
 from stability import Pose
 
-from ..compile.program import BrickSpec, Launch, Place, Program
+from ..compile.program import Launch, Place, Program
+from ..engines.protocol import BrickSpec, World
 from .bricks import BrickRecord, Structure
-from .engines.protocol import World
 from .outcome import Event
 
 #: Steps between two readings of the wall clock when a run has a deadline.

@@ -1,8 +1,8 @@
 """Program -> Outcome: run a program in a world, with or without the stability extension.
 
 :func:`run_program` builds a world on the program's backend (:func:`world_for`: a
-:class:`stackdsl.runtime.engines.pybullet_world.PyBulletWorld` on one DIRECT client per run, closed in all cases,
-or a :class:`stackdsl.runtime.engines.mujoco_world.MuJoCoWorld`), a :class:`stackdsl.runtime.loop.StepLoop` over the program, and
+:class:`stackdsl.engines.pybullet.world.PyBulletWorld` on one DIRECT client per run, closed in all cases,
+or a :class:`stackdsl.engines.mujoco.world.MuJoCoWorld`), a :class:`stackdsl.runtime.loop.StepLoop` over the program, and
 attaches its subscribers: the substep control, the stability extension, the collapse
 monitor and, when asked, a recorder. Bodies enter the engine when they are placed, in
 program order, so creation order is a function of the scenario alone (pybullet is
@@ -42,9 +42,9 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
 
-from ..compile.program import EngineSettings, Program
+from ..compile.program import Program
+from ..engines.protocol import EngineSettings, World
 from .collapse import CollapseMonitor
-from .engines.protocol import World
 from .loop import CLOCK_EVERY, StepLoop, Subscriber
 from .outcome import Outcome
 from .subscribers import RigidDebris, SoftLanding, Stability, Substeps
@@ -141,11 +141,11 @@ def world_for(program: Program) -> Iterator[World]:
     """
     engine, friction, restitution = program.engine, program.ground_friction, program.ground_restitution
     if engine.backend == "mujoco":
-        from .engines.mujoco_world import MuJoCoWorld
+        from ..engines.mujoco.world import MuJoCoWorld
 
         yield MuJoCoWorld(engine, friction, restitution)
     else:
-        from .engines.pybullet_world import pybullet_world
+        from ..engines.pybullet.world import pybullet_world
 
         with pybullet_world(engine, friction, restitution) as pybullet:
             yield pybullet
@@ -193,7 +193,7 @@ def run_in(
 
 
 def _lazy(engine: EngineSettings) -> bool:
-    return engine.backend == "pybullet"
+    return engine.enters_when_placed
 
 
 def outcome(loop: StepLoop, wall_time: float) -> Outcome:

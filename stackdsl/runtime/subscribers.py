@@ -14,8 +14,8 @@ import numpy as np
 from stability import Box, Plane, Pose, StabilityConfig, StabilityEvent, StabilityExtension
 
 from ..compile.program import MAX_SUBSTEPS, Program
+from ..engines.protocol import World
 from .bricks import BrickRecord
-from .engines.protocol import World
 from .loop import StepLoop, Subscriber
 from .outcome import Event, Graph
 
@@ -181,7 +181,7 @@ class Substeps(Subscriber):
 class RigidDebris(Subscriber):
     """Once the run only settles after a collapse (nothing more is placed or thrown, the
     collapse level is decided), the bricks the engine moves become rigid bodies: ``make_rigid``
-    re-creates them so (:meth:`stackdsl.runtime.engines.protocol.World.make_rigid`, pybullet's), once, on the step
+    re-creates them so (:meth:`stackdsl.engines.protocol.World.make_rigid`, pybullet's), once, on the step
     the collapse is decided. What falls then costs the engine about half as much a step;
     bricks frozen then stay as they are.
 

@@ -19,7 +19,8 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
-from ...compile.program import BrickSpec, EngineSettings
+from ..protocol import BrickSpec
+from .settings import MuJoCoSettings
 
 
 def damping_ratio(restitution: float, default: float) -> float:
@@ -50,13 +51,13 @@ class Materials:
     Raises:
         ValueError: (from :meth:`group`) a 31st material.
 
-    >>> from stackdsl.compile.program import EngineSettings
-    >>> materials = Materials(EngineSettings(mode="raw", backend="mujoco", timestep=0.002, solver_iterations=100), (0.5, 0.0))
+    >>> from stackdsl.engines.mujoco.settings import MuJoCoSettings
+    >>> materials = Materials(MuJoCoSettings(mode="raw", timestep=0.002, solver_iterations=100), (0.5, 0.0))
     >>> materials.group(0.5, 0.0), materials.group(0.6, 0.0), materials.group(0.5, 0.0)
     (0, 1, 0)
     """
 
-    def __init__(self, engine: EngineSettings, ground: tuple[float, float]) -> None:
+    def __init__(self, engine: MuJoCoSettings, ground: tuple[float, float]) -> None:
         self._engine, self._ground = engine, ground
         self._groups: dict[tuple[float, float], int] = {}  # (friction, restitution) -> group
 

@@ -1,4 +1,4 @@
-"""The world on MuJoCo: :class:`MuJoCoWorld`, a :class:`stackdsl.runtime.engines.protocol.World` through MuJoCo's public API.
+"""The world on MuJoCo: :class:`MuJoCoWorld`, a :class:`stackdsl.engines.protocol.World` through MuJoCo's public API.
 
 MuJoCo compiles a model before it simulates, and a model's bodies are fixed when it is
 compiled. Bodies are declared to an ``mujoco.MjSpec``; the model is compiled when the
@@ -15,7 +15,7 @@ no degrees of freedom and MuJoCo makes no contacts between two frozen bricks, as
 makes none between two bodies of mass 0 (docs/design.md, "MuJoCo", gives the measurements
 that chose this over a weld equality or MuJoCo's own sleeping).
 
-Materials (friction of a pair, restitution, density): :mod:`stackdsl.runtime.engines.mujoco_materials`.
+Materials (friction of a pair, restitution, density): :mod:`stackdsl.engines.mujoco.materials`.
 
 Source: stackdsl's own, on MuJoCo 4.0's Python bindings.
 """
@@ -31,9 +31,9 @@ from scipy.spatial.transform import Rotation
 
 from stability import ContactPoint, Pose
 
-from ...compile.program import BrickSpec, EngineSettings, Vec3
-from .mujoco_materials import Materials
-from .protocol import World
+from ..protocol import BrickSpec, Vec3, World
+from .materials import Materials
+from .settings import MuJoCoSettings
 
 #: Where the free body of a frozen brick waits, and the held body of an active one: far
 #: from any scene (positions are within 1 km), one slot per brick so that none overlap.
@@ -42,7 +42,7 @@ _SLOT = 0.5  # m between two waiting bodies
 
 
 class MuJoCoWorld(World):
-    """:class:`stackdsl.runtime.engines.protocol.World` on MuJoCo (see the module's docstring).
+    """:class:`stackdsl.engines.protocol.World` on MuJoCo (see the module's docstring).
 
     Args:
         engine: the run's engine settings (``backend: mujoco``).
@@ -53,15 +53,16 @@ class MuJoCoWorld(World):
     is frozen is kept in one array, as are its bodies' addresses in the compiled model
     (found again at each compile), so that many bricks are read at once.
 
-    >>> from stackdsl.compile.program import BrickSpec, EngineSettings
-    >>> world = MuJoCoWorld(EngineSettings(mode="raw", backend="mujoco", timestep=0.002, solver_iterations=100), 0.5, 0.0)
+    >>> from stackdsl.engines.mujoco.settings import MuJoCoSettings
+    >>> from stackdsl.engines.protocol import BrickSpec
+    >>> world = MuJoCoWorld(MuJoCoSettings(mode="raw", timestep=0.002, solver_iterations=100), 0.5, 0.0)
     >>> b = world.create(BrickSpec(type="kapla", half_extents=(0.06, 0.012, 0.004), mass=0.0106, friction=0.5, restitution=0.0), Pose.from_euler([0, 0, 0.0045]))
     >>> for _ in range(200): world.step()
     >>> round(float(world.pose(b).position[2]), 4)
     0.004
     """
 
-    def __init__(self, engine: EngineSettings, ground_friction: float, ground_restitution: float) -> None:
+    def __init__(self, engine: MuJoCoSettings, ground_friction: float, ground_restitution: float) -> None:
         import mujoco
 
         self._mj, self._engine = mujoco, engine
@@ -283,7 +284,7 @@ class MuJoCoWorld(World):
         self._read = None
         self._apply(body)
 
-    # stackdsl.runtime.engines.protocol.World -----------------------------------------------------
+    # stackdsl.engines.protocol.World -----------------------------------------------------
     def move(self, body: int, pose: Pose, mass: float) -> None:
         self._put(body, pose, mass <= 0.0)
 

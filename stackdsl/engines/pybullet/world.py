@@ -1,4 +1,4 @@
-"""The world on pybullet: :class:`PyBulletWorld`, a :class:`~stackdsl.runtime.engines.protocol.World`
+"""The world on pybullet: :class:`PyBulletWorld`, a :class:`~stackdsl.engines.protocol.World`
 on a pybullet DIRECT client.
 
 pybullet facts this adapter encodes (measured with pybullet 3.2.7):
@@ -30,8 +30,8 @@ import numpy as np
 
 from stability import Pose, PyBulletEngine
 
-from ...compile.program import BrickSpec, EngineSettings, Vec3
-from .protocol import World
+from ..protocol import BrickSpec, Vec3, World
+from .settings import PyBulletSettings
 
 
 @contextmanager
@@ -68,7 +68,7 @@ def direct_client() -> Iterator[Any]:
 
 
 @contextmanager
-def pybullet_world(engine: EngineSettings, ground_friction: float, ground_restitution: float) -> Iterator[PyBulletWorld]:
+def pybullet_world(engine: PyBulletSettings, ground_friction: float, ground_restitution: float) -> Iterator[PyBulletWorld]:
     """A :class:`PyBulletWorld` on a new DIRECT client, disconnected on exit."""
     with direct_client() as client:
         yield PyBulletWorld(client, engine, ground_friction, ground_restitution)
@@ -88,7 +88,7 @@ class PyBulletWorld(PyBulletEngine, World):
         ground_friction, ground_restitution: of the ground's material.
     """
 
-    def __init__(self, client: Any, engine: EngineSettings, ground_friction: float, ground_restitution: float) -> None:
+    def __init__(self, client: Any, engine: PyBulletSettings, ground_friction: float, ground_restitution: float) -> None:
         import pybullet
 
         super().__init__(client)

@@ -1,0 +1,4 @@
+"""MuJoCo: its settings and defaults (light) and its world adapter and materials (import mujoco).
+
+Source: stackdsl's own.
+"""

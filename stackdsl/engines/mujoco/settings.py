@@ -1,0 +1,62 @@
+"""MuJoCo's settings of a run and its defaults per mode; importing it loads no mujoco.
+
+``raw`` is MuJoCo's own (2 ms, pyramidal cones, Euler, solref 0.02 s and damping ratio 1);
+``tuned`` the most accurate measured for KAPLA bricks (docs/results/mujoco.md: elliptic cones,
+impratio 10, implicitfast, solref 0.004 s and damping ratio 2, solimp 0.99, 0.999, 0.1 mm);
+``extension`` the extension on the tuned settings: with MuJoCo's default contacts a placed
+brick rings 134 ms before it can be frozen (62 ms tuned), and with the tuned contacts but
+pyramidal cones two slant towers fell 2 levels late (docs/results/mujoco.md).
+
+>>> MuJoCoSettings(mode="extension", **MuJoCoSettings.DEFAULTS["extension"]).integrator
+'implicitfast'
+
+Source: stackdsl's own (docs/design.md, "The second engine").
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar, Literal
+
+from ..protocol import EngineSettings
+
+_TUNED: dict[str, object] = dict(
+    timestep=0.002,
+    solver_iterations=100,
+    ccd=True,
+    elliptic_cones=True,
+    impratio=10.0,
+    integrator="implicitfast",
+    solref=(0.004, 2.0),
+    solimp=(0.99, 0.999, 1e-4),
+)
+
+
+class MuJoCoSettings(EngineSettings):
+    """:class:`~stackdsl.engines.protocol.EngineSettings` of MuJoCo: friction cones, impratio,
+    integrator, ``solref`` (time constant in s, damping ratio), ``solimp`` (impedance: d0,
+    dwidth, width in m) and ``sleep_tolerance`` (MuJoCo's own sleeping; None: off)."""
+
+    DEFAULTS: ClassVar[dict[str, dict[str, object]]] = {
+        "raw": dict(timestep=0.002, solver_iterations=100, ccd=False),
+        "tuned": dict(_TUNED),
+        "extension": dict(_TUNED),
+    }
+    enters_when_placed: ClassVar[bool] = False  # adding a body recompiles the model: park them all first
+
+    mode: Literal["raw", "tuned", "extension"]
+    backend: Literal["mujoco"] = "mujoco"
+    elliptic_cones: bool = False
+    impratio: float = 1.0
+    integrator: Literal["euler", "implicitfast"] = "euler"
+    solref: tuple[float, float] = (0.02, 1.0)
+    solimp: tuple[float, float, float] = (0.9, 0.95, 0.001)
+    sleep_tolerance: float | None = None
+
+    def details(self) -> str:
+        on = {True: "on", False: "off"}
+        sleep = "off" if self.sleep_tolerance is None else f"tolerance {self.sleep_tolerance:g}"
+        return (
+            f"{'elliptic' if self.elliptic_cones else 'pyramidal'} cones, impratio {self.impratio:g}, {self.integrator}, "
+            f"solref ({self.solref[0]:g} s, {self.solref[1]:g}), solimp ({', '.join(f'{v:g}' for v in self.solimp)}), "
+            f"MuJoCo's sleeping {sleep}, substeps for thrown bricks {on[self.ccd]}"
+        )

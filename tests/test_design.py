@@ -1,4 +1,4 @@
-"""docs/design.md's Layout section is the package as it is: every module, floor by floor.
+"""docs/design.md's Layout section is the package as it is, and the package's import graph has no cycle.
 
 The block is generated from the modules' docstrings (their first sentence) in the order of the
 import contract's floors (pyproject.toml); this test regenerates it and compares. After moving,
@@ -80,3 +80,49 @@ if __name__ == "__main__":
     tail = rest.split(END, 1)[1]
     DESIGN.write_text(f"{head}{BEGIN}\n{layout()}\n{END}{tail}")
     sys.exit(0)
+
+
+def import_graph() -> dict[str, set[str]]:
+    """stackdsl's modules -> the stackdsl modules each imports (every import statement,
+    lazy ones and ``TYPE_CHECKING`` ones included), by an ast scan."""
+    modules = {}
+    for path in (ROOT / "stackdsl").rglob("*.py"):
+        name = ".".join(path.relative_to(ROOT).with_suffix("").parts).removesuffix(".__init__")
+        modules[name] = path
+    graph: dict[str, set[str]] = {m: set() for m in modules}
+    for name, path in modules.items():
+        package = name.split(".") if path.name == "__init__.py" else name.split(".")[:-1]
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom):
+                base = package[: len(package) - node.level + 1] if node.level else []
+                target = ".".join(base + ([node.module] if node.module else [])) if node.level else node.module or ""
+                found = [f"{target}.{a.name}" if f"{target}.{a.name}" in modules else target for a in node.names]
+            elif isinstance(node, ast.Import):
+                found = [a.name for a in node.names]
+            else:
+                continue
+            for target in found:
+                while target and target not in modules:
+                    target = target.rpartition(".")[0]
+                if target and target != name:
+                    graph[name].add(target)
+    return graph
+
+
+def test_the_import_graph_has_no_cycle():
+    graph, seen, path = import_graph(), set(), []
+
+    def visit(module: str) -> None:
+        if module in path:
+            raise AssertionError("import cycle: " + " -> ".join([*path[path.index(module) :], module]))
+        if module in seen:
+            return
+        path.append(module)
+        for other in sorted(graph[module]):
+            visit(other)
+        path.pop()
+        seen.add(module)
+
+    assert len(graph) > 90 and sum(map(len, graph.values())) > 250  # the scan sees the package
+    for module in sorted(graph):
+        visit(module)

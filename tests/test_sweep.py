@@ -205,3 +205,21 @@ def test_sweep_takes_one_executor_and_checks_the_dask_address_before_saying_anyt
     captured = capsys.readouterr()
     assert captured.out == "" and "local:N needs N from 1 to 64" in captured.err
     assert not (tmp_path / "out").exists()
+
+
+def test_samples_given_on_the_command_line_meet_the_files_budget(tmp_path, capsys, monkeypatch):
+    """A 1000-cell grid with --samples 100000 would be 10^8 runs: refused before anything runs,
+    with the cap named, as the same numbers written in the file are."""
+    from stackdsl.cli.main import main
+    from stackdsl.lang.schema_sweep import MAX_SWEEP_RUNS
+
+    values = ", ".join(f"{k / 10:g} mm" for k in range(10))
+    grid = "\n".join(f"    {f}: [{values}]" for f in ("timing.placement_error", "timing.drop_gap", "structure.tower.shift"))
+    path = tmp_path / "big.yaml"
+    path.write_text(f"stackdsl: 1\nstructure: {{tower: {{levels: 2}}}}\nsweep:\n  samples: 1\n  grid:\n{grid}\n")
+    monkeypatch.setattr("stackdsl.batch.sweep.run_batch", lambda *a, **k: pytest.fail("simulated"))
+    assert main(["sweep", str(path), "--samples", "100000", "-j", "1", "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == f"--samples: 1000 cells x 100000 samples is 100000000 runs; at most {MAX_SWEEP_RUNS} in a sweep"
+    assert main(["sweep", str(path), "--samples", "0", "--out", str(tmp_path / "out")]) == 2
+    assert "samples must be from 1 to" in capsys.readouterr().err and not (tmp_path / "out").exists()

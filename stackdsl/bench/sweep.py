@@ -67,7 +67,7 @@ def template(samples: int | None, scene: str | Path | None = None) -> Template:
     if scenario.template is None:
         raise ScenarioError("this scenario has no sweep and no random field: nothing to sample", file=str(scene))
     template: Template = scenario.template
-    return template if samples is None else replace(template, samples=samples)
+    return template if samples is None else template.with_samples(samples)
 
 
 def title(t: Template) -> str:

@@ -6,7 +6,6 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import sys
 import tempfile
 import time
@@ -64,9 +63,7 @@ def _sweep(args: argparse.Namespace) -> int:
             "this scenario has no sweep and no random field: each run would be the same (use stackdsl run)", file=args.file
         )
     if args.samples is not None:
-        if not 1 <= args.samples <= 100_000:
-            raise ScenarioError(f"--samples must be from 1 to 100000, not {args.samples}", file="--samples")
-        template = dataclasses.replace(template, samples=args.samples)
+        template = template.with_samples(args.samples)
     out = Path(args.out) if args.out else DEFAULT_OUT / Path(args.file).stem
     if out.exists() and not out.is_dir():
         raise ScenarioError("the output must be a folder, and this is a file", file=str(out))

@@ -21,6 +21,7 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import itertools
 from dataclasses import dataclass
 from typing import Any
@@ -28,6 +29,7 @@ from typing import Any
 from .distributions import Distribution, draw, find
 from .errors import FieldPath, ScenarioError, SourceMap
 from .schema import Scenario
+from .schema_sweep import MAX_SAMPLES, MAX_SWEEP_RUNS
 from .units import in_unit, split_quantity
 from .validate import validate
 
@@ -103,6 +105,23 @@ class Template:
             raise IndexError(f"cell {c} of {self.cells}")
         combination = list(itertools.product(*(values for _, _, values in self.grid)))[c]
         return {key: value for (_, key, _), value in zip(self.grid, combination)}
+
+    def with_samples(self, samples: int, where: str = "--samples") -> Template:
+        """This template with ``samples`` draws a cell, within the same budget as a file's own
+        ``sweep.samples`` (at most :data:`MAX_SAMPLES` a cell and :data:`MAX_SWEEP_RUNS` runs in
+        all), however the number is given.
+
+        Raises:
+            ScenarioError: at ``where`` (the option or field that gave it), with the cap named.
+        """
+        if not 1 <= samples <= MAX_SAMPLES:
+            raise ScenarioError(f"samples must be from 1 to {MAX_SAMPLES}, not {samples}", file=where)
+        if self.cells * samples > MAX_SWEEP_RUNS:
+            raise ScenarioError(
+                f"{self.cells} cells x {samples} samples is {self.cells * samples} runs; at most {MAX_SWEEP_RUNS} in a sweep",
+                file=where,
+            )
+        return dataclasses.replace(self, samples=samples)
 
     def _data(self, c: int, k: int) -> dict[str, Any]:
         """Cell ``c``'s sample ``k`` as plain data: grid values put in, distributions drawn."""

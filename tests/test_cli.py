@@ -562,8 +562,18 @@ def test_compare_keeps_file_order_whatever_order_runs_finish(tmp_path):
 
 
 def test_bench_writes_outside_the_repository_by_default():
-    out = Path(_cli._parser().parse_args(["bench"]).out).resolve()
-    assert out.is_relative_to(Path(tempfile.gettempdir()).resolve()) and not out.is_relative_to(ROOT)
+    import stat
+
+    from stackdsl.cli.args import output_folder
+
+    assert _cli._parser().parse_args(["bench"]).out is None
+    out = output_folder(None, "stackdsl-bench-").resolve()
+    try:
+        assert out.is_relative_to(Path(tempfile.gettempdir()).resolve()) and not out.is_relative_to(ROOT)
+        assert out.name.startswith("stackdsl-bench-") and stat.S_IMODE(out.stat().st_mode) == 0o700
+        assert output_folder(None, "stackdsl-bench-") != out  # a new one each time
+    finally:
+        out.rmdir()
 
 
 def test_bench_runs_one_cell_at_a_time_unless_told_otherwise():

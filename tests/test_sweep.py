@@ -223,3 +223,26 @@ def test_samples_given_on_the_command_line_meet_the_files_budget(tmp_path, capsy
     assert err == f"--samples: 1000 cells x 100000 samples is 100000000 runs; at most {MAX_SWEEP_RUNS} in a sweep"
     assert main(["sweep", str(path), "--samples", "0", "--out", str(tmp_path / "out")]) == 2
     assert "samples must be from 1 to" in capsys.readouterr().err and not (tmp_path / "out").exists()
+
+
+def test_a_sweep_without_out_writes_into_a_new_private_folder_and_follows_no_planted_link(tmp_path, capsys, monkeypatch):
+    """The default output is a folder made for this sweep (mkdtemp: this user's, mode 0700, an
+    unpredictable name), never the shared path another user could plant a symlink at."""
+    import os
+    import stat
+
+    from stackdsl.cli.main import main
+
+    scratch, victim = tmp_path / "tmp", tmp_path / "victim"
+    scratch.mkdir()
+    victim.mkdir()
+    (scratch / "stackdsl-sweep").symlink_to(victim)  # where the old default wrote
+    monkeypatch.setenv("TMPDIR", str(scratch))
+    monkeypatch.setattr("tempfile.tempdir", None)  # read TMPDIR again
+    sweep = tmp_path / "tiny.yaml"
+    sweep.write_text("stackdsl: 1\nstructure: {tower: {levels: 1}}\nsweep: {samples: 2}\n")
+    assert main(["sweep", str(sweep), "-j", "1"]) == 0
+    made = [p for p in scratch.iterdir() if p.name.startswith("stackdsl-sweep-tiny-")]
+    assert len(made) == 1 and (made[0] / "samples.csv").exists()
+    assert stat.S_IMODE(made[0].stat().st_mode) == 0o700 and made[0].stat().st_uid == os.getuid()
+    assert list(victim.iterdir()) == [] and str(made[0]) in capsys.readouterr().out

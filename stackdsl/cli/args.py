@@ -10,6 +10,8 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import tempfile
+from pathlib import Path
 
 EXIT_STATUS = """\
 exit status:
@@ -98,3 +100,15 @@ def at_type(text: str) -> str | float:
     if not 0 <= seconds < math.inf:
         raise argparse.ArgumentTypeError(f"{text} is not a number of seconds at or above 0")
     return seconds
+
+
+def output_folder(given: str | None, prefix: str) -> Path:
+    """The folder a command writes into: ``given``, or else a new one made for this run in the
+    temporary directory (``tempfile.mkdtemp``: this user's only, mode 0700, an unpredictable
+    name starting ``prefix``), never a shared, predictable path another user could plant a
+    symlink at. Source: stackdsl's own.
+
+    Raises:
+        OSError: the temporary directory cannot take a new folder.
+    """
+    return Path(given) if given else Path(tempfile.mkdtemp(prefix=prefix))

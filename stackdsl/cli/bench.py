@@ -7,22 +7,19 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 import argparse
-import tempfile
 import time
-from pathlib import Path
 from typing import Any
 
 from ..bench.bench import SETTINGS, UPRIGHT, run_matrix, savings, scenes
 from ..lang.errors import ScenarioError
 from ..verdicts.expect import describe
-from .args import OK, jobs_type
+from .args import OK, jobs_type, output_folder
 from .progress import Lines
 
 
 def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, modes: list[str]) -> None:
     """Add ``bench`` and its sub-benchmarks to the ``stackdsl`` parser's subcommands."""
     raw = argparse.RawDescriptionHelpFormatter
-    default_out = Path(tempfile.gettempdir()) / "stackdsl-bench"
     p = sub.add_parser(
         "bench",
         parents=parents,
@@ -33,7 +30,9 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
         formatter_class=raw,
     )
     p.add_argument(
-        "--out", default=str(default_out), help=f"folder for bench.csv, bench.md and the plots (default: {default_out})"
+        "--out",
+        default=None,
+        help="folder for bench.csv, bench.md and the plots (default: a new private folder stackdsl-bench-* in the temporary directory)",
     )
     p.add_argument("--settings", default=",".join(SETTINGS), help="comma-separated, of: " + ", ".join(SETTINGS))
     p.add_argument("--families", default="slant log cabin,single file,upright", help="comma-separated scene families")
@@ -146,7 +145,7 @@ def _bench(args: argparse.Namespace) -> int:
     if any(not 1 <= h <= 1000 for h in heights):
         raise ScenarioError("each height from 1 to 1000 levels", file="--upright")
     chosen = [sc for sc in scenes(args.quick, heights) if sc.family in families or args.quick]
-    out = Path(args.out)
+    out = output_folder(args.out, "stackdsl-bench-")
     start = time.perf_counter()
     total = len(chosen) * len(settings)
     print(version_line())
@@ -334,7 +333,7 @@ def _bench_verdicts(args: argparse.Namespace) -> int:
         runs = plan(engines, gaps, baselines=not args.no_baselines)
     except ValueError as exc:
         raise ScenarioError(str(exc), file="--engines") from None
-    out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="stackdsl-verdicts-"))
+    out = output_folder(args.out, "stackdsl-verdicts-")
     if out.exists() and not out.is_dir():
         raise ScenarioError("the output must be a folder, and this is a file", file=str(out))
     print(version_line(), flush=True)

@@ -6,15 +6,14 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 import argparse
+import re
 import sys
-import tempfile
 import time
 from pathlib import Path
 from typing import Any
 
 from ..lang.errors import ScenarioError
-
-DEFAULT_OUT = Path(tempfile.gettempdir()) / "stackdsl-sweep"
+from .args import output_folder
 
 
 def add_sweep(
@@ -44,7 +43,11 @@ def add_sweep(
     p.add_argument(
         "--oracle", action="store_true", help="also the equilibrium oracle's collapse level of each sample, and the agreement"
     )
-    p.add_argument("--out", default=None, help=f"folder for the files (default: {DEFAULT_OUT}/NAME)")
+    p.add_argument(
+        "--out",
+        default=None,
+        help="folder for the files (default: a new private folder stackdsl-sweep-NAME-* in the temporary directory)",
+    )
     p.add_argument("--mode", choices=modes, help="override the scenario's engine mode")
     p.add_argument("--model", choices=models, help="override the scenario's stability model")
     p.set_defaults(func=_sweep)
@@ -64,13 +67,17 @@ def _sweep(args: argparse.Namespace) -> int:
         )
     if args.samples is not None:
         template = template.with_samples(args.samples)
-    out = Path(args.out) if args.out else DEFAULT_OUT / Path(args.file).stem
-    if out.exists() and not out.is_dir():
+    out = Path(args.out) if args.out else None
+    if out is not None and out.exists() and not out.is_dir():
         raise ScenarioError("the output must be a folder, and this is a file", file=str(out))
     options = SweepOptions(args.mode, args.model, args.oracle, args.timeout)
     levels_built = scenario.structure.tower.levels if scenario.structure.tower else None
     total = template.cells * template.samples
     start = time.perf_counter()
+
+    made = out is None
+    if out is None:  # a new folder of this user's only (mode 0700), never a shared, predictable path
+        out = output_folder(None, f"stackdsl-sweep-{_safe(Path(args.file).stem)}-")
 
     def run(where: str, **executor: Any) -> list[Any]:
         print(f"stackdsl sweep: {template.cells} cells x {template.samples} samples on {where}, writing to {out}", flush=True)
@@ -82,9 +89,14 @@ def _sweep(args: argparse.Namespace) -> int:
             with dask_executor(args.dask) as (executor, threads):  # reached before anything is said
                 results = run(f"Dask {args.dask}", executor=executor, workers=threads)
         except ValueError as exc:
+            _forget(out, made)
             raise ScenarioError(str(exc), file="--dask") from None
         except (OSError, TimeoutError) as exc:
+            _forget(out, made)
             raise ScenarioError(f"cannot reach the Dask scheduler: {exc}", file="--dask") from None
+        except ScenarioError:
+            _forget(out, made)
+            raise
     else:
         results = run(f"{args.jobs} processes", jobs=args.jobs)
     wall = time.perf_counter() - start
@@ -92,6 +104,7 @@ def _sweep(args: argparse.Namespace) -> int:
     if bad:
         print(bad[0].bad_input, file=sys.stderr)
         print(f"stackdsl: {len(bad)} of {total} samples refused as bad input; nothing written", file=sys.stderr)
+        _forget(out, made)
         return 2
     table, jsonl = write_samples(results, out)
     plots = write_plots(template, results, levels_built or 0, out)
@@ -106,3 +119,17 @@ def _sweep(args: argparse.Namespace) -> int:
         print(f"stackdsl: {sum(bool(r.error) for r in results)} samples hit an internal error", file=sys.stderr)
         return 3
     return 0 if all(v.outcome == "PASS" for _, v in judged) and not any(r.stopped for r in results) else 1
+
+
+def _safe(name: str) -> str:
+    """``name`` with only letters, digits, ``-`` and ``_`` (for a folder name), at most 40 characters."""
+    return re.sub(r"[^A-Za-z0-9_-]", "_", name)[:40] or "sweep"
+
+
+def _forget(folder: Path, made: bool) -> None:
+    """Remove the default folder made for this sweep when nothing was written into it."""
+    if made:
+        try:
+            folder.rmdir()
+        except OSError:
+            pass  # not empty, or gone: leave it

@@ -731,3 +731,37 @@ def test_bench_ratios_come_from_the_medians_and_again_from_each_cells_fastest_ro
     assert median[2] == "| single file, 9 mm | 0.20 s | 1.50 |"  # 0.30 / 0.20
     assert median[3] == "| single file: geometric mean | | 1.50 |"
     assert ratios(cells, wall=fastest)[2] == "| single file, 9 mm | 0.10 s | 2.50 |"  # 0.25 / 0.10
+
+
+@pytest.mark.parametrize(
+    "argv, where",
+    [
+        (["render", "scenarios/vee_stands.yaml", "-o", "/tmp/" + "x" * 300 + ".png"], "File name too long"),
+        (["check", "scenarios/vee_stands.yaml", "-j", "1", "--junit-xml", "/dev/full"], "No space left on device"),
+        (["run", "scenarios/vee_stands.yaml", "--record", "/proc/x.npz"], "/proc/x.npz: No such file or directory"),
+    ],
+    ids=["name too long", "full disk", "a folder that takes no file"],
+)
+def test_a_path_the_system_refuses_is_bad_input_in_one_line_not_a_bug(argv, where, capsys, monkeypatch):
+    monkeypatch.chdir(ROOT)
+    assert main(argv) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith("stackdsl: ") and line.endswith(where) and "internal error" not in line
+
+
+def test_output_to_a_full_disk_is_bad_input(capsys, monkeypatch):
+    with open("/dev/full", "w") as full:
+        monkeypatch.setattr(sys, "stdout", full)
+        assert main(["schema"]) == 2
+    assert capsys.readouterr().err.strip() == "stackdsl: No space left on device"
+
+
+def test_an_os_error_that_is_not_a_refused_path_is_still_a_bug(capsys, monkeypatch):
+    import errno
+
+    def broken(*args, **kwargs):
+        raise OSError(errno.EBADMSG, "Bad message")
+
+    monkeypatch.setattr(_cli, "json_schema", broken)
+    assert main(["schema"]) == 3
+    assert capsys.readouterr().err.startswith("stackdsl: internal error: OSError: [Errno 74] Bad message")

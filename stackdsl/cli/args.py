@@ -8,6 +8,7 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 import argparse
+import errno
 import math
 import os
 import tempfile
@@ -17,13 +18,37 @@ EXIT_STATUS = """\
 exit status:
   0    every expectation held
   1    an expectation failed, or a run reached its --timeout
-  2    bad input: a scenario file, a path or an option (nothing is simulated then)
+  2    bad input: a scenario file, a path or an option (nothing is simulated then), or a path
+       the system refused (full disk, name too long, not a folder, no permission)
   3    internal error: a bug, out of memory, a worker died (one line; --debug shows the traceback)
   130  interrupted (Ctrl-C)
   141  the output pipe was closed early (as by | head); nothing more is printed"""
 
 #: Ends the one line of an internal error.
 HINT = " (run with --debug for the traceback)"
+
+#: errno values of an OS refusing a path the user gave (exit 2, not a bug): no space, quota,
+#: name too long, not a folder, a folder, no permission, read-only, no such file, too many links.
+REFUSED = frozenset(
+    getattr(errno, name)
+    for name in ("ENOSPC", "EDQUOT", "ENAMETOOLONG", "ENOTDIR", "EISDIR", "EACCES", "EPERM", "EROFS", "ENOENT", "ELOOP", "EEXIST")
+    if hasattr(errno, name)
+)
+
+
+def refused(exc: OSError) -> str | None:
+    """One line for an OS error on a path (``"stackdsl: /full/disk.png: No space left on device"``),
+    or None when it is not one the user can fix (then it is a bug). Source: stackdsl's own.
+
+    >>> refused(OSError(errno.ENAMETOOLONG, "File name too long", "x" * 5))
+    'stackdsl: xxxxx: File name too long'
+    """
+    if exc.errno not in REFUSED:
+        return None
+    where = exc.filename if exc.filename is not None else ""
+    reason = exc.strerror or os.strerror(exc.errno or 0)
+    return f"stackdsl: {where}: {reason}" if where else f"stackdsl: {reason}"
+
 
 #: Exit statuses (see :data:`EXIT_STATUS`).
 OK, FAILED, BAD_INPUT, INTERNAL, INTERRUPTED, BROKEN_PIPE = 0, 1, 2, 3, 130, 141

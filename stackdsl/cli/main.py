@@ -30,7 +30,7 @@ from ..lang.jsonschema import json_schema
 from ..lang.loader import load_scenario
 from ..runtime.outcome import describe_certificate
 from ..verdicts.expect import describe, evaluate
-from .args import BAD_INPUT, BROKEN_PIPE, EXIT_STATUS, FAILED, HINT, INTERNAL, INTERRUPTED, OK, jobs_type, timeout_type
+from .args import BAD_INPUT, BROKEN_PIPE, EXIT_STATUS, FAILED, HINT, INTERNAL, INTERRUPTED, OK, jobs_type, refused, timeout_type
 from .bench import add_bench
 from .check import check_command, compare_command
 from .draw import add_commands, add_record_options
@@ -79,6 +79,12 @@ def main(argv: list[str] | None = None) -> int:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
         return BROKEN_PIPE
+    except OSError as exc:
+        line = refused(exc)
+        if line is None:
+            return _internal(exc, debug)
+        print(line, file=sys.stderr)
+        return BAD_INPUT
     except KeyboardInterrupt:
         interrupted = True
         if main_thread:  # a second Ctrl-C while this line is printed must not show a traceback
@@ -86,11 +92,7 @@ def main(argv: list[str] | None = None) -> int:
         print("stackdsl: interrupted", file=sys.stderr)
         return INTERRUPTED
     except Exception as exc:
-        if debug:
-            traceback.print_exc()
-        message = (str(exc).splitlines() or [""])[0] or "(no message)"
-        print(f"stackdsl: internal error: {type(exc).__name__}: {message}{'' if debug else HINT}", file=sys.stderr)
-        return INTERNAL
+        return _internal(exc, debug)
     finally:
         if main_thread:
             signal.signal(signal.SIGTERM, previous)
@@ -103,6 +105,15 @@ def main(argv: list[str] | None = None) -> int:
                 os.environ.pop("STACKDSL_TRACEBACK", None)
             else:
                 os.environ["STACKDSL_TRACEBACK"] = variable
+
+
+def _internal(exc: BaseException, debug: bool) -> int:
+    """Say an internal error in one line (the traceback with ``debug``); its exit status."""
+    if debug:
+        traceback.print_exception(exc)
+    message = (str(exc).splitlines() or [""])[0] or "(no message)"
+    print(f"stackdsl: internal error: {type(exc).__name__}: {message}{'' if debug else HINT}", file=sys.stderr)
+    return INTERNAL
 
 
 class _Version(argparse.Action):

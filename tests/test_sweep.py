@@ -62,9 +62,61 @@ def test_batches_cover_every_sample_once_and_never_mix_cells():
 
 
 def test_a_local_dask_cluster_needs_a_sensible_size():
-    with pytest.raises(ValueError, match="local:N needs N from 1 to 64"):
-        with dask_executor("local:0"):
-            pass
+    from stackdsl.batch.address import cores
+
+    for count in ("0", str(cores() + 1), "²", "", "1.5"):
+        with pytest.raises(ValueError, match=f"local:N needs N, a whole number of worker processes from 1 to {cores()}"):
+            with dask_executor(f"local:{count}"):
+                pass
+
+
+@pytest.mark.parametrize(
+    "address, problem",
+    [
+        ("", "give a scheduler's address"),
+        ("  ", "give a scheduler's address"),
+        ("tls://10.0.0.1:8786", "tls:// needs Dask's certificate settings"),
+        ("scheduler", "is not an address"),
+        ("tcp://host:0", "port 0 is not from 1 to 65535"),
+        ("host:123456", "is not an address"),
+    ],
+)
+def test_a_bad_dask_address_is_a_usage_error_before_anything_runs(address, problem, capsys):
+    with pytest.raises(SystemExit) as usage:
+        main(["sweep", "sweeps/random_single_file.yaml", "--dask", address])
+    assert usage.value.code == 2 and problem in capsys.readouterr().err
+
+
+def test_something_that_is_not_a_dask_scheduler_is_one_line(tmp_path, capsys):
+    """A server that answers with bytes that are not Dask's (Dask then reads them as a message
+    size of exabytes): one line naming the address, exit 2, no folder left."""
+    import socket
+    import threading
+
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen()
+    port = server.getsockname()[1]
+
+    def serve() -> None:
+        while True:
+            try:
+                conn, _ = server.accept()
+            except OSError:
+                return
+            conn.sendall(b"HTTP/1.1 200 OK\r\n\r\n" + b"not dask " * 100)
+            conn.close()
+
+    threading.Thread(target=serve, daemon=True).start()
+    try:
+        path = tmp_path / "stack.yaml"
+        path.write_text(STACK.format(levels=2, samples=2))
+        assert main(["sweep", str(path), "--dask", f"127.0.0.1:{port}", "--out", str(tmp_path / "out")]) == 2
+    finally:
+        server.close()
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"--dask: not a Dask scheduler at tcp://127.0.0.1:{port}") and len(err.splitlines()) == 1
+    assert not (tmp_path / "out").exists()
 
 
 @pytest.mark.slow
@@ -201,9 +253,10 @@ def test_sweep_takes_one_executor_and_checks_the_dask_address_before_saying_anyt
     with pytest.raises(SystemExit) as usage:
         main(["sweep", str(path), "-j", "1", "--dask", "local:2"])
     assert usage.value.code == 2 and "not allowed with" in capsys.readouterr().err
-    assert main(["sweep", str(path), "--dask", "local:0", "--out", str(tmp_path / "out")]) == 2
+    with pytest.raises(SystemExit) as usage:
+        main(["sweep", str(path), "--dask", "local:0", "--out", str(tmp_path / "out")])
     captured = capsys.readouterr()
-    assert captured.out == "" and "local:N needs N from 1 to 64" in captured.err
+    assert usage.value.code == 2 and captured.out == "" and "local:N needs N, a whole number" in captured.err
     assert not (tmp_path / "out").exists()
 
 

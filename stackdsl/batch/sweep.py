@@ -14,6 +14,8 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 import math
+import shutil
+import tempfile
 from collections.abc import Callable, Generator, Iterator
 from concurrent.futures import Executor
 from contextlib import contextmanager
@@ -25,6 +27,7 @@ from ..lang.errors import ScenarioError
 from ..lang.extras import installed, missing
 from ..lang.sampling import Template
 from ..runtime.run import run_program
+from .address import parse_address
 from .pool import WorkerLost, fan_out, on_executor
 
 #: Samples a batch holds at most; a sweep is cut into about this many batches a worker, so that
@@ -202,32 +205,59 @@ def dask_executor(address: str) -> Iterator[tuple[Executor, int]]:
     (:func:`_worker_environment`; start a cluster of your own's workers likewise).
 
     Raises:
-        ValueError: ``local:N`` with N not a whole number from 1 to 64.
-        OSError, TimeoutError: the scheduler cannot be reached.
+        ValueError: a malformed address (:func:`stackdsl.batch.address.parse_address`).
+        OSError: no scheduler answers there, or what answers is not one.
         ScenarioError: Dask's distributed is not installed (the ``dask`` extra).
     """
     if not installed("dask"):
         raise ScenarioError(missing("dask", f"--dask {address}"), file="--dask")
+    address = parse_address(address)
     import dask
     from distributed import Client, LocalCluster
 
-    cluster = None
-    if address.startswith("local:"):
-        count = address.removeprefix("local:")
-        if not count.isdigit() or not 1 <= int(count) <= 64:
-            raise ValueError(f"local:N needs N from 1 to 64 worker processes, not {count!r}")
-        with dask.config.set(LOCAL_CLUSTER_CONFIG | {"distributed.nanny.pre-spawn-environ": _worker_environment()}):
-            cluster = LocalCluster(n_workers=int(count), threads_per_worker=1, processes=True, dashboard_address=None)
-        client = Client(cluster)
-    else:
-        client = Client(address, timeout=20)
+    cluster, scratch = None, None
     try:
-        threads = sum(client.nthreads().values()) or 1
-        yield client.get_executor(pure=False), threads
+        if address.startswith("local:"):
+            # the workers' scratch space in a folder of this run's, removed at the end
+            scratch = tempfile.mkdtemp(prefix="stackdsl-dask-")
+            settings = LOCAL_CLUSTER_CONFIG | {"distributed.nanny.pre-spawn-environ": _worker_environment()}
+            with dask.config.set(settings):
+                cluster = LocalCluster(
+                    n_workers=int(address.removeprefix("local:")),
+                    threads_per_worker=1,
+                    processes=True,
+                    dashboard_address=None,
+                    local_directory=scratch,
+                )
+            client = Client(cluster)
+        else:
+            client = _connect(Client, address)
+        try:
+            threads = sum(client.nthreads().values()) or 1
+            yield client.get_executor(pure=False), threads
+        finally:
+            client.close()
     finally:
-        client.close()
         if cluster is not None:
             cluster.close()
+        if scratch is not None:
+            shutil.rmtree(scratch, ignore_errors=True)
+
+
+def _connect(client: Any, address: str) -> Any:
+    """A ``distributed.Client`` of the scheduler at ``address``, or OSError saying that there is
+    none (something else answering there is not one: Dask may read its bytes as a message
+    size and try to allocate exabytes)."""
+    try:
+        return client(address, timeout=CONNECT_TIMEOUT)
+    except (OSError, TimeoutError) as exc:
+        raise OSError(f"no Dask scheduler answers at {address}: {exc}") from None
+    except Exception as exc:  # MemoryError, a protocol error: bytes that are not Dask's
+        raise OSError(f"not a Dask scheduler at {address} ({type(exc).__name__})") from None
+
+
+#: Seconds to wait for a scheduler to answer.
+CONNECT_TIMEOUT = 10.0
 
 
 #: Dask settings of the local clusters stackdsl starts: no sampling profiler in the workers

@@ -38,7 +38,10 @@ def add_sweep(
         "-j", "--jobs", type=jobs_type, default="auto", help="processes, this one included (default: one per core)"
     )
     where.add_argument(
-        "--dask", metavar="ADDRESS", help="run on a Dask cluster: a scheduler's address (tcp://host:8786) or local:N"
+        "--dask",
+        metavar="ADDRESS",
+        type=_dask_address,
+        help="run on a Dask cluster: a scheduler's address (tcp://host:8786) or local:N (N up to the cores)",
     )
     p.add_argument(
         "--oracle", action="store_true", help="also the equilibrium oracle's collapse level of each sample, and the agreement"
@@ -93,7 +96,7 @@ def _sweep(args: argparse.Namespace) -> int:
             raise ScenarioError(str(exc), file="--dask") from None
         except (OSError, TimeoutError) as exc:
             _forget(out, made)
-            raise ScenarioError(f"cannot reach the Dask scheduler: {exc}", file="--dask") from None
+            raise ScenarioError(str(exc), file="--dask") from None
         except ScenarioError:
             _forget(out, made)
             raise
@@ -133,3 +136,13 @@ def _forget(folder: Path, made: bool) -> None:
             folder.rmdir()
         except OSError:
             pass  # not empty, or gone: leave it
+
+
+def _dask_address(text: str) -> str:
+    """``--dask``'s type: a usage error (exit 2) for an empty or malformed address."""
+    from ..batch.address import parse_address
+
+    try:
+        return parse_address(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None

@@ -197,12 +197,16 @@ def _lost(task: tuple[Any, ...], error: WorkerLost) -> list[SampleResult]:
 
 
 @contextmanager
-def dask_executor(address: str) -> Iterator[tuple[Executor, int]]:
+def dask_executor(address: str, on_lost: Callable[[list[str]], None] | None = None) -> Iterator[tuple[Executor, int]]:
     """A Dask cluster's executor and how many worker threads it has: ``address`` is a
     scheduler's (``tcp://host:8786``, through ``distributed.Client``) or ``local:N``, which starts
     a ``LocalCluster`` of N single-threaded worker processes here (closed on exit), with
     :data:`LOCAL_CLUSTER_CONFIG` and without Dask's ``MALLOC_TRIM_THRESHOLD_``
     (:func:`_worker_environment`; start a cluster of your own's workers likewise).
+
+    A worker that dies mid-sweep loses nothing: the scheduler runs the batches it held again on
+    the others (a batch is a pure function of its samples, so its results are the same).
+    ``on_lost`` is called at the end with the addresses of the workers that left meanwhile.
 
     Raises:
         ValueError: a malformed address (:func:`stackdsl.batch.address.parse_address`).
@@ -233,8 +237,13 @@ def dask_executor(address: str) -> Iterator[tuple[Executor, int]]:
         else:
             client = _connect(Client, address)
         try:
-            threads = sum(client.nthreads().values()) or 1
+            workers = client.nthreads()
+            threads = sum(workers.values()) or 1
             yield client.get_executor(pure=False), threads
+            if on_lost is not None:
+                lost = sorted(set(workers) - set(client.nthreads()))
+                if lost:
+                    on_lost(lost)
         finally:
             client.close()
     finally:

@@ -89,7 +89,7 @@ def _sweep(args: argparse.Namespace) -> int:
 
     if args.dask:
         try:
-            with dask_executor(args.dask) as (executor, threads):  # reached before anything is said
+            with dask_executor(args.dask, _say_lost) as (executor, threads):  # reached before anything is said
                 results = run(f"Dask {args.dask}", executor=executor, workers=threads)
         except ValueError as exc:
             _forget(out, made)
@@ -146,3 +146,14 @@ def _dask_address(text: str) -> str:
         return parse_address(text)
     except ValueError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def _say_lost(workers: list[str]) -> None:
+    """Say which Dask workers left during a sweep, and that nothing was lost with them."""
+    print(
+        f"stackdsl sweep: {len(workers)} Dask worker{'s' * (len(workers) != 1)} left during the sweep "
+        f"({', '.join(workers)}); the scheduler ran the batches {'they' if len(workers) != 1 else 'it'} held "
+        "again on the others, so every sample is in the results",
+        file=sys.stderr,
+        flush=True,
+    )

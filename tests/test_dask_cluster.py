@@ -1,0 +1,90 @@
+"""A real Dask cluster, started with Dask's own CLI (``dask scheduler``, ``dask worker``) on
+127.0.0.1, that loses a worker in the middle of a sweep: every sample still comes back, the
+same as with one process, and the sweep says which worker left."""
+
+from __future__ import annotations
+
+import csv
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+DASK = Path(sys.executable).with_name("dask")
+
+pytestmark = [
+    pytest.mark.slow,
+    pytest.mark.skipif(not DASK.exists(), reason="Dask's CLI is not installed (pip install 'stackdsl[dask]')"),
+]
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def wait_for(port: int, seconds: float = 30.0) -> None:
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        with socket.socket() as s:
+            if s.connect_ex(("127.0.0.1", port)) == 0:
+                return
+        time.sleep(0.2)
+    raise TimeoutError(f"nothing listens at 127.0.0.1:{port}")
+
+
+def rows(path: Path) -> list[dict[str, str]]:
+    """samples.csv without the wall-time column (a measurement, different in every run)."""
+    with path.open() as f:
+        return [{k: v for k, v in row.items() if k != "wall_time"} for row in csv.DictReader(f)]
+
+
+def test_a_sweep_on_a_real_cluster_that_loses_a_worker_gives_every_sample(tmp_path):
+    scenario = ROOT / "sweeps" / "random_single_file.yaml"
+    port = free_port()
+    env = {**os.environ, "DASK_DISTRIBUTED__WORKER__DAEMON": "False"}
+    quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL, "cwd": tmp_path, "env": env}
+    scheduler = subprocess.Popen([str(DASK), "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"], **quiet)
+    workers: list[subprocess.Popen[bytes]] = []
+    try:
+        wait_for(port)
+        for name in ("w1", "w2"):
+            command = [str(DASK), "worker", f"tcp://127.0.0.1:{port}", "--nthreads", "1", "--no-nanny", "--no-dashboard"]
+            workers.append(subprocess.Popen([*command, "--name", name], **quiet))
+        time.sleep(3.0)  # both workers registered
+        out = tmp_path / "dask"
+        sweep = subprocess.Popen(
+            [sys.executable, "-m", "stackdsl", "sweep", str(scenario), "--samples", "300", "--dask", f"tcp://127.0.0.1:{port}"]
+            + ["--out", str(out)],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        time.sleep(6.0)  # the sweep is running on both workers
+        assert sweep.poll() is None, "the sweep ended before a worker could be killed: give it more samples"
+        workers[0].send_signal(signal.SIGKILL)
+        stdout, stderr = sweep.communicate(timeout=300)
+        assert sweep.returncode in (0, 1), stderr  # 1: a statistical expectation not met, not a failure
+        assert "1 Dask worker left during the sweep" in stderr and "every sample is in the results" in stderr
+        local = tmp_path / "local"
+        subprocess.run(
+            [sys.executable, "-m", "stackdsl", "sweep", str(scenario), "--samples", "300", "-j", "1", "--out", str(local)],
+            capture_output=True,
+            timeout=300,
+            check=False,
+        )
+        on_cluster, alone = rows(out / "samples.csv"), rows(local / "samples.csv")
+        assert len(on_cluster) == 300 and on_cluster == alone
+    finally:
+        for process in [*workers, scheduler]:
+            process.kill()
+            process.wait(timeout=30)
+        shutil.rmtree(tmp_path / "dask-scratch-space", ignore_errors=True)

@@ -71,7 +71,7 @@ def test_a_sweep_on_a_real_cluster_that_loses_a_worker_gives_every_sample(tmp_pa
         time.sleep(6.0)  # the sweep is running on both workers
         assert sweep.poll() is None, "the sweep ended before a worker could be killed: give it more samples"
         workers[0].send_signal(signal.SIGKILL)
-        stdout, stderr = sweep.communicate(timeout=300)
+        _, stderr = sweep.communicate(timeout=300)
         assert sweep.returncode in (0, 1), stderr  # 1: a statistical expectation not met, not a failure
         assert "1 Dask worker left during the sweep" in stderr and "every sample is in the results" in stderr
         local = tmp_path / "local"

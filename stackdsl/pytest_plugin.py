@@ -186,6 +186,10 @@ def _scenario_test(request: pytest.FixtureRequest, scenario_golden: Any) -> None
         error = ""
     if error:
         pytest.fail(error, pytrace=False)
+    stored = scenario_golden_path(path)
+    if stored.is_dir():  # syrupy would raise IsADirectoryError out of the comparison
+        where = _relative(stored, request.config.rootpath)
+        pytest.fail(f"{path.name}: {where} is a folder, not a golden snapshot: remove it", pytrace=False)
     if scenario.sweep is not None:
         _sweep_test(request, scenario, program, shown, scenario_golden)
         return
@@ -253,8 +257,12 @@ def _sweep_test(request: pytest.FixtureRequest, scenario: Any, program: Any, sho
 
 def _keep_pictures(trajectory: Any, shown: str, config: pytest.Config) -> str:
     """Draw a run into ``--stackdsl-output``/<its folder>; one line saying where (or what failed)."""
-    folder = Path(config.rootpath) / config.getoption("stackdsl_output") / folder_name(shown)
-    written, failure, _ = draw_run(trajectory, folder)
+    output = Path(config.rootpath) / config.getoption("stackdsl_output")
+    folder = output / folder_name(shown)
+    try:
+        written, failure, _ = draw_run(trajectory, folder)
+    except OSError as exc:  # the output folder cannot be made or written: say so in the failure
+        return f"pictures: cannot write them to {config.getoption('stackdsl_output')}: {exc.strerror or exc}"
     where = _relative(folder, config.rootpath)
     return f"pictures: {where}/ ({', '.join(written.values())})" + (f"; {failure}" if failure else "")
 

@@ -236,3 +236,22 @@ def test_a_sweep_file_is_one_item_decided_by_its_interval_with_every_sample_in_i
     result.assert_outcomes(failed=1)
     out = result.stdout.str()
     assert "walk.yaml: FAIL: expected P(stands) >= 0.99" in out and "more: stackdsl sweep scenarios/walk.yaml" in out
+
+
+def test_a_golden_that_is_a_folder_fails_its_item_in_one_line(project):
+    write(project, "tower", TOWER)
+    (project.path / "golden" / "scenarios" / "tower.json").mkdir(parents=True)
+    result = project.runpytest("-p", "no:cacheprovider")
+    result.assert_outcomes(failed=1)
+    text = result.stdout.str()
+    assert "golden/scenarios/tower.json is a folder, not a golden snapshot: remove it" in text
+    assert "Traceback" not in text and "IsADirectoryError" not in text
+
+
+def test_an_output_folder_that_cannot_be_written_is_one_line_in_the_failure(project):
+    write(project, "tower", TOWER.replace("expect: {stands: true}", "expect: {collapse: {level: 1}}"))
+    result = project.runpytest("-p", "no:cacheprovider", "--stackdsl-pictures=only-on-failure", "--stackdsl-output=/dev/full")
+    result.assert_outcomes(failed=1)
+    text = result.stdout.str()
+    assert "pictures: cannot write them to /dev/full" in text
+    assert "Traceback" not in text and "NotADirectoryError" not in text and "FileExistsError" not in text

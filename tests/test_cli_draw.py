@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from PIL import Image
@@ -9,6 +11,8 @@ from PIL import Image
 from stackdsl.cli import main as _cli
 from stackdsl.cli.main import main
 from stackdsl.runtime.trajectory import load_trajectory
+
+ROOT = Path(__file__).resolve().parents[1]
 
 STANDS = "stackdsl: 1\nname: small tower\nstructure: {tower: {levels: 2}}\nexpect: {stands: true}\n"
 TIPS = "stackdsl: 1\nstructure:\n  bricks:\n    - {id: base, at: [0, 0, 4 mm]}\n    - {id: top, at: [60.5 mm, 0, 12 mm]}\n"
@@ -263,3 +267,57 @@ def test_an_earlier_reports_folders_go_and_a_persons_folders_stay(files, capsys)
     main(["check", str(files / "stands.yaml"), "-j", "1", "--report", str(report)])
     assert "removed 1 folders of an earlier report" in capsys.readouterr().out
     assert sorted(p.name for p in report.iterdir()) == ["index.html", "mine", "stands"]
+
+
+def test_a_clip_too_large_to_draw_is_refused_before_anything_runs(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr("stackdsl.runtime.recorder.record_program", lambda *a, **k: pytest.fail("simulated"))
+    assert (
+        main(
+            [
+                "animate",
+                str(ROOT / "scenarios" / "vee_stands.yaml"),
+                "--size",
+                "4096x4096",
+                "--fps",
+                "120",
+                "-o",
+                str(tmp_path / "x.mp4"),
+            ]
+        )
+        == 2
+    )
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("--size: 600 frames of 4096 x 4096 pixels are") and "at most 1.5e+09" in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_timeout_covers_drawing_and_a_clip_cut_short_leaves_no_file(tmp_path, capsys, monkeypatch):
+    import time
+
+    from stackdsl.draw import animate as clips
+
+    slow = clips.Scene.render
+
+    def render(self, frame):
+        time.sleep(0.05)
+        return slow(self, frame)
+
+    monkeypatch.setattr(clips.Scene, "render", render)
+    out = tmp_path / "slow.gif"
+    assert main(["animate", str(ROOT / "scenarios" / "slant_tower.yaml"), "--timeout", "2", "-o", str(out)]) == 1
+    assert "drawing the clip passed --timeout" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []  # neither the clip nor a part of it
+
+
+def test_an_output_is_written_whole_or_not_at_all(tmp_path):
+    from stackdsl.lang.files import written
+
+    target = tmp_path / "report.html"
+    target.write_text("the old one")
+    with pytest.raises(RuntimeError), written(target) as part:
+        part.write_text("half of the new one")
+        raise RuntimeError("killed half-way")
+    assert target.read_text() == "the old one" and [p.name for p in tmp_path.iterdir()] == ["report.html"]
+    with written(target) as part:
+        part.write_text("the new one")
+    assert target.read_text() == "the new one" and [p.name for p in tmp_path.iterdir()] == ["report.html"]

@@ -20,6 +20,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from .._version import version
+from ..lang.files import written
 from ..runtime.outcome import Event
 from ..runtime.trajectory import load_trajectory
 from ..verdicts.check_result import CheckResult
@@ -101,7 +102,8 @@ def write_report(
         parts += [_row(r, c, out) for r, c in passed]
     parts += ['<h2 id="summary">Summary</h2>', _summary(results, total, wall), "</body></html>"]
     page = out / "index.html"
-    page.write_text("\n".join(parts) + "\n", encoding="utf-8")
+    with written(page) as part:
+        part.write_text("\n".join(parts) + "\n", encoding="utf-8")
     return page
 
 

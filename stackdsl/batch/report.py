@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from .._version import version
+from ..lang.files import written
 from ..verdicts.check_result import CheckResult
 
 #: The header of check's table; :func:`row` lines up under it.
@@ -150,4 +151,5 @@ def junit_xml(
         case = ET.SubElement(suite, "testcase", classname="stackdsl", name=file, time="0")
         ET.SubElement(case, "skipped", message=NOT_RUN)
     ET.indent(suites)
-    ET.ElementTree(suites).write(path, encoding="utf-8", xml_declaration=True)
+    with written(path) as part:
+        ET.ElementTree(suites).write(part, encoding="utf-8", xml_declaration=True)

@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from ..lang.expectations import Expect
+from ..lang.files import written
 from ..lang.sampling import Template
 from ..verdicts.stats import MeanWithin, ProportionBound, QuantileWithin, StatVerdict, decide, summary
 from .sweep import SampleResult
@@ -74,14 +75,14 @@ def write_samples(results: Sequence[SampleResult], folder: Path) -> tuple[Path, 
     for row in rows:
         columns += [k for k in row if k not in columns]
     table, lines = folder / "samples.csv", folder / "samples.jsonl"
-    with open(table, "w", newline="", encoding="utf-8") as f:
+    with written(table) as part, open(part, "w", newline="", encoding="utf-8") as f:
         writer = csv.DictWriter(f, fieldnames=columns)
         writer.writeheader()
         for row in rows:
             writer.writerow(
                 {k: json.dumps(v) if isinstance(v, (list, dict)) else ("" if v is None else v) for k, v in row.items()}
             )
-    with open(lines, "w", encoding="utf-8") as f:
+    with written(lines) as part, open(part, "w", encoding="utf-8") as f:
         for row in rows:
             f.write(json.dumps(row) + "\n")
     return table, lines

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -174,6 +175,9 @@ def _draw(args: argparse.Namespace, suffixes: tuple[str, ...], option: str, draw
         draw(trajectory, out, width, height)
     except ValueError as exc:
         raise ScenarioError(str(exc), file=option) from None
+    except TimeoutError as exc:
+        print(f"stackdsl: {exc} ({args.timeout:g} s with the run); nothing written to {out}", file=sys.stderr)
+        return 1
     return _wrote(out, trajectory)
 
 
@@ -198,13 +202,20 @@ def _render(args: argparse.Namespace) -> int:
 
 
 def _animate(args: argparse.Namespace) -> int:
-    from ..draw.animate import animate
+    from ..draw.animate import MAX_FRAMES, animate, check_pixel_work
 
+    started = time.perf_counter()
     if str(args.output).lower().endswith(".mp4") and not installed("video"):  # said before anything runs
         raise ScenarioError(missing("video", "an MP4 clip"), file=str(args.output))
+    try:  # the most a clip can draw, refused before anything is simulated
+        check_pixel_work(*size_of(args.size), MAX_FRAMES, args.fps)
+    except ValueError as exc:
+        raise ScenarioError(str(exc), file="--size") from None
+    deadline = None if args.timeout is None else started + args.timeout
 
     def draw(trajectory: Any, out: Path, width: int, height: int) -> None:
-        animate(trajectory, out, fps=args.fps, width=width, height=height)  # ValueError: a GIF above 50 frames a second
+        # ValueError: a GIF above 50 frames a second; TimeoutError: past --timeout, nothing written
+        animate(trajectory, out, fps=args.fps, width=width, height=height, deadline=deadline)
 
     return _draw(args, (".gif", ".mp4"), "--fps", draw)
 

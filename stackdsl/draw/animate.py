@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 import os
+import time as _time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -34,6 +35,7 @@ from PIL import Image, ImageDraw, ImageFont
 
 from ..lang.errors import ScenarioError
 from ..lang.extras import installed, missing
+from ..lang.files import written
 from ..runtime.trajectory import STATES, Trajectory
 from .render import COLOURS, Scene, legend_keys, scale_bar
 
@@ -200,14 +202,17 @@ def _palette() -> Image.Image:
     return palette
 
 
-def _pictures(scene: Scene, plan: Timeline) -> Iterator[np.ndarray]:
+def _pictures(scene: Scene, plan: Timeline, deadline: float | None = None) -> Iterator[np.ndarray]:
     """The clip's pictures, (height, width, 3) uint8, one per frame of ``plan``; each
-    trajectory frame is rendered once."""
+    trajectory frame is rendered once. TimeoutError past ``deadline`` (``time.perf_counter()``
+    seconds; None: none)."""
     trajectory = scene.trajectory
     overlay = _Overlay(trajectory, scene.width, scene.height, scene.camera.pixels_per_metre)
     renders = ((f.index, scene.render(f)) for f in trajectory.frames(sorted(set(plan.frames.tolist()))))
     current, image = -1, np.zeros((scene.height, scene.width, 3), np.uint8)
     for index, time, speed in zip(plan.frames.tolist(), plan.times, plan.speeds):
+        if deadline is not None and _time.perf_counter() > deadline:
+            raise TimeoutError("drawing the clip passed --timeout")
         while current != index:  # plan.frames never decreases
             current, image = next(renders)
         yield overlay.draw(image, float(time), float(speed))
@@ -221,15 +226,19 @@ def animate(
     width: int = 480,
     height: int = 360,
     max_frames: int = MAX_FRAMES,
+    deadline: float | None = None,
 ) -> Timeline:
     """Write a clip of ``trajectory`` at ``path``: ``.gif`` (Pillow) or ``.mp4`` (H.264 by
     imageio-ffmpeg's ffmpeg), ``width`` x ``height`` pixels at ``fps`` frames a second, its
     frames chosen by :func:`timeline`; the last picture stays :data:`END_HOLD` seconds.
-    Returns the timeline drawn.
+    Returns the timeline drawn. The file is written under a temporary name and renamed
+    when complete (:func:`stackdsl.lang.files.written`).
 
     Raises:
         ValueError: another suffix; ``fps`` not above 0 (above :data:`GIF_MAX_FPS` for a GIF);
-            ``max_frames`` below 2; a picture smaller than 16 x 16 pixels; no frame.
+            ``max_frames`` below 2; a picture smaller than 16 x 16 pixels; no frame; more
+            than :data:`MAX_PIXEL_WORK` pixels to draw (:func:`pixel_work`).
+        TimeoutError: past ``deadline`` (``time.perf_counter()`` seconds; None: none).
         OSError: the file cannot be written (ffmpeg failing included).
     """
     suffix = Path(path).suffix.lower()
@@ -238,12 +247,37 @@ def animate(
     if suffix == ".gif" and isinstance(fps, (int, float)) and fps > GIF_MAX_FPS:
         raise ValueError(f"a GIF plays at most {GIF_MAX_FPS:g} frames a second, not {fps:g}")
     plan = timeline(trajectory, fps, max_frames)
-    with Scene(trajectory, width, height) as scene:  # before the file is opened: it checks the size
+    check_pixel_work(width, height, len(plan.frames), fps)
+    with Scene(trajectory, width, height) as scene, written(path) as part:  # the scene first: it checks the size
         if suffix == ".gif":
-            _write_gif(_pictures(scene, plan), Path(path), fps, len(plan.frames))
+            _write_gif(_pictures(scene, plan, deadline), part, fps, len(plan.frames))
         else:
-            _write_mp4(_pictures(scene, plan), Path(path), fps, width, height)
+            _write_mp4(_pictures(scene, plan, deadline), part, fps, width, height)
     return plan
+
+
+#: Pixels a clip may draw, frames times width times height (about 40 s of drawing on one core):
+#: a 4096 x 4096 clip at 120 frames a second would be 10^10, minutes of drawing and encoding.
+MAX_PIXEL_WORK = 1.5e9
+
+
+def pixel_work(width: int, height: int, frames: int, fps: float) -> float:
+    """Pixels a clip of ``frames`` frames of ``width`` x ``height`` draws, its end hold included."""
+    return float(width) * height * (frames + round(END_HOLD * fps))
+
+
+def check_pixel_work(width: int, height: int, frames: int, fps: float) -> None:
+    """Refuse a clip above :data:`MAX_PIXEL_WORK` pixels.
+
+    Raises:
+        ValueError: naming the work and the cap.
+    """
+    work = pixel_work(width, height, frames, fps)
+    if work > MAX_PIXEL_WORK:
+        raise ValueError(
+            f"{frames} frames of {width} x {height} pixels are {work:.3g} pixels to draw; at most {MAX_PIXEL_WORK:.3g}: "
+            "give a smaller --size or fewer --fps"
+        )
 
 
 def _write_gif(pictures: Iterator[np.ndarray], path: Path, fps: float, count: int) -> None:

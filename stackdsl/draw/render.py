@@ -31,6 +31,7 @@ from types import TracebackType
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ..lang.files import written
 from ..runtime.trajectory import ABSENT, FROZEN, STATES, Frame, Trajectory
 from .camera import Camera, camera_view, placed_corners
 
@@ -326,5 +327,6 @@ def picture(
     keys = legend_keys(trajectory, colour_keys(trajectory, frame.states))
     if handles := [Patch(facecolor=COLOURS[key], edgecolor="0.3", label=key) for key in keys]:
         axes.legend(handles=handles, loc="upper right", fontsize=points * 0.9, framealpha=0.85)
-    figure.savefig(path, dpi=dpi, format="png")
+    with written(path) as part:
+        figure.savefig(part, dpi=dpi, format="png")
     return time

@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from ..lang.files import written
 from .outcome import Event, Graph
 
 #: Format version of a trajectory file.
@@ -188,7 +189,7 @@ class Trajectory:
             "graphs": {k: g.model_dump(mode="json") for k, g in self.graphs.items()},
         }
         arrays = {name: getattr(self, name) for name in _ARRAYS}
-        with open(path, "wb") as f:  # np.savez_compressed adds '.npz' to a name without it
+        with written(path) as part, open(part, "wb") as f:  # np.savez_compressed adds '.npz' to a name without it
             np.savez_compressed(f, header=np.array(json.dumps(header)), **arrays)
 
 

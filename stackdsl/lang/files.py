@@ -1,0 +1,43 @@
+"""Files stackdsl writes for a person: written whole or not at all.
+
+Every output (a picture, a clip, a trajectory, a table, a report) is written to a hidden
+temporary name in its own folder and renamed over the final name when it is complete, so a
+run that is killed, runs out of disk or fails half-way leaves nothing under the final name
+(a rename within a folder is atomic).
+
+>>> import tempfile
+>>> folder = Path(tempfile.mkdtemp())
+>>> with written(folder / "a.txt") as part:
+...     _ = part.write_text("done")
+>>> sorted(p.name for p in folder.iterdir()), (folder / "a.txt").read_text()
+(['a.txt'], 'done')
+
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import os
+import secrets
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+
+@contextmanager
+def written(path: str | os.PathLike[str]) -> Iterator[Path]:
+    """A temporary path beside ``path`` (same folder, same suffix, a hidden name) to write to;
+    renamed to ``path`` when the block ends, removed when it raises.
+
+    Raises:
+        OSError: the folder takes no new file, or the rename fails.
+    """
+    final = Path(path)
+    # a name no one else picks; the writer creates it, so it gets the usual permissions (umask)
+    part = final.with_name(f".{final.stem[:40]}.{secrets.token_hex(6)}.part{final.suffix}")
+    try:
+        yield part
+        os.replace(part, final)
+    except BaseException:
+        part.unlink(missing_ok=True)
+        raise

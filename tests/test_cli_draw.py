@@ -239,7 +239,7 @@ def test_a_damaged_or_foreign_trajectory_file_is_bad_input(files, capsys):
     np.save(files / "obj.npy", np.array([{"a": 1}], dtype=object), allow_pickle=True)
     (files / "obj.npz").write_bytes((files / "obj.npy").read_bytes())
     assert main(["graph", str(files / "obj.npz"), "-o", str(files / "x.png")]) == 2
-    assert "it holds pickled objects, which stackdsl never writes" in capsys.readouterr().err
+    assert "it is not a whole .npz archive" in capsys.readouterr().err
 
 
 def test_a_drawing_of_a_run_stopped_by_its_timeout_is_written_and_exits_1(files, capsys):

@@ -21,6 +21,7 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 import json
+import math
 import os
 import zipfile
 import zlib
@@ -30,6 +31,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pydantic
 
 from ..lang.files import written
 from .outcome import Event, Graph
@@ -210,20 +212,55 @@ _ARRAYS = (
 )
 
 
+#: Bytes a trajectory file's arrays may hold once read (a 200-level tower recorded at 30 Hz for
+#: its whole run holds a few MB): a file claiming more is refused before anything is read.
+MAX_TRAJECTORY_BYTES = 1 << 30
+#: Each array: its dtype kind ("U" text, "i" integer, "f" float) and its shape (None: any length,
+#: an int: that size; names stand for lengths that must agree across arrays).
+_LAYOUT: dict[str, tuple[str, tuple[str | int, ...]]] = {
+    "ids": ("U", ("bodies",)),
+    "levels": ("i", ("bodies",)),
+    "half_extents": ("f", ("bodies", 3)),
+    "fixture_ids": ("U", ("fixtures",)),
+    "fixture_half_extents": ("f", ("fixtures", 3)),
+    "fixture_positions": ("f", ("fixtures", 3)),
+    "fixture_orientations": ("f", ("fixtures", 4)),
+    "times": ("f", ("frames",)),
+    "row_frame": ("i", ("rows",)),
+    "row_body": ("i", ("rows",)),
+    "row_position": ("f", ("rows", 3)),
+    "row_orientation": ("f", ("rows", 4)),
+    "row_state": ("i", ("rows",)),
+}
+
+
 def load_trajectory(path: str | os.PathLike[str]) -> Trajectory:
-    """Read a trajectory written by ``stackdsl run FILE --record PATH`` (:meth:`Trajectory.save`).
+    """Read a trajectory written by ``stackdsl run FILE --record PATH`` (:meth:`Trajectory.save`),
+    checked as a scenario file is before anything uses it: the archive's members and their
+    claimed sizes (at most :data:`MAX_TRAJECTORY_BYTES`, from each array's own header, before
+    it is read), the header record and its ``meta``, every array's dtype and shape, finite
+    numbers, and indices that point into the arrays they name.
 
     Raises:
         OSError: the file cannot be read.
-        ValueError: it is not a stackdsl trajectory, or of a newer format.
+        ValueError: ``"PATH: not a stackdsl trajectory: WHAT"``, or of a newer format.
     """
+    path = Path(path)
     try:
-        with np.load(Path(path), allow_pickle=False) as data:
+        _check_sizes(path)
+        with np.load(path, allow_pickle=False) as data:
+            if "header" not in data.files:
+                raise _Bad("it has no header record")
             header = json.loads(str(data["header"]))
+            missing = [name for name in _ARRAYS if name not in data.files]
+            if missing:
+                raise _Bad(f"it has no {missing[0]!r} array")
             arrays = {name: data[name] for name in _ARRAYS}
-    except KeyError as exc:
-        raise ValueError(f"{path}: not a stackdsl trajectory (no {exc} array)") from None
-    except (json.JSONDecodeError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
+    except _Bad as exc:
+        raise ValueError(f"{path}: not a stackdsl trajectory: {exc}") from None
+    except zipfile.BadZipFile:
+        raise ValueError(f"{path}: not a stackdsl trajectory, or a damaged one: it is not a whole .npz archive") from None
+    except (json.JSONDecodeError, EOFError, zlib.error) as exc:
         raise ValueError(f"{path}: not a stackdsl trajectory, or a damaged one ({type(exc).__name__}: {exc})") from None
     except ValueError as exc:  # numpy: not an archive at all, or one holding pickled objects
         why = "it holds pickled objects, which stackdsl never writes" if "pickle" in str(exc) else "not a numpy archive"
@@ -232,9 +269,98 @@ def load_trajectory(path: str | os.PathLike[str]) -> Trajectory:
         raise ValueError(
             f"{path}: a trajectory of format {header.get('format') if isinstance(header, dict) else '?'}; this stackdsl reads {FORMAT}"
         )
-    return Trajectory(
-        meta=header["meta"],
-        events=tuple(Event(**e) for e in header["events"]),
-        graphs={k: Graph(**g) for k, g in header["graphs"].items()},
-        **arrays,
-    )
+    try:
+        meta = _checked_header(header)
+        _check_arrays(arrays)
+        return Trajectory(
+            meta=meta,
+            events=tuple(Event(**e) for e in header["events"]),
+            graphs={k: Graph(**g) for k, g in header["graphs"].items()},
+            **arrays,
+        )
+    except (_Bad, TypeError, pydantic.ValidationError) as exc:
+        what = (
+            str(exc).splitlines()[0]
+            if not isinstance(exc, pydantic.ValidationError)
+            else f"a bad event or graph ({exc.error_count()} errors)"
+        )
+        raise ValueError(f"{path}: not a stackdsl trajectory: {what}") from None
+
+
+class _Bad(Exception):
+    """What is wrong with a trajectory file (one line)."""
+
+
+def _check_sizes(path: Path) -> None:
+    """Refuse an archive whose arrays would take more than :data:`MAX_TRAJECTORY_BYTES` once
+    read, by each member's own ``.npy`` header (a zip's sizes can lie, and so can a header's
+    shape: both are checked) before numpy reads any of it."""
+    total = 0
+    with zipfile.ZipFile(path) as archive:
+        for info in archive.infolist():
+            with archive.open(info) as member:
+                version = np.lib.format.read_magic(member)
+                if version == (1, 0):
+                    shape, _, dtype = np.lib.format.read_array_header_1_0(member)
+                elif version == (2, 0):
+                    shape, _, dtype = np.lib.format.read_array_header_2_0(member)
+                else:
+                    raise _Bad(f"{info.filename} is a .npy of version {version}, which stackdsl never writes")
+            claimed = int(np.prod(shape, dtype=np.float64) * dtype.itemsize)
+            if claimed > info.file_size:
+                raise _Bad(f"{info.filename} claims {claimed} bytes but holds {info.file_size}")
+            total += info.file_size
+            if total > MAX_TRAJECTORY_BYTES:
+                raise _Bad(f"its arrays take more than {MAX_TRAJECTORY_BYTES >> 20} MiB once read")
+
+
+def _checked_header(header: dict[str, Any]) -> dict[str, Any]:
+    """The header's ``meta``, after checking the records a drawing reads."""
+    meta = header.get("meta")
+    if not isinstance(meta, dict):
+        raise _Bad("its header has no meta record")
+    if (
+        not isinstance(header.get("events"), list)
+        or not isinstance(header.get("graphs"), dict)
+        or "final" not in header["graphs"]
+    ):
+        raise _Bad("its header lacks the events or the final brick graph")
+    collapse = meta.get("collapse")
+    if collapse is not None:
+        ok = isinstance(collapse, dict) and all(
+            isinstance(collapse.get(k), (int, float)) and not isinstance(collapse.get(k), bool) for k in ("time", "level")
+        )
+        if not ok or not math.isfinite(float(collapse["time"])):
+            raise _Bad("its meta record's collapse has no time and level")
+    return meta
+
+
+def _check_arrays(arrays: dict[str, np.ndarray]) -> None:
+    """Dtypes, shapes that agree, finite numbers, indices within the arrays they name."""
+    lengths: dict[str, int] = {}
+    for name, (kind, shape) in _LAYOUT.items():
+        array = arrays[name]
+        if array.dtype.kind != kind and not (kind == "i" and array.dtype.kind == "u"):
+            raise _Bad(f"its {name!r} array holds {array.dtype} values")
+        if array.ndim != len(shape):
+            raise _Bad(f"its {name!r} array has {array.ndim} dimensions, not {len(shape)}")
+        for axis, want in zip(array.shape, shape):
+            if isinstance(want, int):
+                if axis != want:
+                    raise _Bad(f"its {name!r} array has {axis} columns, not {want}")
+            elif lengths.setdefault(want, axis) != axis:
+                raise _Bad(f"its {name!r} array has {axis} {want}, the others {lengths[want]}")
+        if kind == "f" and not np.isfinite(array).all():
+            raise _Bad(f"its {name!r} array holds NaN or infinite values")
+    if not (arrays["half_extents"] > 0).all() or not (arrays["fixture_half_extents"] > 0).all():
+        raise _Bad("a body's half extents are not above 0")
+    if (np.diff(arrays["times"]) < 0).any():
+        raise _Bad("its times go backwards")
+    for name, limit in (
+        ("row_frame", lengths.get("frames", 0)),
+        ("row_body", lengths.get("bodies", 0)),
+        ("row_state", len(STATES)),
+    ):
+        values = arrays[name]
+        if len(values) and (values.min() < 0 or values.max() >= limit):
+            raise _Bad(f"its {name!r} array points outside 0..{limit - 1}")

@@ -1,0 +1,106 @@
+"""Trajectory files (.npz) are checked as scenario files are: a bad one is one line naming the
+file and what is wrong, exit 2, before anything is drawn; never a blame on --at, never a huge
+allocation."""
+
+from __future__ import annotations
+
+import io
+import json
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from stackdsl import compile_scenario, parse_scenario
+from stackdsl.cli.main import main
+from stackdsl.runtime.recorder import record_program
+from stackdsl.runtime.trajectory import MAX_TRAJECTORY_BYTES, load_trajectory
+
+
+@pytest.fixture(scope="module")
+def good(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("trajectory") / "good.npz"
+    record_program(compile_scenario(parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 1}}\ntiming: {settle: 0.5 s}")))[
+        1
+    ].save(path)
+    return path
+
+
+def arrays_of(path: Path) -> dict[str, np.ndarray]:
+    with np.load(path) as data:
+        return {name: data[name] for name in data.files}
+
+
+def rewrite(good: Path, target: Path, **changes: object) -> Path:
+    arrays = arrays_of(good)
+    for name, value in changes.items():
+        if value is None:
+            arrays.pop(name)
+        else:
+            arrays[name] = value  # type: ignore[assignment]
+    np.savez(target, **arrays)
+    return target
+
+
+def header_without(good: Path, key: str) -> np.ndarray:
+    header = json.loads(str(arrays_of(good)["header"]))
+    header.pop(key)
+    return np.array(json.dumps(header))
+
+
+def huge_claim(good: Path, target: Path) -> Path:
+    """A member whose .npy header claims a 21.8 TiB array over a few bytes of data."""
+    buffer = io.BytesIO()
+    np.lib.format.write_array_header_1_0(buffer, {"descr": "<f8", "fortran_order": False, "shape": (3_000_000_000_000,)})
+    with zipfile.ZipFile(good) as source, zipfile.ZipFile(target, "w") as out:
+        for info in source.infolist():
+            data = buffer.getvalue() + b"\0" * 64 if info.filename == "times.npy" else source.read(info)
+            out.writestr(info.filename, data)
+    return target
+
+
+CASES = {
+    "no meta": (lambda g, t: rewrite(g, t, header=header_without(g, "meta")), "its header has no meta record"),
+    "another scenario's arrays": (
+        lambda g, t: rewrite(g, t, row_position=np.zeros((3, 3))),
+        "its 'row_position' array has 3 rows, the others",
+    ),
+    "wrong columns": (
+        lambda g, t: rewrite(g, t, half_extents=np.ones((len(arrays_of(g)["ids"]), 2))),
+        "its 'half_extents' array has 2 columns, not 3",
+    ),
+    "NaN positions": (
+        lambda g, t: rewrite(g, t, row_position=np.full_like(arrays_of(g)["row_position"], np.nan)),
+        "its 'row_position' array holds NaN or infinite values",
+    ),
+    "a body that is not there": (
+        lambda g, t: rewrite(g, t, row_body=arrays_of(g)["row_body"] + 99),
+        "its 'row_body' array points outside",
+    ),
+    "text in a number array": (
+        lambda g, t: rewrite(g, t, times=np.array(["a"] * len(arrays_of(g)["times"]))),
+        "its 'times' array holds <U1 values",
+    ),
+    "a missing array": (lambda g, t: rewrite(g, t, row_state=None), "it has no 'row_state' array"),
+    "21.8 TiB claimed": (huge_claim, "times.npy claims 24000000000000 bytes but holds"),
+    "a text file": (lambda g, t: (t.write_text("hello\n" * 10), t)[1], "it is not a whole .npz archive"),
+}
+
+
+@pytest.mark.parametrize("case", CASES, ids=list(CASES))
+def test_a_bad_trajectory_file_is_one_line_naming_it(case, good, tmp_path, capsys):
+    make, what = CASES[case]
+    bad = make(good, tmp_path / "bad.npz")
+    with pytest.raises(ValueError, match="not a stackdsl trajectory") as error:
+        load_trajectory(bad)
+    assert what in str(error.value) and "\n" not in str(error.value)
+    assert main(["render", str(bad), "-o", str(tmp_path / "x.png")]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith(f"{bad}: ") and what in line and "--at" not in line
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_a_good_trajectory_still_reads_and_the_cap_is_far_above_a_real_run(good):
+    trajectory = load_trajectory(good)
+    assert len(trajectory.times) > 1 and good.stat().st_size * 100 < MAX_TRAJECTORY_BYTES

@@ -78,12 +78,21 @@ class Template:
             assert checked.sweep is not None
             samples = checked.sweep.samples
             grid = tuple(_grid_field(key, values, source) for key, values in checked.sweep.grid.items())
+            for path, key, _ in grid:
+                missing = _missing_item(plain, path)
+                if missing is not None:
+                    raise source.error(
+                        ("sweep", "grid", key),
+                        f"the grid names {key!r}, but this file has no item {missing[-1]} in {'.'.join(map(str, missing[:-1]))}",
+                        at_key=True,
+                    )
         for into, written in _DRAWN_INTO.items():  # errors at a tower's drawn shifts point at its 'shift'
             if written in source.values and any(d.path[:3] == written and d.per != "sample" for d in distributions):
                 source.values[into] = source.values[written]
                 source.keys[into] = source.keys.get(written, source.values[written])
         seed = plain.get("seed", 0)
-        seed = seed if isinstance(seed, int) and not isinstance(seed, bool) and seed >= 0 else 0
+        if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:  # as a plain file's seed is checked
+            raise source.error(("seed",), f"a seed is a whole number, 0 or more, not {seed!r}")
         return cls(plain, source, tuple(distributions), grid, samples, seed)
 
     @property
@@ -245,6 +254,22 @@ def _grid_field(key: str, values: list[Any], source: SourceMap) -> tuple[FieldPa
         if path[0] in ("stackdsl", "sweep", "expect", "seed"):
             raise source.error(("sweep", "grid", key), f"the grid varies the scene: {key!r} is not part of it", at_key=True)
     return path, key, tuple(values)
+
+
+def _missing_item(data: Any, path: FieldPath) -> FieldPath | None:
+    """The first prefix of ``path`` ending in a list index that ``data`` does not have (a grid
+    key into ``structure.bricks.0`` of a tower, say), or None when every index is there."""
+    for i, key in enumerate(path):
+        if isinstance(key, int):
+            if not isinstance(data, list) or not 0 <= key < len(data):
+                return path[: i + 1]
+            data = data[key]
+        elif isinstance(data, dict) and key in data:
+            data = data[key]
+        else:  # a field the file leaves out: the grid puts it in, unless an index into it follows
+            later = [j for j in range(i + 1, len(path)) if isinstance(path[j], int)]
+            return path[: later[0] + 1] if later else None
+    return None
 
 
 def _put(data: Any, path: FieldPath, value: Any) -> None:

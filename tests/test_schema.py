@@ -592,3 +592,20 @@ def test_the_smallest_side_is_what_pybullet_resolves():
         program = program.model_copy(update={"actions": (smaller, *program.actions[1:]), "collapse_threshold": half})
         farthest, _ = peak(program)
         assert farthest > half, mode
+
+
+def test_a_projectile_too_fast_or_too_slow_gets_its_own_bounds_reason():
+    from stackdsl import ScenarioError, parse_scenario
+
+    def message(speed: str) -> str:
+        text = (
+            "stackdsl: 1\nstructure: {tower: {levels: 2}}\n"
+            f"impacts: [{{id: h, target: {{level: 2, side: +y}}, speed: {speed}, at: after level 2}}]\n"
+        )
+        with pytest.raises(ScenarioError) as error:
+            parse_scenario(text)
+        return str(error.value).splitlines()[0]
+
+    fast, slow = message("500 m/s"), message("0.01 m/s")
+    assert "faster, it moves more than a brick's 8 mm thickness in one substep" in fast and "drop" not in fast
+    assert "slower, a throw is a drop" in slow and "faster" not in slow

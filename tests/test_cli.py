@@ -765,3 +765,15 @@ def test_an_os_error_that_is_not_a_refused_path_is_still_a_bug(capsys, monkeypat
     monkeypatch.setattr(_cli, "json_schema", broken)
     assert main(["schema"]) == 3
     assert capsys.readouterr().err.startswith("stackdsl: internal error: OSError: [Errno 74] Bad message")
+
+
+def test_a_closed_standard_output_is_exit_141_as_a_closed_pipe():
+    for argv in (["schema"], ["check", str(ROOT / "scenarios" / "vee_stands.yaml"), "-j", "1"]):
+        done = subprocess.run(
+            [sys.executable, "-m", "stackdsl", *argv],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+            preexec_fn=lambda: os.close(1),
+        )
+        assert done.returncode == 141 and done.stderr == "", argv

@@ -49,6 +49,8 @@ def main(argv: list[str] | None = None) -> int:
     """
     command = argv is None
     argv = sys.argv[1:] if argv is None else argv
+    if sys.stdout is None:  # standard output closed before the command began (``>&-``): as a closed pipe
+        return BROKEN_PIPE
     debug = "--debug" in argv or os.environ.get("STACKDSL_TRACEBACK", "") not in ("", "0")
     # SIGTERM unwinds like Ctrl-C, so that workers are stopped on the way out (main thread only).
     main_thread = threading.current_thread() is threading.main_thread()

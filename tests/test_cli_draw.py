@@ -321,3 +321,19 @@ def test_an_output_is_written_whole_or_not_at_all(tmp_path):
     with written(target) as part:
         part.write_text("the new one")
     assert target.read_text() == "the new one" and [p.name for p in tmp_path.iterdir()] == ["report.html"]
+
+
+def test_an_output_that_is_a_device_is_written_to_never_replaced(tmp_path):
+    import os
+    import stat
+
+    from stackdsl.lang.files import written
+
+    fifo = tmp_path / "pipe.xml"
+    os.mkfifo(fifo)
+    with written(fifo) as part:
+        assert part == fifo  # written directly: a rename would put a regular file in its place
+    assert stat.S_ISFIFO(fifo.stat().st_mode)
+    with pytest.raises(OSError) as error, written(tmp_path / "no" / "such.png") as part:
+        part.write_text("x")
+    assert error.value.filename == str(tmp_path / "no" / "such.png")

@@ -27,17 +27,27 @@ from pathlib import Path
 @contextmanager
 def written(path: str | os.PathLike[str]) -> Iterator[Path]:
     """A temporary path beside ``path`` (same folder, same suffix, a hidden name) to write to;
-    renamed to ``path`` when the block ends, removed when it raises.
+    renamed to ``path`` when the block ends, removed when it raises. A ``path`` that exists and
+    is not a regular file (a device such as /dev/full, a FIFO) is written directly, never
+    replaced. An OSError names ``path``, not the temporary name.
 
     Raises:
         OSError: the folder takes no new file, or the rename fails.
     """
     final = Path(path)
+    if final.exists() and not final.is_file():  # a device, a FIFO (/dev/full, a pipe): write to it, never replace it
+        yield final
+        return
     # a name no one else picks; the writer creates it, so it gets the usual permissions (umask)
     part = final.with_name(f".{final.stem[:40]}.{secrets.token_hex(6)}.part{final.suffix}")
     try:
         yield part
         os.replace(part, final)
+    except OSError as exc:
+        part.unlink(missing_ok=True)
+        if exc.filename in (str(part), part):  # the user gave the final name: say that one
+            exc.filename = str(final)
+        raise
     except BaseException:
         part.unlink(missing_ok=True)
         raise

@@ -337,3 +337,28 @@ def test_an_output_that_is_a_device_is_written_to_never_replaced(tmp_path):
     with pytest.raises(OSError) as error, written(tmp_path / "no" / "such.png") as part:
         part.write_text("x")
     assert error.value.filename == str(tmp_path / "no" / "such.png")
+
+
+def test_a_drawing_command_runs_under_the_workers_memory_limit_and_says_so_when_hit(tmp_path):
+    """The main process of a drawing command gets the address-space limit ``check``'s workers
+    have: asking for 12 GiB (reserved, never touched; the machine itself would grant it) is refused
+    there, with one clear line."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, numpy as np\n"
+        "import stackdsl.draw.render as render\n"
+        "def greedy(*args, **kwargs):\n"
+        "    np.empty(12 * 2**30, dtype=np.uint8)\n"
+        "render.picture = greedy\n"
+        f"sys.argv = ['stackdsl', 'render', {str(ROOT / 'scenarios' / 'vee_stands.yaml')!r}, '-o', {str(tmp_path / 'x.png')!r}]\n"
+        "from stackdsl._entry import main\n"
+        "sys.exit(main())\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 3, done.stderr
+    assert done.stderr.strip() == (
+        "stackdsl: out of memory: this command may use 4 GiB of address space "
+        "(give a smaller --size, fewer frames, or a smaller file)"
+    )

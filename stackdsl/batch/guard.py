@@ -124,6 +124,14 @@ def _watch_parent(parent: int) -> None:
     os._exit(1)
 
 
+def limit_memory(limit: int = MEMORY_LIMIT) -> None:
+    """Limit this process's address space to ``limit`` bytes (``RLIMIT_AS``; raised to what is
+    already mapped plus 3 GiB when that is more), so that a request that grows without bound
+    ends in a MemoryError instead of the machine swapping. Nothing happens where the limit
+    cannot be set. Source: stackdsl's own."""
+    _limit_memory(limit)
+
+
 def _limit_memory(limit: int) -> None:
     try:
         import resource

@@ -231,3 +231,7 @@ def _graph(args: argparse.Namespace) -> int:
     graph = trajectory.graphs["collapse" if at == "collapse" else "final"]
     plot_graph(graph, out, title=f"{trajectory.meta.get('scenario', '')}: brick graph at the {at}")
     return _wrote(out, trajectory)
+
+
+#: The drawing commands: their work (reading a trajectory, drawing) runs in this process.
+DRAWING_COMMANDS = (_render, _animate, _graph)

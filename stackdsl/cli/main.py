@@ -33,7 +33,7 @@ from ..verdicts.expect import describe, evaluate
 from .args import BAD_INPUT, BROKEN_PIPE, EXIT_STATUS, FAILED, HINT, INTERNAL, INTERRUPTED, OK, jobs_type, refused, timeout_type
 from .bench import add_bench
 from .check import check_command, compare_command
-from .draw import add_commands, add_record_options
+from .draw import DRAWING_COMMANDS, add_commands, add_record_options
 from .sweep import add_sweep
 
 MODELS = ["report", "equilibrium"]
@@ -65,6 +65,10 @@ def main(argv: list[str] | None = None) -> int:
     try:
         args = _parser().parse_args(argv)
         args.debug = debug
+        if command and args.func in _DRAWING:  # the main process does the work: give it the workers' limit
+            from ..batch.guard import limit_memory
+
+            limit_memory()
         status = int(args.func(args))
         sys.stdout.flush()
         return status
@@ -87,6 +91,15 @@ def main(argv: list[str] | None = None) -> int:
             return _internal(exc, debug)
         print(line, file=sys.stderr)
         return BAD_INPUT
+    except MemoryError:
+        from ..batch.guard import MEMORY_LIMIT
+
+        print(
+            f"stackdsl: out of memory: this command may use {MEMORY_LIMIT >> 30} GiB of address space "
+            "(give a smaller --size, fewer frames, or a smaller file)",
+            file=sys.stderr,
+        )
+        return INTERNAL
     except KeyboardInterrupt:
         interrupted = True
         if main_thread:  # a second Ctrl-C while this line is printed must not show a traceback
@@ -341,3 +354,8 @@ def _print_schema(args: argparse.Namespace) -> int:
 
 if __name__ == "__main__":  # pragma: no cover
     sys.exit(main())
+
+
+#: Commands whose work runs in this process (drawing, reading trajectories, one recorded run):
+#: they get the address-space limit the workers of ``check`` have.
+_DRAWING = {*DRAWING_COMMANDS, _run}

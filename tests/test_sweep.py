@@ -299,3 +299,30 @@ def test_a_sweep_without_out_writes_into_a_new_private_folder_and_follows_no_pla
     assert len(made) == 1 and (made[0] / "samples.csv").exists()
     assert stat.S_IMODE(made[0].stat().st_mode) == 0o700 and made[0].stat().st_uid == os.getuid()
     assert list(victim.iterdir()) == [] and str(made[0]) in capsys.readouterr().out
+
+
+@pytest.mark.slow
+def test_sigterm_stops_a_local_dask_sweep_quietly_and_leaves_no_scratch_space(tmp_path):
+    """Dask's own logging of its workers' restarts used to flood the terminal, and its scratch
+    folder stayed in $TMPDIR."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    scratch = tmp_path / "tmp"
+    scratch.mkdir()
+    sweep = subprocess.Popen(
+        [sys.executable, "-m", "stackdsl", "sweep", str(ROOT / "sweeps" / "random_single_file.yaml")]
+        + ["--samples", "5000", "--dask", "local:1", "--out", str(tmp_path / "out")],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "TMPDIR": str(scratch)},
+    )
+    time.sleep(8.0)
+    sweep.send_signal(signal.SIGTERM)
+    _, stderr = sweep.communicate(timeout=60)
+    assert "distributed" not in stderr and "Traceback" not in stderr and len(stderr.splitlines()) <= 1, stderr
+    assert list(scratch.iterdir()) == []

@@ -13,6 +13,7 @@ Source: stackdsl's own.
 
 from __future__ import annotations
 
+import logging
 import math
 import shutil
 import tempfile
@@ -224,13 +225,18 @@ def dask_executor(address: str, on_lost: Callable[[list[str]], None] | None = No
         if address.startswith("local:"):
             # the workers' scratch space in a folder of this run's, removed at the end
             scratch = tempfile.mkdtemp(prefix="stackdsl-dask-")
-            settings = LOCAL_CLUSTER_CONFIG | {"distributed.nanny.pre-spawn-environ": _worker_environment()}
+            settings = LOCAL_CLUSTER_CONFIG | {
+                "distributed.nanny.pre-spawn-environ": _worker_environment(),
+                "temporary-directory": scratch,  # nothing of Dask's is left in $TMPDIR
+            }
+            # our own workers' restarts and shutdown are not the user's news: errors only
+            logging.getLogger("distributed").setLevel(logging.ERROR)
             with dask.config.set(settings):
                 cluster = LocalCluster(
                     n_workers=int(address.removeprefix("local:")),
                     threads_per_worker=1,
                     processes=True,
-                    dashboard_address=None,
+                    dashboard_address=":0",  # its HTTP server on a free port: no warning when 8787 is taken
                     local_directory=scratch,
                 )
             client = Client(cluster)
@@ -282,6 +288,7 @@ def _worker_environment() -> dict[str, Any]:
 
     environment = dict(dask.config.get("distributed.nanny.pre-spawn-environ", {}))
     environment.pop("MALLOC_TRIM_THRESHOLD_", None)
+    environment["DASK_LOGGING__DISTRIBUTED"] = "error"  # read when a worker imports distributed
     return environment
 
 

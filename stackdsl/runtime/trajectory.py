@@ -195,21 +195,6 @@ class Trajectory:
             np.savez_compressed(f, header=np.array(json.dumps(header)), **arrays)
 
 
-_ARRAYS = (
-    "ids",
-    "levels",
-    "half_extents",
-    "fixture_ids",
-    "fixture_half_extents",
-    "fixture_positions",
-    "fixture_orientations",
-    "times",
-    "row_frame",
-    "row_body",
-    "row_position",
-    "row_orientation",
-    "row_state",
-)
 
 
 #: Bytes a trajectory file's arrays may hold once read (a 200-level tower recorded at 30 Hz for
@@ -232,6 +217,8 @@ _LAYOUT: dict[str, tuple[str, tuple[str | int, ...]]] = {
     "row_orientation": ("f", ("rows", 4)),
     "row_state": ("i", ("rows",)),
 }
+#: The arrays a trajectory file holds, in the order they are written.
+_ARRAYS = tuple(_LAYOUT)
 
 
 def load_trajectory(path: str | os.PathLike[str]) -> Trajectory:

@@ -195,8 +195,6 @@ class Trajectory:
             np.savez_compressed(f, header=np.array(json.dumps(header)), **arrays)
 
 
-
-
 #: Bytes a trajectory file's arrays may hold once read (a 200-level tower recorded at 30 Hz for
 #: its whole run holds a few MB): a file claiming more is refused before anything is read.
 MAX_TRAJECTORY_BYTES = 1 << 30

@@ -50,6 +50,55 @@ def test_a_mujoco_scenario_without_mujoco_points_at_its_backend(tmp_path, capsys
     assert shown[0].strip() == "backend: mujoco"
 
 
+def test_backend_mujoco_on_the_command_line_without_mujoco_names_the_option(capsys, monkeypatch, without):
+    without("mujoco")
+    monkeypatch.setattr("stackdsl.batch.judge.run_program", lambda *a, **k: pytest.fail("simulated"))
+    four = str(ROOT / "scenarios" / "four_stack.yaml")
+    for argv in (["run", four, "--backend", "mujoco"], ["compare", four, "--backend", "pybullet, mujoco", "-j", "1"]):
+        assert main(argv) == 2
+        assert one_line(capsys) == "--backend: MuJoCo is not installed: pip install 'stackdsl[mujoco]'"
+
+
+def test_compile_with_backend_mujoco_without_mujoco_names_the_argument(without):
+    import stackdsl
+
+    scenario = stackdsl.parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 2}}\n", file="t.yaml")
+    assert stackdsl.compile_scenario(scenario, backend="pybullet").engine.backend == "pybullet"
+    without("mujoco")
+    with pytest.raises(stackdsl.ScenarioError) as caught:
+        stackdsl.compile_scenario(scenario, backend="mujoco")
+    assert str(caught.value) == "t.yaml: backend='mujoco' needs MuJoCo, which is not installed: pip install 'stackdsl[mujoco]'"
+
+
+def test_a_mujoco_sweep_without_mujoco_points_at_its_backend_before_any_sample(tmp_path, capsys, without):
+    path = tmp_path / "s.yaml"
+    path.write_text(MUJOCO.replace("expect: {stands: true}", "sweep: {samples: 2}\nexpect: {p_stands: '>= 0.5'}"))
+    without("mujoco")
+    assert main(["sweep", str(path), "-j", "1", "--out", str(tmp_path / "out")]) == 2
+    first, *_ = capsys.readouterr().err.splitlines()
+    assert first == f"{path}:4:12: engine.backend: MuJoCo is not installed: pip install 'stackdsl[mujoco]'"
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize(
+    ("hidden", "argv", "where"),
+    [
+        ("mujoco", ["bench", "freeze", "--levels", "2"], "stackdsl bench freeze"),
+        ("mujoco", ["bench", "verdicts", "--count", "1", "--engines", "pybullet,mujoco"], "--engines"),
+        ("mujoco", ["bench", "--quick", "--settings", "tuned,MuJoCo raw"], "--settings"),
+        ("mujoco", ["bench", "height", "--settings", "MuJoCo tuned"], "--settings"),
+        ("dask", ["bench", "sweep", "--samples", "1"], "stackdsl bench sweep"),
+    ],
+)
+def test_a_bench_without_its_engine_names_the_extra(hidden, argv, where, tmp_path, capsys, monkeypatch, without):
+    monkeypatch.setattr("tempfile.tempdir", str(tmp_path))
+    without(hidden)
+    assert main(argv) == 2
+    line = one_line(capsys)
+    assert line.startswith(f"{where}: ") and line.endswith(f"pip install 'stackdsl[{hidden}]'")
+    assert list(tmp_path.iterdir()) == []  # no output folder made
+
+
 def test_a_sweep_on_dask_without_distributed_names_the_extra(capsys, without):
     without("dask")
     assert main(["sweep", str(ROOT / "sweeps" / "random_single_file.yaml"), "--dask", "local:1", "--samples", "2"]) == 2

@@ -215,7 +215,7 @@ def dask_executor(address: str, on_lost: Callable[[list[str]], None] | None = No
         ScenarioError: Dask's distributed is not installed (the ``dask`` extra).
     """
     if not installed("dask"):
-        raise ScenarioError(missing("dask", f"--dask {address}"), file="--dask")
+        raise ScenarioError(missing("dask", "a sweep on a Dask cluster"), file="--dask")
     address = parse_address(address)
     import dask
     from distributed import Client, LocalCluster

@@ -12,6 +12,7 @@ from typing import Any
 
 from ..bench.bench import SETTINGS, UPRIGHT, run_matrix, savings, scenes
 from ..lang.errors import ScenarioError
+from ..lang.extras import installed, missing
 from ..verdicts.expect import describe
 from .args import OK, jobs_type, output_folder
 from .progress import Lines
@@ -129,6 +130,27 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     q.set_defaults(func=_bench_startup)
 
 
+def _need(extra: str, where: str) -> None:
+    """Nothing when ``extra`` (a key of :data:`stackdsl.lang.extras.EXTRAS`) is installed.
+
+    Raises:
+        ScenarioError: it is not; one line at ``where`` (the option or command that asks for it)
+            naming the pip install that adds it, before anything runs.
+    """
+    if not installed(extra):
+        raise ScenarioError(missing(extra), file=where)
+
+
+def _need_engines(settings: list[str]) -> None:
+    """Nothing when every engine the named :data:`SETTINGS` use is installed.
+
+    Raises:
+        ScenarioError: a MuJoCo setting without MuJoCo, at ``--settings``.
+    """
+    if any(("backend", "mujoco") in SETTINGS[name].engine for name in settings):
+        _need("mujoco", "--settings")
+
+
 def _bench(args: argparse.Namespace) -> int:
     from ..bench.out import write_outputs
     from ..bench.versions import version_line
@@ -138,6 +160,7 @@ def _bench(args: argparse.Namespace) -> int:
     unknown = [x for x in settings if x not in SETTINGS]
     if unknown:
         raise ScenarioError(f"unknown setting {', '.join(unknown)}; known: {', '.join(SETTINGS)}", file="--settings")
+    _need_engines(settings)
     try:
         heights = [int(x) for x in args.upright.split(",") if x.strip()]
     except ValueError:
@@ -221,6 +244,7 @@ def _bench_height(args: argparse.Namespace) -> int:
     unknown = [s for s in settings if s not in SETTINGS]
     if unknown or not settings:
         raise ScenarioError(f"unknown setting {unknown[0] if unknown else ''!r}; known: {', '.join(SETTINGS)}", file="--settings")
+    _need_engines(settings)
     if args.repeats < 1:
         raise ScenarioError(f"--repeats must be at least 1, not {args.repeats}", file="--repeats")
     print(version_line(), flush=True)
@@ -276,6 +300,7 @@ def _bench_sweep(args: argparse.Namespace) -> int:
 
     if args.samples is not None and not 1 <= args.samples <= 100_000:
         raise ScenarioError(f"--samples must be from 1 to 100000, not {args.samples}", file="--samples")
+    _need("dask", "stackdsl bench sweep")  # its last row is a Dask cluster
     t = template(args.samples if args.samples or args.file else 1000, args.file)
     print(title(t), HEADER, sep="\n", flush=True)
     rows: list[Throughput] = []
@@ -299,6 +324,7 @@ def _bench_freeze(args: argparse.Namespace) -> int:
         raise ScenarioError("give whole numbers of levels, comma-separated", file="--levels") from None
     if not levels or min(levels) < 2 or max(levels) > 200:
         raise ScenarioError("levels are from 2 to 200", file="--levels")
+    _need("mujoco", "stackdsl bench freeze")
     print(version_line(), flush=True)
     costs = []
     for n in levels:
@@ -333,6 +359,8 @@ def _bench_verdicts(args: argparse.Namespace) -> int:
         runs = plan(engines, gaps, baselines=not args.no_baselines)
     except ValueError as exc:
         raise ScenarioError(str(exc), file="--engines") from None
+    if "mujoco" in engines:
+        _need("mujoco", "--engines")
     out = output_folder(args.out, "stackdsl-verdicts-")
     if out.exists() and not out.is_dir():
         raise ScenarioError("the output must be a folder, and this is a file", file=str(out))

@@ -26,6 +26,7 @@ from ..batch.judge import TIMEOUT, run_guarded, stopped_by
 from ..compile.compiler import BACKEND_DEFAULTS, MODE_DEFAULTS, compile_scenario
 from ..compile.program import format_program
 from ..lang.errors import ScenarioError
+from ..lang.extras import installed, missing
 from ..lang.jsonschema import json_schema
 from ..lang.loader import load_scenario
 from ..runtime.outcome import describe_certificate
@@ -65,6 +66,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         args = _parser().parse_args(argv)
         args.debug = debug
+        if "mujoco" in [b.strip() for b in str(getattr(args, "backend", None)).split(",")] and not installed("mujoco"):
+            raise ScenarioError(missing("mujoco"), file="--backend")
         if command and args.func in _DRAWING:  # the main process does the work: give it the workers' limit
             from ..batch.guard import limit_memory
 

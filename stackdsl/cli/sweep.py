@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from ..lang.errors import ScenarioError
+from ..lang.extras import installed, missing
 from .args import output_folder
 
 
@@ -68,6 +69,8 @@ def _sweep(args: argparse.Namespace) -> int:
         raise ScenarioError(
             "this scenario has no sweep and no random field: each run would be the same (use stackdsl run)", file=args.file
         )
+    if scenario.engine.backend == "mujoco" and not installed("mujoco"):  # said once, before any sample is drawn
+        raise scenario.source.error(("engine", "backend"), missing("mujoco"))
     if args.samples is not None:
         template = template.with_samples(args.samples)
     out = Path(args.out) if args.out else None

@@ -44,7 +44,7 @@ from ..engines.protocol import BrickSpec, EngineSettings
 from ..engines.pybullet.settings import PyBulletSettings
 from ..engines.settings import SETTINGS, defaults, settings
 from ..lang.bounds import MAX_SIMULATED_TIME
-from ..lang.errors import FieldPath
+from ..lang.errors import FieldPath, ScenarioError
 from ..lang.extras import installed, missing
 from ..lang.schema import BACKEND_FIELDS, Scenario
 from ..lang.schema_impacts import SIDES, AfterLevel, Impact
@@ -88,7 +88,9 @@ def compile_scenario(
     """
     engine = _engine(scenario, mode, backend)
     if engine.backend == "mujoco" and not installed("mujoco"):
-        raise scenario.source.error(("engine", "backend"), missing("mujoco"))
+        if backend is None or backend == scenario.engine.backend:  # the file asks for it: say where
+            raise scenario.source.error(("engine", "backend"), missing("mujoco"))
+        raise ScenarioError(missing("mujoco", f"backend={backend!r}"), file=scenario.source.file)
     nominal = layout(scenario)
     everything = with_placement_error(scenario, nominal)
     bricks = [b for b in everything if not b.fixed]

@@ -36,12 +36,12 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from .batch.check import ScenarioErrors, check
+    from .batch.check import check
     from .compile.compiler import MODE_DEFAULTS, compile_scenario
     from .compile.program import End, Launch, Place, Program, format_program
     from .engines.fake import FakeWorld
     from .engines.protocol import EngineSettings, World
-    from .lang.errors import ScenarioError
+    from .lang.errors import ScenarioError, ScenarioErrors
     from .lang.loader import load_scenario, parse_scenario
     from .lang.schema import Scenario
     from .runtime.loop import StepLoop, Subscriber
@@ -56,7 +56,7 @@ if TYPE_CHECKING:
 #: command can take Ctrl-C while numpy, pybullet and shapely load (about 0.7 s).
 _HOME = {
     "CheckResult": "verdicts.check_result",
-    "ScenarioErrors": "batch.check",
+    "ScenarioErrors": "lang.errors",
     "check": "batch.check",
     "MODE_DEFAULTS": "compile.compiler",
     "compile_scenario": "compile.compiler",

@@ -26,6 +26,8 @@ from stackdsl.cli import check as _cli_check
 from stackdsl.cli import main as _cli
 from stackdsl.cli.main import main
 from stackdsl.cli.progress import Lines, is_live
+from stackdsl.compile import compiler as _compiler
+from stackdsl.lang import jsonschema as _jsonschema
 from stackdsl.verdicts.expect import explain
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -284,7 +286,12 @@ def test_an_internal_error_in_any_command_is_one_line_and_exit_3(command, tmp_pa
         raise KeyError("wheels")
 
     monkeypatch.delenv("STACKDSL_TRACEBACK", raising=False)
-    for module, name in [(_cli, "compile_scenario"), (_judge, "run_program"), (_cli, "json_schema"), (_cli_bench, "run_matrix")]:
+    for module, name in [
+        (_compiler, "compile_scenario"),
+        (_judge, "run_program"),
+        (_jsonschema, "json_schema"),
+        (_cli_bench, "run_matrix"),
+    ]:
         monkeypatch.setattr(module, name, broken)
     path = write(tmp_path, a=PASSING) / "a.yaml"
     args = {"schema": [], "bench": ["--quick", "--out", str(tmp_path)], "compare": [str(path), "-j", "1"]}.get(
@@ -762,7 +769,7 @@ def test_an_os_error_that_is_not_a_refused_path_is_still_a_bug(capsys, monkeypat
     def broken(*args, **kwargs):
         raise OSError(errno.EBADMSG, "Bad message")
 
-    monkeypatch.setattr(_cli, "json_schema", broken)
+    monkeypatch.setattr(_jsonschema, "json_schema", broken)
     assert main(["schema"]) == 3
     assert capsys.readouterr().err.startswith("stackdsl: internal error: OSError: [Errno 74] Bad message")
 

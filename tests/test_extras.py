@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import ast
 import subprocess
 import sys
 from pathlib import Path
@@ -147,3 +148,25 @@ def test_version_loads_nothing_heavy_and_the_startup_bench_runs():
     rows = measure(repeats=1)
     assert [r.what.split()[0] for r in rows] == ["stackdsl", "python", "stackdsl"] and all(r.median > 0 for r in rows)
     assert format_startup(rows).count("\n") == 4
+
+
+def _loaded_after(argv: list[str], names: tuple[str, ...]) -> list[str]:
+    """Which of ``names`` are imported after ``stackdsl ARGV`` in a fresh interpreter."""
+    code = (
+        "import sys; from stackdsl.cli.main import main\n"
+        f"try: main({argv!r})\nexcept SystemExit: pass\n"
+        f"print(sorted(m for m in {names!r} if m in sys.modules))"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
+    return ast.literal_eval(done.stdout.splitlines()[-1])  # the list printed last
+
+
+def test_help_loads_no_command_and_a_command_loads_no_other():
+    heavy = ("numpy", "pydantic", "scipy", "stackdsl.lang.schema", "stackdsl.cli.check", "stackdsl.cli.bench")
+    assert _loaded_after(["--help"], heavy) == []
+    others = ("stackdsl.cli.bench", "stackdsl.bench.bench", "stackdsl.cli.sweep", "stackdsl.cli.check", "stackdsl.batch.judge")
+    assert _loaded_after(["compile", "scenarios/vee_stands.yaml"], others) == []
+    assert _loaded_after(["check", "scenarios/vee_stands.yaml", "-j", "1"], others) == [
+        "stackdsl.batch.judge",
+        "stackdsl.cli.check",
+    ]

@@ -11,6 +11,7 @@ from stackdsl import ScenarioError, ScenarioErrors, load_scenario, parse_scenari
 from stackdsl.batch import check as _check
 from stackdsl.batch.check import discover
 from stackdsl.cli import main as _cli
+from stackdsl.compile import compiler as _compiler
 from stackdsl.lang import loader as _loader
 from stackdsl.lang import scenario_file as _scenario_file
 from stackdsl.lang.loader import MAX_DEPTH
@@ -535,7 +536,7 @@ def never_compiled(monkeypatch):
         raise AssertionError("compiled a bad file")
 
     monkeypatch.setattr(_check, "compile_scenario", refuse)
-    monkeypatch.setattr(_cli, "compile_scenario", refuse)
+    monkeypatch.setattr(_compiler, "compile_scenario", refuse)
 
 
 def test_check_and_compile_stop_at_bad_files(tmp_path, capsys, never_compiled):

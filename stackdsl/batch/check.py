@@ -24,7 +24,7 @@ from typing import Any, NamedTuple
 from ..compile.compiler import compile_scenario
 from ..compile.program import Program
 from ..draw.artefacts import DRAW_ESTIMATE, DRAW_LIMIT
-from ..lang.errors import ScenarioError
+from ..lang.errors import ScenarioError, ScenarioErrors
 from ..lang.expectations import Expect
 from ..lang.loader import load_scenario
 from ..lang.sampling import Template
@@ -44,14 +44,6 @@ class Prepared(NamedTuple):
     program: Program
     expect: Expect
     template: Template | None = None
-
-
-class ScenarioErrors(Exception):
-    """Several files failed to load or compile; ``errors`` holds one ScenarioError each."""
-
-    def __init__(self, errors: list[ScenarioError]) -> None:
-        super().__init__("\n".join(str(e) for e in errors))
-        self.errors = errors
 
 
 def discover(paths: list[str | Path]) -> list[Path]:

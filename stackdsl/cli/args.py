@@ -24,6 +24,32 @@ exit status:
   130  interrupted (Ctrl-C)
   141  the output pipe was closed early (as by | head); nothing more is printed"""
 
+#: The commands of ``stackdsl`` and each one's line in ``stackdsl --help``, in that order. Only the
+#: command given is built in full, so that its modules alone load (:func:`command_of`).
+COMMANDS = {
+    "check": "run scenario files or folders and check their expectations",
+    "compare": "run scenario files or folders in every mode and print one table",
+    "compile": "print the program a scenario compiles to",
+    "run": "run one scenario and print its timeline and outcome",
+    "render": "draw a picture of a run: bricks coloured by state, with a scale bar",
+    "animate": "make a clip of a run (GIF or MP4)",
+    "graph": "plot the brick graph: rests-on edges, load shares, centres of mass against support polygons",
+    "sweep": "run every sample of a scenario's sweep: per-sample files, a summary a grid cell, verdicts, plots",
+    "bench": "speed against error: every engine setting on the same scenes (long)",
+    "schema": "print the JSON Schema of scenario files (for editors)",
+}
+
+
+def command_of(argv: list[str]) -> str | None:
+    """The command ``argv`` names: its first word that is not an option (the command's own
+    options come after it), or None.
+
+    >>> command_of(["--debug", "check", "scenarios/"]), command_of(["--version"])
+    ('check', None)
+    """
+    return next((a for a in argv if not a.startswith("-")), None)
+
+
 #: Ends the one line of an internal error.
 HINT = " (run with --debug for the traceback)"
 

@@ -14,7 +14,7 @@ from ..bench.bench import SETTINGS, UPRIGHT, run_matrix, savings, scenes
 from ..lang.errors import ScenarioError
 from ..lang.extras import installed, missing
 from ..verdicts.expect import describe
-from .args import OK, jobs_type, output_folder
+from .args import COMMANDS, OK, jobs_type, output_folder
 from .progress import Lines
 
 
@@ -24,7 +24,7 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     p = sub.add_parser(
         "bench",
         parents=parents,
-        help="speed against error: every engine setting on the same scenes (long)",
+        help=COMMANDS["bench"],
         description="Speed against error: every engine setting on the same scenes. "
         "`stackdsl bench --out docs/bench` regenerates the committed figures.",
         epilog=epilog,

@@ -17,8 +17,7 @@ from typing import Any
 
 from ..lang.errors import ScenarioError
 from ..lang.extras import installed, missing
-from ..runtime.recorder import RATE
-from .args import at_type, fps_type, rate_type
+from .args import COMMANDS, at_type, fps_type, rate_type
 
 #: Suffixes of trajectory files and of scenario files: what the drawing commands read.
 TRAJECTORY_SUFFIXES = (".npz",)
@@ -27,20 +26,29 @@ SCENARIO_SUFFIXES = (".yaml", ".yml")
 MIN_SIDE, MAX_SIDE = 64, 4096
 
 
-def add_commands(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -> None:
-    """Add render, animate and graph to the ``stackdsl`` parser's subcommands; ``parents``
-    give --debug, --timeout, --mode and --model."""
-    raw = argparse.RawDescriptionHelpFormatter
-    source = "FILE: a scenario (run and recorded first) or a trajectory file (.npz) from 'stackdsl run FILE --record PATH'."
+#: The drawing commands, in the order of ``stackdsl --help``.
+NAMES = ("render", "animate", "graph")
 
+
+def add_commands(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, names: tuple[str, ...] = NAMES) -> None:
+    """Add ``names`` (of render, animate and graph) to the ``stackdsl`` parser's subcommands;
+    ``parents`` give --debug, --timeout, --mode and --model."""
+    for name in names:
+        _ADD[name](sub, parents, epilog)
+
+
+_SOURCE = "FILE: a scenario (run and recorded first) or a trajectory file (.npz) from 'stackdsl run FILE --record PATH'."
+
+
+def _add_render(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -> None:
     p = sub.add_parser(
         "render",
         parents=parents,
-        help="draw a picture of a run: bricks coloured by state, with a scale bar",
+        help=COMMANDS["render"],
         description="Draw the scene at one moment as a PNG, framed on the structure, bricks coloured by state "
-        "(frozen, active, woken, fallen), with the ground, fixed bodies and a scale bar. " + source,
+        "(frozen, active, woken, fallen), with the ground, fixed bodies and a scale bar. " + _SOURCE,
         epilog=epilog,
-        formatter_class=raw,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument(
         "--at",
@@ -54,14 +62,16 @@ def add_commands(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) 
     p.add_argument("--size", default="800x600", metavar="WxH", help=f"pixels, {MIN_SIDE} to {MAX_SIDE} a side (default: 800x600)")
     p.set_defaults(func=_render)
 
+
+def _add_animate(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -> None:
     p = sub.add_parser(
         "animate",
         parents=parents,
-        help="make a clip of a run (GIF or MP4)",
+        help=COMMANDS["animate"],
         description="A clip of the run from the first placement to the end (2 s after a collapse), in real time "
-        "while anything moves, the quiet waits between placements shortened. " + source,
+        "while anything moves, the quiet waits between placements shortened. " + _SOURCE,
         epilog=epilog,
-        formatter_class=raw,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("-o", "--output", required=True, metavar="OUT.gif|OUT.mp4", help="the clip to write")
     p.add_argument(
@@ -70,14 +80,16 @@ def add_commands(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) 
     p.add_argument("--size", default="480x360", metavar="WxH", help=f"pixels, {MIN_SIDE} to {MAX_SIDE} a side (default: 480x360)")
     p.set_defaults(func=_animate)
 
+
+def _add_graph(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -> None:
     p = sub.add_parser(
         "graph",
         parents=parents,
-        help="plot the brick graph: rests-on edges, load shares, centres of mass against support polygons",
+        help=COMMANDS["graph"],
         description="Plot the brick graph as a PNG: who rests on whom with the share of the load each support "
-        "takes, and each brick's centre of mass above against its support polygon. " + source,
+        "takes, and each brick's centre of mass above against its support polygon. " + _SOURCE,
         epilog=epilog,
-        formatter_class=raw,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument(
         "--at",
@@ -89,8 +101,13 @@ def add_commands(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) 
     p.set_defaults(func=_graph)
 
 
+_ADD = {"render": _add_render, "animate": _add_animate, "graph": _add_graph}
+
+
 def add_record_options(p: argparse.ArgumentParser) -> None:
     """``run``'s --record and --rate."""
+    from ..runtime.recorder import RATE
+
     p.add_argument(
         "--record",
         metavar="OUT.npz",
@@ -231,7 +248,3 @@ def _graph(args: argparse.Namespace) -> int:
     graph = trajectory.graphs["collapse" if at == "collapse" else "final"]
     plot_graph(graph, out, title=f"{trajectory.meta.get('scenario', '')}: brick graph at the {at}")
     return _wrote(out, trajectory)
-
-
-#: The drawing commands: their work (reading a trajectory, drawing) runs in this process.
-DRAWING_COMMANDS = (_render, _animate, _graph)

@@ -21,21 +21,23 @@ import traceback
 from pathlib import Path
 from typing import Any, NoReturn
 
-from ..batch.check import ScenarioErrors
-from ..batch.judge import TIMEOUT, run_guarded, stopped_by
-from ..compile.compiler import BACKEND_DEFAULTS, MODE_DEFAULTS, compile_scenario
-from ..compile.program import format_program
-from ..lang.errors import ScenarioError
+from ..lang.errors import ScenarioError, ScenarioErrors
 from ..lang.extras import installed, missing
-from ..lang.jsonschema import json_schema
-from ..lang.loader import load_scenario
-from ..runtime.outcome import describe_certificate
-from ..verdicts.expect import describe, evaluate
-from .args import BAD_INPUT, BROKEN_PIPE, EXIT_STATUS, FAILED, HINT, INTERNAL, INTERRUPTED, OK, jobs_type, refused, timeout_type
-from .bench import add_bench
-from .check import check_command, compare_command
-from .draw import DRAWING_COMMANDS, add_commands, add_record_options
-from .sweep import add_sweep
+from .args import (
+    BAD_INPUT,
+    BROKEN_PIPE,
+    COMMANDS,
+    EXIT_STATUS,
+    FAILED,
+    HINT,
+    INTERNAL,
+    INTERRUPTED,
+    OK,
+    command_of,
+    jobs_type,
+    refused,
+    timeout_type,
+)
 
 MODELS = ["report", "equilibrium"]
 
@@ -64,11 +66,11 @@ def main(argv: list[str] | None = None) -> int:
     else:
         sys.unraisablehook = _ignore
     try:
-        args = _parser().parse_args(argv)
+        args = _parser(argv).parse_args(argv)
         args.debug = debug
         if "mujoco" in [b.strip() for b in str(getattr(args, "backend", None)).split(",")] and not installed("mujoco"):
             raise ScenarioError(missing("mujoco"), file="--backend")
-        if command and args.func in _DRAWING:  # the main process does the work: give it the workers' limit
+        if command and command_of(argv) in _IN_PROCESS:  # the main process does the work: give it the workers' limit
             from ..batch.guard import limit_memory
 
             limit_memory()
@@ -160,31 +162,110 @@ class _Parser(argparse.ArgumentParser):
         self.exit(BAD_INPUT, f"{self.prog}: error: {message} (see: {self.prog} --help)\n")
 
 
-def _parser() -> argparse.ArgumentParser:
-    raw = argparse.RawDescriptionHelpFormatter
+def _parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
+    """The ``stackdsl`` parser. Given ``argv``, only the command it names is built in full, so
+    that only that command's modules load; the others are their line of help (:data:`COMMANDS`)."""
     parser = _Parser(
         prog="stackdsl",
         description="Declarative stacking scenarios for pybullet.",
         epilog=EXIT_STATUS,
-        formatter_class=raw,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action=_Version, nargs=0, help="show the version and exit")
-    debug_help = "on an internal error, print the traceback (also STACKDSL_TRACEBACK=1)"
-    parser.add_argument("--debug", action="store_true", help=debug_help)
+    parser.add_argument("--debug", action="store_true", help=_DEBUG_HELP)
     sub = parser.add_subparsers(required=True, metavar="COMMAND")
-    modes = list(MODE_DEFAULTS)
     common = _Parser(add_help=False)  # --debug after the command too
-    common.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=debug_help)
+    common.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=_DEBUG_HELP)
+    given = None if argv is None else command_of(argv)
+    for name in COMMANDS:
+        if argv is None or name == given:
+            _add_command(sub, name, common)
+        else:
+            sub.add_parser(name, help=COMMANDS[name])
+    return parser
+
+
+_DEBUG_HELP = "on an internal error, print the traceback (also STACKDSL_TRACEBACK=1)"
+_ONE_STATUS = EXIT_STATUS.replace(
+    "  0    every expectation held\n  1    an expectation failed, or a run reached its --timeout\n", "  0    done\n"
+)
+
+
+def _add_command(sub: Any, name: str, common: argparse.ArgumentParser) -> None:
+    """Add command ``name`` (a key of :data:`COMMANDS`) in full; its modules load here."""
+    from .draw import NAMES
+
+    if name in ("check", "compare", "compile", "run") or name in NAMES:
+        _add_scenario_command(sub, name, common)
+    elif name == "sweep":
+        from ..batch.judge import TIMEOUT
+        from .sweep import add_sweep
+
+        add_sweep(
+            sub,
+            [common, _guarded(TIMEOUT)],
+            EXIT_STATUS.replace("  0    every expectation held", "  0    every statistical expectation held (PASS)").replace(
+                "  1    an expectation failed, or a run reached its --timeout",
+                "  1    an expectation failed or was inconclusive, or a run reached its --timeout",
+            ),
+            jobs_type,
+            MODELS,
+            _modes(),
+        )
+    elif name == "bench":
+        from .bench import add_bench
+
+        add_bench(sub, [common], _ONE_STATUS, _modes())
+    else:
+        p = sub.add_parser(
+            "schema",
+            parents=[common],
+            help=COMMANDS["schema"],
+            epilog=_ONE_STATUS,
+            formatter_class=argparse.RawDescriptionHelpFormatter,
+        )
+        p.set_defaults(func=_print_schema)
+
+
+def _modes() -> list[str]:
+    from ..compile.compiler import MODE_DEFAULTS
+
+    return list(MODE_DEFAULTS)
+
+
+def _guarded(timeout: float) -> argparse.ArgumentParser:
+    """The parent parser of the commands that run scenarios: --timeout."""
     guarded = _Parser(add_help=False)
     guarded.add_argument(
         "--timeout",
         type=timeout_type,
-        default=TIMEOUT,
+        default=timeout,
         metavar="SECONDS",
-        help=f"wall seconds a scenario may run before it is stopped and fails (default: {TIMEOUT:g}); "
+        help=f"wall seconds a scenario may run before it is stopped and fails (default: {timeout:g}); "
         "worker processes may also map at most 4 GiB each",
     )
+    return guarded
 
+
+def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) -> None:
+    """Add check, compare, compile, run, or a drawing command (:mod:`stackdsl.cli.draw`)."""
+    from ..compile.compiler import BACKEND_DEFAULTS
+
+    raw = argparse.RawDescriptionHelpFormatter
+    modes = _modes()
+    one = _Parser(add_help=False, parents=[common])
+    one.add_argument("file")
+    one.add_argument("--mode", choices=modes, help="override the scenario's engine mode")
+    one.add_argument("--model", choices=MODELS, help="override the scenario's stability model")
+    one.add_argument("--backend", choices=list(BACKEND_DEFAULTS), help="override the scenario's engine")
+    if name == "compile":  # the one that runs nothing
+        p = sub.add_parser("compile", parents=[one], help=COMMANDS["compile"], epilog=_ONE_STATUS, formatter_class=raw)
+        p.add_argument("--json", action="store_true", help="print the Program as JSON")
+        p.set_defaults(func=_compile)
+        return
+    from ..batch.judge import TIMEOUT
+
+    guarded = _guarded(TIMEOUT)
     many = _Parser(add_help=False, parents=[common, guarded])
     many.add_argument("paths", nargs="+", metavar="PATH", help="scenario files, or folders searched for *.yaml")
     many.add_argument("--model", choices=MODELS, help="override every scenario's stability model")
@@ -208,102 +289,85 @@ def _parser() -> argparse.ArgumentParser:
         help="only the scenarios whose file path or name contains PATTERN (plain text, case-insensitive)",
     )
     many.add_argument("--json", action="store_true", help="print one JSON document of every result instead of the table")
-    one = _Parser(add_help=False, parents=[common])
-    one.add_argument("file")
-    one.add_argument("--mode", choices=modes, help="override the scenario's engine mode")
-    one.add_argument("--model", choices=MODELS, help="override the scenario's stability model")
-    one.add_argument("--backend", choices=list(BACKEND_DEFAULTS), help="override the scenario's engine")
+    if name == "check":
+        from .check import check_command
 
-    p = sub.add_parser(
-        "check",
-        parents=[many],
-        help="run scenario files or folders and check their expectations",
-        description="Run scenario files or folders and check their expectations: a row per scenario as it "
-        "finishes (under a progress line on a terminal), what moved under each FAIL, then a summary.",
-        epilog=EXIT_STATUS,
-        formatter_class=raw,
-    )
-    p.add_argument("--mode", choices=modes, help="override every scenario's engine mode")
-    p.add_argument("-x", "--exitfirst", action="store_true", help="stop after the first failure (runs not started are cancelled)")
-    p.add_argument("--junit-xml", metavar="FILE", help="also write JUnit XML to FILE: one testcase per scenario")
-    p.add_argument(
-        "--report",
-        metavar="DIR",
-        help="also record every run and write DIR/index.html: a row per scenario (failures first) with a picture at "
-        "the collapse or the end, the timeline, a clip and a brick-graph plot, then a summary (made if missing)",
-    )
-    p.set_defaults(func=check_command)
-
-    p = sub.add_parser(
-        "compare",
-        parents=[many],
-        help="run scenario files or folders in every mode and print one table",
-        description="Run scenario files or folders in every mode, in one run, and print one table.",
-        epilog=EXIT_STATUS.replace(
-            "  0    every expectation held\n  1    an expectation failed, or a run reached its --timeout\n",
-            "  0    the table was printed\n",
+        p = sub.add_parser(
+            "check",
+            parents=[many],
+            help=COMMANDS["check"],
+            description="Run scenario files or folders and check their expectations: a row per scenario as it "
+            "finishes (under a progress line on a terminal), what moved under each FAIL, then a summary.",
+            epilog=EXIT_STATUS,
+            formatter_class=raw,
         )
-        + "\n\nFAIL cells are results, not errors: compare exits 0 once its table is printed.",
-        formatter_class=raw,
-    )
-    p.add_argument("--modes", default=",".join(modes), help=f"comma-separated (default: {','.join(modes)})")
-    p.set_defaults(func=compare_command)
+        p.add_argument("--mode", choices=modes, help="override every scenario's engine mode")
+        p.add_argument(
+            "-x", "--exitfirst", action="store_true", help="stop after the first failure (runs not started are cancelled)"
+        )
+        p.add_argument("--junit-xml", metavar="FILE", help="also write JUnit XML to FILE: one testcase per scenario")
+        p.add_argument(
+            "--report",
+            metavar="DIR",
+            help="also record every run and write DIR/index.html: a row per scenario (failures first) with a picture at "
+            "the collapse or the end, the timeline, a clip and a brick-graph plot, then a summary (made if missing)",
+        )
+        p.set_defaults(func=check_command)
+    elif name == "compare":
+        from .check import compare_command
 
-    one_status = EXIT_STATUS.replace(
-        "  0    every expectation held\n  1    an expectation failed, or a run reached its --timeout\n", "  0    done\n"
-    )
-    p = sub.add_parser(
-        "compile", parents=[one], help="print the program a scenario compiles to", epilog=one_status, formatter_class=raw
-    )
-    p.add_argument("--json", action="store_true", help="print the Program as JSON")
-    p.set_defaults(func=_compile)
+        p = sub.add_parser(
+            "compare",
+            parents=[many],
+            help=COMMANDS["compare"],
+            description="Run scenario files or folders in every mode, in one run, and print one table.",
+            epilog=EXIT_STATUS.replace(
+                "  0    every expectation held\n  1    an expectation failed, or a run reached its --timeout\n",
+                "  0    the table was printed\n",
+            )
+            + "\n\nFAIL cells are results, not errors: compare exits 0 once its table is printed.",
+            formatter_class=raw,
+        )
+        p.add_argument("--modes", default=",".join(modes), help=f"comma-separated (default: {','.join(modes)})")
+        p.set_defaults(func=compare_command)
+    elif name == "run":
+        from .draw import add_record_options
 
-    p = sub.add_parser(
-        "run",
-        parents=[one, guarded],
-        help="run one scenario and print its timeline and outcome",
-        epilog=EXIT_STATUS + "\n\nWith --json too, the exit status is 1 when an expectation failed.",
-        formatter_class=raw,
-    )
-    p.add_argument(
-        "--json", action="store_true", help="print the whole Outcome as JSON (exit 1 still means a failed expectation)"
-    )
-    add_record_options(p)
-    p.set_defaults(func=_run)
+        p = sub.add_parser(
+            "run",
+            parents=[one, guarded],
+            help=COMMANDS["run"],
+            epilog=EXIT_STATUS + "\n\nWith --json too, the exit status is 1 when an expectation failed.",
+            formatter_class=raw,
+        )
+        p.add_argument(
+            "--json", action="store_true", help="print the whole Outcome as JSON (exit 1 still means a failed expectation)"
+        )
+        add_record_options(p)
+        p.set_defaults(func=_run)
+    else:
+        from .draw import add_commands
 
-    add_commands(sub, [one, guarded], one_status)
-    add_sweep(
-        sub,
-        [common, guarded],
-        EXIT_STATUS.replace("  0    every expectation held", "  0    every statistical expectation held (PASS)").replace(
-            "  1    an expectation failed, or a run reached its --timeout",
-            "  1    an expectation failed or was inconclusive, or a run reached its --timeout",
-        ),
-        jobs_type,
-        MODELS,
-        modes,
-    )
-
-    add_bench(sub, [common], one_status, modes)
-
-    p = sub.add_parser(
-        "schema",
-        parents=[common],
-        help="print the JSON Schema of scenario files (for editors)",
-        epilog=one_status,
-        formatter_class=raw,
-    )
-    p.set_defaults(func=_print_schema)
-    return parser
+        add_commands(sub, [one, guarded], _ONE_STATUS, (name,))
 
 
 def _compile(args: argparse.Namespace) -> int:
+    from ..compile.compiler import compile_scenario
+    from ..compile.program import format_program
+    from ..lang.loader import load_scenario
+
     program = compile_scenario(load_scenario(args.file), args.mode, args.model, args.backend)
     print(program.model_dump_json(indent=2) if args.json else format_program(program))
     return OK
 
 
 def _run(args: argparse.Namespace) -> int:
+    from ..batch.judge import run_guarded, stopped_by
+    from ..compile.compiler import compile_scenario
+    from ..lang.loader import load_scenario
+    from ..runtime.outcome import describe_certificate
+    from ..verdicts.expect import describe, evaluate
+
     scenario = load_scenario(args.file)
     program = compile_scenario(scenario, args.mode, args.model, args.backend)
     if args.rate is not None and not args.record:
@@ -351,6 +415,8 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _print_schema(args: argparse.Namespace) -> int:
+    from ..lang.jsonschema import json_schema
+
     print(json.dumps(json_schema(), indent=2))
     return OK
 
@@ -361,4 +427,4 @@ if __name__ == "__main__":  # pragma: no cover
 
 #: Commands whose work runs in this process (drawing, reading trajectories, one recorded run):
 #: they get the address-space limit the workers of ``check`` have.
-_DRAWING = {*DRAWING_COMMANDS, _run}
+_IN_PROCESS = {"render", "animate", "graph", "run"}

@@ -14,7 +14,7 @@ from typing import Any
 
 from ..lang.errors import ScenarioError
 from ..lang.extras import installed, missing
-from .args import output_folder
+from .args import COMMANDS, output_folder
 
 
 def add_sweep(
@@ -24,7 +24,7 @@ def add_sweep(
     p = sub.add_parser(
         "sweep",
         parents=parents,
-        help="run every sample of a scenario's sweep: per-sample files, a summary a grid cell, verdicts, plots",
+        help=COMMANDS["sweep"],
         description="Run every sample of FILE's sweep (its random fields drawn from the k-th child of its seed, for each "
         "grid cell), write samples.csv and samples.jsonl, histograms and the grid plot to --out, and print for each "
         "grid cell the distribution of collapse levels and the verdict of each statistical expectation (PASS or "

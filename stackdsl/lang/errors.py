@@ -59,6 +59,14 @@ class ScenarioError(Exception):
         return "\n".join(lines)
 
 
+class ScenarioErrors(Exception):
+    """Several files failed to load or compile; ``errors`` holds one ScenarioError each."""
+
+    def __init__(self, errors: list[ScenarioError]) -> None:
+        super().__init__("\n".join(str(e) for e in errors))
+        self.errors = errors
+
+
 SHOWN_LINE_CHARS = 120  # an error shows at most this much of its source line
 
 

@@ -153,7 +153,8 @@ def test_drawing_commands_have_exit_statuses_in_their_help(command, capsys):
 
 def test_bench_record_times_recording_off_and_on_alternately(files, capsys):
     assert main(["bench", "record", str(files / "stands.yaml"), "--repeats", "2"]) == 0
-    lines = capsys.readouterr().out.splitlines()
+    versions, *lines = capsys.readouterr().out.splitlines()
+    assert versions.startswith("engines: pybullet ")
     assert lines[0].endswith("2 runs each, alternating, in one process")
     rows = {line.split("  ")[0]: line for line in lines[2:]}
     assert set(rows) == {"recording off", "recording at 30 Hz while moving", "recording every step while moving"}

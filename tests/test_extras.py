@@ -136,18 +136,22 @@ def test_bench_says_when_the_engines_are_not_the_measured_versions(tmp_path, mon
     assert "no constraints.txt" in versions.version_line(tmp_path / "absent.txt")
 
 
-def test_version_loads_nothing_heavy_and_the_startup_bench_runs():
+def test_version_loads_nothing_heavy_and_the_startup_bench_runs(capsys):
     code = (
         "import sys; sys.argv = ['stackdsl', '--version']; from stackdsl._entry import main; main(); "
         "print(sorted(m for m in ('scipy','pybullet','mujoco','matplotlib','distributed','numpy','pydantic') if m in sys.modules))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.splitlines()
     assert out[0].startswith("stackdsl ") and out[1] == "[]"
-    from stackdsl.bench.startup import format_startup, measure
-
-    rows = measure(repeats=1)
-    assert [r.what.split()[0] for r in rows] == ["stackdsl", "python", "stackdsl"] and all(r.median > 0 for r in rows)
-    assert format_startup(rows).count("\n") == 4
+    assert main(["bench", "startup", "--repeats", "1"]) == 0
+    versions, head, _, *rows = capsys.readouterr().out.splitlines()
+    assert versions.startswith("engines: pybullet ") and head.startswith("| command | median wall | target |")
+    assert [r.split(" | ")[0] for r in rows] == [
+        "| stackdsl --version",
+        "| python -c 'import stackdsl'",
+        "| stackdsl check vee_stands.yaml",
+    ]
+    assert all(float(r.split(" | ")[1].removesuffix(" s")) > 0 for r in rows)
 
 
 def _loaded_after(argv: list[str], names: tuple[str, ...]) -> list[str]:

@@ -234,7 +234,8 @@ def test_bench_sweep_measures_a_sweep_file_on_every_executor(tmp_path, capsys):
     path = tmp_path / "stack.yaml"
     path.write_text(STACK.format(levels=4, samples=50))
     assert main(["bench", "sweep", str(path), "--samples", "6"]) == 0
-    lines = capsys.readouterr().out.splitlines()
+    versions, *lines = capsys.readouterr().out.splitlines()
+    assert versions.startswith("engines: pybullet ")
     assert lines[0] == "random single-file stack: 6 samples on each executor"
     rows = [line for line in lines if line.split()[0] in ("1", "2", "Dask")]
     assert len(rows) == 3 and all(float(row.split(" s ")[0].split()[-1]) > 0 for row in rows)

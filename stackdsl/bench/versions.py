@@ -1,7 +1,8 @@
 """The engine versions a benchmark ran on, beside the ones ``constraints.txt`` was measured with.
 
-Every ``stackdsl bench`` command prints :func:`version_line` first, so that a number in its
-output can be told apart from one measured on another engine version.
+Every ``stackdsl bench`` command that runs an engine (all but ``solve``) prints
+:func:`version_line` first, so that a number in its output can be told apart from one
+measured on another engine version.
 
 Source: stackdsl's own.
 """

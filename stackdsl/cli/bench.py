@@ -283,6 +283,9 @@ def _bench_record(args: argparse.Namespace) -> int:
         problem = check_interpreter(args.before)
         if problem:
             raise ScenarioError(problem, file=args.before)
+    from ..bench.versions import version_line
+
+    print(version_line(), flush=True)
     print(format_record_costs(record_costs(args.scenario, args.repeats, args.mode), args.scenario), flush=True)
     if args.before:
         from ..bench.record import before_and_after, format_before_and_after
@@ -300,9 +303,11 @@ def _bench_sweep(args: argparse.Namespace) -> int:
 
     if args.samples is not None and not 1 <= args.samples <= 100_000:
         raise ScenarioError(f"--samples must be from 1 to 100000, not {args.samples}", file="--samples")
+    from ..bench.versions import version_line
+
     _need("dask", "stackdsl bench sweep")  # its last row is a Dask cluster
     t = template(args.samples if args.samples or args.file else 1000, args.file)
-    print(title(t), HEADER, sep="\n", flush=True)
+    print(version_line(), title(t), HEADER, sep="\n", flush=True)
     rows: list[Throughput] = []
 
     def each(row: Throughput) -> None:
@@ -380,8 +385,10 @@ def _bench_verdicts(args: argparse.Namespace) -> int:
 
 def _bench_startup(args: argparse.Namespace) -> int:
     from ..bench.startup import format_startup, measure
+    from ..bench.versions import version_line
 
     if not 1 <= args.repeats <= 100:
         raise ScenarioError(f"--repeats must be from 1 to 100, not {args.repeats}", file="--repeats")
+    print(version_line(), flush=True)
     print(format_startup(measure(args.repeats)))
     return OK

@@ -3,12 +3,14 @@ lost alone, the guards every worker has (Ctrl-C ignored, memory limited, ended w
 parent), and no process left behind by `stackdsl check` however it ends."""
 
 import ctypes
+import itertools
 import os
 import signal
 import subprocess
 import sys
 import threading
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import ClassVar
 
@@ -107,6 +109,37 @@ def test_cheap_work_starts_no_worker(monkeypatch):
 
     monkeypatch.setattr(_pool, "Workers", no_workers)
     assert list(_pool.fan_out(abs, [(-1,), (-2,)], [0.1, 0.1], jobs=2)) == [1, 2]
+
+
+def test_tasks_of_one_cost_are_read_as_they_are_handed_out(ready_workers):
+    """An endless stream of tasks: the workers get them one by one, and closing the results
+    after a few stops there (a list would never be built, let alone finished)."""
+    taken = []
+
+    def endless():
+        for i in itertools.count():
+            taken.append(i)
+            yield (-i,)
+
+    results = _pool.fan_out(abs, endless(), 1.0, jobs=2, here=False)
+    got = [next(results) for _ in range(6)]
+    results.close()
+    assert len(set(got)) == 6 and set(got) <= set(taken) and len(taken) < 20
+
+
+def test_an_executor_holds_at_most_its_window_of_an_endless_stream():
+    taken = []
+
+    def endless():
+        for i in itertools.count():
+            taken.append(i)
+            yield (-i,)
+
+    with ThreadPoolExecutor(2) as executor:
+        results = _pool.on_executor(executor, abs, endless(), window=3)
+        got = [next(results) for _ in range(5)]
+        results.close()
+    assert len(set(got)) == 5 and set(got) <= set(taken) and len(taken) <= 5 + 2 * 3  # done, not yet yielded, and running
 
 
 def test_closing_the_results_stops_the_workers(ready_workers):

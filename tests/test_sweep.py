@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import csv
 import json
+from collections.abc import Iterator
 from dataclasses import replace
+from itertools import islice
 from pathlib import Path
 
 import pytest
@@ -55,10 +57,19 @@ def test_batches_cover_every_sample_once_and_never_mix_cells():
     )
     t = parse_scenario(text, "g.yaml").template
     t = replace(t, samples=50)
-    plan = batches(t, workers=2)
+    plan = list(batches(t, workers=2))
     seen = [(c, k) for c, samples in plan for k in samples]
     assert sorted(seen) == [(c, k) for c in range(3) for k in range(50)]
     assert all(len(samples) <= 32 for _, samples in plan) and len(plan) >= 2 * 6
+
+
+def test_batches_are_made_as_they_are_taken():
+    """A sweep at the run cap is never a list of batches: taking the first few reads only them."""
+    t = replace(parse_scenario(STACK.format(levels=4, samples=50), "g.yaml").template, samples=200_000)
+    plan = batches(t, workers=2)
+    assert isinstance(plan, Iterator)
+    first = list(islice(plan, 3))
+    assert [(c, s.start, s.stop) for c, s in first] == [(0, 0, 32), (0, 32, 64), (0, 64, 96)]
 
 
 def test_a_local_dask_cluster_needs_a_sensible_size():

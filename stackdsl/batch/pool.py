@@ -37,9 +37,10 @@ import signal
 import time
 import traceback
 from collections import deque
-from collections.abc import Callable, Generator, Sequence
-from concurrent.futures import Executor, as_completed
+from collections.abc import Callable, Generator, Iterable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, Executor, wait
 from dataclasses import dataclass, field
+from itertools import islice
 from typing import Any, TypeVar
 
 from .guard import MEMORY_LIMIT, SPAWN
@@ -96,8 +97,8 @@ class RemoteTraceback(Exception):
 
 def fan_out(
     fn: Callable[..., T],
-    tasks: Sequence[tuple[Any, ...]],
-    costs: Sequence[float],
+    tasks: Iterable[tuple[Any, ...]],
+    costs: Sequence[float] | float,
     jobs: int,
     *,
     limit: float | None = None,
@@ -108,7 +109,10 @@ def fan_out(
 
     Args:
         fn: a module-level function (it is pickled to the workers), as are the tasks.
-        costs: one estimate per task (seconds, :attr:`stackdsl.Program.wall_estimate`).
+        tasks: a sequence with ``costs``, or, with one cost for all, any iterable, read
+            only as tasks are handed out (a generator of a million is never a list).
+        costs: one estimate per task, or one for every task (seconds,
+            :attr:`stackdsl.Program.wall_estimate`).
         jobs: runs at the same time, this process included (>= 1).
         limit: wall seconds a worker may spend on one task before it is stopped (None: no
             limit). Tasks run in this process are not limited here.
@@ -121,19 +125,19 @@ def fan_out(
             about the same size, such as a sweep's batches).
 
     Raises:
+        ValueError: ``jobs`` below 1, or one cost a task for tasks that are not a sequence.
         whatever ``fn`` raises, when its result is reached (from a worker, with the worker's
         traceback as a :class:`RemoteTraceback` cause); :class:`WorkerLost` when a worker
         is lost and ``lost`` is None.
     """
     if jobs < 1:
         raise ValueError(f"jobs must be at least 1, not {jobs}")
-    workers = min(jobs, len(tasks)) - (1 if here or jobs == 1 else 0)
-    if workers < 1 or sum(costs) < STARTUP:
-        for task in tasks:
+    pending = _Pending(tasks, costs, enough=max(jobs, 1))
+    workers = min(jobs, pending.known) - (1 if here or jobs == 1 else 0)
+    if workers < 1 or pending.cost < STARTUP:
+        for task in pending.in_order():
             yield fn(*task)
         return
-    by_cost = sorted(range(len(tasks)), key=lambda i: -costs[i])
-    pending = deque(tasks[i] for i in by_cost)  # longest first
     pool = Workers(workers)
     try:
         running: dict[int, tuple[Any, ...]] = {}
@@ -151,23 +155,82 @@ def fan_out(
                 else:
                     yield done.value()
             while pending and pool.ready:
-                task = pending.popleft()
+                task = pending.longest()
                 running[pool.submit(fn, *task, limit=limit)] = task
             if pending and here:
-                yield fn(*pending.pop())  # the cheapest, here
+                yield fn(*pending.cheapest())
     finally:
         pool.stop()
 
 
-def on_executor(executor: Executor, fn: Callable[..., T], tasks: Sequence[tuple[Any, ...]]) -> Generator[T, None, None]:
-    """``fn(*task)`` for every task on a caller's executor, yielded as each finishes;
-    closing the iterator cancels what has not started."""
-    futures = [executor.submit(fn, *task) for task in tasks]
+class _Pending:
+    """The tasks not yet handed out. Tasks with a cost each are sorted, longest first; tasks of
+    one cost are read from their iterable only as far as needed: enough for ``enough`` workers
+    and :data:`STARTUP` seconds of work, then one at a time."""
+
+    def __init__(self, tasks: Iterable[tuple[Any, ...]], costs: Sequence[float] | float, enough: int) -> None:
+        self._lazy = isinstance(costs, (int, float))
+        self._given: Sequence[tuple[Any, ...]] = ()
+        if isinstance(costs, (int, float)):
+            self._rest: Iterator[tuple[Any, ...]] = iter(tasks)
+            self._head: deque[tuple[Any, ...]] = deque()
+            for task in self._rest:
+                self._head.append(task)
+                if len(self._head) >= enough and len(self._head) * costs >= STARTUP:
+                    break
+            self.cost = len(self._head) * costs
+        else:
+            if not isinstance(tasks, Sequence):
+                raise ValueError("a cost for each task needs the tasks as a sequence")
+            order = sorted(range(len(tasks)), key=lambda i: -costs[i])
+            self._head = deque(tasks[i] for i in order)
+            self._rest = iter(())
+            self._given = tasks
+            self.cost = sum(costs)
+        #: tasks known so far (all of them when they came with costs)
+        self.known = len(self._head)
+
+    def __bool__(self) -> bool:
+        if not self._head:
+            self._head.extend(islice(self._rest, 1))
+        return bool(self._head)
+
+    def longest(self) -> tuple[Any, ...]:
+        """The next task to hand out (call only when this is true)."""
+        return self._head.popleft()
+
+    def cheapest(self) -> tuple[Any, ...]:
+        """The cheapest task left, for this process to run (the next one, for tasks of one cost)."""
+        return self.longest() if self._lazy else self._head.pop()
+
+    def in_order(self) -> Iterator[tuple[Any, ...]]:
+        """Every task in the order given (for a run all in this process; read only once)."""
+        if not self._lazy:
+            yield from self._given
+            return
+        yield from self._head
+        yield from self._rest
+
+
+def on_executor(
+    executor: Executor, fn: Callable[..., T], tasks: Iterable[tuple[Any, ...]], *, window: int | None = None
+) -> Generator[T, None, None]:
+    """``fn(*task)`` for every task on a caller's executor, yielded as each finishes; closing
+    the iterator cancels what has not started.
+
+    ``window``: at most this many tasks submitted and not yet back; the tasks are read from
+    their iterable as results come in (None: all submitted at once).
+    """
+    stream = iter(tasks)
+    running = {executor.submit(fn, *task) for task in islice(stream, window)}
     try:
-        for future in as_completed(futures):
-            yield future.result()
+        while running:
+            done, running = wait(running, return_when=FIRST_COMPLETED)
+            running |= {executor.submit(fn, *task) for task in islice(stream, len(done))}
+            for future in done:
+                yield future.result()
     finally:
-        for future in futures:
+        for future in running:
             future.cancel()
 
 

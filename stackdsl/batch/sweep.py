@@ -17,7 +17,7 @@ import logging
 import math
 import shutil
 import tempfile
-from collections.abc import Callable, Generator, Iterator
+from collections.abc import Callable, Generator, Iterator, Sequence
 from concurrent.futures import Executor
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass
@@ -35,6 +35,9 @@ from .pool import WorkerLost, fan_out, on_executor
 #: the workers finish together.
 MAX_BATCH = 32
 BATCHES_A_WORKER = 6
+#: Batches handed to an executor ahead of its results, a worker thread: enough to keep it busy,
+#: few enough that a sweep's batches are made as they are needed.
+WINDOW = 4
 
 
 @dataclass(frozen=True)
@@ -87,7 +90,7 @@ class SweepOptions:
     backend: str | None = None
 
 
-def run_batch(template: Template, cell: int, samples: list[int], options: SweepOptions) -> list[SampleResult]:
+def run_batch(template: Template, cell: int, samples: Sequence[int], options: SweepOptions) -> list[SampleResult]:
     """Draw, compile and run ``samples`` of ``cell`` (the unit of work a worker is given).
 
     A sample the language refuses, or whose run fails, is that sample's result (``bad_input``,
@@ -139,16 +142,20 @@ def _oracle(program: Any) -> tuple[int | None, str]:
         return None, str(exc)
 
 
-def batches(template: Template, workers: int) -> list[tuple[int, list[int]]]:
-    """(cell, samples) batches covering the sweep: about :data:`BATCHES_A_WORKER` a worker, at most
-    :data:`MAX_BATCH` samples each; a batch never mixes cells."""
+def batch_size(template: Template, workers: int) -> int:
+    """Samples a batch of ``template`` holds: about :data:`BATCHES_A_WORKER` batches a worker,
+    at most :data:`MAX_BATCH` samples each."""
     total = template.cells * template.samples
-    size = max(1, min(MAX_BATCH, math.ceil(total / (max(1, workers) * BATCHES_A_WORKER))))
-    return [
-        (c, list(range(start, min(start + size, template.samples))))
-        for c in range(template.cells)
-        for start in range(0, template.samples, size)
-    ]
+    return max(1, min(MAX_BATCH, math.ceil(total / (max(1, workers) * BATCHES_A_WORKER))))
+
+
+def batches(template: Template, workers: int) -> Iterator[tuple[int, range]]:
+    """(cell, samples) batches covering the sweep, generated as they are taken, each of
+    :func:`batch_size` samples at most; a batch never mixes cells."""
+    size = batch_size(template, workers)
+    for c in range(template.cells):
+        for start in range(0, template.samples, size):
+            yield c, range(start, min(start + size, template.samples))
 
 
 def run_sweep(
@@ -170,14 +177,13 @@ def run_sweep(
 
     Closing the generator cancels the batches not started and stops the pool's workers.
     """
-    plan = batches(template, workers or jobs)
-    tasks = [(template, cell, samples, options) for cell, samples in plan]
+    tasks = ((template, cell, samples, options) for cell, samples in batches(template, workers or jobs))
     if executor is not None:
-        return on_executor(executor, run_batch, tasks)
-    per_sample = _estimate(template, options)
-    costs = [per_sample * len(samples) for _, samples in plan]
-    limit = None if options.timeout is None else (options.timeout + 10.0) * max(len(s) for _, s in plan)
-    return fan_out(run_batch, tasks, costs, jobs, limit=limit, lost=_lost, here=False)
+        return on_executor(executor, run_batch, tasks, window=WINDOW * (workers or jobs))
+    size = batch_size(template, workers or jobs)
+    limit = None if options.timeout is None else (options.timeout + 10.0) * size
+    cost = _estimate(template, options) * size
+    return fan_out(run_batch, tasks, cost, jobs, limit=limit, lost=_lost, here=False)
 
 
 def _estimate(template: Template, options: SweepOptions) -> float:

@@ -143,7 +143,7 @@ def test_negative_size():
         """
     )
     assert (err.line, err.column, err.field) == (3, 26, "brick_types.plank.size[1]")
-    assert "expected a side from 3 mm to 10 m" in err.message and "-24 mm" in err.message
+    assert "expected a side from 1.5 mm to 10 m" in err.message and "-24 mm" in err.message
 
 
 def test_string_where_a_number_belongs():

@@ -154,7 +154,7 @@ REFUSED = {
         "impacts: [{target: {level: 2, side: +x}, direction: [1.0e+308, 1.0e+308, 0], speed: 1, at: 1 s}]"
     ),
     "an infinite direction": doc("impacts: [{target: {level: 2, side: +x}, direction: [.inf, 1, 0], speed: 1, at: 1 s}]"),
-    "a brick side below 3 mm": doc("brick_types: {plank: {size: [0.12, 0.024, 0.0025]}}"),
+    "a brick side below 1.5 mm": doc("brick_types: {plank: {size: [0.12, 0.024, 0.001]}}"),
     "a brick side over 10 m": doc("brick_types: {plank: {size: [11, 1, 1]}}"),
     "an origin 1e15 m away": doc("structure: {tower: {levels: 3, origin: [1.0e+15, 0]}}"),
     "a brick placed over 1 km up": doc("structure: {bricks: [{at: [0, 0, 1001]}]}"),
@@ -512,7 +512,7 @@ OUT_OF_RANGE = {
         "brick_types.tiny.size[1]",
         2,
         35,
-        "expected a side from 3 mm to 10 m, got '1 mm'; a smaller brick is below what pybullet resolves at 1/240 s",
+        "expected a side from 1.5 mm to 10 m, got '1 mm'; a smaller brick is below what any engine here simulates",
     ),
     "a density of 1e300 kg/m^3": (
         "materials: {osmium: {density: 1e300 kg/m^3}}\nstructure: {tower: {levels: 2}}",
@@ -549,7 +549,7 @@ def test_a_number_out_of_its_range_is_refused_at_its_field(case):
 
 
 def test_the_smallest_side_is_what_pybullet_resolves():
-    """The floor on brick sides (3 mm) is measured: a cube of 3 mm resting on the ground stays within
+    """pybullet's floor on brick sides (3 mm, its Limits.min_side) is measured: a cube of 3 mm resting on the ground stays within
     half its side (the default collapse threshold) at every step in raw and extension modes; one of
     2.5 mm does not (it rocks 1.26 mm as it lands, then settles back: no collapse, since it does not
     stay moved, but pybullet does not hold it). The 2.5 mm cube is built from the 3 mm one's

@@ -18,6 +18,7 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Generator, Iterable
 from concurrent.futures import Executor
+from itertools import chain
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -77,9 +78,15 @@ def prepare(
     modes: tuple[str, ...] = (),
     model: str | None = None,
     backends: tuple[str | None, ...] = (None,),
+    refused: list[CheckResult] | None = None,
 ) -> list[Prepared]:
     """Load and compile every file (on each of ``backends``, in each of ``modes`` when
     given, with the stability ``model`` when given); nothing is simulated.
+
+    Args:
+        refused: given (a comparison), a file that compiles as written but that a compared
+            engine or mode refuses (beyond what it simulates faithfully) gets a result here
+            with :attr:`CheckResult.refused`, in place of an error.
 
     Raises:
         ScenarioErrors: one error per bad file.
@@ -91,12 +98,39 @@ def prepare(
             sweep = scenario.template if scenario.sweep is not None else None
             for backend in backends:
                 for m in modes or (mode,):
-                    prepared.append(Prepared(path, compile_scenario(scenario, m, model, backend), scenario.expect, sweep))
+                    try:
+                        program = compile_scenario(scenario, m, model, backend)
+                    except ScenarioError as exc:
+                        if refused is None or (m is None and backend is None):
+                            raise
+                        compile_scenario(scenario, None, model)  # as written: a bad file is an error still
+                        refused.append(_refusal(path, scenario, m, model, backend, exc))
+                        continue
+                    prepared.append(Prepared(path, program, scenario.expect, sweep))
         except ScenarioError as exc:
             errors.append(exc)
     if errors:
         raise ScenarioErrors(errors)
     return prepared
+
+
+def _refusal(
+    path: Path, scenario: Any, mode: str | None, model: str | None, backend: str | None, exc: ScenarioError
+) -> CheckResult:
+    """A comparison's cell for a scene an engine or mode refused: nothing ran."""
+    return CheckResult(
+        file=str(path),
+        scenario=scenario.name or "scenario",
+        mode=mode or scenario.engine.mode,
+        model=model or scenario.stability.model,
+        verdicts=(),
+        collapse_level=None,
+        levels_placed=0,
+        simulated_time=0.0,
+        wall_time=0.0,
+        backend=backend or scenario.engine.backend,
+        refused=exc.message,
+    )
 
 
 def select(prepared: list[Prepared], pattern: str | None) -> list[Prepared]:
@@ -233,8 +267,10 @@ def compare(
     Raises:
         ScenarioErrors: a file is missing or invalid (before anything runs).
     """
-    prepared = select(prepare(discover(paths), modes=modes, model=model), pattern)
-    return tabulate(prepared, modes, run_checks(prepared, jobs, timeout=timeout))
+    refused: list[CheckResult] = []
+    prepared = select(prepare(discover(paths), modes=modes, model=model, refused=refused), pattern)
+    chosen = {str(p.path) for p in prepared}
+    return tabulate(prepared, modes, chain((r for r in refused if r.file in chosen), run_checks(prepared, jobs, timeout=timeout)))
 
 
 def tabulate(
@@ -248,6 +284,6 @@ def tabulate(
     too; ``each`` is called with every result as it comes."""
     table: dict[str, dict[str, CheckResult]] = {str(p.path): {} for p in prepared}
     for r in results:
-        table[r.file][r.mode if r.mode in modes else f"{r.backend} {r.mode}"] = r
+        table.setdefault(r.file, {})[r.mode if r.mode in modes else f"{r.backend} {r.mode}"] = r
         each(r)
     return {file: {m: row[m] for m in modes if m in row} for file, row in table.items()}

@@ -1,4 +1,4 @@
-"""``stackdsl bench``: speed against error, and its sub-benchmarks solve, height, hard, record, sweep, verdicts,
+"""``stackdsl bench``: speed against error, and its sub-benchmarks solve, height, hard, limits, record, sweep, verdicts,
 freeze and startup.
 
 Source: stackdsl's own.
@@ -52,7 +52,8 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     )
     p.set_defaults(func=_bench)
     bench = p.add_subparsers(
-        metavar="[solve | height | hard | record | sweep | verdicts | freeze | startup]", title="other benchmarks (optional)"
+        metavar="[solve | height | hard | limits | record | sweep | verdicts | freeze | startup]",
+        title="other benchmarks (optional)",
     )
     q = bench.add_parser("solve", help="equilibrium solve time for towers of 10 to 100 bricks")
     q.add_argument("--sizes", default="10,25,50,100", help="bricks per tower, comma-separated")
@@ -125,6 +126,9 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     q = bench.add_parser("freeze", help="the ways to freeze a brick on MuJoCo: weld, its own sleeping, a held mocap body")
     q.add_argument("--levels", default="10,30,60", help="tower heights, comma-separated")
     q.set_defaults(func=_bench_freeze)
+    q = bench.add_parser("limits", help="each engine's own limits measured past them: smallest side, fastest throw, mass ratio")
+    q.add_argument("--backend", default=None, help="pybullet or mujoco (default: every installed engine)")
+    q.set_defaults(func=_bench_limits)
     q = bench.add_parser("startup", help="how long stackdsl takes to start: --version, import, a one-file check")
     q.add_argument("--repeats", type=int, default=5, help="runs of each command (median; default: 5)")
     q.set_defaults(func=_bench_startup)
@@ -316,6 +320,24 @@ def _bench_sweep(args: argparse.Namespace) -> int:
 
     _, same = throughputs(t, each)
     print(footer(same))
+    return OK
+
+
+def _bench_limits(args: argparse.Namespace) -> int:
+    from ..bench.limits import format_report
+    from ..bench.versions import version_line
+    from ..engines.settings import SETTINGS
+    from ..lang.extras import installed
+
+    if args.backend is not None and args.backend not in SETTINGS:
+        raise ScenarioError(f"unknown backend {args.backend!r}; known: {', '.join(SETTINGS)}", file="--backend")
+    if args.backend == "mujoco":
+        _need("mujoco", "stackdsl bench limits --backend mujoco")
+    backends = [args.backend] if args.backend else [b for b in SETTINGS if b == "pybullet" or installed(b)]
+    start = time.perf_counter()
+    print(version_line(), flush=True)
+    print(format_report(backends), end="\n\n")
+    print(f"({time.perf_counter() - start:.0f} s wall)")
     return OK
 
 

@@ -11,6 +11,7 @@ import json
 import os
 import sys
 import time
+from itertools import chain
 from pathlib import Path
 
 from ..batch.check import discover, prepare, run_checks, select, tabulate
@@ -130,23 +131,32 @@ def compare_command(args: argparse.Namespace) -> int:
         modes = tuple(f"{b} {m}" for b in backends for m in modes)
     start = time.perf_counter()
     plain = tuple(dict.fromkeys(m.split()[-1] for m in modes))
-    prepared = select(prepare(discover(args.paths), modes=plain, model=args.model, backends=backends), args.pattern)
+    refusals: list[CheckResult] = []
+    prepared = select(
+        prepare(discover(args.paths), modes=plain, model=args.model, backends=backends, refused=refusals), args.pattern
+    )
+    chosen = {str(p.path) for p in prepared}
+    refused = [r for r in refusals if r.file in chosen]
     done: list[CheckResult] = []
     live = is_live(sys.stdout)
     # On a terminal a progress line; elsewhere a line per finished cell on stderr, so that
     # stdout holds the table (or the JSON) alone.
-    with Lines(len(prepared), "compare", file=sys.stdout if live else sys.stderr, live=live) as lines:
+    with Lines(len(prepared) + len(refused), "compare", file=sys.stdout if live else sys.stderr, live=live) as lines:
 
         def each(r: CheckResult) -> None:
             done.append(r)
             lines.advance()
             if not live:
                 lines.line(
-                    f"[{len(done)}/{len(prepared)}] {Path(r.file).stem} {r.mode}: "
-                    f"{'PASS' if r.passed else 'FAIL'} {r.error or r.stopped or describe(r.collapse_level)} ({r.wall_time:.1f} s)"
+                    f"[{len(done)}/{len(prepared) + len(refused)}] {Path(r.file).stem} {r.mode}: "
+                    + (
+                        f"refused: {r.refused}"
+                        if r.refused
+                        else f"{'PASS' if r.passed else 'FAIL'} {r.error or r.stopped or describe(r.collapse_level)} ({r.wall_time:.1f} s)"
+                    )
                 )
 
-        table = tabulate(prepared, modes, run_checks(prepared, args.jobs, timeout=args.timeout), each)
+        table = tabulate(prepared, modes, chain(refused, run_checks(prepared, args.jobs, timeout=args.timeout)), each)
     wall = time.perf_counter() - start
     if args.json:
         commands = [run_command(r.file, r.mode, args.model, r.backend if args.backend else None) for r in done]
@@ -155,10 +165,17 @@ def compare_command(args: argparse.Namespace) -> int:
     width = max([len("scenario"), *(len(Path(f).stem) for f in table)])
     print(f"{'scenario':<{width}} {'expected':<18} " + " ".join(f"{m:<29}" for m in modes).rstrip())
     for file, cells in table.items():
-        first = next(iter(cells.values()))
-        texts = [f"{'PASS' if r.passed else 'FAIL'} {_cell(r):<13} {r.wall_time:>7.1f} s" for r in (cells[m] for m in modes)]
+        first = next((c for c in cells.values() if not c.refused), next(iter(cells.values())))
+        texts = [
+            "refused (beyond the engine)"
+            if r.refused
+            else f"{'PASS' if r.passed else 'FAIL'} {_cell(r):<13} {r.wall_time:>7.1f} s"
+            for r in (cells[m] for m in modes)
+        ]
         print(f"{Path(file).stem:<{width}} {first.expected:<18} " + " ".join(f"{c:<29}" for c in texts).rstrip())
     print(f"{len(table)} scenarios x {len(modes)} modes ({wall:.1f} s wall)")
+    for r in refused:  # why, once each, after the table
+        print(f"refused in {r.mode} on {r.backend}: {r.refused}", file=sys.stderr)
     return INTERNAL if _internal_errors(done, args.debug) else OK
 
 

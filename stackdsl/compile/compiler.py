@@ -50,6 +50,7 @@ from ..lang.schema import BACKEND_FIELDS, Scenario
 from ..lang.schema_impacts import SIDES, AfterLevel, Impact
 from .clearance import check_launch
 from .layouts import LaidBrick, layout, with_placement_error
+from .limits import check_limits
 from .overlap import Body
 from .precheck import precheck
 from .program import End, Fixture, Launch, Place, Program
@@ -66,7 +67,7 @@ MAX_WORK = 1e8
 
 
 def compile_scenario(
-    scenario: Scenario, mode: str | None = None, model: str | None = None, backend: str | None = None
+    scenario: Scenario, mode: str | None = None, model: str | None = None, backend: str | None = None, *, limits: bool = True
 ) -> Program:
     """Compile a scenario into a :class:`Program`.
 
@@ -77,14 +78,17 @@ def compile_scenario(
         model: ``"report"`` or ``"equilibrium"`` to override the scenario's stability model.
         backend: ``"pybullet"`` or ``"mujoco"`` to override the scenario's engine; the
             other engine's own settings in the scenario are then left out.
+        limits: False skips the engine's own limits (:mod:`stackdsl.compile.limits`), to
+            measure them (``stackdsl bench limits``); a run beyond them is the engine's artefact.
 
     Raises:
         ScenarioError: an action time is not a whole number of timesteps, an impact
             names a level that is not built, the run would exceed the time limit or the
             work budget (:data:`MAX_WORK`), or a check before simulating fails
             (:mod:`stackdsl.compile.precheck`: bricks that overlap or rest on nothing where
-            placed, expectations about levels never built), or the engine is MuJoCo and
-            it is not installed (the ``mujoco`` extra).
+            placed, expectations about levels never built), the scene is beyond what the
+            engine simulates faithfully (:mod:`stackdsl.compile.limits`), or the engine is
+            MuJoCo and it is not installed (the ``mujoco`` extra).
     """
     engine = _engine(scenario, mode, backend)
     if engine.backend == "mujoco" and not installed("mujoco"):
@@ -120,6 +124,8 @@ def compile_scenario(
     for i, (imp, launch) in enumerate(zip(scenario.impacts, launches)):
         present = [(b.id, specs[b.type], b.pose()) for b, k in zip(bricks, slots) if int(k) * per_slot <= launch.step]
         check_launch(scenario, i, imp, launch, present + [(b.id, specs[b.type], b.pose()) for b in fixed])
+    if limits:
+        check_limits(scenario, engine, specs, [b.type for b in bricks] + [i.projectile for i in scenario.impacts])
     actions = sorted([*placements, *launches], key=lambda a: (a.step, a.kind != "place"))
     end = actions[-1].time + scenario.timing.settle
     if end > MAX_SIMULATED_TIME:

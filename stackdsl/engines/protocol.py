@@ -13,7 +13,9 @@ Source: stackdsl's own (the world adapter of dm_control's composer).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
+from dataclasses import dataclass, field
 from typing import ClassVar, Protocol
 
 import numpy as np
@@ -38,6 +40,31 @@ class BrickSpec(_Frozen):
     restitution: float
 
 
+@dataclass(frozen=True)
+class Limits:
+    """What an engine simulates faithfully, each bound measured on it (``stackdsl bench limits``,
+    docs/results/limits.md) and checked by the compiler against the engine a run uses.
+
+    Attributes:
+        min_side: m, a brick's smallest side: a straight column of ten such cubes stands at
+            the engine's defaults, and one cube settles within a tenth of its side in every mode.
+        max_speed: m/s, the fastest projectile with substeps (``ccd`` on): a brick thrown at
+            a fixed 8 mm wall stays in front of it.
+        max_speed_no_substeps: m/s, the same with ``ccd`` off; such a projectile must also move
+            less than the thinnest brick of the scene in one physics step.
+        max_mass_ratio: the heaviest moving body's mass over the lightest's: a heavy KAPLA
+            brick crossed on a light one this much lighter sinks into it less than half the
+            4 mm collapse threshold in tuned mode (a solver's contact gives under load).
+        measured: one line each, what was measured (quoted in the refusals).
+    """
+
+    min_side: float
+    max_speed: float
+    max_speed_no_substeps: float
+    max_mass_ratio: float
+    measured: dict[str, str] = field(default_factory=dict)
+
+
 class EngineSettings(_Frozen):
     """The settings every engine has, for one run; each adapter's own class adds its own
     (:mod:`stackdsl.engines.pybullet.settings`, :mod:`stackdsl.engines.mujoco.settings`) and
@@ -56,6 +83,9 @@ class EngineSettings(_Frozen):
     #: Whether bodies enter the engine when placed (False: every body is created up front,
     #: parked far away, and moved in when placed: cheaper where creating a body rebuilds the model).
     enters_when_placed: ClassVar[bool] = True
+    #: The engine's name in messages, and what it simulates faithfully.
+    NAME: ClassVar[str] = "the engine"
+    LIMITS: ClassVar[Limits] = Limits(min_side=0.0, max_speed=math.inf, max_speed_no_substeps=math.inf, max_mass_ratio=math.inf)
 
     mode: str
     backend: str

@@ -1,9 +1,11 @@
 """The limits of the scenario language: every number a scenario gives is finite and within a
 physical range, and each refusal says the range and why (the constants below): brick sides
-from 3 mm (measured: smaller bricks jitter more than half their side on the ground at 1/240 s)
-to 10 m; positions within 1 km; angles within ten turns; densities, speeds and thresholds
-within what a brick and pybullet can be; a collapse threshold from 1 mm. Also the strict base
-of every scenario model (unknown keys refused, values frozen).
+from 1.5 mm to 10 m; positions within 1 km; angles within ten turns; densities, speeds and
+thresholds within what a brick can be; a collapse threshold from 1 mm. These hold for every
+engine; each engine's own, narrower limits (the smallest side, the fastest projectile, the
+largest mass ratio it simulates faithfully) are checked by the compiler against the engine a
+run uses (:mod:`stackdsl.compile.limits`). Also the strict base of every scenario model
+(unknown keys refused, values frozen).
 
 Source: stackdsl's own.
 """
@@ -45,12 +47,11 @@ MAX_DIRECTION = 1e6
 # angle is a mistake, and a huge one (1e308) makes a tower's layer angles infinite. Not folded: an angle
 # given is the angle used.
 MAX_ANGLE = 3600.0
-# Brick sides, m. The floor is measured (stackdsl.run_program, one brick on the ground, raw and extension
-# modes at their 1/240 s timestep, the default drop gap): cubes of 1, 1.5, 2.5 mm move 0.77, 1.3, 1.26 mm as
-# they land and settle (contact penetration and its correction), more than half their side, which reads as a
-# collapse; cubes from 2.75 mm (and flatter bricks from 2 mm) stay within half their side. The ceiling is the
-# largest moving body Bullet is made for ("the size of a truck", its wiki's Scaling The World).
-MIN_SIDE = 0.003
+# Brick sides, m. The floor is the lowest of the engines' own (engines' Limits.min_side, measured by
+# `stackdsl bench limits`: MuJoCo's 1.5 mm; pybullet's is 3 mm); below it the default 0.5 mm drop gap is not
+# below half a side. The ceiling is the largest moving body Bullet is made for ("the size of a truck", its
+# wiki's Scaling The World).
+MIN_SIDE = 0.0015
 MAX_SIDE = 10.0
 # Positions (at, point, origin), m. Scenes are room-sized; the bound keeps every position a double holds to
 # far below a micrometre (1e-13 m at 1 km) and every brick's footprint a polygon shapely can build (at 1e15 m
@@ -61,7 +62,7 @@ MIN_DENSITY = 1.0  # kg/m^3, about air's
 MAX_DENSITY = 100_000.0  # kg/m^3, over four times osmium's (22590), the densest element
 MIN_IMPACT_SPEED = 0.1  # m/s: slower, a throw is a drop (over the longest distance, 1 m, it falls 490 m)
 MAX_IMPACT_SPEED = 100.0  # m/s
-# Rest thresholds of the extension: bricks at rest in pybullet move at about 0.08 mm/s (median, a 5-level
+# Rest thresholds of the extension: bricks at rest in pybullet (MuJoCo's are stiller) move at about 0.08 mm/s (median, a 5-level
 # tower at 1/240 s): below 1 mm/s a resting brick may never count as at rest; above 1 m/s a falling one does.
 MIN_REST_SPEED, MAX_REST_SPEED = 0.001, 1.0  # m/s
 MIN_REST_ANGULAR_SPEED, MAX_REST_ANGULAR_SPEED = 0.01, 10.0  # rad/s
@@ -99,10 +100,10 @@ else:
         length,
         MIN_SIDE,
         MAX_SIDE,
-        "a side from 3 mm to 10 m",
+        "a side from 1.5 mm to 10 m",
         (
-            "a smaller brick is below what pybullet resolves at 1/240 s: resting on the ground it moves 0.8 to 1.3 mm "
-            "as it lands (measured on 1 to 2.5 mm cubes), more than half its side",
+            "a smaller brick is below what any engine here simulates faithfully (MuJoCo's floor is 1.5 mm, "
+            "pybullet's 3 mm), and a brick's 0.5 mm drop gap is not below half its side",
             "Bullet is made for moving bodies up to about 10 m",
         ),
     )
@@ -161,7 +162,8 @@ else:
         MAX_REST_SPEED,
         "a speed from 1 mm/s to 1 m/s",
         (
-            "bricks at rest in pybullet move at about 0.1 mm/s: below 1 mm/s a brick at rest may never count as at rest",
+            "bricks at rest in pybullet move at about 0.1 mm/s (in MuJoCo less): below 1 mm/s a brick at rest may "
+            "never count as at rest",
             "a brick moving this fast is not at rest",
         ),
     )
@@ -171,7 +173,7 @@ else:
         MIN_REST_ANGULAR_SPEED,
         MAX_REST_ANGULAR_SPEED,
         "an angular speed from 0.01 to 10 rad/s",
-        ("bricks at rest in pybullet are not quite still", "a brick turning this fast is not at rest"),
+        ("bricks at rest in the engines are not quite still", "a brick turning this fast is not at rest"),
     )
     CollapseThreshold = within(
         Length,

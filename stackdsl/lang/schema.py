@@ -76,8 +76,8 @@ class Material(StrictModel):
 
 class BrickType(StrictModel):
     """A box-shaped brick: ``size`` is length, width, height (the KAPLA default 120 x 24 x 8 mm),
-    each from 3 mm (:data:`MIN_SIDE`, measured: below it pybullet does not hold a brick still on
-    the ground at 1/240 s) to 10 m."""
+    each from 1.5 mm (:data:`MIN_SIDE`, the smallest any engine simulates faithfully; each
+    engine's own floor is checked by the compiler, :mod:`stackdsl.compile.limits`) to 10 m."""
 
     size: tuple[Side, Side, Side] = (0.12, 0.024, 0.008)
     material: str = "pine"
@@ -271,7 +271,7 @@ class Stability(StrictModel):
     """The stability extension: its ``model`` (``report``: the report's rules;
     ``equilibrium``: rigid-block equilibrium) and thresholds (report 3.3.2); defaults in
     :mod:`stability`. ``rest_speed`` is from 1 mm/s to 1 m/s and ``rest_angular_speed`` from
-    0.01 to 10 rad/s: bricks at rest in pybullet are not quite still (:data:`MIN_REST_SPEED`)."""
+    0.01 to 10 rad/s: bricks at rest in the engines are not quite still (:data:`MIN_REST_SPEED`)."""
 
     model: Literal["report", "equilibrium"] = "report"
     rest_speed: RestSpeed | None = None
@@ -348,7 +348,7 @@ class Scenario(StrictModel):
             "above its pose and counts as moved until it lands, so the first brick would read as a collapse; "
             f"give a drop gap below {threshold * 1000:g} mm"
         )
-        # the default gap (0.5 mm) is below every threshold (at least 1 mm): the gap was given
+        # the default gap (0.5 mm) is below every threshold (at least 0.75 mm): the gap was given
         loc = ("timing", "drop_gap")
         error = InitErrorDetails(type=PydanticCustomError("value_error", message), loc=loc, input=gap)
         raise ValidationError.from_exception_data(type(self).__name__, [error])

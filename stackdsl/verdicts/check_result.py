@@ -39,6 +39,9 @@ class CheckResult:
         bad_input: a sweep's sample the language refuses (a drawn value out of range), the
             message at file:line:col, else empty; sweep: a sweep's measured summary, else empty
             (a sweep's verdicts are its statistical expectations, one a grid cell).
+        refused: in a comparison, why the compiler refused the scene on this column's engine
+            or mode (beyond what it simulates faithfully: :mod:`stackdsl.compile.limits`),
+            one line, else empty; nothing ran.
     """
 
     file: str
@@ -62,13 +65,20 @@ class CheckResult:
     draw_error: str = ""
     draw_time: float = 0.0
     bad_input: str = ""
+    refused: str = ""
     sweep: str = ""
     certificate: str = ""
 
     @property
     def passed(self) -> bool:
         """True when the run ended normally and every expectation held."""
-        return not self.error and not self.stopped and not self.bad_input and all(v.passed for v in self.verdicts)
+        return (
+            not self.error
+            and not self.stopped
+            and not self.bad_input
+            and not self.refused
+            and all(v.passed for v in self.verdicts)
+        )
 
     @property
     def expected(self) -> str:
@@ -79,6 +89,8 @@ class CheckResult:
     def measured(self) -> str:
         """What was measured, as in check's table: ``'collapse 13, levels 1-12 stayed'``; the
         error or what stopped the run when either happened."""
+        if self.refused:
+            return "refused"
         if self.error or self.stopped or self.bad_input:
             return self.error or self.stopped or "bad input in a sample"
         if self.sweep:

@@ -1,0 +1,101 @@
+"""Each engine's own limits: the smallest side, the fastest projectile and the largest mass
+ratio it simulates faithfully, refused at the field with that engine named, and the floor
+measured again: a straight column of the smallest cubes an engine takes stands at its defaults."""
+
+from __future__ import annotations
+
+import pytest
+
+from stackdsl import ScenarioError, compile_scenario, parse_scenario, run_program
+from stackdsl.engines.mujoco.settings import MuJoCoSettings
+from stackdsl.engines.pybullet.settings import PyBulletSettings
+
+ENGINES = {"pybullet": PyBulletSettings, "mujoco": MuJoCoSettings}
+
+
+def column(side_mm: float, backend: str, levels: int = 10) -> str:
+    return (
+        f"stackdsl: 1\nbrick_types: {{cube: {{size: [{side_mm:g} mm, {side_mm:g} mm, {side_mm:g} mm]}}}}\n"
+        f"structure: {{tower: {{levels: {levels}, bricks_per_layer: 1, turn: 0, brick: cube}}}}\n"
+        f"engine: {{backend: {backend}}}\nexpect: {{stands: true}}\n"
+    )
+
+
+@pytest.mark.parametrize("backend", ENGINES)
+def test_a_column_of_the_smallest_cubes_an_engine_takes_stands_at_its_defaults(backend):
+    pytest.importorskip(backend)
+    side = ENGINES[backend].LIMITS.min_side * 1000
+    outcome = run_program(compile_scenario(parse_scenario(column(side, backend), "c.yaml")))
+    assert outcome.collapse is None and outcome.levels_placed == 10
+    assert outcome.drift < side / 1000 / 10  # well within the collapse threshold, half a side
+
+
+def refusal(text: str, **options: str) -> ScenarioError:
+    with pytest.raises(ScenarioError) as caught:
+        compile_scenario(parse_scenario(text, "s.yaml"), **options)
+    return caught.value
+
+
+def test_a_side_below_an_engines_floor_is_refused_naming_it_and_the_engine_that_takes_it():
+    pytest.importorskip("mujoco")
+    text = column(2, "pybullet", levels=3)
+    err = refusal(text)
+    assert (err.field, err.line) == ("brick_types.cube.size", 2)
+    assert "a side of 2 mm is below what pybullet simulates faithfully: at least 3 mm" in err.message
+    assert "MuJoCo takes it (engine: {backend: mujoco})" in err.message
+    compile_scenario(parse_scenario(column(2, "mujoco", levels=3)))  # MuJoCo's floor is 1.5 mm
+    err = refusal(column(2, "mujoco", levels=3), backend="pybullet")  # the engine the run uses counts
+    assert "pybullet simulates faithfully" in err.message
+
+
+IMPACT = (
+    "stackdsl: 1\nstructure: {tower: {levels: 3}}\nengine: {backend: %s, mode: %s%s}\n"
+    "impacts: [{target: {level: 2, side: +y}, speed: %s, at: after level 3}]\n"
+)
+
+
+def test_a_projectile_faster_than_the_engine_holds_is_refused_at_its_speed():
+    pytest.importorskip("mujoco")
+    err = refusal(IMPACT % ("mujoco", "extension", "", "50 m/s"))
+    assert (err.field, err.line) == ("impacts[0].speed", 4)
+    assert "50 m/s is faster than MuJoCo simulates faithfully with substeps: at most 30 m/s" in err.message
+    compile_scenario(parse_scenario(IMPACT % ("pybullet", "extension", "", "50 m/s")))  # pybullet holds 100 m/s
+
+
+def test_without_substeps_a_projectile_may_not_cross_the_thinnest_brick_in_a_step():
+    """Raw pybullet has no substeps: at 1/240 s a KAPLA brick (8 mm thin) passes through another
+    above 1.92 m/s. Turning substeps on takes it."""
+    err = refusal(IMPACT % ("pybullet", "raw", "", "5 m/s"))
+    assert "5 m/s is faster than pybullet simulates faithfully without substeps (engine.ccd off): at most 1.92 m/s" in err.message
+    assert "in one 4.17 ms step it moves further than the thinnest brick (8 mm)" in err.message
+    assert "with substeps (engine: {ccd: true}) up to 100 m/s" in err.message
+    compile_scenario(parse_scenario(IMPACT % ("pybullet", "raw", ", ccd: true", "5 m/s")))
+    compile_scenario(parse_scenario(IMPACT % ("pybullet", "raw", "", "1 m/s")))  # the report's speed
+
+
+HEAVY = (
+    "stackdsl: 1\nmaterials: {lead: {density: %d kg/m^3}, foam: {density: 100 kg/m^3}}\n"
+    "brick_types: {slab: {material: lead}, light: {material: foam}}\n"
+    "structure: {bricks: [{brick: light, at: [0, 0, 4 mm]}, {brick: slab, at: [0, 0, 12 mm], yaw: 90}]}\n"
+    "engine: {backend: %s}\n"
+)
+
+
+def test_a_mass_ratio_beyond_the_engines_is_refused_at_the_density_that_makes_it():
+    pytest.importorskip("mujoco")
+    err = refusal(HEAVY % (100 * 500, "pybullet"))
+    assert (err.field, err.line) == ("materials.lead.density", 2)
+    assert "is 500 times as heavy as 'light'" in err.message and "pybullet simulates at most 300 times" in err.message
+    assert "MuJoCo takes it" in err.message
+    compile_scenario(parse_scenario(HEAVY % (100 * 500, "mujoco")))
+    compile_scenario(parse_scenario(HEAVY % (100 * 200, "pybullet")))
+
+
+def test_a_comparison_shows_a_refused_mode_as_a_cell_and_runs_the_others(tmp_path):
+    from stackdsl.batch.check import compare
+
+    (tmp_path / "throw.yaml").write_text(IMPACT % ("pybullet", "extension", "", "5 m/s") + "timing: {settle: 0.5 s}\n")
+    row = compare([tmp_path], ("raw", "extension"), jobs=1)[str(tmp_path / "throw.yaml")]
+    assert row["raw"].refused.startswith("5 m/s is faster than pybullet") and not row["raw"].passed
+    assert row["raw"].measured == "refused" and row["raw"].wall_time == 0.0
+    assert not row["extension"].refused and row["extension"].levels_placed == 3

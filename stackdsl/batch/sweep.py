@@ -16,6 +16,7 @@ from __future__ import annotations
 import logging
 import math
 import shutil
+import socket
 import tempfile
 from collections.abc import Callable, Generator, Iterator, Sequence
 from concurrent.futures import Executor
@@ -269,6 +270,7 @@ def _connect(client: Any, address: str) -> Any:
     """A ``distributed.Client`` of the scheduler at ``address``, or OSError saying that there is
     none (something else answering there is not one: Dask may read its bytes as a message
     size and try to allocate exabytes)."""
+    _probe(address)
     try:
         return client(address, timeout=CONNECT_TIMEOUT)
     except (OSError, TimeoutError) as exc:
@@ -279,6 +281,25 @@ def _connect(client: Any, address: str) -> Any:
 
 #: Seconds to wait for a scheduler to answer.
 CONNECT_TIMEOUT = 10.0
+
+
+def _probe(address: str) -> None:
+    """Raise OSError unless what listens at a ``tcp://`` address speaks first, as a Dask
+    scheduler does (its handshake, at once on connection): a server that waits for the
+    client to speak (HTTP, say) would leave ``distributed.Client`` waiting for ever."""
+    if not address.startswith("tcp://"):
+        return
+    host, _, port = address.removeprefix("tcp://").rpartition(":")
+    try:
+        with socket.create_connection((host.strip("[]"), int(port)), timeout=CONNECT_TIMEOUT) as probe:
+            probe.settimeout(CONNECT_TIMEOUT)
+            first = probe.recv(8)
+    except TimeoutError:
+        raise OSError(f"not a Dask scheduler at {address}: it sent nothing in {CONNECT_TIMEOUT:g} s") from None
+    except OSError as exc:
+        raise OSError(f"no Dask scheduler answers at {address}: {exc.strerror or exc}") from None
+    if not first:
+        raise OSError(f"not a Dask scheduler at {address}: it closed the connection")
 
 
 #: Dask settings of the local clusters stackdsl starts: no sampling profiler in the workers

@@ -163,3 +163,12 @@ def output_folder(given: str | None, prefix: str) -> Path:
         OSError: the temporary directory cannot take a new folder.
     """
     return Path(given) if given else Path(tempfile.mkdtemp(prefix=prefix))
+
+
+def same_file(output: str | os.PathLike[str], given: str | os.PathLike[str]) -> bool:
+    """Whether writing ``output`` would overwrite the input file ``given`` (the same file,
+    by any name: a link, a relative path)."""
+    try:
+        return os.path.samefile(output, given)
+    except OSError:  # either is missing or unreadable: not the same existing file
+        return False

@@ -17,7 +17,7 @@ from typing import Any
 
 from ..lang.errors import ScenarioError
 from ..lang.extras import installed, missing
-from .args import COMMANDS, at_type, fps_type, rate_type
+from .args import COMMANDS, at_type, fps_type, rate_type, same_file
 
 #: Suffixes of trajectory files and of scenario files: what the drawing commands read.
 TRAJECTORY_SUFFIXES = (".npz",)
@@ -119,7 +119,7 @@ def add_record_options(p: argparse.ArgumentParser) -> None:
         type=rate_type,
         default=None,
         metavar="HZ",
-        help=f"frames a simulated second while anything moves (default: {RATE:g})",
+        help=f"frames a simulated second while anything moves (default: {RATE:g}; at most one a physics step)",
     )
 
 
@@ -178,6 +178,8 @@ def _output(args: argparse.Namespace, suffixes: tuple[str, ...]) -> Path:
         raise ScenarioError("no such folder for the output", file=args.output)
     if out.is_dir():
         raise ScenarioError("this is a folder: give the file to write", file=args.output)
+    if same_file(out, args.file):
+        raise ScenarioError("this is the file being drawn: give another file to write", file=args.output)
     return out
 
 

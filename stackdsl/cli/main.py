@@ -36,6 +36,7 @@ from .args import (
     command_of,
     jobs_type,
     refused,
+    same_file,
     timeout_type,
 )
 
@@ -380,6 +381,8 @@ def _run(args: argparse.Namespace) -> int:
             raise ScenarioError(
                 "no such folder for the trajectory file" if not record.parent.is_dir() else "a folder", file=args.record
             )
+        if same_file(record, args.file):
+            raise ScenarioError("this is the scenario being run: give another file to write", file=args.record)
         from ..runtime.recorder import RATE, record_program
 
         outcome, trajectory = record_program(program, args.rate or RATE, source=args.file, timeout=args.timeout)

@@ -36,7 +36,12 @@ def written(path: str | os.PathLike[str]) -> Iterator[Path]:
     """
     final = Path(path)
     if final.exists() and not final.is_file():  # a device, a FIFO (/dev/full, a pipe): write to it, never replace it
-        yield final
+        try:
+            yield final
+        except OSError as exc:
+            if exc.filename is None and exc.errno is not None:  # a failed write or close names no file: say which
+                exc.filename = str(final)
+            raise
         return
     # a name no one else picks; the writer creates it, so it gets the usual permissions (umask)
     part = final.with_name(f".{final.stem[:40]}.{secrets.token_hex(6)}.part{final.suffix}")
@@ -45,7 +50,8 @@ def written(path: str | os.PathLike[str]) -> Iterator[Path]:
         os.replace(part, final)
     except OSError as exc:
         part.unlink(missing_ok=True)
-        if exc.filename in (str(part), part):  # the user gave the final name: say that one
+        # the user gave the final name: say that one (also when a failed write or close named none)
+        if exc.filename in (str(part), part) or (exc.filename is None and exc.errno is not None):
             exc.filename = str(final)
         raise
     except BaseException:

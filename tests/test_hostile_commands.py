@@ -1,0 +1,139 @@
+"""Hostile and careless command lines end cleanly: the cases in tests/hostile/commands/cases.yaml.
+
+Each case runs ``python -m stackdsl ARGS`` as its own process in a fresh folder holding the
+files it lists, with a private ``TMPDIR``, and must end with its exit status, print what it
+``says`` on stderr in a short message without a traceback, leave none of the files it names
+under ``absent``, and leave nothing in ``TMPDIR`` when it refused its input (exit 2). The
+cases cover the sweep's options and language, ``--dask``, drawings, ``--record`` and
+trajectory files, check's outputs, each engine's own limits and refused paths. Marker
+``slow`` (.ci/run runs them after the README's test command)::
+
+    .venv/bin/python -m pytest -m slow tests/test_hostile_commands.py
+
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import http.server
+import io
+import os
+import socket
+import subprocess
+import sys
+import threading
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+CASES = yaml.safe_load((ROOT / "tests" / "hostile" / "commands" / "cases.yaml").read_text())["cases"]
+TIMEOUT = 120.0  # s, per case
+
+
+def empty_zip(path: Path) -> None:
+    with zipfile.ZipFile(path, "w"):
+        pass
+
+
+def foreign_npz(path: Path) -> None:
+    np.savez(path, weights=np.arange(6.0).reshape(2, 3))
+
+
+def pickled_npz(path: Path) -> None:
+    with zipfile.ZipFile(path, "w") as z:
+        z.writestr("meta.npy", _npy_of_objects())
+
+
+def _npy_of_objects() -> bytes:
+    out = io.BytesIO()
+    np.save(out, np.array([{"a": 1}], dtype=object), allow_pickle=True)
+    return out.getvalue()
+
+
+MAKERS = {"empty_zip": empty_zip, "foreign_npz": foreign_npz, "pickled_npz": pickled_npz}
+
+
+@pytest.fixture(scope="module")
+def http_port():
+    """A local HTTP server: something that answers, but is not a Dask scheduler."""
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), http.server.SimpleHTTPRequestHandler)
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    yield server.server_address[1]
+    server.shutdown()
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+GRID_BOMB = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nsweep:\n  samples: 1\n  grid:\n" + "".join(
+    f"    {key}: [{', '.join(str(v) for v in range(1, 101))}]\n"
+    for key in ("structure.tower.levels", "stability.rest_duration", "timing.settle")
+)
+
+
+def test_the_cases_are_many_and_named_once():
+    names = [c["name"] for c in CASES]
+    assert len(names) >= 100 and len(set(names)) == len(names)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", CASES, ids=[c["name"] for c in CASES])
+def test_a_hostile_command_ends_cleanly(case, tmp_path, http_port):
+    work, scratch = tmp_path / "work", tmp_path / "scratch"
+    work.mkdir()
+    scratch.mkdir()
+    values = {"long": "x" * 300, "free_port": str(free_port()), "http_port": str(http_port), "grid_bomb": GRID_BOMB}
+
+    def fill(text: str) -> str:
+        for key, value in values.items():
+            text = text.replace("{" + key + "}", value)
+        return text
+
+    for name, text in (case.get("files") or {}).items():
+        target = work / name
+        target.parent.mkdir(parents=True, exist_ok=True)
+        target.write_text(fill(text))
+    for name, maker in (case.get("make") or {}).items():
+        MAKERS[maker](work / name)
+    args = [fill(a) for a in case["args"]]
+    env = {**os.environ, "TMPDIR": str(scratch), "COLUMNS": "120"}
+    env.pop("STACKDSL_TRACEBACK", None)
+    stdout: int | io.BufferedWriter = subprocess.PIPE
+    closed = case.get("stdout") == "closed"
+    if case.get("stdout") == "/dev/full":
+        stdout = open("/dev/full", "wb")
+    try:
+        done = subprocess.run(
+            [sys.executable, "-m", "stackdsl", *args],
+            cwd=work,
+            env=env,
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL if closed else stdout,
+            stderr=subprocess.PIPE,
+            timeout=TIMEOUT,
+            preexec_fn=(lambda: os.close(1)) if closed else None,
+        )
+    finally:
+        if not isinstance(stdout, int):
+            stdout.close()
+    err = done.stderr.decode(errors="replace")
+    out = (done.stdout or b"").decode(errors="replace")
+    allowed = case["exit"] if isinstance(case["exit"], list) else [case["exit"]]
+    assert done.returncode in allowed, f"exit {done.returncode}\n{err}"
+    assert "Traceback" not in err + out, err
+    if case.get("says"):
+        assert case["says"] in err, err
+    if done.returncode == 2:
+        assert 0 < len(err.strip().splitlines()) <= 8, err
+        assert not any(scratch.iterdir()), sorted(p.name for p in scratch.iterdir())
+    for name in case.get("absent", []):
+        assert not (work / name).exists(), name
+        assert not [p for p in work.iterdir() if p.name.startswith(f".{name}")], "a part-file was left"

@@ -3,7 +3,8 @@
 Each case runs ``python -m stackdsl ARGS`` as its own process in a fresh folder holding the
 files it lists, with a private ``TMPDIR``, and must end with its exit status, print what it
 ``says`` on stderr in a short message without a traceback, leave none of the files it names
-under ``absent``, and leave nothing in ``TMPDIR`` when it refused its input (exit 2). The
+under ``absent``, peak under 2 GB of resident memory, and leave nothing in ``TMPDIR`` when it
+refused its input (exit 2). The
 cases cover the sweep's options and language, ``--dask``, drawings, ``--record`` and
 trajectory files, check's outputs, each engine's own limits and refused paths. Marker
 ``slow`` (.ci/run runs them after the README's test command)::
@@ -18,6 +19,7 @@ from __future__ import annotations
 import http.server
 import io
 import os
+import resource
 import socket
 import subprocess
 import sys
@@ -32,6 +34,7 @@ import yaml
 ROOT = Path(__file__).resolve().parents[1]
 CASES = yaml.safe_load((ROOT / "tests" / "hostile" / "commands" / "cases.yaml").read_text())["cases"]
 TIMEOUT = 120.0  # s, per case
+MEMORY_LIMIT = 2 << 30  # bytes of peak resident memory a case may use
 
 
 def empty_zip(path: Path) -> None:
@@ -134,6 +137,8 @@ def test_a_hostile_command_ends_cleanly(case, tmp_path, http_port):
     if done.returncode == 2:
         assert 0 < len(err.strip().splitlines()) <= 8, err
         assert not any(scratch.iterdir()), sorted(p.name for p in scratch.iterdir())
+    # the largest resident set of any process this one has waited for (cases, and their workers)
+    assert resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss * 1024 < MEMORY_LIMIT
     for name in case.get("absent", []):
         assert not (work / name).exists(), name
         assert not [p for p in work.iterdir() if p.name.startswith(f".{name}")], "a part-file was left"

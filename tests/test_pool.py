@@ -367,3 +367,15 @@ def test_a_worker_that_fails_says_so_in_one_line(capfd, monkeypatch):
         "stackdsl: internal error in a worker: ValueError: invalid literal for int() with base 10: 'x'"
         " (run with --debug for the traceback)\n"
     )
+
+
+def test_auto_jobs_are_the_free_cores(monkeypatch):
+    """-j auto: the cores less the 1-minute load average, at least 1: on a half-busy
+    machine fewer processes than cores, on a saturated one a single process."""
+    from stackdsl.batch import address
+    from stackdsl.cli.args import jobs_type
+
+    monkeypatch.setattr(address, "cores", lambda: 4)
+    for load, expected in ((0.0, 4), (1.4, 3), (2.0, 2), (3.6, 1), (40.0, 1)):
+        monkeypatch.setattr(address.os, "getloadavg", lambda load=load: (load, load, load))
+        assert jobs_type("auto") == expected, load

@@ -15,7 +15,6 @@ Source: stackdsl's own.
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable, Generator, Iterable
 from concurrent.futures import Executor
 from itertools import chain
@@ -31,6 +30,7 @@ from ..lang.loader import load_scenario
 from ..lang.sampling import Template
 from ..lang.scenario_file import file_problem
 from ..verdicts.check_result import CheckResult
+from .address import free_cores
 from .check_sweep import run_unit, sweep_result, sweep_tasks
 from .judge import KILL_AFTER, TIMEOUT, lost
 from .pool import fan_out, on_executor
@@ -170,7 +170,7 @@ def check(
         paths: files or folders.
         mode: overrides each scenario's engine mode.
         model: overrides each scenario's stability model.
-        jobs: runs at the same time, this process included (default: one per core);
+        jobs: runs at the same time, this process included (default: one per free core, :func:`stackdsl.batch.address.free_cores`);
             1 runs everything here. Work estimated below a worker's start-up runs here
             whatever ``jobs`` says (see :mod:`stackdsl.batch.pool`).
         executor: run on this executor instead (e.g. a Dask client's executor).
@@ -200,7 +200,7 @@ def run_checks(
     if folders is not None and len(folders) != len(prepared):
         raise ValueError(f"{len(folders)} folders for {len(prepared)} scenarios")
     where: list[str | None] = list(folders) if folders is not None else [None] * len(prepared)
-    jobs = (os.cpu_count() or 1) if jobs is None else jobs
+    jobs = free_cores() if jobs is None else jobs
     if jobs < 1:
         raise ValueError(f"jobs must be at least 1, not {jobs}")
     tasks: list[tuple[Any, ...]] = []

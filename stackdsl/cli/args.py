@@ -118,14 +118,18 @@ def fps_type(text: str) -> float:
 
 
 def jobs_type(text: str) -> int:
-    """``-j``: ``'auto'`` (one per core) or a whole number from 1 to the number of cores.
+    """``-j``: ``'auto'`` (one per free core: :func:`stackdsl.batch.address.free_cores`) or a
+    whole number from 1 to the number of cores.
 
     Raises:
         argparse.ArgumentTypeError: anything else (a usage error, exit 2).
     """
-    cores = os.cpu_count() or 1
+    from ..batch.address import cores as available
+    from ..batch.address import free_cores
+
+    cores = available()
     if text.strip().lower() == "auto":
-        return cores
+        return free_cores()
     try:
         jobs = int(text)
     except ValueError:

@@ -77,7 +77,13 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
         "hard", help="the hard cases in extension and raw mode, a brick thrown at a wall, the leaning limits swept"
     )
     q.add_argument("folder", nargs="?", default="scenarios/hard")
-    q.add_argument("-j", "--jobs", type=jobs_type, default="auto", help="runs at the same time (default: one per core)")
+    q.add_argument(
+        "-j",
+        "--jobs",
+        type=jobs_type,
+        default="auto",
+        help="runs at the same time (default: auto, one per free core: the cores less the load average)",
+    )
     q.set_defaults(func=_bench_hard)
     q = bench.add_parser("record", help="what recording costs: the 30-level tower with recording off and on, alternately")
     q.add_argument("scenario", nargs="?", default="scenarios/four_stack.yaml")
@@ -120,7 +126,13 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
         metavar="N",
         help="random single-file stacks run in the extension settings against the exact rule (default: 1000; 0: none)",
     )
-    q.add_argument("-j", "--jobs", type=jobs_type, default="auto", help="worker processes (default: one per core)")
+    q.add_argument(
+        "-j",
+        "--jobs",
+        type=jobs_type,
+        default="auto",
+        help="worker processes (default: auto, one per free core: the cores less the load average)",
+    )
     q.add_argument("--out", help="folder for the misjudged assemblies' files (default: a new temporary folder)")
     q.set_defaults(func=_bench_verdicts)
     q = bench.add_parser("freeze", help="the ways to freeze a brick on MuJoCo: weld, its own sleeping, a held mocap body")

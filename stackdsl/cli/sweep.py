@@ -36,7 +36,11 @@ def add_sweep(
     p.add_argument("--samples", type=int, help="override the sweep's samples a cell")
     where = p.add_mutually_exclusive_group()
     where.add_argument(
-        "-j", "--jobs", type=jobs_type, default="auto", help="processes, this one included (default: one per core)"
+        "-j",
+        "--jobs",
+        type=jobs_type,
+        default="auto",
+        help="processes, this one included (default: auto, one per free core: the cores less the load average)",
     )
     where.add_argument(
         "--dask",

@@ -99,3 +99,14 @@ def test_a_comparison_shows_a_refused_mode_as_a_cell_and_runs_the_others(tmp_pat
     assert row["raw"].refused.startswith("5 m/s is faster than pybullet") and not row["raw"].passed
     assert row["raw"].measured == "refused" and row["raw"].wall_time == 0.0
     assert not row["extension"].refused and row["extension"].levels_placed == 3
+
+
+def test_a_pattern_selects_a_file_every_compared_mode_refuses(tmp_path):
+    """-k picks refused cells as it picks runs: a file refused in the only mode compared is
+    still the one selected, not "no scenario's path contains"."""
+    from stackdsl.batch.check import compare
+
+    (tmp_path / "throw.yaml").write_text(IMPACT % ("pybullet", "extension", "", "5 m/s"))
+    (tmp_path / "other.yaml").write_text("stackdsl: 1\nstructure: {tower: {levels: 2}}\n")
+    table = compare([tmp_path], ("raw",), jobs=1, pattern="throw")
+    assert list(table) == [str(tmp_path / "throw.yaml")] and table[str(tmp_path / "throw.yaml")]["raw"].refused

@@ -35,8 +35,7 @@ def cores() -> int:
 def free_cores(load: float | None = None) -> int:
     """The cores not busy with other work: :func:`cores` less the 1-minute load average
     (``os.getloadavg``; ``load`` to give it), rounded, at least 1. ``-j auto`` runs this many
-    processes, so that on a busy machine a check does not fight others for the same cores
-    (measured: two processes on a half-busy 2-core machine were 1.2-1.6x slower than one).
+    processes, so that on a busy machine a check does not fight other work for the same cores.
 
     >>> free_cores(load=0.0) == cores(), free_cores(load=1e9)
     (True, 1)

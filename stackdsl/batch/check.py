@@ -140,14 +140,27 @@ def select(prepared: list[Prepared], pattern: str | None) -> list[Prepared]:
     Raises:
         ScenarioErrors: ``pattern`` selects none.
     """
+    return select_comparison(prepared, [], pattern)[0]
+
+
+def select_comparison(
+    prepared: list[Prepared], refused: list[CheckResult], pattern: str | None
+) -> tuple[list[Prepared], list[CheckResult]]:
+    """:func:`select` on a comparison's runs and its refused cells alike (each by its file's
+    path or its scenario's name).
+
+    Raises:
+        ScenarioErrors: ``pattern`` selects neither a run nor a refused cell.
+    """
     if not pattern:
-        return prepared
+        return prepared, refused
     text = pattern.casefold()
-    chosen = [p for p in prepared if text in str(p[0]).casefold() or text in p[1].name.casefold()]
-    if not chosen:
-        files = len({p[0] for p in prepared})
+    runs = [p for p in prepared if text in str(p.path).casefold() or text in p.program.name.casefold()]
+    cells = [r for r in refused if text in r.file.casefold() or text in r.scenario.casefold()]
+    if not runs and not cells:
+        files = len({str(p.path) for p in prepared} | {r.file for r in refused})
         raise ScenarioErrors([ScenarioError(f"no scenario's path or name contains {pattern!r} ({files} files)", file="-k")])
-    return chosen
+    return runs, cells
 
 
 def check(
@@ -267,10 +280,10 @@ def compare(
     Raises:
         ScenarioErrors: a file is missing or invalid (before anything runs).
     """
-    refused: list[CheckResult] = []
-    prepared = select(prepare(discover(paths), modes=modes, model=model, refused=refused), pattern)
-    chosen = {str(p.path) for p in prepared}
-    return tabulate(prepared, modes, chain((r for r in refused if r.file in chosen), run_checks(prepared, jobs, timeout=timeout)))
+    refusals: list[CheckResult] = []
+    prepared = prepare(discover(paths), modes=modes, model=model, refused=refusals)
+    prepared, refused = select_comparison(prepared, refusals, pattern)
+    return tabulate(prepared, modes, chain(refused, run_checks(prepared, jobs, timeout=timeout)))
 
 
 def tabulate(

@@ -132,7 +132,7 @@ def fan_out(
     """
     if jobs < 1:
         raise ValueError(f"jobs must be at least 1, not {jobs}")
-    pending = _Pending(tasks, costs, enough=max(jobs, 1))
+    pending = _Pending(tasks, costs, enough=jobs)
     workers = min(jobs, pending.known) - (1 if here or jobs == 1 else 0)
     if workers < 1 or pending.cost < STARTUP:
         for task in pending.in_order():
@@ -169,8 +169,8 @@ class _Pending:
     and :data:`STARTUP` seconds of work, then one at a time."""
 
     def __init__(self, tasks: Iterable[tuple[Any, ...]], costs: Sequence[float] | float, enough: int) -> None:
-        self._lazy = isinstance(costs, (int, float))
         self._given: Sequence[tuple[Any, ...]] = ()
+        self._lazy = isinstance(costs, (int, float))
         if isinstance(costs, (int, float)):
             self._rest: Iterator[tuple[Any, ...]] = iter(tasks)
             self._head: deque[tuple[Any, ...]] = deque()

@@ -14,7 +14,7 @@ import time
 from itertools import chain
 from pathlib import Path
 
-from ..batch.check import discover, prepare, run_checks, select, tabulate
+from ..batch.check import discover, prepare, run_checks, select, select_comparison, tabulate
 from ..batch.report import HEADER, failure_lines, json_document, junit_xml, row, run_command, summary
 from ..compile.compiler import BACKEND_DEFAULTS, MODE_DEFAULTS
 from ..draw.artefacts import folder_name
@@ -132,11 +132,8 @@ def compare_command(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     plain = tuple(dict.fromkeys(m.split()[-1] for m in modes))
     refusals: list[CheckResult] = []
-    prepared = select(
-        prepare(discover(args.paths), modes=plain, model=args.model, backends=backends, refused=refusals), args.pattern
-    )
-    chosen = {str(p.path) for p in prepared}
-    refused = [r for r in refusals if r.file in chosen]
+    prepared = prepare(discover(args.paths), modes=plain, model=args.model, backends=backends, refused=refusals)
+    prepared, refused = select_comparison(prepared, refusals, args.pattern)
     done: list[CheckResult] = []
     live = is_live(sys.stdout)
     # On a terminal a progress line; elsewhere a line per finished cell on stderr, so that

@@ -280,8 +280,8 @@ class Debris:
                 if o.state is not BrickState.ACTIVE:
                     held = True
                 elif other not in pile:
-                    if len(pile) >= MAX_PILE or o.clock.since is None:  # too many, or one still moves
-                        return []
+                    if len(pile) >= MAX_PILE or o.clock.since is None or o.proved_at is not None:
+                        return []  # too many, or one still moves or is held in a proved mechanism
                     pile[other] = o
                     queue.append(o)
         if not held or not self._at_rest(pile.values(), time):

@@ -79,6 +79,7 @@ class Record:
     was_frozen: bool = False  # frozen at least once (a woken brick is the debris rule's)
     carried: tuple[float, tuple[int, ...]] | None = None  # its last load check (carry): when (s), and on what
     pile: frozenset[int] = frozenset()  # a fallen brick's debris pile (itself, frozen alone), which rigid-block equilibrium holds
+    proved_at: Pose | None = None  # where it was woken in a proved collapse mechanism: held active until it moves (RELEASE)
 
     def held_by_pile(self) -> bool:
         """Fallen, frozen again with a debris pile that rigid-block equilibrium holds, and
@@ -116,6 +117,7 @@ class Stack:
         self.loads_fresh = True  # com_above / mass_above of every frozen brick are up to date
         self.version = 0  # counts the changes of the frozen stack (freezes and wakes)
         self.standing_version: int | None = None  # a version whose whole frozen stack a program showed to stand
+        self.holding = True  # bricks woken in a proved mechanism are held active (none while a heap settles)
         self._contacts: ContactBook | None = None  # this step's, read in full before a change
 
     def add(self, rec: Record) -> None:
@@ -229,10 +231,14 @@ class Stack:
         if not proven(rec.frozen_pose.position, rec.load_path):
             self.unproven.add(rec.body)
 
-    def wake(self, body: int, time: float, reason: str, proved: AbstractSet[int] = frozenset()) -> list[Woken]:
+    def wake(
+        self, body: int, time: float, reason: str, proved: AbstractSet[int] = frozenset(), hold: bool = False
+    ) -> list[Woken]:
         """Wake ``body`` and, recursively, what rests on it (report 3.3.7); each with its last
         load node. Nothing when ``body`` is not frozen. The events of the bodies in ``proved``
-        (those a proved collapse mechanism moves) say so (:attr:`StabilityEvent.proved`)."""
+        (those a proved collapse mechanism moves) say so (:attr:`StabilityEvent.proved`); they
+        and what rests on them (``hold``) are held active until they move
+        (:attr:`Record.proved_at`)."""
         rec = self.bodies[body]
         if rec.state is not BrickState.FROZEN:
             return []
@@ -252,8 +258,9 @@ class Stack:
             self.bodies[s].objects_above.discard(body)
         rec.rests_on, rec.main_contact, rec.com_above, rec.mass_above = {}, None, None, 0.0
         rec.contacts, rec.pile = [], frozenset()
+        rec.proved_at = self.engine.pose(body) if self.holding and (hold or body in proved) else None
         woken = [Woken(body, node, StabilityEvent(time, "wake", rec.label, reason, proved=body in proved))]
         for above in self.ordered(rec.objects_above):
-            woken += self.wake(above, time, f"rests on {rec.label}", proved)
+            woken += self.wake(above, time, f"rests on {rec.label}", proved, rec.proved_at is not None)
         rec.objects_above = set()
         return woken

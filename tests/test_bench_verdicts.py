@@ -10,8 +10,10 @@ import pytest
 
 from stackdsl.bench.random_stack import collapse_level
 from stackdsl.bench.verdicts import (
+    JOURNAL,
     MARGIN,
     SETTINGS,
+    Journal,
     Run,
     Sample,
     Verdicts,
@@ -131,3 +133,38 @@ def test_bench_verdicts_runs_and_refuses_nonsense(capsys, tmp_path):
     assert main(["bench", "verdicts", "--count", "0", "--single-file", "0"]) == 2
     assert main(["bench", "verdicts", "--gaps", "5"]) == 2
     assert main(["bench", "verdicts", "--engines", "bullet"]) == 2
+
+
+def test_a_journal_keeps_finished_assemblies_and_refuses_another_run(few, tmp_path):
+    journal = Journal(tmp_path / JOURNAL, 2, PYBULLET)
+    assert journal.load() == {}
+    for v in few[:3]:
+        journal.add(v)
+    assert journal.load() == {v.index: v for v in few[:3]}  # every field, the runs' too
+    # resumed, only the two left run, and the table is the whole run's
+    ran: list[int] = []
+    done = run_verdicts(2, 5, 1, lambda v: ran.append(v.index), PYBULLET, journal.load())
+    assert ran == [3, 4] and [v.index for v in done] == list(range(5))
+    assert [v.runs[0].level for v in done] == [v.runs[0].level for v in few]
+    with pytest.raises(ValueError, match="another seed, plan or source"):
+        Journal(tmp_path / JOURNAL, 3, PYBULLET).load()
+    with pytest.raises(ValueError, match="another seed, plan or source"):
+        Journal(tmp_path / JOURNAL, 2, plan(["pybullet"], [0.001], baselines=False)).load()
+    (tmp_path / "junk.jsonl").write_text("not json\n")
+    with pytest.raises(ValueError, match="not a journal"):
+        Journal(tmp_path / "junk.jsonl", 2, PYBULLET).load()
+
+
+def test_bench_verdicts_resumes_from_its_journal(capsys, tmp_path):
+    args = ["bench", "verdicts", "--count", "2", "--engines", "pybullet", "--gaps", "2", "--no-baselines"]
+    args += ["--single-file", "0", "-j", "1", "--out", str(tmp_path)]
+    assert main(args) == 0
+    first = capsys.readouterr().out
+    assert len((tmp_path / JOURNAL).read_text().splitlines()) == 3  # the header and two assemblies
+    assert main(args) == 0
+    again = capsys.readouterr().out
+    assert "resuming: 2 of 2 assemblies done" in again
+    assert first.splitlines()[3:] == again.splitlines()[4:]  # the same rows (the wall times are the runs')
+    assert main([*args[:3], "3", *args[4:]]) == 0  # one more: assembly 2 runs, 0 and 1 are read
+    assert len((tmp_path / JOURNAL).read_text().splitlines()) == 4
+    assert main(["bench", "verdicts", "--count", "2", "--seed", "5", *args[4:]]) == 2  # another seed's folder

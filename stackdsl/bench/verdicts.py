@@ -25,6 +25,9 @@ Units: metres and seconds in code; the tables print millimetres. Source: stackds
 
 from __future__ import annotations
 
+import dataclasses
+import hashlib
+import json
 import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
@@ -46,6 +49,8 @@ DEFAULT_GAP = 0.0005
 ENGINES: tuple[str, ...] = ("pybullet", "mujoco")
 #: Wall seconds a run may take.
 TIMEOUT = 60.0
+#: The journal's name in the output folder (:class:`Journal`).
+JOURNAL = "assemblies.jsonl"
 
 
 @dataclass(frozen=True)
@@ -191,24 +196,95 @@ def verdicts(seed: int, index: int, runs: Plan | None = None) -> Verdicts:
 
 
 def run_verdicts(
-    seed: int, count: int, jobs: int, each: Callable[[Verdicts], None] = lambda v: None, runs: Plan | None = None
+    seed: int,
+    count: int,
+    jobs: int,
+    each: Callable[[Verdicts], None] = lambda v: None,
+    runs: Plan | None = None,
+    done: dict[int, Verdicts] | None = None,
 ) -> list[Verdicts]:
     """Assemblies 0 to ``count - 1`` of ``seed`` on ``jobs`` processes, in index order; each
-    runs ``runs`` (default: :func:`plan`'s). A task whose worker dies is that assembly's error."""
+    runs ``runs`` (default: :func:`plan`'s). Those in ``done`` (index -> verdicts: a journal's,
+    :class:`Journal`) are not run again. A task whose worker dies is that assembly's error."""
     from ..batch.pool import WorkerLost, fan_out
 
     runs = plan() if runs is None else runs
-    tasks = [(seed, k, runs) for k in range(count)]
+    done = done or {}
+    tasks = [(seed, k, runs) for k in range(count) if k not in done]
 
     def lost(task: tuple[Any, ...], error: WorkerLost) -> Verdicts:
         return Verdicts(task[1], "", 0, False, None, 0.0, (), f"worker lost: {error}")
 
-    results: list[Verdicts] = []
-    iterator: Iterator[Verdicts] = fan_out(verdicts, tasks, [0.3 * len(runs)] * count, jobs, here=False, lost=lost)
+    results: list[Verdicts] = [v for k, v in done.items() if k < count]
+    iterator: Iterator[Verdicts] = fan_out(verdicts, tasks, [0.3 * len(runs)] * len(tasks), jobs, here=False, lost=lost)
     for v in iterator:
         results.append(v)
         each(v)
     return sorted(results, key=lambda v: v.index)
+
+
+class Journal:
+    """The assemblies a run has finished, one JSON line each in ``path`` after a header line
+    (the seed, the plan and a digest of stackdsl's source), so that a run stopped part way
+    resumes where it stopped: ``stackdsl bench verdicts --out DIR`` again. The journal of
+    another seed, plan or source is refused, so that one table never mixes two programs'
+    verdicts.
+
+    Raises:
+        ValueError: ``path`` holds another run's journal, or a line that is not one.
+        OSError: it cannot be read or written.
+
+    Source: stackdsl's own.
+    """
+
+    def __init__(self, path: Path, seed: int, runs: Plan) -> None:
+        self.path = path
+        self.header = {"seed": seed, "plan": [list(r) for r in runs], "source": source_digest()}
+
+    def load(self) -> dict[int, Verdicts]:
+        """The finished assemblies, by index (none when there is no journal yet)."""
+        if not self.path.exists():
+            return {}
+        lines = self.path.read_text(encoding="utf-8").splitlines()
+        try:
+            header = json.loads(lines[0]) if lines else None
+            if header != self.header:
+                raise ValueError(f"{self.path} holds the runs of another seed, plan or source of stackdsl: give another --out")
+            out = {}
+            for line in lines[1:]:
+                fields = json.loads(line)
+                fields["runs"] = tuple(Run(**{**r, "active": tuple(r["active"])}) for r in fields["runs"])
+                out[fields["index"]] = Verdicts(**fields)
+        except (json.JSONDecodeError, TypeError, KeyError) as exc:
+            raise ValueError(f"{self.path} is not a journal of stackdsl bench verdicts: {exc}") from None
+        return out
+
+    def add(self, v: Verdicts) -> None:
+        """Append one finished assembly (the header first, into a new journal)."""
+        new = not self.path.exists()
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        with self.path.open("a", encoding="utf-8") as f:
+            if new:
+                f.write(json.dumps(self.header) + "\n")
+            f.write(json.dumps(dataclasses.asdict(v)) + "\n")
+
+
+def source_digest() -> str:
+    """A SHA-256 (16 hex digits) of the Python source that decides a verdict: the ``stability``
+    package and stackdsl's language, compiler, engines, runtime and oracle (not the commands,
+    the benches or the drawings, which only show it). The same for the same code, wherever it
+    is installed."""
+    import stability
+    import stackdsl
+
+    assert stability.__file__ is not None and stackdsl.__file__ is not None, "packages with an __init__.py"
+    here = Path(stackdsl.__file__).parent
+    roots = [Path(stability.__file__).parent, *(here / p for p in ("lang", "compile", "engines", "runtime", "verdicts"))]
+    digest = hashlib.sha256()
+    for root in roots:
+        for f in sorted(root.rglob("*.py")):
+            digest.update(f"{root.name}/{f.relative_to(root)}".encode() + b"\0" + f.read_bytes())
+    return digest.hexdigest()[:16]
 
 
 def agrees(v: Verdicts, setting: str, gap: float = DEFAULT_GAP) -> bool:
@@ -324,9 +400,17 @@ def format_verdicts(results: list[Verdicts], out: Path | None, seconds: float, r
         lines.append(f"no assembly with a margin above {MARGIN * 1000:g} mm misjudged: no files written")
     elif out is not None:
         lines.append(f"(their files are in {out})")
+    lines += _stands_active([(f"{v.index:4d}", r) for v in good for r in v.runs])
     for v in results:
         lines += _failures(f"{v.index:4d}", v.error, v.runs, at_gap=True)
     return "\n".join(lines)
+
+
+def _stands_active(runs: Sequence[tuple[str, Run]]) -> list[str]:
+    """One line for each run that says "stands" with a structure brick still active at its end."""
+    found = [(label, r) for label, r in runs if r.stands_active]
+    lines = ["stands with a structure brick active at the end: assembly or sample, setting, gap, bricks"] if found else []
+    return lines + [f"  {label}  {r.setting:<25} {r.gap * 1000:.1f} mm  {', '.join(r.active)}" for label, r in found]
 
 
 def _failures(label: str, error: str, runs: Sequence[Run], at_gap: bool) -> list[str]:
@@ -344,11 +428,16 @@ def _level(level: int | None) -> str:
 
 
 def timed(
-    seed: int, count: int, jobs: int, each: Callable[[Verdicts], None] = lambda v: None, runs: Plan | None = None
+    seed: int,
+    count: int,
+    jobs: int,
+    each: Callable[[Verdicts], None] = lambda v: None,
+    runs: Plan | None = None,
+    done: dict[int, Verdicts] | None = None,
 ) -> tuple[list[Verdicts], float]:
-    """:func:`run_verdicts` and its wall seconds."""
+    """:func:`run_verdicts` and its wall seconds (of this run: those ``done`` before cost none)."""
     start = time.perf_counter()
-    results = run_verdicts(seed, count, jobs, each, runs)
+    results = run_verdicts(seed, count, jobs, each, runs, done)
     return results, time.perf_counter() - start
 
 
@@ -490,6 +579,7 @@ def format_single_file(samples: list[Sample], settings: Sequence[str], seconds: 
         lines.append(
             f"  {s.sample:5d}  {r.setting:<25} {_level(r.level)} (exact {_level(s.exact)}), margin {s.margin * 1000:.2f} mm{tie}"
         )
+    lines += _stands_active([(f"{s.sample:5d}", r) for s in good for r in s.runs])
     for s in samples:
         lines += _failures(f"{s.sample:5d}", s.error, s.runs, at_gap=False)
     return "\n".join(lines)

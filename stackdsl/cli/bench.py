@@ -133,7 +133,11 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
         default="auto",
         help="worker processes (default: auto, one per free core: the cores less the load average)",
     )
-    q.add_argument("--out", help="folder for the misjudged assemblies' files (default: a new temporary folder)")
+    q.add_argument(
+        "--out",
+        help="folder for the journal of finished assemblies (a run given the same folder again resumes) and the "
+        "misjudged assemblies' files (default: a new temporary folder)",
+    )
     q.set_defaults(func=_bench_verdicts)
     q = bench.add_parser("freeze", help="the ways to freeze a brick on MuJoCo: weld, its own sleeping, a held mocap body")
     q.add_argument("--levels", default="10,30,60", help="tower heights, comma-separated")
@@ -375,7 +379,17 @@ def _bench_freeze(args: argparse.Namespace) -> int:
 
 
 def _bench_verdicts(args: argparse.Namespace) -> int:
-    from ..bench.verdicts import SETTINGS, format_single_file, format_verdicts, plan, run_single_file, timed
+    from ..bench.verdicts import (
+        JOURNAL,
+        SETTINGS,
+        Journal,
+        Verdicts,
+        format_single_file,
+        format_verdicts,
+        plan,
+        run_single_file,
+        timed,
+    )
     from ..bench.versions import version_line
     from .progress import Lines
 
@@ -405,8 +419,20 @@ def _bench_verdicts(args: argparse.Namespace) -> int:
         raise ScenarioError("the output must be a folder, and this is a file", file=str(out))
     print(version_line(), flush=True)
     if args.count:
-        with Lines(args.count, "assemblies") as progress:
-            results, seconds = timed(args.seed, args.count, args.jobs, lambda v: progress.advance(), runs)
+        journal = Journal(out / JOURNAL, args.seed, runs)
+        try:
+            done = journal.load()
+        except ValueError as exc:
+            raise ScenarioError(str(exc), file=str(journal.path)) from None
+        if done:
+            print(f"resuming: {sum(k < args.count for k in done)} of {args.count} assemblies done in {journal.path}")
+
+        def finished(v: Verdicts) -> None:
+            journal.add(v)
+            progress.advance()
+
+        with Lines(args.count - sum(k < args.count for k in done), "assemblies") as progress:
+            results, seconds = timed(args.seed, args.count, args.jobs, finished, runs, done)
         print(format_verdicts(results, out, seconds, runs), flush=True)
     if args.single_file:
         chosen = [n for n in SETTINGS if SETTINGS[n].extension and SETTINGS[n].backend in engines]

@@ -46,6 +46,8 @@ LINGER = 4.0
 #: Metres: how far a corner of a brick woken in a proved collapse mechanism must move from
 #: where it was woken before it may be frozen again (:meth:`StabilityExtension._release`).
 RELEASE = 0.0005
+#: Metres: a held brick whose corners all stay this near where it was woken is kept still by the engine.
+STILL = 0.00005
 
 
 class StabilityExtension:
@@ -122,7 +124,7 @@ class StabilityExtension:
         # brick refused asks again once a rest duration has passed and something has changed
         for rec in active:
             if rec.proved_at is not None:
-                self._release(rec, rec in resting)
+                self._release(rec, rec in resting, time)
         due = [rec for rec in resting if rec.proved_at is None and (rec.failed is None or not stack.soon(rec.failed, time))]
         if due:  # the step's contacts, read only when some brick asks
             settling = [r.body for r in active if r.clock.since is not None]  # the resting, and those slowing down
@@ -170,11 +172,15 @@ class StabilityExtension:
             rec.failed = None
         return woken
 
-    def _release(self, rec: Record, resting: bool) -> None:
+    def _release(self, rec: Record, resting: bool, time: float) -> None:
         """Let go of a brick held active since it was woken in a collapse mechanism that statics
         proved (or woken resting on one that was: :attr:`Record.proved_at`) once a corner of it
         is :data:`RELEASE` from where it was woken and, ``resting`` by the windowed test, it is
-        at this step under the rest thresholds themselves. Once one held brick has moved by
+        at this step under the rest thresholds themselves. A brick the engine keeps still (no
+        corner :data:`STILL` from where it was woken after :data:`LINGER` rest durations, at
+        rest) is let go of too, and not held again: the engine's contacts hold what the frozen
+        stack's contacts could not, within a near tie, and it is left to the admission tests
+        (it stayed active to the end otherwise, a "stands" with an active brick). Once one held brick has moved by
         its own thickness, the mechanism has played out: every held brick is let go of, and no
         brick is held until every brick is frozen again (what fell is a heap, the debris
         rule's, which freezes bricks that creep within the windowed test). Until then it is not
@@ -191,6 +197,10 @@ class StabilityExtension:
         box, engine, config = rec.box, self._stack.engine, self._stack.config
         moved = float(np.linalg.norm(box.corners(engine.pose(rec.body)) - box.corners(rec.proved_at), axis=1).max())
         if moved < RELEASE:
+            if moved < STILL and resting and time - rec.proved_time >= LINGER * config.rest_duration:
+                speed, angular_speed = engine.speeds(rec.body)
+                if speed <= config.rest_speed and angular_speed <= config.rest_angular_speed:
+                    rec.proved_at, rec.still = None, True  # the engine holds it: the admission tests decide
             return
         if moved >= 2 * float(box.half_extents.min()):  # fallen by its own thickness: the mechanism played out
             self._stack.holding = False  # until every brick is frozen again

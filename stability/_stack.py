@@ -80,6 +80,8 @@ class Record:
     carried: tuple[float, tuple[int, ...]] | None = None  # its last load check (carry): when (s), and on what
     pile: frozenset[int] = frozenset()  # a fallen brick's debris pile (itself, frozen alone), which rigid-block equilibrium holds
     proved_at: Pose | None = None  # where it was woken in a proved collapse mechanism: held active until it moves (RELEASE)
+    proved_time: float = 0.0  # s: when it was
+    still: bool = False  # held once and kept still by the engine: not held again
 
     def held_by_pile(self) -> bool:
         """Fallen, frozen again with a debris pile that rigid-block equilibrium holds, and
@@ -258,7 +260,8 @@ class Stack:
             self.bodies[s].objects_above.discard(body)
         rec.rests_on, rec.main_contact, rec.com_above, rec.mass_above = {}, None, None, 0.0
         rec.contacts, rec.pile = [], frozenset()
-        rec.proved_at = self.engine.pose(body) if self.holding and (hold or body in proved) else None
+        held = self.holding and not rec.still and (hold or body in proved)
+        rec.proved_at, rec.proved_time = (self.engine.pose(body) if held else None), time
         woken = [Woken(body, node, StabilityEvent(time, "wake", rec.label, reason, proved=body in proved))]
         for above in self.ordered(rec.objects_above):
             woken += self.wake(above, time, f"rests on {rec.label}", proved, rec.proved_at is not None)

@@ -177,8 +177,8 @@ class StabilityExtension:
         proved (or woken resting on one that was: :attr:`Record.proved_at`) once a corner of it
         is :data:`RELEASE` from where it was woken and, ``resting`` by the windowed test, it is
         at this step under the rest thresholds themselves. A brick the engine keeps still (no
-        corner :data:`STILL` from where it was woken after :data:`LINGER` rest durations, at
-        rest) is let go of too, and not held again: the engine's contacts hold what the frozen
+        corner :data:`STILL` from where it was :data:`LINGER` rest durations before, at rest)
+        is let go of too, and not held again: the engine's contacts hold what the frozen
         stack's contacts could not, within a near tie, and it is left to the admission tests
         (it stayed active to the end otherwise, a "stands" with an active brick). Once one held brick has moved by
         its own thickness, the mechanism has played out: every held brick is let go of, and no
@@ -195,9 +195,13 @@ class StabilityExtension:
         comes to rest somewhere new and is asked again. Source: stackdsl's own."""
         assert rec.proved_at is not None, "asked of a held brick only"
         box, engine, config = rec.box, self._stack.engine, self._stack.config
-        moved = float(np.linalg.norm(box.corners(engine.pose(rec.body)) - box.corners(rec.proved_at), axis=1).max())
+        pose = engine.pose(rec.body)
+        corners = box.corners(pose)
+        moved = float(np.linalg.norm(corners - box.corners(rec.proved_at), axis=1).max())
         if moved < RELEASE:
-            if moved < STILL and resting and time - rec.proved_time >= LINGER * config.rest_duration:
+            if float(np.linalg.norm(corners - box.corners(rec.still_from[0]), axis=1).max()) >= STILL:
+                rec.still_from = (pose, time)  # it moved: still from here on, if at all
+            elif resting and time - rec.still_from[1] >= LINGER * config.rest_duration:
                 speed, angular_speed = engine.speeds(rec.body)
                 if speed <= config.rest_speed and angular_speed <= config.rest_angular_speed:
                     rec.proved_at, rec.still = None, True  # the engine holds it: the admission tests decide

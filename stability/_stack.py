@@ -80,7 +80,7 @@ class Record:
     carried: tuple[float, tuple[int, ...]] | None = None  # its last load check (carry): when (s), and on what
     pile: frozenset[int] = frozenset()  # a fallen brick's debris pile (itself, frozen alone), which rigid-block equilibrium holds
     proved_at: Pose | None = None  # where it was woken in a proved collapse mechanism: held active until it moves (RELEASE)
-    proved_time: float = 0.0  # s: when it was
+    still_from: tuple[Pose, float] = (Pose(np.zeros(3)), 0.0)  # held: where and since when (s) it has stayed within STILL
     still: bool = False  # held once and kept still by the engine: not held again
 
     def held_by_pile(self) -> bool:
@@ -261,7 +261,8 @@ class Stack:
         rec.rests_on, rec.main_contact, rec.com_above, rec.mass_above = {}, None, None, 0.0
         rec.contacts, rec.pile = [], frozenset()
         held = self.holding and not rec.still and (hold or body in proved)
-        rec.proved_at, rec.proved_time = (self.engine.pose(body) if held else None), time
+        rec.proved_at = self.engine.pose(body) if held else None
+        rec.still_from = (rec.proved_at or rec.still_from[0], time)
         woken = [Woken(body, node, StabilityEvent(time, "wake", rec.label, reason, proved=body in proved))]
         for above in self.ordered(rec.objects_above):
             woken += self.wake(above, time, f"rests on {rec.label}", proved, rec.proved_at is not None)

@@ -153,6 +153,24 @@ def test_a_stack_proved_in_a_mechanism_tips_at_its_own_level(backend, model):
     assert result.certificate is not None and result.certificate.verdict == "collapse"
 
 
+def test_a_brick_woken_in_a_proved_mechanism_is_held_while_it_creeps_and_let_go_when_kept_still():
+    s = Overloaded("equilibrium")
+    s.ext._stack.wake(2, s.time, "a proved mechanism", proved={2})
+    assert s.ext.state(2) is BrickState.ACTIVE
+    # it creeps: 2 mm/s, under the windowed rest test's bounds; frozen, it would lose its motion
+    for _ in range(24):
+        s.engine.poses[2] = Pose.from_euler(s.engine.poses[2].position + [0.0, 0.0, 0.002 * s.engine.timestep])
+        s.engine.velocities[2] = (np.array([0.0, 0.0, 0.002]), np.zeros(3))
+        s.run(s.engine.timestep)
+    assert s.ext.state(2) is BrickState.ACTIVE
+    # kept still by the engine: after four rest durations it is let go of, and frozen again
+    s.engine.velocities[2] = (np.zeros(3), np.zeros(3))
+    s.run(0.1)
+    assert s.ext.state(2) is BrickState.ACTIVE  # 0.2 s from its wake are not yet up
+    s.run(0.25)
+    assert s.ext.state(2) is BrickState.FROZEN
+
+
 @pytest.mark.parametrize("model", ["report", "equilibrium"])
 def test_a_brick_that_stays_active_on_an_overloaded_frozen_pair_wakes_it(model):
     s = Overloaded(model)

@@ -231,6 +231,8 @@ def padded_hull(points_xy: np.ndarray, pad: float) -> Polygon:
 
     >>> round(padded_hull(np.array([[0.0, 0.0]]), 0.001).area * 1e6, 3)
     2.0
+    >>> round(padded_hull(np.array([[0.0, 0.0], [1e-12, 0.0]]), 0.001).area * 1e6, 3)  # one point, twice (rounded)
+    2.0
     """
     points_xy = np.asarray(points_xy, dtype=float).reshape(-1, 2)
     if len(points_xy) == 0:
@@ -238,8 +240,8 @@ def padded_hull(points_xy: np.ndarray, pad: float) -> Polygon:
     hull = MultiPoint(points_xy).convex_hull
     if isinstance(hull, Polygon) and hull.area > pad * pad * 1e-3:
         return hull
-    if isinstance(hull, Point):
-        return hull.buffer(pad, quad_segs=1)
+    if isinstance(hull, Point) or hull.length < pad * 1e-3:  # one point, or several at one place
+        return Point(points_xy.mean(axis=0)).buffer(pad, quad_segs=1)
     line = hull if isinstance(hull, LineString) else LineString(shapely.get_coordinates(hull))
     return line.buffer(pad, cap_style="flat", quad_segs=1)
 

@@ -106,3 +106,31 @@ def test_some_leaning_bricks_stand_on_a_step_brick_the_oracle_sees():
         _, contacts = structure(list(p.placements), p.fixtures, p.ground_friction)
         touching = {(c.body, c.other): len(c.points) for c in contacts if {leaner, step} & {c.body, c.other}}
         assert touching == {(step, "ground"): 4, (leaner, "wall"): 2, (leaner, step): 2}, touching
+
+
+def test_a_margin_is_found_where_the_verdict_first_flips_not_at_the_far_end():
+    # a ladder 0.3 deg below its limit slides: moving every centre of mass a fraction of a
+    # millimetre toward the wall holds it, but 20 mm on the flat brick beside it (lying across
+    # that direction) falls off its own footprint, and the verdict is "collapse" again there
+    from stackdsl.verdicts.assemblies import Brick, Leaner, _yaml
+
+    def ladder(angle: float) -> str:
+        return _yaml([Brick(-0.4, 0.0, 1, 90.0)], "ladder", Leaner(0.0, 0.0, 0.0, angle))
+
+    low, high = 30.0, 45.0
+    while high - low > 0.01:  # the oracle's own ladder limit
+        mid = (low + high) / 2
+        stands = judge(compile_scenario(parse_scenario(ladder(mid)))).collapse_level is None
+        low, high = (low, mid) if stands else (mid, high)
+    j = judge(compile_scenario(parse_scenario(ladder(high - 0.3))))
+    assert j.collapse_level is not None and j.margin < 0.001
+
+
+def test_a_support_narrower_than_the_margin_is_the_margin():
+    # the top brick's centre of mass lies 3 mm past b1's end, and its far end lies 0.4 mm onto
+    # b2: statics holds it as a bridge, but a move of 0.4 mm takes b2's support away
+    text = "stackdsl: 1\nstructure:\n  bricks:\n"
+    for name, x, z in (("b1", 0.0, 4), ("b2", 182.6, 4), ("top", 63.0, 12)):
+        text += f"    - {{id: {name}, at: [{x} mm, 0, {z} mm]}}\n"
+    j = judge(compile_scenario(parse_scenario(text)))
+    assert j.collapse_level is None and j.margin == pytest.approx(0.0004, abs=RESOLUTION / 2)

@@ -244,13 +244,34 @@ def test_the_throughput_table_gives_each_executors_efficiency_with_and_without_i
 def test_bench_sweep_measures_a_sweep_file_on_every_executor(tmp_path, capsys):
     path = tmp_path / "stack.yaml"
     path.write_text(STACK.format(levels=4, samples=50))
-    assert main(["bench", "sweep", str(path), "--samples", "6"]) == 0
+    assert main(["bench", "sweep", str(path), "--samples", "6", "--no-loaded"]) == 0
     versions, *lines = capsys.readouterr().out.splitlines()
     assert versions.startswith("engines: pybullet ")
     assert lines[0] == "random single-file stack: 6 samples on each executor"
     rows = [line for line in lines if line.split()[0] in ("1", "2", "Dask")]
     assert len(rows) == 3 and all(float(row.split(" s ")[0].split()[-1]) > 0 for row in rows)
     assert lines[-2].endswith("identical on every executor: yes")
+
+
+def test_the_loaded_rows_run_the_samples_beside_a_busy_core_and_stop_it(tmp_path, monkeypatch):
+    import subprocess
+
+    from stackdsl.bench.sweep import loaded, template
+
+    path = tmp_path / "stack.yaml"
+    path.write_text(STACK.format(levels=3, samples=50))
+    spinners: list[subprocess.Popen[bytes]] = []
+    popen = subprocess.Popen
+
+    def spy(*args, **kwargs):
+        spinners.append(popen(*args, **kwargs))
+        return spinners[-1]
+
+    monkeypatch.setattr(subprocess, "Popen", spy)
+    rows, load = loaded(template(4, path), spin_up=0.2)
+    assert [r.executor.split(" (")[0] for r in rows] == ["busy core: -j 1", "busy core: -j auto"]
+    assert all(r.samples == 4 and r.seconds > 0 for r in rows) and load >= 0.0
+    assert len(spinners) == 1 and spinners[0].poll() is not None  # the busy core is let go of
 
 
 def test_bench_sweep_refuses_a_file_with_nothing_to_sample(tmp_path, capsys):

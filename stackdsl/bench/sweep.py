@@ -7,7 +7,9 @@ and one worker) and on a local Dask cluster of two single-threaded worker proces
 cluster's start and a warm-up batch on each of its workers are timed apart, as a cluster is
 started once for many sweeps; stackdsl's pool starts its workers within its time (measured
 apart too, for the table). Parallel efficiency is the two-way rate over twice the one-way
-rate. Every executor's per-sample results but the wall time must be the same.
+rate. Every executor's per-sample results but the wall time must be the same. A second table
+(:func:`loaded`) runs the samples again while one core is kept busy: ``-j 1`` against ``-j
+auto``, which must never be the slower.
 
 Source: stackdsl's own.
 """
@@ -100,6 +102,42 @@ def throughputs(t: Template, each: Callable[[Throughput], None] = lambda row: No
         each(rows[-1])
     same = all(_plain(r) == _plain(runs[0]) for r in runs[1:])
     return rows, same
+
+
+#: Seconds a busy core spins before the loaded rows are measured: the 1-minute load average,
+#: which ``-j auto`` reads, is then above 0.6.
+SPIN_UP = 60.0
+
+
+def loaded(
+    t: Template, each: Callable[[Throughput], None] = lambda row: None, spin_up: float = SPIN_UP
+) -> tuple[list[Throughput], float]:
+    """The same samples on a machine one core of which is busy (a process spinning, started
+    ``spin_up`` seconds before): with one process (``-j 1``) and with ``-j auto`` (one per free
+    core, :func:`stackdsl.batch.address.free_cores`, read after the spin-up). Returns the two
+    rows and the load average ``-j auto`` saw. The spinner is stopped however this ends."""
+    import os
+    import subprocess
+    import sys
+
+    from ..batch.address import free_cores
+
+    samples = t.cells * t.samples
+    options = SweepOptions(timeout=None)
+    spinner = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+    try:
+        time.sleep(spin_up)
+        load, auto = os.getloadavg()[0], free_cores()
+        rows = []
+        for name, jobs in (("-j 1", 1), (f"-j auto ({auto} process{'es' * (auto > 1)})", auto)):
+            start = time.perf_counter()
+            collect(run_sweep(t, options, jobs=jobs))
+            rows.append(Throughput(f"busy core: {name}", samples, time.perf_counter() - start))
+            each(rows[-1])
+        return rows, load
+    finally:
+        spinner.kill()
+        spinner.wait()
 
 
 def _pool_startup(workers: int) -> float:

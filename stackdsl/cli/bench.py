@@ -106,6 +106,12 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     q.add_argument(
         "--samples", type=int, default=None, help="samples a grid cell on each executor (default: 1000, or FILE's own)"
     )
+    q.add_argument(
+        "--no-loaded",
+        dest="loaded",
+        action="store_false",
+        help="leave out the second table: -j 1 against -j auto with one core kept busy (a minute's spin-up)",
+    )
     q.set_defaults(func=_bench_sweep)
     q = bench.add_parser(
         "verdicts",
@@ -319,7 +325,7 @@ def _bench_record(args: argparse.Namespace) -> int:
 
 
 def _bench_sweep(args: argparse.Namespace) -> int:
-    from ..bench.sweep import HEADER, Throughput, footer, format_row, template, throughputs, title
+    from ..bench.sweep import HEADER, SPIN_UP, Throughput, footer, format_row, loaded, template, throughputs, title
 
     if args.samples is not None and not 1 <= args.samples <= 100_000:
         raise ScenarioError(f"--samples must be from 1 to 100000, not {args.samples}", file="--samples")
@@ -336,6 +342,10 @@ def _bench_sweep(args: argparse.Namespace) -> int:
 
     _, same = throughputs(t, each)
     print(footer(same))
+    if args.loaded:
+        print(f"\nthe same samples with one core kept busy (a spinning process, {SPIN_UP:.0f} s before):", flush=True)
+        busy, load = loaded(t, lambda row: print(f"{row.executor:<32} {row.seconds:>7.1f} s {row.rate:>10.1f}", flush=True))
+        print(f"1-minute load average at the start: {load:.2f}; -j auto / -j 1 wall: {busy[1].seconds / busy[0].seconds:.2f}")
     return OK
 
 

@@ -401,9 +401,8 @@ def format_verdicts(results: list[Verdicts], out: Path | None, seconds: float, r
     elif out is not None:
         lines.append(f"(their files are in {out})")
     lines += _stands_active([(f"{v.index:4d}", r) for v in good for r in v.runs])
-    for v in results:
-        lines += _failures(f"{v.index:4d}", v.error, v.runs, at_gap=True)
-    return "\n".join(lines)
+    failed = [line for v in results for line in _failures(f"{v.index:4d}", v.error, v.runs, at_gap=True)]
+    return "\n".join(lines + (["runs that stopped with an internal error:", *failed] if failed else []))
 
 
 def _stands_active(runs: Sequence[tuple[str, Run]]) -> list[str]:
@@ -580,6 +579,6 @@ def format_single_file(samples: list[Sample], settings: Sequence[str], seconds: 
             f"  {s.sample:5d}  {r.setting:<25} {_level(r.level)} (exact {_level(s.exact)}), margin {s.margin * 1000:.2f} mm{tie}"
         )
     lines += _stands_active([(f"{s.sample:5d}", r) for s in good for r in s.runs])
-    for s in samples:
-        lines += _failures(f"{s.sample:5d}", s.error, s.runs, at_gap=False)
+    failed = [line for s in samples for line in _failures(f"{s.sample:5d}", s.error, s.runs, at_gap=False)]
+    lines += ["runs that stopped with an internal error:", *failed] if failed else []
     return "\n".join(lines)

@@ -15,7 +15,8 @@ rows alone, and HiGHS solves the programs of the benchmark's fallen heaps of 33 
 bricks 2 to 2.5 times as fast, with the same tensions and collapse mechanisms).
 Inscribed means every force the pyramid allows the true cone allows too, so the
 linearisation can only call a block unstable that is (barely) stable, never the
-reverse. The first tangent points downhill along the contact (or along x when the
+reverse; a program the eight-sided pyramid fails by a small tension is solved again with
+32 sides, which lose at most 0.5% of mu. The first tangent points downhill along the contact (or along x when the
 contact is horizontal), so for planar problems in the x-z plane, the slope, the ladder
 and the V, the pyramid is exact in the direction that matters.
 
@@ -76,6 +77,21 @@ class ContactPolygon(Generic[BodyKey]):
     friction: float
 
 
+FINE_SIDES = 32
+"""Sides of the pyramid a program is solved again with when the eight-sided one fails it by
+little (:data:`NEAR_TENSION`): inscribed in the cone, it loses at most 0.5% of mu where eight
+sides lose 7.6%. A ladder whose foot needs its friction between two of the eight edges
+stands on the cone and on this pyramid, and would otherwise be called fallen."""
+
+NEAR_TENSION = 0.25
+"""Fraction of the blocks' weight below which a failed program's tension may be the
+pyramid's and not the blocks' (:data:`FINE_SIDES`); a real collapse mechanism needs more."""
+
+LEVEL_TILT = 1e-3
+"""Sine of the tilt below which a contact counts as horizontal when the pyramid's first edge
+is chosen (:func:`_tangents`): an engine's normal is off the face's by 1e-5 or so, and its
+"downhill" then points anywhere."""
+
 MOVES = 1e-4
 """Relative virtual velocity above which a block moves in a collapse mechanism (below it:
 the program's round-off)."""
@@ -128,7 +144,8 @@ def solve_equilibrium(
     Args:
         blocks: free blocks by key; every other key named by a contact is a support.
         contacts: the contact polygons.
-        sides: sides of the friction pyramid (>= 3).
+        sides: sides of the friction pyramid (>= 3); a program it fails by a tension under
+            :data:`NEAR_TENSION` of the weight is solved again with :data:`FINE_SIDES`.
         gravity: m/s^2, acting along -z.
         quick: try the vertical-force program first when every contact is level.
 
@@ -174,6 +191,8 @@ def solve_equilibrium(
     total = sum(b.mass for b in blocks.values()) * gravity
     forces, by_body, by_contact = _forces(result.x.reshape(n, per_point) * weight, contacts, generators, owner, keys)
     stands = tension <= 1e-7 * max(total, 1e-12)
+    if not stands and sides < FINE_SIDES and tension < NEAR_TENSION * total:  # the pyramid's, or the blocks'?
+        return solve_equilibrium(blocks, contacts, sides=FINE_SIDES, gravity=gravity, quick=False)
     mechanism = {} if stands else _mechanism(result.eqlin.marginals, keys)
     return Equilibrium(stands, tension, forces, by_body, by_contact, mechanism)
 
@@ -343,13 +362,14 @@ def _toward(contact: ContactPolygon[BodyKey], points: np.ndarray, blocks: Mappin
 
 
 def _tangents(normal: np.ndarray, sides: int, toward: np.ndarray | None = None) -> np.ndarray:
-    """``sides`` unit tangents, the first downhill; for a horizontal contact, along ``toward``
+    """``sides`` unit tangents, the first downhill; for a horizontal contact (tilted by less
+    than :data:`LEVEL_TILT`), along ``toward``
     (from the contact to the held block's centre of mass: where the foot of a leaning brick
     needs its friction) or, without it, along x. An inscribed pyramid reaches the cone fully
     only along its generators: a ladder's foot at 22.5 deg between two lost up to 8% of mu."""
     down = np.array([0.0, 0.0, -1.0])
     first = down - (down @ normal) * normal
-    if np.linalg.norm(first) < 1e-6 and toward is not None:
+    if np.linalg.norm(first) < LEVEL_TILT and toward is not None:
         first = toward - (toward @ normal) * normal
     if np.linalg.norm(first) < 1e-6:
         axis = np.array([1.0, 0.0, 0.0]) if abs(normal[0]) < 0.9 else np.array([0.0, 1.0, 0.0])

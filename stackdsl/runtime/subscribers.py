@@ -87,18 +87,23 @@ class Stability(Subscriber):
 
 
 class SoftLanding(Subscriber):
-    """A placed brick is let go of once it has arrived: at the first step after it began to fall
-    at which something has slowed its fall (its downward speed grew by less than half of what
-    gravity adds in a step) or it has come down to its resting height (within :data:`ARRIVED`),
-    its velocities are set to zero, once, as a hand that lowers a brick onto the stack and opens.
-    A brick placed in contact never falls and is left alone.
+    """A placed brick is let go of once it has arrived, as a hand that lowers a brick onto the
+    stack and opens: at the first step after it began to fall at which something has slowed its
+    fall (its downward speed grew by less than half of what gravity adds in a step) or it has
+    come down to its resting height (within :data:`ARRIVED`), its velocities are set to zero,
+    once. A brick placed in contact never falls and is left alone.
 
-    The drop gap then only says where the brick starts, not how hard it lands. Dropped freely, a
-    brick whose centre of mass lies 1 mm inside its support's edge landed 1 mm from above with
-    enough spin on pybullet to slide off: a slanted log cabin whose closed-form level is 10 fell
-    at level 4 with a 1 mm gap and at 10 with the others. Let go of on arrival, it gives 10 at
-    every gap from 0 to 2 mm, down to 0.3 mm inside. Same in every mode, so modes compare.
-    A brick watched longer than :data:`WATCH` is forgotten.
+    A brick falling freely is lowered onto its resting height: the step that would take it there
+    or past it ends there instead (its speed set for that), and at rest there it is watched as
+    if placed so. Falling straight down from rest it has the placed pose's x, y and orientation,
+    so every drop gap ends as the gap of 0 begins, a few steps later, and lands as that one
+    does. Dropped 2 mm onto two supports, one of them reached by 0.46 mm only, a brick passed
+    that edge in the step of its impact (0.8 mm a step at 0.2 m/s) and slid off it on pybullet;
+    lowered, it stays. Dropped freely, a brick whose centre of mass lies 1 mm inside its
+    support's edge landed 1 mm from above with enough spin on pybullet to slide off: a slanted
+    log cabin whose closed-form level is 10 fell at level 4 with a 1 mm gap and at 10 with the
+    others. Same in every mode, so modes compare. A brick watched longer than :data:`WATCH` is
+    forgotten.
 
     Source: stackdsl's own (docs/design.md, placement independence).
     """
@@ -115,6 +120,7 @@ class SoftLanding(Subscriber):
     def __init__(self, gravity: float) -> None:
         self.gravity = gravity
         self.falling: dict[str, tuple[BrickRecord, float, float | None]] = {}  # id -> (record, placed, last vz)
+        self.lowered: set[str] = set()  # lowered onto their resting heights in this step
 
     @property
     def quiet(self) -> bool:
@@ -122,6 +128,19 @@ class SoftLanding(Subscriber):
 
     def on_place(self, loop: StepLoop, record: BrickRecord) -> None:
         self.falling[record.id] = (record, loop.events[-1].time, None)
+
+    def before_step(self, loop: StepLoop) -> None:
+        falling = [(r, last or 0.0) for r, _, last in self.falling.values() if r.moving]  # placed at rest
+        if not falling:
+            return
+        positions, _ = loop.world.poses_of([r.body for r, _ in falling])
+        fall = self.gravity * loop.dt
+        for (record, vz), position in zip(falling, positions):
+            step = (fall - vz) * loop.dt  # metres it falls in this step, freely
+            above = float(position[2]) - record.pose.position[2]
+            if self.ARRIVED < above <= step + self.ARRIVED:
+                loop.world.throw(record.body, (0.0, 0.0, fall - above / loop.dt), None)
+                self.lowered.add(record.id)
 
     def after_step(self, loop: StepLoop) -> None:
         if not self.falling:
@@ -132,6 +151,11 @@ class SoftLanding(Subscriber):
         slowed = 0.5 * self.gravity * loop.dt
         for record, position, velocity in zip(watched, positions, velocities):
             _, placed, last = self.falling[record.id]
+            if record.id in self.lowered:  # at rest where it is to lie, as if placed there now
+                self.lowered.discard(record.id)
+                loop.world.throw(record.body, (0.0, 0.0, 0.0), None)
+                self.falling[record.id] = (record, loop.now, None)
+                continue
             vz = float(velocity[2])
             fell = last is not None or vz < -self.FALLING
             arrived = fell and (

@@ -186,6 +186,7 @@ class PyBulletWorld(PyBulletEngine, World):
     def move(self, body: int, pose: Pose, mass: float) -> None:
         self._velocities.pop(body, None)
         self._client.resetBasePositionAndOrientation(body, pose.position.tolist(), pose.orientation.tolist())
+        self._client.resetBaseVelocity(body, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0])  # the pose alone keeps them
         self._client.changeDynamics(body, -1, mass=mass)
 
     def throw(self, body: int, velocity: Vec3, swept_radius: float | None) -> None:

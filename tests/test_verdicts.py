@@ -92,6 +92,37 @@ def test_a_scene_with_a_1_5_mm_margin_has_one_verdict_at_every_drop_gap(backend,
         assert "b3" in falls.certificate.bricks
 
 
+@pytest.mark.parametrize("model", ["report", "equilibrium"])
+def test_a_brick_that_reaches_a_support_by_half_a_millimetre_lands_on_it_at_every_gap(model):
+    # Its centre of mass lies between its two supports; it reaches the second by 0.46 mm. Dropped
+    # 2 mm freely and let go of on arrival, it passed that edge in its step of impact, slid off
+    # it on pybullet and stayed active to the end of a "stands" run; lowered, it is frozen on both.
+    text = """stackdsl: 1
+structure:
+  bricks:
+    - {{id: a, at: [59.264 mm, -13.171 mm, 4 mm]}}
+    - {{id: b, at: [53.777 mm, 74.266 mm, 4 mm], yaw: 90}}
+    - {{id: top, at: [63.288 mm, 2.727 mm, 12 mm]}}
+timing: {{drop_gap: {gap} mm}}
+stability: {{model: {model}}}
+"""
+    for gap in GAPS_MM:
+        result = run_program(compile_scenario(parse_scenario(text.format(gap=gap, model=model))))
+        assert result.collapse is None, f"drop gap {gap} mm"
+        top = next(n for n in result.final_graph.nodes if n.id == "top")
+        assert top.state == "frozen", f"drop gap {gap} mm"
+        assert {e.support for e in result.final_graph.edges if e.upper == "top"} == {"a", "b"}
+
+
+@pytest.mark.parametrize("offset", [11.5, 12.5])
+def test_a_near_tie_gets_one_verdict_at_every_gap_once_bricks_are_lowered(offset):
+    # 0.5 mm inside or outside its support's edge: no verdict is owed (pybullet's 1 mm collision
+    # margin tips the one inside), but it is one verdict. Dropped freely and let go of on
+    # arrival, the one inside fell at four gaps and stood at 2 mm.
+    outcomes = [run_program(compile_scenario(parse_scenario(crosswise(offset, gap)))) for gap in GAPS_MM]
+    assert len({o.collapse.level if o.collapse else None for o in outcomes}) == 1
+
+
 def test_a_brick_that_tips_off_is_decided_when_its_centre_of_mass_leaves_its_support():
     result = run_program(compile_scenario(parse_scenario(crosswise(13.5, 0.5))))
     assert result.collapse is not None and result.certificate is not None

@@ -314,6 +314,24 @@ def test_an_internal_error_in_any_command_is_one_line_and_exit_3(command, tmp_pa
     assert "Traceback (most recent call last)" in err and err.splitlines()[-1].startswith("stackdsl: internal error: KeyError")
 
 
+def test_ctrl_c_that_a_c_extension_reports_as_its_own_error_is_an_interrupt(tmp_path, capsys, monkeypatch):
+    # Ctrl-C during a C extension's import comes out of it as an ImportError, not as
+    # KeyboardInterrupt: under load, a real `check` interrupted 0.3 s in exited 3, a "bug"
+    def importing(*args, **kwargs):
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(5)
+        except KeyboardInterrupt:
+            pass
+        raise ImportError("initialization of _pybullet raised unreported exception")
+
+    monkeypatch.setattr(_compiler, "compile_scenario", importing)
+    assert main(["run", str(write(tmp_path, a=PASSING) / "a.yaml")]) == 130
+    assert capsys.readouterr().err == "stackdsl: interrupted\n"
+    monkeypatch.setattr(_compiler, "compile_scenario", lambda *a, **k: (_ for _ in ()).throw(ImportError("no wheel")))
+    assert main(["run", str(tmp_path / "a.yaml")]) == 3  # without Ctrl-C it is the bug it looks like
+
+
 def test_an_internal_error_is_an_error_in_json_and_junit(tmp_path, capsys, monkeypatch):
     def broken(*args, **kwargs):
         raise RuntimeError("wheels came off")

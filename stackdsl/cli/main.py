@@ -60,6 +60,14 @@ def main(argv: list[str] | None = None) -> int:
     main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, _terminated) if main_thread else None
     interrupt = signal.getsignal(signal.SIGINT) if main_thread else None
+    pressed: list[int] = []  # Ctrl-C: noted, then raised as KeyboardInterrupt
+
+    def ctrl_c(signum: int, frame: Any) -> None:
+        pressed.append(signum)
+        raise KeyboardInterrupt
+
+    if main_thread and interrupt is signal.default_int_handler:
+        signal.signal(signal.SIGINT, ctrl_c)
     hook, variable = sys.unraisablehook, os.environ.get("STACKDSL_TRACEBACK")
     interrupted = False
     if debug:
@@ -106,14 +114,18 @@ def main(argv: list[str] | None = None) -> int:
             file=sys.stderr,
         )
         return INTERNAL
+    except Exception as exc:
+        if not pressed:
+            return _internal(exc, debug)
+        # Ctrl-C inside a C extension's import or call comes out as that call's error
+        # (an ImportError, a SystemError): it was the interrupt all the same
+        interrupted = True
+        _say_interrupted(main_thread)
+        return INTERRUPTED
     except KeyboardInterrupt:
         interrupted = True
-        if main_thread:  # a second Ctrl-C while this line is printed must not show a traceback
-            signal.signal(signal.SIGINT, signal.SIG_IGN)
-        print("stackdsl: interrupted", file=sys.stderr)
+        _say_interrupted(main_thread)
         return INTERRUPTED
-    except Exception as exc:
-        return _internal(exc, debug)
     finally:
         if main_thread:
             signal.signal(signal.SIGTERM, previous)
@@ -126,6 +138,13 @@ def main(argv: list[str] | None = None) -> int:
                 os.environ.pop("STACKDSL_TRACEBACK", None)
             else:
                 os.environ["STACKDSL_TRACEBACK"] = variable
+
+
+def _say_interrupted(main_thread: bool) -> None:
+    """Say that Ctrl-C ended the command; a second Ctrl-C meanwhile must not show a traceback."""
+    if main_thread:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+    print("stackdsl: interrupted", file=sys.stderr)
 
 
 def _internal(exc: BaseException, debug: bool) -> int:

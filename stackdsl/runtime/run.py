@@ -68,7 +68,7 @@ class RunOptions:
             False runs leaning and impacts always.
         per_event: run the stack-wide test when the stack changes; False every step.
         stop_at_collapse: place nothing after the first collapse and end ``settle`` later.
-        soft_landing: a placed brick is let go of when it arrives at its resting height
+        soft_landing: a placed brick is lowered onto its resting height and let go of there
             (:class:`stackdsl.runtime.subscribers.SoftLanding`); False drops it freely from its gap.
         rigid_debris: in extension mode on pybullet, with ``stop_at_collapse`` and the
             program's ``rigid`` rule on, the bricks that move once the collapse is decided are

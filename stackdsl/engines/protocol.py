@@ -83,6 +83,9 @@ class EngineSettings(_Frozen):
     #: Whether bodies enter the engine when placed (False: every body is created up front,
     #: parked far away, and moved in when placed: cheaper where creating a body rebuilds the model).
     enters_when_placed: ClassVar[bool] = True
+    #: Metres a brick is placed into what will carry it: about how far one sinks at rest on
+    #: this engine, so that its first step meets the whole contact patch (0: at zero distance).
+    SEAT: ClassVar[float] = 0.0
     #: The engine's name in messages, and what it simulates faithfully.
     NAME: ClassVar[str] = "the engine"
     LIMITS: ClassVar[Limits] = Limits(min_side=0.0, max_speed=math.inf, max_speed_no_substeps=math.inf, max_mass_ratio=math.inf)

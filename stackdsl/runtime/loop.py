@@ -214,12 +214,14 @@ class StepLoop:
         a level at 240 Hz): the brick is placed lower by the least they have sunk, as a
         person puts a brick on the stack in front of them, so that a tall tower's newest
         brick does not fall millimetres onto its supports. The sink is reported in the
-        ``place`` event and kept in the brick's record.
+        ``place`` event and kept in the brick's record. The brick's pose is also lowered by
+        its engine's seat (:attr:`~stackdsl.engines.protocol.EngineSettings.SEAT`), about as
+        deep as a brick at rest sinks there, so that it meets its whole contact patch at once.
         """
         nominal = Pose.from_euler(a.position, a.yaw, a.pitch, a.roll)
         scenario = BrickRecord(a.id, -1, a.brick, a.level, nominal, nominal)
         sink = self.structure.sink(float(scenario.corners[:, 2].min()), scenario.footprint)
-        target = Pose(nominal.position - [0.0, 0.0, sink], nominal.orientation)
+        target = Pose(nominal.position - [0.0, 0.0, sink + self.program.engine.SEAT], nominal.orientation)
         body = self._enter(a.id, a.brick, Pose(target.position + [0.0, 0.0, a.drop], nominal.orientation))
         record = BrickRecord(a.id, body, a.brick, a.level, target, nominal)
         self.structure.add(record)

@@ -28,6 +28,11 @@ class PyBulletSettings(EngineSettings):
         "extension": dict(timestep=1 / 240, solver_iterations=50, friction_anchors=False, maximal_coordinates=False, ccd=True),
     }
 
+    #: A brick at rest sinks 0.010-0.016 mm into the ground or a brick (raw and tuned mode,
+    #: measured). Placed at zero distance, the box-box collider finds 2 of the patch's 4
+    #: corners in the first step, and the solver loads one end: a brick 0.64 mm inside its
+    #: support's edge tipped off it. Placed 0.01 mm in, it meets all four and stays.
+    SEAT: ClassVar[float] = 1e-5
     NAME: ClassVar[str] = "pybullet"
     LIMITS: ClassVar[Limits] = Limits(
         min_side=0.003,

@@ -171,6 +171,25 @@ class Overloaded:
 NEAR_EDGE_MM = (0.0, 53.472, 29.951, 0.045, -50.013, -21.531)
 
 
+def test_a_brick_put_in_touch_meets_its_whole_contact_patch_at_every_gap():
+    # b2's centre of mass 0.64 mm inside b1's end, b3 on it puts theirs 5 mm past: collapse 3 by
+    # the exact rule. Put at zero distance, pybullet met 2 of the patch's 4 corners and tipped b2
+    # off at gaps 0, 0.5, 1 and 2 mm (collapse 2); seated at the engine's resting depth, it stays
+    levels = []
+    for gap in GAPS_MM:
+        text = f"""stackdsl: 1
+structure:
+  bricks:
+    - {{id: b1, at: [0, 0, 4 mm]}}
+    - {{id: b2, at: [-59.3608 mm, 0, 12 mm]}}
+    - {{id: b3, at: [-70.6122 mm, 0, 20 mm]}}
+timing: {{drop_gap: {gap} mm}}
+"""
+        result = run_program(compile_scenario(parse_scenario(text)))
+        levels.append(result.collapse.level if result.collapse else None)
+    assert levels == [3] * len(GAPS_MM)
+
+
 @pytest.mark.parametrize("backend", ["pybullet", "mujoco"])
 @pytest.mark.parametrize("model", ["report", "equilibrium"])
 def test_a_stack_proved_in_a_mechanism_tips_at_its_own_level(backend, model):

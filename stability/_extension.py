@@ -222,8 +222,9 @@ class StabilityExtension:
         it was placed for :data:`LINGER` rest durations (:meth:`carry`): once, and again a rest
         duration later if the stack or its pose (by 0.1 mm or 0.01 rad) has changed. A brick
         the engine cannot bring to rest (one that keeps trembling on a compliant contact) would
-        otherwise lie on immovable bricks that no test ever asked to carry it. Bricks woken from
-        the stack are left to the debris rule, which solves them with the stack."""
+        otherwise lie on immovable bricks that no test ever asked to carry it. From then on it
+        is at rest by the windowed test (:mod:`stability._rest`). Bricks woken from the stack
+        are left to the debris rule, which solves them with the stack."""
         stack, events = self._stack, []
         for rec in active:
             if rec.state is not BrickState.ACTIVE or rec.was_frozen:
@@ -233,6 +234,7 @@ class StabilityExtension:
                 continue
             if time - rec.placed_at < LINGER * stack.config.rest_duration:
                 continue
+            rec.clock.windowed = True  # not at rest by the report's test: the windowed one (stability._rest)
             if rec.carried is not None and time - rec.carried[0] < stack.config.rest_duration:
                 continue
             pose = stack.engine.pose(rec.body)

@@ -251,7 +251,7 @@ class Stack:
         self.engine.set_frozen(body, False, rec.box.mass)
         rec.state, rec.frozen_pose, rec.node, rec.extent = BrickState.ACTIVE, None, None, None
         rec.clock.stop()
-        rec.clock.fallen = self.config.debris  # fallen: the windowed rest test (with the debris rule)
+        rec.clock.fallen, rec.clock.windowed = self.config.debris, False  # fallen: the windowed rest test (with the debris rule)
         self.active[body] = rec
         del self.frozen[body]
         self.unproven.discard(body)

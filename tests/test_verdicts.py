@@ -265,6 +265,28 @@ def test_a_load_that_two_frozen_bricks_of_one_file_cannot_carry_wakes_both_once(
     assert sorted(first) == ["b2", "b3"] and "b1" not in {e.label for e in woken}
 
 
+def test_a_placed_brick_that_rocks_in_place_on_a_near_tie_is_frozen_by_the_windowed_test():
+    # pybullet rocked a brick on a near tie by 0.02 deg, with spikes up to 0.13 rad/s every 10-20
+    # steps: the report's rest test started again at every spike, and the brick stayed active
+    # to the end of the run ("stands" with an active brick). After LINGER rest durations it is
+    # judged as debris is: over each window it stays within what the thresholds allow
+    from stability._extension import LINGER
+
+    s = Overloaded("report")
+    s.engine.poses[3] = Pose.from_euler([0.05, 0.0, 0.020], yaw=90)
+    s.ext.add_brick(3, KAPLA, "b3")
+    s.engine.touch(3, 2, [[0.038, -0.01, 0.016], [0.062, 0.01, 0.016]], normal=[0, 0, 1])
+    placed, frozen_at = s.time, None
+    for step in range(round(0.6 / s.engine.timestep)):
+        spike = step % 10 == 0  # more often than the 12 steps of a rest duration
+        s.engine.velocities[3] = (np.zeros(3), np.array([0.13 if spike else 0.01, 0.0, 0.0]))
+        s.run(s.engine.timestep)
+        if frozen_at is None and s.ext.state(3) is BrickState.FROZEN:
+            frozen_at = s.time
+    assert frozen_at is not None and frozen_at - placed >= LINGER * 0.05  # not before it has lingered
+    assert frozen_at - placed < (LINGER + 2) * 0.05  # then within two rest durations (0.05 s)
+
+
 def test_a_brick_that_will_not_stay_is_no_load_to_check():
     # b3 lying beyond b2's end (its centre of mass outside the contact) will tip off, not load b2
     s = Overloaded("equilibrium")

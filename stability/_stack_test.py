@@ -209,9 +209,18 @@ class StackTest:
         (co-support re-test). Without it a tower whose two sibling bricks carry it
         together stays pinned by the sibling that did not fail first (measured on the
         slant tower; docs/design.md, where the code departs from the report).
+
+        Since equilibrium has the last word, nothing is propagated while every frozen brick
+        lies over its load path (:mod:`stability._load_path`): the paths are a solution of
+        its program, so the stack stands and nothing could wake. An upright tower then costs
+        no propagation at all, where it cost one down the whole frozen stack at every freeze
+        (docs/results/speed-against-error.md, "Cost against height"). The loads are then left
+        stale (:meth:`refresh_loads` brings them up to date when the impact rule asks).
         """
         stack = self.stack
         events: list[StabilityEvent] = []
+        if stack.config.gravity > 0 and not stack.unproven:
+            return events  # every brick over its load path: equilibrium stands (see above)
         gave_way: set[int] = set()
         leaning: dict[int, LoadNode] = {}
         proved: frozenset[int] | None = None

@@ -164,3 +164,25 @@ def test_a_slant_stack_falls_at_its_closed_form_without_an_equilibrium_program(m
     # loads balance the stack until it falls, and then the nine bricks above the first turn out
     # about its end (stability._cut): no program is solved
     assert calls == []
+
+
+def test_the_report_models_stack_test_propagates_nothing_while_every_brick_is_over_its_path(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import stability._stack_test as stack_test
+
+    propagated: list[int] = []
+    real = stack_test.propagate_fast
+
+    def counting(nodes):  # type: ignore[no-untyped-def]
+        propagated.append(len(nodes))
+        return real(nodes)
+
+    monkeypatch.setattr(stack_test, "propagate_fast", counting)
+    tower = program_for(Scene("upright", 12, 12, "tower: {levels: 12}", None), "extension report")
+    assert run_program(tower, RunOptions()).collapse is None
+    assert propagated == []  # it was one propagation down the frozen stack at every freeze
+    scene = Scene("single file", 13, 12, "tower: {levels: 12, bricks_per_layer: 1, turn: 0, shift: 13 mm}", 10)
+    outcome = run_program(program_for(scene, "extension report"), RunOptions(stop_at_collapse=True))
+    assert outcome.collapse is not None and outcome.collapse.level == 10
+    assert propagated, "beyond the first bricks' load paths the report's rule is asked again"

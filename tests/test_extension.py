@@ -264,10 +264,25 @@ def test_the_profile_rows_of_the_bench_name_functions_that_exist():
     from stackdsl.bench.cost import PARTS
 
     root = Path(__file__).resolve().parents[1]
-    for label, (file, function) in PARTS.items():
-        (path,) = [p for p in (root / "stability" / file, root / "stackdsl" / file) if p.exists()]
-        names = {n.name for n in ast.walk(ast.parse(path.read_text())) if isinstance(n, ast.FunctionDef)}
-        assert function in names, label
+    for label, where in PARTS.items():
+        for file, function in where:
+            (path,) = [p for p in (root / "stability" / file, root / "stackdsl" / file) if p.exists()]
+            names = {n.name for n in ast.walk(ast.parse(path.read_text())) if isinstance(n, ast.FunctionDef)}
+            assert function in names, label
+
+
+def test_the_sampled_profile_of_a_tower_splits_its_steps_from_the_rest():
+    from stackdsl.bench.cost import PHYSICS, format_profiles, profile_tower
+
+    profile = profile_tower("extension report", 8)
+    assert profile.steps > 16 * 10  # sixteen bricks, each a dozen steps or more to come to rest
+    assert 0 < profile.parts[PHYSICS] < profile.total
+    assert 0 < profile.parts["stability extension, all of it"] < profile.total
+    physics, rest = profile.per_step
+    assert physics > 0 and rest > 0
+    assert abs((physics + rest) * profile.steps - profile.wall) < 1e-9
+    table = format_profiles([profile])
+    assert "| per step: the engine's step |" in table and f"| physics steps taken | {profile.steps} |" in table
 
 
 def test_a_debris_pile_is_held_by_equilibrium_until_something_else_rests_on_it():

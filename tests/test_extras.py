@@ -174,3 +174,13 @@ def test_help_loads_no_command_and_a_command_loads_no_other():
         "stackdsl.batch.judge",
         "stackdsl.cli.check",
     ]
+
+
+def test_bench_height_without_the_profiler_says_the_extra_or_no_profile(capsys, monkeypatch, without):
+    without("profile")
+    monkeypatch.setattr("stackdsl.bench.cost.measure_heights", lambda *a, **k: pytest.fail("measured"))
+    assert main(["bench", "height", "--levels", "2"]) == 2
+    assert one_line(capsys) == (
+        "bench height: the profile needs pyinstrument (a sampling profiler), which is not installed: "
+        "pip install 'stackdsl[profile]' (or --no-profile)"
+    )

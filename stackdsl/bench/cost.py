@@ -7,21 +7,22 @@
 Upright 4 stacks of 10 to 200 levels, each setting on each height in a fresh worker process
 (:func:`stackdsl.bench.bench.run_matrix`), the wall time per brick, the ratio of each setting's wall
 time to the first setting's on the same tower, and the exponent of wall time in bricks (a
-power-law fit over all heights). Then the profile of the tallest tower in each setting: where
-its wall time goes (the physics steps, the stability extension's admission and stack-wide
-test, the collapse monitor).
+power-law fit over all heights). Then the profiles of the 30-level tower and the tallest one in
+each setting, by a sampling profiler (pyinstrument, the ``profile`` extra): where the wall time
+goes (the physics steps, the stability extension's admission and stack-wide test, the collapse
+monitor), and per step, the engine's step against everything else.
 
 Source: stackdsl's own.
 """
 
 from __future__ import annotations
 
-import cProfile
-import pstats
+import os
 import statistics
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 from stability import solve_equilibrium
 
@@ -35,15 +36,22 @@ DEFAULT_LEVELS = (10, 20, 30, 60, 100, 200)
 DEFAULT_SETTINGS = ("extension report", "extension equilibrium")
 
 PARTS = {
-    "physics steps (pybullet)": ("engines/pybullet/world.py", "step"),
-    "stability extension, all of it": ("_extension.py", "update"),
-    "  admission by rigid-block equilibrium": ("_admission.py", "leaning"),
-    "  admission by the basic test": ("_admission.py", "basic"),
-    "  the debris rule": ("_debris.py", "admit"),
-    "  stack-wide test": ("_stack_test.py", "run"),
-    "collapse monitor": ("runtime/collapse.py", "after_step"),
+    "physics steps (the engine's step)": (("engines/pybullet/world.py", "step"), ("engines/mujoco/world.py", "step")),
+    "stability extension, all of it": (("_extension.py", "update"),),
+    "  admission by rigid-block equilibrium": (("_admission.py", "leaning"),),
+    "  admission by the basic test": (("_admission.py", "basic"),),
+    "  the debris rule": (("_debris.py", "admit"),),
+    "  stack-wide test": (("_stack_test.py", "run"),),
+    "collapse monitor": (("runtime/collapse.py", "after_step"),),
+    "placing bricks": (("runtime/loop.py", "place"),),
 }
-"""Profile rows: label -> (file name, function name) whose cumulative time is shown."""
+"""Profile rows: label -> the (file name, function name) pairs whose time, inclusive, is shown."""
+
+PHYSICS = "physics steps (the engine's step)"
+"""The row of the engine's own work."""
+
+SAMPLE = 0.0002
+"""Seconds between two samples of the profiler."""
 
 
 def towers(levels: Sequence[int]) -> list[Scene]:
@@ -60,29 +68,55 @@ def measure_heights(
 
 @dataclass(frozen=True)
 class Profile:
-    """Where one run's wall time went: seconds per :data:`PARTS` row, of ``total`` seconds
-    under the profiler (which slows pure Python more than pybullet)."""
+    """Where one run's wall time went: seconds per :data:`PARTS` row, of ``total`` seconds, by a
+    sampling profiler (which slows the Python it samples); and, from the fastest of
+    :data:`PLAIN` runs without it, its wall time and the engine's steps' share (``engine``, as
+    the step loop times them), in ``steps`` physics steps."""
 
     setting: str
     levels: int
     total: float
     parts: dict[str, float]
+    steps: int
+    wall: float
+    engine: float
+
+    @property
+    def per_step(self) -> tuple[float, float]:
+        """Seconds per physics step, without the profiler: the engine's step, and everything else."""
+        return self.engine / self.steps, (self.wall - self.engine) / self.steps
+
+
+PLAIN = 3
+"""Runs without the profiler, of which the fastest gives the per-step times."""
 
 
 def profile_tower(setting: str, levels: int) -> Profile:
-    """Run one tower under cProfile (after an untimed warm-up run) and split its time."""
+    """Run one tower (after an untimed warm-up run) :data:`PLAIN` times as it is, then once
+    under pyinstrument's sampling profiler, and split its time (:data:`PARTS`). Raises
+    ImportError without pyinstrument (the ``profile`` extra)."""
+    from pyinstrument import Profiler
+
     run_program(program_for(WARM_UP, setting), RunOptions())
     program = program_for(towers([levels])[0], setting)
-    profiler = cProfile.Profile()
-    profiler.enable()
-    run_program(program, RunOptions())
-    profiler.disable()
-    stats = pstats.Stats(profiler).stats  # type: ignore[attr-defined]
-    total = max(ct for (_, _, name), (_, _, _, ct, _) in stats.items() if name == "run_program")
-    parts = {}
-    for label, (file, function) in PARTS.items():
-        parts[label] = sum(ct for (f, _, name), (_, _, _, ct, _) in stats.items() if name == function and f.endswith(file))
-    return Profile(setting, levels, total, parts)
+    fastest = min((run_program(program, RunOptions()) for _ in range(PLAIN)), key=lambda o: o.wall_time)
+    profiler = Profiler(interval=SAMPLE)
+    profiler.start()
+    outcome = run_program(program, RunOptions())
+    session = profiler.stop()
+    root = session.root_frame()
+    total = _inclusive(root, (("runtime/run.py", "run_program"),))
+    parts = {label: _inclusive(root, where) for label, where in PARTS.items()}
+    return Profile(setting, levels, total, parts, outcome.steps, fastest.wall_time, fastest.engine_time)
+
+
+def _inclusive(frame: Any, where: tuple[tuple[str, str], ...]) -> float:
+    """Seconds sampled in the calls of any (file, function) of ``where`` under ``frame``, each
+    call counted once (not again for a call of the same within it)."""
+    path = (frame.file_path or "").replace(os.sep, "/")
+    if any(frame.function == function and path.endswith(file) for file, function in where):
+        return float(frame.time)
+    return sum(_inclusive(child, where) for child in frame.children)
 
 
 def format_heights(cells: list[Cell], settings: Sequence[str]) -> str:
@@ -110,13 +144,21 @@ def format_heights(cells: list[Cell], settings: Sequence[str]) -> str:
 
 
 def format_profiles(profiles: list[Profile]) -> str:
-    """The profile table: seconds and share of the run per part, one column per setting."""
+    """The profile table: seconds and share of the sampled run per part, one column per setting
+    and height; then the steps and, from the runs without the profiler, the wall time and per
+    step the engine's step against everything else."""
     head = "| part | " + " | ".join(f"{p.setting}, {p.levels} levels" for p in profiles) + " |"
     lines = [head, "|---|" + "---:|" * len(profiles)]
-    lines.append("| the run, under the profiler | " + " | ".join(f"{p.total:.2f} s" for p in profiles) + " |")
+    lines.append("| the run, sampled | " + " | ".join(f"{p.total:.2f} s" for p in profiles) + " |")
     for label in PARTS:
         cols = [f"{p.parts[label]:.2f} s ({p.parts[label] / p.total:.0%})" for p in profiles]
         lines.append(f"| {label} | " + " | ".join(cols) + " |")
+    lines.append("| physics steps taken | " + " | ".join(str(p.steps) for p in profiles) + " |")
+    lines.append("| wall time, without the profiler | " + " | ".join(f"{p.wall:.3f} s" for p in profiles) + " |")
+    lines.append("| per step: the engine's step | " + " | ".join(f"{p.per_step[0] * 1e6:.0f} us" for p in profiles) + " |")
+    lines.append("| per step: everything else | " + " | ".join(f"{p.per_step[1] * 1e6:.0f} us" for p in profiles) + " |")
+    ratio = [f"{p.per_step[1] / p.per_step[0]:.1f}" if p.per_step[0] > 0 else "" for p in profiles]
+    lines.append("| everything else / the engine's step | " + " | ".join(ratio) + " |")
     return "\n".join(lines)
 
 

@@ -70,7 +70,11 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
         help="comma-separated, of: " + ", ".join(SETTINGS) + " (ratios are to the first)",
     )
     q.add_argument("--repeats", type=int, default=5, help="runs per cell under 30 s (median; default: 5)")
-    q.add_argument("--no-profile", action="store_true", help="skip the profile of the tallest tower")
+    q.add_argument(
+        "--no-profile",
+        action="store_true",
+        help="skip the sampled profiles of the 30-level and the tallest tower (they need the profile extra)",
+    )
     q.add_argument("-j", "--jobs", type=jobs_type, default="1", help="worker processes (default: 1, for steady timings)")
     q.set_defaults(func=_bench_height)
     q = bench.add_parser(
@@ -273,13 +277,16 @@ def _bench_height(args: argparse.Namespace) -> int:
     _need_engines(settings)
     if args.repeats < 1:
         raise ScenarioError(f"--repeats must be at least 1, not {args.repeats}", file="--repeats")
+    if not args.no_profile and not installed("profile"):
+        raise ScenarioError(missing("profile", "the profile") + " (or --no-profile)", file="bench height")
     print(version_line(), flush=True)
     with Lines(len(levels) * len(settings), "towers") as progress:
         cells = measure_heights(settings, levels, args.repeats, args.jobs, lambda c: progress.advance())
     print(format_heights(cells, settings), flush=True)
     if not args.no_profile:
         print()
-        print(format_profiles([profile_tower(s, max(levels)) for s in settings]))
+        heights = sorted({min(30, max(levels)), max(levels)})
+        print(format_profiles([profile_tower(s, n) for n in heights for s in settings]))
     return OK
 
 

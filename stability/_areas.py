@@ -26,6 +26,9 @@ from ._stack import Record, Stack
 Contacts = dict[int, list[ContactPoint]]
 """Contact points by the body they are seen from."""
 
+FACES = 64
+"""Face overlaps kept (:meth:`ContactAreas._face`); all are forgotten when there are this many."""
+
 
 class ContactAreas:
     """The contact areas and polygons of the bricks of ``stack``, from their contact points.
@@ -38,6 +41,7 @@ class ContactAreas:
 
     def __init__(self, stack: Stack) -> None:
         self.stack = stack
+        self._faces: dict[tuple[float, ...], ContactArea | None] = {}  # the last face overlaps, by their bodies and poses
         self.config = stack.config
         self.support_cos = math.cos(math.radians(self.config.support_angle))
 
@@ -61,7 +65,21 @@ class ContactAreas:
         """The exact area through which ``rec`` lies face to face on ``other``, or None
         (:func:`stability._geometry.face_overlap`)."""
         other_pose = None if isinstance(other.shape, Plane) else self.stack.pose(other)
-        return face_overlap(rec.box, self.stack.engine.pose(rec.body), other.shape, other_pose, self.config.face_gap)
+        return self._face(rec, self.stack.engine.pose(rec.body), other, other_pose)
+
+    def _face(self, rec: Record, pose: Pose, other: Record, other_pose: Pose | None) -> ContactArea | None:
+        """:func:`stability._geometry.face_overlap` of ``rec`` at ``pose`` on ``other`` at
+        ``other_pose``, found once for the same bodies at the same poses: an admission asks it
+        for its contact polygons and again for how far to raise the brick."""
+        key = (rec.body, other.body, *pose.position.tolist(), *pose.orientation.tolist())
+        if other_pose is not None:
+            key += (*other_pose.position.tolist(), *other_pose.orientation.tolist())
+        if key in self._faces:
+            return self._faces[key]
+        if len(self._faces) >= FACES:
+            self._faces.clear()
+        area = self._faces[key] = face_overlap(rec.box, pose, other.shape, other_pose, self.config.face_gap)
+        return area
 
     def _contact_area(self, rec: Record, other: Record, points: list[ContactPoint]) -> ContactArea:
         exact = self.face_to_face(rec, other)
@@ -93,8 +111,7 @@ class ContactAreas:
             if other in known:
                 exact = known[other] if known[other].exact else None
             else:
-                other_pose = None if isinstance(o.shape, Plane) else self.stack.pose(o)
-                exact = face_overlap(rec.box, pose, o.shape, other_pose, self.config.face_gap)
+                exact = self._face(rec, pose, o, None if isinstance(o.shape, Plane) else self.stack.pose(o))
             if exact is not None:
                 out.append(ContactPolygon(rec.body, other, exact.corners(), exact.normal, friction))
                 continue

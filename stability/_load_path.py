@@ -47,7 +47,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 import shapely
-from shapely import MultiPoint, Point, unary_union
+from shapely import Point, unary_union
 from shapely.geometry.base import BaseGeometry
 
 MARGIN = 1e-5
@@ -83,7 +83,7 @@ def support_piece(contact_points: np.ndarray, support_path: BaseGeometry | None,
         The piece (shapely, horizontal projection), or None when nothing of it is usable
         (an unproven support, or no overlap).
     """
-    hull = MultiPoint(np.asarray(contact_points, dtype=float)[:, :2].tolist()).convex_hull
+    hull = shapely.convex_hull(shapely.multipoints(np.asarray(contact_points, dtype=float)[:, :2]))
     if ground:
         return hull
     if support_path is None:
@@ -115,7 +115,7 @@ def share_region(contact_points: Sequence[np.ndarray]) -> BaseGeometry | None:
     >>> round(region.area * 1e6, 1)  # mm^2: 19.98 x 23.98
     479.1
     """
-    hull = MultiPoint(np.vstack([np.asarray(p, dtype=float)[:, :2] for p in contact_points]).tolist()).convex_hull
+    hull = shapely.convex_hull(shapely.multipoints(np.vstack([np.asarray(p, dtype=float)[:, :2] for p in contact_points])))
     region = hull.buffer(-MARGIN)
     return None if region.is_empty else region
 

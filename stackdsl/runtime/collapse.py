@@ -36,8 +36,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from shapely import contains_xy
-from shapely.geometry import MultiPoint, Point
+from shapely import contains_xy, convex_hull, multipoints
+from shapely.geometry import Point
 
 from stability import Box, Plane, Pose, face_overlap
 from stability import Certificate as Equilibrium
@@ -106,7 +106,7 @@ class SupportPolygon:
         if not self.pieces:
             return 0.0
         points = [c if b is None else c @ poses[b].rotation.T + poses[b].position for b, c in self.pieces]
-        hull = MultiPoint(np.vstack(points)[:, :2].tolist()).convex_hull
+        hull = convex_hull(multipoints(np.vstack(points)[:, :2]))
         x, y = float(com[0]), float(com[1])
         if contains_xy(hull, x, y):
             return 0.0

@@ -11,6 +11,7 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 import functools
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -76,9 +77,25 @@ class BrickRecord:
         return float(self.box.corners(self.nominal)[:, 2].max())
 
     @functools.cached_property
+    def placed_xyz(self) -> tuple[float, float, float]:
+        """Metres, where its centre was placed, as floats."""
+        x, y, z = self.pose.position.tolist()
+        return x, y, z
+
+    @functools.cached_property
+    def placed_xyzw(self) -> tuple[float, float, float, float]:
+        """The orientation it was placed with, a unit quaternion (x, y, z, w), as floats."""
+        x, y, z, w = self.pose.orientation.tolist()
+        return x, y, z, w
+
+    @functools.cached_property
     def half_diagonal(self) -> float:
         """Metres from the centre to a corner."""
         return float(np.linalg.norm(self.box.half_extents))
+
+
+FEW = 4
+"""Up to this many bricks, :meth:`Structure.may_have_moved` works in floats, brick by brick."""
 
 
 class Structure:
@@ -172,6 +189,8 @@ class Structure:
         (cos(angle / 2) = |q . q0| for unit quaternions)."""
         if not records:
             return []
+        if len(records) <= FEW:  # in floats: numpy's fixed costs are most of it for a few bricks
+            return [r for r in records if self._bound(r) > threshold]
         bodies = tuple(r.body for r in records)
         positions, quaternions = self.world.poses_of(bodies)
         if self._placed[0] != bodies:  # the same bricks step after step: read their placing once
@@ -182,6 +201,16 @@ class Structure:
         cos_half = np.minimum(1.0, np.abs((quaternions * placed_q).sum(axis=1)))
         bound = np.linalg.norm(positions - placed, axis=1) + 2.0 * radius * np.sqrt(1.0 - cos_half**2)
         return [r for r, b in zip(records, bound) if b > threshold]
+
+    def _bound(self, r: BrickRecord) -> float:
+        """:meth:`may_have_moved`'s bound for one brick, in floats."""
+        pose = self.world.pose(r.body)
+        x, y, z = pose.position.tolist()
+        qx, qy, qz, qw = pose.orientation.tolist()
+        px, py, pz = r.placed_xyz
+        ax, ay, az, aw = r.placed_xyzw
+        cos_half = min(1.0, abs(qx * ax + qy * ay + qz * az + qw * aw))
+        return math.sqrt((x - px) ** 2 + (y - py) ** 2 + (z - pz) ** 2) + 2.0 * r.half_diagonal * math.sqrt(1.0 - cos_half**2)
 
     def kinetic_energy(self) -> float:
         """Joules of the structure's bricks: linear (report 3.6.2) and rotational motion, each

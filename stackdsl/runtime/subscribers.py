@@ -133,11 +133,10 @@ class SoftLanding(Subscriber):
         falling = [(r, last or 0.0) for r, _, last in self.falling.values() if r.moving]  # placed at rest
         if not falling:
             return
-        positions, _ = loop.world.poses_of([r.body for r, _ in falling])
         fall = self.gravity * loop.dt
-        for (record, vz), position in zip(falling, positions):
+        for record, vz in falling:  # one or two bricks: one at a time, without numpy's fixed costs
             step = (fall - vz) * loop.dt  # metres it falls in this step, freely
-            above = float(position[2]) - record.pose.position[2]
+            above = float(loop.world.pose(record.body).position[2]) - record.pose.position[2]
             if self.ARRIVED < above <= step + self.ARRIVED:
                 loop.world.throw(record.body, (0.0, 0.0, fall - above / loop.dt), None)
                 self.lowered.add(record.id)
@@ -145,12 +144,9 @@ class SoftLanding(Subscriber):
     def after_step(self, loop: StepLoop) -> None:
         if not self.falling:
             return
-        watched = [r for r, _, _ in self.falling.values()]
-        positions, _ = loop.world.poses_of([r.body for r in watched])
-        velocities, _ = loop.world.velocities_of([r.body for r in watched])
         slowed = 0.5 * self.gravity * loop.dt
-        for record, position, velocity in zip(watched, positions, velocities):
-            _, placed, last = self.falling[record.id]
+        for record, placed, last in list(self.falling.values()):
+            position, velocity = loop.world.pose(record.body).position, loop.world.velocity(record.body)[0]
             if record.id in self.lowered:  # at rest where it is to lie, as if placed there now
                 self.lowered.discard(record.id)
                 loop.world.throw(record.body, (0.0, 0.0, 0.0), None)

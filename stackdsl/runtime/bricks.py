@@ -15,6 +15,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+import shapely
 from scipy.spatial.transform import Rotation
 from shapely.geometry import MultiPoint, Polygon
 
@@ -151,7 +152,8 @@ class Structure:
         whose footprints overlap ``footprint``: those a brick placed there rests on."""
         key = round(bottom * 1e4)
         below = [r for k in range(key - 10, key + 11) for r in self._tops.get(k, ())]  # within 1 mm
-        return [r for r in below if r.footprint.intersection(footprint).area > 1e-8]
+        overlaps = shapely.area(shapely.intersection([r.footprint for r in below], footprint))
+        return [r for r, area in zip(below, overlaps) if area > 1e-8]
 
     def sink(self, bottom: float, footprint: Polygon) -> float:
         """How far the placed bricks a new brick will rest on have sunk below their heights

@@ -229,6 +229,8 @@ class CollapseMonitor(Subscriber):
         moving = list(structure.moving.values())
         watched += [r for r in moving if r.id in self._displaced]
         watched += [r for r in structure.may_have_moved(moving, self.threshold) if r.id not in self._displaced]
+        if not watched:  # nothing displaced, nothing near the threshold: the usual step
+            return
         watched.sort(key=lambda r: r.order)
         moved = structure.displacements(watched)
         for record, distance in zip(watched, moved):

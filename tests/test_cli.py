@@ -413,6 +413,27 @@ def test_ctrl_c_exits_130_without_a_traceback(tmp_path, capsys, monkeypatch):
     assert capsys.readouterr().err == "stackdsl: interrupted\n"
 
 
+def test_ctrl_c_that_lands_in_a_finalizer_still_ends_the_command(tmp_path, capsys, monkeypatch):
+    # Python runs a signal's handler between bytecodes, also inside an object's finalizer; the
+    # KeyboardInterrupt it raises there is "unraisable", and the command went on to its end.
+    class Finalized:
+        def __del__(self) -> None:
+            os.kill(os.getpid(), signal.SIGINT)
+            for _ in range(10_000):  # the handler runs here, inside the finalizer
+                pass
+
+    def running(*args, **kwargs):
+        Finalized()
+        deadline = time.monotonic() + 5.0
+        while time.monotonic() < deadline:
+            time.sleep(0.01)
+        pytest.fail("Ctrl-C was lost in a finalizer: the run went on")
+
+    monkeypatch.setattr(_judge, "run_program", running)
+    assert main(["check", str(write(tmp_path, a=PASSING)), "-j", "1"]) == 130
+    assert capsys.readouterr().err == "stackdsl: interrupted\n"
+
+
 def test_ctrl_c_while_the_command_loads_exits_130_without_a_traceback(capsys, monkeypatch):
     class Loading(types.ModuleType):
         def __getattr__(self, name):

@@ -74,6 +74,7 @@ def main(argv: list[str] | None = None) -> int:
         os.environ["STACKDSL_TRACEBACK"] = "1"  # for the workers
     else:
         sys.unraisablehook = _ignore
+    _RUNNING.set()
     try:
         args = _parser(argv).parse_args(argv)
         args.debug = debug
@@ -127,6 +128,7 @@ def main(argv: list[str] | None = None) -> int:
         _say_interrupted(main_thread)
         return INTERRUPTED
     finally:
+        _RUNNING.clear()
         if main_thread:
             signal.signal(signal.SIGTERM, previous)
             signal.signal(signal.SIGINT, interrupt)
@@ -167,7 +169,31 @@ class _Version(argparse.Action):
 
 
 def _ignore(unraisable: Any) -> None:
-    """An ``sys.unraisablehook`` that prints nothing."""
+    """An ``sys.unraisablehook`` that prints nothing. Ctrl-C (or SIGTERM) whose handler ran
+    inside a finalizer (a generator closed as it is dropped runs Python code) would be lost
+    there, and the command go on to its end: the signal is sent again (:func:`_again`)."""
+    if isinstance(unraisable.exc_value, KeyboardInterrupt):
+        _again(signal.SIGINT)
+    elif isinstance(unraisable.exc_value, SystemExit) and unraisable.exc_value.code == 128 + signal.SIGTERM:
+        _again(signal.SIGTERM)
+
+
+_RUNNING = threading.Event()
+"""Set while :func:`main` runs a command: a signal lost in a finalizer is sent again only then."""
+
+
+def _again(signum: int) -> None:
+    """Send ``signum`` to this process again, 10 ms from now, from a helper thread: sent at once,
+    its handler would run inside the unraisable hook and be lost the same way."""
+    pid = os.getpid()
+
+    def send() -> None:
+        if _RUNNING.is_set():
+            os.kill(pid, signum)
+
+    timer = threading.Timer(0.01, send)
+    timer.daemon = True
+    timer.start()
 
 
 def _terminated(signum: int, frame: Any) -> None:

@@ -83,7 +83,9 @@ class PyBulletEngine:
     Freezing sets the mass to 0 after zeroing the velocities: a body made static while
     moving keeps its velocity in pybullet. Restoring the mass restores the inertia.
     pybullet reports no contacts between two static bodies, which is why the extension
-    keeps its own contact graph. Source: stackdsl's own, measured with pybullet 3.2.7.
+    keeps its own contact graph. A subclass that gives bodies ids of its own overrides
+    :meth:`_engine_id` and :meth:`_body_id`. Source: stackdsl's own, measured with
+    pybullet 3.2.7.
     """
 
     def __init__(self, client: Any) -> None:
@@ -92,6 +94,14 @@ class PyBulletEngine:
         # partial on each attribute access, a third of the cost of the call)
         self._get_velocity = client.getBaseVelocity
         self._get_pose = client.getBasePositionAndOrientation
+
+    def _engine_id(self, body: int) -> int:
+        """pybullet's id of ``body`` (here the same)."""
+        return body
+
+    def _body_id(self, engine_id: int) -> int:
+        """The body pybullet calls ``engine_id`` (here the same)."""
+        return engine_id
 
     @property
     def timestep(self) -> float:
@@ -110,15 +120,16 @@ class PyBulletEngine:
         return math.hypot(*lin), math.hypot(*ang)
 
     def contact_points(self, bodies: Collection[int] | None = None) -> list[ContactPoint]:
+        name = self._body_id
         if bodies is not None:  # asked of each body: its side only
             return [
-                ContactPoint(body, c[2], np.array(c[6]), np.array(c[7]), float(c[9]), float(c[8]))
+                ContactPoint(body, name(c[2]), np.array(c[6]), np.array(c[7]), float(c[9]), float(c[8]))
                 for body in bodies
-                for c in self._client.getContactPoints(bodyA=body)
+                for c in self._client.getContactPoints(bodyA=self._engine_id(body))
             ]
         points = []
         for c in self._client.getContactPoints():
-            a, b = c[1], c[2]
+            a, b = name(c[1]), name(c[2])
             normal_on_b = np.array(c[7])
             force, distance = float(c[9]), float(c[8])
             points.append(ContactPoint(a, b, np.array(c[6]), normal_on_b, force, distance))
@@ -126,20 +137,23 @@ class PyBulletEngine:
         return points
 
     def near(self, body: int, distance: float) -> list[ContactPoint]:
-        low, high = self._client.getAABB(body)
+        own = self._engine_id(body)
+        low, high = self._client.getAABB(own)
         low, high = np.array(low) - distance, np.array(high) + distance
-        others = sorted({b for b, _ in self._client.getOverlappingObjects(low.tolist(), high.tolist()) or [] if b != body})
+        found = self._client.getOverlappingObjects(low.tolist(), high.tolist()) or []
+        others = sorted({self._body_id(b) for b, _ in found if b != own})
         return [
             ContactPoint(body, other, np.array(c[6]), np.array(c[7]), float(c[9]), float(c[8]))
             for other in others
-            for c in self._client.getClosestPoints(body, other, distance)
+            for c in self._client.getClosestPoints(own, self._engine_id(other), distance)
         ]
 
     def set_frozen(self, body: int, frozen: bool, mass: float, at: Pose | None = None) -> None:
-        self._client.resetBaseVelocity(body, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0])
+        own = self._engine_id(body)
+        self._client.resetBaseVelocity(own, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0])
         if frozen and at is not None:
-            self._client.resetBasePositionAndOrientation(body, at.position.tolist(), at.orientation.tolist())
-        self._client.changeDynamics(body, -1, mass=0.0 if frozen else mass)
+            self._client.resetBasePositionAndOrientation(own, at.position.tolist(), at.orientation.tolist())
+        self._client.changeDynamics(own, -1, mass=0.0 if frozen else mass)
 
 
 class ContactBook(dict[int, list[ContactPoint]]):

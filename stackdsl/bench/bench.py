@@ -301,10 +301,11 @@ def _cost(scene: Scene, setting: str) -> float:
 
 def savings(repeats: int = 3) -> list[tuple[str, str, float, int]]:
     """Each "model only what a scene needs" switch off in turn, in extension mode (report
-    model), on the scene where it acts: the 30-level 4 stack, and the log cabin shifted 3.5 mm
-    a level for the fallen bricks as rigid bodies. Rows of (what is off, scene, median wall
+    model), on the scene where it acts: the 30-level 4 stack, the 100-level one for the buried
+    bricks shelved, and the log cabin shifted 3.5 mm a level for the fallen bricks as rigid bodies. Rows of (what is off, scene, median wall
     time in s, physics steps); the first row of each scene has nothing off."""
     tower = Scene("upright", 30, 30, "tower: {levels: 30}", None)
+    tall = Scene("upright", 100, 100, "tower: {levels: 100}", None)
     cabin = next(s for s in scenes(upright=()) if s.family == "slant log cabin" and s.parameter == 3.5)
     rows = []
     for scene, name, options in (
@@ -313,6 +314,8 @@ def savings(repeats: int = 3) -> list[tuple[str, str, float, int]]:
         (tower, "bodies enter when placed", RunOptions(lazy_bodies=False)),
         (tower, "only the rules a scene needs", RunOptions(needed_rules=False)),
         (tower, "stack test per event", RunOptions(per_event=False)),
+        (tall, "nothing (all on)", RunOptions()),
+        (tall, "buried bricks shelved", RunOptions(shelve=False)),
         (cabin, "nothing (all on)", RunOptions()),
         (cabin, "fallen bricks as rigid bodies", RunOptions(rigid_debris=False)),
     ):

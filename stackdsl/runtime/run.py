@@ -74,6 +74,9 @@ class RunOptions:
             program's ``rigid`` rule on, the bricks that move once the collapse is decided are
             re-created as rigid bodies (maximal coordinates), cheaper to step
             (:class:`stackdsl.runtime.subscribers.RigidDebris`).
+        shelve: on pybullet, static bodies that nothing moving can reach leave the engine's world
+            until something could (:class:`stackdsl.engines.pybullet.world.PyBulletWorld`); False
+            keeps every body in it.
 
     Source: stackdsl's own (model only what a scene needs).
     """
@@ -85,6 +88,7 @@ class RunOptions:
     stop_at_collapse: bool = True
     rigid_debris: bool = True
     soft_landing: bool = True
+    shelve: bool = True
 
 
 def run_program(
@@ -112,7 +116,7 @@ def run_program(
     if timeout is not None and not timeout >= 0:
         raise ValueError(f"timeout must be a number of seconds >= 0 or None, not {timeout!r}")
     start = _time.perf_counter()
-    with _older_objects_left_alone(), world_for(program) as world:
+    with _older_objects_left_alone(), world_for(program, shelve=options.shelve) as world:
         loop = run_in(world, program, options, timeout=timeout, started=start, subscribers=subscribers)
         return outcome(loop, _time.perf_counter() - start)
 
@@ -133,8 +137,9 @@ def _older_objects_left_alone() -> Iterator[None]:
 
 
 @contextmanager
-def world_for(program: Program) -> Iterator[World]:
-    """A new world for ``program``: on its backend's engine, closed on exit.
+def world_for(program: Program, *, shelve: bool = True) -> Iterator[World]:
+    """A new world for ``program``: on its backend's engine, closed on exit; ``shelve``: see
+    :attr:`RunOptions.shelve`.
 
     Raises:
         ImportError: the MuJoCo backend without the ``mujoco`` package.
@@ -147,7 +152,7 @@ def world_for(program: Program) -> Iterator[World]:
     else:
         from ..engines.pybullet.world import pybullet_world
 
-        with pybullet_world(engine, friction, restitution) as pybullet:
+        with pybullet_world(engine, friction, restitution, shelve=shelve) as pybullet:
             yield pybullet
 
 

@@ -101,3 +101,31 @@ def test_a_tower_gives_the_same_verdict_and_graph_shelved_or_not():
         assert m.state == n.state
         assert np.allclose(m.position_mm, n.position_mm, atol=0.2)
     assert {(e.upper, e.support) for e in a.edges} == {(e.upper, e.support) for e in b.edges}
+
+
+def test_a_kept_client_simulates_as_a_new_one(monkeypatch):
+    """A run on the client the last run left (emptied) gives the outcome, bitwise, that it
+    gives on a new client; a run that raises disconnects its client instead of keeping it."""
+    import json
+
+    import stackdsl.engines.pybullet.world as world_module
+
+    def outcome(text):
+        o = run_program(compile_scenario(parse_scenario(text, "s.yaml")))
+        return json.dumps(
+            o.model_dump(mode="json", exclude={"wall_time", "engine_time", "after_collapse", "certificate_time"}), sort_keys=True
+        )
+
+    cabin = "stackdsl: 1\nstructure: {tower: {levels: 8, spacing: 96 mm, shift: 9.5 mm}}\n"
+    impact = open("scenarios/impact_top.yaml").read()
+    world_module._SPARE.clear()
+    new = outcome(cabin)
+    (kept,) = [c for _, c in world_module._SPARE]
+    outcome(impact)  # on the kept client: its bodies, substeps and timestep
+    assert [c for _, c in world_module._SPARE] == [kept]
+    kept.setPhysicsEngineParameter(numSubSteps=4, fixedTimeStep=0.01)  # as a run that ended while something was fast
+    assert outcome(cabin) == new
+    with pytest.raises(RuntimeError), world_module.direct_client() as client:
+        assert client is kept
+        raise RuntimeError("a run that fails")
+    assert world_module._SPARE == []

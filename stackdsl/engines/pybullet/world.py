@@ -25,6 +25,7 @@ import ctypes
 import math
 import os
 import sys
+import threading
 from collections import deque
 from collections.abc import Collection, Iterator, Sequence
 from contextlib import contextmanager
@@ -57,25 +58,49 @@ def _quiet_c_output() -> Iterator[None]:
             os.close(fd)
 
 
+_SPARE: list[tuple[int, Any]] = []  # (process id, client) of finished runs, for the next run
+_SPARE_LOCK = threading.Lock()
+
+
 @contextmanager
 def direct_client() -> Iterator[Any]:
-    """A new pybullet DIRECT client (``BulletClient``), disconnected on exit."""
-    with _quiet_c_output():
-        import pybullet
-        from pybullet_utils.bullet_client import BulletClient
+    """An empty pybullet DIRECT client (``BulletClient``): the one the last run in this process
+    finished with, emptied (``resetSimulation``), else a new one. It is kept for the next run
+    when the block ends without an exception, and disconnected when one is raised.
 
-        client = BulletClient(connection_mode=pybullet.DIRECT)
+    Connecting costs 8 to 13 ms and emptying 1.6 to 5 ms, a run of three bricks 30 ms; an
+    emptied client simulates as a new one does, bitwise (engine parameters a run changes are
+    set by :class:`PyBulletWorld` at the start of every run). Source: stackdsl's own.
+    """
+    with _SPARE_LOCK:
+        spare = [c for pid, c in _SPARE if pid == os.getpid()]  # a forked child connects anew
+        _SPARE.clear()
+    client = spare.pop() if spare else None
+    if client is None:
+        with _quiet_c_output():
+            import pybullet
+            from pybullet_utils.bullet_client import BulletClient
+
+            client = BulletClient(connection_mode=pybullet.DIRECT)
+    else:
+        client.resetSimulation()  # here, not when the last run ended: part of this run's time
     try:
         yield client
-    finally:
+    except BaseException:
         client.disconnect()
+        raise
+    with _SPARE_LOCK:
+        if _SPARE:  # another thread's run kept one: one is enough
+            client.disconnect()
+        else:
+            _SPARE.append((os.getpid(), client))
 
 
 @contextmanager
 def pybullet_world(
     engine: PyBulletSettings, ground_friction: float, ground_restitution: float, *, shelve: bool = True
 ) -> Iterator[PyBulletWorld]:
-    """A :class:`PyBulletWorld` on a new DIRECT client, disconnected on exit."""
+    """A :class:`PyBulletWorld` on an empty DIRECT client (:func:`direct_client`)."""
     with direct_client() as client:
         yield PyBulletWorld(client, engine, ground_friction, ground_restitution, shelve=shelve)
 
@@ -147,7 +172,7 @@ class PyBulletWorld(PyBulletEngine, World):
         self._substeps = 1
         client.setGravity(0.0, 0.0, -engine.gravity)
         client.setTimeStep(engine.timestep)
-        client.setPhysicsEngineParameter(numSolverIterations=engine.solver_iterations)
+        client.setPhysicsEngineParameter(numSolverIterations=engine.solver_iterations, numSubSteps=0)  # a kept client's own
         self.ground: int = client.createMultiBody(0.0, client.createCollisionShape(pybullet.GEOM_PLANE))
         self._next: int = self.ground + 1
         self._material(self.ground, ground_friction, ground_restitution)

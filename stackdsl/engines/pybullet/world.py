@@ -105,11 +105,11 @@ def pybullet_world(
         yield PyBulletWorld(client, engine, ground_friction, ground_restitution, shelve=shelve)
 
 
-#: Metres beyond a moving body's box, and twice what it travels in a step, within which a shelved
-#: body is put back into pybullet's world before the step.
+#: Metres beyond a moving body's box within which a shelved body is put back into pybullet's
+#: world (looked at again before any moving body can travel half of it).
 REACH = 0.025
-#: Metres from every moving body's box (and twice its travel) and from the bodies frozen last
-#: beyond which a static body is shelved.
+#: Metres from every moving body's box and from the bodies frozen last beyond which a static
+#: body is shelved.
 SHELVE = 0.05
 #: How many of the bodies frozen last keep the static bodies near them in the world.
 RECENT = 8
@@ -128,7 +128,8 @@ class PyBulletWorld(PyBulletEngine, World):
 
     Static bodies that nothing moving can reach are shelved: taken out of pybullet's world,
     their poses kept, and put back, under the same ids, before a step in which a moving body
-    could reach them (within :data:`REACH` of its box, and twice what it travels in a step) or
+    could reach them (within :data:`REACH` of its box, and what it may travel before the shelf is
+    looked at again) or
     when they are woken or moved. A static body is shelved once it lies :data:`SHELVE` from
     every moving body and from the :data:`RECENT` bodies frozen last (looked at when a body
     freezes): a tower's buried levels leave the world, and its step costs what its top
@@ -168,6 +169,7 @@ class PyBulletWorld(PyBulletEngine, World):
         self._shelf_box: _Box | None = None  # the shelf's bounding box (None: to be found)
         self._recent: deque[int] = deque(maxlen=RECENT)
         self._look = False  # a body froze: look for what to shelve
+        self._due = 0  # steps before the shelf must be looked at again
         self._shelves = shelve
         self._substeps = 1
         client.setGravity(0.0, 0.0, -engine.gravity)
@@ -240,6 +242,7 @@ class PyBulletWorld(PyBulletEngine, World):
         if mass > 0.0:
             self._still.pop(body, None)
             self._moving.add(body)
+            self._due = 0  # something new moves: look at the shelf before the next step
         else:
             self._moving.discard(body)
             self._still[body] = None  # its box, once asked
@@ -331,6 +334,7 @@ class PyBulletWorld(PyBulletEngine, World):
             self._swept[body] = swept_radius
             self._client.changeDynamics(engine_id, -1, ccdSweptSphereRadius=swept_radius)
         self._client.resetBaseVelocity(engine_id, list(velocity), [0.0, 0.0, 0.0])
+        self._due = 0
 
     def step(self) -> None:
         if self._shelf or self._look:
@@ -358,37 +362,62 @@ class PyBulletWorld(PyBulletEngine, World):
         return frozenset(self._shelf)
 
     def _box(self, body: int, margin: float) -> _Box:
-        """``body``'s bounding box in the world, grown by ``margin`` metres and, when it moves, by
-        twice what it travels in a step (its speed, and its spin at its corners)."""
+        """``body``'s bounding box in the world, grown by ``margin`` metres."""
         (x0, y0, z0), (x1, y1, z1) = self._read_box(self._ids.get(body, body))
-        if body in self._moving:
-            (linear, angular), half = self._velocity_now(body), self._made[body][0].half_extents
-            margin += 2.0 * (math.hypot(*linear) + math.hypot(*angular) * math.hypot(*half)) * self._engine.timestep
         return x0 - margin, y0 - margin, z0 - margin, x1 + margin, y1 + margin, z1 + margin
 
+    def _speed(self, body: int) -> float:
+        """m/s: how fast any point of a moving ``body`` moves (its speed, and its spin at its corners)."""
+        (linear, angular), half = self._velocity_now(body), self._made[body][0].half_extents
+        return math.hypot(*linear) + math.hypot(*angular) * math.hypot(*half)
+
     def _reach(self) -> None:
-        """Before a step: put back what a moving body may reach in it; after a freeze, shelve
-        what none can. In floats: it runs at every step while anything is shelved."""
+        """Before a step: put back what a moving body may reach before the shelf is looked at
+        again; after a freeze, shelve what none can. The shelf is looked at again after as many
+        steps (at least one) as no moving body can travel half :data:`REACH` in, at twice the
+        fastest one's speed (what a collision may give it) and falling: one to eight steps of
+        1/240 s while a brick settles; what lies within :data:`REACH` and that travel of a
+        moving body is put back."""
         if len(self._moving) > CROWD:
             self._unshelve(list(self._shelf))
             self._look = False
             return
         if self._shelf and self._moving:
-            if self._shelf_box is None:
-                self._shelf_box = _union([box for _, _, box in self._shelf.values()])
-            shelf_box = self._shelf_box
-            hit = [z for z in (self._box(b, REACH) for b in self._moving) if _overlap(z, shelf_box)]
-            if hit:
-                self._unshelve([b for b, (_, _, box) in self._shelf.items() if any(_overlap(box, z) for z in hit)])
+            if self._due > 0:
+                self._due -= 1
+            else:
+                steps, travel = self._quiet(max(self._speed(b) for b in self._moving))
+                if self._shelf_box is None:
+                    self._shelf_box = _union([box for _, _, box in self._shelf.values()])
+                shelf_box = self._shelf_box
+                hit = [z for z in (self._box(b, REACH + travel) for b in self._moving) if _overlap(z, shelf_box)]
+                if hit:
+                    self._unshelve([b for b, (_, _, box) in self._shelf.items() if any(_overlap(box, z) for z in hit)])
+                self._due = steps - 1
         if self._look:
             self._look = False
             self._shelve_out_of_reach()
 
+    def _quiet(self, fastest: float) -> tuple[int, float]:
+        """The steps (at least one) in which nothing moving at up to twice ``fastest`` m/s, and
+        falling, travels half :data:`REACH`, and how far it may travel in them (m)."""
+        dt, gravity = self._engine.timestep, self._engine.gravity
+
+        def travel(steps: int) -> float:
+            return dt * steps * 2.0 * fastest + gravity * dt * dt * steps * (steps + 1) / 2
+
+        steps = 1
+        while steps < 64 and travel(steps + 1) <= REACH / 2:
+            steps += 1
+        return steps, travel(steps)
+
     def _shelve_out_of_reach(self) -> None:
-        """Shelve every static body :data:`SHELVE` from each moving body and each of the bodies
-        frozen last."""
+        """Shelve every static body :data:`SHELVE` from each moving body (and what it may travel
+        before the shelf is looked at again: a brick thrown at 50 m/s flies 21 cm in a step) and
+        from each of the bodies frozen last."""
         if self._still:
-            keep = [self._box(b, SHELVE) for b in self._moving]
+            travel = self._quiet(max(self._speed(b) for b in self._moving))[1] if self._moving else 0.0
+            keep = [self._box(b, SHELVE + travel) for b in self._moving]
             keep += [_grown(self._still_box(b), SHELVE) for b in self._recent if b in self._still]
             for body in sorted(self._still):
                 box = self._still_box(body)

@@ -129,3 +129,16 @@ def test_a_kept_client_simulates_as_a_new_one(monkeypatch):
         assert client is kept
         raise RuntimeError("a run that fails")
     assert world_module._SPARE == []
+
+
+def test_the_kept_client_is_disconnected_at_exit_while_pybullet_is_loaded():
+    """At the interpreter's very end pybullet's module may be gone before a kept client's
+    ``__del__`` runs (an ignored exception on stderr, seen in test workers): an exit handler
+    disconnects it first."""
+    import stackdsl.engines.pybullet.world as world_module
+
+    run_program(compile_scenario(parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 1}}\n", "s.yaml")))
+    (kept,) = [c for _, c in world_module._SPARE]
+    assert kept.isConnected()
+    world_module._disconnect_spare()
+    assert world_module._SPARE == [] and not kept.isConnected()

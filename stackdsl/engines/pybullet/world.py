@@ -21,6 +21,7 @@ Source: stackdsl's own (the world adapter of dm_control's composer).
 
 from __future__ import annotations
 
+import atexit
 import ctypes
 import math
 import os
@@ -60,6 +61,17 @@ def _quiet_c_output() -> Iterator[None]:
 
 _SPARE: list[tuple[int, Any]] = []  # (process id, client) of finished runs, for the next run
 _SPARE_LOCK = threading.Lock()
+
+
+@atexit.register
+def _disconnect_spare() -> None:
+    """Disconnect the kept client while pybullet is still loaded (its ``__del__`` at the very end
+    of the interpreter finds the module gone and prints an ignored exception)."""
+    with _SPARE_LOCK:
+        for pid, client in _SPARE:
+            if pid == os.getpid():
+                client.disconnect()
+        _SPARE.clear()
 
 
 @contextmanager

@@ -108,7 +108,7 @@ def test_a_kept_client_simulates_as_a_new_one(monkeypatch):
     gives on a new client; a run that raises disconnects its client instead of keeping it."""
     import json
 
-    import stackdsl.engines.pybullet.world as world_module
+    import stackdsl.engines.pybullet.client as client_module
 
     def outcome(text):
         o = run_program(compile_scenario(parse_scenario(text, "s.yaml")))
@@ -118,27 +118,27 @@ def test_a_kept_client_simulates_as_a_new_one(monkeypatch):
 
     cabin = "stackdsl: 1\nstructure: {tower: {levels: 8, spacing: 96 mm, shift: 9.5 mm}}\n"
     impact = open("scenarios/impact_top.yaml").read()
-    world_module._SPARE.clear()
+    client_module._SPARE.clear()
     new = outcome(cabin)
-    (kept,) = [c for _, c in world_module._SPARE]
+    (kept,) = [c for _, c in client_module._SPARE]
     outcome(impact)  # on the kept client: its bodies, substeps and timestep
-    assert [c for _, c in world_module._SPARE] == [kept]
+    assert [c for _, c in client_module._SPARE] == [kept]
     kept.setPhysicsEngineParameter(numSubSteps=4, fixedTimeStep=0.01)  # as a run that ended while something was fast
     assert outcome(cabin) == new
-    with pytest.raises(RuntimeError), world_module.direct_client() as client:
+    with pytest.raises(RuntimeError), client_module.direct_client() as client:
         assert client is kept
         raise RuntimeError("a run that fails")
-    assert world_module._SPARE == []
+    assert client_module._SPARE == []
 
 
 def test_the_kept_client_is_disconnected_at_exit_while_pybullet_is_loaded():
     """At the interpreter's very end pybullet's module may be gone before a kept client's
     ``__del__`` runs (an ignored exception on stderr, seen in test workers): an exit handler
     disconnects it first."""
-    import stackdsl.engines.pybullet.world as world_module
+    import stackdsl.engines.pybullet.client as client_module
 
     run_program(compile_scenario(parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 1}}\n", "s.yaml")))
-    (kept,) = [c for _, c in world_module._SPARE]
+    (kept,) = [c for _, c in client_module._SPARE]
     assert kept.isConnected()
-    world_module._disconnect_spare()
-    assert world_module._SPARE == [] and not kept.isConnected()
+    client_module._disconnect_spare()
+    assert client_module._SPARE == [] and not kept.isConnected()

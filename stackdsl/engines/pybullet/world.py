@@ -21,12 +21,7 @@ Source: stackdsl's own (the world adapter of dm_control's composer).
 
 from __future__ import annotations
 
-import atexit
-import ctypes
 import math
-import os
-import sys
-import threading
 from collections import deque
 from collections.abc import Collection, Iterator, Sequence
 from contextlib import contextmanager
@@ -37,75 +32,8 @@ import numpy as np
 from stability import ContactPoint, Pose, PyBulletEngine
 
 from ..protocol import BrickSpec, Vec3, World
+from .client import direct_client
 from .settings import PyBulletSettings
-
-
-@contextmanager
-def _quiet_c_output() -> Iterator[None]:
-    """Silence C-level stdout and stderr (pybullet prints 'argv[0]=' and its build time)."""
-    sys.stdout.flush()
-    sys.stderr.flush()
-    saved = [os.dup(1), os.dup(2)]
-    devnull = os.open(os.devnull, os.O_WRONLY)
-    os.dup2(devnull, 1)
-    os.dup2(devnull, 2)
-    try:
-        yield
-    finally:
-        ctypes.CDLL(None).fflush(None)  # C stdio may still hold what pybullet printed
-        os.dup2(saved[0], 1)
-        os.dup2(saved[1], 2)
-        for fd in (*saved, devnull):
-            os.close(fd)
-
-
-_SPARE: list[tuple[int, Any]] = []  # (process id, client) of finished runs, for the next run
-_SPARE_LOCK = threading.Lock()
-
-
-@atexit.register
-def _disconnect_spare() -> None:
-    """Disconnect the kept client while pybullet is still loaded (its ``__del__`` at the very end
-    of the interpreter finds the module gone and prints an ignored exception)."""
-    with _SPARE_LOCK:
-        for pid, client in _SPARE:
-            if pid == os.getpid():
-                client.disconnect()
-        _SPARE.clear()
-
-
-@contextmanager
-def direct_client() -> Iterator[Any]:
-    """An empty pybullet DIRECT client (``BulletClient``): the one the last run in this process
-    finished with, emptied (``resetSimulation``), else a new one. It is kept for the next run
-    when the block ends without an exception, and disconnected when one is raised.
-
-    Connecting costs 8 to 13 ms and emptying 1.6 to 5 ms, a run of three bricks 30 ms; an
-    emptied client simulates as a new one does, bitwise (engine parameters a run changes are
-    set by :class:`PyBulletWorld` at the start of every run). Source: stackdsl's own.
-    """
-    with _SPARE_LOCK:
-        spare = [c for pid, c in _SPARE if pid == os.getpid()]  # a forked child connects anew
-        _SPARE.clear()
-    client = spare.pop() if spare else None
-    if client is None:
-        with _quiet_c_output():
-            import pybullet
-            from pybullet_utils.bullet_client import BulletClient
-
-            client = BulletClient(connection_mode=pybullet.DIRECT)
-    else:
-        client.resetSimulation()  # here, not when the last run ended: part of this run's time
-    try:
-        yield client
-    except BaseException:
-        client.disconnect()
-        raise
-    with _SPARE_LOCK:
-        if _SPARE:  # another thread's run kept one: one is enough
-            client.disconnect()
-        else:
-            _SPARE.append((os.getpid(), client))
 
 
 @contextmanager

@@ -302,8 +302,9 @@ def _cost(scene: Scene, setting: str) -> float:
 def savings(repeats: int = 3) -> list[tuple[str, str, float, int]]:
     """Each "model only what a scene needs" switch off in turn, in extension mode (report
     model), on the scene where it acts: the 30-level 4 stack, the 100-level one for the buried
-    bricks shelved, and the log cabin shifted 3.5 mm a level for the fallen bricks as rigid bodies. Rows of (what is off, scene, median wall
-    time in s, physics steps); the first row of each scene has nothing off."""
+    bricks shelved, and the log cabin shifted 3.5 mm a level for the fallen bricks as rigid
+    bodies. Rows of (what is off, scene, median wall time in s, physics steps); the first row of
+    each scene has nothing off."""
     tower = Scene("upright", 30, 30, "tower: {levels: 30}", None)
     tall = Scene("upright", 100, 100, "tower: {levels: 100}", None)
     cabin = next(s for s in scenes(upright=()) if s.family == "slant log cabin" and s.parameter == 3.5)

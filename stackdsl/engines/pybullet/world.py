@@ -68,9 +68,8 @@ class PyBulletWorld(PyBulletEngine, World):
 
     Static bodies that nothing moving can reach are shelved: taken out of pybullet's world,
     their poses kept, and put back, under the same ids, before a step in which a moving body
-    could reach them (within :data:`REACH` of its box, and what it may travel before the shelf is
-    looked at again) or
-    when they are woken or moved. A static body is shelved once it lies :data:`SHELVE` from
+    could reach them (within :data:`REACH` of its box, and what it may travel before the shelf
+    is looked at again) or when they are woken or moved. A static body is shelved once it lies :data:`SHELVE` from
     every moving body and from the :data:`RECENT` bodies frozen last (looked at when a body
     freezes): a tower's buried levels leave the world, and its step costs what its top
     costs. Nothing is shelved while more than :data:`CROWD` bodies move. A shelved body reads
@@ -303,8 +302,8 @@ class PyBulletWorld(PyBulletEngine, World):
 
     def _box(self, body: int, margin: float) -> _Box:
         """``body``'s bounding box in the world, grown by ``margin`` metres."""
-        (x0, y0, z0), (x1, y1, z1) = self._read_box(self._ids.get(body, body))
-        return x0 - margin, y0 - margin, z0 - margin, x1 + margin, y1 + margin, z1 + margin
+        low, high = self._read_box(self._ids.get(body, body))
+        return _grown((*low, *high), margin)
 
     def _speed(self, body: int) -> float:
         """m/s: how fast any point of a moving ``body`` moves (its speed, and its spin at its corners)."""

@@ -24,6 +24,7 @@ from pydantic import BaseModel, ConfigDict
 from stability import Engine, Pose
 
 Vec3 = tuple[float, float, float]
+Quat = tuple[float, float, float, float]
 
 
 class _Frozen(BaseModel):
@@ -140,6 +141,22 @@ class World(Engine, Protocol):
 
     def velocities_of(self, bodies: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
         """Linear (n, 3) in m/s and angular (n, 3) in rad/s velocities of ``bodies``."""
+
+    def pose_floats(self, body: int) -> tuple[Vec3, Quat]:
+        """:meth:`pose` as floats: the position (m) and the unit quaternion (x, y, z, w). The
+        per-step tests (the soft landing, the collapse monitor) ask it of every moving brick at
+        every step, where two numpy arrays would cost more than the arithmetic; an adapter
+        that holds floats returns them without building a :class:`stability.Pose`."""
+        pose = self.pose(body)
+        x, y, z = pose.position.tolist()
+        qx, qy, qz, qw = pose.orientation.tolist()
+        return (x, y, z), (qx, qy, qz, qw)
+
+    def velocity_floats(self, body: int) -> tuple[Vec3, Vec3]:
+        """:meth:`velocity` as floats: linear (m/s) and angular (rad/s); see :meth:`pose_floats`."""
+        linear, angular = self.velocity(body)
+        (a, b, c), (d, e, f) = linear.tolist(), angular.tolist()
+        return (a, b, c), (d, e, f)
 
     # optional capabilities, with their defaults -------------------------------------
     def make_rigid(self, bodies: Sequence[int]) -> list[int]:

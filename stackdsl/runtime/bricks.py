@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass, field
+from dataclasses import InitVar, dataclass, field
 
 import numpy as np
 import shapely
@@ -39,7 +39,9 @@ class BrickRecord:
         was_frozen: the stability extension has frozen it at least once (moving again: woken).
         settled: metres it had moved when last frozen (frozen bricks do not move), or None.
         corners: shape (8, 3), the placed corners in the world, m.
-        footprint: the placed horizontal footprint.
+        footprint: the placed horizontal footprint (``shape``: the same, found already).
+        below: the structure bricks it was placed on (:meth:`Structure.under`), in the order
+            they entered.
         order: its place in the order bricks entered the world (set by :class:`Structure`).
     """
 
@@ -53,14 +55,16 @@ class BrickRecord:
     was_frozen: bool = False
     settled: float | None = None
     order: int = -1
+    below: tuple[BrickRecord, ...] = ()
+    shape: InitVar[Polygon | None] = None
     box: Box = field(init=False)
     corners: np.ndarray = field(init=False)
     footprint: Polygon = field(init=False)
 
-    def __post_init__(self) -> None:
+    def __post_init__(self, shape: Polygon | None) -> None:
         self.box = Box(np.array(self.spec.half_extents), self.spec.mass)
         self.corners = self.box.corners(self.pose)
-        self.footprint = MultiPoint(self.corners[:, :2]).convex_hull
+        self.footprint = footprint(self.corners) if shape is None else shape
 
     @property
     def structure(self) -> bool:
@@ -90,9 +94,25 @@ class BrickRecord:
         return x, y, z, w
 
     @functools.cached_property
+    def local_corners(self) -> tuple[tuple[float, float, float], ...]:
+        """Its eight corners in its own frame, m, as floats (the order of :attr:`corners`)."""
+        return tuple((a, b, c) for a, b, c in self.box.corners(Pose(np.zeros(3))).tolist())
+
+    @functools.cached_property
+    def corner_list(self) -> tuple[tuple[float, float, float], ...]:
+        """:attr:`corners` as floats."""
+        return tuple((a, b, c) for a, b, c in self.corners.tolist())
+
+    @functools.cached_property
     def half_diagonal(self) -> float:
         """Metres from the centre to a corner."""
         return float(np.linalg.norm(self.box.half_extents))
+
+
+def footprint(corners: np.ndarray) -> Polygon:
+    """The horizontal footprint of a brick's corners (shape (8, 3), m): their convex hull in x, y."""
+    hull: Polygon = MultiPoint(corners[:, :2]).convex_hull
+    return hull
 
 
 FEW = 4
@@ -155,11 +175,9 @@ class Structure:
         overlaps = shapely.area(shapely.intersection([r.footprint for r in below], footprint))
         return [r for r, area in zip(below, overlaps) if area > 1e-8]
 
-    def sink(self, bottom: float, footprint: Polygon) -> float:
-        """How far the placed bricks a new brick will rest on have sunk below their heights
-        in the scenario (m): the least of them, 0 for none. ``bottom``: m, the new brick's
-        lowest corner in the scenario; ``footprint``: its horizontal footprint."""
-        below = self.under(bottom, footprint)
+    def sink(self, below: list[BrickRecord]) -> float:
+        """How far the placed bricks a new brick will rest on (``below``, :meth:`under`) have
+        sunk below their heights in the scenario (m): the least of them, 0 for none."""
         if not below:
             return 0.0
         positions, _ = self.world.poses_of([r.body for r in below])
@@ -168,9 +186,12 @@ class Structure:
     def displacements(self, records: list[BrickRecord]) -> np.ndarray:
         """How far each brick's farthest-moved corner is from where it was placed, m (a
         brick tipping in place counts, not only one whose centre moves); all at once, as
-        raw and tuned modes ask it of every brick at every step."""
+        raw and tuned modes ask it of every brick at every step. Up to :data:`FEW` bricks,
+        brick by brick in floats (:meth:`displacement`)."""
         if not records:
             return np.zeros(0)
+        if len(records) <= FEW:
+            return np.array([self.displacement(r) for r in records])
         bodies = tuple(r.body for r in records)
         positions, quaternions = self.world.poses_of(bodies)
         if self._cached[0] != bodies:
@@ -204,11 +225,25 @@ class Structure:
         bound = np.linalg.norm(positions - placed, axis=1) + 2.0 * radius * np.sqrt(1.0 - cos_half**2)
         return [r for r, b in zip(records, bound) if b > threshold]
 
+    def displacement(self, r: BrickRecord) -> float:
+        """How far the farthest-moved corner of ``r`` is from where it was placed, m, in floats:
+        the corners rotated by the quaternion's matrix (:attr:`stability.Pose.rotation`'s formula)."""
+        (x, y, z), (qx, qy, qz, qw) = self.world.pose_floats(r.body)
+        n = 2.0 / (qx * qx + qy * qy + qz * qz + qw * qw)
+        m00, m01, m02 = 1 - n * (qy * qy + qz * qz), n * (qx * qy - qz * qw), n * (qx * qz + qy * qw)
+        m10, m11, m12 = n * (qx * qy + qz * qw), 1 - n * (qx * qx + qz * qz), n * (qy * qz - qx * qw)
+        m20, m21, m22 = n * (qx * qz - qy * qw), n * (qy * qz + qx * qw), 1 - n * (qx * qx + qy * qy)
+        farthest = 0.0
+        for (a, b, c), (px, py, pz) in zip(r.local_corners, r.corner_list):
+            dx = x + m00 * a + m01 * b + m02 * c - px
+            dy = y + m10 * a + m11 * b + m12 * c - py
+            dz = z + m20 * a + m21 * b + m22 * c - pz
+            farthest = max(farthest, dx * dx + dy * dy + dz * dz)
+        return math.sqrt(farthest)
+
     def _bound(self, r: BrickRecord) -> float:
         """:meth:`may_have_moved`'s bound for one brick, in floats."""
-        pose = self.world.pose(r.body)
-        x, y, z = pose.position.tolist()
-        qx, qy, qz, qw = pose.orientation.tolist()
+        (x, y, z), (qx, qy, qz, qw) = self.world.pose_floats(r.body)
         px, py, pz = r.placed_xyz
         ax, ay, az, aw = r.placed_xyzw
         cos_half = min(1.0, abs(qx * ax + qy * ay + qz * az + qw * aw))

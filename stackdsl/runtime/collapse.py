@@ -167,10 +167,7 @@ class CollapseMonitor(Subscriber):
 
     def on_place(self, loop: StepLoop, record: BrickRecord) -> None:
         self.record_drift(loop, exclude=record)
-        structure = loop.structure
-        others = [
-            r for r in structure.under(float(record.corners[:, 2].min()) + record.sink, record.footprint) if r is not record
-        ]
+        others = record.below
         positions, quaternions = loop.world.poses_of([r.body for r in others]) if others else (np.zeros((0, 3)),) * 2
         below: list[tuple[int | None, Box | Plane, Pose | None]] = [(None, Plane(0.0), None)]
         below += [(None, Box(np.array(f.brick.half_extents), f.brick.mass), _fixture_pose(f)) for f in loop.program.fixtures]

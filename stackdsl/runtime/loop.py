@@ -23,11 +23,11 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from stability import Pose
+from stability import Box, Pose
 
 from ..compile.program import Launch, Place, Program
 from ..engines.protocol import BrickSpec, World
-from .bricks import BrickRecord, Structure
+from .bricks import BrickRecord, Structure, footprint
 from .outcome import Event
 
 #: Steps between two readings of the wall clock when a run has a deadline.
@@ -219,11 +219,13 @@ class StepLoop:
         deep as a brick at rest sinks there, so that it meets its whole contact patch at once.
         """
         nominal = Pose.from_euler(a.position, a.yaw, a.pitch, a.roll)
-        scenario = BrickRecord(a.id, -1, a.brick, a.level, nominal, nominal)
-        sink = self.structure.sink(float(scenario.corners[:, 2].min()), scenario.footprint)
+        corners = Box(np.array(a.brick.half_extents), a.brick.mass).corners(nominal)
+        shape = footprint(corners)  # lowered straight down: the placed footprint too
+        below = self.structure.under(float(corners[:, 2].min()), shape)
+        sink = self.structure.sink(below)
         target = Pose(nominal.position - [0.0, 0.0, sink + self.program.engine.SEAT], nominal.orientation)
         body = self._enter(a.id, a.brick, Pose(target.position + [0.0, 0.0, a.drop], nominal.orientation))
-        record = BrickRecord(a.id, body, a.brick, a.level, target, nominal)
+        record = BrickRecord(a.id, body, a.brick, a.level, target, nominal, below=tuple(below), shape=shape)
         self.structure.add(record)
         detail = f"on bricks that have sunk {sink * 1000:.2f} mm" if sink > 5e-5 else ""
         self.events.append(Event(time=a.time, kind="place", brick=a.id, level=a.level, detail=detail))

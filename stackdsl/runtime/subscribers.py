@@ -66,7 +66,7 @@ class Stability(Subscriber):
             if record is not None and record.structure and e.kind in ("freeze", "wake"):
                 loop.structure.set_moving(record, e.kind == "wake")
                 record.was_frozen = True
-                record.settled = None if record.moving else float(loop.structure.displacements([record])[0])
+                record.settled = None if record.moving else loop.structure.displacement(record)
             source = records.get(e.source)
             if e.kind != "impact" or (source is not None and not source.structure):
                 level = record.level if record is not None else None
@@ -133,29 +133,31 @@ class SoftLanding(Subscriber):
         falling = [(r, last or 0.0) for r, _, last in self.falling.values() if r.moving]  # placed at rest
         if not falling:
             return
-        fall = self.gravity * loop.dt
-        for record, vz in falling:  # one or two bricks: one at a time, without numpy's fixed costs
-            step = (fall - vz) * loop.dt  # metres it falls in this step, freely
-            above = float(loop.world.pose(record.body).position[2]) - record.pose.position[2]
+        world, dt = loop.world, loop.dt
+        fall = self.gravity * dt
+        for record, vz in falling:  # one or two bricks: one at a time, in floats
+            step = (fall - vz) * dt  # metres it falls in this step, freely
+            above = world.pose_floats(record.body)[0][2] - record.placed_xyz[2]
             if self.ARRIVED < above <= step + self.ARRIVED:
-                loop.world.throw(record.body, (0.0, 0.0, fall - above / loop.dt), None)
+                world.throw(record.body, (0.0, 0.0, fall - above / dt), None)
                 self.lowered.add(record.id)
 
     def after_step(self, loop: StepLoop) -> None:
         if not self.falling:
             return
         slowed = 0.5 * self.gravity * loop.dt
+        world = loop.world
         for record, placed, last in list(self.falling.values()):
-            position, velocity = loop.world.pose(record.body).position, loop.world.velocity(record.body)[0]
             if record.id in self.lowered:  # at rest where it is to lie, as if placed there now
                 self.lowered.discard(record.id)
-                loop.world.throw(record.body, (0.0, 0.0, 0.0), None)
+                world.throw(record.body, (0.0, 0.0, 0.0), None)
                 self.falling[record.id] = (record, loop.now, None)
                 continue
-            vz = float(velocity[2])
+            vz = world.velocity_floats(record.body)[0][2]
             fell = last is not None or vz < -self.FALLING
             arrived = fell and (
-                position[2] <= record.pose.position[2] + self.ARRIVED or (last is not None and vz > last - slowed)
+                (last is not None and vz > last - slowed)
+                or world.pose_floats(record.body)[0][2] <= record.placed_xyz[2] + self.ARRIVED
             )
             if arrived and record.moving:
                 loop.world.throw(record.body, (0.0, 0.0, 0.0), None)

@@ -31,7 +31,7 @@ import numpy as np
 
 from stability import ContactPoint, Pose, PyBulletEngine
 
-from ..protocol import BrickSpec, Vec3, World
+from ..protocol import BrickSpec, Quat, Vec3, World
 from .client import direct_client
 from .settings import PyBulletSettings
 
@@ -234,6 +234,14 @@ class PyBulletWorld(PyBulletEngine, World):
             read = _AT_REST if body in self._shelf else self._read_velocity(self._ids.get(body, body))
             self._velocities[body] = read
         return read
+
+    def pose_floats(self, body: int) -> tuple[Vec3, Quat]:
+        position, orientation = self._pose_now(body)
+        return position, orientation
+
+    def velocity_floats(self, body: int) -> tuple[Vec3, Vec3]:
+        linear, angular = self._velocity_now(body)
+        return linear, angular
 
     def contact_points(self, bodies: Collection[int] | None = None) -> list[ContactPoint]:
         if bodies is not None:

@@ -83,12 +83,16 @@ def test_a_frozen_brick_does_not_move_when_a_brick_lands_on_it():
     assert world.contact_points() == []  # two frozen bricks: no contact between them, none with the ground
 
 
-def test_a_restored_brick_falls_again():
-    world = _world()
+@pytest.mark.parametrize("mode", ["tuned", "extension"])
+def test_a_restored_brick_falls_again(mode):
+    """In extension mode the free body of a frozen brick sleeps where it waits (MuJoCo then
+    steps none of its degrees of freedom); put back, it wakes and falls."""
+    world = _world(mode)
     body = world.create(_brick(), Pose.from_euler([0.0, 0.0, 0.05]), mass=0.0)  # created frozen, in the air
     for _ in range(100):
         world.step()
     assert world.pose(body).position[2] == pytest.approx(0.05)
+    assert world._data.nv_awake == (0 if mode == "extension" else 6)
     world.set_frozen(body, False, _brick().mass)
     for _ in range(150):
         world.step()

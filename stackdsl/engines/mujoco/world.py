@@ -10,9 +10,9 @@ Each brick is two bodies of the same box: a *free* body (a free joint), which th
 simulates, and a *held* body (a mocap body, which the engine moves only when told), which
 stands in for it while it is frozen. Freezing puts the held body at the free body's pose
 and takes the free body out of the scene (collisions off, gravity compensated, far away,
-at rest); restoring does the opposite. A frozen brick is then static geometry: it costs
-no degrees of freedom and MuJoCo makes no contacts between two frozen bricks, as pybullet
-makes none between two bodies of mass 0 (docs/design.md, "MuJoCo", gives the measurements
+at rest; asleep in extension mode); restoring does the opposite. A frozen brick is then static geometry: it
+costs no degrees of freedom and MuJoCo makes no contacts between two frozen bricks, as
+pybullet makes none between two bodies of mass 0 (docs/design.md, "MuJoCo", gives the measurements
 that chose this over a weld equality or MuJoCo's own sleeping).
 
 Materials (friction of a pair, restitution, density): :mod:`stackdsl.engines.mujoco.materials`.
@@ -31,7 +31,7 @@ from scipy.spatial.transform import Rotation
 
 from stability import ContactPoint, Pose
 
-from ..protocol import BrickSpec, Vec3, World
+from ..protocol import BrickSpec, Quat, Vec3, World
 from .materials import Materials
 from .settings import MuJoCoSettings
 
@@ -39,6 +39,7 @@ from .settings import MuJoCoSettings
 #: from any scene (positions are within 1 km), one slot per brick so that none overlap.
 _AWAY = np.array([5000.0, 5000.0, 100.0])
 _SLOT = 0.5  # m between two waiting bodies
+_WAITING_SLEEP = 1e-4  # MuJoCo's sleep tolerance in extension mode, where only waiting bodies (still) sleep
 
 
 class MuJoCoWorld(World):
@@ -66,7 +67,7 @@ class MuJoCoWorld(World):
         import mujoco
 
         self._mj, self._engine = mujoco, engine
-        self._mesh = engine.mode == "extension"  # bricks as convex meshes (see create)
+        self._extension = engine.mode == "extension"  # bricks as convex meshes (see create), waiting ones asleep
         self.ground = 0
         self._substeps = 1
         self._specs: list[BrickSpec] = []
@@ -86,9 +87,9 @@ class MuJoCoWorld(World):
         option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC if engine.elliptic_cones else mujoco.mjtCone.mjCONE_PYRAMIDAL
         option.impratio = engine.impratio
         option.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{engine.integrator.upper()}")
-        if engine.sleep_tolerance is not None:
+        if engine.sleep_tolerance is not None or self._extension:
             option.enableflags |= mujoco.mjtEnableBit.mjENBL_SLEEP
-            option.sleep_tolerance = engine.sleep_tolerance
+            option.sleep_tolerance = engine.sleep_tolerance or _WAITING_SLEEP
         self._spec = spec
         ground = spec.worldbody.add_geom(name="ground", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0.0, 0.0, 1.0])
         # MuJoCo compensates gravity only in a model compiled with a body that asks for it; this
@@ -113,11 +114,11 @@ class MuJoCoWorld(World):
         # rest thresholds (it stayed active to the end of the run); the general convex collider
         # gives a steady set. MuJoCo alone (raw, tuned) keeps its own primitive, at its best.
         hx, hy, hz = spec.half_extents
-        if self._mesh:
+        if self._extension:
             corners = [c for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1) for c in (sx * hx, sy * hy, sz * hz)]
             self._spec.add_mesh(name=f"m{body}", uservert=corners)
         for name, owner in ((f"f{body}", free), (f"h{body}", held)):
-            if self._mesh:
+            if self._extension:
                 geom = owner.add_geom(name=name, type=mj.mjtGeom.mjGEOM_MESH, meshname=f"m{body}", mass=spec.mass)
             else:
                 geom = owner.add_geom(name=name, type=mj.mjtGeom.mjGEOM_BOX, size=[hx, hy, hz], mass=spec.mass)
@@ -162,11 +163,16 @@ class MuJoCoWorld(World):
         return self._model, self._data
 
     def _apply(self, body: int) -> None:
-        """Collisions, gravity compensation and, with MuJoCo's sleeping on, the sleep policy
-        of ``body``'s two bodies for its state: a free body out of the scene (frozen or not yet
-        placed) never sleeps, so that it moves when it is put back; MuJoCo wakes no tree
-        that is changed by hand (setting ``tree_asleep`` leaves its awake lists as they are,
-        measured on 4.0: a parked brick moved in stayed asleep where it was put)."""
+        """Collisions, gravity compensation and the sleep policy of ``body``'s two bodies for
+        its state.
+
+        In extension mode a free body out of the scene (frozen, or not yet placed) is allowed
+        to sleep where it waits, at rest: MuJoCo then skips its six degrees of freedom in
+        every stage of a step (at 30 levels its step cost 3 times less), and one in the scene
+        never sleeps, the extension deciding what rests. A sleeping free body whose position is
+        written wakes at the next step (measured on MuJoCo 4.0.0, tests/test_mujoco.py). With
+        MuJoCo's own sleeping (``sleep_tolerance``, the tuned peer) a waiting free body never
+        sleeps, as the peer was measured (docs/results/mujoco.md)."""
         m, i = self._model, body - 1
         spec = self._specs[i]
         bit = 1 << self._materials.group(spec.friction, spec.restitution)
@@ -175,9 +181,10 @@ class MuJoCoWorld(World):
         m.geom_contype[on] = m.geom_conaffinity[on] = bit
         m.geom_contype[off] = m.geom_conaffinity[off] = 0
         m.body_gravcomp[m.geom_bodyid[free]] = 1.0 if self._frozen[i] else 0.0
-        if self._engine.sleep_tolerance is not None:
-            policy = self._mj.mjtSleepPolicy
-            tree = m.body_treeid[m.geom_bodyid[free]]
+        policy, tree = self._mj.mjtSleepPolicy, m.body_treeid[m.geom_bodyid[free]]
+        if self._extension:
+            m.tree_sleep_policy[tree] = policy.mjSLEEP_ALLOWED if self._frozen[i] else policy.mjSLEEP_NEVER
+        elif self._engine.sleep_tolerance is not None:
             m.tree_sleep_policy[tree] = policy.mjSLEEP_NEVER if self._frozen[i] else policy.mjSLEEP_AUTO_ALLOWED
 
     # stability.Engine ----------------------------------------------------------
@@ -200,8 +207,37 @@ class MuJoCoWorld(World):
         return linear[body - 1].copy(), angular[body - 1].copy()
 
     def speeds(self, body: int) -> tuple[float, float]:
-        linear, angular = self._velocities()
-        return math.hypot(*linear[body - 1].tolist()), math.hypot(*angular[body - 1].tolist())
+        """Speed (m/s) and angular speed (rad/s) of ``body``, read from its free joint: the
+        length of an angular velocity is the same in the body frame as in the world's."""
+        _, d = self._ready()
+        i = body - 1
+        if self._frozen[i]:
+            return 0.0, 0.0
+        v = int(self._dof[i])
+        a, b, c, e, f, g = d.qvel[v : v + 6].tolist()
+        return math.hypot(a, b, c), math.hypot(e, f, g)
+
+    def pose_floats(self, body: int) -> tuple[Vec3, Quat]:
+        _, d = self._ready()
+        i = body - 1
+        if self._frozen[i]:
+            (x, y, z), (w, qx, qy, qz) = d.mocap_pos[self._mocap[i]].tolist(), d.mocap_quat[self._mocap[i]].tolist()
+        else:
+            q = int(self._qpos[i])
+            x, y, z, w, qx, qy, qz = d.qpos[q : q + 7].tolist()
+        n = math.sqrt(w * w + qx * qx + qy * qy + qz * qz)
+        return (x, y, z), (qx / n, qy / n, qz / n, w / n)
+
+    def velocity_floats(self, body: int) -> tuple[Vec3, Vec3]:
+        _, d = self._ready()
+        i = body - 1
+        if self._frozen[i]:
+            return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+        v, q = int(self._dof[i]), int(self._qpos[i])
+        angular = np.empty(3)
+        self._mj.mju_rotVecQuat(angular, d.qvel[v + 3 : v + 6], d.qpos[q + 3 : q + 7])
+        (a, b, c), (e, f, g) = d.qvel[v : v + 3].tolist(), angular.tolist()
+        return (a, b, c), (e, f, g)
 
     def contact_points(self, bodies: Collection[int] | None = None) -> list[ContactPoint]:
         m, d = self._ready()

@@ -476,4 +476,4 @@ if __name__ == "__main__":  # pragma: no cover
 
 #: Commands whose work runs in this process (drawing, reading trajectories, one recorded run):
 #: they get the address-space limit the workers of ``check`` have.
-_IN_PROCESS = {"render", "animate", "graph", "run"}
+_IN_PROCESS = {"render", "animate", "graph", "run", "replay", "view", "export"}

@@ -35,6 +35,8 @@ COMMANDS = {
     "animate": "make a clip of a run (GIF or MP4)",
     "graph": "plot the brick graph: rests-on edges, load shares, centres of mass against support polygons",
     "replay": "write an interactive 3D replay of a run: one HTML page (three.js, no network)",
+    "view": "run a scenario live in MuJoCo's viewer, bricks coloured by state (needs a display)",
+    "export": "write the bricks at one moment of a run as MuJoCo XML (MJCF) or URDF",
     "sweep": "run every sample of a scenario's sweep: per-sample files, a summary a grid cell, verdicts, plots",
     "bench": "speed against error: every engine setting on the same scenes (long)",
     "schema": "print the JSON Schema of scenario files (for editors)",

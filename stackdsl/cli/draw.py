@@ -28,7 +28,7 @@ MIN_SIDE, MAX_SIDE = 64, 4096
 
 #: The drawing commands, in the order of ``stackdsl --help``; the last are the scene commands of
 #: :mod:`stackdsl.cli.scene`.
-NAMES = ("render", "animate", "graph", "replay")
+NAMES = ("render", "animate", "graph", "replay", "view", "export")
 
 
 def add_commands(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, names: tuple[str, ...] = NAMES) -> None:

@@ -188,6 +188,7 @@ def test_the_live_view_shows_the_engines_poses_and_the_state_colours():
 
     program = stackdsl.compile_scenario(stackdsl.load_scenario(SLANT))
     scene = live.program_scene(program)
+    assert (scene.model.geom_rgba[scene.geom, 3] == 0).all()  # nothing in the world yet
     viewer, wall = StandIn(), Clock()
     view = live.LiveView(program, scene, viewer, speed=1.0, sleep=wall.sleep, clock=wall)
     outcome = stackdsl.run_program(program, subscribers=(view,))
@@ -201,6 +202,9 @@ def test_the_live_view_shows_the_engines_poses_and_the_state_colours():
         assert _angle(quaternion, frame.orientations[i]) < 0.02, brick
         assert scene.colour_of(brick) == pytest.approx(COLOURS[frame.state_names[i]], abs=1e-6), brick
     assert "fallen" in frame.state_names and "frozen" in frame.state_names
+    # the bricks placed are seen; those never placed (building stops at the collapse) are not
+    placed = np.isin(scene.ids, trajectory.ids)
+    assert not placed.all() and (scene.model.geom_rgba[scene.geom, 3] == placed).all()
     # paced to real time, the quiet waits between placements (which the loop jumps) shortened
     quiet = sum(1.0 - live.QUIET_HOLD for p in program.placements[1:])  # a placement a second
     assert outcome.simulated_time - quiet - 1.0 < wall.now < outcome.simulated_time

@@ -37,8 +37,6 @@ from .render import COLOURS
 FPS = 60.0
 #: Wall seconds a jump of the step loop over a quiet wait is shown at most.
 QUIET_HOLD = 0.25
-#: Where a brick waits before it enters the world: below the ground, out of sight.
-AWAY = np.array([0.0, 0.0, -100.0])
 
 Viewer = Any
 """MuJoCo's passive viewer handle, or anything with its ``sync``, ``is_running`` and ``lock``."""
@@ -47,9 +45,12 @@ Viewer = Any
 class Scene:
     """The viewer's MuJoCo model of a set of bricks, each a mocap body, and its data.
 
+    Every brick is unseen (transparent) at ``positions`` and ``orientations`` (where it will
+    enter the world, so that the viewer's camera frames the scene) until :meth:`show` shows it.
+
     Args:
         ids, levels: each brick's id and level (0: a projectile).
-        half_extents: (bricks, 3), metres.
+        half_extents, positions: (bricks, 3), metres; orientations: (bricks, 4), (x, y, z, w).
         fixtures: the fixed bodies as a :class:`Snapshot` (its fixture arrays), or None.
         specs: brick id -> spec, for masses and friction.
     """
@@ -59,6 +60,8 @@ class Scene:
         ids: list[str],
         levels: list[int],
         half_extents: np.ndarray,
+        positions: np.ndarray,
+        orientations: np.ndarray,
         fixtures: Snapshot | None = None,
         specs: dict[str, BrickSpec] | None = None,
     ) -> None:
@@ -73,8 +76,8 @@ class Scene:
             levels=list(levels),
             states=["active"] * n,
             half_extents=np.asarray(half_extents, dtype=float).reshape(-1, 3),
-            positions=np.tile(AWAY, (n, 1)) + np.column_stack([np.arange(n) * 0.3, np.zeros(n), np.zeros(n)]),
-            orientations=np.tile([0.0, 0.0, 0.0, 1.0], (n, 1)),
+            positions=np.asarray(positions, dtype=float).reshape(-1, 3),
+            orientations=np.asarray(orientations, dtype=float).reshape(-1, 4),
             fixture_ids=fixtures.fixture_ids if fixtures else [],
             fixture_half_extents=fixtures.fixture_half_extents if fixtures else empty3,
             fixture_positions=fixtures.fixture_positions if fixtures else empty3,
@@ -88,7 +91,7 @@ class Scene:
         self.mocap = np.array([self.model.body_mocapid[self.model.body(b).id] for b in ids], dtype=int)
         self.geom = np.array([self.model.geom(b).id for b in ids], dtype=int)
         self.index = {b: i for i, b in enumerate(ids)}
-        self.away = scene.positions.copy()
+        self.model.geom_rgba[self.geom, 3] = 0.0  # unseen until it enters the world
         mujoco.mj_kinematics(self.model, self.data)
 
     def show(self, bricks: list[int], positions: np.ndarray, orientations: np.ndarray, states: list[str]) -> None:
@@ -99,7 +102,7 @@ class Scene:
             self.data.mocap_pos[self.mocap[b]] = positions
             self.data.mocap_quat[self.mocap[b]] = np.asarray(orientations)[:, [3, 0, 1, 2]]
             for i, state in zip(bricks, states):
-                self.model.geom_rgba[self.geom[i], :3] = COLOURS[colour_key(self.levels[i], state)]
+                self.model.geom_rgba[self.geom[i]] = (*COLOURS[colour_key(self.levels[i], state)], 1.0)
         self.mujoco.mj_kinematics(self.model, self.data)
 
     def colour_of(self, brick: str) -> tuple[float, float, float]:
@@ -139,6 +142,10 @@ def program_scene(program: Program) -> Scene:
         [a.id for a in bodies],
         [a.level if isinstance(a, Place) else 0 for a in bodies],
         np.array([a.brick.half_extents for a in bodies], dtype=float).reshape(-1, 3),
+        np.array([a.position for a in bodies], dtype=float).reshape(-1, 3),
+        np.array([Pose.from_euler(a.position, a.yaw, a.pitch, getattr(a, "roll", 0.0)).orientation for a in bodies]).reshape(
+            -1, 4
+        ),
         fixed,
         {a.id: a.brick for a in bodies},
     )
@@ -237,8 +244,18 @@ def trajectory_scene(trajectory: Trajectory) -> Scene:
         fixture_positions=trajectory.fixture_positions,
         fixture_orientations=trajectory.fixture_orientations,
     )
+    first = np.unique(trajectory.row_body, return_index=True)[1]  # each body's first row (rows are in frame order)
+    count = len(trajectory.ids)
+    positions, orientations = np.zeros((count, 3)), np.tile([0.0, 0.0, 0.0, 1.0], (count, 1))
+    bodies = trajectory.row_body[first]
+    positions[bodies], orientations[bodies] = trajectory.row_position[first], trajectory.row_orientation[first]
     return Scene(
-        [str(i) for i in trajectory.ids.tolist()], [int(v) for v in trajectory.levels.tolist()], trajectory.half_extents, fixed
+        [str(i) for i in trajectory.ids.tolist()],
+        [int(v) for v in trajectory.levels.tolist()],
+        trajectory.half_extents,
+        positions,
+        orientations,
+        fixed,
     )
 
 

@@ -26,21 +26,15 @@ SCENARIO_SUFFIXES = (".yaml", ".yml")
 MIN_SIDE, MAX_SIDE = 64, 4096
 
 
-#: The drawing commands, in the order of ``stackdsl --help``; the last are the scene commands of
-#: :mod:`stackdsl.cli.scene`.
-NAMES = ("render", "animate", "graph", "replay", "view", "export")
+#: The drawing commands, in the order of ``stackdsl --help``.
+NAMES = ("render", "animate", "graph")
 
 
 def add_commands(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, names: tuple[str, ...] = NAMES) -> None:
     """Add ``names`` (of render, animate and graph) to the ``stackdsl`` parser's subcommands;
     ``parents`` give --debug, --timeout, --mode and --model."""
     for name in names:
-        if name in _ADD:
-            _ADD[name](sub, parents, epilog)
-        else:
-            from .scene import add_command
-
-            add_command(name, sub, parents, epilog)
+        _ADD[name](sub, parents, epilog)
 
 
 _SOURCE = "FILE: a scenario (run and recorded first) or a trajectory file (.npz) from 'stackdsl run FILE --record PATH'."

@@ -19,18 +19,27 @@ from ..lang.errors import ScenarioError
 from ..lang.extras import installed, missing
 from .args import COMMANDS, at_type, same_file
 from .draw import _SOURCE, _wrote, trajectory_of
+from .draw import NAMES as DRAWING
 
 #: Exit status of ``view`` where there is no display to open a window on (as bad input: the
 #: command cannot do what was asked here).
 NO_DISPLAY = 2
 
-#: The scene commands, in the order of ``stackdsl --help``.
-NAMES = ("replay", "view", "export")
+#: The commands that draw or show one run: the drawing commands, then the scene commands.
+NAMES = (*DRAWING, "replay", "view", "export")
 
 
-def add_command(name: str, sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -> None:
-    """Add the scene command ``name`` (of :data:`NAMES`) to the ``stackdsl`` parser's subcommands."""
-    _ADD[name](sub, parents, epilog)
+def add_commands(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, names: tuple[str, ...] = NAMES) -> None:
+    """Add ``names`` (of :data:`NAMES`) to the ``stackdsl`` parser's subcommands; ``parents`` give
+    --debug, --timeout, --mode and --model (:func:`stackdsl.cli.draw.add_commands` adds the
+    drawing commands)."""
+    from .draw import add_commands as add_drawing
+
+    for name in names:
+        if name in _ADD:
+            _ADD[name](sub, parents, epilog)
+        else:
+            add_drawing(sub, parents, epilog, (name,))
 
 
 def _add_replay(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -> None:

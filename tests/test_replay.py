@@ -131,6 +131,30 @@ def test_replay_command_writes_the_page_and_refuses_a_file_as_its_folder(tmp_pat
     assert "golden snapshot" in capsys.readouterr().err
 
 
+def test_a_reports_replay_draws_the_scenarios_golden_as_ghosts_where_it_differs(tmp_path, monkeypatch):
+    """check --report draws each run with draw_run, which finds the scenario's golden itself."""
+    from stackdsl.draw.artefacts import draw_run, golden_of
+
+    (tmp_path / "pyproject.toml").write_text("")
+    (tmp_path / "scenarios").mkdir()
+    (tmp_path / "scenarios" / "tower.yaml").write_text(TOWER)
+    monkeypatch.chdir(tmp_path)
+    program = stackdsl.compile_scenario(stackdsl.load_scenario("scenarios/tower.yaml"))
+    outcome, trajectory = record_program(program, source="scenarios/tower.yaml")
+    assert golden_of(trajectory) == tmp_path / "golden" / "scenarios" / "tower.json"
+    written, failure, _ = draw_run(trajectory, tmp_path / "no-golden")
+    assert failure == "" and written["replay"] == "replay.html"
+    assert '"ghosts":[]' in (tmp_path / "no-golden" / "replay.html").read_text()
+    golden = outcome.golden()
+    golden["final_graph"]["L03.2"]["position_mm"][2] += 40.0  # the golden's top brick 40 mm higher
+    (tmp_path / "golden" / "scenarios").mkdir(parents=True)
+    (tmp_path / "golden" / "scenarios" / "tower.json").write_text(json.dumps(golden))
+    draw_run(trajectory, tmp_path / "golden-differs")
+    page = (tmp_path / "golden-differs" / "replay.html").read_text()
+    found = json.loads(re.search(r'id="replay-data">(.*?)</script>', page, re.S).group(1).replace("<\\/", "</"))["ghosts"]
+    assert [g["id"] for g in found] == ["L03.2"] and "40.0 mm away" in found[0]["why"]
+
+
 # -- in the browser -------------------------------------------------------------------------
 needs_browser = pytest.mark.skipif(bool(missing()), reason=missing() or "ready")
 
@@ -195,6 +219,9 @@ def test_scrubbing_moves_every_brick_to_its_recorded_pose(chromium, slant, slant
 @needs_browser
 def test_clicking_a_brick_shows_its_panel(chromium, slant_page):
     opened = open_replay(chromium, slant_page)
+    # the page opens at the collapse with the brick that moved first selected
+    assert opened.call("selected()") == "L09.1" and "L09.1 at t = 16.117 s" in opened.page.locator("#panel").inner_text()
+    opened.call("select", None)
     assert opened.page.locator("#panel").is_hidden()
     opened.call("seek", 12.5)  # levels 1 to 6 stand, frozen
     target = "L06.1"

@@ -178,15 +178,18 @@
 
     // the golden's ghosts
     const ghostGroup = new THREE.Group();
-    const ghostMaterial = new THREE.MeshBasicMaterial({ color: 0x2bb04a, transparent: true, opacity: 0.35, depthWrite: false });
-    const ghostEdges = new THREE.LineBasicMaterial({ color: 0x1a7a30 });
+    const ghostMaterial = new THREE.MeshBasicMaterial({ color: 0x22dd55, transparent: true, opacity: 0.4, depthWrite: false });
+    // the outlines show through the run's bricks
+    const ghostEdges = new THREE.LineBasicMaterial({ color: 0x0b7a2a, depthTest: false, transparent: true });
     for (const g of data.ghosts) {
       const mesh = new THREE.Mesh(box, ghostMaterial);
       mesh.position.fromArray(g.position);
       mesh.quaternion.fromArray(g.quaternion);
       mesh.scale.set(2 * g.half_extents[0], 2 * g.half_extents[1], 2 * g.half_extents[2]);
       mesh.userData.id = g.id;
-      mesh.add(new THREE.LineSegments(new THREE.EdgesGeometry(box), ghostEdges));
+      const lines = new THREE.LineSegments(new THREE.EdgesGeometry(box), ghostEdges);
+      lines.renderOrder = 2;
+      mesh.add(lines);
       ghostGroup.add(mesh);
     }
     scene.add(ghostGroup);
@@ -331,9 +334,9 @@
 
     // -- the panel of a brick ----------------------------------------------------------------
     function graphAt(t) {
-      const graphs = Object.values(data.graphs).sort((a, b) => a.time - b.time);
-      let chosen = graphs[0];
-      for (const g of graphs) if (g.time <= t + 1e-9) chosen = g;
+      // the brick graph nearest in time (a run keeps two: at the collapse and at the end)
+      let chosen = null;
+      for (const g of Object.values(data.graphs)) if (!chosen || Math.abs(g.time - t) < Math.abs(chosen.time - t)) chosen = g;
       return chosen;
     }
 
@@ -523,6 +526,7 @@
     resize();
     apply(0);
     seek(collapse ? collapse.time : data.end);
+    if (collapse && index.has(collapse.brick)) select(collapse.brick); // the brick that moved first
 
     Object.assign(api, {
       seek: (t) => (seek(t), frame),

@@ -245,3 +245,34 @@ def test_record_program_and_live_view_record_the_same_run():
     _, recorded = record_program(program)
     mine = view.trajectory(outcome)
     assert np.array_equal(mine.times, recorded.times) and np.allclose(mine.row_position, recorded.row_position)
+
+
+@pytest.mark.parametrize(
+    ("argv", "where"),
+    [
+        (["export", "{npz}", "--mjcf", "/dev/full"], "/dev/full: No space left on device"),
+        (["replay", "{npz}", "-o", "/proc/x"], "/proc/x: No such file or directory"),
+        (["replay", "{npz}", "-o", "/tmp/" + "x" * 300], "File name too long"),
+    ],
+    ids=["full disk", "a folder that takes no file", "name too long"],
+)
+def test_a_path_the_system_refuses_is_one_line_and_exit_2(slant_run, argv, where, capsys):
+    _, record = slant_run
+    assert main([a.replace("{npz}", str(record)) for a in argv]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith("stackdsl: ") and line.endswith(where)
+
+
+def test_a_damaged_trajectory_is_bad_input_for_replay_export_and_view(tmp_path, capsys, monkeypatch):
+    bad = tmp_path / "bad.npz"
+    bad.write_text("hello\n")
+    monkeypatch.setenv("DISPLAY", ":99")  # the trajectory is read before any window opens
+    for argv in (
+        ["replay", str(bad), "-o", str(tmp_path / "r")],
+        ["export", str(bad), "--urdf", str(tmp_path / "x.urdf")],
+        *([["view", str(bad)]] if mujoco is not None else []),
+    ):
+        assert main(argv) == 2
+        (line,) = capsys.readouterr().err.strip().splitlines()
+        assert line.startswith(f"{bad}: not a stackdsl trajectory"), line
+    assert not (tmp_path / "x.urdf").exists() and not (tmp_path / "r" / "replay.html").exists()

@@ -444,7 +444,7 @@
       last = stamp;
       const f = factor();
       seek(now + dt * Number($("speed").value) * f);
-      $("status").dataset.rate = String(f);
+      $("clock").textContent += f < 1 ? "  slow motion x" + f : f > 1 ? "  quiet, x" + f : "";
       if (now >= data.end) pause();
       else requestAnimationFrame(tick);
     }
@@ -483,6 +483,7 @@
       if (e.target instanceof HTMLSelectElement || e.target instanceof HTMLInputElement) {
         if (e.target.type !== "range") return;
       }
+      if (e.key === " " && e.target instanceof HTMLButtonElement) return; // the button's own click
       if (e.key === " ") (playing ? pause() : play(), e.preventDefault());
       else if (e.key === "ArrowLeft") (stepFrame(-1), e.preventDefault());
       else if (e.key === "ArrowRight") (stepFrame(1), e.preventDefault());

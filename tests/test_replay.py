@@ -251,3 +251,29 @@ def test_playback_slows_down_at_the_collapse_and_the_ghosts_are_listed(chromium,
     opened.call("pause()")
     assert opened.call("time()") > 0.5
     assert opened.console == []
+
+
+@needs_browser
+def test_dragging_orbits_and_the_wheel_zooms(chromium, slant_page):
+    opened = open_replay(chromium, slant_page)
+    box = opened.page.locator("#view canvas").bounding_box()
+    x, y = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+
+    def camera():
+        c = opened.call("camera()")
+        return np.array(c["position"]), np.array(c["target"])
+
+    start, target = camera()
+    opened.page.mouse.move(x, y)
+    opened.page.mouse.down()
+    opened.page.mouse.move(x + 150, y + 40, steps=8)
+    opened.page.mouse.up()
+    turned, same_target = camera()
+    assert np.allclose(same_target, target) and not np.allclose(turned, start)
+    assert np.linalg.norm(turned - target) == pytest.approx(np.linalg.norm(start - target), rel=1e-6)  # an orbit
+    assert opened.call("selected()") == "L09.1"  # a drag is not a click: the selection stays
+    opened.page.mouse.wheel(0, -400)
+    opened.page.wait_for_timeout(100)
+    nearer, _ = camera()
+    assert np.linalg.norm(nearer - target) < 0.9 * np.linalg.norm(turned - target)
+    assert opened.console == []

@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import base64
 import gzip
+import html
 import json
 import os
 from functools import cache
@@ -223,8 +224,6 @@ def _script_json(value: Any) -> str:
 
 def replay_html(trajectory: Trajectory, golden: dict[str, Any] | None = None) -> str:
     """The replay page of ``trajectory`` as one HTML text (see the module's docstring)."""
-    import html
-
     meta = trajectory.meta
     title = f"{meta.get('scenario') or meta.get('file') or 'run'} · stackdsl replay"
     parts = {

@@ -564,6 +564,7 @@
       playing: () => playing,
       rate: factor,
       ghosts: () => data.ghosts.map((g) => g.id),
+      camera: () => ({ position: camera.position.toArray(), target: controls.target.toArray() }),
       render: () => renderer.render(scene, camera),
     });
     renderer.render(scene, camera);

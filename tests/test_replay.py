@@ -60,6 +60,7 @@ def test_the_pages_arrays_are_the_trajectorys(slant):
     assert np.allclose(_decode(data["row_orientation"], "<f4").reshape(-1, 4), trajectory.row_orientation, atol=1e-6)
     assert [e["kind"] for e in data["events"]] == [e.kind for e in trajectory.events]
     assert set(data["graphs"]) == {"final", "collapse"}  # the slant tower collapses
+    assert data["meta"]["backend"] == "pybullet" and data["meta"]["mode"] == "extension"
     node = data["graphs"]["final"]["bricks"]["L02.1"]
     assert [s for s, _, _ in node["rests_on"]] and all(0 <= share <= 1 for _, _, share in node["rests_on"])
 
@@ -144,7 +145,7 @@ def test_a_reports_replay_draws_the_scenarios_golden_as_ghosts_where_it_differs(
     assert golden_of(trajectory) == tmp_path / "golden" / "scenarios" / "tower.json"
     written, failure, _ = draw_run(trajectory, tmp_path / "no-golden")
     assert failure == "" and written["replay"] == "replay.html"
-    assert '"ghosts":[]' in (tmp_path / "no-golden" / "replay.html").read_text()
+    assert '"ghosts":[],"golden_bricks":null' in (tmp_path / "no-golden" / "replay.html").read_text()
     golden = outcome.golden()
     golden["final_graph"]["L03.2"]["position_mm"][2] += 40.0  # the golden's top brick 40 mm higher
     (tmp_path / "golden" / "scenarios").mkdir(parents=True)
@@ -153,6 +154,7 @@ def test_a_reports_replay_draws_the_scenarios_golden_as_ghosts_where_it_differs(
     page = (tmp_path / "golden-differs" / "replay.html").read_text()
     found = json.loads(re.search(r'id="replay-data">(.*?)</script>', page, re.S).group(1).replace("<\\/", "</"))["ghosts"]
     assert [g["id"] for g in found] == ["L03.2"] and "40.0 mm away" in found[0]["why"]
+    assert '"golden_bricks":6' in page
 
 
 # -- in the browser -------------------------------------------------------------------------

@@ -175,7 +175,8 @@ def replay_data(trajectory: Trajectory, golden: dict[str, Any] | None = None) ->
     """Everything the page reads, as JSON values: the trajectory's arrays (base64: times
     float64, positions and quaternions float32, frames and bodies int32, states uint8), ids,
     levels, half extents, fixtures, events, brick graphs with their times, state names and
-    colours, and the golden's ghosts (:func:`ghosts`)."""
+    colours, the golden's ghosts (:func:`ghosts`) and how many final bricks the golden has (None:
+    no golden)."""
     meta = trajectory.meta
     collapse = meta.get("collapse")
     graphs = {"final": {"time": trajectory.end, "label": "at the end", "bricks": _graph(trajectory.graphs["final"])}}
@@ -214,6 +215,7 @@ def replay_data(trajectory: Trajectory, golden: dict[str, Any] | None = None) ->
         "events": [e.model_dump(mode="json") for e in trajectory.events],
         "graphs": graphs,
         "ghosts": ghosts(trajectory, golden),
+        "golden_bricks": len(final) if isinstance(final := (golden or {}).get("final_graph"), dict) else None,
     }
 
 

@@ -510,6 +510,11 @@
       .map((k) => `<span class="key"><span class="swatch" style="background:${data.colours[k]}"></span>${k}</span>`)
       .join("");
 
+    if (data.golden_bricks !== null && !data.ghosts.length) {
+      $("ghost-box").hidden = false;
+      $("ghost-text").textContent = `All ${data.golden_bricks} bricks of the golden snapshot end where this run's do (within 1 mm and 1 deg, in the same state).`;
+      $("ghost-mode").parentElement.hidden = true;
+    }
     if (data.ghosts.length) {
       $("ghost-box").hidden = false;
       $("ghost-text").textContent = `${data.ghosts.length} brick(s) end elsewhere in the golden snapshot, drawn green:`;

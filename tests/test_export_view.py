@@ -9,6 +9,7 @@ poses and the state colours into the viewer's model as the run goes.
 from __future__ import annotations
 
 import contextlib
+import os
 from pathlib import Path
 
 import numpy as np
@@ -189,6 +190,9 @@ def test_the_live_view_shows_the_engines_poses_and_the_state_colours():
     program = stackdsl.compile_scenario(stackdsl.load_scenario(SLANT))
     scene = live.program_scene(program)
     assert (scene.model.geom_rgba[scene.geom, 3] == 0).all()  # nothing in the world yet
+    camera = mujoco.MjvCamera()
+    scene.aim(camera)  # at the bricks as placed, not at the 2 m ground plane
+    assert 0.1 < camera.distance < 1.0 and 0.0 < camera.lookat[2] < 0.1
     viewer, wall = StandIn(), Clock()
     view = live.LiveView(program, scene, viewer, speed=1.0, sleep=wall.sleep, clock=wall)
     outcome = stackdsl.run_program(program, subscribers=(view,))
@@ -276,3 +280,25 @@ def test_a_damaged_trajectory_is_bad_input_for_replay_export_and_view(tmp_path, 
         (line,) = capsys.readouterr().err.strip().splitlines()
         assert line.startswith(f"{bad}: not a stackdsl trajectory"), line
     assert not (tmp_path / "x.urdf").exists() and not (tmp_path / "r" / "replay.html").exists()
+
+
+@needs_mujoco
+@pytest.mark.skipif(
+    not os.environ.get("DISPLAY"), reason="no display: run it with xvfb-run -a python -m pytest -n0 tests/test_export_view.py"
+)
+def test_the_live_view_in_mujocos_own_passive_viewer():
+    import mujoco.viewer
+
+    from stackdsl.draw import live
+
+    program = stackdsl.compile_scenario(stackdsl.load_scenario(SLANT))
+    scene = live.program_scene(program)
+    with mujoco.viewer.launch_passive(scene.model, scene.data) as viewer:
+        with viewer.lock():
+            scene.aim(viewer.cam)
+        view = live.LiveView(program, scene, viewer, speed=20.0)
+        outcome = stackdsl.run_program(program, subscribers=(view,))
+        assert view.pictures > 100 and viewer.is_running()
+        with viewer.lock():  # the viewer's copy of the model has the state colours
+            assert viewer.m.geom_rgba[scene.geom[scene.index[outcome.collapse.brick]]][:3] == pytest.approx(COLOURS["fallen"])
+        viewer.close()

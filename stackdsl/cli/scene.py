@@ -128,6 +128,8 @@ def _view(args: argparse.Namespace) -> int:
         trajectory = trajectory_of(args)
         scene = live.trajectory_scene(trajectory)
         with mujoco.viewer.launch_passive(scene.model, scene.data) as viewer:
+            with viewer.lock():
+                scene.aim(viewer.cam)
             live.play(trajectory, scene, viewer, args.speed)
             while viewer.is_running():
                 time.sleep(0.1)
@@ -139,6 +141,8 @@ def _view(args: argparse.Namespace) -> int:
     program = compile_scenario(load_scenario(args.file), args.mode, args.model, args.backend)
     scene = live.program_scene(program)
     with mujoco.viewer.launch_passive(scene.model, scene.data) as viewer:
+        with viewer.lock():
+            scene.aim(viewer.cam)
         view = live.LiveView(program, scene, viewer, args.speed)
         outcome = run_program(program, timeout=args.timeout, subscribers=(view,))
         print(f"{program.name}: " + (f"collapse at level {outcome.collapse.level}" if outcome.collapse else "stands"))

@@ -152,8 +152,29 @@ def mjcf(scene: Snapshot, *, mocap: bool = False, timestep: float | None = None)
     option = ET.SubElement(root, "option", gravity="0 0 -9.81")
     if timestep is not None:
         option.set("timestep", f"{timestep:.6g}")
+    if len(scene.positions):  # the viewers' free camera frames the bricks, not the ground plane
+        reach = float(np.max(scene.half_extents))
+        low, high = scene.positions.min(axis=0) - reach, scene.positions.max(axis=0) + reach
+        low[2] = min(low[2], 0.0)
+        ET.SubElement(root, "statistic", center=_numbers((low + high) / 2), extent=f"{0.6 * float(np.max(high - low)):.6g}")
     visual = ET.SubElement(root, "visual")
     ET.SubElement(visual, "headlight", ambient="0.4 0.4 0.4", diffuse="0.6 0.6 0.6")
+    asset = ET.SubElement(root, "asset")  # the ground in 0.1 m squares
+    ground_rgb = np.array(COLOURS["ground"])
+    ET.SubElement(
+        asset,
+        "texture",
+        name="ground",
+        type="2d",
+        builtin="checker",
+        rgb1=_numbers(ground_rgb * 0.9, 3),
+        rgb2=_numbers(ground_rgb * 0.8, 3),
+        mark="edge",
+        markrgb=_numbers(ground_rgb * 0.6, 3),
+        width="200",
+        height="200",
+    )
+    ET.SubElement(asset, "material", name="ground", texture="ground", texrepeat="10 10", texuniform="true")
     world = ET.SubElement(root, "worldbody")
     span = float(np.abs(scene.positions).max()) if len(scene.positions) else 1.0
     ET.SubElement(world, "light", pos=f"0 0 {max(2.0, 3 * span):.3g}", dir="0 0 -1", directional="true")
@@ -163,7 +184,7 @@ def mjcf(scene: Snapshot, *, mocap: bool = False, timestep: float | None = None)
         name="ground",
         type="plane",
         size=f"{max(1.0, 2 * span):.3g} {max(1.0, 2 * span):.3g} 0.05",
-        rgba=_rgba("ground"),
+        material="ground",
         friction=f"{scene.ground_friction:.6g} 0.005 0.0001",
     )
     for fid, half, position, quaternion in zip(

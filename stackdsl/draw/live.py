@@ -105,6 +105,13 @@ class Scene:
                 self.model.geom_rgba[self.geom[i]] = (*COLOURS[colour_key(self.levels[i], state)], 1.0)
         self.mujoco.mj_kinematics(self.model, self.data)
 
+    def aim(self, camera: Any) -> None:
+        """Point a viewer's free camera (an ``mjvCamera``; take the viewer's lock first) at the
+        bricks where they enter: from 2.5 model extents away, 20 deg above the ground."""
+        camera.lookat[:] = self.model.stat.center
+        camera.distance = 2.5 * float(self.model.stat.extent)
+        camera.azimuth, camera.elevation = 120.0, -20.0
+
     def colour_of(self, brick: str) -> tuple[float, float, float]:
         """The colour brick ``brick`` is shown in now (r, g, b in 0..1)."""
         r, g, b = (float(c) for c in self.model.geom_rgba[self.geom[self.index[brick]], :3])

@@ -252,6 +252,14 @@ def test_playback_slows_down_at_the_collapse_and_the_ghosts_are_listed(chromium,
     opened.page.wait_for_timeout(500)
     opened.call("pause()")
     assert opened.call("time()") > 0.5
+    # a tenth of a wall second of playback: ten times faster through the wait between two
+    # placements, but it stops at the next placement's frame, not past it
+    opened.call("seek", 0.9)
+    assert opened.call("advance", 0.1) == pytest.approx(1.0)
+    # and it stops at the collapse, where it slows down
+    opened.call("seek", trajectory.collapse_time - 0.02)
+    assert opened.call("advance", 0.1) == pytest.approx(trajectory.collapse_time)
+    assert opened.call("advance", 0.1) == pytest.approx(trajectory.collapse_time + 0.02)
     assert opened.console == []
 
 

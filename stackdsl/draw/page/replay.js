@@ -438,13 +438,23 @@
       const gap = k + 1 < times.length ? times[k + 1] - times[k] : 0;
       return gap > 1.5 / rate ? 10 : 1; // a quiet wait (nothing moves) plays ten times faster
     }
+    function advance(dt) {
+      // playback over dt wall seconds: the chosen speed, slowed at key events, faster through a quiet
+      // wait; never past the next recorded frame out of a quiet wait, nor past the next key event
+      const f = factor();
+      let target = now + dt * Number($("speed").value) * f;
+      if (f > 1 && frame + 1 < times.length) target = Math.min(target, times[frame + 1]);
+      const key = keyTimes.find((k) => k > now + 1e-9);
+      if (key !== undefined) target = Math.min(target, key);
+      seek(target);
+      if (playing) $("clock").textContent += f < 1 ? "  slow motion x" + f : f > 1 ? "  quiet, x" + f : "";
+      return now;
+    }
     function tick(stamp) {
       if (!playing) return;
       const dt = Math.min((stamp - last) / 1000, 0.1);
       last = stamp;
-      const f = factor();
-      seek(now + dt * Number($("speed").value) * f);
-      $("clock").textContent += f < 1 ? "  slow motion x" + f : f > 1 ? "  quiet, x" + f : "";
+      advance(dt);
       if (now >= data.end) pause();
       else requestAnimationFrame(tick);
     }
@@ -568,6 +578,7 @@
       pause,
       playing: () => playing,
       rate: factor,
+      advance,
       ghosts: () => data.ghosts.map((g) => g.id),
       camera: () => ({ position: camera.position.toArray(), target: controls.target.toArray() }),
       render: () => renderer.render(scene, camera),

@@ -47,7 +47,8 @@ from .lang.loader import load_scenario
 from .runtime.recorder import record_program
 from .runtime.run import run_program
 from .verdicts.expect import evaluate, explain
-from .verdicts.snapshot import dumps, summarize
+from .verdicts.snapshot import dumps, scenario_golden_path, summarize
+from .verdicts.snapshot import golden_dir as golden_dir
 
 try:
     from syrupy.data import SnapshotCollection
@@ -59,32 +60,6 @@ except ImportError:  # pragma: no cover - syrupy is a test extra
 
 SUFFIXES = (".yaml", ".yml")
 _rename = os.replace  # atomic within a folder (POSIX); a name of its own, so a test can fail it alone
-
-
-def golden_dir(test_file: str | Path) -> Path:
-    """``golden/`` beside the nearest ``pyproject.toml`` above ``test_file``
-    (or beside the test file when there is none)."""
-    start = Path(test_file).resolve().parent
-    for folder in (start, *start.parents):
-        if (folder / "pyproject.toml").is_file():
-            return folder / "golden"
-    return start / "golden"
-
-
-def scenario_golden_path(scenario: str | Path) -> Path:
-    """Where a scenario file's golden snapshot lives: ``golden/`` (see :func:`golden_dir`),
-    then the scenario's folder relative to the project root, then its stem and ``.json``.
-
-    >>> str(scenario_golden_path("scenarios/hard/tall_100.yaml").relative_to(Path.cwd()))
-    'golden/scenarios/hard/tall_100.json'
-    """
-    path = Path(scenario).resolve()
-    golden = golden_dir(path)
-    try:
-        folder = path.parent.relative_to(golden.parent)
-    except ValueError:  # a scenario outside the project: beside the project's goldens
-        folder = Path(path.parent.name)
-    return golden / folder / f"{path.stem}.json"
 
 
 def round_floats(data: Any, path: Any) -> Any:

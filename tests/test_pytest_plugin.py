@@ -191,9 +191,12 @@ def test_a_failed_scenario_keeps_its_pictures_when_asked(project):
     result = project.runpytest("--snapshot-update", "--stackdsl-pictures", "only-on-failure")
     result.assert_outcomes(failed=1, passed=1)
     kept = project.path / "test-results" / "scenarios-tower"
-    assert "pictures: test-results/scenarios-tower/ (trajectory.npz, picture.png, graph.png, clip.gif)" in result.stdout.str()
-    assert sorted(p.name for p in kept.iterdir()) == ["clip.gif", "graph.png", "picture.png", "trajectory.npz"]
-    assert all((kept / name).stat().st_size > 0 for name in ("clip.gif", "graph.png", "picture.png"))
+    assert (
+        "pictures: test-results/scenarios-tower/ (trajectory.npz, picture.png, graph.png, clip.gif, replay.html)"
+        in result.stdout.str()
+    )
+    assert sorted(p.name for p in kept.iterdir()) == ["clip.gif", "graph.png", "picture.png", "replay.html", "trajectory.npz"]
+    assert all((kept / name).stat().st_size > 0 for name in ("clip.gif", "graph.png", "picture.png", "replay.html"))
     assert not (project.path / "test-results" / "scenarios-fine").exists()  # it passed
 
 

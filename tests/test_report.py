@@ -85,8 +85,8 @@ def test_every_picture_and_link_of_the_report_is_on_disk(report):
     page = parse(out / "index.html")
     assert len(page.images) == 2  # a picture per scenario
     files = [link for link in page.links if not link.startswith("#")]
-    assert {Path(link).name for link in files} == {"clip.gif", "graph.png", "picture.png", "trajectory.npz"}
-    assert len(files) == 8
+    assert {Path(link).name for link in files} == {"clip.gif", "graph.png", "picture.png", "trajectory.npz", "replay.html"}
+    assert len(files) == 10
     for src in page.images + files:
         assert (out / src).is_file() and (out / src).stat().st_size > 0, src
     # the summary links each row

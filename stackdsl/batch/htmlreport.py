@@ -176,7 +176,12 @@ def _row(r: CheckResult, command: str, folder: Path) -> str:
     why = "".join(f"<li>{_e(line)}</li>" for line in r.explanation)
     links = [
         f'<a href="{_e(href)}">{label}</a>'
-        for label, kind in (("clip", "clip"), ("brick graph", "graph"), ("trajectory (.npz)", "trajectory"))
+        for label, kind in (
+            ("3D replay", "replay"),
+            ("clip", "clip"),
+            ("brick graph", "graph"),
+            ("trajectory (.npz)", "trajectory"),
+        )
         if (href := _link(r, kind, folder))
     ]
     problems = [p for p in (r.draw_error,) if p]

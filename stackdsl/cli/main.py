@@ -239,7 +239,7 @@ _ONE_STATUS = EXIT_STATUS.replace(
 
 def _add_command(sub: Any, name: str, common: argparse.ArgumentParser) -> None:
     """Add command ``name`` (a key of :data:`COMMANDS`) in full; its modules load here."""
-    from .draw import NAMES
+    from .scene import NAMES
 
     if name in ("check", "compare", "compile", "run") or name in NAMES:
         _add_scenario_command(sub, name, common)
@@ -393,7 +393,7 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
         add_record_options(p)
         p.set_defaults(func=_run)
     else:
-        from .draw import add_commands
+        from .scene import add_commands
 
         add_commands(sub, [one, guarded], _ONE_STATUS, (name,))
 
@@ -476,4 +476,4 @@ if __name__ == "__main__":  # pragma: no cover
 
 #: Commands whose work runs in this process (drawing, reading trajectories, one recorded run):
 #: they get the address-space limit the workers of ``check`` have.
-_IN_PROCESS = {"render", "animate", "graph", "run"}
+_IN_PROCESS = {"render", "animate", "graph", "run", "replay", "view", "export"}

@@ -1,4 +1,5 @@
-"""What a person looks at after one run: its trajectory file, a picture, a clip and a brick-graph plot.
+"""What a person looks at after one run: its trajectory file, a picture, a clip, a brick-graph plot
+and the interactive 3D replay (:mod:`stackdsl.draw.replay`, with the golden snapshot's ghosts).
 
 :func:`draw_run` writes them into one folder per scenario; ``stackdsl check --report DIR``
 does this for every scenario, in the worker that ran it, and the HTML report
@@ -18,7 +19,13 @@ from pathlib import Path
 from ..runtime.trajectory import Trajectory
 
 #: The files of one run, by kind: written in this order.
-FILES = {"trajectory": "trajectory.npz", "picture": "picture.png", "graph": "graph.png", "clip": "clip.gif"}
+FILES = {
+    "trajectory": "trajectory.npz",
+    "picture": "picture.png",
+    "graph": "graph.png",
+    "clip": "clip.gif",
+    "replay": "replay.html",
+}
 #: Wall seconds the drawing of one run is budgeted in the pool's estimates (picture, plot and
 #: a clip of a few hundred frames: measured 2 to 15 s on the shipped scenarios).
 DRAW_ESTIMATE = 6.0
@@ -53,6 +60,15 @@ def folder_name(file: str, mode: str = "", taken: set[str] | None = None) -> str
     return unique
 
 
+def golden_of(trajectory: Trajectory) -> Path | None:
+    """The golden snapshot of the scenario file a trajectory was recorded from
+    (:func:`stackdsl.verdicts.snapshot.scenario_golden_path`), or None when it names no file."""
+    from ..verdicts.snapshot import scenario_golden_path
+
+    file = trajectory.meta.get("file")
+    return scenario_golden_path(file) if isinstance(file, str) and file else None
+
+
 def draw_run(trajectory: Trajectory, folder: str | Path) -> tuple[dict[str, str], str, float]:
     """Write :data:`FILES` for one recorded run into ``folder`` (made if missing).
 
@@ -66,6 +82,7 @@ def draw_run(trajectory: Trajectory, folder: str | Path) -> tuple[dict[str, str]
     from .animate import animate
     from .graphplot import plot_graph
     from .render import picture
+    from .replay import read_golden, write_replay
 
     start = time.perf_counter()
     out = Path(folder)
@@ -78,6 +95,7 @@ def draw_run(trajectory: Trajectory, folder: str | Path) -> tuple[dict[str, str]
         "picture": lambda path: picture(trajectory, "collapse" if collapsed else "end", path),
         "graph": lambda path: plot_graph(graph, path, title=f"{name}: brick graph at the {'collapse' if collapsed else 'end'}"),
         "clip": lambda path: animate(trajectory, path),
+        "replay": lambda path: write_replay(trajectory, path, read_golden(golden_of(trajectory))),
     }
     written: dict[str, str] = {}
     failure = ""

@@ -77,7 +77,7 @@ class Trajectory:
     """A recorded run.
 
     Attributes:
-        meta: scenario, file, mode, model, timestep (s), collapse_threshold (m), rate (Hz),
+        meta: scenario, file, mode, backend (from this version on), model, timestep (s), collapse_threshold (m), rate (Hz),
             collapse (the :class:`stackdsl.Collapse` as a dict, or None), levels_placed,
             simulated_time (s), stopped.
         ids: (bodies,), each body's id, in the order they entered the world.

@@ -27,6 +27,7 @@ Source: stackdsl's own (the brick graph of docs/design.md).
 from __future__ import annotations
 
 import json
+from pathlib import Path
 from typing import Any
 
 #: Keys of a snapshot whose values are brick graphs (brick id -> brick).
@@ -133,3 +134,29 @@ def _supports(brick: dict[str, Any]) -> str:
 def _short(value: Any) -> str:
     text = json.dumps(value, ensure_ascii=False)
     return text if len(text) <= 60 else text[:57] + "..."
+
+
+def golden_dir(test_file: str | Path) -> Path:
+    """``golden/`` beside the nearest ``pyproject.toml`` above ``test_file``
+    (or beside the test file when there is none)."""
+    start = Path(test_file).resolve().parent
+    for folder in (start, *start.parents):
+        if (folder / "pyproject.toml").is_file():
+            return folder / "golden"
+    return start / "golden"
+
+
+def scenario_golden_path(scenario: str | Path) -> Path:
+    """Where a scenario file's golden snapshot lives: ``golden/`` (see :func:`golden_dir`),
+    then the scenario's folder relative to the project root, then its stem and ``.json``.
+
+    >>> str(scenario_golden_path("scenarios/hard/tall_100.yaml").relative_to(Path.cwd()))
+    'golden/scenarios/hard/tall_100.json'
+    """
+    path = Path(scenario).resolve()
+    golden = golden_dir(path)
+    try:
+        folder = path.parent.relative_to(golden.parent)
+    except ValueError:  # a scenario outside the project: beside the project's goldens
+        folder = Path(path.parent.name)
+    return golden / folder / f"{path.stem}.json"

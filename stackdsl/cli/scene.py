@@ -1,0 +1,225 @@
+"""The scene commands of ``stackdsl``: replay (an interactive 3D page), view (MuJoCo's viewer),
+export (MJCF and URDF at one moment).
+
+Like the drawing commands (:mod:`stackdsl.cli.draw`), each reads a trajectory file (``.npz``)
+or runs and records a scenario file first.
+
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+from typing import Any
+
+from ..lang.errors import ScenarioError
+from ..lang.extras import installed, missing
+from .args import COMMANDS, at_type, same_file
+from .draw import _SOURCE, _wrote, trajectory_of
+from .draw import NAMES as DRAWING
+
+#: Exit status of ``view`` where there is no display to open a window on (as bad input: the
+#: command cannot do what was asked here).
+NO_DISPLAY = 2
+
+#: The commands that draw or show one run: the drawing commands, then the scene commands.
+NAMES = (*DRAWING, "replay", "view", "export")
+
+
+def add_commands(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, names: tuple[str, ...] = NAMES) -> None:
+    """Add ``names`` (of :data:`NAMES`) to the ``stackdsl`` parser's subcommands; ``parents`` give
+    --debug, --timeout, --mode and --model (:func:`stackdsl.cli.draw.add_commands` adds the
+    drawing commands)."""
+    from .draw import add_commands as add_drawing
+
+    for name in names:
+        if name in _ADD:
+            _ADD[name](sub, parents, epilog)
+        else:
+            add_drawing(sub, parents, epilog, (name,))
+
+
+def _add_replay(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -> None:
+    p = sub.add_parser(
+        "replay",
+        parents=parents,
+        help=COMMANDS["replay"],
+        description="Write DIR/replay.html: one self-contained page (three.js inlined, no network) that plays the run "
+        "in 3D. Orbit and zoom with the mouse, scrub the timeline or step frame by frame and event by event (slow "
+        "motion at impacts and the collapse), click a brick for its id, level, state, supports and load shares; "
+        "bricks are coloured by state, and the golden snapshot's final poses, where they differ, are drawn as green "
+        "ghosts. " + _SOURCE,
+        epilog=epilog,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("-o", "--output", required=True, metavar="DIR", help="the folder to write replay.html in (made if missing)")
+    p.add_argument(
+        "--golden",
+        metavar="FILE.json",
+        help="the golden snapshot whose final poses are the ghosts (default: the scenario's own, golden/.../NAME.json, "
+        "when it exists)",
+    )
+    p.set_defaults(func=_replay)
+
+
+def _replay(args: argparse.Namespace) -> int:
+    from ..draw.artefacts import golden_of
+    from ..draw.replay import read_golden, write_replay
+
+    out = Path(args.output)
+    if out.exists() and not out.is_dir():
+        raise ScenarioError("the replay goes to a folder: this is a file", file=args.output)
+    golden_path = Path(args.golden) if args.golden else None
+    if golden_path is not None and (not golden_path.is_file() or read_golden(golden_path) is None):
+        raise ScenarioError("not a readable golden snapshot (a JSON object)", file=args.golden)
+    trajectory = trajectory_of(args)
+    golden = read_golden(golden_path or golden_of(trajectory))
+    out.mkdir(parents=True, exist_ok=True)
+    return _wrote(write_replay(trajectory, out / "replay.html", golden), trajectory)
+
+
+def has_display() -> bool:
+    """Whether a window can be opened: an X or Wayland display on Linux and the BSDs; always on
+    macOS and Windows."""
+    if sys.platform in ("darwin", "win32"):
+        return True
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+def _add_view(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -> None:
+    p = sub.add_parser(
+        "view",
+        parents=parents,
+        help=COMMANDS["view"],
+        description="Open MuJoCo's viewer and run the scene in it as it simulates (any engine: the viewer shows "
+        "the bricks' poses), bricks coloured by state (frozen, active, woken, fallen, projectile); a trajectory "
+        "file (.npz) is played back the same way. The window stays open at the end until closed. Needs a "
+        f"display and the mujoco extra; without a display it says so and exits {NO_DISPLAY} (use 'stackdsl "
+        "replay' for a page to open in a browser). " + _SOURCE,
+        epilog=epilog,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("--speed", type=float, default=1.0, help="simulated seconds a wall second (default: 1, real time)")
+    p.set_defaults(func=_view)
+
+
+def _view(args: argparse.Namespace) -> int:
+    if not has_display():
+        print(
+            f"stackdsl view: no display here (DISPLAY is not set): for a 3D page to open in a browser, run "
+            f"stackdsl replay {args.file} -o DIR",
+            file=sys.stderr,
+        )
+        return NO_DISPLAY
+    if not installed("mujoco"):
+        raise ScenarioError(missing("mujoco", "the viewer"), file=args.file)
+    if not (0 < args.speed <= 1000):
+        raise ScenarioError(f"{args.speed:g} is not a speed-up above 0 and at most 1000", file="--speed")
+    import time
+
+    import mujoco.viewer
+
+    from ..draw import live
+
+    if Path(args.file).suffix.lower() == ".npz":
+        trajectory = trajectory_of(args)
+        scene = live.trajectory_scene(trajectory)
+        with mujoco.viewer.launch_passive(scene.model, scene.data) as viewer:
+            with viewer.lock():
+                scene.aim(viewer.cam)
+            live.play(trajectory, scene, viewer, args.speed)
+            while viewer.is_running():
+                time.sleep(0.1)
+        return 0
+    from ..compile.compiler import compile_scenario
+    from ..lang.loader import load_scenario
+    from ..runtime.run import run_program
+
+    program = compile_scenario(load_scenario(args.file), args.mode, args.model, args.backend)
+    scene = live.program_scene(program)
+    with mujoco.viewer.launch_passive(scene.model, scene.data) as viewer:
+        with viewer.lock():
+            scene.aim(viewer.cam)
+        view = live.LiveView(program, scene, viewer, args.speed)
+        outcome = run_program(program, timeout=args.timeout, subscribers=(view,))
+        print(f"{program.name}: " + (f"collapse at level {outcome.collapse.level}" if outcome.collapse else "stands"))
+        while viewer.is_running():
+            time.sleep(0.1)
+    return 0
+
+
+def _add_export(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -> None:
+    p = sub.add_parser(
+        "export",
+        parents=parents,
+        help=COMMANDS["export"],
+        description="Write the bricks at one moment of the run, at their poses, as MuJoCo XML (--mjcf: each brick "
+        "a body with a free joint, the ground a plane; open it with 'python -m mujoco.viewer --mjcf=OUT.xml' or "
+        "MuJoCo's simulate) and/or as a URDF (--urdf: one robot, the ground its root link, each brick on a "
+        "floating joint; MuJoCo makes these free joints, pybullet fixed ones). Masses and friction are the "
+        "scenario's (a trajectory file: the built-in pine's); geoms are coloured by state. " + _SOURCE,
+        epilog=epilog,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument(
+        "--at",
+        type=at_type,
+        default=None,
+        metavar="collapse|end|SECONDS",
+        help="when: 0.2 s after the first collapse (as 'render'), the end, or a time in seconds (default: collapse if "
+        "the structure collapsed, else end)",
+    )
+    p.add_argument("--mjcf", metavar="OUT.xml", help="write MuJoCo XML")
+    p.add_argument("--urdf", metavar="OUT.urdf", help="write a URDF")
+    p.set_defaults(func=_export)
+
+
+def _export(args: argparse.Namespace) -> int:
+    from ..draw.export import mjcf, snapshot, urdf, write_text
+
+    outputs = [(Path(path), kind) for path, kind in ((args.mjcf, "mjcf"), (args.urdf, "urdf")) if path]
+    if not outputs:
+        raise ScenarioError("give --mjcf OUT.xml, --urdf OUT.urdf or both", file="export")
+    for out, kind in outputs:
+        option = f"--{kind}"
+        if not out.parent.is_dir():
+            raise ScenarioError("no such folder for the output", file=option)
+        if out.is_dir():
+            raise ScenarioError("this is a folder: give the file to write", file=option)
+        if same_file(out, args.file):
+            raise ScenarioError("this is the file being exported: give another file to write", file=option)
+    specs, ground_friction = _specs(args)
+    trajectory = trajectory_of(args)
+    at = args.at or ("collapse" if trajectory.collapse_time is not None else "end")
+    try:
+        scene = snapshot(trajectory, at, specs, ground_friction)
+    except ValueError as exc:
+        raise ScenarioError(str(exc), file="--at") from None
+    timestep = trajectory.meta.get("timestep")
+    status = 0
+    for out, kind in outputs:
+        text = mjcf(scene, timestep=timestep if isinstance(timestep, float) else None) if kind == "mjcf" else urdf(scene)
+        status |= _wrote(write_text(text, out), trajectory)
+    print(f"{len(scene.ids)} bricks at t = {scene.time:.3f} s")
+    return status
+
+
+def _specs(args: argparse.Namespace) -> tuple[dict[str, Any], float]:
+    """The bricks' specs (mass, friction) and the ground's friction, from a scenario file; none
+    from a trajectory file (which keeps only sizes)."""
+    from ..draw.export import PINE_FRICTION
+
+    if Path(args.file).suffix.lower() == ".npz":
+        return {}, PINE_FRICTION
+    from ..compile.compiler import compile_scenario
+    from ..compile.program import Launch, Place
+    from ..lang.loader import load_scenario
+
+    program = compile_scenario(load_scenario(args.file), args.mode, args.model, args.backend)
+    return {a.id: a.brick for a in program.actions if isinstance(a, (Place, Launch))}, program.ground_friction
+
+
+_ADD = {"replay": _add_replay, "view": _add_view, "export": _add_export}

@@ -1,0 +1,284 @@
+"""A run's bricks at one moment as an MJCF or a URDF model, to open in MuJoCo's (or another
+engine's) own tools.
+
+:func:`snapshot` takes every body in the world at a time of a :class:`stackdsl.Trajectory`
+(its pose and state, as :meth:`stackdsl.Trajectory.at`) and the fixed bodies; :func:`mjcf`
+writes them as MuJoCo XML (each brick a body with a free joint and a box geom, the fixed
+bodies static boxes, the ground a plane), :func:`urdf` as one URDF robot whose root link is
+the ground and whose bricks hang on ``floating`` joints placed at their poses (MuJoCo
+compiles a floating joint into a free joint; pybullet loads it as a fixed one). Geoms are
+coloured by state (:data:`stackdsl.draw.render.COLOURS`). Masses and friction come from the
+run's brick specs when the scenario is at hand, else from the built-in pine (460 kg/m^3,
+friction 0.5).
+
+>>> import stackdsl
+>>> from stackdsl.runtime.recorder import record_program
+>>> program = stackdsl.compile_scenario(stackdsl.parse_scenario("stackdsl: 1\\nstructure: {tower: {levels: 1}}"))
+>>> outcome, trajectory = record_program(program)
+>>> scene = snapshot(trajectory, "end")
+>>> scene.ids, scene.states
+(['L01.1', 'L01.2'], ['frozen', 'frozen'])
+>>> import mujoco
+>>> model = mujoco.MjModel.from_xml_string(mjcf(scene))
+>>> model.nbody, model.njnt  # the world and two bricks, each with its free joint
+(3, 2)
+
+Source: stackdsl's own; the box's inertia is a textbook closed form (see :func:`box_inertia`).
+"""
+
+from __future__ import annotations
+
+import os
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..engines.protocol import BrickSpec
+from ..lang.files import written
+from ..runtime.trajectory import STATES, Trajectory
+from .render import COLOURS, resolve_time
+
+#: The built-in pine's density (kg/m^3) and friction coefficient, for bricks whose spec is unknown.
+PINE_DENSITY, PINE_FRICTION = 460.0, 0.5
+
+
+@dataclass(frozen=True)
+class Snapshot:
+    """The bodies of a run at one moment.
+
+    Attributes:
+        time: seconds; name: the scenario's name.
+        ids, levels, states: per body in the world (0 for a projectile's level).
+        half_extents, positions: (bodies, 3), metres; orientations: (bodies, 4), (x, y, z, w).
+        fixture_ids, fixture_half_extents, fixture_positions, fixture_orientations: the fixed bodies.
+        specs: brick id -> :class:`stackdsl.engines.protocol.BrickSpec` (mass, friction), when known.
+        ground_friction: the ground's friction coefficient.
+    """
+
+    time: float
+    name: str
+    ids: list[str]
+    levels: list[int]
+    states: list[str]
+    half_extents: np.ndarray
+    positions: np.ndarray
+    orientations: np.ndarray
+    fixture_ids: list[str]
+    fixture_half_extents: np.ndarray
+    fixture_positions: np.ndarray
+    fixture_orientations: np.ndarray
+    specs: dict[str, BrickSpec] = field(default_factory=dict)
+    ground_friction: float = PINE_FRICTION
+
+    def mass(self, i: int) -> float:
+        """kg, of body ``i``: its spec's, else pine's density times its volume."""
+        spec = self.specs.get(self.ids[i])
+        return spec.mass if spec is not None else float(PINE_DENSITY * 8.0 * np.prod(self.half_extents[i]))
+
+    def friction(self, i: int) -> float:
+        """The friction coefficient of body ``i``: its spec's, else pine's."""
+        spec = self.specs.get(self.ids[i])
+        return spec.friction if spec is not None else PINE_FRICTION
+
+
+def snapshot(
+    trajectory: Trajectory, at: str | float, specs: dict[str, BrickSpec] | None = None, ground_friction: float = PINE_FRICTION
+) -> Snapshot:
+    """The bodies in the world at ``at``: ``"collapse"`` (as a picture's, :func:`stackdsl.draw.render.resolve_time`),
+    ``"end"`` or seconds.
+
+    Raises:
+        ValueError: ``"collapse"`` and nothing collapsed; a time outside the run.
+    """
+    time = resolve_time(trajectory, at)
+    frame = trajectory.at(time)
+    present = ~np.isnan(frame.positions[:, 0])
+    return Snapshot(
+        time=time,
+        name=str(trajectory.meta.get("scenario") or "stackdsl"),
+        ids=[str(i) for i in trajectory.ids[present].tolist()],
+        levels=[int(v) for v in trajectory.levels[present].tolist()],
+        states=[STATES[s] for s in frame.states[present]],
+        half_extents=trajectory.half_extents[present],
+        positions=frame.positions[present],
+        orientations=frame.orientations[present],
+        fixture_ids=[str(i) for i in trajectory.fixture_ids.tolist()],
+        fixture_half_extents=trajectory.fixture_half_extents,
+        fixture_positions=trajectory.fixture_positions,
+        fixture_orientations=trajectory.fixture_orientations,
+        specs=dict(specs or {}),
+        ground_friction=ground_friction,
+    )
+
+
+def box_inertia(mass: float, half_extents: np.ndarray) -> tuple[float, float, float]:
+    """The principal moments of inertia (kg m^2) of a solid box of ``mass`` kg and ``half_extents``
+    (m) about its centre: I_x = m (b^2 + c^2) / 12 with b, c the full sides across x, and so on.
+
+    Source: the rectangular prism of J. L. Meriam and L. G. Kraige, Engineering Mechanics:
+    Dynamics, Appendix B, Table D/4.
+    """
+    a, b, c = (2.0 * float(h) for h in half_extents)
+    return mass * (b * b + c * c) / 12.0, mass * (a * a + c * c) / 12.0, mass * (a * a + b * b) / 12.0
+
+
+def _numbers(values: np.ndarray | list[float] | tuple[float, ...], digits: int = 9) -> str:
+    return " ".join(f"{float(v):.{digits}g}" for v in values)
+
+
+def _wxyz(q: np.ndarray) -> np.ndarray:
+    """(x, y, z, w) -> MuJoCo's (w, x, y, z)."""
+    return np.array([q[3], q[0], q[1], q[2]])
+
+
+def _rgba(key: str, alpha: float = 1.0) -> str:
+    return _numbers([*COLOURS[key], alpha], 4)
+
+
+def colour_key(level: int, state: str) -> str:
+    """The :data:`stackdsl.draw.render.COLOURS` key of a body: ``projectile`` (level 0) or its state."""
+    return "projectile" if level == 0 else state if state in COLOURS else "active"
+
+
+def mjcf(scene: Snapshot, *, mocap: bool = False, timestep: float | None = None) -> str:
+    """``scene`` as MuJoCo XML (MJCF): a ground plane, each fixed body a static box, each brick a
+    body at its pose with a free joint (``mocap``: a mocap body instead, moved by setting
+    ``data.mocap_pos``/``mocap_quat``, as :mod:`stackdsl.draw.live` does) and a box geom of its
+    mass, friction and state colour. Names are the bricks' ids."""
+    root = ET.Element("mujoco", model=scene.name)
+    ET.SubElement(root, "compiler", angle="radian")
+    option = ET.SubElement(root, "option", gravity="0 0 -9.81")
+    if timestep is not None:
+        option.set("timestep", f"{timestep:.6g}")
+    if len(scene.positions):  # the viewers' free camera frames the bricks, not the ground plane
+        reach = float(np.max(scene.half_extents))
+        low, high = scene.positions.min(axis=0) - reach, scene.positions.max(axis=0) + reach
+        low[2] = min(low[2], 0.0)
+        ET.SubElement(root, "statistic", center=_numbers((low + high) / 2), extent=f"{0.6 * float(np.max(high - low)):.6g}")
+    visual = ET.SubElement(root, "visual")
+    ET.SubElement(visual, "headlight", ambient="0.4 0.4 0.4", diffuse="0.6 0.6 0.6")
+    asset = ET.SubElement(root, "asset")  # the ground in 0.1 m squares
+    ground_rgb = np.array(COLOURS["ground"])
+    ET.SubElement(
+        asset,
+        "texture",
+        name="ground",
+        type="2d",
+        builtin="checker",
+        rgb1=_numbers(ground_rgb * 0.9, 3),
+        rgb2=_numbers(ground_rgb * 0.8, 3),
+        mark="edge",
+        markrgb=_numbers(ground_rgb * 0.6, 3),
+        width="200",
+        height="200",
+    )
+    ET.SubElement(asset, "material", name="ground", texture="ground", texrepeat="10 10", texuniform="true")
+    world = ET.SubElement(root, "worldbody")
+    span = float(np.abs(scene.positions).max()) if len(scene.positions) else 1.0
+    ET.SubElement(world, "light", pos=f"0 0 {max(2.0, 3 * span):.3g}", dir="0 0 -1", directional="true")
+    ET.SubElement(
+        world,
+        "geom",
+        name="ground",
+        type="plane",
+        size=f"{max(1.0, 2 * span):.3g} {max(1.0, 2 * span):.3g} 0.05",
+        material="ground",
+        friction=f"{scene.ground_friction:.6g} 0.005 0.0001",
+    )
+    for fid, half, position, quaternion in zip(
+        scene.fixture_ids, scene.fixture_half_extents, scene.fixture_positions, scene.fixture_orientations
+    ):
+        ET.SubElement(
+            world,
+            "geom",
+            name=fid,
+            type="box",
+            size=_numbers(half),
+            pos=_numbers(position),
+            quat=_numbers(_wxyz(quaternion)),
+            rgba=_rgba("fixture"),
+        )
+    for i, brick in enumerate(scene.ids):
+        body = ET.SubElement(
+            world, "body", name=brick, pos=_numbers(scene.positions[i]), quat=_numbers(_wxyz(scene.orientations[i]))
+        )
+        if mocap:
+            body.set("mocap", "true")
+        else:
+            ET.SubElement(body, "freejoint", name=brick)
+        ET.SubElement(
+            body,
+            "geom",
+            name=brick,
+            type="box",
+            size=_numbers(scene.half_extents[i]),
+            mass=f"{scene.mass(i):.6g}",
+            friction=f"{scene.friction(i):.6g} 0.005 0.0001",
+            rgba=_rgba(colour_key(scene.levels[i], scene.states[i])),
+        )
+    ET.indent(root)
+    return ET.tostring(root, encoding="unicode") + "\n"
+
+
+def urdf(scene: Snapshot) -> str:
+    """``scene`` as one URDF robot: the root link ``ground`` (a static 0.1 m thick slab whose
+    top is z = 0, and the fixed bodies), each brick a link on a ``floating`` joint from the
+    ground at its pose (``rpy``: roll, pitch, yaw about fixed x, y, z), with its mass, box
+    inertia (:func:`box_inertia`) and state colour."""
+    from scipy.spatial.transform import Rotation
+
+    robot = ET.Element("robot", name=scene.name)
+    for key in dict.fromkeys(["ground", "fixture", *(colour_key(v, s) for v, s in zip(scene.levels, scene.states))]):
+        ET.SubElement(ET.SubElement(robot, "material", name=key), "color", rgba=_rgba(key))
+    ground = ET.SubElement(robot, "link", name="ground")
+    inertial = ET.SubElement(ground, "inertial")
+    ET.SubElement(inertial, "mass", value="0")
+    ET.SubElement(inertial, "inertia", ixx="0", iyy="0", izz="0", ixy="0", ixz="0", iyz="0")
+    span = max(1.0, 2 * float(np.abs(scene.positions).max())) if len(scene.positions) else 1.0
+    boxes = [(np.array([span, span, 0.05]), np.array([0.0, 0.0, -0.05]), np.array([0.0, 0.0, 0.0, 1.0]), "ground")]
+    boxes += [
+        (h, p, q, "fixture") for h, p, q in zip(scene.fixture_half_extents, scene.fixture_positions, scene.fixture_orientations)
+    ]
+    for half, position, quaternion, material in boxes:
+        rpy = Rotation.from_quat(quaternion).as_euler("xyz")
+        for kind in ("visual", "collision"):
+            element = ET.SubElement(ground, kind)
+            ET.SubElement(element, "origin", xyz=_numbers(position), rpy=_numbers(rpy))
+            ET.SubElement(ET.SubElement(element, "geometry"), "box", size=_numbers(2 * np.asarray(half)))
+            if kind == "visual":
+                ET.SubElement(element, "material", name=material)
+    for i, brick in enumerate(scene.ids):
+        link = ET.SubElement(robot, "link", name=brick)
+        inertial = ET.SubElement(link, "inertial")
+        mass = scene.mass(i)
+        ET.SubElement(inertial, "mass", value=f"{mass:.6g}")
+        ixx, iyy, izz = box_inertia(mass, scene.half_extents[i])
+        ET.SubElement(inertial, "inertia", ixx=f"{ixx:.6g}", iyy=f"{iyy:.6g}", izz=f"{izz:.6g}", ixy="0", ixz="0", iyz="0")
+        for kind in ("visual", "collision"):
+            element = ET.SubElement(link, kind)
+            ET.SubElement(ET.SubElement(element, "geometry"), "box", size=_numbers(2 * scene.half_extents[i]))
+            if kind == "visual":
+                ET.SubElement(element, "material", name=colour_key(scene.levels[i], scene.states[i]))
+        joint = ET.SubElement(robot, "joint", name=brick, type="floating")
+        ET.SubElement(joint, "parent", link="ground")
+        ET.SubElement(joint, "child", link=brick)
+        rpy = Rotation.from_quat(scene.orientations[i]).as_euler("xyz")
+        ET.SubElement(joint, "origin", xyz=_numbers(scene.positions[i]), rpy=_numbers(rpy))
+    ET.indent(robot)
+    return '<?xml version="1.0"?>\n' + ET.tostring(robot, encoding="unicode") + "\n"
+
+
+def write_text(text: str, path: str | os.PathLike[str]) -> Path:
+    """Write ``text`` at ``path`` whole or not at all (:func:`stackdsl.lang.files.written`).
+
+    Raises:
+        OSError: the file cannot be written.
+    """
+    with written(path) as part:
+        Path(part).write_text(text, encoding="utf-8")
+    return Path(path)
+
+
+__all__ = ["Snapshot", "box_inertia", "mjcf", "snapshot", "urdf", "write_text"]

@@ -1,0 +1,304 @@
+"""``stackdsl export`` (MJCF, URDF at one moment of a run) and ``stackdsl view`` (MuJoCo's viewer).
+
+The exported files are loaded in MuJoCo (the mujoco extra; skipped without it) and their
+bodies compared with the run's poses at that time. The viewer needs a display: without one
+the command says so in one line; with a stand-in viewer, the live view puts the engine's
+poses and the state colours into the viewer's model as the run goes.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+import stackdsl
+from stackdsl.cli.main import main
+from stackdsl.draw.render import COLOURS, resolve_time
+from stackdsl.runtime.recorder import record_program
+
+try:
+    import mujoco
+except ImportError:  # the mujoco extra
+    mujoco = None
+needs_mujoco = pytest.mark.skipif(mujoco is None, reason="MuJoCo is not installed: pip install -e '.[mujoco]'")
+
+ROOT = Path(__file__).resolve().parents[1]
+SLANT = ROOT / "scenarios" / "slant_tower.yaml"
+TOWER = "stackdsl: 1\nname: small tower\nstructure: {tower: {levels: 3}}\nexpect: {stands: true}\n"
+
+
+@pytest.fixture(scope="module")
+def slant_run(tmp_path_factory):
+    """The slant tower (it collapses at level 9), recorded to a trajectory file."""
+    folder = tmp_path_factory.mktemp("export")
+    record = folder / "slant.npz"
+    assert main(["run", str(SLANT), "--record", str(record)]) == 0  # it expects its collapse
+    return stackdsl.load_trajectory(record), record
+
+
+def _angle(q1: np.ndarray, q2: np.ndarray) -> float:
+    """Degrees between two (x, y, z, w) orientations."""
+    return float(np.degrees((Rotation.from_quat(q1).inv() * Rotation.from_quat(q2)).magnitude()))
+
+
+def _bodies(model) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Each named body's pose in a freshly made model: position (m), quaternion (x, y, z, w)."""
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    out = {}
+    for b in range(1, model.nbody):
+        name = model.body(b).name
+        out[name] = (data.xpos[b].copy(), data.xquat[b][[1, 2, 3, 0]].copy())
+    return out
+
+
+@needs_mujoco
+@pytest.mark.parametrize("at", ["collapse", "end", "16.2"])
+def test_the_mjcf_opens_in_mujoco_with_the_runs_poses_at_that_time(slant_run, tmp_path, capsys, at):
+    trajectory, record = slant_run
+    out = tmp_path / "scene.xml"
+    assert main(["export", str(record), "--at", at, "--mjcf", str(out)]) == 0
+    assert f"wrote {out}" in capsys.readouterr().out
+    model = mujoco.MjModel.from_xml_path(str(out))
+    frame = trajectory.at(resolve_time(trajectory, at))
+    present = [i for i in range(len(trajectory.ids)) if not np.isnan(frame.positions[i, 0])]
+    bodies = _bodies(model)
+    assert set(bodies) == {str(trajectory.ids[i]) for i in present}
+    assert model.njnt == len(present) and all(t == mujoco.mjtJoint.mjJNT_FREE for t in model.jnt_type)
+    for i in present:
+        position, quaternion = bodies[str(trajectory.ids[i])]
+        assert np.allclose(position, frame.positions[i], atol=1e-7), trajectory.ids[i]
+        assert _angle(quaternion, frame.orientations[i]) < 1e-4, trajectory.ids[i]
+        geom = model.geom(str(trajectory.ids[i]))
+        assert np.allclose(geom.size, trajectory.half_extents[i])
+        assert geom.rgba[:3] == pytest.approx(COLOURS[frame.state_names[i]], abs=1e-4)
+
+
+@needs_mujoco
+def test_the_urdf_opens_in_mujoco_as_free_bricks_at_the_same_poses(slant_run, tmp_path):
+    trajectory, record = slant_run
+    out = tmp_path / "scene.urdf"
+    assert main(["export", str(record), "--at", "end", "--urdf", str(out)]) == 0
+    model = mujoco.MjModel.from_xml_path(str(out))
+    frame = trajectory.at(trajectory.end)
+    bodies = _bodies(model)
+    for i, brick in enumerate(trajectory.ids.tolist()):
+        position, quaternion = bodies[brick]
+        assert np.allclose(position, frame.positions[i], atol=1e-7), brick
+        assert _angle(quaternion, frame.orientations[i]) < 1e-4, brick
+    assert model.njnt == len(trajectory.ids) and all(t == mujoco.mjtJoint.mjJNT_FREE for t in model.jnt_type)
+    assert model.body_mass[bodies_index(model, "L01.1")] == pytest.approx(460 * 0.12 * 0.024 * 0.008, rel=1e-6)
+
+
+def bodies_index(model, name: str) -> int:
+    return int(model.body(name).id)
+
+
+@needs_mujoco
+def test_an_exported_standing_tower_stands_in_mujoco(tmp_path):
+    """Masses, sizes, friction and poses in SI: MuJoCo's own step keeps the tower where it was."""
+    scenario = tmp_path / "tower.yaml"
+    scenario.write_text(TOWER)
+    out = tmp_path / "tower.xml"
+    assert main(["export", str(scenario), "--mjcf", str(out)]) == 0
+    model = mujoco.MjModel.from_xml_path(str(out))
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    start = data.xpos[1:].copy()
+    for _ in range(int(0.5 / model.opt.timestep)):
+        mujoco.mj_step(model, data)
+    assert np.abs(data.xpos[1:] - start).max() < 1e-3  # less than 1 mm in half a second
+    assert model.body_mass[1] == pytest.approx(460 * 0.12 * 0.024 * 0.008, rel=1e-6)  # the scenario's pine
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--mjcf", "{tmp}/no/such/out.xml"], "no such folder"),
+        (["--mjcf", "{tmp}"], "this is a folder"),
+        ([], "give --mjcf OUT.xml, --urdf OUT.urdf or both"),
+        (["--mjcf", "{tmp}/a.xml", "--at", "99"], "outside the run"),
+    ],
+)
+def test_export_refuses_bad_requests_with_exit_2(slant_run, tmp_path, capsys, argv, message):
+    _, record = slant_run
+    argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]
+    assert main(["export", str(record), *argv]) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_export_at_collapse_of_a_run_that_stood_is_bad_input(tmp_path, capsys):
+    scenario = tmp_path / "tower.yaml"
+    scenario.write_text(TOWER)
+    assert main(["export", str(scenario), "--at", "collapse", "--mjcf", str(tmp_path / "a.xml")]) == 2
+    assert "did not collapse" in capsys.readouterr().err and not (tmp_path / "a.xml").exists()
+
+
+# -- view ---------------------------------------------------------------------------------------
+def test_view_without_a_display_says_so_in_one_line_and_points_to_replay(monkeypatch, capsys, tmp_path):
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    monkeypatch.setattr("sys.platform", "linux")
+    scenario = tmp_path / "tower.yaml"
+    scenario.write_text(TOWER)
+    assert main(["view", str(scenario)]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    lines = captured.err.splitlines()
+    assert len(lines) == 1 and "no display" in lines[0] and f"stackdsl replay {scenario} -o DIR" in lines[0]
+
+
+class Clock:
+    """A wall clock that moves only when slept on."""
+
+    def __init__(self) -> None:
+        self.now = 0.0
+
+    def __call__(self) -> float:
+        return self.now
+
+    def sleep(self, seconds: float) -> None:
+        assert seconds >= 0
+        self.now += seconds
+
+
+class StandIn:
+    """A viewer without a window: counts its syncs; closed after ``open_for`` of them."""
+
+    def __init__(self, open_for: int = 10**9) -> None:
+        self.syncs, self.open_for = 0, open_for
+
+    def sync(self) -> None:
+        self.syncs += 1
+
+    def is_running(self) -> bool:
+        return self.syncs < self.open_for
+
+    def lock(self):
+        return contextlib.nullcontext()
+
+
+@needs_mujoco
+def test_the_live_view_shows_the_engines_poses_and_the_state_colours():
+    from stackdsl.draw import live
+
+    program = stackdsl.compile_scenario(stackdsl.load_scenario(SLANT))
+    scene = live.program_scene(program)
+    assert (scene.model.geom_rgba[scene.geom, 3] == 0).all()  # nothing in the world yet
+    camera = mujoco.MjvCamera()
+    scene.aim(camera)  # at the bricks as placed, not at the 2 m ground plane
+    assert 0.1 < camera.distance < 1.0 and 0.0 < camera.lookat[2] < 0.1
+    viewer, wall = StandIn(), Clock()
+    view = live.LiveView(program, scene, viewer, speed=1.0, sleep=wall.sleep, clock=wall)
+    outcome = stackdsl.run_program(program, subscribers=(view,))
+    assert outcome.collapse is not None and viewer.syncs == view.pictures > 100
+    # at the end the viewer shows the run's last poses (the recording's, to its tolerances), in its colours
+    trajectory = view.trajectory(outcome)
+    frame = trajectory.at(trajectory.end)
+    for i, brick in enumerate(trajectory.ids.tolist()):
+        position, quaternion = scene.pose_of(brick)
+        assert np.allclose(position, frame.positions[i], atol=2e-5), brick
+        assert _angle(quaternion, frame.orientations[i]) < 0.02, brick
+        assert scene.colour_of(brick) == pytest.approx(COLOURS[frame.state_names[i]], abs=1e-6), brick
+    assert "fallen" in frame.state_names and "frozen" in frame.state_names
+    # the bricks placed are seen; those never placed (building stops at the collapse) are not
+    placed = np.isin(scene.ids, trajectory.ids)
+    assert not placed.all() and (scene.model.geom_rgba[scene.geom, 3] == placed).all()
+    # paced to real time, the quiet waits between placements (which the loop jumps) shortened
+    quiet = sum(1.0 - live.QUIET_HOLD for p in program.placements[1:])  # a placement a second
+    assert outcome.simulated_time - quiet - 1.0 < wall.now < outcome.simulated_time
+
+
+@needs_mujoco
+def test_closing_the_viewer_stops_the_pictures_not_the_run():
+    from stackdsl.draw import live
+
+    program = stackdsl.compile_scenario(stackdsl.parse_scenario(TOWER))
+    scene = live.program_scene(program)
+    viewer = StandIn(open_for=3)
+    view = live.LiveView(program, scene, viewer, sleep=lambda s: None)
+    outcome = stackdsl.run_program(program, subscribers=(view,))
+    assert viewer.syncs == 3 and view.pictures == 3 and outcome.levels_placed == 3
+
+
+@needs_mujoco
+def test_a_recorded_trajectory_plays_in_the_viewer(slant_run):
+    from stackdsl.draw import live
+
+    trajectory, _ = slant_run
+    scene = live.trajectory_scene(trajectory)
+    viewer = StandIn()
+    assert live.play(trajectory, scene, viewer, speed=100.0, sleep=lambda s: None) == len(trajectory.times)
+    position, _ = scene.pose_of("L09.1")
+    assert np.allclose(position, trajectory.at(trajectory.end).positions[list(trajectory.ids).index("L09.1")])
+
+
+@needs_mujoco
+def test_record_program_and_live_view_record_the_same_run():
+    """The live view is a recorder: what it keeps is what ``run --record`` keeps."""
+    from stackdsl.draw import live
+
+    program = stackdsl.compile_scenario(stackdsl.parse_scenario(TOWER))
+    view = live.LiveView(program, live.program_scene(program), StandIn(), sleep=lambda s: None)
+    outcome = stackdsl.run_program(program, subscribers=(view,))
+    _, recorded = record_program(program)
+    mine = view.trajectory(outcome)
+    assert np.array_equal(mine.times, recorded.times) and np.allclose(mine.row_position, recorded.row_position)
+
+
+@pytest.mark.parametrize(
+    ("argv", "where"),
+    [
+        (["export", "{npz}", "--mjcf", "/dev/full"], "/dev/full: No space left on device"),
+        (["replay", "{npz}", "-o", "/proc/x"], "/proc/x: No such file or directory"),
+        (["replay", "{npz}", "-o", "/tmp/" + "x" * 300], "File name too long"),
+    ],
+    ids=["full disk", "a folder that takes no file", "name too long"],
+)
+def test_a_path_the_system_refuses_is_one_line_and_exit_2(slant_run, argv, where, capsys):
+    _, record = slant_run
+    assert main([a.replace("{npz}", str(record)) for a in argv]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith("stackdsl: ") and line.endswith(where)
+
+
+def test_a_damaged_trajectory_is_bad_input_for_replay_export_and_view(tmp_path, capsys, monkeypatch):
+    bad = tmp_path / "bad.npz"
+    bad.write_text("hello\n")
+    monkeypatch.setenv("DISPLAY", ":99")  # the trajectory is read before any window opens
+    for argv in (
+        ["replay", str(bad), "-o", str(tmp_path / "r")],
+        ["export", str(bad), "--urdf", str(tmp_path / "x.urdf")],
+        *([["view", str(bad)]] if mujoco is not None else []),
+    ):
+        assert main(argv) == 2
+        (line,) = capsys.readouterr().err.strip().splitlines()
+        assert line.startswith(f"{bad}: not a stackdsl trajectory"), line
+    assert not (tmp_path / "x.urdf").exists() and not (tmp_path / "r" / "replay.html").exists()
+
+
+@needs_mujoco
+@pytest.mark.skipif(
+    not os.environ.get("DISPLAY"), reason="no display: run it with xvfb-run -a python -m pytest -n0 tests/test_export_view.py"
+)
+def test_the_live_view_in_mujocos_own_passive_viewer():
+    import mujoco.viewer
+
+    from stackdsl.draw import live
+
+    program = stackdsl.compile_scenario(stackdsl.load_scenario(SLANT))
+    scene = live.program_scene(program)
+    with mujoco.viewer.launch_passive(scene.model, scene.data) as viewer:
+        with viewer.lock():
+            scene.aim(viewer.cam)
+        view = live.LiveView(program, scene, viewer, speed=20.0)
+        outcome = stackdsl.run_program(program, subscribers=(view,))
+        assert view.pictures > 100 and viewer.is_running()
+        with viewer.lock():  # the viewer's copy of the model has the state colours
+            assert viewer.m.geom_rgba[scene.geom[scene.index[outcome.collapse.brick]]][:3] == pytest.approx(COLOURS["fallen"])
+        viewer.close()

@@ -1,0 +1,289 @@
+"""The interactive replay: ``stackdsl replay``'s page and ``check --report``'s replay.html.
+
+Without a browser: the page's data is the trajectory's, the vendored three.js is the pinned
+release, the golden's ghosts are the bricks that differ. In headless Chromium with WebGL on
+SwiftShader (tests/replay_browser.py; skipped with the reason when Chromium or playwright is
+missing): the canvas draws, scrubbing shows the recorded poses, a clicked brick shows its
+panel, the console stays clean. Run them with ``python -m pytest -n0 tests/test_replay.py``.
+"""
+
+from __future__ import annotations
+
+import base64
+import copy
+import hashlib
+import io
+import json
+import re
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import stackdsl
+from stackdsl.cli.main import main
+from stackdsl.draw.replay import THREE_VERSION, ghosts, replay_data, replay_html, write_replay
+from stackdsl.runtime.recorder import record_program
+
+sys.path.insert(0, str(Path(__file__).parent))
+from replay_browser import browser, missing, open_replay
+
+ROOT = Path(__file__).resolve().parents[1]
+SLANT = ROOT / "scenarios" / "slant_tower.yaml"
+VENDOR = ROOT / "stackdsl" / "draw" / "vendor"
+TOWER = "stackdsl: 1\nname: small tower\nstructure: {tower: {levels: 3}}\nexpect: {stands: true}\n"
+
+
+@pytest.fixture(scope="module")
+def slant():
+    """The slant tower's run, recorded (it collapses at level 9), and its golden snapshot."""
+    program = stackdsl.compile_scenario(stackdsl.load_scenario(SLANT))
+    _, trajectory = record_program(program, source=str(SLANT.relative_to(ROOT)))
+    golden = json.loads((ROOT / "golden" / "scenarios" / "slant_tower.json").read_text())
+    return trajectory, golden
+
+
+def _decode(text: str, dtype: str) -> np.ndarray:
+    return np.frombuffer(base64.b64decode(text), dtype=dtype)
+
+
+def test_the_pages_arrays_are_the_trajectorys(slant):
+    trajectory, _ = slant
+    data = replay_data(trajectory)
+    assert data["ids"] == trajectory.ids.tolist() and data["levels"] == trajectory.levels.tolist()
+    assert np.array_equal(_decode(data["times"], "<f8"), trajectory.times)
+    assert np.array_equal(_decode(data["row_frame"], "<i4"), trajectory.row_frame)
+    assert np.array_equal(_decode(data["row_body"], "<i4"), trajectory.row_body)
+    assert np.array_equal(_decode(data["row_state"], "u1"), trajectory.row_state)
+    assert np.allclose(_decode(data["row_position"], "<f4").reshape(-1, 3), trajectory.row_position, atol=1e-6)
+    assert np.allclose(_decode(data["row_orientation"], "<f4").reshape(-1, 4), trajectory.row_orientation, atol=1e-6)
+    assert [e["kind"] for e in data["events"]] == [e.kind for e in trajectory.events]
+    assert set(data["graphs"]) == {"final", "collapse"}  # the slant tower collapses
+    assert data["meta"]["backend"] == "pybullet" and data["meta"]["mode"] == "extension"
+    node = data["graphs"]["final"]["bricks"]["L02.1"]
+    assert [s for s, _, _ in node["rests_on"]] and all(0 <= share <= 1 for _, _, share in node["rests_on"])
+
+
+def test_the_page_holds_everything_and_fetches_nothing(slant):
+    trajectory, _ = slant
+    page = replay_html(trajectory)
+    assert "<script src" not in page and "<link" not in page and "import(" in page
+    assert page.count("<script") == 4  # the data, three.js, the orbit controls, the page's own script
+    # the inlined three.js is the vendored file, byte for byte
+    inlined = re.search(r'id="three-gz">([^<]*)<', page)
+    assert inlined is not None
+    import gzip
+
+    assert gzip.decompress(base64.b64decode(inlined.group(1))) == (VENDOR / "three.module.min.js").read_bytes()
+    # no text of the run can close the data's script element
+    assert "</script" not in json.dumps(replay_data(trajectory)).replace("<\\/", "")
+
+
+def test_the_vendored_three_js_is_the_pinned_release():
+    readme = (VENDOR / "README.md").read_text()
+    assert f"**{THREE_VERSION}**" in readme
+    for name in ("three.module.min.js", "OrbitControls.js"):
+        digest = hashlib.sha256((VENDOR / name).read_bytes()).hexdigest()
+        assert f"`{name}`" in readme and digest in readme, name
+    assert f'const t="{THREE_VERSION.split(".")[1]}"' in (VENDOR / "three.module.min.js").read_text()[:400]
+    assert "MIT License" in (VENDOR / "three.LICENSE").read_text()
+
+
+def test_package_data_ships_the_page_and_three_js():
+    """A non-editable install copies only what pyproject's package-data names."""
+    import tomllib
+    from fnmatch import fnmatch
+
+    patterns = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"]["stackdsl.draw"]
+    needed = [p.relative_to(ROOT / "stackdsl" / "draw").as_posix() for p in (VENDOR.parent / "page").iterdir()]
+    needed += [p.relative_to(VENDOR.parent).as_posix() for p in VENDOR.iterdir()]
+    assert needed and all(any(fnmatch(n, p) for p in patterns) for n in needed), needed
+
+
+def test_ghosts_are_the_golden_bricks_that_end_elsewhere(slant):
+    trajectory, golden = slant
+    assert ghosts(trajectory, None) == []
+    same = ghosts(trajectory, golden)
+    assert len(same) <= 2, same  # the golden was taken from this very run, to 0.1 mm and 0.1 deg
+    moved = copy.deepcopy(golden)
+    moved["final_graph"]["L03.1"]["position_mm"][0] += 25.0
+    moved["final_graph"]["L04.2"]["yaw_pitch_roll_deg"][0] += 30.0
+    found = {g["id"]: g for g in ghosts(trajectory, moved)}
+    assert {"L03.1", "L04.2"} <= set(found)
+    assert "mm away" in found["L03.1"]["why"] and "turned" in found["L04.2"]["why"]
+    assert found["L03.1"]["position"][0] == pytest.approx(moved["final_graph"]["L03.1"]["position_mm"][0] / 1000)
+
+
+def test_replay_command_writes_the_page_and_refuses_a_file_as_its_folder(tmp_path, capsys):
+    scenario = tmp_path / "tower.yaml"
+    scenario.write_text(TOWER)
+    assert main(["replay", str(scenario), "-o", str(tmp_path / "out")]) == 0
+    page = tmp_path / "out" / "replay.html"
+    assert f"wrote {page}" in capsys.readouterr().out and page.stat().st_size > 100_000
+    record = tmp_path / "run.npz"
+    assert main(["run", str(scenario), "--record", str(record)]) == 0
+    assert main(["replay", str(record), "-o", str(tmp_path / "again")]) == 0
+    (tmp_path / "file").write_text("")
+    capsys.readouterr()
+    assert main(["replay", str(record), "-o", str(tmp_path / "file")]) == 2
+    assert "the replay goes to a folder" in capsys.readouterr().err
+    assert main(["replay", str(record), "-o", str(tmp_path / "x"), "--golden", str(tmp_path / "none.json")]) == 2
+    assert "golden snapshot" in capsys.readouterr().err
+
+
+def test_a_reports_replay_draws_the_scenarios_golden_as_ghosts_where_it_differs(tmp_path, monkeypatch):
+    """check --report draws each run with draw_run, which finds the scenario's golden itself."""
+    from stackdsl.draw.artefacts import draw_run, golden_of
+
+    (tmp_path / "pyproject.toml").write_text("")
+    (tmp_path / "scenarios").mkdir()
+    (tmp_path / "scenarios" / "tower.yaml").write_text(TOWER)
+    monkeypatch.chdir(tmp_path)
+    program = stackdsl.compile_scenario(stackdsl.load_scenario("scenarios/tower.yaml"))
+    outcome, trajectory = record_program(program, source="scenarios/tower.yaml")
+    assert golden_of(trajectory) == tmp_path / "golden" / "scenarios" / "tower.json"
+    written, failure, _ = draw_run(trajectory, tmp_path / "no-golden")
+    assert failure == "" and written["replay"] == "replay.html"
+    assert '"ghosts":[],"golden_bricks":null' in (tmp_path / "no-golden" / "replay.html").read_text()
+    golden = outcome.golden()
+    golden["final_graph"]["L03.2"]["position_mm"][2] += 40.0  # the golden's top brick 40 mm higher
+    (tmp_path / "golden" / "scenarios").mkdir(parents=True)
+    (tmp_path / "golden" / "scenarios" / "tower.json").write_text(json.dumps(golden))
+    draw_run(trajectory, tmp_path / "golden-differs")
+    page = (tmp_path / "golden-differs" / "replay.html").read_text()
+    found = json.loads(re.search(r'id="replay-data">(.*?)</script>', page, re.S).group(1).replace("<\\/", "</"))["ghosts"]
+    assert [g["id"] for g in found] == ["L03.2"] and "40.0 mm away" in found[0]["why"]
+    assert '"golden_bricks":6' in page
+
+
+# -- in the browser -------------------------------------------------------------------------
+needs_browser = pytest.mark.skipif(bool(missing()), reason=missing() or "ready")
+
+
+@pytest.fixture(scope="module")
+def chromium():
+    with browser() as launched:
+        yield launched
+
+
+@pytest.fixture(scope="module")
+def slant_page(slant, tmp_path_factory):
+    trajectory, golden = slant
+    moved = copy.deepcopy(golden)
+    moved["final_graph"]["L03.1"]["position_mm"][0] += 25.0
+    return write_replay(trajectory, tmp_path_factory.mktemp("replay") / "replay.html", moved)
+
+
+@needs_browser
+def test_the_canvas_draws_the_bricks_in_their_state_colours(chromium, slant_page):
+    opened = open_replay(chromium, slant_page)
+    opened.call("seek", 18.0)  # after the collapse: fallen bricks (red) and frozen ones (blue)
+    opened.page.wait_for_timeout(200)
+    from PIL import Image
+
+    shot = np.asarray(Image.open(io.BytesIO(opened.page.locator("#view canvas").screenshot())).convert("RGB")).astype(int)
+    background = np.array([250, 250, 252])
+    drawn = np.abs(shot - background).sum(axis=2) > 30
+    assert drawn.mean() > 0.2, drawn.mean()  # the ground and the bricks, not a blank canvas
+    red = (shot[..., 0] > 150) & (shot[..., 1] < 80) & (shot[..., 2] < 80)
+    blue = (shot[..., 2] > 120) & (shot[..., 0] < 110)
+    assert red.sum() > 500 and blue.sum() > 200, (red.sum(), blue.sum())
+    assert opened.console == []
+
+
+@needs_browser
+def test_scrubbing_moves_every_brick_to_its_recorded_pose(chromium, slant, slant_page):
+    trajectory, _ = slant
+    opened = open_replay(chromium, slant_page)
+    times = [0.0, 3.5, 16.06, trajectory.collapse_time + 0.1, trajectory.collapse_time + 0.37, trajectory.end]
+    for t in times:
+        # through the timeline's own slider, as a person drags it
+        opened.page.evaluate(
+            "(t) => { const s = document.getElementById('scrub'); s.value = String(t); s.dispatchEvent(new Event('input')); }", t
+        )
+        poses = opened.call("poses()")
+        frame = trajectory.at(t)
+        assert opened.call("frame()") == trajectory.frame_index(t)
+        for i, brick in enumerate(trajectory.ids.tolist()):
+            if np.isnan(frame.positions[i, 0]):
+                assert poses[brick] is None, (t, brick)
+                continue
+            assert np.allclose(poses[brick]["position"], frame.positions[i], atol=1e-6), (t, brick)
+            assert np.allclose(poses[brick]["quaternion"], frame.orientations[i], atol=1e-6), (t, brick)
+            assert poses[brick]["state"] == frame.state_names[i], (t, brick)
+    # the slider's times are the page's: a step to the next event lands on it
+    opened.call("seek", 0.5)
+    assert opened.call("nextEvent()") == pytest.approx(next(e.time for e in trajectory.events if e.time > 0.5 + 1e-6))
+    assert opened.console == []
+
+
+@needs_browser
+def test_clicking_a_brick_shows_its_panel(chromium, slant_page):
+    opened = open_replay(chromium, slant_page)
+    # the page opens at the collapse with the brick that moved first selected
+    assert opened.call("selected()") == "L09.1" and "L09.1 at t = 16.117 s" in opened.page.locator("#panel").inner_text()
+    opened.call("select", None)
+    assert opened.page.locator("#panel").is_hidden()
+    opened.call("seek", 12.5)  # levels 1 to 6 stand, frozen
+    target = "L06.1"
+    x, y = opened.call("screenPosition", target)
+    opened.page.mouse.click(x, y)
+    panel = opened.page.locator("#panel")
+    panel.wait_for(state="visible")
+    assert opened.call("selected()") == target
+    text = panel.inner_text()
+    assert f"{target} at t = 12.500 s" in text and "level\t6" in text and "frozen" in text
+    assert "rests on" in text and "load share" in text and "L05." in text
+    assert opened.console == []
+
+
+@needs_browser
+def test_playback_slows_down_at_the_collapse_and_the_ghosts_are_listed(chromium, slant, slant_page):
+    trajectory, _ = slant
+    opened = open_replay(chromium, slant_page)
+    assert "L03.1" in opened.call("ghosts()")
+    assert "L03.1" in opened.page.locator("#ghost-list").inner_text()
+    opened.call("seek", trajectory.collapse_time)
+    assert opened.call("rate()") == pytest.approx(0.2)
+    opened.call("seek", 0.5)  # a quiet wait between placements
+    assert opened.call("rate()") == pytest.approx(10)
+    opened.call("play()")
+    opened.page.wait_for_timeout(500)
+    opened.call("pause()")
+    assert opened.call("time()") > 0.5
+    # a tenth of a wall second of playback: ten times faster through the wait between two
+    # placements, but it stops at the next placement's frame, not past it
+    opened.call("seek", 0.9)
+    assert opened.call("advance", 0.1) == pytest.approx(1.0)
+    # and it stops at the collapse, where it slows down
+    opened.call("seek", trajectory.collapse_time - 0.02)
+    assert opened.call("advance", 0.1) == pytest.approx(trajectory.collapse_time)
+    assert opened.call("advance", 0.1) == pytest.approx(trajectory.collapse_time + 0.02)
+    assert opened.console == []
+
+
+@needs_browser
+def test_dragging_orbits_and_the_wheel_zooms(chromium, slant_page):
+    opened = open_replay(chromium, slant_page)
+    box = opened.page.locator("#view canvas").bounding_box()
+    x, y = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+
+    def camera():
+        c = opened.call("camera()")
+        return np.array(c["position"]), np.array(c["target"])
+
+    start, target = camera()
+    opened.page.mouse.move(x, y)
+    opened.page.mouse.down()
+    opened.page.mouse.move(x + 150, y + 40, steps=8)
+    opened.page.mouse.up()
+    turned, same_target = camera()
+    assert np.allclose(same_target, target) and not np.allclose(turned, start)
+    assert np.linalg.norm(turned - target) == pytest.approx(np.linalg.norm(start - target), rel=1e-6)  # an orbit
+    assert opened.call("selected()") == "L09.1"  # a drag is not a click: the selection stays
+    opened.page.mouse.wheel(0, -400)
+    opened.page.wait_for_timeout(100)
+    nearer, _ = camera()
+    assert np.linalg.norm(nearer - target) < 0.9 * np.linalg.norm(turned - target)
+    assert opened.console == []

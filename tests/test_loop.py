@@ -197,13 +197,13 @@ def test_an_engine_without_cheap_debris_gets_no_debris_subscriber_and_the_runtim
     from pathlib import Path
 
     from stackdsl.engines.protocol import World
-    from stackdsl.runtime.subscribers import RigidDebris
+    from stackdsl.runtime.subscribers import CheapDebris
 
     p = program(TOWER.replace("mode: raw", "mode: extension"))
     fake = FakeWorld(timestep=p.engine.timestep)
-    assert World in type(fake).__mro__ and not fake.rigid_debris and fake.make_rigid([1, 2]) == []
+    assert World in type(fake).__mro__ and not fake.cheap_debris and fake.make_debris([1, 2]) == []
     loop = run_in(fake, p)
-    assert not any(isinstance(s, RigidDebris) for s in loop.subscribers)
+    assert not any(isinstance(s, CheapDebris) for s in loop.subscribers)
     # no module outside the adapters asks which engine it drives
     adapters = {"PyBulletWorld", "MuJoCoWorld", "FakeWorld", "PyBulletEngine"}
     for path in (Path(__file__).resolve().parents[1] / "stackdsl").rglob("*.py"):

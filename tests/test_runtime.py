@@ -224,7 +224,7 @@ def test_a_few_bricks_at_rest_on_a_large_frozen_stack_are_solved_alone(monkeypat
     text = "stackdsl: 1\nstructure: {tower: {levels: 23, spacing: 96 mm, shift: 7 mm}}\n"
     program = compile_scenario(parse_scenario(text, "cabin.yaml"), model="equilibrium")
     # bricks dropped freely from their gap: let go of on arrival, this heap lands whole
-    outcome = run_program(program, RunOptions(rigid_debris=False, soft_landing=False, shelve=False))
+    outcome = run_program(program, RunOptions(cheap_debris=False, soft_landing=False, shelve=False))
     assert outcome.collapse is not None and outcome.collapse.level == 17
     heap = next(i for i, (_, stands) in enumerate(calls) if stands)
     piles = [int(e.detail.split("pile of ")[1].split()[0]) for e in outcome.events if "pile of" in e.detail]

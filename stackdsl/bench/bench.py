@@ -318,7 +318,7 @@ def savings(repeats: int = 3) -> list[tuple[str, str, float, int]]:
         (tall, "nothing (all on)", RunOptions()),
         (tall, "buried bricks shelved", RunOptions(shelve=False)),
         (cabin, "nothing (all on)", RunOptions()),
-        (cabin, "fallen bricks as rigid bodies", RunOptions(rigid_debris=False)),
+        (cabin, "fallen bricks as rigid bodies", RunOptions(cheap_debris=False)),
     ):
         program = program_for(scene, "extension report")
         outcomes = [run_program(program, options) for _ in range(repeats)]

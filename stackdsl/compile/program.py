@@ -116,8 +116,8 @@ class Fixture(_Frozen):
 class Rule(_Frozen):
     """A rule of the extension mode and whether this scene runs it, with why: the stability
     extension's ``basic``, ``leaning`` and ``impacts`` rules, and ``rigid``, fallen bricks
-    settling as rigid bodies once a collapse is decided
-    (:class:`stackdsl.runtime.subscribers.RigidDebris`)."""
+    settling as cheaper bodies once a collapse is decided
+    (:class:`stackdsl.runtime.subscribers.CheapDebris`)."""
 
     name: Literal["basic", "leaning", "impacts", "rigid"]
     on: bool

@@ -19,7 +19,7 @@ from .program import Launch, Rule
 def choose_rules(bricks: list[LaidBrick], launches: list[Launch], expect: Expect) -> tuple[Rule, ...]:
     """The extension mode's rules this scene needs: leaning only if a brick does not lie flat
     or something is thrown (it may come to rest leaning), impacts only if something is thrown,
-    fallen bricks as rigid bodies unless levels are expected to stay or may fall, which is
+    fallen bricks made cheaper to step unless levels are expected to stay or may fall, which is
     judged after the collapse (docs/design.md: what the compiler switches on)."""
     tilted = [b.id for b, flat in zip(bricks, lie_flat(bricks)) if not flat]
     judged_after = next((name for name in ("stays", "may_fall") if getattr(expect, name) is not None), None)
@@ -44,6 +44,6 @@ def choose_rules(bricks: list[LaidBrick], launches: list[Launch], expect: Expect
             on=judged_after is None,
             reason=f"expect.{judged_after} is judged after a collapse"
             if judged_after
-            else "nothing is judged on bricks after a collapse: they settle as rigid bodies",
+            else "nothing is judged on bricks after a collapse: they settle as cheaper bodies",
         ),
     )

@@ -111,12 +111,12 @@ class World(Engine, Protocol):
 
     Attributes:
         ground: the body id of the ground plane.
-        rigid_debris: whether :meth:`make_rigid` re-creates anything (an optional capability;
+        cheap_debris: whether :meth:`make_debris` does anything (an optional capability;
             default False).
     """
 
     ground: int
-    rigid_debris: bool = False
+    cheap_debris: bool = False
 
     def create(self, spec: BrickSpec, pose: Pose, mass: float | None = None, projectile: bool = False) -> int:
         """A new box body of ``spec`` at ``pose`` (``mass`` 0: immovable); its id. A
@@ -159,8 +159,9 @@ class World(Engine, Protocol):
         return (a, b, c), (d, e, f)
 
     # optional capabilities, with their defaults -------------------------------------
-    def make_rigid(self, bodies: Sequence[int]) -> list[int]:
-        """Re-create ``bodies`` as bodies cheaper to step while debris settles, at the same
-        pose and velocity under the same ids; the ids re-created. Default: none (an engine
-        whose bodies are all alike, or that has no cheaper kind)."""
+    def make_debris(self, bodies: Sequence[int]) -> list[int]:
+        """Make ``bodies`` cheaper to step while debris settles after a decided collapse, at
+        the same pose and velocity under the same ids; the ids made so. How is the engine's:
+        pybullet re-creates them as rigid bodies, MuJoCo loosens its contacts. Default: none
+        (an engine with no cheaper way)."""
         return []

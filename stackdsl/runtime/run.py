@@ -12,7 +12,7 @@ Collapse detection is the same in every mode: after the first structure brick le
 its placed pose by more than the collapse threshold, nothing more is placed and the run
 ends ``settle`` seconds later. In extension mode, while every brick is frozen nothing
 can move, so the run jumps to the next action instead of stepping; and once a collapse is
-decided, the bricks still moving become rigid bodies on pybullet (half the cost a step),
+decided, the bricks still moving become cheaper to step (rigid bodies on pybullet, half the cost a step),
 unless the scene judges what stays after the collapse (the program's ``rigid`` rule).
 
 Two guards keep a run finite (the compiler's work budget refuses the scenarios that
@@ -47,7 +47,7 @@ from ..engines.protocol import EngineSettings, World
 from .collapse import CollapseMonitor
 from .loop import CLOCK_EVERY, StepLoop, Subscriber
 from .outcome import Outcome
-from .subscribers import RigidDebris, SoftLanding, Stability, Substeps
+from .subscribers import CheapDebris, SoftLanding, Stability, Substeps
 
 __all__ = ["CLOCK_EVERY", "RunOptions", "run_in", "run_program"]
 
@@ -70,10 +70,10 @@ class RunOptions:
         stop_at_collapse: place nothing after the first collapse and end ``settle`` later.
         soft_landing: a placed brick is lowered onto its resting height and let go of there
             (:class:`stackdsl.runtime.subscribers.SoftLanding`); False drops it freely from its gap.
-        rigid_debris: in extension mode on pybullet, with ``stop_at_collapse`` and the
-            program's ``rigid`` rule on, the bricks that move once the collapse is decided are
-            re-created as rigid bodies (maximal coordinates), cheaper to step
-            (:class:`stackdsl.runtime.subscribers.RigidDebris`).
+        cheap_debris: in extension mode, with ``stop_at_collapse`` and the program's ``rigid``
+            rule on, the bricks that move once the collapse is decided become cheaper to step
+            (:class:`stackdsl.runtime.subscribers.CheapDebris`): rigid bodies (maximal
+            coordinates) on pybullet, contacts at MuJoCo's default impratio on MuJoCo.
         shelve: on pybullet, static bodies that nothing moving can reach leave the engine's world
             until something could (:class:`stackdsl.engines.pybullet.world.PyBulletWorld`); False
             keeps every body in it.
@@ -86,7 +86,7 @@ class RunOptions:
     needed_rules: bool = True
     per_event: bool = True
     stop_at_collapse: bool = True
-    rigid_debris: bool = True
+    cheap_debris: bool = True
     soft_landing: bool = True
     shelve: bool = True
 
@@ -181,8 +181,8 @@ def run_in(
     own += [Substeps(program.collapse_threshold, acting)] if program.engine.ccd else []
     after: list[Subscriber] = []
     rigid = any(r.name == "rigid" and r.on for r in program.rules)
-    if acting and rigid and options.rigid_debris and world.rigid_debris:
-        after.append(RigidDebris(world.make_rigid))
+    if acting and rigid and options.cheap_debris and world.cheap_debris:
+        after.append(CheapDebris(world.make_debris))
     loop = StepLoop(
         world,
         program,

@@ -200,23 +200,23 @@ class Substeps(Subscriber):
         loop.world.set_substeps(substeps)
 
 
-class RigidDebris(Subscriber):
+class CheapDebris(Subscriber):
     """Once the run only settles after a collapse (nothing more is placed or thrown, the
-    collapse level is decided), the bricks the engine moves become rigid bodies: ``make_rigid``
-    re-creates them so (:meth:`stackdsl.engines.protocol.World.make_rigid`, pybullet's), once, on the step
-    the collapse is decided. What falls then costs the engine about half as much a step;
+    collapse level is decided), the bricks the engine moves become cheaper to step, once, on
+    the step the collapse is decided (:meth:`stackdsl.engines.protocol.World.make_debris`:
+    rigid bodies on pybullet, about half the cost a step; MuJoCo's default impratio on MuJoCo);
     bricks frozen then stay as they are.
 
     Args:
-        make_rigid: re-creates the given bodies; returns those it re-created.
+        make_debris: makes the given bodies cheaper to step; returns those it made so.
 
     Source: stackdsl's own (docs/design.md, modes; measured in docs/results/collapse-phase.md).
     """
 
-    def __init__(self, make_rigid: Callable[[Sequence[int]], list[int]]) -> None:
-        self.make_rigid = make_rigid
-        self.made: list[int] | None = None  # the bodies re-created, once it has happened
+    def __init__(self, make_debris: Callable[[Sequence[int]], list[int]]) -> None:
+        self.make_debris = make_debris
+        self.made: list[int] | None = None  # the bodies made cheaper, once it has happened
 
     def after_step(self, loop: StepLoop) -> None:
         if self.made is None and loop.stop_step is not None and loop.stop_at_collapse:
-            self.made = self.make_rigid([r.body for r in loop.structure.moving.values()])
+            self.made = self.make_debris([r.body for r in loop.structure.moving.values()])

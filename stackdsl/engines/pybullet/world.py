@@ -122,7 +122,7 @@ class PyBulletWorld(PyBulletEngine, World):
     def timestep(self) -> float:
         return self._engine.timestep
 
-    rigid_debris = True
+    cheap_debris = True
 
     # ids ----------------------------------------------------------------------
     def _engine_id(self, body: int) -> int:
@@ -186,7 +186,7 @@ class PyBulletWorld(PyBulletEngine, World):
             self._moving.discard(body)
             self._still[body] = None  # its box, once asked
 
-    def make_rigid(self, bodies: Sequence[int]) -> list[int]:
+    def make_debris(self, bodies: Sequence[int]) -> list[int]:
         """Re-create in maximal coordinates (pybullet's rigid bodies) each of ``bodies`` that
         is a multibody pybullet moves (mass above 0), at the same pose and velocity, under the
         same id; returns the ids re-created.

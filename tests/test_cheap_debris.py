@@ -1,6 +1,7 @@
-"""Fallen bricks settle as rigid bodies once a collapse is decided: the world re-creates them
-under the same ids, the verdict and the collapse graph are those of the multibody run, and a
-scene that judges what stays after a collapse keeps its multibodies."""
+"""Fallen bricks settle as cheaper bodies once a collapse is decided: pybullet re-creates them
+as rigid bodies under the same ids, MuJoCo drops its contacts' impratio; the verdict and the
+collapse graph are those of the run without, and a scene that judges what stays after a
+collapse keeps its bodies as they were."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ from stackdsl.engines.pybullet.settings import PyBulletSettings
 from stackdsl.engines.pybullet.world import pybullet_world
 from stackdsl.runtime.collapse import CollapseMonitor
 from stackdsl.runtime.run import RunOptions, run_in
-from stackdsl.runtime.subscribers import RigidDebris
+from stackdsl.runtime.subscribers import CheapDebris
 
 SINGLE_FILE = "stackdsl: 1\nstructure: {tower: {levels: 12, bricks_per_layer: 1, turn: 0, shift: 13 mm}}\n"
 
@@ -29,17 +30,17 @@ def test_the_world_re_creates_a_moving_multibody_as_a_rigid_body_under_its_id():
         world.throw(moving, (0.1, 0.0, 0.0), None)
         world.step()
         pose, (linear, angular) = world.pose(moving), world.velocity(moving)
-        assert world.make_rigid([moving, frozen, thrown]) == [moving]  # neither the frozen nor the rigid one
+        assert world.make_debris([moving, frozen, thrown]) == [moving]  # neither the frozen nor the rigid one
         assert world.pose(moving).position == pytest.approx(pose.position)
         assert world.pose(moving).orientation == pytest.approx(pose.orientation)
         assert world.velocity(moving)[0] == pytest.approx(linear) and world.velocity(moving)[1] == pytest.approx(angular)
-        assert world.make_rigid([moving]) == []  # rigid now
+        assert world.make_debris([moving]) == []  # rigid now
         for _ in range(240):
             world.step()
         assert world.pose(moving).position[2] == pytest.approx(0.004, abs=2e-4)  # it landed on the ground
         assert world.speeds(moving)[0] < 1e-3
         world.set_frozen(frozen, False, spec.mass)
-        assert world.make_rigid([frozen]) == [frozen]  # woken, it moves again
+        assert world.make_debris([frozen]) == [frozen]  # woken, it moves again
 
 
 def _run(text: str, options: RunOptions | None = None):
@@ -47,13 +48,13 @@ def _run(text: str, options: RunOptions | None = None):
     program = compile_scenario(parse_scenario(text, "slant.yaml"))
     with pybullet_world(program.engine, program.ground_friction, program.ground_restitution) as world:
         loop = run_in(world, program, options)
-    rigid = [s for s in loop.subscribers if isinstance(s, RigidDebris)]
+    rigid = [s for s in loop.subscribers if isinstance(s, CheapDebris)]
     return loop, rigid[0] if rigid else None
 
 
 def test_fallen_bricks_become_rigid_when_the_collapse_is_decided_and_the_verdict_is_unchanged():
     rigid_loop, rigid = _run(SINGLE_FILE)
-    loop, none = _run(SINGLE_FILE, RunOptions(rigid_debris=False))
+    loop, none = _run(SINGLE_FILE, RunOptions(cheap_debris=False))
     assert none is None and rigid is not None and rigid.made
     collapse = next(s for s in rigid_loop.subscribers if isinstance(s, CollapseMonitor))
     before = next(s for s in loop.subscribers if isinstance(s, CollapseMonitor))
@@ -79,3 +80,23 @@ def test_a_scene_judged_after_its_collapse_keeps_its_multibodies():
     assert rigid is not None
     _, unused = _run(SINGLE_FILE, RunOptions(stop_at_collapse=False))
     assert unused is not None and unused.made is None  # placing goes on after the collapse: no settle yet
+
+
+def test_on_mujoco_the_debris_settles_at_the_default_impratio_and_the_verdict_is_unchanged():
+    """A single-file stack (13 mm shifts) falls at the same level either way; the
+    moving bricks are made cheaper when the collapse is decided, and only then."""
+    pytest.importorskip("mujoco")
+    from stackdsl.engines.mujoco.world import MuJoCoWorld
+    from stackdsl.runtime.run import world_for
+
+    program = compile_scenario(parse_scenario(SINGLE_FILE + "engine: {backend: mujoco}\n", "slant.yaml"))
+    outcomes = {}
+    for cheap in (True, False):
+        with world_for(program) as world:
+            assert isinstance(world, MuJoCoWorld) and world._ready()[0].opt.impratio == 10.0
+            loop = run_in(world, program, RunOptions(cheap_debris=cheap))
+            made = [s.made for s in loop.subscribers if isinstance(s, CheapDebris)]
+            assert world._ready()[0].opt.impratio == (1.0 if cheap else 10.0)
+        assert bool(made) == cheap and (not cheap or len(made[0]) >= 3)
+        outcomes[cheap] = next(s for s in loop.subscribers if isinstance(s, CollapseMonitor)).collapse
+    assert outcomes[True] is not None and outcomes[True].level == outcomes[False].level == 10

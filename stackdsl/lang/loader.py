@@ -192,7 +192,9 @@ def _plain(node: Node, path: FieldPath, loader: _Loader, source: SourceMap, budg
             source.values[path + ("?",)] = where
             raise source.error(path + ("?",), f"keys must be names, got {shown}")
         source.values[path + (key_node.value,)] = where
-        key = _scalar(key_node, path + (key_node.value,), loader, source)
+        # a plain key YAML 1.1 reads as true or false ("on", "yes") is the name as written: keys are names
+        plain_word = key_node.tag == _YAML + "bool" and key_node.style is None
+        key = key_node.value if plain_word else _scalar(key_node, path + (key_node.value,), loader, source)
         if key == "<<":
             raise source.error(path + ("<<",), "merge keys ('<<') are not supported; write the fields out")
         if not isinstance(key, str):

@@ -55,7 +55,9 @@ from .grammar import (
     given,
     whole,
 )
+from .schema_generators import HALF, Dominoes, Pyramid, Wall
 from .schema_impacts import Impact
+from .schema_parts import LAYOUTS, Part, Parts, as_parts, named_parts
 from .schema_sweep import Sweep
 from .units import (
     Angle,
@@ -184,9 +186,11 @@ class CardHouse(StrictModel):
 
 
 class Structure(StrictModel):
-    """What is built: a ``tower``, a ``card_house`` or a list of ``bricks`` (exactly one)."""
+    """What is built: exactly one layout (a ``tower``, a ``card_house``, a list of ``bricks``, a
+    ``wall``, a ``pyramid`` or ``dominoes``), or ``parts``: a list or map of named parts, each
+    one layout (:mod:`stackdsl.lang.schema_parts`; written as the structure itself, a list or a map)."""
 
-    model_config = ConfigDict(json_schema_extra={"oneOf": [given("tower"), given("card_house"), given("bricks")]})
+    model_config = ConfigDict(json_schema_extra={"oneOf": [given(name) for name in LAYOUTS]})
 
     tower: Tower | None = None
     card_house: CardHouse | None = None
@@ -198,17 +202,46 @@ class Structure(StrictModel):
             "contains": {"not": {"required": ["fixed"], "properties": {"fixed": {"const": True}}}},
         },
     )
+    wall: Annotated[
+        Wall | None, Field(description="a wall in running bond", examples=[{"courses": 4, "bricks_per_course": 3}])
+    ] = None
+    pyramid: Annotated[Pyramid | None, Field(description="a stepped pyramid", examples=[{"base": 4}])] = None
+    dominoes: Annotated[Dominoes | None, Field(description="a row of dominoes", examples=[{"count": 30}])] = None
+    parts: Parts | None = None
+
+    _as_parts = model_validator(mode="before")(as_parts)
 
     @model_validator(mode="after")
     def _one_layout(self) -> Structure:
-        if sum(x is not None for x in (self.tower, self.card_house, self.bricks)) != 1:
-            raise ValueError("give exactly one of 'tower', 'card_house' or 'bricks'")
+        if sum(getattr(self, name) is not None for name in (*LAYOUTS, "parts")) != 1:
+            raise ValueError(f"give exactly one of {', '.join(repr(n) for n in LAYOUTS)}, or a list of parts")
         if self.bricks is not None:
             if self.bricks[0].together:
                 raise ValueError("the first brick has no brick before it to be placed 'together' with")
             if all(b.fixed for b in self.bricks):
                 raise ValueError("every brick is fixed: there is nothing to build")
         return self
+
+    @property
+    def layout_name(self) -> str | None:
+        """The single layout's name (one of :data:`LAYOUTS`), or None for parts."""
+        return next((name for name in LAYOUTS if getattr(self, name) is not None), None)
+
+    def brick_names(self) -> set[str]:
+        """The brick types of the structure's bricks (not fixtures)."""
+        layouts = (
+            [p.layout for _, _, p in named_parts(self.parts)]
+            if self.parts is not None
+            else [getattr(self, self.layout_name or "")]
+        )
+        names: set[str] = set()
+        for layout in layouts:
+            names |= {b.brick for b in layout if not b.fixed} if isinstance(layout, list) else {layout.brick}
+        return names
+
+
+Part.model_rebuild(_types_namespace={"Tower": Tower, "CardHouse": CardHouse, "BrickPlacement": BrickPlacement})
+Structure.model_rebuild()
 
 
 class Timing(StrictModel):
@@ -356,8 +389,7 @@ class Scenario(StrictModel):
     def _thinnest_half_side(self) -> float | None:
         """Half the thinnest side of the structure's bricks (not fixtures), the default collapse
         threshold, m; None if they name no brick type known yet (the loader reports the name)."""
-        layout = self.structure.tower or self.structure.card_house
-        names = {layout.brick} if layout else {b.brick for b in self.structure.bricks or [] if not b.fixed}
+        names = self.structure.brick_names()
         types = {**BUILTIN_BRICKS, **self.brick_types}
         sides = [min(types[n].size) for n in names if n in types]
         return min(sides) / 2 if sides and len(sides) == len(names) else None
@@ -383,5 +415,10 @@ class Scenario(StrictModel):
         return {**BUILTIN_MATERIALS, **self.materials}[name]
 
     def brick_type(self, name: str) -> BrickType:
-        """A declared or built-in brick type. Raises KeyError for an unknown name."""
-        return {**BUILTIN_BRICKS, **self.brick_types}[name]
+        """A declared or built-in brick type, or ``NAME/2``: brick type NAME cut to half its length
+        (a wall's closers). Raises KeyError for an unknown name."""
+        types = {**BUILTIN_BRICKS, **self.brick_types}
+        if name not in types and name.endswith(HALF) and name.removesuffix(HALF) in types:
+            whole = types[name.removesuffix(HALF)]
+            return whole.model_copy(update={"size": (whole.size[0] / 2, *whole.size[1:])})
+        return types[name]

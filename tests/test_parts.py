@@ -110,8 +110,14 @@ def test_a_card_house_on_a_tower_counts_its_levels_on_from_the_tower():
             "reaches",
         ),
         (  # a part with nothing under it
-            "stackdsl: 1\nstructure:\n  a: {tower: {levels: 2}}\n  b: {origin: [1, 0], bricks: [{at: [0, 0, 50 mm]}]}\n",
+            "stackdsl: 1\nstructure:\n  a: {tower: {levels: 2}}\n  b: {origin: [1, 0], pyramid: {base: 2}, on: a.L02.1}\n",
             "structure.b.origin",
+            4,
+            "rests on nothing",
+        ),
+        (  # a brick by hand with nothing under it
+            "stackdsl: 1\nstructure:\n  a: {tower: {levels: 2}}\n  b: {origin: [1, 0], bricks: [{at: [0, 0, 50 mm]}]}\n",
+            "structure.b.bricks[0].at",
             4,
             "rests on nothing",
         ),

@@ -130,6 +130,15 @@ REFUSED = {
     "collapse and stands": doc("expect: {collapse: 9, stands: true}"),
     "stands false": doc("expect: {stands: false}"),
     "two layouts": doc("structure: {tower: {levels: 3}, card_house: {levels: 1}}"),
+    "a part without a name": doc("structure: [{tower: {levels: 3}}]"),
+    "a part of two layouts": doc("structure: [{name: a, tower: {levels: 3}, wall: {courses: 1, bricks_per_course: 1}}]"),
+    "a part named after a layout": doc("structure: {tower: {tower: {levels: 3}}}"),
+    "a part's name with a dot": doc("structure: [{name: a.b, tower: {levels: 3}}]"),
+    "a wall laid sideways": doc("structure: {wall: {courses: 2, bricks_per_course: 2, laid: sideways}}"),
+    "a wall of no courses": doc("structure: {wall: {courses: 0, bricks_per_course: 2}}"),
+    "a pyramid with no base": doc("structure: {pyramid: {base: 0}}"),
+    "dominoes without a count": doc("structure: {dominoes: {spacing: 60 mm}}"),
+    "on a number": doc("structure: [{name: a, tower: {levels: 2}}, {name: b, on: 5, tower: {levels: 2}}]"),
     "no layout": doc("structure: {tower: null}"),
     "unknown mode": doc("engine: {mode: turbo}"),
     "unknown side": doc("impacts: [{target: {level: 2, side: up}, speed: 1, at: 1 s}]"),
@@ -191,6 +200,14 @@ REFUSED = {
 }
 
 ACCEPTED = {
+    "a list of parts": doc("structure: [{name: a, tower: {levels: 2}}, {name: b, on: a, pyramid: {base: 2}}]"),
+    "a map of parts": doc("structure: {a: {tower: {levels: 2}}, b: {on: a.L02.1, bricks: [{at: [0, 0, 4 mm]}]}}"),
+    "on a list of parts": doc(
+        "structure: [{name: a, tower: {levels: 2}}, {name: b, on: [a], yaw: 90, origin: [0, 1 cm], tower: {levels: 1}}]"
+    ),
+    "a wall on edge": doc("structure: {wall: {courses: 2, bricks_per_course: 3, laid: edge, joint: 1 mm}}"),
+    "a pyramid": doc("structure: {pyramid: {base: 4, levels: 2, yaw: 30}}"),
+    "an arc of dominoes": doc("structure: {dominoes: {count: 12, spacing: 60 mm, radius: -300 mm}}"),
     "collapse as an integer": doc("expect: {collapse: 5}"),
     "collapse as 5.0": doc("expect: {collapse: 5.0}"),
     "collapse as 9±1": doc("expect: {collapse: 9±1}"),
@@ -628,3 +645,28 @@ def test_a_projectile_too_fast_or_too_slow_gets_its_own_bounds_reason():
     fast, slow = message("500 m/s"), message("0.01 m/s")
     assert "faster, it moves more than a brick's 8 mm thickness in one substep" in fast and "drop" not in fast
     assert "slower, a throw is a drop" in slow and "faster" not in slow
+
+
+# the richer scenes' keys -------------------------------------------------------------
+def _examples_in(node: object) -> bool:
+    if isinstance(node, dict):
+        return "examples" in node or any(_examples_in(v) for v in node.values())
+    return isinstance(node, list) and any(_examples_in(v) for v in node)
+
+
+@pytest.mark.parametrize("model", ["Part", "Wall", "Pyramid", "Dominoes"])
+def test_every_key_of_parts_and_the_new_generators_has_a_description_and_an_example(model):
+    properties = json_schema()["$defs"][model]["properties"]
+    assert properties
+    for name, node in properties.items():
+        assert node.get("description"), f"{model}.{name} has no description"
+        assert _examples_in(node), f"{model}.{name} has no example"
+
+
+def test_a_structure_is_one_layout_a_list_of_named_parts_or_a_map_of_them(validator):
+    structure = json_schema()["properties"]["structure"]
+    assert structure["description"] and all(_examples_in(form) for form in structure["anyOf"][1:])
+    for name in ("wall", "pyramid", "dominoes"):
+        node = json_schema()["$defs"]["Structure"]["properties"][name]
+        assert node.get("description") and _examples_in(node), name
+    assert "parts" not in json_schema()["$defs"]["Structure"]["properties"]  # the models' own field, not a key

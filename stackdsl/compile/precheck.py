@@ -163,7 +163,8 @@ def _floating_problem(scenario: Scenario, bodies: Sequence[Body], b: int, floati
         f"placed before it is within {_mm(REST_TOLERANCE)} below it"
     )
     part = part_path(brick.path)
-    if part is not None and brick.level == min(b.level for b in bodies if part_path(b.path) == part and b.slot >= 0):
+    first = part is not None and brick.level == min(b.level for b in bodies if part_path(b.path) == part and b.slot >= 0)
+    if part is not None and first and not _by_hand(brick.path):
         return _Problem(
             key, order, _part_field(scenario, part), f"{what}: the part's first level rests on nothing; {silence}", effect
         )

@@ -69,14 +69,9 @@ class Pyramid(StrictModel):
 
     brick: Annotated[str, _BRICK] = "kapla"
     base: Annotated[int, Field(ge=1, le=200, description="bricks in the bottom course", examples=[5]), WHOLE]
-    levels: (
-        Annotated[
-            int,
-            Field(ge=1, le=200, description="courses built (at most 'base'; default: up to a single brick)", examples=[3]),
-            WHOLE,
-        ]
-        | None
-    ) = None
+    levels: Annotated[int, Field(ge=1, le=200), WHOLE] | None = Field(
+        default=None, description="courses built (at most 'base'; default: up to a single brick)", examples=[3]
+    )
     laid: Annotated[Laid, _LAID] = "flat"
     joint: Annotated[Spacing, _JOINT] = 0.0
     origin: Annotated[Vector2, _ORIGIN] = (0.0, 0.0)
@@ -105,27 +100,18 @@ class Dominoes(StrictModel):
 
     brick: Annotated[str, _BRICK] = "kapla"
     count: Annotated[int, Field(ge=1, le=MAX_BRICKS, description="dominoes in the row", examples=[30]), WHOLE]
-    spacing: (
-        Annotated[
-            PeakSpacing,
-            Field(description="centre to centre along the row (default: half a brick's length)", examples=["60 mm"]),
-        ]
-        | None
-    ) = None
+    spacing: PeakSpacing | None = Field(
+        default=None, description="centre to centre along the row (default: half a brick's length)", examples=["60 mm"]
+    )
     origin: Annotated[Vector2, Field(description="where the first domino stands ([x, y])", examples=[[0, 0]])] = (0.0, 0.0)
     yaw: Annotated[BoundedAngle, Field(description="degrees from x of the row's direction at the first domino", examples=[0])] = (
         0.0
     )
-    radius: (
-        Annotated[
-            Coordinate,
-            Field(
-                description="an arc of this radius instead of a line: positive turns left, negative right",
-                examples=["400 mm"],
-            ),
-        ]
-        | None
-    ) = None
+    radius: Coordinate | None = Field(
+        default=None,
+        description="an arc of this radius instead of a line: positive turns left, negative right",
+        examples=["400 mm"],
+    )
 
     @model_validator(mode="after")
     def _radius(self) -> Dominoes:

@@ -21,9 +21,10 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 import difflib
+import re
 from typing import TYPE_CHECKING, Annotated, Any
 
-from pydantic import ConfigDict, Discriminator, Field, Tag, model_validator
+from pydantic import BeforeValidator, ConfigDict, Discriminator, Field, Tag, WithJsonSchema, model_validator
 
 from .bounds import MAX_BRICKS, BoundedAngle, StrictModel, Vector2
 from .errors import FieldPath
@@ -42,7 +43,31 @@ NAME = r"^[A-Za-z0-9_-]{1,40}$"
 #: Names a part may not have: they would read as a single layout's key or as a part's own field.
 RESERVED = frozenset(LAYOUTS) | {"parts", "name", "on", "origin", "yaw"}
 
+ON = r"^[A-Za-z0-9_.-]{1,100}$"
+"""What a part is on: a part's name, or a brick's id (``left.L05.2``)."""
+
 PartName = Annotated[str, Field(pattern=NAME)]
+_ON_SCHEMA = {
+    "anyOf": [
+        {"type": "string", "pattern": ON},
+        {"type": "array", "minItems": 1, "maxItems": 100, "items": {"type": "string", "pattern": NAME}},
+    ]
+}
+
+
+def _on(value: Any) -> Any:
+    """``on``: a part's name or a brick's id, or a list of parts' names (checked here, so that an
+    error names the field, not a branch of the union)."""
+    if isinstance(value, str):
+        if not re.match(ON, value) or value.endswith("\n"):
+            raise ValueError(f"expected a part's name or a brick's id (letters, digits, '_', '-', '.'), got {value!r}")
+        return value
+    if isinstance(value, list) and value and len(value) <= MAX_PARTS:
+        for name in value:
+            if not isinstance(name, str) or not re.match(NAME, name) or name.endswith("\n"):
+                raise ValueError(f"a list of 'on' names parts (letters, digits, '_', '-'), got {name!r}")
+        return value
+    raise ValueError(f"expected a part's name, a brick's id or a list of parts' names (1 to {MAX_PARTS}), got {value!r}")
 
 
 class Part(StrictModel):
@@ -53,51 +78,33 @@ class Part(StrictModel):
 
     model_config = ConfigDict(json_schema_extra={"oneOf": [given(name) for name in LAYOUTS]})
 
-    name: (
-        Annotated[
-            PartName,
-            Field(description="the part's name, the prefix of its bricks' ids ('left' gives left.L01.1)", examples=["left"]),
-        ]
-        | None
-    ) = None
-    on: (
-        Annotated[
-            Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]{1,100}$")] | list[PartName],
-            Field(
-                description="what it rests on: a part written before it, a list of them (their highest top), or a "
-                "brick's id; its first level rests on that top",
-                examples=["left", ["left", "right"], "left.L05.2"],
-            ),
-        ]
-        | None
-    ) = None
-    origin: Annotated[
-        Vector2 | None,
-        Field(
-            description="where the part's own origin stands, [x, y] (default [0, 0], or the centre of the brick it is on)",
-            examples=[["-60 mm", 0]],
-        ),
-    ] = None
-    yaw: Annotated[BoundedAngle, Field(description="degrees the whole part is turned about its origin", examples=[90])] = 0.0
-    tower: Annotated[Tower | None, Field(description="a layered tower", examples=[{"levels": 5}])] = None
-    card_house: Annotated[CardHouse | None, Field(description="a card house", examples=[{"levels": 2}])] = None
-    bricks: (
-        Annotated[
-            list[BrickPlacement],
-            Field(
-                min_length=1,
-                max_length=MAX_BRICKS,
-                description="bricks placed by hand; 'at' is from the part's origin, its z from the top it rests on",
-                examples=[[{"at": [0, 0, "4 mm"]}]],
-            ),
-        ]
-        | None
-    ) = None
-    wall: Annotated[
-        Wall | None, Field(description="a wall in running bond", examples=[{"courses": 4, "bricks_per_course": 3}])
-    ] = None
-    pyramid: Annotated[Pyramid | None, Field(description="a stepped pyramid", examples=[{"base": 4}])] = None
-    dominoes: Annotated[Dominoes | None, Field(description="a row of dominoes", examples=[{"count": 30}])] = None
+    name: PartName | None = Field(
+        default=None, description="the part's name, the prefix of its bricks' ids ('left' gives left.L01.1)", examples=["left"]
+    )
+    on: Annotated[str | list[str], BeforeValidator(_on), WithJsonSchema(_ON_SCHEMA)] | None = Field(
+        default=None,
+        description="what it rests on: a part written before it, a list of them (their highest top), or a brick's id; "
+        "its first level rests on that top",
+        examples=["left", ["left", "right"], "left.L05.2"],
+    )
+    origin: Vector2 | None = Field(
+        default=None,
+        description="where the part's own origin stands, [x, y] (default [0, 0], or the centre of the brick it is on)",
+        examples=[["-60 mm", 0]],
+    )
+    yaw: BoundedAngle = Field(default=0.0, description="degrees the whole part is turned about its origin", examples=[90])
+    tower: Tower | None = Field(default=None, description="a layered tower", examples=[{"levels": 5}])
+    card_house: CardHouse | None = Field(default=None, description="a card house", examples=[{"levels": 2}])
+    bricks: Annotated[list[BrickPlacement], Field(min_length=1, max_length=MAX_BRICKS)] | None = Field(
+        default=None,
+        description="bricks placed by hand; 'at' is from the part's origin, its z from the top it rests on",
+        examples=[[{"at": [0, 0, "4 mm"]}]],
+    )
+    wall: Wall | None = Field(
+        default=None, description="a wall in running bond", examples=[{"courses": 4, "bricks_per_course": 3}]
+    )
+    pyramid: Pyramid | None = Field(default=None, description="a stepped pyramid", examples=[{"base": 4}])
+    dominoes: Dominoes | None = Field(default=None, description="a row of dominoes", examples=[{"count": 30}])
 
     @model_validator(mode="after")
     def _one_layout(self) -> Part:

@@ -55,6 +55,7 @@ from .overlap import Body
 from .parts import arrange
 from .precheck import precheck
 from .program import End, Fixture, Launch, Place, Program
+from .require import accept
 from .rules import choose_rules
 
 #: Engine defaults per backend and mode, as each engine's settings class owns them
@@ -91,6 +92,7 @@ def compile_scenario(
             engine simulates faithfully (:mod:`stackdsl.compile.limits`), or the engine is
             MuJoCo and it is not installed (the ``mujoco`` extra).
     """
+    scenario, draws = accept(scenario)  # a random scene's first draw that meets its 'require:'
     engine = _engine(scenario, mode, backend)
     if engine.backend == "mujoco" and not installed("mujoco"):
         if backend is None or backend == scenario.engine.backend:  # the file asks for it: say where
@@ -152,6 +154,7 @@ def compile_scenario(
         collapse_threshold=scenario.collapse_threshold or min(min(specs[b.type].half_extents) for b in bricks),
         settle=scenario.timing.settle,
         actions=tuple(actions),
+        draws=draws,
     )
     _budget(scenario, program)  # before the checks of the placements, which take a while on a huge scene
     floating = precheck(scenario, _bodies(scenario, everything, nominal, specs, dict(zip(map(id, bricks), slots))))

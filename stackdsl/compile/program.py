@@ -151,6 +151,7 @@ class Program(_Frozen):
         actions: time-ordered; the last one is :class:`End`.
         floating: ids of the bricks placed resting on nothing, which the scenario allows
             (``allow: [floating]``); they drop when placed.
+        draws: how many draws of a random scene its sample took to meet ``require:`` (1 without).
     """
 
     name: str
@@ -164,6 +165,7 @@ class Program(_Frozen):
     settle: float
     actions: tuple[Action, ...]
     floating: tuple[str, ...] = ()
+    draws: int = 1
 
     @property
     def placements(self) -> list[Place]:

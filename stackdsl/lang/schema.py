@@ -58,6 +58,7 @@ from .grammar import (
 from .schema_generators import HALF, Dominoes, Pyramid, Wall
 from .schema_impacts import Impact
 from .schema_parts import LAYOUTS, Part, Parts, as_parts, named_parts
+from .schema_require import Requirement
 from .schema_sweep import Sweep
 from .units import (
     Angle,
@@ -342,6 +343,13 @@ class Scenario(StrictModel):
     # checks before simulating that this scene silences: "floating" lets bricks be placed resting on nothing
     allow: list[Literal["floating"]] = []
     sweep: Sweep | None = None
+    require: Annotated[list[Requirement], Field(max_length=50)] = Field(
+        default=[],
+        description="conditions a sample's draws must meet before it runs (else it is drawn again): fields of the "
+        "scene by path and overhang, max_overhang, com_offset, gap, levels, bricks; numbers with units; "
+        "comparisons, and, or, not",
+        examples=[["overhang >= 10 mm", "com_offset < 50 mm and gap > 1 mm"]],
+    )
 
     @model_validator(mode="after")
     def _expectations_fit_the_sweep(self) -> Scenario:

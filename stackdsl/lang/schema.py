@@ -57,7 +57,7 @@ from .grammar import (
 )
 from .schema_generators import HALF, Dominoes, Pyramid, Wall
 from .schema_impacts import Impact
-from .schema_parts import LAYOUTS, Part, Parts, as_parts, named_parts
+from .schema_parts import LAYOUTS, RESERVED, Part, Parts, as_parts, named_parts
 from .schema_require import Requirement
 from .schema_sweep import Sweep
 from .units import (
@@ -216,6 +216,8 @@ class Structure(StrictModel):
     def _one_layout(self) -> Structure:
         if sum(getattr(self, name) is not None for name in (*LAYOUTS, "parts")) != 1:
             raise ValueError(f"give exactly one of {', '.join(repr(n) for n in LAYOUTS)}, or a list of parts")
+        if isinstance(self.parts, dict) and RESERVED & set(self.parts):
+            raise ValueError(f"{sorted(RESERVED & set(self.parts))[0]!r} is a key of the structure; give the part another name")
         if self.bricks is not None:
             if self.bricks[0].together:
                 raise ValueError("the first brick has no brick before it to be placed 'together' with")
@@ -417,6 +419,12 @@ class Scenario(StrictModel):
     def sample(self) -> tuple[int, int]:
         """(grid cell, sample index) of this scenario in its file's sweep; (0, 0) otherwise."""
         return self._sample
+
+    def to_yaml(self) -> str:
+        """This scenario as a YAML file that reads back to it (:mod:`stackdsl.lang.yaml_out`)."""
+        from .yaml_out import scenario_yaml
+
+        return scenario_yaml(self)
 
     def material(self, name: str) -> Material:
         """A declared or built-in material. Raises KeyError for an unknown name."""

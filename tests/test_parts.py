@@ -160,3 +160,14 @@ def test_bad_parts_are_refused_where_written(text, field, words):
 def test_a_typo_of_a_single_layout_is_not_taken_for_a_part():
     with pytest.raises(ScenarioError, match="did you mean 'tower'"):
         parse_scenario("stackdsl: 1\nstructure: {towr: {levels: 3}}\n", "p.yaml")
+
+
+def test_compile_shows_each_part_with_its_support_ids_and_levels():
+    from stackdsl import format_program
+
+    text = format_program(compile_scenario(parse_scenario(BRIDGE_MAP, "p.yaml")))
+    assert "part   left       tower      on ground: 8 bricks, left.L01.1 to left.L04.2, levels 1-4" in text
+    assert "part   deck       bricks     on left, right: 2 bricks, deck.b001 to deck.b002, level 5" in text
+    assert "place  deck.b002  level   5" in text
+    single = format_program(compile_scenario(parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 2}}\n", "t.yaml")))
+    assert "part " not in single

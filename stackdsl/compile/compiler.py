@@ -52,7 +52,7 @@ from .clearance import check_launch
 from .layouts import LaidBrick, with_placement_error
 from .limits import check_limits
 from .overlap import Body
-from .parts import arrange
+from .parts import arrange, summaries
 from .precheck import precheck
 from .program import End, Fixture, Launch, Place, Program
 from .require import accept
@@ -155,6 +155,7 @@ def compile_scenario(
         settle=scenario.timing.settle,
         actions=tuple(actions),
         draws=draws,
+        parts=summaries(scenario, nominal),
     )
     _budget(scenario, program)  # before the checks of the placements, which take a while on a huge scene
     floating = precheck(scenario, _bodies(scenario, everything, nominal, specs, dict(zip(map(id, bricks), slots))))

@@ -34,6 +34,7 @@ from ..lang.schema import Scenario
 from ..lang.schema_parts import Part, named_parts
 from .generators import dominoes, pyramid, wall
 from .layouts import LaidBrick, by_hand, card_house, tower, wrap
+from .program import PartSummary
 
 
 def generate(scenario: Scenario, kind: str, model: Any, path: FieldPath) -> list[LaidBrick]:
@@ -80,6 +81,29 @@ def arrange(scenario: Scenario) -> list[LaidBrick]:
                 path, f"the parts up to this one have {len(bricks)} bricks; at most {MAX_BRICKS} are allowed"
             )
     return bricks
+
+
+def summaries(scenario: Scenario, bricks: list[LaidBrick]) -> tuple[PartSummary, ...]:
+    """What ``stackdsl compile`` shows of each named part: its layout, support, ids and levels."""
+    if scenario.structure.parts is None:
+        return ()
+    out = []
+    for name, _, part in named_parts(scenario.structure.parts):
+        own = [b for b in bricks if b.id.startswith(name + ".")]
+        standing = [b.level for b in own if not b.fixed] or [0]
+        on = "ground" if part.on is None else part.on if isinstance(part.on, str) else ", ".join(part.on)
+        out.append(
+            PartSummary(
+                name=name,
+                layout=part.kind,
+                on=on,
+                bricks=len(own),
+                first=own[0].id,
+                last=own[-1].id,
+                levels=(min(standing), max(standing)),
+            )
+        )
+    return tuple(out)
 
 
 def _support(

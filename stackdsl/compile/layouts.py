@@ -16,7 +16,8 @@ from scipy.spatial.transform import Rotation
 from stability import Box, Pose
 
 from ..lang.errors import FieldPath
-from ..lang.schema import BrickPlacement, CardHouse, Scenario, Tower
+from ..lang.schema import Scenario
+from ..lang.schema_layouts import BrickPlacement, CardHouse, Tower
 
 _LEVEL_TOLERANCE = 0.001  # m: bricks whose bottoms are this close share a level
 

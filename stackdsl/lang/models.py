@@ -23,9 +23,10 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 from .expectations import CollapseLevel, CollapseStatistic, Expect, Probability, Quantile, Within
-from .schema import BrickPlacement, BrickType, CardHouse, Engine, Ground, Material, Scenario, Stability, Structure, Timing, Tower
+from .schema import BrickType, Engine, Ground, Material, Scenario, Stability, Structure, Timing
 from .schema_generators import Dominoes, Pyramid, Wall
 from .schema_impacts import AfterLevel, Impact, Target
+from .schema_layouts import BrickPlacement, CardHouse, Tower
 from .schema_parts import Part
 from .schema_sweep import Sweep
 

@@ -32,39 +32,32 @@ from pydantic_core import InitErrorDetails, PydanticCustomError
 
 from .bounds import (
     MAX_BRICKS,
-    MAX_LEVELS,
-    BoundedAngle,
     BoundedDensity,
     CollapseThreshold,
     Number,
-    Offset,
-    PeakSpacing,
     RestAngularSpeed,
     RestSpeed,
     Side,
-    Spacing,
     StrictModel,
-    Vector2,
-    Vector3,
 )
 from .errors import SourceMap
 from .expectations import Expect
 from .grammar import (
     WHOLE,
-    AlsoAccepts,
     given,
     whole,
 )
 from .schema_generators import HALF, Dominoes, Pyramid, Wall
 from .schema_impacts import Impact
-from .schema_parts import LAYOUTS, RESERVED, Part, Parts, as_parts, named_parts
+from .schema_layouts import BrickPlacement, CardHouse, Tower
+from .schema_parts import LAYOUTS, RESERVED, Parts, as_parts, named_parts
 from .schema_require import Requirement
 from .schema_sweep import Sweep
 from .units import (
-    Angle,
     Length,
     Time,
 )
+from .yaml_out import yaml_text
 
 FORMAT_VERSION = 1
 
@@ -88,102 +81,6 @@ class BrickType(StrictModel):
 
 BUILTIN_MATERIALS = {"pine": Material()}
 BUILTIN_BRICKS = {"kapla": BrickType()}
-
-
-def _shift(value: Any) -> Any:
-    """A per-layer shift: one length (along x) or an (x, y) pair."""
-    return value if isinstance(value, (list, tuple)) else (value, 0.0)
-
-
-Shift = Annotated[
-    tuple[Offset, Offset],
-    BeforeValidator(_shift),
-    AlsoAccepts((Offset,), "one length (along x) or an (x, y) pair, each within 10 m"),
-]
-
-
-class Tower(StrictModel):
-    """A layered tower: ``bricks_per_layer`` parallel bricks ``spacing`` apart (centre to
-    centre), each layer turned by ``turn`` degrees and moved by ``shift`` from the one below.
-
-    Two bricks a layer turned 90 deg is the report's 4 stack; a shift makes it a slant tower.
-    ``shifts`` gives each layer above the first its own shift from the layer below (a random
-    walk when drawn ``per: layer``); ``yaw_jitter`` turns each brick by that many degrees
-    more (one number for all, or one a brick), its position unchanged.
-    ``turn`` and ``yaw`` are degrees within +-3600 (ten turns, :data:`MAX_ANGLE`; not folded);
-    ``spacing`` and each part of ``shift`` at most 10 m (no brick is longer), ``origin`` within 1 km.
-    """
-
-    brick: str = "kapla"
-    levels: Annotated[int, Field(ge=1, le=MAX_LEVELS), WHOLE]
-    bricks_per_layer: Annotated[int, Field(ge=1, le=50), WHOLE] = 2
-    spacing: Spacing = 0.096
-    turn: BoundedAngle = 90.0
-    shift: Shift = (0.0, 0.0)
-    shifts: Annotated[list[Shift], Field(max_length=MAX_LEVELS - 1)] | None = None
-    origin: Vector2 = (0.0, 0.0)
-    yaw: BoundedAngle = 0.0
-    yaw_jitter: BoundedAngle | Annotated[list[BoundedAngle], Field(max_length=MAX_BRICKS)] = 0.0
-
-    @model_validator(mode="after")
-    def _per_layer_and_brick(self) -> Tower:
-        if self.shifts is not None:
-            if any(self.shift):
-                raise ValueError("give 'shift' (every layer alike) or 'shifts' (one a layer), not both")
-            if len(self.shifts) != self.levels - 1:
-                raise ValueError(
-                    f"'shifts' has one shift a layer above the first: {self.levels - 1} for {self.levels} levels, not {len(self.shifts)}"
-                )
-        if isinstance(self.yaw_jitter, list) and len(self.yaw_jitter) != self.levels * self.bricks_per_layer:
-            bricks = self.levels * self.bricks_per_layer
-            raise ValueError(f"a 'yaw_jitter' list has one angle a brick: {bricks}, not {len(self.yaw_jitter)}")
-        return self
-
-    def layer_shift(self, level: int) -> tuple[float, float]:
-        """Where level ``level``'s centre is from ``origin``, m: the sum of the shifts below it."""
-        if self.shifts is None:
-            return (level - 1) * self.shift[0], (level - 1) * self.shift[1]
-        below = self.shifts[: level - 1]
-        return sum(x for x, _ in below), sum(y for _, y in below)
-
-    def jitter(self, index: int) -> float:
-        """Degrees added to brick ``index``'s yaw (bricks counted from 0, level 1 first)."""
-        return self.yaw_jitter[index] if isinstance(self.yaw_jitter, list) else self.yaw_jitter
-
-
-class BrickPlacement(StrictModel):
-    """One brick placed by hand: centre position ``at`` (each coordinate within 1 km), yaw/pitch/roll
-    in degrees within +-3600 (ten turns, :data:`MAX_ANGLE`; not folded).
-
-    ``fixed: true`` makes it part of the environment (a wall, a ramp): it is in the world
-    from the start, immovable, and not part of the structure. ``together: true`` places
-    it at the same moment as the brick before it (the two bricks of a V).
-    """
-
-    id: Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]{1,40}$")] | None = None
-    brick: str = "kapla"
-    at: Vector3
-    yaw: BoundedAngle = 0.0
-    pitch: BoundedAngle = 0.0
-    roll: BoundedAngle = 0.0
-    level: Annotated[int, Field(ge=1, le=MAX_LEVELS), WHOLE] | None = None
-    fixed: StrictBool = False
-    together: StrictBool = False
-
-
-class CardHouse(StrictModel):
-    """A card house: rows of inverted V's (two bricks leaning on each other at ``angle``
-    degrees from vertical), a flat brick across the peaks of every two neighbouring V's,
-    a V on every flat brick, up to a single V: a pyramid with ``levels`` V's at its base.
-    ``spacing`` is the distance between neighbouring peaks (default: the V's width + 2 mm), at most
-    10 m; ``angle`` is in degrees, above 0 and below 60.
-    """
-
-    brick: str = "kapla"
-    levels: Annotated[int, Field(ge=1, le=50), WHOLE]
-    angle: Annotated[Angle, Field(gt=0, lt=60)] = 20.0
-    spacing: PeakSpacing | None = None
-    origin: Vector2 = (0.0, 0.0)
 
 
 class Structure(StrictModel):
@@ -241,10 +138,6 @@ class Structure(StrictModel):
         for layout in layouts:
             names |= {b.brick for b in layout if not b.fixed} if isinstance(layout, list) else {layout.brick}
         return names
-
-
-Part.model_rebuild(_types_namespace={"Tower": Tower, "CardHouse": CardHouse, "BrickPlacement": BrickPlacement})
-Structure.model_rebuild()
 
 
 class Timing(StrictModel):
@@ -421,10 +314,15 @@ class Scenario(StrictModel):
         return self._sample
 
     def to_yaml(self) -> str:
-        """This scenario as a YAML file that reads back to it (:mod:`stackdsl.lang.yaml_out`)."""
-        from .yaml_out import scenario_yaml
-
-        return scenario_yaml(self)
+        """This scenario as a YAML file that reads back to it (:mod:`stackdsl.lang.yaml_out`): SI
+        numbers, fields at their defaults left out, parts as written; a scenario of a random file
+        or a sweep as that file's data, distributions and all."""
+        if self.template is not None:
+            return yaml_text(dict(self.template.data))
+        data = self.model_dump(mode="json", exclude_defaults=True)
+        if "parts" in data.get("structure", {}):
+            data["structure"] = data["structure"]["parts"]
+        return yaml_text(data)
 
     def material(self, name: str) -> Material:
         """A declared or built-in material. Raises KeyError for an unknown name."""

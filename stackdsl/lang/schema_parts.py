@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import difflib
 import re
-from typing import TYPE_CHECKING, Annotated, Any
+from typing import Annotated, Any
 
 from pydantic import BeforeValidator, ConfigDict, Discriminator, Field, Tag, WithJsonSchema, model_validator
 
@@ -30,9 +30,7 @@ from .bounds import MAX_BRICKS, BoundedAngle, StrictModel, Vector2
 from .errors import FieldPath
 from .grammar import given
 from .schema_generators import Dominoes, Pyramid, Wall
-
-if TYPE_CHECKING:
-    from .schema import BrickPlacement, CardHouse, Tower
+from .schema_layouts import BrickPlacement, CardHouse, Tower
 
 #: The layouts a structure or a part is made of, in the order they are looked for.
 LAYOUTS = ("tower", "card_house", "bricks", "wall", "pyramid", "dominoes")

@@ -12,23 +12,14 @@ Source: stackdsl's own.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import yaml
 
-if TYPE_CHECKING:
-    from .schema import Scenario
 
-
-def scenario_yaml(scenario: Scenario) -> str:
-    """``scenario`` as YAML text that :func:`stackdsl.parse_scenario` reads back to it."""
-    if scenario.template is not None:
-        data: dict[str, Any] = dict(scenario.template.data)
-    else:
-        data = scenario.model_dump(mode="json", exclude_defaults=True)
-        structure = data.get("structure", {})
-        if "parts" in structure:
-            data["structure"] = structure["parts"]
+def yaml_text(data: dict[str, Any]) -> str:
+    """A scenario's plain data (``Scenario.model_dump(mode="json")`` or a file's data) as YAML text
+    that the loader reads back to the same data, ``stackdsl: 1`` first."""
     data = {"stackdsl": data.pop("stackdsl", 1), **data}
     return yaml.dump(data, Dumper=_Dumper, sort_keys=False, allow_unicode=True, width=120)
 

@@ -670,3 +670,5 @@ def test_a_structure_is_one_layout_a_list_of_named_parts_or_a_map_of_them(valida
         node = json_schema()["$defs"]["Structure"]["properties"][name]
         assert node.get("description") and _examples_in(node), name
     assert "parts" not in json_schema()["$defs"]["Structure"]["properties"]  # the models' own field, not a key
+    require = json_schema()["properties"]["require"]
+    assert require.get("description") and _examples_in(require)

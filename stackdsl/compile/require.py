@@ -32,7 +32,7 @@ from collections import Counter
 from typing import Any
 
 import numpy as np
-from shapely import Polygon
+from shapely import Polygon, STRtree
 
 from stability import Box
 
@@ -61,11 +61,12 @@ def accept(scenario: Scenario) -> tuple[Scenario, int]:
         return scenario, 1
     conditions = [parse(text) for text in scenario.require]
     _check_names(scenario, conditions)
+    wanted = {name for c in conditions for name in c.names}
     template = scenario.template
     failed: Counter[int] = Counter()
     for attempt in range(MAX_DRAWS if template is not None else 1):
         candidate = scenario if attempt == 0 else template.scenario(*scenario.sample, attempt=attempt)
-        values = quantities(candidate)
+        values = quantities(candidate, wanted)
         broken = next((i for i, c in enumerate(conditions) if not c.holds(values)), None)
         if broken is None:
             return candidate, attempt + 1
@@ -82,11 +83,15 @@ def accept(scenario: Scenario) -> tuple[Scenario, int]:
     )
 
 
-def quantities(scenario: Scenario) -> dict[str, float]:
-    """Every name a condition may read: the derived quantities (module docstring) and each
-    numeric field of the scene, by path (``timing.interval``), in SI units and degrees."""
-    bricks = [b for b in with_placement_error(scenario, arrange(scenario)) if not b.fixed]
-    values = _derived(scenario, bricks)
+def quantities(scenario: Scenario, wanted: set[str] | None = None) -> dict[str, float]:
+    """Every name a condition may read: the derived quantities (module docstring; only those in
+    ``wanted`` when given, as ``gap`` compares every pair of bricks of a level) and each numeric
+    field of the scene, by path (``timing.interval``), in SI units and degrees."""
+    values = {}
+    derived = set(DERIVED) if wanted is None else set(DERIVED) & wanted
+    if derived:
+        bricks = [b for b in with_placement_error(scenario, arrange(scenario)) if not b.fixed]
+        values = {k: v for k, v in _derived(scenario, bricks, "gap" in derived).items() if k in derived}
     _fields(scenario.model_dump(exclude={"expect", "sweep", "require"}), "", values)
     if scenario.structure.parts is not None:  # a part's fields by its name
         for name, _, part in named_parts(scenario.structure.parts):
@@ -107,7 +112,7 @@ def _fields(data: Any, prefix: str, out: dict[str, float]) -> None:
             _fields(value, f"{prefix}{i}.", out)
 
 
-def _derived(scenario: Scenario, bricks: list[LaidBrick]) -> dict[str, float]:
+def _derived(scenario: Scenario, bricks: list[LaidBrick], gap: bool) -> dict[str, float]:
     if not bricks:
         return dict.fromkeys(DERIVED, 0.0)
     levels = sorted({b.level for b in bricks})
@@ -120,12 +125,7 @@ def _derived(scenario: Scenario, bricks: list[LaidBrick]) -> dict[str, float]:
     for i, level in enumerate(levels[:-1]):  # what lies on level i while each level above it is the top
         com = np.cumsum(moment[i + 1 :], axis=0) / np.cumsum(mass[i + 1 :])[:, None]
         offsets.append(float(np.linalg.norm(com - centres[level], axis=1).max()))
-    gaps = [
-        float(_footprint(scenario, a).distance(_footprint(scenario, b)))
-        for bs in by_level.values()
-        for i, a in enumerate(bs)
-        for b in bs[i + 1 :]
-    ]
+    gaps = [_gap(scenario, bs) for bs in by_level.values() if gap and len(bs) > 1]
     return {
         "overhang": steps[-1] if steps else 0.0,
         "max_overhang": max(steps, default=0.0),
@@ -134,6 +134,17 @@ def _derived(scenario: Scenario, bricks: list[LaidBrick]) -> dict[str, float]:
         "levels": float(len(levels)),
         "bricks": float(len(bricks)),
     }
+
+
+def _gap(scenario: Scenario, bricks: list[LaidBrick]) -> float:
+    """The smallest horizontal gap between two of ``bricks``' footprints, m (shapely's STRtree
+    finds each one's nearest, so a long row costs n log n, not n^2)."""
+    footprints = [_footprint(scenario, b) for b in bricks]
+    tree = STRtree(footprints)
+    return min(
+        float(footprints[i].distance(footprints[j]))
+        for i, j in tree.query_nearest(footprints, exclusive=True, all_matches=False).T
+    )
 
 
 def _mass(scenario: Scenario, brick: LaidBrick) -> float:
@@ -148,7 +159,7 @@ def _footprint(scenario: Scenario, brick: LaidBrick) -> Polygon:
 
 
 def _check_names(scenario: Scenario, conditions: list[Condition]) -> None:
-    known = quantities(scenario)
+    known = {**quantities(scenario, set()), **dict.fromkeys(DERIVED, 0.0)}
     for i, condition in enumerate(conditions):
         unknown = [n for n in condition.names if n not in known]
         if unknown:

@@ -171,3 +171,16 @@ def test_compile_shows_each_part_with_its_support_ids_and_levels():
     assert "place  deck.b002  level   5" in text
     single = format_program(compile_scenario(parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 2}}\n", "t.yaml")))
     assert "part " not in single
+
+
+def test_interleaved_parts_rise_level_by_level_together():
+    text = BRIDGE_LIST.replace("  - name: right\n", "  - name: right\n    interleave: true\n")
+    ids = [b.id for b in laid(text)]
+    assert ids[:6] == ["left.L01.1", "left.L01.2", "right.L01.1", "right.L01.2", "left.L02.1", "left.L02.2"]
+    assert ids[-2:] == ["deck.b001", "deck.b002"]  # the deck is not interleaved: after both
+    assert sorted(ids) == sorted(b.id for b in laid(BRIDGE_LIST))
+    program = compile_scenario(parse_scenario(text, "p.yaml"))
+    times = {a.id: a.time for a in program.placements}
+    assert times["right.L01.1"] < times["left.L02.1"]
+    with pytest.raises(ScenarioError, match="no part before it to interleave with"):
+        parse_scenario(BRIDGE_LIST.replace("  - name: left\n", "  - name: left\n    interleave: true\n"), "p.yaml")

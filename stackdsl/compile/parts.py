@@ -11,7 +11,8 @@ to its ``origin`` and lifted onto what it rests on:
 * nothing: the ground, level 1 its first.
 
 So levels count from the ground across parts: a card house on a 5-level tower starts at
-level 6. Bricks keep their order, part after part; each id is prefixed by its part's name
+level 6. Bricks keep their order, part after part (a part with ``interleave: true`` is placed level by
+level with the part before it instead, each level in part order); each id is prefixed by its part's name
 (``left.L05.2``).
 
 Source: stackdsl's own.
@@ -68,6 +69,8 @@ def arrange(scenario: Scenario) -> list[LaidBrick]:
     bricks: list[LaidBrick] = []
     tops: dict[str, tuple[float, int]] = {}  # part -> (top height, m; highest level)
     placed: dict[str, LaidBrick] = {}
+    groups: list[int] = []  # each part's group: its own index, or its group's when interleaved
+    counts: list[int] = []
     for name, path, part in named_parts(structure.parts):
         local = generate(scenario, part.kind, part.layout, path + (part.kind,))
         base, level, origin = _support(scenario, part, path, tops, placed)
@@ -80,7 +83,25 @@ def arrange(scenario: Scenario) -> list[LaidBrick]:
             raise scenario.source.error(
                 path, f"the parts up to this one have {len(bricks)} bricks; at most {MAX_BRICKS} are allowed"
             )
-    return bricks
+        groups.append(groups[-1] if part.interleave and groups else len(groups))
+        counts.append(len(moved))
+    return _interleaved(bricks, groups, counts)
+
+
+def _interleaved(bricks: list[LaidBrick], groups: list[int], counts: list[int]) -> list[LaidBrick]:
+    """``bricks`` (part after part, ``counts`` of them each) in placement order: the parts of one
+    group (a part and those interleaved with it) level by level, each level in part order."""
+    out: list[LaidBrick] = []
+    start = 0
+    for group in sorted(set(groups)):
+        members = [i for i, g in enumerate(groups) if g == group]
+        size = sum(counts[i] for i in members)
+        chunk = bricks[start : start + size]
+        part_of = [i for i in members for _ in range(counts[i])]
+        order = sorted(range(size), key=lambda j: (chunk[j].level, part_of[j], j))
+        out += [chunk[j] for j in order]
+        start += size
+    return out
 
 
 def summaries(scenario: Scenario, bricks: list[LaidBrick]) -> tuple[PartSummary, ...]:

@@ -24,7 +24,7 @@ import difflib
 import re
 from typing import Annotated, Any
 
-from pydantic import BeforeValidator, ConfigDict, Discriminator, Field, Tag, WithJsonSchema, model_validator
+from pydantic import BeforeValidator, ConfigDict, Discriminator, Field, StrictBool, Tag, WithJsonSchema, model_validator
 
 from .bounds import MAX_BRICKS, BoundedAngle, StrictModel, Vector2
 from .errors import FieldPath
@@ -39,7 +39,7 @@ MAX_PARTS = 100
 NAME = r"^[A-Za-z0-9_-]{1,40}$"
 """A part's name: letters, digits, '_' and '-' (no '.', which joins it to its bricks' ids)."""
 #: Names a part may not have: they would read as a single layout's key or as a part's own field.
-RESERVED = frozenset(LAYOUTS) | {"parts", "name", "on", "origin", "yaw"}
+RESERVED = frozenset(LAYOUTS) | {"parts", "name", "on", "origin", "yaw", "interleave"}
 
 ON = r"^[A-Za-z0-9_.-]{1,100}$"
 """What a part is on: a part's name, or a brick's id (``left.L05.2``)."""
@@ -91,6 +91,12 @@ class Part(StrictModel):
         examples=[["-60 mm", 0]],
     )
     yaw: BoundedAngle = Field(default=0.0, description="degrees the whole part is turned about its origin", examples=[90])
+    interleave: StrictBool = Field(
+        default=False,
+        description="placed level by level with the part before it (and the parts interleaved with that one), "
+        "instead of after it: both towers of a bridge rise together",
+        examples=[True],
+    )
     tower: Tower | None = Field(default=None, description="a layered tower", examples=[{"levels": 5}])
     card_house: CardHouse | None = Field(default=None, description="a card house", examples=[{"levels": 2}])
     bricks: Annotated[list[BrickPlacement], Field(min_length=1, max_length=MAX_BRICKS)] | None = Field(
@@ -187,6 +193,8 @@ def check_parts(parts: list[Part] | dict[str, Part]) -> list[tuple[FieldPath, st
             elif target != head and isinstance(part.on, list):
                 problems.append((loc + ("on",), f"{target!r}: a list of 'on' names parts; a brick is given alone"))
         seen.append(name)
+    if named_parts(parts)[0][2].interleave:
+        problems.append((named_parts(parts)[0][1] + ("interleave",), "the first part has no part before it to interleave with"))
     first = named_parts(parts)[0][2]
     if first.bricks is not None and first.bricks[0].together:
         first_path = named_parts(parts)[0][1]

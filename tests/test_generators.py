@@ -159,3 +159,16 @@ def test_a_domino_tilted_on_its_edge_falls_back_below_its_tipping_angle_and_over
         assert node.position_mm[2] == pytest.approx(60.0, abs=0.5)
     else:  # over onto its face
         assert node.position_mm[2] == pytest.approx(4.0, abs=0.5)
+
+
+def test_a_domino_on_end_reads_back_the_yaw_it_was_placed_at():
+    """On end, yaw and roll are one angle (gimbal lock): the outcome gives it as the yaw, roll 0."""
+    scenario = parse_scenario(
+        "stackdsl: 1\nstructure: {dominoes: {count: 6, radius: 300 mm}}\ntiming: {interval: 0.5 s}\n", "d.yaml"
+    )
+    program = compile_scenario(scenario)
+    nodes = {n.id: n for n in run_program(program).final_graph.nodes}
+    for place in program.placements:
+        yaw, pitch, roll = nodes[place.id].yaw_pitch_roll_deg
+        assert (pitch, roll) == (90.0, 0.0)
+        assert math.remainder(yaw - place.yaw, 360.0) == pytest.approx(0.0, abs=0.2)

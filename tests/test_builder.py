@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from stackdsl import compile_scenario, load_scenario, parse_scenario
+from stackdsl import ScenarioError, compile_scenario, load_scenario, parse_scenario
 from stackdsl.lang.models import BrickPlacement, Dominoes, Expect, Part, Pyramid, Scenario, Structure, Timing, Tower, Wall
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -72,3 +72,14 @@ def test_a_built_scenario_is_checked_as_a_file_is():
         Dominoes(count=0)
     with pytest.raises(ValueError, match="'wall' is a key of the structure"):
         Structure(parts={"wall": Part(wall=Wall(courses=1, bricks_per_course=1))})
+
+
+def test_a_built_composition_is_checked_as_a_file_is_when_compiled():
+    towers = [Part(name="a", tower=Tower(levels=2)), Part(name="b", on="c", origin=(1, 0), tower=Tower(levels=2))]
+    with pytest.raises(ScenarioError, match="'c' names no part before this one"):
+        compile_scenario(Scenario(stackdsl=1, structure=Structure(parts=towers)))
+    unnamed = [Part(tower=Tower(levels=2))]
+    with pytest.raises(ScenarioError, match="needs a 'name'"):
+        compile_scenario(Scenario(stackdsl=1, structure=Structure(parts=unnamed)))
+    with pytest.raises(ScenarioError, match="unknown brick type 'oak'"):
+        compile_scenario(Scenario(stackdsl=1, structure=Structure(tower=Tower(levels=2, brick="oak"))))

@@ -48,6 +48,7 @@ from ..lang.errors import FieldPath, ScenarioError
 from ..lang.extras import installed, missing
 from ..lang.schema import BACKEND_FIELDS, Scenario
 from ..lang.schema_impacts import SIDES, AfterLevel, Impact
+from ..lang.validation_errors import reference_errors
 from .clearance import check_launch
 from .layouts import LaidBrick, with_placement_error
 from .limits import check_limits
@@ -92,6 +93,9 @@ def compile_scenario(
             engine simulates faithfully (:mod:`stackdsl.compile.limits`), or the engine is
             MuJoCo and it is not installed (the ``mujoco`` extra).
     """
+    unknown = reference_errors(scenario)  # a file's were refused when read; a scenario built in Python's here
+    if unknown:
+        raise scenario.source.error(*unknown[0], more=len(unknown) - 1)
     scenario, draws = accept(scenario)  # a random scene's first draw that meets its 'require:'
     engine = _engine(scenario, mode, backend)
     if engine.backend == "mujoco" and not installed("mujoco"):

@@ -32,7 +32,7 @@ from stability import Box
 from ..lang.bounds import MAX_BRICKS
 from ..lang.errors import FieldPath
 from ..lang.schema import Scenario
-from ..lang.schema_parts import Part, named_parts
+from ..lang.schema_parts import Part, check_parts, named_parts
 from .generators import dominoes, pyramid, wall
 from .layouts import LaidBrick, by_hand, card_house, tower, wrap
 from .program import PartSummary
@@ -58,14 +58,18 @@ def arrange(scenario: Scenario) -> list[LaidBrick]:
     """The structure's bricks (fixtures included) in placement order, with levels and ids.
 
     Raises:
-        ScenarioError: a generator's own check fails, ``on`` names a brick that is not there, or
-            the parts have more than :data:`~stackdsl.lang.bounds.MAX_BRICKS` bricks together.
+        ScenarioError: a generator's own check fails, ``on`` names a part not before it or a brick
+            that is not there, parts are unnamed or named alike, or the parts have more than
+            :data:`~stackdsl.lang.bounds.MAX_BRICKS` bricks together.
     """
     structure = scenario.structure
     if structure.parts is None:
         kind = structure.layout_name
         assert kind is not None
         return generate(scenario, kind, getattr(structure, kind), ("structure", kind))
+    problems = check_parts(structure.parts)  # a file's were refused when read; a scenario built in Python's here
+    if problems:
+        raise scenario.source.error(*problems[0], more=len(problems) - 1)
     bricks: list[LaidBrick] = []
     tops: dict[str, tuple[float, int]] = {}  # part -> (top height, m; highest level)
     placed: dict[str, LaidBrick] = {}

@@ -184,3 +184,15 @@ def test_interleaved_parts_rise_level_by_level_together():
     assert times["right.L01.1"] < times["left.L02.1"]
     with pytest.raises(ScenarioError, match="no part before it to interleave with"):
         parse_scenario(BRIDGE_LIST.replace("  - name: left\n", "  - name: left\n    interleave: true\n"), "p.yaml")
+
+
+def test_a_sweep_grid_and_a_distribution_reach_into_parts():
+    text = BRIDGE_MAP + "sweep: {samples: 2, grid: {structure.right.origin.0: [0.1, 0.12], structure.left.tower.levels: [4]}}\n"
+    template = parse_scenario(
+        text.replace("levels: 4, yaw: 90}, origin: [100 mm", "levels: 4, yaw: {choice: [90, 270]}}, origin: [100 mm"), "p.yaml"
+    ).template
+    assert template.cells == 2
+    assert [template.scenario(c, 0).structure.parts["right"].origin[0] for c in range(2)] == [0.1, 0.12]
+    assert {template.scenario(0, k).structure.parts["right"].tower.yaw for k in range(8)} == {90.0, 270.0}
+    with pytest.raises(ScenarioError, match="has no field 'levls'"):
+        parse_scenario(BRIDGE_MAP + "sweep: {samples: 1, grid: {structure.left.tower.levls: [2]}}\n", "p.yaml")

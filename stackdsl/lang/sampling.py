@@ -247,7 +247,7 @@ def _grid_field(key: str, values: list[Any], source: SourceMap) -> tuple[FieldPa
 
     path: FieldPath = tuple(int(part) if part.isdigit() else part for part in key.split("."))
     for i, part in enumerate(path):
-        allowed = fields_at(path[:i]) if isinstance(part, str) else []
+        allowed = fields_at(path[:i]) if isinstance(part, str) and path[:i] != ("structure",) else []  # or a part's name
         if allowed and part not in allowed:
             raise source.error(
                 ("sweep", "grid", key),

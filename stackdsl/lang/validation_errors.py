@@ -21,7 +21,7 @@ from pydantic_core import ErrorDetails
 from .bounds import MAX_BRICKS
 from .errors import FieldPath, ScenarioError, SourceMap
 from .expectations import CollapseLevel, CollapseStatistic
-from .schema import BUILTIN_BRICKS, BUILTIN_MATERIALS, Scenario
+from .schema import BUILTIN_BRICKS, BUILTIN_MATERIALS, Scenario, Structure
 from .schema_parts import Part, check_parts, named_parts
 
 
@@ -112,6 +112,9 @@ def fields_at(loc: FieldPath) -> list[str]:
         tags = _TAGGED.get(tuple(loc[:i]), {})
         if isinstance(seg, str) and seg in tags:
             model = tags[seg]
+            continue
+        if model is Structure and (isinstance(seg, int) or seg not in Structure.model_fields):
+            model = Part  # a part as written: structure[0] or structure.left
             continue
         if not (isinstance(model, type) and issubclass(model, BaseModel)) or seg not in model.model_fields:
             continue

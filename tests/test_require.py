@@ -136,3 +136,15 @@ def test_seed_replaces_the_files_seed():
     random = parse_scenario(STACK + "seed: 4\n", "r.yaml", seed=5)
     assert random.template.seed == 5
     assert random.structure.tower.shifts == parse_scenario(STACK + "seed: 5\n", "r.yaml").structure.tower.shifts
+
+
+def test_a_field_a_draw_lacks_fails_its_condition_and_is_drawn_again():
+    text = (
+        STACK.replace("levels: 5,", "levels: {choice: [2, 5]},")
+        + "require: ['structure.tower.shifts.3.0 > -1']\nsweep: {samples: 6}\n"
+    )
+    template = parse_scenario(text, "r.yaml").template
+    for k in range(6):
+        sample, _ = accept(template.scenario(0, k))
+        assert sample.structure.tower.levels == 5  # a 2-level draw has no fourth shift: redrawn
+    assert not parse("x < 1").holds({})

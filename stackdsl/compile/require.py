@@ -40,6 +40,7 @@ from ..lang.errors import ScenarioError
 from ..lang.expressions import Condition, parse
 from ..lang.schema import Scenario
 from ..lang.schema_parts import named_parts
+from ..lang.validation_errors import fields_at
 from .layouts import LaidBrick, with_placement_error
 from .parts import arrange
 
@@ -161,7 +162,7 @@ def _footprint(scenario: Scenario, brick: LaidBrick) -> Polygon:
 def _check_names(scenario: Scenario, conditions: list[Condition]) -> None:
     known = {**quantities(scenario, set()), **dict.fromkeys(DERIVED, 0.0)}
     for i, condition in enumerate(conditions):
-        unknown = [n for n in condition.names if n not in known]
+        unknown = [n for n in condition.names if n not in known and not _a_field(n)]
         if unknown:
             fields = sorted(n for n in known if n not in DERIVED)
             near = [f for f in fields if f.split(".")[-1] == unknown[0].split(".")[-1]][:3]
@@ -171,6 +172,21 @@ def _check_names(scenario: Scenario, conditions: list[Condition]) -> None:
                 f"unknown name {unknown[0]!r}: a condition reads {', '.join(DERIVED)} or a numeric field of the scene "
                 f"by its path (timing.interval, structure.tower.spacing){hint}",
             )
+
+
+def _a_field(name: str) -> bool:
+    """Whether ``name`` is a path of the language's fields, whatever its indices (a draw of a random
+    scene may have a list item, or a part's field, that the first draw lacks)."""
+    path = [int(p) if p.isdigit() else p for p in name.split(".")]
+    for i, part in enumerate(path):
+        if isinstance(part, int):
+            continue
+        allowed = fields_at(tuple(path[:i]))
+        if path[:i] == ["structure"] and part not in allowed:
+            continue  # a part's name
+        if part not in allowed:
+            return False
+    return True
 
 
 def _shown(value: float) -> str:

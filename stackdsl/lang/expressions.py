@@ -16,7 +16,8 @@ quantity derived from where its bricks are, ``overhang``), numbers with an optio
 
 Quantities are SI (metres, seconds, m/s, kg/m^3) and degrees for angles, as everywhere in a
 Program; a number's unit converts it (pint converts the unit only, as for any quantity of a file).
-A division by zero makes the condition false.
+A division by zero makes the condition false, and so does a comparison with a name the values
+lack (NaN).
 
 >>> c = parse("overhang >= 10 mm and abs(com_offset) < 0.06")
 >>> c.names, c.holds({"overhang": 0.012, "com_offset": -0.02})
@@ -91,11 +92,9 @@ class Condition:
     names: tuple[str, ...]
 
     def holds(self, values: Mapping[str, float]) -> bool:
-        """Whether the condition holds with ``values`` for its names (SI numbers).
-
-        Raises:
-            KeyError: a name it reads is not in ``values``.
-        """
+        """Whether the condition holds with ``values`` for its names (SI numbers); a name not in
+        ``values`` (a field this draw of the scene lacks, such as the shift of a level it does not
+        build) reads as NaN, and every comparison with NaN is false."""
         try:
             return bool(_evaluate(self.tree, values))
         except ZeroDivisionError:
@@ -263,7 +262,7 @@ def _evaluate(node: Node, values: Mapping[str, float]) -> Any:
     if kind == "num":
         return node[1]
     if kind == "name":
-        return float(values[node[1]])
+        return float(values.get(node[1], math.nan))
     if kind == "neg":
         return -_evaluate(node[1], values)
     if kind == "arith":

@@ -1,6 +1,6 @@
 """The JSON Schema of scenario files (stackdsl.lang.jsonschema.json_schema) accepts what the loader accepts.
 
-Files are read as an editor would, with yaml.safe_load, and validated with jsonschema
+Files are read as an editor would, with yaml.safe_load reading YAML 1.2's flags, and validated with jsonschema
 (Draft 2020-12); the loader is stackdsl.parse_scenario / load_scenario. Where JSON Schema
 cannot say a rule (a unit's dimension, names of brick types, ...) the schema is wider than
 the loader: those cases are listed in SCHEMA_WIDER, so that each gap is known and stays small.
@@ -31,8 +31,25 @@ def validator() -> jsonschema.Draft202012Validator:
     return jsonschema.Draft202012Validator(json_schema())
 
 
+class Yaml12(yaml.SafeLoader):
+    """PyYAML's safe loader reading true and false only as flags, as YAML 1.2 does and editors' YAML
+    language server with it: there ``on`` (a part's key) and ``yes`` are text."""
+
+
+Yaml12.yaml_implicit_resolvers = {
+    first: [(tag, regex) for tag, regex in resolvers if tag != "tag:yaml.org,2002:bool"]
+    for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
+}
+Yaml12.add_implicit_resolver("tag:yaml.org,2002:bool", re.compile(r"^(?:true|True|TRUE|false|False|FALSE)$"), list("tTfF"))
+
+
+def editor_load(text: str) -> object:
+    """``text`` read as an editor reads it (:class:`Yaml12`)."""
+    return yaml.load(text, Yaml12)
+
+
 def schema_accepts(validator: jsonschema.Draft202012Validator, text: str) -> bool:
-    return validator.is_valid(yaml.safe_load(text))
+    return validator.is_valid(editor_load(text))
 
 
 def loader_accepts(text: str) -> bool:
@@ -69,7 +86,7 @@ def test_the_shipped_schema_file_is_the_current_schema():
 # what is shipped and documented validates ------------------------------------------
 @pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: str(p.relative_to(ROOT / "scenarios")))
 def test_every_shipped_scenario_validates_and_loads(path, validator):
-    data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    data = editor_load(path.read_text(encoding="utf-8"))
     assert [e.message for e in validator.iter_errors(data)] == []
     load_scenario(path)
 
@@ -92,7 +109,7 @@ def test_every_scenario_in_the_readme_validates_and_loads(validator):
     if "```yaml" in readme:
         assert blocks, "README.md has yaml blocks but none is a scenario ('stackdsl: 1')"
     for block in blocks:
-        assert [e.message for e in validator.iter_errors(yaml.safe_load(block))] == [], block
+        assert [e.message for e in validator.iter_errors(editor_load(block))] == [], block
         parse_scenario(block, "README.md")
 
 
@@ -113,6 +130,15 @@ REFUSED = {
     "collapse and stands": doc("expect: {collapse: 9, stands: true}"),
     "stands false": doc("expect: {stands: false}"),
     "two layouts": doc("structure: {tower: {levels: 3}, card_house: {levels: 1}}"),
+    "a part without a name": doc("structure: [{tower: {levels: 3}}]"),
+    "a part of two layouts": doc("structure: [{name: a, tower: {levels: 3}, wall: {courses: 1, bricks_per_course: 1}}]"),
+    "a part named after a layout": doc("structure: {tower: {tower: {levels: 3}}}"),
+    "a part's name with a dot": doc("structure: [{name: a.b, tower: {levels: 3}}]"),
+    "a wall laid sideways": doc("structure: {wall: {courses: 2, bricks_per_course: 2, laid: sideways}}"),
+    "a wall of no courses": doc("structure: {wall: {courses: 0, bricks_per_course: 2}}"),
+    "a pyramid with no base": doc("structure: {pyramid: {base: 0}}"),
+    "dominoes without a count": doc("structure: {dominoes: {spacing: 60 mm}}"),
+    "on a number": doc("structure: [{name: a, tower: {levels: 2}}, {name: b, on: 5, tower: {levels: 2}}]"),
     "no layout": doc("structure: {tower: null}"),
     "unknown mode": doc("engine: {mode: turbo}"),
     "unknown side": doc("impacts: [{target: {level: 2, side: up}, speed: 1, at: 1 s}]"),
@@ -174,6 +200,14 @@ REFUSED = {
 }
 
 ACCEPTED = {
+    "a list of parts": doc("structure: [{name: a, tower: {levels: 2}}, {name: b, on: a, pyramid: {base: 2}}]"),
+    "a map of parts": doc("structure: {a: {tower: {levels: 2}}, b: {on: a.L02.1, bricks: [{at: [0, 0, 4 mm]}]}}"),
+    "on a list of parts": doc(
+        "structure: [{name: a, tower: {levels: 2}}, {name: b, on: [a], yaw: 90, origin: [0, 1 cm], tower: {levels: 1}}]"
+    ),
+    "a wall on edge": doc("structure: {wall: {courses: 2, bricks_per_course: 3, laid: edge, joint: 1 mm}}"),
+    "a pyramid": doc("structure: {pyramid: {base: 4, levels: 2, yaw: 30}}"),
+    "an arc of dominoes": doc("structure: {dominoes: {count: 12, spacing: 60 mm, radius: -300 mm}}"),
     "collapse as an integer": doc("expect: {collapse: 5}"),
     "collapse as 5.0": doc("expect: {collapse: 5.0}"),
     "collapse as 9±1": doc("expect: {collapse: 9±1}"),
@@ -456,8 +490,10 @@ def test_patterns_mean_the_same_in_ecma_262_as_in_python():
     ecma = json.loads(out.stdout)
     python = [[re.search(p, s) is not None for s in samples] for p in found]
     differ = [(p, s) for p, e_row, p_row in zip(found, ecma, python) for s, e, q in zip(samples, e_row, p_row) if e != q]
-    # Python's $ also matches before a final newline: the one pattern pydantic writes itself (a brick id) differs there
-    assert all(s.endswith("\n") and p == "^[A-Za-z0-9_.-]{1,40}$" for p, s in differ), differ
+    # Python's $ also matches before a final newline: the patterns pydantic writes itself (a brick id, a part's
+    # name, what a part is on) differ there
+    ids = {"^[A-Za-z0-9_.-]{1,40}$", "^[A-Za-z0-9_-]{1,40}$", "^[A-Za-z0-9_.-]{1,100}$"}
+    assert all(s.endswith("\n") and p in ids for p, s in differ), differ
     assert len(found) >= 6
 
 
@@ -609,3 +645,30 @@ def test_a_projectile_too_fast_or_too_slow_gets_its_own_bounds_reason():
     fast, slow = message("500 m/s"), message("0.01 m/s")
     assert "faster, it moves more than a brick's 8 mm thickness in one substep" in fast and "drop" not in fast
     assert "slower, a throw is a drop" in slow and "faster" not in slow
+
+
+# the richer scenes' keys -------------------------------------------------------------
+def _examples_in(node: object) -> bool:
+    if isinstance(node, dict):
+        return "examples" in node or any(_examples_in(v) for v in node.values())
+    return isinstance(node, list) and any(_examples_in(v) for v in node)
+
+
+@pytest.mark.parametrize("model", ["Part", "Wall", "Pyramid", "Dominoes"])
+def test_every_key_of_parts_and_the_new_generators_has_a_description_and_an_example(model):
+    properties = json_schema()["$defs"][model]["properties"]
+    assert properties
+    for name, node in properties.items():
+        assert node.get("description"), f"{model}.{name} has no description"
+        assert _examples_in(node), f"{model}.{name} has no example"
+
+
+def test_a_structure_is_one_layout_a_list_of_named_parts_or_a_map_of_them(validator):
+    structure = json_schema()["properties"]["structure"]
+    assert structure["description"] and all(_examples_in(form) for form in structure["anyOf"][1:])
+    for name in ("wall", "pyramid", "dominoes"):
+        node = json_schema()["$defs"]["Structure"]["properties"][name]
+        assert node.get("description") and _examples_in(node), name
+    assert "parts" not in json_schema()["$defs"]["Structure"]["properties"]  # the models' own field, not a key
+    require = json_schema()["properties"]["require"]
+    assert require.get("description") and _examples_in(require)

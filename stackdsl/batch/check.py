@@ -79,6 +79,7 @@ def prepare(
     model: str | None = None,
     backends: tuple[str | None, ...] = (None,),
     refused: list[CheckResult] | None = None,
+    seed: int | None = None,
 ) -> list[Prepared]:
     """Load and compile every file (on each of ``backends``, in each of ``modes`` when
     given, with the stability ``model`` when given); nothing is simulated.
@@ -87,6 +88,7 @@ def prepare(
         refused: given (a comparison), a file that compiles as written but that a compared
             engine or mode refuses (beyond what it simulates faithfully) gets a result here
             with :attr:`CheckResult.refused`, in place of an error.
+        seed: replaces every file's ``seed`` when given.
 
     Raises:
         ScenarioErrors: one error per bad file.
@@ -94,7 +96,7 @@ def prepare(
     prepared, errors = [], []
     for path in files:
         try:
-            scenario = load_scenario(path)
+            scenario = load_scenario(path, seed)
             sweep = scenario.template if scenario.sweep is not None else None
             for backend in backends:
                 for m in modes or (mode,):
@@ -171,6 +173,7 @@ def check(
     model: str | None = None,
     pattern: str | None = None,
     timeout: float | None = TIMEOUT,
+    seed: int | None = None,
 ) -> Generator[CheckResult, None, None]:
     """Check every scenario under ``paths``; results come as each run finishes.
 
@@ -190,13 +193,14 @@ def check(
         pattern: only the scenarios whose file path or name contains it (see :func:`select`).
         timeout: wall seconds each run may take (None: no limit); a run stopped by it is
             a failed result whose ``stopped`` says so.
+        seed: replaces every file's ``seed`` (its random draws and placement error) when given.
 
     Raises:
         ScenarioErrors: a file is missing or invalid, or ``pattern`` selects nothing
             (before anything runs).
         ValueError: ``jobs`` below 1.
     """
-    prepared = select(prepare(discover(paths), mode, model=model), pattern)
+    prepared = select(prepare(discover(paths), mode, model=model, seed=seed), pattern)
     return run_checks(prepared, jobs, executor, timeout)
 
 

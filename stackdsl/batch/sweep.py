@@ -56,6 +56,7 @@ class SampleResult:
         error: an internal error of this sample's run, one line, else ``""``.
         bad_input: a sample the language refuses (a drawn value out of its field's range), one
             message at file:line:col, else ``""``.
+        draws: how many draws the sample took to meet the file's ``require:`` (1 without).
     """
 
     cell: int
@@ -71,6 +72,7 @@ class SampleResult:
     stopped: str = ""
     error: str = ""
     bad_input: str = ""
+    draws: int = 1
 
     def row(self) -> dict[str, Any]:
         """Plain data for CSV and JSON Lines (``parameters`` spread into their own fields)."""
@@ -108,6 +110,9 @@ def _one(template: Template, cell: int, k: int, options: SweepOptions) -> Sample
         scenario = template.scenario(cell, k)
         seed = scenario.seed
         program = compile_scenario(scenario, options.mode, options.model, options.backend)
+        if program.draws > 1:  # redrawn to meet 'require:': what the run drew
+            parameters = template.parameters(cell, k, program.draws - 1)
+            seed = template.scenario(cell, k, attempt=program.draws - 1).seed
     except ScenarioError as exc:
         if not exc.message.startswith("sample "):  # the compiler's checks: say which sample
             exc.message = f"sample {k}" + (f" of grid cell {cell}" if template.grid else "") + f": {exc.message}"
@@ -127,6 +132,7 @@ def _one(template: Template, cell: int, k: int, options: SweepOptions) -> Sample
             oracle_level,
             oracle,
             stopped=outcome.stopped or "",
+            draws=program.draws,
         )
     except Exception as exc:  # MemoryError included: this sample's internal error
         message = (str(exc).splitlines() or [""])[0]

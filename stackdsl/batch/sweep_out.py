@@ -161,6 +161,11 @@ def report(template: Template, expect: Expect, results: Sequence[SampleResult], 
             lines.append(
                 f"  {len(problems)} samples did not finish: {problems[0].error or problems[0].stopped} (sample {problems[0].sample})"
             )
+    if template.data.get("require"):
+        draws = sum(r.draws for r in results if not r.bad_input)
+        accepted = sum(not r.bad_input for r in results)
+        if draws:
+            lines.append(f"require: {accepted} of {draws} draws accepted ({accepted / draws:.1%})")
     oracle = [r for r in results if r.oracle == "ok"]
     if oracle:
         agree = sum(r.oracle_level == r.collapse_level for r in oracle)

@@ -179,3 +179,24 @@ def same_file(output: str | os.PathLike[str], given: str | os.PathLike[str]) -> 
         return os.path.samefile(output, given)
     except OSError:  # either is missing or unreadable: not the same existing file
         return False
+
+
+def seed_type(text: str) -> int:
+    """``--seed``: a whole number, 0 or more."""
+    try:
+        seed = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a seed is a whole number, 0 or more, not {text!r}") from None
+    if seed < 0:
+        raise argparse.ArgumentTypeError(f"a seed is a whole number, 0 or more, not {text!r}")
+    return seed
+
+
+def add_seed(p: argparse.ArgumentParser) -> None:
+    """The ``--seed N`` of the commands that read scenarios: it replaces each file's ``seed``."""
+    p.add_argument(
+        "--seed",
+        type=seed_type,
+        metavar="N",
+        help="replace the file's seed: its random draws (sample k draws from the k-th child of N) and placement error",
+    )

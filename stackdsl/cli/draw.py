@@ -147,7 +147,7 @@ def trajectory_of(args: argparse.Namespace) -> Any:
             return load_trajectory(path)
         except (OSError, ValueError) as exc:
             raise ScenarioError(str(exc).removeprefix(f"{path}: "), file=args.file) from None
-    program = compile_scenario(load_scenario(path), args.mode, args.model, args.backend)
+    program = compile_scenario(load_scenario(path, getattr(args, "seed", None)), args.mode, args.model, args.backend)
     at = getattr(args, "at", None)
     if isinstance(at, float) and at > program.duration:  # refused before anything is simulated
         raise ScenarioError(f"t = {at:g} s is outside the run, which lasts from 0 to {program.duration:g} s", file="--at")

@@ -33,6 +33,7 @@ from .args import (
     INTERNAL,
     INTERRUPTED,
     OK,
+    add_seed,
     command_of,
     jobs_type,
     refused,
@@ -304,6 +305,7 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
     one.add_argument("--mode", choices=modes, help="override the scenario's engine mode")
     one.add_argument("--model", choices=MODELS, help="override the scenario's stability model")
     one.add_argument("--backend", choices=list(BACKEND_DEFAULTS), help="override the scenario's engine")
+    add_seed(one)
     if name == "compile":  # the one that runs nothing
         p = sub.add_parser("compile", parents=[one], help=COMMANDS["compile"], epilog=_ONE_STATUS, formatter_class=raw)
         p.add_argument("--json", action="store_true", help="print the Program as JSON")
@@ -315,6 +317,7 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
     many = _Parser(add_help=False, parents=[common, guarded])
     many.add_argument("paths", nargs="+", metavar="PATH", help="scenario files, or folders searched for *.yaml")
     many.add_argument("--model", choices=MODELS, help="override every scenario's stability model")
+    add_seed(many)
     many.add_argument(
         "--backend",
         metavar="ENGINE",
@@ -403,7 +406,7 @@ def _compile(args: argparse.Namespace) -> int:
     from ..compile.program import format_program
     from ..lang.loader import load_scenario
 
-    program = compile_scenario(load_scenario(args.file), args.mode, args.model, args.backend)
+    program = compile_scenario(load_scenario(args.file, args.seed), args.mode, args.model, args.backend)
     print(program.model_dump_json(indent=2) if args.json else format_program(program))
     return OK
 
@@ -415,7 +418,7 @@ def _run(args: argparse.Namespace) -> int:
     from ..runtime.outcome import describe_certificate
     from ..verdicts.expect import describe, evaluate
 
-    scenario = load_scenario(args.file)
+    scenario = load_scenario(args.file, args.seed)
     program = compile_scenario(scenario, args.mode, args.model, args.backend)
     if args.rate is not None and not args.record:
         raise ScenarioError("--rate is the recording's: give --record OUT.npz too", file="--rate")

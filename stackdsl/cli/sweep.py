@@ -14,7 +14,7 @@ from typing import Any
 
 from ..lang.errors import ScenarioError
 from ..lang.extras import installed, missing
-from .args import COMMANDS, output_folder
+from .args import COMMANDS, add_seed, output_folder
 
 
 def add_sweep(
@@ -34,6 +34,7 @@ def add_sweep(
     )
     p.add_argument("file", help="a scenario with a sweep: or random fields")
     p.add_argument("--samples", type=int, help="override the sweep's samples a cell")
+    add_seed(p)
     where = p.add_mutually_exclusive_group()
     where.add_argument(
         "-j",
@@ -67,7 +68,7 @@ def _sweep(args: argparse.Namespace) -> int:
     from ..lang.loader import load_scenario
     from .progress import Lines
 
-    scenario = load_scenario(args.file)
+    scenario = load_scenario(args.file, args.seed)
     template = scenario.template
     if template is None:
         raise ScenarioError(

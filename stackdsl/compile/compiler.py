@@ -48,12 +48,15 @@ from ..lang.errors import FieldPath, ScenarioError
 from ..lang.extras import installed, missing
 from ..lang.schema import BACKEND_FIELDS, Scenario
 from ..lang.schema_impacts import SIDES, AfterLevel, Impact
+from ..lang.validation_errors import reference_errors
 from .clearance import check_launch
-from .layouts import LaidBrick, layout, with_placement_error
+from .layouts import LaidBrick, with_placement_error
 from .limits import check_limits
 from .overlap import Body
+from .parts import arrange, summaries
 from .precheck import precheck
 from .program import End, Fixture, Launch, Place, Program
+from .require import accept
 from .rules import choose_rules
 
 #: Engine defaults per backend and mode, as each engine's settings class owns them
@@ -90,12 +93,16 @@ def compile_scenario(
             engine simulates faithfully (:mod:`stackdsl.compile.limits`), or the engine is
             MuJoCo and it is not installed (the ``mujoco`` extra).
     """
+    unknown = reference_errors(scenario)  # a file's were refused when read; a scenario built in Python's here
+    if unknown:
+        raise scenario.source.error(*unknown[0], more=len(unknown) - 1)
+    scenario, draws = accept(scenario)  # a random scene's first draw that meets its 'require:'
     engine = _engine(scenario, mode, backend)
     if engine.backend == "mujoco" and not installed("mujoco"):
         if backend is None or backend == scenario.engine.backend:  # the file asks for it: say where
             raise scenario.source.error(("engine", "backend"), missing("mujoco"))
         raise ScenarioError(missing("mujoco", f"backend={backend!r}"), file=scenario.source.file)
-    nominal = layout(scenario)
+    nominal = arrange(scenario)
     everything = with_placement_error(scenario, nominal)
     bricks = [b for b in everything if not b.fixed]
     fixed = [b for b in everything if b.fixed]
@@ -151,6 +158,8 @@ def compile_scenario(
         collapse_threshold=scenario.collapse_threshold or min(min(specs[b.type].half_extents) for b in bricks),
         settle=scenario.timing.settle,
         actions=tuple(actions),
+        draws=draws,
+        parts=summaries(scenario, nominal),
     )
     _budget(scenario, program)  # before the checks of the placements, which take a while on a huge scene
     floating = precheck(scenario, _bodies(scenario, everything, nominal, specs, dict(zip(map(id, bricks), slots))))
@@ -205,11 +214,11 @@ def _retimed(program: Program, engine: EngineSettings) -> Program:
 
 def _size_field(scenario: Scenario) -> FieldPath:
     structure = scenario.structure
-    if structure.tower:
-        return ("structure", "tower", "levels")
-    if structure.card_house:
-        return ("structure", "card_house", "levels")
-    return ("structure", "bricks")
+    if structure.parts is not None:
+        return ("structure",)
+    sizes = {"tower": "levels", "card_house": "levels", "wall": "courses", "pyramid": "base", "dominoes": "count"}
+    kind = structure.layout_name or "bricks"
+    return ("structure", kind, sizes[kind]) if kind in sizes else ("structure", kind)
 
 
 def _what_fits(program: Program, tower: bool) -> str:
@@ -252,8 +261,6 @@ def _bodies(
     scenario: Scenario, placed: list[LaidBrick], nominal: list[LaidBrick], specs: dict[str, BrickSpec], slots: dict[int, int]
 ) -> list[Body]:
     """The bricks and fixtures for :func:`stackdsl.compile.precheck.precheck`, each with the field that made it."""
-    structure = scenario.structure
-    made_by = ("structure", "tower") if structure.tower else ("structure", "card_house") if structure.card_house else None
     interval = scenario.timing.interval
     return [
         Body(
@@ -267,9 +274,9 @@ def _bodies(
             slot=-1 if b.fixed else int(slots[id(b)]),
             time=0.0 if b.fixed else int(slots[id(b)]) * interval,
             level=b.level,
-            path=made_by or ("structure", "bricks", i),
+            path=b.source,
         )
-        for i, (b, n) in enumerate(zip(placed, nominal))
+        for b, n in zip(placed, nominal)
     ]
 
 

@@ -15,7 +15,9 @@ from scipy.spatial.transform import Rotation
 
 from stability import Box, Pose
 
+from ..lang.errors import FieldPath
 from ..lang.schema import Scenario
+from ..lang.schema_layouts import BrickPlacement, CardHouse, Tower
 
 _LEVEL_TOLERANCE = 0.001  # m: bricks whose bottoms are this close share a level
 
@@ -23,7 +25,8 @@ _LEVEL_TOLERANCE = 0.001  # m: bricks whose bottoms are this close share a level
 @dataclass(frozen=True)
 class LaidBrick:
     """One brick of a layout: its id, level, brick type, centre (m, shape (3,)) and yaw,
-    pitch, roll (degrees); ``together``: placed with the brick before it; ``fixed``: a fixture."""
+    pitch, roll (degrees); ``together``: placed with the brick before it; ``fixed``: a fixture;
+    ``source``: the field that made it (``("structure", "tower")``, ``("structure", "bricks", 3)``)."""
 
     id: str
     level: int
@@ -34,6 +37,7 @@ class LaidBrick:
     roll: float = 0.0
     together: bool = False
     fixed: bool = False
+    source: FieldPath = ()  # the field that made it: a generator's, or a brick's in a list
 
     def pose(self) -> Pose:
         """Its pose."""
@@ -41,9 +45,15 @@ class LaidBrick:
 
 
 def layout(scenario: Scenario) -> list[LaidBrick]:
-    """The structure's bricks (fixtures included) in placement order, with levels, as written or generated."""
+    """The single layout's bricks (fixtures included) in placement order, with levels, as written or
+    generated: a tower, a card house or bricks by hand (the other layouts and composed structures are
+    :func:`stackdsl.compile.parts.arrange`'s)."""
     structure = scenario.structure
-    return _tower(scenario) if structure.tower else _card_house(scenario) if structure.card_house else _explicit(scenario)
+    if structure.tower:
+        return tower(scenario, structure.tower)
+    if structure.card_house:
+        return card_house(scenario, structure.card_house, ("structure", "card_house"))
+    return by_hand(scenario, structure.bricks or [], ("structure", "bricks"))
 
 
 def with_placement_error(scenario: Scenario, bricks: list[LaidBrick]) -> list[LaidBrick]:
@@ -56,12 +66,10 @@ def with_placement_error(scenario: Scenario, bricks: list[LaidBrick]) -> list[La
     return bricks
 
 
-def _tower(scenario: Scenario) -> list[LaidBrick]:
+def tower(scenario: Scenario, t: Tower) -> list[LaidBrick]:
     """The tower generator: layer L turned (L-1) x turn, centred at origin plus the shifts of
     the layers below it ((L-1) x shift, or the sum of ``shifts``); each brick turned by its
     ``yaw_jitter`` more, about its own centre."""
-    t = scenario.structure.tower
-    assert t is not None
     height = scenario.brick_type(t.brick).size[2]
     bricks: list[LaidBrick] = []
     for level in range(1, t.levels + 1):
@@ -72,14 +80,15 @@ def _tower(scenario: Scenario) -> list[LaidBrick]:
             xy = centre + (k - (t.bricks_per_layer - 1) / 2) * t.spacing * across
             position = np.array([xy[0], xy[1], (level - 0.5) * height])
             jitter = t.jitter(len(bricks))
-            bricks.append(LaidBrick(f"L{level:02d}.{k + 1}", level, t.brick, position, _wrap(yaw + jitter)))
+            bricks.append(
+                LaidBrick(f"L{level:02d}.{k + 1}", level, t.brick, position, wrap(yaw + jitter), source=("structure", "tower"))
+            )
     return bricks
 
 
-def _explicit(scenario: Scenario) -> list[LaidBrick]:
-    """Bricks placed by hand; a missing level is the rank of the brick's bottom height
-    among the structure's bricks (fixed ones have none)."""
-    placed = scenario.structure.bricks or []
+def by_hand(scenario: Scenario, placed: list[BrickPlacement], path: FieldPath) -> list[LaidBrick]:
+    """Bricks placed by hand (the list at ``path``); a missing level is the rank of the brick's
+    bottom height among the list's bricks (fixed ones have none)."""
     bottoms = [
         float(
             Box(np.array(scenario.brick_type(b.brick).size) / 2, 1.0)
@@ -103,12 +112,13 @@ def _explicit(scenario: Scenario) -> list[LaidBrick]:
             b.roll,
             together=b.together,
             fixed=b.fixed,
+            source=path + (i,),
         )
         for i, (b, z) in enumerate(zip(placed, bottoms))
     ]
 
 
-def _card_house(scenario: Scenario) -> list[LaidBrick]:
+def card_house(scenario: Scenario, c: CardHouse, path: FieldPath) -> list[LaidBrick]:
     """Rows of inverted V's with flat bricks across neighbouring peaks, up to one V.
 
     In the x-z plane a brick of length L and thickness t leaning at angle a from vertical
@@ -121,14 +131,12 @@ def _card_house(scenario: Scenario) -> list[LaidBrick]:
     Raises:
         ScenarioError: the spacing lets V's or flats collide, or flats miss the peaks.
     """
-    c = scenario.structure.card_house
-    assert c is not None
     length, _, thick = scenario.brick_type(c.brick).size
     a = math.radians(c.angle)
     half = length * math.sin(a) + thick * math.cos(a)
     height = length * math.cos(a) + thick * math.sin(a)
     spacing = c.spacing or length + 0.002
-    where = ("structure", "card_house", "spacing" if c.spacing else "angle")
+    where = path + ("spacing" if c.spacing else "angle",)
     if c.levels > 1 and spacing <= 2 * half:
         raise scenario.source.error(
             where, f"V's {2 * half * 1000:.1f} mm wide at the base would collide {spacing * 1000:.1f} mm apart"
@@ -158,11 +166,12 @@ def _card_house(scenario: Scenario) -> list[LaidBrick]:
                         yaw,
                         c.angle - 90.0,
                         together=side == 2,
+                        source=path,
                     )
                 )
         for k in range(len(peaks) - 1):
             position = np.array([(peaks[k] + peaks[k + 1]) / 2, y0, base + height + thick / 2])
-            bricks.append(LaidBrick(f"F{2 * row + 2}.{k + 1}", 2 * row + 2, c.brick, position, 0.0))
+            bricks.append(LaidBrick(f"F{2 * row + 2}.{k + 1}", 2 * row + 2, c.brick, position, 0.0, source=path))
     return bricks
 
 
@@ -177,7 +186,7 @@ def lie_flat(bricks: list[LaidBrick]) -> np.ndarray:
     return np.asarray(np.abs(up) > math.cos(math.radians(1.0)))
 
 
-def _wrap(angle: float) -> float:
+def wrap(angle: float) -> float:
     """An angle in degrees wrapped to (-180, 180]."""
     wrapped = math.fmod(angle + 180.0, 360.0)
     return (wrapped + 360.0 if wrapped <= 0 else wrapped) - 180.0

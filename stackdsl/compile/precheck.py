@@ -34,10 +34,11 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..lang.errors import FieldPath
+from ..lang.errors import FieldPath, format_path
 from ..lang.expectations import CollapseLevel, span
 from ..lang.schema import Scenario
 from .overlap import GROUND, OVERLAP_TOLERANCE, REST_TOLERANCE, Body, inspect_bodies
+from .parts import layout_at, part_path
 
 FLOATING = "floating"
 """The ``allow`` entry that silences the floating check."""
@@ -85,7 +86,7 @@ def precheck(scenario: Scenario, bodies: Sequence[Body]) -> tuple[str, ...]:
         if scenario.timing.placement_error > 0:
             first = _blame_placement_error(scenario, bodies, first, allowed)
         # a generator's bricks that miss for one reason are one problem: count one per generator and kind
-        causes = {(key[0], key[1] if bodies[key[1]].path[1] == "bricks" else bodies[key[1]].path) for _, key, _ in found}
+        causes = {(key[0], key[1] if _by_hand(bodies[key[1]].path) else bodies[key[1]].path) for _, key, _ in found}
         raise scenario.source.error(first.path, first.message, more=len(causes) - 1 + len(expectations))
     if expectations:
         first = expectations[0]
@@ -109,9 +110,19 @@ def _at(position: Sequence[float]) -> str:
     return "(" + ", ".join(_millimetres(v) for v in position) + ") mm"
 
 
+def _by_hand(path: FieldPath) -> bool:
+    """Whether a brick's field is one of a bricks list (``("structure", "bricks", 3)``), not a generator."""
+    return len(path) >= 2 and path[-2] == "bricks"
+
+
+def _kind(path: FieldPath) -> str:
+    """The layout that made a brick: ``bricks``, ``tower``, ``card_house``, ``wall``..."""
+    return "bricks" if _by_hand(path) else str(path[-1])
+
+
 def _name(body: Body) -> str:
-    if body.path[:2] == ("structure", "bricks"):
-        return f"brick {body.id!r} (structure.bricks[{body.path[2]}])"
+    if _by_hand(body.path):
+        return f"brick {body.id!r} ({format_path(body.path)})"
     return f"brick {body.id}"
 
 
@@ -122,22 +133,24 @@ def _overlap_problem(scenario: Scenario, bodies: Sequence[Body], b: int, s: int,
     effect = f"reaches {depth * 1000:.2f} mm into {into}"
     what = f"{_name(brick)} placed at {_at(brick.position)} {effect}"
     limit = f"bodies may touch, or overlap by at most {_mm(OVERLAP_TOLERANCE)} (pybullet would push them apart)"
-    if brick.path[1] == "bricks":
+    part = part_path(brick.path)
+    if part is not None and s != GROUND and part_path(bodies[s].path) != part:
+        return _Problem(key, order, _part_field(scenario, part), f"{what}; {limit}: move one of the parts apart", effect)
+    if _by_hand(brick.path):
         fix = f"raise it by {depth * 1000:.2f} mm" if s == GROUND else "move one of them"
         return _Problem(key, order, brick.path + ("at",), f"{what}; {limit}: {fix}", effect)
-    if brick.path[1] == "tower" and s != GROUND:
-        t = scenario.structure.tower
-        assert t is not None
+    if _kind(brick.path) == "tower" and s != GROUND:
+        t = layout_at(scenario, brick.path)
         width = float(scenario.brick_type(t.brick).size[1])
         return _Problem(
             key,
             order,
-            ("structure", "tower", "spacing"),
+            brick.path + ("spacing",),
             f"{what}: the bricks of a layer are {_mm(t.spacing)} apart centre to centre and {_mm(width)} wide; "
             f"use a spacing of at least {_mm(width)}",
             effect,
         )
-    return _Problem(key, order, _generator_field(scenario), f"{what}; {limit}", effect)
+    return _Problem(key, order, _generator_field(scenario, brick.path), f"{what}; {limit}", effect)
 
 
 def _floating_problem(scenario: Scenario, bodies: Sequence[Body], b: int, floating: list[int]) -> _Problem:
@@ -149,7 +162,13 @@ def _floating_problem(scenario: Scenario, bodies: Sequence[Body], b: int, floati
         f"{_name(brick)} rests on nothing when it is placed (t = {brick.time:g} s): no ground, fixture or brick "
         f"placed before it is within {_mm(REST_TOLERANCE)} below it"
     )
-    if brick.path[1] == "bricks":
+    part = part_path(brick.path)
+    first = part is not None and brick.level == min(b.level for b in bodies if part_path(b.path) == part and b.slot >= 0)
+    if part is not None and first and not _by_hand(brick.path):
+        return _Problem(
+            key, order, _part_field(scenario, part), f"{what}: the part's first level rests on nothing; {silence}", effect
+        )
+    if _by_hand(brick.path):
         return _Problem(
             key,
             order,
@@ -158,10 +177,10 @@ def _floating_problem(scenario: Scenario, bodies: Sequence[Body], b: int, floati
             f"list it after that, {silence}",
             effect,
         )
-    if brick.path[1] == "tower":
+    if _kind(brick.path) == "tower":
         path, message = _tower_floating(scenario, bodies, b, floating)
         return _Problem(key, order, path, f"{message}; {silence}", effect)
-    return _Problem(key, order, _generator_field(scenario), f"{what}; {silence}", effect)
+    return _Problem(key, order, _generator_field(scenario, brick.path), f"{what}; {silence}", effect)
 
 
 def _lowest(body: Body) -> float:
@@ -171,15 +190,14 @@ def _lowest(body: Body) -> float:
 
 def _tower_floating(scenario: Scenario, bodies: Sequence[Body], b: int, floating: list[int]) -> tuple[FieldPath, str]:
     """The field to change and the message for a tower whose bricks miss the layer below."""
-    t = scenario.structure.tower
-    assert t is not None
-    length, width = (float(v) for v in scenario.brick_type(t.brick).size[:2])
     brick = bodies[b]
+    t = layout_at(scenario, brick.path)
+    length, width = (float(v) for v in scenario.brick_type(t.brick).size[:2])
     level = [bodies[i].id for i in floating if bodies[i].level == brick.level]
     head = f"level {brick.level} of the tower: {', '.join(level)} rest{'s' * (len(level) == 1)} on nothing when placed"
     square = abs(math.remainder(t.turn, 180.0)) == 90.0
     n = t.bricks_per_layer
-    tower: FieldPath = ("structure", "tower")
+    tower: FieldPath = brick.path
     if square and n > 1 and t.spacing >= (length + width) / (n - 1) - 1e-12:
         limit = (length + width) / (n - 1)
         outer = (n - 1) * t.spacing / 2
@@ -211,10 +229,25 @@ def _tower_floating(scenario: Scenario, bodies: Sequence[Body], b: int, floating
     )
 
 
-def _generator_field(scenario: Scenario) -> FieldPath:
-    """The field of a card house to change (its own checks keep its bricks apart and on the peaks)."""
-    c = scenario.structure.card_house
-    return ("structure", "card_house", "spacing" if c is not None and c.spacing else "angle")
+def _generator_field(scenario: Scenario, path: FieldPath) -> FieldPath:
+    """The field of a generator to change: a card house's spacing or angle (its own checks keep its
+    bricks apart and on the peaks), a wall's or a pyramid's joint, a domino row's spacing or radius."""
+    model = layout_at(scenario, path)
+    kind = _kind(path)
+    if kind == "card_house":
+        return path + ("spacing" if model.spacing else "angle",)
+    if kind == "dominoes":
+        return path + ("radius" if model.radius is not None else "spacing",)
+    return path + ("joint",)
+
+
+def _part_field(scenario: Scenario, part: FieldPath) -> FieldPath:
+    """The field that puts a part where it is: its ``origin`` if given, else its ``on``, else the part."""
+    written = scenario.source.values
+    for field in ("origin", "on"):
+        if part + (field,) in written:
+            return part + (field,)
+    return part
 
 
 def _blame_placement_error(scenario: Scenario, bodies: Sequence[Body], problem: _Problem, allowed: bool) -> _Problem:

@@ -113,6 +113,20 @@ class Fixture(_Frozen):
     roll: float
 
 
+class PartSummary(_Frozen):
+    """One named part of a composed structure, as placed: its layout, what it rests on
+    (``"ground"``, parts' names or a brick's id), its bricks (the first and last ids, how many,
+    fixtures included) and the levels they take."""
+
+    name: str
+    layout: str
+    on: str
+    bricks: int
+    first: str
+    last: str
+    levels: tuple[int, int]
+
+
 class Rule(_Frozen):
     """A rule of the extension mode and whether this scene runs it, with why: the stability
     extension's ``basic``, ``leaning`` and ``impacts`` rules, and ``rigid``, fallen bricks
@@ -151,6 +165,8 @@ class Program(_Frozen):
         actions: time-ordered; the last one is :class:`End`.
         floating: ids of the bricks placed resting on nothing, which the scenario allows
             (``allow: [floating]``); they drop when placed.
+        draws: how many draws of a random scene its sample took to meet ``require:`` (1 without).
+        parts: the named parts of a composed structure, in order (none for a single layout).
     """
 
     name: str
@@ -164,6 +180,8 @@ class Program(_Frozen):
     settle: float
     actions: tuple[Action, ...]
     floating: tuple[str, ...] = ()
+    draws: int = 1
+    parts: tuple[PartSummary, ...] = ()
 
     @property
     def placements(self) -> list[Place]:
@@ -280,6 +298,14 @@ def format_program(program: Program) -> str:
     if e.mode == "extension":
         lines.append(f"  stability model {program.stability.model}")
         lines += [f"  rule {r.name:<8} {'on ' if r.on else 'off'}  {r.reason}" for r in program.rules]
+    for p in program.parts:
+        low, high = p.levels
+        levels = f"level {low}" if low == high else f"levels {low}-{high}"
+        lines.append(
+            f"  part   {p.name:<10} {p.layout:<10} on {p.on}: {p.bricks} brick{'s' * (p.bricks != 1)}, {p.first} to {p.last}, {levels}"
+        )
+    if program.draws > 1:
+        lines.append(f"  require: the sample met its conditions at draw {program.draws}")
     if program.floating:
         lines.append(f"  resting on nothing when placed, allowed (allow: [floating]): {', '.join(program.floating)}")
     for f in program.fixtures:

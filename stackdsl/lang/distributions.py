@@ -185,18 +185,19 @@ def _parse(node: dict[str, Any], path: FieldPath, source: SourceMap) -> Distribu
         raise source.error(at, str(exc)) from None
 
 
-def sample_seed(seed: int, k: int) -> np.random.SeedSequence:
-    """The seed sequence of sample ``k``: the k-th child of ``SeedSequence(seed)``."""
-    return np.random.SeedSequence(seed, spawn_key=(k,))
+def sample_seed(seed: int, k: int, attempt: int = 0) -> np.random.SeedSequence:
+    """The seed sequence of sample ``k``: the k-th child of ``SeedSequence(seed)``; its draw
+    ``attempt`` after the first (a sample redrawn to meet ``require:``), that child's child."""
+    return np.random.SeedSequence(seed, spawn_key=(k,) if attempt == 0 else (k, attempt))
 
 
-def draw(data: dict[str, Any], distributions: list[Distribution], seed: int, k: int) -> dict[str, Any]:
+def draw(data: dict[str, Any], distributions: list[Distribution], seed: int, k: int, attempt: int = 0) -> dict[str, Any]:
     """Sample ``k`` of a scenario: ``data`` (plain, with distributions) with each one drawn.
 
     The sample's own ``seed`` (which the compiler's placement error draws from) is taken from
     the same generator, so every random part of sample ``k`` is the same whoever draws it.
     """
-    rng = np.random.default_rng(sample_seed(seed, k))
+    rng = np.random.default_rng(sample_seed(seed, k, attempt))
     out = copy.deepcopy(data)
     later = []
     for d in distributions:

@@ -19,6 +19,7 @@ import json
 from typing import Any
 
 from .schema import FORMAT_VERSION, Scenario
+from .schema_parts import structure_json_schema
 from .units import Sign, quantity_pattern
 
 SCHEMA_ID = "urn:stackdsl:scenario:1"
@@ -119,6 +120,7 @@ def json_schema() -> dict[str, Any]:
     docstring), it accepts more than the loader. Source: stackdsl's own.
     """
     schema = Scenario.model_json_schema()
+    structure_json_schema(schema)  # a structure is one layout, or a list or map of parts
     schema.pop("title", None)
     schema.pop("description", None)
     # the quantity strings' grammar once each, not at every field

@@ -45,8 +45,9 @@ _SCALAR_TAGS = {f"{_YAML}{t}": t for t in ("str", "int", "float", "bool", "null"
 _READ_AS = {"int": " (an integer)", "float": " (a number)", "bool": " (true or false)"}
 
 
-def load_scenario(path: str | Path) -> Scenario:
-    """Read and validate a scenario file.
+def load_scenario(path: str | Path, seed: int | None = None) -> Scenario:
+    """Read and validate a scenario file; ``seed``, when given, replaces the file's ``seed``
+    (``stackdsl check|run|sweep --seed N``).
 
     Only a regular file (or a symbolic link to one) of at most
     :data:`stackdsl.lang.scenario_file.MAX_FILE_BYTES` is read; anything else is refused before
@@ -60,11 +61,12 @@ def load_scenario(path: str | Path) -> Scenario:
     problem = file_problem(path)
     if problem:
         raise ScenarioError(problem, file=str(path))
-    return parse_scenario(read_text(path), file=str(path))
+    return parse_scenario(read_text(path), file=str(path), seed=seed)
 
 
-def parse_scenario(text: str, file: str = "<scenario>") -> Scenario:
-    """Validate scenario YAML given as text; ``file`` names it in errors.
+def parse_scenario(text: str, file: str = "<scenario>", seed: int | None = None) -> Scenario:
+    """Validate scenario YAML given as text; ``file`` names it in errors; ``seed``, when given,
+    replaces the file's ``seed``.
 
     Raises:
         ScenarioError: as :func:`load_scenario`.
@@ -82,6 +84,8 @@ def parse_scenario(text: str, file: str = "<scenario>") -> Scenario:
     check_characters(text, file)
     source = SourceMap(file, tuple(text.splitlines()))
     data = _read_yaml(text, source)
+    if seed is not None and isinstance(data, dict):
+        data["seed"] = seed
     template = Template.of(data, source)
     if template is not None:
         return template.scenario(0, 0, checked=True)
@@ -192,7 +196,9 @@ def _plain(node: Node, path: FieldPath, loader: _Loader, source: SourceMap, budg
             source.values[path + ("?",)] = where
             raise source.error(path + ("?",), f"keys must be names, got {shown}")
         source.values[path + (key_node.value,)] = where
-        key = _scalar(key_node, path + (key_node.value,), loader, source)
+        # a plain key YAML 1.1 reads as true or false ("on", "yes") is the name as written: keys are names
+        plain_word = key_node.tag == _YAML + "bool" and key_node.style is None
+        key = key_node.value if plain_word else _scalar(key_node, path + (key_node.value,), loader, source)
         if key == "<<":
             raise source.error(path + ("<<",), "merge keys ('<<') are not supported; write the fields out")
         if not isinstance(key, str):

@@ -132,38 +132,41 @@ class Template:
             )
         return dataclasses.replace(self, samples=samples)
 
-    def _data(self, c: int, k: int) -> dict[str, Any]:
-        """Cell ``c``'s sample ``k`` as plain data: grid values put in, distributions drawn."""
+    def _data(self, c: int, k: int, attempt: int = 0) -> dict[str, Any]:
+        """Cell ``c``'s sample ``k`` as plain data: grid values put in, distributions drawn (draw
+        ``attempt`` of the sample: see :func:`stackdsl.lang.distributions.sample_seed`)."""
         data = copy.deepcopy(self.data)
         values = self.cell(c)
         for path, key, _ in self.grid:
             _put(data, path, values[key])
         grid_paths = [path for path, _, _ in self.grid]
         drawn = [d for d in self.distributions if not any(d.path[: len(p)] == p for p in grid_paths)]
-        return draw(data, drawn, self.seed, k)
+        return draw(data, drawn, self.seed, k, attempt)
 
-    def scenario(self, c: int, k: int, *, checked: bool = False) -> Scenario:
+    def scenario(self, c: int, k: int, *, checked: bool = False, attempt: int = 0) -> Scenario:
         """The validated scenario of cell ``c``'s sample ``k``; with ``checked``, every value each
         distribution and grid field can give is validated first (the file's own check).
 
         Raises:
             ScenarioError: a sample or a value is refused by its field, at the distribution or
                 grid value that gave it; an unknown grid cell.
+
+        ``attempt`` > 0 draws the sample again (a sample that failed ``require:``).
         """
 
         if checked:
             self._check_values()
         note = f"sample {k}" + (f" of grid cell {c} ({_shown(self.cell(c))})" if self.grid else "")
-        scenario = validate(self._data(c, k), self.source, self._blame(c), note)
+        scenario = validate(self._data(c, k, attempt), self.source, self._blame(c), note)
         scenario._template = self
         scenario._sample = (c, k)
         return scenario
 
-    def parameters(self, c: int, k: int) -> dict[str, Any]:
-        """What cell ``c``'s sample ``k`` drew and took from the grid: field -> value, each a
-        number of the unit its distribution or grid field is written in (a list for a tower's
-        per-layer or per-brick draws)."""
-        data = self._data(c, k)
+    def parameters(self, c: int, k: int, attempt: int = 0) -> dict[str, Any]:
+        """What cell ``c``'s sample ``k`` (its draw ``attempt``) drew and took from the grid: field
+        -> value, each a number of the unit its distribution or grid field is written in (a list
+        for a tower's per-layer or per-brick draws)."""
+        data = self._data(c, k, attempt)
         out: dict[str, Any] = dict(self.cell(c))
         grid_paths = [path for path, _, _ in self.grid]
         for d in self.distributions:
@@ -244,7 +247,7 @@ def _grid_field(key: str, values: list[Any], source: SourceMap) -> tuple[FieldPa
 
     path: FieldPath = tuple(int(part) if part.isdigit() else part for part in key.split("."))
     for i, part in enumerate(path):
-        allowed = fields_at(path[:i]) if isinstance(part, str) else []
+        allowed = fields_at(path[:i]) if isinstance(part, str) and path[:i] != ("structure",) else []  # or a part's name
         if allowed and part not in allowed:
             raise source.error(
                 ("sweep", "grid", key),

@@ -32,36 +32,32 @@ from pydantic_core import InitErrorDetails, PydanticCustomError
 
 from .bounds import (
     MAX_BRICKS,
-    MAX_LEVELS,
-    BoundedAngle,
     BoundedDensity,
     CollapseThreshold,
     Number,
-    Offset,
-    PeakSpacing,
     RestAngularSpeed,
     RestSpeed,
     Side,
-    Spacing,
     StrictModel,
-    Vector2,
-    Vector3,
 )
 from .errors import SourceMap
 from .expectations import Expect
 from .grammar import (
     WHOLE,
-    AlsoAccepts,
     given,
     whole,
 )
+from .schema_generators import HALF, Dominoes, Pyramid, Wall
 from .schema_impacts import Impact
+from .schema_layouts import BrickPlacement, CardHouse, Tower
+from .schema_parts import LAYOUTS, RESERVED, Parts, as_parts, named_parts
+from .schema_require import Requirement
 from .schema_sweep import Sweep
 from .units import (
-    Angle,
     Length,
     Time,
 )
+from .yaml_out import yaml_text
 
 FORMAT_VERSION = 1
 
@@ -87,106 +83,12 @@ BUILTIN_MATERIALS = {"pine": Material()}
 BUILTIN_BRICKS = {"kapla": BrickType()}
 
 
-def _shift(value: Any) -> Any:
-    """A per-layer shift: one length (along x) or an (x, y) pair."""
-    return value if isinstance(value, (list, tuple)) else (value, 0.0)
-
-
-Shift = Annotated[
-    tuple[Offset, Offset],
-    BeforeValidator(_shift),
-    AlsoAccepts((Offset,), "one length (along x) or an (x, y) pair, each within 10 m"),
-]
-
-
-class Tower(StrictModel):
-    """A layered tower: ``bricks_per_layer`` parallel bricks ``spacing`` apart (centre to
-    centre), each layer turned by ``turn`` degrees and moved by ``shift`` from the one below.
-
-    Two bricks a layer turned 90 deg is the report's 4 stack; a shift makes it a slant tower.
-    ``shifts`` gives each layer above the first its own shift from the layer below (a random
-    walk when drawn ``per: layer``); ``yaw_jitter`` turns each brick by that many degrees
-    more (one number for all, or one a brick), its position unchanged.
-    ``turn`` and ``yaw`` are degrees within +-3600 (ten turns, :data:`MAX_ANGLE`; not folded);
-    ``spacing`` and each part of ``shift`` at most 10 m (no brick is longer), ``origin`` within 1 km.
-    """
-
-    brick: str = "kapla"
-    levels: Annotated[int, Field(ge=1, le=MAX_LEVELS), WHOLE]
-    bricks_per_layer: Annotated[int, Field(ge=1, le=50), WHOLE] = 2
-    spacing: Spacing = 0.096
-    turn: BoundedAngle = 90.0
-    shift: Shift = (0.0, 0.0)
-    shifts: Annotated[list[Shift], Field(max_length=MAX_LEVELS - 1)] | None = None
-    origin: Vector2 = (0.0, 0.0)
-    yaw: BoundedAngle = 0.0
-    yaw_jitter: BoundedAngle | Annotated[list[BoundedAngle], Field(max_length=MAX_BRICKS)] = 0.0
-
-    @model_validator(mode="after")
-    def _per_layer_and_brick(self) -> Tower:
-        if self.shifts is not None:
-            if any(self.shift):
-                raise ValueError("give 'shift' (every layer alike) or 'shifts' (one a layer), not both")
-            if len(self.shifts) != self.levels - 1:
-                raise ValueError(
-                    f"'shifts' has one shift a layer above the first: {self.levels - 1} for {self.levels} levels, not {len(self.shifts)}"
-                )
-        if isinstance(self.yaw_jitter, list) and len(self.yaw_jitter) != self.levels * self.bricks_per_layer:
-            bricks = self.levels * self.bricks_per_layer
-            raise ValueError(f"a 'yaw_jitter' list has one angle a brick: {bricks}, not {len(self.yaw_jitter)}")
-        return self
-
-    def layer_shift(self, level: int) -> tuple[float, float]:
-        """Where level ``level``'s centre is from ``origin``, m: the sum of the shifts below it."""
-        if self.shifts is None:
-            return (level - 1) * self.shift[0], (level - 1) * self.shift[1]
-        below = self.shifts[: level - 1]
-        return sum(x for x, _ in below), sum(y for _, y in below)
-
-    def jitter(self, index: int) -> float:
-        """Degrees added to brick ``index``'s yaw (bricks counted from 0, level 1 first)."""
-        return self.yaw_jitter[index] if isinstance(self.yaw_jitter, list) else self.yaw_jitter
-
-
-class BrickPlacement(StrictModel):
-    """One brick placed by hand: centre position ``at`` (each coordinate within 1 km), yaw/pitch/roll
-    in degrees within +-3600 (ten turns, :data:`MAX_ANGLE`; not folded).
-
-    ``fixed: true`` makes it part of the environment (a wall, a ramp): it is in the world
-    from the start, immovable, and not part of the structure. ``together: true`` places
-    it at the same moment as the brick before it (the two bricks of a V).
-    """
-
-    id: Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]{1,40}$")] | None = None
-    brick: str = "kapla"
-    at: Vector3
-    yaw: BoundedAngle = 0.0
-    pitch: BoundedAngle = 0.0
-    roll: BoundedAngle = 0.0
-    level: Annotated[int, Field(ge=1, le=MAX_LEVELS), WHOLE] | None = None
-    fixed: StrictBool = False
-    together: StrictBool = False
-
-
-class CardHouse(StrictModel):
-    """A card house: rows of inverted V's (two bricks leaning on each other at ``angle``
-    degrees from vertical), a flat brick across the peaks of every two neighbouring V's,
-    a V on every flat brick, up to a single V: a pyramid with ``levels`` V's at its base.
-    ``spacing`` is the distance between neighbouring peaks (default: the V's width + 2 mm), at most
-    10 m; ``angle`` is in degrees, above 0 and below 60.
-    """
-
-    brick: str = "kapla"
-    levels: Annotated[int, Field(ge=1, le=50), WHOLE]
-    angle: Annotated[Angle, Field(gt=0, lt=60)] = 20.0
-    spacing: PeakSpacing | None = None
-    origin: Vector2 = (0.0, 0.0)
-
-
 class Structure(StrictModel):
-    """What is built: a ``tower``, a ``card_house`` or a list of ``bricks`` (exactly one)."""
+    """What is built: exactly one layout (a ``tower``, a ``card_house``, a list of ``bricks``, a
+    ``wall``, a ``pyramid`` or ``dominoes``), or ``parts``: a list or map of named parts, each
+    one layout (:mod:`stackdsl.lang.schema_parts`; written as the structure itself, a list or a map)."""
 
-    model_config = ConfigDict(json_schema_extra={"oneOf": [given("tower"), given("card_house"), given("bricks")]})
+    model_config = ConfigDict(json_schema_extra={"oneOf": [given(name) for name in LAYOUTS]})
 
     tower: Tower | None = None
     card_house: CardHouse | None = None
@@ -198,17 +100,44 @@ class Structure(StrictModel):
             "contains": {"not": {"required": ["fixed"], "properties": {"fixed": {"const": True}}}},
         },
     )
+    wall: Annotated[
+        Wall | None, Field(description="a wall in running bond", examples=[{"courses": 4, "bricks_per_course": 3}])
+    ] = None
+    pyramid: Annotated[Pyramid | None, Field(description="a stepped pyramid", examples=[{"base": 4}])] = None
+    dominoes: Annotated[Dominoes | None, Field(description="a row of dominoes", examples=[{"count": 30}])] = None
+    parts: Parts | None = None
+
+    _as_parts = model_validator(mode="before")(as_parts)
 
     @model_validator(mode="after")
     def _one_layout(self) -> Structure:
-        if sum(x is not None for x in (self.tower, self.card_house, self.bricks)) != 1:
-            raise ValueError("give exactly one of 'tower', 'card_house' or 'bricks'")
+        if sum(getattr(self, name) is not None for name in (*LAYOUTS, "parts")) != 1:
+            raise ValueError(f"give exactly one of {', '.join(repr(n) for n in LAYOUTS)}, or a list of parts")
+        if isinstance(self.parts, dict) and RESERVED & set(self.parts):
+            raise ValueError(f"{sorted(RESERVED & set(self.parts))[0]!r} is a key of the structure; give the part another name")
         if self.bricks is not None:
             if self.bricks[0].together:
                 raise ValueError("the first brick has no brick before it to be placed 'together' with")
             if all(b.fixed for b in self.bricks):
                 raise ValueError("every brick is fixed: there is nothing to build")
         return self
+
+    @property
+    def layout_name(self) -> str | None:
+        """The single layout's name (one of :data:`LAYOUTS`), or None for parts."""
+        return next((name for name in LAYOUTS if getattr(self, name) is not None), None)
+
+    def brick_names(self) -> set[str]:
+        """The brick types of the structure's bricks (not fixtures)."""
+        layouts = (
+            [p.layout for _, _, p in named_parts(self.parts)]
+            if self.parts is not None
+            else [getattr(self, self.layout_name or "")]
+        )
+        names: set[str] = set()
+        for layout in layouts:
+            names |= {b.brick for b in layout if not b.fixed} if isinstance(layout, list) else {layout.brick}
+        return names
 
 
 class Timing(StrictModel):
@@ -309,6 +238,13 @@ class Scenario(StrictModel):
     # checks before simulating that this scene silences: "floating" lets bricks be placed resting on nothing
     allow: list[Literal["floating"]] = []
     sweep: Sweep | None = None
+    require: Annotated[list[Requirement], Field(max_length=50)] = Field(
+        default=[],
+        description="conditions a sample's draws must meet before it runs (else it is drawn again): fields of the "
+        "scene by path and overhang, max_overhang, com_offset, gap, levels, bricks; numbers with units; "
+        "comparisons, and, or, not",
+        examples=[["overhang >= 10 mm", "com_offset < 50 mm and gap > 1 mm"]],
+    )
 
     @model_validator(mode="after")
     def _expectations_fit_the_sweep(self) -> Scenario:
@@ -356,8 +292,7 @@ class Scenario(StrictModel):
     def _thinnest_half_side(self) -> float | None:
         """Half the thinnest side of the structure's bricks (not fixtures), the default collapse
         threshold, m; None if they name no brick type known yet (the loader reports the name)."""
-        layout = self.structure.tower or self.structure.card_house
-        names = {layout.brick} if layout else {b.brick for b in self.structure.bricks or [] if not b.fixed}
+        names = self.structure.brick_names()
         types = {**BUILTIN_BRICKS, **self.brick_types}
         sides = [min(types[n].size) for n in names if n in types]
         return min(sides) / 2 if sides and len(sides) == len(names) else None
@@ -378,10 +313,26 @@ class Scenario(StrictModel):
         """(grid cell, sample index) of this scenario in its file's sweep; (0, 0) otherwise."""
         return self._sample
 
+    def to_yaml(self) -> str:
+        """This scenario as a YAML file that reads back to it (:mod:`stackdsl.lang.yaml_out`): SI
+        numbers, fields at their defaults left out, parts as written; a scenario of a random file
+        or a sweep as that file's data, distributions and all."""
+        if self.template is not None:
+            return yaml_text(dict(self.template.data))
+        data = self.model_dump(mode="json", exclude_defaults=True)
+        if "parts" in data.get("structure", {}):
+            data["structure"] = data["structure"]["parts"]
+        return yaml_text(data)
+
     def material(self, name: str) -> Material:
         """A declared or built-in material. Raises KeyError for an unknown name."""
         return {**BUILTIN_MATERIALS, **self.materials}[name]
 
     def brick_type(self, name: str) -> BrickType:
-        """A declared or built-in brick type. Raises KeyError for an unknown name."""
-        return {**BUILTIN_BRICKS, **self.brick_types}[name]
+        """A declared or built-in brick type, or ``NAME/2``: brick type NAME cut to half its length
+        (a wall's closers). Raises KeyError for an unknown name."""
+        types = {**BUILTIN_BRICKS, **self.brick_types}
+        if name not in types and name.endswith(HALF) and name.removesuffix(HALF) in types:
+            whole = types[name.removesuffix(HALF)]
+            return whole.model_copy(update={"size": (whole.size[0] / 2, *whole.size[1:])})
+        return types[name]

@@ -21,7 +21,8 @@ from pydantic_core import ErrorDetails
 from .bounds import MAX_BRICKS
 from .errors import FieldPath, ScenarioError, SourceMap
 from .expectations import CollapseLevel, CollapseStatistic
-from .schema import BUILTIN_BRICKS, BUILTIN_MATERIALS, Scenario
+from .schema import BUILTIN_BRICKS, BUILTIN_MATERIALS, Scenario, Structure
+from .schema_parts import Part, check_parts, named_parts
 
 
 def first_error(
@@ -88,11 +89,15 @@ def shown(value: Any, limit: int = 60) -> str:
 #: tag in an error's location (``expect.collapse.statistic.mean``); the file has no node for it.
 _TAGGED: dict[FieldPath, dict[str, type[BaseModel]]] = {
     ("expect", "collapse"): {"level": CollapseLevel, "statistic": CollapseStatistic},
+    ("structure", "parts"): {"list": Part, "map": Part},
 }
 
 
 def _untagged(loc: FieldPath) -> FieldPath:
-    """A pydantic location without the tags of :data:`_TAGGED` unions: the field as written."""
+    """A pydantic location without the tags of :data:`_TAGGED` unions: the field as written
+    (the parts of a structure, kept in its ``parts`` field, are written as the structure itself)."""
+    if loc[:2] == ("structure", "parts") and len(loc) > 2 and loc[2] in ("list", "map"):
+        loc = ("structure",) + loc[3:]
     for where, tags in _TAGGED.items():
         n = len(where)
         if loc[:n] == where and len(loc) > n and loc[n] in tags:
@@ -107,6 +112,9 @@ def fields_at(loc: FieldPath) -> list[str]:
         tags = _TAGGED.get(tuple(loc[:i]), {})
         if isinstance(seg, str) and seg in tags:
             model = tags[seg]
+            continue
+        if model is Structure and (isinstance(seg, int) or seg not in Structure.model_fields):
+            model = Part  # a part as written: structure[0] or structure.left
             continue
         if not (isinstance(model, type) and issubclass(model, BaseModel)) or seg not in model.model_fields:
             continue
@@ -148,16 +156,25 @@ def reference_errors(s: Scenario) -> list[tuple[FieldPath, str]]:
         problems.append(
             (("ground", "material"), f"unknown material {s.ground.material!r}; known: {', '.join(sorted(materials))}")
         )
-    if s.structure.tower:
-        brick(("structure", "tower", "brick"), s.structure.tower.brick)
-    if s.structure.card_house:
-        brick(("structure", "card_house", "brick"), s.structure.card_house.brick)
-    for i, b in enumerate(s.structure.bricks or []):
-        brick(("structure", "bricks", i, "brick"), b.brick)
-    ids = [b.id for b in s.structure.bricks or [] if b.id] + [imp.id for imp in s.impacts if imp.id]
-    for i, b in enumerate(s.structure.bricks or []):
-        if b.id and ids.count(b.id) > 1:
-            problems.append((("structure", "bricks", i, "id"), f"brick id {b.id!r} is used more than once"))
+    structure = s.structure
+    layouts: list[tuple[FieldPath, Any]] = (
+        [(path + (part.kind,), part.layout) for _, path, part in named_parts(structure.parts)]
+        if structure.parts is not None
+        else [(("structure", structure.layout_name or ""), getattr(structure, structure.layout_name or ""))]
+    )
+    if structure.parts is not None:
+        problems += check_parts(structure.parts)
+    impact_ids = [imp.id for imp in s.impacts if imp.id]
+    for where, layout in layouts:
+        if not isinstance(layout, list):
+            brick(where + ("brick",), layout.brick)
+            continue
+        for i, b in enumerate(layout):
+            brick(where + (i, "brick"), b.brick)
+        ids = [b.id for b in layout if b.id] + impact_ids  # a part's ids are prefixed by its name: unique among parts
+        for i, b in enumerate(layout):
+            if b.id and ids.count(b.id) > 1:
+                problems.append((where + (i, "id"), f"brick id {b.id!r} is used more than once"))
     for i, imp in enumerate(s.impacts):
         brick(("impacts", i, "projectile"), imp.projectile)
     n_bricks = s.structure.tower.levels * s.structure.tower.bricks_per_layer if s.structure.tower else 0

@@ -8,11 +8,13 @@ graph"). Source: stackdsl's own.
 
 from __future__ import annotations
 
+import math
+import warnings
 from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict
 
-from stability import BrickGraph
+from stability import BrickGraph, Pose
 
 Vec3 = tuple[float, float, float]
 
@@ -129,7 +131,7 @@ class Graph(_Frozen):
                 level=levels.get(n.label),
                 state=n.state.value,
                 position_mm=_mm(n.pose.position),
-                yaw_pitch_roll_deg=_degrees(n.pose.euler_degrees()),
+                yaw_pitch_roll_deg=_degrees(_euler(n.pose)),
                 com_above_mm=_mm(n.com_above),
                 mass_above_g=_round(n.mass_above * 1000, 1),
             )
@@ -249,6 +251,18 @@ def _round(x: float, digits: int) -> float:
 def _mm(v: Any) -> Vec3:
     x, y, z = (_round(c * 1000, 1) for c in v)
     return x, y, z
+
+
+def _euler(pose: Pose) -> tuple[float, float, float]:
+    """A pose's yaw, pitch and roll, degrees. On end (pitch within 0.05 deg of +-90, a domino)
+    only yaw - roll (at +90) or yaw + roll (at -90) is defined, and the engine's reading splits it
+    at random: it is given as the yaw, with roll 0 (stackdsl's own convention)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # scipy's gimbal-lock warning: handled below
+        yaw, pitch, roll = (float(a) for a in pose.euler_degrees())
+    if abs(pitch) > 89.95:
+        yaw, roll = math.remainder(yaw - roll if pitch > 0 else yaw + roll, 360.0), 0.0
+    return yaw, pitch, roll
 
 
 def _degrees(angles: Any) -> Vec3:

@@ -1,0 +1,193 @@
+"""A structure's bricks, of one layout or composed of named parts, where the scene puts them.
+
+A part's bricks are generated in its layout's own frame (:mod:`stackdsl.compile.layouts`,
+:mod:`stackdsl.compile.generators`), then turned by the part's ``yaw`` about its origin, moved
+to its ``origin`` and lifted onto what it rests on:
+
+* ``on: PART`` (or a list of parts, written before it): the part's z = 0 is the highest top of
+  their bricks, and its levels count on from their highest level;
+* ``on: PART.ID`` (a brick of such a part): z = 0 is that brick's top, levels count on from its
+  level, and the origin is the brick's centre unless given;
+* nothing: the ground, level 1 its first.
+
+So levels count from the ground across parts: a card house on a 5-level tower starts at
+level 6. Bricks keep their order, part after part (a part with ``interleave: true`` is placed level by
+level with the part before it instead, each level in part order); each id is prefixed by its part's name
+(``left.L05.2``).
+
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from stability import Box
+
+from ..lang.bounds import MAX_BRICKS
+from ..lang.errors import FieldPath
+from ..lang.schema import Scenario
+from ..lang.schema_parts import Part, check_parts, named_parts
+from .generators import dominoes, pyramid, wall
+from .layouts import LaidBrick, by_hand, card_house, tower, wrap
+from .program import PartSummary
+
+
+def generate(scenario: Scenario, kind: str, model: Any, path: FieldPath) -> list[LaidBrick]:
+    """The bricks of one layout ``model`` of ``kind`` (a :data:`~stackdsl.lang.schema_parts.LAYOUTS`
+    name) written at ``path``, in its own frame, each with ``source`` set to the field that made it."""
+    if kind == "bricks":
+        return by_hand(scenario, model, path)
+    if kind == "tower":
+        return [replace(b, source=path) for b in tower(scenario, model)]
+    makers: dict[str, Callable[[Scenario, Any, FieldPath], list[LaidBrick]]] = {
+        "card_house": card_house,
+        "wall": wall,
+        "pyramid": pyramid,
+        "dominoes": dominoes,
+    }
+    return makers[kind](scenario, model, path)
+
+
+def arrange(scenario: Scenario) -> list[LaidBrick]:
+    """The structure's bricks (fixtures included) in placement order, with levels and ids.
+
+    Raises:
+        ScenarioError: a generator's own check fails, ``on`` names a part not before it or a brick
+            that is not there, parts are unnamed or named alike, or the parts have more than
+            :data:`~stackdsl.lang.bounds.MAX_BRICKS` bricks together.
+    """
+    structure = scenario.structure
+    if structure.parts is None:
+        kind = structure.layout_name
+        assert kind is not None
+        return generate(scenario, kind, getattr(structure, kind), ("structure", kind))
+    problems = check_parts(structure.parts)  # a file's were refused when read; a scenario built in Python's here
+    if problems:
+        raise scenario.source.error(*problems[0], more=len(problems) - 1)
+    bricks: list[LaidBrick] = []
+    tops: dict[str, tuple[float, int]] = {}  # part -> (top height, m; highest level)
+    placed: dict[str, LaidBrick] = {}
+    groups: list[int] = []  # each part's group: its own index, or its group's when interleaved
+    counts: list[int] = []
+    for name, path, part in named_parts(structure.parts):
+        local = generate(scenario, part.kind, part.layout, path + (part.kind,))
+        base, level, origin = _support(scenario, part, path, tops, placed)
+        moved = _moved(local, name, origin, part.yaw, base, level)
+        standing = [b for b in moved if not b.fixed]
+        tops[name] = (max((_top(scenario, b) for b in standing), default=base), max((b.level for b in standing), default=level))
+        placed.update((b.id, b) for b in moved)
+        bricks += moved
+        if len(bricks) > MAX_BRICKS:
+            raise scenario.source.error(
+                path, f"the parts up to this one have {len(bricks)} bricks; at most {MAX_BRICKS} are allowed"
+            )
+        groups.append(groups[-1] if part.interleave and groups else len(groups))
+        counts.append(len(moved))
+    return _interleaved(bricks, groups, counts)
+
+
+def _interleaved(bricks: list[LaidBrick], groups: list[int], counts: list[int]) -> list[LaidBrick]:
+    """``bricks`` (part after part, ``counts`` of them each) in placement order: the parts of one
+    group (a part and those interleaved with it) level by level, each level in part order."""
+    out: list[LaidBrick] = []
+    start = 0
+    for group in sorted(set(groups)):
+        members = [i for i, g in enumerate(groups) if g == group]
+        size = sum(counts[i] for i in members)
+        chunk = bricks[start : start + size]
+        part_of = [i for i in members for _ in range(counts[i])]
+        order = sorted(range(size), key=lambda j: (chunk[j].level, part_of[j], j))
+        out += [chunk[j] for j in order]
+        start += size
+    return out
+
+
+def summaries(scenario: Scenario, bricks: list[LaidBrick]) -> tuple[PartSummary, ...]:
+    """What ``stackdsl compile`` shows of each named part: its layout, support, ids and levels."""
+    if scenario.structure.parts is None:
+        return ()
+    out = []
+    for name, _, part in named_parts(scenario.structure.parts):
+        own = [b for b in bricks if b.id.startswith(name + ".")]
+        standing = [b.level for b in own if not b.fixed] or [0]
+        on = "ground" if part.on is None else part.on if isinstance(part.on, str) else ", ".join(part.on)
+        out.append(
+            PartSummary(
+                name=name,
+                layout=part.kind,
+                on=on,
+                bricks=len(own),
+                first=own[0].id,
+                last=own[-1].id,
+                levels=(min(standing), max(standing)),
+            )
+        )
+    return tuple(out)
+
+
+def _support(
+    scenario: Scenario, part: Part, path: FieldPath, tops: dict[str, tuple[float, int]], placed: dict[str, LaidBrick]
+) -> tuple[float, int, tuple[float, float]]:
+    """(height of the part's z = 0, m; the level below its first; its origin) from its ``on``."""
+    origin = part.origin or (0.0, 0.0)
+    if part.on is None:
+        return 0.0, 0, origin
+    if isinstance(part.on, str) and "." in part.on:
+        brick = placed.get(part.on)
+        if brick is None or brick.fixed:
+            head = part.on.split(".", 1)[0]
+            ids = [i for i in placed if i.startswith(head + ".") and not placed[i].fixed]
+            shown = f"{ids[0]} to {ids[-1]}" if len(ids) > 1 else ", ".join(ids) or "none"
+            raise scenario.source.error(path + ("on",), f"part {head!r} has no brick {part.on!r}: its bricks are {shown}")
+        centre = (float(brick.position[0]), float(brick.position[1]))
+        return _top(scenario, brick), brick.level, part.origin or centre
+    names = [part.on] if isinstance(part.on, str) else part.on
+    return max(tops[n][0] for n in names), max(tops[n][1] for n in names), origin
+
+
+def _moved(
+    local: list[LaidBrick], name: str, origin: tuple[float, float], yaw: float, base: float, level: int
+) -> list[LaidBrick]:
+    """``local`` turned by ``yaw`` degrees about z, moved to ``origin`` and up by ``base``, its levels
+    raised by ``level`` (fixtures stay at level 0), its ids prefixed by ``name``."""
+    c, s = math.cos(math.radians(yaw)), math.sin(math.radians(yaw))
+    turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    shift = np.array([origin[0], origin[1], base])
+    return [
+        replace(
+            b,
+            id=f"{name}.{b.id}",
+            level=b.level if b.fixed else b.level + level,
+            position=turn @ b.position + shift,
+            yaw=wrap(b.yaw + yaw),
+        )
+        for b in local
+    ]
+
+
+def _top(scenario: Scenario, brick: LaidBrick) -> float:
+    """The height of a brick's highest corner, m."""
+    box = Box(np.array(scenario.brick_type(brick.type).size) / 2, 1.0)
+    return float(box.corners(brick.pose())[:, 2].max())
+
+
+def layout_at(scenario: Scenario, path: FieldPath) -> Any:
+    """The layout (a generator's model, or a bricks list) that made a brick whose ``source`` is
+    ``path``: ``("structure", "tower")``, ``("structure", "left", "wall")``, ``("structure", 0,
+    "bricks", 3)``..."""
+    structure = scenario.structure
+    if structure.parts is None:
+        return getattr(structure, str(path[1]))
+    part: Part = structure.parts[path[1]]  # type: ignore[index]
+    return getattr(part, str(path[2]))
+
+
+def part_path(path: FieldPath) -> FieldPath | None:
+    """The part a brick's ``source`` is in (``("structure", "left")``), or None outside parts."""
+    return path[:2] if len(path) >= 3 and path[2] in ("tower", "card_house", "bricks", "wall", "pyramid", "dominoes") else None

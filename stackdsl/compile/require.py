@@ -1,0 +1,196 @@
+"""A scenario's ``require:``: conditions a sample's draws must meet, checked before simulating.
+
+Each condition (:mod:`stackdsl.lang.expressions`) reads the scene's fields by their path
+(``timing.placement_error``, ``structure.tower.spacing``, ``structure.tower.shift.0``,
+``structure.left.tower.levels`` for a part) and these quantities of the bricks where the program
+puts them (placement error included), all in metres:
+
+* ``overhang``: how far the top level's centre (the mean of its bricks' centres) lies from the
+  centre of the level below, horizontally;
+* ``max_overhang``: the largest such distance between a level and the one below it;
+* ``com_offset``: the largest horizontal distance, over the levels L and every level T above it
+  (the top while it is built), from the centre of mass of levels L + 1 to T to the centre of
+  level L (a single-file stack of bricks of length l stands while it is built when this is
+  below l / 2: the harmonic-stack condition at every stage);
+* ``gap``: the smallest horizontal gap between two bricks of one level (their footprints), or
+  infinity when no level has two bricks;
+* ``levels``, ``bricks``: how many levels and bricks are built.
+
+A random scene's sample ``k`` is its first draw that meets every condition: draw ``j`` of sample
+``k`` comes from ``SeedSequence(seed, spawn_key=(k,))`` for j = 0 (as without ``require``) and
+``spawn_key=(k, j)`` after, so it is a function of (seed, k) whoever draws it; after
+:data:`MAX_DRAWS` draws that all fail, the file is refused at the condition that failed most.
+
+Source: stackdsl's own (rejection sampling as in Scenic: Fremont et al., PLDI 2019).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections import Counter
+from typing import Any
+
+import numpy as np
+from shapely import Polygon, STRtree
+
+from stability import Box
+
+from ..lang.errors import ScenarioError
+from ..lang.expressions import Condition, parse
+from ..lang.schema import Scenario
+from ..lang.schema_parts import named_parts
+from ..lang.validation_errors import fields_at
+from .layouts import LaidBrick, with_placement_error
+from .parts import arrange
+
+MAX_DRAWS = 1000
+"""Draws a sample may take to meet its conditions; more is a ScenarioError."""
+DERIVED = ("overhang", "max_overhang", "com_offset", "gap", "levels", "bricks")
+
+
+def accept(scenario: Scenario) -> tuple[Scenario, int]:
+    """The sample to run for ``scenario`` and how many draws it took (1 without ``require``).
+
+    A random scene's sample is redrawn (attempt 1, 2, ...) until its conditions hold.
+
+    Raises:
+        ScenarioError: a condition names an unknown field or quantity (at it); a scene that is
+            not random fails a condition; no draw of :data:`MAX_DRAWS` meets them.
+    """
+    if not scenario.require:
+        return scenario, 1
+    conditions = [parse(text) for text in scenario.require]
+    _check_names(scenario, conditions)
+    wanted = {name for c in conditions for name in c.names}
+    template = scenario.template
+    failed: Counter[int] = Counter()
+    for attempt in range(MAX_DRAWS if template is not None else 1):
+        candidate = scenario if attempt == 0 else template.scenario(*scenario.sample, attempt=attempt)
+        values = quantities(candidate, wanted)
+        broken = next((i for i, c in enumerate(conditions) if not c.holds(values)), None)
+        if broken is None:
+            return candidate, attempt + 1
+        failed[broken] += 1
+        if template is None:
+            shown = ", ".join(f"{n} = {_shown(values[n])}" for n in conditions[broken].names)
+            raise scenario.source.error(("require", broken), f"the scene does not meet it ({shown}); it is not random")
+    worst, count = failed.most_common(1)[0]
+    c, k = scenario.sample
+    raise scenario.source.error(
+        ("require", worst),
+        f"sample {k}{f' of grid cell {c}' if template is not None and template.grid else ''}: none of "
+        f"{MAX_DRAWS} draws met every condition ({count} failed this one); widen the distributions or the condition",
+    )
+
+
+def quantities(scenario: Scenario, wanted: set[str] | None = None) -> dict[str, float]:
+    """Every name a condition may read: the derived quantities (module docstring; only those in
+    ``wanted`` when given, as ``gap`` compares every pair of bricks of a level) and each numeric
+    field of the scene, by path (``timing.interval``), in SI units and degrees."""
+    values = {}
+    derived = set(DERIVED) if wanted is None else set(DERIVED) & wanted
+    if derived:
+        bricks = [b for b in with_placement_error(scenario, arrange(scenario)) if not b.fixed]
+        values = {k: v for k, v in _derived(scenario, bricks, "gap" in derived).items() if k in derived}
+    _fields(scenario.model_dump(exclude={"expect", "sweep", "require"}), "", values)
+    if scenario.structure.parts is not None:  # a part's fields by its name
+        for name, _, part in named_parts(scenario.structure.parts):
+            _fields(part.model_dump(), f"structure.{name}.", values)
+    return values
+
+
+def _fields(data: Any, prefix: str, out: dict[str, float]) -> None:
+    if isinstance(data, bool) or data is None:
+        return
+    if isinstance(data, (int, float)):
+        out[prefix.rstrip(".")] = float(data)
+    elif isinstance(data, dict):
+        for key, value in data.items():
+            _fields(value, f"{prefix}{key}.", out)
+    elif isinstance(data, (list, tuple)):
+        for i, value in enumerate(data):
+            _fields(value, f"{prefix}{i}.", out)
+
+
+def _derived(scenario: Scenario, bricks: list[LaidBrick], gap: bool) -> dict[str, float]:
+    if not bricks:
+        return dict.fromkeys(DERIVED, 0.0)
+    levels = sorted({b.level for b in bricks})
+    by_level = {level: [b for b in bricks if b.level == level] for level in levels}
+    centres = {level: np.mean([b.position[:2] for b in bs], axis=0) for level, bs in by_level.items()}
+    steps = [float(np.linalg.norm(centres[hi] - centres[lo])) for lo, hi in itertools.pairwise(levels)]
+    mass = np.array([sum(_mass(scenario, b) for b in by_level[level]) for level in levels])
+    moment = np.array([sum(_mass(scenario, b) * b.position[:2] for b in by_level[level]) for level in levels])
+    offsets = []
+    for i, level in enumerate(levels[:-1]):  # what lies on level i while each level above it is the top
+        com = np.cumsum(moment[i + 1 :], axis=0) / np.cumsum(mass[i + 1 :])[:, None]
+        offsets.append(float(np.linalg.norm(com - centres[level], axis=1).max()))
+    gaps = [_gap(scenario, bs) for bs in by_level.values() if gap and len(bs) > 1]
+    return {
+        "overhang": steps[-1] if steps else 0.0,
+        "max_overhang": max(steps, default=0.0),
+        "com_offset": max(offsets, default=0.0),
+        "gap": min(gaps, default=math.inf),
+        "levels": float(len(levels)),
+        "bricks": float(len(bricks)),
+    }
+
+
+def _gap(scenario: Scenario, bricks: list[LaidBrick]) -> float:
+    """The smallest horizontal gap between two of ``bricks``' footprints, m (shapely's STRtree
+    finds each one's nearest, so a long row costs n log n, not n^2)."""
+    footprints = [_footprint(scenario, b) for b in bricks]
+    tree = STRtree(footprints)
+    return min(
+        float(footprints[i].distance(footprints[j]))
+        for i, j in tree.query_nearest(footprints, exclusive=True, all_matches=False).T
+    )
+
+
+def _mass(scenario: Scenario, brick: LaidBrick) -> float:
+    kind = scenario.brick_type(brick.type)
+    return float(np.prod(kind.size)) * scenario.material(kind.material).density
+
+
+def _footprint(scenario: Scenario, brick: LaidBrick) -> Polygon:
+    """The brick's outline seen from above (the hull of its corners), m."""
+    corners = Box(np.array(scenario.brick_type(brick.type).size) / 2, 1.0).corners(brick.pose())[:, :2]
+    return Polygon(corners).convex_hull
+
+
+def _check_names(scenario: Scenario, conditions: list[Condition]) -> None:
+    known = {**quantities(scenario, set()), **dict.fromkeys(DERIVED, 0.0)}
+    for i, condition in enumerate(conditions):
+        unknown = [n for n in condition.names if n not in known and not _a_field(n)]
+        if unknown:
+            fields = sorted(n for n in known if n not in DERIVED)
+            near = [f for f in fields if f.split(".")[-1] == unknown[0].split(".")[-1]][:3]
+            hint = f"; did you mean {', '.join(near)}?" if near else ""
+            raise scenario.source.error(
+                ("require", i),
+                f"unknown name {unknown[0]!r}: a condition reads {', '.join(DERIVED)} or a numeric field of the scene "
+                f"by its path (timing.interval, structure.tower.spacing){hint}",
+            )
+
+
+def _a_field(name: str) -> bool:
+    """Whether ``name`` is a path of the language's fields, whatever its indices (a draw of a random
+    scene may have a list item, or a part's field, that the first draw lacks)."""
+    path = [int(p) if p.isdigit() else p for p in name.split(".")]
+    for i, part in enumerate(path):
+        if isinstance(part, int):
+            continue
+        allowed = fields_at(tuple(path[:i]))
+        if path[:i] == ["structure"] and part not in allowed:
+            continue  # a part's name
+        if part not in allowed:
+            return False
+    return True
+
+
+def _shown(value: float) -> str:
+    return f"{value:.6g}"
+
+
+__all__ = ["DERIVED", "MAX_DRAWS", "ScenarioError", "accept", "quantities"]

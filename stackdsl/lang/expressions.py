@@ -1,0 +1,282 @@
+"""Conditions of a scenario's ``require:``: a small grammar, parsed here, never evaluated as Python.
+
+A condition compares numbers: names (a field of the scene, ``timing.placement_error``, or a
+quantity derived from where its bricks are, ``overhang``), numbers with an optional unit
+(``10 mm``, ``0.5 s``, ``2 deg``), ``+ - * /``, ``abs``, ``min`` and ``max``, joined by ``and``,
+``or`` and ``not``, with parentheses::
+
+    condition  := disjunct ("or" disjunct)*
+    disjunct   := negation ("and" negation)*
+    negation   := "not" negation | comparison
+    comparison := sum (("<" | "<=" | ">" | ">=" | "==" | "!=") sum)+    # chained: a < b < c
+                | "(" condition ")"
+    sum        := product (("+" | "-") product)*
+    product    := unary (("*" | "/") unary)*
+    unary      := "-" unary | NUMBER [UNIT] | NAME | FUNCTION "(" sum ("," sum)* ")" | "(" sum ")"
+
+Quantities are SI (metres, seconds, m/s, kg/m^3) and degrees for angles, as everywhere in a
+Program; a number's unit converts it (pint converts the unit only, as for any quantity of a file).
+A division by zero makes the condition false, and so does a comparison with a name the values
+lack (NaN).
+
+>>> c = parse("overhang >= 10 mm and abs(com_offset) < 0.06")
+>>> c.names, c.holds({"overhang": 0.012, "com_offset": -0.02})
+(('overhang', 'com_offset'), True)
+
+Source: stackdsl's own (after Scenic's ``require``: Fremont et al., "Scenic: a language for
+scenario specification and scene generation", PLDI 2019).
+"""
+
+from __future__ import annotations
+
+import math
+import operator
+import re
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from .units import angle, angular_speed, density, length, parse_quantity, speed, time
+
+MAX_CONDITION = 500
+"""Characters a condition may have."""
+_MAX_DEPTH = 50  # nested parentheses, functions and 'not'
+
+_TOKEN = re.compile(
+    r"\s*(?:"
+    r"(?P<number>(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]{1,3})?)"
+    r"(?:[ \t]*(?P<unit>[A-Za-zµ°][A-Za-zµ°0-9]*(?:[/^][A-Za-zµ°0-9]+)*))?"
+    r"|(?P<name>[A-Za-z_][A-Za-z0-9_]*(?:\.[A-Za-z0-9_]+)*)"
+    r"|(?P<op><=|>=|==|!=|<|>|\+|-|\*|/|\(|\)|,)"
+    r")"
+)
+_KEYWORDS = {"and", "or", "not"}
+FUNCTIONS: dict[str, Callable[..., float]] = {"abs": abs, "min": min, "max": max}
+_COMPARE: dict[str, Callable[[float, float], bool]] = {
+    "<": operator.lt,
+    "<=": operator.le,
+    ">": operator.gt,
+    ">=": operator.ge,
+    "==": operator.eq,
+    "!=": operator.ne,
+}
+_ARITHMETIC: dict[str, Callable[[float, float], float]] = {"+": operator.add, "-": operator.sub, "*": operator.mul}
+_CONVERTERS = (length, time, speed, angular_speed, density, angle)
+
+
+def quantity(number: str, unit: str) -> float:
+    """``number`` with ``unit`` in SI (degrees for angles). Raises ValueError for an unknown unit."""
+    text = f"{number} {unit}"
+    for convert in _CONVERTERS:
+        try:
+            return float(convert(text))
+        except ValueError:
+            continue
+    try:
+        return parse_quantity(text, "[mass]", "kg", "a mass", "'10 g'")
+    except ValueError:
+        raise ValueError(f"unknown unit {unit!r} in '{text}'") from None
+
+
+# a parsed condition is a tree of tuples: ("num", value), ("name", text), ("neg", x),
+# ("arith", op, a, b), ("call", fn, args), ("cmp", [ops], [operands]), ("not", x), ("and"/"or", [xs])
+Node = tuple[Any, ...]
+
+
+@dataclass(frozen=True)
+class Condition:
+    """One parsed condition: its text, tree and the names it reads, in order of first use."""
+
+    text: str
+    tree: Node
+    names: tuple[str, ...]
+
+    def holds(self, values: Mapping[str, float]) -> bool:
+        """Whether the condition holds with ``values`` for its names (SI numbers); a name not in
+        ``values`` (a field this draw of the scene lacks, such as the shift of a level it does not
+        build) reads as NaN, and every comparison with NaN is false."""
+        try:
+            return bool(_evaluate(self.tree, values))
+        except ZeroDivisionError:
+            return False
+
+
+def parse(text: str) -> Condition:
+    """Parse a condition (the module's grammar).
+
+    Raises:
+        ValueError: a syntax error, with the character it is at (1-based), or an unknown unit.
+    """
+    if not isinstance(text, str):
+        raise ValueError(f"a condition is text, such as 'overhang >= 10 mm', got {text!r}")
+    if len(text) > MAX_CONDITION:
+        raise ValueError(f"a condition has at most {MAX_CONDITION} characters, not {len(text)}")
+    parser = _Parser(text)
+    tree = parser.condition(0)
+    if parser.peek() is not None:
+        raise parser.error(f"unexpected {parser.peek()!r}")
+    return Condition(text, tree, tuple(dict.fromkeys(parser.names)))
+
+
+class _Parser:
+    def __init__(self, text: str) -> None:
+        self.text = text
+        self.tokens: list[tuple[str, str, int]] = []  # kind, text, position
+        self.names: list[str] = []
+        position = 0
+        while position < len(text):
+            if text[position:].strip() == "":
+                break
+            match = _TOKEN.match(text, position)
+            if match is None or match.end() == position:
+                start = len(text) - len(text[position:].lstrip())
+                raise ValueError(f"at character {start + 1}: cannot read {text[start : start + 10]!r}")
+            start = match.start(match.lastgroup or 0) if match.lastgroup else position
+            if match["number"] is not None:
+                unit = match["unit"]
+                if unit in _KEYWORDS:  # "3 and ...": the word is no unit
+                    self.tokens.append(("num", match["number"], match.start("number")))
+                    position = match.start("unit")
+                    continue
+                value = quantity(match["number"], unit) if unit else float(match["number"])
+                self.tokens.append(("num", repr(value), match.start("number")))
+            elif match["name"] is not None:
+                word = match["name"]
+                self.tokens.append(("kw" if word in _KEYWORDS else "name", word, start))
+            else:
+                self.tokens.append(("op", match["op"], start))
+            position = match.end()
+        self.at = 0
+
+    def peek(self) -> str | None:
+        return self.tokens[self.at][1] if self.at < len(self.tokens) else None
+
+    def take(self) -> tuple[str, str, int]:
+        if self.at >= len(self.tokens):
+            raise ValueError(f"at character {len(self.text) + 1}: the condition ends too soon")
+        token = self.tokens[self.at]
+        self.at += 1
+        return token
+
+    def error(self, message: str) -> ValueError:
+        where = self.tokens[self.at][2] + 1 if self.at < len(self.tokens) else len(self.text) + 1
+        return ValueError(f"at character {where}: {message}")
+
+    def expect(self, text: str) -> None:
+        if self.peek() != text:
+            raise self.error(f"expected {text!r}" + (f", got {self.peek()!r}" if self.peek() is not None else ""))
+        self.take()
+
+    def _deeper(self, depth: int) -> int:
+        if depth >= _MAX_DEPTH:
+            raise self.error(f"nested more than {_MAX_DEPTH} deep")
+        return depth + 1
+
+    # conditions (true or false)
+    def condition(self, depth: int) -> Node:
+        parts = [self.disjunct(depth)]
+        while self.peek() == "or":
+            self.take()
+            parts.append(self.disjunct(depth))
+        return parts[0] if len(parts) == 1 else ("or", parts)
+
+    def disjunct(self, depth: int) -> Node:
+        parts = [self.negation(depth)]
+        while self.peek() == "and":
+            self.take()
+            parts.append(self.negation(depth))
+        return parts[0] if len(parts) == 1 else ("and", parts)
+
+    def negation(self, depth: int) -> Node:
+        if self.peek() == "not":
+            self.take()
+            return ("not", self.negation(self._deeper(depth)))
+        return self.comparison(depth)
+
+    def comparison(self, depth: int) -> Node:
+        if self.peek() == "(":  # a condition in parentheses, or a sum that a comparison follows
+            saved = self.at
+            self.take()
+            try:
+                inner = self.condition(self._deeper(depth))
+                self.expect(")")
+                if self.peek() not in _COMPARE:
+                    return inner
+            except ValueError:
+                pass
+            self.at = saved
+        operands = [self.sum(depth)]
+        ops = []
+        while self.peek() in _COMPARE:
+            ops.append(self.take()[1])
+            operands.append(self.sum(depth))
+        if not ops:
+            raise self.error("expected a comparison (<, <=, >, >=, ==, !=)" + (f", got {self.peek()!r}" if self.peek() else ""))
+        return ("cmp", ops, operands)
+
+    # numbers
+    def sum(self, depth: int) -> Node:
+        node = self.product(depth)
+        while self.peek() in ("+", "-"):
+            op = self.take()[1]
+            node = ("arith", op, node, self.product(depth))
+        return node
+
+    def product(self, depth: int) -> Node:
+        node = self.unary(depth)
+        while self.peek() in ("*", "/"):
+            op = self.take()[1]
+            node = ("arith", op, node, self.unary(depth))
+        return node
+
+    def unary(self, depth: int) -> Node:
+        kind, text, _ = self.take()
+        if text == "-":
+            return ("neg", self.unary(self._deeper(depth)))
+        if kind == "num":
+            return ("num", float(text))
+        if kind == "name" and text in FUNCTIONS and self.peek() == "(":
+            self.take()
+            args = [self.sum(self._deeper(depth))]
+            while self.peek() == ",":
+                self.take()
+                args.append(self.sum(self._deeper(depth)))
+            self.expect(")")
+            if text == "abs" and len(args) != 1:
+                self.at -= 1
+                raise self.error("abs takes one number")
+            return ("call", text, args)
+        if kind == "name":
+            self.names.append(text)
+            return ("name", text)
+        if text == "(":
+            inner = self.sum(self._deeper(depth))
+            self.expect(")")
+            return inner
+        self.at -= 1
+        raise self.error(f"expected a number or a name, got {text!r}")
+
+
+def _evaluate(node: Node, values: Mapping[str, float]) -> Any:
+    kind = node[0]
+    if kind == "num":
+        return node[1]
+    if kind == "name":
+        return float(values.get(node[1], math.nan))
+    if kind == "neg":
+        return -_evaluate(node[1], values)
+    if kind == "arith":
+        a, b = _evaluate(node[2], values), _evaluate(node[3], values)
+        return a / b if node[1] == "/" else _ARITHMETIC[node[1]](a, b)
+    if kind == "call":
+        return FUNCTIONS[node[1]](*(_evaluate(arg, values) for arg in node[2]))
+    if kind == "cmp":
+        numbers = [_evaluate(operand, values) for operand in node[2]]
+        if any(math.isnan(n) for n in numbers):
+            return False
+        return all(_COMPARE[op](a, b) for op, a, b in zip(node[1], numbers, numbers[1:]))
+    if kind == "not":
+        return not _evaluate(node[1], values)
+    if kind == "and":
+        return all(_evaluate(part, values) for part in node[1])
+    return any(_evaluate(part, values) for part in node[1])  # "or"

@@ -1,0 +1,122 @@
+"""The layouts of the scenario language's first version: a layered ``tower``, a ``card_house``
+and ``bricks`` placed by hand (pydantic models; their bricks are :mod:`stackdsl.compile.layouts`').
+The generators of the richer scenes are :mod:`stackdsl.lang.schema_generators`'.
+
+Source: stackdsl's own; report chapter 4 (the 4 stack, the slant tower, the card house).
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any
+
+from pydantic import BeforeValidator, Field, StrictBool, model_validator
+
+from .bounds import (
+    MAX_BRICKS,
+    MAX_LEVELS,
+    BoundedAngle,
+    Offset,
+    PeakSpacing,
+    Spacing,
+    StrictModel,
+    Vector2,
+    Vector3,
+)
+from .grammar import WHOLE, AlsoAccepts
+from .units import Angle
+
+
+def _shift(value: Any) -> Any:
+    """A per-layer shift: one length (along x) or an (x, y) pair."""
+    return value if isinstance(value, (list, tuple)) else (value, 0.0)
+
+
+Shift = Annotated[
+    tuple[Offset, Offset],
+    BeforeValidator(_shift),
+    AlsoAccepts((Offset,), "one length (along x) or an (x, y) pair, each within 10 m"),
+]
+
+
+class Tower(StrictModel):
+    """A layered tower: ``bricks_per_layer`` parallel bricks ``spacing`` apart (centre to
+    centre), each layer turned by ``turn`` degrees and moved by ``shift`` from the one below.
+
+    Two bricks a layer turned 90 deg is the report's 4 stack; a shift makes it a slant tower.
+    ``shifts`` gives each layer above the first its own shift from the layer below (a random
+    walk when drawn ``per: layer``); ``yaw_jitter`` turns each brick by that many degrees
+    more (one number for all, or one a brick), its position unchanged.
+    ``turn`` and ``yaw`` are degrees within +-3600 (ten turns, :data:`MAX_ANGLE`; not folded);
+    ``spacing`` and each part of ``shift`` at most 10 m (no brick is longer), ``origin`` within 1 km.
+    """
+
+    brick: str = "kapla"
+    levels: Annotated[int, Field(ge=1, le=MAX_LEVELS), WHOLE]
+    bricks_per_layer: Annotated[int, Field(ge=1, le=50), WHOLE] = 2
+    spacing: Spacing = 0.096
+    turn: BoundedAngle = 90.0
+    shift: Shift = (0.0, 0.0)
+    shifts: Annotated[list[Shift], Field(max_length=MAX_LEVELS - 1)] | None = None
+    origin: Vector2 = (0.0, 0.0)
+    yaw: BoundedAngle = 0.0
+    yaw_jitter: BoundedAngle | Annotated[list[BoundedAngle], Field(max_length=MAX_BRICKS)] = 0.0
+
+    @model_validator(mode="after")
+    def _per_layer_and_brick(self) -> Tower:
+        if self.shifts is not None:
+            if any(self.shift):
+                raise ValueError("give 'shift' (every layer alike) or 'shifts' (one a layer), not both")
+            if len(self.shifts) != self.levels - 1:
+                raise ValueError(
+                    f"'shifts' has one shift a layer above the first: {self.levels - 1} for {self.levels} levels, not {len(self.shifts)}"
+                )
+        if isinstance(self.yaw_jitter, list) and len(self.yaw_jitter) != self.levels * self.bricks_per_layer:
+            bricks = self.levels * self.bricks_per_layer
+            raise ValueError(f"a 'yaw_jitter' list has one angle a brick: {bricks}, not {len(self.yaw_jitter)}")
+        return self
+
+    def layer_shift(self, level: int) -> tuple[float, float]:
+        """Where level ``level``'s centre is from ``origin``, m: the sum of the shifts below it."""
+        if self.shifts is None:
+            return (level - 1) * self.shift[0], (level - 1) * self.shift[1]
+        below = self.shifts[: level - 1]
+        return sum(x for x, _ in below), sum(y for _, y in below)
+
+    def jitter(self, index: int) -> float:
+        """Degrees added to brick ``index``'s yaw (bricks counted from 0, level 1 first)."""
+        return self.yaw_jitter[index] if isinstance(self.yaw_jitter, list) else self.yaw_jitter
+
+
+class BrickPlacement(StrictModel):
+    """One brick placed by hand: centre position ``at`` (each coordinate within 1 km), yaw/pitch/roll
+    in degrees within +-3600 (ten turns, :data:`MAX_ANGLE`; not folded).
+
+    ``fixed: true`` makes it part of the environment (a wall, a ramp): it is in the world
+    from the start, immovable, and not part of the structure. ``together: true`` places
+    it at the same moment as the brick before it (the two bricks of a V).
+    """
+
+    id: Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]{1,40}$")] | None = None
+    brick: str = "kapla"
+    at: Vector3
+    yaw: BoundedAngle = 0.0
+    pitch: BoundedAngle = 0.0
+    roll: BoundedAngle = 0.0
+    level: Annotated[int, Field(ge=1, le=MAX_LEVELS), WHOLE] | None = None
+    fixed: StrictBool = False
+    together: StrictBool = False
+
+
+class CardHouse(StrictModel):
+    """A card house: rows of inverted V's (two bricks leaning on each other at ``angle``
+    degrees from vertical), a flat brick across the peaks of every two neighbouring V's,
+    a V on every flat brick, up to a single V: a pyramid with ``levels`` V's at its base.
+    ``spacing`` is the distance between neighbouring peaks (default: the V's width + 2 mm), at most
+    10 m; ``angle`` is in degrees, above 0 and below 60.
+    """
+
+    brick: str = "kapla"
+    levels: Annotated[int, Field(ge=1, le=50), WHOLE]
+    angle: Annotated[Angle, Field(gt=0, lt=60)] = 20.0
+    spacing: PeakSpacing | None = None
+    origin: Vector2 = (0.0, 0.0)

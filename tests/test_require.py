@@ -1,0 +1,150 @@
+"""``require:``: conditions on a sample's draws, parsed by a small grammar (never Python's eval),
+checked before simulating; a failing draw is drawn again from (seed, k, attempt). Its acceptance
+rate on the random single-file stack is checked against the independent numpy Monte Carlo."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from stackdsl import compile_scenario
+from stackdsl.bench.random_stack import collapse_level
+from stackdsl.compile.require import accept, quantities
+from stackdsl.lang.errors import ScenarioError
+from stackdsl.lang.expressions import parse
+from stackdsl.lang.loader import parse_scenario
+
+STACK = """stackdsl: 1
+structure:
+  tower: {levels: 5, bricks_per_layer: 1, turn: 0, shift: {uniform: [-60 mm, 60 mm], per: layer}}
+timing: {interval: 0.5 s}
+"""
+
+
+@pytest.mark.parametrize(
+    "text, values, holds",
+    [
+        ("overhang >= 10 mm", {"overhang": 0.011}, True),
+        ("overhang >= 10 mm", {"overhang": 0.009}, False),
+        ("a < b < c", {"a": 1, "b": 2, "c": 2}, False),
+        ("not (a < 1 or b > 2) and a + b * 2 == 5", {"a": 1, "b": 2}, True),
+        ("abs(-x) > 0.5 deg and max(x, 1, 2) == 2", {"x": 1.0}, True),
+        ("x < 0.5 rad", {"x": 28.0}, True),  # angles are degrees: 0.5 rad is 28.6
+        ("t <= 1/240 s * 240", {"t": 1.0}, True),
+        ("x > 1 / y", {"x": 1.0, "y": 0.0}, False),  # a division by zero: false
+    ],
+)
+def test_conditions_hold_as_written(text, values, holds):
+    assert parse(text).holds(values) is holds
+
+
+@pytest.mark.parametrize(
+    "text, where",
+    [
+        ("__import__('os').system('true') < 1", "character 12: cannot read"),
+        ("x < ", "character 5"),
+        ("x", "character 2"),
+        ("x < 3 parsnips", "unknown unit"),
+        ("(" * 60 + "x" + ")" * 60 + " < 1", "nested"),
+        ("x < 1; y < 2", "character 6"),
+        ("lambda: 1 < 2", "character 7"),
+    ],
+)
+def test_anything_outside_the_grammar_is_refused_with_where(text, where):
+    with pytest.raises(ValueError, match=where):
+        parse(text)
+
+
+def test_a_bad_condition_in_a_file_points_at_it():
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(STACK + "require:\n  - overhang >= 10 mm\n  - com_offset < < 3\n", "r.yaml")
+    assert (err.value.line, err.value.column, err.value.field) == (7, 5, "require[1]")
+    with pytest.raises(ScenarioError) as err:
+        compile_scenario(parse_scenario(STACK + "require: [overhangs > 1 mm]\n", "r.yaml"))
+    assert (err.value.line, err.value.field) == (5, "require[0]") and "unknown name 'overhangs'" in err.value.message
+
+
+def test_fields_are_read_by_path_in_si_units():
+    scenario = parse_scenario(STACK + "require: ['timing.interval == 500 ms and structure.tower.levels == 5']\n", "r.yaml")
+    values = quantities(scenario)
+    assert values["timing.interval"] == 0.5 and values["structure.tower.spacing"] == pytest.approx(0.096)
+    assert values["levels"] == 5 and values["bricks"] == 5 and values["gap"] == math.inf
+    assert accept(scenario)[1] == 1
+
+
+def test_derived_quantities_of_a_known_scene():
+    text = "stackdsl: 1\nstructure: {tower: {levels: 3, spacing: 60 mm, turn: 0, shift: [10 mm, 0]}}\n"
+    values = quantities(parse_scenario(text, "q.yaml"))
+    assert values["gap"] == pytest.approx(0.036)  # 60 mm apart, 24 mm wide
+    assert values["overhang"] == pytest.approx(0.010) and values["max_overhang"] == pytest.approx(0.010)
+    # on level 1, levels 2 and 3 together: their centre of mass 15 mm from level 1's centre
+    assert values["com_offset"] == pytest.approx(0.015)
+
+
+def test_the_acceptance_rate_is_the_chance_that_a_random_stack_stands_while_built():
+    """5 bricks of a random walk stand while built with probability 1 - P(N = 3, 4, 5): the
+    independent Monte Carlo (stackdsl.bench.random_stack, 10^7 stacks) gives 0.5841."""
+    scenario = parse_scenario(STACK + "require: [com_offset < 60 mm]\nsweep: {samples: 400}\n", "r.yaml")
+    template = scenario.template
+    draws = 0
+    for k in range(400):
+        sample, n = accept(template.scenario(0, k))
+        draws += n
+        x = [0.0, *np.cumsum([s for s, _ in sample.structure.tower.shifts])]
+        assert collapse_level(np.array(x)) is None  # the accepted stack stands at every stage
+    expected = 1 - 0.1249 - 0.1494 - 0.1416
+    assert stats.binomtest(400, draws, expected).pvalue > 0.001, (400, draws, 400 / draws)
+
+
+def test_a_sample_is_a_function_of_the_seed_and_its_index():
+    text = STACK + "require: [max_overhang < 30 mm]\nsweep: {samples: 8}\n"
+    template = parse_scenario(text, "r.yaml").template
+    forward = [accept(template.scenario(0, k)) for k in range(8)]
+    backward = [accept(template.scenario(0, k)) for k in reversed(range(8))][::-1]
+    assert [(s.structure.tower.shifts, n) for s, n in forward] == [(s.structure.tower.shifts, n) for s, n in backward]
+    assert any(n > 1 for _, n in forward)
+    # a sample its first draw meets is the sample drawn without 'require'
+    plain = parse_scenario(STACK + "sweep: {samples: 8}\n", "r.yaml").template
+    for k, (sample, n) in enumerate(forward):
+        if n == 1:
+            assert sample.structure.tower.shifts == plain.scenario(0, k).structure.tower.shifts
+    # and the program says how many draws it took
+    assert compile_scenario(template.scenario(0, next(k for k, (_, n) in enumerate(forward) if n > 1))).draws > 1
+
+
+def test_conditions_no_draw_meets_are_refused_after_the_cap():
+    with pytest.raises(ScenarioError) as err:
+        compile_scenario(parse_scenario(STACK + "require: [levels > 5 or overhang > 1 m]\n", "r.yaml"))
+    assert err.value.field == "require[0]" and "none of 1000 draws" in err.value.message
+
+
+def test_a_scene_that_is_not_random_and_fails_its_condition_is_refused():
+    with pytest.raises(ScenarioError) as err:
+        compile_scenario(parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 3}}\nrequire: [levels > 3]\n", "r.yaml"))
+    assert err.value.field == "require[0]" and "levels = 3" in err.value.message
+
+
+def test_seed_replaces_the_files_seed():
+    text = "stackdsl: 1\nseed: 1\nstructure: {tower: {levels: 3}}\ntiming: {placement_error: 2 mm}\n"
+    one, nine = parse_scenario(text, "s.yaml"), parse_scenario(text, "s.yaml", seed=9)
+    assert (one.seed, nine.seed) == (1, 9)
+    poses = [[a.position for a in compile_scenario(s).placements] for s in (one, nine)]
+    assert poses[0] != poses[1]
+    random = parse_scenario(STACK + "seed: 4\n", "r.yaml", seed=5)
+    assert random.template.seed == 5
+    assert random.structure.tower.shifts == parse_scenario(STACK + "seed: 5\n", "r.yaml").structure.tower.shifts
+
+
+def test_a_field_a_draw_lacks_fails_its_condition_and_is_drawn_again():
+    text = (
+        STACK.replace("levels: 5,", "levels: {choice: [2, 5]},")
+        + "require: ['structure.tower.shifts.3.0 > -1']\nsweep: {samples: 6}\n"
+    )
+    template = parse_scenario(text, "r.yaml").template
+    for k in range(6):
+        sample, _ = accept(template.scenario(0, k))
+        assert sample.structure.tower.levels == 5  # a 2-level draw has no fourth shift: redrawn
+    assert not parse("x < 1").holds({})

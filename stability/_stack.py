@@ -120,6 +120,8 @@ class Stack:
         self.version = 0  # counts the changes of the frozen stack (freezes and wakes)
         self.standing_version: int | None = None  # a version whose whole frozen stack a program showed to stand
         self.holding = True  # bricks woken in a proved mechanism are held active (none while a heap settles)
+        self.guided: set[int] = set()  # bodies an outside hand moves (a gripper, a pusher): never frozen
+        self.admitting = True  # False while the ground moves: nothing is frozen in the world's frame
         self._contacts: ContactBook | None = None  # this step's, read in full before a change
 
     def add(self, rec: Record) -> None:
@@ -129,6 +131,18 @@ class Stack:
         self.bodies[rec.body] = rec
         if rec.state is BrickState.ACTIVE:
             self.active[rec.body] = rec
+
+    def forget(self, body: int) -> None:
+        """Unregister ``body``, an active brick taken out of the scene (a pulled brick, a withdrawn
+        pusher). Raises KeyError for an unknown body and ValueError for one that is not active."""
+        rec = self.bodies[body]
+        if rec.state is not BrickState.ACTIVE:
+            raise ValueError(f"{rec.label} is {rec.state.value}: only an active body can be taken away")
+        del self.bodies[body]
+        self.active.pop(body, None)
+        self.guided.discard(body)
+        for other in self.bodies.values():
+            other.objects_above.discard(body)
 
     def ordered(self, bodies: Iterable[int]) -> list[int]:
         """``bodies`` in registration order."""

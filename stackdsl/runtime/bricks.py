@@ -132,6 +132,7 @@ class Structure:
         self.placed: list[BrickRecord] = []  # the structure bricks, in the order they were placed
         self.moving: dict[str, BrickRecord] = {}  # the structure bricks the engine simulates, by id
         self.projectiles: list[BrickRecord] = []
+        self.removed: list[BrickRecord] = []  # pulled out of the structure by a hand
         self._by_body: dict[int, BrickRecord] = {}
         self._tops: dict[int, list[BrickRecord]] = {}  # top height in 0.1 mm -> bricks
         self._cached: tuple[tuple[int, ...], np.ndarray, np.ndarray] = ((), np.zeros((0, 8, 3)), np.zeros((0, 8, 3)))
@@ -157,6 +158,37 @@ class Structure:
             self.moving[record.id] = record
         else:
             self.moving.pop(record.id, None)
+
+    def detach(self, record: BrickRecord) -> None:
+        """Take a structure brick out of the structure (a hand pulls it out): it is no longer
+        watched for a collapse nor counted in displacements; it keeps its record (by id, by body)."""
+        self.placed.remove(record)
+        self.moving.pop(record.id, None)
+        self._tops[round(record.top * 1e4)].remove(record)
+        record.level = None
+        self.removed.append(record)
+
+    def toppled(self) -> list[BrickRecord]:
+        """The structure bricks tilted past their tipping angle: their axis that was vertical when
+        placed has turned further than the angle at which the centre of mass passes over the
+        nearer edge of the placed footprint, atan(least horizontal half-extent / vertical
+        half-extent), both as placed. Source: stackdsl's own (a block tips over an edge of its
+        base once its centre of mass is past it: Meriam & Kraige, Statics, ch. 6)."""
+        records = self.placed
+        if not records:
+            return []
+        _, quaternions = self.world.poses_of([r.body for r in records])
+        now = Rotation.from_quat(quaternions).as_matrix()
+        out = []
+        for r, rotation in zip(records, now):
+            placed = r.pose.rotation
+            half = np.abs(placed) @ np.array(r.box.half_extents)  # the placed box's half extents in the world
+            tip = math.atan2(min(half[0], half[1]), half[2])
+            up = placed.T @ np.array([0.0, 0.0, 1.0])  # the brick's own axis that was vertical
+            tilt = math.acos(max(-1.0, min(1.0, float((rotation @ up)[2]))))
+            if tilt > tip:
+                out.append(r)
+        return out
 
     def by_body(self, body: int) -> BrickRecord | None:
         """The record of an engine body, or None (the ground, a fixture)."""

@@ -39,6 +39,11 @@ from .settings import MuJoCoSettings
 #: from any scene (positions are within 1 km), one slot per brick so that none overlap.
 _AWAY = np.array([5000.0, 5000.0, 100.0])
 _SLOT = 0.5  # m between two waiting bodies
+#: kg of a guided brick's free body while it is guided (a hand's grip), its inertia scaled too.
+GUIDED_MASS = 100.0
+#: kg and half extents (m) of a movable ground: a box whose top is the plane z = 0.
+TABLE_MASS = 1.0e5
+TABLE_HALF = (5.0, 5.0, 0.5)
 
 
 class MuJoCoWorld(World):
@@ -62,7 +67,9 @@ class MuJoCoWorld(World):
     0.004
     """
 
-    def __init__(self, engine: MuJoCoSettings, ground_friction: float, ground_restitution: float) -> None:
+    def __init__(
+        self, engine: MuJoCoSettings, ground_friction: float, ground_restitution: float, *, movable_ground: bool = False
+    ) -> None:
         import mujoco
 
         self._mj, self._engine = mujoco, engine
@@ -90,7 +97,16 @@ class MuJoCoWorld(World):
             option.enableflags |= mujoco.mjtEnableBit.mjENBL_SLEEP
             option.sleep_tolerance = engine.sleep_tolerance
         self._spec = spec
-        ground = spec.worldbody.add_geom(name="ground", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0.0, 0.0, 1.0])
+        self._table = movable_ground
+        self._ground_at: tuple[Vec3, Vec3] = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        self._guided: dict[int, tuple[float, np.ndarray]] = {}  # guided brick -> its free body's mass and inertia
+        if movable_ground:  # a heavy box on two slide joints, its top the plane z = 0 (MuJoCo's planes are static)
+            table = spec.worldbody.add_body(name="table", pos=[0.0, 0.0, -TABLE_HALF[2]])
+            for axis, name in (([1.0, 0.0, 0.0], "table_x"), ([0.0, 1.0, 0.0], "table_y")):
+                table.add_joint(name=name, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=axis)
+            ground = table.add_geom(name="ground", type=mujoco.mjtGeom.mjGEOM_BOX, size=list(TABLE_HALF), mass=TABLE_MASS)
+        else:
+            ground = spec.worldbody.add_geom(name="ground", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0.0, 0.0, 1.0])
         # MuJoCo compensates gravity only in a model compiled with a body that asks for it; this
         # static body (no joint, no geom) does, so that a waiting body's switch works at run time
         spec.worldbody.add_body(name="gravcomp", gravcomp=1.0)
@@ -154,6 +170,10 @@ class MuJoCoWorld(World):
         self._geom_body[self._free_geom] = self._geom_body[self._held_geom] = np.arange(1, len(self._specs) + 1)
         for body in range(1, len(self._specs) + 1):
             self._apply(body)
+        if self._table:
+            table = [mj.mj_name2id(m, mj.mjtObj.mjOBJ_JOINT, name) for name in ("table_x", "table_y")]
+            self._table_qpos = [int(m.jnt_qposadr[j]) for j in table]
+            self._table_dof = [int(m.jnt_dofadr[j]) for j in table]
         mj.mj_forward(m, self._data)
 
     def _ready(self) -> tuple[Any, Any]:
@@ -286,7 +306,44 @@ class MuJoCoWorld(World):
 
     # stackdsl.engines.protocol.World -----------------------------------------------------
     def move(self, body: int, pose: Pose, mass: float) -> None:
+        m, _ = self._ready()
+        if body in self._guided:  # let go of: its own mass, inertia and weight back
+            bid = m.geom_bodyid[self._free_geom[body - 1]]
+            m.body_mass[bid], m.body_inertia[bid] = self._guided.pop(body)
+            m.body_gravcomp[bid] = 0.0
         self._put(body, pose, mass <= 0.0)
+
+    def guide(self, body: int, pose: Pose, velocity: Vec3, hold: bool = True) -> None:
+        """Put the brick's free body on its path with ``velocity`` for the next step; with
+        ``hold``, :data:`GUIDED_MASS` heavy and its weight compensated (MuJoCo's gravity
+        compensation), else at its own height and vertical velocity."""
+        m, d = self._ready()
+        i = body - 1
+        if self._frozen[i]:
+            self._put(body, pose, False)
+        bid = m.geom_bodyid[self._free_geom[i]]
+        if body not in self._guided:
+            mass = float(m.body_mass[bid])
+            self._guided[body] = (mass, m.body_inertia[bid].copy())
+            if hold:
+                m.body_inertia[bid] = m.body_inertia[bid] * (GUIDED_MASS / mass)
+                m.body_mass[bid] = GUIDED_MASS
+                m.body_gravcomp[bid] = 1.0
+        q, v = self._qpos[i], self._dof[i]
+        if hold:
+            d.qpos[q : q + 3] = pose.position
+            d.qvel[v : v + 3] = velocity
+        else:
+            d.qpos[q : q + 2] = pose.position[:2]
+            d.qvel[v : v + 2] = velocity[:2]
+        d.qpos[q + 3 : q + 7] = _wxyz(pose.orientation)
+        d.qvel[v + 3 : v + 6] = 0.0
+        self._read = None
+
+    def move_ground(self, offset: Vec3, velocity: Vec3) -> None:
+        if not self._table:
+            raise NotImplementedError("this world's ground is a static plane: make it with movable_ground=True")
+        self._ground_at = (offset, velocity)
 
     def throw(self, body: int, velocity: Vec3, swept_radius: float | None) -> None:
         """Give ``body`` a linear velocity, and no spin; MuJoCo has no continuous collision
@@ -300,6 +357,10 @@ class MuJoCoWorld(World):
     def step(self) -> None:
         m, d = self._ready()
         self._read = None
+        if self._table:  # the shake table where the shake puts it, with its velocity
+            (x, y, _), (vx, vy, _) = self._ground_at
+            d.qpos[self._table_qpos] = [x, y]
+            d.qvel[self._table_dof] = [vx, vy]
         for _ in range(self._substeps):
             self._mj.mj_step(m, d)
 

@@ -155,7 +155,13 @@ def compile_scenario(
         engine=engine,
         ground_friction=ground.friction,
         ground_restitution=ground.restitution,
-        stability=StabilityConfig(**settings, gravity=engine.gravity, leaning=on["leaning"], impacts=on["impacts"]),
+        stability=StabilityConfig(
+            **settings,
+            gravity=engine.gravity,
+            leaning=on["leaning"],
+            impacts=on["impacts"],
+            impact_energy="tip" if on.get("guided") else "lift",
+        ),
         rules=rules,
         fixtures=tuple(
             Fixture(id=b.id, brick=specs[b.type], position=tuple(b.position), yaw=b.yaw, pitch=b.pitch, roll=b.roll)

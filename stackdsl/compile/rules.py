@@ -59,8 +59,12 @@ def choose_rules(
         Rule(name="leaning", on=bool(tilted or launches or hands), reason=lean),
         Rule(
             name="impacts",
-            on=bool(launches),
-            reason=f"{len(launches)} projectile{'s' * (len(launches) != 1)}" if launches else "nothing is thrown",
+            on=bool(launches or hands),
+            reason=f"{len(launches)} projectile{'s' * (len(launches) != 1)}"
+            if launches
+            else "a pulled or pushed brick may knock over the frozen bricks it falls on (the energy to tip them)"
+            if hands
+            else "nothing is thrown",
         ),
         Rule(
             name="rigid",

@@ -148,7 +148,10 @@ class Actions(Subscriber):
             self.away.append(g.record)
             what = "taken out of the scene" if g.kind == "pull" else "withdrawn"
             loop.events.append(Event(time=loop.now, kind="release", brick=g.record.id, detail=what))
-        if self.shake is not None and loop.step >= self.shake.end_step:
-            loop.world.move_ground((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
-            self.stability.extension.admitting = True
-            self.shake = None
+        if self.shake is not None:
+            loop.structure.offset = self.shake.at(loop.now)[0]  # the collapse monitor reads displacements in the ground's frame
+            if loop.step >= self.shake.end_step:
+                loop.world.move_ground((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+                loop.structure.offset = (0.0, 0.0, 0.0)
+                self.stability.extension.admitting = True
+                self.shake = None

@@ -100,12 +100,14 @@ class SupportPolygon:
             self._pieces = tuple(pieces)
         return self._pieces
 
-    def outside(self, com: np.ndarray, poses: dict[int, Pose]) -> float:
-        """Metres the horizontal projection of ``com`` (shape (3,)) lies outside the polygon,
-        the supports at ``poses`` (body -> pose now); 0 inside, and when there are no pieces."""
+    def outside(self, com: np.ndarray, poses: dict[int, Pose], offset: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> float:
+        """Metres the horizontal projection of ``com`` (shape (3,), in the ground's frame) lies
+        outside the polygon, the supports at ``poses`` (body -> pose now, in the world; the
+        ground ``offset`` m from where it started, as a shake table moves it); 0 inside, and
+        when there are no pieces."""
         if not self.pieces:
             return 0.0
-        points = [c if b is None else c @ poses[b].rotation.T + poses[b].position for b, c in self.pieces]
+        points = [c if b is None else c @ poses[b].rotation.T + poses[b].position - offset for b, c in self.pieces]
         hull = convex_hull(multipoints(np.vstack(points)[:, :2]))
         x, y = float(com[0]), float(com[1])
         if contains_xy(hull, x, y):
@@ -276,7 +278,7 @@ class CollapseMonitor(Subscriber):
         bodies = [record.body, *(b for b, _ in support.pieces if b is not None)]
         positions, quaternions = loop.world.poses_of(bodies)
         poses = {b: Pose(p, q) for b, p, q in zip(bodies, positions, quaternions)}
-        return support.outside(positions[0], poses)
+        return support.outside(positions[0] - loop.structure.offset, poses, loop.structure.offset)
 
     def _resting(self, loop: StepLoop, records: list[BrickRecord]) -> list[bool]:
         """Whether each brick's speeds are under the rest thresholds now (a frozen one's are)."""

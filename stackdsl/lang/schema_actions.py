@@ -88,7 +88,9 @@ class PushTarget(StrictModel):
 
     model_config = ConfigDict(json_schema_extra={"oneOf": [given("brick"), given("point")]})
 
-    brick: Annotated[str, Field(pattern=ID, description="the id of the brick pushed", examples=["d01"])] | None = None
+    brick: Annotated[str, Field(pattern=ID)] | None = Field(
+        default=None, description="the id of the brick pushed", examples=["d01"]
+    )
     offset: Annotated[
         tuple[Length, Length, Length],
         Field(description="from the brick's centre to the point aimed at, in the world's axes", examples=[[0, 0, "40 mm"]]),
@@ -119,7 +121,9 @@ class Push(StrictModel):
         Field(ge=0, le=MAX_SIDE, description="from the pusher's front to the target's surface at the start", examples=["5 mm"]),
     ] = 0.005
     pusher: Annotated[str, Field(description="the pusher's brick type (its size)", examples=["kapla", "finger"])] = "kapla"
-    id: Annotated[str, Field(pattern=ID, description="the pusher's id in the timeline", examples=["finger"])] | None = None
+    id: Annotated[str, Field(pattern=ID)] | None = Field(
+        default=None, description="the pusher's id in the timeline", examples=["finger"]
+    )
 
 
 class Shake(StrictModel):

@@ -41,6 +41,8 @@ _AWAY = np.array([5000.0, 5000.0, 100.0])
 _SLOT = 0.5  # m between two waiting bodies
 #: kg of a guided brick's free body while it is guided (a hand's grip), its inertia scaled too.
 GUIDED_MASS = 100.0
+#: The share of a guided body's distance from its path that its velocity makes up in one step.
+GAIN = 0.5
 #: kg and half extents (m) of a movable ground: a box whose top is the plane z = 0 (at 1e5 kg
 #: MuJoCo's tuned solver let a 20 x 20 x 80 mm block on it tip at 1% of its tipping acceleration).
 TABLE_MASS = 100.0
@@ -315,9 +317,10 @@ class MuJoCoWorld(World):
         self._put(body, pose, mass <= 0.0)
 
     def guide(self, body: int, pose: Pose, velocity: Vec3, hold: bool = True) -> None:
-        """Put the brick's free body on its path with ``velocity`` for the next step; with
-        ``hold``, :data:`GUIDED_MASS` heavy and its weight compensated (MuJoCo's gravity
-        compensation), else at its own height and vertical velocity."""
+        """Drive the brick's free body along its path by its velocity for the next step (the path's
+        velocity plus :data:`GAIN` of the way back to it); with ``hold``, :data:`GUIDED_MASS` heavy,
+        its weight compensated (MuJoCo's gravity compensation) and its height driven too, else
+        with its own mass and vertical motion."""
         m, d = self._ready()
         i = body - 1
         if self._frozen[i]:
@@ -331,14 +334,14 @@ class MuJoCoWorld(World):
                 m.body_mass[bid] = GUIDED_MASS
                 m.body_gravcomp[bid] = 1.0
         q, v = self._qpos[i], self._dof[i]
+        rate = GAIN / self._engine.timestep  # by its velocity alone, back towards its path (as on pybullet)
+        error = pose.position - d.qpos[q : q + 3]
+        d.qvel[v : v + 2] = np.asarray(velocity[:2]) + rate * error[:2]
         if hold:
-            d.qpos[q : q + 3] = pose.position
-            d.qvel[v : v + 3] = velocity
-        else:
-            d.qpos[q : q + 2] = pose.position[:2]
-            d.qvel[v : v + 2] = velocity[:2]
-        d.qpos[q + 3 : q + 7] = _wxyz(pose.orientation)
-        d.qvel[v + 3 : v + 6] = 0.0
+            d.qvel[v + 2] = velocity[2] + rate * error[2]
+        now = d.qpos[q + 3 : q + 7]
+        turn = (Rotation.from_quat(pose.orientation) * Rotation.from_quat([now[1], now[2], now[3], now[0]]).inv()).as_rotvec()
+        d.qvel[v + 3 : v + 6] = Rotation.from_quat([now[1], now[2], now[3], now[0]]).inv().apply(turn * rate)  # body frame
         self._read = None
 
     def move_ground(self, offset: Vec3, velocity: Vec3) -> None:

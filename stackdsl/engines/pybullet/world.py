@@ -28,6 +28,7 @@ from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from stability import ContactPoint, Pose, PyBulletEngine
 
@@ -56,6 +57,8 @@ GUIDED_MASS = 100.0
 #: kg and half extents (m) of a movable ground: a box whose top is the plane z = 0.
 TABLE_MASS = 1.0e5
 TABLE_HALF = (5.0, 5.0, 0.5)
+#: The share of a guided body's distance from its path that its velocity makes up in one step.
+GAIN = 0.5
 
 
 #: Metres beyond a moving body's box within which a shelved body is put back into pybullet's
@@ -97,9 +100,10 @@ class PyBulletWorld(PyBulletEngine, World):
         movable_ground: the ground is a heavy box whose top is the plane z = 0, moved by
             :meth:`move_ground` (a shake table), instead of a static plane.
 
-    A guided body (:meth:`guide`) is made :data:`GUIDED_MASS` heavy (its inertia scaled too),
-    put on its path with its velocity before each step, and held up against gravity by a force
-    for the step: the solver then moves what it touches, and friction drags it, as a hand does.
+    A guided body (:meth:`guide`) is driven along its path by its velocity before each step
+    (:meth:`_drive`); one a hand holds is made :data:`GUIDED_MASS` heavy (its inertia scaled too)
+    and held up against gravity by a force for the step: the solver then moves what it
+    touches, and friction drags it, as a hand does.
     pybullet moves no static body by a velocity, which is why the movable ground is a dynamic
     box of :data:`TABLE_MASS` guided the same way.
     """
@@ -320,24 +324,30 @@ class PyBulletWorld(PyBulletEngine, World):
         if body not in self._guided:
             mass = float(self._client.getDynamicsInfo(engine_id, -1)[0]) or spec.mass
             self._guided[body] = mass
-            heavy = GUIDED_MASS if hold else mass
-            self._client.changeDynamics(engine_id, -1, mass=heavy, localInertiaDiagonal=_box_inertia(spec.half_extents, heavy))
-            self._massed(body, heavy)
-        if hold:
-            self._hold(engine_id, pose.position.tolist(), pose.orientation.tolist(), velocity, GUIDED_MASS)
-            return
-        (_, _, z), _ = self._read_pose(engine_id)
-        (_, _, vz), _ = self._read_velocity(engine_id)
-        x, y, _ = pose.position.tolist()
-        self._client.resetBasePositionAndOrientation(engine_id, [x, y, z], pose.orientation.tolist())
-        self._client.resetBaseVelocity(engine_id, [velocity[0], velocity[1], vz], [0.0, 0.0, 0.0])
-        self._due = 0
+            if hold:
+                inertia = _box_inertia(spec.half_extents, GUIDED_MASS)
+                self._client.changeDynamics(engine_id, -1, mass=GUIDED_MASS, localInertiaDiagonal=inertia)
+            self._massed(body, GUIDED_MASS if hold else mass)
+        self._drive(engine_id, pose.position.tolist(), pose.orientation.tolist(), velocity, GUIDED_MASS if hold else None)
 
-    def _hold(self, engine_id: int, position: Any, orientation: Any, velocity: Vec3, mass: float) -> None:
-        """Put a body on its path for the next step: pose, velocity, no spin, its weight held up."""
-        self._client.resetBasePositionAndOrientation(engine_id, position, orientation)
-        self._client.resetBaseVelocity(engine_id, list(velocity), [0.0, 0.0, 0.0])
-        self._client.applyExternalForce(engine_id, -1, [0.0, 0.0, mass * self._engine.gravity], position, self._p.WORLD_FRAME)
+    def _drive(self, engine_id: int, position: Any, orientation: Any, velocity: Vec3, held: float | None) -> None:
+        """Drive a body along its path through the next step by its velocity alone: the path's
+        velocity plus :data:`GAIN` of the way back to ``position`` and ``orientation`` (where the
+        path is now) in the step. pybullet loses the contacts of a body whose pose is reset each
+        step: a brick slid so over the ground plane fell through it. With ``held`` (kg) the body's
+        height is driven too and its weight held up by a force for the step; else its vertical
+        motion is the engine's."""
+        (x, y, z), now = self._read_pose(engine_id)
+        (_, _, vz), _ = self._read_velocity(engine_id)
+        rate = GAIN / self._engine.timestep
+        vx, vy = velocity[0] + rate * (position[0] - x), velocity[1] + rate * (position[1] - y)
+        if held is not None:
+            vz = velocity[2] + rate * (position[2] - z)
+            self._client.applyExternalForce(
+                engine_id, -1, [0.0, 0.0, held * self._engine.gravity], [x, y, z], self._p.WORLD_FRAME
+            )
+        turn = (Rotation.from_quat(orientation) * Rotation.from_quat(now).inv()).as_rotvec() * rate
+        self._client.resetBaseVelocity(engine_id, [vx, vy, vz], turn.tolist())
         self._due = 0
 
     def move_ground(self, offset: Vec3, velocity: Vec3) -> None:
@@ -362,7 +372,7 @@ class PyBulletWorld(PyBulletEngine, World):
             self._reach()
         if self._table:  # held where the shake puts it, every step (it is a dynamic body)
             (x, y, z), velocity = self._ground_at
-            self._hold(self.ground, [x, y, z - TABLE_HALF[2]], [0.0, 0.0, 0.0, 1.0], velocity, TABLE_MASS)
+            self._drive(self.ground, [x, y, z - TABLE_HALF[2]], [0.0, 0.0, 0.0, 1.0], velocity, TABLE_MASS)
         self._velocities.clear()
         self._client.stepSimulation()
 

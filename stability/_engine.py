@@ -65,8 +65,9 @@ class Engine(Protocol):
         """Every current contact point, once from each side; with ``bodies``, only those seen
         from one of them."""
 
-    def near(self, body: int, distance: float) -> list[ContactPoint]:
-        """Closest points between ``body`` and every body within ``distance`` metres, seen from ``body``."""
+    def near(self, body: int, distance: float, among: Collection[int] | None = None) -> list[ContactPoint]:
+        """Closest points between ``body`` and every body within ``distance`` metres, seen from
+        ``body``; with ``among``, only those of these bodies (the impact rule asks of the frozen ones)."""
 
     def set_frozen(self, body: int, frozen: bool, mass: float, at: Pose | None = None) -> None:
         """Freeze (immovable, still colliding, velocity zeroed) or restore ``body``; frozen
@@ -136,12 +137,14 @@ class PyBulletEngine:
             points.append(ContactPoint(b, a, np.array(c[5]), -normal_on_b, force, distance))
         return points
 
-    def near(self, body: int, distance: float) -> list[ContactPoint]:
+    def near(self, body: int, distance: float, among: Collection[int] | None = None) -> list[ContactPoint]:
         own = self._engine_id(body)
         low, high = self._client.getAABB(own)
         low, high = np.array(low) - distance, np.array(high) + distance
         found = self._client.getOverlappingObjects(low.tolist(), high.tolist()) or []
         others = sorted({self._body_id(b) for b, _ in found if b != own})
+        if among is not None:
+            others = [b for b in others if b in among]
         return [
             ContactPoint(body, other, np.array(c[6]), np.array(c[7]), float(c[9]), float(c[8]))
             for other in others
@@ -249,9 +252,9 @@ class FakeEngine:
             if not (c.body in self.frozen and c.other in self.frozen) and (bodies is None or c.body in bodies)
         ]
 
-    def near(self, body: int, distance: float) -> list[ContactPoint]:
+    def near(self, body: int, distance: float, among: Collection[int] | None = None) -> list[ContactPoint]:
         """The fake has no distances: a body is near what it touches."""
-        return [c for c in self.contacts if c.body == body]
+        return [c for c in self.contacts if c.body == body and (among is None or c.other in among)]
 
     def set_frozen(self, body: int, frozen: bool, mass: float, at: Pose | None = None) -> None:
         self.velocities.pop(body, None)

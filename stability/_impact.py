@@ -105,7 +105,7 @@ class Impacts:
                 rec.impacted.clear()
                 continue
             heading = stack.engine.velocity(rec.body)[0] / speed
-            for hit in stack.engine.near(rec.body, speed * dt * 1.5 + config.contact_pad):
+            for hit in stack.engine.near(rec.body, speed * dt * 1.5 + config.contact_pad, stack.frozen.keys()):
                 other = stack.bodies.get(hit.other)
                 if other is None or other.state is not BrickState.FROZEN or other.body in rec.impacted:
                     continue

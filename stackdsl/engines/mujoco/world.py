@@ -261,7 +261,7 @@ class MuJoCoWorld(World):
         edges = np.where(dim > 1, 2 * (dim - 1), 1)
         return np.array([d.efc_force[i : i + e].sum() for i, e in zip(address.tolist(), edges.tolist(), strict=True)])
 
-    def near(self, body: int, distance: float) -> list[ContactPoint]:
+    def near(self, body: int, distance: float, among: Collection[int] | None = None) -> list[ContactPoint]:
         m, d = self._ready()
         mj = self._mj
         i = body - 1
@@ -269,13 +269,16 @@ class MuJoCoWorld(World):
         reach = float(m.geom_rbound[own]) + distance
         fromto = np.zeros(6)
         out = []
-        for geom in range(m.ngeom):
+        # the candidates at once: colliding geoms of other bodies (of ``among``), near enough by their bounding spheres
+        keep = (self._geom_body != body) & (m.geom_contype != 0)
+        if among is not None:
+            wanted = np.zeros(len(self._frozen) + 1, dtype=bool)
+            wanted[np.asarray(list(among), dtype=int)] = True
+            keep &= wanted[self._geom_body]
+        plane = m.geom_type == mj.mjtGeom.mjGEOM_PLANE
+        keep &= plane | (np.linalg.norm(d.geom_xpos - d.geom_xpos[own], axis=1) <= reach + m.geom_rbound)
+        for geom in np.flatnonzero(keep).tolist():
             other = int(self._geom_body[geom])
-            if other == body or m.geom_contype[geom] == 0:
-                continue
-            if m.geom_type[geom] != mj.mjtGeom.mjGEOM_PLANE:
-                if np.linalg.norm(d.geom_xpos[geom] - d.geom_xpos[own]) > reach + m.geom_rbound[geom]:
-                    continue
             gap = mj.mj_geomDistance(m, d, own, geom, distance, fromto)
             if gap < distance:
                 mine, theirs = fromto[:3], fromto[3:]

@@ -287,8 +287,8 @@ class PyBulletWorld(PyBulletEngine, World):
             bodies = [b for b in bodies if b not in self._shelf]  # static, touching only static bodies
         return super().contact_points(bodies)
 
-    def near(self, body: int, distance: float) -> list[ContactPoint]:
-        return [] if body in self._shelf else super().near(body, distance)
+    def near(self, body: int, distance: float, among: Collection[int] | None = None) -> list[ContactPoint]:
+        return [] if body in self._shelf else super().near(body, distance, among)
 
     # changing -----------------------------------------------------------------
     def set_frozen(self, body: int, frozen: bool, mass: float, at: Pose | None = None) -> None:

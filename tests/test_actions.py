@@ -150,3 +150,73 @@ def test_moved_stays_and_toppled_are_judged_by_brick():
     scenario, outcome = tower_outcome("{toppled: all}")
     (toppled,) = evaluate(scenario.expect, outcome, 0.004)
     assert not toppled.passed and toppled.expected == "all toppled"
+
+
+def test_the_loop_drives_a_pull_a_push_and_a_shake_in_a_fake_world():
+    """The step loop's on_action hook and the World capabilities, without an engine: the fake world
+    moves a guided body by its velocity, records the ground's offset, and the pulled brick and the
+    pusher end far away, taken out of the scene."""
+    import numpy as np
+
+    from stackdsl.engines.fake import FakeWorld
+    from stackdsl.runtime.loop import Subscriber
+    from stackdsl.runtime.run import RunOptions, outcome, run_in
+
+    class Watch(Subscriber):
+        def __init__(self) -> None:
+            self.actions: list[str] = []
+            self.offsets: list[float] = []
+
+        def on_action(self, loop, action):
+            self.actions.append(f"{action.kind} {getattr(action, 'id', 'ground')} at {loop.now:g}")
+
+        def after_step(self, loop):
+            self.offsets.append(loop.world.ground_offset[0])
+
+    p = compile_scenario(parse_scenario(SCENE, "s.yaml"))
+    world, watch = FakeWorld(timestep=p.engine.timestep), Watch()
+    # the fake world's bricks do not ride the moving ground: on it they read as displaced, a collapse
+    loop = run_in(world, p, RunOptions(stop_at_collapse=False), subscribers=(watch,))
+    assert watch.actions == ["remove L02.1 at 6", "shake ground at 14", "push finger at 16"]
+    shake = next(a for a in p.kinematic if isinstance(a, Shake))
+    assert max(watch.offsets) == pytest.approx(2 * shake.amplitude, rel=1e-3)  # A (1 - cos) peaks at 2 A
+    assert watch.offsets[-1] == 0.0  # at rest where it started
+    pulled = loop.structure.records["L02.1"]
+    assert np.linalg.norm(world.pose(pulled.body).position) > 1000  # taken out of the scene
+    assert [e.kind for e in loop.events if e.kind in ("remove", "release", "shake", "push")] == [
+        "remove",
+        "release",
+        "shake",
+        "push",
+        "release",
+    ]
+    assert outcome(loop, 0.0).removed == ("L02.1",)
+
+
+def test_the_extension_guides_wakes_what_a_guided_brick_carries_and_forgets_it():
+    import numpy as np
+
+    from stability import Box, FakeEngine, Plane, Pose, StabilityExtension
+
+    eng = FakeEngine()
+    ext = StabilityExtension(eng)
+    ext.add_ground(0, Plane(0.0))
+    half = np.array([0.06, 0.012, 0.004])
+    for body, z in ((1, 0.004), (2, 0.012)):
+        eng.poses[body] = Pose(np.array([0.0, 0.0, z]))
+        ext.add_brick(body, Box(half, 0.0106), f"b{body}")
+    face = [[-0.06, -0.012], [0.06, -0.012], [0.06, 0.012], [-0.06, 0.012]]
+    eng.touch(1, 0, [[x, y, 0.0] for x, y in face], normal=[0, 0, 1])
+    eng.touch(2, 1, [[x, y, 0.008] for x, y in face], normal=[0, 0, 1])
+    for t in (0.0, 0.1, 0.2):
+        ext.update(t)
+    assert ext.state(1).value == ext.state(2).value == "frozen"
+    events = ext.guide(1, 0.3, "pulled")
+    assert [(e.label, e.kind) for e in events] == [("b1", "wake"), ("b2", "wake")]
+    for t in (0.4, 0.5, 0.6):  # b2 rests on a guided brick: never admitted, b1 never frozen
+        ext.update(t)
+    assert ext.state(1).value == ext.state(2).value == "active"
+    eng.contacts = [c for c in eng.contacts if 1 not in (c.body, c.other)]  # the hand took it away
+    ext.forget(1)
+    with pytest.raises(KeyError):
+        ext.state(1)

@@ -41,7 +41,7 @@ brick_types: {{finger: {{size: [20 mm, 10 mm, 10 mm]}}}}
 structure:
   bricks:
 {bricks}
-timing: {{interval: 0.1 s, settle: 2 s}}
+timing: {{interval: 0.1 s, settle: {max(2.0, 0.06 * count):g} s}}
 engine: {{mode: {chosen.mode}{extra}}}
 stability: {{model: {chosen.model}}}
 actions:

@@ -105,7 +105,10 @@ class Impacts:
                 rec.impacted.clear()
                 continue
             heading = stack.engine.velocity(rec.body)[0] / speed
-            for hit in stack.engine.near(rec.body, speed * dt * 1.5 + config.contact_pad, stack.frozen.keys()):
+            reach = speed * dt * 1.5 + config.contact_pad
+            if not stack.frozen_within(stack.engine.pose(rec.body).position, float(np.linalg.norm(rec.box.half_extents)) + reach):
+                continue  # no frozen brick's box within reach: the engine is not asked
+            for hit in stack.engine.near(rec.body, reach, stack.frozen.keys()):
                 other = stack.bodies.get(hit.other)
                 if other is None or other.state is not BrickState.FROZEN or other.body in rec.impacted:
                     continue

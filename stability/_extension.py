@@ -324,9 +324,16 @@ class StabilityExtension:
 
     def withstands(self, acceleration: tuple[float, float]) -> str | None:
         """Would the frozen stack stand on a ground accelerating horizontally by ``acceleration``
-        (m/s^2, (a_x, a_y), either way): gravity tilted by it, the effective gravity
-        (:func:`stability._shake.withstands`)? None when it would; else why not, in words."""
-        return withstands(self._stack, acceleration, self._stack.config.com_margin)
+        (m/s^2, (a_x, a_y)) either way, a shake's peak: under the effective gravity
+        ``(-+a_x, -+a_y, -g)`` (:func:`stability._shake.withstands`)? None when it would; else why
+        not, in words."""
+        ax, ay = acceleration
+        g = self._stack.config.gravity
+        for sign in (1.0, -1.0):
+            why = withstands(self._stack, (-sign * ax, -sign * ay, -g), self._stack.config.com_margin)
+            if why is not None:
+                return why
+        return None
 
     def wake_all(self, time: float, reason: str) -> list[StabilityEvent]:
         """Wake every frozen brick (report 3.3.7 from the bottom); returns the events."""

@@ -43,42 +43,46 @@ from ._load import propagate
 from ._stack import Stack
 
 
-def withstands(stack: Stack, acceleration: Sequence[float], margin: float = 0.0) -> str | None:
-    """Does the frozen stack stand pseudo-statically on a base accelerating horizontally by
-    ``acceleration`` (m/s^2, (a_x, a_y)), either way? None when it does; else why not, in words,
-    naming the first brick that would tip or slide (in the order they froze).
+def withstands(stack: Stack, effective_gravity: Sequence[float], margin: float = 0.0) -> str | None:
+    """Does the frozen stack stand pseudo-statically under ``effective_gravity`` (m/s^2, shape (3,),
+    pointing down: gravity plus the inertial force of the base's acceleration, ``(-a_x, -a_y, -g)``
+    for a base accelerating by ``(a_x, a_y)``)? None when it does; else why not, in words, naming
+    the first brick that would tip or slide (in the order they froze).
 
     Args:
         stack: the extension's bodies (only the frozen ones are asked).
-        acceleration: the base's peak horizontal acceleration, shape (2,), m/s^2.
+        effective_gravity: shape (3,), m/s^2, with a downward vertical part.
         margin: metres the tilted line of action must lie inside the main contact area.
+
+    Raises:
+        ValueError: an effective gravity that does not point down.
 
     Source: see the module docstring (report 3.3.4-3.3.5; Meriam & Kraige, Statics, ch. 6).
     """
-    ax, ay = (float(v) for v in acceleration)
-    a = math.hypot(ax, ay)
-    gravity = stack.config.gravity
+    gx, gy, gz = (float(v) for v in effective_gravity)
+    if gz >= 0:
+        raise ValueError(f"an effective gravity points down, not {gx, gy, gz}")
+    g, sideways = -gz, math.hypot(gx, gy)
     frozen = stack.in_order()
-    if not frozen or a == 0.0:
+    if not frozen or sideways == 0.0:
         return None
     loads = propagate(stack.nodes(frozen))
-    tilt = np.array([ax, ay]) / gravity
+    tilt = np.array([gx, gy]) / g  # the line of action's horizontal run per metre of drop
     for rec in frozen:
         for support in rec.rests_on:
             other = stack.bodies[support]
             mu = pair_friction(rec.friction, other.friction)
-            if a / gravity > mu:
-                return f"{rec.label} slides on {other.label}: a/g = {a / gravity:.3f} > friction {mu:.3f}"
+            if sideways / g > mu:
+                return f"{rec.label} slides on {other.label}: a/g = {sideways / g:.3f} > friction {mu:.3f}"
         main, load = rec.main_contact, loads.get(rec.body)
         if main is None or load is None:
             continue
         rise = float(load.com_above[2]) - main.height
         region = main.polygon.buffer(-margin) if margin > 0 else main.polygon
-        for sign in (1.0, -1.0):  # the acceleration's either way
-            x, y = np.asarray(load.com_above[:2]) - sign * rise * tilt
-            if not shapely.contains_xy(region, float(x), float(y)):
-                return (
-                    f"{rec.label} tips: under a = {a:.3g} m/s^2 its centre of mass above, {rise * 1000:.1f} mm over "
-                    "its contact area, acts outside it"
-                )
+        x, y = np.asarray(load.com_above[:2]) + rise * tilt
+        if not shapely.contains_xy(region, float(x), float(y)):
+            return (
+                f"{rec.label} tips: under a = {sideways:.3g} m/s^2 its centre of mass above, {rise * 1000:.1f} mm over "
+                "its contact area, acts outside it"
+            )
     return None

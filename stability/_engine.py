@@ -45,7 +45,13 @@ class ContactPoint:
 
 
 class Engine(Protocol):
-    """What the stability extension needs from a physics engine. Source: stackdsl's own."""
+    """What the stability extension needs from a physics engine. Source: stackdsl's own.
+
+    An engine whose :meth:`near` finds bodies by their geometry (every real one) may say so with
+    a class attribute ``near_is_geometric = True``: the impact rule then asks it only when a
+    frozen brick's box is within reach (a fake engine's ``near`` answers from contacts set by
+    hand, wherever the bodies are).
+    """
 
     @property
     def timestep(self) -> float:
@@ -88,6 +94,8 @@ class PyBulletEngine:
     :meth:`_engine_id` and :meth:`_body_id`. Source: stackdsl's own, measured with
     pybullet 3.2.7.
     """
+
+    near_is_geometric = True
 
     def __init__(self, client: Any) -> None:
         self._client = client

@@ -99,6 +99,7 @@ class Impacts:
         it loose, else an ``impact`` event: the stack held."""
         stack, config = self.stack, self.stack.config
         events: list[StabilityEvent] = []
+        geometric = getattr(stack.engine, "near_is_geometric", False)
         for rec in active:
             speed = float(np.linalg.norm(stack.engine.velocity(rec.body)[0]))
             if speed <= config.rest_speed:
@@ -106,7 +107,8 @@ class Impacts:
                 continue
             heading = stack.engine.velocity(rec.body)[0] / speed
             reach = speed * dt * 1.5 + config.contact_pad
-            if not stack.frozen_within(stack.engine.pose(rec.body).position, float(np.linalg.norm(rec.box.half_extents)) + reach):
+            radius = float(np.linalg.norm(rec.box.half_extents)) + reach
+            if geometric and not stack.frozen_within(stack.engine.pose(rec.body).position, radius):
                 continue  # no frozen brick's box within reach: the engine is not asked
             for hit in stack.engine.near(rec.body, reach, stack.frozen.keys()):
                 other = stack.bodies.get(hit.other)

@@ -70,6 +70,8 @@ class MuJoCoWorld(World):
     0.004
     """
 
+    near_is_geometric = True  # mj_geomDistance: the impact rule asks only near frozen bricks
+
     def __init__(
         self, engine: MuJoCoSettings, ground_friction: float, ground_restitution: float, *, movable_ground: bool = False
     ) -> None:

@@ -45,7 +45,13 @@ class ContactPoint:
 
 
 class Engine(Protocol):
-    """What the stability extension needs from a physics engine. Source: stackdsl's own."""
+    """What the stability extension needs from a physics engine. Source: stackdsl's own.
+
+    An engine whose :meth:`near` finds bodies by their geometry (every real one) may say so with
+    a class attribute ``near_is_geometric = True``: the impact rule then asks it only when a
+    frozen brick's box is within reach (a fake engine's ``near`` answers from contacts set by
+    hand, wherever the bodies are).
+    """
 
     @property
     def timestep(self) -> float:
@@ -65,8 +71,9 @@ class Engine(Protocol):
         """Every current contact point, once from each side; with ``bodies``, only those seen
         from one of them."""
 
-    def near(self, body: int, distance: float) -> list[ContactPoint]:
-        """Closest points between ``body`` and every body within ``distance`` metres, seen from ``body``."""
+    def near(self, body: int, distance: float, among: Collection[int] | None = None) -> list[ContactPoint]:
+        """Closest points between ``body`` and every body within ``distance`` metres, seen from
+        ``body``; with ``among``, only those of these bodies (the impact rule asks of the frozen ones)."""
 
     def set_frozen(self, body: int, frozen: bool, mass: float, at: Pose | None = None) -> None:
         """Freeze (immovable, still colliding, velocity zeroed) or restore ``body``; frozen
@@ -87,6 +94,8 @@ class PyBulletEngine:
     :meth:`_engine_id` and :meth:`_body_id`. Source: stackdsl's own, measured with
     pybullet 3.2.7.
     """
+
+    near_is_geometric = True
 
     def __init__(self, client: Any) -> None:
         self._client = client
@@ -136,12 +145,14 @@ class PyBulletEngine:
             points.append(ContactPoint(b, a, np.array(c[5]), -normal_on_b, force, distance))
         return points
 
-    def near(self, body: int, distance: float) -> list[ContactPoint]:
+    def near(self, body: int, distance: float, among: Collection[int] | None = None) -> list[ContactPoint]:
         own = self._engine_id(body)
         low, high = self._client.getAABB(own)
         low, high = np.array(low) - distance, np.array(high) + distance
         found = self._client.getOverlappingObjects(low.tolist(), high.tolist()) or []
         others = sorted({self._body_id(b) for b, _ in found if b != own})
+        if among is not None:
+            others = [b for b in others if b in among]
         return [
             ContactPoint(body, other, np.array(c[6]), np.array(c[7]), float(c[9]), float(c[8]))
             for other in others
@@ -249,9 +260,9 @@ class FakeEngine:
             if not (c.body in self.frozen and c.other in self.frozen) and (bodies is None or c.body in bodies)
         ]
 
-    def near(self, body: int, distance: float) -> list[ContactPoint]:
+    def near(self, body: int, distance: float, among: Collection[int] | None = None) -> list[ContactPoint]:
         """The fake has no distances: a body is near what it touches."""
-        return [c for c in self.contacts if c.body == body]
+        return [c for c in self.contacts if c.body == body and (among is None or c.other in among)]
 
     def set_frozen(self, body: int, frozen: bool, mass: float, at: Pose | None = None) -> None:
         self.velocities.pop(body, None)

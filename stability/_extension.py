@@ -36,6 +36,7 @@ from ._geometry import Box, Plane, Pose
 from ._graph import BrickGraph, BrickState, GraphEdge, GraphNode
 from ._impact import Impacts
 from ._load import LoadNode, propagate
+from ._shake import withstands
 from ._stack import Record, StabilityEvent, Stack
 from ._stack_test import StackTest
 
@@ -48,6 +49,9 @@ LINGER = 4.0
 RELEASE = 0.0005
 #: Metres: a held brick whose corners all stay this near where it was woken is kept still by the engine.
 STILL = 0.00005
+#: Metres beyond what a guided body travels in a step within which it touches a brick (pybullet's
+#: collision margin is about 1 mm).
+TOUCH = 0.0015
 
 
 class StabilityExtension:
@@ -117,15 +121,22 @@ class StabilityExtension:
         if not stack.active:
             stack.holding = True
             return []
+        events, touched = self._guided(time)
         active = sorted(stack.active.values(), key=lambda r: r.order)
-        events: list[StabilityEvent] = []
-        resting = [rec for rec in active if self._at_rest(rec, time)]  # every clock first: partners
+        free = [rec for rec in active if rec.body not in stack.guided]
+        resting = [rec for rec in free if self._at_rest(rec, time)]  # every clock first: partners
         # only a brick at rest asks, only of its own contacts (and its resting partners'), and a
         # brick refused asks again once a rest duration has passed and something has changed
         for rec in active:
             if rec.proved_at is not None:
                 self._release(rec, rec in resting, time)
-        due = [rec for rec in resting if rec.proved_at is None and (rec.failed is None or not stack.soon(rec.failed, time))]
+        due = [
+            rec
+            for rec in resting
+            if rec.proved_at is None and rec.body not in touched and (rec.failed is None or not stack.soon(rec.failed, time))
+        ]
+        if not stack.admitting:
+            due = []
         if due:  # the step's contacts, read only when some brick asks
             settling = [r.body for r in active if r.clock.since is not None]  # the resting, and those slowing down
             contacts = stack.contacts(settling, [r.body for r in due])
@@ -133,11 +144,11 @@ class StabilityExtension:
                 events += self._admit(rec, contacts, time)
             stack.forget_contacts()
         if stack.frozen:
-            events += self._lingering(active, time)
+            events += self._lingering(free, time)
         if events or not config.per_event:
             events += self._tests.run(time)
         if config.impacts:
-            hits = self._impacts.check(active, stack.engine.timestep, time)
+            hits = self._impacts.check(free, stack.engine.timestep, time)
             events += hits
             if any(e.kind == "wake" for e in hits):
                 events += self._tests.run(time)
@@ -277,6 +288,69 @@ class StabilityExtension:
         Returns the events, one per brick woken; nothing when ``body`` is not frozen.
         """
         return [w.event for w in self._stack.wake(body, time, reason)]
+
+    # bodies moved by an outside hand, and a moving ground -------------------------
+    def guide(self, body: int, time: float, reason: str) -> list[StabilityEvent]:
+        """An outside hand moves ``body`` from now on (a gripper pulling a brick out, a pusher):
+        it wakes, with everything resting on it (report 3.3.7), and is never frozen while guided.
+        Each step the frozen bricks it touches, or will within the step, wake too, with what rests
+        on them, and the active bricks it touches are not admitted: friction on a moving body is
+        what drags them (a pulled brick carries the bricks above it along). Returns the events.
+        Raises KeyError for an unknown body. Source: stackdsl's own."""
+        events = [w.event for w in self._stack.wake(body, time, reason)]
+        self._stack.guided.add(body)
+        return events
+
+    def forget(self, body: int) -> None:
+        """Take ``body`` out of the extension: a guided body the hand took away (it must have left
+        what it touched: the harness moves it out of the scene first). Raises KeyError for an
+        unknown body, ValueError for a frozen one. Source: stackdsl's own."""
+        self._stack.forget(body)
+
+    def _guided(self, time: float) -> tuple[list[StabilityEvent], set[int]]:
+        """Wake the frozen bricks each guided body touches or will within a step (:data:`TOUCH`
+        beyond what it travels in one); return the events and every body a guided one touches."""
+        stack, events, touched = self._stack, [], set()
+        for body in sorted(stack.guided):
+            speed, _ = stack.engine.speeds(body)
+            for c in stack.engine.near(body, speed * stack.engine.timestep + TOUCH):
+                other = stack.bodies.get(c.other)
+                if other is None or other.state is BrickState.GROUND:
+                    continue
+                touched.add(c.other)
+                if other.state is BrickState.FROZEN:
+                    events += self.wake(c.other, time, f"touched by {stack.bodies[body].label}, moved by hand")
+        return events, touched
+
+    def withstands(self, acceleration: tuple[float, float]) -> str | None:
+        """Would the frozen stack stand on a ground accelerating horizontally by ``acceleration``
+        (m/s^2, (a_x, a_y)) either way, a shake's peak: under the effective gravity
+        ``(-+a_x, -+a_y, -g)`` (:func:`stability._shake.withstands`)? None when it would; else why
+        not, in words."""
+        ax, ay = acceleration
+        g = self._stack.config.gravity
+        for sign in (1.0, -1.0):
+            why = withstands(self._stack, (-sign * ax, -sign * ay, -g), self._stack.config.com_margin)
+            if why is not None:
+                return why
+        return None
+
+    def wake_all(self, time: float, reason: str) -> list[StabilityEvent]:
+        """Wake every frozen brick (report 3.3.7 from the bottom); returns the events."""
+        events: list[StabilityEvent] = []
+        for rec in list(self._stack.in_order()):
+            events += self.wake(rec.body, time, reason)
+        return events
+
+    @property
+    def admitting(self) -> bool:
+        """Whether bricks at rest may be frozen: False while the ground moves under them (a
+        brick frozen then would stay where it was in the world while the ground moves on)."""
+        return self._stack.admitting
+
+    @admitting.setter
+    def admitting(self, on: bool) -> None:
+        self._stack.admitting = on
 
     def certificate(self) -> Certificate:
         """Rigid-block equilibrium of every registered brick where it is now, frozen or not

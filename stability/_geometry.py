@@ -10,6 +10,7 @@ horizontal projection plus a height.
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property, lru_cache
@@ -78,8 +79,12 @@ class Pose:
         return m
 
     def euler_degrees(self) -> np.ndarray:
-        """``(yaw, pitch, roll)`` in degrees, the inverse of :meth:`from_euler`."""
-        return np.asarray(Rotation.from_quat(self.orientation).as_euler("ZYX", degrees=True), dtype=float)
+        """``(yaw, pitch, roll)`` in degrees, the inverse of :meth:`from_euler`. At a pitch of
+        +-90 deg (a brick on end, a domino) yaw and roll are one turn; scipy then warns of the
+        gimbal lock and sets roll to 0, which is still this pose."""
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", "Gimbal lock detected", UserWarning)
+            return np.asarray(Rotation.from_quat(self.orientation).as_euler("ZYX", degrees=True), dtype=float)
 
 
 @dataclass(frozen=True)

@@ -10,9 +10,11 @@ impactor alone (against immovable bricks). Threshold-based, as the report's.
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import numpy as np
+from shapely.geometry import LineString, Point, Polygon
 
 from ._engine import ContactPoint
 from ._equilibrium import GRAVITY
@@ -42,6 +44,37 @@ def potential_energy(mass_above: float, com_above_z: float, base_z: float, gravi
     return mass_above * gravity * max(com_above_z - base_z, 0.0)
 
 
+def tipping_energy(
+    mass_above: float, com_above: np.ndarray, area: Polygon, base_z: float, heading: np.ndarray, gravity: float = GRAVITY
+) -> float:
+    """Joules to tip the hit part over the edge of its contact ``area`` ahead along ``heading``
+    (a horizontal direction): its centre of mass above, ``h`` over the base and ``d`` from that
+    edge, rises from ``h`` to ``sqrt(d^2 + h^2)`` as the part turns about the edge until it is
+    over it, and past that its weight turns it on. The energy barrier of a rocking block
+    (Housner, "The behavior of inverted pendulum structures during earthquakes", Bull. Seismol.
+    Soc. Am. 53(2), 1963): a domino needs a few microjoules, where lifting it needs millijoules.
+
+    Args:
+        mass_above: kg; com_above: shape (3,), m; area: the main contact area's horizontal
+            outline (shapely, m); base_z: m, its height; heading: shape (2,) or (3,), the blow's
+            direction (its horizontal part is used); gravity: m/s^2.
+
+    Returns the lifting energy (:func:`potential_energy`) when the heading has no horizontal part.
+    """
+    h = max(float(com_above[2]) - base_z, 0.0)
+    flat = np.asarray(heading[:2], dtype=float)
+    norm = float(np.linalg.norm(flat))
+    if norm < 1e-9:
+        return potential_energy(mass_above, float(com_above[2]), base_z, gravity)
+    x, y = float(com_above[0]), float(com_above[1])
+    reach = LineString([(x, y), (x + flat[0] / norm * 10.0, y + flat[1] / norm * 10.0)])
+    crossing = reach.intersection(area.boundary)
+    d = 0.0 if crossing.is_empty else float(Point(x, y).distance(crossing))
+    if not area.contains(Point(x, y)):
+        d = 0.0
+    return mass_above * gravity * (math.hypot(d, h) - h)
+
+
 def breaks_loose(kinetic: float, potential: float) -> bool:
     """True when the impact wakes the hit part: kinetic energy above potential (report 3.6.2)."""
     return kinetic > potential
@@ -62,17 +95,26 @@ class Impacts:
 
     def check(self, active: list[Record], dt: float, time: float) -> list[StabilityEvent]:
         """Each active body faster than the rest speed that will touch a frozen brick within
-        1.5 steps of ``dt`` s: wake that brick (with what is above it) when the blow breaks
+        1.5 steps of ``dt`` s (at its fastest point's speed, rotation included): wake that brick (with what is above it) when the blow breaks
         it loose, else an ``impact`` event: the stack held."""
         stack, config = self.stack, self.stack.config
         events: list[StabilityEvent] = []
+        geometric = getattr(stack.engine, "near_is_geometric", False)
         for rec in active:
-            speed = float(np.linalg.norm(stack.engine.velocity(rec.body)[0]))
+            linear, angular = stack.engine.velocity(rec.body)
+            speed = float(np.linalg.norm(linear))
             if speed <= config.rest_speed:
                 rec.impacted.clear()
                 continue
-            heading = stack.engine.velocity(rec.body)[0] / speed
-            for hit in stack.engine.near(rec.body, speed * dt * 1.5 + config.contact_pad):
+            heading = linear / speed
+            # no point of the body moves faster than |v| + |w| r, r its box's half diagonal: a
+            # toppling domino's top edge moves twice as fast as its centre of mass
+            corner = float(np.linalg.norm(rec.box.half_extents))
+            reach = (speed + float(np.linalg.norm(angular)) * corner) * dt * 1.5 + config.contact_pad
+            radius = corner + reach
+            if geometric and not stack.frozen_within(stack.engine.pose(rec.body).position, radius):
+                continue  # no frozen brick's box within reach: the engine is not asked
+            for hit in stack.engine.near(rec.body, reach, stack.frozen.keys()):
                 other = stack.bodies.get(hit.other)
                 if other is None or other.state is not BrickState.FROZEN or other.body in rec.impacted:
                     continue
@@ -84,6 +126,10 @@ class Impacts:
                 self.tests.refresh_loads()
                 assert other.com_above is not None, "the stack test sets it for every frozen brick"
                 potential = potential_energy(other.mass_above, other.com_above[2], base, config.gravity)
+                if config.impact_energy == "tip" and other.main_contact is not None:
+                    potential = tipping_energy(
+                        other.mass_above, np.asarray(other.com_above), other.main_contact.polygon, base, heading, config.gravity
+                    )
                 detail = f"impact of {rec.label} at {speed:.2f} m/s: {kinetic * 1000:.3g} mJ against {potential * 1000:.3g} mJ"
                 if breaks_loose(kinetic, potential):
                     events += [replace(w.event, source=rec.label) for w in stack.wake(other.body, time, detail)]

@@ -120,6 +120,9 @@ class Stack:
         self.version = 0  # counts the changes of the frozen stack (freezes and wakes)
         self.standing_version: int | None = None  # a version whose whole frozen stack a program showed to stand
         self.holding = True  # bricks woken in a proved mechanism are held active (none while a heap settles)
+        self.guided: set[int] = set()  # bodies an outside hand moves (a gripper, a pusher): never frozen
+        self.admitting = True  # False while the ground moves: nothing is frozen in the world's frame
+        self._boxes: tuple[int, np.ndarray] | None = None  # the frozen bricks' boxes, of a stack version
         self._contacts: ContactBook | None = None  # this step's, read in full before a change
 
     def add(self, rec: Record) -> None:
@@ -129,6 +132,41 @@ class Stack:
         self.bodies[rec.body] = rec
         if rec.state is BrickState.ACTIVE:
             self.active[rec.body] = rec
+
+    def frozen_within(self, centre: np.ndarray, radius: float) -> bool:
+        """Does the bounding box of some frozen brick come within ``radius`` m of ``centre``
+        (shape (3,))? A bound, from the boxes found when they froze (their tops and horizontal
+        extents; kept until the stack changes), so that the impact rule asks the engine for
+        closest points only near frozen bricks: in a domino row the fallen dominoes behind the
+        chain's front are near none. Source: stackdsl's own."""
+        if self._boxes is None or self._boxes[0] != self.version:
+            extents = [r.extent for r in self.frozen.values() if r.extent is not None]
+            self._boxes = (self.version, np.array(extents, dtype=float).reshape(-1, 5))
+        boxes = self._boxes[1]
+        if len(boxes) == 0:
+            return False
+        x, y, z = (float(v) for v in centre)
+        return bool(
+            np.any(
+                (boxes[:, 0] >= z - radius)
+                & (boxes[:, 1] <= x + radius)
+                & (boxes[:, 2] >= x - radius)
+                & (boxes[:, 3] <= y + radius)
+                & (boxes[:, 4] >= y - radius)
+            )
+        )
+
+    def forget(self, body: int) -> None:
+        """Unregister ``body``, an active brick taken out of the scene (a pulled brick, a withdrawn
+        pusher). Raises KeyError for an unknown body and ValueError for one that is not active."""
+        rec = self.bodies[body]
+        if rec.state is not BrickState.ACTIVE:
+            raise ValueError(f"{rec.label} is {rec.state.value}: only an active body can be taken away")
+        del self.bodies[body]
+        self.active.pop(body, None)
+        self.guided.discard(body)
+        for other in self.bodies.values():
+            other.objects_above.discard(body)
 
     def ordered(self, bodies: Iterable[int]) -> list[int]:
         """``bodies`` in registration order."""

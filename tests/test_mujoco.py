@@ -256,6 +256,7 @@ def test_the_stability_package_knows_no_engine():
             "itertools",
             "math",
             "typing",
+            "warnings",
             "numpy",
             "scipy",
             "shapely",

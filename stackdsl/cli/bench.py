@@ -1,5 +1,5 @@
 """``stackdsl bench``: speed against error, and its sub-benchmarks solve, height, hard, limits, record, sweep, verdicts,
-freeze and startup.
+freeze, dominoes and startup.
 
 Source: stackdsl's own.
 """
@@ -11,6 +11,7 @@ import time
 from typing import Any
 
 from ..bench.bench import SETTINGS, UPRIGHT, run_matrix, savings, scenes
+from ..bench.dominoes import DEFAULT as DOMINO_SETTINGS
 from ..lang.errors import ScenarioError
 from ..lang.extras import installed, missing
 from ..verdicts.expect import describe
@@ -52,7 +53,7 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     )
     p.set_defaults(func=_bench)
     bench = p.add_subparsers(
-        metavar="[solve | height | hard | limits | record | sweep | verdicts | freeze | startup]",
+        metavar="[solve | height | hard | limits | record | sweep | verdicts | freeze | dominoes | startup]",
         title="other benchmarks (optional)",
     )
     q = bench.add_parser("solve", help="equilibrium solve time for towers of 10 to 100 bricks")
@@ -152,6 +153,13 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     q = bench.add_parser("freeze", help="the ways to freeze a brick on MuJoCo: weld, its own sleeping, a held mocap body")
     q.add_argument("--levels", default="10,30,60", help="tower heights, comma-separated")
     q.set_defaults(func=_bench_freeze)
+    q = bench.add_parser(
+        "dominoes", help="a row of dominoes pushed over: the engine alone, tuned MuJoCo with sleeping, the extension"
+    )
+    q.add_argument("--count", type=int, default=30, help="dominoes in the row (2 to 500; default: 30)")
+    q.add_argument("--settings", default=",".join(DOMINO_SETTINGS), help="comma-separated, of: " + ", ".join(SETTINGS))
+    q.add_argument("--repeats", type=int, default=1, help="timed runs of each setting (median; default: 1)")
+    q.set_defaults(func=_bench_dominoes)
     q = bench.add_parser("limits", help="each engine's own limits measured past them: smallest side, fastest throw, mass ratio")
     q.add_argument("--backend", default=None, help="pybullet or mujoco (default: every installed engine)")
     q.set_defaults(func=_bench_limits)
@@ -392,6 +400,30 @@ def _bench_freeze(args: argparse.Namespace) -> int:
             costs.append(freeze_cost(n, means))
             print(f"{n} levels, {means}: {costs[-1].us_per_step:.1f} us a step", flush=True)
     print(format_freeze(costs))
+    return OK
+
+
+def _bench_dominoes(args: argparse.Namespace) -> int:
+    from ..bench.dominoes import domino_cost, format_dominoes
+    from ..bench.versions import version_line
+
+    if not 2 <= args.count <= 500:
+        raise ScenarioError("a row has 2 to 500 dominoes", file="--count")
+    if not 1 <= args.repeats <= 100:
+        raise ScenarioError("repeats are from 1 to 100", file="--repeats")
+    settings = [x.strip() for x in args.settings.split(",") if x.strip()]
+    unknown = [x for x in settings if x not in SETTINGS or SETTINGS[x].lean]
+    if unknown or not settings:
+        known = ", ".join(n for n, s in SETTINGS.items() if not s.lean)
+        raise ScenarioError(f"unknown setting {unknown[0] if unknown else ''!r}; known: {known}", file="--settings")
+    _need_engines(settings)
+    print(version_line(), flush=True)
+    costs = []
+    for setting in settings:
+        costs.append(domino_cost(args.count, setting, args.repeats))
+        c = costs[-1]
+        print(f"{setting}: {c.toppled} of {c.count} toppled, {c.wall:.2f} s", flush=True)
+    print(format_dominoes(costs))
     return OK
 
 

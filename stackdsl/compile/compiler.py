@@ -46,16 +46,17 @@ from ..engines.settings import SETTINGS, defaults, settings
 from ..lang.bounds import MAX_SIMULATED_TIME
 from ..lang.errors import FieldPath, ScenarioError
 from ..lang.extras import installed, missing
-from ..lang.schema import BACKEND_FIELDS, Scenario
+from ..lang.schema import BACKEND_FIELDS, BUILTIN_BRICKS, Scenario
 from ..lang.schema_impacts import SIDES, AfterLevel, Impact
 from ..lang.validation_errors import reference_errors
+from .actions import compile_actions
 from .clearance import check_launch
 from .layouts import LaidBrick, with_placement_error
 from .limits import check_limits
 from .overlap import Body
 from .parts import arrange, summaries
 from .precheck import precheck
-from .program import End, Fixture, Launch, Place, Program
+from .program import End, Fixture, Launch, Place, Program, Push, Remove, Shake
 from .require import accept
 from .rules import choose_rules
 
@@ -110,6 +111,7 @@ def compile_scenario(
     per_slot = _steps(scenario, ("timing", "interval"), interval, dt)
     settle = _steps(scenario, ("timing", "settle"), scenario.timing.settle, dt)
     names = {b.type for b in everything} | {i.projectile for i in scenario.impacts}
+    names |= {a.push.pusher for a in scenario.actions if a.push is not None and a.push.pusher in scenario_types(scenario)}
     specs = {name: _spec(scenario, name) for name in sorted(names)}
     slots = np.cumsum([not b.together for b in bricks]) - 1
     placements: list[Place | Launch | End] = [
@@ -133,15 +135,26 @@ def compile_scenario(
         check_launch(scenario, i, imp, launch, present + [(b.id, specs[b.type], b.pose()) for b in fixed])
     if limits:
         check_limits(scenario, engine, specs, [b.type for b in bricks] + [i.projectile for i in scenario.impacts])
-    actions = sorted([*placements, *launches], key=lambda a: (a.step, a.kind != "place"))
-    end = actions[-1].time + scenario.timing.settle
+    places = [a for a in placements if isinstance(a, Place)]
+    motions = compile_actions(
+        scenario, bricks, slots, specs, places, dt, lambda path, seconds: _steps(scenario, path, seconds, dt)
+    )
+    actions: list[Place | Launch | Remove | Push | Shake | End] = sorted(
+        [*placements, *launches, *motions], key=lambda a: (a.step, a.kind != "place")
+    )
+    last_time = max([actions[-1].time, *(m.end_time for m in motions)])
+    last_step = max([actions[-1].step, *(m.end_step for m in motions)])
+    end = last_time + scenario.timing.settle
     if end > MAX_SIMULATED_TIME:
         last = actions[-1]  # what makes the run long: the last impact's time, or the placements' interval
-        where = ("impacts", launches.index(last), "at") if last in launches else ("timing", "interval")
+        where: FieldPath = ("impacts", launches.index(last), "at") if last in launches else ("timing", "interval")
+        if motions and max(m.end_time for m in motions) >= last.time:
+            latest = max(motions, key=lambda m: m.end_time)
+            where = ("actions", motions.index(latest), latest.kind, "at")
         raise scenario.source.error(where, f"the run would last {end:.0f} s; at most {MAX_SIMULATED_TIME:.0f} s are simulated")
-    actions.append(End(step=actions[-1].step + settle, time=end))
+    actions.append(End(step=last_step + settle, time=end))
     ground = scenario.material(scenario.ground.material)
-    rules = choose_rules(bricks, launches, scenario.expect)
+    rules = choose_rules(bricks, launches, scenario.expect, motions)
     on = {r.name: r.on for r in rules}
     settings = {**scenario.stability.model_dump(exclude_none=True), **({"model": model} if model else {})}
     program = Program(
@@ -149,7 +162,13 @@ def compile_scenario(
         engine=engine,
         ground_friction=ground.friction,
         ground_restitution=ground.restitution,
-        stability=StabilityConfig(**settings, gravity=engine.gravity, leaning=on["leaning"], impacts=on["impacts"]),
+        stability=StabilityConfig(
+            **settings,
+            gravity=engine.gravity,
+            leaning=on["leaning"],
+            impacts=on["impacts"],
+            impact_energy="tip" if on.get("guided") else "lift",
+        ),
         rules=rules,
         fixtures=tuple(
             Fixture(id=b.id, brick=specs[b.type], position=tuple(b.position), yaw=b.yaw, pitch=b.pitch, roll=b.roll)
@@ -164,6 +183,11 @@ def compile_scenario(
     _budget(scenario, program)  # before the checks of the placements, which take a while on a huge scene
     floating = precheck(scenario, _bodies(scenario, everything, nominal, specs, dict(zip(map(id, bricks), slots))))
     return program.model_copy(update={"floating": floating})
+
+
+def scenario_types(scenario: Scenario) -> set[str]:
+    """The brick types a scenario may name: the built-in ones and its own."""
+    return {*BUILTIN_BRICKS, *scenario.brick_types}
 
 
 def _budget(scenario: Scenario, program: Program) -> None:

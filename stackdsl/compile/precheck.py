@@ -35,7 +35,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..lang.errors import FieldPath, format_path
-from ..lang.expectations import CollapseLevel, span
+from ..lang.expectations import CollapseLevel, bricks_of, levels_of, selects, span
 from ..lang.schema import Scenario
 from .overlap import GROUND, OVERLAP_TOLERANCE, REST_TOLERANCE, Body, inspect_bodies
 from .parts import layout_at, part_path
@@ -76,7 +76,7 @@ def precheck(scenario: Scenario, bodies: Sequence[Body]) -> tuple[str, ...]:
         [((0, bodies[b].slot, b), ("overlap", b, s), d) for b, s, d in overlaps]
         + ([] if allowed else [((1, bodies[b].slot, b), ("floating", b), 0.0) for b in floating])
     )
-    expectations = _expectation_problems(scenario, max(b.level for b in bodies))
+    expectations = _expectation_problems(scenario, max(b.level for b in bodies), [b.id for b in bodies if b.slot >= 0])
     if found:
         _, key, depth = found[0]
         if key[0] == "overlap":
@@ -267,8 +267,9 @@ def _blame_placement_error(scenario: Scenario, bodies: Sequence[Body], problem: 
     return _Problem(problem.key, problem.order, ("timing", "placement_error"), message, problem.effect)
 
 
-def _expectation_problems(scenario: Scenario, top: int) -> list[_Problem]:
-    """Expectations about levels above the highest level placed (``top``)."""
+def _expectation_problems(scenario: Scenario, top: int, ids: Sequence[str] = ()) -> list[_Problem]:
+    """Expectations about levels above the highest level placed (``top``), or about bricks that
+    none of the structure's ``ids`` is."""
     expect = scenario.expect
     problems = []
     c = expect.collapse
@@ -288,9 +289,20 @@ def _expectation_problems(scenario: Scenario, top: int) -> list[_Problem]:
                 f"{top} (or a tolerance that reaches one), or 'stands: true'",
             )
         )
-    for name in ("stays", "may_fall"):
-        levels = getattr(expect, name)
-        beyond = [lv for lv in levels or () if lv > top]
+    for name in ("stays", "may_fall", "moved"):
+        levels = levels_of(getattr(expect, name) or ())
+        unknown = [s for s in bricks_of(getattr(expect, name) or ()) if not any(selects(s, i) for i in ids)]
+        if unknown:
+            problems.append(
+                _Problem(
+                    ("expect", name),
+                    (2, 3),
+                    ("expect", name),
+                    f"{', '.join(repr(u) for u in unknown)} name{'s' * (len(unknown) == 1)} no brick of the structure: "
+                    f"give a brick id (such as {ids[0]!r}) or the start of ids (such as {ids[0].rsplit('.', 1)[0]!r})",
+                )
+            )
+        beyond = [lv for lv in levels if lv > top]
         if beyond:
             problems.append(
                 _Problem(

@@ -129,13 +129,82 @@ class PartSummary(_Frozen):
 
 class Rule(_Frozen):
     """A rule of the extension mode and whether this scene runs it, with why: the stability
-    extension's ``basic``, ``leaning`` and ``impacts`` rules, and ``rigid``, fallen bricks
+    extension's ``basic``, ``leaning`` and ``impacts`` rules, ``rigid``, fallen bricks
     settling as cheaper bodies once a collapse is decided
-    (:class:`stackdsl.runtime.subscribers.CheapDebris`)."""
+    (:class:`stackdsl.runtime.subscribers.CheapDebris`), ``guided``, bodies moved by a hand (a
+    pulled brick, a pusher) waking what they carry and touch, and ``shake``, the frozen stack
+    checked under the ground's peak acceleration (:mod:`stackdsl.runtime.actions`)."""
 
-    name: Literal["basic", "leaning", "impacts", "rigid"]
+    name: Literal["basic", "leaning", "impacts", "rigid", "guided", "shake"]
     on: bool
     reason: str
+
+
+class Remove(_Frozen):
+    """Pull structure brick ``id`` out at ``velocity`` (m/s) from ``step`` until ``end_step``, a
+    kinematic gripper; then the hand takes it out of the scene. Source: stackdsl's own."""
+
+    kind: Literal["remove"] = "remove"
+    step: int
+    time: float
+    id: str
+    velocity: Vec3
+    end_step: int
+    end_time: float
+
+
+class Push(_Frozen):
+    """A pusher ``id``, a box of ``brick``, enters at ``position`` (turned ``yaw``, ``pitch``)
+    and moves at ``velocity`` (m/s) until ``end_step``, into ``target`` (a brick id or a point,
+    as words); then it is withdrawn. Source: stackdsl's own."""
+
+    kind: Literal["push"] = "push"
+    step: int
+    time: float
+    id: str
+    brick: BrickSpec
+    position: Vec3
+    yaw: float
+    pitch: float
+    velocity: Vec3
+    target: str
+    end_step: int
+    end_time: float
+
+
+class Shake(_Frozen):
+    """The ground moves horizontally along unit ``direction`` (x, y) by
+    ``amplitude * (1 - cos(2 pi frequency (t - time)))`` (m) from ``step`` to ``end_step``: whole
+    periods, starting and ending at rest where it started. Its peak acceleration is
+    ``amplitude * (2 pi frequency)^2``. Source: stackdsl's own."""
+
+    kind: Literal["shake"] = "shake"
+    step: int
+    time: float
+    amplitude: float
+    frequency: float
+    direction: tuple[float, float]
+    end_step: int
+    end_time: float
+
+    @property
+    def peak_acceleration(self) -> float:
+        """m/s^2, the ground's largest acceleration: A (2 pi f)^2."""
+        return self.amplitude * (2 * math.pi * self.frequency) ** 2
+
+    def at(self, t: float) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+        """The ground's offset (m) and velocity (m/s) at ``t`` seconds (0 outside the shake)."""
+        if not self.time <= t <= self.end_time:
+            return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+        w = 2 * math.pi * self.frequency
+        x = self.amplitude * (1 - math.cos(w * (t - self.time)))
+        v = self.amplitude * w * math.sin(w * (t - self.time))
+        dx, dy = self.direction
+        return (x * dx, x * dy, 0.0), (v * dx, v * dy, 0.0)
+
+
+Kinematic = Remove | Push | Shake
+"""The actions that move something kinematically for a while (:mod:`stackdsl.runtime.actions`)."""
 
 
 class End(_Frozen):
@@ -146,7 +215,7 @@ class End(_Frozen):
     time: float
 
 
-Action = Annotated[Place | Launch | End, Field(discriminator="kind")]
+Action = Annotated[Place | Launch | Remove | Push | Shake | End, Field(discriminator="kind")]
 
 
 class Program(_Frozen):
@@ -187,6 +256,16 @@ class Program(_Frozen):
     def placements(self) -> list[Place]:
         """The :class:`Place` actions, in order."""
         return [a for a in self.actions if isinstance(a, Place)]
+
+    @property
+    def kinematic(self) -> list[Kinematic]:
+        """The :class:`Remove`, :class:`Push` and :class:`Shake` actions, in order."""
+        return [a for a in self.actions if isinstance(a, (Remove, Push, Shake))]
+
+    @property
+    def shakes(self) -> bool:
+        """Whether the ground moves (a :class:`Shake`): the world is made with a movable ground."""
+        return any(isinstance(a, Shake) for a in self.actions)
 
     @property
     def levels(self) -> int:
@@ -273,6 +352,16 @@ def estimate_work(program: Program) -> Work:
             moving += stepped * weight * placed
             resting += stepped * present + solve * placed * present**3
             present += placed
+    for motion in (
+        a for a in program.actions if isinstance(a, (Remove, Push, Shake))
+    ):  # every body moving, in extension mode too
+        span = motion.end_step - motion.step
+        present = sum(a.step <= motion.step for a in entries) + (1 if isinstance(motion, Push) else 0)
+        if e.mode == "extension":
+            steps += span
+            moving += span * weight * present
+        elif isinstance(motion, Push):
+            moving += span * weight
     for launch in (a for a in entries if isinstance(a, Launch)):
         speed = math.sqrt(sum(v * v for v in launch.velocity))
         substeps = min(MAX_SUBSTEPS, max(1, math.ceil(speed * dt / program.collapse_threshold))) if e.ccd else 1
@@ -327,6 +416,25 @@ def format_program(program: Program) -> str:
             lines.append(
                 f"{head}launch {a.id:<10} {speed:.3g} m/s at ({x:.1f}, {y:.1f}, {z:.1f}) mm, "
                 f"arriving t={a.arrival:.3f} s  {a.brick.type}"
+            )
+        elif isinstance(a, Remove):
+            speed = math.sqrt(sum(v * v for v in a.velocity))
+            direction = ", ".join(f"{round(v / speed, 9) + 0.0:.3g}" for v in a.velocity)
+            lines.append(
+                f"{head}remove {a.id:<10} pulled along ({direction}) at {speed * 1000:.3g} mm/s until t={a.end_time:.3f} s"
+            )
+        elif isinstance(a, Push):
+            x, y, z = (v * 1000 for v in a.position)
+            speed = math.sqrt(sum(v * v for v in a.velocity))
+            lines.append(
+                f"{head}push   {a.id:<10} from ({x:.1f}, {y:.1f}, {z:.1f}) mm at {speed * 1000:.3g} mm/s into {a.target} "
+                f"until t={a.end_time:.3f} s  {a.brick.type}"
+            )
+        elif isinstance(a, Shake):
+            lines.append(
+                f"{head}shake  ground     {a.amplitude * 1000:.3g} mm at {a.frequency:.3g} Hz along "
+                f"({a.direction[0]:.3g}, {a.direction[1]:.3g}) until t={a.end_time:.3f} s, peak acceleration "
+                f"{a.peak_acceleration:.3g} m/s^2"
             )
         else:
             lines.append(f"{head}end")

@@ -11,33 +11,60 @@ Source: stackdsl's own (model only what a scene needs).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 from ..lang.expectations import Expect
 from .layouts import LaidBrick, lie_flat
-from .program import Launch, Rule
+from .program import Kinematic, Launch, Push, Remove, Rule, Shake
 
 
-def choose_rules(bricks: list[LaidBrick], launches: list[Launch], expect: Expect) -> tuple[Rule, ...]:
+def choose_rules(
+    bricks: list[LaidBrick], launches: list[Launch], expect: Expect, motions: Sequence[Kinematic] = ()
+) -> tuple[Rule, ...]:
     """The extension mode's rules this scene needs: leaning only if a brick does not lie flat
-    or something is thrown (it may come to rest leaning), impacts only if something is thrown,
-    fallen bricks made cheaper to step unless levels are expected to stay or may fall, which is
-    judged after the collapse (docs/design.md: what the compiler switches on)."""
+    or something is thrown, pulled or pushed (it may come to rest leaning), impacts only if
+    something is thrown, fallen bricks made cheaper to step unless levels or bricks are expected to
+    stay, move or topple, or may fall, which is judged after the collapse; and, listed only for
+    a scene that has them, ``guided`` when a hand pulls or pushes, ``shake`` when the ground shakes
+    (docs/design.md: what the compiler switches on)."""
     tilted = [b.id for b, flat in zip(bricks, lie_flat(bricks)) if not flat]
-    judged_after = next((name for name in ("stays", "may_fall") if getattr(expect, name) is not None), None)
+    judged_after = next((name for name in ("stays", "may_fall", "moved", "toppled") if getattr(expect, name) is not None), None)
+    hands = [m for m in motions if isinstance(m, (Remove, Push))]
+    shakes = [m for m in motions if isinstance(m, Shake)]
     listed = ", ".join(tilted[:4]) + (f" and {len(tilted) - 4} more" if len(tilted) > 4 else "")
     lean = (
         f"bricks placed tilted: {listed}"
         if tilted
         else "a thrown brick may come to rest leaning"
         if launches
+        else "a pulled or pushed brick may come to rest leaning"
+        if hands
         else "every brick lies flat and nothing is thrown"
+    )
+    moved = ", ".join(f"{m.kind} {m.id} at {m.time:g} s" for m in hands)
+    peak = max((m.peak_acceleration for m in shakes), default=0.0)
+    hand = Rule(
+        name="guided",
+        on=True,
+        reason=f"{moved}: wakes what it carries and the frozen bricks it touches; never frozen while moved",
+    )
+    ground = Rule(
+        name="shake",
+        on=True,
+        reason=f"the ground shakes (peak {peak:.3g} m/s^2): the frozen stack stays frozen only if it stands under gravity "
+        "tilted by the peak acceleration; else it wakes, and nothing freezes while the ground moves",
     )
     return (
         Rule(name="basic", on=True, reason="every scene"),
-        Rule(name="leaning", on=bool(tilted or launches), reason=lean),
+        Rule(name="leaning", on=bool(tilted or launches or hands), reason=lean),
         Rule(
             name="impacts",
-            on=bool(launches),
-            reason=f"{len(launches)} projectile{'s' * (len(launches) != 1)}" if launches else "nothing is thrown",
+            on=bool(launches or hands),
+            reason=f"{len(launches)} projectile{'s' * (len(launches) != 1)}"
+            if launches
+            else "a pulled or pushed brick may knock over the frozen bricks it falls on (the energy to tip them)"
+            if hands
+            else "nothing is thrown",
         ),
         Rule(
             name="rigid",
@@ -46,4 +73,6 @@ def choose_rules(bricks: list[LaidBrick], launches: list[Launch], expect: Expect
             if judged_after
             else "nothing is judged on bricks after a collapse: they settle as cheaper bodies",
         ),
+        *((hand,) if hands else ()),
+        *((ground,) if shakes else ()),
     )

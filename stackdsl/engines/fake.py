@@ -37,6 +37,8 @@ class FakeWorld(FakeEngine, World):
     steps: int = 0
     substeps: int = 1
     ground: int = 0
+    ground_offset: Vec3 = (0.0, 0.0, 0.0)
+    guided: set[int] = field(default_factory=set)
 
     def create(self, spec: BrickSpec, pose: Pose, mass: float | None = None, projectile: bool = False) -> int:
         body = len(self.masses) + 1  # 0 is the ground
@@ -47,6 +49,15 @@ class FakeWorld(FakeEngine, World):
     def move(self, body: int, pose: Pose, mass: float) -> None:
         self.poses[body], self.masses[body] = pose, mass
         self.velocities.pop(body, None)
+        self.guided.discard(body)
+
+    def guide(self, body: int, pose: Pose, velocity: Vec3, hold: bool = True) -> None:
+        self.poses[body] = pose
+        self.velocities[body] = (np.array(velocity, dtype=float), np.zeros(3))
+        self.guided.add(body)
+
+    def move_ground(self, offset: Vec3, velocity: Vec3) -> None:
+        self.ground_offset = offset
 
     def throw(self, body: int, velocity: Vec3, swept_radius: float | None) -> None:
         self.velocities[body] = (np.array(velocity, dtype=float), np.zeros(3))

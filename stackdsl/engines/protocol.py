@@ -113,6 +113,10 @@ class World(Engine, Protocol):
         ground: the body id of the ground plane.
         cheap_debris: whether :meth:`make_debris` does anything (an optional capability;
             default False).
+
+    Two capabilities move bodies kinematically, as a hand or a shake table does: :meth:`guide`
+    (a gripper pulling a brick out, a pusher) and :meth:`move_ground` (on a world made with a
+    movable ground). The adapters implement both; the defaults refuse.
     """
 
     ground: int
@@ -159,6 +163,23 @@ class World(Engine, Protocol):
         return (a, b, c), (d, e, f)
 
     # optional capabilities, with their defaults -------------------------------------
+    def guide(self, body: int, pose: Pose, velocity: Vec3, hold: bool = True) -> None:
+        """Move ``body`` kinematically through the next step: put it at ``pose`` with linear
+        ``velocity`` (m/s) and no spin, so that what it touches feels a body moving at that
+        velocity (friction drags it), while contacts and gravity cannot push it off its path
+        (``hold``: a pusher in a hand). Without ``hold`` only its horizontal position, its
+        orientation and its horizontal velocity are set: it keeps its mass, height and vertical
+        motion, resting on what carries it and carrying its share of what rests on it (a brick
+        slid out of a tower). Called before every step it is guided; :meth:`move` ends it.
+        Default: refused."""
+        raise NotImplementedError(f"{type(self).__name__} cannot guide a body")
+
+    def move_ground(self, offset: Vec3, velocity: Vec3) -> None:
+        """Put the ground ``offset`` (m) from where it started, moving at ``velocity`` (m/s),
+        for the next step: a shake table. Only on a world made with a movable ground
+        (:func:`stackdsl.runtime.run.world_for` makes one for a program with a shake). Default: refused."""
+        raise NotImplementedError(f"{type(self).__name__} cannot move its ground")
+
     def make_debris(self, bodies: Sequence[int]) -> list[int]:
         """Make ``bodies`` cheaper to step while debris settles after a decided collapse, at
         the same pose and velocity under the same ids; the ids made so. How is the engine's:

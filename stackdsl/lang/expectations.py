@@ -28,6 +28,7 @@ from .grammar import (
     LEVEL_NUMBER,
     LEVEL_RANGE,
     PLUS_MINUS,
+    SPACE,
     TOLERANCE_NUMBER,
     WHOLE,
     AlsoAccepts,
@@ -58,10 +59,17 @@ def _collapse(value: Any) -> Any:
     return value
 
 
+SELECTOR = "[A-Za-z_][A-Za-z0-9_.-]{0,40}"
+"""A brick id or the start of ids: ``L05.2`` (that brick), ``L05`` (``L05.1``, ``L05.2``...),
+``left.`` (every brick of part ``left``)."""
+
+
 def _levels(value: Any) -> Any:
-    """Levels: ``5``, ``"1-11"``, or a list of those; returned as a sorted tuple."""
+    """Levels: ``5``, ``"1-11"``, bricks: ``"L05.2"``, ``"L05"``, ``"left."``, or a list of those;
+    returned as a tuple, the levels sorted first, then the bricks in the order given."""
     items = value if isinstance(value, list) else [value]
     levels: set[int] = set()
+    bricks: list[str] = []
     for item in items:
         number = as_int(item)
         match = re.fullmatch(LEVEL_RANGE, item) if isinstance(item, str) else None
@@ -69,12 +77,38 @@ def _levels(value: Any) -> Any:
             first = last = number
         elif match:
             first, last = int(match[1]), int(match[2] or match[1])
+        elif isinstance(item, str) and re.fullmatch(f"{SPACE}{SELECTOR}{SPACE}", item):
+            if item.strip() not in bricks:
+                bricks.append(item.strip())
+            continue
         else:
             first, last = 0, -1  # refused below
         if not 1 <= first <= last <= MAX_LEVELS:
-            raise ValueError(f"expected levels from 1 to {MAX_LEVELS} such as 5, '1-11' or a list of those, got {item!r}")
+            raise ValueError(
+                f"expected levels from 1 to {MAX_LEVELS} such as 5, '1-11', bricks such as 'L05.2', 'L05' or 'left.', "
+                f"or a list of those, got {item!r}"
+            )
         levels.update(range(first, last + 1))
-    return tuple(sorted(levels))
+    return (*sorted(levels), *bricks)
+
+
+def selects(selector: str, brick: str) -> bool:
+    """Does ``selector`` (a brick id or the start of ids, :data:`SELECTOR`) name ``brick``?
+
+    >>> [selects("L05", b) for b in ("L05.1", "L050.1", "L05")], selects("left.", "left.L01.1")
+    ([True, False, True], True)
+    """
+    return brick == selector or brick.startswith(selector if selector.endswith(".") else selector + ".")
+
+
+def levels_of(selection: Iterable[int | str]) -> tuple[int, ...]:
+    """The levels of a ``stays``/``moved``/``may_fall`` selection."""
+    return tuple(s for s in selection if isinstance(s, int))
+
+
+def bricks_of(selection: Iterable[int | str]) -> tuple[str, ...]:
+    """The brick ids and id starts of a ``stays``/``moved``/``may_fall`` selection."""
+    return tuple(s for s in selection if isinstance(s, str))
 
 
 _LEVEL_ITEM = {
@@ -84,13 +118,40 @@ _LEVEL_ITEM = {
         {"type": "string", "pattern": json_pattern(LEVEL_RANGE, LEVEL_NUMBER, LEVEL_NUMBER)},
     ]
 }
+_LEVEL_ITEM = {"anyOf": [*_LEVEL_ITEM["anyOf"], {"type": "string", "pattern": f"^{SPACE}{SELECTOR}{SPACE}$"}]}
 Levels = Annotated[
-    tuple[int, ...],
+    tuple[int | str, ...],
     BeforeValidator(_levels),
     WithJsonSchema(
-        {"anyOf": [_LEVEL_ITEM, {"type": "array", "items": _LEVEL_ITEM}], "description": "levels: 5, '1-11', or a list of those"}
+        {
+            "anyOf": [_LEVEL_ITEM, {"type": "array", "items": _LEVEL_ITEM}],
+            "description": "levels (5, '1-11') or bricks (an id 'L05.2', or the start of ids: 'L05', 'left.'), or a list of those",
+            "examples": ["1-12", ["L05", "L06.1"]],
+        }
     ),
 ]
+
+
+def _toppled(value: Any) -> Any:
+    """``20``, ``"all"``, ``"20±1"`` or ``{count: 20, tolerance: 1}``."""
+    number = as_int(value)
+    if number is not None:
+        return {"count": number}
+    if value == "all":
+        return {"count": "all"}
+    if isinstance(value, str):
+        match = re.fullmatch(COLLAPSE, value)
+        if not match:
+            raise ValueError(f"expected a number of bricks such as 20, '20±1' or 'all', got {value!r}")
+        return {"count": int(match[1]), "tolerance": int(match[2] or 0)}
+    return value
+
+
+class Toppled(StrictModel):
+    """How many structure bricks toppled: ``count`` (or ``"all"``) within ``tolerance``."""
+
+    count: Annotated[int, Field(ge=0, le=5000), WHOLE] | Literal["all"]
+    tolerance: Annotated[int, Field(ge=0, le=5000), WHOLE] = 0
 
 
 def _plus_minus(value: Any) -> Any:
@@ -166,7 +227,8 @@ def _collapse_form(value: Any) -> str:
 
 class Expect(StrictModel):
     """What must hold: a ``collapse`` level, or that the structure ``stands``; after an
-    impact, the levels that ``stay`` in place and the levels that ``may_fall``. A sweep's
+    impact or an action, the levels or bricks that ``stay`` in place, that ``moved`` and that
+    ``may_fall``, and how many bricks ``toppled``. A sweep's
     expectations are statistics over its samples instead: ``collapse: {mean: '7 ± 0.5'}``,
     ``collapse: {quantile: {q: 0.5, level: '7 ± 1'}}`` and ``p_stands: '>= 0.9'``, each decided
     by its 95% confidence interval."""
@@ -195,6 +257,33 @@ class Expect(StrictModel):
     stands: Annotated[Literal[True], BeforeValidator(flag)] | None = None
     stays: Levels | None = None
     may_fall: Levels | None = None
+    moved: Annotated[
+        Levels | None,
+        Field(
+            description="levels or bricks each of whose bricks must end farther than the collapse threshold from where "
+            "it was placed",
+            examples=[["L01"], "3-4"],
+        ),
+    ] = None
+    toppled: Annotated[
+        Annotated[
+            Toppled,
+            BeforeValidator(_toppled),
+            AlsoAccepts(
+                (
+                    {"type": "integer", "minimum": 0, "maximum": 5000},
+                    {"type": "string", "pattern": f"^(?:all|{COLLAPSE})$"},
+                ),
+                "how many bricks topple: 20, '20±1' or 'all'",
+            ),
+        ]
+        | None,
+        Field(
+            description="how many structure bricks end tilted past their tipping angle (a domino fallen over): a "
+            "number, 'N±T' or 'all'",
+            examples=[30, "all", "20 +- 1"],
+        ),
+    ] = None
     p_stands: (
         Annotated[
             Probability,
@@ -212,7 +301,13 @@ class Expect(StrictModel):
     @property
     def per_run(self) -> bool:
         """Expectations about one run (a collapse level, ``stands``, ``stays``)."""
-        return isinstance(self.collapse, CollapseLevel) or bool(self.stands) or self.stays is not None
+        return (
+            isinstance(self.collapse, CollapseLevel)
+            or bool(self.stands)
+            or self.stays is not None
+            or self.moved is not None
+            or self.toppled is not None
+        )
 
     @model_validator(mode="after")
     def _consistent(self) -> Expect:
@@ -221,6 +316,8 @@ class Expect(StrictModel):
         # JSON Schema cannot compare two lists of ranges: the schema leaves this to the loader
         if self.stays and self.may_fall and set(self.stays) & set(self.may_fall):
             raise ValueError("a level cannot both stay and fall: 'stays' and 'may_fall' overlap")
+        if self.stays and self.moved and set(self.stays) & set(self.moved):
+            raise ValueError("a level or brick cannot both stay and move: 'stays' and 'moved' overlap")
         return self
 
 

@@ -105,7 +105,7 @@ def _or_random(node: Any) -> Any:
     default kept outside, where editors show them)."""
     if not _numeric(node):
         return _random(node)
-    meta = {k: node[k] for k in ("title", "description", "default") if k in node}
+    meta = {k: node[k] for k in ("title", "description", "default", "examples") if k in node}
     inner = {k: v for k, v in node.items() if k not in meta}
     return {"anyOf": [_random(inner), {"$ref": "#/$defs/Distribution"}], **meta}
 

@@ -47,6 +47,7 @@ from .grammar import (
     given,
     whole,
 )
+from .schema_actions import Action
 from .schema_generators import HALF, Dominoes, Pyramid, Wall
 from .schema_impacts import Impact
 from .schema_layouts import BrickPlacement, CardHouse, Tower
@@ -231,6 +232,15 @@ class Scenario(StrictModel):
     structure: Structure
     timing: Timing = Timing()
     impacts: Annotated[list[Impact], Field(max_length=100)] = []
+    actions: Annotated[
+        list[Action],
+        Field(
+            max_length=100,
+            description="what a hand or the ground does, each at a time like an impact's: remove (pull a brick out), "
+            "push (a pusher at a constant speed), shake (the ground as a shake table)",
+            examples=[[{"remove": {"brick": "L05.2", "at": "after level 12", "speed": "20 mm/s"}}]],
+        ),
+    ] = []
     engine: Engine = Engine()
     stability: Stability = Stability()
     collapse_threshold: CollapseThreshold | None = None

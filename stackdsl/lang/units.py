@@ -201,6 +201,7 @@ speed, Speed = _kind("[length]/[time]", "m/s", "a speed", "'3 m/s'")
 density, Density = _kind("[mass]/[length]**3", "kg/m**3", "a density", "'460 kg/m^3'", "kg/m^3")
 angular_speed, AngularSpeed = _kind("1/[time]", "rad/s", "an angular speed", "'0.05 rad/s'")
 angle, Angle = _kind("", "degree", "an angle", "'30 deg' or '0.5 rad'", "degrees")
+frequency, Frequency = _kind("1/[time]", "Hz", "a frequency", "'2 Hz'", "hertz")
 
 
 def split_quantity(value: Any) -> tuple[float, str]:

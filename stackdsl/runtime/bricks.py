@@ -132,6 +132,9 @@ class Structure:
         self.placed: list[BrickRecord] = []  # the structure bricks, in the order they were placed
         self.moving: dict[str, BrickRecord] = {}  # the structure bricks the engine simulates, by id
         self.projectiles: list[BrickRecord] = []
+        self.removed: list[BrickRecord] = []  # pulled out of the structure by a hand
+        # metres the ground has moved from where it started (a shake table): displacements are the ground's frame's
+        self.offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
         self._by_body: dict[int, BrickRecord] = {}
         self._tops: dict[int, list[BrickRecord]] = {}  # top height in 0.1 mm -> bricks
         self._cached: tuple[tuple[int, ...], np.ndarray, np.ndarray] = ((), np.zeros((0, 8, 3)), np.zeros((0, 8, 3)))
@@ -157,6 +160,37 @@ class Structure:
             self.moving[record.id] = record
         else:
             self.moving.pop(record.id, None)
+
+    def detach(self, record: BrickRecord) -> None:
+        """Take a structure brick out of the structure (a hand pulls it out): it is no longer
+        watched for a collapse nor counted in displacements; it keeps its record (by id, by body)."""
+        self.placed.remove(record)
+        self.moving.pop(record.id, None)
+        self._tops[round(record.top * 1e4)].remove(record)
+        record.level = None
+        self.removed.append(record)
+
+    def toppled(self) -> list[BrickRecord]:
+        """The structure bricks tilted past their tipping angle: their axis that was vertical when
+        placed has turned further than the angle at which the centre of mass passes over the
+        nearer edge of the placed footprint, atan(least horizontal half-extent / vertical
+        half-extent), both as placed. Source: stackdsl's own (a block tips over an edge of its
+        base once its centre of mass is past it: Meriam & Kraige, Statics, ch. 6)."""
+        records = self.placed
+        if not records:
+            return []
+        _, quaternions = self.world.poses_of([r.body for r in records])
+        now = Rotation.from_quat(quaternions).as_matrix()
+        out = []
+        for r, rotation in zip(records, now):
+            placed = r.pose.rotation
+            half = np.abs(placed) @ np.array(r.box.half_extents)  # the placed box's half extents in the world
+            tip = math.atan2(min(half[0], half[1]), half[2])
+            up = placed.T @ np.array([0.0, 0.0, 1.0])  # the brick's own axis that was vertical
+            tilt = math.acos(max(-1.0, min(1.0, float((rotation @ up)[2]))))
+            if tilt > tip:
+                out.append(r)
+        return out
 
     def by_body(self, body: int) -> BrickRecord | None:
         """The record of an engine body, or None (the ground, a fixture)."""
@@ -184,7 +218,8 @@ class Structure:
         return max(0.0, min(float(r.nominal.position[2]) - float(z) for r, z in zip(below, positions[:, 2])))
 
     def displacements(self, records: list[BrickRecord]) -> np.ndarray:
-        """How far each brick's farthest-moved corner is from where it was placed, m (a
+        """How far each brick's farthest-moved corner is from where it was placed, m, in the
+        ground's frame (:attr:`offset`, moved by a shake table) (a
         brick tipping in place counts, not only one whose centre moves); all at once, as
         raw and tuned modes ask it of every brick at every step. Up to :data:`FEW` bricks,
         brick by brick in floats (:meth:`displacement`)."""
@@ -194,6 +229,7 @@ class Structure:
             return np.array([self.displacement(r) for r in records])
         bodies = tuple(r.body for r in records)
         positions, quaternions = self.world.poses_of(bodies)
+        positions = positions - self.offset
         if self._cached[0] != bodies:
             self._cached = (
                 bodies,
@@ -216,6 +252,7 @@ class Structure:
             return [r for r in records if self._bound(r) > threshold]
         bodies = tuple(r.body for r in records)
         positions, quaternions = self.world.poses_of(bodies)
+        positions = positions - self.offset
         if self._placed[0] != bodies:  # the same bricks step after step: read their placing once
             placed = np.array([r.pose.position for r in records])
             placed_q = np.array([r.pose.orientation for r in records])
@@ -229,6 +266,8 @@ class Structure:
         """How far the farthest-moved corner of ``r`` is from where it was placed, m, in floats:
         the corners rotated by the quaternion's matrix (:attr:`stability.Pose.rotation`'s formula)."""
         (x, y, z), (qx, qy, qz, qw) = self.world.pose_floats(r.body)
+        ox, oy, oz = self.offset
+        x, y, z = x - ox, y - oy, z - oz
         n = 2.0 / (qx * qx + qy * qy + qz * qz + qw * qw)
         m00, m01, m02 = 1 - n * (qy * qy + qz * qz), n * (qx * qy - qz * qw), n * (qx * qz + qy * qw)
         m10, m11, m12 = n * (qx * qy + qz * qw), 1 - n * (qx * qx + qz * qz), n * (qy * qz - qx * qw)
@@ -244,7 +283,8 @@ class Structure:
     def _bound(self, r: BrickRecord) -> float:
         """:meth:`may_have_moved`'s bound for one brick, in floats."""
         (x, y, z), (qx, qy, qz, qw) = self.world.pose_floats(r.body)
-        px, py, pz = r.placed_xyz
+        ox, oy, oz = self.offset
+        px, py, pz = r.placed_xyz[0] + ox, r.placed_xyz[1] + oy, r.placed_xyz[2] + oz
         ax, ay, az, aw = r.placed_xyzw
         cos_half = min(1.0, abs(qx * ax + qy * ay + qz * az + qw * aw))
         return math.sqrt((x - px) ** 2 + (y - py) ** 2 + (z - pz) ** 2) + 2.0 * r.half_diagonal * math.sqrt(1.0 - cos_half**2)

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from collections.abc import Set as AbstractSet
 from dataclasses import dataclass
 
 import numpy as np
@@ -100,12 +101,22 @@ class SupportPolygon:
             self._pieces = tuple(pieces)
         return self._pieces
 
-    def outside(self, com: np.ndarray, poses: dict[int, Pose]) -> float:
-        """Metres the horizontal projection of ``com`` (shape (3,)) lies outside the polygon,
-        the supports at ``poses`` (body -> pose now); 0 inside, and when there are no pieces."""
-        if not self.pieces:
+    def outside(
+        self,
+        com: np.ndarray,
+        poses: dict[int, Pose],
+        offset: tuple[float, float, float] = (0.0, 0.0, 0.0),
+        gone: AbstractSet[int] = frozenset(),
+    ) -> float:
+        """Metres the horizontal projection of ``com`` (shape (3,), in the ground's frame) lies
+        outside the polygon, the supports at ``poses`` (body -> pose now, in the world; the
+        ground ``offset`` m from where it started, as a shake table moves it), leaving out the
+        pieces on the bodies ``gone`` (pulled out of the scene); 0 inside, and when there are no
+        pieces."""
+        pieces = [(b, c) for b, c in self.pieces if b not in gone]
+        if not pieces:
             return 0.0
-        points = [c if b is None else c @ poses[b].rotation.T + poses[b].position for b, c in self.pieces]
+        points = [c if b is None else c @ poses[b].rotation.T + poses[b].position - offset for b, c in pieces]
         hull = convex_hull(multipoints(np.vstack(points)[:, :2]))
         x, y = float(com[0]), float(com[1])
         if contains_xy(hull, x, y):
@@ -273,10 +284,13 @@ class CollapseMonitor(Subscriber):
         support = self._supports.get(record.id)
         if support is None or not support.pieces:
             return 0.0
+        gone = {r.body for r in loop.structure.removed}  # pulled out and taken away: it supports nothing
+        if gone and all(b in gone for b, _ in support.pieces):
+            return 0.0
         bodies = [record.body, *(b for b, _ in support.pieces if b is not None)]
         positions, quaternions = loop.world.poses_of(bodies)
         poses = {b: Pose(p, q) for b, p, q in zip(bodies, positions, quaternions)}
-        return support.outside(positions[0], poses)
+        return support.outside(positions[0] - loop.structure.offset, poses, loop.structure.offset, gone)
 
     def _resting(self, loop: StepLoop, records: list[BrickRecord]) -> list[bool]:
         """Whether each brick's speeds are under the rest thresholds now (a frozen one's are)."""

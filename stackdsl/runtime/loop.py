@@ -5,6 +5,8 @@ projectiles (launches), and calls its subscribers at named moments:
 
 * ``before_step`` and ``after_step``, around every physics step taken;
 * ``on_place`` and ``on_launch``, when a brick or a projectile has entered the world;
+* ``on_action``, when a pull, a push or a shake starts (:mod:`stackdsl.runtime.actions`
+  carries them out);
 * ``at_end``, once, when the run ends (at its end, at a collapse's settle time or at the
   wall-clock deadline).
 
@@ -25,7 +27,7 @@ import numpy as np
 
 from stability import Box, Pose
 
-from ..compile.program import Launch, Place, Program
+from ..compile.program import Kinematic, Launch, Place, Program, Push, Remove, Shake
 from ..engines.protocol import BrickSpec, World
 from .bricks import BrickRecord, Structure, footprint
 from .outcome import Event
@@ -66,11 +68,14 @@ class Subscriber:
     def on_launch(self, loop: StepLoop, record: BrickRecord) -> None:
         """A projectile was thrown (its ``launch`` event is in the timeline)."""
 
+    def on_action(self, loop: StepLoop, action: Kinematic) -> None:
+        """A pull, a push or a shake starts now."""
+
     def at_end(self, loop: StepLoop) -> None:
         """The run ended."""
 
 
-HOOKS = ("before_step", "after_step", "on_place", "on_launch", "at_end")
+HOOKS = ("before_step", "after_step", "on_place", "on_launch", "on_action", "at_end")
 """The step loop's lifecycle hooks, in the order they can first be called."""
 
 
@@ -122,6 +127,7 @@ class StepLoop:
         bound = {h: tuple(getattr(s, h) for s in self.subscribers if overrides(s, h)) for h in HOOKS}
         self._before_step, self._after_step = bound["before_step"], bound["after_step"]
         self._on_place, self._on_launch, self._at_end = bound["on_place"], bound["on_launch"], bound["at_end"]
+        self._on_action = bound["on_action"]
         self._watchers = tuple(s for s in self.subscribers if overrides(s, "quiet"))
         self.jump, self.stop_at_collapse, self.timeout = jump, stop_at_collapse, timeout
         self.deadline = None if timeout is None else (_time.perf_counter() if started is None else started) + timeout
@@ -173,6 +179,9 @@ class StepLoop:
                 self.place(action)
             elif isinstance(action, Launch):
                 self.launch(action)
+            elif isinstance(action, (Remove, Push, Shake)):
+                for on_action in self._on_action:
+                    on_action(self, action)
         if self.stop_step is not None:
             self.advance(min(self.stop_step, self.program.actions[-1].step))
 

@@ -27,7 +27,7 @@ class Event(_Frozen):
     """One entry of the timeline; ``time`` in seconds."""
 
     time: float
-    kind: Literal["place", "launch", "freeze", "wake", "impact", "collapse", "substeps"]
+    kind: Literal["place", "launch", "freeze", "wake", "impact", "collapse", "substeps", "remove", "push", "shake", "release"]
     brick: str
     level: int | None = None
     detail: str = ""
@@ -194,6 +194,9 @@ class Outcome(_Frozen):
             one): the settle time's cost.
         certificate: the proof of the verdict (None when the run stopped early).
         certificate_time: seconds of the wall time spent proving that the structure stands.
+        toppled: the structure bricks tilted past their tipping angle at the end (a domino
+            fallen over), in the order they were placed (:meth:`stackdsl.runtime.bricks.Structure.toppled`).
+        removed: the bricks a hand pulled out of the structure (``actions: remove``).
         stopped: None when the run went to its end; else why and where it stopped early,
             e.g. ``"timeout after 120 s at t = 37.2 s simulated (of 201 s)"`` (the rest of
             the outcome then covers the simulated time so far, and the expectations fail:
@@ -219,6 +222,8 @@ class Outcome(_Frozen):
     after_collapse: float = 0.0
     certificate: Certificate | None = None
     certificate_time: float = 0.0
+    toppled: tuple[str, ...] = ()
+    removed: tuple[str, ...] = ()
     stopped: str | None = None
 
     def golden(self) -> dict[str, Any]:

@@ -44,6 +44,7 @@ from dataclasses import dataclass, replace
 
 from ..compile.program import Program
 from ..engines.protocol import EngineSettings, World
+from .actions import Actions
 from .collapse import CollapseMonitor
 from .loop import CLOCK_EVERY, StepLoop, Subscriber
 from .outcome import Outcome
@@ -145,14 +146,15 @@ def world_for(program: Program, *, shelve: bool = True) -> Iterator[World]:
         ImportError: the MuJoCo backend without the ``mujoco`` package.
     """
     engine, friction, restitution = program.engine, program.ground_friction, program.ground_restitution
+    movable = program.shakes
     if engine.backend == "mujoco":
         from ..engines.mujoco.world import MuJoCoWorld
 
-        yield MuJoCoWorld(engine, friction, restitution)
+        yield MuJoCoWorld(engine, friction, restitution, movable_ground=movable)
     else:
         from ..engines.pybullet.world import pybullet_world
 
-        with pybullet_world(engine, friction, restitution, shelve=shelve) as pybullet:
+        with pybullet_world(engine, friction, restitution, shelve=shelve, movable_ground=movable) as pybullet:
             yield pybullet
 
 
@@ -179,6 +181,7 @@ def run_in(
     )
     own: list[Subscriber] = [SoftLanding(program.engine.gravity)] if options.soft_landing else []
     own += [Substeps(program.collapse_threshold, acting)] if program.engine.ccd else []
+    own += [Actions(stability)] if program.kinematic else []
     after: list[Subscriber] = []
     rigid = any(r.name == "rigid" and r.on for r in program.rules)
     if acting and rigid and options.cheap_debris and world.cheap_debris:
@@ -228,5 +231,7 @@ def outcome(loop: StepLoop, wall_time: float) -> Outcome:
         after_collapse=0.0 if loop.stop_clock is None else ended - loop.stop_clock,
         certificate=monitor.certificate,
         certificate_time=monitor.certify_time,
+        toppled=tuple(r.id for r in structure.toppled()),
+        removed=tuple(r.id for r in structure.removed),
         stopped=loop.stopped,
     )

@@ -47,13 +47,13 @@ class Stability(Subscriber):
     def on_launch(self, loop: StepLoop, record: BrickRecord) -> None:
         self.extension.add_brick(record.body, record.box, record.id, record.spec.friction)
         if self.acting:  # a fast projectile may reach its target within the first step
-            self._follow(loop, self.extension.update(loop.events[-1].time))
+            self.follow(loop, self.extension.update(loop.events[-1].time))
 
     def after_step(self, loop: StepLoop) -> None:
         if self.acting:
-            self._follow(loop, self.extension.update(loop.now))
+            self.follow(loop, self.extension.update(loop.now))
 
-    def _follow(self, loop: StepLoop, events: list[StabilityEvent]) -> None:
+    def follow(self, loop: StepLoop, events: list[StabilityEvent]) -> None:
         """Update the records of frozen and woken bricks; put the events in the timeline
         (impacts only of projectiles, not of every landing brick)."""
         records = loop.structure.records

@@ -96,5 +96,5 @@ class CheckResult:
         if self.sweep:
             return self.sweep
         described = describe(self.collapse_level)
-        extra = [v.measured for v in self.verdicts if v.name == "stays"]
+        extra = [v.measured for v in self.verdicts if v.name in ("stays", "moved", "toppled")]
         return ", ".join([described, *extra])

@@ -5,9 +5,11 @@ Source: stackdsl's own (docs/design.md, words: collapse level).
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 from pydantic import BaseModel, ConfigDict
 
-from ..lang.expectations import CollapseLevel, Expect, span
+from ..lang.expectations import CollapseLevel, Expect, bricks_of, levels_of, selects, span
 from ..runtime.outcome import Outcome
 
 
@@ -38,14 +40,44 @@ def evaluate(expect: Expect, outcome: Outcome, threshold: float) -> list[Verdict
     if expect.stands:
         verdicts.append(Verdict(name="stands", passed=outcome.collapse is None, expected="stands", measured=measured))
     if expect.stays:
+        levels, bricks = levels_of(expect.stays), bricks_of(expect.stays)
         moved = _moved_levels(outcome, threshold)
-        bad = sorted(set(expect.stays) & moved)
+        bad = sorted(set(levels) & moved)
+        bad_bricks = [b for b in _selected(outcome, bricks) if outcome.displacement[b] > threshold]
+        said = _said(levels, bricks)
         verdicts.append(
             Verdict(
                 name="stays",
-                passed=not bad,
-                expected=f"levels {span(expect.stays)} stay",
-                measured=f"levels {span(bad)} moved" if bad else f"levels {span(expect.stays)} stayed",
+                passed=not bad and not bad_bricks,
+                expected=f"{said} stay",
+                measured=_said(bad, _short(bad_bricks)) + " moved" if bad or bad_bricks else f"{said} stayed",
+            )
+        )
+    if expect.moved:
+        levels, bricks = levels_of(expect.moved), bricks_of(expect.moved)
+        named = _selected(outcome, bricks) + [
+            b for b, lv in _levels(outcome).items() if lv in levels and b in outcome.displacement
+        ]
+        still = [b for b in dict.fromkeys(named) if outcome.displacement[b] <= threshold]
+        said = _said(levels, bricks)
+        verdicts.append(
+            Verdict(
+                name="moved",
+                passed=not still,
+                expected=f"{said} moved",
+                measured=f"{', '.join(_short(still))} stayed" if still else f"{said} moved",
+            )
+        )
+    if expect.toppled is not None:
+        t = expect.toppled
+        count = len(outcome.toppled)
+        want = len(outcome.displacement) if t.count == "all" else t.count
+        verdicts.append(
+            Verdict(
+                name="toppled",
+                passed=abs(count - want) <= t.tolerance,
+                expected=f"{'all' if t.count == 'all' else want}" + (f"±{t.tolerance}" if t.tolerance else "") + " toppled",
+                measured=f"{count} of {len(outcome.displacement)} toppled",
             )
         )
     if outcome.stopped:
@@ -60,6 +92,25 @@ def _moved_levels(outcome: Outcome, threshold: float) -> set[int]:
 
 def _levels(outcome: Outcome) -> dict[str, int | None]:
     return {n.id: n.level for n in outcome.final_graph.nodes}
+
+
+def _selected(outcome: Outcome, selectors: tuple[str, ...]) -> list[str]:
+    """The structure bricks (of the outcome's displacements) that ``selectors`` name, in order."""
+    return [b for b in outcome.displacement if any(selects(s, b) for s in selectors)]
+
+
+def _said(levels: Iterable[int], bricks: Iterable[str]) -> str:
+    """``"levels 1-3, bricks L05, left."``."""
+    levels, bricks = list(levels), list(bricks)
+    parts = ([f"level{'s' * (len(levels) != 1)} {span(levels)}"] if levels else []) + (
+        [f"brick{'s' * (len(bricks) != 1)} {', '.join(bricks)}"] if bricks else []
+    )
+    return ", ".join(parts)
+
+
+def _short(ids: list[str]) -> list[str]:
+    """At most :data:`MOVED_SHOWN` ids, and how many more."""
+    return ids[:MOVED_SHOWN] + ([f"{len(ids) - MOVED_SHOWN} more"] if len(ids) > MOVED_SHOWN else [])
 
 
 #: At most this many moved bricks are named for a failed ``stays``; the rest are counted.
@@ -98,14 +149,31 @@ def explain(expect: Expect, outcome: Outcome, threshold: float) -> list[str]:
             )
         else:
             lines.append("stood: no structure brick was placed")
+    if "moved" in failed and expect.moved:
+        named = set(_selected(outcome, bricks_of(expect.moved))) | {
+            b for b, lv in levels.items() if lv in levels_of(expect.moved) and b in outcome.displacement
+        }
+        still = sorted((outcome.displacement[b], b) for b in named if outcome.displacement[b] <= threshold)
+        for d, b in still[:MOVED_SHOWN]:
+            lines.append(
+                f"stayed: {_brick(b, levels.get(b))} ended {_mm(d)} from where it was placed (a move is beyond {_mm(threshold)})"
+            )
+    if "toppled" in failed:
+        lines.append(
+            f"toppled: {len(outcome.toppled)} bricks ended tilted past their tipping angle: {', '.join(_short(list(outcome.toppled))) or 'none'}"
+        )
     if "finished" in failed:
         lines.append(f"stopped: {outcome.stopped}; the rest of the run was not simulated")
     if "stays" in failed and expect.stays:
-        keep = set(expect.stays)
-        moved = sorted(((d, b) for b, d in outcome.displacement.items() if d > threshold and levels.get(b) in keep), reverse=True)
+        keep = set(levels_of(expect.stays))
+        named = set(_selected(outcome, bricks_of(expect.stays)))
+        moved = sorted(
+            ((d, b) for b, d in outcome.displacement.items() if d > threshold and (levels.get(b) in keep or b in named)),
+            reverse=True,
+        )
         for d, b in moved[:MOVED_SHOWN]:
             lines.append(
-                f"moved: {_brick(b, levels[b])} moved {_mm(d)} by the end, t={outcome.simulated_time:.2f} s "
+                f"moved: {_brick(b, levels.get(b))} moved {_mm(d)} by the end, t={outcome.simulated_time:.2f} s "
                 f"(allowed {_mm(threshold)})"
             )
         if len(moved) > MOVED_SHOWN:

@@ -40,6 +40,14 @@ from .settings import MuJoCoSettings
 _AWAY = np.array([5000.0, 5000.0, 100.0])
 _SLOT = 0.5  # m between two waiting bodies
 _WAITING_SLEEP = 1e-4  # MuJoCo's sleep tolerance in extension mode, where only waiting bodies (still) sleep
+#: kg of a guided brick's free body while it is guided (a hand's grip), its inertia scaled too.
+GUIDED_MASS = 100.0
+#: The share of a guided body's distance from its path that its velocity makes up in one step.
+GAIN = 0.5
+#: kg and half extents (m) of a movable ground: a box whose top is the plane z = 0 (at 1e5 kg
+#: MuJoCo's tuned solver let a 20 x 20 x 80 mm block on it tip at 1% of its tipping acceleration).
+TABLE_MASS = 100.0
+TABLE_HALF = (5.0, 5.0, 0.5)
 
 
 class MuJoCoWorld(World):
@@ -63,7 +71,11 @@ class MuJoCoWorld(World):
     0.004
     """
 
-    def __init__(self, engine: MuJoCoSettings, ground_friction: float, ground_restitution: float) -> None:
+    near_is_geometric = True  # mj_geomDistance: the impact rule asks only near frozen bricks
+
+    def __init__(
+        self, engine: MuJoCoSettings, ground_friction: float, ground_restitution: float, *, movable_ground: bool = False
+    ) -> None:
         import mujoco
 
         self._mj, self._engine = mujoco, engine
@@ -91,7 +103,16 @@ class MuJoCoWorld(World):
             option.enableflags |= mujoco.mjtEnableBit.mjENBL_SLEEP
             option.sleep_tolerance = engine.sleep_tolerance or _WAITING_SLEEP
         self._spec = spec
-        ground = spec.worldbody.add_geom(name="ground", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0.0, 0.0, 1.0])
+        self._table = movable_ground
+        self._ground_at: tuple[Vec3, Vec3] = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        self._guided: dict[int, tuple[float, np.ndarray]] = {}  # guided brick -> its free body's mass and inertia
+        if movable_ground:  # a heavy box on two slide joints, its top the plane z = 0 (MuJoCo's planes are static)
+            table = spec.worldbody.add_body(name="table", pos=[0.0, 0.0, -TABLE_HALF[2]])
+            for axis, name in (([1.0, 0.0, 0.0], "table_x"), ([0.0, 1.0, 0.0], "table_y")):
+                table.add_joint(name=name, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=axis)
+            ground = table.add_geom(name="ground", type=mujoco.mjtGeom.mjGEOM_BOX, size=list(TABLE_HALF), mass=TABLE_MASS)
+        else:
+            ground = spec.worldbody.add_geom(name="ground", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0.0, 0.0, 1.0])
         # MuJoCo compensates gravity only in a model compiled with a body that asks for it; this
         # static body (no joint, no geom) does, so that a waiting body's switch works at run time
         spec.worldbody.add_body(name="gravcomp", gravcomp=1.0)
@@ -155,6 +176,10 @@ class MuJoCoWorld(World):
         self._geom_body[self._free_geom] = self._geom_body[self._held_geom] = np.arange(1, len(self._specs) + 1)
         for body in range(1, len(self._specs) + 1):
             self._apply(body)
+        if self._table:
+            table = [mj.mj_name2id(m, mj.mjtObj.mjOBJ_JOINT, name) for name in ("table_x", "table_y")]
+            self._table_qpos = [int(m.jnt_qposadr[j]) for j in table]
+            self._table_dof = [int(m.jnt_dofadr[j]) for j in table]
         mj.mj_forward(m, self._data)
 
     def _ready(self) -> tuple[Any, Any]:
@@ -274,7 +299,7 @@ class MuJoCoWorld(World):
         edges = np.where(dim > 1, 2 * (dim - 1), 1)
         return np.array([d.efc_force[i : i + e].sum() for i, e in zip(address.tolist(), edges.tolist(), strict=True)])
 
-    def near(self, body: int, distance: float) -> list[ContactPoint]:
+    def near(self, body: int, distance: float, among: Collection[int] | None = None) -> list[ContactPoint]:
         m, d = self._ready()
         mj = self._mj
         i = body - 1
@@ -282,13 +307,16 @@ class MuJoCoWorld(World):
         reach = float(m.geom_rbound[own]) + distance
         fromto = np.zeros(6)
         out = []
-        for geom in range(m.ngeom):
+        # the candidates at once: colliding geoms of other bodies (of ``among``), near enough by their bounding spheres
+        keep = (self._geom_body != body) & (m.geom_contype != 0)
+        if among is not None:
+            wanted = np.zeros(len(self._frozen) + 1, dtype=bool)
+            wanted[np.asarray(list(among), dtype=int)] = True
+            keep &= wanted[self._geom_body]
+        plane = m.geom_type == mj.mjtGeom.mjGEOM_PLANE
+        keep &= plane | (np.linalg.norm(d.geom_xpos - d.geom_xpos[own], axis=1) <= reach + m.geom_rbound)
+        for geom in np.flatnonzero(keep).tolist():
             other = int(self._geom_body[geom])
-            if other == body or m.geom_contype[geom] == 0:
-                continue
-            if m.geom_type[geom] != mj.mjtGeom.mjGEOM_PLANE:
-                if np.linalg.norm(d.geom_xpos[geom] - d.geom_xpos[own]) > reach + m.geom_rbound[geom]:
-                    continue
             gap = mj.mj_geomDistance(m, d, own, geom, distance, fromto)
             if gap < distance:
                 mine, theirs = fromto[:3], fromto[3:]
@@ -334,7 +362,45 @@ class MuJoCoWorld(World):
         return [b for b in bodies if not self._frozen[b - 1]]
 
     def move(self, body: int, pose: Pose, mass: float) -> None:
+        m, _ = self._ready()
+        if body in self._guided:  # let go of: its own mass, inertia and weight back
+            bid = m.geom_bodyid[self._free_geom[body - 1]]
+            m.body_mass[bid], m.body_inertia[bid] = self._guided.pop(body)
+            m.body_gravcomp[bid] = 0.0
         self._put(body, pose, mass <= 0.0)
+
+    def guide(self, body: int, pose: Pose, velocity: Vec3, hold: bool = True) -> None:
+        """Drive the brick's free body along its path by its velocity for the next step (the path's
+        velocity plus :data:`GAIN` of the way back to it); with ``hold``, :data:`GUIDED_MASS` heavy,
+        its weight compensated (MuJoCo's gravity compensation) and its height driven too, else
+        with its own mass and vertical motion."""
+        m, d = self._ready()
+        i = body - 1
+        if self._frozen[i]:
+            self._put(body, pose, False)
+        bid = m.geom_bodyid[self._free_geom[i]]
+        if body not in self._guided:
+            mass = float(m.body_mass[bid])
+            self._guided[body] = (mass, m.body_inertia[bid].copy())
+            if hold:
+                m.body_inertia[bid] = m.body_inertia[bid] * (GUIDED_MASS / mass)
+                m.body_mass[bid] = GUIDED_MASS
+                m.body_gravcomp[bid] = 1.0
+        q, v = self._qpos[i], self._dof[i]
+        rate = GAIN / self._engine.timestep  # by its velocity alone, back towards its path (as on pybullet)
+        error = pose.position - d.qpos[q : q + 3]
+        d.qvel[v : v + 2] = np.asarray(velocity[:2]) + rate * error[:2]
+        if hold:
+            d.qvel[v + 2] = velocity[2] + rate * error[2]
+        now = d.qpos[q + 3 : q + 7]
+        turn = (Rotation.from_quat(pose.orientation) * Rotation.from_quat([now[1], now[2], now[3], now[0]]).inv()).as_rotvec()
+        d.qvel[v + 3 : v + 6] = Rotation.from_quat([now[1], now[2], now[3], now[0]]).inv().apply(turn * rate)  # body frame
+        self._read = None
+
+    def move_ground(self, offset: Vec3, velocity: Vec3) -> None:
+        if not self._table:
+            raise NotImplementedError("this world's ground is a static plane: make it with movable_ground=True")
+        self._ground_at = (offset, velocity)
 
     def throw(self, body: int, velocity: Vec3, swept_radius: float | None) -> None:
         """Give ``body`` a linear velocity, and no spin; MuJoCo has no continuous collision
@@ -348,6 +414,10 @@ class MuJoCoWorld(World):
     def step(self) -> None:
         m, d = self._ready()
         self._read = None
+        if self._table:  # the shake table where the shake puts it, with its velocity
+            (x, y, _), (vx, vy, _) = self._ground_at
+            d.qpos[self._table_qpos] = [x, y]
+            d.qvel[self._table_dof] = [vx, vy]
         for _ in range(self._substeps):
             self._mj.mj_step(m, d)
 

@@ -28,6 +28,7 @@ from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from stability import ContactPoint, Pose, PyBulletEngine
 
@@ -38,11 +39,26 @@ from .settings import PyBulletSettings
 
 @contextmanager
 def pybullet_world(
-    engine: PyBulletSettings, ground_friction: float, ground_restitution: float, *, shelve: bool = True
+    engine: PyBulletSettings,
+    ground_friction: float,
+    ground_restitution: float,
+    *,
+    shelve: bool = True,
+    movable_ground: bool = False,
 ) -> Iterator[PyBulletWorld]:
     """A :class:`PyBulletWorld` on an empty DIRECT client (:func:`direct_client`)."""
     with direct_client() as client:
-        yield PyBulletWorld(client, engine, ground_friction, ground_restitution, shelve=shelve)
+        yield PyBulletWorld(client, engine, ground_friction, ground_restitution, shelve=shelve, movable_ground=movable_ground)
+
+
+#: kg of a guided body while it is guided: a hand's grip, which no brick's contact moves
+#: within a step (its inertia scaled with it).
+GUIDED_MASS = 100.0
+#: kg and half extents (m) of a movable ground: a box whose top is the plane z = 0.
+TABLE_MASS = 1.0e5
+TABLE_HALF = (5.0, 5.0, 0.5)
+#: The share of a guided body's distance from its path that its velocity makes up in one step.
+GAIN = 0.5
 
 
 #: Metres beyond a moving body's box within which a shelved body is put back into pybullet's
@@ -81,10 +97,26 @@ class PyBulletWorld(PyBulletEngine, World):
         engine: the run's engine settings.
         ground_friction, ground_restitution: of the ground's material.
         shelve: shelve static bodies out of reach (False: every body stays in the world).
+        movable_ground: the ground is a heavy box whose top is the plane z = 0, moved by
+            :meth:`move_ground` (a shake table), instead of a static plane.
+
+    A guided body (:meth:`guide`) is driven along its path by its velocity before each step
+    (:meth:`_drive`); one a hand holds is made :data:`GUIDED_MASS` heavy (its inertia scaled too)
+    and held up against gravity by a force for the step: the solver then moves what it
+    touches, and friction drags it, as a hand does.
+    pybullet moves no static body by a velocity, which is why the movable ground is a dynamic
+    box of :data:`TABLE_MASS` guided the same way.
     """
 
     def __init__(
-        self, client: Any, engine: PyBulletSettings, ground_friction: float, ground_restitution: float, *, shelve: bool = True
+        self,
+        client: Any,
+        engine: PyBulletSettings,
+        ground_friction: float,
+        ground_restitution: float,
+        *,
+        shelve: bool = True,
+        movable_ground: bool = False,
     ) -> None:
         import pybullet
 
@@ -114,7 +146,14 @@ class PyBulletWorld(PyBulletEngine, World):
         client.setGravity(0.0, 0.0, -engine.gravity)
         client.setTimeStep(engine.timestep)
         client.setPhysicsEngineParameter(numSolverIterations=engine.solver_iterations, numSubSteps=0)  # a kept client's own
-        self.ground: int = client.createMultiBody(0.0, client.createCollisionShape(pybullet.GEOM_PLANE))
+        self._guided: dict[int, float] = {}  # guided body -> its mass while guided
+        self._table = movable_ground
+        self._ground_at: tuple[Vec3, Vec3] = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))  # a movable ground's offset and velocity
+        if movable_ground:
+            box = client.createCollisionShape(pybullet.GEOM_BOX, halfExtents=list(TABLE_HALF))
+            self.ground = client.createMultiBody(TABLE_MASS, box, basePosition=[0.0, 0.0, -TABLE_HALF[2]])
+        else:
+            self.ground = client.createMultiBody(0.0, client.createCollisionShape(pybullet.GEOM_PLANE))
         self._next: int = self.ground + 1
         self._material(self.ground, ground_friction, ground_restitution)
 
@@ -248,8 +287,8 @@ class PyBulletWorld(PyBulletEngine, World):
             bodies = [b for b in bodies if b not in self._shelf]  # static, touching only static bodies
         return super().contact_points(bodies)
 
-    def near(self, body: int, distance: float) -> list[ContactPoint]:
-        return [] if body in self._shelf else super().near(body, distance)
+    def near(self, body: int, distance: float, among: Collection[int] | None = None) -> list[ContactPoint]:
+        return [] if body in self._shelf else super().near(body, distance, among)
 
     # changing -----------------------------------------------------------------
     def set_frozen(self, body: int, frozen: bool, mass: float, at: Pose | None = None) -> None:
@@ -269,8 +308,53 @@ class PyBulletWorld(PyBulletEngine, World):
         engine_id = self._engine_id(body)
         self._client.resetBasePositionAndOrientation(engine_id, pose.position.tolist(), pose.orientation.tolist())
         self._client.resetBaseVelocity(engine_id, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0])  # the pose alone keeps them
-        self._client.changeDynamics(engine_id, -1, mass=mass)
+        if self._guided.pop(body, None) is not None:  # let go of: its own inertia back
+            inertia = _box_inertia(self._made[body][0].half_extents, max(mass, 1e-9))
+            self._client.changeDynamics(engine_id, -1, mass=mass, localInertiaDiagonal=inertia)
+        else:
+            self._client.changeDynamics(engine_id, -1, mass=mass)
         self._massed(body, mass)
+
+    def guide(self, body: int, pose: Pose, velocity: Vec3, hold: bool = True) -> None:
+        self._velocities.pop(body, None)
+        if body in self._shelf:
+            self._unshelve([body])
+        engine_id = self._engine_id(body)
+        spec = self._made[body][0]
+        if body not in self._guided:
+            mass = float(self._client.getDynamicsInfo(engine_id, -1)[0]) or spec.mass
+            self._guided[body] = mass
+            if hold:
+                inertia = _box_inertia(spec.half_extents, GUIDED_MASS)
+                self._client.changeDynamics(engine_id, -1, mass=GUIDED_MASS, localInertiaDiagonal=inertia)
+            self._massed(body, GUIDED_MASS if hold else mass)
+        self._drive(engine_id, pose.position.tolist(), pose.orientation.tolist(), velocity, GUIDED_MASS if hold else None)
+
+    def _drive(self, engine_id: int, position: Any, orientation: Any, velocity: Vec3, held: float | None) -> None:
+        """Drive a body along its path through the next step by its velocity alone: the path's
+        velocity plus :data:`GAIN` of the way back to ``position`` and ``orientation`` (where the
+        path is now) in the step. pybullet loses the contacts of a body whose pose is reset each
+        step: a brick slid so over the ground plane fell through it. With ``held`` (kg) the body's
+        height is driven too and its weight held up by a force for the step; else its vertical
+        motion is the engine's."""
+        (x, y, z), now = self._read_pose(engine_id)
+        (_, _, vz), _ = self._read_velocity(engine_id)
+        rate = GAIN / self._engine.timestep
+        vx, vy = velocity[0] + rate * (position[0] - x), velocity[1] + rate * (position[1] - y)
+        if held is not None:
+            vz = velocity[2] + rate * (position[2] - z)
+            self._client.applyExternalForce(
+                engine_id, -1, [0.0, 0.0, held * self._engine.gravity], [x, y, z], self._p.WORLD_FRAME
+            )
+        turn = (Rotation.from_quat(orientation) * Rotation.from_quat(now).inv()).as_rotvec() * rate
+        self._client.resetBaseVelocity(engine_id, [vx, vy, vz], turn.tolist())
+        self._due = 0
+
+    def move_ground(self, offset: Vec3, velocity: Vec3) -> None:
+        if not self._table:
+            raise NotImplementedError("this world's ground is a static plane: make it with movable_ground=True")
+        self._ground_at = (offset, velocity)
+        self._velocities.pop(self.ground, None)
 
     def throw(self, body: int, velocity: Vec3, swept_radius: float | None) -> None:
         self._velocities.pop(body, None)
@@ -286,6 +370,9 @@ class PyBulletWorld(PyBulletEngine, World):
     def step(self) -> None:
         if self._shelf or self._look:
             self._reach()
+        if self._table:  # held where the shake puts it, every step (it is a dynamic body)
+            (x, y, z), velocity = self._ground_at
+            self._drive(self.ground, [x, y, z - TABLE_HALF[2]], [0.0, 0.0, 0.0, 1.0], velocity, TABLE_MASS)
         self._velocities.clear()
         self._client.stepSimulation()
 
@@ -392,6 +479,12 @@ class PyBulletWorld(PyBulletEngine, World):
             spec, maximal = self._made[body]
             self._put(body, spec, position, orientation, 0.0, maximal)
         self._shelf_box = None
+
+
+def _box_inertia(half_extents: Vec3, mass: float) -> list[float]:
+    """The principal moments of inertia (kg m^2) of a uniform box of ``half_extents`` (m)."""
+    a, b, c = (2.0 * h for h in half_extents)
+    return [mass / 12.0 * (b * b + c * c), mass / 12.0 * (a * a + c * c), mass / 12.0 * (a * a + b * b)]
 
 
 _Box = tuple[float, float, float, float, float, float]

@@ -1,0 +1,238 @@
+"""The actions of a hand and of the ground compiled to concrete motions: a pull (:class:`Remove`),
+a push (:class:`Push`) and a shake (:class:`Shake`), each from its step to its end step.
+
+Their times are read as an impact's: seconds, or ``after level N`` (one interval after that
+level's last brick), and must be whole timesteps. A pull's default direction is the brick's own
+length (+x), and its default distance that length plus :data:`CLEAR`; a push starts its
+``gap`` before the target's surface (where the line along its direction through the point aimed
+at enters the target brick); a shake lasts whole periods (at least one), so that the ground
+ends at rest where it started. A shake may not overlap a placement or another action: while the
+ground moves, the whole structure is simulated and nothing is frozen
+(:mod:`stackdsl.runtime.actions`).
+
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from ..engines.protocol import BrickSpec
+from ..lang.errors import FieldPath
+from ..lang.schema import Scenario
+from ..lang.schema_actions import AXES, Action
+from ..lang.schema_impacts import AfterLevel
+from .layouts import LaidBrick
+from .program import Kinematic, Place, Push, Remove, Shake
+
+#: Metres a pulled brick travels beyond its own length by default: it clears what it lay between.
+CLEAR = 0.010
+
+Steps = Callable[[FieldPath, float], int]
+"""Seconds at a field -> whole timesteps, or a ScenarioError there (the compiler's)."""
+
+
+def compile_actions(
+    scenario: Scenario,
+    bricks: Sequence[LaidBrick],
+    slots: np.ndarray,
+    specs: dict[str, BrickSpec],
+    places: Sequence[Place],
+    dt: float,
+    steps: Steps,
+) -> list[Kinematic]:
+    """The scenario's ``actions`` as motions, in the order written.
+
+    Args:
+        scenario: the scenario (its actions, timing and source map).
+        bricks, slots: the structure's bricks and their placement slots.
+        specs: brick type -> its body.
+        places: the placements (to refuse a shake while bricks are placed).
+        dt: the timestep, s.
+        steps: the compiler's conversion of seconds to whole timesteps.
+
+    Raises:
+        ScenarioError: at the field: a brick that is not in the structure or not placed before
+            its pull, a pusher's unknown brick type, a level never built, a time not on the
+            timestep grid, a shake that overlaps a placement or another action.
+    """
+    out: list[Kinematic] = []
+    for i, action in enumerate(scenario.actions):
+        path: FieldPath = ("actions", i, action.kind)
+        start = _start(scenario, path, action, bricks, slots)
+        step = steps((*path, "at"), start)
+        if action.remove is not None:
+            out.append(_remove(scenario, path, action, bricks, slots, specs, start, step, dt))
+        elif action.push is not None:
+            out.append(_push(scenario, i, action, bricks, specs, start, step, dt))
+        else:
+            out.append(_shake(action, start, step, dt))
+    for i, motion in enumerate(out):
+        if isinstance(motion, Shake):
+            _alone(scenario, i, motion, out, places)
+    return out
+
+
+def _start(scenario: Scenario, path: FieldPath, action: Action, bricks: Sequence[LaidBrick], slots: np.ndarray) -> float:
+    """The action's start in seconds: its ``at`` (an impact's grammar)."""
+    spec = action.remove or action.push or action.shake
+    assert spec is not None, "an action is one of three"
+    if not isinstance(spec.at, AfterLevel):
+        return float(spec.at)
+    last = [int(k) for b, k in zip(bricks, slots) if b.level == spec.at.after_level]
+    if not last:
+        raise scenario.source.error((*path, "at"), f"level {spec.at.after_level} is not built")
+    return float((last[-1] + 1) * scenario.timing.interval)
+
+
+def _remove(
+    scenario: Scenario,
+    path: FieldPath,
+    action: Action,
+    bricks: Sequence[LaidBrick],
+    slots: np.ndarray,
+    specs: dict[str, BrickSpec],
+    start: float,
+    step: int,
+    dt: float,
+) -> Remove:
+    r = action.remove
+    assert r is not None
+    found = [(b, int(k)) for b, k in zip(bricks, slots) if b.id == r.brick]
+    if not found:
+        near = ", ".join(b.id for b in bricks[:3])
+        raise scenario.source.error((*path, "brick"), f"no brick of the structure is {r.brick!r} (its bricks: {near}...)")
+    brick, slot = found[0]
+    if slot * scenario.timing.interval >= start:
+        raise scenario.source.error(
+            (*path, "at"),
+            f"{r.brick} is placed at {slot * scenario.timing.interval:g} s, not before the pull starts at {start:g} s",
+        )
+    spec = specs[brick.type]
+    if r.direction is None:
+        direction = brick.pose().rotation[:, 0]
+    else:
+        direction = np.array(AXES[r.direction] if isinstance(r.direction, str) else r.direction, dtype=float)
+        direction /= np.linalg.norm(direction)
+    distance = r.distance if r.distance is not None else 2 * spec.half_extents[0] + CLEAR
+    span = max(1, math.ceil(distance / r.speed / dt - 1e-9))
+    return Remove(
+        step=step,
+        time=start,
+        id=r.brick,
+        velocity=_vec(direction * r.speed),
+        end_step=step + span,
+        end_time=start + span * dt,
+    )
+
+
+def _push(
+    scenario: Scenario,
+    index: int,
+    action: Action,
+    bricks: Sequence[LaidBrick],
+    specs: dict[str, BrickSpec],
+    start: float,
+    step: int,
+    dt: float,
+) -> Push:
+    p = action.push
+    assert p is not None
+    path: FieldPath = ("actions", index, "push")
+    direction = np.array(p.direction, dtype=float)
+    direction /= np.linalg.norm(direction)
+    if p.target.brick is not None:
+        found = [b for b in bricks if b.id == p.target.brick]
+        if not found:
+            near = ", ".join(b.id for b in bricks[:3])
+            raise scenario.source.error(
+                (*path, "target", "brick"), f"no brick of the structure is {p.target.brick!r} (its bricks: {near}...)"
+            )
+        brick = found[0]
+        aim = brick.position + np.array(p.target.offset)
+        surface = _entry(aim, direction, brick, specs[brick.type])
+        target = f"{brick.id}"
+    else:
+        assert p.target.point is not None
+        surface = np.array(p.target.point, dtype=float)
+        x, y, z = (v * 1000 for v in surface)
+        target = f"({x:.1f}, {y:.1f}, {z:.1f}) mm"
+    try:
+        spec = specs[p.pusher]
+    except KeyError:
+        raise scenario.source.error((*path, "pusher"), f"unknown brick type {p.pusher!r}") from None
+    position = surface - direction * (p.gap + spec.half_extents[0])
+    span = max(1, math.ceil(p.distance / p.speed / dt - 1e-9))
+    return Push(
+        step=step,
+        time=start,
+        id=p.id or f"pusher{index + 1}",
+        brick=spec,
+        position=_vec(position),
+        yaw=math.degrees(math.atan2(direction[1], direction[0])),
+        pitch=-math.degrees(math.asin(float(np.clip(direction[2], -1.0, 1.0)))),
+        velocity=_vec(direction * p.speed),
+        target=target,
+        end_step=step + span,
+        end_time=start + span * dt,
+    )
+
+
+def _vec(v: np.ndarray) -> tuple[float, float, float]:
+    x, y, z = (float(c) for c in v)
+    return x, y, z
+
+
+def _entry(aim: np.ndarray, direction: np.ndarray, brick: LaidBrick, spec: BrickSpec) -> np.ndarray:
+    """Where the line along ``direction`` through ``aim`` enters ``brick`` (its box, m), coming
+    from behind; ``aim`` itself when it lies outside the box."""
+    pose = brick.pose()
+    rotation = pose.rotation
+    local, d = rotation.T @ (aim - pose.position), rotation.T @ direction
+    half = np.array(spec.half_extents)
+    if np.any(np.abs(local) > half):
+        return aim
+    back = [
+        ((local[i] + half[i]) / d[i]) if d[i] > 1e-12 else ((half[i] - local[i]) / -d[i]) for i in range(3) if abs(d[i]) > 1e-12
+    ]
+    return np.asarray(aim - direction * min(back))
+
+
+def _shake(action: Action, start: float, step: int, dt: float) -> Shake:
+    s = action.shake
+    assert s is not None
+    periods = max(1, round(s.duration * s.frequency))
+    span = max(1, round(periods / s.frequency / dt))
+    d = np.array(s.direction, dtype=float)
+    d /= np.linalg.norm(d)
+    return Shake(
+        step=step,
+        time=start,
+        amplitude=s.amplitude,
+        frequency=s.frequency,
+        direction=(float(d[0]), float(d[1])),
+        end_step=step + span,
+        end_time=start + span * dt,
+    )
+
+
+def _alone(scenario: Scenario, index: int, shake: Shake, motions: Sequence[Kinematic], places: Sequence[Place]) -> None:
+    """Refuse a shake that overlaps a placement or another action (at its ``at``)."""
+    path: FieldPath = ("actions", index, "shake", "at")
+    during = [p for p in places if shake.step <= p.step <= shake.end_step]
+    if during:
+        raise scenario.source.error(
+            path,
+            f"{during[0].id} is placed at {during[0].time:g} s, while the ground shakes ({shake.time:g} to "
+            f"{shake.end_time:g} s): start the shake after the last placement ('after level N')",
+        )
+    for j, other in enumerate(motions):
+        if other is not shake and other.step <= shake.end_step and shake.step <= other.end_step:
+            raise scenario.source.error(
+                path,
+                f"actions[{j}] ({other.kind}, {other.time:g} to {other.end_time:g} s) overlaps this shake "
+                f"({shake.time:g} to {shake.end_time:g} s): one at a time while the ground moves",
+            )

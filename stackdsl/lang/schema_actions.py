@@ -1,0 +1,164 @@
+"""The scenario language's actions besides placing and throwing: pull a brick out (``remove``),
+push with a pusher (``push``) and shake the ground (``shake``), each at a time like an impact's
+("14 s" or "after level 13"), as pydantic models of :mod:`stackdsl.lang.schema`.
+
+```yaml
+actions:
+  - remove: {brick: L05.2, at: after level 12, speed: 20 mm/s}
+  - push: {target: {brick: d01, offset: [0, 0, 40 mm]}, direction: [1, 0, 0], speed: 0.1 m/s, distance: 30 mm, at: 1 s}
+  - shake: {amplitude: 2 mm, frequency: 3 Hz, direction: [1, 0], duration: 2 s, at: after level 4}
+```
+
+Source: stackdsl's own (docs/design.md, "Actions").
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Annotated, Literal
+
+from pydantic import AfterValidator, ConfigDict, Field, model_validator
+
+from .bounds import MAX_SIDE, Component, StrictModel, Vector3
+from .grammar import given
+from .schema_impacts import When, _nonzero
+from .units import Frequency, Length, Speed, Time, frequency, length, speed, time, within
+
+ID = r"^[A-Za-z0-9_.-]{1,40}$"
+
+if TYPE_CHECKING:
+    GuideSpeed = float
+    Travel = float
+    Amplitude = float
+    ShakeFrequency = float
+    ShakeDuration = float
+else:
+    GuideSpeed = within(
+        Speed,
+        speed,
+        0.001,
+        10.0,
+        "a speed from 1 mm/s to 10 m/s",
+        ("slower, a pull of a brick's length outlasts any run", "faster, a hand is a projectile: use an impact"),
+    )
+    Travel = within(Length, length, 0.0, 1.0, "a length above 0 and at most 1 m", "a hand moves within the scene", above=True)
+    Amplitude = within(
+        Length, length, 0.0, 0.1, "a length above 0 and at most 100 mm", "shake tables move within 100 mm", above=True
+    )
+    ShakeFrequency = within(
+        Frequency,
+        frequency,
+        0.1,
+        50.0,
+        "a frequency from 0.1 to 50 Hz",
+        ("slower, a shake is a slow slide", "faster, a step of 1/240 s samples a period fewer than 5 times"),
+    )
+    ShakeDuration = within(Time, time, 0.0, 600.0, "a time above 0 and at most 600 s", "a run lasts at most 3600 s", above=True)
+
+Direction = Annotated[tuple[Component, Component, Component], AfterValidator(_nonzero)]
+AXES = {"+x": (1.0, 0.0, 0.0), "-x": (-1.0, 0.0, 0.0), "+y": (0.0, 1.0, 0.0), "-y": (0.0, -1.0, 0.0)}
+
+
+class Remove(StrictModel):
+    """Pull a structure brick out, as a hand does in Jenga: a kinematic gripper takes ``brick`` at
+    ``at`` and moves it along ``direction`` at a constant ``speed`` for ``distance``, then takes it
+    out of the scene. What rests on it feels the pull through friction."""
+
+    brick: Annotated[str, Field(pattern=ID, description="the id of the brick to pull out", examples=["L05.2"])]
+    at: Annotated[When, Field(description="when the pull starts", examples=["after level 12", "14 s"])]
+    direction: Annotated[
+        Literal["+x", "-x", "+y", "-y"] | Direction | None,
+        Field(
+            description="the pull's direction in the world ('+x', '-x', '+y', '-y' or [x, y, z], any length); "
+            "default: along the brick's own length (its +x)",
+            examples=["+x", [0, 1, 0]],
+        ),
+    ] = None
+    speed: Annotated[GuideSpeed, Field(description="how fast the hand pulls", examples=["20 mm/s"])] = 0.02
+    distance: Annotated[
+        Travel | None,
+        Field(
+            description="how far the hand pulls; default: the brick's length plus 10 mm (it clears the bricks it lay between)",
+            examples=["130 mm"],
+        ),
+    ] = None
+
+
+class PushTarget(StrictModel):
+    """What a pusher aims at: a ``brick`` (its centre, moved by ``offset``) or a ``point``."""
+
+    model_config = ConfigDict(json_schema_extra={"oneOf": [given("brick"), given("point")]})
+
+    brick: Annotated[str, Field(pattern=ID)] | None = Field(
+        default=None, description="the id of the brick pushed", examples=["d01"]
+    )
+    offset: Annotated[
+        tuple[Length, Length, Length],
+        Field(description="from the brick's centre to the point aimed at, in the world's axes", examples=[[0, 0, "40 mm"]]),
+    ] = (0.0, 0.0, 0.0)
+    point: Annotated[Vector3 | None, Field(description="a point aimed at, in the world", examples=[[0, 0, "50 mm"]])] = None
+
+    @model_validator(mode="after")
+    def _one(self) -> PushTarget:
+        if (self.brick is None) == (self.point is None):
+            raise ValueError("give a 'brick' (and an 'offset') or a 'point', one of them")
+        if self.point is not None and self.offset != (0.0, 0.0, 0.0):
+            raise ValueError("an 'offset' moves a brick's centre: give it with 'brick', not with 'point'")
+        return self
+
+
+class Push(StrictModel):
+    """A pusher (a box of ``pusher``, a brick type) enters ``gap`` before the target's surface and
+    moves at a constant ``speed`` along ``direction`` for ``distance``, long axis first, then is
+    withdrawn: a robot's finger, a bulldozer's blade."""
+
+    target: Annotated[PushTarget, Field(description="what is pushed: {brick: ID, offset} or {point}")]
+    direction: Annotated[Direction, Field(description="the push's direction ([x, y, z], any length)", examples=[[1, 0, 0]])]
+    at: Annotated[When, Field(description="when the pusher enters and starts to move", examples=["1 s", "after level 3"])]
+    speed: Annotated[GuideSpeed, Field(description="how fast the pusher moves", examples=["0.1 m/s"])] = 0.05
+    distance: Annotated[Travel, Field(description="how far the pusher moves", examples=["30 mm"])] = 0.03
+    gap: Annotated[
+        Length,
+        Field(ge=0, le=MAX_SIDE, description="from the pusher's front to the target's surface at the start", examples=["5 mm"]),
+    ] = 0.005
+    pusher: Annotated[str, Field(description="the pusher's brick type (its size)", examples=["kapla", "finger"])] = "kapla"
+    id: Annotated[str, Field(pattern=ID)] | None = Field(
+        default=None, description="the pusher's id in the timeline", examples=["finger"]
+    )
+
+
+class Shake(StrictModel):
+    """The ground moves as a shake table: along ``direction`` by ``amplitude (1 - cos(2 pi f t))``
+    for ``duration`` (rounded to whole periods, at least one), starting and ending at rest where
+    it started. Its peak acceleration is ``amplitude (2 pi frequency)^2``."""
+
+    amplitude: Annotated[Amplitude, Field(description="half the table's stroke", examples=["2 mm"])]
+    frequency: Annotated[ShakeFrequency, Field(description="periods a second", examples=["3 Hz"])]
+    duration: Annotated[ShakeDuration, Field(description="how long it shakes (whole periods)", examples=["2 s"])]
+    at: Annotated[When, Field(description="when the shake starts", examples=["after level 4", "5 s"])]
+    direction: Annotated[
+        tuple[Component, Component],
+        AfterValidator(lambda d: _nonzero((*d, 0.0))[:2]),
+        Field(description="the horizontal direction of the motion, [x, y] (any length)", examples=[[1, 0]]),
+    ] = (1.0, 0.0)
+
+
+class Action(StrictModel):
+    """One action: exactly one of ``remove``, ``push`` or ``shake``."""
+
+    model_config = ConfigDict(json_schema_extra={"oneOf": [given("remove"), given("push"), given("shake")]})
+
+    remove: Annotated[Remove | None, Field(description="pull a brick out (Jenga)")] = None
+    push: Annotated[Push | None, Field(description="push with a pusher at a constant speed")] = None
+    shake: Annotated[Shake | None, Field(description="shake the ground (a shake table)")] = None
+
+    @model_validator(mode="after")
+    def _one(self) -> Action:
+        given_ = [k for k in ("remove", "push", "shake") if getattr(self, k) is not None]
+        if len(given_) != 1:
+            raise ValueError(f"an action is one of 'remove', 'push' or 'shake', got {', '.join(given_) or 'none'}")
+        return self
+
+    @property
+    def kind(self) -> str:
+        """``"remove"``, ``"push"`` or ``"shake"``."""
+        return "remove" if self.remove else "push" if self.push else "shake"

@@ -1,0 +1,157 @@
+"""The hand and the shake table: a step-loop subscriber that carries out pulls, pushes and shakes.
+
+* **Pull** (:class:`~stackdsl.compile.program.Remove`): the brick leaves the structure (it is no
+  longer watched for a collapse), the stability extension *guides* it (it wakes, with what it
+  carries, and the frozen bricks it touches wake as it reaches them:
+  :meth:`stability.StabilityExtension.guide`), and before each step the world puts it on its path
+  with its velocity (:meth:`~stackdsl.engines.protocol.World.guide`): a kinematic gripper whose
+  friction drags what rests on it. At the end of the pull the hand takes it out of the scene.
+* **Push** (:class:`~stackdsl.compile.program.Push`): a pusher body enters, is guided the same
+  way along its direction, and is withdrawn at the end.
+* **Shake** (:class:`~stackdsl.compile.program.Shake`): the extension is asked whether the
+  frozen stack stands under gravity tilted by the ground's peak acceleration, either way
+  (:meth:`stability.StabilityExtension.withstands`). When it does and nothing else moves, the
+  stack rides the table as one rigid body: nothing is simulated, and the ground, which ends
+  whole periods later at rest where it started, need not move either. Otherwise every frozen
+  brick wakes, the ground moves each step (:meth:`~stackdsl.engines.protocol.World.move_ground`),
+  and nothing is frozen until it has stopped (a brick frozen while the ground moves would stay
+  where it was in the world).
+
+Without the extension acting (raw and tuned modes) the same motions happen, and a shake always
+moves the ground. Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from stability import Pose
+
+from ..compile.program import Kinematic, Push, Remove, Shake
+from .bricks import BrickRecord
+from .loop import StepLoop, Subscriber
+from .outcome import Event
+from .subscribers import Stability
+
+#: Where a hand puts what it took out of the scene: far from any scene, a slot each.
+AWAY = np.array([-5000.0, -5000.0, 100.0])
+
+
+@dataclass
+class _Guided:
+    """A body on a straight path: where it started (s, pose) and its velocity (m/s) until ``end_step``."""
+
+    record: BrickRecord
+    start: Pose
+    since: float
+    velocity: np.ndarray
+    end_step: int
+    kind: str
+
+
+class Actions(Subscriber):
+    """Carries out the program's pulls, pushes and shakes (see the module docstring).
+
+    Args:
+        stability: the run's stability subscriber (its extension guides bodies and is asked about
+            shakes; ``acting``: whether it freezes and wakes).
+    """
+
+    def __init__(self, stability: Stability) -> None:
+        self.stability = stability
+        self.guided: list[_Guided] = []
+        self.shake: Shake | None = None  # the shake under way, when the ground moves
+        self.away: list[BrickRecord] = []  # taken out of the scene this step: forgotten before the next
+        self._taken = 0
+
+    @property
+    def quiet(self) -> bool:
+        return not (self.guided or self.shake or self.away)
+
+    def on_action(self, loop: StepLoop, action: Kinematic) -> None:
+        if isinstance(action, Remove):
+            self._remove(loop, action)
+        elif isinstance(action, Push):
+            self._push(loop, action)
+        else:
+            self._shake(loop, action)
+
+    def _remove(self, loop: StepLoop, a: Remove) -> None:
+        record = loop.structure.records[a.id]
+        loop.structure.detach(record)
+        speed = float(np.linalg.norm(a.velocity))
+        loop.events.append(Event(time=a.time, kind="remove", brick=a.id, detail=f"pulled out at {speed * 1000:.3g} mm/s"))
+        self._guide(loop, record, a.time, a.velocity, a.end_step, "pull", f"pulled out by hand at {a.time:g} s")
+
+    def _push(self, loop: StepLoop, a: Push) -> None:
+        pose = Pose.from_euler(a.position, a.yaw, a.pitch, 0.0)
+        body = loop.world.create(a.brick, pose)
+        record = BrickRecord(a.id, body, a.brick, None, pose, pose)
+        loop.structure.add(record)
+        self.stability.extension.add_brick(body, record.box, a.id, a.brick.friction)
+        speed = float(np.linalg.norm(a.velocity))
+        loop.events.append(Event(time=a.time, kind="push", brick=a.id, detail=f"{speed * 1000:.3g} mm/s into {a.target}"))
+        self._guide(loop, record, a.time, a.velocity, a.end_step, "push", "a pusher")
+
+    def _guide(
+        self,
+        loop: StepLoop,
+        record: BrickRecord,
+        time: float,
+        velocity: tuple[float, float, float],
+        end: int,
+        kind: str,
+        why: str,
+    ) -> None:
+        start = loop.world.pose(record.body)
+        self.guided.append(_Guided(record, start, time, np.array(velocity), end, kind))
+        self.stability.follow(loop, self.stability.extension.guide(record.body, time, why))
+
+    def _shake(self, loop: StepLoop, a: Shake) -> None:
+        extension, acting = self.stability.extension, self.stability.acting
+        peak = a.peak_acceleration
+        acceleration = (peak * a.direction[0], peak * a.direction[1])
+        why = extension.withstands(acceleration) if acting else "the extension is not acting"
+        rides = acting and why is None and extension.quiet
+        detail = f"{a.amplitude * 1000:.3g} mm at {a.frequency:.3g} Hz, peak {peak:.3g} m/s^2: " + (
+            "the frozen stack stands under gravity tilted by it and rides the table" if rides else f"simulated ({why})"
+        )
+        loop.events.append(Event(time=a.time, kind="shake", brick="ground", detail=detail))
+        if rides:
+            return
+        if acting:
+            extension.admitting = False
+            self.stability.follow(loop, extension.wake_all(a.time, f"the ground shakes at {peak:.3g} m/s^2: {why}"))
+        self.shake = a
+
+    def before_step(self, loop: StepLoop) -> None:
+        t = loop.now
+        for g in self.guided:
+            pose = Pose(g.start.position + g.velocity * (t - g.since), g.start.orientation)
+            x, y, z = g.velocity.tolist()
+            loop.world.guide(g.record.body, pose, (x, y, z), hold=g.kind == "push")
+        if self.shake is not None:
+            offset, velocity = self.shake.at(t)
+            loop.world.move_ground(offset, velocity)
+
+    def after_step(self, loop: StepLoop) -> None:
+        for record in self.away:  # out of the scene since the last step: no contact reads it now
+            self.stability.extension.forget(record.body)
+        self.away = []
+        for g in [g for g in self.guided if loop.step >= g.end_step]:
+            self.guided.remove(g)
+            self._taken += 1
+            away = Pose(AWAY + [0.5 * self._taken, 0.0, 0.0], g.start.orientation)
+            loop.world.move(g.record.body, away, 0.0)
+            self.away.append(g.record)
+            what = "taken out of the scene" if g.kind == "pull" else "withdrawn"
+            loop.events.append(Event(time=loop.now, kind="release", brick=g.record.id, detail=what))
+        if self.shake is not None:
+            loop.structure.offset = self.shake.at(loop.now)[0]  # the collapse monitor reads displacements in the ground's frame
+            if loop.step >= self.shake.end_step:
+                loop.world.move_ground((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+                loop.structure.offset = (0.0, 0.0, 0.0)
+                self.stability.extension.admitting = True
+                self.shake = None

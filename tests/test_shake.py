@@ -1,0 +1,126 @@
+"""A shake table against the closed forms of a single block on a shaking base.
+
+A rigid block of half-width b (along the shake) whose centre of mass is h above its base, on a base
+of friction coefficient mu accelerating horizontally by a, stays put while a <= mu g (else it
+slides) and while a <= g b / h (else it tips; it tips first when b / h < mu): Meriam & Kraige,
+Engineering Mechanics: Statics, chapter 6; Shenton 1996, J. Eng. Mech. 122(7). The pseudo-static
+check of the stability extension (:mod:`stability._shake`) must give both thresholds, and the
+engines must bracket them: a peak acceleration just below stays, just above moves, on blocks whose
+dimensions were not used to build the feature (held out), in pybullet and MuJoCo, engine alone
+(tuned) and with the extension.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from stability import Box, FakeEngine, Plane, Pose, StabilityExtension
+from stackdsl import compile_scenario, parse_scenario
+from stackdsl.lang.extras import installed
+from stackdsl.runtime.loop import StepLoop, Subscriber
+from stackdsl.runtime.run import run_in, world_for
+
+G = 9.81
+
+# (length along the shake, width, height) in m, friction coefficient: not the blocks the feature was built on
+HELD_OUT = [
+    pytest.param((0.050, 0.040, 0.016), 0.6, "slide", id="flat-slides"),
+    pytest.param((0.016, 0.016, 0.064), 0.5, "tip", id="tall-tips"),
+    pytest.param((0.030, 0.030, 0.040), 0.5, "slide", id="squat-slides"),
+]
+
+
+def thresholds(size: tuple[float, float, float], mu: float) -> tuple[float, float]:
+    """(sliding, tipping) peak accelerations, m/s^2, of a uniform block on a shaking base."""
+    length, _, height = size
+    return mu * G, G * (length / 2) / (height / 2)
+
+
+def test_the_closed_forms_say_which_comes_first():
+    slide, tip = thresholds((0.016, 0.016, 0.064), 0.5)
+    assert tip < slide  # b / h = 0.25 < mu: it tips first
+    slide, tip = thresholds((0.050, 0.040, 0.016), 0.6)
+    assert slide < tip
+
+
+@pytest.mark.parametrize(("size", "mu", "mode"), HELD_OUT)
+def test_the_pseudo_static_check_gives_both_thresholds(size, mu, mode):
+    """The extension alone (no engine): one frozen block, asked at 0.99 and 1.01 of each threshold."""
+    slide, tip = thresholds(size, mu)
+    first = min(slide, tip)
+    half = np.array(size) / 2
+    eng = FakeEngine()
+    ext = StabilityExtension(eng)
+    ext.add_ground(0, Plane(0.0), friction=mu)
+    eng.poses[1] = Pose(np.array([0.0, 0.0, half[2]]))
+    ext.add_brick(1, Box(half, 0.01), "b", friction=mu)
+    corners = [[-half[0], -half[1], 0], [half[0], -half[1], 0], [half[0], half[1], 0], [-half[0], half[1], 0]]
+    eng.touch(1, 0, corners, normal=[0, 0, 1])
+    ext.update(0.0)
+    ext.update(0.1)
+    assert ext.state(1).value == "frozen"
+    assert ext.withstands((0.99 * first, 0.0)) is None
+    why = ext.withstands((1.01 * first, 0.0))
+    assert why is not None and ("slides" if mode == "slide" else "tips") in why
+
+
+class Motion(Subscriber):
+    """The block's largest slip on the table (m) and largest tilt (rad) during the run."""
+
+    def __init__(self) -> None:
+        self.slip = self.tilt = 0.0
+
+    def after_step(self, loop: StepLoop) -> None:
+        shake = next(a for a in loop.program.actions if a.kind == "shake")
+        r = loop.structure.records["b"]
+        (x, y, _), q = loop.world.pose_floats(r.body)
+        offset, _ = shake.at(loop.now)  # type: ignore[union-attr]
+        self.slip = max(self.slip, math.hypot(x - offset[0] - r.placed_xyz[0], y - offset[1] - r.placed_xyz[1]))
+        self.tilt = max(self.tilt, float(Rotation.from_quat(q).magnitude()))
+
+
+def shaken(size: tuple[float, float, float], mu: float, peak: float, mode: str, backend: str) -> tuple[Motion, list[str]]:
+    frequency = 2.0
+    amplitude = peak / (2 * math.pi * frequency) ** 2
+    length, width, height = size
+    text = f"""stackdsl: 1
+materials: {{m: {{density: 500, friction: {mu}}}}}
+brick_types: {{blk: {{size: [{length}, {width}, {height}], material: m}}}}
+ground: {{material: m}}
+structure: {{bricks: [{{id: b, at: [0, 0, {height / 2}], brick: blk}}]}}
+timing: {{settle: 0.5 s}}
+actions: [{{shake: {{amplitude: {amplitude}, frequency: {frequency}, duration: 1 s, at: 1 s}}}}]
+"""
+    program = compile_scenario(parse_scenario(text, "shake.yaml"), mode, backend=backend)
+    motion = Motion()
+    with world_for(program) as world:
+        loop = run_in(world, program, subscribers=(motion,))
+    return motion, [e.detail for e in loop.events if e.kind == "shake"]
+
+
+BACKENDS = [
+    "pybullet",
+    pytest.param("mujoco", marks=pytest.mark.skipif(not installed("mujoco"), reason="the mujoco extra is not installed")),
+]
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+@pytest.mark.parametrize("mode", ["tuned", "extension"])
+@pytest.mark.parametrize(("size", "mu", "kind"), HELD_OUT)
+def test_the_engines_bracket_the_closed_form(size, mu, kind, mode, backend):
+    first = min(thresholds(size, mu))
+    below, said = shaken(size, mu, 0.85 * first, mode, backend)
+    assert below.slip < 0.0005 and below.tilt < math.radians(0.5), (below.slip, below.tilt)
+    if mode == "extension":  # proved to stand under the tilted gravity: the block rides the table, frozen
+        assert "rides the table" in said[0]
+    above, said = shaken(size, mu, 1.25 * first, mode, backend)
+    if kind == "slide":
+        assert above.slip > 0.002 and above.tilt < math.radians(5), (above.slip, above.tilt)
+    else:
+        assert above.tilt > math.radians(5), (above.slip, above.tilt)
+    if mode == "extension":
+        assert "simulated" in said[0] and ("slides" if kind == "slide" else "tips") in said[0]

@@ -79,6 +79,7 @@ def sweep_result(
         scenario=program.name,
         mode=program.engine.mode,
         model=program.stability.model,
+        backend=program.engine.backend,
         verdicts=tuple(judged),
         collapse_level=None,
         levels_placed=levels,

@@ -413,7 +413,7 @@ def _run(args: argparse.Namespace) -> int:
     from ..compile.compiler import compile_scenario
     from ..lang.loader import load_scenario
     from ..runtime.outcome import describe_certificate
-    from ..verdicts.expect import describe, evaluate
+    from ..verdicts.expect import describe_outcome, evaluate
 
     scenario = load_scenario(args.file)
     program = compile_scenario(scenario, args.mode, args.model, args.backend)
@@ -448,7 +448,7 @@ def _run(args: argparse.Namespace) -> int:
             level = "" if e.level is None else f"level {e.level}"
             print(f"t={e.time:9.3f} s  {e.kind:<8} {e.brick:<10} {level:<9} {e.detail}")
         print(
-            f"{Path(args.file).name}: {describe(outcome.collapse.level if outcome.collapse else None)} "
+            f"{Path(args.file).name}: {describe_outcome(outcome, program.collapse_threshold)} "
             f"({outcome.levels_placed} levels placed), {outcome.simulated_time:.1f} s simulated, "
             f"{outcome.wall_time:.2f} s wall ({outcome.engine_time:.2f} s in the engine's steps"
             + (f", {outcome.after_collapse:.2f} s after the collapse" if outcome.collapse else "")

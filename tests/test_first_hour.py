@@ -1,0 +1,115 @@
+"""The first hour without friction: each point a new user tripped on, as a test that fails
+without its fix (the collapse named by the brick that moved first, the engine in every output,
+...)."""
+
+import json
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pytest
+
+from stackdsl import compile_scenario, parse_scenario, run_program
+from stackdsl.cli.main import main
+from stackdsl.verdicts.expect import describe, evaluate, moved_levels
+
+# A 10-level tower built first, then hit at level 8 by a steel brick: the collapse level is
+# 10 (the levels placed), the first brick to move lies lower.
+HIT_AT_8 = """stackdsl: 1
+name: hit at level 8
+materials:
+  steel: {density: 7800 kg/m^3, friction: 0.4}
+brick_types:
+  steel_brick: {size: [120 mm, 24 mm, 8 mm], material: steel}
+structure:
+  tower: {levels: 10}
+impacts:
+  - {id: hammer, projectile: steel_brick, target: {level: 8, side: +y}, speed: 2 m/s, at: after level 10}
+expect:
+  collapse: 10
+"""
+PASSING = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nexpect: {stands: true}\n"
+
+
+# 6. the collapse named by the brick that moved first, and the levels that moved
+
+
+@pytest.fixture(scope="module")
+def hit_at_8():
+    scenario = parse_scenario(HIT_AT_8)
+    program = compile_scenario(scenario)
+    return scenario, program, run_program(program)
+
+
+def test_a_blow_below_the_top_names_the_brick_that_moved_first_and_the_levels_moved(hit_at_8):
+    scenario, program, outcome = hit_at_8
+    c = outcome.collapse
+    assert c is not None and c.level == 10  # the levels placed: the report's collapse level
+    assert c.brick_level < c.level  # it began lower
+    moved = moved_levels(outcome, program.collapse_threshold)
+    assert c.brick_level in moved and max(moved) == 10
+    (verdict,) = evaluate(scenario.expect, outcome, program.collapse_threshold)
+    assert verdict.passed
+    assert verdict.measured.startswith(f"collapse 10 from {c.brick} (level {c.brick_level}), levels ")
+    assert verdict.measured.endswith(" moved")
+
+
+def test_check_names_the_first_brick_and_the_moved_levels_in_its_row_and_json(tmp_path, capsys):
+    (tmp_path / "hit.yaml").write_text(HIT_AT_8)
+    assert main(["check", str(tmp_path), "-j", "1"]) == 0
+    row = capsys.readouterr().out.splitlines()[1]
+    assert row.startswith("PASS") and " from L" in row and "(level " in row and row.endswith(" moved")
+    assert main(["check", str(tmp_path), "-j", "1", "--json"]) == 0
+    (result,) = json.loads(capsys.readouterr().out)["results"]
+    first = result["first_moved"]
+    assert first["level"] < result["collapse_level"] == 10
+    assert first["level"] in result["moved_levels"] and result["moved_levels"] == sorted(result["moved_levels"])
+    assert f"from {first['brick']} (level {first['level']})" in result["measured"]
+
+
+def test_describe_names_the_first_brick_and_the_moved_levels():
+    assert describe(10, ("L08.1", 8), (8, 9, 10)) == "collapse 10 from L08.1 (level 8), levels 8-10 moved"
+    assert describe(13, ("L13.2", 13), (13,)) == "collapse 13 from L13.2 (level 13), level 13 moved"
+    assert describe(None) == "stands"
+
+
+# 7. the engine in every output: check's rows, its JSON, JUnit XML, compare, the report
+
+
+@pytest.mark.parametrize("backend", ["pybullet", "mujoco"])
+def test_check_shows_the_engine_that_ran(tmp_path, capsys, backend):
+    if backend == "mujoco":
+        pytest.importorskip("mujoco")
+    (tmp_path / "a.yaml").write_text(PASSING)
+    junit = tmp_path / "junit.xml"
+    assert main(["check", str(tmp_path / "a.yaml"), "-j", "1", "--backend", backend, "--junit-xml", str(junit)]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].split()[1] == "engine" and out[1].split()[2] == backend
+    assert ET.parse(junit).getroot().find("testsuite/testcase").get("classname") == f"stackdsl.{backend}.extension"
+    assert main(["check", str(tmp_path / "a.yaml"), "-j", "1", "--backend", backend, "--json"]) == 0
+    (result,) = json.loads(capsys.readouterr().out)["results"]
+    assert result["backend"] == backend
+
+
+def test_compare_shows_the_engine_of_each_row(tmp_path, capsys):
+    (tmp_path / "a.yaml").write_text(PASSING)
+    assert main(["compare", str(tmp_path), "--modes", "extension", "-j", "1"]) == 0
+    out = capsys.readouterr()
+    header, row = out.out.splitlines()[:2]
+    assert header.split()[:2] == ["scenario", "engine"] and row.split()[1] == "pybullet"
+    assert "a pybullet extension: PASS" in out.err
+
+
+def test_the_report_shows_the_engine(tmp_path, capsys):
+    (tmp_path / "s").mkdir()
+    (tmp_path / "s" / "a.yaml").write_text(PASSING)
+    from stackdsl.batch.htmlreport import write_report
+    from stackdsl.verdicts.check_result import CheckResult
+
+    result = CheckResult(
+        file="a.yaml", scenario="a", mode="extension", model="report", verdicts=(), collapse_level=None,
+        levels_placed=2, simulated_time=3.0, wall_time=0.1, backend="mujoco",
+    )  # fmt: skip
+    (tmp_path / "r").mkdir()
+    page = write_report([result], tmp_path / "r", total=1, wall=0.1, commands=["stackdsl run a.yaml"], argv=["check"])
+    html = Path(page).read_text()
+    assert "<th>engine</th>" in html and "<td>mujoco</td>" in html

@@ -206,11 +206,13 @@ def _scenario_test(request: pytest.FixtureRequest, scenario_golden: Any) -> None
         lines = [f"{path.name}: expected {v.expected}, measured {v.measured}" for v in failed]
         lines += [f"  {line}" for line in explain(scenario.expect, outcome, program.collapse_threshold)]
         lines.append(f"more: stackdsl run {shown}")
+    elif missing := _no_golden_yet(request, path, shown):
+        lines = [missing]
     elif not scenario_golden == outcome.golden():
         with disable_color():  # plain text: the message also goes to JUnit XML and CI logs
             diff = scenario_golden.get_assert_diff()
         golden = _relative(scenario_golden_path(path), request.config.rootpath)
-        lines = [f"{path.name}: the outcome differs from {golden}", *diff]
+        lines = [f"{path.name}: the outcome differs from {golden}", *diff, UPDATE_HINT]
     if trajectory is not None and (lines or pictures == "on"):
         kept = _keep_pictures(trajectory, shown, request.config)
         if lines:  # a failure: say where to look
@@ -248,11 +250,31 @@ def _sweep_test(request: pytest.FixtureRequest, scenario: Any, program: Any, sho
     golden = {"scenario": program.name, "mode": program.engine.mode, "samples": template.samples}
     for c, rs in enumerate(by_cell(results, template.cells)):
         golden[f"cell {c}"] = {"grid": template.cell(c), "collapse_levels": [r.collapse_level for r in rs]}
+    if missing := _no_golden_yet(request, Path(request.node.path), shown):
+        pytest.fail(missing, pytrace=False)
     if not scenario_golden == golden:
         with disable_color():
             diff = scenario_golden.get_assert_diff()
         where = _relative(scenario_golden_path(Path(request.node.path)), request.config.rootpath)
-        pytest.fail("\n".join([f"{Path(shown).name}: the samples differ from {where}", *diff]), pytrace=False)
+        pytest.fail("\n".join([f"{Path(shown).name}: the samples differ from {where}", *diff, UPDATE_HINT]), pytrace=False)
+
+
+#: The last line of a failed golden comparison.
+UPDATE_HINT = "if the change is meant: rerun with --snapshot-update, and say in the commit why the new snapshot is right"
+
+
+def _no_golden_yet(request: pytest.FixtureRequest, path: Path, shown: str) -> str:
+    """The failure of an item whose scenario has no golden snapshot yet (and the run is not
+    writing them: ``--snapshot-update`` or ``--snapshot-update-new-only``), naming the command
+    that writes it; ``""`` when it has one or one is being written."""
+    option = request.config.option
+    stored = scenario_golden_path(path)
+    if stored.is_file() or getattr(option, "update_snapshots", False) or getattr(option, "update_new_snapshots_only", False):
+        return ""
+    where = _relative(stored, request.config.rootpath)
+    return (
+        f"{Path(shown).name}: no golden yet ({where}): run with --snapshot-update to write it (pytest {shown} --snapshot-update)"
+    )
 
 
 def _keep_pictures(trajectory: Any, shown: str, config: pytest.Config) -> str:

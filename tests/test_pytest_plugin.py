@@ -255,3 +255,23 @@ def test_an_output_folder_that_cannot_be_written_is_one_line_in_the_failure(proj
     text = result.stdout.str()
     assert "pictures: cannot write them to /dev/full" in text
     assert "Traceback" not in text and "NotADirectoryError" not in text and "FileExistsError" not in text
+
+
+def test_a_missing_golden_says_to_run_with_snapshot_update(project):
+    write(project, "tower", TOWER)
+    result = project.runpytest()
+    result.assert_outcomes(failed=1)
+    out = result.stdout.str()
+    assert "tower.yaml: no golden yet (golden/scenarios/tower.json): run with --snapshot-update to write it" in out
+    assert "differs" not in out
+    project.runpytest("--snapshot-update-new-only").assert_outcomes(passed=1)  # writes it, as --snapshot-update does
+    project.runpytest().assert_outcomes(passed=1)
+
+
+def test_a_changed_golden_says_how_to_accept_the_change(project):
+    write(project, "two", TWO_BRICKS.format(x="0 mm"))
+    project.runpytest("--snapshot-update").assert_outcomes(passed=1)
+    write(project, "two", TWO_BRICKS.format(x="5 mm"))
+    result = project.runpytest()
+    assert "two.yaml: the outcome differs from golden/scenarios/two.json" in result.stdout.str()
+    assert "if the change is meant: rerun with --snapshot-update" in result.stdout.str()

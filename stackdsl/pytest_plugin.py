@@ -34,7 +34,9 @@ Source: stackdsl's own, after Tavern's pytest plugin and syrupy's single-file ex
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Iterator
+from itertools import islice
 from pathlib import Path
 from typing import Any
 
@@ -147,8 +149,59 @@ def orphan_goldens(config: pytest.Config) -> list[Path]:
     return orphans
 
 
+#: At most this many YAML files under a path given to pytest are read for the collection hint.
+HINT_FILES = 1000
+
+
+def _looks_like_scenario(path: Path) -> bool:
+    """Whether a YAML file starts a stackdsl scenario: a top-level ``stackdsl:`` key in its first 4 KiB."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(4096).decode("utf-8", "replace")
+    except OSError:
+        return False
+    return re.search(r"^\ufeff?stackdsl\s*:", head, flags=re.M) is not None
+
+
+def uncollected(config: pytest.Config) -> list[tuple[str, int]]:
+    """The paths given on pytest's command line that hold scenario files outside the folders of
+    ``stackdsl_paths`` (so not collected): each as the ``stackdsl_paths`` value that would
+    collect it (relative to the rootdir) and how many scenario files it holds."""
+    roots = [(config.rootpath / p).resolve() for p in config.getini("stackdsl_paths")]
+    found = []
+    for arg in config.args:
+        path = Path(config.invocation_params.dir, arg.split("::", 1)[0]).resolve()
+        if any(path.is_relative_to(root) for root in roots):
+            continue
+        if path.is_dir():
+            files = [f for suffix in SUFFIXES for f in islice(path.rglob(f"*{suffix}"), HINT_FILES)]
+        else:
+            files = [path] if path.suffix in SUFFIXES and path.is_file() else []
+        count = sum(_looks_like_scenario(f) for f in files if not any(f.is_relative_to(r) for r in roots))
+        if count:
+            folder = path if path.is_dir() else path.parent
+            found.append((Path(os.path.relpath(folder, config.rootpath)).as_posix(), count))
+    return found
+
+
 def pytest_terminal_summary(terminalreporter: Any, config: pytest.Config) -> None:
-    """Name golden snapshots left behind by scenario files that were removed or renamed."""
+    """Say how to collect scenario files given on the command line outside the configured
+    folders (``pytest mine/`` collects nothing from ``mine/`` unless ``stackdsl_paths`` names
+    it), and name golden snapshots left behind by scenario files that were removed or renamed."""
+    missed = uncollected(config)
+    if missed:
+        terminalreporter.section("stackdsl: scenario files not collected", yellow=True)
+        configured = ", ".join(config.getini("stackdsl_paths")) or "none"
+        for folder, count in missed:
+            terminalreporter.line(
+                f"{folder}/ holds {count} scenario file{'s' * (count != 1)}, and pytest collects them only below "
+                f"stackdsl_paths (now: {configured})"
+            )
+        options = " ".join(f"-o stackdsl_paths={folder}" for folder, _ in missed[:1])
+        everything = ", ".join(f'"{folder}"' for folder, _ in missed)
+        if len(missed) == 1:
+            terminalreporter.line(f"run: pytest {' '.join(config.args)} {options}")
+        terminalreporter.line(f"for good, in pyproject.toml: [tool.pytest.ini_options] stackdsl_paths = [{everything}]")
     orphans = orphan_goldens(config)
     if orphans:
         terminalreporter.section("stackdsl: golden snapshots with no scenario file", yellow=True)

@@ -275,3 +275,22 @@ def test_a_changed_golden_says_how_to_accept_the_change(project):
     result = project.runpytest()
     assert "two.yaml: the outcome differs from golden/scenarios/two.json" in result.stdout.str()
     assert "if the change is meant: rerun with --snapshot-update" in result.stdout.str()
+
+
+def test_a_folder_outside_the_configured_ones_gets_a_collection_hint(project):
+    (project.path / "mine").mkdir()
+    (project.path / "mine" / "tower.yaml").write_text(TOWER)
+    (project.path / "mine" / "notes.yaml").write_text("not: a scenario\n")  # not counted
+    result = project.runpytest("mine/")
+    assert result.ret == pytest.ExitCode.NO_TESTS_COLLECTED
+    out = result.stdout.str()
+    assert "mine/ holds 1 scenario file, and pytest collects them only below stackdsl_paths (now: scenarios)" in out
+    assert "run: pytest mine/ -o stackdsl_paths=mine" in out
+    (project.path / "mine" / "notes.yaml").unlink()  # it would be collected, and fail, as a scenario
+    project.runpytest("mine/", "-o", "stackdsl_paths=mine", "--snapshot-update").assert_outcomes(passed=1)
+    assert "not collected" not in project.runpytest("mine/", "-o", "stackdsl_paths=mine").stdout.str()
+
+
+def test_no_collection_hint_when_the_scenarios_are_collected(project):
+    write(project, "tower", TOWER)
+    assert "not collected" not in project.runpytest("scenarios/", "--collect-only").stdout.str()

@@ -3,6 +3,7 @@ without its fix (the collapse named by the brick that moved first, the engine in
 ...)."""
 
 import json
+import warnings
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -113,3 +114,63 @@ def test_the_report_shows_the_engine(tmp_path, capsys):
     page = write_report([result], tmp_path / "r", total=1, wall=0.1, commands=["stackdsl run a.yaml"], argv=["check"])
     html = Path(page).read_text()
     assert "<th>engine</th>" in html and "<td>mujoco</td>" in html
+
+
+# 8. messages: unit slips, no pydantic class names, every error of a file (up to a limit)
+
+
+def bad_input(tmp_path, capsys, text: str) -> str:
+    (tmp_path / "s.yaml").write_text(text)
+    assert main(["check", str(tmp_path / "s.yaml"), "-j", "1"]) == 2
+    return capsys.readouterr().err.replace(str(tmp_path) + "/", "")
+
+
+def test_a_bare_number_out_of_a_length_range_is_named_as_probable_millimetres(tmp_path, capsys):
+    err = bad_input(tmp_path, capsys, "stackdsl: 1\nstructure: {tower: {levels: 2}}\ntiming: {placement_error: 3}\n")
+    assert err.startswith("s.yaml:3:27: timing.placement_error: expected a length from 0 to 10 mm, got 3 ")
+    assert "a bare number is metres; did you mean '3 mm'?" in err.splitlines()[0]
+    err = bad_input(tmp_path, capsys, "stackdsl: 1\nstructure: {tower: {levels: 2, spacing: 96}}\n")
+    assert "did you mean '96 mm'?" in err
+    err = bad_input(tmp_path, capsys, "stackdsl: 1\nstructure: {tower: {levels: 2, spacing: 96 m}}\n")
+    assert "did you mean" not in err  # a unit written is not a slip
+
+
+def test_a_bare_number_implausible_in_metres_is_warned_at_its_place(tmp_path, capsys):
+    (tmp_path / "s.yaml").write_text(
+        "stackdsl: 1\nstructure: {tower: {levels: 2}}\ncollapse_threshold: 4\nexpect: {stands: true}\n"
+    )
+    assert main(["check", str(tmp_path / "s.yaml"), "-j", "1"]) == 0  # run as written: 4 m is a length
+    err = capsys.readouterr().err
+    assert f"{tmp_path / 's.yaml'}:3:21: warning: collapse_threshold: 4 is read as 4 m" in err
+    assert "did you mean '4 mm'?" in err and "UnitSlipWarning" not in err  # a line of its own, not Python's report
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 2}}\ncollapse_threshold: 4 mm\n", "t.yaml")
+        parse_scenario("stackdsl: 1\nstructure:\n  bricks:\n    - {at: [0, 0, 0.004]}\n", "t.yaml")
+    assert caught == []  # with a unit, or a plausible number of metres: nothing to say
+
+
+def test_p_stands_as_a_bare_number_says_how_to_write_the_bound(tmp_path, capsys):
+    sweep = "stackdsl: 1\nstructure: {tower: {levels: 2, shift: {uniform: [0 mm, 1 mm]}}}\nsweep: {samples: 10}\n"
+    err = bad_input(tmp_path, capsys, sweep + "expect:\n  p_stands: 0.9\n")
+    assert err.startswith("s.yaml:5:13: expect.p_stands: ")
+    assert "'>= 0.9'" in err and "instance of" not in err and "Probability" not in err
+    err = bad_input(tmp_path, capsys, "stackdsl: 1\nstructure: {tower: {levels: 2}}\ntiming: 3\n")
+    assert err.startswith("s.yaml:3:9: timing: expected a mapping of drop_gap, interval, placement_error, settle, got 3")
+    assert "instance of" not in err and "Timing" not in err
+
+
+def test_every_error_of_a_file_is_shown_up_to_a_limit(tmp_path, capsys):
+    keys = "\n".join(f"  typo{i}: 1" for i in range(12))
+    err = bad_input(tmp_path, capsys, f"stackdsl: 1\nstructure: {{tower: {{levels: 2}}}}\ntiming:\n{keys}\n")
+    heads = [line for line in err.splitlines() if line.startswith("s.yaml:")]
+    assert heads == [f"s.yaml:{4 + i}:3: timing.typo{i}: unknown key 'typo{i}'; allowed: " + ALLOWED for i in range(10)]
+    assert err.rstrip().endswith("(2 more problems in this file)")
+    err = bad_input(tmp_path, capsys, "stackdsl: 1\nstructure: {tower: {levels: 2, spacng: 96 mm}}\ntiming: {intervl: 1 s}\n")
+    assert [line.split(": ")[1] for line in err.splitlines() if line.startswith("s.yaml:")] == [
+        "structure.tower.spacng",
+        "timing.intervl",
+    ]
+
+
+ALLOWED = "drop_gap, interval, placement_error, settle"

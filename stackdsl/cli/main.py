@@ -11,6 +11,7 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import gc
 import json
 import os
@@ -18,6 +19,8 @@ import signal
 import sys
 import threading
 import traceback
+import warnings
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -41,6 +44,26 @@ from .args import (
 )
 
 MODELS = ["report", "equilibrium"]
+
+
+@contextlib.contextmanager
+def _warnings_as_lines() -> Iterator[None]:
+    """Show the language's warnings (a unit slip: :class:`stackdsl.lang.unit_slips.UnitSlipWarning`)
+    as their own line on stderr, ``file:line:col: warning: ...``, not as Python's report of where
+    in stackdsl they were raised; other warnings as Python shows them."""
+    shown = warnings.showwarning
+
+    def show(message: Any, category: type[Warning], filename: str, lineno: int, file: Any = None, line: Any = None) -> None:
+        if category.__name__ == "UnitSlipWarning":
+            print(message, file=sys.stderr)
+        else:
+            shown(message, category, filename, lineno, file, line)
+
+    warnings.showwarning = show
+    try:
+        yield
+    finally:
+        warnings.showwarning = shown
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -84,7 +107,8 @@ def main(argv: list[str] | None = None) -> int:
             from ..batch.guard import limit_memory
 
             limit_memory()
-        status = int(args.func(args))
+        with _warnings_as_lines():
+            status = int(args.func(args))
         sys.stdout.flush()
         return status
     except ScenarioErrors as exc:

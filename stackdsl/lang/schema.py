@@ -36,9 +36,11 @@ from .bounds import (
     BoundedAngle,
     BoundedDensity,
     CollapseThreshold,
+    DropGap,
     Number,
     Offset,
     PeakSpacing,
+    PlacementError,
     RestAngularSpeed,
     RestSpeed,
     Side,
@@ -59,7 +61,6 @@ from .schema_impacts import Impact
 from .schema_sweep import Sweep
 from .units import (
     Angle,
-    Length,
     Time,
 )
 
@@ -218,8 +219,8 @@ class Timing(StrictModel):
 
     interval: Annotated[Time, Field(gt=0, le=60)] = 1.0
     settle: Annotated[Time, Field(ge=0, le=600)] = 2.0
-    drop_gap: Annotated[Length, Field(ge=0, le=0.05)] = 0.0005
-    placement_error: Annotated[Length, Field(ge=0, le=0.01)] = 0.0
+    drop_gap: DropGap = 0.0005
+    placement_error: PlacementError = 0.0
 
 
 MAX_TIMESTEP = 0.010  # s

@@ -173,15 +173,26 @@ def within(
     Source: stackdsl's own.
     """
 
+    def inside(number: float) -> bool:
+        return low < number <= high if above else low <= number <= high
+
     def check(value: Any) -> Any:
         number = convert(value)
-        if isinstance(number, float) and math.isfinite(number) and not (low < number <= high if above else low <= number <= high):
+        if isinstance(number, float) and math.isfinite(number) and not inside(number):
             reason = "" if number <= 0 < low else why if isinstance(why, str) else why[number > high]  # no reason for <= 0
-            raise ValueError(f"expected {shown}, got {value!r}" + (f"; {reason}" if reason else ""))
+            slip = ""
+            if convert is length and number > high and bare(value) and inside(number / 1000):
+                slip = f" ({value:g} m: a bare number is metres; did you mean '{value:g} mm'?)"
+            raise ValueError(f"expected {shown}, got {value!r}{slip}" + (f"; {reason}" if reason else ""))
         return number
 
     bounds = Field(gt=low, le=high) if above else Field(ge=low, le=high)
     return Annotated[kind, bounds, BeforeValidator(check)]
+
+
+def bare(value: Any) -> bool:
+    """Whether ``value`` is a YAML number (not a string with a unit, not true/false)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
 def real(value: Any) -> Any:

@@ -8,6 +8,7 @@ import warnings
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
+import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
@@ -212,3 +213,35 @@ def test_a_snapshot_summary_says_how_far_a_brick_turned():
 
     turned = Rotation.from_euler("z", 12, degrees=True).as_quat().round(3).tolist()
     assert summarize(snap([0.0, 0.0, 0.0, 1.0]), snap(turned)) == ["final_graph b: turned 12.0 deg"]
+
+
+# 2. clips: a frame at every impact and the collapse, and in a throw's flight however short
+
+THROW_21_MS = """stackdsl: 1
+structure: {tower: {levels: 4}}
+impacts:
+  - {id: hammer, target: {level: 4, side: +y}, speed: 2.4 m/s, at: after level 4}
+"""
+
+
+def test_a_clip_draws_a_short_throw_in_flight_and_every_impact_and_collapse():
+    from stackdsl.draw.animate import timeline
+    from stackdsl.runtime.recorder import record_program
+
+    _, trajectory = record_program(compile_scenario(parse_scenario(THROW_21_MS)))
+    events = trajectory.events
+    launch = next(e.time for e in events if e.kind == "launch")
+    hits = [e for e in events if e.kind == "impact" or (e.kind == "wake" and e.detail.startswith("impact of hammer"))]
+    first_hit = min(e.time for e in hits)
+    assert 0.015 < first_hit - launch < 0.03  # the 21 ms flight: less than a frame of a clip at 30 a second
+    plan = timeline(trajectory, fps=30.0, max_frames=60)  # sped up, as a long run's clip is
+    drawn = set(plan.frames.tolist())
+    in_flight = [i for i in drawn if launch < trajectory.times[i] < first_hit]
+    assert in_flight, "no frame of the clip shows the projectile in flight"
+    hammer = trajectory.ids.tolist().index("hammer")
+    start, target = trajectory.at(launch).positions[hammer], trajectory.at(first_hit).positions[hammer]
+    middle = trajectory.frame(in_flight[0]).positions[hammer]
+    assert 0 < np.linalg.norm(middle - start) < np.linalg.norm(target - start)  # on its way
+    for e in [*hits, *(e for e in events if e.kind in ("launch", "collapse"))]:
+        assert trajectory.frame_index(e.time) in drawn, e
+    assert len(plan.frames) <= 60 and (np.diff(plan.times) > 0).all() and (np.diff(plan.frames) >= 0).all()

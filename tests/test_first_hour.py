@@ -4,6 +4,7 @@ without its fix (the collapse named by the brick that moved first, the engine in
 
 import json
 import math
+import time
 import warnings
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -245,3 +246,50 @@ def test_a_clip_draws_a_short_throw_in_flight_and_every_impact_and_collapse():
     for e in [*hits, *(e for e in events if e.kind in ("launch", "collapse"))]:
         assert trajectory.frame_index(e.time) in drawn, e
     assert len(plan.frames) <= 60 and (np.diff(plan.times) > 0).all() and (np.diff(plan.frames) >= 0).all()
+
+
+# 9. progress where there is no terminal, the time left, and drawing commands that say what they wrote
+
+
+def test_progress_without_a_terminal_is_a_line_on_stderr_every_few_seconds_with_the_time_left(capsys):
+    import io
+
+    from stackdsl.cli.progress import Lines
+
+    out = io.StringIO()
+    with Lines(4, "sweep", file=out, live=False, every=0.05) as lines:
+        lines.advance()
+        time.sleep(0.3)
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) >= 2 and out.getvalue() == ""  # stdout keeps its own lines only
+    assert all(line.startswith("sweep: 1 of 4 done (25%), ") and line.endswith(" left") for line in err)
+    with Lines(4, "sweep", file=io.StringIO(), live=False, every=0) as lines:
+        time.sleep(0.1)
+    assert capsys.readouterr().err == ""  # 0: none
+
+
+def test_the_live_progress_line_shows_the_time_left():
+    import io
+
+    from stackdsl.cli.progress import Lines
+
+    out = io.StringIO()
+    with Lines(3, "check", file=out, live=True) as lines:
+        lines.advance()
+        time.sleep(0.2)
+        lines.advance()
+    assert "left" in out.getvalue() and "0:00:0" in out.getvalue()
+
+
+def test_render_animate_and_graph_say_what_they_wrote(tmp_path, capsys):
+    (tmp_path / "a.yaml").write_text(PASSING)
+    outputs = {"render": "a.png", "animate": "a.gif", "graph": "g.png"}
+    for command, name in outputs.items():
+        assert (
+            main([command, str(tmp_path / "a.yaml"), "-o", str(tmp_path / name), *(["--size", "96x64"] * (command != "graph"))])
+            == 0
+        )
+    said = capsys.readouterr().out.splitlines()
+    assert said[0].startswith(f"wrote {tmp_path / 'a.png'}: the run at end, t = ") and said[0].endswith(" kB)")
+    assert said[1].startswith(f"wrote {tmp_path / 'a.gif'}: a clip of ") and " frames, " in said[1]
+    assert said[2].startswith(f"wrote {tmp_path / 'g.png'}: the brick graph at the end, 4 bricks and ")

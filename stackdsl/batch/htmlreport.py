@@ -175,11 +175,10 @@ def _row(r: CheckResult, command: str, folder: Path) -> str:
     ]
     rows = "".join(f"<tr><td>{_e(k)}</td><td>{_e(v)}</td></tr>" for k, v in facts)
     why = "".join(f"<li>{_e(line)}</li>" for line in r.explanation)
-    links = [
-        f'<a href="{_e(href)}">{label}</a>'
-        for label, kind in (("clip", "clip"), ("brick graph", "graph"), ("trajectory (.npz)", "trajectory"))
-        if (href := _link(r, kind, folder))
-    ]
+    kinds = [("clip", "clip"), ("brick graph", "graph"), ("trajectory (.npz)", "trajectory")]
+    kinds += [("samples (.csv)", "samples"), ("samples (.parquet)", "parquet"), ("samples (.jsonl)", "jsonl")]
+    kinds += [(name, kind) for kind, name in r.artefacts if kind.startswith("plot ")]  # a sweep's plots
+    links = [f'<a href="{_e(href)}">{_e(label)}</a>' for label, kind in kinds if (href := _link(r, kind, folder))]
     problems = [p for p in (r.draw_error,) if p]
     return "\n".join(
         [

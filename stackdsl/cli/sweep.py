@@ -117,11 +117,11 @@ def _sweep(args: argparse.Namespace) -> int:
         _forget(out, made)
         return 2
     table, jsonl = write_samples(results, out)
-    plots = write_plots(template, results, levels_built or 0, out)
+    plots = write_plots(template, results, levels_built or 0, out, scenario.expect)
     for line in report(template, scenario.expect, results, levels_built or 0):
         print(line)
     print(
-        f"{total} samples in {wall:.1f} s ({total / wall:.1f} a second); wrote {table}, {jsonl.name}, "
+        f"{total} samples in {wall:.1f} s ({total / wall:.1f} a second); wrote {table}, {jsonl.name}, samples.parquet, "
         + ", ".join(p.name for p in plots)
     )
     judged = verdicts(template, scenario.expect, results)

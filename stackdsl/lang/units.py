@@ -229,6 +229,46 @@ def split_quantity(value: Any) -> tuple[float, str]:
     return number, unit
 
 
+#: The unit a bare number means in a scenario, by the kind of quantity (pint's names), and how
+#: tables name it: SI, with angles in degrees as the language reads them.
+LANGUAGE_UNITS = (("m", "m"), ("s", "s"), ("m/s", "m/s"), ("kg/m**3", "kg/m^3"), ("rad/s", "rad/s"), ("degree", "deg"))
+
+
+@lru_cache(maxsize=256)
+def language_unit(unit: str) -> tuple[float, str]:
+    """(factor, name) that turn a number of ``unit`` (as written: ``"mm"``) into one of the unit
+    a bare number means for its kind of quantity (``(0.001, "m")``); ``(1.0, unit)`` for a unit of
+    another kind or one pint does not know.
+
+    >>> language_unit("mm"), language_unit("km/h"), language_unit("rad")
+    ((0.001, 'm'), (0.2777777777777778, 'm/s'), (57.29577951308232, 'deg'))
+    """
+    ureg = _registry()
+    try:
+        quantity = ureg.Quantity(1.0, ureg.parse_units(unit))
+        for target, name in LANGUAGE_UNITS:
+            units = ureg.parse_units(target)
+            if quantity.dimensionality == units.dimensionality:
+                return float(quantity.to(units).magnitude), name
+    except Exception:  # pint raises many kinds: a unit it does not know
+        pass
+    return 1.0, unit
+
+
+def in_language_units(value: Any) -> tuple[Any, str]:
+    """A value of a scenario as (number in the unit a bare number means, that unit's name):
+    ``"2 mm"`` -> ``(0.002, "m")``, ``3`` -> ``(3.0, "")`` (a bare number is that unit already);
+    anything that is not a number or a quantity unchanged, with ``""``."""
+    try:
+        number, unit = split_quantity(value)
+    except ValueError:
+        return value, ""
+    if not unit:
+        return number, ""
+    factor, name = language_unit(unit)
+    return number * factor, name
+
+
 def in_unit(value: Any, unit: str) -> float:
     """``value`` (a number or a quantity string) as a number of ``unit`` (as written in a file,
     ``""``: a bare number, whose own unit is the field's).

@@ -293,3 +293,52 @@ def test_render_animate_and_graph_say_what_they_wrote(tmp_path, capsys):
     assert said[0].startswith(f"wrote {tmp_path / 'a.png'}: the run at end, t = ") and said[0].endswith(" kB)")
     assert said[1].startswith(f"wrote {tmp_path / 'a.gif'}: a clip of ") and " frames, " in said[1]
     assert said[2].startswith(f"wrote {tmp_path / 'g.png'}: the brick graph at the end, 4 bricks and ")
+
+
+# 10. the schema: a description and an example for every key, a stable id, a modeline for any folder
+
+
+def schema_properties(schema):
+    """(where, key, subschema) of every key of a scenario file the schema describes: the top
+    level's, each model's in $defs, a distribution's (not the properties of constraint
+    subschemas under not, oneOf, anyOf or contains, which describe no key of their own)."""
+    objects = {"": schema, **schema["$defs"], "Distribution.normal": schema["$defs"]["Distribution"]["properties"]["normal"]}
+    return [(where, key, node) for where, obj in objects.items() for key, node in obj.get("properties", {}).items()]
+
+
+def test_every_key_of_the_schema_has_a_description_and_an_example_it_accepts():
+    import jsonschema
+
+    from stackdsl.lang.jsonschema import json_schema
+
+    schema = json_schema()
+    keys = schema_properties(schema)
+    assert len(keys) >= 97
+    bare = [f"{w}.{k}" for w, k, node in keys if not node.get("description") or not node.get("examples")]
+    assert bare == [], f"add these to stackdsl/lang/schema_docs.py: {bare}"
+    for where, key, node in keys:
+        (example,) = node["examples"]
+        errors = list(jsonschema.Draft202012Validator({"$defs": schema["$defs"], **node}).iter_errors(example))
+        assert errors == [], f"{where}.{key}: example {example!r}: {errors[0].message}"
+
+
+def test_the_schema_has_a_stable_url_like_id_and_a_modeline_for_a_file_anywhere(tmp_path, capsys):
+    import jsonschema
+    import yaml
+
+    from stackdsl.lang.jsonschema import json_schema
+
+    assert json_schema()["$id"] == "https://stackdsl.invalid/schema/scenario/1.json"  # versioned, never fetched
+    assert main(["schema", "--modeline"]) == 0
+    modeline = capsys.readouterr().out.strip()
+    assert main(["schema", "--path"]) == 0
+    path = Path(capsys.readouterr().out.strip())
+    assert modeline == f"# yaml-language-server: $schema={path}" and path.is_absolute()
+    scenario = tmp_path / "elsewhere" / "tower.yaml"  # outside the repository: no relative path reaches schema/
+    scenario.parent.mkdir()
+    scenario.write_text(f"{modeline}\n{PASSING}")
+    named = Path(scenario.read_text().splitlines()[0].split("$schema=", 1)[1])
+    validator = jsonschema.Draft202012Validator(json.loads(named.read_text()))
+    assert list(validator.iter_errors(yaml.safe_load(scenario.read_text()))) == []
+    assert not list(validator.iter_errors({"stackdsl": 1, "structure": {"tower": {"levles": 2}}})) == []
+    assert main(["check", str(scenario), "-j", "1"]) == 0  # the modeline is a comment to stackdsl

@@ -13,7 +13,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import gc
-import json
 import os
 import signal
 import sys
@@ -294,6 +293,16 @@ def _add_command(sub: Any, name: str, common: argparse.ArgumentParser) -> None:
             epilog=_ONE_STATUS,
             formatter_class=argparse.RawDescriptionHelpFormatter,
         )
+        shown = p.add_mutually_exclusive_group()
+        shown.add_argument(
+            "--path", action="store_true", help="print the path of the schema file installed with stackdsl, for editors"
+        )
+        shown.add_argument(
+            "--modeline",
+            action="store_true",
+            help="print the first line for a scenario file anywhere: # yaml-language-server: $schema=<that path>",
+        )
+        shown.add_argument("--write", action="store_true", help=argparse.SUPPRESS)  # regenerates the shipped copies
         p.set_defaults(func=_print_schema)
 
 
@@ -488,9 +497,20 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _print_schema(args: argparse.Namespace) -> int:
-    from ..lang.jsonschema import json_schema
+    from ..lang.jsonschema import packaged_path, schema_text
 
-    print(json.dumps(json_schema(), indent=2))
+    if args.path or args.modeline:
+        path = packaged_path()
+        if not path.is_file():  # a broken install: say so rather than point editors nowhere
+            raise ScenarioError("the schema file is missing from this install: reinstall stackdsl", file=str(path))
+        print(f"# yaml-language-server: $schema={path}" if args.modeline else path)
+    elif args.write:  # the copies in a checkout (a developer's command): the package's, and schema/'s
+        shipped = Path(__file__).resolve().parents[2] / "schema"
+        for path in (packaged_path(), *([shipped / "scenario.schema.json"] if shipped.is_dir() else [])):
+            path.write_text(schema_text())
+            print(f"wrote {path}")
+    else:
+        print(schema_text(), end="")
     return OK
 
 

@@ -364,9 +364,11 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
     )
     many.add_argument(
         "-k",
-        metavar="PATTERN",
+        metavar="TEXT",
         dest="pattern",
-        help="only the scenarios whose file path or name contains PATTERN (plain text, case-insensitive)",
+        action="append",
+        help="only the scenarios whose file path or name contains TEXT (plain text, case-insensitive; not pytest's "
+        "expressions); give -k again for more: a scenario runs when it contains any of them",
     )
     many.add_argument("--json", action="store_true", help="print one JSON document of every result instead of the table")
     if name == "check":

@@ -342,3 +342,11 @@ def test_the_schema_has_a_stable_url_like_id_and_a_modeline_for_a_file_anywhere(
     assert list(validator.iter_errors(yaml.safe_load(scenario.read_text()))) == []
     assert not list(validator.iter_errors({"stackdsl": 1, "structure": {"tower": {"levles": 2}}})) == []
     assert main(["check", str(scenario), "-j", "1"]) == 0  # the modeline is a comment to stackdsl
+
+
+def test_run_names_the_engine_in_its_summary_and_its_json(tmp_path, capsys):
+    (tmp_path / "a.yaml").write_text(PASSING)
+    assert main(["run", str(tmp_path / "a.yaml")]) == 0
+    assert "a.yaml on pybullet extension: stands (2 levels placed)" in capsys.readouterr().out
+    assert main(["run", str(tmp_path / "a.yaml"), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["backend"] == "pybullet"

@@ -483,7 +483,8 @@ def _run(args: argparse.Namespace) -> int:
             level = "" if e.level is None else f"level {e.level}"
             print(f"t={e.time:9.3f} s  {e.kind:<8} {e.brick:<10} {level:<9} {e.detail}")
         print(
-            f"{Path(args.file).name}: {describe_outcome(outcome, program.collapse_threshold)} "
+            f"{Path(args.file).name} on {program.engine.backend} {program.engine.mode}: "
+            f"{describe_outcome(outcome, program.collapse_threshold)} "
             f"({outcome.levels_placed} levels placed), {outcome.simulated_time:.1f} s simulated, "
             f"{outcome.wall_time:.2f} s wall ({outcome.engine_time:.2f} s in the engine's steps"
             + (f", {outcome.after_collapse:.2f} s after the collapse" if outcome.collapse else "")

@@ -189,7 +189,8 @@ class Outcome(_Frozen):
     """What a run produced.
 
     Attributes:
-        scenario, mode: what ran.
+        scenario, mode, backend: what ran (backend: the engine, pybullet or mujoco; not part of
+            a golden snapshot, which is the scenario's own engine's).
         collapse: the first collapse, or None when the structure stood.
         events: the timeline.
         final_graph: the brick graph at the end; collapse_graph: at the first collapse.
@@ -217,6 +218,7 @@ class Outcome(_Frozen):
     scenario: str
     mode: str
     collapse: Collapse | None
+    backend: str = "pybullet"
     events: tuple[Event, ...]
     final_graph: Graph
     collapse_graph: Graph | None

@@ -163,15 +163,28 @@ def _looks_like_scenario(path: Path) -> bool:
     return re.search(r"^\ufeff?stackdsl\s*:", head, flags=re.M) is not None
 
 
-def uncollected(config: pytest.Config) -> list[tuple[str, int]]:
-    """The paths given on pytest's command line that hold scenario files outside the folders of
-    ``stackdsl_paths`` (so not collected): each as the ``stackdsl_paths`` value that would
-    collect it (relative to the rootdir) and how many scenario files it holds."""
+#: Where the collected test items are (set when collection ends), for :func:`uncollected`.
+_COLLECTED = pytest.StashKey[list[Path]]()
+
+
+def pytest_collection_finish(session: pytest.Session) -> None:
+    session.config.stash[_COLLECTED] = [Path(item.path).resolve() for item in session.items]
+
+
+def uncollected(config: pytest.Config, ran: list[Path] | None = None) -> list[tuple[str, int]]:
+    """The paths given on pytest's command line (not its ``testpaths``) that gave no test item
+    and hold scenario files outside the folders of ``stackdsl_paths`` (so not collected): each
+    as the ``stackdsl_paths`` value that would collect it (relative to the rootdir) and how many
+    scenario files it holds. ``ran``: files whose tests reported (under pytest-xdist the items
+    are collected by the workers, and the main process sees their reports only)."""
+    if config.args_source != pytest.Config.ArgsSource.ARGS:
+        return []
     roots = [(config.rootpath / p).resolve() for p in config.getini("stackdsl_paths")]
+    collected = [*config.stash.get(_COLLECTED, []), *(ran or [])]
     found = []
     for arg in config.args:
         path = Path(config.invocation_params.dir, arg.split("::", 1)[0]).resolve()
-        if any(path.is_relative_to(root) for root in roots):
+        if any(path.is_relative_to(root) for root in roots) or any(item.is_relative_to(path) for item in collected):
             continue
         if path.is_dir():
             files = [f for suffix in SUFFIXES for f in islice(path.rglob(f"*{suffix}"), HINT_FILES)]
@@ -188,7 +201,13 @@ def pytest_terminal_summary(terminalreporter: Any, config: pytest.Config) -> Non
     """Say how to collect scenario files given on the command line outside the configured
     folders (``pytest mine/`` collects nothing from ``mine/`` unless ``stackdsl_paths`` names
     it), and name golden snapshots left behind by scenario files that were removed or renamed."""
-    missed = uncollected(config)
+    ran = [
+        (config.rootpath / nodeid.split("::", 1)[0]).resolve()
+        for reports in terminalreporter.stats.values()
+        for report in reports
+        if (nodeid := getattr(report, "nodeid", ""))
+    ]
+    missed = uncollected(config, ran)
     if missed:
         terminalreporter.section("stackdsl: scenario files not collected", yellow=True)
         configured = ", ".join(config.getini("stackdsl_paths")) or "none"

@@ -163,7 +163,9 @@ def test_k_selecting_nothing_is_bad_input(tmp_path, capsys):
 def test_k_rule_is_in_the_help(capsys):
     with pytest.raises(SystemExit):
         main(["check", "--help"])
-    assert "path or name contains PATTERN" in " ".join(capsys.readouterr().out.split())
+    shown = " ".join(capsys.readouterr().out.split())
+    assert "path or name contains TEXT (plain text, case-insensitive; not pytest's expressions)" in shown
+    assert "give -k again for more: a scenario runs when it contains any of them" in shown
 
 
 def test_exitfirst_stops_after_the_first_failure(tmp_path, capsys, monkeypatch):

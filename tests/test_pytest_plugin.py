@@ -4,6 +4,7 @@ Each test builds a small project of its own (pyproject.toml, scenarios/, golden/
 pytest in it, as a user would.
 """
 
+import importlib.util
 import json
 import xml.etree.ElementTree as ET
 
@@ -294,3 +295,16 @@ def test_a_folder_outside_the_configured_ones_gets_a_collection_hint(project):
 def test_no_collection_hint_when_the_scenarios_are_collected(project):
     write(project, "tower", TOWER)
     assert "not collected" not in project.runpytest("scenarios/", "--collect-only").stdout.str()
+
+
+def test_no_collection_hint_for_a_folder_whose_tests_are_collected(project):
+    (project.path / "checks").mkdir()
+    (project.path / "checks" / "test_x.py").write_text("def test_x():\n    pass\n")
+    (project.path / "checks" / "data.yaml").write_text(TOWER)  # a scenario file beside Python tests
+    result = project.runpytest("checks/")
+    result.assert_outcomes(passed=1)
+    assert "not collected" not in result.stdout.str()
+    if importlib.util.find_spec("xdist") is not None:  # the items are the workers'; their reports say where they ran
+        result = project.runpytest("checks/", "-n", "2")
+        result.assert_outcomes(passed=1)
+        assert "not collected" not in result.stdout.str()

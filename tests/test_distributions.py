@@ -154,5 +154,5 @@ def test_names_a_file_chooses_are_not_taken_for_distributions():
     )
     scenario = parse_scenario(text, "names.yaml")
     assert scenario.materials["normal"].density == 500.0 and set(scenario.template.parameters(0, 0)) == {
-        "materials.choise.density"
+        "materials.choise.density [kg/m^3]"
     }

@@ -350,3 +350,11 @@ def test_run_names_the_engine_in_its_summary_and_its_json(tmp_path, capsys):
     assert "a.yaml on pybullet extension: stands (2 levels placed)" in capsys.readouterr().out
     assert main(["run", str(tmp_path / "a.yaml"), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["backend"] == "pybullet"
+
+
+def test_sweep_names_the_engine_it_runs_on(tmp_path, capsys):
+    (tmp_path / "s.yaml").write_text(
+        "stackdsl: 1\nstructure: {tower: {levels: 2, yaw: {uniform: [0, 2]}}}\nsweep: {samples: 2}\n"
+    )
+    assert main(["sweep", str(tmp_path / "s.yaml"), "-j", "1", "--out", str(tmp_path / "o"), "--mode", "raw"]) == 0
+    assert capsys.readouterr().out.startswith("stackdsl sweep: 1 cells x 2 samples, pybullet raw, on 1 processes")

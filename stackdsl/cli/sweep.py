@@ -81,6 +81,7 @@ def _sweep(args: argparse.Namespace) -> int:
     if out is not None and out.exists() and not out.is_dir():
         raise ScenarioError("the output must be a folder, and this is a file", file=str(out))
     options = SweepOptions(args.mode, args.model, args.oracle, args.timeout)
+    engine = f"{scenario.engine.backend} {args.mode or scenario.engine.mode}"  # which engine ran, said once
     levels_built = scenario.structure.tower.levels if scenario.structure.tower else None
     total = template.cells * template.samples
     start = time.perf_counter()
@@ -90,7 +91,10 @@ def _sweep(args: argparse.Namespace) -> int:
         out = output_folder(None, f"stackdsl-sweep-{_safe(Path(args.file).stem)}-")
 
     def run(where: str, **executor: Any) -> list[Any]:
-        print(f"stackdsl sweep: {template.cells} cells x {template.samples} samples on {where}, writing to {out}", flush=True)
+        print(
+            f"stackdsl sweep: {template.cells} cells x {template.samples} samples, {engine}, on {where}, writing to {out}",
+            flush=True,
+        )
         with Lines(total, "sweep") as lines:
             return collect(run_sweep(template, options, **executor), lambda batch: lines.advance(len(batch)))
 

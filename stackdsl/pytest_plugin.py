@@ -34,9 +34,7 @@ Source: stackdsl's own, after Tavern's pytest plugin and syrupy's single-file ex
 from __future__ import annotations
 
 import os
-import re
 from collections.abc import Iterator
-from itertools import islice
 from pathlib import Path
 from typing import Any
 
@@ -46,6 +44,7 @@ from .compile.compiler import compile_scenario
 from .draw.artefacts import draw_run, folder_name
 from .lang.errors import ScenarioError
 from .lang.loader import load_scenario
+from .pytest_hint import SUFFIXES, collection_hint, remember_collected
 from .runtime.recorder import record_program
 from .runtime.run import run_program
 from .verdicts.expect import evaluate, explain
@@ -59,7 +58,6 @@ try:
 except ImportError:  # pragma: no cover - syrupy is a test extra
     JSONSnapshotExtension = SingleFileSnapshotExtension = None  # type: ignore[assignment,misc]
 
-SUFFIXES = (".yaml", ".yml")
 _rename = os.replace  # atomic within a folder (POSIX); a name of its own, so a test can fail it alone
 
 
@@ -149,52 +147,8 @@ def orphan_goldens(config: pytest.Config) -> list[Path]:
     return orphans
 
 
-#: At most this many YAML files under a path given to pytest are read for the collection hint.
-HINT_FILES = 1000
-
-
-def _looks_like_scenario(path: Path) -> bool:
-    """Whether a YAML file starts a stackdsl scenario: a top-level ``stackdsl:`` key in its first 4 KiB."""
-    try:
-        with open(path, "rb") as f:
-            head = f.read(4096).decode("utf-8", "replace")
-    except OSError:
-        return False
-    return re.search(r"^\ufeff?stackdsl\s*:", head, flags=re.M) is not None
-
-
-#: Where the collected test items are (set when collection ends), for :func:`uncollected`.
-_COLLECTED = pytest.StashKey[list[Path]]()
-
-
 def pytest_collection_finish(session: pytest.Session) -> None:
-    session.config.stash[_COLLECTED] = [Path(item.path).resolve() for item in session.items]
-
-
-def uncollected(config: pytest.Config, ran: list[Path] | None = None) -> list[tuple[str, int]]:
-    """The paths given on pytest's command line (not its ``testpaths``) that gave no test item
-    and hold scenario files outside the folders of ``stackdsl_paths`` (so not collected): each
-    as the ``stackdsl_paths`` value that would collect it (relative to the rootdir) and how many
-    scenario files it holds. ``ran``: files whose tests reported (under pytest-xdist the items
-    are collected by the workers, and the main process sees their reports only)."""
-    if config.args_source != pytest.Config.ArgsSource.ARGS:
-        return []
-    roots = [(config.rootpath / p).resolve() for p in config.getini("stackdsl_paths")]
-    collected = [*config.stash.get(_COLLECTED, []), *(ran or [])]
-    found = []
-    for arg in config.args:
-        path = Path(config.invocation_params.dir, arg.split("::", 1)[0]).resolve()
-        if any(path.is_relative_to(root) for root in roots) or any(item.is_relative_to(path) for item in collected):
-            continue
-        if path.is_dir():
-            files = [f for suffix in SUFFIXES for f in islice(path.rglob(f"*{suffix}"), HINT_FILES)]
-        else:
-            files = [path] if path.suffix in SUFFIXES and path.is_file() else []
-        count = sum(_looks_like_scenario(f) for f in files if not any(f.is_relative_to(r) for r in roots))
-        if count:
-            folder = path if path.is_dir() else path.parent
-            found.append((Path(os.path.relpath(folder, config.rootpath)).as_posix(), count))
-    return found
+    remember_collected(session)
 
 
 def pytest_terminal_summary(terminalreporter: Any, config: pytest.Config) -> None:
@@ -207,20 +161,11 @@ def pytest_terminal_summary(terminalreporter: Any, config: pytest.Config) -> Non
         for report in reports
         if (nodeid := getattr(report, "nodeid", ""))
     ]
-    missed = uncollected(config, ran)
-    if missed:
+    hint = collection_hint(config, ran)
+    if hint:
         terminalreporter.section("stackdsl: scenario files not collected", yellow=True)
-        configured = ", ".join(config.getini("stackdsl_paths")) or "none"
-        for folder, count in missed:
-            terminalreporter.line(
-                f"{folder}/ holds {count} scenario file{'s' * (count != 1)}, and pytest collects them only below "
-                f"stackdsl_paths (now: {configured})"
-            )
-        options = " ".join(f"-o stackdsl_paths={folder}" for folder, _ in missed[:1])
-        everything = ", ".join(f'"{folder}"' for folder, _ in missed)
-        if len(missed) == 1:
-            terminalreporter.line(f"run: pytest {' '.join(config.args)} {options}")
-        terminalreporter.line(f"for good, in pyproject.toml: [tool.pytest.ini_options] stackdsl_paths = [{everything}]")
+        for line in hint:
+            terminalreporter.line(line)
     orphans = orphan_goldens(config)
     if orphans:
         terminalreporter.section("stackdsl: golden snapshots with no scenario file", yellow=True)

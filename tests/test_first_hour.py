@@ -358,3 +358,14 @@ def test_sweep_names_the_engine_it_runs_on(tmp_path, capsys):
     )
     assert main(["sweep", str(tmp_path / "s.yaml"), "-j", "1", "--out", str(tmp_path / "o"), "--mode", "raw"]) == 0
     assert capsys.readouterr().out.startswith("stackdsl sweep: 1 cells x 2 samples, pybullet raw, on 1 processes")
+
+
+def test_pictures_and_clips_name_the_engine_and_the_brick_that_moved_first():
+    from stackdsl.draw.render import headline
+    from stackdsl.runtime.recorder import record_program
+
+    outcome, trajectory = record_program(compile_scenario(parse_scenario(HIT_AT_8)))
+    c = outcome.collapse
+    line = headline(trajectory, trajectory.end)
+    assert " ·  pybullet extension  · " in line
+    assert line.endswith(f"collapse 10 from {c.brick} (level {c.brick_level}) at {c.time:.2f} s")

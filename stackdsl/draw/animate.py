@@ -38,7 +38,7 @@ from ..lang.errors import ScenarioError
 from ..lang.extras import installed, missing
 from ..lang.files import written
 from ..runtime.trajectory import STATES, Trajectory
-from .render import COLOURS, Scene, legend_keys, scale_bar
+from .render import COLOURS, Scene, collapse_text, legend_keys, scale_bar
 
 #: Frames a second of a clip, by default.
 FPS = 30.0
@@ -202,9 +202,10 @@ class _Overlay:
         seen = {"projectile" if p else STATES[s] for p, s in zip(projectile, trajectory.row_state)}
         self.keys = legend_keys(trajectory, seen)
         meta = trajectory.meta
-        self.name = f"{meta.get('scenario') or meta.get('file') or 'run'} · {meta.get('mode', '?')}"
+        engine = " ".join(str(meta[k]) for k in ("backend", "mode") if meta.get(k)) or "?"
+        self.name = f"{meta.get('scenario') or meta.get('file') or 'run'} · {engine}"
         collapse = meta.get("collapse")
-        self.collapse = None if collapse is None else (float(collapse["time"]), f"collapse at level {collapse['level']}")
+        self.collapse = None if collapse is None else (float(collapse["time"]), collapse_text(collapse))
 
     def draw(self, image: np.ndarray, time: float, speed: float) -> np.ndarray:
         picture = Image.fromarray(image)

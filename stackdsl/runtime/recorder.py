@@ -186,6 +186,7 @@ class Recorder(Subscriber):
             "scenario": program.name,
             "file": self.source,
             "mode": program.engine.mode,
+            "backend": program.engine.backend,
             "model": program.stability.model,
             "timestep": program.engine.timestep,
             "collapse_threshold": program.collapse_threshold,

@@ -34,6 +34,7 @@ Source: stackdsl's own, after Tavern's pytest plugin and syrupy's single-file ex
 from __future__ import annotations
 
 import os
+import shlex
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -283,15 +284,15 @@ UPDATE_HINT = "if the change is meant: rerun with --snapshot-update, and say in 
 def _no_golden_yet(request: pytest.FixtureRequest, path: Path, shown: str) -> str:
     """The failure of an item whose scenario has no golden snapshot yet (and the run is not
     writing them: ``--snapshot-update`` or ``--snapshot-update-new-only``), naming the command
-    that writes it; ``""`` when it has one or one is being written."""
+    that writes it (this run's, with ``--snapshot-update``: its ``-o stackdsl_paths`` kept);
+    ``""`` when it has one or one is being written."""
     option = request.config.option
     stored = scenario_golden_path(path)
     if stored.is_file() or getattr(option, "update_snapshots", False) or getattr(option, "update_new_snapshots_only", False):
         return ""
     where = _relative(stored, request.config.rootpath)
-    return (
-        f"{Path(shown).name}: no golden yet ({where}): run with --snapshot-update to write it (pytest {shown} --snapshot-update)"
-    )
+    again = shlex.join(["pytest", *request.config.invocation_params.args, "--snapshot-update"])  # as it was run
+    return f"{Path(shown).name}: no golden yet ({where}): run with --snapshot-update to write it ({again})"
 
 
 def _keep_pictures(trajectory: Any, shown: str, config: pytest.Config) -> str:

@@ -6,6 +6,7 @@ pytest in it, as a user would.
 
 import importlib.util
 import json
+import re
 import xml.etree.ElementTree as ET
 
 # pint (stackdsl reads units with it) imports importlib_metadata and toolz, which put finders on
@@ -264,6 +265,7 @@ def test_a_missing_golden_says_to_run_with_snapshot_update(project):
     result.assert_outcomes(failed=1)
     out = result.stdout.str()
     assert "tower.yaml: no golden yet (golden/scenarios/tower.json): run with --snapshot-update to write it" in out
+    assert re.search(r"write it \(pytest .*--snapshot-update\)", out)  # this run's command, with the option
     assert "differs" not in out
     project.runpytest("--snapshot-update-new-only").assert_outcomes(passed=1)  # writes it, as --snapshot-update does
     project.runpytest().assert_outcomes(passed=1)
@@ -288,6 +290,8 @@ def test_a_folder_outside_the_configured_ones_gets_a_collection_hint(project):
     assert "mine/ holds 1 scenario file, and pytest collects them only below stackdsl_paths (now: scenarios)" in out
     assert "run: pytest mine/ -o stackdsl_paths=mine" in out
     (project.path / "mine" / "notes.yaml").unlink()  # it would be collected, and fail, as a scenario
+    missing = project.runpytest("mine/", "-o", "stackdsl_paths=mine").stdout.str()
+    assert "(pytest mine/ -o stackdsl_paths=mine --snapshot-update)" in missing  # the command that writes it, whole
     project.runpytest("mine/", "-o", "stackdsl_paths=mine", "--snapshot-update").assert_outcomes(passed=1)
     assert "not collected" not in project.runpytest("mine/", "-o", "stackdsl_paths=mine").stdout.str()
 

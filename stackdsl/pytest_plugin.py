@@ -34,6 +34,7 @@ Source: stackdsl's own, after Tavern's pytest plugin and syrupy's single-file ex
 from __future__ import annotations
 
 import os
+import shlex
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -44,6 +45,7 @@ from .compile.compiler import compile_scenario
 from .draw.artefacts import draw_run, folder_name
 from .lang.errors import ScenarioError
 from .lang.loader import load_scenario
+from .pytest_hint import SUFFIXES, collection_hint, remember_collected
 from .runtime.recorder import record_program
 from .runtime.run import run_program
 from .verdicts.expect import evaluate, explain
@@ -58,7 +60,6 @@ try:
 except ImportError:  # pragma: no cover - syrupy is a test extra
     JSONSnapshotExtension = SingleFileSnapshotExtension = None  # type: ignore[assignment,misc]
 
-SUFFIXES = (".yaml", ".yml")
 _rename = os.replace  # atomic within a folder (POSIX); a name of its own, so a test can fail it alone
 
 
@@ -122,8 +123,25 @@ def orphan_goldens(config: pytest.Config) -> list[Path]:
     return orphans
 
 
+def pytest_collection_finish(session: pytest.Session) -> None:
+    remember_collected(session)
+
+
 def pytest_terminal_summary(terminalreporter: Any, config: pytest.Config) -> None:
-    """Name golden snapshots left behind by scenario files that were removed or renamed."""
+    """Say how to collect scenario files given on the command line outside the configured
+    folders (``pytest mine/`` collects nothing from ``mine/`` unless ``stackdsl_paths`` names
+    it), and name golden snapshots left behind by scenario files that were removed or renamed."""
+    ran = [
+        (config.rootpath / nodeid.split("::", 1)[0]).resolve()
+        for reports in terminalreporter.stats.values()
+        for report in reports
+        if (nodeid := getattr(report, "nodeid", ""))
+    ]
+    hint = collection_hint(config, ran)
+    if hint:
+        terminalreporter.section("stackdsl: scenario files not collected", yellow=True)
+        for line in hint:
+            terminalreporter.line(line)
     orphans = orphan_goldens(config)
     if orphans:
         terminalreporter.section("stackdsl: golden snapshots with no scenario file", yellow=True)
@@ -181,11 +199,13 @@ def _scenario_test(request: pytest.FixtureRequest, scenario_golden: Any) -> None
         lines = [f"{path.name}: expected {v.expected}, measured {v.measured}" for v in failed]
         lines += [f"  {line}" for line in explain(scenario.expect, outcome, program.collapse_threshold)]
         lines.append(f"more: stackdsl run {shown}")
+    elif missing := _no_golden_yet(request, path, shown):
+        lines = [missing]
     elif not scenario_golden == outcome.golden():
         with disable_color():  # plain text: the message also goes to JUnit XML and CI logs
             diff = scenario_golden.get_assert_diff()
         golden = _relative(scenario_golden_path(path), request.config.rootpath)
-        lines = [f"{path.name}: the outcome differs from {golden}", *diff]
+        lines = [f"{path.name}: the outcome differs from {golden}", *diff, UPDATE_HINT]
     if trajectory is not None and (lines or pictures == "on"):
         kept = _keep_pictures(trajectory, shown, request.config)
         if lines:  # a failure: say where to look
@@ -223,11 +243,31 @@ def _sweep_test(request: pytest.FixtureRequest, scenario: Any, program: Any, sho
     golden = {"scenario": program.name, "mode": program.engine.mode, "samples": template.samples}
     for c, rs in enumerate(by_cell(results, template.cells)):
         golden[f"cell {c}"] = {"grid": template.cell(c), "collapse_levels": [r.collapse_level for r in rs]}
+    if missing := _no_golden_yet(request, Path(request.node.path), shown):
+        pytest.fail(missing, pytrace=False)
     if not scenario_golden == golden:
         with disable_color():
             diff = scenario_golden.get_assert_diff()
         where = _relative(scenario_golden_path(Path(request.node.path)), request.config.rootpath)
-        pytest.fail("\n".join([f"{Path(shown).name}: the samples differ from {where}", *diff]), pytrace=False)
+        pytest.fail("\n".join([f"{Path(shown).name}: the samples differ from {where}", *diff, UPDATE_HINT]), pytrace=False)
+
+
+#: The last line of a failed golden comparison.
+UPDATE_HINT = "if the change is meant: rerun with --snapshot-update, and say in the commit why the new snapshot is right"
+
+
+def _no_golden_yet(request: pytest.FixtureRequest, path: Path, shown: str) -> str:
+    """The failure of an item whose scenario has no golden snapshot yet (and the run is not
+    writing them: ``--snapshot-update`` or ``--snapshot-update-new-only``), naming the command
+    that writes it (this run's, with ``--snapshot-update``: its ``-o stackdsl_paths`` kept);
+    ``""`` when it has one or one is being written."""
+    option = request.config.option
+    stored = scenario_golden_path(path)
+    if stored.is_file() or getattr(option, "update_snapshots", False) or getattr(option, "update_new_snapshots_only", False):
+        return ""
+    where = _relative(stored, request.config.rootpath)
+    again = shlex.join(["pytest", *request.config.invocation_params.args, "--snapshot-update"])  # as it was run
+    return f"{Path(shown).name}: no golden yet ({where}): run with --snapshot-update to write it ({again})"
 
 
 def _keep_pictures(trajectory: Any, shown: str, config: pytest.Config) -> str:

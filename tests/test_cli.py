@@ -55,9 +55,9 @@ def stackdsl_command(*args: str, **kwargs) -> subprocess.CompletedProcess:
 def test_check_passing_folder_exits_0_with_a_table(tmp_path, capsys):
     assert main(["check", str(write(tmp_path, a=PASSING, b=PASSING)), "-j", "1"]) == 0
     out = capsys.readouterr().out.splitlines()
-    assert out[0].split()[:3] == ["scenario", "mode", "expected"]
+    assert out[0].split() == ["scenario", "engine", "mode", "simulated", "wall", "expected", "measured"]
     assert [line.split()[0] for line in out[1:3]] == ["PASS", "PASS"]
-    assert "extension  stands" in out[1] and out[1].rstrip().endswith(" s")
+    assert "pybullet extension" in out[1] and out[1].rstrip().endswith("s  stands             stands")
     assert out[-1].startswith("2 scenarios: 2 passed, 0 failed")
 
 
@@ -163,7 +163,9 @@ def test_k_selecting_nothing_is_bad_input(tmp_path, capsys):
 def test_k_rule_is_in_the_help(capsys):
     with pytest.raises(SystemExit):
         main(["check", "--help"])
-    assert "path or name contains PATTERN" in " ".join(capsys.readouterr().out.split())
+    shown = " ".join(capsys.readouterr().out.split())
+    assert "path or name contains TEXT (plain text, case-insensitive; not pytest's expressions)" in shown
+    assert "give -k again for more: a scenario runs when it contains any of them" in shown
 
 
 def test_exitfirst_stops_after_the_first_failure(tmp_path, capsys, monkeypatch):
@@ -197,7 +199,7 @@ def test_junit_xml_has_a_testcase_per_scenario_and_the_failure_text(tmp_path, ca
     suite = root.find("testsuite")
     assert root.tag == "testsuites" and (suite.get("tests"), suite.get("failures")) == ("2", "1")
     cases = {Path(c.get("name")).name: c for c in suite.findall("testcase")}
-    assert cases["a.yaml"].find("failure") is None and cases["a.yaml"].get("classname") == "stackdsl.extension"
+    assert cases["a.yaml"].find("failure") is None and cases["a.yaml"].get("classname") == "stackdsl.pybullet.extension"
     failure = cases["b.yaml"].find("failure")
     assert failure.get("message") == "expected collapse 2, measured stands"
     assert failure.text.startswith("stood:") and failure.text.endswith(f"more: stackdsl run {tmp_path / 'b.yaml'}")
@@ -574,13 +576,13 @@ def test_compare_prints_one_row_per_scenario_and_a_column_per_mode(tmp_path, cap
     assert main(["compare", str(write(tmp_path, a=PASSING, b=FAILING)), "--modes", "raw,extension", "-j", "1"]) == 0
     captured = capsys.readouterr()
     out = captured.out.splitlines()
-    assert out[0].split() == ["scenario", "expected", "raw", "extension"]
-    assert out[1].split()[:4] == ["a", "stands", "PASS", "stands"] and out[1].count("PASS") == 2
+    assert out[0].split() == ["scenario", "engine", "expected", "raw", "extension"]
+    assert out[1].split()[:5] == ["a", "pybullet", "stands", "PASS", "stands"] and out[1].count("PASS") == 2
     assert out[2].startswith("b ") and out[2].count("FAIL") == 2
     assert out[-1].startswith("2 scenarios x 2 modes")
     progress = captured.err.splitlines()  # a line per finished cell, off stdout
     assert [line.split()[0] for line in progress] == ["[1/4]", "[2/4]", "[3/4]", "[4/4]"]
-    assert "a raw: PASS stands" in captured.err
+    assert "a pybullet raw: PASS stands" in captured.err
 
 
 def test_compare_json_and_k(tmp_path, capsys):

@@ -59,8 +59,8 @@ def test_per_layer_shift_is_a_random_walk_and_per_brick_yaw_a_jitter():
 def test_a_distribution_draws_in_the_unit_written_and_the_field_checks_it():
     s = parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 2, spacing: {uniform: [9 cm, 10 cm]}}}\n", "t.yaml")
     t = s.template
-    values = [t.parameters(0, k)["structure.tower.spacing"] for k in range(20)]
-    assert all(9 <= v <= 10 for v in values)  # centimetres, as written
+    values = [t.parameters(0, k)["structure.tower.spacing [m]"] for k in range(20)]
+    assert all(0.09 <= v <= 0.10 for v in values)  # in SI, the unit in the column's name
     assert all(0.09 <= t.scenario(0, k).structure.tower.spacing <= 0.10 for k in range(20))  # metres inside
 
 
@@ -154,5 +154,5 @@ def test_names_a_file_chooses_are_not_taken_for_distributions():
     )
     scenario = parse_scenario(text, "names.yaml")
     assert scenario.materials["normal"].density == 500.0 and set(scenario.template.parameters(0, 0)) == {
-        "materials.choise.density"
+        "materials.choise.density [kg/m^3]"
     }

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 import pytest
 from PIL import Image
+from scipy.spatial.transform import Rotation
 
 import stackdsl
 from stackdsl.draw import graphplot as _graphplot
@@ -24,16 +25,21 @@ GROUND = Node(
     level=None,
     state="ground",
     position_mm=(0, 0, 0),
-    yaw_pitch_roll_deg=(0, 0, 0),
+    quaternion_xyzw=(0, 0, 0, 1),
     com_above_mm=(0, 0, 0),
     mass_above_g=0,
 )
 
 
+def quaternion(yaw: float, pitch: float, roll: float) -> tuple[float, float, float, float]:
+    x, y, z, w = Rotation.from_euler("ZYX", [yaw, pitch, roll], degrees=True).as_quat()
+    return x, y, z, w
+
+
 def brick(
     name: str, com: tuple[float, float], level: int | None = 1, state: str = "frozen", z: float = 4.0, yaw: float = 0.0
 ) -> Node:
-    return Node(id=name, level=level, state=state, position_mm=(com[0], com[1], z), yaw_pitch_roll_deg=(yaw, 0, 0),
+    return Node(id=name, level=level, state=state, position_mm=(com[0], com[1], z), quaternion_xyzw=quaternion(yaw, 0, 0),
                 com_above_mm=(com[0], com[1], z), mass_above_g=10.6)  # fmt: skip
 
 
@@ -114,7 +120,7 @@ def test_two_supports_give_their_convex_hull():
 
 
 def test_no_support_is_nan_and_bodies_of_the_ground_have_no_margin():
-    wall = Node(id="wall", level=None, state="ground", position_mm=(10, 0, 100), yaw_pitch_roll_deg=(0, 0, 0),
+    wall = Node(id="wall", level=None, state="ground", position_mm=(10, 0, 100), quaternion_xyzw=(0, 0, 0, 1),
                 com_above_mm=(10, 0, 100), mass_above_g=0)  # fmt: skip
     g = Graph(nodes=(GROUND, wall, brick("falling", (0, 0), state="active", z=50)), edges=())
     m = margins(g)
@@ -135,7 +141,7 @@ def test_footprint_of_a_turned_and_of_a_tilted_brick():
     assert np.ptp(turned, axis=0) == pytest.approx([24.0, 120.0])
     assert turned.mean(axis=0) == pytest.approx([5.0, 7.0])
     # A V brick: 70 deg from horizontal; seen from above it is 120 cos 70 + 8 sin 70 mm long.
-    v = Node(id="v", level=1, state="frozen", position_mm=(0, 0, 57.7), yaw_pitch_roll_deg=(0, -70, 0),
+    v = Node(id="v", level=1, state="frozen", position_mm=(0, 0, 57.7), quaternion_xyzw=quaternion(0, -70, 0),
              com_above_mm=(0, 0, 57.7), mass_above_g=10.6)  # fmt: skip
     length = 120 * math.cos(math.radians(70)) + 8 * math.sin(math.radians(70))
     assert np.ptp(footprint_mm(v), axis=0) == pytest.approx([length, 24.0])

@@ -200,7 +200,8 @@ def test_tower_layers_that_miss_the_layer_below_point_at_bricks_per_layer():
         assert words in err.message, words
     assert "allow: [floating]" in err.message
     assert err.more == 0  # four bricks in two levels miss for one reason: one problem
-    assert error("stackdsl: 1\nstructure: {tower: {levels: 3, bricks_per_layer: 3}}\nexpect: {stays: 1-4}\n").more == 1
+    err = error("stackdsl: 1\nstructure: {tower: {levels: 3, bricks_per_layer: 3}}\nexpect: {stays: 1-4}\n")
+    assert err.more == 0 and [e.field for e in err.others] == ["expect.stays"]
 
 
 def test_tower_spacing_at_the_limit_points_at_the_spacing():
@@ -248,9 +249,11 @@ def test_stays_and_may_fall_beyond_the_top_level(field):
     compile_text(f"stackdsl: 1\nstructure: {{tower: {{levels: 8}}}}\nexpect: {{{field}: 1-8}}\n")
 
 
-def test_the_first_problem_is_reported_and_the_rest_counted():
+def test_the_first_problem_is_reported_the_expectations_shown_and_the_rest_counted():
     err = error(bricks("{at: [0, 0, 20 mm]}", "{at: [0, 0, 40 mm]}", extra="expect: {collapse: 5}\n"))
-    assert err.field == "structure.bricks[0].at" and err.more == 2
+    assert err.field == "structure.bricks[0].at" and err.more == 1  # the other floating brick
+    assert [e.field for e in err.others] == ["expect.collapse"]  # shown after it, at its own line
+    assert str(err).count("p.yaml:") == 2
 
 
 # nothing is simulated ---------------------------------------------------------------

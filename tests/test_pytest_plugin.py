@@ -4,7 +4,9 @@ Each test builds a small project of its own (pyproject.toml, scenarios/, golden/
 pytest in it, as a user would.
 """
 
+import importlib.util
 import json
+import re
 import xml.etree.ElementTree as ET
 
 # pint (stackdsl reads units with it) imports importlib_metadata and toolz, which put finders on
@@ -258,3 +260,58 @@ def test_an_output_folder_that_cannot_be_written_is_one_line_in_the_failure(proj
     text = result.stdout.str()
     assert "pictures: cannot write them to /dev/full" in text
     assert "Traceback" not in text and "NotADirectoryError" not in text and "FileExistsError" not in text
+
+
+def test_a_missing_golden_says_to_run_with_snapshot_update(project):
+    write(project, "tower", TOWER)
+    result = project.runpytest()
+    result.assert_outcomes(failed=1)
+    out = result.stdout.str()
+    assert "tower.yaml: no golden yet (golden/scenarios/tower.json): run with --snapshot-update to write it" in out
+    assert re.search(r"write it \(pytest .*--snapshot-update\)", out)  # this run's command, with the option
+    assert "differs" not in out
+    project.runpytest("--snapshot-update-new-only").assert_outcomes(passed=1)  # writes it, as --snapshot-update does
+    project.runpytest().assert_outcomes(passed=1)
+
+
+def test_a_changed_golden_says_how_to_accept_the_change(project):
+    write(project, "two", TWO_BRICKS.format(x="0 mm"))
+    project.runpytest("--snapshot-update").assert_outcomes(passed=1)
+    write(project, "two", TWO_BRICKS.format(x="5 mm"))
+    result = project.runpytest()
+    assert "two.yaml: the outcome differs from golden/scenarios/two.json" in result.stdout.str()
+    assert "if the change is meant: rerun with --snapshot-update" in result.stdout.str()
+
+
+def test_a_folder_outside_the_configured_ones_gets_a_collection_hint(project):
+    (project.path / "mine").mkdir()
+    (project.path / "mine" / "tower.yaml").write_text(TOWER)
+    (project.path / "mine" / "notes.yaml").write_text("not: a scenario\n")  # not counted
+    result = project.runpytest("mine/")
+    assert result.ret == pytest.ExitCode.NO_TESTS_COLLECTED
+    out = result.stdout.str()
+    assert "mine/ holds 1 scenario file, and pytest collects them only below stackdsl_paths (now: scenarios)" in out
+    assert "run: pytest mine/ -o stackdsl_paths=mine" in out
+    (project.path / "mine" / "notes.yaml").unlink()  # it would be collected, and fail, as a scenario
+    missing = project.runpytest("mine/", "-o", "stackdsl_paths=mine").stdout.str()
+    assert re.search(r"\(pytest mine/ -o stackdsl_paths=mine .*--snapshot-update\)", missing)  # the whole command
+    project.runpytest("mine/", "-o", "stackdsl_paths=mine", "--snapshot-update").assert_outcomes(passed=1)
+    assert "not collected" not in project.runpytest("mine/", "-o", "stackdsl_paths=mine").stdout.str()
+
+
+def test_no_collection_hint_when_the_scenarios_are_collected(project):
+    write(project, "tower", TOWER)
+    assert "not collected" not in project.runpytest("scenarios/", "--collect-only").stdout.str()
+
+
+def test_no_collection_hint_for_a_folder_whose_tests_are_collected(project):
+    (project.path / "checks").mkdir()
+    (project.path / "checks" / "test_x.py").write_text("def test_x():\n    pass\n")
+    (project.path / "checks" / "data.yaml").write_text(TOWER)  # a scenario file beside Python tests
+    result = project.runpytest("checks/")
+    result.assert_outcomes(passed=1)
+    assert "not collected" not in result.stdout.str()
+    if importlib.util.find_spec("xdist") is not None:  # the items are the workers'; their reports say where they ran
+        result = project.runpytest("checks/", "-n", "2")
+        result.assert_outcomes(passed=1)
+        assert "not collected" not in result.stdout.str()

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 import stackdsl
 from stackdsl.cli.main import main
@@ -108,7 +109,8 @@ def test_ghosts_are_the_golden_bricks_that_end_elsewhere(slant):
     assert len(same) <= 2, same  # the golden was taken from this very run, to 0.1 mm and 0.1 deg
     moved = copy.deepcopy(golden)
     moved["final_graph"]["L03.1"]["position_mm"][0] += 25.0
-    moved["final_graph"]["L04.2"]["yaw_pitch_roll_deg"][0] += 30.0
+    q = Rotation.from_euler("z", 30.0, degrees=True) * Rotation.from_quat(moved["final_graph"]["L04.2"]["quaternion_xyzw"])
+    moved["final_graph"]["L04.2"]["quaternion_xyzw"] = q.as_quat().tolist()
     found = {g["id"]: g for g in ghosts(trajectory, moved)}
     assert {"L03.1", "L04.2"} <= set(found)
     assert "mm away" in found["L03.1"]["why"] and "turned" in found["L04.2"]["why"]

@@ -162,10 +162,10 @@ def test_the_sweep_command_writes_every_sample_and_decides_by_the_interval(tmp_p
         "levels_placed",
         "wall_time",
         "simulated_time",
-        "structure.tower.shift",
+        "structure.tower.shift [m]",
     } <= set(rows[0])
     lines = [json.loads(line) for line in open(out / "samples.jsonl")]
-    assert len(lines) == 16 and len(lines[0]["structure.tower.shift"]) == 5  # one draw a layer above the first
+    assert len(lines) == 16 and len(lines[0]["structure.tower.shift [m]"]) == 5  # one draw a layer above the first
     assert [str(r["collapse_level"] or "") for r in lines] == [r["collapse_level"] for r in rows]
     assert (out / "histogram.png").stat().st_size > 5000
 

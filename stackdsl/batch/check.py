@@ -15,7 +15,8 @@ Source: stackdsl's own.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Generator, Iterable
+import re
+from collections.abc import Callable, Generator, Iterable, Sequence
 from concurrent.futures import Executor
 from itertools import chain
 from pathlib import Path
@@ -135,9 +136,10 @@ def _refusal(
     )
 
 
-def select(prepared: list[Prepared], pattern: str | None) -> list[Prepared]:
-    """The scenarios whose file path or name contains ``pattern`` (case-insensitive), in
-    order; all of them when ``pattern`` is None or empty.
+def select(prepared: list[Prepared], pattern: str | Sequence[str] | None) -> list[Prepared]:
+    """The scenarios whose file path or name contains ``pattern`` (plain text, case-insensitive;
+    several texts, as ``-k`` given more than once: any of them), in order; all of them when
+    ``pattern`` is None or empty.
 
     Raises:
         ScenarioErrors: ``pattern`` selects none.
@@ -146,7 +148,7 @@ def select(prepared: list[Prepared], pattern: str | None) -> list[Prepared]:
 
 
 def select_comparison(
-    prepared: list[Prepared], refused: list[CheckResult], pattern: str | None
+    prepared: list[Prepared], refused: list[CheckResult], pattern: str | Sequence[str] | None
 ) -> tuple[list[Prepared], list[CheckResult]]:
     """:func:`select` on a comparison's runs and its refused cells alike (each by its file's
     path or its scenario's name).
@@ -154,15 +156,28 @@ def select_comparison(
     Raises:
         ScenarioErrors: ``pattern`` selects neither a run nor a refused cell.
     """
-    if not pattern:
+    texts = [t for t in ([pattern] if isinstance(pattern, str) else pattern or []) if t]
+    if not texts:
         return prepared, refused
-    text = pattern.casefold()
-    runs = [p for p in prepared if text in str(p.path).casefold() or text in p.program.name.casefold()]
-    cells = [r for r in refused if text in r.file.casefold() or text in r.scenario.casefold()]
+    folded = [t.casefold() for t in texts]
+
+    def chosen(*names: str) -> bool:
+        return any(t in n.casefold() for t in folded for n in names)
+
+    runs = [p for p in prepared if chosen(str(p.path), p.program.name)]
+    cells = [r for r in refused if chosen(r.file, r.scenario)]
     if not runs and not cells:
         files = len({str(p.path) for p in prepared} | {r.file for r in refused})
-        raise ScenarioErrors([ScenarioError(f"no scenario's path or name contains {pattern!r} ({files} files)", file="-k")])
+        shown = " or ".join(repr(t) for t in texts)
+        hint = ""
+        if any(_EXPRESSION.search(t) for t in texts):
+            hint = "; -k takes plain text, not pytest's expressions: give -k once for each text (a scenario runs when it contains any)"
+        raise ScenarioErrors([ScenarioError(f"no scenario's path or name contains {shown} ({files} files){hint}", file="-k")])
     return runs, cells
+
+
+#: What a -k text written as a pytest expression has ("a or b", "not slow", "(x and y)").
+_EXPRESSION = re.compile(r"\b(and|or|not)\b|[()]")
 
 
 def check(
@@ -171,7 +186,7 @@ def check(
     jobs: int | None = None,
     executor: Executor | None = None,
     model: str | None = None,
-    pattern: str | None = None,
+    pattern: str | Sequence[str] | None = None,
     timeout: float | None = TIMEOUT,
     seed: int | None = None,
 ) -> Generator[CheckResult, None, None]:
@@ -190,7 +205,8 @@ def check(
             1 runs everything here. Work estimated below a worker's start-up runs here
             whatever ``jobs`` says (see :mod:`stackdsl.batch.pool`).
         executor: run on this executor instead (e.g. a Dask client's executor).
-        pattern: only the scenarios whose file path or name contains it (see :func:`select`).
+        pattern: only the scenarios whose file path or name contains it, or any of several
+            (see :func:`select`).
         timeout: wall seconds each run may take (None: no limit); a run stopped by it is
             a failed result whose ``stopped`` says so.
         seed: replaces every file's ``seed`` (its random draws and placement error) when given.
@@ -269,7 +285,7 @@ def compare(
     modes: tuple[str, ...] = ("raw", "tuned", "extension"),
     jobs: int | None = None,
     model: str | None = None,
-    pattern: str | None = None,
+    pattern: str | Sequence[str] | None = None,
     timeout: float | None = TIMEOUT,
 ) -> dict[str, dict[str, CheckResult]]:
     """Check every scenario in every mode, all in one run (one set of workers for all modes).

@@ -70,15 +70,17 @@ def sweep_result(
     artefacts: tuple[tuple[str, str], ...] = ()
     if folder is not None and not bad:
         out = Path(folder)
-        table, _ = write_samples(results, out)
-        plots = write_plots(template, results, program.levels, out)
+        table, lines = write_samples(results, out)
+        plots = write_plots(template, results, program.levels, out, expect)
         artefacts = (("picture", plots[0].name),) if plots else ()
-        artefacts += (("samples", table.name),)
+        artefacts += (("samples", table.name), ("parquet", "samples.parquet"), ("jsonl", lines.name))
+        artefacts += tuple((f"plot {p.stem}", p.name) for p in plots)
     return CheckResult(
         file=file,
         scenario=program.name,
         mode=program.engine.mode,
         model=program.stability.model,
+        backend=program.engine.backend,
         verdicts=tuple(judged),
         collapse_level=None,
         levels_placed=levels,

@@ -167,6 +167,7 @@ def _row(r: CheckResult, command: str, folder: Path) -> str:
     facts = [
         ("expected", r.expected),
         ("measured", r.measured),
+        ("engine", r.backend),
         ("mode", mode_label(r)),
         *((("certificate", r.certificate),) if r.certificate else ()),
         ("simulated", f"{r.simulated_time:.1f} s"),
@@ -174,16 +175,10 @@ def _row(r: CheckResult, command: str, folder: Path) -> str:
     ]
     rows = "".join(f"<tr><td>{_e(k)}</td><td>{_e(v)}</td></tr>" for k, v in facts)
     why = "".join(f"<li>{_e(line)}</li>" for line in r.explanation)
-    links = [
-        f'<a href="{_e(href)}">{label}</a>'
-        for label, kind in (
-            ("3D replay", "replay"),
-            ("clip", "clip"),
-            ("brick graph", "graph"),
-            ("trajectory (.npz)", "trajectory"),
-        )
-        if (href := _link(r, kind, folder))
-    ]
+    kinds = [("3D replay", "replay"), ("clip", "clip"), ("brick graph", "graph"), ("trajectory (.npz)", "trajectory")]
+    kinds += [("samples (.csv)", "samples"), ("samples (.parquet)", "parquet"), ("samples (.jsonl)", "jsonl")]
+    kinds += [(name, kind) for kind, name in r.artefacts if kind.startswith("plot ")]  # a sweep's plots
+    links = [f'<a href="{_e(href)}">{_e(label)}</a>' for label, kind in kinds if (href := _link(r, kind, folder))]
     problems = [p for p in (r.draw_error,) if p]
     return "\n".join(
         [
@@ -222,12 +217,12 @@ def _timeline(r: CheckResult) -> str:
 
 def _summary(results: Sequence[CheckResult], total: int, wall: float) -> str:
     head = (
-        "<tr><th>verdict</th><th>scenario</th><th>mode</th><th>expected</th><th>measured</th>"
+        "<tr><th>verdict</th><th>scenario</th><th>engine</th><th>mode</th><th>expected</th><th>measured</th>"
         '<th class="num">simulated</th><th class="num">wall</th></tr>'
     )
     rows = "".join(
         f'<tr><td>{"PASS" if r.passed else "FAIL"}</td><td><a href="#{_e(_anchor(r))}">{_e(r.file)}</a></td>'
-        f"<td>{_e(mode_label(r))}</td><td>{_e(r.expected)}</td><td>{_e(r.measured)}</td>"
+        f"<td>{_e(r.backend)}</td><td>{_e(mode_label(r))}</td><td>{_e(r.expected)}</td><td>{_e(r.measured)}</td>"
         f'<td class="num">{r.simulated_time:.1f} s</td><td class="num">{r.wall_time:.2f} s</td></tr>'
         for r in sorted(results, key=lambda r: r.passed)
     )

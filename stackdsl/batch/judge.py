@@ -21,7 +21,7 @@ from ..runtime.outcome import Graph, Outcome, describe_certificate
 from ..runtime.recorder import record_program
 from ..runtime.run import run_program
 from ..verdicts.check_result import CheckResult
-from ..verdicts.expect import Verdict, evaluate, explain
+from ..verdicts.expect import Verdict, evaluate, explain, moved_levels
 from .pool import WorkerLost, WorkerTimedOut
 from .sweep import SampleResult
 
@@ -71,6 +71,9 @@ def judge(file: str, program: Program, expect: Expect, timeout: float | None = T
             backend=program.engine.backend,
             verdicts=tuple(evaluate(expect, outcome, program.collapse_threshold)),
             collapse_level=outcome.collapse.level if outcome.collapse else None,
+            first_moved=outcome.collapse.brick if outcome.collapse else "",
+            first_moved_level=outcome.collapse.brick_level if outcome.collapse else None,
+            moved_levels=moved_levels(outcome, program.collapse_threshold),
             levels_placed=outcome.levels_placed,
             simulated_time=outcome.simulated_time,
             wall_time=outcome.wall_time,

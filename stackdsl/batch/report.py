@@ -17,7 +17,7 @@ from ..lang.files import written
 from ..verdicts.check_result import CheckResult
 
 #: The header of check's table; :func:`row` lines up under it.
-HEADER = f"{'':4}  {'scenario':<40} {'mode':<9}  {'expected':<18} {'measured':<32} {'simulated':>9} {'wall':>8}"
+HEADER = f"{'':4}  {'scenario':<40} {'engine':<8} {'mode':<9} {'simulated':>9} {'wall':>7}  {'expected':<18} measured"
 #: Indentation of the lines under a FAIL row.
 INDENT = " " * 6
 #: Why a scenario did not run when check stopped early.
@@ -30,12 +30,13 @@ def mode_label(r: CheckResult) -> str:
 
 
 def row(r: CheckResult) -> str:
-    """One line of check's table: verdict, file, mode, expected, measured, simulated and wall seconds."""
+    """One line of check's table: verdict, file, engine (the backend), mode, simulated and wall
+    seconds, expected, and measured last (its length varies)."""
     file = r.file if len(r.file) <= 40 else "..." + r.file[-37:]
     return (
-        f"{'PASS' if r.passed else 'FAIL':<4}  {file:<40} {mode_label(r):<9}  {r.expected:<18} {r.measured:<32} "
-        f"{r.simulated_time:>7.1f} s {r.wall_time:>6.1f} s"
-    )
+        f"{'PASS' if r.passed else 'FAIL':<4}  {file:<40} {r.backend:<8} {mode_label(r):<9} "
+        f"{r.simulated_time:>7.1f} s {r.wall_time:>5.1f} s  {r.expected:<18} {r.measured}"
+    ).rstrip()
 
 
 def run_command(file: str, mode: str | None = None, model: str | None = None, backend: str | None = None) -> str:
@@ -78,6 +79,7 @@ def result_data(r: CheckResult, command: str) -> dict[str, Any]:
         "scenario": r.scenario,
         "mode": r.mode,
         "model": r.model,
+        "backend": r.backend,
         "passed": r.passed,
         "expected": r.expected,
         "measured": r.measured,
@@ -86,6 +88,8 @@ def result_data(r: CheckResult, command: str) -> dict[str, Any]:
         "error": r.error or None,
         "stopped": r.stopped or None,
         "collapse_level": r.collapse_level,
+        "first_moved": None if r.first_moved_level is None else {"brick": r.first_moved, "level": r.first_moved_level},
+        "moved_levels": list(r.moved_levels),
         "levels_placed": r.levels_placed,
         "simulated_time": r.simulated_time,
         "wall_time": r.wall_time,
@@ -121,7 +125,7 @@ def json_document(
 def junit_xml(
     results: Sequence[CheckResult], commands: Sequence[str], not_run: Sequence[str], wall: float, path: str | Path
 ) -> None:
-    """Write JUnit XML to ``path``: one testcase per scenario run (classname ``stackdsl.<mode>``,
+    """Write JUnit XML to ``path``: one testcase per scenario run (classname ``stackdsl.<backend>.<mode>``,
     name the file, time its wall seconds), an ``error`` with the traceback for each internal
     error, a ``failure`` with the explanation and the rerun command for each other failed
     one, and a ``skipped`` testcase for each file in ``not_run``."""
@@ -140,7 +144,9 @@ def junit_xml(
     )
     ET.SubElement(ET.SubElement(suite, "properties"), "property", name="stackdsl", value=version())
     for r, command in zip(results, commands, strict=True):
-        case = ET.SubElement(suite, "testcase", classname=f"stackdsl.{r.mode}", name=r.file, time=f"{r.wall_time:.3f}")
+        case = ET.SubElement(
+            suite, "testcase", classname=f"stackdsl.{r.backend}.{r.mode}", name=r.file, time=f"{r.wall_time:.3f}"
+        )
         if r.error:
             error = ET.SubElement(case, "error", message=r.error)
             error.text = r.traceback or None

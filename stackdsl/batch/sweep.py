@@ -47,7 +47,8 @@ class SampleResult:
 
     Attributes:
         cell, sample: which one; seed: the seed its run drew its placement error from.
-        parameters: what it drew and took from the grid (field -> number of the unit written).
+        parameters: what it drew and took from the grid (column -> number in SI, angles in
+            degrees; the column named with its unit: ``timing.placement_error [m]``).
         collapse_level: the level at which it collapsed, or None when it stood.
         levels_placed: levels built; wall_time, simulated_time: seconds.
         oracle_level: with the oracle, rigid-block equilibrium's collapse level on the sample's

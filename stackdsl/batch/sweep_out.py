@@ -1,9 +1,12 @@
 """What a sweep leaves: per-sample files, a summary a cell, verdicts, plots.
 
-* ``samples.csv`` and ``samples.jsonl``: one row a sample, in (cell, sample) order: the cell,
-  the sample index, its seed, what it drew (a column a field, named with the unit its values
-  are numbers of), the collapse level (empty: it stood), levels placed, wall and simulated
-  seconds, the oracle's level and the rest of :class:`stackdsl.batch.sweep.SampleResult`;
+* ``samples.csv``, ``samples.jsonl`` and ``samples.parquet``: one row a sample, in (cell,
+  sample) order: the cell, the sample index, its seed, what it drew (a column a field, numbers
+  in SI, angles in degrees, named with the unit when the file wrote one:
+  ``timing.placement_error [m]``), the collapse level (empty: it stood), levels placed, wall
+  and simulated seconds, the oracle's level and the rest of
+  :class:`stackdsl.batch.sweep.SampleResult`; the Parquet file typed, with each column's
+  unit in its metadata (:func:`write_parquet`);
 * for each grid cell, the distribution of collapse levels (:func:`stackdsl.verdicts.stats.summary`)
   and the verdict of each statistical expectation (:func:`stackdsl.verdicts.stats.decide`);
 * ``histogram.png`` (one a cell, up to :data:`MAX_HISTOGRAMS`) and, for a grid over one
@@ -64,7 +67,8 @@ def verdicts(template: Template, expect: Expect, results: Sequence[SampleResult]
 
 
 def write_samples(results: Sequence[SampleResult], folder: Path) -> tuple[Path, Path]:
-    """``samples.csv`` and ``samples.jsonl`` in ``folder`` (made if missing); their paths.
+    """``samples.csv``, ``samples.jsonl`` and ``samples.parquet`` (:func:`write_parquet`) in
+    ``folder`` (made if missing); the paths of the first two.
 
     Raises:
         OSError: they cannot be written.
@@ -85,20 +89,78 @@ def write_samples(results: Sequence[SampleResult], folder: Path) -> tuple[Path, 
     with written(lines) as part, open(part, "w", encoding="utf-8") as f:
         for row in rows:
             f.write(json.dumps(row) + "\n")
+    write_parquet(rows, columns, folder / "samples.parquet")
     return table, lines
 
 
-def write_plots(template: Template, results: Sequence[SampleResult], levels_built: int, folder: Path) -> list[Path]:
+#: Units of the columns every sample has (a parameter's is in its name: ``"timing.placement_error [m]"``).
+UNITS = {"wall_time": "s", "simulated_time": "s", "collapse_level": "level", "levels_placed": "level", "oracle_level": "level"}
+#: Integer columns (the collapse and oracle levels may be null: the sample stood); the seed is unsigned.
+_INTEGERS = ("cell", "sample", "levels_placed", "collapse_level", "oracle_level")
+
+
+def write_parquet(rows: Sequence[dict[str, Any]], columns: Sequence[str], path: Path) -> None:
+    """``rows`` (:meth:`SampleResult.row`) as a Parquet file at ``path`` (pyarrow): a typed
+    column each, in ``columns``' order: integers (the levels null where a sample stood, the seed
+    unsigned), floats, lists of floats for a tower's per-layer or per-brick draws, strings for the
+    rest; numbers in SI (angles in degrees), each column's unit in its field metadata
+    (``b"unit"``: ``"m"``, ``"s"``, ``"level"``), and the file's metadata naming stackdsl's version
+    and every column's unit (``b"stackdsl.units"``, JSON). pandas, DuckDB and Polars read it as it is.
+
+    Raises:
+        OSError: it cannot be written.
+    """
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from .._version import version
+
+    fields, data, units = [], {}, {}
+    for name in columns:
+        values = [row.get(name) for row in rows]
+        kind: Any
+        if name == "seed":
+            kind = pa.uint64()
+        elif name in _INTEGERS:
+            kind = pa.int64()
+        elif all(_number(v) or v is None for v in values):
+            kind = pa.float64()
+        elif all(isinstance(v, list) and all(_number(x) for x in v) for v in values if v is not None):
+            kind = pa.list_(pa.float64())
+        else:
+            kind = pa.string()
+            values = [None if v is None else v if isinstance(v, str) else json.dumps(v) for v in values]
+        unit = UNITS.get(name) or (name[name.rindex("[") + 1 : -1] if name.endswith("]") and "[" in name else "")
+        if unit:
+            units[name] = unit
+        fields.append(pa.field(name, kind, metadata={"unit": unit} if unit else None))
+        data[name] = values
+    schema = pa.schema(fields, metadata={"stackdsl": version(), "stackdsl.units": json.dumps(units)})
+    table = pa.Table.from_pydict(data, schema=schema)
+    with written(path) as part:
+        pq.write_table(table, part)
+
+
+def _number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def write_plots(
+    template: Template, results: Sequence[SampleResult], levels_built: int, folder: Path, expect: Expect | None = None
+) -> list[Path]:
     """The histograms (one a cell, up to :data:`MAX_HISTOGRAMS`) and, for a grid over one
-    numeric field, the plot against it; the paths written."""
+    numeric field, the plot against it, each with ``expect``'s statistical expectations drawn
+    (their interval, their threshold); the paths written."""
     from ..draw.sweepplot import plot_grid, plot_histogram
+
+    forms = expectations(expect) if expect is not None else []
 
     written = []
     cells = by_cell(results, template.cells)
     for c, rs in enumerate(cells[:MAX_HISTOGRAMS]):
         name = "histogram.png" if template.cells == 1 else f"histogram_{c}.png"
         title = template.data.get("name", "") + (f" ({_cell_text(template, c)})" if template.grid else "")
-        plot_histogram(measured(rs), folder / name, title=str(title), levels_built=levels_built)
+        plot_histogram(measured(rs), folder / name, title=str(title), levels_built=levels_built, expected=forms)
         written.append(folder / name)
     numeric = _numeric_grid(template)
     if numeric is not None:
@@ -115,6 +177,7 @@ def write_plots(template: Template, results: Sequence[SampleResult], levels_buil
                 statistic=statistic,
                 levels_built=levels_built or None,
                 title=name,
+                expected=forms,
             )
             written.append(path)
     return written

@@ -145,7 +145,7 @@ def compare_command(args: argparse.Namespace) -> int:
             lines.advance()
             if not live:
                 lines.line(
-                    f"[{len(done)}/{len(prepared) + len(refused)}] {Path(r.file).stem} {r.mode}: "
+                    f"[{len(done)}/{len(prepared) + len(refused)}] {Path(r.file).stem} {r.backend} {r.mode}: "
                     + (
                         f"refused: {r.refused}"
                         if r.refused
@@ -160,7 +160,14 @@ def compare_command(args: argparse.Namespace) -> int:
         print(json.dumps(json_document("compare", done, commands, len(prepared), wall), indent=2))
         return INTERNAL if _internal_errors(done, args.debug) else OK
     width = max([len("scenario"), *(len(Path(f).stem) for f in table)])
-    print(f"{'scenario':<{width}} {'expected':<18} " + " ".join(f"{m:<29}" for m in modes).rstrip())
+    # the engine is a column of its own unless the columns name it (several backends)
+    engine = len(backends) == 1
+    print(
+        f"{'scenario':<{width}} "
+        + (f"{'engine':<8} " if engine else "")
+        + f"{'expected':<18} "
+        + " ".join(f"{m:<29}" for m in modes).rstrip()
+    )
     for file, cells in table.items():
         first = next((c for c in cells.values() if not c.refused), next(iter(cells.values())))
         texts = [
@@ -169,7 +176,12 @@ def compare_command(args: argparse.Namespace) -> int:
             else f"{'PASS' if r.passed else 'FAIL'} {_cell(r):<13} {r.wall_time:>7.1f} s"
             for r in (cells[m] for m in modes)
         ]
-        print(f"{Path(file).stem:<{width}} {first.expected:<18} " + " ".join(f"{c:<29}" for c in texts).rstrip())
+        print(
+            f"{Path(file).stem:<{width}} "
+            + (f"{first.backend:<8} " if engine else "")
+            + f"{first.expected:<18} "
+            + " ".join(f"{c:<29}" for c in texts).rstrip()
+        )
     print(f"{len(table)} scenarios x {len(modes)} modes ({wall:.1f} s wall)")
     for r in refused:  # why, once each, after the table
         print(f"refused in {r.mode} on {r.backend}: {r.refused}", file=sys.stderr)

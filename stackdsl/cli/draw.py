@@ -183,26 +183,29 @@ def _output(args: argparse.Namespace, suffixes: tuple[str, ...]) -> Path:
     return out
 
 
-def _draw(args: argparse.Namespace, suffixes: tuple[str, ...], option: str, draw: Callable[[Any, Path, int, int], Any]) -> int:
+def _draw(args: argparse.Namespace, suffixes: tuple[str, ...], option: str, draw: Callable[[Any, Path, int, int], str]) -> int:
     """Check the output and the size, get the trajectory, ``draw(trajectory, out, width,
-    height)``; a ValueError of the drawing (a request the run cannot meet) is bad input at
-    ``option``."""
+    height)`` (which says what it drew, in a few words); a ValueError of the drawing (a request
+    the run cannot meet) is bad input at ``option``."""
     out = _output(args, suffixes)
     width, height = size_of(args.size)
     trajectory = trajectory_of(args)
     try:
-        draw(trajectory, out, width, height)
+        what = draw(trajectory, out, width, height)
     except ValueError as exc:
         raise ScenarioError(str(exc), file=option) from None
     except TimeoutError as exc:
         print(f"stackdsl: {exc} ({args.timeout:g} s with the run); nothing written to {out}", file=sys.stderr)
         return 1
-    return _wrote(out, trajectory)
+    return _wrote(out, trajectory, f"{what}, {width} x {height} pixels")
 
 
-def _wrote(out: Path, trajectory: Any) -> int:
-    """Say what was written; 1 when the run was stopped early (its ``--timeout``), else 0."""
-    print(f"wrote {out}")
+def _wrote(out: Path, trajectory: Any, what: str) -> int:
+    """Say what was written (``wrote OUT: what, size``); 1 when the run was stopped early (its
+    ``--timeout``), else 0."""
+    size = out.stat().st_size
+    shown = f"{size / 1e6:.1f} MB" if size >= 1e6 else f"{size / 1e3:.0f} kB"
+    print(f"wrote {out}: {what} ({shown})", flush=True)
     stopped = trajectory.meta.get("stopped")
     if stopped:
         print(f"stackdsl: the run was stopped early: {stopped}; the file shows it until then", file=sys.stderr)
@@ -213,9 +216,11 @@ def _wrote(out: Path, trajectory: Any) -> int:
 def _render(args: argparse.Namespace) -> int:
     from ..draw.render import picture
 
-    def draw(trajectory: Any, out: Path, width: int, height: int) -> None:
+    def draw(trajectory: Any, out: Path, width: int, height: int) -> str:
         at = args.at or ("collapse" if trajectory.collapse_time is not None else "end")
-        picture(trajectory, at, out, width=width, height=height)  # ValueError: no collapse, a time past the end
+        drawn = picture(trajectory, at, out, width=width, height=height)  # ValueError: no collapse, a time past the end
+        when = f"{at}, " if at in ("collapse", "end") else ""
+        return f"the run at {when}t = {drawn:.2f} s"
 
     return _draw(args, (".png",), "--at", draw)
 
@@ -232,9 +237,14 @@ def _animate(args: argparse.Namespace) -> int:
         raise ScenarioError(str(exc), file="--size") from None
     deadline = None if args.timeout is None else started + args.timeout
 
-    def draw(trajectory: Any, out: Path, width: int, height: int) -> None:
+    def draw(trajectory: Any, out: Path, width: int, height: int) -> str:
         # ValueError: a GIF above 50 frames a second; TimeoutError: past --timeout, nothing written
-        animate(trajectory, out, fps=args.fps, width=width, height=height, deadline=deadline)
+        plan = animate(trajectory, out, fps=args.fps, width=width, height=height, deadline=deadline)
+        seconds = len(plan.frames) / args.fps
+        return (
+            f"a clip of {len(plan.frames)} frames, {seconds:.1f} s at {args.fps:g} a second, t = {plan.times[0]:.2f} "
+            f"to {plan.times[-1]:.2f} s simulated (x{plan.speeds.max():.3g} at most)"
+        )
 
     return _draw(args, (".gif", ".mp4"), "--fps", draw)
 
@@ -249,4 +259,5 @@ def _graph(args: argparse.Namespace) -> int:
         raise ScenarioError("nothing collapsed in this run: there is no graph at the collapse (use --at end)", file="--at")
     graph = trajectory.graphs["collapse" if at == "collapse" else "final"]
     plot_graph(graph, out, title=f"{trajectory.meta.get('scenario', '')}: brick graph at the {at}")
-    return _wrote(out, trajectory)
+    bricks = sum(n.state != "ground" for n in graph.nodes)
+    return _wrote(out, trajectory, f"the brick graph at the {at}, {bricks} bricks and {len(graph.edges)} rests-on edges")

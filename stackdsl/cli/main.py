@@ -11,13 +11,15 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import gc
-import json
 import os
 import signal
 import sys
 import threading
 import traceback
+import warnings
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -42,6 +44,26 @@ from .args import (
 )
 
 MODELS = ["report", "equilibrium"]
+
+
+@contextlib.contextmanager
+def _warnings_as_lines() -> Iterator[None]:
+    """Show the language's warnings (a unit slip: :class:`stackdsl.lang.unit_slips.UnitSlipWarning`)
+    as their own line on stderr, ``file:line:col: warning: ...``, not as Python's report of where
+    in stackdsl they were raised; other warnings as Python shows them."""
+    shown = warnings.showwarning
+
+    def show(message: Any, category: type[Warning], filename: str, lineno: int, file: Any = None, line: Any = None) -> None:
+        if category.__name__ == "UnitSlipWarning":
+            print(message, file=sys.stderr)
+        else:
+            shown(message, category, filename, lineno, file, line)
+
+    warnings.showwarning = show
+    try:
+        yield
+    finally:
+        warnings.showwarning = shown
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -85,7 +107,8 @@ def main(argv: list[str] | None = None) -> int:
             from ..batch.guard import limit_memory
 
             limit_memory()
-        status = int(args.func(args))
+        with _warnings_as_lines():
+            status = int(args.func(args))
         sys.stdout.flush()
         return status
     except ScenarioErrors as exc:
@@ -271,6 +294,16 @@ def _add_command(sub: Any, name: str, common: argparse.ArgumentParser) -> None:
             epilog=_ONE_STATUS,
             formatter_class=argparse.RawDescriptionHelpFormatter,
         )
+        shown = p.add_mutually_exclusive_group()
+        shown.add_argument(
+            "--path", action="store_true", help="print the path of the schema file installed with stackdsl, for editors"
+        )
+        shown.add_argument(
+            "--modeline",
+            action="store_true",
+            help="print the first line for a scenario file anywhere: # yaml-language-server: $schema=<that path>",
+        )
+        shown.add_argument("--write", action="store_true", help=argparse.SUPPRESS)  # regenerates the shipped copies
         p.set_defaults(func=_print_schema)
 
 
@@ -334,9 +367,11 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
     )
     many.add_argument(
         "-k",
-        metavar="PATTERN",
+        metavar="TEXT",
         dest="pattern",
-        help="only the scenarios whose file path or name contains PATTERN (plain text, case-insensitive)",
+        action="append",
+        help="only the scenarios whose file path or name contains TEXT (plain text, case-insensitive; not pytest's "
+        "expressions); give -k again for more: a scenario runs when it contains any of them",
     )
     many.add_argument("--json", action="store_true", help="print one JSON document of every result instead of the table")
     if name == "check":
@@ -416,7 +451,7 @@ def _run(args: argparse.Namespace) -> int:
     from ..compile.compiler import compile_scenario
     from ..lang.loader import load_scenario
     from ..runtime.outcome import describe_certificate
-    from ..verdicts.expect import describe, evaluate
+    from ..verdicts.expect import describe_outcome, evaluate
 
     scenario = load_scenario(args.file, args.seed)
     program = compile_scenario(scenario, args.mode, args.model, args.backend)
@@ -451,7 +486,8 @@ def _run(args: argparse.Namespace) -> int:
             level = "" if e.level is None else f"level {e.level}"
             print(f"t={e.time:9.3f} s  {e.kind:<8} {e.brick:<10} {level:<9} {e.detail}")
         print(
-            f"{Path(args.file).name}: {describe(outcome.collapse.level if outcome.collapse else None)} "
+            f"{Path(args.file).name} on {program.engine.backend} {program.engine.mode}: "
+            f"{describe_outcome(outcome, program.collapse_threshold)} "
             f"({outcome.levels_placed} levels placed), {outcome.simulated_time:.1f} s simulated, "
             f"{outcome.wall_time:.2f} s wall ({outcome.engine_time:.2f} s in the engine's steps"
             + (f", {outcome.after_collapse:.2f} s after the collapse" if outcome.collapse else "")
@@ -467,9 +503,20 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _print_schema(args: argparse.Namespace) -> int:
-    from ..lang.jsonschema import json_schema
+    from ..lang.jsonschema import packaged_path, schema_text
 
-    print(json.dumps(json_schema(), indent=2))
+    if args.path or args.modeline:
+        path = packaged_path()
+        if not path.is_file():  # a broken install: say so rather than point editors nowhere
+            raise ScenarioError("the schema file is missing from this install: reinstall stackdsl", file=str(path))
+        print(f"# yaml-language-server: $schema={path}" if args.modeline else path)
+    elif args.write:  # the copies in a checkout (a developer's command): the package's, and schema/'s
+        shipped = Path(__file__).resolve().parents[2] / "schema"
+        for path in (packaged_path(), *([shipped / "scenario.schema.json"] if shipped.is_dir() else [])):
+            path.write_text(schema_text())
+            print(f"wrote {path}")
+    else:
+        print(schema_text(), end="")
     return OK
 
 

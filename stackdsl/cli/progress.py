@@ -1,8 +1,11 @@
 """Lines printed as work finishes, under a live progress line on a terminal.
 
-On a terminal (and not under CI, where ``CI=true``) a rich progress line stays at the bottom
-and each line printed goes above it; elsewhere (a pipe, a file, a CI log, pytest's capture)
-lines are printed plainly, one at a time, flushed, with no progress bar.
+On a terminal (and not under CI, where ``CI=true``) a rich progress line stays at the bottom,
+with the time left, and each line printed goes above it; elsewhere (a pipe, a file, a CI log,
+pytest's capture) lines are printed plainly, one at a time, flushed, with no progress bar, and
+a line on standard error every :data:`EVERY` seconds says how far the work is
+(``sweep: 120 of 2000 done (6%), 45 s, about 12 min left``), so that a long sweep piped to a
+file or run in CI does not look stuck.
 
 Source: stackdsl's own, on rich.progress.
 """
@@ -11,6 +14,8 @@ from __future__ import annotations
 
 import os
 import sys
+import threading
+import time
 from types import TracebackType
 from typing import IO, TYPE_CHECKING
 
@@ -29,6 +34,45 @@ def is_live(stream: IO[str]) -> bool:
     return bool(isatty and isatty())
 
 
+#: Seconds between two progress lines on standard error when there is no live progress line
+#: (``STACKDSL_PROGRESS_SECONDS`` sets it; 0 turns them off).
+EVERY = 10.0
+
+
+def progress_seconds() -> float:
+    """:data:`EVERY`, or ``STACKDSL_PROGRESS_SECONDS`` when it is set to a number (0: no lines)."""
+    text = os.environ.get("STACKDSL_PROGRESS_SECONDS", "").strip()
+    try:
+        return max(float(text), 0.0) if text else EVERY
+    except ValueError:
+        return EVERY
+
+
+def progress_text(description: str, done: int, total: int, elapsed: float) -> str:
+    """A progress line: ``'sweep: 120 of 2000 done (6%), 45 s, about 12 min left'`` (the time
+    left from the rate so far; none before the first item is done).
+
+    >>> progress_text("sweep", 120, 2000, 45.0)
+    'sweep: 120 of 2000 done (6%), 45 s, about 12 min left'
+    >>> progress_text("check", 0, 29, 10.0)
+    'check: 0 of 29 done (0%), 10 s'
+    """
+    share = done / total if total else 1.0
+    text = f"{description}: {done} of {total} done ({share:.0%}), {_duration(elapsed)}"
+    if 0 < done < total:
+        text += f", about {_duration(elapsed * (total - done) / done)} left"
+    return text
+
+
+def _duration(seconds: float) -> str:
+    """``45 s``, ``12 min``, ``2.5 h``."""
+    if seconds < 90:
+        return f"{seconds:.0f} s"
+    if seconds < 5400:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"
+
+
 class Lines:
     """A context manager that prints lines as work finishes, counting ``total`` items.
 
@@ -37,16 +81,33 @@ class Lines:
         description: what is going on, shown in front of the progress line.
         file: where lines go (default: standard output).
         live: show the live progress line (default: :func:`is_live` of ``file``).
+        every: without the live line, seconds between two progress lines on standard error
+            (default: :func:`progress_seconds`; 0: none).
     """
 
-    def __init__(self, total: int, description: str, file: IO[str] | None = None, live: bool | None = None) -> None:
+    def __init__(
+        self, total: int, description: str, file: IO[str] | None = None, live: bool | None = None, every: float | None = None
+    ) -> None:
         self.file = file if file is not None else sys.stdout
         self.live = is_live(self.file) if live is None else live
+        self.total, self.description, self.done = total, description, 0
+        self.every = progress_seconds() if every is None else every
+        self._started = time.monotonic()
+        self._stop = threading.Event()
+        self._ticker: threading.Thread | None = None
         self._progress: Progress | None = None
         self._task = None
         if self.live:  # rich only on a terminal (a pipe, a file or CI never loads it)
             from rich.console import Console
-            from rich.progress import BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+            from rich.progress import (
+                BarColumn,
+                MofNCompleteColumn,
+                Progress,
+                SpinnerColumn,
+                TextColumn,
+                TimeElapsedColumn,
+                TimeRemainingColumn,
+            )
 
             console = Console(file=self.file, force_terminal=True, highlight=False, emoji=False, markup=False)
             self._progress = Progress(
@@ -55,19 +116,37 @@ class Lines:
                 BarColumn(),
                 MofNCompleteColumn(),
                 TimeElapsedColumn(),
+                TextColumn("left"),
+                TimeRemainingColumn(),
                 console=console,
                 transient=True,
             )
             self._task = self._progress.add_task(description, total=total)
 
     def __enter__(self) -> Lines:
+        self._started = time.monotonic()
         if self._progress is not None:
             self._progress.start()
+        elif self.every > 0 and self.total > 0:
+            self._ticker = threading.Thread(target=self._tick, name="stackdsl-progress", daemon=True)
+            self._ticker.start()
         return self
 
     def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None, traceback: TracebackType | None) -> None:
+        self._stop.set()
+        if self._ticker is not None:
+            self._ticker.join()
         if self._progress is not None:
             self._progress.stop()
+
+    def _tick(self) -> None:
+        """Every :attr:`every` seconds until the work ends, a progress line on standard error."""
+        while not self._stop.wait(self.every):
+            text = progress_text(self.description, self.done, self.total, time.monotonic() - self._started)
+            try:
+                print(text, file=sys.stderr, flush=True)
+            except (OSError, ValueError):  # standard error closed: nothing more to say
+                return
 
     def line(self, text: str) -> None:
         """Print ``text`` (above the progress line when live)."""
@@ -78,5 +157,6 @@ class Lines:
 
     def advance(self, items: int = 1) -> None:
         """Count ``items`` more as done."""
+        self.done += items
         if self._progress is not None and self._task is not None:
             self._progress.advance(self._task, items)

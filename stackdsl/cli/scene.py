@@ -78,7 +78,9 @@ def _replay(args: argparse.Namespace) -> int:
     trajectory = trajectory_of(args)
     golden = read_golden(golden_path or golden_of(trajectory))
     out.mkdir(parents=True, exist_ok=True)
-    return _wrote(write_replay(trajectory, out / "replay.html", golden), trajectory)
+    return _wrote(
+        write_replay(trajectory, out / "replay.html", golden), trajectory, f"a 3D replay of {len(trajectory.ids)} bodies"
+    )
 
 
 def has_display() -> bool:
@@ -202,8 +204,7 @@ def _export(args: argparse.Namespace) -> int:
     status = 0
     for out, kind in outputs:
         text = mjcf(scene, timestep=timestep if isinstance(timestep, float) else None) if kind == "mjcf" else urdf(scene)
-        status |= _wrote(write_text(text, out), trajectory)
-    print(f"{len(scene.ids)} bricks at t = {scene.time:.3f} s")
+        status |= _wrote(write_text(text, out), trajectory, f"{kind.upper()}, {len(scene.ids)} bricks at t = {scene.time:.3f} s")
     return status
 
 

@@ -82,6 +82,7 @@ def _sweep(args: argparse.Namespace) -> int:
     if out is not None and out.exists() and not out.is_dir():
         raise ScenarioError("the output must be a folder, and this is a file", file=str(out))
     options = SweepOptions(args.mode, args.model, args.oracle, args.timeout)
+    engine = f"{scenario.engine.backend} {args.mode or scenario.engine.mode}"  # which engine ran, said once
     levels_built = scenario.structure.tower.levels if scenario.structure.tower else None
     total = template.cells * template.samples
     start = time.perf_counter()
@@ -91,7 +92,10 @@ def _sweep(args: argparse.Namespace) -> int:
         out = output_folder(None, f"stackdsl-sweep-{_safe(Path(args.file).stem)}-")
 
     def run(where: str, **executor: Any) -> list[Any]:
-        print(f"stackdsl sweep: {template.cells} cells x {template.samples} samples on {where}, writing to {out}", flush=True)
+        print(
+            f"stackdsl sweep: {template.cells} cells x {template.samples} samples, {engine}, on {where}, writing to {out}",
+            flush=True,
+        )
         with Lines(total, "sweep") as lines:
             return collect(run_sweep(template, options, **executor), lambda batch: lines.advance(len(batch)))
 
@@ -118,11 +122,11 @@ def _sweep(args: argparse.Namespace) -> int:
         _forget(out, made)
         return 2
     table, jsonl = write_samples(results, out)
-    plots = write_plots(template, results, levels_built or 0, out)
+    plots = write_plots(template, results, levels_built or 0, out, scenario.expect)
     for line in report(template, scenario.expect, results, levels_built or 0):
         print(line)
     print(
-        f"{total} samples in {wall:.1f} s ({total / wall:.1f} a second); wrote {table}, {jsonl.name}, "
+        f"{total} samples in {wall:.1f} s ({total / wall:.1f} a second); wrote {table}, {jsonl.name}, samples.parquet, "
         + ", ".join(p.name for p in plots)
     )
     judged = verdicts(template, scenario.expect, results)

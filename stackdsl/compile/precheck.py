@@ -66,9 +66,10 @@ def precheck(scenario: Scenario, bodies: Sequence[Body]) -> tuple[str, ...]:
 
     Raises:
         ScenarioError: at the field to change, for the first problem in placement order
-            (overlaps before floating bricks before expectations); ``more`` counts the rest
-            (a generator's bricks count once per kind of problem; past 1000 overlaps the
-            search stops, so the count is then a lower bound).
+            (overlaps before floating bricks before expectations), with the expectations'
+            problems shown after it; ``more`` counts the other bricks' problems (a generator's
+            bricks count once per kind of problem; past 1000 overlaps the search stops, so the
+            count is then a lower bound).
     """
     overlaps, floating = inspect_bodies(bodies, [b.position for b in bodies])
     allowed = FLOATING in scenario.allow
@@ -87,10 +88,16 @@ def precheck(scenario: Scenario, bodies: Sequence[Body]) -> tuple[str, ...]:
             first = _blame_placement_error(scenario, bodies, first, allowed)
         # a generator's bricks that miss for one reason are one problem: count one per generator and kind
         causes = {(key[0], key[1] if _by_hand(bodies[key[1]].path) else bodies[key[1]].path) for _, key, _ in found}
-        raise scenario.source.error(first.path, first.message, more=len(causes) - 1 + len(expectations))
+        error = scenario.source.error(first.path, first.message).with_others(
+            [scenario.source.error(e.path, e.message) for e in expectations]
+        )
+        error.more += len(causes) - 1  # the other bricks' problems are counted, not shown
+        raise error
     if expectations:
-        first = expectations[0]
-        raise scenario.source.error(first.path, first.message, more=len(expectations) - 1)
+        first, *rest = expectations
+        raise scenario.source.error(first.path, first.message).with_others(
+            [scenario.source.error(e.path, e.message) for e in rest]
+        )
     return tuple(bodies[i].id for i in floating)
 
 

@@ -77,7 +77,7 @@ def margins(graph: Graph) -> dict[str, float]:
     Source: stackdsl's own, measuring the report's basic stability test: the centre of mass
     above (report 3.3.5) against the combined support area (report 3.3.3).
 
-    >>> n = Node(id="b", level=1, state="frozen", position_mm=(0, 0, 4), yaw_pitch_roll_deg=(0, 0, 0),
+    >>> n = Node(id="b", level=1, state="frozen", position_mm=(0, 0, 4), quaternion_xyzw=(0, 0, 0, 1),
     ...          com_above_mm=(0, 0, 4), mass_above_g=10.6)
     >>> e = Edge(upper="b", support="ground", area_mm2=2880, load_share=1, polygon_mm=((-60, -12), (60, -12), (60, 12), (-60, 12)))
     >>> margins(Graph(nodes=(n,), edges=(e,)))
@@ -165,16 +165,15 @@ def footprint_mm(node: Node, size: Sequence[float] = KAPLA_MM) -> np.ndarray:
     for a tilted one).
 
     ``size`` is (length, width, height) in mm along the brick's own x, y, z; the pose is the
-    node's ``position_mm`` and ``yaw_pitch_roll_deg`` (intrinsic z-y-x, as in the scenario
-    language). Source: stackdsl's own.
+    node's ``position_mm`` and ``quaternion_xyzw``. Source: stackdsl's own.
 
-    >>> n = Node(id="b", level=1, state="frozen", position_mm=(0, 0, 4), yaw_pitch_roll_deg=(90, 0, 0),
+    >>> n = Node(id="b", level=1, state="frozen", position_mm=(0, 0, 4), quaternion_xyzw=(0, 0, 0.7071, 0.7071),
     ...          com_above_mm=(0, 0, 4), mass_above_g=10.6)
     >>> sorted(footprint_mm(n).round(1).tolist())
     [[-12.0, -60.0], [-12.0, 60.0], [12.0, -60.0], [12.0, 60.0]]
     """
     signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
-    rotation = Rotation.from_euler("ZYX", node.yaw_pitch_roll_deg, degrees=True).as_matrix()
+    rotation = Rotation.from_quat(node.quaternion_xyzw).as_matrix()
     corners = np.asarray(node.position_mm, dtype=float) + (signs * np.asarray(size, dtype=float) / 2) @ rotation.T
     hull = MultiPoint(corners[:, :2]).convex_hull
     if not isinstance(hull, Polygon):  # a brick of no width or length

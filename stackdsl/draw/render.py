@@ -27,6 +27,7 @@ import os
 from collections.abc import Iterable
 from pathlib import Path
 from types import TracebackType
+from typing import Any
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -271,17 +272,28 @@ def legend_keys(trajectory: Trajectory, seen: Iterable[str]) -> list[str]:
 
 
 def headline(trajectory: Trajectory, time: float) -> str:
-    """One line: scenario, mode, ``t = 9.35 s`` and what happened (``collapse at level 9
-    (detected at 9.02 s)`` or ``stands``)."""
+    """One line: scenario, engine and mode, ``t = 9.35 s`` and what happened (``collapse 9 from
+    L09.1 (level 9) at 9.02 s``: the collapse level, the brick that moved first, the time it did;
+    or ``stands``)."""
     meta = trajectory.meta
     collapse = meta.get("collapse")
     result = "stopped early" if meta.get("stopped") else "stands"
     if collapse is not None:
-        result = f"collapse at level {collapse['level']} (detected at {float(collapse['time']):.2f} s)"
+        result = f"{collapse_text(collapse)} at {float(collapse['time']):.2f} s"
     name = str(meta.get("scenario") or meta.get("file") or "run")
     if len(name) > 60:
         name = name[:57] + "..."
-    return f"{name}  ·  {meta.get('mode', '?')}  ·  t = {time:.2f} s  ·  {result}"
+    engine = " ".join(str(meta[k]) for k in ("backend", "mode") if meta.get(k)) or "?"
+    return f"{name}  ·  {engine}  ·  t = {time:.2f} s  ·  {result}"
+
+
+def collapse_text(collapse: dict[str, Any]) -> str:
+    """A trajectory's collapse record in words, as check's table says it: ``collapse 10 from
+    L07.1 (level 7)`` (the collapse level, then the brick that moved first, when the record names it)."""
+    text = f"collapse {collapse['level']}"
+    if collapse.get("brick") and collapse.get("brick_level") is not None:
+        text += f" from {collapse['brick']} (level {collapse['brick_level']})"
+    return text
 
 
 def picture(

@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Sequence
-from typing import Literal
+from typing import Any, Literal
 
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
@@ -23,21 +23,31 @@ from matplotlib.ticker import MaxNLocator
 
 from ..verdicts import stats as _stats
 
-#: Colours: collapse-level bars, the "stood" bar, the mean and its interval, grid points.
-COLLAPSED, STOOD, MEAN, POINT = "#4c72b0", "#55a868", "#c44e52", "#8172b2"
+#: Colours: collapse-level bars, the "stood" bar, the mean and its interval, grid points, and
+#: what the file expects (its interval hatched, its threshold dashed).
+COLLAPSED, STOOD, MEAN, POINT, EXPECTED = "#4c72b0", "#55a868", "#c44e52", "#8172b2", "#dd8452"
 Statistic = Literal["p_stands", "mean"]
 _CONFIDENCE = 0.95
 
 
 def plot_histogram(
-    levels: Sequence[int | None], path: str | os.PathLike[str], *, title: str = "", levels_built: int | None = None
+    levels: Sequence[int | None],
+    path: str | os.PathLike[str],
+    *,
+    title: str = "",
+    levels_built: int | None = None,
+    expected: Sequence[Any] = (),
 ) -> None:
     """Write a PNG histogram of one cell's collapse levels to ``path``.
 
     Left panel: one bar per collapse level (counts of samples), the mean collapse level over
     the collapsed samples as a vertical line with its 95 % t interval shaded. Right panel: one
     bar for the samples that stood (labelled with ``levels_built`` when given). The title
-    adds n, the mean and P(stands) with their intervals. Raises ValueError on a level that is
+    adds n, the mean and P(stands) with their intervals. ``expected``: the file's statistical
+    expectations (:class:`~stackdsl.verdicts.stats.MeanWithin`,
+    :class:`~stackdsl.verdicts.stats.QuantileWithin`, :class:`~stackdsl.verdicts.stats.ProportionBound`),
+    drawn in :data:`EXPECTED`: a level's accepted interval hatched with its target dashed, a
+    bound on P(stands) as a dashed line across the "stood" bar at that share of the samples. Raises ValueError on a level that is
     not None or an int >= 1 (as :func:`stackdsl.verdicts.stats.summary`), OSError if ``path`` cannot be
     written.
     """
@@ -57,6 +67,16 @@ def plot_histogram(
     else:
         ax.text(0.5, 0.5, "no collapse" if s.n else "no samples", transform=ax.transAxes, ha="center", va="center")
         ax.set_xticks([])
+    for form in expected:
+        if isinstance(form, (_stats.MeanWithin, _stats.QuantileWithin)):
+            what = "mean" if isinstance(form, _stats.MeanWithin) else f"{form.q:.0%} quantile"
+            start, end = form.target - form.tolerance, form.target + form.tolerance
+            ax.axvspan(start, end, facecolor="none", edgecolor=EXPECTED, hatch="//", lw=1.0)
+            ax.axvline(form.target, color=EXPECTED, lw=1.5, ls="--", label=f"expected {what} {form.target:g}±{form.tolerance:g}")
+            ax.set_xlim(min(ax.get_xlim()[0], start - 0.5), max(ax.get_xlim()[1], end + 0.5))
+        elif isinstance(form, _stats.ProportionBound) and s.n:
+            side.axhline(form.bound * s.n, color=EXPECTED, lw=1.5, ls="--")
+            side.text(0, form.bound * s.n, f"P {form.op} {form.bound:g}", color=EXPECTED, ha="center", va="bottom", fontsize=8)
     if s.mean is not None:
         label = f"mean {s.mean:.2f}"
         if s.mean_interval is not None:
@@ -64,6 +84,7 @@ def plot_histogram(
             ax.axvspan(lo, hi, color=MEAN, alpha=0.25, lw=0)
             label += f", 95% CI [{lo:.2f}, {hi:.2f}]"
         ax.axvline(s.mean, color=MEAN, lw=2, label=label)
+    if ax.get_legend_handles_labels()[0]:
         ax.legend(loc="best", fontsize=8, frameon=False)
     ax.yaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_xlabel("collapse level")
@@ -89,8 +110,12 @@ def plot_grid(
     scale: float = 1.0,
     levels_built: int | None = None,
     title: str = "",
+    expected: Sequence[Any] = (),
 ) -> None:
-    """Write a PNG of a statistic per cell against a numeric parameter, with 95 % error bars.
+    """Write a PNG of a statistic per cell against a numeric parameter, with 95 % error bars;
+    the file's expectation on that statistic (``expected``, as :func:`plot_histogram` takes
+    them) in :data:`EXPECTED`: a bound on P(stands) as a dashed threshold line with its accepted
+    side shaded, a mean's accepted interval hatched with its target dashed.
 
     ``values[i]`` is the parameter's value of ``cells[i]`` (that cell's samples: collapse
     levels or None). The value is drawn times ``scale`` (e.g. values in metres, ``scale=1000``,
@@ -129,6 +154,19 @@ def plot_grid(
         ax.legend(loc="best", fontsize=8, frameon=False)
         if len(set(xs)) == 1:
             ax.set_xlim(xs[0] - 1, xs[0] + 1)
+    for form in expected:
+        if statistic == "p_stands" and isinstance(form, _stats.ProportionBound):
+            upward = form.op in (">=", ">")
+            ax.axhspan(form.bound, 1.03 if upward else -0.03, color=EXPECTED, alpha=0.08, lw=0)
+            ax.axhline(form.bound, color=EXPECTED, lw=1.5, ls="--", label=f"expected P(stands) {form.op} {form.bound:g}")
+        elif statistic == "mean" and isinstance(form, _stats.MeanWithin):
+            ax.axhspan(
+                form.target - form.tolerance, form.target + form.tolerance, facecolor="none", edgecolor=EXPECTED, hatch="//"
+            )
+            ax.axhline(form.target, color=EXPECTED, lw=1.5, ls="--", label=f"expected mean {form.target:g}±{form.tolerance:g}")
+        else:
+            continue
+        ax.legend(loc="best", fontsize=8, frameon=False)
     missing = len(cells) - len(points)
     if missing or not cells:
         note = "no cells" if not cells else f"{missing} cell(s) without an estimate left out"

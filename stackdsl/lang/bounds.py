@@ -70,6 +70,8 @@ MIN_REST_ANGULAR_SPEED, MAX_REST_ANGULAR_SPEED = 0.01, 10.0  # rad/s
 # before contact holds it, so a smaller threshold sees every landing brick displaced; it also bounds the runtime's
 # substeps (a thrown brick moves at most the threshold in a substep: at 100 m/s and 1/240 s, 417 substeps).
 MIN_COLLAPSE_THRESHOLD = 0.001
+MAX_DROP_GAP = 0.05  # m: dropped from higher, a brick lands as a blow (1 m/s from 50 mm)
+MAX_PLACEMENT_ERROR = 0.01  # m
 
 
 Number = Annotated[StrictFloat, Field(allow_inf_nan=False)]  # a YAML number, not a string or a flag
@@ -86,6 +88,8 @@ if TYPE_CHECKING:  # to mypy, the bounded numbers are floats; to pydantic, the q
     RestSpeed = float
     RestAngularSpeed = float
     CollapseThreshold = float
+    DropGap = float
+    PlacementError = float
 else:
     Coordinate = within(
         Length,
@@ -186,6 +190,22 @@ else:
             "so a smaller threshold sees every landing brick displaced",
             "no brick is longer",
         ),
+    )
+    DropGap = within(
+        Length,
+        length,
+        0.0,
+        MAX_DROP_GAP,
+        "a length from 0 to 50 mm",
+        "dropped from higher, a brick lands at about 1 m/s: a blow, not a placement",
+    )
+    PlacementError = within(
+        Length,
+        length,
+        0.0,
+        MAX_PLACEMENT_ERROR,
+        "a length from 0 to 10 mm",
+        "a placement error is a careful hand's, millimetres at most; an offset meant is part of the structure",
     )
 
 Vector2 = tuple[Coordinate, Coordinate]

@@ -28,7 +28,9 @@ class ScenarioError(Exception):
         field: the dotted field path, or "" for the file as a whole.
         message: what is wrong and what was expected.
         source_line: the text of the offending line, or "".
-        more: how many further problems the same file has.
+        others: further problems of the same file, shown after this one (at most
+            :data:`MAX_SHOWN` in all).
+        more: how many further problems the same file has that are not shown.
     """
 
     def __init__(
@@ -41,10 +43,12 @@ class ScenarioError(Exception):
         field: str = "",
         source_line: str = "",
         more: int = 0,
+        others: tuple[ScenarioError, ...] = (),
     ) -> None:
         super().__init__(message)
         self.message, self.file, self.line, self.column = message, file, line, column
         self.field, self.source_line, self.more = field, source_line, more
+        self.others = others
 
     def __str__(self) -> str:
         where = self.file if self.line is None else f"{self.file}:{self.line}:{self.column}"
@@ -54,9 +58,18 @@ class ScenarioError(Exception):
             shown, caret = _excerpt(self.source_line, max((self.column or 1) - 1, 0))
             lines.append(f"    {shown}")
             lines.append("    " + " " * caret + "^")
+        for other in self.others:
+            lines.append(str(other))
         if self.more:
             lines.append(f"    ({self.more} more problem{'s' if self.more > 1 else ''} in this file)")
         return "\n".join(lines)
+
+    def with_others(self, others: list[ScenarioError]) -> ScenarioError:
+        """This error with ``others`` (further problems of the file, in order) shown after it,
+        at most :data:`MAX_SHOWN` in all; the rest counted in :attr:`more`."""
+        self.others = tuple(others[: MAX_SHOWN - 1])
+        self.more = max(len(others) - len(self.others), 0)
+        return self
 
 
 class ScenarioErrors(Exception):
@@ -67,6 +80,8 @@ class ScenarioErrors(Exception):
         self.errors = errors
 
 
+#: At most this many problems of one file are shown at once (the rest are counted).
+MAX_SHOWN = 10
 SHOWN_LINE_CHARS = 120  # an error shows at most this much of its source line
 
 

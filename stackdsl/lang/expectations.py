@@ -208,6 +208,11 @@ def _bound(value: Any) -> Any:
         if not match:
             raise ValueError(f"expected a comparison with a probability such as '>= 0.9', got {value!r}")
         return {"op": match[1], "bound": float(match[2])}
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        raise ValueError(
+            f"expected a comparison with a probability, got the bare number {value!r}: "
+            f"write '>= {value}' (P(stands) at least {value}) or '<= {value}'"
+        )
     return value
 
 

@@ -7,22 +7,33 @@ materials, the number of bricks of a tower, descending level ranges ("5-3"), lev
 ``stays`` and ``may_fall``, a drop gap not below the collapse threshold (which may come from
 a brick type), NaN (JSON has none, and every comparison with it is false), and numbers beyond
 a double (``1e999``). Numeric bounds (sides from 3 mm to 10 m, positions within 1 km...) are
-``minimum``/``maximum`` of the number. The shipped copy is ``schema/scenario.schema.json``
-(``stackdsl schema > schema/scenario.schema.json`` regenerates it).
+``minimum``/``maximum`` of the number. Every key has a description and an example
+(:mod:`stackdsl.lang.schema_docs`). Two copies are shipped: ``schema/scenario.schema.json``,
+which the repository's scenarios name by a relative path, and ``stackdsl/scenario.schema.json``
+inside the package, whose absolute path ``stackdsl schema --path`` prints for a file anywhere
+(``stackdsl schema --write`` regenerates both).
 
 Source: stackdsl's own.
 """
 
 from __future__ import annotations
 
+import copy
 import json
+from pathlib import Path
 from typing import Any
 
 from .schema import FORMAT_VERSION, Scenario
+from .schema_docs import documented
 from .schema_parts import structure_json_schema
 from .units import Sign, quantity_pattern
 
-SCHEMA_ID = "urn:stackdsl:scenario:1"
+#: The schema's identifier: stable for format 1, URL-shaped, and no address to fetch (the
+#: ``.invalid`` top-level domain never resolves, RFC 2606): editors are pointed at the file,
+#: :data:`PACKAGED` (``stackdsl schema --path``), which is the installed version's own.
+SCHEMA_ID = "https://stackdsl.invalid/schema/scenario/1.json"
+#: The file name of the schema shipped inside the package (``importlib.resources``).
+PACKAGED = "scenario.schema.json"
 SCHEMA_DIALECT = "https://json-schema.org/draft/2020-12/schema"
 
 _QUANTITY_STRINGS: dict[str, Sign] = {"Quantity": "any", "NonNegativeQuantity": "non-negative", "PositiveQuantity": "positive"}
@@ -132,7 +143,8 @@ def json_schema() -> dict[str, Any]:
     schema["properties"] = {
         name: value if name in _NOT_RANDOM_FIELDS else _or_random(value) for name, value in schema["properties"].items()
     }
-    schema["$defs"]["Distribution"] = DISTRIBUTION
+    schema["$defs"]["Distribution"] = copy.deepcopy(DISTRIBUTION)
+    documented(schema)  # a description and an example for every key
     return {
         "$schema": SCHEMA_DIALECT,
         "$id": SCHEMA_ID,
@@ -145,3 +157,16 @@ def json_schema() -> dict[str, Any]:
         ),
         **schema,
     }
+
+
+def packaged_path() -> Path:
+    """The absolute path of the schema file installed with the package (:data:`PACKAGED`), for
+    a ``# yaml-language-server: $schema=PATH`` line in a scenario file anywhere."""
+    from importlib.resources import files
+
+    return Path(str(files("stackdsl") / PACKAGED)).resolve()
+
+
+def schema_text() -> str:
+    """The schema as the shipped files hold it: JSON indented by 2, a newline at the end."""
+    return json.dumps(json_schema(), indent=2) + "\n"

@@ -19,6 +19,7 @@ Source: stackdsl's own (errors at file:line:col), after Tavern.
 from __future__ import annotations
 
 import re
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -30,6 +31,7 @@ from .errors import FieldPath, ScenarioError, SourceMap
 from .sampling import Template
 from .scenario_file import character_name, check_characters, file_problem, read_text
 from .schema import Scenario
+from .unit_slips import UnitSlipWarning, unit_slips
 from .validate import raised_in_library, validate
 from .validation_errors import shown
 
@@ -64,6 +66,10 @@ def load_scenario(path: str | Path, seed: int | None = None) -> Scenario:
     return parse_scenario(read_text(path), file=str(path), seed=seed)
 
 
+#: At most this many unit slips of a file are shown (the rest are counted).
+SLIPS_SHOWN = 5
+
+
 def parse_scenario(text: str, file: str = "<scenario>", seed: int | None = None) -> Scenario:
     """Validate scenario YAML given as text; ``file`` names it in errors; ``seed``, when given,
     replaces the file's ``seed``.
@@ -87,9 +93,13 @@ def parse_scenario(text: str, file: str = "<scenario>", seed: int | None = None)
     if seed is not None and isinstance(data, dict):
         data["seed"] = seed
     template = Template.of(data, source)
-    if template is not None:
-        return template.scenario(0, 0, checked=True)
-    return validate(data, source)
+    scenario = template.scenario(0, 0, checked=True) if template is not None else validate(data, source)
+    slips = unit_slips(data, source)  # a valid file's (a refused one has its error to read)
+    for slip in slips[:SLIPS_SHOWN]:
+        warnings.warn(UnitSlipWarning(slip), stacklevel=2)
+    if len(slips) > SLIPS_SHOWN:
+        warnings.warn(UnitSlipWarning(f"{file}: warning: {len(slips) - SLIPS_SHOWN} more bare numbers like these"), stacklevel=2)
+    return scenario
 
 
 class _Loader(yaml.SafeLoader):

@@ -13,7 +13,7 @@ that put the wrong value there.
 >>> t.cells, t.samples, [t.scenario(1, k).structure.tower.levels for k in range(8)]
 (2, 4, [3, 3, 3, 3, 2, 2, 2, 3])
 >>> t.parameters(1, 4)
-{'timing.interval': 1, 'structure.tower.levels': 2}
+{'timing.interval': 1.0, 'structure.tower.levels': 2}
 
 Source: stackdsl's own.
 """
@@ -30,7 +30,7 @@ from .distributions import Distribution, draw, find
 from .errors import FieldPath, ScenarioError, SourceMap
 from .schema import Scenario
 from .schema_sweep import MAX_SAMPLES, MAX_SWEEP_RUNS
-from .units import in_unit, split_quantity
+from .units import in_language_units, in_unit, language_unit, split_quantity
 from .validate import validate
 
 #: Fields the concrete form of a tower's per-layer and per-brick draws lands in, and the field written.
@@ -163,24 +163,31 @@ class Template:
         return scenario
 
     def parameters(self, c: int, k: int, attempt: int = 0) -> dict[str, Any]:
-        """What cell ``c``'s sample ``k`` (its draw ``attempt``) drew and took from the grid: field
-        -> value, each a number of the unit its distribution or grid field is written in (a list
-        for a tower's per-layer or per-brick draws)."""
+        """What cell ``c``'s sample ``k`` (its draw ``attempt``) drew and took from the grid: column -> value, each a
+        number in the unit a bare number means for its field (SI; angles in degrees), the column
+        named with that unit when the file wrote one (``"timing.placement_error [m]"``; a list
+        for a tower's per-layer or per-brick draws; a value that is no number, as written)."""
         data = self._data(c, k, attempt)
-        out: dict[str, Any] = dict(self.cell(c))
+        out: dict[str, Any] = {}
+        for (_, key, values), value in zip(self.grid, self.cell(c).values()):
+            number, _ = in_language_units(value)
+            out[_column(key, _grid_unit(tuple(values)))] = number
         grid_paths = [path for path, _, _ in self.grid]
         for d in self.distributions:
             if any(d.path[: len(p)] == p for p in grid_paths):
                 continue
+            factor, unit = language_unit(d.unit) if d.unit else (1.0, "")
+            column = _column(d.label, unit)
             if d.per == "sample":
-                out[d.label] = _number(_get(data, d.path), d.unit)
+                out[column] = _scaled(_number(_get(data, d.path), d.unit), factor)
             elif d.path[:3] == ("structure", "tower", "shift"):
                 part = d.path[3:]
-                out[d.label] = [
-                    _number(_get(s, part) if part else s, d.unit) for s in _get(data, ("structure", "tower", "shifts"))
+                out[column] = [
+                    _scaled(_number(_get(s, part) if part else s, d.unit), factor)
+                    for s in _get(data, ("structure", "tower", "shifts"))
                 ]
             else:
-                out[d.label] = [_number(v, d.unit) for v in _get(data, d.path)]
+                out[column] = [_scaled(_number(v, d.unit), factor) for v in _get(data, d.path)]
         return out
 
     def _check_values(self) -> None:
@@ -298,6 +305,22 @@ def _number(value: Any, unit: str) -> Any:
         return in_unit(value, unit) if unit else split_quantity(value)[0]
     except ValueError:
         return value
+
+
+def _column(label: str, unit: str) -> str:
+    """A parameter's column name: ``"timing.placement_error [m]"``, or the label alone without a unit."""
+    return f"{label} [{unit}]" if unit else label
+
+
+def _grid_unit(values: tuple[Any, ...]) -> str:
+    """The unit of a grid field's column: that of its values written with one (a bare number in
+    the same list is in that unit already), else ``""``."""
+    return next((unit for unit in (in_language_units(v)[1] for v in values) if unit), "")
+
+
+def _scaled(value: Any, factor: float) -> Any:
+    """``value`` times ``factor`` when it is a number (a drawn choice of names stays as it is)."""
+    return value * factor if isinstance(value, (int, float)) and not isinstance(value, bool) and factor != 1.0 else value
 
 
 def _shown(values: dict[str, Any]) -> str:

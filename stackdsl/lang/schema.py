@@ -34,7 +34,9 @@ from .bounds import (
     MAX_BRICKS,
     BoundedDensity,
     CollapseThreshold,
+    DropGap,
     Number,
+    PlacementError,
     RestAngularSpeed,
     RestSpeed,
     Side,
@@ -55,7 +57,6 @@ from .schema_parts import LAYOUTS, RESERVED, Parts, as_parts, named_parts
 from .schema_require import Requirement
 from .schema_sweep import Sweep
 from .units import (
-    Length,
     Time,
 )
 from .yaml_out import yaml_text
@@ -148,8 +149,8 @@ class Timing(StrictModel):
 
     interval: Annotated[Time, Field(gt=0, le=60)] = 1.0
     settle: Annotated[Time, Field(ge=0, le=600)] = 2.0
-    drop_gap: Annotated[Length, Field(ge=0, le=0.05)] = 0.0005
-    placement_error: Annotated[Length, Field(ge=0, le=0.01)] = 0.0
+    drop_gap: DropGap = 0.0005
+    placement_error: PlacementError = 0.0
 
 
 MAX_TIMESTEP = 0.010  # s

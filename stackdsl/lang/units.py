@@ -173,15 +173,26 @@ def within(
     Source: stackdsl's own.
     """
 
+    def inside(number: float) -> bool:
+        return low < number <= high if above else low <= number <= high
+
     def check(value: Any) -> Any:
         number = convert(value)
-        if isinstance(number, float) and math.isfinite(number) and not (low < number <= high if above else low <= number <= high):
+        if isinstance(number, float) and math.isfinite(number) and not inside(number):
             reason = "" if number <= 0 < low else why if isinstance(why, str) else why[number > high]  # no reason for <= 0
-            raise ValueError(f"expected {shown}, got {value!r}" + (f"; {reason}" if reason else ""))
+            slip = ""
+            if convert is length and number > high and bare(value) and inside(number / 1000):
+                slip = f" ({value:g} m: a bare number is metres; did you mean '{value:g} mm'?)"
+            raise ValueError(f"expected {shown}, got {value!r}{slip}" + (f"; {reason}" if reason else ""))
         return number
 
     bounds = Field(gt=low, le=high) if above else Field(ge=low, le=high)
     return Annotated[kind, bounds, BeforeValidator(check)]
+
+
+def bare(value: Any) -> bool:
+    """Whether ``value`` is a YAML number (not a string with a unit, not true/false)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
 def real(value: Any) -> Any:
@@ -217,6 +228,46 @@ def split_quantity(value: Any) -> tuple[float, str]:
     if not math.isfinite(number):
         raise ValueError(f"expected a finite number, got {value!r}")
     return number, unit
+
+
+#: The unit a bare number means in a scenario, by the kind of quantity (pint's names), and how
+#: tables name it: SI, with angles in degrees as the language reads them.
+LANGUAGE_UNITS = (("m", "m"), ("s", "s"), ("m/s", "m/s"), ("kg/m**3", "kg/m^3"), ("rad/s", "rad/s"), ("degree", "deg"))
+
+
+@lru_cache(maxsize=256)
+def language_unit(unit: str) -> tuple[float, str]:
+    """(factor, name) that turn a number of ``unit`` (as written: ``"mm"``) into one of the unit
+    a bare number means for its kind of quantity (``(0.001, "m")``); ``(1.0, unit)`` for a unit of
+    another kind or one pint does not know.
+
+    >>> language_unit("mm"), language_unit("km/h"), language_unit("rad")
+    ((0.001, 'm'), (0.2777777777777778, 'm/s'), (57.29577951308232, 'deg'))
+    """
+    ureg = _registry()
+    try:
+        quantity = ureg.Quantity(1.0, ureg.parse_units(unit))
+        for target, name in LANGUAGE_UNITS:
+            units = ureg.parse_units(target)
+            if quantity.dimensionality == units.dimensionality:
+                return float(quantity.to(units).magnitude), name
+    except Exception:  # pint raises many kinds: a unit it does not know
+        pass
+    return 1.0, unit
+
+
+def in_language_units(value: Any) -> tuple[Any, str]:
+    """A value of a scenario as (number in the unit a bare number means, that unit's name):
+    ``"2 mm"`` -> ``(0.002, "m")``, ``3`` -> ``(3.0, "")`` (a bare number is that unit already);
+    anything that is not a number or a quantity unchanged, with ``""``."""
+    try:
+        number, unit = split_quantity(value)
+    except ValueError:
+        return value, ""
+    if not unit:
+        return number, ""
+    factor, name = language_unit(unit)
+    return number * factor, name
 
 
 def in_unit(value: Any, unit: str) -> float:

@@ -1,5 +1,5 @@
-"""Plain data read from YAML to a validated :class:`~stackdsl.lang.schema.Scenario`, the first
-problem as one :class:`~stackdsl.lang.errors.ScenarioError` at its node.
+"""Plain data read from YAML to a validated :class:`~stackdsl.lang.schema.Scenario`, its
+problems as one :class:`~stackdsl.lang.errors.ScenarioError`, each at its node.
 
 Source: stackdsl's own (errors at file:line:col), after Tavern.
 """
@@ -35,7 +35,7 @@ def validate(
         note: put before the message of an error at a relocated field ("sample 3 draws 61 mm").
 
     Raises:
-        ScenarioError: the first problem, at its node.
+        ScenarioError: the first problem at its node, the others after it (at most 10 in all).
     """
     try:
         scenario = Scenario.model_validate(data)
@@ -48,7 +48,7 @@ def validate(
     problems = reference_errors(scenario)
     if problems:
         path, message = problems[0]
-        raise source.error(path, message, more=len(problems) - 1)
+        raise source.error(path, message).with_others([source.error(p, m) for p, m in problems[1:]])
     if scenario.name is None:
         scenario = scenario.model_copy(update={"name": Path(source.file).stem})
     scenario._source = source

@@ -1,4 +1,4 @@
-"""pydantic's validation errors as one :class:`ScenarioError` at the YAML node, and the
+"""pydantic's validation errors as one :class:`ScenarioError`, each at its YAML node, and the
 references the schema cannot check (names of brick types and materials, brick ids).
 
 Unknown keys come first (with the closest allowed key), then the rest in file order; a
@@ -45,7 +45,8 @@ def first_error(
 
 
 def _first_error_here(exc: ValidationError, source: SourceMap) -> ScenarioError:
-    """The first of pydantic's errors as a ScenarioError: unknown keys first, then by position."""
+    """Pydantic's errors as one ScenarioError: unknown keys first, then by position, the first
+    with the others after it (:meth:`ScenarioError.with_others`)."""
     errors = exc.errors(include_url=False)
     typo_parents = {tuple(e["loc"][:-1]) for e in errors if e["type"] == "extra_forbidden"}
     errors = [e for e in errors if not (e["type"] == "missing" and tuple(e["loc"][:-1]) in typo_parents)]
@@ -56,7 +57,19 @@ def _first_error_here(exc: ValidationError, source: SourceMap) -> ScenarioError:
         return err["type"] != "extra_forbidden", where.line or 0, where.column or 0
 
     errors.sort(key=order)
-    err = errors[0]
+    found: list[ScenarioError] = []
+    seen: set[tuple[str, int | None, int | None]] = set()
+    for err in errors:
+        error = _one_error(err, source)
+        key = (error.field, error.line, error.column)
+        if key not in seen:  # a union's members each refuse the same node: say it once
+            seen.add(key)
+            found.append(error)
+    return found[0].with_others(found[1:])
+
+
+def _one_error(err: ErrorDetails, source: SourceMap) -> ScenarioError:
+    """One of pydantic's errors as a ScenarioError at its node, in the language's words."""
     tagged = tuple(err["loc"])
     loc = _untagged(tagged)
     if err["type"] == "extra_forbidden":
@@ -65,18 +78,22 @@ def _first_error_here(exc: ValidationError, source: SourceMap) -> ScenarioError:
         allowed = fields_at(tagged[:-1])
         close = difflib.get_close_matches(key, allowed, n=1)
         message += f"; did you mean {close[0]!r}?" if close else f"; allowed: {', '.join(allowed)}"
-        return source.error(loc, message, at_key=True, more=len(errors) - 1)
+        return source.error(loc, message, at_key=True)
     if err["type"] == "missing":
         message = "required field is missing"
         if loc == ("stackdsl",):
             message += "; a scenario file starts with 'stackdsl: 1' (the format version)"
-        return source.error(loc, message, more=len(errors) - 1)
+        return source.error(loc, message)
     if not loc:
         return source.error(loc, "a scenario file is a mapping of fields, starting with 'stackdsl: 1'")
-    message = err["msg"].removeprefix("Value error, ")
+    if err["type"] == "model_type":  # pydantic's words name our classes ("instance of Probability")
+        allowed = fields_at(tagged)
+        message = "expected a mapping" + (f" of {', '.join(allowed)}" if allowed else "")
+    else:
+        message = err["msg"].removeprefix("Value error, ")
     if "input" in err and err["type"] not in ("value_error",) and not isinstance(err["input"], (dict, list)):
         message += f", got {shown(err['input'])}"
-    return source.error(loc, message, more=len(errors) - 1)
+    return source.error(loc, message)
 
 
 def shown(value: Any, limit: int = 60) -> str:

@@ -18,7 +18,9 @@ inside its support's edge can rock on landing until its far end is 8 mm up, and 
 A brick that tips over, slides off or is knocked away has collapsed. The collapse is dated
 from the moment the brick was first displaced, and its level is the highest level placed
 then: bricks placed while the monitor waits to tell a rock from a fall do not raise the level.
-The definition is the same in every mode.
+The brick that passed the threshold first is named with its own level (the first moved: where
+a blow began the collapse, which can lie below the collapse level). The definition is the same
+in every mode.
 
 When the run ends without a collapse, the monitor asks for the certificate of the structure
 as it stands (:meth:`stability.StabilityExtension.certificate`): rigid-block equilibrium of

@@ -1,7 +1,8 @@
 """The Outcome of a run: timeline, collapse record, brick graphs, timings.
 
 Brick graphs here are the snapshot form of :class:`stability.BrickGraph`: bricks named
-by their scenario ids, poses rounded to 0.1 mm and 0.1 deg, centre of mass above in mm,
+by their scenario ids, positions rounded to 0.1 mm and orientations to canonical quaternions
+of 3 decimals, centre of mass above in mm,
 mass above in grams, contact areas in mm^2 and load shares to 0.001 (docs/design.md, "brick
 graph"). Source: stackdsl's own.
 """
@@ -12,11 +13,14 @@ import math
 import warnings
 from typing import Any, Literal
 
+import numpy as np
 from pydantic import BaseModel, ConfigDict
+from scipy.spatial.transform import Rotation
 
-from stability import BrickGraph, Pose
+from stability import BrickGraph
 
 Vec3 = tuple[float, float, float]
+Vec4 = tuple[float, float, float, float]
 
 
 class _Frozen(BaseModel):
@@ -93,15 +97,26 @@ def describe_certificate(c: Certificate) -> str:
 
 
 class Node(_Frozen):
-    """A brick of the graph (ground: level None, state "ground")."""
+    """A brick of the graph (ground: level None, state "ground").
+
+    ``quaternion_xyzw`` is its orientation as scipy writes a quaternion, (x, y, z, w), to 3
+    decimals (about 0.1 deg, as the angles were), in canonical sign (w > 0; when w rounds to 0, the first nonzero part > 0): unlike
+    yaw, pitch and roll it has no gimbal lock (a standing brick's yaw and roll are one angle
+    there, and scipy warns), and a small turn changes it a little."""
 
     id: str
     level: int | None
     state: str
     position_mm: Vec3
-    yaw_pitch_roll_deg: Vec3
+    quaternion_xyzw: Vec4
     com_above_mm: Vec3
     mass_above_g: float
+
+    @property
+    def yaw_pitch_roll_deg(self) -> Vec3:
+        """Yaw, pitch and roll (degrees, intrinsic z-y-x as in the scenario language), rounded to
+        0.1 deg; at pitch ±90 deg the roll is 0 and the yaw carries the turn (no warning)."""
+        return _degrees(euler_degrees(self.quaternion_xyzw))
 
 
 class Edge(_Frozen):
@@ -131,7 +146,7 @@ class Graph(_Frozen):
                 level=levels.get(n.label),
                 state=n.state.value,
                 position_mm=_mm(n.pose.position),
-                yaw_pitch_roll_deg=_degrees(_euler(n.pose)),
+                quaternion_xyzw=canonical_quaternion(n.pose.orientation),
                 com_above_mm=_mm(n.com_above),
                 mass_above_g=_round(n.mass_above * 1000, 1),
             )
@@ -161,7 +176,7 @@ class Graph(_Frozen):
                 "level": n.level,
                 "state": n.state,
                 "position_mm": list(n.position_mm),
-                "yaw_pitch_roll_deg": list(n.yaw_pitch_roll_deg),
+                "quaternion_xyzw": list(n.quaternion_xyzw),
                 "com_above_mm": list(n.com_above_mm),
                 "mass_above_g": n.mass_above_g,
                 "rests_on": supports.get(n.id, {}),
@@ -175,7 +190,8 @@ class Outcome(_Frozen):
     """What a run produced.
 
     Attributes:
-        scenario, mode: what ran.
+        scenario, mode, backend: what ran (backend: the engine, pybullet or mujoco; not part of
+            a golden snapshot, which is the scenario's own engine's).
         collapse: the first collapse, or None when the structure stood.
         events: the timeline.
         final_graph: the brick graph at the end; collapse_graph: at the first collapse.
@@ -206,6 +222,7 @@ class Outcome(_Frozen):
     scenario: str
     mode: str
     collapse: Collapse | None
+    backend: str = "pybullet"
     events: tuple[Event, ...]
     final_graph: Graph
     collapse_graph: Graph | None
@@ -258,14 +275,39 @@ def _mm(v: Any) -> Vec3:
     return x, y, z
 
 
-def _euler(pose: Pose) -> tuple[float, float, float]:
-    """A pose's yaw, pitch and roll, degrees. On end (pitch within 0.05 deg of +-90, a domino)
-    only yaw - roll (at +90) or yaw + roll (at -90) is defined, and the engine's reading splits it
-    at random: it is given as the yaw, with roll 0 (stackdsl's own convention)."""
+def canonical_quaternion(quaternion: Any) -> Vec4:
+    """A unit quaternion (x, y, z, w) rounded to 3 decimals (about 0.1 deg), in canonical sign: w > 0, or when w
+    rounds to 0 the first nonzero part > 0 (q and -q are the same turn; scipy's
+    ``as_quat(canonical=True)``, applied after rounding so that rounding cannot flip it).
+
+    >>> canonical_quaternion([0.0, 0.0, -1.0, -1e-9]), canonical_quaternion([0, 0, 0.70710678, -0.70710678])
+    ((0.0, 0.0, 1.0, 0.0), (0.0, 0.0, -0.707, 0.707))
+    """
+    q = Rotation.from_quat(np.asarray(quaternion, dtype=float)).as_quat(canonical=True)
+    x, y, z, w = (_round(c, 3) for c in q)
+    parts = (x, y, z, w)
+    first = next((c for c in (w, x, y, z) if c != 0.0), 1.0)
+    if first < 0:
+        parts = tuple(-c + 0.0 for c in parts)  # type: ignore[assignment]
+    return parts
+
+
+def euler_degrees(quaternion: Any) -> Vec3:
+    """Yaw, pitch, roll in degrees (intrinsic z-y-x) of a quaternion (x, y, z, w), without
+    scipy's gimbal-lock warning. On end (pitch within 0.2 deg of +-90, a domino: two quaternion
+    decimals' worth, as a graph node keeps three) only yaw - roll
+    (at +90) or yaw + roll (at -90) is defined, and an engine's reading splits it at random: it
+    is given as the yaw, with roll 0 (stackdsl's own convention).
+
+    >>> [round(a, 6) + 0.0 for a in euler_degrees([0.0, 0.70710678, 0.0, 0.70710678])]
+    [0.0, 90.0, 0.0]
+    """
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", UserWarning)  # scipy's gimbal-lock warning: handled below
-        yaw, pitch, roll = (float(a) for a in pose.euler_degrees())
-    if abs(pitch) > 89.95:
+        warnings.filterwarnings("ignore", message="Gimbal lock detected")
+        yaw, pitch, roll = (
+            float(c) for c in Rotation.from_quat(np.asarray(quaternion, dtype=float)).as_euler("ZYX", degrees=True)
+        )
+    if abs(pitch) > 89.8:
         yaw, roll = math.remainder(yaw - roll if pitch > 0 else yaw + roll, 360.0), 0.0
     return yaw, pitch, roll
 

@@ -4,6 +4,7 @@ It takes a frame
 
 * when a brick is placed or a projectile thrown, and when the timeline gets an event (a
   freeze, a wake, an impact, the collapse);
+* :data:`FLIGHT_FRAMES` times evenly within each projectile's flight to its target;
 * every ``1 / rate`` simulated seconds while anything moves: a body the stability
   extension has not frozen is faster than its rest speed or rest angular speed (one more
   frame when everything has come to rest);
@@ -28,7 +29,7 @@ import numpy as np
 
 from stability import Pose
 
-from ..compile.program import Program
+from ..compile.program import Launch, Program
 from .bricks import BrickRecord
 from .loop import StepLoop, Subscriber
 from .outcome import Outcome
@@ -46,6 +47,9 @@ from .trajectory import (
 
 #: Frames a simulated second while anything moves, by default.
 RATE = 30.0
+#: Frames taken evenly within each projectile's flight to its target (when it lasts that many
+#: steps): a throw at 2.4 m/s crosses its 50 mm in 21 ms, less than one frame at :data:`RATE`.
+FLIGHT_FRAMES = 2
 _COS_HALF_TOLERANCE = math.cos(ANGLE_TOLERANCE / 2.0)
 
 
@@ -81,6 +85,7 @@ class Recorder(Subscriber):
         self._next_sample = 0
         self._moving = False
         self._seen_events = 0
+        self._flight: set[int] = set()  # steps at which a projectile in flight is recorded
 
     # hooks --------------------------------------------------------------------
     def on_place(self, loop: StepLoop, record: BrickRecord) -> None:
@@ -90,9 +95,15 @@ class Recorder(Subscriber):
     def on_launch(self, loop: StepLoop, record: BrickRecord) -> None:
         self._records.append(record)
         self._frame(loop)
+        launch = next((a for a in self.program.actions if isinstance(a, Launch) and a.id == record.id), None)
+        if launch is not None:  # frames in the flight too, however short: a clip shows the throw
+            dt, flight = self.program.engine.timestep, max(launch.arrival - launch.time, 0.0)
+            steps = {loop.step + round(flight * k / (FLIGHT_FRAMES + 1) / dt) for k in range(1, FLIGHT_FRAMES + 1)}
+            self._flight |= {s for s in steps if s > loop.step}
 
     def after_step(self, loop: StepLoop) -> None:
-        if len(loop.events) != self._seen_events:  # a freeze, a wake, an impact or the collapse
+        if len(loop.events) != self._seen_events or loop.step in self._flight:  # a freeze, a wake, an impact, the collapse
+            self._flight.discard(loop.step)
             self._frame(loop)
         elif loop.step >= self._next_sample:
             moving = self._anything_moves(loop)

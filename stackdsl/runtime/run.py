@@ -214,6 +214,7 @@ def outcome(loop: StepLoop, wall_time: float) -> Outcome:
     return Outcome(
         scenario=loop.program.name,
         mode=loop.program.engine.mode,
+        backend=loop.program.engine.backend,
         collapse=monitor.collapse,
         events=tuple(loop.events),
         final_graph=stability.graph(loop),

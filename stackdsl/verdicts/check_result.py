@@ -19,7 +19,12 @@ class CheckResult:
         file, scenario, mode, model, backend: what ran (model: the stability model; backend:
             the engine, pybullet or mujoco).
         verdicts: one per expectation (empty: the file expects nothing).
-        collapse_level: measured, or None when the structure stood.
+        collapse_level: measured, or None when the structure stood (the highest level placed
+            when the first brick moved past the collapse threshold).
+        first_moved, first_moved_level: the brick that moved first and its own level (a blow
+            at level 8 of a 10-level tower: collapse level 10, first moved level 8), or ``""``
+            and None when the structure stood.
+        moved_levels: the levels with a brick beyond the collapse threshold at the end.
         levels_placed: how many levels were built.
         simulated_time, wall_time: seconds.
         drift: metres, the largest displacement of a brick that stood (``Outcome.drift``).
@@ -68,6 +73,9 @@ class CheckResult:
     refused: str = ""
     sweep: str = ""
     certificate: str = ""
+    first_moved: str = ""
+    first_moved_level: int | None = None
+    moved_levels: tuple[int, ...] = ()
 
     @property
     def passed(self) -> bool:
@@ -87,14 +95,16 @@ class CheckResult:
 
     @property
     def measured(self) -> str:
-        """What was measured, as in check's table: ``'collapse 13, levels 1-12 stayed'``; the
-        error or what stopped the run when either happened."""
+        """What was measured, as in check's table: ``'collapse 13 from L13.2 (level 13), level 13
+        moved'`` (:func:`stackdsl.verdicts.expect.describe`); the error or what stopped the run
+        when either happened."""
         if self.refused:
             return "refused"
         if self.error or self.stopped or self.bad_input:
             return self.error or self.stopped or "bad input in a sample"
         if self.sweep:
             return self.sweep
-        described = describe(self.collapse_level)
+        first = (self.first_moved, self.first_moved_level) if self.first_moved_level is not None else None
+        described = describe(self.collapse_level, first, self.moved_levels)
         extra = [v.measured for v in self.verdicts if v.name in ("stays", "moved", "toppled")]
         return ", ".join([described, *extra])

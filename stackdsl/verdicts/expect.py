@@ -5,7 +5,7 @@ Source: stackdsl's own (docs/design.md, words: collapse level).
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 
 from pydantic import BaseModel, ConfigDict
 
@@ -31,7 +31,7 @@ def evaluate(expect: Expect, outcome: Outcome, threshold: float) -> list[Verdict
     failed ``finished`` verdict: what it did not simulate was not checked.
     """
     verdicts = []
-    measured = describe(outcome.collapse.level if outcome.collapse else None)
+    measured = describe_outcome(outcome, threshold)
     if isinstance(expect.collapse, CollapseLevel):  # a sweep's statistics are decided over its samples
         c = expect.collapse
         passed = outcome.collapse is not None and abs(outcome.collapse.level - c.level) <= c.tolerance
@@ -88,6 +88,21 @@ def evaluate(expect: Expect, outcome: Outcome, threshold: float) -> list[Verdict
 def _moved_levels(outcome: Outcome, threshold: float) -> set[int]:
     levels = _levels(outcome)
     return {lv for b, d in outcome.displacement.items() if d > threshold and (lv := levels.get(b)) is not None}
+
+
+def moved_levels(outcome: Outcome, threshold: float) -> tuple[int, ...]:
+    """The levels of the structure bricks more than ``threshold`` (m) from their placed pose at
+    the end of the run, ascending: where a collapse (or a blow) left the structure. Source:
+    stackdsl's own (docs/design.md, words: collapse level)."""
+    return tuple(sorted(_moved_levels(outcome, threshold)))
+
+
+def describe_outcome(outcome: Outcome, threshold: float) -> str:
+    """What a run measured, in words (:func:`describe`): the collapse level, the brick that
+    moved first and its level, and the levels moved at the end (``threshold`` in m)."""
+    c = outcome.collapse
+    first = (c.brick, c.brick_level) if c is not None else None
+    return describe(c.level if c is not None else None, first, moved_levels(outcome, threshold))
 
 
 def _levels(outcome: Outcome) -> dict[str, int | None]:
@@ -191,10 +206,21 @@ def _mm(metres: float) -> str:
     return f"{mm:.1f} mm" if mm >= 1 else f"{mm:.2g} mm"
 
 
-def describe(collapse_level: int | None) -> str:
-    """``'collapse 9'`` or ``'stands'``.
+def describe(collapse_level: int | None, first: tuple[str, int] | None = None, moved: Sequence[int] = ()) -> str:
+    """``'collapse 9'`` or ``'stands'``; with ``first`` (the brick that moved first and its
+    level) and ``moved`` (the levels moved at the end), both named after it. The collapse
+    level is the highest level placed when the first brick moved past the threshold (the
+    report's "collapses at level N" of a tower being built); ``first`` says where it began,
+    which after a blow can be lower.
 
     >>> describe(9), describe(None)
     ('collapse 9', 'stands')
+    >>> describe(10, ("L08.1", 8), [8, 9, 10])
+    'collapse 10 from L08.1 (level 8), levels 8-10 moved'
     """
-    return "stands" if collapse_level is None else f"collapse {collapse_level}"
+    text = "stands" if collapse_level is None else f"collapse {collapse_level}"
+    if first is not None:
+        text += f" from {first[0]} (level {first[1]})"
+    if moved:
+        text += f", level{'s' * (len(moved) > 1)} {span(moved)} moved"
+    return text

@@ -3,7 +3,7 @@
 A snapshot is plain JSON. Its brick graphs are objects keyed by brick id, and each brick
 is written on one line, so that a diff names the brick::
 
-    "L05.1": {"level": 5, "state": "frozen", "position_mm": [75.2, 0.0, 36.0], ...}
+    "L05.1": {"level": 5, "state": "frozen", "position_mm": [75.2, 0.0, 36.0], "quaternion_xyzw": [0.0, 0.0, 0.0, 1.0], ...}
 
 :func:`summarize` compares two snapshots and says, per brick, what changed
 (``L05.1: x 75.2 -> 70.2 mm; frozen -> active``); the pytest plugin prints it before
@@ -27,6 +27,7 @@ Source: stackdsl's own (the brick graph of docs/design.md).
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 from typing import Any
 
@@ -108,12 +109,14 @@ def _graph_changes(before: dict[str, Any], after: dict[str, Any]) -> list[str]:
 
 def _brick_changes(a: dict[str, Any], b: dict[str, Any]) -> list[str]:
     changes = _vector("position_mm", _AXES, "mm", a, b) + _vector("yaw_pitch_roll_deg", _ANGLES, "deg", a, b)
+    changes += _turn(a.get("quaternion_xyzw"), b.get("quaternion_xyzw"))
     if a.get("state") != b.get("state"):
         changes.append(f"{a.get('state')} -> {b.get('state')}")
     if a.get("rests_on") != b.get("rests_on"):
         changes.append(f"rests on {_supports(a)} -> {_supports(b)}")
+    shown = ("state", "position_mm", "yaw_pitch_roll_deg", "quaternion_xyzw", "rests_on")
     for key in dict.fromkeys([*a, *b]):
-        if key not in ("state", "position_mm", "yaw_pitch_roll_deg", "rests_on") and a.get(key) != b.get(key):
+        if key not in shown and a.get(key) != b.get(key):
             changes.append(f"{key} {_short(a.get(key))} -> {_short(b.get(key))}")
     return changes
 
@@ -125,6 +128,19 @@ def _vector(key: str, names: tuple[str, ...], unit: str, a: dict[str, Any], b: d
     if not (isinstance(u, list) and isinstance(v, list) and len(u) == len(v) == len(names)):
         return [f"{key} {_short(u)} -> {_short(v)}"]
     return [f"{name} {p} -> {q} {unit}" for name, p, q in zip(names, u, v) if p != q]
+
+
+def _turn(u: Any, v: Any) -> list[str]:
+    """How far a brick turned between two orientations (quaternions x, y, z, w): ``turned 12.3
+    deg``; the values themselves when either is not a quaternion."""
+    if u == v:
+        return []
+    if not (isinstance(u, list) and isinstance(v, list) and len(u) == len(v) == 4):
+        return [f"quaternion_xyzw {_short(u)} -> {_short(v)}"]
+    from scipy.spatial.transform import Rotation
+
+    angle = (Rotation.from_quat(v) * Rotation.from_quat(u).inv()).magnitude()
+    return [f"turned {angle * 180 / math.pi:.1f} deg"]
 
 
 def _supports(brick: dict[str, Any]) -> str:

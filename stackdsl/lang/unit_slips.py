@@ -1,0 +1,82 @@
+"""Unit slips: a bare number in a length field that is implausible in metres, most likely
+millimetres written without their unit (``collapse_threshold: 4``, ``at: [0, 48, 4]``).
+
+A bare number in a scenario is SI, so ``4`` is four metres. A value out of the field's range is
+refused, and the refusal says so (:func:`stackdsl.lang.units.within`); one within the range but far
+beyond what a scene of bricks uses is run as written, with a warning (:class:`UnitSlipWarning`)
+at its file:line:col naming the value in millimetres.
+
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterator
+from typing import Any
+
+from .errors import FieldPath, SourceMap, format_path
+from .units import bare
+
+#: Length fields (their paths, ``#`` for any list index, ``*`` for any name) and the largest bare
+#: number of metres that is plausible there; beyond it, the value in millimetres is meant.
+PLAUSIBLE: dict[str, float] = {
+    "brick_types.*.size[#]": 1.0,  # a brick side of a metre or more
+    "structure.bricks[#].at[#]": 10.0,  # a room-sized scene
+    "structure.tower.origin[#]": 10.0,
+    "structure.card_house.origin[#]": 10.0,
+    "impacts[#].target.point[#]": 10.0,
+    "structure.tower.spacing": 1.0,
+    "structure.card_house.spacing": 1.0,
+    "structure.tower.shift": 1.0,
+    "structure.tower.shift[#]": 1.0,
+    "structure.tower.shifts[#]": 1.0,
+    "structure.tower.shifts[#][#]": 1.0,
+    "impacts[#].distance": 1.0,
+    "collapse_threshold": 0.1,
+}
+_PATTERNS = [
+    (re.compile("^" + re.escape(k).replace(r"\#", "[0-9]+").replace(r"\*", "[^.\\[]+") + "$"), v) for k, v in PLAUSIBLE.items()
+]
+
+
+class UnitSlipWarning(UserWarning):
+    """A bare number of metres in a length field that is probably millimetres; ``str()`` is the
+    whole message, ``file:line:col: warning: field: ...``."""
+
+
+def unit_slips(data: Any, source: SourceMap) -> list[str]:
+    """The unit slips of a scenario's plain data (read from ``source``), one message each, in
+    file order: ``t.yaml:3:20: warning: collapse_threshold: 4 is read as 4 m (a bare number is
+    metres); did you mean '4 mm'?``."""
+    found = []
+    for path, value in _leaves(data, ()):
+        name = format_path(path)
+        limit = next((v for pattern, v in _PATTERNS if pattern.match(name)), None)
+        if limit is None or not bare(value) or abs(value) <= limit or abs(value) / 1000 > limit:
+            continue
+        error = source.error(path, "")
+        where = source.file if error.line is None else f"{source.file}:{error.line}:{error.column}"
+        found.append(
+            (
+                error.line or 0,
+                error.column or 0,
+                f"{where}: warning: {name}: {value:g} is read as {value:g} m (a bare number is metres); "
+                f"did you mean '{value:g} mm'?",
+            )
+        )
+    return [text for *_, text in sorted(found)]
+
+
+def _leaves(data: Any, path: FieldPath) -> Iterator[tuple[FieldPath, Any]]:
+    if isinstance(data, dict):
+        for key, value in data.items():
+            yield from _leaves(value, (*path, str(key)))
+    elif isinstance(data, list):
+        for i, value in enumerate(data):
+            yield from _leaves(value, (*path, i))
+    else:
+        yield path, data
+
+
+__all__ = ["PLAUSIBLE", "UnitSlipWarning", "unit_slips"]

@@ -1,0 +1,83 @@
+"""The pytest plugin's collection hint: ``pytest mine/`` collects no scenario file outside the
+folders of the ``stackdsl_paths`` ini option, and the summary says how to collect them.
+
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from itertools import islice
+from pathlib import Path
+
+import pytest
+
+#: The suffixes of scenario files the plugin collects.
+SUFFIXES = (".yaml", ".yml")
+#: At most this many YAML files under a path given to pytest are read for the collection hint.
+HINT_FILES = 1000
+
+
+def _looks_like_scenario(path: Path) -> bool:
+    """Whether a YAML file starts a stackdsl scenario: a top-level ``stackdsl:`` key in its first 4 KiB."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(4096).decode("utf-8", "replace")
+    except OSError:
+        return False
+    return re.search(r"^\ufeff?stackdsl\s*:", head, flags=re.M) is not None
+
+
+#: Where the collected test items are (set when collection ends), for :func:`uncollected`.
+_COLLECTED = pytest.StashKey[list[Path]]()
+
+
+def remember_collected(session: pytest.Session) -> None:
+    """Keep where the session's test items are (the plugin's ``pytest_collection_finish``)."""
+    session.config.stash[_COLLECTED] = [Path(item.path).resolve() for item in session.items]
+
+
+def uncollected(config: pytest.Config, ran: list[Path] | None = None) -> list[tuple[str, int]]:
+    """The paths given on pytest's command line (not its ``testpaths``) that gave no test item
+    and hold scenario files outside the folders of ``stackdsl_paths`` (so not collected): each
+    as the ``stackdsl_paths`` value that would collect it (relative to the rootdir) and how many
+    scenario files it holds. ``ran``: files whose tests reported (under pytest-xdist the items
+    are collected by the workers, and the main process sees their reports only)."""
+    if config.args_source != pytest.Config.ArgsSource.ARGS:
+        return []
+    roots = [(config.rootpath / p).resolve() for p in config.getini("stackdsl_paths")]
+    collected = [*config.stash.get(_COLLECTED, []), *(ran or [])]
+    found = []
+    for arg in config.args:
+        path = Path(config.invocation_params.dir, arg.split("::", 1)[0]).resolve()
+        if any(path.is_relative_to(root) for root in roots) or any(item.is_relative_to(path) for item in collected):
+            continue
+        if path.is_dir():
+            files = [f for suffix in SUFFIXES for f in islice(path.rglob(f"*{suffix}"), HINT_FILES)]
+        else:
+            files = [path] if path.suffix in SUFFIXES and path.is_file() else []
+        count = sum(_looks_like_scenario(f) for f in files if not any(f.is_relative_to(r) for r in roots))
+        if count:
+            folder = path if path.is_dir() else path.parent
+            found.append((Path(os.path.relpath(folder, config.rootpath)).as_posix(), count))
+    return found
+
+
+def collection_hint(config: pytest.Config, ran: list[Path] | None = None) -> list[str]:
+    """The lines of the hint for :func:`uncollected` paths (none: no hint): what each holds, the
+    command that collects it, and the ``pyproject.toml`` line that keeps it."""
+    missed = uncollected(config, ran)
+    if not missed:
+        return []
+    configured = ", ".join(config.getini("stackdsl_paths")) or "none"
+    lines = [
+        f"{folder}/ holds {count} scenario file{'s' * (count != 1)}, and pytest collects them only below "
+        f"stackdsl_paths (now: {configured})"
+        for folder, count in missed
+    ]
+    everything = ", ".join(f'"{folder}"' for folder, _ in missed)
+    if len(missed) == 1:
+        lines.append(f"run: pytest {' '.join(config.args)} -o stackdsl_paths={missed[0][0]}")
+    lines.append(f"for good, in pyproject.toml: [tool.pytest.ini_options] stackdsl_paths = [{everything}]")
+    return lines

@@ -1,0 +1,86 @@
+"""The README's claims that a command can check, each checked by running it as written: where
+goldens of a folder outside a project go, the sweep figures it quotes, and what check's -k takes."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from stackdsl.cli.main import main
+
+ROOT = Path(__file__).resolve().parents[1]
+README = (ROOT / "README.md").read_text()
+
+
+def quickstart(folder: Path) -> None:
+    (scenario,) = [b for b in re.findall(r"^```yaml\n(.*?)^```", README, flags=re.S | re.M) if "name: small tower" in b]
+    (folder / "my_scenarios").mkdir()
+    (folder / "my_scenarios" / "tower.yaml").write_text(scenario)
+
+
+def golden_command() -> tuple[list[str], str]:
+    """The README's command that writes the quickstart's golden, and the file it says it writes."""
+    (line,) = [x for x in README.splitlines() if "--snapshot-update" in x and "# writes " in x]
+    command, written = line.split("# writes ")
+    return command.split(), written.strip()
+
+
+@pytest.mark.parametrize("project", [False, True], ids=["a folder of yours", "in a project"])
+def test_the_golden_goes_where_the_readme_says(tmp_path, monkeypatch, project):
+    monkeypatch.delenv("PYTEST_XDIST_WORKER", raising=False)  # the inner run is not an xdist worker
+    quickstart(tmp_path)
+    command, written = golden_command()
+    if project:
+        (tmp_path / "pyproject.toml").write_text("[project]\nname = 'mine'\n")
+        (written,) = re.findall(r"in a project:\s+`([^`]+)`", README)
+    assert command[:3] == ["python", "-m", "pytest"]
+    run = [sys.executable, *command[1:], "-p", "no:cacheprovider", "-n", "0"]
+    done = subprocess.run(run, cwd=tmp_path, capture_output=True, text=True, check=False)
+    assert done.returncode == 0, done.stdout[-2000:]
+    goldens = sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*.json"))
+    assert goldens == [written]
+
+
+def test_check_k_takes_plain_text_and_more_than_one(tmp_path, capsys):
+    text = "stackdsl: 1\nstructure: {{tower: {{levels: 2}}}}\nexpect: {{stands: true}}\n"
+    for name in ("alpha", "beta", "gamma"):
+        (tmp_path / f"{name}.yaml").write_text(text.format())
+    assert "give `-k` again for more: any of them" in README and "not pytest's expressions" in README
+    assert main(["check", str(tmp_path), "-j", "1", "-k", "ALPHA", "-k", "gam", "--json"]) == 0
+    import json
+
+    ran = [Path(r["file"]).stem for r in json.loads(capsys.readouterr().out)["results"]]
+    assert ran == ["alpha", "gamma"]  # either text; a second -k adds, it does not replace
+    assert main(["check", str(tmp_path), "-j", "1", "-k", "alpha or beta"]) == 2  # plain text: no such name
+    err = capsys.readouterr().err
+    assert "no scenario's path or name contains 'alpha or beta'" in err and "not pytest's expressions" in err
+
+
+def sweep_figures(text: str) -> tuple[str, str, str]:
+    """(mean, low, high) of ``mean collapse level M, 95% CI [L, H]`` in ``text``."""
+    found = re.search(r"mean collapse level ([0-9.]+), 95% CI \[([0-9.]+), ([0-9.]+)\]", text)
+    assert found, text[-1000:]
+    mean, low, high = found.groups()
+    return mean, low, high
+
+
+@pytest.mark.slow
+def test_the_quoted_sweep_figures_are_what_the_command_gives(tmp_path):
+    command = re.search(r"`(stackdsl sweep sweeps/random_single_file\.yaml --samples 2000 -j 2)`", README)
+    assert command, "the README quotes the 2000-sample sweep with its command"
+    quoted = sweep_figures(README[command.end() : command.end() + 600])
+    argv = [sys.executable, "-m", "stackdsl", *command[1].split()[1:], "--out", str(tmp_path / "out")]
+    done = subprocess.run(
+        argv, cwd=ROOT, capture_output=True, text=True, check=False, env={"STACKDSL_PROGRESS_SECONDS": "0", **_env()}
+    )
+    assert sweep_figures(done.stdout) == quoted
+
+
+def _env() -> dict[str, str]:
+    import os
+
+    return {k: v for k, v in os.environ.items() if k != "STACKDSL_PROGRESS_SECONDS"}

@@ -1,0 +1,116 @@
+"""A sweep's samples for data work: samples.parquet beside the CSV (numbers in SI, units in the
+column metadata and names), the expectation's interval and threshold on the plots, and the
+report's sweep row linking its samples and plots."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+import pytest
+from PIL import Image
+
+from stackdsl.cli.main import main
+from stackdsl.draw.sweepplot import EXPECTED, plot_grid, plot_histogram
+from stackdsl.verdicts.stats import MeanWithin, ProportionBound
+
+GRID = """stackdsl: 1
+name: walk
+structure:
+  tower:
+    levels: 5
+    bricks_per_layer: 1
+    turn: 0
+    shift: {{uniform: [-40 mm, 40 mm], per: layer}}
+    yaw: {{uniform: [-2 deg, 2 deg]}}
+timing: {{settle: 0.2 s}}
+sweep:
+  samples: {samples}
+  grid: {{timing.placement_error: [0, 2 mm]}}
+expect:
+  p_stands: '>= 0.5'
+"""
+
+
+@pytest.fixture(scope="module")
+def swept(tmp_path_factory) -> Path:
+    folder = tmp_path_factory.mktemp("sweep")
+    (folder / "walk.yaml").write_text(GRID.format(samples=6))
+    assert main(["sweep", str(folder / "walk.yaml"), "-j", "1", "--out", str(folder / "out")]) in (0, 1)  # 1: not decided PASS
+    return folder / "out"
+
+
+def test_samples_parquet_holds_typed_si_numbers_with_their_units(swept):
+    table = pq.read_table(swept / "samples.parquet")
+    schema = table.schema
+    assert table.num_rows == 12
+    assert str(schema.field("collapse_level").type) == "int64" and str(schema.field("seed").type) == "uint64"
+    error = schema.field("timing.placement_error [m]")
+    assert str(error.type) == "double" and error.metadata == {b"unit": b"m"}
+    shift = schema.field("structure.tower.shift [m]")
+    assert pa.types.is_list(shift.type) and pa.types.is_float64(shift.type.value_type) and shift.metadata == {b"unit": b"m"}
+    assert schema.field("structure.tower.yaw [deg]").metadata == {b"unit": b"deg"}
+    assert schema.field("wall_time").metadata == {b"unit": b"s"}
+    units = json.loads(schema.metadata[b"stackdsl.units"])
+    assert units["timing.placement_error [m]"] == "m" and units["simulated_time"] == "s"
+    data = table.to_pylist()
+    assert sorted({r["timing.placement_error [m]"] for r in data}) == [0.0, 0.002]  # "2 mm" as metres
+    shifts = np.concatenate([r["structure.tower.shift [m]"] for r in data])
+    assert len(shifts) == 12 * 4 and np.abs(shifts).max() <= 0.04 and np.abs(shifts).max() > 0.004  # metres, not mm
+    assert all(-2 <= r["structure.tower.yaw [deg]"] <= 2 for r in data)
+    rows = list(csv.DictReader(open(swept / "samples.csv")))  # the same samples, the same numbers
+    assert [float(r["timing.placement_error [m]"]) for r in rows] == [r["timing.placement_error [m]"] for r in data]
+    assert [r["collapse_level"] or None for r in rows] == [
+        None if r["collapse_level"] is None else str(r["collapse_level"]) for r in data
+    ]
+
+
+def test_pandas_and_duckdb_read_the_samples(swept):
+    pandas = pytest.importorskip("pandas")
+    frame = pandas.read_parquet(swept / "samples.parquet")
+    assert len(frame) == 12 and frame["timing.placement_error [m]"].dtype == "float64"
+    duckdb = pytest.importorskip("duckdb")
+    cells = duckdb.sql(
+        f"""select "timing.placement_error [m]" as e, count(*) as n, avg((collapse_level is null)::int) as p
+        from '{swept / "samples.parquet"}' group by e order by e"""
+    ).fetchall()
+    assert [(e, n) for e, n, _ in cells] == [(0.0, 6), (0.002, 6)]
+    stood = frame.groupby("timing.placement_error [m]")["collapse_level"].apply(lambda s: s.isna().mean())
+    assert [p for *_, p in cells] == pytest.approx(stood.tolist())
+
+
+def expected_pixels(path: Path) -> int:
+    rgb = np.asarray(Image.open(path).convert("RGB")).astype(int)
+    target = np.array([int(EXPECTED[i : i + 2], 16) for i in (1, 3, 5)])
+    return int((np.abs(rgb - target).max(axis=2) <= 12).sum())
+
+
+def test_sweep_plots_draw_the_threshold_and_the_expectations_interval(tmp_path):
+    levels = [3, 4, 4, 5, 6, None, 7, 5]
+    plot_histogram(levels, tmp_path / "plain.png")
+    plot_histogram(levels, tmp_path / "mean.png", expected=[MeanWithin(5.0, 1.0), ProportionBound(">=", 0.5)])
+    assert expected_pixels(tmp_path / "plain.png") == 0 and expected_pixels(tmp_path / "mean.png") > 200
+    cells = [[None] * 8, [None] * 6 + [3, 4], [3, 4, 5, 6]]
+    plot_grid("e", [0, 2, 4], cells, tmp_path / "p0.png", unit="mm")
+    plot_grid("e", [0, 2, 4], cells, tmp_path / "p.png", unit="mm", expected=[ProportionBound(">=", 0.9)])
+    plot_grid("e", [0, 2, 4], cells, tmp_path / "m.png", unit="mm", statistic="mean", expected=[MeanWithin(4.0, 0.5)])
+    assert expected_pixels(tmp_path / "p0.png") == 0
+    assert expected_pixels(tmp_path / "p.png") > 200 and expected_pixels(tmp_path / "m.png") > 200
+
+
+def test_the_sweep_command_draws_the_expectation_on_its_plots(swept):
+    assert expected_pixels(swept / "grid_p_stands.png") > 200  # the P(stands) >= 0.5 threshold
+
+
+def test_the_reports_sweep_row_links_its_samples_and_plots(tmp_path, capsys):
+    (tmp_path / "s").mkdir()
+    (tmp_path / "s" / "walk.yaml").write_text(GRID.format(samples=3))
+    assert main(["check", str(tmp_path / "s"), "-j", "1", "--report", str(tmp_path / "r")]) in (0, 1)  # 1: not decided PASS
+    html = (tmp_path / "r" / "index.html").read_text()
+    for name in ("samples.csv", "samples.parquet", "samples.jsonl", "grid_p_stands.png", "grid_mean.png", "histogram_1.png"):
+        assert f'href="walk/{name}"' in html, name
+        assert (tmp_path / "r" / "walk" / name).is_file(), name

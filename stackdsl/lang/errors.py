@@ -31,6 +31,8 @@ class ScenarioError(Exception):
         others: further problems of the same file, shown after this one (at most
             :data:`MAX_SHOWN` in all).
         more: how many further problems the same file has that are not shown.
+        alike: the fields of further problems with this one's message on this one's line (a
+            list's items all wrong the same way), named after it instead of shown again.
     """
 
     def __init__(
@@ -49,6 +51,7 @@ class ScenarioError(Exception):
         self.message, self.file, self.line, self.column = message, file, line, column
         self.field, self.source_line, self.more = field, source_line, more
         self.others = others
+        self.alike: list[str] = []
 
     def __str__(self) -> str:
         where = self.file if self.line is None else f"{self.file}:{self.line}:{self.column}"
@@ -58,6 +61,8 @@ class ScenarioError(Exception):
             shown, caret = _excerpt(self.source_line, max((self.column or 1) - 1, 0))
             lines.append(f"    {shown}")
             lines.append("    " + " " * caret + "^")
+        if self.alike:
+            lines.append(f"    (the same at {', '.join(self.alike)})")
         for other in self.others:
             lines.append(str(other))
         if self.more:
@@ -66,9 +71,24 @@ class ScenarioError(Exception):
 
     def with_others(self, others: list[ScenarioError]) -> ScenarioError:
         """This error with ``others`` (further problems of the file, in order) shown after it,
-        at most :data:`MAX_SHOWN` in all; the rest counted in :attr:`more`."""
-        self.others = tuple(others[: MAX_SHOWN - 1])
-        self.more = max(len(others) - len(self.others), 0)
+        at most :data:`MAX_SHOWN` in all; the rest counted in :attr:`more`. One with the message
+        of a shown one on its line is named in that one's :attr:`alike` instead.
+
+        >>> e = ScenarioError("too small", file="t.yaml", line=2, column=3, field="size[0]")
+        >>> same = [ScenarioError("too small", file="t.yaml", line=2, column=c, field=f"size[{i}]") for i, c in ((1, 9), (2, 15))]
+        >>> print(e.with_others(same))
+        t.yaml:2:3: size[0]: too small
+            (the same at size[1], size[2])
+        """
+        shown: list[ScenarioError] = [self]
+        for other in others:
+            first = next((s for s in shown if (s.line, s.message) == (other.line, other.message) and s.line is not None), None)
+            if first is not None:
+                first.alike.append(other.field or f"column {other.column}")
+            else:
+                shown.append(other)
+        self.others = tuple(shown[1:MAX_SHOWN])
+        self.more = max(len(shown) - 1 - len(self.others), 0)
         return self
 
 

@@ -133,28 +133,31 @@ class Stack:
         if rec.state is BrickState.ACTIVE:
             self.active[rec.body] = rec
 
-    def frozen_within(self, centre: np.ndarray, radius: float) -> bool:
-        """Does the bounding box of some frozen brick come within ``radius`` m of ``centre``
-        (shape (3,))? A bound, from the boxes found when they froze (their tops and horizontal
-        extents; kept until the stack changes), so that the impact rule asks the engine for
-        closest points only near frozen bricks: in a domino row the fallen dominoes behind the
-        chain's front are near none. Source: stackdsl's own."""
+    def frozen_within(self, centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
+        """For each centre (shape (n, 3), m) and radius (shape (n,), m): does the bounding box of
+        some frozen brick come within that radius of it? Shape (n,), bool. A bound, from the
+        boxes found when they froze (their tops and horizontal extents; kept until the stack
+        changes), so that the impact rule asks the engine for closest points only near frozen
+        bricks: in a domino row the fallen dominoes behind the chain's front are near none.
+        Every moving brick of a step is tested at once. Source: stackdsl's own."""
         if self._boxes is None or self._boxes[0] != self.version:
             extents = [r.extent for r in self.frozen.values() if r.extent is not None]
             self._boxes = (self.version, np.array(extents, dtype=float).reshape(-1, 5))
         boxes = self._boxes[1]
+        centres = np.asarray(centres, dtype=float).reshape(-1, 3)
         if len(boxes) == 0:
-            return False
-        x, y, z = (float(v) for v in centre)
-        return bool(
-            np.any(
-                (boxes[:, 0] >= z - radius)
-                & (boxes[:, 1] <= x + radius)
-                & (boxes[:, 2] >= x - radius)
-                & (boxes[:, 3] <= y + radius)
-                & (boxes[:, 4] >= y - radius)
-            )
+            return np.zeros(len(centres), dtype=bool)
+        x, y, z = (centres[:, i : i + 1] for i in range(3))  # (n, 1) against the boxes' (m,)
+        r = np.asarray(radii, dtype=float).reshape(-1, 1)
+        near = (
+            (boxes[:, 0] >= z - r)
+            & (boxes[:, 1] <= x + r)
+            & (boxes[:, 2] >= x - r)
+            & (boxes[:, 3] <= y + r)
+            & (boxes[:, 4] >= y - r)
         )
+        found: np.ndarray = near.any(axis=1)
+        return found
 
     def forget(self, body: int) -> None:
         """Unregister ``body``, an active brick taken out of the scene (a pulled brick, a withdrawn

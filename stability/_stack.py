@@ -123,6 +123,8 @@ class Stack:
         self.guided: set[int] = set()  # bodies an outside hand moves (a gripper, a pusher): never frozen
         self.admitting = True  # False while the ground moves: nothing is frozen in the world's frame
         self._boxes: tuple[int, np.ndarray] | None = None  # the frozen bricks' boxes, of a stack version
+        # active bricks that frozen bricks lean on: body -> (its pose then, the frozen bricks on it)
+        self.watched: dict[int, tuple[Pose, set[int]]] = {}
         self._contacts: ContactBook | None = None  # this step's, read in full before a change
 
     def add(self, rec: Record) -> None:
@@ -158,6 +160,31 @@ class Stack:
         )
         found: np.ndarray = near.any(axis=1)
         return found
+
+    def watch(self, rec: Record, leaning: set[int]) -> None:
+        """Frozen bricks ``leaning`` (body ids) rest on ``rec``, an active brick at rest: remember
+        where it is, so that they wake when it moves away (:meth:`moved_away`)."""
+        pose, before = self.watched.get(rec.body, (self.engine.pose(rec.body), set()))
+        self.watched[rec.body] = (pose, before | leaning)
+
+    def moved_away(self, time: float, distance: float) -> list[Woken]:
+        """Wake the frozen bricks that lean on a watched active brick once a corner of it is
+        ``distance`` m from where it was when they froze, with what rests on them; stop watching
+        a brick that has been frozen itself (it is then a support like any other)."""
+        woken: list[Woken] = []
+        for body, (pose, leaning) in list(self.watched.items()):
+            rec = self.bodies.get(body)
+            if rec is None or rec.state is not BrickState.ACTIVE:
+                del self.watched[body]
+                continue
+            box = rec.box
+            moved = float(np.linalg.norm(box.corners(self.engine.pose(body)) - box.corners(pose), axis=1).max())
+            if moved < distance:
+                continue
+            del self.watched[body]
+            for b in self.ordered(leaning):
+                woken += self.wake(b, time, f"{rec.label}, which it leaned on, moved {moved * 1000:.1f} mm")
+        return woken
 
     def forget(self, body: int) -> None:
         """Unregister ``body``, an active brick taken out of the scene (a pulled brick, a withdrawn

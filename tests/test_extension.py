@@ -361,3 +361,26 @@ def test_the_report_rule_wakes_nothing_that_rigid_block_equilibrium_holds():
     events = ext.update(1.0)
     assert [(e.kind, e.label) for e in events] == [("freeze", "b5")]
     assert all(ext.state(b) is BrickState.FROZEN for b in range(1, 6))
+
+
+def test_bricks_frozen_on_an_active_brick_wake_once_it_has_moved_away():
+    # the edge of a settled pile: a frozen brick leans on an active one, which the stack watches
+    s = Scene()
+    frozen = s.brick(0.0, 1)
+    s.ext.update(0.0)
+    edge = s.brick(0.2, 1)
+    stack = s.ext._stack
+    stack.watch(stack.bodies[edge], {frozen})
+    start = s.engine.poses[edge]
+    s.engine.poses[edge] = Pose(start.position + [0.0005, 0.0, 0.0], start.orientation)  # half a contact pad
+    assert stack.moved_away(1.0, 0.001) == [] and s.ext.state(frozen) is BrickState.FROZEN
+    s.engine.poses[edge] = Pose(start.position + [0.0015, 0.0, 0.0], start.orientation)
+    woken = stack.moved_away(1.1, 0.001)
+    assert [w.event.label for w in woken] == ["b1"] and "b2, which it leaned on, moved 1.5 mm" in woken[0].event.reason
+    assert s.ext.state(frozen) is BrickState.ACTIVE and not stack.watched
+    # a watched brick that is frozen itself is a support like any other: no longer watched
+    stack.watch(stack.bodies[frozen], {edge})
+    s.ext.update(1.2)
+    assert s.ext.state(frozen) is BrickState.FROZEN
+    stack.moved_away(1.3, 0.001)
+    assert frozen not in stack.watched

@@ -172,3 +172,17 @@ def test_a_domino_on_end_reads_back_the_yaw_it_was_placed_at():
         yaw, pitch, roll = nodes[place.id].yaw_pitch_roll_deg
         assert pitch == pytest.approx(90.0, abs=0.2) and roll == 0.0  # a graph keeps 3 quaternion decimals
         assert math.remainder(yaw - place.yaw, 360.0) == pytest.approx(0.0, abs=0.2)
+
+
+def test_a_domino_row_is_frozen_behind_the_chain_while_its_front_still_falls():
+    """The extension: each fallen domino leans on the next up to the chain's front; the part
+    behind that has settled is frozen while the front falls (stability._debris), not when the
+    last domino lands, and every domino still topples."""
+    from stackdsl.bench.dominoes import domino_row
+
+    program = compile_scenario(parse_scenario(domino_row(20, "extension report"), "d.yaml"))
+    outcome = run_program(program)
+    assert len(outcome.toppled) == 20
+    woken = {e.brick: e.time for e in outcome.events if e.kind == "wake"}
+    refrozen = [e.time for e in outcome.events if e.kind == "freeze" and e.brick == "d001" and e.time > woken["d001"]]
+    assert refrozen and refrozen[0] < woken["d020"]  # the first is frozen again before the chain reaches the last

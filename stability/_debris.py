@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Iterable
+from graphlib import CycleError
 
 from ._admission import Admission, Plan
 from ._areas import ContactAreas, Contacts
@@ -278,7 +279,10 @@ class Debris:
         for m in group:
             nodes[m.body] = LoadNode(m.box.mass, stack.engine.pose(m.body).position, plan[m.body][0])
             mains[m.body] = plan[m.body][1]
-        loads = propagate_fast(nodes)
+        try:
+            loads = propagate_fast(nodes)
+        except CycleError:  # the group and the stack would carry each other: not frozen so
+            return False
         fallen = {m.body for m in group if m.clock.fallen} | {r.body for r in earlier}
         loaded = {s for m in group for s in plan[m.body][0]}  # they lose the exemption unless in the pile
         return all(

@@ -384,3 +384,21 @@ def test_bricks_frozen_on_an_active_brick_wake_once_it_has_moved_away():
     assert s.ext.state(frozen) is BrickState.FROZEN
     stack.moved_away(1.3, 0.001)
     assert frozen not in stack.watched
+
+
+def test_a_brick_frozen_resting_on_an_active_one_is_never_its_support():
+    # frozen on a settled pile's edge, b2 rests on b1; b1, frozen later, must not rest on b2 (the two
+    # would carry each other: a cycle in the load tree)
+    s = Scene()
+    b1 = s.brick(0.0, 1, on=())
+    b2 = s.brick(0.0, 2, on=())
+    stack = s.ext._stack
+    rec1, rec2 = stack.bodies[b1], stack.bodies[b2]
+    s.engine.touch(b1, b2, corners(0.0, 0.0, 0.012, 0.012, H), normal=[0, 0, 1])  # as b1 sees it: lying on b2
+    areas = s.ext._areas
+    assert list(areas.supports(rec1, s.engine.contact_points([b1]), stack_only=False)) == []  # b2 is active, higher
+    rec2.rests_on = {b1: None}
+    rec2.state = BrickState.FROZEN
+    assert list(areas.supports(rec1, s.engine.contact_points([b1]), stack_only=True)) == []
+    rec2.rests_on = {}
+    assert list(areas.supports(rec1, s.engine.contact_points([b1]), stack_only=True)) == [b2]

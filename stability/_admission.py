@@ -112,7 +112,8 @@ class Admission:
             for g in group:  # the contacts with the other members, seen from this side
                 if g is not m:
                     areas.update((g.body, horizontal(c, pad, flip=True)) for c in polygons[g.body] if c.other == m.body)
-            supports = {o: a for o, a in areas.items() if o not in members}
+            # not a brick frozen resting on this one (it leaned on a settled pile's edge): a load
+            supports = {o: a for o, a in areas.items() if o not in members and m.body not in self.stack.bodies[o].rests_on}
             resting = {o: a for o, a in supports.items() if a.normal[2] >= up}
             if not resting:  # lying only on other members: on those lower than itself (no cycle)
                 z = engine.pose(m.body).position[2]

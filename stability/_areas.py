@@ -54,8 +54,8 @@ class ContactAreas:
         my_z = engine.pose(rec.body).position[2]
         for c in contacts:
             other = bodies.get(c.other)
-            if other is None or c.normal[2] < self.support_cos:
-                continue
+            if other is None or c.normal[2] < self.support_cos or rec.body in other.rests_on:
+                continue  # a brick frozen resting on ``rec`` (on a settled pile's edge) is a load
             if other.state is BrickState.ACTIVE and (stack_only or engine.pose(other.body).position[2] >= my_z):
                 continue
             grouped[c.other].append(c)

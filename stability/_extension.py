@@ -14,7 +14,9 @@ harness calls :meth:`StabilityExtension.update`; it
 4. when the stack changed, propagates centre of mass above and mass above (3.3.5-3.3.6)
    and wakes every brick whose centre of mass above lies outside its main contact area,
    with everything resting on it (3.3.7);
-5. when impacts are on, compares the kinetic energy of every fast body about to touch a
+5. wakes the frozen bricks that lean on an active brick at rest (the edge of a settled pile,
+   :mod:`stability._debris`) once it has moved :data:`WATCH` from where they froze;
+6. when impacts are on, compares the kinetic energy of every fast body about to touch a
    frozen brick with that brick's potential energy (3.6, :mod:`stability._impact`).
 
 Propagation and the stack-wide test run only when the stack changes (a freeze or a
@@ -52,6 +54,9 @@ STILL = 0.00005
 #: Metres beyond what a guided body travels in a step within which it touches a brick (pybullet's
 #: collision margin is about 1 mm).
 TOUCH = 0.0015
+#: Metres a corner of an active brick that frozen bricks lean on may move before they wake (a
+#: contact pad: within it the two still touch as they did).
+WATCH = 0.001
 
 
 class StabilityExtension:
@@ -143,6 +148,8 @@ class StabilityExtension:
             for rec in due:
                 events += self._admit(rec, contacts, time)
             stack.forget_contacts()
+        if stack.watched:
+            events += [w.event for w in stack.moved_away(time, WATCH)]
         if stack.frozen:
             events += self._lingering(free, time)
         if events or not config.per_event:

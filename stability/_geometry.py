@@ -101,6 +101,11 @@ class Box:
     half_extents: np.ndarray
     mass: float
 
+    @cached_property
+    def half_diagonal(self) -> float:
+        """Metres from the centre to a corner: no point of the box is farther from its centre."""
+        return float(np.linalg.norm(self.half_extents))
+
     def corners(self, pose: Pose) -> np.ndarray:
         """The eight corners in the world frame, shape (8, 3), metres."""
         corners: np.ndarray = pose.position + (_CORNER_SIGNS * self.half_extents) @ pose.rotation.T

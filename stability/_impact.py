@@ -100,21 +100,30 @@ class Impacts:
         stack, config = self.stack, self.stack.config
         events: list[StabilityEvent] = []
         geometric = getattr(stack.engine, "near_is_geometric", False)
+        fast = []
         for rec in active:
-            linear, angular = stack.engine.velocity(rec.body)
-            speed = float(np.linalg.norm(linear))
+            # the speeds first (floats, read once a step for the rest test too): most active
+            # bricks are slow or far from every frozen brick, and need no vector
+            speed, angular_speed = stack.engine.speeds(rec.body)
             if speed <= config.rest_speed:
                 rec.impacted.clear()
                 continue
-            heading = linear / speed
             # no point of the body moves faster than |v| + |w| r, r its box's half diagonal: a
             # toppling domino's top edge moves twice as fast as its centre of mass
-            corner = float(np.linalg.norm(rec.box.half_extents))
-            reach = (speed + float(np.linalg.norm(angular)) * corner) * dt * 1.5 + config.contact_pad
-            radius = corner + reach
-            if geometric and not stack.frozen_within(stack.engine.pose(rec.body).position, radius):
-                continue  # no frozen brick's box within reach: the engine is not asked
-            for hit in stack.engine.near(rec.body, reach, stack.frozen.keys()):
+            corner = rec.box.half_diagonal
+            reach = (speed + angular_speed * corner) * dt * 1.5 + config.contact_pad
+            fast.append((rec, speed, reach, corner + reach))
+        if geometric and fast:  # no frozen brick's box within reach: the engine is not asked
+            centres = np.array([stack.engine.pose(rec.body).position for rec, *_ in fast])
+            near = stack.frozen_within(centres, np.array([radius for *_, radius in fast]))
+            fast = [f for f, n in zip(fast, near, strict=True) if n]
+        for rec, speed, reach, _ in fast:
+            hits = stack.engine.near(rec.body, reach, stack.frozen.keys())
+            if not hits:
+                continue
+            linear, _ = stack.engine.velocity(rec.body)
+            heading = linear / float(np.linalg.norm(linear))
+            for hit in hits:
                 other = stack.bodies.get(hit.other)
                 if other is None or other.state is not BrickState.FROZEN or other.body in rec.impacted:
                     continue

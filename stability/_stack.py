@@ -123,6 +123,8 @@ class Stack:
         self.guided: set[int] = set()  # bodies an outside hand moves (a gripper, a pusher): never frozen
         self.admitting = True  # False while the ground moves: nothing is frozen in the world's frame
         self._boxes: tuple[int, np.ndarray] | None = None  # the frozen bricks' boxes, of a stack version
+        # active bricks that frozen bricks lean on: body -> (its pose then, the frozen bricks on it)
+        self.watched: dict[int, tuple[Pose, set[int]]] = {}
         self._contacts: ContactBook | None = None  # this step's, read in full before a change
 
     def add(self, rec: Record) -> None:
@@ -133,28 +135,56 @@ class Stack:
         if rec.state is BrickState.ACTIVE:
             self.active[rec.body] = rec
 
-    def frozen_within(self, centre: np.ndarray, radius: float) -> bool:
-        """Does the bounding box of some frozen brick come within ``radius`` m of ``centre``
-        (shape (3,))? A bound, from the boxes found when they froze (their tops and horizontal
-        extents; kept until the stack changes), so that the impact rule asks the engine for
-        closest points only near frozen bricks: in a domino row the fallen dominoes behind the
-        chain's front are near none. Source: stackdsl's own."""
+    def frozen_within(self, centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
+        """For each centre (shape (n, 3), m) and radius (shape (n,), m): does the bounding box of
+        some frozen brick come within that radius of it? Shape (n,), bool. A bound, from the
+        boxes found when they froze (their tops and horizontal extents; kept until the stack
+        changes), so that the impact rule asks the engine for closest points only near frozen
+        bricks: in a domino row the fallen dominoes behind the chain's front are near none.
+        Every moving brick of a step is tested at once. Source: stackdsl's own."""
         if self._boxes is None or self._boxes[0] != self.version:
             extents = [r.extent for r in self.frozen.values() if r.extent is not None]
             self._boxes = (self.version, np.array(extents, dtype=float).reshape(-1, 5))
         boxes = self._boxes[1]
+        centres = np.asarray(centres, dtype=float).reshape(-1, 3)
         if len(boxes) == 0:
-            return False
-        x, y, z = (float(v) for v in centre)
-        return bool(
-            np.any(
-                (boxes[:, 0] >= z - radius)
-                & (boxes[:, 1] <= x + radius)
-                & (boxes[:, 2] >= x - radius)
-                & (boxes[:, 3] <= y + radius)
-                & (boxes[:, 4] >= y - radius)
-            )
+            return np.zeros(len(centres), dtype=bool)
+        x, y, z = (centres[:, i : i + 1] for i in range(3))  # (n, 1) against the boxes' (m,)
+        r = np.asarray(radii, dtype=float).reshape(-1, 1)
+        near = (
+            (boxes[:, 0] >= z - r)
+            & (boxes[:, 1] <= x + r)
+            & (boxes[:, 2] >= x - r)
+            & (boxes[:, 3] <= y + r)
+            & (boxes[:, 4] >= y - r)
         )
+        found: np.ndarray = near.any(axis=1)
+        return found
+
+    def watch(self, rec: Record, leaning: set[int]) -> None:
+        """Frozen bricks ``leaning`` (body ids) rest on ``rec``, an active brick at rest: remember
+        where it is, so that they wake when it moves away (:meth:`moved_away`)."""
+        pose, before = self.watched.get(rec.body, (self.engine.pose(rec.body), set()))
+        self.watched[rec.body] = (pose, before | leaning)
+
+    def moved_away(self, time: float, distance: float) -> list[Woken]:
+        """Wake the frozen bricks that lean on a watched active brick once a corner of it is
+        ``distance`` m from where it was when they froze, with what rests on them; stop watching
+        a brick that has been frozen itself (it is then a support like any other)."""
+        woken: list[Woken] = []
+        for body, (pose, leaning) in list(self.watched.items()):
+            rec = self.bodies.get(body)
+            if rec is None or rec.state is not BrickState.ACTIVE:
+                del self.watched[body]
+                continue
+            box = rec.box
+            moved = float(np.linalg.norm(box.corners(self.engine.pose(body)) - box.corners(pose), axis=1).max())
+            if moved < distance:
+                continue
+            del self.watched[body]
+            for b in self.ordered(leaning):
+                woken += self.wake(b, time, f"{rec.label}, which it leaned on, moved {moved * 1000:.1f} mm")
+        return woken
 
     def forget(self, body: int) -> None:
         """Unregister ``body``, an active brick taken out of the scene (a pulled brick, a withdrawn

@@ -361,3 +361,44 @@ def test_the_report_rule_wakes_nothing_that_rigid_block_equilibrium_holds():
     events = ext.update(1.0)
     assert [(e.kind, e.label) for e in events] == [("freeze", "b5")]
     assert all(ext.state(b) is BrickState.FROZEN for b in range(1, 6))
+
+
+def test_bricks_frozen_on_an_active_brick_wake_once_it_has_moved_away():
+    # the edge of a settled pile: a frozen brick leans on an active one, which the stack watches
+    s = Scene()
+    frozen = s.brick(0.0, 1)
+    s.ext.update(0.0)
+    edge = s.brick(0.2, 1)
+    stack = s.ext._stack
+    stack.watch(stack.bodies[edge], {frozen})
+    start = s.engine.poses[edge]
+    s.engine.poses[edge] = Pose(start.position + [0.0005, 0.0, 0.0], start.orientation)  # half a contact pad
+    assert stack.moved_away(1.0, 0.001) == [] and s.ext.state(frozen) is BrickState.FROZEN
+    s.engine.poses[edge] = Pose(start.position + [0.0015, 0.0, 0.0], start.orientation)
+    woken = stack.moved_away(1.1, 0.001)
+    assert [w.event.label for w in woken] == ["b1"] and "b2, which it leaned on, moved 1.5 mm" in woken[0].event.reason
+    assert s.ext.state(frozen) is BrickState.ACTIVE and not stack.watched
+    # a watched brick that is frozen itself is a support like any other: no longer watched
+    stack.watch(stack.bodies[frozen], {edge})
+    s.ext.update(1.2)
+    assert s.ext.state(frozen) is BrickState.FROZEN
+    stack.moved_away(1.3, 0.001)
+    assert frozen not in stack.watched
+
+
+def test_a_brick_frozen_resting_on_an_active_one_is_never_its_support():
+    # frozen on a settled pile's edge, b2 rests on b1; b1, frozen later, must not rest on b2 (the two
+    # would carry each other: a cycle in the load tree)
+    s = Scene()
+    b1 = s.brick(0.0, 1, on=())
+    b2 = s.brick(0.0, 2, on=())
+    stack = s.ext._stack
+    rec1, rec2 = stack.bodies[b1], stack.bodies[b2]
+    s.engine.touch(b1, b2, corners(0.0, 0.0, 0.012, 0.012, H), normal=[0, 0, 1])  # as b1 sees it: lying on b2
+    areas = s.ext._areas
+    assert list(areas.supports(rec1, s.engine.contact_points([b1]), stack_only=False)) == []  # b2 is active, higher
+    rec2.rests_on = {b1: None}
+    rec2.state = BrickState.FROZEN
+    assert list(areas.supports(rec1, s.engine.contact_points([b1]), stack_only=True)) == []
+    rec2.rests_on = {}
+    assert list(areas.supports(rec1, s.engine.contact_points([b1]), stack_only=True)) == [b2]

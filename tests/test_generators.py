@@ -172,3 +172,31 @@ def test_a_domino_on_end_reads_back_the_yaw_it_was_placed_at():
         yaw, pitch, roll = nodes[place.id].yaw_pitch_roll_deg
         assert pitch == pytest.approx(90.0, abs=0.2) and roll == 0.0  # a graph keeps 3 quaternion decimals
         assert math.remainder(yaw - place.yaw, 360.0) == pytest.approx(0.0, abs=0.2)
+
+
+def test_a_domino_row_is_frozen_behind_the_chain_while_its_front_still_falls():
+    """The extension: each fallen domino leans on the next up to the chain's front; the part
+    behind that has settled is frozen while the front falls (stability._debris), not when the
+    last domino lands, and every domino still topples."""
+    from stackdsl.bench.dominoes import domino_row
+
+    program = compile_scenario(parse_scenario(domino_row(20, "extension report"), "d.yaml"))
+    outcome = run_program(program)
+    assert len(outcome.toppled) == 20
+    woken = {e.brick: e.time for e in outcome.events if e.kind == "wake"}
+    refrozen = [e.time for e in outcome.events if e.kind == "freeze" and e.brick == "d001" and e.time > woken["d001"]]
+    assert refrozen and refrozen[0] < woken["d020"]  # the first is frozen again before the chain reaches the last
+
+
+def test_the_domino_bench_does_not_count_dominoes_an_engine_threw_out_of_the_row():
+    """A run whose engine blew up is no row that fell: MuJoCo resets it, every body back to its
+    model pose far from the row and lying flat, which a toppled count alone takes for a fallen row."""
+    pytest.importorskip("mujoco")
+    from stackdsl.bench.dominoes import DominoCost, domino_cost, format_dominoes
+
+    fell = domino_cost(4, "raw 240 Hz")
+    assert (fell.toppled, fell.left) == (4, 0)
+    blown = domino_cost(4, "MuJoCo tuned sleeping")  # the kinematic pusher on the tuned solver
+    assert blown.left == 4 and blown.toppled == 0
+    table = format_dominoes([DominoCost("raw", 4, 0.05, 4, 10), blown, DominoCost("x", 4, 0.1, 4, 10)])
+    assert table.splitlines()[3].endswith("| blew up |") and table.splitlines()[4].endswith("| 2.00 |")

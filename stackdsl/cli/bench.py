@@ -12,6 +12,7 @@ from typing import Any
 
 from ..bench.bench import SETTINGS, UPRIGHT, run_matrix, savings, scenes
 from ..bench.dominoes import DEFAULT as DOMINO_SETTINGS
+from ..bench.dominoes import KNOWN as DOMINO_KNOWN
 from ..lang.errors import ScenarioError
 from ..lang.extras import installed, missing
 from ..verdicts.expect import describe
@@ -154,10 +155,10 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     q.add_argument("--levels", default="10,30,60", help="tower heights, comma-separated")
     q.set_defaults(func=_bench_freeze)
     q = bench.add_parser(
-        "dominoes", help="a row of dominoes pushed over: the engine alone, tuned MuJoCo with sleeping, the extension"
+        "dominoes", help="a row of dominoes pushed over: the engine alone, MuJoCo with its own sleeping, the extension"
     )
     q.add_argument("--count", type=int, default=30, help="dominoes in the row (2 to 500; default: 30)")
-    q.add_argument("--settings", default=",".join(DOMINO_SETTINGS), help="comma-separated, of: " + ", ".join(SETTINGS))
+    q.add_argument("--settings", default=",".join(DOMINO_SETTINGS), help="comma-separated, of: " + ", ".join(DOMINO_KNOWN))
     q.add_argument("--repeats", type=int, default=1, help="timed runs of each setting (median; default: 1)")
     q.set_defaults(func=_bench_dominoes)
     q = bench.add_parser("limits", help="each engine's own limits measured past them: smallest side, fastest throw, mass ratio")
@@ -404,7 +405,7 @@ def _bench_freeze(args: argparse.Namespace) -> int:
 
 
 def _bench_dominoes(args: argparse.Namespace) -> int:
-    from ..bench.dominoes import domino_cost, format_dominoes
+    from ..bench.dominoes import KNOWN, domino_cost, format_dominoes
     from ..bench.versions import version_line
 
     if not 2 <= args.count <= 500:
@@ -412,11 +413,12 @@ def _bench_dominoes(args: argparse.Namespace) -> int:
     if not 1 <= args.repeats <= 100:
         raise ScenarioError("repeats are from 1 to 100", file="--repeats")
     settings = [x.strip() for x in args.settings.split(",") if x.strip()]
-    unknown = [x for x in settings if x not in SETTINGS or SETTINGS[x].lean]
+    unknown = [x for x in settings if x not in KNOWN or KNOWN[x].lean]
     if unknown or not settings:
-        known = ", ".join(n for n, s in SETTINGS.items() if not s.lean)
+        known = ", ".join(n for n, s in KNOWN.items() if not s.lean)
         raise ScenarioError(f"unknown setting {unknown[0] if unknown else ''!r}; known: {known}", file="--settings")
-    _need_engines(settings)
+    if any(("backend", "mujoco") in KNOWN[name].engine for name in settings):
+        _need("mujoco", "--settings")
     print(version_line(), flush=True)
     costs = []
     for setting in settings:

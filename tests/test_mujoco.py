@@ -333,3 +333,30 @@ def test_a_frozen_tower_on_mujoco_keeps_its_heights():
     assert outcome.collapse is None and len(bricks) == 26
     for node in bricks:
         assert node.position_mm[2] == pytest.approx((node.level - 0.5) * 8.0, abs=0.051), node.id
+
+
+def test_an_unstable_simulation_stops_the_run_failed_and_prints_nothing(capfd):
+    """MuJoCo resets its state when positions, velocities or accelerations blow up; a run on
+    would judge bricks put back where the model declared them. A brick given a huge speed
+    (past MuJoCo's 1e10) stands in for a blow-up: the step raises, in the run too (the run
+    stops there, failed, with the reason), and MuJoCo's own warning is not printed."""
+    from stackdsl.engines.protocol import EngineUnstable
+    from stackdsl.runtime.loop import StepLoop
+
+    world = _world("tuned")
+    body = world.create(_brick(), Pose.from_euler([0.0, 0.0, 0.004]))
+    for _ in range(5):
+        world.step()
+    world.throw(body, (1e12, 0.0, 0.0), None)
+    with pytest.raises(EngineUnstable, match=r"became unstable at t = 0\.012 s"):
+        world.step()
+    assert "WARNING" not in capfd.readouterr().out
+
+    class Blows(MuJoCoWorld):
+        def step(self) -> None:
+            raise EngineUnstable("it blew up")
+
+    program = compile_scenario(parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 2}}\nengine: {backend: mujoco}\n"))
+    loop = StepLoop(Blows(program.engine, 0.5, 0.0), program, jump=False)
+    loop.run()
+    assert loop.stopped == "it blew up" and loop.step == 0

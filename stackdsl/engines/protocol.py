@@ -103,6 +103,12 @@ class EngineSettings(_Frozen):
         return f"continuous collision detection for thrown bricks {'on' if self.ccd else 'off'}"
 
 
+class EngineUnstable(RuntimeError):
+    """The engine's simulation blew up in a step (MuJoCo: infinite or huge accelerations, after
+    which it resets its state): what follows is not physics, so the run stops there, failed,
+    with this message. Source: stackdsl's own."""
+
+
 class World(Engine, Protocol):
     """What the step loop needs from an engine, beyond :class:`stability.Engine`.
 
@@ -135,7 +141,11 @@ class World(Engine, Protocol):
         collision detection by a swept sphere of that radius."""
 
     def step(self) -> None:
-        """Advance one timestep."""
+        """Advance one timestep.
+
+        Raises:
+            EngineUnstable: the engine's simulation blew up in it.
+        """
 
     def set_substeps(self, substeps: int) -> None:
         """Split each following step into ``substeps`` (1: no split)."""

@@ -28,7 +28,7 @@ import numpy as np
 from stability import Box, Pose
 
 from ..compile.program import Kinematic, Launch, Place, Program, Push, Remove, Shake
-from ..engines.protocol import BrickSpec, World
+from ..engines.protocol import BrickSpec, EngineUnstable, World
 from .bricks import BrickRecord, Structure, footprint
 from .outcome import Event
 
@@ -209,7 +209,11 @@ class StepLoop:
             for hook in self._before_step:
                 hook(self)
             started = _time.perf_counter()
-            self.world.step()
+            try:
+                self.world.step()
+            except EngineUnstable as unstable:
+                self.stopped = str(unstable)
+                return
             self.engine_time += _time.perf_counter() - started
             self.step += 1
             for hook in self._after_step:

@@ -31,7 +31,7 @@ from scipy.spatial.transform import Rotation
 
 from stability import ContactPoint, Pose
 
-from ..protocol import BrickSpec, Quat, Vec3, World
+from ..protocol import BrickSpec, EngineUnstable, Quat, Vec3, World
 from .materials import Materials
 from .settings import MuJoCoSettings
 
@@ -77,6 +77,8 @@ class MuJoCoWorld(World):
         self, engine: MuJoCoSettings, ground_friction: float, ground_restitution: float, *, movable_ground: bool = False
     ) -> None:
         import mujoco
+
+        mujoco.set_mju_user_warning(_quiet)  # printed, MuJoCo's warnings would mix with --json: step() raises
 
         self._mj, self._engine = mujoco, engine
         self._extension = engine.mode == "extension"  # bricks as convex meshes (see create), waiting ones asleep
@@ -418,8 +420,15 @@ class MuJoCoWorld(World):
             (x, y, _), (vx, vy, _) = self._ground_at
             d.qpos[self._table_qpos] = [x, y]
             d.qvel[self._table_dof] = [vx, vy]
+        began = float(d.time)
         for _ in range(self._substeps):
             self._mj.mj_step(m, d)
+        bad = self._mj.mjtWarning
+        if any(d.warning[w].number for w in (bad.mjWARN_BADQPOS, bad.mjWARN_BADQVEL, bad.mjWARN_BADQACC)):  # reset, time too
+            raise EngineUnstable(
+                f"MuJoCo's simulation became unstable at t = {began + self._engine.timestep:.3f} s (infinite or huge positions, velocities or accelerations; "
+                "MuJoCo then resets its state): nothing after it is physics"
+            )
 
     def set_substeps(self, substeps: int) -> None:
         m, _ = self._ready()
@@ -475,6 +484,11 @@ _FEW = 8
 """Up to this many bodies, :meth:`MuJoCoWorld.poses_of` reads them one by one, and so does the
 velocity read for this many moving bodies (numpy's and scipy's fixed costs are larger for one
 or two)."""
+
+
+def _quiet(message: str) -> None:
+    """MuJoCo's warnings, unprinted: the one that matters, an unstable simulation, is read from
+    its warning counters after each step (:class:`~stackdsl.engines.protocol.EngineUnstable`)."""
 
 
 def _wxyz(quaternion: Sequence[float] | np.ndarray) -> list[float]:

@@ -654,7 +654,7 @@ def _examples_in(node: object) -> bool:
     return isinstance(node, list) and any(_examples_in(v) for v in node)
 
 
-@pytest.mark.parametrize("model", ["Part", "Wall", "Pyramid", "Dominoes"])
+@pytest.mark.parametrize("model", ["Part", "Wall", "Pyramid", "Dominoes", "CellExpect"])
 def test_every_key_of_parts_and_the_new_generators_has_a_description_and_an_example(model):
     properties = json_schema()["$defs"][model]["properties"]
     assert properties

@@ -29,7 +29,7 @@ from typing import Any
 from .distributions import Distribution, draw, find
 from .errors import FieldPath, ScenarioError, SourceMap
 from .schema import Scenario
-from .schema_sweep import MAX_SAMPLES, MAX_SWEEP_RUNS
+from .schema_sweep import MAX_SAMPLES, MAX_SWEEP_RUNS, grid_name
 from .units import in_language_units, in_unit, language_unit, split_quantity
 from .validate import validate
 
@@ -94,6 +94,24 @@ class Template:
         if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:  # as a plain file's seed is checked
             raise source.error(("seed",), f"a seed is a whole number, 0 or more, not {seed!r}")
         return cls(plain, source, tuple(distributions), grid, samples, seed)
+
+    @property
+    def random(self) -> bool:
+        """Whether a sample draws anything: a distribution, or a placement error in some cell. When
+        it does not, every sample of a cell is the same run, and its statistics are exact."""
+        if self.distributions:
+            return True
+        return any(self.scenario(c, 0).timing.placement_error > 0 for c in range(self.cells))
+
+    def values(self, c: int) -> dict[str, float]:
+        """Cell ``c``'s grid values by their dotted keys (:func:`grid_name`), numbers in SI (angles in
+        degrees), as a cell's condition (``expect.cells``) reads them; a value that is no number is left out."""
+        out: dict[str, float] = {}
+        for key, value in self.cell(c).items():
+            number, _ = in_language_units(value)
+            if isinstance(number, (int, float)) and not isinstance(number, bool):
+                out[grid_name(key)] = float(number)
+        return out
 
     @property
     def cells(self) -> int:
@@ -249,10 +267,11 @@ def _ends(d: Distribution) -> list[Any]:
 
 
 def _grid_field(key: str, values: list[Any], source: SourceMap) -> tuple[FieldPath, str, tuple[Any, ...]]:
-    """A grid key (``timing.placement_error``, ``structure.bricks.1.at.0``) as a field path."""
+    """A grid key (``timing.placement_error``, ``structure.bricks.1.at.0`` or ``structure.bricks[1].at[0]``)
+    as a field path."""
     from .validation_errors import fields_at
 
-    path: FieldPath = tuple(int(part) if part.isdigit() else part for part in key.split("."))
+    path: FieldPath = tuple(int(part) if part.isdigit() else part for part in grid_name(key).split("."))
     for i, part in enumerate(path):
         allowed = fields_at(path[:i]) if isinstance(part, str) and path[:i] != ("structure",) else []  # or a part's name
         if allowed and part not in allowed:

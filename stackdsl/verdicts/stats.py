@@ -197,7 +197,9 @@ def format_level(value: float) -> str:
     return f"{value:.0f}" if float(value).is_integer() else f"{value:.2f}"
 
 
-def decide(expectation: Expectation, levels: Sequence[int | None], confidence: float = 0.95) -> StatVerdict:
+def decide(
+    expectation: Expectation, levels: Sequence[int | None], confidence: float = 0.95, *, exact: bool = False
+) -> StatVerdict:
     """Decide ``expectation`` on one cell's samples (``levels``: collapse level or None).
 
     PASS/FAIL/INCONCLUSIVE by the module's rule. For INCONCLUSIVE, ``samples_to_decide``
@@ -216,6 +218,10 @@ def decide(expectation: Expectation, levels: Sequence[int | None], confidence: f
     It is None when the estimate sits exactly on an edge (d = 0), without an estimate or
     spread (fewer than 2 collapsed samples for a mean), or beyond :data:`MAX_SAMPLES`.
 
+    ``exact``: the samples are one run repeated (the sweep draws nothing: no distribution, no
+    placement error), so the statistic is known without sampling error: its interval is the
+    point itself, and it is PASS or FAIL from a single sample.
+
     Raises ValueError on a level that is not None or an int >= 1, or a confidence outside
     (0, 1). Source: stackdsl's own (rule and projection); intervals as in the module docstring.
 
@@ -224,6 +230,8 @@ def decide(expectation: Expectation, levels: Sequence[int | None], confidence: f
     ('PASS', 7.0, (7.0, 8.0), 'median 7±1')
     """
     check_confidence(confidence)
+    if exact:
+        return _decide_exact(expectation, levels, confidence)
     collapsed = _collapsed(levels)
     if isinstance(expectation, MeanWithin):
         return _decide_mean(expectation, collapsed, len(levels), confidence)
@@ -232,6 +240,23 @@ def decide(expectation: Expectation, levels: Sequence[int | None], confidence: f
     if isinstance(expectation, QuantileWithin):
         return _decide_quantile(expectation, collapsed, len(levels), confidence)
     raise TypeError(f"not an expectation: {expectation!r}")
+
+
+def _decide_exact(expectation: Expectation, levels: Sequence[int | None], confidence: float) -> StatVerdict:
+    """:func:`decide` on samples that are one run repeated: the estimate is exact, its interval a point."""
+    sampled = decide(expectation, levels, confidence)
+    if sampled.estimate is None:
+        return sampled
+    point = (sampled.estimate, sampled.estimate)
+    if isinstance(expectation, ProportionBound):
+        outcome = _judge_bound(point, expectation.op, expectation.bound)
+        stood = len(levels) - len(_collapsed(levels))
+        measured = f"P(stands) {sampled.estimate:.3f} exact, {stood}/{len(levels)} stood"
+    else:
+        target, tolerance = expectation.target, expectation.tolerance
+        outcome = _judge_region(point, target - tolerance, target + tolerance)
+        measured = sampled.measured.split(" [", 1)[0] + " exact" + sampled.measured.split("]", 1)[1]
+    return StatVerdict(outcome, sampled.estimate, point, sampled.n, sampled.expected, f"{measured} (nothing is drawn)")
 
 
 def summary(levels: Sequence[int | None], levels_built: int | None = None, confidence: float = 0.95) -> CellSummary:

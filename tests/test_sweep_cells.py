@@ -1,0 +1,88 @@
+"""A sweep's expectations for some grid cells (``expect.cells``), exact verdicts when a sweep draws
+nothing, grid keys written with brackets, and per-run expectations refused in a sweep."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from stackdsl import parse_scenario
+from stackdsl.batch.sweep import collect, run_sweep
+from stackdsl.batch.sweep_out import cell_expectations, verdicts
+from stackdsl.cli.main import main
+from stackdsl.lang.errors import ScenarioError
+from stackdsl.verdicts.stats import ProportionBound, decide
+
+# a 60 x 60 x 30 mm block at mu 0.3: squat (b / h = 2 > mu), it slides at mu g = 2.94 m/s^2, an
+# amplitude of 18.6 mm at 2 Hz (a_peak = A (2 pi f)^2)
+BLOCK = """stackdsl: 1
+materials: {{m: {{density: 600 kg/m^3, friction: 0.3}}}}
+brick_types: {{blk: {{size: [60 mm, 60 mm, 30 mm], material: m}}}}
+ground: {{material: m}}
+structure: {{bricks: [{{id: b, at: [0, 0, 15 mm], brick: blk}}]}}
+timing: {{settle: 0.5 s{error}}}
+collapse_threshold: 2 mm
+actions:
+  - shake: {{amplitude: 5 mm, frequency: 2 Hz, duration: 1 s, at: 1 s}}
+sweep:
+  samples: 1
+  grid: {{"{key}": [10 mm, 28 mm]}}
+expect:
+  cells:
+    - {{where: "actions.0.shake.amplitude < 15 mm", p_stands: ">= 0.9"}}
+    - {{where: "actions.0.shake.amplitude > 25 mm", p_stands: "<= 0.1"}}
+"""
+
+
+def block(key: str = "actions[0].shake.amplitude", error: str = "") -> str:
+    return BLOCK.format(key=key, error=error)
+
+
+@pytest.mark.parametrize("key", ["actions[0].shake.amplitude", "actions.0.shake.amplitude", "actions[ 0 ].shake.amplitude"])
+def test_a_grid_key_may_index_a_list_with_brackets_or_a_dot(key):
+    t = parse_scenario(block(key), "b.yaml").template
+    assert [t.scenario(c, 0).actions[0].shake.amplitude for c in range(2)] == pytest.approx([0.010, 0.028])  # type: ignore[union-attr]
+    assert t.values(1) == {"actions.0.shake.amplitude": pytest.approx(0.028)}
+
+
+def test_each_cell_is_judged_by_the_expectations_whose_condition_holds_there():
+    t = parse_scenario(block(), "b.yaml").template
+    scenario = t.scenario(0, 0)
+    assert cell_expectations(t, scenario.expect, 0) == [ProportionBound(">=", 0.9)]
+    assert cell_expectations(t, scenario.expect, 1) == [ProportionBound("<=", 0.1)]
+
+
+def test_a_sweep_that_draws_nothing_is_decided_from_one_run_each_cell():
+    t = parse_scenario(block(), "b.yaml").template
+    assert not t.random
+    results = collect(run_sweep(t, jobs=1))
+    judged = verdicts(t, t.scenario(0, 0).expect, results)
+    assert [(c, v.outcome) for c, v in judged] == [(0, "PASS"), (1, "PASS")]  # stands at 10 mm, slides at 28 mm
+    assert [r.collapse_level for r in results] == [None, 1]
+    assert "exact" in judged[0][1].measured
+
+
+def test_a_sweep_that_draws_is_still_judged_by_its_interval():
+    t = parse_scenario(block(error=", placement_error: 1 mm"), "b.yaml").template
+    assert t.random
+    assert decide(ProportionBound(">=", 0.9), [None]).outcome == "INCONCLUSIVE"
+    assert decide(ProportionBound(">=", 0.9), [None], exact=True).outcome == "PASS"
+    assert decide(ProportionBound(">=", 0.9), [1], exact=True).outcome == "FAIL"
+
+
+def test_a_cell_condition_names_only_the_grids_fields():
+    text = block().replace('"actions.0.shake.amplitude > 25 mm"', '"actions.0.shake.frequency > 25"')
+    with pytest.raises(ScenarioError) as caught:
+        parse_scenario(text, "b.yaml")
+    assert "b.yaml:16:" in str(caught.value) and "expect.cells[1].where" in str(caught.value)
+    assert "'actions.0.shake.frequency' is not a field of the grid" in str(caught.value)
+
+
+@pytest.mark.parametrize("expectation", ["toppled: all", "moved: 1", "stays: 1", "stands: true"])
+def test_a_per_run_expectation_in_a_sweep_is_refused_at_its_line(tmp_path: Path, capsys, expectation):
+    text = block().split("expect:")[0] + f"expect:\n  {expectation}\n"
+    (tmp_path / "s.yaml").write_text(text)
+    assert main(["check", str(tmp_path / "s.yaml")]) == 2
+    err = capsys.readouterr().err
+    assert "s.yaml:14:" in err and f"expect.{expectation.split(':')[0]}:" in err and "statistics over its samples" in err

@@ -91,6 +91,25 @@ def test_every_shipped_scenario_validates_and_loads(path, validator):
     load_scenario(path)
 
 
+@pytest.mark.parametrize("path", sorted(ROOT.glob("sweeps/*.yaml")), ids=lambda p: p.name)
+def test_every_shipped_sweep_validates_and_loads(path, validator):
+    data = editor_load(path.read_text(encoding="utf-8"))
+    assert [e.message for e in validator.iter_errors(data)] == []
+    load_scenario(path)
+
+
+def test_a_cells_expectation_needs_something_to_expect(validator):
+    text = (
+        "stackdsl: 1\n"
+        + TOWER
+        + "\nsweep: {samples: 2, grid: {timing.interval: [1, 2]}}\nexpect: {cells: [{where: timing.interval < 2}]}\n"
+    )
+    assert not schema_accepts(validator, text) and not loader_accepts(text)
+    assert schema_accepts(validator, text.replace("}]}", ", p_stands: '>= 0.9'}]}")) and loader_accepts(
+        text.replace("}]}", ", p_stands: '>= 0.9'}]}")
+    )
+
+
 def test_there_are_shipped_scenarios():
     assert len(SCENARIOS) >= 10 and any(p.parent.name == "hard" for p in SCENARIOS)
 

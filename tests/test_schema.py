@@ -691,3 +691,12 @@ def test_a_structure_is_one_layout_a_list_of_named_parts_or_a_map_of_them(valida
     assert "parts" not in json_schema()["$defs"]["Structure"]["properties"]  # the models' own field, not a key
     require = json_schema()["properties"]["require"]
     assert require.get("description") and _examples_in(require)
+
+
+def test_a_parts_key_under_structure_is_refused_by_both_the_schema_and_the_loader(validator):
+    """``parts`` is the Python models' field (Structure(parts=...)); a file writes the list or the
+    map as the structure itself. The loader used to accept it while the schema refused it."""
+    text = "stackdsl: 1\nstructure:\n  parts:\n    - {name: a, tower: {levels: 2}}\n"
+    assert not schema_accepts(validator, text) and not loader_accepts(text)
+    written = text.replace("  parts:\n    - ", "  - ")
+    assert schema_accepts(validator, written) and loader_accepts(written)

@@ -26,15 +26,23 @@ import itertools
 from dataclasses import dataclass
 from typing import Any
 
-from .distributions import Distribution, draw, find
+from .distributions import Distribution, draw, find, tower_field
 from .errors import FieldPath, ScenarioError, SourceMap
 from .schema import Scenario
 from .schema_sweep import MAX_SAMPLES, MAX_SWEEP_RUNS, grid_name
 from .units import in_language_units, in_unit, language_unit, split_quantity
 from .validate import validate
 
-#: Fields the concrete form of a tower's per-layer and per-brick draws lands in, and the field written.
-_DRAWN_INTO = {("structure", "tower", "shifts"): ("structure", "tower", "shift")}
+
+def _drawn_into(distributions: tuple[Distribution, ...] | list[Distribution]) -> dict[FieldPath, FieldPath]:
+    """The fields the concrete form of a tower's per-layer shifts lands in (its ``shifts``), each
+    with the field written (its ``shift``), for every tower (the structure's, or a part's) that has them."""
+    out: dict[FieldPath, FieldPath] = {}
+    for d in distributions:
+        spot = tower_field(d.path)
+        if spot and spot[1] == "shift" and d.per != "sample":
+            out[spot[0] + ("shifts",)] = spot[0] + ("shift",)
+    return out
 
 
 @dataclass(frozen=True)
@@ -86,8 +94,8 @@ class Template:
                         f"the grid names {key!r}, but this file has no item {missing[-1]} in {'.'.join(map(str, missing[:-1]))}",
                         at_key=True,
                     )
-        for into, written in _DRAWN_INTO.items():  # errors at a tower's drawn shifts point at its 'shift'
-            if written in source.values and any(d.path[:3] == written and d.per != "sample" for d in distributions):
+        for into, written in _drawn_into(distributions).items():  # errors at a tower's drawn shifts point at its 'shift'
+            if written in source.values:
                 source.values[into] = source.values[written]
                 source.keys[into] = source.keys.get(written, source.values[written])
         seed = plain.get("seed", 0)
@@ -198,11 +206,10 @@ class Template:
             column = _column(d.label, unit)
             if d.per == "sample":
                 out[column] = _scaled(_number(_get(data, d.path), d.unit), factor)
-            elif d.path[:3] == ("structure", "tower", "shift"):
-                part = d.path[3:]
+            elif (spot := tower_field(d.path)) and spot[1] == "shift":
+                part = d.path[len(spot[0]) + 1 :]
                 out[column] = [
-                    _scaled(_number(_get(s, part) if part else s, d.unit), factor)
-                    for s in _get(data, ("structure", "tower", "shifts"))
+                    _scaled(_number(_get(s, part) if part else s, d.unit), factor) for s in _get(data, spot[0] + ("shifts",))
                 ]
             else:
                 out[column] = [_scaled(_number(v, d.unit), factor) for v in _get(data, d.path)]
@@ -236,11 +243,13 @@ class Template:
         index = {key: list(vs).index(values[key]) if key in values else 0 for _, key, vs in self.grid}
         distributions = [only] if only is not None else list(self.distributions)
 
+        drawn_into = _drawn_into(distributions)
+
         def relocate(loc: FieldPath) -> FieldPath | None:
             for path, key, _ in self.grid:
                 if loc[: len(path)] == path:
                     return ("sweep", "grid", key, index[key])
-            loc = next((written + loc[len(into) + 1 :] for into, written in _DRAWN_INTO.items() if loc[: len(into)] == into), loc)
+            loc = next((written + loc[len(into) + 1 :] for into, written in drawn_into.items() if loc[: len(into)] == into), loc)
             for d in distributions:
                 if loc[: len(d.path)] == d.path or (d.path[: len(loc)] == loc and d.per != "sample"):
                     return d.path

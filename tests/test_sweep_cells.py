@@ -103,6 +103,7 @@ def test_the_shipped_shake_sweep_stands_below_the_tipping_threshold_and_falls_ab
     assert main(["sweep", str(SHAKE), "--backend", backend, "-j", "1", "--out", str(out)]) == 0
     printed = capsys.readouterr().out
     assert f"{backend} extension" in printed and printed.count("  PASS ") == 6
+    assert "(0 levels)" not in printed  # no tower: no levels to name
     with open(out / "samples.csv", newline="") as f:
         collapsed = {int(row["cell"]): row["collapse_level"] != "" for row in csv.DictReader(f)}
     t = parse_scenario(SHAKE.read_text(), "s.yaml").template
@@ -113,3 +114,10 @@ def test_the_shipped_shake_sweep_stands_below_the_tipping_threshold_and_falls_ab
     assert all(not collapsed[c] for c in amplitude if amplitude[c] < threshold)
     assert all(collapsed[c] for c in amplitude if amplitude[c] > 1.2 * threshold)
     assert sorted(collapsed.values()) == [False] * 5 + [True] * 3
+
+
+def test_an_indexed_grid_key_unquoted_in_a_flow_mapping_gets_a_hint(tmp_path: Path, capsys):
+    path = ROOT / "tests" / "hostile" / "sweep_grid_bracket_key_in_flow_mapping.yaml"
+    assert main(["check", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "flow_mapping.yaml:6:35: not valid YAML" in err and '"actions[0].shake.amplitude": ...' in err

@@ -228,7 +228,7 @@ def report(template: Template, expect: Expect, results: Sequence[SampleResult], 
     judged = verdicts(template, expect, results)
     for c, rs in enumerate(by_cell(results, template.cells)):
         head = f"cell {c}: {_cell_text(template, c)}" if template.grid else "all samples"
-        s = summary(measured(rs), levels_built)
+        s = summary(measured(rs), levels_built or None)  # 0: no tower, no levels to name
         lines.append(f"{head}: {s.text()}")
         for cell, v in judged:
             if cell == c:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from stackdsl import compile_scenario, evaluate, parse_scenario, run_program
@@ -220,3 +221,50 @@ def test_the_extension_guides_wakes_what_a_guided_brick_carries_and_forgets_it()
     ext.forget(1)
     with pytest.raises(KeyError):
         ext.state(1)
+
+
+def test_a_recorded_push_keeps_its_pusher_so_a_replay_shows_the_finger():
+    """The pusher was never recorded: a replay, clip or picture of a push showed dominoes falling
+    by themselves. It is a body of the trajectory, as a projectile is, moving along its direction."""
+    from stackdsl.runtime.recorder import record_program
+
+    text = """stackdsl: 1
+brick_types: {finger: {size: [20 mm, 10 mm, 10 mm]}}
+structure: {dominoes: {count: 3}}
+actions:
+  - push: {target: {brick: D01, offset: [0, 0, 45 mm]}, direction: [1, 0, 0], speed: 0.2 m/s, distance: 15 mm, at: 3 s, pusher: finger, id: finger1}
+expect: {toppled: all}
+"""
+    _, trajectory = record_program(compile_scenario(parse_scenario(text, "push.yaml")))
+    ids = trajectory.ids.tolist()
+    assert "finger1" in ids and trajectory.projectiles[ids.index("finger1")]
+    finger = ids.index("finger1")
+    start, later = trajectory.at(3.0).positions[finger], trajectory.at(3.07).positions[finger]
+    assert later[0] - start[0] == pytest.approx(0.2 * 0.07, abs=0.004)  # along +x at 0.2 m/s
+    assert later[1:] == pytest.approx(start[1:], abs=1e-4)
+
+
+def test_a_recorded_pull_moves_the_pulled_brick_then_leaves_it_out():
+    """A pulled brick was recorded frozen in its slot for the whole run (out of the structure, its
+    wake never reached its record), and moved far away after: a replay showed it never leave, and
+    ``export --at end`` wrote it back into the tower. Now it slides out, then is absent."""
+    from stackdsl.draw.export import snapshot
+    from stackdsl.runtime.recorder import record_program
+
+    text = """stackdsl: 1
+structure: {tower: {levels: 3, bricks_per_layer: 3, spacing: 25 mm, turn: 90}}
+brick_types: {kapla: {size: [75 mm, 24 mm, 15 mm]}}
+timing: {interval: 0.5 s, settle: 1 s}
+actions:
+  - remove: {brick: L01.2, at: after level 3, speed: 40 mm/s}
+"""
+    program = compile_scenario(parse_scenario(text, "pull.yaml"))
+    (pull,) = program.kinematic
+    _, trajectory = record_program(program)
+    i = trajectory.ids.tolist().index("L01.2")
+    before, during = trajectory.at(pull.time), trajectory.at(pull.time + 1.0)
+    moved = float(np.linalg.norm(during.positions[i] - before.positions[i]))
+    assert moved == pytest.approx(0.040, abs=0.006)  # 1 s at 40 mm/s along its length
+    assert during.state_names[i] in ("active", "woken")
+    assert trajectory.at(trajectory.end).state_names[i] == "absent"
+    assert "L01.2" not in snapshot(trajectory, "end").ids

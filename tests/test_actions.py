@@ -268,3 +268,11 @@ actions:
     assert during.state_names[i] in ("active", "woken")
     assert trajectory.at(trajectory.end).state_names[i] == "absent"
     assert "L01.2" not in snapshot(trajectory, "end").ids
+
+
+def test_compile_prints_no_negative_zero_and_one_level_in_the_singular():
+    text = "stackdsl: 1\nstructure: {dominoes: {count: 3}}\n"
+    printed = format_program(compile_scenario(parse_scenario(text, "d.yaml")))
+    assert "3 bricks in 1 level," in printed and "-0.0" not in printed
+    turned = format_program(compile_scenario(parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 3, yaw: 90}}\n", "t.yaml")))
+    assert "3 levels," in turned and "-0.0" not in turned

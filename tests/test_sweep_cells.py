@@ -121,3 +121,9 @@ def test_an_indexed_grid_key_unquoted_in_a_flow_mapping_gets_a_hint(tmp_path: Pa
     assert main(["check", str(path)]) == 2
     err = capsys.readouterr().err
     assert "flow_mapping.yaml:6:35: not valid YAML" in err and '"actions[0].shake.amplitude": ...' in err
+
+
+def test_a_cell_condition_may_name_the_grid_key_as_written_with_brackets():
+    text = block().replace('"actions.0.shake.amplitude < 15 mm"', '"actions[0].shake.amplitude < 15 mm"')
+    t = parse_scenario(text, "b.yaml").template
+    assert cell_expectations(t, t.scenario(0, 0).expect, 0) == [ProportionBound(">=", 0.9)]

@@ -276,3 +276,24 @@ def test_compile_prints_no_negative_zero_and_one_level_in_the_singular():
     assert "3 bricks in 1 level," in printed and "-0.0" not in printed
     turned = format_program(compile_scenario(parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 3, yaw: 90}}\n", "t.yaml")))
     assert "3 levels," in turned and "-0.0" not in turned
+
+
+def test_stands_until_holds_through_the_pulls_before_the_one_that_fells_the_tower():
+    """scenarios/jenga_falls.yaml: the first pull (18 s) leaves the tower standing, the second (22 s)
+    fells it: 'stands until 22 s' holds, 'stands until 24 s' does not, and says when it fell."""
+    from pathlib import Path
+
+    from stackdsl.verdicts.expect import explain
+
+    path = Path(__file__).resolve().parents[1] / "scenarios" / "jenga_falls.yaml"
+    scenario = parse_scenario(path.read_text(), "jenga_falls.yaml")
+    program = compile_scenario(scenario)
+    outcome = run_program(program)
+    assert outcome.collapse is not None and 22.0 < outcome.collapse.time < 24.0
+    for until, held in (("22 s", True), ("24 s", False)):
+        expect = parse_scenario(path.read_text().replace("  collapse: 12\n", f"  stands_until: {until}\n"), "j.yaml").expect
+        (verdict,) = [v for v in evaluate(expect, outcome, program.collapse_threshold) if v.name == "stands_until"]
+        assert verdict.passed is held and verdict.expected == f"stands until {until[:-2]} s"
+    assert "collapsed: brick" in explain(expect, outcome, program.collapse_threshold)[0]
+    with pytest.raises(Exception, match="'stands' is until the end already"):
+        parse_scenario(path.read_text().replace("  collapse: 12\n", "  stands: true\n  stands_until: 3 s\n"), "j.yaml")

@@ -38,6 +38,7 @@ from .grammar import (
     json_pattern,
 )
 from .schema_require import Requirement
+from .units import Time
 
 
 class CollapseLevel(StrictModel):
@@ -296,6 +297,16 @@ class Expect(StrictModel):
         | None
     ) = None
     stands: Annotated[Literal[True], BeforeValidator(flag)] | None = None
+    stands_until: Annotated[
+        Time | None,
+        Field(
+            ge=0,
+            le=3600,
+            description="a time the structure must stand until: no collapse before it (a Jenga tower that stands "
+            "through its first pulls, whatever a later one does)",
+            examples=["35 s"],
+        ),
+    ] = None
     stays: Levels | None = None
     may_fall: Levels | None = None
     moved: Annotated[
@@ -361,6 +372,7 @@ class Expect(StrictModel):
         return (
             isinstance(self.collapse, CollapseLevel)
             or bool(self.stands)
+            or self.stands_until is not None
             or self.stays is not None
             or self.moved is not None
             or self.toppled is not None
@@ -370,6 +382,8 @@ class Expect(StrictModel):
     def _consistent(self) -> Expect:
         if self.collapse is not None and self.stands:
             raise ValueError("a structure cannot both collapse and stand: give one of 'collapse' or 'stands'")
+        if self.stands and self.stands_until is not None:
+            raise ValueError("'stands' is until the end already: give 'stands_until' only when it may fall after that time")
         # JSON Schema cannot compare two lists of ranges: the schema leaves this to the loader
         if self.stays and self.may_fall and set(self.stays) & set(self.may_fall):
             raise ValueError("a level cannot both stay and fall: 'stays' and 'may_fall' overlap")

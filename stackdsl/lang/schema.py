@@ -265,7 +265,11 @@ class Scenario(StrictModel):
             field = next(f for f in ("p_stands", "cells", "collapse") if getattr(self.expect, f) is not None)
             self._refuse(("expect", field), "a statistical expectation needs a sweep: add 'sweep: {samples: N}'")
         if self.sweep is not None and self.expect.per_run:
-            field = next(f for f in ("collapse", "stands", "stays", "moved", "toppled") if getattr(self.expect, f) is not None)
+            field = next(
+                f
+                for f in ("collapse", "stands", "stands_until", "stays", "moved", "toppled")
+                if getattr(self.expect, f) is not None
+            )
             self._refuse(
                 ("expect", field),
                 "a sweep's expectations are statistics over its samples: collapse: {mean: '7 ± 0.5'}, "

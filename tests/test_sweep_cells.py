@@ -104,6 +104,7 @@ def test_the_shipped_shake_sweep_stands_below_the_tipping_threshold_and_falls_ab
     printed = capsys.readouterr().out
     assert f"{backend} extension" in printed and printed.count("  PASS ") == 6
     assert "(0 levels)" not in printed  # no tower: no levels to name
+    assert "P(stands) 1.000 exact" in printed and "[0.025, 1.000]" not in printed  # no sampling interval on one run
     with open(out / "samples.csv", newline="") as f:
         collapsed = {int(row["cell"]): row["collapse_level"] != "" for row in csv.DictReader(f)}
     t = parse_scenario(SHAKE.read_text(), "s.yaml").template

@@ -226,9 +226,10 @@ def report(template: Template, expect: Expect, results: Sequence[SampleResult], 
     the verdict of each statistical expectation."""
     lines = []
     judged = verdicts(template, expect, results)
+    exact = not template.random
     for c, rs in enumerate(by_cell(results, template.cells)):
         head = f"cell {c}: {_cell_text(template, c)}" if template.grid else "all samples"
-        s = summary(measured(rs), levels_built or None)  # 0: no tower, no levels to name
+        s = summary(measured(rs), levels_built or None, exact=exact)  # 0: no tower, no levels to name
         lines.append(f"{head}: {s.text()}")
         for cell, v in judged:
             if cell == c:

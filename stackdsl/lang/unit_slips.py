@@ -20,18 +20,31 @@ from .units import bare
 
 #: Length fields (their paths, ``#`` for any list index, ``*`` for any name) and the largest bare
 #: number of metres that is plausible there; beyond it, the value in millimetres is meant.
+_LAYOUT: dict[str, float] = {  # the fields of a structure's layout (its own, or a part's)
+    "bricks[#].at[#]": 10.0,  # a room-sized scene
+    "tower.origin[#]": 10.0,
+    "card_house.origin[#]": 10.0,
+    "wall.origin[#]": 10.0,
+    "pyramid.origin[#]": 10.0,
+    "dominoes.origin[#]": 10.0,
+    "tower.spacing": 1.0,
+    "card_house.spacing": 1.0,
+    "dominoes.spacing": 1.0,
+    "wall.joint": 1.0,
+    "pyramid.joint": 1.0,
+    "tower.shift": 1.0,
+    "tower.shift[#]": 1.0,
+    "tower.shifts[#]": 1.0,
+    "tower.shifts[#][#]": 1.0,
+}
 PLAUSIBLE: dict[str, float] = {
     "brick_types.*.size[#]": 1.0,  # a brick side of a metre or more
-    "structure.bricks[#].at[#]": 10.0,  # a room-sized scene
-    "structure.tower.origin[#]": 10.0,
-    "structure.card_house.origin[#]": 10.0,
+    **{f"structure.{k}": v for k, v in _LAYOUT.items()},
+    **{f"structure[#].{k}": v for k, v in _LAYOUT.items()},  # a part of a list
+    **{f"structure.*.{k}": v for k, v in _LAYOUT.items()},  # a part of a map
+    "structure[#].origin[#]": 10.0,
+    "structure.*.origin[#]": 10.0,
     "impacts[#].target.point[#]": 10.0,
-    "structure.tower.spacing": 1.0,
-    "structure.card_house.spacing": 1.0,
-    "structure.tower.shift": 1.0,
-    "structure.tower.shift[#]": 1.0,
-    "structure.tower.shifts[#]": 1.0,
-    "structure.tower.shifts[#][#]": 1.0,
     "impacts[#].distance": 1.0,
     "collapse_threshold": 0.1,
 }

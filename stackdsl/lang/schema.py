@@ -57,6 +57,7 @@ from .schema_layouts import BrickPlacement, CardHouse, Tower
 from .schema_parts import LAYOUTS, RESERVED, Parts, as_parts, named_parts
 from .schema_require import Requirement
 from .schema_sweep import Sweep, grid_name
+from .unit_slips import metres_written
 from .units import (
     Time,
 )
@@ -349,7 +350,7 @@ class Scenario(StrictModel):
         data = self.model_dump(mode="json", exclude_defaults=True)
         if "parts" in data.get("structure", {}):
             data["structure"] = data["structure"]["parts"]
-        return yaml_text(data)
+        return yaml_text(metres_written(data))
 
     def material(self, name: str) -> Material:
         """A declared or built-in material. Raises KeyError for an unknown name."""

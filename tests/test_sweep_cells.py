@@ -128,3 +128,11 @@ def test_a_cell_condition_may_name_the_grid_key_as_written_with_brackets():
     text = block().replace('"actions.0.shake.amplitude < 15 mm"', '"actions[0].shake.amplitude < 15 mm"')
     t = parse_scenario(text, "b.yaml").template
     assert cell_expectations(t, t.scenario(0, 0).expect, 0) == [ProportionBound(">=", 0.9)]
+
+
+def test_an_exact_summary_has_its_estimates_for_intervals():
+    from stackdsl.verdicts.stats import summary
+
+    sampled, exact = summary([None, 3]), summary([None, 3], exact=True)
+    assert sampled.p_stands_interval != (0.5, 0.5) and exact.p_stands_interval == (0.5, 0.5)
+    assert exact.mean_interval == (3.0, 3.0) and "exact" in exact.text() and "95% CI" not in exact.text()

@@ -196,7 +196,8 @@ def write_plots(
                 statistic=statistic,
                 levels_built=levels_built or None,
                 title=name,
-                expected=forms,
+                expected=forms,  # the file's own, for every cell (expect.cells' hold in some only: not drawn)
+                exact=not template.random,
             )
             written.append(path)
     return written

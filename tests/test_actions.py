@@ -297,3 +297,20 @@ def test_stands_until_holds_through_the_pulls_before_the_one_that_fells_the_towe
     assert "collapsed: brick" in explain(expect, outcome, program.collapse_threshold)[0]
     with pytest.raises(Exception, match="'stands' is until the end already"):
         parse_scenario(path.read_text().replace("  collapse: 12\n", "  stands: true\n  stands_until: 3 s\n"), "j.yaml")
+
+
+def test_an_action_may_start_one_interval_after_the_previous_one_ends():
+    """A sequence of pulls no longer needs each one's length / speed worked out by hand."""
+    text = """stackdsl: 1
+structure: {tower: {levels: 4, bricks_per_layer: 3, spacing: 25 mm, turn: 90}}
+timing: {interval: 0.5 s}
+actions:
+  - remove: {brick: L02.2, at: after level 4, speed: 40 mm/s}
+  - remove: {brick: L03.2, at: after the previous action, speed: 40 mm/s}
+  - shake: {amplitude: 1 mm, frequency: 2 Hz, duration: 1 s, at: after  the previous action}
+"""
+    first, second, shake = compile_scenario(parse_scenario(text, "seq.yaml")).kinematic
+    assert first.time == pytest.approx(6.0)  # 12 bricks at 0.5 s, one interval after the last
+    assert second.time == pytest.approx(first.end_time + 0.5, abs=0.005)  # up to the next whole timestep
+    assert shake.time == pytest.approx(second.end_time + 0.5, abs=0.005)
+    assert first.end_time == pytest.approx(6.0 + 0.130 / 0.040, abs=0.005)  # the brick's length + 10 mm at 40 mm/s

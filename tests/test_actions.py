@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from stackdsl import compile_scenario, evaluate, parse_scenario, run_program
@@ -220,3 +221,96 @@ def test_the_extension_guides_wakes_what_a_guided_brick_carries_and_forgets_it()
     ext.forget(1)
     with pytest.raises(KeyError):
         ext.state(1)
+
+
+def test_a_recorded_push_keeps_its_pusher_so_a_replay_shows_the_finger():
+    """The pusher was never recorded: a replay, clip or picture of a push showed dominoes falling
+    by themselves. It is a body of the trajectory, as a projectile is, moving along its direction."""
+    from stackdsl.runtime.recorder import record_program
+
+    text = """stackdsl: 1
+brick_types: {finger: {size: [20 mm, 10 mm, 10 mm]}}
+structure: {dominoes: {count: 3}}
+actions:
+  - push: {target: {brick: D01, offset: [0, 0, 45 mm]}, direction: [1, 0, 0], speed: 0.2 m/s, distance: 15 mm, at: 3 s, pusher: finger, id: finger1}
+expect: {toppled: all}
+"""
+    _, trajectory = record_program(compile_scenario(parse_scenario(text, "push.yaml")))
+    ids = trajectory.ids.tolist()
+    assert "finger1" in ids and trajectory.projectiles[ids.index("finger1")]
+    finger = ids.index("finger1")
+    start, later = trajectory.at(3.0).positions[finger], trajectory.at(3.07).positions[finger]
+    assert later[0] - start[0] == pytest.approx(0.2 * 0.07, abs=0.004)  # along +x at 0.2 m/s
+    assert later[1:] == pytest.approx(start[1:], abs=1e-4)
+
+
+def test_a_recorded_pull_moves_the_pulled_brick_then_leaves_it_out():
+    """A pulled brick was recorded frozen in its slot for the whole run (out of the structure, its
+    wake never reached its record), and moved far away after: a replay showed it never leave, and
+    ``export --at end`` wrote it back into the tower. Now it slides out, then is absent."""
+    from stackdsl.draw.export import snapshot
+    from stackdsl.runtime.recorder import record_program
+
+    text = """stackdsl: 1
+structure: {tower: {levels: 3, bricks_per_layer: 3, spacing: 25 mm, turn: 90}}
+brick_types: {kapla: {size: [75 mm, 24 mm, 15 mm]}}
+timing: {interval: 0.5 s, settle: 1 s}
+actions:
+  - remove: {brick: L01.2, at: after level 3, speed: 40 mm/s}
+"""
+    program = compile_scenario(parse_scenario(text, "pull.yaml"))
+    (pull,) = program.kinematic
+    _, trajectory = record_program(program)
+    i = trajectory.ids.tolist().index("L01.2")
+    before, during = trajectory.at(pull.time), trajectory.at(pull.time + 1.0)
+    moved = float(np.linalg.norm(during.positions[i] - before.positions[i]))
+    assert moved == pytest.approx(0.040, abs=0.006)  # 1 s at 40 mm/s along its length
+    assert during.state_names[i] in ("active", "woken")
+    assert trajectory.at(trajectory.end).state_names[i] == "absent"
+    assert "L01.2" not in snapshot(trajectory, "end").ids
+
+
+def test_compile_prints_no_negative_zero_and_one_level_in_the_singular():
+    text = "stackdsl: 1\nstructure: {dominoes: {count: 3}}\n"
+    printed = format_program(compile_scenario(parse_scenario(text, "d.yaml")))
+    assert "3 bricks in 1 level," in printed and "-0.0" not in printed
+    turned = format_program(compile_scenario(parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 3, yaw: 90}}\n", "t.yaml")))
+    assert "3 levels," in turned and "-0.0" not in turned
+
+
+def test_stands_until_holds_through_the_pulls_before_the_one_that_fells_the_tower():
+    """scenarios/jenga_falls.yaml: the first pull (18 s) leaves the tower standing, the second (22 s)
+    fells it: 'stands until 22 s' holds, 'stands until 24 s' does not, and says when it fell."""
+    from pathlib import Path
+
+    from stackdsl.verdicts.expect import explain
+
+    path = Path(__file__).resolve().parents[1] / "scenarios" / "jenga_falls.yaml"
+    scenario = parse_scenario(path.read_text(), "jenga_falls.yaml")
+    program = compile_scenario(scenario)
+    outcome = run_program(program)
+    assert outcome.collapse is not None and 22.0 < outcome.collapse.time < 24.0
+    for until, held in (("22 s", True), ("24 s", False)):
+        expect = parse_scenario(path.read_text().replace("  collapse: 12\n", f"  stands_until: {until}\n"), "j.yaml").expect
+        (verdict,) = [v for v in evaluate(expect, outcome, program.collapse_threshold) if v.name == "stands_until"]
+        assert verdict.passed is held and verdict.expected == f"stands until {until[:-2]} s"
+    assert "collapsed: brick" in explain(expect, outcome, program.collapse_threshold)[0]
+    with pytest.raises(Exception, match="'stands' is until the end already"):
+        parse_scenario(path.read_text().replace("  collapse: 12\n", "  stands: true\n  stands_until: 3 s\n"), "j.yaml")
+
+
+def test_an_action_may_start_one_interval_after_the_previous_one_ends():
+    """A sequence of pulls no longer needs each one's length / speed worked out by hand."""
+    text = """stackdsl: 1
+structure: {tower: {levels: 4, bricks_per_layer: 3, spacing: 25 mm, turn: 90}}
+timing: {interval: 0.5 s}
+actions:
+  - remove: {brick: L02.2, at: after level 4, speed: 40 mm/s}
+  - remove: {brick: L03.2, at: after the previous action, speed: 40 mm/s}
+  - shake: {amplitude: 1 mm, frequency: 2 Hz, duration: 1 s, at: after  the previous action}
+"""
+    first, second, shake = compile_scenario(parse_scenario(text, "seq.yaml")).kinematic
+    assert first.time == pytest.approx(6.0)  # 12 bricks at 0.5 s, one interval after the last
+    assert second.time == pytest.approx(first.end_time + 0.5, abs=0.005)  # up to the next whole timestep
+    assert shake.time == pytest.approx(second.end_time + 0.5, abs=0.005)
+    assert first.end_time == pytest.approx(6.0 + 0.130 / 0.040, abs=0.005)  # the brick's length + 10 mm at 40 mm/s

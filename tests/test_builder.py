@@ -83,3 +83,19 @@ def test_a_built_composition_is_checked_as_a_file_is_when_compiled():
         compile_scenario(Scenario(stackdsl=1, structure=Structure(parts=unnamed)))
     with pytest.raises(ScenarioError, match="unknown brick type 'oak'"):
         compile_scenario(Scenario(stackdsl=1, structure=Structure(tower=Tower(levels=2, brick="oak"))))
+
+
+def test_a_length_far_from_plausible_is_written_back_with_its_unit_and_reads_back_silently():
+    """to_yaml wrote SI numbers bare: a tower 1 km away read back as '1000 is read as 1000 m; did
+    you mean 1000 mm?'. Such a length is written '1000.0 m'; plausible ones stay bare."""
+    import warnings
+
+    from stackdsl.lang.models import Scenario, Structure, Tower
+
+    built = Scenario(stackdsl=1, structure=Structure(tower=Tower(levels=2, origin=(1000, 0), spacing=0.1)))
+    text = built.to_yaml()
+    assert "origin: [1000.0 m, 0.0]" in text and "spacing: 0.1\n" in text
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        again = parse_scenario(text, "built.yaml")
+    assert again.structure.tower is not None and again.structure.tower.origin == (1000.0, 0.0)

@@ -196,3 +196,34 @@ def test_a_sweep_grid_and_a_distribution_reach_into_parts():
     assert {template.scenario(0, k).structure.parts["right"].tower.yaw for k in range(8)} == {90.0, 270.0}
     with pytest.raises(ScenarioError, match="has no field 'levls'"):
         parse_scenario(BRIDGE_MAP + "sweep: {samples: 1, grid: {structure.left.tower.levls: [2]}}\n", "p.yaml")
+
+
+PER_LAYER_PARTS = """stackdsl: 1
+seed: 3
+structure:
+  left: {tower: {levels: 5, bricks_per_layer: 1, turn: 0, shift: {uniform: [-20 mm, 20 mm], per: layer}, yaw_jitter: {uniform: [-2, 2], per: brick}}}
+  right: {origin: [300 mm, 0], tower: {levels: 3, bricks_per_layer: 1, turn: 0, shift: [{uniform: [-5 mm, 5 mm], per: layer}, 0]}}
+sweep: {samples: 4}
+"""
+
+
+@pytest.mark.parametrize("form", ["map", "list"])
+def test_a_towers_per_layer_and_per_brick_draws_work_inside_a_part(form):
+    """A part's tower takes ``per: layer`` on its shift and ``per: brick`` on its yaw jitter as the
+    structure's own tower does (it was refused: "'per: layer' is not allowed here")."""
+    text = PER_LAYER_PARTS
+    if form == "list":
+        text = text.replace("  left: {", "  - {name: left, ").replace("  right: {", "  - {name: right, ")
+    t = parse_scenario(text, "p.yaml").template
+    names = ("left", "right") if form == "map" else (0, 1)
+    samples = [t.scenario(0, k).structure.parts for k in range(3)]
+    left = [p[names[0]].tower for p in samples]  # type: ignore[index]
+    right = [p[names[1]].tower for p in samples]  # type: ignore[index]
+    assert all(len(tw.shifts) == 4 and len(tw.yaw_jitter) == 5 for tw in left)
+    assert all(abs(x) <= 0.020 and y == 0 for tw in left for x, y in tw.shifts)
+    assert len({tuple(tw.shifts) for tw in left}) == 3  # a new walk each sample
+    assert len({x for x, _ in left[0].shifts}) == 4  # a draw a layer, not one a sample
+    assert all(len(tw.shifts) == 2 and all(abs(x) <= 0.005 and y == 0 for x, y in tw.shifts) for tw in right)
+    assert t.scenario(0, 1).structure.parts[names[0]].tower.shifts == left[1].shifts  # type: ignore[index]  # a function of (seed, k)
+    label = "structure.left.tower.shift [m]" if form == "map" else "structure.0.tower.shift [m]"
+    assert t.parameters(0, 0)[label] == pytest.approx([x for x, _ in left[0].shifts])

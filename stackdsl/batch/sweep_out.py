@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from ..lang.expectations import Expect
+from ..lang.expressions import parse
 from ..lang.files import written
 from ..lang.sampling import Template
 from ..verdicts.stats import MeanWithin, ProportionBound, QuantileWithin, StatVerdict, decide, summary
@@ -60,10 +61,28 @@ def measured(results: Sequence[SampleResult]) -> list[int | None]:
     return [r.collapse_level for r in results if not (r.error or r.bad_input or r.stopped)]
 
 
-def verdicts(template: Template, expect: Expect, results: Sequence[SampleResult]) -> list[tuple[int, StatVerdict]]:
-    """(cell, verdict) of every statistical expectation in every cell."""
+def cell_expectations(template: Template, expect: Expect, c: int) -> list[Any]:
+    """The statistical expectations of cell ``c``: the file's own, then those of each of
+    ``expect.cells`` whose condition holds on the cell's grid values."""
     forms = expectations(expect)
-    return [(c, decide(form, measured(rs))) for c, rs in enumerate(by_cell(results, template.cells)) for form in forms]
+    values = template.values(c)
+    for cell in expect.cells or []:
+        if parse(cell.where).holds(values):
+            forms += expectations(Expect(collapse=cell.collapse, p_stands=cell.p_stands))
+    return forms
+
+
+def verdicts(template: Template, expect: Expect, results: Sequence[SampleResult]) -> list[tuple[int, StatVerdict]]:
+    """(cell, verdict) of every statistical expectation in every cell (``expect.cells``' in the
+    cells they are for); exact (:func:`stackdsl.verdicts.stats.decide`) when the sweep draws nothing."""
+    if not expectations(expect) and not expect.cells:
+        return []
+    exact = not template.random
+    return [
+        (c, decide(form, measured(rs), exact=exact))
+        for c, rs in enumerate(by_cell(results, template.cells))
+        for form in cell_expectations(template, expect, c)
+    ]
 
 
 def write_samples(results: Sequence[SampleResult], folder: Path) -> tuple[Path, Path]:
@@ -177,7 +196,8 @@ def write_plots(
                 statistic=statistic,
                 levels_built=levels_built or None,
                 title=name,
-                expected=forms,
+                expected=forms,  # the file's own, for every cell (expect.cells' hold in some only: not drawn)
+                exact=not template.random,
             )
             written.append(path)
     return written
@@ -207,9 +227,10 @@ def report(template: Template, expect: Expect, results: Sequence[SampleResult], 
     the verdict of each statistical expectation."""
     lines = []
     judged = verdicts(template, expect, results)
+    exact = not template.random
     for c, rs in enumerate(by_cell(results, template.cells)):
         head = f"cell {c}: {_cell_text(template, c)}" if template.grid else "all samples"
-        s = summary(measured(rs), levels_built)
+        s = summary(measured(rs), levels_built or None, exact=exact)  # 0: no tower, no levels to name
         lines.append(f"{head}: {s.text()}")
         for cell, v in judged:
             if cell == c:

@@ -59,6 +59,7 @@ def add_sweep(
     )
     p.add_argument("--mode", choices=modes, help="override the scenario's engine mode")
     p.add_argument("--model", choices=models, help="override the scenario's stability model")
+    p.add_argument("--backend", choices=["pybullet", "mujoco"], help="override the scenario's engine")
     p.set_defaults(func=_sweep)
 
 
@@ -74,15 +75,18 @@ def _sweep(args: argparse.Namespace) -> int:
         raise ScenarioError(
             "this scenario has no sweep and no random field: each run would be the same (use stackdsl run)", file=args.file
         )
-    if scenario.engine.backend == "mujoco" and not installed("mujoco"):  # said once, before any sample is drawn
+    backend = args.backend or scenario.engine.backend
+    if backend == "mujoco" and not installed("mujoco"):  # said once, before any sample is drawn
+        if args.backend:
+            raise ScenarioError(missing("mujoco"), file="--backend")
         raise scenario.source.error(("engine", "backend"), missing("mujoco"))
     if args.samples is not None:
         template = template.with_samples(args.samples)
     out = Path(args.out) if args.out else None
     if out is not None and out.exists() and not out.is_dir():
         raise ScenarioError("the output must be a folder, and this is a file", file=str(out))
-    options = SweepOptions(args.mode, args.model, args.oracle, args.timeout)
-    engine = f"{scenario.engine.backend} {args.mode or scenario.engine.mode}"  # which engine ran, said once
+    options = SweepOptions(args.mode, args.model, args.oracle, args.timeout, args.backend)
+    engine = f"{backend} {args.mode or scenario.engine.mode}"  # which engine ran, said once
     levels_built = scenario.structure.tower.levels if scenario.structure.tower else None
     total = template.cells * template.samples
     start = time.perf_counter()

@@ -23,7 +23,7 @@ import numpy as np
 from ..engines.protocol import BrickSpec
 from ..lang.errors import FieldPath
 from ..lang.schema import Scenario
-from ..lang.schema_actions import AXES, Action
+from ..lang.schema_actions import AXES, Action, AfterPrevious
 from ..lang.schema_impacts import AfterLevel
 from .layouts import LaidBrick
 from .program import Kinematic, Place, Push, Remove, Shake
@@ -62,7 +62,7 @@ def compile_actions(
     out: list[Kinematic] = []
     for i, action in enumerate(scenario.actions):
         path: FieldPath = ("actions", i, action.kind)
-        start = _start(scenario, path, action, bricks, slots)
+        start = _start(scenario, path, action, bricks, slots, out[-1] if out else None, dt)
         step = steps((*path, "at"), start)
         if action.remove is not None:
             out.append(_remove(scenario, path, action, bricks, slots, specs, start, step, dt))
@@ -76,10 +76,23 @@ def compile_actions(
     return out
 
 
-def _start(scenario: Scenario, path: FieldPath, action: Action, bricks: Sequence[LaidBrick], slots: np.ndarray) -> float:
-    """The action's start in seconds: its ``at`` (an impact's grammar)."""
+def _start(
+    scenario: Scenario,
+    path: FieldPath,
+    action: Action,
+    bricks: Sequence[LaidBrick],
+    slots: np.ndarray,
+    previous: Kinematic | None,
+    dt: float,
+) -> float:
+    """The action's start in seconds: its ``at`` (an impact's grammar), or one interval after
+    the end of the ``previous`` action, up to the next whole timestep."""
     spec = action.remove or action.push or action.shake
     assert spec is not None, "an action is one of three"
+    if isinstance(spec.at, AfterPrevious):
+        if previous is None:
+            raise scenario.source.error((*path, "at"), "the first action has no action before it: give a time or 'after level N'")
+        return float(math.ceil((previous.end_time + scenario.timing.interval) / dt - 1e-6) * dt)
     if not isinstance(spec.at, AfterLevel):
         return float(spec.at)
     last = [int(k) for b, k in zip(bricks, slots) if b.level == spec.at.after_level]

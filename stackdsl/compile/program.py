@@ -374,13 +374,18 @@ def estimate_work(program: Program) -> Work:
     return Work(steps, moving, resting)
 
 
+def _mm(metres: float) -> float:
+    """Millimetres to one decimal as printed, without a sign on zero (-0.0 mm reads as a mistake)."""
+    return round(metres * 1000, 1) + 0.0
+
+
 def format_program(program: Program) -> str:
     """The program as text, one line per action (what ``stackdsl compile`` prints)."""
     e = program.engine
     lines = [
         f"program {program.name}: {e.backend}, mode {e.mode}, timestep {e.timestep * 1000:.4g} ms, "
         f"{e.solver_iterations} solver iterations, {e.details()}",
-        f"  {len(program.placements)} bricks in {program.levels} levels, collapse threshold "
+        f"  {len(program.placements)} bricks in {program.levels} level{'' if program.levels == 1 else 's'}, collapse threshold "
         f"{program.collapse_threshold * 1000:.3g} mm, {program.duration:g} s simulated",
         f"  estimated work {program.work:.2g} body-steps, about {program.wall_estimate:.2g} s of wall time",
     ]
@@ -398,14 +403,14 @@ def format_program(program: Program) -> str:
     if program.floating:
         lines.append(f"  resting on nothing when placed, allowed (allow: [floating]): {', '.join(program.floating)}")
     for f in program.fixtures:
-        x, y, z = (v * 1000 for v in f.position)
+        x, y, z = (_mm(v) for v in f.position)
         lines.append(
             f"  fixed  {f.id:<10} at ({x:.1f}, {y:.1f}, {z:.1f}) mm  yaw {f.yaw:.1f}  pitch {f.pitch:.1f}  roll {f.roll:.1f}  {f.brick.type}"
         )
     for a in program.actions:
         head = f"  t={a.time:9.3f} s  step {a.step:>8}  "
         if isinstance(a, Place):
-            x, y, z = (v * 1000 for v in a.position)
+            x, y, z = (_mm(v) for v in a.position)
             lines.append(
                 f"{head}place  {a.id:<10} level {a.level:>3}  at ({x:8.1f}, {y:8.1f}, {z:7.1f}) mm  "
                 f"yaw {a.yaw:6.1f}  pitch {a.pitch:5.1f}  roll {a.roll:5.1f}  {a.brick.type}"

@@ -37,7 +37,7 @@ import numpy as np
 
 from ..engines.protocol import BrickSpec
 from ..lang.files import written
-from ..runtime.trajectory import STATES, Trajectory
+from ..runtime.trajectory import ABSENT, STATES, Trajectory
 from .render import COLOURS, resolve_time
 
 #: The built-in pine's density (kg/m^3) and friction coefficient, for bricks whose spec is unknown.
@@ -94,7 +94,7 @@ def snapshot(
     """
     time = resolve_time(trajectory, at)
     frame = trajectory.at(time)
-    present = ~np.isnan(frame.positions[:, 0])
+    present = ~np.isnan(frame.positions[:, 0]) & (frame.states != ABSENT)  # not yet placed, or taken out
     return Snapshot(
         time=time,
         name=str(trajectory.meta.get("scenario") or "stackdsl"),

@@ -111,8 +111,10 @@ def plot_grid(
     levels_built: int | None = None,
     title: str = "",
     expected: Sequence[Any] = (),
+    exact: bool = False,
 ) -> None:
-    """Write a PNG of a statistic per cell against a numeric parameter, with 95 % error bars;
+    """Write a PNG of a statistic per cell against a numeric parameter, with 95 % error bars
+    (none when ``exact``: a sweep that draws nothing, each cell one run repeated);
     the file's expectation on that statistic (``expected``, as :func:`plot_histogram` takes
     them) in :data:`EXPECTED`: a bound on P(stands) as a dashed threshold line with its accepted
     side shaded, a mean's accepted interval hatched with its target dashed.
@@ -135,7 +137,7 @@ def plot_grid(
     points: list[tuple[float, float, float, float]] = []  # (x, estimate, low, high)
     sizes: set[int] = set()
     for value, cell in zip(values, cells):
-        s = _stats.summary(cell, levels_built, _CONFIDENCE)
+        s = _stats.summary(cell, levels_built, _CONFIDENCE, exact=exact)
         sizes.add(s.n)
         estimate, interval = (s.p_stands, s.p_stands_interval) if statistic == "p_stands" else (s.mean, s.mean_interval)
         if estimate is not None:
@@ -150,7 +152,8 @@ def plot_grid(
         ys = [p[1] for p in points]
         below = [p[1] - p[2] for p in points]
         above = [p[3] - p[1] for p in points]
-        ax.errorbar(xs, ys, yerr=[below, above], color=POINT, marker="o", ms=5, capsize=4, lw=1.5, label="estimate, 95% CI")
+        label = "exact: nothing is drawn" if exact else "estimate, 95% CI"
+        ax.errorbar(xs, ys, yerr=[below, above], color=POINT, marker="o", ms=5, capsize=4, lw=1.5, label=label)
         ax.legend(loc="best", fontsize=8, frameon=False)
         if len(set(xs)) == 1:
             ax.set_xlim(xs[0] - 1, xs[0] + 1)

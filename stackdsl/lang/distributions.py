@@ -41,11 +41,22 @@ from .errors import FieldPath, ScenarioError, SourceMap
 from .units import in_unit, split_quantity
 
 KINDS = ("uniform", "normal", "choice")
-#: Where a distribution may be drawn more often than once a sample, and how often.
-PER: dict[FieldPath, tuple[str, ...]] = {
-    ("structure", "tower", "shift"): ("layer",),
-    ("structure", "tower", "yaw_jitter"): ("layer", "brick"),
-}
+#: The fields of a tower (the structure's own, or a part's) a distribution may be drawn on more
+#: often than once a sample, and how often.
+PER: dict[str, tuple[str, ...]] = {"shift": ("layer",), "yaw_jitter": ("layer", "brick")}
+
+
+def tower_field(path: FieldPath) -> tuple[FieldPath, str] | None:
+    """The tower and the field of it that ``path`` is in, when that field is one of :data:`PER`:
+    ``("structure", "tower", "shift", 0)`` -> ``(("structure", "tower"), "shift")``, and a part's
+    tower alike (``("structure", 1, "tower", "yaw_jitter")`` in a list of parts, ``("structure",
+    "left", "tower", "shift")`` in a map); None otherwise."""
+    for at in (1, 2):
+        if len(path) > at + 1 and path[0] == "structure" and path[at] == "tower" and path[at + 1] in PER:
+            return path[: at + 1], str(path[at + 1])
+    return None
+
+
 #: Sections whose values are not the scene's and take no distribution.
 NOT_RANDOM = ("stackdsl", "seed", "sweep", "expect", "name", "description", "allow")
 MAX_CHOICES = 1000
@@ -137,14 +148,14 @@ def _parse(node: dict[str, Any], path: FieldPath, source: SourceMap) -> Distribu
         )
     kind = kinds[0]
     per = node.get("per", "sample")
-    field = path[:3] if path[:3] in PER else path
-    allowed = ("sample", *PER.get(field, ()))
+    spot = tower_field(path)
+    allowed = ("sample", *(PER[spot[1]] if spot else ()))
     if per not in allowed:
-        where = "a tower's shift (per: layer) and yaw_jitter (per: layer or brick)"
+        where = "a tower's shift (per: layer) and yaw_jitter (per: layer or brick), in a part too"
         raise source.error(
             path + ("per",), f"'per: {per}' is not allowed here: once a sample is the default; only {where} draw more often"
         )
-    if per != "sample" and field != path and field != ("structure", "tower", "shift"):
+    if per != "sample" and spot is not None and spot[1] != "shift" and len(path) != len(spot[0]) + 1:
         raise source.error(path + ("per",), "'per' goes on the whole field")
     at = path + (kind,)
     try:
@@ -205,25 +216,41 @@ def draw(data: dict[str, Any], distributions: list[Distribution], seed: int, k: 
             _put(out, d.path, d.draw(rng))
         else:
             later.append(d)
-    tower = out.get("structure", {}).get("tower", {}) if isinstance(out.get("structure"), dict) else {}
     for d in later:
+        spot = tower_field(d.path)
+        tower = _tower(out, spot[0]) if spot else None
+        if tower is None:  # the structure's own validation says what is wrong
+            continue
+        at = len(spot[0]) + 1 if spot else 0  # where the field's own path ends
         levels, across = _whole(tower.get("levels")), _whole(tower.get("bricks_per_layer", 2))
         if levels is None or across is None:  # the tower's own validation says what is wrong
             continue
-        if d.path[:3] == ("structure", "tower", "shift"):
+        if spot and spot[1] == "shift":
             if "shifts" not in tower:  # one shift a layer above the first, each a copy of the field
                 shift = tower.pop("shift")
                 tower["shifts"] = [copy.deepcopy(shift) for _ in range(levels - 1)]
             for i, value in enumerate(d.draw(rng, levels - 1)):
-                if len(d.path) == 3:
+                if len(d.path) == at:
                     tower["shifts"][i] = value
                 else:  # one part of an (x, y) pair
-                    tower["shifts"][i][d.path[3]] = value
+                    tower["shifts"][i][d.path[at]] = value
         else:
             values = d.draw(rng, levels if d.per == "layer" else levels * across)
             tower["yaw_jitter"] = [v for v in values for _ in range(across)] if d.per == "layer" else values
     out["seed"] = int(rng.integers(0, 2**63 - 1))
     return out
+
+
+def _tower(data: Any, path: FieldPath) -> dict[str, Any] | None:
+    """The tower at ``path`` in ``data``, or None when there is none there."""
+    for key in path:
+        if isinstance(data, dict) and key in data:
+            data = data[key]
+        elif isinstance(data, list) and isinstance(key, int) and 0 <= key < len(data):
+            data = data[key]
+        else:
+            return None
+    return data if isinstance(data, dict) else None
 
 
 def _whole(value: Any) -> int | None:

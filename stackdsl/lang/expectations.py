@@ -37,6 +37,8 @@ from .grammar import (
     given,
     json_pattern,
 )
+from .schema_require import Requirement
+from .units import Time
 
 
 class CollapseLevel(StrictModel):
@@ -230,6 +232,41 @@ def _collapse_form(value: Any) -> str:
     return "level"
 
 
+class CellExpect(StrictModel):
+    """A sweep's statistical expectations for the grid cells where ``where`` holds: a condition
+    (:mod:`stackdsl.lang.expressions`) on the grid's fields by their keys, in SI
+    (``"actions.0.shake.amplitude < 20 mm"``). Source: stackdsl's own."""
+
+    model_config = ConfigDict(json_schema_extra={"anyOf": [given("collapse"), given("p_stands")]})
+
+    where: Annotated[
+        Requirement,
+        Field(
+            description="the cells these expectations are for: a condition on the grid's fields, named by their keys",
+            examples=["actions.0.shake.amplitude <= 18 mm"],
+        ),
+    ]
+    collapse: CollapseStatistic | None = Field(
+        default=None,
+        description="the collapse level's mean or quantile in those cells",
+        examples=[{"mean": "7 ± 0.5"}],
+    )
+    p_stands: (
+        Annotated[
+            Probability,
+            BeforeValidator(_bound),
+            AlsoAccepts(({"type": "string", "pattern": f"^{BOUND}$"},), "a bound on P(stands): '>= 0.9'"),
+        ]
+        | None
+    ) = Field(default=None, description="a bound on P(stands) in those cells", examples=[">= 0.9", "<= 0.1"])
+
+    @model_validator(mode="after")
+    def _something(self) -> CellExpect:
+        if self.collapse is None and self.p_stands is None:
+            raise ValueError("give what these cells must show: p_stands ('>= 0.9') or collapse ({mean: '7 ± 0.5'})")
+        return self
+
+
 class Expect(StrictModel):
     """What must hold: a ``collapse`` level, or that the structure ``stands``; after an
     impact or an action, the levels or bricks that ``stay`` in place, that ``moved`` and that
@@ -260,6 +297,16 @@ class Expect(StrictModel):
         | None
     ) = None
     stands: Annotated[Literal[True], BeforeValidator(flag)] | None = None
+    stands_until: Annotated[
+        Time | None,
+        Field(
+            ge=0,
+            le=3600,
+            description="a time the structure must stand until: no collapse before it (a Jenga tower that stands "
+            "through its first pulls, whatever a later one does)",
+            examples=["35 s"],
+        ),
+    ] = None
     stays: Levels | None = None
     may_fall: Levels | None = None
     moved: Annotated[
@@ -298,10 +345,26 @@ class Expect(StrictModel):
         | None
     ) = None
 
+    cells: Annotated[
+        list[CellExpect] | None,
+        Field(
+            min_length=1,
+            max_length=50,
+            description="a sweep's statistical expectations for some grid cells only, each list item for the cells "
+            "where its condition holds: stands below a threshold, falls above it",
+            examples=[
+                [
+                    {"where": "actions.0.shake.amplitude <= 18 mm", "p_stands": ">= 0.9"},
+                    {"where": "actions.0.shake.amplitude >= 26 mm", "p_stands": "<= 0.1"},
+                ]
+            ],
+        ),
+    ] = None
+
     @property
     def statistical(self) -> bool:
-        """Expectations about a sweep's statistics (``collapse: {mean...}``, ``p_stands``)."""
-        return isinstance(self.collapse, CollapseStatistic) or self.p_stands is not None
+        """Expectations about a sweep's statistics (``collapse: {mean...}``, ``p_stands``, ``cells``)."""
+        return isinstance(self.collapse, CollapseStatistic) or self.p_stands is not None or self.cells is not None
 
     @property
     def per_run(self) -> bool:
@@ -309,6 +372,7 @@ class Expect(StrictModel):
         return (
             isinstance(self.collapse, CollapseLevel)
             or bool(self.stands)
+            or self.stands_until is not None
             or self.stays is not None
             or self.moved is not None
             or self.toppled is not None
@@ -318,6 +382,8 @@ class Expect(StrictModel):
     def _consistent(self) -> Expect:
         if self.collapse is not None and self.stands:
             raise ValueError("a structure cannot both collapse and stand: give one of 'collapse' or 'stands'")
+        if self.stands and self.stands_until is not None:
+            raise ValueError("'stands' is until the end already: give 'stands_until' only when it may fall after that time")
         # JSON Schema cannot compare two lists of ranges: the schema leaves this to the loader
         if self.stays and self.may_fall and set(self.stays) & set(self.may_fall):
             raise ValueError("a level cannot both stay and fall: 'stays' and 'may_fall' overlap")

@@ -1,6 +1,7 @@
 """Conditions of a scenario's ``require:``: a small grammar, parsed here, never evaluated as Python.
 
-A condition compares numbers: names (a field of the scene, ``timing.placement_error``, or a
+A condition compares numbers: names (a field of the scene, ``timing.placement_error``; a list
+item as ``actions.0.shake.amplitude`` or ``actions[0].shake.amplitude``, which read the same; or a
 quantity derived from where its bricks are, ``overhang``), numbers with an optional unit
 (``10 mm``, ``0.5 s``, ``2 deg``), ``+ - * /``, ``abs``, ``min`` and ``max``, joined by ``and``,
 ``or`` and ``not``, with parentheses::
@@ -46,7 +47,7 @@ _TOKEN = re.compile(
     r"\s*(?:"
     r"(?P<number>(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]{1,3})?)"
     r"(?:[ \t]*(?P<unit>[A-Za-zµ°][A-Za-zµ°0-9]*(?:[/^][A-Za-zµ°0-9]+)*))?"
-    r"|(?P<name>[A-Za-z_][A-Za-z0-9_]*(?:\.[A-Za-z0-9_]+)*)"
+    r"|(?P<name>[A-Za-z_][A-Za-z0-9_]*(?:\.[A-Za-z0-9_]+|\[[ \t]*[0-9]+[ \t]*\])*)"
     r"|(?P<op><=|>=|==|!=|<|>|\+|-|\*|/|\(|\)|,)"
     r")"
 )
@@ -141,7 +142,7 @@ class _Parser:
                 value = quantity(match["number"], unit) if unit else float(match["number"])
                 self.tokens.append(("num", repr(value), match.start("number")))
             elif match["name"] is not None:
-                word = match["name"]
+                word = re.sub(r"\[[ \t]*([0-9]+)[ \t]*\]", r".\1", match["name"])  # actions[0].x reads as actions.0.x
                 self.tokens.append(("kw" if word in _KEYWORDS else "name", word, start))
             else:
                 self.tokens.append(("op", match["op"], start))

@@ -33,6 +33,7 @@ TOLERANCE_NUMBER = "0*(?:[0-9]{1,3}|1000)"  # 0 to MAX_LEVELS
 COLLAPSE = f"{SPACE}([0-9]+){SPACE}(?:(?:±|\\+-|\\+/-){SPACE}([0-9]+))?{SPACE}"  # "9", "9±1", "9 +- 1", "9 +/- 1"
 LEVEL_RANGE = f"{SPACE}([0-9]+){SPACE}(?:(?:-|\\.\\.){SPACE}([0-9]+))?{SPACE}"  # "5", "1-11", "1..11"
 AFTER_LEVEL = f"{SPACE}after{WHITESPACE}+level{WHITESPACE}+([0-9]+){SPACE}"  # "after level 13"
+AFTER_PREVIOUS = f"{SPACE}after{WHITESPACE}+the{WHITESPACE}+previous{WHITESPACE}+action{SPACE}"  # an action's only
 _DECIMAL = "([0-9]+(?:\\.[0-9]*)?)"
 PLUS_MINUS = f"{SPACE}{_DECIMAL}{SPACE}(?:±|\\+-|\\+/-){SPACE}{_DECIMAL}{SPACE}"  # "7 ± 0.5", "7 +- 0.5"
 BOUND = f"{SPACE}(>=|<=|>|<){SPACE}([0-9]*\\.?[0-9]+){SPACE}"  # ">= 0.9"

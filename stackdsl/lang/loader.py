@@ -161,8 +161,15 @@ def _read_yaml(text: str, source: SourceMap) -> Any:
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         line = mark.line if mark else None
+        text_line = source.lines[line] if line is not None and line < len(source.lines) else ""
+        hint = ""
+        if mark is not None and "but got '['" in str(exc.problem) and text_line[mark.column - 1 : mark.column].isalnum():
+            hint = (
+                "; inside {...} YAML reads '[' as a list: quote a key with an index "
+                '("actions[0].shake.amplitude": ...), write it with a dot (actions.0.shake.amplitude) or on a line of its own'
+            )
         raise ScenarioError(
-            f"not valid YAML: {exc.problem or exc.context or exc}",
+            f"not valid YAML: {exc.problem or exc.context or exc}{hint}",
             file=source.file,
             line=None if line is None else line + 1,
             column=None if mark is None else mark.column + 1,

@@ -26,15 +26,23 @@ import itertools
 from dataclasses import dataclass
 from typing import Any
 
-from .distributions import Distribution, draw, find
+from .distributions import Distribution, draw, find, tower_field
 from .errors import FieldPath, ScenarioError, SourceMap
 from .schema import Scenario
-from .schema_sweep import MAX_SAMPLES, MAX_SWEEP_RUNS
+from .schema_sweep import MAX_SAMPLES, MAX_SWEEP_RUNS, grid_name
 from .units import in_language_units, in_unit, language_unit, split_quantity
 from .validate import validate
 
-#: Fields the concrete form of a tower's per-layer and per-brick draws lands in, and the field written.
-_DRAWN_INTO = {("structure", "tower", "shifts"): ("structure", "tower", "shift")}
+
+def _drawn_into(distributions: tuple[Distribution, ...] | list[Distribution]) -> dict[FieldPath, FieldPath]:
+    """The fields the concrete form of a tower's per-layer shifts lands in (its ``shifts``), each
+    with the field written (its ``shift``), for every tower (the structure's, or a part's) that has them."""
+    out: dict[FieldPath, FieldPath] = {}
+    for d in distributions:
+        spot = tower_field(d.path)
+        if spot and spot[1] == "shift" and d.per != "sample":
+            out[spot[0] + ("shifts",)] = spot[0] + ("shift",)
+    return out
 
 
 @dataclass(frozen=True)
@@ -86,14 +94,32 @@ class Template:
                         f"the grid names {key!r}, but this file has no item {missing[-1]} in {'.'.join(map(str, missing[:-1]))}",
                         at_key=True,
                     )
-        for into, written in _DRAWN_INTO.items():  # errors at a tower's drawn shifts point at its 'shift'
-            if written in source.values and any(d.path[:3] == written and d.per != "sample" for d in distributions):
+        for into, written in _drawn_into(distributions).items():  # errors at a tower's drawn shifts point at its 'shift'
+            if written in source.values:
                 source.values[into] = source.values[written]
                 source.keys[into] = source.keys.get(written, source.values[written])
         seed = plain.get("seed", 0)
         if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:  # as a plain file's seed is checked
             raise source.error(("seed",), f"a seed is a whole number, 0 or more, not {seed!r}")
         return cls(plain, source, tuple(distributions), grid, samples, seed)
+
+    @property
+    def random(self) -> bool:
+        """Whether a sample draws anything: a distribution, or a placement error in some cell. When
+        it does not, every sample of a cell is the same run, and its statistics are exact."""
+        if self.distributions:
+            return True
+        return any(self.scenario(c, 0).timing.placement_error > 0 for c in range(self.cells))
+
+    def values(self, c: int) -> dict[str, float]:
+        """Cell ``c``'s grid values by their dotted keys (:func:`grid_name`), numbers in SI (angles in
+        degrees), as a cell's condition (``expect.cells``) reads them; a value that is no number is left out."""
+        out: dict[str, float] = {}
+        for key, value in self.cell(c).items():
+            number, _ = in_language_units(value)
+            if isinstance(number, (int, float)) and not isinstance(number, bool):
+                out[grid_name(key)] = float(number)
+        return out
 
     @property
     def cells(self) -> int:
@@ -180,11 +206,10 @@ class Template:
             column = _column(d.label, unit)
             if d.per == "sample":
                 out[column] = _scaled(_number(_get(data, d.path), d.unit), factor)
-            elif d.path[:3] == ("structure", "tower", "shift"):
-                part = d.path[3:]
+            elif (spot := tower_field(d.path)) and spot[1] == "shift":
+                part = d.path[len(spot[0]) + 1 :]
                 out[column] = [
-                    _scaled(_number(_get(s, part) if part else s, d.unit), factor)
-                    for s in _get(data, ("structure", "tower", "shifts"))
+                    _scaled(_number(_get(s, part) if part else s, d.unit), factor) for s in _get(data, spot[0] + ("shifts",))
                 ]
             else:
                 out[column] = [_scaled(_number(v, d.unit), factor) for v in _get(data, d.path)]
@@ -218,11 +243,13 @@ class Template:
         index = {key: list(vs).index(values[key]) if key in values else 0 for _, key, vs in self.grid}
         distributions = [only] if only is not None else list(self.distributions)
 
+        drawn_into = _drawn_into(distributions)
+
         def relocate(loc: FieldPath) -> FieldPath | None:
             for path, key, _ in self.grid:
                 if loc[: len(path)] == path:
                     return ("sweep", "grid", key, index[key])
-            loc = next((written + loc[len(into) + 1 :] for into, written in _DRAWN_INTO.items() if loc[: len(into)] == into), loc)
+            loc = next((written + loc[len(into) + 1 :] for into, written in drawn_into.items() if loc[: len(into)] == into), loc)
             for d in distributions:
                 if loc[: len(d.path)] == d.path or (d.path[: len(loc)] == loc and d.per != "sample"):
                     return d.path
@@ -249,10 +276,11 @@ def _ends(d: Distribution) -> list[Any]:
 
 
 def _grid_field(key: str, values: list[Any], source: SourceMap) -> tuple[FieldPath, str, tuple[Any, ...]]:
-    """A grid key (``timing.placement_error``, ``structure.bricks.1.at.0``) as a field path."""
+    """A grid key (``timing.placement_error``, ``structure.bricks.1.at.0`` or ``structure.bricks[1].at[0]``)
+    as a field path."""
     from .validation_errors import fields_at
 
-    path: FieldPath = tuple(int(part) if part.isdigit() else part for part in key.split("."))
+    path: FieldPath = tuple(int(part) if part.isdigit() else part for part in grid_name(key).split("."))
     for i, part in enumerate(path):
         allowed = fields_at(path[:i]) if isinstance(part, str) and path[:i] != ("structure",) else []  # or a part's name
         if allowed and part not in allowed:

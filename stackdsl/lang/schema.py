@@ -44,6 +44,7 @@ from .bounds import (
 )
 from .errors import SourceMap
 from .expectations import Expect
+from .expressions import parse
 from .grammar import (
     WHOLE,
     given,
@@ -55,7 +56,8 @@ from .schema_impacts import Impact
 from .schema_layouts import BrickPlacement, CardHouse, Tower
 from .schema_parts import LAYOUTS, RESERVED, Parts, as_parts, named_parts
 from .schema_require import Requirement
-from .schema_sweep import Sweep
+from .schema_sweep import Sweep, grid_name
+from .unit_slips import metres_written
 from .units import (
     Time,
 )
@@ -261,18 +263,33 @@ class Scenario(StrictModel):
     def _expectations_fit_the_sweep(self) -> Scenario:
         """A sweep's expectations are statistics; one run's are not."""
         if self.sweep is None and self.expect.statistical:
-            field = "p_stands" if self.expect.p_stands is not None else "collapse"
+            field = next(f for f in ("p_stands", "cells", "collapse") if getattr(self.expect, f) is not None)
             self._refuse(("expect", field), "a statistical expectation needs a sweep: add 'sweep: {samples: N}'")
         if self.sweep is not None and self.expect.per_run:
-            field = next(f for f in ("collapse", "stands", "stays") if getattr(self.expect, f) is not None)
+            field = next(
+                f
+                for f in ("collapse", "stands", "stands_until", "stays", "moved", "toppled")
+                if getattr(self.expect, f) is not None
+            )
             self._refuse(
                 ("expect", field),
                 "a sweep's expectations are statistics over its samples: collapse: {mean: '7 ± 0.5'}, "
-                "collapse: {quantile: {q: 0.5, level: '7 ± 1'}} or p_stands: '>= 0.9'",
+                "collapse: {quantile: {q: 0.5, level: '7 ± 1'}}, p_stands: '>= 0.9', or the same for some grid cells: "
+                "cells: [{where: 'timing.placement_error < 2 mm', p_stands: '>= 0.9'}]",
             )
+        if self.sweep is not None and self.expect.cells is not None:
+            keys = {grid_name(key) for key in self.sweep.grid}
+            for i, cell in enumerate(self.expect.cells):
+                unknown = [name for name in parse(cell.where).names if name not in keys]
+                if unknown:
+                    self._refuse(
+                        ("expect", "cells", i, "where"),
+                        f"{unknown[0]!r} is not a field of the grid; a cell's condition reads the grid's fields by "
+                        f"their keys: {', '.join(sorted(keys)) or 'this sweep has no grid'}",
+                    )
         return self
 
-    def _refuse(self, loc: tuple[str, ...], message: str) -> None:
+    def _refuse(self, loc: tuple[str | int, ...], message: str) -> None:
         error = InitErrorDetails(type=PydanticCustomError("value_error", message), loc=loc, input=None)
         raise ValidationError.from_exception_data(type(self).__name__, [error])
 
@@ -333,7 +350,7 @@ class Scenario(StrictModel):
         data = self.model_dump(mode="json", exclude_defaults=True)
         if "parts" in data.get("structure", {}):
             data["structure"] = data["structure"]["parts"]
-        return yaml_text(data)
+        return yaml_text(metres_written(data))
 
     def material(self, name: str) -> Material:
         """A declared or built-in material. Raises KeyError for an unknown name."""

@@ -14,16 +14,51 @@ Source: stackdsl's own (docs/design.md, "Actions").
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Annotated, Literal
+import re
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
-from pydantic import AfterValidator, ConfigDict, Field, model_validator
+from pydantic import AfterValidator, BeforeValidator, ConfigDict, Field, model_validator
 
 from .bounds import MAX_SIDE, Component, StrictModel, Vector3
-from .grammar import given
-from .schema_impacts import When, _nonzero
-from .units import Frequency, Length, Speed, Time, frequency, length, speed, time, within
+from .grammar import AFTER_LEVEL, AFTER_PREVIOUS, LEVEL_NUMBER, AlsoAccepts, given, json_pattern
+from .schema_impacts import AfterLevel, _nonzero, _when
+from .units import Frequency, Length, Speed, Time, frequency, length, quantity_pattern, speed, time, within
 
 ID = r"^[A-Za-z0-9_.-]{1,40}$"
+
+
+class AfterPrevious(StrictModel):
+    """The moment one interval (``timing.interval``) after the action written before this one
+    has ended: a pull once its brick is out, a push once its pusher stops, a shake once the
+    ground is still. Source: stackdsl's own."""
+
+    after: Literal["the previous action"]
+
+
+def _action_when(value: Any) -> Any:
+    """An impact's time, or ``"after the previous action"`` -> :class:`AfterPrevious`."""
+    if isinstance(value, str) and re.fullmatch(AFTER_PREVIOUS, value):
+        return AfterPrevious(after="the previous action")
+    try:
+        return _when(value)
+    except ValueError:
+        raise ValueError(
+            f"expected a time such as '14 s', 'after level N' or 'after the previous action', got {value!r}"
+        ) from None
+
+
+ActionWhen = Annotated[
+    AfterPrevious | AfterLevel | Annotated[float, Field(ge=0)],
+    BeforeValidator(_action_when),
+    AlsoAccepts(
+        (
+            {"type": "string", "pattern": quantity_pattern("non-negative")},
+            {"type": "string", "pattern": json_pattern(AFTER_LEVEL, LEVEL_NUMBER)},
+            {"type": "string", "pattern": f"^{AFTER_PREVIOUS}$"},
+        ),
+        "a time >= 0 ('14 s'), 'after level N' or 'after the previous action' (one interval after it ends)",
+    ),
+]
 
 if TYPE_CHECKING:
     GuideSpeed = float
@@ -64,7 +99,9 @@ class Remove(StrictModel):
     out of the scene. What rests on it feels the pull through friction."""
 
     brick: Annotated[str, Field(pattern=ID, description="the id of the brick to pull out", examples=["L05.2"])]
-    at: Annotated[When, Field(description="when the pull starts", examples=["after level 12", "14 s"])]
+    at: Annotated[
+        ActionWhen, Field(description="when the pull starts", examples=["after level 12", "14 s", "after the previous action"])
+    ]
     direction: Annotated[
         Literal["+x", "-x", "+y", "-y"] | Direction | None,
         Field(
@@ -113,7 +150,7 @@ class Push(StrictModel):
 
     target: Annotated[PushTarget, Field(description="what is pushed: {brick: ID, offset} or {point}")]
     direction: Annotated[Direction, Field(description="the push's direction ([x, y, z], any length)", examples=[[1, 0, 0]])]
-    at: Annotated[When, Field(description="when the pusher enters and starts to move", examples=["1 s", "after level 3"])]
+    at: Annotated[ActionWhen, Field(description="when the pusher enters and starts to move", examples=["1 s", "after level 3"])]
     speed: Annotated[GuideSpeed, Field(description="how fast the pusher moves", examples=["0.1 m/s"])] = 0.05
     distance: Annotated[Travel, Field(description="how far the pusher moves", examples=["30 mm"])] = 0.03
     gap: Annotated[
@@ -134,7 +171,7 @@ class Shake(StrictModel):
     amplitude: Annotated[Amplitude, Field(description="half the table's stroke", examples=["2 mm"])]
     frequency: Annotated[ShakeFrequency, Field(description="periods a second", examples=["3 Hz"])]
     duration: Annotated[ShakeDuration, Field(description="how long it shakes (whole periods)", examples=["2 s"])]
-    at: Annotated[When, Field(description="when the shake starts", examples=["after level 4", "5 s"])]
+    at: Annotated[ActionWhen, Field(description="when the shake starts", examples=["after level 4", "5 s"])]
     direction: Annotated[
         tuple[Component, Component],
         AfterValidator(lambda d: _nonzero((*d, 0.0))[:2]),

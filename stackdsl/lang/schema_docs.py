@@ -155,6 +155,12 @@ DOCS: dict[str, dict[str, tuple[str, Any]]] = {
         "point": ("A point hit instead, [x, y, z] (needs the impact's direction).", ["0 mm", "60 mm", "101 mm"]),
     },
     "AfterLevel": {"after_level": ("One interval after the last brick of this level is placed.", 13)},
+    "AfterPrevious": {
+        "after": (
+            "One interval after the action written before this one ends ('after the previous action').",
+            "the previous action",
+        )
+    },
     "Engine": {
         "backend": ("The physics engine: pybullet (default) or mujoco.", "pybullet"),
         "mode": (

@@ -6,6 +6,7 @@ Source: stackdsl's own (docs/design.md, words).
 
 from __future__ import annotations
 
+import re
 from typing import Annotated, Any
 
 from pydantic import Field, model_validator
@@ -16,6 +17,12 @@ from .grammar import WHOLE
 MAX_SAMPLES = 100_000
 MAX_CELLS = 1000
 MAX_SWEEP_RUNS = 200_000
+
+
+def grid_name(key: str) -> str:
+    """A grid key as a field path with dots, the way a condition names it: ``actions[0].shake.amplitude``
+    and ``actions.0.shake.amplitude`` are both ``actions.0.shake.amplitude``."""
+    return re.sub(r"\[\s*(\d+)\s*\]", r".\1", key.strip())
 
 
 class Sweep(StrictModel):

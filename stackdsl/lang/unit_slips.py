@@ -20,18 +20,31 @@ from .units import bare
 
 #: Length fields (their paths, ``#`` for any list index, ``*`` for any name) and the largest bare
 #: number of metres that is plausible there; beyond it, the value in millimetres is meant.
+_LAYOUT: dict[str, float] = {  # the fields of a structure's layout (its own, or a part's)
+    "bricks[#].at[#]": 10.0,  # a room-sized scene
+    "tower.origin[#]": 10.0,
+    "card_house.origin[#]": 10.0,
+    "wall.origin[#]": 10.0,
+    "pyramid.origin[#]": 10.0,
+    "dominoes.origin[#]": 10.0,
+    "tower.spacing": 1.0,
+    "card_house.spacing": 1.0,
+    "dominoes.spacing": 1.0,
+    "wall.joint": 1.0,
+    "pyramid.joint": 1.0,
+    "tower.shift": 1.0,
+    "tower.shift[#]": 1.0,
+    "tower.shifts[#]": 1.0,
+    "tower.shifts[#][#]": 1.0,
+}
 PLAUSIBLE: dict[str, float] = {
     "brick_types.*.size[#]": 1.0,  # a brick side of a metre or more
-    "structure.bricks[#].at[#]": 10.0,  # a room-sized scene
-    "structure.tower.origin[#]": 10.0,
-    "structure.card_house.origin[#]": 10.0,
+    **{f"structure.{k}": v for k, v in _LAYOUT.items()},
+    **{f"structure[#].{k}": v for k, v in _LAYOUT.items()},  # a part of a list
+    **{f"structure.*.{k}": v for k, v in _LAYOUT.items()},  # a part of a map
+    "structure[#].origin[#]": 10.0,
+    "structure.*.origin[#]": 10.0,
     "impacts[#].target.point[#]": 10.0,
-    "structure.tower.spacing": 1.0,
-    "structure.card_house.spacing": 1.0,
-    "structure.tower.shift": 1.0,
-    "structure.tower.shift[#]": 1.0,
-    "structure.tower.shifts[#]": 1.0,
-    "structure.tower.shifts[#][#]": 1.0,
     "impacts[#].distance": 1.0,
     "collapse_threshold": 0.1,
 }
@@ -51,10 +64,9 @@ def unit_slips(data: Any, source: SourceMap) -> list[str]:
     metres); did you mean '4 mm'?``."""
     found = []
     for path, value in _leaves(data, ()):
-        name = format_path(path)
-        limit = next((v for pattern, v in _PATTERNS if pattern.match(name)), None)
-        if limit is None or not bare(value) or abs(value) <= limit or abs(value) / 1000 > limit:
+        if not _slip(path, value):
             continue
+        name = format_path(path)
         error = source.error(path, "")
         where = source.file if error.line is None else f"{source.file}:{error.line}:{error.column}"
         found.append(
@@ -68,6 +80,24 @@ def unit_slips(data: Any, source: SourceMap) -> list[str]:
     return [text for *_, text in sorted(found)]
 
 
+def _slip(path: FieldPath, value: Any) -> bool:
+    """Whether a bare ``value`` at ``path`` is a length implausible in metres (see :data:`PLAUSIBLE`)."""
+    name = format_path(path)
+    limit = next((v for pattern, v in _PATTERNS if pattern.match(name)), None)
+    return limit is not None and bare(value) and limit < abs(value) and abs(value) / 1000 <= limit
+
+
+def metres_written(data: Any, path: FieldPath = ()) -> Any:
+    """``data`` (a scenario as plain data, SI numbers) with each bare length that would read as a
+    unit slip written with its unit, ``"1000.0 m"``: what :meth:`Scenario.to_yaml` writes, so that
+    a scenario built in Python reads back without a warning it did not ask for."""
+    if isinstance(data, dict):
+        return {key: metres_written(value, (*path, str(key))) for key, value in data.items()}
+    if isinstance(data, list):
+        return [metres_written(value, (*path, i)) for i, value in enumerate(data)]
+    return f"{float(data)!r} m" if _slip(path, data) else data
+
+
 def _leaves(data: Any, path: FieldPath) -> Iterator[tuple[FieldPath, Any]]:
     if isinstance(data, dict):
         for key, value in data.items():
@@ -79,4 +109,4 @@ def _leaves(data: Any, path: FieldPath) -> Iterator[tuple[FieldPath, Any]]:
         yield path, data
 
 
-__all__ = ["PLAUSIBLE", "UnitSlipWarning", "unit_slips"]
+__all__ = ["PLAUSIBLE", "UnitSlipWarning", "metres_written", "unit_slips"]

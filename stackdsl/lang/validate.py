@@ -37,6 +37,14 @@ def validate(
     Raises:
         ScenarioError: the first problem at its node, the others after it (at most 10 in all).
     """
+    structure = data.get("structure") if isinstance(data, dict) else None
+    if isinstance(structure, dict) and "parts" in structure:  # the models' field, not a key of a file (as the schema says)
+        raise source.error(
+            ("structure", "parts"),
+            "a file writes its parts as the structure itself: 'structure:' then the list (- {name: left, tower: ...}) "
+            "or the map (left: {tower: ...}); 'parts' is the Python models' field (Structure(parts=...))",
+            at_key=True,
+        )
     try:
         scenario = Scenario.model_validate(data)
     except ValidationError as exc:

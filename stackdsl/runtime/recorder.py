@@ -29,7 +29,7 @@ import numpy as np
 
 from stability import Pose
 
-from ..compile.program import Launch, Program
+from ..compile.program import Kinematic, Launch, Program, Push
 from .bricks import BrickRecord
 from .loop import StepLoop, Subscriber
 from .outcome import Outcome
@@ -86,6 +86,7 @@ class Recorder(Subscriber):
         self._moving = False
         self._seen_events = 0
         self._flight: set[int] = set()  # steps at which a projectile in flight is recorded
+        self._away: set[str] = set()  # pulled bricks and pushers taken out of the scene: absent from then on
 
     # hooks --------------------------------------------------------------------
     def on_place(self, loop: StepLoop, record: BrickRecord) -> None:
@@ -100,6 +101,15 @@ class Recorder(Subscriber):
             dt, flight = self.program.engine.timestep, max(launch.arrival - launch.time, 0.0)
             steps = {loop.step + round(flight * k / (FLIGHT_FRAMES + 1) / dt) for k in range(1, FLIGHT_FRAMES + 1)}
             self._flight |= {s for s in steps if s > loop.step}
+
+    def on_action(self, loop: StepLoop, action: Kinematic) -> None:
+        """A push's pusher enters the world (made by :class:`stackdsl.runtime.actions.Actions`,
+        a subscriber before this one): recorded as a projectile is, so that a replay, a clip or a
+        picture shows the finger that pushed."""
+        record = loop.structure.records.get(action.id) if isinstance(action, Push) else None
+        if record is not None and record not in self._records:
+            self._records.append(record)
+            self._frame(loop)
 
     def after_step(self, loop: StepLoop) -> None:
         if len(loop.events) != self._seen_events or loop.step in self._flight:  # a freeze, a wake, an impact, the collapse
@@ -128,6 +138,7 @@ class Recorder(Subscriber):
     def _frame(self, loop: StepLoop) -> None:
         """A frame now: a row for each body that entered, moved or changed state since its
         last row. Bodies frozen since their last row are not read: they cannot move."""
+        self._away |= {e.brick for e in loop.events[self._seen_events :] if e.kind == "release"}
         self._seen_events = len(loop.events)
         index = len(self._times)
         self._times.append(loop.now)
@@ -169,6 +180,7 @@ class Recorder(Subscriber):
         threshold = self.program.collapse_threshold
         states = np.array([FROZEN if not r.moving else WOKEN if r.was_frozen else ACTIVE for r in records], np.int8)
         states[[r.settled is not None and r.settled > threshold for r in records]] = FALLEN
+        states[[r.id in self._away for r in records]] = ABSENT
         moving = [i for i, r in enumerate(records) if r.structure and r.moving]
         if moving:
             far = loop.structure.displacements([records[i] for i in moving]) > threshold

@@ -67,6 +67,8 @@ class Stability(Subscriber):
                 loop.structure.set_moving(record, e.kind == "wake")
                 record.was_frozen = True
                 record.settled = None if record.moving else loop.structure.displacement(record)
+            elif record is not None and e.kind == "wake":  # a pulled brick, out of the structure: simulated again
+                record.moving = True
             source = records.get(e.source)
             if e.kind != "impact" or (source is not None and not source.structure):
                 level = record.level if record is not None else None

@@ -39,6 +39,11 @@ def evaluate(expect: Expect, outcome: Outcome, threshold: float) -> list[Verdict
         verdicts.append(Verdict(name="collapse", passed=passed, expected=expected, measured=measured))
     if expect.stands:
         verdicts.append(Verdict(name="stands", passed=outcome.collapse is None, expected="stands", measured=measured))
+    if expect.stands_until is not None:
+        until = expect.stands_until
+        held = outcome.collapse is None or outcome.collapse.time >= until
+        said = "stands" if outcome.collapse is None else f"{measured} at {outcome.collapse.time:.2f} s"
+        verdicts.append(Verdict(name="stands_until", passed=held, expected=f"stands until {until:g} s", measured=said))
     if expect.stays:
         levels, bricks = levels_of(expect.stays), bricks_of(expect.stays)
         moved = _moved_levels(outcome, threshold)
@@ -137,7 +142,7 @@ def explain(expect: Expect, outcome: Outcome, threshold: float) -> list[str]:
     record and its displacements: which brick moved, how far (mm), when (s) and at what
     level. Empty when every expectation held (see :func:`evaluate`; ``threshold`` in m).
 
-    - collapse or stands failed and the structure collapsed: the brick that moved first,
+    - collapse, stands or stands_until failed and the structure collapsed: the brick that moved first,
       its displacement when detected, the time and how many levels were placed;
     - a collapse was expected but the structure stood: the largest displacement at the
       end and its brick;
@@ -149,7 +154,7 @@ def explain(expect: Expect, outcome: Outcome, threshold: float) -> list[str]:
     failed = {v.name for v in evaluate(expect, outcome, threshold) if not v.passed}
     levels = _levels(outcome)
     lines = []
-    if failed & {"collapse", "stands"}:
+    if failed & {"collapse", "stands", "stands_until"}:
         c = outcome.collapse
         if c is not None:
             lines.append(

@@ -159,6 +159,7 @@ class CellSummary:
     p_stands_interval: tuple[float, float] | None
     histogram: dict[int, int]
     confidence: float = 0.95
+    exact: bool = False
 
     def text(self) -> str:
         """The summary as a few lines of text, quantiles of +inf written "stands".
@@ -174,12 +175,15 @@ class CellSummary:
         lines = [f"n={self.n}: {self.collapsed} collapsed, {self.stood} stood{built}"]
         if self.mean is not None:
             span = _span(self.mean_interval, ".2f")
-            level = f"{100 * self.confidence:g}% CI {span}"
+            level = "exact" if self.exact else f"{100 * self.confidence:g}% CI {span}"
             lines.append(f"mean collapse level {self.mean:.2f}, {level} (of the {self.collapsed} that collapsed)")
         if self.quantiles:
             lines.append("quantiles " + ", ".join(f"{100 * q:g}% {format_level(v)}" for q, v in self.quantiles.items()))
         if self.p_stands is not None:
-            lines.append(f"P(stands) {self.p_stands:.3f} {_span(self.p_stands_interval, '.3f')}")
+            span = (
+                "exact (nothing is drawn: every sample is the same run)" if self.exact else _span(self.p_stands_interval, ".3f")
+            )
+            lines.append(f"P(stands) {self.p_stands:.3f} {span}")
         if self.histogram:
             lines.append("histogram " + " ".join(f"{level}:{count}" for level, count in self.histogram.items()))
         return "\n".join(lines)
@@ -197,7 +201,9 @@ def format_level(value: float) -> str:
     return f"{value:.0f}" if float(value).is_integer() else f"{value:.2f}"
 
 
-def decide(expectation: Expectation, levels: Sequence[int | None], confidence: float = 0.95) -> StatVerdict:
+def decide(
+    expectation: Expectation, levels: Sequence[int | None], confidence: float = 0.95, *, exact: bool = False
+) -> StatVerdict:
     """Decide ``expectation`` on one cell's samples (``levels``: collapse level or None).
 
     PASS/FAIL/INCONCLUSIVE by the module's rule. For INCONCLUSIVE, ``samples_to_decide``
@@ -216,6 +222,10 @@ def decide(expectation: Expectation, levels: Sequence[int | None], confidence: f
     It is None when the estimate sits exactly on an edge (d = 0), without an estimate or
     spread (fewer than 2 collapsed samples for a mean), or beyond :data:`MAX_SAMPLES`.
 
+    ``exact``: the samples are one run repeated (the sweep draws nothing: no distribution, no
+    placement error), so the statistic is known without sampling error: its interval is the
+    point itself, and it is PASS or FAIL from a single sample.
+
     Raises ValueError on a level that is not None or an int >= 1, or a confidence outside
     (0, 1). Source: stackdsl's own (rule and projection); intervals as in the module docstring.
 
@@ -224,6 +234,8 @@ def decide(expectation: Expectation, levels: Sequence[int | None], confidence: f
     ('PASS', 7.0, (7.0, 8.0), 'median 7±1')
     """
     check_confidence(confidence)
+    if exact:
+        return _decide_exact(expectation, levels, confidence)
     collapsed = _collapsed(levels)
     if isinstance(expectation, MeanWithin):
         return _decide_mean(expectation, collapsed, len(levels), confidence)
@@ -234,10 +246,31 @@ def decide(expectation: Expectation, levels: Sequence[int | None], confidence: f
     raise TypeError(f"not an expectation: {expectation!r}")
 
 
-def summary(levels: Sequence[int | None], levels_built: int | None = None, confidence: float = 0.95) -> CellSummary:
+def _decide_exact(expectation: Expectation, levels: Sequence[int | None], confidence: float) -> StatVerdict:
+    """:func:`decide` on samples that are one run repeated: the estimate is exact, its interval a point."""
+    sampled = decide(expectation, levels, confidence)
+    if sampled.estimate is None:
+        return sampled
+    point = (sampled.estimate, sampled.estimate)
+    if isinstance(expectation, ProportionBound):
+        outcome = _judge_bound(point, expectation.op, expectation.bound)
+        stood = len(levels) - len(_collapsed(levels))
+        measured = f"P(stands) {sampled.estimate:.3f} exact, {stood}/{len(levels)} stood"
+    else:
+        target, tolerance = expectation.target, expectation.tolerance
+        outcome = _judge_region(point, target - tolerance, target + tolerance)
+        measured = sampled.measured.split(" [", 1)[0] + " exact" + sampled.measured.split("]", 1)[1]
+    return StatVerdict(outcome, sampled.estimate, point, sampled.n, sampled.expected, f"{measured} (nothing is drawn)")
+
+
+def summary(
+    levels: Sequence[int | None], levels_built: int | None = None, confidence: float = 0.95, *, exact: bool = False
+) -> CellSummary:
     """Summarise one cell: counts, mean + t interval (collapsed only), quantiles (standing as
     +inf), P(stands) + Clopper-Pearson interval, histogram. Empty input gives zero counts and
-    None/empty statistics. Raises ValueError as :func:`decide`. Source: as the module docstring.
+    None/empty statistics. ``exact``: the samples are one run repeated (as in :func:`decide`),
+    the intervals are the estimates themselves. Raises ValueError as :func:`decide`. Source: as
+    the module docstring.
 
     >>> s = summary([7, 7, 8, None])
     >>> s.histogram, s.quantiles[0.5], s.p_stands
@@ -248,18 +281,27 @@ def summary(levels: Sequence[int | None], levels_built: int | None = None, confi
     n, stood = len(levels), len(levels) - len(collapsed)
     values = [float(v) for v in collapsed] + [math.inf] * stood
     quantiles = {q: float(np.quantile(values, q, method="inverted_cdf")) for q in SUMMARY_QUANTILES} if n else {}
+    mean = float(np.mean(collapsed)) if collapsed else None
+    p_stands = stood / n if n else None
     return CellSummary(
         n=n,
         collapsed=len(collapsed),
         stood=stood,
         levels_built=levels_built,
-        mean=float(np.mean(collapsed)) if collapsed else None,
-        mean_interval=_feasible(mean_interval(collapsed, confidence), levels_built),
+        mean=mean,
+        mean_interval=(mean, mean)
+        if exact and mean is not None
+        else _feasible(mean_interval(collapsed, confidence), levels_built),
         quantiles=quantiles,
-        p_stands=stood / n if n else None,
-        p_stands_interval=proportion_interval(stood, n, confidence) if n else None,
+        p_stands=p_stands,
+        p_stands_interval=(p_stands, p_stands)
+        if exact and p_stands is not None
+        else proportion_interval(stood, n, confidence)
+        if n
+        else None,
         histogram=dict(sorted(Counter(collapsed).items())),
         confidence=confidence,
+        exact=exact,
     )
 
 

@@ -123,13 +123,10 @@ class Scene:
         return self.data.mocap_pos[m].copy(), self.data.mocap_quat[m][[1, 2, 3, 0]].copy()
 
 
-def program_scene(program: Program) -> Scene:
-    """The viewer's model of every brick ``program`` places or throws, and its fixed bodies."""
-    from stability import Pose
-
-    bodies = [a for a in program.actions if isinstance(a, (Place, Launch))]
-    fixtures = program.fixtures
-    fixed = Snapshot(
+def _fixed_bodies(ids: list[str], half_extents: np.ndarray, positions: np.ndarray, orientations: np.ndarray) -> Snapshot:
+    """A snapshot of the fixed bodies alone (half extents, positions in m, (n, 3); unit
+    quaternions (x, y, z, w), (n, 4)): what the viewer builds its static geometry from."""
+    return Snapshot(
         time=0.0,
         name="",
         ids=[],
@@ -138,12 +135,24 @@ def program_scene(program: Program) -> Scene:
         half_extents=np.zeros((0, 3)),
         positions=np.zeros((0, 3)),
         orientations=np.zeros((0, 4)),
-        fixture_ids=[f.id for f in fixtures],
-        fixture_half_extents=np.array([f.brick.half_extents for f in fixtures], dtype=float).reshape(-1, 3),
-        fixture_positions=np.array([f.position for f in fixtures], dtype=float).reshape(-1, 3),
-        fixture_orientations=np.array(
-            [Pose.from_euler(f.position, f.yaw, f.pitch, f.roll).orientation for f in fixtures], dtype=float
-        ).reshape(-1, 4),
+        fixture_ids=ids,
+        fixture_half_extents=half_extents,
+        fixture_positions=positions,
+        fixture_orientations=orientations,
+    )
+
+
+def program_scene(program: Program) -> Scene:
+    """The viewer's model of every brick ``program`` places or throws, and its fixed bodies."""
+    from stability import Pose
+
+    bodies = [a for a in program.actions if isinstance(a, (Place, Launch))]
+    fixtures = program.fixtures
+    fixed = _fixed_bodies(
+        [f.id for f in fixtures],
+        np.array([f.brick.half_extents for f in fixtures], dtype=float).reshape(-1, 3),
+        np.array([f.position for f in fixtures], dtype=float).reshape(-1, 3),
+        np.array([Pose.from_euler(f.position, f.yaw, f.pitch, f.roll).orientation for f in fixtures], dtype=float).reshape(-1, 4),
     )
     return Scene(
         [a.id for a in bodies],
@@ -237,19 +246,11 @@ class LiveView(Recorder):
 
 def trajectory_scene(trajectory: Trajectory) -> Scene:
     """The viewer's model of a recorded trajectory's bodies and fixed bodies."""
-    fixed = Snapshot(
-        time=0.0,
-        name="",
-        ids=[],
-        levels=[],
-        states=[],
-        half_extents=np.zeros((0, 3)),
-        positions=np.zeros((0, 3)),
-        orientations=np.zeros((0, 4)),
-        fixture_ids=[str(f) for f in trajectory.fixture_ids.tolist()],
-        fixture_half_extents=trajectory.fixture_half_extents,
-        fixture_positions=trajectory.fixture_positions,
-        fixture_orientations=trajectory.fixture_orientations,
+    fixed = _fixed_bodies(
+        [str(f) for f in trajectory.fixture_ids.tolist()],
+        trajectory.fixture_half_extents,
+        trajectory.fixture_positions,
+        trajectory.fixture_orientations,
     )
     first = np.unique(trajectory.row_body, return_index=True)[1]  # each body's first row (rows are in frame order)
     count = len(trajectory.ids)

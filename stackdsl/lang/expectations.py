@@ -225,6 +225,14 @@ class Probability(StrictModel):
     bound: Annotated[float, Field(ge=0, le=1)]
 
 
+PStands = Annotated[
+    Probability,
+    BeforeValidator(_bound),
+    AlsoAccepts(({"type": "string", "pattern": f"^{BOUND}$"},), "a bound on P(stands): '>= 0.9'"),
+]
+"""``p_stands``: a bound on P(stands), written ``'>= 0.9'``, in a sweep's expectations and a cell's."""
+
+
 def _collapse_form(value: Any) -> str:
     """Which form ``expect.collapse`` is written in: a sweep's ``statistic`` or a run's ``level``."""
     if isinstance(value, CollapseStatistic) or (isinstance(value, dict) and {"mean", "quantile"} & set(value)):
@@ -251,14 +259,9 @@ class CellExpect(StrictModel):
         description="the collapse level's mean or quantile in those cells",
         examples=[{"mean": "7 ± 0.5"}],
     )
-    p_stands: (
-        Annotated[
-            Probability,
-            BeforeValidator(_bound),
-            AlsoAccepts(({"type": "string", "pattern": f"^{BOUND}$"},), "a bound on P(stands): '>= 0.9'"),
-        ]
-        | None
-    ) = Field(default=None, description="a bound on P(stands) in those cells", examples=[">= 0.9", "<= 0.1"])
+    p_stands: PStands | None = Field(
+        default=None, description="a bound on P(stands) in those cells", examples=[">= 0.9", "<= 0.1"]
+    )
 
     @model_validator(mode="after")
     def _something(self) -> CellExpect:
@@ -336,14 +339,7 @@ class Expect(StrictModel):
             examples=[30, "all", "20 +- 1"],
         ),
     ] = None
-    p_stands: (
-        Annotated[
-            Probability,
-            BeforeValidator(_bound),
-            AlsoAccepts(({"type": "string", "pattern": f"^{BOUND}$"},), "a bound on P(stands): '>= 0.9'"),
-        ]
-        | None
-    ) = None
+    p_stands: PStands | None = None
 
     cells: Annotated[
         list[CellExpect] | None,

@@ -186,3 +186,15 @@ def test_the_report_models_stack_test_propagates_nothing_while_every_brick_is_ov
     outcome = run_program(program_for(scene, "extension report"), RunOptions(stop_at_collapse=True))
     assert outcome.collapse is not None and outcome.collapse.level == 10
     assert propagated, "beyond the first bricks' load paths the report's rule is asked again"
+
+
+def test_the_report_model_asks_no_equilibrium_program_when_a_part_provably_turns_out(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    calls = _count_solves(monkeypatch)
+    scene = Scene("single file", 9, 16, "tower: {levels: 16, bricks_per_layer: 1, turn: 0, shift: 9 mm}", 14)
+    outcome = run_program(program_for(scene, "extension report"), RunOptions(stop_at_collapse=True))
+    assert outcome.collapse is not None and outcome.collapse.level == 14
+    # the report's rule fails at the collapse, and the bricks above it turn out about its end
+    # (stability._cut): that proof comes before the program, which it made unnecessary
+    assert calls == []

@@ -646,6 +646,30 @@ def test_bench_refuses_bad_upright_heights_before_running(heights, capsys):
     assert "--upright" in err and "Traceback" not in err
 
 
+@pytest.mark.parametrize("seconds", ["-1", "nan", "1e9"])
+def test_bench_refuses_a_bad_after_collapse_time_before_running(seconds, capsys):
+    assert main(["bench", "--after-collapse", seconds]) == 2
+    err = capsys.readouterr().err
+    assert "--after-collapse" in err and "Traceback" not in err
+
+
+def test_a_slant_scene_ends_where_its_collapse_is_decided_unless_told_to_settle():
+    """The bench's slant cells stop at the decision, as the lean peer does; the scene's settle
+    time can still be asked for. The level is the same either way."""
+    from stackdsl.bench.bench import Scene, program_for
+    from stackdsl.runtime.run import RunOptions, run_program
+
+    scene = Scene("single file", 13, 12, "tower: {levels: 12, bricks_per_layer: 1, turn: 0, shift: 13 mm}", 10)
+    program = program_for(scene, "extension report")
+    decided = run_program(program, RunOptions(stop_at_collapse=True, settle=0.0))
+    settled = run_program(program, RunOptions(stop_at_collapse=True))
+    assert decided.collapse is not None and settled.collapse is not None
+    assert decided.collapse.level == settled.collapse.level == 10
+    assert decided.simulated_time == pytest.approx(decided.collapse.time, abs=program.engine.timestep)
+    assert settled.simulated_time == pytest.approx(settled.collapse.time + program.settle, abs=program.engine.timestep)
+    assert _cli._parser().parse_args(["bench"]).after_collapse == 0.0
+
+
 def test_bench_upright_heights_pick_the_towers():
     from stackdsl.bench.bench import scenes
 

@@ -217,6 +217,7 @@ def run_matrix(
     repeat_below: float = 30.0,
     jobs: int = 2,
     progress: Callable[[Cell], None] = lambda c: None,
+    after_collapse: float | None = 0.0,
 ) -> list[Cell]:
     """Every setting on every scene, each run in a fresh worker process (one process tree).
 
@@ -227,12 +228,15 @@ def run_matrix(
     minute, so the settings compared on a scene must sample the same stretches of the run.
     ``progress`` is called with each cell once its last run is in.
 
-    Slant towers stop at their first collapse; upright towers are built to the top
-    whatever happens, so that every setting simulates the same seconds.
+    Slant towers stop at their first collapse, and their runs end ``after_collapse`` seconds
+    after it is decided (0: at the decision, where the lean peer stops too; None: the scene's
+    settle time, 2 s, which times the falling debris as well); upright towers are built to the
+    top whatever happens, so that every setting simulates the same seconds.
     """
     tasks = []
     for scene in scene_list:
-        options = RunOptions(stop_at_collapse=scene.closed_form is not None)
+        slant = scene.closed_form is not None
+        options = RunOptions(stop_at_collapse=slant, settle=after_collapse if slant else None)
         tasks += [(scene, setting, options) for setting in settings]
     tasks.sort(key=lambda t: -_cost(*t[:2]))  # the longest first: the pool ends together
     context = SPAWN  # spawned workers that end with this process and leave Ctrl-C to it

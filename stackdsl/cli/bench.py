@@ -44,6 +44,14 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     )
     p.add_argument("--repeats", type=int, default=3, help="runs per cell (median), for cells faster than --repeat-below")
     p.add_argument("--repeat-below", type=float, default=30.0, help="seconds; slower cells run once")
+    p.add_argument(
+        "--after-collapse",
+        type=float,
+        default=0.0,
+        metavar="SECONDS",
+        help="how long a slant scene's run goes on once its collapse is decided (default: 0, it ends there, "
+        "as the lean peer's does; 2 also times the falling debris)",
+    )
     p.add_argument("--quick", action="store_true", help="one small cell per setting (a smoke test)")
     p.add_argument(
         "-j",
@@ -206,6 +214,8 @@ def _bench(args: argparse.Namespace) -> int:
         raise ScenarioError(f"whole numbers of levels, not {args.upright!r}", file="--upright") from None
     if any(not 1 <= h <= 1000 for h in heights):
         raise ScenarioError("each height from 1 to 1000 levels", file="--upright")
+    if not 0.0 <= args.after_collapse <= 600.0:
+        raise ScenarioError(f"seconds from 0 to 600, not {args.after_collapse!r}", file="--after-collapse")
     chosen = [sc for sc in scenes(args.quick, heights) if sc.family in families or args.quick]
     out = output_folder(args.out, "stackdsl-bench-")
     start = time.perf_counter()
@@ -225,7 +235,7 @@ def _bench(args: argparse.Namespace) -> int:
             lines.advance()
 
         repeats = 1 if args.quick else args.repeats  # a smoke test: one round
-        cells = run_matrix(settings, chosen, repeats, args.repeat_below, args.jobs, progress)
+        cells = run_matrix(settings, chosen, repeats, args.repeat_below, args.jobs, progress, args.after_collapse)
     saved = [] if args.quick else savings(args.repeats)
     targets = write_outputs(cells, saved, out)
     print((out / "bench.md").read_text())

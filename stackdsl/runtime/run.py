@@ -78,6 +78,9 @@ class RunOptions:
         shelve: on pybullet, static bodies that nothing moving can reach leave the engine's world
             until something could (:class:`stackdsl.engines.pybullet.world.PyBulletWorld`); False
             keeps every body in it.
+        settle: seconds the run goes on after the first collapse is decided (with
+            ``stop_at_collapse``); None: the program's ``settle``. 0 ends the run at the
+            decision, as a peer that only wants the collapse level does (``stackdsl bench``).
 
     Source: stackdsl's own (model only what a scene needs).
     """
@@ -90,6 +93,7 @@ class RunOptions:
     cheap_debris: bool = True
     soft_landing: bool = True
     shelve: bool = True
+    settle: float | None = None
 
 
 def run_program(
@@ -177,14 +181,19 @@ def run_in(
     stability = Stability(world, program, config, acting)
     rest = (program.stability.rest_speed, program.stability.rest_angular_speed, program.stability.rest_duration)
     monitor = CollapseMonitor(
-        program.collapse_threshold, program.settle, stability.graph, stability.extension.certificate, stability.proved, *rest
+        program.collapse_threshold,
+        program.settle if options.settle is None else options.settle,
+        stability.graph,
+        stability.extension.certificate,
+        stability.proved,
+        *rest,
     )
     own: list[Subscriber] = [SoftLanding(program.engine.gravity)] if options.soft_landing else []
     own += [Substeps(program.collapse_threshold, acting)] if program.engine.ccd else []
     own += [Actions(stability)] if program.kinematic else []
     after: list[Subscriber] = []
     rigid = any(r.name == "rigid" and r.on for r in program.rules)
-    if acting and rigid and options.cheap_debris and world.cheap_debris:
+    if acting and rigid and options.cheap_debris and world.cheap_debris and options.settle != 0.0:  # 0: nothing falls on
         after.append(CheapDebris(world.make_debris))
     loop = StepLoop(
         world,

@@ -83,6 +83,22 @@ def test_a_frozen_brick_does_not_move_when_a_brick_lands_on_it():
     assert world.contact_points() == []  # two frozen bricks: no contact between them, none with the ground
 
 
+def test_a_copy_without_collisions_is_out_of_mujocos_broadphase():
+    """MuJoCo's broadphase filters bodies by their own contype and conaffinity (each the OR of
+    its geoms' at compile time, not updated when a geom's are written): a brick's copy that
+    collides with nothing must have zeros there too, or the broadphase sorts it every step."""
+    world = _world()
+    body = world.create(_brick(), Pose.from_euler([0.0, 0.0, 0.004]))
+    world.step()  # the model is compiled at the first step
+    m = world._model
+    free, held = (m.geom_bodyid[g[body - 1]] for g in (world._free_geom, world._held_geom))
+    for frozen in (True, False, True):
+        world.set_frozen(body, frozen, _brick().mass)
+        on, off = (held, free) if frozen else (free, held)
+        assert m.body_contype[on] != 0 and m.body_conaffinity[on] != 0
+        assert m.body_contype[off] == 0 and m.body_conaffinity[off] == 0
+
+
 @pytest.mark.parametrize("mode", ["tuned", "extension"])
 def test_a_restored_brick_falls_again(mode):
     """In extension mode the free body of a frozen brick sleeps where it waits (MuJoCo then

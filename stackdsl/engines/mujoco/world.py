@@ -207,6 +207,8 @@ class MuJoCoWorld(World):
         on, off = (held, free) if self._frozen[i] else (free, held)
         m.geom_contype[on] = m.geom_conaffinity[on] = bit
         m.geom_contype[off] = m.geom_conaffinity[off] = 0
+        m.body_contype[m.geom_bodyid[on]] = m.body_conaffinity[m.geom_bodyid[on]] = bit
+        m.body_contype[m.geom_bodyid[off]] = m.body_conaffinity[m.geom_bodyid[off]] = 0
         m.body_gravcomp[m.geom_bodyid[free]] = 1.0 if self._frozen[i] else 0.0
         policy, tree = self._mj.mjtSleepPolicy, m.body_treeid[m.geom_bodyid[free]]
         if self._extension:

@@ -425,14 +425,21 @@ class MuJoCoWorld(World):
         began = float(d.time)
         for _ in range(self._substeps):
             self._mj.mj_step(m, d)
+        # MuJoCo resets a state that blew up, its time too: a step that did not take the time on
+        # by half a step was reset (a cheap test; reading the warnings costs twice the step of a
+        # quiet tower), and so may be the very first
+        if float(d.time) - began > self._engine.timestep / 2 and began > 0.0:
+            return
         bad = self._mj.mjtWarning
-        if any(d.warning[w].number for w in (bad.mjWARN_BADQPOS, bad.mjWARN_BADQVEL, bad.mjWARN_BADQACC)):  # reset, time too
+        if any(d.warning[w].number for w in (bad.mjWARN_BADQPOS, bad.mjWARN_BADQVEL, bad.mjWARN_BADQACC)):
             raise EngineUnstable(
                 f"MuJoCo's simulation became unstable at t = {began + self._engine.timestep:.3f} s (infinite or huge positions, velocities or accelerations; "
                 "MuJoCo then resets its state): nothing after it is physics"
             )
 
     def set_substeps(self, substeps: int) -> None:
+        if max(1, substeps) == self._substeps and self._model is not None:  # asked every step: mostly as it was
+            return
         m, _ = self._ready()
         self._substeps = max(1, substeps)
         m.opt.timestep = self._engine.timestep / self._substeps

@@ -207,6 +207,8 @@ def _bench(args: argparse.Namespace) -> int:
     unknown = [x for x in settings if x not in SETTINGS]
     if unknown:
         raise ScenarioError(f"unknown setting {', '.join(unknown)}; known: {', '.join(SETTINGS)}", file="--settings")
+    if not 0.0 <= args.after_collapse <= 600.0:
+        raise ScenarioError(f"seconds from 0 to 600, not {args.after_collapse!r}", file="--after-collapse")
     _need_engines(settings)
     try:
         heights = [int(x) for x in args.upright.split(",") if x.strip()]
@@ -214,8 +216,6 @@ def _bench(args: argparse.Namespace) -> int:
         raise ScenarioError(f"whole numbers of levels, not {args.upright!r}", file="--upright") from None
     if any(not 1 <= h <= 1000 for h in heights):
         raise ScenarioError("each height from 1 to 1000 levels", file="--upright")
-    if not 0.0 <= args.after_collapse <= 600.0:
-        raise ScenarioError(f"seconds from 0 to 600, not {args.after_collapse!r}", file="--after-collapse")
     chosen = [sc for sc in scenes(args.quick, heights) if sc.family in families or args.quick]
     out = output_folder(args.out, "stackdsl-bench-")
     start = time.perf_counter()

@@ -35,6 +35,17 @@ Steps = Callable[[FieldPath, float], int]
 """Seconds at a field -> whole timesteps, or a ScenarioError there (the compiler's)."""
 
 
+def heading(direction: np.ndarray) -> tuple[float, float]:
+    """Yaw and pitch in degrees of a box whose long axis points along unit ``direction`` (shape
+    (3,)): a projectile's or a pusher's. Source: stackdsl's own.
+
+    >>> heading(np.array([0.0, 1.0, 0.0]))
+    (90.0, -0.0)
+    """
+    yaw = math.degrees(math.atan2(direction[1], direction[0]))
+    return yaw, -math.degrees(math.asin(float(np.clip(direction[2], -1.0, 1.0))))
+
+
 def compile_actions(
     scenario: Scenario,
     bricks: Sequence[LaidBrick],
@@ -179,14 +190,15 @@ def _push(
         raise scenario.source.error((*path, "pusher"), f"unknown brick type {p.pusher!r}") from None
     position = surface - direction * (p.gap + spec.half_extents[0])
     span = max(1, math.ceil(p.distance / p.speed / dt - 1e-9))
+    yaw, pitch = heading(direction)
     return Push(
         step=step,
         time=start,
         id=p.id or f"pusher{index + 1}",
         brick=spec,
         position=_vec(position),
-        yaw=math.degrees(math.atan2(direction[1], direction[0])),
-        pitch=-math.degrees(math.asin(float(np.clip(direction[2], -1.0, 1.0)))),
+        yaw=yaw,
+        pitch=pitch,
         velocity=_vec(direction * p.speed),
         target=target,
         end_step=step + span,

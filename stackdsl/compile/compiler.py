@@ -32,7 +32,6 @@ Source: stackdsl's own.
 
 from __future__ import annotations
 
-import math
 from dataclasses import replace
 
 import numpy as np
@@ -49,7 +48,7 @@ from ..lang.extras import installed, missing
 from ..lang.schema import BACKEND_FIELDS, BUILTIN_BRICKS, Scenario
 from ..lang.schema_impacts import SIDES, AfterLevel, Impact
 from ..lang.validation_errors import reference_errors
-from .actions import compile_actions
+from .actions import compile_actions, heading
 from .clearance import check_launch
 from .layouts import LaidBrick, with_placement_error
 from .limits import check_limits
@@ -362,8 +361,7 @@ def _launch(
     flight = impact.distance / impact.speed
     start = target - direction * (impact.distance + spec.half_extents[0])
     start[2] += 0.5 * GRAVITY * flight**2
-    yaw = math.degrees(math.atan2(direction[1], direction[0]))
-    pitch = -math.degrees(math.asin(np.clip(direction[2], -1.0, 1.0)))
+    yaw, pitch = heading(direction)
     return Launch(
         step=step,
         time=launch_time,

@@ -357,6 +357,13 @@ def test_dates_and_yaml_1_1_value_types_stay_strings(written):
     assert s.name == written
 
 
+@pytest.mark.parametrize(("written", "value"), [("1e-4", 1e-4), ("2E-5", 2e-5), ("+1e-3", 1e-3), ("1_0e-5", 1e-4)])
+def test_a_number_with_an_exponent_and_no_point_is_a_number(written, value):
+    # PyYAML follows YAML 1.1, where 1e-4 is the string "1e-4"; YAML 1.2 and every user read a number
+    s = scenario(f"stackdsl: 1\nstructure: {{tower: {{levels: 2}}}}\nengine: {{backend: mujoco, sleep_tolerance: {written}}}\n")
+    assert s.engine.sleep_tolerance == pytest.approx(value, rel=1e-12)
+
+
 def test_a_long_value_is_cut_in_the_message():
     err = error("stackdsl: 1\nname: " + "k" * 100_000 + "\nstructure: {tower: {levels: 2}}\n")
     assert (err.line, err.column, err.field) == (2, 7, "name")

@@ -102,12 +102,19 @@ def parse_scenario(text: str, file: str = "<scenario>", seed: int | None = None)
     return scenario
 
 
+#: A number with an exponent and no point, ``1e-4``: a float in YAML 1.2 (and to anyone writing
+#: a tolerance), a string in YAML 1.1, which PyYAML follows.
+_EXPONENT_ONLY = re.compile(r"^[-+]?[0-9][0-9_]*[eE][-+]?[0-9]+$")
+
+
 class _Loader(yaml.SafeLoader):
     """PyYAML's safe loader without YAML 1.1's timestamp, value and merge types, that
-    refuses recursive aliases and nesting deeper than :data:`MAX_DEPTH` while composing."""
+    refuses recursive aliases and nesting deeper than :data:`MAX_DEPTH` while composing,
+    and reads ``1e-4`` as a number, as YAML 1.2 does."""
 
     yaml_implicit_resolvers = {  # noqa: RUF012 (PyYAML's own class attribute, read only)
         first: [(tag, regexp) for tag, regexp in resolvers if tag in _SCALAR_TAGS]
+        + ([(_YAML + "float", _EXPONENT_ONLY)] if first in "+-0123456789" else [])
         for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
     }
 

@@ -30,8 +30,8 @@ class Setting:
     """One row of the matrix: the scenario's ``mode`` and stability ``model``, engine fields
     written into it (``backend`` among them), and whether bricks enter the world as they
     are placed (``lazy_bodies``, see :class:`stackdsl.runtime.run.RunOptions`; None: the
-    runtime's rule); ``lean``: run by the peer's own loop (:mod:`stackdsl.bench.lean_mujoco`),
-    not stackdsl's."""
+    runtime's rule); ``lean``: run by the peer engine's own loop (:mod:`stackdsl.bench.lean_mujoco`,
+    :mod:`stackdsl.bench.lean_pybullet`), not stackdsl's."""
 
     mode: str
     model: str = "report"
@@ -45,6 +45,7 @@ _SLEEPING = (*_MUJOCO, ("sleep_tolerance", 1e-4))
 
 SETTINGS: dict[str, Setting] = {
     "raw 240 Hz": Setting("raw"),
+    "pybullet lean": Setting("raw", lean=True),
     "raw 1 kHz 150 it": Setting("raw", engine=(("timestep", "1 ms"), ("solver_iterations", 150))),
     "tuned": Setting("tuned"),
     "extension report": Setting("extension"),
@@ -56,7 +57,9 @@ SETTINGS: dict[str, Setting] = {
     "MuJoCo lean": Setting("tuned", engine=_SLEEPING, lean=True),
     "MuJoCo extension": Setting("extension", engine=_MUJOCO),
 }
-"""Engine settings compared, by name. pybullet's first; then MuJoCo's: its defaults, the
+"""Engine settings compared, by name. pybullet's first (raw pybullet also run by its own lean
+loop, :mod:`stackdsl.bench.lean_pybullet`: the peer as a pybullet user writes it); then
+MuJoCo's: its defaults, the
 tuned settings, those with MuJoCo's own sleeping (tolerance 1e-4) with bricks added to the
 model as they are placed and with every brick declared up front and parked (the runtime's
 default on MuJoCo), the same tuned sleeping MuJoCo run by its own lean loop
@@ -183,7 +186,10 @@ def measure(scene: Scene, setting: str, options: RunOptions) -> Cell:
 
 def _measure_lean(scene: Scene, setting: str) -> Cell:
     """:func:`measure` of a lean setting: the peer's own loop, after its own warm-up run."""
-    from .lean_mujoco import run_lean
+    if SETTINGS[setting].engine[:1] == (("backend", "mujoco"),):
+        from .lean_mujoco import run_lean
+    else:
+        from .lean_pybullet import run_lean
 
     run_lean(program_for(WARM_UP, setting))
     program = program_for(scene, setting)
@@ -228,16 +234,14 @@ def run_matrix(
     minute, so the settings compared on a scene must sample the same stretches of the run.
     ``progress`` is called with each cell once its last run is in.
 
-    Slant towers stop at their first collapse, and their runs end ``after_collapse`` seconds
-    after it is decided (0: at the decision, where the lean peer stops too; None: the scene's
-    settle time, 2 s, which times the falling debris as well); upright towers are built to the
-    top whatever happens, so that every setting simulates the same seconds.
+    Every run stops at its first collapse and ends ``after_collapse`` seconds after it is
+    decided (0: at the decision, where the lean peers stop too; None: the scene's settle time,
+    2 s, which times the falling debris as well), an upright tower's too: a setting that
+    fells a tower that stands is wrong there, and its error says so, but a peer's loop would
+    not build on a heap either.
     """
-    tasks = []
-    for scene in scene_list:
-        slant = scene.closed_form is not None
-        options = RunOptions(stop_at_collapse=slant, settle=after_collapse if slant else None)
-        tasks += [(scene, setting, options) for setting in settings]
+    options = RunOptions(stop_at_collapse=True, settle=after_collapse)
+    tasks = [(scene, setting, options) for scene in scene_list for setting in settings]
     tasks.sort(key=lambda t: -_cost(*t[:2]))  # the longest first: the pool ends together
     context = SPAWN  # spawned workers that end with this process and leave Ctrl-C to it
     runs: dict[tuple[str, float, str], list[Cell]] = {}
@@ -292,6 +296,7 @@ def _cost(scene: Scene, setting: str) -> float:
     """A guess of a cell's wall time, to start the longest first."""
     steps_per_second = {
         "raw 240 Hz": 240,
+        "pybullet lean": 240,
         "raw 1 kHz 150 it": 3000,
         "tuned": 3000,
         "MuJoCo raw": 300,

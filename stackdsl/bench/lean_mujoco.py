@@ -6,11 +6,9 @@ MJCF model with every brick declared up front as a free body with a box geom, th
 not yet placed parked on the ground far away (where MuJoCo's own sleeping puts them to
 sleep), ``mujoco.mj_step`` called in a plain loop, and a brick placed by writing its free
 joint's position and velocity and calling ``mujoco.mj_forward`` (which wakes it). The
-collapse is watched at :data:`WATCH_RATE` from MuJoCo's own body frames (``xpos``, ``xmat``):
-a placed brick whose farthest corner is more than the program's collapse threshold from its
-place for :data:`WINDOW` seconds, or at the end, has collapsed, at the highest level placed
-when it was first that far. A brick that rocks past the threshold on landing and comes back
-within the window has not. The run stops when the collapse is decided, or at the program's end.
+collapse is watched as every lean peer watches it (:class:`stackdsl.bench.lean.CollapseWatch`),
+from MuJoCo's own body frames (``xpos``, ``xmat``); the run stops when the collapse is decided,
+or at the program's end.
 
 Settings are the program's (``engine: {backend: mujoco, mode: tuned, sleep_tolerance: 1e-4}``
 is the peer at its best, docs/results/mujoco.md): timestep, solver iterations, cone,
@@ -31,7 +29,6 @@ Python bindings (``MjModel.from_xml_string``, ``mj_step``, ``mj_forward``).
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -39,26 +36,10 @@ from stability import Pose
 
 from ..compile.program import Launch, Place, Program
 from ..engines.mujoco.settings import MuJoCoSettings
+from .lean import WATCH_RATE, CollapseWatch, LeanOutcome
 
-#: Hz: how often the collapse is checked (a video frame's rate).
-WATCH_RATE = 60.0
-#: Seconds a brick must stay beyond the collapse threshold to have collapsed.
-WINDOW = 0.2
 _PARK = np.array([5000.0, 5000.0])  # m: where the bricks not yet placed wait, on the ground
 _SLOT = 0.5  # m between two of them
-_CORNERS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
-
-
-@dataclass(frozen=True)
-class LeanOutcome:
-    """What the lean peer measured: the collapse level (None: stood), wall seconds, seconds
-    of it inside ``mj_step``, simulated seconds and physics steps."""
-
-    level: int | None
-    wall: float
-    engine: float
-    simulated: float
-    steps: int
 
 
 def mjcf(program: Program) -> str:
@@ -112,43 +93,28 @@ def run_lean(program: Program, timeout: float = 600.0) -> LeanOutcome:
     adr = np.array([model.jnt_qposadr[model.body_jntadr[model.body(p.id).id]] for p in places], dtype=int)
     dof = np.array([model.jnt_dofadr[model.body_jntadr[model.body(p.id).id]] for p in places], dtype=int)
     body = np.array([model.body(p.id).id for p in places], dtype=int)
-    local = np.stack([_CORNERS * p.brick.half_extents for p in places])  # (n, 8, 3)
-    targets = np.zeros((len(places), 8, 3))
+    watch = CollapseWatch(np.array([p.brick.half_extents for p in places]), program.collapse_threshold)
     dt = model.opt.timestep
     every = max(1, round(1.0 / (WATCH_RATE * dt)))
     end = program.duration
-    placed, level, since, first_level = 0, 0, None, 0
-    steps, engine = 0, 0.0
+    placed, steps, engine = 0, 0, 0.0
     while data.time < end - 1e-9 and time.perf_counter() - started < timeout:
         while placed < len(places) and places[placed].time <= data.time + 1e-9:
             p = places[placed]
-            q = _quat(p)
             data.qpos[adr[placed] : adr[placed] + 3] = p.position
-            data.qpos[adr[placed] + 3 : adr[placed] + 7] = q
+            data.qpos[adr[placed] + 3 : adr[placed] + 7] = _quat(p)
             data.qvel[dof[placed] : dof[placed] + 6] = 0.0
             mujoco.mj_forward(model, data)  # moving a body by hand and forwarding wakes it
-            targets[placed] = data.xpos[body[placed]] + local[placed] @ data.xmat[body[placed]].reshape(3, 3).T
-            level = max(level, p.level)
+            watch.place(placed, p.level, data.xpos[body[placed]], data.xmat[body[placed]].reshape(3, 3))
             placed += 1
         tick = time.perf_counter()
         for _ in range(every):
             mujoco.mj_step(model, data)
         engine += time.perf_counter() - tick
         steps += every
-        if placed:
-            n = placed
-            rot = data.xmat[body[:n]].reshape(n, 3, 3)
-            corners = data.xpos[body[:n], None, :] + np.einsum("nkj,nij->nki", local[:n], rot)
-            moved = float(np.linalg.norm(corners - targets[:n], axis=2).max())
-            if moved > program.collapse_threshold:
-                if since is None:
-                    since, first_level = data.time, level
-                elif data.time - since >= WINDOW - 1e-9:
-                    break
-            else:
-                since = None
-    collapsed = since is not None
-    return LeanOutcome(first_level if collapsed else None, time.perf_counter() - started, engine, float(data.time), steps)
+        if watch.look(float(data.time), data.xpos[body[:placed]], data.xmat[body[:placed]].reshape(-1, 3, 3)):
+            break
+    return LeanOutcome(watch.level, time.perf_counter() - started, engine, float(data.time), steps)
 
 
 def _quat(p: Place) -> np.ndarray:

@@ -56,11 +56,12 @@ def check_targets(cells: list[Cell]) -> dict[str, Any]:
 
 
 EXTENSIONS = ("extension report", "MuJoCo extension")
-PEERS = ("MuJoCo lean", "MuJoCo tuned sleeping", "MuJoCo tuned sleeping parked")
-"""The extension on each backend, and the strongest peer: tuned MuJoCo with its own sleeping,
-first in its own lean loop (:mod:`stackdsl.bench.lean_mujoco`: the peer at its best, the ratio
-the README quotes), then through stackdsl's loop in both of its forms (bricks added to the
-model as they are placed, or parked up front): a second, labelled column."""
+PEERS = ("MuJoCo lean", "MuJoCo tuned sleeping", "MuJoCo tuned sleeping parked", "pybullet lean", "raw 240 Hz")
+"""The extension on each backend, and the peers: the strongest, tuned MuJoCo with its own
+sleeping, first in its own lean loop (:mod:`stackdsl.bench.lean_mujoco`: the peer at its best,
+the ratio the README quotes), then through stackdsl's loop in both of its forms (bricks added to
+the model as they are placed, or parked up front): a second, labelled column; then raw pybullet,
+in its own lean loop (:mod:`stackdsl.bench.lean_pybullet`) and through stackdsl's loop."""
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,114 @@
+"""The lean pybullet peer: a scene run as a pybullet user would write it, for the bench to beat.
+
+:func:`run_lean` takes a compiled :class:`stackdsl.compile.program.Program` (its bricks, their
+placing times and poses, its pybullet settings) and runs it without stackdsl's step loop: a
+DIRECT client of its own, a ground plane, each brick created as a box (``createMultiBody``)
+when its time comes, and ``stepSimulation`` called in a plain loop. The collapse is watched as
+every lean peer watches it (:class:`stackdsl.bench.lean.CollapseWatch`), from pybullet's own
+base poses; the run stops when the collapse is decided, or at the program's end.
+
+Settings are the program's (``engine: {mode: raw}`` is raw pybullet: 240 Hz, 50 solver
+iterations, multibodies): timestep, solver iterations, gravity, maximal coordinates and
+friction anchors; each body's friction and restitution the square root of its material's, as
+pybullet multiplies a pair's. A brick is placed at rest at its pose, lowered by pybullet's seat
+(:attr:`stackdsl.engines.pybullet.settings.PyBulletSettings.SEAT`, 0.01 mm: placed at zero
+distance the box collider finds two of the four corners of its contact patch at first, and a
+brick near its support's edge tips): the gentlest placement a user can write.
+
+Only placements are taken (the bench's scenes); a program that launches a projectile or has
+fixed bodies raises ValueError. Units: SI. Source: stackdsl's own, on pybullet 3.2.7.
+
+>>> from stackdsl import compile_scenario, parse_scenario
+>>> text = "stackdsl: 1\\nstructure: {tower: {levels: 3}}\\nengine: {mode: raw}\\n"
+>>> lean = run_lean(compile_scenario(parse_scenario(text, "t.yaml")))
+>>> lean.level is None, lean.steps > 0, 0.0 < lean.engine <= lean.wall
+(True, True, True)
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from ..compile.program import Launch, Program
+from ..engines.pybullet.settings import PyBulletSettings
+from .lean import WATCH_RATE, CollapseWatch, LeanOutcome
+
+
+def run_lean(program: Program, timeout: float = 600.0) -> LeanOutcome:
+    """Run ``program`` in the lean loop (see the module's description) for at most
+    ``timeout`` wall seconds (then the level so far is returned).
+
+    Raises:
+        ValueError: the program's engine is not pybullet, or it has fixtures or launches.
+    """
+    import pybullet
+
+    e = program.engine
+    if not isinstance(e, PyBulletSettings):
+        raise ValueError("the lean pybullet peer runs programs compiled for pybullet (engine: {backend: pybullet})")
+    if program.fixtures or any(isinstance(a, Launch) for a in program.actions):
+        raise ValueError("the lean pybullet peer runs placements only: no fixed bodies, no projectiles")
+    started = time.perf_counter()
+    client = pybullet.connect(pybullet.DIRECT)
+    try:
+        return _run(pybullet, client, program, e, started, timeout)
+    finally:
+        pybullet.disconnect(client)
+
+
+def _run(p: Any, client: int, program: Program, e: PyBulletSettings, started: float, timeout: float) -> LeanOutcome:
+    """The loop of :func:`run_lean` on a connected ``client`` of the ``pybullet`` module ``p``."""
+    kw = {"physicsClientId": client}
+    p.setGravity(0.0, 0.0, -e.gravity, **kw)
+    p.setTimeStep(e.timestep, **kw)
+    p.setPhysicsEngineParameter(numSolverIterations=e.solver_iterations, **kw)
+    plane = p.createMultiBody(0.0, p.createCollisionShape(p.GEOM_PLANE, **kw), **kw)
+    ground = math.sqrt(program.ground_friction)
+    p.changeDynamics(plane, -1, lateralFriction=ground, restitution=math.sqrt(program.ground_restitution), **kw)
+    places = program.placements
+    watch = CollapseWatch(np.array([a.brick.half_extents for a in places]), program.collapse_threshold)
+    rotations = [Rotation.from_euler("ZYX", [a.yaw, a.pitch, a.roll], degrees=True) for a in places]
+    shapes: dict[tuple[float, float, float], int] = {}
+    bodies: list[int] = []
+    every = max(1, round(1.0 / (WATCH_RATE * e.timestep)))
+    step, engine, now = 0, 0.0, 0.0
+    while now < program.duration - 1e-9 and time.perf_counter() - started < timeout:
+        while len(bodies) < len(places) and places[len(bodies)].time <= now + 1e-9:
+            a, k = places[len(bodies)], len(bodies)
+            half = a.brick.half_extents
+            if half not in shapes:
+                shapes[half] = p.createCollisionShape(p.GEOM_BOX, halfExtents=list(half), **kw)
+            x, y, z = a.position
+            body = p.createMultiBody(
+                a.brick.mass,
+                shapes[half],
+                basePosition=[x, y, z - e.SEAT],
+                baseOrientation=rotations[k].as_quat().tolist(),
+                useMaximalCoordinates=e.maximal_coordinates,
+                **kw,
+            )
+            p.changeDynamics(
+                body,
+                -1,
+                lateralFriction=math.sqrt(a.brick.friction),
+                restitution=math.sqrt(a.brick.restitution),
+                frictionAnchor=int(e.friction_anchors),
+                **kw,
+            )
+            bodies.append(body)
+            watch.place(k, a.level, np.array([x, y, z - e.SEAT]), rotations[k].as_matrix())
+        tick = time.perf_counter()
+        for _ in range(every):
+            p.stepSimulation(**kw)
+        engine += time.perf_counter() - tick
+        step += every
+        now = step * e.timestep
+        poses = [p.getBasePositionAndOrientation(b, **kw) for b in bodies]
+        if poses and watch.look(now, np.array([q[0] for q in poses]), Rotation.from_quat([q[1] for q in poses]).as_matrix()):
+            break
+    return LeanOutcome(watch.level, time.perf_counter() - started, engine, now, step)

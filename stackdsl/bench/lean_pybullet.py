@@ -35,6 +35,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..compile.program import Launch, Program
+from ..engines.pybullet.client import quiet_c_output
 from ..engines.pybullet.settings import PyBulletSettings
 from .lean import WATCH_RATE, CollapseWatch, LeanOutcome
 
@@ -46,7 +47,8 @@ def run_lean(program: Program, timeout: float = 600.0) -> LeanOutcome:
     Raises:
         ValueError: the program's engine is not pybullet, or it has fixtures or launches.
     """
-    import pybullet
+    with quiet_c_output():  # pybullet prints its build time when imported, and more when connecting
+        import pybullet
 
     e = program.engine
     if not isinstance(e, PyBulletSettings):
@@ -54,7 +56,8 @@ def run_lean(program: Program, timeout: float = 600.0) -> LeanOutcome:
     if program.fixtures or any(isinstance(a, Launch) for a in program.actions):
         raise ValueError("the lean pybullet peer runs placements only: no fixed bodies, no projectiles")
     started = time.perf_counter()
-    client = pybullet.connect(pybullet.DIRECT)
+    with quiet_c_output():
+        client = pybullet.connect(pybullet.DIRECT)
     try:
         return _run(pybullet, client, program, e, started, timeout)
     finally:

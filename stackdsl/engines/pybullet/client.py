@@ -27,7 +27,7 @@ from typing import Any
 
 
 @contextmanager
-def _quiet_c_output() -> Iterator[None]:
+def quiet_c_output() -> Iterator[None]:
     """Silence C-level stdout and stderr (pybullet prints 'argv[0]=' and its build time)."""
     sys.stdout.flush()
     sys.stderr.flush()
@@ -76,7 +76,7 @@ def direct_client() -> Iterator[Any]:
         _SPARE.clear()
     client = spare.pop() if spare else None
     if client is None:
-        with _quiet_c_output():
+        with quiet_c_output():
             import pybullet
             from pybullet_utils.bullet_client import BulletClient
 

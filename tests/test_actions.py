@@ -153,6 +153,22 @@ def test_moved_stays_and_toppled_are_judged_by_brick():
     assert not toppled.passed and toppled.expected == "all toppled"
 
 
+def test_toppled_all_counts_the_dominoes_a_collapse_left_unplaced():
+    # a push timed while the row is still being built: building stops at the collapse it starts,
+    # and the dominoes never placed did not topple
+    row = "\n".join(f"    - {{id: d{i}, at: [{40 * i} mm, 0, 60 mm], pitch: 90, level: 1}}" for i in range(3))
+    text = (
+        f"stackdsl: 1\nstructure:\n  bricks:\n{row}\nactions:\n"
+        "  - push: {target: {brick: d0, offset: [0, 0, 45 mm]}, direction: [1, 0, 0], speed: 0.2 m/s, distance: 15 mm, at: 1 s}\n"
+        "expect: {toppled: all}\n"
+    )
+    scenario = parse_scenario(text, "row.yaml")
+    outcome = run_program(compile_scenario(scenario))
+    assert outcome.unplaced == ("d2",) and outcome.bricks_placed == 2
+    (toppled,) = evaluate(scenario.expect, outcome, 0.004)
+    assert not toppled.passed and toppled.measured == f"{len(outcome.toppled)} of 3 toppled (1 never placed)"
+
+
 def test_the_loop_drives_a_pull_a_push_and_a_shake_in_a_fake_world():
     """The step loop's on_action hook and the World capabilities, without an engine: the fake world
     moves a guided body by its velocity, records the ground's offset, and the pulled brick and the

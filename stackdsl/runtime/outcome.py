@@ -213,6 +213,8 @@ class Outcome(_Frozen):
         toppled: the structure bricks tilted past their tipping angle at the end (a domino
             fallen over), in the order they were placed (:meth:`stackdsl.runtime.bricks.Structure.toppled`).
         removed: the bricks a hand pulled out of the structure (``actions: remove``).
+        unplaced: the structure bricks of the scene never placed (building stops at a collapse),
+            in placing order; ``toppled: all`` counts them as standing.
         stopped: None when the run went to its end; else why and where it stopped early,
             e.g. ``"timeout after 120 s at t = 37.2 s simulated (of 201 s)"`` (the rest of
             the outcome then covers the simulated time so far, and the expectations fail:
@@ -241,6 +243,7 @@ class Outcome(_Frozen):
     certificate_time: float = 0.0
     toppled: tuple[str, ...] = ()
     removed: tuple[str, ...] = ()
+    unplaced: tuple[str, ...] = ()
     stopped: str | None = None
 
     def golden(self) -> dict[str, Any]:

@@ -233,6 +233,7 @@ def outcome(loop: StepLoop, wall_time: float) -> Outcome:
         kinetic_energy=structure.kinetic_energy(),
         levels_placed=max(structure.levels.values(), default=0),
         bricks_placed=len(placed),
+        unplaced=tuple(a.id for a in loop.program.placements if a.id not in structure.records),
         simulated_time=loop.now,
         wall_time=wall_time,
         steps=loop.step - loop.skipped,

@@ -75,14 +75,15 @@ def evaluate(expect: Expect, outcome: Outcome, threshold: float) -> list[Verdict
         )
     if expect.toppled is not None:
         t = expect.toppled
-        count = len(outcome.toppled)
-        want = len(outcome.displacement) if t.count == "all" else t.count
+        count, total = len(outcome.toppled), len(outcome.displacement) + len(outcome.unplaced)
+        want = total if t.count == "all" else t.count  # all of the scene's bricks, placed or not
+        never = f" ({len(outcome.unplaced)} never placed)" if outcome.unplaced else ""
         verdicts.append(
             Verdict(
                 name="toppled",
                 passed=abs(count - want) <= t.tolerance,
                 expected=f"{'all' if t.count == 'all' else want}" + (f"±{t.tolerance}" if t.tolerance else "") + " toppled",
-                measured=f"{count} of {len(outcome.displacement)} toppled",
+                measured=f"{count} of {total} toppled{never}",
             )
         )
     if outcome.stopped:

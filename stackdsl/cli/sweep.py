@@ -97,7 +97,8 @@ def _sweep(args: argparse.Namespace) -> int:
 
     def run(where: str, **executor: Any) -> list[Any]:
         print(
-            f"stackdsl sweep: {template.cells} cells x {template.samples} samples, {engine}, on {where}, writing to {out}",
+            f"stackdsl sweep: {_count(template.cells, 'cell')} x {_count(template.samples, 'sample')}, {engine}, on {where}, "
+            f"writing to {out}",
             flush=True,
         )
         with Lines(total, "sweep") as lines:
@@ -117,7 +118,7 @@ def _sweep(args: argparse.Namespace) -> int:
             _forget(out, made)
             raise
     else:
-        results = run(f"{args.jobs} processes", jobs=args.jobs)
+        results = run(_count(args.jobs, "process", "processes"), jobs=args.jobs)
     wall = time.perf_counter() - start
     bad = [r for r in results if r.bad_input]
     if bad:
@@ -173,3 +174,8 @@ def _say_lost(workers: list[str]) -> None:
         file=sys.stderr,
         flush=True,
     )
+
+
+def _count(n: int, one: str, many: str | None = None) -> str:
+    """``n`` and the noun, singular for 1: ``_count(1, "sample")`` is ``"1 sample"``."""
+    return f"{n} {one if n == 1 else many or one + 's'}"

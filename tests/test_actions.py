@@ -135,6 +135,9 @@ def test_a_slow_middle_pull_leaves_a_jenga_tower_standing_and_a_second_fells_it(
     outcome = run_program(compile_scenario(falls))
     assert outcome.collapse is not None and outcome.collapse.brick_level > 5
     assert all(v.passed for v in evaluate(falls.expect, outcome, 0.004))
+    # the proof names the brick it is about; the collapse, the brick that moved first: both are said
+    detail, first = outcome.certificate.detail, outcome.collapse.brick
+    assert detail.startswith(first) or detail.endswith(f"({first} moved first)"), detail
 
 
 def tower_outcome(expect: str):

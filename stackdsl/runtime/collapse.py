@@ -313,6 +313,8 @@ class CollapseMonitor(Subscriber):
         first, state = loop.structure.records[first_id], self._displaced[first_id]
         farthest = moved if first is record else state.farthest
         kind, detail, moved_too = proof
+        if first is not record:  # the collapse is named after the brick that moved first
+            detail += f" ({first.id} moved first)"
         records = loop.structure.records
         bricks = tuple(sorted({*self._displaced, *(b for b in moved_too if b in records)}, key=lambda i: records[i].order))
         certificate = Certificate(verdict="collapse", kind=kind, detail=detail, bricks=bricks)

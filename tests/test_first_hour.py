@@ -357,7 +357,7 @@ def test_sweep_names_the_engine_it_runs_on(tmp_path, capsys):
         "stackdsl: 1\nstructure: {tower: {levels: 2, yaw: {uniform: [0, 2]}}}\nsweep: {samples: 2}\n"
     )
     assert main(["sweep", str(tmp_path / "s.yaml"), "-j", "1", "--out", str(tmp_path / "o"), "--mode", "raw"]) == 0
-    assert capsys.readouterr().out.startswith("stackdsl sweep: 1 cells x 2 samples, pybullet raw, on 1 processes")
+    assert capsys.readouterr().out.startswith("stackdsl sweep: 1 cell x 2 samples, pybullet raw, on 1 process")
 
 
 def test_pictures_and_clips_name_the_engine_and_the_brick_that_moved_first():

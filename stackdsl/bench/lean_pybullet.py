@@ -34,6 +34,8 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from stability import Pose
+
 from ..compile.program import Launch, Program
 from ..engines.pybullet.client import quiet_c_output
 from ..engines.pybullet.settings import PyBulletSettings
@@ -75,7 +77,7 @@ def _run(p: Any, client: int, program: Program, e: PyBulletSettings, started: fl
     p.changeDynamics(plane, -1, lateralFriction=ground, restitution=math.sqrt(program.ground_restitution), **kw)
     places = program.placements
     watch = CollapseWatch(np.array([a.brick.half_extents for a in places]), program.collapse_threshold)
-    rotations = [Rotation.from_euler("ZYX", [a.yaw, a.pitch, a.roll], degrees=True) for a in places]
+    poses = [Pose.from_euler(a.position, a.yaw, a.pitch, a.roll) for a in places]  # as stackdsl places them
     shapes: dict[tuple[float, float, float], int] = {}
     bodies: list[int] = []
     every = max(1, round(1.0 / (WATCH_RATE * e.timestep)))
@@ -86,12 +88,12 @@ def _run(p: Any, client: int, program: Program, e: PyBulletSettings, started: fl
             half = a.brick.half_extents
             if half not in shapes:
                 shapes[half] = p.createCollisionShape(p.GEOM_BOX, halfExtents=list(half), **kw)
-            x, y, z = a.position
+            at = poses[k].position - [0.0, 0.0, e.SEAT]
             body = p.createMultiBody(
                 a.brick.mass,
                 shapes[half],
-                basePosition=[x, y, z - e.SEAT],
-                baseOrientation=rotations[k].as_quat().tolist(),
+                basePosition=at.tolist(),
+                baseOrientation=poses[k].orientation.tolist(),
                 useMaximalCoordinates=e.maximal_coordinates,
                 **kw,
             )
@@ -104,14 +106,14 @@ def _run(p: Any, client: int, program: Program, e: PyBulletSettings, started: fl
                 **kw,
             )
             bodies.append(body)
-            watch.place(k, a.level, np.array([x, y, z - e.SEAT]), rotations[k].as_matrix())
+            watch.place(k, a.level, at, poses[k].rotation)
         tick = time.perf_counter()
         for _ in range(every):
             p.stepSimulation(**kw)
         engine += time.perf_counter() - tick
         step += every
         now = step * e.timestep
-        poses = [p.getBasePositionAndOrientation(b, **kw) for b in bodies]
-        if poses and watch.look(now, np.array([q[0] for q in poses]), Rotation.from_quat([q[1] for q in poses]).as_matrix()):
+        now_at = [p.getBasePositionAndOrientation(b, **kw) for b in bodies]
+        if now_at and watch.look(now, np.array([q[0] for q in now_at]), Rotation.from_quat([q[1] for q in now_at]).as_matrix()):
             break
     return LeanOutcome(watch.level, time.perf_counter() - started, engine, now, step)

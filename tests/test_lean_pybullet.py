@@ -48,6 +48,7 @@ def test_the_lean_pybullet_peer_takes_pybullet_placements_only():
 
 def test_the_bench_measures_the_lean_pybullet_peer_as_a_cell():
     assert SETTINGS["pybullet lean"].lean and SETTINGS["pybullet lean"].mode == "raw"
+    assert (SETTINGS["pybullet lean"].backend, SETTINGS["MuJoCo lean"].backend) == ("pybullet", "mujoco")
     scene = Scene("upright", 2, 2, "tower: {levels: 2}", None)
     cell = measure(scene, "pybullet lean", RunOptions())
     assert cell.setting == "pybullet lean" and cell.collapse_level is None and cell.error == 0

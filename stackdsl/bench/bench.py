@@ -39,6 +39,11 @@ class Setting:
     lazy_bodies: bool | None = None
     lean: bool = False
 
+    @property
+    def backend(self) -> str:
+        """The engine it runs on: ``pybullet`` unless its engine fields name another."""
+        return str(dict(self.engine).get("backend", "pybullet"))
+
 
 _MUJOCO = (("backend", "mujoco"),)
 _SLEEPING = (*_MUJOCO, ("sleep_tolerance", 1e-4))
@@ -186,7 +191,7 @@ def measure(scene: Scene, setting: str, options: RunOptions) -> Cell:
 
 def _measure_lean(scene: Scene, setting: str) -> Cell:
     """:func:`measure` of a lean setting: the peer's own loop, after its own warm-up run."""
-    if SETTINGS[setting].engine[:1] == (("backend", "mujoco"),):
+    if SETTINGS[setting].backend == "mujoco":
         from .lean_mujoco import run_lean
     else:
         from .lean_pybullet import run_lean

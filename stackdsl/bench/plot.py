@@ -13,7 +13,7 @@ from .bench import SETTINGS, Cell, fit_exponent
 
 def _marker(setting: str) -> str:
     """Squares for MuJoCo's settings, circles for pybullet's."""
-    return "s" if SETTINGS[setting].engine[:1] == (("backend", "mujoco"),) else "o"
+    return "s" if SETTINGS[setting].backend == "mujoco" else "o"
 
 
 def _pareto(points: list[tuple[float, float, str]]) -> list[tuple[float, float, str]]:

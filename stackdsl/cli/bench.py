@@ -194,7 +194,7 @@ def _need_engines(settings: list[str]) -> None:
     Raises:
         ScenarioError: a MuJoCo setting without MuJoCo, at ``--settings``.
     """
-    if any(("backend", "mujoco") in SETTINGS[name].engine for name in settings):
+    if any(SETTINGS[name].backend == "mujoco" for name in settings):
         _need("mujoco", "--settings")
 
 
@@ -429,7 +429,7 @@ def _bench_dominoes(args: argparse.Namespace) -> int:
     if unknown or not settings:
         known = ", ".join(n for n, s in KNOWN.items() if not s.lean)
         raise ScenarioError(f"unknown setting {unknown[0] if unknown else ''!r}; known: {known}", file="--settings")
-    if any(("backend", "mujoco") in KNOWN[name].engine for name in settings):
+    if any(KNOWN[name].backend == "mujoco" for name in settings):
         _need("mujoco", "--settings")
     print(version_line(), flush=True)
     costs = []

@@ -5,6 +5,8 @@ gives the same verdict and graph either way."""
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 
@@ -129,6 +131,38 @@ def test_a_kept_client_simulates_as_a_new_one(monkeypatch):
         assert client is kept
         raise RuntimeError("a run that fails")
     assert client_module._SPARE == []
+
+
+def test_a_new_client_has_no_renderer_plugin_and_simulates_as_one_that_has():
+    """A new client unloads pybullet's TinyRenderer plugin (it builds a visual shape for every
+    body; stackdsl renders nothing through pybullet): loading it by name then finds no such
+    file (-1). The physics does not read it: a run gives the same outcome, bitwise, on a client
+    with the plugin loaded."""
+    import json
+
+    import pybullet
+    from pybullet_utils.bullet_client import BulletClient
+
+    import stackdsl.engines.pybullet.client as client_module
+
+    def outcome():
+        o = run_program(compile_scenario(parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 6, shift: 9 mm}}\n", "s.yaml")))
+        return json.dumps(
+            o.model_dump(mode="json", exclude={"wall_time", "engine_time", "after_collapse", "certificate_time"}), sort_keys=True
+        )
+
+    client_module._SPARE.clear()
+    without = outcome()
+    (kept,) = [c for _, c in client_module._SPARE]
+    with client_module.quiet_c_output():  # pybullet warns that it cannot open a file of that name
+        assert kept.loadPlugin(client_module.RENDERER) == -1
+        rendering = BulletClient(connection_mode=pybullet.DIRECT)
+    assert rendering.loadPlugin(client_module.RENDERER) >= 0  # a new client's, loaded: its id
+    client_module._SPARE[:] = [(os.getpid(), rendering)]
+    assert outcome() == without
+    client_module._SPARE.clear()
+    for client in (kept, rendering):
+        client.disconnect()
 
 
 def test_the_kept_client_is_disconnected_at_exit_while_pybullet_is_loaded():

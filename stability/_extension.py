@@ -372,14 +372,12 @@ class StabilityExtension:
         Loads are propagated over every brick, frozen or not, so the graph is the same
         kind of object with the extension acting or not (the engine alone).
         """
-        contacts = by_body(self._stack.engine.contact_points())
         bricks = [r for r in self._stack.bodies.values() if r.state is not BrickState.GROUND]
         nodes = self._stack.nodes(bricks)
-        for r in bricks:
-            if r.state is BrickState.ACTIVE:
-                nodes[r.body] = LoadNode(
-                    r.box.mass, self._stack.pose(r).position, self._areas.supports(r, contacts[r.body], False)
-                )
+        active = [r for r in bricks if r.state is BrickState.ACTIVE]
+        contacts = by_body(self._stack.engine.contact_points()) if active else {}  # a frozen stack: none read
+        for r in active:
+            nodes[r.body] = LoadNode(r.box.mass, self._stack.pose(r).position, self._areas.supports(r, contacts[r.body], False))
         loads = propagate(nodes)
         graph_nodes, edges = [], []
         for rec in self._stack.bodies.values():

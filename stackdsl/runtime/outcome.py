@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from collections.abc import Sequence
 from typing import Any, Literal
 
 import numpy as np
@@ -140,17 +141,18 @@ class Graph(_Frozen):
     @classmethod
     def from_stability(cls, graph: BrickGraph, levels: dict[str, int]) -> Graph:
         """Round and rename a :class:`stability.BrickGraph`; ``levels`` maps ids to levels."""
+        turns = canonical_quaternions([n.pose.orientation for n in graph.nodes])
         nodes = tuple(
             Node(
                 id=n.label,
                 level=levels.get(n.label),
                 state=n.state.value,
                 position_mm=_mm(n.pose.position),
-                quaternion_xyzw=canonical_quaternion(n.pose.orientation),
+                quaternion_xyzw=turn,
                 com_above_mm=_mm(n.com_above),
                 mass_above_g=_round(n.mass_above * 1000, 1),
             )
-            for n in graph.nodes
+            for n, turn in zip(graph.nodes, turns, strict=True)
         )
         edges = tuple(
             Edge(
@@ -286,13 +288,28 @@ def canonical_quaternion(quaternion: Any) -> Vec4:
     >>> canonical_quaternion([0.0, 0.0, -1.0, -1e-9]), canonical_quaternion([0, 0, 0.70710678, -0.70710678])
     ((0.0, 0.0, 1.0, 0.0), (0.0, 0.0, -0.707, 0.707))
     """
-    q = Rotation.from_quat(np.asarray(quaternion, dtype=float)).as_quat(canonical=True)
-    x, y, z, w = (_round(c, 3) for c in q)
-    parts = (x, y, z, w)
-    first = next((c for c in (w, x, y, z) if c != 0.0), 1.0)
-    if first < 0:
-        parts = tuple(-c + 0.0 for c in parts)  # type: ignore[assignment]
+    (parts,) = canonical_quaternions([quaternion])
     return parts
+
+
+def canonical_quaternions(quaternions: Sequence[Any]) -> list[Vec4]:
+    """:func:`canonical_quaternion` of each of ``quaternions`` (shape (n, 4), x y z w), by one
+    call of scipy's ``Rotation`` for all of them (a brick graph's nodes).
+
+    >>> canonical_quaternions([[0.0, 0.0, -1.0, -1e-9], [0, 0, 0.70710678, -0.70710678]])
+    [(0.0, 0.0, 1.0, 0.0), (0.0, 0.0, -0.707, 0.707)]
+    """
+    if len(quaternions) == 0:
+        return []
+    out: list[Vec4] = []
+    for q in Rotation.from_quat(np.asarray(quaternions, dtype=float).reshape(-1, 4)).as_quat(canonical=True):
+        x, y, z, w = (_round(c, 3) for c in q)
+        parts = (x, y, z, w)
+        first = next((c for c in (w, x, y, z) if c != 0.0), 1.0)
+        if first < 0:
+            parts = (-x + 0.0, -y + 0.0, -z + 0.0, -w + 0.0)
+        out.append(parts)
+    return out
 
 
 def euler_degrees(quaternion: Any) -> Vec3:

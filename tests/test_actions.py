@@ -333,3 +333,25 @@ actions:
     assert second.time == pytest.approx(first.end_time + 0.5, abs=0.005)  # up to the next whole timestep
     assert shake.time == pytest.approx(second.end_time + 0.5, abs=0.005)
     assert first.end_time == pytest.approx(6.0 + 0.130 / 0.040, abs=0.005)  # the brick's length + 10 mm at 40 mm/s
+
+
+def test_a_brick_pulled_out_may_be_pushed_before_and_named_among_others_but_not_after():
+    """A pulled brick leaves the scene: a push at it before the pull starts is a push; the
+    prefix of its level still names the bricks that stay; a second pull, a push after the
+    pull or an expectation naming only it are refused (tests/hostile/ has each as a file)."""
+    from stackdsl.lang.errors import ScenarioError
+
+    head = """stackdsl: 1
+structure: {tower: {levels: 4, bricks_per_layer: 3, turn: 90, spacing: 25 mm}}
+timing: {interval: 0.2 s}
+actions:
+  - push: {target: {brick: L02.2}, direction: [0, 1, 0], at: 2.6 s, speed: 20 mm/s, distance: 2 mm}
+  - remove: {brick: L02.2, at: 3 s}
+"""
+    program = compile_scenario(parse_scenario(head + "expect: {stays: [L02, L01]}\n", "ok.yaml"))
+    assert [type(a).__name__ for a in program.kinematic] == ["Push", "Remove"]
+    later = head + "  - push: {target: {brick: L02.2}, direction: [0, 1, 0], at: 5 s}\n"
+    with pytest.raises(ScenarioError, match=r"L02.2 is pulled out by actions\[1\] from 3 s"):
+        compile_scenario(parse_scenario(later, "later.yaml"))
+    with pytest.raises(ScenarioError, match="names only a brick pulled out"):
+        compile_scenario(parse_scenario(head + "expect: {moved: L02.2}\n", "moved.yaml"))

@@ -22,6 +22,7 @@ import numpy as np
 
 from ..engines.protocol import BrickSpec
 from ..lang.errors import FieldPath
+from ..lang.expectations import bricks_of, selects
 from ..lang.schema import Scenario
 from ..lang.schema_actions import AXES, Action, AfterPrevious
 from ..lang.schema_impacts import AfterLevel
@@ -67,17 +68,23 @@ def compile_actions(
 
     Raises:
         ScenarioError: at the field: a brick that is not in the structure or not placed before
-            its pull, a pusher's unknown brick type, a level never built, a time not on the
+            its pull, a brick pulled twice or pushed once pulled out, a pusher's unknown brick type, a level never built, a time not on the
             timestep grid, a shake that overlaps a placement or another action.
     """
     out: list[Kinematic] = []
+    pulled: dict[str, tuple[int, float]] = {}  # brick -> the action that pulls it out, and when
     for i, action in enumerate(scenario.actions):
         path: FieldPath = ("actions", i, action.kind)
         start = _start(scenario, path, action, bricks, slots, out[-1] if out else None, dt)
         step = steps((*path, "at"), start)
         if action.remove is not None:
+            _not_pulled(scenario, (*path, "brick"), action.remove.brick, pulled, "pull it out again")
             out.append(_remove(scenario, path, action, bricks, slots, specs, start, step, dt))
+            pulled[action.remove.brick] = (i, start)
         elif action.push is not None:
+            target = action.push.target.brick
+            if target is not None and start >= pulled.get(target, (0, math.inf))[1]:
+                _not_pulled(scenario, (*path, "target", "brick"), target, pulled, "push it")
             out.append(_push(scenario, i, action, bricks, specs, start, step, dt))
         else:
             out.append(_shake(action, start, step, dt))
@@ -85,6 +92,47 @@ def compile_actions(
         if isinstance(motion, Shake):
             _alone(scenario, i, motion, out, places)
     return out
+
+
+def pulled_out(scenario: Scenario) -> dict[str, int]:
+    """The bricks the scenario's actions pull out, each with the index of its pull. Source: stackdsl's own.
+
+    >>> from stackdsl.lang.loader import parse_scenario
+    >>> pulled_out(parse_scenario("stackdsl: 1\\nstructure: {tower: {levels: 2}}\\nactions: [{remove: {brick: L01.1, at: 3 s}}]"))
+    {'L01.1': 0}
+    """
+    return {a.remove.brick: i for i, a in enumerate(scenario.actions) if a.remove is not None}
+
+
+def check_measured(scenario: Scenario, ids: Sequence[str]) -> None:
+    """A ScenarioError at ``expect.stays``, ``moved`` or ``may_fall`` when one of its brick
+    selectors names only bricks the actions pull out (``ids``: the structure's bricks): a pulled
+    brick leaves the scene, and nothing of it is measured."""
+    pulled = pulled_out(scenario)
+    if not pulled:
+        return
+    for name in ("stays", "may_fall", "moved"):
+        for selector in bricks_of(getattr(scenario.expect, name) or ()):
+            chosen = [b for b in ids if selects(selector, b)]
+            if chosen and all(b in pulled for b in chosen):
+                pulls = ", ".join(f"actions[{pulled[b]}]" for b in chosen)
+                raise scenario.source.error(
+                    ("expect", name),
+                    f"{selector!r} names only {'a brick' if len(chosen) == 1 else 'bricks'} pulled out of the scene "
+                    f"({pulls}): nothing of {'it' if len(chosen) == 1 else 'them'} is measured; name bricks that stay in the scene",
+                )
+
+
+def _not_pulled(scenario: Scenario, path: FieldPath, brick: str, pulled: dict[str, tuple[int, float]], what: str) -> None:
+    """A ScenarioError at ``path`` when ``brick`` has been pulled out of the scene already (by
+    an earlier action of ``pulled``, brick -> (its index, its start in s))."""
+    if brick in pulled:
+        index, start = pulled[brick]
+        raise scenario.source.error(
+            path,
+            f"{brick} is pulled out by actions[{index}] from {start:g} s, which takes it out of the scene: "
+            f"nothing can {what} after that",
+        )
 
 
 def _start(

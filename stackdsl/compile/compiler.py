@@ -48,7 +48,7 @@ from ..lang.extras import installed, missing
 from ..lang.schema import BACKEND_FIELDS, BUILTIN_BRICKS, Scenario
 from ..lang.schema_impacts import SIDES, AfterLevel, Impact
 from ..lang.validation_errors import reference_errors
-from .actions import compile_actions, heading
+from .actions import check_measured, compile_actions, heading
 from .clearance import check_launch
 from .layouts import LaidBrick, with_placement_error
 from .limits import check_limits
@@ -138,6 +138,7 @@ def compile_scenario(
     motions = compile_actions(
         scenario, bricks, slots, specs, places, dt, lambda path, seconds: _steps(scenario, path, seconds, dt)
     )
+    check_measured(scenario, [b.id for b in bricks])
     actions: list[Place | Launch | Remove | Push | Shake | End] = sorted(
         [*placements, *launches, *motions], key=lambda a: (a.step, a.kind != "place")
     )

@@ -332,7 +332,8 @@ class Stack:
         rec.proved_at = self.engine.pose(body) if held else None
         rec.still_from = (rec.proved_at or rec.still_from[0], time)
         woken = [Woken(body, node, StabilityEvent(time, "wake", rec.label, reason, proved=body in proved))]
-        for above in self.ordered(rec.objects_above):
-            woken += self.wake(above, time, f"rests on {rec.label}", proved, rec.proved_at is not None)
+        for above in self.ordered(rec.objects_above):  # what rests on it, and the other bricks of its pile
+            how = "rests on" if body in self.bodies[above].rests_on else "was frozen in one pile with"
+            woken += self.wake(above, time, f"{how} {rec.label}", proved, rec.proved_at is not None)
         rec.objects_above = set()
         return woken

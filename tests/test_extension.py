@@ -402,3 +402,19 @@ def test_a_brick_frozen_resting_on_an_active_one_is_never_its_support():
     assert list(areas.supports(rec1, s.engine.contact_points([b1]), stack_only=True)) == []
     rec2.rests_on = {}
     assert list(areas.supports(rec1, s.engine.contact_points([b1]), stack_only=True)) == [b2]
+
+
+def test_a_woken_brick_says_whether_it_rested_on_the_one_woken_or_lay_in_its_pile():
+    """The bricks of a pile wake together (the debris rule links them both ways); a brick woken
+    so did not rest on the one whose wake woke it, and says so; one that rests on it says that."""
+    s = Scene()
+    a, _ = s.place(0.0, 1)
+    b, _ = s.place(0.2, 1)
+    s.place(0.0, 2, on=(a,))
+    stack = s.ext._stack
+    ra, rb = stack.bodies[a], stack.bodies[b]
+    ra.objects_above.add(b)  # as Admission.freeze_group links the members of a pile
+    rb.objects_above.add(a)
+    events = s.ext.wake(a, 1.0, "moved by hand")
+    reasons = {e.label: e.reason for e in events}
+    assert reasons == {"b1": "moved by hand", "b2": "was frozen in one pile with b1", "b3": "rests on b1"}

@@ -561,3 +561,19 @@ def test_check_and_compile_stop_at_bad_files(tmp_path, capsys, never_compiled):
         for command in ("check", "compile"):
             assert _cli.main([command, "/dev/zero"]) == 2
             assert "/dev/zero: not a regular file: a character device" in capsys.readouterr().err
+
+
+def test_a_value_no_member_of_a_union_takes_is_one_error_at_the_field_as_written():
+    """A pull's direction is a word or a list: 'up' is refused once, at the field the file wrote
+    (not at pydantic's names for the union's members), saying both forms; [0, 0, 0], a list
+    refused by the list form's own check, gives that check's reason alone."""
+    head = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nactions:\n  - remove: {brick: L01.1, at: 3 s, direction: "
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(head + "up}\n", "d.yaml")
+    e = err.value
+    assert (e.field, e.line, e.column, e.others) == ("actions[0].remove.direction", 4, 48, ())
+    assert e.message == "Input should be '+x', '-x', '+y' or '-y', or a list, got 'up'"
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(head + "[0, 0, 0]}\n", "d.yaml")
+    assert err.value.field == "actions[0].remove.direction" and "must not be zero" in err.value.message
+    assert err.value.others == ()

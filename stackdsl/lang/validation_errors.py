@@ -57,21 +57,54 @@ def _first_error_here(exc: ValidationError, source: SourceMap) -> ScenarioError:
         return err["type"] != "extra_forbidden", where.line or 0, where.column or 0
 
     errors.sort(key=order)
-    found: list[ScenarioError] = []
-    seen: set[tuple[str, int | None, int | None]] = set()
+    groups: dict[tuple[str, int | None, int | None], list[tuple[ErrorDetails, ScenarioError]]] = {}
     for err in errors:
         error = _one_error(err, source)
-        key = (error.field, error.line, error.column)
-        if key not in seen:  # a union's members each refuse the same node: say it once
-            seen.add(key)
-            found.append(error)
+        groups.setdefault((error.field, error.line, error.column), []).append((err, error))
+    found = [_merged(group) for group in groups.values()]  # a union's members each refuse the same node
     return found[0].with_others(found[1:])
+
+
+def _merged(group: list[tuple[ErrorDetails, ScenarioError]]) -> ScenarioError:
+    """One error for the refusals of one node by the members of a union: a member whose own check
+    refused the value (it had that member's shape: ``[0, 0, 0]`` for a direction) says why alone;
+    otherwise what each member expects, joined ("'+x', '-x', '+y' or '-y', or a list").
+
+    >>> a = ({"type": "literal_error"}, ScenarioError("Input should be 'x' or 'y', got 'up'", field="d"))
+    >>> b = ({"type": "tuple_type"}, ScenarioError("Input should be a valid tuple, got 'up'", field="d"))
+    >>> _merged([a, b]).message
+    "Input should be 'x' or 'y', or a valid tuple, got 'up'"
+    """
+    if len(group) == 1:
+        return group[0][1]
+    own = [e for d, e in group if d["type"] in ("value_error", "assertion_error")]
+    if own:
+        return own[0]
+    first = group[0][1]
+    got = ""
+    parts: list[str] = []
+    for _, e in group:
+        text = e.message
+        if ", got " in text:
+            text, got = text.rsplit(", got ", 1)
+        text = text if not parts else text.removeprefix("Input should be ")
+        if text not in parts:
+            parts.append(text)
+    message = ", or ".join(parts) + (f", got {got}" if got else "")
+    return ScenarioError(
+        message,
+        file=first.file,
+        line=first.line,
+        column=first.column,
+        field=first.field,
+        source_line=first.source_line,
+    )
 
 
 def _one_error(err: ErrorDetails, source: SourceMap) -> ScenarioError:
     """One of pydantic's errors as a ScenarioError at its node, in the language's words."""
     tagged = tuple(err["loc"])
-    loc = _untagged(tagged)
+    loc = _without_members(_untagged(tagged), source)
     if err["type"] == "extra_forbidden":
         key = str(loc[-1])
         message = f"unknown key {key!r}"
@@ -90,7 +123,7 @@ def _one_error(err: ErrorDetails, source: SourceMap) -> ScenarioError:
         allowed = fields_at(tagged)
         message = "expected a mapping" + (f" of {', '.join(allowed)}" if allowed else "")
     else:
-        message = err["msg"].removeprefix("Value error, ")
+        message = err["msg"].removeprefix("Value error, ").replace("a valid tuple", "a list")  # YAML has lists
     if "input" in err and err["type"] not in ("value_error",) and not isinstance(err["input"], (dict, list)):
         message += f", got {shown(err['input'])}"
     return source.error(loc, message)
@@ -120,6 +153,23 @@ def _untagged(loc: FieldPath) -> FieldPath:
         if loc[:n] == where and len(loc) > n and loc[n] in tags:
             return loc[:n] + loc[n + 1 :]
     return loc
+
+
+_TYPE_NAMES = frozenset({"int", "float", "str", "bool", "none", "tuple", "list", "dict", "set", "bytes"})
+
+
+def _without_members(loc: FieldPath, source: SourceMap) -> FieldPath:
+    """``loc`` without the names pydantic gives the members of a plain union
+    (``literal['+x','-x']``, ``function-after[...]``, ``float``, a model's class name): segments
+    with no YAML node that are no field name. A key the file wrote (a material called
+    ``Steel-1``) has a node and stays."""
+    out: FieldPath = ()
+    for seg in loc:
+        member = isinstance(seg, str) and (seg in _TYPE_NAMES or seg[:1].isupper() or any(c in seg for c in "[]()-',"))
+        if member and (*out, seg) not in source.values:
+            continue
+        out += (seg,)
+    return out
 
 
 def fields_at(loc: FieldPath) -> list[str]:

@@ -148,3 +148,34 @@ def test_a_field_a_draw_lacks_fails_its_condition_and_is_drawn_again():
         sample, _ = accept(template.scenario(0, k))
         assert sample.structure.tower.levels == 5  # a 2-level draw has no fourth shift: redrawn
     assert not parse("x < 1").holds({})
+
+
+@pytest.mark.parametrize(
+    "condition, refused",
+    [
+        ("overhang < 3 s", "compares overhang (a length) with 3 s (a time)"),
+        ("levels > 2 mm", "compares levels (a count) with 2 mm (a length)"),
+        ("structure.tower.spacing + 1 s < 0.2", "adds structure.tower.spacing (a length) to 1 s (a time)"),
+        ("max(gap, timing.interval) > 0", "takes the max of gap (a length) and timing.interval (a time)"),
+        ("overhang < 10 mm and levels >= 3", None),
+        ("structure.tower.spacing > 0.5 * gap + 1 mm", None),
+        ("com_offset / 1 mm < 2000 and timing.interval > 0.5 s", None),
+        ("overhang < 0.01 and bricks * 1 mm < 1 m", None),
+    ],
+)
+def test_a_condition_mixing_kinds_of_quantity_is_refused_at_it(condition, refused):
+    """A unit slip in a condition (a length against a time, a count against a length) is bad
+    input at the condition, not a silent comparison of SI numbers; bare numbers, products and
+    quotients go with anything."""
+    text = f"""stackdsl: 1
+structure: {{tower: {{levels: 3, spacing: {{uniform: [90 mm, 100 mm]}}}}}}
+timing: {{interval: 1 s}}
+require: ["{condition}"]
+"""
+    scenario = parse_scenario(text, "kinds.yaml")
+    if refused is None:
+        accept(scenario)
+        return
+    with pytest.raises(ScenarioError) as err:
+        accept(scenario)
+    assert err.value.field == "require[0]" and err.value.line == 4 and refused in err.value.message

@@ -30,6 +30,7 @@ scenario specification and scene generation", PLDI 2019).
 
 from __future__ import annotations
 
+import itertools
 import math
 import operator
 import re
@@ -67,19 +68,100 @@ _CONVERTERS = (length, time, speed, angular_speed, density, angle)
 
 def quantity(number: str, unit: str) -> float:
     """``number`` with ``unit`` in SI (degrees for angles). Raises ValueError for an unknown unit."""
+    return measured(number, unit)[0]
+
+
+def measured(number: str, unit: str) -> tuple[float, str]:
+    """``number`` with ``unit`` in SI (degrees for angles), and its kind of quantity (:data:`KINDS`).
+    Raises ValueError for an unknown unit.
+
+    >>> measured("1", "ms"), measured("2", "Hz")[1]
+    ((0.001, 'time'), 'per time')
+    """
     text = f"{number} {unit}"
-    for convert in _CONVERTERS:
+    for convert, kind in zip(_CONVERTERS, _KINDS, strict=True):
         try:
-            return float(convert(text))
+            return float(convert(text)), kind
         except ValueError:
             continue
     try:
-        return parse_quantity(text, "[mass]", "kg", "a mass", "'10 g'")
+        return parse_quantity(text, "[mass]", "kg", "a mass", "'10 g'"), "mass"
     except ValueError:
         raise ValueError(f"unknown unit {unit!r} in '{text}'") from None
 
 
-# a parsed condition is a tree of tuples: ("num", value), ("name", text), ("neg", x),
+KINDS = ("length", "time", "speed", "per time", "density", "angle", "mass", "count")
+"""The kinds of quantity a condition's dimensions are checked by: what a number's unit says, and
+what the compiler knows of a name (a derived quantity, a field of the scene). A bare number has
+none: it is read in the unit a name of its kind means (SI), and goes with anything."""
+_KINDS = ("length", "time", "speed", "per time", "density", "angle")  # of _CONVERTERS, in order
+
+
+def check_kinds(condition: Condition, kinds: Mapping[str, str]) -> None:
+    """Refuse a condition that compares, adds or subtracts quantities of two kinds (``overhang < 3
+    s``, ``levels > 2 mm``), or takes the min or max of such: ``kinds`` gives the kind of each name
+    the compiler knows (:data:`KINDS`); an unknown name, a bare number and a product or quotient of
+    two quantities go with anything. Source: stackdsl's own.
+
+    Raises:
+        ValueError: the first such mismatch, naming both sides and their kinds.
+
+    >>> check_kinds(parse("overhang < 10 mm and levels >= 3"), {"overhang": "length", "levels": "count"})
+    >>> check_kinds(parse("max_overhang < 1 ms"), {"max_overhang": "length"})
+    Traceback (most recent call last):
+    ...
+    ValueError: compares max_overhang (a length) with 1 ms (a time): both sides must be quantities of one kind
+    """
+    _kind_of(condition.tree, kinds)
+
+
+def _kind_of(node: Node, kinds: Mapping[str, str]) -> tuple[str, str]:
+    """(kind, how it is written) of a node: "" for a bare number or a kind not known."""
+    kind = node[0]
+    if kind == "num":
+        return node[2], node[3]
+    if kind == "name":
+        return kinds.get(node[1], ""), node[1]
+    if kind == "neg":
+        inner, words = _kind_of(node[1], kinds)
+        return inner, f"-{words}"
+    if kind == "arith":
+        (a, wa), (b, wb) = _kind_of(node[2], kinds), _kind_of(node[3], kinds)
+        words = f"{wa} {node[1]} {wb}"
+        if node[1] in "+-":
+            _same(a, wa, b, wb, "adds" if node[1] == "+" else "subtracts", "to" if node[1] == "+" else "from")
+            return a or b, words
+        if node[1] == "*":
+            return (a if not b else b if not a else ""), words
+        return (a if not b else "count" if a == b else ""), words
+    if kind == "call":
+        parts = [_kind_of(arg, kinds) for arg in node[2]]
+        for (a, wa), (b, wb) in itertools.pairwise(parts):
+            _same(a, wa, b, wb, f"takes the {node[1]} of", "and")
+        return next((k for k, _ in parts if k), ""), f"{node[1]}(...)"
+    if kind == "cmp":
+        parts = [_kind_of(operand, kinds) for operand in node[2]]
+        for (a, wa), (b, wb) in itertools.pairwise(parts):
+            _same(a, wa, b, wb, "compares", "with")
+        return "", ""
+    if kind == "not":
+        _kind_of(node[1], kinds)
+        return "", ""
+    for part in node[1]:  # "and", "or"
+        _kind_of(part, kinds)
+    return "", ""
+
+
+def _same(a: str, wa: str, b: str, wb: str, verb: str, joint: str) -> None:
+    if a and b and a != b:
+        raise ValueError(f"{verb} {wa} ({_article(a)}) {joint} {wb} ({_article(b)}): both sides must be quantities of one kind")
+
+
+def _article(kind: str) -> str:
+    return {"angle": "an angle", "per time": "a rate (per time)", "count": "a count"}.get(kind, f"a {kind}")
+
+
+# a parsed condition is a tree of tuples: ("num", value, kind, as written), ("name", text), ("neg", x),
 # ("arith", op, a, b), ("call", fn, args), ("cmp", [ops], [operands]), ("not", x), ("and"/"or", [xs])
 Node = tuple[Any, ...]
 
@@ -124,6 +206,7 @@ class _Parser:
         self.text = text
         self.tokens: list[tuple[str, str, int]] = []  # kind, text, position
         self.names: list[str] = []
+        self.units: dict[int, tuple[str, str]] = {}  # a number token -> its kind and how it is written
         position = 0
         while position < len(text):
             if text[position:].strip() == "":
@@ -139,8 +222,9 @@ class _Parser:
                     self.tokens.append(("num", match["number"], match.start("number")))
                     position = match.start("unit")
                     continue
-                value = quantity(match["number"], unit) if unit else float(match["number"])
+                value, kind = measured(match["number"], unit) if unit else (float(match["number"]), "")
                 self.tokens.append(("num", repr(value), match.start("number")))
+                self.units[len(self.tokens) - 1] = (kind, f"{match['number']} {unit}" if unit else match["number"])
             elif match["name"] is not None:
                 word = re.sub(r"\[[ \t]*([0-9]+)[ \t]*\]", r".\1", match["name"])  # actions[0].x reads as actions.0.x
                 self.tokens.append(("kw" if word in _KEYWORDS else "name", word, start))
@@ -235,7 +319,8 @@ class _Parser:
         if text == "-":
             return ("neg", self.unary(self._deeper(depth)))
         if kind == "num":
-            return ("num", float(text))
+            unit_kind, written = self.units.get(self.at - 1, ("", text))
+            return ("num", float(text), unit_kind, written)
         if kind == "name" and text in FUNCTIONS and self.peek() == "(":
             self.take()
             args = [self.sum(self._deeper(depth))]

@@ -170,6 +170,11 @@ def test_toppled_all_counts_the_dominoes_a_collapse_left_unplaced():
     assert outcome.unplaced == ("d2",) and outcome.bricks_placed == 2
     (toppled,) = evaluate(scenario.expect, outcome, 0.004)
     assert not toppled.passed and toppled.measured == f"{len(outcome.toppled)} of 3 toppled (1 never placed)"
+    from stackdsl.verdicts.expect import explain
+
+    one = outcome.model_copy(update={"toppled": ("d0",)})
+    (why,) = [line for line in explain(scenario.expect, one, 0.004) if line.startswith("toppled:")]
+    assert why == "toppled: 1 brick ended tilted past its tipping angle: d0", why
 
 
 def test_the_loop_drives_a_pull_a_push_and_a_shake_in_a_fake_world():

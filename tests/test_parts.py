@@ -227,3 +227,11 @@ def test_a_towers_per_layer_and_per_brick_draws_work_inside_a_part(form):
     assert t.scenario(0, 1).structure.parts[names[0]].tower.shifts == left[1].shifts  # type: ignore[index]  # a function of (seed, k)
     label = "structure.left.tower.shift [m]" if form == "map" else "structure.0.tower.shift [m]"
     assert t.parameters(0, 0)[label] == pytest.approx([x for x, _ in left[0].shifts])
+
+
+def test_a_part_on_itself_is_told_so():
+    """'on' naming the part it is written in says so, not that the part comes after itself."""
+    text = "stackdsl: 1\nstructure:\n  - {name: left, on: left, tower: {levels: 2}}\n"
+    with pytest.raises(ScenarioError, match="'left' names this part itself") as err:
+        parse_scenario(text, "self.yaml")
+    assert (err.value.field, err.value.line) == ("structure[0].on", 3)

@@ -182,7 +182,9 @@ def check_parts(parts: list[Part] | dict[str, Part]) -> list[tuple[FieldPath, st
             problems.append((loc + ("name",), f"there is already a part named {name!r}"))
         for target in [part.on] if isinstance(part.on, str) else part.on or []:
             head = target.split(".", 1)[0]
-            if head not in seen:
+            if head == name:
+                problems.append((loc + ("on",), f"{target!r} names this part itself: a part rests on parts written before it"))
+            elif head not in seen:
                 where = "after it" if head in (n for n, _, _ in named_parts(parts)) else "nowhere"
                 problems.append(
                     (

@@ -181,7 +181,9 @@ def explain(expect: Expect, outcome: Outcome, threshold: float) -> list[str]:
             )
     if "toppled" in failed:
         lines.append(
-            f"toppled: {len(outcome.toppled)} bricks ended tilted past their tipping angle: {', '.join(_short(list(outcome.toppled))) or 'none'}"
+            f"toppled: {len(outcome.toppled)} brick{'s' * (len(outcome.toppled) != 1)} ended tilted past "
+            f"{'its' if len(outcome.toppled) == 1 else 'their'} tipping angle: "
+            f"{', '.join(_short(list(outcome.toppled))) or 'none'}"
         )
     if "finished" in failed:
         lines.append(f"stopped: {outcome.stopped}; the rest of the run was not simulated")

@@ -378,6 +378,7 @@ def test_pictures_and_clips_name_the_engine_and_the_brick_that_moved_first():
         ("[{name: a, tower: {levels: 2, spacing: 5}}]", "2:51: warning: structure[0].tower.spacing: 5 is read as 5 m"),
         ("{left: {tower: {levels: 2}, origin: [20, 0]}}", "2:49: warning: structure.left.origin[0]: 20 is read as 20 m"),
         ("{wall: {courses: 1, bricks_per_course: 2, joint: 2}}", "2:61: warning: structure.wall.joint: 2 is read as 2 m"),
+        ("{dominoes: {count: 3, radius: 250}}", "2:42: warning: structure.dominoes.radius: 250 is read as 250 m"),
     ],
 )
 def test_a_bare_number_implausible_in_metres_is_warned_in_parts_and_generators_too(structure, where):

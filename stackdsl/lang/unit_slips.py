@@ -30,6 +30,7 @@ _LAYOUT: dict[str, float] = {  # the fields of a structure's layout (its own, or
     "tower.spacing": 1.0,
     "card_house.spacing": 1.0,
     "dominoes.spacing": 1.0,
+    "dominoes.radius": 10.0,  # an arc across a room
     "wall.joint": 1.0,
     "pyramid.joint": 1.0,
     "tower.shift": 1.0,

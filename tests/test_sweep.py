@@ -186,6 +186,7 @@ def test_a_grid_sweep_plots_against_its_parameter(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "cell 0: timing.placement_error = 0" in out and "cell 1: timing.placement_error = 5 mm" in out
     assert (tmp_path / "o" / "grid_p_stands.png").is_file() and (tmp_path / "o" / "grid_mean.png").is_file()
+    assert "threshold of timing.placement_error: " in out  # where P(stands) crosses 1/2, or that it does not
 
 
 def test_sweep_refuses_what_it_cannot_run(tmp_path, capsys):

@@ -18,6 +18,7 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 import csv
+import itertools
 import json
 from collections.abc import Sequence
 from pathlib import Path
@@ -218,6 +219,48 @@ def _numeric_grid(template: Template) -> tuple[str, str, list[float]] | None:
         return None
 
 
+def thresholds(template: Template, results: Sequence[SampleResult]) -> list[str]:
+    """For a grid over one numeric field, where P(stands) crosses 1/2 between neighbouring grid
+    values (a tipping amplitude, a critical overhang): a line each, or one saying it never does.
+    Source: stackdsl's own.
+
+    >>> from stackdsl.lang.loader import parse_scenario
+    >>> t = parse_scenario("stackdsl: 1\\nstructure: {tower: {levels: 2}}\\nsweep: {grid: {timing.interval: [1 s, 2 s, 3 s]}}").template
+    >>> rs = [SampleResult(c, 0, 0, {}, level, 2, 0.1, 3.0) for c, level in enumerate([None, None, 2])]
+    >>> thresholds(t, rs)
+    ['threshold of timing.interval: P(stands) falls from 1.00 at 2 s to 0.00 at 3 s']
+    >>> thresholds(t, rs[:2])
+    ['threshold of timing.interval: none in the grid (P(stands) 1.00 at 1 s, 1.00 at 2 s)']
+    """
+    numeric = _numeric_grid(template)
+    if numeric is None:
+        return []
+    key, unit, values = numeric
+    stands = []
+    for rs in by_cell(results, template.cells):
+        levels = measured(rs)
+        stands.append(sum(level is None for level in levels) / len(levels) if levels else None)
+    cells = sorted((v, p) for v, p in zip(values, stands, strict=True) if p is not None)
+    out = []
+    for (a, pa), (b, pb) in itertools.pairwise(cells):
+        if (pa >= 0.5) != (pb >= 0.5):
+            way = "falls" if pb < pa else "rises"
+            out.append(
+                f"threshold of {key}: P(stands) {way} from {pa:.2f} at {a:g}{_unit(unit)} to {pb:.2f} at {b:g}{_unit(unit)}"
+            )
+    if not out and len(cells) >= 2:
+        (low, p_low), (high, p_high) = cells[0], cells[-1]
+        out.append(
+            f"threshold of {key}: none in the grid (P(stands) {p_low:.2f} at {low:g}{_unit(unit)}, "
+            f"{p_high:.2f} at {high:g}{_unit(unit)})"
+        )
+    return out
+
+
+def _unit(unit: str) -> str:
+    return f" {unit}" if unit else ""
+
+
 def _cell_text(template: Template, c: int) -> str:
     return ", ".join(f"{k} = {v}" for k, v in template.cell(c).items())
 
@@ -245,6 +288,7 @@ def report(template: Template, expect: Expect, results: Sequence[SampleResult], 
             lines.append(
                 f"  {len(problems)} samples did not finish: {problems[0].error or problems[0].stopped} (sample {problems[0].sample})"
             )
+    lines += thresholds(template, results)
     if template.data.get("require"):
         draws = sum(r.draws for r in results if not r.bad_input)
         accepted = sum(not r.bad_input for r in results)

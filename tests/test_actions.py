@@ -384,3 +384,43 @@ expect: {stands: true}
     below = [e for e in outcome.events if e.kind == "wake" and e.level is not None and e.level < 3 and "L04.2" in e.detail]
     assert below == [], below
     assert outcome.collapse is None
+
+
+def test_a_pull_across_its_brick_into_a_neighbour_is_warned_at_its_direction():
+    """A side block pulled across the tower (-y from L03.1, which lies along x) drives into the
+    blocks of its level: it runs as written, with a warning at the direction; along its own
+    length, or across into where a neighbour was pulled out from, it is not warned."""
+    import warnings
+
+    from stackdsl.lang.errors import ScenarioWarning
+
+    head = """stackdsl: 1
+structure: {tower: {levels: 4, bricks_per_layer: 3, spacing: 25 mm}}
+timing: {interval: 0.2 s}
+actions:
+"""
+    across = head + "  - remove: {brick: L03.1, at: after level 4, direction: -y}\n"
+    with pytest.warns(
+        ScenarioWarning, match=r"along.yaml:5:58: warning: actions\[0\].remove.direction: the pull drives L03.1 into L03.2, L03.3"
+    ):
+        compile_scenario(parse_scenario(across, "along.yaml"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ScenarioWarning)
+        compile_scenario(parse_scenario(head + "  - remove: {brick: L03.1, at: after level 4}\n", "ok.yaml"))
+        gone = head + "  - remove: {brick: L03.2, at: after level 4}\n"  # the middle one, along its length
+        gone += "  - remove: {brick: L03.1, at: after the previous action, direction: -y, distance: 20 mm}\n"
+        compile_scenario(parse_scenario(gone, "gone.yaml"))
+
+
+def test_the_command_shows_a_pull_warning_as_a_line_of_its_own(tmp_path, capsys):
+    from stackdsl.cli.main import main
+
+    path = tmp_path / "across.yaml"
+    path.write_text(
+        "stackdsl: 1\nstructure: {tower: {levels: 4, bricks_per_layer: 3, spacing: 25 mm}}\ntiming: {interval: 0.2 s}\n"
+        "actions:\n  - remove: {brick: L03.1, at: after level 4, direction: -y}\n"
+    )
+    assert main(["compile", str(path)]) == 0
+    err = capsys.readouterr().err
+    assert f"{path}:5:58: warning: actions[0].remove.direction: the pull drives L03.1" in err
+    assert "ScenarioWarning" not in err and "warnings.warn" not in err

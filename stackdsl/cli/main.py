@@ -23,7 +23,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, NoReturn
 
-from ..lang.errors import ScenarioError, ScenarioErrors
+from ..lang.errors import ScenarioError, ScenarioErrors, ScenarioWarning
 from ..lang.extras import installed, missing
 from .args import (
     BAD_INPUT,
@@ -48,13 +48,13 @@ MODELS = ["report", "equilibrium"]
 
 @contextlib.contextmanager
 def _warnings_as_lines() -> Iterator[None]:
-    """Show the language's warnings (a unit slip: :class:`stackdsl.lang.unit_slips.UnitSlipWarning`)
-    as their own line on stderr, ``file:line:col: warning: ...``, not as Python's report of where
-    in stackdsl they were raised; other warnings as Python shows them."""
+    """Show the language's warnings (:class:`stackdsl.lang.errors.ScenarioWarning`: a unit slip, a
+    pull into a neighbour) as their own line on stderr, ``file:line:col: warning: ...``, not as
+    Python's report of where in stackdsl they were raised; other warnings as Python shows them."""
     shown = warnings.showwarning
 
     def show(message: Any, category: type[Warning], filename: str, lineno: int, file: Any = None, line: Any = None) -> None:
-        if category.__name__ == "UnitSlipWarning":
+        if issubclass(category, ScenarioWarning):
             print(message, file=sys.stderr)
         else:
             shown(message, category, filename, lineno, file, line)

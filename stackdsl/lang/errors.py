@@ -92,6 +92,12 @@ class ScenarioError(Exception):
         return self
 
 
+class ScenarioWarning(UserWarning):
+    """Something in a scenario that runs as written but is most likely not what was meant; ``str()``
+    is the whole message, ``file:line:col: warning: field: ...`` (:meth:`SourceMap.warning`).
+    The command line shows it as a line of its own on stderr."""
+
+
 class ScenarioErrors(Exception):
     """Several files failed to load or compile; ``errors`` holds one ScenarioError each."""
 
@@ -137,6 +143,12 @@ class SourceMap:
     lines: tuple[str, ...] = ()
     values: dict[FieldPath, tuple[int, int]] = field(default_factory=dict)
     keys: dict[FieldPath, tuple[int, int]] = field(default_factory=dict)
+
+    def warning(self, path: FieldPath, message: str) -> ScenarioWarning:
+        """A :class:`ScenarioWarning` at ``path``'s node: ``file:line:col: warning: field: message``."""
+        e = self.error(path, message)
+        where = f"{e.file}:{e.line}:{e.column}" if e.line is not None else e.file
+        return ScenarioWarning(f"{where}: warning: {e.field}: {message}")
 
     def error(self, path: FieldPath, message: str, *, at_key: bool = False, more: int = 0) -> ScenarioError:
         """A :class:`ScenarioError` for ``path``, placed at the nearest YAML node.

@@ -15,7 +15,7 @@ import re
 from collections.abc import Iterator
 from typing import Any
 
-from .errors import FieldPath, SourceMap, format_path
+from .errors import FieldPath, ScenarioWarning, SourceMap, format_path
 from .units import bare
 
 #: Length fields (their paths, ``#`` for any list index, ``*`` for any name) and the largest bare
@@ -54,7 +54,7 @@ _PATTERNS = [
 ]
 
 
-class UnitSlipWarning(UserWarning):
+class UnitSlipWarning(ScenarioWarning):
     """A bare number of metres in a length field that is probably millimetres; ``str()`` is the
     whole message, ``file:line:col: warning: field: ...``."""
 

@@ -424,3 +424,24 @@ def test_the_command_shows_a_pull_warning_as_a_line_of_its_own(tmp_path, capsys)
     err = capsys.readouterr().err
     assert f"{path}:5:58: warning: actions[0].remove.direction: the pull drives L03.1" in err
     assert "ScenarioWarning" not in err and "warnings.warn" not in err
+
+
+def test_stays_and_moved_fail_for_what_was_never_placed():
+    """Building stops at the first collapse: a level or brick never placed neither stayed nor
+    moved. Both verdicts say it was never placed, and fail (they passed on nothing measured, so
+    that one brick could 'stay' and 'move' at once)."""
+    text = """stackdsl: 1
+structure:
+  post: {tower: {levels: 1, bricks_per_layer: 1, yaw: 90}}
+  pyr: {on: post.L01.1, pyramid: {base: 2}}
+timing: {interval: 0.3 s}
+expect: {collapse: 2, stays: [post, pyr.L02.1, 3]}
+"""
+    scenario = parse_scenario(text, "never.yaml")
+    outcome = run_program(compile_scenario(scenario))
+    assert outcome.collapse is not None and outcome.collapse.level == 2 and "pyr.L02.1" in outcome.unplaced
+    verdicts = {v.name: v for v in evaluate(scenario.expect, outcome, 0.004)}
+    assert not verdicts["stays"].passed and verdicts["stays"].measured.endswith("level 3, brick pyr.L02.1 never placed")
+    moved = parse_scenario(text.replace("stays: [post, pyr.L02.1, 3]", "moved: [pyr.L02.1]"), "never.yaml").expect
+    (verdict,) = [v for v in evaluate(moved, outcome, 0.004) if v.name == "moved"]
+    assert not verdict.passed and verdict.measured == "brick pyr.L02.1 never placed"

@@ -49,14 +49,11 @@ def evaluate(expect: Expect, outcome: Outcome, threshold: float) -> list[Verdict
         moved = _moved_levels(outcome, threshold)
         bad = sorted(set(levels) & moved)
         bad_bricks = [b for b in _selected(outcome, bricks) if outcome.displacement[b] > threshold]
+        never = _never(outcome, levels, bricks)
         said = _said(levels, bricks)
+        wrong = ([_said(bad, _short(bad_bricks)) + " moved"] if bad or bad_bricks else []) + ([never] if never else [])
         verdicts.append(
-            Verdict(
-                name="stays",
-                passed=not bad and not bad_bricks,
-                expected=f"{said} stay",
-                measured=_said(bad, _short(bad_bricks)) + " moved" if bad or bad_bricks else f"{said} stayed",
-            )
+            Verdict(name="stays", passed=not wrong, expected=f"{said} stay", measured="; ".join(wrong) or f"{said} stayed")
         )
     if expect.moved:
         levels, bricks = levels_of(expect.moved), bricks_of(expect.moved)
@@ -64,14 +61,11 @@ def evaluate(expect: Expect, outcome: Outcome, threshold: float) -> list[Verdict
             b for b, lv in _levels(outcome).items() if lv in levels and b in outcome.displacement
         ]
         still = [b for b in dict.fromkeys(named) if outcome.displacement[b] <= threshold]
+        never = _never(outcome, levels, bricks)
         said = _said(levels, bricks)
+        wrong = ([f"{', '.join(_short(still))} stayed"] if still else []) + ([never] if never else [])
         verdicts.append(
-            Verdict(
-                name="moved",
-                passed=not still,
-                expected=f"{said} moved",
-                measured=f"{', '.join(_short(still))} stayed" if still else f"{said} moved",
-            )
+            Verdict(name="moved", passed=not wrong, expected=f"{said} moved", measured="; ".join(wrong) or f"{said} moved")
         )
     if expect.toppled is not None:
         t = expect.toppled
@@ -118,6 +112,14 @@ def _levels(outcome: Outcome) -> dict[str, int | None]:
 def _selected(outcome: Outcome, selectors: tuple[str, ...]) -> list[str]:
     """The structure bricks (of the outcome's displacements) that ``selectors`` name, in order."""
     return [b for b in outcome.displacement if any(selects(s, b) for s in selectors)]
+
+
+def _never(outcome: Outcome, levels: Sequence[int], selectors: tuple[str, ...]) -> str:
+    """The named levels and bricks that were never placed (building stops at a collapse), in
+    words ("level 3, brick pyr.L02.1 never placed"), or "": nothing of them can stay or move."""
+    levels_never = [lv for lv in levels if lv > outcome.levels_placed]
+    bricks_never = [b for b in outcome.unplaced if any(selects(s, b) for s in selectors)]
+    return f"{_said(levels_never, _short(bricks_never))} never placed" if levels_never or bricks_never else ""
 
 
 def _said(levels: Iterable[int], bricks: Iterable[str]) -> str:

@@ -153,6 +153,7 @@ def compile_scenario(
             where = ("actions", motions.index(latest), latest.kind, "at")
         raise scenario.source.error(where, f"the run would last {end:.0f} s; at most {MAX_SIMULATED_TIME:.0f} s are simulated")
     actions.append(End(step=last_step + settle, time=end))
+    _measurable(scenario, end, len(bricks))
     ground = scenario.material(scenario.ground.material)
     rules = choose_rules(bricks, launches, scenario.expect, motions)
     on = {r.name: r.on for r in rules}
@@ -302,6 +303,24 @@ def _bodies(
         )
         for b, n in zip(placed, nominal)
     ]
+
+
+def _measurable(scenario: Scenario, end: float, bricks: int) -> None:
+    """Refuse an expectation the run cannot measure: ``stands_until`` past the run's end (s), a
+    ``toppled`` count beyond the scene's ``bricks``, a ScenarioError at it."""
+    until = scenario.expect.stands_until
+    if until is not None and until > end + 1e-9:
+        raise scenario.source.error(
+            ("expect", "stands_until"),
+            f"{until:g} s is past the end of the run, {end:g} s (the last action or placement and timing.settle): nothing "
+            f"after it is simulated; give a time up to {end:g} s, or a longer timing.settle",
+        )
+    toppled = scenario.expect.toppled
+    if toppled is not None and toppled.count != "all" and toppled.count - toppled.tolerance > bricks:
+        raise scenario.source.error(
+            ("expect", "toppled"),
+            f"{toppled.count} toppled can never be measured: the scene has {bricks} brick{'s' * (bricks != 1)}",
+        )
 
 
 def _engine(scenario: Scenario, mode: str | None, backend: str | None = None) -> PyBulletSettings | MuJoCoSettings:

@@ -573,7 +573,7 @@ def test_schema_prints_the_json_schema_of_a_scenario(capsys):
 
 
 def test_compare_prints_one_row_per_scenario_and_a_column_per_mode(tmp_path, capsys):
-    assert main(["compare", str(write(tmp_path, a=PASSING, b=FAILING)), "--modes", "raw,extension", "-j", "1"]) == 0
+    assert main(["compare", str(write(tmp_path, a=PASSING, b=FAILING)), "--modes", "raw,extension", "-j", "1"]) == 1  # b fails
     captured = capsys.readouterr()
     out = captured.out.splitlines()
     assert out[0].split() == ["scenario", "engine", "expected", "raw", "extension"]
@@ -587,7 +587,7 @@ def test_compare_prints_one_row_per_scenario_and_a_column_per_mode(tmp_path, cap
 
 def test_compare_json_and_k(tmp_path, capsys):
     folder = write(tmp_path, a=PASSING, b=FAILING)
-    assert main(["compare", str(folder), "--modes", "raw,extension", "-j", "1", "-k", "b.yaml", "--json"]) == 0
+    assert main(["compare", str(folder), "--modes", "raw,extension", "-j", "1", "-k", "b.yaml", "--json"]) == 1
     doc = json.loads(capsys.readouterr().out)
     assert sorted((Path(r["file"]).name, r["mode"]) for r in doc["results"]) == [("b.yaml", "extension"), ("b.yaml", "raw")]
     assert doc["command"] == "compare" and doc["summary"]["failed"] == 2
@@ -852,3 +852,16 @@ def test_a_closed_standard_output_is_exit_141_as_a_closed_pipe():
             preexec_fn=lambda: os.close(1),
         )
         assert done.returncode == 141 and done.stderr == "", argv
+
+
+def test_a_compare_cell_says_why_a_run_stopped():
+    """A run that stopped was labelled 'timeout' whatever stopped it: MuJoCo blowing up read as
+    a time limit."""
+    from stackdsl.cli.check import _cell
+    from stackdsl.verdicts.check_result import CheckResult
+
+    def stopped(why: str) -> str:
+        return _cell(CheckResult("a.yaml", "a", "tuned", "report", (), None, 1, 1.0, 0.1, stopped=why))
+
+    assert stopped("timeout after 100 s at t = 3.0 s simulated (of 5 s)") == "timeout"
+    assert stopped("MuJoCo's simulation became unstable at t = 1.030 s: nothing after it is physics") == "unstable"

@@ -158,7 +158,7 @@ def compare_command(args: argparse.Namespace) -> int:
     if args.json:
         commands = [run_command(r.file, r.mode, args.model, r.backend if args.backend else None) for r in done]
         print(json.dumps(json_document("compare", done, commands, len(prepared), wall), indent=2))
-        return INTERNAL if _internal_errors(done, args.debug) else OK
+        return _status(done, args.debug)
     width = max([len("scenario"), *(len(Path(f).stem) for f in table)])
     # the engine is a column of its own unless the columns name it (several backends)
     engine = len(backends) == 1
@@ -185,7 +185,15 @@ def compare_command(args: argparse.Namespace) -> int:
     print(f"{len(table)} scenarios x {len(modes)} modes ({wall:.1f} s wall)")
     for r in refused:  # why, once each, after the table
         print(f"refused in {r.mode} on {r.backend}: {r.refused}", file=sys.stderr)
-    return INTERNAL if _internal_errors(done, args.debug) else OK
+    return _status(done, args.debug)
+
+
+def _status(done: list[CheckResult], debug: bool) -> int:
+    """compare's exit status, as check's: 3 when a run hit an internal error, else 1 when some
+    cell's expectation failed (raw mode failing where the extension holds is one), else 0."""
+    if _internal_errors(done, debug):
+        return INTERNAL
+    return FAILED if any(not r.passed and not r.refused for r in done) else OK
 
 
 def _backends(given: str | None, several: bool) -> tuple[str | None, ...]:
@@ -209,4 +217,6 @@ def _cell(r: CheckResult) -> str:
     """What compare's table shows of a result: the collapse level, or what went wrong."""
     if r.error:
         return "out of memory" if "out of memory" in r.error else "internal error"
-    return "timeout" if r.stopped else describe(r.collapse_level)
+    if r.stopped:  # a timeout, or an engine that blew up (MuJoCo's "became unstable")
+        return "timeout" if r.stopped.startswith("timeout") else "unstable" if "unstable" in r.stopped else "stopped"
+    return describe(r.collapse_level)

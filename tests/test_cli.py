@@ -93,7 +93,8 @@ def test_explain_names_the_brick_distance_time_and_level():
     assert c is not None and c.brick == "top"
     (line,) = explain(collapse.expect, outcome, program.collapse_threshold)
     assert (
-        line == f"collapsed: brick top (level 2) moved {c.displacement * 1000:.1f} mm by t={c.time:.2f} s, with 2 levels placed"
+        line == f"collapsed: brick top (level 2) moved past 4.0 mm at t={c.time:.2f} s, with 2 levels placed "
+        f"({c.displacement * 1000:.1f} mm by t={c.decided:.2f} s, when the collapse was decided)"
     )
 
     stays = parse_scenario(TIPS + "expect: {stays: 1-2}\n")

@@ -338,7 +338,7 @@ class CollapseMonitor(Subscriber):
             level=level, time=since, brick=first.id, brick_level=first.level, displacement=farthest, decided=decided
         )
         self.certificate = proof
-        detail = f"moved {farthest * 1000:.1f} mm; collapse level {level}; {proof.kind}"
+        detail = f"moved {farthest * 1000:.1f} mm by t={decided:.2f} s; collapse level {level}; {proof.kind}"
         if proof.kind == "no equilibrium":
             detail = f"collapse level {level}; {proof.detail}"
         loop.events.append(Event(time=since, kind="collapse", brick=first.id, level=first.level, detail=detail))

@@ -161,8 +161,9 @@ def explain(expect: Expect, outcome: Outcome, threshold: float) -> list[str]:
         c = outcome.collapse
         if c is not None:
             lines.append(
-                f"collapsed: {_brick(c.brick, c.brick_level)} moved {_mm(c.displacement)} by t={c.time:.2f} s, "
-                f"with {c.level} level{'s' * (c.level != 1)} placed"
+                f"collapsed: {_brick(c.brick, c.brick_level)} moved past {_mm(threshold)} at t={c.time:.2f} s, "
+                f"with {c.level} level{'s' * (c.level != 1)} placed ({_mm(c.displacement)} by t={c.decided:.2f} s, "
+                f"when the collapse was decided)"
             )
         elif outcome.displacement:
             brick, largest = max(outcome.displacement.items(), key=lambda item: item[1])

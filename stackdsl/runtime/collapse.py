@@ -54,6 +54,13 @@ from .outcome import Certificate, Collapse, Event, Graph, ProofKind
 FACE_GAP = 0.001
 
 
+#: Metres a displaced brick's centre of mass must lie outside the support polygon it was placed on
+#: for that to prove a collapse: a brick pushed 35 mm along its supports came to rest with its
+#: centre of mass 0.04 mm past the polygon's edge, which proved nothing. A brick that tips is past
+#: this within a step or two.
+OFF_SUPPORT = 0.0005
+
+
 @dataclass
 class _Displaced:
     """A brick past the threshold, not yet known to stay so: since when (s), the level
@@ -275,7 +282,7 @@ class CollapseMonitor(Subscriber):
                 proof = ("at rest displaced", f"{record.id} came to rest {distance * 1000:.1f} mm from its place", ())
             elif (mechanism := self._proved(record.id)) is not None:
                 proof = ("mechanism", f"{record.id} moves in {mechanism[0]}", mechanism[1])
-            elif (out := self._off_support(loop, record)) > 0.0:
+            elif (out := self._off_support(loop, record)) > OFF_SUPPORT:
                 proof = ("off its support", f"{record.id}'s centre of mass left its support polygon by {out * 1000:.1f} mm", ())
             if proof is not None:
                 self._collapsed(loop, record, distance, proof)

@@ -40,10 +40,11 @@ def test_a_wall_alternates_whole_courses_and_courses_closed_by_half_bricks(n, jo
         else:  # whole bricks over the joints of the course below, a half brick at each end
             assert [b.type for b in row] == ["kapla/2"] + ["kapla"] * (n - 1) + ["kapla/2"]
             assert np.allclose(xs[1:-1], [(k - (n - 2) / 2) * pitch for k in range(n - 1)])
-            # each closer touches its neighbour across one joint, and the course ends j / 2 beyond the whole one
+            # the ends are straight: each closer's outer face is flush with the course below (the
+            # joint beside it is j / 2), and it lies wholly on the end brick under it
             odd_end = (n * L + (n - 1) * joint) / 2
-            assert math.isclose(xs[-1] + L / 4, odd_end + joint / 2, abs_tol=1e-12)
-            assert math.isclose(xs[0] - L / 4, -odd_end - joint / 2, abs_tol=1e-12)
+            assert math.isclose(xs[-1] + L / 4, odd_end, abs_tol=1e-12)
+            assert math.isclose(xs[0] - L / 4, -odd_end, abs_tol=1e-12)
     assert [b.id for b in wall if b.level == 2][:2] == ["L02.1", "L02.2"]
 
 

@@ -7,10 +7,11 @@ course:
 
 * **wall**, n bricks a course: odd courses at (k - (n - 1) / 2) p, k = 0..n-1; even courses'
   whole bricks over the joints below, at (k - (n - 2) / 2) p, k = 0..n-2, and a half brick
-  (L / 2) at each end, j beyond the last whole one. Every whole brick of an even course spans
-  two below, its centre of mass over their joint; every brick of an odd course spans the
-  joint of two above-course bricks or rests on a closer and a whole brick; a closer's centre
-  of mass is L / 4 - j / 2 inside the end brick under it.
+  (L / 2) at each end, its outer face flush with the course below (the ends are straight; the
+  joint beside it is j / 2). Every whole brick of an even course spans two below, its centre of
+  mass over their joint; every brick of an odd course spans the joint of two above-course
+  bricks or rests on a closer and a whole brick; a closer lies wholly on the end brick under it,
+  its centre of mass L / 4 inside that brick's end.
 * **pyramid**: course c has base - c + 1 bricks at (k - (m - 1) / 2) p: each over a joint of
   the course below.
 * **dominoes**: brick k at arc length s = k x spacing from the first, along a line or a circle of
@@ -72,7 +73,7 @@ def wall(scenario: Scenario, w: Wall, path: FieldPath) -> list[LaidBrick]:
         if c % 2:
             row = [((k - (n - 1) / 2) * p, w.brick) for k in range(n)]
         else:
-            end = ((n - 1) * length + (n - 2) * w.joint) / 2 + w.joint + length / 4  # a closer's centre
+            end = (n - 1) * p / 2 + length / 4  # a closer's centre: its outer face flush with the course below
             half = w.brick + HALF
             row = [(-end, half), *(((k - (n - 2) / 2) * p, w.brick) for k in range(n - 1)), (end, half)]
         for k, (x, kind) in enumerate(row):

@@ -445,3 +445,17 @@ expect: {collapse: 2, stays: [post, pyr.L02.1, 3]}
     moved = parse_scenario(text.replace("stays: [post, pyr.L02.1, 3]", "moved: [pyr.L02.1]"), "never.yaml").expect
     (verdict,) = [v for v in evaluate(moved, outcome, 0.004) if v.name == "moved"]
     assert not verdict.passed and verdict.measured == "brick pyr.L02.1 never placed"
+
+
+def test_an_unknown_domino_is_told_by_an_id_alone_and_stays_and_moved_may_not_meet():
+    """Domino ids have no level part: the hint gives an id once, not the same id as a prefix too;
+    a brick named by 'stays' (by id) and 'moved' (by prefix) is refused before anything runs."""
+    from stackdsl.lang.errors import ScenarioError
+
+    row = "stackdsl: 1\nstructure: {dominoes: {count: 3}}\nexpect: {stays: [D9]}\n"
+    with pytest.raises(ScenarioError) as err:
+        compile_scenario(parse_scenario(row, "row.yaml"))
+    assert err.value.message.endswith("give a brick id (such as 'D01')")
+    both = "stackdsl: 1\nstructure: {tower: {levels: 3}}\nexpect: {stays: L01.1, moved: L01}\n"
+    with pytest.raises(ScenarioError, match=r"L01\.1 is named by both 'stays' and 'moved'"):
+        compile_scenario(parse_scenario(both, "both.yaml"))

@@ -488,7 +488,7 @@ def _run(args: argparse.Namespace) -> int:
         print(
             f"{Path(args.file).name} on {program.engine.backend} {program.engine.mode}: "
             f"{describe_outcome(outcome, program.collapse_threshold)} "
-            f"({outcome.levels_placed} levels placed), {outcome.simulated_time:.1f} s simulated, "
+            f"({outcome.levels_placed} level{'s' * (outcome.levels_placed != 1)} placed), {outcome.simulated_time:.1f} s simulated, "
             f"{outcome.wall_time:.2f} s wall ({outcome.engine_time:.2f} s in the engine's steps"
             + (f", {outcome.after_collapse:.2f} s after the collapse" if outcome.collapse else "")
             + f"), {outcome.steps} steps ({outcome.steps_skipped} skipped)"

@@ -306,7 +306,8 @@ def _expectation_problems(scenario: Scenario, top: int, ids: Sequence[str] = ())
                     (2, 3),
                     ("expect", name),
                     f"{', '.join(repr(u) for u in unknown)} name{'s' * (len(unknown) == 1)} no brick of the structure: "
-                    f"give a brick id (such as {ids[0]!r}) or the start of ids (such as {ids[0].rsplit('.', 1)[0]!r})",
+                    f"give a brick id (such as {ids[0]!r})"
+                    + (f" or the start of ids (such as {ids[0].rsplit('.', 1)[0]!r})" if "." in ids[0] else ""),
                 )
             )
         beyond = [lv for lv in levels if lv > top]
@@ -320,4 +321,16 @@ def _expectation_problems(scenario: Scenario, top: int, ids: Sequence[str] = ())
                     f"the structure has {top} level{'s' * (top != 1)}; name levels from 1 to {top}",
                 )
             )
+    stay, move = bricks_of(expect.stays or ()), bricks_of(expect.moved or ())
+    both = [i for i in ids if any(selects(s, i) for s in stay) and any(selects(m, i) for m in move)]
+    if both:
+        shown = ", ".join(both[:3]) + (f" and {len(both) - 3} more" if len(both) > 3 else "")
+        problems.append(
+            _Problem(
+                ("expect", "moved"),
+                (2, 4),
+                ("expect", "moved"),
+                f"{shown} {'is' if len(both) == 1 else 'are'} named by both 'stays' and 'moved': a brick cannot both stay and move",
+            )
+        )
     return problems

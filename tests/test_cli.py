@@ -190,6 +190,7 @@ def test_json_is_one_document_of_every_result(tmp_path, capsys):
     b = by_file["b.yaml"]
     assert not b["passed"] and b["verdicts"][0]["expected"] == "collapse 2" and b["explanation"][0].startswith("stood:")
     assert b["command"] == f"stackdsl run {tmp_path / 'b.yaml'}" and b["collapse_level"] is None
+    assert by_file["a.yaml"]["certificate"].startswith("stands, equilibrium")  # every verdict's proof
 
 
 def test_junit_xml_has_a_testcase_per_scenario_and_the_failure_text(tmp_path, capsys):
@@ -256,7 +257,9 @@ def test_run_json_help_says_a_failed_expectation_exits_1(capsys):
 
 def test_run_json_exits_1_on_a_failed_expectation(tmp_path, capsys):
     assert main(["run", str(write(tmp_path, b=FAILING) / "b.yaml"), "--json"]) == 1
-    assert json.loads(capsys.readouterr().out)["collapse"] is None
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["collapse"] is None and doc["certificate"]["verdict"] == "stands"
+    assert [(v["name"], v["passed"]) for v in doc["verdicts"]] == [("collapse", False)]  # beside the proof
 
 
 def test_an_exception_in_a_run_is_its_rows_internal_error_and_exit_3(tmp_path, capsys, monkeypatch):

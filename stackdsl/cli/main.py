@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import gc
+import json
 import os
 import signal
 import sys
@@ -479,8 +480,9 @@ def _run(args: argparse.Namespace) -> int:
         outcome = run_guarded(program, args.timeout)
     stopped = stopped_by(outcome)
     verdicts = evaluate(scenario.expect, outcome, program.collapse_threshold)
-    if args.json:
-        print(outcome.model_dump_json(indent=2))
+    if args.json:  # the outcome, with the verdicts of the file's expectations beside its certificate
+        data = {**outcome.model_dump(mode="json"), "verdicts": [v.model_dump() for v in verdicts]}
+        print(json.dumps(data, indent=2))
     else:
         for e in outcome.events:
             level = "" if e.level is None else f"level {e.level}"

@@ -157,6 +157,7 @@ def test_a_field_a_draw_lacks_fails_its_condition_and_is_drawn_again():
         ("levels > 2 mm", "compares levels (a count) with 2 mm (a length)"),
         ("structure.tower.spacing + 1 s < 0.2", "adds structure.tower.spacing (a length) to 1 s (a time)"),
         ("max(gap, timing.interval) > 0", "takes the max of gap (a length) and timing.interval (a time)"),
+        ("gap - 1 s > 0", "subtracts 1 s (a time) from gap (a length)"),
         ("overhang < 10 mm and levels >= 3", None),
         ("structure.tower.spacing > 0.5 * gap + 1 mm", None),
         ("com_offset / 1 mm < 2000 and timing.interval > 0.5 s", None),

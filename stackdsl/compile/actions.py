@@ -72,8 +72,9 @@ def compile_actions(
 
     Raises:
         ScenarioError: at the field: a brick that is not in the structure or not placed before
-            its pull, a brick pulled twice or pushed once pulled out, a pusher's unknown brick type, a level never built, a time not on the
-            timestep grid, a shake that overlaps a placement or another action.
+            its pull, a brick pulled twice or pushed once pulled out, a pusher's unknown brick
+            type, a level never built, a time not on the timestep grid, a shake that overlaps a
+            placement or another action.
     """
     out: list[Kinematic] = []
     pulled: dict[str, tuple[int, float]] = {}  # brick -> the action that pulls it out, and when

@@ -128,8 +128,11 @@ def _kind_of(node: Node, kinds: Mapping[str, str]) -> tuple[str, str]:
     if kind == "arith":
         (a, wa), (b, wb) = _kind_of(node[2], kinds), _kind_of(node[3], kinds)
         words = f"{wa} {node[1]} {wb}"
-        if node[1] in "+-":
-            _same(a, wa, b, wb, "adds" if node[1] == "+" else "subtracts", "to" if node[1] == "+" else "from")
+        if node[1] == "+":
+            _same(a, wa, b, wb, "adds", "to")
+            return a or b, words
+        if node[1] == "-":
+            _same(b, wb, a, wa, "subtracts", "from")  # a - b subtracts b from a
             return a or b, words
         if node[1] == "*":
             return (a if not b else b if not a else ""), words

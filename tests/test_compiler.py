@@ -185,6 +185,8 @@ def test_rules_follow_the_scene():
     assert not rules(thrown + "expect: {stays: 1}\n")["rigid"] and not rules(thrown + "expect: {may_fall: 2}\n")["rigid"]
     text = format_program(program("stackdsl: 1\nstructure: {card_house: {levels: 1}}\n"))
     assert "rule leaning  on   bricks placed tilted: V1.1a, V1.1b" in text and "rule impacts  off  nothing is thrown" in text
+    row = format_program(program("stackdsl: 1\nstructure: {dominoes: {count: 3}}\n"))  # face down, not tilted
+    assert "rule leaning  on   bricks placed on an edge or an end: D01, D02, D03" in row
     assert "rule rigid    off  expect.stays is judged after a collapse" in format_program(
         program(thrown + "expect: {stays: 1}\n")
     )

@@ -186,6 +186,16 @@ def lie_flat(bricks: list[LaidBrick]) -> np.ndarray:
     return np.asarray(np.abs(up) > math.cos(math.radians(1.0)))
 
 
+def on_a_face(bricks: list[LaidBrick]) -> np.ndarray:
+    """For each brick, whether one of its own axes is vertical within 1 deg (it lies flat, on an
+    edge or on an end, face down either way), shape (n,); False: tilted, no face down."""
+    if not bricks:
+        return np.zeros(0, dtype=bool)
+    angles = [[b.yaw, b.pitch, b.roll] for b in bricks]
+    up = Rotation.from_euler("ZYX", angles, degrees=True).as_matrix()[:, 2, :]
+    return np.asarray((np.abs(up) > math.cos(math.radians(1.0))).any(axis=1))
+
+
 def wrap(angle: float) -> float:
     """An angle in degrees wrapped to (-180, 180]."""
     wrapped = math.fmod(angle + 180.0, 360.0)

@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from ..lang.expectations import Expect
-from .layouts import LaidBrick, lie_flat
+from .layouts import LaidBrick, lie_flat, on_a_face
 from .program import Kinematic, Launch, Push, Remove, Rule, Shake
 
 
@@ -28,12 +28,13 @@ def choose_rules(
     a scene that has them, ``guided`` when a hand pulls or pushes, ``shake`` when the ground shakes
     (docs/design.md: what the compiler switches on)."""
     tilted = [b.id for b, flat in zip(bricks, lie_flat(bricks)) if not flat]
+    faced = set(b.id for b, face in zip(bricks, on_a_face(bricks)) if face)
     judged_after = next((name for name in ("stays", "may_fall", "moved", "toppled") if getattr(expect, name) is not None), None)
     hands = [m for m in motions if isinstance(m, (Remove, Push))]
     shakes = [m for m in motions if isinstance(m, Shake)]
     listed = ", ".join(tilted[:4]) + (f" and {len(tilted) - 4} more" if len(tilted) > 4 else "")
     lean = (
-        f"bricks placed tilted: {listed}"
+        f"bricks placed {'on an edge or an end' if all(t in faced for t in tilted) else 'tilted'}: {listed}"
         if tilted
         else "a thrown brick may come to rest leaning"
         if launches

@@ -154,6 +154,9 @@ def test_moved_stays_and_toppled_are_judged_by_brick():
     scenario, outcome = tower_outcome("{toppled: all}")
     (toppled,) = evaluate(scenario.expect, outcome, 0.004)
     assert not toppled.passed and toppled.expected == "all toppled"
+    scenario, outcome = tower_outcome("{stays: [L01]}")  # one prefix, two bricks: plural
+    (stays,) = evaluate(scenario.expect, outcome, 0.004)
+    assert stays.expected == "bricks L01 stay" and stays.measured == "bricks L01 stayed"
 
 
 def test_toppled_all_counts_the_dominoes_a_collapse_left_unplaced():

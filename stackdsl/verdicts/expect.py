@@ -50,7 +50,7 @@ def evaluate(expect: Expect, outcome: Outcome, threshold: float) -> list[Verdict
         bad = sorted(set(levels) & moved)
         bad_bricks = [b for b in _selected(outcome, bricks) if outcome.displacement[b] > threshold]
         never = _never(outcome, levels, bricks)
-        said = _said(levels, bricks)
+        said = _said(levels, bricks, len(_selected(outcome, bricks)))
         wrong = ([_said(bad, _short(bad_bricks)) + " moved"] if bad or bad_bricks else []) + ([never] if never else [])
         verdicts.append(
             Verdict(name="stays", passed=not wrong, expected=f"{said} stay", measured="; ".join(wrong) or f"{said} stayed")
@@ -62,7 +62,7 @@ def evaluate(expect: Expect, outcome: Outcome, threshold: float) -> list[Verdict
         ]
         still = [b for b in dict.fromkeys(named) if outcome.displacement[b] <= threshold]
         never = _never(outcome, levels, bricks)
-        said = _said(levels, bricks)
+        said = _said(levels, bricks, len(_selected(outcome, bricks)))
         wrong = ([f"{', '.join(_short(still))} stayed"] if still else []) + ([never] if never else [])
         verdicts.append(
             Verdict(name="moved", passed=not wrong, expected=f"{said} moved", measured="; ".join(wrong) or f"{said} moved")
@@ -122,11 +122,12 @@ def _never(outcome: Outcome, levels: Sequence[int], selectors: tuple[str, ...]) 
     return f"{_said(levels_never, _short(bricks_never))} never placed" if levels_never or bricks_never else ""
 
 
-def _said(levels: Iterable[int], bricks: Iterable[str]) -> str:
-    """``"levels 1-3, bricks L05, left."``."""
+def _said(levels: Iterable[int], bricks: Iterable[str], selected: int = 1) -> str:
+    """``"levels 1-3, bricks L05, left."``; one selector is "bricks" too when it names more than
+    one brick (``selected``: how many the selectors name, a part's or a level's prefix)."""
     levels, bricks = list(levels), list(bricks)
     parts = ([f"level{'s' * (len(levels) != 1)} {span(levels)}"] if levels else []) + (
-        [f"brick{'s' * (len(bricks) != 1)} {', '.join(bricks)}"] if bricks else []
+        [f"brick{'s' * (len(bricks) != 1 or selected > 1)} {', '.join(bricks)}"] if bricks else []
     )
     return ", ".join(parts)
 

@@ -295,6 +295,7 @@ actions:
     assert during.state_names[i] in ("active", "woken")
     assert trajectory.at(trajectory.end).state_names[i] == "absent"
     assert "L01.2" not in snapshot(trajectory, "end").ids
+    assert trajectory.levels[i] == 1 and not trajectory.projectiles[i]  # its level, not a projectile's 0
 
 
 def test_compile_prints_no_negative_zero_and_one_level_in_the_singular():

@@ -194,6 +194,7 @@ class Recorder(Subscriber):
         rows = self._rows
         fixtures = program.fixtures
         quaternions = [Pose.from_euler(f.position, f.yaw, f.pitch, f.roll).orientation for f in fixtures]
+        placed = {a.id: a.level for a in program.placements}  # a pulled brick's level, which its record lets go of
         meta = {
             "scenario": program.name,
             "file": self.source,
@@ -214,7 +215,7 @@ class Recorder(Subscriber):
         return Trajectory(
             meta=meta,
             ids=np.array([r.id for r in records], dtype=str),
-            levels=np.array([r.level or 0 for r in records], dtype=np.int32),
+            levels=np.array([r.level or placed.get(r.id, 0) for r in records], dtype=np.int32),
             half_extents=np.array([r.spec.half_extents for r in records], dtype=float).reshape(-1, 3),
             fixture_ids=np.array([f.id for f in fixtures], dtype=str),
             fixture_half_extents=np.array([f.brick.half_extents for f in fixtures], dtype=float).reshape(-1, 3),

@@ -231,9 +231,7 @@ def _converted(items: list[Any]) -> str:
     """The kind of the first unit conversion found among ``items`` (types and their metadata): a
     validator that is one of the units' converters, or closes over one (a bounded quantity)."""
     for item in items:
-        if typing.get_origin(item) is typing.Annotated:
-            found = _converted(list(typing.get_args(item)))
-        elif typing.get_args(item):
+        if typing.get_args(item):  # Annotated (its type, then its metadata), a union, a container
             found = _converted(list(typing.get_args(item)))
         else:
             func = getattr(item, "func", None)

@@ -153,12 +153,11 @@ class Debris:
         if stack.config.model != "equilibrium" or len(group) < max(2, len(stack.frozen)):
             return None
         frozen = {r.body: RigidBlock(r.box.mass, stack.pose(r).position) for r in stack.in_order()}
-        ground = {b for b, r in stack.bodies.items() if r.state is BrickState.GROUND}
         for _ in range(MAX_TRIMS + 1):
             blocks = {m.body: RigidBlock(m.box.mass, stack.engine.pose(m.body).position) for m in group}
             blocks.update(frozen)
             contacts = [c for cs in polygons.values() for c in cs]
-            contacts += [c for r in stack.in_order() for c in r.contacts if c.other in blocks or c.other in ground]
+            contacts += stack.frozen_contacts(blocks)
             result = solve_equilibrium(blocks, contacts, gravity=stack.config.gravity)
             if result.stands:
                 return group, polygons
@@ -288,7 +287,7 @@ class Debris:
         return all(
             main is not None and self.areas.holds(main, loads[b][0])
             for b, main in mains.items()
-            if b not in fallen and (b in loaded or not stack.bodies[b].held_by_pile())
+            if b not in fallen and (b in loaded or not stack.bodies[b].held_by_pile()) and not stack.bodies[b].held_as(loads[b])
         )
 
     def _pile(self, rec: Record, contacts: Contacts, time: float) -> list[Record]:

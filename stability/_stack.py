@@ -25,6 +25,11 @@ from ._load import LoadNode
 from ._load_path import load_path, proven, share_region, support_piece
 from ._rest import RestClock
 
+HELD_SAME = 1e-9
+"""kg and metres: a load within this of the one rigid-block equilibrium held a brick under is
+that load (:meth:`Record.held_as`): frozen poses do not change, so the same bricks above give
+the same numbers but for round-off."""
+
 
 @dataclass(frozen=True)
 class StabilityEvent:
@@ -79,6 +84,7 @@ class Record:
     was_frozen: bool = False  # frozen at least once (a woken brick is the debris rule's)
     carried: tuple[float, tuple[int, ...]] | None = None  # its last load check (carry): when (s), and on what
     pile: frozenset[int] = frozenset()  # a fallen brick's debris pile (itself, frozen alone), which rigid-block equilibrium holds
+    held: tuple[float, float, float, float] | None = None  # kg, m: its mass and centre of mass above when equilibrium held it
     proved_at: Pose | None = None  # where it was woken in a proved collapse mechanism: held active until it moves (RELEASE)
     still_from: tuple[Pose, float] = (Pose(np.zeros(3)), 0.0)  # held: where and since when (s) it has stayed within STILL
     still: bool = False  # held once and kept still by the engine: not held again
@@ -88,6 +94,20 @@ class Record:
         nothing else has come to rest on it since: the report's centre-of-mass test does not
         apply to it (stackdsl's own, :mod:`stability._debris`)."""
         return bool(self.pile) and self.objects_above <= self.pile
+
+    def held_as(self, load: tuple[tuple[float, float, float], float, object]) -> bool:
+        """Did rigid-block equilibrium hold this brick, failing the report's centre-of-mass test,
+        under this very ``load`` (centre of mass above (m), mass above (kg), as
+        :func:`stability._load.propagate_fast` gives it)? Then the test would ask again what
+        the stack test answered (:meth:`stability._stack_test.StackTest.run`), and does not:
+        what lies above it is what it was, and a change elsewhere that fails a brick asks
+        equilibrium of the whole part again. A fallen domino that a fallen one leaned on
+        before its pile froze failed at every freeze of the row, and its part (up to 98
+        bricks) was solved each time (stackdsl's own)."""
+        if self.held is None:
+            return False
+        (x, y, z), mass = load[0], load[1]
+        return max(abs(a - b) for a, b in zip(self.held, (mass, x, y, z), strict=True)) <= HELD_SAME
 
     @property
     def box(self) -> Box:
@@ -160,6 +180,22 @@ class Stack:
         )
         found: np.ndarray = near.any(axis=1)
         return found
+
+    def frozen_contacts(self, blocks: Collection[int]) -> list[ContactPolygon[int]]:
+        """The contact polygons remembered from the freezes of the frozen bricks, those with
+        ``blocks`` (a program's free blocks), with the ground and fixed bodies, and with the
+        watched active bricks they lean on as they are (:meth:`watch`). A pile frozen on its
+        edge was solved on its watched bricks as on fixed supports, and wakes once one moves:
+        a stack test that left them out found it falling at the step it froze, and woke it
+        (in a row of 120 dominoes, 200 bricks woken and frozen again). Source: stackdsl's own."""
+        ground = {b for b, r in self.bodies.items() if r.state is BrickState.GROUND}
+        leant = {b: leaning for b, (_, leaning) in self.watched.items()}
+        return [
+            c
+            for r in self.in_order()
+            for c in r.contacts
+            if c.other in blocks or c.other in ground or c.body in leant.get(c.other, ())
+        ]
 
     def watch(self, rec: Record, leaning: set[int]) -> None:
         """Frozen bricks ``leaning`` (body ids) rest on ``rec``, an active brick at rest: remember
@@ -327,7 +363,7 @@ class Stack:
         for s in rec.rests_on:
             self.bodies[s].objects_above.discard(body)
         rec.rests_on, rec.main_contact, rec.com_above, rec.mass_above = {}, None, None, 0.0
-        rec.contacts, rec.pile = [], frozenset()
+        rec.contacts, rec.pile, rec.held = [], frozenset(), None
         held = self.holding and not rec.still and (hold or body in proved)
         rec.proved_at = self.engine.pose(body) if held else None
         rec.still_from = (rec.proved_at or rec.still_from[0], time)

@@ -15,7 +15,7 @@ from shapely.geometry import Point
 
 from ._areas import ContactAreas, main_area
 from ._cut import falling_part
-from ._equilibrium import ContactPolygon, RigidBlock, is_level, solve_equilibrium
+from ._equilibrium import ContactPolygon, RigidBlock, connected_part, is_level, solve_equilibrium
 from ._geometry import ContactArea, Pose
 from ._graph import BrickState
 from ._leaning import pair_friction
@@ -74,7 +74,8 @@ class StackTest:
             failing = []
             for r in frozen.values():
                 assert r.main_contact is not None, "a frozen brick has a main contact area"
-                if not r.held_by_pile() and not self.areas.holds(r.main_contact, loads[r.body][0]):
+                load = loads[r.body]
+                if not r.held_by_pile() and not r.held_as(load) and not self.areas.holds(r.main_contact, load[0]):
                     failing.append(r)
             events: list[StabilityEvent] = []
             for r in failing:
@@ -101,9 +102,9 @@ class StackTest:
         block = RigidBlock(mass, com)
         if not solve_equilibrium({rec.body: block}, polygons, gravity=stack.config.gravity).stands:
             return []  # it will not stay where it lies
-        ground = {k for k, r in stack.bodies.items() if r.state is BrickState.GROUND}
-        contacts = [c for r in frozen.values() for c in r.contacts if c.other in frozen or c.other in ground] + polygons
+        contacts = stack.frozen_contacts(frozen) + polygons
         blocks = {b: RigidBlock(r.box.mass, stack.pose(r).position) for b, r in frozen.items()} | {rec.body: block}
+        blocks, contacts = connected_part(blocks, contacts, {rec.body})  # the part it would load
         moving = set(falling_part(blocks, contacts) or ()) if stack.config.gravity > 0 else set()
         if not moving:
             result = solve_equilibrium(blocks, contacts, gravity=stack.config.gravity)
@@ -153,17 +154,18 @@ class StackTest:
             frozen = {r.body: r for r in stack.in_order()}
             if not frozen or not stack.unproven or stack.standing_version == stack.version:
                 return events
-            ground = {k for k, r in stack.bodies.items() if r.state is BrickState.GROUND}
-            polygons = [c for r in frozen.values() for c in r.contacts if c.other in frozen or c.other in ground]
+            polygons = stack.frozen_contacts(frozen)
             touched = {c.body for c in polygons} | {c.other for c in polygons}
             moving = {b for b in frozen if b not in touched}  # rests on nothing that stays
             if not moving:
                 if self._balanced_by_loads():
                     return events
                 blocks = {b: RigidBlock(r.box.mass, stack.pose(r).position) for b, r in frozen.items()}
-                moving = set(falling_part(blocks, polygons) or ()) if stack.config.gravity > 0 else set()
+                # the parts with a brick off its load path: every other part stands on its paths
+                blocks, part = connected_part(blocks, polygons, stack.unproven)
+                moving = set(falling_part(blocks, part) or ()) if stack.config.gravity > 0 else set()
                 if not moving:
-                    result = solve_equilibrium(blocks, polygons, gravity=stack.config.gravity)
+                    result = solve_equilibrium(blocks, part, gravity=stack.config.gravity)
                     if result.stands:
                         return events
                     moving = result.moving()
@@ -173,12 +175,12 @@ class StackTest:
 
     def _frozen_problem(self) -> tuple[dict[int, RigidBlock], list[ContactPolygon[int]]]:
         """The frozen stack as free blocks, on the contact polygons remembered from the freezes
-        (with each other, the ground and fixed bodies)."""
+        (with each other, the ground and fixed bodies, and the watched bricks they lean on:
+        :meth:`Stack.frozen_contacts`)."""
         stack = self.stack
         frozen = {r.body: r for r in stack.in_order()}
-        ground = {k for k, r in stack.bodies.items() if r.state is BrickState.GROUND}
-        polygons = [c for r in frozen.values() for c in r.contacts if c.other in frozen or c.other in ground]
-        return {b: RigidBlock(r.box.mass, stack.pose(r).position) for b, r in frozen.items()}, polygons
+        blocks = {b: RigidBlock(r.box.mass, stack.pose(r).position) for b, r in frozen.items()}
+        return blocks, stack.frozen_contacts(frozen)
 
     def _balanced_by_loads(self) -> bool:
         """Do the report's loads, propagated down the frozen stack, balance it
@@ -197,7 +199,9 @@ class StackTest:
         (for a leaning brick the main contact area is the hull of all its contact areas,
         the other brick of a V included): it and everything above it wake.
         Beyond the report, twice. When the rule finds a failing brick, rigid-block equilibrium
-        of the frozen stack is asked first: when it stands, nothing wakes. The report's load
+        of its part of the frozen stack is asked first: when it stands, nothing wakes, and the
+        rule does not ask again of that brick while its load is the same
+        (:meth:`Record.held_as`). The report's load
         tree sends each load down its own supports only, so it fails a bridge or a counterweight
         that holds (a brick propped by a brick lying across it onto another support); woken,
         such bricks only sag, and on an engine's compliant contacts they sagged past the collapse
@@ -235,13 +239,16 @@ class StackTest:
             for rec in stack.in_order():
                 rec.com_above, rec.mass_above = loads[rec.body][0], loads[rec.body][1]
                 assert rec.main_contact is not None, "a frozen brick has a main contact area"
-                if not rec.held_by_pile() and not self.areas.holds(rec.main_contact, rec.com_above):
+                if rec.held_by_pile() or rec.held_as(loads[rec.body]):
+                    continue
+                if not self.areas.holds(rec.main_contact, rec.com_above):
                     failing.append(rec)
             if not failing:
                 stack.loads_fresh = True
                 return events
             if proved is None:  # before any of it wakes: what statics says of the stack as it stands
-                blocks, polygons = self._frozen_problem()
+                # of the parts the failing bricks belong to: any other part is not in question
+                blocks, polygons = connected_part(*self._frozen_problem(), {r.body for r in failing})
                 # a part that provably turns out is a proof that the stack does not stand: the
                 # equilibrium program (milliseconds) is asked only when there is none
                 proved = frozenset(falling_part(blocks, polygons) or ())
@@ -251,6 +258,8 @@ class StackTest:
                     and solve_equilibrium(blocks, polygons, gravity=stack.config.gravity).stands
                 ):
                     stack.loads_fresh = True  # a bridge or a counterweight the rule cannot see: it stands
+                    for rec in failing:  # under these loads: not asked again while they stay
+                        rec.held = (loads[rec.body][1], *loads[rec.body][0])
                     return events
             for rec in failing:
                 if rec.state is not BrickState.FROZEN:  # woken already, resting on one that failed

@@ -32,6 +32,7 @@ Source: stackdsl's own.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -55,7 +56,7 @@ from .limits import check_limits
 from .overlap import Body
 from .parts import arrange, summaries
 from .precheck import precheck
-from .program import End, Fixture, Launch, Place, Program, Push, Remove, Shake
+from .program import End, Fixture, Kinematic, Launch, Place, Program, Push, Remove, Shake
 from .require import accept
 from .rules import choose_rules
 
@@ -139,6 +140,7 @@ def compile_scenario(
         scenario, bricks, slots, specs, places, dt, lambda path, seconds: _steps(scenario, path, seconds, dt)
     )
     check_measured(scenario, [b.id for b in bricks])
+    _own_ids(scenario, [b.id for b in everything], launches, motions)
     actions: list[Place | Launch | Remove | Push | Shake | End] = sorted(
         [*placements, *launches, *motions], key=lambda a: (a.step, a.kind != "place")
     )
@@ -303,6 +305,29 @@ def _bodies(
         )
         for b, n in zip(placed, nominal)
     ]
+
+
+def _own_ids(scenario: Scenario, bricks: Sequence[str], launches: Sequence[Launch], motions: Sequence[Kinematic]) -> None:
+    """Refuse a projectile or pusher whose id is a brick's or an earlier body's: the timeline,
+    the verdicts and the replay name bodies by id, and a pusher called ``L01.1`` read as the
+    brick ``L01.1`` touched by hand. A ScenarioError at the later one's ``id`` (at the impact or
+    push itself when its id is the default one). Source: stackdsl's own."""
+    seen = dict.fromkeys(bricks, "a brick of the structure")
+    bodies: list[tuple[str, FieldPath, bool]] = [
+        (launch.id, ("impacts", i), scenario.impacts[i].id is not None) for i, launch in enumerate(launches)
+    ]
+    bodies += [
+        (m.id, ("actions", i, "push"), scenario.actions[i].push.id is not None)  # type: ignore[union-attr]
+        for i, m in enumerate(motions)
+        if isinstance(m, Push)
+    ]
+    for ident, path, written in bodies:
+        if ident in seen:
+            raise scenario.source.error(
+                (*path, "id") if written else path,
+                f"id {ident!r} already names {seen[ident]}: give this body an id of its own",
+            )
+        seen[ident] = "a projectile" if path[0] == "impacts" else "a pusher"
 
 
 def _measurable(scenario: Scenario, end: float, bricks: int) -> None:

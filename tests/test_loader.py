@@ -16,7 +16,7 @@ from stackdsl.lang import loader as _loader
 from stackdsl.lang import scenario_file as _scenario_file
 from stackdsl.lang.loader import MAX_DEPTH
 from stackdsl.lang.scenario_file import MAX_FILE_BYTES
-from stackdsl.lang.units import angle, density, length, speed, time
+from stackdsl.lang.units import angle, density, frequency, length, speed, time
 
 
 def scenario(text: str):
@@ -157,6 +157,16 @@ def test_string_where_a_number_belongs():
     )
     assert (err.line, err.column, err.field) == (4, 13, "structure.tower.levels")
     assert "valid integer" in err.message
+
+
+@pytest.mark.parametrize(
+    "written, hertz",
+    [("2 Hz", 2.0), ("0.5 kHz", 500.0), ("120 rpm", 2.0), ("6.283185307 rad/s", 1.0), ("360 deg/s", 1.0), ("1 cycle/s", 1.0)],
+)
+def test_a_frequency_in_turns_per_time_is_turns_per_second(written, hertz):
+    """pint counts a radian as 1, so '120 rpm' (4 pi rad/s) read as 12.6 Hz, a shake table's peak
+    acceleration 39.5 times too high."""
+    assert frequency(written) == pytest.approx(hertz, rel=1e-9)
 
 
 def test_wrong_unit():

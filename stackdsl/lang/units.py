@@ -116,6 +116,11 @@ def _factor(text: str, dimension: str, unit: str, message: str) -> float:
         quantity = ureg.Quantity(1.0, units)
         if quantity.dimensionality != ureg.get_dimensionality(dimension or "[]"):
             raise ValueError
+        base = quantity.to_base_units()
+        if unit == "Hz" and dict(base.unit_items()).get("radian") == 1:
+            # an angle per time is a frequency of turns: 120 rpm is 2 Hz, 2 pi rad/s is 1 Hz (pint
+            # counts a radian as 1, which read 120 rpm as 12.6 Hz)
+            return float(base.magnitude) / (2 * math.pi)
         return float(quantity.to(unit).magnitude)
     except Exception:  # pint's parser raises many kinds; any of them means: not a unit we know
         raise ValueError(message) from None

@@ -463,3 +463,48 @@ def test_an_unknown_domino_is_told_by_an_id_alone_and_stays_and_moved_may_not_me
     both = "stackdsl: 1\nstructure: {tower: {levels: 3}}\nexpect: {stays: L01.1, moved: L01}\n"
     with pytest.raises(ScenarioError, match=r"L01\.1 is named by both 'stays' and 'moved'"):
         compile_scenario(parse_scenario(both, "both.yaml"))
+
+
+def test_a_brick_at_rest_while_the_ground_still_shakes_has_not_come_to_rest_displaced():
+    """'came to rest out of its place' proves a collapse only once no hand is at work: a brick
+    at rest on levels a pull still drags, or on a shake table mid-stroke, may ride back. In the
+    fake world bricks do not ride the moving ground, so they read as displaced by the table's
+    stroke and at rest: that was a collapse, though the table comes back to where it started."""
+    from stackdsl.engines.fake import FakeWorld
+    from stackdsl.runtime.run import RunOptions, outcome, run_in
+
+    text = (
+        "stackdsl: 1\nstructure: {tower: {levels: 2}}\n"
+        "actions: [{shake: {amplitude: 10 mm, frequency: 2 Hz, duration: 1 s, at: 5 s, direction: [1, 0]}}]\n"
+    )
+    p = compile_scenario(parse_scenario(text, "s.yaml"))
+    loop = run_in(FakeWorld(timestep=p.engine.timestep), p, RunOptions())
+    done = outcome(loop, 0.0)
+    assert done.collapse is None, done.collapse
+    assert max(done.displacement.values()) < p.collapse_threshold
+
+
+def test_the_actions_a_collapse_left_undone_are_named_in_the_explanation():
+    """Building and acting stop at a collapse; a pull or push after it never ran, and the
+    verdict says so rather than leaving the user to wonder where they went."""
+    from stackdsl import run_program
+    from stackdsl.verdicts.expect import explain
+
+    text = """stackdsl: 1
+structure:
+  bricks:
+    - {id: a, at: [0, 0, 4 mm]}
+    - {id: b, at: [90 mm, 0, 12 mm]}
+timing: {interval: 0.5 s}
+actions:
+  - push: {target: {brick: a}, direction: [0, 1, 0], at: 3 s, id: finger}
+  - remove: {brick: a, at: 5 s}
+expect: {stands: true}
+"""
+    scenario = parse_scenario(text, "s.yaml")
+    p = compile_scenario(scenario)
+    done = run_program(p)
+    assert done.collapse is not None and done.collapse.brick == "b"
+    assert done.not_run == ("push finger into a at 3.00 s", "remove a at 5.00 s")
+    lines = explain(scenario.expect, done, p.collapse_threshold)
+    assert "not run: 2 actions after the collapse, where the run ended: push finger into a at 3.00 s, remove a at 5.00 s" in lines

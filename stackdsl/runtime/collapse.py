@@ -46,6 +46,7 @@ from stability import Box, Plane, Pose, face_overlap
 from stability import Certificate as Equilibrium
 
 from ..compile.program import Fixture
+from .actions import Actions
 from .bricks import BrickRecord
 from .loop import StepLoop, Subscriber
 from .outcome import Certificate, Collapse, Event, Graph, ProofKind
@@ -255,6 +256,9 @@ class CollapseMonitor(Subscriber):
                 self._displaced.pop(record.id, None)  # within the threshold, or rocked and came back
         displaced = [(r, float(d)) for r, d in zip(watched, moved) if d > self.threshold]
         resting = self._resting(loop, [r for r, _ in displaced])
+        # a brick at rest on levels a hand still drags (a pull, a push, a shake under way) has
+        # not come to rest where it stays: it may ride back within the threshold
+        hands_busy = any(isinstance(s, Actions) and not s.quiet for s in loop.subscribers)
         for (record, distance), rests in zip(displaced, resting):
             state = self._displaced.get(record.id)
             if state is None:
@@ -278,7 +282,7 @@ class CollapseMonitor(Subscriber):
                     f"{record.id} was {distance * 1000:.1f} mm from its place when the run ended",
                     (),
                 )
-            elif not record.moving or rested:
+            elif (not record.moving or rested) and not hands_busy:
                 proof = ("at rest displaced", f"{record.id} came to rest {distance * 1000:.1f} mm from its place", ())
             elif (mechanism := self._proved(record.id)) is not None:
                 proof = ("mechanism", f"{record.id} moves in {mechanism[0]}", mechanism[1])

@@ -27,7 +27,7 @@ import numpy as np
 
 from stability import Box, Pose
 
-from ..compile.program import Kinematic, Launch, Place, Program, Push, Remove, Shake
+from ..compile.program import End, Kinematic, Launch, Place, Program, Push, Remove, Shake
 from ..engines.protocol import BrickSpec, EngineUnstable, World
 from .bricks import BrickRecord, Structure, footprint
 from .outcome import Event
@@ -140,6 +140,7 @@ class StepLoop:
         self.stop_clock: float | None = None
         self.stop_step: int | None = None
         self.stopped: str | None = None
+        self.not_run: tuple[str, ...] = ()  # the actions after a collapse, which the run ended before
         self._parked = {} if lazy_bodies else self._park()
 
     @property
@@ -169,11 +170,12 @@ class StepLoop:
             hook(self)
 
     def _actions(self) -> None:
-        for action in self.program.actions:
+        for i, action in enumerate(self.program.actions):
             self.advance(action.step)
             if self.stopped is not None or self._out_of_time():
                 return
             if self.stop_step is not None and self.stop_at_collapse:
+                self.not_run = tuple(_said(a) for a in self.program.actions[i:] if not isinstance(a, (Place, End)))
                 break
             if isinstance(action, Place):
                 self.place(action)
@@ -268,3 +270,14 @@ class StepLoop:
             self.world.move(body, pose, spec.mass)
             return body
         return self.world.create(spec, pose, projectile=projectile)
+
+
+def _said(action: Launch | Remove | Push | Shake) -> str:
+    """An action in a few words, for the list of those a collapse left undone."""
+    if isinstance(action, Launch):
+        return f"impact {action.id} at {action.time:.2f} s"
+    if isinstance(action, Remove):
+        return f"remove {action.id} at {action.time:.2f} s"
+    if isinstance(action, Push):
+        return f"push {action.id} into {action.target} at {action.time:.2f} s"
+    return f"shake at {action.time:.2f} s"

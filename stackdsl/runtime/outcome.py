@@ -217,6 +217,8 @@ class Outcome(_Frozen):
         removed: the bricks a hand pulled out of the structure (``actions: remove``).
         unplaced: the structure bricks of the scene never placed (building stops at a collapse),
             in placing order; ``toppled: all`` counts them as standing.
+        not_run: the actions (impacts, pulls, pushes, shakes) a collapse ended the run before,
+            each in a few words, as "remove L06.2 at 29.83 s".
         stopped: None when the run went to its end; else why and where it stopped early,
             e.g. ``"timeout after 120 s at t = 37.2 s simulated (of 201 s)"`` (the rest of
             the outcome then covers the simulated time so far, and the expectations fail:
@@ -247,6 +249,7 @@ class Outcome(_Frozen):
     removed: tuple[str, ...] = ()
     unplaced: tuple[str, ...] = ()
     stopped: str | None = None
+    not_run: tuple[str, ...] = ()
 
     def golden(self) -> dict[str, Any]:
         """Plain JSON data for a golden snapshot: what was built, the collapse record, the

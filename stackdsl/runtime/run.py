@@ -245,4 +245,5 @@ def outcome(loop: StepLoop, wall_time: float) -> Outcome:
         toppled=tuple(r.id for r in structure.toppled()),
         removed=tuple(r.id for r in structure.removed),
         stopped=loop.stopped,
+        not_run=loop.not_run,
     )

@@ -166,6 +166,11 @@ def explain(expect: Expect, outcome: Outcome, threshold: float) -> list[str]:
                 f"with {c.level} level{'s' * (c.level != 1)} placed ({_mm(c.displacement)} by t={c.decided:.2f} s, "
                 f"when the collapse was decided)"
             )
+            if outcome.not_run:
+                n = len(outcome.not_run)
+                lines.append(
+                    f"not run: {n} action{'s' * (n != 1)} after the collapse, where the run ended: " + ", ".join(outcome.not_run)
+                )
         elif outcome.displacement:
             brick, largest = max(outcome.displacement.items(), key=lambda item: item[1])
             lines.append(

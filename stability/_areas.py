@@ -56,6 +56,8 @@ class ContactAreas:
             other = bodies.get(c.other)
             if other is None or c.normal[2] < self.support_cos or rec.body in other.rests_on:
                 continue  # a brick frozen resting on ``rec`` (on a settled pile's edge) is a load
+            if c.distance > self.config.contact_pad:
+                continue  # an engine's point across a gap (pybullet's reach 20 mm): a rocking brick's lifted side
             if other.state is BrickState.ACTIVE and (stack_only or engine.pose(other.body).position[2] >= my_z):
                 continue
             grouped[c.other].append(c)

@@ -587,3 +587,30 @@ def test_a_value_no_member_of_a_union_takes_is_one_error_at_the_field_as_written
         parse_scenario(head + "[0, 0, 0]}\n", "d.yaml")
     assert err.value.field == "actions[0].remove.direction" and "must not be zero" in err.value.message
     assert err.value.others == ()
+
+
+@pytest.mark.parametrize(
+    "value, field, message",
+    [
+        ("{after_level: 0}", "actions[0].remove.at.after_level", "Input should be greater than or equal to 1, got 0"),
+        ("{after: previous}", "actions[0].remove.at.after", "Input should be 'the previous action', got 'previous'"),
+    ],
+)
+def test_a_mapping_is_judged_by_the_union_member_it_has_the_shape_of(value, field, message):
+    """'at: {after_level: 0}' is a mapping of after_level: only the level's bound is said, not
+    also that it is no number and has a key {after: ...} lacks (three errors for one mistake)."""
+    text = f"stackdsl: 1\nstructure: {{tower: {{levels: 2}}}}\nactions:\n  - remove: {{brick: L01.1, at: {value}}}\n"
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(text, "d.yaml")
+    assert (err.value.field, err.value.message, err.value.others) == (field, message, ())
+
+
+def test_a_list_too_short_is_one_error_at_the_list_saying_how_many_items():
+    """'direction: [1, 0]' on a pull gave two errors: a word was expected, and
+    'direction[2]: required field is missing', which reads as a key."""
+    text = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nactions:\n  - remove: {brick: L01.1, at: 3 s, direction: [1]}\n"
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(text, "d.yaml")
+    e = err.value
+    assert (e.field, e.line, e.column, e.others) == ("actions[0].remove.direction", 4, 48, ())
+    assert e.message == "expected a list of 3 items, got [1]"

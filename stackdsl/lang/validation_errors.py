@@ -50,6 +50,7 @@ def _first_error_here(exc: ValidationError, source: SourceMap) -> ScenarioError:
     errors = exc.errors(include_url=False)
     typo_parents = {tuple(e["loc"][:-1]) for e in errors if e["type"] == "extra_forbidden"}
     errors = [e for e in errors if not (e["type"] == "missing" and tuple(e["loc"][:-1]) in typo_parents)]
+    errors = _fitting_members(_last_missing_items(errors), source)
 
     def order(err: ErrorDetails) -> tuple[bool, int, int]:
         # An unknown key usually is a typo of a missing one: report it first.
@@ -63,6 +64,63 @@ def _first_error_here(exc: ValidationError, source: SourceMap) -> ScenarioError:
         groups.setdefault((error.field, error.line, error.column), []).append((err, error))
     found = [_merged(group) for group in groups.values()]  # a union's members each refuse the same node
     return found[0].with_others(found[1:])
+
+
+def _short_list(err: ErrorDetails) -> bool:
+    """Is this the refusal of a list too short for its fixed number of items (pydantic's
+    ``missing`` at an item's index)?"""
+    return err["type"] == "missing" and bool(err["loc"]) and isinstance(err["loc"][-1], int)
+
+
+def _last_missing_items(errors: list[ErrorDetails]) -> list[ErrorDetails]:
+    """A list too short by several items is refused once, at its last missing item (whose index
+    tells how many items it needs)."""
+    last: dict[tuple[str | int, ...], int] = {}
+    for err in errors:
+        if _short_list(err):
+            parent = tuple(err["loc"][:-1])
+            last[parent] = max(last.get(parent, -1), int(err["loc"][-1]))
+    return [e for e in errors if not _short_list(e) or last[tuple(e["loc"][:-1])] == e["loc"][-1]]
+
+
+def _fitting_members(errors: list[ErrorDetails], source: SourceMap) -> list[ErrorDetails]:
+    """Of the members of a plain union that refused one node, the refusals of the members the
+    value has the shape of, when there are any: ``at: {after_level: 0}`` is a mapping of
+    ``after_level``, and only the level's bound is said, not also that it is no number and no
+    ``{after: ...}``. A member misfits when the value is not its kind (an error at its root
+    other than its own check) or has keys it lacks or lacks keys it needs. Errors outside a
+    union, and unions where every member misfits (``direction: up``), are kept as they are.
+    Source: stackdsl's own."""
+    members: dict[FieldPath, dict[str, list[ErrorDetails]]] = {}
+    for err in errors:
+        split = _member_split(_untagged(tuple(err["loc"])), source)
+        if split is not None:
+            members.setdefault(split[0], {}).setdefault(split[1], []).append(err)
+    dropped: set[int] = set()
+    for by_member in members.values():
+        if len(by_member) < 2:
+            continue
+        fits = {m: not any(_misfit(e, source) for e in errs) for m, errs in by_member.items()}
+        if any(fits.values()):
+            dropped |= {id(e) for m, errs in by_member.items() if not fits[m] for e in errs}
+    return [e for e in errors if id(e) not in dropped]
+
+
+def _member_split(loc: FieldPath, source: SourceMap) -> tuple[FieldPath, str] | None:
+    """(the union's node, the member's name) of an error inside a plain union's member, or None."""
+    for i, seg in enumerate(loc):
+        if _is_member(seg) and (*loc[:i], seg) not in source.values:
+            return loc[:i], str(seg)
+    return None
+
+
+def _misfit(err: ErrorDetails, source: SourceMap) -> bool:
+    """Does this refusal say the value is not of its member's shape (see :func:`_fitting_members`)?"""
+    if err["type"] == "extra_forbidden" or (err["type"] == "missing" and not _short_list(err)):
+        return True  # a list too short is still a list: the member's kind
+    split = _member_split(_untagged(tuple(err["loc"])), source)
+    at_root = split is not None and len(_untagged(tuple(err["loc"]))) == len(split[0]) + 1
+    return at_root and err["type"] not in ("value_error", "assertion_error")
 
 
 def _merged(group: list[tuple[ErrorDetails, ScenarioError]]) -> ScenarioError:
@@ -112,6 +170,9 @@ def _one_error(err: ErrorDetails, source: SourceMap) -> ScenarioError:
         close = difflib.get_close_matches(key, allowed, n=1)
         message += f"; did you mean {close[0]!r}?" if close else f"; allowed: {', '.join(allowed)}"
         return source.error(loc, message, at_key=True)
+    if _short_list(err):  # said at the list: 'direction[2]: required field is missing' read as a key
+        needed = int(err["loc"][-1]) + 1
+        return source.error(loc[:-1], f"expected a list of {needed} items, got {shown(err['input'])}")
     if err["type"] == "missing":
         message = "required field is missing"
         if loc == ("stackdsl",):
@@ -165,11 +226,15 @@ def _without_members(loc: FieldPath, source: SourceMap) -> FieldPath:
     ``Steel-1``) has a node and stays."""
     out: FieldPath = ()
     for seg in loc:
-        member = isinstance(seg, str) and (seg in _TYPE_NAMES or seg[:1].isupper() or any(c in seg for c in "[]()-',"))
-        if member and (*out, seg) not in source.values:
+        if _is_member(seg) and (*out, seg) not in source.values:
             continue
         out += (seg,)
     return out
+
+
+def _is_member(seg: str | int) -> bool:
+    """Could ``seg`` be the name pydantic gives a union's member (see :func:`_without_members`)?"""
+    return isinstance(seg, str) and (seg in _TYPE_NAMES or seg[:1].isupper() or any(c in seg for c in "[]()-',"))
 
 
 def fields_at(loc: FieldPath) -> list[str]:

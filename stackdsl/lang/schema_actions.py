@@ -83,8 +83,8 @@ else:
         Frequency,
         frequency,
         0.1,
-        50.0,
-        "a frequency from 0.1 to 50 Hz",
+        48.0,
+        "a frequency from 0.1 to 48 Hz",
         ("slower, a shake is a slow slide", "faster, a step of 1/240 s samples a period fewer than 5 times"),
     )
     ShakeDuration = within(Time, time, 0.0, 600.0, "a time above 0 and at most 600 s", "a run lasts at most 3600 s", above=True)
@@ -168,9 +168,14 @@ class Shake(StrictModel):
     for ``duration`` (rounded to whole periods, at least one), starting and ending at rest where
     it started. Its peak acceleration is ``amplitude (2 pi frequency)^2``."""
 
-    amplitude: Annotated[Amplitude, Field(description="half the table's stroke", examples=["2 mm"])]
-    frequency: Annotated[ShakeFrequency, Field(description="periods a second", examples=["3 Hz"])]
-    duration: Annotated[ShakeDuration, Field(description="how long it shakes (whole periods)", examples=["2 s"])]
+    amplitude: Annotated[Amplitude, Field(description="half the table's stroke: above 0, at most 100 mm", examples=["2 mm"])]
+    frequency: Annotated[
+        ShakeFrequency,
+        Field(description="periods a second, from 0.1 to 48 Hz (rpm or rad/s are turned into Hz)", examples=["3 Hz"]),
+    ]
+    duration: Annotated[
+        ShakeDuration, Field(description="how long it shakes, rounded to whole periods: above 0, at most 600 s", examples=["2 s"])
+    ]
     at: Annotated[ActionWhen, Field(description="when the shake starts", examples=["after level 4", "5 s"])]
     direction: Annotated[
         tuple[Component, Component],
@@ -184,9 +189,11 @@ class Action(StrictModel):
 
     model_config = ConfigDict(json_schema_extra={"oneOf": [given("remove"), given("push"), given("shake")]})
 
-    remove: Annotated[Remove | None, Field(description="pull a brick out (Jenga)")] = None
-    push: Annotated[Push | None, Field(description="push with a pusher at a constant speed")] = None
-    shake: Annotated[Shake | None, Field(description="shake the ground (a shake table)")] = None
+    remove: Annotated[Remove | None, Field(description="a mapping of brick, at, direction, speed and distance")] = None
+    push: Annotated[Push | None, Field(description="a mapping of target, direction, at, speed, distance, pusher, gap and id")] = (
+        None
+    )
+    shake: Annotated[Shake | None, Field(description="a mapping of amplitude, frequency, direction, duration and at")] = None
 
     @model_validator(mode="after")
     def _one(self) -> Action:

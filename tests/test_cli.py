@@ -869,3 +869,18 @@ def test_a_compare_cell_says_why_a_run_stopped():
 
     assert stopped("timeout after 100 s at t = 3.0 s simulated (of 5 s)") == "timeout"
     assert stopped("MuJoCo's simulation became unstable at t = 1.030 s: nothing after it is physics") == "unstable"
+
+
+def test_a_folder_with_a_bad_file_runs_none_and_says_so_last(tmp_path, capsys):
+    """check DIR reads every file before it runs any: with one bad file none runs (exit 2), each
+    bad file's error is said, and a last line says how many were refused and that none ran (a
+    new user saw four errors and wondered where the three good files' results were)."""
+    (tmp_path / "good.yaml").write_text("stackdsl: 1\nstructure: {tower: {levels: 2}}\n")
+    (tmp_path / "bad.yaml").write_text("stackdsl: 1\nstructure: {tower: {levels: 0}}\n")
+    (tmp_path / "also_good.yaml").write_text("stackdsl: 1\nstructure: {tower: {levels: 1}}\n")
+    assert main(["check", str(tmp_path)]) == 2
+    captured = capsys.readouterr()
+    lines = captured.err.strip().splitlines()
+    assert lines[0].startswith(f"{tmp_path / 'bad.yaml'}:2:")
+    assert lines[-1] == "1 of 3 files refused; none was run (check the good ones by name to run them)"
+    assert "passed" not in captured.out

@@ -113,7 +113,10 @@ def prepare(
         except ScenarioError as exc:
             errors.append(exc)
     if errors:
-        raise ScenarioErrors(errors)
+        summary = ""
+        if len(files) > 1:  # a folder: every file is read before any runs
+            summary = f"{len(errors)} of {len(files)} files refused; none was run (check the good ones by name to run them)"
+        raise ScenarioErrors(errors, summary)
     return prepared
 
 

@@ -115,6 +115,8 @@ def main(argv: list[str] | None = None) -> int:
     except ScenarioErrors as exc:
         for err in exc.errors:
             print(err, file=sys.stderr)
+        if exc.summary:
+            print(exc.summary, file=sys.stderr)
         return BAD_INPUT
     except ScenarioError as exc:
         print(exc, file=sys.stderr)

@@ -99,11 +99,12 @@ class ScenarioWarning(UserWarning):
 
 
 class ScenarioErrors(Exception):
-    """Several files failed to load or compile; ``errors`` holds one ScenarioError each."""
+    """Several files failed to load or compile; ``errors`` holds one ScenarioError each, and
+    ``summary`` a last line for them all (empty: none)."""
 
-    def __init__(self, errors: list[ScenarioError]) -> None:
-        super().__init__("\n".join(str(e) for e in errors))
-        self.errors = errors
+    def __init__(self, errors: list[ScenarioError], summary: str = "") -> None:
+        super().__init__("\n".join([*(str(e) for e in errors), *([summary] if summary else [])]))
+        self.errors, self.summary = errors, summary
 
 
 #: At most this many problems of one file are shown at once (the rest are counted).

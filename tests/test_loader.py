@@ -614,3 +614,29 @@ def test_a_list_too_short_is_one_error_at_the_list_saying_how_many_items():
     e = err.value
     assert (e.field, e.line, e.column, e.others) == ("actions[0].remove.direction", 4, 48, ())
     assert e.message == "expected a list of 3 items, got [1]"
+
+
+@pytest.mark.parametrize(
+    "structure, field, message",
+    [
+        (
+            "{tower: {levels: 2, origin: [0, 0, 0]}}",
+            "structure.tower.origin",
+            "expected a list of at most 2 items, got [0, 0, 0]",
+        ),
+        ("[]", "structure", "expected a list of at least 1 item, got []"),
+    ],
+)
+def test_a_list_of_the_wrong_length_is_said_in_the_languages_words(structure, field, message):
+    """Pydantic says 'Tuple should have at most 2 items after validation, not 3'; a YAML user
+    wrote a list, and 'after validation' is pydantic's."""
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(f"stackdsl: 1\nstructure: {structure}\n", "d.yaml")
+    assert (err.value.field, err.value.message) == (field, message)
+
+
+def test_a_list_where_one_value_goes_is_said_to_be_a_list():
+    text = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nactions: [{remove: {brick: [L02.1, L02.2], at: 3 s}}]\n"
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(text, "d.yaml")
+    assert err.value.message == "Input should be a valid string, got a list: ['L02.1', 'L02.2']"

@@ -140,7 +140,11 @@ def test_problems_of_a_composition_point_at_the_part_to_change(text, field, line
     [
         ("  - {tower: {levels: 2}}\n", "structure[0]", "needs a 'name'"),
         ("  - {name: a, tower: {levels: 2}}\n  - {name: a, on: a, tower: {levels: 2}}\n", "structure[1].name", "already"),
-        ("  - {name: a, on: b, tower: {levels: 2}}\n  - {name: b, tower: {levels: 2}}\n", "structure[0].on", "after it"),
+        (
+            "  - {name: a, on: b, tower: {levels: 2}}\n  - {name: b, tower: {levels: 2}}\n",
+            "structure[0].on",
+            "written after this one",
+        ),
         ("  - {name: a.b, tower: {levels: 2}}\n", "structure[0].name", "pattern"),
         ("  - {name: a, tower: {levels: 2}, wall: {courses: 1, bricks_per_course: 1}}\n", "structure[0]", "exactly one"),
         ("  - {name: a, towr: {levels: 2}}\n", "structure[0].towr", "did you mean 'tower'"),

@@ -185,13 +185,13 @@ def check_parts(parts: list[Part] | dict[str, Part]) -> list[tuple[FieldPath, st
             if head == name:
                 problems.append((loc + ("on",), f"{target!r} names this part itself: a part rests on parts written before it"))
             elif head not in seen:
-                where = "after it" if head in (n for n, _, _ in named_parts(parts)) else "nowhere"
-                problems.append(
-                    (
-                        loc + ("on",),
-                        f"{target!r} names no part before this one (it is {where}): a part rests on parts written before it",
-                    )
+                later = head in (n for n, _, _ in named_parts(parts))
+                why = (
+                    "it is written after this one: a part rests on parts written before it"
+                    if later
+                    else f"there is no part {head!r}" + (f"; the parts before this one: {', '.join(seen)}" if seen else "")
                 )
+                problems.append((loc + ("on",), f"{target!r} names no part before this one: {why}"))
             elif target != head and isinstance(part.on, list):
                 problems.append((loc + ("on",), f"{target!r}: a list of 'on' names parts; a brick is given alone"))
         seen.append(name)

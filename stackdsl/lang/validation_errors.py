@@ -183,10 +183,22 @@ def _one_error(err: ErrorDetails, source: SourceMap) -> ScenarioError:
     if err["type"] == "model_type":  # pydantic's words name our classes ("instance of Probability")
         allowed = fields_at(tagged)
         message = "expected a mapping" + (f" of {', '.join(allowed)}" if allowed else "")
+    elif err["type"] in ("too_long", "too_short") and isinstance(err["input"], list):  # pydantic: 'after validation'
+        ctx = err.get("ctx", {})
+        most = err["type"] == "too_long"
+        limit = ctx.get("max_length" if most else "min_length")
+        message = f"expected a list of {'at most' if most else 'at least'} {limit} item{'s' * (limit != 1)}"
+        return source.error(loc, f"{message}, got {shown(err['input'])}")
     else:
         message = err["msg"].removeprefix("Value error, ").replace("a valid tuple", "a list")  # YAML has lists
-    if "input" in err and err["type"] not in ("value_error",) and not isinstance(err["input"], (dict, list)):
-        message += f", got {shown(err['input'])}"
+    if "input" in err and err["type"] not in ("value_error",):
+        given_ = err["input"]
+        if isinstance(given_, dict):
+            message += ", got a mapping"
+        elif isinstance(given_, list):
+            message += f", got a list: {shown(given_)}"
+        else:
+            message += f", got {shown(given_)}"
     return source.error(loc, message)
 
 

@@ -508,3 +508,23 @@ expect: {stands: true}
     assert done.not_run == ("push finger into a at 3.00 s", "remove a at 5.00 s")
     lines = explain(scenario.expect, done, p.collapse_threshold)
     assert "not run: 2 actions after the collapse, where the run ended: push finger into a at 3.00 s, remove a at 5.00 s" in lines
+
+
+def test_a_part_with_a_brick_never_placed_is_still_its_bricks():
+    """'moved: deck' of a two-brick deck whose first brick fell before the second was placed read
+    'brick deck moved': the selector was counted over the placed bricks only."""
+    text = """stackdsl: 1
+structure:
+  - {name: west, tower: {levels: 2}}
+  - name: deck
+    on: west
+    bricks:
+      - {at: [90 mm, -48 mm, 4 mm]}
+      - {at: [90 mm, 48 mm, 4 mm]}
+expect: {moved: deck}
+"""
+    scenario = parse_scenario(text, "s.yaml")
+    outcome = run_program(compile_scenario(scenario))
+    assert outcome.unplaced == ("deck.b002",)
+    (moved,) = evaluate(scenario.expect, outcome, 0.004)
+    assert moved.expected == "bricks deck moved"

@@ -50,7 +50,7 @@ def evaluate(expect: Expect, outcome: Outcome, threshold: float) -> list[Verdict
         bad = sorted(set(levels) & moved)
         bad_bricks = [b for b in _selected(outcome, bricks) if outcome.displacement[b] > threshold]
         never = _never(outcome, levels, bricks)
-        said = _said(levels, bricks, len(_selected(outcome, bricks)))
+        said = _said(levels, bricks, _named(outcome, bricks))
         wrong = ([_said(bad, _short(bad_bricks)) + " moved"] if bad or bad_bricks else []) + ([never] if never else [])
         verdicts.append(
             Verdict(name="stays", passed=not wrong, expected=f"{said} stay", measured="; ".join(wrong) or f"{said} stayed")
@@ -62,7 +62,7 @@ def evaluate(expect: Expect, outcome: Outcome, threshold: float) -> list[Verdict
         ]
         still = [b for b in dict.fromkeys(named) if outcome.displacement[b] <= threshold]
         never = _never(outcome, levels, bricks)
-        said = _said(levels, bricks, len(_selected(outcome, bricks)))
+        said = _said(levels, bricks, _named(outcome, bricks))
         wrong = ([f"{', '.join(_short(still))} stayed"] if still else []) + ([never] if never else [])
         verdicts.append(
             Verdict(name="moved", passed=not wrong, expected=f"{said} moved", measured="; ".join(wrong) or f"{said} moved")
@@ -112,6 +112,12 @@ def _levels(outcome: Outcome) -> dict[str, int | None]:
 def _selected(outcome: Outcome, selectors: tuple[str, ...]) -> list[str]:
     """The structure bricks (of the outcome's displacements) that ``selectors`` name, in order."""
     return [b for b in outcome.displacement if any(selects(s, b) for s in selectors)]
+
+
+def _named(outcome: Outcome, selectors: tuple[str, ...]) -> int:
+    """How many structure bricks ``selectors`` name, placed or not (a part whose second brick a
+    collapse left unplaced is still 'bricks deck')."""
+    return len(_selected(outcome, selectors)) + sum(any(selects(s, b) for s in selectors) for b in outcome.unplaced)
 
 
 def _never(outcome: Outcome, levels: Sequence[int], selectors: tuple[str, ...]) -> str:

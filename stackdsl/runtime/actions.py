@@ -23,6 +23,7 @@ moves the ground. Source: stackdsl's own.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,7 +34,7 @@ from ..compile.program import Kinematic, Push, Remove, Shake
 from .bricks import BrickRecord
 from .loop import StepLoop, Subscriber
 from .outcome import Event
-from .subscribers import Stability
+from .subscribers import PULL_STEP, Stability, Substeps
 
 #: Where a hand puts what it took out of the scene: far from any scene, a slot each.
 AWAY = np.array([-5000.0, -5000.0, 100.0])
@@ -64,8 +65,9 @@ class Actions(Subscriber):
             shakes; ``acting``: whether it freezes and wakes).
     """
 
-    def __init__(self, stability: Stability) -> None:
+    def __init__(self, stability: Stability, substeps: Substeps | None = None) -> None:
         self.stability = stability
+        self.substeps = substeps  # the run's substep control, given when the extension acts
         self.guided: list[_Guided] = []
         self.shake: Shake | None = None  # the shake under way, when the ground moves
         self.away: list[BrickRecord] = []  # taken out of the scene this step: forgotten before the next
@@ -89,6 +91,7 @@ class Actions(Subscriber):
         speed = float(np.linalg.norm(a.velocity))
         loop.events.append(Event(time=a.time, kind="remove", brick=a.id, detail=f"pulled out at {speed * 1000:.3g} mm/s"))
         self._guide(loop, record, a.time, a.velocity, a.end_step, "pull", f"pulled out by hand at {a.time:g} s")
+        self._finer(loop)
 
     def _push(self, loop: StepLoop, a: Push) -> None:
         pose = Pose.from_euler(a.position, a.yaw, a.pitch, 0.0)
@@ -131,6 +134,12 @@ class Actions(Subscriber):
             self.stability.follow(loop, extension.wake_all(a.time, f"the ground shakes at {peak:.3g} m/s^2: {why}"))
         self.shake = a
 
+    def _finer(self, loop: StepLoop) -> None:
+        """While a pull lasts, steps of at most :data:`PULL_STEP` (the extension acting)."""
+        if self.substeps is not None:
+            pulling = any(g.kind == "pull" for g in self.guided)
+            self.substeps.floor = math.ceil(loop.dt / PULL_STEP - 1e-9) if pulling else 1
+
     @staticmethod
     def _clear(loop: StepLoop, g: _Guided) -> bool:
         """Has the pulled brick of ``g`` cleared what it lay between: :data:`CLEARED` below its
@@ -166,6 +175,7 @@ class Actions(Subscriber):
             if loop.step < g.end_step:
                 what += f", clear of the structure and falling ({(g.end_step - loop.step) * loop.dt:.2f} s before the pull's end)"
             loop.events.append(Event(time=loop.now, kind="release", brick=g.record.id, detail=what))
+            self._finer(loop)
         if self.shake is not None:
             loop.structure.offset = self.shake.at(loop.now)[0]  # the collapse monitor reads displacements in the ground's frame
             if loop.step >= self.shake.end_step:

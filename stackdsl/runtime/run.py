@@ -189,8 +189,13 @@ def run_in(
         *rest,
     )
     own: list[Subscriber] = [SoftLanding(program.engine.gravity)] if options.soft_landing else []
-    own += [Substeps(program.collapse_threshold, acting)] if program.engine.ccd else []
-    own += [Actions(stability)] if program.kinematic else []
+    substeps = Substeps(program.collapse_threshold, acting) if program.engine.ccd else None
+    own += [substeps] if substeps is not None else []
+    # finer steps while a pull lasts: pybullet's friction at 240 Hz drags what the pulled brick
+    # carries (subscribers.PULL_STEP); MuJoCo's guided brick, its velocity set once a step, then
+    # slips under what it carries (a brick lying on it stayed put where it rode 40 mm along)
+    finer = substeps if acting and program.engine.backend == "pybullet" else None
+    own += [Actions(stability, finer)] if program.kinematic else []
     after: list[Subscriber] = []
     rigid = any(r.name == "rigid" and r.on for r in program.rules)
     if acting and rigid and options.cheap_debris and world.cheap_debris and options.settle != 0.0:  # 0: nothing falls on

@@ -169,6 +169,16 @@ class SoftLanding(Subscriber):
                 self.falling[record.id] = (record, placed, vz)
 
 
+PULL_STEP = 1 / 960
+"""Seconds, the longest substep while a hand pulls a brick out with the extension acting
+(:attr:`Substeps.floor`): the pulled brick's friction drags what rests on it, and at
+pybullet's 240 Hz its contacts let it drag the levels above 20-35 mm where tuned pybullet
+(1 kHz) drags 0.7-1.5 mm. Split in four while a pull lasts, a 14-level KAPLA tower with a
+side block of level 3 pulled at 30 mm/s stands, as in tuned pybullet, where at 240 Hz it fell
+(measured: docs/actions.md, "Pull"). On pybullet only: MuJoCo's guided brick, its velocity
+set once a step, slips under what it carries when the step is split. Source: stackdsl's own."""
+
+
 class Substeps(Subscriber):
     """Split a step while something is fast, so that no body moves more than the collapse
     threshold (half a brick's thinnest side) in one substep, in at most
@@ -188,12 +198,13 @@ class Substeps(Subscriber):
     def __init__(self, threshold: float, bricks_too: bool) -> None:
         self.threshold, self.bricks_too = threshold, bricks_too
         self.substeps = 1
+        self.floor = 1  # at least this many (a hand pulling a brick: see PULL_STEP)
 
     def before_step(self, loop: StepLoop) -> None:
         structure = loop.structure
         fast = structure.projectiles + (list(structure.moving.values()) if self.bricks_too else [])
         speed, fastest = max(((loop.world.speeds(r.body)[0], r) for r in fast), key=lambda s: s[0], default=(0.0, None))
-        needed = max(1, math.ceil(speed * loop.dt / self.threshold))
+        needed = max(self.floor, math.ceil(speed * loop.dt / self.threshold))
         substeps = min(needed, MAX_SUBSTEPS)
         if substeps == MAX_SUBSTEPS and self.substeps != MAX_SUBSTEPS and fastest is not None:
             detail = f"{speed:.3g} m/s needs {needed} substeps; capped at {MAX_SUBSTEPS}"

@@ -317,7 +317,7 @@ def _own_ids(scenario: Scenario, bricks: Sequence[str], launches: Sequence[Launc
         (launch.id, ("impacts", i), scenario.impacts[i].id is not None) for i, launch in enumerate(launches)
     ]
     bodies += [
-        (m.id, ("actions", i, "push"), scenario.actions[i].push.id is not None)  # type: ignore[union-attr]
+        (m.id, ("actions", i, "push"), (push := scenario.actions[i].push) is not None and push.id is not None)
         for i, m in enumerate(motions)
         if isinstance(m, Push)
     ]

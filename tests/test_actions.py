@@ -570,3 +570,17 @@ actions:
     outcome = run_program(compile_scenario(parse_scenario(text, "jenga.yaml")))
     assert outcome.collapse is None
     assert max(outcome.displacement.values()) < 0.004  # 3.5 mm: within the threshold, half a brick's 8 mm side
+
+
+def test_compile_says_which_brick_type_sets_a_default_threshold_in_a_mixed_scene():
+    """A KAPLA part beside a Jenga tower lowers the scene's default collapse threshold from 7.5 to
+    4 mm for both, which a new user found only by a verdict that moved; compile now names it."""
+    parts = """structure:
+  - {name: j, tower: {levels: 2, bricks_per_layer: 3, spacing: 25.5 mm, brick: jenga}}
+  - {name: n, tower: {levels: 2}, origin: [300 mm, 0]}
+"""
+    head = "stackdsl: 1\nbrick_types: {jenga: {size: [75 mm, 25 mm, 15 mm]}}\n"
+    shown = format_program(compile_scenario(parse_scenario(head + parts, "m.yaml"))).splitlines()[1]
+    assert "collapse threshold 4 mm (half the thinnest side, of kapla)" in shown
+    alone = format_program(compile_scenario(parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 2}}\n", "t.yaml")))
+    assert "collapse threshold 4 mm," in alone  # one brick type: nothing to tell

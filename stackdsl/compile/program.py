@@ -379,6 +379,15 @@ def _mm(metres: float) -> float:
     return round(metres * 1000, 1) + 0.0
 
 
+def _threshold_source(program: Program) -> str:
+    """Where a default collapse threshold comes from, when it is half the thinnest side of a
+    brick type of the scene (a part of thinner bricks lowers it for every part)."""
+    if len({p.brick.type for p in program.placements}) < 2:
+        return ""
+    half, kind = min((min(p.brick.half_extents), p.brick.type) for p in program.placements)
+    return f" (half the thinnest side, of {kind})" if half == program.collapse_threshold else ""
+
+
 def format_program(program: Program) -> str:
     """The program as text, one line per action (what ``stackdsl compile`` prints)."""
     e = program.engine
@@ -386,7 +395,7 @@ def format_program(program: Program) -> str:
         f"program {program.name}: {e.backend}, mode {e.mode}, timestep {e.timestep * 1000:.4g} ms, "
         f"{e.solver_iterations} solver iterations, {e.details()}",
         f"  {len(program.placements)} bricks in {program.levels} level{'' if program.levels == 1 else 's'}, collapse threshold "
-        f"{program.collapse_threshold * 1000:.3g} mm, {program.duration:g} s simulated",
+        f"{program.collapse_threshold * 1000:.3g} mm{_threshold_source(program)}, {program.duration:g} s simulated",
         f"  estimated work {program.work:.2g} body-steps, about {program.wall_estimate:.2g} s of wall time",
     ]
     if e.mode == "extension":

@@ -22,7 +22,7 @@ from ..lang.errors import FieldPath
 from ..lang.schema import Scenario
 from ..lang.schema_impacts import Impact
 from .overlap import penetration
-from .program import Launch
+from .program import Launch, Push
 
 #: Metres a projectile may reach into the ground or a body at its start (contact, not overlap).
 TOLERANCE = 0.0005
@@ -48,8 +48,49 @@ def check_launch(
     lowest = float(box.corners(pose)[:, 2].min())
     if lowest < -TOLERANCE:
         raise scenario.source.error(_blame(impact, index), f"the projectile would start {-lowest * 1000:.1f} mm below the ground")
-    if not bodies:
+    inside = _deepest(box, pose, bodies)
+    if inside is not None:
+        raise scenario.source.error(
+            _blame(impact, index),
+            f"the projectile would start {inside[1] * 1000:.1f} mm inside brick {inside[0]!r}; aim it from outside the structure",
+        )
+
+
+def check_pusher(scenario: Scenario, index: int, push: Push, bodies: Sequence[tuple[str, BrickSpec, Pose]]) -> None:
+    """Refuse a pusher that enters inside a body: its box is put ``gap`` before the point it
+    aims at, along its direction, and a long pusher (a whole brick, by default) reaches back into
+    the bricks before its target (a new user's pusher aimed at the tenth domino started inside
+    the eighth and ninth, which it woke by 'touching').
+
+    Args:
+        index: the action's index in ``actions``; push: as compiled.
+        bodies: (id, spec, pose) of every brick and fixture in the world when the pusher enters.
+
+    Raises:
+        ScenarioError: at ``actions[index].push.pusher`` when the scenario names the pusher's
+            brick type, else at the push.
+    """
+    box = Box(np.array(push.brick.half_extents), push.brick.mass)
+    pose = Pose.from_euler(push.position, push.yaw, push.pitch, 0.0)
+    inside = _deepest(box, pose, bodies)
+    if inside is None:
         return
+    action = scenario.actions[index].push
+    named = action is not None and "pusher" in action.model_fields_set
+    path: FieldPath = ("actions", index, "push", "pusher") if named else ("actions", index, "push")
+    length = 2 * push.brick.half_extents[0] * 1000
+    raise scenario.source.error(
+        path,
+        f"the pusher ({push.brick.type}, {length:.0f} mm long along its direction) would start {inside[1] * 1000:.1f} mm "
+        f"inside brick {inside[0]!r}; give a shorter pusher (a brick type of brick_types) or aim it from outside the structure",
+    )
+
+
+def _deepest(box: Box, pose: Pose, bodies: Sequence[tuple[str, BrickSpec, Pose]]) -> tuple[str, float] | None:
+    """The body ``box`` at ``pose`` reaches deepest into (id, metres), when deeper than
+    :data:`TOLERANCE`; None otherwise."""
+    if not bodies:
+        return None
     centres = np.array([p.position for _, _, p in bodies])
     rotations = np.array([p.rotation for _, _, p in bodies])
     halves = np.array([s.half_extents for _, s, _ in bodies])
@@ -63,12 +104,7 @@ def check_launch(
         halves,
     )
     worst = int(np.argmax(depth))
-    if depth[worst] > TOLERANCE:
-        name = bodies[worst][0]
-        raise scenario.source.error(
-            _blame(impact, index),
-            f"the projectile would start {depth[worst] * 1000:.1f} mm inside brick {name!r}; aim it from outside the structure",
-        )
+    return (bodies[worst][0], float(depth[worst])) if depth[worst] > TOLERANCE else None
 
 
 def _blame(impact: Impact, index: int) -> FieldPath:

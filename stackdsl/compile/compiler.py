@@ -50,7 +50,7 @@ from ..lang.schema import BACKEND_FIELDS, BUILTIN_BRICKS, Scenario
 from ..lang.schema_impacts import SIDES, AfterLevel, Impact
 from ..lang.validation_errors import reference_errors
 from .actions import check_measured, compile_actions, heading
-from .clearance import check_launch
+from .clearance import check_launch, check_pusher
 from .layouts import LaidBrick, with_placement_error
 from .limits import check_limits
 from .overlap import Body
@@ -141,6 +141,15 @@ def compile_scenario(
     )
     check_measured(scenario, [b.id for b in bricks])
     _own_ids(scenario, [b.id for b in everything], launches, motions)
+    gone = {m.id: m.end_step for m in motions if isinstance(m, Remove)}  # pulled out and taken away
+    for i, motion in enumerate(motions):
+        if isinstance(motion, Push):
+            present = [
+                (b.id, specs[b.type], b.pose())
+                for b, k in zip(bricks, slots)
+                if int(k) * per_slot <= motion.step and gone.get(b.id, motion.step + 1) > motion.step
+            ]
+            check_pusher(scenario, i, motion, present + [(b.id, specs[b.type], b.pose()) for b in fixed])
     actions: list[Place | Launch | Remove | Push | Shake | End] = sorted(
         [*placements, *launches, *motions], key=lambda a: (a.step, a.kind != "place")
     )

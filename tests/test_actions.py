@@ -584,3 +584,24 @@ def test_compile_says_which_brick_type_sets_a_default_threshold_in_a_mixed_scene
     assert "collapse threshold 4 mm (half the thinnest side, of kapla)" in shown
     alone = format_program(compile_scenario(parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 2}}\n", "t.yaml")))
     assert "collapse threshold 4 mm," in alone  # one brick type: nothing to tell
+
+
+def test_a_domino_chain_cut_off_by_the_runs_end_is_said_to_be_still_moving():
+    """20 dominoes 120 mm apart all fall given time; with 2 s of settle the run ended with the
+    chain still running and the verdict read only '12 of 20 toppled', as if it had stopped."""
+    from stackdsl.verdicts.expect import explain
+
+    text = """stackdsl: 1
+brick_types: {finger: {size: [20 mm, 10 mm, 10 mm]}}
+structure: {dominoes: {count: 20, spacing: 120 mm}}
+timing: {interval: 0.1 s, settle: 2 s}
+actions:
+  - push: {target: {brick: D01, offset: [0, 0, 45 mm]}, direction: [1, 0, 0], speed: 0.2 m/s, distance: 15 mm, at: after level 1, pusher: finger}
+expect: {toppled: all}
+"""
+    scenario = parse_scenario(text, "row.yaml")
+    program = compile_scenario(scenario)
+    outcome = run_program(program)
+    assert len(outcome.toppled) < 20
+    lines = explain(scenario.expect, outcome, program.collapse_threshold)
+    assert any(line.startswith("still moving: the run ended at t=") for line in lines), lines

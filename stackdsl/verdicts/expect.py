@@ -146,6 +146,11 @@ def _short(ids: list[str]) -> list[str]:
 #: At most this many moved bricks are named for a failed ``stays``; the rest are counted.
 MOVED_SHOWN = 3
 
+#: Joules of the structure's bricks at the end above which a failed final-state expectation says
+#: they were still moving (a KAPLA brick at 43 mm/s): a domino chain cut off by the run's end
+#: read as a chain that stopped.
+STILL_MOVING = 1e-5
+
 
 def explain(expect: Expect, outcome: Outcome, threshold: float) -> list[str]:
     """Why the expectations that failed did so, one line each, from the outcome's collapse
@@ -202,6 +207,12 @@ def explain(expect: Expect, outcome: Outcome, threshold: float) -> list[str]:
         )
     if "finished" in failed:
         lines.append(f"stopped: {outcome.stopped}; the rest of the run was not simulated")
+    judged_at_end = {"toppled", "moved", "stays"} | ({"collapse", "stands"} if outcome.collapse is None else set())
+    if failed & judged_at_end and outcome.kinetic_energy > STILL_MOVING:
+        lines.append(
+            f"still moving: the run ended at t={outcome.simulated_time:.2f} s with its bricks' kinetic energy at "
+            f"{outcome.kinetic_energy * 1000:.3g} mJ; a longer timing.settle lets them come to rest before they are judged"
+        )
     if "stays" in failed and expect.stays:
         keep = set(levels_of(expect.stays))
         named = set(_selected(outcome, bricks_of(expect.stays)))

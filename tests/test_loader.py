@@ -640,3 +640,22 @@ def test_a_list_where_one_value_goes_is_said_to_be_a_list():
     with pytest.raises(ScenarioError) as err:
         parse_scenario(text, "d.yaml")
     assert err.value.message == "Input should be a valid string, got a list: ['L02.1', 'L02.2']"
+
+
+@pytest.mark.parametrize(
+    "written, message",
+    [
+        ("stands:", "no value: give one (as 'stands: true' or 'toppled: all'), or leave the key out"),
+        ("toppled:", "no value: give one (as 'stands: true' or 'toppled: all'), or leave the key out"),
+        (
+            "stands: false",
+            "'stands: false' is no expectation: to expect a fall give 'collapse: N' (the level), or leave 'stands' out",
+        ),
+    ],
+)
+def test_an_expectation_with_no_value_or_stands_false_is_refused_at_it(written, message):
+    """'stands:' with nothing after it read as no expectation, and the file passed on nothing
+    measured; 'stands: false' said pydantic's 'Input should be True'."""
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(f"stackdsl: 1\nstructure: {{tower: {{levels: 2}}}}\nexpect:\n  {written}\n", "e.yaml")
+    assert (err.value.field, err.value.message) == (f"expect.{written.split(':')[0]}", message)

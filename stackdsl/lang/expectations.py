@@ -270,6 +270,16 @@ class CellExpect(StrictModel):
         return self
 
 
+def _stands(value: Any) -> Any:
+    """``stands: true`` only: ``false`` expects nothing a run can measure but a fall, which
+    ``collapse`` says."""
+    if flag(value) is False:
+        raise ValueError(
+            "'stands: false' is no expectation: to expect a fall give 'collapse: N' (the level), or leave 'stands' out"
+        )
+    return value
+
+
 class Expect(StrictModel):
     """What must hold: a ``collapse`` level, or that the structure ``stands``; after an
     impact or an action, the levels or bricks that ``stay`` in place, that ``moved`` and that
@@ -299,7 +309,7 @@ class Expect(StrictModel):
         ]
         | None
     ) = None
-    stands: Annotated[Literal[True], BeforeValidator(flag)] | None = None
+    stands: Annotated[Literal[True], BeforeValidator(_stands)] | None = None
     stands_until: Annotated[
         Time | None,
         Field(

@@ -45,6 +45,13 @@ def validate(
             "or the map (left: {tower: ...}); 'parts' is the Python models' field (Structure(parts=...))",
             at_key=True,
         )
+    expect = data.get("expect") if isinstance(data, dict) else None
+    if isinstance(expect, dict):
+        empty = [key for key, value in expect.items() if value is None]
+        if empty:  # 'stands:' with nothing after it read as no expectation, and passed on nothing measured
+            raise source.error(
+                ("expect", empty[0]), "no value: give one (as 'stands: true' or 'toppled: all'), or leave the key out"
+            )
     try:
         scenario = Scenario.model_validate(data)
     except ValidationError as exc:

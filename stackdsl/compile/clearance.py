@@ -1,4 +1,4 @@
-"""A projectile must start clear: above the ground and outside every body in the world.
+"""A projectile or a pusher must start clear: above the ground and outside every body in the world.
 
 The compiler puts a projectile ``distance`` before its target point, lifted by its fall.
 A projectile too big for the scene, a direction that starts it under the ground or inside

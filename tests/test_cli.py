@@ -884,3 +884,14 @@ def test_a_folder_with_a_bad_file_runs_none_and_says_so_last(tmp_path, capsys):
     assert lines[0].startswith(f"{tmp_path / 'bad.yaml'}:2:")
     assert lines[-1] == "1 of 3 files refused; none was run (check the good ones by name to run them)"
     assert "passed" not in captured.out
+
+
+def test_a_missing_file_for_render_or_replay_says_so_in_the_oss_words(tmp_path, capsys):
+    """'[Errno 2] No such file or directory: ...' and 'not a readable golden snapshot' for a file
+    that is not there: both now start '<path>: No such file or directory', exit 2."""
+    missing = tmp_path / "nothing.npz"
+    assert main(["render", str(missing), "-o", str(tmp_path / "x.png")]) == 2
+    assert capsys.readouterr().err.strip() == f"{missing}: No such file or directory"
+    golden = tmp_path / "nothing.json"
+    assert main(["replay", "scenarios/vee_stands.yaml", "-o", str(tmp_path / "r"), "--golden", str(golden)]) == 2
+    assert capsys.readouterr().err.strip() == f"{golden}: No such file or directory: no golden snapshot to show beside the run"

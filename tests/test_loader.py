@@ -659,3 +659,12 @@ def test_an_expectation_with_no_value_or_stands_false_is_refused_at_it(written, 
     with pytest.raises(ScenarioError) as err:
         parse_scenario(f"stackdsl: 1\nstructure: {{tower: {{levels: 2}}}}\nexpect:\n  {written}\n", "e.yaml")
     assert (err.value.field, err.value.message) == (f"expect.{written.split(':')[0]}", message)
+
+
+@pytest.mark.parametrize("written", ["true", "19.5"])
+def test_a_toppled_count_that_is_no_whole_number_says_what_toppled_takes(written):
+    """'toppled: true' said 'expected a mapping of count, tolerance', the long form's fields."""
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(f"stackdsl: 1\nstructure: {{tower: {{levels: 2}}}}\nexpect: {{toppled: {written}}}\n", "t.yaml")
+    assert err.value.field == "expect.toppled"
+    assert err.value.message.startswith("expected a whole number of bricks such as 20, '20±1' or 'all'")

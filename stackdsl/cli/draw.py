@@ -145,7 +145,9 @@ def trajectory_of(args: argparse.Namespace) -> Any:
             raise ScenarioError("--mode, --model and --backend apply to a scenario, not to a recorded trajectory", file=args.file)
         try:
             return load_trajectory(path)
-        except (OSError, ValueError) as exc:
+        except OSError as exc:  # said as the OS says it: 'No such file or directory', not '[Errno 2] ...'
+            raise ScenarioError(exc.strerror or str(exc), file=args.file) from None
+        except ValueError as exc:
             raise ScenarioError(str(exc).removeprefix(f"{path}: "), file=args.file) from None
     program = compile_scenario(load_scenario(path, getattr(args, "seed", None)), args.mode, args.model, args.backend)
     at = getattr(args, "at", None)

@@ -73,6 +73,8 @@ def _replay(args: argparse.Namespace) -> int:
     if out.exists() and not out.is_dir():
         raise ScenarioError("the replay goes to a folder: this is a file", file=args.output)
     golden_path = Path(args.golden) if args.golden else None
+    if golden_path is not None and not golden_path.exists():
+        raise ScenarioError("No such file or directory: no golden snapshot to show beside the run", file=args.golden)
     if golden_path is not None and (not golden_path.is_file() or read_golden(golden_path) is None):
         raise ScenarioError("not a readable golden snapshot (a JSON object)", file=args.golden)
     trajectory = trajectory_of(args)

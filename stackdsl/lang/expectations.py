@@ -146,6 +146,8 @@ def _toppled(value: Any) -> Any:
         if not match:
             raise ValueError(f"expected a number of bricks such as 20, '20±1' or 'all', got {value!r}")
         return {"count": int(match[1]), "tolerance": int(match[2] or 0)}
+    if not isinstance(value, dict):  # true, 19.5: a mapping's fields would be the wrong thing to name
+        raise ValueError(f"expected a whole number of bricks such as 20, '20±1' or 'all', got {value!r}")
     return value
 
 

@@ -5,6 +5,7 @@ these tests check the world adapter against closed forms and the library's expec
 """
 
 import ast
+import copy
 import math
 import subprocess
 import sys
@@ -376,3 +377,40 @@ def test_an_unstable_simulation_stops_the_run_failed_and_prints_nothing(capfd):
     loop = StepLoop(Blows(program.engine, 0.5, 0.0), program, jump=False)
     loop.run()
     assert loop.stopped == "it blew up" and loop.step == 0
+
+
+@pytest.mark.parametrize("mode", ["tuned", "extension"])
+def test_a_held_brick_has_the_constants_mujoco_derives_for_its_mass(mode):
+    """A brick in a hand's grip weighs GUIDED_MASS; the constants MuJoCo's compiler derives from
+    the mass (the contact softness's ``invweight0``, ``dof_M0``, the subtree masses) must follow,
+    as ``mj_setConst`` recomputes them, and come back when the hand lets go."""
+    import mujoco
+
+    world = _world(mode)
+    body = world.create(_brick(), Pose.from_euler([0.0, 0.0, 0.004]))
+    world.create(_brick(), Pose.from_euler([0.2, 0.0, 0.004]))
+    world.step()
+    m, _ = world._ready()
+    names = ("body_invweight0", "dof_invweight0", "dof_M0", "body_subtreemass", "body_mass")
+    own = {k: np.array(getattr(m, k)).copy() for k in names}
+    world.guide(body, Pose.from_euler([0.0, 0.0, 0.004]), (0.1, 0.0, 0.0))
+    held = {k: np.array(getattr(m, k)).copy() for k in names}
+    derived = copy.copy(m)
+    mujoco.mj_setConst(derived, mujoco.MjData(derived))
+    for k in names:
+        assert not np.allclose(held[k], own[k]), k
+        np.testing.assert_allclose(held[k], getattr(derived, k), rtol=1e-9, err_msg=k)
+    world.move(body, Pose.from_euler([0.0, 0.0, 0.004]), 0.0106)
+    for k in names:
+        np.testing.assert_allclose(getattr(m, k), own[k], rtol=1e-12, err_msg=k)
+
+
+def test_a_pusher_on_tuned_mujoco_pushes_the_shipped_domino_row_over():
+    """The shipped domino row on the peer at its best: the pusher touching the first domino blew
+    the simulation up when its 100 kg kept a 1 g finger's contact constants."""
+    scenario = load_scenario(ROOT / "scenarios" / "dominoes_30.yaml")
+    program = compile_scenario(scenario, "tuned", backend="mujoco")
+    outcome = run_program(program)
+    assert outcome.stopped is None
+    failed = [v for v in evaluate(scenario.expect, outcome, program.collapse_threshold) if not v.passed]
+    assert failed == []

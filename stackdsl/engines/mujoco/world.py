@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Collection, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -48,6 +49,18 @@ GAIN = 0.5
 #: MuJoCo's tuned solver let a 20 x 20 x 80 mm block on it tip at 1% of its tipping acceleration).
 TABLE_MASS = 100.0
 TABLE_HALF = (5.0, 5.0, 0.5)
+
+
+@dataclass(frozen=True)
+class _Grip:
+    """A held brick's free body's own constants, given back when the hand lets go: mass (kg),
+    inertia (kg m^2, principal), and MuJoCo's ``body_invweight0`` (2,) and ``dof_invweight0`` (6,)."""
+
+    mass: float
+    inertia: np.ndarray
+    body_invweight0: np.ndarray
+    dof_invweight0: np.ndarray
+    dof_M0: np.ndarray
 
 
 class MuJoCoWorld(World):
@@ -107,7 +120,7 @@ class MuJoCoWorld(World):
         self._spec = spec
         self._table = movable_ground
         self._ground_at: tuple[Vec3, Vec3] = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
-        self._guided: dict[int, tuple[float, np.ndarray]] = {}  # guided brick -> its free body's mass and inertia
+        self._guided: dict[int, _Grip | None] = {}  # guided brick -> its free body's own constants when held, else None
         if movable_ground:  # a heavy box on two slide joints, its top the plane z = 0 (MuJoCo's planes are static)
             table = spec.worldbody.add_body(name="table", pos=[0.0, 0.0, -TABLE_HALF[2]])
             for axis, name in (([1.0, 0.0, 0.0], "table_x"), ([0.0, 1.0, 0.0], "table_y")):
@@ -178,6 +191,9 @@ class MuJoCoWorld(World):
         self._geom_body[self._free_geom] = self._geom_body[self._held_geom] = np.arange(1, len(self._specs) + 1)
         for body in range(1, len(self._specs) + 1):
             self._apply(body)
+        for body, grip in self._guided.items():  # compiled anew from the spec: in a hand's grip again
+            if grip is not None:
+                self._grip(body, grip)
         if self._table:
             table = [mj.mj_name2id(m, mj.mjtObj.mjOBJ_JOINT, name) for name in ("table_x", "table_y")]
             self._table_qpos = [int(m.jnt_qposadr[j]) for j in table]
@@ -369,9 +385,13 @@ class MuJoCoWorld(World):
 
     def move(self, body: int, pose: Pose, mass: float) -> None:
         m, _ = self._ready()
-        if body in self._guided:  # let go of: its own mass, inertia and weight back
-            bid = m.geom_bodyid[self._free_geom[body - 1]]
-            m.body_mass[bid], m.body_inertia[bid] = self._guided.pop(body)
+        grip = self._guided.pop(body, None)
+        if grip is not None:  # let go of: its own mass, inertia and weight back
+            bid, dof = m.geom_bodyid[self._free_geom[body - 1]], self._dof[body - 1]
+            m.body_mass[bid], m.body_inertia[bid], m.body_invweight0[bid] = grip.mass, grip.inertia, grip.body_invweight0
+            m.dof_invweight0[dof : dof + 6], m.dof_M0[dof : dof + 6] = grip.dof_invweight0, grip.dof_M0
+            m.body_subtreemass[bid] = grip.mass
+            m.body_subtreemass[0] -= GUIDED_MASS - grip.mass
             m.body_gravcomp[bid] = 0.0
         self._put(body, pose, mass <= 0.0)
 
@@ -384,14 +404,19 @@ class MuJoCoWorld(World):
         i = body - 1
         if self._frozen[i]:
             self._put(body, pose, False)
-        bid = m.geom_bodyid[self._free_geom[i]]
         if body not in self._guided:
-            mass = float(m.body_mass[bid])
-            self._guided[body] = (mass, m.body_inertia[bid].copy())
+            grip = None
             if hold:
-                m.body_inertia[bid] = m.body_inertia[bid] * (GUIDED_MASS / mass)
-                m.body_mass[bid] = GUIDED_MASS
-                m.body_gravcomp[bid] = 1.0
+                bid, dof = m.geom_bodyid[self._free_geom[i]], self._dof[i]
+                grip = _Grip(
+                    float(m.body_mass[bid]),
+                    m.body_inertia[bid].copy(),
+                    m.body_invweight0[bid].copy(),
+                    m.dof_invweight0[dof : dof + 6].copy(),
+                    m.dof_M0[dof : dof + 6].copy(),
+                )
+                self._grip(body, grip)
+            self._guided[body] = grip
         q, v = self._qpos[i], self._dof[i]
         rate = GAIN / self._engine.timestep  # by its velocity alone, back towards its path (as on pybullet)
         error = pose.position - d.qpos[q : q + 3]
@@ -402,6 +427,23 @@ class MuJoCoWorld(World):
         turn = (Rotation.from_quat(pose.orientation) * Rotation.from_quat([now[1], now[2], now[3], now[0]]).inv()).as_rotvec()
         d.qvel[v + 3 : v + 6] = Rotation.from_quat([now[1], now[2], now[3], now[0]]).inv().apply(turn * rate)  # body frame
         self._read = None
+
+    def _grip(self, body: int, grip: _Grip) -> None:
+        """``body``'s free body :data:`GUIDED_MASS` heavy, its inertia scaled with its mass, its
+        weight compensated. MuJoCo's contact softness is scaled by each body's ``invweight0``,
+        which the compiler derives from the mass: scaled too, or the light brick's stiff contacts
+        act on a hundred kilograms (a pusher touching a domino was thrown 8 mm in one tuned step
+        and the simulation blew up). Source: stackdsl's own (MuJoCo's ``mj_setConst`` gives the
+        same constants, from the model's reference pose)."""
+        m = self._model
+        bid, dof, scale = m.geom_bodyid[self._free_geom[body - 1]], self._dof[body - 1], GUIDED_MASS / grip.mass
+        m.body_mass[bid], m.body_inertia[bid] = GUIDED_MASS, grip.inertia * scale
+        m.body_invweight0[bid] = grip.body_invweight0 / scale
+        m.dof_invweight0[dof : dof + 6] = grip.dof_invweight0 / scale
+        m.dof_M0[dof : dof + 6] = grip.dof_M0 * scale
+        m.body_subtreemass[bid] = GUIDED_MASS
+        m.body_subtreemass[0] += GUIDED_MASS - grip.mass
+        m.body_gravcomp[bid] = 1.0
 
     def move_ground(self, offset: Vec3, velocity: Vec3) -> None:
         if not self._table:

@@ -18,6 +18,7 @@ from shapely.geometry import LineString, Point, Polygon
 
 from ._engine import ContactPoint
 from ._equilibrium import GRAVITY
+from ._geometry import Box, Pose
 from ._graph import BrickState
 from ._stack import Record, StabilityEvent, Stack
 from ._stack_test import StackTest
@@ -113,6 +114,7 @@ class Impacts:
             corner = rec.box.half_diagonal
             reach = (speed + angular_speed * corner) * dt * 1.5 + config.contact_pad
             fast.append((rec, speed, reach, corner + reach))
+        window = dt * 1.5
         if geometric and fast:  # no frozen brick's box within reach: the engine is not asked
             centres = np.array([stack.engine.pose(rec.body).position for rec, *_ in fast])
             near = stack.frozen_within(centres, np.array([radius for *_, radius in fast]))
@@ -121,13 +123,14 @@ class Impacts:
             hits = stack.engine.near(rec.body, reach, stack.frozen.keys())
             if not hits:
                 continue
-            linear, _ = stack.engine.velocity(rec.body)
+            linear, angular = stack.engine.velocity(rec.body)
             heading = linear / float(np.linalg.norm(linear))
+            pose = stack.engine.pose(rec.body)
             for hit in hits:
                 other = stack.bodies.get(hit.other)
                 if other is None or other.state is not BrickState.FROZEN or other.body in rec.impacted:
                     continue
-                if not _ahead(hit, heading, config.contact_pad):
+                if not _reaches(hit, linear, angular, pose.position, other.box, stack.pose(other), window, config.contact_pad):
                     continue
                 rec.impacted.add(other.body)
                 kinetic = kinetic_energy(rec.box.mass, speed)
@@ -147,16 +150,49 @@ class Impacts:
         return events
 
 
-def _ahead(hit: ContactPoint, heading: np.ndarray, pad: float) -> bool:
-    """Is the body of a closest point on the impactor's path (or already touching it)?
+def _reaches(
+    hit: ContactPoint,
+    linear: np.ndarray,
+    angular: np.ndarray,
+    com: np.ndarray,
+    box: Box,
+    pose: Pose,
+    window: float,
+    pad: float,
+) -> bool:
+    """Does the impactor reach the brick of closest point ``hit`` (a ``box`` at ``pose``) within
+    ``window`` seconds, or touch it already?
 
-    The gap between the two closest points runs along ``-hit.normal`` (the normal points
-    from the other body into the impactor). The impactor reaches that body if the gap runs
-    along its heading: forward, and less than a contact pad sideways. A body below or
-    beside the path is near but is not hit.
+    The impactor's closest point lies ``hit.distance`` from ``hit.position`` along
+    ``hit.normal`` (which points from the brick into the impactor) and moves at
+    ``linear + angular x (point - com)``. It reaches the brick if its straight path over the
+    window enters the box grown by ``pad`` (the slab test, in the box's frame). A toppling
+    domino's top edge comes at the next domino's face down and forward, and reaches it though
+    its centre of mass heads mostly down; a brick thrown past the top of a tower closes on the
+    edge of the level below but passes above it; a body beside or below the path is near but
+    not hit.
+
+    Args:
+        hit: a closest point seen from the impactor; linear: m/s, shape (3,); angular: rad/s,
+            shape (3,); com: the impactor's centre of mass, m, shape (3,); box, pose: the
+            brick's; window: s; pad: m.
+
+    Source: stackdsl's own (report 3.6 judges the blow; when it lands is the engine's step).
     """
     if hit.distance <= pad:  # touching already
         return True
-    gap = -hit.normal * hit.distance
-    along = float(gap @ heading)
-    return along > 0 and float(np.linalg.norm(gap - along * heading)) <= 2 * pad
+    point = hit.position + hit.normal * hit.distance
+    rotation = pose.rotation
+    start = (point - pose.position) @ rotation  # in the box's frame
+    velocity = (linear + np.cross(angular, point - com)) @ rotation
+    enter, leave = 0.0, window
+    for p, v, h in zip(start.tolist(), velocity.tolist(), (box.half_extents + pad).tolist(), strict=True):
+        if abs(v) < 1e-12:
+            if abs(p) > h:
+                return False
+            continue
+        a, b = (-h - p) / v, (h - p) / v
+        enter, leave = max(enter, min(a, b)), min(leave, max(a, b))
+        if enter > leave:
+            return False
+    return True

@@ -418,3 +418,30 @@ def test_a_woken_brick_says_whether_it_rested_on_the_one_woken_or_lay_in_its_pil
     events = s.ext.wake(a, 1.0, "moved by hand")
     reasons = {e.label: e.reason for e in events}
     assert reasons == {"b1": "moved by hand", "b2": "was frozen in one pile with b1", "b3": "rests on b1"}
+
+
+def test_the_impact_rule_sees_a_blow_by_the_path_of_the_impactors_closest_point():
+    """A toppling domino's top edge, 3 mm behind the next domino's face and coming at it down and
+    forward at 45 deg, reaches it within the look-ahead; a brick thrown level 8 mm above a
+    brick's top, closing on its edge, passes over it; a point moving away reaches nothing."""
+    from stability._engine import ContactPoint
+    from stability._impact import _reaches
+
+    domino = Box(np.array([0.004, 0.012, 0.06]), 0.0106)  # on end, its faces facing -x and +x
+    at = Pose.from_euler([0.0, 0.0, 0.06])
+    window, pad = 1.5 / 240, 0.001
+    edge = ContactPoint(1, 2, np.array([-0.004, 0.0, 0.1]), np.array([-1.0, 0.0, 0.0]), distance=0.003)
+    centre = np.array([-0.05, 0.0, 0.06])  # the toppling domino's centre of mass, behind and below its top edge
+    spin = np.zeros(3)
+    assert _reaches(edge, np.array([0.6, 0.0, -0.6]), spin, centre, domino, at, window, pad)
+    assert not _reaches(edge, np.array([-0.6, 0.0, -0.6]), spin, centre, domino, at, window, pad)
+    # the same point carried by the spin about the toppling domino's foot, its centre at rest
+    foot = np.array([-0.096, 0.0, 0.0])
+    omega = np.array([0.0, 8.0, 0.0])  # rad/s about +y: the top moves towards +x and down
+    assert _reaches(edge, np.zeros(3), omega, foot, domino, at, window, pad)
+    # a thrown brick 8 mm above a flat brick's top, 5 mm out from its edge, heading in at 1 m/s
+    flat, below = KAPLA, Pose.from_euler([0.0, 0.0, 0.004])
+    over = ContactPoint(1, 2, np.array([0.06, 0.0, 0.008]), np.array([0.53, 0.0, 0.85]), distance=np.hypot(0.005, 0.008))
+    assert not _reaches(over, np.array([-1.0, 0.0, 0.0]), spin, np.array([0.1, 0.0, 0.02]), flat, below, window, pad)
+    level = ContactPoint(1, 2, np.array([0.06, 0.0, 0.004]), np.array([1.0, 0.0, 0.0]), distance=0.005)
+    assert _reaches(level, np.array([-1.0, 0.0, 0.0]), spin, np.array([0.1, 0.0, 0.004]), flat, below, window, pad)

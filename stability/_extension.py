@@ -123,6 +123,7 @@ class StabilityExtension:
     def update(self, time: float) -> list[StabilityEvent]:
         """One step of the algorithm of report 3.3.1 (and 3.4-3.6). ``time`` in seconds."""
         stack, config = self._stack, self._stack.config
+        stack.just_frozen.clear()
         if not stack.active:
             stack.holding = True
             return []

@@ -136,6 +136,7 @@ class Stack:
         self.active: dict[int, Record] = {}  # the active bricks, so that a step costs what moves
         self.frozen: dict[int, Record] = {}  # the frozen bricks in the order they froze: supports first
         self.unproven: set[int] = set()  # frozen bricks with no load path under their centre of mass
+        self.just_frozen: set[int] = set()  # frozen in the extension's update under way (StackTest undoes such a freeze alone)
         self.loads_fresh = True  # com_above / mass_above of every frozen brick are up to date
         self.version = 0  # counts the changes of the frozen stack (freezes and wakes)
         self.standing_version: int | None = None  # a version whose whole frozen stack a program showed to stand
@@ -312,6 +313,7 @@ class Stack:
         low, high = corners.min(axis=0), corners.max(axis=0)
         rec.extent = (float(high[2]), float(low[0]), float(high[0]), float(low[1]), float(high[1]))
         rec.was_frozen = True
+        self.just_frozen.add(rec.body)
         rec.node = LoadNode(rec.box.mass, rec.frozen_pose.position, supports)
         self.frozen[rec.body] = rec
         self.loads_fresh, self.version = False, self.version + 1
@@ -338,10 +340,18 @@ class Stack:
             self.unproven.add(rec.body)
 
     def wake(
-        self, body: int, time: float, reason: str, proved: AbstractSet[int] = frozenset(), hold: bool = False
+        self,
+        body: int,
+        time: float,
+        reason: str,
+        proved: AbstractSet[int] = frozenset(),
+        hold: bool = False,
+        alone: bool = False,
     ) -> list[Woken]:
         """Wake ``body`` and, recursively, what rests on it (report 3.3.7); each with its last
-        load node. Nothing when ``body`` is not frozen. The events of the bodies in ``proved``
+        load node. Nothing when ``body`` is not frozen. With ``alone``, ``body`` only, what rests
+        on it still resting on it (a freeze undone: they were frozen on it while it moved, and
+        are again). The events of the bodies in ``proved``
         (those a proved collapse mechanism moves) say so (:attr:`StabilityEvent.proved`); they
         and what rests on them (``hold``) are held active until they move
         (:attr:`Record.proved_at`)."""
@@ -360,6 +370,7 @@ class Stack:
         del self.frozen[body]
         self.unproven.discard(body)
         rec.load_path, rec.support_regions, self.loads_fresh, self.version = None, {}, False, self.version + 1
+        self.just_frozen.discard(body)
         for s in rec.rests_on:
             self.bodies[s].objects_above.discard(body)
         rec.rests_on, rec.main_contact, rec.com_above, rec.mass_above = {}, None, None, 0.0
@@ -368,6 +379,8 @@ class Stack:
         rec.proved_at = self.engine.pose(body) if held else None
         rec.still_from = (rec.proved_at or rec.still_from[0], time)
         woken = [Woken(body, node, StabilityEvent(time, "wake", rec.label, reason, proved=body in proved))]
+        if alone:
+            return woken
         for above in self.ordered(rec.objects_above):  # what rests on it, and the other bricks of its pile
             how = "rests on" if body in self.bodies[above].rests_on else "was frozen in one pile with"
             woken += self.wake(above, time, f"{how} {rec.label}", proved, rec.proved_at is not None)

@@ -192,6 +192,22 @@ class StackTest:
             return False
         return loads_balance(loads, {r.body: r.support_regions for r in frozen})
 
+    def _undone(self, rec: Record) -> bool:
+        """Is ``rec``'s freeze to be undone rather than the stack woken from it? When it was frozen
+        in this very update and everything resting on it was frozen before, while it moved: the
+        edge of a settled pile frozen leaning on it (:meth:`stability._stack.Stack.watch`). In a
+        fallen domino row such a brick, frozen under the row leaning on it, failed the report's
+        rule, and the row (43 bricks) woke with it, to freeze again. Undone, it stays active
+        under the pile's edge as before it froze, and the engine goes on simulating it. A brick
+        that bricks frozen in the same update rest on is not undone: they were frozen on it
+        frozen. Source: stackdsl's own."""
+        stack = self.stack
+        return (
+            rec.body in stack.just_frozen
+            and bool(rec.objects_above)
+            and not any(b in stack.just_frozen for b in rec.objects_above)
+        )
+
     def _report(self, time: float) -> list[StabilityEvent]:
         """Stack-wide test (report 3.3.1, 3.3.5) with the wake-up cascade (3.3.7).
 
@@ -246,6 +262,17 @@ class StackTest:
             if not failing:
                 stack.loads_fresh = True
                 return events
+            undone = [r for r in failing if self._undone(r)]
+            if undone:  # frozen this step under a pile's edge frozen on it while it moved: that freeze
+                # is undone, not the pile's (it leans on it as it did, watched), and statics is not asked
+                for rec in undone:
+                    assert rec.main_contact is not None and rec.com_above is not None, "set above"
+                    out = rec.main_contact.polygon.exterior.distance(Point(rec.com_above[:2])) * 1000
+                    reason = f"centre of mass above {out:.1f} mm outside its support: not frozen after all"
+                    events += [w.event for w in stack.wake(rec.body, time, reason, alone=True)]
+                    stack.watch(rec, set(rec.objects_above))
+                    rec.failed = ((stack.version,), time)  # asked again a rest duration on, or once the stack changes
+                continue
             if proved is None:  # before any of it wakes: what statics says of the stack as it stands
                 # of the parts the failing bricks belong to: any other part is not in question
                 blocks, polygons = connected_part(*self._frozen_problem(), {r.body for r in failing})

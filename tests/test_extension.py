@@ -445,3 +445,43 @@ def test_the_impact_rule_sees_a_blow_by_the_path_of_the_impactors_closest_point(
     assert not _reaches(over, np.array([-1.0, 0.0, 0.0]), spin, np.array([0.1, 0.0, 0.02]), flat, below, window, pad)
     level = ContactPoint(1, 2, np.array([0.06, 0.0, 0.004]), np.array([1.0, 0.0, 0.0]), distance=0.005)
     assert _reaches(level, np.array([-1.0, 0.0, 0.0]), spin, np.array([0.1, 0.0, 0.004]), flat, below, window, pad)
+
+
+def test_a_freeze_under_a_piles_edge_that_fails_the_stack_test_is_undone_alone(monkeypatch):
+    """A brick frozen this step, under the edge of a pile frozen leaning on it while it moved:
+    when the report's rule fails it, its freeze is undone (it stays active, watched) and the
+    pile stays frozen; the pile woke with it before (43 dominoes of a fallen row, to freeze
+    again). Bricks frozen on it in the same step are no such pile: they wake with it."""
+    from shapely.geometry import box as rect
+
+    from stability._geometry import ContactArea
+
+    s = Scene()
+    stack = s.ext._stack
+    edge = s.brick(0.2, 1)
+    s.engine.velocities[edge] = (np.array([0.05, 0.0, 0.0]), np.zeros(3))  # still moving
+    pile = s.brick(0.25, 2, on=(edge,))
+    up = np.array([0.0, 0.0, 1.0])
+    on_edge = ContactArea(rect(0.238, -0.012, 0.262, 0.012), H, up, exact=True)
+    leaning = ContactArea(rect(0.238, -0.012, 0.36, 0.012), H, up, exact=False)  # with what else it leans on
+    stack.freeze(stack.bodies[pile], {edge: on_edge}, leaning, [])
+    stack.watch(stack.bodies[edge], {pile})
+    s.engine.velocities.pop(edge)
+    failing = stack.bodies[edge]
+    holds = s.ext._tests.areas.holds
+    monkeypatch.setattr(s.ext._tests.areas, "holds", lambda main, point: main is not failing.main_contact and holds(main, point))
+    events = s.ext.update(1.0)
+    assert [(e.kind, e.label) for e in events] == [("freeze", "b1"), ("wake", "b1")]
+    assert "not frozen after all" in events[1].reason
+    assert s.ext.state(edge) is BrickState.ACTIVE and s.ext.state(pile) is BrickState.FROZEN
+    assert pile in stack.watched[edge][1]  # it wakes the pile if it moves away
+    monkeypatch.undo()
+    # a column frozen in one step on a brick that then fails: all of it wakes
+    s = Scene()
+    b1, _ = s.place(0.0, 1)
+    b2 = s.brick(0.035, 2, on=(b1,))
+    b3 = s.brick(0.07, 3, on=(b2,))
+    b4 = s.brick(0.105, 4, on=(b3,))
+    events = s.ext.update(1.0)
+    assert [(e.kind, e.label) for e in events][-3:] == [("wake", "b2"), ("wake", "b3"), ("wake", "b4")]
+    assert all(s.ext.state(b) is BrickState.ACTIVE for b in (b2, b3, b4))

@@ -203,6 +203,44 @@ def test_sweep_refuses_what_it_cannot_run(tmp_path, capsys):
     assert main(["sweep", str(tmp_path / "s.yaml"), "--samples", "0"]) == 2
 
 
+def test_sweep_refuses_a_require_no_draw_meets_before_any_sample_runs(tmp_path, capsys, monkeypatch):
+    import stackdsl.batch.sweep as sweep_module
+    import stackdsl.compile.require as require_module
+
+    draws = []
+    real_quantities = require_module.quantities
+    monkeypatch.setattr(require_module, "quantities", lambda s, wanted=None: draws.append(wanted) or real_quantities(s, wanted))
+    ran = []
+    monkeypatch.setattr(sweep_module, "run_sweep", lambda *a, **k: ran.append(1) or iter(()))
+    (tmp_path / "r.yaml").write_text(STACK.format(levels=5, samples=20) + "require: [com_offset > 1 m]\n")
+    assert main(["sweep", str(tmp_path / "r.yaml"), "-j", "1", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "r.yaml:11:11: require[0]: sample 0: none of 1000 draws met every condition" in err
+    assert not ran and not (tmp_path / "o").exists()  # refused as check refuses it: no sample ran
+    assert len([w for w in draws if w]) == require_module.MAX_DRAWS  # one sample's cap of draws, not one for each of the 20
+
+
+def test_a_sample_refused_as_bad_input_stops_the_sweep():
+    from stackdsl.batch.sweep import SampleResult
+
+    def result(k: int, bad: str = "") -> SampleResult:
+        return SampleResult(0, k, 0, {}, None, 0, 0.0, 0.0, bad_input=bad)
+
+    closed = []
+
+    def stream() -> Iterator[list[SampleResult]]:
+        try:
+            yield [result(0), result(1)]
+            yield [result(2, "r.yaml:9:20: timing.placement_error: sample 2: ...")]
+            yield [result(3)]
+        finally:
+            closed.append(True)
+
+    assert [r.sample for r in collect(stream(), stop_at_bad_input=True)] == [0, 1, 2]
+    assert closed == [True]
+    assert [r.sample for r in collect(stream())] == [0, 1, 2, 3]  # check gathers a sweep's every batch
+
+
 def test_check_runs_a_sweep_as_one_row_beside_single_runs(tmp_path, capsys):
     (tmp_path / "walk.yaml").write_text(STACK.format(levels=6, samples=10) + "expect:\n  p_stands: '<= 0.95'\n")
     (tmp_path / "tower.yaml").write_text("stackdsl: 1\nstructure: {tower: {levels: 2}}\nexpect: {stands: true}\n")

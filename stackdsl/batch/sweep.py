@@ -18,7 +18,7 @@ import math
 import shutil
 import socket
 import tempfile
-from collections.abc import Callable, Generator, Iterator, Sequence
+from collections.abc import Callable, Generator, Iterable, Iterator, Sequence
 from concurrent.futures import Executor
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass
@@ -115,9 +115,7 @@ def _one(template: Template, cell: int, k: int, options: SweepOptions) -> Sample
             parameters = template.parameters(cell, k, program.draws - 1)
             seed = template.scenario(cell, k, attempt=program.draws - 1).seed
     except ScenarioError as exc:
-        if not exc.message.startswith("sample "):  # the compiler's checks: say which sample
-            exc.message = f"sample {k}" + (f" of grid cell {cell}" if template.grid else "") + f": {exc.message}"
-        return SampleResult(cell, k, seed, parameters, None, 0, 0.0, 0.0, bad_input=str(exc))
+        return SampleResult(cell, k, seed, parameters, None, 0, 0.0, 0.0, bad_input=str(_which(exc, template, cell, k)))
     try:
         outcome = run_program(program, timeout=options.timeout)
         oracle_level, oracle = _oracle(program) if options.oracle else (None, "off")
@@ -139,6 +137,35 @@ def _one(template: Template, cell: int, k: int, options: SweepOptions) -> Sample
         message = (str(exc).splitlines() or [""])[0]
         detail = f"{type(exc).__name__}: {message}"
         return SampleResult(cell, k, seed, parameters, None, 0, 0.0, 0.0, error=f"internal error: {detail}")
+
+
+def compile_cells(
+    template: Template,
+    mode: str | None = None,
+    model: str | None = None,
+    backend: str | None = None,
+    cells: Iterable[int] = (0,),
+) -> None:
+    """Compile sample 0 of each of ``cells``, before any sample runs: what the compiler refuses in
+    one is refused in the file as a whole, once, as ``check`` refuses a file (a ``require:`` that
+    none of a sample's :data:`stackdsl.compile.require.MAX_DRAWS` draws meets is hopeless for
+    every sample: they draw from the same distributions).
+
+    Raises:
+        ScenarioError: the first cell's refusal, saying which sample and cell.
+    """
+    for c in cells:
+        try:
+            compile_scenario(template.scenario(c, 0), mode, model, backend)
+        except ScenarioError as exc:
+            raise _which(exc, template, c, 0) from None
+
+
+def _which(exc: ScenarioError, template: Template, cell: int, k: int) -> ScenarioError:
+    """``exc`` (a sample's refusal) saying which sample and grid cell, unless it says so already."""
+    if not exc.message.startswith("sample "):  # the compiler's checks: say which sample
+        exc.message = f"sample {k}" + (f" of grid cell {cell}" if template.grid else "") + f": {exc.message}"
+    return exc
 
 
 def _oracle(program: Any) -> tuple[int | None, str]:
@@ -327,14 +354,21 @@ def _worker_environment() -> dict[str, Any]:
 
 
 def collect(
-    results: Generator[list[SampleResult], None, None], each: Callable[[list[SampleResult]], None] = lambda b: None
+    results: Generator[list[SampleResult], None, None],
+    each: Callable[[list[SampleResult]], None] = lambda b: None,
+    *,
+    stop_at_bad_input: bool = False,
 ) -> list[SampleResult]:
-    """Every result of :func:`run_sweep`, sorted by (cell, sample); ``each`` sees each batch as it comes."""
+    """Every result of :func:`run_sweep`, sorted by (cell, sample); ``each`` sees each batch as it
+    comes. With ``stop_at_bad_input``, the batches not yet done are cancelled once a sample is
+    refused as bad input (the sweep is refused as a whole: nothing after it is of use)."""
     out: list[SampleResult] = []
     try:
         for batch in results:
             out.extend(batch)
             each(batch)
+            if stop_at_bad_input and any(r.bad_input for r in batch):
+                break
     finally:
         results.close()
     return sorted(out, key=lambda r: (r.cell, r.sample))

@@ -64,7 +64,7 @@ def add_sweep(
 
 
 def _sweep(args: argparse.Namespace) -> int:
-    from ..batch.sweep import SweepOptions, collect, dask_executor, run_sweep
+    from ..batch.sweep import SweepOptions, collect, compile_cells, dask_executor, run_sweep
     from ..batch.sweep_out import report, verdicts, write_plots, write_samples
     from ..lang.loader import load_scenario
     from .progress import Lines
@@ -86,6 +86,7 @@ def _sweep(args: argparse.Namespace) -> int:
     if out is not None and out.exists() and not out.is_dir():
         raise ScenarioError("the output must be a folder, and this is a file", file=str(out))
     options = SweepOptions(args.mode, args.model, args.oracle, args.timeout, args.backend)
+    compile_cells(template, options.mode, options.model, options.backend)  # as check does: bad input before anything runs
     engine = f"{backend} {args.mode or scenario.engine.mode}"  # which engine ran, said once
     levels_built = scenario.structure.tower.levels if scenario.structure.tower else None
     total = template.cells * template.samples
@@ -102,7 +103,8 @@ def _sweep(args: argparse.Namespace) -> int:
             flush=True,
         )
         with Lines(total, "sweep") as lines:
-            return collect(run_sweep(template, options, **executor), lambda batch: lines.advance(len(batch)))
+            batches = run_sweep(template, options, **executor)
+            return collect(batches, lambda batch: lines.advance(len(batch)), stop_at_bad_input=True)
 
     if args.dask:
         try:
@@ -123,7 +125,11 @@ def _sweep(args: argparse.Namespace) -> int:
     bad = [r for r in results if r.bad_input]
     if bad:
         print(bad[0].bad_input, file=sys.stderr)
-        print(f"stackdsl: {len(bad)} of {total} samples refused as bad input; nothing written", file=sys.stderr)
+        print(
+            f"stackdsl: sample {bad[0].sample}{f' of grid cell {bad[0].cell}' if template.grid else ''} refused as bad "
+            f"input; the sweep stopped there ({len(results)} of {total} samples drawn), nothing written",
+            file=sys.stderr,
+        )
         _forget(out, made)
         return 2
     table, jsonl = write_samples(results, out)

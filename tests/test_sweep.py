@@ -241,6 +241,27 @@ def test_a_sample_refused_as_bad_input_stops_the_sweep():
     assert [r.sample for r in collect(stream())] == [0, 1, 2, 3]  # check gathers a sweep's every batch
 
 
+@pytest.mark.parametrize("command", ["sweep", "check"])
+def test_a_grid_value_the_compiler_refuses_is_refused_at_it_before_any_cell_runs(tmp_path, capsys, monkeypatch, command):
+    import stackdsl.batch.sweep as sweep_module
+
+    ran = []
+    real_run_batch = sweep_module.run_batch
+    monkeypatch.setattr(sweep_module, "run_batch", lambda *a: ran.append(a[1]) or real_run_batch(*a))
+    monkeypatch.setattr(sweep_module, "run_sweep", lambda *a, **k: ran.append("sweep") or iter(()))
+    text = STACK.format(levels=3, samples=2).replace("shift: {uniform: [-60 mm, 60 mm], per: layer}", "spacing: 96 mm")
+    text = text.replace("sweep: {samples: 2}", "sweep:\n  samples: 2\n  grid: {timing.interval: [1 s, 0.5 s, 0.0011 s]}")
+    (tmp_path / "g.yaml").write_text(text + "expect: {p_stands: '>= 0.5'}\n")
+    assert main([command, str(tmp_path / "g.yaml"), "-j", "1"]) == 2
+    captured = capsys.readouterr()
+    # the third value of the grid's timing.interval, at its column of the sweep's line, by its key
+    assert (
+        "g.yaml:12:40: sweep.grid.timing.interval[2]: the grid value '0.0011 s': 0.0011 s is not a whole number" in captured.err
+    )
+    assert "timing.interval: [1 s, 0.5 s, 0.0011 s]" in captured.err
+    assert not ran and "PASS" not in captured.out and "FAIL" not in captured.out  # no cell ran
+
+
 def test_check_runs_a_sweep_as_one_row_beside_single_runs(tmp_path, capsys):
     (tmp_path / "walk.yaml").write_text(STACK.format(levels=6, samples=10) + "expect:\n  p_stands: '<= 0.95'\n")
     (tmp_path / "tower.yaml").write_text("stackdsl: 1\nstructure: {tower: {levels: 2}}\nexpect: {stands: true}\n")

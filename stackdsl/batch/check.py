@@ -35,7 +35,7 @@ from .address import free_cores
 from .check_sweep import run_unit, sweep_result, sweep_tasks
 from .judge import KILL_AFTER, TIMEOUT, lost
 from .pool import fan_out, on_executor
-from .sweep import SampleResult
+from .sweep import SampleResult, compile_cells
 
 
 class Prepared(NamedTuple):
@@ -103,6 +103,8 @@ def prepare(
                 for m in modes or (mode,):
                     try:
                         program = compile_scenario(scenario, m, model, backend)
+                        if sweep is not None:  # every grid cell, before anything of any file runs
+                            compile_cells(sweep, m, model, backend, range(1, sweep.cells))
                     except ScenarioError as exc:
                         if refused is None or (m is None and backend is None):
                             raise

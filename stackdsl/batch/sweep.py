@@ -149,7 +149,8 @@ def compile_cells(
     """Compile sample 0 of each of ``cells``, before any sample runs: what the compiler refuses in
     one is refused in the file as a whole, once, as ``check`` refuses a file (a ``require:`` that
     none of a sample's :data:`stackdsl.compile.require.MAX_DRAWS` draws meets is hopeless for
-    every sample: they draw from the same distributions).
+    every sample: they draw from the same distributions). A refusal at a field a grid value
+    filled in is placed at that value (:meth:`stackdsl.lang.sampling.Template.scenario`).
 
     Raises:
         ScenarioError: the first cell's refusal, saying which sample and cell.
@@ -163,8 +164,11 @@ def compile_cells(
 
 def _which(exc: ScenarioError, template: Template, cell: int, k: int) -> ScenarioError:
     """``exc`` (a sample's refusal) saying which sample and grid cell, unless it says so already."""
+    if exc.field.startswith("sweep.grid"):  # at the grid value, which says itself what it is
+        return exc
     if not exc.message.startswith("sample "):  # the compiler's checks: say which sample
-        exc.message = f"sample {k}" + (f" of grid cell {cell}" if template.grid else "") + f": {exc.message}"
+        where = f" of grid cell {cell} ({', '.join(f'{k} = {v}' for k, v in template.cell(cell).items())})"
+        exc.message = f"sample {k}" + (where if template.grid else "") + f": {exc.message}"
     return exc
 
 

@@ -138,12 +138,16 @@ class SourceMap:
         lines: the file's lines.
         values: field path -> (line, column), 0-based, of the value node.
         keys: field path -> (line, column), 0-based, of the mapping key naming it.
+        moved: (field path, path to blame instead, note) for fields whose value came from
+            elsewhere in the file: an error at or under the field is placed at the other path,
+            its message after the note (a sweep cell's grid value: ``"the grid value '10 mm'"``).
     """
 
     file: str
     lines: tuple[str, ...] = ()
     values: dict[FieldPath, tuple[int, int]] = field(default_factory=dict)
     keys: dict[FieldPath, tuple[int, int]] = field(default_factory=dict)
+    moved: tuple[tuple[FieldPath, FieldPath, str], ...] = ()
 
     def warning(self, path: FieldPath, message: str) -> ScenarioWarning:
         """A :class:`ScenarioWarning` at ``path``'s node: ``file:line:col: warning: field: message``."""
@@ -154,8 +158,13 @@ class SourceMap:
     def error(self, path: FieldPath, message: str, *, at_key: bool = False, more: int = 0) -> ScenarioError:
         """A :class:`ScenarioError` for ``path``, placed at the nearest YAML node.
 
-        Segments with no node (pydantic puts union tags in its paths) are skipped.
+        Segments with no node (pydantic puts union tags in its paths) are skipped; a path under
+        one of :attr:`moved` is blamed on the node it names, after its note.
         """
+        for into, blamed, note in self.moved:
+            if path[: len(into)] == into:
+                path, message, at_key = blamed, f"{note}: {message}", False
+                break
         known: FieldPath = ()
         for seg in path:
             if known + (seg,) in self.values:

@@ -184,6 +184,8 @@ class Template:
             self._check_values()
         note = f"sample {k}" + (f" of grid cell {c} ({_shown(self.cell(c))})" if self.grid else "")
         scenario = validate(self._data(c, k, attempt), self.source, self._blame(c), note)
+        if self.grid:  # what the compiler refuses in a field the grid filled in is the grid value's fault
+            scenario._source = self._cell_source(c)
         scenario._template = self
         scenario._sample = (c, k)
         return scenario
@@ -235,6 +237,16 @@ class Template:
                 others = [x if x is not d else fixed for x in self.distributions]
                 data = draw(copy.deepcopy(self.data), others, self.seed, 0)
                 validate(data, self.source, self._blame(0, only=d), f"a value this distribution can draw, {end!r}")
+
+    def _cell_source(self, c: int) -> SourceMap:
+        """The source map of cell ``c``'s samples: an error at a field the grid filled in (the
+        compiler's, found after validation) is placed at the grid value, naming the grid key."""
+        values = self.cell(c)
+        moved = tuple(
+            (path, ("sweep", "grid", key, list(vs).index(values[key])), f"the grid value {values[key]!r}")
+            for path, key, vs in self.grid
+        )
+        return dataclasses.replace(self.source, moved=moved)
 
     def _blame(self, c: int, only: Distribution | None = None) -> Any:
         """``relocate`` for :func:`stackdsl.lang.validate.validate`: a field a distribution (or the grid)

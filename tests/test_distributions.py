@@ -93,6 +93,45 @@ def test_a_bad_distribution_is_one_error_at_its_node(field, message, column):
     assert message in error.message and error.column == column and error.line == (4 if field.startswith("levels") else 5)
 
 
+def test_a_normal_that_can_draw_past_its_fields_range_is_refused_before_any_sample():
+    from stackdsl.lang.sampling import NORMAL_REACH
+
+    def loaded(normal: str):
+        return parse_scenario(
+            f"stackdsl: 1\nstructure: {{tower: {{levels: 3}}}}\ntiming:\n  placement_error: {normal}\n", "t.yaml"
+        )
+
+    # unclipped, 2 sd from a bound of the field (0 to 10 mm): a sample would draw below 0 sooner or later
+    with pytest.raises(ScenarioError) as info:
+        loaded("{normal: {mean: 2 mm, sd: 1 mm}}")
+    error = info.value
+    assert (error.line, error.column, error.field) == (4, 20, "timing.placement_error")  # at the distribution
+    low = 2 - NORMAL_REACH * 1
+    assert f"with no clip (its mean - {NORMAL_REACH:g} sd), '{low!r} mm'" in error.message
+    assert "expected a length from 0 to 10 mm" in error.message and "give the normal a clip" in error.message
+    template = loaded("{normal: {mean: 2 mm, sd: 1 mm, clip: [0 mm, 4 mm]}}").template  # clipped inside: every draw is taken
+    assert all(0 <= template.scenario(0, k).timing.placement_error <= 0.004 for k in range(200))
+    loaded(f"{{normal: {{mean: 5 mm, sd: {4.9 / NORMAL_REACH!r} mm}}}}")  # within the reach of both bounds
+    with pytest.raises(ScenarioError, match=r"a value this distribution can draw, '20.0 mm'"):
+        loaded("{normal: {mean: 5 mm, sd: 1 mm, clip: [0 mm, 20 mm]}}")  # a clip is where it ends
+    with pytest.raises(ScenarioError, match=r"its mean \+ 10 sd\), '14.0 mm'"):
+        loaded("{normal: {mean: 9 mm, sd: 0.5 mm}}")
+
+
+def test_a_drawn_value_only_the_compiler_refuses_is_bad_input_at_the_distribution(tmp_path, capsys):
+    from stackdsl.cli.main import main
+
+    # spacing below 24 mm overlaps the layer's two bricks: decided by the compiler, for a draw, not by the field
+    text = "stackdsl: 1\nstructure:\n  tower: {levels: 2, spacing: {uniform: [20 mm, 100 mm]}}\ntiming: {settle: 0.2 s}\n"
+    (tmp_path / "s.yaml").write_text(text + "sweep: {samples: 40}\nexpect: {p_stands: '>= 0.5'}\n")
+    template = parse_scenario((tmp_path / "s.yaml").read_text(), "s.yaml").template
+    refused = next(k for k in range(40) if template.scenario(0, k).structure.tower.spacing < 0.024)
+    assert main(["sweep", str(tmp_path / "s.yaml"), "-j", "1", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert f"s.yaml:3:31: structure.tower.spacing: sample {refused}: brick L01.2" in err and "use a spacing of at least" in err
+    assert f"sample {refused} refused as bad input; the sweep stopped there" in err and not (tmp_path / "o").exists()
+
+
 @pytest.mark.parametrize(
     ("text", "where", "message"),
     [

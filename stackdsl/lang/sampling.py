@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from .distributions import Distribution, draw, find, tower_field
-from .errors import FieldPath, ScenarioError, SourceMap
+from .errors import FieldPath, ScenarioError, SourceMap, format_path
 from .schema import Scenario
 from .schema_sweep import MAX_SAMPLES, MAX_SWEEP_RUNS, grid_name
 from .units import in_language_units, in_unit, language_unit, split_quantity
@@ -232,11 +232,16 @@ class Template:
                     f"the grid value {value!r}",
                 )
         for d in self.distributions:
-            for end in _ends(d):
+            for end, what in _ends(d):
                 fixed = Distribution(d.path, "choice", (end,), "", d.per)
                 others = [x if x is not d else fixed for x in self.distributions]
                 data = draw(copy.deepcopy(self.data), others, self.seed, 0)
-                validate(data, self.source, self._blame(0, only=d), f"a value this distribution can draw, {end!r}")
+                try:
+                    validate(data, self.source, self._blame(0, only=d), f"{what}, {end!r}")
+                except ScenarioError as exc:
+                    if "sd" in what and exc.field == format_path(d.path):
+                        exc.message += "; give the normal a clip: [low, high] within what the field takes"
+                    raise
 
     def _cell_source(self, c: int) -> SourceMap:
         """The source map of cell ``c``'s samples: an error at a field the grid filled in (the
@@ -279,12 +284,36 @@ def _at_grid(path: FieldPath, key: str, i: int) -> Any:
     return relocate
 
 
-def _ends(d: Distribution) -> list[Any]:
-    """The values of ``d`` that bound what it can draw, as a file would write them."""
+#: How far an unclipped side of a normal is taken to reach, in standard deviations from its mean:
+#: a draw beyond it has a chance of 1.5e-23, so that no sweep within the budget (at most
+#: :data:`stackdsl.lang.schema_sweep.MAX_SWEEP_RUNS` samples, each a few thousand draws) comes near one.
+NORMAL_REACH = 10.0
+
+
+def _ends(d: Distribution) -> list[tuple[Any, str]]:
+    """The values of ``d`` that bound what it can draw, as a file would write them, each with what
+    it is (the start of an error at it): both ends of a uniform, every choice, a normal's clip or,
+    on a side it does not clip, :data:`NORMAL_REACH` standard deviations from its mean."""
+    can = "a value this distribution can draw"
     if d.kind == "choice":
-        return list(d.values)
-    numbers = d.values[:2] if d.kind == "uniform" else [v for v in d.values[2:] if abs(v) != float("inf")] or [d.values[0]]
-    return [float(n) if not d.unit else f"{float(n)!r} {d.unit}" for n in numbers]
+        return [(v, can) for v in d.values]
+    if d.kind == "uniform":
+        bounds = [(d.values[0], can), (d.values[1], can)]
+    else:
+        mean, sd, low, high = d.values
+        bounds = []
+        for sign, clip in ((-1, low), (1, high)):
+            if abs(clip) != float("inf"):
+                bounds.append((clip, can))
+            else:  # unbounded: where its draws end in practice, said as such
+                side = "-" if sign < 0 else "+"
+                bounds.append((mean + sign * NORMAL_REACH * sd, f"{can} with no clip (its mean {side} {NORMAL_REACH:g} sd)"))
+    out: list[tuple[Any, str]] = []
+    for number, what in bounds:
+        written = float(number) if not d.unit else f"{float(number)!r} {d.unit}"
+        if all(written != w for w, _ in out):
+            out.append((written, what))
+    return out
 
 
 def _grid_field(key: str, values: list[Any], source: SourceMap) -> tuple[FieldPath, str, tuple[Any, ...]]:

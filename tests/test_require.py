@@ -121,6 +121,35 @@ def test_conditions_no_draw_meets_are_refused_after_the_cap():
     assert err.value.field == "require[0]" and "none of 1000 draws" in err.value.message
 
 
+@pytest.mark.parametrize(
+    "condition, says, not_said",
+    [
+        # the distributions limit it: com_offset reaches a few centimetres, a metre needs wider shifts
+        ("com_offset > 1 m", "widen the distributions or the condition (com_offset was ", "never hold"),
+        # a value no scene of the file reaches: levels is not drawn
+        ("levels > 100", "it can never hold, whatever is drawn: levels is 5 in every draw", "widen"),
+        # a field nothing draws, beside a derived quantity that is not the cause
+        (
+            "timing.interval > 5 s and com_offset < 50 mm",
+            "never hold, whatever is drawn: timing.interval is 0.5 s in",
+            "com_offset",
+        ),
+        # below what the quantity can be: a distance is never negative
+        ("com_offset < -1 mm", "it can never hold, whatever is drawn: com_offset is never below 0; change", "widen"),
+        (
+            "max_overhang < 0 or levels == 6",
+            "levels is 5 in every draw (no distribution changes it); max_overhang is never below 0",
+            "widen",
+        ),
+    ],
+)
+def test_the_advice_for_a_condition_no_draw_meets_names_what_limits_it(condition, says, not_said):
+    with pytest.raises(ScenarioError) as err:
+        compile_scenario(parse_scenario(STACK + f"require: ['{condition}']\n", "r.yaml"))
+    assert err.value.field == "require[0]" and "none of 1000 draws met every condition" in err.value.message
+    assert says in err.value.message and not_said not in err.value.message.split("none of 1000 draws")[1]
+
+
 def test_a_scene_that_is_not_random_and_fails_its_condition_is_refused():
     with pytest.raises(ScenarioError) as err:
         compile_scenario(parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 3}}\nrequire: [levels > 3]\n", "r.yaml"))

@@ -77,9 +77,14 @@ def accept(scenario: Scenario) -> tuple[Scenario, int]:
     wanted = {name for c in conditions for name in c.names}
     template = scenario.template
     failed: Counter[int] = Counter()
+    seen: dict[str, tuple[float, float]] = {}  # each name's lowest and highest value over the draws
     for attempt in range(MAX_DRAWS if template is not None else 1):
         candidate = scenario if attempt == 0 else template.scenario(*scenario.sample, attempt=attempt)
         values = quantities(candidate, wanted)
+        for name in wanted:
+            value = values.get(name, math.nan)
+            lo, hi = seen.get(name, (value, value))
+            seen[name] = (min(lo, value), max(hi, value)) if not math.isnan(value) else (lo, hi)
         broken = next((i for i, c in enumerate(conditions) if not c.holds(values)), None)
         if broken is None:
             return candidate, attempt + 1
@@ -92,8 +97,48 @@ def accept(scenario: Scenario) -> tuple[Scenario, int]:
     raise scenario.source.error(
         ("require", worst),
         f"sample {k}{f' of grid cell {c}' if template is not None and template.grid else ''}: none of "
-        f"{MAX_DRAWS} draws met every condition ({count} failed this one); widen the distributions or the condition",
+        f"{MAX_DRAWS} draws met every condition ({count} failed this one); {advice(conditions[worst], seen)}",
     )
+
+
+#: The least a derived quantity can be, whatever is drawn: a distance or a count is never negative.
+LEAST = {name: 0.0 for name in DERIVED}
+_UNITS = {"length": "m", "time": "s", "speed": "m/s", "angle": "deg", "per time": "/s", "density": "kg/m^3"}
+
+
+def advice(condition: Condition, seen: dict[str, tuple[float, float]]) -> str:
+    """What to change when no draw met ``condition``, given the lowest and highest value each name
+    took over the draws (``seen``): a name that took one value in every draw is what no
+    distribution changes, and the others may be anything they can be (a derived quantity is never
+    negative). When the condition cannot hold even so, the distributions are not what limits it:
+    say so, and why; else the distributions (or the condition) are to be widened.
+
+    >>> advice(parse("levels > 100"), {"levels": (5.0, 5.0)})
+    'it can never hold, whatever is drawn: levels is 5 in every draw (no distribution changes it); change the condition'
+    >>> advice(parse("com_offset > 1 m"), {"com_offset": (0.01, 0.2)})
+    'widen the distributions or the condition (com_offset was 0.01 to 0.2 m in these draws)'
+    """
+    fixed = {n: lo for n, (lo, hi) in seen.items() if n in condition.names and lo == hi}
+    missing = [n for n in condition.names if n not in seen]  # no draw had it (NaN): it compares false
+    ranges = {n: (v, v) for n, v in fixed.items()} | {n: (math.nan, math.nan) for n in missing}
+    free = [n for n in condition.names if n not in ranges]
+    ranges |= {n: (LEAST[n], math.inf) for n in free if n in LEAST}
+    if not condition.can_hold(ranges):
+        reasons = {n: f"{n} is {_with_unit(n, v)} in every draw (no distribution changes it)" for n, v in fixed.items()}
+        reasons |= {n: f"no draw of the scene has {n}" for n in missing}
+        reasons |= {n: f"{n} is never below 0" for n in free if n in LEAST}
+        # the names whose range alone keeps it from holding; all of them when it takes more than one
+        causes = [n for n in reasons if condition.can_hold({m: r for m, r in ranges.items() if m != n})] or list(reasons)
+        why = "; ".join(reasons[n] for n in causes) or "not for any values"
+        return f"it can never hold, whatever is drawn: {why}; change the condition"
+    spread = [f"{n} was {_shown(seen[n][0])} to {_with_unit(n, seen[n][1])}" for n in free]
+    return "widen the distributions or the condition" + (f" ({', '.join(spread)} in these draws)" if spread else "")
+
+
+def _with_unit(name: str, value: float) -> str:
+    """``value`` of ``name`` with its SI unit (degrees for angles): ``"0.2 m"``, ``"5"`` for a count."""
+    unit = _UNITS.get(KIND.get(name) or field_kind(name), "")
+    return f"{_shown(value)} {unit}" if unit else _shown(value)
 
 
 def quantities(scenario: Scenario, wanted: set[str] | None = None) -> dict[str, float]:

@@ -186,6 +186,91 @@ class Condition:
         except ZeroDivisionError:
             return False
 
+    def can_hold(self, ranges: Mapping[str, tuple[float, float]]) -> bool:
+        """Whether the condition may hold for some values of its names within ``ranges`` (name ->
+        closed interval, SI; a name not there may be anything), by interval arithmetic: False only
+        when no values in the ranges can make it hold (the condition itself cannot), True when
+        it may (a name used twice, ``x < 1 and x > 2``, is taken as two, so True errs that way).
+
+        >>> parse("com_offset < -1 mm").can_hold({"com_offset": (0.0, math.inf)})
+        False
+        >>> parse("levels > 100 or overhang > 1 m").can_hold({"levels": (5.0, 5.0), "overhang": (0.0, math.inf)})
+        True
+        """
+        return True in _truths(self.tree, ranges)
+
+
+def _span(node: Node, ranges: Mapping[str, tuple[float, float]]) -> tuple[float, float]:
+    """The interval of values a number node can take with its names in ``ranges``."""
+    kind = node[0]
+    if kind == "num":
+        return node[1], node[1]
+    if kind == "name":
+        return ranges.get(node[1], (-math.inf, math.inf))
+    if kind == "neg":
+        lo, hi = _span(node[1], ranges)
+        return -hi, -lo
+    if kind == "arith":
+        (a0, a1), (b0, b1) = _span(node[2], ranges), _span(node[3], ranges)
+        if node[1] == "+":
+            return a0 + b0, a1 + b1
+        if node[1] == "-":
+            return a0 - b1, a1 - b0
+        if node[1] == "/":
+            if b0 <= 0 <= b1:
+                return -math.inf, math.inf
+            b0, b1 = 1 / b1, 1 / b0
+        products = [x * y for x in (a0, a1) for y in (b0, b1)]
+        if any(math.isnan(p) for p in products):  # 0 x inf: anything
+            return -math.inf, math.inf
+        return min(products), max(products)
+    spans = [_span(arg, ranges) for arg in node[2]]  # "call"
+    if node[1] == "min":
+        return min(lo for lo, _ in spans), min(hi for _, hi in spans)
+    if node[1] == "max":
+        return max(lo for lo, _ in spans), max(hi for _, hi in spans)
+    lo, hi = spans[0]  # abs
+    return (lo, hi) if lo >= 0 else (-hi, -lo) if hi <= 0 else (0.0, max(-lo, hi))
+
+
+def _truths(node: Node, ranges: Mapping[str, tuple[float, float]]) -> set[bool]:
+    """What a condition node may come out as (True, False or both) with its names in ``ranges``."""
+    kind = node[0]
+    if kind == "cmp":
+        spans = [_span(operand, ranges) for operand in node[2]]
+        if any(math.isnan(v) for span in spans for v in span):
+            return {False}  # a name a draw lacks: every comparison is false
+        pairs = [_compared(op, a, b) for op, a, b in zip(node[1], spans, spans[1:])]
+        out = set()
+        if all(True in p for p in pairs):
+            out.add(True)
+        if any(False in p for p in pairs):
+            out.add(False)
+        return out
+    if kind == "not":
+        return {not t for t in _truths(node[1], ranges)}
+    parts = [_truths(part, ranges) for part in node[1]]
+    if kind == "and":
+        return ({True} if all(True in p for p in parts) else set()) | ({False} if any(False in p for p in parts) else set())
+    return ({True} if any(True in p for p in parts) else set()) | ({False} if all(False in p for p in parts) else set())
+
+
+def _compared(op: str, a: tuple[float, float], b: tuple[float, float]) -> set[bool]:
+    """What ``x op y`` may be for x in ``a`` and y in ``b``."""
+    if op in (">", ">="):
+        op, a, b = {">": "<", ">=": "<="}[op], b, a
+    point = a[0] == a[1] == b[0] == b[1]
+    meet = a[0] <= b[1] and b[0] <= a[1]
+    if op == "<":
+        can, cannot = a[0] < b[1], a[1] >= b[0]
+    elif op == "<=":
+        can, cannot = a[0] <= b[1], a[1] > b[0]
+    elif op == "==":
+        can, cannot = meet, not point
+    else:  # "!="
+        can, cannot = not point, meet
+    return ({True} if can else set()) | ({False} if cannot else set())
+
 
 def parse(text: str) -> Condition:
     """Parse a condition (the module's grammar).

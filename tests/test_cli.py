@@ -589,6 +589,33 @@ def test_compare_prints_one_row_per_scenario_and_a_column_per_mode(tmp_path, cap
     assert "a pybullet raw: PASS stands" in captured.err
 
 
+DOMINOES = """stackdsl: 1
+brick_types: {finger: {size: [20 mm, 10 mm, 10 mm]}}
+structure:
+  bricks:
+    - {id: d01, at: [0 mm, 0, 60 mm], pitch: 90, level: 1}
+    - {id: d02, at: [40 mm, 0, 60 mm], pitch: 90, level: 1}
+    - {id: d03, at: [80 mm, 0, 60 mm], pitch: 90, level: 1}
+timing: {settle: 1 s}
+actions:
+  - push: {target: {brick: d01, offset: [0, 0, 45 mm]}, direction: [1, 0, 0], speed: 0.2 m/s, distance: 15 mm, at: after level 1, pusher: finger}
+expect:
+  toppled: all
+"""
+
+
+def test_compare_shows_the_toppled_count_in_every_mode(tmp_path, capsys):
+    folder = write(tmp_path, row=DOMINOES)
+    assert main(["compare", str(folder), "--modes", "raw,extension", "-j", "1"]) == 0
+    captured = capsys.readouterr()
+    header, row = captured.out.splitlines()[:2]
+    assert row.startswith("row ") and row.count("3 of 3 toppled") == 2  # as check measures it, in both columns
+    assert row.index("PASS", row.index("PASS") + 1) == header.index("extension")  # the columns still line up
+    assert "raw: PASS collapse 1, 3 of 3 toppled" in captured.err  # the line a finished cell prints too
+    assert main(["check", str(folder), "--mode", "raw", "-j", "1"]) == 0
+    assert "3 of 3 toppled" in capsys.readouterr().out
+
+
 def test_compare_json_and_k(tmp_path, capsys):
     folder = write(tmp_path, a=PASSING, b=FAILING)
     assert main(["compare", str(folder), "--modes", "raw,extension", "-j", "1", "-k", "b.yaml", "--json"]) == 1

@@ -149,7 +149,7 @@ def compare_command(args: argparse.Namespace) -> int:
                     + (
                         f"refused: {r.refused}"
                         if r.refused
-                        else f"{'PASS' if r.passed else 'FAIL'} {r.error or r.stopped or describe(r.collapse_level)} ({r.wall_time:.1f} s)"
+                        else f"{'PASS' if r.passed else 'FAIL'} {r.error or r.stopped or _cell(r)} ({r.wall_time:.1f} s)"
                     )
                 )
 
@@ -160,27 +160,31 @@ def compare_command(args: argparse.Namespace) -> int:
         print(json.dumps(json_document("compare", done, commands, len(prepared), wall), indent=2))
         return _status(done, args.debug)
     width = max([len("scenario"), *(len(Path(f).stem) for f in table)])
+    rows = {
+        file: [
+            "refused (beyond the engine)"
+            if r.refused
+            else f"{'PASS' if r.passed else 'FAIL'} {_cell(r):<13} {r.wall_time:>7.1f} s"
+            for r in (cells[m] for m in modes)
+        ]
+        for file, cells in table.items()
+    }
+    column = max([29, *(len(t) for texts in rows.values() for t in texts)])  # a toppled count widens it
     # the engine is a column of its own unless the columns name it (several backends)
     engine = len(backends) == 1
     print(
         f"{'scenario':<{width}} "
         + (f"{'engine':<8} " if engine else "")
         + f"{'expected':<18} "
-        + " ".join(f"{m:<29}" for m in modes).rstrip()
+        + " ".join(f"{m:<{column}}" for m in modes).rstrip()
     )
     for file, cells in table.items():
         first = next((c for c in cells.values() if not c.refused), next(iter(cells.values())))
-        texts = [
-            "refused (beyond the engine)"
-            if r.refused
-            else f"{'PASS' if r.passed else 'FAIL'} {_cell(r):<13} {r.wall_time:>7.1f} s"
-            for r in (cells[m] for m in modes)
-        ]
         print(
             f"{Path(file).stem:<{width}} "
             + (f"{first.backend:<8} " if engine else "")
             + f"{first.expected:<18} "
-            + " ".join(f"{c:<29}" for c in texts).rstrip()
+            + " ".join(f"{c:<{column}}" for c in rows[file]).rstrip()
         )
     print(f"{len(table)} scenarios x {len(modes)} modes ({wall:.1f} s wall)")
     for r in refused:  # why, once each, after the table
@@ -214,9 +218,11 @@ def _backends(given: str | None, several: bool) -> tuple[str | None, ...]:
 
 
 def _cell(r: CheckResult) -> str:
-    """What compare's table shows of a result: the collapse level, or what went wrong."""
+    """What compare's table shows of a result: the collapse level and the bricks toppled when the
+    file expects a count (``stands, 0 of 5 toppled``), or what went wrong."""
     if r.error:
         return "out of memory" if "out of memory" in r.error else "internal error"
     if r.stopped:  # a timeout, or an engine that blew up (MuJoCo's "became unstable")
         return "timeout" if r.stopped.startswith("timeout") else "unstable" if "unstable" in r.stopped else "stopped"
-    return describe(r.collapse_level)
+    toppled = [v.measured for v in r.verdicts if v.name == "toppled"]
+    return ", ".join([describe(r.collapse_level), *toppled])

@@ -616,6 +616,39 @@ def test_compare_shows_the_toppled_count_in_every_mode(tmp_path, capsys):
     assert "3 of 3 toppled" in capsys.readouterr().out
 
 
+RANDOM = """stackdsl: 1
+seed: 7
+structure:
+  tower: {levels: 6, bricks_per_layer: 1, turn: 0, shift: {uniform: [-60 mm, 60 mm], per: layer}}
+timing: {settle: 0.2 s}
+sweep: {samples: 4}
+"""
+
+
+def test_run_on_a_sweep_file_says_which_sample_it_runs_and_runs_the_one_asked(tmp_path, capsys):
+    path = write(tmp_path, walk=RANDOM) / "walk.yaml"
+    template = parse_scenario(RANDOM, "walk.yaml").template
+
+    def events(scenario) -> list[tuple[float, str, str]]:
+        outcome = run_program(compile_scenario(scenario))
+        return [(e.time, e.kind, e.brick) for e in outcome.events]
+
+    def ran(*extra: str) -> tuple[list[tuple[float, str, str]], str]:
+        assert main(["run", str(path), "--json", *extra]) in (0, 1)
+        captured = capsys.readouterr()
+        return [(e["time"], e["kind"], e["brick"]) for e in json.loads(captured.out)["events"]], captured.err
+
+    first, said = ran()
+    assert "running sample 0 of 4 (seed 7); `stackdsl sweep` runs them all" in said and first == events(template.scenario(0, 0))
+    third, said = ran("--sample", "2")
+    assert "running sample 2 of 4 (seed 7)" in said and third == events(template.scenario(0, 2)) and third != first
+    assert main(["run", str(path), "--sample", "4"]) == 2
+    assert "--sample: the sweep has samples 0 to 3, not 4" in capsys.readouterr().err
+    assert main(["run", str(write(tmp_path, plain=PASSING) / "plain.yaml"), "--sample", "1"]) == 2
+    assert "no sweep and no random field" in capsys.readouterr().err
+    assert main(["run", str(tmp_path / "plain.yaml")]) == 0 and "running sample" not in capsys.readouterr().err
+
+
 def test_compare_json_and_k(tmp_path, capsys):
     folder = write(tmp_path, a=PASSING, b=FAILING)
     assert main(["compare", str(folder), "--modes", "raw,extension", "-j", "1", "-k", "b.yaml", "--json"]) == 1

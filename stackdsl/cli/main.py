@@ -431,6 +431,13 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
         p.add_argument(
             "--json", action="store_true", help="print the whole Outcome as JSON (exit 1 still means a failed expectation)"
         )
+        p.add_argument(
+            "--sample",
+            type=int,
+            metavar="K",
+            help="of a file with a sweep or random fields: run its sample K (default 0; the sample column of samples.csv)",
+        )
+        p.add_argument("--cell", type=int, metavar="C", help="of a sweep's grid: run the sample in cell C (default 0)")
         add_record_options(p)
         p.set_defaults(func=_run)
     else:
@@ -456,7 +463,7 @@ def _run(args: argparse.Namespace) -> int:
     from ..runtime.outcome import describe_certificate
     from ..verdicts.expect import describe_outcome, evaluate
 
-    scenario = load_scenario(args.file, args.seed)
+    scenario = _one_sample(load_scenario(args.file, args.seed), args.cell, args.sample)
     program = compile_scenario(scenario, args.mode, args.model, args.backend)
     if args.rate is not None and not args.record:
         raise ScenarioError("--rate is the recording's: give --record OUT.npz too", file="--rate")
@@ -504,6 +511,36 @@ def _run(args: argparse.Namespace) -> int:
         if stopped and all(v.passed for v in verdicts):  # no verdict says it
             print(f"FAIL  {stopped}")
     return OK if all(v.passed for v in verdicts) and not stopped else FAILED
+
+
+def _one_sample(scenario: Any, cell: int | None, sample: int | None) -> Any:
+    """The scenario ``run`` runs: a file with a sweep or random fields is one of many runs, so its
+    sample ``sample`` of grid cell ``cell`` (0 and 0 by default), said on stderr with how to run
+    the rest; a plain file is itself.
+
+    Raises:
+        ScenarioError: ``--sample`` or ``--cell`` on a plain file, or past the sweep's samples or cells.
+    """
+    template = scenario.template
+    if template is None:
+        given = "--sample" if sample is not None else "--cell" if cell is not None else ""
+        if given:
+            raise ScenarioError("this file has no sweep and no random field: it is one run, with no samples", file=given)
+        return scenario
+    c, k = cell or 0, sample or 0
+    if not 0 <= k < template.samples:
+        raise ScenarioError(f"the sweep has samples 0 to {template.samples - 1}, not {k}", file="--sample")
+    if not 0 <= c < template.cells:
+        raise ScenarioError(f"the sweep's grid has cells 0 to {template.cells - 1}, not {c}", file="--cell")
+    chosen = scenario if (c, k) == (0, 0) else template.scenario(c, k)
+    where = f" of grid cell {c} of {template.cells} ({', '.join(f'{n} = {v}' for n, v in template.cell(c).items())})"
+    print(
+        f"stackdsl run: running sample {k} of {template.samples}{where if template.grid else ''} (seed {template.seed}); "
+        "`stackdsl sweep` runs them all and judges the statistics, --sample K runs another",
+        file=sys.stderr,
+        flush=True,
+    )
+    return chosen
 
 
 def _print_schema(args: argparse.Namespace) -> int:

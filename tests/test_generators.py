@@ -192,12 +192,17 @@ def test_a_domino_row_is_frozen_behind_the_chain_while_its_front_still_falls():
 def test_the_domino_bench_does_not_count_dominoes_an_engine_threw_out_of_the_row():
     """A run whose engine blew up is no row that fell: MuJoCo resets it, every body back to its
     model pose far from the row and lying flat, which a toppled count alone takes for a fallen row."""
-    pytest.importorskip("mujoco")
-    from stackdsl.bench.dominoes import DominoCost, domino_cost, format_dominoes
+    from stackdsl.bench.dominoes import DominoCost, domino_cost, domino_row, format_dominoes, row_count
 
     fell = domino_cost(4, "raw 240 Hz")
     assert (fell.toppled, fell.left) == (4, 0)
-    blown = domino_cost(4, "MuJoCo tuned sleeping")  # the kinematic pusher on the tuned solver
-    assert blown.left == 4 and blown.toppled == 0
-    table = format_dominoes([DominoCost("raw", 4, 0.05, 4, 10), blown, DominoCost("x", 4, 0.1, 4, 10)])
+    outcome = run_program(compile_scenario(parse_scenario(domino_row(4, "raw 240 Hz"), "d.yaml")))
+    assert row_count(outcome) == (4, 0)
+    thrown = outcome.model_copy(update={"displacement": {**outcome.displacement, "d002": 2.0}})
+    assert row_count(thrown) == (3, 1)
+    blown = outcome.model_copy(update={"stopped": "MuJoCo's simulation became unstable at t = 0.9 s"})
+    assert row_count(blown) == (0, 4)
+    table = format_dominoes(
+        [DominoCost("raw", 4, 0.05, 4, 10), DominoCost("y", 4, 0.02, 0, 10, left=4), DominoCost("x", 4, 0.1, 4, 10)]
+    )
     assert table.splitlines()[3].endswith("| blew up |") and table.splitlines()[4].endswith("| 2.00 |")

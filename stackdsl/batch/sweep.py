@@ -353,7 +353,10 @@ def _worker_environment() -> dict[str, Any]:
 
     environment = dict(dask.config.get("distributed.nanny.pre-spawn-environ", {}))
     environment.pop("MALLOC_TRIM_THRESHOLD_", None)
-    environment["DASK_LOGGING__DISTRIBUTED"] = "error"  # read when a worker imports distributed
+    # read when a worker imports distributed: a worker's own errors are not the user's news either
+    # (a sweep stopped by SIGTERM on a loaded machine printed a worker's "Failed to communicate
+    # with scheduler during heartbeat"); a worker that leaves is reported by the sweep itself
+    environment["DASK_LOGGING__DISTRIBUTED"] = "critical"
     return environment
 
 

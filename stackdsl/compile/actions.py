@@ -196,6 +196,15 @@ def _remove(
     else:
         direction = np.array(AXES[r.direction] if isinstance(r.direction, str) else r.direction, dtype=float)
         direction /= np.linalg.norm(direction)
+    if abs(direction[2]) > 1e-9:  # the hand drives the pulled brick's horizontal motion only
+        where_z: FieldPath = (*path, "direction") if r.direction is not None else (*path, "brick")
+        said = "the direction" if r.direction is not None else f"{r.brick}'s length, the default direction,"
+        raise scenario.source.error(
+            where_z,
+            f"{said} has a vertical part ({direction[2]:+.3g}): a pull slides a brick out sideways, the hand "
+            "driving it horizontally while it rests on what carries it; give a horizontal direction "
+            "('+x', '-y', [1, 1, 0], ...)",
+        )
     distance = r.distance if r.distance is not None else 2 * spec.half_extents[0] + CLEAR
     level = [b for b in bricks if b.level == brick.level and b.id not in gone]
     blocking = in_the_way(brick, spec, direction, distance, level, specs)

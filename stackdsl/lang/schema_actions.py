@@ -105,8 +105,9 @@ class Remove(StrictModel):
     direction: Annotated[
         Literal["+x", "-x", "+y", "-y"] | Direction | None,
         Field(
-            description="the pull's direction in the world ('+x', '-x', '+y', '-y' or [x, y, z], any length); "
-            "default: along the brick's own length (its +x)",
+            description="the pull's direction in the world, horizontal ('+x', '-x', '+y', '-y' or [x, y, 0], "
+            "any length): the hand slides the brick out sideways; default: along the brick's own length (its +x), "
+            "which must then be horizontal",
             examples=["+x", [0, 1, 0]],
         ),
     ] = None

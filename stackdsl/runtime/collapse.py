@@ -297,7 +297,11 @@ class CollapseMonitor(Subscriber):
         support = self._supports.get(record.id)
         if support is None or not support.pieces:
             return 0.0
-        gone = {r.body for r in loop.structure.removed}  # pulled out and taken away: it supports nothing
+        # pulled out and taken away: it supports nothing; a brick the hand still pulls is still
+        # there, its piece carried along with it (a polygon larger than the overlap left: a
+        # centre of mass outside it is outside that overlap too)
+        in_hand = {g.record.body for s in loop.subscribers if isinstance(s, Actions) for g in s.guided}
+        gone = {r.body for r in loop.structure.removed} - in_hand
         if gone and all(b in gone for b, _ in support.pieces):
             return 0.0
         bodies = [record.body, *(b for b, _ in support.pieces if b is not None)]

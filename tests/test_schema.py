@@ -706,3 +706,27 @@ def test_a_parts_key_under_structure_is_refused_by_both_the_schema_and_the_loade
     assert not schema_accepts(validator, text) and not loader_accepts(text)
     written = text.replace("  parts:\n    - ", "  - ")
     assert schema_accepts(validator, written) and loader_accepts(written)
+
+
+def test_the_schema_bounds_numbers_in_json_schemas_words_not_pydantics():
+    """pydantic names a bound ``ge``/``le``/``gt``/``lt`` in its own schema of an optional field
+    with a Field around the union; JSON Schema knows no such keywords, so an editor accepted
+    ``stands_until: 100000`` that the loader refuses. Every bound is ``minimum``/``maximum``."""
+    found = []
+
+    def walk(node, path):
+        if isinstance(node, dict):
+            if node.get("type") == "number" or "anyOf" in node or "$ref" in node:
+                found.extend(f"{path}.{k}" for k in ("ge", "le", "gt", "lt") if k in node)
+            for key, value in node.items():
+                if key not in ("examples", "default"):
+                    walk(value, f"{path}.{key}")
+        elif isinstance(node, list):
+            for i, value in enumerate(node):
+                walk(value, f"{path}[{i}]")
+
+    walk(json_schema(), "$")
+    assert found == []
+    validator = jsonschema.Draft202012Validator(json_schema())
+    text = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nexpect: {stands_until: 100000}\n"
+    assert not validator.is_valid(yaml.safe_load(text))

@@ -313,10 +313,8 @@ class Expect(StrictModel):
     ) = None
     stands: Annotated[Literal[True], BeforeValidator(_stands)] | None = None
     stands_until: Annotated[
-        Time | None,
+        Annotated[Time, Field(ge=0, le=3600)] | None,
         Field(
-            ge=0,
-            le=3600,
             description="a time the structure must stand until: no collapse before it (a Jenga tower that stands "
             "through its first pulls, whatever a later one does)",
             examples=["35 s"],

@@ -609,3 +609,22 @@ expect: {toppled: all}
     assert len(outcome.toppled) < 20
     lines = explain(scenario.expect, outcome, program.collapse_threshold)
     assert any(line.startswith("still moving: the run ended at t=") for line in lines), lines
+
+
+def test_compile_says_the_steps_are_split_while_a_pull_lasts_on_pybullet_only():
+    """The guided rule of ``stackdsl compile`` says that pybullet's step is split while a pull
+    lasts (what the run does, PULL_STEP), and says nothing of it on MuJoCo or for a push."""
+    text = """stackdsl: 1
+structure: {tower: {levels: 4, bricks_per_layer: 3, spacing: 25 mm}}
+timing: {interval: 0.2 s}
+actions:
+  - remove: {brick: L03.2, at: after level 4}
+"""
+    scenario = parse_scenario(text, "pull.yaml")
+    guided = {r.name: r.reason for r in compile_scenario(scenario).rules}["guided"]
+    assert "steps split to at most 1.04 ms (960 Hz) while a pull lasts" in guided
+    if installed("mujoco"):
+        on_mujoco = {r.name: r.reason for r in compile_scenario(scenario, backend="mujoco").rules}["guided"]
+        assert "960 Hz" not in on_mujoco
+    pushed = text.replace("remove: {brick: L03.2,", "push: {target: {brick: L03.2}, direction: [1, 0, 0],")
+    assert "960 Hz" not in {r.name: r.reason for r in compile_scenario(parse_scenario(pushed, "push.yaml")).rules}["guided"]

@@ -166,7 +166,7 @@ def compile_scenario(
     actions.append(End(step=last_step + settle, time=end))
     _measurable(scenario, end, len(bricks))
     ground = scenario.material(scenario.ground.material)
-    rules = choose_rules(bricks, launches, scenario.expect, motions)
+    rules = choose_rules(bricks, launches, scenario.expect, motions, engine.backend)
     on = {r.name: r.on for r in rules}
     settings = {**scenario.stability.model_dump(exclude_none=True), **({"model": model} if model else {})}
     program = Program(

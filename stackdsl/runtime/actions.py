@@ -30,11 +30,11 @@ import numpy as np
 
 from stability import Pose
 
-from ..compile.program import Kinematic, Push, Remove, Shake
+from ..compile.program import PULL_STEP, Kinematic, Push, Remove, Shake
 from .bricks import BrickRecord
 from .loop import StepLoop, Subscriber
 from .outcome import Event
-from .subscribers import PULL_STEP, Stability, Substeps
+from .subscribers import Stability, Substeps
 
 #: Where a hand puts what it took out of the scene: far from any scene, a slot each.
 AWAY = np.array([-5000.0, -5000.0, 100.0])

@@ -192,7 +192,7 @@ def run_in(
     substeps = Substeps(program.collapse_threshold, acting) if program.engine.ccd else None
     own += [substeps] if substeps is not None else []
     # finer steps while a pull lasts: pybullet's friction at 240 Hz drags what the pulled brick
-    # carries (subscribers.PULL_STEP); MuJoCo's guided brick, its velocity set once a step, then
+    # carries (compile.program.PULL_STEP); MuJoCo's guided brick, its velocity set once a step, then
     # slips under what it carries (a brick lying on it stayed put where it rode 40 mm along)
     finer = substeps if acting and program.engine.backend == "pybullet" else None
     own += [Actions(stability, finer)] if program.kinematic else []

@@ -169,16 +169,6 @@ class SoftLanding(Subscriber):
                 self.falling[record.id] = (record, placed, vz)
 
 
-PULL_STEP = 1 / 960
-"""Seconds, the longest substep while a hand pulls a brick out with the extension acting
-(:attr:`Substeps.floor`): the pulled brick's friction drags what rests on it, and at
-pybullet's 240 Hz its contacts let it drag the levels above 20-35 mm where tuned pybullet
-(1 kHz) drags 0.7-1.5 mm. Split in four while a pull lasts, a 14-level KAPLA tower with a
-side block of level 3 pulled at 30 mm/s stands, as in tuned pybullet, where at 240 Hz it fell
-(measured: docs/actions.md, "Pull"). On pybullet only: MuJoCo's guided brick, its velocity
-set once a step, slips under what it carries when the step is split. Source: stackdsl's own."""
-
-
 class Substeps(Subscriber):
     """Split a step while something is fast, so that no body moves more than the collapse
     threshold (half a brick's thinnest side) in one substep, in at most

@@ -249,11 +249,16 @@ def test_stays_and_may_fall_beyond_the_top_level(field):
     compile_text(f"stackdsl: 1\nstructure: {{tower: {{levels: 8}}}}\nexpect: {{{field}: 1-8}}\n")
 
 
-def test_the_first_problem_is_reported_the_expectations_shown_and_the_rest_counted():
+def test_each_problem_is_reported_up_to_ten_the_expectations_after_and_the_rest_counted():
+    """A message per problem, in placement order, then the expectations' (a file with three
+    parts each overlapping the next said only the first overlap, "1 more problem")."""
     err = error(bricks("{at: [0, 0, 20 mm]}", "{at: [0, 0, 40 mm]}", extra="expect: {collapse: 5}\n"))
-    assert err.field == "structure.bricks[0].at" and err.more == 1  # the other floating brick
-    assert [e.field for e in err.others] == ["expect.collapse"]  # shown after it, at its own line
-    assert str(err).count("p.yaml:") == 2
+    assert err.field == "structure.bricks[0].at" and err.more == 0
+    assert [e.field for e in err.others] == ["structure.bricks[1].at", "expect.collapse"]  # each at its own line
+    assert str(err).count("p.yaml:") == 3
+    err = error(bricks(*(f"{{at: [{200 * i} mm, 0, 20 mm]}}" for i in range(12))))
+    assert [err.field, *(e.field for e in err.others)] == [f"structure.bricks[{i}].at" for i in range(10)]
+    assert err.more == 2 and "(2 more problems in this file)" in str(err)
 
 
 # nothing is simulated ---------------------------------------------------------------

@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..lang.errors import FieldPath, format_path
+from ..lang.errors import MAX_SHOWN, FieldPath, format_path
 from ..lang.expectations import CollapseLevel, bricks_of, levels_of, selects, span
 from ..lang.schema import Scenario
 from .overlap import GROUND, OVERLAP_TOLERANCE, REST_TOLERANCE, Body, inspect_bodies
@@ -66,10 +66,10 @@ def precheck(scenario: Scenario, bodies: Sequence[Body]) -> tuple[str, ...]:
 
     Raises:
         ScenarioError: at the field to change, for the first problem in placement order
-            (overlaps before floating bricks before expectations), with the expectations'
-            problems shown after it; ``more`` counts the other bricks' problems (a generator's
-            bricks count once per kind of problem; past 1000 overlaps the search stops, so the
-            count is then a lower bound).
+            (overlaps before floating bricks before expectations), with the others shown after
+            it, up to :data:`~stackdsl.lang.errors.MAX_SHOWN` in all (a generator's bricks are one
+            problem per kind); ``more`` counts the rest (past 1000 overlaps the search stops, so
+            the count is then a lower bound).
     """
     overlaps, floating = inspect_bodies(bodies, [b.position for b in bodies])
     allowed = FLOATING in scenario.allow
@@ -79,19 +79,29 @@ def precheck(scenario: Scenario, bodies: Sequence[Body]) -> tuple[str, ...]:
     )
     expectations = _expectation_problems(scenario, max(b.level for b in bodies), [b.id for b in bodies if b.slot >= 0])
     if found:
-        _, key, depth = found[0]
-        if key[0] == "overlap":
-            first = _overlap_problem(scenario, bodies, key[1], key[2], depth)
-        else:
-            first = _floating_problem(scenario, bodies, key[1], floating)
-        if scenario.timing.placement_error > 0:
-            first = _blame_placement_error(scenario, bodies, first, allowed)
-        # a generator's bricks that miss for one reason are one problem: count one per generator and kind
-        causes = {(key[0], key[1] if _by_hand(bodies[key[1]].path) else bodies[key[1]].path) for _, key, _ in found}
+        # a generator's bricks that miss for one reason are one problem: one per generator and kind,
+        # each said at its first brick in placement order (at most MAX_SHOWN shown, the rest counted)
+        problems: list[_Problem] = []
+        causes: set[tuple[Any, ...]] = set()
+        for _, key, depth in found:
+            cause = (key[0], key[1] if _by_hand(bodies[key[1]].path) else bodies[key[1]].path)
+            if cause in causes:
+                continue
+            causes.add(cause)
+            if len(problems) >= MAX_SHOWN:
+                continue
+            if key[0] == "overlap":
+                problem = _overlap_problem(scenario, bodies, key[1], key[2], depth)
+            else:
+                problem = _floating_problem(scenario, bodies, key[1], floating)
+            if scenario.timing.placement_error > 0:
+                problem = _blame_placement_error(scenario, bodies, problem, allowed)
+            problems.append(problem)
+        first, *rest = problems
         error = scenario.source.error(first.path, first.message).with_others(
-            [scenario.source.error(e.path, e.message) for e in expectations]
+            [scenario.source.error(e.path, e.message) for e in [*rest, *expectations]]
         )
-        error.more += len(causes) - 1  # the other bricks' problems are counted, not shown
+        error.more += len(causes) - len(problems)  # past MAX_SHOWN: counted, not shown
         raise error
     if expectations:
         first, *rest = expectations

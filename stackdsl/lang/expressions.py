@@ -3,7 +3,7 @@
 A condition compares numbers: names (a field of the scene, ``timing.placement_error``; a list
 item as ``actions.0.shake.amplitude`` or ``actions[0].shake.amplitude``, which read the same; or a
 quantity derived from where its bricks are, ``overhang``), numbers with an optional unit
-(``10 mm``, ``0.5 s``, ``2 deg``), ``+ - * /``, ``abs``, ``min`` and ``max``, joined by ``and``,
+(``10 mm``, ``0.5 s``, ``2 deg``), ``+ - * /``, ``abs(x)``, ``min(a, b, ...)`` and ``max(a, b, ...)``, joined by ``and``,
 ``or`` and ``not``, with parentheses::
 
     condition  := disjunct ("or" disjunct)*
@@ -419,6 +419,9 @@ class _Parser:
             if text == "abs" and len(args) != 1:
                 self.at -= 1
                 raise self.error("abs takes one number")
+            if text != "abs" and len(args) < 2:
+                self.at -= 1
+                raise self.error(f"{text} takes two or more numbers ({text}(a, b), ...): it compares them")
             return ("call", text, args)
         if kind == "name":
             self.names.append(text)

@@ -298,16 +298,20 @@ class StabilityExtension:
         return [w.event for w in self._stack.wake(body, time, reason)]
 
     # bodies moved by an outside hand, and a moving ground -------------------------
-    def guide(self, body: int, time: float, reason: str) -> list[StabilityEvent]:
-        """An outside hand moves ``body`` from now on (a gripper pulling a brick out, a pusher):
-        it wakes, with everything resting on it (report 3.3.7), and is never frozen while guided.
-        Each step the frozen bricks it touches, or will within the step, wake too, with what rests
-        on them, and the active bricks it touches are not admitted: friction on a moving body is
-        what drags them (a pulled brick carries the bricks above it along). Returns the events.
-        Raises KeyError for an unknown body. Source: stackdsl's own."""
+    def guide(self, body: int, time: float, reason: str, speed: float = 0.0) -> list[StabilityEvent]:
+        """An outside hand moves ``body`` from now on (a gripper pulling a brick out, a pusher), at
+        ``speed`` m/s along its path: it wakes, with everything resting on it (report 3.3.7), and
+        is never frozen while guided. Now, and each step, the frozen bricks it touches, or will
+        within the step at the faster of its speed and the hand's, wake too, with what rests on
+        them, and the active bricks it touches are not admitted: friction on a moving body is
+        what drags them (a pulled brick carries the bricks above it along). A pusher set going
+        at 10 m/s, still at rest in the engine, met the frozen domino it was aimed at within its
+        first step, unseen, and was stopped by it. Returns the events. Raises KeyError for an
+        unknown body. Source: stackdsl's own."""
         events = [w.event for w in self._stack.wake(body, time, reason)]
         self._stack.guided.add(body)
-        return events
+        self._stack.hand_speed[body] = speed
+        return events + self._touching(body, time, set())
 
     def forget(self, body: int) -> None:
         """Take ``body`` out of the extension: a guided body the hand took away (it must have left
@@ -318,17 +322,25 @@ class StabilityExtension:
     def _guided(self, time: float) -> tuple[list[StabilityEvent], set[int]]:
         """Wake the frozen bricks each guided body touches or will within a step (:data:`TOUCH`
         beyond what it travels in one); return the events and every body a guided one touches."""
-        stack, events, touched = self._stack, [], set()
-        for body in sorted(stack.guided):
-            speed, _ = stack.engine.speeds(body)
-            for c in stack.engine.near(body, speed * stack.engine.timestep + TOUCH):
-                other = stack.bodies.get(c.other)
-                if other is None or other.state is BrickState.GROUND:
-                    continue
-                touched.add(c.other)
-                if other.state is BrickState.FROZEN:
-                    events += self.wake(c.other, time, f"touched by {stack.bodies[body].label}, moved by hand")
+        events: list[StabilityEvent] = []
+        touched: set[int] = set()
+        for body in sorted(self._stack.guided):
+            events += self._touching(body, time, touched)
         return events, touched
+
+    def _touching(self, body: int, time: float, touched: set[int]) -> list[StabilityEvent]:
+        """Wake the frozen bricks guided ``body`` touches or will within a step, at the faster of
+        its speed in the engine and its hand's; add every body it touches to ``touched``."""
+        stack, events = self._stack, []
+        speed = max(stack.engine.speeds(body)[0], stack.hand_speed.get(body, 0.0))
+        for c in stack.engine.near(body, speed * stack.engine.timestep + TOUCH):
+            other = stack.bodies.get(c.other)
+            if other is None or other.state is BrickState.GROUND:
+                continue
+            touched.add(c.other)
+            if other.state is BrickState.FROZEN:
+                events += self.wake(c.other, time, f"touched by {stack.bodies[body].label}, moved by hand")
+        return events
 
     def withstands(self, acceleration: tuple[float, float]) -> str | None:
         """Would the frozen stack stand on a ground accelerating horizontally by ``acceleration``

@@ -142,6 +142,7 @@ class Stack:
         self.standing_version: int | None = None  # a version whose whole frozen stack a program showed to stand
         self.holding = True  # bricks woken in a proved mechanism are held active (none while a heap settles)
         self.guided: set[int] = set()  # bodies an outside hand moves (a gripper, a pusher): never frozen
+        self.hand_speed: dict[int, float] = {}  # m/s along a guided body's path, as the hand gave it
         self.admitting = True  # False while the ground moves: nothing is frozen in the world's frame
         self._boxes: tuple[int, np.ndarray] | None = None  # the frozen bricks' boxes, of a stack version
         # active bricks that frozen bricks lean on: body -> (its pose then, the frozen bricks on it)
@@ -232,6 +233,7 @@ class Stack:
         del self.bodies[body]
         self.active.pop(body, None)
         self.guided.discard(body)
+        self.hand_speed.pop(body, None)
         for other in self.bodies.values():
             other.objects_above.discard(body)
 

@@ -194,8 +194,8 @@ def run_in(
     # finer steps while a pull lasts: pybullet's friction at 240 Hz drags what the pulled brick
     # carries (compile.program.PULL_STEP); MuJoCo's guided brick, its velocity set once a step, then
     # slips under what it carries (a brick lying on it stayed put where it rode 40 mm along)
-    finer = substeps if acting and program.engine.backend == "pybullet" else None
-    own += [Actions(stability, finer)] if program.kinematic else []
+    split_pulls = acting and program.engine.backend == "pybullet"
+    own += [Actions(stability, substeps, split_pulls)] if program.kinematic else []
     after: list[Subscriber] = []
     rigid = any(r.name == "rigid" and r.on for r in program.rules)
     if acting and rigid and options.cheap_debris and world.cheap_debris and options.settle != 0.0:  # 0: nothing falls on

@@ -304,6 +304,16 @@ def _push(
     except KeyError:
         raise scenario.source.error((*path, "pusher"), f"unknown brick type {p.pusher!r}") from None
     position = surface - direction * (p.gap + spec.half_extents[0])
+    if not any(_meets(position, direction * (p.gap + p.distance), spec, b, specs[b.type]) for b in bricks):
+        x, y, z = (v * 1000 for v in position)
+        where: FieldPath = (*path, "target", "point" if p.target.point is not None else "offset")
+        if p.target.brick is not None and p.target.offset == (0.0, 0.0, 0.0):
+            where = (*path, "direction")
+        raise scenario.source.error(
+            where,
+            f"the pusher's path, from ({x:.1f}, {y:.1f}, {z:.1f}) mm for {(p.gap + p.distance) * 1000:.3g} mm "
+            "along the direction, meets no brick: aim it at a brick (target: {brick: ID, offset: [...]})",
+        )
     span = max(1, math.ceil(p.distance / p.speed / dt - 1e-9))
     yaw, pitch = heading(direction)
     return Push(
@@ -319,6 +329,27 @@ def _push(
         end_step=step + span,
         end_time=start + span * dt,
     )
+
+
+def _meets(start: np.ndarray, travel: np.ndarray, pusher: BrickSpec, brick: LaidBrick, spec: BrickSpec) -> bool:
+    """Does a pusher (``pusher``'s box, any way turned) whose centre moves from ``start`` by
+    ``travel`` (m, shape (3,)) come within reach of ``brick``'s box: its centre's path through
+    the box grown by the pusher's half diagonal (the slab test, in the brick's frame)? Generous:
+    a pusher that passes this near may touch it. Source: stackdsl's own."""
+    rotation = brick.pose().rotation
+    p0, d = (start - brick.position) @ rotation, travel @ rotation
+    grown = np.array(spec.half_extents) + float(np.linalg.norm(pusher.half_extents))
+    enter, leave = 0.0, 1.0
+    for p, v, h in zip(p0.tolist(), d.tolist(), grown.tolist(), strict=True):
+        if abs(v) < 1e-12:
+            if abs(p) > h:
+                return False
+            continue
+        a, b = (-h - p) / v, (h - p) / v
+        enter, leave = max(enter, min(a, b)), min(leave, max(a, b))
+        if enter > leave:
+            return False
+    return True
 
 
 def _vec(v: np.ndarray) -> tuple[float, float, float]:

@@ -670,3 +670,17 @@ def test_a_brick_in_the_hand_still_supports_in_the_off_support_proof():
     scenario = load_scenario(Path(__file__).resolve().parents[1] / "scenarios" / "jenga_falls.yaml")
     run_program(compile_scenario(scenario), subscribers=(probe,))
     assert probe.seen == [0.0]
+
+
+def test_a_toppled_tolerance_that_covers_every_count_is_warned():
+    """'5±20' of 10 dominoes can never fail: warned at the expectation; '5±2' is not."""
+    import warnings
+
+    from stackdsl.lang.errors import ScenarioWarning
+
+    head = "stackdsl: 1\nstructure: {dominoes: {count: 10}}\nexpect:\n  toppled: "
+    with pytest.warns(ScenarioWarning, match=r"t.yaml:4:12: warning: expect.toppled: 5±20 covers every count from 0"):
+        compile_scenario(parse_scenario(head + '"5±20"\n', "t.yaml"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ScenarioWarning)
+        compile_scenario(parse_scenario(head + '"5±2"\n', "t.yaml"))

@@ -32,6 +32,7 @@ Source: stackdsl's own.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from dataclasses import replace
 
@@ -341,7 +342,8 @@ def _own_ids(scenario: Scenario, bricks: Sequence[str], launches: Sequence[Launc
 
 def _measurable(scenario: Scenario, end: float, bricks: int) -> None:
     """Refuse an expectation the run cannot measure: ``stands_until`` past the run's end (s), a
-    ``toppled`` count beyond the scene's ``bricks``, a ScenarioError at it."""
+    ``toppled`` count beyond the scene's ``bricks``, a ScenarioError at it; warn of a ``toppled``
+    tolerance that covers every count (it cannot fail)."""
     until = scenario.expect.stands_until
     if until is not None and until > end + 1e-9:
         raise scenario.source.error(
@@ -354,6 +356,20 @@ def _measurable(scenario: Scenario, end: float, bricks: int) -> None:
         raise scenario.source.error(
             ("expect", "toppled"),
             f"{toppled.count} toppled can never be measured: the scene has {bricks} brick{'s' * (bricks != 1)}",
+        )
+    if (
+        toppled is not None
+        and toppled.count != "all"
+        and toppled.count - toppled.tolerance <= 0
+        and toppled.count + toppled.tolerance >= bricks
+    ):
+        warnings.warn(
+            scenario.source.warning(
+                ("expect", "toppled"),
+                f"{toppled.count}±{toppled.tolerance} covers every count from 0 to the scene's {bricks} bricks: it cannot "
+                "fail; give a smaller tolerance",
+            ),
+            stacklevel=2,
         )
 
 

@@ -622,7 +622,7 @@ def test_a_list_too_short_is_one_error_at_the_list_saying_how_many_items():
         (
             "{tower: {levels: 2, origin: [0, 0, 0]}}",
             "structure.tower.origin",
-            "expected a list of at most 2 items, got [0, 0, 0]",
+            "expected a list of 2 items, got [0, 0, 0]",
         ),
         ("[]", "structure", "expected a list of at least 1 item, got []"),
     ],
@@ -668,3 +668,15 @@ def test_a_toppled_count_that_is_no_whole_number_says_what_toppled_takes(written
         parse_scenario(f"stackdsl: 1\nstructure: {{tower: {{levels: 2}}}}\nexpect: {{toppled: {written}}}\n", "t.yaml")
     assert err.value.field == "expect.toppled"
     assert err.value.message.startswith("expected a whole number of bricks such as 20, '20±1' or 'all'")
+
+
+def test_a_fixed_length_list_and_a_shake_of_no_time_are_refused_in_plain_words():
+    """A shake's direction is exactly two items: [1, 0, 0] was 'a list of at most 2 items' where
+    [1] was 'a list of 2 items'; a shake of 0 s was told that 'a run lasts at most 3600 s'."""
+    head = "stackdsl: 1\nstructure: {bricks: [{id: b, at: [0, 0, 4 mm]}]}\nactions:\n  - shake: "
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(head + "{amplitude: 1 mm, frequency: 5 Hz, duration: 1 s, at: 1 s, direction: [1, 0, 0]}\n", "s.yaml")
+    assert "expected a list of 2 items, got [1, 0, 0]" in str(info.value)
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(head + "{amplitude: 1 mm, frequency: 5 Hz, duration: 0 s, at: 1 s}\n", "s.yaml")
+    assert str(info.value).splitlines()[0].endswith("got '0 s'; a shake that lasts no time moves nothing")

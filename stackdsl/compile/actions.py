@@ -59,6 +59,7 @@ def compile_actions(
     places: Sequence[Place],
     dt: float,
     steps: Steps,
+    fixtures: Sequence[str] = (),
 ) -> list[Kinematic]:
     """The scenario's ``actions`` as motions, in the order written.
 
@@ -69,6 +70,7 @@ def compile_actions(
         places: the placements (to refuse a shake while bricks are placed).
         dt: the timestep, s.
         steps: the compiler's conversion of seconds to whole timesteps.
+        fixtures: the ids of the fixed bodies (a pull or a push of one is refused, saying so).
 
     Raises:
         ScenarioError: at the field: a brick that is not in the structure or not placed before
@@ -84,13 +86,13 @@ def compile_actions(
         step = steps((*path, "at"), start)
         if action.remove is not None:
             _not_pulled(scenario, (*path, "brick"), action.remove.brick, pulled, "pull it out again")
-            out.append(_remove(scenario, path, action, bricks, slots, specs, start, step, dt, set(pulled)))
+            out.append(_remove(scenario, path, action, bricks, slots, specs, start, step, dt, set(pulled), fixtures))
             pulled[action.remove.brick] = (i, start)
         elif action.push is not None:
             target = action.push.target.brick
             if target is not None and start >= pulled.get(target, (0, math.inf))[1]:
                 _not_pulled(scenario, (*path, "target", "brick"), target, pulled, "push it")
-            out.append(_push(scenario, i, action, bricks, specs, start, step, dt))
+            out.append(_push(scenario, i, action, bricks, specs, start, step, dt, fixtures))
         else:
             out.append(_shake(action, start, step, dt))
     for i, motion in enumerate(out):
@@ -176,14 +178,14 @@ def _remove(
     step: int,
     dt: float,
     gone: set[str],
+    fixtures: Sequence[str] = (),
 ) -> Remove:
     """The pull of ``action`` (``gone``: the bricks pulled out before it, out of its way)."""
     r = action.remove
     assert r is not None
     found = [(b, int(k)) for b, k in zip(bricks, slots) if b.id == r.brick]
     if not found:
-        near = ", ".join(b.id for b in bricks[:3])
-        raise scenario.source.error((*path, "brick"), f"no brick of the structure is {r.brick!r} (its bricks: {near}...)")
+        raise scenario.source.error((*path, "brick"), _unknown(r.brick, bricks, fixtures, "pull"))
     brick, slot = found[0]
     if slot * scenario.timing.interval >= start:
         raise scenario.source.error(
@@ -277,6 +279,7 @@ def _push(
     start: float,
     step: int,
     dt: float,
+    fixtures: Sequence[str] = (),
 ) -> Push:
     p = action.push
     assert p is not None
@@ -286,10 +289,7 @@ def _push(
     if p.target.brick is not None:
         found = [b for b in bricks if b.id == p.target.brick]
         if not found:
-            near = ", ".join(b.id for b in bricks[:3])
-            raise scenario.source.error(
-                (*path, "target", "brick"), f"no brick of the structure is {p.target.brick!r} (its bricks: {near}...)"
-            )
+            raise scenario.source.error((*path, "target", "brick"), _unknown(p.target.brick, bricks, fixtures, "push"))
         brick = found[0]
         aim = brick.position + np.array(p.target.offset)
         surface = _entry(aim, direction, brick, specs[brick.type])
@@ -329,6 +329,15 @@ def _push(
         end_step=step + span,
         end_time=start + span * dt,
     )
+
+
+def _unknown(name: str, bricks: Sequence[LaidBrick], fixtures: Sequence[str], verb: str) -> str:
+    """Why no brick of the structure is ``name``: a fixture (fixed: a hand cannot ``verb`` it), or
+    none at all; with the structure's first bricks."""
+    listed = ", ".join(b.id for b in bricks[:3]) + (", ..." if len(bricks) > 3 else "")
+    if name in fixtures:
+        return f"{name!r} is fixed (a fixture): a hand does not {verb} it; the structure's bricks: {listed}"
+    return f"no brick of the structure is {name!r} (its bricks: {listed})"
 
 
 def _meets(start: np.ndarray, travel: np.ndarray, pusher: BrickSpec, brick: LaidBrick, spec: BrickSpec) -> bool:

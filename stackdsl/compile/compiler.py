@@ -138,7 +138,14 @@ def compile_scenario(
         check_limits(scenario, engine, specs, [b.type for b in bricks] + [i.projectile for i in scenario.impacts])
     places = [a for a in placements if isinstance(a, Place)]
     motions = compile_actions(
-        scenario, bricks, slots, specs, places, dt, lambda path, seconds: _steps(scenario, path, seconds, dt)
+        scenario,
+        bricks,
+        slots,
+        specs,
+        places,
+        dt,
+        lambda path, seconds: _steps(scenario, path, seconds, dt),
+        [b.id for b in fixed],
     )
     check_measured(scenario, [b.id for b in bricks])
     _own_ids(scenario, [b.id for b in everything], launches, motions)

@@ -87,7 +87,15 @@ else:
         "a frequency from 0.1 to 48 Hz",
         ("slower, a shake is a slow slide", "faster, a step of 1/240 s samples a period fewer than 5 times"),
     )
-    ShakeDuration = within(Time, time, 0.0, 600.0, "a time above 0 and at most 600 s", "a run lasts at most 3600 s", above=True)
+    ShakeDuration = within(
+        Time,
+        time,
+        0.0,
+        600.0,
+        "a time above 0 and at most 600 s",
+        ("a shake that lasts no time moves nothing", "a run lasts at most 3600 s"),
+        above=True,
+    )
 
 Direction = Annotated[tuple[Component, Component, Component], AfterValidator(_nonzero)]
 AXES = {"+x": (1.0, 0.0, 0.0), "-x": (-1.0, 0.0, 0.0), "+y": (0.0, 1.0, 0.0), "-y": (0.0, -1.0, 0.0)}

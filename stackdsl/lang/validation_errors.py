@@ -187,7 +187,9 @@ def _one_error(err: ErrorDetails, source: SourceMap) -> ScenarioError:
         ctx = err.get("ctx", {})
         most = err["type"] == "too_long"
         limit = ctx.get("max_length" if most else "min_length")
-        message = f"expected a list of {'at most' if most else 'at least'} {limit} item{'s' * (limit != 1)}"
+        exactly = most and ctx.get("field_type") == "Tuple"  # the schema's tuples have a fixed length ([x, y])
+        bound = "" if exactly else "at most " if most else "at least "
+        message = f"expected a list of {bound}{limit} item{'s' * (limit != 1)}"
         return source.error(loc, f"{message}, got {shown(err['input'])}")
     else:
         message = err["msg"].removeprefix("Value error, ").replace("a valid tuple", "a list")  # YAML has lists

@@ -955,3 +955,22 @@ def test_a_missing_file_for_render_or_replay_says_so_in_the_oss_words(tmp_path, 
     golden = tmp_path / "nothing.json"
     assert main(["replay", "scenarios/vee_stands.yaml", "-o", str(tmp_path / "r"), "--golden", str(golden)]) == 2
     assert capsys.readouterr().err.strip() == f"{golden}: No such file or directory: no golden snapshot to show beside the run"
+
+
+def test_run_and_compare_say_why_a_chain_cut_off_by_the_runs_end_failed(tmp_path, capsys):
+    """check says 'still moving ... a longer timing.settle' under a domino chain the run's end
+    cut off; run printed only the FAIL line and compare only its cell."""
+    from stackdsl.cli.main import main
+
+    scene = tmp_path / "row.yaml"
+    scene.write_text(
+        "stackdsl: 1\nstructure: {dominoes: {count: 12, spacing: 60 mm}}\ntiming: {interval: 0.05 s, settle: 0.3 s}\n"
+        "actions:\n  - push: {target: {brick: D01, offset: [0, 0, 45 mm]}, direction: [1, 0, 0], speed: 0.2 m/s,"
+        " distance: 15 mm, at: after level 1}\nexpect: {toppled: all}\n"
+    )
+    assert main(["run", str(scene)]) == 1
+    out = capsys.readouterr().out
+    assert "FAIL  expected all toppled" in out and "still moving: the run ended at" in out
+    assert main(["compare", str(tmp_path), "--modes", "extension", "-j", "1"]) == 1
+    out = capsys.readouterr().out
+    assert "row pybullet extension: still moving: the run ended at" in out

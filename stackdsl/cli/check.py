@@ -187,6 +187,10 @@ def compare_command(args: argparse.Namespace) -> int:
             + " ".join(f"{c:<{column}}" for c in rows[file]).rstrip()
         )
     print(f"{len(table)} scenarios x {len(modes)} modes ({wall:.1f} s wall)")
+    for r in done:  # a failure the run's end cut short: the hint check gives under it
+        for line in r.explanation if not r.passed else ():
+            if line.startswith("still moving"):
+                print(f"{Path(r.file).stem} {r.backend} {r.mode}: {line}")
     for r in refused:  # why, once each, after the table
         print(f"refused in {r.mode} on {r.backend}: {r.refused}", file=sys.stderr)
     return _status(done, args.debug)

@@ -461,7 +461,7 @@ def _run(args: argparse.Namespace) -> int:
     from ..compile.compiler import compile_scenario
     from ..lang.loader import load_scenario
     from ..runtime.outcome import describe_certificate
-    from ..verdicts.expect import describe_outcome, evaluate
+    from ..verdicts.expect import describe_outcome, evaluate, explain
 
     scenario = _one_sample(load_scenario(args.file, args.seed), args.cell, args.sample)
     program = compile_scenario(scenario, args.mode, args.model, args.backend)
@@ -508,6 +508,9 @@ def _run(args: argparse.Namespace) -> int:
             print(f"certificate: {describe_certificate(outcome.certificate)}")
         for v in verdicts:
             print(f"{'PASS' if v.passed else 'FAIL'}  expected {v.expected}, measured {v.measured}")
+        if not stopped and not all(v.passed for v in verdicts):  # what check says under a failure
+            for line in explain(scenario.expect, outcome, program.collapse_threshold):
+                print(f"      {line}")
         if stopped and all(v.passed for v in verdicts):  # no verdict says it
             print(f"FAIL  {stopped}")
     return OK if all(v.passed for v in verdicts) and not stopped else FAILED

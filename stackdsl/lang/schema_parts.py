@@ -145,8 +145,14 @@ Parts = Annotated[
 def as_parts(value: Any) -> Any:
     """A structure written as a list or a map of parts, as ``{"parts": ...}``; anything else as is.
     A map is one of parts when none of its keys is a layout or ``parts``, and some part names a
-    layout or no key is a layout's misspelling (``towr``: the typo is reported as one)."""
+    layout or no key is a layout's misspelling (``towr``: the typo is reported as one); or when a
+    layout's key holds a part (``tower: {tower: ...}``: a part named after a layout, refused as
+    such by :func:`check_parts`)."""
     if isinstance(value, list):
+        return {"parts": value}
+    if isinstance(value, dict) and any(
+        k in LAYOUTS and isinstance(v, dict) and any(x in v for x in LAYOUTS) for k, v in value.items()
+    ):  # a layout's key whose value is itself a part ('tower: {tower: ...}'): a part named after a layout
         return {"parts": value}
     if isinstance(value, dict) and value and not any(k in value for k in (*LAYOUTS, "parts")):
         some_layout = any(isinstance(v, dict) and any(k in v for k in LAYOUTS) for v in value.values())

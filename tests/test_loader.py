@@ -226,7 +226,7 @@ def test_missing_file_and_limits(tmp_path):
     with pytest.raises(ScenarioError, match="no such file or folder"):
         load_scenario(tmp_path / "nope.yaml")
     err = error("stackdsl: 1\nstructure: {tower: {levels: 2000}}\n")
-    assert err.field == "structure.tower.levels" and "less than or equal to 1000" in err.message
+    assert err.field == "structure.tower.levels" and err.message == "expected 1000 or less, got 2000"
     err = error("stackdsl: 1\nstructure: {tower: {levels: 1000, bricks_per_layer: 6}}\n")
     assert "at most 5000" in err.message
 
@@ -582,7 +582,7 @@ def test_a_value_no_member_of_a_union_takes_is_one_error_at_the_field_as_written
         parse_scenario(head + "up}\n", "d.yaml")
     e = err.value
     assert (e.field, e.line, e.column, e.others) == ("actions[0].remove.direction", 4, 48, ())
-    assert e.message == "Input should be '+x', '-x', '+y' or '-y', or a list, got 'up'"
+    assert e.message == "expected '+x', '-x', '+y' or '-y', or a list, got 'up'"
     with pytest.raises(ScenarioError) as err:
         parse_scenario(head + "[0, 0, 0]}\n", "d.yaml")
     assert err.value.field == "actions[0].remove.direction" and "must not be zero" in err.value.message
@@ -592,7 +592,7 @@ def test_a_value_no_member_of_a_union_takes_is_one_error_at_the_field_as_written
 @pytest.mark.parametrize(
     "value, field, message",
     [
-        ("{after_level: 0}", "actions[0].remove.at.after_level", "Input should be greater than or equal to 1, got 0"),
+        ("{after_level: 0}", "actions[0].remove.at.after_level", "expected 1 or more, got 0"),
         ("{after: previous}", "actions[0].remove.at.after", "Input should be 'the previous action', got 'previous'"),
     ],
 )
@@ -639,7 +639,7 @@ def test_a_list_where_one_value_goes_is_said_to_be_a_list():
     text = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nactions: [{remove: {brick: [L02.1, L02.2], at: 3 s}}]\n"
     with pytest.raises(ScenarioError) as err:
         parse_scenario(text, "d.yaml")
-    assert err.value.message == "Input should be a valid string, got a list: ['L02.1', 'L02.2']"
+    assert err.value.message == "expected text, got a list: ['L02.1', 'L02.2']"
 
 
 @pytest.mark.parametrize(
@@ -680,3 +680,34 @@ def test_a_fixed_length_list_and_a_shake_of_no_time_are_refused_in_plain_words()
     with pytest.raises(ScenarioError) as info:
         parse_scenario(head + "{amplitude: 1 mm, frequency: 5 Hz, duration: 0 s, at: 1 s}\n", "s.yaml")
     assert str(info.value).splitlines()[0].endswith("got '0 s'; a shake that lasts no time moves nothing")
+
+
+@pytest.mark.parametrize(
+    "line, field, message",
+    [
+        ("structure: {tower: {levels: 2.5}}", "structure.tower.levels", "expected a whole number, got 2.5"),
+        ("structure: {dominoes: {count: 0}}", "structure.dominoes.count", "expected 1 or more, got 0"),
+        (
+            "structure: {bricks: [{id: a, at: [0, 0, 4 mm], fixed: maybe}]}",
+            "structure.bricks[0].fixed",
+            "expected true or false, got 'maybe'",
+        ),
+        (
+            "structure: {bricks: [{id: 'a b', at: [0, 0, 4 mm]}]}",
+            "structure.bricks[0].id",
+            "expected a name of 1 to 40 letters, digits, '_', '.' or '-' (no spaces), got 'a b'",
+        ),
+        (
+            "name: yes\nstructure: {tower: {levels: 2}}",
+            "name",
+            "expected text, got True: YAML reads an unquoted yes, no, on, off, true or false as true or false; quote it",
+        ),
+    ],
+)
+def test_pydantics_type_words_are_said_in_the_languages(line, field, message):
+    """'Input should be a valid integer, got a number with a fractional part, got 2.5' (got
+    twice), 'String should match pattern ...', 'Input should be a valid boolean': pydantic's
+    words; a YAML 'yes' read as true gets a hint to quote it."""
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(f"stackdsl: 1\n{line}\n", "w.yaml")
+    assert (err.value.field, err.value.message) == (field, message)

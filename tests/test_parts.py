@@ -145,7 +145,7 @@ def test_problems_of_a_composition_point_at_the_part_to_change(text, field, line
             "structure[0].on",
             "written after this one",
         ),
-        ("  - {name: a.b, tower: {levels: 2}}\n", "structure[0].name", "pattern"),
+        ("  - {name: a.b, tower: {levels: 2}}\n", "structure[0].name", "letters, digits"),
         ("  - {name: a, tower: {levels: 2}, wall: {courses: 1, bricks_per_course: 1}}\n", "structure[0]", "exactly one"),
         ("  - {name: a, towr: {levels: 2}}\n", "structure[0].towr", "did you mean 'tower'"),
         ("  - {name: a, tower: {levels: 2, brick: oak}}\n", "structure[0].tower.brick", "unknown brick type"),

@@ -11,8 +11,10 @@ Source: stackdsl's own (errors at file:line:col), after Tavern.
 from __future__ import annotations
 
 import difflib
+import re
 import types
 import typing
+from collections.abc import Callable
 from typing import Any
 
 from pydantic import BaseModel, ValidationError
@@ -131,7 +133,7 @@ def _merged(group: list[tuple[ErrorDetails, ScenarioError]]) -> ScenarioError:
     >>> a = ({"type": "literal_error"}, ScenarioError("Input should be 'x' or 'y', got 'up'", field="d"))
     >>> b = ({"type": "tuple_type"}, ScenarioError("Input should be a valid tuple, got 'up'", field="d"))
     >>> _merged([a, b]).message
-    "Input should be 'x' or 'y', or a valid tuple, got 'up'"
+    "expected 'x' or 'y', or a valid tuple, got 'up'"
     """
     if len(group) == 1:
         return group[0][1]
@@ -145,10 +147,10 @@ def _merged(group: list[tuple[ErrorDetails, ScenarioError]]) -> ScenarioError:
         text = e.message
         if ", got " in text:
             text, got = text.rsplit(", got ", 1)
-        text = text if not parts else text.removeprefix("Input should be ")
+        text = text.removeprefix("Input should be ").removeprefix("expected ")
         if text not in parts:
             parts.append(text)
-    message = ", or ".join(parts) + (f", got {got}" if got else "")
+    message = "expected " + ", or ".join(parts) + (f", got {got}" if got else "")
     return ScenarioError(
         message,
         file=first.file,
@@ -191,6 +193,8 @@ def _one_error(err: ErrorDetails, source: SourceMap) -> ScenarioError:
         bound = "" if exactly else "at most " if most else "at least "
         message = f"expected a list of {bound}{limit} item{'s' * (limit != 1)}"
         return source.error(loc, f"{message}, got {shown(err['input'])}")
+    elif err["type"] in _PLAIN:  # pydantic's words for a type, in the language's
+        message = _PLAIN[err["type"]](err.get("ctx", {}))
     else:
         message = err["msg"].removeprefix("Value error, ").replace("a valid tuple", "a list")  # YAML has lists
     if "input" in err and err["type"] not in ("value_error",):
@@ -201,7 +205,43 @@ def _one_error(err: ErrorDetails, source: SourceMap) -> ScenarioError:
             message += f", got a list: {shown(given_)}"
         else:
             message += f", got {shown(given_)}"
+        if err["type"] == "string_type" and isinstance(given_, bool):  # yes, no, on, off
+            message += ": YAML reads an unquoted yes, no, on, off, true or false as true or false; quote it"
     return source.error(loc, message)
+
+
+def _pattern(ctx: dict[str, Any]) -> str:
+    """A name pattern (``^[A-Za-z0-9_.-]{1,40}$``) in words."""
+    found = re.fullmatch(r"\^\[A-Za-z0-9([^\]]*)\]\{(\d+),(\d+)\}\$", str(ctx.get("pattern", "")))
+    if found is None:
+        return f"expected text matching {ctx.get('pattern')!r}"
+    signs = [repr(c) for c in found.group(1)]
+    others = ", ".join(signs[:-1]) + f" or {signs[-1]}" if len(signs) > 1 else "".join(signs)
+    return (
+        f"expected a name of {found.group(2)} to {found.group(3)} letters, digits"
+        + (f", {others}" if others else "")
+        + " (no spaces)"
+    )
+
+
+#: pydantic's error types whose words are said as the language says them: type -> message from ctx.
+_PLAIN: dict[str, Callable[[dict[str, Any]], str]] = {
+    "int_from_float": lambda ctx: "expected a whole number",
+    "int_type": lambda ctx: "expected a whole number",
+    "int_parsing": lambda ctx: "expected a whole number",
+    "float_type": lambda ctx: "expected a number",
+    "float_parsing": lambda ctx: "expected a number",
+    "bool_type": lambda ctx: "expected true or false",
+    "bool_parsing": lambda ctx: "expected true or false",
+    "list_type": lambda ctx: "expected a list",
+    "tuple_type": lambda ctx: "expected a list",
+    "string_type": lambda ctx: "expected text",
+    "string_pattern_mismatch": _pattern,
+    "greater_than_equal": lambda ctx: f"expected {ctx.get('ge')} or more",
+    "greater_than": lambda ctx: f"expected more than {ctx.get('gt')}",
+    "less_than_equal": lambda ctx: f"expected {ctx.get('le')} or less",
+    "less_than": lambda ctx: f"expected less than {ctx.get('lt')}",
+}
 
 
 def shown(value: Any, limit: int = 60) -> str:

@@ -239,3 +239,25 @@ def test_a_part_on_itself_is_told_so():
     with pytest.raises(ScenarioError, match="'left' names this part itself") as err:
         parse_scenario(text, "self.yaml")
     assert (err.value.field, err.value.line) == ("structure[0].on", 3)
+
+
+def test_a_part_on_parts_of_unequal_height_is_warned_of_the_one_it_does_not_reach():
+    """A deck 'on: [left, right]' over towers of 5 and 3 levels sits on the left one's top and
+    16 mm above the right one's: it rests on one of the two it was written to rest on."""
+    import warnings
+
+    from stackdsl.lang.errors import ScenarioWarning
+
+    text = (
+        "stackdsl: 1\nstructure:\n"
+        "  - {name: left, tower: {levels: LEFT, yaw: 90}, origin: [-100 mm, 0]}\n"
+        "  - {name: right, tower: {levels: 3, yaw: 90}, origin: [100 mm, 0]}\n"
+        "  - {name: deck, on: [left, right], bricks: [{at: [0, -48 mm, 4 mm]}, {at: [0, 48 mm, 4 mm]}]}\n"
+    )
+    with pytest.warns(
+        ScenarioWarning, match=r"u.yaml:5:22: warning: structure\[2\].on: .* does not reach 'right' \(16 mm lower\)"
+    ):
+        arrange(parse_scenario(text.replace("LEFT", "5"), "u.yaml"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ScenarioWarning)
+        arrange(parse_scenario(text.replace("LEFT", "3"), "e.yaml"))

@@ -21,6 +21,7 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
@@ -148,7 +149,24 @@ def _support(
         centre = (float(brick.position[0]), float(brick.position[1]))
         return _top(scenario, brick), brick.level, part.origin or centre
     names = [part.on] if isinstance(part.on, str) else part.on
-    return max(tops[n][0] for n in names), max(tops[n][1] for n in names), origin
+    top = max(tops[n][0] for n in names)
+    below = [n for n in names if top - tops[n][0] > GAP_WARNED]
+    if below:
+        lower = ", ".join(f"{n!r} ({(top - tops[n][0]) * 1000:.3g} mm lower)" for n in below)
+        warnings.warn(
+            scenario.source.warning(
+                path + ("on",),
+                f"the part is put on the highest top of its 'on' parts, so it does not reach {lower}: it rests on "
+                f"{', '.join(repr(n) for n in names if n not in below)} alone",
+            ),
+            stacklevel=2,
+        )
+    return top, max(tops[n][1] for n in names), origin
+
+
+GAP_WARNED = 0.001
+"""Metres below the highest of a part's ``on`` parts a named part's top may be before the part is
+warned that it does not rest on it (a contact pad)."""
 
 
 def _moved(

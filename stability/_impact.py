@@ -166,7 +166,7 @@ def _reaches(
     The impactor's closest point lies ``hit.distance`` from ``hit.position`` along
     ``hit.normal`` (which points from the brick into the impactor) and moves at
     ``linear + angular x (point - com)``. It reaches the brick if its straight path over the
-    window enters the box grown by ``pad`` (the slab test, in the box's frame). A toppling
+    window enters the box grown by ``pad`` (:meth:`Box.meets_path`). A toppling
     domino's top edge comes at the next domino's face down and forward, and reaches it though
     its centre of mass heads mostly down; a brick thrown past the top of a tower closes on the
     edge of the level below but passes above it; a body beside or below the path is near but
@@ -182,17 +182,4 @@ def _reaches(
     if hit.distance <= pad:  # touching already
         return True
     point = hit.position + hit.normal * hit.distance
-    rotation = pose.rotation
-    start = (point - pose.position) @ rotation  # in the box's frame
-    velocity = (linear + np.cross(angular, point - com)) @ rotation
-    enter, leave = 0.0, window
-    for p, v, h in zip(start.tolist(), velocity.tolist(), (box.half_extents + pad).tolist(), strict=True):
-        if abs(v) < 1e-12:
-            if abs(p) > h:
-                return False
-            continue
-        a, b = (-h - p) / v, (h - p) / v
-        enter, leave = max(enter, min(a, b)), min(leave, max(a, b))
-        if enter > leave:
-            return False
-    return True
+    return box.meets_path(pose, point, (linear + np.cross(angular, point - com)) * window, grow=pad)

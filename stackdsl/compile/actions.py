@@ -343,22 +343,10 @@ def _unknown(name: str, bricks: Sequence[LaidBrick], fixtures: Sequence[str], ve
 def _meets(start: np.ndarray, travel: np.ndarray, pusher: BrickSpec, brick: LaidBrick, spec: BrickSpec) -> bool:
     """Does a pusher (``pusher``'s box, any way turned) whose centre moves from ``start`` by
     ``travel`` (m, shape (3,)) come within reach of ``brick``'s box: its centre's path through
-    the box grown by the pusher's half diagonal (the slab test, in the brick's frame)? Generous:
+    the box grown by the pusher's half diagonal (:meth:`stability.Box.meets_path`)? Generous:
     a pusher that passes this near may touch it. Source: stackdsl's own."""
-    rotation = brick.pose().rotation
-    p0, d = (start - brick.position) @ rotation, travel @ rotation
-    grown = np.array(spec.half_extents) + float(np.linalg.norm(pusher.half_extents))
-    enter, leave = 0.0, 1.0
-    for p, v, h in zip(p0.tolist(), d.tolist(), grown.tolist(), strict=True):
-        if abs(v) < 1e-12:
-            if abs(p) > h:
-                return False
-            continue
-        a, b = (-h - p) / v, (h - p) / v
-        enter, leave = max(enter, min(a, b)), min(leave, max(a, b))
-        if enter > leave:
-            return False
-    return True
+    box = Box(np.array(spec.half_extents), spec.mass)
+    return box.meets_path(brick.pose(), start, travel, grow=float(np.linalg.norm(pusher.half_extents)))
 
 
 def _vec(v: np.ndarray) -> tuple[float, float, float]:

@@ -322,3 +322,22 @@ def test_the_world_reads_a_velocity_from_pybullet_once_a_step_and_again_after_a_
         world.step()
         assert world.velocity(body)[0][2] == pytest.approx(-9.81 / 240)
         assert calls == [body] * 4
+
+
+def test_a_run_stopped_where_its_collapse_is_decided_ends_with_that_steps_graph():
+    """Stopped at its collapse's decision (as the bench runs), the final brick graph is the
+    collapse graph of that step, and it is the graph the world gives at the end."""
+    from stackdsl.runtime.collapse import CollapseMonitor
+    from stackdsl.runtime.run import outcome, run_in, world_for
+    from stackdsl.runtime.subscribers import Stability
+
+    text = "stackdsl: 1\nstructure: {tower: {levels: 12, bricks_per_layer: 1, turn: 0, shift: 13 mm}}\n"
+    program = compile_scenario(parse_scenario(text, "slant.yaml"))
+    with world_for(program) as world:
+        loop = run_in(world, program, RunOptions(stop_at_collapse=True, settle=0.0))
+        monitor = next(s for s in loop.subscribers if isinstance(s, CollapseMonitor))
+        fresh = next(s for s in loop.subscribers if isinstance(s, Stability)).graph(loop)
+        done = outcome(loop, 0.0)
+    assert done.collapse is not None and monitor.graph_step == loop.step
+    assert done.final_graph == fresh
+    assert done.collapse_graph is not None and done.final_graph.bricks() == done.collapse_graph.bricks()

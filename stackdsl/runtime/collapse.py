@@ -65,12 +65,13 @@ OFF_SUPPORT = 0.0005
 @dataclass
 class _Displaced:
     """A brick past the threshold, not yet known to stay so: since when (s), the level
-    placed then, the farthest it went (m), and since when it has been at rest (s, or None)."""
+    placed then, the farthest it went (m), the brick graph then and the step it was built at
+    the end of, and since when it has been at rest (s, or None)."""
 
     since: float
     level: int
     farthest: float
-    graph: Graph
+    graph: tuple[Graph, int]
     resting_since: float | None = None
 
 
@@ -154,6 +155,7 @@ class CollapseMonitor(Subscriber):
 
     Attributes:
         collapse: the first collapse, or None; collapse_graph: the graph when it began;
+        graph_step: the step at whose end the collapse graph was built (None before a collapse);
         certificate: how the verdict was proved (None until the collapse or the end, and
         when the run stopped early); drift: metres; certify_time: wall seconds the
         equilibrium certificate of a standing structure took.
@@ -175,6 +177,7 @@ class CollapseMonitor(Subscriber):
         self._rest = (rest_speed, rest_angular_speed, rest_duration)
         self.collapse: Collapse | None = None
         self.collapse_graph: Graph | None = None
+        self.graph_step: int | None = None
         self.certificate: Certificate | None = None
         self.drift = 0.0
         self.certify_time = 0.0
@@ -267,7 +270,7 @@ class CollapseMonitor(Subscriber):
                 # (a collapse is dated at the earliest of them; one graph a brick cost 85 ms each
                 # for the 50 bricks of a falling tower)
                 pending = [d for d in self._displaced.values() if d.level == level]
-                graph = min(pending, key=lambda d: d.since).graph if pending else self._graph(loop)
+                graph = min(pending, key=lambda d: d.since).graph if pending else (self._graph(loop), loop.step)
                 state = self._displaced[record.id] = _Displaced(loop.now, level, distance, graph)
             state.farthest = max(state.farthest, distance)
             if not rests:
@@ -344,7 +347,7 @@ class CollapseMonitor(Subscriber):
         farthest: float,
         decided: float,
         proof: Certificate,
-        graph: Graph | None,
+        graph: tuple[Graph, int] | None,
     ) -> None:
         """Record the collapse of ``first`` (the brick named), proved by ``proof``."""
         assert first.level is not None
@@ -358,7 +361,7 @@ class CollapseMonitor(Subscriber):
             detail = f"collapse level {level}; {proof.detail}"
         loop.events.append(Event(time=since, kind="collapse", brick=first.id, level=first.level, detail=detail))
         loop.events.sort(key=lambda e: e.time)
-        self.collapse_graph = graph if graph is not None else self._graph(loop)
+        self.collapse_graph, self.graph_step = graph if graph is not None else (self._graph(loop), loop.step)
         self._displaced.clear()
         loop.stop_after(self.settle)
 

@@ -225,13 +225,15 @@ def outcome(loop: StepLoop, wall_time: float) -> Outcome:
     stability = next(s for s in loop.subscribers if isinstance(s, Stability))
     structure = loop.structure
     placed = structure.placed
+    # a run stopped at the step its collapse was decided in has that step's graph already
+    final_graph = monitor.collapse_graph if monitor.graph_step == loop.step else None
     return Outcome(
         scenario=loop.program.name,
         mode=loop.program.engine.mode,
         backend=loop.program.engine.backend,
         collapse=monitor.collapse,
         events=tuple(loop.events),
-        final_graph=stability.graph(loop),
+        final_graph=final_graph or stability.graph(loop),
         collapse_graph=monitor.collapse_graph,
         displacement={r.id: float(d) for r, d in zip(placed, structure.displacements(placed))},
         drift=monitor.drift,

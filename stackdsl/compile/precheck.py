@@ -310,11 +310,13 @@ def _expectation_problems(scenario: Scenario, top: int, ids: Sequence[str] = ())
         levels = levels_of(getattr(expect, name) or ())
         unknown = [s for s in bricks_of(getattr(expect, name) or ()) if not any(selects(s, i) for i in ids)]
         if unknown:
+            written = getattr(expect, name)
+            at = (list(written).index(unknown[0]),) if isinstance(written, (list, tuple)) else ()
             problems.append(
                 _Problem(
                     ("expect", name),
                     (2, 3),
-                    ("expect", name),
+                    ("expect", name, *at),  # at the first unknown name of a list
                     f"{', '.join(repr(u) for u in unknown)} name{'s' * (len(unknown) == 1)} no brick of the structure: "
                     f"give a brick id (such as {ids[0]!r})"
                     + (f" or the start of ids (such as {ids[0].rsplit('.', 1)[0]!r})" if "." in ids[0] else ""),

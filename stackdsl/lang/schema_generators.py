@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, field_validator, model_validator
 
 from .bounds import MAX_BRICKS, MAX_LEVELS, BoundedAngle, Coordinate, PeakSpacing, Spacing, StrictModel, Vector2
 from .grammar import WHOLE
@@ -113,8 +113,9 @@ class Dominoes(StrictModel):
         examples=["400 mm"],
     )
 
-    @model_validator(mode="after")
-    def _radius(self) -> Dominoes:
-        if self.radius is not None and self.radius == 0:
+    @field_validator("radius")
+    @classmethod
+    def _radius(cls, radius: float | None) -> float | None:
+        if radius is not None and radius == 0:
             raise ValueError("an arc's radius is not 0: leave 'radius' out for a straight row")
-        return self
+        return radius

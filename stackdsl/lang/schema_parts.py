@@ -186,10 +186,13 @@ def check_parts(parts: list[Part] | dict[str, Part]) -> list[tuple[FieldPath, st
             problems.append((loc, f"{name!r} is a key of the structure; give the part another name"))
         elif name in seen:
             problems.append((loc + ("name",), f"there is already a part named {name!r}"))
-        for target in [part.on] if isinstance(part.on, str) else part.on or []:
+        targets = [((), part.on)] if isinstance(part.on, str) else [((j,), t) for j, t in enumerate(part.on or [])]
+        for at, target in targets:  # a list's problems at the name in it
             head = target.split(".", 1)[0]
             if head == name:
-                problems.append((loc + ("on",), f"{target!r} names this part itself: a part rests on parts written before it"))
+                problems.append(
+                    (loc + ("on", *at), f"{target!r} names this part itself: a part rests on parts written before it")
+                )
             elif head not in seen:
                 later = head in (n for n, _, _ in named_parts(parts))
                 why = (
@@ -197,9 +200,9 @@ def check_parts(parts: list[Part] | dict[str, Part]) -> list[tuple[FieldPath, st
                     if later
                     else f"there is no part {head!r}" + (f"; the parts before this one: {', '.join(seen)}" if seen else "")
                 )
-                problems.append((loc + ("on",), f"{target!r} names no part before this one: {why}"))
+                problems.append((loc + ("on", *at), f"{target!r} names no part before this one: {why}"))
             elif target != head and isinstance(part.on, list):
-                problems.append((loc + ("on",), f"{target!r}: a list of 'on' names parts; a brick is given alone"))
+                problems.append((loc + ("on", *at), f"{target!r}: a list of 'on' names parts; a brick is given alone"))
         seen.append(name)
     if named_parts(parts)[0][2].interleave:
         problems.append((named_parts(parts)[0][1] + ("interleave",), "the first part has no part before it to interleave with"))

@@ -62,6 +62,26 @@ def test_a_fast_projectile_costs_substeps_up_to_the_cap():
     assert work(1) < work(10) < work(99) == work(100)  # 99 and 100 m/s both need more than the cap
 
 
+def test_a_pull_counts_the_finer_steps_the_runtime_takes_while_it_lasts():
+    """On pybullet the extension steps at 960 Hz while a pull lasts: four substeps of a 240 Hz
+    step, each with every placed brick moving; MuJoCo's extension does not split them."""
+    pulled = "stackdsl: 1\nstructure: {tower: {levels: 3, bricks_per_layer: 3, spacing: 25 mm}}\nactions:\n  - remove: {brick: L02.2, at: after level 3, speed: 20 mm/s}\n"
+    p = program(pulled)
+    (pull,) = [a for a in p.actions if a.kind == "remove"]
+    span, bricks = pull.end_step - pull.step, len(p.placements)
+    without = estimate_work(program(pulled.split("actions:")[0]))
+    work = estimate_work(p)
+    assert work.steps - without.steps == pytest.approx(4 * span)
+    assert work.moving - without.moving == pytest.approx(4 * span * bricks)
+    pytest.importorskip("mujoco")
+    on_mujoco = program(pulled + "engine: {backend: mujoco}\n")
+    (pull,) = [a for a in on_mujoco.actions if a.kind == "remove"]
+    mujoco = (
+        estimate_work(on_mujoco).steps - estimate_work(program(pulled.split("actions:")[0] + "engine: {backend: mujoco}\n")).steps
+    )
+    assert mujoco == pytest.approx(pull.end_step - pull.step)
+
+
 def test_compile_prints_the_estimate():
     from stackdsl import format_program
 

@@ -18,7 +18,10 @@ extension froze) 1, and every step 1 more for the runtime's own loop:
 * a projectile: from its launch to :data:`IMPACT_WINDOW` after its arrival every body
   counts as moving, and during its flight in as many substeps as its speed needs
   (continuous collision detection on: speed x timestep / collapse threshold, at most
-  :data:`MAX_SUBSTEPS`).
+  :data:`MAX_SUBSTEPS`);
+* a pull, a push or a shake: every body placed by then moving for its duration (the pusher too),
+  in the substeps the runtime splits its steps into (a pull with the extension on pybullet in
+  steps of :data:`PULL_STEP`; a hand as fast as a thrown brick as one is).
 
 :func:`Work.seconds` turns the three parts into a wall time with constants measured on a
 2-core machine (a guess good to a factor of about two: contacts, collapses and the load
@@ -362,14 +365,18 @@ def estimate_work(program: Program) -> Work:
             present += placed
     for motion in (
         a for a in program.actions if isinstance(a, (Remove, Push, Shake))
-    ):  # every body moving, in extension mode too
+    ):  # every body moving, in extension mode too, in the substeps a hand's path needs
         span = motion.end_step - motion.step
         present = sum(a.step <= motion.step for a in entries) + (1 if isinstance(motion, Push) else 0)
+        substeps = _guided_substeps(program, motion)
         if e.mode == "extension":
-            steps += span
-            moving += span * weight * present
-        elif isinstance(motion, Push):
-            moving += span * weight
+            steps += span * substeps
+            moving += span * substeps * weight * present
+        else:  # raw, tuned: every step counted above, the extra substeps here
+            steps += span * (substeps - 1)
+            moving += span * (substeps - 1) * weight * (present - isinstance(motion, Push))
+            moving += span * substeps * weight * isinstance(motion, Push)
+            resting += span * (substeps - 1) * fixtures
     for launch in (a for a in entries if isinstance(a, Launch)):
         speed = math.sqrt(sum(v * v for v in launch.velocity))
         substeps = min(MAX_SUBSTEPS, max(1, math.ceil(speed * dt / program.collapse_threshold))) if e.ccd else 1
@@ -380,6 +387,21 @@ def estimate_work(program: Program) -> Work:
         moving += extra * weight * sum(a.step <= launch.step for a in entries)
         resting += extra * fixtures
     return Work(steps, moving, resting)
+
+
+def _guided_substeps(program: Program, motion: Remove | Push | Shake) -> int:
+    """The substeps of a step while ``motion`` lasts, as the runtime splits them: a pull in
+    steps of at most :data:`PULL_STEP` (the extension acting on pybullet), a hand's path in
+    substeps in which it moves at most the collapse threshold (continuous collision detection
+    on), at most :data:`MAX_SUBSTEPS`; 1 for a shake."""
+    if isinstance(motion, Shake):
+        return 1
+    e = program.engine
+    pull = isinstance(motion, Remove) and e.mode == "extension" and e.backend == "pybullet"
+    split = math.ceil(e.timestep / PULL_STEP - 1e-9) if pull else 1
+    speed = math.sqrt(sum(v * v for v in motion.velocity))
+    fast = math.ceil(speed * e.timestep / program.collapse_threshold - 1e-9) if e.ccd else 1
+    return min(MAX_SUBSTEPS, max(split, fast, 1))
 
 
 def _mm(metres: float) -> float:

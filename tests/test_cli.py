@@ -649,6 +649,25 @@ def test_run_on_a_sweep_file_says_which_sample_it_runs_and_runs_the_one_asked(tm
     assert main(["run", str(tmp_path / "plain.yaml")]) == 0 and "running sample" not in capsys.readouterr().err
 
 
+def test_compile_on_a_sweep_file_says_which_sample_it_shows_and_shows_the_one_asked(tmp_path, capsys):
+    path = write(tmp_path, walk=RANDOM) / "walk.yaml"
+    template = parse_scenario(RANDOM, "walk.yaml").template
+
+    def shown(*extra: str) -> tuple[list[list[float]], str]:
+        assert main(["compile", str(path), "--json", *extra]) == 0
+        captured = capsys.readouterr()
+        return [a["position"] for a in json.loads(captured.out)["actions"] if a["kind"] == "place"], captured.err
+
+    first, said = shown()
+    assert "stackdsl compile: showing sample 0 of 4 (seed 7)" in said
+    assert first == [list(a.position) for a in compile_scenario(template.scenario(0, 0)).placements]
+    third, said = shown("--sample", "2")
+    assert "showing sample 2 of 4" in said and "--sample K shows another" in said
+    assert third == [list(a.position) for a in compile_scenario(template.scenario(0, 2)).placements] and third != first
+    assert main(["compile", str(path), "--cell", "1"]) == 2
+    assert "--cell: the sweep's grid has cells 0 to 0, not 1" in capsys.readouterr().err
+
+
 def test_compare_json_and_k(tmp_path, capsys):
     folder = write(tmp_path, a=PASSING, b=FAILING)
     assert main(["compare", str(folder), "--modes", "raw,extension", "-j", "1", "-k", "b.yaml", "--json"]) == 1

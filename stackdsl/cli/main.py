@@ -345,6 +345,7 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
     if name == "compile":  # the one that runs nothing
         p = sub.add_parser("compile", parents=[one], help=COMMANDS["compile"], epilog=_ONE_STATUS, formatter_class=raw)
         p.add_argument("--json", action="store_true", help="print the Program as JSON")
+        _add_sample_options(p, "compile")
         p.set_defaults(func=_compile)
         return
     from ..batch.judge import TIMEOUT
@@ -431,13 +432,7 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
         p.add_argument(
             "--json", action="store_true", help="print the whole Outcome as JSON (exit 1 still means a failed expectation)"
         )
-        p.add_argument(
-            "--sample",
-            type=int,
-            metavar="K",
-            help="of a file with a sweep or random fields: run its sample K (default 0; the sample column of samples.csv)",
-        )
-        p.add_argument("--cell", type=int, metavar="C", help="of a sweep's grid: run the sample in cell C (default 0)")
+        _add_sample_options(p, "run")
         add_record_options(p)
         p.set_defaults(func=_run)
     else:
@@ -446,12 +441,24 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
         add_commands(sub, [one, guarded], _ONE_STATUS, (name,))
 
 
+def _add_sample_options(p: argparse.ArgumentParser, verb: str) -> None:
+    """``--sample`` and ``--cell``: which one of a random file's runs ``verb`` takes."""
+    p.add_argument(
+        "--sample",
+        type=int,
+        metavar="K",
+        help=f"of a file with a sweep or random fields: {verb} its sample K (default 0; the sample column of samples.csv)",
+    )
+    p.add_argument("--cell", type=int, metavar="C", help=f"of a sweep's grid: {verb} the sample in cell C (default 0)")
+
+
 def _compile(args: argparse.Namespace) -> int:
     from ..compile.compiler import compile_scenario
     from ..compile.program import format_program
     from ..lang.loader import load_scenario
 
-    program = compile_scenario(load_scenario(args.file, args.seed), args.mode, args.model, args.backend)
+    scenario = _one_sample(load_scenario(args.file, args.seed), args.cell, args.sample, "compile")
+    program = compile_scenario(scenario, args.mode, args.model, args.backend)
     print(program.model_dump_json(indent=2) if args.json else format_program(program))
     return OK
 
@@ -463,7 +470,7 @@ def _run(args: argparse.Namespace) -> int:
     from ..runtime.outcome import describe_certificate
     from ..verdicts.expect import describe_outcome, evaluate, explain
 
-    scenario = _one_sample(load_scenario(args.file, args.seed), args.cell, args.sample)
+    scenario = _one_sample(load_scenario(args.file, args.seed), args.cell, args.sample, "run")
     program = compile_scenario(scenario, args.mode, args.model, args.backend)
     if args.rate is not None and not args.record:
         raise ScenarioError("--rate is the recording's: give --record OUT.npz too", file="--rate")
@@ -516,10 +523,10 @@ def _run(args: argparse.Namespace) -> int:
     return OK if all(v.passed for v in verdicts) and not stopped else FAILED
 
 
-def _one_sample(scenario: Any, cell: int | None, sample: int | None) -> Any:
-    """The scenario ``run`` runs: a file with a sweep or random fields is one of many runs, so its
-    sample ``sample`` of grid cell ``cell`` (0 and 0 by default), said on stderr with how to run
-    the rest; a plain file is itself.
+def _one_sample(scenario: Any, cell: int | None, sample: int | None, verb: str) -> Any:
+    """The scenario ``run`` runs (or ``compile`` shows, as ``verb`` says): a file with a sweep or
+    random fields is one of many runs, so its sample ``sample`` of grid cell ``cell`` (0 and 0
+    by default), said on stderr with how to take another; a plain file is itself.
 
     Raises:
         ScenarioError: ``--sample`` or ``--cell`` on a plain file, or past the sweep's samples or cells.
@@ -538,8 +545,9 @@ def _one_sample(scenario: Any, cell: int | None, sample: int | None) -> Any:
     chosen = scenario if (c, k) == (0, 0) else template.scenario(c, k)
     where = f" of grid cell {c} of {template.cells} ({', '.join(f'{n} = {v}' for n, v in template.cell(c).items())})"
     print(
-        f"stackdsl run: running sample {k} of {template.samples}{where if template.grid else ''} (seed {template.seed}); "
-        "`stackdsl sweep` runs them all and judges the statistics, --sample K runs another",
+        f"stackdsl {verb}: {'running' if verb == 'run' else 'showing'} sample {k} of {template.samples}"
+        f"{where if template.grid else ''} (seed {template.seed}); "
+        f"`stackdsl sweep` runs them all and judges the statistics, --sample K {'runs' if verb == 'run' else 'shows'} another",
         file=sys.stderr,
         flush=True,
     )

@@ -98,6 +98,7 @@ class MuJoCoWorld(World):
         self.ground = 0
         self._substeps = 1
         self._specs: list[BrickSpec] = []
+        self._meshes: dict[Vec3, str] = {}  # half extents -> the name of its convex mesh (extension mode)
         self._model: Any = None
         self._data: Any = None
         self._frozen = np.zeros(0, dtype=bool)
@@ -150,12 +151,14 @@ class MuJoCoWorld(World):
         # rest thresholds (it stayed active to the end of the run); the general convex collider
         # gives a steady set. MuJoCo alone (raw, tuned) keeps its own primitive, at its best.
         hx, hy, hz = spec.half_extents
-        if self._extension:
+        mesh = self._meshes.get((hx, hy, hz), f"m{len(self._meshes)}")
+        if self._extension and (hx, hy, hz) not in self._meshes:  # one mesh a size: each compiled once
             corners = [c for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1) for c in (sx * hx, sy * hy, sz * hz)]
-            self._spec.add_mesh(name=f"m{body}", uservert=corners)
+            self._spec.add_mesh(name=mesh, uservert=corners)
+            self._meshes[(hx, hy, hz)] = mesh
         for name, owner in ((f"f{body}", free), (f"h{body}", held)):
             if self._extension:
-                geom = owner.add_geom(name=name, type=mj.mjtGeom.mjGEOM_MESH, meshname=f"m{body}", mass=spec.mass)
+                geom = owner.add_geom(name=name, type=mj.mjtGeom.mjGEOM_MESH, meshname=mesh, mass=spec.mass)
             else:
                 geom = owner.add_geom(name=name, type=mj.mjtGeom.mjGEOM_BOX, size=[hx, hy, hz], mass=spec.mass)
             self._materials.surface(geom, spec.friction, spec.restitution)

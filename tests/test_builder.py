@@ -8,7 +8,19 @@ from pathlib import Path
 import pytest
 
 from stackdsl import ScenarioError, compile_scenario, load_scenario, parse_scenario
-from stackdsl.lang.models import BrickPlacement, Dominoes, Expect, Part, Pyramid, Scenario, Structure, Timing, Tower, Wall
+from stackdsl.lang.models import (
+    BrickPlacement,
+    CardHouse,
+    Dominoes,
+    Expect,
+    Part,
+    Pyramid,
+    Scenario,
+    Structure,
+    Timing,
+    Tower,
+    Wall,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 SHIPPED = sorted([*(ROOT / "scenarios").rglob("*.yaml"), *(ROOT / "sweeps").glob("*.yaml")])
@@ -72,6 +84,49 @@ def test_a_built_scenario_is_checked_as_a_file_is():
         Dominoes(count=0)
     with pytest.raises(ValueError, match="'wall' is a key of the structure"):
         Structure(parts={"wall": Part(wall=Wall(courses=1, bricks_per_course=1))})
+
+
+def _readme_bridge() -> Scenario:
+    """The README's bridge, as the README builds it (no name)."""
+    towers = [Part(name=n, origin=(x, 0), tower=Tower(levels=6, yaw=90)) for n, x in (("left", "-100 mm"), ("right", "100 mm"))]
+    deck = Part(name="deck", on=["left", "right"], bricks=[{"at": (0, y, "4 mm")} for y in ("-48 mm", "48 mm")])
+    return Scenario(stackdsl=1, structure=Structure(parts=[*towers, deck]), expect={"stands": True})
+
+
+UNNAMED = {
+    "tower": lambda: Scenario(stackdsl=1, structure=Structure(tower=Tower(levels=3))),
+    "README bridge": _readme_bridge,
+    "card house and timing": lambda: Scenario(
+        stackdsl=1, structure=Structure(card_house=CardHouse(levels=2)), timing=Timing(interval=0.5), expect={"stands": True}
+    ),
+    "map of layouts with an action": lambda: Scenario(
+        stackdsl=1,
+        structure=Structure(
+            parts={
+                "stack": Part(tower=Tower(levels=4)),
+                "steps": Part(origin=(0, 0.3), pyramid=Pyramid(base=3)),
+                "row": Part(origin=(0.5, 0), dominoes=Dominoes(count=4)),
+            }
+        ),
+        actions=[{"remove": {"brick": "stack.L02.2", "at": "after level 4", "speed": "20 mm/s"}}],
+    ),
+}
+
+
+@pytest.mark.parametrize("build", UNNAMED.values(), ids=UNNAMED.keys())
+def test_a_built_scenario_without_a_name_reads_back_from_its_yaml_to_the_same_program(build):
+    """A scenario read from text of no file was named '<scenario>' (the stem of its stand-in file
+    name) and a built one None: the two compiled to Programs of different names, and to_yaml()
+    wrote 'name: <scenario>' back. Text of no file keeps no name, as a built scenario does."""
+    built = build()
+    text = built.to_yaml()
+    assert "name:" not in text.split("structure:")[0]
+    again = parse_scenario(text)
+    assert again.name is None and again.model_dump() == built.model_dump()
+    assert compile_scenario(again) == compile_scenario(built)
+    assert compile_scenario(again).model_dump() == compile_scenario(built).model_dump()
+    assert again.to_yaml() == text
+    assert parse_scenario(text, "from a file.yaml").name == "from a file"  # a file still names it by its stem
 
 
 def test_a_built_composition_is_checked_as_a_file_is_when_compiled():

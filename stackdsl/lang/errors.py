@@ -10,6 +10,10 @@ from typing import TypeAlias
 
 FieldPath: TypeAlias = tuple[str | int, ...]  # a field path: keys (str) and list indices (int)
 
+#: How errors name a scenario that came from no file: YAML text given to
+#: :func:`stackdsl.parse_scenario` without a file name, or one built from the Python models.
+NO_FILE = "<scenario>"
+
 
 def format_path(path: FieldPath) -> str:
     """``("structure", "bricks", 3, "at")`` -> ``"structure.bricks[3].at"``."""
@@ -39,7 +43,7 @@ class ScenarioError(Exception):
         self,
         message: str,
         *,
-        file: str = "<scenario>",
+        file: str = NO_FILE,
         line: int | None = None,
         column: int | None = None,
         field: str = "",

@@ -27,7 +27,7 @@ import yaml
 from yaml.events import AliasEvent, MappingStartEvent, SequenceStartEvent
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
-from .errors import FieldPath, ScenarioError, SourceMap
+from .errors import NO_FILE, FieldPath, ScenarioError, SourceMap
 from .sampling import Template
 from .scenario_file import character_name, check_characters, file_problem, read_text
 from .schema import Scenario
@@ -70,9 +70,10 @@ def load_scenario(path: str | Path, seed: int | None = None) -> Scenario:
 SLIPS_SHOWN = 5
 
 
-def parse_scenario(text: str, file: str = "<scenario>", seed: int | None = None) -> Scenario:
-    """Validate scenario YAML given as text; ``file`` names it in errors; ``seed``, when given,
-    replaces the file's ``seed``.
+def parse_scenario(text: str, file: str = NO_FILE, seed: int | None = None) -> Scenario:
+    """Validate scenario YAML given as text; ``file`` names it in errors and gives a scenario
+    without a ``name`` its stem (with no file, the name stays None, as a scenario built in Python
+    has it: the two compile to the same Program); ``seed``, when given, replaces the file's ``seed``.
 
     Raises:
         ScenarioError: as :func:`load_scenario`.

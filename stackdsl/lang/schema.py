@@ -42,7 +42,7 @@ from .bounds import (
     Side,
     StrictModel,
 )
-from .errors import SourceMap
+from .errors import NO_FILE, SourceMap
 from .expectations import Expect
 from .expressions import parse
 from .grammar import (
@@ -293,7 +293,7 @@ class Scenario(StrictModel):
         error = InitErrorDetails(type=PydanticCustomError("value_error", message), loc=loc, input=None)
         raise ValidationError.from_exception_data(type(self).__name__, [error])
 
-    _source: SourceMap = PrivateAttr(default_factory=lambda: SourceMap("<scenario>"))
+    _source: SourceMap = PrivateAttr(default_factory=lambda: SourceMap(NO_FILE))
     _template: Any = PrivateAttr(default=None)  # a stackdsl.lang.sampling.Template when the file is random or a sweep
     _sample: tuple[int, int] = PrivateAttr(default=(0, 0))  # this one's (grid cell, sample)
 

@@ -16,7 +16,7 @@ import pydantic_core
 import yaml
 from pydantic import ValidationError
 
-from .errors import FieldPath, ScenarioError, SourceMap
+from .errors import NO_FILE, FieldPath, ScenarioError, SourceMap
 from .schema import Scenario
 from .validation_errors import first_error, reference_errors
 
@@ -64,7 +64,7 @@ def validate(
     if problems:
         path, message = problems[0]
         raise source.error(path, message).with_others([source.error(p, m) for p, m in problems[1:]])
-    if scenario.name is None:
+    if scenario.name is None and source.file != NO_FILE:  # a file's stem; text of no file keeps None, as a built one
         scenario = scenario.model_copy(update={"name": Path(source.file).stem})
     scenario._source = source
     return scenario

@@ -6,6 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from pydantic import ValidationError
 
 from stackdsl import ScenarioError, compile_scenario, load_scenario, parse_scenario
 from stackdsl.lang.models import (
@@ -129,15 +130,50 @@ def test_a_built_scenario_without_a_name_reads_back_from_its_yaml_to_the_same_pr
     assert parse_scenario(text, "from a file.yaml").name == "from a file"  # a file still names it by its stem
 
 
-def test_a_built_composition_is_checked_as_a_file_is_when_compiled():
+def test_a_built_composition_is_refused_when_built_at_the_field_its_file_names():
+    """The checks between parts and of names (an 'on' that names no part before, two parts named
+    alike, an unknown brick type) ran only when a built scenario was compiled; they refuse it when
+    it is built, at the field a file's error names, and a file's error is unchanged."""
     towers = [Part(name="a", tower=Tower(levels=2)), Part(name="b", on="c", origin=(1, 0), tower=Tower(levels=2))]
+    twins = [Part(name="a", tower=Tower(levels=2)), Part(name="a", origin=(1, 0), tower=Tower(levels=2))]
+    cases = [
+        (Structure(parts=towers), ("structure", 1, "on"), "'c' names no part before this one", "c"),
+        (Structure(parts=twins), ("structure", 1, "name"), "there is already a part named 'a'", "a"),
+        (
+            Structure(parts={"a": Part(tower=Tower(levels=2)), "b": Part(on=["a", "zz"], origin=(1, 0), tower=Tower(levels=2))}),
+            ("structure", "b", "on"),
+            "'zz' names no part before this one",
+            ["a", "zz"],
+        ),
+        (Structure(parts=[Part(tower=Tower(levels=2))]), ("structure", 0), "needs a 'name'", None),
+        (Structure(tower=Tower(levels=2, brick="oak")), ("structure", "tower", "brick"), "unknown brick type 'oak'", "oak"),
+    ]
+    for structure, loc, message, given in cases:
+        with pytest.raises(ValidationError) as refused:
+            Scenario(stackdsl=1, structure=structure)
+        (error,) = refused.value.errors()
+        assert error["loc"] == loc and message in error["msg"]
+        if given is not None:
+            assert error["input"] == given
+    written = "stackdsl: 1\nstructure:\n  - {name: a, tower: {levels: 2}}\n  - {name: a, tower: {levels: 2}, origin: [1, 0]}\n"
+    with pytest.raises(ScenarioError) as from_file:
+        parse_scenario(written, "twins.yaml")
+    assert str(from_file.value).splitlines()[0] == "twins.yaml:4:12: structure[1].name: there is already a part named 'a'"
+    forward = "stackdsl: 1\nstructure:\n  - {name: deck, on: [left, right], bricks: [{at: [0, 0, 4 mm]}]}\n  - {name: left, tower: {levels: 2}}\n  - {name: right, tower: {levels: 2}, origin: [1, 0]}\n"
+    with pytest.raises(ScenarioError) as two:
+        parse_scenario(forward, "forward.yaml")
+    assert [(e.field, e.line, e.column, e.message.split(" names")[0]) for e in (two.value, *two.value.others)] == [
+        ("structure[0].on", 3, 22, "'left'"),
+        ("structure[0].on", 3, 22, "'right'"),
+    ]  # both said, though at one node (a union's members' refusals of one node are merged)
+
+
+def test_a_scenario_made_without_validation_is_still_checked_when_compiled():
+    unchecked = Scenario.model_construct(
+        stackdsl=1, structure=Structure.model_construct(parts=[Part(name="a", on="c", tower=Tower(levels=2))])
+    )
     with pytest.raises(ScenarioError, match="'c' names no part before this one"):
-        compile_scenario(Scenario(stackdsl=1, structure=Structure(parts=towers)))
-    unnamed = [Part(tower=Tower(levels=2))]
-    with pytest.raises(ScenarioError, match="needs a 'name'"):
-        compile_scenario(Scenario(stackdsl=1, structure=Structure(parts=unnamed)))
-    with pytest.raises(ScenarioError, match="unknown brick type 'oak'"):
-        compile_scenario(Scenario(stackdsl=1, structure=Structure(tower=Tower(levels=2, brick="oak"))))
+        compile_scenario(unchecked)
 
 
 def test_a_length_far_from_plausible_is_written_back_with_its_unit_and_reads_back_silently():

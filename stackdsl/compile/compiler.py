@@ -47,9 +47,8 @@ from ..engines.settings import SETTINGS, defaults, settings
 from ..lang.bounds import MAX_SIMULATED_TIME
 from ..lang.errors import FieldPath, ScenarioError
 from ..lang.extras import installed, missing
-from ..lang.schema import BACKEND_FIELDS, BUILTIN_BRICKS, Scenario
+from ..lang.schema import BACKEND_FIELDS, BUILTIN_BRICKS, Scenario, reference_errors
 from ..lang.schema_impacts import SIDES, AfterLevel, Impact
-from ..lang.validation_errors import reference_errors
 from .actions import check_measured, compile_actions, heading
 from .clearance import check_launch, check_pusher
 from .layouts import LaidBrick, with_placement_error
@@ -95,7 +94,7 @@ def compile_scenario(
             engine simulates faithfully (:mod:`stackdsl.compile.limits`), or the engine is
             MuJoCo and it is not installed (the ``mujoco`` extra).
     """
-    unknown = reference_errors(scenario)  # a file's were refused when read; a scenario built in Python's here
+    unknown = reference_errors(scenario)  # refused when validated; here for a scenario made without (model_construct)
     if unknown:
         raise scenario.source.error(*unknown[0], more=len(unknown) - 1)
     scenario, draws = accept(scenario)  # a random scene's first draw that meets its 'require:'

@@ -68,7 +68,7 @@ def arrange(scenario: Scenario) -> list[LaidBrick]:
         kind = structure.layout_name
         assert kind is not None
         return generate(scenario, kind, getattr(structure, kind), ("structure", kind))
-    problems = check_parts(structure.parts)  # a file's were refused when read; a scenario built in Python's here
+    problems = check_parts(structure.parts)  # refused when validated; here for a scenario made without (model_construct)
     if problems:
         raise scenario.source.error(*problems[0], more=len(problems) - 1)
     bricks: list[LaidBrick] = []

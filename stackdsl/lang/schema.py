@@ -42,7 +42,7 @@ from .bounds import (
     Side,
     StrictModel,
 )
-from .errors import NO_FILE, SourceMap
+from .errors import NO_FILE, FieldPath, SourceMap
 from .expectations import Expect
 from .expressions import parse
 from .grammar import (
@@ -54,7 +54,7 @@ from .schema_actions import Action
 from .schema_generators import HALF, Dominoes, Pyramid, Wall
 from .schema_impacts import Impact
 from .schema_layouts import BrickPlacement, CardHouse, Tower
-from .schema_parts import LAYOUTS, RESERVED, Parts, as_parts, named_parts
+from .schema_parts import LAYOUTS, RESERVED, Parts, as_parts, check_parts, named_parts
 from .schema_require import Requirement
 from .schema_sweep import Sweep, grid_name
 from .unit_slips import metres_written
@@ -64,6 +64,9 @@ from .units import (
 from .yaml_out import yaml_text
 
 FORMAT_VERSION = 1
+#: pydantic's error type of a problem :func:`reference_errors` finds (each one said on its own,
+#: where a union's members' refusals of one node are merged into one).
+REFERENCE_ERROR = "reference_error"
 
 
 class Material(StrictModel):
@@ -325,6 +328,20 @@ class Scenario(StrictModel):
         sides = [min(types[n].size) for n in names if n in types]
         return min(sides) / 2 if sides and len(sides) == len(names) else None
 
+    @model_validator(mode="after")
+    def _references_resolve(self) -> Scenario:
+        """The checks the schema cannot make (:func:`reference_errors`: names that point nowhere,
+        the rules between parts), after the others: a scenario built in Python is refused here, at
+        the field a file's error names (``structure.1.on``), as its file would be."""
+        problems = reference_errors(self)
+        if problems:
+            errors = [
+                InitErrorDetails(type=PydanticCustomError(REFERENCE_ERROR, m), loc=p, input=_written_at(self, p))
+                for p, m in problems
+            ]
+            raise ValidationError.from_exception_data(type(self).__name__, errors)
+        return self
+
     @property
     def source(self) -> SourceMap:
         """Where the fields came from (:class:`SourceMap`)."""
@@ -364,3 +381,65 @@ class Scenario(StrictModel):
             whole = types[name.removesuffix(HALF)]
             return whole.model_copy(update={"size": (whole.size[0] / 2, *whole.size[1:])})
         return types[name]
+
+
+def reference_errors(s: Scenario) -> list[tuple[FieldPath, str]]:
+    """Names that point nowhere: (field path, message) for each, in file order."""
+    bricks = {**BUILTIN_BRICKS, **s.brick_types}
+    materials = {**BUILTIN_MATERIALS, **s.materials}
+    problems: list[tuple[FieldPath, str]] = []
+
+    def brick(path: FieldPath, name: str) -> None:
+        if name not in bricks:
+            problems.append((path, f"unknown brick type {name!r}; known: {', '.join(sorted(bricks))}"))
+
+    for name, bt in s.brick_types.items():
+        if bt.material not in materials:
+            problems.append(
+                (("brick_types", name, "material"), f"unknown material {bt.material!r}; known: {', '.join(sorted(materials))}")
+            )
+    if s.ground.material not in materials:
+        problems.append(
+            (("ground", "material"), f"unknown material {s.ground.material!r}; known: {', '.join(sorted(materials))}")
+        )
+    structure = s.structure
+    layouts: list[tuple[FieldPath, Any]] = (
+        [(path + (part.kind,), part.layout) for _, path, part in named_parts(structure.parts)]
+        if structure.parts is not None
+        else [(("structure", structure.layout_name or ""), getattr(structure, structure.layout_name or ""))]
+    )
+    if structure.parts is not None:
+        problems += check_parts(structure.parts)
+    impact_ids = [imp.id for imp in s.impacts if imp.id]
+    for where, layout in layouts:
+        if not isinstance(layout, list):
+            brick(where + ("brick",), layout.brick)
+            continue
+        for i, b in enumerate(layout):
+            brick(where + (i, "brick"), b.brick)
+        ids = [b.id for b in layout if b.id] + impact_ids  # a part's ids are prefixed by its name: unique among parts
+        for i, b in enumerate(layout):
+            if b.id and ids.count(b.id) > 1:
+                problems.append((where + (i, "id"), f"brick id {b.id!r} is used more than once"))
+    for i, imp in enumerate(s.impacts):
+        brick(("impacts", i, "projectile"), imp.projectile)
+    n_bricks = s.structure.tower.levels * s.structure.tower.bricks_per_layer if s.structure.tower else 0
+    if n_bricks > MAX_BRICKS:
+        problems.append((("structure", "tower", "levels"), f"the tower has {n_bricks} bricks; at most {MAX_BRICKS} are allowed"))
+    return problems
+
+
+def _written_at(scenario: Scenario, path: FieldPath) -> Any:
+    """The value at ``path``, a field as a file writes it (``("structure", 1, "on")``: a part's
+    ``on``, the parts written as the structure itself); None when there is none."""
+    value: Any = scenario
+    for seg in path:
+        if isinstance(value, Structure) and value.parts is not None:
+            value = value.parts
+        if isinstance(value, list):
+            value = value[seg] if isinstance(seg, int) and 0 <= seg < len(value) else None
+        elif isinstance(value, dict):
+            value = value.get(seg)
+        else:
+            value = getattr(value, str(seg), None)
+    return value

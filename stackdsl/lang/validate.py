@@ -18,7 +18,7 @@ from pydantic import ValidationError
 
 from .errors import NO_FILE, FieldPath, ScenarioError, SourceMap
 from .schema import Scenario
-from .validation_errors import first_error, reference_errors
+from .validation_errors import first_error
 
 #: Where PyYAML and pydantic live: an exception raised there is the input's, not a bug of ours.
 LIBRARIES = tuple(str(Path(m.__file__).parent) + os.sep for m in (yaml, pydantic, pydantic_core) if m.__file__)
@@ -60,10 +60,6 @@ def validate(
         if not raised_in_library(exc):
             raise  # a bug of ours (a validator): not to be dressed up as the user's error
         raise ScenarioError(f"cannot validate this file ({type(exc).__name__} in pydantic: {exc})", file=source.file) from None
-    problems = reference_errors(scenario)
-    if problems:
-        path, message = problems[0]
-        raise source.error(path, message).with_others([source.error(p, m) for p, m in problems[1:]])
     if scenario.name is None and source.file != NO_FILE:  # a file's stem; text of no file keeps None, as a built one
         scenario = scenario.model_copy(update={"name": Path(source.file).stem})
     scenario._source = source

@@ -1,5 +1,5 @@
-"""pydantic's validation errors as one :class:`ScenarioError`, each at its YAML node, and the
-references the schema cannot check (names of brick types and materials, brick ids).
+"""pydantic's validation errors as one :class:`ScenarioError`, each at its YAML node (the
+references the schema cannot check, :func:`stackdsl.lang.schema.reference_errors`, among them).
 
 Unknown keys come first (with the closest allowed key), then the rest in file order; a
 discriminated union's tag, which pydantic puts in an error's location, is taken out so the
@@ -20,11 +20,10 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 from pydantic_core import ErrorDetails
 
-from .bounds import MAX_BRICKS
 from .errors import FieldPath, ScenarioError, SourceMap
 from .expectations import CollapseLevel, CollapseStatistic
-from .schema import BUILTIN_BRICKS, BUILTIN_MATERIALS, Scenario, Structure
-from .schema_parts import Part, check_parts, named_parts
+from .schema import REFERENCE_ERROR, Scenario, Structure
+from .schema_parts import Part
 
 
 def first_error(
@@ -60,10 +59,11 @@ def _first_error_here(exc: ValidationError, source: SourceMap) -> ScenarioError:
         return err["type"] != "extra_forbidden", where.line or 0, where.column or 0
 
     errors.sort(key=order)
-    groups: dict[tuple[str, int | None, int | None], list[tuple[ErrorDetails, ScenarioError]]] = {}
+    groups: dict[tuple[str, int | None, int | None, str], list[tuple[ErrorDetails, ScenarioError]]] = {}
     for err in errors:
         error = _one_error(err, source)
-        groups.setdefault((error.field, error.line, error.column), []).append((err, error))
+        own = error.message if err["type"] == REFERENCE_ERROR else ""  # not a union's member: said on its own
+        groups.setdefault((error.field, error.line, error.column, own), []).append((err, error))
     found = [_merged(group) for group in groups.values()]  # a union's members each refuse the same node
     return found[0].with_others(found[1:])
 
@@ -197,7 +197,7 @@ def _one_error(err: ErrorDetails, source: SourceMap) -> ScenarioError:
         message = _PLAIN[err["type"]](err.get("ctx", {}))
     else:
         message = err["msg"].removeprefix("Value error, ").replace("a valid tuple", "a list")  # YAML has lists
-    if "input" in err and err["type"] not in ("value_error",):
+    if "input" in err and err["type"] not in ("value_error", REFERENCE_ERROR):
         given_ = err["input"]
         if isinstance(given_, dict):
             message += ", got a mapping"
@@ -321,49 +321,3 @@ def _model_in(annotation: Any, loc: FieldPath) -> Any:
                 return found
         return None
     return annotation
-
-
-def reference_errors(s: Scenario) -> list[tuple[FieldPath, str]]:
-    """Names that point nowhere: (field path, message) for each, in file order."""
-    bricks = {**BUILTIN_BRICKS, **s.brick_types}
-    materials = {**BUILTIN_MATERIALS, **s.materials}
-    problems: list[tuple[FieldPath, str]] = []
-
-    def brick(path: FieldPath, name: str) -> None:
-        if name not in bricks:
-            problems.append((path, f"unknown brick type {name!r}; known: {', '.join(sorted(bricks))}"))
-
-    for name, bt in s.brick_types.items():
-        if bt.material not in materials:
-            problems.append(
-                (("brick_types", name, "material"), f"unknown material {bt.material!r}; known: {', '.join(sorted(materials))}")
-            )
-    if s.ground.material not in materials:
-        problems.append(
-            (("ground", "material"), f"unknown material {s.ground.material!r}; known: {', '.join(sorted(materials))}")
-        )
-    structure = s.structure
-    layouts: list[tuple[FieldPath, Any]] = (
-        [(path + (part.kind,), part.layout) for _, path, part in named_parts(structure.parts)]
-        if structure.parts is not None
-        else [(("structure", structure.layout_name or ""), getattr(structure, structure.layout_name or ""))]
-    )
-    if structure.parts is not None:
-        problems += check_parts(structure.parts)
-    impact_ids = [imp.id for imp in s.impacts if imp.id]
-    for where, layout in layouts:
-        if not isinstance(layout, list):
-            brick(where + ("brick",), layout.brick)
-            continue
-        for i, b in enumerate(layout):
-            brick(where + (i, "brick"), b.brick)
-        ids = [b.id for b in layout if b.id] + impact_ids  # a part's ids are prefixed by its name: unique among parts
-        for i, b in enumerate(layout):
-            if b.id and ids.count(b.id) > 1:
-                problems.append((where + (i, "id"), f"brick id {b.id!r} is used more than once"))
-    for i, imp in enumerate(s.impacts):
-        brick(("impacts", i, "projectile"), imp.projectile)
-    n_bricks = s.structure.tower.levels * s.structure.tower.bricks_per_layer if s.structure.tower else 0
-    if n_bricks > MAX_BRICKS:
-        problems.append((("structure", "tower", "levels"), f"the tower has {n_bricks} bricks; at most {MAX_BRICKS} are allowed"))
-    return problems

@@ -670,6 +670,106 @@ def test_a_toppled_count_that_is_no_whole_number_says_what_toppled_takes(written
     assert err.value.message.startswith("expected a whole number of bricks such as 20, '20±1' or 'all'")
 
 
+@pytest.mark.parametrize(
+    "written, message",
+    [
+        ("-1", "expected a number of bricks from 0 to 5000 or 'all', got -1"),
+        ("6000", "expected a number of bricks from 0 to 5000 or 'all', got 6000"),
+        ("'9999±1'", "expected a number of bricks from 0 to 5000 or 'all', got '9999±1'"),
+    ],
+)
+def test_a_toppled_count_out_of_range_is_refused_at_toppled_as_written(written, message):
+    """'toppled: -1' was refused at 'expect.toppled.count', a field of the long form the file
+    never wrote."""
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(f"stackdsl: 1\nstructure: {{tower: {{levels: 2}}}}\nexpect: {{toppled: {written}}}\n", "t.yaml")
+    assert (err.value.field, err.value.message) == ("expect.toppled", message)
+
+
+@pytest.mark.parametrize(
+    "line, field, message",
+    [
+        ("expect: {stands_until: -1 s}", "expect.stands_until", "expected a time from 0 to 3600 s, got '-1 s'"),
+        (
+            "expect: {stands_until: 9999 s}",
+            "expect.stands_until",
+            "expected a time from 0 to 3600 s, got '9999 s'; a run lasts at most 3600 s",
+        ),
+        ("timing: {interval: 0}", "timing.interval", "expected a time above 0 and at most 60 s, got 0"),
+        ("timing: {settle: 700 s}", "timing.settle", "expected a time from 0 to 600 s, got '700 s'"),
+        ("stability: {rest_duration: 11 s}", "stability.rest_duration", "expected a time from 0 to 10 s, got '11 s'"),
+        ("engine: {timestep: 0}", "engine.timestep", "expected a timestep from 0.01 ms to 10 ms (1/100 s), got 0"),
+        (
+            "impacts: [{target: {level: 1, side: +x}, speed: 1 m/s, at: 1 s, distance: 2 m}]",
+            "impacts[0].distance",
+            "expected a length above 0 and at most 1 m, got '2 m'",
+        ),
+        (
+            "actions: [{push: {target: {brick: L01.1}, direction: [1, 0, 0], at: 3 s, gap: -1 mm}}]",
+            "actions[0].push.gap",
+            "expected a length from 0 to 10 m, got '-1 mm'",
+        ),
+    ],
+)
+def test_a_quantity_out_of_its_range_is_refused_with_its_unit(line, field, message):
+    """'stands_until: 9999 s' said 'expected 3600 or less': pydantic's bound, without the unit the
+    file wrote its value in."""
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(f"stackdsl: 1\nstructure: {{tower: {{levels: 2}}}}\n{line}\n", "q.yaml")
+    assert (err.value.field, err.value.message) == (field, message)
+
+
+def test_every_bounded_quantity_says_its_range_with_its_unit():
+    """A field of a unit (a time, a length...) bounded by pydantic's own ge/le is refused in
+    pydantic's words, 'expected 3600 or less', without the unit: every one is bounded by
+    stackdsl.lang.units.within, whose message says the range with its unit."""
+    import types
+    import typing
+
+    import annotated_types
+    from pydantic import BaseModel
+    from pydantic.fields import FieldInfo
+
+    from stackdsl.lang.models import Scenario
+
+    def groups(annotation: object, found: list[list[object]], models: list[type[BaseModel]]) -> None:
+        """Each Annotated's metadata in ``annotation`` (FieldInfo's own opened), and its models."""
+        origin = typing.get_origin(annotation)
+        if origin is typing.Annotated:
+            base, *meta = typing.get_args(annotation)
+            found.append([x for m in meta for x in ([m, *m.metadata] if isinstance(m, FieldInfo) else [m])])
+            groups(base, found, models)
+        elif origin in (typing.Union, types.UnionType, list, dict, tuple):
+            for arg in typing.get_args(annotation):
+                groups(arg, found, models)
+        elif isinstance(annotation, type) and issubclass(annotation, BaseModel):
+            models.append(annotation)
+
+    def made_by(meta: list[object], name: str) -> bool:
+        return any(
+            getattr(getattr(m, "func", None), "__qualname__", "")
+            == f"{name}.<locals>.{'convert' if name == '_kind' else 'check'}"
+            for m in meta
+        )
+
+    bounds = (annotated_types.Ge, annotated_types.Gt, annotated_types.Le, annotated_types.Lt)
+    unsaid, quantities, seen, todo = [], 0, set(), [Scenario]
+    while todo:
+        model = todo.pop()
+        if model in seen:
+            continue
+        seen.add(model)
+        for name, info in model.model_fields.items():
+            found: list[list[object]] = [list(info.metadata)]
+            groups(info.annotation, found, todo)
+            for meta in found:
+                if made_by(meta, "_kind") and any(isinstance(m, bounds) for m in meta):
+                    quantities += 1
+                    if not made_by(meta, "within"):
+                        unsaid.append(f"{model.__name__}.{name}")
+    assert quantities > 20 and unsaid == []
+
+
 def test_a_fixed_length_list_and_a_shake_of_no_time_are_refused_in_plain_words():
     """A shake's direction is exactly two items: [1, 0, 0] was 'a list of at most 2 items' where
     [1] was 'a list of 2 items'; a shake of 0 s was told that 'a run lasts at most 3600 s'."""

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Iterable
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from pydantic import (
     BeforeValidator,
@@ -21,7 +21,7 @@ from pydantic import (
     model_validator,
 )
 
-from .bounds import MAX_LEVELS, StrictModel
+from .bounds import MAX_BRICKS, MAX_LEVELS, MAX_SIMULATED_TIME, StrictModel
 from .grammar import (
     BOUND,
     COLLAPSE,
@@ -38,7 +38,12 @@ from .grammar import (
     json_pattern,
 )
 from .schema_require import Requirement
-from .units import Time
+from .units import Time, time, within
+
+if TYPE_CHECKING:  # to mypy a float; to pydantic a time within a run's longest
+    StandsUntil = float
+else:
+    StandsUntil = within(Time, time, 0.0, MAX_SIMULATED_TIME, "a time from 0 to 3600 s", ("", "a run lasts at most 3600 s"))
 
 
 class CollapseLevel(StrictModel):
@@ -135,9 +140,11 @@ Levels = Annotated[
 
 
 def _toppled(value: Any) -> Any:
-    """``20``, ``"all"``, ``"20±1"`` or ``{count: 20, tolerance: 1}``."""
+    """``20``, ``"all"``, ``"20±1"`` or ``{count: 20, tolerance: 1}``. The first and third are
+    checked here, so that an error names ``toppled`` as written, not a ``count`` it does not have."""
     number = as_int(value)
     if number is not None:
+        _bricks(number, value)
         return {"count": number}
     if value == "all":
         return {"count": "all"}
@@ -145,17 +152,25 @@ def _toppled(value: Any) -> Any:
         match = re.fullmatch(COLLAPSE, value)
         if not match:
             raise ValueError(f"expected a number of bricks such as 20, '20±1' or 'all', got {value!r}")
+        _bricks(int(match[1]), value)
+        _bricks(int(match[2] or 0), value)
         return {"count": int(match[1]), "tolerance": int(match[2] or 0)}
     if not isinstance(value, dict):  # true, 19.5: a mapping's fields would be the wrong thing to name
         raise ValueError(f"expected a whole number of bricks such as 20, '20±1' or 'all', got {value!r}")
     return value
 
 
+def _bricks(number: int, value: Any) -> None:
+    """Refuse a number of toppled bricks (or a tolerance of one) out of the range :class:`Toppled` allows."""
+    if not 0 <= number <= MAX_BRICKS:
+        raise ValueError(f"expected a number of bricks from 0 to {MAX_BRICKS} or 'all', got {value!r}")
+
+
 class Toppled(StrictModel):
     """How many structure bricks toppled: ``count`` (or ``"all"``) within ``tolerance``."""
 
-    count: Annotated[int, Field(ge=0, le=5000), WHOLE] | Literal["all"]
-    tolerance: Annotated[int, Field(ge=0, le=5000), WHOLE] = 0
+    count: Annotated[int, Field(ge=0, le=MAX_BRICKS), WHOLE] | Literal["all"]
+    tolerance: Annotated[int, Field(ge=0, le=MAX_BRICKS), WHOLE] = 0
 
 
 def _plus_minus(value: Any) -> Any:
@@ -313,7 +328,7 @@ class Expect(StrictModel):
     ) = None
     stands: Annotated[Literal[True], BeforeValidator(_stands)] | None = None
     stands_until: Annotated[
-        Annotated[Time, Field(ge=0, le=3600)] | None,
+        StandsUntil | None,
         Field(
             description="a time the structure must stand until: no collapse before it (a Jenga tower that stands "
             "through its first pulls, whatever a later one does)",

@@ -66,6 +66,7 @@ if TYPE_CHECKING:
     Amplitude = float
     ShakeFrequency = float
     ShakeDuration = float
+    PusherGap = float
 else:
     GuideSpeed = within(
         Speed,
@@ -96,6 +97,8 @@ else:
         ("a shake that lasts no time moves nothing", "a run lasts at most 3600 s"),
         above=True,
     )
+
+    PusherGap = within(Length, length, 0.0, MAX_SIDE, "a length from 0 to 10 m")
 
 Direction = Annotated[tuple[Component, Component, Component], AfterValidator(_nonzero)]
 AXES = {"+x": (1.0, 0.0, 0.0), "-x": (-1.0, 0.0, 0.0), "+y": (0.0, 1.0, 0.0), "-y": (0.0, -1.0, 0.0)}
@@ -163,8 +166,7 @@ class Push(StrictModel):
     speed: Annotated[GuideSpeed, Field(description="how fast the pusher moves", examples=["0.1 m/s"])] = 0.05
     distance: Annotated[Travel, Field(description="how far the pusher moves", examples=["30 mm"])] = 0.03
     gap: Annotated[
-        Length,
-        Field(ge=0, le=MAX_SIDE, description="from the pusher's front to the target's surface at the start", examples=["5 mm"]),
+        PusherGap, Field(description="from the pusher's front to the target's surface at the start", examples=["5 mm"])
     ] = 0.005
     pusher: Annotated[str, Field(description="the pusher's brick type (its size)", examples=["kapla", "finger"])] = "kapla"
     id: Annotated[str, Field(pattern=ID)] | None = Field(

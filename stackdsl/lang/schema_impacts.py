@@ -7,13 +7,13 @@ Source: stackdsl's own (docs/design.md, words).
 from __future__ import annotations
 
 import re
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from pydantic import AfterValidator, BeforeValidator, ConfigDict, Field, model_validator
 
 from .bounds import MAX_LEVELS, MIN_DIRECTION, Component, ImpactSpeed, StrictModel, Vector3
 from .grammar import AFTER_LEVEL, LEVEL_NUMBER, WHOLE, AlsoAccepts, absent, given, json_pattern
-from .units import Length, quantity_pattern, time
+from .units import Length, length, quantity_pattern, time, within
 
 
 class AfterLevel(StrictModel):
@@ -85,6 +85,12 @@ def _nonzero(direction: tuple[float, float, float]) -> tuple[float, float, float
     return direction
 
 
+if TYPE_CHECKING:  # to mypy a float; to pydantic a length with its bounds
+    LaunchDistance = float
+else:
+    LaunchDistance = within(Length, length, 0.0, 1.0, "a length above 0 and at most 1 m", above=True)
+
+
 class Impact(StrictModel):
     """A projectile brick thrown at ``speed`` (0.1 to 100 m/s) so that it reaches ``target``
     ``distance`` after launch; it flies along ``direction`` (default: into the target's side)
@@ -104,7 +110,7 @@ class Impact(StrictModel):
         },
     )
     at: When
-    distance: Annotated[Length, Field(gt=0, le=1)] = 0.05
+    distance: LaunchDistance = 0.05
 
     @model_validator(mode="after")
     def _direction(self) -> Impact:

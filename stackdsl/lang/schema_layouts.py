@@ -7,7 +7,7 @@ Source: stackdsl's own; report chapter 4 (the 4 stack, the slant tower, the card
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 from pydantic import BeforeValidator, Field, StrictBool, model_validator
 
@@ -23,7 +23,12 @@ from .bounds import (
     Vector3,
 )
 from .grammar import WHOLE, AlsoAccepts
-from .units import Angle
+from .units import Angle, angle, within
+
+if TYPE_CHECKING:  # to mypy a float; to pydantic an angle with its bounds
+    LeanAngle = float
+else:
+    LeanAngle = within(Angle, angle, 0.0, 60.0, "an angle above 0 and below 60 degrees", above=True, below=True)
 
 
 def _shift(value: Any) -> Any:
@@ -117,6 +122,6 @@ class CardHouse(StrictModel):
 
     brick: str = "kapla"
     levels: Annotated[int, Field(ge=1, le=50), WHOLE]
-    angle: Annotated[Angle, Field(gt=0, lt=60)] = 20.0
+    angle: LeanAngle = 20.0
     spacing: PeakSpacing | None = None
     origin: Vector2 = (0.0, 0.0)

@@ -166,9 +166,11 @@ def within(
     why: str | tuple[str, str] = "",
     *,
     above: bool = False,
+    below: bool = False,
 ) -> Any:
     """``kind`` (a quantity type such as :data:`Length`, or a number type) bounded to [``low``,
-    ``high``] (``(low, high]`` if ``above``) after ``convert`` (:func:`length`, :func:`real`...).
+    ``high``] (open at ``low`` if ``above``, at ``high`` if ``below``) after ``convert``
+    (:func:`length`, :func:`real`...).
 
     Refusals read ``expected <shown>, got <value>; <why>``: ``shown`` says the range with units
     ("a length from 3 mm to 10 m"), ``why`` the physical reason for the bounds, or a pair: the
@@ -179,19 +181,19 @@ def within(
     """
 
     def inside(number: float) -> bool:
-        return low < number <= high if above else low <= number <= high
+        return (low < number if above else low <= number) and (number < high if below else number <= high)
 
     def check(value: Any) -> Any:
         number = convert(value)
         if isinstance(number, float) and math.isfinite(number) and not inside(number):
-            reason = "" if number <= 0 < low else why if isinstance(why, str) else why[number > high]  # no reason for <= 0
+            reason = "" if number <= 0 < low else why if isinstance(why, str) else why[number > low]  # no reason for <= 0
             slip = ""
             if convert is length and number > high and bare(value) and inside(number / 1000):
                 slip = f" ({value:g} m: a bare number is metres; did you mean '{value:g} mm'?)"
             raise ValueError(f"expected {shown}, got {value!r}{slip}" + (f"; {reason}" if reason else ""))
         return number
 
-    bounds = Field(gt=low, le=high) if above else Field(ge=low, le=high)
+    bounds = Field(gt=low if above else None, ge=None if above else low, lt=high if below else None, le=None if below else high)
     return Annotated[kind, bounds, BeforeValidator(check)]
 
 

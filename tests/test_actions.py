@@ -159,6 +159,22 @@ def test_moved_stays_and_toppled_are_judged_by_brick():
     assert stays.expected == "bricks L01 stay" and stays.measured == "bricks L01 stayed"
 
 
+def test_the_check_tables_measured_column_says_each_fact_once():
+    """A Jenga run that held 'moved: 6-12' measured 'levels 6-12 moved, levels 1-4 stayed, levels
+    6-12 moved': the run's moved levels, then the moved verdict's words for the same levels."""
+    from stackdsl.batch.judge import judge
+
+    text = "stackdsl: 1\nstructure:\n  bricks:\n    - {id: a, at: [0, 0, 4 mm]}\n    - {id: b, at: [75 mm, 0, 12 mm]}\n"
+    scenario = parse_scenario(text + "expect: {moved: 2, stays: 1}\n", "tip.yaml")
+    result = judge("tip.yaml", compile_scenario(scenario), scenario.expect)
+    assert result.passed and result.moved_levels == (2,)
+    assert result.measured == "collapse 2 from b (level 2), level 2 moved, level 1 stayed"
+    wrong = parse_scenario(text + "expect: {moved: [a], stays: [b]}\n", "tip.yaml")  # failed verdicts say their own facts
+    result = judge("tip.yaml", compile_scenario(wrong), wrong.expect)
+    assert not result.passed
+    assert result.measured == "collapse 2 from b (level 2), level 2 moved, brick b moved, a stayed"
+
+
 def test_toppled_all_counts_the_dominoes_a_collapse_left_unplaced():
     # a push timed while the row is still being built: building stops at the collapse it starts,
     # and the dominoes never placed did not topple

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .expect import Verdict, describe
+from .expect import Verdict, describe, levels_moved
 
 
 @dataclass(frozen=True)
@@ -96,8 +96,9 @@ class CheckResult:
     @property
     def measured(self) -> str:
         """What was measured, as in check's table: ``'collapse 13 from L13.2 (level 13), level 13
-        moved'`` (:func:`stackdsl.verdicts.expect.describe`); the error or what stopped the run
-        when either happened."""
+        moved'`` (:func:`stackdsl.verdicts.expect.describe`), then what the ``stays``, ``moved`` and
+        ``toppled`` verdicts measured, each fact once (a ``moved: 6-12`` that held measured the
+        levels the description names); the error or what stopped the run when either happened."""
         if self.refused:
             return "refused"
         if self.error or self.stopped or self.bad_input:
@@ -105,6 +106,6 @@ class CheckResult:
         if self.sweep:
             return self.sweep
         first = (self.first_moved, self.first_moved_level) if self.first_moved_level is not None else None
-        described = describe(self.collapse_level, first, self.moved_levels)
-        extra = [v.measured for v in self.verdicts if v.name in ("stays", "moved", "toppled")]
-        return ", ".join([described, *extra])
+        facts = [describe(self.collapse_level, first), *([levels_moved(self.moved_levels)] if self.moved_levels else [])]
+        facts += [v.measured for v in self.verdicts if v.name in ("stays", "moved", "toppled")]
+        return ", ".join(dict.fromkeys(facts))

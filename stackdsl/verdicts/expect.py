@@ -256,5 +256,11 @@ def describe(collapse_level: int | None, first: tuple[str, int] | None = None, m
     if first is not None:
         text += f" from {first[0]} (level {first[1]})"
     if moved:
-        text += f", level{'s' * (len(moved) > 1)} {span(moved)} moved"
+        text += f", {levels_moved(moved)}"
     return text
+
+
+def levels_moved(moved: Sequence[int]) -> str:
+    """``'levels 8-10 moved'``: the words of :func:`describe` and of a ``moved`` verdict that held
+    for the same levels (:func:`evaluate`), which a table says once."""
+    return f"level{'s' * (len(moved) != 1)} {span(moved)} moved"

@@ -698,7 +698,7 @@ def test_a_toppled_count_out_of_range_is_refused_at_toppled_as_written(written, 
         ("timing: {interval: 0}", "timing.interval", "expected a time above 0 and at most 60 s, got 0"),
         ("timing: {settle: 700 s}", "timing.settle", "expected a time from 0 to 600 s, got '700 s'"),
         ("stability: {rest_duration: 11 s}", "stability.rest_duration", "expected a time from 0 to 10 s, got '11 s'"),
-        ("engine: {timestep: 0}", "engine.timestep", "expected a timestep from 0.01 ms to 10 ms (1/100 s), got 0"),
+        ("engine: {timestep: 0}", "engine.timestep", "expected a timestep of 0.01 ms or more and at most 10 ms (1/100 s), got 0"),
         (
             "impacts: [{target: {level: 1, side: +x}, speed: 1 m/s, at: 1 s, distance: 2 m}]",
             "impacts[0].distance",

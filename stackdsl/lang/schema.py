@@ -163,7 +163,7 @@ else:
         time,
         1e-5,
         MAX_TIMESTEP + 1e-12,  # '1/100 s' and '10 ms' as pint converts them
-        "a timestep from 0.01 ms to 10 ms (1/100 s)",
+        "a timestep of 0.01 ms or more and at most 10 ms (1/100 s)",
         (
             "",
             "beyond 10 ms stackdsl's answers change for KAPLA bricks (measured: at 1/60 s a thrown brick no longer "

@@ -141,9 +141,9 @@ def test_a_built_composition_is_refused_when_built_at_the_field_its_file_names()
         (Structure(parts=twins), ("structure", 1, "name"), "there is already a part named 'a'", "a"),
         (
             Structure(parts={"a": Part(tower=Tower(levels=2)), "b": Part(on=["a", "zz"], origin=(1, 0), tower=Tower(levels=2))}),
-            ("structure", "b", "on"),
+            ("structure", "b", "on", 1),
             "'zz' names no part before this one",
-            ["a", "zz"],
+            "zz",
         ),
         (Structure(parts=[Part(tower=Tower(levels=2))]), ("structure", 0), "needs a 'name'", None),
         (Structure(tower=Tower(levels=2, brick="oak")), ("structure", "tower", "brick"), "unknown brick type 'oak'", "oak"),
@@ -163,9 +163,9 @@ def test_a_built_composition_is_refused_when_built_at_the_field_its_file_names()
     with pytest.raises(ScenarioError) as two:
         parse_scenario(forward, "forward.yaml")
     assert [(e.field, e.line, e.column, e.message.split(" names")[0]) for e in (two.value, *two.value.others)] == [
-        ("structure[0].on", 3, 22, "'left'"),
-        ("structure[0].on", 3, 22, "'right'"),
-    ]  # both said, though at one node (a union's members' refusals of one node are merged)
+        ("structure[0].on[0]", 3, 23, "'left'"),
+        ("structure[0].on[1]", 3, 29, "'right'"),
+    ]  # both said, each at its name
 
 
 def test_a_scenario_made_without_validation_is_still_checked_when_compiled():

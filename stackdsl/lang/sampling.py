@@ -23,12 +23,13 @@ from __future__ import annotations
 import copy
 import dataclasses
 import itertools
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 from .distributions import Distribution, draw, find, tower_field
 from .errors import FieldPath, ScenarioError, SourceMap, format_path
-from .schema import Scenario
+from .schema import Scenario, Structure
 from .schema_sweep import MAX_SAMPLES, MAX_SWEEP_RUNS, grid_name
 from .units import in_language_units, in_unit, language_unit, split_quantity
 from .validate import validate
@@ -85,15 +86,10 @@ class Template:
             checked = validate({"stackdsl": 1, "structure": {"tower": {"levels": 1}}, "sweep": sweep}, source)
             assert checked.sweep is not None
             samples = checked.sweep.samples
-            grid = tuple(_grid_field(key, values, source) for key, values in checked.sweep.grid.items())
-            for path, key, _ in grid:
-                missing = _missing_item(plain, path)
-                if missing is not None:
-                    raise source.error(
-                        ("sweep", "grid", key),
-                        f"the grid names {key!r}, but this file has no item {missing[-1]} in {'.'.join(map(str, missing[:-1]))}",
-                        at_key=True,
-                    )
+            asked = [_grid_field(key, values, source) for key, values in checked.sweep.grid.items()]
+            drawn = {d.path for d in distributions}
+            grid = tuple((_grid_path(plain, path, key, source, drawn), key, values) for path, key, values in asked)
+            _no_overlap(grid, source)
         for into, written in _drawn_into(distributions).items():  # errors at a tower's drawn shifts point at its 'shift'
             if written in source.values:
                 source.values[into] = source.values[written]
@@ -335,28 +331,96 @@ def _grid_field(key: str, values: list[Any], source: SourceMap) -> tuple[FieldPa
     return path, key, tuple(values)
 
 
-def _missing_item(data: Any, path: FieldPath) -> FieldPath | None:
-    """The first prefix of ``path`` ending in a list index that ``data`` does not have (a grid
-    key into ``structure.bricks.0`` of a tower, say), or None when every index is there."""
-    for i, key in enumerate(path):
-        if isinstance(key, int):
-            if not isinstance(data, list) or not 0 <= key < len(data):
-                return path[: i + 1]
-            data = data[key]
-        elif isinstance(data, dict) and key in data:
-            data = data[key]
-        else:  # a field the file leaves out: the grid puts it in, unless an index into it follows
-            later = [j for j in range(i + 1, len(path)) if isinstance(path[j], int)]
-            return path[: later[0] + 1] if later else None
-    return None
+def _grid_path(data: Any, path: FieldPath, key: str, source: SourceMap, drawn: set[FieldPath]) -> FieldPath:
+    """The field path of grid key ``key`` (``path``, as :func:`_grid_field` read it) in the file as
+    read (``data``): a part of a list of parts named by its ``name`` becomes its index. A field the
+    file leaves out is put in by the grid, but never an item of a list it does not have, a field
+    of a number, one of a distribution (the grid replaces it whole) or the second kind of a field
+    that is one of several (an action's ``remove`` where the file has a ``shake``).
+
+    Raises:
+        ScenarioError: at the grid key, saying which step of the path the file does not have.
+    """
+    from .validation_errors import model_at
+
+    def refuse(why: str) -> ScenarioError:
+        return source.error(("sweep", "grid", key), f"the grid names {key!r}, but {why}", at_key=True)
+
+    out: list[str | int] = []
+    node = data
+    for i, seg in enumerate(path):
+        where = format_path(tuple(out)) if out else "the scenario"
+        if tuple(out) in drawn:
+            raise refuse(f"{where} is a distribution; the grid may replace it whole, as {where!r}")
+        if isinstance(node, list):
+            if isinstance(seg, str):
+                found = [j for j, item in enumerate(node) if isinstance(item, dict) and item.get("name") == seg]
+                if not found:
+                    names = [str(item["name"]) for item in node if isinstance(item, dict) and "name" in item]
+                    known = f"its items are named {', '.join(names)}" if names else "name an item by its index"
+                    raise refuse(f"{where} is a list with no item named {seg!r}; {known} (or by index, 0 to {len(node) - 1})")
+                seg = found[0]
+            elif not 0 <= seg < len(node):
+                raise refuse(f"this file has no item {seg} in {where}")
+            out.append(seg)
+            node = node[seg]
+        elif isinstance(node, dict) and (seg in node or str(seg) in node):
+            seg = seg if seg in node else str(seg)
+            out.append(seg)
+            node = node[seg]
+        elif isinstance(node, dict) or node is None:  # a field the file leaves out: the grid puts it in
+            later = [j for j in range(i, len(path)) if isinstance(path[j], int)]
+            if later:
+                missing = format_path(path[: later[0]])
+                raise refuse(f"this file has no item {path[later[0]]} in {missing}")
+            if isinstance(node, dict) and tuple(out) == ("structure",) and node:
+                parts = [str(k) for k in node if k not in Structure.model_fields]
+                if parts or seg not in Structure.model_fields:
+                    has = f"its parts: {', '.join(parts)}" if parts else f"it is a {next(iter(node))}, not parts"
+                    raise refuse(f"structure has no part named {seg!r} ({has})")
+            if isinstance(node, dict):
+                _refuse_second_kind(model_at(tuple(out)), node, str(seg), where, refuse)
+            return (*out, *path[i:])
+        elif isinstance(seg, int):
+            raise refuse(f"this file has no item {seg} in {where} (it is {node!r})")
+        else:
+            raise refuse(f"{where} is {node!r}, which has no field {seg!r}")
+    return tuple(out)
+
+
+def _refuse_second_kind(model: Any, node: dict[str, Any], seg: str, where: str, refuse: Callable[[str], ScenarioError]) -> None:
+    """Refuse putting ``seg`` into ``node`` (of ``model``) when the model takes one of several
+    fields (its JSON Schema's ``oneOf``: an action's kind, a structure's layout) and ``node``
+    already has another one."""
+    extra = getattr(model, "model_config", {}).get("json_schema_extra") if model is not None else None
+    branches = [set(b.get("required", ())) for b in extra.get("oneOf", ())] if isinstance(extra, dict) else []
+    if not any(seg in b for b in branches):
+        return
+    others = [k for k in node if any(k in b and seg not in b for b in branches)]
+    if others:
+        raise refuse(f"{where} is a {others[0]}, not a {seg}")
+
+
+def _no_overlap(grid: tuple[tuple[FieldPath, str, tuple[Any, ...]], ...], source: SourceMap) -> None:
+    """Refuse two grid keys for one field, or one inside the other's (each would undo the other).
+
+    Raises:
+        ScenarioError: at the later key.
+    """
+    for j, (path, key, _) in enumerate(grid):
+        for other, first, _ in grid[:j]:
+            n = min(len(path), len(other))
+            if path[:n] == other[:n]:
+                how = "the same field as" if len(path) == len(other) else "a field inside" if len(path) > n else "a field around"
+                raise source.error(("sweep", "grid", key), f"the grid key {key!r} names {how} {first!r}", at_key=True)
 
 
 def _put(data: Any, path: FieldPath, value: Any) -> None:
+    """Put ``value`` at ``path`` (from :func:`_grid_path`) in ``data``, a copy of the file as read."""
     for key in path[:-1]:
-        if isinstance(key, str) and isinstance(data, dict):
-            data = data.setdefault(key, {})
-        else:
-            data = data[key]
+        if isinstance(key, str) and isinstance(data, dict) and data.get(key) is None:
+            data[key] = {}
+        data = data[key]
     data[path[-1]] = value
 
 

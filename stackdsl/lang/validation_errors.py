@@ -293,6 +293,14 @@ def _is_member(seg: str | int) -> bool:
 
 def fields_at(loc: FieldPath) -> list[str]:
     """Field names of the model that ``loc`` (a pydantic location, tags included) leads to."""
+    model = model_at(loc)
+    return sorted(model.model_fields) if model is not None else []
+
+
+def model_at(loc: FieldPath) -> type[BaseModel] | None:
+    """The model that ``loc`` (a pydantic location, tags included) leads to, or None when it
+    leads to no model (a number, a list of numbers). A part's name or index under ``structure``
+    leads to :class:`Part`; a name no model has is passed over."""
     model: Any = Scenario
     for i, seg in enumerate(loc):
         tags = _TAGGED.get(tuple(loc[:i]), {})
@@ -306,7 +314,7 @@ def fields_at(loc: FieldPath) -> list[str]:
             continue
         annotation: Any = model.model_fields[seg].annotation
         model = _model_in(annotation, loc)
-    return sorted(model.model_fields) if isinstance(model, type) and issubclass(model, BaseModel) else []
+    return model if isinstance(model, type) and issubclass(model, BaseModel) else None
 
 
 def _model_in(annotation: Any, loc: FieldPath) -> Any:

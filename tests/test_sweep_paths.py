@@ -1,0 +1,127 @@
+"""Field paths a user writes in a grid key (``sweep.grid``): a path the file cannot take is
+one ScenarioError at the key, never a Python error, whatever node the path runs into (a
+number, a list, a distribution, a part by name, an action of another kind); a path it can
+take sets the field it names.
+
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from stackdsl import ScenarioError, compile_scenario, parse_scenario
+
+SHAKE = "actions:\n  - shake: {amplitude: 5 mm, frequency: 2 Hz, duration: 1 s, at: after level 3}\n"
+SCENES = {
+    "tower": "stackdsl: 1\nstructure: {tower: {levels: 3}}\n" + SHAKE,
+    "list": (
+        "stackdsl: 1\nstructure:\n  - {name: left, tower: {levels: 3}}\n  - {name: right, tower: {levels: 3}, origin: [0.3, 0]}\n"
+    ),
+    "map": "stackdsl: 1\nstructure:\n  left: {tower: {levels: 3}}\n  right: {tower: {levels: 2}, origin: [0.3, 0]}\n",
+    "random": (
+        "stackdsl: 1\nstructure: {tower: {levels: {choice: [3, 4]}, bricks_per_layer: 1, turn: 0,"
+        " shift: {uniform: [-20 mm, 20 mm], per: layer}}}\n"
+    ),
+    "bricks": "stackdsl: 1\nstructure:\n  bricks:\n    - {id: a, at: [0, 0, 4 mm]}\n    - {id: b, at: [0, 0, 12 mm]}\n",
+}
+WORDS = [
+    "structure", "tower", "levels", "shift", "shifts", "spacing", "left", "right", "middle", "wall", "courses",
+    "bricks", "at", "yaw", "id", "name", "actions", "shake", "remove", "amplitude", "speed", "timing", "interval",
+    "choice", "uniform", "parts", "foo", "0", "1", "2", "7",
+]  # fmt: skip
+VALUES = ["2", "5 mm", "0.5 s", "{levels: 2}", "[1, 2]", "x", "null", "true", "[]", "{}"]
+
+
+@st.composite
+def paths(draw: st.DrawFn) -> str:
+    """A dotted path of 1 to 6 words, each index written as ``.0`` or ``[0]``."""
+    words = draw(st.lists(st.sampled_from(WORDS), min_size=1, max_size=6))
+    out = words[0]
+    for word in words[1:]:
+        out += f"[{word}]" if word.isdigit() and draw(st.booleans()) else f".{word}"
+    return out
+
+
+def _with_grid(scene: str, key: str, values: str) -> str:
+    return scene + f'sweep:\n  samples: 1\n  grid: {{"{key}": [{values}]}}\n'
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.sampled_from(sorted(SCENES)), paths(), st.sampled_from(VALUES))
+def test_any_grid_key_is_taken_or_refused_at_the_key(name, key, value):
+    text = _with_grid(SCENES[name], key, value)
+    try:
+        scenario = parse_scenario(text, "g.yaml")
+        template = scenario.template
+        for c in range(template.cells):
+            compile_scenario(template.scenario(c, 0))
+            template.parameters(c, 0)
+    except ScenarioError as exc:
+        assert exc.file == "g.yaml" and exc.line is not None, str(exc)
+
+
+@pytest.mark.parametrize(
+    "scene, key, says",
+    [
+        (
+            "list",
+            "structure.middle.tower.levels",
+            "structure is a list with no item named 'middle'; its items are named left, right",
+        ),
+        ("list", "structure.tower.levels", "no item named 'tower'"),
+        ("map", "structure.middle.tower.levels", "structure has no part named 'middle' (its parts: left, right)"),
+        ("tower", "structure.left.tower.levels", "structure has no part named 'left' (it is a tower, not parts)"),
+        ("tower", "structure.tower.levels.foo", "structure.tower.levels is 3, which has no field 'foo'"),
+        ("tower", "structure.tower.levels[0]", "this file has no item 0 in structure.tower.levels (it is 3)"),
+        ("tower", "actions[0].shake.amplitude.foo", "actions[0].shake.amplitude is '5 mm', which has no field 'foo'"),
+        ("tower", "actions[0].remove.speed", "actions[0] is a shake, not a remove"),
+        ("tower", "structure.wall.courses", "structure is a tower, not a wall"),
+        ("list", "structure.left.wall.courses", "structure[0] is a tower, not a wall"),
+        ("random", "structure.tower.levels.choice", "structure.tower.levels is a distribution; the grid may replace it whole"),
+    ],
+)
+def test_a_grid_key_the_file_cannot_take_is_refused_at_the_key(scene, key, says):
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(_with_grid(SCENES[scene], key, "2"), "g.yaml")
+    key_line = _with_grid(SCENES[scene], key, "2").splitlines().index(f'  grid: {{"{key}": [2]}}') + 1
+    assert (err.value.field, err.value.line, err.value.column) == (f"sweep.grid.{key}", key_line, 10)
+    assert says in err.value.message
+
+
+@pytest.mark.parametrize(
+    "scene, key",
+    [
+        ("list", "structure.left.tower.levels"),
+        ("list", "structure.0.tower.levels"),
+        ("list", "structure[1].tower.levels"),
+        ("map", "structure.left.tower.levels"),
+    ],
+)
+def test_a_part_is_named_in_a_grid_key_by_its_name_or_in_a_list_its_index(scene, key):
+    template = parse_scenario(_with_grid(SCENES[scene], key, "4, 5"), "g.yaml").template
+    part = 1 if "[1]" in key else 0
+    other = 1 - part
+    levels = [[p.tower.levels for p in _parts(template.scenario(c, 0))] for c in range(template.cells)]
+    assert [ls[part] for ls in levels] == [4, 5]
+    assert len({ls[other] for ls in levels}) == 1  # the other part is left as written
+    assert template.values(1) == {key.replace("[1]", ".1"): 5.0}
+
+
+def _parts(scenario):
+    parts = scenario.structure.parts
+    return list(parts.values()) if isinstance(parts, dict) else parts
+
+
+def test_two_grid_keys_for_one_field_are_refused():
+    text = (
+        SCENES["list"]
+        + 'sweep:\n  samples: 1\n  grid:\n    structure.left.tower.levels: [2]\n    "structure[0].tower": [{levels: 3}]\n'
+    )
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(text, "g.yaml")
+    assert (
+        err.value.field == "sweep.grid.structure[0].tower" and "a field around 'structure.left.tower.levels'" in err.value.message
+    )

@@ -1,18 +1,21 @@
-"""Field paths a user writes in a grid key (``sweep.grid``): a path the file cannot take is
-one ScenarioError at the key, never a Python error, whatever node the path runs into (a
-number, a list, a distribution, a part by name, an action of another kind); a path it can
-take sets the field it names.
+"""Field paths a user writes, in a grid key (``sweep.grid``) or a condition (``require:``): a
+path the file cannot take is one ScenarioError at the key or the condition, never a Python
+error, whatever node the path runs into (a number, a list, a distribution, a part by name, an
+action of another kind); a path it can take sets or reads the field it names.
 
 Source: stackdsl's own.
 """
 
 from __future__ import annotations
 
+import math
+
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from stackdsl import ScenarioError, compile_scenario, parse_scenario
+from stackdsl.compile.require import DERIVED, quantities, scene, unreadable
 
 SHAKE = "actions:\n  - shake: {amplitude: 5 mm, frequency: 2 Hz, duration: 1 s, at: after level 3}\n"
 SCENES = {
@@ -125,3 +128,90 @@ def test_two_grid_keys_for_one_field_are_refused():
     assert (
         err.value.field == "sweep.grid.structure[0].tower" and "a field around 'structure.left.tower.levels'" in err.value.message
     )
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.sampled_from(sorted(SCENES)), paths())
+def test_a_condition_reads_a_number_or_says_why_its_name_reads_none(name, path):
+    """The name of a condition either reads a number of the first draw (and is among what
+    conditions read), or may in another draw (a file with distributions), or is refused with
+    why; the file is refused at the condition, never with a Python error."""
+    text = SCENES[name] + "sweep: {samples: 2}\n"
+    scenario = parse_scenario(text, "r.yaml")
+    name_as_read = path.replace("[", ".").replace("]", "")
+    why = unreadable(scene(scenario), name_as_read, scenario.template, isinstance(scenario.structure.parts, list))
+    values = quantities(scenario, set())
+    if name_as_read in values:
+        assert why is None
+    elif why is None and not scenario.template.distributions:
+        raise AssertionError(f"{name_as_read} reads nothing, yet is not refused")
+    condition = f"{path} > 0 or levels > 0"  # holds at the first draw whenever the name is taken
+    try:
+        compile_scenario(parse_scenario(text + f"require: ['{condition}']\n", "r.yaml"))
+    except ScenarioError as exc:
+        assert exc.field == "require[0]" and "nan" not in exc.message, str(exc)
+        assert path not in DERIVED
+
+
+STACK = """stackdsl: 1
+structure: {tower: {levels: 6, bricks_per_layer: 1, turn: 0, shift: {uniform: [-40 mm, 40 mm], per: layer}}}
+sweep: {samples: 5}
+"""
+
+
+@pytest.mark.parametrize(
+    "condition, says",
+    [
+        (
+            "structure.tower.shifts.7.0 > 0",
+            "no such field 'structure.tower.shifts.7.0': structure.tower.shifts has items 0 to 4, no item 7",
+        ),
+        ("structure.tower.shifts.0 > 0", "structure.tower.shifts.0 has items 0 (along x) and 1 (along y), not one number"),
+        ("structure.tower.levels.0 > 0", "structure.tower.levels is a number, with no item 0"),
+        ("structure.tower.brick > 0", "structure.tower.brick is 'kapla', not a number"),
+        ("structure.wall.courses > 0", "structure is a tower, not a wall"),
+        ("structure.left.tower.levels > 0", "structure has no field 'left'; it has: tower"),
+        # a shift drawn per layer is its shifts: the name written for it says where they are
+        ("structure.tower.shift.0 > 0", "structure.tower.shift is drawn per layer, into structure.tower.shifts"),
+        ("structure.tower.shift.5 > 0", "read level 2's shift on level 1 as structure.tower.shifts.0.0 (along x)"),
+        ("structure.tower.shift > 0", "samples.csv's structure.tower.shift"),
+    ],
+)
+def test_a_condition_on_a_field_the_scene_has_not_is_refused_at_it(condition, says):
+    with pytest.raises(ScenarioError) as err:
+        compile_scenario(parse_scenario(STACK + f"require: ['{condition}']\n", "r.yaml"))
+    assert (err.value.field, err.value.line) == ("require[0]", 4)
+    assert says in err.value.message and "draws" not in err.value.message
+
+
+def test_a_per_layer_shift_is_read_from_its_shifts():
+    scenario = parse_scenario(STACK + "require: ['structure.tower.shifts.0.0 > 10 mm']\n", "r.yaml")
+    for k in range(5):
+        program = compile_scenario(scenario.template.scenario(0, k))
+        bricks = sorted(program.placements, key=lambda p: p.position[2])
+        assert bricks[1].position[0] - bricks[0].position[0] > 0.01  # level 2 on level 1, as drawn
+
+
+def test_a_part_of_a_list_is_read_by_its_name_or_its_index():
+    text = "stackdsl: 1\nstructure:\n  - {name: left, tower: {levels: {choice: [2, 3, 4]}}}\nsweep: {samples: 4}\n"
+    for name in ("structure.0.tower.levels", "structure.left.tower.levels"):
+        template = parse_scenario(text + f"require: ['{name} >= 3']\n", "r.yaml").template
+        drawn = [compile_scenario(template.scenario(0, k)) for k in range(4)]
+        assert all(p.levels >= 3 for p in drawn)
+
+
+def test_a_division_by_zero_is_said_as_such():
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(STACK + "require: ['1 / (2 - 2) > 0']\n", "r.yaml")
+    assert err.value.field == "require[0]" and "at character 5: divides by zero" in err.value.message
+    with pytest.raises(ScenarioError) as err:  # a field that is 0 in every draw
+        compile_scenario(parse_scenario(STACK + "require: ['1 / structure.tower.turn > 0']\n", "r.yaml"))
+    assert "it divides by zero in every one of them" in err.value.message
+
+
+def test_a_name_no_draw_has_is_said_as_such_not_as_nan():
+    text = STACK.replace("levels: 6,", "levels: {choice: [3, 4]},")
+    with pytest.raises(ScenarioError) as err:
+        compile_scenario(parse_scenario(text + "require: ['structure.tower.shifts.5.0 > 0']\n", "r.yaml"))
+    assert "no draw of the scene has structure.tower.shifts.5.0" in err.value.message
+    assert "nan" not in err.value.message and not math.isnan(0.0)

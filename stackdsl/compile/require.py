@@ -2,7 +2,9 @@
 
 Each condition (:mod:`stackdsl.lang.expressions`) reads the scene's fields by their path
 (``timing.placement_error``, ``structure.tower.spacing``, ``structure.tower.shift.0``,
-``structure.left.tower.levels`` for a part) and these quantities of the bricks where the program
+``structure.left.tower.levels`` for a part, or ``structure.0.tower.levels`` in a list of parts;
+a tower's shift drawn per layer as its ``shifts``, ``structure.tower.shifts.0.0``; a name that
+reads no number is refused at its condition, :func:`unreadable`) and these quantities of the bricks where the program
 puts them (placement error included), all in metres:
 
 * ``overhang``: how far the top level's centre (the mean of its bricks' centres) lies from the
@@ -38,10 +40,11 @@ from shapely import Polygon, STRtree
 
 from stability import Box
 
-from ..lang.errors import ScenarioError
+from ..lang.distributions import tower_field
+from ..lang.errors import FieldPath, ScenarioError
 from ..lang.expressions import Condition, check_kinds, parse
 from ..lang.schema import Scenario, Structure
-from ..lang.schema_parts import Part, named_parts
+from ..lang.schema_parts import LAYOUTS, Part, named_parts
 from ..lang.units import angle, angular_speed, density, frequency, length, speed, time
 from ..lang.validation_errors import fields_at
 from .layouts import LaidBrick, with_placement_error
@@ -77,27 +80,36 @@ def accept(scenario: Scenario) -> tuple[Scenario, int]:
     wanted = {name for c in conditions for name in c.names}
     template = scenario.template
     failed: Counter[int] = Counter()
+    by_zero: Counter[int] = Counter()  # the draws in which a condition failed dividing by zero
     seen: dict[str, tuple[float, float]] = {}  # each name's lowest and highest value over the draws
     for attempt in range(MAX_DRAWS if template is not None else 1):
         candidate = scenario if attempt == 0 else template.scenario(*scenario.sample, attempt=attempt)
         values = quantities(candidate, wanted)
         for name in wanted:
             value = values.get(name, math.nan)
-            lo, hi = seen.get(name, (value, value))
-            seen[name] = (min(lo, value), max(hi, value)) if not math.isnan(value) else (lo, hi)
+            if not math.isnan(value):  # a name this draw lacks is left out: no draw may have it
+                lo, hi = seen.get(name, (value, value))
+                seen[name] = (min(lo, value), max(hi, value))
         broken = next((i for i, c in enumerate(conditions) if not c.holds(values)), None)
         if broken is None:
             return candidate, attempt + 1
         failed[broken] += 1
+        by_zero[broken] += conditions[broken].divides_by_zero(values)
         if template is None:
-            shown = ", ".join(f"{n} = {_shown(values[n])}" for n in conditions[broken].names)
-            raise scenario.source.error(("require", broken), f"the scene does not meet it ({shown}); it is not random")
+            shown = ", ".join(f"{n} = {_shown(values.get(n, math.nan))}" for n in conditions[broken].names)
+            zero = "; it divides by zero" if by_zero[broken] else ""
+            raise scenario.source.error(("require", broken), f"the scene does not meet it ({shown}{zero}); it is not random")
     worst, count = failed.most_common(1)[0]
     c, k = scenario.sample
+    why = (
+        "it divides by zero in every one of them (a division by zero makes a condition false); change the condition"
+        if by_zero[worst] == count
+        else advice(conditions[worst], seen)
+    )
     raise scenario.source.error(
         ("require", worst),
         f"sample {k}{f' of grid cell {c}' if template is not None and template.grid else ''}: none of "
-        f"{MAX_DRAWS} draws met every condition ({count} failed this one); {advice(conditions[worst], seen)}",
+        f"{MAX_DRAWS} draws met every condition ({count} failed this one); {why}",
     )
 
 
@@ -150,11 +162,20 @@ def quantities(scenario: Scenario, wanted: set[str] | None = None) -> dict[str, 
     if derived:
         bricks = [b for b in with_placement_error(scenario, arrange(scenario)) if not b.fixed]
         values = {k: v for k, v in _derived(scenario, bricks, "gap" in derived).items() if k in derived}
-    _fields(scenario.model_dump(exclude={"expect", "sweep", "require"}), "", values)
-    if scenario.structure.parts is not None:  # a part's fields by its name
-        for name, _, part in named_parts(scenario.structure.parts):
-            _fields(part.model_dump(), f"structure.{name}.", values)
+    _fields(scene(scenario), "", values)
     return values
+
+
+def scene(scenario: Scenario) -> dict[str, Any]:
+    """The fields of ``scenario`` as a condition reads them: its plain data (SI numbers), without
+    ``expect``, ``sweep`` and ``require``, the structure's parts under ``structure`` by their names
+    and, in a list of parts, by their indices too (``structure.left`` and ``structure.0``)."""
+    data = scenario.model_dump(exclude={"expect", "sweep", "require"})
+    parts = scenario.structure.parts
+    if parts is not None:
+        dumped = [(name, path[-1], data["structure"]["parts"][path[-1]]) for name, path, _ in named_parts(parts)]
+        data["structure"] = {str(at): part for _, at, part in dumped} | {name: part for name, _, part in dumped if name}
+    return data
 
 
 def _fields(data: Any, prefix: str, out: dict[str, float]) -> None:
@@ -218,6 +239,8 @@ def _footprint(scenario: Scenario, brick: LaidBrick) -> Polygon:
 
 def _check_names(scenario: Scenario, conditions: list[Condition]) -> None:
     known = {**quantities(scenario, set()), **dict.fromkeys(DERIVED, 0.0)}
+    tree = scene(scenario)
+    listed = isinstance(scenario.structure.parts, list)
     for i, condition in enumerate(conditions):
         unknown = [n for n in condition.names if n not in known and not _a_field(n)]
         if unknown:
@@ -229,6 +252,10 @@ def _check_names(scenario: Scenario, conditions: list[Condition]) -> None:
                 f"unknown name {unknown[0]!r}: a condition reads {', '.join(DERIVED)} or a numeric field of the scene "
                 f"by its path (timing.interval, structure.tower.spacing){hint}",
             )
+        for name in condition.names:
+            why = None if name in DERIVED else unreadable(tree, name, scenario.template, listed)
+            if why is not None:
+                raise scenario.source.error(("require", i), why)
         try:
             check_kinds(condition, {n: KIND.get(n) or field_kind(n) for n in condition.names})
         except ValueError as exc:
@@ -302,8 +329,112 @@ def _a_field(name: str) -> bool:
     return True
 
 
+def unreadable(tree: dict[str, Any], name: str, template: Any = None, listed: bool = False) -> str | None:
+    """Why ``name`` (a field's path in a condition) reads no number of the scene ``tree``
+    (:func:`scene`) in any draw, or None when it reads one (in this draw, or may in another: an
+    item of a list, or a field, that a distribution of ``template`` draws or makes). ``listed``:
+    the structure is a list of parts (``structure.left`` is then ``structure.0`` in the file).
+
+    A tower's ``shift`` drawn ``per: layer`` is no one number: its draws are its ``shifts``, which
+    the answer names.
+
+    >>> tree = {"structure": {"tower": {"levels": 3, "shift": [0.0, 0.0], "shifts": None}}}
+    >>> unreadable(tree, "structure.tower.levels"), unreadable(tree, "structure.tower.levels.0")
+    (None, "no such field 'structure.tower.levels.0': structure.tower.levels is a number, with no item 0")
+    >>> unreadable(tree, "structure.tower.shift.2")
+    "no such field 'structure.tower.shift.2': structure.tower.shift has items 0 (along x) and 1 (along y), no item 2"
+    """
+    why = _why(tree, name, template, listed)
+    return why if why is None or why.startswith(repr(name)) else f"no such field {name!r}: {why}"
+
+
+def _why(tree: dict[str, Any], name: str, template: Any, listed: bool) -> str | None:
+    drawn = [d for d in template.distributions] if template is not None else []
+    per_layer: dict[FieldPath, list[str]] = {}  # a tower whose shift is drawn per layer -> its columns in samples.csv
+    for d in drawn:
+        if (spot := tower_field(d.path)) and spot[1] == "shift" and d.per != "sample":
+            per_layer.setdefault(spot[0], []).append(d.label)
+    segs = name.split(".")
+    node: Any = tree
+    at: FieldPath = ()  # where the name is in the file as read (a part of a list by its index)
+    parent: Any = None
+    for i, seg in enumerate(segs):
+        where = ".".join(segs[:i])
+        if seg == "shift" and at in per_layer:
+            columns = " and ".join(per_layer[at])
+            return (
+                f"{name!r} is no one number: {where}.shift is drawn per layer, into {where}.shifts (samples.csv's "
+                f"{columns}); read level 2's shift on level 1 as {where}.shifts.0.0 (along x) or "
+                f"{where}.shifts.0.1 (along y), level 3's as {where}.shifts.1.0, and so on"
+            )
+        if node is None:
+            if _made(at, drawn):
+                return None
+            kind = next((k for group in _ONE_OF for k in group if segs[i - 1] in group and parent.get(k) is not None), None)
+            if kind is not None:
+                return f"{'.'.join(segs[: i - 1])} is a {kind}, not a {segs[i - 1]}"
+            return f"{where} is not given in this scene, so it has no {seg!r}"
+        if isinstance(node, dict):
+            if seg not in node:
+                if at == ("structure",) and any(k not in Structure.model_fields for k in node):
+                    parts = [k for k in node if not k.isdigit()]
+                    return f"structure has no part {seg!r}; its parts are {', '.join(parts)}" + (
+                        f" (or by index, 0 to {len(node) - len(parts) - 1})" if listed else ""
+                    )
+                has = [str(k) for k in node if at != ("structure",) or node[k] is not None]
+                return f"{where or 'a scene'} has no field {seg!r}" + (f"; it has: {', '.join(has)}" if has else "")
+            parent = node
+            at += (_index_of(node, seg),) if at == ("structure",) and listed else (seg,)
+            node = node[seg]
+        elif isinstance(node, (list, tuple)):
+            if not seg.isdigit():
+                return f"{where} is a list: name an item by its index, {where}.0"
+            if int(seg) >= len(node):
+                if _made(at, drawn) or (at[-1:] == ("shifts",) and at[:-1] in per_layer and _made(at[:-1] + ("levels",), drawn)):
+                    return None  # a longer list in another draw
+                return f"{where} has {_items(where, len(node))}, no item {seg}"
+            at += (int(seg),)
+            node = node[int(seg)]
+        elif isinstance(node, bool) or not isinstance(node, (int, float)):
+            return f"{where} is {node!r}, not a number"
+        else:
+            return f"{where} is a number, with no {'item' if seg.isdigit() else 'field'} {seg}"
+    if node is None:
+        return None if _made(at, drawn) else f"{name} is not given in this scene"
+    if isinstance(node, (list, tuple)):
+        return f"{name} has {_items(name, len(node))}, not one number: name one, {name}.0"
+    if isinstance(node, dict):
+        return f"{name} has fields, not one number: name one ({', '.join(f'{name}.{k}' for k in list(node)[:3])}, ...)"
+    if isinstance(node, bool) or not isinstance(node, (int, float)):
+        return f"{name} is {node!r}, not a number"
+    return None
+
+
+def _items(where: str, n: int) -> str:
+    """How a list of ``n`` items at ``where`` is said: a shift's two as along x and y."""
+    last = where.rsplit(".", 2)
+    if n == 2 and (last[-1] == "shift" or (len(last) > 1 and last[-2] == "shifts")):
+        return "items 0 (along x) and 1 (along y)"
+    return f"items 0 to {n - 1}" if n > 1 else "one item, 0" if n else "no items"
+
+
+#: Fields of which a model takes one: an action's kind, a structure's (or a part's) layout.
+_ONE_OF = (("remove", "push", "shake"), LAYOUTS)
+
+
+def _made(at: FieldPath, drawn: list[Any]) -> bool:
+    """Whether a distribution draws the field at ``at`` or one it is in (another draw may then
+    have a field or an item this one lacks)."""
+    return any(at[: len(d.path)] == d.path for d in drawn)
+
+
+def _index_of(node: dict[str, Any], name: str) -> int:
+    """The index of the part ``name`` in a list of parts as :func:`scene` gives it."""
+    return next(int(k) for k, part in node.items() if k.isdigit() and part is node[name])
+
+
 def _shown(value: float) -> str:
     return f"{value:.6g}"
 
 
-__all__ = ["DERIVED", "MAX_DRAWS", "ScenarioError", "accept", "quantities"]
+__all__ = ["DERIVED", "MAX_DRAWS", "ScenarioError", "accept", "quantities", "scene", "unreadable"]

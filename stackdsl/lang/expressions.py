@@ -18,7 +18,8 @@ quantity derived from where its bricks are, ``overhang``), numbers with an optio
 Quantities are SI (metres, seconds, m/s, kg/m^3) and degrees for angles, as everywhere in a
 Program; a number's unit converts it (pint converts the unit only, as for any quantity of a file).
 A division by zero makes the condition false, and so does a comparison with a name the values
-lack (NaN).
+lack (NaN); a division by a number that reads no name and is zero (``1 / 0``, ``x / (2 - 2)``) is
+refused when the condition is parsed.
 
 >>> c = parse("overhang >= 10 mm and abs(com_offset) < 0.06")
 >>> c.names, c.holds({"overhang": 0.012, "com_offset": -0.02})
@@ -185,6 +186,18 @@ class Condition:
             return bool(_evaluate(self.tree, values))
         except ZeroDivisionError:
             return False
+
+    def divides_by_zero(self, values: Mapping[str, float]) -> bool:
+        """Whether evaluating the condition with ``values`` divides by zero (it is then false).
+
+        >>> parse("1 / levels > 0").divides_by_zero({"levels": 0.0})
+        True
+        """
+        try:
+            _evaluate(self.tree, values)
+        except ZeroDivisionError:
+            return True
+        return False
 
     def can_hold(self, ranges: Mapping[str, tuple[float, float]]) -> bool:
         """Whether the condition may hold for some values of its names within ``ranges`` (name ->
@@ -399,7 +412,12 @@ class _Parser:
         node = self.unary(depth)
         while self.peek() in ("*", "/"):
             op = self.take()[1]
-            node = ("arith", op, node, self.unary(depth))
+            start = self.at
+            divisor = self.unary(depth)
+            if op == "/" and _constant(divisor) == 0:
+                self.at = start
+                raise self.error("divides by zero (a condition that does is never true)")
+            node = ("arith", op, node, divisor)
         return node
 
     def unary(self, depth: int) -> Node:
@@ -432,6 +450,20 @@ class _Parser:
             return inner
         self.at -= 1
         raise self.error(f"expected a number or a name, got {text!r}")
+
+
+def _constant(node: Node) -> float | None:
+    """The value of a number node that reads no name, or None when it reads one."""
+    if node[0] == "name":
+        return None
+    if node[0] == "neg":
+        inner = _constant(node[1])
+        return None if inner is None else -inner
+    if node[0] == "arith" or node[0] == "call":
+        parts = [_constant(n) for n in (node[2:] if node[0] == "arith" else node[2])]
+        if any(p is None for p in parts):
+            return None
+    return float(_evaluate(node, {}))
 
 
 def _evaluate(node: Node, values: Mapping[str, float]) -> Any:

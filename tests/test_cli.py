@@ -289,6 +289,25 @@ def test_an_exception_in_a_run_is_its_rows_internal_error_and_exit_3(tmp_path, c
     assert "Traceback (most recent call last)" in capsys.readouterr().err
 
 
+def test_an_internal_error_reading_one_file_of_a_folder_names_the_file(tmp_path, capsys, monkeypatch):
+    folder = write(tmp_path, a=PASSING, b=PASSING, c=PASSING)
+    compile_scenario = _check.compile_scenario
+
+    def broken_on_b(scenario, *args, **kwargs):
+        if scenario.name == "b":
+            raise TypeError("list indices must be integers or slices, not str")
+        return compile_scenario(scenario, *args, **kwargs)
+
+    monkeypatch.setattr(_check, "compile_scenario", broken_on_b)
+    monkeypatch.delenv("STACKDSL_TRACEBACK", raising=False)
+    assert main(["check", str(folder), "-j", "1"]) == 3
+    (line,) = capsys.readouterr().err.splitlines()
+    assert line == (
+        "stackdsl: internal error: TypeError: list indices must be integers or slices, not str"
+        f" (while reading {folder / 'b.yaml'}) (run with --debug for the traceback)"
+    )
+
+
 @pytest.mark.parametrize("command", ["compile", "run", "schema", "bench", "compare"])
 def test_an_internal_error_in_any_command_is_one_line_and_exit_3(command, tmp_path, capsys, monkeypatch):
     def broken(*args, **kwargs):

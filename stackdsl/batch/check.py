@@ -114,6 +114,9 @@ def prepare(
                     prepared.append(Prepared(path, program, scenario.expect, sweep))
         except ScenarioError as exc:
             errors.append(exc)
+        except Exception as exc:  # a bug: said with the file it was met in, still exit 3
+            exc.add_note(f"while reading {path}")
+            raise
     if errors:
         summary = ""
         if len(files) > 1:  # a folder: every file is read before any runs

@@ -181,7 +181,8 @@ def _internal(exc: BaseException, debug: bool) -> int:
     if debug:
         traceback.print_exception(exc)
     message = (str(exc).splitlines() or [""])[0] or "(no message)"
-    print(f"stackdsl: internal error: {type(exc).__name__}: {message}{'' if debug else HINT}", file=sys.stderr)
+    where = "".join(f" ({note})" for note in getattr(exc, "__notes__", ()) if note.startswith("while "))
+    print(f"stackdsl: internal error: {type(exc).__name__}: {message}{where}{'' if debug else HINT}", file=sys.stderr)
     return INTERNAL
 
 

@@ -166,10 +166,18 @@ def compile_scenario(
     if end > MAX_SIMULATED_TIME:
         last = actions[-1]  # what makes the run long: the last impact's time, or the placements' interval
         where: FieldPath = ("impacts", launches.index(last), "at") if last in launches else ("timing", "interval")
+        why = ""
         if motions and max(m.end_time for m in motions) >= last.time:
             latest = max(motions, key=lambda m: m.end_time)
             where = ("actions", motions.index(latest), latest.kind, "at")
-        raise scenario.source.error(where, f"the run would last {end:.0f} s; at most {MAX_SIMULATED_TIME:.0f} s are simulated")
+        elif last not in launches:  # the placements: at the interval if written, else at the structure
+            why = (
+                f": {len(placements)} bricks placed {scenario.timing.interval:g} s apart, then {scenario.timing.settle:g} s "
+                "to settle; place them faster (timing.interval) or build fewer"
+            )
+            where = where if where in scenario.source.values else ("structure",)
+        message = f"the run would last {end:.0f} s; at most {MAX_SIMULATED_TIME:.0f} s are simulated{why}"
+        raise scenario.source.error(where, message)
     actions.append(End(step=last_step + settle, time=end))
     _measurable(scenario, end, len(bricks))
     ground = scenario.material(scenario.ground.material)

@@ -81,6 +81,9 @@ class Pyramid(StrictModel):
     def _levels(self) -> Pyramid:
         if self.levels is not None and self.levels > self.base:
             raise ValueError(f"a pyramid with {self.base} bricks at the base has at most {self.base} levels, not {self.levels}")
+        bricks = self.courses * self.base - self.courses * (self.courses - 1) // 2
+        if bricks > MAX_BRICKS:
+            raise ValueError(f"the pyramid has {bricks} bricks; at most {MAX_BRICKS} are allowed")
         return self
 
     @property

@@ -97,6 +97,26 @@ def test_impact_after_a_level_is_aimed_to_arrive_at_the_target():
     assert launch.yaw == pytest.approx(-90.0)
 
 
+def test_an_impact_on_a_side_hits_the_middle_of_the_levels_outer_face():
+    """The middle of a course's face is its middle brick; a layer whose bricks show their ends on
+    that side is hit on the end nearest the middle; two bricks side by side, on the first."""
+
+    def targets(structure: str, *sides: tuple[int, str]) -> list[tuple[float, float, float]]:
+        impacts = ", ".join(
+            f"{{target: {{level: {lv}, side: '{side}'}}, speed: 1 m/s, at: after level {lv}}}" for lv, side in sides
+        )
+        program = compile_scenario(parse_scenario(f"stackdsl: 1\nstructure: {{{structure}}}\nimpacts: [{impacts}]\n", "i.yaml"))
+        return [tuple(round(v * 1000, 3) + 0.0 for v in a.target) for a in program.actions if isinstance(a, Launch)]
+
+    wall = "wall: {courses: 3, bricks_per_course: 5}"  # five 120 mm bricks along x, their middle at x = 0
+    assert targets(wall, (1, "-y"), (3, "+y")) == [(0.0, -12.0, 4.0), (0.0, 12.0, 20.0)]
+    three = "tower: {levels: 2, bricks_per_layer: 3, spacing: 25 mm}"  # level 1 along x at y = -25, 0, 25
+    assert targets(three, (1, "+x"), (2, "-y")) == [(60.0, 0.0, 4.0), (0.0, -60.0, 12.0)]
+    two = "tower: {levels: 1}"  # two bricks along x at y = -48 and 48: equally near the middle
+    ((x, y, _),) = targets(two, (1, "+x"))
+    assert x == 60.0 and abs(y) == 48.0
+
+
 def test_impact_on_a_missing_level_is_an_error():
     with pytest.raises(ScenarioError) as info:
         program("stackdsl: 1\nstructure: {tower: {levels: 3}}\nimpacts: [{target: {level: 5, side: +x}, speed: 1, at: 10 s}]\n")

@@ -461,19 +461,24 @@ def _launch(
 
 
 def _face_point(scenario: Scenario, index: int, impact: Impact, bricks: list[LaidBrick]) -> np.ndarray:
-    """Middle of the outer face, on the target side, of the level's outermost brick."""
+    """The middle of the level's outer face on the target side: of the bricks whose faces there are
+    outermost, the one whose face's middle is nearest the middle of the level's extent along that
+    side (the first of equals), at its face's middle. A course of five bricks is hit on its middle
+    brick, a layer of two bricks side by side on the first."""
     level = [b for b in bricks if b.level == impact.target.level]
     if not level:
         raise scenario.source.error(("impacts", index, "target", "level"), f"level {impact.target.level} is not built")
     outward: np.ndarray = -np.array(_side(impact), dtype=np.float64)
-    faces = [
-        Box(np.array(scenario.brick_type(b.type).size) / 2, 1.0).face(
-            Pose.from_euler(b.position, b.yaw, b.pitch, b.roll), outward
-        )[0]
-        for b in level
-    ]
-    outermost = max(faces, key=lambda corners: round(float((corners @ outward).max()), 9))  # the first of equals
-    return np.asarray(outermost.mean(axis=0))
+    along = np.array([-outward[1], outward[0], 0.0])  # horizontal, across the side
+    poses = [Pose.from_euler(b.position, b.yaw, b.pitch, b.roll) for b in level]
+    boxes = [Box(np.array(scenario.brick_type(b.type).size) / 2, 1.0) for b in level]
+    faces = [box.face(pose, outward)[0] for box, pose in zip(boxes, poses, strict=True)]
+    reach = [round(float((corners @ outward).max()), 9) for corners in faces]
+    spread = np.array([box.corners(pose) @ along for box, pose in zip(boxes, poses, strict=True)])
+    middle = (spread.min() + spread.max()) / 2
+    outermost = [f for f, r in zip(faces, reach, strict=True) if r == max(reach)]
+    nearest = min(outermost, key=lambda corners: round(abs(float(corners.mean(axis=0) @ along) - middle), 9))
+    return np.asarray(nearest.mean(axis=0))
 
 
 def _side(impact: Impact) -> tuple[float, float, float]:

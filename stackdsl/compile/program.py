@@ -455,7 +455,7 @@ def format_program(program: Program) -> str:
                 f"yaw {a.yaw:6.1f}  pitch {a.pitch:5.1f}  roll {a.roll:5.1f}  {a.brick.type}"
             )
         elif isinstance(a, Launch):
-            x, y, z = (v * 1000 for v in a.target)
+            x, y, z = (_mm(v) for v in a.target)
             speed = sum(v * v for v in a.velocity) ** 0.5
             lines.append(
                 f"{head}launch {a.id:<10} {speed:.3g} m/s at ({x:.1f}, {y:.1f}, {z:.1f}) mm, "

@@ -1,7 +1,7 @@
 """pytest plugin: scenario files are test items, with golden snapshots in ``golden/``.
 
 Installed with stackdsl (entry point ``pytest11``); it needs syrupy
-(``pip install 'stackdsl[test]'``). As Tavern does for its YAML tests, pytest collects
+(``pip install 'stackdsl[pytest]'``). As Tavern does for its YAML tests, pytest collects
 every ``*.yaml``/``*.yml`` file below the folders named by the ini option
 ``stackdsl_paths`` (default: ``scenarios``), relative to the project root::
 
@@ -356,7 +356,7 @@ def golden(snapshot: Any) -> Any:
     ``assert golden == data`` (``data``: plain JSON values, e.g. ``outcome.golden()``);
     ``pytest --snapshot-update`` writes it."""
     if JSONSnapshotExtension is None:  # pragma: no cover
-        pytest.fail("the golden fixture needs syrupy: pip install 'stackdsl[test]'")
+        pytest.fail("the golden fixture needs syrupy: pip install 'stackdsl[pytest]'")
     return snapshot.with_defaults(extension_class=GoldenSnapshotExtension, matcher=round_floats)
 
 
@@ -364,5 +364,5 @@ def golden(snapshot: Any) -> Any:
 def scenario_golden(snapshot: Any) -> Any:
     """The snapshot assertion of a scenario file's test item (see the module docstring)."""
     if SingleFileSnapshotExtension is None:  # pragma: no cover
-        pytest.fail("scenario snapshots need syrupy: pip install 'stackdsl[test]'")
+        pytest.fail("scenario snapshots need syrupy: pip install 'stackdsl[pytest]'")
     return snapshot.with_defaults(extension_class=ScenarioSnapshotExtension)

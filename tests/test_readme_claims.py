@@ -6,6 +6,7 @@ from __future__ import annotations
 import re
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
 import pytest
@@ -37,12 +38,22 @@ def test_the_golden_goes_where_the_readme_says(tmp_path, monkeypatch, project):
     if project:
         (tmp_path / "pyproject.toml").write_text("[project]\nname = 'mine'\n")
         (written,) = re.findall(r"in a project:\s+`([^`]+)`", README)
-    assert command[:3] == ["python", "-m", "pytest"]
+    assert command[:3] == [".venv/bin/python", "-m", "pytest"]
     run = [sys.executable, *command[1:], "-p", "no:cacheprovider", "-n", "0"]
     done = subprocess.run(run, cwd=tmp_path, capture_output=True, text=True, check=False)
     assert done.returncode == 0, done.stdout[-2000:]
     goldens = sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*.json"))
     assert goldens == [written]
+
+
+def test_the_golden_command_follows_the_install_of_what_it_needs():
+    """The README's own set-up installs no pytest: the line before the golden command adds it,
+    and the extra it names holds pytest and syrupy (what the plugin imports)."""
+    lines = README.splitlines()
+    (at,) = [i for i, x in enumerate(lines) if "--snapshot-update" in x and "# writes " in x]
+    assert re.match(r"\.venv/bin/pip install -c constraints\.txt '\.\[pytest\]'", lines[at - 1])
+    extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]
+    assert sorted(d.split(">")[0] for d in extras["pytest"]) == ["pytest", "syrupy"]
 
 
 def test_check_k_takes_plain_text_and_more_than_one(tmp_path, capsys):

@@ -180,7 +180,7 @@ def test_wrong_unit():
     [
         ("stackdsl: 1\nstructure:\n  tower: {levels: 3}\n  tower: {levels: 4}\n", 4, "structure.tower", "duplicate key 'tower'"),
         ("structure: {tower: {levels: 3}}\n", 1, "stackdsl", "'stackdsl: 1'"),
-        ("stackdsl: 2\nstructure: {tower: {levels: 3}}\n", 1, "stackdsl", "should be 1"),
+        ("stackdsl: 2\nstructure: {tower: {levels: 3}}\n", 1, "stackdsl", "expected 1, got 2"),
         ("stackdsl: 1\nstructure: {tower: {levels: 3, brick: oak}}\n", 2, "structure.tower.brick", "unknown brick type 'oak'"),
         ("stackdsl: 1\nstructure: {tower: {levels: 3}}\nexpect: {collapse: 9 pm 1}\n", 3, "expect.collapse", "'9±1'"),
         ("stackdsl: 1\nstructure: {tower: {levels: 3}, bricks: [{at: [0, 0, 0]}]}\n", 2, "structure", "exactly one"),
@@ -593,7 +593,7 @@ def test_a_value_no_member_of_a_union_takes_is_one_error_at_the_field_as_written
     "value, field, message",
     [
         ("{after_level: 0}", "actions[0].remove.at.after_level", "expected 1 or more, got 0"),
-        ("{after: previous}", "actions[0].remove.at.after", "Input should be 'the previous action', got 'previous'"),
+        ("{after: previous}", "actions[0].remove.at.after", "expected 'the previous action', got 'previous'"),
     ],
 )
 def test_a_mapping_is_judged_by_the_union_member_it_has_the_shape_of(value, field, message):
@@ -811,3 +811,38 @@ def test_pydantics_type_words_are_said_in_the_languages(line, field, message):
     with pytest.raises(ScenarioError) as err:
         parse_scenario(f"stackdsl: 1\n{line}\n", "w.yaml")
     assert (err.value.field, err.value.message) == (field, message)
+
+
+@pytest.mark.parametrize(
+    "layout, field, message",
+    [
+        ("pyramid: {base: 3, laid: 7}", "structure.pyramid.laid", "expected 'flat' or 'edge', got 7"),
+        (
+            "wall: {courses: 2, bricks_per_course: 4, laid: edgewise}",
+            "structure.wall.laid",
+            "expected 'flat' or 'edge', got 'edgewise'; did you mean 'edge'?",
+        ),
+        (
+            "wall: {courses: 2, bricks_per_course: 4, laid: sideways}",
+            "structure.wall.laid",
+            "expected 'flat' or 'edge', got 'sideways'",
+        ),
+    ],
+)
+def test_a_value_none_of_its_choices_names_them_in_the_languages_words(layout, field, message):
+    """'laid: 7' said pydantic's "Input should be 'flat' or 'edge'"; a text near a choice is
+    asked about it."""
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(f"stackdsl: 1\nstructure:\n  {layout}\n", "c.yaml")
+    assert (err.value.field, err.value.message) == (field, message)
+
+
+def test_a_grid_value_is_refused_in_the_words_the_file_would_be():
+    """A grid value below a field's bound said pydantic's 'Input should be greater than or equal
+    to 1' where the same value in the file says 'expected 1 or more'."""
+    text = "stackdsl: 1\nstructure:\n  wall: {courses: 2, bricks_per_course: 3}\nsweep:\n  samples: 1\n  grid:\n    structure.wall.courses: [2, 0]\n"
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(text, "g.yaml")
+    e = err.value
+    assert (e.field, e.line, e.column) == ("sweep.grid.structure.wall.courses[1]", 7, 33)
+    assert e.message == "the grid value 0: expected 1 or more, got 0"

@@ -10,6 +10,7 @@ Source: stackdsl's own (errors at file:line:col), after Tavern.
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 import re
 import types
@@ -39,8 +40,8 @@ def first_error(
         return error
     for err in exc.errors(include_url=False):
         moved = relocate(_untagged(tuple(err["loc"])))
-        if moved is not None:
-            message = err["msg"].removeprefix("Value error, ")
+        if moved is not None:  # in the words the field itself would be refused in
+            message = _one_error(err, dataclasses.replace(source, moved=())).message
             return source.error(moved, f"{note}: {message}" if note else message)
     return error
 
@@ -193,6 +194,8 @@ def _one_error(err: ErrorDetails, source: SourceMap) -> ScenarioError:
         bound = "" if exactly else "at most " if most else "at least "
         message = f"expected a list of {bound}{limit} item{'s' * (limit != 1)}"
         return source.error(loc, f"{message}, got {shown(err['input'])}")
+    elif err["type"] in ("literal_error", "enum"):  # pydantic: "Input should be 'flat' or 'edge'"
+        return source.error(loc, _choice(err))
     elif err["type"] in _PLAIN:  # pydantic's words for a type, in the language's
         message = _PLAIN[err["type"]](err.get("ctx", {}))
     else:
@@ -208,6 +211,19 @@ def _one_error(err: ErrorDetails, source: SourceMap) -> ScenarioError:
         if err["type"] == "string_type" and isinstance(given_, bool):  # yes, no, on, off
             message += ": YAML reads an unquoted yes, no, on, off, true or false as true or false; quote it"
     return source.error(loc, message)
+
+
+def _choice(err: ErrorDetails) -> str:
+    """The refusal of a value that is none of a field's choices, with the closest choice to a
+    text that is near one: ``expected 'flat' or 'edge', got 'edgewise'; did you mean 'edge'?``."""
+    expected = str(err.get("ctx", {}).get("expected", ""))
+    given_ = err.get("input")
+    message = f"expected {expected}, got {shown(given_)}"
+    if isinstance(given_, str):
+        close = difflib.get_close_matches(given_, re.findall(r"'([^']*)'", expected), n=1)
+        if close:
+            message += f"; did you mean {close[0]!r}?"
+    return message
 
 
 def _pattern(ctx: dict[str, Any]) -> str:

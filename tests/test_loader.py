@@ -846,3 +846,17 @@ def test_a_grid_value_is_refused_in_the_words_the_file_would_be():
     e = err.value
     assert (e.field, e.line, e.column) == ("sweep.grid.structure.wall.courses[1]", 7, 33)
     assert e.message == "the grid value 0: expected 1 or more, got 0"
+
+
+def test_an_unknown_pusher_is_refused_with_the_known_brick_types():
+    """'pusher: bulldozer' was refused by the compiler without the known types, where
+    'wall.brick' lists them: both are now the schema's reference check."""
+    text = (
+        "stackdsl: 1\nbrick_types:\n  dozer: {size: [150 mm, 300 mm, 100 mm]}\nstructure: {tower: {levels: 4}}\n"
+        "actions:\n  - push: {target: {brick: L04.1}, direction: [1, 0, 0], at: after level 4, pusher: bulldozer}\n"
+    )
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(text, "p.yaml")
+    e = err.value
+    assert (e.field, e.line, e.column) == ("actions[0].push.pusher", 6, 85)
+    assert e.message == "unknown brick type 'bulldozer'; known: dozer, kapla"

@@ -434,6 +434,9 @@ def reference_errors(s: Scenario) -> list[tuple[FieldPath, str]]:
                 problems.append((where + (i, "id"), f"brick id {b.id!r} is used more than once"))
     for i, imp in enumerate(s.impacts):
         brick(("impacts", i, "projectile"), imp.projectile)
+    for i, action in enumerate(s.actions):
+        if action.push is not None:
+            brick(("actions", i, "push", "pusher"), action.push.pusher)
     n_bricks = s.structure.tower.levels * s.structure.tower.bricks_per_layer if s.structure.tower else 0
     if n_bricks > MAX_BRICKS:
         problems.append((("structure", "tower", "levels"), f"the tower has {n_bricks} bricks; at most {MAX_BRICKS} are allowed"))

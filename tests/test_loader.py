@@ -156,7 +156,7 @@ def test_string_where_a_number_belongs():
         """
     )
     assert (err.line, err.column, err.field) == (4, 13, "structure.tower.levels")
-    assert "valid integer" in err.message
+    assert err.message == "expected a whole number, not text, got 'three'"
 
 
 @pytest.mark.parametrize(
@@ -185,7 +185,7 @@ def test_wrong_unit():
         ("stackdsl: 1\nstructure: {tower: {levels: 3}}\nexpect: {collapse: 9 pm 1}\n", 3, "expect.collapse", "'9±1'"),
         ("stackdsl: 1\nstructure: {tower: {levels: 3}, bricks: [{at: [0, 0, 0]}]}\n", 2, "structure", "exactly one"),
         ("stackdsl: 1\nstructure: {tower: {levels: 3}}\nexpect: {stands: true, collapse: 3}\n", 3, "expect", "cannot both"),
-        ("stackdsl: 1\nstructure: {tower: {levels: 3, spacing: yes}}\n", 2, "structure.tower.spacing", "got True"),
+        ("stackdsl: 1\nstructure: {tower: {levels: 3, spacing: yes}}\n", 2, "structure.tower.spacing", "got true"),
         ("stackdsl: 1\nstructure: {tower: {levels: 3}}\n1: x\n", 3, "1", "keys must be names"),
         ("stackdsl: 1\nbase: &b {levels: 3}\nstructure: {tower: {<<: *b}}\n", 3, "structure.tower.<<", "merge keys"),
         (
@@ -800,7 +800,7 @@ def test_a_fixed_length_list_and_a_shake_of_no_time_are_refused_in_plain_words()
         (
             "name: yes\nstructure: {tower: {levels: 2}}",
             "name",
-            "expected text, got True: YAML reads an unquoted yes, no, on, off, true or false as true or false; quote it",
+            "expected text, got true: YAML reads an unquoted yes, no, on, off, true or false as true or false; quote it",
         ),
     ],
 )
@@ -860,3 +860,30 @@ def test_an_unknown_pusher_is_refused_with_the_known_brick_types():
     e = err.value
     assert (e.field, e.line, e.column) == ("actions[0].push.pusher", 6, 85)
     assert e.message == "unknown brick type 'bulldozer'; known: dozer, kapla"
+
+
+@pytest.mark.parametrize(
+    "structure, field, message",
+    [
+        ("pyramid: {base: .nan}", "structure.pyramid.base", "expected a whole number, got .nan (not finite)"),
+        ("tower: {levels: -.inf}", "structure.tower.levels", "expected a whole number, got -.inf (not finite)"),
+        ("wall: {courses: true, bricks_per_course: 4}", "structure.wall.courses", "expected a whole number, got true"),
+        ("tower: {levels: null}", "structure.tower.levels", "expected a whole number, got null"),
+        ("wall: {courses: 2, bricks_per_course: 4, joint: .nan}", "structure.wall.joint", "(not finite)"),
+        ("tower: {levels: 2, origin: [0, .inf]}", "structure.tower.origin[1]", "got .inf (not finite)"),
+    ],
+)
+def test_values_are_shown_as_yaml_writes_them(structure, field, message):
+    """'base: .nan' said pydantic's 'Input should be a finite number, got nan' where a length says
+    'got nan (not finite)'; 'courses: true' was shown as Python's True, 'null' as None."""
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(f"stackdsl: 1\nstructure:\n  {structure}\n", "v.yaml")
+    assert err.value.field == field
+    assert err.value.message.endswith(message) and "True" not in err.value.message and "None" not in err.value.message
+
+
+def test_a_plain_number_not_finite_is_said_as_a_length_is():
+    text = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nmaterials:\n  oak: {density: 700, friction: .inf, restitution: 0.3}\n"
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(text, "m.yaml")
+    assert (err.value.field, err.value.message) == ("materials.oak.friction", "expected a number, got .inf (not finite)")

@@ -38,6 +38,7 @@ from .grammar import (
     json_pattern,
 )
 from .schema_require import Requirement
+from .spelling import spelled
 from .units import Time, time, within
 
 if TYPE_CHECKING:  # to mypy a float; to pydantic a time within a run's longest
@@ -61,7 +62,7 @@ def _collapse(value: Any) -> Any:
     if isinstance(value, str):
         match = re.fullmatch(COLLAPSE, value)
         if not match:
-            raise ValueError(f"expected a level such as '9±1', '9 +- 1' or 9, got {value!r}")
+            raise ValueError(f"expected a level such as '9±1', '9 +- 1' or 9, got {spelled(value)}")
         return {"level": int(match[1]), "tolerance": int(match[2] or 0)}
     return value
 
@@ -93,7 +94,7 @@ def _levels(value: Any) -> Any:
         if not 1 <= first <= last <= MAX_LEVELS:
             raise ValueError(
                 f"expected levels from 1 to {MAX_LEVELS} such as 5, '1-11', bricks such as 'L05.2', 'L05' or 'left.', "
-                f"or a list of those, got {item!r}"
+                f"or a list of those, got {spelled(item)}"
             )
         levels.update(range(first, last + 1))
     return (*sorted(levels), *bricks)
@@ -151,19 +152,19 @@ def _toppled(value: Any) -> Any:
     if isinstance(value, str):
         match = re.fullmatch(COLLAPSE, value)
         if not match:
-            raise ValueError(f"expected a number of bricks such as 20, '20±1' or 'all', got {value!r}")
+            raise ValueError(f"expected a number of bricks such as 20, '20±1' or 'all', got {spelled(value)}")
         _bricks(int(match[1]), value)
         _bricks(int(match[2] or 0), value)
         return {"count": int(match[1]), "tolerance": int(match[2] or 0)}
     if not isinstance(value, dict):  # true, 19.5: a mapping's fields would be the wrong thing to name
-        raise ValueError(f"expected a whole number of bricks such as 20, '20±1' or 'all', got {value!r}")
+        raise ValueError(f"expected a whole number of bricks such as 20, '20±1' or 'all', got {spelled(value)}")
     return value
 
 
 def _bricks(number: int, value: Any) -> None:
     """Refuse a number of toppled bricks (or a tolerance of one) out of the range :class:`Toppled` allows."""
     if not 0 <= number <= MAX_BRICKS:
-        raise ValueError(f"expected a number of bricks from 0 to {MAX_BRICKS} or 'all', got {value!r}")
+        raise ValueError(f"expected a number of bricks from 0 to {MAX_BRICKS} or 'all', got {spelled(value)}")
 
 
 class Toppled(StrictModel):
@@ -180,7 +181,7 @@ def _plus_minus(value: Any) -> Any:
         return {"target": float(match[1]), "tolerance": float(match[2])}
     if isinstance(value, dict):
         return value
-    raise ValueError(f"expected a level and a tolerance such as '7 ± 0.5', got {value!r}")
+    raise ValueError(f"expected a level and a tolerance such as '7 ± 0.5', got {spelled(value)}")
 
 
 class Within(StrictModel):
@@ -225,7 +226,7 @@ def _bound(value: Any) -> Any:
     if isinstance(value, str):
         match = re.fullmatch(BOUND, value)
         if not match:
-            raise ValueError(f"expected a comparison with a probability such as '>= 0.9', got {value!r}")
+            raise ValueError(f"expected a comparison with a probability such as '>= 0.9', got {spelled(value)}")
         return {"op": match[1], "bound": float(match[2])}
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         raise ValueError(

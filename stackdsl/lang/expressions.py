@@ -39,6 +39,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from .spelling import spelled
 from .units import angle, angular_speed, density, length, parse_quantity, speed, time
 
 MAX_CONDITION = 500
@@ -292,7 +293,7 @@ def parse(text: str) -> Condition:
         ValueError: a syntax error, with the character it is at (1-based), or an unknown unit.
     """
     if not isinstance(text, str):
-        raise ValueError(f"a condition is text, such as 'overhang >= 10 mm', got {text!r}")
+        raise ValueError(f"a condition is text, such as 'overhang >= 10 mm', got {spelled(text)}")
     if len(text) > MAX_CONDITION:
         raise ValueError(f"a condition has at most {MAX_CONDITION} characters, not {len(text)}")
     parser = _Parser(text)

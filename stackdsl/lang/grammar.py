@@ -23,6 +23,7 @@ from pydantic import BeforeValidator, GetJsonSchemaHandler, TypeAdapter
 from pydantic.json_schema import JsonSchemaValue
 from pydantic_core import CoreSchema
 
+from .spelling import spelled
 from .units import WHITESPACE
 
 # Regular expressions shared by the validators and the JSON Schema, written to mean the same in
@@ -48,7 +49,7 @@ def json_pattern(regex: str, *numbers: str) -> str:
 def whole(value: Any) -> Any:
     """An integer as YAML writes it, ``5`` or ``5.0``; not ``"5"`` or ``true``."""
     if isinstance(value, (bool, str)):
-        raise ValueError(f"expected a valid integer, not {'true or false' if isinstance(value, bool) else 'text'}, got {value!r}")
+        raise ValueError(f"expected a whole number{'' if isinstance(value, bool) else ', not text'}, got {spelled(value)}")
     if isinstance(value, float) and value.is_integer():
         return int(value)
     return value
@@ -96,5 +97,5 @@ def absent(*names: str) -> dict[str, Any]:
 def flag(value: Any) -> Any:
     """``true`` or ``false`` only (pydantic's lax mode would take 1 for true)."""
     if not isinstance(value, bool):
-        raise ValueError(f"expected true or false, got {value!r}")
+        raise ValueError(f"expected true or false, got {spelled(value)}")
     return value

@@ -31,6 +31,7 @@ from .errors import NO_FILE, FieldPath, ScenarioError, SourceMap
 from .sampling import Template
 from .scenario_file import character_name, check_characters, file_problem, read_text
 from .schema import Scenario
+from .spelling import spelled
 from .unit_slips import UnitSlipWarning, unit_slips
 from .validate import raised_in_library, validate
 from .validation_errors import shown
@@ -228,7 +229,7 @@ def _plain(node: Node, path: FieldPath, loader: _Loader, source: SourceMap, budg
             raise source.error(path + ("<<",), "merge keys ('<<') are not supported; write the fields out")
         if not isinstance(key, str):
             source.values[path + (str(key),)] = where
-            raise source.error(path + (str(key),), f"keys must be names, got {key!r} (quote it if it is meant as a name)")
+            raise source.error(path + (str(key),), f"keys must be names, got {spelled(key)} (quote it if it is meant as a name)")
         if key in out:
             source.values[path + (key,)] = where
             raise source.error(path + (key,), f"duplicate key {key!r}")

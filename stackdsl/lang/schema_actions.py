@@ -22,6 +22,7 @@ from pydantic import AfterValidator, BeforeValidator, ConfigDict, Field, model_v
 from .bounds import MAX_SIDE, Component, StrictModel, Vector3
 from .grammar import AFTER_LEVEL, AFTER_PREVIOUS, LEVEL_NUMBER, AlsoAccepts, given, json_pattern
 from .schema_impacts import AfterLevel, _nonzero, _when
+from .spelling import spelled
 from .units import Frequency, Length, Speed, Time, frequency, length, quantity_pattern, speed, time, within
 
 ID = r"^[A-Za-z0-9_.-]{1,40}$"
@@ -43,7 +44,7 @@ def _action_when(value: Any) -> Any:
         return _when(value)
     except ValueError:
         raise ValueError(
-            f"expected a time such as '14 s', 'after level N' or 'after the previous action', got {value!r}"
+            f"expected a time such as '14 s', 'after level N' or 'after the previous action', got {spelled(value)}"
         ) from None
 
 

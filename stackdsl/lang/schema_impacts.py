@@ -13,6 +13,7 @@ from pydantic import AfterValidator, BeforeValidator, ConfigDict, Field, model_v
 
 from .bounds import MAX_LEVELS, MIN_DIRECTION, Component, ImpactSpeed, StrictModel, Vector3
 from .grammar import AFTER_LEVEL, LEVEL_NUMBER, WHOLE, AlsoAccepts, absent, given, json_pattern
+from .spelling import spelled
 from .units import Length, length, quantity_pattern, time, within
 
 
@@ -30,14 +31,14 @@ def _when(value: Any) -> Any:
         match = re.fullmatch(AFTER_LEVEL, value)
         if match:
             if not 1 <= int(match[1]) <= MAX_LEVELS:
-                raise ValueError(f"expected a level from 1 to {MAX_LEVELS}, got {value!r}")
+                raise ValueError(f"expected a level from 1 to {MAX_LEVELS}, got {spelled(value)}")
             return AfterLevel(after_level=int(match[1]))
     try:
         seconds = time(value)
     except ValueError:
-        raise ValueError(f"expected a time such as '14 s' or 'after level N', got {value!r}") from None
+        raise ValueError(f"expected a time such as '14 s' or 'after level N', got {spelled(value)}") from None
     if seconds < 0:
-        raise ValueError(f"expected a time >= 0, got {value!r}")
+        raise ValueError(f"expected a time >= 0, got {spelled(value)}")
     return seconds
 
 

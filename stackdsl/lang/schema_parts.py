@@ -31,6 +31,7 @@ from .errors import FieldPath
 from .grammar import given
 from .schema_generators import Dominoes, Pyramid, Wall
 from .schema_layouts import BrickPlacement, CardHouse, Tower
+from .spelling import spelled
 
 #: The layouts a structure or a part is made of, in the order they are looked for.
 LAYOUTS = ("tower", "card_house", "bricks", "wall", "pyramid", "dominoes")
@@ -58,14 +59,14 @@ def _on(value: Any) -> Any:
     error names the field, not a branch of the union)."""
     if isinstance(value, str):
         if not re.match(ON, value) or value.endswith("\n"):
-            raise ValueError(f"expected a part's name or a brick's id (letters, digits, '_', '-', '.'), got {value!r}")
+            raise ValueError(f"expected a part's name or a brick's id (letters, digits, '_', '-', '.'), got {spelled(value)}")
         return value
     if isinstance(value, list) and value and len(value) <= MAX_PARTS:
         for name in value:
             if not isinstance(name, str) or not re.match(NAME, name) or name.endswith("\n"):
-                raise ValueError(f"a list of 'on' names parts (letters, digits, '_', '-'), got {name!r}")
+                raise ValueError(f"a list of 'on' names parts (letters, digits, '_', '-'), got {spelled(name)}")
         return value
-    raise ValueError(f"expected a part's name, a brick's id or a list of parts' names (1 to {MAX_PARTS}), got {value!r}")
+    raise ValueError(f"expected a part's name, a brick's id or a list of parts' names (1 to {MAX_PARTS}), got {spelled(value)}")
 
 
 class Part(StrictModel):

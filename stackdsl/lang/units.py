@@ -33,6 +33,8 @@ from pydantic import BeforeValidator, Field, GetJsonSchemaHandler
 from pydantic.json_schema import JsonSchemaValue
 from pydantic_core import CoreSchema
 
+from .spelling import spelled
+
 # Regular expressions valid and equal in Python `re` and ECMA-262 (also with the `u` flag).
 WHITESPACE = "[ \\t\\r\\n]"  # not \s, on which Python and ECMA-262 disagree
 SPACE = f"{WHITESPACE}*"  # what may surround the parts; a trailing newline is space, so `$` means the same in both
@@ -82,11 +84,11 @@ def parse_quantity(value: Any, dimension: str, unit: str, what: str, example: st
         ValueError: not a number, a unit of the wrong kind, or not finite.
     """
     expected = f"expected {what} such as {example} or a number of {unit_name or unit}"
-    number, unit_text = _split(value, f"{expected}, got {value!r}")
+    number, unit_text = _split(value, f"{expected}, got {spelled(value)}")
     if unit_text:
-        number *= _factor(unit_text, dimension, unit, f"{expected}, got {value!r}")
+        number *= _factor(unit_text, dimension, unit, f"{expected}, got {spelled(value)}")
     if not math.isfinite(number):
-        raise ValueError(f"{expected}, got {value!r} (not finite)")
+        raise ValueError(f"{expected}, got {spelled(value)} (not finite)")
     return number
 
 
@@ -190,7 +192,7 @@ def within(
             slip = ""
             if convert is length and number > high and bare(value) and inside(number / 1000):
                 slip = f" ({value:g} m: a bare number is metres; did you mean '{value:g} mm'?)"
-            raise ValueError(f"expected {shown}, got {value!r}{slip}" + (f"; {reason}" if reason else ""))
+            raise ValueError(f"expected {shown}, got {spelled(value)}{slip}" + (f"; {reason}" if reason else ""))
         return number
 
     bounds = Field(gt=low if above else None, ge=None if above else low, lt=high if below else None, le=None if below else high)
@@ -231,9 +233,9 @@ def split_quantity(value: Any) -> tuple[float, str]:
     Raises:
         ValueError: not a finite number or a quantity string.
     """
-    number, unit = _split(value, f"expected a number or a quantity such as '12 mm', got {value!r}")
+    number, unit = _split(value, f"expected a number or a quantity such as '12 mm', got {spelled(value)}")
     if not math.isfinite(number):
-        raise ValueError(f"expected a finite number, got {value!r}")
+        raise ValueError(f"expected a finite number, got {spelled(value)}")
     return number, unit
 
 

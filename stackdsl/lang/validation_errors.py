@@ -25,6 +25,7 @@ from .errors import FieldPath, ScenarioError, SourceMap
 from .expectations import CollapseLevel, CollapseStatistic
 from .schema import REFERENCE_ERROR, Scenario, Structure
 from .schema_parts import Part
+from .spelling import spelled
 
 
 def first_error(
@@ -194,6 +195,9 @@ def _one_error(err: ErrorDetails, source: SourceMap) -> ScenarioError:
         bound = "" if exactly else "at most " if most else "at least "
         message = f"expected a list of {bound}{limit} item{'s' * (limit != 1)}"
         return source.error(loc, f"{message}, got {shown(err['input'])}")
+    elif err["type"] == "finite_number":  # pydantic: "Input should be a finite number, got nan"
+        kind = "a whole number" if _whole(tagged) else "a number"
+        return source.error(loc, f"expected {kind}, got {shown(err.get('input'))} (not finite)")
     elif err["type"] in ("literal_error", "enum"):  # pydantic: "Input should be 'flat' or 'edge'"
         return source.error(loc, _choice(err))
     elif err["type"] in _PLAIN:  # pydantic's words for a type, in the language's
@@ -211,6 +215,26 @@ def _one_error(err: ErrorDetails, source: SourceMap) -> ScenarioError:
         if err["type"] == "string_type" and isinstance(given_, bool):  # yes, no, on, off
             message += ": YAML reads an unquoted yes, no, on, off, true or false as true or false; quote it"
     return source.error(loc, message)
+
+
+def _whole(loc: FieldPath) -> bool:
+    """Is the field at ``loc`` (a pydantic location, tags included) a whole number (an ``int``,
+    or a list of them)?"""
+    while loc and isinstance(loc[-1], int):
+        loc = loc[:-1]
+    model = model_at(loc[:-1]) if loc else None
+    field = model.model_fields.get(str(loc[-1])) if model is not None else None
+    return field is not None and _has_int(field.annotation)
+
+
+def _has_int(annotation: Any) -> bool:
+    """Does ``annotation`` take an ``int`` (through Annotated, Optional, list, tuple)?"""
+    if annotation is int:
+        return True
+    args = typing.get_args(annotation)
+    if typing.get_origin(annotation) is typing.Annotated:
+        args = args[:1]
+    return any(_has_int(arg) for arg in args)
 
 
 def _choice(err: ErrorDetails) -> str:
@@ -261,9 +285,8 @@ _PLAIN: dict[str, Callable[[dict[str, Any]], str]] = {
 
 
 def shown(value: Any, limit: int = 60) -> str:
-    """``repr(value)``, cut to about ``limit`` characters."""
-    text = repr(value)
-    return text if len(text) <= limit else f"{text[:limit]}… ({len(text)} characters)"
+    """``value`` as the file writes it (``true``, ``null``, ``.nan``), cut to about ``limit`` characters."""
+    return spelled(value, limit)
 
 
 #: Discriminated unions of the schema: where they stand, and each tag's model. pydantic puts the

@@ -9,6 +9,7 @@ friction holds them (3.4). Source: report 3.3.4, 3.4 and 3.5.
 from __future__ import annotations
 
 import itertools
+from graphlib import CycleError, TopologicalSorter
 
 from ._areas import ContactAreas, Contacts, horizontal, main_area, overlap
 from ._equilibrium import ContactPolygon
@@ -104,7 +105,27 @@ class Admission:
     def plan(self, group: list[Record], polygons: dict[int, list[ContactPolygon[int]]]) -> Plan:
         """How the members of a group would be frozen: each one's supports and main contact
         area, from its contacts in ``polygons`` (the one between two members under the later
-        of them). A member lying only on other members rests on those lower than itself."""
+        of them). A member lying only on other members rests on those lower than itself.
+
+        A member that lies on nothing within the support angle (a domino fallen across its
+        neighbours, a slanted tower's brick on the ones beside it, each contact steeper than
+        the angle) rests on every body whose contact pushes it up: the equilibrium that
+        admitted it held it on those contacts, and the brick graph shows what carries it,
+        never a frozen brick resting on nothing. A contact pushes one of two members up and
+        the other down, so they cannot rest on each other; should three or more rest on each
+        other in a ring, each rests only on the members lower than itself (stackdsl's own,
+        on the report's leaning contacts of 3.4.2)."""
+        plan = self._plan(group, polygons, lower_only=False)
+        members = {m.body for m in group}
+        order = TopologicalSorter({b: [s for s in plan[b][0] if s in members] for b in members})
+        try:
+            order.prepare()
+        except CycleError:
+            return self._plan(group, polygons, lower_only=True)
+        return plan
+
+    def _plan(self, group: list[Record], polygons: dict[int, list[ContactPolygon[int]]], lower_only: bool) -> Plan:
+        """:meth:`plan`; with ``lower_only``, a member rests on no member higher than itself."""
         members, plan = {m.body for m in group}, {}
         pad, up, engine = self.config.contact_pad, self.areas.support_cos, self.stack.engine
         for m in group:
@@ -118,8 +139,10 @@ class Admission:
             if not resting:  # lying only on other members: on those lower than itself (no cycle)
                 z = engine.pose(m.body).position[2]
                 lower = {o: a for o, a in areas.items() if o in members and engine.pose(o).position[2] < z}
-                resting = {o: a for o, a in lower.items() if a.normal[2] >= up} or supports
-            plan[m.body] = (resting, main_area(areas))
+                near = lower if lower_only else {o: a for o, a in areas.items() if o in members}
+                pushing = {o: a for o, a in areas.items() if (o in supports or o in near) and a.normal[2] > 0.0}
+                resting = {o: a for o, a in lower.items() if a.normal[2] >= up} or pushing or supports
+            plan[m.body] = ({o: resting[o] for o in self.stack.ordered(resting)}, main_area(areas))
         return plan
 
     def freeze_group(

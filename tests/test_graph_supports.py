@@ -1,0 +1,60 @@
+"""Every frozen brick of the brick graph rests on what carries it, a leaning one too.
+
+A brick the debris rule freezes in a pile, lying on its neighbours by contacts steeper than
+the support angle (a domino fallen across the next ones, a slanted tower's brick on the ones
+beside it), was held by rigid-block equilibrium on those contacts: the graph lists them, and
+never shows a frozen brick resting on nothing (stackdsl's own,
+:meth:`stability._admission.Admission.plan`).
+"""
+
+import json
+from pathlib import Path
+
+import pytest
+
+from stackdsl import compile_scenario, load_scenario, parse_scenario, run_program
+
+ROOT = Path(__file__).resolve().parents[1]
+
+ARC = """\
+stackdsl: 1
+name: a dozer pushes a domino arc over
+brick_types:
+  dozer: {size: [150 mm, 300 mm, 100 mm]}
+structure:
+  dominoes: {count: 20, spacing: 50 mm, radius: 400 mm}
+timing: {interval: 0.2 s, settle: 4 s}
+actions:
+  - push: {target: {brick: D01, offset: [-4 mm, 0, 0]}, direction: [1, 0, 0], at: after level 1, speed: 0.5 m/s, distance: 60 mm, gap: 20 mm, pusher: dozer}
+expect:
+  toppled: all
+"""
+
+
+def _unsupported(graph: dict[str, dict[str, object]]) -> list[str]:
+    return [b for b, n in graph.items() if n["state"] == "frozen" and not n["rests_on"]]
+
+
+def test_a_slanted_towers_bricks_frozen_leaning_rest_on_the_bricks_beside_them():
+    graph = run_program(compile_scenario(load_scenario(ROOT / "scenarios" / "slant_tower.yaml"))).golden()["final_graph"]
+    assert _unsupported(graph) == []
+    # L04.2 lies across L03.1 and L03.2 at about 32 degrees, its centre below theirs
+    lean = graph["L04.2"]
+    assert lean["state"] == "frozen" and set(lean["rests_on"]) == {"L03.1", "L03.2"}
+    assert sum(e["load_share"] for e in lean["rests_on"].values()) == pytest.approx(1.0, abs=0.01)
+    assert graph["L03.1"]["mass_above_g"] > lean["mass_above_g"] / 2
+
+
+def test_a_domino_frozen_across_its_fallen_neighbours_rests_on_them():
+    outcome = run_program(compile_scenario(parse_scenario(ARC)))
+    graph = outcome.golden()["final_graph"]
+    assert sum(n["state"] == "frozen" for n in graph.values()) == 20
+    assert _unsupported(graph) == []
+    for node in graph.values():
+        assert all(0.0 <= e["load_share"] <= 1.0 for e in node["rests_on"].values())
+
+
+@pytest.mark.parametrize("path", sorted((ROOT / "golden").rglob("*.json")), ids=lambda p: p.stem)
+def test_no_golden_snapshot_shows_a_frozen_brick_resting_on_nothing(path):
+    data = json.loads(path.read_text())
+    assert _unsupported(data["final_graph"]) == []

@@ -136,7 +136,7 @@ class Admission:
             # not a brick frozen resting on this one (it leaned on a settled pile's edge): a load
             supports = {o: a for o, a in areas.items() if o not in members and m.body not in self.stack.bodies[o].rests_on}
             resting = {o: a for o, a in supports.items() if a.normal[2] >= up}
-            if not resting:  # lying only on other members: on those lower than itself (no cycle)
+            if not resting:  # on nothing within the angle: lower members within it, else what pushes it up
                 z = engine.pose(m.body).position[2]
                 lower = {o: a for o, a in areas.items() if o in members and engine.pose(o).position[2] < z}
                 near = lower if lower_only else {o: a for o, a in areas.items() if o in members}

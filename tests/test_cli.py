@@ -695,6 +695,21 @@ def test_compare_json_and_k(tmp_path, capsys):
     assert doc["command"] == "compare" and doc["summary"]["failed"] == 2
 
 
+def test_compare_says_what_failed_besides_the_level_and_keeps_its_columns(tmp_path, capsys):
+    """A collapse at the level expected can still fail its 'stays': the cell says what moved; a
+    long expectation widens its column instead of pushing the cells out of line."""
+    text = (
+        "stackdsl: 1\nstructure: {tower: {levels: 12, bricks_per_layer: 1, turn: 0, shift: 13 mm}}\n"
+        "expect: {collapse: 10±1, stays: 1-9}\n"
+    )
+    folder = write(tmp_path, slant=text, tower=PASSING)
+    assert main(["compare", str(folder), "--modes", "extension", "-j", "1"]) == 1
+    header, *rows = capsys.readouterr().out.splitlines()[:3]
+    (slant,) = [r for r in rows if r.startswith("slant")]
+    assert "FAIL collapse 10, levels " in slant and " moved" in slant
+    assert all(r.index("PASS" if "PASS" in r else "FAIL") == header.index("extension") for r in rows)
+
+
 def test_compare_unknown_mode_exits_2(tmp_path, capsys):
     assert main(["compare", str(write(tmp_path, a=PASSING)), "--modes", "raw,sideways"]) == 2
     assert "unknown mode sideways" in capsys.readouterr().err

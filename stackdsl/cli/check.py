@@ -170,12 +170,13 @@ def compare_command(args: argparse.Namespace) -> int:
         for file, cells in table.items()
     }
     column = max([29, *(len(t) for texts in rows.values() for t in texts)])  # a toppled count widens it
+    said = max([18, *(len(c.expected) for cells in table.values() for c in cells.values())])
     # the engine is a column of its own unless the columns name it (several backends)
     engine = len(backends) == 1
     print(
         f"{'scenario':<{width}} "
         + (f"{'engine':<8} " if engine else "")
-        + f"{'expected':<18} "
+        + f"{'expected':<{said}} "
         + " ".join(f"{m:<{column}}" for m in modes).rstrip()
     )
     for file, cells in table.items():
@@ -183,7 +184,7 @@ def compare_command(args: argparse.Namespace) -> int:
         print(
             f"{Path(file).stem:<{width}} "
             + (f"{first.backend:<8} " if engine else "")
-            + f"{first.expected:<18} "
+            + f"{first.expected:<{said}} "
             + " ".join(f"{c:<{column}}" for c in rows[file]).rstrip()
         )
     print(f"{len(table)} scenarios x {len(modes)} modes ({wall:.1f} s wall)")
@@ -229,4 +230,6 @@ def _cell(r: CheckResult) -> str:
     if r.stopped:  # a timeout, or an engine that blew up (MuJoCo's "became unstable")
         return "timeout" if r.stopped.startswith("timeout") else "unstable" if "unstable" in r.stopped else "stopped"
     toppled = [v.measured for v in r.verdicts if v.name == "toppled"]
-    return ", ".join([describe(r.collapse_level), *toppled])
+    # what failed besides the level: a collapse at the level expected can still fail its 'stays'
+    failed = [v.measured for v in r.verdicts if not v.passed and v.name not in ("collapse", "stands", "toppled")]
+    return ", ".join([describe(r.collapse_level), *toppled, *failed])

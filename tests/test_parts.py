@@ -261,3 +261,23 @@ def test_a_part_on_parts_of_unequal_height_is_warned_of_the_one_it_does_not_reac
     with warnings.catch_warnings():
         warnings.simplefilter("error", ScenarioWarning)
         arrange(parse_scenario(text.replace("LEFT", "3"), "e.yaml"))
+
+
+def test_a_part_on_parts_stands_over_their_origin_unless_its_own_is_given():
+    """``on: post`` puts a part over the post wherever the post stands; on a list of parts, over
+    the middle of their origins; a given origin is where it stands."""
+
+    def centre(text: str, part: str) -> tuple[float, float]:
+        program = compile_scenario(parse_scenario("stackdsl: 1\nstructure:\n" + text, "p.yaml"))
+        xy = np.array([p.position[:2] for p in program.placements if p.id.startswith(part + ".")])
+        return tuple(np.round(xy.mean(axis=0) * 1000, 3) + 0.0)
+
+    post = "  - {name: post, tower: {levels: 3}, origin: [-350 mm, 20 mm]}\n"
+    assert centre(post + "  - {name: top, on: post, tower: {levels: 2}}\n", "top") == (-350.0, 20.0)
+    assert centre(post + "  - {name: top, on: post, origin: [-340 mm, 20 mm], tower: {levels: 2}}\n", "top") == (-340.0, 20.0)
+    two = (
+        "  - {name: left, tower: {levels: 3}, origin: [-100 mm, 30 mm]}\n"
+        "  - {name: right, tower: {levels: 3}, origin: [100 mm, 30 mm]}\n"
+        "  - {name: deck, on: [left, right], bricks: [{at: [0, 48 mm, 4 mm]}]}\n"
+    )
+    assert centre(two, "deck") == (0.0, 78.0)  # 48 mm from the middle of the two origins

@@ -5,7 +5,8 @@ A part's bricks are generated in its layout's own frame (:mod:`stackdsl.compile.
 to its ``origin`` and lifted onto what it rests on:
 
 * ``on: PART`` (or a list of parts, written before it): the part's z = 0 is the highest top of
-  their bricks, and its levels count on from their highest level;
+  their bricks, its levels count on from their highest level, and its origin is theirs (the
+  middle of theirs, for a list) unless given;
 * ``on: PART.ID`` (a brick of such a part): z = 0 is that brick's top, levels count on from its
   level, and the origin is the brick's centre unless given;
 * nothing: the ground, level 1 its first.
@@ -73,12 +74,14 @@ def arrange(scenario: Scenario) -> list[LaidBrick]:
         raise scenario.source.error(*problems[0], more=len(problems) - 1)
     bricks: list[LaidBrick] = []
     tops: dict[str, tuple[float, int]] = {}  # part -> (top height, m; highest level)
+    origins: dict[str, tuple[float, float]] = {}  # part -> where its origin stands
     placed: dict[str, LaidBrick] = {}
     groups: list[int] = []  # each part's group: its own index, or its group's when interleaved
     counts: list[int] = []
     for name, path, part in named_parts(structure.parts):
         local = generate(scenario, part.kind, part.layout, path + (part.kind,))
-        base, level, origin = _support(scenario, part, path, tops, placed)
+        base, level, origin = _support(scenario, part, path, tops, placed, origins)
+        origins[name] = origin
         moved = _moved(local, name, origin, part.yaw, base, level)
         standing = [b for b in moved if not b.fixed]
         tops[name] = (max((_top(scenario, b) for b in standing), default=base), max((b.level for b in standing), default=level))
@@ -133,9 +136,16 @@ def summaries(scenario: Scenario, bricks: list[LaidBrick]) -> tuple[PartSummary,
 
 
 def _support(
-    scenario: Scenario, part: Part, path: FieldPath, tops: dict[str, tuple[float, int]], placed: dict[str, LaidBrick]
+    scenario: Scenario,
+    part: Part,
+    path: FieldPath,
+    tops: dict[str, tuple[float, int]],
+    placed: dict[str, LaidBrick],
+    origins: dict[str, tuple[float, float]],
 ) -> tuple[float, int, tuple[float, float]]:
-    """(height of the part's z = 0, m; the level below its first; its origin) from its ``on``."""
+    """(height of the part's z = 0, m; the level below its first; its origin) from its ``on``:
+    an origin not given is the ground's (0, 0), the middle of the ``on`` parts' origins, or the
+    centre of the ``on`` brick."""
     origin = part.origin or (0.0, 0.0)
     if part.on is None:
         return 0.0, 0, origin
@@ -161,7 +171,8 @@ def _support(
             ),
             stacklevel=2,
         )
-    return top, max(tops[n][1] for n in names), origin
+    middle = (sum(origins[n][0] for n in names) / len(names), sum(origins[n][1] for n in names) / len(names))
+    return top, max(tops[n][1] for n in names), part.origin or middle
 
 
 GAP_WARNED = 0.001

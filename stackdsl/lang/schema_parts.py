@@ -72,8 +72,9 @@ def _on(value: Any) -> Any:
 class Part(StrictModel):
     """One named part of a composed structure: exactly one layout, placed at ``origin`` (added to
     the layout's own) and turned by ``yaw`` about it; ``on`` lifts it onto other parts (its first
-    level rests on their top, and its levels count on from theirs) or onto a brick (by id, such as
-    ``left.L05.2``; its origin is then that brick's centre unless given)."""
+    level rests on their top, and its levels count on from theirs; its origin is then the middle
+    of theirs unless given) or onto a brick (by id, such as ``left.L05.2``; its origin is then
+    that brick's centre unless given)."""
 
     model_config = ConfigDict(json_schema_extra={"oneOf": [given(name) for name in LAYOUTS]})
 
@@ -88,7 +89,7 @@ class Part(StrictModel):
     )
     origin: Vector2 | None = Field(
         default=None,
-        description="where the part's own origin stands, [x, y] (default [0, 0], or the centre of the brick it is on)",
+        description="where the part's own origin stands, [x, y] (default [0, 0]; on parts, the middle of their origins; on a brick, its centre)",
         examples=[["-60 mm", 0]],
     )
     yaw: BoundedAngle = Field(default=0.0, description="degrees the whole part is turned about its origin", examples=[90])

@@ -119,6 +119,7 @@ def test_a_pulled_brick_drags_what_rests_on_it_by_friction(backend):
     assert moved > 0.7 * travel  # MuJoCo's soft contacts let it slip 10 mm of 50, pybullet 0.6
 
 
+@pytest.mark.slow  # 15 s; the scenario items run the same two files, with their goldens
 def test_a_slow_middle_pull_leaves_a_jenga_tower_standing_and_a_second_fells_it():
     """The shipped Jenga scenes, read back: the removals stand, two of one level fell it."""
     from pathlib import Path

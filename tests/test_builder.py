@@ -190,3 +190,26 @@ def test_a_length_far_from_plausible_is_written_back_with_its_unit_and_reads_bac
         warnings.simplefilter("error")
         again = parse_scenario(text, "built.yaml")
     assert again.structure.tower is not None and again.structure.tower.origin == (1000.0, 0.0)
+
+
+def test_a_random_scenario_built_as_plain_data_reads_as_its_yaml_does():
+    """Distributions are a file's; in Python a random scene is its plain data, which
+    parse_scenario reads as it reads the same YAML: the same draws, sample for sample."""
+    import yaml
+
+    data = {
+        "stackdsl": 1,
+        "seed": 3,
+        "structure": {
+            "tower": {"levels": 4, "bricks_per_layer": 1, "turn": 0, "shift": {"uniform": ["-5 mm", "5 mm"], "per": "layer"}}
+        },
+        "timing": {"placement_error": "1 mm"},
+        "sweep": {"samples": 3, "grid": {"timing.interval": ["1 s", "2 s"]}},
+    }
+    built, written = parse_scenario(data), parse_scenario(yaml.safe_dump(data))
+    assert built.template is not None and written.template is not None
+    for cell, k in [(0, 0), (0, 2), (1, 1)]:
+        assert compile_scenario(built.template.scenario(cell, k)) == compile_scenario(written.template.scenario(cell, k))
+    assert compile_scenario(built.template.scenario(0, 0)) != compile_scenario(built.template.scenario(0, 1))
+    with pytest.raises(TypeError, match="plain data"):
+        parse_scenario({"stackdsl": 1, "structure": {"tower": {"levels": object()}}})

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import re
 import warnings
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -71,13 +72,37 @@ def load_scenario(path: str | Path, seed: int | None = None) -> Scenario:
 SLIPS_SHOWN = 5
 
 
-def parse_scenario(text: str, file: str = NO_FILE, seed: int | None = None) -> Scenario:
+def _as_yaml(data: Mapping[str, Any]) -> str:
+    """``data`` as YAML text, tuples as lists. Raises TypeError for what YAML cannot write."""
+
+    def plain(value: Any) -> Any:
+        if isinstance(value, Mapping):
+            return {k: plain(v) for k, v in value.items()}
+        if isinstance(value, (list, tuple)):
+            return [plain(v) for v in value]
+        return value
+
+    try:
+        return str(yaml.safe_dump(plain(data), sort_keys=False, allow_unicode=True))
+    except yaml.representer.RepresenterError as exc:
+        raise TypeError(
+            f"parse_scenario takes YAML text or plain data (dicts, lists, numbers, strings), not {exc.args[-1]!r}"
+        ) from None
+
+
+def parse_scenario(text: str | Mapping[str, Any], file: str = NO_FILE, seed: int | None = None) -> Scenario:
     """Validate scenario YAML given as text; ``file`` names it in errors and gives a scenario
     without a ``name`` its stem (with no file, the name stays None, as a scenario built in Python
     has it: the two compile to the same Program); ``seed``, when given, replaces the file's ``seed``.
 
+    ``text`` may also be the file's plain data (dicts, lists, numbers, strings: what
+    ``yaml.safe_load`` of it gives), the way to build a random scenario in Python, distributions
+    and a sweep included: it is written as YAML and read as a file is, so an error shows the
+    line of that YAML.
+
     Raises:
         ScenarioError: as :func:`load_scenario`.
+        TypeError: plain data holding something YAML cannot write (an object, a model).
 
     >>> parse_scenario("stackdsl: 1\\nstructure: {tower: {levels: 3}}", "t.yaml").structure.tower.levels
     3
@@ -88,6 +113,8 @@ def parse_scenario(text: str, file: str = NO_FILE, seed: int | None = None) -> S
         structure: {tower: {levles: 3}}
                             ^
     """
+    if not isinstance(text, str):
+        text = _as_yaml(text)
     text = text.removeprefix("\ufeff")
     check_characters(text, file)
     source = SourceMap(file, tuple(text.splitlines()))

@@ -48,12 +48,13 @@ def test_the_golden_goes_where_the_readme_says(tmp_path, monkeypatch, project):
 
 def test_the_golden_command_follows_the_install_of_what_it_needs():
     """The README's own set-up installs no pytest: the line before the golden command adds it,
-    and the extra it names holds pytest and syrupy (what the plugin imports)."""
+    and the extra it names holds pytest and syrupy (what the plugin imports) and xdist (this
+    checkout's pytest settings give -n)."""
     lines = README.splitlines()
     (at,) = [i for i, x in enumerate(lines) if "--snapshot-update" in x and "# writes " in x]
     assert re.match(r"\.venv/bin/pip install -c constraints\.txt '\.\[pytest\]'", lines[at - 1])
     extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]
-    assert sorted(d.split(">")[0] for d in extras["pytest"]) == ["pytest", "syrupy"]
+    assert sorted(d.split(">")[0] for d in extras["pytest"]) == ["pytest", "pytest-xdist", "syrupy"]  # -n: addopts
 
 
 def test_check_k_takes_plain_text_and_more_than_one(tmp_path, capsys):

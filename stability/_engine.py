@@ -10,7 +10,7 @@ graphs without a simulation.
 from __future__ import annotations
 
 import math
-from collections.abc import Collection
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
@@ -59,6 +59,10 @@ class Engine(Protocol):
 
     def pose(self, body: int) -> Pose:
         """Current pose of ``body``."""
+
+    def poses_of(self, bodies: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+        """Positions (n, 3) in m and unit quaternions (x, y, z, w), (n, 4), of ``bodies``: the
+        poses of several bodies in one call (the held bricks of a collapse mechanism, every step)."""
 
     def velocity(self, body: int) -> tuple[np.ndarray, np.ndarray]:
         """Linear (m/s) and angular (rad/s) velocity of ``body``, shape (3,) each."""
@@ -119,6 +123,10 @@ class PyBulletEngine:
     def pose(self, body: int) -> Pose:
         pos, orn = self._get_pose(body)
         return Pose(np.array(pos), np.array(orn))
+
+    def poses_of(self, bodies: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+        states = [self._get_pose(b) for b in bodies]
+        return np.array([p for p, _ in states]).reshape(-1, 3), np.array([q for _, q in states]).reshape(-1, 4)
 
     def velocity(self, body: int) -> tuple[np.ndarray, np.ndarray]:
         lin, ang = self._get_velocity(body)
@@ -245,6 +253,10 @@ class FakeEngine:
 
     def pose(self, body: int) -> Pose:
         return self.poses[body]
+
+    def poses_of(self, bodies: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+        poses = [self.poses[b] for b in bodies]
+        return np.array([p.position for p in poses]).reshape(-1, 3), np.array([p.orientation for p in poses]).reshape(-1, 4)
 
     def velocity(self, body: int) -> tuple[np.ndarray, np.ndarray]:
         return self.velocities.get(body, (np.zeros(3), np.zeros(3)))

@@ -85,8 +85,12 @@ class Record:
     carried: tuple[float, tuple[int, ...]] | None = None  # its last load check (carry): when (s), and on what
     pile: frozenset[int] = frozenset()  # a fallen brick's debris pile (itself, frozen alone), which rigid-block equilibrium holds
     held: tuple[float, float, float, float] | None = None  # kg, m: its mass and centre of mass above when equilibrium held it
-    proved_at: Pose | None = None  # where it was woken in a proved collapse mechanism: held active until it moves (RELEASE)
-    still_from: tuple[Pose, float] = (Pose(np.zeros(3)), 0.0)  # held: where and since when (s) it has stayed within STILL
+    proved_at: np.ndarray | None = (
+        None  # corners (8, 3), m, where it was woken in a proved collapse mechanism: held active until it moves (RELEASE)
+    )
+    still_from: tuple[np.ndarray, float] = field(
+        default_factory=lambda: (np.zeros((8, 3)), 0.0)
+    )  # held: corners where, and since when (s), it has stayed within STILL
     still: bool = False  # held once and kept still by the engine: not held again
 
     def held_by_pile(self) -> bool:
@@ -378,8 +382,9 @@ class Stack:
         rec.rests_on, rec.main_contact, rec.com_above, rec.mass_above = {}, None, None, 0.0
         rec.contacts, rec.pile, rec.held = [], frozenset(), None
         held = self.holding and not rec.still and (hold or body in proved)
-        rec.proved_at = self.engine.pose(body) if held else None
-        rec.still_from = (rec.proved_at or rec.still_from[0], time)
+        rec.proved_at = rec.box.corners(self.engine.pose(body)) if held else None
+        if rec.proved_at is not None:
+            rec.still_from = (rec.proved_at, time)
         woken = [Woken(body, node, StabilityEvent(time, "wake", rec.label, reason, proved=body in proved))]
         if alone:
             return woken

@@ -381,10 +381,6 @@ class PyBulletWorld(PyBulletEngine, World):
             self._client.setPhysicsEngineParameter(numSubSteps=substeps if substeps > 1 else 0)
             self._substeps = substeps
 
-    def poses_of(self, bodies: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
-        states = [self._get_pose(b) for b in bodies]
-        return np.array([p for p, _ in states]).reshape(-1, 3), np.array([q for _, q in states]).reshape(-1, 4)
-
     def velocities_of(self, bodies: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
         v = [self._get_velocity(b) for b in bodies]
         return np.array([lin for lin, _ in v]).reshape(-1, 3), np.array([ang for _, ang in v]).reshape(-1, 3)

@@ -502,8 +502,9 @@ def test_a_brick_at_rest_while_the_ground_still_shakes_has_not_come_to_rest_disp
 
 
 def test_the_actions_a_collapse_left_undone_are_named_in_the_explanation():
-    """Building and acting stop at a collapse; a pull or push after it never ran, and the
-    verdict says so rather than leaving the user to wonder where they went."""
+    """Building stops at a collapse; a pull or push timed after a brick the collapse left
+    unplaced was timed on a stack never finished: it does not run, and the verdict says so
+    rather than leaving the user to wonder where it went."""
     from stackdsl import run_program
     from stackdsl.verdicts.expect import explain
 
@@ -512,6 +513,7 @@ structure:
   bricks:
     - {id: a, at: [0, 0, 4 mm]}
     - {id: b, at: [90 mm, 0, 12 mm]}
+    - {id: c, at: [90 mm, 0, 20 mm]}
 timing: {interval: 0.5 s}
 actions:
   - push: {target: {brick: a}, direction: [0, 1, 0], at: 3 s, id: finger}
@@ -522,9 +524,40 @@ expect: {stands: true}
     p = compile_scenario(scenario)
     done = run_program(p)
     assert done.collapse is not None and done.collapse.brick == "b"
+    assert done.unplaced == ("c",)
     assert done.not_run == ("push finger into a at 3.00 s", "remove a at 5.00 s")
     lines = explain(scenario.expect, done, p.collapse_threshold)
-    assert "not run: 2 actions after the collapse, where the run ended: push finger into a at 3.00 s, remove a at 5.00 s" in lines
+    assert (
+        "not run: 2 actions timed after a brick the collapse left unplaced (building stops at a collapse): "
+        "push finger into a at 3.00 s, remove a at 5.00 s"
+    ) in lines
+
+
+def test_an_action_timed_after_the_building_runs_after_a_collapse():
+    """A push that topples a domino row is a collapse; a shake timed after it, with every
+    brick placed, still runs, and the run settles after the shake: the tower beside the row
+    moves under a peak acceleration twice its sliding threshold. (The shake was left out, and
+    'stays: t' passed on a tower never shaken.)"""
+    from stackdsl import run_program
+
+    text = """stackdsl: 1
+structure:
+  - {name: row, dominoes: {count: 4, spacing: 70 mm}}
+  - {name: t, tower: {levels: 2}, origin: [0, 300 mm]}
+actions:
+  - push: {target: {brick: row.D01, offset: [0, 0, 45 mm]}, direction: [1, 0, 0], at: after level 2}
+  - shake: {amplitude: 60 mm, frequency: 2 Hz, duration: 1 s, at: after the previous action}
+expect: {toppled: 4, stays: t}
+"""
+    scenario = parse_scenario(text, "s.yaml")
+    p = compile_scenario(scenario)
+    done = run_program(p)
+    shake = p.kinematic[-1]
+    assert done.collapse is not None and done.collapse.time < shake.time, done.collapse
+    assert done.not_run == ()
+    assert done.simulated_time >= shake.end_time + p.settle - 1e-9, (done.simulated_time, shake.end_time)
+    assert max(done.displacement[b] for b in ("t.L01.1", "t.L02.1")) > p.collapse_threshold
+    assert not all(v.passed for v in evaluate(scenario.expect, done, p.collapse_threshold))
 
 
 def test_a_part_with_a_brick_never_placed_is_still_its_bricks():

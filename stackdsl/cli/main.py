@@ -469,7 +469,7 @@ def _run(args: argparse.Namespace) -> int:
     from ..compile.compiler import compile_scenario
     from ..lang.loader import load_scenario
     from ..runtime.outcome import describe_certificate
-    from ..verdicts.expect import describe_outcome, evaluate, explain
+    from ..verdicts.expect import describe_outcome, evaluate, explain, not_run_line
 
     scenario = _one_sample(load_scenario(args.file, args.seed), args.cell, args.sample, "run")
     program = compile_scenario(scenario, args.mode, args.model, args.backend)
@@ -514,6 +514,8 @@ def _run(args: argparse.Namespace) -> int:
         )
         if outcome.certificate is not None:
             print(f"certificate: {describe_certificate(outcome.certificate)}")
+        if outcome.not_run:
+            print(not_run_line(outcome))
         for v in verdicts:
             print(f"{'PASS' if v.passed else 'FAIL'}  expected {v.expected}, measured {v.measured}")
         if not stopped and not all(v.passed for v in verdicts):  # what check says under a failure

@@ -98,7 +98,10 @@ class StepLoop:
         subscribers: called at each hook they override (:func:`overrides`), in this order.
         jump: jump to the next action while every subscriber is quiet.
         stop_at_collapse: once :meth:`stop_after` was called, place nothing more and end
-            then.
+            then; an action timed before the first placement this cancels still runs, and
+            the run then ends as long after it (a push, pull or shake: after its end) as
+            :meth:`stop_after` was told. An action timed after a cancelled placement was
+            timed on a stack never finished: it is not run (:attr:`not_run`).
         lazy_bodies: bodies enter the world when placed; False creates every brick and
             projectile first, immovable and far away, and moves it in when placed.
         timeout: seconds of wall time after which the run stops, counted from ``started``
@@ -107,6 +110,7 @@ class StepLoop:
     Attributes:
         structure: the bricks in the world; events: the timeline; step: steps reached;
         skipped: steps jumped over; stopped: why the run stopped early, or None;
+        not_run: the actions a collapse left undone, in a few words each;
         engine_time: wall seconds spent in the engine's steps; stop_clock: the wall clock
         (``time.perf_counter()`` seconds) when :meth:`stop_after` was called, or None.
     """
@@ -139,8 +143,9 @@ class StepLoop:
         self.engine_time = 0.0
         self.stop_clock: float | None = None
         self.stop_step: int | None = None
+        self._settle_steps = 0
         self.stopped: str | None = None
-        self.not_run: tuple[str, ...] = ()  # the actions after a collapse, which the run ended before
+        self.not_run: tuple[str, ...] = ()
         self._parked = {} if lazy_bodies else self._park()
 
     @property
@@ -150,7 +155,8 @@ class StepLoop:
 
     def stop_after(self, seconds: float) -> None:
         """End the run ``seconds`` from now (a collapse's settle time), placing nothing more."""
-        self.stop_step = self.step + round(seconds / self.dt)
+        self._settle_steps = round(seconds / self.dt)
+        self.stop_step = self.step + self._settle_steps
         self.stop_clock = _time.perf_counter()
 
     def _park(self) -> dict[str, int]:
@@ -170,13 +176,23 @@ class StepLoop:
             hook(self)
 
     def _actions(self) -> None:
-        for i, action in enumerate(self.program.actions):
+        cut = False  # a placement the collapse cancelled: what is timed after it was timed on a stack never finished
+        for action in self.program.actions:
             self.advance(action.step)
             if self.stopped is not None or self._out_of_time():
                 return
             if self.stop_step is not None and self.stop_at_collapse:
-                self.not_run = tuple(_said(a) for a in self.program.actions[i:] if not isinstance(a, (Place, End)))
-                break
+                if isinstance(action, End):
+                    break
+                if isinstance(action, Place) or cut:
+                    cut = True
+                    self.not_run += () if isinstance(action, Place) else (_said(action),)
+                    continue
+                self.stop_step = max(self.stop_step, action.step)  # the collapse's settling may end before it
+                self.advance(action.step)
+                if self.stopped is not None:
+                    return
+                self.stop_step = max(self.stop_step, self._ends(action) + self._settle_steps)
             if isinstance(action, Place):
                 self.place(action)
             elif isinstance(action, Launch):
@@ -186,6 +202,12 @@ class StepLoop:
                     on_action(self, action)
         if self.stop_step is not None:
             self.advance(min(self.stop_step, self.program.actions[-1].step))
+
+    def _ends(self, action: Launch | Remove | Push | Shake) -> int:
+        """The step an action is over: a thrown body's arrival at its target, a motion's end."""
+        if isinstance(action, Launch):
+            return max(action.step, round(action.arrival / self.dt))
+        return action.end_step
 
     def _out_of_time(self) -> bool:
         """Past the deadline? Then record where the run stopped."""
@@ -273,7 +295,8 @@ class StepLoop:
 
 
 def _said(action: Launch | Remove | Push | Shake) -> str:
-    """An action in a few words, for the list of those a collapse left undone."""
+    """An action in a few words, for the list of those a collapse left undone (timed after a
+    placement the collapse cancelled)."""
     if isinstance(action, Launch):
         return f"impact {action.id} at {action.time:.2f} s"
     if isinstance(action, Remove):

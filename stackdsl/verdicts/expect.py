@@ -162,7 +162,8 @@ def explain(expect: Expect, outcome: Outcome, threshold: float) -> list[str]:
     - a collapse was expected but the structure stood: the largest displacement at the
       end and its brick;
     - stays failed: the bricks of the levels that must stay that moved beyond
-      ``threshold`` by the end, the farthest first (at most :data:`MOVED_SHOWN`).
+      ``threshold`` by the end, the farthest first (at most :data:`MOVED_SHOWN`);
+    - under any failure, the actions the collapse left undone (:func:`not_run_line`).
 
     Source: stackdsl's own.
     """
@@ -177,11 +178,6 @@ def explain(expect: Expect, outcome: Outcome, threshold: float) -> list[str]:
                 f"with {c.level} level{'s' * (c.level != 1)} placed ({_mm(c.displacement)} by t={c.decided:.2f} s, "
                 f"when the collapse was decided)"
             )
-            if outcome.not_run:
-                n = len(outcome.not_run)
-                lines.append(
-                    f"not run: {n} action{'s' * (n != 1)} after the collapse, where the run ended: " + ", ".join(outcome.not_run)
-                )
         elif outcome.displacement:
             brick, largest = max(outcome.displacement.items(), key=lambda item: item[1])
             lines.append(
@@ -227,7 +223,20 @@ def explain(expect: Expect, outcome: Outcome, threshold: float) -> list[str]:
             )
         if len(moved) > MOVED_SHOWN:
             lines.append(f"moved: and {len(moved) - MOVED_SHOWN} more bricks of levels that must stay")
+    if failed and outcome.not_run:
+        lines.append(not_run_line(outcome))
     return lines
+
+
+def not_run_line(outcome: Outcome) -> str:
+    """The actions a collapse left undone, in one line: those timed after a placement the
+    collapse cancelled (``run`` says it always; ``check`` under a failure). Source: stackdsl's own.
+    """
+    n = len(outcome.not_run)
+    return (
+        f"not run: {n} action{'s' * (n != 1)} timed after a brick the collapse left unplaced "
+        f"(building stops at a collapse): " + ", ".join(outcome.not_run)
+    )
 
 
 def _brick(brick: str, level: int | None) -> str:

@@ -306,6 +306,21 @@ def test_the_certificate_of_a_standing_stack_is_its_load_paths_with_their_margin
     assert "6 bricks" in c.detail and "load path" in c.detail
 
 
+def test_a_narrow_load_path_margin_is_replaced_by_the_programs():
+    """A staggered single file whose top brick is set back over the end of the load path the
+    bricks below pass up: its path ends 0.2 mm past its centre of mass, though every centre of
+    mass above each contact lies 11 mm or more inside it (across the 24 mm width, placement
+    error aside). The certificate said 0.2 mm; the program's margin is solved instead."""
+    xs = (0.3, 22.8, 52.0, 23.1, 27.8, 60.1)  # mm, one brick a level along x
+    bricks = "".join(f"    - {{id: b{i}, at: [{x} mm, 0, {4 + 8 * i} mm]}}\n" for i, x in enumerate(xs))
+    text = f"stackdsl: 1\nstructure:\n  bricks:\n{bricks}timing: {{interval: 0.5 s}}\nexpect: {{stands: true}}\n"
+    result = run_program(compile_scenario(parse_scenario(text)))
+    c = result.certificate
+    assert c is not None and c.verdict == "stands" and c.kind == "equilibrium"
+    assert 10.0 < c.margin_mm <= 12.0, c  # half the width at most; the load paths' bound was 0.2
+    assert "equilibrium program" in c.detail
+
+
 def test_a_run_whose_end_has_no_equilibrium_is_not_a_stand(monkeypatch):
     from stability import Certificate
 

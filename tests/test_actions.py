@@ -478,7 +478,7 @@ def test_an_unknown_domino_is_told_by_an_id_alone_and_stays_and_moved_may_not_me
         compile_scenario(parse_scenario(row, "row.yaml"))
     assert err.value.message.endswith("give a brick id (such as 'D01')")
     both = "stackdsl: 1\nstructure: {tower: {levels: 3}}\nexpect: {stays: L01.1, moved: L01}\n"
-    with pytest.raises(ScenarioError, match=r"L01\.1 is named by both 'stays' and 'moved'"):
+    with pytest.raises(ScenarioError, match=r"L01\.1 is named by both 'stays' \('L01\.1'\) and 'moved' \('L01'\)"):
         compile_scenario(parse_scenario(both, "both.yaml"))
 
 

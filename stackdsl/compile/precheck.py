@@ -27,7 +27,7 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -77,7 +77,8 @@ def precheck(scenario: Scenario, bodies: Sequence[Body]) -> tuple[str, ...]:
         [((0, bodies[b].slot, b), ("overlap", b, s), d) for b, s, d in overlaps]
         + ([] if allowed else [((1, bodies[b].slot, b), ("floating", b), 0.0) for b in floating])
     )
-    expectations = _expectation_problems(scenario, max(b.level for b in bodies), [b.id for b in bodies if b.slot >= 0])
+    placed = {b.id: b.level for b in bodies if b.slot >= 0}
+    expectations = _expectation_problems(scenario, max(b.level for b in bodies), list(placed), placed)
     if found:
         # a generator's bricks that miss for one reason are one problem: one per generator and kind,
         # each said at its first brick in placement order (at most MAX_SHOWN shown, the rest counted)
@@ -284,9 +285,27 @@ def _blame_placement_error(scenario: Scenario, bodies: Sequence[Body], problem: 
     return _Problem(problem.key, problem.order, ("timing", "placement_error"), message, problem.effect)
 
 
-def _expectation_problems(scenario: Scenario, top: int, ids: Sequence[str] = ()) -> list[_Problem]:
-    """Expectations about levels above the highest level placed (``top``), or about bricks that
-    none of the structure's ``ids`` is."""
+def _chosen(selection: Sequence[int | str] | None, ids: Sequence[str], level_of: Mapping[str, int]) -> dict[str, str]:
+    """The brick ids a ``stays``/``moved``/``may_fall`` selection names, each with what names
+    it (``level 2``, ``'a'``), in the order of ``ids``."""
+    levels, selectors = set(levels_of(selection or ())), bricks_of(selection or ())
+    out = {}
+    for i in ids:
+        if level_of.get(i) in levels:
+            out[i] = f"level {level_of[i]}"
+        else:
+            hit = next((s for s in selectors if selects(s, i)), None)
+            if hit is not None:
+                out[i] = repr(hit)
+    return out
+
+
+def _expectation_problems(
+    scenario: Scenario, top: int, ids: Sequence[str] = (), level_of: Mapping[str, int] | None = None
+) -> list[_Problem]:
+    """Expectations about levels above the highest level placed (``top``), about bricks that
+    none of the structure's ``ids`` is, or that name one brick (its level in ``level_of``) as
+    both staying and moving or falling, by level, id or part."""
     expect = scenario.expect
     problems = []
     c = expect.collapse
@@ -333,16 +352,13 @@ def _expectation_problems(scenario: Scenario, top: int, ids: Sequence[str] = ())
                     f"the structure has {top} level{'s' * (top != 1)}; name levels from 1 to {top}",
                 )
             )
-    stay, move = bricks_of(expect.stays or ()), bricks_of(expect.moved or ())
-    both = [i for i in ids if any(selects(s, i) for s in stay) and any(selects(m, i) for m in move)]
-    if both:
-        shown = ", ".join(both[:3]) + (f" and {len(both) - 3} more" if len(both) > 3 else "")
-        problems.append(
-            _Problem(
-                ("expect", "moved"),
-                (2, 4),
-                ("expect", "moved"),
-                f"{shown} {'is' if len(both) == 1 else 'are'} named by both 'stays' and 'moved': a brick cannot both stay and move",
+    stays = _chosen(expect.stays, ids, level_of or {})
+    for name, verb in (("moved", "move"), ("may_fall", "fall")):
+        both = [(i, why) for i, why in _chosen(getattr(expect, name), ids, level_of or {}).items() if i in stays]
+        if both:
+            shown = ", ".join(i for i, _ in both[:3]) + (f" and {len(both) - 3} more" if len(both) > 3 else "")
+            named = f"{'is' if len(both) == 1 else 'are'} named by both 'stays' ({stays[both[0][0]]}) and {name!r} ({both[0][1]})"
+            problems.append(
+                _Problem(("expect", name), (2, 4), ("expect", name), f"{shown} {named}: a brick cannot both stay and {verb}")
             )
-        )
     return problems

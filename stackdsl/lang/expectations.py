@@ -411,6 +411,13 @@ class Expect(StrictModel):
             raise ValueError("a level cannot both stay and fall: 'stays' and 'may_fall' overlap")
         if self.stays and self.moved and set(self.stays) & set(self.moved):
             raise ValueError("a level or brick cannot both stay and move: 'stays' and 'moved' overlap")
+        if self.stands and self.toppled is not None:
+            t = self.toppled
+            if t.count == "all" or t.count - t.tolerance > 0:
+                raise ValueError(
+                    "a toppled brick has moved, so the structure does not stand: give 'stands' or 'toppled', or "
+                    "'stays' for the bricks that must not move"
+                )
         return self
 
 

@@ -37,8 +37,9 @@ from .spelling import spelled
 LAYOUTS = ("tower", "card_house", "bricks", "wall", "pyramid", "dominoes")
 #: Most parts a structure may have.
 MAX_PARTS = 100
-NAME = r"^[A-Za-z0-9_-]{1,40}$"
-"""A part's name: letters, digits, '_' and '-' (no '.', which joins it to its bricks' ids)."""
+NAME = r"^[A-Za-z_][A-Za-z0-9_-]{0,39}$"
+"""A part's name: a letter or '_', then letters, digits, '_' and '-' (no '.', which joins it to
+its bricks' ids); not a digit first, which ``expect`` would read as a level ('2', '1-2')."""
 #: Names a part may not have: they would read as a single layout's key or as a part's own field.
 RESERVED = frozenset(LAYOUTS) | {"parts", "name", "on", "origin", "yaw", "interleave"}
 

@@ -24,6 +24,7 @@ from pydantic_core import ErrorDetails
 from .errors import FieldPath, ScenarioError, SourceMap
 from .expectations import CollapseLevel, CollapseStatistic
 from .schema import REFERENCE_ERROR, Scenario, Structure
+from .schema_parts import NAME as PART_NAME
 from .schema_parts import Part
 from .spelling import spelled
 
@@ -252,7 +253,10 @@ def _choice(err: ErrorDetails) -> str:
 
 def _pattern(ctx: dict[str, Any]) -> str:
     """A name pattern (``^[A-Za-z0-9_.-]{1,40}$``) in words."""
-    found = re.fullmatch(r"\^\[A-Za-z0-9([^\]]*)\]\{(\d+),(\d+)\}\$", str(ctx.get("pattern", "")))
+    pattern = str(ctx.get("pattern", ""))
+    if pattern == PART_NAME:
+        return "expected a part name: a letter or '_' first (a digit first reads as a level in 'expect'), then letters, digits, '_' or '-', 40 at most"
+    found = re.fullmatch(r"\^\[A-Za-z0-9([^\]]*)\]\{(\d+),(\d+)\}\$", pattern)
     if found is None:
         return f"expected text matching {ctx.get('pattern')!r}"
     signs = [repr(c) for c in found.group(1)]

@@ -154,6 +154,10 @@ def test_a_scene_that_is_not_random_and_fails_its_condition_is_refused():
     with pytest.raises(ScenarioError) as err:
         compile_scenario(parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 3}}\nrequire: [levels > 3]\n", "r.yaml"))
     assert err.value.field == "require[0]" and "levels = 3" in err.value.message
+    with pytest.raises(ScenarioError) as err:  # a length in the unit a file writes, not bare metres
+        text = "stackdsl: 1\nstructure: {tower: {levels: 3, bricks_per_layer: 1, turn: 0, shift: 50 mm}}\n"
+        compile_scenario(parse_scenario(text + "require: ['com_offset < 30 mm']\n", "r.yaml"))
+    assert "com_offset = 75 mm" in err.value.message, err.value.message  # (50 + 100) / 2 over the first brick
 
 
 def test_seed_replaces_the_files_seed():

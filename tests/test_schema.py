@@ -517,7 +517,7 @@ def test_patterns_mean_the_same_in_ecma_262_as_in_python():
     differ = [(p, s) for p, e_row, p_row in zip(found, ecma, python) for s, e, q in zip(samples, e_row, p_row) if e != q]
     # Python's $ also matches before a final newline: the patterns pydantic writes itself (a brick id, a part's
     # name, what a part is on) differ there
-    ids = {"^[A-Za-z0-9_.-]{1,40}$", "^[A-Za-z0-9_-]{1,40}$", "^[A-Za-z0-9_.-]{1,100}$"}
+    ids = {"^[A-Za-z0-9_.-]{1,40}$", "^[A-Za-z_][A-Za-z0-9_-]{0,39}$", "^[A-Za-z0-9_.-]{1,100}$"}
     assert all(s.endswith("\n") and p in ids for p, s in differ), differ
     assert len(found) >= 6
 
@@ -730,3 +730,28 @@ def test_the_schema_bounds_numbers_in_json_schemas_words_not_pydantics():
     validator = jsonschema.Draft202012Validator(json_schema())
     text = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nexpect: {stands_until: 100000}\n"
     assert not validator.is_valid(yaml.safe_load(text))
+
+
+def test_no_description_says_a_sentence_twice():
+    """The structure's description read 'What is built: ... Required. What is built: ...': the
+    key's own words were added to a description that said the same in other case."""
+    repeated = []
+
+    def walk(node, path):
+        if isinstance(node, dict):
+            text = node.get("description")
+            if isinstance(text, str):
+                sentences = [s.strip().lower() for s in re.split(r"(?<=\.)\s+", text) if len(s.strip()) > 20]
+                if len(sentences) != len(set(sentences)) or any(
+                    a != b and a.rstrip(".") in b for a in sentences for b in sentences
+                ):
+                    repeated.append(f"{path}: {text}")
+            for key, value in node.items():
+                if key not in ("examples", "default"):
+                    walk(value, f"{path}.{key}")
+        elif isinstance(node, list):
+            for i, value in enumerate(node):
+                walk(value, f"{path}[{i}]")
+
+    walk(json_schema(), "$")
+    assert repeated == []

@@ -96,7 +96,7 @@ def accept(scenario: Scenario) -> tuple[Scenario, int]:
         failed[broken] += 1
         by_zero[broken] += conditions[broken].divides_by_zero(values)
         if template is None:
-            shown = ", ".join(f"{n} = {_shown(values.get(n, math.nan))}" for n in conditions[broken].names)
+            shown = ", ".join(f"{n} = {_with_unit(n, values.get(n, math.nan))}" for n in conditions[broken].names)
             zero = "; it divides by zero" if by_zero[broken] else ""
             raise scenario.source.error(("require", broken), f"the scene does not meet it ({shown}{zero}); it is not random")
     worst, count = failed.most_common(1)[0]
@@ -128,7 +128,7 @@ def advice(condition: Condition, seen: dict[str, tuple[float, float]]) -> str:
     >>> advice(parse("levels > 100"), {"levels": (5.0, 5.0)})
     'it can never hold, whatever is drawn: levels is 5 in every draw (no distribution changes it); change the condition'
     >>> advice(parse("com_offset > 1 m"), {"com_offset": (0.01, 0.2)})
-    'widen the distributions or the condition (com_offset was 0.01 to 0.2 m in these draws)'
+    'widen the distributions or the condition (com_offset was 10 to 200 mm in these draws)'
     """
     fixed = {n: lo for n, (lo, hi) in seen.items() if n in condition.names and lo == hi}
     missing = [n for n in condition.names if n not in seen]  # no draw had it (NaN): it compares false
@@ -143,14 +143,20 @@ def advice(condition: Condition, seen: dict[str, tuple[float, float]]) -> str:
         causes = [n for n in reasons if condition.can_hold({m: r for m, r in ranges.items() if m != n})] or list(reasons)
         why = "; ".join(reasons[n] for n in causes) or "not for any values"
         return f"it can never hold, whatever is drawn: {why}; change the condition"
-    spread = [f"{n} was {_shown(seen[n][0])} to {_with_unit(n, seen[n][1])}" for n in free]
+    spread = [f"{n} was {_with_unit(n, seen[n][0], bare=True)} to {_with_unit(n, seen[n][1])}" for n in free]
     return "widen the distributions or the condition" + (f" ({', '.join(spread)} in these draws)" if spread else "")
 
 
-def _with_unit(name: str, value: float) -> str:
-    """``value`` of ``name`` with its SI unit (degrees for angles): ``"0.2 m"``, ``"5"`` for a count."""
-    unit = _UNITS.get(KIND.get(name) or field_kind(name), "")
-    return f"{_shown(value)} {unit}" if unit else _shown(value)
+def _with_unit(name: str, value: float, bare: bool = False) -> str:
+    """``value`` of ``name`` with its unit: SI (degrees for angles), a length in mm as a file
+    writes it: ``"125 mm"``, ``"0.5 s"``, ``"5"`` for a count; ``bare``: the number alone (the
+    first of a range)."""
+    kind = KIND.get(name) or field_kind(name)
+    if kind == "length" and math.isfinite(value):
+        value, unit = value * 1000, "mm"
+    else:
+        unit = _UNITS.get(kind, "")
+    return f"{_shown(value)} {unit}" if unit and not bare else _shown(value)
 
 
 def quantities(scenario: Scenario, wanted: set[str] | None = None) -> dict[str, float]:

@@ -236,8 +236,4 @@ def structure_json_schema(schema: dict[str, Any]) -> None:
     mapped["description"] = "named parts as a map (name: part), placed in order"
     mapped["examples"] = [{"left": {"tower": {"levels": 4}}, "top": {"on": "left", "pyramid": {"base": 2}}}]
     single = {"$ref": "#/$defs/Structure"}
-    schema["properties"]["structure"] = {
-        "description": "what is built: one layout (tower, card_house, bricks, wall, pyramid, dominoes), or a list "
-        "or a map of named parts, each one layout",
-        "anyOf": [single, listed, mapped],
-    }
+    schema["properties"]["structure"] = {"anyOf": [single, listed, mapped]}  # described with every key (schema_docs)

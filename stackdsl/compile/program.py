@@ -424,8 +424,9 @@ def format_program(program: Program) -> str:
     lines = [
         f"program {program.name}: {e.backend}, mode {e.mode}, timestep {e.timestep * 1000:.4g} ms, "
         f"{e.solver_iterations} solver iterations, {e.details()}",
-        f"  {len(program.placements)} bricks in {program.levels} level{'' if program.levels == 1 else 's'}, collapse threshold "
-        f"{program.collapse_threshold * 1000:.3g} mm{_threshold_source(program)}, {program.duration:g} s simulated",
+        f"  {len(program.placements)} brick{'' if len(program.placements) == 1 else 's'} in {program.levels} "
+        f"level{'' if program.levels == 1 else 's'}, collapse threshold "
+        f"{program.collapse_threshold * 1000:.3g} mm{_threshold_source(program)}, {program.duration:.2f} s simulated",
         f"  estimated work {program.work:.2g} body-steps, about {program.wall_estimate:.2g} s of wall time",
     ]
     if e.mode == "extension":

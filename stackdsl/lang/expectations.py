@@ -91,6 +91,8 @@ def _levels(value: Any) -> Any:
             continue
         else:
             first, last = 0, -1  # refused below
+        if 1 <= last < first <= MAX_LEVELS:
+            raise ValueError(f"the range {spelled(item)} runs backwards: write it from the lower level, '{last}-{first}'")
         if not 1 <= first <= last <= MAX_LEVELS:
             raise ValueError(
                 f"expected levels from 1 to {MAX_LEVELS} such as 5, '1-11', bricks such as 'L05.2', 'L05' or 'left.', "
@@ -152,7 +154,8 @@ def _toppled(value: Any) -> Any:
     if isinstance(value, str):
         match = re.fullmatch(COLLAPSE, value)
         if not match:
-            raise ValueError(f"expected a number of bricks such as 20, '20±1' or 'all', got {spelled(value)}")
+            hint = "; did you mean 'all'?" if value.strip().lower() == "all" else ""
+            raise ValueError(f"expected a number of bricks such as 20, '20±1' or 'all', got {spelled(value)}{hint}")
         _bricks(int(match[1]), value)
         _bricks(int(match[2] or 0), value)
         return {"count": int(match[1]), "tolerance": int(match[2] or 0)}

@@ -69,20 +69,27 @@ def withstands(stack: Stack, effective_gravity: Sequence[float], margin: float =
     loads = propagate(stack.nodes(frozen))
     tilt = np.array([gx, gy]) / g  # the line of action's horizontal run per metre of drop
     for rec in frozen:
-        for support in rec.rests_on:
-            other = stack.bodies[support]
-            mu = pair_friction(rec.friction, other.friction)
-            if sideways / g > mu:
-                return f"{rec.label} slides on {other.label}: a/g = {sideways / g:.3f} > friction {mu:.3f}"
+        slides = next(
+            (
+                f"slides on {stack.bodies[s].label}: a/g = {sideways / g:.3f} > friction {mu:.3f}"
+                for s in rec.rests_on
+                if sideways / g > (mu := pair_friction(rec.friction, stack.bodies[s].friction))
+            ),
+            None,
+        )
+        tips = None
         main, load = rec.main_contact, loads.get(rec.body)
-        if main is None or load is None:
-            continue
-        rise = float(load.com_above[2]) - main.height
-        region = main.polygon.buffer(-margin) if margin > 0 else main.polygon
-        x, y = np.asarray(load.com_above[:2]) + rise * tilt
-        if not shapely.contains_xy(region, float(x), float(y)):
-            return (
-                f"{rec.label} tips: under a = {sideways:.3g} m/s^2 its centre of mass above, {rise * 1000:.1f} mm over "
-                "its contact area, acts outside it"
-            )
+        if main is not None and load is not None:
+            rise = float(load.com_above[2]) - main.height
+            region = main.polygon.buffer(-margin) if margin > 0 else main.polygon
+            x, y = np.asarray(load.com_above[:2]) + rise * tilt
+            if not shapely.contains_xy(region, float(x), float(y)):
+                tips = (
+                    f"tips: under a = {sideways:.3g} m/s^2 its centre of mass above, {rise * 1000:.1f} mm over its "
+                    "contact area, acts outside it"
+                )
+        if slides and tips:  # past both thresholds: the slide-rock mode (Shenton 1996)
+            return f"{rec.label} {tips}, and {slides}"
+        if slides or tips:
+            return f"{rec.label} {slides or tips}"
     return None

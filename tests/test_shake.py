@@ -66,6 +66,9 @@ def test_the_pseudo_static_check_gives_both_thresholds(size, mu, mode):
     assert ext.withstands((0.99 * first, 0.0)) is None
     why = ext.withstands((1.01 * first, 0.0))
     assert why is not None and ("slides" if mode == "slide" else "tips") in why
+    assert ("tips" if mode == "slide" else "slides") not in why  # below the other threshold
+    both = ext.withstands((1.01 * max(slide, tip), 0.0))  # past both: both said (it said "slides" alone)
+    assert both is not None and "tips" in both and "slides" in both, both
 
 
 class Motion(Subscriber):

@@ -1027,3 +1027,31 @@ def test_run_and_compare_say_why_a_chain_cut_off_by_the_runs_end_failed(tmp_path
     assert main(["compare", str(tmp_path), "--modes", "extension", "-j", "1"]) == 1
     out = capsys.readouterr().out
     assert "row pybullet extension: still moving: the run ended at" in out
+
+
+def test_a_broken_link_in_a_folder_is_an_error_not_skipped(tmp_path, capsys):
+    """A folder's broken links and link loops named *.yaml were passed over (exit 0); given by
+    name they were refused. Both are refused now, each named."""
+    write(tmp_path, a=PASSING)
+    (tmp_path / "gone.yaml").symlink_to(tmp_path / "missing.yaml")
+    (tmp_path / "loop.yaml").symlink_to("loop.yaml")
+    assert main(["check", str(tmp_path), "-j", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "gone.yaml: a broken symbolic link" in err and "loop.yaml: cannot read the file" in err, err
+
+
+@pytest.mark.parametrize("seed", ["\uff15", "\u0665", "5.0", "-1", "9" * 41])
+def test_a_seed_is_written_in_the_digits_0_to_9(tmp_path, capsys, seed):
+    """int() reads fullwidth and Arabic-Indic digits ('５' was taken as 5), which a file's seed may not have."""
+    with pytest.raises(SystemExit) as exit_:
+        main(["check", str(write(tmp_path, a=PASSING)), "--seed", seed])
+    assert exit_.value.code == 2
+    assert "--seed" in capsys.readouterr().err
+
+
+def test_check_takes_one_path_as_well_as_a_list(tmp_path):
+    """stackdsl.check('a.yaml') went through the text letter by letter ('a: no such file')."""
+    file = write(tmp_path, a=PASSING) / "a.yaml"
+    for given in (str(file), file, [file]):
+        results = list(_check.check(given, jobs=1))
+        assert [r.file for r in results] == [str(file)], results

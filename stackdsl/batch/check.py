@@ -52,16 +52,18 @@ def discover(paths: list[str | Path]) -> list[Path]:
     """Scenario files named by ``paths``: files as given, folders searched for ``*.yaml``/``*.yml``.
 
     Raises:
-        ScenarioErrors: a path does not exist, is not a regular file (a device, a FIFO) or
-            is over the loader's size cap (decided from ``os.stat``, nothing is opened), or a
-            folder holds no scenario file.
+        ScenarioErrors: a path does not exist, is not a regular file (a device, a FIFO, a
+            broken link, also one found in a folder) or is over the loader's size cap (decided
+            from ``os.stat``, nothing is opened), or a folder holds no scenario file.
     """
     files, errors = [], []
     for raw in paths:
         path = Path(raw)
         if path.is_dir():
-            found = sorted(p for p in path.rglob("*") if p.suffix in (".yaml", ".yml") and p.is_file())
-            if not found:
+            named = sorted(p for p in path.rglob("*") if p.suffix in (".yaml", ".yml") and not p.is_dir())
+            found = [p for p in named if p.is_file()]
+            errors += [ScenarioError(file_problem(p) or "not a regular file", file=str(p)) for p in named if not p.is_file()]
+            if not named:
                 errors.append(ScenarioError("no scenario files (*.yaml) in this folder", file=str(path)))
             files += found
         elif (problem := file_problem(path)) is None:
@@ -189,7 +191,7 @@ _EXPRESSION = re.compile(r"\b(and|or|not)\b|[()]")
 
 
 def check(
-    paths: list[str | Path],
+    paths: str | Path | Sequence[str | Path],
     mode: str | None = None,
     jobs: int | None = None,
     executor: Executor | None = None,
@@ -206,7 +208,7 @@ def check(
     stops the workers. With one job, results come in file order.
 
     Args:
-        paths: files or folders.
+        paths: files or folders, or one of them.
         mode: overrides each scenario's engine mode.
         model: overrides each scenario's stability model.
         jobs: runs at the same time, this process included (default: one per free core, :func:`stackdsl.batch.address.free_cores`);
@@ -224,7 +226,8 @@ def check(
             (before anything runs).
         ValueError: ``jobs`` below 1.
     """
-    prepared = select(prepare(discover(paths), mode, model=model, seed=seed), pattern)
+    listed = [paths] if isinstance(paths, (str, Path)) else list(paths)  # one path, not its letters
+    prepared = select(prepare(discover(listed), mode, model=model, seed=seed), pattern)
     return run_checks(prepared, jobs, executor, timeout)
 
 

@@ -11,6 +11,7 @@ import argparse
 import errno
 import math
 import os
+import re
 import tempfile
 from pathlib import Path
 
@@ -182,14 +183,18 @@ def same_file(output: str | os.PathLike[str], given: str | os.PathLike[str]) -> 
 
 
 def seed_type(text: str) -> int:
-    """``--seed``: a whole number, 0 or more."""
-    try:
-        seed = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"a seed is a whole number, 0 or more, not {text!r}") from None
-    if seed < 0:
-        raise argparse.ArgumentTypeError(f"a seed is a whole number, 0 or more, not {text!r}")
-    return seed
+    """``--seed``: a whole number, 0 or more, in the digits 0-9 (Python's ``int`` reads other
+    scripts' digits too, which a file's seed may not have), at most :data:`SEED_DIGITS` of them."""
+    shown = repr(text) if len(text) <= 40 else f"{text[:20]!r}... ({len(text)} characters)"
+    if not re.fullmatch(r"\s*\+?[0-9]+\s*", text, flags=re.ASCII):
+        raise argparse.ArgumentTypeError(f"a seed is a whole number, 0 or more, in the digits 0-9, not {shown}")
+    if len(text.strip().lstrip("+").lstrip("0")) > SEED_DIGITS:
+        raise argparse.ArgumentTypeError(f"a seed has at most {SEED_DIGITS} digits, not {shown}")
+    return int(text)
+
+
+#: Most digits of a ``--seed`` (numpy's SeedSequence takes any size; a longer one is a slip).
+SEED_DIGITS = 40
 
 
 def add_seed(p: argparse.ArgumentParser) -> None:

@@ -281,3 +281,11 @@ def test_a_part_on_parts_stands_over_their_origin_unless_its_own_is_given():
         "  - {name: deck, on: [left, right], bricks: [{at: [0, 48 mm, 4 mm]}]}\n"
     )
     assert centre(two, "deck") == (0.0, 78.0)  # 48 mm from the middle of the two origins
+
+
+def test_the_keys_a_structure_allows_are_those_a_file_may_write():
+    """'parts' is the Python models' field; a file writes the list or map itself, so the keys
+    listed beside an unknown one leave it out (a file writing 'parts:' is refused)."""
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 2}, origin: [1, 0]}\n", "o.yaml")
+    assert "allowed: bricks, card_house, dominoes, pyramid, tower, wall" in err.value.message, err.value.message

@@ -188,13 +188,21 @@ def _one_error(err: ErrorDetails, source: SourceMap) -> ScenarioError:
     if err["type"] == "model_type":  # pydantic's words name our classes ("instance of Probability")
         allowed = fields_at(tagged)
         message = "expected a mapping" + (f" of {', '.join(allowed)}" if allowed else "")
-    elif err["type"] in ("too_long", "too_short") and isinstance(err["input"], list):  # pydantic: 'after validation'
+    elif err["type"] in ("too_long", "too_short") and isinstance(err["input"], (list, dict)):  # pydantic: 'after validation'
         ctx = err.get("ctx", {})
         most = err["type"] == "too_long"
         limit = ctx.get("max_length" if most else "min_length")
         exactly = most and ctx.get("field_type") == "Tuple"  # the schema's tuples have a fixed length ([x, y])
         bound = "" if exactly else "at most " if most else "at least "
-        message = f"expected a list of {bound}{limit} item{'s' * (limit != 1)}"
+        kind = "mapping" if isinstance(err["input"], dict) else "list"
+        message = f"expected a {kind} of {bound}{limit} item{'s' * (limit != 1)}"
+        if most and not exactly and isinstance(limit, int) and len(err["input"]) > limit:  # at the first item too many
+            first = list(err["input"])[limit] if kind == "mapping" else limit
+            where = (*loc, first)
+            if where in source.values or where in source.keys:
+                return source.error(
+                    where, f"{message}: this is item {limit + 1} of {len(err['input'])}", at_key=kind == "mapping"
+                )
         return source.error(loc, f"{message}, got {shown(err['input'])}")
     elif err["type"] == "finite_number":  # pydantic: "Input should be a finite number, got nan"
         kind = "a whole number" if _whole(tagged) else "a number"
@@ -337,7 +345,10 @@ def _is_member(seg: str | int) -> bool:
 def fields_at(loc: FieldPath) -> list[str]:
     """Field names of the model that ``loc`` (a pydantic location, tags included) leads to."""
     model = model_at(loc)
-    return sorted(model.model_fields) if model is not None else []
+    if model is None:
+        return []
+    # Structure(parts=...) is the Python models' way to give parts; a file writes the list or map itself
+    return sorted(f for f in model.model_fields if not (model is Structure and f == "parts"))
 
 
 def model_at(loc: FieldPath) -> type[BaseModel] | None:

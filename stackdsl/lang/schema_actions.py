@@ -195,6 +195,16 @@ class Shake(StrictModel):
         Field(description="the horizontal direction of the motion, [x, y] (any length)", examples=[[1, 0]]),
     ] = (1.0, 0.0)
 
+    @model_validator(mode="after")
+    def _a_period_at_least(self) -> Shake:
+        periods = self.duration * self.frequency
+        if round(periods) < 1:  # it would round to none, and be made one: 0.1 s at 2 Hz lasted 0.5 s
+            raise ValueError(
+                f"a shake lasts whole periods: {self.duration:g} s at {self.frequency:g} Hz is {periods:.2g} of a period, "
+                f"which would be made one, {1 / self.frequency:g} s long; give at least that, or a higher frequency"
+            )
+        return self
+
 
 class Action(StrictModel):
     """One action: exactly one of ``remove``, ``push`` or ``shake``."""

@@ -206,6 +206,14 @@ def check_parts(parts: list[Part] | dict[str, Part]) -> list[tuple[FieldPath, st
                 problems.append((loc + ("on", *at), f"{target!r} names no part before this one: {why}"))
             elif target != head and isinstance(part.on, list):
                 problems.append((loc + ("on", *at), f"{target!r}: a list of 'on' names parts; a brick is given alone"))
+        if part.interleave and part.on:
+            problems.append(
+                (
+                    loc + ("interleave",),
+                    "a part 'on' another is built on its top, after it: it cannot also go up level by level beside the "
+                    "part before (give 'on' or 'interleave')",
+                )
+            )
         seen.append(name)
     if named_parts(parts)[0][2].interleave:
         problems.append((named_parts(parts)[0][1] + ("interleave",), "the first part has no part before it to interleave with"))

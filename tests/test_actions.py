@@ -734,3 +734,15 @@ def test_a_toppled_tolerance_that_covers_every_count_is_warned():
     with warnings.catch_warnings():
         warnings.simplefilter("error", ScenarioWarning)
         compile_scenario(parse_scenario(head + '"5±2"\n', "t.yaml"))
+
+
+def test_the_levels_placed_count_a_level_whose_bricks_were_pulled_out():
+    """A one-brick tower whose brick is pulled out read 'stands (0 levels placed)'."""
+    from stackdsl import run_program
+
+    text = (
+        "stackdsl: 1\nstructure: {tower: {levels: 2, bricks_per_layer: 1}}\ntiming: {settle: 0.5 s}\n"
+        "actions: [{remove: {brick: L02.1, at: after level 2}}]\n"
+    )
+    done = run_program(compile_scenario(parse_scenario(text, "p.yaml")))
+    assert done.removed == ("L02.1",) and done.levels_placed == 2, (done.removed, done.levels_placed)

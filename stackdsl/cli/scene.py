@@ -206,7 +206,11 @@ def _export(args: argparse.Namespace) -> int:
     status = 0
     for out, kind in outputs:
         text = mjcf(scene, timestep=timestep if isinstance(timestep, float) else None) if kind == "mjcf" else urdf(scene)
-        status |= _wrote(write_text(text, out), trajectory, f"{kind.upper()}, {len(scene.ids)} bricks at t = {scene.time:.3f} s")
+        status |= _wrote(
+            write_text(text, out),
+            trajectory,
+            f"{kind.upper()}, {len(scene.ids)} bod{'y' if len(scene.ids) == 1 else 'ies'} at t = {scene.time:.3f} s",
+        )
     return status
 
 

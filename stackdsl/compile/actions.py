@@ -113,11 +113,20 @@ def pulled_out(scenario: Scenario) -> dict[str, int]:
 
 def check_measured(scenario: Scenario, ids: Sequence[str]) -> None:
     """A ScenarioError at ``expect.stays``, ``moved`` or ``may_fall`` when one of its brick
-    selectors names only bricks the actions pull out (``ids``: the structure's bricks): a pulled
-    brick leaves the scene, and nothing of it is measured."""
+    selectors names only bricks the actions pull out (``ids``: the structure's bricks), and at
+    ``toppled`` or ``stands`` when every brick is pulled out: a pulled brick leaves the scene,
+    and nothing of it is measured."""
     pulled = pulled_out(scenario)
     if not pulled:
         return
+    if ids and all(b in pulled for b in ids):  # nothing is left to judge
+        for name in ("toppled", "stands"):
+            if getattr(scenario.expect, name) is not None:
+                raise scenario.source.error(
+                    ("expect", name),
+                    f"every brick of the structure is pulled out of the scene: '{name}' would judge nothing; expect "
+                    "something of bricks that stay in it",
+                )
     for name in ("stays", "may_fall", "moved"):
         for selector in bricks_of(getattr(scenario.expect, name) or ()):
             chosen = [b for b in ids if selects(selector, b)]

@@ -238,7 +238,7 @@ def outcome(loop: StepLoop, wall_time: float) -> Outcome:
         displacement={r.id: float(d) for r, d in zip(placed, structure.displacements(placed))},
         drift=monitor.drift,
         kinetic_energy=structure.kinetic_energy(),
-        levels_placed=max(structure.levels.values(), default=0),
+        levels_placed=max((a.level for a in loop.program.placements if a.id in structure.records), default=0),  # pulled out too
         bricks_placed=len(placed),
         unplaced=tuple(a.id for a in loop.program.placements if a.id not in structure.records),
         simulated_time=loop.now,

@@ -405,6 +405,14 @@ def reference_errors(s: Scenario) -> list[tuple[FieldPath, str]]:
             problems.append((path, f"unknown brick type {name!r}; known: {', '.join(sorted(bricks))}"))
 
     for name, bt in s.brick_types.items():
+        if name.endswith(HALF):  # the wall's half of a type: its length halved, derived, never given
+            problems.append(
+                (
+                    ("brick_types", name),
+                    f"a name ending {HALF!r} is the wall's half of a brick type ({name.removesuffix(HALF)!r} halved): "
+                    "give this type another name",
+                )
+            )
         if bt.material not in materials:
             problems.append(
                 (("brick_types", name, "material"), f"unknown material {bt.material!r}; known: {', '.join(sorted(materials))}")

@@ -1,6 +1,7 @@
 """Scenario -> Program: expansion, schedule, timestep checks, impacts."""
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -137,6 +138,42 @@ def test_placement_error_is_seeded():
 def test_run_length_is_limited():
     with pytest.raises(ScenarioError, match="at most 3600 s"):
         program("stackdsl: 1\nstructure: {tower: {levels: 100}}\ntiming: {interval: 20 s}\n")
+
+
+TWO = "stackdsl: 1\nstructure: {tower: {levels: 2}}\n"
+
+
+@pytest.mark.parametrize(
+    ("body", "field"),
+    [
+        ("actions: [{remove: {brick: L01.2, at: 1e308 s}}]", "actions[0].remove.at"),
+        ("actions: [{push: {target: {brick: L02.1}, direction: [0, 1, 0], at: 1e308}}]", "actions[0].push.at"),
+        ("actions: [{shake: {amplitude: 1 mm, frequency: 2 Hz, duration: 1 s, at: 1e307 s}}]", "actions[0].shake.at"),
+        ("impacts: [{target: {level: 2, side: +x}, speed: 1, at: 8e305}]", "impacts[0].at"),
+        ("actions: [{remove: {brick: L01.2, at: {uniform: [5 s, 1e308 s]}}}]", "actions[0].remove.at"),
+        ("actions: [{remove: {brick: L01.2, at: 1e300 s}}]", "actions[0].remove.at"),
+    ],
+)
+def test_a_time_too_large_to_count_in_steps_is_refused_at_its_key(body, field):
+    # 1e306 s and more is infinitely many steps of 4.167 ms: once an OverflowError, exit 3
+    with pytest.raises(ScenarioError) as info:
+        program(TWO + body + "\n")
+    assert (info.value.line, info.value.field) == (3, field)
+    assert re.search(r"the run would last at least [\d.]+e\+30\d s; at most 3600 s are simulated", info.value.message)
+
+
+def test_a_grid_time_too_large_to_count_in_steps_is_refused_at_the_grid_value(tmp_path, capsys):
+    from stackdsl.cli.main import main
+
+    path = tmp_path / "g.yaml"
+    path.write_text(
+        TWO + "actions: [{remove: {brick: L01.2, at: 7 s}}]\n"
+        "sweep: {samples: 2, grid: {actions.0.remove.at: [7 s, 1e308 s]}}\nexpect: {p_stands: '>= 0.5'}\n"
+    )
+    assert main(["check", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "g.yaml:4:55: sweep.grid.actions.0.remove.at[1]:" in err and "the run would last at least 1e+308 s" in err
+    assert "internal error" not in err
 
 
 def test_format_program_lists_every_action():

@@ -176,7 +176,7 @@ def compile_scenario(
                 "to settle; place them faster (timing.interval) or build fewer"
             )
             where = where if where in scenario.source.values else ("structure",)
-        message = f"the run would last {end:.0f} s; at most {MAX_SIMULATED_TIME:.0f} s are simulated{why}"
+        message = f"the run would last {_seconds(end)} s; at most {MAX_SIMULATED_TIME:.0f} s are simulated{why}"
         raise scenario.source.error(where, message)
     actions.append(End(step=last_step + settle, time=end))
     _measurable(scenario, end, len(bricks))
@@ -299,6 +299,12 @@ def _what_fits(program: Program, tower: bool) -> str:
     return f"The first {fitting} of its {len(places)} bricks would fit"
 
 
+def _seconds(seconds: float) -> str:
+    """A run's length in s, whole below a million, else in three figures: ``3601.6`` -> ``'3602'``,
+    ``1e300`` -> ``'1e+300'``."""
+    return f"{seconds:.0f}" if seconds < 1e6 else f"{seconds:.3g}"
+
+
 def _duration(seconds: float) -> str:
     """``42.0`` -> ``'42 s'``, ``5400.0`` -> ``'1.5 h'``."""
     if seconds < 120:
@@ -401,8 +407,14 @@ def _engine(scenario: Scenario, mode: str | None, backend: str | None = None) ->
 
 
 def _steps(scenario: Scenario, path: FieldPath, seconds: float, dt: float) -> int:
-    """``seconds`` as a whole number of timesteps, or a ScenarioError at ``path``
-    (also for a positive duration shorter than one timestep)."""
+    """``seconds`` as a whole number of timesteps (``dt``, s), or a ScenarioError at ``path``:
+    a time past the run's limit (:data:`MAX_SIMULATED_TIME`: the run would last at least that
+    long, and a time of 1e306 s or more counts no whole number of steps), or one off the grid
+    (also a positive duration shorter than one timestep). Source: stackdsl's own."""
+    if not seconds <= MAX_SIMULATED_TIME:
+        raise scenario.source.error(
+            path, f"the run would last at least {_seconds(seconds)} s; at most {MAX_SIMULATED_TIME:.0f} s are simulated"
+        )
     steps = seconds / dt
     if abs(steps - round(steps)) > 1e-6 * max(1.0, steps) or (seconds > 0 and round(steps) == 0):
         raise scenario.source.error(

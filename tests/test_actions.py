@@ -433,6 +433,30 @@ actions:
         compile_scenario(parse_scenario(gone, "gone.yaml"))
 
 
+def test_a_push_whose_pusher_would_reach_below_the_ground_is_refused():
+    """A pusher is kinematic: driven down, it goes through the tower and the ground alike. On
+    L03.1 (top at 24 mm) a pusher stood on its end starts 5 mm above the top, its foot at 29 mm:
+    the default 30 mm down ends it 1 mm below the ground, 500 mm at 1 m/s 471 mm below."""
+    from stackdsl.lang.errors import ScenarioError
+
+    head = "stackdsl: 1\nstructure: {tower: {levels: 3}}\nactions:\n"
+    down = "  - push: {target: {brick: L03.1}, direction: [0, 0, -1], at: after level 3"
+    with pytest.raises(ScenarioError) as info:
+        compile_scenario(parse_scenario(head + down + ", distance: 500 mm, speed: 1 m/s}\n", "d.yaml"))
+    assert (info.value.line, info.value.field) == (4, "actions[0].push.distance")
+    assert "would end 471 mm below the ground" in info.value.message and "at most 25 mm" in info.value.message
+    with pytest.raises(ScenarioError) as info:
+        compile_scenario(parse_scenario(head + down + "}\n", "d.yaml"))
+    assert info.value.field == "actions[0].push.direction" and "would end 1 mm below the ground" in info.value.message
+    assert "at most 28.9 mm" in info.value.message
+    (push,) = compile_scenario(parse_scenario(head + down + ", distance: 28.9 mm}\n", "d.yaml")).kinematic
+    assert isinstance(push, Push) and push.position[2] - 0.06 + push.velocity[2] * (push.end_time - push.time) >= 0
+    low = "  - push: {target: {brick: L01.1, offset: [0, 0, -3 mm]}, direction: [1, 0, 0], at: after level 3}\n"
+    with pytest.raises(ScenarioError) as info:
+        compile_scenario(parse_scenario(head + low, "d.yaml"))
+    assert info.value.field == "actions[0].push.target.offset" and "would start 3 mm below the ground" in info.value.message
+
+
 def test_the_command_shows_a_pull_warning_as_a_line_of_its_own(tmp_path, capsys):
     from stackdsl.cli.main import main
 

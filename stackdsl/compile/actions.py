@@ -22,7 +22,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 import shapely
 
-from stability import Box
+from stability import Box, Pose
 
 from ..engines.protocol import BrickSpec
 from ..lang.errors import FieldPath
@@ -76,7 +76,7 @@ def compile_actions(
         ScenarioError: at the field: a brick that is not in the structure or not placed before
             its pull, a brick pulled twice or pushed once pulled out, a pusher's unknown brick
             type, a level never built, a time not on the timestep grid, a shake that overlaps a
-            placement or another action.
+            placement or another action, a pusher that would reach below the ground.
     """
     out: list[Kinematic] = []
     pulled: dict[str, tuple[int, float]] = {}  # brick -> the action that pulls it out, and when
@@ -325,6 +325,7 @@ def _push(
         )
     span = max(1, math.ceil(p.distance / p.speed / dt - 1e-9))
     yaw, pitch = heading(direction)
+    _above_ground(scenario, path, position, direction, spec, yaw, pitch, p.speed * dt, span)
     return Push(
         step=step,
         time=start,
@@ -337,6 +338,49 @@ def _push(
         target=target,
         end_step=step + span,
         end_time=start + span * dt,
+    )
+
+
+def _above_ground(
+    scenario: Scenario,
+    path: FieldPath,
+    position: np.ndarray,
+    direction: np.ndarray,
+    spec: BrickSpec,
+    yaw: float,
+    pitch: float,
+    step: float,
+    span: int,
+) -> None:
+    """Refuse a pusher (``spec``'s box turned by ``yaw`` and ``pitch``, degrees, its centre at
+    ``position``, m) whose box reaches below the ground (z < 0, by more than 1 micrometre) where it
+    starts or anywhere along its travel: ``span`` steps of ``step`` metres along unit ``direction``.
+    A kinematic pusher is not stopped by the ground: driven down, it would go through the bricks
+    and the ground alike and throw them about. A ScenarioError at the push's ``offset`` or
+    ``point`` when it starts below, else at its ``distance`` (when written) or ``direction``,
+    saying how far below and the longest distance that stays above. Source: stackdsl's own."""
+    corners = Box(np.array(spec.half_extents), spec.mass).corners(Pose.from_euler(position, yaw, pitch))
+    low = float(corners[:, 2].min())  # the box's lowest point where the pusher starts, m
+    if low < -1e-6:
+        p = scenario.actions[path[1]].push if isinstance(path[1], int) else None
+        aimed = "point" if p is not None and p.target.point is not None else "offset"
+        raise scenario.source.error(
+            (*path, "target", aimed),
+            f"the pusher would start {-low * 1000:.3g} mm below the ground (its box reaches z = {low * 1000:.3g} mm): "
+            "a pusher moves through the ground, not on it; aim higher, or give a smaller pusher",
+        )
+    end = low + direction[2] * step * span
+    if end >= -1e-6:
+        return
+    whole = math.floor(low / (-direction[2] * step) + 1e-9)  # steps that keep it above the ground
+    allowed = math.floor(whole * step * 1e4) / 10  # mm, down to 0.1 mm: its whole steps stay within them
+    where: FieldPath = (*path, "distance") if (*path, "distance") in scenario.source.values else (*path, "direction")
+    raise scenario.source.error(
+        where,
+        f"the pusher would end {-end * 1000:.3g} mm below the ground (its lowest point goes from z = {low * 1000:.3g} mm "
+        f"to {end * 1000:.3g} mm along the direction's downward part, {direction[2]:+.3g}): a pusher moves through the "
+        f"ground, not on it, and would drive the bricks into it; give a distance of at most {allowed:g} mm (it moves "
+        f"in whole steps of {step * 1000:.3g} mm at this speed), or a direction that goes less steeply down",
     )
 
 

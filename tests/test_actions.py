@@ -457,6 +457,37 @@ def test_a_push_whose_pusher_would_reach_below_the_ground_is_refused():
     assert info.value.field == "actions[0].push.target.offset" and "would start 3 mm below the ground" in info.value.message
 
 
+@pytest.mark.parametrize(
+    ("engine", "frequency", "highest", "step"),
+    [
+        ("{}", "60 Hz", None, "1/240 s"),
+        ("{timestep: 1 ms}", "60 Hz", 200, None),
+        ("{mode: tuned}", "100 Hz", 200, None),  # tuned pybullet steps 1 ms
+        ("{timestep: 1 ms}", "250 Hz", None, "1 ms"),
+        ("{timestep: 10 ms}", "48 Hz", None, "10 ms"),
+        ("{timestep: 10 ms}", "20 Hz", 20, None),
+    ],
+)
+def test_a_shakes_frequency_is_limited_by_the_runs_own_timestep(engine, frequency, highest, step):
+    """A period must span 5 steps of the run's physics: 48 Hz at 1/240 s, 200 Hz at 1 ms, 20 Hz at
+    10 ms (a 48 Hz shake at 10 ms, 2.08 steps a period, aliases into a peak of 455 m/s^2)."""
+    from stackdsl.lang.errors import ScenarioError
+
+    text = (
+        f"stackdsl: 1\nstructure: {{tower: {{levels: 2}}}}\nengine: {engine}\ntiming: {{settle: 1 s}}\nactions:\n"
+        f"  - shake: {{amplitude: 1 mm, frequency: {frequency}, duration: 1 s, at: after level 2}}\n"
+    )
+    if step is None:
+        (shake,) = compile_scenario(parse_scenario(text, "f.yaml")).kinematic
+        assert isinstance(shake, Shake) and shake.frequency <= highest
+        return
+    with pytest.raises(ScenarioError) as info:
+        compile_scenario(parse_scenario(text, "f.yaml"))
+    assert (info.value.line, info.value.field) == (6, "actions[0].shake.frequency")
+    assert f"a step of {step} samples a period" in info.value.message
+    assert step == "1/240 s" or "1/240" not in info.value.message
+
+
 def test_the_command_shows_a_pull_warning_as_a_line_of_its_own(tmp_path, capsys):
     from stackdsl.cli.main import main
 

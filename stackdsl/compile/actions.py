@@ -28,7 +28,7 @@ from ..engines.protocol import BrickSpec
 from ..lang.errors import FieldPath
 from ..lang.expectations import bricks_of, selects
 from ..lang.schema import Scenario
-from ..lang.schema_actions import AXES, Action, AfterPrevious
+from ..lang.schema_actions import AXES, SAMPLES_A_PERIOD, Action, AfterPrevious
 from ..lang.schema_impacts import AfterLevel
 from .layouts import LaidBrick
 from .program import Kinematic, Place, Push, Remove, Shake
@@ -94,7 +94,7 @@ def compile_actions(
                 _not_pulled(scenario, (*path, "target", "brick"), target, pulled, "push it")
             out.append(_push(scenario, i, action, bricks, specs, start, step, dt, fixtures))
         else:
-            out.append(_shake(action, start, step, dt))
+            out.append(_shake(scenario, path, action, start, step, dt))
     for i, motion in enumerate(out):
         if isinstance(motion, Shake):
             _alone(scenario, i, motion, out, places)
@@ -422,9 +422,20 @@ def _entry(aim: np.ndarray, direction: np.ndarray, brick: LaidBrick, spec: Brick
     return np.asarray(aim - direction * min(back))
 
 
-def _shake(action: Action, start: float, step: int, dt: float) -> Shake:
+def _shake(scenario: Scenario, path: FieldPath, action: Action, start: float, step: int, dt: float) -> Shake:
+    """The shake of ``action`` from ``start`` (s, its ``step``) in steps of ``dt`` (s); a
+    ScenarioError at its ``frequency`` when a step that long samples a period fewer than
+    :data:`SAMPLES_A_PERIOD` times (the run's own timestep, not the default's)."""
     s = action.shake
     assert s is not None
+    if s.frequency * dt * SAMPLES_A_PERIOD > 1 + 1e-9:
+        highest = 1 / (SAMPLES_A_PERIOD * dt)
+        raise scenario.source.error(
+            (*path, "frequency"),
+            f"expected a frequency from 0.1 to {highest:.4g} Hz at this run's timestep, got {s.frequency:g} Hz; faster, a "
+            f"step of {step_text(dt)} samples a period {1 / (s.frequency * dt):.3g} times, fewer than {SAMPLES_A_PERIOD}: "
+            f"give a lower frequency or a shorter engine.timestep (at most {1 / (SAMPLES_A_PERIOD * s.frequency) * 1000:.4g} ms)",
+        )
     periods = max(1, round(s.duration * s.frequency))
     span = max(1, round(periods / s.frequency / dt))
     d = np.array(s.direction, dtype=float)
@@ -438,6 +449,22 @@ def _shake(action: Action, start: float, step: int, dt: float) -> Shake:
         end_step=step + span,
         end_time=start + span * dt,
     )
+
+
+def step_text(dt: float) -> str:
+    """A timestep ``dt`` (s) as people write it: ``'1/240 s'``, ``'1 ms'``, ``'0.25 ms'``.
+    Source: stackdsl's own.
+
+    >>> step_text(1 / 240), step_text(0.001), step_text(0.00025)
+    ('1/240 s', '1 ms', '0.25 ms')
+    """
+    ms = dt * 1000
+    if abs(ms - round(ms, 4)) <= 1e-9 * ms:
+        return f"{round(ms, 4):g} ms"
+    per = 1 / dt
+    if abs(per - round(per)) <= 1e-6 * per:
+        return f"1/{round(per)} s"
+    return f"{ms:.4g} ms"
 
 
 def _alone(scenario: Scenario, index: int, shake: Shake, motions: Sequence[Kinematic], places: Sequence[Place]) -> None:

@@ -61,6 +61,12 @@ ActionWhen = Annotated[
     ),
 ]
 
+#: Steps of the physics a shake's period must span at least; the compiler checks a frequency
+#: against the run's own timestep (at the default 1/240 s, at most 48 Hz).
+SAMPLES_A_PERIOD = 5
+#: Hz, the fastest shake at any timestep: 5 samples a period at the shortest, 0.01 ms.
+MAX_SHAKE_FREQUENCY = 20000.0
+
 if TYPE_CHECKING:
     GuideSpeed = float
     Travel = float
@@ -85,9 +91,9 @@ else:
         Frequency,
         frequency,
         0.1,
-        48.0,
-        "a frequency from 0.1 to 48 Hz",
-        ("slower, a shake is a slow slide", "faster, a step of 1/240 s samples a period fewer than 5 times"),
+        MAX_SHAKE_FREQUENCY,
+        "a frequency from 0.1 Hz to 20 kHz",
+        ("slower, a shake is a slow slide", "faster, the shortest timestep, 0.01 ms, samples a period fewer than 5 times"),
     )
     ShakeDuration = within(
         Time,
@@ -183,7 +189,11 @@ class Shake(StrictModel):
     amplitude: Annotated[Amplitude, Field(description="half the table's stroke: above 0, at most 100 mm", examples=["2 mm"])]
     frequency: Annotated[
         ShakeFrequency,
-        Field(description="periods a second, from 0.1 to 48 Hz (rpm or rad/s are turned into Hz)", examples=["3 Hz"]),
+        Field(
+            description="periods a second, from 0.1 Hz to what the timestep samples 5 times a period "
+            "(48 Hz at 1/240 s, 200 Hz at 1 ms; rpm or rad/s are turned into Hz)",
+            examples=["3 Hz"],
+        ),
     ]
     duration: Annotated[
         ShakeDuration, Field(description="how long it shakes, rounded to whole periods: above 0, at most 600 s", examples=["2 s"])

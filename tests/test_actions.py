@@ -88,8 +88,9 @@ def test_selectors_name_a_brick_or_the_bricks_whose_ids_start_so():
 
 
 def carried(backend: str, friction: float) -> tuple[float, float]:
-    """A brick lies across the middle of a brick that a hand pulls 50 mm along x at 20 mm/s,
-    with nothing else under it: how far (m) the upper brick moves, and the pull's travel."""
+    """A brick lies across the middle of a brick that a hand pulls 50 mm across (along y, clear of
+    where it lay) at 20 mm/s, with nothing else under it: how far (m) the upper brick moves, and
+    the pull's travel."""
     text = f"""stackdsl: 1
 materials: {{wood: {{density: 460, friction: {friction}}}}}
 brick_types: {{b: {{size: [120 mm, 24 mm, 8 mm], material: wood}}}}
@@ -102,13 +103,13 @@ allow: [floating]
 timing: {{settle: 0.5 s}}
 engine: {{backend: {backend}}}
 actions:
-  - remove: {{brick: low, at: 2 s, speed: 20 mm/s, distance: 50 mm}}
+  - remove: {{brick: low, at: 2 s, direction: +y, speed: 20 mm/s, distance: 50 mm}}
 """
     outcome = run_program(compile_scenario(parse_scenario(text, "carry.yaml")))
     assert outcome.removed == ("low",)
     top = next(n for n in outcome.final_graph.nodes if n.id == "top")
     assert "low" not in {n.id for n in outcome.final_graph.nodes}  # taken out of the scene
-    return top.position_mm[0] / 1000, 0.050
+    return top.position_mm[1] / 1000, 0.050
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
@@ -429,7 +430,7 @@ actions:
         warnings.simplefilter("error", ScenarioWarning)
         compile_scenario(parse_scenario(head + "  - remove: {brick: L03.1, at: after level 4}\n", "ok.yaml"))
         gone = head + "  - remove: {brick: L03.2, at: after level 4}\n"  # the middle one, along its length
-        gone += "  - remove: {brick: L03.1, at: after the previous action, direction: -y, distance: 20 mm}\n"
+        gone += "  - remove: {brick: L03.1, at: after the previous action, direction: -y, distance: 24 mm}\n"
         compile_scenario(parse_scenario(gone, "gone.yaml"))
 
 
@@ -486,6 +487,25 @@ def test_a_shakes_frequency_is_limited_by_the_runs_own_timestep(engine, frequenc
     assert (info.value.line, info.value.field) == (6, "actions[0].shake.frequency")
     assert f"a step of {step} samples a period" in info.value.message
     assert step == "1/240 s" or "1/240" not in info.value.message
+
+
+def test_a_pull_too_short_to_take_its_brick_clear_is_refused_with_the_least_distance():
+    """The hand takes a pulled brick out of the scene at the pull's end: 1 mm would delete L02.2
+    from the middle of the tower. Its 120 mm length along it, or 24 mm across, takes it clear."""
+    from stackdsl.lang.errors import ScenarioError
+
+    head = "stackdsl: 1\nstructure: {tower: {levels: 4, bricks_per_layer: 3, spacing: 25 mm}}\nactions:\n"
+    with pytest.raises(ScenarioError) as info:
+        compile_scenario(parse_scenario(head + "  - remove: {brick: L02.2, at: after level 4, distance: 1 mm}\n", "p.yaml"))
+    assert (info.value.line, info.value.field) == (4, "actions[0].remove.distance")
+    assert "119 mm short of clear" in info.value.message and "at least 120 mm" in info.value.message
+    with pytest.raises(ScenarioError, match="at least 24 mm"):
+        compile_scenario(parse_scenario(head + "  - remove: {brick: L03.1, at: after level 4, direction: +y, distance: 23 mm}\n"))
+    for pull in ("distance: 120 mm", "direction: +y, distance: 24 mm", "direction: -x"):
+        (remove,) = compile_scenario(
+            parse_scenario(head + f"  - remove: {{brick: L03.1, at: after level 4, {pull}}}\n")
+        ).kinematic
+        assert isinstance(remove, Remove)
 
 
 def test_the_command_shows_a_pull_warning_as_a_line_of_its_own(tmp_path, capsys):

@@ -76,7 +76,8 @@ def compile_actions(
         ScenarioError: at the field: a brick that is not in the structure or not placed before
             its pull, a brick pulled twice or pushed once pulled out, a pusher's unknown brick
             type, a level never built, a time not on the timestep grid, a shake that overlaps a
-            placement or another action, a pusher that would reach below the ground.
+            placement or another action, a pusher that would reach below the ground, a pull
+            too short to take its brick clear of where it lay.
     """
     out: list[Kinematic] = []
     pulled: dict[str, tuple[int, float]] = {}  # brick -> the action that pulls it out, and when
@@ -217,6 +218,15 @@ def _remove(
             "('+x', '-y', [1, 1, 0], ...)",
         )
     distance = r.distance if r.distance is not None else 2 * spec.half_extents[0] + CLEAR
+    extent = footprint_extent(brick, spec, direction)
+    if distance < extent - 1e-6:  # the hand lets go at the end: a brick still where it lay would vanish from there
+        short: FieldPath = (*path, "distance") if r.distance is not None else (*path, "direction")
+        raise scenario.source.error(
+            short,
+            f"a pull of {distance * 1000:.3g} mm leaves {r.brick} {(extent - distance) * 1000:.3g} mm short of clear of where "
+            f"it lay (it spans {extent * 1000:.3g} mm along the pull), yet at the pull's end it is taken out of the scene, "
+            f"from among what it lay between; give a distance of at least {math.ceil(extent * 1e4 - 1e-6) / 10:g} mm",
+        )
     level = [b for b in bricks if b.level == brick.level and b.id not in gone]
     blocking = in_the_way(brick, spec, direction, distance, level, specs)
     if blocking:
@@ -238,6 +248,22 @@ def _remove(
         end_step=step + span,
         end_time=start + span * dt,
     )
+
+
+def footprint_extent(brick: LaidBrick, spec: BrickSpec, direction: np.ndarray) -> float:
+    """How far (m) ``brick``'s footprint (its box's corners seen from above, as
+    :func:`in_the_way` sees them) reaches along horizontal unit ``direction``: the least pull
+    that takes it clear of where it lay. Source: stackdsl's own.
+
+    >>> from stackdsl.compile.compiler import _spec
+    >>> from stackdsl.lang.loader import parse_scenario
+    >>> kapla = _spec(parse_scenario("stackdsl: 1\\nstructure: {tower: {levels: 1}}"), "kapla")
+    >>> brick = LaidBrick("b", 1, "kapla", np.array([0.0, 0.0, 0.004]), 0.0)
+    >>> [round(footprint_extent(brick, kapla, np.array(d)), 4) for d in ([1.0, 0, 0], [0, -1.0, 0])]
+    [0.12, 0.024]
+    """
+    xy = Box(np.array(spec.half_extents), spec.mass).corners(brick.pose())[:, :2] @ direction[:2]
+    return float(xy.max() - xy.min())
 
 
 def in_the_way(

@@ -133,7 +133,8 @@ class Remove(StrictModel):
     distance: Annotated[
         Travel | None,
         Field(
-            description="how far the hand pulls; default: the brick's length plus 10 mm (it clears the bricks it lay between)",
+            description="how far the hand pulls, at least the brick's extent along the pull (it is then clear of where "
+            "it lay); default: the brick's length plus 10 mm (it clears the bricks it lay between)",
             examples=["130 mm"],
         ),
     ] = None

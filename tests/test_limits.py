@@ -54,6 +54,23 @@ IMPACT = (
 )
 
 
+def test_a_walls_half_brick_below_an_engines_floor_is_refused_at_the_walls_brick():
+    """A wall's closers are its brick type cut to half its length: a 5 mm brick makes 2.5 mm
+    closers, below pybullet's 3 mm, though the type itself is above it."""
+    pytest.importorskip("mujoco")
+    small = "stackdsl: 1\nbrick_types: {s: {size: [5 mm, 4 mm, 4 mm]}}\n"
+    err = refusal(small + "structure: {wall: {courses: 2, bricks_per_course: 2, brick: s}}\n")
+    assert (err.line, err.field) == (3, "structure.wall.brick")
+    assert "half brick 's/2' (2.5 x 4 x 4 mm" in err.message and "below what pybullet simulates faithfully" in err.message
+    assert "at least 6 mm long" in err.message and "MuJoCo takes it" in err.message
+    part = refusal(small + "structure:\n  - {name: w, wall: {courses: 2, bricks_per_course: 2, brick: s}}\n")
+    assert (part.line, part.field) == (4, "structure[0].wall.brick")
+    compile_scenario(parse_scenario(small + "structure: {wall: {courses: 1, bricks_per_course: 2, brick: s}}\n"))  # none
+    compile_scenario(
+        parse_scenario(small + "structure: {wall: {courses: 2, bricks_per_course: 2, brick: s}}\n"), backend="mujoco"
+    )
+
+
 def test_a_projectile_faster_than_the_engine_holds_is_refused_at_its_speed():
     pytest.importorskip("mujoco")
     err = refusal(IMPACT % ("mujoco", "extension", "", "50 m/s"))

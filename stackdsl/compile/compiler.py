@@ -134,7 +134,8 @@ def compile_scenario(
         present = [(b.id, specs[b.type], b.pose()) for b, k in zip(bricks, slots) if int(k) * per_slot <= launch.step]
         check_launch(scenario, i, imp, launch, present + [(b.id, specs[b.type], b.pose()) for b in fixed])
     if limits:
-        check_limits(scenario, engine, specs, [b.type for b in bricks] + [i.projectile for i in scenario.impacts])
+        moving = [b.type for b in bricks] + [i.projectile for i in scenario.impacts]
+        check_limits(scenario, engine, specs, moving, {b.type: b.source for b in reversed(everything)})
     places = [a for a in placements if isinstance(a, Place)]
     motions = compile_actions(
         scenario,

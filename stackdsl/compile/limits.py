@@ -20,9 +20,16 @@ from ..engines.protocol import BrickSpec, EngineSettings
 from ..engines.settings import SETTINGS
 from ..lang.errors import FieldPath
 from ..lang.schema import Scenario
+from ..lang.schema_generators import HALF
 
 
-def check_limits(scenario: Scenario, engine: EngineSettings, specs: Mapping[str, BrickSpec], moving: Sequence[str]) -> None:
+def check_limits(
+    scenario: Scenario,
+    engine: EngineSettings,
+    specs: Mapping[str, BrickSpec],
+    moving: Sequence[str],
+    made_by: Mapping[str, FieldPath] | None = None,
+) -> None:
     """Refuse what ``engine`` does not simulate faithfully (see the module's docstring).
 
     Args:
@@ -31,21 +38,35 @@ def check_limits(scenario: Scenario, engine: EngineSettings, specs: Mapping[str,
         specs: brick type name -> its body, for every type the scene uses.
         moving: the type names of every body that moves: the structure's bricks (not its
             fixtures) and the projectiles.
+        made_by: brick type name -> the field of a generator that lays bricks of it, for the
+            half bricks (``NAME/2``) a wall makes of the type it is given.
 
     Raises:
-        ScenarioError: at a brick type's ``size`` (a side below the engine's smallest), an
-            impact's ``speed`` (faster than the engine holds) or a material's ``density`` or
-            brick type's ``size`` (a mass ratio beyond the engine's).
+        ScenarioError: at a brick type's ``size`` (a side below the engine's smallest; a
+            wall's half brick's at the wall's ``brick``), an impact's ``speed`` (faster than the
+            engine holds) or a material's ``density`` or brick type's ``size`` (a mass ratio
+            beyond the engine's).
     """
     kind = type(engine)
     limits, name = kind.LIMITS, kind.NAME
     for type_name in sorted(specs):
         side = 2 * min(specs[type_name].half_extents)
-        if side < limits.min_side * (1 - 1e-9) and type_name in scenario.brick_types:
+        if side >= limits.min_side * (1 - 1e-9):
+            continue
+        measured = f"(measured: {limits.measured['min_side']}){_elsewhere(engine, 'min_side', side)}"
+        if type_name in scenario.brick_types:
             raise scenario.source.error(
                 ("brick_types", type_name, "size"),
-                f"a side of {_mm(side)} is below what {name} simulates faithfully: at least {_mm(limits.min_side)} "
-                f"(measured: {limits.measured['min_side']}){_elsewhere(engine, 'min_side', side)}",
+                f"a side of {_mm(side)} is below what {name} simulates faithfully: at least {_mm(limits.min_side)} {measured}",
+            )
+        whole = type_name.removesuffix(HALF)
+        if whole != type_name and whole in scenario.brick_types:  # a wall's closer, cut from a type of the file
+            size = " x ".join(f"{2000 * h:.3g}" for h in specs[type_name].half_extents)
+            raise scenario.source.error(
+                (*(made_by or {}).get(type_name, ("structure",)), "brick"),
+                f"the wall's half brick {type_name!r} ({size} mm: {whole!r} cut to half its length, its even courses' "
+                f"closers) has a side of {_mm(side)}, below what {name} simulates faithfully: at least "
+                f"{_mm(limits.min_side)} {measured}; give the wall a brick type at least {_mm(2 * limits.min_side)} long",
             )
     thinnest = min(2 * min(s.half_extents) for s in specs.values())
     for index, impact in enumerate(scenario.impacts):

@@ -4,6 +4,7 @@ stackdsl.runtime.actions) and the expectations about them (moved, stays by brick
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -506,6 +507,24 @@ def test_a_pull_too_short_to_take_its_brick_clear_is_refused_with_the_least_dist
             parse_scenario(head + f"  - remove: {{brick: L03.1, at: after level 4, {pull}}}\n")
         ).kinematic
         assert isinstance(remove, Remove)
+
+
+def test_a_push_offset_out_of_the_scene_is_refused_at_its_value_with_no_numpy_warning(tmp_path, capsys):
+    """An offset has a point's range, -1 km to 1 km: 1e308 m once overflowed into an 'inf' in the
+    message, after a numpy RuntimeWarning naming a source file."""
+    from stackdsl.cli.main import main
+
+    path = tmp_path / "o.yaml"
+    path.write_text(
+        "stackdsl: 1\nstructure: {tower: {levels: 3}}\n"
+        "actions: [{push: {target: {brick: L03.1, offset: [1e308, 0, 0]}, direction: [1, 0, 0], at: after level 3}}]\n"
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert main(["compile", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"{path}:3:51: actions[0].push.target.offset[0]: expected a coordinate from -1 km to 1 km")
+    assert "inf" not in err and "RuntimeWarning" not in err
 
 
 def test_the_command_shows_a_pull_warning_as_a_line_of_its_own(tmp_path, capsys):

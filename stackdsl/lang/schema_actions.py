@@ -149,7 +149,7 @@ class PushTarget(StrictModel):
         default=None, description="the id of the brick pushed", examples=["d01"]
     )
     offset: Annotated[
-        tuple[Length, Length, Length],
+        Vector3,
         Field(description="from the brick's centre to the point aimed at, in the world's axes", examples=[[0, 0, "40 mm"]]),
     ] = (0.0, 0.0, 0.0)
     point: Annotated[Vector3 | None, Field(description="a point aimed at, in the world", examples=[[0, 0, "50 mm"]])] = None

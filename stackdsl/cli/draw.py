@@ -261,9 +261,7 @@ def _graph(args: argparse.Namespace) -> int:
         raise ScenarioError("nothing collapsed in this run: there is no graph at the collapse (use --at end)", file="--at")
     graph = trajectory.graphs["collapse" if at == "collapse" else "final"]
     plot_graph(graph, out, title=f"{trajectory.meta.get('scenario', '')}: brick graph at the {at}")
-    bodies = sum(n.state != "ground" for n in graph.nodes)  # a pusher or a projectile is a body of the graph too
-    return _wrote(
-        out,
-        trajectory,
-        f"the brick graph at the {at}, {bodies} bod{'y' if bodies == 1 else 'ies'} and {len(graph.edges)} rests-on edges",
-    )
+    bricks = sum(n.state != "ground" and n.level is not None for n in graph.nodes)
+    others = sum(n.state != "ground" and n.level is None for n in graph.nodes)  # a pusher, a projectile
+    besides = f", {others} other bod{'y' if others == 1 else 'ies'}" if others else ""
+    return _wrote(out, trajectory, f"the brick graph at the {at}, {bricks} bricks{besides} and {len(graph.edges)} rests-on edges")

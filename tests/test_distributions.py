@@ -195,3 +195,44 @@ def test_names_a_file_chooses_are_not_taken_for_distributions():
     assert scenario.materials["normal"].density == 500.0 and set(scenario.template.parameters(0, 0)) == {
         "materials.choise.density [kg/m^3]"
     }
+
+
+@pytest.mark.parametrize(
+    "drawn",
+    [
+        "shift: {uniform: [-20 mm, 20 mm], per: layer}",
+        "yaw_jitter: {uniform: [-2, 2], per: brick}",
+        "yaw_jitter: {uniform: [-2, 2], per: layer}",
+    ],
+)
+@pytest.mark.parametrize("levels", [[3, 4], [4, 2, 7]])
+def test_a_grid_over_levels_sizes_each_cells_per_layer_and_per_brick_draws(drawn, levels):
+    text = (
+        f"stackdsl: 1\nstructure: {{tower: {{levels: 3, bricks_per_layer: 2, {drawn}}}}}\n"
+        f"sweep: {{samples: 3, grid: {{structure.tower.levels: {levels}}}}}\n"
+    )
+    t = template(text)
+    for c, n in enumerate(levels):
+        for k in range(3):
+            tower = t.scenario(c, k).structure.tower
+            assert tower is not None and tower.levels == n
+            if "shift" in drawn:
+                assert tower.shifts is not None and len(tower.shifts) == n - 1
+            else:
+                assert isinstance(tower.yaw_jitter, list) and len(tower.yaw_jitter) == 2 * n
+            compile_scenario(t.scenario(c, k))
+
+
+def test_a_grid_value_no_list_of_the_file_fits_is_refused_at_that_value():
+    text = (
+        "stackdsl: 1\nstructure: {tower: {levels: 3, shifts: [1 mm, 2 mm], spacing: {uniform: [90 mm, 96 mm]}}}\n"
+        "sweep: {samples: 2, grid: {structure.tower.levels: [3, 4]}}\n"
+    )
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(text, "t.yaml")
+    assert info.value.field == "sweep.grid.structure.tower.levels[1]"
+    assert info.value.message.startswith("the grid value 4: 'shifts' has one shift a layer above the first")
+    # the file's own error stays the file's, whatever the grid
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(text.replace("[1 mm, 2 mm]", "[1 mm]"), "t.yaml")
+    assert info.value.field == "structure.tower" and "the grid value" not in info.value.message

@@ -154,11 +154,13 @@ class Template:
             )
         return dataclasses.replace(self, samples=samples)
 
-    def _data(self, c: int, k: int, attempt: int = 0) -> dict[str, Any]:
+    def _data(self, c: int, k: int, attempt: int = 0, put: dict[str, Any] | None = None) -> dict[str, Any]:
         """Cell ``c``'s sample ``k`` as plain data: grid values put in, distributions drawn (draw
-        ``attempt`` of the sample: see :func:`stackdsl.lang.distributions.sample_seed`)."""
+        ``attempt`` of the sample: see :func:`stackdsl.lang.distributions.sample_seed`). ``put``:
+        grid values (key as written -> value) in place of the cell's, put in before anything is
+        drawn, so that a per-layer or per-brick draw is sized by the tower they make."""
         data = copy.deepcopy(self.data)
-        values = self.cell(c)
+        values = self.cell(c) | (put or {})
         for path, key, _ in self.grid:
             _put(data, path, values[key])
         grid_paths = [path for path, _, _ in self.grid]
@@ -178,8 +180,7 @@ class Template:
 
         if checked:
             self._check_values()
-        note = f"sample {k}" + (f" of grid cell {c} ({_shown(self.cell(c))})" if self.grid else "")
-        scenario = validate(self._data(c, k, attempt), self.source, self._blame(c), note)
+        scenario = validate(self._data(c, k, attempt), self.source, self._blame(c, around=True), self._note(c, k))
         if self.grid:  # what the compiler refuses in a field the grid filled in is the grid value's fault
             scenario._source = self._cell_source(c)
         scenario._template = self
@@ -219,14 +220,14 @@ class Template:
 
         for path, key, values in self.grid:
             for i, value in enumerate(values):
-                data = self._data(0, 0)
-                _put(data, path, value)
-                validate(
-                    data,
-                    self.source,
-                    _at_grid(path, key, i),
-                    f"the grid value {value!r}",
-                )
+                data = self._data(0, 0, put={key: value})
+                try:
+                    validate(data, self.source, _at_grid(path, key, i), f"the grid value {value!r}")
+                except ScenarioError:
+                    # an error at a field around the grid's (a tower's levels against its shifts) is the
+                    # grid value's only when the file's own cell 0 is valid: else the file's error is said
+                    validate(self._data(0, 0), self.source, self._blame(0), self._note(0, 0))
+                    raise
         for d in self.distributions:
             for end, what in _ends(d):
                 fixed = Distribution(d.path, "choice", (end,), "", d.per)
@@ -239,6 +240,10 @@ class Template:
                         exc.message += "; give the normal a clip: [low, high] within what the field takes"
                     raise
 
+    def _note(self, c: int, k: int) -> str:
+        """What an error in cell ``c``'s sample ``k`` is said after: ``"sample 3 of grid cell 1 (timing.interval = 1 s)"``."""
+        return f"sample {k}" + (f" of grid cell {c} ({_shown(self.cell(c))})" if self.grid else "")
+
     def _cell_source(self, c: int) -> SourceMap:
         """The source map of cell ``c``'s samples: an error at a field the grid filled in (the
         compiler's, found after validation) is placed at the grid value, naming the grid key."""
@@ -249,9 +254,11 @@ class Template:
         )
         return dataclasses.replace(self.source, moved=moved)
 
-    def _blame(self, c: int, only: Distribution | None = None) -> Any:
+    def _blame(self, c: int, only: Distribution | None = None, around: bool = False) -> Any:
         """``relocate`` for :func:`stackdsl.lang.validate.validate`: a field a distribution (or the grid)
-        filled in -> the distribution's (or grid value's) node."""
+        filled in -> the distribution's (or grid value's) node; with ``around``, an error at a model
+        around a grid field that no distribution explains too (a tower whose grid ``levels`` no
+        list of its fits) -> that grid value."""
         values = self.cell(c) if self.grid else {}
         index = {key: list(vs).index(values[key]) if key in values else 0 for _, key, vs in self.grid}
         distributions = [only] if only is not None else list(self.distributions)
@@ -266,16 +273,21 @@ class Template:
             for d in distributions:
                 if loc[: len(d.path)] == d.path or (d.path[: len(loc)] == loc and d.per != "sample"):
                     return d.path
+            if around:
+                for path, key, _ in self.grid:
+                    if path[: len(loc)] == loc:
+                        return ("sweep", "grid", key, index[key])
             return None
 
         return relocate
 
 
 def _at_grid(path: FieldPath, key: str, i: int) -> Any:
-    """``relocate``: a field under ``path`` -> the grid's value ``i`` of ``key``."""
+    """``relocate``: a field under ``path``, or a model around it (the file's own cell 0 being
+    valid) -> the grid's value ``i`` of ``key``."""
 
     def relocate(loc: FieldPath) -> FieldPath | None:
-        return ("sweep", "grid", key, i) if loc[: len(path)] == path else None
+        return ("sweep", "grid", key, i) if loc[: len(path)] == path or path[: len(loc)] == loc else None
 
     return relocate
 

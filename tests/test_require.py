@@ -8,6 +8,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy import stats
 
 from stackdsl import compile_scenario
@@ -213,3 +215,64 @@ require: ["{condition}"]
     with pytest.raises(ScenarioError) as err:
         accept(scenario)
     assert err.value.field == "require[0]" and err.value.line == 4 and refused in err.value.message
+
+
+NEVER = """stackdsl: 1
+structure: {tower: {levels: LEVELS, bricks_per_layer: 1, turn: 0, shift: {uniform: [-1 mm, 1 mm], per: layer}}}
+timing: {interval: 0.1 s}
+require: ['com_offset < 0.001 mm']
+"""
+
+
+def test_the_draws_stop_at_their_time_budget(monkeypatch):
+    import stackdsl.compile.require as require_module
+
+    clock = iter(range(10_000))  # a clock one second later at every reading: the draws, not the machine, decide
+    monkeypatch.setattr(require_module, "perf_counter", lambda: float(next(clock)))
+    scenario = parse_scenario(NEVER.replace("LEVELS", "5"), "n.yaml")
+    with pytest.raises(ScenarioError) as err:
+        accept(scenario, 5)
+    assert err.value.field == "require[0]"
+    assert (
+        "sample 0: none of 6 draws met every condition in 7.0 s, stopped by --timeout 5 before the 1000 draws"
+        in err.value.message
+    )
+    assert "6 failed this one; widen the distributions or the condition" in err.value.message
+    with pytest.raises(ScenarioError) as err:  # with no --timeout (or a longer one), at most DRAW_TIME
+        accept(scenario, 1000.0)
+    assert f"none of {int(require_module.DRAW_TIME) + 1} draws" in err.value.message
+    assert f"stopped by the {require_module.DRAW_TIME:g} s a sample's draws may take" in err.value.message
+    # a budget ends the search, never changes what it finds
+    monkeypatch.setattr(require_module, "perf_counter", lambda: 0.0)
+    text = STACK + "require: [max_overhang < 30 mm]\nsweep: {samples: 4}\n"
+    template = parse_scenario(text, "r.yaml").template
+    assert all(accept(template.scenario(0, k), 0.0)[1] == accept(template.scenario(0, k))[1] for k in range(4))
+
+
+def test_check_timeout_bounds_the_draws_of_a_tall_random_stack(tmp_path, capsys):
+    import time
+
+    from stackdsl.cli.main import main
+
+    (tmp_path / "n.yaml").write_text(NEVER.replace("LEVELS", "200"))
+    started = time.perf_counter()
+    assert main(["check", str(tmp_path / "n.yaml"), "-j", "1", "--timeout", "1"]) == 2
+    assert time.perf_counter() - started < 15  # 1000 draws took 44 s
+    err = capsys.readouterr().err
+    assert "n.yaml:4:11: require[0]: sample 0: none of " in err and "stopped by --timeout 1 before the 1000 draws" in err
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 80), st.integers(0, 2**32 - 1))
+def test_com_offsets_are_the_cumsums_of_each_level_bit_for_bit(n, seed):
+    from stackdsl.compile import require as require_module
+
+    rng = np.random.default_rng(seed)
+    mass = rng.uniform(0.001, 1.0, n)
+    moment = rng.normal(0, 0.1, (n, 2)) * mass[:, None]
+    centres = rng.normal(0, 0.1, (n, 2))
+    expected = []  # the sums as a cumsum from each level up (the definition, and what the draws were accepted by)
+    for i in range(n - 1):
+        com = np.cumsum(moment[i + 1 :], axis=0) / np.cumsum(mass[i + 1 :])[:, None]
+        expected.append(float(np.linalg.norm(com - centres[i], axis=1).max()))
+    assert require_module._com_offsets(mass, moment, centres) == expected

@@ -83,6 +83,7 @@ def prepare(
     backends: tuple[str | None, ...] = (None,),
     refused: list[CheckResult] | None = None,
     seed: int | None = None,
+    timeout: float | None = None,
 ) -> list[Prepared]:
     """Load and compile every file (on each of ``backends``, in each of ``modes`` when
     given, with the stability ``model`` when given); nothing is simulated.
@@ -92,6 +93,8 @@ def prepare(
             engine or mode refuses (beyond what it simulates faithfully) gets a result here
             with :attr:`CheckResult.refused`, in place of an error.
         seed: replaces every file's ``seed`` when given.
+        timeout: the runs' wall seconds, which a random file's draws to meet ``require:`` may
+            take too (at most :data:`stackdsl.compile.require.DRAW_TIME`, the default).
 
     Raises:
         ScenarioErrors: one error per bad file.
@@ -104,13 +107,13 @@ def prepare(
             for backend in backends:
                 for m in modes or (mode,):
                     try:
-                        program = compile_scenario(scenario, m, model, backend)
+                        program = compile_scenario(scenario, m, model, backend, draw_time=timeout)
                         if sweep is not None:  # every grid cell, before anything of any file runs
-                            compile_cells(sweep, m, model, backend, range(1, sweep.cells))
+                            compile_cells(sweep, m, model, backend, range(1, sweep.cells), timeout)
                     except ScenarioError as exc:
                         if refused is None or (m is None and backend is None):
                             raise
-                        compile_scenario(scenario, None, model)  # as written: a bad file is an error still
+                        compile_scenario(scenario, None, model, draw_time=timeout)  # as written: a bad file is an error still
                         refused.append(_refusal(path, scenario, m, model, backend, exc))
                         continue
                     prepared.append(Prepared(path, program, scenario.expect, sweep))
@@ -227,7 +230,7 @@ def check(
         ValueError: ``jobs`` below 1.
     """
     listed = [paths] if isinstance(paths, (str, Path)) else list(paths)  # one path, not its letters
-    prepared = select(prepare(discover(listed), mode, model=model, seed=seed), pattern)
+    prepared = select(prepare(discover(listed), mode, model=model, seed=seed, timeout=timeout), pattern)
     return run_checks(prepared, jobs, executor, timeout)
 
 
@@ -312,7 +315,7 @@ def compare(
         ScenarioErrors: a file is missing or invalid (before anything runs).
     """
     refusals: list[CheckResult] = []
-    prepared = prepare(discover(paths), modes=modes, model=model, refused=refusals)
+    prepared = prepare(discover(paths), modes=modes, model=model, refused=refusals, timeout=timeout)
     prepared, refused = select_comparison(prepared, refusals, pattern)
     return tabulate(prepared, modes, chain(refused, run_checks(prepared, jobs, timeout=timeout)))
 

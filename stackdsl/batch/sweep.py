@@ -110,7 +110,7 @@ def _one(template: Template, cell: int, k: int, options: SweepOptions) -> Sample
         parameters = template.parameters(cell, k)
         scenario = template.scenario(cell, k)
         seed = scenario.seed
-        program = compile_scenario(scenario, options.mode, options.model, options.backend)
+        program = compile_scenario(scenario, options.mode, options.model, options.backend, draw_time=options.timeout)
         if program.draws > 1:  # redrawn to meet 'require:': what the run drew
             parameters = template.parameters(cell, k, program.draws - 1)
             seed = template.scenario(cell, k, attempt=program.draws - 1).seed
@@ -145,19 +145,21 @@ def compile_cells(
     model: str | None = None,
     backend: str | None = None,
     cells: Iterable[int] = (0,),
+    draw_time: float | None = None,
 ) -> None:
     """Compile sample 0 of each of ``cells``, before any sample runs: what the compiler refuses in
     one is refused in the file as a whole, once, as ``check`` refuses a file (a ``require:`` that
     none of a sample's :data:`stackdsl.compile.require.MAX_DRAWS` draws meets is hopeless for
     every sample: they draw from the same distributions). A refusal at a field a grid value
     filled in is placed at that value (:meth:`stackdsl.lang.sampling.Template.scenario`).
+    ``draw_time``: as :func:`stackdsl.compile_scenario`'s (a run's ``--timeout``).
 
     Raises:
         ScenarioError: the first cell's refusal, saying which sample and cell.
     """
     for c in cells:
         try:
-            compile_scenario(template.scenario(c, 0), mode, model, backend)
+            compile_scenario(template.scenario(c, 0), mode, model, backend, draw_time=draw_time)
         except ScenarioError as exc:
             raise _which(exc, template, c, 0) from None
 
@@ -228,7 +230,8 @@ def run_sweep(
 def _estimate(template: Template, options: SweepOptions) -> float:
     """Wall seconds a sample takes, by the compiler's estimate for sample 0 of cell 0."""
     try:
-        return compile_scenario(template.scenario(0, 0), options.mode, options.model, options.backend).wall_estimate
+        scenario = template.scenario(0, 0)
+        return compile_scenario(scenario, options.mode, options.model, options.backend, draw_time=options.timeout).wall_estimate
     except ScenarioError:
         return 0.1
 

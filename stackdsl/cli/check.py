@@ -37,7 +37,8 @@ def check_command(args: argparse.Namespace) -> int:
         raise ScenarioError("the report must go to a folder, and this is a file", file=args.report)
     backends = _backends(args.backend, several=False)
     prepared = select(
-        prepare(discover(args.paths), args.mode, model=args.model, backends=backends, seed=args.seed), args.pattern
+        prepare(discover(args.paths), args.mode, model=args.model, backends=backends, seed=args.seed, timeout=args.timeout),
+        args.pattern,
     )  # bad input raises here
     folders = None
     if report is not None:
@@ -132,7 +133,15 @@ def compare_command(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     plain = tuple(dict.fromkeys(m.split()[-1] for m in modes))
     refusals: list[CheckResult] = []
-    prepared = prepare(discover(args.paths), modes=plain, model=args.model, backends=backends, refused=refusals, seed=args.seed)
+    prepared = prepare(
+        discover(args.paths),
+        modes=plain,
+        model=args.model,
+        backends=backends,
+        refused=refusals,
+        seed=args.seed,
+        timeout=args.timeout,
+    )
     prepared, refused = select_comparison(prepared, refusals, args.pattern)
     done: list[CheckResult] = []
     live = is_live(sys.stdout)

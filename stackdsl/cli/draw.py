@@ -149,7 +149,8 @@ def trajectory_of(args: argparse.Namespace) -> Any:
             raise ScenarioError(exc.strerror or str(exc), file=args.file) from None
         except ValueError as exc:
             raise ScenarioError(str(exc).removeprefix(f"{path}: "), file=args.file) from None
-    program = compile_scenario(load_scenario(path, getattr(args, "seed", None)), args.mode, args.model, args.backend)
+    scenario = load_scenario(path, getattr(args, "seed", None))
+    program = compile_scenario(scenario, args.mode, args.model, args.backend, draw_time=args.timeout)
     at = getattr(args, "at", None)
     if isinstance(at, float) and at > program.duration:  # refused before anything is simulated
         raise ScenarioError(f"t = {at:g} s is outside the run, which lasts from 0 to {program.duration:g} s", file="--at")

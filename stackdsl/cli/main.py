@@ -472,7 +472,7 @@ def _run(args: argparse.Namespace) -> int:
     from ..verdicts.expect import describe_outcome, evaluate, explain, not_run_line
 
     scenario = _one_sample(load_scenario(args.file, args.seed), args.cell, args.sample, "run")
-    program = compile_scenario(scenario, args.mode, args.model, args.backend)
+    program = compile_scenario(scenario, args.mode, args.model, args.backend, draw_time=args.timeout)
     if args.rate is not None and not args.record:
         raise ScenarioError("--rate is the recording's: give --record OUT.npz too", file="--rate")
     if args.record:

@@ -71,7 +71,13 @@ MAX_WORK = 1e8
 
 
 def compile_scenario(
-    scenario: Scenario, mode: str | None = None, model: str | None = None, backend: str | None = None, *, limits: bool = True
+    scenario: Scenario,
+    mode: str | None = None,
+    model: str | None = None,
+    backend: str | None = None,
+    *,
+    limits: bool = True,
+    draw_time: float | None = None,
 ) -> Program:
     """Compile a scenario into a :class:`Program`.
 
@@ -84,6 +90,8 @@ def compile_scenario(
             other engine's own settings in the scenario are then left out.
         limits: False skips the engine's own limits (:mod:`stackdsl.compile.limits`), to
             measure them (``stackdsl bench limits``); a run beyond them is the engine's artefact.
+        draw_time: wall seconds the draws that meet ``require:`` may take (a run's ``--timeout``),
+            at most :data:`stackdsl.compile.require.DRAW_TIME` (30 s), the default.
 
     Raises:
         ScenarioError: an action time is not a whole number of timesteps, an impact
@@ -91,13 +99,14 @@ def compile_scenario(
             work budget (:data:`MAX_WORK`), or a check before simulating fails
             (:mod:`stackdsl.compile.precheck`: bricks that overlap or rest on nothing where
             placed, expectations about levels never built), the scene is beyond what the
-            engine simulates faithfully (:mod:`stackdsl.compile.limits`), or the engine is
-            MuJoCo and it is not installed (the ``mujoco`` extra).
+            engine simulates faithfully (:mod:`stackdsl.compile.limits`), the engine is
+            MuJoCo and it is not installed (the ``mujoco`` extra), or no draw of a random scene
+            meets its ``require:`` within its draws or ``draw_time``.
     """
     unknown = reference_errors(scenario)  # refused when validated; here for a scenario made without (model_construct)
     if unknown:
         raise scenario.source.error(*unknown[0], more=len(unknown) - 1)
-    scenario, draws = accept(scenario)  # a random scene's first draw that meets its 'require:'
+    scenario, draws = accept(scenario, draw_time)  # a random scene's first draw that meets its 'require:'
     engine = _engine(scenario, mode, backend)
     if engine.backend == "mujoco" and not installed("mujoco"):
         if backend is None or backend == scenario.engine.backend:  # the file asks for it: say where

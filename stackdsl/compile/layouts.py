@@ -66,23 +66,23 @@ def with_placement_error(scenario: Scenario, bricks: list[LaidBrick]) -> list[La
     return bricks
 
 
-def tower(scenario: Scenario, t: Tower) -> list[LaidBrick]:
+def tower(scenario: Scenario, t: Tower, path: FieldPath = ("structure", "tower")) -> list[LaidBrick]:
     """The tower generator: layer L turned (L-1) x turn, centred at origin plus the shifts of
     the layers below it ((L-1) x shift, or the sum of ``shifts``); each brick turned by its
-    ``yaw_jitter`` more, about its own centre."""
+    ``yaw_jitter`` more, about its own centre; ``path``: the tower's field (each brick's source)."""
     height = scenario.brick_type(t.brick).size[2]
     bricks: list[LaidBrick] = []
+    shifts = t.layer_shifts()
+    origin = np.array(t.origin)
     for level in range(1, t.levels + 1):
         yaw = t.yaw + (level - 1) * t.turn
         across = np.array([-math.sin(math.radians(yaw)), math.cos(math.radians(yaw))])
-        centre = np.array(t.origin) + np.array(t.layer_shift(level))
+        centre = origin + np.array(shifts[level - 1])
         for k in range(t.bricks_per_layer):
             xy = centre + (k - (t.bricks_per_layer - 1) / 2) * t.spacing * across
             position = np.array([xy[0], xy[1], (level - 0.5) * height])
             jitter = t.jitter(len(bricks))
-            bricks.append(
-                LaidBrick(f"L{level:02d}.{k + 1}", level, t.brick, position, wrap(yaw + jitter), source=("structure", "tower"))
-            )
+            bricks.append(LaidBrick(f"L{level:02d}.{k + 1}", level, t.brick, position, wrap(yaw + jitter), source=path))
     return bricks
 
 

@@ -46,7 +46,7 @@ def generate(scenario: Scenario, kind: str, model: Any, path: FieldPath) -> list
     if kind == "bricks":
         return by_hand(scenario, model, path)
     if kind == "tower":
-        return [replace(b, source=path) for b in tower(scenario, model)]
+        return tower(scenario, model, path)
     makers: dict[str, Callable[[Scenario, Any, FieldPath], list[LaidBrick]]] = {
         "card_house": card_house,
         "wall": wall,

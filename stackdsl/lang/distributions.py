@@ -227,8 +227,9 @@ def draw(data: dict[str, Any], distributions: list[Distribution], seed: int, k: 
             continue
         if spot and spot[1] == "shift":
             if "shifts" not in tower:  # one shift a layer above the first, each a copy of the field
-                shift = tower.pop("shift")
-                tower["shifts"] = [copy.deepcopy(shift) for _ in range(levels - 1)]
+                shift = tower.pop("shift")  # (drawn whole, each is replaced: no copy needed)
+                whole = len(d.path) == at
+                tower["shifts"] = [shift if whole else copy.deepcopy(shift) for _ in range(levels - 1)]
             for i, value in enumerate(d.draw(rng, levels - 1)):
                 if len(d.path) == at:
                     tower["shifts"][i] = value

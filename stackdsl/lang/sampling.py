@@ -159,10 +159,12 @@ class Template:
         ``attempt`` of the sample: see :func:`stackdsl.lang.distributions.sample_seed`). ``put``:
         grid values (key as written -> value) in place of the cell's, put in before anything is
         drawn, so that a per-layer or per-brick draw is sized by the tower they make."""
-        data = copy.deepcopy(self.data)
-        values = self.cell(c) | (put or {})
-        for path, key, _ in self.grid:
-            _put(data, path, values[key])
+        data = self.data  # draw copies it
+        if self.grid:
+            data = copy.deepcopy(self.data)
+            values = self.cell(c) | (put or {})
+            for path, key, _ in self.grid:
+                _put(data, path, values[key])
         grid_paths = [path for path, _, _ in self.grid]
         drawn = [d for d in self.distributions if not any(d.path[: len(p)] == p for p in grid_paths)]
         return draw(data, drawn, self.seed, k, attempt)

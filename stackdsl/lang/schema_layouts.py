@@ -82,10 +82,20 @@ class Tower(StrictModel):
 
     def layer_shift(self, level: int) -> tuple[float, float]:
         """Where level ``level``'s centre is from ``origin``, m: the sum of the shifts below it."""
+        return self.layer_shifts()[level - 1]
+
+    def layer_shifts(self) -> list[tuple[float, float]]:
+        """:meth:`layer_shift` of every level, level 1 first, m: one running sum (each level's
+        is the sum of the shifts below it, added from the bottom up), not a sum a level."""
         if self.shifts is None:
-            return (level - 1) * self.shift[0], (level - 1) * self.shift[1]
-        below = self.shifts[: level - 1]
-        return sum(x for x, _ in below), sum(y for _, y in below)
+            return [((level - 1) * self.shift[0], (level - 1) * self.shift[1]) for level in range(1, self.levels + 1)]
+        out: list[tuple[float, float]] = [(0, 0)]  # as sum() of nothing: 0
+        x: float = 0
+        y: float = 0
+        for dx, dy in self.shifts[: self.levels - 1]:
+            x, y = x + dx, y + dy
+            out.append((x, y))
+        return out
 
     def jitter(self, index: int) -> float:
         """Degrees added to brick ``index``'s yaw (bricks counted from 0, level 1 first)."""

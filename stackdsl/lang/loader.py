@@ -36,6 +36,7 @@ from .spelling import spelled
 from .unit_slips import UnitSlipWarning, unit_slips
 from .validate import raised_in_library, validate
 from .validation_errors import shown
+from .yaml_out import EXPONENT_ONLY, dump
 
 MAX_NODES = 200_000  # values a file may expand to, counting each alias's copy
 MAX_DEPTH = 64  # lists and mappings nested in one another; scenarios need fewer than 10
@@ -83,7 +84,7 @@ def _as_yaml(data: Mapping[str, Any]) -> str:
         return value
 
     try:
-        return str(yaml.safe_dump(plain(data), sort_keys=False, allow_unicode=True))
+        return dump(plain(data))  # text the loader reads back as it was (a part named '1e3' quoted)
     except yaml.representer.RepresenterError as exc:
         raise TypeError(
             f"parse_scenario takes YAML text or plain data (dicts, lists, numbers, strings), not {exc.args[-1]!r}"
@@ -131,11 +132,6 @@ def parse_scenario(text: str | Mapping[str, Any], file: str = NO_FILE, seed: int
     return scenario
 
 
-#: A number with an exponent and no point, ``1e-4``: a float in YAML 1.2 (and to anyone writing
-#: a tolerance), a string in YAML 1.1, which PyYAML follows.
-_EXPONENT_ONLY = re.compile(r"^[-+]?[0-9][0-9_]*[eE][-+]?[0-9]+$")
-
-
 class _Loader(yaml.SafeLoader):
     """PyYAML's safe loader without YAML 1.1's timestamp, value and merge types, that
     refuses recursive aliases and nesting deeper than :data:`MAX_DEPTH` while composing,
@@ -143,7 +139,7 @@ class _Loader(yaml.SafeLoader):
 
     yaml_implicit_resolvers = {  # noqa: RUF012 (PyYAML's own class attribute, read only)
         first: [(tag, regexp) for tag, regexp in resolvers if tag in _SCALAR_TAGS]
-        + ([(_YAML + "float", _EXPONENT_ONLY)] if first in "+-0123456789" else [])
+        + ([(_YAML + "float", EXPONENT_ONLY)] if first in "+-0123456789" else [])
         for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
     }
 

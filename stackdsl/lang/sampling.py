@@ -52,14 +52,15 @@ class Template:
 
     Attributes:
         data: the file as plain data, distributions in place.
-        source: where each field came from.
+        source: where each field came from (not compared: two templates of the same data from
+            two files, or from a file and its ``to_yaml()``, are equal).
         distributions: in file order.
         grid: (field path, the key as written, its values) for each grid field.
         samples: draws a cell; seed: the file's seed.
     """
 
     data: dict[str, Any]
-    source: SourceMap
+    source: SourceMap = dataclasses.field(compare=False)
     distributions: tuple[Distribution, ...]
     grid: tuple[tuple[FieldPath, str, tuple[Any, ...]], ...]
     samples: int

@@ -358,6 +358,16 @@ class Scenario(StrictModel):
         """Where the fields came from (:class:`SourceMap`)."""
         return self._source
 
+    def __eq__(self, other: object) -> bool:
+        """The same scenario: the same fields and, for a sample of a random file or a sweep, the
+        same file data (:class:`~stackdsl.lang.sampling.Template`) and the same (cell, sample).
+        Where the fields were written (:attr:`source`: the file's name, lines and positions) is
+        not compared, so ``parse_scenario(s.to_yaml()) == s`` (pydantic's own equality compares
+        the private attributes too, and a built scenario and its YAML read back differed there)."""
+        if not isinstance(other, Scenario):
+            return NotImplemented
+        return self.__dict__ == other.__dict__ and self._sample == other._sample and self._template == other._template
+
     @property
     def template(self) -> Any:
         """The file's :class:`stackdsl.lang.sampling.Template` when it has random fields or a sweep

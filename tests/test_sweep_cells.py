@@ -136,3 +136,52 @@ def test_an_exact_summary_has_its_estimates_for_intervals():
     sampled, exact = summary([None, 3]), summary([None, 3], exact=True)
     assert sampled.p_stands_interval != (0.5, 0.5) and exact.p_stands_interval == (0.5, 0.5)
     assert exact.mean_interval == (3.0, 3.0) and "exact" in exact.text() and "95% CI" not in exact.text()
+
+
+DROP = """stackdsl: 1
+structure: {{tower: {{levels: 3}}}}
+timing: {{settle: 0.2 s}}
+sweep: {{samples: 2, grid: {{timing.drop_gap: [0, 1 mm], actions.0.shake.amplitude: [10 mm, 20 mm]}}}}
+actions: [{{shake: {{amplitude: 5 mm, frequency: 2 Hz, duration: 1 s, at: 1 s}}}}]
+expect:
+  cells:
+    - {{where: "timing.drop_gap < 2 mm", p_stands: ">= 0.1"}}
+    - {{where: "{where}", p_stands: ">= 0.1"}}
+"""
+
+
+@pytest.mark.parametrize(
+    "where",
+    [
+        "timing.drop_gap > 1 m",
+        "timing.drop_gap > 0.5 mm and actions.0.shake.amplitude < 10 mm",
+        "actions.0.shake.amplitude > 20 mm or timing.drop_gap < 0",
+    ],
+)
+def test_a_cells_condition_no_grid_cell_meets_is_refused_at_it(where, tmp_path, capsys):
+    """It was dropped: nothing judged in any cell, and the sweep passed on nothing (exit 0)."""
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(DROP.format(where=where), "c.yaml")
+    assert (err.value.field, err.value.line) == ("expect.cells[1].where", 9)
+    assert err.value.message.startswith("no grid cell meets this condition, so these expectations would judge nothing")
+    assert "timing.drop_gap: 0, 1 mm; actions.0.shake.amplitude: 10 mm, 20 mm" in err.value.message
+    (tmp_path / "c.yaml").write_text(DROP.format(where=where))
+    assert main(["sweep", str(tmp_path / "c.yaml"), "-j", "1", "--out", str(tmp_path / "o")]) == 2
+    assert "c.yaml:9:15: expect.cells[1].where: no grid cell meets" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("where", "said"),
+    [
+        ("timing.drop_gap < 1 s", "compares timing.drop_gap (a length) with 1 s (a time)"),
+        ("actions.0.shake.amplitude + 1 Hz > 0", "adds actions.0.shake.amplitude (a length) to 1 Hz"),
+        ("max(timing.drop_gap, 1 s) > 0", "timing.drop_gap (a length)"),
+    ],
+)
+def test_a_cells_condition_is_refused_for_mixed_units_as_require_is(where, said):
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(DROP.format(where=where), "c.yaml")
+    assert err.value.field == "expect.cells[1].where" and said in err.value.message
+    # one kind on both sides, or a bare number (SI), is read as before
+    for fine in ("timing.drop_gap < 1 mm", "timing.drop_gap < 0.0005", "actions.0.shake.amplitude * 2 >= 40 mm"):
+        parse_scenario(DROP.format(where=fine), "c.yaml")

@@ -29,6 +29,8 @@ from typing import Any
 
 from .distributions import Distribution, draw, find, tower_field
 from .errors import FieldPath, ScenarioError, SourceMap, format_path
+from .expressions import check_kinds, parse
+from .field_kinds import field_kind
 from .schema import Scenario, Structure
 from .schema_sweep import MAX_SAMPLES, MAX_SWEEP_RUNS, grid_name
 from .units import in_language_units, in_unit, language_unit, split_quantity
@@ -111,12 +113,7 @@ class Template:
     def values(self, c: int) -> dict[str, float]:
         """Cell ``c``'s grid values by their dotted keys (:func:`grid_name`), numbers in SI (angles in
         degrees), as a cell's condition (``expect.cells``) reads them; a value that is no number is left out."""
-        out: dict[str, float] = {}
-        for key, value in self.cell(c).items():
-            number, _ = in_language_units(value)
-            if isinstance(number, (int, float)) and not isinstance(number, bool):
-                out[grid_name(key)] = float(number)
-        return out
+        return self._si(tuple(self.cell(c).values()))
 
     @property
     def cells(self) -> int:
@@ -184,6 +181,8 @@ class Template:
         if checked:
             self._check_values()
         scenario = validate(self._data(c, k, attempt), self.source, self._blame(c, around=True), self._note(c, k))
+        if checked:
+            self._check_cells(scenario.expect.cells or [])
         if self.grid:  # what the compiler refuses in a field the grid filled in is the grid value's fault
             scenario._source = self._cell_source(c)
         scenario._template = self
@@ -246,6 +245,42 @@ class Template:
     def _note(self, c: int, k: int) -> str:
         """What an error in cell ``c``'s sample ``k`` is said after: ``"sample 3 of grid cell 1 (timing.interval = 1 s)"``."""
         return f"sample {k}" + (f" of grid cell {c} ({_shown(self.cell(c))})" if self.grid else "")
+
+    def _check_cells(self, rules: list[Any]) -> None:
+        """Each condition of ``expect.cells`` (``rules``, validated) against the grid, once: both
+        sides of a comparison quantities of one kind (as ``require:`` has them), and some cell in
+        which it holds (else its expectations would judge nothing, and the sweep pass on nothing).
+
+        Raises:
+            ScenarioError: at the rule's ``where``, naming the kinds, or the grid's values.
+        """
+        if not rules:
+            return
+        kinds = {grid_name(key): field_kind(grid_name(key)) for _, key, _ in self.grid}
+        cells = [self._si(combination) for combination in itertools.product(*(values for _, _, values in self.grid))]
+        for i, rule in enumerate(rules):
+            at = ("expect", "cells", i, "where")
+            condition = parse(rule.where)
+            try:
+                check_kinds(condition, kinds)
+            except ValueError as exc:
+                raise self.source.error(at, str(exc)) from None
+            if not any(condition.holds(values) for values in cells):
+                shown = "; ".join(f"{key}: {', '.join(str(v) for v in values)}" for _, key, values in self.grid)
+                raise self.source.error(
+                    at,
+                    f"no grid cell meets this condition, so these expectations would judge nothing; the grid's values "
+                    f"are {shown} (a condition reads them in SI units and degrees); change the condition or the grid",
+                )
+
+    def _si(self, combination: tuple[Any, ...]) -> dict[str, float]:
+        """A cell's grid values (``combination``, in grid order) as :meth:`values` gives them."""
+        out: dict[str, float] = {}
+        for (_, key, _), value in zip(self.grid, combination):
+            number, _ = in_language_units(value)
+            if isinstance(number, (int, float)) and not isinstance(number, bool):
+                out[grid_name(key)] = float(number)
+        return out
 
     def _cell_source(self, c: int) -> SourceMap:
         """The source map of cell ``c``'s samples: an error at a field the grid filled in (the

@@ -33,10 +33,11 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 
 import numpy as np
+from shapely.geometry import MultiPoint
 
 from stability import Box, Pose, StabilityConfig
 
@@ -159,6 +160,7 @@ def compile_scenario(
     check_measured(scenario, [b.id for b in bricks])
     _own_ids(scenario, [b.id for b in everything], launches, motions)
     gone = {m.id: m.end_step for m in motions if isinstance(m, Remove)}  # pulled out and taken away
+    _nothing_placed_on_pulled(scenario, bricks, specs, places, motions)
     for i, motion in enumerate(motions):
         if isinstance(motion, Push):
             present = [
@@ -414,6 +416,40 @@ def _engine(scenario: Scenario, mode: str | None, backend: str | None = None) ->
     if backend is not None and backend != scenario.engine.backend:  # the other backend's own settings do not apply
         given = {k: v for k, v in given.items() if k not in BACKEND_FIELDS[scenario.engine.backend]}
     return settings(engine, mode=chosen, gravity=GRAVITY, **{**defaults(engine, chosen), **given})
+
+
+def _nothing_placed_on_pulled(
+    scenario: Scenario,
+    bricks: Sequence[LaidBrick],
+    specs: Mapping[str, BrickSpec],
+    places: Sequence[Place],
+    motions: Sequence[Kinematic],
+) -> None:
+    """A ScenarioError at a pull's ``at`` when a brick is placed on the pulled brick once the
+    pull has started: it lands on a brick on its way out (a part ``on:`` it, a level above it).
+    A brick rests on another when its bottom lies within 1 mm of the other's top and their
+    footprints overlap. Source: stackdsl's own."""
+    laid = {b.id: b for b in bricks}
+    boxes = {b.id: Box(np.array(specs[b.type].half_extents), specs[b.type].mass).corners(b.pose()) for b in bricks}
+    for index, motion in enumerate(motions):
+        if not isinstance(motion, Remove) or motion.id not in boxes:
+            continue
+        pulled = boxes[motion.id]
+        top, under = float(pulled[:, 2].max()), MultiPoint(pulled[:, :2]).convex_hull
+        for place in places:
+            if place.step < motion.step or place.id not in boxes:
+                continue
+            corners = boxes[place.id]
+            if (
+                abs(float(corners[:, 2].min()) - top) < 0.001
+                and MultiPoint(corners[:, :2]).convex_hull.intersection(under).area > 1e-8
+            ):
+                raise scenario.source.error(
+                    ("actions", index, "remove", "at"),
+                    f"{motion.id} is pulled out from {motion.time:g} s, and {place.id} is placed on it at {place.time:g} s "
+                    f"(level {laid[place.id].level}): pull it once what rests on it is built, "
+                    "or build nothing on it",
+                )
 
 
 def _steps(scenario: Scenario, path: FieldPath, seconds: float, dt: float) -> int:

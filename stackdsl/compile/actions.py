@@ -26,7 +26,7 @@ from stability import Box, Pose
 
 from ..engines.protocol import BrickSpec
 from ..lang.errors import FieldPath
-from ..lang.expectations import bricks_of, selects
+from ..lang.expectations import bricks_of, closest, selects
 from ..lang.schema import Scenario
 from ..lang.schema_actions import AXES, SAMPLES_A_PERIOD, Action, AfterPrevious
 from ..lang.schema_impacts import AfterLevel
@@ -416,7 +416,7 @@ def _unknown(name: str, bricks: Sequence[LaidBrick], fixtures: Sequence[str], ve
     listed = ", ".join(b.id for b in bricks[:3]) + (", ..." if len(bricks) > 3 else "")
     if name in fixtures:
         return f"{name!r} is fixed (a fixture): a hand does not {verb} it; the structure's bricks: {listed}"
-    return f"no brick of the structure is {name!r} (its bricks: {listed})"
+    return f"no brick of the structure is {name!r} (its bricks: {listed}){closest(name, [b.id for b in bricks])}"
 
 
 def _meets(start: np.ndarray, travel: np.ndarray, pusher: BrickSpec, brick: LaidBrick, spec: BrickSpec) -> bool:

@@ -26,9 +26,7 @@ Source: stackdsl's own.
 
 from __future__ import annotations
 
-import difflib
 import math
-import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -37,7 +35,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..lang.errors import MAX_SHOWN, FieldPath, format_path
-from ..lang.expectations import CollapseLevel, bricks_of, levels_of, selects, span
+from ..lang.expectations import CollapseLevel, bricks_of, closest, levels_of, selects, span
 from ..lang.schema import Scenario
 from .overlap import GROUND, OVERLAP_TOLERANCE, REST_TOLERANCE, Body, inspect_bodies
 from .parts import layout_at, part_path
@@ -287,24 +285,6 @@ def _blame_placement_error(scenario: Scenario, bodies: Sequence[Body], problem: 
     return _Problem(problem.key, problem.order, ("timing", "placement_error"), message, problem.effect)
 
 
-def _closest(selector: str, ids: Sequence[str]) -> str:
-    """``; did you mean 'L01'?``: the id, or start of ids up to a '.', nearest to ``selector``
-    (a level written without its zeros, a part's prefix left out), or nothing."""
-    starts = list(dict.fromkeys(i.rsplit(".", k)[0] for i in ids for k in range(i.count(".") + 1)))
-    tails: dict[str, str] = {}
-    for start in starts:  # each start, and each without its part's name ('L01.1' for 'left.L01.1'), the first kept
-        tails.setdefault(start, start)
-        if "." in start:
-            tails.setdefault(start.split(".", 1)[1], start)
-
-    def numbers(text: str) -> str:
-        return re.sub(r"\d+", lambda m: str(int(m.group())), text)
-
-    same = [t for t in tails if numbers(t) == numbers(selector)]
-    close = same or difflib.get_close_matches(selector, list(tails), n=1, cutoff=0.6)
-    return f"; did you mean {tails[close[0]]!r}?" if close else ""
-
-
 def _chosen(selection: Sequence[int | str] | None, ids: Sequence[str], level_of: Mapping[str, int]) -> dict[str, str]:
     """The brick ids a ``stays``/``moved``/``may_fall`` selection names, each with what names
     it (``level 2``, ``'a'``), in the order of ``ids``."""
@@ -359,7 +339,7 @@ def _expectation_problems(
                     f"{', '.join(repr(u) for u in unknown)} name{'s' * (len(unknown) == 1)} no brick of the structure: "
                     f"give a brick id (such as {ids[0]!r})"
                     + (f" or the start of ids (such as {ids[0].rsplit('.', 1)[0]!r}), up to a '.'" if "." in ids[0] else "")
-                    + _closest(unknown[0], ids),
+                    + closest(unknown[0], ids),
                 )
             )
         beyond = [lv for lv in levels if lv > top]

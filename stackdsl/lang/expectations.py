@@ -7,8 +7,9 @@ Source: stackdsl's own (docs/design.md, words).
 
 from __future__ import annotations
 
+import difflib
 import re
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from pydantic import (
@@ -109,6 +110,29 @@ def selects(selector: str, brick: str) -> bool:
     ([True, False, True], True)
     """
     return brick == selector or brick.startswith(selector if selector.endswith(".") else selector + ".")
+
+
+def closest(selector: str, ids: Sequence[str]) -> str:
+    """``; did you mean 'L01'?``: the id, or start of ids up to a '.', of ``ids`` nearest to
+    ``selector`` (a level written without its zeros, a part's prefix left out), or nothing.
+    Source: stackdsl's own.
+
+    >>> closest("L1", ["L01.1", "L12.1"]), closest("L02.1", ["west.L02.1"])
+    ("; did you mean 'L01'?", "; did you mean 'west.L02.1'?")
+    """
+    starts = list(dict.fromkeys(i.rsplit(".", k)[0] for i in ids for k in range(i.count(".") + 1)))
+    tails: dict[str, str] = {}
+    for start in starts:  # each start, and each without its part's name ('L01.1' for 'left.L01.1'), the first kept
+        tails.setdefault(start, start)
+        if "." in start:
+            tails.setdefault(start.split(".", 1)[1], start)
+
+    def numbers(text: str) -> str:
+        return re.sub(r"\d+", lambda m: str(int(m.group())), text)
+
+    same = [t for t in tails if numbers(t) == numbers(selector)]
+    close = same or difflib.get_close_matches(selector, list(tails), n=1, cutoff=0.6)
+    return f"; did you mean {tails[close[0]]!r}?" if close else ""
 
 
 def levels_of(selection: Iterable[int | str]) -> tuple[int, ...]:

@@ -712,20 +712,13 @@ def test_the_schema_bounds_numbers_in_json_schemas_words_not_pydantics():
     """pydantic names a bound ``ge``/``le``/``gt``/``lt`` in its own schema of an optional field
     with a Field around the union; JSON Schema knows no such keywords, so an editor accepted
     ``stands_until: 100000`` that the loader refuses. Every bound is ``minimum``/``maximum``."""
-    found = []
-
-    def walk(node, path):
-        if isinstance(node, dict):
-            if node.get("type") == "number" or "anyOf" in node or "$ref" in node:
-                found.extend(f"{path}.{k}" for k in ("ge", "le", "gt", "lt") if k in node)
-            for key, value in node.items():
-                if key not in ("examples", "default"):
-                    walk(value, f"{path}.{key}")
-        elif isinstance(node, list):
-            for i, value in enumerate(node):
-                walk(value, f"{path}[{i}]")
-
-    walk(json_schema(), "$")
+    found = [
+        f"{path}.{k}"
+        for path, node in schema_nodes(json_schema())
+        if node.get("type") == "number" or "anyOf" in node or "$ref" in node
+        for k in ("ge", "le", "gt", "lt")
+        if k in node
+    ]
     assert found == []
     validator = jsonschema.Draft202012Validator(json_schema())
     text = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nexpect: {stands_until: 100000}\n"
@@ -736,22 +729,22 @@ def test_no_description_says_a_sentence_twice():
     """The structure's description read 'What is built: ... Required. What is built: ...': the
     key's own words were added to a description that said the same in other case."""
     repeated = []
-
-    def walk(node, path):
-        if isinstance(node, dict):
-            text = node.get("description")
-            if isinstance(text, str):
-                sentences = [s.strip().lower() for s in re.split(r"(?<=\.)\s+", text) if len(s.strip()) > 20]
-                if len(sentences) != len(set(sentences)) or any(
-                    a != b and a.rstrip(".") in b for a in sentences for b in sentences
-                ):
-                    repeated.append(f"{path}: {text}")
-            for key, value in node.items():
-                if key not in ("examples", "default"):
-                    walk(value, f"{path}.{key}")
-        elif isinstance(node, list):
-            for i, value in enumerate(node):
-                walk(value, f"{path}[{i}]")
-
-    walk(json_schema(), "$")
+    for path, node in schema_nodes(json_schema()):
+        text = node.get("description")
+        if isinstance(text, str):
+            sentences = [s.strip().lower() for s in re.split(r"(?<=\.)\s+", text) if len(s.strip()) > 20]
+            if len(sentences) != len(set(sentences)) or any(a != b and a.rstrip(".") in b for a in sentences for b in sentences):
+                repeated.append(f"{path}: {text}")
     assert repeated == []
+
+
+def schema_nodes(node, path="$"):
+    """Every mapping of a JSON Schema with its path, examples and defaults left out."""
+    if isinstance(node, dict):
+        yield path, node
+        for key, value in node.items():
+            if key not in ("examples", "default"):
+                yield from schema_nodes(value, f"{path}.{key}")
+    elif isinstance(node, list):
+        for i, value in enumerate(node):
+            yield from schema_nodes(value, f"{path}[{i}]")

@@ -38,7 +38,7 @@ from ..lang.errors import ScenarioError
 from ..lang.extras import installed, missing
 from ..lang.files import written
 from ..runtime.trajectory import STATES, Trajectory
-from .render import COLOURS, Scene, collapse_text, legend_keys, scale_bar
+from .render import COLOURS, LABELS, Scene, collapse_text, legend_keys, scale_bar
 
 #: Frames a second of a clip, by default.
 FPS = 30.0
@@ -220,10 +220,11 @@ class _Overlay:
         box = max(8, self.height // 40)
         for i, key in enumerate(self.keys):  # the legend, top right
             right, top = self.width - pad, pad + i * (box + 4)
-            width = draw.textlength(key, font=self.small)
+            label = LABELS.get(key, key)
+            width = draw.textlength(label, font=self.small)
             draw.rectangle((right - width - box - 2 * pad, top - 2, right, top + box + 2), fill=(255, 255, 255, 190))
             draw.rectangle((right - box, top, right, top + box), fill=_rgb(COLOURS[key]), outline=(60, 60, 60))
-            draw.text((right - box - pad, top + box / 2), key, fill=(0, 0, 0), font=self.small, anchor="rm")
+            draw.text((right - box - pad, top + box / 2), label, fill=(0, 0, 0), font=self.small, anchor="rm")
         left, bottom = 0.04 * self.width, self.height - 0.05 * self.height
         draw.rectangle((left, bottom - 3, left + self.length, bottom), fill=(0, 0, 0))
         draw.text((left + self.length / 2, bottom - 5), self.bar[1], fill=(0, 0, 0), font=self.small, anchor="mb")

@@ -262,6 +262,10 @@ def scale_bar(pixels_per_metre: float, width: int) -> tuple[float, str]:
     return millimetres / 1000.0, label
 
 
+#: A legend's words for a colour key, where the key alone would mislead: a pusher is no projectile.
+LABELS = {"projectile": "thrown or pushing"}
+
+
 def legend_keys(trajectory: Trajectory, seen: Iterable[str]) -> list[str]:
     """The :data:`COLOURS` keys of a legend, in a fixed order: those ``seen`` (from
     :func:`colour_keys`) but ``"absent"``, and ``"fixture"`` when the run has any."""
@@ -337,7 +341,7 @@ def picture(
     axes.plot([left, left + length], [bottom, bottom], color="black", linewidth=3, solid_capstyle="butt")
     axes.text(left + length / 2.0, bottom - 6, label, ha="center", va="bottom", fontsize=points)
     keys = legend_keys(trajectory, colour_keys(trajectory, frame.states))
-    if handles := [Patch(facecolor=COLOURS[key], edgecolor="0.3", label=key) for key in keys]:
+    if handles := [Patch(facecolor=COLOURS[key], edgecolor="0.3", label=LABELS.get(key, key)) for key in keys]:
         axes.legend(handles=handles, loc="upper right", fontsize=points * 0.9, framealpha=0.85)
     with written(path) as part:
         figure.savefig(part, dpi=dpi, format="png")

@@ -343,7 +343,7 @@
     function panelFacts(id) {
       const b = index.get(id);
       const r = rowOf[b];
-      const facts = [["level", data.levels[b] === 0 ? "projectile" : String(data.levels[b])]];
+      const facts = [["level", data.levels[b] === 0 ? "none: thrown or pushing" : String(data.levels[b])]];
       facts.push(["state", data.states[stateOf[b]]]);
       if (r >= 0) {
         const p = [rowPos[3 * r], rowPos[3 * r + 1], rowPos[3 * r + 2]];
@@ -517,7 +517,7 @@
     if (data.fixtures.length) seen.add("fixture");
     $("legend").innerHTML = ["active", "frozen", "woken", "fallen", "projectile", "fixture"]
       .filter((k) => seen.has(k))
-      .map((k) => `<span class="key"><span class="swatch" style="background:${data.colours[k]}"></span>${k}</span>`)
+      .map((k) => `<span class="key"><span class="swatch" style="background:${data.colours[k]}"></span>${k === "projectile" ? "thrown or pushing" : k}</span>`)
       .join("");
 
     if (data.golden_bricks !== null && !data.ghosts.length) {

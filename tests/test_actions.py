@@ -840,3 +840,25 @@ def test_the_levels_placed_count_a_level_whose_bricks_were_pulled_out():
     )
     done = run_program(compile_scenario(parse_scenario(text, "p.yaml")))
     assert done.removed == ("L02.1",) and done.levels_placed == 2, (done.removed, done.levels_placed)
+
+
+def test_a_push_at_a_brick_that_has_fallen_says_so():
+    """A push is aimed where its brick was placed; when that brick has fallen away, the push line
+    read 'into b' as if it met it."""
+    from stackdsl import run_program
+
+    text = """stackdsl: 1
+structure:
+  bricks:
+    - {id: a, at: [0, 0, 4 mm]}
+    - {id: b, at: [40 mm, 0, 12 mm]}
+    - {id: c, at: [300 mm, 0, 4 mm]}
+timing: {interval: 0.5 s}
+actions:
+  - push: {target: {brick: b}, direction: [1, 0, 0], at: 3 s, distance: 60 mm}
+  - push: {target: {brick: b}, direction: [1, 0, 0], at: 6 s, distance: 20 mm}
+"""
+    done = run_program(compile_scenario(parse_scenario(text, "p.yaml")))
+    first, second = [e.detail for e in done.events if e.kind == "push"]
+    assert "from where it was placed" not in first
+    assert "from where it was placed: the pusher may meet nothing" in second, second

@@ -103,7 +103,13 @@ class Actions(Subscriber):
         loop.structure.add(record)
         self.stability.extension.add_brick(body, record.box, a.id, a.brick.friction)
         speed = float(np.linalg.norm(a.velocity))
-        loop.events.append(Event(time=a.time, kind="push", brick=a.id, detail=f"{speed * 1000:.3g} mm/s into {a.target}"))
+        detail = f"{speed * 1000:.3g} mm/s into {a.target}"
+        target = loop.structure.records.get(a.target)
+        if target is not None and target.structure and target in loop.structure.placed:
+            moved = loop.structure.displacement(target)
+            if moved > loop.program.collapse_threshold:  # aimed where the brick was placed, not where it is
+                detail += f" (it lies {moved * 1000:.3g} mm from where it was placed: the pusher may meet nothing)"
+        loop.events.append(Event(time=a.time, kind="push", brick=a.id, detail=detail))
         self._guide(loop, record, a.time, a.velocity, a.end_step, "push", "a pusher")
         self._finer(loop)
 

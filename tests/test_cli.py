@@ -1055,3 +1055,16 @@ def test_check_takes_one_path_as_well_as_a_list(tmp_path):
     for given in (str(file), file, [file]):
         results = list(_check.check(given, jobs=1))
         assert [r.file for r in results] == [str(file)], results
+
+
+def test_compare_sizes_each_modes_column_to_its_own_cells(tmp_path, capsys):
+    """One long cell widened every mode's column (a 700-character table for six settings)."""
+    text = (
+        "stackdsl: 1\nstructure: {tower: {levels: 12, bricks_per_layer: 1, turn: 0, shift: 13 mm}}\n"
+        "expect: {collapse: 10±1, stays: 1-9}\n"
+    )
+    folder = write(tmp_path, slant=text, tower=PASSING)
+    main(["compare", str(folder), "--modes", "extension,raw", "-j", "1"])
+    header, *rows = capsys.readouterr().out.splitlines()[:3]
+    cells = [r[header.index("extension") : header.index("raw")].rstrip() for r in rows]
+    assert header.index("raw") - header.index("extension") == max(29, *(len(c) for c in cells)) + 1, (header, rows)

@@ -178,7 +178,8 @@ def compare_command(args: argparse.Namespace) -> int:
         ]
         for file, cells in table.items()
     }
-    column = max([29, *(len(t) for texts in rows.values() for t in texts)])  # a toppled count widens it
+    # each mode's column as wide as its own cells (a toppled count widens one, not all)
+    columns = [max([29, len(m), *(len(texts[i]) for texts in rows.values())]) for i, m in enumerate(modes)]
     said = max([18, *(len(c.expected) for cells in table.values() for c in cells.values())])
     # the engine is a column of its own unless the columns name it (several backends)
     engine = len(backends) == 1
@@ -186,7 +187,7 @@ def compare_command(args: argparse.Namespace) -> int:
         f"{'scenario':<{width}} "
         + (f"{'engine':<8} " if engine else "")
         + f"{'expected':<{said}} "
-        + " ".join(f"{m:<{column}}" for m in modes).rstrip()
+        + " ".join(f"{m:<{w}}" for m, w in zip(modes, columns, strict=True)).rstrip()
     )
     for file, cells in table.items():
         first = next((c for c in cells.values() if not c.refused), next(iter(cells.values())))
@@ -194,7 +195,7 @@ def compare_command(args: argparse.Namespace) -> int:
             f"{Path(file).stem:<{width}} "
             + (f"{first.backend:<8} " if engine else "")
             + f"{first.expected:<{said}} "
-            + " ".join(f"{c:<{column}}" for c in rows[file]).rstrip()
+            + " ".join(f"{c:<{w}}" for c, w in zip(rows[file], columns, strict=True)).rstrip()
         )
     print(f"{len(table)} scenarios x {len(modes)} modes ({wall:.1f} s wall)")
     for r in done:  # a failure the run's end cut short: the hint check gives under it

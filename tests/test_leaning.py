@@ -139,7 +139,9 @@ def test_v_pair_is_admitted_together_and_wakes_together():
     s.engine.touch(1, 2, [top_a + [0, -0.012, 0], top_a + [0, 0.012, 0]], normal=[-1, 0, 0])
     events = s.ext.update(0.0)
     assert [(e.kind, e.label) for e in events] == [("freeze", "b1"), ("freeze", "b2")]
-    assert events[0].reason == "leaning on ground, b2" and events[1].reason == "leaning on b1"
+    assert (
+        events[0].reason == "leaning on ground, b2" and events[1].reason == "leaning on ground, b1"
+    )  # its foot on the ground too
     assert [e.label for e in s.ext.wake(2, 0.1, "test")] == ["b2", "b1"]
 
 

@@ -185,3 +185,29 @@ def test_a_cells_condition_is_refused_for_mixed_units_as_require_is(where, said)
     # one kind on both sides, or a bare number (SI), is read as before
     for fine in ("timing.drop_gap < 1 mm", "timing.drop_gap < 0.0005", "actions.0.shake.amplitude * 2 >= 40 mm"):
         parse_scenario(DROP.format(where=fine), "c.yaml")
+
+
+@pytest.mark.parametrize(
+    ("first", "second", "refused"),
+    [(">= 0.9", "<= 0.1", True), (">= 0.5", "<= 0.5", False), ("> 0.5", "<= 0.5", True), (">= 0.5", "< 0.5", True)],
+)
+def test_two_rules_holding_one_cell_to_bounds_no_probability_meets_are_refused(first, second, refused):
+    """Overlapping conditions could ask one cell for P(stands) >= 0.9 and <= 0.1: a sweep that
+    can never pass was accepted. A bound met by one probability alone (>= 0.5, <= 0.5) is kept."""
+    text = f"""stackdsl: 1
+structure: {{tower: {{levels: 2}}}}
+actions: [{{shake: {{amplitude: 10 mm, frequency: 2 Hz, duration: 1 s, at: after level 2}}}}]
+sweep:
+  samples: 2
+  grid: {{actions.0.shake.amplitude: [10 mm, 20 mm, 30 mm]}}
+expect:
+  cells:
+    - {{where: "actions.0.shake.amplitude <= 20 mm", p_stands: "{first}"}}
+    - {{where: "actions.0.shake.amplitude >= 20 mm", p_stands: "{second}"}}
+"""
+    if refused:
+        with pytest.raises(ScenarioError) as err:
+            parse_scenario(text, "c.yaml")
+        assert err.value.field == "expect.cells[1].p_stands" and "no sweep can meet both" in err.value.message
+    else:
+        parse_scenario(text, "c.yaml")

@@ -272,6 +272,39 @@ class Template:
                     f"no grid cell meets this condition, so these expectations would judge nothing; the grid's values "
                     f"are {shown} (a condition reads them in SI units and degrees); change the condition or the grid",
                 )
+        self._check_bounds(rules, cells)
+
+    def _check_bounds(self, rules: list[Any], cells: list[dict[str, float]]) -> None:
+        """No grid cell may be held to two ``p_stands`` bounds that no probability meets
+        (``>= 0.9`` and ``<= 0.1`` by overlapping conditions): the sweep could never pass.
+
+        Raises:
+            ScenarioError: at the later rule's ``p_stands``, naming the earlier rule and the cell.
+        """
+        conditions = [parse(rule.where) for rule in rules]
+        for values in cells:
+            lowest: tuple[float, bool, int] | None = None  # the tightest lower bound: value, strict, rule
+            highest: tuple[float, bool, int] | None = None
+            for i, rule in enumerate(rules):
+                bound = rule.p_stands
+                if bound is None or not conditions[i].holds(values):
+                    continue
+                strict = bound.op in (">", "<")
+                if bound.op in (">=", ">"):
+                    lowest = max(lowest or (bound.bound, strict, i), (bound.bound, strict, i))
+                else:
+                    highest = min(highest or (bound.bound, not strict, i), (bound.bound, not strict, i))
+                if lowest is not None and highest is not None:
+                    (lo, lo_strict, a), (hi, hi_open, b) = lowest, highest
+                    if lo > hi or (lo == hi and (lo_strict or not hi_open)):
+                        first, later = sorted((a, b))
+                        shown = ", ".join(f"{k} = {v:g}" for k, v in values.items())
+                        raise self.source.error(
+                            ("expect", "cells", later, "p_stands"),
+                            f"in the grid cell {shown} (SI units), cells[{first}] asks P(stands) {rules[first].p_stands.op} "
+                            f"{rules[first].p_stands.bound:g} and this rule {rules[later].p_stands.op} "
+                            f"{rules[later].p_stands.bound:g}: no sweep can meet both; make their conditions apart",
+                        )
 
     def _si(self, combination: tuple[Any, ...]) -> dict[str, float]:
         """A cell's grid values (``combination``, in grid order) as :meth:`values` gives them."""

@@ -429,10 +429,13 @@ def _nothing_placed_on_pulled(
     pull has started: it lands on a brick on its way out (a part ``on:`` it, a level above it).
     A brick rests on another when its bottom lies within 1 mm of the other's top and their
     footprints overlap. Source: stackdsl's own."""
+    pulls = [(i, m) for i, m in enumerate(motions) if isinstance(m, Remove)]
+    if not pulls:  # the common case: nothing to compare
+        return
     laid = {b.id: b for b in bricks}
     boxes = {b.id: Box(np.array(specs[b.type].half_extents), specs[b.type].mass).corners(b.pose()) for b in bricks}
-    for index, motion in enumerate(motions):
-        if not isinstance(motion, Remove) or motion.id not in boxes:
+    for index, motion in pulls:
+        if motion.id not in boxes:
             continue
         pulled = boxes[motion.id]
         top, under = float(pulled[:, 2].max()), MultiPoint(pulled[:, :2]).convex_hull

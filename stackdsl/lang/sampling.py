@@ -29,7 +29,7 @@ from typing import Any
 
 from .distributions import Distribution, draw, find, tower_field
 from .errors import FieldPath, ScenarioError, SourceMap, format_path
-from .expressions import check_kinds, parse
+from .expressions import Condition, check_kinds, parse
 from .field_kinds import field_kind
 from .schema import Scenario, Structure
 from .schema_sweep import MAX_SAMPLES, MAX_SWEEP_RUNS, grid_name
@@ -258,9 +258,9 @@ class Template:
             return
         kinds = {grid_name(key): field_kind(grid_name(key)) for _, key, _ in self.grid}
         cells = [self._si(combination) for combination in itertools.product(*(values for _, _, values in self.grid))]
-        for i, rule in enumerate(rules):
+        conditions = [parse(rule.where) for rule in rules]
+        for i, condition in enumerate(conditions):
             at = ("expect", "cells", i, "where")
-            condition = parse(rule.where)
             try:
                 check_kinds(condition, kinds)
             except ValueError as exc:
@@ -272,16 +272,15 @@ class Template:
                     f"no grid cell meets this condition, so these expectations would judge nothing; the grid's values "
                     f"are {shown} (a condition reads them in SI units and degrees); change the condition or the grid",
                 )
-        self._check_bounds(rules, cells)
+        self._check_bounds(rules, conditions, cells)
 
-    def _check_bounds(self, rules: list[Any], cells: list[dict[str, float]]) -> None:
+    def _check_bounds(self, rules: list[Any], conditions: list[Condition], cells: list[dict[str, float]]) -> None:
         """No grid cell may be held to two ``p_stands`` bounds that no probability meets
         (``>= 0.9`` and ``<= 0.1`` by overlapping conditions): the sweep could never pass.
 
         Raises:
             ScenarioError: at the later rule's ``p_stands``, naming the earlier rule and the cell.
         """
-        conditions = [parse(rule.where) for rule in rules]
         for values in cells:
             lowest: tuple[float, bool, int] | None = None  # the tightest lower bound: value, strict, rule
             highest: tuple[float, bool, int] | None = None

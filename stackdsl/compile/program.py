@@ -48,12 +48,13 @@ from ..engines.settings import AnySettings
 MAX_SUBSTEPS = 64
 PULL_STEP = 1 / 960
 """Seconds, the longest substep while a hand pulls a brick out with the extension acting
-(:attr:`stackdsl.runtime.subscribers.Substeps.floor`): the pulled brick's friction drags what rests on it, and at
-pybullet's 240 Hz its contacts let it drag the levels above 20-35 mm where tuned pybullet
-(1 kHz) drags 0.7-1.5 mm. Split in four while a pull lasts, a 14-level KAPLA tower with a
-side block of level 3 pulled at 30 mm/s stands, as in tuned pybullet, where at 240 Hz it fell
-(measured: docs/actions.md, "Pull"). On pybullet only: MuJoCo's guided brick, its velocity
-set once a step, slips under what it carries when the step is split. Source: stackdsl's own."""
+(:attr:`stackdsl.runtime.subscribers.Substeps.floor`): the pulled brick's friction drags what
+rests on it, and a finer step follows that friction more closely. pybullet's world steps the
+substeps one call each, the pulled brick driven before each
+(:meth:`stackdsl.engines.pybullet.world.PyBulletWorld.step`), so that a split pull ends as the
+scene stepped at 1/960 s throughout (docs/actions.md, "Pull"). On pybullet only: MuJoCo's
+guided brick, its velocity set once a step, slips under what it carries when the step is
+split. Source: stackdsl's own."""
 #: Solver iterations of a reference body-step (pybullet's default, raw mode's).
 REFERENCE_ITERATIONS = 50
 #: Seconds a brick placed in extension mode stays active besides its fall and the rest

@@ -187,7 +187,9 @@ class World(Engine, Protocol):
     def move_ground(self, offset: Vec3, velocity: Vec3) -> None:
         """Put the ground ``offset`` (m) from where it started, moving at ``velocity`` (m/s),
         for the next step: a shake table. Only on a world made with a movable ground
-        (:func:`stackdsl.runtime.run.world_for` makes one for a program with a shake). Default: refused."""
+        (:func:`stackdsl.runtime.run.world_for` makes one for a program with a shake). The ground
+        alone: the runtime carries the fixtures (bodies made with mass 0) along by :meth:`guide`,
+        so on such a world one must be able to move again. Default: refused."""
         raise NotImplementedError(f"{type(self).__name__} cannot move its ground")
 
     def make_debris(self, bodies: Sequence[int]) -> list[int]:

@@ -15,7 +15,10 @@
   whole periods later at rest where it started, need not move either. Otherwise every frozen
   brick wakes, the ground moves each step (:meth:`~stackdsl.engines.protocol.World.move_ground`),
   and nothing is frozen until it has stopped (a brick frozen while the ground moves would stay
-  where it was in the world).
+  where it was in the world). Fixtures are bolted to the table: each is guided along with the
+  ground while it moves (:meth:`~stackdsl.engines.protocol.World.guide`, held) and fixed again
+  where it was when the ground stops, so the environment moves as one rigid body, on every
+  engine and in every mode, and the extension's proof (fixtures are ground to it) holds for it.
 
 Without the extension acting (raw and tuned modes) the same motions happen, and a shake always
 moves the ground. Source: stackdsl's own.
@@ -181,6 +184,8 @@ class Actions(Subscriber):
         if self.shake is not None:
             offset, velocity = self.shake.at(t)
             loop.world.move_ground(offset, velocity)
+            for body, home in self.stability.fixtures:  # bolted to the table: carried with it
+                loop.world.guide(body, Pose(home.position + offset, home.orientation), velocity, hold=True)
 
     def after_step(self, loop: StepLoop) -> None:
         for record in self.away:  # out of the scene since the last step: no contact reads it now
@@ -201,6 +206,8 @@ class Actions(Subscriber):
             loop.structure.offset = self.shake.at(loop.now)[0]  # the collapse monitor reads displacements in the ground's frame
             if loop.step >= self.shake.end_step:
                 loop.world.move_ground((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+                for body, home in self.stability.fixtures:  # back where the table is back, fixed again
+                    loop.world.move(body, home, 0.0)
                 loop.structure.offset = (0.0, 0.0, 0.0)
                 self.stability.extension.admitting = True
                 self.shake = None

@@ -33,9 +33,12 @@ class Stability(Subscriber):
         self.acting = acting
         self.mechanisms: dict[str, tuple[float, str]] = {}  # brick id -> when and why a proved mechanism woke it
         self.extension.add_ground(world.ground, Plane(0.0), friction=program.ground_friction)
+        self.fixtures: list[tuple[int, Pose]] = []  # each fixture's body and its pose on the unmoved ground
         for f in program.fixtures:
-            body = world.create(f.brick, Pose.from_euler(f.position, f.yaw, f.pitch, f.roll), mass=0.0)
+            pose = Pose.from_euler(f.position, f.yaw, f.pitch, f.roll)
+            body = world.create(f.brick, pose, mass=0.0)
             self.extension.add_ground(body, Box(np.array(f.brick.half_extents), f.brick.mass), f.id, f.brick.friction)
+            self.fixtures.append((body, pose))
 
     @property
     def quiet(self) -> bool:

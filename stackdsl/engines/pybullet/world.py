@@ -191,7 +191,15 @@ class PyBulletWorld(PyBulletEngine, World):
         needs one), else in the coordinates of the engine settings."""
         body, self._next = self._next, self._next + 1
         maximal = True if projectile else self._engine.maximal_coordinates
-        self._put(body, spec, pose.position.tolist(), pose.orientation.tolist(), spec.mass if mass is None else mass, maximal)
+        mass = spec.mass if mass is None else mass
+        # pybullet never moves a rigid body (maximal coordinates) made with mass 0, whatever
+        # mass it is given later; one made with its mass and then given 0 moves again when given
+        # one back. On a shake table an immovable body is carried (guided) while the table moves.
+        carried = self._table and maximal and mass <= 0.0
+        self._put(body, spec, pose.position.tolist(), pose.orientation.tolist(), spec.mass if carried else mass, maximal)
+        if carried:
+            self._client.changeDynamics(self._engine_id(body), -1, mass=0.0)
+            self._massed(body, 0.0)
         return body
 
     def _put(self, body: int, spec: BrickSpec, position: Any, orientation: Any, mass: float, maximal: bool) -> None:

@@ -289,3 +289,30 @@ def test_the_keys_a_structure_allows_are_those_a_file_may_write():
     with pytest.raises(ScenarioError) as err:
         parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 2}, origin: [1, 0]}\n", "o.yaml")
     assert "allowed: bricks, card_house, dominoes, pyramid, tower, wall" in err.value.message, err.value.message
+
+
+def test_a_part_on_fixed_bricks_stands_on_their_top_as_on_the_ground():
+    """A fixed table is a support: ``on:`` a part of fixed bricks alone puts the part on their
+    highest top, its first level 1 as on the ground (it was built on the ground, under the table,
+    while ``compile`` said "on table"); ``on:`` a fixed brick by id puts it on that brick's top
+    (it was refused as "part 'a' has no brick 'a.w'"). A part's fixtures are not its top when it
+    has other bricks."""
+    text = """stackdsl: 1
+brick_types: {slab: {size: [300 mm, 300 mm, 20 mm]}, post: {size: [24 mm, 24 mm, 300 mm]}}
+structure:
+  - {name: table, bricks: [{id: top, at: [400 mm, 0, 150 mm], brick: slab, fixed: true}]}
+  - {name: t, on: table, tower: {levels: 2}, origin: [400 mm, 0]}
+  - {name: a, bricks: [{id: w, at: [0, 0, 30 mm], brick: slab, fixed: true}, {at: [-300 mm, 0, 4 mm]}, {id: p, at: [-300 mm, 150 mm, 150 mm], brick: post, fixed: true}]}
+  - {name: b, on: a.w, bricks: [{at: [0, 0, 4 mm]}]}
+  - {name: c, on: a, origin: [-300 mm, 0], bricks: [{at: [0, 0, 4 mm], yaw: 90}]}
+"""
+    bricks = {b.id: b for b in laid(text)}
+    tower = [b for b in bricks.values() if b.id.startswith("t.")]
+    assert {b.level for b in tower} == {1, 2}
+    assert np.allclose(min(b.position[2] for b in tower), 0.160 + 0.004)  # on the table's top, 160 mm
+    assert np.allclose(bricks["b.b001"].position, [0.0, 0.0, 0.040 + 0.004]) and bricks["b.b001"].level == 1
+    # c is on a's standing brick (8 mm top, level 1), not on its fixed slab (40 mm) or post (300 mm)
+    assert np.isclose(bricks["c.b001"].position[2], 0.008 + 0.004) and bricks["c.b001"].level == 2
+    program = compile_scenario(parse_scenario(text, "p.yaml"))  # nothing overlaps, nothing floats
+    parts = {p.name: p for p in program.parts}
+    assert (parts["t"].on, parts["t"].levels) == ("table", (1, 2))

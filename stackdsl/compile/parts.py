@@ -6,9 +6,11 @@ to its ``origin`` and lifted onto what it rests on:
 
 * ``on: PART`` (or a list of parts, written before it): the part's z = 0 is the highest top of
   their bricks, its levels count on from their highest level, and its origin is theirs (the
-  middle of theirs, for a list) unless given;
-* ``on: PART.ID`` (a brick of such a part): z = 0 is that brick's top, levels count on from its
-  level, and the origin is the brick's centre unless given;
+  middle of theirs, for a list) unless given; a part's fixed bricks count only when it has no
+  other (a fixed table: its top, level 0 as the ground's);
+* ``on: PART.ID`` (a brick of such a part, a fixed one too): z = 0 is that brick's top, levels
+  count on from its level (0 for a fixed brick), and the origin is the brick's centre unless given;
+* a part of fixed bricks alone has no ``on``: a fixture rests on nothing;
 * nothing: the ground, level 1 its first.
 
 So levels count from the ground across parts: a card house on a 5-level tower starts at
@@ -80,10 +82,19 @@ def arrange(scenario: Scenario) -> list[LaidBrick]:
     counts: list[int] = []
     for name, path, part in named_parts(structure.parts):
         local = generate(scenario, part.kind, part.layout, path + (part.kind,))
+        if part.on is not None and local and all(b.fixed for b in local):
+            raise scenario.source.error(
+                path + ("on",),
+                "the part's bricks are all fixed: a fixture is there from the start and rests on nothing, so it "
+                "is not put on anything; leave out 'on' and give each brick its height from the ground in 'at' "
+                "(and the part an origin [x, y] if it is to stand elsewhere)",
+            )
         base, level, origin = _support(scenario, part, path, tops, placed, origins)
         origins[name] = origin
         moved = _moved(local, name, origin, part.yaw, base, level)
-        standing = [b for b in moved if not b.fixed]
+        # what a part put on this one rests on: its standing bricks, or its fixtures when it has
+        # nothing else (a fixed table: level 0, as the ground)
+        standing = [b for b in moved if not b.fixed] or moved
         tops[name] = (max((_top(scenario, b) for b in standing), default=base), max((b.level for b in standing), default=level))
         placed.update((b.id, b) for b in moved)
         bricks += moved
@@ -151,9 +162,9 @@ def _support(
         return 0.0, 0, origin
     if isinstance(part.on, str) and "." in part.on:
         brick = placed.get(part.on)
-        if brick is None or brick.fixed:
+        if brick is None:
             head = part.on.split(".", 1)[0]
-            ids = [i for i in placed if i.startswith(head + ".") and not placed[i].fixed]
+            ids = [i for i in placed if i.startswith(head + ".")]
             shown = f"{ids[0]} to {ids[-1]}" if len(ids) > 1 else ", ".join(ids) or "none"
             raise scenario.source.error(path + ("on",), f"part {head!r} has no brick {part.on!r}: its bricks are {shown}")
         centre = (float(brick.position[0]), float(brick.position[1]))

@@ -75,7 +75,9 @@ class Part(StrictModel):
     the layout's own) and turned by ``yaw`` about it; ``on`` lifts it onto other parts (its first
     level rests on their top, and its levels count on from theirs; its origin is then the middle
     of theirs unless given) or onto a brick (by id, such as ``left.L05.2``; its origin is then
-    that brick's centre unless given)."""
+    that brick's centre unless given). Fixed bricks are supports too (a part of them alone, a
+    fixed table, has their highest top, level 0), but a part of fixed bricks alone rests on
+    nothing and takes no ``on``."""
 
     model_config = ConfigDict(json_schema_extra={"oneOf": [given(name) for name in LAYOUTS]})
 
@@ -84,8 +86,9 @@ class Part(StrictModel):
     )
     on: Annotated[str | list[str], BeforeValidator(_on), WithJsonSchema(_ON_SCHEMA)] | None = Field(
         default=None,
-        description="what it rests on: a part written before it, a list of them (their highest top), or a brick's id; "
-        "its first level rests on that top",
+        description="what it rests on: a part written before it, a list of them (their highest top), or a brick's id "
+        "(a fixed one too); its first level rests on that top. A part's fixed bricks are its top only when it has no "
+        "other; a part of fixed bricks alone takes no 'on'",
         examples=["left", ["left", "right"], "left.L05.2"],
     )
     origin: Vector2 | None = Field(

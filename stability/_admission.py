@@ -169,7 +169,7 @@ class Admission:
             on = names if m is rec else ", ".join(self.stack.bodies[o].label for o in touched)
             if len(group) > 2:
                 still = "at rest" if self.stack.rested(m, time) else "creeping"  # the debris rule's (stability._debris)
-                reason = f"{still} in a pile of {len(group)} bricks {'on' if m is rec else 'with'} {on}"
+                reason = f"{still}, one of {len(group)} touching bricks frozen together, {'on' if m is rec else 'with'} {on}"
             else:
                 reason = f"{'leaning on' if len(touching) > 1 else 'at rest on'} {on}"
             events.append(StabilityEvent(time, "freeze", m.label, reason))

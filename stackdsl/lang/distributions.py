@@ -32,7 +32,7 @@ from __future__ import annotations
 import copy
 import difflib
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Literal
 
 import numpy as np
@@ -75,6 +75,7 @@ class Distribution:
             when not given); all numbers of ``unit``. choice: the items as written.
         unit: the unit the values are numbers of, as written (``""``: bare numbers).
         per: ``"sample"``, ``"layer"`` or ``"brick"``.
+        part: the name of the part of a list of parts it stands in, else None.
     """
 
     path: FieldPath
@@ -82,6 +83,7 @@ class Distribution:
     values: tuple[Any, ...]
     unit: str
     per: Literal["sample", "layer", "brick"] = "sample"
+    part: str | None = None
 
     def draw(self, rng: np.random.Generator, count: int | None = None) -> Any:
         """One value as a file would write it (``count`` None) or a list of ``count`` values."""
@@ -99,8 +101,12 @@ class Distribution:
 
     @property
     def label(self) -> str:
-        """The field it draws, as a dotted path (``structure.tower.shift``)."""
-        return ".".join(str(p) for p in self.path)
+        """The field it draws, as a dotted path (``structure.tower.shift``), a part of a list
+        of parts by its name (``structure.deck.origin.0``, as ``require:`` names it)."""
+        path = self.path
+        if self.part is not None:
+            path = (path[0], self.part, *path[2:])
+        return ".".join(str(p) for p in path)
 
 
 def find(data: Any, source: SourceMap) -> list[Distribution]:
@@ -112,6 +118,13 @@ def find(data: Any, source: SourceMap) -> list[Distribution]:
     """
     found: list[Distribution] = []
     _walk(data, (), source, found)
+    parts = data.get("structure") if isinstance(data, dict) else None
+    if isinstance(parts, list):
+        for i, d in enumerate(found):
+            if d.path[:1] == ("structure",) and len(d.path) > 1 and isinstance(d.path[1], int) and d.path[1] < len(parts):
+                name = parts[d.path[1]].get("name") if isinstance(parts[d.path[1]], dict) else None
+                if isinstance(name, str):
+                    found[i] = replace(d, part=name)
     return found
 
 

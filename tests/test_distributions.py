@@ -63,6 +63,7 @@ def test_a_distribution_draws_in_the_unit_written_and_the_field_checks_it():
     assert all(0.09 <= v <= 0.10 for v in values)  # in SI, the unit in the column's name
     assert all(0.09 <= t.scenario(0, k).structure.tower.spacing <= 0.10 for k in range(20))  # metres inside
 
+
 def test_a_drawn_field_of_a_named_part_is_named_by_the_part_as_require_names_it():
     text = """stackdsl: 1
 structure:
@@ -73,7 +74,6 @@ require: ["structure.deck.origin.0 > -4 mm"]
     parameters = parse_scenario(text, "t.yaml").template.parameters(0, 0)
     assert list(parameters) == ["structure.deck.origin.0 [m]"]
     assert -0.004 < parameters["structure.deck.origin.0 [m]"] <= 0.005
-
 
 
 @pytest.mark.parametrize(

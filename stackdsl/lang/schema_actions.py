@@ -168,7 +168,7 @@ class Push(StrictModel):
     moves at a constant ``speed`` along ``direction`` for ``distance``, long axis first, then is
     withdrawn: a robot's finger, a bulldozer's blade."""
 
-    target: Annotated[PushTarget, Field(description="what is pushed: {brick: ID, offset} or {point}")]
+    target: Annotated[PushTarget, Field(description="what is pushed: {brick: ID, offset} or {point: [x, y, z]}")]
     direction: Annotated[Direction, Field(description="the push's direction ([x, y, z], any length)", examples=[[1, 0, 0]])]
     at: Annotated[ActionWhen, Field(description="when the pusher enters and starts to move", examples=["1 s", "after level 3"])]
     speed: Annotated[GuideSpeed, Field(description="how fast the pusher moves", examples=["0.1 m/s"])] = 0.05

@@ -188,8 +188,12 @@ DOCS: dict[str, dict[str, tuple[str, Any]]] = {
             "9±1",
         ),
         "stands": ("true: no structure brick collapses.", True),
-        "stays": ("Levels whose bricks must end within the collapse threshold of their place: '1-12', 5 or a list.", "1-12"),
-        "may_fall": ("Levels allowed to move (not checked; may not overlap stays).", 13),
+        "stays": (
+            "Bricks that must end within the collapse threshold of their place, by level, brick id or part name: "
+            "'1-12', 5, 'L05.2', 'left' or a list of them.",
+            "1-12",
+        ),
+        "may_fall": ("Bricks allowed to move, by level, brick id or part name (not checked; may not overlap stays).", 13),
         "p_stands": ("A sweep's bound on P(stands), decided by its 95% interval: '>= 0.9'.", ">= 0.9"),
     },
     "CollapseLevel": {
@@ -272,7 +276,8 @@ def documented(schema: dict[str, Any]) -> dict[str, Any]:
             if node is None:
                 continue
             kind = node.get("description")
-            node["description"] = description if not kind or kind in description else f"{description} {_sentence(kind)}"
+            said = not kind or kind.lower().rstrip(".") in description.lower()
+            node["description"] = description if said else f"{description} {_sentence(kind)}"
             node["examples"] = [example]
     return schema
 

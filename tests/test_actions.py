@@ -406,6 +406,28 @@ actions:
         compile_scenario(parse_scenario(head + "expect: {moved: L02.2}\n", "moved.yaml"))
 
 
+def test_a_level_whose_every_brick_is_pulled_out_is_refused_as_its_ids_are():
+    """Named by level (alone or in a range) as by id: a level made only of pulled bricks measures
+    nothing, so 'stays' and 'moved' of it would both pass; a level with a brick left is fine."""
+    from stackdsl.lang.errors import ScenarioError
+
+    head = """stackdsl: 1
+structure: {tower: {levels: 3, bricks_per_layer: 2, spacing: 40 mm}}
+timing: {interval: 0.2 s}
+actions:
+  - remove: {brick: L03.1, at: after level 3}
+  - remove: {brick: L03.2, at: 3 s}
+"""
+    for expect in ("{moved: 3}", "{stays: 3}", "{stays: 1-3}", "{may_fall: [1, 3]}"):
+        with pytest.raises(
+            ScenarioError, match=r"level 3 holds only bricks pulled out of the scene \(actions\[0\], actions\[1\]\)"
+        ):
+            compile_scenario(parse_scenario(head + f"expect: {expect}\n", "pulled.yaml"))
+    one = head.replace("  - remove: {brick: L03.2, at: 3 s}\n", "")
+    program = compile_scenario(parse_scenario(one + "expect: {stays: 1-3}\n", "one.yaml"))
+    assert [a.kind for a in program.kinematic] == ["remove"]
+
+
 def test_a_pulled_brick_clear_of_the_tower_is_taken_out_before_it_falls_onto_anything():
     """A pulled brick keeps its own vertical motion: once it has cleared what it lay between it
     falls. The hand takes it out of the scene as soon as it touches nothing and is 1 mm below its

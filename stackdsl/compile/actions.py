@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 import shapely
@@ -26,7 +26,7 @@ from stability import Box, Pose
 
 from ..engines.protocol import BrickSpec
 from ..lang.errors import FieldPath
-from ..lang.expectations import bricks_of, closest, selects
+from ..lang.expectations import bricks_of, closest, levels_of, selects
 from ..lang.schema import Scenario
 from ..lang.schema_actions import AXES, SAMPLES_A_PERIOD, Action, AfterPrevious
 from ..lang.schema_impacts import AfterLevel
@@ -112,14 +112,15 @@ def pulled_out(scenario: Scenario) -> dict[str, int]:
     return {a.remove.brick: i for i, a in enumerate(scenario.actions) if a.remove is not None}
 
 
-def check_measured(scenario: Scenario, ids: Sequence[str]) -> None:
-    """A ScenarioError at ``expect.stays``, ``moved`` or ``may_fall`` when one of its brick
-    selectors names only bricks the actions pull out (``ids``: the structure's bricks), and at
-    ``toppled`` or ``stands`` when every brick is pulled out: a pulled brick leaves the scene,
-    and nothing of it is measured."""
+def check_measured(scenario: Scenario, levels: Mapping[str, int]) -> None:
+    """A ScenarioError at ``expect.stays``, ``moved`` or ``may_fall`` when one of its levels or
+    brick selectors names only bricks the actions pull out (``levels``: the structure's bricks,
+    each with its level), and at ``toppled`` or ``stands`` when every brick is pulled out: a
+    pulled brick leaves the scene, and nothing of it is measured."""
     pulled = pulled_out(scenario)
     if not pulled:
         return
+    ids = list(levels)
     if ids and all(b in pulled for b in ids):  # nothing is left to judge
         for name in ("toppled", "stands"):
             if getattr(scenario.expect, name) is not None:
@@ -129,13 +130,15 @@ def check_measured(scenario: Scenario, ids: Sequence[str]) -> None:
                     "something of bricks that stay in it",
                 )
     for name in ("stays", "may_fall", "moved"):
-        for selector in bricks_of(getattr(scenario.expect, name) or ()):
-            chosen = [b for b in ids if selects(selector, b)]
+        selection = getattr(scenario.expect, name) or ()
+        named = [(f"level {lv} holds", [b for b in ids if levels[b] == lv]) for lv in levels_of(selection)]
+        named += [(f"{s!r} names", [b for b in ids if selects(s, b)]) for s in bricks_of(selection)]
+        for said, chosen in named:
             if chosen and all(b in pulled for b in chosen):
-                pulls = ", ".join(f"actions[{pulled[b]}]" for b in chosen)
+                pulls = ", ".join(dict.fromkeys(f"actions[{pulled[b]}]" for b in chosen))
                 raise scenario.source.error(
                     ("expect", name),
-                    f"{selector!r} names only {'a brick' if len(chosen) == 1 else 'bricks'} pulled out of the scene "
+                    f"{said} only {'a brick' if len(chosen) == 1 else 'bricks'} pulled out of the scene "
                     f"({pulls}): nothing of {'it' if len(chosen) == 1 else 'them'} is measured; name bricks that stay in the scene",
                 )
 

@@ -157,7 +157,7 @@ def compile_scenario(
         lambda path, seconds: _steps(scenario, path, seconds, dt),
         [b.id for b in fixed],
     )
-    check_measured(scenario, [b.id for b in bricks])
+    check_measured(scenario, {b.id: b.level for b in bricks})
     _own_ids(scenario, [b.id for b in everything], launches, motions)
     gone = {m.id: m.end_step for m in motions if isinstance(m, Remove)}  # pulled out and taken away
     _nothing_placed_on_pulled(scenario, bricks, specs, places, motions)

@@ -587,7 +587,11 @@ def test_the_command_shows_a_pull_warning_as_a_line_of_its_own(tmp_path, capsys)
 def test_stays_and_moved_fail_for_what_was_never_placed():
     """Building stops at the first collapse: a level or brick never placed neither stayed nor
     moved. Both verdicts say it was never placed, and fail (they passed on nothing measured, so
-    that one brick could 'stay' and 'move' at once)."""
+    that one brick could 'stay' and 'move' at once). Naming a level above the expected collapse
+    is warned of before anything runs (such a brick is placed only while the collapse is still
+    being decided)."""
+    from stackdsl.lang.errors import ScenarioWarning
+
     text = """stackdsl: 1
 structure:
   post: {tower: {levels: 1, bricks_per_layer: 1, yaw: 90}}
@@ -596,7 +600,9 @@ timing: {interval: 0.3 s}
 expect: {collapse: 2, stays: [post, pyr.L02.1, 3]}
 """
     scenario = parse_scenario(text, "never.yaml")
-    outcome = run_program(compile_scenario(scenario))
+    with pytest.warns(ScenarioWarning, match=r"pyr\.L02\.1: level 3 is above level 2"):
+        program = compile_scenario(scenario)
+    outcome = run_program(program)
     assert outcome.collapse is not None and outcome.collapse.level == 2 and "pyr.L02.1" in outcome.unplaced
     verdicts = {v.name: v for v in evaluate(scenario.expect, outcome, 0.004)}
     assert not verdicts["stays"].passed and verdicts["stays"].measured.endswith("level 3, brick pyr.L02.1 never placed")

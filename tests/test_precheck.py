@@ -5,16 +5,18 @@ field to change, raised by compile_scenario so that nothing is simulated."""
 import math
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from stackdsl import ScenarioError, compile_scenario, format_program, load_scenario, parse_scenario
+from stackdsl import ScenarioError, compile_scenario, evaluate, format_program, load_scenario, parse_scenario, run_program
 from stackdsl.batch import judge as _judge
 from stackdsl.cli.main import main
 from stackdsl.compile.overlap import OVERLAP_TOLERANCE, REST_TOLERANCE, Body, inspect_bodies, penetration
+from stackdsl.lang.errors import ScenarioWarning
 
 ROOT = Path(__file__).resolve().parents[1]
 SHIPPED = sorted((ROOT / "scenarios").rglob("*.yaml"))
@@ -247,6 +249,65 @@ def test_stays_and_may_fall_beyond_the_top_level(field):
     assert (err.line, err.field) == (3, f"expect.{field}")
     assert "levels 9-10 are never built" in err.message and "8 levels" in err.message
     compile_text(f"stackdsl: 1\nstructure: {{tower: {{levels: 8}}}}\nexpect: {{{field}: 1-8}}\n")
+
+
+def test_stays_or_moved_above_the_highest_collapse_level_is_warned_of():
+    """Building stops once the collapse is decided: a level above collapse N±t is placed only if
+    deciding it takes longer than the placements after it, so naming it in 'stays' or 'moved' is
+    most likely a slip, warned of at the field; it is not refused, as such a file can pass (a slow
+    push decides its collapse only once it is over: bricks placed meanwhile stay)."""
+    tower = "stackdsl: 1\nstructure: {tower: {levels: 5}}\n"
+    for expect, field, said in [
+        ("{collapse: 2, stays: 1-3}", "expect.stays", "L03.1, L03.2: level 3 is above level 2"),
+        ("{collapse: 2±1, moved: 4-5}", "expect.moved", "levels 4-5 are above level 3"),
+        ("{collapse: 3, moved: [L05.1]}", "expect.moved", "L05.1: level 5 is above level 3"),
+        ("{collapse: 3, stays: [1, L05]}", "expect.stays", "L05.1, L05.2 (named by 'L05'): level 5"),
+    ]:
+        with pytest.warns(ScenarioWarning) as caught:
+            compile_text(tower + f"expect: {expect}\n")
+        (warning,) = [str(w.message) for w in caught if "above level" in str(w.message)]
+        assert f"warning: {field}: " in warning and said in warning, (expect, warning)
+    for expect in ("{collapse: 2±1, stays: 1, moved: 2-3}", "{collapse: 3, may_fall: 4-5}", "{collapse: 5, stays: 1-4}"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            compile_text(tower + f"expect: {expect}\n")
+    slow = """stackdsl: 1
+structure:
+  bricks:
+    - {id: a1, at: [0, 0, 4 mm]}
+    - {id: b1, at: [0, 300 mm, 4 mm]}
+    - {id: b2, at: [0, 300 mm, 12 mm], yaw: 90}
+actions:
+  - push: {target: {brick: a1}, direction: [1, 0, 0], at: 0.5 s, gap: 1 mm, speed: 10 mm/s, distance: 60 mm}
+expect: {collapse: 1, stays: [b2]}
+"""
+    scenario = parse_scenario(slow, "slow.yaml")
+    with pytest.warns(ScenarioWarning, match="b2: level 2 is above level 1"):
+        program = compile_scenario(scenario)
+    outcome = run_program(program)  # the push decides its collapse at its end, 6.5 s: b2 is placed at 2 s and stays
+    assert outcome.collapse is not None and outcome.collapse.level == 1 and outcome.levels_placed == 2
+    assert all(v.passed for v in evaluate(scenario.expect, outcome, program.collapse_threshold))
+
+
+def test_stays_beside_a_toppled_count_that_needs_them_can_never_pass():
+    """A toppled brick has moved: 'stays' may keep in place only bricks the toppled count can
+    spare; a pulled brick counts neither way."""
+    row = "stackdsl: 1\nstructure: {dominoes: {count: 4}}\n"
+    for expect, said in [
+        ("{toppled: all, stays: D04}", "'toppled: all' needs at least 4 of the 4 bricks"),
+        ("{toppled: 4±1, stays: [D03, D04]}", "'toppled: 4±1' needs at least 3 of the 4 bricks"),
+        ("{toppled: 2, stays: 1}", "'stays' keeps 4 of them in place (D01, D02, D03 and 1 more)"),
+    ]:
+        err = error(row + f"expect: {expect}\n")
+        assert err.field == "expect.stays" and said in err.message, (expect, err.message)
+    for expect in ("{toppled: 3, stays: D04}", "{toppled: 4±1, stays: D04}", "{toppled: 0, stays: 1}"):
+        compile_text(row + f"expect: {expect}\n")
+    pulled = row + "actions: [{remove: {brick: D04, at: after level 1, direction: +y, distance: 40 mm}}]\n"
+    compile_text(pulled + "expect: {toppled: 2, stays: D03}\n")
+    err = error(pulled + "expect: {toppled: 4}\n")
+    assert err.field == "expect.toppled" and "the scene keeps 3 of its 4" in err.message
+    err = error(pulled + "expect: {toppled: 3, stays: D03}\n")
+    assert err.field == "expect.stays" and "at least 3 of the 3 bricks" in err.message
 
 
 def test_each_problem_is_reported_up_to_ten_the_expectations_after_and_the_rest_counted():

@@ -18,6 +18,10 @@ bricks placed before it at their target poses; bricks placed ``together`` exist 
   may only name built levels (1 to the highest placed); an expected ``collapse`` level
   L ± t is checkable when its range reaches a built level, L - t <= the highest level
   (``9±1`` on an 8-level tower is fine, ``7`` on a 3-level tower is not).
+* **Expectations that contradict each other**: ``stays`` keeping in place bricks a ``toppled``
+  count needs. ``stays`` or ``moved`` naming a brick above the highest level an expected collapse
+  allows (L + t) is warned of: building stops once the collapse is decided, so it is placed only
+  if that takes longer than the placements after it.
 
 The geometry (overlap depths, what a brick rests on) is :mod:`stackdsl.compile.overlap`.
 
@@ -27,6 +31,7 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -37,6 +42,7 @@ from scipy.spatial.transform import Rotation
 from ..lang.errors import MAX_SHOWN, FieldPath, format_path
 from ..lang.expectations import CollapseLevel, bricks_of, closest, levels_of, selects, span
 from ..lang.schema import Scenario
+from .actions import pulled_out
 from .overlap import GROUND, OVERLAP_TOLERANCE, REST_TOLERANCE, Body, inspect_bodies
 from .parts import layout_at, part_path
 
@@ -109,6 +115,7 @@ def precheck(scenario: Scenario, bodies: Sequence[Body]) -> tuple[str, ...]:
         raise scenario.source.error(first.path, first.message).with_others(
             [scenario.source.error(e.path, e.message) for e in rest]
         )
+    warn_above_collapse(scenario, list(placed), placed)
     return tuple(bodies[i].id for i in floating)
 
 
@@ -353,6 +360,7 @@ def _expectation_problems(
                     f"the structure has {top} level{'s' * (top != 1)}; name levels from 1 to {top}",
                 )
             )
+    problems += _unplaceable(scenario, ids, level_of or {})
     stays = _chosen(expect.stays, ids, level_of or {})
     for name, verb in (("moved", "move"), ("may_fall", "fall")):
         both = [(i, why) for i, why in _chosen(getattr(expect, name), ids, level_of or {}).items() if i in stays]
@@ -363,3 +371,76 @@ def _expectation_problems(
                 _Problem(("expect", name), (2, 4), ("expect", name), f"{shown} {named}: a brick cannot both stay and {verb}")
             )
     return problems
+
+
+def _unplaceable(scenario: Scenario, ids: Sequence[str], level_of: Mapping[str, int]) -> list[_Problem]:
+    """Expectations that contradict each other through the structure, so the file can never
+    pass: ``stays`` keeping in place more bricks than ``toppled`` leaves standing (a brick tilted
+    past its tipping angle has moved past the default collapse threshold, half its thinnest side),
+    and ``toppled`` counting more bricks than the pulls leave in the scene."""
+    t = scenario.expect.toppled
+    if t is None:
+        return []
+    pulled = set(pulled_out(scenario))
+    total = sum(i not in pulled for i in ids)  # what toppled counts: the bricks left in the scene
+    least = (total if t.count == "all" else t.count) - t.tolerance
+    written = f"{t.count}±{t.tolerance}" if t.tolerance else str(t.count)
+    if least > total and total < len(ids):  # beyond every brick is refused by the compiler already
+        return [
+            _Problem(
+                ("expect", "toppled", "pulled"),
+                (2, 6),
+                ("expect", "toppled"),
+                f"'toppled: {written}' needs at least {least} bricks to topple, and the scene keeps {total} of its "
+                f"{len(ids)}: the actions pull the others out, and a pulled brick is not counted",
+            )
+        ]
+    default, threshold = scenario._thinnest_half_side(), scenario.collapse_threshold
+    if threshold is not None and (default is None or threshold > default):
+        return []  # a threshold above the default: a toppled brick may have moved less than it
+    staying = [i for i in _chosen(scenario.expect.stays, ids, level_of) if i not in pulled]
+    if not staying or least <= total - len(staying):
+        return []
+    shown = ", ".join(staying[:3]) + (f" and {len(staying) - 3} more" if len(staying) > 3 else "")
+    return [
+        _Problem(
+            ("expect", "stays", "toppled"),
+            (2, 6),
+            ("expect", "stays"),
+            f"'toppled: {written}' needs at least {least} of the {total} bricks to topple, and 'stays' keeps "
+            f"{len(staying)} of them in place ({shown}): a toppled brick has moved, so at most "
+            f"{total - len(staying)} can topple; give fewer toppled, or name fewer bricks in 'stays'",
+        )
+    ]
+
+
+def warn_above_collapse(scenario: Scenario, ids: Sequence[str], level_of: Mapping[str, int]) -> None:
+    """Warn of ``stays`` or ``moved`` naming a brick above the highest level an expected collapse
+    N±t can be at: building stops once the collapse is decided, so such a brick is placed only if
+    deciding it takes longer than the placements after it (a slow push still under way); else it
+    is never placed, neither stays nor moves, and the file fails. Not refused: such a file can pass.
+    """
+    c = scenario.expect.collapse
+    if not isinstance(c, CollapseLevel):
+        return
+    highest = c.level + c.tolerance
+    written = f"collapse {c.level}±{c.tolerance}" if c.tolerance else f"collapse {c.level}"
+    for name in ("stays", "moved"):
+        above = [(i, why) for i, why in _chosen(getattr(scenario.expect, name), ids, level_of).items() if level_of[i] > highest]
+        if not above:
+            continue
+        shown = ", ".join(i for i, _ in above[:3]) + (f" and {len(above) - 3} more" if len(above) > 3 else "")
+        levels = sorted({level_of[i] for i, _ in above})
+        on = f"level {levels[0]} is" if len(levels) == 1 else f"levels {span(levels)} are"
+        selectors = list(dict.fromkeys(why for i, why in above if not why.startswith("level") and why != repr(i)))
+        said = shown + (f" (named by {', '.join(selectors)})" if selectors else "")
+        warnings.warn(
+            scenario.source.warning(
+                ("expect", name),
+                f"{said}: {on} above level {highest}, the highest the expected {written} can be at; building stops "
+                f"once the collapse is decided, so {'it is' if len(above) == 1 else 'they are'} placed only if that "
+                "takes longer than the placements after it (a slow push still under way), and a brick never placed "
+                f"neither stays nor moves: in {name!r} name levels up to {highest}",
+            ),
+            stacklevel=3,
+        )

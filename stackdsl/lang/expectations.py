@@ -438,6 +438,11 @@ class Expect(StrictModel):
             raise ValueError("a level cannot both stay and fall: 'stays' and 'may_fall' overlap")
         if self.stays and self.moved and set(self.stays) & set(self.moved):
             raise ValueError("a level or brick cannot both stay and move: 'stays' and 'moved' overlap")
+        if self.stands and self.moved:
+            raise ValueError(
+                "a brick that ends moved is a collapse, so the structure does not stand: give 'stands' or 'moved', or "
+                "'stands_until' for a time it must stand until"
+            )
         if self.stands and self.toppled is not None:
             t = self.toppled
             if t.count == "all" or t.count - t.tolerance > 0:

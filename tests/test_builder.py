@@ -17,6 +17,7 @@ from stackdsl.lang.models import (
     CardHouse,
     Dominoes,
     Expect,
+    Impact,
     Part,
     Pyramid,
     Scenario,
@@ -89,6 +90,22 @@ def test_a_built_scenario_is_checked_as_a_file_is():
         Dominoes(count=0)
     with pytest.raises(ValueError, match="'wall' is a key of the structure"):
         Structure(parts={"wall": Part(wall=Wall(courses=1, bricks_per_course=1))})
+
+
+@pytest.mark.parametrize("bad", ["3", "007", "1e3", "0", "-1", ".", "-", "..", "2001-01-01", "a.", "ground"])
+def test_a_brick_id_that_reads_as_a_level_or_the_ground_is_refused_as_in_a_file(bad):
+    """A file's 'expect' reads '3' and '007' as levels, '.' as nothing, and 'ground' is the ground's
+    id in the timeline: the models refuse such an id of a brick, an impact or a pusher."""
+    with pytest.raises(ValidationError, match=r"pattern|names the ground"):
+        BrickPlacement(id=bad, at=(0, 0, 0.004))
+    with pytest.raises(ValidationError, match=r"pattern|names the ground"):
+        Impact(id=bad, target={"level": 1, "side": "+x"}, speed=1, at=1)
+    head = "stackdsl: 1\nstructure:\n  bricks:\n    - {id: a, at: [0, 0, 4 mm]}\n"
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(head + f"    - {{id: '{bad}', at: [0, 0, 12 mm]}}\n", "ids.yaml")
+    assert (err.value.line, err.value.column, err.value.field) == (5, 12, "structure.bricks[1].id")
+    assert "a letter or '_' first" in err.value.message or "names the ground" in err.value.message
+    assert BrickPlacement(id="_" + bad.strip("."), at=(0, 0, 0.004)).id  # with a '_' first it is an id
 
 
 def _readme_bridge() -> Scenario:
@@ -256,7 +273,7 @@ LABELS = st.one_of(st.sampled_from(LOOK_ALIKES), NAMES, st.text(min_size=1, max_
     choice=NAMES,
 )
 @example(
-    name="a\x85b\u2028c", description="d\u2029e\nf\x85", part="1e3", brick="-1e3", material="1E3", kind="12e03", choice="1e-3"
+    name="a\x85b\u2028c", description="d\u2029e\nf\x85", part="_1e3", brick="Null", material="1E3", kind="12e03", choice="1e-3"
 )
 def test_to_yaml_quotes_every_text_the_loader_would_read_as_something_else(
     name, description, part, brick, material, kind, choice

@@ -793,9 +793,15 @@ def test_a_fixed_length_list_and_a_shake_of_no_time_are_refused_in_plain_words()
             "expected true or false, got 'maybe'",
         ),
         (
+            "structure: {tower: {levels: 2}}\nactions: [{remove: {brick: 'a b', at: 1 s}}]",
+            "actions[0].remove.brick",
+            "expected a name of 1 to 40 letters, digits, '_', '.' or '-' (no spaces), got 'a b'",
+        ),
+        (
             "structure: {bricks: [{id: 'a b', at: [0, 0, 4 mm]}]}",
             "structure.bricks[0].id",
-            "expected a name of 1 to 40 letters, digits, '_', '.' or '-' (no spaces), got 'a b'",
+            "expected an id: a letter or '_' first (a digit first reads as a level in 'expect'), then letters, digits, "
+            "'_', '.' or '-' (no spaces), not ending in '.' (the start of ids in 'expect'), 40 at most, got 'a b'",
         ),
         (
             "name: yes\nstructure: {tower: {levels: 2}}",

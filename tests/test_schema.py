@@ -18,6 +18,7 @@ import pytest
 import yaml
 
 from stackdsl import ScenarioError, load_scenario, parse_scenario
+from stackdsl.lang.grammar import BODY_ID
 from stackdsl.lang.jsonschema import SCHEMA_DIALECT, json_schema
 from stackdsl.lang.unit_slips import UnitSlipWarning
 
@@ -517,7 +518,7 @@ def test_patterns_mean_the_same_in_ecma_262_as_in_python():
     differ = [(p, s) for p, e_row, p_row in zip(found, ecma, python) for s, e, q in zip(samples, e_row, p_row) if e != q]
     # Python's $ also matches before a final newline: the patterns pydantic writes itself (a brick id, a part's
     # name, what a part is on) differ there
-    ids = {"^[A-Za-z0-9_.-]{1,40}$", "^[A-Za-z_][A-Za-z0-9_-]{0,39}$", "^[A-Za-z0-9_.-]{1,100}$"}
+    ids = {"^[A-Za-z0-9_.-]{1,40}$", "^[A-Za-z_][A-Za-z0-9_-]{0,39}$", "^[A-Za-z0-9_.-]{1,100}$", BODY_ID}
     assert all(s.endswith("\n") and p in ids for p, s in differ), differ
     assert len(found) >= 6
 

@@ -17,9 +17,9 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Annotated, Any
 
-from pydantic import BeforeValidator, GetJsonSchemaHandler, TypeAdapter
+from pydantic import AfterValidator, BeforeValidator, Field, GetJsonSchemaHandler, TypeAdapter
 from pydantic.json_schema import JsonSchemaValue
 from pydantic_core import CoreSchema
 
@@ -38,6 +38,22 @@ AFTER_PREVIOUS = f"{SPACE}after{WHITESPACE}+the{WHITESPACE}+previous{WHITESPACE}
 _DECIMAL = "([0-9]+(?:\\.[0-9]*)?)"
 PLUS_MINUS = f"{SPACE}{_DECIMAL}{SPACE}(?:±|\\+-|\\+/-){SPACE}{_DECIMAL}{SPACE}"  # "7 ± 0.5", "7 +- 0.5"
 BOUND = f"{SPACE}(>=|<=|>|<){SPACE}([0-9]*\\.?[0-9]+){SPACE}"  # ">= 0.9"
+BODY_ID = r"^[A-Za-z_](?:[A-Za-z0-9_.-]{0,38}[A-Za-z0-9_-])?$"
+"""A body's own id (a brick placed by hand, a projectile, a pusher): a letter or '_' first, since
+``expect`` reads a digit first as a level ('3', '007', '1e3') and a '.' or '-' as nothing it
+names; not ending in '.', which ``expect`` reads as the start of ids ('left.'); 40 at most."""
+GROUND = "ground"
+"""The id of the ground in the timeline and the brick graph: no body may have it."""
+
+
+def _not_ground(value: str) -> str:
+    if value == GROUND:
+        raise ValueError(f"{GROUND!r} names the ground (what a brick rests on in the timeline and the graph): give another id")
+    return value
+
+
+BodyId = Annotated[str, Field(pattern=BODY_ID, json_schema_extra={"not": {"const": GROUND}}), AfterValidator(_not_ground)]
+"""A body's own id: :data:`BODY_ID`, and not :data:`GROUND`."""
 
 
 def json_pattern(regex: str, *numbers: str) -> str:

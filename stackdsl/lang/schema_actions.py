@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal
 from pydantic import AfterValidator, BeforeValidator, ConfigDict, Field, model_validator
 
 from .bounds import MAX_SIDE, Component, StrictModel, Vector3
-from .grammar import AFTER_LEVEL, AFTER_PREVIOUS, LEVEL_NUMBER, AlsoAccepts, given, json_pattern
+from .grammar import AFTER_LEVEL, AFTER_PREVIOUS, LEVEL_NUMBER, AlsoAccepts, BodyId, given, json_pattern
 from .schema_impacts import AfterLevel, _nonzero, _when
 from .spelling import spelled
 from .units import Frequency, Length, Speed, Time, frequency, length, quantity_pattern, speed, time, within
@@ -177,9 +177,7 @@ class Push(StrictModel):
         PusherGap, Field(description="from the pusher's front to the target's surface at the start", examples=["5 mm"])
     ] = 0.005
     pusher: Annotated[str, Field(description="the pusher's brick type (its size)", examples=["kapla", "finger"])] = "kapla"
-    id: Annotated[str, Field(pattern=ID)] | None = Field(
-        default=None, description="the pusher's id in the timeline", examples=["finger"]
-    )
+    id: BodyId | None = Field(default=None, description="the pusher's id in the timeline", examples=["finger"])
 
 
 class Shake(StrictModel):

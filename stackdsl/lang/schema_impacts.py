@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal
 from pydantic import AfterValidator, BeforeValidator, ConfigDict, Field, model_validator
 
 from .bounds import MAX_LEVELS, MIN_DIRECTION, Component, ImpactSpeed, StrictModel, Vector3
-from .grammar import AFTER_LEVEL, LEVEL_NUMBER, WHOLE, AlsoAccepts, absent, given, json_pattern
+from .grammar import AFTER_LEVEL, LEVEL_NUMBER, WHOLE, AlsoAccepts, BodyId, absent, given, json_pattern
 from .spelling import spelled
 from .units import Length, length, quantity_pattern, time, within
 
@@ -100,7 +100,7 @@ class Impact(StrictModel):
 
     model_config = ConfigDict(json_schema_extra={"anyOf": [given("direction"), {"properties": {"target": given("side")}}]})
 
-    id: Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]{1,40}$")] | None = None
+    id: BodyId | None = None
     projectile: str = "kapla"
     target: Target
     speed: ImpactSpeed

@@ -22,7 +22,7 @@ from .bounds import (
     Vector2,
     Vector3,
 )
-from .grammar import WHOLE, AlsoAccepts
+from .grammar import WHOLE, AlsoAccepts, BodyId
 from .units import Angle, angle, within
 
 if TYPE_CHECKING:  # to mypy a float; to pydantic an angle with its bounds
@@ -111,7 +111,7 @@ class BrickPlacement(StrictModel):
     it at the same moment as the brick before it (the two bricks of a V).
     """
 
-    id: Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]{1,40}$")] | None = None
+    id: BodyId | None = None
     brick: str = "kapla"
     at: Vector3
     yaw: BoundedAngle = 0.0

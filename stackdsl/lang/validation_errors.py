@@ -23,6 +23,7 @@ from pydantic_core import ErrorDetails
 
 from .errors import FieldPath, ScenarioError, SourceMap
 from .expectations import CollapseLevel, CollapseStatistic
+from .grammar import BODY_ID
 from .schema import REFERENCE_ERROR, Scenario, Structure
 from .schema_parts import NAME as PART_NAME
 from .schema_parts import Part
@@ -264,6 +265,11 @@ def _pattern(ctx: dict[str, Any]) -> str:
     pattern = str(ctx.get("pattern", ""))
     if pattern == PART_NAME:
         return "expected a part name: a letter or '_' first (a digit first reads as a level in 'expect'), then letters, digits, '_' or '-', 40 at most"
+    if pattern == BODY_ID:
+        return (
+            "expected an id: a letter or '_' first (a digit first reads as a level in 'expect'), then letters, digits, "
+            "'_', '.' or '-' (no spaces), not ending in '.' (the start of ids in 'expect'), 40 at most"
+        )
     found = re.fullmatch(r"\^\[A-Za-z0-9([^\]]*)\]\{(\d+),(\d+)\}\$", pattern)
     if found is None:
         return f"expected text matching {ctx.get('pattern')!r}"

@@ -14,14 +14,17 @@ from pydantic import ValidationError
 from stackdsl import ScenarioError, compile_scenario, load_scenario, parse_scenario
 from stackdsl.lang.models import (
     BrickPlacement,
+    BrickType,
     CardHouse,
     Dominoes,
     Expect,
     Impact,
+    Material,
     Part,
     Pyramid,
     Scenario,
     Structure,
+    Sweep,
     Timing,
     Tower,
     Wall,
@@ -106,6 +109,26 @@ def test_a_brick_id_that_reads_as_a_level_or_the_ground_is_refused_as_in_a_file(
     assert (err.value.line, err.value.column, err.value.field) == (5, 12, "structure.bricks[1].id")
     assert "a letter or '_' first" in err.value.message or "names the ground" in err.value.message
     assert BrickPlacement(id="_" + bad.strip("."), at=(0, 0, 0.004)).id  # with a '_' first it is an id
+
+
+def test_a_name_the_loader_reads_as_a_merge_key_is_refused_by_the_models():
+    """'<<' as a material's, a brick type's or a grid field's name was accepted in Python, and
+    to_yaml wrote a file the loader refused (its merge key): builder and loader now agree."""
+    tower = Structure(tower=Tower(levels=2))
+    for build in (
+        lambda: Scenario(stackdsl=1, materials={"<<": Material(density=500, friction=0.5)}, structure=tower),
+        lambda: Scenario(stackdsl=1, brick_types={"<<": BrickType(size=(0.1, 0.02, 0.01))}, structure=tower),
+        lambda: Sweep(samples=2, grid={"<<": [1, 2]}),
+    ):
+        with pytest.raises(ValidationError, match="'<<' is YAML's merge key"):
+            build()
+    odd = Scenario(
+        stackdsl=1,
+        materials={"< <": Material(density=500, friction=0.5)},
+        brick_types={"<": BrickType(size=(0.1, 0.02, 0.01), material="< <")},
+        structure=Structure(tower=Tower(levels=2, brick="<")),
+    )
+    assert parse_scenario(odd.to_yaml()) == odd  # a name like it is written and read back
 
 
 def _readme_bridge() -> Scenario:

@@ -52,6 +52,23 @@ def _not_ground(value: str) -> str:
     return value
 
 
+MERGE_KEY = "<<"
+"""YAML's merge key, which the loader refuses as a key: no name written as a key may be it."""
+
+
+def _not_merge_key(value: str) -> str:
+    if value == MERGE_KEY:
+        raise ValueError(
+            f"{MERGE_KEY!r} is YAML's merge key, which a scenario file may not have as a key: a name written as a key "
+            "(a material's, a brick type's, a grid field's) cannot be it; give another name"
+        )
+    return value
+
+
+Key = Annotated[str, AfterValidator(_not_merge_key)]
+"""A name a file writes as a mapping's key (a material, a brick type, a grid field): not :data:`MERGE_KEY`,
+so that what the models accept, :meth:`Scenario.to_yaml` writes and the loader reads back."""
+
 BodyId = Annotated[str, Field(pattern=BODY_ID, json_schema_extra={"not": {"const": GROUND}}), AfterValidator(_not_ground)]
 """A body's own id: :data:`BODY_ID`, and not :data:`GROUND`."""
 

@@ -46,6 +46,7 @@ from .expectations import Expect
 from .expressions import parse
 from .grammar import (
     WHOLE,
+    Key,
     given,
     whole,
 )
@@ -243,8 +244,8 @@ class Scenario(StrictModel):
     name: Annotated[str, Field(min_length=1, max_length=200)] | None = None
     description: str = ""
     seed: Annotated[int, Field(ge=0), WHOLE] = 0
-    materials: dict[str, Material] = {}
-    brick_types: dict[str, BrickType] = {}
+    materials: dict[Key, Material] = {}
+    brick_types: dict[Key, BrickType] = {}
     ground: Ground = Ground()
     structure: Structure
     timing: Timing = Timing()

@@ -12,7 +12,7 @@ from typing import Annotated, Any
 from pydantic import Field, model_validator
 
 from .bounds import StrictModel
-from .grammar import WHOLE
+from .grammar import WHOLE, Key
 
 MAX_SAMPLES = 100_000
 MAX_CELLS = 1000
@@ -31,7 +31,7 @@ class Sweep(StrictModel):
     each with a list of values, run as their product; every cell's sample k has the same seed."""
 
     samples: Annotated[int, Field(ge=1, le=MAX_SAMPLES), WHOLE] = 1
-    grid: Annotated[dict[str, Annotated[list[Any], Field(min_length=1, max_length=100)]], Field(max_length=4)] = {}
+    grid: Annotated[dict[Key, Annotated[list[Any], Field(min_length=1, max_length=100)]], Field(max_length=4)] = {}
 
     @property
     def cells(self) -> int:

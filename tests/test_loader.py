@@ -893,3 +893,22 @@ def test_a_plain_number_not_finite_is_said_as_a_length_is():
     with pytest.raises(ScenarioError) as err:
         parse_scenario(text, "m.yaml")
     assert (err.value.field, err.value.message) == ("materials.oak.friction", "expected a number, got .inf (not finite)")
+
+
+@pytest.mark.parametrize(
+    "at, field, message",
+    [
+        ("{after_level: 2, extra: 1}", "actions[0].remove.at.extra", "unknown key 'extra'; allowed: after_level"),
+        ("{after: the previous action, x: 1}", "actions[0].remove.at.x", "unknown key 'x'; allowed: after"),
+        ("{aftr_level: 2}", "actions[0].remove.at.aftr_level", "unknown key 'aftr_level'; did you mean 'after_level'?"),
+    ],
+)
+def test_a_mapping_of_a_union_is_told_the_key_the_member_it_fits_best_lacks(at, field, message):
+    """'at' is a time, {after_level: N} or {after: the previous action}: a level's mapping with a
+    key too many was blamed for its valid key ('after_level': did you mean 'after'?), the words of
+    the member it fits worst; a key no member has is told what any of them allows."""
+    text = f"stackdsl: 1\nstructure: {{tower: {{levels: 2}}}}\nactions:\n  - remove: {{brick: L02.1, at: {at}}}\n"
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(text, "at.yaml")
+    assert (err.value.field, err.value.message) == (field, message)
+    assert err.value.column == text.splitlines()[3].index(field.rsplit(".", 1)[1] + ":") + 1  # at the key itself

@@ -109,6 +109,17 @@ def _fitting_members(errors: list[ErrorDetails], source: SourceMap) -> list[Erro
         fits = {m: not any(_misfit(e, source) for e in errs) for m, errs in by_member.items()}
         if any(fits.values()):
             dropped |= {id(e) for m, errs in by_member.items() if not fits[m] for e in errs}
+            continue
+        # none fits: of the members the value is the kind of, those with the fewest keys out of place
+        # ({after_level: 2, extra: 1} is a level with one key too many, not a previous action with three)
+        keys = {
+            m: sum(e["type"] == "extra_forbidden" or e["type"] == "missing" for e in errs)
+            for m, errs in by_member.items()
+            if not any(_wrong_kind(e, source) for e in errs)
+        }
+        if keys:
+            fewest = min(keys.values())
+            dropped |= {id(e) for m, errs in by_member.items() if keys.get(m) != fewest for e in errs}
     return [e for e in errors if id(e) not in dropped]
 
 
@@ -118,6 +129,13 @@ def _member_split(loc: FieldPath, source: SourceMap) -> tuple[FieldPath, str] | 
         if _is_member(seg) and (*loc[:i], seg) not in source.values:
             return loc[:i], str(seg)
     return None
+
+
+def _wrong_kind(err: ErrorDetails, source: SourceMap) -> bool:
+    """Does this refusal say the value is not its member's kind (a mapping where a number goes)?"""
+    split = _member_split(_untagged(tuple(err["loc"])), source)
+    at_root = split is not None and len(_untagged(tuple(err["loc"]))) == len(split[0]) + 1
+    return at_root and err["type"] not in ("value_error", "assertion_error")
 
 
 def _misfit(err: ErrorDetails, source: SourceMap) -> bool:
@@ -141,6 +159,20 @@ def _merged(group: list[tuple[ErrorDetails, ScenarioError]]) -> ScenarioError:
     """
     if len(group) == 1:
         return group[0][1]
+    if all(d["type"] == "extra_forbidden" for d, _ in group):  # one key no member has: what any of them allows
+        key = str(group[0][0]["loc"][-1])
+        allowed = sorted({f for d, _ in group for f in fields_at(tuple(d["loc"])[:-1])})
+        close = difflib.get_close_matches(key, allowed, n=1)
+        hint = f"; did you mean {close[0]!r}?" if close else f"; allowed: {', '.join(allowed)}"
+        first = group[0][1]
+        return ScenarioError(
+            f"unknown key {key!r}{hint}",
+            file=first.file,
+            line=first.line,
+            column=first.column,
+            field=first.field,
+            source_line=first.source_line,
+        )
     own = [e for d, e in group if d["type"] in ("value_error", "assertion_error")]
     if own:
         return own[0]
@@ -373,19 +405,19 @@ def model_at(loc: FieldPath) -> type[BaseModel] | None:
         if not (isinstance(model, type) and issubclass(model, BaseModel)) or seg not in model.model_fields:
             continue
         annotation: Any = model.model_fields[seg].annotation
-        model = _model_in(annotation, loc)
+        member = loc[i + 1] if i + 1 < len(loc) else None  # a plain union's member, named as pydantic names it
+        model = _model_in(annotation, loc, member if isinstance(member, str) else None)
     return model if isinstance(model, type) and issubclass(model, BaseModel) else None
 
 
-def _model_in(annotation: Any, loc: FieldPath) -> Any:
-    """The pydantic model inside ``annotation`` (through Optional, list, dict, Annotated)."""
+def _model_in(annotation: Any, loc: FieldPath, member: str | None = None) -> Any:
+    """The pydantic model inside ``annotation`` (through Optional, list, dict, Annotated): in a
+    union, the one named ``member`` if there is one, else the first."""
     origin = typing.get_origin(annotation)
     if origin is typing.Annotated:
-        return _model_in(typing.get_args(annotation)[0], loc)
+        return _model_in(typing.get_args(annotation)[0], loc, member)
     if origin in (typing.Union, types.UnionType, list, dict, tuple):
-        for arg in typing.get_args(annotation):
-            found = _model_in(arg, loc)
-            if isinstance(found, type) and issubclass(found, BaseModel):
-                return found
-        return None
+        found = [_model_in(arg, loc, member) for arg in typing.get_args(annotation)]
+        models = [f for f in found if isinstance(f, type) and issubclass(f, BaseModel)]
+        return next((m for m in models if m.__name__ == member), models[0] if models else None)
     return annotation

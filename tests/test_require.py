@@ -50,6 +50,10 @@ def test_conditions_hold_as_written(text, values, holds):
         ("x < ", "character 5"),
         ("x", "character 2"),
         ("x < 3 parsnips", "unknown unit"),
+        ("x < 1 A", "'1 A': a condition's numbers are lengths, times, masses and angles"),
+        ("x < 1e400 mm", "1e400 is not a finite number"),
+        ("x < 1e400", "at character 5: 1e400 is not a finite number"),
+        ("x < 1e308 km", "'1e308 km' is not a finite number in SI units"),
         ("(" * 60 + "x" + ")" * 60 + " < 1", "nested"),
         ("x < 1; y < 2", "character 6"),
         ("lambda: 1 < 2", "character 7"),
@@ -197,12 +201,19 @@ def test_a_field_a_draw_lacks_fails_its_condition_and_is_drawn_again():
         ("structure.tower.spacing > 0.5 * gap + 1 mm", None),
         ("com_offset / 1 mm < 2000 and timing.interval > 0.5 s", None),
         ("overhang < 0.01 and bricks * 1 mm < 1 m", None),
+        ("overhang * 2 Hz * 2 Hz < 1 m", "compares overhang * 2 Hz * 2 Hz (an acceleration) with 1 m (a length)"),
+        ("overhang / 1 s < 1 m", "compares overhang / 1 s (a speed) with 1 m (a length)"),
+        ("overhang * 2 Hz * 2 Hz < 9.8 m/s^2 and overhang * overhang < 1 cm^2", None),
+        ("overhang * overhang < 1 m", "compares overhang * overhang (an area) with 1 m (a length)"),
+        ("overhang / timing.interval < 2 m/s and 1 / timing.interval < 2 Hz", None),
+        ("overhang * 3 s < 1 m^2/s", "compares overhang * 3 s (a quantity in m s) with 1 m^2/s (a quantity in m^2/s)"),
     ],
 )
 def test_a_condition_mixing_kinds_of_quantity_is_refused_at_it(condition, refused):
     """A unit slip in a condition (a length against a time, a count against a length) is bad
-    input at the condition, not a silent comparison of SI numbers; bare numbers, products and
-    quotients go with anything."""
+    input at the condition, not a silent comparison of SI numbers; a bare number goes with
+    anything, and a product or a quotient has the kind its factors make: a length times a rate
+    twice is an acceleration, not the rate it was once called."""
     text = f"""stackdsl: 1
 structure: {{tower: {{levels: 3, spacing: {{uniform: [90 mm, 100 mm]}}}}}}
 timing: {{interval: 1 s}}

@@ -15,8 +15,10 @@ quantity derived from where its bricks are, ``overhang``), numbers with an optio
     product    := unary (("*" | "/") unary)*
     unary      := "-" unary | NUMBER [UNIT] | NAME | FUNCTION "(" sum ("," sum)* ")" | "(" sum ")"
 
-Quantities are SI (metres, seconds, m/s, kg/m^3) and degrees for angles, as everywhere in a
+Quantities are SI (metres, seconds, m/s, kg/m^3, m/s^2) and degrees for angles, as everywhere in a
 Program; a number's unit converts it (pint converts the unit only, as for any quantity of a file).
+Each side of a comparison has a kind (:func:`check_kinds`): a product or quotient the kind its
+factors make.
 A division by zero makes the condition false, and so does a comparison with a name the values
 lack (NaN); a division by a number that reads no name and is zero (``1 / 0``, ``x / (2 - 2)``) is
 refused when the condition is parsed.
@@ -40,7 +42,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from .spelling import spelled
-from .units import angle, angular_speed, density, length, parse_quantity, speed, time
+from .units import angle, angular_speed, density, length, si_unit, speed, time
 
 MAX_CONDITION = 500
 """Characters a condition may have."""
@@ -74,36 +76,92 @@ def quantity(number: str, unit: str) -> float:
 
 
 def measured(number: str, unit: str) -> tuple[float, str]:
-    """``number`` with ``unit`` in SI (degrees for angles), and its kind of quantity (:data:`KINDS`).
-    Raises ValueError for an unknown unit.
+    """``number`` with ``unit`` in SI (degrees for angles), and its kind of quantity: one of
+    :data:`KINDS`, or for another product of metres, seconds and kilograms its SI unit
+    (``"m^2/s"``). Raises ValueError for a number beyond a double, an unknown unit, or a unit of
+    no kind a condition compares (:data:`SUPPORTED`).
 
-    >>> measured("1", "ms"), measured("2", "Hz")[1]
-    ((0.001, 'time'), 'per time')
+    >>> measured("1", "ms"), measured("2", "Hz")[1], measured("9.8", "m/s^2"), measured("3", "cm^2/s")
+    ((0.001, 'time'), 'per time', (9.8, 'acceleration'), (0.00030000000000000003, 'm^2/s'))
     """
     text = f"{number} {unit}"
+    if not math.isfinite(float(number)):
+        raise ValueError(_INFINITE.format(number))
     for convert, kind in zip(_CONVERTERS, _KINDS, strict=True):
         try:
             return float(convert(text)), kind
         except ValueError:
             continue
-    try:
-        return parse_quantity(text, "[mass]", "kg", "a mass", "'10 g'"), "mass"
-    except ValueError:
-        raise ValueError(f"unknown unit {unit!r} in '{text}'") from None
+    found = si_unit(unit)
+    if found is None:
+        raise ValueError(f"unknown unit {unit!r} in '{text}': {SUPPORTED}")
+    factor, dimensions = found
+    value = float(number) * factor
+    if not math.isfinite(value):
+        raise ValueError(f"'{text}' is not a finite number in SI units: it is beyond the largest a double holds")
+    return value, _kind_name((*dimensions, 0)) if any(dimensions) else ""
 
 
-KINDS = ("length", "time", "speed", "per time", "density", "angle", "mass", "count")
+_INFINITE = "{} is not a finite number: it is beyond the largest a double holds (about 1.8e308)"
+KINDS = ("length", "time", "speed", "per time", "density", "angle", "mass", "acceleration", "area", "volume", "count")
 """The kinds of quantity a condition's dimensions are checked by: what a number's unit says, and
 what the compiler knows of a name (a derived quantity, a field of the scene). A bare number has
-none: it is read in the unit a name of its kind means (SI), and goes with anything."""
+none: it is read in the unit a name of its kind means (SI), and goes with anything. A product or
+a quotient has the kind its factors make (a length over a time squared: an acceleration), or a
+unit of its own (``m^2/s``); a count times a length is a length."""
 _KINDS = ("length", "time", "speed", "per time", "density", "angle")  # of _CONVERTERS, in order
+SUPPORTED = (
+    "a condition's numbers are lengths, times, masses and angles (deg, rad), and products and quotients of "
+    "metres, seconds and kilograms (m/s, Hz, m/s^2, m^2, kg/m^3)"
+)
+
+Dimensions = tuple[int, ...]
+"""Exponents of metre, second, kilogram and degree."""
+_DIMENSIONS: dict[str, Dimensions] = {
+    "count": (0, 0, 0, 0),
+    "length": (1, 0, 0, 0),
+    "area": (2, 0, 0, 0),
+    "volume": (3, 0, 0, 0),
+    "time": (0, 1, 0, 0),
+    "per time": (0, -1, 0, 0),
+    "speed": (1, -1, 0, 0),
+    "acceleration": (1, -2, 0, 0),
+    "mass": (0, 0, 1, 0),
+    "density": (-3, 0, 1, 0),
+    "angle": (0, 0, 0, 1),
+}
+_UNIT_NAMES = ("m", "s", "kg", "deg")
+Kind = Dimensions | str
+"""A node's kind in :func:`check_kinds`: its dimensions; "" for a bare number (goes with anything,
+takes the other factor's kind), "?" for what is not known (goes with anything)."""
+
+
+def _kind_name(dimensions: Dimensions) -> str:
+    """A kind's name (:data:`KINDS`), or its unit in SI (``"m^2/s"``)."""
+    named = next((k for k, d in _DIMENSIONS.items() if d == dimensions), None)
+    if named is not None:
+        return named
+    up = [f"{u}^{e}" if e != 1 else u for u, e in zip(_UNIT_NAMES, dimensions, strict=True) if e > 0]
+    down = [f"{u}^{-e}" if e != -1 else u for u, e in zip(_UNIT_NAMES, dimensions, strict=True) if e < 0]
+    return (" ".join(up) or "1") + (f"/{' '.join(down)}" if len(down) == 1 else f"/({' '.join(down)})" if down else "")
+
+
+def _dimensions(kind: str) -> Kind:
+    """The dimensions of a kind as :func:`measured` or the compiler names it ("" stays "")."""
+    if not kind:
+        return ""
+    if kind in _DIMENSIONS:
+        return _DIMENSIONS[kind]
+    found = si_unit(kind.replace(" ", "*"))
+    return (*found[1], 0) if found is not None else "?"
 
 
 def check_kinds(condition: Condition, kinds: Mapping[str, str]) -> None:
     """Refuse a condition that compares, adds or subtracts quantities of two kinds (``overhang < 3
     s``, ``levels > 2 mm``), or takes the min or max of such: ``kinds`` gives the kind of each name
-    the compiler knows (:data:`KINDS`); an unknown name, a bare number and a product or quotient of
-    two quantities go with anything. Source: stackdsl's own.
+    the compiler knows (:data:`KINDS`); an unknown name and a bare number go with anything, and a
+    product or quotient has the kind its factors make (their exponents of metre, second, kilogram
+    and degree added or subtracted; a bare number keeps the other's). Source: stackdsl's own.
 
     Raises:
         ValueError: the first such mismatch, naming both sides and their kinds.
@@ -113,17 +171,21 @@ def check_kinds(condition: Condition, kinds: Mapping[str, str]) -> None:
     Traceback (most recent call last):
     ...
     ValueError: compares max_overhang (a length) with 1 ms (a time): both sides must be quantities of one kind
+    >>> check_kinds(parse("a * f * f < 1 m"), {"a": "length", "f": "per time"})
+    Traceback (most recent call last):
+    ...
+    ValueError: compares a * f * f (an acceleration) with 1 m (a length): both sides must be quantities of one kind
     """
     _kind_of(condition.tree, kinds)
 
 
-def _kind_of(node: Node, kinds: Mapping[str, str]) -> tuple[str, str]:
-    """(kind, how it is written) of a node: "" for a bare number or a kind not known."""
+def _kind_of(node: Node, kinds: Mapping[str, str]) -> tuple[Kind, str]:
+    """(kind, how it is written) of a node (:data:`Kind`)."""
     kind = node[0]
     if kind == "num":
-        return node[2], node[3]
+        return _dimensions(node[2]), node[3]
     if kind == "name":
-        return kinds.get(node[1], ""), node[1]
+        return _dimensions(kinds.get(node[1], "")), node[1]
     if kind == "neg":
         inner, words = _kind_of(node[1], kinds)
         return inner, f"-{words}"
@@ -132,18 +194,27 @@ def _kind_of(node: Node, kinds: Mapping[str, str]) -> tuple[str, str]:
         words = f"{wa} {node[1]} {wb}"
         if node[1] == "+":
             _same(a, wa, b, wb, "adds", "to")
-            return a or b, words
+            return _either(a, b), words
         if node[1] == "-":
             _same(b, wb, a, wa, "subtracts", "from")  # a - b subtracts b from a
-            return a or b, words
-        if node[1] == "*":
-            return (a if not b else b if not a else ""), words
-        return (a if not b else "count" if a == b else ""), words
+            return _either(a, b), words
+        if b == "":  # a bare number scales what it multiplies or divides
+            return a, words
+        if a == "" and node[1] == "*":
+            return b, words
+        if (isinstance(a, str) and a) or isinstance(b, str):  # "?": not known, nor is the product
+            return "?", words
+        sign = 1 if node[1] == "*" else -1
+        base = (0, 0, 0, 0) if a == "" else a
+        return tuple(x + sign * y for x, y in zip(base, b, strict=True)), words
     if kind == "call":
         parts = [_kind_of(arg, kinds) for arg in node[2]]
         for (a, wa), (b, wb) in itertools.pairwise(parts):
             _same(a, wa, b, wb, f"takes the {node[1]} of", "and")
-        return next((k for k, _ in parts if k), ""), f"{node[1]}(...)"
+        found: Kind = ""
+        for k, _ in parts:
+            found = _either(found, k)
+        return found, f"{node[1]}(...)"
     if kind == "cmp":
         parts = [_kind_of(operand, kinds) for operand in node[2]]
         for (a, wa), (b, wb) in itertools.pairwise(parts):
@@ -157,13 +228,27 @@ def _kind_of(node: Node, kinds: Mapping[str, str]) -> tuple[str, str]:
     return "", ""
 
 
-def _same(a: str, wa: str, b: str, wb: str, verb: str, joint: str) -> None:
-    if a and b and a != b:
+def _either(a: Kind, b: Kind) -> Kind:
+    """The kind of a sum of two things of one kind: the one that is known."""
+    if not isinstance(a, str):
+        return a
+    if not isinstance(b, str):
+        return b
+    return "?" if "?" in (a, b) else ""
+
+
+def _same(a: Kind, wa: str, b: Kind, wb: str, verb: str, joint: str) -> None:
+    if not isinstance(a, str) and not isinstance(b, str) and a != b:
         raise ValueError(f"{verb} {wa} ({_article(a)}) {joint} {wb} ({_article(b)}): both sides must be quantities of one kind")
 
 
-def _article(kind: str) -> str:
-    return {"angle": "an angle", "per time": "a rate (per time)", "count": "a count"}.get(kind, f"a {kind}")
+def _article(dimensions: Dimensions) -> str:
+    kind = _kind_name(dimensions)
+    if kind not in _DIMENSIONS:
+        return f"a quantity in {kind}"
+    return {"angle": "an angle", "acceleration": "an acceleration", "area": "an area", "per time": "a rate (per time)"}.get(
+        kind, f"a {kind}"
+    )
 
 
 # a parsed condition is a tree of tuples: ("num", value, kind, as written), ("name", text), ("neg", x),
@@ -324,6 +409,8 @@ class _Parser:
                     self.tokens.append(("num", match["number"], match.start("number")))
                     position = match.start("unit")
                     continue
+                if not math.isfinite(float(match["number"])):
+                    raise ValueError(f"at character {match.start('number') + 1}: {_INFINITE.format(match['number'])}")
                 value, kind = measured(match["number"], unit) if unit else (float(match["number"]), "")
                 self.tokens.append(("num", repr(value), match.start("number")))
                 self.units[len(self.tokens) - 1] = (kind, f"{match['number']} {unit}" if unit else match["number"])

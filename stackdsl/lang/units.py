@@ -143,6 +143,34 @@ def _unit_factor(text: str, dimension: str, unit: str) -> float | None:
         return None
 
 
+#: The base dimensions a unit of :func:`si_unit` may be made of, in the order of its exponents.
+SI_BASE = (("[length]", "m"), ("[time]", "s"), ("[mass]", "kg"))
+
+
+@lru_cache(maxsize=256)
+def si_unit(text: str) -> tuple[float, tuple[int, ...]] | None:
+    """The factor from the unit ``text`` to SI base units and its whole exponents of metre, second
+    and kilogram (:data:`SI_BASE`); None when pint reads no unit in it, or one of another kind (an
+    angle's, whose radian pint counts as 1, a current's, a fractional power).
+
+    >>> si_unit("mm/s^2"), si_unit("cm^2"), si_unit("deg/s"), si_unit("parsec") is not None
+    ((0.001, (1, -2, 0)), (0.0001, (2, 0, 0)), None, True)
+    """
+    ureg = _registry()
+    try:
+        quantity = ureg.Quantity(1.0, ureg.parse_units(text))
+        dimensions = dict(quantity.dimensionality)
+        base = quantity.to_base_units()
+    except Exception:  # pint's parser raises many kinds; any of them means: not a unit we know
+        return None
+    names = [d for d, _ in SI_BASE]
+    if set(dimensions) - set(names) or any(not float(e).is_integer() for e in dimensions.values()):
+        return None
+    if any(ureg.Quantity(1.0, u).dimensionless for u, _ in base.unit_items()):  # radians, turns: angles
+        return None
+    return float(base.magnitude), tuple(int(dimensions.get(d, 0)) for d in names)
+
+
 _BOUNDS = {"gt": "exclusiveMinimum", "ge": "minimum", "lt": "exclusiveMaximum", "le": "maximum"}
 
 

@@ -548,6 +548,21 @@ OUT_OF_RANGE = {
         54,
         "expected a direction component from -1e6 to 1e6",
     ),
+    "a shake of 0.5 rad/s, said in Hz with the limits a run has": (
+        "structure: {tower: {levels: 2}}\nactions: [{shake: {amplitude: 2 mm, frequency: 0.5 rad/s, duration: 1 s, at: 9 s}}]",
+        "actions[0].shake.frequency",
+        3,
+        48,
+        "expected a frequency of 0.1 Hz or more that the run's timestep samples 5 times a period (48 Hz at the default "
+        "1/240 s, 20 kHz at the shortest, 0.01 ms), got '0.5 rad/s' (0.07958 Hz); slower",
+    ),
+    "an amplitude of 20 cm, said in mm as its bounds are": (
+        "structure: {tower: {levels: 2}}\nactions: [{shake: {amplitude: 20 cm, frequency: 1 Hz, duration: 1 s, at: 9 s}}]",
+        "actions[0].shake.amplitude",
+        3,
+        31,
+        "expected a length above 0 and at most 100 mm, got '20 cm' (200 mm); ",
+    ),
     "a spacing of 120 parsecs (a shapely AttributeError once)": (
         "structure: {tower: {levels: 2, spacing: 120 parsec}}",
         "structure.tower.spacing",

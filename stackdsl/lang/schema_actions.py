@@ -92,7 +92,8 @@ else:
         frequency,
         0.1,
         MAX_SHAKE_FREQUENCY,
-        "a frequency from 0.1 Hz to 20 kHz",
+        "a frequency of 0.1 Hz or more that the run's timestep samples 5 times a period (48 Hz at the default "
+        "1/240 s, 20 kHz at the shortest, 0.01 ms)",
         ("slower, a shake is a slow slide", "faster, the shortest timestep, 0.01 ms, samples a period fewer than 5 times"),
     )
     ShakeDuration = within(

@@ -235,11 +235,29 @@ def within(
             slip = ""
             if convert is length and number > high and bare(value) and inside(number / 1000):
                 slip = f" ({value:g} m: a bare number is metres; did you mean '{value:g} mm'?)"
+            slip = slip or _converted(value, number, convert)
             raise ValueError(f"expected {shown}, got {spelled(value)}{slip}" + (f"; {reason}" if reason else ""))
         return number
 
     bounds = Field(gt=low if above else None, ge=None if above else low, lt=high if below else None, le=None if below else high)
     return Annotated[kind, bounds, BeforeValidator(check)]
+
+
+def _converted(value: Any, number: float, convert: Callable[[Any], Any]) -> str:
+    """`` (0.0796 Hz)``: a value written in a unit other than the one its bounds are said in,
+    converted to that one; "" for a bare number, a value in that unit, or a converter not known."""
+    unit = {length: "m", time: "s", speed: "m/s", density: "kg/m^3", angular_speed: "rad/s", angle: "deg", frequency: "Hz"}
+    shown = unit.get(convert)
+    written = split_quantity(value)[1] if isinstance(value, str) else ""
+    if shown is None or not written or written.replace(" ", "") in (shown, "degree", "degrees"):
+        return ""
+    if shown == "m" and abs(number) < 1:  # lengths are said in mm
+        number, shown = number * 1000, "mm"
+        if written == "mm":
+            return ""
+    text = f"{number:.4g}"
+    whole = "e+" in text and abs(number) < 1e9  # 30000, not 3e+04
+    return f" ({f'{number:.0f}' if whole else text} {shown})"
 
 
 def bare(value: Any) -> bool:

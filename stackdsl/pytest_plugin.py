@@ -234,7 +234,7 @@ def _sweep_test(request: pytest.FixtureRequest, scenario: Any, program: Any, sho
     if failed:
         lines = [
             f"{Path(shown).name}: {v.outcome}"
-            + (f" in cell {c} ({', '.join(f'{k} = {x}' for k, x in template.cell(c).items())})" if template.grid else "")
+            + (f" in cell {c} ({template.label(c)})" if template.grid else "")
             + f": expected {v.expected}, measured {v.measured}"
             + (f"; about {v.samples_to_decide} samples would decide it" if v.samples_to_decide else "")
             for c, v in failed

@@ -215,3 +215,53 @@ def test_a_name_no_draw_has_is_said_as_such_not_as_nan():
         compile_scenario(parse_scenario(text + "require: ['structure.tower.shifts.5.0 > 0']\n", "r.yaml"))
     assert "no draw of the scene has structure.tower.shifts.5.0" in err.value.message
     assert "nan" not in err.value.message and not math.isnan(0.0)
+
+
+def test_a_grid_cell_is_labelled_as_the_file_writes_its_values():
+    """Cell labels printed Python's reprs: radius = None, interleave = True, target =
+    {'point': [0, 0, '4 mm']}; they are the file's spelling: null, true, {point: [0, 0, 4 mm]}."""
+    text = """stackdsl: 1
+structure:
+  - {name: a, tower: {levels: 2}}
+  - {name: b, tower: {levels: 2}, origin: [300 mm, 0]}
+actions:
+  - push: {target: {brick: a.L01.1}, direction: [0, 1, 0], at: after level 4}
+sweep:
+  samples: 1
+  grid:
+    structure.b.interleave: [true, false]
+    actions.0.push.target: [{point: [0, -30 mm, 4 mm]}, {brick: b.L01.1, offset: [0, 0, 2 mm]}]
+    collapse_threshold: [null, 4 mm]
+expect: {p_stands: ">= 0.5"}
+"""
+    template = parse_scenario(text, "g.yaml").template
+    assert template.label(0) == (
+        "structure.b.interleave = true, actions.0.push.target = {point: [0, -30 mm, 4 mm]}, collapse_threshold = null"
+    )
+    assert template.label(7) == (
+        "structure.b.interleave = false, actions.0.push.target = {brick: b.L01.1, offset: [0, 0, 2 mm]}, "
+        "collapse_threshold = 4 mm"
+    )
+
+
+@pytest.mark.parametrize(
+    "names, says", [("[x, a]", "sample 0 of grid cell 0 (structure.0.name = x): "), ("[a, x]", "with structure.0.name = x: ")]
+)
+def test_an_error_a_grid_value_makes_at_another_field_names_the_grid_value(names, says):
+    """A grid renaming a part breaks the 'on' of a later part: the error is at that 'on', and says
+    which grid value made it (it said nothing of the grid); the file's own error does not."""
+    text = f"""stackdsl: 1
+structure:
+  - {{name: a, tower: {{levels: 2}}}}
+  - {{name: c, on: a, bricks: [{{at: [0, 0, 4 mm]}}]}}
+sweep: {{samples: 1, grid: {{structure.0.name: {names}}}}}
+expect: {{p_stands: ">= 0.5"}}
+"""
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(text, "g.yaml")
+    assert (err.value.field, err.value.line) == ("structure[1].on", 4)
+    assert err.value.message.startswith(says + "'a' names no part before this one")
+    own = text.replace("{name: c, on: a,", "{name: c, on: a, yaw: 1 km,")
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(own, "g.yaml")
+    assert err.value.field == "structure[1].yaw" and err.value.message.startswith("expected an angle")

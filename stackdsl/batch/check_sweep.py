@@ -106,4 +106,4 @@ def _described(template: Template, results: Sequence[SampleResult], levels_built
 
 
 def _cell(template: Template, c: int) -> str:
-    return ", ".join(f"{k} = {v}" for k, v in template.cell(c).items())
+    return template.label(c)

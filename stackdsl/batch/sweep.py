@@ -169,7 +169,7 @@ def _which(exc: ScenarioError, template: Template, cell: int, k: int) -> Scenari
     if exc.field.startswith("sweep.grid"):  # at the grid value, which says itself what it is
         return exc
     if not exc.message.startswith("sample "):  # the compiler's checks: say which sample
-        where = f" of grid cell {cell} ({', '.join(f'{k} = {v}' for k, v in template.cell(cell).items())})"
+        where = f" of grid cell {cell} ({template.label(cell)})"
         exc.message = f"sample {k}" + (where if template.grid else "") + f": {exc.message}"
     return exc
 

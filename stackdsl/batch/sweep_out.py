@@ -262,7 +262,7 @@ def _unit(unit: str) -> str:
 
 
 def _cell_text(template: Template, c: int) -> str:
-    return ", ".join(f"{k} = {v}" for k, v in template.cell(c).items())
+    return template.label(c)
 
 
 def report(template: Template, expect: Expect, results: Sequence[SampleResult], levels_built: int) -> list[str]:

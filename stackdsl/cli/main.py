@@ -546,7 +546,7 @@ def _one_sample(scenario: Any, cell: int | None, sample: int | None, verb: str) 
     if not 0 <= c < template.cells:
         raise ScenarioError(f"the sweep's grid has cells 0 to {template.cells - 1}, not {c}", file="--cell")
     chosen = scenario if (c, k) == (0, 0) else template.scenario(c, k)
-    where = f" of grid cell {c} of {template.cells} ({', '.join(f'{n} = {v}' for n, v in template.cell(c).items())})"
+    where = f" of grid cell {c} of {template.cells} ({template.label(c)})"
     print(
         f"stackdsl {verb}: {'running' if verb == 'run' else 'showing'} sample {k} of {template.samples}"
         f"{where if template.grid else ''} (seed {template.seed}); "

@@ -33,8 +33,10 @@ from .expressions import Condition, check_kinds, parse
 from .field_kinds import field_kind
 from .schema import Scenario, Structure
 from .schema_sweep import MAX_SAMPLES, MAX_SWEEP_RUNS, grid_name
+from .spelling import spelled
 from .units import in_language_units, in_unit, language_unit, split_quantity
 from .validate import validate
+from .yaml_out import flow
 
 
 def _drawn_into(distributions: tuple[Distribution, ...] | list[Distribution]) -> dict[FieldPath, FieldPath]:
@@ -135,6 +137,15 @@ class Template:
         combination = list(itertools.product(*(values for _, _, values in self.grid)))[c]
         return {key: value for (_, key, _), value in zip(self.grid, combination)}
 
+    def label(self, c: int) -> str:
+        """Cell ``c``'s grid values as the file writes them: ``"structure.b.interleave = true,
+        actions.0.push.target = {point: [0, 0, 4 mm]}"``.
+
+        Raises:
+            IndexError: no such cell.
+        """
+        return _shown(self.cell(c))
+
     def with_samples(self, samples: int, where: str = "--samples") -> Template:
         """This template with ``samples`` draws a cell, within the same budget as a file's own
         ``sweep.samples`` (at most :data:`MAX_SAMPLES` a cell and :data:`MAX_SWEEP_RUNS` runs in
@@ -180,7 +191,7 @@ class Template:
 
         if checked:
             self._check_values()
-        scenario = validate(self._data(c, k, attempt), self.source, self._blame(c, around=True), self._note(c, k))
+        scenario = self._validate(self._data(c, k, attempt), self._blame(c, around=True), self._note(c, k))
         if checked:
             self._check_cells(scenario.expect.cells or [])
         if self.grid:  # what the compiler refuses in a field the grid filled in is the grid value's fault
@@ -224,11 +235,11 @@ class Template:
             for i, value in enumerate(values):
                 data = self._data(0, 0, put={key: value})
                 try:
-                    validate(data, self.source, _at_grid(path, key, i), f"the grid value {value!r}")
+                    self._validate(data, _at_grid(path, key, i), f"the grid value {_value(value)}", f"with {key} = {flow(value)}")
                 except ScenarioError:
                     # an error at a field around the grid's (a tower's levels against its shifts) is the
                     # grid value's only when the file's own cell 0 is valid: else the file's error is said
-                    validate(self._data(0, 0), self.source, self._blame(0), self._note(0, 0))
+                    self._validate(self._data(0, 0), self._blame(0), self._note(0, 0))
                     raise
         for d in self.distributions:
             for end, what in _ends(d):
@@ -241,6 +252,29 @@ class Template:
                     if "sd" in what and exc.field == format_path(d.path):
                         exc.message += "; give the normal a clip: [low, high] within what the field takes"
                     raise
+
+    def _validate(self, data: Any, relocate: Callable[[FieldPath], FieldPath | None], note: str, elsewhere: str = "") -> Scenario:
+        """:func:`validate` of a sample's ``data``; with a grid, an error the grid's values make at a
+        field no grid value or distribution is blamed for (a part's ``on`` naming a part the grid
+        renamed) says ``elsewhere`` (default ``note``: the grid cell it is in) too, as the errors
+        blamed on one say ``note``."""
+        try:
+            return validate(data, self.source, relocate, note)
+        except ScenarioError as exc:
+            if self.grid and not exc.message.startswith(note) and not exc.field.startswith("sweep.grid") and self._grids(exc):
+                exc.message = f"{elsewhere or note}: {exc.message}"
+            raise
+
+    def _grids(self, exc: ScenarioError) -> bool:
+        """Whether the grid's values make ``exc``: the file's own values in their place (its
+        distributions at sample 0) are not refused so."""
+        grid_paths = [path for path, _, _ in self.grid]
+        drawn = [d for d in self.distributions if not any(d.path[: len(p)] == p for p in grid_paths)]
+        try:
+            validate(draw(self.data, drawn, self.seed, 0), self.source)
+        except ScenarioError as own:
+            return (own.field, own.message) != (exc.field, exc.message)
+        return True
 
     def _note(self, c: int, k: int) -> str:
         """What an error in cell ``c``'s sample ``k`` is said after: ``"sample 3 of grid cell 1 (timing.interval = 1 s)"``."""
@@ -319,7 +353,7 @@ class Template:
         compiler's, found after validation) is placed at the grid value, naming the grid key."""
         values = self.cell(c)
         moved = tuple(
-            (path, ("sweep", "grid", key, list(vs).index(values[key])), f"the grid value {values[key]!r}")
+            (path, ("sweep", "grid", key, list(vs).index(values[key])), f"the grid value {_value(values[key])}")
             for path, key, vs in self.grid
         )
         return dataclasses.replace(self.source, moved=moved)
@@ -538,8 +572,13 @@ def _scaled(value: Any, factor: float) -> Any:
     return value * factor if isinstance(value, (int, float)) and not isinstance(value, bool) and factor != 1.0 else value
 
 
+def _value(value: Any) -> str:
+    """A grid value in a message: text quoted (``'10 mm'``), a list or a mapping as YAML writes it."""
+    return flow(value) if isinstance(value, (list, dict)) else spelled(value)
+
+
 def _shown(values: dict[str, Any]) -> str:
-    return ", ".join(f"{k} = {v}" for k, v in values.items())
+    return ", ".join(f"{k} = {flow(v)}" for k, v in values.items())
 
 
 __all__ = ["ScenarioError", "Template"]

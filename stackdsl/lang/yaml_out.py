@@ -64,3 +64,37 @@ def _text(dumper: yaml.SafeDumper, value: str) -> yaml.Node:
 _Dumper.add_representer(list, _list)
 _Dumper.add_representer(str, _text)
 _Dumper.add_implicit_resolver("tag:yaml.org,2002:float", EXPONENT_ONLY, list("+-0123456789"))
+
+
+class _FlowDumper(_Dumper):
+    """:class:`_Dumper` writing everything on one line, in flow style (``{point: [0, 0, 4 mm]}``)."""
+
+
+def _flow_list(dumper: yaml.SafeDumper, value: list[Any] | tuple[Any, ...]) -> yaml.Node:
+    return dumper.represent_sequence("tag:yaml.org,2002:seq", list(value), flow_style=True)
+
+
+def _flow_text(dumper: yaml.SafeDumper, value: str) -> yaml.Node:
+    style = '"' if "\n" in value or "\r" in value or any(c in value for c in _BREAKS) else None
+    return dumper.represent_scalar("tag:yaml.org,2002:str", value, style=style)
+
+
+_FlowDumper.add_representer(list, _flow_list)
+_FlowDumper.add_representer(tuple, _flow_list)
+_FlowDumper.add_representer(str, _flow_text)
+
+
+def flow(value: Any) -> str:
+    """A value of a file as YAML writes it on one line: ``null``, ``true``, ``4 mm``, ``'yes'``,
+    ``{point: [0, 0, 4 mm]}`` (not Python's ``None``, ``True``, ``{'point': [0, 0, '4 mm']}``);
+    what YAML cannot write as Python spells it.
+
+    >>> flow(None), flow(True), flow("4 mm"), flow("yes"), flow({"point": [0, 0, "4 mm"]}), flow([["a", "b"], "a"])
+    ('null', 'true', '4 mm', "'yes'", '{point: [0, 0, 4 mm]}', '[[a, b], a]')
+    """
+    try:
+        text = yaml.dump(value, Dumper=_FlowDumper, default_flow_style=True, sort_keys=False, allow_unicode=True, width=10**9)
+    except yaml.YAMLError:
+        return repr(value)
+    text = text.rstrip("\n")
+    return text.removesuffix("\n...").rstrip("\n")

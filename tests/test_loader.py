@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from stackdsl import ScenarioError, ScenarioErrors, load_scenario, parse_scenario
+from stackdsl import ScenarioError, ScenarioErrors, compile_scenario, load_scenario, parse_scenario
 from stackdsl.batch import check as _check
 from stackdsl.batch.check import discover
 from stackdsl.cli import main as _cli
@@ -273,7 +273,7 @@ def test_nesting_through_aliases_is_bounded_too():
     err = error(f"stackdsl: 1\na: &a {'[' * depth}1{']' * depth}\nb: [*a]\n")
     assert err.message == f"lists and mappings are nested more than {MAX_DEPTH} levels deep (through aliases)"
     assert err.field == "b" + "[0]" * depth  # b[0] is a's outermost list, this its innermost
-    assert (err.line, err.column) == (2, 6 + depth)  # where a's innermost list is written
+    assert (err.line, err.column) == (3, 5)  # at the alias *a, which makes it deeper: its text is a's
 
 
 @pytest.mark.parametrize(
@@ -912,3 +912,13 @@ def test_a_mapping_of_a_union_is_told_the_key_the_member_it_fits_best_lacks(at, 
         parse_scenario(text, "at.yaml")
     assert (err.value.field, err.value.message) == (field, message)
     assert err.value.column == text.splitlines()[3].index(field.rsplit(".", 1)[1] + ":") + 1  # at the key itself
+
+
+def test_an_error_inside_an_aliased_node_points_at_the_alias_not_the_anchor():
+    """A part written once with an anchor and again with an alias: the second's error was said at
+    the anchor's line (structure[0]'s), which is not where structure[1] is written."""
+    err = error("stackdsl: 1\nstructure:\n  - &p {name: a, tower: {levels: 2}}\n  - *p\n")
+    assert (err.field, err.line, err.column) == ("structure[1].name", 4, 5) and "already a part named 'a'" in err.message
+    with pytest.raises(ScenarioError) as info:  # the compiler's error too: part b overlaps part a
+        compile_scenario(parse_scenario("stackdsl: 1\nstructure:\n  a: &t {tower: {levels: 2}}\n  b: *t\n", "s.yaml"))
+    assert (info.value.field, info.value.line, info.value.column) == ("structure.b", 4, 6)

@@ -148,11 +148,16 @@ class _Loader(yaml.SafeLoader):
         self.source = source
         self.depth = 0
         self.open_anchors: set[str] = set()
+        # where each alias was written, by (its parent node, its index or key node): the node it
+        # names is the anchor's own, whose marks are the anchor's
+        self.aliases: dict[tuple[int, int], Any] = {}
 
     def compose_node(self, parent: Node | None, index: Any) -> Node | None:
         event = self.peek_event()  # type: ignore[no-untyped-call]  # PyYAML's stubs leave it untyped
         if isinstance(event, AliasEvent) and event.anchor in self.open_anchors:
             raise self.error(event.start_mark, f"the alias *{event.anchor} is inside the node it names (a recursive alias)")
+        if isinstance(event, AliasEvent) and parent is not None and index is not None:
+            self.aliases[(id(parent), index if isinstance(index, int) else id(index))] = event.start_mark
         if not isinstance(event, (SequenceStartEvent, MappingStartEvent)):
             return super().compose_node(parent, index)
         if self.depth >= MAX_DEPTH:
@@ -222,12 +227,16 @@ def _read_yaml(text: str, source: SourceMap) -> Any:
             loader.dispose()
 
 
-def _plain(node: Node, path: FieldPath, loader: _Loader, source: SourceMap, budget: list[int], depth: int) -> Any:
-    """Plain Python data for ``node`` (at nesting ``depth``), recording positions in ``source``."""
+def _plain(
+    node: Node, path: FieldPath, loader: _Loader, source: SourceMap, budget: list[int], depth: int, alias: Any = None
+) -> Any:
+    """Plain Python data for ``node`` (at nesting ``depth``), recording positions in ``source``:
+    inside a node an alias names (``alias``: where the alias is written), that alias's."""
     budget[0] -= 1
     if budget[0] < 0:
         raise source.error(path, f"the file expands to more than {MAX_NODES} values (aliases?)")
-    source.values[path] = (node.start_mark.line, node.start_mark.column)
+    mark = alias or node.start_mark
+    source.values[path] = (mark.line, mark.column)
     if isinstance(node, ScalarNode):
         return _scalar(node, path, loader, source)
     kind, tag = ("mapping", "map") if isinstance(node, MappingNode) else ("list", "seq")
@@ -236,10 +245,13 @@ def _plain(node: Node, path: FieldPath, loader: _Loader, source: SourceMap, budg
     if depth > MAX_DEPTH:  # only through aliases: composing bounds the written nesting
         raise source.error(path, f"lists and mappings are nested more than {MAX_DEPTH} levels deep (through aliases)")
     if isinstance(node, SequenceNode):
-        return [_plain(item, path + (i,), loader, source, budget, depth + 1) for i, item in enumerate(node.value)]
+        return [
+            _plain(item, path + (i,), loader, source, budget, depth + 1, alias or loader.aliases.get((id(node), i)))
+            for i, item in enumerate(node.value)
+        ]
     out: dict[str, Any] = {}
     for key_node, value_node in node.value:
-        where = (key_node.start_mark.line, key_node.start_mark.column)
+        where = (alias.line, alias.column) if alias else (key_node.start_mark.line, key_node.start_mark.column)
         if not isinstance(key_node, ScalarNode):
             shown = "a mapping" if isinstance(key_node, MappingNode) else "a list"
             source.values[path + ("?",)] = where
@@ -257,7 +269,8 @@ def _plain(node: Node, path: FieldPath, loader: _Loader, source: SourceMap, budg
             source.values[path + (key,)] = where
             raise source.error(path + (key,), f"duplicate key {key!r}")
         source.keys[path + (key,)] = where
-        out[key] = _plain(value_node, path + (key,), loader, source, budget, depth + 1)
+        named = alias or loader.aliases.get((id(node), id(key_node)))
+        out[key] = _plain(value_node, path + (key,), loader, source, budget, depth + 1, named)
     return out
 
 

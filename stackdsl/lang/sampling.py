@@ -370,6 +370,8 @@ class Template:
         drawn_into = _drawn_into(distributions)
 
         def relocate(loc: FieldPath) -> FieldPath | None:
+            if only is not None and loc[: len(only.path)] == only.path:
+                return only.path  # the distribution's own end, checked where a grid replaces it too
             for path, key, _ in self.grid:
                 if loc[: len(path)] == path:
                     return ("sweep", "grid", key, index[key])

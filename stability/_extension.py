@@ -119,6 +119,12 @@ class StabilityExtension:
         """True when no registered brick is active: nothing can move until an action."""
         return not self._stack.active
 
+    @property
+    def moving(self) -> tuple[str, ...]:
+        """The labels of the registered bricks that are active (simulated by the engine), in
+        the order they were registered: what keeps the extension from being :attr:`quiet`."""
+        return tuple(r.label for r in sorted(self._stack.active.values(), key=lambda r: r.order))
+
     # the per-step hook --------------------------------------------------------
     def update(self, time: float) -> list[StabilityEvent]:
         """One step of the algorithm of report 3.3.1 (and 3.4-3.6). ``time`` in seconds."""

@@ -914,3 +914,29 @@ actions:
     first, second = [e.detail for e in done.events if e.kind == "push"]
     assert "from where it was placed" not in first
     assert "from where it was placed: the pusher may meet nothing" in second, second
+
+
+def test_a_shake_that_starts_with_an_impact_says_what_moves_in_every_output(tmp_path, capsys):
+    """A shake the frozen stack withstands is simulated all the same while a projectile flies:
+    the timeline, run --json and the report said 'simulated (None)' and woke bricks for 'None'."""
+    from stackdsl.cli.main import main
+
+    path = tmp_path / "s.yaml"
+    path.write_text(
+        "stackdsl: 1\nstructure: {tower: {levels: 3}}\n"
+        "impacts:\n  - {target: {level: 3, side: +x}, speed: 1 m/s, at: after level 3}\n"
+        "actions:\n  - shake: {amplitude: 1 mm, frequency: 2 Hz, duration: 2 s, at: after level 3}\n"
+    )
+    assert main(["run", str(path)]) == 0
+    text = capsys.readouterr().out
+    shake = next(line for line in text.splitlines() if " shake " in line)
+    assert shake.endswith("simulated (impact1 is moving)"), shake
+    assert "the ground shakes at 0.158 m/s^2: impact1 is moving" in text
+    assert main(["run", "--json", str(path)]) == 0
+    data = capsys.readouterr().out
+    assert "impact1 is moving" in data
+    assert main(["check", str(path), "-j", "1", "--report", str(tmp_path / "report")]) == 0
+    pages = [p.read_text() for p in (tmp_path / "report").rglob("*.html")]
+    assert len(pages) == 2 and "impact1 is moving" in pages[0] + pages[1]
+    for output in (text, data, *pages):
+        assert "None" not in output

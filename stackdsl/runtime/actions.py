@@ -137,6 +137,8 @@ class Actions(Subscriber):
         acceleration = (peak * a.direction[0], peak * a.direction[1])
         why = extension.withstands(acceleration) if acting else "the extension is not acting"
         rides = acting and why is None and extension.quiet
+        if why is None and not rides:  # the frozen stack would stand, but something moves on it
+            why = _moving(extension.moving)
         detail = f"{a.amplitude * 1000:.3g} mm at {a.frequency:.3g} Hz, peak {peak:.3g} m/s^2: " + (
             "the frozen stack stands under gravity tilted by it and rides the table" if rides else f"simulated ({why})"
         )
@@ -211,3 +213,22 @@ class Actions(Subscriber):
                 loop.structure.offset = (0.0, 0.0, 0.0)
                 self.stability.extension.admitting = True
                 self.shake = None
+
+
+def _moving(labels: tuple[str, ...], shown: int = 3) -> str:
+    """Why a shake the frozen stack would withstand is simulated all the same: what moves.
+
+    >>> _moving(("impact1",))
+    'impact1 is moving'
+    >>> _moving(("a", "b", "c", "d", "e"))
+    'a, b, c and 2 more are moving'
+    >>> _moving(())
+    'something is moving'
+    """
+    if not labels:
+        return "something is moving"
+    if len(labels) == 1:
+        return f"{labels[0]} is moving"
+    if len(labels) <= shown:
+        return f"{', '.join(labels[:-1])} and {labels[-1]} are moving"
+    return f"{', '.join(labels[:shown])} and {len(labels) - shown} more are moving"

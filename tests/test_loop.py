@@ -211,3 +211,43 @@ def test_an_engine_without_cheap_debris_gets_no_debris_subscriber_and_the_runtim
             if isinstance(call, ast.Call) and getattr(call.func, "id", "") in ("isinstance", "issubclass"):
                 named = {n.id for n in ast.walk(call.args[1]) if isinstance(n, ast.Name)}
                 assert not named & adapters, f"{path.name}:{call.lineno}"
+
+
+class Knock(Subscriber):
+    """Throws one brick sideways when an action starts: a collapse while the action is under way."""
+
+    def __init__(self, brick: str) -> None:
+        self.brick = brick
+
+    def on_action(self, loop, action):
+        loop.world.throw(loop.structure.records[self.brick].body, (0.1, 0.0, 0.0), None)
+
+
+@pytest.mark.parametrize(
+    "action",
+    [
+        "shake: {amplitude: 1 mm, frequency: 1 Hz, duration: 6 s, at: after level 2}",
+        "push: {target: {brick: L02.1}, direction: [0, 1, 0], speed: 10 mm/s, distance: 60 mm, at: after level 2}",
+    ],
+    ids=["shake", "push"],
+)
+def test_a_collapse_while_a_shake_or_push_is_under_way_lets_it_finish_then_settles(action):
+    """A collapse ends the run 'settle' seconds later, but a shake or a push under way runs to
+    its end first: a 600 s shake was cut off 3.6 s after its start and the run judged mid-shake."""
+    p = program(f"{TOWER}actions:\n  - {action}\n")
+    motion = p.kinematic[0]
+    loop = run_in(FakeWorld(timestep=p.engine.timestep), p, subscribers=(Knock("L01.1"),))
+    result = outcome(loop, 0.0)
+    assert result.collapse is not None and result.collapse.brick == "L01.1"
+    assert result.collapse.decided + p.settle < motion.end_time - 1.0  # the settle alone would end it mid-action
+    assert loop.now == pytest.approx(motion.end_time + p.settle, abs=2 * p.engine.timestep)
+    assert loop.stopped is None and loop.not_run == ()
+
+
+def test_a_deadline_still_stops_a_run_waiting_for_an_action_under_way():
+    p = program(f"{TOWER}actions:\n  - shake: {{amplitude: 1 mm, frequency: 1 Hz, duration: 600 s, at: after level 2}}\n")
+    loop = run_in(FakeWorld(timestep=p.engine.timestep), p, subscribers=(Knock("L01.1"),), timeout=0.5)
+    assert (
+        loop.stop_step is not None and loop.now < p.kinematic[0].end_time
+    )  # a collapse, the shake went on, the clock stopped it
+    assert loop.stopped is not None and loop.stopped.startswith("timeout after 0.5 s")

@@ -83,6 +83,14 @@ class Actions(Subscriber):
     def quiet(self) -> bool:
         return not (self.guided or self.shake or self.away)
 
+    @property
+    def under_way(self) -> bool:
+        """A shake or a push is under way: a collapse meanwhile ends the run only once it is over
+        (the ground back at rest where it started, the pusher withdrawn), so that nothing is
+        judged mid-stroke. A pull is not waited for: its brick has left the structure, and the
+        run ends the settle time after the collapse, as it did."""
+        return self.shake is not None or any(g.kind == "push" for g in self.guided)
+
     def on_action(self, loop: StepLoop, action: Kinematic) -> None:
         if isinstance(action, Remove):
             self._remove(loop, action)

@@ -56,6 +56,12 @@ class Subscriber:
         """Nothing this subscriber watches can move before the next action."""
         return True
 
+    @property
+    def under_way(self) -> bool:
+        """An action this subscriber carries out is under way (a hand or the ground moves):
+        a run that a collapse ends lets it finish first."""
+        return False
+
     def before_step(self, loop: StepLoop) -> None:
         """Before each physics step."""
 
@@ -98,8 +104,9 @@ class StepLoop:
         subscribers: called at each hook they override (:func:`overrides`), in this order.
         jump: jump to the next action while every subscriber is quiet.
         stop_at_collapse: once :meth:`stop_after` was called, place nothing more and end
-            then; an action timed before the first placement this cancels still runs, and
-            the run then ends as long after it (a push, pull or shake: after its end) as
+            then; a shake or a push under way then (:attr:`Subscriber.under_way`), or an
+            action timed before the first placement this cancels, still runs, and the run
+            then ends as long after it (a push, pull or shake: after its end) as
             :meth:`stop_after` was told. An action timed after a cancelled placement was
             timed on a stack never finished: it is not run (:attr:`not_run`).
         lazy_bodies: bodies enter the world when placed; False creates every brick and
@@ -133,6 +140,7 @@ class StepLoop:
         self._on_place, self._on_launch, self._at_end = bound["on_place"], bound["on_launch"], bound["at_end"]
         self._on_action = bound["on_action"]
         self._watchers = tuple(s for s in self.subscribers if overrides(s, "quiet"))
+        self._hands = tuple(s for s in self.subscribers if overrides(s, "under_way"))
         self.jump, self.stop_at_collapse, self.timeout = jump, stop_at_collapse, timeout
         self.deadline = None if timeout is None else (_time.perf_counter() if started is None else started) + timeout
         self.dt = program.engine.timestep
@@ -144,6 +152,7 @@ class StepLoop:
         self.stop_clock: float | None = None
         self.stop_step: int | None = None
         self._settle_steps = 0
+        self._busy = 0  # the step the thrown bodies have reached their targets (see _ends)
         self.stopped: str | None = None
         self.not_run: tuple[str, ...] = ()
         self._parked = {} if lazy_bodies else self._park()
@@ -154,9 +163,12 @@ class StepLoop:
         return self.step * self.dt
 
     def stop_after(self, seconds: float) -> None:
-        """End the run ``seconds`` from now (a collapse's settle time), placing nothing more."""
+        """End the run ``seconds`` from now (a collapse's settle time), placing nothing more; an
+        action under way (what a subscriber says is, :attr:`Subscriber.under_way`: a shake or a
+        push; a thrown body still in flight) first runs to its end, and the run ends ``seconds``
+        after that."""
         self._settle_steps = round(seconds / self.dt)
-        self.stop_step = self.step + self._settle_steps
+        self.stop_step = max(self.step, self._busy) + self._settle_steps
         self.stop_clock = _time.perf_counter()
 
     def _park(self) -> dict[str, int]:
@@ -193,6 +205,8 @@ class StepLoop:
                 if self.stopped is not None:
                     return
                 self.stop_step = max(self.stop_step, self._ends(action) + self._settle_steps)
+            if isinstance(action, Launch):
+                self._busy = max(self._busy, self._ends(action))
             if isinstance(action, Place):
                 self.place(action)
             elif isinstance(action, Launch):
@@ -242,6 +256,8 @@ class StepLoop:
             self.step += 1
             for hook in self._after_step:
                 hook(self)
+            if self.stop_step is not None and any(s.under_way for s in self._hands):
+                self.stop_step = max(self.stop_step, self.step + self._settle_steps)  # it finishes, then the run settles
 
     # actions ------------------------------------------------------------------
     def place(self, a: Place) -> BrickRecord:

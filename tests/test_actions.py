@@ -394,7 +394,7 @@ def test_a_brick_pulled_out_may_be_pushed_before_and_named_among_others_but_not_
 structure: {tower: {levels: 4, bricks_per_layer: 3, turn: 90, spacing: 25 mm}}
 timing: {interval: 0.2 s}
 actions:
-  - push: {target: {brick: L02.2}, direction: [0, 1, 0], at: 2.6 s, speed: 20 mm/s, distance: 2 mm}
+  - push: {target: {brick: L02.2}, direction: [0, 1, 0], at: 2.6 s, speed: 20 mm/s, distance: 7 mm}
   - remove: {brick: L02.2, at: 3 s}
 """
     program = compile_scenario(parse_scenario(head + "expect: {stays: [L02, L01]}\n", "ok.yaml"))
@@ -940,3 +940,28 @@ def test_a_shake_that_starts_with_an_impact_says_what_moves_in_every_output(tmp_
     assert len(pages) == 2 and "impact1 is moving" in pages[0] + pages[1]
     for output in (text, data, *pages):
         assert "None" not in output
+
+
+def test_a_push_must_reach_the_face_of_its_brick_whichever_way_the_brick_is_turned():
+    """The reach rule is the boxes' own geometry, not distance > gap: a domino turned 30 deg,
+    aimed from beside its end, is met once the pusher's corner reaches it, and the least
+    distance the message gives is the one that just pushes it."""
+    from stackdsl.lang.errors import ScenarioError
+
+    def push(distance: str) -> str:
+        return f"""stackdsl: 1
+structure:
+  bricks: [{{id: d, at: [0, 0, 60 mm], pitch: 90, yaw: 30}}]
+brick_types: {{finger: {{size: [20 mm, 10 mm, 10 mm]}}}}
+actions:
+  - push: {{target: {{brick: d, offset: [-40 mm, 10 mm, 0]}}, direction: [1, 0, 0], at: 1 s, pusher: finger, distance: {distance}}}
+"""
+
+    with pytest.raises(ScenarioError, match=r"stops [\d.]+ mm short of d") as err:
+        compile_scenario(parse_scenario(push("1 mm"), "short.yaml"))
+    assert err.value.field == "actions[0].push.distance"
+    least = float(err.value.message.split("give a distance of more than ")[1].split(" mm")[0])
+    assert least > 5.0  # the gap is 5 mm, but the domino's face lies farther along this line
+    compile_scenario(parse_scenario(push(f"{least + 0.1:.2f} mm"), "reaches.yaml"))
+    with pytest.raises(ScenarioError, match="short of d"):
+        compile_scenario(parse_scenario(push(f"{least - 0.1:.2f} mm"), "just_short.yaml"))

@@ -31,10 +31,13 @@ from ..lang.schema import Scenario
 from ..lang.schema_actions import AXES, SAMPLES_A_PERIOD, Action, AfterPrevious
 from ..lang.schema_impacts import AfterLevel
 from .layouts import LaidBrick
+from .overlap import touching
 from .program import Kinematic, Place, Push, Remove, Shake
 
 #: Metres a pulled brick travels beyond its own length by default: it clears what it lay between.
 CLEAR = 0.010
+#: Metres a pusher must reach into a brick to push it (more than grazing a face it lies on).
+REACHES = 1e-6
 
 Steps = Callable[[FieldPath, float], int]
 """Seconds at a field -> whole timesteps, or a ScenarioError there (the compiler's)."""
@@ -74,10 +77,11 @@ def compile_actions(
 
     Raises:
         ScenarioError: at the field: a brick that is not in the structure or not placed before
-            its pull, a brick pulled twice or pushed once pulled out, a pusher's unknown brick
-            type, a level never built, a time not on the timestep grid, a shake that overlaps a
-            placement or another action, a pusher that would reach below the ground, a pull
-            too short to take its brick clear of where it lay.
+            its pull or push, a brick pulled twice or pushed once pulled out, a pusher's unknown
+            brick type, a level never built, a time not on the timestep grid, a shake that
+            overlaps a placement or another action, a pusher that would reach below the ground or
+            that never touches what it is aimed at (:func:`_pushes_reach`), a pull too short to
+            take its brick clear of where it lay.
     """
     out: list[Kinematic] = []
     pulled: dict[str, tuple[int, float]] = {}  # brick -> the action that pulls it out, and when
@@ -93,12 +97,13 @@ def compile_actions(
             target = action.push.target.brick
             if target is not None and start >= pulled.get(target, (0, math.inf))[1]:
                 _not_pulled(scenario, (*path, "target", "brick"), target, pulled, "push it")
-            out.append(_push(scenario, i, action, bricks, specs, start, step, dt, fixtures))
+            out.append(_push(scenario, i, action, bricks, slots, specs, start, step, dt, fixtures))
         else:
             out.append(_shake(scenario, path, action, start, step, dt))
     for i, motion in enumerate(out):
         if isinstance(motion, Shake):
             _alone(scenario, i, motion, out, places)
+    _pushes_reach(scenario, out, bricks, slots, specs)
     return out
 
 
@@ -141,6 +146,15 @@ def check_measured(scenario: Scenario, levels: Mapping[str, int]) -> None:
                     f"{said} only {'a brick' if len(chosen) == 1 else 'bricks'} pulled out of the scene "
                     f"({pulls}): nothing of {'it' if len(chosen) == 1 else 'them'} is measured; name bricks that stay in the scene",
                 )
+
+
+def _placed_before(scenario: Scenario, path: FieldPath, brick: str, slot: int, start: float, what: str) -> None:
+    """A ScenarioError at ``path`` (an action's ``at``) when ``brick``, placed in ``slot``, is not
+    placed before the ``what`` (a pull, a push) starts at ``start`` (s): a hand would reach for
+    a brick not yet there (a push would move through the empty space where it is to go)."""
+    placed = slot * scenario.timing.interval
+    if placed >= start:
+        raise scenario.source.error(path, f"{brick} is placed at {placed:g} s, not before the {what} starts at {start:g} s")
 
 
 def _not_pulled(scenario: Scenario, path: FieldPath, brick: str, pulled: dict[str, tuple[int, float]], what: str) -> None:
@@ -200,11 +214,7 @@ def _remove(
     if not found:
         raise scenario.source.error((*path, "brick"), _unknown(r.brick, bricks, fixtures, "pull"))
     brick, slot = found[0]
-    if slot * scenario.timing.interval >= start:
-        raise scenario.source.error(
-            (*path, "at"),
-            f"{r.brick} is placed at {slot * scenario.timing.interval:g} s, not before the pull starts at {start:g} s",
-        )
+    _placed_before(scenario, (*path, "at"), r.brick, slot, start, "pull")
     spec = specs[brick.type]
     if r.direction is None:
         direction = brick.pose().rotation[:, 0]
@@ -313,6 +323,7 @@ def _push(
     index: int,
     action: Action,
     bricks: Sequence[LaidBrick],
+    slots: np.ndarray,
     specs: dict[str, BrickSpec],
     start: float,
     step: int,
@@ -325,10 +336,11 @@ def _push(
     direction = np.array(p.direction, dtype=float)
     direction /= np.linalg.norm(direction)
     if p.target.brick is not None:
-        found = [b for b in bricks if b.id == p.target.brick]
+        found = [(b, int(k)) for b, k in zip(bricks, slots) if b.id == p.target.brick]
         if not found:
             raise scenario.source.error((*path, "target", "brick"), _unknown(p.target.brick, bricks, fixtures, "push"))
-        brick = found[0]
+        brick, slot = found[0]
+        _placed_before(scenario, (*path, "at"), brick.id, slot, start, "push")
         aim = brick.position + np.array(p.target.offset)
         surface = _entry(aim, direction, brick, specs[brick.type])
         target = f"{brick.id}"
@@ -342,16 +354,6 @@ def _push(
     except KeyError:
         raise scenario.source.error((*path, "pusher"), f"unknown brick type {p.pusher!r}") from None
     position = surface - direction * (p.gap + spec.half_extents[0])
-    if not any(_meets(position, direction * (p.gap + p.distance), spec, b, specs[b.type]) for b in bricks):
-        x, y, z = (v * 1000 for v in position)
-        where: FieldPath = (*path, "target", "point" if p.target.point is not None else "offset")
-        if p.target.brick is not None and p.target.offset == (0.0, 0.0, 0.0):
-            where = (*path, "direction")
-        raise scenario.source.error(
-            where,
-            f"the pusher's path, from ({x:.1f}, {y:.1f}, {z:.1f}) mm for {(p.gap + p.distance) * 1000:.3g} mm "
-            "along the direction, meets no brick: aim it at a brick (target: {brick: ID, offset: [...]})",
-        )
     span = max(1, math.ceil(p.distance / p.speed / dt - 1e-9))
     yaw, pitch = heading(direction)
     _above_ground(scenario, path, position, direction, spec, yaw, pitch, p.speed * dt, span)
@@ -368,6 +370,111 @@ def _push(
         end_step=step + span,
         end_time=start + span * dt,
     )
+
+
+def _written(scenario: Scenario, path: FieldPath, *names: str) -> FieldPath:
+    """The first of ``path``'s fields ``names`` the scenario writes out, else the last of them."""
+    return next(((*path, n) for n in names if (*path, n) in scenario.source.values), (*path, names[-1]))
+
+
+def _mm(metres: float) -> str:
+    """Metres as millimetres to 0.01 mm, as people write them.
+
+    >>> _mm(10.0), _mm(0.0049999999), _mm(0.035001), _mm(0.12345)
+    ('10000', '5', '35', '123.45')
+    """
+    return f"{round(metres * 1000, 2) + 0.0:g}"
+
+
+def _first_touch(push: Push, direction: np.ndarray, bricks: Sequence[LaidBrick], specs: dict[str, BrickSpec]) -> np.ndarray:
+    """How far (m) ``push``'s pusher moves along unit ``direction`` from where it starts before it
+    reaches into each of ``bricks`` by :data:`REACHES` (``inf``: never; a pusher that only slides
+    along a face it lies on never does), shape (len(bricks),)."""
+    if not bricks:
+        return np.zeros(0)
+    pose = Pose.from_euler(push.position, push.yaw, push.pitch, 0.0)
+    poses = [b.pose() for b in bricks]
+    first, _ = touching(
+        pose.position,
+        pose.rotation,
+        np.array(push.brick.half_extents),
+        np.array([q.position for q in poses]),
+        np.array([q.rotation for q in poses]),
+        np.array([specs[b.type].half_extents for b in bricks]),
+        direction,
+        deeper=REACHES,
+    )
+    return first
+
+
+def _pushes_reach(
+    scenario: Scenario, motions: Sequence[Kinematic], bricks: Sequence[LaidBrick], slots: np.ndarray, specs: dict[str, BrickSpec]
+) -> None:
+    """Refuse a push that can never touch what it is aimed at: its pusher, moving ``distance``
+    along its direction from where it starts, must touch its target brick (the boxes'
+    separating-axis test, :func:`~stackdsl.compile.overlap.touching`), or, aimed at a point, a
+    brick in the scene when it starts (placed before, not pulled out by then).
+
+    Raises:
+        ScenarioError: at the push's ``distance`` (else its ``gap``, else its ``target``) saying
+            how far short the pusher stops; at its ``at`` when only bricks placed after it starts
+            lie on its path; at its target when its path passes beside the brick it names, or
+            meets no brick at all.
+
+    Source: stackdsl's own.
+    """
+    interval = scenario.timing.interval
+    gone = {m.id: m.end_step for m in motions if isinstance(m, Remove)}
+    for i, push in enumerate(motions):
+        if not isinstance(push, Push):
+            continue
+        p = scenario.actions[i].push
+        assert p is not None
+        path: FieldPath = ("actions", i, "push")
+        direction = np.array(push.velocity) / np.linalg.norm(push.velocity)
+        aimed = [b for b in bricks if p.target.brick in (None, b.id)]
+        placed = [int(k) * interval < push.time for b, k in zip(bricks, slots) if p.target.brick in (None, b.id)]
+        present = [b for b, there in zip(aimed, placed) if there and gone.get(b.id, push.step + 1) > push.step]
+        first = _first_touch(push, direction, present, specs)
+        if len(first) and np.isfinite(first.min()):
+            nearest = int(np.argmin(first))
+            reach = float(first[nearest])
+            if reach < p.distance - 1e-6:
+                continue
+            named = present[nearest].id
+            said = (
+                f"reaches {named} only at the end of its travel, and pushes nothing"
+                if reach - p.distance < 5e-7
+                else f"stops {_mm(reach - p.distance)} mm short of {named}"
+            )
+            raise scenario.source.error(
+                _written(scenario, path, "distance", "gap", "target"),
+                f"the pusher {said}: it starts {_mm(reach)} mm from {named} along its direction and moves "
+                f"{_mm(p.distance)} mm; give a distance of more than {_mm(reach)} mm, or a smaller gap",
+            )
+        later = [b for b, there in zip(aimed, placed) if not there]
+        met = [(float(t), b) for t, b in zip(_first_touch(push, direction, later, specs), later) if np.isfinite(t)]
+        if met:
+            _, brick = min(met, key=lambda m: m[0])
+            when = next(int(k) * interval for b, k in zip(bricks, slots) if b is brick)
+            raise scenario.source.error(
+                (*path, "at"),
+                f"the pusher's path meets only bricks placed after the push starts at {push.time:g} s ({brick.id} at "
+                f"{when:g} s): it would move through empty space; start it once they are placed ('after level N')",
+            )
+        where: FieldPath = (*path, "target", "point") if p.target.point is not None else (*path, "target", "offset")
+        if p.target.brick is not None and p.target.offset == (0.0, 0.0, 0.0):
+            where = (*path, "direction")
+        x, y, z = (v * 1000 for v in push.position)
+        raise scenario.source.error(
+            where,
+            f"the pusher's path, from ({x:.1f}, {y:.1f}, {z:.1f}) mm along the direction, "
+            + (
+                f"passes beside {p.target.brick}: it never touches it; aim at a point of the brick (an offset within it)"
+                if p.target.brick is not None
+                else "meets no brick in the scene when it starts: aim it at a brick (target: {brick: ID, offset: [...]})"
+            ),
+        )
 
 
 def _above_ground(
@@ -420,15 +527,6 @@ def _unknown(name: str, bricks: Sequence[LaidBrick], fixtures: Sequence[str], ve
     if name in fixtures:
         return f"{name!r} is fixed (a fixture): a hand does not {verb} it; the structure's bricks: {listed}"
     return f"no brick of the structure is {name!r} (its bricks: {listed}){closest(name, [b.id for b in bricks])}"
-
-
-def _meets(start: np.ndarray, travel: np.ndarray, pusher: BrickSpec, brick: LaidBrick, spec: BrickSpec) -> bool:
-    """Does a pusher (``pusher``'s box, any way turned) whose centre moves from ``start`` by
-    ``travel`` (m, shape (3,)) come within reach of ``brick``'s box: its centre's path through
-    the box grown by the pusher's half diagonal (:meth:`stability.Box.meets_path`)? Generous:
-    a pusher that passes this near may touch it. Source: stackdsl's own."""
-    box = Box(np.array(spec.half_extents), spec.mass)
-    return box.meets_path(brick.pose(), start, travel, grow=float(np.linalg.norm(pusher.half_extents)))
 
 
 def _vec(v: np.ndarray) -> tuple[float, float, float]:

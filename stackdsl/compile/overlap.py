@@ -246,3 +246,62 @@ def _overlap_centroid(
     except QhullError:
         return None
     return np.asarray(vertices.mean(axis=0))
+
+
+def touching(
+    ca: np.ndarray,
+    ra: np.ndarray,
+    ha: np.ndarray,
+    cb: np.ndarray,
+    rb: np.ndarray,
+    hb: np.ndarray,
+    velocity: np.ndarray,
+    deeper: float = 0.0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """When a box moving in a straight line touches each of some boxes at rest: the separating-axis
+    test of :func:`penetration` with box ``a`` at ``ca + t * velocity``, exact for two boxes.
+
+    Args:
+        ca: shape (3,), box a's centre at t = 0; ra: its rotation (3, 3); ha: its half extents (3,).
+        cb, rb, hb: the boxes at rest, shapes (m, 3), (m, 3, 3), (m, 3).
+        velocity: shape (3,), how far box a moves per unit of t (a unit direction: t in metres).
+        deeper: metres the boxes must interpenetrate to count (0: touching counts).
+
+    Returns:
+        Two arrays of shape (m,): the first and the last t >= 0 at which box a meets each box
+        (``inf`` and ``-inf`` for one it never meets; the last is ``inf`` for one it never leaves).
+
+    Source: stackdsl's own; the separating-axis test of moving boxes (Eberly, "Dynamic collision
+    detection using oriented bounding boxes", Geometric Tools, 2002).
+
+    >>> I, h = np.eye(3), np.array([0.06, 0.012, 0.004])
+    >>> first, last = touching(np.array([-0.2, 0.0, 0.004]), I, h, np.array([[0.0, 0.0, 0.004]]), I[None], h[None], np.array([1.0, 0.0, 0.0]))
+    >>> round(float(first[0]), 6), round(float(last[0]), 6)
+    (0.08, 0.32)
+    >>> touching(np.array([-0.2, 0.03, 0.004]), I, h, np.array([[0.0, 0.0, 0.004]]), I[None], h[None], np.array([1.0, 0.0, 0.0]))[0]
+    array([inf])
+    """
+    m = len(cb)
+    if not m:
+        return np.zeros(0), np.zeros(0)
+    ra_m = np.repeat(np.asarray(ra, dtype=float)[None], m, axis=0)
+    crosses = np.cross(ra_m[:, :, :, None], rb[:, :, None, :], axis=1).reshape(m, 3, 9)
+    normals = np.concatenate([ra_m, rb, crosses], axis=2)  # (m, 3, 15)
+    length = np.sqrt((normals * normals).sum(axis=1))
+    valid = length > 1e-6
+    normals = normals / np.where(valid, length, 1.0)[:, None, :]
+    radius = (np.abs(np.swapaxes(ra_m, 1, 2) @ normals) * np.asarray(ha, dtype=float)[None, :, None]).sum(axis=1)
+    radius = radius + (np.abs(np.swapaxes(rb, 1, 2) @ normals) * hb[:, :, None]).sum(axis=1) - deeper
+    apart = ((cb - np.asarray(ca, dtype=float)[None])[:, :, None] * normals).sum(axis=1)  # s(0), (m, 15)
+    speed = (np.asarray(velocity, dtype=float)[None, :, None] * normals).sum(axis=1)  # s(t) = s(0) - t * speed
+    moving = np.abs(speed) > 1e-12
+    with np.errstate(divide="ignore", invalid="ignore"):
+        one, two = (apart - radius) / speed, (apart + radius) / speed
+    still_in = np.abs(apart) <= radius
+    low = np.where(moving, np.minimum(one, two), np.where(still_in, -np.inf, np.inf))
+    high = np.where(moving, np.maximum(one, two), np.where(still_in, np.inf, -np.inf))
+    low, high = np.where(valid, low, -np.inf), np.where(valid, high, np.inf)
+    first = np.maximum(low.max(axis=1), 0.0)
+    last = high.min(axis=1)
+    met = first <= last
+    return np.where(met, first, np.inf), np.where(met, last, -np.inf)

@@ -77,11 +77,11 @@ def compile_actions(
 
     Raises:
         ScenarioError: at the field: a brick that is not in the structure or not placed before
-            its pull or push, a brick pulled twice or pushed once pulled out, a pusher's unknown
-            brick type, a level never built, a time not on the timestep grid, a shake that
-            overlaps a placement or another action, a pusher that would reach below the ground or
-            that never touches what it is aimed at (:func:`_pushes_reach`), a pull too short to
-            take its brick clear of where it lay.
+            its pull or push, a brick pulled twice, pushed once its pull has started or pulled
+            while a push at it lasts, a pusher's unknown brick type, a level never built, a time
+            not on the timestep grid, a shake that overlaps a placement or another action, a
+            pusher that would reach below the ground or that never touches what it is aimed at
+            (:func:`_pushes_reach`), a pull too short to take its brick clear of where it lay.
     """
     out: list[Kinematic] = []
     pulled: dict[str, tuple[int, float]] = {}  # brick -> the action that pulls it out, and when
@@ -103,6 +103,7 @@ def compile_actions(
     for i, motion in enumerate(out):
         if isinstance(motion, Shake):
             _alone(scenario, i, motion, out, places)
+    _not_pushed_while_pulled(scenario, out)
     _pushes_reach(scenario, out, bricks, slots, specs)
     return out
 
@@ -165,7 +166,7 @@ def _not_pulled(scenario: Scenario, path: FieldPath, brick: str, pulled: dict[st
         raise scenario.source.error(
             path,
             f"{brick} is pulled out by actions[{index}] from {start:g} s, which takes it out of the scene: "
-            f"nothing can {what} after that",
+            f"nothing can {what} once the pull has started",
         )
 
 
@@ -475,6 +476,27 @@ def _pushes_reach(
                 else "meets no brick in the scene when it starts: aim it at a brick (target: {brick: ID, offset: [...]})"
             ),
         )
+
+
+def _not_pushed_while_pulled(scenario: Scenario, motions: Sequence[Kinematic]) -> None:
+    """Refuse a push at a brick once its pull has started, in whatever order the two are written
+    (the same step included), and a pull that starts while a push at its brick lasts: a brick in
+    the hand is not pushed, and a pushed brick is not taken by the hand. A ScenarioError at the
+    push's ``target.brick``, or at the pull's ``at``."""
+    pulls = {m.id: (j, m) for j, m in enumerate(motions) if isinstance(m, Remove)}
+    for i, push in enumerate(motions):
+        p = scenario.actions[i].push
+        if not isinstance(push, Push) or p is None or p.target.brick not in pulls:
+            continue
+        j, pull = pulls[p.target.brick]
+        if push.step >= pull.step:
+            _not_pulled(scenario, ("actions", i, "push", "target", "brick"), pull.id, {pull.id: (j, pull.time)}, "push it")
+        if push.end_step > pull.step:
+            raise scenario.source.error(
+                ("actions", j, "remove", "at"),
+                f"{pull.id} is pushed by actions[{i}] ({push.id}) from {push.time:g} to {push.end_time:g} s: the hand cannot "
+                f"pull it out at {pull.time:g} s while the push lasts; start the pull once the push is over",
+            )
 
 
 def _above_ground(

@@ -942,6 +942,20 @@ def test_a_shake_that_starts_with_an_impact_says_what_moves_in_every_output(tmp_
         assert "None" not in output
 
 
+def test_pushers_are_named_by_their_own_count_not_the_actions():
+    """The only push of a file whose first action is a pull was called 'pusher2'."""
+    text = """stackdsl: 1
+structure: {tower: {levels: 3}}
+actions:
+  - remove: {brick: L03.2, at: after level 3}
+  - push: {target: {brick: L03.1}, direction: [1, 0, 0], at: 20 s}
+  - remove: {brick: L02.2, at: 25 s}
+  - push: {target: {brick: L01.1}, direction: [1, 0, 0], at: 30 s}
+"""
+    program = compile_scenario(parse_scenario(text, "s.yaml"))
+    assert [a.id for a in program.kinematic if isinstance(a, Push)] == ["pusher1", "pusher2"]
+
+
 def test_a_push_must_reach_the_face_of_its_brick_whichever_way_the_brick_is_turned():
     """The reach rule is the boxes' own geometry, not distance > gap: a domino turned 30 deg,
     aimed from beside its end, is met once the pusher's corner reaches it, and the least
@@ -965,3 +979,17 @@ actions:
     compile_scenario(parse_scenario(push(f"{least + 0.1:.2f} mm"), "reaches.yaml"))
     with pytest.raises(ScenarioError, match="short of d"):
         compile_scenario(parse_scenario(push(f"{least - 0.1:.2f} mm"), "just_short.yaml"))
+
+
+def test_two_pushers_may_share_a_place_one_after_the_other_but_not_at_once():
+    from stackdsl.lang.errors import ScenarioError
+
+    head = "stackdsl: 1\nstructure: {tower: {levels: 3}}\nactions:\n"
+    push = "  - push: {target: {brick: L01.1}, direction: [1, 0, 0], at: AT}\n"
+    later = head + push.replace("AT", "after level 3") + push.replace("AT", "after the previous action")
+    assert len(compile_scenario(parse_scenario(later, "later.yaml")).kinematic) == 2
+    # the second starts 0.3 s into the first's 0.6 s: it would enter where the first still is
+    during = head + push.replace("AT", "after level 3") + push.replace("AT", "6.3 s")
+    with pytest.raises(ScenarioError, match=r"pusher2\) would reach into actions\[0\]'s \(pusher1\) at 6.3 s") as err:
+        compile_scenario(parse_scenario(during, "during.yaml"))
+    assert err.value.field == "actions[1].push.target"

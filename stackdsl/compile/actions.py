@@ -15,6 +15,7 @@ Source: stackdsl's own.
 
 from __future__ import annotations
 
+import itertools
 import math
 import warnings
 from collections.abc import Callable, Mapping, Sequence
@@ -36,6 +37,8 @@ from .program import Kinematic, Place, Push, Remove, Shake
 
 #: Metres a pulled brick travels beyond its own length by default: it clears what it lay between.
 CLEAR = 0.010
+#: Metres two pushers in the scene at once may reach into each other (contact, not overlap).
+PUSHERS_APART = 0.0005
 #: Metres a pusher must reach into a brick to push it (more than grazing a face it lies on).
 REACHES = 1e-6
 
@@ -80,11 +83,13 @@ def compile_actions(
             its pull or push, a brick pulled twice, pushed once its pull has started or pulled
             while a push at it lasts, a pusher's unknown brick type, a level never built, a time
             not on the timestep grid, a shake that overlaps a placement or another action, a
-            pusher that would reach below the ground or that never touches what it is aimed at
-            (:func:`_pushes_reach`), a pull too short to take its brick clear of where it lay.
+            pusher that would reach below the ground, that never touches what it is aimed at
+            (:func:`_pushes_reach`) or that would reach into another pusher, a pull too short to
+            take its brick clear of where it lay.
     """
     out: list[Kinematic] = []
     pulled: dict[str, tuple[int, float]] = {}  # brick -> the action that pulls it out, and when
+    pushes = 0
     for i, action in enumerate(scenario.actions):
         path: FieldPath = ("actions", i, action.kind)
         start = _start(scenario, path, action, bricks, slots, out[-1] if out else None, dt)
@@ -97,7 +102,8 @@ def compile_actions(
             target = action.push.target.brick
             if target is not None and start >= pulled.get(target, (0, math.inf))[1]:
                 _not_pulled(scenario, (*path, "target", "brick"), target, pulled, "push it")
-            out.append(_push(scenario, i, action, bricks, slots, specs, start, step, dt, fixtures))
+            pushes += 1
+            out.append(_push(scenario, i, action, bricks, slots, specs, start, step, dt, fixtures, pushes))
         else:
             out.append(_shake(scenario, path, action, start, step, dt))
     for i, motion in enumerate(out):
@@ -105,6 +111,7 @@ def compile_actions(
             _alone(scenario, i, motion, out, places)
     _not_pushed_while_pulled(scenario, out)
     _pushes_reach(scenario, out, bricks, slots, specs)
+    _pushers_apart(scenario, out)
     return out
 
 
@@ -330,7 +337,10 @@ def _push(
     step: int,
     dt: float,
     fixtures: Sequence[str] = (),
+    number: int = 1,
 ) -> Push:
+    """The push of ``action``, the ``number``-th push of the scenario (its pusher's default id
+    is ``pusher<number>``)."""
     p = action.push
     assert p is not None
     path: FieldPath = ("actions", index, "push")
@@ -361,7 +371,7 @@ def _push(
     return Push(
         step=step,
         time=start,
-        id=p.id or f"pusher{index + 1}",
+        id=p.id or f"pusher{number}",
         brick=spec,
         position=_vec(position),
         yaw=yaw,
@@ -496,6 +506,43 @@ def _not_pushed_while_pulled(scenario: Scenario, motions: Sequence[Kinematic]) -
                 ("actions", j, "remove", "at"),
                 f"{pull.id} is pushed by actions[{i}] ({push.id}) from {push.time:g} to {push.end_time:g} s: the hand cannot "
                 f"pull it out at {pull.time:g} s while the push lasts; start the pull once the push is over",
+            )
+
+
+def _pushers_apart(scenario: Scenario, motions: Sequence[Kinematic]) -> None:
+    """Refuse two pushers that would be in one place at once: while both are in the scene (each
+    from its push's start to its end), the later written must not reach into the earlier by more
+    than :data:`PUSHERS_APART` (their boxes' separating-axis test as they
+    move, :func:`~stackdsl.compile.overlap.touching`). Kinematic pushers do not stop each other:
+    one inside the other would run as one body, twice. A ScenarioError at the later one's
+    ``target``."""
+    pushes = [(i, m) for i, m in enumerate(motions) if isinstance(m, Push)]
+    for (i, a), (j, b) in itertools.combinations(pushes, 2):
+        start, end = max(a.step, b.step), min(a.end_step, b.end_step)
+        if start > end:
+            continue
+        t0 = max(a.time, b.time)
+        where_a = np.array(a.position) + np.array(a.velocity) * (t0 - a.time)
+        where_b = np.array(b.position) + np.array(b.velocity) * (t0 - b.time)
+        pose_a = Pose.from_euler(where_a, a.yaw, a.pitch, 0.0)
+        pose_b = Pose.from_euler(where_b, b.yaw, b.pitch, 0.0)
+        first, _ = touching(
+            pose_b.position,
+            pose_b.rotation,
+            np.array(b.brick.half_extents),
+            pose_a.position[None],
+            pose_a.rotation[None],
+            np.array(a.brick.half_extents)[None],
+            np.array(b.velocity) - np.array(a.velocity),
+            deeper=PUSHERS_APART,
+        )
+        duration = min(a.end_time, b.end_time) - t0
+        if first[0] <= duration + 1e-12:
+            raise scenario.source.error(
+                ("actions", j, "push", "target"),
+                f"this push's pusher ({b.id}) would reach into actions[{i}]'s ({a.id}) at {t0 + float(first[0]):.4g} s, "
+                "while both are in the scene: two pushers cannot be in one place at once; aim them apart, or start this "
+                f"one after {a.end_time:g} s",
             )
 
 

@@ -178,7 +178,11 @@ class Push(StrictModel):
         PusherGap, Field(description="from the pusher's front to the target's surface at the start", examples=["5 mm"])
     ] = 0.005
     pusher: Annotated[str, Field(description="the pusher's brick type (its size)", examples=["kapla", "finger"])] = "kapla"
-    id: BodyId | None = Field(default=None, description="the pusher's id in the timeline", examples=["finger"])
+    id: BodyId | None = Field(
+        default=None,
+        description="the pusher's id in the timeline; by default pusher1, pusher2, ... in the order the pushes are written",
+        examples=["finger"],
+    )
 
 
 class Shake(StrictModel):

@@ -130,12 +130,20 @@ def test_a_normal_that_can_draw_past_its_fields_range_is_refused_before_any_samp
         loaded("{normal: {mean: 9 mm, sd: 0.5 mm}}")
 
 
-def test_a_drawn_value_only_the_compiler_refuses_is_bad_input_at_the_distribution(tmp_path, capsys):
+def test_a_drawn_value_only_the_compiler_refuses_is_bad_input_at_the_distribution(tmp_path, capsys, monkeypatch):
+    import stackdsl.batch.sweep
     from stackdsl.cli.main import main
 
     # spacing below 24 mm overlaps the layer's two bricks: decided by the compiler, for a draw, not by the field
     text = "stackdsl: 1\nstructure:\n  tower: {levels: 2, spacing: {uniform: [20 mm, 100 mm]}}\ntiming: {settle: 0.2 s}\n"
     (tmp_path / "s.yaml").write_text(text + "sweep: {samples: 40}\nexpect: {p_stands: '>= 0.5'}\n")
+    # the low end is compiled before any sample runs: refused at once, whatever the samples draw
+    assert main(["sweep", str(tmp_path / "s.yaml"), "-j", "1", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "s.yaml:3:31: structure.tower.spacing: a value this distribution can draw, '20.08 mm', makes the scene refused" in err
+    assert "use a spacing of at least" in err and "refused as bad input" not in err and not (tmp_path / "o").exists()
+    # a refusal the bounds do not foresee is still said at the sample that draws it, and stops the sweep
+    monkeypatch.setattr(stackdsl.batch.sweep, "compile_bounds", lambda *args, **kwargs: None)
     template = parse_scenario((tmp_path / "s.yaml").read_text(), "s.yaml").template
     refused = next(k for k in range(40) if template.scenario(0, k).structure.tower.spacing < 0.024)
     assert main(["sweep", str(tmp_path / "s.yaml"), "-j", "1", "--out", str(tmp_path / "o")]) == 2
@@ -248,3 +256,63 @@ def test_a_grid_value_no_list_of_the_file_fits_is_refused_at_that_value():
     with pytest.raises(ScenarioError) as info:
         parse_scenario(text.replace("[1 mm, 2 mm]", "[1 mm]"), "t.yaml")
     assert info.value.field == "structure.tower" and "the grid value" not in info.value.message
+
+
+DOMINO_CHOICE = """stackdsl: 1
+structure: {dominoes: {count: {choice: [3, 5]}, spacing: {uniform: [60 mm, 70 mm]}}}
+actions:
+  - push: {target: {brick: D05, offset: [0, 0, 45 mm]}, direction: [-1, 0, 0], at: after level 1}
+sweep: {samples: 4}
+expect: {p_stands: "<= 0.5"}
+"""
+
+
+@pytest.mark.parametrize("samples", ["4", "20"])
+def test_a_choice_that_leaves_out_a_pushed_domino_is_refused_at_the_choice_before_anything_runs(tmp_path, capsys, samples):
+    """Every choice is drawn once in so many samples: a count of 3 leaves out D05, which the push
+    names. The sweep passed or failed with the samples' luck (4 draws of 5), or was refused
+    mid-sweep at the push after samples had run, not at the choice."""
+    from stackdsl.cli.main import main
+
+    path = tmp_path / "s.yaml"
+    path.write_text(DOMINO_CHOICE)
+    t = template(DOMINO_CHOICE)
+    assert all(t.drawn(0, k)["structure.dominoes.count"] == 5 for k in range(4))  # the draws that hid it
+    for command in (["sweep", str(path), "-j", "1", "--samples", samples, "--out", str(tmp_path / "o")], ["check", str(path)]):
+        assert main(command) == 2
+        err = capsys.readouterr().err
+        first = err.splitlines()[0]
+        assert first.startswith(f"{path}:2:31: structure.dominoes.count: a choice this distribution can draw, 3, makes"), first
+        assert "actions[0].push.target.brick (line 4): no brick of the structure is 'D05'" in first
+        assert "refused as bad input" not in err and not (tmp_path / "o").exists()
+
+
+def test_a_pinned_bound_keeps_the_other_draws_of_sample_0_and_a_bound_require_rejects_is_passed_over():
+    from stackdsl.batch.sweep import compile_bounds
+
+    t = template(DOMINO_CHOICE)
+    count = next(d for d in t.distributions if d.label == "structure.dominoes.count")
+    assert [(d.label, v) for d, v in t.bounds()] == [
+        ("structure.dominoes.count", 3),
+        ("structure.dominoes.count", 5),
+        ("structure.dominoes.spacing", "60.01 mm"),
+        ("structure.dominoes.spacing", "69.99 mm"),
+    ]
+    pinned = t.pinned(0, count, 3)
+    assert pinned.structure.dominoes.count == 3
+    assert pinned.structure.dominoes.spacing == t.scenario(0, 0).structure.dominoes.spacing  # the other draw is sample 0's
+    with pytest.raises(ScenarioError, match="a choice this distribution can draw, 3"):
+        compile_bounds(t)
+    required = template(DOMINO_CHOICE.replace("sweep:", "require: ['structure.dominoes.count >= 4']\nsweep:"))
+    compile_bounds(required)  # 3 is never run: its draws are drawn again
+
+
+def test_a_sample_refused_at_a_field_no_distribution_draws_says_what_it_drew(tmp_path, capsys):
+    from stackdsl.cli.main import main
+
+    path = tmp_path / "s.yaml"
+    path.write_text(DOMINO_CHOICE.replace("choice: [3, 5]", "choice: [5, 3]"))  # sample 0 draws 3 now
+    assert main(["check", str(path)]) == 2
+    first = capsys.readouterr().err.splitlines()[0]
+    assert first.startswith(f"{path}:4:28: actions[0].push.target.brick: sample 0: no brick of the structure is 'D05'"), first
+    assert first.endswith("(this sample drew structure.dominoes.count = 3, structure.dominoes.spacing = 63.16 mm)")

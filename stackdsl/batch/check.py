@@ -35,7 +35,7 @@ from .address import free_cores
 from .check_sweep import run_unit, sweep_result, sweep_tasks
 from .judge import KILL_AFTER, TIMEOUT, lost
 from .pool import fan_out, on_executor
-from .sweep import SampleResult, compile_cells
+from .sweep import SampleResult, compile_bounds, compile_cells, which_sample
 
 
 class Prepared(NamedTuple):
@@ -107,9 +107,13 @@ def prepare(
             for backend in backends:
                 for m in modes or (mode,):
                     try:
-                        program = compile_scenario(scenario, m, model, backend, draw_time=timeout)
+                        try:
+                            program = compile_scenario(scenario, m, model, backend, draw_time=timeout)
+                        except ScenarioError as exc:
+                            raise exc if sweep is None else which_sample(exc, sweep, 0, 0) from None
                         if sweep is not None:  # every grid cell, before anything of any file runs
                             compile_cells(sweep, m, model, backend, range(1, sweep.cells), timeout)
+                            compile_bounds(sweep, m, model, backend, range(sweep.cells), timeout)
                     except ScenarioError as exc:
                         if refused is None or (m is None and backend is None):
                             raise

@@ -25,9 +25,10 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 from ..compile.compiler import compile_scenario
-from ..lang.errors import ScenarioError
+from ..lang.errors import ScenarioError, format_path
 from ..lang.extras import installed, missing
 from ..lang.sampling import Template
+from ..lang.units import split_quantity
 from ..runtime.run import run_program
 from .address import parse_address
 from .pool import WorkerLost, fan_out, on_executor
@@ -115,7 +116,7 @@ def _one(template: Template, cell: int, k: int, options: SweepOptions) -> Sample
             parameters = template.parameters(cell, k, program.draws - 1)
             seed = template.scenario(cell, k, attempt=program.draws - 1).seed
     except ScenarioError as exc:
-        return SampleResult(cell, k, seed, parameters, None, 0, 0.0, 0.0, bad_input=str(_which(exc, template, cell, k)))
+        return SampleResult(cell, k, seed, parameters, None, 0, 0.0, 0.0, bad_input=str(which_sample(exc, template, cell, k)))
     try:
         outcome = run_program(program, timeout=options.timeout)
         oracle_level, oracle = _oracle(program) if options.oracle else (None, "off")
@@ -161,17 +162,97 @@ def compile_cells(
         try:
             compile_scenario(template.scenario(c, 0), mode, model, backend, draw_time=draw_time)
         except ScenarioError as exc:
-            raise _which(exc, template, c, 0) from None
+            raise which_sample(exc, template, c, 0) from None
 
 
-def _which(exc: ScenarioError, template: Template, cell: int, k: int) -> ScenarioError:
-    """``exc`` (a sample's refusal) saying which sample and grid cell, unless it says so already."""
+#: Compiles :func:`compile_bounds` makes at most, over all cells (the first cells first).
+MAX_BOUND_COMPILES = 1000
+
+
+def compile_bounds(
+    template: Template,
+    mode: str | None = None,
+    model: str | None = None,
+    backend: str | None = None,
+    cells: Iterable[int] = (0,),
+    draw_time: float | None = None,
+) -> None:
+    """Compile, in each of ``cells``, a sample with each distribution at each value that bounds
+    what it draws (every choice, a uniform's ends, a normal's clip: :meth:`Template.bounds`),
+    the other distributions drawing what they draw in sample 0, before any sample runs: a value
+    a distribution can draw that makes the scene refused (a ``choice`` of a domino count that
+    leaves out the domino a push names) is bad input, said at the distribution, with the field
+    and the words of the refusal, rather than when a sample happens to draw it mid-sweep. A
+    bound that fails the file's ``require:`` is never run as drawn, and is passed over. At most
+    :data:`MAX_BOUND_COMPILES` compiles (a huge grid: its first cells). Call it after
+    :func:`compile_cells`, which says what every sample 0 is refused for.
+
+    Raises:
+        ScenarioError: at the distribution that can draw the value.
+    """
+    from ..compile.require import quantities
+    from ..lang.expressions import parse
+
+    bounds = template.bounds()
+    left = MAX_BOUND_COMPILES
+    for c in cells:
+        for d, value in bounds:
+            if left <= 0:
+                return
+            left -= 1
+            scenario = template.pinned(c, d, value)
+            if scenario.require:
+                conditions = [parse(text) for text in scenario.require]
+                values = quantities(scenario, {name for condition in conditions for name in condition.names})
+                if not all(condition.holds(values) for condition in conditions):
+                    continue
+            try:
+                compile_scenario(scenario, mode, model, backend, draw_time=draw_time)
+            except ScenarioError as exc:
+                drawn = f"{'a choice' if d.kind == 'choice' else 'a value'} this distribution can draw, {value!r}"
+                cell = f" in grid cell {c} ({template.label(c)})" if template.grid else ""
+                where = (
+                    "" if exc.field == format_path(d.path) else f" at {exc.field}" + (f" (line {exc.line})" if exc.line else "")
+                )
+                raise template.source.error(d.path, f"{drawn}, makes the scene refused{cell}{where}: {exc.message}") from None
+
+
+def which_sample(exc: ScenarioError, template: Template, cell: int, k: int) -> ScenarioError:
+    """``exc`` (a sample's refusal) saying which sample and grid cell, unless it says so already,
+    and, when it is at a field no distribution draws, what the sample drew (:func:`drew`)."""
     if exc.field.startswith("sweep.grid"):  # at the grid value, which says itself what it is
         return exc
     if not exc.message.startswith("sample "):  # the compiler's checks: say which sample
         where = f" of grid cell {cell} ({template.label(cell)})"
-        exc.message = f"sample {k}" + (where if template.grid else "") + f": {exc.message}"
+        exc.message = f"sample {k}" + (where if template.grid else "") + f": {exc.message}" + drew(exc, template, cell, k)
     return exc
+
+
+def drew(exc: ScenarioError, template: Template, cell: int, k: int, shown: int = 4) -> str:
+    """What cell ``cell``'s sample ``k`` drew, said after a refusal ``exc`` at a field none of its
+    distributions draws (an action naming a domino that a drawn count leaves out): the drawn value
+    that made it is one of these. ``""`` when it is at a distribution, when the sample drew
+    nothing once a sample, or when the file has ``require:`` (the sample run may be a later draw)."""
+    drawn = template.drawn(cell, k)
+    at_one = any(exc.field == format_path(d.path) for d in template.distributions)
+    if not drawn or at_one or "require" in template.data:
+        return ""
+    said = [f"{field} = {_short(value)}" for field, value in drawn.items()]
+    more = f" and {len(said) - shown} more" if len(said) > shown else ""
+    return f" (this sample drew {', '.join(said[:shown])}{more})"
+
+
+def _short(value: Any) -> str:
+    """A drawn value as written, its number to 4 significant digits: ``'63.16 mm'``, ``'3'``.
+
+    >>> _short("63.163371523854984 mm"), _short(3), _short(0.12345678)
+    ('63.16 mm', '3', '0.1235')
+    """
+    try:
+        number, unit = split_quantity(value)
+    except ValueError:
+        return str(value)
+    return f"{number:.4g}" + (f" {unit}" if unit else "")
 
 
 def _oracle(program: Any) -> tuple[int | None, str]:

@@ -64,7 +64,7 @@ def add_sweep(
 
 
 def _sweep(args: argparse.Namespace) -> int:
-    from ..batch.sweep import SweepOptions, collect, compile_cells, dask_executor, run_sweep
+    from ..batch.sweep import SweepOptions, collect, compile_bounds, compile_cells, dask_executor, run_sweep
     from ..batch.sweep_out import report, verdicts, write_plots, write_samples
     from ..lang.loader import load_scenario
     from .progress import Lines
@@ -88,6 +88,7 @@ def _sweep(args: argparse.Namespace) -> int:
     options = SweepOptions(args.mode, args.model, args.oracle, args.timeout, args.backend)
     # as check does: what the compiler refuses in any cell is bad input, said before anything runs
     compile_cells(template, options.mode, options.model, options.backend, range(template.cells), options.timeout)
+    compile_bounds(template, options.mode, options.model, options.backend, range(template.cells), options.timeout)
     engine = f"{backend} {args.mode or scenario.engine.mode}"  # which engine ran, said once
     levels_built = scenario.structure.tower.levels if scenario.structure.tower else None
     total = template.cells * template.samples

@@ -41,6 +41,9 @@ from .errors import FieldPath, ScenarioError, SourceMap
 from .units import in_unit, split_quantity
 
 KINDS = ("uniform", "normal", "choice")
+#: The share of a uniform's width inside each end at which :meth:`Distribution.bounds` takes it:
+#: one draw in a thousand falls beyond, on each side.
+INSIDE = 1e-3
 #: The fields of a tower (the structure's own, or a part's) a distribution may be drawn on more
 #: often than once a sample, and how often.
 PER: dict[str, tuple[str, ...]] = {"shift": ("layer",), "yaw_jitter": ("layer", "brick")}
@@ -76,6 +79,9 @@ class Distribution:
         unit: the unit the values are numbers of, as written (``""``: bare numbers).
         per: ``"sample"``, ``"layer"`` or ``"brick"``.
         part: the name of the part of a list of parts it stands in, else None.
+        pinned: ``(value,)`` to give that value, as written, whatever is drawn (the generator
+            still advances as a draw would, so that the other distributions draw what they
+            would have); ``()``: drawn.
     """
 
     path: FieldPath
@@ -84,9 +90,16 @@ class Distribution:
     unit: str
     per: Literal["sample", "layer", "brick"] = "sample"
     part: str | None = None
+    pinned: tuple[Any, ...] = ()
 
     def draw(self, rng: np.random.Generator, count: int | None = None) -> Any:
         """One value as a file would write it (``count`` None) or a list of ``count`` values."""
+        picked = self._draw(rng, count)
+        if not self.pinned:
+            return picked
+        return self.pinned[0] if count is None else [self.pinned[0]] * count
+
+    def _draw(self, rng: np.random.Generator, count: int | None = None) -> Any:
         n = 1 if count is None else count
         if self.kind == "choice":
             picked = [self.values[i] for i in rng.integers(0, len(self.values), size=n)]
@@ -107,6 +120,34 @@ class Distribution:
         if self.part is not None:
             path = (path[0], self.part, *path[2:])
         return ".".join(str(p) for p in path)
+
+    def bounds(self) -> list[Any]:
+        """The values, as a file would write them, that bound what it draws with a chance worth
+        a sweep's while: every choice (each is drawn once in so many samples), a uniform
+        :data:`INSIDE` of its width inside each end (its ends themselves are degenerate cases a
+        draw all but never gives, such as a brick shifted exactly half its length, resting on an
+        edge), a normal's clip (its tail's chance lands there; an unclipped side has no bound).
+
+        >>> Distribution(("x",), "choice", (3, 5, 3), "").bounds()
+        [3, 5]
+        >>> Distribution(("x",), "uniform", (20.0, 100.0), "mm").bounds()
+        ['20.08 mm', '99.92 mm']
+        >>> Distribution(("x",), "normal", (0.096, 0.002, 0.09, float("inf")), "m").bounds()
+        ['0.09 m']
+        """
+        if self.kind == "choice":
+            ends = list(self.values)
+        elif self.kind == "uniform":
+            low, high = self.values
+            ends = [low + INSIDE * (high - low), high - INSIDE * (high - low)]
+        else:
+            ends = [v for v in self.values[2:] if math.isfinite(v)]
+        out: list[Any] = []
+        for v in ends:
+            written = v if self.kind == "choice" else float(v) if not self.unit else f"{float(v)!r} {self.unit}"
+            if written not in out:
+                out.append(written)
+        return out
 
 
 def find(data: Any, source: SourceMap) -> list[Distribution]:

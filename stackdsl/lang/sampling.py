@@ -163,11 +163,14 @@ class Template:
             )
         return dataclasses.replace(self, samples=samples)
 
-    def _data(self, c: int, k: int, attempt: int = 0, put: dict[str, Any] | None = None) -> dict[str, Any]:
+    def _data(
+        self, c: int, k: int, attempt: int = 0, put: dict[str, Any] | None = None, pin: Distribution | None = None
+    ) -> dict[str, Any]:
         """Cell ``c``'s sample ``k`` as plain data: grid values put in, distributions drawn (draw
         ``attempt`` of the sample: see :func:`stackdsl.lang.distributions.sample_seed`). ``put``:
         grid values (key as written -> value) in place of the cell's, put in before anything is
-        drawn, so that a per-layer or per-brick draw is sized by the tower they make."""
+        drawn, so that a per-layer or per-brick draw is sized by the tower they make. ``pin``: a
+        distribution of the file with its ``pinned`` value, drawn in its place."""
         data = self.data  # draw copies it
         if self.grid:
             data = copy.deepcopy(self.data)
@@ -176,7 +179,49 @@ class Template:
                 _put(data, path, values[key])
         grid_paths = [path for path, _, _ in self.grid]
         drawn = [d for d in self.distributions if not any(d.path[: len(p)] == p for p in grid_paths)]
+        if pin is not None:
+            drawn = [pin if d.path == pin.path else d for d in drawn]
         return draw(data, drawn, self.seed, k, attempt)
+
+    def drawn(self, c: int, k: int) -> dict[str, Any]:
+        """What cell ``c``'s sample ``k`` drew once a sample, by field (dotted), as a file writes it
+        (``{"structure.dominoes.count": 3}``); the fields the grid replaces are left out."""
+        grid_paths = [path for path, _, _ in self.grid]
+        data = self._data(c, k)
+        return {
+            d.label: _get(data, d.path)
+            for d in self.distributions
+            if d.per == "sample" and not any(d.path[: len(p)] == p for p in grid_paths)
+        }
+
+    def bounds(self) -> list[tuple[Distribution, Any]]:
+        """Each distribution drawn once a sample that the grid does not replace, with each value
+        that bounds what it draws (:meth:`Distribution.bounds`): what :meth:`pinned` gives, to
+        compile a sample with each before any runs."""
+        grid_paths = [path for path, _, _ in self.grid]
+        return [
+            (d, value)
+            for d in self.distributions
+            if d.per == "sample" and not any(d.path[: len(p)] == p for p in grid_paths)
+            for value in d.bounds()
+        ]
+
+    def pinned(self, c: int, d: Distribution, value: Any) -> Scenario:
+        """Cell ``c``'s sample 0 with distribution ``d`` giving ``value`` (one of its
+        :meth:`bounds`) and every other drawing what it draws in that sample: a sample the sweep
+        can draw (the others' draws are sample 0's).
+
+        Raises:
+            ScenarioError: ``value`` refused by its field, at ``d``.
+        """
+        pin = dataclasses.replace(d, pinned=(value,))
+        what = f"{'a value' if d.kind != 'choice' else 'a choice'} this distribution can draw, {value!r}"
+        scenario = validate(self._data(c, 0, pin=pin), self.source, self._blame(c, only=d), what)
+        if self.grid:
+            scenario._source = self._cell_source(c)
+        scenario._template = self
+        scenario._sample = (c, 0)
+        return scenario
 
     def scenario(self, c: int, k: int, *, checked: bool = False, attempt: int = 0) -> Scenario:
         """The validated scenario of cell ``c``'s sample ``k``; with ``checked``, every value each

@@ -173,9 +173,9 @@ def test_fallen_bricks_are_frozen_again_where_they_lie(model):
     on = run_program(program)
     off = run_program(program.model_copy(update={"stability": replace(program.stability, debris=False)}))
     assert on.collapse is not None and off.collapse is not None and on.collapse.level == off.collapse.level == 10
-    piles = [e for e in on.events if e.kind == "freeze" and "pile" in e.detail and e.time > on.collapse.time]
+    piles = [e for e in on.events if e.kind == "freeze" and "frozen together" in e.detail and e.time > on.collapse.time]
     assert len(piles) >= 5
-    assert not [e for e in off.events if e.kind == "freeze" and "pile" in e.detail]
+    assert not [e for e in off.events if e.kind == "freeze" and "frozen together" in e.detail]
     assert on.steps < off.steps
 
 
@@ -198,7 +198,7 @@ def test_a_pile_frozen_in_the_equilibrium_model_is_solved_once_with_the_whole_st
     text = "stackdsl: 1\nstructure: {tower: {levels: 12, bricks_per_layer: 1, turn: 0, shift: 13 mm}}\n"
     outcome = run_program(compile_scenario(parse_scenario(text, "slant.yaml"), model="equilibrium"))
     assert outcome.collapse is not None and outcome.collapse.level == 10
-    piles = [e for e in outcome.events if e.kind == "freeze" and "pile" in e.detail]
+    piles = [e for e in outcome.events if e.kind == "freeze" and "frozen together" in e.detail]
     assert len(piles) >= 5
     assert calls["stack"] == []  # the collapse is proven by the part that turns out (stability._cut)
     assert calls["debris"] and max(calls["debris"]) == 10  # the pile with the bricks still frozen
@@ -227,7 +227,7 @@ def test_a_few_bricks_at_rest_on_a_large_frozen_stack_are_solved_alone(monkeypat
     outcome = run_program(program, RunOptions(cheap_debris=False, soft_landing=False, shelve=False))
     assert outcome.collapse is not None and outcome.collapse.level == 17
     heap = next(i for i, (_, stands) in enumerate(calls) if stands)
-    piles = [int(e.detail.split("pile of ")[1].split()[0]) for e in outcome.events if "pile of" in e.detail]
+    piles = [int(e.detail.split("one of ")[1].split()[0]) for e in outcome.events if "frozen together" in e.detail]
     assert piles[0] > 20 and calls[heap][0] > piles[0]  # the heap was solved with the frozen bricks
     trimmed = calls[0][0] - calls[heap][0]
     assert 0 < trimmed <= 6  # less the few on its top
@@ -243,7 +243,7 @@ def test_a_tower_fallen_against_the_floor_is_frozen_again_with_the_report_model(
     outcome = run_program(compile_scenario(parse_scenario(text, "cabin.yaml"), model="report"))
     assert outcome.collapse is not None and outcome.collapse.level == 12
     after = [e for e in outcome.events if e.time > outcome.collapse.time and e.kind in ("freeze", "wake")]
-    piles = [e for e in after if e.kind == "freeze" and "pile of" in e.detail]
+    piles = [e for e in after if e.kind == "freeze" and "frozen together" in e.detail]
     assert len(piles) >= 15
     assert not [e for e in after if e.kind == "wake" and e.time >= piles[0].time]
     assert outcome.steps_skipped > 0
@@ -267,7 +267,7 @@ def test_a_heap_resting_on_a_brick_that_fell_before_it_is_frozen_with_it(cabin_f
     assert outcome.collapse is not None and outcome.collapse.level == 26
     woken = {e.brick for e in outcome.events if e.kind == "wake"}
     after = [e for e in outcome.events if e.kind == "freeze" and e.time > outcome.collapse.time]
-    assert len(woken) > 40 and len([e for e in after if "pile of" in e.detail]) > 30
+    assert len(woken) > 40 and len([e for e in after if "frozen together" in e.detail]) > 30
     assert woken <= {e.brick for e in after}
 
 
@@ -278,8 +278,8 @@ def test_a_heap_at_rest_as_a_whole_is_frozen_with_the_bricks_that_still_creep(ca
     of them kept it in the engine until 1.1 s after the collapse."""
     outcome = cabin_falling_at_26
     assert outcome.collapse is not None
-    piles = [e for e in outcome.events if e.kind == "freeze" and e.time > outcome.collapse.time and "pile of" in e.detail]
-    big = [e for e in piles if int(re.search(r"pile of (\d+)", e.detail).group(1)) > 40]
+    piles = [e for e in outcome.events if e.kind == "freeze" and e.time > outcome.collapse.time and "frozen together" in e.detail]
+    big = [e for e in piles if int(re.search(r"one of (\d+)", e.detail).group(1)) > 40]
     creeping = [e for e in big if e.detail.startswith("creeping")]
     assert len(big) > 40 and len({e.time for e in big}) == 1
     assert 0 < len(creeping) < len(big)
@@ -295,7 +295,7 @@ def test_a_pile_whose_top_bricks_slide_is_frozen_without_them():
     outcome = run_program(compile_scenario(parse_scenario(text, "cabin.yaml"), model="report"))
     assert outcome.collapse is not None and outcome.collapse.level == 21
     woken = {e.brick for e in outcome.events if e.kind == "wake"}
-    piles = [e for e in outcome.events if e.kind == "freeze" and "pile of" in e.detail and e.time > outcome.collapse.time]
+    piles = [e for e in outcome.events if e.kind == "freeze" and "frozen together" in e.detail and e.time > outcome.collapse.time]
     heap = {e.brick for e in piles if e.time == piles[0].time}
     assert len(woken) > 30 and len(heap) > 30 and heap < woken
 

@@ -993,3 +993,26 @@ def test_two_pushers_may_share_a_place_one_after_the_other_but_not_at_once():
     with pytest.raises(ScenarioError, match=r"pusher2\) would reach into actions\[0\]'s \(pusher1\) at 6.3 s") as err:
         compile_scenario(parse_scenario(during, "during.yaml"))
     assert err.value.field == "actions[1].push.target"
+
+
+def test_a_pull_under_way_when_a_collapse_is_decided_runs_to_its_end():
+    """A domino pushed over elsewhere is a collapse decided early in a slow pull: the run used
+    to end the settle time after that, the pulled brick left half pulled out in the final scene
+    (a brick lying on it judged where the cut left it). It ends the settle time after the pull is
+    over, the pulled brick out of the scene and the one it carried where the pull left it."""
+    text = """stackdsl: 1
+structure:
+  bricks:
+    - {id: base, at: [0, 0, 4 mm], yaw: 90}
+    - {id: rider, at: [0, 0, 12 mm]}
+    - {id: domino, at: [300 mm, 0, 60 mm], pitch: 90}
+actions:
+  - remove: {brick: base, at: 3 s, direction: +x, distance: 60 mm, speed: 5 mm/s}
+  - push: {target: {brick: domino, offset: [0, 0, 45 mm]}, direction: [1, 0, 0], speed: 0.2 m/s, distance: 15 mm, at: 4 s}
+"""
+    program = compile_scenario(parse_scenario(text, "ride.yaml"))
+    pull = next(a for a in program.kinematic if isinstance(a, Remove))
+    outcome = run_program(program)
+    assert outcome.collapse is not None and outcome.collapse.decided < pull.end_time - 5.0
+    assert outcome.simulated_time >= pull.end_time + program.settle - 0.01
+    assert "base" not in {n.id for n in outcome.final_graph.nodes} and outcome.removed == ("base",)

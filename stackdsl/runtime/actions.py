@@ -85,11 +85,11 @@ class Actions(Subscriber):
 
     @property
     def under_way(self) -> bool:
-        """A shake or a push is under way: a collapse meanwhile ends the run only once it is over
-        (the ground back at rest where it started, the pusher withdrawn), so that nothing is
-        judged mid-stroke. A pull is not waited for: its brick has left the structure, and the
-        run ends the settle time after the collapse, as it did."""
-        return self.shake is not None or any(g.kind == "push" for g in self.guided)
+        """A shake, a push or a pull is under way: a collapse meanwhile ends the run only once it
+        is over (the ground back at rest where it started, the pusher withdrawn, the pulled brick
+        taken out of the scene), so that nothing is judged mid-stroke (a brick half pulled out
+        was left in the final scene, a brick lying on it judged where the cut left it)."""
+        return self.shake is not None or bool(self.guided)
 
     def on_action(self, loop: StepLoop, action: Kinematic) -> None:
         if isinstance(action, Remove):

@@ -104,7 +104,7 @@ class StepLoop:
         subscribers: called at each hook they override (:func:`overrides`), in this order.
         jump: jump to the next action while every subscriber is quiet.
         stop_at_collapse: once :meth:`stop_after` was called, place nothing more and end
-            then; a shake or a push under way then (:attr:`Subscriber.under_way`), or an
+            then; a shake, a push or a pull under way then (:attr:`Subscriber.under_way`), or an
             action timed before the first placement this cancels, still runs, and the run
             then ends as long after it (a push, pull or shake: after its end) as
             :meth:`stop_after` was told. An action timed after a cancelled placement was
@@ -164,8 +164,8 @@ class StepLoop:
 
     def stop_after(self, seconds: float) -> None:
         """End the run ``seconds`` from now (a collapse's settle time), placing nothing more; an
-        action under way (what a subscriber says is, :attr:`Subscriber.under_way`: a shake or a
-        push; a thrown body still in flight) first runs to its end, and the run ends ``seconds``
+        action under way (what a subscriber says is, :attr:`Subscriber.under_way`: a shake, a
+        push or a pull; a thrown body still in flight) first runs to its end, and the run ends ``seconds``
         after that."""
         self._settle_steps = round(seconds / self.dt)
         self.stop_step = max(self.step, self._busy) + self._settle_steps

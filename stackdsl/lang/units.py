@@ -138,6 +138,8 @@ def _unit_factor(text: str, dimension: str, unit: str) -> float | None:
             # an angle per time is a frequency of turns: 120 rpm is 2 Hz, 2 pi rad/s is 1 Hz (pint
             # counts a radian as 1, which read 120 rpm as 12.6 Hz)
             return float(base.magnitude) / (2 * math.pi)
+        if unit == "degree" and dict(base.unit_items()).get("radian") != 1:
+            return None  # a plain number's unit (percent, ppm) is no angle, though pint counts a radian as 1
         return float(quantity.to(unit).magnitude)
     except Exception:  # pint's parser raises many kinds; any of them means: not a unit we know
         return None

@@ -47,8 +47,8 @@ GROUND = "ground"
 
 
 def _not_ground(value: str) -> str:
-    if value == GROUND:
-        raise ValueError(f"{GROUND!r} names the ground (what a brick rests on in the timeline and the graph): give another id")
+    if value.lower() == GROUND:  # 'Ground' too: "at rest on Ground" reads as the ground
+        raise ValueError(f"{value!r} names the ground (what a brick rests on in the timeline and the graph): give another id")
     return value
 
 

@@ -161,7 +161,7 @@ def test_a_slow_middle_pull_leaves_a_jenga_tower_standing_and_a_second_fells_it(
     assert all(v.passed for v in evaluate(falls.expect, outcome, 0.004))
     # the proof names the brick it is about; the collapse, the brick that moved first: both are said
     detail, first = outcome.certificate.detail, outcome.collapse.brick
-    assert detail.startswith(first) or detail.endswith(f"({first} moved first)"), detail
+    assert detail.startswith(first) or detail.endswith(f"({first} moved first; this proof decided the collapse)"), detail
 
 
 def tower_outcome(expect: str):

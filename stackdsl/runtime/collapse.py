@@ -332,7 +332,7 @@ class CollapseMonitor(Subscriber):
         farthest = moved if first is record else state.farthest
         kind, detail, moved_too = proof
         if first is not record:  # the collapse is named after the brick that moved first
-            detail += f" ({first.id} moved first)"
+            detail += f" ({first.id} moved first; this proof decided the collapse)"
         records = loop.structure.records
         bricks = tuple(sorted({*self._displaced, *(b for b in moved_too if b in records)}, key=lambda i: records[i].order))
         certificate = Certificate(verdict="collapse", kind=kind, detail=detail, bricks=bricks)

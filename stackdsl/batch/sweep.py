@@ -195,6 +195,7 @@ def compile_bounds(
 
     bounds = template.bounds()
     left = MAX_BOUND_COMPILES
+    parsed: dict[tuple[str, ...], list[Any]] = {}  # the file's require:, parsed once
     for c in cells:
         for d, value in bounds:
             if left <= 0:
@@ -202,7 +203,8 @@ def compile_bounds(
             left -= 1
             scenario = template.pinned(c, d, value)
             if scenario.require:
-                conditions = [parse(text) for text in scenario.require]
+                texts = tuple(scenario.require)
+                conditions = parsed.get(texts) or parsed.setdefault(texts, [parse(text) for text in texts])
                 values = quantities(scenario, {name for condition in conditions for name in condition.names})
                 if not all(condition.holds(values) for condition in conditions):
                     continue

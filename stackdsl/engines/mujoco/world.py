@@ -105,6 +105,7 @@ class MuJoCoWorld(World):
         # addresses in the compiled model, per brick: qpos and dof of its free joint, its mocap
         # index, its free and held geoms; geom -> stackdsl body id
         self._qpos = self._dof = self._mocap = self._free_geom = self._held_geom = np.zeros(0, dtype=int)
+        self._qpos7 = np.zeros((0, 7), dtype=int)  # each free joint's 7 qpos addresses
         self._geom_body = np.zeros(0, dtype=int)
         self._read: tuple[np.ndarray, np.ndarray] | None = None  # every body's velocities, this step
         spec = mujoco.MjSpec()
@@ -188,6 +189,7 @@ class MuJoCoWorld(World):
 
         joints = ids(mj.mjtObj.mjOBJ_JOINT, "joint")
         self._qpos, self._dof = m.jnt_qposadr[joints].astype(int), m.jnt_dofadr[joints].astype(int)
+        self._qpos7 = self._qpos[:, None] + np.arange(7)
         self._mocap = m.body_mocapid[ids(mj.mjtObj.mjOBJ_BODY, "held")].astype(int)
         self._free_geom, self._held_geom = ids(mj.mjtObj.mjOBJ_GEOM, "f"), ids(mj.mjtObj.mjOBJ_GEOM, "h")
         self._geom_body = np.zeros(m.ngeom, dtype=int)
@@ -241,14 +243,20 @@ class MuJoCoWorld(World):
         return self._engine.timestep
 
     def pose(self, body: int) -> Pose:
+        (px, py, pz), (x, y, z, w) = self._raw_pose(body - 1)
+        return Pose(np.array([px, py, pz]), np.array([x, y, z, w]) / math.sqrt(w * w + x * x + y * y + z * z))
+
+    def _raw_pose(self, i: int) -> tuple[Vec3, Quat]:
+        """Position and quaternion (x, y, z, w), as MuJoCo holds them (not normalized), of brick
+        ``i`` (its body id - 1), as floats: its held body's when frozen."""
         _, d = self._ready()
-        i = body - 1
         if self._frozen[i]:
-            position, (w, x, y, z) = d.mocap_pos[self._mocap[i]].copy(), d.mocap_quat[self._mocap[i]]
+            m = int(self._mocap[i])
+            (px, py, pz), (w, x, y, z) = d.mocap_pos[m].tolist(), d.mocap_quat[m].tolist()
         else:
-            q = self._qpos[i]
-            position, (w, x, y, z) = d.qpos[q : q + 3].copy(), d.qpos[q + 3 : q + 7]
-        return Pose(position, np.array([x, y, z, w]) / math.sqrt(w * w + x * x + y * y + z * z))
+            q = int(self._qpos[i])
+            px, py, pz, w, x, y, z = d.qpos[q : q + 7].tolist()
+        return (px, py, pz), (x, y, z, w)
 
     def velocity(self, body: int) -> tuple[np.ndarray, np.ndarray]:
         linear, angular = self._velocities()
@@ -266,13 +274,7 @@ class MuJoCoWorld(World):
         return math.hypot(a, b, c), math.hypot(e, f, g)
 
     def pose_floats(self, body: int) -> tuple[Vec3, Quat]:
-        _, d = self._ready()
-        i = body - 1
-        if self._frozen[i]:
-            (x, y, z), (w, qx, qy, qz) = d.mocap_pos[self._mocap[i]].tolist(), d.mocap_quat[self._mocap[i]].tolist()
-        else:
-            q = int(self._qpos[i])
-            x, y, z, w, qx, qy, qz = d.qpos[q : q + 7].tolist()
+        (x, y, z), (qx, qy, qz, w) = self._raw_pose(body - 1)
         n = math.sqrt(w * w + qx * qx + qy * qy + qz * qz)
         return (x, y, z), (qx / n, qy / n, qz / n, w / n)
 
@@ -493,20 +495,18 @@ class MuJoCoWorld(World):
 
     def poses_of(self, bodies: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
         _, d = self._ready()
-        index = np.asarray(bodies, dtype=int) - 1
-        if len(index) <= _FEW:  # a loop: numpy's fancy indexing costs more for one or two bodies
-            positions, wxyz = np.empty((len(index), 3)), np.empty((len(index), 4))
-            for row, i in enumerate(index):
-                if self._frozen[i]:
-                    positions[row], wxyz[row] = d.mocap_pos[self._mocap[i]], d.mocap_quat[self._mocap[i]]
-                else:
-                    q = self._qpos[i]
-                    positions[row], wxyz[row] = d.qpos[q : q + 3], d.qpos[q + 3 : q + 7]
+        if len(bodies) <= _FEW:  # in floats: numpy's fancy indexing costs more for a few bodies
+            read = [self._raw_pose(b - 1) for b in bodies]
+            positions = np.array([p for p, _ in read]).reshape(len(read), 3)
+            quaternions = np.array([q for _, q in read]).reshape(len(read), 4)
         else:
-            frozen, qpos, mocap = self._frozen[index][:, None], self._qpos[index][:, None], self._mocap[index]
-            positions = np.where(frozen, d.mocap_pos[mocap], d.qpos[qpos + np.arange(3)])
-            wxyz = np.where(frozen, d.mocap_quat[mocap], d.qpos[qpos + np.arange(3, 7)])
-        quaternions = wxyz[:, [1, 2, 3, 0]]
+            index = np.asarray(bodies, dtype=int) - 1
+            table = d.qpos[self._qpos7[index]]  # (n, 7): position and (w, x, y, z) of each free body
+            frozen = self._frozen[index]
+            if frozen.any():  # a frozen brick is its held body
+                mocap = self._mocap[index[frozen]]
+                table[frozen, :3], table[frozen, 3:] = d.mocap_pos[mocap], d.mocap_quat[mocap]
+            positions, quaternions = table[:, :3], table[:, [4, 5, 6, 3]]
         return positions, quaternions / np.linalg.norm(quaternions, axis=1)[:, None]
 
     def velocities_of(self, bodies: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:

@@ -218,7 +218,10 @@ def test_tower_shift_too_far_points_at_the_shift():
     err = error("stackdsl: 1\nstructure: {tower: {levels: 4, bricks_per_layer: 1, turn: 0, shift: 130 mm}}\n")
     assert (err.line, err.column, err.field) == (2, 69, "structure.tower.shift")
     assert "(130.0, 0.0) mm" in err.message
+    assert "1 brick a layer, each" in err.message and "apart" not in err.message  # one brick has no spacing
     compile_text("stackdsl: 1\nstructure: {tower: {levels: 4, bricks_per_layer: 1, turn: 0, shift: 110 mm}}\n")
+    err = error("stackdsl: 1\nstructure: {tower: {levels: 4, bricks_per_layer: 2, shift: [0, 130 mm]}}\n")
+    assert "2 bricks a layer, 96.0 mm apart" in err.message
 
 
 def test_floating_made_by_the_placement_error_points_at_it():

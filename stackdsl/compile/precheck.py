@@ -240,18 +240,23 @@ def _tower_floating(scenario: Scenario, bodies: Sequence[Body], b: int, floating
         x, y = t.shifts[brick.level - 2]
         return tower + ("shifts", brick.level - 2), (
             f"{head}: it is moved ({_millimetres(x)}, {_millimetres(y)}) mm from the layer below, too far for its "
-            f"bricks to reach it ({n} a layer, {_mm(t.spacing)} apart, each layer turned {t.turn:g} deg); use a smaller shift"
+            f"bricks to reach it ({_layer(n, t.spacing, t.turn)}); use a smaller shift"
         )
     if any(abs(v) > 0 for v in t.shift):
         return tower + ("shift",), (
             f"{head}: each layer is moved ({_millimetres(t.shift[0])}, {_millimetres(t.shift[1])}) mm from the one "
-            f"below, too far for its bricks to reach the layer below ({n} a layer, {_mm(t.spacing)} apart, each "
-            f"layer turned {t.turn:g} deg); use a smaller shift"
+            f"below, too far for its bricks to reach the layer below ({_layer(n, t.spacing, t.turn)}); use a smaller shift"
         )
     return tower + ("spacing",), (
-        f"{head}: the layer below does not reach under them ({n} bricks a layer, {_mm(t.spacing)} apart, each "
-        f"layer turned {t.turn:g} deg); bring the bricks of a layer closer together"
+        f"{head}: the layer below does not reach under them ({_layer(n, t.spacing, t.turn)}); bring the bricks "
+        "of a layer closer together"
     )
+
+
+def _layer(n: int, spacing: float, turn: float) -> str:
+    """A tower's layer in words: its bricks, their spacing (none for one brick) and its turn."""
+    apart = f", {_mm(spacing)} apart" if n > 1 else ""
+    return f"{n} brick{'s' * (n != 1)} a layer{apart}, each layer turned {turn:g} deg"
 
 
 def _generator_field(scenario: Scenario, path: FieldPath) -> FieldPath:

@@ -708,6 +708,8 @@ def test_compare_says_what_failed_besides_the_level_and_keeps_its_columns(tmp_pa
     (slant,) = [r for r in rows if r.startswith("slant")]
     assert "FAIL collapse 10, levels " in slant and " moved" in slant
     assert all(r.index("PASS" if "PASS" in r else "FAIL") == header.index("extension") for r in rows)
+    # the wall times of a column in line, however long a measured text
+    assert len({r.rstrip().rindex(" s") for r in rows}) == 1, rows
 
 
 def test_compare_unknown_mode_exits_2(tmp_path, capsys):

@@ -169,12 +169,14 @@ def compare_command(args: argparse.Namespace) -> int:
         print(json.dumps(json_document("compare", done, commands, len(prepared), wall), indent=2))
         return _status(done, args.debug)
     width = max([len("scenario"), *(len(Path(f).stem) for f in table)])
+    # a mode's measured texts as wide as its longest, so that its wall times stay in line
+    measured = {m: max([13, *(len(_cell(cells[m])) for cells in table.values() if not cells[m].refused)]) for m in modes}
     rows = {
         file: [
             "refused (beyond the engine)"
             if r.refused
-            else f"{'PASS' if r.passed else 'FAIL'} {_cell(r):<13} {r.wall_time:>7.1f} s"
-            for r in (cells[m] for m in modes)
+            else f"{'PASS' if r.passed else 'FAIL'} {_cell(r):<{measured[m]}} {r.wall_time:>7.1f} s"
+            for m, r in ((m, cells[m]) for m in modes)
         ]
         for file, cells in table.items()
     }

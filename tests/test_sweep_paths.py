@@ -94,6 +94,24 @@ def test_a_grid_key_the_file_cannot_take_is_refused_at_the_key(scene, key, says)
     assert says in err.value.message
 
 
+def test_a_grid_key_names_a_material_or_a_brick_type_by_its_name():
+    """A material's or a brick type's name was read as a field of it: 'brick_types has no field 'long''."""
+    text = """stackdsl: 1
+materials: {soft: {density: 400 kg/m^3}}
+brick_types: {long: {size: [150 mm, 24 mm, 8 mm], material: soft}}
+structure: {tower: {levels: 2, brick: long}}
+sweep:
+  samples: 1
+  grid: {brick_types.long.size: [[150 mm, 24 mm, 8 mm], [140 mm, 24 mm, 8 mm]], materials.soft.density: [400 kg/m^3, 500]}
+"""
+    template = parse_scenario(text, "g.yaml").template
+    last = template.scenario(3, 0)
+    assert last.brick_types["long"].size == pytest.approx((0.14, 0.024, 0.008)) and last.materials["soft"].density == 500
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(text.replace("materials.soft.density", "materials.soft.densty"), "g.yaml")
+    assert "materials.soft has no field 'densty'; it has: density, friction, restitution" in err.value.message
+
+
 @pytest.mark.parametrize(
     "scene, key",
     [

@@ -27,7 +27,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from .distributions import Distribution, draw, find, tower_field
+from .distributions import NAMED, Distribution, draw, find, tower_field
 from .errors import FieldPath, ScenarioError, SourceMap, format_path
 from .expressions import Condition, check_kinds, parse
 from .field_kinds import field_kind
@@ -482,7 +482,8 @@ def _grid_field(key: str, values: list[Any], source: SourceMap) -> tuple[FieldPa
 
     path: FieldPath = tuple(int(part) if part.isdigit() else part for part in grid_name(key).split("."))
     for i, part in enumerate(path):
-        allowed = fields_at(path[:i]) if isinstance(part, str) and path[:i] != ("structure",) else []  # or a part's name
+        named = path[:i] == ("structure",) or path[:i] in NAMED  # a part's, a material's or a brick type's name
+        allowed = fields_at(path[:i]) if isinstance(part, str) and not named else []
         if allowed and part not in allowed:
             raise source.error(
                 ("sweep", "grid", key),

@@ -76,6 +76,9 @@ require: ["structure.deck.origin.0 > -4 mm"]
     assert -0.004 < parameters["structure.deck.origin.0 [m]"] <= 0.005
 
 
+_TOWER = "structure: {tower: {levels: 3}}\n"
+
+
 @pytest.mark.parametrize(
     ("field", "message", "column"),
     [
@@ -203,6 +206,34 @@ def test_explicit_shifts_and_yaw_jitter_are_checked():
     ]:
         with pytest.raises(ScenarioError, match=message.replace("(", r"\(").replace(")", r"\)")):
             parse_scenario(f"stackdsl: 1\nstructure: {{tower: {{levels: 3, {bad}}}}}\n")
+
+
+@pytest.mark.parametrize(
+    ("text", "where", "what", "inside"),
+    [
+        ("structure: {choice: [2, 3]}\n", "structure", "the whole structure section", "structure.tower.levels"),
+        ("structure: {tower: {choice: [2, 3]}}\n", "structure.tower", "a whole tower", "structure.tower.levels"),
+        (_TOWER + "timing: {uniform: [1 s, 2 s]}\n", "timing", "the whole timing section", "timing.interval"),
+        (_TOWER + "actions: [{choice: [1, 2]}]\n", "actions[0]", "a whole action", "actions[0].remove.at"),
+        (_TOWER + "materials: {pine: {choice: [1, 2]}}\n", "materials.pine", "a whole material", "materials.pine.density"),
+        (
+            "structure: {left: {choice: [1, 2]}, right: {tower: {levels: 2}}}\n",
+            "structure.left",
+            "a whole part",
+            "structure.left.origin",
+        ),
+        ("structure: {bricks: [{uniform: [0, 1]}]}\n", "structure.bricks[0]", "a whole brick", "structure.bricks[0].at"),
+    ],
+)
+def test_a_distribution_standing_for_a_whole_section_is_refused_naming_a_field_inside(text, where, what, inside):
+    """A distribution draws one field's value: in place of a section, an item or a list it drew a
+    number and the error said the section expected a mapping, not where the distribution goes."""
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario("stackdsl: 1\n" + text, "t.yaml")
+    assert info.value.field == where and info.value.line == text.count("\n") + 1
+    assert f"a distribution draws the value of one field, and {where} is {what}; put it on a field inside, such as {inside}" == (
+        info.value.message
+    )
 
 
 def test_names_a_file_chooses_are_not_taken_for_distributions():

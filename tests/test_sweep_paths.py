@@ -16,6 +16,7 @@ from hypothesis import strategies as st
 
 from stackdsl import ScenarioError, compile_scenario, parse_scenario
 from stackdsl.compile.require import DERIVED, quantities, scene, unreadable
+from stackdsl.lang.field_kinds import whole_of
 
 SHAKE = "actions:\n  - shake: {amplitude: 5 mm, frequency: 2 Hz, duration: 1 s, at: after level 3}\n"
 SCENES = {
@@ -59,6 +60,7 @@ def test_any_grid_key_is_taken_or_refused_at_the_key(name, key, value):
     try:
         scenario = parse_scenario(text, "g.yaml")
         template = scenario.template
+        assert all(whole_of(path) is None for path, _, _ in template.grid), key  # one field, never a section
         for c in range(template.cells):
             compile_scenario(template.scenario(c, 0))
             template.parameters(c, 0)
@@ -113,6 +115,74 @@ sweep:
 
 
 @pytest.mark.parametrize(
+    "scene, key, what, such_as",
+    [
+        ("tower", "structure", "the whole structure section", "structure.tower.levels"),
+        ("tower", "structure.tower", "a whole tower", "structure.tower.levels"),
+        ("tower", "actions.0", "a whole action", "actions.0.shake.amplitude"),
+        ("tower", "actions[0]", "a whole action", "actions[0].shake.amplitude"),
+        ("tower", "actions[0].shake", "a whole shake", "actions[0].shake.amplitude"),
+        ("tower", "actions", "the whole actions section", "actions.0.shake.amplitude"),
+        ("tower", "timing", "the whole timing section", "timing.interval"),
+        ("tower", "materials.pine", "a whole material", "materials.pine.density"),
+        ("map", "structure.right", "a whole part", "structure.right.origin"),
+        ("map", "structure.left", "a whole part", "structure.left.tower.levels"),
+        ("list", "structure.right", "a whole part", "structure.right.origin"),
+        ("list", "structure[1]", "a whole part", "structure[1].origin"),
+        ("bricks", "structure.bricks", "the whole list of bricks", "structure.bricks.0.at"),
+        ("bricks", "structure.bricks.1", "a whole brick", "structure.bricks.1.at"),
+    ],
+)
+def test_a_grid_key_naming_a_whole_section_item_or_list_is_refused_at_the_key(scene, key, what, such_as):
+    """A grid key names one field: a whole section, part, action or list was taken, its cells
+    whole scenes labelled by all of their text. The field suggested is one a grid takes."""
+    text = _with_grid(SCENES[scene], key, "{}")
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(text, "g.yaml")
+    key_line = text.splitlines().index(f'  grid: {{"{key}": [{{}}]}}') + 1
+    assert (err.value.field, err.value.line, err.value.column) == (f"sweep.grid.{key}", key_line, 10)
+    assert f"the grid names {key!r}, but that is {what}, not one field" in err.value.message
+    assert f"such as {such_as!r}" in err.value.message
+    ends = {"levels": "2", "at": "[0, 0, 4 mm]", "amplitude": "2 mm", "density": "400 kg/m^3", "origin": "[0.3, 0]"}
+    value = ends.get(such_as.rsplit(".", 1)[-1], "1")
+    template = parse_scenario(_with_grid(SCENES[scene], such_as, value), "g.yaml").template
+    assert [key for _, key, _ in template.grid] == [such_as]
+
+
+def test_a_grid_may_give_one_field_whole_whatever_its_form():
+    """Numbers, quantities, words, lists of numbers, and the values a file writes as a mapping (a
+    target, a moment after a level) are single fields: a grid varies them."""
+    text = """stackdsl: 1
+brick_types: {long: {size: [150 mm, 24 mm, 8 mm]}}
+structure: {tower: {levels: 3, brick: long}}
+timing: {settle: 0.5 s}
+impacts:
+  - {target: {level: 3, side: +x}, direction: [-1, 0, 0], speed: 1 m/s, at: after level 3}
+actions:
+  - push: {target: {brick: L01.1}, direction: [0, 1, 0], at: 5 s}
+sweep:
+  samples: 1
+  grid:
+    brick_types.long.size: [[150 mm, 24 mm, 8 mm], [140 mm, 24 mm, 8 mm]]
+    impacts.0.target: [{level: 3, side: +x}, {point: [0, 0, 20 mm]}]
+    actions[0].push.at: [5 s, {after_level: 3}]
+    structure.tower.brick: [long, kapla]
+"""
+    template = parse_scenario(text, "g.yaml").template
+    assert template.cells == 16
+    last = template.scenario(15, 0)
+    assert last.impacts[0].target.point == (0.0, 0.0, 0.02)
+    assert last.actions[0].push is not None and last.actions[0].push.at.after_level == 3
+    assert last.structure.tower is not None and last.structure.tower.brick == "kapla"
+    assert template.scenario(0, 0).brick_types["long"].size == (0.15, 0.024, 0.008)
+    assert template.label(15) == (
+        "brick_types.long.size = [140 mm, 24 mm, 8 mm], impacts.0.target = {point: [0, 0, 20 mm]}, "
+        "actions[0].push.at = {after_level: 3}, structure.tower.brick = kapla"
+    )
+    compile_scenario(last)
+
+
+@pytest.mark.parametrize(
     "scene, key",
     [
         ("list", "structure.left.tower.levels"),
@@ -136,16 +206,19 @@ def _parts(scenario):
     return list(parts.values()) if isinstance(parts, dict) else parts
 
 
-def test_two_grid_keys_for_one_field_are_refused():
-    text = (
-        SCENES["list"]
-        + 'sweep:\n  samples: 1\n  grid:\n    structure.left.tower.levels: [2]\n    "structure[0].tower": [{levels: 3}]\n'
-    )
+@pytest.mark.parametrize(
+    "scene, first, second, says",
+    [
+        ("list", "structure.left.tower.levels", "structure[0].tower.levels", "the same field as"),
+        ("bricks", "structure.bricks.1.at", "structure.bricks[1].at[2]", "a field inside"),
+        ("bricks", "structure.bricks.1.at.2", "structure.bricks[1].at", "a field around"),
+    ],
+)
+def test_two_grid_keys_for_one_field_are_refused(scene, first, second, says):
+    text = SCENES[scene] + f'sweep:\n  samples: 1\n  grid:\n    "{first}": [4 mm]\n    "{second}": [5 mm]\n'
     with pytest.raises(ScenarioError) as err:
         parse_scenario(text, "g.yaml")
-    assert (
-        err.value.field == "sweep.grid.structure[0].tower" and "a field around 'structure.left.tower.levels'" in err.value.message
-    )
+    assert err.value.field == f"sweep.grid.{second}" and f"{says} '{first}'" in err.value.message
 
 
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])

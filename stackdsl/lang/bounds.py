@@ -12,7 +12,7 @@ Source: stackdsl's own.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Annotated
+from typing import TYPE_CHECKING, Annotated, ClassVar
 
 from pydantic import (
     BaseModel,
@@ -216,3 +216,9 @@ class StrictModel(BaseModel):
     """A part of a scenario: unknown keys are refused and values are frozen."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
+
+    #: Whether a file writes the model as one value that happens to be a mapping (an impact's or a
+    #: push's target, the moment ``{after_level: 3}``), which a sweep's grid may give whole; any
+    #: other model is a section of fields (``timing``, an action, a part), and a grid key or a
+    #: distribution names one field of it (:func:`stackdsl.lang.field_kinds.whole_of`).
+    one_value: ClassVar[bool] = False

@@ -37,7 +37,8 @@ from typing import Any, Literal
 
 import numpy as np
 
-from .errors import FieldPath, ScenarioError, SourceMap
+from .errors import FieldPath, ScenarioError, SourceMap, format_path
+from .field_kinds import a_field_in, whole_of
 from .units import in_unit, split_quantity
 
 KINDS = ("uniform", "normal", "choice")
@@ -193,6 +194,13 @@ def _parse(node: dict[str, Any], path: FieldPath, source: SourceMap) -> Distribu
     """One distribution node, checked."""
     if path and path[0] in NOT_RANDOM:
         raise source.error(path, f"a distribution cannot stand in '{path[0]}': only the scene's numbers are drawn")
+    whole = whole_of(path)
+    if whole is not None:  # a section, an item or a list: its values would be drawn from numbers
+        inside = format_path(path + a_field_in(path))
+        raise source.error(
+            path,
+            f"a distribution draws the value of one field, and {format_path(path)} is {whole}; put it on a field inside, such as {inside}",
+        )
     kinds = [k for k in KINDS if k in node]
     unknown = [k for k in node if k not in (*KINDS, "per")]
     if len(kinds) != 1 or unknown:

@@ -1,21 +1,27 @@
-"""The kind of quantity of a scenario's field, by its path in a condition.
+"""The kind of quantity of a scenario's field by its path, and whether a path names one field.
 
 ``timing.interval`` is a time: the unit check of ``require:`` and of a sweep's ``expect.cells``
-conditions (:func:`stackdsl.lang.expressions.check_kinds`) reads the kinds here.
+conditions (:func:`stackdsl.lang.expressions.check_kinds`) reads the kinds here. ``timing`` and
+``actions.0`` are no field but a whole section and a whole action (:func:`whole_of`): a grid key
+or a distribution names one field inside them.
 
 Source: stackdsl's own.
 """
 
 from __future__ import annotations
 
+import re
+import types
 import typing
 from typing import Any
 
 from pydantic import BaseModel
 
+from .errors import FieldPath
 from .schema import Scenario, Structure
+from .schema_layouts import BrickPlacement
 from .schema_parts import Part
-from .units import angle, angular_speed, density, frequency, length, speed, time
+from .units import angle, angular_speed, density, frequency, length, speed, split_quantity, time
 
 _CONVERTED = {length: "length", time: "time", speed: "speed", angular_speed: "per time", frequency: "per time"}
 _CONVERTED |= {density: "density", angle: "angle"}
@@ -69,4 +75,146 @@ def _converted(items: list[Any]) -> str:
     return ""
 
 
-__all__ = ["field_kind"]
+def whole_of(path: FieldPath) -> str | None:
+    """What ``path`` (a grid key's or a distribution's field path; a part named by its name or
+    index) names when it is no one field but a whole section, item or list of them, said for a
+    message (``"the whole timing section"``, ``"a whole action"``, ``"the whole list of
+    bricks"``); None when it names one field (a number, a word, a list of numbers, or one value a
+    file writes as a mapping, such as a target: :attr:`StrictModel.one_value`) or a path the
+    language does not have (said elsewhere).
+
+    >>> whole_of(("timing",)), whole_of(("actions", 0)), whole_of(("structure", "left"))
+    ('the whole timing section', 'a whole action', 'a whole part')
+    >>> whole_of(("structure", "bricks")), whole_of(("structure", "bricks", 0)), whole_of(("materials", "pine"))
+    ('the whole list of bricks', 'a whole brick', 'a whole material')
+    >>> whole_of(("actions", 0, "push", "target")), whole_of(("structure", "bricks", 0, "at")), whole_of(("x",))
+    (None, None, None)
+    """
+    node: Any = Scenario
+    for seg in path:
+        node = _step(node, seg)
+        if node is None:
+            return None
+    for member in _members(node):
+        if _section(member):
+            return f"the whole {path[0]} section" if len(path) == 1 else f"a whole {_noun(member)}"
+        origin = typing.get_origin(member)
+        if origin in (list, dict):
+            items = [m for m in _members(typing.get_args(member)[-1]) if _section(m)]
+            if items:
+                return f"the whole {path[0]} section" if len(path) == 1 else f"the whole list of {_noun(items[0])}s"
+    return None
+
+
+def a_field_in(path: FieldPath, data: Any = None) -> FieldPath:
+    """One field inside what ``path`` names (a whole section or item: :func:`whole_of`), as the
+    rest of its path, to suggest in a message: the first number, quantity or list of them the
+    file writes there (``data``, the file's value at ``path``), else the first field the language
+    gives it (``("shake", "amplitude")`` inside an action that is a shake; ``("interval",)``
+    inside ``timing``).
+
+    >>> a_field_in(("actions", 0), {"shake": {"at": "after level 3", "amplitude": "5 mm"}})
+    ('shake', 'amplitude')
+    >>> a_field_in(("timing",)), a_field_in(("structure", "left"), {"name": "left", "tower": {"levels": 3}})
+    (('interval',), ('tower', 'levels'))
+    """
+    out: list[str | int] = []
+    for _ in range(12):  # a few steps reach a field in any section of the language
+        here = (*path, *out)
+        if out and whole_of(here) is None:
+            return tuple(out)
+        if isinstance(data, list) and data:
+            out.append(0)
+            data = data[0]
+            continue
+        if isinstance(data, dict) and data:
+            keys = [k for k in data if isinstance(k, (str, int))]
+            plain = [k for k in keys if _plain(data[k]) and whole_of((*here, k)) is None]
+            inner = [k for k in keys if isinstance(data[k], (dict, list)) and whole_of((*here, k)) is not None]
+            if plain or inner:
+                key = (plain or inner)[0]
+                out.append(key)
+                data = data[key]
+                continue
+        data = None  # nothing written here: the language's first field
+        node: Any = Scenario
+        for seg in here:
+            node = _step(node, seg)
+        model = next((m for m in _members(node) if _section(m)), None)
+        if model is None:
+            items = [typing.get_args(m)[-1] for m in _members(node) if typing.get_origin(m) in (list, dict)]
+            if not items:
+                break
+            out.append(0)
+            continue
+        fields = {f: info for f, info in model.model_fields.items() if not (model is Structure and f == "parts")}
+        leaves = [f for f in fields if whole_of((*here, f)) is None]
+        numbers = [f for f in leaves if not _wordy(fields[f].annotation)]
+        out.append(next(iter([f for f in numbers if fields[f].is_required()] + numbers + leaves + list(fields))))
+    return tuple(out)
+
+
+def _plain(value: Any) -> bool:
+    """A number or a quantity, or a list of them: what a sweep varies, as a file writes it."""
+    if isinstance(value, list):
+        return bool(value) and all(_plain(v) for v in value)
+    if isinstance(value, bool):
+        return False
+    try:
+        split_quantity(value)
+    except ValueError:
+        return False
+    return True
+
+
+def _wordy(annotation: Any) -> bool:
+    """Whether a field takes words only (a name, a brick type, a mode), not numbers."""
+    return all(
+        m is str
+        or typing.get_origin(m) is typing.Literal
+        or (typing.get_origin(m) in (list, tuple) and all(a is Ellipsis or _wordy(a) for a in typing.get_args(m)))
+        for m in _members(annotation)
+    )
+
+
+def _members(annotation: Any) -> list[Any]:
+    """The types ``annotation`` may be, through Annotated, Optional and unions (a list, a dict or
+    a tuple is one member, not opened)."""
+    origin = typing.get_origin(annotation)
+    if origin is typing.Annotated:
+        return _members(typing.get_args(annotation)[0])
+    if origin in (typing.Union, types.UnionType):
+        return [m for arg in typing.get_args(annotation) for m in _members(arg) if m is not type(None)]
+    return [annotation]
+
+
+def _step(node: Any, seg: str | int) -> Any:
+    """The type of ``seg`` inside a value of type ``node``, None when it has none."""
+    for member in _members(node):
+        if member is Structure and (isinstance(seg, int) or seg not in Structure.model_fields):
+            return Part  # a part as written: structure[0] or structure.left
+        if isinstance(member, type) and issubclass(member, BaseModel):
+            if isinstance(seg, str) and seg in member.model_fields:
+                return member.model_fields[seg].annotation
+            continue
+        origin, args = typing.get_origin(member), typing.get_args(member)
+        if origin is list and isinstance(seg, int):
+            return args[0]
+        if origin is tuple and isinstance(seg, int) and args:
+            return args[0] if args[-1] is Ellipsis else args[seg] if seg < len(args) else None
+        if origin is dict:
+            return args[1]
+    return None
+
+
+def _section(member: Any) -> bool:
+    """Whether ``member`` is a model a file writes as a section of fields (not one value)."""
+    return isinstance(member, type) and issubclass(member, BaseModel) and not getattr(member, "one_value", False)
+
+
+def _noun(model: type[BaseModel]) -> str:
+    """A model's name as a word: ``CardHouse`` -> ``card house``; a placed brick is a ``brick``."""
+    return "brick" if model is BrickPlacement else re.sub(r"(?<!^)(?=[A-Z])", " ", model.__name__).lower()
+
+
+__all__ = ["a_field_in", "field_kind", "whole_of"]

@@ -30,7 +30,7 @@ from typing import Any
 from .distributions import NAMED, Distribution, draw, find, tower_field
 from .errors import FieldPath, ScenarioError, SourceMap, format_path
 from .expressions import Condition, check_kinds, parse
-from .field_kinds import field_kind
+from .field_kinds import a_field_in, field_kind, whole_of
 from .schema import Scenario, Structure
 from .schema_sweep import MAX_SAMPLES, MAX_SWEEP_RUNS, grid_name
 from .spelling import spelled
@@ -544,12 +544,29 @@ def _grid_path(data: Any, path: FieldPath, key: str, source: SourceMap, drawn: s
                     raise refuse(f"structure has no part named {seg!r} ({has})")
             if isinstance(node, dict):
                 _refuse_second_kind(model_at(tuple(out)), node, str(seg), where, refuse)
-            return (*out, *path[i:])
+            return _one_field((*out, *path[i:]), None, key, refuse)
         elif isinstance(seg, int):
-            raise refuse(f"this file has no item {seg} in {where} (it is {node!r})")
+            raise refuse(f"this file has no item {seg} in {where} (it is {_value(node)})")
         else:
-            raise refuse(f"{where} is {node!r}, which has no field {seg!r}")
-    return tuple(out)
+            raise refuse(f"{where} is {_value(node)}, which has no field {seg!r}")
+    return _one_field(tuple(out), node, key, refuse)
+
+
+def _one_field(path: FieldPath, node: Any, key: str, refuse: Callable[[str], ScenarioError]) -> FieldPath:
+    """``path`` (grid key ``key`` resolved) when it names one field; a whole section, part,
+    action or list (``structure``, ``actions.0``, ``structure.left``) is refused, naming a field
+    inside it (found in ``node``, the file's value there, when it has one): a cell would be a whole
+    scene swapped in, labelled by all of it, and a grid is a field's values.
+
+    Raises:
+        ScenarioError: at the grid key.
+    """
+    what = whole_of(path)
+    if what is None:
+        return path
+    inside = ".".join(str(seg) for seg in a_field_in(path, node))
+    such = f", such as {f'{key.strip()}.{inside}'!r}" if inside else ""
+    raise refuse(f"that is {what}, not one field; a grid key names one field to vary{such}, with a list of its values")
 
 
 def _refuse_second_kind(model: Any, node: dict[str, Any], seg: str, where: str, refuse: Callable[[str], ScenarioError]) -> None:

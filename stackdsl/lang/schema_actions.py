@@ -33,6 +33,8 @@ class AfterPrevious(StrictModel):
     has ended: a pull once its brick is out, a push once its pusher stops, a shake once the
     ground is still. Source: stackdsl's own."""
 
+    one_value = True  # a grid may give it whole
+
     after: Literal["the previous action"]
 
 
@@ -143,6 +145,8 @@ class Remove(StrictModel):
 
 class PushTarget(StrictModel):
     """What a pusher aims at: a ``brick`` (its centre, moved by ``offset``) or a ``point``."""
+
+    one_value = True  # a grid may give it whole
 
     model_config = ConfigDict(json_schema_extra={"oneOf": [given("brick"), given("point")]})
 

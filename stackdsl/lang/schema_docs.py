@@ -222,7 +222,7 @@ DOCS: dict[str, dict[str, tuple[str, Any]]] = {
     "Sweep": {
         "samples": ("Draws in each grid cell, 1 to 100,000 (default 1).", 200),
         "grid": (
-            "Field paths, each with a list of values; the sweep runs their product, samples draws a cell.",
+            "Field paths, each naming one field (not a whole section, part or action) with a list of its values; the sweep runs their product, samples draws a cell.",
             {"timing.placement_error": [0, "2 mm", "4 mm"]},
         ),
     },

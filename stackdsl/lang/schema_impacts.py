@@ -20,6 +20,8 @@ from .units import Length, length, quantity_pattern, time, within
 class AfterLevel(StrictModel):
     """The moment one interval after the last brick of ``level`` was placed."""
 
+    one_value = True  # a grid may give it whole
+
     after_level: Annotated[int, Field(ge=1, le=MAX_LEVELS), WHOLE]
 
 
@@ -59,6 +61,8 @@ SIDES = {"+x": (-1.0, 0.0, 0.0), "-x": (1.0, 0.0, 0.0), "+y": (0.0, -1.0, 0.0), 
 
 class Target(StrictModel):
     """Where an impact hits: the middle of a ``level``'s outer face on ``side``, or a ``point``."""
+
+    one_value = True  # a grid may give it whole
 
     model_config = ConfigDict(
         json_schema_extra={

@@ -302,3 +302,49 @@ def test_the_live_view_in_mujocos_own_passive_viewer():
         with viewer.lock():  # the viewer's copy of the model has the state colours
             assert viewer.m.geom_rgba[scene.geom[scene.index[outcome.collapse.brick]]][:3] == pytest.approx(COLOURS["fallen"])
         viewer.close()
+
+
+# A brick beside a KAPLA bolted to the table, shaken 30 mm at 1 Hz along y (raw: the ground moves).
+SHAKEN = (
+    "stackdsl: 1\nstructure:\n  bricks:\n    - {id: a, at: [0, 0, 4 mm]}\n    - {id: bolted, at: [200 mm, 0, 4 mm], fixed: true}\n"
+    "timing: {settle: 0.2 s}\nactions: [{shake: {amplitude: 30 mm, frequency: 1 Hz, duration: 1 s, at: 1 s, direction: [0, 1]}}]\n"
+)
+
+
+class Watching(StandIn):
+    """A stand-in viewer that notes where the scene shows the fixture at each sync."""
+
+    def __init__(self, scene) -> None:
+        super().__init__()
+        self.scene, self.shown = scene, []
+
+    def sync(self) -> None:
+        super().sync()
+        self.shown.append(self.scene.fixture_positions()["bolted"])
+
+
+@needs_mujoco
+def test_the_viewer_and_export_carry_the_fixtures_with_a_shakes_ground(tmp_path):
+    """The viewer's fixtures were static geoms and export put them at rest: a shake moved the
+    bricks and the table, not them. They ride the ground's mocap body, moved by its offset."""
+    from stackdsl.draw import live
+    from stackdsl.draw.export import snapshot
+
+    program = stackdsl.compile_scenario(stackdsl.parse_scenario(SHAKEN), "raw")
+    scene = live.program_scene(program)
+    viewer = Watching(scene)
+    view = live.LiveView(program, scene, viewer, sleep=lambda s: None)
+    trajectory = view.trajectory(stackdsl.run_program(program, subscribers=(view,)))
+    rest = np.array([0.2, 0.0, 0.004])
+    carried = np.array(viewer.shown) - rest
+    assert np.abs(carried[:, 1]).max() == pytest.approx(0.06, abs=0.003) and np.allclose(carried[:, [0, 2]], 0.0)
+    assert np.allclose(carried[-1], 0.0)  # fixed again where it rests once the shake is over
+    # a recorded trajectory plays the same: each picture has the frame's fixture where the frame has it
+    replayed = live.trajectory_scene(trajectory)
+    watching = Watching(replayed)
+    live.play(trajectory, replayed, watching, speed=100.0, sleep=lambda s: None)
+    expected = [trajectory.fixture_positions_at(k)[0] for k in range(len(trajectory.times))]
+    assert np.allclose(watching.shown, expected, atol=1e-9)
+    # and export at the table's farthest puts it there
+    k = int(np.argmax(np.abs(trajectory.ground_offset[:, 1])))
+    assert np.allclose(snapshot(trajectory, float(trajectory.times[k])).fixture_positions, trajectory.fixture_positions_at(k))

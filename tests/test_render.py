@@ -165,3 +165,31 @@ def test_an_mp4_is_written_and_other_suffixes_are_refused(tower: Trajectory, tmp
     with pytest.raises(ValueError, match="16 x 16"):
         animate(tower, tmp_path / "tiny.mp4", width=8, height=8)
     assert not (tmp_path / "tiny.mp4").exists()
+
+
+def test_a_fixture_is_drawn_where_a_shake_has_carried_it() -> None:
+    """A fixture is bolted to the shake table: a picture (and each frame of a clip) drew it at
+    rest while the table moved it 60 mm. It is drawn at its rest plus the frame's ground offset."""
+    text = (
+        "stackdsl: 1\nstructure:\n  bricks:\n    - {id: a, at: [0, 0, 4 mm]}\n    - {id: bolted, at: [200 mm, 0, 4 mm], fixed: true}\n"
+        "timing: {settle: 0.2 s}\nactions: [{shake: {amplitude: 30 mm, frequency: 1 Hz, duration: 1 s, at: 1 s, direction: [0, 1]}}]\n"
+    )
+    trajectory = record_program(compile_scenario(parse_scenario(text), "raw"))[1]
+    k = int(np.argmax(np.linalg.norm(trajectory.ground_offset, axis=1)))  # the table at its farthest
+    frame = trajectory.frame(k)
+    assert frame.ground_offset[1] == pytest.approx(0.06, abs=0.003)
+    top = [0.0, 0.0, 0.004]  # the middle of the fixture's top face
+    with Scene(trajectory, 480, 360) as scene:
+        carried = scene.render(frame)
+        still = scene.render(dataclasses.replace(frame, ground_offset=np.zeros(3)))
+        moved, rest = (
+            np.round(scene.camera.pixels(np.array([p]))).astype(int)[0]
+            for p in trajectory.fixture_positions + top + [frame.ground_offset, np.zeros(3)]
+        )
+    brightness = {
+        name: float(image[row, column].astype(float).mean())
+        for name, image, (column, row) in (("moved", carried, moved), ("rest", carried, rest), ("still", still, rest))
+    }
+    # the fixture's grey (0.5) against the ground's (0.88) under the same light on a top face
+    assert brightness["moved"] < 0.7 * brightness["rest"], brightness
+    assert brightness["still"] < 0.7 * brightness["rest"], brightness  # where it was drawn before

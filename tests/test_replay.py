@@ -289,3 +289,43 @@ def test_dragging_orbits_and_the_wheel_zooms(chromium, slant_page):
     nearer, _ = camera()
     assert np.linalg.norm(nearer - target) < 0.9 * np.linalg.norm(turned - target)
     assert opened.console == []
+
+
+# A brick beside a KAPLA bolted to the table, shaken 30 mm at 1 Hz along y (raw: the ground moves).
+SHAKEN = (
+    "stackdsl: 1\nname: shaken fixture\nstructure:\n  bricks:\n    - {id: a, at: [0, 0, 4 mm]}\n"
+    "    - {id: bolted, at: [200 mm, 0, 4 mm], fixed: true}\n"
+    "timing: {settle: 0.2 s}\nactions: [{shake: {amplitude: 30 mm, frequency: 1 Hz, duration: 1 s, at: 1 s, direction: [0, 1]}}]\n"
+)
+
+
+@pytest.fixture(scope="module")
+def shaken(tmp_path_factory):
+    """The shaken run, recorded, and its replay page."""
+    _, trajectory = record_program(stackdsl.compile_scenario(stackdsl.parse_scenario(SHAKEN), "raw"))
+    return trajectory, write_replay(trajectory, tmp_path_factory.mktemp("shaken") / "replay.html")
+
+
+def test_the_page_moves_the_fixtures_with_the_grounds_offset(shaken):
+    """The page stored the fixtures once and drew them at rest while a shake moved the table
+    and the bricks on it: it now has the ground's offset at each frame, which carries them."""
+    trajectory, _ = shaken
+    data = replay_data(trajectory)
+    offset = _decode(data["ground_offset"], "<f4").reshape(-1, 3)
+    assert offset.shape == (len(trajectory.times), 3)
+    assert np.allclose(offset, trajectory.ground_offset, atol=1e-7)
+    assert float(np.abs(offset[:, 1]).max()) == pytest.approx(0.06, abs=0.003) and not offset[:, 0].any()
+    assert data["fixtures"][0]["position"] == pytest.approx([0.2, 0.0, 0.004])  # at rest: the page adds the offset
+
+
+@needs_browser
+def test_the_replay_draws_the_fixtures_carried_by_the_shake(chromium, shaken):
+    trajectory, page = shaken
+    opened = open_replay(chromium, page)
+    farthest = int(np.argmax(np.abs(trajectory.ground_offset[:, 1])))
+    for k in (0, farthest // 2, farthest, len(trajectory.times) - 1):
+        opened.call("seek", float(trajectory.times[k]))
+        assert opened.call("frame()") == k
+        assert np.allclose(opened.call("fixtures()")["bolted"], trajectory.fixture_positions_at(k)[0], atol=1e-6), k
+        assert np.allclose(opened.call("groundOffset()"), trajectory.ground_offset[k], atol=1e-6), k
+    assert opened.console == []

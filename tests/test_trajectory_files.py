@@ -83,6 +83,14 @@ CASES = {
         "its 'times' array holds <U1 values",
     ),
     "a missing array": (lambda g, t: rewrite(g, t, row_state=None), "it has no 'row_state' array"),
+    "another run's ground offset": (
+        lambda g, t: rewrite(g, t, ground_offset=np.zeros((len(arrays_of(g)["times"]) + 2, 3))),
+        "its 'ground_offset' array has",
+    ),
+    "an infinite ground offset": (
+        lambda g, t: rewrite(g, t, ground_offset=np.full((len(arrays_of(g)["times"]), 3), np.inf)),
+        "its 'ground_offset' array holds NaN or infinite values",
+    ),
     "21.8 TiB claimed": (huge_claim, "times.npy claims 24000000000000 bytes but holds"),
     "a text file": (lambda g, t: (t.write_text("hello\n" * 10), t)[1], "it is not a whole .npz archive"),
 }
@@ -104,3 +112,16 @@ def test_a_bad_trajectory_file_is_one_line_naming_it(case, good, tmp_path, capsy
 def test_a_good_trajectory_still_reads_and_the_cap_is_far_above_a_real_run(good):
     trajectory = load_trajectory(good)
     assert len(trajectory.times) > 1 and good.stat().st_size * 100 < MAX_TRAJECTORY_BYTES
+
+
+def test_a_file_written_before_the_ground_offset_was_recorded_reads_as_a_still_ground(good, tmp_path, capsys):
+    """A trajectory saved by an earlier stackdsl has no ground_offset: it loads, draws and
+    replays, its fixtures at rest at every frame."""
+    old = rewrite(good, tmp_path / "old.npz", ground_offset=None)
+    assert "ground_offset" not in arrays_of(old)
+    trajectory = load_trajectory(old)
+    assert trajectory.ground_offset.shape == (len(trajectory.times), 3) and not trajectory.ground_offset.any()
+    assert not trajectory.frame(-1).ground_offset.any()
+    assert main(["render", str(old), "-o", str(tmp_path / "old.png")]) == 0
+    assert main(["replay", str(old), "-o", str(tmp_path / "replay")]) == 0
+    assert (tmp_path / "old.png").exists() and (tmp_path / "replay" / "replay.html").exists()

@@ -106,7 +106,7 @@ def snapshot(
         orientations=frame.orientations[present],
         fixture_ids=[str(i) for i in trajectory.fixture_ids.tolist()],
         fixture_half_extents=trajectory.fixture_half_extents,
-        fixture_positions=trajectory.fixture_positions,
+        fixture_positions=trajectory.fixture_positions_at(frame.index),  # carried by a shake's ground
         fixture_orientations=trajectory.fixture_orientations,
         specs=dict(specs or {}),
         ground_friction=ground_friction,
@@ -145,8 +145,9 @@ def colour_key(level: int, state: str) -> str:
 def mjcf(scene: Snapshot, *, mocap: bool = False, timestep: float | None = None) -> str:
     """``scene`` as MuJoCo XML (MJCF): a ground plane, each fixed body a static box, each brick a
     body at its pose with a free joint (``mocap``: a mocap body instead, moved by setting
-    ``data.mocap_pos``/``mocap_quat``, as :mod:`stackdsl.draw.live` does) and a box geom of its
-    mass, friction and state colour. Names are the bricks' ids."""
+    ``data.mocap_pos``/``mocap_quat``, as :mod:`stackdsl.draw.live` does; the ground plane and
+    the fixed boxes then in one mocap body named ``ground`` at the origin, which a shake moves)
+    and a box geom of its mass, friction and state colour. Names are the bricks' ids."""
     root = ET.Element("mujoco", model=scene.name)
     ET.SubElement(root, "compiler", angle="radian")
     option = ET.SubElement(root, "option", gravity="0 0 -9.81")
@@ -178,8 +179,11 @@ def mjcf(scene: Snapshot, *, mocap: bool = False, timestep: float | None = None)
     world = ET.SubElement(root, "worldbody")
     span = float(np.abs(scene.positions).max()) if len(scene.positions) else 1.0
     ET.SubElement(world, "light", pos=f"0 0 {max(2.0, 3 * span):.3g}", dir="0 0 -1", directional="true")
+    table = world
+    if mocap:  # the ground and the fixtures bolted to it, moved together as a shake moves them
+        table = ET.SubElement(world, "body", name="ground", pos="0 0 0", mocap="true")
     ET.SubElement(
-        world,
+        table,
         "geom",
         name="ground",
         type="plane",
@@ -191,7 +195,7 @@ def mjcf(scene: Snapshot, *, mocap: bool = False, timestep: float | None = None)
         scene.fixture_ids, scene.fixture_half_extents, scene.fixture_positions, scene.fixture_orientations
     ):
         ET.SubElement(
-            world,
+            table,
             "geom",
             name=fid,
             type="box",

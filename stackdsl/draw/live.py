@@ -6,7 +6,8 @@ far below the ground until it enters the world. :class:`LiveView` is a
 :class:`stackdsl.runtime.recorder.Recorder` (it records the run too) that, about
 :data:`FPS` times a simulated second, copies each body's pose from the engine into the
 viewer's ``mocap_pos``/``mocap_quat`` and its state colour (frozen, active, woken, fallen,
-projectile: :data:`stackdsl.draw.render.COLOURS`) into ``geom_rgba``, then syncs the viewer,
+projectile: :data:`stackdsl.draw.render.COLOURS`) into ``geom_rgba``, and the ground's offset
+(a shake's) into the ground's mocap body, which carries the fixtures; then syncs the viewer,
 sleeping so that simulated time runs at ``speed`` times wall time (a quiet wait between two
 placements, which the step loop jumps over, lasts at most :data:`QUIET_HOLD` wall seconds).
 :func:`play` shows a recorded trajectory the same way.
@@ -91,12 +92,22 @@ class Scene:
         self.mocap = np.array([self.model.body_mocapid[self.model.body(b).id] for b in ids], dtype=int)
         self.geom = np.array([self.model.geom(b).id for b in ids], dtype=int)
         self.index = {b: i for i, b in enumerate(ids)}
+        self.ground = int(self.model.body_mocapid[self.model.body("ground").id])  # the ground and the fixtures on it
         self.model.geom_rgba[self.geom, 3] = 0.0  # unseen until it enters the world
         mujoco.mj_kinematics(self.model, self.data)
 
-    def show(self, bricks: list[int], positions: np.ndarray, orientations: np.ndarray, states: list[str]) -> None:
+    def show(
+        self,
+        bricks: list[int],
+        positions: np.ndarray,
+        orientations: np.ndarray,
+        states: list[str],
+        ground_offset: tuple[float, float, float] | np.ndarray = (0.0, 0.0, 0.0),
+    ) -> None:
         """Put ``bricks`` (indices into ``ids``) at ``positions`` (m) and ``orientations`` ((x, y,
-        z, w)), coloured by ``states``; every other brick stays where it was."""
+        z, w)), coloured by ``states``, and the ground with its fixtures ``ground_offset`` (m) from
+        where it rests; every other brick stays where it was."""
+        self.data.mocap_pos[self.ground] = ground_offset
         if bricks:
             b = np.asarray(bricks, dtype=int)
             self.data.mocap_pos[self.mocap[b]] = positions
@@ -116,6 +127,14 @@ class Scene:
         """The colour brick ``brick`` is shown in now (r, g, b in 0..1)."""
         r, g, b = (float(c) for c in self.model.geom_rgba[self.geom[self.index[brick]], :3])
         return r, g, b
+
+    def fixture_positions(self) -> dict[str, np.ndarray]:
+        """Where each fixed body is shown now (m), carried by the ground's offset."""
+        ground = self.model.body("ground").id
+        geoms = [
+            g for g in range(self.model.ngeom) if self.model.geom_bodyid[g] == ground and self.model.geom(g).name != "ground"
+        ]
+        return {self.model.geom(g).name: self.data.geom_xpos[g].copy() for g in geoms}
 
     def pose_of(self, brick: str) -> tuple[np.ndarray, np.ndarray]:
         """Where brick ``brick`` is shown now: position (m) and quaternion (x, y, z, w)."""
@@ -239,7 +258,7 @@ class LiveView(Recorder):
         positions, quaternions = loop.world.poses_of([r.body for r in records])
         states = [STATES[s] for s in self._states(loop, records)]
         with self.viewer.lock():
-            self.scene.show([self.scene.index[r.id] for r in records], positions, quaternions, states)
+            self.scene.show([self.scene.index[r.id] for r in records], positions, quaternions, states, loop.structure.offset)
         self.open = self._shown(loop.now)
         self.pictures += self.open
 
@@ -287,6 +306,7 @@ def play(
                 frame.positions[present],
                 frame.orientations[present],
                 [STATES[s] for s in frame.states[present]],
+                frame.ground_offset,
             )
         pictures += 1
         if not shown(frame.time):

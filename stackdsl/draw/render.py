@@ -103,7 +103,8 @@ class Scene:
     A picture is a z-buffer: every box's faces that look towards the camera are filled pixel
     by pixel with numpy, the nearest face winning, shaded by one light (ambient plus diffuse,
     the same factor on red, green and blue). The still layer (ground, fixtures, frozen
-    bricks) is kept until it changes; the bricks that may move are drawn over a copy of it.
+    bricks) is kept until it changes (a shake moves the fixtures with the ground: each frame
+    has their offset); the bricks that may move are drawn over a copy of it.
     Raises ValueError for fewer than 16 x 16 pixels. Source: stackdsl's own.
     """
 
@@ -131,6 +132,7 @@ class Scene:
         fixed += [(-3 - k, np.asarray(h), np.asarray(at), np.asarray(q), "fixture") for k, (h, at, q) in enumerate(fixtures)]
         self._fixed = fixed
         self._still: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._still_offset = np.zeros(3)  # the ground's offset the still layer's fixtures were drawn at
 
     def _canvas(self) -> Layer:
         """An empty :data:`Layer`: no colour, infinite depth, no body."""
@@ -152,6 +154,14 @@ class Scene:
                 shade = _AMBIENT + _DIFFUSE * max(0.0, float(normal @ self._light))
                 _fill(layer, pixels[face], ahead[face], np.round(colour * shade).astype(np.uint8), ident)
 
+    def _carried(self, offset: np.ndarray) -> list[Box3]:
+        """The ground and the fixtures, the fixtures moved by the ground's ``offset`` (m, (3,)):
+        they are bolted to it (the ground itself is drawn where it rests: a plain square, whose
+        motion would not show)."""
+        if not offset.any():
+            return self._fixed
+        return [(i, h, at + offset if i <= -3 else at, q, key) for i, h, at, q, key in self._fixed]
+
     def _bricks(self, which: np.ndarray, poses: np.ndarray, keys: list[str]) -> list[Box3]:
         half = self.trajectory.half_extents
         return [(int(i), half[i], poses[i, :3], poses[i, 3:], keys[i]) for i in np.flatnonzero(which)]
@@ -164,10 +174,16 @@ class Scene:
         poses = np.c_[frame.positions, frame.orientations]
         still = present & (frame.states == FROZEN)  # frozen bricks cannot move: drawn once, kept
         kept = self._still
-        if kept is None or (kept[3] & ~still).any() or not np.array_equal(poses[kept[3]], kept[4][kept[3]]):
-            layer = self._canvas()  # one left the still layer or moved: draw it again
-            self._draw(layer, [*self._fixed, *self._bricks(still, poses, keys)])
-            kept = (*layer, still, poses)
+        offset = np.asarray(frame.ground_offset, dtype=float)
+        if (
+            kept is None
+            or (kept[3] & ~still).any()
+            or not np.array_equal(poses[kept[3]], kept[4][kept[3]])
+            or not np.array_equal(offset, self._still_offset)
+        ):
+            layer = self._canvas()  # one left the still layer or moved, or the ground did: draw it again
+            self._draw(layer, [*self._carried(offset), *self._bricks(still, poses, keys)])
+            kept, self._still_offset = (*layer, still, poses), offset
         elif (still & ~kept[3]).any():  # bricks froze since: add them to it
             layer = (kept[0].copy(), kept[1].copy(), kept[2].copy())
             self._draw(layer, self._bricks(still & ~kept[3], poses, keys))

@@ -173,8 +173,9 @@ def ghosts(trajectory: Trajectory, golden: dict[str, Any] | None) -> list[dict[s
 
 def replay_data(trajectory: Trajectory, golden: dict[str, Any] | None = None) -> dict[str, Any]:
     """Everything the page reads, as JSON values: the trajectory's arrays (base64: times
-    float64, positions and quaternions float32, frames and bodies int32, states uint8), ids,
-    levels, half extents, fixtures, events, brick graphs with their times, state names and
+    float64, positions, quaternions and the ground's offset at each frame float32, frames and
+    bodies int32, states uint8), ids, levels, half extents, fixtures (at rest: the page moves
+    them with the ground's offset), events, brick graphs with their times, state names and
     colours, the golden's ghosts (:func:`ghosts`) and how many final bricks the golden has (None:
     no golden)."""
     meta = trajectory.meta
@@ -209,6 +210,7 @@ def replay_data(trajectory: Trajectory, golden: dict[str, Any] | None = None) ->
         "row_position": _b64(trajectory.row_position, "<f4"),
         "row_orientation": _b64(trajectory.row_orientation, "<f4"),
         "row_state": _b64(trajectory.row_state, "u1"),
+        "ground_offset": _b64(trajectory.ground_offset, "<f4"),
         "states": list(STATES),
         "colours": {k: "#" + "".join(f"{round(255 * c):02x}" for c in v) for k, v in COLOURS.items()},
         "key_events": list(KEY_EVENTS),

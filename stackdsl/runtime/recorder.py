@@ -10,6 +10,9 @@ It takes a frame
   frame when everything has come to rest);
 * at the end.
 
+Each frame also keeps the ground's offset from its rest (a shake moves it, and the fixtures
+bolted to it), so that a replay, a picture or a clip moves the fixtures with the ground.
+
 A run without a recorder does none of this: recording off is the runtime as it is.
 
 >>> import stackdsl
@@ -75,6 +78,7 @@ class Recorder(Subscriber):
         self._rest = (config.rest_speed, config.rest_angular_speed)
         self._records: list[BrickRecord] = []
         self._times: list[float] = []
+        self._ground: list[tuple[float, float, float]] = []  # the ground's offset at each frame (a shake's)
         # per frame: the frame, the bodies with a row, their positions, quaternions and states
         self._rows: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
         # each body's last row: position (NaN before its first), quaternion, state
@@ -142,6 +146,7 @@ class Recorder(Subscriber):
         self._seen_events = len(loop.events)
         index = len(self._times)
         self._times.append(loop.now)
+        self._ground.append(loop.structure.offset)  # set by the shake (an earlier subscriber) each step
         records = self._records
         new = len(records) - len(self._last_state)
         if new:  # bodies that entered since the last frame: no row yet
@@ -222,6 +227,7 @@ class Recorder(Subscriber):
             fixture_positions=np.array([f.position for f in fixtures], dtype=float).reshape(-1, 3),
             fixture_orientations=np.array(quaternions, dtype=float).reshape(-1, 4),
             times=np.array(self._times, dtype=float),
+            ground_offset=np.array(self._ground, dtype=float).reshape(-1, 3),
             row_frame=np.concatenate([r[0] for r in rows] or [np.zeros(0, np.int32)]),
             row_body=np.concatenate([r[1] for r in rows] or [np.zeros(0, np.int32)]),
             row_position=np.concatenate([r[2] for r in rows] or [np.zeros((0, 3))]),

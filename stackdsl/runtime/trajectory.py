@@ -14,6 +14,11 @@ array is a number or text array, no pickles)::
     frame = trajectory.at(trajectory.collapse_time or trajectory.end)
     frame.positions        # (bodies, 3), metres
     frame.states           # (bodies,), codes of STATES; frame.state_names: the same as words
+    trajectory.fixture_positions_at(frame.index)  # (fixtures, 3): carried by a shake's ground
+
+The fixtures (walls, ramps) are bolted to the ground: stored once, at rest, with the ground's
+offset at each frame (``ground_offset``, zero but while a shake moves it), which carries them.
+A file written before the offset was recorded reads as a ground that never moved.
 
 Source: stackdsl's own.
 """
@@ -25,8 +30,8 @@ import math
 import os
 import zipfile
 import zlib
-from collections.abc import Iterator
-from dataclasses import dataclass
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -58,6 +63,8 @@ class Frame:
         positions: (bodies, 3), metres (NaN for a body not in the world yet).
         orientations: (bodies, 4), unit quaternions (x, y, z, w) (NaN likewise).
         states: (bodies,), codes of :data:`STATES`.
+        ground_offset: (3,), metres: how far a shake has moved the ground (and the fixtures
+            bolted to it) from where it rests.
     """
 
     index: int
@@ -65,6 +72,7 @@ class Frame:
     positions: np.ndarray
     orientations: np.ndarray
     states: np.ndarray
+    ground_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     @property
     def state_names(self) -> list[str]:
@@ -84,8 +92,11 @@ class Trajectory:
         levels: (bodies,), a structure brick's level; 0 for a projectile.
         half_extents: (bodies, 3), metres.
         fixtures: ids (fixtures,), half extents (fixtures, 3), positions (fixtures, 3) and
-            orientations (fixtures, 4) of the immovable bodies (walls, ramps).
+            orientations (fixtures, 4) of the immovable bodies (walls, ramps), with the ground at rest.
         times: (frames,), seconds, increasing.
+        ground_offset: (frames, 3), metres: the ground's offset from its rest at each frame (a
+            shake moves it, and the fixtures with it: :meth:`fixture_positions_at`); zeros when
+            not given (a file written before it was recorded).
         row_frame, row_body: (rows,), the frame and the body of each row.
         row_position, row_orientation: (rows, 3) and (rows, 4); row_state: (rows,).
         events: the run's timeline; graphs: ``"final"`` and, after a collapse, ``"collapse"``.
@@ -107,6 +118,11 @@ class Trajectory:
     row_state: np.ndarray
     events: tuple[Event, ...]
     graphs: dict[str, Graph]
+    ground_offset: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+
+    def __post_init__(self) -> None:
+        if not len(self.ground_offset) and len(self.times):  # never recorded: the ground stood still
+            object.__setattr__(self, "ground_offset", np.zeros((len(self.times), 3)))
 
     # questions ----------------------------------------------------------------
     @property
@@ -124,6 +140,18 @@ class Trajectory:
         """Seconds, when the first collapse was detected; None when the structure stood."""
         collapse = self.meta.get("collapse")
         return None if collapse is None else float(collapse["time"])
+
+    def fixture_positions_at(self, index: int) -> np.ndarray:
+        """(fixtures, 3), metres: where the fixtures are at frame ``index`` (negative counts from
+        the end), carried with the ground by a shake.
+
+        Raises:
+            IndexError: no such frame.
+        """
+        count = len(self.times)
+        if not -count <= index < count:
+            raise IndexError(f"frame {index} of {count}")
+        return np.asarray(self.fixture_positions + self.ground_offset[index])
 
     def frame_index(self, time: float) -> int:
         """The last frame at or before ``time`` seconds (the first frame for earlier times).
@@ -154,7 +182,7 @@ class Trajectory:
             last = upto - 1 - np.unique(bodies[::-1], return_index=True)[1]  # each body's last row
             b = bodies[last]
             positions[b], orientations[b], states[b] = self.row_position[last], self.row_orientation[last], self.row_state[last]
-        return Frame(index, float(self.times[index]), positions, orientations, states)
+        return Frame(index, float(self.times[index]), positions, orientations, states, self.ground_offset[index].copy())
 
     def at(self, time: float) -> Frame:
         """Every body as last recorded at or before ``time`` seconds."""
@@ -175,7 +203,8 @@ class Trajectory:
             b = self.row_body[s]
             positions[b], orientations[b], states[b] = self.row_position[s], self.row_orientation[s], self.row_state[s]
             row = upto
-            yield Frame(index, float(self.times[index]), positions.copy(), orientations.copy(), states.copy())
+            offset = self.ground_offset[index].copy()
+            yield Frame(index, float(self.times[index]), positions.copy(), orientations.copy(), states.copy(), offset)
 
     # files --------------------------------------------------------------------
     def save(self, path: str | os.PathLike[str]) -> None:
@@ -214,9 +243,15 @@ _LAYOUT: dict[str, tuple[str, tuple[str | int, ...]]] = {
     "row_position": ("f", ("rows", 3)),
     "row_orientation": ("f", ("rows", 4)),
     "row_state": ("i", ("rows",)),
+    "ground_offset": ("f", ("frames", 3)),
 }
 #: The arrays a trajectory file holds, in the order they are written.
 _ARRAYS = tuple(_LAYOUT)
+#: The arrays a file written by an earlier stackdsl lacks, each with what stands for it: the
+#: ground's offset was not recorded before fixtures were drawn moving with a shake.
+_LATER: dict[str, Callable[[dict[str, np.ndarray]], np.ndarray]] = {
+    "ground_offset": lambda arrays: np.zeros((len(arrays["times"]), 3)),
+}
 
 
 def load_trajectory(path: str | os.PathLike[str]) -> Trajectory:
@@ -237,10 +272,11 @@ def load_trajectory(path: str | os.PathLike[str]) -> Trajectory:
             if "header" not in data.files:
                 raise _Bad("it has no header record")
             header = json.loads(str(data["header"]))
-            missing = [name for name in _ARRAYS if name not in data.files]
+            missing = [name for name in _ARRAYS if name not in data.files and name not in _LATER]
             if missing:
                 raise _Bad(f"it has no {missing[0]!r} array")
-            arrays = {name: data[name] for name in _ARRAYS}
+            arrays = {name: data[name] for name in _ARRAYS if name in data.files}
+            arrays |= {name: make(arrays) for name, make in _LATER.items() if name not in arrays}
     except _Bad as exc:
         raise ValueError(f"{path}: not a stackdsl trajectory: {exc}") from None
     except zipfile.BadZipFile:

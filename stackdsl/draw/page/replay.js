@@ -1,6 +1,7 @@
 // stackdsl's replay page (stackdsl/draw/replay.py writes it): a recorded run played with three.js.
 // A body's pose at time t is that of its last row at or before the last frame at or before t,
-// as stackdsl.Trajectory.at(t). Source: stackdsl's own.
+// as stackdsl.Trajectory.at(t); the ground and the fixtures bolted to it are moved by the
+// ground's offset at that frame (a shake). Source: stackdsl's own.
 "use strict";
 (function () {
   const api = (window.stackdslReplay = { ready: false, error: null, loadMs: null });
@@ -52,6 +53,8 @@
     const rowPos = new Float32Array(bytes(data.row_position).buffer);
     const rowQuat = new Float32Array(bytes(data.row_orientation).buffer);
     const rowState = bytes(data.row_state);
+    // the ground's offset at each frame (x, y, z): a shake moves the ground and the fixtures on it
+    const groundOffset = data.ground_offset ? new Float32Array(bytes(data.ground_offset).buffer) : new Float32Array(3 * times.length);
     const index = new Map(ids.map((id, i) => [id, i]));
     // each body's rows, in frame order (rows are stored in frame order)
     const counts = new Int32Array(n);
@@ -124,13 +127,17 @@
     const scale = new THREE.Vector3();
     const hidden = new THREE.Matrix4().makeScale(0, 0, 0);
 
-    for (const f of data.fixtures) {
+    // the fixtures, in a group the ground's offset moves (they are at rest in it)
+    const table = new THREE.Group();
+    scene.add(table);
+    const fixtureMeshes = data.fixtures.map((f) => {
       const mesh = new THREE.Mesh(box, new THREE.MeshStandardMaterial({ color: colours.fixture, roughness: 0.9 }));
       mesh.position.fromArray(f.position);
       mesh.quaternion.fromArray(f.quaternion);
       mesh.scale.set(2 * f.half_extents[0], 2 * f.half_extents[1], 2 * f.half_extents[2]);
-      scene.add(mesh);
-    }
+      table.add(mesh);
+      return mesh;
+    });
 
     // the extent of the structure as placed: each structure brick's first row
     const low = new THREE.Vector3(Infinity, Infinity, 0);
@@ -157,11 +164,11 @@
       new THREE.MeshStandardMaterial({ color: colours.ground, roughness: 1 })
     );
     ground.position.set(centre.x, centre.y, -1e-4);
-    scene.add(ground);
+    table.add(ground);
     const grid = new THREE.GridHelper(groundSize, Math.round(groundSize / 0.1), 0xb8b6b0, 0xd4d2cc);
     grid.rotation.x = Math.PI / 2;
     grid.position.set(centre.x, centre.y, 0);
-    scene.add(grid);
+    table.add(grid);
 
     camera.near = span / 200;
     camera.far = span * 200;
@@ -212,6 +219,7 @@
 
     function apply(k) {
       frame = k;
+      if (3 * k + 2 < groundOffset.length) table.position.set(groundOffset[3 * k], groundOffset[3 * k + 1], groundOffset[3 * k + 2]);
       for (let b = 0; b < n; b++) {
         const r = rowAt(b, k);
         rowOf[b] = r;
@@ -567,6 +575,14 @@
         }
         return out;
       },
+      fixtures() {
+        // each fixture's position in the world now: at rest, carried by the ground's offset
+        const out = {};
+        table.updateMatrixWorld(true);
+        data.fixtures.forEach((f, i) => (out[f.id] = fixtureMeshes[i].getWorldPosition(new THREE.Vector3()).toArray()));
+        return out;
+      },
+      groundOffset: () => Array.from(groundOffset.subarray(3 * frame, 3 * frame + 3)),
       select,
       selected: () => selected,
       panelText: () => ($("panel").hidden ? null : $("panel").innerText),

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import os
 import re
+import shlex
 from itertools import islice
 from pathlib import Path
 
@@ -77,7 +78,10 @@ def collection_hint(config: pytest.Config, ran: list[Path] | None = None) -> lis
         for folder, count in missed
     ]
     everything = ", ".join(f'"{folder}"' for folder, _ in missed)
-    if len(missed) == 1:
-        lines.append(f"run: pytest {' '.join(config.args)} -o stackdsl_paths={missed[0][0]}")
+    if len(missed) == 1:  # the arguments as given: the command runs from the folder pytest ran in
+        lines.append(f"run: {shlex.join(['pytest', *config.args, '-o', f'stackdsl_paths={missed[0][0]}'])}")
+    here = Path(config.invocation_params.dir).resolve()
+    if config.rootpath.resolve() != here:  # a value relative to the working folder would miss
+        lines.append(f"(stackdsl_paths are relative to the rootdir {config.rootpath}, not to the folder pytest ran in)")
     lines.append(f"for good, in pyproject.toml: [tool.pytest.ini_options] stackdsl_paths = [{everything}]")
     return lines

@@ -12,6 +12,8 @@ Each file is one test item, ``scenarios/four_stack.yaml::four_stack``: it loads 
 compiles the scenario (a bad file fails with its ``file:line:col`` message), runs it,
 checks its expectations, then compares the outcome with its golden snapshot
 ``golden/scenarios/four_stack.json`` (one brick per line, :mod:`stackdsl.verdicts.snapshot`).
+An item opens its file by its absolute path, so pytest may run from any folder; failures name
+files relative to that folder, as pytest names the items.
 ``pytest --snapshot-update`` writes the snapshots; ``-k``, ``-x``, ``--lf``, ``-n``
 (pytest-xdist) and ``--junit-xml`` work as on any test.
 
@@ -146,9 +148,7 @@ def pytest_terminal_summary(terminalreporter: Any, config: pytest.Config) -> Non
     if orphans:
         terminalreporter.section("stackdsl: golden snapshots with no scenario file", yellow=True)
         for golden in orphans:
-            terminalreporter.line(
-                f"{_relative(golden, config.rootpath)} (its scenario file is gone: delete it or restore the file)"
-            )
+            terminalreporter.line(f"{_shown(golden, config)} (its scenario file is gone: delete it or restore the file)")
 
 
 class ScenarioFile(pytest.File):
@@ -168,10 +168,13 @@ class ScenarioItem(pytest.Function):
 
 def _scenario_test(request: pytest.FixtureRequest, scenario_golden: Any) -> None:
     """Run one scenario file: expectations first, then the golden snapshot."""
+    # pytest's item.path is absolute: the file opens from any working directory, and every
+    # file the messages name is as the user can type it from where pytest was run
     path = Path(request.node.path)
-    shown = _relative(path, request.config.rootpath)  # errors name the file as the user wrote it
+    config = request.config
+    shown = _shown(path, config)
     try:
-        scenario = load_scenario(shown if not Path(shown).is_absolute() else path)
+        scenario = load_scenario(path, shown=shown)
         program = compile_scenario(scenario)
     except ScenarioError as exc:
         error = str(exc)  # failed outside the handler: no "during handling" chain in the report
@@ -181,33 +184,31 @@ def _scenario_test(request: pytest.FixtureRequest, scenario_golden: Any) -> None
         pytest.fail(error, pytrace=False)
     stored = scenario_golden_path(path)
     if stored.is_dir():  # syrupy would raise IsADirectoryError out of the comparison
-        where = _relative(stored, request.config.rootpath)
-        pytest.fail(f"{path.name}: {where} is a folder, not a golden snapshot: remove it", pytrace=False)
+        pytest.fail(f"{path.name}: {_shown(stored, config)} is a folder, not a golden snapshot: remove it", pytrace=False)
     if scenario.sweep is not None:
         _sweep_test(request, scenario, program, shown, scenario_golden)
         return
-    pictures = request.config.getoption("stackdsl_pictures")
+    pictures = config.getoption("stackdsl_pictures")
     trajectory = None
     if pictures == "off":
         outcome = run_program(program)
     else:
-        outcome, trajectory = record_program(program, source=shown)
+        outcome, trajectory = record_program(program, source=str(path))
     verdicts = evaluate(scenario.expect, outcome, program.collapse_threshold)
     failed = [v for v in verdicts if not v.passed]
     lines: list[str] = []
     if failed:
         lines = [f"{path.name}: expected {v.expected}, measured {v.measured}" for v in failed]
         lines += [f"  {line}" for line in explain(scenario.expect, outcome, program.collapse_threshold)]
-        lines.append(f"more: stackdsl run {shown}")
+        lines.append(f"more: stackdsl run {shlex.quote(shown)}")
     elif missing := _no_golden_yet(request, path, shown):
         lines = [missing]
     elif not scenario_golden == outcome.golden():
         with disable_color():  # plain text: the message also goes to JUnit XML and CI logs
             diff = scenario_golden.get_assert_diff()
-        golden = _relative(scenario_golden_path(path), request.config.rootpath)
-        lines = [f"{path.name}: the outcome differs from {golden}", *diff, UPDATE_HINT]
+        lines = [f"{path.name}: the outcome differs from {_shown(stored, config)}", *diff, UPDATE_HINT]
     if trajectory is not None and (lines or pictures == "on"):
-        kept = _keep_pictures(trajectory, shown, request.config)
+        kept = _keep_pictures(trajectory, path, config)
         if lines:  # a failure: say where to look
             lines.append(kept)
     if lines:
@@ -221,6 +222,7 @@ def _sweep_test(request: pytest.FixtureRequest, scenario: Any, program: Any, sho
     from .batch.sweep import SweepOptions, collect, run_sweep
     from .batch.sweep_out import by_cell, verdicts
 
+    path = Path(request.node.path)
     template = scenario.template
     results = collect(
         run_sweep(
@@ -233,23 +235,23 @@ def _sweep_test(request: pytest.FixtureRequest, scenario: Any, program: Any, sho
     failed = [(c, v) for c, v in verdicts(template, scenario.expect, results) if v.outcome != "PASS"]
     if failed:
         lines = [
-            f"{Path(shown).name}: {v.outcome}"
+            f"{path.name}: {v.outcome}"
             + (f" in cell {c} ({template.label(c)})" if template.grid else "")
             + f": expected {v.expected}, measured {v.measured}"
             + (f"; about {v.samples_to_decide} samples would decide it" if v.samples_to_decide else "")
             for c, v in failed
         ]
-        pytest.fail("\n".join([*lines, f"more: stackdsl sweep {shown}"]), pytrace=False)
+        pytest.fail("\n".join([*lines, f"more: stackdsl sweep {shlex.quote(shown)}"]), pytrace=False)
     golden = {"scenario": program.name, "mode": program.engine.mode, "samples": template.samples}
     for c, rs in enumerate(by_cell(results, template.cells)):
         golden[f"cell {c}"] = {"grid": template.cell(c), "collapse_levels": [r.collapse_level for r in rs]}
-    if missing := _no_golden_yet(request, Path(request.node.path), shown):
+    if missing := _no_golden_yet(request, path, shown):
         pytest.fail(missing, pytrace=False)
     if not scenario_golden == golden:
         with disable_color():
             diff = scenario_golden.get_assert_diff()
-        where = _relative(scenario_golden_path(Path(request.node.path)), request.config.rootpath)
-        pytest.fail("\n".join([f"{Path(shown).name}: the samples differ from {where}", *diff, UPDATE_HINT]), pytrace=False)
+        where = _shown(scenario_golden_path(path), request.config)
+        pytest.fail("\n".join([f"{path.name}: the samples differ from {where}", *diff, UPDATE_HINT]), pytrace=False)
 
 
 #: The last line of a failed golden comparison.
@@ -265,21 +267,28 @@ def _no_golden_yet(request: pytest.FixtureRequest, path: Path, shown: str) -> st
     stored = scenario_golden_path(path)
     if stored.is_file() or getattr(option, "update_snapshots", False) or getattr(option, "update_new_snapshots_only", False):
         return ""
-    where = _relative(stored, request.config.rootpath)
+    where = _shown(stored, request.config)
     again = shlex.join(["pytest", *request.config.invocation_params.args, "--snapshot-update"])  # as it was run
     return f"{Path(shown).name}: no golden yet ({where}): run with --snapshot-update to write it ({again})"
 
 
-def _keep_pictures(trajectory: Any, shown: str, config: pytest.Config) -> str:
-    """Draw a run into ``--stackdsl-output``/<its folder>; one line saying where (or what failed)."""
+def _keep_pictures(trajectory: Any, path: Path, config: pytest.Config) -> str:
+    """Draw a run into ``--stackdsl-output``/<its folder> (named after the scenario's path from
+    the rootdir); one line saying where (or what failed)."""
     output = Path(config.rootpath) / config.getoption("stackdsl_output")
-    folder = output / folder_name(shown)
+    folder = output / folder_name(_relative(path, config.rootpath))
     try:
         written, failure, _ = draw_run(trajectory, folder)
     except OSError as exc:  # the output folder cannot be made or written: say so in the failure
         return f"pictures: cannot write them to {config.getoption('stackdsl_output')}: {exc.strerror or exc}"
-    where = _relative(folder, config.rootpath)
+    where = _shown(folder, config)
     return f"pictures: {where}/ ({', '.join(written.values())})" + (f"; {failure}" if failure else "")
+
+
+def _shown(path: Path, config: pytest.Config) -> str:
+    """``path`` as the user can type it where pytest was run (relative to that folder, as pytest
+    names test files in its report)."""
+    return _relative(path, config.invocation_params.dir)
 
 
 def _relative(path: Path, root: Path) -> str:

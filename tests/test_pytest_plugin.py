@@ -7,6 +7,7 @@ pytest in it, as a user would.
 import importlib.util
 import json
 import re
+import shlex
 import xml.etree.ElementTree as ET
 
 # pint (stackdsl reads units with it) imports importlib_metadata and toolz, which put finders on
@@ -315,3 +316,38 @@ def test_no_collection_hint_for_a_folder_whose_tests_are_collected(project):
         result = project.runpytest("checks/", "-n", "2")
         result.assert_outcomes(passed=1)
         assert "not collected" not in result.stdout.str()
+
+
+def suggested_run(result) -> list[str]:
+    """The arguments of the command the collection hint suggests (``run: pytest ...``)."""
+    (line,) = [x for x in result.outlines if x.startswith("run: pytest ")]
+    return shlex.split(line.removeprefix("run: pytest "))
+
+
+def test_items_run_from_any_folder_and_the_hint_gives_a_command_that_works_there(pytester, monkeypatch):
+    monkeypatch.delenv("PYTEST_XDIST_WORKER", raising=False)
+    (pytester.path / "elsewhere").mkdir()
+    (pytester.path / "s").mkdir()
+    (pytester.path / "s" / "t.yaml").write_text(TOWER)
+    stored = pytester.path / "s" / "golden" / "t.json"  # no pyproject.toml above: beside the file
+    cases = [("elsewhere", "../s"), ("elsewhere", str(pytester.path / "s")), ("s", ".")]
+    for cwd, target in cases:
+        monkeypatch.chdir(pytester.path / cwd)  # not the rootdir (but for "s", where it is)
+        hint = pytester.runpytest("-p", "no:cacheprovider", target)
+        assert hint.ret == pytest.ExitCode.NO_TESTS_COLLECTED
+        args = suggested_run(hint)
+        assert target in args
+        pytester.runpytest("-p", "no:cacheprovider", *args, "--snapshot-update").assert_outcomes(passed=1)
+        assert stored.is_file()
+        result = pytester.runpytest("-p", "no:cacheprovider", *args)
+        result.assert_outcomes(passed=1)
+        assert "no such file" not in result.stdout.str()
+        stored.unlink()
+    monkeypatch.chdir(pytester.path / "elsewhere")
+    (pytester.path / "s" / "t.yaml").write_text(TOWER.replace("{stands: true}", "{collapse: 2}"))
+    (pytester.path / "s" / "bad.yaml").write_text("stackdsl: 1\nstructure:\n  tower: {levles: 2}\n")
+    result = pytester.runpytest("-p", "no:cacheprovider", "../s", "-o", "stackdsl_paths=s")
+    result.assert_outcomes(failed=2)
+    out = result.stdout.str()  # each file named as the user types it from here
+    assert "../s/bad.yaml:3:11: structure.tower.levles: unknown key 'levles'" in out
+    assert "more: stackdsl run ../s/t.yaml" in out

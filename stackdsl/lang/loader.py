@@ -50,9 +50,11 @@ _SCALAR_TAGS = {f"{_YAML}{t}": t for t in ("str", "int", "float", "bool", "null"
 _READ_AS = {"int": " (an integer)", "float": " (a number)", "bool": " (true or false)"}
 
 
-def load_scenario(path: str | Path, seed: int | None = None) -> Scenario:
+def load_scenario(path: str | Path, seed: int | None = None, *, shown: str | None = None) -> Scenario:
     """Read and validate a scenario file; ``seed``, when given, replaces the file's ``seed``
-    (``stackdsl check|run|sweep --seed N``).
+    (``stackdsl check|run|sweep --seed N``); ``shown``, when given, names the file in errors
+    instead of ``path`` (the pytest plugin opens a file by its absolute path and names it as the
+    user can type it from where pytest runs).
 
     Only a regular file (or a symbolic link to one) of at most
     :data:`stackdsl.lang.scenario_file.MAX_FILE_BYTES` is read; anything else is refused before
@@ -63,10 +65,11 @@ def load_scenario(path: str | Path, seed: int | None = None) -> Scenario:
             valid YAML, or not a valid scenario; the error names file, line, column and field.
     """
     path = Path(path)
+    name = str(path) if shown is None else shown
     problem = file_problem(path)
     if problem:
-        raise ScenarioError(problem, file=str(path))
-    return parse_scenario(read_text(path), file=str(path), seed=seed)
+        raise ScenarioError(problem, file=name)
+    return parse_scenario(read_text(path, name), file=name, seed=seed)
 
 
 #: At most this many unit slips of a file are shown (the rest are counted).

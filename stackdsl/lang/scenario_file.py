@@ -38,11 +38,12 @@ _BOMS = (  # longest first: the UTF-32 LE mark starts with the UTF-16 LE one
 )
 
 
-def read_text(path: Path) -> str:
+def read_text(path: Path, shown: str | None = None) -> str:
     """The UTF-8 text of the regular file ``path`` (checked with :func:`file_problem` first).
-    Raises ScenarioError when it cannot be read, is not a regular file once open, is larger
-    than :data:`MAX_FILE_BYTES`, or is not UTF-8 text."""
-    return _decode(_read_bytes(path), str(path))
+    Raises ScenarioError, naming the file ``shown`` (default: ``path``), when it cannot be read,
+    is not a regular file once open, is larger than :data:`MAX_FILE_BYTES`, or is not UTF-8 text."""
+    name = str(path) if shown is None else shown
+    return _decode(_read_bytes(path, name), name)
 
 
 def file_problem(path: Path) -> str | None:
@@ -77,7 +78,7 @@ def _file_kind(mode: int) -> str:
     return next((name for test, name in kinds if test(mode)), "a special file")
 
 
-def _read_bytes(path: Path) -> bytes:
+def _read_bytes(path: Path, file: str) -> bytes:
     """At most ``MAX_FILE_BYTES + 1`` bytes of the regular file ``path``.
 
     Opened non-blocking, and checked again once open, so that a file swapped for a FIFO or
@@ -87,17 +88,17 @@ def _read_bytes(path: Path) -> bytes:
     try:
         fd = os.open(path, flags)
     except OSError as exc:
-        raise ScenarioError(f"cannot read the file: {exc.strerror or exc}", file=str(path)) from None
+        raise ScenarioError(f"cannot read the file: {exc.strerror or exc}", file=file) from None
     with os.fdopen(fd, "rb") as handle:
         mode = os.fstat(handle.fileno()).st_mode
         if not stat.S_ISREG(mode):
-            raise ScenarioError(f"not a regular file: {_file_kind(mode)}", file=str(path))
+            raise ScenarioError(f"not a regular file: {_file_kind(mode)}", file=file)
         try:
             raw = handle.read(MAX_FILE_BYTES + 1)
         except OSError as exc:
-            raise ScenarioError(f"cannot read the file: {exc.strerror or exc}", file=str(path)) from None
+            raise ScenarioError(f"cannot read the file: {exc.strerror or exc}", file=file) from None
     if len(raw) > MAX_FILE_BYTES:
-        raise ScenarioError(f"the file is larger than {MAX_FILE_BYTES} bytes", file=str(path))
+        raise ScenarioError(f"the file is larger than {MAX_FILE_BYTES} bytes", file=file)
     return raw
 
 

@@ -14,8 +14,11 @@ checks its expectations, then compares the outcome with its golden snapshot
 ``golden/scenarios/four_stack.json`` (one brick per line, :mod:`stackdsl.verdicts.snapshot`).
 An item opens its file by its absolute path, so pytest may run from any folder; failures name
 files relative to that folder, as pytest names the items.
-``pytest --snapshot-update`` writes the snapshots; ``-k``, ``-x``, ``--lf``, ``-n``
-(pytest-xdist) and ``--junit-xml`` work as on any test.
+``pytest --snapshot-update`` writes the snapshots of the items that pass. An item that fails (a
+bad file, an expectation, a crash) leaves its golden as it was, and syrupy counts a golden
+unused, and ``--snapshot-update`` deletes it, only when its scenario file is gone (nothing that
+happens to an item, ``-x``, ``--ignore`` or ``-k`` loses a golden whose file exists). ``-k``,
+``-x``, ``--lf``, ``-n`` (pytest-xdist) and ``--junit-xml`` work as on any test.
 
 A sweep file (``sweep:``) is one item too: its samples run one after the other, each
 statistical expectation must be decided PASS in every grid cell (its 95% interval inside the
@@ -55,7 +58,7 @@ from .verdicts.snapshot import dumps, scenario_golden_path, summarize
 from .verdicts.snapshot import golden_dir as golden_dir
 
 try:
-    from syrupy.data import SnapshotCollection
+    from syrupy.data import SnapshotCollection, SnapshotCollections
     from syrupy.extensions.json import JSONSnapshotExtension
     from syrupy.extensions.single_file import SingleFileSnapshotExtension, WriteMode
     from syrupy.terminal import disable_color
@@ -112,16 +115,39 @@ def pytest_collect_file(file_path: Path, parent: pytest.Collector) -> pytest.Col
     return None
 
 
+def golden_owners(golden: Path, folder: Path) -> list[Path] | None:
+    """The files that may own a golden snapshot found below the goldens of the scenario folder
+    ``folder``: the scenario file ``<folder>/<sub>/<stem>.yaml`` (or ``.yml``) of
+    ``golden/<folder>/<sub>/<stem>.json``, then the Python test module ``<folder>/<sub>.py``
+    whose ``golden`` fixture stores its snapshots in ``golden/<folder>/<sub>/``; None when
+    ``golden`` is not below that folder's goldens."""
+    folder = folder.resolve()
+    stored = scenario_golden_path(folder / "x.yaml").parent
+    try:
+        relative = Path(golden).resolve().relative_to(stored)
+    except ValueError:
+        return None
+    owners = [folder / relative.parent / f"{relative.stem}{suffix}" for suffix in SUFFIXES]
+    if relative.parent != Path("."):
+        owners += [folder / f"{relative.parent}{suffix}" for suffix in (".py", ".pyi")]
+    return owners
+
+
+def left_over(golden: Path, folder: Path) -> bool:
+    """Whether a golden snapshot below the goldens of scenario folder ``folder`` has no file left
+    that owns it (:func:`golden_owners`): its scenario file was removed or renamed. The only
+    golden snapshots reported unused, and deleted by ``--snapshot-update``."""
+    owners = golden_owners(golden, folder)
+    return owners is not None and not any(owner.is_file() for owner in owners)
+
+
 def orphan_goldens(config: pytest.Config) -> list[Path]:
     """Golden snapshots under ``golden/<configured folder>/`` whose scenario file is gone."""
     orphans = []
     for folder in config.getini("stackdsl_paths"):
         root = (config.rootpath / folder).resolve()
         stored = scenario_golden_path(root / "x.yaml").parent
-        for golden in sorted(stored.rglob("*.json")) if stored.is_dir() else []:
-            place = root / golden.parent.relative_to(stored) / golden.stem
-            if not any(place.with_suffix(suffix).is_file() for suffix in SUFFIXES):
-                orphans.append(golden)
+        orphans += [g for g in sorted(stored.rglob("*.json")) if stored.is_dir() and left_over(g, root)]
     return orphans
 
 
@@ -167,7 +193,20 @@ class ScenarioItem(pytest.Function):
 
 
 def _scenario_test(request: pytest.FixtureRequest, scenario_golden: Any) -> None:
-    """Run one scenario file: expectations first, then the golden snapshot."""
+    """Run one scenario file: expectations first, then the golden snapshot.
+
+    An item that fails before its golden is compared (a bad file, a failed expectation, a
+    crash) still marks its golden as this run's, compared but never written
+    (:func:`_keep_golden`): otherwise syrupy would count it unused, and ``--snapshot-update``
+    would delete the reviewed snapshot of a scenario that still exists."""
+    try:
+        _run_scenario_item(request, scenario_golden)
+    finally:
+        if not scenario_golden.num_executions:
+            _keep_golden(scenario_golden, Path(request.node.path), _NOT_COMPARED)
+
+
+def _run_scenario_item(request: pytest.FixtureRequest, scenario_golden: Any) -> None:
     # pytest's item.path is absolute: the file opens from any working directory, and every
     # file the messages name is as the user can type it from where pytest was run
     path = Path(request.node.path)
@@ -201,6 +240,7 @@ def _scenario_test(request: pytest.FixtureRequest, scenario_golden: Any) -> None
         lines = [f"{path.name}: expected {v.expected}, measured {v.measured}" for v in failed]
         lines += [f"  {line}" for line in explain(scenario.expect, outcome, program.collapse_threshold)]
         lines.append(f"more: stackdsl run {shlex.quote(shown)}")
+        lines += _kept_golden(request, scenario_golden, path, outcome.golden())
     elif missing := _no_golden_yet(request, path, shown):
         lines = [missing]
     elif not scenario_golden == outcome.golden():
@@ -232,6 +272,9 @@ def _sweep_test(request: pytest.FixtureRequest, scenario: Any, program: Any, sho
     refused = [r for r in results if r.bad_input or r.error]
     if refused:
         pytest.fail(refused[0].bad_input or f"{refused[0].error} (sample {refused[0].sample})", pytrace=False)
+    golden = {"scenario": program.name, "mode": program.engine.mode, "samples": template.samples}
+    for c, rs in enumerate(by_cell(results, template.cells)):
+        golden[f"cell {c}"] = {"grid": template.cell(c), "collapse_levels": [r.collapse_level for r in rs]}
     failed = [(c, v) for c, v in verdicts(template, scenario.expect, results) if v.outcome != "PASS"]
     if failed:
         lines = [
@@ -241,10 +284,8 @@ def _sweep_test(request: pytest.FixtureRequest, scenario: Any, program: Any, sho
             + (f"; about {v.samples_to_decide} samples would decide it" if v.samples_to_decide else "")
             for c, v in failed
         ]
-        pytest.fail("\n".join([*lines, f"more: stackdsl sweep {shlex.quote(shown)}"]), pytrace=False)
-    golden = {"scenario": program.name, "mode": program.engine.mode, "samples": template.samples}
-    for c, rs in enumerate(by_cell(results, template.cells)):
-        golden[f"cell {c}"] = {"grid": template.cell(c), "collapse_levels": [r.collapse_level for r in rs]}
+        lines.append(f"more: stackdsl sweep {shlex.quote(shown)}")
+        pytest.fail("\n".join([*lines, *_kept_golden(request, scenario_golden, path, golden)]), pytrace=False)
     if missing := _no_golden_yet(request, path, shown):
         pytest.fail(missing, pytrace=False)
     if not scenario_golden == golden:
@@ -252,6 +293,32 @@ def _sweep_test(request: pytest.FixtureRequest, scenario: Any, program: Any, sho
             diff = scenario_golden.get_assert_diff()
         where = _shown(scenario_golden_path(path), request.config)
         pytest.fail("\n".join([f"{path.name}: the samples differ from {where}", *diff, UPDATE_HINT]), pytrace=False)
+
+
+#: What a failed item's golden is compared with when the item has no outcome (a bad file, a crash):
+#: never a snapshot, so the comparison fails and nothing is written.
+_NOT_COMPARED: dict[str, Any] = {"not compared": "the item failed before its golden snapshot was compared"}
+
+
+def _keep_golden(scenario_golden: Any, path: Path, data: Any) -> None:
+    """Compare a failed item's stored golden with ``data`` with every update switched off, when
+    the golden exists: syrupy then counts it used (matched or failed), never unused, so
+    ``--snapshot-update`` neither deletes it nor rewrites it with a failing run's outcome."""
+    if not scenario_golden_path(path).is_file():
+        return  # nothing to keep; and a failing run writes no new golden either
+    scenario_golden.update_snapshots = False
+    scenario_golden.update_new_snapshots_only = False
+    _ = scenario_golden == data  # recorded by syrupy (used); its result is not the item's verdict
+
+
+def _kept_golden(request: pytest.FixtureRequest, scenario_golden: Any, path: Path, data: Any) -> list[str]:
+    """Keep a failed item's golden (:func:`_keep_golden`); under ``--snapshot-update``, the line
+    that says it was left as it was."""
+    _keep_golden(scenario_golden, path, data)
+    stored = scenario_golden_path(path)
+    if not stored.is_file() or not getattr(request.config.option, "update_snapshots", False):
+        return []
+    return [f"{_shown(stored, request.config)} left as it was: a golden is written only when the expectations hold"]
 
 
 #: The last line of a failed golden comparison.
@@ -330,6 +397,18 @@ if SingleFileSnapshotExtension is not None:
         def dirname(cls, *, test_location: Any) -> str:
             return str(scenario_golden_path(test_location.filepath).with_suffix(""))
 
+        def discover_snapshots(self, *, test_location: Any, ignore_extensions: Any = None) -> Any:
+            """syrupy's discovery, less the golden snapshots of scenario files that exist (the
+            scenario items' own, never this extension's to count unused)."""
+            found = super().discover_snapshots(test_location=test_location, ignore_extensions=ignore_extensions)
+            folder = Path(test_location.filepath).parent
+            kept = SnapshotCollections()
+            for collection in found:
+                owners = golden_owners(Path(collection.location), folder) or []
+                if not any(owner.is_file() for owner in owners if owner.suffix in SUFFIXES):
+                    kept.add(collection)
+            return kept
+
     class ScenarioSnapshotExtension(_AtomicWrites):
         """A scenario's golden snapshot: ``golden/<folder>/<file stem>.json``, mirroring the
         scenario's place below the project root, written one brick per line
@@ -338,6 +417,25 @@ if SingleFileSnapshotExtension is not None:
 
         file_extension = "json"
         _write_mode = WriteMode.TEXT
+
+        @classmethod
+        def discovery_dirname(cls, *, test_location: Any) -> str:
+            # the scenario goldens of the folder, never the shared golden/ above it (syrupy looks
+            # one level up when the folder is named as the file, ``stairs/stairs.yaml``)
+            return cls.dirname(test_location=test_location)
+
+        def discover_snapshots(self, *, test_location: Any, ignore_extensions: Any = None) -> Any:
+            """The golden snapshots below this scenario's golden folder that syrupy may count unused:
+            only those whose scenario file is gone (:func:`left_over`). A golden whose scenario file
+            exists is never unused, whatever happened to its item (failed before its comparison,
+            not run after ``-x``, ignored), so ``--snapshot-update`` never deletes it."""
+            found = super().discover_snapshots(test_location=test_location, ignore_extensions=ignore_extensions)
+            folder = Path(test_location.filepath).parent
+            kept = SnapshotCollections()
+            for collection in found:
+                if left_over(Path(collection.location), folder):
+                    kept.add(collection)
+            return kept
 
         @classmethod
         def dirname(cls, *, test_location: Any) -> str:

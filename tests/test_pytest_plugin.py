@@ -351,3 +351,60 @@ def test_items_run_from_any_folder_and_the_hint_gives_a_command_that_works_there
     out = result.stdout.str()  # each file named as the user types it from here
     assert "../s/bad.yaml:3:11: structure.tower.levles: unknown key 'levles'" in out
     assert "more: stackdsl run ../s/t.yaml" in out
+
+
+def test_a_failing_item_keeps_its_golden_through_snapshot_update(project):
+    for name in ("two", "tower", "fine", "gone"):
+        write(project, name, TWO_BRICKS.format(x="0 mm") if name == "two" else TOWER)
+    project.runpytest("--snapshot-update").assert_outcomes(passed=4)
+    folder = project.path / "golden" / "scenarios"
+    before = {p.name: p.read_bytes() for p in folder.iterdir()}
+    # the brick moved (the outcome differs from the golden) and the expectation fails
+    write(project, "two", TWO_BRICKS.format(x="5 mm").replace("{stands: true}", "{collapse: 2}"))
+    write(project, "tower", "stackdsl: 1\nstructure:\n  tower: {levles: 2}\n")  # a bad file
+    for args in ([], ["--snapshot-update"], ["--snapshot-update", "-x"], ["--snapshot-update", "--ignore=scenarios/fine.yaml"]):
+        result = project.runpytest(*args)
+        out = result.stdout.str()
+        assert result.parseoutcomes()["failed"] >= 1
+        assert "unused" not in out and "Deleted" not in out, args
+        assert {p.name: p.read_bytes() for p in folder.iterdir()} == before, args  # not deleted, not rewritten
+    assert "golden/scenarios/two.json left as it was" in out
+    # a golden whose scenario file is gone is the one that goes
+    (project.path / "scenarios" / "gone.yaml").unlink()
+    result = project.runpytest("--snapshot-update")
+    assert "Deleted gone (golden/scenarios/gone.json)" in result.stdout.str()
+    assert sorted(p.name for p in folder.iterdir()) == ["fine.json", "tower.json", "two.json"]
+
+
+def test_a_crashed_item_keeps_its_golden_through_snapshot_update(project):
+    write(project, "tower", TOWER)
+    project.runpytest("--snapshot-update").assert_outcomes(passed=1)
+    stored = project.path / "golden" / "scenarios" / "tower.json"
+    text = stored.read_text()
+    project.makeconftest(
+        "import pytest\n"
+        "@pytest.fixture(autouse=True)\n"
+        "def crash(monkeypatch):\n"
+        "    def run_program(program):\n"
+        "        raise RuntimeError('a bug')\n"
+        "    monkeypatch.setattr('stackdsl.pytest_plugin.run_program', run_program)\n"
+    )
+    result = project.runpytest("--snapshot-update")
+    result.assert_outcomes(failed=1)
+    assert "RuntimeError: a bug" in result.stdout.str() and "Deleted" not in result.stdout.str()
+    assert stored.read_text() == text
+
+
+def test_failing_items_keep_their_goldens_under_xdist(project):
+    pytest.importorskip("xdist")
+    for name in ("a", "b", "c"):
+        write(project, name, TOWER)
+    project.runpytest("--snapshot-update").assert_outcomes(passed=3)
+    folder = project.path / "golden" / "scenarios"
+    before = {p.name: p.read_bytes() for p in folder.iterdir()}
+    write(project, "a", TOWER.replace("{stands: true}", "{collapse: 2}"))
+    write(project, "b", "stackdsl: 1\nstructure: {tower: {levles: 2}}\n")
+    result = project.runpytest("-n", "2", "--snapshot-update")
+    result.assert_outcomes(passed=1, failed=2)
+    assert "Deleted" not in result.stdout.str()
+    assert {p.name: p.read_bytes() for p in folder.iterdir()} == before

@@ -30,14 +30,19 @@ def golden_command() -> tuple[list[str], str]:
     return command.split(), written.strip()
 
 
-@pytest.mark.parametrize("project", [False, True], ids=["a folder of yours", "in a project"])
+@pytest.mark.parametrize("project", [True, False], ids=["in the clone", "no pyproject.toml above"])
 def test_the_golden_goes_where_the_readme_says(tmp_path, monkeypatch, project):
+    """The quickstart runs in the clone, beside stackdsl's pyproject.toml: the command's comment
+    names that golden; the prose names the one of a folder with no pyproject.toml above."""
     monkeypatch.delenv("PYTEST_XDIST_WORKER", raising=False)  # the inner run is not an xdist worker
     quickstart(tmp_path)
     command, written = golden_command()
     if project:
         (tmp_path / "pyproject.toml").write_text("[project]\nname = 'mine'\n")
-        (written,) = re.findall(r"in a project:\s+`([^`]+)`", README)
+        (said,) = re.findall(r"here, in the clone[^`]*`pyproject.toml`[^`]*`([^`]+)`", README)
+        assert said == written  # the prose and the command's comment agree
+    else:
+        (written,) = re.findall(r"with no `pyproject.toml` above, to `golden/` in the file's own folder \(`([^`]+)`\)", README)
     assert command[:3] == [".venv/bin/python", "-m", "pytest"]
     run = [sys.executable, *command[1:], "-p", "no:cacheprovider", "-n", "0"]
     done = subprocess.run(run, cwd=tmp_path, capture_output=True, text=True, check=False)

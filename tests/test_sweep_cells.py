@@ -211,3 +211,82 @@ expect:
         assert err.value.field == "expect.cells[1].p_stands" and "no sweep can meet both" in err.value.message
     else:
         parse_scenario(text, "c.yaml")
+
+
+# Two levels in single file, swept over the shift: at 0 mm the top brick sits on the bottom one and
+# the tower stands; at 70 mm its centre is 10 mm past the bottom brick's end (half a length, 60 mm),
+# so it falls at level 2. Nothing is drawn: each cell's one sample is exact.
+EXACT = """stackdsl: 1
+structure: {{tower: {{levels: 2, bricks_per_layer: 1, turn: 0}}}}
+sweep:
+  samples: 1
+  grid: {{structure.tower.shift: [0 mm, 70 mm]}}
+expect:
+  {expect}
+"""
+FALLS = "structure.tower.shift > 50 mm"
+# each of a sweep's statistical expectations, over the whole sweep and in some cells only, with the
+# outcome in the standing cell and the falling one (None: not judged there)
+EXACT_FORMS = {
+    'collapse: {mean: "2 ± 0.5"}': ("FAIL", "PASS"),  # the standing cell has no collapse level near 2
+    'collapse: {mean: "5 ± 1"}': ("FAIL", "FAIL"),
+    'collapse: {quantile: {q: 0.5, level: "2 ± 0.5"}}': ("FAIL", "PASS"),  # standing: the median "stands"
+    'collapse: {quantile: {q: 0.25, level: "1 ± 1"}}': ("FAIL", "PASS"),
+    'p_stands: ">= 0.9"': ("PASS", "FAIL"),
+    'p_stands: "< 0.5"': ("FAIL", "PASS"),
+    f'cells: [{{where: "{FALLS}", collapse: {{mean: "2 ± 0.5"}}}}]': (None, "PASS"),
+    f'cells: [{{where: "{FALLS}", collapse: {{mean: "3 ± 0.5"}}}}]': (None, "FAIL"),
+    f'cells: [{{where: "{FALLS}", collapse: {{quantile: {{q: 0.5, level: "2 ± 0.5"}}}}}}]': (None, "PASS"),
+    f'cells: [{{where: "{FALLS}", p_stands: "<= 0.1"}}]': (None, "PASS"),
+    f'cells: [{{where: "not ({FALLS})", p_stands: "<= 0.1"}}]': ("FAIL", None),
+}
+
+
+@pytest.fixture(scope="module")
+def exact_samples():
+    t = parse_scenario(EXACT.format(expect="p_stands: '>= 0.9'"), "e.yaml").template
+    assert not t.random
+    results = collect(run_sweep(t, jobs=1))
+    assert [r.collapse_level for r in results] == [None, 2]  # as the centre-of-mass rule says
+    return results
+
+
+def test_every_statistical_form_is_tested_on_an_exact_sweep_in_cells_and_over_the_sweep():
+    from typing import get_args
+
+    from stackdsl.batch.sweep_out import expectations
+    from stackdsl.verdicts.stats import Expectation
+
+    whole, cells = set(), set()
+    for text in EXACT_FORMS:
+        expect = parse_scenario(EXACT.format(expect=text), "e.yaml").expect
+        whole |= {type(f) for f in expectations(expect)}
+        for rule in expect.cells or []:
+            cells |= {type(f) for f in expectations(rule)}  # a cell rule has collapse and p_stands as Expect
+    assert whole == cells == set(get_args(Expectation))
+
+
+@pytest.mark.parametrize("text", list(EXACT_FORMS))
+def test_an_exact_sweep_decides_every_statistical_expectation(exact_samples, text):
+    t = parse_scenario(EXACT.format(expect=text), "e.yaml").template
+    judged = verdicts(t, t.scenario(0, 0).expect, exact_samples)
+    outcomes = tuple(next((v.outcome for c, v in judged if c == cell), None) for cell in range(2))
+    assert outcomes == EXACT_FORMS[text]
+    for _, v in judged:
+        assert v.measured.endswith("(nothing is drawn)")
+        assert v.interval is None or v.interval[0] == v.interval[1]  # no sampling interval on one run
+
+
+def test_an_exact_sweep_with_a_mean_gives_a_verdict_on_the_command_line(tmp_path: Path, capsys):
+    """A grid of one sample a cell expecting a mean collapse level: sweep and check both judge it
+    (this once failed with an internal error, exit 3, and check reported no file at all)."""
+    text = EXACT.format(expect=f'cells: [{{where: "{FALLS}", collapse: {{mean: "2 ± 0.5"}}}}]')
+    (tmp_path / "s.yaml").write_text(text)
+    (tmp_path / "f.yaml").write_text(text.replace('"2 ± 0.5"', '"4 ± 0.5"'))
+    assert main(["sweep", str(tmp_path / "s.yaml"), "-j", "1", "--out", str(tmp_path / "o")]) == 0
+    assert "PASS         expected mean 2±0.5, measured mean 2.00 exact" in capsys.readouterr().out
+    junit = tmp_path / "j.xml"
+    assert main(["check", str(tmp_path / "s.yaml"), str(tmp_path / "f.yaml"), "-j", "1", "--junit-xml", str(junit)]) == 1
+    out = capsys.readouterr().out
+    assert "PASS  " in out and "FAIL  " in out and "expected mean 4±0.5, measured mean 2.00 exact" in out
+    assert junit.read_text().count("<testcase") == 2

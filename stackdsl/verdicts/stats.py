@@ -224,7 +224,8 @@ def decide(
 
     ``exact``: the samples are one run repeated (the sweep draws nothing: no distribution, no
     placement error), so the statistic is known without sampling error: its interval is the
-    point itself, and it is PASS or FAIL from a single sample.
+    point itself, and it is PASS or FAIL from a single sample (a mean expected of a cell whose
+    run stands is FAIL: it has no collapse level); INCONCLUSIVE only without samples.
 
     Raises ValueError on a level that is not None or an int >= 1, or a confidence outside
     (0, 1). Source: stackdsl's own (rule and projection); intervals as in the module docstring.
@@ -235,7 +236,7 @@ def decide(
     """
     check_confidence(confidence)
     if exact:
-        return _decide_exact(expectation, levels, confidence)
+        return _decide_exact(expectation, levels)
     collapsed = _collapsed(levels)
     if isinstance(expectation, MeanWithin):
         return _decide_mean(expectation, collapsed, len(levels), confidence)
@@ -246,21 +247,50 @@ def decide(
     raise TypeError(f"not an expectation: {expectation!r}")
 
 
-def _decide_exact(expectation: Expectation, levels: Sequence[int | None], confidence: float) -> StatVerdict:
-    """:func:`decide` on samples that are one run repeated: the estimate is exact, its interval a point."""
-    sampled = decide(expectation, levels, confidence)
-    if sampled.estimate is None:
-        return sampled
-    point = (sampled.estimate, sampled.estimate)
+def _decide_exact(expectation: Expectation, levels: Sequence[int | None]) -> StatVerdict:
+    """:func:`decide` on samples that are one run repeated: the statistic is computed from
+    ``levels`` as :func:`decide` computes it, and its interval is the point itself. A mean
+    expected of samples that all stood is FAIL: the run stands, so it has no collapse level to
+    be near the target (with sampling this is INCONCLUSIVE, since another sample may collapse)."""
+    collapsed = _collapsed(levels)
+    n, stood = len(levels), len(levels) - len(collapsed)
+    expected = _expected(expectation)
+    if n == 0:
+        return StatVerdict("INCONCLUSIVE", None, None, 0, expected, "no samples")
+    drawn = " (nothing is drawn)"
     if isinstance(expectation, ProportionBound):
-        outcome = _judge_bound(point, expectation.op, expectation.bound)
-        stood = len(levels) - len(_collapsed(levels))
-        measured = f"P(stands) {sampled.estimate:.3f} exact, {stood}/{len(levels)} stood"
-    else:
-        target, tolerance = expectation.target, expectation.tolerance
-        outcome = _judge_region(point, target - tolerance, target + tolerance)
-        measured = sampled.measured.split(" [", 1)[0] + " exact" + sampled.measured.split("]", 1)[1]
-    return StatVerdict(outcome, sampled.estimate, point, sampled.n, sampled.expected, f"{measured} (nothing is drawn)")
+        p = stood / n
+        outcome = _judge_bound((p, p), expectation.op, expectation.bound)
+        return StatVerdict(outcome, p, (p, p), n, expected, f"P(stands) {p:.3f} exact, {stood}/{n} stood{drawn}")
+    a, b = expectation.target - expectation.tolerance, expectation.target + expectation.tolerance
+    if isinstance(expectation, MeanWithin):
+        if not collapsed:
+            return StatVerdict("FAIL", None, None, 0, expected, f"no collapse: it stands, {stood}/{n} stood{drawn}")
+        mean = float(np.mean(collapsed))
+        measured = f"mean {mean:.2f} exact, n={len(collapsed)} collapsed, {stood} stood{drawn}"
+        return StatVerdict(_judge_region((mean, mean), a, b), mean, (mean, mean), len(collapsed), expected, measured)
+    if isinstance(expectation, QuantileWithin):
+        values = [float(v) for v in collapsed] + [math.inf] * stood
+        q = float(np.quantile(values, expectation.q, method="inverted_cdf"))
+        measured = f"{_quantile_name(expectation.q)} {format_level(q)} exact, n={n}, {stood} stood{drawn}"
+        return StatVerdict(_judge_region((q, q), a, b), q, (q, q), n, expected, measured)
+    raise TypeError(f"not an expectation: {expectation!r}")
+
+
+def _expected(expectation: Expectation) -> str:
+    """The expectation as a verdict's ``expected`` text: ``"mean 7±0.5"``, ``"median 7±1"``,
+    ``"P(stands) >= 0.9"``."""
+    if isinstance(expectation, ProportionBound):
+        return f"P(stands) {expectation.op} {expectation.bound:g}"
+    if isinstance(expectation, MeanWithin):
+        return f"mean {expectation.target:g}±{expectation.tolerance:g}"
+    if isinstance(expectation, QuantileWithin):
+        return f"{_quantile_name(expectation.q)} {expectation.target:g}±{expectation.tolerance:g}"
+    raise TypeError(f"not an expectation: {expectation!r}")
+
+
+def _quantile_name(q: float) -> str:
+    return "median" if q == 0.5 else f"{100 * q:g}% quantile"
 
 
 def summary(
@@ -314,7 +344,7 @@ def _feasible(interval: tuple[float, float] | None, levels_built: int | None) ->
 
 
 def _decide_mean(e: MeanWithin, collapsed: list[int], n: int, c: float) -> StatVerdict:
-    expected = f"mean {e.target:g}±{e.tolerance:g}"
+    expected = _expected(e)
     stood = n - len(collapsed)
     if not collapsed:
         return StatVerdict("INCONCLUSIVE", None, None, 0, expected, f"no collapse, {stood} stood" if n else "no samples")
@@ -336,7 +366,7 @@ def _decide_mean(e: MeanWithin, collapsed: list[int], n: int, c: float) -> StatV
 
 
 def _decide_proportion(e: ProportionBound, stood: int, n: int, c: float) -> StatVerdict:
-    expected = f"P(stands) {e.op} {e.bound:g}"
+    expected = _expected(e)
     if n == 0:
         return StatVerdict("INCONCLUSIVE", None, None, 0, expected, "no samples")
     p, ci = stood / n, proportion_interval(stood, n, c)
@@ -356,8 +386,7 @@ def _decide_proportion(e: ProportionBound, stood: int, n: int, c: float) -> Stat
 
 
 def _decide_quantile(e: QuantileWithin, collapsed: list[int], n: int, c: float) -> StatVerdict:
-    name = "median" if e.q == 0.5 else f"{100 * e.q:g}% quantile"
-    expected = f"{name} {e.target:g}±{e.tolerance:g}"
+    name, expected = _quantile_name(e.q), _expected(e)
     if n == 0:
         return StatVerdict("INCONCLUSIVE", None, None, 0, expected, "no samples")
     stood = n - len(collapsed)

@@ -19,6 +19,7 @@ import pytest
 
 from stackdsl import _entry, compile_scenario, parse_scenario, run_program
 from stackdsl.batch import check as _check
+from stackdsl.batch import check_sweep as _check_sweep
 from stackdsl.batch import judge as _judge
 from stackdsl.bench.bench import SETTINGS
 from stackdsl.cli import bench as _cli_bench
@@ -289,7 +290,7 @@ def test_an_exception_in_a_run_is_its_rows_internal_error_and_exit_3(tmp_path, c
     assert "Traceback (most recent call last)" in capsys.readouterr().err
 
 
-def test_an_internal_error_reading_one_file_of_a_folder_names_the_file(tmp_path, capsys, monkeypatch):
+def test_an_internal_error_reading_one_file_of_a_folder_is_its_row_and_the_others_run(tmp_path, capsys, monkeypatch):
     folder = write(tmp_path, a=PASSING, b=PASSING, c=PASSING)
     compile_scenario = _check.compile_scenario
 
@@ -301,11 +302,100 @@ def test_an_internal_error_reading_one_file_of_a_folder_names_the_file(tmp_path,
     monkeypatch.setattr(_check, "compile_scenario", broken_on_b)
     monkeypatch.delenv("STACKDSL_TRACEBACK", raising=False)
     assert main(["check", str(folder), "-j", "1"]) == 3
-    (line,) = capsys.readouterr().err.splitlines()
+    captured = capsys.readouterr()
+    rows = [line for line in captured.out.splitlines() if line[:4] in ("PASS", "FAIL")]
+    verdicts = {Path(row.split()[1]).name: row for row in rows}  # in the order they finished
+    assert {n: row[:4] for n, row in verdicts.items()} == {"a.yaml": "PASS", "b.yaml": "FAIL", "c.yaml": "PASS"}
+    assert verdicts["b.yaml"].endswith("internal error: TypeError: list indices must be integers or slices, not str")
+    (line,) = captured.err.splitlines()
     assert line == (
         "stackdsl: internal error: TypeError: list indices must be integers or slices, not str"
-        f" (while reading {folder / 'b.yaml'}) (run with --debug for the traceback)"
+        f" in {folder / 'b.yaml'} (extension) (run with --debug for the traceback)"
     )
+
+
+# A 2-level sweep that draws nothing: two runs of a fraction of a second
+SWEEP = (
+    "stackdsl: 1\nstructure: {tower: {levels: 2, bricks_per_layer: 1, turn: 0}}\n"
+    "sweep: {samples: 1, grid: {structure.tower.shift: [0 mm, 10 mm]}}\nexpect: {p_stands: '>= 0.9'}\n"
+)
+
+
+def _broken_for(module, name, file):
+    """``module.name`` replaced by one that raises for the file named ``file`` only (found in its
+    arguments: a path, a scenario or program named after its file, a sweep's template by its
+    source) and is itself for the others."""
+    real = getattr(module, name)
+
+    def named(value):
+        source = getattr(getattr(value, "source", None), "file", None)
+        text = str(source or getattr(value, "name", value))
+        return text == file or text.endswith(f"{file}.yaml")
+
+    def broken(*args, **kwargs):
+        if any(named(a) for a in args):
+            raise KeyError("wheels")
+        return real(*args, **kwargs)
+
+    return broken
+
+
+# where one file's internal error is met: reading it, compiling it, running it, a sweep's batch,
+# judging a sweep's samples
+INJECTED = {
+    "load": (_check, "load_scenario"),
+    "compile": (_check, "compile_scenario"),
+    "run": (_check_sweep, "judge"),
+    "batch": (_check_sweep, "run_batch"),
+    "verdicts": (_check, "sweep_result"),
+}
+
+
+@pytest.mark.parametrize("where", list(INJECTED))
+def test_an_internal_error_in_one_file_is_its_row_and_every_other_file_is_reported(tmp_path, capsys, monkeypatch, where):
+    module, name = INJECTED[where]
+    sweep = where in ("batch", "verdicts")
+    folder = write(tmp_path, a=PASSING, b=SWEEP if sweep else PASSING, c=FAILING, d=SWEEP)
+    monkeypatch.setattr(module, name, _broken_for(module, name, "b"))
+    monkeypatch.delenv("STACKDSL_TRACEBACK", raising=False)
+    paths = [str(folder / f"{n}.yaml") for n in "abcd"]
+    junit, report = tmp_path / "j.xml", tmp_path / "report"
+    assert main(["check", *paths, "-j", "1", "--junit-xml", str(junit)]) == 3
+    captured = capsys.readouterr()
+    rows = {Path(line.split()[1]).stem: line for line in captured.out.splitlines() if line[:4] in ("PASS", "FAIL")}
+    assert sorted(rows) == list("abcd")
+    assert rows["a"].startswith("PASS") and rows["c"].startswith("FAIL") and rows["d"].startswith("PASS")
+    assert rows["b"].startswith("FAIL") and rows["b"].endswith("internal error: KeyError: 'wheels'")
+    if sweep:  # a sweep's statistics, not "(nothing)", as what it expected
+        assert "P(stands) >= 0.9" in rows["b"]
+    assert "4 scenarios: 2 passed, 2 failed (1 of them internal error)" in captured.out
+    (line,) = captured.err.splitlines()
+    assert line.startswith("stackdsl: internal error: KeyError: 'wheels' in ") and "b.yaml" in line and "--debug" in line
+    suite = ET.parse(junit).getroot().find("testsuite")
+    assert (suite.get("tests"), suite.get("errors"), suite.get("failures")) == ("4", "1", "1")
+    (error,) = suite.findall("testcase/error")
+    assert "Traceback" in error.text and "KeyError: 'wheels'" in error.text
+    # JSON, the HTML report, and the traceback with --debug
+    assert main(["--debug", "check", *paths, "-j", "1", "--json", "--report", str(report)]) == 3
+    captured = capsys.readouterr()
+    document = json.loads(captured.out)
+    assert document["summary"] == {**document["summary"], "total": 4, "passed": 2, "failed": 2, "errors": 1}
+    assert [Path(r["file"]).stem for r in document["results"]] == list("abcd")  # file order
+    assert document["results"][1]["error"] == "internal error: KeyError: 'wheels'"
+    assert "Traceback (most recent call last)" in captured.err and "KeyError: 'wheels'" in captured.err
+    page = (report / "index.html").read_text()
+    assert all(f"{n}.yaml" in page for n in "abcd") and "internal error: KeyError" in page
+
+
+def test_an_internal_error_in_one_file_is_its_cells_in_compare(tmp_path, capsys, monkeypatch):
+    folder = write(tmp_path, a=PASSING, b=PASSING)
+    monkeypatch.setattr(_check, "load_scenario", _broken_for(_check, "load_scenario", "b"))
+    monkeypatch.delenv("STACKDSL_TRACEBACK", raising=False)
+    assert main(["compare", str(folder), "-j", "1", "--modes", "raw,extension"]) == 3
+    out = capsys.readouterr().out.splitlines()
+    (a,) = [line for line in out if line.startswith("a ")]
+    (b,) = [line for line in out if line.startswith("b ")]
+    assert a.count("PASS") == 2 and b.count("FAIL internal error") == 2
 
 
 @pytest.mark.parametrize("command", ["compile", "run", "schema", "bench", "compare"])
@@ -1070,3 +1160,16 @@ def test_compare_sizes_each_modes_column_to_its_own_cells(tmp_path, capsys):
     header, *rows = capsys.readouterr().out.splitlines()[:3]
     cells = [r[header.index("extension") : header.index("raw")].rstrip() for r in rows]
     assert header.index("raw") - header.index("extension") == max(29, *(len(c) for c in cells)) + 1, (header, rows)
+
+
+def test_the_check_function_yields_a_result_for_a_file_an_internal_error_met(tmp_path, monkeypatch):
+    from stackdsl import check
+
+    folder = write(tmp_path, a=PASSING, b=PASSING)
+    monkeypatch.setattr(_check, "compile_scenario", _broken_for(_check, "compile_scenario", "b"))
+    results = {Path(r.file).stem: r for r in check(folder, jobs=1)}
+    assert results["a"].passed and not results["b"].passed
+    assert results["b"].error == "internal error: KeyError: 'wheels'" and "Traceback" in results["b"].traceback
+    assert [r.file for r in check(folder, jobs=1, pattern="a.yaml")] == [
+        results["a"].file
+    ]  # -k leaves it out as it does its runs

@@ -1,14 +1,15 @@
 """Check many scenario files: load all, compile all, then run them.
 
 Nothing runs unless every file loads and compiles: a bad file stops the whole check
-before any simulation. Runs are shared between this process and spawned worker processes
+before any simulation. An internal error (a bug) met while one file is read or compiled is
+that file's result instead (:func:`prepare`'s ``broken``), and the other files run. Runs are shared between this process and spawned worker processes
 (:mod:`stackdsl.batch.pool`; each run creates its own pybullet client, clients do not survive
 pickling), or farmed out on a caller's ``concurrent.futures.Executor``.
 
 Every run has a wall-clock limit (``timeout``, default :data:`stackdsl.batch.judge.TIMEOUT`); workers also have
-a memory limit (:data:`stackdsl.batch.guard.MEMORY_LIMIT`). A run that raises, runs out of memory
-or whose worker dies is that scenario's internal error (``CheckResult.error``); the other
-scenarios still run.
+a memory limit (:data:`stackdsl.batch.guard.MEMORY_LIMIT`). A run or a sweep's batch that raises,
+runs out of memory or whose worker dies, and a sweep whose samples cannot be judged, is that
+scenario's internal error (``CheckResult.error``); the other scenarios still run.
 
 Source: stackdsl's own.
 """
@@ -16,6 +17,7 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 import re
+import traceback
 from collections.abc import Callable, Generator, Iterable, Sequence
 from concurrent.futures import Executor
 from itertools import chain
@@ -33,7 +35,7 @@ from ..lang.scenario_file import file_problem
 from ..verdicts.check_result import CheckResult
 from .address import free_cores
 from .check_sweep import run_unit, sweep_result, sweep_tasks
-from .judge import KILL_AFTER, TIMEOUT, lost
+from .judge import KILL_AFTER, TIMEOUT, failed, internal, lost
 from .pool import fan_out, on_executor
 from .sweep import SampleResult, compile_bounds, compile_cells, which_sample
 
@@ -84,6 +86,7 @@ def prepare(
     refused: list[CheckResult] | None = None,
     seed: int | None = None,
     timeout: float | None = None,
+    broken: list[CheckResult] | None = None,
 ) -> list[Prepared]:
     """Load and compile every file (on each of ``backends``, in each of ``modes`` when
     given, with the stability ``model`` when given); nothing is simulated.
@@ -92,6 +95,9 @@ def prepare(
         refused: given (a comparison), a file that compiles as written but that a compared
             engine or mode refuses (beyond what it simulates faithfully) gets a result here
             with :attr:`CheckResult.refused`, in place of an error.
+        broken: given, a file whose reading or compiling hits an internal error (a bug, not
+            bad input) gets a result here for each of its runs, with :attr:`CheckResult.error`
+            and the traceback, and the other files are prepared still; None: the error is raised.
         seed: replaces every file's ``seed`` when given.
         timeout: the runs' wall seconds, which a random file's draws to meet ``require:`` may
             take too (at most :data:`stackdsl.compile.require.DRAW_TIME`, the default).
@@ -100,7 +106,9 @@ def prepare(
         ScenarioErrors: one error per bad file.
     """
     prepared, errors = [], []
+    bugs: list[CheckResult] = []
     for path in files:
+        scenario = None
         try:
             scenario = load_scenario(path, seed)
             sweep = scenario.template if scenario.sweep is not None else None
@@ -124,14 +132,52 @@ def prepare(
         except ScenarioError as exc:
             errors.append(exc)
         except Exception as exc:  # a bug: said with the file it was met in, still exit 3
-            exc.add_note(f"while reading {path}")
-            raise
+            if broken is None:
+                exc.add_note(f"while reading {path}")
+                raise
+            prepared = [p for p in prepared if p.path != path]  # none of this file's runs: it is one result a run
+            if refused is not None:
+                refused[:] = [r for r in refused if r.file != str(path)]
+            bugs += [_broken(path, scenario, m, model, b, exc) for b in backends for m in modes or (mode,)]
     if errors:
         summary = ""
         if len(files) > 1:  # a folder: every file is read before any runs
             summary = f"{len(errors)} of {len(files)} files refused; none was run (check the good ones by name to run them)"
+        if bugs:  # not run either: said, so that the bug is not lost behind the bad input
+            summary += f"{'; ' if summary else ''}{_bugs(bugs)}"
         raise ScenarioErrors(errors, summary)
+    if broken is not None:
+        broken += bugs
     return prepared
+
+
+def _broken(path: Path, scenario: Any, mode: str | None, model: str | None, backend: str | None, exc: Exception) -> CheckResult:
+    """The result of a run that an internal error met while its file was read or compiled:
+    nothing ran; its error is one line, its traceback the whole (``--debug``)."""
+    return CheckResult(
+        file=str(path),
+        scenario=(scenario.name if scenario is not None else "") or path.stem,
+        mode=mode or (scenario.engine.mode if scenario is not None else "?"),
+        model=model or (scenario.stability.model if scenario is not None else "?"),
+        verdicts=(),
+        collapse_level=None,
+        levels_placed=0,
+        simulated_time=0.0,
+        wall_time=0.0,
+        backend=backend or (scenario.engine.backend if scenario is not None else "?"),
+        error=internal(exc),
+        traceback="".join(traceback.format_exception(exc)),
+    )
+
+
+def _bugs(results: list[CheckResult]) -> str:
+    """``'1 file hit an internal error (KeyError: 'x' in a.yaml)'``."""
+    files = list(dict.fromkeys(r.file for r in results))
+    first = results[0]
+    return (
+        f"{len(files)} file{'s' if len(files) > 1 else ''} hit an internal error "
+        f"({first.error.removeprefix('internal error: ')} in {first.file})"
+    )
 
 
 def _refusal(
@@ -228,14 +274,28 @@ def check(
             a failed result whose ``stopped`` says so.
         seed: replaces every file's ``seed`` (its random draws and placement error) when given.
 
+    A file that hits an internal error (a bug) while it is read or compiled is a result with
+    its ``error``, first; the other files still run.
+
     Raises:
         ScenarioErrors: a file is missing or invalid, or ``pattern`` selects nothing
             (before anything runs).
         ValueError: ``jobs`` below 1.
     """
     listed = [paths] if isinstance(paths, (str, Path)) else list(paths)  # one path, not its letters
-    prepared = select(prepare(discover(listed), mode, model=model, seed=seed, timeout=timeout), pattern)
-    return run_checks(prepared, jobs, executor, timeout)
+    broken: list[CheckResult] = []
+    prepared = prepare(discover(listed), mode, model=model, seed=seed, timeout=timeout, broken=broken)
+    prepared, broken = select_comparison(prepared, broken, pattern)
+    return _after(broken, run_checks(prepared, jobs, executor, timeout))
+
+
+def _after(first: list[CheckResult], then: Generator[CheckResult, None, None]) -> Generator[CheckResult, None, None]:
+    """``first``, then what ``then`` yields; closing this closes ``then`` (its runs are cancelled)."""
+    try:
+        yield from first
+        yield from then
+    finally:
+        then.close()
 
 
 def run_checks(
@@ -281,21 +341,36 @@ def _gathered(
 ) -> Generator[CheckResult, None, None]:
     """Results as they finish: single runs at once, a sweep when its last batch is back."""
     samples: dict[int, list[SampleResult]] = {i: [] for i in pending}
+    broken: dict[int, tuple[str, str]] = {}  # a sweep's first batch that raised: its error and traceback
     try:
         for item in stream:
             if isinstance(item, CheckResult):
                 yield item
                 continue
-            _, i, results = item
-            samples[i] += results
+            kind, i, *rest = item
+            if kind == "broken":
+                broken.setdefault(i, (rest[0], rest[1]))
+            else:
+                samples[i] += rest[0]
             pending[i] -= 1
             if not pending[i]:
-                p = prepared[i]
-                assert p.template is not None
-                ordered = sorted(samples.pop(i), key=lambda r: (r.cell, r.sample))
-                yield sweep_result(str(p.path), p.template, p.program, p.expect, ordered, where[i])
+                yield _swept(prepared[i], samples.pop(i), broken.pop(i, None), where[i])
     finally:
         stream.close()
+
+
+def _swept(p: Prepared, samples: list[SampleResult], broken: tuple[str, str] | None, folder: str | None) -> CheckResult:
+    """A sweep's result once its batches are back: its verdicts, or its internal error (a batch
+    that raised, or one in judging the samples), which is this file's alone."""
+    assert p.template is not None
+    if broken is not None:
+        return failed(str(p.path), p.program, p.expect, *broken)
+    ordered = sorted(samples, key=lambda r: (r.cell, r.sample))
+    try:
+        result: CheckResult = sweep_result(str(p.path), p.template, p.program, p.expect, ordered, folder)
+    except Exception as exc:  # MemoryError included
+        return failed(str(p.path), p.program, p.expect, internal(exc), traceback.format_exc())
+    return result
 
 
 def compare(
@@ -319,8 +394,9 @@ def compare(
         ScenarioErrors: a file is missing or invalid (before anything runs).
     """
     refusals: list[CheckResult] = []
-    prepared = prepare(discover(paths), modes=modes, model=model, refused=refusals, timeout=timeout)
-    prepared, refused = select_comparison(prepared, refusals, pattern)
+    broken: list[CheckResult] = []
+    prepared = prepare(discover(paths), modes=modes, model=model, refused=refusals, timeout=timeout, broken=broken)
+    prepared, refused = select_comparison(prepared, refusals + broken, pattern)
     return tabulate(prepared, modes, chain(refused, run_checks(prepared, jobs, timeout=timeout)))
 
 

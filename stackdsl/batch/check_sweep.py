@@ -12,6 +12,7 @@ Source: stackdsl's own.
 
 from __future__ import annotations
 
+import traceback
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -20,7 +21,7 @@ from ..lang.expectations import Expect
 from ..lang.sampling import Template
 from ..verdicts.expect import Verdict
 from ..verdicts.stats import summary
-from .judge import judge
+from .judge import failed, internal, judge
 from .sweep import SampleResult, SweepOptions, batches, run_batch
 from .sweep_out import by_cell, measured, verdicts, write_plots, write_samples
 
@@ -34,11 +35,21 @@ def sweep_tasks(index: int, template: Template, program: Any, timeout: float | N
 
 def run_unit(kind: str, *args: Any) -> Any:
     """One task of ``check``: ``("batch", index, ...)`` runs a sweep's batch and returns
-    ``("batch", index, results)``; anything else is :func:`stackdsl.batch.judge.judge`'s."""
-    if kind == "batch":
-        index, template, cell, samples, options = args
-        return ("batch", index, run_batch(template, cell, samples, options))
-    return judge(*args)
+    ``("batch", index, results)``; anything else is :func:`stackdsl.batch.judge.judge`'s.
+
+    Nothing it raises leaves it (Ctrl-C aside): an internal error is that file's alone, so that
+    the other files still run. A batch's is ``("broken", index, error, traceback)`` (the sweep's
+    result says it once its other batches are back), a run's its failed result."""
+    try:
+        if kind == "batch":
+            index, template, cell, samples, options = args
+            return ("batch", index, run_batch(template, cell, samples, options))
+        return judge(*args)
+    except Exception as exc:  # MemoryError included
+        if kind == "batch":
+            return ("broken", args[0], internal(exc), traceback.format_exc())
+        file, program, expect, *_ = args
+        return failed(file, program, expect, internal(exc), traceback.format_exc())
 
 
 def sweep_result(

@@ -22,8 +22,10 @@ from ..runtime.recorder import record_program
 from ..runtime.run import run_program
 from ..verdicts.check_result import CheckResult
 from ..verdicts.expect import Verdict, evaluate, explain, moved_levels
+from ..verdicts.stats import expected_text
 from .pool import WorkerLost, WorkerTimedOut
 from .sweep import SampleResult
+from .sweep_out import expectations
 
 #: Wall seconds a scenario may run before it is stopped (``--timeout``): generous, about 25
 #: times the slowest shipped scenario in raw mode, and short enough that a careless scene (a
@@ -87,11 +89,17 @@ def judge(file: str, program: Program, expect: Expect, timeout: float | None = T
             return result
         written, draw_error, draw_time = draw_run(trajectory, folder)
         return replace(result, folder=folder, artefacts=tuple(written.items()), draw_error=draw_error, draw_time=draw_time)
-    except MemoryError:
-        return failed(file, program, expect, "internal error: out of memory", traceback.format_exc())
-    except Exception as exc:
-        message = (str(exc).splitlines() or [""])[0]
-        return failed(file, program, expect, f"internal error: {type(exc).__name__}: {message}", traceback.format_exc())
+    except Exception as exc:  # MemoryError included
+        return failed(file, program, expect, internal(exc), traceback.format_exc())
+
+
+def internal(exc: BaseException) -> str:
+    """An internal error as a result's one line: ``'internal error: KeyError: 'x''``, or
+    ``'internal error: out of memory'``."""
+    if isinstance(exc, MemoryError):
+        return "internal error: out of memory"
+    message = (str(exc).splitlines() or [""])[0]
+    return f"internal error: {type(exc).__name__}: {message}"
 
 
 def lost(task: tuple[Any, ...], error: WorkerLost) -> Any:
@@ -130,11 +138,16 @@ def failed(file: str, program: Program, expect: Expect, error: str = "", traceba
 
 
 def unmeasured(expect: Expect, program: Program) -> tuple[Verdict, ...]:
-    """A failed verdict per expectation, measured as ``'not measured'`` (a run without an outcome)."""
+    """A failed verdict per expectation, measured as ``'not measured'`` (a run without an
+    outcome; a sweep's statistics, those of ``expect.cells`` too, without samples)."""
     nothing = Outcome.model_construct(collapse=None, displacement={}, final_graph=Graph(nodes=(), edges=()))
+    forms = expectations(expect) + [f for rule in expect.cells or [] for f in expectations(rule)]
     return tuple(
         v.model_copy(update={"passed": False, "measured": "not measured"})
         for v in evaluate(expect, nothing, program.collapse_threshold)
+    ) + tuple(
+        Verdict(name="statistic", passed=False, expected=text, measured="not measured")
+        for text in dict.fromkeys(expected_text(f) for f in forms)
     )
 
 

@@ -24,7 +24,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from ..lang.expectations import Expect
+from ..lang.expectations import CellExpect, Expect
 from ..lang.expressions import parse
 from ..lang.files import written
 from ..lang.sampling import Template
@@ -34,8 +34,9 @@ from .sweep import SampleResult
 MAX_HISTOGRAMS = 12
 
 
-def expectations(expect: Expect) -> list[Any]:
-    """A scenario's statistical expectations as :mod:`stackdsl.verdicts.stats` forms, in file order."""
+def expectations(expect: Expect | CellExpect) -> list[Any]:
+    """A scenario's statistical expectations (or those of one of its ``expect.cells``) as
+    :mod:`stackdsl.verdicts.stats` forms, in file order."""
     out: list[Any] = []
     collapse = expect.collapse
     mean = getattr(collapse, "mean", None)

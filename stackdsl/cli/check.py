@@ -14,7 +14,7 @@ import time
 from itertools import chain
 from pathlib import Path
 
-from ..batch.check import discover, prepare, run_checks, select, select_comparison, tabulate
+from ..batch.check import discover, prepare, run_checks, select_comparison, tabulate
 from ..batch.report import HEADER, failure_lines, json_document, junit_xml, row, run_command, summary
 from ..compile.compiler import BACKEND_DEFAULTS, MODE_DEFAULTS
 from ..draw.artefacts import folder_name
@@ -36,10 +36,14 @@ def check_command(args: argparse.Namespace) -> int:
     if report is not None and report.exists() and not report.is_dir():
         raise ScenarioError("the report must go to a folder, and this is a file", file=args.report)
     backends = _backends(args.backend, several=False)
-    prepared = select(
-        prepare(discover(args.paths), args.mode, model=args.model, backends=backends, seed=args.seed, timeout=args.timeout),
+    files = discover(args.paths)
+    broken: list[CheckResult] = []  # files an internal error met as they were read: a row each, the others run
+    prepared, broken = select_comparison(
+        prepare(files, args.mode, model=args.model, backends=backends, seed=args.seed, timeout=args.timeout, broken=broken),
+        broken,
         args.pattern,
     )  # bad input raises here
+    total = len(prepared) + len(broken)
     folders = None
     if report is not None:
         try:
@@ -50,17 +54,17 @@ def check_command(args: argparse.Namespace) -> int:
         except OSError as exc:
             raise ScenarioError(f"cannot write the report there: {exc.strerror or exc}", file=args.report) from None
         taken: set[str] = set()
-        base = os.path.commonpath([path.resolve().parent for path, *_ in prepared])  # names relative to it
+        base = os.path.commonpath([path.resolve().parent for path, *_ in prepared] or [Path.cwd()])  # names relative to it
         folders = [str(report / folder_name(os.path.relpath(path.resolve(), base), taken=taken)) for path, *_ in prepared]
     results: list[CheckResult] = []
     commands: list[str] = []
     stream = sys.stderr if args.json else sys.stdout  # with --json only the progress line, on a terminal
-    with Lines(len(prepared), "check", file=stream, live=is_live(stream)) as lines:
+    with Lines(total, "check", file=stream, live=is_live(stream)) as lines:
         if not args.json:
             lines.line(HEADER)
-        runs = run_checks(prepared, args.jobs, timeout=args.timeout, folders=folders)
+        checks = run_checks(prepared, args.jobs, timeout=args.timeout, folders=folders)
         try:
-            for r in runs:
+            for r in chain(broken, checks):
                 results.append(r)
                 commands.append(run_command(r.file, args.mode, args.model, args.backend))
                 if not args.json:
@@ -72,10 +76,10 @@ def check_command(args: argparse.Namespace) -> int:
                 if args.exitfirst and not r.passed:
                     break
         finally:
-            runs.close()  # cancels what has not started and stops the workers
+            checks.close()  # cancels what has not started and stops the workers
     wall = time.perf_counter() - start
     # rows came as runs finished; the reports list them in file order, so that they diff from run to run
-    order = {str(p.path): i for i, p in enumerate(prepared)}
+    order = {str(path): i for i, path in enumerate(files)}
     pairs = sorted(zip(results, commands, strict=True), key=lambda pair: order.get(pair[0].file, len(order)))
     results, commands = [r for r, _ in pairs], [c for _, c in pairs]
     if args.junit_xml:
@@ -84,16 +88,16 @@ def check_command(args: argparse.Namespace) -> int:
     if report is not None:
         from ..batch.htmlreport import remove_stale_folders, write_report
 
-        page = write_report(results, report, total=len(prepared), wall=wall, commands=commands, argv=sys.argv[1:] or ["check"])
+        page = write_report(results, report, total=total, wall=wall, commands=commands, argv=sys.argv[1:] or ["check"])
         stale = remove_stale_folders(report, {Path(f).name for f in folders or []})
         if stale:
             print(f"report: removed {stale} folders of an earlier report in {report}", file=stream)
         drawn = [r for r in results if r.draw_error]
         print(f"report: {page}" + (f" ({len(drawn)} runs not fully drawn: {drawn[0].draw_error})" if drawn else ""), file=stream)
     if args.json:
-        print(json.dumps(json_document("check", results, commands, len(prepared), wall), indent=2))
+        print(json.dumps(json_document("check", results, commands, total, wall), indent=2))
     else:
-        print(summary(results, len(prepared), wall))
+        print(summary(results, total, wall))
     if _internal_errors(results, args.debug):
         return INTERNAL
     refused = [r for r in results if r.bad_input]
@@ -133,6 +137,7 @@ def compare_command(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     plain = tuple(dict.fromkeys(m.split()[-1] for m in modes))
     refusals: list[CheckResult] = []
+    broken: list[CheckResult] = []  # a cell each for a file an internal error met as it was read
     prepared = prepare(
         discover(args.paths),
         modes=plain,
@@ -141,8 +146,9 @@ def compare_command(args: argparse.Namespace) -> int:
         refused=refusals,
         seed=args.seed,
         timeout=args.timeout,
+        broken=broken,
     )
-    prepared, refused = select_comparison(prepared, refusals, args.pattern)
+    prepared, refused = select_comparison(prepared, refusals + broken, args.pattern)
     done: list[CheckResult] = []
     live = is_live(sys.stdout)
     # On a terminal a progress line; elsewhere a line per finished cell on stderr, so that
@@ -205,7 +211,8 @@ def compare_command(args: argparse.Namespace) -> int:
             if line.startswith("still moving"):
                 print(f"{Path(r.file).stem} {r.backend} {r.mode}: {line}")
     for r in refused:  # why, once each, after the table
-        print(f"refused in {r.mode} on {r.backend}: {r.refused}", file=sys.stderr)
+        if r.refused:
+            print(f"refused in {r.mode} on {r.backend}: {r.refused}", file=sys.stderr)
     return _status(done, args.debug)
 
 

@@ -254,7 +254,7 @@ def _decide_exact(expectation: Expectation, levels: Sequence[int | None]) -> Sta
     be near the target (with sampling this is INCONCLUSIVE, since another sample may collapse)."""
     collapsed = _collapsed(levels)
     n, stood = len(levels), len(levels) - len(collapsed)
-    expected = _expected(expectation)
+    expected = expected_text(expectation)
     if n == 0:
         return StatVerdict("INCONCLUSIVE", None, None, 0, expected, "no samples")
     drawn = " (nothing is drawn)"
@@ -277,7 +277,7 @@ def _decide_exact(expectation: Expectation, levels: Sequence[int | None]) -> Sta
     raise TypeError(f"not an expectation: {expectation!r}")
 
 
-def _expected(expectation: Expectation) -> str:
+def expected_text(expectation: Expectation) -> str:
     """The expectation as a verdict's ``expected`` text: ``"mean 7±0.5"``, ``"median 7±1"``,
     ``"P(stands) >= 0.9"``."""
     if isinstance(expectation, ProportionBound):
@@ -344,7 +344,7 @@ def _feasible(interval: tuple[float, float] | None, levels_built: int | None) ->
 
 
 def _decide_mean(e: MeanWithin, collapsed: list[int], n: int, c: float) -> StatVerdict:
-    expected = _expected(e)
+    expected = expected_text(e)
     stood = n - len(collapsed)
     if not collapsed:
         return StatVerdict("INCONCLUSIVE", None, None, 0, expected, f"no collapse, {stood} stood" if n else "no samples")
@@ -366,7 +366,7 @@ def _decide_mean(e: MeanWithin, collapsed: list[int], n: int, c: float) -> StatV
 
 
 def _decide_proportion(e: ProportionBound, stood: int, n: int, c: float) -> StatVerdict:
-    expected = _expected(e)
+    expected = expected_text(e)
     if n == 0:
         return StatVerdict("INCONCLUSIVE", None, None, 0, expected, "no samples")
     p, ci = stood / n, proportion_interval(stood, n, c)
@@ -386,7 +386,7 @@ def _decide_proportion(e: ProportionBound, stood: int, n: int, c: float) -> Stat
 
 
 def _decide_quantile(e: QuantileWithin, collapsed: list[int], n: int, c: float) -> StatVerdict:
-    name, expected = _quantile_name(e.q), _expected(e)
+    name, expected = _quantile_name(e.q), expected_text(e)
     if n == 0:
         return StatVerdict("INCONCLUSIVE", None, None, 0, expected, "no samples")
     stood = n - len(collapsed)

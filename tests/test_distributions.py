@@ -171,7 +171,8 @@ def test_a_drawn_value_only_the_compiler_refuses_is_bad_input_at_the_distributio
         ),
         ("expect: {p_stands: '>= 0.9'}\n", "expect.p_stands", "a statistical expectation needs a sweep"),
         ("sweep: {samples: 2}\nexpect: {stands: true}\n", "expect.stands", "a sweep's expectations are statistics"),
-        ("sweep: {samples: 2}\nexpect: {collapse: {mean: 7}}\n", "expect.collapse.mean", "such as '7 ± 0.5', got 7"),
+        ("sweep: {samples: 2}\nexpect: {collapse: {mean: seven}}\n", "expect.collapse.mean", "such as 7 or '7 ± 0.5'"),
+        ("sweep: {samples: 2}\nexpect: {collapse: {mean: 7.1}}\n", "expect.collapse.mean", "could never pass"),
         ("sweep: {samples: 100000, grid: {timing.interval: [0.5, 1, 2]}}\n", "sweep", "runs; at most 200000"),
     ],
 )

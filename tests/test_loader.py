@@ -80,6 +80,37 @@ def test_collapse_expectation_as_a_user_writes_it(written, level, tolerance):
     assert (s.expect.collapse.level, s.expect.collapse.tolerance) == (level, tolerance)
 
 
+@pytest.mark.parametrize(
+    "written, message",
+    [
+        (
+            "'11±0.5'",
+            "'11±0.5' allows level 11 only: write 11; a fraction is for a sweep's statistics, such as collapse: {mean: '11 ± 0.5'}",
+        ),
+        ("'11 +- 1.5'", "allows levels 10 to 12, as '11±1' does: write that"),
+        ("'10.5±1'", "allows levels 10 to 11, which no whole 'N±T' gives: write '10±1' or '11±1'"),
+        ("10.5", "10.5 allows no whole level: write 10 or 11"),
+        ("'10.5'", "'10.5' allows no whole level: write 10 or 11"),
+    ],
+)
+def test_a_runs_collapse_level_is_whole_and_a_fraction_says_the_whole_form(written, message):
+    """A run collapses at a whole level, so a fraction in a run's ``collapse`` is refused, with
+    the whole form that allows the same levels (the same text in a sweep's mean is a fraction)."""
+    with pytest.raises(ScenarioError) as info:
+        scenario(f"stackdsl: 1\nstructure: {{tower: {{levels: 12}}}}\nexpect: {{collapse: {written}}}\n")
+    e = info.value
+    assert (e.field, e.line, e.column) == ("expect.collapse", 3, 20)
+    assert e.message.startswith("expected a whole level with an optional whole tolerance, such as 9, '9±1' or '9 +- 1'")
+    assert "a run collapses at a whole level" in e.message and message in e.message
+
+
+def test_a_fraction_in_a_runs_collapse_mapping_is_refused_at_its_field_with_why():
+    with pytest.raises(ScenarioError) as info:
+        scenario("stackdsl: 1\nstructure: {tower: {levels: 12}}\nexpect: {collapse: {level: 11, tolerance: 0.5}}\n")
+    assert (info.value.field, info.value.column) == ("expect.collapse.tolerance", 43)
+    assert "a run collapses at a whole level, so a level and its tolerance are whole numbers" in info.value.message
+
+
 def test_levels_and_impact_times():
     s = scenario(
         """

@@ -232,6 +232,8 @@ EXACT_FORMS = {
     'collapse: {mean: "5 ± 1"}': ("FAIL", "FAIL"),
     'collapse: {quantile: {q: 0.5, level: "2 ± 0.5"}}': ("FAIL", "PASS"),  # standing: the median "stands"
     'collapse: {quantile: {q: 0.25, level: "1 ± 1"}}': ("FAIL", "PASS"),
+    "collapse: {mean: 2}": ("FAIL", "PASS"),  # a level alone: ± 0, which an exact sweep decides
+    'collapse: {quantile: {q: 0.5, level: "2"}}': ("FAIL", "PASS"),
     'p_stands: ">= 0.9"': ("PASS", "FAIL"),
     'p_stands: "< 0.5"': ("FAIL", "PASS"),
     f'cells: [{{where: "{FALLS}", collapse: {{mean: "2 ± 0.5"}}}}]': (None, "PASS"),
@@ -290,3 +292,62 @@ def test_an_exact_sweep_with_a_mean_gives_a_verdict_on_the_command_line(tmp_path
     out = capsys.readouterr().out
     assert "PASS  " in out and "FAIL  " in out and "expected mean 4±0.5, measured mean 2.00 exact" in out
     assert junit.read_text().count("<testcase") == 2
+
+
+RANDOM = "stackdsl: 1\nstructure: {tower: {levels: 9}}\ntiming: {placement_error: 1 mm}\nsweep: {samples: 20}\n"
+
+
+@pytest.mark.parametrize(
+    "written, target, tolerance",
+    [("7", 7, 0), ("'7'", 7, 0), ("'7 ± 0'", 7, 0), ("{target: 7}", 7, 0), ("'7.1 ± 0.5'", 7.1, 0.5), ("'9±1'", 9, 1)],
+)
+def test_a_sweeps_mean_and_quantile_take_a_level_alone_as_within_0(written, target, tolerance):
+    for form, key in ((f"{{mean: {written}}}", "mean"), (f"{{quantile: {{q: 0.5, level: {written}}}}}", "quantile")):
+        collapse = parse_scenario(RANDOM + f"expect: {{collapse: {form}}}\n", "s.yaml").expect.collapse
+        within = collapse.mean if key == "mean" else collapse.quantile.level  # type: ignore[union-attr]
+        assert (within.target, within.tolerance) == (target, tolerance)
+
+
+@pytest.mark.parametrize("written", ["9", "'9±1'", "'9 +- 2'"])
+def test_the_same_text_means_the_same_levels_in_a_run_and_in_a_sweep(written):
+    run = parse_scenario(f"stackdsl: 1\nstructure: {{tower: {{levels: 9}}}}\nexpect: {{collapse: {written}}}\n").expect.collapse
+    mean = parse_scenario(RANDOM + f"expect: {{collapse: {{mean: {written}}}}}\n").expect.collapse.mean  # type: ignore[union-attr]
+    assert (run.level - run.tolerance, run.level + run.tolerance) == mean.levels()  # type: ignore[union-attr]
+
+
+@pytest.mark.parametrize(
+    "text, where, message",
+    [
+        (
+            RANDOM + "expect: {collapse: {mean: '7.1 ± 0'}}\n",
+            "expect.collapse.mean",
+            "a mean within ± 0 passes only when every sample that collapses does so at that level",
+        ),
+        (
+            RANDOM + "expect: {collapse: {quantile: {q: 0.25, level: 6.5}}}\n",
+            "expect.collapse.quantile.level",
+            "a quantile of collapse levels is one sample's level, a whole number from 1, and '6.5 ± 0' holds none",
+        ),
+        (
+            EXACT.format(expect="collapse: {mean: '1.4 ± 0.2'}"),
+            "expect.collapse.mean",
+            "this sweep draws nothing, so each cell's samples are one run",
+        ),
+        (
+            EXACT.format(expect=f'cells: [{{where: "{FALLS}", collapse: {{mean: "1.5 ± 0.4"}}}}]'),
+            "expect.cells[0].collapse.mean",
+            "'1.5 ± 0.4' holds none, so it could never pass",
+        ),
+    ],
+)
+def test_a_statistic_that_could_never_pass_is_refused_at_it(text, where, message):
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(text, "s.yaml")
+    assert info.value.field == where and message in info.value.message and info.value.line
+
+
+def test_a_fractional_mean_is_taken_where_samples_are_drawn():
+    """'1.4 ± 0.2' holds no whole level: refused when nothing is drawn (above), taken when the
+    placement error makes the samples differ, since a mean of several levels can lie there."""
+    text = EXACT.format(expect="collapse: {mean: '1.4 ± 0.2'}").replace("sweep:", "timing: {placement_error: 1 mm}\nsweep:")
+    assert parse_scenario(text, "s.yaml").template.random

@@ -8,11 +8,13 @@ Source: stackdsl's own (docs/design.md, words).
 from __future__ import annotations
 
 import difflib
+import math
 import re
 from collections.abc import Iterable, Sequence
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from pydantic import (
+    AfterValidator,
     BeforeValidator,
     ConfigDict,
     Discriminator,
@@ -37,6 +39,7 @@ from .grammar import (
     flag,
     given,
     json_pattern,
+    whole,
 )
 from .schema_require import Requirement
 from .spelling import spelled
@@ -48,24 +51,91 @@ else:
     StandsUntil = within(Time, time, 0.0, MAX_SIMULATED_TIME, "a time from 0 to 3600 s", ("", "a run lasts at most 3600 s"))
 
 
+_RUN_LEVEL = "a run collapses at a whole level"
+_STATISTIC_HINT = "a fraction is for a sweep's statistics, such as collapse: {{mean: '{0}'}}"
+
+
+def _whole_level(value: Any) -> Any:
+    """A collapse level or its tolerance in ``{level, tolerance}``: whole, as :func:`whole`, a
+    fraction refused with why."""
+    if isinstance(value, float) and math.isfinite(value) and not value.is_integer():
+        raise ValueError(
+            f"expected a whole number, got {spelled(value)}: {_RUN_LEVEL}, so a level and its tolerance are whole "
+            f"numbers; {_STATISTIC_HINT.format('7 ± 0.5')}"
+        )
+    return whole(value)
+
+
+WHOLE_LEVEL = BeforeValidator(_whole_level)
+
+
 class CollapseLevel(StrictModel):
     """Expected collapse level with a tolerance in levels."""
 
-    level: Annotated[int, Field(ge=1, le=MAX_LEVELS), WHOLE]
-    tolerance: Annotated[int, Field(ge=0, le=MAX_LEVELS), WHOLE] = 0
+    level: Annotated[int, Field(ge=1, le=MAX_LEVELS), WHOLE_LEVEL]
+    tolerance: Annotated[int, Field(ge=0, le=MAX_LEVELS), WHOLE_LEVEL] = 0
 
 
 def _collapse(value: Any) -> Any:
-    """``9``, ``"9±1"``, ``"9 +- 1"`` or ``{level: 9, tolerance: 1}``."""
+    """``9``, ``"9±1"``, ``"9 +- 1"`` or ``{level: 9, tolerance: 1}``: whole numbers, since a run
+    collapses at a whole level; a fraction (``"11±0.5"``, ``10.5``) is refused with the whole form
+    that allows the same levels, when there is one."""
     number = as_int(value)
     if number is not None:
         return {"level": number}
-    if isinstance(value, str):
+    fraction = None
+    if isinstance(value, float) and not (math.isfinite(value) and value >= 0):
+        raise ValueError(f"expected a level such as 9, '9±1' or '9 +- 1', got {spelled(value)}")
+    if isinstance(value, float):
+        fraction = (value, 0.0)
+    elif isinstance(value, str):
         match = re.fullmatch(COLLAPSE, value)
-        if not match:
-            raise ValueError(f"expected a level such as '9±1', '9 +- 1' or 9, got {spelled(value)}")
-        return {"level": int(match[1]), "tolerance": int(match[2] or 0)}
+        if match:
+            return {"level": int(match[1]), "tolerance": int(match[2] or 0)}
+        decimal = re.fullmatch(PLUS_MINUS, value)
+        if not decimal:
+            raise ValueError(f"expected a level such as 9, '9±1' or '9 +- 1', got {spelled(value)}")
+        fraction = (float(decimal[1]), float(decimal[2] or 0))
+    if fraction is not None:
+        target, tolerance = fraction
+        raise ValueError(
+            f"expected a whole level with an optional whole tolerance, such as 9, '9±1' or '9 +- 1', got "
+            f"{spelled(value)}: {_RUN_LEVEL}, so {_same_levels(value, target, tolerance)}"
+            + (f"; {_STATISTIC_HINT.format(f'{target:g} ± {tolerance or 0.5:g}')}" if target >= 1 else "")
+        )
     return value
+
+
+def _same_levels(value: Any, target: float, tolerance: float, unit: str = "level") -> str:
+    """What a fractional ``target ± tolerance`` allows of whole levels (or of bricks, ``unit``
+    ``"brick"``, counted from 0), and the whole form that allows the same, if any.
+
+    >>> _same_levels("11±0.5", 11, 0.5), _same_levels("10.5", 10.5, 0)
+    ("'11±0.5' allows level 11 only: write 11", "'10.5' allows no whole level: write 10 or 11")
+    >>> _same_levels("10.5±1", 10.5, 1)
+    "'10.5±1' allows levels 10 to 11, which no whole 'N±T' gives: write '10±1' or '11±1'"
+    >>> _same_levels("3±1.5", 3, 1.5, "brick")
+    "'3±1.5' allows 2 to 4 bricks, as '3±1' does: write that"
+    """
+    bricks = unit == "brick"
+    low, high = max(math.ceil(target - tolerance - 1e-9), 0 if bricks else 1), math.floor(target + tolerance + 1e-9)
+
+    def named(first: int, last: int) -> str:
+        if bricks:
+            return f"{first} bricks" if first == last else f"{first} to {last} bricks"
+        return f"level {first}" if first == last else f"levels {first} to {last}"
+
+    said = spelled(value)
+    if low > high:
+        least = 0 if bricks else 1
+        nearest = " or ".join(str(n) for n in sorted({max(math.floor(target), least), max(math.ceil(target), least)}))
+        return f"{said} allows no whole {'count' if bricks else 'level'}: write {nearest}"
+    if (low + high) % 2:
+        return f"{said} allows {named(low, high)}, which no whole 'N±T' gives: write '{low}±1' or '{high}±1'"
+    middle, half = (low + high) // 2, (high - low) // 2
+    if half == 0:
+        return f"{said} allows {named(middle, middle)} only: write {middle}"
+    return f"{said} allows {named(low, high)}, as '{middle}±{half}' does: write that"
 
 
 SELECTOR = "[A-Za-z_][A-Za-z0-9_.-]{0,40}"
@@ -177,6 +247,13 @@ def _toppled(value: Any) -> Any:
         return {"count": "all"}
     if isinstance(value, str):
         match = re.fullmatch(COLLAPSE, value)
+        decimal = re.fullmatch(PLUS_MINUS, value)
+        if not match and decimal:
+            target, tolerance = float(decimal[1]), float(decimal[2] or 0)
+            raise ValueError(
+                f"expected a whole number of bricks such as 20, '20±1' or 'all', got {spelled(value)}: bricks are "
+                f"counted whole, so {_same_levels(value, target, tolerance, 'brick')}"
+            )
         if not match:
             hint = "; did you mean 'all'?" if value.strip().lower() == "all" else ""
             raise ValueError(f"expected a number of bricks such as 20, '20±1' or 'all', got {spelled(value)}{hint}")
@@ -202,43 +279,86 @@ class Toppled(StrictModel):
 
 
 def _plus_minus(value: Any) -> Any:
-    """``"7 ± 0.5"`` (or ``+-``, ``+/-``) -> ``{"target": 7.0, "tolerance": 0.5}``."""
+    """``"7 ± 0.5"`` (or ``+-``, ``+/-``) -> ``{"target": 7.0, "tolerance": 0.5}``; a level
+    alone, ``7`` or ``"7"``, is within ± 0, as a run's ``collapse: 7`` is."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value):
+        return {"target": value, "tolerance": 0.0}
     match = re.fullmatch(PLUS_MINUS, value) if isinstance(value, str) else None
     if match:
-        return {"target": float(match[1]), "tolerance": float(match[2])}
+        return {"target": float(match[1]), "tolerance": float(match[2] or 0)}
     if isinstance(value, dict):
         return value
-    raise ValueError(f"expected a level and a tolerance such as '7 ± 0.5', got {spelled(value)}")
+    raise ValueError(f"expected a level, alone (± 0) or with a tolerance, such as 7 or '7 ± 0.5', got {spelled(value)}")
 
 
 class Within(StrictModel):
-    """A number of levels within a tolerance: written ``"7 ± 0.5"``."""
+    """A number of levels within a tolerance: written ``"7 ± 0.5"``, or ``7`` for ± 0."""
 
     target: Annotated[float, Field(ge=0, le=MAX_LEVELS)]
-    tolerance: Annotated[float, Field(gt=0, le=MAX_LEVELS)]
+    tolerance: Annotated[float, Field(ge=0, le=MAX_LEVELS)] = 0.0
+
+    def levels(self) -> tuple[int, int] | None:
+        """The first and last whole collapse level (1 or more) within the tolerance, or None."""
+        low = max(math.ceil(self.target - self.tolerance - 1e-9), 1)
+        high = math.floor(self.target + self.tolerance + 1e-9)
+        return (low, high) if low <= high else None
+
+    def text(self) -> str:
+        """As a file writes it: ``"7 ± 0.5"``."""
+        return f"{self.target:g} ± {self.tolerance:g}"
 
 
 PlusMinus = Annotated[
     Within,
     BeforeValidator(_plus_minus),
-    AlsoAccepts(({"type": "string", "pattern": f"^{PLUS_MINUS}$"},), "a level and a tolerance: '7 ± 0.5'"),
+    AlsoAccepts(
+        ({"type": "number", "minimum": 0, "maximum": MAX_LEVELS}, {"type": "string", "pattern": f"^{PLUS_MINUS}$"}),
+        "a level with a tolerance, '7 ± 0.5', or alone for ± 0: 7",
+    ),
 ]
+
+
+def _whole_quantile(level: Within) -> Within:
+    """A quantile's ``level``: one that holds a whole level, since a quantile of collapse levels
+    is one sample's level (else the expectation could never pass)."""
+    if level.levels() is None:
+        raise ValueError(
+            f"a quantile of collapse levels is one sample's level, a whole number from 1, and '{level.text()}' holds "
+            f"none, so it could never pass: write a whole level such as {max(round(level.target), 1)}, or a "
+            "tolerance that reaches one"
+        )
+    return level
+
+
+def _reachable_mean(mean: Within) -> Within:
+    """A sweep's ``mean``: within ± 0 only of a whole level (an interval of no width comes only from
+    samples that all collapse at one level), and reaching level 1 at least."""
+    if mean.tolerance == 0 and mean.levels() is None:
+        raise ValueError(
+            f"a mean within ± 0 passes only when every sample that collapses does so at that level, a whole number "
+            f"from 1, so '{mean.text()}' could never pass: write a whole level such as {max(round(mean.target), 1)}, "
+            f"or the tolerance the mean may be off by, such as '{mean.target:g} ± 0.5'"
+        )
+    if mean.target + mean.tolerance < 1:
+        raise ValueError(f"collapse levels start at 1, so a mean of '{mean.text()}' could never pass: give a level from 1")
+    return mean
 
 
 class Quantile(StrictModel):
     """The ``q`` quantile of the collapse level (0 < q < 1; 0.5: the median) within ``level``."""
 
     q: Annotated[float, Field(gt=0, lt=1)]
-    level: PlusMinus
+    level: Annotated[PlusMinus, AfterValidator(_whole_quantile)]
 
 
 class CollapseStatistic(StrictModel):
     """A sweep's collapse level as a statistic: its ``mean`` over the samples that collapsed, or
-    a ``quantile`` (standing samples count as above every level), each within a tolerance."""
+    a ``quantile`` (standing samples count as above every level), each within a tolerance (a
+    level alone: ± 0)."""
 
     model_config = ConfigDict(json_schema_extra={"oneOf": [given("mean"), given("quantile")]})
 
-    mean: PlusMinus | None = None
+    mean: Annotated[PlusMinus, AfterValidator(_reachable_mean)] | None = None
     quantile: Quantile | None = None
 
     @model_validator(mode="after")

@@ -36,7 +36,8 @@ LEVEL_RANGE = f"{SPACE}([0-9]+){SPACE}(?:(?:-|\\.\\.){SPACE}([0-9]+))?{SPACE}"  
 AFTER_LEVEL = f"{SPACE}after{WHITESPACE}+level{WHITESPACE}+([0-9]+){SPACE}"  # "after level 13"
 AFTER_PREVIOUS = f"{SPACE}after{WHITESPACE}+the{WHITESPACE}+previous{WHITESPACE}+action{SPACE}"  # an action's only
 _DECIMAL = "([0-9]+(?:\\.[0-9]*)?)"
-PLUS_MINUS = f"{SPACE}{_DECIMAL}{SPACE}(?:±|\\+-|\\+/-){SPACE}{_DECIMAL}{SPACE}"  # "7 ± 0.5", "7 +- 0.5"
+# "7 ± 0.5", "7 +- 0.5", "7" (± 0): a sweep's statistic; a run's level takes whole numbers only (COLLAPSE)
+PLUS_MINUS = f"{SPACE}{_DECIMAL}{SPACE}(?:(?:±|\\+-|\\+/-){SPACE}{_DECIMAL})?{SPACE}"
 BOUND = f"{SPACE}(>=|<=|>|<){SPACE}([0-9]*\\.?[0-9]+){SPACE}"  # ">= 0.9"
 BODY_ID = r"^[A-Za-z_](?:[A-Za-z0-9_.-]{0,38}[A-Za-z0-9_-])?$"
 """A body's own id (a brick placed by hand, a projectile, a pusher): a letter or '_' first, since

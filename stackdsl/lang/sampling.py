@@ -239,6 +239,7 @@ class Template:
         scenario = self._validate(self._data(c, k, attempt), self._blame(c, around=True), self._note(c, k))
         if checked:
             self._check_cells(scenario.expect.cells or [])
+            self._check_exact_means(scenario.expect)
         if self.grid:  # what the compiler refuses in a field the grid filled in is the grid value's fault
             scenario._source = self._cell_source(c)
         scenario._template = self
@@ -352,6 +353,31 @@ class Template:
                     f"are {shown} (a condition reads them in SI units and degrees); change the condition or the grid",
                 )
         self._check_bounds(rules, conditions, cells)
+
+    def _check_exact_means(self, expect: Any) -> None:
+        """In a sweep that draws nothing, each cell's samples are one run repeated, so a mean
+        collapse level is the whole level that run collapses at: a ``mean`` whose tolerance
+        holds no whole level could never pass. (Within ± 0, and a quantile's level, are refused
+        so in any sweep, by the language.)
+
+        Raises:
+            ScenarioError: at the ``mean``.
+        """
+        written: list[tuple[FieldPath, Any]] = [(("expect", "collapse", "mean"), getattr(expect.collapse, "mean", None))]
+        written += [
+            (("expect", "cells", i, "collapse", "mean"), getattr(rule.collapse, "mean", None))
+            for i, rule in enumerate(expect.cells or [])
+        ]
+        means = [(at, mean) for at, mean in written if mean is not None and mean.levels() is None]
+        if not means or self.random:
+            return
+        at, mean = means[0]
+        raise self.source.error(
+            at,
+            f"this sweep draws nothing, so each cell's samples are one run and its mean collapse level is the whole "
+            f"level that run collapses at; '{mean.text()}' holds none, so it could never pass: write a whole level "
+            f"such as {max(round(mean.target), 1)} (± 0), or a tolerance that reaches one",
+        )
 
     def _check_bounds(self, rules: list[Any], conditions: list[Condition], cells: list[dict[str, float]]) -> None:
         """No grid cell may be held to two ``p_stands`` bounds that no probability meets

@@ -184,7 +184,8 @@ DOCS: dict[str, dict[str, tuple[str, Any]]] = {
     "Expect": {
         "collapse": (
             "The collapse level (the highest level placed when the first brick moved past the collapse threshold), "
-            "with a tolerance: 9, '9±1' or {level, tolerance}; in a sweep, {mean: ...} or {quantile: ...}.",
+            "a whole level with an optional whole tolerance: 9, '9±1' or {level, tolerance}; in a sweep, "
+            "{mean: ...} or {quantile: ...}, where a fraction may be given.",
             "9±1",
         ),
         "stands": ("true: no structure brick collapses.", True),
@@ -197,11 +198,15 @@ DOCS: dict[str, dict[str, tuple[str, Any]]] = {
         "p_stands": ("A sweep's bound on P(stands), decided by its 95% interval: '>= 0.9'.", ">= 0.9"),
     },
     "CollapseLevel": {
-        "level": ("The expected collapse level.", 9),
-        "tolerance": ("How many levels it may be off (default 0).", 1),
+        "level": ("The expected collapse level, a whole number.", 9),
+        "tolerance": ("How many whole levels it may be off (default 0).", 1),
     },
     "CollapseStatistic": {
-        "mean": ("The mean collapse level over the samples that collapsed, with a tolerance: '7.1 ± 1'.", "7.1 ± 1"),
+        "mean": (
+            "The mean collapse level over the samples that collapsed, with a tolerance: '7.1 ± 1', or a whole level "
+            "alone for ± 0: 7.",
+            "7.1 ± 1",
+        ),
         "quantile": (
             "A quantile q of the collapse level with a tolerance: {q: 0.5, level: '6 ± 1'}.",
             {"q": 0.5, "level": "6 ± 1"},
@@ -209,11 +214,14 @@ DOCS: dict[str, dict[str, tuple[str, Any]]] = {
     },
     "Within": {
         "target": ("The expected value.", 7.1),
-        "tolerance": ("How far it may be off.", 1),
+        "tolerance": ("How far it may be off (default 0).", 1),
     },
     "Quantile": {
         "q": ("The quantile, between 0 and 1 (0.5: the median).", 0.5),
-        "level": ("The expected level at that quantile, with a tolerance.", "6 ± 1"),
+        "level": (
+            "The expected level at that quantile, with a tolerance, or alone for ± 0 (it must hold a whole level).",
+            "6 ± 1",
+        ),
     },
     "Probability": {
         "op": ("The comparison: >=, <=, > or <.", ">="),

@@ -116,6 +116,97 @@ def test_an_exported_standing_tower_stands_in_mujoco(tmp_path):
     assert model.body_mass[1] == pytest.approx(460 * 0.12 * 0.024 * 0.008, rel=1e-6)  # the scenario's pine
 
 
+STAIRCASE = (
+    "stackdsl: 1\nname: staircase\nstructure: {tower: {levels: 9, bricks_per_layer: 1, turn: 0, shift: 13 mm}}\n"
+    "expect: {stands: true}\n"
+)
+FOUR_STACK = "stackdsl: 1\nname: four stack\nstructure: {tower: {levels: 6}}\nexpect: {stands: true}\n"
+
+
+def _stepped(path: Path, seconds: float) -> float:
+    """Metres the farthest body of the MJCF at ``path`` moves in ``seconds`` of plain ``mj_step``."""
+    model = mujoco.MjModel.from_xml_path(str(path))
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    start = data.xpos[1:].copy()
+    for _ in range(round(seconds / model.opt.timestep)):
+        mujoco.mj_step(model, data)
+    return float(np.linalg.norm(data.xpos[1:] - start, axis=1).max())
+
+
+@needs_mujoco
+@pytest.mark.parametrize("text", [STAIRCASE, FOUR_STACK], ids=["staircase-1.5mm-margin", "four-stack"])
+def test_a_standing_scene_exported_at_its_end_stands_in_plain_mujoco(tmp_path, text):
+    """The single-file staircase shifted 13 mm a level stands 1.5 mm inside its tipping margin
+    (levels 2 to 9 have their centre of mass at 58.5 mm, level 1's edge at 60). At MuJoCo's
+    defaults (pyramidal cones, solref 20 ms) the exported file fell 81 mm in 2 s; with the MuJoCo
+    options and contacts stackdsl's tuned MuJoCo mode uses, it moves a fraction of a millimetre."""
+    scenario, out = tmp_path / "scene.yaml", tmp_path / "scene.xml"
+    scenario.write_text(text)
+    assert main(["export", str(scenario), "--at", "end", "--mjcf", str(out)]) == 0
+    assert _stepped(out, 2.0) < 1e-3  # every body: less than 1 mm in 2 s
+
+
+@needs_mujoco
+@pytest.mark.parametrize(
+    ("engine", "timestep", "cone", "solref"),
+    [
+        ("", 0.002, "ELLIPTIC", 0.004),  # a run on pybullet: MuJoCo's tuned mode
+        ("engine: {backend: mujoco, mode: tuned, timestep: 1 ms}\n", 0.001, "ELLIPTIC", 0.004),  # the run's own
+        ("engine: {backend: mujoco, mode: raw}\n", 0.002, "PYRAMIDAL", 0.02),
+        ("engine: {backend: mujoco}\n", 0.002, "ELLIPTIC", 0.004),  # extension mode: MuJoCo's tuned mode
+    ],
+    ids=["pybullet", "mujoco-tuned-1ms", "mujoco-raw", "mujoco-extension"],
+)
+def test_the_mjcf_carries_the_mujoco_settings_its_docs_name_and_says_which(tmp_path, engine, timestep, cone, solref):
+    scenario, out = tmp_path / "scene.yaml", tmp_path / "scene.xml"
+    scenario.write_text(TOWER + engine)
+    assert main(["export", str(scenario), "--mjcf", str(out)]) == 0
+    model = mujoco.MjModel.from_xml_path(str(out))
+    assert model.opt.timestep == pytest.approx(timestep) and model.opt.cone == getattr(mujoco.mjtCone, f"mjCONE_{cone}")
+    assert model.opt.iterations == 100 and model.opt.gravity[2] == pytest.approx(-9.81)
+    tuned = cone == "ELLIPTIC"
+    assert model.opt.impratio == pytest.approx(10.0 if tuned else 1.0)
+    assert model.opt.integrator == (mujoco.mjtIntegrator.mjINT_IMPLICITFAST if tuned else mujoco.mjtIntegrator.mjINT_EULER)
+    assert np.allclose(model.geom_solref[:, 0], solref)  # every geom, the ground too
+    assert np.allclose(model.geom_solimp[:, :3], (0.99, 0.999, 1e-4) if tuned else (0.9, 0.95, 0.001))
+    head = out.read_text().splitlines()[1]
+    assert head.startswith("  <!--") and f"timestep {timestep:g} s" in head
+    assert ("the run's own MuJoCo settings" in head) == (engine != "" and "extension" not in engine and "mode" in engine)
+
+
+@needs_mujoco
+def test_two_materials_touch_at_the_geometric_mean_of_their_friction_as_in_the_mujoco_world(tmp_path):
+    """Oak bricks (friction 0.8, restitution 0.1) on a pine ground (0.5, 0) with one pine brick on
+    top: each contact's friction is the geometric mean of the two materials', as stackdsl's own
+    MuJoCo world declares it, and a restitution softens the contact's damping."""
+    from stackdsl.engines.mujoco.materials import damping_ratio
+
+    scenario, out = tmp_path / "oak.yaml", tmp_path / "oak.xml"
+    scenario.write_text(
+        "stackdsl: 1\nmaterials: {oak: {density: 700 kg/m^3, friction: 0.8, restitution: 0.1}}\n"
+        "brick_types: {oak: {size: [120 mm, 24 mm, 8 mm], material: oak}}\n"
+        "structure:\n  bricks:\n    - {at: [0, 0, 4 mm], brick: oak}\n    - {at: [0, 0, 12 mm], yaw: 90, brick: oak}\n"
+        "    - {at: [0, 0, 20 mm]}\nexpect: {stands: true}\n"
+    )
+    assert main(["export", str(scenario), "--mjcf", str(out)]) == 0
+    model = mujoco.MjModel.from_xml_path(str(out))
+    data = mujoco.MjData(model)
+    for _ in range(50):
+        mujoco.mj_step(model, data)
+    names = {int(model.geom(n).id): n for n in ("ground", "b001", "b002", "b003")}
+    material = {"ground": (0.5, 0.0), "b001": (0.8, 0.1), "b002": (0.8, 0.1), "b003": (0.5, 0.0)}
+    seen = set()
+    for c in range(data.ncon):
+        one, other = names[int(data.contact.geom1[c])], names[int(data.contact.geom2[c])]
+        (mu1, e1), (mu2, e2) = material[one], material[other]
+        assert data.contact.friction[c][0] == pytest.approx(np.sqrt(mu1 * mu2)), (one, other)
+        assert data.contact.solref[c][1] == pytest.approx(damping_ratio(np.sqrt(e1 * e2), 2.0)), (one, other)
+        seen.add(frozenset((one, other)))
+    assert seen == {frozenset(p) for p in (("ground", "b001"), ("b001", "b002"), ("b002", "b003"))}
+    assert _stepped(out, 1.0) < 1e-3
+
+
 @pytest.mark.parametrize(
     ("argv", "message"),
     [

@@ -13,13 +13,16 @@ import argparse
 import os
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..lang.errors import ScenarioError
 from ..lang.extras import installed, missing
 from .args import COMMANDS, at_type, same_file
 from .draw import _SOURCE, _wrote, trajectory_of
 from .draw import NAMES as DRAWING
+
+if TYPE_CHECKING:
+    from ..compile.program import Program
 
 #: Exit status of ``view`` where there is no display to open a window on (as bad input: the
 #: command cannot do what was asked here).
@@ -164,7 +167,9 @@ def _add_export(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -
         "a body with a free joint, the ground a plane; open it with 'python -m mujoco.viewer --mjcf=OUT.xml' or "
         "MuJoCo's simulate) and/or as a URDF (--urdf: one robot, the ground its root link, each brick on a "
         "floating joint; MuJoCo makes these free joints, pybullet fixed ones). Masses and friction are the "
-        "scenario's (a trajectory file: the built-in pine's); geoms are coloured by state. " + _SOURCE,
+        "scenario's (a trajectory file: the built-in pine's); geoms are coloured by state. The XML carries MuJoCo's "
+        "options and contacts (timestep, cone, impratio, integrator, solref, solimp, friction per material pair): "
+        "the run's own on MuJoCo raw or tuned, else MuJoCo's tuned mode; a comment in the file says which. " + _SOURCE,
         epilog=epilog,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
@@ -182,7 +187,8 @@ def _add_export(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -
 
 
 def _export(args: argparse.Namespace) -> int:
-    from ..draw.export import mjcf, snapshot, urdf, write_text
+    from ..compile.program import Fixture, Launch, Place
+    from ..draw.export import mjcf, recorded_engine, snapshot, urdf, write_text
 
     outputs = [(Path(path), kind) for path, kind in ((args.mjcf, "mjcf"), (args.urdf, "urdf")) if path]
     if not outputs:
@@ -195,17 +201,21 @@ def _export(args: argparse.Namespace) -> int:
             raise ScenarioError("this is a folder: give the file to write", file=option)
         if same_file(out, args.file):
             raise ScenarioError("this is the file being exported: give another file to write", file=option)
-    specs, ground_friction = _specs(args)
+    program = _program(args)
     trajectory = trajectory_of(args)
     at = args.at or ("collapse" if trajectory.collapse_time is not None else "end")
     try:
-        scene = snapshot(trajectory, at, specs, ground_friction)
+        if program is None:  # a trajectory file: pine, and the engine its meta records
+            scene, engine = snapshot(trajectory, at), recorded_engine(trajectory.meta)
+        else:
+            specs = {a.id: a.brick for a in (*program.fixtures, *program.actions) if isinstance(a, (Place, Launch, Fixture))}
+            scene = snapshot(trajectory, at, specs, program.ground_friction, program.ground_restitution)
+            engine = program.engine
     except ValueError as exc:
         raise ScenarioError(str(exc), file="--at") from None
-    timestep = trajectory.meta.get("timestep")
     status = 0
     for out, kind in outputs:
-        text = mjcf(scene, timestep=timestep if isinstance(timestep, float) else None) if kind == "mjcf" else urdf(scene)
+        text = mjcf(scene, engine=engine) if kind == "mjcf" else urdf(scene)
         status |= _wrote(
             write_text(text, out),
             trajectory,
@@ -214,19 +224,15 @@ def _export(args: argparse.Namespace) -> int:
     return status
 
 
-def _specs(args: argparse.Namespace) -> tuple[dict[str, Any], float]:
-    """The bricks' specs (mass, friction) and the ground's friction, from a scenario file; none
-    from a trajectory file (which keeps only sizes)."""
-    from ..draw.export import PINE_FRICTION
-
+def _program(args: argparse.Namespace) -> Program | None:
+    """The compiled scenario of a scenario file (its bricks' specs, materials and engine); None
+    for a trajectory file (which keeps only sizes)."""
     if Path(args.file).suffix.lower() == ".npz":
-        return {}, PINE_FRICTION
+        return None
     from ..compile.compiler import compile_scenario
-    from ..compile.program import Launch, Place
     from ..lang.loader import load_scenario
 
-    program = compile_scenario(load_scenario(args.file), args.mode, args.model, args.backend)
-    return {a.id: a.brick for a in program.actions if isinstance(a, (Place, Launch))}, program.ground_friction
+    return compile_scenario(load_scenario(args.file), args.mode, args.model, args.backend)
 
 
 _ADD = {"replay": _add_replay, "view": _add_view, "export": _add_export}

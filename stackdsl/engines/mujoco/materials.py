@@ -10,6 +10,9 @@
 * Density: each body's mass is the brick's, with the inertia of a uniform box.
 * Collision groups: one bit of ``contype`` and ``conaffinity`` per material, at most 30.
 
+:meth:`Materials.contact` and :meth:`Materials.pair` give the values alone, which the world
+sets on its ``MjSpec`` and an exported MJCF writes (:mod:`stackdsl.draw.export`).
+
 Source: stackdsl's own, on MuJoCo 4.0's Python bindings.
 """
 
@@ -17,6 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 from ..protocol import BrickSpec
@@ -39,6 +43,22 @@ def damping_ratio(restitution: float, default: float) -> float:
         return default
     log_e = math.log(min(restitution, 1.0 - 1e-9))
     return -log_e / math.sqrt(math.pi**2 + log_e**2)
+
+
+@dataclass(frozen=True)
+class Contact:
+    """MuJoCo's contact values of a geom (or of an explicit pair of geoms).
+
+    Attributes:
+        bit: ``contype`` and ``conaffinity`` (one bit a material; 0 for a pair).
+        friction: a geom's (sliding, torsional, rolling) or a pair's five coefficients.
+        solref: (time constant s, damping ratio); solimp: (d0, dwidth, width m, midpoint, power).
+    """
+
+    bit: int
+    friction: tuple[float, ...]
+    solref: tuple[float, float]
+    solimp: tuple[float, ...]
 
 
 class Materials:
@@ -70,13 +90,36 @@ class Materials:
             self._groups[key] = len(self._groups)
         return self._groups[key]
 
+    def contact(self, friction: float, restitution: float) -> Contact:
+        """The contact values of a geom of a material: its collision bit, friction (sliding,
+        torsional, rolling), ``solref`` and ``solimp``."""
+        e = self._engine
+        return Contact(
+            bit=1 << self.group(friction, restitution),
+            friction=(friction, 0.005, 0.0001),
+            solref=(e.solref[0], damping_ratio(restitution, e.solref[1])),
+            solimp=(*e.solimp, 0.5, 2.0),
+        )
+
+    def pair(self, mine: tuple[float, float], other: tuple[float, float]) -> Contact:
+        """The explicit contact pair of two materials, each (friction, restitution): the geometric
+        means of their coefficients; ``bit`` 0 (a pair collides whatever the geoms' bits)."""
+        e = self._engine
+        mu, restitution = math.sqrt(mine[0] * other[0]), math.sqrt(mine[1] * other[1])
+        return Contact(
+            bit=0,
+            friction=(mu, mu, 0.005, 0.0001, 0.0001),
+            solref=(e.solref[0], damping_ratio(restitution, e.solref[1])),
+            solimp=(*e.solimp, 0.5, 2.0),
+        )
+
     def surface(self, geom: Any, friction: float, restitution: float) -> None:
         """Friction, contact softness and collision group of ``geom`` (an ``MjsGeom``) for its material."""
-        e = self._engine
-        geom.contype = geom.conaffinity = 1 << self.group(friction, restitution)
-        geom.friction = [friction, 0.005, 0.0001]
-        geom.solref = [e.solref[0], damping_ratio(restitution, e.solref[1])]
-        geom.solimp = [*e.solimp, 0.5, 2.0]
+        c = self.contact(friction, restitution)
+        geom.contype = geom.conaffinity = c.bit
+        geom.friction = list(c.friction)
+        geom.solref = list(c.solref)
+        geom.solimp = list(c.solimp)
 
     def pairs(self, spec: Any, body: int, brick: BrickSpec, bricks: Sequence[BrickSpec]) -> None:
         """Explicit contact pairs in ``spec`` (an ``MjSpec``) between brick ``body``'s geoms
@@ -87,14 +130,12 @@ class Materials:
             return  # one material in the scene so far: MuJoCo's own rule gives its coefficient
         others = [("ground", self._ground)]
         others += [(f"{s}{i}", (b.friction, b.restitution)) for i, b in enumerate(bricks, 1) if i != body for s in "fh"]
-        e = self._engine
         for name, material in others:
             if material == mine:
                 continue
-            mu = math.sqrt(mine[0] * material[0])
-            restitution = math.sqrt(mine[1] * material[1])
+            c = self.pair(mine, material)
             for own in (f"f{body}", f"h{body}"):
                 pair = spec.add_pair(geomname1=own, geomname2=name)
-                pair.friction = [mu, mu, 0.005, 0.0001, 0.0001]
-                pair.solref = [e.solref[0], damping_ratio(restitution, e.solref[1])]
-                pair.solimp = [*e.solimp, 0.5, 2.0]
+                pair.friction = list(c.friction)
+                pair.solref = list(c.solref)
+                pair.solimp = list(c.solimp)

@@ -237,7 +237,7 @@ def _run_scenario_item(request: pytest.FixtureRequest, scenario_golden: Any) -> 
     failed = [v for v in verdicts if not v.passed]
     lines: list[str] = []
     if failed:
-        lines = [f"{path.name}: expected {v.expected}, measured {v.measured}" for v in failed]
+        lines = [line if v.at else f"{path.name}: {line}" for v in failed for line in v.lines()]
         lines += [f"  {line}" for line in explain(scenario.expect, outcome, program.collapse_threshold)]
         lines.append(f"more: stackdsl run {shlex.quote(shown)}")
         lines += _kept_golden(request, scenario_golden, path, outcome.golden())
@@ -260,7 +260,7 @@ def _sweep_test(request: pytest.FixtureRequest, scenario: Any, program: Any, sho
     be decided PASS in every grid cell; the golden snapshot holds every sample's collapse level,
     one line a cell (sample k of a cell is the same run on any machine)."""
     from .batch.sweep import SweepOptions, collect, run_sweep
-    from .batch.sweep_out import by_cell, verdicts
+    from .batch.sweep_out import by_cell, failure_lines, verdicts
 
     path = Path(request.node.path)
     template = scenario.template
@@ -275,15 +275,8 @@ def _sweep_test(request: pytest.FixtureRequest, scenario: Any, program: Any, sho
     golden = {"scenario": program.name, "mode": program.engine.mode, "samples": template.samples}
     for c, rs in enumerate(by_cell(results, template.cells)):
         golden[f"cell {c}"] = {"grid": template.cell(c), "collapse_levels": [r.collapse_level for r in rs]}
-    failed = [(c, v) for c, v in verdicts(template, scenario.expect, results) if v.outcome != "PASS"]
-    if failed:
-        lines = [
-            f"{path.name}: {v.outcome}"
-            + (f" in cell {c} ({template.label(c)})" if template.grid else "")
-            + f": expected {v.expected}, measured {v.measured}"
-            + (f"; about {v.samples_to_decide} samples would decide it" if v.samples_to_decide else "")
-            for c, v in failed
-        ]
+    lines = failure_lines(template, scenario.expect, verdicts(template, scenario.expect, results), f"{path.name}: ")
+    if lines:
         lines.append(f"more: stackdsl sweep {shlex.quote(shown)}")
         pytest.fail("\n".join([*lines, *_kept_golden(request, scenario_golden, path, golden)]), pytrace=False)
     if missing := _no_golden_yet(request, path, shown):

@@ -80,7 +80,8 @@ def test_check_failing_expectation_exits_1_and_says_what_moved(tmp_path, capsys)
     out = capsys.readouterr().out.splitlines()
     fail = next(i for i, line in enumerate(out) if line.startswith("FAIL"))
     assert "b.yaml" in out[fail] and "collapse 2" in out[fail]
-    stood, more = out[fail + 1], out[fail + 2]
+    at, stood, more = out[fail + 1], out[fail + 4], out[fail + 5]  # the expectation, its line and caret, why
+    assert at == f"      {tmp_path / 'b.yaml'}:3:10: expect.collapse: expected collapse 2, measured stands"
     assert stood.startswith("      stood: the largest displacement") and " mm, brick L0" in stood and "(level " in stood
     assert more == f"      more: stackdsl run {tmp_path / 'b.yaml'} --mode raw"
     assert out[-1].startswith("2 scenarios: 1 passed, 1 failed")
@@ -204,8 +205,69 @@ def test_junit_xml_has_a_testcase_per_scenario_and_the_failure_text(tmp_path, ca
     cases = {Path(c.get("name")).name: c for c in suite.findall("testcase")}
     assert cases["a.yaml"].find("failure") is None and cases["a.yaml"].get("classname") == "stackdsl.pybullet.extension"
     failure = cases["b.yaml"].find("failure")
-    assert failure.get("message") == "expected collapse 2, measured stands"
-    assert failure.text.startswith("stood:") and failure.text.endswith(f"more: stackdsl run {tmp_path / 'b.yaml'}")
+    assert failure.get("message") == f"{tmp_path / 'b.yaml'}:3:10: expected collapse 2, measured stands"
+    assert failure.text.startswith(f"{tmp_path / 'b.yaml'}:3:10: expect.collapse: expected collapse 2, measured stands\n")
+    assert "\nstood:" in failure.text and failure.text.endswith(f"more: stackdsl run {tmp_path / 'b.yaml'}")
+
+
+# levels 1-2 stay and level 3 does too: 'moved' and 'toppled' fail, 'stays' holds
+THREE_EXPECTED = """stackdsl: 1
+structure: {tower: {levels: 3}}
+expect:
+  stays: 1-2
+  moved: 3
+  toppled: "2 +- 1"
+"""
+
+
+def test_each_failed_expectation_points_at_its_line_in_check_json_junit_and_run(tmp_path, capsys, monkeypatch):
+    """As a parse error does: file:line:col of the expectation's key, the field, then the line
+    and a caret under it; the held one ('stays') is not shown."""
+    monkeypatch.chdir(tmp_path)
+    Path("t.yaml").write_text(THREE_EXPECTED)
+    moved = "t.yaml:5:3: expect.moved: expected level 3 moved, measured L03.1, L03.2 stayed"
+    toppled = "t.yaml:6:3: expect.toppled: expected 2±1 toppled, measured 0 of 6 toppled"
+    assert main(["check", "t.yaml", "-j", "1", "--junit-xml", "j.xml"]) == 1
+    out = capsys.readouterr().out.splitlines()
+    at = out.index(f"      {moved}")
+    assert out[at + 1 : at + 6] == [
+        " " * 12 + "moved: 3",
+        " " * 12 + "^",
+        f"      {toppled}",
+        " " * 12 + 'toppled: "2 +- 1"',
+        " " * 12 + "^",
+    ]
+    assert not any("expect.stays" in line for line in out)
+    failure = ET.parse("j.xml").getroot().find("testsuite/testcase/failure")
+    assert failure.get("message").startswith("t.yaml:5:3: expected ")
+    assert failure.text.startswith(f"{moved}\n      moved: 3\n      ^\n{toppled}\n")
+    assert main(["check", "t.yaml", "-j", "1", "--json"]) == 1
+    verdicts = json.loads(capsys.readouterr().out)["results"][0]["verdicts"]
+    assert [(v["name"], v["passed"], v["at"]) for v in verdicts] == [
+        ("stays", True, {"file": "t.yaml", "line": 4, "column": 3, "source_line": "  stays: 1-2"}),
+        ("moved", False, {"file": "t.yaml", "line": 5, "column": 3, "source_line": "  moved: 3"}),
+        ("toppled", False, {"file": "t.yaml", "line": 6, "column": 3, "source_line": '  toppled: "2 +- 1"'}),
+    ]
+    assert main(["run", "t.yaml"]) == 1
+    out = capsys.readouterr().out.splitlines()
+    assert (
+        f"FAIL  {moved}" in out
+        and f"FAIL  {toppled}" in out
+        and "PASS  expected levels 1-2 stay, measured levels 1-2 stayed" in out
+    )
+
+
+def test_an_expectation_built_in_python_has_no_place_and_says_its_verdict_alone():
+    from stackdsl.lang.expectations import Expect
+    from stackdsl.verdicts.expect import evaluate, located_lines
+
+    scenario = parse_scenario(FAILING)  # text of no file: its lines are still its own
+    program = compile_scenario(scenario)
+    outcome = run_program(program)
+    (read,) = evaluate(scenario.expect, outcome, program.collapse_threshold)
+    assert str(read.at) == "<scenario>:3:10" and read.lines()[1:] == ["    expect: {collapse: 2}", "             ^"]
+    (built,) = evaluate(Expect(collapse=2), outcome, program.collapse_threshold)
+    assert built.at is None and built.lines() == ["expected collapse 2, measured stands"] and located_lines([built]) == []
 
 
 def test_junit_xml_into_a_missing_folder_is_bad_input(tmp_path, capsys, monkeypatch):
@@ -1115,7 +1177,7 @@ def test_run_and_compare_say_why_a_chain_cut_off_by_the_runs_end_failed(tmp_path
     )
     assert main(["run", str(scene)]) == 1
     out = capsys.readouterr().out
-    assert "FAIL  expected all toppled" in out and "still moving: the run ended at" in out
+    assert "expect.toppled: expected all toppled" in out and "still moving: the run ended at" in out
     assert main(["compare", str(tmp_path), "--modes", "extension", "-j", "1"]) == 1
     out = capsys.readouterr().out
     assert "row pybullet extension: still moving: the run ended at" in out

@@ -91,7 +91,10 @@ def test_a_failed_expectation_fails_the_item_with_the_verdict(project):
     write(project, "tower", TOWER.replace("{stands: true}", "{collapse: 2}"))
     result = project.runpytest("--snapshot-update")
     result.assert_outcomes(failed=1)
-    assert "tower.yaml: expected collapse 2, measured stands" in result.stdout.str()
+    out = result.stdout.str()
+    # at the line of the expectation, which it shows with a caret, as a parse error does
+    assert "scenarios/tower.yaml:4:10: expect.collapse: expected collapse 2, measured stands" in out
+    assert "    expect: {collapse: 2}\n             ^" in out
     assert "stackdsl run scenarios/tower.yaml" in result.stdout.str()
     assert not (project.path / "golden" / "scenarios" / "tower.json").exists()
 
@@ -241,7 +244,10 @@ def test_a_sweep_file_is_one_item_decided_by_its_interval_with_every_sample_in_i
     result = project.runpytest()
     result.assert_outcomes(failed=1)
     out = result.stdout.str()
-    assert "walk.yaml: FAIL: expected P(stands) >= 0.99" in out and "more: stackdsl sweep scenarios/walk.yaml" in out
+    assert (
+        "scenarios/walk.yaml:11:3: expect.p_stands: FAIL: expected P(stands) >= 0.99" in out
+        and "more: stackdsl sweep scenarios/walk.yaml" in out
+    )
 
 
 def test_a_golden_that_is_a_folder_fails_its_item_in_one_line(project):

@@ -4,6 +4,7 @@ nothing, grid keys written with brackets, and per-run expectations refused in a 
 from __future__ import annotations
 
 import csv
+import json
 import math
 from pathlib import Path
 
@@ -74,6 +75,22 @@ def test_a_sweep_that_draws_is_still_judged_by_its_interval():
     assert decide(ProportionBound(">=", 0.9), [None]).outcome == "INCONCLUSIVE"
     assert decide(ProportionBound(">=", 0.9), [None], exact=True).outcome == "PASS"
     assert decide(ProportionBound(">=", 0.9), [1], exact=True).outcome == "FAIL"
+
+
+def test_a_cells_failed_expectation_points_at_its_line(tmp_path: Path, capsys):
+    """The second cell expects the block to stand at 28 mm, where it slides: check names that
+    cell's expectation at its line, shows the line, and JSON gives the place of each verdict."""
+    path = tmp_path / "s.yaml"
+    path.write_text(block().replace('p_stands: "<= 0.1"', 'p_stands: ">= 0.9"'))
+    assert main(["check", str(path), "-j", "1"]) == 1
+    out = capsys.readouterr().out.splitlines()
+    head = next(i for i, line in enumerate(out) if "expect.cells[1].p_stands" in line)
+    assert out[head].strip().startswith(f"{path}:16:52: expect.cells[1].p_stands: FAIL in cell 1 (")
+    assert out[head + 1].strip() == '- {where: "actions.0.shake.amplitude > 25 mm", p_stands: ">= 0.9"}'
+    assert out[head + 2] == " " * (6 + 4 + 51) + "^"  # under p_stands
+    assert main(["check", str(path), "-j", "1", "--json"]) == 1
+    verdicts = json.loads(capsys.readouterr().out)["results"][0]["verdicts"]
+    assert [(v["passed"], v["at"]["line"]) for v in verdicts] == [(True, 15), (False, 16)]
 
 
 def test_a_cell_condition_names_only_the_grids_fields():

@@ -23,7 +23,7 @@ from ..verdicts.expect import Verdict
 from ..verdicts.stats import summary
 from .judge import failed, internal, judge
 from .sweep import SampleResult, SweepOptions, batches, run_batch
-from .sweep_out import by_cell, measured, verdicts, write_plots, write_samples
+from .sweep_out import by_cell, failure_lines, measured, verdicts, write_plots, write_samples
 
 
 def sweep_tasks(index: int, template: Template, program: Any, timeout: float | None, workers: int) -> list[tuple[Any, ...]]:
@@ -58,22 +58,18 @@ def sweep_result(
     """One :class:`stackdsl.CheckResult` for a whole sweep."""
     from ..verdicts.check_result import CheckResult
 
-    judged = []
-    explanation = []
-    for c, v in verdicts(template, expect, results):
-        where = f" in cell {c} ({_cell(template, c)})" if template.grid else ""
-        judged.append(
-            Verdict(
-                name="statistic", passed=v.outcome == "PASS", expected=v.expected, measured=f"{v.outcome.lower()}: {v.measured}"
-            )
+    decided = verdicts(template, expect, results)
+    judged = [
+        Verdict(
+            name="statistic",
+            passed=v.outcome == "PASS",
+            expected=v.expected,
+            measured=f"{v.outcome.lower()}: {v.measured}",
+            at=expect.at(v.field),
         )
-        if v.outcome != "PASS":
-            more = (
-                f"; about {v.samples_to_decide} samples would decide it"
-                if v.outcome == "INCONCLUSIVE" and v.samples_to_decide
-                else ""
-            )
-            explanation.append(f"{v.outcome}{where}: expected {v.expected}, measured {v.measured}{more}")
+        for _, v in decided
+    ]
+    explanation = failure_lines(template, expect, decided, shown=False)  # check shows each place's line (its report)
     errors = [r for r in results if r.error]
     stopped = [r for r in results if r.stopped]
     bad = [r for r in results if r.bad_input]
@@ -114,7 +110,3 @@ def _described(template: Template, results: Sequence[SampleResult], levels_built
     s = summary(measured(by_cell(results, 1)[0]), levels_built)
     mean = "no collapse" if s.mean is None else f"mean {s.mean:.2f}"
     return f"{mean}, P(stands) {s.p_stands:.2f}, n={s.n}"
-
-
-def _cell(template: Template, c: int) -> str:
-    return template.label(c)

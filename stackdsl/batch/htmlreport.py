@@ -174,7 +174,8 @@ def _row(r: CheckResult, command: str, folder: Path) -> str:
         ("wall", f"{r.wall_time:.2f} s" + (f" (drawing {r.draw_time:.1f} s)" if r.draw_time else "")),
     ]
     rows = "".join(f"<tr><td>{_e(k)}</td><td>{_e(v)}</td></tr>" for k, v in facts)
-    why = "".join(f"<li>{_e(line)}</li>" for line in r.explanation)
+    located = [] if r.sweep else [v.lines()[0] for v in r.verdicts if not v.passed and v.at is not None]
+    why = "".join(f"<li>{_e(line)}</li>" for line in [*located, *r.explanation])  # where each failed expectation is written
     kinds = [("3D replay", "replay"), ("clip", "clip"), ("brick graph", "graph"), ("trajectory (.npz)", "trajectory")]
     kinds += [("samples (.csv)", "samples"), ("samples (.parquet)", "parquet"), ("samples (.jsonl)", "jsonl")]
     kinds += [(name, kind) for kind, name in r.artefacts if kind.startswith("plot ")]  # a sweep's plots

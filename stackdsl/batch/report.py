@@ -13,8 +13,10 @@ from pathlib import Path
 from typing import Any
 
 from .._version import version
+from ..lang.errors import excerpt
 from ..lang.files import written
 from ..verdicts.check_result import CheckResult
+from ..verdicts.expect import located_lines
 
 #: The header of check's table; :func:`row` lines up under it.
 HEADER = f"{'':4}  {'scenario':<40} {'engine':<8} {'mode':<9} {'simulated':>9} {'wall':>7}  {'expected':<18} measured"
@@ -55,7 +57,22 @@ def failure_lines(r: CheckResult, command: str) -> list[str]:
     (with ``--debug`` after an internal error, to show its traceback)."""
     if r.error:
         command = command.replace("stackdsl run", "stackdsl --debug run", 1)
-    return [INDENT + line for line in r.explanation] + [f"{INDENT}more: {command}"]
+    return [INDENT + line for line in _pointed(r)] + [f"{INDENT}more: {command}"]
+
+
+def _pointed(r: CheckResult) -> list[str]:
+    """A failed result's lines: each failed expectation at the line that wrote it, then that
+    line and a caret, as a parse error is shown, then why (the explanation). A sweep's
+    explanation says each failed cell at its expectation's place: the line follows the first."""
+    if not r.sweep:
+        return [*located_lines(r.verdicts), *r.explanation]
+    lines: list[str] = []
+    for line in r.explanation:
+        lines.append(line)
+        at = next((v.at for v in r.verdicts if v.at is not None and line.startswith(f"{v.at}: ")), None)
+        if at is not None and not any(previous.startswith(f"{at}: ") for previous in lines[:-1]):
+            lines += excerpt(at.source_line, at.column)
+    return lines
 
 
 def summary(results: Sequence[CheckResult], total: int, wall: float) -> str:
@@ -152,8 +169,10 @@ def junit_xml(
             error = ET.SubElement(case, "error", message=r.error)
             error.text = r.traceback or None
         elif not r.passed:
-            failure = ET.SubElement(case, "failure", message=f"expected {r.expected}, measured {r.measured}")
-            failure.text = "\n".join([*r.explanation, f"more: {command}"])
+            at = next((v.at for v in r.verdicts if not v.passed and v.at is not None), None)
+            said = f"expected {r.expected}, measured {r.measured}"
+            failure = ET.SubElement(case, "failure", message=f"{at}: {said}" if at else said)
+            failure.text = "\n".join([*_pointed(r), f"more: {command}"])
     for file in not_run:
         case = ET.SubElement(suite, "testcase", classname="stackdsl", name=file, time="0")
         ET.SubElement(case, "skipped", message=NOT_RUN)

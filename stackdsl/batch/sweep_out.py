@@ -21,9 +21,11 @@ import csv
 import itertools
 import json
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from ..lang.errors import excerpt
 from ..lang.expectations import CellExpect, Expect
 from ..lang.expressions import parse
 from ..lang.files import written
@@ -37,16 +39,22 @@ MAX_HISTOGRAMS = 12
 def expectations(expect: Expect | CellExpect) -> list[Any]:
     """A scenario's statistical expectations (or those of one of its ``expect.cells``) as
     :mod:`stackdsl.verdicts.stats` forms, in file order."""
-    out: list[Any] = []
+    return [form for _, form in _named(expect)]
+
+
+def _named(expect: Expect | CellExpect, under: str = "") -> list[tuple[str, Any]]:
+    """(field under ``expect``, form) of each statistical expectation, in file order; ``under``:
+    the path of a cell's expectations (``"cells[0]."``)."""
+    out: list[tuple[str, Any]] = []
     collapse = expect.collapse
     mean = getattr(collapse, "mean", None)
     quantile = getattr(collapse, "quantile", None)
     if mean is not None:
-        out.append(MeanWithin(mean.target, mean.tolerance))
+        out.append((f"{under}collapse", MeanWithin(mean.target, mean.tolerance)))
     if quantile is not None:
-        out.append(QuantileWithin(quantile.q, quantile.level.target, quantile.level.tolerance))
+        out.append((f"{under}collapse", QuantileWithin(quantile.q, quantile.level.target, quantile.level.tolerance)))
     if expect.p_stands is not None:
-        out.append(ProportionBound(expect.p_stands.op, expect.p_stands.bound))
+        out.append((f"{under}p_stands", ProportionBound(expect.p_stands.op, expect.p_stands.bound)))
     return out
 
 
@@ -66,11 +74,16 @@ def measured(results: Sequence[SampleResult]) -> list[int | None]:
 def cell_expectations(template: Template, expect: Expect, c: int) -> list[Any]:
     """The statistical expectations of cell ``c``: the file's own, then those of each of
     ``expect.cells`` whose condition holds on the cell's grid values."""
-    forms = expectations(expect)
+    return [form for _, form in _cell_named(template, expect, c)]
+
+
+def _cell_named(template: Template, expect: Expect, c: int) -> list[tuple[str, Any]]:
+    """:func:`cell_expectations` with the field of each under ``expect``."""
+    forms = _named(expect)
     values = template.values(c)
-    for cell in expect.cells or []:
+    for i, cell in enumerate(expect.cells or []):
         if parse(cell.where).holds(values):
-            forms += expectations(Expect(collapse=cell.collapse, p_stands=cell.p_stands))
+            forms += _named(cell, f"cells[{i}].")
     return forms
 
 
@@ -81,10 +94,39 @@ def verdicts(template: Template, expect: Expect, results: Sequence[SampleResult]
         return []
     exact = not template.random
     return [
-        (c, decide(form, measured(rs), exact=exact))
+        (c, replace(decide(form, measured(rs), exact=exact), field=field))
         for c, rs in enumerate(by_cell(results, template.cells))
-        for form in cell_expectations(template, expect, c)
+        for field, form in _cell_named(template, expect, c)
     ]
+
+
+def failure_lines(
+    template: Template, expect: Expect, judged: Sequence[tuple[int, StatVerdict]], prefix: str = "", *, shown: bool = True
+) -> list[str]:
+    """A line for each verdict of ``judged`` that did not pass: at the line of the file that wrote
+    its expectation (``file:line:col: expect.FIELD: ``; with ``shown``, that line and a caret under
+    the first one of a place, as a parse error is shown), else after ``prefix``; the cell (with a
+    grid), what was expected and measured, and for an undecided one how many samples would decide it."""
+    lines: list[str] = []
+    places: set[str] = set()
+    for c, v in judged:
+        if v.outcome == "PASS":
+            continue
+        text = (
+            v.outcome
+            + (f" in cell {c} ({template.label(c)})" if template.grid else "")
+            + f": expected {v.expected}, measured {v.measured}"
+            + (f"; about {v.samples_to_decide} samples would decide it" if v.samples_to_decide else "")
+        )
+        at = expect.at(v.field)
+        if at is None:
+            lines.append(prefix + text)
+            continue
+        lines.append(f"{at}: expect.{v.field}: {text}")
+        if shown and str(at) not in places:
+            places.add(str(at))
+            lines += excerpt(at.source_line, at.column)
+    return lines
 
 
 def write_samples(results: Sequence[SampleResult], folder: Path) -> tuple[Path, Path]:

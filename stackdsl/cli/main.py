@@ -516,8 +516,9 @@ def _run(args: argparse.Namespace) -> int:
             print(f"certificate: {describe_certificate(outcome.certificate)}")
         if outcome.not_run:
             print(not_run_line(outcome))
-        for v in verdicts:
-            print(f"{'PASS' if v.passed else 'FAIL'}  expected {v.expected}, measured {v.measured}")
+        for v in verdicts:  # a failure at the line of its expectation, as a parse error is shown
+            head, *shown = v.lines() if not v.passed else [f"expected {v.expected}, measured {v.measured}"]
+            print(f"{'PASS' if v.passed else 'FAIL'}  {head}", *(f"      {line}" for line in shown), sep="\n")
         if not stopped and not all(v.passed for v in verdicts):  # what check says under a failure
             for line in explain(scenario.expect, outcome, program.collapse_threshold):
                 print(f"      {line}")

@@ -60,11 +60,7 @@ class ScenarioError(Exception):
     def __str__(self) -> str:
         where = self.file if self.line is None else f"{self.file}:{self.line}:{self.column}"
         head = f"{where}: {self.field}: {self.message}" if self.field else f"{where}: {self.message}"
-        lines = [head]
-        if self.source_line:
-            shown, caret = _excerpt(self.source_line, max((self.column or 1) - 1, 0))
-            lines.append(f"    {shown}")
-            lines.append("    " + " " * caret + "^")
+        lines = [head, *excerpt(self.source_line, self.column)]
         if self.alike:
             lines.append(f"    (the same at {', '.join(self.alike)})")
         for other in self.others:
@@ -114,6 +110,34 @@ class ScenarioErrors(Exception):
 #: At most this many problems of one file are shown at once (the rest are counted).
 MAX_SHOWN = 10
 SHOWN_LINE_CHARS = 120  # an error shows at most this much of its source line
+
+
+def excerpt(line: str, column: int | None) -> list[str]:
+    """The lines an error shows under its head: ``line`` (the file's text, indented) and a caret
+    under 1-based ``column``; none when the line is not known.
+
+    >>> print("\\n".join(excerpt("  collapse: 12", 3)))
+          collapse: 12
+          ^
+    """
+    if not line:
+        return []
+    shown, caret = _excerpt(line, max((column or 1) - 1, 0))
+    return [f"    {shown}", "    " + " " * caret + "^"]
+
+
+@dataclass(frozen=True)
+class Location:
+    """Where something was written in a scenario file: its name as given, the 1-based line and
+    column, and that line's text (to show it as an error does: :func:`excerpt`)."""
+
+    file: str
+    line: int
+    column: int
+    source_line: str = ""
+
+    def __str__(self) -> str:
+        return f"{self.file}:{self.line}:{self.column}"
 
 
 def _excerpt(line: str, column: int) -> tuple[str, int]:
@@ -169,12 +193,7 @@ class SourceMap:
             if path[: len(into)] == into:
                 path, message, at_key = blamed, f"{note}: {message}", False
                 break
-        known: FieldPath = ()
-        for seg in path:
-            if known + (seg,) in self.values:
-                known += (seg,)
-        table = self.keys if at_key and known in self.keys else self.values
-        line, col = table.get(known, (None, None))
+        line, col = self._position(path, at_key)
         source = self.lines[line] if line is not None and line < len(self.lines) else ""
         return ScenarioError(
             message,
@@ -185,3 +204,27 @@ class SourceMap:
             source_line=source,
             more=more,
         )
+
+    def _position(self, path: FieldPath, at_key: bool) -> tuple[int | None, int | None]:
+        """0-based (line, column) of the nearest YAML node of ``path`` (its key's with ``at_key``)."""
+        known: FieldPath = ()
+        for seg in path:
+            if known + (seg,) in self.values:
+                known += (seg,)
+        table = self.keys if at_key and known in self.keys else self.values
+        return table.get(known, (None, None))
+
+    def locations(self, under: FieldPath) -> dict[str, Location]:
+        """Where each field under ``under`` was written, by its path below it (``"collapse"``,
+        ``"cells[0].p_stands"``): at its key, that is at the start of its entry.
+
+        >>> source = SourceMap("t.yaml", ("expect:", "  collapse: 9"), keys={("expect", "collapse"): (1, 2)})
+        >>> {name: str(at) for name, at in source.locations(("expect",)).items()}
+        {'collapse': 't.yaml:2:3'}
+        """
+        out = {}
+        for path, (line, col) in self.keys.items():
+            if len(path) > len(under) and path[: len(under)] == under:
+                text = self.lines[line] if line < len(self.lines) else ""
+                out[format_path(path[len(under) :])] = Location(self.file, line + 1, col + 1, text)
+        return out

@@ -19,12 +19,14 @@ from pydantic import (
     ConfigDict,
     Discriminator,
     Field,
+    PrivateAttr,
     Tag,
     WithJsonSchema,
     model_validator,
 )
 
 from .bounds import MAX_BRICKS, MAX_LEVELS, MAX_SIMULATED_TIME, StrictModel
+from .errors import Location
 from .grammar import (
     BOUND,
     COLLAPSE,
@@ -529,6 +531,30 @@ class Expect(StrictModel):
             ],
         ),
     ] = None
+
+    #: Where each expectation was written (:meth:`at`); set when a file is read.
+    _at: dict[str, Location] = PrivateAttr(default_factory=dict)
+
+    def at(self, name: str) -> Location | None:
+        """Where the expectation ``name`` (a field: ``"collapse"``, ``"cells[0].p_stands"``) was
+        written, at its key: None for expectations built in Python, not read from a file."""
+        return self._at.get(name)
+
+    def __eq__(self, other: object) -> bool:
+        """The same expectations: where they were written (:meth:`at`) is not compared, as a
+        :class:`stackdsl.lang.schema.Scenario`'s source is not."""
+        if not isinstance(other, Expect):
+            return NotImplemented
+        return self.__dict__ == other.__dict__
+
+    __hash__ = StrictModel.__hash__
+
+    def located(self, at: dict[str, Location]) -> Expect:
+        """These expectations, knowing where each was written (``at``: name -> location, as
+        :meth:`stackdsl.lang.errors.SourceMap.locations` gives them)."""
+        located = self.model_copy()
+        located._at = dict(at)
+        return located
 
     @property
     def statistical(self) -> bool:

@@ -60,8 +60,13 @@ def validate(
         if not raised_in_library(exc):
             raise  # a bug of ours (a validator): not to be dressed up as the user's error
         raise ScenarioError(f"cannot validate this file ({type(exc).__name__} in pydantic: {exc})", file=source.file) from None
+    update: dict[str, Any] = {}
     if scenario.name is None and source.file != NO_FILE:  # a file's stem; text of no file keeps None, as a built one
-        scenario = scenario.model_copy(update={"name": Path(source.file).stem})
+        update["name"] = Path(source.file).stem
+    if at := source.locations(("expect",)):  # each verdict then points at the line of its expectation
+        update["expect"] = scenario.expect.located(at)
+    if update:
+        scenario = scenario.model_copy(update=update)
     scenario._source = source
     return scenario
 

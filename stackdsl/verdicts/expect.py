@@ -9,12 +9,19 @@ from collections.abc import Iterable, Sequence
 
 from pydantic import BaseModel, ConfigDict
 
+from ..lang.errors import Location, excerpt
 from ..lang.expectations import CollapseLevel, Expect, bricks_of, levels_of, selects, span
 from ..runtime.outcome import Outcome
 
 
 class Verdict(BaseModel):
-    """One expectation checked: what was expected, what was measured, and whether it held."""
+    """One expectation checked: what was expected, what was measured, and whether it held.
+
+    Attributes:
+        name: the expectation's key (``collapse``, ``stays``...; ``finished`` for a run stopped early).
+        at: where the expectation was written (file, line, column, the line's text), when it was
+            read from a file.
+    """
 
     model_config = ConfigDict(frozen=True)
 
@@ -22,6 +29,21 @@ class Verdict(BaseModel):
     passed: bool
     expected: str
     measured: str
+    at: Location | None = None
+
+    def lines(self) -> list[str]:
+        """This verdict as a failure says it, pointing at its expectation as a parse error points
+        at a field: ``file:line:col: expect.NAME: expected ..., measured ...``, then the line and a
+        caret (:func:`stackdsl.lang.errors.excerpt`); without a place, the words alone."""
+        said = f"expected {self.expected}, measured {self.measured}"
+        if self.at is None:
+            return [said]
+        return [f"{self.at}: expect.{self.name}: {said}", *excerpt(self.at.source_line, self.at.column)]
+
+
+def located_lines(verdicts: Iterable[Verdict]) -> list[str]:
+    """The :meth:`Verdict.lines` of each failed verdict that knows where its expectation was written."""
+    return [line for v in verdicts if not v.passed and v.at is not None for line in v.lines()]
 
 
 def evaluate(expect: Expect, outcome: Outcome, threshold: float) -> list[Verdict]:
@@ -82,7 +104,7 @@ def evaluate(expect: Expect, outcome: Outcome, threshold: float) -> list[Verdict
         )
     if outcome.stopped:
         verdicts.append(Verdict(name="finished", passed=False, expected="the run finishes", measured=outcome.stopped))
-    return verdicts
+    return [v.model_copy(update={"at": expect.at(v.name)}) if expect.at(v.name) else v for v in verdicts]
 
 
 def _moved_levels(outcome: Outcome, threshold: float) -> set[int]:

@@ -120,6 +120,8 @@ class StatVerdict:
             of the cell's samples, standing ones included; not the number to add) at which the
             interval would decide (see :func:`decide`); None otherwise or when no estimate is
             possible.
+        field: the expectation's field under ``expect`` (``"collapse"``, ``"cells[1].p_stands"``),
+            which says where the file wrote it; empty when not known.
     """
 
     outcome: Outcome
@@ -129,6 +131,7 @@ class StatVerdict:
     expected: str
     measured: str
     samples_to_decide: int | None = None
+    field: str = ""
 
 
 @dataclass(frozen=True)

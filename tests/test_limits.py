@@ -108,6 +108,48 @@ def test_a_mass_ratio_beyond_the_engines_is_refused_at_the_density_that_makes_it
     compile_scenario(parse_scenario(HEAVY % (100 * 200, "pybullet")))
 
 
+def test_a_refusal_by_the_command_lines_mode_or_engine_says_so_and_whether_the_files_own_takes_it():
+    """The error stays at the field to change (the command line has no line of the file), and
+    says when the engine or mode that refuses is not the file's but the command line's."""
+    err = refusal(IMPACT % ("pybullet", "extension", "", "5 m/s"), mode="raw")
+    assert (err.field, err.line) == ("impacts[0].speed", 4)
+    assert err.message.endswith("; raw is the mode the command line asks for, not the file's own (extension), which takes it")
+    own = refusal(IMPACT % ("pybullet", "raw", "", "5 m/s"), mode="raw")  # the file's own mode: nothing to add
+    assert own.message.endswith("up to 100 m/s")
+    # a heavy slab on a light brick: MuJoCo takes the ratio, pybullet does not
+    err = refusal(HEAVY % (100 * 500, "mujoco"), backend="pybullet")
+    assert err.field == "materials.lead.density"
+    assert err.message.endswith("; pybullet is the engine the command line asks for, not the file's own (mujoco), which takes it")
+
+
+def test_the_command_lines_engine_and_mode_are_named_together_and_a_file_that_fails_too_is_said_so():
+    pytest.importorskip("mujoco")
+    err = refusal(IMPACT % ("pybullet", "extension", "", "5 m/s"), mode="raw", backend="mujoco")  # MuJoCo raw: 4 m/s
+    assert err.message.endswith(
+        "; mujoco raw is the engine and mode the command line asks for, not the file's own (pybullet extension), which takes it"
+    )
+    err = refusal(IMPACT % ("pybullet", "raw", "", "5 m/s"), backend="mujoco")
+    assert err.message.endswith(
+        "; mujoco is the engine the command line asks for, not the file's own (pybullet), which refuses it too"
+    )
+
+
+def test_a_refusal_is_said_once_by_run_check_and_compare(tmp_path, capsys):
+    from stackdsl.cli.main import main
+
+    path = tmp_path / "throw.yaml"
+    path.write_text(IMPACT % ("pybullet", "extension", "", "2 m/s") + "timing: {settle: 0.5 s}\n")
+    for argv, status in (
+        (["run", str(path), "--mode", "raw"], 2),
+        (["check", str(path), "--mode", "raw", "-j", "1"], 2),
+        (["compare", str(path), "--modes", "raw,extension", "-j", "1"], 0),
+    ):
+        assert main(argv) == status
+        said = capsys.readouterr()
+        assert (said.out + said.err).count("2 m/s is faster than pybullet simulates faithfully") == 1, argv
+        assert "raw is the mode the command line asks for" in said.err, argv
+
+
 def test_a_comparison_shows_a_refused_mode_as_a_cell_and_runs_the_others(tmp_path):
     from stackdsl.batch.check import compare
 

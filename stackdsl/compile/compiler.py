@@ -33,7 +33,7 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -145,7 +145,11 @@ def compile_scenario(
         check_launch(scenario, i, imp, launch, present + [(b.id, specs[b.type], b.pose()) for b in fixed])
     if limits:
         moving = [b.type for b in bricks] + [i.projectile for i in scenario.impacts]
-        check_limits(scenario, engine, specs, moving, {b.type: b.source for b in reversed(everything)})
+        made_by = {b.type: b.source for b in reversed(everything)}
+        try:
+            check_limits(scenario, engine, specs, moving, made_by)
+        except ScenarioError as exc:
+            raise _asked(exc, scenario, mode, backend, lambda own: check_limits(scenario, own, specs, moving, made_by)) from None
     places = [a for a in placements if isinstance(a, Place)]
     motions = compile_actions(
         scenario,
@@ -416,6 +420,30 @@ def _engine(scenario: Scenario, mode: str | None, backend: str | None = None) ->
     if backend is not None and backend != scenario.engine.backend:  # the other backend's own settings do not apply
         given = {k: v for k, v in given.items() if k not in BACKEND_FIELDS[scenario.engine.backend]}
     return settings(engine, mode=chosen, gravity=GRAVITY, **{**defaults(engine, chosen), **given})
+
+
+def _asked(
+    exc: ScenarioError, scenario: Scenario, mode: str | None, backend: str | None, check: Callable[[EngineSettings], None]
+) -> ScenarioError:
+    """``exc``, an engine's refusal, saying so when the engine or mode that refuses is the command
+    line's (``mode``, ``backend`` over the file's own) and whether the file's own passes ``check``:
+    ``'; raw is the mode the command line asks for, not the file's own (extension), which takes
+    it'``. The error stays at the field to change: the command line has no line of the file."""
+    file_backend: str = scenario.engine.backend
+    file_mode: str = scenario.engine.mode
+    asked: list[tuple[str, str, str]] = [("engine", backend, file_backend)] if backend and backend != file_backend else []
+    asked += [("mode", mode, file_mode)] if mode and mode != file_mode else []
+    if asked:
+        try:
+            check(_engine(scenario, None, None))
+            verdict = "which takes it"
+        except ScenarioError:
+            verdict = "which refuses it too"
+        exc.message += (
+            f"; {' '.join(a[1] for a in asked)} is the {' and '.join(a[0] for a in asked)} the command line asks for, "
+            f"not the file's own ({' '.join(a[2] for a in asked)}), {verdict}"
+        )
+    return exc
 
 
 def _nothing_placed_on_pulled(

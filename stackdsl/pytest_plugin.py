@@ -136,9 +136,10 @@ def golden_owners(golden: Path, folder: Path) -> list[Path] | None:
 def left_over(golden: Path, folder: Path) -> bool:
     """Whether a golden snapshot below the goldens of scenario folder ``folder`` has no file left
     that owns it (:func:`golden_owners`): its scenario file was removed or renamed. The only
-    golden snapshots reported unused, and deleted by ``--snapshot-update``."""
+    golden snapshots reported unused, and deleted by ``--snapshot-update``; a file not named
+    ``*.json`` is no golden (a note, or a file where a folder of goldens goes) and never is."""
     owners = golden_owners(golden, folder)
-    return owners is not None and not any(owner.is_file() for owner in owners)
+    return Path(golden).suffix == ".json" and owners is not None and not any(owner.is_file() for owner in owners)
 
 
 def orphan_goldens(config: pytest.Config) -> list[Path]:

@@ -414,3 +414,16 @@ def test_failing_items_keep_their_goldens_under_xdist(project):
     result.assert_outcomes(passed=1, failed=2)
     assert "Deleted" not in result.stdout.str()
     assert {p.name: p.read_bytes() for p in folder.iterdir()} == before
+
+
+def test_snapshot_update_deletes_no_file_that_is_not_a_golden(project):
+    write(project, "tower", TOWER)
+    folder = project.path / "golden" / "scenarios"
+    folder.mkdir(parents=True)
+    notes = {"README.md": "how these goldens were reviewed\n", "gone": "not a golden: no .json\n"}
+    for name, text in notes.items():
+        (folder / name).write_text(text)
+    result = project.runpytest("-p", "no:cacheprovider", "--snapshot-update")
+    result.assert_outcomes(passed=1)
+    assert "Deleted" not in result.stdout.str() and "unused" not in result.stdout.str()
+    assert {name: (folder / name).read_text() for name in notes} == notes

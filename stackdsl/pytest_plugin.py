@@ -19,6 +19,8 @@ bad file, an expectation, a crash) leaves its golden as it was, and syrupy count
 unused, and ``--snapshot-update`` deletes it, only when its scenario file is gone (nothing that
 happens to an item, ``-x``, ``--ignore`` or ``-k`` loses a golden whose file exists). ``-k``,
 ``-x``, ``--lf``, ``-n`` (pytest-xdist) and ``--junit-xml`` work as on any test.
+A golden that cannot be one (a FIFO, not JSON, ...) fails its item in one line before the
+scenario runs, and ``--snapshot-update`` writes nothing over it (:mod:`stackdsl.pytest_golden`).
 
 A sweep file (``sweep:``) is one item too: its samples run one after the other, each
 statistical expectation must be decided PASS in every grid cell (its 95% interval inside the
@@ -50,6 +52,7 @@ from .compile.compiler import compile_scenario
 from .draw.artefacts import draw_run, folder_name
 from .lang.errors import ScenarioError
 from .lang.loader import load_scenario
+from .pytest_golden import golden_problem, read_golden_text
 from .pytest_hint import SUFFIXES, collection_hint, remember_collected
 from .runtime.recorder import record_program
 from .runtime.run import run_program
@@ -223,8 +226,9 @@ def _run_scenario_item(request: pytest.FixtureRequest, scenario_golden: Any) -> 
     if error:
         pytest.fail(error, pytrace=False)
     stored = scenario_golden_path(path)
-    if stored.is_dir():  # syrupy would raise IsADirectoryError out of the comparison
-        pytest.fail(f"{path.name}: {_shown(stored, config)} is a folder, not a golden snapshot: remove it", pytrace=False)
+    unusable = _unusable_golden(path, stored, config)
+    if unusable:  # before anything runs, and before syrupy reads, compares or writes it
+        pytest.fail(f"{path.name}: {unusable}", pytrace=False)
     if scenario.sweep is not None:
         _sweep_test(request, scenario, program, shown, scenario_golden)
         return
@@ -289,6 +293,13 @@ def _sweep_test(request: pytest.FixtureRequest, scenario: Any, program: Any, sho
         pytest.fail("\n".join([f"{path.name}: the samples differ from {where}", *diff, UPDATE_HINT]), pytrace=False)
 
 
+def _unusable_golden(path: Path, stored: Path, config: pytest.Config) -> str:
+    """Why a scenario's golden ``stored`` cannot be compared or written, in one line: it is
+    damaged (:func:`stackdsl.pytest_golden.golden_problem`: never replaced, not even by
+    ``--snapshot-update``); ``""`` when it can."""
+    return golden_problem(stored, lambda p: _shown(p, config))
+
+
 #: What a failed item's golden is compared with when the item has no outcome (a bad file, a crash):
 #: never a snapshot, so the comparison fails and nothing is written.
 _NOT_COMPARED: dict[str, Any] = {"not compared": "the item failed before its golden snapshot was compared"}
@@ -298,8 +309,9 @@ def _keep_golden(scenario_golden: Any, path: Path, data: Any) -> None:
     """Compare a failed item's stored golden with ``data`` with every update switched off, when
     the golden exists: syrupy then counts it used (matched or failed), never unused, so
     ``--snapshot-update`` neither deletes it nor rewrites it with a failing run's outcome."""
-    if not scenario_golden_path(path).is_file():
-        return  # nothing to keep; and a failing run writes no new golden either
+    stored = scenario_golden_path(path)
+    if not stored.is_file() or golden_problem(stored):
+        return  # nothing to keep (or nothing to read); and a failing run writes no new golden either
     scenario_golden.update_snapshots = False
     scenario_golden.update_new_snapshots_only = False
     _ = scenario_golden == data  # recorded by syrupy (used); its result is not the item's verdict
@@ -366,6 +378,12 @@ if SingleFileSnapshotExtension is not None:
         golden file, flushed to disk, then renamed over it (a rename within a folder is atomic
         on POSIX), so an update interrupted even by SIGKILL leaves the old file or the new one,
         never a truncated one."""
+
+        def read_snapshot_data_from_location(self, *, snapshot_location: str, snapshot_name: str, session_id: str) -> Any:
+            """The stored text (None: no golden yet), never blocking on a FIFO; a golden that
+            cannot be read (:func:`stackdsl.pytest_golden.read_golden_text`) fails the comparison
+            with one line saying why, and is not written over."""
+            return read_golden_text(Path(snapshot_location))
 
         @classmethod
         def write_snapshot_collection(cls, *, snapshot_collection: Any, name_order: Any = None) -> None:

@@ -6,8 +6,10 @@ pytest in it, as a user would.
 
 import importlib.util
 import json
+import os
 import re
 import shlex
+import stat
 import xml.etree.ElementTree as ET
 
 # pint (stackdsl reads units with it) imports importlib_metadata and toolz, which put finders on
@@ -414,6 +416,72 @@ def test_failing_items_keep_their_goldens_under_xdist(project):
     result.assert_outcomes(passed=1, failed=2)
     assert "Deleted" not in result.stdout.str()
     assert {p.name: p.read_bytes() for p in folder.iterdir()} == before
+
+
+#: Goldens that cannot be snapshots, each under the scenario of that name, and what its failure says.
+DAMAGED = {
+    "bytes": (bytes(range(256)) * 8, "golden/scenarios/bytes.json is not a golden snapshot: not UTF-8 text (byte 0x80"),
+    "deep": (b"[" * 100_000 + b"]" * 100_000, "golden/scenarios/deep.json is not a golden snapshot: JSON nested too deep"),
+    "deeper": (b'{"a": ' + b"[" * 500 + b"]" * 500 + b"}", "golden/scenarios/deeper.json is not a golden snapshot: JSON nested"),
+    "conflict": (
+        b'{\n<<<<<<< HEAD\n  "scenario": "x"\n}\n',
+        "golden/scenarios/conflict.json is not a golden snapshot: not JSON (line 2,",
+    ),
+    "array": (b"[]\n", "golden/scenarios/array.json is not a golden snapshot: its JSON is an array, not an object"),
+    "fifo": (None, "golden/scenarios/fifo.json is a FIFO, not a golden snapshot: remove it"),
+}
+
+
+def test_a_damaged_golden_fails_its_item_in_one_line_and_is_never_replaced(project):
+    folder = project.path / "golden" / "scenarios"
+    folder.mkdir(parents=True)
+    for name, (data, _) in DAMAGED.items():
+        write(project, name, TOWER)
+        if data is None:
+            os.mkfifo(folder / f"{name}.json")  # opened for reading, it would block until a writer comes
+        else:
+            (folder / f"{name}.json").write_bytes(data)
+    (project.path / "scenarios" / "sub").mkdir()
+    (project.path / "scenarios" / "sub" / "under.yaml").write_text(TOWER)
+    (folder / "sub").write_text("a file where the folder of sub/'s goldens goes\n")
+    before = {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file()}
+    for args in ([], ["--snapshot-update"]):
+        result = project.runpytest_subprocess("-p", "no:cacheprovider", "-n", "0", *args, timeout=120)
+        result.assert_outcomes(failed=len(DAMAGED) + 1)
+        out = result.stdout.str()
+        for name, (_, said) in DAMAGED.items():
+            (line,) = [x for x in result.outlines if x.startswith(f"{name}.yaml: ")]  # one line
+            assert said in line, (name, line)
+        assert "under.yaml: golden/scenarios/sub/under.json cannot be a golden snapshot: golden/scenarios/sub is a file" in out
+        assert "Traceback" not in out and "Error" not in out and "def " not in out, out  # no exception, no source
+        assert "no golden yet" not in out and "differs" not in out
+        assert {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file()} == before, args  # none replaced
+        assert stat.S_ISFIFO((folder / "fifo.json").stat().st_mode)
+
+
+def test_a_golden_folder_that_is_a_file_is_one_line_under_snapshot_update(project):
+    write(project, "tower", TOWER)
+    (project.path / "golden").write_text("not a folder\n")
+    result = project.runpytest("-p", "no:cacheprovider", "--snapshot-update")
+    result.assert_outcomes(failed=1)
+    out = result.stdout.str()
+    assert "tower.yaml: golden/scenarios/tower.json cannot be a golden snapshot: golden is a file, not a folder" in out
+    assert "Traceback" not in out and "NotADirectoryError" not in out and "differs" not in out
+    assert (project.path / "golden").read_text() == "not a folder\n"
+
+
+def test_the_golden_fixture_never_blocks_on_a_fifo(pytester, monkeypatch):
+    monkeypatch.delenv("PYTEST_XDIST_WORKER", raising=False)
+    pytester.makefile(".toml", pyproject="[tool.pytest.ini_options]\n")
+    pytester.makepyfile(test_g="def test_mine(golden):\n    assert golden == {'value': 1}\n")
+    stored = pytester.path / "golden" / "test_g" / "test_mine.json"
+    stored.parent.mkdir(parents=True)
+    os.mkfifo(stored)
+    for args in ([], ["--snapshot-update"]):
+        result = pytester.runpytest_subprocess("-p", "no:cacheprovider", "-n", "0", *args, timeout=120)
+        result.assert_outcomes(failed=1)
+        assert "golden/test_g/test_mine.json is a FIFO, not a golden snapshot: remove it" in result.stdout.str()
+        assert stat.S_ISFIFO(stored.stat().st_mode)  # not written over
 
 
 def test_snapshot_update_deletes_no_file_that_is_not_a_golden(project):

@@ -1,6 +1,6 @@
 """The pytest plugin's golden files, read with care: a golden that cannot be one (a FIFO, a folder,
-below a file, not UTF-8, not JSON, nested too deep) is one line in the item's failure, never a
-traceback or a hang, and never overwritten.
+below a file, not UTF-8, not JSON, nested too deep) or that sits where another project layout puts
+goldens is one line in the item's failure, never a traceback or a hang, and never overwritten.
 
 Source: stackdsl's own.
 """
@@ -13,6 +13,8 @@ import stat
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
+
+from .verdicts.snapshot import golden_dir
 
 #: A golden larger than this is not one stackdsl wrote (a 400-brick tower's is about 0.3 MB).
 MAX_BYTES = 64 * 2**20
@@ -132,3 +134,34 @@ def golden_problem(stored: Path, show: Show = os.path.relpath) -> str:
         kind = {list: "an array", str: "a string", bool: "a boolean", type(None): "null"}.get(type(data), "a number")
         return f"{where} is not a golden snapshot: its JSON is {kind}, not an object; {REDO}"
     return ""
+
+
+def golden_elsewhere(source: Path, name: str, expected: Path) -> Path | None:
+    """Where a golden of ``source`` (a scenario file or a test module) is stored under another
+    project layout, when none is at ``expected``: goldens go to ``golden/`` beside the nearest
+    ``pyproject.toml`` (or beside the file when there is none), mirroring the file's folder from
+    there, so a ``pyproject.toml`` written, moved or removed moves where they are looked for.
+    Each folder above the file is tried as that project root (``name``: the golden's file or
+    folder name there); None when none holds it."""
+    folder = Path(source).resolve().parent
+    for top in (folder, *folder.parents):
+        candidate = top / "golden" / folder.relative_to(top) / name
+        if candidate != expected and _exists(candidate):
+            return candidate
+    return None
+
+
+def _exists(path: Path) -> bool:
+    try:
+        os.stat(path)
+    except OSError:  # not there, below a file, or unreadable: no golden to point to
+        return False
+    return True
+
+
+def where_goldens_go(source: Path, show: Show) -> str:
+    """Why a file's goldens are where they are expected, in words."""
+    root = golden_dir(source).parent
+    if (root / "pyproject.toml").is_file():
+        return f"goldens go to golden/ beside the nearest pyproject.toml above the file, {show(root / 'pyproject.toml')}"
+    return "with no pyproject.toml above the file, goldens go to golden/ beside it"

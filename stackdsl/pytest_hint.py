@@ -14,6 +14,8 @@ from pathlib import Path
 
 import pytest
 
+from .verdicts.snapshot import scenario_golden_path
+
 #: The suffixes of scenario files the plugin collects.
 SUFFIXES = (".yaml", ".yml")
 #: At most this many YAML files under a path given to pytest are read for the collection hint.
@@ -39,10 +41,10 @@ def remember_collected(session: pytest.Session) -> None:
     session.config.stash[_COLLECTED] = [Path(item.path).resolve() for item in session.items]
 
 
-def uncollected(config: pytest.Config, ran: list[Path] | None = None) -> list[tuple[str, int]]:
+def uncollected(config: pytest.Config, ran: list[Path] | None = None) -> list[tuple[str, list[Path]]]:
     """The paths given on pytest's command line (not its ``testpaths``) that gave no test item
     and hold scenario files outside the folders of ``stackdsl_paths`` (so not collected): each
-    as the ``stackdsl_paths`` value that would collect it (relative to the rootdir) and how many
+    as the ``stackdsl_paths`` value that would collect it (relative to the rootdir) and the
     scenario files it holds. ``ran``: files whose tests reported (under pytest-xdist the items
     are collected by the workers, and the main process sees their reports only)."""
     if config.args_source != pytest.Config.ArgsSource.ARGS:
@@ -58,24 +60,25 @@ def uncollected(config: pytest.Config, ran: list[Path] | None = None) -> list[tu
             files = [f for suffix in SUFFIXES for f in islice(path.rglob(f"*{suffix}"), HINT_FILES)]
         else:
             files = [path] if path.suffix in SUFFIXES and path.is_file() else []
-        count = sum(_looks_like_scenario(f) for f in files if not any(f.is_relative_to(r) for r in roots))
-        if count:
+        scenarios = [f for f in files if not any(f.is_relative_to(r) for r in roots) and _looks_like_scenario(f)]
+        if scenarios:
             folder = path if path.is_dir() else path.parent
-            found.append((Path(os.path.relpath(folder, config.rootpath)).as_posix(), count))
+            found.append((Path(os.path.relpath(folder, config.rootpath)).as_posix(), scenarios))
     return found
 
 
 def collection_hint(config: pytest.Config, ran: list[Path] | None = None) -> list[str]:
     """The lines of the hint for :func:`uncollected` paths (none: no hint): what each holds, the
-    command that collects it, and the ``pyproject.toml`` line that keeps it."""
+    command that collects it, the ``pyproject.toml`` line that keeps it, and where their goldens
+    go once that file is written when it moves them (:func:`goldens_moved`)."""
     missed = uncollected(config, ran)
     if not missed:
         return []
     configured = ", ".join(config.getini("stackdsl_paths")) or "none"
     lines = [
-        f"{folder}/ holds {count} scenario file{'s' * (count != 1)}, and pytest collects them only below "
+        f"{folder}/ holds {len(files)} scenario file{'s' * (len(files) != 1)}, and pytest collects them only below "
         f"stackdsl_paths (now: {configured})"
-        for folder, count in missed
+        for folder, files in missed
     ]
     everything = ", ".join(f'"{folder}"' for folder, _ in missed)
     if len(missed) == 1:  # the arguments as given: the command runs from the folder pytest ran in
@@ -83,5 +86,31 @@ def collection_hint(config: pytest.Config, ran: list[Path] | None = None) -> lis
     here = Path(config.invocation_params.dir).resolve()
     if config.rootpath.resolve() != here:  # a value relative to the working folder would miss
         lines.append(f"(stackdsl_paths are relative to the rootdir {config.rootpath}, not to the folder pytest ran in)")
-    lines.append(f"for good, in pyproject.toml: [tool.pytest.ini_options] stackdsl_paths = [{everything}]")
+    pyproject = config.rootpath / "pyproject.toml"
+    shown = os.path.relpath(pyproject, here)
+    lines.append(f"for good, in {shown}: [tool.pytest.ini_options] stackdsl_paths = [{everything}]")
+    moved = goldens_moved(config.rootpath, [f for _, files in missed for f in files])
+    if moved:
+        (old, new), written = moved[0], [m for m in moved if m[0].is_file()]
+        lines.append(
+            f"a new {shown} also moves where their goldens go (golden/ beside the nearest pyproject.toml above a "
+            f"file, else beside the file): {os.path.relpath(old, here)} -> {os.path.relpath(new, here)}"
+            + (", ..." if len(moved) > 1 else "")
+            + (
+                f"; move the {len(written)} golden{'s' * (len(written) != 1)} written so far (each item names its own)"
+                if written
+                else ""
+            )
+        )
     return lines
+
+
+def goldens_moved(root: Path, files: list[Path]) -> list[tuple[Path, Path]]:
+    """The scenario files among ``files`` whose golden a ``pyproject.toml`` written in the folder
+    ``root`` would move: each as (where its golden is now, where it would be)."""
+    moved = []
+    for file in files:
+        old, new = scenario_golden_path(file), scenario_golden_path(file, project=root)
+        if old != new:
+            moved.append((old, new))
+    return sorted(moved)

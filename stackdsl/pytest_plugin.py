@@ -19,8 +19,9 @@ bad file, an expectation, a crash) leaves its golden as it was, and syrupy count
 unused, and ``--snapshot-update`` deletes it, only when its scenario file is gone (nothing that
 happens to an item, ``-x``, ``--ignore`` or ``-k`` loses a golden whose file exists). ``-k``,
 ``-x``, ``--lf``, ``-n`` (pytest-xdist) and ``--junit-xml`` work as on any test.
-A golden that cannot be one (a FIFO, not JSON, ...) fails its item in one line before the
-scenario runs, and ``--snapshot-update`` writes nothing over it (:mod:`stackdsl.pytest_golden`).
+A golden that cannot be one (a FIFO, not JSON, ...), or none where it is looked for while the
+scenario has one where another project layout keeps goldens, fails its item in one line before
+the scenario runs, and ``--snapshot-update`` writes nothing over it (:mod:`stackdsl.pytest_golden`).
 
 A sweep file (``sweep:``) is one item too: its samples run one after the other, each
 statistical expectation must be decided PASS in every grid cell (its 95% interval inside the
@@ -52,7 +53,7 @@ from .compile.compiler import compile_scenario
 from .draw.artefacts import draw_run, folder_name
 from .lang.errors import ScenarioError
 from .lang.loader import load_scenario
-from .pytest_golden import golden_problem, read_golden_text
+from .pytest_golden import golden_elsewhere, golden_problem, read_golden_text, where_goldens_go
 from .pytest_hint import SUFFIXES, collection_hint, remember_collected
 from .runtime.recorder import record_program
 from .runtime.run import run_program
@@ -296,8 +297,23 @@ def _sweep_test(request: pytest.FixtureRequest, scenario: Any, program: Any, sho
 def _unusable_golden(path: Path, stored: Path, config: pytest.Config) -> str:
     """Why a scenario's golden ``stored`` cannot be compared or written, in one line: it is
     damaged (:func:`stackdsl.pytest_golden.golden_problem`: never replaced, not even by
-    ``--snapshot-update``); ``""`` when it can."""
-    return golden_problem(stored, lambda p: _shown(p, config))
+    ``--snapshot-update``), or there is none while one for the scenario sits where another
+    project layout stores goldens (:func:`stackdsl.pytest_golden.golden_elsewhere`: to be moved,
+    not written anew beside it); ``""`` when it can."""
+
+    def show(p: Path) -> str:
+        return _shown(p, config)
+
+    problem = golden_problem(stored, show)
+    if problem or os.path.lexists(stored):
+        return problem
+    found = golden_elsewhere(path, stored.name, stored)
+    if found is None:
+        return ""
+    return (
+        f"no golden at {show(stored)}, but {show(found)} is one for this scenario ({where_goldens_go(path, show)}): "
+        f"move it to {show(stored)}"
+    )
 
 
 #: What a failed item's golden is compared with when the item has no outcome (a bad file, a crash):
@@ -470,12 +486,25 @@ if SingleFileSnapshotExtension is not None:
 
 
 @pytest.fixture
-def golden(snapshot: Any) -> Any:
+def golden(snapshot: Any, request: pytest.FixtureRequest) -> Any:
     """A syrupy snapshot assertion that stores JSON under ``golden/`` with floats rounded:
     ``assert golden == data`` (``data``: plain JSON values, e.g. ``outcome.golden()``);
     ``pytest --snapshot-update`` writes it."""
     if JSONSnapshotExtension is None:  # pragma: no cover
         pytest.fail("the golden fixture needs syrupy: pip install 'stackdsl[pytest]'")
+    source = Path(request.node.path)
+    stored = scenario_golden_path(source).with_suffix("")  # the test file's folder of goldens
+    found = None if os.path.lexists(stored) else golden_elsewhere(source, stored.name, stored)
+    if found is not None:
+
+        def show(p: Path) -> str:
+            return _shown(p, request.config)
+
+        pytest.fail(
+            f"{source.name}: no goldens at {show(stored)}/, but {show(found)}/ holds this test file's "
+            f"({where_goldens_go(source, show)}): move that folder to {show(stored)}/",
+            pytrace=False,
+        )
     return snapshot.with_defaults(extension_class=GoldenSnapshotExtension, matcher=round_floats)
 
 

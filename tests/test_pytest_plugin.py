@@ -484,6 +484,51 @@ def test_the_golden_fixture_never_blocks_on_a_fifo(pytester, monkeypatch):
         assert stat.S_ISFIFO(stored.stat().st_mode)  # not written over
 
 
+def test_goldens_moved_by_a_new_pyproject_are_named_where_they_are(pytester, monkeypatch):
+    monkeypatch.delenv("PYTEST_XDIST_WORKER", raising=False)
+    (pytester.path / "s").mkdir()
+    (pytester.path / "s" / "t.yaml").write_text(TOWER)
+    args = ("-p", "no:cacheprovider", "s/", "-o", "stackdsl_paths=s")
+    pytester.runpytest(*args, "--snapshot-update").assert_outcomes(passed=1)
+    beside = pytester.path / "s" / "golden" / "t.json"  # no pyproject.toml above: beside the file
+    assert beside.is_file()
+    hint = pytester.runpytest("-p", "no:cacheprovider", "s/").stdout.str()
+    assert 'for good, in pyproject.toml: [tool.pytest.ini_options] stackdsl_paths = ["s"]' in hint
+    assert "a new pyproject.toml also moves where their goldens go" in hint
+    assert "s/golden/t.json -> golden/s/t.json; move the 1 golden written so far" in hint
+    pytester.makefile(".toml", pyproject='[tool.pytest.ini_options]\nstackdsl_paths = ["s"]\n')  # as the hint says
+    moved = pytester.path / "golden" / "s" / "t.json"
+    for more in ([], ["--snapshot-update"]):
+        result = pytester.runpytest(*args, *more)
+        result.assert_outcomes(failed=1)
+        out = result.stdout.str()
+        assert "t.yaml: no golden at golden/s/t.json, but s/golden/t.json is one for this scenario" in out
+        assert "move it to golden/s/t.json" in out and "no golden yet" not in out
+        assert not moved.exists()  # no second golden written beside the reviewed one
+    moved.parent.mkdir(parents=True)
+    beside.rename(moved)
+    pytester.runpytest(*args).assert_outcomes(passed=1)
+    (pytester.path / "pyproject.toml").unlink()  # and back: the golden is looked for beside the file again
+    result = pytester.runpytest(*args)
+    result.assert_outcomes(failed=1)
+    assert "no golden at s/golden/t.json, but golden/s/t.json is one for this scenario (with no pyproject.toml" in (
+        result.stdout.str()
+    )
+
+
+def test_the_golden_fixture_names_goldens_a_new_pyproject_moved(pytester, monkeypatch):
+    monkeypatch.delenv("PYTEST_XDIST_WORKER", raising=False)
+    (pytester.path / "t").mkdir()
+    (pytester.path / "t" / "test_g.py").write_text("def test_mine(golden):\n    assert golden == {'value': 1}\n")
+    pytester.runpytest("-p", "no:cacheprovider", "t/", "--snapshot-update").assert_outcomes(passed=1)
+    assert (pytester.path / "t" / "golden" / "test_g" / "test_mine.json").is_file()
+    pytester.makefile(".toml", pyproject="[tool.pytest.ini_options]\n")
+    result = pytester.runpytest("-p", "no:cacheprovider", "t/", "--snapshot-update")
+    result.assert_outcomes(errors=1)
+    assert "test_g.py: no goldens at golden/t/test_g/, but t/golden/test_g/ holds this test file's" in result.stdout.str()
+    assert not (pytester.path / "golden" / "t").exists()
+
+
 def test_snapshot_update_deletes_no_file_that_is_not_a_golden(project):
     write(project, "tower", TOWER)
     folder = project.path / "golden" / "scenarios"

@@ -337,25 +337,31 @@ def _contact(support: Any) -> str:
     return f" ({', '.join(said)})"
 
 
-def golden_dir(test_file: str | Path) -> Path:
+def golden_dir(test_file: str | Path, project: str | Path | None = None) -> Path:
     """``golden/`` beside the nearest ``pyproject.toml`` above ``test_file``
-    (or beside the test file when there is none)."""
+    (or beside the test file when there is none).
+
+    ``project``: a folder above the file taken to hold a ``pyproject.toml`` too (where the
+    goldens would go once one is written there).
+    """
     start = Path(test_file).resolve().parent
+    assumed = Path(project).resolve() if project is not None else None
     for folder in (start, *start.parents):
-        if (folder / "pyproject.toml").is_file():
+        if folder == assumed or (folder / "pyproject.toml").is_file():
             return folder / "golden"
     return start / "golden"
 
 
-def scenario_golden_path(scenario: str | Path) -> Path:
-    """Where a scenario file's golden snapshot lives: ``golden/`` (see :func:`golden_dir`),
-    then the scenario's folder relative to the project root, then its stem and ``.json``.
+def scenario_golden_path(scenario: str | Path, project: str | Path | None = None) -> Path:
+    """Where a scenario file's golden snapshot lives: ``golden/`` (see :func:`golden_dir`,
+    and its ``project``), then the scenario's folder relative to the project root, then its
+    stem and ``.json``.
 
     >>> str(scenario_golden_path("scenarios/hard/tall_100.yaml").relative_to(Path.cwd()))
     'golden/scenarios/hard/tall_100.json'
     """
     path = Path(scenario).resolve()
-    golden = golden_dir(path)
+    golden = golden_dir(path, project)
     try:
         folder = path.parent.relative_to(golden.parent)
     except ValueError:  # a scenario outside the project: beside the project's goldens

@@ -439,3 +439,80 @@ def test_the_viewer_and_export_carry_the_fixtures_with_a_shakes_ground(tmp_path)
     # and export at the table's farthest puts it there
     k = int(np.argmax(np.abs(trajectory.ground_offset[:, 1])))
     assert np.allclose(snapshot(trajectory, float(trajectory.times[k])).fixture_positions, trajectory.fixture_positions_at(k))
+
+
+WORLD_AND_WALL = """stackdsl: 1
+brick_types:
+  wall: {size: [20 mm, 200 mm, 200 mm]}
+structure:
+  bricks:
+    - {id: wall, brick: wall, at: [200 mm, 0, 100 mm], fixed: true}
+    - {id: world, at: [0, 0, 4 mm]}
+    - {id: Ground_1, at: [0, 0, 12 mm], yaw: 90}
+    - {id: frozen, at: [0, 0, 20 mm]}
+timing: {settle: 0.3 s}
+"""
+
+
+def _edited(record: Path, target: Path, edit) -> Path:
+    with np.load(record) as data:
+        arrays = {name: data[name] for name in data.files}
+    edit(arrays)
+    np.savez(target, **arrays)
+    return target
+
+
+def _rename(arrays, i: int, name: str) -> None:
+    ids = arrays["ids"].tolist()
+    ids[i] = name
+    arrays["ids"] = np.array(ids)
+
+
+EDITS = {
+    "as recorded": lambda a: None,
+    "a brick of another's id": lambda a: _rename(a, 1, str(a["ids"][0])),
+    "a brick of the fixture's id": lambda a: _rename(a, 0, str(a["fixture_ids"][0])),
+    "a brick named ground": lambda a: _rename(a, 0, "ground"),
+    "zero quaternions": lambda a: a.update(row_orientation=np.zeros_like(a["row_orientation"])),
+    "a zero fixture quaternion": lambda a: a.update(fixture_orientations=np.zeros_like(a["fixture_orientations"])),
+    "NaN quaternions": lambda a: a.update(row_orientation=np.full_like(a["row_orientation"], np.nan)),
+    "quaternions a little off unit length": lambda a: a.update(row_orientation=a["row_orientation"] * 1.0004),
+}
+
+
+@needs_mujoco
+@pytest.mark.parametrize("edit", EDITS, ids=list(EDITS))
+def test_export_writes_only_mjcf_and_urdf_that_mujoco_loads(edit, tmp_path, capsys):
+    """A run with a brick named as MuJoCo's world body and a fixture, recorded, then edited by
+    hand: export either refuses the trajectory (exit 2, one line naming it) or writes files that
+    MuJoCo loads, with a body for every brick."""
+    scenario = tmp_path / "world.yaml"
+    scenario.write_text(WORLD_AND_WALL)
+    record = tmp_path / "run.npz"
+    assert main(["run", str(scenario), "--record", str(record)]) == 0
+    bad = _edited(record, tmp_path / "edited.npz", EDITS[edit])
+    capsys.readouterr()
+    code = main(["export", str(bad), "--mjcf", str(tmp_path / "x.xml"), "--urdf", str(tmp_path / "x.urdf")])
+    if code == 2:
+        (line,) = capsys.readouterr().err.strip().splitlines()
+        assert line.startswith(f"{bad}: not a stackdsl trajectory"), line
+        assert not (tmp_path / "x.xml").exists() and not (tmp_path / "x.urdf").exists()
+        assert edit != "as recorded" and "a little off" not in edit
+        return
+    assert code == 0, capsys.readouterr().err
+    mjcf = mujoco.MjModel.from_xml_string((tmp_path / "x.xml").read_text())
+    urdf = mujoco.MjModel.from_xml_path(str(tmp_path / "x.urdf"))
+    assert mjcf.njnt == urdf.njnt == 3 and mjcf.ngeom == 5  # three free bricks; the ground, the wall and the bricks
+    assert {mjcf.geom(g).name for g in range(mjcf.ngeom)} == {"ground", "wall", "world", "Ground_1", "frozen"}
+    assert mjcf.body("world#").id > 0  # MuJoCo's own world body keeps its name
+
+
+@needs_mujoco
+def test_the_live_view_finds_a_brick_named_world():
+    from stackdsl.draw.live import program_scene
+
+    scene = program_scene(stackdsl.compile_scenario(stackdsl.parse_scenario(WORLD_AND_WALL)))
+    world = scene.mocap[scene.index["world"]]
+    assert world >= 0 and world != scene.mocap[scene.index["Ground_1"]]  # its own mocap body, not MuJoCo's world
+    position, _ = scene.pose_of("world")
+    assert position == pytest.approx([0.0, 0.0, 0.004])

@@ -49,6 +49,12 @@ def header_without(good: Path, key: str) -> np.ndarray:
     return np.array(json.dumps(header))
 
 
+def header_with(good: Path, key: str, value: object) -> np.ndarray:
+    header = json.loads(str(arrays_of(good)["header"]))
+    header[key] = value
+    return np.array(json.dumps(header))
+
+
 def huge_claim(good: Path, target: Path) -> Path:
     """A member whose .npy header claims a 21.8 TiB array over a few bytes of data."""
     buffer = io.BytesIO()
@@ -91,6 +97,62 @@ CASES = {
         lambda g, t: rewrite(g, t, ground_offset=np.full((len(arrays_of(g)["times"]), 3), np.inf)),
         "its 'ground_offset' array holds NaN or infinite values",
     ),
+    "zero quaternions": (
+        lambda g, t: rewrite(g, t, row_orientation=np.zeros_like(arrays_of(g)["row_orientation"])),
+        "its 'row_orientation' array holds a quaternion of length 0 (row 0), not a unit one",
+    ),
+    "a huge quaternion": (
+        lambda g, t: rewrite(g, t, row_orientation=np.tile([0.0, 0.0, 0.0, 1e308], (len(arrays_of(g)["row_body"]), 1))),
+        "its 'row_orientation' array holds a quaternion of length 1e+308",
+    ),
+    "positions at 1e300 m": (
+        lambda g, t: rewrite(g, t, row_position=np.full_like(arrays_of(g)["row_position"], 1e300)),
+        "its 'row_position' array holds a coordinate of 1e+300 m, beyond 1000 km from the origin",
+    ),
+    "a position just beyond the bound": (
+        lambda g, t: rewrite(g, t, row_position=arrays_of(g)["row_position"] + [0.0, -1.0001e6, 0.0]),
+        "beyond 1000 km from the origin",
+    ),
+    "a ground offset 1e9 m away": (
+        lambda g, t: rewrite(g, t, ground_offset=np.full((len(arrays_of(g)["times"]), 3), 1e9)),
+        "its 'ground_offset' array holds a coordinate of 1e+09 m",
+    ),
+    "a 2 km brick": (
+        lambda g, t: rewrite(g, t, half_extents=np.full_like(arrays_of(g)["half_extents"], 1000.0)),
+        "its 'half_extents' array holds 1e+03 m, beyond a brick's",
+    ),
+    "two bricks of one id": (
+        lambda g, t: rewrite(g, t, ids=np.array(["L01.1"] * len(arrays_of(g)["ids"]))),
+        "two bodies have the id 'L01.1'",
+    ),
+    "a fixture of a brick's id": (
+        lambda g, t: rewrite(
+            g,
+            t,
+            fixture_ids=np.array(["L01.2"]),
+            fixture_half_extents=np.full((1, 3), 0.01),
+            fixture_positions=np.array([[1.0, 0.0, 0.01]]),
+            fixture_orientations=np.array([[0.0, 0.0, 0.0, 1.0]]),
+        ),
+        "two bodies have the id 'L01.2'",
+    ),
+    "a brick named as the ground": (
+        lambda g, t: rewrite(g, t, ids=np.array(["ground", *arrays_of(g)["ids"][1:]])),
+        "a body has the ground's id 'ground'",
+    ),
+    "an id with a quote and a tag": (
+        lambda g, t: rewrite(g, t, ids=np.array(['a"</script>', *arrays_of(g)["ids"][1:]])),
+        "not letters, digits, '_', '.' and '-'",
+    ),
+    "an empty id": (lambda g, t: rewrite(g, t, ids=np.array(["", *arrays_of(g)["ids"][1:]])), "a body's id is ''"),
+    "a header nested 100000 deep": (
+        lambda g, t: rewrite(g, t, header=np.array("[" * 100_000 + "]" * 100_000)),
+        "its header record is nested too deeply",
+    ),
+    "an event at NaN s": (
+        lambda g, t: rewrite(g, t, header=header_with(g, "events", [{"time": float("nan"), "kind": "place", "brick": "L01.1"}])),
+        "an event's time is NaN or infinite",
+    ),
     "21.8 TiB claimed": (huge_claim, "times.npy claims 24000000000000 bytes but holds"),
     "a text file": (lambda g, t: (t.write_text("hello\n" * 10), t)[1], "it is not a whole .npz archive"),
 }
@@ -107,6 +169,11 @@ def test_a_bad_trajectory_file_is_one_line_naming_it(case, good, tmp_path, capsy
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert line.startswith(f"{bad}: ") and what in line and "--at" not in line
     assert not (tmp_path / "x.png").exists()
+    for argv in (["export", str(bad), "--mjcf", str(tmp_path / "x.xml"), "--urdf", str(tmp_path / "x.urdf")],):
+        assert main(argv) == 2
+        (line,) = capsys.readouterr().err.strip().splitlines()
+        assert line.startswith(f"{bad}: ") and what in line
+    assert not (tmp_path / "x.xml").exists() and not (tmp_path / "x.urdf").exists()
 
 
 def test_a_good_trajectory_still_reads_and_the_cap_is_far_above_a_real_run(good):

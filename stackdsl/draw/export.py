@@ -206,6 +206,21 @@ def colour_key(level: int, state: str) -> str:
     return "projectile" if level == 0 else state if state in COLOURS else "active"
 
 
+#: The body MuJoCo names itself: a brick of this id is named :func:`body_name` in MJCF.
+MUJOCO_WORLD = "world"
+
+
+def body_name(brick: str) -> str:
+    """The MJCF body (and URDF link) name of the brick ``brick``: its id, but for a brick named ``world``, which
+    MuJoCo's own world body is named (a second body of that name is refused): ``world#``, a name
+    no body id can have ('#' is no character of an id).
+
+    >>> body_name("L01.1"), body_name("world")
+    ('L01.1', 'world#')
+    """
+    return f"{brick}#" if brick == MUJOCO_WORLD else brick
+
+
 #: stackdsl's integrator names -> MJCF's keywords.
 _INTEGRATORS = {"euler": "Euler", "implicitfast": "implicitfast"}
 
@@ -242,7 +257,8 @@ def mjcf(scene: Snapshot, *, mocap: bool = False, engine: EngineSettings | None 
     body at its pose with a free joint (``mocap``: a mocap body instead, moved by setting
     ``data.mocap_pos``/``mocap_quat``, as :mod:`stackdsl.draw.live` does; the ground plane and
     the fixed boxes then in one mocap body named ``ground`` at the origin, which a shake moves)
-    and a box geom of its mass, friction and state colour. Names are the bricks' ids.
+    and a box geom of its mass, friction and state colour. Names are the bricks' ids (a body's
+    name is :func:`body_name`'s: MuJoCo keeps ``world`` for its own world body).
 
     MuJoCo's options and every geom's contact values are those of :func:`mujoco_settings` for
     ``engine`` (the run's settings; None: a run of unknown settings), with the materials' contact
@@ -326,7 +342,7 @@ def mjcf(scene: Snapshot, *, mocap: bool = False, engine: EngineSettings | None 
     moving: list[tuple[str, tuple[float, float]]] = []
     for i, brick in enumerate(scene.ids):
         body = ET.SubElement(
-            world, "body", name=brick, pos=_numbers(scene.positions[i]), quat=_numbers(_wxyz(scene.orientations[i]))
+            world, "body", name=body_name(brick), pos=_numbers(scene.positions[i]), quat=_numbers(_wxyz(scene.orientations[i]))
         )
         if mocap:
             body.set("mocap", "true")
@@ -368,7 +384,8 @@ def urdf(scene: Snapshot) -> str:
     """``scene`` as one URDF robot: the root link ``ground`` (a static 0.1 m thick slab whose
     top is z = 0, and the fixed bodies), each brick a link on a ``floating`` joint from the
     ground at its pose (``rpy``: roll, pitch, yaw about fixed x, y, z), with its mass, box
-    inertia (:func:`box_inertia`) and state colour."""
+    inertia (:func:`box_inertia`) and state colour; links are named as :func:`body_name` names
+    MJCF bodies (MuJoCo reads a link named ``world`` as its world body)."""
     from scipy.spatial.transform import Rotation
 
     robot = ET.Element("robot", name=scene.name)
@@ -392,7 +409,7 @@ def urdf(scene: Snapshot) -> str:
             if kind == "visual":
                 ET.SubElement(element, "material", name=material)
     for i, brick in enumerate(scene.ids):
-        link = ET.SubElement(robot, "link", name=brick)
+        link = ET.SubElement(robot, "link", name=body_name(brick))
         inertial = ET.SubElement(link, "inertial")
         mass = scene.mass(i)
         ET.SubElement(inertial, "mass", value=f"{mass:.6g}")
@@ -405,7 +422,7 @@ def urdf(scene: Snapshot) -> str:
                 ET.SubElement(element, "material", name=colour_key(scene.levels[i], scene.states[i]))
         joint = ET.SubElement(robot, "joint", name=brick, type="floating")
         ET.SubElement(joint, "parent", link="ground")
-        ET.SubElement(joint, "child", link=brick)
+        ET.SubElement(joint, "child", link=body_name(brick))
         rpy = Rotation.from_quat(scene.orientations[i]).as_euler("xyz")
         ET.SubElement(joint, "origin", xyz=_numbers(scene.positions[i]), rpy=_numbers(rpy))
     ET.indent(robot)

@@ -31,7 +31,7 @@ from ..engines.protocol import BrickSpec
 from ..runtime.loop import StepLoop
 from ..runtime.recorder import Recorder
 from ..runtime.trajectory import STATES, Trajectory
-from .export import Snapshot, colour_key, mjcf
+from .export import Snapshot, body_name, colour_key, mjcf
 from .render import COLOURS
 
 #: Pictures a simulated second the viewer is sent.
@@ -89,7 +89,7 @@ class Scene:
         self.model = mujoco.MjModel.from_xml_string(mjcf(scene, mocap=True))
         self.data = mujoco.MjData(self.model)
         self.ids, self.levels = list(ids), list(levels)
-        self.mocap = np.array([self.model.body_mocapid[self.model.body(b).id] for b in ids], dtype=int)
+        self.mocap = np.array([self.model.body_mocapid[self.model.body(body_name(b)).id] for b in ids], dtype=int)
         self.geom = np.array([self.model.geom(b).id for b in ids], dtype=int)
         self.index = {b: i for i, b in enumerate(ids)}
         self.ground = int(self.model.body_mocapid[self.model.body("ground").id])  # the ground and the fixtures on it

@@ -28,6 +28,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import zipfile
 import zlib
 from collections.abc import Callable, Iterator
@@ -38,6 +39,7 @@ from typing import Any
 import numpy as np
 import pydantic
 
+from ..lang.bounds import MAX_COORDINATE, MAX_SIDE
 from ..lang.files import written
 from .outcome import Event, Graph
 
@@ -224,6 +226,19 @@ class Trajectory:
             np.savez_compressed(f, header=np.array(json.dumps(header)), **arrays)
 
 
+#: Metres: the farthest from the origin a recorded position (a body's, a fixture's, the ground's
+#: offset) may be. A scene is placed within :data:`stackdsl.lang.bounds.MAX_COORDINATE` (1 km) of
+#: the origin, a tower's own offsets reach at most 10 km further, and the fastest throw (100 m/s)
+#: slides at most 360 km in the longest run (3600 s): a thousand kilometres holds every run; a
+#: position beyond it is a damaged or hand-made file, which a picture's camera cannot frame.
+MAX_POSITION = 1000 * MAX_COORDINATE
+#: Metres: a body's half extents are at most half the longest side a brick may have.
+MAX_HALF_EXTENT = MAX_SIDE / 2
+#: A stored orientation is a unit quaternion: its length may differ from 1 by this much (the
+#: recorder writes them to float precision); a zero or huge one is no orientation.
+QUATERNION_TOLERANCE = 1e-3
+#: A body's id in a trajectory file: the characters of a scenario's ids and the ids it generates.
+_ID = re.compile(r"[A-Za-z0-9_.-]{1,200}")
 #: Bytes a trajectory file's arrays may hold once read (a 200-level tower recorded at 30 Hz for
 #: its whole run holds a few MB): a file claiming more is refused before anything is read.
 MAX_TRAJECTORY_BYTES = 1 << 30
@@ -271,7 +286,10 @@ def load_trajectory(path: str | os.PathLike[str]) -> Trajectory:
         with np.load(path, allow_pickle=False) as data:
             if "header" not in data.files:
                 raise _Bad("it has no header record")
-            header = json.loads(str(data["header"]))
+            try:
+                header = json.loads(str(data["header"]))
+            except RecursionError:
+                raise _Bad("its header record is nested too deeply to be one stackdsl writes") from None
             missing = [name for name in _ARRAYS if name not in data.files and name not in _LATER]
             if missing:
                 raise _Bad(f"it has no {missing[0]!r} array")
@@ -293,9 +311,12 @@ def load_trajectory(path: str | os.PathLike[str]) -> Trajectory:
     try:
         meta = _checked_header(header)
         _check_arrays(arrays)
+        events = tuple(Event(**e) for e in header["events"])
+        if not all(math.isfinite(e.time) for e in events):
+            raise _Bad("an event's time is NaN or infinite")
         return Trajectory(
             meta=meta,
-            events=tuple(Event(**e) for e in header["events"]),
+            events=events,
             graphs={k: Graph(**g) for k, g in header["graphs"].items()},
             **arrays,
         )
@@ -375,6 +396,25 @@ def _check_arrays(arrays: dict[str, np.ndarray]) -> None:
             raise _Bad(f"its {name!r} array holds NaN or infinite values")
     if not (arrays["half_extents"] > 0).all() or not (arrays["fixture_half_extents"] > 0).all():
         raise _Bad("a body's half extents are not above 0")
+    for name in ("half_extents", "fixture_half_extents"):
+        if len(arrays[name]) and float(arrays[name].max()) > MAX_HALF_EXTENT:
+            raise _Bad(
+                f"its {name!r} array holds {float(arrays[name].max()):.3g} m, beyond a brick's (at most {MAX_HALF_EXTENT:g} m)"
+            )
+    for name in ("row_position", "fixture_positions", "ground_offset"):
+        if len(arrays[name]) and float(np.abs(arrays[name]).max()) > MAX_POSITION:
+            raise _Bad(
+                f"its {name!r} array holds a coordinate of {float(np.abs(arrays[name]).max()):.3g} m, "
+                f"beyond {MAX_POSITION / 1000:g} km from the origin, farther than any run goes"
+            )
+    for name in ("row_orientation", "fixture_orientations"):
+        q = arrays[name].astype(np.float64)
+        scale = np.abs(q).max(axis=1, initial=0.0)  # scaled first: 1e308 squared overflows
+        norms = scale * np.linalg.norm(q / np.where(scale > 0, scale, 1.0)[:, None], axis=1)
+        wrong = np.flatnonzero(np.abs(norms - 1.0) > QUATERNION_TOLERANCE)
+        if len(wrong):
+            raise _Bad(f"its {name!r} array holds a quaternion of length {norms[wrong[0]]:.3g} (row {wrong[0]}), not a unit one")
+    _check_ids([str(i) for i in arrays["ids"].tolist()] + [str(i) for i in arrays["fixture_ids"].tolist()])
     if (np.diff(arrays["times"]) < 0).any():
         raise _Bad("its times go backwards")
     for name, limit in (
@@ -385,3 +425,21 @@ def _check_arrays(arrays: dict[str, np.ndarray]) -> None:
         values = arrays[name]
         if len(values) and (values.min() < 0 or values.max() >= limit):
             raise _Bad(f"its {name!r} array points outside 0..{limit - 1}")
+
+
+def _check_ids(ids: list[str]) -> None:
+    """Every body's id (bricks, projectiles and fixtures): letters, digits, ``_``, ``.`` and ``-``
+    (what a scenario's ids and the ids it generates are made of), unique, and not the ground's:
+    an exported scene (MJCF, URDF) names each body by it, and the graph and the timeline name
+    the ground so."""
+    from ..lang.grammar import GROUND
+
+    seen: set[str] = set()
+    for i in ids:
+        if not _ID.fullmatch(i):
+            raise _Bad(f"a body's id is {i[:60]!r}, not letters, digits, '_', '.' and '-'")
+        if i.lower() == GROUND:
+            raise _Bad(f"a body has the ground's id {i!r}")
+        if i in seen:
+            raise _Bad(f"two bodies have the id {i!r}")
+        seen.add(i)

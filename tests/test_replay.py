@@ -159,6 +159,119 @@ def test_a_reports_replay_draws_the_scenarios_golden_as_ghosts_where_it_differs(
     assert '"golden_bricks":6' in page
 
 
+def _brick(golden: dict, brick: str, **fields: object) -> dict:
+    edited = copy.deepcopy(golden)
+    edited["final_graph"][brick].update(fields)
+    return edited
+
+
+#: Hand-edited goldens stackdsl cannot draw ghosts from: (edit of the run's own golden, what the one line says).
+BAD_GOLDENS = {
+    "text for a position": (lambda g: _brick(g, "L01.1", position_mm=["a", None, 1]), "L01.1.position_mm[0]: expected a number"),
+    "an infinite position": (lambda g: _brick(g, "L01.1", position_mm=[1e999, 0, 0]), "expected a finite number, not Infinity"),
+    "a NaN position": (lambda g: _brick(g, "L01.2", position_mm=[float("nan"), 0, 0]), "expected a finite number, not NaN"),
+    "a position 1e300 mm away": (lambda g: _brick(g, "L01.1", position_mm=[0, 0, 1e300]), "position_mm[2]: out of range"),
+    "two numbers for a position": (lambda g: _brick(g, "L01.1", position_mm=[1, 2]), "position_mm: expected 3 numbers"),
+    "a zero quaternion": (lambda g: _brick(g, "L01.1", quaternion_xyzw=[0, 0, 0, 0]), "quaternion_xyzw has length 0"),
+    "a huge quaternion": (lambda g: _brick(g, "L01.1", quaternion_xyzw=[0, 0, 0, 1e308]), "quaternion_xyzw has length 1e+308"),
+    "text for a quaternion": (lambda g: _brick(g, "L01.1", quaternion_xyzw="x"), "quaternion_xyzw: expected a list"),
+    "a state that is a number": (lambda g: _brick(g, "L01.1", state=3), "state: expected text"),
+    "no orientation": (
+        lambda g: {**g, "final_graph": {b: {"position_mm": f["position_mm"]} for b, f in g["final_graph"].items()}},
+        "a brick needs its orientation",
+    ),
+    "a brick that is a number": (lambda g: {**g, "final_graph": {**g["final_graph"], "L01.1": 5}}, "L01.1: expected an object"),
+    "final_graph a string": (lambda g: {**g, "final_graph": "x"}, "final_graph: expected an object"),
+    "final_graph a list": (lambda g: {**g, "final_graph": [1, 2]}, "final_graph: expected an object"),
+    "final_graph null": (lambda g: {**g, "final_graph": None}, "final_graph: expected an object"),
+    "no final_graph": (lambda g: {k: v for k, v in g.items() if k != "final_graph"}, "final_graph: missing"),
+    "a collapse_graph of text": (lambda g: {**g, "collapse_graph": "x"}, "collapse_graph: expected an object"),
+    "a scenario name that is a number": (lambda g: {**g, "scenario": 4}, "scenario: expected text"),
+    "a list, not an object": (lambda g: [g], "it is a JSON array, not an object"),
+    "nested 100000 deep": (lambda g: "[" * 100_000 + "]" * 100_000, "nested more than 16 levels deep"),
+    "nested 20 deep": (lambda g: {**g, "extra": json.loads("[" * 20 + "]" * 20)}, "nested more than 16 levels deep"),
+    "another scenario's name": (lambda g: {**g, "scenario": "4 stack"}, "the golden snapshot of scenario '4 stack'"),
+    "no brick of this run": (
+        lambda g: {**g, "final_graph": {f"X{b}": f for b, f in g["final_graph"].items()}},
+        "none of the golden snapshot's bricks (XL01.1",
+    ),
+}
+
+
+@pytest.fixture(scope="module")
+def tower_run(tmp_path_factory):
+    """A project with a 3-level tower, its run recorded and its golden snapshot (as the plugin writes it)."""
+    folder = tmp_path_factory.mktemp("golden")
+    (folder / "pyproject.toml").write_text("")
+    (folder / "scenarios").mkdir()
+    scenario = folder / "scenarios" / "tower.yaml"
+    scenario.write_text(TOWER)
+    program = stackdsl.compile_scenario(stackdsl.load_scenario(scenario))
+    outcome, trajectory = record_program(program, source=str(scenario))
+    record = folder / "tower.npz"
+    trajectory.save(record)
+    return folder, scenario, record, outcome.golden()
+
+
+def _write(path: Path, golden: object) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(golden if isinstance(golden, str) else json.dumps(golden))
+    return path
+
+
+@pytest.mark.parametrize("case", BAD_GOLDENS, ids=list(BAD_GOLDENS))
+def test_a_golden_stackdsl_cannot_use_is_bad_input_given_or_found(case, tower_run, tmp_path, capsys):
+    """Given to --golden or found at the scenario's own golden path: exit 2, one line naming the
+    file and what is wrong, and no page; check --report draws the replay without it and says why."""
+    folder, _, record, golden = tower_run
+    edit, what = BAD_GOLDENS[case]
+    given = _write(tmp_path / "given.json", edit(golden))
+    assert main(["replay", str(record), "-o", str(tmp_path / "a"), "--golden", str(given)]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith(f"{given}: ") and what in line, line
+    assert not (tmp_path / "a" / "replay.html").exists()
+    default = folder / "golden" / "scenarios" / "tower.json"
+    _write(default, edit(golden))
+    try:
+        assert main(["replay", str(record), "-o", str(tmp_path / "b")]) == 2
+        (line,) = capsys.readouterr().err.strip().splitlines()
+        assert line.startswith(f"{default}: ") and what in line, line
+        assert not (tmp_path / "b" / "replay.html").exists()
+        from stackdsl.draw.artefacts import draw_run
+
+        written, failure, _ = draw_run(stackdsl.load_trajectory(record), tmp_path / "report")
+        assert written["replay"] == "replay.html" and failure.startswith("replay drawn without its golden: ")
+        assert what in failure
+    finally:
+        default.unlink()
+
+
+def test_the_runs_own_golden_draws_and_a_changed_scene_is_warned_of(tower_run, tmp_path, capsys):
+    _, _, record, golden = tower_run
+    given = _write(tmp_path / "own.json", golden)
+    assert main(["replay", str(record), "-o", str(tmp_path / "a"), "--golden", str(given)]) == 0
+    assert capsys.readouterr().err == ""
+    taller = copy.deepcopy(golden)
+    taller["final_graph"]["L04.1"] = {**golden["final_graph"]["L03.1"], "level": 4}  # the scene had 4 levels
+    given = _write(tmp_path / "taller.json", taller)
+    assert main(["replay", str(record), "-o", str(tmp_path / "b"), "--golden", str(given)]) == 0
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line == (
+        f"{given}: warning: 1 of the golden snapshot's 7 bricks is not in this run (L04.1): the scene changed since it "
+        "was taken; it is drawn as a ghost"
+    )
+    assert '"id":"L04.1"' in (tmp_path / "b" / "replay.html").read_text()
+
+
+def test_every_shipped_golden_reads_as_its_scenarios(slant):
+    from stackdsl.draw.replay import read_golden
+
+    trajectory, _ = slant
+    assert read_golden(ROOT / "golden" / "scenarios" / "slant_tower.json", trajectory) is not None
+    for path in sorted((ROOT / "golden").rglob("*.json")):
+        assert isinstance(read_golden(path), dict), path
+
+
 # -- in the browser -------------------------------------------------------------------------
 needs_browser = pytest.mark.skipif(bool(missing()), reason=missing() or "ready")
 

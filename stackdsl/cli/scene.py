@@ -70,7 +70,7 @@ def _add_replay(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -
 
 def _replay(args: argparse.Namespace) -> int:
     from ..draw.artefacts import golden_of
-    from ..draw.replay import read_golden, write_replay
+    from ..draw.replay import GoldenError, read_golden, write_replay
 
     out = Path(args.output)
     if out.exists() and not out.is_dir():
@@ -78,10 +78,12 @@ def _replay(args: argparse.Namespace) -> int:
     golden_path = Path(args.golden) if args.golden else None
     if golden_path is not None and not golden_path.exists():
         raise ScenarioError("No such file or directory: no golden snapshot to show beside the run", file=args.golden)
-    if golden_path is not None and (not golden_path.is_file() or read_golden(golden_path) is None):
-        raise ScenarioError("not a readable golden snapshot (a JSON object)", file=args.golden)
-    trajectory = trajectory_of(args)
-    golden = read_golden(golden_path or golden_of(trajectory))
+    try:
+        read_golden(golden_path)  # a golden given that stackdsl cannot use: said before anything runs
+        trajectory = trajectory_of(args)
+        golden = read_golden(golden_path or golden_of(trajectory), trajectory)
+    except GoldenError as exc:
+        raise ScenarioError(exc.why, file=exc.file) from None
     out.mkdir(parents=True, exist_ok=True)
     return _wrote(
         write_replay(trajectory, out / "replay.html", golden), trajectory, f"a 3D replay of {len(trajectory.ids)} bodies"

@@ -13,6 +13,7 @@ from __future__ import annotations
 import hashlib
 import re
 import time
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 
@@ -82,7 +83,7 @@ def draw_run(trajectory: Trajectory, folder: str | Path) -> tuple[dict[str, str]
     from .animate import animate
     from .graphplot import plot_graph
     from .render import picture
-    from .replay import read_golden, write_replay
+    from .replay import GoldenError, GoldenWarning, read_golden, write_replay
 
     start = time.perf_counter()
     out = Path(folder)
@@ -95,10 +96,16 @@ def draw_run(trajectory: Trajectory, folder: str | Path) -> tuple[dict[str, str]
         "picture": lambda path: picture(trajectory, "collapse" if collapsed else "end", path),
         "graph": lambda path: plot_graph(graph, path, title=f"{name}: brick graph at the {'collapse' if collapsed else 'end'}"),
         "clip": lambda path: animate(trajectory, path),
-        "replay": lambda path: write_replay(trajectory, path, read_golden(golden_of(trajectory))),
+        "replay": lambda path: write_replay(trajectory, path, golden),
     }
     written: dict[str, str] = {}
     failure = ""
+    try:  # a golden that is not this run's, or that stackdsl cannot use: the replay is drawn without it
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", GoldenWarning)  # its bricks not in this run: the page's ghosts say so
+            golden = read_golden(golden_of(trajectory), trajectory)
+    except GoldenError as exc:
+        golden, failure = None, f"replay drawn without its golden: {exc}"
     for kind, step in steps.items():
         try:
             step(out / FILES[kind])

@@ -37,17 +37,23 @@ import base64
 import gzip
 import html
 import json
+import math
 import os
+import stat
+import warnings
 from functools import cache
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 import numpy as np
+import pydantic
+from pydantic import BaseModel, ConfigDict, Field, StrictFloat, StrictInt, StrictStr, model_validator
 
+from ..lang.errors import ScenarioWarning
 from ..lang.files import written
 from ..runtime.outcome import Graph
-from ..runtime.trajectory import STATES, Trajectory
+from ..runtime.trajectory import MAX_POSITION, STATES, Trajectory
 from .render import COLOURS
 
 #: The three.js release vendored in ``stackdsl/draw/vendor/`` (npm ``three``, MIT licence).
@@ -266,15 +272,199 @@ def write_replay(trajectory: Trajectory, path: str | os.PathLike[str], golden: d
     return Path(path)
 
 
-def read_golden(path: str | os.PathLike[str] | None) -> dict[str, Any] | None:
-    """A golden snapshot's JSON data, or None when ``path`` is None, missing, or not a JSON object."""
+#: Bytes a golden snapshot may have: a 5000-brick scene's (the most a scenario places) is a few MB.
+MAX_GOLDEN_BYTES = 64 << 20
+#: Lists and objects nested in one another in a golden snapshot: it has 5 (a brick's rests-on
+#: entries); deeper is no snapshot stackdsl writes.
+MAX_GOLDEN_DEPTH = 16
+#: A golden brick's position (mm, each coordinate) is at most this far from the origin: a recorded
+#: position's bound (:data:`stackdsl.runtime.trajectory.MAX_POSITION`).
+MAX_GOLDEN_MM = MAX_POSITION * 1000
+#: A golden quaternion is written to 3 decimals: its length is 1 within this.
+GOLDEN_QUATERNION_TOLERANCE = 0.01
+
+_Finite = Annotated[StrictFloat, Field(allow_inf_nan=False, ge=-MAX_GOLDEN_MM, le=MAX_GOLDEN_MM)]
+_Number = Annotated[StrictFloat, Field(allow_inf_nan=False)]
+_Angle = Annotated[StrictFloat, Field(allow_inf_nan=False, ge=-3600.0, le=3600.0)]
+
+
+class GoldenError(ValueError):
+    """A golden snapshot stackdsl cannot use, or not this run's: ``str()`` is one line, ``FILE: why``."""
+
+    def __init__(self, file: str | os.PathLike[str], why: str) -> None:
+        super().__init__(f"{file}: {why}")
+        self.file, self.why = str(file), why
+
+
+class GoldenWarning(ScenarioWarning):
+    """A golden snapshot of this scenario whose bricks are not all this run's (the scenario changed
+    since it was taken): those bricks are drawn as ghosts "not in this run"."""
+
+
+class _GoldenBrick(BaseModel):
+    """What the replay reads of a golden brick (other fields are kept as written)."""
+
+    model_config = ConfigDict(extra="allow", frozen=True)
+
+    position_mm: Annotated[list[_Finite], Field(min_length=3, max_length=3)]
+    quaternion_xyzw: Annotated[list[_Number], Field(min_length=4, max_length=4)] | None = None
+    yaw_pitch_roll_deg: Annotated[list[_Angle], Field(min_length=3, max_length=3)] | None = None
+    state: StrictStr | None = None
+    level: StrictInt | None = None
+
+    @model_validator(mode="after")
+    def _orientation(self) -> _GoldenBrick:
+        if self.quaternion_xyzw is None and self.yaw_pitch_roll_deg is None:
+            raise ValueError("a brick needs its orientation: quaternion_xyzw (or yaw_pitch_roll_deg)")
+        if self.quaternion_xyzw is not None:
+            length = math.hypot(*self.quaternion_xyzw)
+            if abs(length - 1.0) > GOLDEN_QUATERNION_TOLERANCE:
+                raise ValueError(f"quaternion_xyzw has length {length:.3g}, not 1: it is no orientation")
+        return self
+
+
+class _Golden(BaseModel):
+    """A golden snapshot as the replay reads it (:meth:`stackdsl.Outcome.golden`; other fields kept)."""
+
+    model_config = ConfigDict(extra="allow", frozen=True)
+
+    scenario: StrictStr | None = None
+    final_graph: dict[str, _GoldenBrick]
+    collapse_graph: dict[str, _GoldenBrick] | None = None
+
+
+def _depth_exceeds(data: Any, limit: int) -> bool:
+    """Whether lists and objects in ``data`` nest deeper than ``limit`` (walked without recursion)."""
+    stack = [(data, 1)]
+    while stack:
+        value, depth = stack.pop()
+        if isinstance(value, (list, dict)):
+            if depth > limit:
+                return True
+            stack += [(v, depth + 1) for v in (value.values() if isinstance(value, dict) else value)]
+    return False
+
+
+#: pydantic's error types, in words (the value found is said after).
+_SAID = {
+    "float_type": "expected a number",
+    "int_type": "expected a whole number",
+    "string_type": "expected text",
+    "finite_number": "expected a finite number",
+    "less_than_equal": "out of range",
+    "greater_than_equal": "out of range",
+    "dict_type": "expected an object",
+    "model_type": "expected an object",
+    "model_attributes_type": "expected an object",
+    "list_type": "expected a list",
+    "too_short": "expected {n} numbers",
+    "too_long": "expected {n} numbers",
+    "missing": "missing",
+}
+
+
+def _first_problem(exc: pydantic.ValidationError) -> str:
+    """The first error of a golden snapshot's validation, as ``final_graph.L01.1.position_mm[0]: why``."""
+    error = exc.errors()[0]
+    where = ""
+    for part in error["loc"]:
+        where += f"[{part}]" if isinstance(part, int) else (f".{part}" if where else str(part))
+    kind = error["type"]
+    why = _SAID.get(kind, str(error["msg"]).removeprefix("Value error, "))
+    context = error.get("ctx") or {}
+    if kind in ("too_short", "too_long"):
+        why = why.format(n=context.get("min_length", context.get("max_length")))
+    if kind in ("less_than_equal", "greater_than_equal"):
+        angle = "yaw_pitch_roll_deg" in error["loc"]
+        why += (
+            ": an angle is within 3600 deg" if angle else f": a position is within {MAX_GOLDEN_MM:g} mm (1000 km) of the origin"
+        )
+    if kind not in ("missing", "value_error") and "input" in error:
+        shown = json.dumps(error["input"], ensure_ascii=False, default=str)
+        why += f", not {shown if len(shown) <= 40 else shown[:37] + '...'}"
+    return f"{where}: {why}" if where else why
+
+
+def read_golden(path: str | os.PathLike[str] | None, trajectory: Trajectory | None = None) -> dict[str, Any] | None:
+    """A golden snapshot's JSON data, checked once (:class:`_Golden`) before anything reads it.
+
+    Args:
+        path: the snapshot; None: no golden.
+        trajectory: the run it is drawn beside: the golden must be of the same scenario (its
+            ``scenario`` name, when it has one) and have some brick of the run; a golden with bricks
+            the run does not have gives a :class:`GoldenWarning`.
+
+    Returns:
+        The data as written; None when ``path`` is None or no file is there.
+
+    Raises:
+        GoldenError: one line naming the file: not a regular file, larger than
+            :data:`MAX_GOLDEN_BYTES`, not UTF-8 JSON, nested deeper than :data:`MAX_GOLDEN_DEPTH`, no
+            ``final_graph`` mapping brick ids to bricks, a brick without a position (3 finite
+            numbers of mm within 1000 km) or an orientation (a unit quaternion), text where a number
+            belongs; another scenario's, or without a brick of the run.
+    """
     if path is None:
         return None
-    try:
-        data = json.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+    path = Path(path)
+    if not path.exists():
         return None
-    return data if isinstance(data, dict) else None
+
+    def bad(why: str) -> GoldenError:
+        return GoldenError(path, f"not a golden snapshot stackdsl can draw: {why}")
+
+    try:
+        info = path.stat()
+        if not stat.S_ISREG(info.st_mode):
+            raise bad("it is not a regular file")
+        if info.st_size > MAX_GOLDEN_BYTES:
+            raise bad(f"it is larger than {MAX_GOLDEN_BYTES >> 20} MiB")
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise GoldenError(path, str(exc.strerror or exc)) from None
+    except UnicodeDecodeError:
+        raise bad("it is not UTF-8 text") from None
+    except RecursionError:
+        raise bad(f"lists and objects are nested more than {MAX_GOLDEN_DEPTH} levels deep") from None
+    except ValueError as exc:
+        raise bad(f"it is not JSON ({str(exc).splitlines()[0]})") from None
+    if not isinstance(data, dict):
+        raise bad(f"it is a JSON {type(data).__name__.replace('list', 'array').replace('str', 'string')}, not an object")
+    if _depth_exceeds(data, MAX_GOLDEN_DEPTH):
+        raise bad(f"lists and objects are nested more than {MAX_GOLDEN_DEPTH} levels deep")
+    try:
+        golden = _Golden.model_validate(data)
+    except pydantic.ValidationError as exc:
+        raise bad(_first_problem(exc)) from None
+    if trajectory is not None:
+        _belongs(golden, trajectory, path)
+    return data
 
 
-__all__ = ["THREE_VERSION", "ghosts", "read_golden", "replay_data", "replay_html", "write_replay"]
+def _belongs(golden: _Golden, trajectory: Trajectory, path: Path) -> None:
+    """Refuse the golden of another scenario (its name, or no brick in common with the run); warn
+    of the golden's bricks the run does not have."""
+    name = trajectory.meta.get("scenario")
+    if golden.scenario is not None and isinstance(name, str) and golden.scenario != name:
+        raise GoldenError(
+            path, f"the golden snapshot of scenario {golden.scenario!r}, and this run is of {name!r}: give this scenario's golden"
+        )
+    ids = [str(i) for i in trajectory.ids.tolist()]
+    run = set(ids)
+    theirs = [b for b in golden.final_graph if b not in run]
+    if len(theirs) == len(golden.final_graph):
+        shown = ", ".join(list(golden.final_graph)[:3]) or "none"
+        raise GoldenError(path, f"none of the golden snapshot's bricks ({shown}) is in this run: it is another scene's")
+    if theirs:
+        shown = ", ".join(theirs[:3]) + (", ..." if len(theirs) > 3 else "")
+        warnings.warn(
+            GoldenWarning(
+                f"{path}: warning: {len(theirs)} of the golden snapshot's {len(golden.final_graph)} bricks "
+                f"{'is' if len(theirs) == 1 else 'are'} not in this run ({shown}): the scene changed since it was taken; "
+                f"{'it is drawn as a ghost' if len(theirs) == 1 else 'they are drawn as ghosts'}"
+            ),
+            stacklevel=3,
+        )
+
+
+__all__ = ["THREE_VERSION", "GoldenError", "GoldenWarning", "ghosts", "read_golden", "replay_data", "replay_html", "write_replay"]

@@ -924,6 +924,74 @@ def test_bench_refuses_a_bad_after_collapse_time_before_running(seconds, capsys)
     assert "--after-collapse" in err and "Traceback" not in err
 
 
+@pytest.mark.parametrize(
+    ("argv", "where", "says"),
+    [
+        (["--settings", ""], "--settings", "give at least one setting"),
+        (["--settings", ","], "--settings", "give at least one setting"),
+        (["--settings", "tuned,warp"], "--settings", "unknown setting 'warp'"),
+        (["--families", "nope"], "--families", "unknown scene family 'nope'; known: slant log cabin, single file, upright"),
+        (["--families", " , "], "--families", "give at least one scene family"),
+        (["--families", "upright", "--upright", ""], "--upright", "no scene to run"),
+        (["--repeats", "0"], "--repeats", "at least 1, not 0"),
+        (["--repeats", "-1"], "--repeats", "at least 1, not -1"),
+        (["--repeat-below", "nan"], "--repeat-below", "0 or more"),
+        (["--repeat-below", "-1"], "--repeat-below", "0 or more"),
+        (["--out", "{file}"], "{file}", "this is a file, not a folder"),
+        (["--out", "{file}/sub"], "{file}/sub", "cannot write in this folder: Not a directory"),
+        (["--out", "/proc/stackdsl-bench"], "/proc/stackdsl-bench", "cannot write in this folder"),
+    ],
+)
+@pytest.mark.parametrize("quick", [[], ["--quick"]], ids=["full", "quick"])
+def test_bench_refuses_bad_options_before_any_cell_runs(argv, where, says, quick, tmp_path, capsys, monkeypatch):
+    import stackdsl.cli.bench as bench
+
+    def never(*args, **kwargs):
+        raise AssertionError("a cell ran")
+
+    monkeypatch.setattr(bench, "run_matrix", never)
+    file = tmp_path / "a.txt"
+    file.write_text("x")
+    argv = [a.replace("{file}", str(file)) for a in argv]
+    if quick and argv[:2] == ["--families", "upright"]:
+        return  # --quick runs its one scene whatever the families
+    assert main(["bench", *quick, *argv]) == 2
+    captured = capsys.readouterr()
+    (line,) = captured.err.strip().splitlines()
+    assert line.startswith(where.replace("{file}", str(file)) + ": ") and says in line, line
+    assert captured.out == "" and file.read_text() == "x"
+
+
+@pytest.mark.parametrize(
+    ("argv", "where", "says"),
+    [
+        (["--sizes", ""], "--sizes", "bricks per tower from 1 to 2000"),
+        (["--sizes", ","], "--sizes", "bricks per tower from 1 to 2000"),
+        (["--sizes", "-5"], "--sizes", "not '-5'"),
+        (["--sizes", "0,10"], "--sizes", "not '0,10'"),
+        (["--sizes", "100000000"], "--sizes", "bricks per tower from 1 to 2000 (a 4 stack of 1000 levels)"),
+        (["--sizes", "ten"], "--sizes", "whole numbers of bricks"),
+        (["--sizes", "2", "--repeats", "0"], "--repeats", "at least 1"),
+    ],
+)
+def test_bench_solve_refuses_bad_sizes_and_repeats_as_its_options(argv, where, says, capsys, monkeypatch):
+    import stackdsl.bench.cost as cost
+
+    monkeypatch.setattr(cost, "solve_times", lambda *a: (_ for _ in ()).throw(AssertionError("a tower was solved")))
+    assert main(["bench", "solve", *argv]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith(f"{where}: ") and says in line and "<scenario>" not in line, line
+
+
+def test_bench_verdicts_refuses_an_output_folder_it_cannot_write_before_running(tmp_path, capsys):
+    (tmp_path / "a.txt").write_text("x")
+    for out, says in ((tmp_path / "a.txt", "this is a file, not a folder"), (tmp_path / "a.txt" / "sub", "Not a directory")):
+        assert main(["bench", "verdicts", "--count", "1", "--engines", "pybullet", "--out", str(out)]) == 2
+        captured = capsys.readouterr()
+        (line,) = captured.err.strip().splitlines()
+        assert line.startswith(f"{out}: ") and says in line and captured.out == ""
+
+
 def test_a_slant_scene_ends_where_its_collapse_is_decided_unless_told_to_settle():
     """The bench's slant cells stop at the decision, as the lean peer does; the scene's settle
     time can still be asked for. The level is the same either way."""

@@ -7,17 +7,23 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 import argparse
+import tempfile
 import time
+from pathlib import Path
 from typing import Any
 
 from ..bench.bench import SETTINGS, UPRIGHT, run_matrix, savings, scenes
 from ..bench.dominoes import DEFAULT as DOMINO_SETTINGS
 from ..bench.dominoes import KNOWN as DOMINO_KNOWN
+from ..lang.bounds import MAX_LEVELS
 from ..lang.errors import ScenarioError
 from ..lang.extras import installed, missing
 from ..verdicts.expect import describe
 from .args import COMMANDS, OK, jobs_type, output_folder
 from .progress import Lines
+
+#: The most bricks ``bench solve`` takes a tower of: a 4 stack (two bricks a level) of the most levels a tower has.
+MAX_SOLVE_BRICKS = 2 * MAX_LEVELS
 
 
 def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, modes: list[str]) -> None:
@@ -198,17 +204,52 @@ def _need_engines(settings: list[str]) -> None:
         _need("mujoco", "--settings")
 
 
+def _names(text: str, option: str, known: list[str], what: str) -> list[str]:
+    """The comma-separated names of ``option``, each one of ``known``.
+
+    Raises:
+        ScenarioError: at ``option``: none given (only commas and spaces), or one unknown.
+    """
+    names = list(dict.fromkeys(x.strip() for x in text.split(",") if x.strip()))
+    unknown = [x for x in names if x not in known]
+    if unknown:
+        raise ScenarioError(f"unknown {what} {', '.join(map(repr, unknown))}; known: {', '.join(known)}", file=option)
+    if not names:
+        raise ScenarioError(f"give at least one {what}, comma-separated, of: {', '.join(known)}", file=option)
+    return names
+
+
+def _at_least_one(value: int, option: str = "--repeats") -> None:
+    """Refuse a count of runs below 1 (nothing would be timed: no median)."""
+    if value < 1:
+        raise ScenarioError(f"runs to take the median of: at least 1, not {value}", file=option)
+
+
+def _out_folder(given: str | None, prefix: str) -> Path:
+    """The folder a benchmark writes into (:func:`output_folder`), made and checked before
+    anything runs: a file there, or a folder that cannot be made or written in, is bad input."""
+    out = output_folder(given, prefix)
+    if out.exists() and not out.is_dir():
+        raise ScenarioError("this is a file, not a folder: give a folder for the benchmark's files", file=str(out))
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=out):  # a folder that takes no file (read-only, /proc)
+            pass
+    except OSError as exc:
+        raise ScenarioError(f"cannot write in this folder: {exc.strerror or exc}", file=str(out)) from None
+    return out
+
+
 def _bench(args: argparse.Namespace) -> int:
     from ..bench.out import write_outputs
     from ..bench.versions import version_line
 
-    settings = [x.strip() for x in args.settings.split(",") if x.strip()]
-    families = {x.strip() for x in args.families.split(",") if x.strip()}
-    unknown = [x for x in settings if x not in SETTINGS]
-    if unknown:
-        raise ScenarioError(f"unknown setting {', '.join(unknown)}; known: {', '.join(SETTINGS)}", file="--settings")
+    settings = _names(args.settings, "--settings", list(SETTINGS), "setting")
     if not 0.0 <= args.after_collapse <= 600.0:
         raise ScenarioError(f"seconds from 0 to 600, not {args.after_collapse!r}", file="--after-collapse")
+    _at_least_one(args.repeats)
+    if not args.repeat_below >= 0.0:  # NaN too
+        raise ScenarioError(f"seconds, 0 or more (inf: every cell repeated), not {args.repeat_below!r}", file="--repeat-below")
     _need_engines(settings)
     try:
         heights = [int(x) for x in args.upright.split(",") if x.strip()]
@@ -216,8 +257,12 @@ def _bench(args: argparse.Namespace) -> int:
         raise ScenarioError(f"whole numbers of levels, not {args.upright!r}", file="--upright") from None
     if any(not 1 <= h <= 1000 for h in heights):
         raise ScenarioError("each height from 1 to 1000 levels", file="--upright")
+    known = list(dict.fromkeys(sc.family for sc in scenes(False, UPRIGHT)))
+    families = set(_names(args.families, "--families", known, "scene family"))
     chosen = [sc for sc in scenes(args.quick, heights) if sc.family in families or args.quick]
-    out = output_folder(args.out, "stackdsl-bench-")
+    if not chosen:
+        raise ScenarioError("no scene to run: the upright family is chosen alone, and no height is given", file="--upright")
+    out = _out_folder(args.out, "stackdsl-bench-")
     start = time.perf_counter()
     total = len(chosen) * len(settings)
     print(version_line())
@@ -274,7 +319,16 @@ def _targets(targets: dict[str, Any]) -> list[str]:
 def _bench_solve(args: argparse.Namespace) -> int:
     from ..bench.cost import format_solve_times, solve_times
 
-    sizes = tuple(int(x) for x in args.sizes.split(","))
+    try:
+        sizes = tuple(int(x) for x in args.sizes.split(",") if x.strip())
+    except ValueError:
+        raise ScenarioError(f"whole numbers of bricks, comma-separated, not {args.sizes!r}", file="--sizes") from None
+    if not sizes or not all(1 <= n <= MAX_SOLVE_BRICKS for n in sizes):
+        raise ScenarioError(
+            f"bricks per tower from 1 to {MAX_SOLVE_BRICKS} (a 4 stack of {MAX_LEVELS} levels), not {args.sizes!r}",
+            file="--sizes",
+        )
+    _at_least_one(args.repeats)
     print(format_solve_times(solve_times(sizes, args.repeats)))
     return OK
 
@@ -477,9 +531,7 @@ def _bench_verdicts(args: argparse.Namespace) -> int:
         raise ScenarioError(str(exc), file="--engines") from None
     if "mujoco" in engines:
         _need("mujoco", "--engines")
-    out = output_folder(args.out, "stackdsl-verdicts-")
-    if out.exists() and not out.is_dir():
-        raise ScenarioError("the output must be a folder, and this is a file", file=str(out))
+    out = _out_folder(args.out, "stackdsl-verdicts-")
     print(version_line(), flush=True)
     if args.count:
         journal = Journal(out / JOURNAL, args.seed, runs)

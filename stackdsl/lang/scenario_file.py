@@ -1,7 +1,8 @@
 """A scenario file's text: a regular file of at most :data:`MAX_FILE_BYTES`, decided from
 ``os.stat`` before it is opened (a FIFO, device or socket is never opened), decoded as UTF-8 (a
 UTF-8 byte order mark is skipped; UTF-16/32 are named and refused), and holding only the
-characters YAML allows. Every refusal is a :class:`stackdsl.lang.errors.ScenarioError` at the file,
+characters YAML allows, less the three that YAML 1.1 alone counts as line breaks (U+0085,
+U+2028, U+2029), so that every line:col is the one an editor shows. Every refusal is a :class:`stackdsl.lang.errors.ScenarioError` at the file,
 and at line:col where there is one.
 
 Source: stackdsl's own.
@@ -20,8 +21,16 @@ import yaml
 from .errors import ScenarioError
 
 MAX_FILE_BYTES = 1 << 20  # a scenario file is at most 1 MiB
-# Line breaks as YAML counts them.
-_LINE_BREAK = re.compile(r"\r\n|[\r\n\x85\u2028\u2029]")
+# Line breaks as an editor counts them (and as YAML does in a file without the characters below).
+_LINE_BREAK = re.compile(r"\r\n|[\r\n]")
+# Characters YAML 1.1 (PyYAML) takes for line breaks and an editor, YAML 1.2 and JSON do not: refused
+# where they are written, each with the escape that writes it in a double-quoted string.
+_YAML11_BREAKS = {
+    "\x85": ("U+0085 NEXT LINE (NEL)", "\\N"),
+    "\u2028": ("U+2028 LINE SEPARATOR", "\\L"),
+    "\u2029": ("U+2029 PARAGRAPH SEPARATOR", "\\P"),
+}
+_YAML11_BREAK = re.compile("[\x85\u2028\u2029]")
 _C0_NAMES = (
     "NULL START_OF_HEADING START_OF_TEXT END_OF_TEXT END_OF_TRANSMISSION ENQUIRY ACKNOWLEDGE BELL "
     "BACKSPACE CHARACTER_TABULATION LINE_FEED LINE_TABULATION FORM_FEED CARRIAGE_RETURN SHIFT_OUT "
@@ -124,7 +133,8 @@ def _decode(raw: bytes, file: str) -> str:
 
 
 def _position(text: str, index: int) -> tuple[int, int, str]:
-    """1-based line and column of ``text[index]``, counting lines as YAML does, and its line."""
+    """1-based line and column of ``text[index]``, counting lines as an editor does (CR LF, CR or
+    LF end one), and its line."""
     line, start = 1, 0
     for brk in _LINE_BREAK.finditer(text, 0, index):
         line, start = line + 1, brk.end()
@@ -151,15 +161,25 @@ def character_name(ch: str) -> str:
 
 
 def check_characters(text: str, file: str) -> None:
-    """Refuse the first character YAML does not allow (PyYAML's own test), at its line:col."""
+    """Refuse the first character YAML does not allow (PyYAML's own test), or that YAML 1.1 reads
+    as a line break and an editor does not (U+0085, U+2028, U+2029: PyYAML would count lines
+    past it that the editor does not show, and end a comment there), at its line:col as an
+    editor shows it."""
     bad = yaml.reader.Reader.NON_PRINTABLE.search(text)
-    found = [i for i in (bad.start() if bad else -1, text.find("\ufeff")) if i >= 0]  # the caller drops a leading BOM
-    if not found:
+    brk = _YAML11_BREAK.search(text)
+    found = [i for i in (bad.start() if bad else -1, text.find("\ufeff"), brk.start() if brk else -1) if i >= 0]
+    if not found:  # (the caller drops a leading BOM)
         return
     at = min(found)
     line, column, shown = _position(text, at)
     if text[at] == "\ufeff":
         message = "U+FEFF (a byte order mark) is allowed only at the start of the file"
+    elif text[at] in _YAML11_BREAKS:
+        name, escape = _YAML11_BREAKS[text[at]]
+        message = (
+            f"{name} is not allowed: YAML 1.1, which stackdsl reads, takes it for a line break where an editor "
+            f"shows none; remove it, or write it as {escape} in a double-quoted string"
+        )
     else:
         message = f"{character_name(text[at])} is not allowed in YAML"
     if text[at] == "\x00":

@@ -262,6 +262,99 @@ def test_a_grid_value_the_compiler_refuses_is_refused_at_it_before_any_cell_runs
     assert not ran and "PASS" not in captured.out and "FAIL" not in captured.out  # no cell ran
 
 
+UNREACHABLE = {
+    "P(stands) above 1": ("expect: {p_stands: '> 1'}", "expect.p_stands", "can never hold: a probability is at most 1"),
+    "P(stands) below 0": ("expect: {p_stands: '< 0'}", "expect.p_stands", "can never hold: a probability is at least 0"),
+    "P(stands) 1 of drawn samples": ("expect: {p_stands: '>= 1'}", "expect.p_stands", "can never pass: the samples draw"),
+    "a mean above the tower": ("expect: {collapse: {mean: 50 ± 1}}", "expect.collapse.mean", "builds at most 3 levels"),
+    "a mean just above the tower": ("expect: {collapse: {mean: 4.2 ± 1}}", "expect.collapse.mean", "builds at most 3 levels"),
+    "a mean below level 1": ("expect: {collapse: {mean: 0.2 ± 0.5}}", "expect.collapse.mean", "collapse levels start at 1"),
+    "a median above the tower": (
+        "expect: {collapse: {quantile: {q: 0.5, level: 40 ± 1}}}",
+        "expect.collapse.quantile.level",
+        "builds at most 3 levels",
+    ),
+    "a quantile between two levels": (
+        "expect: {collapse: {quantile: {q: 0.9, level: 1.4 ± 0.3}}}",
+        "expect.collapse.quantile.level",
+        "'1.4 ± 0.3' holds none, so it could never pass",
+    ),
+    "a cell's mean above the tower": (
+        "expect:\n  cells: [{where: 'timing.drop_gap > 1 mm', collapse: {mean: 9 ± 1}}]",
+        "expect.cells[0].collapse.mean",
+        "in grid cell 1 (timing.drop_gap = 2 mm)",
+    ),
+}
+
+
+@pytest.mark.parametrize("command", ["sweep", "check"])
+@pytest.mark.parametrize("case", UNREACHABLE, ids=list(UNREACHABLE))
+def test_a_statistic_no_sample_can_pass_is_refused_at_it_before_any_sample_runs(case, command, tmp_path, capsys, monkeypatch):
+    import stackdsl.batch.sweep as sweep_module
+
+    ran = []
+    monkeypatch.setattr(sweep_module, "run_batch", lambda *a: ran.append(a[1]))
+    monkeypatch.setattr(sweep_module, "run_sweep", lambda *a, **k: ran.append("sweep") or iter(()))
+    expect, field, says = UNREACHABLE[case]
+    text = STACK.format(levels=3, samples=2).replace(
+        "sweep: {samples: 2}", "sweep: {samples: 2, grid: {timing.drop_gap: [0, 2 mm]}}"
+    )
+    (tmp_path / "s.yaml").write_text(text + expect + "\n")
+    assert (
+        main([command, str(tmp_path / "s.yaml"), "-j", "1", *(["--out", str(tmp_path / "o")] if command == "sweep" else [])]) == 2
+    )
+    captured = capsys.readouterr()
+    first = captured.err.splitlines()[0]
+    line = 11 if "cells" not in expect else 12
+    assert first.startswith(f"{tmp_path / 's.yaml'}:{line}:") and f": {field}: " in first and says in first, first
+    assert "would decide" not in captured.out + captured.err
+    assert not ran and not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize(
+    "expect",
+    [
+        "expect: {collapse: {mean: 3.5 ± 0.6}}",  # reaches level 3
+        "expect: {collapse: {quantile: {q: 0.5, level: 2.5 ± 0.5}}}",  # holds levels 2 and 3
+        "expect: {p_stands: '> 0'}",
+        "expect: {p_stands: '<= 1'}",
+        # judged only in the 10-level cell, where it can be measured
+        "expect:\n  cells: [{where: 'structure.tower.levels > 5', collapse: {mean: 9 ± 1}}]",
+    ],
+)
+def test_a_statistic_some_samples_can_pass_is_not_refused(expect, tmp_path):
+    from stackdsl.batch.check import prepare
+
+    text = STACK.format(levels=3, samples=2).replace(
+        "sweep: {samples: 2}", "sweep: {samples: 2, grid: {structure.tower.levels: [3, 10]}}"
+    )
+    if "cells" not in expect:
+        text = text.replace("structure.tower.levels: [3, 10]", "timing.drop_gap: [0, 2 mm]")
+    (tmp_path / "s.yaml").write_text(text + expect + "\n")
+    assert len(prepare([tmp_path / "s.yaml"])) == 1
+
+
+def test_drawn_levels_reach_as_high_as_their_highest_choice_unless_two_draws_add_up(tmp_path):
+    """A tower of {choice: [3, 10]} levels: a mean of 8 is reachable, of 12 not. Two parts whose
+    levels are both drawn stack up beyond either's bound: the levels are then not judged."""
+    from stackdsl.batch.check import prepare
+    from stackdsl.lang.errors import ScenarioErrors
+
+    base = "stackdsl: 1\nstructure: {{tower: {{levels: {{choice: [3, 10]}}}}}}\nsweep: {{samples: 2}}\nexpect: {{collapse: {{mean: {m} ± 1}}}}\n"
+    (tmp_path / "a.yaml").write_text(base.format(m=8))
+    assert len(prepare([tmp_path / "a.yaml"])) == 1
+    (tmp_path / "b.yaml").write_text(base.format(m=12))
+    with pytest.raises(ScenarioErrors, match="builds at most 10 levels"):
+        prepare([tmp_path / "b.yaml"])
+    stacked = (
+        "stackdsl: 1\nstructure:\n  - {name: low, tower: {levels: {choice: [2, 6]}}}\n"
+        "  - {name: high, on: low, tower: {levels: {choice: [2, 6]}}}\nsweep: {samples: 2}\n"
+        "expect: {collapse: {mean: 11 ± 0.5}}\n"
+    )
+    (tmp_path / "c.yaml").write_text(stacked)
+    assert len(prepare([tmp_path / "c.yaml"])) == 1  # 6 + 6 levels reach 11: not refused
+
+
 def test_check_runs_a_sweep_as_one_row_beside_single_runs(tmp_path, capsys):
     (tmp_path / "walk.yaml").write_text(STACK.format(levels=6, samples=10) + "expect:\n  p_stands: '<= 0.95'\n")
     (tmp_path / "tower.yaml").write_text("stackdsl: 1\nstructure: {tower: {levels: 2}}\nexpect: {stands: true}\n")

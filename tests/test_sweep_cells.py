@@ -301,13 +301,14 @@ def test_an_exact_sweep_with_a_mean_gives_a_verdict_on_the_command_line(tmp_path
     (this once failed with an internal error, exit 3, and check reported no file at all)."""
     text = EXACT.format(expect=f'cells: [{{where: "{FALLS}", collapse: {{mean: "2 ± 0.5"}}}}]')
     (tmp_path / "s.yaml").write_text(text)
-    (tmp_path / "f.yaml").write_text(text.replace('"2 ± 0.5"', '"4 ± 0.5"'))
+    # a mean the cell's 2 levels can reach (4 ± 0.5 there is refused: no sample can pass it), not measured
+    (tmp_path / "f.yaml").write_text(text.replace('"2 ± 0.5"', '"1 ± 0.5"'))
     assert main(["sweep", str(tmp_path / "s.yaml"), "-j", "1", "--out", str(tmp_path / "o")]) == 0
     assert "PASS         expected mean 2±0.5, measured mean 2.00 exact" in capsys.readouterr().out
     junit = tmp_path / "j.xml"
     assert main(["check", str(tmp_path / "s.yaml"), str(tmp_path / "f.yaml"), "-j", "1", "--junit-xml", str(junit)]) == 1
     out = capsys.readouterr().out
-    assert "PASS  " in out and "FAIL  " in out and "expected mean 4±0.5, measured mean 2.00 exact" in out
+    assert "PASS  " in out and "FAIL  " in out and "expected mean 1±0.5, measured mean 2.00 exact" in out
     assert junit.read_text().count("<testcase") == 2
 
 

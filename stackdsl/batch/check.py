@@ -120,8 +120,8 @@ def prepare(
                         except ScenarioError as exc:
                             raise exc if sweep is None else which_sample(exc, sweep, 0, 0) from None
                         if sweep is not None:  # every grid cell, before anything of any file runs
-                            compile_cells(sweep, m, model, backend, range(1, sweep.cells), timeout)
-                            compile_bounds(sweep, m, model, backend, range(sweep.cells), timeout)
+                            tops = {0: program.levels} | compile_cells(sweep, m, model, backend, range(1, sweep.cells), timeout)
+                            compile_bounds(sweep, m, model, backend, range(sweep.cells), timeout, tops)
                     except ScenarioError as exc:
                         if refused is None or (m is None and backend is None):
                             raise

@@ -147,7 +147,7 @@ def compile_cells(
     backend: str | None = None,
     cells: Iterable[int] = (0,),
     draw_time: float | None = None,
-) -> None:
+) -> dict[int, int]:
     """Compile sample 0 of each of ``cells``, before any sample runs: what the compiler refuses in
     one is refused in the file as a whole, once, as ``check`` refuses a file (a ``require:`` that
     none of a sample's :data:`stackdsl.compile.require.MAX_DRAWS` draws meets is hopeless for
@@ -155,14 +155,19 @@ def compile_cells(
     filled in is placed at that value (:meth:`stackdsl.lang.sampling.Template.scenario`).
     ``draw_time``: as :func:`stackdsl.compile_scenario`'s (a run's ``--timeout``).
 
+    Returns:
+        Each cell's highest level placed in its sample 0 (for :func:`compile_bounds`' ``tops``).
+
     Raises:
         ScenarioError: the first cell's refusal, saying which sample and cell.
     """
+    tops = {}
     for c in cells:
         try:
-            compile_scenario(template.scenario(c, 0), mode, model, backend, draw_time=draw_time)
+            tops[c] = compile_scenario(template.scenario(c, 0), mode, model, backend, draw_time=draw_time).levels
         except ScenarioError as exc:
             raise which_sample(exc, template, c, 0) from None
+    return tops
 
 
 #: Compiles :func:`compile_bounds` makes at most, over all cells (the first cells first).
@@ -176,6 +181,7 @@ def compile_bounds(
     backend: str | None = None,
     cells: Iterable[int] = (0,),
     draw_time: float | None = None,
+    tops: dict[int, int] | None = None,
 ) -> None:
     """Compile, in each of ``cells``, a sample with each distribution at each value that bounds
     what it draws (every choice, a uniform's ends, a normal's clip: :meth:`Template.bounds`),
@@ -187,16 +193,24 @@ def compile_bounds(
     :data:`MAX_BOUND_COMPILES` compiles (a huge grid: its first cells). Call it after
     :func:`compile_cells`, which says what every sample 0 is refused for.
 
+    ``tops``: each cell's highest level placed in sample 0 (:func:`compile_cells`' return); given,
+    a cell's collapse statistic beyond the highest level any of its samples can build is refused
+    too (:func:`stackdsl.compile.precheck.unreachable_statistics`), once every bound of the cell
+    is compiled.
+
     Raises:
-        ScenarioError: at the distribution that can draw the value.
+        ScenarioError: at the distribution that can draw the value; at a statistic no sample can measure.
     """
     from ..compile.require import quantities
     from ..lang.expressions import parse
 
     bounds = template.bounds()
+    sampled = tops is not None and template.random
     left = MAX_BOUND_COMPILES
     parsed: dict[tuple[str, ...], list[Any]] = {}  # the file's require:, parsed once
     for c in cells:
+        built: dict[str, list[int]] = {}  # distribution (its field) -> the top of each pinned sample
+        whole = True  # every bound of the cell compiled
         for d, value in bounds:
             if left <= 0:
                 return
@@ -207,9 +221,12 @@ def compile_bounds(
                 conditions = parsed.get(texts) or parsed.setdefault(texts, [parse(text) for text in texts])
                 values = quantities(scenario, {name for condition in conditions for name in condition.names})
                 if not all(condition.holds(values) for condition in conditions):
+                    whole = False
                     continue
             try:
-                compile_scenario(scenario, mode, model, backend, draw_time=draw_time)
+                built.setdefault(format_path(d.path), []).append(
+                    compile_scenario(scenario, mode, model, backend, draw_time=draw_time).levels
+                )
             except ScenarioError as exc:
                 drawn = f"{'a choice' if d.kind == 'choice' else 'a value'} this distribution can draw, {value!r}"
                 cell = f" in grid cell {c} ({template.label(c)})" if template.grid else ""
@@ -217,6 +234,25 @@ def compile_bounds(
                     "" if exc.field == format_path(d.path) else f" at {exc.field}" + (f" (line {exc.line})" if exc.line else "")
                 )
                 raise template.source.error(d.path, f"{drawn}, makes the scene refused{cell}{where}: {exc.message}") from None
+        if tops is not None and c in tops:  # a bound passed over (require:): the levels it builds are not known
+            _reachable(template, c, tops[c] if whole else None, built, sampled)
+
+
+def _reachable(template: Template, c: int, top: int | None, built: dict[str, list[int]], sampled: bool) -> None:
+    """Refuse cell ``c``'s statistical expectations that no samples can pass
+    (:func:`stackdsl.compile.precheck.unreachable_statistics`). The highest level its samples
+    build is sample 0's ``top``, or, when one distribution changes what is built, the highest of
+    its bounds' (``built``: each distribution's pinned samples' tops); when two or more do, their
+    draws may add up beyond any one's bound, and ``top`` None is a bound passed over: the levels
+    are then not judged. ``sampled``: the samples draw (:attr:`Template.random`), so P(stands) is
+    judged by a confidence interval."""
+    from ..compile.precheck import unreachable_statistics
+
+    varying = [levels for levels in built.values() if any(t != top for t in levels)]
+    highest = None if top is None or len(varying) > 1 else max([top, *(varying[0] if varying else [])])
+    scenario = template.scenario(c, 0)
+    label = f"{c} ({template.label(c)})" if template.grid else ""
+    unreachable_statistics(scenario, highest, template.values(c), label, sampled)
 
 
 def which_sample(exc: ScenarioError, template: Template, cell: int, k: int) -> ScenarioError:

@@ -87,8 +87,8 @@ def _sweep(args: argparse.Namespace) -> int:
         raise ScenarioError("the output must be a folder, and this is a file", file=str(out))
     options = SweepOptions(args.mode, args.model, args.oracle, args.timeout, args.backend)
     # as check does: what the compiler refuses in any cell is bad input, said before anything runs
-    compile_cells(template, options.mode, options.model, options.backend, range(template.cells), options.timeout)
-    compile_bounds(template, options.mode, options.model, options.backend, range(template.cells), options.timeout)
+    tops = compile_cells(template, options.mode, options.model, options.backend, range(template.cells), options.timeout)
+    compile_bounds(template, options.mode, options.model, options.backend, range(template.cells), options.timeout, tops)
     engine = f"{backend} {args.mode or scenario.engine.mode}"  # which engine ran, said once
     levels_built = scenario.structure.tower.levels if scenario.structure.tower else None
     total = template.cells * template.samples

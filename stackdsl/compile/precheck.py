@@ -18,6 +18,12 @@ bricks placed before it at their target poses; bricks placed ``together`` exist 
   may only name built levels (1 to the highest placed); an expected ``collapse`` level
   L ± t is checkable when its range reaches a built level, L - t <= the highest level
   (``9±1`` on an 8-level tower is fine, ``7`` on a 3-level tower is not).
+* **A sweep's statistics that can never pass**: a collapse level's ``mean`` or ``quantile``
+  whose region lies wholly above the highest level any sample of a grid cell builds, and, when
+  the samples draw, P(stands) ``>= 1`` or ``<= 0``, which no 95% interval decides
+  (:func:`unreachable_statistics`, run once every cell's samples are compiled; the regions no
+  structure reaches, below level 1 or holding no whole level, and P(stands) ``> 1`` or ``< 0``,
+  are refused by the language itself).
 * **Expectations that contradict each other**: ``stays`` keeping in place bricks a ``toppled``
   count needs. ``stays`` or ``moved`` naming a brick above the highest level an expected collapse
   allows (L + t) is warned of: building stops once the collapse is decided, so it is placed only
@@ -40,7 +46,18 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..lang.errors import MAX_SHOWN, FieldPath, format_path
-from ..lang.expectations import CollapseLevel, bricks_of, closest, levels_of, selects, span
+from ..lang.expectations import (
+    CellExpect,
+    CollapseLevel,
+    CollapseStatistic,
+    Expect,
+    bricks_of,
+    closest,
+    levels_of,
+    selects,
+    span,
+)
+from ..lang.expressions import parse
 from ..lang.schema import Scenario
 from .actions import pulled_out
 from .overlap import GROUND, OVERLAP_TOLERANCE, REST_TOLERANCE, Body, inspect_bodies
@@ -449,3 +466,60 @@ def warn_above_collapse(scenario: Scenario, ids: Sequence[str], level_of: Mappin
             ),
             stacklevel=3,
         )
+
+
+def _statistics(expect: Expect, values: Mapping[str, float]) -> list[tuple[FieldPath, Expect | CellExpect]]:
+    """The statistical expectations a grid cell of ``values`` is judged by, each with its field:
+    the file's own, then each of ``expect.cells`` whose condition holds there."""
+    out: list[tuple[FieldPath, Expect | CellExpect]] = [(("expect",), expect)]
+    for i, cell in enumerate(expect.cells or []):
+        if parse(cell.where).holds(values):
+            out.append((("expect", "cells", i), cell))
+    return out
+
+
+def unreachable_statistics(
+    scenario: Scenario, top: int | None, values: Mapping[str, float], cell: str = "", sampled: bool = True
+) -> None:
+    """Refuse a sweep's statistical expectation that no samples of a grid cell can pass:
+
+    - a collapse level's mean or quantile whose region lies wholly above ``top``, the highest
+      level any sample of the cell builds (a collapse level is the highest level placed when a
+      brick first moves, so a mean or a quantile of it is at most ``top``, or "stands"; None:
+      not known, and not judged);
+    - with ``sampled`` (the samples draw: the verdict is a 95% confidence interval), P(stands)
+      ``>= 1`` or ``<= 0``: no finite number of samples gives an interval that lies at 1 (or 0),
+      so it is never PASS.
+
+    ``values``: the cell's grid values, which decide the ``expect.cells`` that apply; ``cell``:
+    the cell in words (empty without a grid).
+
+    Raises:
+        ScenarioError: at the expectation's field (``expect.collapse.mean``,
+            ``expect.collapse.quantile.level``, ``expect.p_stands``, or the same under
+            ``expect.cells[i]``).
+    """
+    where = f" in grid cell {cell}" if cell else ""
+    for path, expect in _statistics(scenario.expect, values):
+        statistic = expect.collapse if isinstance(expect.collapse, CollapseStatistic) else None
+        if statistic is not None and top is not None and statistic.region.target - statistic.region.tolerance > top:
+            region = statistic.region
+            name = "mean" if statistic.mean is not None else "quantile"
+            at = (*path, "collapse", "mean") if statistic.mean is not None else (*path, "collapse", "quantile", "level")
+            raise scenario.source.error(
+                at,
+                f"{name} {region.target:g}±{region.tolerance:g} (levels {region.target - region.tolerance:g} to "
+                f"{region.target + region.tolerance:g}) can never be measured{where}: the structure builds at most {top} "
+                f"level{'s' * (top != 1)}, and the collapse level is the highest level placed when a brick first moves; "
+                f"expect a {name} whose tolerance reaches a level from 1 to {top}",
+            )
+        p = expect.p_stands
+        if sampled and p is not None and ((p.op == ">=" and p.bound >= 1) or (p.op == "<=" and p.bound <= 0)):
+            every = p.op == ">="
+            raise scenario.source.error(
+                (*path, "p_stands"),
+                f"'{p.op} {p.bound:g}' can never pass{where if len(path) > 1 else ''}: the samples draw, so P(stands) is judged by its 95% "
+                f"confidence interval, which reaches {'below 1' if every else 'above 0'} after any number of samples, "
+                f"even when {'every' if every else 'no'} sample stood; give a bound {'below 1' if every else 'above 0'}, "
+                f"such as '{p.op} {0.95 if every else 0.05:g}'",
+            )

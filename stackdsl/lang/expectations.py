@@ -369,6 +369,13 @@ class CollapseStatistic(StrictModel):
             raise ValueError("give one of 'mean' ('7 ± 0.5') or 'quantile' ({q: 0.5, level: '7 ± 1'})")
         return self
 
+    @property
+    def region(self) -> Within:
+        """The tolerance of the statistic given."""
+        chosen = self.mean if self.mean is not None else self.quantile.level if self.quantile is not None else None
+        assert chosen is not None
+        return chosen
+
 
 def _bound(value: Any) -> Any:
     """``">= 0.9"`` -> ``{"op": ">=", "bound": 0.9}``."""
@@ -386,10 +393,21 @@ def _bound(value: Any) -> Any:
 
 
 class Probability(StrictModel):
-    """A bound on a probability: written ``">= 0.9"`` (also ``<=``, ``>``, ``<``)."""
+    """A bound on a probability: written ``">= 0.9"`` (also ``<=``, ``>``, ``<``); one no
+    probability meets (``'> 1'``, ``'< 0'``) is refused."""
 
     op: Literal[">=", "<=", ">", "<"]
     bound: Annotated[float, Field(ge=0, le=1)]
+
+    @model_validator(mode="after")
+    def _reachable(self) -> Probability:
+        if (self.op == ">" and self.bound >= 1) or (self.op == "<" and self.bound <= 0):
+            end = "at most 1" if self.op == ">" else "at least 0"
+            raise ValueError(
+                f"'{self.op} {self.bound:g}' can never hold: a probability is {end}; "
+                f"write '{'>=' if self.op == '>' else '<='} {self.bound:g}' for {'every' if self.op == '>' else 'no'} sample standing"
+            )
+        return self
 
 
 PStands = Annotated[

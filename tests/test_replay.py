@@ -188,6 +188,7 @@ BAD_GOLDENS = {
     "a collapse_graph of text": (lambda g: {**g, "collapse_graph": "x"}, "collapse_graph: expected an object"),
     "a scenario name that is a number": (lambda g: {**g, "scenario": 4}, "scenario: expected text"),
     "a list, not an object": (lambda g: [g], "it is a JSON array, not an object"),
+    "a folder": (lambda g: Path("."), "not a golden snapshot stackdsl can draw: it is not a regular file"),
     "nested 100000 deep": (lambda g: "[" * 100_000 + "]" * 100_000, "nested more than 16 levels deep"),
     "nested 20 deep": (lambda g: {**g, "extra": json.loads("[" * 20 + "]" * 20)}, "nested more than 16 levels deep"),
     "another scenario's name": (lambda g: {**g, "scenario": "4 stack"}, "the golden snapshot of scenario '4 stack'"),
@@ -215,6 +216,9 @@ def tower_run(tmp_path_factory):
 
 def _write(path: Path, golden: object) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
+    if isinstance(golden, Path):  # not a file: a folder in its place
+        path.mkdir()
+        return path
     path.write_text(golden if isinstance(golden, str) else json.dumps(golden))
     return path
 
@@ -243,7 +247,7 @@ def test_a_golden_stackdsl_cannot_use_is_bad_input_given_or_found(case, tower_ru
         assert written["replay"] == "replay.html" and failure.startswith("replay drawn without its golden: ")
         assert what in failure
     finally:
-        default.unlink()
+        default.rmdir() if default.is_dir() else default.unlink()
 
 
 def test_the_runs_own_golden_draws_and_a_changed_scene_is_warned_of(tower_run, tmp_path, capsys):

@@ -420,6 +420,8 @@ def read_golden(path: str | os.PathLike[str] | None, trajectory: Trajectory | No
         if info.st_size > MAX_GOLDEN_BYTES:
             raise bad(f"it is larger than {MAX_GOLDEN_BYTES >> 20} MiB")
         data = json.loads(path.read_text(encoding="utf-8"))
+    except GoldenError:
+        raise
     except OSError as exc:
         raise GoldenError(path, str(exc.strerror or exc)) from None
     except UnicodeDecodeError:

@@ -1193,6 +1193,57 @@ def test_a_closed_standard_output_is_exit_141_as_a_closed_pipe():
         assert done.returncode == 141 and done.stderr == "", argv
 
 
+@pytest.mark.parametrize(
+    "argv", [["run"], ["check", "-j", "1"], ["check", "-j", "2"]], ids=["run", "check here", "check in workers"]
+)
+def test_a_closed_standard_error_runs_as_with_it_open(argv, tmp_path):
+    # `2>&-`: Python's sys.stderr is None, and descriptor 2 free for the next file opened
+    files = [str(p) for p in (ROOT / "scenarios" / "vee_stands.yaml", ROOT / "scenarios" / "slant_tower.yaml")]
+    done = subprocess.run(
+        [sys.executable, "-m", "stackdsl", argv[0], *files[: 1 if argv[0] == "run" else 2], *argv[1:]],
+        stdout=subprocess.PIPE,
+        stdin=subprocess.DEVNULL,
+        text=True,
+        preexec_fn=lambda: os.close(2),
+        check=False,
+    )
+    assert done.returncode == 0, done.stdout
+    assert "internal error" not in done.stdout and "Traceback" not in done.stdout
+    assert "PASS" in done.stdout and "FAIL" not in done.stdout
+
+
+def test_the_engines_chatter_is_silenced_with_standard_error_closed():
+    code = (
+        "import os, sys\n"
+        "from stackdsl.engines.pybullet.client import quiet_c_output\n"
+        "os.close(2); sys.stderr = None\n"
+        "with quiet_c_output():\n"
+        "    os.write(2, b'unseen')\n"
+        "try:\n"
+        "    os.fstat(2)\n"
+        "except OSError:\n"
+        "    print('closed again')\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=False)
+    assert done.returncode == 0 and done.stdout == "closed again\n", done.stderr
+
+
+@pytest.mark.parametrize("closed", ["stdout", "stderr"])
+def test_a_pipe_closed_while_errors_are_said_is_exit_141(closed, tmp_path):
+    # thousands of bad files: their errors fill the pipe long after its reader is gone
+    for i in range(3000):
+        (tmp_path / f"s{i}.yaml").write_text("stackdsl: 1\nstructure: {tower: {levels: 0}}\n")
+    process = subprocess.Popen(
+        [sys.executable, "-m", "stackdsl", "check", str(tmp_path)],
+        stdout=subprocess.PIPE if closed == "stdout" else subprocess.DEVNULL,
+        stderr=subprocess.STDOUT if closed == "stdout" else subprocess.PIPE,
+    )
+    pipe = process.stdout if closed == "stdout" else process.stderr
+    assert pipe.readline().endswith(b"structure.tower.levels: expected 1 or more, got 0\n")
+    pipe.close()
+    assert process.wait(timeout=120) == 141
+
+
 def test_a_compare_cell_says_why_a_run_stopped():
     """A run that stopped was labelled 'timeout' whatever stopped it: MuJoCo blowing up read as
     a time limit."""

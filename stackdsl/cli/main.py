@@ -74,11 +74,56 @@ def main(argv: list[str] | None = None) -> int:
     Without ``--debug`` nothing Python prints as a traceback reaches stderr: not the
     exceptions caught here, and not the "Exception ignored in" reports of objects torn down
     half-built by Ctrl-C (kept quiet until exit when called as the command, with no ``argv``).
+
+    A standard error closed before the command began (``2>&-``) is the null device for its
+    length: the command runs as with it open, its messages unseen. A pipe that closes early,
+    on standard output or standard error, wherever it is met (an error's message included),
+    is exit 141.
     """
     command = argv is None
-    argv = sys.argv[1:] if argv is None else argv
     if sys.stdout is None:  # standard output closed before the command began (``>&-``): as a closed pipe
         return BROKEN_PIPE
+    _fill_closed_descriptors()
+    closed = sys.stderr is None
+    if closed:
+        sys.stderr = open(os.devnull, "w", encoding="utf-8")  # closed below, or with the process
+    try:
+        return _main(sys.argv[1:] if argv is None else argv, command)
+    except BrokenPipeError:
+        return _pipe_closed(command)
+    finally:
+        if closed and not command:
+            sys.stderr.close()
+            sys.stderr = None
+
+
+def _fill_closed_descriptors() -> None:
+    """Put the null device on whichever of descriptors 0, 1 and 2 is closed, so that no file
+    the command opens lands on one of them and takes what the engines print there."""
+    for fd in (0, 1, 2):
+        try:
+            os.fstat(fd)
+        except OSError:
+            null = os.open(os.devnull, os.O_RDWR)
+            if null != fd:
+                os.dup2(null, fd)
+                os.close(null)
+
+
+def _pipe_closed(command: bool) -> int:
+    """The reader went away (``| head``): stop quietly, and let nothing more be written into
+    the closed pipe, at exit either (as the command: standard output and standard error both
+    go to the null device then)."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    for stream in (sys.stdout, sys.stderr) if command else (sys.stdout,):
+        with contextlib.suppress(OSError, ValueError, AttributeError):
+            os.dup2(devnull, stream.fileno())
+    os.close(devnull)
+    return BROKEN_PIPE
+
+
+def _main(argv: list[str], command: bool) -> int:
+    """:func:`main` once the standard streams are in place."""
     debug = "--debug" in argv or os.environ.get("STACKDSL_TRACEBACK", "") not in ("", "0")
     # SIGTERM unwinds like Ctrl-C, so that workers are stopped on the way out (main thread only).
     main_thread = threading.current_thread() is threading.main_thread()
@@ -122,11 +167,7 @@ def main(argv: list[str] | None = None) -> int:
         print(exc, file=sys.stderr)
         return BAD_INPUT
     except BrokenPipeError:
-        # The reader went away (``| head``): stop quietly, and let nothing flush into the
-        # closed pipe at exit.
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())
-        return BROKEN_PIPE
+        return _pipe_closed(command)
     except OSError as exc:
         line = refused(exc)
         if line is None:

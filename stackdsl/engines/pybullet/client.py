@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import atexit
 import ctypes
+import fcntl
 import os
 import sys
 import threading
@@ -32,21 +33,40 @@ from typing import Any
 
 @contextmanager
 def quiet_c_output() -> Iterator[None]:
-    """Silence C-level stdout and stderr (pybullet prints 'argv[0]=' and its build time)."""
-    sys.stdout.flush()
-    sys.stderr.flush()
-    saved = [os.dup(1), os.dup(2)]
-    devnull = os.open(os.devnull, os.O_WRONLY)
-    os.dup2(devnull, 1)
-    os.dup2(devnull, 2)
+    """Silence C-level stdout and stderr (pybullet prints 'argv[0]=' and its build time).
+
+    Either may be closed (``2>&-``: Python's ``sys.stderr`` is then None, and descriptor 2
+    free): it is closed again afterwards, and nothing is flushed into it.
+    """
+    for stream in (sys.stdout, sys.stderr):
+        if stream is not None:
+            stream.flush()
+    saved = {fd: _duplicate(fd) for fd in (1, 2)}  # None: closed
+    devnull = os.open(os.devnull, os.O_WRONLY)  # lands on 1 or 2 when one of them is closed
+    for fd in (1, 2):
+        if fd != devnull:
+            os.dup2(devnull, fd)
     try:
         yield
     finally:
         ctypes.CDLL(None).fflush(None)  # C stdio may still hold what pybullet printed
-        os.dup2(saved[0], 1)
-        os.dup2(saved[1], 2)
-        for fd in (*saved, devnull):
-            os.close(fd)
+        for fd, copy in saved.items():
+            if copy is None:
+                os.close(fd)  # closed before: closed again
+            else:
+                os.dup2(copy, fd)
+                os.close(copy)
+        if devnull not in saved:
+            os.close(devnull)
+
+
+def _duplicate(fd: int) -> int | None:
+    """A copy of descriptor ``fd`` above the standard three (so that it is not taken for a
+    closed one of them), or None when ``fd`` is closed."""
+    try:
+        return fcntl.fcntl(fd, fcntl.F_DUPFD_CLOEXEC, 3)
+    except OSError:
+        return None
 
 
 RENDERER = "tinyRendererPlugin"

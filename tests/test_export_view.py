@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import contextlib
 import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -242,6 +244,23 @@ def test_view_without_a_display_says_so_in_one_line_and_points_to_replay(monkeyp
     assert captured.out == ""
     lines = captured.err.splitlines()
     assert len(lines) == 1 and "no display" in lines[0] and f"stackdsl replay {scenario} -o DIR" in lines[0]
+
+
+@needs_mujoco
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="X11 and Wayland displays")
+@pytest.mark.parametrize("variable", ["DISPLAY", "WAYLAND_DISPLAY"])
+def test_view_on_a_display_that_cannot_be_opened_says_so_in_one_line(variable, tmp_path):
+    scenario = tmp_path / "tower.yaml"
+    scenario.write_text(TOWER)
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    env[variable] = ":987" if variable == "DISPLAY" else "stackdsl-no-such-display-9"
+    done = subprocess.run(
+        [sys.executable, "-m", "stackdsl", "view", str(scenario)], capture_output=True, text=True, env=env, timeout=120
+    )
+    assert done.returncode == 2 and done.stdout == "", done.stderr
+    (line,) = done.stderr.splitlines()
+    assert "the display cannot be opened" in line and f"stackdsl replay {scenario} -o DIR" in line
+    assert "GLFWError" not in line and "warn" not in line
 
 
 class Clock:

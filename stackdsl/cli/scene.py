@@ -98,6 +98,29 @@ def has_display() -> bool:
     return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
 
 
+def display_problem() -> str | None:
+    """Why the display that ``DISPLAY`` or ``WAYLAND_DISPLAY`` names cannot take a window, in
+    GLFW's words (``X11: Failed to open display :99``), or None when it can (and on macOS and
+    Windows, where MuJoCo's viewer opens its own). GLFW, which MuJoCo's viewer starts, is
+    started and stopped again here, its complaints caught rather than printed."""
+    if sys.platform in ("darwin", "win32"):
+        return None
+    import glfw
+
+    reporting = glfw.ERROR_REPORTING
+    glfw.ERROR_REPORTING = "ignore"  # not a warning on stderr: said below, in one line
+    try:
+        started = glfw.init()
+        _, description = glfw.get_error()
+    finally:
+        glfw.ERROR_REPORTING = reporting
+    if not started:
+        said = description.decode(errors="replace") if isinstance(description, bytes) else str(description or "")
+        return said or "GLFW cannot start"
+    glfw.terminate()
+    return None
+
+
 def _add_view(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -> None:
     p = sub.add_parser(
         "view",
@@ -131,10 +154,23 @@ def _view(args: argparse.Namespace) -> int:
 
     import mujoco.viewer
 
+    from ..compile.compiler import compile_scenario
     from ..draw import live
+    from ..lang.loader import load_scenario
+    from ..runtime.run import run_program
 
-    if Path(args.file).suffix.lower() == ".npz":
-        trajectory = trajectory_of(args)
+    # the file is read (a scenario compiled) before the display is tried: bad input is said first
+    trajectory = trajectory_of(args) if Path(args.file).suffix.lower() == ".npz" else None
+    program = None if trajectory is not None else compile_scenario(load_scenario(args.file), args.mode, args.model, args.backend)
+    unusable = display_problem()
+    if unusable:
+        print(
+            f"stackdsl view: the display cannot be opened ({unusable}): for a 3D page to open in a browser, run "
+            f"stackdsl replay {args.file} -o DIR",
+            file=sys.stderr,
+        )
+        return NO_DISPLAY
+    if trajectory is not None:
         scene = live.trajectory_scene(trajectory)
         with mujoco.viewer.launch_passive(scene.model, scene.data) as viewer:
             with viewer.lock():
@@ -143,11 +179,7 @@ def _view(args: argparse.Namespace) -> int:
             while viewer.is_running():
                 time.sleep(0.1)
         return 0
-    from ..compile.compiler import compile_scenario
-    from ..lang.loader import load_scenario
-    from ..runtime.run import run_program
-
-    program = compile_scenario(load_scenario(args.file), args.mode, args.model, args.backend)
+    assert program is not None
     scene = live.program_scene(program)
     with mujoco.viewer.launch_passive(scene.model, scene.data) as viewer:
         with viewer.lock():

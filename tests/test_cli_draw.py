@@ -94,7 +94,7 @@ def test_render_at_a_time_and_a_size(files):
         (["--size", "big"], "is not WIDTHxHEIGHT"),
         (["--size", "8x8"], "64 to 4096 pixels"),
         (["-o", "{tmp}/x.jpg"], "the output must end in .png"),
-        (["-o", "{tmp}/missing/x.png"], "no such folder for the output"),
+        (["-o", "{tmp}/missing/x.png"], "-o: no such folder for the picture"),
         (["--at", "soon"], "is not 'collapse', 'end' or a number of seconds"),
     ],
 )
@@ -324,17 +324,19 @@ def test_an_output_is_written_whole_or_not_at_all(tmp_path):
     assert target.read_text() == "the new one" and [p.name for p in tmp_path.iterdir()] == ["report.html"]
 
 
-def test_an_output_that_is_a_device_is_written_to_never_replaced(tmp_path):
+def test_an_output_that_is_a_fifo_or_a_device_is_refused_never_opened_or_replaced(tmp_path):
     import os
     import stat
 
-    from stackdsl.lang.files import written
+    from stackdsl.lang.files import NotRegularFile, written
 
     fifo = tmp_path / "pipe.xml"
-    os.mkfifo(fifo)
-    with written(fifo) as part:
-        assert part == fifo  # written directly: a rename would put a regular file in its place
-    assert stat.S_ISFIFO(fifo.stat().st_mode)
+    os.mkfifo(fifo)  # opened for writing, it would block until something reads it
+    for taken in (fifo, Path("/dev/null")):
+        with pytest.raises(NotRegularFile) as error, written(taken):
+            pytest.fail("written")
+        assert error.value.filename == str(taken) and "not a regular file" in error.value.strerror
+    assert stat.S_ISFIFO(fifo.stat().st_mode) and [p.name for p in tmp_path.iterdir()] == ["pipe.xml"]
     with pytest.raises(OSError) as error, written(tmp_path / "no" / "such.png") as part:
         part.write_text("x")
     assert error.value.filename == str(tmp_path / "no" / "such.png")

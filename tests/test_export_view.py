@@ -364,11 +364,11 @@ def test_record_program_and_live_view_record_the_same_run():
 @pytest.mark.parametrize(
     ("argv", "where"),
     [
-        (["export", "{npz}", "--mjcf", "/dev/full"], "/dev/full: No space left on device"),
+        (["export", "{npz}", "--mjcf", "/sys/x.xml"], "/sys/x.xml: Permission denied"),
         (["replay", "{npz}", "-o", "/proc/x"], "/proc/x: No such file or directory"),
         (["replay", "{npz}", "-o", "/tmp/" + "x" * 300], "File name too long"),
     ],
-    ids=["full disk", "a folder that takes no file", "name too long"],
+    ids=["a folder kept by the system", "a folder that takes no file", "name too long"],
 )
 def test_a_path_the_system_refuses_is_one_line_and_exit_2(slant_run, argv, where, capsys):
     _, record = slant_run

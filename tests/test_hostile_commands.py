@@ -3,7 +3,8 @@
 Each case runs ``python -m stackdsl ARGS`` as its own process in a fresh folder holding the
 files it lists, with a private ``TMPDIR``, and must end with its exit status, print what it
 ``says`` on stderr in a short message without a traceback, leave none of the files it names
-under ``absent``, peak under 2 GB of resident memory, and leave nothing in ``TMPDIR`` when it
+under ``absent`` (``make`` makes odd files first: a FIFO, zips), ``stdout: closed`` or ``stderr: closed``
+closing that stream before it starts, peak under 2 GB of resident memory, and leave nothing in ``TMPDIR`` when it
 refused its input (exit 2). The
 cases cover the sweep's options and language, ``--dask``, drawings, ``--record`` and
 trajectory files, check's outputs, each engine's own limits and refused paths. Marker
@@ -57,7 +58,11 @@ def _npy_of_objects() -> bytes:
     return out.getvalue()
 
 
-MAKERS = {"empty_zip": empty_zip, "foreign_npz": foreign_npz, "pickled_npz": pickled_npz}
+def fifo(path: Path) -> None:
+    os.mkfifo(path)  # opened by a writer, it would block until something reads it
+
+
+MAKERS = {"empty_zip": empty_zip, "foreign_npz": foreign_npz, "pickled_npz": pickled_npz, "fifo": fifo}
 
 
 @pytest.fixture(scope="module")
@@ -105,6 +110,7 @@ def test_a_hostile_command_ends_cleanly(case, tmp_path, http_port):
         target.parent.mkdir(parents=True, exist_ok=True)
         target.write_text(fill(text))
     for name, maker in (case.get("make") or {}).items():
+        (work / name).parent.mkdir(parents=True, exist_ok=True)
         MAKERS[maker](work / name)
     args = [fill(a) for a in case["args"]]
     env = {**os.environ, "TMPDIR": str(scratch), "COLUMNS": "120"}
@@ -122,7 +128,7 @@ def test_a_hostile_command_ends_cleanly(case, tmp_path, http_port):
             stdout=subprocess.DEVNULL if closed else stdout,
             stderr=subprocess.PIPE,
             timeout=TIMEOUT,
-            preexec_fn=(lambda: os.close(1)) if closed else None,
+            preexec_fn=(lambda: os.close(1)) if closed else (lambda: os.close(2)) if case.get("stderr") == "closed" else None,
         )
     finally:
         if not isinstance(stdout, int):

@@ -120,7 +120,7 @@ def test_a_report_folder_that_is_a_file_is_bad_input(tmp_path, capsys):
     (tmp_path / "a.yaml").write_text(STANDS)
     (tmp_path / "out").write_text("")
     assert main(["check", str(tmp_path / "a.yaml"), "--report", str(tmp_path / "out")]) == 2
-    assert "the report must go to a folder" in capsys.readouterr().err
+    assert "--report: the report goes to a folder, and this is a file" in capsys.readouterr().err
 
 
 def _browser_missing() -> str:

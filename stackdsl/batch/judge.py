@@ -10,6 +10,7 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 import inspect
+import time
 import traceback
 from dataclasses import replace
 from typing import Any
@@ -57,8 +58,10 @@ def judge(file: str, program: Program, expect: Expect, timeout: float | None = T
     the result's ``draw_error``, not a failed expectation).
 
     An exception in the run (MemoryError included) is returned as the result's ``error``,
-    with its traceback, not raised; Ctrl-C still interrupts.
+    with its traceback, not raised; Ctrl-C still interrupts. ``timeout`` bounds the drawing
+    too: a clip not done by then is left out (the result's ``draw_error`` says so).
     """
+    deadline = None if timeout is None else time.perf_counter() + timeout
     try:
         if folder is None:
             outcome, trajectory = run_guarded(program, timeout), None
@@ -87,7 +90,7 @@ def judge(file: str, program: Program, expect: Expect, timeout: float | None = T
         )
         if folder is None or trajectory is None:
             return result
-        written, draw_error, draw_time = draw_run(trajectory, folder)
+        written, draw_error, draw_time = draw_run(trajectory, folder, deadline)
         return replace(result, folder=folder, artefacts=tuple(written.items()), draw_error=draw_error, draw_time=draw_time)
     except Exception as exc:  # MemoryError included
         return failed(file, program, expect, internal(exc), traceback.format_exc())

@@ -208,6 +208,21 @@ def _number(value: Any) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
+def file_names(cells: int) -> tuple[str, ...]:
+    """The names of the files a sweep of ``cells`` grid cells may write into its folder
+    (:func:`write_samples` and :func:`write_plots`).
+
+    >>> file_names(1)
+    ('samples.csv', 'samples.jsonl', 'samples.parquet', 'histogram.png', 'grid_p_stands.png', 'grid_mean.png')
+    """
+    histograms = ["histogram.png"] if cells == 1 else [_histogram_name(cells, c) for c in range(min(cells, MAX_HISTOGRAMS))]
+    return ("samples.csv", "samples.jsonl", "samples.parquet", *histograms, "grid_p_stands.png", "grid_mean.png")
+
+
+def _histogram_name(cells: int, c: int) -> str:
+    return "histogram.png" if cells == 1 else f"histogram_{c}.png"
+
+
 def write_plots(
     template: Template, results: Sequence[SampleResult], levels_built: int, folder: Path, expect: Expect | None = None
 ) -> list[Path]:
@@ -221,7 +236,7 @@ def write_plots(
     written = []
     cells = by_cell(results, template.cells)
     for c, rs in enumerate(cells[:MAX_HISTOGRAMS]):
-        name = "histogram.png" if template.cells == 1 else f"histogram_{c}.png"
+        name = _histogram_name(template.cells, c)
         title = template.data.get("name", "") + (f" ({_cell_text(template, c)})" if template.grid else "")
         plot_histogram(measured(rs), folder / name, title=str(title), levels_built=levels_built, expected=forms)
         written.append(folder / name)

@@ -173,15 +173,6 @@ def output_folder(given: str | None, prefix: str) -> Path:
     return Path(given) if given else Path(tempfile.mkdtemp(prefix=prefix))
 
 
-def same_file(output: str | os.PathLike[str], given: str | os.PathLike[str]) -> bool:
-    """Whether writing ``output`` would overwrite the input file ``given`` (the same file,
-    by any name: a link, a relative path)."""
-    try:
-        return os.path.samefile(output, given)
-    except OSError:  # either is missing or unreadable: not the same existing file
-        return False
-
-
 def seed_type(text: str) -> int:
     """``--seed``: a whole number, 0 or more, in the digits 0-9 (Python's ``int`` reads other
     scripts' digits too, which a file's seed may not have), at most :data:`SEED_DIGITS` of them."""

@@ -17,26 +17,21 @@ from pathlib import Path
 from ..batch.check import discover, prepare, run_checks, select_comparison, tabulate
 from ..batch.report import HEADER, failure_lines, json_document, junit_xml, row, run_command, summary
 from ..compile.compiler import BACKEND_DEFAULTS, MODE_DEFAULTS
-from ..draw.artefacts import folder_name
+from ..draw.artefacts import FILES, folder_name
 from ..lang.errors import ScenarioError
 from ..verdicts.check_result import CheckResult
 from ..verdicts.expect import describe
 from .args import BAD_INPUT, FAILED, HINT, INTERNAL, OK
+from .outputs import Input, Output, check_default_golden, check_outputs, odd_files
 from .progress import Lines, is_live
 
 
 def check_command(args: argparse.Namespace) -> int:
     """``stackdsl check``: run every scenario under ``args.paths``; the exit status."""
     start = time.perf_counter()
-    if args.junit_xml and not Path(args.junit_xml).parent.is_dir():
-        raise ScenarioError("no such folder for the JUnit XML file", file=args.junit_xml)
-    if args.report is not None and not args.report.strip():
-        raise ScenarioError("give the folder for the report", file="--report")
-    report = Path(args.report) if args.report else None
-    if report is not None and report.exists() and not report.is_dir():
-        raise ScenarioError("the report must go to a folder, and this is a file", file=args.report)
-    backends = _backends(args.backend, several=False)
     files = discover(args.paths)
+    report = _check_outputs(args, files)
+    backends = _backends(args.backend, several=False)
     broken: list[CheckResult] = []  # files an internal error met as they were read: a row each, the others run
     prepared, broken = select_comparison(
         prepare(files, args.mode, model=args.model, backends=backends, seed=args.seed, timeout=args.timeout, broken=broken),
@@ -56,6 +51,10 @@ def check_command(args: argparse.Namespace) -> int:
         taken: set[str] = set()
         base = os.path.commonpath([path.resolve().parent for path, *_ in prepared] or [Path.cwd()])  # names relative to it
         folders = [str(report / folder_name(os.path.relpath(path.resolve(), base), taken=taken)) for path, *_ in prepared]
+        for folder in folders:  # a FIFO where a run's picture goes would block its worker
+            problem = odd_files(Path(folder), FILES.values())
+            if problem:
+                raise ScenarioError(problem, file=folder, field="--report")
     results: list[CheckResult] = []
     commands: list[str] = []
     stream = sys.stderr if args.json else sys.stdout  # with --json only the progress line, on a terminal
@@ -106,6 +105,36 @@ def check_command(args: argparse.Namespace) -> int:
     if refused:
         return BAD_INPUT
     return FAILED if any(not r.passed for r in results) else OK
+
+
+def _check_outputs(args: argparse.Namespace, files: list[Path]) -> Path | None:
+    """``--junit-xml`` and ``--report``, checked before anything runs (none may be a scenario
+    checked or a golden snapshot; see :func:`stackdsl.cli.outputs.check_outputs`), and with
+    ``--report`` the goldens its replays read; the report's folder, or None.
+
+    Raises:
+        ScenarioError: an output refused, or a golden that is not a regular file.
+    """
+    from ..verdicts.snapshot import scenario_golden_path
+
+    goldens = [(f, scenario_golden_path(f)) for f in files]
+    outputs = []
+    if args.junit_xml is not None:
+        outputs.append(Output("--junit-xml", args.junit_xml, "the JUnit XML file"))
+    if args.report is not None:
+        outputs.append(Output("--report", args.report, "the report", folder=True, inside=("index.html",)))
+    check_outputs(
+        outputs,
+        [
+            *(Input(f, f"a scenario being checked ({f})") for f in files),
+            *(Input(g, f"the golden snapshot of {f}") for f, g in goldens),
+        ],
+    )
+    if args.report is None:
+        return None
+    for _, golden in goldens:  # the report's replays read them
+        check_default_golden(golden)
+    return Path(args.report)
 
 
 def _internal_errors(results: list[CheckResult], debug: bool) -> bool:

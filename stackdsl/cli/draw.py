@@ -17,7 +17,7 @@ from typing import Any
 
 from ..lang.errors import ScenarioError
 from ..lang.extras import installed, missing
-from .args import COMMANDS, at_type, fps_type, rate_type, same_file
+from .args import COMMANDS, at_type, fps_type, rate_type
 
 #: Suffixes of trajectory files and of scenario files: what the drawing commands read.
 TRAJECTORY_SUFFIXES = (".npz",)
@@ -173,24 +173,23 @@ def size_of(text: str, option: str = "--size") -> tuple[int, int]:
     return width, height
 
 
-def _output(args: argparse.Namespace, suffixes: tuple[str, ...]) -> Path:
-    out = Path(args.output)
-    if out.suffix.lower() not in suffixes:
-        raise ScenarioError(f"the output must end in {' or '.join(suffixes)}", file=args.output)
-    if not out.parent.is_dir():
-        raise ScenarioError("no such folder for the output", file=args.output)
-    if out.is_dir():
-        raise ScenarioError("this is a folder: give the file to write", file=args.output)
-    if same_file(out, args.file):
-        raise ScenarioError("this is the file being drawn: give another file to write", file=args.output)
+def _output(args: argparse.Namespace, suffixes: tuple[str, ...], what: str) -> Path:
+    """``-o``, checked before anything runs (:func:`stackdsl.cli.outputs.check_outputs`)."""
+    from .outputs import Input, Output, check_outputs
+
+    if args.output.strip() and Path(args.output).suffix.lower() not in suffixes:
+        raise ScenarioError(f"the output must end in {' or '.join(suffixes)}", file=args.output, field="-o")
+    (out,) = check_outputs([Output("-o", args.output, what)], [Input(args.file, "the file being drawn")])
     return out
 
 
-def _draw(args: argparse.Namespace, suffixes: tuple[str, ...], option: str, draw: Callable[[Any, Path, int, int], str]) -> int:
+def _draw(
+    args: argparse.Namespace, suffixes: tuple[str, ...], what: str, option: str, draw: Callable[[Any, Path, int, int], str]
+) -> int:
     """Check the output and the size, get the trajectory, ``draw(trajectory, out, width,
     height)`` (which says what it drew, in a few words); a ValueError of the drawing (a request
     the run cannot meet) is bad input at ``option``."""
-    out = _output(args, suffixes)
+    out = _output(args, suffixes, what)
     width, height = size_of(args.size)
     trajectory = trajectory_of(args)
     try:
@@ -225,7 +224,7 @@ def _render(args: argparse.Namespace) -> int:
         when = f"{at}, " if at in ("collapse", "end") else ""
         return f"the run at {when}t = {drawn:.2f} s"
 
-    return _draw(args, (".png",), "--at", draw)
+    return _draw(args, (".png",), "the picture", "--at", draw)
 
 
 def _animate(args: argparse.Namespace) -> int:
@@ -249,13 +248,13 @@ def _animate(args: argparse.Namespace) -> int:
             f"to {plan.times[-1]:.2f} s simulated (x{plan.speeds.max():.3g} at most)"
         )
 
-    return _draw(args, (".gif", ".mp4"), "--fps", draw)
+    return _draw(args, (".gif", ".mp4"), "the clip", "--fps", draw)
 
 
 def _graph(args: argparse.Namespace) -> int:
     from ..draw.graphplot import plot_graph
 
-    out = _output(args, (".png",))
+    out = _output(args, (".png",), "the plot")
     trajectory = trajectory_of(args)
     at = args.at or ("collapse" if "collapse" in trajectory.graphs else "end")
     if at == "collapse" and "collapse" not in trajectory.graphs:

@@ -40,7 +40,6 @@ from .args import (
     command_of,
     jobs_type,
     refused,
-    same_file,
     timeout_type,
 )
 
@@ -514,18 +513,16 @@ def _run(args: argparse.Namespace) -> int:
 
     scenario = _one_sample(load_scenario(args.file, args.seed), args.cell, args.sample, "run")
     program = compile_scenario(scenario, args.mode, args.model, args.backend, draw_time=args.timeout)
-    if args.rate is not None and not args.record:
+    if args.rate is not None and args.record is None:
         raise ScenarioError("--rate is the recording's: give --record OUT.npz too", file="--rate")
-    if args.record:
-        record = Path(args.record)
-        if record.suffix.lower() != ".npz":
-            raise ScenarioError("a trajectory file must end in .npz", file=args.record)
-        if not record.parent.is_dir() or record.is_dir():
-            raise ScenarioError(
-                "no such folder for the trajectory file" if not record.parent.is_dir() else "a folder", file=args.record
-            )
-        if same_file(record, args.file):
-            raise ScenarioError("this is the scenario being run: give another file to write", file=args.record)
+    if args.record is not None:
+        from .outputs import Input, Output, check_outputs
+
+        if args.record.strip() and Path(args.record).suffix.lower() != ".npz":
+            raise ScenarioError("a trajectory file must end in .npz", file=args.record, field="--record")
+        (record,) = check_outputs(
+            [Output("--record", args.record, "the trajectory file")], [Input(args.file, "the scenario being run")]
+        )
         from ..runtime.recorder import RATE, record_program
 
         outcome, trajectory = record_program(program, args.rate or RATE, source=args.file, timeout=args.timeout)

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..lang.errors import ScenarioError
 from ..lang.extras import installed, missing
-from .args import COMMANDS, at_type, same_file
+from .args import COMMANDS, at_type
 from .draw import _SOURCE, _wrote, trajectory_of
 from .draw import NAMES as DRAWING
 
@@ -71,16 +71,27 @@ def _add_replay(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -
 def _replay(args: argparse.Namespace) -> int:
     from ..draw.artefacts import golden_of
     from ..draw.replay import GoldenError, read_golden, write_replay
+    from ..verdicts.snapshot import scenario_golden_path
+    from .outputs import Input, Output, check_default_golden, check_outputs
 
-    out = Path(args.output)
-    if out.exists() and not out.is_dir():
-        raise ScenarioError("the replay goes to a folder: this is a file", file=args.output)
+    if args.golden is not None and not args.golden.strip():
+        raise ScenarioError("the path is empty: give the golden snapshot's file, or leave --golden out", file="--golden")
     golden_path = Path(args.golden) if args.golden else None
     if golden_path is not None and not golden_path.exists():
         raise ScenarioError("No such file or directory: no golden snapshot to show beside the run", file=args.golden)
     try:
         read_golden(golden_path)  # a golden given that stackdsl cannot use: said before anything runs
-        trajectory = trajectory_of(args)
+    except GoldenError as exc:
+        raise ScenarioError(exc.why, file=exc.file) from None
+    # a scenario's own golden, read by default, is checked before it runs; a trajectory's once read
+    default = None if golden_path is not None or Path(args.file).suffix.lower() == ".npz" else scenario_golden_path(args.file)
+    check_default_golden(default, "or give --golden")
+    (out,) = check_outputs(
+        [Output("-o", args.output, "the replay", folder=True, inside=("replay.html",))],
+        [Input(args.file, "the file being replayed"), *(Input(g, "the golden snapshot") for g in (golden_path, default) if g)],
+    )
+    trajectory = trajectory_of(args)
+    try:  # the golden must be of this run's scenario; a trajectory's, found now, is refused unopened if not a regular file
         golden = read_golden(golden_path or golden_of(trajectory), trajectory)
     except GoldenError as exc:
         raise ScenarioError(exc.why, file=exc.file) from None
@@ -223,18 +234,16 @@ def _add_export(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -
 def _export(args: argparse.Namespace) -> int:
     from ..compile.program import Fixture, Launch, Place
     from ..draw.export import mjcf, recorded_engine, snapshot, urdf, write_text
+    from .outputs import Input, Output, check_outputs
 
-    outputs = [(Path(path), kind) for path, kind in ((args.mjcf, "mjcf"), (args.urdf, "urdf")) if path]
-    if not outputs:
+    given = [(path, kind) for path, kind in ((args.mjcf, "mjcf"), (args.urdf, "urdf")) if path is not None]
+    if not given:
         raise ScenarioError("give --mjcf OUT.xml, --urdf OUT.urdf or both", file="export")
-    for out, kind in outputs:
-        option = f"--{kind}"
-        if not out.parent.is_dir():
-            raise ScenarioError("no such folder for the output", file=option)
-        if out.is_dir():
-            raise ScenarioError("this is a folder: give the file to write", file=option)
-        if same_file(out, args.file):
-            raise ScenarioError("this is the file being exported: give another file to write", file=option)
+    paths = check_outputs(
+        [Output(f"--{kind}", path, f"the {kind.upper()} file") for path, kind in given],
+        [Input(args.file, "the file being exported")],
+    )
+    outputs = [(out, kind) for out, (_, kind) in zip(paths, given, strict=True)]
     program = _program(args)
     trajectory = trajectory_of(args)
     at = args.at or ("collapse" if trajectory.collapse_time is not None else "end")

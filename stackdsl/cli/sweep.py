@@ -15,6 +15,7 @@ from typing import Any
 from ..lang.errors import ScenarioError
 from ..lang.extras import installed, missing
 from .args import COMMANDS, add_seed, output_folder
+from .outputs import Input, Output, check_outputs
 
 
 def add_sweep(
@@ -55,7 +56,8 @@ def add_sweep(
     p.add_argument(
         "--out",
         default=None,
-        help="folder for the files (default: a new private folder stackdsl-sweep-NAME-* in the temporary directory)",
+        help="folder for the files, made if missing; the files of an earlier sweep there are replaced (default: a new "
+        "private folder stackdsl-sweep-NAME-* in the temporary directory)",
     )
     p.add_argument("--mode", choices=modes, help="override the scenario's engine mode")
     p.add_argument("--model", choices=models, help="override the scenario's stability model")
@@ -65,7 +67,7 @@ def add_sweep(
 
 def _sweep(args: argparse.Namespace) -> int:
     from ..batch.sweep import SweepOptions, collect, compile_bounds, compile_cells, dask_executor, run_sweep
-    from ..batch.sweep_out import report, verdicts, write_plots, write_samples
+    from ..batch.sweep_out import file_names, report, verdicts, write_plots, write_samples
     from ..lang.loader import load_scenario
     from .progress import Lines
 
@@ -82,9 +84,13 @@ def _sweep(args: argparse.Namespace) -> int:
         raise scenario.source.error(("engine", "backend"), missing("mujoco"))
     if args.samples is not None:
         template = template.with_samples(args.samples)
-    out = Path(args.out) if args.out else None
-    if out is not None and out.exists() and not out.is_dir():
-        raise ScenarioError("the output must be a folder, and this is a file", file=str(out))
+    out, earlier = None, []
+    if args.out is not None:  # checked before anything runs; an earlier sweep's files there are replaced, and said so
+        (out,) = check_outputs(
+            [Output("--out", args.out, "the sweep's output", folder=True, inside=file_names(template.cells))],
+            [Input(args.file, "the scenario swept")],
+        )
+        earlier = [name for name in file_names(template.cells) if (out / name).is_file()]
     options = SweepOptions(args.mode, args.model, args.oracle, args.timeout, args.backend)
     # as check does: what the compiler refuses in any cell is bad input, said before anything runs
     tops = compile_cells(template, options.mode, options.model, options.backend, range(template.cells), options.timeout)
@@ -101,7 +107,7 @@ def _sweep(args: argparse.Namespace) -> int:
     def run(where: str, **executor: Any) -> list[Any]:
         print(
             f"stackdsl sweep: {_count(template.cells, 'cell')} x {_count(template.samples, 'sample')}, {engine}, on {where}, "
-            f"writing to {out}",
+            f"writing to {out}" + (f" (replacing {', '.join(earlier)} of an earlier sweep there)" if earlier else ""),
             flush=True,
         )
         with Lines(total, "sweep") as lines:

@@ -70,12 +70,15 @@ def golden_of(trajectory: Trajectory) -> Path | None:
     return scenario_golden_path(file) if isinstance(file, str) and file else None
 
 
-def draw_run(trajectory: Trajectory, folder: str | Path) -> tuple[dict[str, str], str, float]:
+def draw_run(trajectory: Trajectory, folder: str | Path, deadline: float | None = None) -> tuple[dict[str, str], str, float]:
     """Write :data:`FILES` for one recorded run into ``folder`` (made if missing).
 
     The picture is at the collapse when there was one, else at the end; the brick-graph
     plot likewise. A file that cannot be drawn is left out, and the first such failure is
-    returned as one line; the others are still drawn.
+    returned as one line; the others are still drawn. The clip, the one long drawing, stops
+    at ``deadline`` (``time.perf_counter()`` seconds; None: none) and is then left out. The
+    scenario's golden snapshot is read for the replay's ghosts only when it is a regular file
+    (a FIFO would block the reader); one that is not, or not this run's, is left out and said.
 
     Returns:
         (kind -> file name written, in ``folder``; the first failure or ``''``; wall seconds).
@@ -95,7 +98,7 @@ def draw_run(trajectory: Trajectory, folder: str | Path) -> tuple[dict[str, str]
         "trajectory": lambda path: trajectory.save(path),
         "picture": lambda path: picture(trajectory, "collapse" if collapsed else "end", path),
         "graph": lambda path: plot_graph(graph, path, title=f"{name}: brick graph at the {'collapse' if collapsed else 'end'}"),
-        "clip": lambda path: animate(trajectory, path),
+        "clip": lambda path: animate(trajectory, path, deadline=deadline),
         "replay": lambda path: write_replay(trajectory, path, golden),
     }
     written: dict[str, str] = {}

@@ -17,32 +17,39 @@ Source: stackdsl's own.
 
 from __future__ import annotations
 
+import errno
 import os
 import secrets
+import stat
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+
+from .scenario_file import file_kind
+
+
+class NotRegularFile(FileExistsError):
+    """An output path taken by something that is not a regular file (a FIFO, a device)."""
 
 
 @contextmanager
 def written(path: str | os.PathLike[str]) -> Iterator[Path]:
     """A temporary path beside ``path`` (same folder, same suffix, a hidden name) to write to;
     renamed to ``path`` when the block ends, removed when it raises. A ``path`` that exists and
-    is not a regular file (a device such as /dev/full, a FIFO) is written directly, never
-    replaced. An OSError names ``path``, not the temporary name.
+    is not a regular file (a folder, a device such as /dev/full, a FIFO, which would block the
+    writer until something reads it) is refused before anything is written. An OSError names
+    ``path``, not the temporary name.
 
     Raises:
-        OSError: the folder takes no new file, or the rename fails.
+        OSError: the folder takes no new file, or the rename fails; :class:`NotRegularFile`:
+            ``path`` is there and is not a regular file.
     """
     final = Path(path)
-    if final.exists() and not final.is_file():  # a device, a FIFO (/dev/full, a pipe): write to it, never replace it
-        try:
-            yield final
-        except OSError as exc:
-            if exc.filename is None and exc.errno is not None:  # a failed write or close names no file: say which
-                exc.filename = str(final)
-            raise
-        return
+    if final.exists() and not final.is_file():  # a folder, a device, a FIFO: never written to or replaced
+        mode = final.stat().st_mode
+        if stat.S_ISDIR(mode):
+            raise IsADirectoryError(errno.EISDIR, os.strerror(errno.EISDIR), str(final))
+        raise NotRegularFile(errno.EEXIST, f"not a regular file: {file_kind(mode)}", str(final))
     # a name no one else picks; the writer creates it, so it gets the usual permissions (umask)
     part = final.with_name(f".{final.stem[:40]}.{secrets.token_hex(6)}.part{final.suffix}")
     try:

@@ -69,13 +69,13 @@ def file_problem(path: Path) -> str | None:
     except OSError as exc:
         return f"cannot read the file: {exc.strerror or exc}"
     if not stat.S_ISREG(info.st_mode):
-        return f"not a regular file: {_file_kind(info.st_mode)}"
+        return f"not a regular file: {file_kind(info.st_mode)}"
     if info.st_size > MAX_FILE_BYTES:
         return f"the file is larger than {MAX_FILE_BYTES} bytes ({info.st_size} bytes)"
     return None
 
 
-def _file_kind(mode: int) -> str:
+def file_kind(mode: int) -> str:
     """A file that is not regular, in words."""
     kinds = (
         (stat.S_ISDIR, "a folder"),
@@ -101,7 +101,7 @@ def _read_bytes(path: Path, file: str) -> bytes:
     with os.fdopen(fd, "rb") as handle:
         mode = os.fstat(handle.fileno()).st_mode
         if not stat.S_ISREG(mode):
-            raise ScenarioError(f"not a regular file: {_file_kind(mode)}", file=file)
+            raise ScenarioError(f"not a regular file: {file_kind(mode)}", file=file)
         try:
             raw = handle.read(MAX_FILE_BYTES + 1)
         except OSError as exc:

@@ -276,6 +276,37 @@ def test_every_shipped_golden_reads_as_its_scenarios(slant):
         assert isinstance(read_golden(path), dict), path
 
 
+def test_a_reports_drawing_keeps_to_the_runs_deadline_and_reads_no_fifo_golden(tmp_path, monkeypatch):
+    """draw_run leaves out the clip past its deadline (check --report's --timeout), draws the
+    rest, and draws the replay without ghosts when the golden is a FIFO rather than block on it."""
+    import os
+    import threading
+    import time
+
+    from stackdsl.draw.artefacts import draw_run
+
+    (tmp_path / "pyproject.toml").write_text("")
+    (tmp_path / "scenarios").mkdir()
+    (tmp_path / "scenarios" / "tower.yaml").write_text(TOWER)
+    (tmp_path / "golden" / "scenarios").mkdir(parents=True)
+    os.mkfifo(tmp_path / "golden" / "scenarios" / "tower.json")
+    monkeypatch.chdir(tmp_path)
+    program = stackdsl.compile_scenario(stackdsl.load_scenario("scenarios/tower.yaml"))
+    _, trajectory = record_program(program, source="scenarios/tower.yaml")
+    done: list = []
+    drawing = threading.Thread(target=lambda: done.append(draw_run(trajectory, tmp_path / "r", time.perf_counter())), daemon=True)
+    drawing.start()
+    drawing.join(timeout=60)
+    assert done, "draw_run blocked"
+    written, failure, _ = done[0]
+    assert set(written) == {"trajectory", "picture", "graph", "replay"}
+    assert failure.startswith("replay drawn without its golden: ") and "not a regular file" in failure  # said first
+    assert '"ghosts":[],"golden_bricks":null' in (tmp_path / "r" / "replay.html").read_text()
+    (tmp_path / "golden" / "scenarios" / "tower.json").unlink()
+    written, failure, _ = draw_run(trajectory, tmp_path / "r2", time.perf_counter())
+    assert "clip" not in written and failure.startswith("clip not drawn: TimeoutError")
+
+
 # -- in the browser -------------------------------------------------------------------------
 needs_browser = pytest.mark.skipif(bool(missing()), reason=missing() or "ready")
 

@@ -365,3 +365,16 @@ def test_a_drawing_command_runs_under_the_workers_memory_limit_and_says_so_when_
         "stackdsl: out of memory: this command may use 4 GiB of address space "
         "(give a smaller --size, fewer frames, or a smaller file)"
     )
+
+
+@pytest.mark.parametrize("at", ["0", "-0", "0.0", "0 s", "1e-400"])
+def test_at_zero_is_the_start_of_the_run_not_its_end(files, capsys, at):
+    record = files / "stands.npz"
+    assert main(["run", str(files / "stands.yaml"), "--record", str(record)]) == 0
+    capsys.readouterr()
+    assert main(["render", str(record), "--at", at, "-o", str(files / "a.png")]) == 0
+    assert "the run at t = 0.00 s" in capsys.readouterr().out
+    assert main(["export", str(record), "--at", at, "--mjcf", str(files / "a.xml")]) == 0
+    assert "at t = 0.000 s" in capsys.readouterr().out
+    assert main(["render", str(record), "-o", str(files / "b.png")]) == 0  # not given: the end
+    assert "the run at end, t = " in capsys.readouterr().out

@@ -158,7 +158,7 @@ def at_type(text: str) -> str | float:
         raise argparse.ArgumentTypeError(f"{text!r} is not 'collapse', 'end' or a number of seconds") from None
     if not 0 <= seconds < math.inf:
         raise argparse.ArgumentTypeError(f"{text} is not a number of seconds at or above 0")
-    return seconds
+    return seconds + 0.0  # -0 is 0
 
 
 def output_folder(given: str | None, prefix: str) -> Path:

@@ -158,6 +158,18 @@ def trajectory_of(args: argparse.Namespace) -> Any:
     return trajectory
 
 
+def moment(at: str | float | None, collapsed: bool) -> str | float:
+    """The moment ``--at`` names (:func:`stackdsl.cli.args.at_type`), or when none is given the
+    collapse if the run ``collapsed``, else the end. ``--at 0`` is the start, not "not given".
+
+    >>> moment(0.0, True), moment(None, True), moment(None, False)
+    (0.0, 'collapse', 'end')
+    """
+    if at is not None:
+        return at
+    return "collapse" if collapsed else "end"
+
+
 def size_of(text: str, option: str = "--size") -> tuple[int, int]:
     """``'800x600'`` -> (800, 600); each side :data:`MIN_SIDE` to :data:`MAX_SIDE` pixels.
 
@@ -219,7 +231,7 @@ def _render(args: argparse.Namespace) -> int:
     from ..draw.render import picture
 
     def draw(trajectory: Any, out: Path, width: int, height: int) -> str:
-        at = args.at or ("collapse" if trajectory.collapse_time is not None else "end")
+        at = moment(args.at, trajectory.collapse_time is not None)
         drawn = picture(trajectory, at, out, width=width, height=height)  # ValueError: no collapse, a time past the end
         when = f"{at}, " if at in ("collapse", "end") else ""
         return f"the run at {when}t = {drawn:.2f} s"
@@ -256,7 +268,7 @@ def _graph(args: argparse.Namespace) -> int:
 
     out = _output(args, (".png",), "the plot")
     trajectory = trajectory_of(args)
-    at = args.at or ("collapse" if "collapse" in trajectory.graphs else "end")
+    at = moment(args.at, "collapse" in trajectory.graphs)
     if at == "collapse" and "collapse" not in trajectory.graphs:
         raise ScenarioError("nothing collapsed in this run: there is no graph at the collapse (use --at end)", file="--at")
     graph = trajectory.graphs["collapse" if at == "collapse" else "final"]

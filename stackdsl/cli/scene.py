@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 from ..lang.errors import ScenarioError
 from ..lang.extras import installed, missing
 from .args import COMMANDS, at_type
-from .draw import _SOURCE, _wrote, trajectory_of
+from .draw import _SOURCE, _wrote, moment, trajectory_of
 from .draw import NAMES as DRAWING
 
 if TYPE_CHECKING:
@@ -246,7 +246,7 @@ def _export(args: argparse.Namespace) -> int:
     outputs = [(out, kind) for out, (_, kind) in zip(paths, given, strict=True)]
     program = _program(args)
     trajectory = trajectory_of(args)
-    at = args.at or ("collapse" if trajectory.collapse_time is not None else "end")
+    at = moment(args.at, trajectory.collapse_time is not None)
     try:
         if program is None:  # a trajectory file: pine, and the engine its meta records
             scene, engine = snapshot(trajectory, at), recorded_engine(trajectory.meta)

@@ -378,3 +378,34 @@ def test_at_zero_is_the_start_of_the_run_not_its_end(files, capsys, at):
     assert "at t = 0.000 s" in capsys.readouterr().out
     assert main(["render", str(record), "-o", str(files / "b.png")]) == 0  # not given: the end
     assert "the run at end, t = " in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("command", "where", "out"), [("render", "render.picture", "a.png"), ("animate", "animate.animate", "a.gif")]
+)
+def test_a_failure_of_the_drawing_is_not_blamed_on_an_option(files, capsys, monkeypatch, command, where, out):
+    record = files / "stands.npz"
+    assert main(["run", str(files / "stands.yaml"), "--record", str(record)]) == 0
+    capsys.readouterr()
+
+    def fails(*args, **kwargs):
+        raise ValueError("File or stream is not seekable.")
+
+    monkeypatch.setattr(f"stackdsl.draw.{where}", fails)
+    # of a trajectory file: its numbers, bad input at the file
+    assert main([command, str(record), "-o", str(files / out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == f"{record}: this trajectory cannot be drawn: File or stream is not seekable."
+    # of a run made here: a bug, not bad input at --at or --fps
+    assert main([command, str(files / "stands.yaml"), "-o", str(files / out)]) == 3
+    err = capsys.readouterr().err
+    assert "internal error: ValueError: File or stream is not seekable." in err and "--at" not in err and "--fps" not in err
+
+
+def test_a_gif_too_fast_is_refused_before_anything_runs(files, capsys, monkeypatch):
+    def never(*a, **k):
+        raise AssertionError("simulated")
+
+    monkeypatch.setattr("stackdsl.runtime.recorder.run_program", never)
+    assert main(["animate", str(files / "stands.yaml"), "-o", str(files / "a.gif"), "--fps", "51"]) == 2
+    assert capsys.readouterr().err.strip() == "--fps: a GIF plays at most 50 frames a second, not 51"

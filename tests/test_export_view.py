@@ -535,3 +535,17 @@ def test_the_live_view_finds_a_brick_named_world():
     assert world >= 0 and world != scene.mocap[scene.index["Ground_1"]]  # its own mocap body, not MuJoCo's world
     position, _ = scene.pose_of("world")
     assert position == pytest.approx([0.0, 0.0, 0.004])
+
+
+def test_an_export_that_fails_on_the_trajectorys_numbers_names_the_file_not_at(slant_run, tmp_path, capsys, monkeypatch):
+    _, record = slant_run
+
+    def fails(*args, **kwargs):
+        raise ValueError("Found zero norm quaternions in `quat`.")
+
+    monkeypatch.setattr("stackdsl.draw.export.urdf", fails)
+    assert main(["export", str(record), "--at", "end", "--urdf", str(tmp_path / "x.urdf")]) == 2
+    assert (
+        capsys.readouterr().err.strip() == f"{record}: this trajectory cannot be exported: Found zero norm quaternions in `quat`."
+    )
+    assert not (tmp_path / "x.urdf").exists()

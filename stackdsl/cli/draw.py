@@ -195,23 +195,48 @@ def _output(args: argparse.Namespace, suffixes: tuple[str, ...], what: str) -> P
     return out
 
 
-def _draw(
-    args: argparse.Namespace, suffixes: tuple[str, ...], what: str, option: str, draw: Callable[[Any, Path, int, int], str]
-) -> int:
+def _draw(args: argparse.Namespace, suffixes: tuple[str, ...], what: str, draw: Callable[[Any, Path, int, int], str]) -> int:
     """Check the output and the size, get the trajectory, ``draw(trajectory, out, width,
-    height)`` (which says what it drew, in a few words); a ValueError of the drawing (a request
-    the run cannot meet) is bad input at ``option``."""
+    height)`` (which says what it drew, in a few words). The options are checked before
+    (``--at`` against the run by :func:`resolved`): a ValueError of the drawing is then the
+    trajectory file's (bad input, :func:`undrawable`), or a bug when the run was made here."""
     out = _output(args, suffixes, what)
     width, height = size_of(args.size)
     trajectory = trajectory_of(args)
     try:
         what = draw(trajectory, out, width, height)
     except ValueError as exc:
-        raise ScenarioError(str(exc), file=option) from None
+        refusal = undrawable(args.file, exc, "drawn")
+        if refusal is None:
+            raise
+        raise refusal from None
     except TimeoutError as exc:
         print(f"stackdsl: {exc} ({args.timeout:g} s with the run); nothing written to {out}", file=sys.stderr)
         return 1
     return _wrote(out, trajectory, f"{what}, {width} x {height} pixels")
+
+
+def resolved(trajectory: Any, at: str | float) -> float:
+    """The time ``at`` names in ``trajectory`` (:func:`stackdsl.draw.render.resolve_time`).
+
+    Raises:
+        ScenarioError: at ``--at``: ``collapse`` and nothing collapsed, a time past the end.
+    """
+    from ..draw.render import resolve_time
+
+    try:
+        return resolve_time(trajectory, at)
+    except ValueError as exc:
+        raise ScenarioError(str(exc), file="--at") from None
+
+
+def undrawable(file: str, exc: ValueError, verb: str) -> ScenarioError | None:
+    """A ValueError met drawing (or exporting, as ``verb`` says) the run of ``file`` as bad
+    input at a trajectory file (``.npz``), whose numbers stackdsl did not make; None for a
+    scenario, whose run was made here: the error is then a bug."""
+    if Path(file).suffix.lower() not in TRAJECTORY_SUFFIXES:
+        return None
+    return ScenarioError(f"this trajectory cannot be {verb}: {exc}", file=file)
 
 
 def _wrote(out: Path, trajectory: Any, what: str) -> int:
@@ -232,15 +257,15 @@ def _render(args: argparse.Namespace) -> int:
 
     def draw(trajectory: Any, out: Path, width: int, height: int) -> str:
         at = moment(args.at, trajectory.collapse_time is not None)
-        drawn = picture(trajectory, at, out, width=width, height=height)  # ValueError: no collapse, a time past the end
+        drawn = picture(trajectory, resolved(trajectory, at), out, width=width, height=height)
         when = f"{at}, " if at in ("collapse", "end") else ""
         return f"the run at {when}t = {drawn:.2f} s"
 
-    return _draw(args, (".png",), "the picture", "--at", draw)
+    return _draw(args, (".png",), "the picture", draw)
 
 
 def _animate(args: argparse.Namespace) -> int:
-    from ..draw.animate import MAX_FRAMES, animate, check_pixel_work
+    from ..draw.animate import GIF_MAX_FPS, MAX_FRAMES, animate, check_pixel_work
 
     started = time.perf_counter()
     if str(args.output).lower().endswith(".mp4") and not installed("video"):  # said before anything runs
@@ -249,10 +274,12 @@ def _animate(args: argparse.Namespace) -> int:
         check_pixel_work(*size_of(args.size), MAX_FRAMES, args.fps)
     except ValueError as exc:
         raise ScenarioError(str(exc), file="--size") from None
+    if str(args.output).lower().endswith(".gif") and args.fps > GIF_MAX_FPS:  # said before anything runs too
+        raise ScenarioError(f"a GIF plays at most {GIF_MAX_FPS:g} frames a second, not {args.fps:g}", file="--fps")
     deadline = None if args.timeout is None else started + args.timeout
 
     def draw(trajectory: Any, out: Path, width: int, height: int) -> str:
-        # ValueError: a GIF above 50 frames a second; TimeoutError: past --timeout, nothing written
+        # TimeoutError: past --timeout, nothing written
         plan = animate(trajectory, out, fps=args.fps, width=width, height=height, deadline=deadline)
         seconds = len(plan.frames) / args.fps
         return (
@@ -260,7 +287,7 @@ def _animate(args: argparse.Namespace) -> int:
             f"to {plan.times[-1]:.2f} s simulated (x{plan.speeds.max():.3g} at most)"
         )
 
-    return _draw(args, (".gif", ".mp4"), "the clip", "--fps", draw)
+    return _draw(args, (".gif", ".mp4"), "the clip", draw)
 
 
 def _graph(args: argparse.Namespace) -> int:

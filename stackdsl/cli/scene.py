@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 from ..lang.errors import ScenarioError
 from ..lang.extras import installed, missing
 from .args import COMMANDS, at_type
-from .draw import _SOURCE, _wrote, moment, trajectory_of
+from .draw import _SOURCE, _wrote, moment, resolved, trajectory_of, undrawable
 from .draw import NAMES as DRAWING
 
 if TYPE_CHECKING:
@@ -246,19 +246,23 @@ def _export(args: argparse.Namespace) -> int:
     outputs = [(out, kind) for out, (_, kind) in zip(paths, given, strict=True)]
     program = _program(args)
     trajectory = trajectory_of(args)
-    at = moment(args.at, trajectory.collapse_time is not None)
-    try:
+    at = resolved(trajectory, moment(args.at, trajectory.collapse_time is not None))
+    try:  # the options were checked: what fails here is the trajectory's
         if program is None:  # a trajectory file: pine, and the engine its meta records
             scene, engine = snapshot(trajectory, at), recorded_engine(trajectory.meta)
         else:
             specs = {a.id: a.brick for a in (*program.fixtures, *program.actions) if isinstance(a, (Place, Launch, Fixture))}
             scene = snapshot(trajectory, at, specs, program.ground_friction, program.ground_restitution)
             engine = program.engine
+        texts = {kind: mjcf(scene, engine=engine) if kind == "mjcf" else urdf(scene) for _, kind in outputs}
     except ValueError as exc:
-        raise ScenarioError(str(exc), file="--at") from None
+        refusal = undrawable(args.file, exc, "exported")
+        if refusal is None:
+            raise
+        raise refusal from None
     status = 0
     for out, kind in outputs:
-        text = mjcf(scene, engine=engine) if kind == "mjcf" else urdf(scene)
+        text = texts[kind]
         status |= _wrote(
             write_text(text, out),
             trajectory,

@@ -1354,3 +1354,23 @@ def test_the_check_function_yields_a_result_for_a_file_an_internal_error_met(tmp
     assert [r.file for r in check(folder, jobs=1, pattern="a.yaml")] == [
         results["a"].file
     ]  # -k leaves it out as it does its runs
+
+
+def test_a_file_named_twice_runs_once(tmp_path, capsys, monkeypatch):
+    write(tmp_path, a=PASSING)
+    (tmp_path / "d").mkdir()
+    write(tmp_path / "d", b=PASSING)
+    (tmp_path / "link.yaml").symlink_to("a.yaml")
+    monkeypatch.chdir(tmp_path)
+    assert main(["check", "a.yaml", "./a.yaml", "link.yaml", "d", "d/b.yaml", "d/../d/b.yaml", "-j", "1", "--json"]) == 0
+    results = json.loads(capsys.readouterr().out)["results"]
+    assert [r["file"] for r in results] == ["a.yaml", "d/b.yaml"]
+
+
+def test_an_empty_folder_says_which_files_a_folder_is_searched_for(tmp_path, capsys):
+    (tmp_path / "notes.txt").write_text("")
+    assert main(["check", str(tmp_path)]) == 2
+    assert capsys.readouterr().err.strip() == f"{tmp_path}: no scenario files (*.yaml, *.yml) in this folder"
+    (tmp_path / "a.yml").write_text(PASSING)
+    assert main(["check", str(tmp_path), "-j", "1"]) == 0  # as it says: *.yml is read too
+    assert "a.yml" in capsys.readouterr().out

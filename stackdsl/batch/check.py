@@ -51,7 +51,9 @@ class Prepared(NamedTuple):
 
 
 def discover(paths: list[str | Path]) -> list[Path]:
-    """Scenario files named by ``paths``: files as given, folders searched for ``*.yaml``/``*.yml``.
+    """Scenario files named by ``paths``: files as given, folders searched for ``*.yaml`` and
+    ``*.yml``; a file named twice (``t.yaml ./t.yaml``, a folder and a file in it, a link) is
+    listed once, where it first comes.
 
     Raises:
         ScenarioErrors: a path does not exist, is not a regular file (a device, a FIFO, a
@@ -62,11 +64,11 @@ def discover(paths: list[str | Path]) -> list[Path]:
     for raw in paths:
         path = Path(raw)
         if path.is_dir():
-            named = sorted(p for p in path.rglob("*") if p.suffix in (".yaml", ".yml") and not p.is_dir())
+            named = sorted(p for p in path.rglob("*") if p.suffix in SCENARIO_SUFFIXES and not p.is_dir())
             found = [p for p in named if p.is_file()]
             errors += [ScenarioError(file_problem(p) or "not a regular file", file=str(p)) for p in named if not p.is_file()]
             if not named:
-                errors.append(ScenarioError("no scenario files (*.yaml) in this folder", file=str(path)))
+                errors.append(ScenarioError("no scenario files (*.yaml, *.yml) in this folder", file=str(path)))
             files += found
         elif (problem := file_problem(path)) is None:
             files.append(path)
@@ -74,7 +76,27 @@ def discover(paths: list[str | Path]) -> list[Path]:
             errors.append(ScenarioError(problem, file=str(path)))
     if errors:
         raise ScenarioErrors(errors)
-    return files
+    return _once(files)
+
+
+#: The suffixes of the files a folder is searched for.
+SCENARIO_SUFFIXES = (".yaml", ".yml")
+
+
+def _once(files: list[Path]) -> list[Path]:
+    """``files`` with each file once (the same device and inode: by any name), where it first comes."""
+    seen: set[tuple[int, int]] = set()
+    kept = []
+    for path in files:
+        try:
+            info = path.stat()
+        except OSError:  # gone since it was found: loading it will say so
+            kept.append(path)
+            continue
+        if (info.st_dev, info.st_ino) not in seen:
+            seen.add((info.st_dev, info.st_ino))
+            kept.append(path)
+    return kept
 
 
 def prepare(

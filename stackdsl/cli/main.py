@@ -393,7 +393,12 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
 
     guarded = _guarded(TIMEOUT)
     many = _Parser(add_help=False, parents=[common, guarded])
-    many.add_argument("paths", nargs="+", metavar="PATH", help="scenario files, or folders searched for *.yaml")
+    many.add_argument(
+        "paths",
+        nargs="+",
+        metavar="PATH",
+        help="scenario files, or folders searched for *.yaml and *.yml (a file named twice runs once)",
+    )
     many.add_argument("--model", choices=MODELS, help="override every scenario's stability model")
     add_seed(many)
     many.add_argument(

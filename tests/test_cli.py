@@ -1374,3 +1374,24 @@ def test_an_empty_folder_says_which_files_a_folder_is_searched_for(tmp_path, cap
     (tmp_path / "a.yml").write_text(PASSING)
     assert main(["check", str(tmp_path), "-j", "1"]) == 0  # as it says: *.yml is read too
     assert "a.yml" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("command", ["check", "run", "compile", "compare"])
+def test_a_trajectory_given_as_a_scenario_is_named_so(command, tmp_path, capsys):
+    import numpy as np
+
+    trajectory = tmp_path / "tr.npz"
+    np.savez(trajectory, times=np.zeros(3))  # a zip archive, as a trajectory file is
+    assert main([command, str(trajectory)]) == 2
+    assert capsys.readouterr().err.strip() == (
+        f"{trajectory}: this is a trajectory file (.npz), not a scenario: "
+        "stackdsl render, animate, graph, replay, view and export read it"
+    )
+    with trajectory.open("ab") as f:  # over the size a scenario may have: named by its name alone
+        f.truncate(2 << 20)
+    assert main([command, str(trajectory)]) == 2
+    assert "this is a trajectory file (.npz), not a scenario" in capsys.readouterr().err
+    named = tmp_path / "tr.yaml"
+    named.write_bytes(trajectory.read_bytes()[:1000])  # misnamed: named by its first bytes
+    assert main([command, str(named)]) == 2
+    assert "this is a zip archive, not a scenario" in capsys.readouterr().err

@@ -57,7 +57,9 @@ def read_text(path: Path, shown: str | None = None) -> str:
 
 def file_problem(path: Path) -> str | None:
     """Why ``path`` cannot be read as a scenario file, from ``os.stat`` alone (nothing is
-    opened); None for a regular file of at most :data:`MAX_FILE_BYTES`.
+    opened); None for a regular file of at most :data:`MAX_FILE_BYTES`. A trajectory file
+    (``.npz``) too large to read is named as one here; a smaller one, or a zip archive of
+    another name, once read (:func:`read_text`).
 
     >>> file_problem(Path("/dev/null"))
     'not a regular file: a character device'
@@ -71,8 +73,23 @@ def file_problem(path: Path) -> str | None:
     if not stat.S_ISREG(info.st_mode):
         return f"not a regular file: {file_kind(info.st_mode)}"
     if info.st_size > MAX_FILE_BYTES:
+        if path.suffix.lower() == ".npz":
+            return not_a_scenario(path)
         return f"the file is larger than {MAX_FILE_BYTES} bytes ({info.st_size} bytes)"
     return None
+
+
+#: The first bytes of a zip archive (a trajectory file, ``.npz``, is one).
+ZIP_MAGIC = b"PK\x03\x04"
+
+
+def not_a_scenario(path: Path) -> str:
+    """Why the zip archive ``path`` is not a scenario: a trajectory file (``.npz``) and the
+    commands that read one."""
+    readers = "stackdsl render, animate, graph, replay, view and export read it"
+    if path.suffix.lower() == ".npz":
+        return f"this is a trajectory file (.npz), not a scenario: {readers}"
+    return f"this is a zip archive, not a scenario (YAML text); if it is a trajectory file, {readers}"
 
 
 def file_kind(mode: int) -> str:
@@ -113,6 +130,8 @@ def _read_bytes(path: Path, file: str) -> bytes:
 
 def _decode(raw: bytes, file: str) -> str:
     """UTF-8 text of ``raw`` (a UTF-8 byte order mark is dropped)."""
+    if raw.startswith(ZIP_MAGIC):
+        raise ScenarioError(not_a_scenario(Path(file)), file=file)
     for bom, encoding in _BOMS:
         if raw.startswith(bom):
             raise ScenarioError(

@@ -89,6 +89,13 @@ def test_two_outputs_of_one_file_are_refused(project, capsys):
     err = refused(["export", "scenarios/t.yaml", "--mjcf", "same.xml", "--urdf", "./same.xml"], capsys)
     assert err == "./same.xml: --urdf: --mjcf writes there too: give each output its own path"
     assert not (project / "same.xml").exists()
+    # a file output on a folder output's path, or on a file it writes in it
+    for junit, folder in (("r", False), ("r/index.html", True)):
+        if folder:
+            (project / "r").mkdir()
+        err = refused(["check", "scenarios/t.yaml", "--junit-xml", junit, "--report", "r"], capsys)
+        assert err == "r: --report: --junit-xml writes there too: give each output its own path"
+        assert (project / "r").exists() == folder and not (project / "r" / "index.html").exists()
 
 
 @pytest.mark.parametrize(

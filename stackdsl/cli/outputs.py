@@ -73,7 +73,7 @@ def check_outputs(outputs: Sequence[Output], inputs: Iterable[Input] = ()) -> li
             if same_place(path, given.path):
                 raise _refused(out, f"this is {given.what}: give another file to write")
         for earlier in outputs[:n]:
-            if earlier.path.strip() and same_place(path, earlier.path):
+            if earlier.path.strip() and any(same_place(a, b) for a in _places(out) for b in _places(earlier)):
                 raise _refused(out, f"{earlier.option} writes there too: give each output its own path")
         if out.folder:
             _check_folder(out, path, read)
@@ -81,6 +81,11 @@ def check_outputs(outputs: Sequence[Output], inputs: Iterable[Input] = ()) -> li
             _check_file(out, path)
         paths.append(path)
     return paths
+
+
+def _places(out: Output) -> list[Path]:
+    """Where ``out`` writes: its path, and for a folder the files it writes in it."""
+    return [Path(out.path), *(Path(out.path) / name for name in out.inside)]
 
 
 def _refused(out: Output, message: str) -> ScenarioError:

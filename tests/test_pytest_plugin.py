@@ -332,6 +332,7 @@ def suggested_run(result) -> list[str]:
     return shlex.split(line.removeprefix("run: pytest "))
 
 
+@pytest.mark.slow  # pytest runs of its own, 13-28 s: in .ci/run's slow part
 def test_items_run_from_any_folder_and_the_hint_gives_a_command_that_works_there(pytester, monkeypatch):
     monkeypatch.delenv("PYTEST_XDIST_WORKER", raising=False)
     (pytester.path / "elsewhere").mkdir()
@@ -361,6 +362,7 @@ def test_items_run_from_any_folder_and_the_hint_gives_a_command_that_works_there
     assert "more: stackdsl run ../s/t.yaml" in out
 
 
+@pytest.mark.slow  # pytest runs of its own, 13-28 s: in .ci/run's slow part
 def test_a_failing_item_keeps_its_golden_through_snapshot_update(project):
     for name in ("two", "tower", "fine", "gone"):
         write(project, name, TWO_BRICKS.format(x="0 mm") if name == "two" else TOWER)
@@ -403,6 +405,7 @@ def test_a_crashed_item_keeps_its_golden_through_snapshot_update(project):
     assert stored.read_text() == text
 
 
+@pytest.mark.slow  # pytest runs of its own, 13-28 s: in .ci/run's slow part
 def test_failing_items_keep_their_goldens_under_xdist(project):
     pytest.importorskip("xdist")
     for name in ("a", "b", "c"):
@@ -432,6 +435,7 @@ DAMAGED = {
 }
 
 
+@pytest.mark.slow  # pytest runs of its own, 13-28 s: in .ci/run's slow part
 def test_a_damaged_golden_fails_its_item_in_one_line_and_is_never_replaced(project):
     folder = project.path / "golden" / "scenarios"
     folder.mkdir(parents=True)
@@ -470,6 +474,7 @@ def test_a_golden_folder_that_is_a_file_is_one_line_under_snapshot_update(projec
     assert (project.path / "golden").read_text() == "not a folder\n"
 
 
+@pytest.mark.slow  # pytest runs of its own, 13-28 s: in .ci/run's slow part
 def test_the_golden_fixture_never_blocks_on_a_fifo(pytester, monkeypatch):
     monkeypatch.delenv("PYTEST_XDIST_WORKER", raising=False)
     pytester.makefile(".toml", pyproject="[tool.pytest.ini_options]\n")
@@ -484,6 +489,7 @@ def test_the_golden_fixture_never_blocks_on_a_fifo(pytester, monkeypatch):
         assert stat.S_ISFIFO(stored.stat().st_mode)  # not written over
 
 
+@pytest.mark.slow  # pytest runs of its own, 13-28 s: in .ci/run's slow part
 def test_goldens_moved_by_a_new_pyproject_are_named_where_they_are(pytester, monkeypatch):
     monkeypatch.delenv("PYTEST_XDIST_WORKER", raising=False)
     (pytester.path / "s").mkdir()

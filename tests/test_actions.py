@@ -346,6 +346,7 @@ def test_compile_prints_no_negative_zero_and_one_level_in_the_singular():
     assert "3 levels," in turned and "-0.0" not in turned
 
 
+@pytest.mark.slow  # 7-22 s: in .ci/run's slow part
 def test_stands_until_holds_through_the_pulls_before_the_one_that_fells_the_tower():
     """scenarios/jenga_falls.yaml: the first pull (18 s) leaves the tower standing, the second (22 s)
     fells it: 'stands until 22 s' holds, 'stands until 24 s' does not, and says when it fell."""
@@ -841,6 +842,7 @@ actions:
     assert outcome.collapse is not None and outcome.collapse.brick == "D01"
 
 
+@pytest.mark.slow  # 7-22 s: in .ci/run's slow part
 def test_a_brick_in_the_hand_still_supports_in_the_off_support_proof():
     """L06.1 lies on L05.3 and L05.1, L05.2 pulled out before: a quarter into the pull of L05.1
     the off-support test finds L06.1's centre of mass over its support, L05.1's piece carried

@@ -266,9 +266,15 @@ def test_with_mujocos_sleeping_a_parked_brick_lands_where_it_is_put():
 
 
 SCENARIOS = sorted((ROOT / "scenarios").rglob("*.yaml"))
+#: The two Jenga scenes take 8-12 s each on MuJoCo: in .ci/run's slow part (pytest -m slow).
+LONG_ON_MUJOCO = {"jenga_falls", "jenga_stands"}
 
 
-@pytest.mark.parametrize("path", SCENARIOS, ids=[p.stem for p in SCENARIOS])
+@pytest.mark.parametrize(
+    "path",
+    [pytest.param(p, marks=pytest.mark.slow) if p.stem in LONG_ON_MUJOCO else p for p in SCENARIOS],
+    ids=[p.stem for p in SCENARIOS],
+)
 def test_the_extension_on_mujoco_gives_the_librarys_verdicts(path):
     """Every shipped scenario gives its verdicts on MuJoCo too, or is refused as beyond what
     MuJoCo simulates faithfully (a projectile faster than its soft contacts stop), naming it."""

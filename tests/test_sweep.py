@@ -394,6 +394,7 @@ def test_the_throughput_table_gives_each_executors_efficiency_with_and_without_i
     assert lines[-2].endswith("yes")
 
 
+@pytest.mark.slow  # 8-10 s: in .ci/run's slow part
 def test_bench_sweep_measures_a_sweep_file_on_every_executor(tmp_path, capsys):
     path = tmp_path / "stack.yaml"
     path.write_text(STACK.format(levels=4, samples=50))

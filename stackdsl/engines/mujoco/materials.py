@@ -114,11 +114,10 @@ class Materials:
         """The contact values of a geom of a material: its collision bit, friction (sliding,
         torsional, rolling), ``solref`` and ``solimp``."""
         e = self._engine
-        zeta = damping_ratio(restitution, e.solref[1])
         return Contact(
             bit=1 << self.group(friction, restitution),
             friction=(friction, 0.005, 0.0001),
-            solref=(time_constant(zeta, e), zeta),
+            solref=self._solref(restitution),
             solimp=(*e.solimp, 0.5, 2.0),
         )
 
@@ -127,13 +126,17 @@ class Materials:
         means of their coefficients; ``bit`` 0 (a pair collides whatever the geoms' bits)."""
         e = self._engine
         mu, restitution = math.sqrt(mine[0] * other[0]), math.sqrt(mine[1] * other[1])
-        zeta = damping_ratio(restitution, e.solref[1])
         return Contact(
             bit=0,
             friction=(mu, mu, 0.005, 0.0001, 0.0001),
-            solref=(time_constant(zeta, e), zeta),
+            solref=self._solref(restitution),
             solimp=(*e.solimp, 0.5, 2.0),
         )
+
+    def _solref(self, restitution: float) -> tuple[float, float]:
+        """``solref`` of a contact of ``restitution``: :func:`time_constant` and :func:`damping_ratio`."""
+        zeta = damping_ratio(restitution, self._engine.solref[1])
+        return time_constant(zeta, self._engine), zeta
 
     def surface(self, geom: Any, friction: float, restitution: float) -> None:
         """Friction, contact softness and collision group of ``geom`` (an ``MjsGeom``) for its material."""

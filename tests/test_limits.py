@@ -160,6 +160,18 @@ def test_a_comparison_shows_a_refused_mode_as_a_cell_and_runs_the_others(tmp_pat
     assert not row["extension"].refused and row["extension"].levels_placed == 3
 
 
+def test_a_row_every_compared_mode_refuses_still_says_what_the_file_expects(tmp_path, capsys):
+    """No cell ran, so no verdict names the expectations: the row's expected column reads them
+    from the file, as a run's verdicts word them."""
+    from stackdsl.cli.main import main
+
+    path = tmp_path / "throw.yaml"
+    path.write_text(IMPACT % ("pybullet", "extension", "", "5 m/s") + "expect: {stays: 1, toppled: '2 +- 1'}\n")
+    assert main(["compare", str(path), "--modes", "raw", "-j", "1"]) == 0
+    row = [line for line in capsys.readouterr().out.splitlines() if line.startswith("throw")]
+    assert row and "level 1 stay, 2±1 toppled" in row[0] and "(nothing)" not in row[0], row
+
+
 def test_a_pattern_selects_a_file_every_compared_mode_refuses(tmp_path):
     """-k picks refused cells as it picks runs: a file refused in the only mode compared is
     still the one selected, not "no scenario's path contains"."""

@@ -33,6 +33,7 @@ from ..lang.loader import load_scenario
 from ..lang.sampling import Template
 from ..lang.scenario_file import file_problem
 from ..verdicts.check_result import CheckResult
+from ..verdicts.expect import expected_texts
 from .address import free_cores
 from .check_sweep import run_unit, sweep_result, sweep_tasks
 from .judge import KILL_AFTER, TIMEOUT, failed, internal, lost
@@ -218,6 +219,7 @@ def _refusal(
         wall_time=0.0,
         backend=backend or scenario.engine.backend,
         refused=exc.message,
+        expects=", ".join(expected_texts(scenario.expect).values()),
     )
 
 

@@ -47,6 +47,7 @@ class CheckResult:
         refused: in a comparison, why the compiler refused the scene on this column's engine
             or mode (beyond what it simulates faithfully: :mod:`stackdsl.compile.limits`),
             one line, else empty; nothing ran.
+        expects: in a refused cell, what the file expects (no verdict was reached), else empty.
     """
 
     file: str
@@ -76,6 +77,7 @@ class CheckResult:
     first_moved: str = ""
     first_moved_level: int | None = None
     moved_levels: tuple[int, ...] = ()
+    expects: str = ""
 
     @property
     def passed(self) -> bool:
@@ -91,7 +93,7 @@ class CheckResult:
     @property
     def expected(self) -> str:
         """The expectations, as in check's table: ``'collapse 9±1'``, ``'stands'``."""
-        return ", ".join(dict.fromkeys(v.expected for v in self.verdicts)) or "(nothing)"
+        return ", ".join(dict.fromkeys(v.expected for v in self.verdicts)) or self.expects or "(nothing)"
 
     @property
     def measured(self) -> str:

@@ -54,18 +54,18 @@ def evaluate(expect: Expect, outcome: Outcome, threshold: float) -> list[Verdict
     """
     verdicts = []
     measured = describe_outcome(outcome, threshold)
+    texts = expected_texts(expect)
     if isinstance(expect.collapse, CollapseLevel):  # a sweep's statistics are decided over its samples
         c = expect.collapse
         passed = outcome.collapse is not None and abs(outcome.collapse.level - c.level) <= c.tolerance
-        expected = f"collapse {c.level}" + (f"±{c.tolerance}" if c.tolerance else "")
-        verdicts.append(Verdict(name="collapse", passed=passed, expected=expected, measured=measured))
+        verdicts.append(Verdict(name="collapse", passed=passed, expected=texts["collapse"], measured=measured))
     if expect.stands:
         verdicts.append(Verdict(name="stands", passed=outcome.collapse is None, expected="stands", measured=measured))
     if expect.stands_until is not None:
         until = expect.stands_until
         held = outcome.collapse is None or outcome.collapse.time >= until
         said = "stands" if outcome.collapse is None else f"{measured} at {outcome.collapse.time:.2f} s"
-        verdicts.append(Verdict(name="stands_until", passed=held, expected=f"stands until {until:g} s", measured=said))
+        verdicts.append(Verdict(name="stands_until", passed=held, expected=texts["stands_until"], measured=said))
     if expect.stays:
         levels, bricks = levels_of(expect.stays), bricks_of(expect.stays)
         moved = _moved_levels(outcome, threshold)
@@ -98,13 +98,41 @@ def evaluate(expect: Expect, outcome: Outcome, threshold: float) -> list[Verdict
             Verdict(
                 name="toppled",
                 passed=abs(count - want) <= t.tolerance,
-                expected=f"{'all' if t.count == 'all' else want}" + (f"±{t.tolerance}" if t.tolerance else "") + " toppled",
+                expected=texts["toppled"],
                 measured=f"{count} of {total} toppled{never}",
             )
         )
     if outcome.stopped:
         verdicts.append(Verdict(name="finished", passed=False, expected="the run finishes", measured=outcome.stopped))
     return [v.model_copy(update={"at": expect.at(v.name)}) if expect.at(v.name) else v for v in verdicts]
+
+
+def expected_texts(expect: Expect) -> dict[str, str]:
+    """What ``expect`` asks, in the words of its verdicts' ``expected``, by expectation name,
+    before anything ran (a run's ``stays`` and ``moved`` can say "bricks" where a selector named
+    a part of several): ``{"collapse": "collapse 9±1", "stays": "levels 1-3 stay"}``. A sweep's
+    statistics are left out (their verdicts are the sweep's). Source: stackdsl's own.
+
+    >>> from stackdsl.lang.expectations import Expect
+    >>> expected_texts(Expect.model_validate({"collapse": "9 +- 1", "stays": "1-3"}))
+    {'collapse': 'collapse 9±1', 'stays': 'levels 1-3 stay'}
+    """
+    texts = {}
+    if isinstance(expect.collapse, CollapseLevel):
+        c = expect.collapse
+        texts["collapse"] = f"collapse {c.level}" + (f"±{c.tolerance}" if c.tolerance else "")
+    if expect.stands:
+        texts["stands"] = "stands"
+    if expect.stands_until is not None:
+        texts["stands_until"] = f"stands until {expect.stands_until:g} s"
+    if expect.stays:
+        texts["stays"] = f"{_said(levels_of(expect.stays), bricks_of(expect.stays))} stay"
+    if expect.moved:
+        texts["moved"] = f"{_said(levels_of(expect.moved), bricks_of(expect.moved))} moved"
+    if expect.toppled is not None:
+        t = expect.toppled
+        texts["toppled"] = f"{t.count}" + (f"±{t.tolerance}" if t.tolerance else "") + " toppled"
+    return texts
 
 
 def _moved_levels(outcome: Outcome, threshold: float) -> set[int]:

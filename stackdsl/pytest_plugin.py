@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import os
 import shlex
-from collections.abc import Iterator
+from collections.abc import Generator, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -53,7 +53,7 @@ from .compile.compiler import compile_scenario
 from .draw.artefacts import draw_run, folder_name
 from .lang.errors import ScenarioError
 from .lang.loader import load_scenario
-from .pytest_golden import golden_elsewhere, golden_problem, read_golden_text, where_goldens_go
+from .pytest_golden import BadGolden, golden_elsewhere, golden_problem, read_golden_text, where_goldens_go
 from .pytest_hint import SUFFIXES, collection_hint, remember_collected
 from .runtime.recorder import record_program
 from .runtime.run import run_program
@@ -62,12 +62,13 @@ from .verdicts.snapshot import dumps, scenario_golden_path, summarize
 from .verdicts.snapshot import golden_dir as golden_dir
 
 try:
+    from syrupy.assertion import SnapshotAssertion
     from syrupy.data import SnapshotCollection, SnapshotCollections
     from syrupy.extensions.json import JSONSnapshotExtension
     from syrupy.extensions.single_file import SingleFileSnapshotExtension, WriteMode
     from syrupy.terminal import disable_color
 except ImportError:  # pragma: no cover - syrupy is a test extra
-    JSONSnapshotExtension = SingleFileSnapshotExtension = None  # type: ignore[assignment,misc]
+    JSONSnapshotExtension = SingleFileSnapshotExtension = SnapshotAssertion = None  # type: ignore[assignment,misc]
 
 _rename = os.replace  # atomic within a folder (POSIX); a name of its own, so a test can fail it alone
 
@@ -154,6 +155,26 @@ def orphan_goldens(config: pytest.Config) -> list[Path]:
         stored = scenario_golden_path(root / "x.yaml").parent
         orphans += [g for g in sorted(stored.rglob("*.json")) if stored.is_dir() and left_over(g, root)]
     return orphans
+
+
+#: How syrupy's diff names a golden that could not be read (its exception's first line).
+_BAD_GOLDEN = f"{BadGolden.__module__}.{BadGolden.__qualname__}: "
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_assertrepr_compare(
+    config: pytest.Config, op: str, left: Any, right: Any
+) -> Generator[None, list[list[str] | None], list[list[str] | None]]:
+    """A golden that could not be read (:class:`stackdsl.pytest_golden.BadGolden`: a FIFO, a
+    folder, not UTF-8) fails its ``assert golden == ...`` in one line naming it and saying why,
+    before syrupy's explanation (a traceback of the read), which pytest then leaves out; the
+    snapshot still counts as used, so ``--snapshot-update`` never deletes it."""
+    explanations = yield
+    for side in (left, right):
+        said = side.get_assert_diff() if SnapshotAssertion is not None and isinstance(side, SnapshotAssertion) else []
+        if said and said[0].startswith(_BAD_GOLDEN):
+            return [[said[0].removeprefix(_BAD_GOLDEN)], *explanations]
+    return explanations
 
 
 def pytest_collection_finish(session: pytest.Session) -> None:

@@ -475,18 +475,46 @@ def test_a_golden_folder_that_is_a_file_is_one_line_under_snapshot_update(projec
 
 
 @pytest.mark.slow  # pytest runs of its own, 13-28 s: in .ci/run's slow part
-def test_the_golden_fixture_never_blocks_on_a_fifo(pytester, monkeypatch):
+def test_the_golden_fixture_says_a_damaged_golden_in_one_line_and_never_blocks_on_a_fifo(pytester, monkeypatch):
+    """A FIFO, bytes that are not UTF-8, a folder: one line naming the golden, never syrupy's
+    traceback, never a hang, never written over or deleted; a test's second assertion
+    (``name.1.json``) too."""
     monkeypatch.delenv("PYTEST_XDIST_WORKER", raising=False)
     pytester.makefile(".toml", pyproject="[tool.pytest.ini_options]\n")
-    pytester.makepyfile(test_g="def test_mine(golden):\n    assert golden == {'value': 1}\n")
-    stored = pytester.path / "golden" / "test_g" / "test_mine.json"
-    stored.parent.mkdir(parents=True)
-    os.mkfifo(stored)
-    for args in ([], ["--snapshot-update"]):
-        result = pytester.runpytest_subprocess("-p", "no:cacheprovider", "-n", "0", *args, timeout=120)
-        result.assert_outcomes(failed=1)
-        assert "golden/test_g/test_mine.json is a FIFO, not a golden snapshot: remove it" in result.stdout.str()
-        assert stat.S_ISFIFO(stored.stat().st_mode)  # not written over
+    pytester.makepyfile(
+        test_g="def test_mine(golden):\n    assert golden == {'value': 1}\n\n"
+        "def test_two(golden):\n    assert golden == [1]\n    assert golden == [2]\n"
+    )
+    folder = pytester.path / "golden" / "test_g"
+    pytester.runpytest_subprocess("-p", "no:cacheprovider", "-n", "0", "--snapshot-update").assert_outcomes(passed=2)
+    names = ["test_mine.json", "test_two.1.json", "test_two.json"]
+    assert sorted(p.name for p in folder.iterdir()) == names
+    damages = {
+        "fifo": ("test_mine.json", "golden/test_g/test_mine.json is a FIFO, not a golden snapshot: remove it"),
+        "bytes": ("test_two.1.json", "golden/test_g/test_two.1.json is not a golden snapshot: not UTF-8 text (byte 0xff"),
+        "folder": ("test_mine.json", "golden/test_g/test_mine.json is a folder, not a golden snapshot: remove it"),
+    }
+    for damage, (name, said) in damages.items():
+        stored = folder / name
+        stored.unlink()
+        if damage == "fifo":
+            os.mkfifo(stored)
+        elif damage == "bytes":
+            stored.write_bytes(b"\xff[1]\n")
+        else:
+            stored.mkdir()
+        for args in ([], ["--snapshot-update"]):
+            result = pytester.runpytest_subprocess("-p", "no:cacheprovider", "-n", "0", *args, timeout=120)
+            result.assert_outcomes(passed=1, failed=1)
+            out = result.stdout.str()
+            (line,) = [line for line in result.outlines if said in line]  # one line
+            assert line.startswith("E       assert golden/"), (damage, args, line)
+            assert "Deleted" not in out and sorted(p.name for p in folder.iterdir()) == names, (damage, args)
+            assert "Traceback" not in out and "assertion.py" not in out and "BadGolden" not in out, out
+            assert stat.S_ISFIFO(stored.stat().st_mode) if damage == "fifo" else True  # not written over
+            assert stored.read_bytes() == b"\xff[1]\n" if damage == "bytes" else True
+        stored.rmdir() if damage == "folder" else stored.unlink()
+        pytester.runpytest_subprocess("-p", "no:cacheprovider", "-n", "0", "--snapshot-update").assert_outcomes(passed=2)
 
 
 @pytest.mark.slow  # pytest runs of its own, 13-28 s: in .ci/run's slow part

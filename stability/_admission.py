@@ -9,13 +9,14 @@ friction holds them (3.4). Source: report 3.3.4, 3.4 and 3.5.
 from __future__ import annotations
 
 import itertools
+import math
 from graphlib import CycleError, TopologicalSorter
 
 from ._areas import ContactAreas, Contacts, horizontal, main_area, overlap
 from ._equilibrium import ContactPolygon
 from ._geometry import ContactArea
 from ._graph import BrickState
-from ._leaning import leaning_stands
+from ._leaning import leaning_stands, pair_friction
 from ._stack import Record, StabilityEvent, Stack
 
 Plan = dict[int, tuple[dict[int, ContactArea], ContactArea]]
@@ -45,13 +46,31 @@ class Admission:
         if max(heights) - min(heights) > self.config.lean_height and not all(a.exact for a in supports.values()):
             return []  # report 3.5: contacts at different heights (not face to face on each): a leaning brick
         main = main_area(supports)
-        if not areas.holds(main, stack.engine.pose(rec.body).position):
+        position = stack.engine.pose(rec.body).position
+        if not areas.holds(main, position):
             return []
         held = {o: pts for o, pts in areas.touching(rec, contacts).items() if stack.bodies[o].state is not BrickState.ACTIVE}
+        polygons = areas.polygons(rec, held, known=supports)
+        if self._steep(rec, supports) and not leaning_stands({rec.body: (position, rec.box.mass)}, polygons, self.config.gravity):
+            return []  # on a slope steeper than its friction angle, and nothing else holds it: it slides
         lift = overlap(contacts[rec.body], supports, areas.support_cos)
-        stack.freeze(rec, supports, main, areas.polygons(rec, held, known=supports), lift)
+        stack.freeze(rec, supports, main, polygons, lift)
         names = ", ".join(stack.bodies[s].label for s in supports)
         return [StabilityEvent(time, "freeze", rec.label, f"at rest on {names}")]
+
+    def _steep(self, rec: Record, supports: dict[int, ContactArea]) -> bool:
+        """Whether a support of ``rec`` is tilted beyond its friction angle (tan tilt > mu of the
+        pair). The basic test's vertical support forces are then outside that contact's friction
+        cone, and only an equilibrium with friction (:func:`stability.leaning_stands`) can say
+        whether the brick stays: a brick on a 17.5 deg ramp of friction 0.3 (16.7 deg) slides,
+        one in a V-groove of two such ramps does not. With every support within its friction
+        angle the vertical forces are admissible and the basic test is exact. Source: stackdsl's
+        own (Coulomb's law, report eq. 12, on the basic test of 3.3.4)."""
+        bodies = self.stack.bodies
+        return any(
+            a.normal[2] * math.hypot(1.0, pair_friction(rec.friction, bodies[o].friction)) < 1.0 - 1e-9
+            for o, a in supports.items()
+        )
 
     def leaning(self, rec: Record, contacts: Contacts, time: float, limit: int | None) -> list[StabilityEvent]:
         """Admit ``rec`` (with a resting partner it leans on, if any) when friction holds it.

@@ -192,3 +192,36 @@ def test_the_sweep_brackets_each_closed_form_within_a_degree():
         assert stood is not None and fell is not None and stood < fell
         assert limit - 1.0 <= stood and fell <= limit + 1.5
     assert "| inverted V | 26.6 deg | extension |" in format_limits(found)
+
+
+def ramp_stack(angle: float, bricks: int) -> str:
+    """``bricks`` KAPLA laid parallel on a fixed ramp tilted ``angle`` deg, every surface friction 0.3."""
+    a = math.radians(angle)
+    normal = np.array([-math.sin(a), 0.0, math.cos(a)])
+    rows = [f"    - {{id: ramp, brick: ramp, at: [0, 0, 100 mm], pitch: {-angle}, fixed: true}}"]
+    for i in range(bricks):
+        x, _, z = 1000 * (np.array([0.0, 0.0, 0.1]) + (0.014 + 0.008 * i) * normal)
+        rows.append(f"    - {{id: b{i + 1}, brick: k, at: [{x:.3f} mm, 0, {z:.3f} mm], pitch: {-angle}, level: {i + 1}}}")
+    return (
+        "stackdsl: 1\nmaterials: {slick: {density: 460 kg/m^3, friction: 0.3}}\n"
+        "brick_types: {k: {size: [120 mm, 24 mm, 8 mm], material: slick}, ramp: {size: [400 mm, 100 mm, 20 mm], material: slick}}\n"
+        "ground: {material: slick}\nstructure:\n  bricks:\n" + "\n".join(rows) + "\n"
+    )
+
+
+@pytest.mark.parametrize("model", ["report", "equilibrium"])
+@pytest.mark.parametrize("angle", [15.0, 17.5])
+def test_a_stack_on_a_ramp_slides_at_level_1_beyond_the_friction_angle(model, angle):
+    """atan(0.3) = 16.70 deg: beyond it the first brick slides as soon as it is let go
+    (a = g (sin a - 0.3 cos a) = 0.14 m/s^2 at 17.5 deg, 71 mm in a second), and is never frozen
+    on the ramp; within it the stack stands. Both models, the report's included: its unlimited
+    friction between stack bricks is not friction a tilted support lacks."""
+    program = compile_scenario(parse_scenario(ramp_stack(angle, 4)), model=model)
+    outcome = run_program(program)
+    slides = math.tan(math.radians(angle)) > 0.3
+    if not slides:
+        assert outcome.collapse is None
+        return
+    assert outcome.collapse is not None and outcome.collapse.level == 1 and outcome.collapse.brick == "b1"
+    assert outcome.collapse.time < 1.0  # when it slid, not the run's end
+    assert not any(e.kind == "freeze" and e.brick == "b1" and e.time < outcome.collapse.time for e in outcome.events)

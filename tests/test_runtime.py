@@ -341,3 +341,12 @@ def test_a_run_stopped_where_its_collapse_is_decided_ends_with_that_steps_graph(
     assert done.collapse is not None and monitor.graph_step == loop.step
     assert done.final_graph == fresh
     assert done.collapse_graph is not None and done.final_graph.bricks() == done.collapse_graph.bricks()
+
+
+@pytest.mark.parametrize("bricks, said", [(1, "the brick frozen over its load path"), (3, "each of 3 bricks frozen")])
+def test_a_stand_certificate_counts_its_bricks_in_words(bricks, said):
+    """ "the brick", not "each of 1 bricks"."""
+    structure = f"stackdsl: 1\nstructure: {{tower: {{levels: {bricks}, bricks_per_layer: 1, turn: 0}}}}\n"
+    certificate = run_program(compile_scenario(parse_scenario(structure))).certificate
+    assert certificate is not None and certificate.verdict == "stands"
+    assert certificate.detail.startswith(said) and "1 bricks" not in certificate.detail

@@ -303,4 +303,6 @@ def _graph(args: argparse.Namespace) -> int:
     bricks = sum(n.state != "ground" and n.level is not None for n in graph.nodes)
     others = sum(n.state != "ground" and n.level is None for n in graph.nodes)  # a pusher, a projectile
     besides = f", {others} other bod{'y' if others == 1 else 'ies'}" if others else ""
-    return _wrote(out, trajectory, f"the brick graph at the {at}, {bricks} bricks{besides} and {len(graph.edges)} rests-on edges")
+    edges = len(graph.edges)
+    said = f"{bricks} brick{'' if bricks == 1 else 's'}{besides} and {edges} rests-on edge{'' if edges == 1 else 's'}"
+    return _wrote(out, trajectory, f"the brick graph at the {at}, {said}")

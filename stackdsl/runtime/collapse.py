@@ -212,9 +212,14 @@ class CollapseMonitor(Subscriber):
                 verdict="stands",
                 kind="equilibrium",
                 detail=(
-                    f"each of {certificate.bricks} bricks frozen over its load path to the ground"
+                    (
+                        f"each of {certificate.bricks} bricks frozen over its load path to the ground"
+                        if certificate.bricks != 1
+                        else "the brick frozen over its load path to the ground"
+                    )
                     if certificate.method == "load paths"
-                    else f"the equilibrium program balances {certificate.bricks} bricks on {certificate.contacts} contacts"
+                    else f"the equilibrium program balances {_count(certificate.bricks, 'brick')} on "
+                    f"{_count(certificate.contacts, 'contact')}"
                 ),
                 bricks=certificate.active,
                 margin_mm=round(certificate.margin * 1000, 1) + 0.0,
@@ -377,3 +382,8 @@ class CollapseMonitor(Subscriber):
 
 def _fixture_pose(f: Fixture) -> Pose:
     return Pose.from_euler(f.position, f.yaw, f.pitch, f.roll)
+
+
+def _count(n: int, noun: str) -> str:
+    """``"1 brick"``, ``"3 bricks"``."""
+    return f"{n} {noun}{'' if n == 1 else 's'}"

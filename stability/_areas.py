@@ -20,7 +20,7 @@ from ._engine import ContactPoint
 from ._equilibrium import ContactPolygon
 from ._geometry import ContactArea, Plane, Pose, combined_hull, contains, face_overlap, padded_hull
 from ._graph import BrickState
-from ._leaning import lean_polygon, pair_friction
+from ._leaning import lean_polygon_padded, pair_friction
 from ._stack import Record, Stack
 
 Contacts = dict[int, list[ContactPoint]]
@@ -119,8 +119,9 @@ class ContactAreas:
                 continue
             normal = np.mean([c.normal for c in points], axis=0)
             normal /= np.linalg.norm(normal)
-            polygon = lean_polygon(np.array([c.position for c in points]), normal, self.config.contact_pad)
-            out.append(ContactPolygon(rec.body, other, polygon, normal, friction))
+            own = np.array([c.position for c in points])
+            polygon, padded = lean_polygon_padded(own, normal, self.config.contact_pad)
+            out.append(ContactPolygon(rec.body, other, polygon, normal, friction, own if padded else None))
         return out
 
     def lying_on(self, rec: Record, pose: Pose, active: bool = False) -> dict[int, ContactArea]:

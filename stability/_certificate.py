@@ -8,8 +8,12 @@ exact face overlap with every body it lies on face to face, found from the poses
 other pair the engine reports, the points padded across the normal, as the leaning test builds
 them (report 3.4.2). When forces exist that balance every block, the program's
 solution proves that the structure stands; the margin says how far every centre of mass
-could move together before it would not (:func:`stability.equilibrium_margin`). When none
-exist, the collapse mechanism names the bricks that must move.
+could move together before it would not (:func:`stability.equilibrium_margin`), found on the
+contacts themselves: a one- or two-point contact is padded across its normal to decide (report
+3.4.2), and the padding would widen the margin by up to its half-width (a ladder's foot strip
+reaches 1 mm under the brick), so the margin is solved again with the bare points, and is 0
+when only the padding holds the structure. When none exist, the collapse mechanism names the
+bricks that must move.
 
 Most stacks need no program: when every brick is frozen and each one's centre of mass lies
 over its load path (:mod:`stability._load_path`), those paths are already a solution of the
@@ -27,7 +31,7 @@ Source: stackdsl's own, on rigid-block equilibrium (Livesley 1978; Whiting et al
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from shapely.geometry import Point, Polygon
 
@@ -87,7 +91,8 @@ def certify(stack: Stack, areas: ContactAreas) -> Certificate:
         c for r in bricks if r.state is BrickState.FROZEN for c in r.contacts if c.other in known
     ]
     active = [r for r in bricks if r.state is BrickState.ACTIVE]
-    if bricks and not active and not stack.unproven:
+    padded = any(c.core is not None for c in polygons)
+    if bricks and not active and not stack.unproven and not padded:
         margin = min(_inside(r) for r in bricks)
         if margin >= NARROW:  # a lower bound, wide enough to say: the paths prove it
             return Certificate(True, 0.0, min(margin, MARGIN_LIMIT), (), len(bricks), (), len(polygons), "load paths")
@@ -115,7 +120,10 @@ def certify(stack: Stack, areas: ContactAreas) -> Certificate:
     labels = {r.body: r.label for r in bricks}
     on_engine = tuple(r.label for r in sorted(active, key=lambda r: r.order))
     shift = equilibrium_margin(blocks, polygons, limit=MARGIN_LIMIT, gravity=stack.config.gravity)
-    if shift is not None:  # one program: it stands, and by how much
+    if shift is not None and any(c.core is not None for c in polygons):  # by how much, on the contacts themselves
+        bare = [replace(c, points=c.core) if c.core is not None else c for c in polygons]
+        shift = equilibrium_margin(blocks, bare, limit=MARGIN_LIMIT, gravity=stack.config.gravity) or 0.0
+    if shift is not None:  # it stands, and by how much
         return Certificate(True, 0.0, shift, (), len(bricks), on_engine, len(polygons))
     result = solve_equilibrium(blocks, polygons, gravity=stack.config.gravity)
     mechanism = tuple(labels[b] for b in stack.ordered(result.moving()))

@@ -69,6 +69,8 @@ class ContactPolygon(Generic[BodyKey]):
         points: shape (k, 3), metres, the polygon's vertices (1 <= k).
         normal: shape (3,), unit, from ``other`` into ``body``.
         friction: Coulomb coefficient of the pair.
+        core: shape (j, 3), metres, the contact points themselves when ``points`` pads them
+            across the normal for want of area (report 3.4.2), else None.
     """
 
     body: BodyKey
@@ -76,6 +78,7 @@ class ContactPolygon(Generic[BodyKey]):
     points: np.ndarray
     normal: np.ndarray
     friction: float
+    core: np.ndarray | None = None
 
 
 FINE_SIDES = 32

@@ -280,6 +280,12 @@ class ContactArea:
         return np.array([c.x, c.y, self.height])
 
 
+def needs_padding(hull: BaseGeometry, pad: float) -> bool:
+    """Whether the convex hull of contact points has too little area to be a contact area
+    (:func:`padded_hull` pads it by ``pad`` metres). Source: report 3.3.3."""
+    return not (isinstance(hull, Polygon) and hull.area > pad * pad * 1e-3)
+
+
 def padded_hull(points_xy: np.ndarray, pad: float) -> Polygon:
     """Convex hull of contact points, padded when it has no area (report 3.3.3).
 
@@ -303,7 +309,7 @@ def padded_hull(points_xy: np.ndarray, pad: float) -> Polygon:
     if len(points_xy) == 0:
         raise ValueError("padded_hull needs at least one contact point")
     hull = MultiPoint(points_xy).convex_hull
-    if isinstance(hull, Polygon) and hull.area > pad * pad * 1e-3:
+    if not needs_padding(hull, pad):
         return hull
     if isinstance(hull, Point) or hull.length < pad * 1e-3:  # one point, or several at one place
         return Point(points_xy.mean(axis=0)).buffer(pad, quad_segs=1)

@@ -23,9 +23,10 @@ import math
 from collections.abc import Mapping, Sequence
 
 import numpy as np
+from shapely.geometry import MultiPoint
 
 from ._equilibrium import GRAVITY, BodyKey, ContactPolygon, RigidBlock, is_level, solve_equilibrium
-from ._geometry import padded_hull
+from ._geometry import needs_padding, padded_hull
 from ._load_path import load_path, proven, support_piece
 
 
@@ -53,6 +54,11 @@ def lean_polygon(points: np.ndarray, normal: np.ndarray, pad: float) -> np.ndarr
     Returns:
         shape (m, 3), metres, the polygon's vertices.
     """
+    return lean_polygon_padded(points, normal, pad)[0]
+
+
+def lean_polygon_padded(points: np.ndarray, normal: np.ndarray, pad: float) -> tuple[np.ndarray, bool]:
+    """:func:`lean_polygon`, and whether it was padded (the points had no area). Source: report 3.4.2."""
     points = np.asarray(points, dtype=float).reshape(-1, 3)
     t1 = np.cross(normal, [1.0, 0.0, 0.0] if abs(normal[0]) < 0.9 else [0.0, 1.0, 0.0])
     t1 /= np.linalg.norm(t1)
@@ -61,7 +67,7 @@ def lean_polygon(points: np.ndarray, normal: np.ndarray, pad: float) -> np.ndarr
     uv = np.column_stack([(points - origin) @ t1, (points - origin) @ t2])
     ring = np.asarray(padded_hull(uv, pad).exterior.coords)[:-1]
     polygon: np.ndarray = origin + ring[:, :1] * t1 + ring[:, 1:] * t2
-    return polygon
+    return polygon, needs_padding(MultiPoint(uv).convex_hull, pad)
 
 
 def leaning_stands(

@@ -225,3 +225,26 @@ def test_a_stack_on_a_ramp_slides_at_level_1_beyond_the_friction_angle(model, an
     assert outcome.collapse is not None and outcome.collapse.level == 1 and outcome.collapse.brick == "b1"
     assert outcome.collapse.time < 1.0  # when it slid, not the run's end
     assert not any(e.kind == "freeze" and e.brick == "b1" and e.time < outcome.collapse.time for e in outcome.events)
+
+
+@pytest.mark.parametrize("angle", [30.0, 35.0, 36.0])
+def test_a_leaning_bricks_margin_is_the_ladders_on_its_corner_contacts(angle):
+    """A KAPLA brick leaning on a fixed wall, every surface friction 0.3: its centre of mass can
+    move towards the wall by mu/(1+mu^2) (L cos a + L mu sin a) - (L/2 sin a - h/2 cos a) before
+    no forces hold it (both corners at their friction limits; a from vertical, L = 120 mm,
+    h = 8 mm): 7.0, 1.6 and 0.51 mm at 30, 35 and 36 deg.
+    The engine's corner contacts are padded 1 mm across to decide; the margin is the bare
+    corners', not 1 mm more."""
+    a = math.radians(angle)
+    x, z = -(60 * math.sin(a) + 4 * math.cos(a)), 60 * math.cos(a) + 4 * math.sin(a)
+    text = (
+        "stackdsl: 1\nmaterials: {slick: {density: 460 kg/m^3, friction: 0.3}}\n"
+        "brick_types: {k: {size: [120 mm, 24 mm, 8 mm], material: slick}, wall: {size: [20 mm, 200 mm, 200 mm], material: slick}}\n"
+        "ground: {material: slick}\nstructure:\n  bricks:\n    - {id: wall, brick: wall, at: [10 mm, 0, 100 mm], fixed: true}\n"
+        f"    - {{id: leaner, brick: k, at: [{x:.3f} mm, 0, {z:.3f} mm], pitch: {angle - 90:g}}}\n"
+    )
+    outcome = run_program(compile_scenario(parse_scenario(text)))
+    assert outcome.collapse is None and outcome.certificate is not None
+    mu = 0.3  # at the placed angle: the brick settles by up to 0.3 deg, which the bound allows for
+    hand = mu / (1 + mu * mu) * (120 * math.cos(a) + 120 * mu * math.sin(a)) - (60 * math.sin(a) - 4 * math.cos(a))
+    assert abs(outcome.certificate.margin_mm - hand) < 0.35, (outcome.certificate.margin_mm, hand)

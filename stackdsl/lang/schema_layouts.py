@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Annotated, Any
 
-from pydantic import BeforeValidator, Field, StrictBool, model_validator
+from pydantic import BeforeValidator, Field, StrictBool, ValidationInfo, field_validator
 
 from .bounds import (
     MAX_BRICKS,
@@ -66,19 +66,30 @@ class Tower(StrictModel):
     yaw: BoundedAngle = 0.0
     yaw_jitter: BoundedAngle | Annotated[list[BoundedAngle], Field(max_length=MAX_BRICKS)] = 0.0
 
-    @model_validator(mode="after")
-    def _per_layer_and_brick(self) -> Tower:
-        if self.shifts is not None:
-            if any(self.shift):
-                raise ValueError("give 'shift' (every layer alike) or 'shifts' (one a layer), not both")
-            if len(self.shifts) != self.levels - 1:
-                raise ValueError(
-                    f"'shifts' has one shift a layer above the first: {self.levels - 1} for {self.levels} levels, not {len(self.shifts)}"
-                )
-        if isinstance(self.yaw_jitter, list) and len(self.yaw_jitter) != self.levels * self.bricks_per_layer:
-            bricks = self.levels * self.bricks_per_layer
-            raise ValueError(f"a 'yaw_jitter' list has one angle a brick: {bricks}, not {len(self.yaw_jitter)}")
-        return self
+    @field_validator("shifts")
+    @classmethod
+    def _per_layer(cls, shifts: list[Shift] | None, info: ValidationInfo) -> list[Shift] | None:
+        """At the list itself: the levels and the shift are read before it."""
+        if shifts is None or "levels" not in info.data:
+            return shifts
+        if any(info.data.get("shift", (0.0, 0.0))):
+            raise ValueError("give 'shift' (every layer alike) or 'shifts' (one a layer), not both")
+        levels = info.data["levels"]
+        if len(shifts) != levels - 1:
+            raise ValueError(
+                f"'shifts' has one shift a layer above the first: {levels - 1} for {levels} levels, not {len(shifts)}"
+            )
+        return shifts
+
+    @field_validator("yaw_jitter")
+    @classmethod
+    def _per_brick(cls, jitter: float | list[float], info: ValidationInfo) -> float | list[float]:
+        """At the list itself: the levels and the bricks a layer are read before it."""
+        if isinstance(jitter, list) and "levels" in info.data and "bricks_per_layer" in info.data:
+            bricks = info.data["levels"] * info.data["bricks_per_layer"]
+            if len(jitter) != bricks:
+                raise ValueError(f"a 'yaw_jitter' list has one angle a brick: {bricks}, not {len(jitter)}")
+        return jitter
 
     def layer_shift(self, level: int) -> tuple[float, float]:
         """Where level ``level``'s centre is from ``origin``, m: the sum of the shifts below it."""

@@ -464,3 +464,17 @@ def test_the_extension_on_mujoco_topples_a_row_of_widely_spaced_dominoes():
     )
     outcome = run_program(compile_scenario(parse_scenario(text, "row.yaml")))
     assert len(outcome.toppled) == 20
+
+
+@pytest.mark.parametrize(
+    "argv, said",
+    [
+        (["compare", "--backend", "mujoco,bullet"], "unknown backend 'bullet': give one or more of"),
+        (["check", "--backend", "mujoco,pybullet"], "one backend, not 2 ('mujoco,pybullet'): give one of"),
+    ],
+)
+def test_a_bad_backend_in_a_list_is_named_alone(argv, said, capsys):
+    from stackdsl.cli.main import main
+
+    assert main([argv[0], str(ROOT / "scenarios" / "vee_stands.yaml"), *argv[1:]]) == 2
+    assert said in capsys.readouterr().err

@@ -264,9 +264,14 @@ def _backends(given: str | None, several: bool) -> tuple[str | None, ...]:
         return (None,)
     names = tuple(dict.fromkeys(b.strip() for b in given.split(",") if b.strip()))
     unknown = [b for b in names if b not in BACKEND_DEFAULTS]
-    if unknown or not names or (len(names) > 1 and not several):
-        what = "one of" if not several else "one or more of"
-        raise ScenarioError(f"unknown backend {given!r}: give {what} {', '.join(BACKEND_DEFAULTS)}", file="--backend")
+    what = "one of" if not several else "one or more of"
+    if unknown or not names:
+        said = ", ".join(repr(b) for b in unknown) if unknown else repr(given)
+        raise ScenarioError(f"unknown backend {said}: give {what} {', '.join(BACKEND_DEFAULTS)}", file="--backend")
+    if len(names) > 1 and not several:
+        raise ScenarioError(
+            f"one backend, not {len(names)} ({given!r}): give {what} {', '.join(BACKEND_DEFAULTS)}", file="--backend"
+        )
     return names
 
 

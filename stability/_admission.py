@@ -13,7 +13,7 @@ import math
 from graphlib import CycleError, TopologicalSorter
 
 from ._areas import ContactAreas, Contacts, horizontal, main_area, overlap
-from ._equilibrium import ContactPolygon
+from ._equilibrium import LEVEL_TILT, ContactPolygon
 from ._geometry import ContactArea
 from ._graph import BrickState
 from ._leaning import leaning_stands, pair_friction
@@ -64,11 +64,13 @@ class Admission:
         cone, and only an equilibrium with friction (:func:`stability.leaning_stands`) can say
         whether the brick stays: a brick on a 17.5 deg ramp of friction 0.3 (16.7 deg) slides,
         one in a V-groove of two such ramps does not. With every support within its friction
-        angle the vertical forces are admissible and the basic test is exact. Source: stackdsl's
-        own (Coulomb's law, report eq. 12, on the basic test of 3.3.4)."""
+        angle the vertical forces are admissible and the basic test is exact. A tilt under
+        :data:`stability._equilibrium.LEVEL_TILT` is an engine's noise on a level face, never
+        steep (friction 0 included). Source: stackdsl's own (Coulomb's law, report eq. 12, on
+        the basic test of 3.3.4)."""
         bodies = self.stack.bodies
         return any(
-            a.normal[2] * math.hypot(1.0, pair_friction(rec.friction, bodies[o].friction)) < 1.0 - 1e-9
+            a.normal[2] * math.hypot(1.0, max(pair_friction(rec.friction, bodies[o].friction), LEVEL_TILT)) < 1.0
             for o, a in supports.items()
         )
 

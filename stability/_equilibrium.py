@@ -298,7 +298,8 @@ def _cat(parts: list[np.ndarray]) -> np.ndarray:
 def is_level(contact: ContactPolygon[BodyKey], sides: int = 8) -> bool:
     """Is the contact so near horizontal that friction takes the sideways part of a vertical
     force on it: tan(tilt) <= mu cos(pi / sides), the reach of the inscribed friction
-    pyramid, and its normal pointing up into ``contact.body``? Source: stackdsl's own.
+    pyramid, or the tilt under :data:`LEVEL_TILT` (an engine's noise on a level face: so even
+    with no friction), and its normal pointing up into ``contact.body``? Source: stackdsl's own.
 
     >>> import numpy as np
     >>> flat = ContactPolygon(1, 0, np.zeros((1, 3)), np.array([0, 0, 1.0]), 0.5)
@@ -309,7 +310,8 @@ def is_level(contact: ContactPolygon[BodyKey], sides: int = 8) -> bool:
     normal = np.asarray(contact.normal, dtype=float)
     cos = abs(normal[2]) / np.linalg.norm(normal)
     tan = math.sqrt(max(1.0 - cos * cos, 0.0)) / max(cos, 1e-12)
-    return bool(normal[2] > 0 and tan <= contact.friction * math.cos(math.pi / sides))
+    # a tilt under LEVEL_TILT is the engine's noise on a level face: level even without friction
+    return bool(normal[2] > 0 and tan <= max(contact.friction * math.cos(math.pi / sides), LEVEL_TILT))
 
 
 def _solve_vertical(

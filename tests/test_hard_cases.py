@@ -248,3 +248,17 @@ def test_a_leaning_bricks_margin_is_the_ladders_on_its_corner_contacts(angle):
     mu = 0.3  # at the placed angle: the brick settles by up to 0.3 deg, which the bound allows for
     hand = mu / (1 + mu * mu) * (120 * math.cos(a) + 120 * mu * math.sin(a)) - (60 * math.sin(a) - 4 * math.cos(a))
     assert abs(outcome.certificate.margin_mm - hand) < 0.35, (outcome.certificate.margin_mm, hand)
+
+
+@pytest.mark.parametrize("model", ["report", "equilibrium"])
+def test_a_tower_with_no_friction_at_all_stands_on_its_level_faces(model):
+    """Friction 0 everywhere: level faces need none, so a 4 stack stands; an engine's normals a
+    hair off vertical (under 1e-3) are no slope that friction 0 cannot hold."""
+    text = (
+        "stackdsl: 1\nmaterials: {ice: {density: 460 kg/m^3, friction: 0}}\n"
+        "brick_types: {k: {size: [120 mm, 24 mm, 8 mm], material: ice}}\nground: {material: ice}\n"
+        "structure: {tower: {levels: 6, brick: k}}\n"
+    )
+    outcome = run_program(compile_scenario(parse_scenario(text), model=model))
+    assert outcome.collapse is None and outcome.certificate is not None and outcome.certificate.verdict == "stands"
+    assert outcome.certificate.margin_mm is not None and outcome.certificate.margin_mm > 10.0

@@ -961,3 +961,18 @@ def test_an_error_inside_an_aliased_node_points_at_the_alias_not_the_anchor():
     with pytest.raises(ScenarioError) as info:  # the compiler's error too: part b overlaps part a
         compile_scenario(parse_scenario("stackdsl: 1\nstructure:\n  a: &t {tower: {levels: 2}}\n  b: *t\n", "s.yaml"))
     assert (info.value.field, info.value.line, info.value.column) == ("structure.b", 4, 6)
+
+
+def test_an_actions_fields_written_level_with_its_kind_are_told_to_indent():
+    """`- push:` then `target:` at the same indent: pydantic sees an empty push and unknown keys;
+    the message names the key they belong under."""
+    text = (
+        "stackdsl: 1\nstructure: {tower: {levels: 3}}\nactions:\n  - push:\n    target: {brick: L01.1}\n    at: after level 3\n"
+    )
+    with pytest.raises(ScenarioError) as caught:
+        parse_scenario(text)
+    said = [line for line in str(caught.value).splitlines() if "unknown key" in line]
+    assert len(said) == 2 and all("is a field of 'push': indent it under 'push:'" in m for m in said), said
+    with pytest.raises(ScenarioError) as one:  # a typo still gets its 'did you mean'
+        parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 3}}\nactions:\n  - psh: {target: {brick: L01.1}}\n")
+    assert "did you mean 'push'" in one.value.message and "indent" not in one.value.message

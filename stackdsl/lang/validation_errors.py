@@ -207,6 +207,12 @@ def _one_error(err: ErrorDetails, source: SourceMap) -> ScenarioError:
         allowed = fields_at(tagged[:-1])
         close = difflib.get_close_matches(key, allowed, n=1)
         message += f"; did you mean {close[0]!r}?" if close else f"; allowed: {', '.join(allowed)}"
+        # a field of a key beside it, written level with it: `push:` and then `target:` under `- `
+        owners = [f for f in allowed if not close and key in fields_at((*tagged[:-1], f))]
+        written = [f for f in owners if (*loc[:-1], f) in source.keys]
+        if written or len(owners) == 1:
+            owner = (written or owners)[0]
+            message += f" ({key!r} is a field of {owner!r}: indent it under '{owner}:')"
         return source.error(loc, message, at_key=True)
     if _short_list(err):  # said at the list: 'direction[2]: required field is missing' read as a key
         needed = int(err["loc"][-1]) + 1

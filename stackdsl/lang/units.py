@@ -121,12 +121,41 @@ def _split(value: Any, message: Callable[[], str]) -> tuple[float, str]:
     return float(numerator) / float(denominator or 1), (unit_text or "").strip()
 
 
-@lru_cache(maxsize=4096)
+#: pint's factors for the units scenario files write most, by (unit as written, dimension, unit
+#: of the result), so that a file written in them never loads pint (a third to a half of a
+#: second at every start); tests/test_units.py checks each against pint itself.
+KNOWN_UNITS: dict[tuple[str, str, str], float] = {
+    ("mm", "[length]", "m"): 0.001,
+    ("cm", "[length]", "m"): 0.01,
+    ("m", "[length]", "m"): 1.0,
+    ("s", "[time]", "s"): 1.0,
+    ("ms", "[time]", "s"): 0.001,
+    ("m/s", "[length]/[time]", "m/s"): 1.0,
+    ("mm/s", "[length]/[time]", "m/s"): 0.001,
+    ("cm/s", "[length]/[time]", "m/s"): 0.01,
+    ("kg/m^3", "[mass]/[length]**3", "kg/m**3"): 1.0,
+    ("g/cm^3", "[mass]/[length]**3", "kg/m**3"): 1000.0,
+    ("rad/s", "1/[time]", "rad/s"): 1.0,
+    ("deg", "", "degree"): 1.0,
+    ("degree", "", "degree"): 1.0,
+    ("degrees", "", "degree"): 1.0,
+    ("rad", "", "degree"): 180.0 / math.pi,
+    ("Hz", "1/[time]", "Hz"): 1.0,
+}
+
+
 def _unit_factor(text: str, dimension: str, unit: str) -> float | None:
     """The factor from the unit ``text`` to ``unit``, or None when pint reads no unit of
-    ``dimension`` in it. Remembered: pint takes about 0.1 ms to parse a unit, and a random
-    tower's draws write every layer's shift with one (``"0.0123 mm"``), 100,000 parses for 1000
-    draws of 100 levels; a unit is at most 31 characters (:data:`UNIT`), of few kinds in a file."""
+    ``dimension`` in it: :data:`KNOWN_UNITS`, else pint (:func:`pint_factor`)."""
+    known = KNOWN_UNITS.get((text, dimension, unit))
+    return known if known is not None else pint_factor(text, dimension, unit)
+
+
+@lru_cache(maxsize=4096)
+def pint_factor(text: str, dimension: str, unit: str) -> float | None:
+    """:func:`_unit_factor` by pint. Remembered: pint takes about 0.1 ms to parse a unit, and a
+    random tower's draws write every layer's shift with one (``"0.0123 mm"``), 100,000 parses for
+    1000 draws of 100 levels; a unit is at most 31 characters (:data:`UNIT`), of few kinds in a file."""
     ureg = _registry()
     try:
         units = ureg.parse_units(text)

@@ -287,7 +287,7 @@ def test_a_grid_value_no_list_of_the_file_fits_is_refused_at_that_value():
     # the file's own error stays the file's, whatever the grid
     with pytest.raises(ScenarioError) as info:
         parse_scenario(text.replace("[1 mm, 2 mm]", "[1 mm]"), "t.yaml")
-    assert info.value.field == "structure.tower" and "the grid value" not in info.value.message
+    assert info.value.field == "structure.tower.shifts" and "the grid value" not in info.value.message
 
 
 DOMINO_CHOICE = """stackdsl: 1

@@ -448,11 +448,11 @@ class Template:
                     return ("sweep", "grid", key, index[key])
             loc = next((written + loc[len(into) + 1 :] for into, written in drawn_into.items() if loc[: len(into)] == into), loc)
             for d in distributions:
-                if loc[: len(d.path)] == d.path or (d.path[: len(loc)] == loc and d.per != "sample"):
+                if loc[: len(d.path)] == d.path or ((_around(d.path, loc) or _beside(d.path, loc)) and d.per != "sample"):
                     return d.path
             if around:
                 for path, key, _ in self.grid:
-                    if path[: len(loc)] == loc:
+                    if _around(path, loc) or _beside(path, loc):
                         return ("sweep", "grid", key, index[key])
             return None
 
@@ -460,13 +460,24 @@ class Template:
 
 
 def _at_grid(path: FieldPath, key: str, i: int) -> Any:
-    """``relocate``: a field under ``path``, or a model around it (the file's own cell 0 being
-    valid) -> the grid's value ``i`` of ``key``."""
+    """``relocate``: a field under ``path``, a model around it, or another field of its model
+    (:func:`_beside`; the file's own cell 0 being valid) -> the grid's value ``i`` of ``key``."""
 
     def relocate(loc: FieldPath) -> FieldPath | None:
-        return ("sweep", "grid", key, i) if loc[: len(path)] == path or path[: len(loc)] == loc else None
+        return ("sweep", "grid", key, i) if loc[: len(path)] == path or _around(path, loc) or _beside(path, loc) else None
 
     return relocate
+
+
+def _around(path: FieldPath, loc: FieldPath) -> bool:
+    """Whether ``loc`` is a model around the field at ``path``."""
+    return path[: len(loc)] == loc
+
+
+def _beside(path: FieldPath, loc: FieldPath) -> bool:
+    """Whether ``loc`` is another field of the model ``path``'s field is in, or under one: a check
+    of one field against another (a tower's ``shifts`` against its ``levels``) says it there."""
+    return len(path) > 1 and loc[: len(path) - 1] == path[:-1]
 
 
 #: How far an unclipped side of a normal is taken to reach, in standard deviations from its mean:

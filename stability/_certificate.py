@@ -92,11 +92,14 @@ def certify(stack: Stack, areas: ContactAreas) -> Certificate:
     ]
     active = [r for r in bricks if r.state is BrickState.ACTIVE]
     padded = any(c.core is not None for c in polygons)
-    if bricks and not active and not stack.unproven and not padded:
+    if bricks and not active and not stack.unproven:
         margin = min(_inside(r) for r in bricks)
-        if margin >= NARROW:  # a lower bound, wide enough to say: the paths prove it
+        if margin >= NARROW and not padded:  # a lower bound, wide enough to say: the paths prove it
             return Certificate(True, 0.0, min(margin, MARGIN_LIMIT), (), len(bricks), (), len(polygons), "load paths")
         blocks = {r.body: RigidBlock(r.box.mass, stack.pose(r).position) for r in bricks}
+        if padded:  # the paths prove the stand; its margin is the bare contacts' (0: the padding's alone)
+            bare = _bare_margin(blocks, polygons, stack.config.gravity)
+            return Certificate(True, 0.0, bare, (), len(bricks), (), len(polygons), "load paths" if not bare else "program")
         shift = equilibrium_margin(blocks, polygons, limit=MARGIN_LIMIT, gravity=stack.config.gravity)
         if shift is None or shift <= margin:  # the paths' bound is the margin
             return Certificate(True, 0.0, margin, (), len(bricks), (), len(polygons), "load paths")
@@ -120,14 +123,19 @@ def certify(stack: Stack, areas: ContactAreas) -> Certificate:
     labels = {r.body: r.label for r in bricks}
     on_engine = tuple(r.label for r in sorted(active, key=lambda r: r.order))
     shift = equilibrium_margin(blocks, polygons, limit=MARGIN_LIMIT, gravity=stack.config.gravity)
-    if shift is not None and any(c.core is not None for c in polygons):  # by how much, on the contacts themselves
-        bare = [replace(c, points=c.core) if c.core is not None else c for c in polygons]
-        shift = equilibrium_margin(blocks, bare, limit=MARGIN_LIMIT, gravity=stack.config.gravity) or 0.0
-    if shift is not None:  # it stands, and by how much
-        return Certificate(True, 0.0, shift, (), len(bricks), on_engine, len(polygons))
+    if shift is not None:  # it stands, and by how much: on the contacts themselves
+        bare = _bare_margin(blocks, polygons, stack.config.gravity) if any(c.core is not None for c in polygons) else shift
+        return Certificate(True, 0.0, bare, (), len(bricks), on_engine, len(polygons))
     result = solve_equilibrium(blocks, polygons, gravity=stack.config.gravity)
     mechanism = tuple(labels[b] for b in stack.ordered(result.moving()))
     return Certificate(result.stands, result.tension, 0.0, mechanism, len(bricks), on_engine, len(polygons))
+
+
+def _bare_margin(blocks: dict[int, RigidBlock], polygons: list[ContactPolygon[int]], gravity: float) -> float:
+    """Metres of :func:`stability.equilibrium_margin` with every padded contact polygon replaced by
+    its own contact points (``core``); 0 when they alone hold nothing."""
+    bare = [replace(c, points=c.core) if c.core is not None else c for c in polygons]
+    return equilibrium_margin(blocks, bare, limit=MARGIN_LIMIT, gravity=gravity) or 0.0
 
 
 def _inside(rec: Record) -> float:

@@ -119,6 +119,12 @@ def certify(stack: Stack, areas: ContactAreas) -> Certificate:
             found = faces + areas.polygons(r, touching)
             polygons += found
             pairs |= {frozenset((c.body, c.other)) for c in found}
+    # a body touching nothing is in flight (a thrown brick that missed): no contact force can act
+    # on it, so it is no part of what stands, and no program that holds it could be found
+    in_contact = {c.body for c in polygons} | {c.other for c in polygons}
+    flying = {r.body for r in active if r.body not in in_contact}
+    bricks = [r for r in bricks if r.body not in flying]
+    active = [r for r in active if r.body not in flying]
     blocks = {r.body: RigidBlock(r.box.mass, stack.pose(r).position) for r in bricks}
     labels = {r.body: r.label for r in bricks}
     on_engine = tuple(r.label for r in sorted(active, key=lambda r: r.order))

@@ -262,3 +262,37 @@ def test_a_tower_with_no_friction_at_all_stands_on_its_level_faces(model):
     outcome = run_program(compile_scenario(parse_scenario(text), model=model))
     assert outcome.collapse is None and outcome.certificate is not None and outcome.certificate.verdict == "stands"
     assert outcome.certificate.margin_mm is not None and outcome.certificate.margin_mm > 10.0
+
+
+def test_a_thrown_brick_still_in_flight_at_the_end_is_no_part_of_the_stand():
+    """A throw that misses an untouched tower, the run ending while the brick flies: the final
+    state's equilibrium leaves out what touches nothing (no contact force can act on it), and
+    the tower stands, as it does when the brick has landed."""
+    text = (
+        "stackdsl: 1\nstructure: {tower: {levels: 2}}\n"
+        "impacts: [{id: p, target: {point: [0, 0, 300 mm]}, direction: [1, 0, 0], speed: 3 m/s, at: after level 2, distance: 100 mm}]\n"
+        "allow: [floating]\ntiming: {settle: %s}\n"
+    )
+    for settle in ("0.2 s", "2 s"):  # in flight at the end, and landed
+        outcome = run_program(compile_scenario(parse_scenario(text % settle)))
+        assert outcome.collapse is None, (settle, outcome.collapse)
+        assert outcome.certificate is not None and outcome.certificate.verdict == "stands"
+
+
+def test_a_collapse_by_no_equilibrium_is_not_said_as_a_brick_that_moved():
+    """ "moved past 4.0 mm ... (0 mm by ...)" contradicted itself: a final state no equilibrium
+    holds names its proof and its mechanism instead."""
+    from stackdsl.verdicts.expect import explain
+
+    scenario, _, outcome = run("overhang_falls")
+    assert outcome.collapse is not None and outcome.certificate is not None
+    proof = outcome.certificate.model_copy(
+        update={"kind": "no equilibrium", "detail": "no equilibrium at the end: 0.5 N of tension needed", "bricks": ("b2",)}
+    )
+    lines = explain(
+        scenario.expect.model_copy(update={"collapse": None, "stands": True}),
+        outcome.model_copy(update={"certificate": proof}),
+        0.004,
+    )
+    said = next(line for line in lines if line.startswith("collapsed:"))
+    assert "moved past" not in said and "0.5 N of tension needed" in said and "b2" in said

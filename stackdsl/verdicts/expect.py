@@ -222,7 +222,14 @@ def explain(expect: Expect, outcome: Outcome, threshold: float) -> list[str]:
     lines = []
     if failed & {"collapse", "stands", "stands_until"}:
         c = outcome.collapse
-        if c is not None:
+        proof = outcome.certificate
+        if c is not None and proof is not None and proof.kind == "no equilibrium":  # no brick passed the threshold
+            lines.append(
+                f"collapsed: no rigid-block equilibrium holds the bricks where they are at the end (t={c.time:.2f} s), "
+                f"with {c.level} level{'s' * (c.level != 1)} placed: {proof.detail}; in the mechanism: "
+                f"{', '.join(_short(list(proof.bricks)))}"
+            )
+        elif c is not None:
             lines.append(
                 f"collapsed: {_brick(c.brick, c.brick_level)} moved past {_mm(threshold)} at t={c.time:.2f} s, "
                 f"with {c.level} level{'s' * (c.level != 1)} placed ({_mm(c.displacement)} by t={c.decided:.2f} s, "

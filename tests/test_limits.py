@@ -73,7 +73,7 @@ def test_a_walls_half_brick_below_an_engines_floor_is_refused_at_the_walls_brick
 
 def test_a_projectile_faster_than_the_engine_holds_is_refused_at_its_speed():
     pytest.importorskip("mujoco")
-    err = refusal(IMPACT % ("mujoco", "extension", "", "50 m/s"))
+    err = refusal(IMPACT % ("mujoco", "tuned", "", "50 m/s"))
     assert (err.field, err.line) == ("impacts[0].speed", 4)
     assert "50 m/s is faster than MuJoCo simulates faithfully with substeps: at most 30 m/s" in err.message
     compile_scenario(parse_scenario(IMPACT % ("pybullet", "extension", "", "50 m/s")))  # pybullet holds 100 m/s
@@ -181,3 +181,18 @@ def test_a_pattern_selects_a_file_every_compared_mode_refuses(tmp_path):
     (tmp_path / "other.yaml").write_text("stackdsl: 1\nstructure: {tower: {levels: 2}}\n")
     table = compare([tmp_path], ("raw",), jobs=1, pattern="throw")
     assert list(table) == [str(tmp_path / "throw.yaml")] and table[str(tmp_path / "throw.yaml")]["raw"].refused
+
+
+@pytest.mark.parametrize(
+    "mode, speed, refused", [("extension", "18 m/s", True), ("extension", "15 m/s", False), ("tuned", "25 m/s", False)]
+)
+def test_a_modes_own_steps_bound_the_fastest_throw_on_mujoco(mode, speed, refused):
+    """MuJoCo's extension mode steps at 4 ms on 8 ms contacts: a brick thrown at 20 m/s passes
+    through a fixed 8 mm wall there (18 m/s stays), where tuned (2 ms, 4 ms) holds 30 m/s."""
+    pytest.importorskip("mujoco")
+    text = IMPACT % ("mujoco", mode, "", speed)
+    if refused:
+        err = refusal(text)
+        assert err.field == "impacts[0].speed" and "at most 15 m/s" in err.message and "in extension mode" in err.message
+    else:
+        compile_scenario(parse_scenario(text))

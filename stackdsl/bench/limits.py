@@ -99,7 +99,8 @@ def format_report(backends: Sequence[str]) -> str:
         lim = kind.LIMITS
         parts.append(
             f"## {kind.NAME}\n\nIn force: sides from {lim.min_side * 1000:g} mm; projectiles up to {lim.max_speed:g} m/s "
-            f"with substeps, {lim.max_speed_no_substeps:g} m/s without (and less than the thinnest brick a step); "
+            + "".join(f"({v:g} m/s in {mode} mode) " for mode, (v, _) in lim.max_speed_by_mode.items())
+            + f"with substeps, {lim.max_speed_no_substeps:g} m/s without (and less than the thinnest brick a step); "
             f"mass ratios up to {lim.max_mass_ratio:g}.\n\n"
             f"Smallest side (how far a cube moved, or the level that collapsed):\n\n{format_sides(backend)}\n\n"
             f"A KAPLA brick thrown at a fixed 8 mm wall, with substeps (extension) and without (raw):\n\n"

@@ -71,8 +71,8 @@ def check_limits(
     thinnest = min(2 * min(s.half_extents) for s in specs.values())
     for index, impact in enumerate(scenario.impacts):
         if engine.ccd:
-            most = limits.max_speed
-            why = f"with substeps: at most {most:g} m/s (measured: {limits.measured['max_speed']})"
+            most, measured = limits.fastest(engine.mode)
+            why = f"with substeps: at most {most:g} m/s (measured: {measured})"
         else:
             per_step = thinnest / engine.timestep
             most = min(limits.max_speed_no_substeps, per_step)
@@ -82,7 +82,7 @@ def check_limits(
                 if per_step < limits.max_speed_no_substeps
                 else f"(measured: {limits.measured['max_speed_no_substeps']})"
             )
-            why += f"; with substeps (engine: {{ccd: true}}) up to {limits.max_speed:g} m/s"
+            why += f"; with substeps (engine: {{ccd: true}}) up to {limits.fastest(engine.mode)[0]:g} m/s"
         if impact.speed > most * (1 + 1e-9):
             raise scenario.source.error(
                 ("impacts", index, "speed"), f"{impact.speed:g} m/s is faster than {name} simulates faithfully {why}"

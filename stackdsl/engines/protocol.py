@@ -57,6 +57,8 @@ class Limits:
             brick crossed on a light one this much lighter sinks into it less than half the
             4 mm collapse threshold in tuned mode (a solver's contact gives under load).
         measured: one line each, what was measured (quoted in the refusals).
+        max_speed_by_mode: mode -> (m/s, what was measured): a mode whose own timestep and
+            contacts hold less than :attr:`max_speed`.
     """
 
     min_side: float
@@ -64,6 +66,11 @@ class Limits:
     max_speed_no_substeps: float
     max_mass_ratio: float
     measured: dict[str, str] = field(default_factory=dict)
+    max_speed_by_mode: dict[str, tuple[float, str]] = field(default_factory=dict)
+
+    def fastest(self, mode: str) -> tuple[float, str]:
+        """m/s, the fastest projectile with substeps in ``mode``, and what was measured."""
+        return self.max_speed_by_mode.get(mode, (self.max_speed, self.measured.get("max_speed", "")))
 
 
 class EngineSettings(_Frozen):

@@ -196,3 +196,18 @@ def test_a_modes_own_steps_bound_the_fastest_throw_on_mujoco(mode, speed, refuse
         assert err.field == "impacts[0].speed" and "at most 15 m/s" in err.message and "in extension mode" in err.message
     else:
         compile_scenario(parse_scenario(text))
+
+
+def test_a_mass_ratio_of_exactly_the_limit_is_taken_and_one_above_is_said_in_full():
+    """30000 / 10 kg/m^3 is 3000.0000000000005 in floats: MuJoCo's 3000 takes it; 3500 is said
+    as 3500, not 3.5e+03."""
+    pytest.importorskip("mujoco")
+    text = (
+        "stackdsl: 1\nmaterials: {fluff: {density: 10 kg/m^3}, lead: {density: %s kg/m^3}}\n"
+        "brick_types: {light: {size: [120 mm, 24 mm, 8 mm], material: fluff}, heavy: {size: [120 mm, 24 mm, 8 mm], material: lead}}\n"
+        "engine: {backend: mujoco}\nstructure:\n  bricks:\n    - {id: a, brick: light, at: [0, 0, 4 mm]}\n"
+        "    - {id: b, brick: heavy, at: [0, 0, 12 mm], yaw: 90}\n"
+    )
+    compile_scenario(parse_scenario(text % 30000))
+    err = refusal(text % 35000)
+    assert err.field == "materials.lead.density" and "is 3500 times as heavy" in err.message

@@ -91,10 +91,10 @@ def check_limits(
     if len(masses) > 1:
         heavy, light = max(masses, key=masses.__getitem__), min(masses, key=masses.__getitem__)
         ratio = masses[heavy] / masses[light]
-        if ratio > limits.max_mass_ratio:
+        if ratio > limits.max_mass_ratio * (1 + 1e-9):  # a ratio of exactly the limit, give or take rounding, is in
             raise scenario.source.error(
                 _mass_field(scenario, heavy, light),
-                f"brick type {heavy!r} ({masses[heavy]:.3g} kg) is {ratio:.3g} times as heavy as {light!r} "
+                f"brick type {heavy!r} ({masses[heavy]:.3g} kg) is {ratio:.4g} times as heavy as {light!r} "
                 f"({masses[light]:.3g} kg); {name} simulates at most {limits.max_mass_ratio:g} times faithfully "
                 f"(measured: {limits.measured['max_mass_ratio']}){_elsewhere(engine, 'max_mass_ratio', ratio)}",
             )
@@ -115,7 +115,7 @@ def _elsewhere(engine: EngineSettings, bound: str, value: float) -> str:
     """``; MuJoCo takes it (engine: {backend: mujoco})`` when another engine's bound admits ``value``."""
     for backend, kind in SETTINGS.items():
         limits = kind.LIMITS
-        ok = value >= limits.min_side if bound == "min_side" else value <= limits.max_mass_ratio
+        ok = value >= limits.min_side if bound == "min_side" else value <= limits.max_mass_ratio * (1 + 1e-9)
         if backend != engine.backend and ok:
             return f"; {kind.NAME} takes it (engine: {{backend: {backend}}})"
     return ""

@@ -202,7 +202,13 @@ def _split(x: float, y: float, mass: float, supports: Mapping[int, ContactArea])
         equal = mass / len(supports)
         return [(s, equal, *p) for s, p in zip(supports, points)]
     (s1, s2), (p1, p2) = tuple(supports), points
-    return [(s1, _lever(x, y, mass, p1, p2), *p1), (s2, _lever(x, y, mass, p2, p1), *p2)]
+    ux, uy = p2[0] - p1[0], p2[1] - p1[1]
+    length2 = ux * ux + uy * uy
+    # the lever rule along the line joining the two points, the centre of mass taken where it
+    # projects onto it: shares that sum to the mass even where a point was brought back into its
+    # area, or the centre of mass lies beyond both (a failing brick: all of it on the nearer)
+    t = 0.5 if length2 <= 1e-24 else min(max(((x - p1[0]) * ux + (y - p1[1]) * uy) / length2, 0.0), 1.0)
+    return [(s1, mass * (1.0 - t), *p1), (s2, mass * t, *p2)]
 
 
 def _inside(area: ContactArea, x: float, y: float) -> tuple[float, float]:

@@ -94,3 +94,15 @@ def test_four_stack_loads_stay_centred():
     assert loads[3].shares == {1: pytest.approx(0.5), 2: pytest.approx(0.5)}
     assert loads[2].mass_above == pytest.approx(0.015)
     assert loads[2].com_above[0] == pytest.approx(0.048)
+
+
+@pytest.mark.parametrize("x", [-0.2, -0.05, 0.0, 0.03, 0.2])
+@pytest.mark.parametrize("y", [-0.1, 0.0, 0.02, 0.1])
+def test_two_supports_shares_always_sum_to_the_load(x, y):
+    """Wherever the centre of mass lies (over the supports, between them, off their line, beyond
+    both: a failing brick), the shares pass on the whole load, no more: a fallen brick on the
+    ground and a brick read shares of 1.0 each."""
+    supports = {1: area(-0.06, -0.012, -0.05, 0.012), 2: area(0.05, -0.03, 0.06, -0.02)}
+    shares = split_load(np.array([x, y, 0.1]), 0.5, supports)
+    assert sum(m for m, _ in shares.values()) == pytest.approx(0.5)
+    assert all(0.0 <= m <= 0.5 for m, _ in shares.values())

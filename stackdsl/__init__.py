@@ -47,7 +47,7 @@ if TYPE_CHECKING:
     from .runtime.loop import StepLoop, Subscriber
     from .runtime.outcome import Certificate, Collapse, Event, Graph, Outcome
     from .runtime.recorder import Recorder, record_program
-    from .runtime.run import run_in, run_program
+    from .runtime.run import RunOptions, outcome, run_in, run_program
     from .runtime.trajectory import Frame, Trajectory, load_trajectory
     from .verdicts.check_result import CheckResult
     from .verdicts.expect import Verdict, evaluate
@@ -86,6 +86,8 @@ _HOME = {
     "StepLoop": "runtime.loop",
     "Subscriber": "runtime.loop",
     "run_in": "runtime.run",
+    "RunOptions": "runtime.run",
+    "outcome": "runtime.run",
     "World": "engines.protocol",
     "FakeWorld": "engines.fake",
 }
@@ -106,6 +108,7 @@ __all__ = [
     "Place",
     "Program",
     "Recorder",
+    "RunOptions",
     "Scenario",
     "ScenarioError",
     "ScenarioErrors",
@@ -120,6 +123,7 @@ __all__ = [
     "format_program",
     "load_scenario",
     "load_trajectory",
+    "outcome",
     "parse_scenario",
     "record_program",
     "run_in",

@@ -4,6 +4,8 @@ import importlib
 import subprocess
 import sys
 
+import pytest
+
 import stability
 import stackdsl
 
@@ -26,6 +28,7 @@ def test_stackdsl_exports():
             "Place",
             "Program",
             "Recorder",
+            "RunOptions",
             "Scenario",
             "ScenarioError",
             "ScenarioErrors",
@@ -40,6 +43,7 @@ def test_stackdsl_exports():
             "format_program",
             "load_scenario",
             "load_trajectory",
+            "outcome",
             "parse_scenario",
             "record_program",
             "run_in",
@@ -128,3 +132,28 @@ def test_the_command_starts_without_the_heavy_modules():
     code = "import sys, stackdsl._entry; print(sorted({'numpy', 'pybullet', 'shapely', 'pydantic'} & set(sys.modules)))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
+
+
+def test_check_takes_a_backend_and_refuses_unknown_overrides_before_running(tmp_path):
+    """The command line's --backend, --mode and --model, as the library's arguments: an unknown
+    one raises ValueError at once (it came back as an internal error result)."""
+    import stackdsl
+
+    (tmp_path / "t.yaml").write_text("stackdsl: 1\nstructure: {tower: {levels: 2}}\nexpect: {stands: true}\n")
+    (result,) = list(stackdsl.check(tmp_path, jobs=1, backend="mujoco"))
+    assert result.backend == "mujoco" and result.passed
+    for kwargs, said in (
+        ({"mode": "fast"}, "unknown mode 'fast'"),
+        ({"backend": "bullet"}, "unknown backend 'bullet'"),
+        ({"model": "physics"}, "unknown stability model 'physics'"),
+    ):
+        with pytest.raises(ValueError, match=said):
+            stackdsl.check(tmp_path, jobs=1, **kwargs)
+
+
+def test_parse_scenario_refuses_bytes_by_type():
+    """Bytes were written out as YAML's !!binary and refused as such, at 1:1."""
+    import stackdsl
+
+    with pytest.raises(TypeError, match="not bytes"):
+        stackdsl.parse_scenario(b"stackdsl: 1\n")  # type: ignore[arg-type]

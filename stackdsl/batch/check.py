@@ -24,7 +24,7 @@ from itertools import chain
 from pathlib import Path
 from typing import Any, NamedTuple
 
-from ..compile.compiler import compile_scenario
+from ..compile.compiler import BACKEND_DEFAULTS, compile_scenario
 from ..compile.program import Program
 from ..draw.artefacts import DRAW_ESTIMATE, DRAW_LIMIT
 from ..lang.errors import ScenarioError, ScenarioErrors
@@ -223,6 +223,17 @@ def _refusal(
     )
 
 
+def _known(backend: str | None, mode: str | None, model: str | None) -> None:
+    """Raise ValueError for an override no scenario could take, before any file is read."""
+    if backend is not None and backend not in BACKEND_DEFAULTS:
+        raise ValueError(f"unknown backend {backend!r}; known: {', '.join(BACKEND_DEFAULTS)}")
+    modes = BACKEND_DEFAULTS[backend] if backend is not None else {m for known in BACKEND_DEFAULTS.values() for m in known}
+    if mode is not None and mode not in modes:
+        raise ValueError(f"unknown mode {mode!r}; known: {', '.join(sorted(modes))}")
+    if model is not None and model not in ("report", "equilibrium"):
+        raise ValueError(f"unknown stability model {model!r}: 'report' or 'equilibrium'")
+
+
 def select(prepared: list[Prepared], pattern: str | Sequence[str] | None) -> list[Prepared]:
     """The scenarios whose file path or name contains ``pattern`` (plain text, case-insensitive;
     several texts, as ``-k`` given more than once: any of them), in order; all of them when
@@ -276,6 +287,7 @@ def check(
     pattern: str | Sequence[str] | None = None,
     timeout: float | None = TIMEOUT,
     seed: int | None = None,
+    backend: str | None = None,
 ) -> Generator[CheckResult, None, None]:
     """Check every scenario under ``paths``; results come as each run finishes.
 
@@ -297,6 +309,7 @@ def check(
         timeout: wall seconds each run may take (None: no limit); a run stopped by it is
             a failed result whose ``stopped`` says so.
         seed: replaces every file's ``seed`` (its random draws and placement error) when given.
+        backend: overrides each scenario's engine (``"pybullet"`` or ``"mujoco"``).
 
     A file that hits an internal error (a bug) while it is read or compiled is a result with
     its ``error``, first; the other files still run.
@@ -304,11 +317,13 @@ def check(
     Raises:
         ScenarioErrors: a file is missing or invalid, or ``pattern`` selects nothing
             (before anything runs).
-        ValueError: ``jobs`` below 1.
+        ValueError: ``jobs`` below 1; an unknown ``backend``, ``mode`` (on that backend, or on
+            any) or ``model``.
     """
+    _known(backend, mode, model)
     listed = [paths] if isinstance(paths, (str, Path)) else list(paths)  # one path, not its letters
     broken: list[CheckResult] = []
-    prepared = prepare(discover(listed), mode, model=model, seed=seed, timeout=timeout, broken=broken)
+    prepared = prepare(discover(listed), mode, model=model, backends=(backend,), seed=seed, timeout=timeout, broken=broken)
     prepared, broken = select_comparison(prepared, broken, pattern)
     return _after(broken, run_checks(prepared, jobs, executor, timeout))
 

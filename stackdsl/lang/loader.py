@@ -106,7 +106,8 @@ def parse_scenario(text: str | Mapping[str, Any], file: str = NO_FILE, seed: int
 
     Raises:
         ScenarioError: as :func:`load_scenario`.
-        TypeError: plain data holding something YAML cannot write (an object, a model).
+        TypeError: bytes (decode them, or give the file to :func:`load_scenario`); plain data
+            holding something YAML cannot write (an object, a model).
 
     >>> parse_scenario("stackdsl: 1\\nstructure: {tower: {levels: 3}}", "t.yaml").structure.tower.levels
     3
@@ -117,6 +118,8 @@ def parse_scenario(text: str | Mapping[str, Any], file: str = NO_FILE, seed: int
         structure: {tower: {levles: 3}}
                             ^
     """
+    if isinstance(text, (bytes, bytearray, memoryview)):
+        raise TypeError("parse_scenario takes the file's text (str), not bytes: decode them, or give the file to load_scenario")
     if not isinstance(text, str):
         text = _as_yaml(text)
     text = text.removeprefix("\ufeff")

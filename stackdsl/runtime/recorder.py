@@ -57,7 +57,15 @@ _COS_HALF_TOLERANCE = math.cos(ANGLE_TOLERANCE / 2.0)
 
 
 class Recorder(Subscriber):
-    """Records a run of ``program`` (attach it with ``run_program(..., subscribers=(recorder,))``).
+    """Records a run of ``program``: attach it, then ask it for the run's :class:`Trajectory`
+    (:func:`record_program` does both).
+
+    >>> from stackdsl import compile_scenario, parse_scenario, run_program
+    >>> program = compile_scenario(parse_scenario("stackdsl: 1\\nstructure: {tower: {levels: 2}}\\n"))
+    >>> recorder = Recorder(program)
+    >>> trajectory = recorder.trajectory(run_program(program, subscribers=(recorder,)))
+    >>> len(trajectory.ids)
+    4
 
     Args:
         program: the program being run.

@@ -211,3 +211,13 @@ def test_a_mass_ratio_of_exactly_the_limit_is_taken_and_one_above_is_said_in_ful
     compile_scenario(parse_scenario(text % 30000))
     err = refusal(text % 35000)
     assert err.field == "materials.lead.density" and "is 3500 times as heavy" in err.message
+
+
+def test_a_budget_refusal_says_when_the_command_line_chose_the_mode():
+    """A 150-level tower fits in extension mode, its own; tuned, asked for by --mode, is too long."""
+    text = "stackdsl: 1\nstructure: {tower: {levels: 150}}\n"
+    with pytest.raises(ScenarioError) as caught:
+        compile_scenario(parse_scenario(text), "tuned")
+    said = caught.value.message
+    assert said.startswith("the run would take too long") and "tuned is the mode the command line asks for" in said
+    assert said.endswith("which takes it")

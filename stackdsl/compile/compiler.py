@@ -223,7 +223,10 @@ def compile_scenario(
         draws=draws,
         parts=summaries(scenario, nominal),
     )
-    _budget(scenario, program)  # before the checks of the placements, which take a while on a huge scene
+    try:  # before the checks of the placements, which take a while on a huge scene
+        _budget(scenario, program)
+    except ScenarioError as exc:
+        raise _asked(exc, scenario, mode, backend, lambda own: _budget(scenario, _retimed(program, own))) from None
     floating = precheck(scenario, _bodies(scenario, everything, nominal, specs, dict(zip(map(id, bricks), slots))))
     return program.model_copy(update={"floating": floating})
 

@@ -438,9 +438,22 @@ if SingleFileSnapshotExtension is not None:
             finally:
                 temporary.unlink(missing_ok=True)
 
+    def _summarized(serialized_data: Any, snapshot_data: Any) -> Iterator[str]:
+        """What changed, by key (:func:`stackdsl.verdicts.snapshot.summarize`), before the diff."""
+        summary = summarize(str(snapshot_data), str(serialized_data))
+        if summary:
+            yield "what changed (stored -> this run):"
+            yield from (f"  {line}" for line in summary)
+            yield "the snapshot's diff:"
+
     class GoldenSnapshotExtension(_AtomicWrites, JSONSnapshotExtension):
         """syrupy JSON snapshots of Python tests: ``golden/<test file's folder>/<test file's
-        stem>/<test name>.json``, so that tests of the same name in two files never share one."""
+        stem>/<test name>.json``, so that tests of the same name in two files never share one; a
+        failing comparison starts with what changed, by key, as a scenario's does."""
+
+        def diff_lines(self, serialized_data: Any, snapshot_data: Any) -> Iterator[str]:
+            yield from _summarized(serialized_data, snapshot_data)
+            yield from super().diff_lines(serialized_data, snapshot_data)
 
         @classmethod
         def dirname(cls, *, test_location: Any) -> str:
@@ -498,11 +511,7 @@ if SingleFileSnapshotExtension is not None:
             return dumps(data) + "\n"
 
         def diff_lines(self, serialized_data: Any, snapshot_data: Any) -> Iterator[str]:
-            summary = summarize(str(snapshot_data), str(serialized_data))
-            if summary:
-                yield "what changed (stored -> this run):"
-                yield from (f"  {line}" for line in summary)
-                yield "the snapshot's diff:"
+            yield from _summarized(serialized_data, snapshot_data)
             yield from super().diff_lines(serialized_data, snapshot_data)
 
 

@@ -166,6 +166,22 @@ def test_the_golden_fixture_keeps_same_named_tests_of_two_files_apart(pytester):
     assert "Can not relate" not in result.stdout.str()
 
 
+def test_the_golden_fixture_says_what_changed_by_key_before_the_diff(pytester):
+    pytester.makefile(".toml", pyproject="[tool.pytest.ini_options]\n")
+    test = "def test_mine(golden):\n    assert golden == {'a': 1.0, 'b': {'c': [1, 2], 'd': %r}}\n"
+    pytester.makepyfile(test_g=test % "x")
+    pytester.runpytest("--snapshot-update").assert_outcomes(passed=1)
+    pytester.makepyfile(test_g=test % "y")
+    result = pytester.runpytest()
+    result.assert_outcomes(failed=1)
+    out = result.stdout.str()
+    assert (
+        "what changed (stored -> this run):" in out
+        and 'b.d: "x" -> "y"' in out
+        and "a:" not in out.split("the snapshot's diff")[0].split("what changed")[1]
+    )
+
+
 def test_an_interrupted_golden_update_leaves_the_old_file_whole(tmp_path, monkeypatch):
     from syrupy.data import Snapshot, SnapshotCollection
 

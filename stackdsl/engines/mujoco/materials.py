@@ -13,6 +13,14 @@
   raised to at least ``2 timestep / zeta`` (:func:`time_constant`), which keeps the spring's
   period at least 4 pi timesteps and the ratio, so the bounce, as it was; a material of
   restitution 0 keeps the setting's own contact.
+* Only where it matters (:class:`Bounce`): a contact takes its restitution's damping only
+  while one of its two bodies moves faster than :data:`BOUNCE_SPEED`, or did so less than
+  :data:`BOUNCE_HOLD` ago (its bounce under way); otherwise it has the setting's own (a
+  material of restitution 0's). An underdamped contact never let a brick put down at rest
+  settle: a step of free fall takes a resting brick ``g dt^2`` into the ground (39 um at 2 ms)
+  and the spring throws it back above its rest, off the ground, so that it hopped without end
+  (0.04 mm on tuned MuJoCo from e = 0.1), and a tower of such bricks walked apart
+  (docs/design.md, "Materials").
 * Density: each body's mass is the brick's, with the inertia of a uniform box.
 * Collision groups: one bit of ``contype`` and ``conaffinity`` per material, at most 30.
 
@@ -29,8 +37,22 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from ..protocol import BrickSpec
 from .settings import MuJoCoSettings
+
+BOUNCE_SPEED = 0.1
+"""m/s: a contact bounces only while one of its bodies moves faster than this, its speed
+plus its spin times its half diagonal (the fastest of its points). A brick at rest jitters at
+about ``g dt`` (0.02 m/s at 2 ms, 0.04 at 4 ms); a bounce from 0.1 m/s rises at most 0.5 mm
+(``v^2 / 2 g``)."""
+
+BOUNCE_HOLD = 0.1
+"""Seconds a body's contacts keep bouncing after it was last faster than :data:`BOUNCE_SPEED`:
+longer than a bounce lasts, so that a body which slows to a stop in the ground as it bounces
+is thrown back, not damped where it turns. The longest, raw MuJoCo's 20 ms contact at
+restitution 0.05, lasts 60 ms (half the period of its damped spring)."""
 
 
 def damping_ratio(restitution: float, default: float) -> float:
@@ -133,6 +155,15 @@ class Materials:
             solimp=(*e.solimp, 0.5, 2.0),
         )
 
+    @property
+    def bouncy(self) -> bool:
+        """Whether a material of the world so far, the ground's included, has a restitution."""
+        return self._ground[1] > 0.0 or any(restitution > 0.0 for _, restitution in self._groups)
+
+    def resting(self) -> tuple[float, float]:
+        """``solref`` of a contact that does not bounce: a material of restitution 0's, the setting's own."""
+        return self._solref(0.0)
+
     def _solref(self, restitution: float) -> tuple[float, float]:
         """``solref`` of a contact of ``restitution``: :func:`time_constant` and :func:`damping_ratio`."""
         zeta = damping_ratio(restitution, self._engine.solref[1])
@@ -164,3 +195,54 @@ class Materials:
                 pair.friction = list(c.friction)
                 pair.solref = list(c.solref)
                 pair.solimp = list(c.solimp)
+
+
+class Bounce:
+    """Which contacts of a compiled MuJoCo model bounce: those of a body faster than
+    :data:`BOUNCE_SPEED` (the module's description); every other contact has the setting's own
+    ``solref``, so that a brick at rest settles whatever its restitution.
+
+    A body is fast from when it moves faster than :data:`BOUNCE_SPEED` until :data:`BOUNCE_HOLD`
+    after it last did. A contact of two geoms mixes their ``solref`` by their ``solmix`` weights
+    (MuJoCo's ``mj_contactParam``: a weight of 0 against one above 0 gives the other's alone):
+    a fast body's geom has its material's ``solref`` and weight 1, every other geom the
+    setting's own and weight 0, so that a contact bounces when one of its bodies is fast. An
+    explicit pair of two materials bounces when one of its two bodies is fast. The model's
+    arrays are written when a body turns fast or slow, not every step.
+
+    Args:
+        model: the compiled ``MjModel``, its ``solref`` as the materials give it (bouncing).
+        geoms: each brick's free geom (brick ``i`` is body ``i + 1``).
+        geom_body: geom -> stackdsl's body id (0: the ground, or a geom of no brick).
+        reach: m, each brick's half diagonal.
+        resting: the ``solref`` of a contact that does not bounce (:meth:`Materials.resting`).
+    """
+
+    def __init__(
+        self, model: Any, geoms: np.ndarray, geom_body: np.ndarray, reach: np.ndarray, resting: tuple[float, float]
+    ) -> None:
+        self._model, self._geoms, self._reach = model, geoms, reach
+        self._resting = np.asarray(resting, dtype=float)
+        self._geom_solref = np.array(model.geom_solref[geoms], dtype=float)  # (bricks, 2) each material's
+        self._pair_solref = np.array(model.pair_solref, dtype=float)
+        self._pair_bodies = geom_body[np.stack([model.pair_geom1, model.pair_geom2], axis=1)].reshape(-1, 2)
+        model.geom_solref[:] = self._resting
+        model.geom_solmix[:] = 0.0
+        model.pair_solref[:] = self._resting
+        self.fast = np.zeros(len(geoms), dtype=bool)
+        self._until = np.full(len(geoms), -np.inf)  # s: when each body's contacts stop bouncing
+
+    def update(self, now: float, linear: np.ndarray, angular: np.ndarray) -> None:
+        """At time ``now`` (s), bodies' linear and angular speeds (m/s, rad/s, one each a brick,
+        0 when frozen): the contacts of the fast ones bounce in the next step."""
+        self._until[linear + angular * self._reach > BOUNCE_SPEED] = now + BOUNCE_HOLD
+        fast = self._until > now
+        if np.array_equal(fast, self.fast):
+            return
+        self.fast = fast
+        m = self._model
+        m.geom_solref[self._geoms] = np.where(fast[:, None], self._geom_solref, self._resting)
+        m.geom_solmix[self._geoms] = fast
+        if len(self._pair_bodies):
+            either = np.concatenate([[False], fast])[self._pair_bodies].any(axis=1)
+            m.pair_solref[:] = np.where(either[:, None], self._pair_solref, self._resting)

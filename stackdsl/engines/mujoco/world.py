@@ -33,7 +33,7 @@ from scipy.spatial.transform import Rotation
 from stability import ContactPoint, Pose
 
 from ..protocol import BrickSpec, EngineUnstable, Quat, Vec3, World
-from .materials import Materials
+from .materials import Bounce, Materials
 from .settings import MuJoCoSettings
 
 #: Where the free body of a frozen brick waits, and the held body of an active one: far
@@ -108,6 +108,8 @@ class MuJoCoWorld(World):
         self._qpos7 = np.zeros((0, 7), dtype=int)  # each free joint's 7 qpos addresses
         self._geom_body = np.zeros(0, dtype=int)
         self._read: tuple[np.ndarray, np.ndarray] | None = None  # every body's velocities, this step
+        self._bounce: Bounce | None = None  # which contacts bounce, in a world with a restitution
+        self._dof6 = np.zeros((0, 6), dtype=int)
         spec = mujoco.MjSpec()
         option = spec.option
         option.timestep = engine.timestep
@@ -194,6 +196,11 @@ class MuJoCoWorld(World):
         self._free_geom, self._held_geom = ids(mj.mjtObj.mjOBJ_GEOM, "f"), ids(mj.mjtObj.mjOBJ_GEOM, "h")
         self._geom_body = np.zeros(m.ngeom, dtype=int)
         self._geom_body[self._free_geom] = self._geom_body[self._held_geom] = np.arange(1, len(self._specs) + 1)
+        self._dof6 = self._dof[:, None] + np.arange(6)
+        self._bounce = None
+        if self._materials.bouncy:
+            reach = np.array([math.hypot(*b.half_extents) for b in self._specs])
+            self._bounce = Bounce(m, self._free_geom, self._geom_body, reach, self._materials.resting())
         for body in range(1, len(self._specs) + 1):
             self._apply(body)
         for body, grip in self._guided.items():  # compiled anew from the spec: in a hand's grip again
@@ -471,6 +478,11 @@ class MuJoCoWorld(World):
             (x, y, _), (vx, vy, _) = self._ground_at
             d.qpos[self._table_qpos] = [x, y]
             d.qvel[self._table_dof] = [vx, vy]
+        if self._bounce is not None:
+            velocities = d.qvel[self._dof6]  # (bricks, 6): linear and angular, a parked body's 0
+            linear, angular = np.linalg.norm(velocities[:, :3], axis=1), np.linalg.norm(velocities[:, 3:], axis=1)
+            linear[self._frozen] = angular[self._frozen] = 0.0
+            self._bounce.update(float(d.time), linear, angular)
         began = float(d.time)
         for _ in range(self._substeps):
             self._mj.mj_step(m, d)

@@ -221,3 +221,115 @@ def test_a_budget_refusal_says_when_the_command_line_chose_the_mode():
     said = caught.value.message
     assert said.startswith("the run would take too long") and "tuned is the mode the command line asks for" in said
     assert said.endswith("which takes it")
+
+
+BOUNCY = (
+    "stackdsl: 1\nmaterials: {rubber: {restitution: %s}}\nbrick_types: {k: {material: rubber}}\n"
+    "ground: {material: rubber}\nstructure: {tower: {levels: 2, brick: k}}\nengine: {backend: %s, mode: %s}\n"
+)
+
+
+@pytest.mark.parametrize("backend", ENGINES)
+@pytest.mark.parametrize("mode", ["raw", "tuned", "extension"])
+def test_a_restitution_above_the_engines_in_its_mode_is_refused_at_the_material_and_the_limit_is_taken(backend, mode):
+    pytest.importorskip(backend)
+    kind = ENGINES[backend]
+    most = kind.LIMITS.restitution(mode)
+    assert 0 < most < 1
+    compile_scenario(parse_scenario(BOUNCY % (f"{most:g}", backend, mode)))  # at the limit: taken
+    text = BOUNCY % (f"{most + 0.01:g}", backend, mode)
+    err = refusal(text)
+    assert (err.field, err.line, err.column) == (
+        "materials.rubber.restitution",
+        2,
+        text.splitlines()[1].index(f"{most + 0.01:g}") + 1,
+    )
+    assert (
+        f"restitution {most + 0.01:g} is more than {kind.NAME} simulates faithfully in {mode} mode: at most {most:g}"
+        in err.message
+    )
+    assert kind.LIMITS.measured[f"max_restitution_{mode}"] in err.message
+
+
+def test_only_a_contact_that_can_happen_counts_each_of_two_materials_the_geometric_mean():
+    """A contact of two materials has the geometric mean of their restitutions on both engines:
+    one brick of restitution 0.99 on a ground of 0 cannot bounce; two can, on each other; a
+    fixture of its material can be struck; a bouncy ground under bricks of 0.5 makes 0.70."""
+    lone = "stackdsl: 1\nmaterials: {rubber: {restitution: 0.99}}\nbrick_types: {k: {material: rubber}}\n"
+    compile_scenario(parse_scenario(lone + "structure: {bricks: [{brick: k, at: [0, 0, 4 mm]}]}\n"))
+    err = refusal(lone + "structure: {tower: {levels: 1, brick: k}}\n")  # two bricks side by side
+    assert err.field == "materials.rubber.restitution" and "restitution 0.99 is more than pybullet" in err.message
+    fixture = "structure: {bricks: [{brick: k, at: [0, 0, 4 mm], fixed: true}, {at: [0, 0, 12 mm], yaw: 90}, {brick: k, at: [0, 0, 20 mm]}]}\n"
+    assert refusal(lone + fixture).field == "materials.rubber.restitution"
+    floor = (
+        "stackdsl: 1\nmaterials: {ball: {restitution: 0.5}, floor: {restitution: %s}}\nbrick_types: {k: {material: ball}}\n"
+        "ground: {material: floor}\nstructure: {bricks: [{brick: k, at: [0, 0, 4 mm]}]}\n"
+    )
+    err = refusal(floor % 0.99)
+    assert (err.field, err.line) == ("materials.floor.restitution", 2)
+    assert (
+        "restitution 0.99 makes a contact of restitution 0.704 with material 'ball' (0.5), which is more than pybullet"
+        in err.message
+    )
+    compile_scenario(parse_scenario(floor % 0.98))  # sqrt(0.5 x 0.98) = 0.7: pybullet extension's limit
+
+
+def test_a_restitution_refusal_names_the_mode_or_engine_that_takes_it(monkeypatch):
+    from dataclasses import replace
+
+    err = refusal(BOUNCY % ("0.75", "pybullet", "extension"))
+    assert err.message.endswith("; tuned mode takes it (engine: {mode: tuned})")
+    assert "takes it" not in refusal(BOUNCY % ("0.99", "pybullet", "tuned")).message  # no engine takes 0.99: none named
+    limits = MuJoCoSettings.LIMITS
+    monkeypatch.setattr(MuJoCoSettings, "LIMITS", replace(limits, max_restitution={**limits.max_restitution, "extension": 0.99}))
+    assert refusal(BOUNCY % ("0.99", "pybullet", "tuned")).message.endswith(
+        "; MuJoCo takes it in extension mode (engine: {backend: mujoco, mode: extension})"
+    )
+    err = refusal(BOUNCY % ("0.75", "pybullet", "tuned"), mode="extension")  # the command line's mode refuses
+    assert err.message.endswith("; extension is the mode the command line asks for, not the file's own (tuned), which takes it")
+
+
+def test_compare_shows_a_mode_beyond_the_restitution_it_holds_as_refused(tmp_path, capsys):
+    from stackdsl.cli.main import main
+
+    path = tmp_path / "bouncy.yaml"
+    path.write_text(BOUNCY % ("0.75", "pybullet", "tuned"))
+    assert main(["compare", str(path), "--modes", "raw,tuned,extension", "-j", "1"]) == 0
+    said = capsys.readouterr()
+    assert said.out.count("refused (beyond the engine)") == 2  # raw (0.6) and extension (0.7); tuned (0.8) runs
+    assert (said.out + said.err).count("restitution 0.75 is more than pybullet simulates faithfully in raw mode") == 1
+    assert (said.out + said.err).count("restitution 0.75 is more than pybullet simulates faithfully in extension mode") == 1
+
+
+# the drop that gained energy just above each engine's limit in each mode (stackdsl bench limits)
+GAINS = [
+    ("pybullet", "raw", 0.7, "corner 300 mm"),
+    ("pybullet", "tuned", 0.9, "flat 300 mm"),
+    ("pybullet", "extension", 0.8, "flat 10 mm"),
+    ("mujoco", "raw", 0.7, "steep corner 300 mm"),
+    ("mujoco", "tuned", 0.9, "edge 30 mm"),
+    ("mujoco", "extension", 0.95, "onto a brick, 100 mm"),
+]
+
+
+@pytest.mark.parametrize(("backend", "mode", "above", "drop"), GAINS)
+def test_above_the_limit_a_dropped_brick_gains_energy_and_at_it_does_not(backend, mode, above, drop):
+    """What the limit rests on, measured again: above it this drop rises with more energy than
+    it fell with; at the limit it keeps less than nine tenths (the limits' margin)."""
+    pytest.importorskip(backend)
+    from stackdsl.bench.limits import bounce
+
+    assert bounce(above, backend, mode, drop) > 1.0
+    assert bounce(ENGINES[backend].LIMITS.restitution(mode), backend, mode, drop) < 0.9
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("backend", ENGINES)
+@pytest.mark.parametrize("mode", ["raw", "tuned", "extension"])
+def test_at_the_limit_no_drop_keeps_more_than_nine_tenths_of_its_energy(backend, mode):
+    pytest.importorskip(backend)
+    from stackdsl.bench.limits import DROPS, bounce
+
+    most = ENGINES[backend].LIMITS.restitution(mode)
+    kept = {drop: bounce(most, backend, mode, drop) for drop in DROPS}
+    assert max(kept.values()) < 0.9, kept

@@ -8,6 +8,11 @@ measured again, past them, with the compiler's check of them off.
   with substeps (extension mode) and without (raw mode): where it ends (beyond the wall if x > 0).
 * **Largest mass ratio**: a heavy KAPLA brick crossed on a light one, twice (four bricks), in
   tuned mode: how far the bricks sank or moved (the collapse threshold is 4 mm).
+* **Largest restitution**: in each mode, for each restitution (of every material, the ground's
+  too), a 4 stack of 4 and of 10 levels built as usual (each brick put down at rest), and a
+  KAPLA brick dropped onto the ground or onto a brick (:data:`DROPS`): the most energy it has
+  after its first landing, as a share of what it fell with (a bounce that rises higher than
+  the brick fell gains energy: more than 1; a faithful one keeps ``e^2`` of it).
 
 Source: stackdsl's own.
 """
@@ -16,9 +21,12 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+import numpy as np
+
 from ..compile.compiler import compile_scenario
 from ..engines.settings import SETTINGS
 from ..lang.loader import parse_scenario
+from ..runtime.loop import StepLoop, Subscriber
 from ..runtime.outcome import Outcome
 from ..runtime.run import run_program
 from .hard import format_wall, thrown_at_wall
@@ -27,6 +35,27 @@ SIDES_MM = (1.5, 2.0, 2.5, 3.0)
 SPEEDS = {"extension": (20.0, 30.0, 35.0, 40.0, 50.0, 100.0), "raw": (5.0, 8.0, 10.0, 20.0, 25.0, 30.0)}
 RATIOS = (100, 300, 500, 1000, 3000, 5000)
 MODES = ("raw", "tuned", "extension")
+RESTITUTIONS = (0.0, 0.05, 0.1, 0.2, 0.3, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.99)
+TOWER_RESTITUTIONS = (0.0, 0.05, 0.1, 0.2, 0.3, 0.5, 0.8, 0.99)
+#: Drops of a KAPLA brick ``b``: name -> (the structure's bricks, the height of b's centre when
+#: it lies flat where it lands, m). Heights are of its centre above where it lies; an edge
+#: landing is rolled 20 degrees, a corner one rolled and pitched.
+DROPS: dict[str, tuple[str, float]] = {
+    "flat 10 mm": ("[{id: b, at: [0, 0, 14 mm]}]", 0.004),
+    "flat 30 mm": ("[{id: b, at: [0, 0, 34 mm]}]", 0.004),
+    "flat 100 mm": ("[{id: b, at: [0, 0, 104 mm]}]", 0.004),
+    "flat 300 mm": ("[{id: b, at: [0, 0, 304 mm]}]", 0.004),
+    "tilted 5 deg, 100 mm": ("[{id: b, at: [0, 0, 104 mm], pitch: 5}]", 0.004),
+    "edge 30 mm": ("[{id: b, at: [0, 0, 34 mm], roll: 20}]", 0.004),
+    "edge 100 mm": ("[{id: b, at: [0, 0, 104 mm], roll: 20}]", 0.004),
+    "edge 300 mm": ("[{id: b, at: [0, 0, 304 mm], roll: 20}]", 0.004),
+    "corner 100 mm": ("[{id: b, at: [0, 0, 104 mm], roll: 15, pitch: 10}]", 0.004),
+    "corner 300 mm": ("[{id: b, at: [0, 0, 304 mm], roll: 15, pitch: 10}]", 0.004),
+    "steep corner 300 mm": ("[{id: b, at: [0, 0, 304 mm], roll: 25, pitch: 30}]", 0.004),
+    "on its side, 100 mm": ("[{id: b, at: [0, 0, 112 mm], roll: 90}]", 0.004),
+    "onto a brick, 30 mm": ("[{id: a, at: [0, 0, 4 mm]}, {id: b, at: [0, 0, 42 mm], yaw: 90}]", 0.012),
+    "onto a brick, 100 mm": ("[{id: a, at: [0, 0, 4 mm]}, {id: b, at: [0, 0, 112 mm], yaw: 90}]", 0.012),
+}
 
 
 def cubes(side_mm: float, backend: str, mode: str | None, levels: int) -> str:
@@ -52,6 +81,72 @@ def crossed(ratio: float, backend: str, mode: str = "tuned") -> str:
         "    - {brick: a, at: [0, 0, 20 mm]}\n    - {brick: b, at: [0, 0, 28 mm], yaw: 90}\n"
         f"engine: {{backend: {backend}, mode: {mode}}}\n"
     )
+
+
+def _bouncy(restitution: float, backend: str, mode: str, structure: str, extra: str = "") -> str:
+    return (
+        f"stackdsl: 1\nmaterials: {{rubber: {{density: 460 kg/m^3, friction: 0.5, restitution: {restitution:g}}}}}\n"
+        "brick_types: {kapla: {size: [120 mm, 24 mm, 8 mm], material: rubber}}\nground: {material: rubber}\n"
+        f"structure: {structure}\n{extra}engine: {{backend: {backend}, mode: {mode}}}\n"
+    )
+
+
+def bouncy_tower(restitution: float, backend: str, mode: str, levels: int) -> str:
+    """Scenario text: a 4 stack of ``levels`` levels, every material of ``restitution``.
+
+    >>> "restitution: 0.3" in bouncy_tower(0.3, "mujoco", "tuned", 4)
+    True
+    """
+    return _bouncy(restitution, backend, mode, f"{{tower: {{levels: {levels}}}}}", "expect: {stands: true}\n")
+
+
+def dropped(restitution: float, backend: str, mode: str, bricks: str) -> str:
+    """Scenario text: the bricks of a drop (:data:`DROPS`), every material of ``restitution``, 2 s to settle."""
+    return _bouncy(restitution, backend, mode, f"{{bricks: {bricks}}}", "allow: [floating]\ntiming: {settle: 2 s}\n")
+
+
+class _Energy(Subscriber):
+    """Each step once all ``bricks`` are in: their energy (J: potential above z = 0, kinetic,
+    rotational) and the height of brick ``b``; ``weight``: b's (N)."""
+
+    def __init__(self, bricks: int) -> None:
+        self.bricks = bricks
+        self.energy: list[float] = []
+        self.height: list[float] = []
+        self.weight = 0.0
+
+    def after_step(self, loop: StepLoop) -> None:
+        placed = loop.structure.placed
+        if len(placed) < self.bricks:
+            return
+        gravity, total = loop.program.engine.gravity, 0.0
+        for record in placed:
+            pose = loop.world.pose(record.body)
+            linear, angular = loop.world.velocity(record.body)
+            a, b, c = record.spec.half_extents
+            inertia = np.diag([b * b + c * c, a * a + c * c, a * a + b * b]) / 3  # a uniform box's, per kg
+            spin = pose.rotation @ inertia @ pose.rotation.T
+            total += record.spec.mass * (
+                gravity * float(pose.position[2]) + float(linear @ linear + angular @ spin @ angular) / 2
+            )
+        self.energy.append(total)
+        dropped = loop.structure.records["b"]
+        self.height.append(float(loop.world.pose(dropped.body).position[2]))
+        self.weight = dropped.spec.mass * gravity
+
+
+def bounce(restitution: float, backend: str, mode: str, drop: str) -> float:
+    """The most energy the dropped brick of ``drop`` (:data:`DROPS`) has after it first lands
+    (the others' included), as a share of what it fell with: its energy above lying flat where
+    it lands."""
+    bricks, rest = DROPS[drop]
+    program = compile_scenario(parse_scenario(dropped(restitution, backend, mode, bricks), "drop.yaml"), limits=False)
+    watch = _Energy(bricks.count("id:"))
+    run_program(program, subscribers=(watch,))
+    energy, height = np.array(watch.energy), np.array(watch.height)
+    floor = energy[0] - watch.weight * (height[0] - rest)  # every brick at rest, b flat where it lands
+    landed = int(np.argmin(height[: round(0.35 / program.engine.timestep)]))  # each drop lands within 0.25 s
+    return float((energy[landed + 1 :] - floor).max() / (energy[0] - floor))
 
 
 def _run(text: str) -> Outcome:
@@ -91,6 +186,30 @@ def format_ratios(backend: str, ratios: Sequence[float] = RATIOS) -> str:
     return "\n".join(lines)
 
 
+def format_restitution(
+    backend: str, restitutions: Sequence[float] = RESTITUTIONS, towers: Sequence[float] = TOWER_RESTITUTIONS
+) -> str:
+    """The restitution table of ``backend``, markdown: per mode the 4 stacks of 4 and 10 levels
+    (at ``towers``) and the most energy a dropped brick keeps (the drop that kept the most)."""
+    lines = [
+        "| restitution | " + " | ".join(f"{m}: 4 and 10 levels | {m}: most energy kept" for m in MODES) + " |",
+        "|---:|" + "---:|---:|" * len(MODES),
+    ]
+    for e in restitutions:
+        cells = []
+        for mode in MODES:
+            stacks = ", ".join(_stack(_run(bouncy_tower(e, backend, mode, levels))) for levels in (4, 10)) if e in towers else ""
+            kept = {drop: bounce(e, backend, mode, drop) for drop in DROPS}
+            worst = max(kept, key=kept.__getitem__)
+            cells += [stacks, f"{kept[worst]:.3g} ({worst})"]
+        lines.append(f"| {e:g} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def _stack(outcome: Outcome) -> str:
+    return "stands" if outcome.collapse is None else f"collapse {outcome.collapse.level}"
+
+
 def format_report(backends: Sequence[str]) -> str:
     """Every engine's limits in force and their measurements, markdown."""
     parts = []
@@ -101,10 +220,15 @@ def format_report(backends: Sequence[str]) -> str:
             f"## {kind.NAME}\n\nIn force: sides from {lim.min_side * 1000:g} mm; projectiles up to {lim.max_speed:g} m/s "
             + "".join(f"({v:g} m/s in {mode} mode) " for mode, (v, _) in lim.max_speed_by_mode.items())
             + f"with substeps, {lim.max_speed_no_substeps:g} m/s without (and less than the thinnest brick a step); "
-            f"mass ratios up to {lim.max_mass_ratio:g}.\n\n"
+            f"mass ratios up to {lim.max_mass_ratio:g}; restitution up to "
+            + ", ".join(f"{lim.restitution(m):g} in {m} mode" for m in MODES)
+            + ".\n\n"
             f"Smallest side (how far a cube moved, or the level that collapsed):\n\n{format_sides(backend)}\n\n"
             f"A KAPLA brick thrown at a fixed 8 mm wall, with substeps (extension) and without (raw):\n\n"
             f"{format_speeds(backend)}\n\n"
-            f"A heavy KAPLA brick crossed on a light one, twice:\n\n{format_ratios(backend)}"
+            f"A heavy KAPLA brick crossed on a light one, twice:\n\n{format_ratios(backend)}\n\n"
+            "Every material of one restitution: a 4 stack built as usual, and the most energy a dropped KAPLA brick keeps "
+            f"after it lands, as a share of what it fell with (of {len(DROPS)} drops, the one that kept the most):\n\n"
+            f"{format_restitution(backend)}"
         )
     return "\n\n".join(parts)

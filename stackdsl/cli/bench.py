@@ -175,7 +175,9 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     q.add_argument("--settings", default=",".join(DOMINO_SETTINGS), help="comma-separated, of: " + ", ".join(DOMINO_KNOWN))
     q.add_argument("--repeats", type=int, default=1, help="timed runs of each setting (median; default: 1)")
     q.set_defaults(func=_bench_dominoes)
-    q = bench.add_parser("limits", help="each engine's own limits measured past them: smallest side, fastest throw, mass ratio")
+    q = bench.add_parser(
+        "limits", help="each engine's own limits measured past them: smallest side, fastest throw, mass ratio, restitution"
+    )
     q.add_argument("--backend", default=None, help="pybullet or mujoco (default: every installed engine)")
     q.set_defaults(func=_bench_limits)
     q = bench.add_parser("startup", help="how long stackdsl takes to start: --version, import, a one-file check")

@@ -146,10 +146,13 @@ def compile_scenario(
     if limits:
         moving = [b.type for b in bricks] + [i.projectile for i in scenario.impacts]
         made_by = {b.type: b.source for b in reversed(everything)}
+        still = [b.type for b in fixed]
         try:
-            check_limits(scenario, engine, specs, moving, made_by)
+            check_limits(scenario, engine, specs, moving, made_by, still)
         except ScenarioError as exc:
-            raise _asked(exc, scenario, mode, backend, lambda own: check_limits(scenario, own, specs, moving, made_by)) from None
+            raise _asked(
+                exc, scenario, mode, backend, lambda own: check_limits(scenario, own, specs, moving, made_by, still)
+            ) from None
     places = [a for a in placements if isinstance(a, Place)]
     motions = compile_actions(
         scenario,

@@ -1,19 +1,21 @@
-"""What the chosen engine simulates faithfully: brick sides, projectile speeds, mass ratios.
+"""What the chosen engine simulates faithfully: brick sides, projectile speeds, mass ratios, restitution.
 
 The language's bounds (:mod:`stackdsl.lang.bounds`) hold for every engine; each engine has
 narrower ones of its own, measured on it (:class:`stackdsl.engines.protocol.Limits`,
 ``stackdsl bench limits``). A scene beyond them would run, and give an answer that is the
 engine's artefact, not the scene's: a 2 mm cube that falls over on pybullet's ground, a brick
 thrown through a wall, a light brick crushed by a solver that cannot balance a mass ratio of
-10,000. So the compiler refuses it, at the field to change, naming the engine, what was
-measured, and an engine or setting that would take it when there is one. The check uses the
-engine the run uses, after ``--backend`` and ``--mode``.
+10,000, a brick that bounces higher than it fell. So the compiler refuses it, at the field to
+change, naming the engine, what was measured, and an engine or setting that would take it when
+there is one. The check uses the engine the run uses, after ``--backend`` and ``--mode``.
 
 Source: stackdsl's own.
 """
 
 from __future__ import annotations
 
+import math
+from collections import Counter
 from collections.abc import Mapping, Sequence
 
 from ..engines.protocol import BrickSpec, EngineSettings
@@ -29,6 +31,7 @@ def check_limits(
     specs: Mapping[str, BrickSpec],
     moving: Sequence[str],
     made_by: Mapping[str, FieldPath] | None = None,
+    fixed: Sequence[str] = (),
 ) -> None:
     """Refuse what ``engine`` does not simulate faithfully (see the module's docstring).
 
@@ -40,12 +43,15 @@ def check_limits(
             fixtures) and the projectiles.
         made_by: brick type name -> the field of a generator that lays bricks of it, for the
             half bricks (``NAME/2``) a wall makes of the type it is given.
+        fixed: the type names of the bodies that do not move and that moving ones may touch:
+            the fixtures (and a push's pusher, a type of ``specs`` not in ``moving``).
 
     Raises:
         ScenarioError: at a brick type's ``size`` (a side below the engine's smallest; a
             wall's half brick's at the wall's ``brick``), an impact's ``speed`` (faster than the
-            engine holds) or a material's ``density`` or brick type's ``size`` (a mass ratio
-            beyond the engine's).
+            engine holds), a material's ``density`` or brick type's ``size`` (a mass ratio
+            beyond the engine's) or a material's ``restitution`` (a contact bouncier than the
+            engine holds in the run's mode).
     """
     kind = type(engine)
     limits, name = kind.LIMITS, kind.NAME
@@ -98,6 +104,51 @@ def check_limits(
                 f"({masses[light]:.3g} kg); {name} simulates at most {limits.max_mass_ratio:g} times faithfully "
                 f"(measured: {limits.measured['max_mass_ratio']}){_elsewhere(engine, 'max_mass_ratio', ratio)}",
             )
+    _check_restitution(scenario, engine, moving, [*fixed, *(t for t in specs if t not in set(moving))])
+
+
+def _check_restitution(scenario: Scenario, engine: EngineSettings, moving: Sequence[str], still: Sequence[str]) -> None:
+    """Refuse a contact that may happen with a restitution above the engine's in the run's mode,
+    at the restitution of the bouncier of its two materials. Both engines give a contact of two
+    materials the geometric mean of their restitutions. A moving body may touch the ground,
+    every body that does not move (``still``'s types) and every other moving body: a material
+    touches itself when two moving bodies have it, or one moves and the ground or a body that
+    does not move has it."""
+    kind = type(engine)
+    most = kind.LIMITS.restitution(engine.mode)
+    if most >= 1.0:
+        return
+    count = Counter(scenario.brick_type(t).material for t in moving)
+    others = {scenario.ground.material} | {scenario.brick_type(t).material for t in still}
+    pairs = {(a, b) for a in count for b in {*count, *others} if a != b or count[a] > 1 or a in others}
+    e = {name: scenario.material(name).restitution for pair in pairs for name in pair}
+    worst = max(pairs, key=lambda p: (math.sqrt(e[p[0]] * e[p[1]]), e[p[0]], p), default=None)
+    if worst is None or math.sqrt(e[worst[0]] * e[worst[1]]) <= most * (1 + 1e-9):
+        return
+    mine, other = sorted(worst, key=lambda name: (-e[name], name not in scenario.materials))
+    contact = math.sqrt(e[mine] * e[other])
+    what = f"restitution {e[mine]:g}" + (
+        "" if mine == other else f" makes a contact of restitution {contact:.3g} with material {other!r} ({e[other]:g}), which"
+    )
+    raise scenario.source.error(
+        ("materials", mine, "restitution"),
+        f"{what} is more than {kind.NAME} simulates faithfully in {engine.mode} mode: at most {most:g} "
+        f"(measured: {kind.LIMITS.measured[f'max_restitution_{engine.mode}']}){_bouncier(engine, contact)}",
+    )
+
+
+def _bouncier(engine: EngineSettings, restitution: float) -> str:
+    """``; tuned mode takes it (engine: {mode: tuned})`` when another mode of the engine, or
+    else a mode of another engine, holds a contact of ``restitution``."""
+    own = type(engine)
+    for mode in own.DEFAULTS:
+        if mode != engine.mode and restitution <= own.LIMITS.restitution(mode) * (1 + 1e-9):
+            return f"; {mode} mode takes it (engine: {{mode: {mode}}})"
+    for backend, kind in SETTINGS.items():
+        for mode in kind.DEFAULTS:
+            if backend != engine.backend and restitution <= kind.LIMITS.restitution(mode) * (1 + 1e-9):
+                return f"; {kind.NAME} takes it in {mode} mode (engine: {{backend: {backend}, mode: {mode}}})"
+    return ""
 
 
 def _mass_field(scenario: Scenario, heavy: str, light: str) -> FieldPath:

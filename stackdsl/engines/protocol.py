@@ -56,7 +56,11 @@ class Limits:
         max_mass_ratio: the heaviest moving body's mass over the lightest's: a heavy KAPLA
             brick crossed on a light one this much lighter sinks into it less than half the
             4 mm collapse threshold in tuned mode (a solver's contact gives under load).
-        measured: one line each, what was measured (quoted in the refusals).
+        max_restitution: mode -> the largest restitution of a contact (of two materials, the
+            geometric mean of theirs) in that mode: no KAPLA brick dropped onto the ground or a
+            brick rises with more energy than it fell with (a mode not named: 1).
+        measured: one line each, what was measured (quoted in the refusals); the restitution's
+            per mode, ``max_restitution_MODE``.
         max_speed_by_mode: mode -> (m/s, what was measured): a mode whose own timestep and
             contacts hold less than :attr:`max_speed`.
     """
@@ -65,12 +69,17 @@ class Limits:
     max_speed: float
     max_speed_no_substeps: float
     max_mass_ratio: float
+    max_restitution: dict[str, float] = field(default_factory=dict)
     measured: dict[str, str] = field(default_factory=dict)
     max_speed_by_mode: dict[str, tuple[float, str]] = field(default_factory=dict)
 
     def fastest(self, mode: str) -> tuple[float, str]:
         """m/s, the fastest projectile with substeps in ``mode``, and what was measured."""
         return self.max_speed_by_mode.get(mode, (self.max_speed, self.measured.get("max_speed", "")))
+
+    def restitution(self, mode: str) -> float:
+        """The largest restitution of a contact in ``mode`` (:attr:`max_restitution`)."""
+        return self.max_restitution.get(mode, 1.0)
 
 
 class EngineSettings(_Frozen):

@@ -523,7 +523,7 @@ def test_the_golden_fixture_says_a_damaged_golden_in_one_line_and_never_blocks_o
             result = pytester.runpytest_subprocess("-p", "no:cacheprovider", "-n", "0", *args, timeout=120)
             result.assert_outcomes(passed=1, failed=1)
             out = result.stdout.str()
-            (line,) = [line for line in result.outlines if said in line]  # one line
+            (line,) = [line for line in result.outlines if said in line and line.startswith("E ")]  # one line
             assert line.startswith("E       assert golden/"), (damage, args, line)
             assert "Deleted" not in out and sorted(p.name for p in folder.iterdir()) == names, (damage, args)
             assert "Traceback" not in out and "assertion.py" not in out and "BadGolden" not in out, out

@@ -377,6 +377,7 @@ def test_the_freeze_means_chosen_holds_and_the_others_do_not():
         freeze_cost(6, "glue")
 
 
+@pytest.mark.slow  # 3-5 s: in .ci/run's slow part
 def test_mujocos_own_sleeping_still_drops_the_slant_tower_at_its_closed_form():
     """With MuJoCo's sleeping on (bricks parked up front, the runtime's default on MuJoCo) the
     slant tower falls at its closed form; when a parked brick moved in stayed asleep where it

@@ -329,6 +329,7 @@ def test_no_collection_hint_when_the_scenarios_are_collected(project):
     assert "not collected" not in project.runpytest("scenarios/", "--collect-only").stdout.str()
 
 
+@pytest.mark.slow  # 3-5 s: in .ci/run's slow part
 def test_no_collection_hint_for_a_folder_whose_tests_are_collected(project):
     (project.path / "checks").mkdir()
     (project.path / "checks" / "test_x.py").write_text("def test_x():\n    pass\n")

@@ -38,6 +38,7 @@ def without_wall_time(results):
     return [replace(r, wall_time=0.0) for r in results]
 
 
+@pytest.mark.slow  # 3-5 s: in .ci/run's slow part
 def test_every_executor_gives_the_same_per_sample_results():
     t = template()
     here = collect(run_sweep(t, jobs=1))

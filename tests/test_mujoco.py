@@ -509,3 +509,57 @@ def test_a_bad_backend_in_a_list_is_named_alone(argv, said, capsys):
 
     assert main([argv[0], str(ROOT / "scenarios" / "vee_stands.yaml"), *argv[1:]]) == 2
     assert said in capsys.readouterr().err
+
+
+_HIT_TOWER = """stackdsl: 1
+structure: {tower: {levels: 30}}
+impacts:
+  - {projectile: kapla, target: {level: 30, side: +y}, speed: 3 m/s, at: after level 30}
+timing: {interval: 0.2 s, settle: 1 s}
+engine: {mode: extension, backend: mujoco}
+"""
+
+
+def _culled_run(monkeypatch, text: str, cull_from: int) -> tuple[object, int]:
+    """The outcome of ``text`` with frozen bricks culled from ``cull_from`` on, and the most
+    held geoms that were out of the collisions at once."""
+    from stackdsl.engines.mujoco import culling
+
+    monkeypatch.setattr(culling, "FROM", cull_from)
+    most = [0]
+    update = culling.Culling.update
+
+    def counted(self, data, frozen):
+        update(self, data, frozen)
+        most[0] = max(most[0], int(self.out.sum()))
+
+    monkeypatch.setattr(culling.Culling, "update", counted)
+    outcome = run_program(compile_scenario(parse_scenario(text)))
+    return outcome, most[0]
+
+
+def test_frozen_bricks_out_of_reach_leave_mujocos_collisions_and_change_nothing(monkeypatch):
+    """A frozen brick that nothing moving can reach within a step is out of MuJoCo's collision
+    detection (its broad phase paired every two frozen neighbours, each step); a brick thrown
+    into the tower, and everything it sets moving, still meets every brick it reaches: the run
+    is the same, bit for bit, as with every frozen brick colliding."""
+    culled, out = _culled_run(monkeypatch, _HIT_TOWER, 0)
+    whole, none_out = _culled_run(monkeypatch, _HIT_TOWER, 10**9)
+    assert none_out == 0 and out >= 50  # of 60 bricks, all but the few near what moves
+    assert [e.model_dump() for e in culled.events] == [e.model_dump() for e in whole.events]
+    assert culled.displacement == whole.displacement
+    assert culled.final_graph == whole.final_graph and culled.collapse == whole.collapse
+    assert max(culled.displacement.values()) > 0.004  # the throw moved bricks: contacts were made
+
+
+def test_near_finds_frozen_bricks_out_of_the_collisions(monkeypatch):
+    """The impact rule and the supports ask ``near`` for frozen neighbours, which culling may
+    have taken out of MuJoCo's collisions: they are still found."""
+    from stackdsl.engines.mujoco import culling
+
+    monkeypatch.setattr(culling, "FROM", 0)
+    world = _world("extension")
+    bricks = [world.create(_brick(), Pose.from_euler([0.0, 0.0, 0.004 + 0.008 * k]), mass=0.0) for k in range(4)]
+    world.step()
+    assert world._culling is not None and world._culling.out.all()  # nothing moves: all out
+    assert {c.other for c in world.near(bricks[1], 0.001)} == {bricks[0], bricks[2]}

@@ -33,6 +33,7 @@ from scipy.spatial.transform import Rotation
 from stability import ContactPoint, Pose
 
 from ..protocol import BrickSpec, EngineUnstable, Quat, Vec3, World
+from .culling import Culling
 from .materials import Bounce, Materials
 from .settings import MuJoCoSettings
 
@@ -109,6 +110,7 @@ class MuJoCoWorld(World):
         self._geom_body = np.zeros(0, dtype=int)
         self._read: tuple[np.ndarray, np.ndarray] | None = None  # every body's velocities, this step
         self._bounce: Bounce | None = None  # which contacts bounce, in a world with a restitution
+        self._culling: Culling | None = None  # which frozen bricks nothing moving can reach
         self._dof6 = np.zeros((0, 6), dtype=int)
         spec = mujoco.MjSpec()
         option = spec.option
@@ -198,6 +200,10 @@ class MuJoCoWorld(World):
         self._geom_body[self._free_geom] = self._geom_body[self._held_geom] = np.arange(1, len(self._specs) + 1)
         self._dof6 = self._dof[:, None] + np.arange(6)
         self._bounce = None
+        # a shake table moves under every brick: nothing is out of its reach
+        self._culling = (
+            None if self._table else Culling(m, self._held_geom, self._qpos, self._dof, self._mocap, self._engine.timestep)
+        )
         if self._materials.bouncy:
             reach = np.array([math.hypot(*b.half_extents) for b in self._specs])
             self._bounce = Bounce(m, self._free_geom, self._geom_body, reach, self._materials.resting())
@@ -237,6 +243,8 @@ class MuJoCoWorld(World):
         m.geom_contype[off] = m.geom_conaffinity[off] = 0
         m.body_contype[m.geom_bodyid[on]] = m.body_conaffinity[m.geom_bodyid[on]] = bit
         m.body_contype[m.geom_bodyid[off]] = m.body_conaffinity[m.geom_bodyid[off]] = 0
+        if self._culling is not None:
+            self._culling.changed(i, bool(self._frozen[i]))
         m.body_gravcomp[m.geom_bodyid[free]] = 1.0 if self._frozen[i] else 0.0
         policy, tree = self._mj.mjtSleepPolicy, m.body_treeid[m.geom_bodyid[free]]
         if self._extension:
@@ -340,7 +348,10 @@ class MuJoCoWorld(World):
         fromto = np.zeros(6)
         out = []
         # the candidates at once: colliding geoms of other bodies (of ``among``), near enough by their bounding spheres
-        keep = (self._geom_body != body) & (m.geom_contype != 0)
+        colliding = m.geom_contype != 0
+        if self._culling is not None:  # a frozen brick out of the collision detection is still there
+            colliding[self._held_geom[self._culling.out]] = True
+        keep = (self._geom_body != body) & colliding
         if among is not None:
             wanted = np.zeros(len(self._frozen) + 1, dtype=bool)
             wanted[np.asarray(list(among), dtype=int)] = True
@@ -483,6 +494,8 @@ class MuJoCoWorld(World):
             linear, angular = np.linalg.norm(velocities[:, :3], axis=1), np.linalg.norm(velocities[:, 3:], axis=1)
             linear[self._frozen] = angular[self._frozen] = 0.0
             self._bounce.update(float(d.time), linear, angular)
+        if self._culling is not None:
+            self._culling.update(d, self._frozen)
         began = float(d.time)
         for _ in range(self._substeps):
             self._mj.mj_step(m, d)

@@ -133,6 +133,7 @@ class Structure:
         self.moving: dict[str, BrickRecord] = {}  # the structure bricks the engine simulates, by id
         self.projectiles: list[BrickRecord] = []
         self.removed: list[BrickRecord] = []  # pulled out of the structure by a hand
+        self.newly_settled: list[BrickRecord] = []  # bricks whose ``settled`` was written since the drift last looked
         # metres the ground has moved from where it started (a shake table): displacements are the ground's frame's
         self.offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
         self._by_body: dict[int, BrickRecord] = {}
@@ -150,6 +151,12 @@ class Structure:
         if record.structure:
             self._tops.setdefault(round(record.top * 1e4), []).append(record)
             self.set_moving(record, record.moving)
+
+    def settle(self, record: BrickRecord) -> None:
+        """Write how far a structure brick had moved as it froze (None as it woke), and note it
+        for the drift (:meth:`stackdsl.runtime.collapse.CollapseMonitor.record_drift`)."""
+        record.settled = None if record.moving else self.displacement(record)
+        self.newly_settled.append(record)
 
     def set_moving(self, record: BrickRecord, moving: bool) -> None:
         """Mark a brick frozen (``moving`` False) or simulated by the engine again."""

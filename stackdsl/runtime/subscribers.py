@@ -69,7 +69,7 @@ class Stability(Subscriber):
             if record is not None and record.structure and e.kind in ("freeze", "wake"):
                 loop.structure.set_moving(record, e.kind == "wake")
                 record.was_frozen = True
-                record.settled = None if record.moving else loop.structure.displacement(record)
+                loop.structure.settle(record)
             elif record is not None and e.kind == "wake":  # a pulled brick, out of the structure: simulated again
                 record.moving = True
             source = records.get(e.source)

@@ -373,3 +373,33 @@ def test_on_mujoco_a_brick_crossed_at_an_odd_yaw_comes_to_rest_and_freezes(model
     result = run_program(compile_scenario(parse_scenario(CROSSED_AT_AN_ODD_YAW), model=model))
     assert result.collapse is None
     assert [n.id for n in result.final_graph.nodes if n.state == "active"] == []
+
+
+@pytest.mark.parametrize("mode", ["raw", "tuned"])
+@pytest.mark.parametrize("x_mm, y_mm", [(52.0, 4.0), (44.0, 8.0), (50.0, 0.0)])
+def test_a_turned_brick_on_an_active_one_is_certified_on_their_whole_face(mode, x_mm, y_mm):
+    """A brick turned 30 deg on another, both still simulated (raw and tuned): its support is
+    the pentagon where their faces overlap. The base's few engine points of that contact were
+    taken for it first and left out a corner: a still brick 8 mm inside "had no equilibrium"
+    (collapse 2), and others' margins were too small. The margin is how far the centre of mass
+    can move along x or y and stay on the overlap (shapely, here)."""
+    from shapely import LineString, Point, box
+    from shapely.affinity import rotate, translate
+
+    text = f"""stackdsl: 1
+structure:
+  bricks:
+    - {{id: base, at: [0, 0, 4 mm]}}
+    - {{id: top, at: [{x_mm} mm, {y_mm} mm, 12 mm], yaw: 30}}
+engine: {{mode: {mode}}}
+expect: {{stands: true}}
+"""
+    face = box(-60, -12, 60, 12).intersection(translate(rotate(box(-60, -12, 60, 12), 30), x_mm, y_mm))
+    com = Point(x_mm, y_mm)
+    reach = [
+        com.distance(LineString([(x_mm, y_mm), (x_mm + 500 * dx, y_mm + 500 * dy)]).intersection(face.exterior))
+        for dx, dy in ((1, 0), (-1, 0), (0, 1), (0, -1))
+    ]
+    result = run_program(compile_scenario(parse_scenario(text)))
+    assert result.collapse is None, result.certificate
+    assert result.certificate is not None and result.certificate.margin_mm == pytest.approx(min(reach), abs=0.5)

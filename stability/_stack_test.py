@@ -163,12 +163,17 @@ class StackTest:
                 blocks = {b: RigidBlock(r.box.mass, stack.pose(r).position) for b, r in frozen.items()}
                 # the parts with a brick off its load path: every other part stands on its paths
                 blocks, part = connected_part(blocks, polygons, stack.unproven)
+                resting, on = self._resting_on(blocks)  # with the active bricks lying on it
+                blocks, part = blocks | resting, part + on
                 moving = set(falling_part(blocks, part) or ()) if stack.config.gravity > 0 else set()
                 if not moving:
                     result = solve_equilibrium(blocks, part, gravity=stack.config.gravity)
                     if result.stands:
                         return events
                     moving = result.moving()
+                moving -= resting.keys()
+                if not moving:  # only active bricks would move: the engine has them
+                    return events
             for b in stack.ordered(moving):
                 reason = "it moves in the collapse mechanism (rigid-block equilibrium)"
                 events += [w.event for w in stack.wake(b, time, reason, moving)]
@@ -181,6 +186,33 @@ class StackTest:
         frozen = {r.body: r for r in stack.in_order()}
         blocks = {b: RigidBlock(r.box.mass, stack.pose(r).position) for b, r in frozen.items()}
         return blocks, stack.frozen_contacts(frozen)
+
+    def _resting_on(self, part: dict[int, RigidBlock]) -> tuple[dict[int, RigidBlock], list[ContactPolygon[int]]]:
+        """The active bricks lying face to face on a brick of ``part`` (not held by a hand) that
+        would stand where they lie were their supports rigid, as free blocks, and their contact
+        polygons. A frozen stack's statics without them could "prove" a collapse that their
+        weight prevents: a balanced seesaw, frozen with one of its two loads while the other,
+        placed with it, was still coming to rest, was woken again and again and its rocking
+        taken for a collapse. Asked only when the rule fails a brick. Source: stackdsl's own."""
+        stack = self.stack
+        blocks: dict[int, RigidBlock] = {}
+        polygons: list[ContactPolygon[int]] = []
+        for rec in stack.active.values():
+            if rec.body in stack.guided:
+                continue
+            pose = stack.engine.pose(rec.body)
+            areas = self.areas.lying_on(rec, pose)
+            if not any(other in part for other in areas):
+                continue
+            found = [
+                ContactPolygon(rec.body, o, a.corners(), a.normal, pair_friction(rec.friction, stack.bodies[o].friction))
+                for o, a in areas.items()
+            ]
+            block = RigidBlock(rec.box.mass, pose.position)
+            if solve_equilibrium({rec.body: block}, found, gravity=stack.config.gravity).stands:
+                blocks[rec.body] = block
+                polygons += found
+        return blocks, polygons
 
     def _balanced_by_loads(self) -> bool:
         """Do the report's loads, propagated down the frozen stack, balance it
@@ -274,11 +306,14 @@ class StackTest:
                     rec.failed = ((stack.version,), time)  # asked again a rest duration on, or once the stack changes
                 continue
             if proved is None:  # before any of it wakes: what statics says of the stack as it stands
-                # of the parts the failing bricks belong to: any other part is not in question
+                # of the parts the failing bricks belong to: any other part is not in question,
+                # with the active bricks lying on it, whose weight the rule does not see
                 blocks, polygons = connected_part(*self._frozen_problem(), {r.body for r in failing})
+                resting, on = self._resting_on(blocks)
+                blocks, polygons = blocks | resting, polygons + on
                 # a part that provably turns out is a proof that the stack does not stand: the
                 # equilibrium program (milliseconds) is asked only when there is none
-                proved = frozenset(falling_part(blocks, polygons) or ())
+                proved = frozenset(falling_part(blocks, polygons) or ()) - resting.keys()
                 if (
                     not proved
                     and stack.config.gravity > 0

@@ -403,3 +403,31 @@ expect: {{stands: true}}
     result = run_program(compile_scenario(parse_scenario(text)))
     assert result.collapse is None, result.certificate
     assert result.certificate is not None and result.certificate.margin_mm == pytest.approx(min(reach), abs=0.5)
+
+
+@pytest.mark.parametrize("model", ["report", "equilibrium"])
+def test_a_balanced_seesaw_loaded_at_both_ends_at_once_is_not_woken(model):
+    """A plank across a fulcrum, two bricks put on its ends together: when one is frozen before
+    the other comes to rest, the frozen stack alone tips (the plank and one load), but the other
+    brick, still simulated, lies on the plank and balances it. Its weight counts: the plank was
+    woken again and again ("centre of mass above 16.6 mm outside its support") and a 4 mm rock
+    in one of those wakes was taken for a proved collapse. With a third and fourth load the
+    centre of mass stays 8 mm inside the fulcrum's 24 mm."""
+    text = f"""stackdsl: 1
+brick_types:
+  plank: {{size: [300 mm, 24 mm, 8 mm]}}
+structure:
+  bricks:
+    - {{id: fulcrum, at: [0, 0, 4 mm], yaw: 90}}
+    - {{id: plank, brick: plank, at: [0, 0, 12 mm]}}
+    - {{id: wl, at: [-100 mm, 0, 20 mm], yaw: 90}}
+    - {{id: wr, at: [100 mm, 0, 20 mm], yaw: 90, together: true}}
+    - {{id: w3, at: [-50 mm, 0, 20 mm], yaw: 90}}
+    - {{id: w4, at: [76 mm, 0, 20 mm], yaw: 90}}
+stability: {{model: {model}}}
+expect: {{stands: true}}
+"""
+    result = run_program(compile_scenario(parse_scenario(text)))
+    assert result.collapse is None, result.certificate
+    assert not [e for e in result.events if e.kind == "wake"], [e.detail for e in result.events if e.kind == "wake"]
+    assert result.certificate is not None and result.certificate.margin_mm == pytest.approx(8.0, abs=0.5)

@@ -9,7 +9,9 @@ share a brick A passes to one of its supports b follows the report:
   individual contact area: that support carries everything, the others nothing
   (merging branching, first case);
 * A rests on exactly two supports: the torque split of equations 3 to 11;
-* A rests on more than two: equal shares (merging branching, second case).
+* A rests on more than two: equal shares (merging branching, second case), or, where equal
+  shares cannot balance A's centre of mass above at points of the contact areas, the
+  shares nearest to equal that do (stackdsl's own: :func:`split_load`).
 
 Departure from the report (see docs/design.md, where the code departs from the report): equation 10 adds the equivalent
 mass at A's centre of mass above. Taken literally every lower brick of a 4 stack fails
@@ -199,8 +201,8 @@ def _split(x: float, y: float, mass: float, supports: Mapping[int, ContactArea])
         dy = y - sum(c[1] for c in centres) / len(centres)
     points = [_inside(a, cx + dx, cy + dy) for a, (cx, cy) in zip(supports.values(), centres)]
     if len(supports) > 2:
-        equal = mass / len(supports)
-        return [(s, equal, *p) for s, p in zip(supports, points)]
+        fractions = _balanced(points, x, y)
+        return [(s, mass * f, *p) for s, f, p in zip(supports, fractions, points)]
     (s1, s2), (p1, p2) = tuple(supports), points
     ux, uy = p2[0] - p1[0], p2[1] - p1[1]
     length2 = ux * ux + uy * uy
@@ -209,6 +211,35 @@ def _split(x: float, y: float, mass: float, supports: Mapping[int, ContactArea])
     # area, or the centre of mass lies beyond both (a failing brick: all of it on the nearer)
     t = 0.5 if length2 <= 1e-24 else min(max(((x - p1[0]) * ux + (y - p1[1]) * uy) / length2, 0.0), 1.0)
     return [(s1, mass * (1.0 - t), *p1), (s2, mass * t, *p2)]
+
+
+def _balanced(points: list[tuple[float, float]], x: float, y: float) -> list[float]:
+    """Fractions of a load at (x, y) for more than two supports at ``points``: equal (report
+    3.3.6) when their mean lies under the load, as it does unless a point was brought back into
+    its area; else the fractions nearest to equal (least total change, HiGHS) whose resultant
+    passes through (x, y), so that the shares balance the load's moment. A plank on three piers
+    with its load 28.6 mm from the middle one read a third each, whose resultant lay 20 mm from
+    it. Equal shares when none balances (the load outside every point's hull: a failing brick).
+    Source: report 3.3.6 for the equal shares; stackdsl's own otherwise."""
+    n = len(points)
+    mx, my = sum(p[0] for p in points) / n, sum(p[1] for p in points) / n
+    equal = [1.0 / n] * n
+    if math.hypot(mx - x, my - y) <= 1e-9:
+        return equal
+    from scipy.optimize import linprog
+
+    px, py = [p[0] for p in points], [p[1] for p in points]
+    # the change from equal shares as u - v (u, v >= 0): sums to 0, moves the resultant from
+    # the mean of the points to (x, y), leaves no share below 0; least sum of |change|
+    a_eq = [[1.0] * n + [-1.0] * n, px + [-v for v in px], py + [-v for v in py]]
+    a_ub = [[-1.0 if j == i else 0.0 for j in range(n)] + [1.0 if j == i else 0.0 for j in range(n)] for i in range(n)]
+    result = linprog(
+        [1.0] * (2 * n), A_ub=a_ub, b_ub=equal, A_eq=a_eq, b_eq=[0.0, x - mx, y - my], bounds=(0, None), method="highs"
+    )
+    if result.status != 0:
+        return equal
+    change = result.x[:n] - result.x[n:]
+    return [max(0.0, 1.0 / n + float(c)) for c in change]
 
 
 def _inside(area: ContactArea, x: float, y: float) -> tuple[float, float]:

@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from shapely.geometry import box
+from shapely.geometry import Point, box
 
 from stability import ContactArea, LoadNode, propagate, split_load, torque_split
 
@@ -78,8 +78,10 @@ def test_two_supports_shares_pass_through_the_centre_of_mass():
 
 
 def test_more_than_two_supports_take_equal_shares():
-    supports = {k: area(x - 0.005, -0.01, x + 0.005, 0.01) for k, x in [(1, -0.05), (2, 0.0), (3, 0.05)]}
-    split = split_load(np.array([0.012, 0.0, 0.02]), 0.3, supports)
+    """The report's rule, where equal shares at points of the contacts balance the load: its
+    centre of mass over none of them, within reach of their points' mean."""
+    supports = {k: area(x - 0.005, -0.01, x + 0.005, 0.01) for k, x in [(1, -0.05), (2, 0.01), (3, 0.05)]}
+    split = split_load(np.array([0.0, 0.0, 0.02]), 0.3, supports)
     assert [split[k][0] for k in (1, 2, 3)] == pytest.approx([0.1, 0.1, 0.1])
 
 
@@ -106,3 +108,19 @@ def test_two_supports_shares_always_sum_to_the_load(x, y):
     shares = split_load(np.array([x, y, 0.1]), 0.5, supports)
     assert sum(m for m, _ in shares.values()) == pytest.approx(0.5)
     assert all(0.0 <= m <= 0.5 for m, _ in shares.values())
+
+
+@pytest.mark.parametrize("x", [0.0286, -0.05, 0.11, 0.021])
+def test_more_than_two_supports_share_a_load_in_moment_balance(x):
+    """A plank on three piers (contacts 40 mm long at -120, 0 and 120 mm), its load's centre of
+    mass at ``x``: equal thirds at points inside the contacts put the resultant at 20 mm at most
+    from the middle, so a load 28.6 mm out read a third each, out of balance. The shares sum to
+    the load, none is negative, and their resultant passes through the centre of mass."""
+    supports = {k: area(c - 0.02, -0.012, c + 0.02, 0.012) for k, c in [(1, -0.12), (2, 0.0), (3, 0.12)]}
+    split = split_load(np.array([x, 0.0, 0.1]), 0.6, supports)
+    masses = np.array([split[k][0] for k in (1, 2, 3)])
+    points = np.array([split[k][1] for k in (1, 2, 3)])
+    assert masses.sum() == pytest.approx(0.6) and (masses >= 0).all()
+    assert (masses @ points[:, :2]) / 0.6 == pytest.approx([x, 0.0], abs=1e-9)
+    for k in (1, 2, 3):  # each share acts where its support touches
+        assert supports[k].polygon.buffer(1e-9).contains(Point(points[k - 1][:2]))

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import base64
 import copy
+import dataclasses
 import hashlib
 import io
 import json
@@ -477,3 +478,39 @@ def test_the_replay_draws_the_fixtures_carried_by_the_shake(chromium, shaken):
         assert np.allclose(opened.call("fixtures()")["bolted"], trajectory.fixture_positions_at(k)[0], atol=1e-6), k
         assert np.allclose(opened.call("groundOffset()"), trajectory.ground_offset[k], atol=1e-6), k
     assert opened.console == []
+
+
+# A pyramid with a middle brick of its base pulled out slowly: the collapse begins (4.66 s) seconds
+# before it is decided (7.75 s, when the hand lets go), and is dated back to its beginning.
+PULLED = (
+    "stackdsl: 1\nname: pyramid with a brick pulled\nstructure:\n  pyramid: {base: 5, joint: 1 mm}\n"
+    "actions:\n  - remove: {brick: L01.3, at: after level 5, speed: 40 mm/s, direction: [0, 1, 0]}\n"
+    "timing: {interval: 0.3 s, settle: 2 s}\n"
+)
+
+
+@pytest.fixture(scope="module")
+def pulled():
+    """The pulled pyramid's run, recorded."""
+    _, trajectory = record_program(stackdsl.compile_scenario(stackdsl.parse_scenario(PULLED)))
+    return trajectory
+
+
+def test_the_collapse_graph_is_labelled_with_the_moment_it_was_taken(pulled):
+    """The page labelled the collapse graph with the time the collapse was decided, 3.1 s after
+    the moment it was taken (when the collapse began), and showed it around the wrong time."""
+    collapse = pulled.meta["collapse"]
+    assert collapse["decided"] - collapse["time"] > 1.0  # the case: decided long after it began
+    graph = replay_data(pulled)["graphs"]["collapse"]
+    assert graph["time"] == pytest.approx(collapse["time"], abs=1e-9) == pulled.meta["collapse_graph_time"]
+    assert "began" in graph["label"] and "decided" not in graph["label"]
+    # the graph's poses are the run's then: the pulled brick, moving at 40 mm/s, within the last frame's 1.3 mm
+    pulled_out = next(n for n in pulled.graphs["collapse"].nodes if n.id == "L01.3")
+    frame = pulled.at(graph["time"])
+    assert abs(pulled_out.position_mm[1] - 1000 * frame.positions[pulled.ids.tolist().index("L01.3"), 1]) < 1.5
+
+
+def test_a_file_without_the_graphs_time_labels_it_with_the_collapses(pulled):
+    meta = {k: v for k, v in pulled.meta.items() if k != "collapse_graph_time"}
+    old = dataclasses.replace(pulled, meta=meta)
+    assert replay_data(old)["graphs"]["collapse"]["time"] == pytest.approx(pulled.meta["collapse"]["time"])

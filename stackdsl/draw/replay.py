@@ -188,9 +188,13 @@ def replay_data(trajectory: Trajectory, golden: dict[str, Any] | None = None) ->
     collapse = meta.get("collapse")
     graphs = {"final": {"time": trajectory.end, "label": "at the end", "bricks": _graph(trajectory.graphs["final"])}}
     if "collapse" in trajectory.graphs and collapse is not None:
+        # taken when the collapse began (the step its first brick passed the threshold), not when
+        # it was decided, which can be seconds later; a file without the graph's time has the
+        # collapse's, the same but where a brick that passed first came back within the threshold
+        taken = meta.get("collapse_graph_time")
         graphs["collapse"] = {
-            "time": float(collapse.get("decided", collapse["time"])),
-            "label": "when the collapse was decided",
+            "time": float(taken if isinstance(taken, (int, float)) else collapse["time"]),
+            "label": "when the collapse began",
             "bricks": _graph(trajectory.graphs["collapse"]),
         }
     return {

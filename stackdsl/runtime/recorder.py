@@ -34,6 +34,7 @@ from stability import Pose
 
 from ..compile.program import Kinematic, Launch, Program, Push
 from .bricks import BrickRecord
+from .collapse import CollapseMonitor
 from .loop import StepLoop, Subscriber
 from .outcome import Outcome
 from .run import run_program
@@ -99,6 +100,7 @@ class Recorder(Subscriber):
         self._seen_events = 0
         self._flight: set[int] = set()  # steps at which a projectile in flight is recorded
         self._away: set[str] = set()  # pulled bricks and pushers taken out of the scene: absent from then on
+        self._graph_time: float | None = None  # when the collapse graph was taken (s), once there is one
 
     # hooks --------------------------------------------------------------------
     def on_place(self, loop: StepLoop, record: BrickRecord) -> None:
@@ -137,6 +139,9 @@ class Recorder(Subscriber):
     def at_end(self, loop: StepLoop) -> None:
         if not self._times or self._times[-1] < loop.now:
             self._frame(loop)
+        monitor = next((s for s in loop.subscribers if isinstance(s, CollapseMonitor)), None)
+        if monitor is not None and monitor.graph_step is not None:
+            self._graph_time = monitor.graph_step * loop.dt
 
     # frames -------------------------------------------------------------------
     def _anything_moves(self, loop: StepLoop) -> bool:
@@ -218,6 +223,7 @@ class Recorder(Subscriber):
             "collapse_threshold": program.collapse_threshold,
             "rate": self.rate,
             "collapse": outcome.collapse.model_dump(mode="json") if outcome.collapse else None,
+            "collapse_graph_time": self._graph_time if outcome.collapse_graph is not None else None,
             "levels_placed": outcome.levels_placed,
             "simulated_time": outcome.simulated_time,
             "stopped": outcome.stopped,

@@ -88,7 +88,8 @@ class Trajectory:
 
     Attributes:
         meta: scenario, file, mode, backend (from this version on), model, timestep (s), collapse_threshold (m), rate (Hz),
-            collapse (the :class:`stackdsl.Collapse` as a dict, or None), levels_placed,
+            collapse (the :class:`stackdsl.Collapse` as a dict, or None), collapse_graph_time (s, when
+            the collapse graph was taken: when the collapse began; None without one), levels_placed,
             simulated_time (s), stopped.
         ids: (bodies,), each body's id, in the order they entered the world.
         levels: (bodies,), a structure brick's level; 0 for a projectile.

@@ -16,7 +16,8 @@ run's. A body's pose at a time is that of its last row at or before the time, as
 :meth:`stackdsl.Trajectory.at`.
 
 Tests and scripts read the page through ``window.stackdslReplay``: ``ready``, ``error``,
-``seek(t)``, ``time()``, ``frame()``, ``poses()``, ``select(id)``, ``selected()``,
+``seek(t)``, ``seekEvent(t)`` (an event's time: its frame, or the first frame after it),
+``time()``, ``frame()``, ``frameTime()``, ``poses()``, ``select(id)``, ``selected()``,
 ``screenPosition(id)``, ``nextEvent()``, ``prevEvent()``, ``play()``, ``pause()``,
 ``ghosts()``, ``loadMs`` (docs/design.md, "The replay page").
 

@@ -156,6 +156,8 @@ class CollapseMonitor(Subscriber):
     Attributes:
         collapse: the first collapse, or None; collapse_graph: the graph when it began;
         graph_step: the step at whose end the collapse graph was built (None before a collapse);
+        passed: how many times, before the collapse was decided, a brick was found past the
+        threshold (the collapse is dated at one of these steps: a recorder keeps a frame at each);
         certificate: how the verdict was proved (None until the collapse or the end, and
         when the run stopped early); drift: metres; certify_time: wall seconds the
         equilibrium certificate of a standing structure took.
@@ -178,6 +180,7 @@ class CollapseMonitor(Subscriber):
         self.collapse: Collapse | None = None
         self.collapse_graph: Graph | None = None
         self.graph_step: int | None = None
+        self.passed = 0
         self.certificate: Certificate | None = None
         self.drift = 0.0
         self.certify_time = 0.0
@@ -277,6 +280,7 @@ class CollapseMonitor(Subscriber):
                 pending = [d for d in self._displaced.values() if d.level == level]
                 graph = min(pending, key=lambda d: d.since).graph if pending else (self._graph(loop), loop.step)
                 state = self._displaced[record.id] = _Displaced(loop.now, level, distance, graph)
+                self.passed += 1
             state.farthest = max(state.farthest, distance)
             if not rests:
                 state.resting_since = None

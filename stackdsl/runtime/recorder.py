@@ -2,8 +2,11 @@
 
 It takes a frame
 
-* when a brick is placed or a projectile thrown, and when the timeline gets an event (a
-  freeze, a wake, an impact, the collapse);
+* when a brick is placed or a projectile thrown, when a pull, a push or a shake starts, and
+  when the timeline gets an event (a freeze, a wake, an impact, the collapse);
+* at each step a structure brick is first found past the collapse threshold while no
+  collapse has been decided: the collapse is dated at one of these steps, back in the
+  timeline, so that its moment has a frame of its own (and the collapse graph, taken then);
 * :data:`FLIGHT_FRAMES` times evenly within each projectile's flight to its target;
 * every ``1 / rate`` simulated seconds while anything moves: a body the stability
   extension has not frozen is faster than its rest speed or rest angular speed (one more
@@ -101,6 +104,8 @@ class Recorder(Subscriber):
         self._flight: set[int] = set()  # steps at which a projectile in flight is recorded
         self._away: set[str] = set()  # pulled bricks and pushers taken out of the scene: absent from then on
         self._graph_time: float | None = None  # when the collapse graph was taken (s), once there is one
+        self._monitor: CollapseMonitor | None = None  # the run's collapse monitor (found at the first step)
+        self._passed = 0  # how many threshold crossings the monitor had seen at the last step
 
     # hooks --------------------------------------------------------------------
     def on_place(self, loop: StepLoop, record: BrickRecord) -> None:
@@ -121,12 +126,19 @@ class Recorder(Subscriber):
         a subscriber before this one): recorded as a projectile is, so that a replay, a clip or a
         picture shows the finger that pushed."""
         record = loop.structure.records.get(action.id) if isinstance(action, Push) else None
-        if record is not None and record not in self._records:
+        entered = record is not None and record not in self._records
+        if record is not None and entered:
             self._records.append(record)
+        if entered or len(loop.events) != self._seen_events:  # and the bricks it woke, at its own time
             self._frame(loop)
 
     def after_step(self, loop: StepLoop) -> None:
-        if len(loop.events) != self._seen_events or loop.step in self._flight:  # a freeze, a wake, an impact, the collapse
+        if self._monitor is None:
+            self._monitor = next((s for s in loop.subscribers if isinstance(s, CollapseMonitor)), None)
+        passed = self._monitor.passed if self._monitor is not None else 0
+        crossed, self._passed = passed != self._passed, passed
+        # a freeze, a wake, an impact, the collapse; a brick past the threshold (a collapse may be dated then)
+        if len(loop.events) != self._seen_events or loop.step in self._flight or crossed:
             self._flight.discard(loop.step)
             self._frame(loop)
         elif loop.step >= self._next_sample:

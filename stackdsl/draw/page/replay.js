@@ -284,6 +284,16 @@
     }
 
     // -- events ------------------------------------------------------------------------------
+    let anchor = null; // [event time, time landed on] of the last jump to an event
+    function seekEvent(t) {
+      // an event's moment: its own frame, else the first frame after it (the frame before it
+      // shows the scene before the event: a file recorded without a frame at a back-dated collapse)
+      const k = frameIndex(t);
+      const later = times.length && times[k] < t - 1e-9 && k + 1 < times.length;
+      seek(later ? times[k + 1] : t);
+      anchor = [t, now];
+      return now;
+    }
     const events = data.events;
     const keyTimes = events.filter((e) => data.key_events.includes(e.kind)).map((e) => e.time);
     const list = $("events");
@@ -295,7 +305,7 @@
       if (data.key_events.includes(e.kind)) li.classList.add("keyevent");
       li.addEventListener("click", () => {
         pause();
-        seek(e.time);
+        seekEvent(e.time);
         if (index.has(e.brick)) select(e.brick);
       });
       list.appendChild(li);
@@ -306,7 +316,7 @@
         m.title = li.textContent;
         m.addEventListener("click", () => {
           pause();
-          seek(e.time);
+          seekEvent(e.time);
         });
         marks.appendChild(m);
       }
@@ -328,15 +338,23 @@
         if (!playing) items[last].scrollIntoView({ block: "nearest" });
       } else $("status").textContent = "";
     }
+    function eventNow() {
+      // the time of the event last jumped to while the page still shows it, else the time shown
+      return anchor && anchor[1] === now ? anchor[0] : now;
+    }
     function nextEvent() {
-      const e = events.find((e) => e.time > now + 1e-6);
-      seek(e ? e.time : data.end);
+      const from = eventNow();
+      const e = events.find((e) => e.time > from + 1e-6);
+      if (e) seekEvent(e.time);
+      else seek(data.end);
       return now;
     }
     function prevEvent() {
-      let t = times.length ? times[0] : 0;
-      for (const e of events) if (e.time < now - 1e-6) t = e.time;
-      seek(t);
+      const from = eventNow();
+      let t = null;
+      for (const e of events) if (e.time < from - 1e-6) t = e.time;
+      if (t === null) seek(times.length ? times[0] : 0);
+      else seekEvent(t);
       return now;
     }
 
@@ -549,11 +567,13 @@
     new ResizeObserver(resize).observe(view);
     resize();
     apply(0);
-    seek(collapse ? collapse.time : data.end);
+    if (collapse) seekEvent(collapse.time);
+    else seek(data.end);
     if (collapse && index.has(collapse.brick)) select(collapse.brick); // the brick that moved first
 
     Object.assign(api, {
       seek: (t) => (seek(t), frame),
+      seekEvent: (t) => (seekEvent(t), frame),
       time: () => now,
       frame: () => frame,
       frameTime: () => times[frame],

@@ -232,3 +232,20 @@ def test_fixtures_are_recorded_moving_with_a_shakes_ground(mode, tmp_path):
     assert all(np.array_equal(f.ground_offset, trajectory.ground_offset[f.index]) for f in frames)
     trajectory.save(tmp_path / "shaken.npz")
     assert np.array_equal(load_trajectory(tmp_path / "shaken.npz").ground_offset, trajectory.ground_offset)
+
+
+def test_a_time_asked_for_gets_a_frame_at_its_step_even_in_a_quiet_wait():
+    program = compile_scenario(parse_scenario(TOWER))
+    dt = program.engine.timestep
+    _, plain = record_program(program)
+    quiet = float(program.placements[1].time) - 0.05  # nothing moves: the loop jumps over it
+    moving = 0.5 * (plain.times[1] + plain.times[2])  # the first brick lands: frames every 1/30 s
+    _, asked = record_program(program, at=(quiet, moving))
+    for t in (quiet, moving):
+        assert 0 <= t - asked.at(t).time < dt  # the last step at or before it, not a frame up to 1/30 s earlier
+    # the wait: a frame with no row, the scene as the last frame left it
+    shown, before = asked.at(quiet), plain.at(quiet)
+    assert np.array_equal(np.isnan(shown.positions), np.isnan(before.positions))
+    assert np.allclose(np.nan_to_num(shown.positions), np.nan_to_num(before.positions), atol=2 * POSITION_TOLERANCE)
+    assert shown.state_names == before.state_names
+    assert len(asked.times) <= len(plain.times) + 2

@@ -154,8 +154,24 @@ def trajectory_of(args: argparse.Namespace) -> Any:
     at = getattr(args, "at", None)
     if isinstance(at, float) and at > program.duration:  # refused before anything is simulated
         raise ScenarioError(f"t = {at:g} s is outside the run, which lasts from 0 to {program.duration:g} s", file="--at")
-    _, trajectory = record_program(program, source=args.file, timeout=args.timeout)
+    # a frame at the moment asked for, so that what is drawn or exported is the run's state then
+    _, trajectory = record_program(program, source=args.file, timeout=args.timeout, at=(at,) if isinstance(at, float) else ())
     return trajectory
+
+
+def when(shown: float, asked: float, step: object = None, digits: int = 3) -> str:
+    """``t = 8.021 s``, the time of the frame shown (to ``digits`` decimals); when it is not the time
+    asked for, to the millisecond, and which frame it is: the last physics step at or before it
+    (within ``step`` seconds, the run's timestep), or a trajectory file's last recorded frame at or
+    before it.
+
+    >>> when(8.0208, 8.03), when(2.0, 2.0, digits=2), when(8.02917, 8.03, 1 / 240)
+    ('t = 8.021 s (the last recorded frame at or before 8.030 s)', 't = 2.00 s', 't = 8.029 s (the last physics step at or before 8.030 s)')
+    """
+    if abs(shown - asked) <= 1e-6:
+        return f"t = {shown:.{digits}f} s"
+    which = "physics step" if isinstance(step, float) and asked - shown < step else "recorded frame"
+    return f"t = {shown:.3f} s (the last {which} at or before {asked:.3f} s)"
 
 
 def moment(at: str | float | None, collapsed: bool) -> str | float:
@@ -257,9 +273,10 @@ def _render(args: argparse.Namespace) -> int:
 
     def draw(trajectory: Any, out: Path, width: int, height: int) -> str:
         at = moment(args.at, trajectory.collapse_time is not None)
-        drawn = picture(trajectory, resolved(trajectory, at), out, width=width, height=height)
-        when = f"{at}, " if at in ("collapse", "end") else ""
-        return f"the run at {when}t = {drawn:.2f} s"
+        asked = resolved(trajectory, at)
+        drawn = picture(trajectory, asked, out, width=width, height=height)
+        named = f"{at}, " if at in ("collapse", "end") else ""
+        return f"the run at {named}{when(drawn, asked, trajectory.meta.get('timestep'), digits=2)}"
 
     return _draw(args, (".png",), "the picture", draw)
 

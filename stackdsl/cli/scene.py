@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 from ..lang.errors import ScenarioError
 from ..lang.extras import installed, missing
 from .args import COMMANDS, at_type
-from .draw import _SOURCE, _wrote, moment, resolved, trajectory_of, undrawable
+from .draw import _SOURCE, _wrote, moment, resolved, trajectory_of, undrawable, when
 from .draw import NAMES as DRAWING
 
 if TYPE_CHECKING:
@@ -266,7 +266,7 @@ def _export(args: argparse.Namespace) -> int:
         status |= _wrote(
             write_text(text, out),
             trajectory,
-            f"{kind.upper()}, {len(scene.ids)} bod{'y' if len(scene.ids) == 1 else 'ies'} at t = {scene.time:.3f} s",
+            f"{kind.upper()}, {len(scene.ids)} bod{'y' if len(scene.ids) == 1 else 'ies'} at {when(scene.time, at, trajectory.meta.get('timestep'))}",
         )
     return status
 

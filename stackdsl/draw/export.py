@@ -115,11 +115,10 @@ def snapshot(
     Raises:
         ValueError: ``"collapse"`` and nothing collapsed; a time outside the run.
     """
-    time = resolve_time(trajectory, at)
-    frame = trajectory.at(time)
+    frame = trajectory.at(resolve_time(trajectory, at))
     present = ~np.isnan(frame.positions[:, 0]) & (frame.states != ABSENT)  # not yet placed, or taken out
     return Snapshot(
-        time=time,
+        time=frame.time,  # the frame's own: the last at or before the time asked for
         name=str(trajectory.meta.get("scenario") or "stackdsl"),
         ids=[str(i) for i in trajectory.ids[present].tolist()],
         levels=[int(v) for v in trajectory.levels[present].tolist()],

@@ -33,7 +33,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..lang.files import written
-from ..runtime.trajectory import ABSENT, FROZEN, STATES, Frame, Trajectory
+from ..runtime.trajectory import ABSENT, COLLAPSE_DELAY, FROZEN, STATES, Frame, Trajectory
 from .camera import Camera, camera_view, placed_corners
 
 #: RGB (0 to 1) of a structure brick in each state, of projectiles, fixtures, the ground and
@@ -48,12 +48,6 @@ COLOURS: dict[str, tuple[float, float, float]] = {
     "ground": (0.88, 0.87, 0.84),
     "background": (0.98, 0.98, 0.99),
 }
-#: Seconds after the collapse was detected that ``at="collapse"`` shows. At detection a brick has
-#: moved only the collapse threshold (4 mm): nothing shows but the colours. 0.2 s later the top
-#: seven levels of scenarios/slant_tower.yaml are seen tipping over level 2's edge, still in one
-#: piece (0.1 s: barely moved; 0.3 s: a slab lying almost on its side, hard to read), and the top
-#: brick of scenarios/hard/overhang_falls.yaml has tipped onto the ground (it does by 0.1 s).
-COLLAPSE_DELAY = 0.2
 #: A picture being drawn: RGB (h, w, 3) uint8, depth (h, w) in m ahead of the camera (smaller
 #: is nearer), and the body seen at each pixel (h, w): a brick's index, -2 the ground, -3 and on
 #: the fixtures, -1 nothing.
@@ -321,7 +315,8 @@ def picture(
 ) -> float:
     """Write a PNG of ``trajectory`` at ``at`` (see :func:`resolve_time`), ``width`` x ``height``
     pixels: the rendered scene under a title line (:func:`headline`), with a scale bar and a
-    legend of the colours present. Returns the time drawn, seconds.
+    legend of the colours present. Returns the time drawn, seconds: the time of the frame drawn,
+    the last recorded at or before the time asked for.
 
     Raises:
         ValueError: ``at`` names no time of the run; ``path`` does not end in ``.png``; a
@@ -334,9 +329,9 @@ def picture(
 
     if Path(path).suffix.lower() != ".png":
         raise ValueError(f"a picture is written as .png, not {Path(path).name!r}")
-    time = resolve_time(trajectory, at)
     band = max(16, round(height / 24))  # the title's strip, pixels
-    frame = trajectory.at(time)
+    frame = trajectory.at(resolve_time(trajectory, at))
+    time = frame.time  # the frame's own: the last at or before the time asked for
     with Scene(trajectory, width, height - band) as scene:
         image = scene.render(frame)
         pixels_per_metre = scene.camera.pixels_per_metre

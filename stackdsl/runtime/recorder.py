@@ -8,6 +8,11 @@ It takes a frame
   collapse has been decided: the collapse is dated at one of these steps, back in the
   timeline, so that its moment has a frame of its own (and the collapse graph, taken then);
 * :data:`FLIGHT_FRAMES` times evenly within each projectile's flight to its target;
+* at the times it is asked for (``at``: a picture or an export of one moment) and
+  :data:`~stackdsl.runtime.trajectory.COLLAPSE_DELAY` after each of those threshold steps (the
+  moment ``at="collapse"`` shows): at the last physics step at or before each, so that the
+  trajectory at that time is the run's state then, not a frame up to ``1 / rate`` earlier; a
+  time the loop jumped over (nothing could move) gets a frame with no row;
 * every ``1 / rate`` simulated seconds while anything moves: a body the stability
   extension has not frozen is faster than its rest speed or rest angular speed (one more
   frame when everything has come to rest);
@@ -29,7 +34,9 @@ Source: stackdsl's own.
 
 from __future__ import annotations
 
+import heapq
 import math
+from collections.abc import Iterable
 
 import numpy as np
 
@@ -45,6 +52,7 @@ from .trajectory import (
     ABSENT,
     ACTIVE,
     ANGLE_TOLERANCE,
+    COLLAPSE_DELAY,
     FALLEN,
     FROZEN,
     POSITION_TOLERANCE,
@@ -76,15 +84,19 @@ class Recorder(Subscriber):
         rate: frames per simulated second while anything moves (Hz, above 0); at most one
             frame a physics step.
         source: the scenario file, kept in the trajectory's ``meta``.
+        at: seconds at which to keep a frame besides (the last step at or before each).
 
     Raises:
-        ValueError: ``rate`` is not a number above 0.
+        ValueError: ``rate`` is not a number above 0; a time of ``at`` is not a number.
     """
 
-    def __init__(self, program: Program, rate: float = RATE, source: str = "") -> None:
+    def __init__(self, program: Program, rate: float = RATE, source: str = "", at: Iterable[float] = ()) -> None:
         if not (isinstance(rate, (int, float)) and 0 < rate < math.inf):
             raise ValueError(f"the recording rate must be a number of frames a second above 0, not {rate!r}")
         self.program, self.rate, self.source = program, float(rate), source
+        # the steps at which a frame is asked for, earliest first
+        self._wanted = [self._step_of(float(t)) for t in at if 0.0 <= float(t) < math.inf]
+        heapq.heapify(self._wanted)
         self.every = max(1, round(1.0 / (rate * program.engine.timestep)))  # physics steps between samples
         config = program.stability
         self._rest = (config.rest_speed, config.rest_angular_speed)
@@ -109,10 +121,12 @@ class Recorder(Subscriber):
 
     # hooks --------------------------------------------------------------------
     def on_place(self, loop: StepLoop, record: BrickRecord) -> None:
+        self._catch_up(loop)
         self._records.append(record)
         self._frame(loop)
 
     def on_launch(self, loop: StepLoop, record: BrickRecord) -> None:
+        self._catch_up(loop)
         self._records.append(record)
         self._frame(loop)
         launch = next((a for a in self.program.actions if isinstance(a, Launch) and a.id == record.id), None)
@@ -125,11 +139,12 @@ class Recorder(Subscriber):
         """A push's pusher enters the world (made by :class:`stackdsl.runtime.actions.Actions`,
         a subscriber before this one): recorded as a projectile is, so that a replay, a clip or a
         picture shows the finger that pushed."""
+        wanted = self._catch_up(loop)
         record = loop.structure.records.get(action.id) if isinstance(action, Push) else None
         entered = record is not None and record not in self._records
         if record is not None and entered:
             self._records.append(record)
-        if entered or len(loop.events) != self._seen_events:  # and the bricks it woke, at its own time
+        if entered or wanted or len(loop.events) != self._seen_events:  # and the bricks it woke, at its own time
             self._frame(loop)
 
     def after_step(self, loop: StepLoop) -> None:
@@ -137,8 +152,11 @@ class Recorder(Subscriber):
             self._monitor = next((s for s in loop.subscribers if isinstance(s, CollapseMonitor)), None)
         passed = self._monitor.passed if self._monitor is not None else 0
         crossed, self._passed = passed != self._passed, passed
+        if crossed:  # the moment a picture or an export "at the collapse" shows, should it be dated now
+            heapq.heappush(self._wanted, self._step_of(loop.now + COLLAPSE_DELAY))
+        wanted = self._catch_up(loop)
         # a freeze, a wake, an impact, the collapse; a brick past the threshold (a collapse may be dated then)
-        if len(loop.events) != self._seen_events or loop.step in self._flight or crossed:
+        if len(loop.events) != self._seen_events or loop.step in self._flight or crossed or wanted:
             self._flight.discard(loop.step)
             self._frame(loop)
         elif loop.step >= self._next_sample:
@@ -149,6 +167,7 @@ class Recorder(Subscriber):
             self._next_sample = loop.step + self.every
 
     def at_end(self, loop: StepLoop) -> None:
+        self._catch_up(loop)
         if not self._times or self._times[-1] < loop.now:
             self._frame(loop)
         monitor = next((s for s in loop.subscribers if isinstance(s, CollapseMonitor)), None)
@@ -156,6 +175,24 @@ class Recorder(Subscriber):
             self._graph_time = monitor.graph_step * loop.dt
 
     # frames -------------------------------------------------------------------
+    def _step_of(self, time: float) -> int:
+        """The last physics step at or before ``time`` seconds."""
+        return math.floor(time / self.program.engine.timestep + 1e-6)
+
+    def _catch_up(self, loop: StepLoop) -> bool:
+        """Whether a frame is asked for at this step. A step asked for that the loop jumped over
+        (every subscriber quiet: nothing moved) gets a frame of its own with no row, the scene as
+        the last frame left it."""
+        now = False
+        while self._wanted and self._wanted[0] <= loop.step:
+            step = heapq.heappop(self._wanted)
+            if step == loop.step:
+                now = True
+            elif self._times and self._times[-1] < step * loop.dt - 1e-12:
+                self._times.append(step * loop.dt)
+                self._ground.append(self._ground[-1])
+        return now
+
     def _anything_moves(self, loop: StepLoop) -> bool:
         moving = [r for r in self._records if r.moving]
         if not moving:
@@ -265,7 +302,7 @@ class Recorder(Subscriber):
 
 
 def record_program(
-    program: Program, rate: float = RATE, *, source: str = "", timeout: float | None = None
+    program: Program, rate: float = RATE, *, source: str = "", timeout: float | None = None, at: Iterable[float] = ()
 ) -> tuple[Outcome, Trajectory]:
     """Run ``program`` with a :class:`Recorder` attached: its outcome and its trajectory.
 
@@ -274,11 +311,12 @@ def record_program(
         rate: frames a simulated second while anything moves (Hz).
         source: the scenario file, kept in the trajectory.
         timeout: as :func:`stackdsl.run_program`'s.
+        at: seconds at which to keep a frame besides (:class:`Recorder`).
 
     Raises:
         ValueError: a bad ``rate`` or ``timeout``.
     """
-    recorder = Recorder(program, rate, source)
+    recorder = Recorder(program, rate, source, at)
     outcome = run_program(program, timeout=timeout, subscribers=(recorder,))
     return outcome, recorder.trajectory(outcome)
 

@@ -54,6 +54,13 @@ STATES = ("absent", "active", "frozen", "woken", "fallen")
 #: :data:`ANGLE_TOLERANCE` (rad) since its last row, or changed state.
 POSITION_TOLERANCE = 1e-5
 ANGLE_TOLERANCE = 1e-4
+#: Seconds after the collapse was detected that ``at="collapse"`` shows (a picture, an
+#: export; the recorder keeps a frame then). At detection a brick has
+#: moved only the collapse threshold (4 mm): nothing shows but the colours. 0.2 s later the top
+#: seven levels of scenarios/slant_tower.yaml are seen tipping over level 2's edge, still in one
+#: piece (0.1 s: barely moved; 0.3 s: a slab lying almost on its side, hard to read), and the top
+#: brick of scenarios/hard/overhang_falls.yaml has tipped onto the ground (it does by 0.1 s).
+COLLAPSE_DELAY = 0.2
 
 
 @dataclass(frozen=True)

@@ -410,3 +410,52 @@ def test_a_gif_too_fast_is_refused_before_anything_runs(files, capsys, monkeypat
     monkeypatch.setattr("stackdsl.runtime.recorder.run_program", never)
     assert main(["animate", str(files / "stands.yaml"), "-o", str(files / "a.gif"), "--fps", "51"]) == 2
     assert capsys.readouterr().err.strip() == "--fps: a GIF plays at most 50 frames a second, not 51"
+
+
+def _full_disk_ffmpeg(monkeypatch):
+    """ffmpeg on a full disk: the frames go in, the file gets its media data, and writing its
+    trailer (the movie header, ``moov``) fails; ffmpeg exits and imageio-ffmpeg says nothing."""
+    import imageio_ffmpeg
+
+    def write_frames(path, size, **kwargs):
+        with open(path, "wb") as f:
+            f.write((12).to_bytes(4, "big") + b"ftypisom" + (16).to_bytes(4, "big") + b"mdat" + b"\0" * 8)
+        while True:
+            yield
+
+    monkeypatch.setattr(imageio_ffmpeg, "write_frames", write_frames)
+
+
+@pytest.mark.parametrize(("free", "why"), [(0, "No space left on device"), (10 << 30, "ffmpeg could not write the whole clip")])
+def test_an_mp4_ffmpeg_could_not_finish_is_exit_2_naming_the_file(files, capsys, monkeypatch, free, why):
+    """ffmpeg failed writing the clip's trailer on a full disk ("moov atom not found" after), and
+    animate said "wrote ..." and exited 0."""
+    pytest.importorskip("imageio_ffmpeg")
+    import shutil
+
+    record = files / "stands.npz"
+    assert main(["run", str(files / "stands.yaml"), "--record", str(record)]) == 0
+    capsys.readouterr()
+    _full_disk_ffmpeg(monkeypatch)
+    monkeypatch.setattr(shutil, "disk_usage", lambda path: shutil._ntuple_diskusage(10 << 30, 10 << 30, free))
+    out = files / "a.mp4"
+    assert main(["animate", str(record), "-o", str(out), "--size", "64x64"]) == 2
+    said = capsys.readouterr()
+    assert "wrote" not in said.out and said.err == f"stackdsl: {out}: {why}\n"
+    assert sorted(p.name for p in files.iterdir()) == ["stands.npz", "stands.yaml", "tips.yaml"]  # no clip, no part left
+
+
+def test_a_graph_on_a_full_disk_names_the_file_and_leaves_none(files, capsys, monkeypatch):
+    import errno
+
+    from matplotlib.figure import Figure
+
+    def savefig(self, path, **kwargs):
+        open(path, "wb").close()  # the file made, nothing written into it
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(Figure, "savefig", savefig)
+    out = files / "g.png"
+    assert main(["graph", str(files / "stands.yaml"), "-o", str(out)]) == 2
+    assert capsys.readouterr().err == f"stackdsl: {out}: No space left on device\n"
+    assert sorted(p.name for p in files.iterdir()) == ["stands.yaml", "tips.yaml"]

@@ -61,7 +61,20 @@ HINT = " (run with --debug for the traceback)"
 #: name too long, not a folder, a folder, no permission, read-only, no such file, too many links.
 REFUSED = frozenset(
     getattr(errno, name)
-    for name in ("ENOSPC", "EDQUOT", "ENAMETOOLONG", "ENOTDIR", "EISDIR", "EACCES", "EPERM", "EROFS", "ENOENT", "ELOOP", "EEXIST")
+    for name in (
+        "ENOSPC",
+        "EDQUOT",
+        "EIO",
+        "ENAMETOOLONG",
+        "ENOTDIR",
+        "EISDIR",
+        "EACCES",
+        "EPERM",
+        "EROFS",
+        "ENOENT",
+        "ELOOP",
+        "EEXIST",
+    )
     if hasattr(errno, name)
 )
 

@@ -24,8 +24,10 @@ Source: stackdsl's own.
 
 from __future__ import annotations
 
+import errno
 import math
 import os
+import shutil
 import time as _time
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -282,7 +284,8 @@ def animate(
             ``max_frames`` below 2; a picture smaller than 16 x 16 pixels; no frame; more
             than :data:`MAX_PIXEL_WORK` pixels to draw (:func:`pixel_work`).
         TimeoutError: past ``deadline`` (``time.perf_counter()`` seconds; None: none).
-        OSError: the file cannot be written (ffmpeg failing included).
+        OSError: the file cannot be written (ffmpeg failing included: ``No space left on device``
+            when its disk is full, else an input/output error; either names ``path``).
     """
     suffix = Path(path).suffix.lower()
     if suffix not in (".gif", ".mp4"):
@@ -340,7 +343,12 @@ def _write_mp4(pictures: Iterator[np.ndarray], path: Path, fps: float, width: in
 
     even = (width + width % 2, height + height % 2)  # H.264 in yuv420p needs even sides
     pad = ((0, even[1] - height), (0, even[0] - width), (0, 0))
-    writer = imageio_ffmpeg.write_frames(str(path), even, fps=fps, codec="libx264", pix_fmt_out="yuv420p", macro_block_size=2)
+    # ffmpeg says nothing itself (a failure is one line of ours), and its exit status is not
+    # passed on: a clip it could not finish (a full disk: "Error writing trailer") is found by
+    # reading the file's boxes
+    writer = imageio_ffmpeg.write_frames(
+        str(path), even, fps=fps, codec="libx264", pix_fmt_out="yuv420p", macro_block_size=2, ffmpeg_log_level="quiet"
+    )
     writer.send(None)
     try:
         last = np.zeros((even[1], even[0], 3), np.uint8)
@@ -349,7 +357,62 @@ def _write_mp4(pictures: Iterator[np.ndarray], path: Path, fps: float, width: in
             writer.send(last)
         for _ in range(round(END_HOLD * fps)):
             writer.send(last)
-    except (BrokenPipeError, RuntimeError) as exc:
-        raise OSError(f"{path}: ffmpeg failed: {exc}") from None
-    finally:
+    except (OSError, RuntimeError):  # ffmpeg went away (imageio's message holds its command line)
         writer.close()
+        raise _ffmpeg_failed(path) from None
+    writer.close()
+    if not complete_mp4(path):
+        raise _ffmpeg_failed(path)
+
+
+#: Bytes free on a disk under which a clip ffmpeg could not finish is said to have filled it.
+FULL_DISK = 1 << 20
+
+
+def _ffmpeg_failed(path: Path) -> OSError:
+    """The error of a clip ffmpeg could not write: "No space left on device" when its disk has
+    (almost) none left, else an input/output error; ``path`` named (the temporary name is replaced
+    by the final one)."""
+    try:
+        full = shutil.disk_usage(path.parent).free < FULL_DISK
+    except OSError:
+        full = False
+    if full:
+        return OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
+    return OSError(errno.EIO, "ffmpeg could not write the whole clip", str(path))
+
+
+def complete_mp4(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` is an MP4 file whose top-level boxes fill it exactly, with its movie
+    header (``moov``, which ffmpeg writes last) and its media data (``mdat``).
+
+    >>> import tempfile
+    >>> box = lambda kind, body=b"": (8 + len(body)).to_bytes(4, "big") + kind + body
+    >>> with tempfile.NamedTemporaryFile(suffix=".mp4") as f:
+    ...     _ = f.write(box(b"ftyp", b"isom") + box(b"mdat", b"x" * 9)); f.flush(); before = complete_mp4(f.name)
+    ...     _ = f.write(box(b"moov", b"y" * 3)); f.flush(); after = complete_mp4(f.name)
+    >>> before, after
+    (False, True)
+    """
+    kinds = set()
+    try:
+        with open(path, "rb") as f:
+            size = os.fstat(f.fileno()).st_size
+            at = 0
+            while at < size:
+                f.seek(at)
+                head = f.read(16)
+                if len(head) < 8:
+                    return False
+                length, kind = int.from_bytes(head[:4], "big"), head[4:8]
+                if length == 1:  # a 64-bit length follows
+                    length = int.from_bytes(head[8:16], "big") if len(head) == 16 else 0
+                elif length == 0:  # to the end of the file
+                    length = size - at
+                if length < 8 or at + length > size:
+                    return False
+                kinds.add(kind)
+                at += length
+    except OSError:
+        return False
+    return b"moov" in kinds and b"mdat" in kinds

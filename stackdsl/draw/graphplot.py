@@ -38,6 +38,7 @@ from shapely.geometry.base import BaseGeometry
 from shapely.geometry.polygon import orient
 from shapely.ops import nearest_points
 
+from ..lang.files import written
 from ..runtime.outcome import Edge, Graph, Node
 
 #: Size (length, width, height) in mm of a brick ``plot_graph`` is given no size for: KAPLA.
@@ -156,7 +157,8 @@ def plot_graph(
         _draw_panel(ax, node, edges, hulls.get(node.id), margin[node.id], (sizes or {}).get(node.id, KAPLA_MM))
     note = _left_out(order[len(shown) :], margin, len(bricks))
     fig.text((_GRAPH_W + _PANEL_W * cols / 2) / width, 0.25 / height, note, ha="center", va="center", fontsize=9)
-    fig.savefig(os.fspath(path), format="png")
+    with written(path) as part:  # a failed write (a full disk) names the path and leaves no file
+        fig.savefig(part, format="png")
 
 
 def footprint_mm(node: Node, size: Sequence[float] = KAPLA_MM) -> np.ndarray:

@@ -591,3 +591,16 @@ def test_render_of_a_trajectory_file_says_which_frame_it_drew(slant_run, tmp_pat
     assert main(["render", str(record), "--at", f"{at:.4f}", "-o", str(tmp_path / "p.png")]) == 0
     said = capsys.readouterr().out
     assert f"t = {trajectory.times[-2]:.3f} s (the last recorded frame at or before {at:.3f} s)" in said, said
+
+
+@pytest.mark.parametrize("speed", ["0", "nan", "-2", "1001"])
+def test_view_refuses_a_bad_speed_before_it_looks_for_a_display(monkeypatch, capsys, tmp_path, speed):
+    """With no display, ``view --speed 0`` was answered "no display here", not "bad speed"."""
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    monkeypatch.setattr("sys.platform", "linux")
+    scenario = tmp_path / "tower.yaml"
+    scenario.write_text(TOWER)
+    assert main(["view", str(scenario), "--speed", speed]) == 2
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 1 and "--speed" in lines[0] and "speed-up above 0" in lines[0] and "display" not in lines[0]

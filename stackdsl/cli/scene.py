@@ -150,6 +150,8 @@ def _add_view(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -> 
 
 
 def _view(args: argparse.Namespace) -> int:
+    if not (0 < args.speed <= 1000):  # the arguments are said before the display is looked for
+        raise ScenarioError(f"{args.speed:g} is not a speed-up above 0 and at most 1000", file="--speed")
     if not has_display():
         print(
             f"stackdsl view: no display here (DISPLAY is not set): for a 3D page to open in a browser, run "
@@ -159,8 +161,6 @@ def _view(args: argparse.Namespace) -> int:
         return NO_DISPLAY
     if not installed("mujoco"):
         raise ScenarioError(missing("mujoco", "the viewer"), file=args.file)
-    if not (0 < args.speed <= 1000):
-        raise ScenarioError(f"{args.speed:g} is not a speed-up above 0 and at most 1000", file="--speed")
     import time
 
     import mujoco.viewer

@@ -402,7 +402,15 @@ class StabilityExtension:
         active = [r for r in bricks if r.state is BrickState.ACTIVE]
         contacts = by_body(self._stack.engine.contact_points()) if active else {}  # a frozen stack: none read
         for r in active:
-            nodes[r.body] = LoadNode(r.box.mass, self._stack.pose(r).position, self._areas.supports(r, contacts[r.body], False))
+            pose = self._stack.pose(r)
+            supports = self._areas.supports(r, contacts[r.body], False)
+            # and what it lies on face to face: the engine has no contact yet between a brick
+            # woken this step and the frozen one under it (two bodies of mass 0 had none), and
+            # the level-5 bricks of a tower struck at level 6 "rested on nothing"
+            faces = {o: a for o, a in self._areas.lying_on(r, pose, active=True).items() if o not in supports}
+            if faces:
+                supports = {o: supports.get(o) or faces[o] for o in self._stack.ordered({*supports, *faces})}
+            nodes[r.body] = LoadNode(r.box.mass, pose.position, supports)
         loads = propagate(nodes)
         graph_nodes, edges = [], []
         for rec in self._stack.bodies.values():

@@ -431,3 +431,30 @@ expect: {{stands: true}}
     assert result.collapse is None, result.certificate
     assert not [e for e in result.events if e.kind == "wake"], [e.detail for e in result.events if e.kind == "wake"]
     assert result.certificate is not None and result.certificate.margin_mm == pytest.approx(8.0, abs=0.5)
+
+
+@pytest.mark.parametrize("model", ["report", "equilibrium"])
+@pytest.mark.parametrize("yaw", [0.0, 30.0, 45.0])
+def test_an_overhang_turned_about_the_vertical_has_one_margin_in_every_mode(model, yaw):
+    """A brick 55 mm beyond the one under it along their length, both turned by ``yaw``: its
+    centre of mass is 5 mm inside the end of its support, so it can move 5 / cos(yaw) mm along
+    x or y (the margin's directions) before it leaves it. The extension's certificate (load
+    paths) read 5.0 at every yaw while the program, on the raw engine, read 5.8 and 7.1."""
+    import math
+
+    c, s = math.cos(math.radians(yaw)), math.sin(math.radians(yaw))
+    text = f"""stackdsl: 1
+structure:
+  bricks:
+    - {{id: base, at: [0, 0, 4 mm], yaw: {yaw}}}
+    - {{id: top, at: [{55 * c:.4f} mm, {55 * s:.4f} mm, 12 mm], yaw: {yaw}}}
+stability: {{model: {model}}}
+expect: {{stands: true}}
+"""
+    margins = {}
+    for mode in ("extension", "raw"):
+        result = run_program(compile_scenario(parse_scenario(text), mode=mode))
+        assert result.collapse is None and result.certificate is not None
+        margins[mode] = result.certificate.margin_mm
+    assert margins["extension"] == pytest.approx(5.0 / c, abs=0.15)
+    assert margins["raw"] == pytest.approx(margins["extension"], abs=0.15)

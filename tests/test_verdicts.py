@@ -458,3 +458,21 @@ expect: {{stands: true}}
         margins[mode] = result.certificate.margin_mm
     assert margins["extension"] == pytest.approx(5.0 / c, abs=0.15)
     assert margins["raw"] == pytest.approx(margins["extension"], abs=0.15)
+
+
+@pytest.mark.parametrize("placed_x_mm, moved_x_mm", [(50.0, 70.0), (65.0, 75.0), (62.0, 61.9)])
+def test_a_brick_placed_off_its_support_is_measured_from_where_it_was_placed(placed_x_mm, moved_x_mm):
+    """A brick's centre of mass outside the support polygon it was placed on proves a collapse
+    when it went out there. One placed with its centre of mass already outside either tips at
+    once, going further out, or is held by something else (one end of a flat arch, by its
+    partner): that it lies outside proves nothing, and it was said to have "left its support
+    polygon" by the 1.9 mm it lay outside, 2 mm as placed. The polygon knows how far out it was
+    placed, and a collapse counts only the way it went further."""
+    from stackdsl.runtime.collapse import SupportPolygon
+
+    base = Pose(np.array([0.0, 0.0, 0.004]))
+    top = Pose(np.array([placed_x_mm / 1000, 0.0, 0.012]))
+    support = SupportPolygon(KAPLA, top, [(None, Plane(0.0), None), (1, KAPLA, base)])
+    assert support.placed_outside == pytest.approx(max(0.0, placed_x_mm - 60.0) / 1000)
+    moved = np.array([moved_x_mm / 1000, 0.0, 0.012])
+    assert support.outside(moved, {1: base}) == pytest.approx(max(0.0, moved_x_mm - 60.0) / 1000)

@@ -61,6 +61,12 @@ FACE_GAP = 0.001
 #: this within a step or two.
 OFF_SUPPORT = 0.0005
 
+#: Metres further out than it was placed that a brick placed with its centre of mass outside its
+#: support polygon must go for that to prove a collapse: an overhang placed 1.5 mm out is 0.27 mm
+#: further when a corner has moved the threshold's 4 mm; one end of a flat arch, held by its
+#: partner, sags without going further out.
+FURTHER_OFF = 0.0001
+
 
 @dataclass
 class _Displaced:
@@ -93,6 +99,7 @@ class SupportPolygon:
     pose: Pose
     below: list[tuple[int | None, Box | Plane, Pose | None]]
     _pieces: tuple[tuple[int | None, np.ndarray], ...] | None = None
+    _placed_outside: float | None = None
 
     @property
     def pieces(self) -> tuple[tuple[int | None, np.ndarray], ...]:
@@ -111,6 +118,30 @@ class SupportPolygon:
                 pieces.append((body, corners))
             self._pieces = tuple(pieces)
         return self._pieces
+
+    @property
+    def placed_outside(self) -> float:
+        """Metres the brick's centre of mass lay outside the polygon as it was placed (0 inside).
+        A brick placed so either tips at once (an overhang), its centre of mass going further
+        out, or is held by something else (one end of a flat arch by its partner), where lying
+        outside proves nothing: only how much further out it went counts."""
+        if self._placed_outside is None:
+            points = [
+                c if b is None or where is None else c @ where.rotation.T + where.position
+                for (b, c), where in self._placed_pieces()
+            ]
+            self._placed_outside = 0.0
+            if points:
+                hull = convex_hull(multipoints(np.vstack(points)[:, :2]))
+                x, y = (float(v) for v in self.pose.position[:2])
+                if not contains_xy(hull, x, y):
+                    self._placed_outside = float(hull.distance(Point(x, y)))
+        return self._placed_outside
+
+    def _placed_pieces(self) -> list[tuple[tuple[int | None, np.ndarray], Pose | None]]:
+        """Each piece with the pose its support had when the brick was placed."""
+        where = {body: pose for body, _, pose in self.below if body is not None}
+        return [((b, c), where.get(b) if b is not None else None) for b, c in self.pieces]
 
     def outside(
         self,
@@ -298,11 +329,23 @@ class CollapseMonitor(Subscriber):
                 proof = ("at rest displaced", f"{record.id} came to rest {distance * 1000:.1f} mm from its place", ())
             elif (mechanism := self._proved(record.id)) is not None:
                 proof = ("mechanism", f"{record.id} moves in {mechanism[0]}", mechanism[1])
-            elif (out := self._off_support(loop, record)) > OFF_SUPPORT:
-                proof = ("off its support", f"{record.id}'s centre of mass left its support polygon by {out * 1000:.1f} mm", ())
+            elif (out := self._off_support(loop, record)) > OFF_SUPPORT and out - (placed := self._placed_outside(record)) > (
+                FURTHER_OFF if placed > 0.0 else 0.0
+            ):
+                proof = (
+                    "off its support",
+                    f"{record.id}'s centre of mass lies {out * 1000:.1f} mm outside the support polygon it was placed on"
+                    + (f" ({placed * 1000:.1f} mm as it was placed)" if placed > 0.0 else ""),
+                    (),
+                )
             if proof is not None:
                 self._collapsed(loop, record, distance, proof)
                 return
+
+    def _placed_outside(self, record: BrickRecord) -> float:
+        """Metres ``record``'s centre of mass lay outside its support polygon as it was placed."""
+        support = self._supports.get(record.id)
+        return 0.0 if support is None else support.placed_outside
 
     def _off_support(self, loop: StepLoop, record: BrickRecord) -> float:
         """Metres ``record``'s centre of mass lies outside the support polygon it was placed on."""

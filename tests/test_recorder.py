@@ -249,3 +249,14 @@ def test_a_time_asked_for_gets_a_frame_at_its_step_even_in_a_quiet_wait():
     assert np.allclose(np.nan_to_num(shown.positions), np.nan_to_num(before.positions), atol=2 * POSITION_TOLERANCE)
     assert shown.state_names == before.state_names
     assert len(asked.times) <= len(plain.times) + 2
+
+
+def test_a_projectile_that_froze_is_recorded_frozen():
+    """A thrown brick that came to rest is frozen by the extension (a freeze event) and stays
+    so in the outcome's graph: the trajectory said "active" from its launch to the end."""
+    _, outcome, trajectory = recorded("scenarios/impact_level3.yaml")
+    freezes = [e.time for e in outcome.events if e.kind == "freeze" and e.brick == "hammer"]
+    assert freezes, "the hammer comes to rest and is frozen"
+    hammer = trajectory.ids.tolist().index("hammer")
+    assert trajectory.frame(-1).states[hammer] == FROZEN
+    assert trajectory.at(freezes[-1] - 0.2).states[hammer] == ACTIVE

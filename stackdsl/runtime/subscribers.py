@@ -70,8 +70,8 @@ class Stability(Subscriber):
                 loop.structure.set_moving(record, e.kind == "wake")
                 record.was_frozen = True
                 loop.structure.settle(record)
-            elif record is not None and e.kind == "wake":  # a pulled brick, out of the structure: simulated again
-                record.moving = True
+            elif record is not None and e.kind in ("freeze", "wake"):  # a projectile, or a brick pulled out
+                record.moving = e.kind == "wake"
             source = records.get(e.source)
             if e.kind != "impact" or (source is not None and not source.structure):
                 level = record.level if record is not None else None

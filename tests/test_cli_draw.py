@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
 import pytest
-from PIL import Image
+from PIL import Image, ImageSequence
 
 from stackdsl.cli import main as _cli
 from stackdsl.cli.main import main
@@ -119,11 +120,15 @@ def test_a_file_that_is_not_a_trajectory_and_mode_on_a_trajectory_are_bad_input(
     assert "--mode, --model and --backend apply to a scenario" in capsys.readouterr().err
 
 
-def test_animate_writes_a_gif_and_an_mp4(files):
+def test_animate_writes_a_gif_and_an_mp4(files, capsys):
     gif, mp4 = files / "x.gif", files / "x.mp4"
     assert main(["animate", str(files / "tips.yaml"), "-o", str(gif), "--size", "160x120"]) == 0
     with Image.open(gif) as image:
         assert image.n_frames > 10 and image.size == (160, 120)
+        played = sum(image.info["duration"] for _ in ImageSequence.Iterator(image)) / 1000
+    # the clip's length as said is the file's, its last picture's hold included
+    said = re.search(r"frames, ([0-9.]+) s at", capsys.readouterr().out)
+    assert said is not None and float(said.group(1)) == pytest.approx(played, abs=0.06)
     assert main(["animate", str(files / "tips.yaml"), "-o", str(mp4), "--size", "160x120"]) == 0
     assert mp4.read_bytes()[4:8] == b"ftyp"  # an MP4 container
 

@@ -282,7 +282,7 @@ def _render(args: argparse.Namespace) -> int:
 
 
 def _animate(args: argparse.Namespace) -> int:
-    from ..draw.animate import GIF_MAX_FPS, MAX_FRAMES, animate, check_pixel_work
+    from ..draw.animate import END_HOLD, GIF_MAX_FPS, MAX_FRAMES, animate, check_pixel_work
 
     started = time.perf_counter()
     if str(args.output).lower().endswith(".mp4") and not installed("video"):  # said before anything runs
@@ -298,10 +298,10 @@ def _animate(args: argparse.Namespace) -> int:
     def draw(trajectory: Any, out: Path, width: int, height: int) -> str:
         # TimeoutError: past --timeout, nothing written
         plan = animate(trajectory, out, fps=args.fps, width=width, height=height, deadline=deadline)
-        seconds = len(plan.frames) / args.fps
+        seconds = len(plan.frames) / args.fps + END_HOLD
         return (
-            f"a clip of {len(plan.frames)} frames, {seconds:.1f} s at {args.fps:g} a second, t = {plan.times[0]:.2f} "
-            f"to {plan.times[-1]:.2f} s simulated (x{plan.speeds.max():.3g} at most)"
+            f"a clip of {len(plan.frames)} frames, {seconds:.1f} s at {args.fps:g} a second (the last held {END_HOLD:g} s), "
+            f"t = {plan.times[0]:.2f} to {plan.times[-1]:.2f} s simulated (x{plan.speeds.max():.3g} at most)"
         )
 
     return _draw(args, (".gif", ".mp4"), "the clip", draw)

@@ -538,6 +538,7 @@ def _culled_run(monkeypatch, text: str, cull_from: int) -> tuple[object, int]:
     return outcome, most[0]
 
 
+@pytest.mark.slow  # two 30-level MuJoCo runs, 4 s: in .ci/run's slow part
 def test_frozen_bricks_out_of_reach_leave_mujocos_collisions_and_change_nothing(monkeypatch):
     """A frozen brick that nothing moving can reach within a step is out of MuJoCo's collision
     detection (its broad phase paired every two frozen neighbours, each step); a brick thrown

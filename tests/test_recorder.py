@@ -260,3 +260,23 @@ def test_a_projectile_that_froze_is_recorded_frozen():
     hammer = trajectory.ids.tolist().index("hammer")
     assert trajectory.frame(-1).states[hammer] == FROZEN
     assert trajectory.at(freezes[-1] - 0.2).states[hammer] == ACTIVE
+
+
+def test_a_brick_pulled_out_and_let_go_of_has_no_pose():
+    """A brick a hand pulls out of the tower and lets go of leaves the scene: the engine parks
+    it kilometres away, where a frame put it (-4999.5, -5000, 100 m), so that a reader's
+    minimum over the positions was -5 km. Absent, it has NaN for a pose, as before it entered."""
+    text = """stackdsl: 1
+structure: {tower: {levels: 3, bricks_per_layer: 3, spacing: 40 mm}}
+actions:
+  - remove: {brick: L02.2, at: after level 3, speed: 40 mm/s}
+timing: {settle: 1 s}
+"""
+    _, outcome, trajectory = recorded(text)
+    assert "L02.2" in outcome.removed
+    pulled = trajectory.ids.tolist().index("L02.2")
+    last = trajectory.frame(-1)
+    assert last.states[pulled] == ABSENT and np.isnan(last.positions[pulled]).all()
+    assert np.isnan(list(trajectory.frames())[-1].positions[pulled]).all()
+    others = np.delete(np.arange(len(trajectory.ids)), pulled)
+    assert np.abs(last.positions[others]).max() < 1.0  # every other body within a metre

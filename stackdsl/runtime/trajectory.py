@@ -63,13 +63,22 @@ ANGLE_TOLERANCE = 1e-4
 COLLAPSE_DELAY = 0.2
 
 
+def _absent(positions: np.ndarray, orientations: np.ndarray, states: np.ndarray) -> None:
+    """NaN, in place, where a body is absent: a brick taken out of the scene is recorded where
+    the engine parks it, kilometres away, which no reader should take for a pose."""
+    gone = states == ABSENT
+    if gone.any():
+        positions[gone], orientations[gone] = np.nan, np.nan
+
+
 @dataclass(frozen=True)
 class Frame:
     """Every body at one moment.
 
     Attributes:
         index: the frame's index; time: seconds.
-        positions: (bodies, 3), metres (NaN for a body not in the world yet).
+        positions: (bodies, 3), metres (NaN for a body absent: not in the world yet, or taken
+            out of the scene, as a brick a hand pulled out and let go of).
         orientations: (bodies, 4), unit quaternions (x, y, z, w) (NaN likewise).
         states: (bodies,), codes of :data:`STATES`.
         ground_offset: (3,), metres: how far a shake has moved the ground (and the fixtures
@@ -192,6 +201,7 @@ class Trajectory:
             last = upto - 1 - np.unique(bodies[::-1], return_index=True)[1]  # each body's last row
             b = bodies[last]
             positions[b], orientations[b], states[b] = self.row_position[last], self.row_orientation[last], self.row_state[last]
+        _absent(positions, orientations, states)
         return Frame(index, float(self.times[index]), positions, orientations, states, self.ground_offset[index].copy())
 
     def at(self, time: float) -> Frame:
@@ -214,7 +224,9 @@ class Trajectory:
             positions[b], orientations[b], states[b] = self.row_position[s], self.row_orientation[s], self.row_state[s]
             row = upto
             offset = self.ground_offset[index].copy()
-            yield Frame(index, float(self.times[index]), positions.copy(), orientations.copy(), states.copy(), offset)
+            shown, turned = positions.copy(), orientations.copy()
+            _absent(shown, turned, states)
+            yield Frame(index, float(self.times[index]), shown, turned, states.copy(), offset)
 
     # files --------------------------------------------------------------------
     def save(self, path: str | os.PathLike[str]) -> None:

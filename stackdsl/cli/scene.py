@@ -231,6 +231,10 @@ def _add_export(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -
     p.set_defaults(func=_export)
 
 
+#: What an exported file's name may end in, by kind.
+_EXPORT_SUFFIXES = {"mjcf": (".xml", ".mjcf"), "urdf": (".urdf", ".xml")}
+
+
 def _export(args: argparse.Namespace) -> int:
     from ..compile.program import Fixture, Launch, Place
     from ..draw.export import mjcf, recorded_engine, snapshot, urdf, write_text
@@ -243,6 +247,11 @@ def _export(args: argparse.Namespace) -> int:
         [Output(f"--{kind}", path, f"the {kind.upper()} file") for path, kind in given],
         [Input(args.file, "the file being exported")],
     )
+    for path, kind in given:  # as the drawings' outputs are: a file named for what it holds
+        if path.strip() and Path(path).suffix.lower() not in _EXPORT_SUFFIXES[kind]:
+            raise ScenarioError(
+                f"the {kind.upper()} file must end in {' or '.join(_EXPORT_SUFFIXES[kind])}", file=path, field=f"--{kind}"
+            )
     outputs = [(out, kind) for out, (_, kind) in zip(paths, given, strict=True)]
     program = _program(args)
     trajectory = trajectory_of(args)

@@ -474,5 +474,22 @@ def test_a_brick_placed_off_its_support_is_measured_from_where_it_was_placed(pla
     top = Pose(np.array([placed_x_mm / 1000, 0.0, 0.012]))
     support = SupportPolygon(KAPLA, top, [(None, Plane(0.0), None), (1, KAPLA, base)])
     assert support.placed_outside == pytest.approx(max(0.0, placed_x_mm - 60.0) / 1000)
+    assert support.placed_margin == pytest.approx((60.0 - placed_x_mm) / 1000)  # signed: inside the edge > 0
     moved = np.array([moved_x_mm / 1000, 0.0, 0.012])
     assert support.outside(moved, {1: base}) == pytest.approx(max(0.0, moved_x_mm - 60.0) / 1000)
+
+
+@pytest.mark.parametrize("shift_mm, near", [(59.7, True), (61.0, False)])
+def test_a_collapse_of_a_near_tie_says_so(shift_mm, near):
+    """A brick placed 0.3 mm inside its support's edge stands by statics; pybullet's 1 mm
+    collision margin tips it in the extension's settings (tuned and MuJoCo keep it). The
+    collapse is what the engine did, and its proof says the brick was a near tie; a brick
+    placed beyond the edge is no near tie."""
+    text = f"""stackdsl: 1
+structure: {{tower: {{levels: 2, bricks_per_layer: 1, turn: 0, shift: {shift_mm} mm}}}}
+timing: {{settle: 1 s}}
+"""
+    result = run_program(compile_scenario(parse_scenario(text)))
+    assert result.collapse is not None and result.certificate is not None
+    said = "placed 0.30 mm inside its support's edge: a near tie" in result.certificate.detail
+    assert said == near, result.certificate.detail

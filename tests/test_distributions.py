@@ -64,6 +64,24 @@ def test_a_distribution_draws_in_the_unit_written_and_the_field_checks_it():
     assert all(0.09 <= t.scenario(0, k).structure.tower.spacing <= 0.10 for k in range(20))  # metres inside
 
 
+@pytest.mark.parametrize(
+    "field, low, high",
+    [
+        ("shift: {uniform: [0, 20 mm]}", 0.0, 0.02),
+        ("shift: {uniform: [-2 cm, 0]}", -0.02, 0.0),
+        ("shift: {normal: {mean: 0, sd: 5 mm, clip: [0, 10 mm]}}", 0.0, 0.01),
+    ],
+)
+def test_a_bare_zero_in_a_distribution_is_zero_of_the_others_unit(field, low, high):
+    """0 is 0 in any unit: ``[0, 20 mm]`` was refused ("the same kind of unit, or none: '20 mm'
+    and 'no unit'"), where a new user writes it first. A bare number other than 0 among values
+    with units still is (the test above)."""
+    s = parse_scenario(f"stackdsl: 1\nstructure: {{tower: {{levels: 2, bricks_per_layer: 1, turn: 0, {field}}}}}\n", "t.yaml")
+    assert s.template is not None
+    values = [s.template.parameters(0, k)["structure.tower.shift [m]"] for k in range(30)]
+    assert all(low - 1e-12 <= v <= high + 1e-12 for v in values) and len(set(values)) > 1
+
+
 def test_a_drawn_field_of_a_named_part_is_named_by_the_part_as_require_names_it():
     text = """stackdsl: 1
 structure:

@@ -232,7 +232,7 @@ def _parse(node: dict[str, Any], path: FieldPath, source: SourceMap) -> Distribu
             ends = node[kind]
             if not isinstance(ends, list) or len(ends) != 2:
                 raise ValueError("expected [low, high], such as [90 mm, 100 mm]")
-            unit = split_quantity(ends[0])[1]
+            unit = _unit_of(ends)
             low, high = (in_unit(v, unit) for v in ends)
             if low > high:
                 raise ValueError(f"low {ends[0]!r} is above high {ends[1]!r}")
@@ -240,7 +240,7 @@ def _parse(node: dict[str, Any], path: FieldPath, source: SourceMap) -> Distribu
         spec = node[kind]
         if not isinstance(spec, dict) or not {"mean", "sd"} <= set(spec) or set(spec) - {"mean", "sd", "clip"}:
             raise ValueError("expected {mean: ..., sd: ...} and an optional clip: [low, high]")
-        unit = split_quantity(spec["mean"])[1]
+        unit = _unit_of([spec["mean"], spec["sd"], *(spec["clip"] if isinstance(spec.get("clip"), list) else [])])
         mean = in_unit(spec["mean"], unit)
         sd = in_unit(spec["sd"], unit)
         if sd < 0:
@@ -256,6 +256,19 @@ def _parse(node: dict[str, Any], path: FieldPath, source: SourceMap) -> Distribu
         return Distribution(path, "normal", (mean, sd, low, high), unit, per)
     except ValueError as exc:
         raise source.error(at, str(exc)) from None
+
+
+def _unit_of(values: list[Any]) -> str:
+    """The unit a distribution's values are written in: the first one's that has a unit (a bare
+    0 is 0 of any unit, so ``[0, 20 mm]`` is in mm); "" when none has."""
+    for v in values:
+        try:
+            unit = split_quantity(v)[1]
+        except ValueError:
+            continue
+        if unit:
+            return unit
+    return ""
 
 
 def sample_seed(seed: int, k: int, attempt: int = 0) -> np.random.SeedSequence:

@@ -380,10 +380,10 @@ def in_unit(value: Any, unit: str) -> float:
 
     Raises:
         ValueError: not a number or a quantity; a unit of another kind than ``unit``'s; a bare
-            number where ``unit`` is given, or a quantity where it is not.
+            number other than 0 where ``unit`` is given, or a quantity where it is not.
     """
     number, own = split_quantity(value)
-    if own == unit:
+    if own == unit or (number == 0.0 and not own):  # a bare 0 is 0 of any unit
         return number
     if not own or not unit:
         raise ValueError(

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from stability import Pose
-from stackdsl import ScenarioError, compile_scenario, evaluate, load_scenario, parse_scenario, run_program
+from stackdsl import ScenarioError, Subscriber, compile_scenario, evaluate, load_scenario, parse_scenario, run_program
 from stackdsl.engines.mujoco.materials import damping_ratio
 from stackdsl.engines.mujoco.settings import MuJoCoSettings
 from stackdsl.engines.mujoco.world import MuJoCoWorld
@@ -63,6 +63,84 @@ def test_restitution_becomes_a_damping_ratio_whose_bounce_is_that_restitution():
     for e in (0.1, 0.5, 0.9):
         zeta = damping_ratio(e, 1.0)
         assert math.exp(-zeta * math.pi / math.sqrt(1 - zeta**2)) == pytest.approx(e)
+
+
+@pytest.mark.parametrize("mode", ["tuned", "extension"])
+def test_with_no_hand_a_step_is_mujocos_own(mode):
+    """The hand's blows and the limit on what friction is asked apply to the hand and what it
+    struck: a brick thrown along the ground (it skips, as MuJoCo's own contact does) steps
+    bit for bit as mj_step steps a copy."""
+    import mujoco
+
+    world = _world(mode)
+    body = world.create(_brick(), Pose.from_euler([0.0, 0.0, 0.004]))
+    for _ in range(50):
+        world.step()
+    world.throw(body, (1.0, 0.0, 0.0), None)
+    m, d = world._ready()
+    copy_data = copy.copy(d)
+    for _ in range(200):
+        world.step()
+        mujoco.mj_step(m, copy_data)
+    np.testing.assert_array_equal(d.qpos, copy_data.qpos)
+    np.testing.assert_array_equal(d.qvel, copy_data.qvel)
+
+
+class _Path(Subscriber):
+    """The last centre of brick ``brick`` and its highest once the push has begun."""
+
+    def __init__(self, brick: str) -> None:
+        self.brick, self.top, self.last = brick, -math.inf, (math.nan, math.nan, math.nan)
+
+    def after_step(self, loop) -> None:
+        record = loop.structure.records.get(self.brick)
+        if record is not None:
+            self.last = loop.world.pose_floats(record.body)[0]
+            if "pusher1" in loop.structure.records:
+                self.top = max(self.top, self.last[2])
+
+
+@pytest.mark.parametrize("mode", ["tuned", "extension"])
+@pytest.mark.parametrize(("speed", "pusher", "height"), [(0.5, "finger", 0), (1.0, None, 0), (1.5, "finger", 2)])
+def test_a_pushed_brick_slides_as_far_as_coulomb_says_and_stays_on_the_ground(mode, speed, pusher, height):
+    """A KAPLA brick lying on the ground, pushed end on: the pusher meets it after its 5 mm gap,
+    carries it the other 25 mm of its stroke, is withdrawn, and the brick slides v^2 / (2 mu g)
+    more. MuJoCo started the brick's slip within the step the pusher met it, and so threw it
+    up at mu times its speed and forward faster than the pusher: at 1 m/s 28 mm high and 300 mm
+    on instead of 127 (a domino beyond its reach fell). The pusher's default is a KAPLA brick
+    itself; the finger is 20 x 10 x 6 mm, pushing at the brick's centre or 2 mm above."""
+    text = (
+        "stackdsl: 1\nbrick_types: {finger: {size: [20 mm, 10 mm, 6 mm]}}\n"
+        "structure: {bricks: [{id: b, at: [0, 0, 4 mm]}]}\n"
+        f"actions:\n  - push: {{target: {{brick: b, offset: [-60 mm, 0, {height} mm]}}, direction: [1, 0, 0], "
+        f"speed: {speed} m/s, distance: 30 mm, at: after level 1{f', pusher: {pusher}' if pusher else ''}}}\n"
+        f"engine: {{backend: mujoco, mode: {mode}}}\ntiming: {{settle: 2 s}}\n"
+    )
+    path = _Path("b")
+    run_program(compile_scenario(parse_scenario(text, "push.yaml")), subscribers=(path,))
+    slid = 0.030 - 0.005 + speed**2 / (2 * 0.5 * G)
+    assert path.last[0] == pytest.approx(slid, abs=0.003 + 0.04 * slid)
+    assert path.top - 0.004 < 0.0008
+
+
+@pytest.mark.parametrize("mode", ["tuned", "extension"])
+def test_a_brick_pushed_from_under_another_leaves_it_on_top(mode):
+    """The lower of two KAPLA bricks pushed end on at 1 m/s slides out from under the upper one,
+    which friction drags along at mu g: neither leaves its level. MuJoCo threw the upper one
+    72 mm high and the lower one 300 mm on."""
+    text = (
+        "stackdsl: 1\nbrick_types: {finger: {size: [20 mm, 10 mm, 6 mm]}}\n"
+        "structure: {bricks: [{id: b, at: [0, 0, 4 mm], level: 1}, {id: t, at: [10 mm, 3 mm, 12 mm], level: 2}]}\n"
+        "actions:\n  - push: {target: {brick: b, offset: [-60 mm, 0, 0]}, direction: [1, 0, 0], "
+        "speed: 1.0 m/s, distance: 30 mm, at: after level 2, pusher: finger}\n"
+        f"engine: {{backend: mujoco, mode: {mode}}}\ntiming: {{settle: 2 s}}\n"
+    )
+    low, high = _Path("b"), _Path("t")
+    run_program(compile_scenario(parse_scenario(text, "push.yaml")), subscribers=(low, high))
+    assert low.top - 0.004 < 0.0008 and high.top - 0.012 < 0.001
+    # braked at 3 mu g at most (its load and the upper one's drag), and by the upper one too
+    assert 0.025 + 1.0 / (6 * 0.5 * G) < low.last[0] < 0.025 + 1.0 / (2 * 0.5 * G)
+    assert high.last[2] > 0.010  # still on it
 
 
 @pytest.mark.parametrize("mode", ["raw", "tuned", "extension"])

@@ -540,6 +540,9 @@ class MuJoCoWorld(World):
         hands = [body for body, grip in self._guided.items() if grip is not None]
         integrate = mj.mj_implicit if self._engine.integrator == "implicitfast" else mj.mj_Euler
         for _ in range(self._substeps):  # mj_step, stage by stage (as mj_step1 and mj_step2 run it)
+            if not hands and not self._struck:  # nothing a hand does: mj_step itself, one call
+                mj.mj_step(m, d)
+                continue
             mj.mj_step1(m, d)  # positions, contacts, velocities and the contacts' reference accelerations
             if hands and self._blows(m, d, hands):
                 mj.mj_fwdVelocity(m, d)  # the velocities changed: their reference accelerations again

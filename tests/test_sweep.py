@@ -45,7 +45,7 @@ def test_every_executor_gives_the_same_per_sample_results():
     assert [(r.cell, r.sample) for r in here] == [(0, k) for k in range(12)]
     assert not any(r.error or r.bad_input or r.stopped for r in here)
     pool = collect(run_sweep(t, jobs=2))
-    with dask_executor("local:2") as (executor, threads):
+    with dask_executor("local:2") as (executor, threads, _):
         assert threads == 2
         dask = collect(run_sweep(t, executor=executor, workers=threads))
     assert without_wall_time(here) == without_wall_time(pool) == without_wall_time(dask)

@@ -22,7 +22,7 @@ from collections.abc import Callable, Generator, Iterable, Iterator, Sequence
 from concurrent.futures import Executor
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 from ..compile.compiler import compile_scenario
 from ..lang.errors import ScenarioError, format_path
@@ -364,8 +364,27 @@ def _lost(task: tuple[Any, ...], error: WorkerLost) -> list[SampleResult]:
     ]
 
 
+class ClusterLost(RuntimeError):
+    """The Dask scheduler went away in the middle of a sweep: the client's connection to it
+    closed, and the batches it held were cancelled with it. The message is one line."""
+
+    def __init__(self, address: str) -> None:
+        self.address = address
+        super().__init__(f"the Dask scheduler at {address} went away")
+
+
+class DaskCluster(NamedTuple):
+    """What :func:`dask_executor` gives: the cluster's executor, its worker threads when it
+    was reached (for cutting a sweep into batches), and ``connected()``, the workers connected
+    to the scheduler now, by the client's latest word from it (never waits; None: not known)."""
+
+    executor: Executor
+    threads: int
+    connected: Callable[[], int | None]
+
+
 @contextmanager
-def dask_executor(address: str, on_lost: Callable[[list[str]], None] | None = None) -> Iterator[tuple[Executor, int]]:
+def dask_executor(address: str, on_lost: Callable[[list[str]], None] | None = None) -> Iterator[DaskCluster]:
     """A Dask cluster's executor and how many worker threads it has: ``address`` is a
     scheduler's (``tcp://host:8786``, through ``distributed.Client``) or ``local:N``, which starts
     a ``LocalCluster`` of N single-threaded worker processes here (closed on exit), with
@@ -375,11 +394,15 @@ def dask_executor(address: str, on_lost: Callable[[list[str]], None] | None = No
     A worker that dies mid-sweep loses nothing: the scheduler runs the batches it held again on
     the others (a batch is a pure function of its samples, so its results are the same).
     ``on_lost`` is called at the end with the addresses of the workers that left meanwhile.
+    While the client is open, distributed's own log records below CRITICAL are not printed
+    (its reconnection attempts log whole tracebacks): what matters is said by the caller.
 
     Raises:
         ValueError: a malformed address (:func:`stackdsl.batch.address.parse_address`).
         OSError: no scheduler answers there, or what answers is not one.
         ScenarioError: Dask's distributed is not installed (the ``dask`` extra).
+        ClusterLost: raised out of the ``with`` body when the scheduler went away meanwhile
+            (whatever the body raised, a cancelled future most often).
     """
     if not installed("dask"):
         raise ScenarioError(missing("dask", "a sweep on a Dask cluster"), file="--dask")
@@ -388,42 +411,85 @@ def dask_executor(address: str, on_lost: Callable[[list[str]], None] | None = No
     from distributed import Client, LocalCluster
 
     cluster, scratch = None, None
-    try:
-        if address.startswith("local:"):
-            # the workers' scratch space in a folder of this run's, removed at the end
-            scratch = tempfile.mkdtemp(prefix="stackdsl-dask-")
-            settings = LOCAL_CLUSTER_CONFIG | {
-                "distributed.nanny.pre-spawn-environ": _worker_environment(),
-                "temporary-directory": scratch,  # nothing of Dask's is left in $TMPDIR
-            }
-            # our own workers' restarts and shutdown are not the user's news: errors only
-            logging.getLogger("distributed").setLevel(logging.ERROR)
-            with dask.config.set(settings):
-                cluster = LocalCluster(
-                    n_workers=int(address.removeprefix("local:")),
-                    threads_per_worker=1,
-                    processes=True,
-                    dashboard_address=":0",  # its HTTP server on a free port: no warning when 8787 is taken
-                    local_directory=scratch,
-                )
-            client = Client(cluster)
-        else:
-            client = _connect(Client, address)
+    with _quiet_distributed():
         try:
-            workers = client.nthreads()
-            threads = sum(workers.values()) or 1
-            yield client.get_executor(pure=False), threads
-            if on_lost is not None:
-                lost = sorted(set(workers) - set(client.nthreads()))
-                if lost:
-                    on_lost(lost)
+            if address.startswith("local:"):
+                # the workers' scratch space in a folder of this run's, removed at the end
+                scratch = tempfile.mkdtemp(prefix="stackdsl-dask-")
+                settings = LOCAL_CLUSTER_CONFIG | {
+                    "distributed.nanny.pre-spawn-environ": _worker_environment(),
+                    "temporary-directory": scratch,  # nothing of Dask's is left in $TMPDIR
+                }
+                # our own workers' restarts and shutdown are not the user's news: errors only
+                logging.getLogger("distributed").setLevel(logging.ERROR)
+                with dask.config.set(settings):
+                    cluster = LocalCluster(
+                        n_workers=int(address.removeprefix("local:")),
+                        threads_per_worker=1,
+                        processes=True,
+                        dashboard_address=":0",  # its HTTP server on a free port: no warning when 8787 is taken
+                        local_directory=scratch,
+                    )
+                client = Client(cluster)
+            else:
+                client = _connect(Client, address)
+            try:
+                workers = client.nthreads()
+                threads = sum(workers.values()) or 1
+                try:
+                    yield DaskCluster(client.get_executor(pure=False), threads, lambda: _connected(client))
+                except Exception:
+                    if client.status != "running":  # the connection closed: its futures were cancelled
+                        raise ClusterLost(address) from None
+                    raise
+                if on_lost is not None:
+                    lost = sorted(set(workers) - set(client.nthreads()))
+                    if lost:
+                        on_lost(lost)
+            finally:
+                client.close()
         finally:
-            client.close()
+            if cluster is not None:
+                cluster.close()
+            if scratch is not None:
+                shutil.rmtree(scratch, ignore_errors=True)
+
+
+def _connected(client: Any) -> int | None:
+    """The workers connected to ``client``'s scheduler, from the identity the client asks it
+    for every ``distributed.client.scheduler-info-interval`` (2 s; asking here could wait on
+    a scheduler that is gone); None when the client has none or is not connected."""
+    if client.status != "running":
+        return None
+    count = getattr(client, "_scheduler_identity", {}).get("n_workers")
+    return count if isinstance(count, int) else None
+
+
+class _BelowCritical(logging.Filter):
+    """Drops distributed's log records below CRITICAL."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return not (record.name.startswith("distributed") and record.levelno < logging.CRITICAL)
+
+
+@contextmanager
+def _quiet_distributed() -> Iterator[None]:
+    """No record of distributed's below CRITICAL is printed meanwhile: its loggers carry levels
+    of their own (``distributed.client``: warning), so the filter is on the handlers, the one
+    distributed adds to its ``distributed`` logger and the root's."""
+    import distributed  # noqa: F401  (its import sets up its logging handler)
+
+    quiet = _BelowCritical()
+    handlers = [*logging.getLogger("distributed").handlers, *logging.getLogger().handlers, logging.lastResort]
+    for handler in handlers:
+        if handler is not None:
+            handler.addFilter(quiet)
+    try:
+        yield
     finally:
-        if cluster is not None:
-            cluster.close()
-        if scratch is not None:
-            shutil.rmtree(scratch, ignore_errors=True)
+        for handler in handlers:
+            if handler is not None:
+                handler.removeFilter(quiet)
 
 
 def _connect(client: Any, address: str) -> Any:

@@ -91,7 +91,7 @@ def throughputs(t: Template, each: Callable[[Throughput], None] = lambda row: No
         rows.append(Throughput(f"{jobs} process{'es' * (jobs > 1)} (-j {jobs})", samples, time.perf_counter() - start, startup))
         each(rows[-1])
     start = time.perf_counter()
-    with dask_executor("local:2") as (executor, threads):
+    with dask_executor("local:2") as (executor, threads, _):
         warm = [executor.submit(run_batch, t, 0, [0], options) for _ in range(threads)]
         for future in warm:  # each worker imports stackdsl and pybullet once
             future.result()

@@ -5,7 +5,8 @@ with the time left, and each line printed goes above it; elsewhere (a pipe, a fi
 pytest's capture) lines are printed plainly, one at a time, flushed, with no progress bar, and
 a line on standard error every :data:`EVERY` seconds says how far the work is
 (``sweep: 120 of 2000 done (6%), 45 s, about 12 min left``), so that a long sweep piped to a
-file or run in CI does not look stuck.
+file or run in CI does not look stuck. A ``status`` callable, asked as often, says why the
+work is not moving (a Dask scheduler with no worker): its text replaces the time left.
 
 Source: stackdsl's own, on rich.progress.
 """
@@ -16,6 +17,7 @@ import os
 import sys
 import threading
 import time
+from collections.abc import Callable
 from types import TracebackType
 from typing import IO, TYPE_CHECKING
 
@@ -48,18 +50,23 @@ def progress_seconds() -> float:
         return EVERY
 
 
-def progress_text(description: str, done: int, total: int, elapsed: float) -> str:
+def progress_text(description: str, done: int, total: int, elapsed: float, status: str | None = None) -> str:
     """A progress line: ``'sweep: 120 of 2000 done (6%), 45 s, about 12 min left'`` (the time
-    left from the rate so far; none before the first item is done).
+    left from the rate so far; none before the first item is done); a ``status`` (why nothing
+    moves) in place of the time left.
 
     >>> progress_text("sweep", 120, 2000, 45.0)
     'sweep: 120 of 2000 done (6%), 45 s, about 12 min left'
     >>> progress_text("check", 0, 29, 10.0)
     'check: 0 of 29 done (0%), 10 s'
+    >>> progress_text("sweep", 120, 2000, 45.0, "no worker connected to the scheduler: waiting")
+    'sweep: 120 of 2000 done (6%), 45 s; no worker connected to the scheduler: waiting'
     """
     share = done / total if total else 1.0
     text = f"{description}: {done} of {total} done ({share:.0%}), {_duration(elapsed)}"
-    if 0 < done < total:
+    if status:
+        text += f"; {status}"
+    elif 0 < done < total:
         text += f", about {_duration(elapsed * (total - done) / done)} left"
     return text
 
@@ -83,15 +90,25 @@ class Lines:
         live: show the live progress line (default: :func:`is_live` of ``file``).
         every: without the live line, seconds between two progress lines on standard error
             (default: :func:`progress_seconds`; 0: none).
+        status: asked at each progress line (and every second on the live line): None while
+            the work moves, else why it does not, said on the progress line. It must not
+            wait (it runs on the progress thread).
     """
 
     def __init__(
-        self, total: int, description: str, file: IO[str] | None = None, live: bool | None = None, every: float | None = None
+        self,
+        total: int,
+        description: str,
+        file: IO[str] | None = None,
+        live: bool | None = None,
+        every: float | None = None,
+        status: Callable[[], str | None] | None = None,
     ) -> None:
         self.file = file if file is not None else sys.stdout
         self.live = is_live(self.file) if live is None else live
         self.total, self.description, self.done = total, description, 0
         self.every = progress_seconds() if every is None else every
+        self.status = status
         self._started = time.monotonic()
         self._stop = threading.Event()
         self._ticker: threading.Thread | None = None
@@ -127,6 +144,9 @@ class Lines:
         self._started = time.monotonic()
         if self._progress is not None:
             self._progress.start()
+            if self.status is not None:
+                self._ticker = threading.Thread(target=self._tick_live, name="stackdsl-progress", daemon=True)
+                self._ticker.start()
         elif self.every > 0 and self.total > 0:
             self._ticker = threading.Thread(target=self._tick, name="stackdsl-progress", daemon=True)
             self._ticker.start()
@@ -142,11 +162,19 @@ class Lines:
     def _tick(self) -> None:
         """Every :attr:`every` seconds until the work ends, a progress line on standard error."""
         while not self._stop.wait(self.every):
-            text = progress_text(self.description, self.done, self.total, time.monotonic() - self._started)
+            status = self.status() if self.status is not None else None
+            text = progress_text(self.description, self.done, self.total, time.monotonic() - self._started, status)
             try:
                 print(text, file=sys.stderr, flush=True)
             except (OSError, ValueError):  # standard error closed: nothing more to say
                 return
+
+    def _tick_live(self) -> None:
+        """Every second until the work ends, the status in the live line's description."""
+        while not self._stop.wait(1.0):
+            status = self.status() if self.status is not None else None
+            if self._progress is not None and self._task is not None:
+                self._progress.update(self._task, description=f"{self.description} ({status})" if status else self.description)
 
     def line(self, text: str) -> None:
         """Print ``text`` (above the progress line when live)."""

@@ -9,12 +9,14 @@ import argparse
 import re
 import sys
 import time
+from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 from typing import Any
 
 from ..lang.errors import ScenarioError
 from ..lang.extras import installed, missing
-from .args import COMMANDS, add_seed, output_folder
+from .args import COMMANDS, INTERNAL, add_seed, output_folder
 from .outputs import Input, Output, check_outputs
 
 
@@ -66,7 +68,7 @@ def add_sweep(
 
 
 def _sweep(args: argparse.Namespace) -> int:
-    from ..batch.sweep import SweepOptions, collect, compile_bounds, compile_cells, dask_executor, run_sweep
+    from ..batch.sweep import ClusterLost, SweepOptions, collect, compile_bounds, compile_cells, dask_executor, run_sweep
     from ..batch.sweep_out import file_names, report, verdicts, write_plots, write_samples
     from ..lang.loader import load_scenario
     from .progress import Lines
@@ -104,20 +106,31 @@ def _sweep(args: argparse.Namespace) -> int:
     if out is None:  # a new folder of this user's only (mode 0700), never a shared, predictable path
         out = output_folder(None, f"stackdsl-sweep-{_safe(Path(args.file).stem)}-")
 
-    def run(where: str, **executor: Any) -> list[Any]:
+    done = [0]  # samples back so far (said when a Dask scheduler goes away)
+
+    def run(where: str, status: Callable[[], str | None] | None = None, **executor: Any) -> list[Any]:
         print(
             f"stackdsl sweep: {_count(template.cells, 'cell')} x {_count(template.samples, 'sample')}, {engine}, on {where}, "
             f"writing to {out}" + (f" (replacing {', '.join(earlier)} of an earlier sweep there)" if earlier else ""),
             flush=True,
         )
-        with Lines(total, "sweep") as lines:
+
+        def each(batch: list[Any]) -> None:
+            done[0] += len(batch)
+            lines.advance(len(batch))
+
+        with Lines(total, "sweep", status=status) as lines:
             batches = run_sweep(template, options, **executor)
-            return collect(batches, lambda batch: lines.advance(len(batch)), stop_at_bad_input=True)
+            return collect(batches, each, stop_at_bad_input=True)
 
     if args.dask:
         try:
-            with dask_executor(args.dask, _say_lost) as (executor, threads):  # reached before anything is said
-                results = run(f"Dask {args.dask}", executor=executor, workers=threads)
+            with dask_executor(args.dask, _say_lost) as (executor, threads, connected):  # reached before anything is said
+                results = run(f"Dask {args.dask}", partial(_no_worker, connected), executor=executor, workers=threads)
+        except ClusterLost as exc:  # as a worker lost from stackdsl's own pool: the run is cut short, exit 3
+            _forget(out, made)
+            print(f"stackdsl: {exc} after {done[0]} of {total} samples; nothing written", file=sys.stderr)
+            return INTERNAL
         except ValueError as exc:
             _forget(out, made)
             raise ScenarioError(str(exc), file="--dask") from None
@@ -177,6 +190,11 @@ def _dask_address(text: str) -> str:
         return parse_address(text)
     except ValueError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def _no_worker(connected: Callable[[], int | None]) -> str | None:
+    """The progress line's status on a Dask cluster: said while no worker is connected."""
+    return "no worker connected to the scheduler: waiting for one" if connected() == 0 else None
 
 
 def _say_lost(workers: list[str]) -> None:

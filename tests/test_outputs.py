@@ -242,3 +242,27 @@ def test_a_sweep_into_the_folder_of_an_earlier_one_says_it_replaces_its_files(tm
         f"writing to {out} (replacing samples.csv, samples.jsonl, samples.parquet, histogram.png of an earlier sweep there)"
     )
     assert (out / "samples.csv").read_text().startswith("cell,")
+
+
+def test_a_sweep_over_an_earlier_grid_sweep_leaves_none_of_its_files_and_nothing_else_is_touched(tmp_path, capsys):
+    grid = SWEEP.replace("sweep: {samples: 2}", "sweep: {samples: 2, grid: {timing.drop_gap: [0.5 mm, 1 mm, 2 mm]}}")
+    (tmp_path / "grid.yaml").write_text(grid)
+    (tmp_path / "one.yaml").write_text(SWEEP)
+    out = tmp_path / "o"
+    assert main(["sweep", str(tmp_path / "grid.yaml"), "--out", str(out), "-j", "1"]) == 0
+    capsys.readouterr()
+    grid_files = {p.name for p in out.iterdir()}
+    assert {"histogram_0.png", "histogram_2.png", "grid_p_stands.png", "grid_mean.png"} <= grid_files
+    (out / "notes.txt").write_text("mine")  # the user's own, and names no sweep writes
+    (out / "histogram_99.png").write_text("mine too")
+    (out / "histogram_1.png").unlink()
+    (out / "histogram_1.png").mkdir()  # a folder of a sweep file's name is not a file of an earlier sweep
+    assert main(["sweep", str(tmp_path / "one.yaml"), "--out", str(out), "-j", "1"]) == 0
+    first = capsys.readouterr().out.splitlines()[0]
+    assert {p.name for p in out.iterdir()} == {
+        *("samples.csv", "samples.jsonl", "samples.parquet", "histogram.png"),
+        *("notes.txt", "histogram_99.png", "histogram_1.png"),
+    }
+    for name in sorted(grid_files - {"histogram_1.png"}):
+        assert name in first  # said as replaced, and it is: gone, or written anew
+    assert (out / "notes.txt").read_text() == "mine" and (out / "histogram_1.png").is_dir()

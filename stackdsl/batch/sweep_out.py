@@ -20,7 +20,7 @@ from __future__ import annotations
 import csv
 import itertools
 import json
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -217,6 +217,28 @@ def file_names(cells: int) -> tuple[str, ...]:
     """
     histograms = ["histogram.png"] if cells == 1 else [_histogram_name(cells, c) for c in range(min(cells, MAX_HISTOGRAMS))]
     return ("samples.csv", "samples.jsonl", "samples.parquet", *histograms, "grid_p_stands.png", "grid_mean.png")
+
+
+def any_sweep_files() -> tuple[str, ...]:
+    """The names of the files any sweep may write into its folder, whatever its cells: those of
+    an earlier sweep there that this one does not write are its leftovers (:func:`remove_leftovers`)."""
+    histograms = [_histogram_name(2, c) for c in range(MAX_HISTOGRAMS)]
+    return (*file_names(1), *histograms)
+
+
+def remove_leftovers(folder: Path, ours: Iterable[Path | str]) -> list[str]:
+    """Remove from ``folder`` the files an earlier sweep wrote there (:func:`any_sweep_files`)
+    that are not in ``ours`` (this sweep's), so that the folder holds one sweep's files; only
+    files of those names, never anything else of the user's (a folder of such a name is left).
+    The names removed, in :func:`any_sweep_files`' order."""
+    kept = {Path(w).name for w in ours}
+    removed = []
+    for name in any_sweep_files():
+        path = folder / name
+        if name not in kept and (path.is_symlink() or path.is_file()):
+            path.unlink(missing_ok=True)  # a link itself, never what it points to
+            removed.append(name)
+    return removed
 
 
 def _histogram_name(cells: int, c: int) -> str:

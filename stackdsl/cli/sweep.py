@@ -58,7 +58,8 @@ def add_sweep(
     p.add_argument(
         "--out",
         default=None,
-        help="folder for the files, made if missing; the files of an earlier sweep there are replaced (default: a new "
+        help="folder for the files, made if missing; the files of an earlier sweep there are replaced, and those this one "
+        "does not write removed (default: a new "
         "private folder stackdsl-sweep-NAME-* in the temporary directory)",
     )
     p.add_argument("--mode", choices=modes, help="override the scenario's engine mode")
@@ -69,7 +70,7 @@ def add_sweep(
 
 def _sweep(args: argparse.Namespace) -> int:
     from ..batch.sweep import ClusterLost, SweepOptions, collect, compile_bounds, compile_cells, dask_executor, run_sweep
-    from ..batch.sweep_out import file_names, report, verdicts, write_plots, write_samples
+    from ..batch.sweep_out import any_sweep_files, file_names, remove_leftovers, report, verdicts, write_plots, write_samples
     from ..lang.loader import load_scenario
     from .progress import Lines
 
@@ -92,7 +93,8 @@ def _sweep(args: argparse.Namespace) -> int:
             [Output("--out", args.out, "the sweep's output", folder=True, inside=file_names(template.cells))],
             [Input(args.file, "the scenario swept")],
         )
-        earlier = [name for name in file_names(template.cells) if (out / name).is_file()]
+        # every file an earlier sweep may have left, also those this one does not write: removed once it has written its own
+        earlier = [name for name in any_sweep_files() if (out / name).is_file()]
     options = SweepOptions(args.mode, args.model, args.oracle, args.timeout, args.backend)
     # as check does: what the compiler refuses in any cell is bad input, said before anything runs
     tops = compile_cells(template, options.mode, options.model, options.backend, range(template.cells), options.timeout)
@@ -155,6 +157,7 @@ def _sweep(args: argparse.Namespace) -> int:
         return 2
     table, jsonl = write_samples(results, out)
     plots = write_plots(template, results, levels_built or 0, out, scenario.expect)
+    remove_leftovers(out, [table, jsonl, "samples.parquet", *plots])  # the folder holds this sweep's files alone
     for line in report(template, scenario.expect, results, levels_built or 0):
         print(line)
     print(

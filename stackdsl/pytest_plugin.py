@@ -250,7 +250,7 @@ def _run_scenario_item(request: pytest.FixtureRequest, scenario_golden: Any) -> 
     stored = scenario_golden_path(path)
     unusable = _unusable_golden(path, stored, config)
     if unusable:  # before anything runs, and before syrupy reads, compares or writes it
-        pytest.fail(f"{path.name}: {unusable}", pytrace=False)
+        pytest.fail(f"{shown}: {unusable}", pytrace=False)
     if scenario.sweep is not None:
         _sweep_test(request, scenario, program, shown, scenario_golden)
         return
@@ -264,7 +264,7 @@ def _run_scenario_item(request: pytest.FixtureRequest, scenario_golden: Any) -> 
     failed = [v for v in verdicts if not v.passed]
     lines: list[str] = []
     if failed:
-        lines = [line if v.at else f"{path.name}: {line}" for v in failed for line in v.lines()]
+        lines = [line if v.at else f"{shown}: {line}" for v in failed for line in v.lines()]
         lines += [f"  {line}" for line in explain(scenario.expect, outcome, program.collapse_threshold)]
         lines.append(f"more: stackdsl run {shlex.quote(shown)}")
         lines += _kept_golden(request, scenario_golden, path, outcome.golden())
@@ -273,7 +273,7 @@ def _run_scenario_item(request: pytest.FixtureRequest, scenario_golden: Any) -> 
     elif not scenario_golden == outcome.golden():
         with disable_color():  # plain text: the message also goes to JUnit XML and CI logs
             diff = scenario_golden.get_assert_diff()
-        lines = [f"{path.name}: the outcome differs from {_shown(stored, config)}", *diff, UPDATE_HINT]
+        lines = [f"{shown}: the outcome differs from {_shown(stored, config)}", *diff, UPDATE_HINT]
     if trajectory is not None and (lines or pictures == "on"):
         kept = _keep_pictures(trajectory, path, config)
         if lines:  # a failure: say where to look
@@ -302,7 +302,7 @@ def _sweep_test(request: pytest.FixtureRequest, scenario: Any, program: Any, sho
     golden = {"scenario": program.name, "mode": program.engine.mode, "samples": template.samples}
     for c, rs in enumerate(by_cell(results, template.cells)):
         golden[f"cell {c}"] = {"grid": template.cell(c), "collapse_levels": [r.collapse_level for r in rs]}
-    lines = failure_lines(template, scenario.expect, verdicts(template, scenario.expect, results), f"{path.name}: ")
+    lines = failure_lines(template, scenario.expect, verdicts(template, scenario.expect, results), f"{shown}: ")
     if lines:
         lines.append(f"more: stackdsl sweep {shlex.quote(shown)}")
         pytest.fail("\n".join([*lines, *_kept_golden(request, scenario_golden, path, golden)]), pytrace=False)
@@ -312,7 +312,7 @@ def _sweep_test(request: pytest.FixtureRequest, scenario: Any, program: Any, sho
         with disable_color():
             diff = scenario_golden.get_assert_diff()
         where = _shown(scenario_golden_path(path), request.config)
-        pytest.fail("\n".join([f"{path.name}: the samples differ from {where}", *diff, UPDATE_HINT]), pytrace=False)
+        pytest.fail("\n".join([f"{shown}: the samples differ from {where}", *diff, UPDATE_HINT]), pytrace=False)
 
 
 def _unusable_golden(path: Path, stored: Path, config: pytest.Config) -> str:
@@ -379,7 +379,7 @@ def _no_golden_yet(request: pytest.FixtureRequest, path: Path, shown: str) -> st
         return ""
     where = _shown(stored, request.config)
     again = shlex.join(["pytest", *request.config.invocation_params.args, "--snapshot-update"])  # as it was run
-    return f"{Path(shown).name}: no golden yet ({where}): run with --snapshot-update to write it ({again})"
+    return f"{shown}: no golden yet ({where}): run with --snapshot-update to write it ({again})"
 
 
 def _keep_pictures(trajectory: Any, path: Path, config: pytest.Config) -> str:
@@ -531,7 +531,7 @@ def golden(snapshot: Any, request: pytest.FixtureRequest) -> Any:
             return _shown(p, request.config)
 
         pytest.fail(
-            f"{source.name}: no goldens at {show(stored)}/, but {show(found)}/ holds this test file's "
+            f"{show(source)}: no goldens at {show(stored)}/, but {show(found)}/ holds this test file's "
             f"({where_goldens_go(source, show)}): move that folder to {show(stored)}/",
             pytrace=False,
         )

@@ -266,6 +266,9 @@ def test_a_sweep_file_is_one_item_decided_by_its_interval_with_every_sample_in_i
         "scenarios/walk.yaml:11:3: expect.p_stands: FAIL: expected P(stands) >= 0.99" in out
         and "more: stackdsl sweep scenarios/walk.yaml" in out
     )
+    write(project, "walk", SWEEP.format(bound="<= 0.95").replace("samples: 12}", "samples: 11}"))  # passes, other samples
+    out = project.runpytest().stdout.str()
+    assert "scenarios/walk.yaml: the samples differ from golden/scenarios/walk.json" in out
 
 
 def test_a_golden_that_is_a_folder_fails_its_item_in_one_line(project):
@@ -292,7 +295,8 @@ def test_a_missing_golden_says_to_run_with_snapshot_update(project):
     result = project.runpytest()
     result.assert_outcomes(failed=1)
     out = result.stdout.str()
-    assert "tower.yaml: no golden yet (golden/scenarios/tower.json): run with --snapshot-update to write it" in out
+    # the file as typed where pytest ran, as an expectation failure names it
+    assert "scenarios/tower.yaml: no golden yet (golden/scenarios/tower.json): run with --snapshot-update to write it" in out
     assert re.search(r"write it \(pytest .*--snapshot-update\)", out)  # this run's command, with the option
     assert "differs" not in out
     project.runpytest("--snapshot-update-new-only").assert_outcomes(passed=1)  # writes it, as --snapshot-update does
@@ -304,7 +308,7 @@ def test_a_changed_golden_says_how_to_accept_the_change(project):
     project.runpytest("--snapshot-update").assert_outcomes(passed=1)
     write(project, "two", TWO_BRICKS.format(x="5 mm"))
     result = project.runpytest()
-    assert "two.yaml: the outcome differs from golden/scenarios/two.json" in result.stdout.str()
+    assert "scenarios/two.yaml: the outcome differs from golden/scenarios/two.json" in result.stdout.str()
     assert "if the change is meant: rerun with --snapshot-update" in result.stdout.str()
 
 
@@ -471,9 +475,12 @@ def test_a_damaged_golden_fails_its_item_in_one_line_and_is_never_replaced(proje
         result.assert_outcomes(failed=len(DAMAGED) + 1)
         out = result.stdout.str()
         for name, (_, said) in DAMAGED.items():
-            (line,) = [x for x in result.outlines if x.startswith(f"{name}.yaml: ")]  # one line
+            (line,) = [x for x in result.outlines if x.startswith(f"scenarios/{name}.yaml: ")]  # one line, the file as typed
             assert said in line, (name, line)
-        assert "under.yaml: golden/scenarios/sub/under.json cannot be a golden snapshot: golden/scenarios/sub is a file" in out
+        assert (
+            "scenarios/sub/under.yaml: golden/scenarios/sub/under.json cannot be a golden snapshot: golden/scenarios/sub is a file"
+            in out
+        )
         assert "Traceback" not in out and "Error" not in out and "def " not in out, out  # no exception, no source
         assert "no golden yet" not in out and "differs" not in out
         assert {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file()} == before, args  # none replaced
@@ -553,7 +560,7 @@ def test_goldens_moved_by_a_new_pyproject_are_named_where_they_are(pytester, mon
         result = pytester.runpytest(*args, *more)
         result.assert_outcomes(failed=1)
         out = result.stdout.str()
-        assert "t.yaml: no golden at golden/s/t.json, but s/golden/t.json is one for this scenario" in out
+        assert "s/t.yaml: no golden at golden/s/t.json, but s/golden/t.json is one for this scenario" in out
         assert "move it to golden/s/t.json" in out and "no golden yet" not in out
         assert not moved.exists()  # no second golden written beside the reviewed one
     moved.parent.mkdir(parents=True)
@@ -576,7 +583,7 @@ def test_the_golden_fixture_names_goldens_a_new_pyproject_moved(pytester, monkey
     pytester.makefile(".toml", pyproject="[tool.pytest.ini_options]\n")
     result = pytester.runpytest("-p", "no:cacheprovider", "t/", "--snapshot-update")
     result.assert_outcomes(errors=1)
-    assert "test_g.py: no goldens at golden/t/test_g/, but t/golden/test_g/ holds this test file's" in result.stdout.str()
+    assert "t/test_g.py: no goldens at golden/t/test_g/, but t/golden/test_g/ holds this test file's" in result.stdout.str()
     assert not (pytester.path / "golden" / "t").exists()
 
 

@@ -1151,8 +1151,11 @@ def test_bench_ratios_come_from_the_medians_and_again_from_each_cells_fastest_ro
     "argv, where",
     [
         (["render", "scenarios/vee_stands.yaml", "-o", "/tmp/" + "x" * 300 + ".png"], "File name too long"),
-        (["check", "scenarios/vee_stands.yaml", "-j", "1", "--junit-xml", "/sys/x.xml"], "/sys/x.xml: Permission denied"),
-        (["run", "scenarios/vee_stands.yaml", "--record", "/proc/x.npz"], "/proc/x.npz: No such file or directory"),
+        (
+            ["check", "scenarios/vee_stands.yaml", "-j", "1", "--junit-xml", "/sys/x.xml"],
+            "/sys/x.xml: --junit-xml: Permission denied",
+        ),
+        (["run", "scenarios/vee_stands.yaml", "--record", "/proc/x.npz"], "/proc/x.npz: --record: No such file or directory"),
     ],
     ids=["name too long", "a folder kept by the system", "a folder that takes no file"],
 )

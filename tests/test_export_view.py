@@ -364,8 +364,8 @@ def test_record_program_and_live_view_record_the_same_run():
 @pytest.mark.parametrize(
     ("argv", "where"),
     [
-        (["export", "{npz}", "--mjcf", "/sys/x.xml"], "/sys/x.xml: Permission denied"),
-        (["replay", "{npz}", "-o", "/proc/x"], "/proc/x: No such file or directory"),
+        (["export", "{npz}", "--mjcf", "/sys/x.xml"], "/sys/x.xml: --mjcf: Permission denied"),
+        (["replay", "{npz}", "-o", "/proc/x"], "/proc/x: -o: No such file or directory"),
         (["replay", "{npz}", "-o", "/tmp/" + "x" * 300], "File name too long"),
     ],
     ids=["a folder kept by the system", "a folder that takes no file", "name too long"],

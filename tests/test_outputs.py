@@ -140,7 +140,7 @@ def test_an_empty_path_is_refused_naming_its_option(project, capsys, argv):
 def test_an_output_the_system_refuses_is_said_before_anything_runs(project, capsys, argv):
     err = refused(argv, capsys)
     reason = "File name too long" if "xxxx" in argv[-1] else "No such file or directory"
-    assert err == f"stackdsl: {argv[-1]}: {reason}"
+    assert err == f"stackdsl: {argv[-1]}: {argv[-2]}: {reason}"  # the path, then the option that gave it
     assert sorted(p.name for p in project.iterdir()) == ["golden", "pyproject.toml", "s.yaml", "scenarios"]
 
 

@@ -79,16 +79,30 @@ REFUSED = frozenset(
 )
 
 
+class OptionPathError(OSError):
+    """An OS error on the path given to an option (an output that the system refuses, found
+    before anything runs): :func:`refused` names ``option`` after the path."""
+
+    option: str = ""
+
+
 def refused(exc: OSError) -> str | None:
-    """One line for an OS error on a path (``"stackdsl: /full/disk.png: No space left on device"``),
-    or None when it is not one the user can fix (then it is a bug). Source: stackdsl's own.
+    """One line for an OS error on a path (``"stackdsl: /full/disk.png: No space left on device"``;
+    with the option that gave the path after it, for an :class:`OptionPathError`), or None when
+    it is not one the user can fix (then it is a bug). Source: stackdsl's own.
 
     >>> refused(OSError(errno.ENAMETOOLONG, "File name too long", "x" * 5))
     'stackdsl: xxxxx: File name too long'
+    >>> given = OptionPathError(errno.ENOENT, "No such file or directory", "/proc/x")
+    >>> given.option = "--out"
+    >>> refused(given)
+    'stackdsl: /proc/x: --out: No such file or directory'
     """
     if exc.errno not in REFUSED:
         return None
     where = exc.filename if exc.filename is not None else ""
+    if where and getattr(exc, "option", ""):
+        where = f"{where}: {getattr(exc, 'option', '')}"
     reason = exc.strerror or os.strerror(exc.errno or 0)
     return f"stackdsl: {where}: {reason}" if where else f"stackdsl: {reason}"
 

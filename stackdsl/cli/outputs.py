@@ -9,7 +9,8 @@ regular (a FIFO, a device: a FIFO without a reader would block the command forev
 replaces its outputs whole, which it cannot do to a device); when a folder output is a file, or
 holds one of the files it would write as something other than a regular file; and when its
 folder takes no new file (``/proc``, no permission, a name too long: found by creating a file
-of that name there and removing it, said as the system says it, ``stackdsl: PATH: reason``).
+of that name there and removing it, said as the system says it with the option,
+``stackdsl: PATH: OPTION: reason``).
 
 Source: stackdsl's own.
 """
@@ -25,6 +26,7 @@ from pathlib import Path
 
 from ..lang.errors import ScenarioError
 from ..lang.scenario_file import file_kind
+from .args import OptionPathError
 
 
 @dataclass(frozen=True)
@@ -60,7 +62,8 @@ def check_outputs(outputs: Sequence[Output], inputs: Iterable[Input] = ()) -> li
 
     Raises:
         ScenarioError: an output refused, at its path and option.
-        OSError: the folder of an output takes no new file (its ``filename`` the output's path).
+        OptionPathError: the folder of an output takes no new file (an OSError: its ``filename``
+            the output's path, its ``option`` the option).
     """
     read = [i for i in inputs if os.path.lexists(i.path)]
     paths: list[Path] = []
@@ -75,10 +78,15 @@ def check_outputs(outputs: Sequence[Output], inputs: Iterable[Input] = ()) -> li
         for earlier in outputs[:n]:
             if earlier.path.strip() and any(same_place(a, b) for a in _places(out) for b in _places(earlier)):
                 raise _refused(out, f"{earlier.option} writes there too: give each output its own path")
-        if out.folder:
-            _check_folder(out, path, read)
-        else:
-            _check_file(out, path)
+        try:
+            if out.folder:
+                _check_folder(out, path, read)
+            else:
+                _check_file(out, path)
+        except OSError as exc:  # the system's own refusal of the path: said with the option that gave it
+            error = OptionPathError(exc.errno, exc.strerror, exc.filename)
+            error.option = out.option
+            raise error from None
         paths.append(path)
     return paths
 

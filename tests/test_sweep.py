@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import xml.etree.ElementTree as ET
 from collections.abc import Iterator
 from dataclasses import replace
 from itertools import islice
@@ -514,3 +515,27 @@ def test_sigterm_stops_a_local_dask_sweep_quietly_and_leaves_no_scratch_space(tm
     _, stderr = sweep.communicate(timeout=60)
     assert "distributed" not in stderr and "Traceback" not in stderr and len(stderr.splitlines()) <= 1, stderr
     assert list(scratch.iterdir()) == []
+
+
+OVERHANG = """stackdsl: 1
+structure:
+  tower: {levels: 2, bricks_per_layer: 1, turn: 0, shift: {uniform: [0 mm, 120 mm]}}
+timing: {settle: 0.5 s}
+sweep: {samples: 10}
+expect:
+  p_stands: ">= 0.5"
+"""
+
+
+def test_check_of_an_undecided_sweep_says_inconclusive_everywhere_and_points_at_stackdsl_sweep(tmp_path, capsys):
+    """Half its draws stand (shift beyond 60 mm tips), so 10 samples cannot decide P(stands) >= 0.5."""
+    (tmp_path / "half.yaml").write_text(OVERHANG)
+    junit = tmp_path / "j.xml"
+    assert main(["check", str(tmp_path / "half.yaml"), "-j", "1", "--mode", "tuned", "--junit-xml", str(junit)]) == 1
+    out = capsys.readouterr().out
+    assert "expect.p_stands: INCONCLUSIVE: expected P(stands) >= 0.5" in out
+    assert f"more: stackdsl sweep {tmp_path / 'half.yaml'} --mode tuned" in out  # every sample, not run's one
+    assert "more: stackdsl run" not in out
+    (failure,) = ET.parse(junit).getroot().iter("failure")
+    assert failure.get("message", "").startswith(f"{tmp_path / 'half.yaml'}:7:3: INCONCLUSIVE: expected P(stands) >= 0.5")
+    assert failure.text is not None and failure.text.endswith(f"more: stackdsl sweep {tmp_path / 'half.yaml'} --mode tuned")

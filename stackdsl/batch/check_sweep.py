@@ -64,7 +64,7 @@ def sweep_result(
             name="statistic",
             passed=v.outcome == "PASS",
             expected=v.expected,
-            measured=f"{v.outcome.lower()}: {v.measured}",
+            measured=f"{v.outcome.lower()}: {v.measured}",  # its first word read by report.junit_xml
             at=expect.at(v.field),
         )
         for _, v in decided

@@ -41,13 +41,20 @@ def row(r: CheckResult) -> str:
     ).rstrip()
 
 
-def run_command(file: str, mode: str | None = None, model: str | None = None, backend: str | None = None) -> str:
-    """The ``stackdsl run`` command that shows one scenario's timeline (shell-quoted).
+def run_command(
+    file: str, mode: str | None = None, model: str | None = None, backend: str | None = None, *, sweep: bool = False
+) -> str:
+    """The ``stackdsl run`` command that shows one scenario's timeline (shell-quoted); with
+    ``sweep``, the ``stackdsl sweep`` command that runs every sample of a sweep file and says
+    each cell's distribution and verdicts (``run`` would run one sample).
 
     >>> run_command("scenarios/slant tower.yaml", mode="raw")
     "stackdsl run 'scenarios/slant tower.yaml' --mode raw"
+    >>> run_command("sweeps/walk.yaml", sweep=True)
+    'stackdsl sweep sweeps/walk.yaml'
     """
-    words = ["stackdsl", "run", file] + (["--mode", mode] if mode else []) + (["--model", model] if model else [])
+    command = "sweep" if sweep else "run"
+    words = ["stackdsl", command, file] + (["--mode", mode] if mode else []) + (["--model", model] if model else [])
     words += ["--backend", backend] if backend else []
     return shlex.join(words)
 
@@ -56,7 +63,7 @@ def failure_lines(r: CheckResult, command: str) -> list[str]:
     """The indented lines under a FAIL row: the result's explanation, then ``command``
     (with ``--debug`` after an internal error, to show its traceback)."""
     if r.error:
-        command = command.replace("stackdsl run", "stackdsl --debug run", 1)
+        command = command.replace("stackdsl ", "stackdsl --debug ", 1)
     return [INDENT + line for line in _pointed(r)] + [f"{INDENT}more: {command}"]
 
 
@@ -169,8 +176,11 @@ def junit_xml(
             error = ET.SubElement(case, "error", message=r.error)
             error.text = r.traceback or None
         elif not r.passed:
-            at = next((v.at for v in r.verdicts if not v.passed and v.at is not None), None)
+            first = next((v for v in r.verdicts if not v.passed and v.at is not None), None)
+            at = first.at if first is not None else None
             said = f"expected {r.expected}, measured {r.measured}"
+            if r.sweep and first is not None and first.measured.startswith("inconclusive: "):
+                said = f"INCONCLUSIVE: {said}"  # not decided either way, as the failure's text says
             failure = ET.SubElement(case, "failure", message=f"{at}: {said}" if at else said)
             failure.text = "\n".join([*_pointed(r), f"more: {command}"])
     for file in not_run:

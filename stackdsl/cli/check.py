@@ -65,7 +65,7 @@ def check_command(args: argparse.Namespace) -> int:
         try:
             for r in chain(broken, checks):
                 results.append(r)
-                commands.append(run_command(r.file, args.mode, args.model, args.backend))
+                commands.append(run_command(r.file, args.mode, args.model, args.backend, sweep=bool(r.sweep)))
                 if not args.json:
                     lines.line(row(r))
                     if not r.passed:
@@ -200,7 +200,9 @@ def compare_command(args: argparse.Namespace) -> int:
         table = tabulate(prepared, modes, chain(refused, run_checks(prepared, args.jobs, timeout=args.timeout)), each)
     wall = time.perf_counter() - start
     if args.json:
-        commands = [run_command(r.file, r.mode, args.model, r.backend if args.backend else None) for r in done]
+        commands = [
+            run_command(r.file, r.mode, args.model, r.backend if args.backend else None, sweep=bool(r.sweep)) for r in done
+        ]
         print(json.dumps(json_document("compare", done, commands, len(prepared), wall), indent=2))
         return _status(done, args.debug)
     width = max([len("scenario"), *(len(Path(f).stem) for f in table)])

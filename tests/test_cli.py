@@ -1274,6 +1274,10 @@ def test_a_folder_with_a_bad_file_runs_none_and_says_so_last(tmp_path, capsys):
     assert lines[0].startswith(f"{tmp_path / 'bad.yaml'}:2:")
     assert lines[-1] == "1 of 3 files refused; none was run (check the good ones by name to run them)"
     assert "passed" not in captured.out
+    # --json the same: no results, so no document (as no JUnit file or report), the errors on stderr
+    assert main(["check", str(tmp_path), "--json"]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and captured.err.strip().splitlines()[-1].startswith("1 of 3 files refused; none was run")
 
 
 def test_a_missing_file_for_render_or_replay_says_so_in_the_oss_words(tmp_path, capsys):

@@ -42,6 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 from shapely import contains_xy, convex_hull, multipoints
 from shapely.geometry import Point
+from shapely.geometry.base import BaseGeometry
 
 from stability import Box, Plane, Pose, face_overlap
 from stability import Certificate as Equilibrium
@@ -138,23 +139,26 @@ class SupportPolygon:
         """Metres the brick's centre of mass lay inside the polygon's edge as it was placed
         (negative: outside it; inf with no polygon, a tilted brick)."""
         if self._placed_margin is None:
-            points = [
-                c if b is None or where is None else c @ where.rotation.T + where.position
-                for (b, c), where in self._placed_pieces()
-            ]
+            hull = self._hull({body: pose for body, _, pose in self.below if body is not None and pose is not None})
             self._placed_margin = math.inf
-            if points:
-                hull = convex_hull(multipoints(np.vstack(points)[:, :2]))
+            if hull is not None:
                 x, y = (float(v) for v in self.pose.position[:2])
                 inside = contains_xy(hull, x, y)
                 edge = hull.exterior if inside and hasattr(hull, "exterior") else hull
                 self._placed_margin = float(edge.distance(Point(x, y))) * (1.0 if inside else -1.0)
         return self._placed_margin
 
-    def _placed_pieces(self) -> list[tuple[tuple[int | None, np.ndarray], Pose | None]]:
-        """Each piece with the pose its support had when the brick was placed."""
-        where = {body: pose for body, _, pose in self.below if body is not None}
-        return [((b, c), where.get(b) if b is not None else None) for b, c in self.pieces]
+    def _hull(
+        self, poses: dict[int, Pose], offset: tuple[float, float, float] = (0.0, 0.0, 0.0), gone: AbstractSet[int] = frozenset()
+    ) -> BaseGeometry | None:
+        """The polygon (shapely, horizontal) with its supports at ``poses`` (body -> pose, in the
+        world; the ground ``offset`` m from where it started), leaving out the pieces on the
+        bodies ``gone``; None without a piece."""
+        pieces = [(b, c) for b, c in self.pieces if b not in gone]
+        if not pieces:
+            return None
+        points = [c if b is None else c @ poses[b].rotation.T + poses[b].position - offset for b, c in pieces]
+        return convex_hull(multipoints(np.vstack(points)[:, :2]))
 
     def outside(
         self,
@@ -168,13 +172,9 @@ class SupportPolygon:
         ground ``offset`` m from where it started, as a shake table moves it), leaving out the
         pieces on the bodies ``gone`` (pulled out of the scene); 0 inside, and when there are no
         pieces."""
-        pieces = [(b, c) for b, c in self.pieces if b not in gone]
-        if not pieces:
-            return 0.0
-        points = [c if b is None else c @ poses[b].rotation.T + poses[b].position - offset for b, c in pieces]
-        hull = convex_hull(multipoints(np.vstack(points)[:, :2]))
+        hull = self._hull(poses, offset, gone)
         x, y = float(com[0]), float(com[1])
-        if contains_xy(hull, x, y):
+        if hull is None or contains_xy(hull, x, y):
             return 0.0
         return float(hull.distance(Point(x, y)))
 

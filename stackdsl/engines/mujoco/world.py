@@ -17,11 +17,10 @@ that chose this over a weld equality or MuJoCo's own sleeping).
 
 Materials (friction of a pair, restitution, density): :mod:`stackdsl.engines.mujoco.materials`.
 
-A step is ``mj_step``'s stages run one by one, so that a hand (a held guided body) strikes what
-it meets before MuJoCo steps (:meth:`MuJoCoWorld._blows`) and the friction of what it struck is
-asked for no more than it can give while that slides (:meth:`MuJoCoWorld._solve_limiting_friction`):
-MuJoCo's contact starts a slip only with a normal velocity, and a pushed brick flew. With no
-hand at work, and nothing it struck still sliding, a step is ``mj_step``'s, bit for bit.
+While a hand holds a brick, a step is ``mj_step``'s stages run one by one, so that the hand
+strikes what it meets before MuJoCo steps and the friction of what it struck is limited while
+that slides (:mod:`stackdsl.engines.mujoco.hands`). With no hand at work, and nothing it struck
+still sliding, a step is ``mj_step``'s, bit for bit.
 
 Source: stackdsl's own, on MuJoCo 4.0's Python bindings.
 """
@@ -30,7 +29,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Collection, Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -40,6 +38,7 @@ from stability import ContactPoint, Pose
 
 from ..protocol import BrickSpec, EngineUnstable, Quat, Vec3, World
 from .culling import Culling
+from .hands import BLOW_SKIN, Grip, Hands
 from .materials import Bounce, Materials
 from .settings import MuJoCoSettings
 
@@ -48,49 +47,12 @@ from .settings import MuJoCoSettings
 _AWAY = np.array([5000.0, 5000.0, 100.0])
 _SLOT = 0.5  # m between two waiting bodies
 _WAITING_SLEEP = 1e-4  # MuJoCo's sleep tolerance in extension mode, where only waiting bodies (still) sleep
-#: kg of a guided brick's free body while it is guided (a hand's grip), its inertia scaled too.
-GUIDED_MASS = 100.0
 #: The share of a guided body's distance from its path that its velocity makes up in one step.
 GAIN = 0.5
-#: What MuJoCo's friction is asked to take off a sliding contact's slip in a step, beyond what a
-#: blow lets it (see :meth:`MuJoCoWorld._solve_limiting_friction`), in units of what Coulomb's
-#: friction takes off a brick under its own weight, ``mu g dt``.
-FRICTION_REACH = 2.0
-#: m/s: a contact slipping faster than this slides (its friction is limited, and a struck brick
-#: with such a contact is still struck); slower, MuJoCo's own reference holds it, whose lift is
-#: at most ``mu`` times this.
-SLIP_SPEED = 0.1
-#: Times at most a step's constraint forces are solved while some limited contact's friction
-#: stayed within its cone (short of :data:`FRICTION_FULL` of ``mu N``: friction was asked too
-#: little), its limit raised :data:`FRICTION_RETRY` times each time.
-FRICTION_TRIES = 4
-FRICTION_RETRY = 4.0
-FRICTION_FULL = 0.95
-#: m a held body's geom looks ahead for what it will strike, beyond what it travels in a step
-#: (MuJoCo reports those contacts without acting on them: its ``gap``); see :meth:`MuJoCoWorld._blows`.
-BLOW_SKIN = 0.0005
-#: m/s: a held body already touching a brick strikes it again (:meth:`MuJoCoWorld._blows`) only
-#: when closing faster than this; slower (a brick the hand carries lags it by its friction,
-#: ``mu g dt`` a step; one that rests on a shaken fixture), MuJoCo's contact holds it, with
-#: what else it touches: blows every step at the foot of a domino a finger pushes along
-#: tilted it back, and it no longer fell at 70 mm/s (59.3 mm/s by its closed form).
-BLOW_SPEED = SLIP_SPEED
 #: kg and half extents (m) of a movable ground: a box whose top is the plane z = 0 (at 1e5 kg
 #: MuJoCo's tuned solver let a 20 x 20 x 80 mm block on it tip at 1% of its tipping acceleration).
 TABLE_MASS = 100.0
 TABLE_HALF = (5.0, 5.0, 0.5)
-
-
-@dataclass(frozen=True)
-class _Grip:
-    """A held brick's free body's own constants, given back when the hand lets go: mass (kg),
-    inertia (kg m^2, principal), and MuJoCo's ``body_invweight0`` (2,) and ``dof_invweight0`` (6,)."""
-
-    mass: float
-    inertia: np.ndarray
-    body_invweight0: np.ndarray
-    dof_invweight0: np.ndarray
-    dof_M0: np.ndarray
 
 
 class MuJoCoWorld(World):
@@ -125,9 +87,8 @@ class MuJoCoWorld(World):
 
         self._mj, self._engine = mujoco, engine
         self._extension = engine.mode == "extension"  # bricks as convex meshes (see create), waiting ones asleep
-        self._elliptic = engine.elliptic_cones  # friction rows apart from the normal one: see _solve_limiting_friction
-        self._least_reach = 0.0  # m/s^2 the least friction of the model is asked to reach at most (_compile)
-        self._struck: set[int] = set()  # bricks a hand struck that still slide: see _solve_limiting_friction
+        self._elliptic = engine.elliptic_cones  # friction rows apart from the normal one: see Hands.solve
+        self._hands = Hands(mujoco, engine.gravity)  # guided bricks and what they struck
         self.ground = 0
         self._substeps = 1
         self._specs: list[BrickSpec] = []
@@ -158,7 +119,6 @@ class MuJoCoWorld(World):
         self._spec = spec
         self._table = movable_ground
         self._ground_at: tuple[Vec3, Vec3] = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
-        self._guided: dict[int, _Grip | None] = {}  # guided brick -> its free body's own constants when held, else None
         if movable_ground:  # a heavy box on two slide joints, its top the plane z = 0 (MuJoCo's planes are static)
             table = spec.worldbody.add_body(name="table", pos=[0.0, 0.0, -TABLE_HALF[2]])
             for axis, name in (([1.0, 0.0, 0.0], "table_x"), ([0.0, 1.0, 0.0], "table_y")):
@@ -231,8 +191,7 @@ class MuJoCoWorld(World):
         self._geom_body = np.zeros(m.ngeom, dtype=int)
         self._geom_body[self._free_geom] = self._geom_body[self._held_geom] = np.arange(1, len(self._specs) + 1)
         self._dof6 = self._dof[:, None] + np.arange(6)
-        frictions = np.concatenate([m.geom_friction[:, 0], m.pair_friction[:, 0]])
-        self._least_reach = FRICTION_REACH * self._engine.gravity * float(frictions.min())  # see _solve_limiting_friction
+        self._hands.compiled(m)
         self._bounce = None
         # a shake table moves under every brick: nothing is out of its reach
         self._culling = (
@@ -243,9 +202,9 @@ class MuJoCoWorld(World):
             self._bounce = Bounce(m, self._free_geom, self._geom_body, reach, self._materials.resting())
         for body in range(1, len(self._specs) + 1):
             self._apply(body)
-        for body, grip in self._guided.items():  # compiled anew from the spec: in a hand's grip again
+        for body, grip in self._hands.guided.items():  # compiled anew from the spec: in a hand's grip again
             if grip is not None:
-                self._grip(body, grip)
+                Hands.grip(m, int(m.geom_bodyid[self._free_geom[body - 1]]), int(self._dof[body - 1]), grip)
         if self._table:
             table = [mj.mj_name2id(m, mj.mjtObj.mjOBJ_JOINT, name) for name in ("table_x", "table_y")]
             self._table_qpos = [int(m.jnt_qposadr[j]) for j in table]
@@ -442,41 +401,31 @@ class MuJoCoWorld(World):
 
     def move(self, body: int, pose: Pose, mass: float) -> None:
         m, _ = self._ready()
-        grip = self._guided.pop(body, None)
+        grip = self._hands.guided.pop(body, None)
         if grip is not None:  # let go of: its own mass, inertia and weight back
-            bid, dof = m.geom_bodyid[self._free_geom[body - 1]], self._dof[body - 1]
-            m.body_mass[bid], m.body_inertia[bid], m.body_invweight0[bid] = grip.mass, grip.inertia, grip.body_invweight0
-            m.dof_invweight0[dof : dof + 6], m.dof_M0[dof : dof + 6] = grip.dof_invweight0, grip.dof_M0
-            m.body_subtreemass[bid] = grip.mass
-            m.body_subtreemass[0] -= GUIDED_MASS - grip.mass
-            m.body_gravcomp[bid] = 0.0
+            Hands.release(m, int(m.geom_bodyid[self._free_geom[body - 1]]), int(self._dof[body - 1]), grip)
             m.geom_gap[self._free_geom[body - 1]] = 0.0
         self._put(body, pose, mass <= 0.0)
 
     def guide(self, body: int, pose: Pose, velocity: Vec3, hold: bool = True) -> None:
         """Drive the brick's free body along its path by its velocity for the next step (the path's
-        velocity plus :data:`GAIN` of the way back to it); with ``hold``, :data:`GUIDED_MASS` heavy,
-        its weight compensated (MuJoCo's gravity compensation) and its height driven too, else
-        with its own mass and vertical motion. A held body strikes what it meets as a rigid hand
-        does, before MuJoCo steps (:meth:`_blows`): its geom reports, without acting on them, the
-        contacts within what it travels in a step (MuJoCo's ``gap``)."""
+        velocity plus :data:`GAIN` of the way back to it); with ``hold``, in a hand's grip
+        (:meth:`Hands.grip <stackdsl.engines.mujoco.hands.Hands.grip>`) and its height driven too,
+        else with its own mass and vertical motion. A held body strikes what it meets as a rigid
+        hand does, before MuJoCo steps (:meth:`Hands.blows <stackdsl.engines.mujoco.hands.Hands.blows>`):
+        its geom reports, without acting on them, the contacts within what it travels in a step
+        (MuJoCo's ``gap``)."""
         m, d = self._ready()
         i = body - 1
         if self._frozen[i]:
             self._put(body, pose, False)
-        if body not in self._guided:
+        if body not in self._hands.guided:
             grip = None
             if hold:
-                bid, dof = m.geom_bodyid[self._free_geom[i]], self._dof[i]
-                grip = _Grip(
-                    float(m.body_mass[bid]),
-                    m.body_inertia[bid].copy(),
-                    m.body_invweight0[bid].copy(),
-                    m.dof_invweight0[dof : dof + 6].copy(),
-                    m.dof_M0[dof : dof + 6].copy(),
-                )
-                self._grip(body, grip)
-            self._guided[body] = grip
+                bid, dof = int(m.geom_bodyid[self._free_geom[i]]), int(self._dof[i])
+                grip = Grip.of(m, bid, dof)
+                Hands.grip(m, bid, dof, grip)
+            self._hands.guided[body] = grip
         q, v = self._qpos[i], self._dof[i]
         rate = GAIN / self._engine.timestep  # by its velocity alone, back towards its path (as on pybullet)
         error = pose.position - d.qpos[q : q + 3]
@@ -489,23 +438,6 @@ class MuJoCoWorld(World):
         turn = (Rotation.from_quat(pose.orientation) * Rotation.from_quat([now[1], now[2], now[3], now[0]]).inv()).as_rotvec()
         d.qvel[v + 3 : v + 6] = Rotation.from_quat([now[1], now[2], now[3], now[0]]).inv().apply(turn * rate)  # body frame
         self._read = None
-
-    def _grip(self, body: int, grip: _Grip) -> None:
-        """``body``'s free body :data:`GUIDED_MASS` heavy, its inertia scaled with its mass, its
-        weight compensated. MuJoCo's contact softness is scaled by each body's ``invweight0``,
-        which the compiler derives from the mass: scaled too, or the light brick's stiff contacts
-        act on a hundred kilograms (a pusher touching a domino was thrown 8 mm in one tuned step
-        and the simulation blew up). Source: stackdsl's own (MuJoCo's ``mj_setConst`` gives the
-        same constants, from the model's reference pose)."""
-        m = self._model
-        bid, dof, scale = m.geom_bodyid[self._free_geom[body - 1]], self._dof[body - 1], GUIDED_MASS / grip.mass
-        m.body_mass[bid], m.body_inertia[bid] = GUIDED_MASS, grip.inertia * scale
-        m.body_invweight0[bid] = grip.body_invweight0 / scale
-        m.dof_invweight0[dof : dof + 6] = grip.dof_invweight0 / scale
-        m.dof_M0[dof : dof + 6] = grip.dof_M0 * scale
-        m.body_subtreemass[bid] = GUIDED_MASS
-        m.body_subtreemass[0] += GUIDED_MASS - grip.mass
-        m.body_gravcomp[bid] = 1.0
 
     def move_ground(self, offset: Vec3, velocity: Vec3) -> None:
         if not self._table:
@@ -536,20 +468,19 @@ class MuJoCoWorld(World):
         if self._culling is not None:
             self._culling.update(d, self._frozen)
         began = float(d.time)
-        mj = self._mj
-        hands = [body for body, grip in self._guided.items() if grip is not None]
+        mj, hands = self._mj, self._hands
         integrate = mj.mj_implicit if self._engine.integrator == "implicitfast" else mj.mj_Euler
         for _ in range(self._substeps):  # mj_step, stage by stage (as mj_step1 and mj_step2 run it)
-            if not hands and not self._struck:  # nothing a hand does: mj_step itself, one call
+            if not hands.busy:  # nothing a hand does: mj_step itself, one call
                 mj.mj_step(m, d)
                 continue
             mj.mj_step1(m, d)  # positions, contacts, velocities and the contacts' reference accelerations
-            if hands and self._blows(m, d, hands):
+            if hands.blows(m, d, self._frozen, self._free_geom, self._geom_body):
                 mj.mj_fwdVelocity(m, d)  # the velocities changed: their reference accelerations again
             mj.mj_fwdActuation(m, d)
             mj.mj_fwdAcceleration(m, d)
             if self._elliptic:
-                self._solve_limiting_friction(m, d, hands)
+                hands.solve(m, d, self._frozen, self._geom_body)
             else:
                 mj.mj_fwdConstraint(m, d)
             mj.mj_sensorAcc(m, d)
@@ -566,143 +497,6 @@ class MuJoCoWorld(World):
                 f"MuJoCo's simulation became unstable at t = {began + self._engine.timestep:.3f} s (infinite or huge positions, velocities or accelerations; "
                 "MuJoCo then resets its state): nothing after it is physics"
             )
-
-    def _solve_limiting_friction(self, m: Any, d: Any, hands: list[int]) -> None:
-        """Solve the step's constraint forces (``mj_fwdConstraint``), asking the friction of a
-        contact a hand started sliding to take off no more slip in the step than it can.
-
-        With elliptic cones MuJoCo gives a contact's friction rows the reference acceleration
-        ``-b v`` (``v`` the slip, ``b = 2 / (dmax timeconst)``, one over the step on tuned and
-        extension contacts): stop the slip within the step. Friction cannot while the brick
-        slides, and MuJoCo's convex contact turns what it was asked and could not do into a
-        normal velocity, ``mu`` times it (its documentation: "the only way to initiate slip is to
-        generate some motion in the normal direction"): a KAPLA brick set sliding along the ground
-        at 1 m/s skipped like a stone, 8 mm high (19 mm at 1.5 m/s). So the
-        reference asks for no more than ``mu`` times the normal velocity the contact can take off
-        in the step: :data:`FRICTION_REACH` times what gravity gives a brick, plus the share of
-        the contact's approach speed that reaches its friction (the friction row's mobility over
-        the normal row's, ``efc_diagA``: a blow at the end of a brick turns it as much as it
-        moves it). Where friction then stayed within its cone (a brick carrying another sliding on
-        it needs three times its own weight's), it is asked more and the forces are solved again
-        (:data:`FRICTION_TRIES`). A pushed brick then rises 0.4 mm or less and stops within a few
-        mm of ``v^2 / (2 mu g)`` past the pusher's stroke.
-
-        Only the contacts of the hands (``hands``) and of the bricks they struck (:meth:`_blows`),
-        while these slide or fly, are limited, and only while they slip faster than
-        :data:`SLIP_SPEED`; a brick a hand struck that stands, leans or rolls (a pushed domino as
-        it falls) is no longer struck. MuJoCo's own contact everywhere else: limited on every
-        sliding contact, rows of KAPLA dominoes 120 to 126 mm apart stopped at 13 to 17 of 20 in
-        extension mode and one 124 mm apart at 15 on tuned MuJoCo (each falls whole on every
-        engine as it is), a fallen domino sliding 4 mm farther on than MuJoCo's landing (and
-        pybullet's) lets it. With no hand and no struck brick, or every friction row asking less
-        than the least reach, a step is MuJoCo's own, bit for bit. Pyramidal cones (raw MuJoCo) mix each friction row with the normal one:
-        never limited. Source: stackdsl's own, on MuJoCo's reference acceleration (its
-        documentation, "Computation", eq:aref) and ``mjContact``."""
-        aref = d.efc_aref
-        if not (self._struck or hands) or d.nefc == 0 or np.abs(aref).max() <= self._least_reach:
-            self._mj.mj_fwdConstraint(m, d)  # no row asks for more than the least friction can give (2 us)
-            return
-        contact, velocity = d.contact, d.efc_vel
-        address = contact.efc_address
-        acting = (address >= 0) & (contact.dim >= 3)
-        address, mu, bodies = address[acting], contact.friction[acting, 0], self._geom_body[contact.geom[acting]]
-        slip = np.sqrt(velocity[address + 1] ** 2 + velocity[address + 2] ** 2)
-        if not hands:  # a struck brick is one while it slides or flies: not once it stands, leans or rolls
-            touching = np.zeros(len(self._frozen) + 1, dtype=bool)
-            sliding = np.zeros(len(self._frozen) + 1, dtype=bool)
-            touching[bodies.ravel()] = True
-            sliding[bodies[slip > SLIP_SPEED].ravel()] = True
-            self._struck = {b for b in self._struck if sliding[b] or not (touching[b] or self._frozen[b - 1])}
-        held = np.zeros(len(self._frozen) + 1, dtype=bool)
-        held[[*self._struck, *hands]] = True
-        held[0] = False
-        mine = held[bodies].any(axis=1) & (slip > SLIP_SPEED)
-        address, mu = address[mine], mu[mine]
-        first, second = aref[address + 1], aref[address + 2]  # the two tangent directions
-        asked = np.sqrt(first * first + second * second)
-        approach = np.maximum(0.0, -velocity[address])  # m/s the contact closes: its normal row's
-        mobility = d.efc_diagA  # a row's velocity per unit force: how much of a blow friction can use
-        impact = approach * mobility[address + 1] / mobility[address] / m.opt.timestep
-        reach = mu * (FRICTION_REACH * self._engine.gravity + impact)
-        over = np.flatnonzero(asked > reach)
-        rows, first, second, asked, reach, mu = (a[over] for a in (address, first, second, asked, reach, mu))
-        force = d.efc_force
-        for _ in range(FRICTION_TRIES):
-            scale = np.minimum(1.0, reach / asked)
-            aref[rows + 1], aref[rows + 2] = first * scale, second * scale
-            self._mj.mj_fwdConstraint(m, d)
-            friction = np.sqrt(force[rows + 1] ** 2 + force[rows + 2] ** 2)
-            short = (friction < FRICTION_FULL * mu * force[rows]) & (scale < 1.0)  # its limit met short of Coulomb's
-            if not short.any():
-                return
-            reach = np.where(short, reach * FRICTION_RETRY, reach)
-
-    def _blows(self, m: Any, d: Any, hands: list[int]) -> bool:
-        """A held body (``hands``: a pusher, a fixture on a shaking table) that will strike a free
-        brick within this step strikes it now, as a rigid hand strikes a rigid brick: inelastic,
-        with Coulomb friction at the point of contact. The brick's velocity changes before MuJoCo
-        steps, by the share of the step after they touch, so that the two meet at its end, and
-        the brick is struck (:meth:`_solve_limiting_friction`). Left to MuJoCo's contact, the blow
-        started the brick's slip within the step, which MuJoCo does only with a normal velocity
-        ``mu`` times it: a KAPLA brick lying on the ground, pushed end on at 1 m/s, left it at
-        0.68 m/s and went on at 1.37 m/s, 28 mm high and 2.4 times as far as it slides. The blow
-        ignores what else the brick touches (the ground, a brick on it), whose impulses in so
-        short a blow are their weight's, and which MuJoCo then resolves. The candidates are the
-        contacts in the hand's ``gap`` (:meth:`guide`), which MuJoCo finds but does not act on,
-        and those it touches closing faster than :data:`BLOW_SPEED` (a hand that reached a
-        brick's face at the end of a step); returns whether a velocity changed. Source:
-        stackdsl's own (the impulse of an inelastic frictional impact at a point, any mechanics
-        text; MuJoCo's ``mj_jac`` and ``mj_solveM`` give the brick's mobility at that point)."""
-        n = d.ncon
-        if n == 0:
-            return False
-        contact = d.contact
-        own = {int(self._free_geom[b - 1]): b for b in hands}
-        geoms = contact.geom[:n]
-        mine = np.isin(geoms, list(own)).any(axis=1) & (contact.exclude[:n] <= 1)  # acted on, or in a gap
-        if not mine.any():
-            return False
-        struck: dict[tuple[int, int], list[tuple[int, float]]] = {}
-        for k in np.flatnonzero(mine).tolist():
-            g1, g2 = (int(g) for g in contact.geom[k])
-            if (g1 in own) == (g2 in own):
-                continue  # no hand, or two hands
-            hand, other, sign = (own[g1], g2, 1.0) if g1 in own else (own[g2], g1, -1.0)
-            body = int(self._geom_body[other])
-            if body == 0 or self._frozen[body - 1] or other != self._free_geom[body - 1]:
-                continue  # the ground, or a frozen brick: static
-            struck.setdefault((hand, body), []).append((k, sign))
-        step = float(m.opt.timestep)
-        changed = False
-        for (hand, body), found in struck.items():
-            rows = [k for k, _ in found]
-            point = contact.pos[rows].mean(axis=0)
-            normal = (contact.frame[rows, :3] * np.array([sign for _, sign in found])[:, None]).sum(axis=0)
-            normal /= np.linalg.norm(normal)  # from the hand into the brick
-            gap = float(contact.dist[rows].min())
-            mu = float(contact.friction[rows, 0].max())
-            at_brick, at_hand = np.zeros((3, m.nv)), np.zeros((3, m.nv))
-            self._mj.mj_jac(m, d, at_brick, None, point, int(m.geom_bodyid[self._free_geom[body - 1]]))
-            self._mj.mj_jac(m, d, at_hand, None, point, int(m.geom_bodyid[self._free_geom[hand - 1]]))
-            relative = (at_hand - at_brick) @ d.qvel  # the hand's point's velocity on the brick's
-            closing = float(relative @ normal)
-            if closing <= 0.0 or gap >= closing * step or (gap <= 0.0 and closing <= BLOW_SPEED):
-                continue  # parting, or not meeting within this step
-            mobility = np.zeros((3, m.nv))
-            self._mj.mj_solveM(m, d, mobility, at_brick)  # rows: M^-1 times each row of the Jacobian
-            k_matrix = at_brick @ mobility.T  # velocity of the brick's point per unit impulse there
-            share = 1.0 - max(0.0, gap) / (closing * step)  # of the step after they touch
-            impulse = np.linalg.solve(k_matrix, share * relative)  # the point moves with the hand's
-            normal_part = float(impulse @ normal)
-            if np.linalg.norm(impulse - normal_part * normal) > mu * normal_part:  # slides on the hand
-                slip = relative - closing * normal
-                length = float(np.linalg.norm(slip))
-                direction = normal + (mu * slip / length if length > 1e-12 else 0.0)
-                impulse = direction * (share * closing / float(normal @ k_matrix @ direction))
-            d.qvel[:] += mobility.T @ impulse
-            self._struck.add(body)
-            changed = True
-        return changed
 
     def set_substeps(self, substeps: int) -> None:
         if max(1, substeps) == self._substeps and self._model is not None:  # asked every step: mostly as it was

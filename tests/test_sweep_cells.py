@@ -8,6 +8,7 @@ import json
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from stackdsl import parse_scenario
@@ -132,6 +133,20 @@ def test_the_shipped_shake_sweep_stands_below_the_tipping_threshold_and_falls_ab
     assert all(not collapsed[c] for c in amplitude if amplitude[c] < threshold)
     assert all(collapsed[c] for c in amplitude if amplitude[c] > 1.2 * threshold)
     assert sorted(collapsed.values()) == [False] * 5 + [True] * 3
+    # each cell's histogram draws the expectations of that cell, and none where none holds (22 mm)
+    drawn = {c: _expected_pixels(out / f"histogram_{c}.png") for c in range(t.cells)}
+    assert all((drawn[c] > 50) is (not 20.5e-3 < amplitude[c] < 25.5e-3) for c in drawn), drawn
+    assert _expected_pixels(out / "grid_p_stands.png") > 200  # the two cells' thresholds on the grid plot
+
+
+def _expected_pixels(path: Path) -> int:
+    from PIL import Image
+
+    from stackdsl.draw.sweepplot import EXPECTED
+
+    rgb = np.asarray(Image.open(path).convert("RGB")).astype(int)
+    target = np.array([int(EXPECTED[i : i + 2], 16) for i in (1, 3, 5)])
+    return int((np.abs(rgb - target).max(axis=2) <= 12).sum())
 
 
 def test_an_indexed_grid_key_unquoted_in_a_flow_mapping_gets_a_hint(tmp_path: Path, capsys):

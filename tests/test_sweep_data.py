@@ -15,7 +15,7 @@ import pytest
 from PIL import Image
 
 from stackdsl.cli.main import main
-from stackdsl.draw.sweepplot import EXPECTED, plot_grid, plot_histogram
+from stackdsl.draw.sweepplot import EXPECTED, _cell_spans, plot_grid, plot_histogram
 from stackdsl.verdicts.stats import MeanWithin, ProportionBound
 
 GRID = """stackdsl: 1
@@ -49,6 +49,7 @@ def test_samples_parquet_holds_typed_si_numbers_with_their_units(swept):
     schema = table.schema
     assert table.num_rows == 12
     assert str(schema.field("collapse_level").type) == "int64" and str(schema.field("seed").type) == "uint64"
+    assert all(str(schema.field(count).type) == "int64" for count in ("cell", "sample", "levels_placed", "draws"))
     error = schema.field("timing.placement_error [m]")
     assert str(error.type) == "double" and error.metadata == {b"unit": b"m"}
     shift = schema.field("structure.tower.shift [m]")
@@ -100,6 +101,33 @@ def test_sweep_plots_draw_the_threshold_and_the_expectations_interval(tmp_path):
     plot_grid("e", [0, 2, 4], cells, tmp_path / "m.png", unit="mm", statistic="mean", expected=[MeanWithin(4.0, 0.5)])
     assert expected_pixels(tmp_path / "p0.png") == 0
     assert expected_pixels(tmp_path / "p.png") > 200 and expected_pixels(tmp_path / "m.png") > 200
+
+
+def test_an_expectation_of_some_cells_is_drawn_over_those_cells_only(tmp_path):
+    values, cells = [0, 2, 4, 6], [[None] * 8, [None] * 7 + [3], [3, 4, None], [3, 3, 4]]
+    high = [[], [], [ProportionBound("<=", 0.5)], [ProportionBound("<=", 0.5)]]  # the two cells right of 2
+    low = [[MeanWithin(3.0, 0.5)], [], [MeanWithin(3.0, 0.5)], []]
+    # from halfway to the cell before (3 between 2 and 4) to half a gap past the last; apart where apart
+    assert _cell_spans([float(v) for v in values], high) == [(ProportionBound("<=", 0.5), 3.0, 7.0)]
+    assert _cell_spans([6.0, 4.0, 2.0, 0.0], low) == [(MeanWithin(3.0, 0.5), 1.0, 3.0), (MeanWithin(3.0, 0.5), 5.0, 7.0)]
+    plot_grid("e", values, cells, tmp_path / "some.png", cell_expected=high)
+    plot_grid("e", values, cells, tmp_path / "mean.png", statistic="mean", cell_expected=low)
+    plot_grid("e", values, cells, tmp_path / "mean0.png", statistic="mean", cell_expected=high)  # not a mean's
+    assert expected_pixels(tmp_path / "some.png") > 200 and expected_pixels(tmp_path / "mean.png") > 200
+    assert expected_pixels(tmp_path / "mean0.png") == 0
+    with pytest.raises(ValueError, match="3 cells' expectations for 4 cells"):
+        plot_grid("e", values, cells, tmp_path / "bad.png", cell_expected=high[:3])
+
+
+def test_a_histograms_bound_on_p_stands_is_a_line_on_the_stood_bar_not_text_over_it(tmp_path):
+    plot_histogram([3, 4, None, None, None, None], tmp_path / "h.png", expected=[ProportionBound(">=", 0.5)])
+    rgb = np.asarray(Image.open(tmp_path / "h.png").convert("RGB")).astype(int)
+    target = np.array([int(EXPECTED[i : i + 2], 16) for i in (1, 3, 5)])
+    mask = np.abs(rgb - target).max(axis=2) <= 12
+    side = mask[:, int(0.85 * mask.shape[1]) :]  # the "stood" panel: the dashed line at 3 of 6 samples
+    rows = np.flatnonzero(side.any(axis=1))
+    assert len(rows) > 0 and rows.max() - rows.min() <= 3  # one line, no label on the bar
+    assert mask[:, : int(0.8 * mask.shape[1])].any()  # named in the legend
 
 
 def test_the_sweep_command_draws_the_expectation_on_its_plots(swept):

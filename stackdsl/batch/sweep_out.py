@@ -21,7 +21,7 @@ import csv
 import itertools
 import json
 from collections.abc import Iterable, Sequence
-from dataclasses import replace
+from dataclasses import fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -158,8 +158,9 @@ def write_samples(results: Sequence[SampleResult], folder: Path) -> tuple[Path, 
 
 #: Units of the columns every sample has (a parameter's is in its name: ``"timing.placement_error [m]"``).
 UNITS = {"wall_time": "s", "simulated_time": "s", "collapse_level": "level", "levels_placed": "level", "oracle_level": "level"}
-#: Integer columns (the collapse and oracle levels may be null: the sample stood); the seed is unsigned.
-_INTEGERS = ("cell", "sample", "levels_placed", "collapse_level", "oracle_level")
+#: Integer columns: every count of :class:`SampleResult` (the collapse and oracle levels may be
+#: null: the sample stood); the seed is unsigned.
+_INTEGERS = tuple(f.name for f in fields(SampleResult) if f.name != "seed" and str(f.type).startswith("int"))
 
 
 def write_parquet(rows: Sequence[dict[str, Any]], columns: Sequence[str], path: Path) -> None:
@@ -250,7 +251,8 @@ def write_plots(
 ) -> list[Path]:
     """The histograms (one a cell, up to :data:`MAX_HISTOGRAMS`) and, for a grid over one
     numeric field, the plot against it, each with ``expect``'s statistical expectations drawn
-    (their interval, their threshold); the paths written."""
+    (their interval, their threshold; those of ``expect.cells`` on the cells they are for);
+    the paths written."""
     from ..draw.sweepplot import plot_grid, plot_histogram
 
     forms = expectations(expect) if expect is not None else []
@@ -260,7 +262,15 @@ def write_plots(
     for c, rs in enumerate(cells[:MAX_HISTOGRAMS]):
         name = _histogram_name(template.cells, c)
         title = template.data.get("name", "") + (f" ({_cell_text(template, c)})" if template.grid else "")
-        plot_histogram(measured(rs), folder / name, title=str(title), levels_built=levels_built, expected=forms)
+        own = cell_expectations(template, expect, c) if expect is not None else []
+        plot_histogram(
+            measured(rs),
+            folder / name,
+            title=str(title),
+            levels_built=levels_built or None,
+            expected=own,
+            exact=not template.random,
+        )
         written.append(folder / name)
     numeric = _numeric_grid(template)
     if numeric is not None:
@@ -277,7 +287,10 @@ def write_plots(
                 statistic=statistic,
                 levels_built=levels_built or None,
                 title=name,
-                expected=forms,  # the file's own, for every cell (expect.cells' hold in some only: not drawn)
+                expected=forms,  # the file's own, for every cell
+                cell_expected=[[f for _, f in _cell_named(template, expect, c)[len(forms) :]] for c in range(len(cells))]
+                if expect is not None and expect.cells
+                else (),
                 exact=not template.random,
             )
             written.append(path)

@@ -12,6 +12,7 @@ Source: stackdsl's own.
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
 from collections.abc import Sequence
@@ -37,21 +38,24 @@ def plot_histogram(
     title: str = "",
     levels_built: int | None = None,
     expected: Sequence[Any] = (),
+    exact: bool = False,
 ) -> None:
     """Write a PNG histogram of one cell's collapse levels to ``path``.
 
     Left panel: one bar per collapse level (counts of samples), the mean collapse level over
     the collapsed samples as a vertical line with its 95 % t interval shaded. Right panel: one
     bar for the samples that stood (labelled with ``levels_built`` when given). The title
-    adds n, the mean and P(stands) with their intervals. ``expected``: the file's statistical
+    adds n, the mean and P(stands) with their intervals (with ``exact``, a sweep that draws
+    nothing, the estimates alone, said to be exact). ``expected``: the file's statistical
     expectations (:class:`~stackdsl.verdicts.stats.MeanWithin`,
     :class:`~stackdsl.verdicts.stats.QuantileWithin`, :class:`~stackdsl.verdicts.stats.ProportionBound`),
     drawn in :data:`EXPECTED`: a level's accepted interval hatched with its target dashed, a
-    bound on P(stands) as a dashed line across the "stood" bar at that share of the samples. Raises ValueError on a level that is
+    bound on P(stands) as a dashed line across the "stood" bar at that share of the samples,
+    each named in the legend. Raises ValueError on a level that is
     not None or an int >= 1 (as :func:`stackdsl.verdicts.stats.summary`), OSError if ``path`` cannot be
     written.
     """
-    s = _stats.summary(levels, levels_built, _CONFIDENCE)
+    s = _stats.summary(levels, levels_built, _CONFIDENCE, exact=exact)
     fig = Figure(figsize=(8.0, 4.2), dpi=100)
     FigureCanvasAgg(fig)
     grid = fig.add_gridspec(
@@ -74,18 +78,18 @@ def plot_histogram(
             ax.axvspan(start, end, facecolor="none", edgecolor=EXPECTED, hatch="//", lw=1.0)
             ax.axvline(form.target, color=EXPECTED, lw=1.5, ls="--", label=f"expected {what} {form.target:g}±{form.tolerance:g}")
             ax.set_xlim(min(ax.get_xlim()[0], start - 0.5), max(ax.get_xlim()[1], end + 0.5))
-        elif isinstance(form, _stats.ProportionBound) and s.n:
+        elif isinstance(form, _stats.ProportionBound) and s.n:  # named in the legend: a label there hid the bar
             side.axhline(form.bound * s.n, color=EXPECTED, lw=1.5, ls="--")
-            side.text(0, form.bound * s.n, f"P {form.op} {form.bound:g}", color=EXPECTED, ha="center", va="bottom", fontsize=8)
+            ax.plot([], [], color=EXPECTED, lw=1.5, ls="--", label=f"expected P(stands) {form.op} {form.bound:g} (on 'stood')")
     if s.mean is not None:
         label = f"mean {s.mean:.2f}"
         if s.mean_interval is not None:
             lo, hi = s.mean_interval
             ax.axvspan(lo, hi, color=MEAN, alpha=0.25, lw=0)
-            label += f", 95% CI [{lo:.2f}, {hi:.2f}]"
+            label += ", exact" if exact else f", 95% CI [{lo:.2f}, {hi:.2f}]"
         ax.axvline(s.mean, color=MEAN, lw=2, label=label)
     if ax.get_legend_handles_labels()[0]:
-        ax.legend(loc="best", fontsize=8, frameon=False)
+        ax.legend(loc="best", fontsize=8, framealpha=0.85, edgecolor="none")  # readable over a bar
     ax.yaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_xlabel("collapse level")
     ax.set_ylabel("samples")
@@ -95,7 +99,7 @@ def plot_histogram(
     side.tick_params(axis="y", labelleft=False)
     if s.n == 0:
         ax.set_ylim(0, 1)
-    fig.suptitle(_heading(title, s), fontsize=10)
+    fig.suptitle(_heading(title, s, exact), fontsize=10)
     fig.savefig(os.fspath(path), format="png")
 
 
@@ -111,13 +115,16 @@ def plot_grid(
     levels_built: int | None = None,
     title: str = "",
     expected: Sequence[Any] = (),
+    cell_expected: Sequence[Sequence[Any]] = (),
     exact: bool = False,
 ) -> None:
     """Write a PNG of a statistic per cell against a numeric parameter, with 95 % error bars
     (none when ``exact``: a sweep that draws nothing, each cell one run repeated);
     the file's expectation on that statistic (``expected``, as :func:`plot_histogram` takes
     them) in :data:`EXPECTED`: a bound on P(stands) as a dashed threshold line with its accepted
-    side shaded, a mean's accepted interval hatched with its target dashed.
+    side shaded, a mean's accepted interval hatched with its target dashed. ``cell_expected[i]``:
+    expectations for ``cells[i]`` alone (a sweep's ``expect.cells``), drawn alike but only over
+    the cells they are for (from halfway to the neighbouring cells), one legend entry each.
 
     ``values[i]`` is the parameter's value of ``cells[i]`` (that cell's samples: collapse
     levels or None). The value is drawn times ``scale`` (e.g. values in metres, ``scale=1000``,
@@ -127,11 +134,14 @@ def plot_grid(
     for the mean, no collapse) is left out and counted in a note; one with an estimate but no
     interval (a single collapse) is a point without a bar.
 
-    Raises ValueError when values and cells differ in length, on an unknown statistic, or a
-    bad level (as :func:`stackdsl.verdicts.stats.summary`); OSError if ``path`` cannot be written.
+    Raises ValueError when values and cells (or ``cell_expected``, when given) differ in length,
+    on an unknown statistic, or a bad level (as :func:`stackdsl.verdicts.stats.summary`); OSError
+    if ``path`` cannot be written.
     """
     if len(values) != len(cells):
         raise ValueError(f"{len(values)} values for {len(cells)} cells")
+    if cell_expected and len(cell_expected) != len(cells):
+        raise ValueError(f"{len(cell_expected)} cells' expectations for {len(cells)} cells")
     if statistic not in ("p_stands", "mean"):
         raise ValueError(f"statistic must be 'p_stands' or 'mean', got {statistic!r}")
     points: list[tuple[float, float, float, float]] = []  # (x, estimate, low, high)
@@ -157,18 +167,13 @@ def plot_grid(
         ax.legend(loc="best", fontsize=8, frameon=False)
         if len(set(xs)) == 1:
             ax.set_xlim(xs[0] - 1, xs[0] + 1)
-    for form in expected:
-        if statistic == "p_stands" and isinstance(form, _stats.ProportionBound):
-            upward = form.op in (">=", ">")
-            ax.axhspan(form.bound, 1.03 if upward else -0.03, color=EXPECTED, alpha=0.08, lw=0)
-            ax.axhline(form.bound, color=EXPECTED, lw=1.5, ls="--", label=f"expected P(stands) {form.op} {form.bound:g}")
-        elif statistic == "mean" and isinstance(form, _stats.MeanWithin):
-            ax.axhspan(
-                form.target - form.tolerance, form.target + form.tolerance, facecolor="none", edgecolor=EXPECTED, hatch="//"
-            )
-            ax.axhline(form.target, color=EXPECTED, lw=1.5, ls="--", label=f"expected mean {form.target:g}±{form.tolerance:g}")
-        else:
+    spans: list[tuple[Any, float | None, float | None]] = [(form, None, None) for form in expected]
+    spans += _cell_spans([float(v) * scale for v in values], cell_expected)
+    named: list[Any] = []
+    for form, start, end in spans:
+        if not _draw_expected(ax, form, statistic, start, end, cell=start is not None, named=form not in named):
             continue
+        named.append(form)
         ax.legend(loc="best", fontsize=8, frameon=False)
     missing = len(cells) - len(points)
     if missing or not cells:
@@ -186,12 +191,72 @@ def plot_grid(
     fig.savefig(os.fspath(path), format="png")
 
 
-def _heading(title: str, s: _stats.CellSummary) -> str:
+def _draw_expected(
+    ax: Any, form: Any, statistic: Statistic, start: float | None, end: float | None, *, cell: bool, named: bool
+) -> bool:
+    """Draw ``form`` on the grid plot ``ax`` when it is about ``statistic``: across the whole plot
+    (``start`` None), else from ``start`` to ``end`` along the parameter, in the legend when
+    ``named``; whether it was drawn."""
+    where = " (some cells)" if cell else ""
+    if statistic == "p_stands" and isinstance(form, _stats.ProportionBound):
+        upward = form.op in (">=", ">")
+        band = (form.bound, 1.03) if upward else (-0.03, form.bound)
+        label = f"expected P(stands) {form.op} {form.bound:g}{where}" if named else "_"
+        if start is None or end is None:
+            ax.axhspan(*band, color=EXPECTED, alpha=0.08, lw=0)
+            ax.axhline(form.bound, color=EXPECTED, lw=1.5, ls="--", label=label)
+        else:
+            ax.fill_between([start, end], *band, color=EXPECTED, alpha=0.08, lw=0)
+            ax.plot([start, end], [form.bound, form.bound], color=EXPECTED, lw=1.5, ls="--", label=label)
+        return True
+    if statistic == "mean" and isinstance(form, _stats.MeanWithin):
+        low, high = form.target - form.tolerance, form.target + form.tolerance
+        label = f"expected mean {form.target:g}±{form.tolerance:g}{where}" if named else "_"
+        if start is None or end is None:
+            ax.axhspan(low, high, facecolor="none", edgecolor=EXPECTED, hatch="//")
+            ax.axhline(form.target, color=EXPECTED, lw=1.5, ls="--", label=label)
+        else:
+            ax.fill_between([start, end], low, high, facecolor="none", edgecolor=EXPECTED, hatch="//")
+            ax.plot([start, end], [form.target, form.target], color=EXPECTED, lw=1.5, ls="--", label=label)
+        return True
+    return False
+
+
+def _cell_spans(xs: Sequence[float], cell_expected: Sequence[Sequence[Any]]) -> list[tuple[Any, float | None, float | None]]:
+    """(form, start, end): each expectation of some cells over the runs of neighbouring cells
+    (by value) it holds in, from halfway to the cell before to halfway to the one after (half a
+    unit either side of a lone value)."""
+    if not cell_expected:
+        return []
+    order = sorted(range(len(xs)), key=lambda i: xs[i])
+    ordered = [xs[i] for i in order]
+    gaps = [b - a for a, b in itertools.pairwise(ordered) if b > a]
+    half = min(gaps) / 2 if gaps else 0.5
+    forms: list[Any] = []
+    for i in order:
+        forms += [f for f in cell_expected[i] if f not in forms]
+    spans: list[tuple[Any, float | None, float | None]] = []
+    for form in forms:
+        run: list[int] = []
+        for k, i in enumerate(order + [-1]):
+            if i >= 0 and form in cell_expected[i]:
+                run.append(k)
+                continue
+            if run:
+                left = ordered[run[0]] - ((ordered[run[0]] - ordered[run[0] - 1]) / 2 if run[0] > 0 else half)
+                last = run[-1]
+                right = ordered[last] + ((ordered[last + 1] - ordered[last]) / 2 if last + 1 < len(ordered) else half)
+                spans.append((form, left, right))
+                run = []
+    return spans
+
+
+def _heading(title: str, s: _stats.CellSummary, exact: bool) -> str:
     parts = [f"n={s.n}: {s.collapsed} collapsed, {s.stood} stood"]
     if s.mean is not None:
-        parts.append(f"mean {s.mean:.2f}" + (_ci(s.mean_interval, ".2f") if s.mean_interval else ""))
+        parts.append(f"mean {s.mean:.2f}" + (" exact" if exact else _ci(s.mean_interval, ".2f") if s.mean_interval else ""))
     if s.p_stands is not None and s.p_stands_interval is not None:
-        parts.append(f"P(stands) {s.p_stands:.3f}" + _ci(s.p_stands_interval, ".3f"))
+        parts.append(f"P(stands) {s.p_stands:.3f}" + (" exact" if exact else _ci(s.p_stands_interval, ".3f")))
     return "\n".join([title, "; ".join(parts)] if title else ["; ".join(parts)])
 
 

@@ -6,6 +6,12 @@ the hit brick and the stack above it, measured from the centre of the brick's ma
 contact area to its centre of mass above, that brick and everything above it wake and
 the engine simulates the blow; otherwise the stack holds and the engine handles the
 impactor alone (against immovable bricks). Threshold-based, as the report's.
+
+The report's barrier is the energy to lift the part off its base. An upright part turns
+over the edge of its base long before it is lifted: by default, for a part that nothing
+outside it holds (:func:`_free`), the barrier is the lesser of the two (:func:`tipping_energy`
+about the edge of the hit brick's support polygon, ``StabilityConfig.impact_energy``), so that
+no blow that topples a domino, a post or a column is held (stackdsl's own).
 """
 
 from __future__ import annotations
@@ -15,6 +21,7 @@ from dataclasses import replace
 
 import numpy as np
 from shapely.geometry import LineString, Point, Polygon
+from shapely.ops import unary_union
 
 from ._engine import ContactPoint
 from ._equilibrium import GRAVITY
@@ -138,16 +145,31 @@ class Impacts:
                 self.tests.refresh_loads()
                 assert other.com_above is not None, "the stack test sets it for every frozen brick"
                 potential = potential_energy(other.mass_above, other.com_above[2], base, config.gravity)
-                if config.impact_energy == "tip" and other.main_contact is not None:
-                    potential = tipping_energy(
-                        other.mass_above, np.asarray(other.com_above), other.main_contact.polygon, base, heading, config.gravity
-                    )
+                if config.impact_energy == "least" and _free(stack, other):
+                    footprint = unary_union([a.polygon for a in other.rests_on.values()]).convex_hull
+                    com = np.asarray(other.com_above)
+                    potential = min(potential, tipping_energy(other.mass_above, com, footprint, base, heading, config.gravity))
                 detail = f"impact of {rec.label} at {speed:.2f} m/s: {kinetic * 1000:.3g} mJ against {potential * 1000:.3g} mJ"
                 if breaks_loose(kinetic, potential):
                     events += [replace(w.event, source=rec.label) for w in stack.wake(other.body, time, detail)]
                 else:
                     events.append(StabilityEvent(time, "impact", other.label, f"held, {detail}", rec.label))
         return events
+
+
+def _free(stack: Stack, rec: Record) -> bool:
+    """Is the part ``rec`` carries (itself and what rests on it, and on those) free to tip
+    over the edge of ``rec``'s own support polygon: does nothing in it rest on a brick outside
+    it? A brick of a tower's level is not: the level above lies on its neighbour too, and
+    turns the part about no edge of its own; a domino, a post, a column of bricks is
+    (stackdsl's own)."""
+    part, todo = {rec.body}, [rec.body]
+    while todo:
+        for above in stack.bodies[todo.pop()].objects_above:
+            if above not in part:
+                part.add(above)
+                todo.append(above)
+    return all(set(stack.bodies[b].rests_on) <= part for b in part if b != rec.body) and bool(rec.rests_on)
 
 
 def _reaches(

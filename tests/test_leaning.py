@@ -250,6 +250,49 @@ def test_an_impact_below_the_potential_energy_is_held():
     assert s.ext.update(1.01) == []  # the same approach is judged once
 
 
+def domino_scene(speed: float, lintel: bool, **config) -> tuple[Scene, list]:
+    """A frozen KAPLA domino on end (8 mm along x, 24 along y, centre of mass 60 mm up); with
+    ``lintel``, a second one at x = 100 mm and a flat KAPLA lying across their tops. A hammer
+    about to strike the first one's -x face, heading +x, at ``speed``."""
+    s = Scene(**config)
+    feet = (0.0, 0.1) if lintel else (0.0,)
+    for body, x in enumerate(feet, start=1):
+        s.engine.poses[body] = Pose.from_euler([x, 0.0, 0.06], pitch=90)
+        s.ext.add_brick(body, KAPLA, f"d{body}")
+        s.engine.touch(body, 0, [[x - 0.004, -0.012, 0.0], [x + 0.004, 0.012, 0.0]], normal=UP)
+    if lintel:
+        s.engine.poses[3] = Pose.from_euler([0.05, 0.0, 0.124])
+        s.ext.add_brick(3, KAPLA, "lintel")
+        for leg, x in ((1, 0.0), (2, 0.1)):
+            s.engine.touch(3, leg, [[x - 0.004, -0.012, 0.12], [x + 0.004, 0.012, 0.12]], normal=UP)
+    s.ext.update(0.1)
+    assert all(s.ext.state(b) is BrickState.FROZEN for b in range(1, len(feet) + 1 + lintel))
+    s.engine.poses[5] = Pose.from_euler([-0.07, 0.0, 0.1])
+    s.ext.add_brick(5, KAPLA, "hammer")
+    s.engine.velocities[5] = (np.array([speed, 0.0, 0.0]), np.zeros(3))
+    s.engine.touch(5, 1, [[-0.004, 0.0, 0.1]], normal=[-1, 0, 0])
+    return s, s.ext.update(1.0)
+
+
+def test_a_blow_that_tips_a_lone_domino_over_wakes_it_though_it_could_not_lift_it():
+    # KE at 0.3 m/s: 0.48 mJ. Lifting the domino's centre of mass 60 mm: 6.24 mJ (the report's
+    # barrier); tipping it over the edge of its 8 mm foot: m g (sqrt(4^2 + 60^2) - 60) mm = 0.0138 mJ
+    _, events = domino_scene(0.3, lintel=False)
+    tip = M * 9.81 * (math.hypot(0.004, 0.06) - 0.06)
+    assert [(e.kind, e.label, e.source) for e in events] == [("wake", "d1", "hammer")]
+    assert f"0.477 mJ against {tip * 1000:.3g} mJ" in events[0].reason
+    _, lifted = domino_scene(0.3, lintel=False, impact_energy="lift")  # the report's rule held it
+    assert [(e.kind, e.label) for e in lifted] == [("impact", "d1")] and "against 6.24 mJ" in lifted[0].reason
+
+
+def test_a_part_that_rests_on_a_brick_outside_it_is_not_tipped_over_its_own_foot():
+    # the lintel lies on both dominoes: the first with the lintel's share above it cannot turn
+    # over its own foot's edge alone, so the blow meets the energy to lift it (report 3.6.2)
+    s, events = domino_scene(0.3, lintel=True)
+    assert [(e.kind, e.label) for e in events] == [("impact", "d1")] and events[0].reason.startswith("held")
+    assert s.ext.state(3) is BrickState.FROZEN
+
+
 def test_impact_rule_off():
     s = Scene(impacts=False)
     s.engine.poses[1] = Pose.from_euler([0.0, 0.0, 0.004])

@@ -213,7 +213,6 @@ def compile_scenario(
             gravity=engine.gravity,
             leaning=on["leaning"],
             impacts=on["impacts"],
-            impact_energy="tip" if on.get("guided") else "lift",
         ),
         rules=rules,
         fixtures=tuple(

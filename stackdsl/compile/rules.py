@@ -73,7 +73,7 @@ def choose_rules(
             on=bool(launches or hands),
             reason=f"{len(launches)} projectile{'s' * (len(launches) != 1)}"
             if launches
-            else "a pulled or pushed brick may knock over the frozen bricks it falls on (the energy to tip them)"
+            else "a pulled or pushed brick may knock over the frozen bricks it falls on (the energy to tip or lift them)"
             if hands
             else "nothing is thrown",
         ),

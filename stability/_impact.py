@@ -11,7 +11,10 @@ The report's barrier is the energy to lift the part off its base. An upright par
 over the edge of its base long before it is lifted: by default, for a part that nothing
 outside it holds (:func:`_free`), the barrier is the lesser of the two (:func:`tipping_energy`
 about the edge of the hit brick's support polygon, ``StabilityConfig.impact_energy``), so that
-no blow that topples a domino, a post or a column is held (stackdsl's own).
+no blow that topples a domino, a post or a column is held; and where the report's barrier is
+nothing (a fallen brick lying tilted, its centre of mass below the contact it rests on) the
+tipping energy is the barrier, so that a touch at 0.01 m/s does not wake a fallen domino row
+brick by brick (stackdsl's own).
 """
 
 from __future__ import annotations
@@ -145,10 +148,12 @@ class Impacts:
                 self.tests.refresh_loads()
                 assert other.com_above is not None, "the stack test sets it for every frozen brick"
                 potential = potential_energy(other.mass_above, other.com_above[2], base, config.gravity)
-                if config.impact_energy == "least" and _free(stack, other):
+                if config.impact_energy == "least" and (potential <= 0.0 or _free(stack, other)):
                     footprint = unary_union([a.polygon for a in other.rests_on.values()]).convex_hull
                     com = np.asarray(other.com_above)
-                    potential = min(potential, tipping_energy(other.mass_above, com, footprint, base, heading, config.gravity))
+                    if footprint.contains(Point(com[0], com[1])):  # standing on its own foot (else held by more)
+                        tip = tipping_energy(other.mass_above, com, footprint, base, heading, config.gravity)
+                        potential = tip if potential <= 0.0 else min(potential, tip)
                 detail = f"impact of {rec.label} at {speed:.2f} m/s: {kinetic * 1000:.3g} mJ against {potential * 1000:.3g} mJ"
                 if breaks_loose(kinetic, potential):
                     events += [replace(w.event, source=rec.label) for w in stack.wake(other.body, time, detail)]
@@ -161,8 +166,9 @@ def _free(stack: Stack, rec: Record) -> bool:
     """Is the part ``rec`` carries (itself and what rests on it, and on those) free to tip
     over the edge of ``rec``'s own support polygon: does nothing in it rest on a brick outside
     it? A brick of a tower's level is not: the level above lies on its neighbour too, and
-    turns the part about no edge of its own; a domino, a post, a column of bricks is
-    (stackdsl's own)."""
+    turns the part about no edge of its own; a domino, a post, a column of bricks is. A part
+    whose centre of mass lies outside that polygon (a fallen domino frozen leaning in a pile)
+    is held by more than its foot, and meets the lifting energy too (stackdsl's own)."""
     part, todo = {rec.body}, [rec.body]
     while todo:
         for above in stack.bodies[todo.pop()].objects_above:

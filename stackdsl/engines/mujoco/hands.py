@@ -45,6 +45,13 @@ BLOW_SKIN = 0.0005
 #: what else it touches: blows every step at the foot of a domino a finger pushes along
 #: tilted it back, and it no longer fell at 70 mm/s (59.3 mm/s by its closed form).
 BLOW_SPEED = SLIP_SPEED
+#: m/s: the contacts of a pulled brick (guided by its own mass, not held: a Jenga pull) are
+#: limited (:meth:`Hands.solve`) while they slip faster than this. A pull is slow (20 to 40
+#: mm/s), and MuJoCo's friction, asked to stop the slip under the level above within the step,
+#: lifted that level onto the pulled block: a 9-level Jenga tower of friction 0.05 pulled at
+#: its third level rode off on the block to 1.8 m, and one of 0.4 dragged 7.8 mm (Coulomb's
+#: friction holds the level above on the two other blocks at any friction: 0.4 and 2.2 mm now).
+PULL_SLIP_SPEED = 0.01
 
 
 @dataclass(frozen=True)
@@ -107,9 +114,9 @@ class Hands:
 
     @property
     def busy(self) -> bool:
-        """Whether a step must run MuJoCo's stages one by one: a hand holds a brick, or a brick it
-        struck still slides."""
-        return bool(self.struck) or any(grip is not None for grip in self.guided.values())
+        """Whether a step must run MuJoCo's stages one by one: a brick is guided (held or
+        pulled), or a brick a hand struck still slides."""
+        return bool(self.struck or self.guided)
 
     @staticmethod
     def grip(m: Any, bid: int, dof: int, grip: Grip) -> None:
@@ -159,7 +166,7 @@ class Hands:
 
         Only the contacts of the hands (:meth:`holding`) and of the bricks they struck (:meth:`blows`),
         while these slide or fly, are limited, and only while they slip faster than
-        :data:`SLIP_SPEED`; a brick a hand struck that stands, leans or rolls (a pushed domino as
+        :data:`SLIP_SPEED`, and those of a pulled brick from :data:`PULL_SLIP_SPEED`; a brick a hand struck that stands, leans or rolls (a pushed domino as
         it falls) is no longer struck. MuJoCo's own contact everywhere else: limited on every
         sliding contact, rows of KAPLA dominoes 120 to 126 mm apart stopped at 13 to 17 of 20 in
         extension mode and one 124 mm apart at 15 on tuned MuJoCo (each falls whole on every
@@ -168,8 +175,8 @@ class Hands:
         than the least reach, a step is MuJoCo's own, bit for bit. Pyramidal cones (raw MuJoCo) mix each friction row with the normal one:
         never limited. Source: stackdsl's own, on MuJoCo's reference acceleration (its
         documentation, "Computation", eq:aref) and ``mjContact``."""
-        aref, hands = d.efc_aref, self.holding()
-        if not (self.struck or hands) or d.nefc == 0 or np.abs(aref).max() <= self.least_reach:
+        aref, hands, pulled = d.efc_aref, self.holding(), [b for b, grip in self.guided.items() if grip is None]
+        if not (self.struck or hands or pulled) or d.nefc == 0 or np.abs(aref).max() <= self.least_reach:
             self._mj.mj_fwdConstraint(m, d)  # no row asks for more than the least friction can give (2 us)
             return
         contact, velocity = d.contact, d.efc_vel
@@ -187,6 +194,10 @@ class Hands:
         held[[*self.struck, *hands]] = True
         held[0] = False
         mine = held[bodies].any(axis=1) & (slip > SLIP_SPEED)
+        if pulled:  # what lies on a pulled brick, or under it, slips slowly: limited from PULL_SLIP_SPEED
+            dragged = np.zeros(len(frozen) + 1, dtype=bool)
+            dragged[pulled] = True
+            mine |= dragged[bodies].any(axis=1) & (slip > PULL_SLIP_SPEED)
         address, mu = address[mine], mu[mine]
         first, second = aref[address + 1], aref[address + 2]  # the two tangent directions
         asked = np.sqrt(first * first + second * second)

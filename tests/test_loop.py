@@ -236,9 +236,9 @@ def test_a_collapse_while_a_shake_or_push_is_under_way_lets_it_finish_then_settl
     its end first: a 600 s shake was cut off 3.6 s after its start and the run judged mid-shake."""
     p = program(f"{TOWER}actions:\n  - {action}\n")
     motion = p.kinematic[0]
-    loop = run_in(FakeWorld(timestep=p.engine.timestep), p, subscribers=(Knock("L01.1"),))
+    loop = run_in(FakeWorld(timestep=p.engine.timestep), p, subscribers=(Knock("L02.2"),))  # off the two under it
     result = outcome(loop, 0.0)
-    assert result.collapse is not None and result.collapse.brick == "L01.1"
+    assert result.collapse is not None and result.collapse.brick == "L02.2"
     assert result.collapse.decided + p.settle < motion.end_time - 1.0  # the settle alone would end it mid-action
     assert loop.now == pytest.approx(motion.end_time + p.settle, abs=2 * p.engine.timestep)
     assert loop.stopped is None and loop.not_run == ()

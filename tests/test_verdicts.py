@@ -493,3 +493,45 @@ timing: {{settle: 1 s}}
     assert result.collapse is not None and result.certificate is not None
     said = "placed 0.30 mm inside its support's edge: a near tie" in result.certificate.detail
     assert said == near, result.certificate.detail
+
+
+@pytest.mark.parametrize(
+    "x_mm, tilt_deg, beyond",
+    [(0.0, 0.0, False), (300.0, 0.0, False), (300.0, 3.0, False), (35.0, 20.0, True), (35.0, 90.0, True)],
+    ids=["in place", "slid 300 mm", "slid and rocking", "past its edge", "lying on its side"],
+)
+def test_a_brick_on_the_ground_leaves_its_support_only_past_the_edge_of_its_foot(x_mm, tilt_deg, beyond):
+    """The ground reaches everywhere: a post that slid along it is still on it, and saying its
+    centre of mass "lies outside the support polygon it was placed on" was false. It leaves its
+    support when its centre of mass passes the edge of the face it stood on (a 30 x 30 x 90 mm
+    post tips past atan(15 / 45) = 18.4 deg)."""
+    from stackdsl.runtime.collapse import SupportPolygon
+
+    post = Box(np.array([0.015, 0.015, 0.045]), 0.057)
+    support = SupportPolygon(post, Pose(np.array([0.0, 0.0, 0.045])), [(None, Plane(0.0), None)])
+    assert support.on_the_ground_alone
+    # turned about its foot's +x edge (x = x_mm + 15 mm), as a post tips over
+    pitch = np.radians(tilt_deg)
+    edge = np.array([x_mm / 1000 + 0.015, 0.0, 0.0])
+    centre = edge + np.array([-0.015 * np.cos(pitch) + 0.045 * np.sin(pitch), 0.0, 0.015 * np.sin(pitch) + 0.045 * np.cos(pitch)])
+    now = Pose.from_euler(centre, pitch=tilt_deg)
+    assert (support.beyond_its_base(now) > 0.0) is beyond
+    placed_on_a_brick = SupportPolygon(KAPLA, Pose(np.array([0.0, 0.0, 0.012])), [(1, KAPLA, Pose(np.array([0.0, 0.0, 0.004])))])
+    assert not placed_on_a_brick.on_the_ground_alone
+
+
+def test_a_brick_that_slid_along_the_ground_came_to_rest_displaced():
+    """A 30 x 30 x 90 mm post pushed 15 mm above the ground slides 35 mm, upright: the collapse's
+    proof was "its centre of mass lies 0.5 mm outside the support polygon it was placed on"."""
+    text = """stackdsl: 1
+materials: {oak: {density: 700 kg/m^3, friction: 0.6}}
+brick_types: {post: {size: [30 mm, 30 mm, 90 mm], material: oak}, finger: {size: [20 mm, 10 mm, 6 mm]}}
+ground: {material: oak}
+structure: {bricks: [{id: post, at: [0, 0, 45 mm], brick: post}]}
+actions:
+  - push: {target: {brick: post, offset: [0, 0, -30 mm]}, direction: [1, 0, 0], speed: 20 mm/s, distance: 40 mm, at: 1 s, pusher: finger}
+timing: {settle: 2 s}
+"""
+    result = run_program(compile_scenario(parse_scenario(text)))
+    assert result.collapse is not None and result.certificate is not None and result.toppled == ()
+    assert result.certificate.kind == "at rest displaced", result.certificate.detail

@@ -107,6 +107,7 @@ class SupportPolygon:
     below: list[tuple[int | None, Box | Plane, Pose | None]]
     _pieces: tuple[tuple[int | None, np.ndarray], ...] | None = None
     _placed_margin: float | None = None
+    _on_planes: int = 0  # how many of the pieces lie on the ground (a plane)
 
     @property
     def pieces(self) -> tuple[tuple[int | None, np.ndarray], ...]:
@@ -123,8 +124,26 @@ class SupportPolygon:
                 if body is not None and where is not None:
                     corners = (corners - where.position) @ where.rotation  # into the support's frame
                 pieces.append((body, corners))
+                self._on_planes += isinstance(shape, Plane)
             self._pieces = tuple(pieces)
         return self._pieces
+
+    @property
+    def on_the_ground_alone(self) -> bool:
+        """Whether the brick was placed on the ground and on nothing else."""
+        return bool(self.pieces) and self._on_planes == len(self.pieces)
+
+    def beyond_its_base(self, pose: Pose) -> float:
+        """Metres the brick's centre of mass, at ``pose`` now, lies horizontally beyond the edge
+        of the face it was placed on (that face as it is now, seen from above); 0 over it. On the
+        ground, which reaches everywhere, this is what leaving its support means: a post that
+        tips past the edge of its foot has, one that slides along the ground has not."""
+        placed = self.box.corners(self.pose)
+        face = np.argsort(placed[:, 2])[:4]  # the four lowest corners as placed: the face it stood on
+        now = self.box.corners(pose)[face]
+        hull = convex_hull(multipoints(now[:, :2]))
+        x, y = float(pose.position[0]), float(pose.position[1])
+        return 0.0 if contains_xy(hull, x, y) else float(hull.distance(Point(x, y)))
 
     @property
     def placed_outside(self) -> float:
@@ -349,9 +368,14 @@ class CollapseMonitor(Subscriber):
             elif (out := self._off_support(loop, record)) > OFF_SUPPORT and out - (placed := self._placed_outside(record)) > (
                 FURTHER_OFF if placed > 0.0 else 0.0
             ):
+                where = (
+                    "beyond the edge of the face it stood on the ground with"
+                    if (support := self._supports.get(record.id)) is not None and support.on_the_ground_alone
+                    else "outside the support polygon it was placed on"
+                )
                 proof = (
                     "off its support",
-                    f"{record.id}'s centre of mass lies {out * 1000:.1f} mm outside the support polygon it was placed on"
+                    f"{record.id}'s centre of mass lies {out * 1000:.1f} mm {where}"
                     + (f" ({placed * 1000:.1f} mm as it was placed)" if placed > 0.0 else ""),
                     (),
                 )
@@ -390,6 +414,8 @@ class CollapseMonitor(Subscriber):
         bodies = [record.body, *(b for b, _ in support.pieces if b is not None)]
         positions, quaternions = loop.world.poses_of(bodies)
         poses = {b: Pose(p, q) for b, p, q in zip(bodies, positions, quaternions)}
+        if support.on_the_ground_alone:  # the ground is everywhere: off the face it stood on, or not
+            return support.beyond_its_base(Pose(positions[0] - loop.structure.offset, quaternions[0]))
         return support.outside(positions[0] - loop.structure.offset, poses, loop.structure.offset, gone)
 
     def _resting(self, loop: StepLoop, records: list[BrickRecord]) -> list[bool]:

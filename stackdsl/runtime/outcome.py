@@ -74,7 +74,7 @@ class Certificate(_Frozen):
             every brick where it is at the end (:meth:`stability.StabilityExtension.certificate`).
             For ``collapse``: ``"at rest displaced"`` (a brick came to rest out of its place),
             ``"off its support"`` (its centre of mass left the support polygon it was placed
-            on), ``"mechanism"`` (it moves in a collapse mechanism statics proved),
+            on; on the ground alone, passed the edge of the face it stood on), ``"mechanism"`` (it moves in a collapse mechanism statics proved),
             ``"displaced at the end"``, or ``"no equilibrium"`` (the final state has none).
         detail: the proof in words.
         bricks: the bricks involved: those displaced at the collapse, those of the mechanism

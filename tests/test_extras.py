@@ -134,6 +134,26 @@ def test_bench_says_when_the_engines_are_not_the_measured_versions(tmp_path, mon
     pins.write_text("pybullet==3.2.7\nmujoco==4.0.0\n")
     assert versions.version_line(pins).endswith("(the versions of constraints.txt)")
     assert "no constraints.txt" in versions.version_line(tmp_path / "absent.txt")
+    # an installed copy (no checkout beside the package) compares with the working folder's
+    monkeypatch.setattr(versions, "CONSTRAINTS", tmp_path / "no checkout" / "constraints.txt")
+    monkeypatch.chdir(tmp_path)
+    assert versions.constraints_file() == tmp_path / "constraints.txt"
+    assert versions.version_line().endswith("(the versions of constraints.txt)")
+
+
+def test_the_startup_bench_checks_a_scenario_of_its_own(tmp_path, monkeypatch):
+    """An installed copy has no scenarios folder beside the package: the one-file check runs a
+    scenario the bench writes, which stands."""
+    from stackdsl.bench import startup
+
+    ran: list[list[str]] = []
+    monkeypatch.setattr(startup.subprocess, "run", lambda argv, **kw: ran.append(list(argv)))
+    rows = startup.measure(repeats=1)
+    checked = next(argv for argv in ran if "check" in argv)
+    assert rows[-1].what == "stackdsl check vee_stands.yaml" and not Path(checked[checked.index("check") + 1]).exists()
+    small = tmp_path / "vee_stands.yaml"
+    small.write_text(startup.SMALL)
+    assert main(["check", str(small), "-j", "1"]) == 0
 
 
 def test_version_loads_nothing_heavy_and_the_startup_bench_runs(capsys):

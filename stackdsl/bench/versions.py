@@ -15,8 +15,15 @@ from pathlib import Path
 
 #: The engines whose versions shape the numbers (docs/design.md, "Engine facts").
 ENGINES = ("pybullet", "mujoco")
-#: The repository's constraints file (absent from an installed copy).
+#: The repository's constraints file beside the package (absent from an installed copy, which
+#: looks in the working folder: :func:`constraints_file`).
 CONSTRAINTS = Path(__file__).resolve().parents[2] / "constraints.txt"
+
+
+def constraints_file() -> Path:
+    """The constraints file to compare with: the source checkout's (an editable install), else
+    the one in the working folder (a clone installed with ``pip install .``, run from its root)."""
+    return CONSTRAINTS if CONSTRAINTS.is_file() else Path.cwd() / "constraints.txt"
 
 
 def installed_versions() -> dict[str, str | None]:
@@ -30,7 +37,7 @@ def installed_versions() -> dict[str, str | None]:
     return found
 
 
-def constrained_versions(path: Path = CONSTRAINTS) -> dict[str, str]:
+def constrained_versions(path: Path | None = None) -> dict[str, str]:
     """The ``name==version`` lines of a constraints file, names lower-cased; {} when absent.
 
     >>> import tempfile
@@ -40,15 +47,17 @@ def constrained_versions(path: Path = CONSTRAINTS) -> dict[str, str]:
     ...     constrained_versions(p)
     {'pybullet': '3.2.7', 'pint': '0.25'}
     """
+    path = constraints_file() if path is None else path
     if not path.is_file():
         return {}
     pins = re.findall(r"^\s*([A-Za-z0-9_.-]+)\s*==\s*([^\s#;]+)", path.read_text(), flags=re.M)
     return {name.lower(): version for name, version in pins}
 
 
-def version_line(path: Path = CONSTRAINTS) -> str:
+def version_line(path: Path | None = None) -> str:
     """``'engines: pybullet 3.2.7, mujoco 4.0.0 (the versions of constraints.txt)'``, or the
-    differences from constraints.txt when there are any."""
+    differences from constraints.txt (``path``, by default :func:`constraints_file`) when
+    there are any."""
     installed = installed_versions()
     pinned = constrained_versions(path)
     shown = ", ".join(f"{n} {v or 'not installed'}" for n, v in installed.items())

@@ -109,15 +109,37 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 
 
 def pytest_collect_file(file_path: Path, parent: pytest.Collector) -> pytest.Collector | None:
-    """Collect a YAML file below one of the configured scenario folders."""
+    """Collect a YAML file below one of the scenario folders: every one below folders the
+    project names (``stackdsl_paths``), and below the default ``scenarios`` only those that
+    say they are stackdsl's (a top-level ``stackdsl:`` key), so that a project which merely
+    has stackdsl installed keeps its own YAML files out of its tests."""
     if file_path.suffix not in SUFFIXES:
         return None
     config = parent.config
     roots = [(config.rootpath / p).resolve() for p in config.getini("stackdsl_paths")]
     here = file_path.resolve()
-    if any(here.is_relative_to(root) for root in roots):
-        return ScenarioFile.from_parent(parent, path=file_path)
-    return None
+    if not any(here.is_relative_to(root) for root in roots):
+        return None
+    if not _paths_named(config) and not _declares_stackdsl(file_path):
+        return None
+    return ScenarioFile.from_parent(parent, path=file_path)
+
+
+def _paths_named(config: pytest.Config) -> bool:
+    """Whether the project names its scenario folders (``stackdsl_paths`` in its ini file, or
+    ``-o stackdsl_paths=...``), rather than taking the default."""
+    overrides = getattr(config.known_args_namespace, "override_ini", None) or []
+    return "stackdsl_paths" in config.inicfg or any(o.split("=", 1)[0].strip() == "stackdsl_paths" for o in overrides)
+
+
+def _declares_stackdsl(path: Path) -> bool:
+    """Whether the YAML file at ``path`` has a top-level ``stackdsl:`` key (a line starting
+    so); False when it cannot be read as text."""
+    try:
+        text = path.read_text(encoding="utf-8-sig", errors="replace")
+    except OSError:
+        return False
+    return any(line.startswith("stackdsl:") or line.startswith('"stackdsl":') for line in text.splitlines())
 
 
 def golden_owners(golden: Path, folder: Path) -> list[Path] | None:
@@ -207,7 +229,25 @@ class ScenarioFile(pytest.File):
     """A scenario file: one test item, named after the file."""
 
     def collect(self) -> Iterator[pytest.Item]:
+        if SnapshotAssertion is None:  # no syrupy: its golden cannot be compared
+            yield NeedsExtra.from_parent(self, name=self.path.stem)
+            return
         yield ScenarioItem.from_parent(self, name=self.path.stem, callobj=_scenario_test)
+
+
+#: What a scenario item says when syrupy, which compares its golden snapshot, is not installed.
+NEEDS_EXTRA = "scenario files as pytest items need the [pytest] extra (syrupy): pip install 'stackdsl[pytest]'"
+
+
+class NeedsExtra(pytest.Item):
+    """A scenario file's item when syrupy is missing: it fails with :data:`NEEDS_EXTRA`, one
+    line, where pytest would say "fixture 'snapshot' not found" with its fixture list."""
+
+    def runtest(self) -> None:
+        pytest.fail(NEEDS_EXTRA, pytrace=False)
+
+    def reportinfo(self) -> tuple[Path, int, str]:
+        return self.path, 0, f"scenario {self.path.name}"
 
 
 class ScenarioItem(pytest.Function):
@@ -513,6 +553,15 @@ if SingleFileSnapshotExtension is not None:
         def diff_lines(self, serialized_data: Any, snapshot_data: Any) -> Iterator[str]:
             yield from _summarized(serialized_data, snapshot_data)
             yield from super().diff_lines(serialized_data, snapshot_data)
+
+
+if SnapshotAssertion is None:
+
+    @pytest.fixture
+    def snapshot() -> Any:
+        """Without syrupy: the ``golden`` fixture fails with one line naming the extra, where
+        pytest would say "fixture 'snapshot' not found"."""
+        pytest.fail(NEEDS_EXTRA.replace("scenario files as pytest items need", "golden snapshots need"), pytrace=False)
 
 
 @pytest.fixture

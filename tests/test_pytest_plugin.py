@@ -135,6 +135,32 @@ def test_other_configured_folders_are_collected(pytester):
     assert (pytester.path / "golden" / "lab" / "stacks" / "t.json").is_file()
 
 
+def test_a_project_that_names_no_folder_keeps_its_own_yaml_out(pytester, monkeypatch):
+    """A project that merely has stackdsl installed, with a ``scenarios/`` folder of its own
+    YAML: by default only files that say they are stackdsl's (``stackdsl:``) are collected; a
+    folder the project names has every file collected (a broken scenario fails, not hides)."""
+    monkeypatch.delenv("PYTEST_XDIST_WORKER", raising=False)
+    (pytester.path / "scenarios").mkdir()
+    (pytester.path / "scenarios" / "config.yaml").write_text("a: 1\n")
+    (pytester.path / "scenarios" / "tower.yaml").write_text("\ufeff" + TOWER)  # a byte-order mark too
+    pytester.makepyfile(test_a="def test_a():\n    assert True\n")
+    result = pytester.runpytest("--collect-only", "-q")
+    assert sorted(line for line in result.outlines if "::" in line) == ["scenarios/tower.yaml::tower", "test_a.py::test_a"]
+    named = pytester.runpytest("--collect-only", "-q", "-o", "stackdsl_paths=scenarios")
+    assert "scenarios/config.yaml::config" in named.outlines
+
+
+def test_without_syrupy_a_scenario_item_names_the_extra(project, monkeypatch):
+    from stackdsl import pytest_plugin
+
+    monkeypatch.setattr(pytest_plugin, "SnapshotAssertion", None)
+    write(project, "tower", TOWER)
+    result = project.runpytest()
+    result.assert_outcomes(failed=1)
+    assert any("pip install 'stackdsl[pytest]'" in line for line in result.outlines)
+    assert not any("fixture 'snapshot' not found" in line for line in result.outlines)
+
+
 def test_xdist_runs_scenario_items(project):
     pytest.importorskip("xdist")
     for name in ("a", "b"):

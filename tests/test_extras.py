@@ -204,3 +204,31 @@ def test_bench_height_without_the_profiler_says_the_extra_or_no_profile(capsys, 
         "bench height: the profile needs pyinstrument (a sampling profiler), which is not installed: "
         "pip install 'stackdsl[profile]' (or --no-profile)"
     )
+
+
+@pytest.mark.parametrize("command", ["check", "compare", "compile", "run", "render", "sweep", "replay", "export", "schema"])
+def test_a_commands_help_loads_no_engine_and_no_stability_package(command):
+    """``stackdsl check --help`` took 0.76 s, loading the compiler and scipy.optimize for a list of
+    modes; a command's help loads only what its options name."""
+    code = (
+        "import sys, contextlib, io\n"
+        "from stackdsl.cli.main import main\n"
+        "with contextlib.redirect_stdout(io.StringIO()):\n"
+        "    try:\n"
+        f"        main([{command!r}, '--help'])\n"
+        "    except SystemExit:\n"
+        "        pass\n"
+        "print(sorted(m for m in ('stability', 'scipy', 'pybullet', 'mujoco', 'shapely') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip().splitlines()[-1] == "[]"
+
+
+def test_the_options_name_the_engines_modes_and_rate_the_code_has():
+    from stackdsl.cli import draw
+    from stackdsl.cli.main import BACKENDS, MODES
+    from stackdsl.engines.settings import SETTINGS
+    from stackdsl.runtime.recorder import RATE
+
+    assert BACKENDS == list(SETTINGS) and all(MODES == list(s.DEFAULTS) for s in SETTINGS.values())
+    assert draw.RATE == RATE

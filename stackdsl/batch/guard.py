@@ -29,6 +29,10 @@ import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 
+#: Wall seconds a scenario may run before it is stopped (``--timeout``): generous, about 25
+#: times the slowest shipped scenario in raw mode, and short enough that a careless scene (a
+#: 40-level tower in tuned mode, about 5 minutes) ends with a verdict within two minutes.
+TIMEOUT = 100.0
 #: Bytes of address space a worker may map (``RLIMIT_AS``): 4 GiB, about ten times what a
 #: worker maps after running a 30-level tower (about 0.4 GiB, most of it the libraries).
 #: A worker that had already mapped more than a quarter of it at start (many cores' worth

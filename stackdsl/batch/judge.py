@@ -24,14 +24,11 @@ from ..runtime.run import run_program
 from ..verdicts.check_result import CheckResult
 from ..verdicts.expect import Verdict, evaluate, explain, moved_levels
 from ..verdicts.stats import expected_text
+from .guard import TIMEOUT as TIMEOUT
 from .pool import WorkerLost, WorkerTimedOut
 from .sweep import SampleResult
 from .sweep_out import expectations
 
-#: Wall seconds a scenario may run before it is stopped (``--timeout``): generous, about 25
-#: times the slowest shipped scenario in raw mode, and short enough that a careless scene (a
-#: 40-level tower in tuned mode, about 5 minutes) ends with a verdict within two minutes.
-TIMEOUT = 100.0
 #: A worker whose run has not stopped itself this many seconds after its timeout (the
 #: engine stuck inside one call) is ended from outside.
 KILL_AFTER = 10.0

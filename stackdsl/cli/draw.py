@@ -104,10 +104,13 @@ def _add_graph(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) ->
 _ADD = {"render": _add_render, "animate": _add_animate, "graph": _add_graph}
 
 
+#: The recorder's frames a simulated second by default (``stackdsl.runtime.recorder.RATE``),
+#: written here so that ``run --help`` loads no runtime; a test keeps the two equal.
+RATE = 30.0
+
+
 def add_record_options(p: argparse.ArgumentParser) -> None:
     """``run``'s --record and --rate."""
-    from ..runtime.recorder import RATE
-
     p.add_argument(
         "--record",
         metavar="OUT.npz",

@@ -44,6 +44,10 @@ from .args import (
 )
 
 MODELS = ["report", "equilibrium"]
+#: The engines and their modes, as the options offer them: written here, so that ``--help`` loads
+#: no engine settings (their protocol loads the stability package); a test keeps them the settings'.
+BACKENDS = ["pybullet", "mujoco"]
+MODES = ["raw", "tuned", "extension"]
 
 
 @contextlib.contextmanager
@@ -312,7 +316,7 @@ def _add_command(sub: Any, name: str, common: argparse.ArgumentParser) -> None:
     if name in ("check", "compare", "compile", "run") or name in NAMES:
         _add_scenario_command(sub, name, common)
     elif name == "sweep":
-        from ..batch.judge import TIMEOUT
+        from ..batch.guard import TIMEOUT
         from .sweep import add_sweep
 
         add_sweep(
@@ -324,12 +328,12 @@ def _add_command(sub: Any, name: str, common: argparse.ArgumentParser) -> None:
             ),
             jobs_type,
             MODELS,
-            _modes(),
+            MODES,
         )
     elif name == "bench":
         from .bench import add_bench
 
-        add_bench(sub, [common], _ONE_STATUS, _modes())
+        add_bench(sub, [common], _ONE_STATUS, MODES)
     else:
         p = sub.add_parser(
             "schema",
@@ -351,10 +355,18 @@ def _add_command(sub: Any, name: str, common: argparse.ArgumentParser) -> None:
         p.set_defaults(func=_print_schema)
 
 
-def _modes() -> list[str]:
-    from ..compile.compiler import MODE_DEFAULTS
+def _check_command(args: argparse.Namespace) -> int:
+    """``check``, its modules loaded when it runs (``check --help`` loads none of them)."""
+    from .check import check_command
 
-    return list(MODE_DEFAULTS)
+    return check_command(args)
+
+
+def _compare_command(args: argparse.Namespace) -> int:
+    """``compare``, its modules loaded when it runs."""
+    from .check import compare_command
+
+    return compare_command(args)
 
 
 def _guarded(timeout: float) -> argparse.ArgumentParser:
@@ -373,15 +385,13 @@ def _guarded(timeout: float) -> argparse.ArgumentParser:
 
 def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) -> None:
     """Add check, compare, compile, run, or a drawing command (:mod:`stackdsl.cli.draw`)."""
-    from ..compile.compiler import BACKEND_DEFAULTS
-
     raw = argparse.RawDescriptionHelpFormatter
-    modes = _modes()
+    modes = MODES
     one = _Parser(add_help=False, parents=[common])
     one.add_argument("file")
     one.add_argument("--mode", choices=modes, help="override the scenario's engine mode")
     one.add_argument("--model", choices=MODELS, help="override the scenario's stability model")
-    one.add_argument("--backend", choices=list(BACKEND_DEFAULTS), help="override the scenario's engine")
+    one.add_argument("--backend", choices=BACKENDS, help="override the scenario's engine")
     add_seed(one)
     if name == "compile":  # the one that runs nothing
         p = sub.add_parser("compile", parents=[one], help=COMMANDS["compile"], epilog=_ONE_STATUS, formatter_class=raw)
@@ -389,7 +399,7 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
         _add_sample_options(p, "compile")
         p.set_defaults(func=_compile)
         return
-    from ..batch.judge import TIMEOUT
+    from ..batch.guard import TIMEOUT
 
     guarded = _guarded(TIMEOUT)
     many = _Parser(add_help=False, parents=[common, guarded])
@@ -404,7 +414,7 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
     many.add_argument(
         "--backend",
         metavar="ENGINE",
-        help=f"override every scenario's engine: {' or '.join(BACKEND_DEFAULTS)} (compare: several, comma-separated)",
+        help=f"override every scenario's engine: {' or '.join(BACKENDS)} (compare: several, comma-separated)",
     )
     many.add_argument(
         "-j",
@@ -425,8 +435,6 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
     )
     many.add_argument("--json", action="store_true", help="print one JSON document of every result instead of the table")
     if name == "check":
-        from .check import check_command
-
         p = sub.add_parser(
             "check",
             parents=[many],
@@ -447,10 +455,8 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
             help="also record every run and write DIR/index.html: a row per scenario (failures first) with a picture at "
             "the collapse or the end, the timeline, a clip and a brick-graph plot, then a summary (made if missing)",
         )
-        p.set_defaults(func=check_command)
+        p.set_defaults(func=_check_command)
     elif name == "compare":
-        from .check import compare_command
-
         p = sub.add_parser(
             "compare",
             parents=[many],
@@ -464,7 +470,7 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
             formatter_class=raw,
         )
         p.add_argument("--modes", default=",".join(modes), help=f"comma-separated (default: {','.join(modes)})")
-        p.set_defaults(func=compare_command)
+        p.set_defaults(func=_compare_command)
     elif name == "run":
         from .draw import add_record_options
 

@@ -13,6 +13,7 @@ from scipy import stats
 from stackdsl.verdicts.stats import (
     MeanWithin,
     ProportionBound,
+    ProportionWithin,
     QuantileWithin,
     decide,
     format_level,
@@ -125,6 +126,33 @@ def test_proportion_verdicts():
     assert v.samples_to_decide == math.ceil(math.log(0.025) / math.log(0.9))  # 0.025^(1/m) >= 0.9: m = 36
     assert v.measured == "P(stands) 1.000 [0.832, 1.000], 20/20 stood"
     assert decide(ProportionBound(">=", 0.9), []).outcome == "INCONCLUSIVE"
+
+
+def test_a_probability_within_a_tolerance_is_judged_by_its_interval():
+    """``p_stands: "0.67 ± 0.1"``: PASS when the Clopper-Pearson interval lies in [0.57, 0.77],
+    FAIL when it lies wholly outside, else INCONCLUSIVE with the samples that would decide it."""
+    two_thirds = [None, None, 5] * 200  # 400 of 600 stood: CP [0.628, 0.704]
+    assert proportion_interval(400, 600) == pytest.approx((0.628, 0.704), abs=0.001)
+    assert decide(ProportionWithin(0.67, 0.1), two_thirds).outcome == "PASS"
+    assert decide(ProportionWithin(0.4, 0.1), two_thirds).outcome == "FAIL"  # [0.3, 0.5]
+    assert decide(ProportionWithin(0.67, 0.01), two_thirds).outcome == "INCONCLUSIVE"  # the interval is wider
+    few = decide(ProportionWithin(0.67, 0.1), [None, None, 5] * 10)  # 20 of 30: CP [0.472, 0.827]
+    assert few.outcome == "INCONCLUSIVE" and few.expected == "P(stands) 0.67±0.1"
+    m = few.samples_to_decide
+
+    def inside(m: int) -> bool:  # the interval at the same share, 2/3 of m (a projection: k need not be whole)
+        k = 2 / 3 * m
+        return stats.beta.ppf(0.025, k, m - k + 1) >= 0.57 and stats.beta.ppf(0.975, k + 1, m - k) <= 0.77
+
+    assert m is not None and inside(m) and not inside(m - 1)
+    assert decide(ProportionWithin(0.95, 0.1), [None] * 100).outcome == "PASS"  # [0.85, 1]: the interval reaches 1
+    exact = decide(ProportionWithin(0.5, 0.0), [None, 3], exact=True)
+    assert exact.outcome == "PASS" and exact.interval == (0.5, 0.5)
+    assert decide(ProportionWithin(0.2, 0.1), [None, 3], exact=True).outcome == "FAIL"
+    with pytest.raises(ValueError, match="target"):
+        ProportionWithin(1.2, 0.1)
+    with pytest.raises(ValueError, match="tolerance"):
+        ProportionWithin(0.5, -0.1)
 
 
 def test_quantile_verdicts():

@@ -268,6 +268,9 @@ EXACT_FORMS = {
     'collapse: {quantile: {q: 0.5, level: "2"}}': ("FAIL", "PASS"),
     'p_stands: ">= 0.9"': ("PASS", "FAIL"),
     'p_stands: "< 0.5"': ("FAIL", "PASS"),
+    'p_stands: "0.95 ± 0.05"': ("PASS", "FAIL"),
+    'p_stands: "0.5 ± 0"': ("FAIL", "FAIL"),  # one run: it stands or not
+    f'cells: [{{where: "{FALLS}", p_stands: "0.1 ± 0.1"}}]': (None, "PASS"),
     f'cells: [{{where: "{FALLS}", collapse: {{mean: "2 ± 0.5"}}}}]': (None, "PASS"),
     f'cells: [{{where: "{FALLS}", collapse: {{mean: "3 ± 0.5"}}}}]': (None, "FAIL"),
     f'cells: [{{where: "{FALLS}", collapse: {{quantile: {{q: 0.5, level: "2 ± 0.5"}}}}}}]': (None, "PASS"),

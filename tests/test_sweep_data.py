@@ -130,6 +130,17 @@ def test_a_histograms_bound_on_p_stands_is_a_line_on_the_stood_bar_not_text_over
     assert mask[:, : int(0.8 * mask.shape[1])].any()  # named in the legend
 
 
+def test_a_p_stands_within_a_tolerance_is_drawn_as_its_band(tmp_path):
+    from stackdsl.verdicts.stats import ProportionWithin
+
+    levels, cells = [3, None, None, 4, None, None], [[None] * 8, [None] * 6 + [3, 4], [3, 4, 5, 6]]
+    plot_histogram(levels, tmp_path / "h.png", expected=[ProportionWithin(0.67, 0.1)])
+    plot_grid("e", [0, 2, 4], cells, tmp_path / "g.png", expected=[ProportionWithin(0.67, 0.1)])
+    plot_grid("e", [0, 2, 4], cells, tmp_path / "m.png", statistic="mean", expected=[ProportionWithin(0.67, 0.1)])
+    assert expected_pixels(tmp_path / "h.png") > 100 and expected_pixels(tmp_path / "g.png") > 200
+    assert expected_pixels(tmp_path / "m.png") == 0  # not a mean's
+
+
 def test_the_sweep_command_draws_the_expectation_on_its_plots(swept):
     assert expected_pixels(swept / "grid_p_stands.png") > 200  # the P(stands) >= 0.5 threshold
 

@@ -30,7 +30,7 @@ from ..lang.expectations import CellExpect, Expect
 from ..lang.expressions import parse
 from ..lang.files import written
 from ..lang.sampling import Template
-from ..verdicts.stats import MeanWithin, ProportionBound, QuantileWithin, StatVerdict, decide, summary
+from ..verdicts.stats import MeanWithin, ProportionBound, ProportionWithin, QuantileWithin, StatVerdict, decide, summary
 from .sweep import SampleResult
 
 MAX_HISTOGRAMS = 12
@@ -53,8 +53,10 @@ def _named(expect: Expect | CellExpect, under: str = "") -> list[tuple[str, Any]
         out.append((f"{under}collapse", MeanWithin(mean.target, mean.tolerance)))
     if quantile is not None:
         out.append((f"{under}collapse", QuantileWithin(quantile.q, quantile.level.target, quantile.level.tolerance)))
-    if expect.p_stands is not None:
-        out.append((f"{under}p_stands", ProportionBound(expect.p_stands.op, expect.p_stands.bound)))
+    p = expect.p_stands
+    if p is not None:
+        form = ProportionWithin(p.bound, p.tolerance) if p.op == "±" else ProportionBound(p.op, p.bound)
+        out.append((f"{under}p_stands", form))
     return out
 
 

@@ -488,8 +488,8 @@ def unreachable_statistics(
       brick first moves, so a mean or a quantile of it is at most ``top``, or "stands"; None:
       not known, and not judged);
     - with ``sampled`` (the samples draw: the verdict is a 95% confidence interval), P(stands)
-      ``>= 1`` or ``<= 0``: no finite number of samples gives an interval that lies at 1 (or 0),
-      so it is never PASS.
+      ``>= 1`` or ``<= 0``, or a P(stands) with no tolerance (``'0.5 ± 0'``): no finite number
+      of samples gives an interval that lies at 1 (or 0), or at one value, so it is never PASS.
 
     ``values``: the cell's grid values, which decide the ``expect.cells`` that apply; ``cell``:
     the cell in words (empty without a grid).
@@ -522,4 +522,11 @@ def unreachable_statistics(
                 f"confidence interval, which reaches {'below 1' if every else 'above 0'} after any number of samples, "
                 f"even when {'every' if every else 'no'} sample stood; give a bound {'below 1' if every else 'above 0'}, "
                 f"such as '{p.op} {0.95 if every else 0.05:g}'",
+            )
+        if sampled and p is not None and p.op == "±" and p.tolerance == 0.0:
+            raise scenario.source.error(
+                (*path, "p_stands"),
+                f"'{p.text()}' can never pass{where if len(path) > 1 else ''}: the samples draw, so P(stands) is judged by "
+                f"its 95% confidence interval, which never narrows to one value; give a tolerance, such as "
+                f"'{p.bound:g} ± 0.05'",
             )

@@ -48,10 +48,11 @@ def plot_histogram(
     adds n, the mean and P(stands) with their intervals (with ``exact``, a sweep that draws
     nothing, the estimates alone, said to be exact). ``expected``: the file's statistical
     expectations (:class:`~stackdsl.verdicts.stats.MeanWithin`,
-    :class:`~stackdsl.verdicts.stats.QuantileWithin`, :class:`~stackdsl.verdicts.stats.ProportionBound`),
+    :class:`~stackdsl.verdicts.stats.QuantileWithin`, :class:`~stackdsl.verdicts.stats.ProportionBound`,
+    :class:`~stackdsl.verdicts.stats.ProportionWithin`),
     drawn in :data:`EXPECTED`: a level's accepted interval hatched with its target dashed, a
-    bound on P(stands) as a dashed line across the "stood" bar at that share of the samples,
-    each named in the legend. Raises ValueError on a level that is
+    bound on P(stands) as a dashed line across the "stood" bar at that share of the samples (a
+    P(stands) within a tolerance as its band hatched there), each named in the legend. Raises ValueError on a level that is
     not None or an int >= 1 (as :func:`stackdsl.verdicts.stats.summary`), OSError if ``path`` cannot be
     written.
     """
@@ -81,6 +82,10 @@ def plot_histogram(
         elif isinstance(form, _stats.ProportionBound) and s.n:  # named in the legend: a label there hid the bar
             side.axhline(form.bound * s.n, color=EXPECTED, lw=1.5, ls="--")
             ax.plot([], [], color=EXPECTED, lw=1.5, ls="--", label=f"expected P(stands) {form.op} {form.bound:g} (on 'stood')")
+        elif isinstance(form, _stats.ProportionWithin) and s.n:  # its accepted counts of 'stood' hatched
+            least, most = form.region
+            side.axhspan(least * s.n, most * s.n, facecolor="none", edgecolor=EXPECTED, hatch="//", lw=1.0)
+            ax.plot([], [], color=EXPECTED, lw=1.5, label=f"expected P(stands) {form.target:g}±{form.tolerance:g} (on 'stood')")
     if s.mean is not None:
         label = f"mean {s.mean:.2f}"
         if s.mean_interval is not None:
@@ -198,6 +203,16 @@ def _draw_expected(
     (``start`` None), else from ``start`` to ``end`` along the parameter, in the legend when
     ``named``; whether it was drawn."""
     where = " (some cells)" if cell else ""
+    if statistic == "p_stands" and isinstance(form, _stats.ProportionWithin):
+        low, high = form.region
+        label = f"expected P(stands) {form.target:g}±{form.tolerance:g}{where}" if named else "_"
+        if start is None or end is None:
+            ax.axhspan(low, high, facecolor="none", edgecolor=EXPECTED, hatch="//")
+            ax.axhline(form.target, color=EXPECTED, lw=1.5, ls="--", label=label)
+        else:
+            ax.fill_between([start, end], low, high, facecolor="none", edgecolor=EXPECTED, hatch="//")
+            ax.plot([start, end], [form.target, form.target], color=EXPECTED, lw=1.5, ls="--", label=label)
+        return True
     if statistic == "p_stands" and isinstance(form, _stats.ProportionBound):
         upward = form.op in (">=", ">")
         band = (form.bound, 1.03) if upward else (-0.03, form.bound)

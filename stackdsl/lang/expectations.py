@@ -378,29 +378,43 @@ class CollapseStatistic(StrictModel):
 
 
 def _bound(value: Any) -> Any:
-    """``">= 0.9"`` -> ``{"op": ">=", "bound": 0.9}``."""
+    """``">= 0.9"`` -> ``{"op": ">=", "bound": 0.9}``; ``"0.67 ± 0.1"`` -> ``{"op": "±",
+    "bound": 0.67, "tolerance": 0.1}``."""
     if isinstance(value, str):
         match = re.fullmatch(BOUND, value)
-        if not match:
-            raise ValueError(f"expected a comparison with a probability such as '>= 0.9', got {spelled(value)}")
-        return {"op": match[1], "bound": float(match[2])}
+        if match:
+            return {"op": match[1], "bound": float(match[2])}
+        within = re.fullmatch(PLUS_MINUS, value)
+        if within and within[2] is not None:
+            if float(within[1]) > 1 or float(within[2]) > 1:
+                raise ValueError(f"{spelled(value)}: a probability and its tolerance are from 0 to 1")
+            return {"op": "±", "bound": float(within[1]), "tolerance": float(within[2])}
+        hint = f"; for P(stands) of about {within[1]}, give a tolerance: '{within[1]} ± 0.05'" if within else ""
+        raise ValueError(
+            f"expected a comparison with a probability such as '>= 0.9', or a probability with a tolerance such as "
+            f"'0.67 ± 0.1', got {spelled(value)}{hint}"
+        )
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         raise ValueError(
             f"expected a comparison with a probability, got the bare number {value!r}: "
-            f"write '>= {value}' (P(stands) at least {value}) or '<= {value}'"
+            f"write '>= {value}' (P(stands) at least {value}), '<= {value}', or '{value} ± 0.05'"
         )
     return value
 
 
 class Probability(StrictModel):
-    """A bound on a probability: written ``">= 0.9"`` (also ``<=``, ``>``, ``<``); one no
-    probability meets (``'> 1'``, ``'< 0'``) is refused."""
+    """A bound on a probability: written ``">= 0.9"`` (also ``<=``, ``>``, ``<``), or a
+    probability within a tolerance, ``"0.67 ± 0.1"`` (op ``±``: from 0.57 to 0.77, ends
+    included); one no probability meets (``'> 1'``, ``'< 0'``, ``'1.2 ± 0.1'``) is refused."""
 
-    op: Literal[">=", "<=", ">", "<"]
+    op: Literal[">=", "<=", ">", "<", "±"]
     bound: Annotated[float, Field(ge=0, le=1)]
+    tolerance: Annotated[float, Field(ge=0, le=1)] = 0.0
 
     @model_validator(mode="after")
     def _reachable(self) -> Probability:
+        if self.op != "±" and self.tolerance:
+            raise ValueError(f"a tolerance goes with '±' ('{self.bound:g} ± {self.tolerance:g}'), not with '{self.op}'")
         if (self.op == ">" and self.bound >= 1) or (self.op == "<" and self.bound <= 0):
             end = "at most 1" if self.op == ">" else "at least 0"
             raise ValueError(
@@ -409,13 +423,30 @@ class Probability(StrictModel):
             )
         return self
 
+    def text(self) -> str:
+        """As a file writes it: ``">= 0.9"``, ``"0.67 ± 0.1"``."""
+        return f"{self.bound:g} ± {self.tolerance:g}" if self.op == "±" else f"{self.op} {self.bound:g}"
+
+    def ends(self) -> tuple[tuple[float, bool] | None, tuple[float, bool] | None]:
+        """(the least probability it allows, whether that end is open) and the same of the
+        greatest; None for no end short of 0 or 1 (``'>= 0.9'`` has no upper one)."""
+        if self.op == "±":
+            return (max(0.0, self.bound - self.tolerance), False), (min(1.0, self.bound + self.tolerance), False)
+        if self.op in (">=", ">"):
+            return (self.bound, self.op == ">"), None
+        return None, (self.bound, self.op == "<")
+
 
 PStands = Annotated[
     Probability,
     BeforeValidator(_bound),
-    AlsoAccepts(({"type": "string", "pattern": f"^{BOUND}$"},), "a bound on P(stands): '>= 0.9'"),
+    AlsoAccepts(
+        ({"type": "string", "pattern": f"^{BOUND}$"}, {"type": "string", "pattern": f"^{PLUS_MINUS}$"}),
+        "a bound on P(stands), '>= 0.9', or P(stands) with a tolerance, '0.67 ± 0.1'",
+    ),
 ]
-"""``p_stands``: a bound on P(stands), written ``'>= 0.9'``, in a sweep's expectations and a cell's."""
+"""``p_stands``: a bound on P(stands), written ``'>= 0.9'``, or P(stands) within a tolerance,
+``'0.67 ± 0.1'``, in a sweep's expectations and a cell's."""
 
 
 def _collapse_form(value: Any) -> str:

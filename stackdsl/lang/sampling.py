@@ -388,16 +388,16 @@ class Template:
         """
         for values in cells:
             lowest: tuple[float, bool, int] | None = None  # the tightest lower bound: value, strict, rule
-            highest: tuple[float, bool, int] | None = None
+            highest: tuple[float, bool, int] | None = None  # the tightest upper bound: value, not strict, rule
             for i, rule in enumerate(rules):
                 bound = rule.p_stands
                 if bound is None or not conditions[i].holds(values):
                     continue
-                strict = bound.op in (">", "<")
-                if bound.op in (">=", ">"):
-                    lowest = max(lowest or (bound.bound, strict, i), (bound.bound, strict, i))
-                else:
-                    highest = min(highest or (bound.bound, not strict, i), (bound.bound, not strict, i))
+                low, high = bound.ends()
+                if low is not None:
+                    lowest = max(lowest or (low[0], low[1], i), (low[0], low[1], i))
+                if high is not None:
+                    highest = min(highest or (high[0], not high[1], i), (high[0], not high[1], i))
                 if lowest is not None and highest is not None:
                     (lo, lo_strict, a), (hi, hi_open, b) = lowest, highest
                     if lo > hi or (lo == hi and (lo_strict or not hi_open)):
@@ -405,9 +405,9 @@ class Template:
                         shown = ", ".join(f"{k} = {v:g}" for k, v in values.items())
                         raise self.source.error(
                             ("expect", "cells", later, "p_stands"),
-                            f"in the grid cell {shown} (SI units), cells[{first}] asks P(stands) {rules[first].p_stands.op} "
-                            f"{rules[first].p_stands.bound:g} and this rule {rules[later].p_stands.op} "
-                            f"{rules[later].p_stands.bound:g}: no sweep can meet both; make their conditions apart",
+                            f"in the grid cell {shown} (SI units), cells[{first}] asks P(stands) {rules[first].p_stands.text()} "
+                            f"and this rule P(stands) {rules[later].p_stands.text()}: no sweep can meet both; make their "
+                            "conditions apart",
                         )
 
     def _si(self, combination: tuple[Any, ...]) -> dict[str, float]:

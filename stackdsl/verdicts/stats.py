@@ -86,6 +86,27 @@ class ProportionBound:
 
 
 @dataclass(frozen=True)
+class ProportionWithin:
+    """Expectation ``p_stands: "0.67 ± 0.1"``: the probability that the structure stands lies in
+    [target - tolerance, target + tolerance] (ends included, cut to [0, 1]). Raises ValueError
+    on a target outside [0, 1] or a negative or non-finite tolerance. Source: stackdsl's own."""
+
+    target: float
+    tolerance: float
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.target <= 1.0:
+            raise ValueError(f"target must lie in [0, 1], got {self.target}")
+        if not (math.isfinite(self.tolerance) and self.tolerance >= 0.0):
+            raise ValueError(f"tolerance must be a finite number >= 0, got {self.tolerance}")
+
+    @property
+    def region(self) -> tuple[float, float]:
+        """The accepted probabilities' ends, within [0, 1]."""
+        return max(0.0, self.target - self.tolerance), min(1.0, self.target + self.tolerance)
+
+
+@dataclass(frozen=True)
 class QuantileWithin:
     """Expectation ``quantile q of the collapse level within target ± tolerance`` (q = 0.5: the
     median), standing samples counting as +inf. Raises ValueError unless 0 < q < 1, on a
@@ -101,7 +122,7 @@ class QuantileWithin:
         _check_target(self.target, self.tolerance)
 
 
-Expectation = MeanWithin | ProportionBound | QuantileWithin
+Expectation = MeanWithin | ProportionBound | ProportionWithin | QuantileWithin
 
 
 @dataclass(frozen=True)
@@ -243,7 +264,7 @@ def decide(
     collapsed = _collapsed(levels)
     if isinstance(expectation, MeanWithin):
         return _decide_mean(expectation, collapsed, len(levels), confidence)
-    if isinstance(expectation, ProportionBound):
+    if isinstance(expectation, (ProportionBound, ProportionWithin)):
         return _decide_proportion(expectation, len(levels) - len(collapsed), len(levels), confidence)
     if isinstance(expectation, QuantileWithin):
         return _decide_quantile(expectation, collapsed, len(levels), confidence)
@@ -261,9 +282,9 @@ def _decide_exact(expectation: Expectation, levels: Sequence[int | None]) -> Sta
     if n == 0:
         return StatVerdict("INCONCLUSIVE", None, None, 0, expected, "no samples")
     drawn = " (nothing is drawn)"
-    if isinstance(expectation, ProportionBound):
+    if isinstance(expectation, (ProportionBound, ProportionWithin)):
         p = stood / n
-        outcome = _judge_bound((p, p), expectation.op, expectation.bound)
+        outcome = _judge_proportion((p, p), expectation)
         return StatVerdict(outcome, p, (p, p), n, expected, f"P(stands) {p:.3f} exact, {stood}/{n} stood{drawn}")
     a, b = expectation.target - expectation.tolerance, expectation.target + expectation.tolerance
     if isinstance(expectation, MeanWithin):
@@ -285,6 +306,8 @@ def expected_text(expectation: Expectation) -> str:
     ``"P(stands) >= 0.9"``."""
     if isinstance(expectation, ProportionBound):
         return f"P(stands) {expectation.op} {expectation.bound:g}"
+    if isinstance(expectation, ProportionWithin):
+        return f"P(stands) {expectation.target:g}±{expectation.tolerance:g}"
     if isinstance(expectation, MeanWithin):
         return f"mean {expectation.target:g}±{expectation.tolerance:g}"
     if isinstance(expectation, QuantileWithin):
@@ -368,13 +391,13 @@ def _decide_mean(e: MeanWithin, collapsed: list[int], n: int, c: float) -> StatV
     return StatVerdict(outcome, mean, ci, len(collapsed), expected, measured, total)
 
 
-def _decide_proportion(e: ProportionBound, stood: int, n: int, c: float) -> StatVerdict:
+def _decide_proportion(e: ProportionBound | ProportionWithin, stood: int, n: int, c: float) -> StatVerdict:
     expected = expected_text(e)
     if n == 0:
         return StatVerdict("INCONCLUSIVE", None, None, 0, expected, "no samples")
     p, ci = stood / n, proportion_interval(stood, n, c)
     measured = f"P(stands) {p:.3f} {_span(ci, '.3f')}, {stood}/{n} stood"
-    outcome = _judge_bound(ci, e.op, e.bound)
+    outcome = _judge_proportion(ci, e)
     if outcome != "INCONCLUSIVE":
         return StatVerdict(outcome, p, ci, n, expected, measured)
 
@@ -382,10 +405,18 @@ def _decide_proportion(e: ProportionBound, stood: int, n: int, c: float) -> Stat
         a = (1 - c) / 2
         low = 0.0 if p == 0 else float(scipy_stats().beta.ppf(a, p * m, m - p * m + 1))
         high = 1.0 if p == 1 else float(scipy_stats().beta.ppf(1 - a, p * m + 1, m - p * m))
-        return _judge_bound((low, high), e.op, e.bound) != "INCONCLUSIVE"
+        return _judge_proportion((low, high), e) != "INCONCLUSIVE"
 
-    m = _first(decides, n) if p != e.bound else None
+    edges = (e.bound,) if isinstance(e, ProportionBound) else e.region
+    m = _first(decides, n) if p not in edges else None
     return StatVerdict(outcome, p, ci, n, expected, measured, m)
+
+
+def _judge_proportion(ci: tuple[float, float], e: ProportionBound | ProportionWithin) -> Outcome:
+    """The verdict of a bound (:func:`_judge_bound`) or of a closed region (:func:`_judge_region`)."""
+    if isinstance(e, ProportionBound):
+        return _judge_bound(ci, e.op, e.bound)
+    return _judge_region(ci, *e.region)
 
 
 def _decide_quantile(e: QuantileWithin, collapsed: list[int], n: int, c: float) -> StatVerdict:

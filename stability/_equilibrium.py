@@ -53,10 +53,24 @@ BodyKey = TypeVar("BodyKey", bound=Hashable)  # how the caller names bodies (pyb
 
 @dataclass(frozen=True)
 class RigidBlock:
-    """A free rigid block: mass in kg, centre of mass shape (3,) in metres."""
+    """A free rigid block: mass in kg, centre of mass shape (3,) in metres.
+
+    Raises:
+        ValueError: a mass that is not a finite positive number of kilograms (a negative
+            one would be held up by gravity), or a centre of mass that is not 3 finite
+            coordinates.
+    """
 
     mass: float
     com: np.ndarray
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.mass < math.inf:
+            raise ValueError(f"RigidBlock.mass must be a finite positive number of kg, not {self.mass!r}")
+        com = self.com  # checked in plain floats: numpy's checks cost ten times as much
+        x, y, z = np.asarray(com, dtype=float).tolist() if np.shape(com) == (3,) else (math.nan,) * 3
+        if not math.isfinite(x + y + z):
+            raise ValueError(f"RigidBlock.com must be 3 finite coordinates in metres, not {self.com!r}")
 
 
 @dataclass(frozen=True)
@@ -68,9 +82,13 @@ class ContactPolygon(Generic[BodyKey]):
         other: the other body (a free block or a support).
         points: shape (k, 3), metres, the polygon's vertices (1 <= k).
         normal: shape (3,), unit, from ``other`` into ``body``.
-        friction: Coulomb coefficient of the pair.
+        friction: Coulomb coefficient of the pair, finite and >= 0 (0: frictionless).
         core: shape (j, 3), metres, the contact points themselves when ``points`` pads them
             across the normal for want of area (report 3.4.2), else None.
+
+    Raises:
+        ValueError: a negative or not finite ``friction`` (a negative one would turn the
+            friction pyramid inside out and hold a block on a slope that no friction holds).
     """
 
     body: BodyKey
@@ -79,6 +97,10 @@ class ContactPolygon(Generic[BodyKey]):
     normal: np.ndarray
     friction: float
     core: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.friction < math.inf:
+            raise ValueError(f"ContactPolygon.friction must be a finite friction coefficient >= 0, not {self.friction!r}")
 
 
 FINE_SIDES = 32
@@ -103,7 +125,7 @@ the program's round-off)."""
 
 @dataclass(frozen=True)
 class Equilibrium(Generic[BodyKey]):
-    """The answer of :func:`solve`.
+    """The answer of :func:`solve_equilibrium`.
 
     Attributes:
         stands: True when forces exist that balance every free block.
@@ -157,7 +179,9 @@ def solve_equilibrium(
         :class:`Equilibrium`.
 
     Raises:
-        ValueError: a contact has no point or a non-positive friction pyramid.
+        ValueError: a contact has no point, or ``sides`` < 3. (A negative friction
+            coefficient or mass is refused where the contact or the block is made:
+            :class:`ContactPolygon`, :class:`RigidBlock`.)
 
     >>> import numpy as np
     >>> ground = ContactPolygon("brick", "ground", np.array([[-0.06, -0.012, 0], [0.06, -0.012, 0],
@@ -166,7 +190,7 @@ def solve_equilibrium(
     True
     """
     if sides < 3:
-        raise ValueError("the friction pyramid needs at least 3 sides")
+        raise ValueError(f"sides: the friction pyramid needs at least 3 sides, not {sides!r}")
     if quick and contacts and all(is_level(c, sides) for c in contacts):
         vertical = _solve_vertical(blocks, contacts, gravity)
         if vertical is not None:
@@ -299,7 +323,11 @@ def is_level(contact: ContactPolygon[BodyKey], sides: int = 8) -> bool:
     """Is the contact so near horizontal that friction takes the sideways part of a vertical
     force on it: tan(tilt) <= mu cos(pi / sides), the reach of the inscribed friction
     pyramid, or the tilt under :data:`LEVEL_TILT` (an engine's noise on a level face: so even
-    with no friction), and its normal pointing up into ``contact.body``? Source: stackdsl's own.
+    with no friction), and its normal pointing up into ``contact.body``? ``sides``: of the
+    pyramid, >= 3. Source: stackdsl's own.
+
+    Raises:
+        ValueError: ``sides`` < 3.
 
     >>> import numpy as np
     >>> flat = ContactPolygon(1, 0, np.zeros((1, 3)), np.array([0, 0, 1.0]), 0.5)
@@ -307,6 +335,8 @@ def is_level(contact: ContactPolygon[BodyKey], sides: int = 8) -> bool:
     >>> is_level(flat), is_level(steep)
     (True, False)
     """
+    if sides < 3:
+        raise ValueError(f"sides: the friction pyramid needs at least 3 sides, not {sides!r}")
     normal = np.asarray(contact.normal, dtype=float)
     cos = abs(normal[2]) / np.linalg.norm(normal)
     tan = math.sqrt(max(1.0 - cos * cos, 0.0)) / max(cos, 1e-12)
@@ -468,7 +498,9 @@ def equilibrium_margin(
     (1978) and Whiting et al. (2009).
 
     Raises:
-        ValueError: a contact has no point, ``directions`` < 1 or ``limit`` <= 0.
+        ValueError: a contact has no point, ``directions`` < 1, ``limit`` <= 0 or ``sides`` < 3.
+            (A negative friction coefficient or mass is refused where the contact or the block
+            is made: :class:`ContactPolygon`, :class:`RigidBlock`.)
 
     >>> import numpy as np
     >>> ground = ContactPolygon("brick", "ground", np.array([[-0.06, -0.012, 0], [0.06, -0.012, 0],
@@ -480,6 +512,8 @@ def equilibrium_margin(
     """
     if directions < 1 or not limit > 0:
         raise ValueError("equilibrium_margin needs at least one direction and a positive limit")
+    if sides < 3:
+        raise ValueError(f"sides: the friction pyramid needs at least 3 sides, not {sides!r}")
     if not blocks:
         return limit
     if not contacts:

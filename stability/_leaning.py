@@ -37,9 +37,14 @@ def pair_friction(a: float, b: float) -> float:
     of its material's coefficient, so a pair has the geometric mean (a pair of one
     material: exactly that material's coefficient). Source: stackdsl's own.
 
+    Raises:
+        ValueError: ``a`` or ``b`` is not a finite coefficient >= 0.
+
     >>> pair_friction(0.5, 0.5)
     0.5
     """
+    if not (0.0 <= a < math.inf and 0.0 <= b < math.inf):
+        raise ValueError(f"pair_friction takes two finite friction coefficients >= 0, not a={a!r}, b={b!r}")
     return math.sqrt(a * b)
 
 
@@ -81,7 +86,7 @@ def leaning_stands(
         gravity: m/s^2.
 
     Returns:
-        True when the members balance (report 3.4.3, solved as :func:`stability._equilibrium.solve`).
+        True when the members balance (report 3.4.3, solved as :func:`stability.solve_equilibrium`).
         A single brick whose centre of mass lies over the hull of its level contacts stands
         without a program: vertical forces at their vertices hold it (:mod:`stability._load_path`).
     """

@@ -190,3 +190,46 @@ def test_a_ladder_whose_foot_normal_an_engine_tilted_is_judged_on_the_cone(shift
     result = solve_equilibrium({"ladder": RigidBlock(M, com)}, contacts)
     cone = solve_equilibrium({"ladder": RigidBlock(M, com)}, contacts, sides=64)  # near the cone itself
     assert result.stands is cone.stands is (shift_mm < 2.0)
+
+
+def slope(angle, mu):
+    """A brick on a slope of ``angle`` degrees whose contact has friction ``mu``."""
+    a = math.radians(angle)
+    normal = np.array([-math.sin(a), 0.0, math.cos(a)])
+    along = np.array([math.cos(a), 0.0, math.sin(a)])
+    corners = np.array([sx * 0.06 * along + [0, sy * 0.012, 0] for sx in (-1, 1) for sy in (-1, 1)])
+    return {"b": RigidBlock(M, 0.004 * normal)}, corners, normal
+
+
+def test_a_negative_friction_is_refused_not_a_pyramid_turned_inside_out():
+    # mu = -1 turned the pyramid's edges uphill: a brick on a 20 deg slope "stood" where mu = 0 slides
+    blocks, corners, normal = slope(20.0, 0.0)
+    assert not solve_equilibrium(blocks, [ContactPolygon("b", "slope", corners, normal, 0.0)]).stands
+    for mu in (-1.0, -1e-9, math.nan, math.inf):
+        with pytest.raises(ValueError, match=r"ContactPolygon.friction must be a finite friction coefficient >= 0"):
+            ContactPolygon("b", "slope", corners, normal, mu)
+
+
+@pytest.mark.parametrize("mass", [-0.0106, 0.0, math.nan, math.inf])
+def test_a_block_without_a_positive_finite_mass_is_refused(mass):
+    # a negative mass made the blocks "stand" on anything: gravity held them up
+    with pytest.raises(ValueError, match=r"RigidBlock.mass must be a finite positive number of kg"):
+        RigidBlock(mass, np.zeros(3))
+
+
+@pytest.mark.parametrize("com", [np.zeros(2), np.array([0.0, math.nan, 0.0]), [[0.0, 0.0, 0.0]]])
+def test_a_block_without_three_finite_coordinates_is_refused(com):
+    with pytest.raises(ValueError, match=r"RigidBlock.com must be 3 finite coordinates"):
+        RigidBlock(M, com)
+
+
+@pytest.mark.parametrize("sides", [0, 1, 2])
+def test_a_pyramid_of_fewer_than_three_sides_is_refused_everywhere(sides):
+    from stability import equilibrium_margin, is_level
+
+    blocks, corners, normal = slope(0.0, 0.5)
+    contact = ContactPolygon("b", "ground", corners, normal, 0.5)
+    for ask in (is_level, solve_equilibrium, equilibrium_margin):
+        args = (contact,) if ask is is_level else (blocks, [contact])
+        with pytest.raises(ValueError, match=rf"sides: the friction pyramid needs at least 3 sides, not {sides}"):
+            ask(*args, sides=sides)  # type: ignore[operator]

@@ -75,6 +75,14 @@ def test_one_v_brick_alone_against_a_fixed_partner_is_a_ladder():
 def test_friction_of_a_pair_is_the_geometric_mean():
     assert pair_friction(0.5, 0.5) == pytest.approx(0.5)
     assert pair_friction(0.8, 0.2) == pytest.approx(0.4)
+    assert pair_friction(0.0, 0.5) == 0.0  # a frictionless body makes a frictionless pair
+
+
+@pytest.mark.parametrize("a, b", [(-0.5, 0.5), (0.5, -0.5), (-0.5, -0.5), (math.nan, 0.5), (0.5, math.inf)])
+def test_friction_of_a_pair_refuses_a_coefficient_no_material_has(a, b):
+    # (-0.5, 0.5) was Python's own "math domain error"; (-0.5, -0.5) a coefficient of 0.5
+    with pytest.raises(ValueError, match=r"pair_friction takes two finite friction coefficients >= 0"):
+        pair_friction(a, b)
 
 
 def test_lean_polygon_is_padded_across_the_normal():

@@ -58,7 +58,10 @@ class Pose:
 
     Attributes:
         position: shape (3,), metres, world frame.
-        orientation: shape (4,), unit quaternion ``(x, y, z, w)``.
+        orientation: shape (4,), unit quaternion ``(x, y, z, w)`` (one of another non-zero
+            length is normalised; one of zero length is refused, with a ValueError, where
+            the rotation is first asked for: :attr:`rotation`. A pose is made for every body at
+            every step, and checking there would cost more than using it).
 
     Source: stackdsl's own.
 
@@ -81,9 +84,20 @@ class Pose:
     def rotation(self) -> np.ndarray:
         """Rotation matrix, shape (3, 3), read-only; column i is the body's axis i in the
         world. The standard unit-quaternion formula (as scipy's ``Rotation.as_matrix``),
-        written out: the stability tests ask for it thousands of times a second."""
-        x, y, z, w = (float(c) for c in self.orientation)
-        n = 2.0 / (x * x + y * y + z * z + w * w)
+        written out: the stability tests ask for it thousands of times a second (so the
+        orientation is checked here, once, and not each time a pose is made).
+
+        Raises:
+            ValueError: the orientation is not 4 numbers (x, y, z, w) of non-zero, finite length.
+        """
+        try:
+            x, y, z, w = (float(c) for c in self.orientation)
+        except (TypeError, ValueError):  # not four numbers
+            raise ValueError(_no_rotation(self.orientation)) from None
+        length = x * x + y * y + z * z + w * w
+        if not 1e-12 < length < math.inf:
+            raise ValueError(_no_rotation(self.orientation))
+        n = 2.0 / length
         m = np.array(
             [
                 [1 - n * (y * y + z * z), n * (x * y - z * w), n * (x * z + y * w)],
@@ -97,10 +111,23 @@ class Pose:
     def euler_degrees(self) -> np.ndarray:
         """``(yaw, pitch, roll)`` in degrees, the inverse of :meth:`from_euler`. At a pitch of
         +-90 deg (a brick on end, a domino) yaw and roll are one turn; scipy then warns of the
-        gimbal lock and sets roll to 0, which is still this pose."""
+        gimbal lock and sets roll to 0, which is still this pose.
+
+        Raises:
+            ValueError: the orientation is not 4 numbers (x, y, z, w) of non-zero, finite length.
+        """
+        _ = self.rotation  # its check of the orientation
         with warnings.catch_warnings():
             warnings.filterwarnings("ignore", "Gimbal lock detected", UserWarning)
             return np.asarray(Rotation.from_quat(self.orientation).as_euler("ZYX", degrees=True), dtype=float)
+
+
+def _no_rotation(orientation: np.ndarray) -> str:
+    """Why ``orientation`` is no pose's: the message of :attr:`Pose.rotation`'s ValueError."""
+    return (
+        f"Pose.orientation must be a quaternion (x, y, z, w) of non-zero, finite length, not {orientation!r}"
+        " (no turn is (0, 0, 0, 1))"
+    )
 
 
 @dataclass(frozen=True)
@@ -112,10 +139,22 @@ class Box:
         mass: kilograms.
 
     Source: report 3.2 (KAPLA bricks, uniform mass distribution).
+
+    Raises:
+        ValueError: ``half_extents`` are not 3 finite positive lengths, or ``mass`` is not a
+            finite positive number of kilograms.
     """
 
     half_extents: np.ndarray
     mass: float
+
+    def __post_init__(self) -> None:
+        half = self.half_extents  # checked in plain floats: numpy's checks cost ten times as much
+        x, y, z = np.asarray(half, dtype=float).tolist() if np.shape(half) == (3,) else (math.nan,) * 3
+        if not (0.0 < x < math.inf and 0.0 < y < math.inf and 0.0 < z < math.inf):
+            raise ValueError(f"Box.half_extents must be 3 finite positive lengths in metres, not {self.half_extents!r}")
+        if not 0.0 < self.mass < math.inf:
+            raise ValueError(f"Box.mass must be a finite positive number of kg, not {self.mass!r}")
 
     @cached_property
     def half_diagonal(self) -> float:
@@ -175,9 +214,17 @@ class Box:
 
 @dataclass(frozen=True)
 class Plane:
-    """An infinite horizontal ground plane at ``height`` metres. Source: stackdsl's own."""
+    """An infinite horizontal ground plane at ``height`` metres. Source: stackdsl's own.
+
+    Raises:
+        ValueError: a ``height`` that is not a finite number.
+    """
 
     height: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not -math.inf < self.height < math.inf:
+            raise ValueError(f"Plane.height must be a finite number of metres, not {self.height!r}")
 
 
 @dataclass(frozen=True)

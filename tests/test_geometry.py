@@ -119,3 +119,41 @@ def test_a_point_on_the_edge_is_outside_exactly_critical_is_not_stable():
     assert contains(square, (0.5, 0.5))
     assert not contains(square, (1.0, 0.5))
     assert not contains(square, (0.5, 0.5), margin=0.6)
+
+
+@pytest.mark.parametrize("orientation", [np.zeros(4), np.array([0.0, 0.0, math.nan, 1.0]), np.zeros(3)])
+def test_a_pose_whose_orientation_is_no_rotation_says_so_where_it_is_used(orientation):
+    # a zero quaternion was a ZeroDivisionError; it is refused where the rotation is first
+    # asked for, not where a pose is made (every body's, every step)
+    pose = Pose(np.zeros(3), orientation)
+    for use in (lambda: pose.rotation, pose.euler_degrees, lambda: KAPLA.corners(pose)):
+        with pytest.raises(ValueError, match=r"Pose.orientation must be a quaternion \(x, y, z, w\) of non-zero"):
+            use()
+
+
+def test_a_quaternion_of_another_length_is_still_its_rotation():
+    turned = Pose.from_euler(np.zeros(3), yaw=90)
+    assert np.allclose(Pose(np.zeros(3), 3.0 * turned.orientation).rotation, turned.rotation)
+
+
+@pytest.mark.parametrize(
+    "half, mass, said",
+    [
+        ([0.06, 0.0, 0.004], 0.0106, "half_extents must be 3 finite positive lengths"),
+        ([0.06, -0.012, 0.004], 0.0106, "half_extents must be 3 finite positive lengths"),
+        ([0.06, 0.012], 0.0106, "half_extents must be 3 finite positive lengths"),
+        ([0.06, math.inf, 0.004], 0.0106, "half_extents must be 3 finite positive lengths"),
+        ([0.06, 0.012, 0.004], 0.0, "mass must be a finite positive number of kg"),
+        ([0.06, 0.012, 0.004], -1.0, "mass must be a finite positive number of kg"),
+        ([0.06, 0.012, 0.004], math.nan, "mass must be a finite positive number of kg"),
+    ],
+)
+def test_a_box_without_a_size_or_a_mass_is_refused(half, mass, said):
+    with pytest.raises(ValueError, match=f"Box.{said}"):
+        Box(np.array(half), mass)
+
+
+@pytest.mark.parametrize("height", [math.nan, math.inf, -math.inf])
+def test_a_plane_must_be_somewhere(height):
+    with pytest.raises(ValueError, match=r"Plane.height must be a finite number of metres"):
+        Plane(height)

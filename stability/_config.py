@@ -5,9 +5,26 @@ Source: report chapter 3; each field says where it departs from the report.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from ._equilibrium import GRAVITY
+
+_RANGES = (
+    ("rest_speed", 0.0, True, math.inf, "a finite speed >= 0 in m/s"),
+    ("rest_angular_speed", 0.0, True, math.inf, "a finite angular speed >= 0 in rad/s"),
+    ("rest_duration", 0.0, True, math.inf, "a finite duration >= 0 in seconds"),
+    ("contact_pad", 0.0, False, math.inf, "a finite length > 0 in metres"),
+    ("support_angle", 0.0, True, 90.0, "an angle from 0 to 90 degrees"),
+    ("face_gap", -math.inf, False, math.inf, "a finite length in metres"),
+    ("com_margin", 0.0, True, math.inf, "a finite length >= 0 in metres"),
+    ("lean_height", 0.0, True, math.inf, "a finite length >= 0 in metres"),
+    ("gravity", 0.0, False, math.inf, "a finite acceleration > 0 in m/s^2"),
+)
+"""The numbers of :class:`StabilityConfig`: the field, its lower bound, whether it may be the
+lower bound, its upper bound, and what it must be."""
 
 
 @dataclass(frozen=True)
@@ -57,7 +74,13 @@ class StabilityConfig:
         gravity: m/s^2.
 
     Raises:
-        ValueError: an unknown model.
+        ValueError: an unknown model or impact energy; a number out of its range: a speed,
+            a duration, a padding, a margin or a height that is negative or not finite, a
+            ``contact_pad`` or ``gravity`` that is not positive, a ``support_angle`` outside
+            0 to 90 degrees, a ``face_gap`` that is not finite (a negative one turns exact
+            face areas off), or ``max_leaning_bodies`` below 1.
+        TypeError: one of those numbers is not a number (``True`` neither), or
+            ``max_leaning_bodies`` is not a whole number.
     """
 
     rest_speed: float = 0.005
@@ -78,6 +101,17 @@ class StabilityConfig:
     gravity: float = GRAVITY
 
     def __post_init__(self) -> None:
+        for name, low, closed, high, what in _RANGES:
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+                raise TypeError(f"StabilityConfig.{name} must be a number ({what}), not {value!r}")
+            number = float(value)
+            if not (low <= number if closed else low < number) or not number <= high or not math.isfinite(number):
+                raise ValueError(f"StabilityConfig.{name} must be {what}, not {value!r}")
+        if isinstance(self.max_leaning_bodies, bool) or not isinstance(self.max_leaning_bodies, (int, np.integer)):
+            raise TypeError(f"StabilityConfig.max_leaning_bodies must be a whole number, not {self.max_leaning_bodies!r}")
+        if self.max_leaning_bodies < 1:
+            raise ValueError(f"StabilityConfig.max_leaning_bodies must be at least 1, not {self.max_leaning_bodies!r}")
         if self.impact_energy not in ("least", "lift"):
             raise ValueError(f"unknown impact energy {self.impact_energy!r}: 'least' or 'lift'")
         if self.model not in ("report", "equilibrium"):

@@ -378,3 +378,37 @@ def test_equilibrium_model_wakes_the_mechanism_only():
 def test_unknown_model_is_refused():
     with pytest.raises(ValueError, match="unknown stability model"):
         StabilityConfig(model="physics")
+
+
+@pytest.mark.parametrize(
+    "field, value, said",
+    [
+        ("rest_speed", -1.0, "rest_speed must be a finite speed >= 0 in m/s"),
+        ("rest_angular_speed", math.nan, "rest_angular_speed must be a finite angular speed >= 0"),
+        ("rest_duration", math.inf, "rest_duration must be a finite duration >= 0"),
+        ("contact_pad", 0.0, "contact_pad must be a finite length > 0"),
+        ("support_angle", 200.0, "support_angle must be an angle from 0 to 90 degrees"),
+        ("support_angle", -1.0, "support_angle must be an angle from 0 to 90 degrees"),
+        ("face_gap", math.nan, "face_gap must be a finite length"),
+        ("com_margin", -0.001, "com_margin must be a finite length >= 0"),
+        ("lean_height", -0.001, "lean_height must be a finite length >= 0"),
+        ("gravity", 0.0, "gravity must be a finite acceleration > 0"),
+        ("max_leaning_bodies", 0, "max_leaning_bodies must be at least 1"),
+    ],
+)
+def test_a_threshold_out_of_its_physical_range_is_refused(field, value, said):
+    with pytest.raises(ValueError, match=f"StabilityConfig.{said}"):
+        StabilityConfig(**{field: value})
+
+
+def test_a_threshold_that_is_no_number_is_refused_by_type():
+    with pytest.raises(TypeError, match=r"StabilityConfig.rest_speed must be a number"):
+        StabilityConfig(rest_speed="5 mm/s")  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match=r"StabilityConfig.max_leaning_bodies must be a whole number"):
+        StabilityConfig(max_leaning_bodies=2.5)  # type: ignore[arg-type]
+
+
+def test_the_edges_of_the_ranges_are_taken():
+    # a negative face gap turns exact face areas off (the tests of engines' contact points use it)
+    config = StabilityConfig(rest_speed=0, rest_duration=0.0, support_angle=90.0, face_gap=-1.0, com_margin=0.0)
+    assert config.face_gap == -1.0 and config.support_angle == 90.0

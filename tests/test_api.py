@@ -1,6 +1,7 @@
 """The public names of both packages are what they should be (httpx style)."""
 
 import importlib
+import re
 import subprocess
 import sys
 
@@ -149,6 +150,29 @@ def test_check_takes_a_backend_and_refuses_unknown_overrides_before_running(tmp_
     ):
         with pytest.raises(ValueError, match=said):
             stackdsl.check(tmp_path, jobs=1, **kwargs)
+
+
+@pytest.mark.parametrize(
+    "kwargs, error, said",
+    [
+        ({"timeout": -1}, ValueError, "timeout must be a number of seconds >= 0 or None, not -1"),
+        ({"timeout": float("nan")}, ValueError, "timeout must be a number of seconds >= 0 or None, not nan"),
+        ({"timeout": "60"}, TypeError, "timeout must be a number of seconds >= 0 or None, not '60'"),
+        ({"jobs": 0}, ValueError, "jobs must be at least 1, not 0"),
+        ({"jobs": 1.5}, TypeError, "jobs must be a whole number of runs at the same time"),
+    ],
+)
+def test_check_refuses_a_bad_timeout_or_jobs_before_it_reads_a_file(tmp_path, kwargs, error, said):
+    """A negative timeout came back as the file's "internal error: ValueError ..." result with a
+    traceback, and jobs=0 was raised only once the results were read: both raise at the call,
+    before any file is read (the path does not even exist)."""
+    import stackdsl
+    from stackdsl.batch.check import compare
+
+    with pytest.raises(error, match=re.escape(said)):
+        stackdsl.check(tmp_path / "missing.yaml", **{"jobs": 1, **kwargs})
+    with pytest.raises(error, match=re.escape(said)):
+        compare([tmp_path / "missing.yaml"], **{"jobs": 1, **kwargs})
 
 
 def test_parse_scenario_refuses_bytes_by_type():

@@ -247,3 +247,17 @@ def test_rules_follow_the_scene():
     assert "rule rigid    off  expect.stays is judged after a collapse" in format_program(
         program(thrown + "expect: {stays: 1}\n")
     )
+
+
+def test_compile_scenario_names_the_type_it_takes_and_how_to_get_one(tmp_path):
+    # a file name was "'str' object has no attribute 'brick_types'"
+    from stackdsl import load_scenario
+
+    path = tmp_path / "t.yaml"
+    path.write_text("stackdsl: 1\nstructure: {tower: {levels: 2}}\n")
+    for given, kind in ((str(path), "str"), (path, type(path).__name__)):
+        with pytest.raises(TypeError, match=rf"compile_scenario takes a Scenario, not {kind}: .*load_scenario\(path\)"):
+            compile_scenario(given)  # type: ignore[arg-type]
+    compiled = compile_scenario(load_scenario(path))
+    with pytest.raises(TypeError, match=r"not Program: this one is compiled already: run it with run_program"):
+        compile_scenario(compiled)  # type: ignore[arg-type]

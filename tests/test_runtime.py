@@ -350,3 +350,33 @@ def test_a_stand_certificate_counts_its_bricks_in_words(bricks, said):
     certificate = run_program(compile_scenario(parse_scenario(structure))).certificate
     assert certificate is not None and certificate.verdict == "stands"
     assert certificate.detail.startswith(said) and "1 bricks" not in certificate.detail
+
+
+def test_the_runs_name_the_type_they_take_and_how_to_compile_one(tmp_path):
+    # run_program(scenario) was "'Scenario' object has no attribute ..." from deep in the runtime
+    from stackdsl import FakeWorld, load_scenario, record_program, run_in
+
+    path = tmp_path / "t.yaml"
+    path.write_text("stackdsl: 1\nstructure: {tower: {levels: 2}}\n")
+    scenario = load_scenario(path)
+    runs = {"run_program": run_program, "record_program": record_program, "run_in": lambda p: run_in(FakeWorld(), p)}
+    for name, run_it in runs.items():
+        with pytest.raises(
+            TypeError, match=rf"{name} takes a compiled Program, not Scenario: compile it first: compile_scenario"
+        ):
+            run_it(scenario)
+        with pytest.raises(
+            TypeError, match=rf"{name} takes a compiled Program, not str: read the file with load_scenario\(path\)"
+        ):
+            run_it(str(path))
+
+
+@pytest.mark.parametrize("timeout, error", [(-1.0, ValueError), (float("nan"), ValueError), ("5", TypeError), (True, TypeError)])
+def test_a_timeout_no_run_can_keep_is_refused_before_it_runs(timeout, error):
+    from stackdsl import FakeWorld, run_in
+
+    program = compile_scenario(parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 2}}\n"))
+    with pytest.raises(error, match=r"timeout must be a number of seconds >= 0 or None, not"):
+        run_program(program, timeout=timeout)
+    with pytest.raises(error, match=r"timeout must be a number of seconds >= 0 or None, not"):
+        run_in(FakeWorld(timestep=program.engine.timestep), program, timeout=timeout)

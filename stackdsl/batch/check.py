@@ -21,6 +21,7 @@ import traceback
 from collections.abc import Callable, Generator, Iterable, Sequence
 from concurrent.futures import Executor
 from itertools import chain
+from numbers import Integral
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -32,6 +33,7 @@ from ..lang.expectations import Expect
 from ..lang.loader import load_scenario
 from ..lang.sampling import Template
 from ..lang.scenario_file import file_problem
+from ..runtime.run import check_timeout
 from ..verdicts.check_result import CheckResult
 from ..verdicts.expect import expected_texts
 from .address import free_cores
@@ -223,6 +225,22 @@ def _refusal(
     )
 
 
+def check_jobs(jobs: int | None) -> None:
+    """Refuse a number of runs at the same time that is not a whole number >= 1 (None: one per
+    free core).
+
+    Raises:
+        TypeError: ``jobs`` is not a whole number (a float, a string, a bool).
+        ValueError: ``jobs`` is below 1.
+    """
+    if jobs is None:
+        return
+    if isinstance(jobs, bool) or not isinstance(jobs, Integral):
+        raise TypeError(f"jobs must be a whole number of runs at the same time (>= 1) or None, not {jobs!r}")
+    if jobs < 1:
+        raise ValueError(f"jobs must be at least 1, not {jobs}")
+
+
 def _known(backend: str | None, mode: str | None, model: str | None) -> None:
     """Raise ValueError for an override no scenario could take, before any file is read."""
     if backend is not None and backend not in BACKEND_DEFAULTS:
@@ -317,10 +335,13 @@ def check(
     Raises:
         ScenarioErrors: a file is missing or invalid, or ``pattern`` selects nothing
             (before anything runs).
-        ValueError: ``jobs`` below 1; an unknown ``backend``, ``mode`` (on that backend, or on
-            any) or ``model``.
+        ValueError: ``jobs`` below 1; a negative or not-a-number ``timeout``; an unknown
+            ``backend``, ``mode`` (on that backend, or on any) or ``model``.
+        TypeError: ``jobs`` is not a whole number or ``timeout`` not a number.
     """
     _known(backend, mode, model)
+    check_jobs(jobs)
+    check_timeout(timeout)
     listed = [paths] if isinstance(paths, (str, Path)) else list(paths)  # one path, not its letters
     broken: list[CheckResult] = []
     prepared = prepare(discover(listed), mode, model=model, backends=(backend,), seed=seed, timeout=timeout, broken=broken)
@@ -350,9 +371,8 @@ def run_checks(
     if folders is not None and len(folders) != len(prepared):
         raise ValueError(f"{len(folders)} folders for {len(prepared)} scenarios")
     where: list[str | None] = list(folders) if folders is not None else [None] * len(prepared)
+    check_jobs(jobs)
     jobs = free_cores() if jobs is None else jobs
-    if jobs < 1:
-        raise ValueError(f"jobs must be at least 1, not {jobs}")
     tasks: list[tuple[Any, ...]] = []
     costs: list[float] = []
     pending: dict[int, int] = {}
@@ -431,7 +451,11 @@ def compare(
 
     Raises:
         ScenarioErrors: a file is missing or invalid (before anything runs).
+        ValueError, TypeError: a bad ``jobs`` or ``timeout``, as for :func:`check` (before
+            anything is read).
     """
+    check_jobs(jobs)
+    check_timeout(timeout)
     refusals: list[CheckResult] = []
     broken: list[CheckResult] = []
     prepared = prepare(discover(paths), modes=modes, model=model, refused=refusals, timeout=timeout, broken=broken)

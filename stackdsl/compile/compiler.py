@@ -32,6 +32,7 @@ Source: stackdsl's own.
 
 from __future__ import annotations
 
+import os
 import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
@@ -71,6 +72,18 @@ MAX_WORK = 1e8
 """Body-steps a run may take at most (see the module's docstring); more is a ScenarioError."""
 
 
+def _not_a_scenario(value: object) -> str:
+    """The message of :func:`compile_scenario`'s TypeError for ``value``: what it takes and how
+    to get one from what it was given."""
+    if isinstance(value, (str, os.PathLike)):
+        how = "read a file with load_scenario(path), or YAML text with parse_scenario(text), first"
+    elif isinstance(value, Program):
+        how = "this one is compiled already: run it with run_program(program)"
+    else:
+        how = "load_scenario(path) reads one from a file, parse_scenario(text) from YAML text"
+    return f"compile_scenario takes a Scenario, not {type(value).__name__}: {how}"
+
+
 def compile_scenario(
     scenario: Scenario,
     mode: str | None = None,
@@ -103,7 +116,11 @@ def compile_scenario(
             engine simulates faithfully (:mod:`stackdsl.compile.limits`), the engine is
             MuJoCo and it is not installed (the ``mujoco`` extra), or no draw of a random scene
             meets its ``require:`` within its draws or ``draw_time``.
+        TypeError: ``scenario`` is not a :class:`Scenario` (a file name or YAML text: the
+            message names :func:`stackdsl.load_scenario` or :func:`stackdsl.parse_scenario`).
     """
+    if not isinstance(scenario, Scenario):
+        raise TypeError(_not_a_scenario(scenario))
     unknown = reference_errors(scenario)  # refused when validated; here for a scenario made without (model_construct)
     if unknown:
         raise scenario.source.error(*unknown[0], more=len(unknown) - 1)

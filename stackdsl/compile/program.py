@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import os
 from typing import Annotated, Literal, NamedTuple
 
 from pydantic import BaseModel, ConfigDict, Field
@@ -299,6 +300,26 @@ class Program(_Frozen):
     def wall_estimate(self) -> float:
         """Seconds of wall time the run is estimated to take (:meth:`Work.seconds`)."""
         return estimate_work(self).seconds
+
+
+def require_program(value: object, caller: str) -> Program:
+    """``value``, a compiled :class:`Program`, for the public function ``caller`` (its name,
+    for the message).
+
+    Raises:
+        TypeError: ``value`` is not a Program; the message says how to get one from what it is
+            (a Scenario: ``compile_scenario``; a file name: ``load_scenario`` first).
+    """
+    if isinstance(value, Program):
+        return value
+    kind = type(value).__name__
+    if kind == "Scenario":
+        how = "compile it first: compile_scenario(scenario)"
+    elif isinstance(value, (str, os.PathLike)):
+        how = "read the file with load_scenario(path), then compile_scenario(scenario)"
+    else:
+        how = "compile_scenario(load_scenario(path)) makes one"
+    raise TypeError(f"{caller} takes a compiled Program, not {kind}: {how}")
 
 
 class Work(NamedTuple):

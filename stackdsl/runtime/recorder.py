@@ -42,7 +42,7 @@ import numpy as np
 
 from stability import Pose
 
-from ..compile.program import Kinematic, Launch, Program, Push
+from ..compile.program import Kinematic, Launch, Program, Push, require_program
 from .bricks import BrickRecord
 from .collapse import CollapseMonitor
 from .loop import StepLoop, Subscriber
@@ -315,7 +315,9 @@ def record_program(
 
     Raises:
         ValueError: a bad ``rate`` or ``timeout``.
+        TypeError: ``program`` is not a :class:`Program` (as :func:`stackdsl.run_program`).
     """
+    require_program(program, "record_program")
     recorder = Recorder(program, rate, source, at)
     outcome = run_program(program, timeout=timeout, subscribers=(recorder,))
     return outcome, recorder.trajectory(outcome)

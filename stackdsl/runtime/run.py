@@ -41,8 +41,9 @@ import time as _time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
+from numbers import Real
 
-from ..compile.program import Program
+from ..compile.program import Program, require_program
 from ..engines.protocol import EngineSettings, World
 from .actions import Actions
 from .collapse import CollapseMonitor
@@ -115,15 +116,33 @@ def run_program(
         subscribers: more subscribers for the step loop (a recorder), after the run's own.
 
     Raises:
-        ValueError: a negative or not-a-number timeout.
+        ValueError: a negative or not-a-number timeout (:func:`check_timeout`).
+        TypeError: ``program`` is not a :class:`Program` (a Scenario or a file name: the
+            message says how to compile it), or a timeout that is not a number.
         pybullet.error: the engine failed (not expected for a compiled program).
     """
-    if timeout is not None and not timeout >= 0:
-        raise ValueError(f"timeout must be a number of seconds >= 0 or None, not {timeout!r}")
+    require_program(program, "run_program")
+    check_timeout(timeout)
     start = _time.perf_counter()
     with _older_objects_left_alone(), world_for(program, shelve=options.shelve) as world:
         loop = run_in(world, program, options, timeout=timeout, started=start, subscribers=subscribers)
         return outcome(loop, _time.perf_counter() - start)
+
+
+def check_timeout(timeout: float | None) -> None:
+    """Refuse a wall-clock limit no run can keep: ``timeout`` must be None (no limit) or a
+    number of seconds >= 0 (0: the run stops at its first check).
+
+    Raises:
+        TypeError: ``timeout`` is not a number (a string, a bool).
+        ValueError: ``timeout`` is negative or not a number (NaN).
+    """
+    if timeout is None:
+        return
+    if isinstance(timeout, bool) or not isinstance(timeout, Real):
+        raise TypeError(f"timeout must be a number of seconds >= 0 or None, not {timeout!r}")
+    if not timeout >= 0:
+        raise ValueError(f"timeout must be a number of seconds >= 0 or None, not {timeout!r}")
 
 
 @contextmanager
@@ -172,7 +191,15 @@ def run_in(
     subscribers: tuple[Subscriber, ...] = (),
 ) -> StepLoop:
     """Run ``program`` in ``world`` (a real or a fake one) and return the finished loop;
-    :func:`outcome` reads it. ``timeout`` and ``started``: as :class:`StepLoop`'s."""
+    :func:`outcome` reads it. ``timeout`` and ``started``: as :class:`StepLoop`'s.
+
+    Raises:
+        TypeError: ``program`` is not a :class:`Program` (as :func:`run_program`), or
+            ``timeout`` is not a number.
+        ValueError: a negative or not-a-number ``timeout``.
+    """
+    require_program(program, "run_in")
+    check_timeout(timeout)
     config = program.stability
     if not options.needed_rules:
         config = replace(config, leaning=True, impacts=True)

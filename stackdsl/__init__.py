@@ -2,12 +2,12 @@
 
 Data flows one way, one floor (subpackage) per step::
 
-    load_scenario(path)        YAML -> Scenario         (lang/)
-    compile_scenario(scenario) Scenario -> Program      (compile/)
-    run_program(program)       Program -> Outcome       (runtime/, with stability/)
-    record_program(program)    Program -> Outcome, Trajectory  (runtime/recorder: every brick's pose and state)
-    evaluate(expect, outcome)  Outcome -> verdicts      (verdicts/)
-    check(paths)               all of it over files     (batch/)
+    load_scenario(path)                   YAML -> Scenario     (lang/)
+    compile_scenario(scenario)            Scenario -> Program  (compile/)
+    run_program(program)                  Program -> Outcome   (runtime/, with stability/)
+    record_program(program)               Program -> Outcome, Trajectory (runtime/recorder: every brick's pose and state)
+    evaluate(expect, outcome, threshold)  Outcome -> verdicts  (verdicts/; threshold: the program's collapse_threshold, m)
+    check(paths)                          all of it over files (batch/)
 
 The seam to an engine is public, as httpx's transports are: a :class:`World` (one adapter
 per engine; :class:`FakeWorld` moves bodies in memory, for tests), a :class:`StepLoop`

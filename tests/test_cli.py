@@ -6,6 +6,7 @@ import io
 import json
 import os
 import pickle
+import re
 import signal
 import subprocess
 import sys
@@ -268,6 +269,32 @@ def test_an_expectation_built_in_python_has_no_place_and_says_its_verdict_alone(
     assert str(read.at) == "<scenario>:3:10" and read.lines()[1:] == ["    expect: {collapse: 2}", "             ^"]
     (built,) = evaluate(Expect(collapse=2), outcome, program.collapse_threshold)
     assert built.at is None and built.lines() == ["expected collapse 2, measured stands"] and located_lines([built]) == []
+
+
+@pytest.mark.parametrize(
+    "threshold, error, said",
+    [
+        (-1.0, ValueError, "threshold must be a finite number of metres above 0"),
+        (0.0, ValueError, "threshold must be a finite number of metres above 0"),
+        (float("nan"), ValueError, "threshold must be a finite number of metres above 0"),
+        (float("inf"), ValueError, "threshold must be a finite number of metres above 0"),
+        (40, ValueError, "threshold is in metres: 40 m is more than any brick is long (10 m); for 40 mm, give 0.04"),
+        ("0.004", TypeError, "threshold must be a number of metres, not '0.004'"),
+        (True, TypeError, "threshold must be a number of metres, not True"),
+    ],
+)
+def test_evaluate_refuses_a_threshold_no_scenario_could_have(threshold, error, said):
+    # -1 passed "levels 1-2 stay" while saying every brick had moved (measured text and verdict
+    # disagreed); NaN passed everything
+    from stackdsl import FakeWorld, outcome, run_in
+    from stackdsl.verdicts.expect import evaluate
+
+    scenario = parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 2}}\nexpect: {stays: 1-2}\n")
+    program = compile_scenario(scenario)
+    ran = outcome(run_in(FakeWorld(timestep=program.engine.timestep), program), 0.0)
+    assert [v.passed for v in evaluate(scenario.expect, ran, program.collapse_threshold)] == [True]
+    with pytest.raises(error, match=re.escape(said)):
+        evaluate(scenario.expect, ran, threshold)
 
 
 def test_junit_xml_into_a_missing_folder_is_bad_input(tmp_path, capsys, monkeypatch):

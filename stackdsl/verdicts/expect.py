@@ -5,10 +5,13 @@ Source: stackdsl's own (docs/design.md, words: collapse level).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Sequence
+from numbers import Real
 
 from pydantic import BaseModel, ConfigDict
 
+from ..lang.bounds import MAX_SIDE
 from ..lang.errors import Location, excerpt
 from ..lang.expectations import CollapseLevel, Expect, bricks_of, levels_of, selects, span
 from ..runtime.outcome import Outcome
@@ -48,10 +51,17 @@ def located_lines(verdicts: Iterable[Verdict]) -> list[str]:
 
 def evaluate(expect: Expect, outcome: Outcome, threshold: float) -> list[Verdict]:
     """Check ``outcome`` against ``expect``; ``threshold`` (m) is how far a brick that
-    stays in place may move. ``may_fall`` levels are not checked. An empty list means
-    nothing was expected. A run stopped early (``outcome.stopped``, a timeout) adds a
-    failed ``finished`` verdict: what it did not simulate was not checked.
+    stays in place may move (a compiled program's ``collapse_threshold``). ``may_fall``
+    levels are not checked. An empty list means nothing was expected. A run stopped early
+    (``outcome.stopped``, a timeout) adds a failed ``finished`` verdict: what it did not
+    simulate was not checked.
+
+    Raises:
+        ValueError: ``threshold`` is not a finite number of metres above 0 and at most
+            :data:`~stackdsl.lang.bounds.MAX_SIDE` (10 m, a scenario's own bound on it).
+        TypeError: ``threshold`` is not a number (a string, a bool).
     """
+    check_threshold(threshold)
     verdicts = []
     measured = describe_outcome(outcome, threshold)
     texts = expected_texts(expect)
@@ -105,6 +115,27 @@ def evaluate(expect: Expect, outcome: Outcome, threshold: float) -> list[Verdict
     if outcome.stopped:
         verdicts.append(Verdict(name="finished", passed=False, expected="the run finishes", measured=outcome.stopped))
     return [v.model_copy(update={"at": expect.at(v.name)}) if expect.at(v.name) else v for v in verdicts]
+
+
+def check_threshold(threshold: float) -> None:
+    """Refuse a collapse threshold no scenario could have: it must be a number of metres,
+    finite, above 0 and at most :data:`~stackdsl.lang.bounds.MAX_SIDE` (the bound a scenario's
+    ``collapse_threshold`` has; a brick's half side, the default, is within it too). Below 0
+    every brick has moved and none has; above, the number was most likely millimetres.
+
+    Raises:
+        TypeError: ``threshold`` is not a number (a string, a bool).
+        ValueError: ``threshold`` is not finite, not above 0 or above 10 m.
+    """
+    if isinstance(threshold, bool) or not isinstance(threshold, Real):
+        raise TypeError(f"threshold must be a number of metres, not {threshold!r}")
+    if not 0.0 < threshold < math.inf:
+        raise ValueError(f"threshold must be a finite number of metres above 0 (KAPLA's default: 0.004), not {threshold!r}")
+    if threshold > MAX_SIDE:
+        raise ValueError(
+            f"threshold is in metres: {threshold!r} m is more than any brick is long ({MAX_SIDE:g} m);"
+            f" for {threshold:g} mm, give {threshold / 1000:g}"
+        )
 
 
 def expected_texts(expect: Expect) -> dict[str, str]:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -280,3 +282,25 @@ timing: {settle: 1 s}
     assert np.isnan(list(trajectory.frames())[-1].positions[pulled]).all()
     others = np.delete(np.arange(len(trajectory.ids)), pulled)
     assert np.abs(last.positions[others]).max() < 1.0  # every other body within a metre
+
+
+def test_a_time_outside_the_run_or_not_a_number_is_refused_by_name():
+    # at(-1) was the frame at t = 0, at(nan) the last frame and at("2") a TypeError about
+    # concatenating a str and a float
+    program = compile_scenario(parse_scenario(TOWER))
+    recorder = Recorder(program)
+    loop = run_in(FakeWorld(timestep=program.engine.timestep), program, subscribers=(recorder,))
+    trajectory = recorder.trajectory(outcome(loop, 0.0))
+    for time, error, said in (
+        (-1.0, ValueError, "time must be a finite number of seconds from 0 (the run's start), not -1.0"),
+        (float("nan"), ValueError, "time must be a finite number of seconds from 0 (the run's start), not nan"),
+        (float("inf"), ValueError, "time must be a finite number of seconds from 0 (the run's start), not inf"),
+        ("2", TypeError, "time must be a number of seconds into the run, not '2'"),
+        (None, TypeError, "time must be a number of seconds into the run, not None"),
+    ):
+        for ask in (trajectory.at, trajectory.frame_index):
+            with pytest.raises(error, match=re.escape(said)):
+                ask(time)
+    # within the run: the last frame at or before; after its end, the last frame
+    assert trajectory.at(0.0).index == 0 and trajectory.at(np.float64(2.0)).time <= 2.0
+    assert trajectory.at(trajectory.end + 10.0).index == len(trajectory.times) - 1

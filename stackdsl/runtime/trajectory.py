@@ -33,6 +33,7 @@ import zipfile
 import zlib
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
+from numbers import Real
 from pathlib import Path
 from typing import Any
 
@@ -173,11 +174,19 @@ class Trajectory:
         return np.asarray(self.fixture_positions + self.ground_offset[index])
 
     def frame_index(self, time: float) -> int:
-        """The last frame at or before ``time`` seconds (the first frame for earlier times).
+        """The last frame at or before ``time`` seconds of the run. The run starts at 0 s; a time
+        from 0 to the first frame (taken when the first body enters) gives the first frame, and
+        one after :attr:`end` the last (nothing moves after the run).
 
         Raises:
-            ValueError: the trajectory has no frame.
+            TypeError: ``time`` is not a number (a string, a bool).
+            ValueError: ``time`` is negative (before the run) or not finite; the trajectory has
+                no frame.
         """
+        if isinstance(time, bool) or not isinstance(time, Real):
+            raise TypeError(f"time must be a number of seconds into the run, not {time!r}")
+        if not 0.0 <= time < math.inf:
+            raise ValueError(f"time must be a finite number of seconds from 0 (the run's start), not {time!r}")
         if not len(self.times):
             raise ValueError("the trajectory has no frame")
         return max(0, int(np.searchsorted(self.times, time + 1e-9, side="right")) - 1)
@@ -205,7 +214,13 @@ class Trajectory:
         return Frame(index, float(self.times[index]), positions, orientations, states, self.ground_offset[index].copy())
 
     def at(self, time: float) -> Frame:
-        """Every body as last recorded at or before ``time`` seconds."""
+        """Every body as last recorded at or before ``time`` seconds of the run (the frame of
+        :meth:`frame_index`: from 0 to the first frame, the first; after :attr:`end`, the last).
+
+        Raises:
+            TypeError: ``time`` is not a number.
+            ValueError: ``time`` is negative or not finite; the trajectory has no frame.
+        """
         return self.frame(self.frame_index(time))
 
     def frames(self, indices: Iterator[int] | list[int] | None = None) -> Iterator[Frame]:

@@ -181,3 +181,14 @@ def test_parse_scenario_refuses_bytes_by_type():
 
     with pytest.raises(TypeError, match="not bytes"):
         stackdsl.parse_scenario(b"stackdsl: 1\n")  # type: ignore[arg-type]
+
+
+def test_help_on_the_mode_defaults_tells_what_they_are_not_what_a_dict_is():
+    import pydoc
+
+    import stackdsl
+    from stackdsl.compile.compiler import BACKEND_DEFAULTS
+
+    shown = pydoc.render_doc(stackdsl.MODE_DEFAULTS, renderer=pydoc.plaintext)
+    assert "The engine modes and what each sets" in shown and "dict() -> new empty dictionary" not in shown.split("Methods")[0]
+    assert stackdsl.MODE_DEFAULTS == BACKEND_DEFAULTS["pybullet"]  # the same modes and values

@@ -65,7 +65,27 @@ from .rules import choose_rules
 #: Engine defaults per backend and mode, as each engine's settings class owns them
 #: (:mod:`stackdsl.engines.pybullet.settings`, :mod:`stackdsl.engines.mujoco.settings`).
 BACKEND_DEFAULTS: dict[str, dict[str, dict[str, object]]] = {name: cls.DEFAULTS for name, cls in SETTINGS.items()}
-MODE_DEFAULTS = BACKEND_DEFAULTS["pybullet"]
+
+
+class ModeDefaults(dict[str, dict[str, object]]):
+    """The engine modes and what each sets, on pybullet (the default backend): mode
+    (``"raw"``, ``"tuned"``, ``"extension"``) -> engine setting (``timestep`` in s,
+    ``solver_iterations``, ``friction_anchors``, ``maximal_coordinates``, ``ccd``) -> its value.
+
+    A scenario picks its mode in ``engine: {mode: ...}`` (``stackdsl check --mode`` overrides
+    it) and any setting it writes there replaces the mode's. The values are
+    :attr:`stackdsl.engines.pybullet.settings.PyBulletSettings.DEFAULTS`; MuJoCo's are
+    ``BACKEND_DEFAULTS["mujoco"]`` in :mod:`stackdsl.compile.compiler`. A dict, of a class of
+    its own so that ``help(stackdsl.MODE_DEFAULTS)`` says this. Source: stackdsl's own.
+
+    >>> import stackdsl
+    >>> sorted(stackdsl.MODE_DEFAULTS), stackdsl.MODE_DEFAULTS["tuned"]["timestep"]
+    (['extension', 'raw', 'tuned'], 0.001)
+    """
+
+
+#: The engine modes and the pybullet settings each one sets (:class:`ModeDefaults`).
+MODE_DEFAULTS = ModeDefaults(BACKEND_DEFAULTS["pybullet"])
 GRAVITY = 9.81
 
 MAX_WORK = 1e8

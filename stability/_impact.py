@@ -35,11 +35,14 @@ from ._stack_test import StackTest
 
 
 def kinetic_energy(mass: float, speed: float) -> float:
-    """Joules of a body of ``mass`` kg at ``speed`` m/s (report 3.6.2).
+    """Joules of a body of ``mass`` kg at ``speed`` m/s (report 3.6.2). Raises ValueError on a
+    mass that is not a finite number > 0.
 
     >>> kinetic_energy(0.0106, 1.0)
     0.0053
     """
+    if not (math.isfinite(mass) and mass > 0.0):
+        raise ValueError(f"mass must be a finite number of kg > 0, got {mass!r}")
     return 0.5 * mass * speed * speed
 
 

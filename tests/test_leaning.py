@@ -99,6 +99,9 @@ def test_impact_energies_report_3_6():
     assert potential_energy(0.1, 0.05, 0.01, gravity=10.0) == pytest.approx(0.04)
     assert potential_energy(0.1, 0.0, 0.01) == 0.0
     assert breaks_loose(0.05, 0.04) and not breaks_loose(0.04, 0.04)
+    for mass in (-1.0, 0.0, float("nan")):
+        with pytest.raises(ValueError, match="mass"):
+            kinetic_energy(mass, 2.0)
 
 
 # The rules inside the extension, on a fake engine ----------------------------------------

@@ -16,6 +16,16 @@ import pytest
 
 from .verdicts.snapshot import scenario_golden_path
 
+#: The scenario folder when a project names none in ``stackdsl_paths``.
+DEFAULT_FOLDERS = ["scenarios"]
+
+
+def scenario_folders(config: pytest.Config) -> list[str]:
+    """The folders ``stackdsl_paths`` names (relative to the rootdir), else :data:`DEFAULT_FOLDERS`."""
+    named: list[str] = config.getini("stackdsl_paths")
+    return named or DEFAULT_FOLDERS
+
+
 #: The suffixes of scenario files the plugin collects.
 SUFFIXES = (".yaml", ".yml")
 #: At most this many YAML files under a path given to pytest are read for the collection hint.
@@ -49,7 +59,7 @@ def uncollected(config: pytest.Config, ran: list[Path] | None = None) -> list[tu
     are collected by the workers, and the main process sees their reports only)."""
     if config.args_source != pytest.Config.ArgsSource.ARGS:
         return []
-    roots = [(config.rootpath / p).resolve() for p in config.getini("stackdsl_paths")]
+    roots = [(config.rootpath / p).resolve() for p in scenario_folders(config)]
     collected = [*config.stash.get(_COLLECTED, []), *(ran or [])]
     found = []
     for arg in config.args:
@@ -74,7 +84,7 @@ def collection_hint(config: pytest.Config, ran: list[Path] | None = None) -> lis
     missed = uncollected(config, ran)
     if not missed:
         return []
-    configured = ", ".join(config.getini("stackdsl_paths")) or "none"
+    configured = ", ".join(scenario_folders(config)) or "none"
     lines = [
         f"{folder}/ holds {len(files)} scenario file{'s' * (len(files) != 1)}, and pytest collects them only below "
         f"stackdsl_paths (now: {configured})"

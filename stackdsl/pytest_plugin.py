@@ -54,7 +54,7 @@ from .draw.artefacts import draw_run, folder_name
 from .lang.errors import ScenarioError
 from .lang.loader import load_scenario
 from .pytest_golden import BadGolden, golden_elsewhere, golden_problem, read_golden_text, where_goldens_go
-from .pytest_hint import SUFFIXES, collection_hint, remember_collected
+from .pytest_hint import SUFFIXES, collection_hint, remember_collected, scenario_folders
 from .runtime.recorder import record_program
 from .runtime.run import run_program
 from .verdicts.expect import evaluate, explain
@@ -89,8 +89,9 @@ def pytest_addoption(parser: pytest.Parser) -> None:
     parser.addini(
         "stackdsl_paths",
         type="linelist",
-        default=["scenarios"],
-        help="folders (relative to the rootdir) whose *.yaml files are stackdsl scenario tests",
+        default=[],  # none named: DEFAULT_FOLDERS, and only the files that say they are stackdsl's
+        help="folders (relative to the rootdir) whose *.yaml files are stackdsl scenario tests (default: scenarios, "
+        "whose files with a top-level 'stackdsl:' key are)",
     )
     group = parser.getgroup("stackdsl", "stackdsl scenario files")
     group.addoption(
@@ -116,20 +117,13 @@ def pytest_collect_file(file_path: Path, parent: pytest.Collector) -> pytest.Col
     if file_path.suffix not in SUFFIXES:
         return None
     config = parent.config
-    roots = [(config.rootpath / p).resolve() for p in config.getini("stackdsl_paths")]
+    roots = [(config.rootpath / p).resolve() for p in scenario_folders(config)]
     here = file_path.resolve()
     if not any(here.is_relative_to(root) for root in roots):
         return None
-    if not _paths_named(config) and not _declares_stackdsl(file_path):
+    if not config.getini("stackdsl_paths") and not _declares_stackdsl(file_path):
         return None
     return ScenarioFile.from_parent(parent, path=file_path)
-
-
-def _paths_named(config: pytest.Config) -> bool:
-    """Whether the project names its scenario folders (``stackdsl_paths`` in its ini file, or
-    ``-o stackdsl_paths=...``), rather than taking the default."""
-    overrides = getattr(config.known_args_namespace, "override_ini", None) or []
-    return "stackdsl_paths" in config.inicfg or any(o.split("=", 1)[0].strip() == "stackdsl_paths" for o in overrides)
 
 
 def _declares_stackdsl(path: Path) -> bool:
@@ -172,7 +166,7 @@ def left_over(golden: Path, folder: Path) -> bool:
 def orphan_goldens(config: pytest.Config) -> list[Path]:
     """Golden snapshots under ``golden/<configured folder>/`` whose scenario file is gone."""
     orphans = []
-    for folder in config.getini("stackdsl_paths"):
+    for folder in scenario_folders(config):
         root = (config.rootpath / folder).resolve()
         stored = scenario_golden_path(root / "x.yaml").parent
         orphans += [g for g in sorted(stored.rglob("*.json")) if stored.is_dir() and left_over(g, root)]

@@ -228,8 +228,9 @@ DOCS: dict[str, dict[str, tuple[str, Any]]] = {
         ),
     },
     "Probability": {
-        "op": ("The comparison: >=, <=, > or <.", ">="),
-        "bound": ("The probability bound, 0 to 1.", 0.9),
+        "op": ("The comparison: >=, <=, > or <; or ± for a probability within a tolerance.", ">="),
+        "bound": ("The probability bound, 0 to 1 (with ±, the probability).", 0.9),
+        "tolerance": ("With ±: how far P(stands) may lie from the probability, 0 to 1.", 0.1),
     },
     "Sweep": {
         "samples": ("Draws in each grid cell, 1 to 100,000 (default 1).", 200),

@@ -336,7 +336,7 @@ def test_exit_statuses_are_in_the_help(command, capsys):
         main([*command, "--help"])
     out = capsys.readouterr().out
     assert "exit status:" in out and "2    bad input" in out and "3    internal error" in out
-    assert ("1    an expectation failed" in out) == (command in ([], ["check"], ["run"]))
+    assert ("1    an expectation failed" in out) == (command in ([], ["check"], ["compare"], ["run"]))
 
 
 def test_run_json_help_says_a_failed_expectation_exits_1(capsys):

@@ -1430,3 +1430,29 @@ def test_a_trajectory_given_as_a_scenario_is_named_so(command, tmp_path, capsys)
     named.write_bytes(trajectory.read_bytes()[:1000])  # misnamed: named by its first bytes
     assert main([command, str(named)]) == 2
     assert "this is a zip archive, not a scenario" in capsys.readouterr().err
+
+
+def test_the_measured_column_says_each_fact_once():
+    """A failed 'stays: 1-12' measured "levels 4-8 moved; levels 10-12 never placed", and the
+    row said "levels 4-8 moved, levels 4-8 moved; levels 10-12 never placed"."""
+    from stackdsl.verdicts.check_result import CheckResult
+    from stackdsl.verdicts.expect import Verdict
+
+    stays = Verdict(
+        name="stays", passed=False, expected="levels 1-12 stay", measured="levels 4-8 moved; levels 10-12 never placed"
+    )
+    r = CheckResult(
+        "a.yaml",
+        "a",
+        "raw",
+        "report",
+        (stays,),
+        9,
+        9,
+        1.0,
+        0.1,
+        first_moved="L06.2",
+        first_moved_level=6,
+        moved_levels=(4, 5, 6, 7, 8),
+    )
+    assert r.measured == "collapse 9 from L06.2 (level 6), levels 4-8 moved, levels 10-12 never placed"

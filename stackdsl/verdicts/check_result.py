@@ -100,7 +100,8 @@ class CheckResult:
         """What was measured, as in check's table: ``'collapse 13 from L13.2 (level 13), level 13
         moved'`` (:func:`stackdsl.verdicts.expect.describe`), then what the ``stays``, ``moved`` and
         ``toppled`` verdicts measured, each fact once (a ``moved: 6-12`` that held measured the
-        levels the description names); the error or what stopped the run when either happened."""
+        levels the description names; a ``stays`` that failed, "levels 4-8 moved; levels 10-12
+        never placed", adds the levels never placed); the error or what stopped the run when either happened."""
         if self.refused:
             return "refused"
         if self.error or self.stopped or self.bad_input:
@@ -109,5 +110,5 @@ class CheckResult:
             return self.sweep
         first = (self.first_moved, self.first_moved_level) if self.first_moved_level is not None else None
         facts = [describe(self.collapse_level, first), *([levels_moved(self.moved_levels)] if self.moved_levels else [])]
-        facts += [v.measured for v in self.verdicts if v.name in ("stays", "moved", "toppled")]
+        facts += [fact for v in self.verdicts if v.name in ("stays", "moved", "toppled") for fact in v.measured.split("; ")]
         return ", ".join(dict.fromkeys(facts))

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from stability import Box, Pose
 from stackdsl import compile_scenario, parse_scenario
 from stackdsl.draw.animate import KEY_EVENTS, animate, speed_text, timeline
 from stackdsl.draw.camera import placed_corners
@@ -193,3 +194,22 @@ def test_a_fixture_is_drawn_where_a_shake_has_carried_it() -> None:
     # the fixture's grey (0.5) against the ground's (0.88) under the same light on a top face
     assert brightness["moved"] < 0.7 * brightness["rest"], brightness
     assert brightness["still"] < 0.7 * brightness["rest"], brightness  # where it was drawn before
+
+
+def test_the_camera_frames_a_fixture_as_far_as_a_shake_carries_it() -> None:
+    """The camera was framed on the fixtures at rest: a post 150 mm beside a shaken tower, the
+    ground 63.5 mm off its rest, left the picture mid-stroke. Framed on both ends of the stroke,
+    every corner of the fixture lies within the picture at every frame."""
+    text = (
+        "stackdsl: 1\nstructure:\n  bricks:\n    - {id: a, at: [0, 0, 4 mm]}\n    - {id: bolted, at: [250 mm, 0, 4 mm], fixed: true}\n"
+        "timing: {settle: 0.2 s}\nactions: [{shake: {amplitude: 70 mm, frequency: 1 Hz, duration: 1 s, at: 1 s, direction: [1, 0]}}]\n"
+    )
+    trajectory = record_program(compile_scenario(parse_scenario(text), "raw"))[1]
+    assert np.abs(trajectory.ground_offset[:, 0]).max() > 0.12
+    with Scene(trajectory, 480, 360) as scene:
+        for k in range(len(trajectory.times)):
+            corners = Box(trajectory.fixture_half_extents[0], 1.0).corners(
+                Pose(trajectory.fixture_positions_at(k)[0], trajectory.fixture_orientations[0])
+            )
+            pixels = scene.camera.pixels(corners)
+            assert (pixels >= -0.5).all() and (pixels[:, 0] <= 480.5).all() and (pixels[:, 1] <= 360.5).all(), k

@@ -103,9 +103,10 @@ def look_at(eye: np.ndarray, target: np.ndarray, up: tuple[float, float, float] 
 def placed_corners(trajectory: Trajectory) -> np.ndarray:
     """(n, 3) metres: what the camera frames. The corners of every brick at its first
     recorded pose (a structure brick where it was placed, a projectile where it was thrown
-    from) and of every fixture; and of every later pose of a structure brick whose centre
-    stays within :data:`DEBRIS_REACH` of the placed structure's extent (bricks that fell at
-    its foot are in the picture, one that slid far away does not shrink it)."""
+    from) and of every fixture, at rest and as far as a shake carries it each way (a post
+    beside a shaken tower left the frame mid-stroke); and of every later pose of a structure
+    brick whose centre stays within :data:`DEBRIS_REACH` of the placed structure's extent
+    (bricks that fell at its foot are in the picture, one that slid far away does not shrink it)."""
     bodies, first = np.unique(trajectory.row_body, return_index=True)
     boxes = [
         (trajectory.half_extents[b], trajectory.row_position[r], trajectory.row_orientation[r]) for b, r in zip(bodies, first)
@@ -115,6 +116,11 @@ def placed_corners(trajectory: Trajectory) -> np.ndarray:
         return np.array([[-0.06, -0.06, 0.0], [0.06, 0.06, 0.01]])
     placed = np.concatenate([Box(half, 1.0).corners(Pose(position, quaternion)) for half, position, quaternion in boxes])
     low, high = placed.min(axis=0), placed.max(axis=0)
+    fixtures = len(trajectory.fixture_positions) * 8  # the last rows of ``placed``
+    if fixtures and len(trajectory.ground_offset) and trajectory.ground_offset.any():
+        carried = placed[len(placed) - fixtures :]
+        offsets = trajectory.ground_offset
+        placed = np.concatenate([placed, carried + offsets.min(axis=0), carried + offsets.max(axis=0)])
     reach = DEBRIS_REACH * float(np.linalg.norm(high - low))
     structure = ~trajectory.projectiles[trajectory.row_body]
     near = np.all((trajectory.row_position > low - reach) & (trajectory.row_position < high + reach), axis=1)

@@ -77,7 +77,8 @@ def timeline(trajectory: Trajectory, fps: float = FPS, max_frames: int = MAX_FRA
     The recorded frames fall into bursts (frames at most 1.5 recording intervals apart: something
     moves) and the quiet stretches between them. A burst is drawn in real time from its first
     frame on (a placement, a launch); a quiet stretch gets at most :data:`QUIET_HOLD` seconds of
-    clip, never less than real time. When that makes more than ``max_frames`` frames, everything
+    clip, never less than real time; the clip ends on the run's last frame (a 0.05 s run at 30
+    frames a second drew 0 and 0.03 s). When that makes more than ``max_frames`` frames, everything
     is sped up by the least even factor that fits (and when one frame a burst is still too many,
     frames are dropped evenly). The frames of :func:`key_frames` are put in even when mid-burst
     (``max_frames`` is kept by dropping others).
@@ -118,6 +119,8 @@ def timeline(trajectory: Trajectory, fps: float = FPS, max_frames: int = MAX_FRA
             rate.append(np.full(hold[b], pauses[b] * fps / (hold[b] + 1)))
             still.append(np.ones(hold[b], bool))
     shown, speeds, stills = np.concatenate(at), np.concatenate(rate), np.concatenate(still)
+    if shown[-1] < times[-1] - 1e-9:  # the last burst's frames stopped short of its end: the run's end is drawn
+        shown, speeds, stills = np.append(shown, times[-1]), np.append(speeds, speeds[-1]), np.append(stills, False)
     if len(shown) > max_frames:  # more bursts than frames: drop frames evenly, keep the first and last
         keep = np.unique(np.round(np.linspace(0, len(shown) - 1, max_frames)).astype(int))
         shown, speeds, stills = shown[keep], speeds[keep] * len(shown) / len(keep), stills[keep]

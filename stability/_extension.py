@@ -162,7 +162,7 @@ class StabilityExtension:
         if events or not config.per_event:
             events += self._tests.run(time)
         if config.impacts:
-            hits = self._impacts.check(free, stack.engine.timestep, time)
+            hits = self._impacts.check(free, stack.engine.timestep, time, touched)
             events += hits
             if any(e.kind == "wake" for e in hits):
                 events += self._tests.run(time)

@@ -8,22 +8,25 @@ the engine simulates the blow; otherwise the stack holds and the engine handles 
 impactor alone (against immovable bricks). Threshold-based, as the report's.
 
 The report's barrier is the energy to lift the part off its base. An upright part turns
-over the edge of its base long before it is lifted: by default, for a part that nothing
-outside it holds (:func:`_free`), the barrier is the lesser of the two (:func:`tipping_energy`
-about the edge of the hit brick's support polygon, ``StabilityConfig.impact_energy``), so that
-no blow that topples a domino, a post or a column is held; and where the report's barrier is
-nothing (a fallen brick lying tilted, its centre of mass below the contact it rests on) the
-tipping energy is the barrier, so that a touch at 0.01 m/s does not wake a fallen domino row
-brick by brick (stackdsl's own).
+over the edge of its base long before it is lifted: by default the barrier is the lesser of
+the two (:func:`tipping_energy` about the edge of the part's support polygon,
+:func:`_footprint`, ``StabilityConfig.impact_energy``), so that no blow that topples a domino,
+a post or a column is held; and where the report's barrier is nothing (a fallen brick lying
+tilted, its centre of mass below the contact it rests on) the tipping energy is the barrier,
+so that a touch at 0.01 m/s does not wake a fallen domino row brick by brick. A body a hand
+drives (one a pusher or a pulled brick touches) into a frozen brick breaks it loose whatever
+its own energy: the hand's weight is behind it (stackdsl's own).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Set as AbstractSet
 from dataclasses import replace
 
 import numpy as np
 from shapely.geometry import LineString, Point, Polygon
+from shapely.geometry.base import BaseGeometry
 from shapely.ops import unary_union
 
 from ._engine import ContactPoint
@@ -107,10 +110,12 @@ class Impacts:
     def __init__(self, stack: Stack, tests: StackTest) -> None:
         self.stack, self.tests = stack, tests
 
-    def check(self, active: list[Record], dt: float, time: float) -> list[StabilityEvent]:
+    def check(self, active: list[Record], dt: float, time: float, driven: AbstractSet[int] = frozenset()) -> list[StabilityEvent]:
         """Each active body faster than the rest speed that will touch a frozen brick within
-        1.5 steps of ``dt`` s (at its fastest point's speed, rotation included): wake that brick (with what is above it) when the blow breaks
-        it loose, else an ``impact`` event: the stack held."""
+        1.5 steps of ``dt`` s (at its fastest point's speed, rotation included): wake that brick
+        (with what is above it) when the blow breaks it loose, else an ``impact`` event: the
+        stack held. A body of ``driven`` (one a hand touches) that closes on the frozen brick
+        faster than the rest speed breaks it loose: the hand drives it."""
         stack, config = self.stack, self.stack.config
         events: list[StabilityEvent] = []
         geometric = getattr(stack.engine, "near_is_geometric", False)
@@ -146,17 +151,22 @@ class Impacts:
                 if not _reaches(hit, linear, angular, pose.position, other.box, stack.pose(other), window, config.contact_pad):
                     continue
                 rec.impacted.add(other.body)
+                if rec.body in driven:
+                    closing = -float(np.dot(linear + np.cross(angular, hit.position - pose.position), hit.normal))
+                    if closing > config.rest_speed:  # into it, not along it (a brick riding on a pulled one)
+                        detail = f"driven into it by a hand at {closing:.2f} m/s, through {rec.label}"
+                        events += [replace(w.event, source=rec.label) for w in stack.wake(other.body, time, detail)]
+                        continue
                 kinetic = kinetic_energy(rec.box.mass, speed)
                 base = min(a.height for a in other.rests_on.values())
                 self.tests.refresh_loads()
                 assert other.com_above is not None, "the stack test sets it for every frozen brick"
                 potential = potential_energy(other.mass_above, other.com_above[2], base, config.gravity)
-                if config.impact_energy == "least" and (potential <= 0.0 or _free(stack, other)):
-                    footprint = unary_union([a.polygon for a in other.rests_on.values()]).convex_hull
-                    com = np.asarray(other.com_above)
-                    if footprint.contains(Point(com[0], com[1])):  # standing on its own foot (else held by more)
-                        tip = tipping_energy(other.mass_above, com, footprint, base, heading, config.gravity)
-                        potential = tip if potential <= 0.0 else min(potential, tip)
+                footprint = _footprint(stack, other) if config.impact_energy == "least" else None
+                com = np.asarray(other.com_above)
+                if footprint is not None and footprint.contains(Point(com[0], com[1])):  # else held by more than it
+                    tip = tipping_energy(other.mass_above, com, footprint, base, heading, config.gravity)
+                    potential = tip if potential <= 0.0 else min(potential, tip)
                 detail = f"impact of {rec.label} at {speed:.2f} m/s: {kinetic * 1000:.3g} mJ against {potential * 1000:.3g} mJ"
                 if breaks_loose(kinetic, potential):
                     events += [replace(w.event, source=rec.label) for w in stack.wake(other.body, time, detail)]
@@ -165,20 +175,21 @@ class Impacts:
         return events
 
 
-def _free(stack: Stack, rec: Record) -> bool:
-    """Is the part ``rec`` carries (itself and what rests on it, and on those) free to tip
-    over the edge of ``rec``'s own support polygon: does nothing in it rest on a brick outside
-    it? A brick of a tower's level is not: the level above lies on its neighbour too, and
-    turns the part about no edge of its own; a domino, a post, a column of bricks is. A part
-    whose centre of mass lies outside that polygon (a fallen domino frozen leaning in a pile)
-    is held by more than its foot, and meets the lifting energy too (stackdsl's own)."""
+def _footprint(stack: Stack, rec: Record) -> BaseGeometry | None:
+    """The horizontal support polygon of the part ``rec`` carries (itself, what rests on it, and
+    on those): the convex hull of every contact by which a brick of the part rests on a body
+    outside it; None when it rests on nothing. A domino's is its foot; a trilithon post's
+    reaches the other post, on which the lintel also lies (braced along the lintel, not across
+    it); a tower level's spans the level, since the bricks above lie on its neighbour too
+    (stackdsl's own)."""
     part, todo = {rec.body}, [rec.body]
     while todo:
         for above in stack.bodies[todo.pop()].objects_above:
             if above not in part:
                 part.add(above)
                 todo.append(above)
-    return all(set(stack.bodies[b].rests_on) <= part for b in part if b != rec.body) and bool(rec.rests_on)
+    pieces = [a.polygon for b in part for s, a in stack.bodies[b].rests_on.items() if s not in part]
+    return unary_union(pieces).convex_hull if pieces else None
 
 
 def _reaches(

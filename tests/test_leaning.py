@@ -261,10 +261,11 @@ def test_an_impact_below_the_potential_energy_is_held():
     assert s.ext.update(1.01) == []  # the same approach is judged once
 
 
-def domino_scene(speed: float, lintel: bool, **config) -> tuple[Scene, list]:
+def domino_scene(speed: float, lintel: bool, across: bool = False, **config) -> tuple[Scene, list]:
     """A frozen KAPLA domino on end (8 mm along x, 24 along y, centre of mass 60 mm up); with
     ``lintel``, a second one at x = 100 mm and a flat KAPLA lying across their tops. A hammer
-    about to strike the first one's -x face, heading +x, at ``speed``."""
+    about to strike the first one's -x face, heading +x, at ``speed`` (with ``across``, its -y
+    face, heading +y)."""
     s = Scene(**config)
     feet = (0.0, 0.1) if lintel else (0.0,)
     for body, x in enumerate(feet, start=1):
@@ -278,10 +279,15 @@ def domino_scene(speed: float, lintel: bool, **config) -> tuple[Scene, list]:
             s.engine.touch(3, leg, [[x - 0.004, -0.012, 0.12], [x + 0.004, 0.012, 0.12]], normal=UP)
     s.ext.update(0.1)
     assert all(s.ext.state(b) is BrickState.FROZEN for b in range(1, len(feet) + 1 + lintel))
-    s.engine.poses[5] = Pose.from_euler([-0.07, 0.0, 0.1])
     s.ext.add_brick(5, KAPLA, "hammer")
-    s.engine.velocities[5] = (np.array([speed, 0.0, 0.0]), np.zeros(3))
-    s.engine.touch(5, 1, [[-0.004, 0.0, 0.1]], normal=[-1, 0, 0])
+    if across:
+        s.engine.poses[5] = Pose.from_euler([0.0, -0.075, 0.1], yaw=90)
+        s.engine.velocities[5] = (np.array([0.0, speed, 0.0]), np.zeros(3))
+        s.engine.touch(5, 1, [[0.0, -0.012, 0.1]], normal=[0, -1, 0])
+    else:
+        s.engine.poses[5] = Pose.from_euler([-0.07, 0.0, 0.1])
+        s.engine.velocities[5] = (np.array([speed, 0.0, 0.0]), np.zeros(3))
+        s.engine.touch(5, 1, [[-0.004, 0.0, 0.1]], normal=[-1, 0, 0])
     return s, s.ext.update(1.0)
 
 
@@ -296,12 +302,58 @@ def test_a_blow_that_tips_a_lone_domino_over_wakes_it_though_it_could_not_lift_i
     assert [(e.kind, e.label) for e in lifted] == [("impact", "d1")] and "against 6.24 mJ" in lifted[0].reason
 
 
-def test_a_part_that_rests_on_a_brick_outside_it_is_not_tipped_over_its_own_foot():
-    # the lintel lies on both dominoes: the first with the lintel's share above it cannot turn
-    # over its own foot's edge alone, so the blow meets the energy to lift it (report 3.6.2)
+def test_a_part_that_rests_on_a_brick_outside_it_is_tipped_over_its_whole_footprint():
+    # the lintel lies on both dominoes: along the lintel the first post, with the lintel's share
+    # above it, turns only over the far post's edge (braced: held); across it the part's support
+    # polygon is still 24 mm wide, and a blow that tips it wakes it (12.7 mJ to lift the post
+    # and its share held a 1 m/s KAPLA, 6.4 mJ, where the engines alone topple it)
     s, events = domino_scene(0.3, lintel=True)
     assert [(e.kind, e.label) for e in events] == [("impact", "d1")] and events[0].reason.startswith("held")
     assert s.ext.state(3) is BrickState.FROZEN
+    s, events = domino_scene(0.3, lintel=True, across=True)
+    assert ("wake", "d1") in [(e.kind, e.label) for e in events], [(e.kind, e.label, e.reason) for e in events]
+    assert s.ext.state(3) is BrickState.ACTIVE  # the lintel rests on it
+
+
+def test_a_brick_a_hand_drives_into_a_frozen_one_breaks_it_loose():
+    """A pusher drives a loose brick at 50 mm/s (0.013 mJ) into another lying on the ground: by
+    its own energy the blow was held (0.42 mJ to lift the other), and the 100 kg hand pushed
+    the first brick into the ground and under the second. Driven by a hand, it wakes it; one
+    that only slides along a frozen brick (a brick riding on a pulled one) does not."""
+    s = Scene()
+    for body, y in ((1, -0.026), (2, 0.0)):
+        s.engine.poses[body] = Pose.from_euler([0.0, y, 0.004])
+        s.ext.add_brick(body, KAPLA, "AB"[body - 1])
+        s.engine.touch(body, 0, [[-0.06, y - 0.012, 0.0], [0.06, y + 0.012, 0.0]], normal=UP)
+    s.ext.update(0.1)
+    s.engine.poses[7] = Pose.from_euler([0.0, -0.05, 0.004])
+    s.ext.add_brick(7, Box(np.array([0.01, 0.005, 0.003]), 0.001), "pusher")
+    s.ext.guide(7, 0.2, "a pusher", 0.05)
+    s.engine.velocities[7] = (np.array([0.0, 0.05, 0.0]), np.zeros(3))
+    s.engine.touch(7, 1, [[0.0, -0.038, 0.004]], normal=[0, -1, 0])  # the pusher on A
+    s.ext.update(0.2)
+    assert s.ext.state(1) is BrickState.ACTIVE
+    s.engine.velocities[1] = (np.array([0.0, 0.05, 0.0]), np.zeros(3))
+    s.engine.touch(1, 2, [[0.0, -0.012, 0.004]], normal=[0, -1, 0])  # A's face on B's
+    events = s.ext.update(0.21)
+    woken = [e for e in events if e.kind == "wake" and e.label == "B"]
+    assert woken and "driven into it by a hand" in woken[0].reason
+    # the same brick sliding along B's top face, not into it: nothing
+    t = Scene()
+    t.engine.poses[2] = Pose.from_euler([0.0, 0.0, 0.004])
+    t.ext.add_brick(2, KAPLA, "B")
+    t.engine.touch(2, 0, [[-0.06, -0.012, 0.0], [0.06, 0.012, 0.0]], normal=UP)
+    t.ext.update(0.1)
+    t.engine.poses[1] = Pose.from_euler([0.0, 0.0, 0.012])
+    t.ext.add_brick(1, KAPLA, "A")
+    t.engine.poses[7] = Pose.from_euler([0.0, -0.03, 0.012])
+    t.ext.add_brick(7, Box(np.array([0.01, 0.005, 0.003]), 0.001), "pusher")
+    t.ext.guide(7, 0.2, "a pusher", 0.05)
+    t.engine.touch(7, 1, [[0.0, -0.012, 0.012]], normal=[0, -1, 0])
+    t.ext.update(0.2)
+    t.engine.velocities[1] = (np.array([0.0, 0.05, 0.0]), np.zeros(3))
+    t.engine.touch(1, 2, [[-0.06, -0.012, 0.008], [0.06, 0.012, 0.008]], normal=UP)
+    assert [e for e in t.ext.update(0.21) if e.label == "B" and e.kind == "wake"] == []
 
 
 def test_impact_rule_off():

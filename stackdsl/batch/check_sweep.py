@@ -23,7 +23,7 @@ from ..verdicts.expect import Verdict
 from ..verdicts.stats import summary
 from .judge import failed, internal, judge
 from .sweep import SampleResult, SweepOptions, batches, run_batch
-from .sweep_out import by_cell, failure_lines, measured, verdicts, write_plots, write_samples
+from .sweep_out import by_cell, failure_lines, levels_built, measured, verdicts, write_plots, write_samples
 
 
 def sweep_tasks(index: int, template: Template, program: Any, timeout: float | None, workers: int) -> list[tuple[Any, ...]]:
@@ -78,7 +78,7 @@ def sweep_result(
     if folder is not None and not bad:
         out = Path(folder)
         table, lines = write_samples(results, out)
-        plots = write_plots(template, results, program.levels, out, expect)
+        plots = write_plots(template, results, out, expect)
         artefacts = (("picture", plots[0].name),) if plots else ()
         artefacts += (("samples", table.name), ("parquet", "samples.parquet"), ("jsonl", lines.name))
         artefacts += tuple((f"plot {p.stem}", p.name) for p in plots)
@@ -97,16 +97,16 @@ def sweep_result(
         error=f"{errors[0].error} (sample {errors[0].sample})" if errors else "",
         stopped=f"{len(stopped)} samples stopped early: {stopped[0].stopped}" if stopped else "",
         bad_input=bad[0].bad_input if bad else "",
-        sweep=_described(template, results, program.levels),
+        sweep=_described(template, results),
         folder=folder or "",
         artefacts=artefacts,
     )
 
 
-def _described(template: Template, results: Sequence[SampleResult], levels_built: int) -> str:
+def _described(template: Template, results: Sequence[SampleResult]) -> str:
     """check's "measured" text of a sweep: the mean level and P(stands) of its one cell, or its size."""
     if template.cells > 1:
         return f"{template.cells} cells x {template.samples} samples"
-    s = summary(measured(by_cell(results, 1)[0]), levels_built)
+    s = summary(measured(by_cell(results, 1)[0]), levels_built(results))
     mean = "no collapse" if s.mean is None else f"mean {s.mean:.2f}"
     return f"{mean}, P(stands) {s.p_stands:.2f}, n={s.n}"

@@ -59,6 +59,8 @@ class SampleResult:
         bad_input: a sample the language refuses (a drawn value out of its field's range), one
             message at file:line:col, else ``""``.
         draws: how many draws the sample took to meet the file's ``require:`` (1 without).
+        levels: the levels of the sample's tower when built in full (a grid or a distribution
+            may set them), 0 without a tower or for a bad input.
     """
 
     cell: int
@@ -75,6 +77,7 @@ class SampleResult:
     error: str = ""
     bad_input: str = ""
     draws: int = 1
+    levels: int = 0
 
     def row(self) -> dict[str, Any]:
         """Plain data for CSV and JSON Lines (``parameters`` spread into their own fields)."""
@@ -133,6 +136,7 @@ def _one(template: Template, cell: int, k: int, options: SweepOptions) -> Sample
             oracle,
             stopped=outcome.stopped or "",
             draws=program.draws,
+            levels=scenario.structure.tower.levels if scenario.structure.tower else 0,
         )
     except Exception as exc:  # MemoryError included: this sample's internal error
         message = (str(exc).splitlines() or [""])[0]

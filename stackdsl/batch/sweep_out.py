@@ -68,6 +68,14 @@ def by_cell(results: Sequence[SampleResult], cells: int) -> list[list[SampleResu
     return out
 
 
+def levels_built(results: Sequence[SampleResult]) -> int | None:
+    """The levels every sample of ``results`` (one cell's) built its tower to in full, when they
+    agree; None without a tower, or when a grid or a distribution gave them different heights
+    (a summary then names no height and bounds no interval by one)."""
+    heights = {r.levels for r in results if not r.bad_input}
+    return heights.pop() if len(heights) == 1 and 0 not in heights else None
+
+
 def measured(results: Sequence[SampleResult]) -> list[int | None]:
     """The collapse levels of the samples that ran to their end (None: stood)."""
     return [r.collapse_level for r in results if not (r.error or r.bad_input or r.stopped)]
@@ -248,9 +256,7 @@ def _histogram_name(cells: int, c: int) -> str:
     return "histogram.png" if cells == 1 else f"histogram_{c}.png"
 
 
-def write_plots(
-    template: Template, results: Sequence[SampleResult], levels_built: int, folder: Path, expect: Expect | None = None
-) -> list[Path]:
+def write_plots(template: Template, results: Sequence[SampleResult], folder: Path, expect: Expect | None = None) -> list[Path]:
     """The histograms (one a cell, up to :data:`MAX_HISTOGRAMS`) and, for a grid over one
     numeric field, the plot against it, each with ``expect``'s statistical expectations drawn
     (their interval, their threshold; those of ``expect.cells`` on the cells they are for);
@@ -269,7 +275,7 @@ def write_plots(
             measured(rs),
             folder / name,
             title=str(title),
-            levels_built=levels_built or None,
+            levels_built=levels_built(rs),
             expected=own,
             exact=not template.random,
         )
@@ -287,7 +293,7 @@ def write_plots(
                 path,
                 unit=unit,
                 statistic=statistic,
-                levels_built=levels_built or None,
+                levels_built=levels_built(results),  # one height in every cell, or none named
                 title=name,
                 expected=forms,  # the file's own, for every cell
                 cell_expected=[[f for _, f in _cell_named(template, expect, c)[len(forms) :]] for c in range(len(cells))]
@@ -360,7 +366,7 @@ def _cell_text(template: Template, c: int) -> str:
     return template.label(c)
 
 
-def report(template: Template, expect: Expect, results: Sequence[SampleResult], levels_built: int) -> list[str]:
+def report(template: Template, expect: Expect, results: Sequence[SampleResult]) -> list[str]:
     """The summary as lines: for each cell its values, the distribution of collapse levels and
     the verdict of each statistical expectation."""
     lines = []
@@ -368,7 +374,7 @@ def report(template: Template, expect: Expect, results: Sequence[SampleResult], 
     exact = not template.random
     for c, rs in enumerate(by_cell(results, template.cells)):
         head = f"cell {c}: {_cell_text(template, c)}" if template.grid else "all samples"
-        s = summary(measured(rs), levels_built or None, exact=exact)  # 0: no tower, no levels to name
+        s = summary(measured(rs), levels_built(rs), exact=exact)  # the cell's own height, if one
         lines.append(f"{head}: {s.text()}")
         for cell, v in judged:
             if cell == c:

@@ -100,7 +100,6 @@ def _sweep(args: argparse.Namespace) -> int:
     tops = compile_cells(template, options.mode, options.model, options.backend, range(template.cells), options.timeout)
     compile_bounds(template, options.mode, options.model, options.backend, range(template.cells), options.timeout, tops)
     engine = f"{backend} {args.mode or scenario.engine.mode}"  # which engine ran, said once
-    levels_built = scenario.structure.tower.levels if scenario.structure.tower else None
     total = template.cells * template.samples
     start = time.perf_counter()
 
@@ -156,9 +155,9 @@ def _sweep(args: argparse.Namespace) -> int:
         _forget(out, made)
         return 2
     table, jsonl = write_samples(results, out)
-    plots = write_plots(template, results, levels_built or 0, out, scenario.expect)
+    plots = write_plots(template, results, out, scenario.expect)
     remove_leftovers(out, [table, jsonl, "samples.parquet", *plots])  # the folder holds this sweep's files alone
-    for line in report(template, scenario.expect, results, levels_built or 0):
+    for line in report(template, scenario.expect, results):
         print(line)
     print(
         f"{total} samples in {wall:.1f} s ({total / wall:.1f} a second); wrote {table}, {jsonl.name}, samples.parquet, "

@@ -1456,3 +1456,33 @@ def test_the_measured_column_says_each_fact_once():
         moved_levels=(4, 5, 6, 7, 8),
     )
     assert r.measured == "collapse 9 from L06.2 (level 6), levels 4-8 moved, levels 10-12 never placed"
+
+
+def test_the_measured_column_names_levels_moved_once():
+    """'stays: 1-8' measured "levels 3-8 moved" of a run whose description says "levels 3-9
+    moved": the row said both."""
+    from stackdsl.verdicts.check_result import CheckResult
+    from stackdsl.verdicts.expect import Verdict
+
+    stays = Verdict(name="stays", passed=False, expected="levels 1-8 stay", measured="levels 3-8 moved")
+    moved = Verdict(name="moved", passed=True, expected="level 3 moved", measured="level 3 moved")
+    r = CheckResult(
+        "a.yaml",
+        "a",
+        "raw",
+        "report",
+        (stays, moved),
+        9,
+        9,
+        1.0,
+        0.1,
+        first_moved="L09.1",
+        first_moved_level=9,
+        moved_levels=tuple(range(3, 10)),
+    )
+    assert r.measured == "collapse 9 from L09.1 (level 9), levels 3-9 moved"
+    other = Verdict(name="stays", passed=False, expected="levels 1-12 stay", measured="levels 2, 4 moved")  # not all said
+    r = CheckResult(
+        "a.yaml", "a", "raw", "report", (other,), 9, 9, 1.0, 0.1, first_moved="L04.1", first_moved_level=4, moved_levels=(4,)
+    )
+    assert r.measured.endswith("level 4 moved, levels 2, 4 moved")

@@ -6,6 +6,7 @@ Source: stackdsl's own.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 from .expect import Verdict, describe, levels_moved
@@ -101,7 +102,8 @@ class CheckResult:
         moved'`` (:func:`stackdsl.verdicts.expect.describe`), then what the ``stays``, ``moved`` and
         ``toppled`` verdicts measured, each fact once (a ``moved: 6-12`` that held measured the
         levels the description names; a ``stays`` that failed, "levels 4-8 moved; levels 10-12
-        never placed", adds the levels never placed); the error or what stopped the run when either happened."""
+        never placed", adds the levels never placed, and "levels 3-8 moved" of levels the
+        description names moved, nothing); the error or what stopped the run when either happened."""
         if self.refused:
             return "refused"
         if self.error or self.stopped or self.bad_input:
@@ -110,5 +112,27 @@ class CheckResult:
             return self.sweep
         first = (self.first_moved, self.first_moved_level) if self.first_moved_level is not None else None
         facts = [describe(self.collapse_level, first), *([levels_moved(self.moved_levels)] if self.moved_levels else [])]
-        facts += [fact for v in self.verdicts if v.name in ("stays", "moved", "toppled") for fact in v.measured.split("; ")]
+        said = set(self.moved_levels)
+        for v in self.verdicts:
+            if v.name not in ("stays", "moved", "toppled"):
+                continue
+            for fact in v.measured.split("; "):
+                levels = _moved_levels(fact)
+                if levels is not None and levels <= said:  # the description names these levels moved already
+                    continue
+                facts.append(fact)
         return ", ".join(dict.fromkeys(facts))
+
+
+def _moved_levels(fact: str) -> set[int] | None:
+    """The levels a fact such as ``"levels 3-5, 8 moved"`` or ``"level 3 moved"`` names, else None."""
+    match = re.fullmatch(r"levels? ([0-9, -]+) moved", fact)
+    if match is None:
+        return None
+    levels: set[int] = set()
+    for part in match[1].split(","):
+        first, _, last = part.strip().partition("-")
+        if not first.isdigit() or (last and not last.isdigit()):
+            return None
+        levels |= set(range(int(first), int(last or first) + 1))
+    return levels

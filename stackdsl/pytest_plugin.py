@@ -94,6 +94,8 @@ def pytest_addoption(parser: pytest.Parser) -> None:
         "whose files with a top-level 'stackdsl:' key are)",
     )
     group = parser.getgroup("stackdsl", "stackdsl scenario files")
+    if SnapshotAssertion is None:  # syrupy's option, so that the command the docs give says what to install
+        group.addoption("--snapshot-update", action="store_true", help=f"(needs syrupy) {NEEDS_EXTRA}")
     group.addoption(
         "--stackdsl-pictures",
         choices=PICTURES,

@@ -155,7 +155,7 @@ def test_without_syrupy_a_scenario_item_names_the_extra(project, monkeypatch):
 
     monkeypatch.setattr(pytest_plugin, "SnapshotAssertion", None)
     write(project, "tower", TOWER)
-    result = project.runpytest()
+    result = project.runpytest("-p", "no:syrupy")  # as if it were not installed
     result.assert_outcomes(failed=1)
     assert any("pip install 'stackdsl[pytest]'" in line for line in result.outlines)
     assert not any("fixture 'snapshot' not found" in line for line in result.outlines)
@@ -624,3 +624,35 @@ def test_snapshot_update_deletes_no_file_that_is_not_a_golden(project):
     result.assert_outcomes(passed=1)
     assert "Deleted" not in result.stdout.str() and "unused" not in result.stdout.str()
     assert {name: (folder / name).read_text() for name in notes} == notes
+
+
+def test_without_syrupy_the_snapshot_update_the_docs_give_names_the_extra(tmp_path):
+    """``pytest --snapshot-update`` (the README's and the "no golden yet" message's command) was
+    pytest's "unrecognized arguments" without syrupy; it runs, and the item names the extra."""
+    import subprocess
+    import sys
+
+    project, missing = tmp_path / "project", tmp_path / "missing" / "syrupy"
+    (project / "scenarios").mkdir(parents=True)
+    (project / "scenarios" / "tower.yaml").write_text(TOWER)
+    (project / "pyproject.toml").write_text("[tool.pytest.ini_options]\n")
+    missing.mkdir(parents=True)
+    (missing / "__init__.py").write_text("raise ImportError('syrupy is not installed')\n")  # found first, on PYTHONPATH
+    env = {k: v for k, v in os.environ.items() if k != "PYTEST_XDIST_WORKER"}
+    env["PYTHONPATH"] = str(missing.parent)
+    argv = [
+        sys.executable,
+        "-m",
+        "pytest",
+        "-p",
+        "no:syrupy",
+        "-p",
+        "no:xdist",
+        "-p",
+        "no:cacheprovider",
+        "-q",
+        "--snapshot-update",
+    ]
+    done = subprocess.run(argv, cwd=project, capture_output=True, text=True, env=env)
+    assert "unrecognized arguments" not in done.stderr, done.stderr
+    assert "pip install 'stackdsl[pytest]'" in done.stdout and "1 failed" in done.stdout, done.stdout[-2000:]

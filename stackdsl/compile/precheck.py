@@ -489,7 +489,9 @@ def unreachable_statistics(
       not known, and not judged);
     - with ``sampled`` (the samples draw: the verdict is a 95% confidence interval), P(stands)
       ``>= 1`` or ``<= 0``, or a P(stands) with no tolerance (``'0.5 ± 0'``): no finite number
-      of samples gives an interval that lies at 1 (or 0), or at one value, so it is never PASS.
+      of samples gives an interval that lies at 1 (or 0), or at one value, so it is never PASS;
+    - without ``sampled`` (every sample is one run), a P(stands) within a tolerance that holds
+      neither 0 nor 1 (``'0.5 ± 0.2'``).
 
     ``values``: the cell's grid values, which decide the ``expect.cells`` that apply; ``cell``:
     the cell in words (empty without a grid).
@@ -522,6 +524,13 @@ def unreachable_statistics(
                 f"confidence interval, which reaches {'below 1' if every else 'above 0'} after any number of samples, "
                 f"even when {'every' if every else 'no'} sample stood; give a bound {'below 1' if every else 'above 0'}, "
                 f"such as '{p.op} {0.95 if every else 0.05:g}'",
+            )
+        if not sampled and p is not None and p.op == "±" and p.bound - p.tolerance > 0.0 and p.bound + p.tolerance < 1.0:
+            raise scenario.source.error(
+                (*path, "p_stands"),
+                f"'{p.text()}' can never pass{where if len(path) > 1 else ''}: this sweep draws nothing, so each cell's "
+                "samples are one run, and its P(stands) is 0 or 1 (it stands or not), which this holds neither of; "
+                "expect '>= 0.5' (it stands) or '<= 0.5' (it falls), or draw something",
             )
         if sampled and p is not None and p.op == "±" and p.tolerance == 0.0:
             raise scenario.source.error(

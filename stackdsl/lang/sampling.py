@@ -238,7 +238,7 @@ class Template:
             self._check_values()
         scenario = self._validate(self._data(c, k, attempt), self._blame(c, around=True), self._note(c, k))
         if checked:
-            self._check_cells(scenario.expect.cells or [])
+            self._check_cells(scenario.expect.cells or [], scenario.expect.p_stands)
             self._check_exact_means(scenario.expect)
         if self.grid:  # what the compiler refuses in a field the grid filled in is the grid value's fault
             scenario._source = self._cell_source(c)
@@ -326,7 +326,7 @@ class Template:
         """What an error in cell ``c``'s sample ``k`` is said after: ``"sample 3 of grid cell 1 (timing.interval = 1 s)"``."""
         return f"sample {k}" + (f" of grid cell {c} ({_shown(self.cell(c))})" if self.grid else "")
 
-    def _check_cells(self, rules: list[Any]) -> None:
+    def _check_cells(self, rules: list[Any], own: Any = None) -> None:
         """Each condition of ``expect.cells`` (``rules``, validated) against the grid, once: both
         sides of a comparison quantities of one kind (as ``require:`` has them), and some cell in
         which it holds (else its expectations would judge nothing, and the sweep pass on nothing).
@@ -352,7 +352,7 @@ class Template:
                     f"no grid cell meets this condition, so these expectations would judge nothing; the grid's values "
                     f"are {shown} (a condition reads them in SI units and degrees); change the condition or the grid",
                 )
-        self._check_bounds(rules, conditions, cells)
+        self._check_bounds(rules, conditions, cells, own)
 
     def _check_exact_means(self, expect: Any) -> None:
         """In a sweep that draws nothing, each cell's samples are one run repeated, so a mean
@@ -379,36 +379,64 @@ class Template:
             f"such as {max(round(mean.target), 1)} (± 0), or a tolerance that reaches one",
         )
 
-    def _check_bounds(self, rules: list[Any], conditions: list[Condition], cells: list[dict[str, float]]) -> None:
-        """No grid cell may be held to two ``p_stands`` bounds that no probability meets
-        (``>= 0.9`` and ``<= 0.1`` by overlapping conditions): the sweep could never pass.
+    def _check_bounds(
+        self, rules: list[Any], conditions: list[Condition], cells: list[dict[str, float]], own: Any = None
+    ) -> None:
+        """No grid cell may be held to ``p_stands`` rules that no probability meets (``>= 0.9`` and
+        ``<= 0.1`` by overlapping conditions, or the file's own ``p_stands``, ``own``, and a rule
+        of ``expect.cells``), nor, when the samples draw, that meet at one probability only
+        (``>= 0.5`` and ``<= 0.5``): no 95% interval narrows to one value; nor, when nothing is
+        drawn, that leave out both 0 and 1 (``>= 0.3`` and ``<= 0.7``): one run a cell stands or
+        not. The sweep could never pass.
 
         Raises:
-            ScenarioError: at the later rule's ``p_stands``, naming the earlier rule and the cell.
+            ScenarioError: at the later rule's ``p_stands``, naming the earlier one and the cell.
         """
+        written: list[tuple[FieldPath, str, Any, Condition | None]] = []
+        if own is not None:
+            written.append((("expect", "p_stands"), "the file's own p_stands", own, None))
+        written += [
+            (("expect", "cells", i, "p_stands"), f"cells[{i}]", rule.p_stands, conditions[i])
+            for i, rule in enumerate(rules)
+            if rule.p_stands is not None
+        ]
         for values in cells:
             lowest: tuple[float, bool, int] | None = None  # the tightest lower bound: value, strict, rule
             highest: tuple[float, bool, int] | None = None  # the tightest upper bound: value, not strict, rule
-            for i, rule in enumerate(rules):
-                bound = rule.p_stands
-                if bound is None or not conditions[i].holds(values):
+            for i, (_, _, bound, condition) in enumerate(written):
+                if condition is not None and not condition.holds(values):
                     continue
                 low, high = bound.ends()
                 if low is not None:
                     lowest = max(lowest or (low[0], low[1], i), (low[0], low[1], i))
                 if high is not None:
                     highest = min(highest or (high[0], not high[1], i), (high[0], not high[1], i))
-                if lowest is not None and highest is not None:
-                    (lo, lo_strict, a), (hi, hi_open, b) = lowest, highest
-                    if lo > hi or (lo == hi and (lo_strict or not hi_open)):
-                        first, later = sorted((a, b))
-                        shown = ", ".join(f"{k} = {v:g}" for k, v in values.items())
-                        raise self.source.error(
-                            ("expect", "cells", later, "p_stands"),
-                            f"in the grid cell {shown} (SI units), cells[{first}] asks P(stands) {rules[first].p_stands.text()} "
-                            f"and this rule P(stands) {rules[later].p_stands.text()}: no sweep can meet both; make their "
-                            "conditions apart",
-                        )
+                if lowest is None or highest is None:
+                    continue
+                (lo, lo_strict, a), (hi, hi_open, b) = lowest, highest
+                empty = lo > hi or (lo == hi and (lo_strict or not hi_open))
+                point = lo == hi and a != b and self.random  # one probability, which no interval narrows to
+                ends = a != b and not self.random and lo > 0.0 and hi < 1.0  # one run a cell: P(stands) is 0 or 1
+                if empty or point or ends:
+                    first, later = sorted((a, b))
+                    shown = ", ".join(f"{k} = {v:g}" for k, v in values.items())
+                    why = (
+                        "no sweep can meet both"
+                        if empty
+                        else f"they meet at {lo:g} alone, which no 95% interval narrows to"
+                        if point
+                        else "this sweep draws nothing, so its P(stands) is 0 or 1, which they leave out"
+                    )
+                    raise self.source.error(
+                        written[later][0],
+                        f"in the grid cell {shown} (SI units), {written[first][1]} asks P(stands) {written[first][2].text()} "
+                        f"and this rule P(stands) {written[later][2].text()}: {why}; "
+                        + (
+                            "the file's own holds in every cell: give it to the cells it is for, in expect.cells"
+                            if written[first][3] is None
+                            else "make their conditions apart"
+                        ),
+                    )
 
     def _si(self, combination: tuple[Any, ...]) -> dict[str, float]:
         """A cell's grid values (``combination``, in grid order) as :meth:`values` gives them."""

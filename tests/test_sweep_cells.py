@@ -394,3 +394,14 @@ def test_a_fractional_mean_is_taken_where_samples_are_drawn():
     placement error makes the samples differ, since a mean of several levels can lie there."""
     text = EXACT.format(expect="collapse: {mean: '1.4 ± 0.2'}").replace("sweep:", "timing: {placement_error: 1 mm}\nsweep:")
     assert parse_scenario(text, "s.yaml").template.random
+
+
+def test_a_sweep_that_draws_nothing_runs_one_sample_a_cell_however_many_are_asked(tmp_path: Path, capsys):
+    """Every sample of a cell is the same run: 100000 of them ran for 15 minutes to one result."""
+    (tmp_path / "s.yaml").write_text(EXACT.format(expect="p_stands: '>= 0.9'"))
+    assert main(["sweep", str(tmp_path / "s.yaml"), "-j", "1", "--samples", "50", "--out", str(tmp_path / "o")]) == 1
+    out = capsys.readouterr().out
+    assert "2 cells x 50 samples (nothing is drawn: one run a cell stands for its 50)" in out
+    assert "2 samples in" in out
+    with open(tmp_path / "o" / "samples.csv", newline="") as f:
+        assert [(r["cell"], r["sample"]) for r in csv.DictReader(f)] == [("0", "0"), ("1", "0")]

@@ -315,11 +315,19 @@ def batch_size(template: Template, workers: int) -> int:
 
 def batches(template: Template, workers: int) -> Iterator[tuple[int, range]]:
     """(cell, samples) batches covering the sweep, generated as they are taken, each of
-    :func:`batch_size` samples at most; a batch never mixes cells."""
-    size = batch_size(template, workers)
+    :func:`batch_size` samples at most; a batch never mixes cells. A sweep that draws nothing
+    runs sample 0 of each cell alone (:func:`samples_run`): its other samples are the same run."""
+    size, samples = batch_size(template, workers), samples_run(template)
     for c in range(template.cells):
-        for start in range(0, template.samples, size):
-            yield c, range(start, min(start + size, template.samples))
+        for start in range(0, samples, size):
+            yield c, range(start, min(start + size, samples))
+
+
+def samples_run(template: Template) -> int:
+    """How many samples of each cell run: ``template.samples``, or 1 when nothing is drawn
+    (``Template.random``), every sample being the same run (an exact sweep of 100000 samples ran
+    them all, 15 minutes of one result)."""
+    return template.samples if template.random else 1
 
 
 def run_sweep(

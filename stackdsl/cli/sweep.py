@@ -69,7 +69,16 @@ def add_sweep(
 
 
 def _sweep(args: argparse.Namespace) -> int:
-    from ..batch.sweep import ClusterLost, SweepOptions, collect, compile_bounds, compile_cells, dask_executor, run_sweep
+    from ..batch.sweep import (
+        ClusterLost,
+        SweepOptions,
+        collect,
+        compile_bounds,
+        compile_cells,
+        dask_executor,
+        run_sweep,
+        samples_run,
+    )
     from ..batch.sweep_out import any_sweep_files, file_names, remove_leftovers, report, verdicts, write_plots, write_samples
     from ..lang.loader import load_scenario
     from .progress import Lines
@@ -100,7 +109,7 @@ def _sweep(args: argparse.Namespace) -> int:
     tops = compile_cells(template, options.mode, options.model, options.backend, range(template.cells), options.timeout)
     compile_bounds(template, options.mode, options.model, options.backend, range(template.cells), options.timeout, tops)
     engine = f"{backend} {args.mode or scenario.engine.mode}"  # which engine ran, said once
-    total = template.cells * template.samples
+    total = template.cells * samples_run(template)
     start = time.perf_counter()
 
     made = out is None
@@ -111,7 +120,13 @@ def _sweep(args: argparse.Namespace) -> int:
 
     def run(where: str, status: Callable[[], str | None] | None = None, **executor: Any) -> list[Any]:
         print(
-            f"stackdsl sweep: {_count(template.cells, 'cell')} x {_count(template.samples, 'sample')}, {engine}, on {where}, "
+            f"stackdsl sweep: {_count(template.cells, 'cell')} x {_count(template.samples, 'sample')}"
+            + (
+                f" (nothing is drawn: one run a cell stands for its {template.samples})"
+                if total < template.cells * template.samples
+                else ""
+            )
+            + f", {engine}, on {where}, "
             f"writing to {out}" + (f" (replacing {', '.join(earlier)} of an earlier sweep there)" if earlier else ""),
             flush=True,
         )
@@ -160,7 +175,7 @@ def _sweep(args: argparse.Namespace) -> int:
     for line in report(template, scenario.expect, results):
         print(line)
     print(
-        f"{total} samples in {wall:.1f} s ({total / wall:.1f} a second); wrote {table}, {jsonl.name}, samples.parquet, "
+        f"{_count(total, 'sample')} in {wall:.1f} s ({total / wall:.1f} a second); wrote {table}, {jsonl.name}, samples.parquet, "
         + ", ".join(p.name for p in plots)
     )
     judged = verdicts(template, scenario.expect, results)

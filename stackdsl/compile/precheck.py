@@ -59,6 +59,7 @@ from ..lang.expectations import (
 )
 from ..lang.expressions import parse
 from ..lang.schema import Scenario
+from ..lang.schema_sweep import MAX_SAMPLES
 from .actions import pulled_out
 from .overlap import GROUND, OVERLAP_TOLERANCE, REST_TOLERANCE, Body, inspect_bodies
 from .parts import layout_at, part_path
@@ -491,7 +492,9 @@ def unreachable_statistics(
       ``>= 1`` or ``<= 0``, or a P(stands) with no tolerance (``'0.5 ± 0'``): no finite number
       of samples gives an interval that lies at 1 (or 0), or at one value, so it is never PASS;
     - without ``sampled`` (every sample is one run), a P(stands) within a tolerance that holds
-      neither 0 nor 1 (``'0.5 ± 0.2'``).
+      neither 0 nor 1 (``'0.5 ± 0.2'``);
+    - with ``sampled``, a P(stands) rule that even :data:`MAX_SAMPLES` samples cannot decide
+      (``'>= 0.99999'``: 100000 standing give an interval reaching down to 0.99996).
 
     ``values``: the cell's grid values, which decide the ``expect.cells`` that apply; ``cell``:
     the cell in words (empty without a grid).
@@ -539,3 +542,30 @@ def unreachable_statistics(
                 f"its 95% confidence interval, which never narrows to one value; give a tolerance, such as "
                 f"'{p.bound:g} ± 0.05'",
             )
+        if sampled and p is not None and not _decidable(p):
+            raise scenario.source.error(
+                (*path, "p_stands"),
+                f"'{p.text()}' can never pass{where if len(path) > 1 else ''}: even {MAX_SAMPLES} samples, the most a "
+                "sweep takes, give a 95% confidence interval of P(stands) wider than it allows; give it more room",
+            )
+
+
+def _decidable(p: Any) -> bool:
+    """Whether some share of :data:`MAX_SAMPLES` samples standing gives a 95% Clopper-Pearson
+    interval within what ``p`` (a ``p_stands`` rule) allows: the most samples a sweep takes,
+    standing as the rule would have them at its ends and its middle (scipy's ``binomtest``)."""
+    from scipy.stats import binomtest
+
+    low, high = p.ends()
+    lo, hi = (low[0] if low else 0.0), (high[0] if high else 1.0)
+    if lo > hi:
+        return False
+    n = MAX_SAMPLES
+    shares = (
+        {round(lo * n), round(hi * n), round((lo + hi) / 2 * n)} | ({n} if hi >= 1.0 else set()) | ({0} if lo <= 0.0 else set())
+    )
+    for k in sorted(shares):
+        interval = binomtest(k, n).proportion_ci(confidence_level=0.95, method="exact")
+        if lo <= interval.low and interval.high <= hi:
+            return True
+    return False

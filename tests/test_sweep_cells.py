@@ -405,3 +405,10 @@ def test_a_sweep_that_draws_nothing_runs_one_sample_a_cell_however_many_are_aske
     assert "2 samples in" in out
     with open(tmp_path / "o" / "samples.csv", newline="") as f:
         assert [(r["cell"], r["sample"]) for r in csv.DictReader(f)] == [("0", "0"), ("1", "0")]
+
+
+def test_an_empty_p_stands_is_told_the_forms_of_p_stands():
+    """'p_stands:' left empty was told to give one "as 'stands: true' or 'toppled: all'": a run's."""
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(EXACT.format(expect="p_stands:"), "e.yaml")
+    assert err.value.field == "expect.p_stands" and "'>= 0.9'" in err.value.message and "stands: true" not in err.value.message

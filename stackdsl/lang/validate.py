@@ -24,6 +24,14 @@ from .validation_errors import first_error
 LIBRARIES = tuple(str(Path(m.__file__).parent) + os.sep for m in (yaml, pydantic, pydantic_core) if m.__file__)
 
 
+#: What a key of ``expect`` left empty is told to give, where the run's examples would mislead.
+_EXAMPLES = {
+    "p_stands": "a bound on P(stands), '>= 0.9', or P(stands) with a tolerance, '0.67 ± 0.1'",
+    "collapse": "a level, 'collapse: 9±1', or in a sweep a statistic, '{mean: 7 ± 0.5}'",
+    "cells": "a list of {where, p_stands or collapse}",
+}
+
+
 def validate(
     data: Any, source: SourceMap, relocate: typing.Callable[[FieldPath], FieldPath | None] | None = None, note: str = ""
 ) -> Scenario:
@@ -49,9 +57,8 @@ def validate(
     if isinstance(expect, dict):
         empty = [key for key, value in expect.items() if value is None]
         if empty:  # 'stands:' with nothing after it read as no expectation, and passed on nothing measured
-            raise source.error(
-                ("expect", empty[0]), "no value: give one (as 'stands: true' or 'toppled: all'), or leave the key out"
-            )
+            example = _EXAMPLES.get(empty[0], "as 'stands: true' or 'toppled: all'")
+            raise source.error(("expect", empty[0]), f"no value: give one ({example}), or leave the key out")
     try:
         scenario = Scenario.model_validate(data)
     except ValidationError as exc:

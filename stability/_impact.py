@@ -14,8 +14,8 @@ the two (:func:`tipping_energy` about the edge of the part's support polygon,
 a post or a column is held; and where the report's barrier is nothing (a fallen brick lying
 tilted, its centre of mass below the contact it rests on) the tipping energy is the barrier,
 so that a touch at 0.01 m/s does not wake a fallen domino row brick by brick. A body a hand
-drives (one a pusher or a pulled brick touches) into a frozen brick breaks it loose whatever
-its own energy: the hand's weight is behind it (stackdsl's own).
+drives (one a pusher or a pulled brick touches) into the side of a frozen brick breaks it loose
+whatever its own energy: the hand's weight is behind it (stackdsl's own).
 """
 
 from __future__ import annotations
@@ -114,8 +114,9 @@ class Impacts:
         """Each active body faster than the rest speed that will touch a frozen brick within
         1.5 steps of ``dt`` s (at its fastest point's speed, rotation included): wake that brick
         (with what is above it) when the blow breaks it loose, else an ``impact`` event: the
-        stack held. A body of ``driven`` (one a hand touches) that closes on the frozen brick
-        faster than the rest speed breaks it loose: the hand drives it."""
+        stack held. A body of ``driven`` (one a hand touches) that closes on a side of the frozen
+        brick (a contact normal farther than the support angle from vertical) faster than the
+        rest speed breaks it loose: the hand drives it."""
         stack, config = self.stack, self.stack.config
         events: list[StabilityEvent] = []
         geometric = getattr(stack.engine, "near_is_geometric", False)
@@ -151,7 +152,8 @@ class Impacts:
                 if not _reaches(hit, linear, angular, pose.position, other.box, stack.pose(other), window, config.contact_pad):
                     continue
                 rec.impacted.add(other.body)
-                if rec.body in driven:
+                if rec.body in driven and abs(float(hit.normal[2])) < math.cos(math.radians(config.support_angle)):
+                    # a side of it, not what it rests on or carries (a brick under a pulled one settling)
                     closing = -float(np.dot(linear + np.cross(angular, hit.position - pose.position), hit.normal))
                     if closing > config.rest_speed:  # into it, not along it (a brick riding on a pulled one)
                         detail = f"driven into it by a hand at {closing:.2f} m/s, through {rec.label}"

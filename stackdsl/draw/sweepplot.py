@@ -204,37 +204,35 @@ def _draw_expected(
     ``named``; whether it was drawn."""
     where = " (some cells)" if cell else ""
     if statistic == "p_stands" and isinstance(form, _stats.ProportionWithin):
-        low, high = form.region
-        label = f"expected P(stands) {form.target:g}±{form.tolerance:g}{where}" if named else "_"
-        if start is None or end is None:
-            ax.axhspan(low, high, facecolor="none", edgecolor=EXPECTED, hatch="//")
-            ax.axhline(form.target, color=EXPECTED, lw=1.5, ls="--", label=label)
-        else:
-            ax.fill_between([start, end], low, high, facecolor="none", edgecolor=EXPECTED, hatch="//")
-            ax.plot([start, end], [form.target, form.target], color=EXPECTED, lw=1.5, ls="--", label=label)
-        return True
-    if statistic == "p_stands" and isinstance(form, _stats.ProportionBound):
-        upward = form.op in (">=", ">")
-        band = (form.bound, 1.03) if upward else (-0.03, form.bound)
-        label = f"expected P(stands) {form.op} {form.bound:g}{where}" if named else "_"
-        if start is None or end is None:
-            ax.axhspan(*band, color=EXPECTED, alpha=0.08, lw=0)
-            ax.axhline(form.bound, color=EXPECTED, lw=1.5, ls="--", label=label)
-        else:
-            ax.fill_between([start, end], *band, color=EXPECTED, alpha=0.08, lw=0)
-            ax.plot([start, end], [form.bound, form.bound], color=EXPECTED, lw=1.5, ls="--", label=label)
-        return True
-    if statistic == "mean" and isinstance(form, _stats.MeanWithin):
-        low, high = form.target - form.tolerance, form.target + form.tolerance
-        label = f"expected mean {form.target:g}±{form.tolerance:g}{where}" if named else "_"
-        if start is None or end is None:
-            ax.axhspan(low, high, facecolor="none", edgecolor=EXPECTED, hatch="//")
-            ax.axhline(form.target, color=EXPECTED, lw=1.5, ls="--", label=label)
-        else:
-            ax.fill_between([start, end], low, high, facecolor="none", edgecolor=EXPECTED, hatch="//")
-            ax.plot([start, end], [form.target, form.target], color=EXPECTED, lw=1.5, ls="--", label=label)
-        return True
-    return False
+        label = f"expected P(stands) {form.target:g}±{form.tolerance:g}{where}"
+        _mark(ax, form.region, form.target, label if named else "_", start, end, hatched=True)
+    elif statistic == "p_stands" and isinstance(form, _stats.ProportionBound):
+        band = (form.bound, 1.03) if form.op in (">=", ">") else (-0.03, form.bound)
+        label = f"expected P(stands) {form.op} {form.bound:g}{where}"
+        _mark(ax, band, form.bound, label if named else "_", start, end, hatched=False)
+    elif statistic == "mean" and isinstance(form, _stats.MeanWithin):
+        band = (form.target - form.tolerance, form.target + form.tolerance)
+        label = f"expected mean {form.target:g}±{form.tolerance:g}{where}"
+        _mark(ax, band, form.target, label if named else "_", start, end, hatched=True)
+    else:
+        return False
+    return True
+
+
+def _mark(
+    ax: Any, band: tuple[float, float], line: float, label: str, start: float | None, end: float | None, *, hatched: bool
+) -> None:
+    """An expectation's accepted ``band`` (hatched, or shaded) and a dashed line at ``line``,
+    across the plot (``start`` None) or from ``start`` to ``end`` along the parameter."""
+    style: dict[str, Any] = (
+        {"facecolor": "none", "edgecolor": EXPECTED, "hatch": "//"} if hatched else {"color": EXPECTED, "alpha": 0.08, "lw": 0}
+    )
+    if start is None or end is None:
+        ax.axhspan(*band, **style)
+        ax.axhline(line, color=EXPECTED, lw=1.5, ls="--", label=label)
+    else:
+        ax.fill_between([start, end], *band, **style)
+        ax.plot([start, end], [line, line], color=EXPECTED, lw=1.5, ls="--", label=label)
 
 
 def _cell_spans(xs: Sequence[float], cell_expected: Sequence[Sequence[Any]]) -> list[tuple[Any, float | None, float | None]]:

@@ -36,6 +36,7 @@ Source: stackdsl's own.
 
 from __future__ import annotations
 
+import functools
 import math
 import warnings
 from collections.abc import Mapping, Sequence
@@ -553,11 +554,17 @@ def unreachable_statistics(
 def _decidable(p: Any) -> bool:
     """Whether some share of :data:`MAX_SAMPLES` samples standing gives a 95% Clopper-Pearson
     interval within what ``p`` (a ``p_stands`` rule) allows: the most samples a sweep takes,
-    standing as the rule would have them at its ends and its middle (scipy's ``binomtest``)."""
+    standing as the rule would have them at its ends and its middle (scipy's ``binomtest``).
+    Asked of every grid cell a rule holds in: answered once a rule."""
+    low, high = p.ends()
+    return _decidable_between((low[0] if low else 0.0), (high[0] if high else 1.0))
+
+
+@functools.lru_cache(maxsize=256)
+def _decidable_between(lo: float, hi: float) -> bool:
+    """:func:`_decidable` of the probabilities from ``lo`` to ``hi``."""
     from scipy.stats import binomtest
 
-    low, high = p.ends()
-    lo, hi = (low[0] if low else 0.0), (high[0] if high else 1.0)
     if lo > hi:
         return False
     n = MAX_SAMPLES

@@ -232,7 +232,8 @@ class StackTest:
         rule, and the row (43 bricks) woke with it, to freeze again. Undone, it stays active
         under the pile's edge as before it froze, and the engine goes on simulating it. A brick
         that bricks frozen in the same update rest on is not undone: they were frozen on it
-        frozen. Source: stackdsl's own."""
+        frozen. Asked only after rigid-block equilibrium of its part, which may hold it (then
+        nothing is undone). Source: stackdsl's own."""
         stack = self.stack
         return (
             rec.body in stack.just_frozen
@@ -294,17 +295,6 @@ class StackTest:
             if not failing:
                 stack.loads_fresh = True
                 return events
-            undone = [r for r in failing if self._undone(r)]
-            if undone:  # frozen this step under a pile's edge frozen on it while it moved: that freeze
-                # is undone, not the pile's (it leans on it as it did, watched), and statics is not asked
-                for rec in undone:
-                    assert rec.main_contact is not None and rec.com_above is not None, "set above"
-                    out = rec.main_contact.polygon.exterior.distance(Point(rec.com_above[:2])) * 1000
-                    reason = f"centre of mass above {out:.1f} mm outside its support: not frozen after all"
-                    events += [w.event for w in stack.wake(rec.body, time, reason, alone=True)]
-                    stack.watch(rec, set(rec.objects_above))
-                    rec.failed = ((stack.version,), time)  # asked again a rest duration on, or once the stack changes
-                continue
             if proved is None:  # before any of it wakes: what statics says of the stack as it stands
                 # of the parts the failing bricks belong to: any other part is not in question,
                 # with the active bricks lying on it, whose weight the rule does not see
@@ -323,6 +313,17 @@ class StackTest:
                     for rec in failing:  # under these loads: not asked again while they stay
                         rec.held = (loads[rec.body][1], *loads[rec.body][0])
                     return events
+            undone = [r for r in failing if self._undone(r)]
+            if undone:  # frozen this step under a pile's edge frozen on it while it moved, and statics
+                # does not hold it: that freeze is undone, not the pile's (it leans on it as it did, watched)
+                for rec in undone:
+                    assert rec.main_contact is not None and rec.com_above is not None, "set above"
+                    out = rec.main_contact.polygon.exterior.distance(Point(rec.com_above[:2])) * 1000
+                    reason = f"centre of mass above {out:.1f} mm outside its support: not frozen after all"
+                    events += [w.event for w in stack.wake(rec.body, time, reason, alone=True)]
+                    stack.watch(rec, set(rec.objects_above))
+                    rec.failed = ((stack.version,), time)  # asked again a rest duration on, or once the stack changes
+                continue
             for rec in failing:
                 if rec.state is not BrickState.FROZEN:  # woken already, resting on one that failed
                     continue

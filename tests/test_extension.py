@@ -1,5 +1,7 @@
 """The stability extension's rules (report 3.3.1-3.3.7) on a fake engine, no simulation."""
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
@@ -470,7 +472,12 @@ def test_a_freeze_under_a_piles_edge_that_fails_the_stack_test_is_undone_alone(m
     failing = stack.bodies[edge]
     holds = s.ext._tests.areas.holds
     monkeypatch.setattr(s.ext._tests.areas, "holds", lambda main, point: main is not failing.main_contact and holds(main, point))
+    from stability import _stack_test
+
+    asked = []  # statics is asked first, and here says it does not stand either
+    monkeypatch.setattr(_stack_test, "solve_equilibrium", lambda *a, **k: asked.append(a) or SimpleNamespace(stands=False))
     events = s.ext.update(1.0)
+    assert len(asked) == 1
     assert [(e.kind, e.label) for e in events] == [("freeze", "b1"), ("wake", "b1")]
     assert "not frozen after all" in events[1].reason
     assert s.ext.state(edge) is BrickState.ACTIVE and s.ext.state(pile) is BrickState.FROZEN
@@ -485,3 +492,31 @@ def test_a_freeze_under_a_piles_edge_that_fails_the_stack_test_is_undone_alone(m
     events = s.ext.update(1.0)
     assert [(e.kind, e.label) for e in events][-3:] == [("wake", "b2"), ("wake", "b3"), ("wake", "b4")]
     assert all(s.ext.state(b) is BrickState.ACTIVE for b in (b2, b3, b4))
+
+
+def test_a_freeze_under_a_piles_edge_that_statics_holds_is_kept(monkeypatch):
+    """The same brick under a pile's edge, failing the report's rule where rigid-block
+    equilibrium holds it (the rule puts a share at its contact area's centre, beyond the
+    brick's own support): it stays frozen, as the rule's other failures do. A fallen domino row
+    on the report's model woke such a brick at the very step it froze."""
+    from shapely.geometry import box as rect
+
+    from stability._geometry import ContactArea
+
+    s = Scene()
+    stack = s.ext._stack
+    edge = s.brick(0.2, 1)
+    s.engine.velocities[edge] = (np.array([0.05, 0.0, 0.0]), np.zeros(3))
+    pile = s.brick(0.25, 2, on=(edge,))
+    up = np.array([0.0, 0.0, 1.0])
+    on_edge = ContactArea(rect(0.238, -0.012, 0.262, 0.012), H, up, exact=True)
+    leaning = ContactArea(rect(0.238, -0.012, 0.36, 0.012), H, up, exact=False)
+    stack.freeze(stack.bodies[pile], {edge: on_edge}, leaning, [])
+    stack.watch(stack.bodies[edge], {pile})
+    s.engine.velocities.pop(edge)
+    failing = stack.bodies[edge]
+    holds = s.ext._tests.areas.holds
+    monkeypatch.setattr(s.ext._tests.areas, "holds", lambda main, point: main is not failing.main_contact and holds(main, point))
+    events = s.ext.update(1.0)
+    assert [(e.kind, e.label) for e in events] == [("freeze", "b1")]
+    assert s.ext.state(edge) is BrickState.FROZEN and s.ext.state(pile) is BrickState.FROZEN

@@ -5,10 +5,14 @@ share a brick A passes to one of its supports b follows the report:
 
 * A rests on b alone: all of A's mass above, at A's centre of mass above
   (single branch, equations 1 and 2);
-* A rests on several supports and its centre of mass above lies over one support's
-  individual contact area: that support carries everything, the others nothing
-  (merging branching, first case);
-* A rests on exactly two supports: the torque split of equations 3 to 11;
+* A rests on exactly two supports: the torque split of equations 3 to 11, wherever A's centre
+  of mass above lies between the two points where the shares act;
+* A's centre of mass above lies beyond those points (or, with more than two supports, where
+  no shares of them balance it) and over one support's individual contact area: that support
+  carries everything, the others nothing (merging branching, first case). The report applies
+  this case wherever the centre lies over one area; stackdsl only where no split balances, so
+  that the shares are continuous in the placement (a centre over a joint between two supports
+  puts half on each, whichever side of the joint the engine left it: docs/design.md);
 * A rests on more than two: equal shares (merging branching, second case), or, where equal
   shares cannot balance A's centre of mass above at points of the contact areas, the
   shares nearest to equal that do (stackdsl's own: :func:`split_load`).
@@ -186,10 +190,6 @@ def _split(x: float, y: float, mass: float, supports: Mapping[int, ContactArea])
     if len(supports) == 1:
         ((s, area),) = supports.items()
         return [(s, mass, *_inside(area, x, y))]
-    over = [s for s, area in supports.items() if area.holds(x, y, strict=True)]
-    if over:
-        chosen = min(over, key=lambda k: math.hypot(supports[k].centre_xy[0] - x, supports[k].centre_xy[1] - y))
-        return [(k, mass, x, y) if k == chosen else (k, 0.0, *a.centre_xy) for k, a in supports.items()]
     centres = [a.centre_xy for a in supports.values()]
     if len(supports) == 2:
         (ax, ay), (bx, by) = centres
@@ -202,24 +202,47 @@ def _split(x: float, y: float, mass: float, supports: Mapping[int, ContactArea])
     points = [_inside(a, cx + dx, cy + dy) for a, (cx, cy) in zip(supports.values(), centres)]
     if len(supports) > 2:
         fractions = _balanced(points, x, y)
+        if fractions is None:
+            # no shares of the points balance the load: all of it on the support under it, or
+            # equal shares (report 3.3.6) for a failing brick, whose centre of mass is over none
+            return _all_on_one(x, y, mass, supports, points) or [(s, mass / len(points), *p) for s, p in zip(supports, points)]
         return [(s, mass * f, *p) for s, f, p in zip(supports, fractions, points)]
     (s1, s2), (p1, p2) = tuple(supports), points
     ux, uy = p2[0] - p1[0], p2[1] - p1[1]
     length2 = ux * ux + uy * uy
     # the lever rule along the line joining the two points, the centre of mass taken where it
     # projects onto it: shares that sum to the mass even where a point was brought back into its
-    # area, or the centre of mass lies beyond both (a failing brick: all of it on the nearer)
-    t = 0.5 if length2 <= 1e-24 else min(max(((x - p1[0]) * ux + (y - p1[1]) * uy) / length2, 0.0), 1.0)
-    return [(s1, mass * (1.0 - t), *p1), (s2, mass * t, *p2)]
+    # area. The shares are continuous in the placement: a brick whose centre lies over a joint
+    # between two supports puts half on each whichever side of it the engine left it.
+    t = 0.5 if length2 <= 1e-24 else ((x - p1[0]) * ux + (y - p1[1]) * uy) / length2
+    if 0.0 <= t <= 1.0:
+        return [(s1, mass * (1.0 - t), *p1), (s2, mass * t, *p2)]
+    # beyond both points: on the support under it, or all on the nearer (a failing brick)
+    nearer = 0.0 if t < 0.0 else 1.0
+    return _all_on_one(x, y, mass, supports, points) or [(s1, mass * (1.0 - nearer), *p1), (s2, mass * nearer, *p2)]
 
 
-def _balanced(points: list[tuple[float, float]], x: float, y: float) -> list[float]:
+def _all_on_one(
+    x: float, y: float, mass: float, supports: Mapping[int, ContactArea], points: list[tuple[float, float]]
+) -> list[tuple[int, float, float, float]] | None:
+    """The whole load at the centre of mass (x, y), on the support whose area lies under it
+    (report 3.3.6, merging branching, first case; the nearest point's where several do); None
+    where no area does.
+    """
+    over = [i for i, area in enumerate(supports.values()) if area.holds(x, y, strict=False)]
+    if not over:
+        return None
+    chosen = min(over, key=lambda i: math.hypot(points[i][0] - x, points[i][1] - y))
+    return [(s, mass, x, y) if i == chosen else (s, 0.0, *p) for i, (s, p) in enumerate(zip(supports, points))]
+
+
+def _balanced(points: list[tuple[float, float]], x: float, y: float) -> list[float] | None:
     """Fractions of a load at (x, y) for more than two supports at ``points``: equal (report
     3.3.6) when their mean lies under the load, as it does unless a point was brought back into
     its area; else the fractions nearest to equal (least total change, HiGHS) whose resultant
     passes through (x, y), so that the shares balance the load's moment. A plank on three piers
     with its load 28.6 mm from the middle one read a third each, whose resultant lay 20 mm from
-    it. Equal shares when none balances (the load outside every point's hull: a failing brick).
+    it. None when no shares balance it (the load outside the points' hull).
     Source: report 3.3.6 for the equal shares; stackdsl's own otherwise."""
     n = len(points)
     mx, my = sum(p[0] for p in points) / n, sum(p[1] for p in points) / n
@@ -237,7 +260,7 @@ def _balanced(points: list[tuple[float, float]], x: float, y: float) -> list[flo
         [1.0] * (2 * n), A_ub=a_ub, b_ub=equal, A_eq=a_eq, b_eq=[0.0, x - mx, y - my], bounds=(0, None), method="highs"
     )
     if result.status != 0:
-        return equal
+        return None
     change = result.x[:n] - result.x[n:]
     return [max(0.0, 1.0 / n + float(c)) for c in change]
 

@@ -43,11 +43,44 @@ def test_split_branching_adds_every_brick_resting_on_one():
     assert load.com_above[0] == pytest.approx((0.01 * -0.03 + 0.02 * 0.03) / 0.04)
 
 
-def test_merging_one_support_carries_all_when_the_com_lies_over_it():
+def test_merging_one_support_carries_all_when_the_com_lies_over_it_beyond_both_centres():
+    # report 3.3.6, first case: the centre of mass over support 2, past its centre (0.03)
     supports = {1: area(-0.06, -0.01, -0.02, 0.01), 2: area(0.0, -0.01, 0.06, 0.01)}
-    split = split_load(np.array([0.01, 0.0, 0.01]), 0.05, supports)
+    split = split_load(np.array([0.045, 0.0, 0.01]), 0.05, supports)
     assert split[2][0] == pytest.approx(0.05)
     assert split[1][0] == 0.0
+    assert split[2][1][:2] == pytest.approx([0.045, 0.0])
+
+
+@pytest.mark.parametrize("joint", [-0.06, 0.0, 0.0417])
+def test_a_centre_over_a_joint_puts_half_on_each_side_whichever_side_it_lies(joint):
+    # A wall's brick centred over the joint between two bricks below: its two contact areas
+    # meet under its centre of mass. 0.01 mm either way must not move the load to one side.
+    supports = {1: area(joint - 0.06, -0.012, joint, 0.012), 2: area(joint, -0.012, joint + 0.06, 0.012)}
+    for dx in (-1e-5, 0.0, 1e-5):
+        split = split_load(np.array([joint + dx, 0.0, 0.02]), 0.01, supports)
+        assert split[1][0] == pytest.approx(0.005, abs=1e-5), dx
+        assert split[2][0] == pytest.approx(0.005, abs=1e-5), dx
+
+
+@pytest.mark.parametrize(
+    "supports",
+    [
+        {1: area(-0.06, -0.01, -0.02, 0.01), 2: area(0.0, -0.01, 0.06, 0.01)},
+        {1: area(-0.06, -0.012, 0.0, 0.012), 2: area(0.0, -0.012, 0.02, 0.012), 3: area(0.02, -0.012, 0.06, 0.012)},
+    ],
+)
+def test_shares_are_continuous_in_the_centre_of_mass(supports):
+    # A centre of mass swept across the supports in 0.1 mm steps: no share jumps by more than
+    # what the step itself moves it (the report's all-on-one rule jumped by the whole load).
+    previous = None
+    for x in np.arange(-0.059, 0.059, 1e-4):
+        split = split_load(np.array([x, 0.0, 0.02]), 1.0, supports)
+        shares = np.array([split[s][0] for s in supports])
+        assert shares.sum() == pytest.approx(1.0)
+        if previous is not None:
+            assert np.abs(shares - previous).max() < 0.01, x
+        previous = shares
 
 
 @pytest.mark.parametrize("x", [-0.02, 0.0, 0.015, 0.029])

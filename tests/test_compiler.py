@@ -74,6 +74,24 @@ def test_times_must_be_whole_timesteps():
     program("stackdsl: 1\nstructure: {tower: {levels: 2}}\ntiming: {interval: 0.301 s}\nengine: {timestep: 1 ms}\n")
 
 
+@pytest.mark.parametrize(
+    ("tail", "field", "where", "write"),
+    [
+        ("timing: {interval: 0.35 s}\n", "timing.settle", (4, 1), "write settle: 2.002 s"),  # at the timing: key
+        ("timing:\n  settle: 2.002 s\n", "timing.interval", (4, 1), "write interval: 1.001 s"),
+        ("", "timing.interval", (3, 20), "write interval: 1.001 s"),  # no timing: at the timestep
+    ],
+)
+def test_a_default_time_off_a_timestep_the_file_chose_says_it_is_the_default(tail, field, where, write):
+    """The defaults (interval 1 s, settle 2 s) are no whole number of 7 ms steps: the error names
+    the default and what to write, at a line the file wrote, not at a field it never wrote."""
+    with pytest.raises(ScenarioError) as info:
+        program("stackdsl: 1\nstructure: {tower: {levels: 2}}\nengine: {timestep: 7 ms}\n" + tail)
+    err = info.value
+    assert (err.field, (err.line, err.column)) == (field, where), str(err)
+    assert err.message.startswith("the default ") and err.message.endswith(write), err.message
+
+
 def test_a_duration_shorter_than_one_timestep_is_refused_not_rounded_to_nothing():
     # 1 ns is within rounding of 0 steps: every brick would be placed at once
     with pytest.raises(ScenarioError) as info:

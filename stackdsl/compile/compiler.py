@@ -47,7 +47,7 @@ from ..engines.protocol import BrickSpec, EngineSettings
 from ..engines.pybullet.settings import PyBulletSettings
 from ..engines.settings import SETTINGS, defaults, settings
 from ..lang.bounds import MAX_SIMULATED_TIME
-from ..lang.errors import FieldPath, ScenarioError
+from ..lang.errors import FieldPath, ScenarioError, format_path
 from ..lang.extras import installed, missing
 from ..lang.schema import BACKEND_FIELDS, BUILTIN_BRICKS, Scenario, reference_errors
 from ..lang.schema_impacts import SIDES, AfterLevel, Impact
@@ -536,12 +536,39 @@ def _steps(scenario: Scenario, path: FieldPath, seconds: float, dt: float) -> in
         )
     steps = seconds / dt
     if abs(steps - round(steps)) > 1e-6 * max(1.0, steps) or (seconds > 0 and round(steps) == 0):
-        raise scenario.source.error(
+        such = f"{max(1, round(steps)) * dt:.6g} s"
+        if _written(scenario, path):
+            raise scenario.source.error(
+                path, f"{seconds:g} s is not a whole number of timesteps ({dt * 1000:.4g} ms); use a multiple such as {such}"
+            )
+        raise _at_default(
+            scenario,
             path,
-            f"{seconds:g} s is not a whole number of timesteps ({dt * 1000:.4g} ms); "
-            f"use a multiple such as {max(1, round(steps)) * dt:.6g} s",
+            f"the default {seconds:g} s is not a whole number of timesteps ({dt * 1000:.4g} ms): write {path[-1]}: {such}",
         )
     return round(steps)
+
+
+def _written(scenario: Scenario, path: FieldPath) -> bool:
+    """Does the file write ``path`` (or a sweep's grid give it)? Not: the field's default."""
+    source = scenario.source
+    return path in source.values or any(path[: len(into)] == into for into, _, _ in source.moved)
+
+
+def _at_default(scenario: Scenario, path: FieldPath, message: str) -> ScenarioError:
+    """A ScenarioError for the default of ``path``, a field the file does not write, named as
+    ``path``: at its section's key when the section is written (``timing:``), else at the
+    timestep that makes the default fail when it is written (``engine.timestep``), else at the
+    file. Source: stackdsl's own."""
+    source = scenario.source
+    if path[:-1] in source.keys:
+        error = source.error(path[:-1], message, at_key=True)
+    elif ("engine", "timestep") in source.values:
+        error = source.error(("engine", "timestep"), message)
+    else:
+        error = source.error((), message)
+    error.field = format_path(path)
+    return error
 
 
 def _spec(scenario: Scenario, name: str) -> BrickSpec:

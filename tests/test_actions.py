@@ -1061,3 +1061,50 @@ timing: {settle: 1 s}
         if mode == "extension":
             assert any(e.kind == "wake" and e.brick == "B" and "driven into it" in e.detail for e in outcome.events)
     assert moved["extension"] > 0.004 and moved["extension"] == pytest.approx(moved["tuned"], abs=0.0015), moved
+
+
+@pytest.mark.parametrize(
+    ("timestep", "frequency", "duration"),
+    [("10 ms", "18 Hz", "0.05 s"), ("10 ms", "3 Hz", "0.3 s"), ("8 ms", "7 Hz", "0.5 s"), ("1 ms", "2.7 Hz", "1.3 s")],
+)
+def test_a_shake_whose_period_is_no_whole_number_of_steps_still_ends_at_rest(timestep, frequency, duration):
+    """Whole periods of a shake fill whole steps: the frequency is fitted to them, so that the
+    ground's offset and speed are 0 at the shake's last step, and setting the ground back at rest
+    then is no jump beyond what the motion itself makes in a step. (At 18 Hz and a 10 ms step, 5.56
+    steps a period, the ground was 0.191 mm out one step before the end, then snapped to 0.)"""
+    from stackdsl.engines.fake import FakeWorld
+    from stackdsl.runtime.run import RunOptions, run_in
+
+    class Table(FakeWorld):
+        def __init__(self, **kw) -> None:
+            super().__init__(**kw)
+            self.set: list[tuple[float, float]] = []  # (offset, velocity) along x, as the run set them
+
+        def move_ground(self, offset, velocity) -> None:
+            super().move_ground(offset, velocity)
+            self.set.append((offset[0], velocity[0]))
+
+    text = (
+        f"stackdsl: 1\nstructure: {{bricks: [{{id: b1, at: [0, 0, 4 mm]}}]}}\nengine: {{timestep: {timestep}}}\n"
+        f"actions:\n  - shake: {{amplitude: 1 mm, frequency: {frequency}, duration: {duration}, at: 1 s}}\n"
+    )
+    p = compile_scenario(parse_scenario(text, "shake.yaml"))
+    (shake,) = p.kinematic
+    assert isinstance(shake, Shake)
+    dt, span = p.engine.timestep, shake.end_step - shake.step
+    written = float(frequency.split()[0])
+    assert shake.periods == max(1, round(written * float(duration.split()[0])))
+    assert span * dt * shake.frequency == pytest.approx(shake.periods, abs=1e-9)  # whole periods in whole steps
+    assert abs(shake.frequency - written) <= written * dt * written / shake.periods  # within half a step a period
+    offset, velocity = shake.at(shake.end_time)
+    w = 2 * math.pi * shake.frequency
+    assert abs(offset[0]) < 1e-9 * shake.amplitude and abs(velocity[0]) < 1e-9 * shake.amplitude * w
+    world = Table(timestep=dt)
+    run_in(world, p, RunOptions(stop_at_collapse=False))
+    times = [shake.time + k * dt for k in range(span + 1)]  # the last: back at rest
+    assert len(world.set) == span + 1 and world.set[-1] == (0.0, 0.0)
+    formula = [shake.at(t)[0][0] for t in times]
+    for k, (x, _) in enumerate(world.set[:-1]):
+        assert x == pytest.approx(formula[k], abs=1e-12)
+    jumps = np.abs(np.diff([x for x, _ in world.set]))
+    assert np.all(jumps <= np.abs(np.diff(formula)) + 1e-12), (jumps, np.diff(formula))

@@ -5,8 +5,8 @@ Their times are read as an impact's: seconds, or ``after level N`` (one interval
 level's last brick), and must be whole timesteps. A pull's default direction is the brick's own
 length (+x), and its default distance that length plus :data:`CLEAR`; a push starts its
 ``gap`` before the target's surface (where the line along its direction through the point aimed
-at enters the target brick); a shake lasts whole periods (at least one), so that the ground
-ends at rest where it started. A shake may not overlap a placement or another action: while the
+at enters the target brick); a shake lasts whole periods (at least one) of whole
+timesteps, its frequency fitted to them, so that the ground ends at rest where it started. A shake may not overlap a placement or another action: while the
 ground moves, the whole structure is simulated and nothing is frozen
 (:mod:`stackdsl.runtime.actions`).
 
@@ -634,13 +634,19 @@ def _shake(scenario: Scenario, path: FieldPath, action: Action, start: float, st
         )
     periods = max(1, round(s.duration * s.frequency))
     span = max(1, round(periods / s.frequency / dt))
+    # whole periods in whole steps: the frequency is fitted to them, so that the ground ends at rest
+    # (the motion's offset and speed are 0 at its last step); at least as many steps a period as before
+    fitted = periods / (span * dt)
+    exact = abs(fitted - s.frequency) <= 1e-9 * s.frequency
     d = np.array(s.direction, dtype=float)
     d /= np.linalg.norm(d)
     return Shake(
         step=step,
         time=start,
         amplitude=s.amplitude,
-        frequency=s.frequency,
+        frequency=s.frequency if exact else fitted,
+        written_frequency=None if exact else s.frequency,
+        periods=periods,
         direction=(float(d[0]), float(d[1])),
         end_step=step + span,
         end_time=start + span * dt,

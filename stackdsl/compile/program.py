@@ -187,8 +187,10 @@ class Push(_Frozen):
 
 class Shake(_Frozen):
     """The ground moves horizontally along unit ``direction`` (x, y) by
-    ``amplitude * (1 - cos(2 pi frequency (t - time)))`` (m) from ``step`` to ``end_step``: whole
-    periods, starting and ending at rest where it started. Its peak acceleration is
+    ``amplitude * (1 - cos(2 pi frequency (t - time)))`` (m) from ``step`` to ``end_step``:
+    ``periods`` whole periods in whole steps, starting and ending at rest where it started (the
+    frequency is the one written, fitted so that the periods fill the steps exactly; the written
+    one is ``written_frequency`` when they differ). Its peak acceleration is
     ``amplitude * (2 pi frequency)^2``. Source: stackdsl's own."""
 
     kind: Literal["shake"] = "shake"
@@ -196,6 +198,8 @@ class Shake(_Frozen):
     time: float
     amplitude: float
     frequency: float
+    periods: int = 1
+    written_frequency: float | None = None
     direction: tuple[float, float]
     end_step: int
     end_time: float
@@ -498,8 +502,14 @@ def format_program(program: Program) -> str:
                 f"until t={a.end_time:.3f} s  {a.brick.type}"
             )
         elif isinstance(a, Shake):
+            fitted = (
+                ""
+                if a.written_frequency is None
+                else f" ({a.written_frequency:g} Hz fitted to {a.periods} period{'s' * (a.periods != 1)} in "
+                f"{a.end_step - a.step} steps)"
+            )
             lines.append(
-                f"{head}shake  ground     {a.amplitude * 1000:.3g} mm at {a.frequency:.3g} Hz along "
+                f"{head}shake  ground     {a.amplitude * 1000:.3g} mm at {a.frequency:.4g} Hz{fitted} along "
                 f"({a.direction[0]:.3g}, {a.direction[1]:.3g}) until t={a.end_time:.3f} s, peak acceleration "
                 f"{a.peak_acceleration:.3g} m/s^2"
             )

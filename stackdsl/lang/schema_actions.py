@@ -191,8 +191,9 @@ class Push(StrictModel):
 
 class Shake(StrictModel):
     """The ground moves as a shake table: along ``direction`` by ``amplitude (1 - cos(2 pi f t))``
-    for ``duration`` (rounded to whole periods, at least one), starting and ending at rest where
-    it started. Its peak acceleration is ``amplitude (2 pi frequency)^2``."""
+    for ``duration`` (rounded to whole periods, at least one, that fill whole timesteps: the
+    frequency is fitted to them), starting and ending at rest where it started. Its peak
+    acceleration is ``amplitude (2 pi frequency)^2``."""
 
     amplitude: Annotated[Amplitude, Field(description="half the table's stroke: above 0, at most 100 mm", examples=["2 mm"])]
     frequency: Annotated[

@@ -756,6 +756,29 @@ def test_compile_prints_the_program(tmp_path, capsys):
     assert json.loads(capsys.readouterr().out)["engine"]["mode"] == "extension"
 
 
+def test_compile_and_run_json_print_whole_step_times_without_float_noise(tmp_path, capsys):
+    """Three intervals of 0.7 s sum to 2.0999999999999996 s in floats: the JSON says 2.1, as the
+    text does, while the program itself keeps the times it computed (what it runs is unchanged)."""
+    (tmp_path / "t.yaml").write_text(
+        "stackdsl: 1\nstructure: {tower: {levels: 4}}\ntiming: {interval: 0.7 s}\n"
+        "actions: [{remove: {brick: L04.1, at: after level 4}}]\nexpect: {stays: 1-3}\n"
+    )
+    program = compile_scenario(parse_scenario((tmp_path / "t.yaml").read_text(), "t.yaml"))
+    noisy = [a.time for a in program.actions if a.time != round(a.time, 9)]
+    assert noisy, "the scene no longer makes float noise: pick another interval"
+    assert main(["compile", str(tmp_path / "t.yaml"), "--json"]) == 0
+    actions = json.loads(capsys.readouterr().out)["actions"]
+    dt = program.engine.timestep
+    for a in actions:  # each a whole number of steps of 0.7 s / 168: a decimal of at most 9 places
+        assert a["time"] == round(a["step"] * dt, 9), a
+        if "end_time" in a:
+            assert a["end_time"] == round(a["end_step"] * dt, 9), a
+    assert main(["run", str(tmp_path / "t.yaml"), "--json"]) == 0
+    events = json.loads(capsys.readouterr().out)["events"]
+    placed = [e["time"] for e in events if e["kind"] == "place"]
+    assert placed == [round(a["step"] * dt, 9) for a in actions if a["kind"] == "place"]
+
+
 def test_run_prints_the_timeline(tmp_path, capsys):
     assert main(["run", str(write(tmp_path, a=PASSING) / "a.yaml")]) == 0
     out = capsys.readouterr().out

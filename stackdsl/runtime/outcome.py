@@ -20,6 +20,8 @@ from scipy.spatial.transform import Rotation
 
 from stability import BrickGraph
 
+from ..compile.program import Seconds
+
 Vec3 = tuple[float, float, float]
 Vec4 = tuple[float, float, float, float]
 
@@ -29,9 +31,9 @@ class _Frozen(BaseModel):
 
 
 class Event(_Frozen):
-    """One entry of the timeline; ``time`` in seconds."""
+    """One entry of the timeline; ``time`` in seconds (to JSON without float noise)."""
 
-    time: float
+    time: Seconds
     kind: Literal["place", "launch", "freeze", "wake", "impact", "collapse", "substeps", "remove", "push", "shake", "release"]
     brick: str
     level: int | None = None
@@ -54,11 +56,11 @@ class Collapse(_Frozen):
     """
 
     level: int
-    time: float
+    time: Seconds
     brick: str
     brick_level: int
     displacement: float
-    decided: float
+    decided: Seconds
 
 
 ProofKind = Literal["equilibrium", "at rest displaced", "off its support", "mechanism", "displaced at the end", "no equilibrium"]

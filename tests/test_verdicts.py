@@ -334,6 +334,37 @@ def test_a_run_whose_end_has_no_equilibrium_is_not_a_stand(monkeypatch):
     assert result.certificate.bricks == ("L02.1",)
 
 
+@pytest.mark.parametrize("tipped", ["L01.2", "L02.2", None])
+def test_no_equilibrium_at_the_end_names_the_brick_of_the_mechanism_that_moved_most(monkeypatch, tipped):
+    """A collapse found only at the end (no forces balance the mechanism, though no brick passed
+    the threshold) named the mechanism's first-placed brick, 0.0 mm moved, where another one had
+    tipped 1.1 mm: it names the one that moved most, with how far, and of equals the lowest level.
+    The collapse level stays the highest level placed."""
+    from stability import Certificate
+    from stackdsl.runtime.bricks import Structure
+
+    text = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nexpect: {stands: true}\n"
+    program = compile_scenario(parse_scenario(text))
+    mechanism = ("L02.1", "L01.1", "L01.2", "L02.2")  # the order the certificate lists them in
+    monkeypatch.setattr(StabilityExtension, "certificate", lambda self: Certificate(False, 0.02, 0.0, mechanism, 4, (), 4))
+    measured = Structure.displacements
+
+    def displacements(self, records):  # the tipped brick 1.1 mm out, below the 4 mm threshold
+        return measured(self, records) + np.array([0.0011 if r.id == tipped else 0.0 for r in records])
+
+    monkeypatch.setattr(Structure, "displacements", displacements)
+    result = run_program(program)
+    c = result.collapse
+    assert c is not None and c.level == 2 and result.certificate is not None
+    assert result.certificate.kind == "no equilibrium"
+    if tipped is None:  # all still: the lowest level, first placed
+        assert (c.brick, c.brick_level) == ("L01.1", 1) and c.displacement < 1e-4
+    else:
+        assert c.brick == tipped and c.displacement == pytest.approx(0.0011, abs=1e-4)
+    said = [e for e in result.events if e.kind == "collapse"]
+    assert [e.brick for e in said] == [c.brick]
+
+
 @pytest.mark.parametrize("offset, verdict", [(10.5, "stands"), (13.5, "collapse")])
 def test_run_json_shows_the_certificate(tmp_path, offset, verdict):
     from stackdsl.cli.main import main

@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from collections.abc import Set as AbstractSet
 from dataclasses import dataclass
 
@@ -291,13 +291,14 @@ class CollapseMonitor(Subscriber):
                 margin_mm=round(certificate.margin * 1000, 1) + 0.0,
             )
             return
-        bricks = [loop.structure.records[i] for i in certificate.mechanism if i in loop.structure.records]
-        first = min((r for r in bricks if r.level is not None), key=lambda r: r.order, default=None)
-        if first is None:  # only projectiles move in it: the structure stands on what holds it
+        records = loop.structure.records
+        bricks = [records[i] for i in certificate.mechanism if i in records and records[i].level is not None]
+        if not bricks:  # only projectiles move in it: the structure stands on what holds it
             self.certificate = Certificate(
                 verdict="stands", kind="equilibrium", detail="the structure's bricks balance", bricks=()
             )
             return
+        first, moved = _named(bricks, loop.structure.displacements(bricks))
         level = max(loop.structure.levels.values())
         detail = f"no equilibrium at the end: {certificate.tension:.3g} N of tension needed"
         self._record(
@@ -305,7 +306,7 @@ class CollapseMonitor(Subscriber):
             first,
             level,
             loop.now,
-            0.0,
+            moved,
             loop.now,
             Certificate(verdict="collapse", kind="no equilibrium", detail=detail, bricks=certificate.mechanism),
             None,
@@ -492,3 +493,20 @@ def _fixture_pose(f: Fixture) -> Pose:
 def _count(n: int, noun: str) -> str:
     """``"1 brick"``, ``"3 bricks"``."""
     return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
+def _named(bricks: Sequence[BrickRecord], moved: Sequence[float] | np.ndarray) -> tuple[BrickRecord, float]:
+    """The brick a collapse with no equilibrium at the end names, of the structure's ``bricks`` in
+    its mechanism (each ``moved`` so far, m), and how far it moved: the one that moved most (to the
+    micrometre: where the part that does not stand has started to go), of equals the lowest level,
+    then the first placed. None passed the threshold (else the collapse would have been decided
+    before the end), so no brick is the first moved; a brick of the mechanism carried along, or
+    woken with it, has moved less than the one that gives way. Source: stackdsl's own.
+
+    >>> from types import SimpleNamespace as B
+    >>> left, right = B(id="kl", level=2, order=2), B(id="kr", level=2, order=3)
+    >>> [(b.id, d) for b, d in [_named([left, right], [0.0, 0.0011]), _named([left, right], [0.0, 0.0])]]
+    [('kr', 0.0011), ('kl', 0.0)]
+    """
+    best = min(range(len(bricks)), key=lambda i: (-round(float(moved[i]), 6), bricks[i].level, bricks[i].order))
+    return bricks[best], float(moved[best])

@@ -136,6 +136,29 @@ def test_an_impact_on_a_side_hits_the_middle_of_the_levels_outer_face():
     assert x == 60.0 and abs(y) == 48.0
 
 
+def test_an_impact_on_a_side_is_aimed_among_the_bricks_left_when_it_arrives():
+    """A brick pulled out before the projectile arrives is out of the scene: the face is the
+    outermost of those left; a pull that starts after the arrival changes nothing."""
+
+    def target(pulls: str, at: str) -> tuple[float, ...]:
+        text = (
+            "stackdsl: 1\nstructure: {tower: {levels: 4, bricks_per_layer: 2}}\n"  # level 4 along y at x = -48, 48
+            f"actions: [{pulls}]\nimpacts: [{{target: {{level: 4, side: -x}}, speed: 1 m/s, at: {at}}}]\n"
+        )
+        (launch,) = [a for a in program(text).actions if isinstance(a, Launch)]
+        return tuple(round(v * 1000, 3) + 0.0 for v in launch.target)
+
+    pull = "{remove: {brick: L04.1, at: after level 4}}"
+    assert target(pull, "16 s") == (36.0, 0.0, 28.0)  # L04.2's -x face: L04.1 left the scene at 8 s
+    assert target(pull, "after level 4") == (36.0, 0.0, 28.0)  # its pull starts as the projectile flies
+    later = "{remove: {brick: L04.1, at: 20 s}}"
+    assert target(later, "16 s") == (-60.0, 0.0, 28.0)  # L04.1 is still there when it arrives
+    with pytest.raises(ScenarioError) as info:
+        target(f"{pull}, {{remove: {{brick: L04.2, at: 12 s}}}}", "16 s")
+    assert info.value.field == "impacts[0].target.level"
+    assert "L04.1 by actions[0] from 8 s, L04.2 by actions[1] from 12 s" in str(info.value)
+
+
 def test_impact_on_a_missing_level_is_an_error():
     with pytest.raises(ScenarioError) as info:
         program("stackdsl: 1\nstructure: {tower: {levels: 3}}\nimpacts: [{target: {level: 5, side: +x}, speed: 1, at: 10 s}]\n")

@@ -129,7 +129,7 @@ def compile_scenario(
 
     Raises:
         ScenarioError: an action time is not a whole number of timesteps, an impact
-            names a level that is not built, the run would exceed the time limit or the
+            names a level that is not built or whose bricks are all pulled out before it arrives, the run would exceed the time limit or the
             work budget (:data:`MAX_WORK`), or a check before simulating fails
             (:mod:`stackdsl.compile.precheck`: bricks that overlap or rest on nothing where
             placed, expectations about levels never built), the scene is beyond what the
@@ -176,20 +176,6 @@ def compile_scenario(
         )
         for b, k in zip(bricks, slots)
     ]
-    launches = [_launch(scenario, i, imp, bricks, slots, specs[imp.projectile], dt) for i, imp in enumerate(scenario.impacts)]
-    for i, (imp, launch) in enumerate(zip(scenario.impacts, launches)):
-        present = [(b.id, specs[b.type], b.pose()) for b, k in zip(bricks, slots) if int(k) * per_slot <= launch.step]
-        check_launch(scenario, i, imp, launch, present + [(b.id, specs[b.type], b.pose()) for b in fixed])
-    if limits:
-        moving = [b.type for b in bricks] + [i.projectile for i in scenario.impacts]
-        made_by = {b.type: b.source for b in reversed(everything)}
-        still = [b.type for b in fixed]
-        try:
-            check_limits(scenario, engine, specs, moving, made_by, still)
-        except ScenarioError as exc:
-            raise _asked(
-                exc, scenario, mode, backend, lambda own: check_limits(scenario, own, specs, moving, made_by, still)
-            ) from None
     places = [a for a in placements if isinstance(a, Place)]
     motions = compile_actions(
         scenario,
@@ -201,9 +187,30 @@ def compile_scenario(
         lambda path, seconds: _steps(scenario, path, seconds, dt),
         [b.id for b in fixed],
     )
+    pulls = {m.id: (j, m) for j, m in enumerate(motions) if isinstance(m, Remove)}
+    launches = [
+        _launch(scenario, i, imp, bricks, slots, specs[imp.projectile], dt, pulls) for i, imp in enumerate(scenario.impacts)
+    ]
+    gone = {m.id: m.end_step for _, m in pulls.values()}  # pulled out and taken away
+    for i, (imp, launch) in enumerate(zip(scenario.impacts, launches)):
+        present = [
+            (b.id, specs[b.type], b.pose())
+            for b, k in zip(bricks, slots)
+            if int(k) * per_slot <= launch.step and gone.get(b.id, launch.step + 1) > launch.step
+        ]
+        check_launch(scenario, i, imp, launch, present + [(b.id, specs[b.type], b.pose()) for b in fixed])
+    if limits:
+        moving = [b.type for b in bricks] + [i.projectile for i in scenario.impacts]
+        made_by = {b.type: b.source for b in reversed(everything)}
+        still = [b.type for b in fixed]
+        try:
+            check_limits(scenario, engine, specs, moving, made_by, still)
+        except ScenarioError as exc:
+            raise _asked(
+                exc, scenario, mode, backend, lambda own: check_limits(scenario, own, specs, moving, made_by, still)
+            ) from None
     check_measured(scenario, {b.id: b.level for b in bricks})
     _own_ids(scenario, [b.id for b in everything], launches, motions)
-    gone = {m.id: m.end_step for m in motions if isinstance(m, Remove)}  # pulled out and taken away
     _nothing_placed_on_pulled(scenario, bricks, specs, places, motions)
     for i, motion in enumerate(motions):
         if isinstance(motion, Push):
@@ -585,13 +592,21 @@ def _spec(scenario: Scenario, name: str) -> BrickSpec:
 
 
 def _launch(
-    scenario: Scenario, index: int, impact: Impact, bricks: list[LaidBrick], slots: np.ndarray, spec: BrickSpec, dt: float
+    scenario: Scenario,
+    index: int,
+    impact: Impact,
+    bricks: list[LaidBrick],
+    slots: np.ndarray,
+    spec: BrickSpec,
+    dt: float,
+    pulls: Mapping[str, tuple[int, Remove]],
 ) -> Launch:
-    """A projectile aimed so that, falling under gravity, it reaches the target point."""
+    """A projectile aimed so that, falling under gravity, it reaches the target point (``pulls``:
+    the bricks the actions pull out, each with its pull's index and motion: out of the scene from
+    its pull's start, a level's face is aimed among the bricks left)."""
     path = ("impacts", index)
     direction = np.array(impact.direction or _side(impact), dtype=np.float64)
     direction /= np.linalg.norm(direction)
-    target = np.array(impact.target.point) if impact.target.point else _face_point(scenario, index, impact, bricks)
     if isinstance(impact.at, AfterLevel):
         last = [int(k) for b, k in zip(bricks, slots) if b.level == impact.at.after_level]
         if not last:
@@ -601,6 +616,10 @@ def _launch(
         launch_time = impact.at
     step = _steps(scenario, path + ("at",), launch_time, dt)
     flight = impact.distance / impact.speed
+    if impact.target.point:
+        target = np.array(impact.target.point)
+    else:
+        target = _face_point(scenario, index, impact, bricks, pulls, step + flight / dt, launch_time + flight)
     start = target - direction * (impact.distance + spec.half_extents[0])
     start[2] += 0.5 * GRAVITY * flight**2
     yaw, pitch = heading(direction)
@@ -618,14 +637,33 @@ def _launch(
     )
 
 
-def _face_point(scenario: Scenario, index: int, impact: Impact, bricks: list[LaidBrick]) -> np.ndarray:
+def _face_point(
+    scenario: Scenario,
+    index: int,
+    impact: Impact,
+    bricks: list[LaidBrick],
+    pulls: Mapping[str, tuple[int, Remove]],
+    arrival_step: float,
+    arrival: float,
+) -> np.ndarray:
     """The middle of the level's outer face on the target side: of the bricks whose faces there are
     outermost, the one whose face's middle is nearest the middle of the level's extent along that
     side (the first of equals), at its face's middle. A course of five bricks is hit on its middle
-    brick, a layer of two bricks side by side on the first."""
-    level = [b for b in bricks if b.level == impact.target.level]
+    brick, a layer of two bricks side by side on the first. Only the bricks still in the scene when
+    the projectile arrives (``arrival``, s; ``arrival_step``, in steps) count: a brick whose pull
+    (of ``pulls``) has started by then is out of it, and a level with none left is refused."""
+    path: FieldPath = ("impacts", index, "target", "level")
+    built = [b for b in bricks if b.level == impact.target.level]
+    if not built:
+        raise scenario.source.error(path, f"level {impact.target.level} is not built")
+    level = [b for b in built if b.id not in pulls or pulls[b.id][1].step > arrival_step + 1e-9]
     if not level:
-        raise scenario.source.error(("impacts", index, "target", "level"), f"level {impact.target.level} is not built")
+        taken = ", ".join(f"{b.id} by actions[{pulls[b.id][0]}] from {pulls[b.id][1].time:g} s" for b in built)
+        raise scenario.source.error(
+            path,
+            f"every brick of level {impact.target.level} is pulled out of the scene before the projectile arrives at "
+            f"{arrival:.4g} s ({taken}): nothing is left there to hit; aim at a level that stays, or throw before the pulls",
+        )
     outward: np.ndarray = -np.array(_side(impact), dtype=np.float64)
     along = np.array([-outward[1], outward[0], 0.0])  # horizontal, across the side
     poses = [Pose.from_euler(b.position, b.yaw, b.pitch, b.roll) for b in level]

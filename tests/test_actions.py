@@ -896,9 +896,9 @@ def test_the_levels_placed_count_a_level_whose_bricks_were_pulled_out():
     assert done.removed == ("L02.1",) and done.levels_placed == 2, (done.removed, done.levels_placed)
 
 
-def test_a_push_at_a_brick_that_has_fallen_says_so():
+def test_a_push_at_a_brick_that_has_fallen_follows_it_and_says_so():
     """A push is aimed where its brick was placed; when that brick has fallen away, the push line
-    read 'into b' as if it met it."""
+    read 'into b' as if it met it, and the pusher started where the brick no longer was."""
     from stackdsl import run_program
 
     text = """stackdsl: 1
@@ -915,7 +915,60 @@ actions:
     done = run_program(compile_scenario(parse_scenario(text, "p.yaml")))
     first, second = [e.detail for e in done.events if e.kind == "push"]
     assert "from where it was placed" not in first
-    assert "from where it was placed: the pusher may meet nothing" in second, second
+    assert "from where it was placed: the pusher starts" in second and "further on" in second, second
+    b = next(n for n in done.final_graph.nodes if n.id == "b")
+    assert b.position_mm[0] > 40 + 55 + 10  # the second push met it where it lay (55 mm on) and moved it 15 mm more
+
+
+PUSHED_TWICE = """stackdsl: 1
+structure: {{bricks: [{{id: b1, at: [0, 0, 4 mm]}}, {{id: w, at: [{w} mm, 100 mm, 4 mm]}}]}}
+engine: {{backend: {backend}}}
+actions:
+  - push: {{target: {{brick: b1}}, direction: {first}, at: 2 s, distance: 25 mm}}
+  - push: {{target: {{brick: b1}}, direction: {second}, at: 4 s, distance: 10 mm}}
+expect: {{stays: w, moved: b1}}
+"""
+
+
+@pytest.mark.parametrize("mode", ["extension", "raw", "tuned"])
+@pytest.mark.parametrize("backend", BACKENDS)
+@pytest.mark.parametrize(("second", "x", "way"), [("[-1, 0, 0]", 15.0, "back"), ("[1, 0, 0]", 25.0, "on")])
+def test_a_second_push_starts_its_gap_before_the_brick_where_the_first_left_it(backend, mode, second, x, way):
+    """The first push moves b1 25 - 5 = 20 mm along +x. A push back from the other side started its
+    pusher 15 mm inside b1 (driven into the ground, thrown 60 mm up, or not moved, by setting);
+    one on along +x started 25 mm short of it and met nothing. Started its gap before b1 as it
+    lies, each moves b1 its distance less its gap, 5 mm, on every engine setting."""
+    text = PUSHED_TWICE.format(w=0, backend=backend, first="[1, 0, 0]", second=second)
+    done = run_program(compile_scenario(parse_scenario(text, "p.yaml"), mode))
+    detail = [e.detail for e in done.events if e.kind == "push"][1]
+    assert f"further {way}, its gap before it" in detail, detail
+    b1 = next(n for n in done.final_graph.nodes if n.id == "b1")
+    assert b1.position_mm[0] == pytest.approx(x, abs=1.5), b1.position_mm
+    assert b1.position_mm[2] == pytest.approx(4.0, abs=0.3), b1.position_mm
+    assert all(v.passed for v in evaluate(parse_scenario(text, "p.yaml").expect, done, 0.004))
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_a_pusher_that_would_start_inside_another_body_is_not_started(backend):
+    """Backed off to its gap before b1, the push back would start its pusher (a KAPLA brick, 85 to
+    205 mm along x) inside w (190 to 310 mm: 8 mm deep, the boxes' least overlap, their height),
+    which its compiled start (65 to 185 mm) was clear of: it is not started, and says why; nothing
+    moves."""
+    text = PUSHED_TWICE.format(w=250, backend=backend, first="[1, 0, 0]", second="[-1, 0, 0]").replace("100 mm", "0")
+    done = run_program(compile_scenario(parse_scenario(text, "p.yaml")))
+    detail = [e.detail for e in done.events if e.kind == "push"][1]
+    assert "not started: to start its gap before it, its pusher would start 8" in detail and "mm inside w" in detail, detail
+    assert "pusher2" not in {e.brick for e in done.events if e.kind == "release"}
+    b1, w = (next(n for n in done.final_graph.nodes if n.id == i) for i in ("b1", "w"))
+    assert b1.position_mm[0] == pytest.approx(20.0, abs=1.0) and w.position_mm[0] == pytest.approx(250.0, abs=0.5)
+
+
+def test_a_push_whose_line_misses_the_brick_an_earlier_push_moved_says_so():
+    """Pushed 40 mm aside (along y), b1 lies off the line of a push along x aimed at where it was placed."""
+    text = PUSHED_TWICE.format(w=0, backend="pybullet", first="[0, 1, 0]", second="[1, 0, 0]").replace("25 mm", "45 mm")
+    done = run_program(compile_scenario(parse_scenario(text, "p.yaml")))
+    detail = [e.detail for e in done.events if e.kind == "push"][1]
+    assert "from where it was placed: the pusher's path misses it" in detail, detail
 
 
 def test_a_shake_that_starts_with_an_impact_says_what_moves_in_every_output(tmp_path, capsys):

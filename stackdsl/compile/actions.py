@@ -5,8 +5,10 @@ Their times are read as an impact's: seconds, or ``after level N`` (one interval
 level's last brick), and must be whole timesteps. A pull's default direction is the brick's own
 length (+x), and its default distance that length plus :data:`CLEAR`; a push starts its
 ``gap`` before the target's surface (where the line along its direction through the point aimed
-at enters the target brick); a shake lasts whole periods (at least one) of whole
-timesteps, its frequency fitted to them, so that the ground ends at rest where it started. A shake may not overlap a placement or another action: while the
+at enters the target brick, as placed: the run moves the path along the direction when the brick
+has moved since, :mod:`stackdsl.runtime.actions`); a shake lasts whole periods (at least one) of
+whole timesteps, its frequency fitted to them, so that the ground ends at rest where it started.
+A shake may not overlap a placement or another action: while the
 ground moves, the whole structure is simulated and nothing is frozen
 (:mod:`stackdsl.runtime.actions`).
 

@@ -48,7 +48,7 @@ def check_launch(
     lowest = float(box.corners(pose)[:, 2].min())
     if lowest < -TOLERANCE:
         raise scenario.source.error(_blame(impact, index), f"the projectile would start {-lowest * 1000:.1f} mm below the ground")
-    inside = _deepest(box, pose, bodies)
+    inside = deepest(box, pose, bodies)
     if inside is not None:
         raise scenario.source.error(
             _blame(impact, index),
@@ -72,7 +72,7 @@ def check_pusher(scenario: Scenario, index: int, push: Push, bodies: Sequence[tu
     """
     box = Box(np.array(push.brick.half_extents), push.brick.mass)
     pose = Pose.from_euler(push.position, push.yaw, push.pitch, 0.0)
-    inside = _deepest(box, pose, bodies)
+    inside = deepest(box, pose, bodies)
     if inside is None:
         return
     action = scenario.actions[index].push
@@ -86,7 +86,7 @@ def check_pusher(scenario: Scenario, index: int, push: Push, bodies: Sequence[tu
     )
 
 
-def _deepest(box: Box, pose: Pose, bodies: Sequence[tuple[str, BrickSpec, Pose]]) -> tuple[str, float] | None:
+def deepest(box: Box, pose: Pose, bodies: Sequence[tuple[str, BrickSpec, Pose]]) -> tuple[str, float] | None:
     """The body ``box`` at ``pose`` reaches deepest into (id, metres), when deeper than
     :data:`TOLERANCE`; None otherwise."""
     if not bodies:

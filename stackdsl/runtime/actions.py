@@ -7,7 +7,10 @@
   with its velocity (:meth:`~stackdsl.engines.protocol.World.guide`): a kinematic gripper whose
   friction drags what rests on it. At the end of the pull the hand takes it out of the scene.
 * **Push** (:class:`~stackdsl.compile.program.Push`): a pusher body enters, is guided the same
-  way along its direction, and is withdrawn at the end.
+  way along its direction, and is withdrawn at the end. Its path was worked out from where its
+  target brick was placed: when the brick has moved since, the whole path is moved along the
+  direction to start ``gap`` before the brick as it lies (:func:`_pusher_start`), and a pusher
+  that would start inside a body or reach below the ground is not started (:func:`_blocked`).
 * **Shake** (:class:`~stackdsl.compile.program.Shake`): the extension is asked whether the
   frozen stack stands under gravity tilted by the ground's peak acceleration, either way
   (:meth:`stability.StabilityExtension.withstands`). When it does and nothing else moves, the
@@ -31,8 +34,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from stability import Pose
+from stability import Box, Pose
 
+from ..compile.actions import REACHES
+from ..compile.clearance import deepest
+from ..compile.overlap import touching
 from ..compile.program import PULL_STEP, Kinematic, Push, Remove, Shake
 from .bricks import BrickRecord
 from .loop import StepLoop, Subscriber
@@ -46,6 +52,10 @@ AWAY = np.array([-5000.0, -5000.0, 100.0])
 #: between and begun to fall: the hand takes it out of the scene then, as a hand holds what it
 #: has pulled free (a 1 mm fall takes 14 ms, 3.4 steps at 240 Hz).
 CLEARED = 0.001
+
+#: Metres the surface of a push's target brick must have moved along the push, since it was
+#: placed, for the pusher to start that much further on or back (less is a brick settling).
+SHIFTED = 0.0001
 
 
 @dataclass
@@ -108,18 +118,21 @@ class Actions(Subscriber):
         self._finer(loop)
 
     def _push(self, loop: StepLoop, a: Push) -> None:
-        pose = Pose.from_euler(a.position, a.yaw, a.pitch, 0.0)
+        speed = float(np.linalg.norm(a.velocity))
+        detail = f"{speed * 1000:.3g} mm/s into {a.target}"
+        pose, lies, how = _pusher_start(loop, a)
+        inside = _blocked(loop, a, pose)
+        if inside is not None:
+            moved = not np.allclose(pose.position, a.position, rtol=0.0, atol=1e-12)
+            why = f"{'to start its gap before it, ' if moved else ''}{inside}"
+            detail += f" ({lies})" if lies else ""
+            loop.events.append(Event(time=a.time, kind="push", brick=a.id, detail=f"{detail}: not started: {why}"))
+            return
+        detail += f" ({lies}: {how})" if how else ""
         body = loop.world.create(a.brick, pose)
         record = BrickRecord(a.id, body, a.brick, None, pose, pose)
         loop.structure.add(record)
         self.stability.extension.add_brick(body, record.box, a.id, a.brick.friction)
-        speed = float(np.linalg.norm(a.velocity))
-        detail = f"{speed * 1000:.3g} mm/s into {a.target}"
-        target = loop.structure.records.get(a.target)
-        if target is not None and target.structure and target in loop.structure.placed:
-            moved = loop.structure.displacement(target)
-            if moved > loop.program.collapse_threshold:  # aimed where the brick was placed, not where it is
-                detail += f" (it lies {moved * 1000:.3g} mm from where it was placed: the pusher may meet nothing)"
         loop.events.append(Event(time=a.time, kind="push", brick=a.id, detail=detail))
         self._guide(loop, record, a.time, a.velocity, a.end_step, "push", "a pusher")
         self._finer(loop)
@@ -221,6 +234,71 @@ class Actions(Subscriber):
                 loop.structure.offset = (0.0, 0.0, 0.0)
                 self.stability.extension.admitting = True
                 self.shake = None
+
+
+def _pusher_start(loop: StepLoop, a: Push) -> tuple[Pose, str, str]:
+    """Where the pusher of ``a`` starts, how far its target brick lies from where it was placed
+    when that moved the start, and how the start moved or that the path misses the brick, in words
+    ("" when nothing).
+
+    The compiler puts it ``gap`` before its target brick's surface as the brick was placed. When
+    the brick has moved since (an earlier push, a pull that dragged it, a fall), the whole path is
+    moved along the direction by as much as the brick's surface has along it (the first contact of
+    the pusher's box swept along the line, with the brick where it is and where it was placed:
+    :func:`~stackdsl.compile.overlap.touching`), so that it starts ``gap`` before the brick as it
+    is, and moves its whole ``distance`` from there; a shift under :data:`SHIFTED` is left out.
+    A brick the line no longer meets is said to be missed."""
+    pose = Pose.from_euler(a.position, a.yaw, a.pitch, 0.0)
+    target = loop.structure.records.get(a.target)
+    if target is None or not target.structure or target not in loop.structure.placed:
+        return pose, "", ""
+    moved = loop.structure.displacement(target)
+    direction = np.array(a.velocity) / np.linalg.norm(a.velocity)
+    back = 2 * (sum(a.brick.half_extents) + sum(target.spec.half_extents))  # farther than any overlap
+    here = loop.world.pose(target.body)
+    first, _ = touching(
+        pose.position - direction * back,
+        pose.rotation,
+        np.array(a.brick.half_extents),
+        np.array([target.nominal.position, here.position]),
+        np.array([target.nominal.rotation, here.rotation]),
+        np.array([target.spec.half_extents] * 2),
+        direction,
+        deeper=REACHES,
+    )
+    was, now = (float(f) for f in first)
+    said = f"it lies {moved * 1000:.3g} mm from where it was placed"
+    if not math.isfinite(now):
+        return (pose, said, "the pusher's path misses it") if moved > loop.program.collapse_threshold else (pose, "", "")
+    shift = now - was
+    if not math.isfinite(was) or abs(shift) < SHIFTED:
+        return pose, "", ""
+    way = "on" if shift > 0 else "back"
+    return (
+        Pose(pose.position + direction * shift, pose.orientation),
+        said,
+        f"the pusher starts {abs(shift) * 1000:.3g} mm further {way}, its gap before it, and moves its whole distance",
+    )
+
+
+def _blocked(loop: StepLoop, a: Push, pose: Pose) -> str | None:
+    """Why the pusher of ``a`` cannot start at ``pose``: its box there would reach into a body in
+    the world (deeper than :data:`~stackdsl.compile.clearance.TOLERANCE`) or below the ground,
+    there or anywhere along its travel; None when it can. A kinematic pusher started inside a
+    body throws it about, differently on each engine."""
+    box = Box(np.array(a.brick.half_extents), a.brick.mass)
+    travel = np.array(a.velocity) * (a.end_step - a.step) * loop.dt
+    low = min(
+        float(box.corners(pose)[:, 2].min()), float(box.corners(Pose(pose.position + travel, pose.orientation))[:, 2].min())
+    )
+    if low < -1e-6:
+        return f"its pusher would reach {-low * 1000:.3g} mm below the ground"
+    bodies = [(r.id, r.spec, loop.world.pose(r.body)) for r in loop.structure.records.values() if r.id != a.id]
+    bodies += [(f.id, f.brick, Pose.from_euler(f.position, f.yaw, f.pitch, f.roll)) for f in loop.program.fixtures]
+    inside = deepest(box, pose, bodies)
+    if inside is None:
+        return None
+    return f"its pusher would start {inside[1] * 1000:.3g} mm inside {inside[0]}"
 
 
 def _moving(labels: tuple[str, ...], shown: int = 3) -> str:

@@ -53,3 +53,22 @@ def test_the_bench_measures_the_lean_peer_as_a_cell():
     cell = measure(scene, "MuJoCo lean", RunOptions(stop_at_collapse=True))
     assert cell.error == 0 and cell.collapse_level == n and cell.setting == "MuJoCo lean"
     assert 0 < cell.engine <= cell.wall and cell.bricks == n + 2
+
+
+def test_the_lean_peer_lets_a_brick_go_the_scenes_drop_gap_above_its_pose(monkeypatch):
+    import mujoco
+
+    p = program("tower: {levels: 1}")
+    first = p.placements[0]
+    assert first.drop > 0
+    seen = []
+    forward = mujoco.mj_forward
+
+    def watched(model, data):
+        forward(model, data)
+        seen.append(data.qpos[:3].copy())  # the first brick's free joint: its place after each forward
+
+    monkeypatch.setattr(mujoco, "mj_forward", watched)
+    run_lean(p)
+    placed = seen[1]  # the first forward is the model's; the second places the first brick
+    assert placed == pytest.approx([first.position[0], first.position[1], first.position[2] + first.drop], abs=1e-9)

@@ -12,8 +12,12 @@ or at the program's end.
 
 Settings are the program's (``engine: {backend: mujoco, mode: tuned, sleep_tolerance: 1e-4}``
 is the peer at its best, docs/results/mujoco.md): timestep, solver iterations, cone,
-impratio, integrator, contact softness and sleeping. Bricks are placed at rest at their
-poses, in contact (no drop gap): the gentlest placement a user can write.
+impratio, integrator, contact softness and sleeping. A brick is let go at rest the scene's
+drop gap (each placement's ``drop``, 0.5 mm by default) above its pose, as the scenario asks
+and as the extension places it, and is watched against its pose. Placed exactly at its pose
+instead, in contact, the peer fell at the same levels but took about three times as long on
+the upright 30-level 4 stack (about 93 contacts a step against 50, its bricks awake in 9531
+of 30500 steps against 5637): that placement cost the peer time the scenario does not ask of it.
 
 Only placements are taken (the bench's scenes); a program that launches a projectile or
 has fixed bodies raises ValueError. Units: SI. Source: stackdsl's own, on MuJoCo 4.0's
@@ -101,11 +105,12 @@ def run_lean(program: Program, timeout: float = 600.0) -> LeanOutcome:
     while data.time < end - 1e-9 and time.perf_counter() - started < timeout:
         while placed < len(places) and places[placed].time <= data.time + 1e-9:
             p = places[placed]
-            data.qpos[adr[placed] : adr[placed] + 3] = p.position
+            rest = np.asarray(p.position) - [0.0, 0.0, program.engine.SEAT]  # where it comes to rest
+            data.qpos[adr[placed] : adr[placed] + 3] = rest + [0.0, 0.0, p.drop]  # let go the drop gap above
             data.qpos[adr[placed] + 3 : adr[placed] + 7] = _quat(p)
             data.qvel[dof[placed] : dof[placed] + 6] = 0.0
             mujoco.mj_forward(model, data)  # moving a body by hand and forwarding wakes it
-            watch.place(placed, p.level, data.xpos[body[placed]], data.xmat[body[placed]].reshape(3, 3))
+            watch.place(placed, p.level, rest, data.xmat[body[placed]].reshape(3, 3))
             placed += 1
         tick = time.perf_counter()
         for _ in range(every):

@@ -10,11 +10,11 @@ from stackdsl.verdicts.closed_form import single_file
 
 pytest.importorskip("mujoco")
 
-from stackdsl.bench.bench import SETTINGS, Scene, measure
+from stackdsl.bench.bench import LEAN_SLEEP_TOLERANCE, SETTINGS, Scene, measure, program_for
 from stackdsl.bench.lean_mujoco import mjcf, run_lean
 from stackdsl.runtime.run import RunOptions
 
-PEER = "engine: {backend: mujoco, mode: tuned, sleep_tolerance: 0.0001}"
+PEER = f"engine: {{backend: mujoco, mode: tuned, sleep_tolerance: {LEAN_SLEEP_TOLERANCE}}}"
 
 
 def program(structure: str, engine: str = PEER):
@@ -72,3 +72,15 @@ def test_the_lean_peer_lets_a_brick_go_the_scenes_drop_gap_above_its_pose(monkey
     run_lean(p)
     placed = seen[1]  # the first forward is the model's; the second places the first brick
     assert placed == pytest.approx([first.position[0], first.position[1], first.position[2] + first.drop], abs=1e-9)
+
+
+@pytest.mark.parametrize("shift_mm", [11, 13])
+def test_the_peers_sleep_tolerance_is_mujocos_default_and_keeps_the_level_of_the_tighter_one(shift_mm):
+    n = single_file(shift_mm / 1000)
+    scene = Scene(
+        "single file", shift_mm, n + 2, f"tower: {{levels: {n + 2}, bricks_per_layer: 1, turn: 0, shift: {shift_mm} mm}}", n
+    )
+    chosen, tighter = program_for(scene, "MuJoCo lean"), program_for(scene, "MuJoCo lean 1e-4")
+    assert chosen.engine.sleep_tolerance == LEAN_SLEEP_TOLERANCE == 1e-3  # MuJoCo's own default
+    assert tighter.engine.sleep_tolerance == 1e-4
+    assert run_lean(chosen).level == run_lean(tighter).level == n

@@ -224,7 +224,7 @@ def main(rounds: int, families: list[str] | None) -> None:
         + " | ".join(f"{n} / extension" for n in names[1:])
         + " |"
     )
-    print("|---|---:|" + "---:|" * (len(names) + 2))
+    print("|---|---:|" + "---:|" * (2 * len(names) - 1))  # a cell per runner, a ratio per peer
     for s in chosen:
         med = {n: statistics.median(walls[(s.family, s.parameter, n)]) for n in names}
         cells = [f"{levels[(s.family, s.parameter, n)] or 'stands'}, {med[n]:.3f} s" for n in names]

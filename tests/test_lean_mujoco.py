@@ -10,7 +10,7 @@ from stackdsl.verdicts.closed_form import single_file
 
 pytest.importorskip("mujoco")
 
-from stackdsl.bench.bench import LEAN_SLEEP_TOLERANCE, SETTINGS, Scene, measure, program_for
+from stackdsl.bench.bench import DEFAULT_SETTINGS, LEAN_SLEEP_TOLERANCE, SETTINGS, Scene, measure, program_for
 from stackdsl.bench.lean_mujoco import mjcf, run_lean
 from stackdsl.runtime.run import RunOptions
 
@@ -84,3 +84,8 @@ def test_the_peers_sleep_tolerance_is_mujocos_default_and_keeps_the_level_of_the
     assert chosen.engine.sleep_tolerance == LEAN_SLEEP_TOLERANCE == 1e-3  # MuJoCo's own default
     assert tighter.engine.sleep_tolerance == 1e-4
     assert run_lean(chosen).level == run_lean(tighter).level == n
+
+
+def test_the_bench_runs_the_tighter_tolerance_only_when_asked():
+    assert "MuJoCo lean" in DEFAULT_SETTINGS and "MuJoCo lean 1e-4" in SETTINGS
+    assert "MuJoCo lean 1e-4" not in DEFAULT_SETTINGS

@@ -83,6 +83,11 @@ default on MuJoCo), tuned sleeping MuJoCo run by its own lean loop
 (:mod:`stackdsl.bench.lean_mujoco`: the peer at its best, at :data:`LEAN_SLEEP_TOLERANCE`, the
 column the README's ratios come from; and at 1e-4, to check that choice), and the extension."""
 
+DEFAULT_SETTINGS = tuple(name for name in SETTINGS if name != "MuJoCo lean 1e-4")
+"""The settings ``stackdsl bench`` runs unless ``--settings`` names others: all but the lean
+peer at 1e-4, which only re-checks the choice of :data:`LEAN_SLEEP_TOLERANCE` (and costs the
+most of any lean cell)."""
+
 
 @dataclass(frozen=True)
 class Scene:

@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from ..bench.bench import SETTINGS, UPRIGHT, run_matrix, savings, scenes
+from ..bench.bench import DEFAULT_SETTINGS, SETTINGS, UPRIGHT, run_matrix, savings, scenes
 from ..bench.dominoes import DEFAULT as DOMINO_SETTINGS
 from ..bench.dominoes import KNOWN as DOMINO_KNOWN
 from ..lang.bounds import MAX_LEVELS
@@ -43,7 +43,11 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
         default=None,
         help="folder for bench.csv, bench.md and the plots (default: a new private folder stackdsl-bench-* in the temporary directory)",
     )
-    p.add_argument("--settings", default=",".join(SETTINGS), help="comma-separated, of: " + ", ".join(SETTINGS))
+    p.add_argument(
+        "--settings",
+        default=",".join(DEFAULT_SETTINGS),
+        help="comma-separated, of: " + ", ".join(SETTINGS) + " (default: all but MuJoCo lean 1e-4)",
+    )
     p.add_argument("--families", default="slant log cabin,single file,upright", help="comma-separated scene families")
     p.add_argument(
         "--upright", default=",".join(map(str, UPRIGHT)), help="comma-separated heights of the upright towers, in levels"

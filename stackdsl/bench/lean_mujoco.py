@@ -15,10 +15,11 @@ is the peer at its best, :data:`stackdsl.bench.bench.LEAN_SLEEP_TOLERANCE`): tim
 iterations, cone, impratio, integrator, contact softness and sleeping. A brick is let go at rest the scene's
 drop gap (each placement's ``drop``, 0.5 mm by default) above its pose, as the scenario asks
 and as the extension places it, and is watched against its pose. Placed exactly at its pose
-instead, in contact, as this peer used to be, it fell at the same levels but a harness outside
-the bench measured about three times its time on the upright 30-level 4 stack (about 93
-contacts a step against 50, bricks awake in 9531 of 30500 steps against 5637): time the
-scenario does not ask of it.
+instead, in contact, as this peer used to be, it falls at the same levels; on the upright
+30-level 4 stack at sleep tolerance 1e-4 it took 10.5 to 18.5 s against 3.5 to 5.3 s with the
+drop gap (three rounds in one process, load 3.3 to 4.6 on 2 cores; about 93 contacts a step
+against 50), time the scenario does not ask of it. At 1e-3 the two placements cost about the
+same there (1.9 to 2.5 s in contact, 2.0 to 6.0 s with the gap, the same rounds).
 
 Only placements are taken (the bench's scenes); a program that launches a projectile or
 has fixed bodies raises ValueError. Units: SI. Source: stackdsl's own, on MuJoCo 4.0's

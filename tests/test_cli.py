@@ -22,7 +22,7 @@ from stackdsl import _entry, compile_scenario, parse_scenario, run_program
 from stackdsl.batch import check as _check
 from stackdsl.batch import check_sweep as _check_sweep
 from stackdsl.batch import judge as _judge
-from stackdsl.bench.bench import SETTINGS
+from stackdsl.bench.bench import DEFAULT_SETTINGS
 from stackdsl.cli import bench as _cli_bench
 from stackdsl.cli import check as _cli_check
 from stackdsl.cli import main as _cli
@@ -1073,9 +1073,9 @@ def test_bench_quick_smoke_writes_every_output(tmp_path, capsys):
     names = {p.name for p in tmp_path.iterdir()}
     assert names == {"bench.csv", "bench.md", "wall_vs_error.png", "wall_vs_height.png"}
     rows = (tmp_path / "bench.csv").read_text().splitlines()
-    n = len(SETTINGS)
+    n = len(DEFAULT_SETTINGS)
     assert rows[0].startswith("setting,family,parameter") and len(rows) == 1 + n
-    assert {r.split(",")[0] for r in rows[1:]} == set(SETTINGS)  # both backends, every setting
+    assert {r.split(",")[0] for r in rows[1:]} == set(DEFAULT_SETTINGS)  # both backends, every default setting
     out = capsys.readouterr().out
     assert (
         "extension report" in out and "MuJoCo extension" in out and f"[{n}/{n}]" in out and f"wrote {tmp_path.resolve()}" in out

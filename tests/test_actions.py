@@ -932,7 +932,9 @@ expect: {{stays: w, moved: b1}}
 """
 
 
-@pytest.mark.parametrize("mode", ["extension", "raw", "tuned"])
+@pytest.mark.parametrize(
+    "mode", ["extension", pytest.param("raw", marks=pytest.mark.slow), pytest.param("tuned", marks=pytest.mark.slow)]
+)
 @pytest.mark.parametrize("backend", BACKENDS)
 @pytest.mark.parametrize(("second", "x", "way"), [("[-1, 0, 0]", 15.0, "back"), ("[1, 0, 0]", 25.0, "on")])
 def test_a_second_push_starts_its_gap_before_the_brick_where_the_first_left_it(backend, mode, second, x, way):

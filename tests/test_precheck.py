@@ -84,6 +84,16 @@ def test_touching_and_overlapping_within_the_tolerance_are_fine():
     assert error(bricks("{at: [0, 0, 4 mm]}", f"{{at: [0, 0, {12 - beyond} mm], yaw: 90}}")).field == "structure.bricks[1].at"
 
 
+@pytest.mark.parametrize("x", ["0", "999.97 m", "-1 km"])
+def test_an_overlap_of_the_tolerance_as_written_is_taken(x):
+    # 24 mm - 23.9 mm is 0.10000000000000142 mm in doubles: "at most 0.1 mm" takes it, here and 1 km out
+    gap = 24 - 1000 * OVERLAP_TOLERANCE
+    compile_text(bricks(f"{{at: [{x}, 0, 4 mm]}}", f"{{at: [{x}, {gap:g} mm, 4 mm]}}"))
+    compile_text(bricks(f"{{at: [{x}, 0, 4 mm]}}", f"{{at: [{x}, 0, {12 - 1000 * OVERLAP_TOLERANCE:g} mm], yaw: 90}}"))
+    compile_text(bricks(f"{{at: [{x}, 0, {4 - 1000 * OVERLAP_TOLERANCE:g} mm]}}"))  # 0.1 mm into the ground
+    assert error(bricks(f"{{at: [{x}, 0, 4 mm]}}", f"{{at: [{x}, {gap - 0.001:g} mm, 4 mm]}}")).field == "structure.bricks[1].at"
+
+
 def test_tilted_bricks_that_overlap_are_found():
     compile_text(vee())  # touching at the peak
     err = error(vee(right_x=DX - 1.0))  # the right brick 1 mm closer: its face cuts the left brick's corner

@@ -37,3 +37,20 @@ def test_a_file_in_the_known_units_never_loads_pint(monkeypatch):
         "structure: {tower: {levels: 3, brick: k, spacing: 96 mm, shift: 2 mm, yaw: 5 deg}}\ntiming: {interval: 0.5 s}\n"
     )
     assert parse_scenario(text).structure is not None
+
+
+def test_a_closed_bound_takes_its_value_however_it_is_written():
+    # '1 g/L' is 0.9999999999999999 kg/m^3 and '100 kg/L' 99999.99999999999 in doubles: "from 1 to 100000" takes both
+    from stackdsl.lang.units import density, within
+
+    bounded = within(float, density, 1.0, 100_000.0, "a density from 1 to 100000 kg/m^3")
+    check = bounded.__metadata__[-1].func
+    assert density("1 g/L") < 1.0 and density("100 kg/L") > 99_999.9  # the rounding this is about
+    assert check("1 g/L") == 1.0 and check("100 kg/L") == 100_000.0
+    with pytest.raises(ValueError, match="expected a density from 1 to 100000"):
+        check("0.999999 kg/m^3")
+    with pytest.raises(ValueError, match="expected a density from 1 to 100000"):
+        check("100.0001 kg/L")
+    above = within(float, density, 1.0, 2.0, "a density above 1", above=True).__metadata__[-1].func
+    with pytest.raises(ValueError):
+        above("1 g/L")  # an open bound stays open

@@ -30,6 +30,10 @@ REST_TOLERANCE = 0.001
 """Metres: a brick rests on a body when lowered this far it would sink into it (from below its centre)."""
 OVERLAP_TOLERANCE = 0.0001
 """Metres: bodies may interpenetrate this deep where placed (rounding of hand-written poses); deeper is an error."""
+ROUNDING = 1e-9
+"""Metres: an overlap of the tolerance as written (24 mm - 23.9 mm is 0.10000000000000142 mm in doubles) is within
+it. A nanometre: far below any placement a file writes, far above a double's rounding of a position within 1 km
+(a step of 1.1e-13 m there) carried through a separating-axis test."""
 _EPS = 1e-6  # m: deeper by less than this is no deeper (numerical noise of the distance queries)
 _VERTICAL = 1.0 - 1e-12  # |cosine| of an axis with z above which the axis counts as vertical
 _CHUNK = 100_000  # candidate pairs tested at once (bounds memory on hostile files)
@@ -92,7 +96,7 @@ def inspect_bodies(
 
     overlaps: list[tuple[int, int, float]] = []
     bottom = low[:, 2]
-    for i in np.flatnonzero(brick & (bottom < -OVERLAP_TOLERANCE)):
+    for i in np.flatnonzero(brick & (bottom < -(OVERLAP_TOLERANCE + ROUNDING))):
         overlaps.append((int(i), GROUND, float(-bottom[i])))
     grounded = brick & (bottom < REST_TOLERANCE - _EPS)
 
@@ -105,7 +109,7 @@ def inspect_bodies(
         near_a.append(a[near])
         near_b.append(b[near])
         near_depth.append(depth[near])
-        deep = np.flatnonzero(depth > OVERLAP_TOLERANCE)
+        deep = np.flatnonzero(depth > OVERLAP_TOLERANCE + ROUNDING)
         for a_, b_, d in zip(a[deep], b[deep], depth[deep]):
             later, other = (a_, b_) if (slot[a_], a_) > (slot[b_], b_) else (b_, a_)
             overlaps.append((int(later), int(other), float(d)))

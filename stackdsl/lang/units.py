@@ -261,6 +261,8 @@ def within(
 
     def check(value: Any) -> Any:
         number = convert(value)
+        if isinstance(number, float) and math.isfinite(number):
+            number = _at_bound(number, low, above) if number < low else _at_bound(number, high, below)
         if isinstance(number, float) and math.isfinite(number) and not inside(number):
             reason = "" if number <= 0 < low else why if isinstance(why, str) else why[number > low]  # no reason for <= 0
             slip = ""
@@ -272,6 +274,13 @@ def within(
 
     bounds = Field(gt=low if above else None, ge=None if above else low, lt=high if below else None, le=None if below else high)
     return Annotated[kind, bounds, BeforeValidator(check)]
+
+
+def _at_bound(number: float, bound: float, open_: bool) -> float:
+    """``bound`` for a ``number`` that misses a closed bound by rounding alone ('1 g/L' is
+    0.9999999999999999 kg/m^3 in doubles; a bound written "at most X" takes X however it is
+    written), else ``number``: within a relative 1e-12 of the bound, some thousands of ulps."""
+    return bound if not open_ and number != bound and abs(number - bound) <= 1e-12 * abs(bound) else number
 
 
 def _converted(value: Any, number: float, convert: Callable[[Any], Any]) -> str:

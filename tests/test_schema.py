@@ -280,6 +280,7 @@ ACCEPTED = {
     "rest thresholds at their ceilings": doc("stability: {rest_speed: 1, rest_angular_speed: 10 rad/s}"),
     "a collapse threshold of 1 mm": doc("collapse_threshold: 0.001"),
     "a drop gap just below the collapse threshold": doc("timing: {drop_gap: 0.0039}"),
+    "a drop gap of 50 mm under a higher collapse threshold": doc("timing: {drop_gap: 50 mm}", "collapse_threshold: 60 mm"),
 }
 
 
@@ -766,3 +767,11 @@ def schema_nodes(node, path="$"):
     elif isinstance(node, list):
         for i, value in enumerate(node):
             yield from schema_nodes(value, f"{path}[{i}]")
+
+
+def test_the_drop_gaps_description_gives_its_bounds():
+    # every gap at or above the collapse threshold is refused, so the field says so where it is described
+    text = json_schema()["$defs"]["Timing"]["properties"]["drop_gap"]["description"]
+    assert "below the collapse threshold" in text and "4 mm for KAPLA" in text and "50 mm" in text
+    with pytest.raises(ScenarioError, match="expected a length from 0 to 50 mm, and below the collapse threshold"):
+        parse_scenario(doc("timing: {drop_gap: 51 mm}", "collapse_threshold: 60 mm"), "d.yaml")

@@ -176,8 +176,8 @@ else:
 
 class Timing(StrictModel):
     """One placement every ``interval``; ``settle`` after the last action; bricks are
-    placed at rest ``drop_gap`` above their pose, at most ``placement_error`` off it
-    horizontally (drawn from the scenario's seed)."""
+    placed at rest ``drop_gap`` above their pose (below the collapse threshold, and at most
+    50 mm), at most ``placement_error`` off it horizontally (drawn from the scenario's seed)."""
 
     interval: Interval = 1.0
     settle: Settle = 2.0

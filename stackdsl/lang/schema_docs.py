@@ -135,7 +135,13 @@ DOCS: dict[str, dict[str, tuple[str, Any]]] = {
     "Timing": {
         "interval": ("Time between two placements (default 1 s).", "1 s"),
         "settle": ("Time the run goes on after the last action, or after a collapse (default 2 s).", "2 s"),
-        "drop_gap": ("Bricks are placed at rest this far above their pose and lowered onto it (default 0.5 mm).", "0.5 mm"),
+        "drop_gap": (
+            (
+                "Bricks are placed at rest this far above their pose and lowered onto it (default 0.5 mm); below the "
+                "collapse threshold (by default half the thinnest brick side: 4 mm for KAPLA), and at most 50 mm."
+            ),
+            "0.5 mm",
+        ),
         "placement_error": (
             "Each brick's horizontal offset from its pose, drawn uniformly within +-e on each axis, at most 10 mm (default 0).",
             "1 mm",

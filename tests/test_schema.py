@@ -775,3 +775,22 @@ def test_the_drop_gaps_description_gives_its_bounds():
     assert "below the collapse threshold" in text and "4 mm for KAPLA" in text and "50 mm" in text
     with pytest.raises(ScenarioError, match="expected a length from 0 to 50 mm, and below the collapse threshold"):
         parse_scenario(doc("timing: {drop_gap: 51 mm}", "collapse_threshold: 60 mm"), "d.yaml")
+
+
+def test_the_timestep_description_says_where_raw_pybullet_drifts():
+    # a single-file slant tower of 19 mm steps falls at level 7 (closed form); raw pybullet gives 7 at 5 ms
+    # and less at 10 ms, the largest step the language takes, so the description may not claim one answer for all
+    from stackdsl import compile_scenario, run_program
+
+    def level(step: str, mode: str) -> int | None:
+        text = (
+            f"stackdsl: 1\nengine: {{timestep: {step}}}\nstructure:\n"
+            "  tower: {levels: 9, shift: 19 mm, bricks_per_layer: 1, turn: 0}\nexpect: {collapse: 7}\n"
+        )
+        collapse = run_program(compile_scenario(parse_scenario(text, "ts.yaml"), mode=mode)).collapse
+        return collapse.level if collapse else None
+
+    assert level("5 ms", "raw") == level("10 ms", "extension") == 7
+    assert level("10 ms", "raw") != 7
+    text = " ".join(json_schema()["$defs"]["Engine"]["description"].split())
+    assert "raw pybullet drifts above 5 ms" in text

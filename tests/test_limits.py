@@ -333,3 +333,50 @@ def test_at_the_limit_no_drop_keeps_more_than_nine_tenths_of_its_energy(backend,
     most = ENGINES[backend].LIMITS.restitution(mode)
     kept = {drop: bounce(most, backend, mode, drop) for drop in DROPS}
     assert max(kept.values()) < 0.9, kept
+
+
+PLANK = (
+    "stackdsl: 1\nbrick_types: {plank: {size: [1 m, 100 mm, 10 mm]}, cube5: {size: [5 mm, 5 mm, 5 mm]}}\n"
+    "structure:\n  bricks:\n    - {id: plank, brick: plank, at: [0, 0, 5 mm]}\n    - {id: cube, brick: cube5, at: %s}\n%s"
+)
+
+
+@pytest.mark.parametrize(
+    "cube",
+    ["[0, 500 mm, 2.5 mm]", "[450 mm, 0, 12.5 mm]"],
+    ids=["a cube far from the plank", "a cube lying on the plank"],
+)
+def test_a_light_brick_on_or_away_from_a_heavy_one_is_taken_past_the_ratio(cube):
+    """The ratio is measured as a heavy brick on a light one; a 0.46 kg plank lying flat cannot
+    fall, and a 5 mm cube 8000 times lighter on it or beside it is what the ground holds every day."""
+    program = compile_scenario(parse_scenario(PLANK % (cube, ""), "p.yaml"), "tuned")
+    if "12.5" in cube:
+        outcome = run_program(program)
+        assert outcome.collapse is None and outcome.drift < 0.0005  # it stays on the plank
+    # an impact or an action may send anything anywhere: then every pair of types counts, as before
+    impact = "impacts: [{target: {point: [0, 0, 5 mm]}, direction: [1, 0, 0], speed: 1 m/s, at: 1 s}]\n"
+    err = refusal(PLANK % (cube, impact))
+    assert "is 8000 times as heavy as 'cube5'" in err.message and "pybullet simulates at most 300" in err.message
+
+
+def test_a_tower_on_a_loose_heavy_board_is_taken_and_a_heavy_brick_on_a_light_one_still_refused():
+    board = (
+        "stackdsl: 1\nbrick_types: {board: {size: [600 mm, 600 mm, 50 mm]}}\nstructure:\n"
+        "  - name: board\n    bricks: [{id: board, brick: board, at: [0, 0, 25 mm]}]\n"
+        "  - name: t4\n    on: board\n    tower: {levels: 3}\n"
+    )
+    compile_scenario(parse_scenario(board, "b.yaml"))  # 781 times as heavy as a KAPLA brick, under it
+    err = refusal(HEAVY % (100 * 500, "pybullet"))  # a slab on a light brick: the measured case
+    assert "and brick 'b002' rests on brick 'b001'" in err.message
+
+
+def test_a_heavy_brick_that_can_fall_near_a_light_one_is_refused_and_one_out_of_reach_is_not():
+    post = (
+        "stackdsl: 1\nmaterials: {foam: {density: 10 kg/m^3}, lead: {density: 11000 kg/m^3}}\n"
+        "brick_types: {post: {size: [24 mm, 24 mm, 120 mm], material: lead}, cube: {size: [24 mm, 24 mm, 24 mm], material: foam}}\n"
+        "structure:\n  bricks:\n    - {id: post, brick: post, at: [0, 0, %s]%s}\n    - {id: cube, brick: cube, at: [%s, 0, 12 mm]}\n"
+    )
+    err = refusal(post % ("60 mm", "", "100 mm"))  # on end: it can topple 120 mm and more
+    assert err.field == "materials.lead.density" and "brick 'post' can fall and reach brick 'cube'" in err.message
+    compile_scenario(parse_scenario(post % ("60 mm", "", "1 m"), "p.yaml"))  # out of its reach
+    compile_scenario(parse_scenario(post % ("12 mm", ", pitch: 90", "100 mm"), "p.yaml"))  # lying down: it cannot fall

@@ -204,10 +204,10 @@ def compile_scenario(
         made_by = {b.type: b.source for b in reversed(everything)}
         still = [b.type for b in fixed]
         try:
-            check_limits(scenario, engine, specs, moving, made_by, still)
+            check_limits(scenario, engine, specs, moving, made_by, still, bricks)
         except ScenarioError as exc:
             raise _asked(
-                exc, scenario, mode, backend, lambda own: check_limits(scenario, own, specs, moving, made_by, still)
+                exc, scenario, mode, backend, lambda own: check_limits(scenario, own, specs, moving, made_by, still, bricks)
             ) from None
     check_measured(scenario, {b.id: b.level for b in bricks})
     _own_ids(scenario, [b.id for b in everything], launches, motions)

@@ -4,8 +4,8 @@ The language's bounds (:mod:`stackdsl.lang.bounds`) hold for every engine; each 
 narrower ones of its own, measured on it (:class:`stackdsl.engines.protocol.Limits`,
 ``stackdsl bench limits``). A scene beyond them would run, and give an answer that is the
 engine's artefact, not the scene's: a 2 mm cube that falls over on pybullet's ground, a brick
-thrown through a wall, a light brick crushed by a solver that cannot balance a mass ratio of
-10,000, a brick that bounces higher than it fell. So the compiler refuses it, at the field to
+thrown through a wall, a light brick crushed under a heavy one by a solver that cannot balance a
+mass ratio of 10,000, a brick that bounces higher than it fell. So the compiler refuses it, at the field to
 change, naming the engine, what was measured, and an engine or setting that would take it when
 there is one. The check uses the engine the run uses, after ``--backend`` and ``--mode``.
 
@@ -16,13 +16,18 @@ from __future__ import annotations
 
 import math
 from collections import Counter
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
+
+import numpy as np
+from scipy.spatial.transform import Rotation
 
 from ..engines.protocol import BrickSpec, EngineSettings
 from ..engines.settings import SETTINGS
 from ..lang.errors import FieldPath
 from ..lang.schema import Scenario
 from ..lang.schema_generators import HALF
+from .layouts import LaidBrick
+from .overlap import REST_TOLERANCE
 
 
 def check_limits(
@@ -32,6 +37,7 @@ def check_limits(
     moving: Sequence[str],
     made_by: Mapping[str, FieldPath] | None = None,
     fixed: Sequence[str] = (),
+    bricks: Sequence[LaidBrick] | None = None,
 ) -> None:
     """Refuse what ``engine`` does not simulate faithfully (see the module's docstring).
 
@@ -45,6 +51,10 @@ def check_limits(
             half bricks (``NAME/2``) a wall makes of the type it is given.
         fixed: the type names of the bodies that do not move and that moving ones may touch:
             the fixtures (and a push's pusher, a type of ``specs`` not in ``moving``).
+        bricks: the structure's bricks (not its fixtures) where they are built. Given, and in a
+            scene with no impact and no action, a mass ratio counts only between a brick and a
+            lighter one it can come to rest on or fall onto (:class:`_Reach`); else between
+            every two types of ``moving``.
 
     Raises:
         ScenarioError: at a brick type's ``size`` (a side below the engine's smallest; a
@@ -95,14 +105,26 @@ def check_limits(
             )
     masses = {t: specs[t].mass for t in set(moving)}
     if len(masses) > 1:
-        heavy, light = max(masses, key=masses.__getitem__), min(masses, key=masses.__getitem__)
-        ratio = masses[heavy] / masses[light]
-        if ratio > limits.max_mass_ratio * (1 + 1e-9):  # a ratio of exactly the limit, give or take rounding, is in
+        static = bricks is not None and not scenario.impacts and not scenario.actions
+        reach = _Reach(bricks or [], specs) if static else None
+
+        def beyond(most: float) -> tuple[str, str, str] | None:
+            """The pair of types past ``most`` that the measurement speaks for, and how they meet."""
+            if reach is not None:
+                return reach.worst(most * (1 + 1e-9))
+            heavy, light = max(masses, key=masses.__getitem__), min(masses, key=masses.__getitem__)
+            return (heavy, light, "") if masses[heavy] > masses[light] * most * (1 + 1e-9) else None
+
+        found = beyond(limits.max_mass_ratio)  # a ratio of exactly the limit, give or take rounding, is in
+        if found is not None:
+            heavy, light, how = found
+            ratio = masses[heavy] / masses[light]
+            taken = _elsewhere(engine, "max_mass_ratio", ratio, lambda most: beyond(most) is None)
             raise scenario.source.error(
                 _mass_field(scenario, heavy, light),
                 f"brick type {heavy!r} ({masses[heavy]:.3g} kg) is {ratio:.4g} times as heavy as {light!r} "
-                f"({masses[light]:.3g} kg); {name} simulates at most {limits.max_mass_ratio:g} times faithfully "
-                f"(measured: {limits.measured['max_mass_ratio']}){_elsewhere(engine, 'max_mass_ratio', ratio)}",
+                f"({masses[light]:.3g} kg){how}; {name} simulates at most {limits.max_mass_ratio:g} times faithfully "
+                f"(measured: {limits.measured['max_mass_ratio']}){taken}",
             )
     _check_restitution(scenario, engine, moving, [*fixed, *(t for t in specs if t not in set(moving))])
 
@@ -162,11 +184,15 @@ def _mass_field(scenario: Scenario, heavy: str, light: str) -> FieldPath:
     return ("brick_types", heavy if heavy in scenario.brick_types else light, "size")
 
 
-def _elsewhere(engine: EngineSettings, bound: str, value: float) -> str:
-    """``; MuJoCo takes it (engine: {backend: mujoco})`` when another engine's bound admits ``value``."""
+def _elsewhere(engine: EngineSettings, bound: str, value: float, takes: Callable[[float], bool] | None = None) -> str:
+    """``; MuJoCo takes it (engine: {backend: mujoco})`` when another engine's bound admits ``value``
+    (a mass ratio: when ``takes`` says that engine's largest ratio admits the scene)."""
     for backend, kind in SETTINGS.items():
         limits = kind.LIMITS
-        ok = value >= limits.min_side if bound == "min_side" else value <= limits.max_mass_ratio * (1 + 1e-9)
+        if bound == "min_side":
+            ok = value >= limits.min_side
+        else:
+            ok = takes(limits.max_mass_ratio) if takes else value <= limits.max_mass_ratio * (1 + 1e-9)
         if backend != engine.backend and ok:
             return f"; {kind.NAME} takes it (engine: {{backend: {backend}}})"
     return ""
@@ -174,3 +200,91 @@ def _elsewhere(engine: EngineSettings, bound: str, value: float) -> str:
 
 def _mm(metres: float) -> str:
     return f"{metres * 1000:.3g} mm"
+
+
+class _Reach:
+    """Which bricks of a scene with no impact and no action can press on or strike which.
+
+    The mass-ratio limit is measured as a heavy KAPLA brick crossed on a light one: the solver
+    lets the light one give under the load (``stackdsl bench limits``). A light brick on a heavy
+    one is what every brick on the ground is (the ground is infinitely heavy), and bricks that
+    never meet have no contact to balance. So a pair counts when the heavier brick can come to
+    rest on, or land on, the lighter: when it can move at all and the lighter lies within its
+    reach. Without an impact or an action, a brick moves only by falling or by being struck:
+
+    * it can fall when it stands on something other than the ground (its lowest point more
+      than :data:`REST_TOLERANCE` up, resting on a brick or a fixture) or stands on the ground
+      other than on its largest face (it can topple); its reach is then every brick whose box
+      comes within twice its top's height plus its longest side, sideways, of its own box (a
+      brick that topples from the top lands and slides well within that);
+    * a brick within the reach of a moving one moves too, with that reach, unless the moving
+      one is over the limit lighter than it (it then leaves at under 2/limit of the striker's
+      speed: a KAPLA brick landing on an 8 kg board does not set it going).
+
+    Boxes are axis-aligned around each brick, so the reach is an overestimate.
+    """
+
+    def __init__(self, bricks: Sequence[LaidBrick], specs: Mapping[str, BrickSpec]) -> None:
+        self.ids = [b.id for b in bricks]
+        self.types = [b.type for b in bricks]
+        n = len(bricks)
+        half = np.array([specs[t].half_extents for t in self.types], dtype=float).reshape(n, 3)
+        centre = np.array([b.position for b in bricks], dtype=float).reshape(n, 3)
+        axes = Rotation.from_euler("ZYX", [[b.yaw, b.pitch, b.roll] for b in bricks], degrees=True).as_matrix()
+        extent = (np.abs(axes.reshape(n, 3, 3)) @ half[:, :, None])[:, :, 0]
+        self.low, self.high = centre - extent, centre + extent
+        self.mass = np.array([specs[t].mass for t in self.types], dtype=float)
+        flat = centre[:, 2] <= half.min(axis=1) + REST_TOLERANCE  # on its largest face on the ground: nowhere to fall
+        falls = (self.low[:, 2] > REST_TOLERANCE) | ~flat
+        self.falls = falls
+        self.span = np.where(falls, 2 * self.high[:, 2] + 2 * half.max(axis=1), 0.0)
+
+    def _gap(self, i: int) -> np.ndarray:
+        """The sideways distance from brick ``i``'s box to every brick's, m."""
+        d = np.maximum(0.0, np.maximum(self.low[:, :2] - self.high[i, :2], self.low[i, :2] - self.high[:, :2]))
+        gap: np.ndarray = np.hypot(d[:, 0], d[:, 1])
+        return gap
+
+    def worst(self, most: float) -> tuple[str, str, str] | None:
+        """The heaviest over lightest pair of types more than ``most`` times as heavy where the
+        heavier can press on or strike the lighter, with how they meet (", and brick 'x' rests on
+        'y'"), or None."""
+        if len(self.mass) < 2 or self.mass.max() <= self.mass.min() * most:
+            return None
+        span = self.span.copy()
+        frontier: list[int] = np.flatnonzero(self.falls).tolist()
+        why = dict.fromkeys(frontier, "")
+        best: tuple[tuple[float, bool], int, int] | None = None
+        while frontier:
+            i = frontier.pop()
+            near = self._gap(i) <= span[i]
+            near[i] = False
+            hit = np.flatnonzero(near & (self.mass * most < self.mass[i]))
+            if hit.size:
+                hit = hit[self.mass[hit] == self.mass[hit].min()]
+                resting = self._rests(i, hit)
+                j = int(hit[np.argmax(resting)])  # a brick resting on another is said first
+                key = (float(self.mass[i] / self.mass[j]), bool(resting.any()))
+                if best is None or key > best[0]:
+                    best = (key, i, j)
+            knocked = np.flatnonzero(near & (self.mass[i] * most >= self.mass) & (span < span[i]))
+            for k in knocked.tolist():
+                span[k] = span[i]
+                why.setdefault(k, f" be struck by brick {self.ids[i]!r} and")
+                frontier.append(k)
+        if best is None:
+            return None
+        (_, on), i, j = best
+        how = (
+            f", and brick {self.ids[i]!r} rests on brick {self.ids[j]!r}"
+            if on
+            else f", and brick {self.ids[i]!r} can{why.get(i, '') or ' fall and'} reach brick {self.ids[j]!r}"
+        )
+        return self.types[i], self.types[j], how
+
+    def _rests(self, i: int, under: np.ndarray) -> np.ndarray:
+        """Whether brick ``i``'s box sits on each of the bricks ``under`` (within :data:`REST_TOLERANCE`)."""
+        low, high = self.low[under], self.high[under]
+        touching = np.all(self.low[i, :2] <= high[:, :2], axis=1) & np.all(low[:, :2] <= self.high[i, :2], axis=1)
+        rests: np.ndarray = touching & (np.abs(self.low[i, 2] - high[:, 2]) <= REST_TOLERANCE)
+        return rests

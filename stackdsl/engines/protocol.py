@@ -53,9 +53,10 @@ class Limits:
             a fixed 8 mm wall stays in front of it.
         max_speed_no_substeps: m/s, the same with ``ccd`` off; such a projectile must also move
             less than the thinnest brick of the scene in one physics step.
-        max_mass_ratio: the heaviest moving body's mass over the lightest's: a heavy KAPLA
-            brick crossed on a light one this much lighter sinks into it less than half the
-            4 mm collapse threshold in tuned mode (a solver's contact gives under load).
+        max_mass_ratio: a moving body's mass over that of a lighter one it can rest on or
+            strike (:mod:`stackdsl.compile.limits`): a heavy KAPLA brick crossed on a light one
+            this much lighter sinks into it less than half the 4 mm collapse threshold in tuned
+            mode (a solver's contact gives under load).
         max_restitution: mode -> the largest restitution of a contact (of two materials, the
             geometric mean of theirs) in that mode: no KAPLA brick dropped onto the ground or a
             brick rises with more energy than it fell with (a mode not named: 1).

@@ -380,3 +380,73 @@ def test_a_heavy_brick_that_can_fall_near_a_light_one_is_refused_and_one_out_of_
     assert err.field == "materials.lead.density" and "brick 'post' can fall and reach brick 'cube'" in err.message
     compile_scenario(parse_scenario(post % ("60 mm", "", "1 m"), "p.yaml"))  # out of its reach
     compile_scenario(parse_scenario(post % ("12 mm", ", pitch: 90", "100 mm"), "p.yaml"))  # lying down: it cannot fall
+
+
+def pushed(backend: str, mode: str, speed: float, wall: bool = True) -> str:
+    """A KAPLA brick pushed end on along +x for 25 mm (5 mm gap), towards a fixed 8 mm wall whose
+    face is 186 mm beyond where the brick's front can stop (x = 186 mm) when ``wall``."""
+    fixed = "    - {id: wall, brick: wall, at: [250 mm, 0, 50 mm], fixed: true}\n" if wall else ""
+    return (
+        "stackdsl: 1\nbrick_types: {wall: {size: [8 mm, 200 mm, 100 mm]}}\n"
+        f"engine: {{backend: {backend}, mode: {mode}}}\n"
+        f"structure:\n  bricks:\n{fixed}    - {{id: a, at: [0, 0, 4 mm]}}\n"
+        f"actions:\n  - push: {{target: {{brick: a}}, direction: [1, 0, 0], speed: {speed!r} m/s, distance: 25 mm, gap: 5 mm, at: 1 s}}\n"
+    )
+
+
+def push_limit(backend: str, mode: str) -> float:
+    """The fastest push the compiler should take on a scene whose thinnest brick is 8 mm: a
+    mode's own measured limit, else a throw's (with substeps only in extension mode, where they
+    follow the structure's bricks; without, also less than 8 mm a step), at most 10 m/s."""
+    kind = ENGINES[backend]
+    engine = kind(mode=mode, **kind.DEFAULTS[mode])  # type: ignore[arg-type]
+    lim = kind.LIMITS
+    if engine.ccd and mode == "extension":
+        most = lim.fastest(mode)[0]
+    else:
+        most = min(lim.max_speed_no_substeps, 0.008 / engine.timestep)
+    return min(most, lim.max_guided_speed_by_mode.get(mode, (most, ""))[0], 10.0)
+
+
+@pytest.mark.parametrize("mode", ["raw", "tuned", "extension"])
+@pytest.mark.parametrize("backend", ENGINES)
+def test_a_push_faster_than_the_engine_follows_in_its_mode_is_refused_at_its_speed(backend, mode):
+    """A push drives its pusher and the brick it meets at its speed: as fast as a throw, stepped
+    without substeps but in extension mode. Raw pybullet's pusher passed through the brick from
+    4 m/s (16.7 mm a step), MuJoCo sent a brick pushed at 10 m/s through a fixed wall (raw,
+    tuned) or 5.7 m back off it (extension); none was refused."""
+    if backend == "mujoco":
+        pytest.importorskip("mujoco")
+    most = push_limit(backend, mode)
+    compile_scenario(parse_scenario(pushed(backend, mode, round(most * 0.99, 4)), "p.yaml"))  # just under: taken
+    if most >= 10.0:
+        return  # the language's own bound, 10 m/s, is below the engine's
+    err = refusal(pushed(backend, mode, round(most * 1.02, 4)))
+    assert err.field == "actions[0].push.speed" and (err.line, err.column) == (9, 61), (err.line, err.column)
+    assert ENGINES[backend].NAME in err.message and f"in {mode} mode" in err.message
+    assert f"at most {most:.3g} m/s" in err.message
+
+
+def test_a_push_at_ten_metres_a_second_into_a_wall_is_taken_only_where_substeps_follow_the_brick():
+    """10 m/s, the language's largest push speed, at a fixed wall: pybullet's extension mode
+    stops the brick at the wall (177 mm of 186); every other mode is refused."""
+    taken = []
+    for backend in ENGINES:
+        for mode in ("raw", "tuned", "extension"):
+            try:
+                compile_scenario(parse_scenario(pushed(backend, mode, 10.0), "p.yaml"))
+                taken.append((backend, mode))
+            except ScenarioError as err:
+                assert err.field == "actions[0].push.speed"
+    assert taken == [("pybullet", "extension")]
+
+
+@pytest.mark.parametrize("mode", ["raw", "tuned", "extension"])
+@pytest.mark.parametrize("backend", ENGINES)
+def test_at_each_modes_push_limit_a_pushed_brick_stops_at_the_wall(backend, mode):
+    """Pushed at its mode's limit, the brick must stop against the wall (x = 186 mm, restitution
+    0): not pass through or sink into it, not rebound far (MuJoCo tuned: 38 mm short)."""
+    pytest.importorskip(backend)
+    outcome = run_program(compile_scenario(parse_scenario(pushed(backend, mode, push_limit(backend, mode)), "p.yaml")))
+    x, _, z = next(n.position_mm for n in outcome.final_graph.nodes if n.id == "a")
+    assert 186.0 - 45.0 < x < 186.0 + 1.0 and z > 3.5, (x, z)

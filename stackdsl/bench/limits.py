@@ -6,6 +6,9 @@ measured again, past them, with the compiler's check of them off.
   defaults.
 * **Fastest projectile**: a KAPLA brick thrown at a fixed 8 mm wall (:func:`stackdsl.bench.hard.wall_throw`)
   with substeps (extension mode) and without (raw mode): where it ends (beyond the wall if x > 0).
+* **Fastest push**: a KAPLA brick lying on the ground pushed end on (a KAPLA pusher, 5 mm gap,
+  25 mm of travel) towards a fixed 8 mm wall that stops it at x = 186 mm (:func:`pushed_at_wall`),
+  in each mode: where it ends (a rebound if less, through or into the wall if more).
 * **Largest mass ratio**: a heavy KAPLA brick crossed on a light one, twice (four bricks), in
   tuned mode: how far the bricks sank or moved (the collapse threshold is 4 mm).
 * **Largest restitution**: in each mode, for each restitution (of every material, the ground's
@@ -33,6 +36,7 @@ from .hard import format_wall, thrown_at_wall
 
 SIDES_MM = (1.5, 2.0, 2.5, 3.0)
 SPEEDS = {"extension": (20.0, 30.0, 35.0, 40.0, 50.0, 100.0), "raw": (5.0, 8.0, 10.0, 20.0, 25.0, 30.0)}
+PUSH_SPEEDS = (1.5, 1.75, 2.0, 2.5, 4.0, 10.0)
 RATIOS = (100, 300, 500, 1000, 3000, 5000)
 MODES = ("raw", "tuned", "extension")
 RESTITUTIONS = (0.0, 0.05, 0.1, 0.2, 0.3, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.99)
@@ -179,6 +183,35 @@ def format_speeds(backend: str) -> str:
     return "\n\n".join(parts)
 
 
+def pushed_at_wall(speed: float, backend: str, mode: str) -> str:
+    """Scenario text: a KAPLA brick at the origin pushed along +x at ``speed`` m/s for 25 mm (5 mm
+    gap), towards a fixed 8 mm wall whose face is at x = 246 mm: it stops with its centre at 186 mm.
+
+    >>> "speed: 2 m/s" in pushed_at_wall(2, "pybullet", "raw")
+    True
+    """
+    return (
+        f"stackdsl: 1\nbrick_types: {{wall: {{size: [8 mm, 200 mm, 100 mm]}}}}\nengine: {{backend: {backend}, mode: {mode}}}\n"
+        "structure:\n  bricks:\n    - {id: wall, brick: wall, at: [250 mm, 0, 50 mm], fixed: true}\n"
+        "    - {id: a, at: [0, 0, 4 mm]}\n"
+        f"actions: [{{push: {{target: {{brick: a}}, direction: [1, 0, 0], speed: {speed:g} m/s, distance: 25 mm, gap: 5 mm, at: 1 s}}}}]\n"
+    )
+
+
+def format_pushes(backend: str, speeds: Sequence[float] = PUSH_SPEEDS) -> str:
+    """The fastest-push table of ``backend``, markdown: where the pushed brick's centre ends
+    (x; 186 mm at the wall) and its height when it sank (a KAPLA brick lies at z = 4 mm)."""
+    lines = ["| push | " + " | ".join(MODES) + " |", "|---:|" + "---:|" * len(MODES)]
+    for speed in speeds:
+        cells = []
+        for mode in MODES:
+            outcome = _run(pushed_at_wall(speed, backend, mode))
+            x, _, z = next(n.position_mm for n in outcome.final_graph.nodes if n.id == "a")
+            cells.append(f"x = {x:.1f} mm" + ("" if z > 3.5 else f", z = {z:.1f} mm"))
+        lines.append(f"| {speed:g} m/s | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def format_ratios(backend: str, ratios: Sequence[float] = RATIOS) -> str:
     """The mass-ratio table of ``backend``, markdown (tuned mode)."""
     lines = ["| density ratio | tuned |", "|---:|---:|"]
@@ -226,6 +259,8 @@ def format_report(backends: Sequence[str]) -> str:
             f"Smallest side (how far a cube moved, or the level that collapsed):\n\n{format_sides(backend)}\n\n"
             f"A KAPLA brick thrown at a fixed 8 mm wall, with substeps (extension) and without (raw):\n\n"
             f"{format_speeds(backend)}\n\n"
+            "A KAPLA brick pushed at a fixed 8 mm wall that stops it at x = 186 mm, in each mode:\n\n"
+            f"{format_pushes(backend)}\n\n"
             f"A heavy KAPLA brick crossed on a light one, twice:\n\n{format_ratios(backend)}\n\n"
             "Every material of one restitution: a 4 stack built as usual, and the most energy a dropped KAPLA brick keeps "
             f"after it lands, as a share of what it fell with (of {len(DROPS)} drops, the one that kept the most):\n\n"

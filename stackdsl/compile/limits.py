@@ -4,8 +4,8 @@ The language's bounds (:mod:`stackdsl.lang.bounds`) hold for every engine; each 
 narrower ones of its own, measured on it (:class:`stackdsl.engines.protocol.Limits`,
 ``stackdsl bench limits``). A scene beyond them would run, and give an answer that is the
 engine's artefact, not the scene's: a 2 mm cube that falls over on pybullet's ground, a brick
-thrown through a wall, a light brick crushed under a heavy one by a solver that cannot balance a
-mass ratio of 10,000, a brick that bounces higher than it fell. So the compiler refuses it, at the field to
+thrown or pushed through a wall, a light brick crushed under a heavy one by a solver that cannot
+balance a mass ratio of 10,000, a brick that bounces higher than it fell. So the compiler refuses it, at the field to
 change, naming the engine, what was measured, and an engine or setting that would take it when
 there is one. The check uses the engine the run uses, after ``--backend`` and ``--mode``.
 
@@ -59,7 +59,8 @@ def check_limits(
     Raises:
         ScenarioError: at a brick type's ``size`` (a side below the engine's smallest; a
             wall's half brick's at the wall's ``brick``), an impact's ``speed`` (faster than the
-            engine holds), a material's ``density`` or brick type's ``size`` (a mass ratio
+            engine holds), a push's ``speed`` (the same, or a mode's measured limit for a pushed
+            brick), a material's ``density`` or brick type's ``size`` (a mass ratio
             beyond the engine's) or a material's ``restitution`` (a contact bouncier than the
             engine holds in the run's mode).
     """
@@ -103,6 +104,7 @@ def check_limits(
             raise scenario.source.error(
                 ("impacts", index, "speed"), f"{impact.speed:g} m/s is faster than {name} simulates faithfully {why}"
             )
+    _check_motions(scenario, engine, thinnest)
     masses = {t: specs[t].mass for t in set(moving)}
     if len(masses) > 1:
         static = bricks is not None and not scenario.impacts and not scenario.actions
@@ -127,6 +129,44 @@ def check_limits(
                 f"(measured: {limits.measured['max_mass_ratio']}){taken}",
             )
     _check_restitution(scenario, engine, moving, [*fixed, *(t for t in specs if t not in set(moving))])
+
+
+def _guided_speed(engine: EngineSettings, thinnest: float) -> tuple[float, str]:
+    """m/s, the fastest a guided body (a pusher and the brick it drives) may move in
+    ``engine``'s run, and why. Substeps follow the structure's bricks only in extension mode (:class:`stackdsl.runtime.subscribers.Substeps`); in the other modes a
+    pushed brick is stepped whole, as a throw without substeps. A mode may hold less still,
+    measured with a pusher (:attr:`Limits.max_guided_speed_by_mode`)."""
+    kind = type(engine)
+    limits = kind.LIMITS
+    if engine.ccd and engine.mode == "extension":
+        most, measured = limits.fastest(engine.mode)
+        why = f"with substeps: at most {most:g} m/s (measured for a thrown brick: {measured})"
+    else:
+        per_step = thinnest / engine.timestep
+        most = min(limits.max_speed_no_substeps, per_step)
+        why = f"in {engine.mode} mode, without substeps for the structure's bricks: at most {most:.3g} m/s, " + (
+            f"or in one {engine.timestep * 1000:.3g} ms step it moves further than the thinnest brick ({_mm(thinnest)}) "
+            "and may pass through it"
+            if per_step < limits.max_speed_no_substeps
+            else f"(measured for a thrown brick: {limits.measured['max_speed_no_substeps']})"
+        )
+    own = limits.max_guided_speed_by_mode.get(engine.mode)
+    if own is not None and own[0] < most:
+        most, why = own[0], f"in {engine.mode} mode: at most {own[0]:g} m/s (measured: {own[1]})"
+    return most, why
+
+
+def _check_motions(scenario: Scenario, engine: EngineSettings, thinnest: float) -> None:
+    """Refuse a push faster than ``engine`` follows in the run's mode (:func:`_guided_speed`)."""
+    kind = type(engine)
+    most, why = _guided_speed(engine, thinnest)
+    for index, action in enumerate(scenario.actions):
+        if action.push is not None and action.push.speed > most * (1 + 1e-9):
+            raise scenario.source.error(
+                ("actions", index, "push", "speed"),
+                f"a push at {action.push.speed:g} m/s is faster than {kind.NAME} simulates faithfully {why}; "
+                f"the pusher and the brick it drives move at that speed",
+            )
 
 
 def _check_restitution(scenario: Scenario, engine: EngineSettings, moving: Sequence[str], still: Sequence[str]) -> None:

@@ -64,6 +64,9 @@ class Limits:
             per mode, ``max_restitution_MODE``.
         max_speed_by_mode: mode -> (m/s, what was measured): a mode whose own timestep and
             contacts hold less than :attr:`max_speed`.
+        max_guided_speed_by_mode: mode -> (m/s, what was measured): the fastest push (its
+            pusher and the brick it drives) in a mode that holds less than a
+            thrown brick's limit gives it (``stackdsl.compile.limits``).
     """
 
     min_side: float
@@ -73,6 +76,7 @@ class Limits:
     max_restitution: dict[str, float] = field(default_factory=dict)
     measured: dict[str, str] = field(default_factory=dict)
     max_speed_by_mode: dict[str, tuple[float, str]] = field(default_factory=dict)
+    max_guided_speed_by_mode: dict[str, tuple[float, str]] = field(default_factory=dict)
 
     def fastest(self, mode: str) -> tuple[float, str]:
         """m/s, the fastest projectile with substeps in ``mode``, and what was measured."""

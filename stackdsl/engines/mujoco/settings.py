@@ -85,6 +85,23 @@ class MuJoCoSettings(EngineSettings):
                 "8 mm wall even with substeps (18 m/s: it stays)",
             )
         },
+        max_guided_speed_by_mode={
+            "raw": (
+                2.0,
+                "a KAPLA brick pushed at 2.5 m/s at a fixed 8 mm wall 186 mm ahead sinks into it, its centre 1.2 mm "
+                "above the ground, and at 10 m/s passes through it (2 m/s: it stops at the wall)",
+            ),
+            "tuned": (
+                1.5,
+                "a KAPLA brick pushed at 1.75 m/s at a fixed 8 mm wall 186 mm ahead rebounds 85 mm off it at "
+                "restitution 0, 406 mm at 4 m/s, and from 6 m/s passes through it (1.5 m/s: it stops 38 mm short)",
+            ),
+            "extension": (
+                1.5,
+                "a KAPLA brick pushed at 1.75 m/s at a fixed 8 mm wall 186 mm ahead rebounds 75 mm off it at "
+                "restitution 0, 716 mm at 4 m/s and 5.9 m at 10 m/s (1.5 m/s: it stops at the wall)",
+            ),
+        },
     )
 
     mode: Literal["raw", "tuned", "extension"]

@@ -450,3 +450,31 @@ def test_at_each_modes_push_limit_a_pushed_brick_stops_at_the_wall(backend, mode
     outcome = run_program(compile_scenario(parse_scenario(pushed(backend, mode, push_limit(backend, mode)), "p.yaml")))
     x, _, z = next(n.position_mm for n in outcome.final_graph.nodes if n.id == "a")
     assert 186.0 - 45.0 < x < 186.0 + 1.0 and z > 3.5, (x, z)
+
+
+def shaken(backend: str, mode: str, amplitude_mm: float, frequency: float = 5.0) -> str:
+    """A KAPLA brick lying on a table shaken along x by ``amplitude_mm`` at ``frequency`` Hz."""
+    return (
+        f"stackdsl: 1\nengine: {{backend: {backend}, mode: {mode}}}\n"
+        "structure:\n  bricks:\n    - {id: a, at: [0, 0, 4 mm]}\n"
+        f"actions:\n  - shake: {{amplitude: {amplitude_mm!r} mm, frequency: {frequency:g} Hz, duration: 1 s, at: 1 s}}\n"
+    )
+
+
+@pytest.mark.parametrize("mode", ["raw", "tuned", "extension"])
+@pytest.mark.parametrize("backend", ENGINES)
+def test_a_shake_whose_table_moves_faster_than_a_push_may_is_refused_at_its_amplitude(backend, mode):
+    """The table peaks at amplitude x 2 pi f, and a brick riding it, or slipping on it, as fast:
+    MuJoCo's tuned mode slid a brick shaken by 50 mm at 5 Hz (1.57 m/s) 181 mm the wrong way,
+    its raw mode one shaken by 100 mm at 10 Hz 19 times as far as the closed form."""
+    if backend == "mujoco":
+        pytest.importorskip("mujoco")
+    most = push_limit(backend, mode)
+    w = 2 * 3.141592653589793 * 5.0
+    if most / w > 0.1:
+        pytest.skip("the language's 100 mm amplitude is below the engine's limit at 5 Hz")
+    compile_scenario(parse_scenario(shaken(backend, mode, round(most / w * 1000 * 0.99, 3)), "s.yaml"))
+    err = refusal(shaken(backend, mode, round(most / w * 1000 * 1.02, 3)))
+    assert err.field == "actions[0].shake.amplitude" and (err.line, err.column) == (7, 24), (err.line, err.column)
+    assert ENGINES[backend].NAME in err.message and f"at most {most:.3g} m/s" in err.message
+    assert f"give at most {most / w * 1000:.3g} mm" in err.message

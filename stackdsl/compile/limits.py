@@ -60,7 +60,7 @@ def check_limits(
         ScenarioError: at a brick type's ``size`` (a side below the engine's smallest; a
             wall's half brick's at the wall's ``brick``), an impact's ``speed`` (faster than the
             engine holds), a push's ``speed`` (the same, or a mode's measured limit for a pushed
-            brick), a material's ``density`` or brick type's ``size`` (a mass ratio
+            brick), a shake's ``amplitude`` (its table as fast), a material's ``density`` or brick type's ``size`` (a mass ratio
             beyond the engine's) or a material's ``restitution`` (a contact bouncier than the
             engine holds in the run's mode).
     """
@@ -132,7 +132,7 @@ def check_limits(
 
 
 def _guided_speed(engine: EngineSettings, thinnest: float) -> tuple[float, str]:
-    """m/s, the fastest a guided body (a pusher and the brick it drives) may move in
+    """m/s, the fastest a guided body (a pusher and the brick it drives, a shake table) may move in
     ``engine``'s run, and why. Substeps follow the structure's bricks only in extension mode (:class:`stackdsl.runtime.subscribers.Substeps`); in the other modes a
     pushed brick is stepped whole, as a throw without substeps. A mode may hold less still,
     measured with a pusher (:attr:`Limits.max_guided_speed_by_mode`)."""
@@ -157,7 +157,9 @@ def _guided_speed(engine: EngineSettings, thinnest: float) -> tuple[float, str]:
 
 
 def _check_motions(scenario: Scenario, engine: EngineSettings, thinnest: float) -> None:
-    """Refuse a push faster than ``engine`` follows in the run's mode (:func:`_guided_speed`)."""
+    """Refuse a push, or a shake whose table moves (at up to ``amplitude 2 pi frequency``),
+    faster than ``engine`` follows in the run's mode (:func:`_guided_speed`): what rides the
+    table moves as fast, and slides on it as fast once it slips."""
     kind = type(engine)
     most, why = _guided_speed(engine, thinnest)
     for index, action in enumerate(scenario.actions):
@@ -166,6 +168,17 @@ def _check_motions(scenario: Scenario, engine: EngineSettings, thinnest: float) 
                 ("actions", index, "push", "speed"),
                 f"a push at {action.push.speed:g} m/s is faster than {kind.NAME} simulates faithfully {why}; "
                 f"the pusher and the brick it drives move at that speed",
+            )
+        shake = action.shake
+        if shake is None:
+            continue
+        w = 2 * math.pi * shake.frequency
+        if shake.amplitude * w > most * (1 + 1e-9):
+            raise scenario.source.error(
+                ("actions", index, "shake", "amplitude"),
+                f"{_mm(shake.amplitude)} at {shake.frequency:g} Hz moves the table at up to {shake.amplitude * w:.3g} m/s "
+                f"(amplitude x 2 pi frequency), faster than {kind.NAME} simulates faithfully {why}; at "
+                f"{shake.frequency:g} Hz give at most {_mm(most / w)}",
             )
 
 

@@ -176,7 +176,14 @@ class Push(StrictModel):
     target: Annotated[PushTarget, Field(description="what is pushed: {brick: ID, offset} or {point: [x, y, z]}")]
     direction: Annotated[Direction, Field(description="the push's direction ([x, y, z], any length)", examples=[[1, 0, 0]])]
     at: Annotated[ActionWhen, Field(description="when the pusher enters and starts to move", examples=["1 s", "after level 3"])]
-    speed: Annotated[GuideSpeed, Field(description="how fast the pusher moves", examples=["0.1 m/s"])] = 0.05
+    speed: Annotated[
+        GuideSpeed,
+        Field(
+            description="how fast the pusher moves: at most 10 m/s, and no faster than the run's engine follows "
+            "a pushed brick in its mode (docs/results/limits.md)",
+            examples=["0.1 m/s"],
+        ),
+    ] = 0.05
     distance: Annotated[Travel, Field(description="how far the pusher moves", examples=["30 mm"])] = 0.03
     gap: Annotated[
         PusherGap, Field(description="from the pusher's front to the target's surface at the start", examples=["5 mm"])
@@ -195,7 +202,14 @@ class Shake(StrictModel):
     frequency is fitted to them), starting and ending at rest where it started. Its peak
     acceleration is ``amplitude (2 pi frequency)^2``."""
 
-    amplitude: Annotated[Amplitude, Field(description="half the table's stroke: above 0, at most 100 mm", examples=["2 mm"])]
+    amplitude: Annotated[
+        Amplitude,
+        Field(
+            description="half the table's stroke: above 0, at most 100 mm, and the table's peak speed "
+            "(amplitude x 2 pi frequency) within what the run's engine follows a push at in its mode",
+            examples=["2 mm"],
+        ),
+    ]
     frequency: Annotated[
         ShakeFrequency,
         Field(

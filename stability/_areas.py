@@ -13,6 +13,7 @@ import math
 from collections import defaultdict
 from collections.abc import Iterable, Mapping, Sequence
 from collections.abc import Set as AbstractSet
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -30,6 +31,18 @@ FACES = 64
 """Face overlaps kept (:meth:`ContactAreas._face`); all are forgotten when there are this many."""
 
 
+@dataclass(frozen=True)
+class Boxes:
+    """The bodies :meth:`ContactAreas.lying_on` looks among: ``rank`` (body -> registration
+    index), the ``planes``, and the boxed ``records`` with their ``table`` of bounding boxes,
+    shape (n, 6): top z, x min, x max, y min, y max (m) and the least half extent (m)."""
+
+    rank: dict[int, int]
+    planes: list[Record]
+    records: list[Record]
+    table: np.ndarray
+
+
 class ContactAreas:
     """The contact areas and polygons of the bricks of ``stack``, from their contact points.
 
@@ -42,6 +55,7 @@ class ContactAreas:
     def __init__(self, stack: Stack) -> None:
         self.stack = stack
         self._faces: dict[tuple[float, ...], ContactArea | None] = {}  # the last face overlaps, by their bodies and poses
+        self._still: tuple[tuple[int, int], Boxes] | None = None  # the frozen and environment boxes, of a stack version
         self.config = stack.config
         self.support_cos = math.cos(math.radians(self.config.support_angle))
 
@@ -124,41 +138,71 @@ class ContactAreas:
             out.append(ContactPolygon(rec.body, other, polygon, normal, friction, own if padded else None))
         return out
 
-    def lying_on(self, rec: Record, pose: Pose, active: bool = False) -> dict[int, ContactArea]:
+    def boxes(self, active: bool = False) -> Boxes:
+        """The bounding boxes :meth:`lying_on` looks among: of the frozen bricks and environment
+        boxes (kept until the stack or its registered bodies change) and, with ``active``, of
+        the active bricks where they are now (found anew: pass them to each :meth:`lying_on` of
+        the same moment, as the brick graph and the certificate do for every active brick)."""
+        stack = self.stack
+        key = (stack.version, stack.registrations)
+        if self._still is None or self._still[0] != key:
+            rank = {body: i for i, body in enumerate(stack.bodies)}
+            planes = [r for r in stack.bodies.values() if isinstance(r.shape, Plane)]
+            still = [r for r in stack.bodies.values() if r.state is not BrickState.ACTIVE and not isinstance(r.shape, Plane)]
+            self._still = (key, Boxes(rank, planes, still, np.array([self._extent(r) for r in still]).reshape(-1, 6)))
+        boxes = self._still[1]
+        if not active or not stack.active:
+            return boxes
+        moving = [r for r in stack.active.values() if not isinstance(r.shape, Plane)]
+        table = np.array([self._extent(r) for r in moving]).reshape(-1, 6)
+        return Boxes(boxes.rank, boxes.planes, boxes.records + moving, np.vstack([boxes.table, table]))
+
+    def _extent(self, other: Record) -> tuple[float, float, float, float, float, float]:
+        """Top z, x min, x max, y min, y max of ``other``'s box where it is (m; remembered for a
+        frozen brick and, found once, for an environment box), and its least half extent."""
+        extent, box = other.extent, other.box
+        if extent is None:  # an environment box (still: found once), or an active brick
+            c = box.corners(self.stack.pose(other))
+            low, high = c.min(axis=0), c.max(axis=0)
+            extent = (float(high[2]), float(low[0]), float(high[0]), float(low[1]), float(high[1]))
+            if other.state is BrickState.GROUND:
+                other.extent = extent
+        return (*extent, float(box.half_extents.min()))
+
+    def lying_on(self, rec: Record, pose: Pose, active: bool = False, boxes: Boxes | None = None) -> dict[int, ContactArea]:
         """The frozen bricks and environment bodies (and with ``active`` the active bricks too)
         ``rec`` lies on face to face at ``pose`` (its bottom face within the face gap of their
         top faces), with the exact contact areas (:func:`stability._geometry.face_overlap`), in
-        registration order. From the poses alone: no contact point is read."""
+        registration order. From the poses alone: no contact point is read. ``boxes``: those of
+        :meth:`boxes` for the same ``active``, found once for the bricks of one moment.
+
+        The bodies whose boxes cannot meet ``rec``'s bottom face are left out all at once (one
+        comparison of arrays), so that asking it of each brick of a heap of 2000 costs what the
+        face overlaps cost: a loop over every body for each brick took 20 s for the brick graph
+        of a fallen 500-level tower. Source: stackdsl's own."""
         gap = self.config.face_gap
         corners = rec.box.corners(pose)
         bottom = float(corners[:, 2].min())
         x0, y0 = corners[:, :2].min(axis=0)
         x1, y1 = corners[:, :2].max(axis=0)
+        boxes = boxes if boxes is not None else self.boxes(active)
+        t = boxes.table
+        near = np.flatnonzero(
+            (bottom <= t[:, 0] + gap)
+            & (bottom >= t[:, 0] - t[:, 5])
+            & (t[:, 1] < x1)
+            & (t[:, 2] > x0)
+            & (t[:, 3] < y1)
+            & (t[:, 4] > y0)
+        )
+        found = [*boxes.planes, *(boxes.records[i] for i in near.tolist())]
+        found.sort(key=lambda r: boxes.rank[r.body])
         out = {}
-        for other in self.stack.bodies.values():
-            if (other.state is BrickState.ACTIVE and not active) or other is rec:
+        for other in found:
+            if other is rec or other.body not in boxes.rank:
                 continue
-            if isinstance(other.shape, Plane):
-                area = face_overlap(rec.box, pose, other.shape, None, gap)
-            else:
-                extent = other.extent
-                if extent is None:  # an environment box (still: found once), or an active brick
-                    c = other.shape.corners(self.stack.pose(other))
-                    low, high = c.min(axis=0), c.max(axis=0)
-                    extent = (float(high[2]), float(low[0]), float(high[0]), float(low[1]), float(high[1]))
-                    if other.state is BrickState.GROUND:
-                        other.extent = extent
-                top, ox0, ox1, oy0, oy1 = extent
-                if (
-                    bottom > top + gap
-                    or bottom < top - float(other.shape.half_extents.min())
-                    or ox0 >= x1
-                    or ox1 <= x0
-                    or oy0 >= y1
-                    or oy1 <= y0
-                ):
-                    continue
-                area = face_overlap(rec.box, pose, other.shape, self.stack.pose(other), gap)
+            other_pose = None if isinstance(other.shape, Plane) else self.stack.pose(other)
+            area = face_overlap(rec.box, pose, other.shape, other_pose, gap)
             if area is not None and area.area > 0.0:
                 out[other.body] = area
         return out

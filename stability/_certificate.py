@@ -111,10 +111,11 @@ def certify(stack: Stack, areas: ContactAreas) -> Certificate:
         # a face is the whole overlap, which the engine's few points of it may not span (a brick
         # turned 30 deg on another: pybullet's four points left out a corner of the pentagon, the
         # centre of mass fell outside their hull and a still brick had "no equilibrium")
+        boxes = areas.boxes(active=True)
         for r in active:
             faces = [
                 ContactPolygon(r.body, o, a.corners(), a.normal, pair_friction(r.friction, stack.bodies[o].friction))
-                for o, a in areas.lying_on(r, stack.engine.pose(r.body), active=True).items()
+                for o, a in areas.lying_on(r, stack.engine.pose(r.body), active=True, boxes=boxes).items()
                 if frozenset((r.body, o)) not in pairs
             ]
             pairs |= {frozenset((c.body, c.other)) for c in faces}

@@ -433,13 +433,14 @@ class StabilityExtension:
         nodes = self._stack.nodes(bricks)
         active = [r for r in bricks if r.state is BrickState.ACTIVE]
         contacts = by_body(self._stack.engine.contact_points()) if active else {}  # a frozen stack: none read
+        boxes = self._areas.boxes(active=True) if active else None
         for r in active:
             pose = self._stack.pose(r)
             supports = self._areas.supports(r, contacts[r.body], False)
             # and what it lies on face to face: the engine has no contact yet between a brick
             # woken this step and the frozen one under it (two bodies of mass 0 had none), and
             # the level-5 bricks of a tower struck at level 6 "rested on nothing"
-            faces = {o: a for o, a in self._areas.lying_on(r, pose, active=True).items() if o not in supports}
+            faces = {o: a for o, a in self._areas.lying_on(r, pose, active=True, boxes=boxes).items() if o not in supports}
             if faces:
                 supports = {o: supports.get(o) or faces[o] for o in self._stack.ordered({*supports, *faces})}
             nodes[r.body] = LoadNode(r.box.mass, pose.position, supports)

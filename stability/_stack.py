@@ -143,6 +143,7 @@ class Stack:
         self.just_frozen: set[int] = set()  # frozen in the extension's update under way (StackTest undoes such a freeze alone)
         self.loads_fresh = True  # com_above / mass_above of every frozen brick are up to date
         self.version = 0  # counts the changes of the frozen stack (freezes and wakes)
+        self.registrations = 0  # counts the bodies registered and unregistered (add, forget)
         self.standing_version: int | None = None  # a version whose whole frozen stack a program showed to stand
         self.holding = True  # bricks woken in a proved mechanism are held active (none while a heap settles)
         self.guided: set[int] = set()  # bodies an outside hand moves (a gripper, a pusher): never frozen
@@ -158,6 +159,7 @@ class Stack:
         if rec.body in self.bodies:
             raise ValueError(f"body {rec.body} is registered already")
         self.bodies[rec.body] = rec
+        self.registrations += 1
         if rec.state is BrickState.ACTIVE:
             self.active[rec.body] = rec
 
@@ -235,6 +237,7 @@ class Stack:
         if rec.state is not BrickState.ACTIVE:
             raise ValueError(f"{rec.label} is {rec.state.value}: only an active body can be taken away")
         del self.bodies[body]
+        self.registrations += 1
         self.active.pop(body, None)
         self.guided.discard(body)
         self.hand_speed.pop(body, None)

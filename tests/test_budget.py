@@ -1,6 +1,7 @@
 """The work budget: runaway scenes refused before simulating, the substep cap, the timeout."""
 
 import math
+import time
 from pathlib import Path
 
 import pytest
@@ -204,3 +205,20 @@ def test_without_a_timeout_a_run_finishes():
     assert "finished" not in {v.name for v in evaluate(parse_scenario(TWO + "expect: {stands: true}\n").expect, outcome, 0.004)}
     with pytest.raises(ValueError, match="timeout"):
         run_program(program(TWO), timeout=-1.0)
+
+
+def test_a_runs_wall_time_counts_the_brick_graph_built_after_its_last_step(monkeypatch):
+    # the final brick graph is part of the run: a fallen 1000-level tower's took a minute that
+    # neither its wall time nor its timeout saw
+    graph = _subscribers.Stability.graph
+
+    def slow(self, loop):
+        time.sleep(0.4)
+        return graph(self, loop)
+
+    monkeypatch.setattr(_subscribers.Stability, "graph", slow)
+    started = time.perf_counter()
+    outcome = run_program(program(TWO))
+    took = time.perf_counter() - started
+    assert outcome.wall_time >= 0.4 and took - outcome.wall_time < 0.1
+    assert outcome.final_graph.nodes and outcome.stopped is None

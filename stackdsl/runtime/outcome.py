@@ -206,7 +206,8 @@ class Outcome(_Frozen):
         kinetic_energy: joules, of the structure's bricks at the end (their linear and
             angular motion).
         levels_placed, bricks_placed: how much was built (building stops at a collapse).
-        simulated_time, wall_time: seconds; steps: physics steps taken; steps_skipped:
+        simulated_time, wall_time: seconds (the wall time from the start of the run to the
+            outcome built, its final brick graph included); steps: physics steps taken; steps_skipped:
             steps jumped over while every brick was frozen.
         engine_time: seconds of the wall time spent in the engine's own steps (the rest is
             stackdsl's: the extension, the monitor, placing).

@@ -126,7 +126,8 @@ def run_program(
     start = _time.perf_counter()
     with _older_objects_left_alone(), world_for(program, shelve=options.shelve) as world:
         loop = run_in(world, program, options, timeout=timeout, started=start, subscribers=subscribers)
-        return outcome(loop, _time.perf_counter() - start)
+        built = outcome(loop, 0.0)  # its wall time counts the final brick graph too: it is part of the run
+        return built.model_copy(update={"wall_time": _time.perf_counter() - start})
 
 
 def check_timeout(timeout: float | None) -> None:
@@ -258,7 +259,6 @@ def outcome(loop: StepLoop, wall_time: float) -> Outcome:
         ValueError: ``loop`` was not made by :func:`run_in` (it has no collapse monitor or
             stability extension among its subscribers).
     """
-    ended = _time.perf_counter()
     monitor = next((s for s in loop.subscribers if isinstance(s, CollapseMonitor)), None)
     stability = next((s for s in loop.subscribers if isinstance(s, Stability)), None)
     if monitor is None or stability is None:
@@ -267,13 +267,15 @@ def outcome(loop: StepLoop, wall_time: float) -> Outcome:
     placed = structure.placed
     # a run stopped at the step its collapse was decided in has that step's graph already
     final_graph = monitor.collapse_graph if monitor.graph_step == loop.step else None
+    final_graph = final_graph or stability.graph(loop)
+    ended = _time.perf_counter()
     return Outcome(
         scenario=loop.program.name,
         mode=loop.program.engine.mode,
         backend=loop.program.engine.backend,
         collapse=monitor.collapse,
         events=tuple(loop.events),
-        final_graph=final_graph or stability.graph(loop),
+        final_graph=final_graph,
         collapse_graph=monitor.collapse_graph,
         displacement={r.id: float(d) for r, d in zip(placed, structure.displacements(placed))},
         drift=monitor.drift,

@@ -205,8 +205,8 @@ class Shake(StrictModel):
     amplitude: Annotated[
         Amplitude,
         Field(
-            description="half the table's stroke: above 0, at most 100 mm, and the table's peak speed "
-            "(amplitude x 2 pi frequency) within what the run's engine follows a push at in its mode",
+            description="half the table's stroke: above 0, at most 100 mm, and the table's peak acceleration "
+            "(amplitude x (2 pi frequency)^2) at most 9.81 m/s^2, what the engines follow (docs/results/shake-table.md)",
             examples=["2 mm"],
         ),
     ]

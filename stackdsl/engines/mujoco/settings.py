@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from typing import ClassVar, Literal
 
-from ..protocol import EngineSettings, Limits
+from ..protocol import SHAKEN, EngineSettings, Limits
 
 _TUNED: dict[str, object] = dict(
     timestep=0.002,
@@ -85,6 +85,7 @@ class MuJoCoSettings(EngineSettings):
                 "8 mm wall even with substeps (18 m/s: it stays)",
             )
         },
+        max_shake_acceleration=(9.81, SHAKEN),
         max_guided_speed_by_mode={
             "raw": (
                 2.0,

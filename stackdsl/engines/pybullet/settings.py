@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from typing import ClassVar, Literal
 
-from ..protocol import EngineSettings, Limits
+from ..protocol import SHAKEN, EngineSettings, Limits
 
 
 class PyBulletSettings(EngineSettings):
@@ -60,6 +60,7 @@ class PyBulletSettings(EngineSettings):
                 )
             },
         },
+        max_shake_acceleration=(9.81, SHAKEN),
         max_guided_speed_by_mode={
             "raw": (
                 1.5,

@@ -429,6 +429,7 @@ actions:
     assert [a.kind for a in program.kinematic] == ["remove"]
 
 
+@pytest.mark.slow  # 4-7 s
 def test_a_pulled_brick_clear_of_the_tower_is_taken_out_before_it_falls_onto_anything():
     """A pulled brick keeps its own vertical motion: once it has cleared what it lay between it
     falls. The hand takes it out of the scene as soon as it touches nothing and is 1 mm below its
@@ -975,6 +976,7 @@ def test_a_push_whose_line_misses_the_brick_an_earlier_push_moved_says_so():
     assert "from where it was placed: the pusher's path misses it" in detail, detail
 
 
+@pytest.mark.slow  # 4-7 s
 def test_a_shake_that_starts_with_an_impact_says_what_moves_in_every_output(tmp_path, capsys):
     """A shake the frozen stack withstands is simulated all the same while a projectile flies:
     the timeline, run --json and the report said 'simulated (None)' and woke bricks for 'None'."""
@@ -1054,6 +1056,7 @@ def test_two_pushers_may_share_a_place_one_after_the_other_but_not_at_once():
     assert err.value.field == "actions[1].push.target"
 
 
+@pytest.mark.slow  # 4-7 s
 def test_a_pull_under_way_when_a_collapse_is_decided_runs_to_its_end():
     """A domino pushed over elsewhere is a collapse decided early in a slow pull: the run used
     to end the settle time after that, the pulled brick left half pulled out in the final scene

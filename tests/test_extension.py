@@ -449,11 +449,9 @@ def test_the_impact_rule_sees_a_blow_by_the_path_of_the_impactors_closest_point(
     assert _reaches(level, np.array([-1.0, 0.0, 0.0]), spin, np.array([0.1, 0.0, 0.004]), flat, below, window, pad)
 
 
-def test_a_freeze_under_a_piles_edge_that_fails_the_stack_test_is_undone_alone(monkeypatch):
-    """A brick frozen this step, under the edge of a pile frozen leaning on it while it moved:
-    when the report's rule fails it, its freeze is undone (it stays active, watched) and the
-    pile stays frozen; the pile woke with it before (43 dominoes of a fallen row, to freeze
-    again). Bricks frozen on it in the same step are no such pile: they wake with it."""
+def _under_a_piles_edge_failing_the_rule(monkeypatch: pytest.MonkeyPatch) -> tuple[Scene, int, int]:
+    """A brick that came to rest in this update under the edge of a pile frozen leaning on it
+    while it still moved, and the report's rule made to fail it: (scene, brick, pile)."""
     from shapely.geometry import box as rect
 
     from stability._geometry import ContactArea
@@ -472,6 +470,16 @@ def test_a_freeze_under_a_piles_edge_that_fails_the_stack_test_is_undone_alone(m
     failing = stack.bodies[edge]
     holds = s.ext._tests.areas.holds
     monkeypatch.setattr(s.ext._tests.areas, "holds", lambda main, point: main is not failing.main_contact and holds(main, point))
+    return s, edge, pile
+
+
+def test_a_freeze_under_a_piles_edge_that_fails_the_stack_test_is_undone_alone(monkeypatch):
+    """A brick frozen this step, under the edge of a pile frozen leaning on it while it moved:
+    when the report's rule fails it, its freeze is undone (it stays active, watched) and the
+    pile stays frozen; the pile woke with it before (43 dominoes of a fallen row, to freeze
+    again). Bricks frozen on it in the same step are no such pile: they wake with it."""
+    s, edge, pile = _under_a_piles_edge_failing_the_rule(monkeypatch)
+    stack = s.ext._stack
     from stability import _stack_test
 
     asked = []  # statics is asked first, and here says it does not stand either
@@ -499,24 +507,7 @@ def test_a_freeze_under_a_piles_edge_that_statics_holds_is_kept(monkeypatch):
     equilibrium holds it (the rule puts a share at its contact area's centre, beyond the
     brick's own support): it stays frozen, as the rule's other failures do. A fallen domino row
     on the report's model woke such a brick at the very step it froze."""
-    from shapely.geometry import box as rect
-
-    from stability._geometry import ContactArea
-
-    s = Scene()
-    stack = s.ext._stack
-    edge = s.brick(0.2, 1)
-    s.engine.velocities[edge] = (np.array([0.05, 0.0, 0.0]), np.zeros(3))
-    pile = s.brick(0.25, 2, on=(edge,))
-    up = np.array([0.0, 0.0, 1.0])
-    on_edge = ContactArea(rect(0.238, -0.012, 0.262, 0.012), H, up, exact=True)
-    leaning = ContactArea(rect(0.238, -0.012, 0.36, 0.012), H, up, exact=False)
-    stack.freeze(stack.bodies[pile], {edge: on_edge}, leaning, [])
-    stack.watch(stack.bodies[edge], {pile})
-    s.engine.velocities.pop(edge)
-    failing = stack.bodies[edge]
-    holds = s.ext._tests.areas.holds
-    monkeypatch.setattr(s.ext._tests.areas, "holds", lambda main, point: main is not failing.main_contact and holds(main, point))
+    s, edge, pile = _under_a_piles_edge_failing_the_rule(monkeypatch)
     events = s.ext.update(1.0)
     assert [(e.kind, e.label) for e in events] == [("freeze", "b1")]
     assert s.ext.state(edge) is BrickState.FROZEN and s.ext.state(pile) is BrickState.FROZEN

@@ -91,14 +91,7 @@ def check_limits(
             most, measured = limits.fastest(engine.mode)
             why = f"with substeps: at most {most:g} m/s (measured: {measured})"
         else:
-            per_step = thinnest / engine.timestep
-            most = min(limits.max_speed_no_substeps, per_step)
-            why = f"without substeps (engine.ccd off): at most {most:.3g} m/s, " + (
-                f"or in one {engine.timestep * 1000:.3g} ms step it moves further than the thinnest brick ({_mm(thinnest)}) "
-                "and may pass through it"
-                if per_step < limits.max_speed_no_substeps
-                else f"(measured: {limits.measured['max_speed_no_substeps']})"
-            )
+            most, why = _stepped_whole(engine, thinnest, "without substeps (engine.ccd off)", "measured")
             why += f"; with substeps (engine: {{ccd: true}}) up to {limits.fastest(engine.mode)[0]:g} m/s"
         if impact.speed > most * (1 + 1e-9):
             raise scenario.source.error(
@@ -142,14 +135,8 @@ def _guided_speed(engine: EngineSettings, thinnest: float) -> tuple[float, str]:
         most, measured = limits.fastest(engine.mode)
         why = f"with substeps: at most {most:g} m/s (measured for a thrown brick: {measured})"
     else:
-        per_step = thinnest / engine.timestep
-        most = min(limits.max_speed_no_substeps, per_step)
-        why = f"in {engine.mode} mode, without substeps for the structure's bricks: at most {most:.3g} m/s, " + (
-            f"or in one {engine.timestep * 1000:.3g} ms step it moves further than the thinnest brick ({_mm(thinnest)}) "
-            "and may pass through it"
-            if per_step < limits.max_speed_no_substeps
-            else f"(measured for a thrown brick: {limits.measured['max_speed_no_substeps']})"
-        )
+        lead = f"in {engine.mode} mode, without substeps for the structure's bricks"
+        most, why = _stepped_whole(engine, thinnest, lead, "measured for a thrown brick")
     own = limits.max_guided_speed_by_mode.get(engine.mode)
     if own is not None and own[0] < most:
         most, why = own[0], f"in {engine.mode} mode: at most {own[0]:g} m/s (measured: {own[1]})"
@@ -253,6 +240,22 @@ def _elsewhere(engine: EngineSettings, bound: str, value: float, takes: Callable
         if backend != engine.backend and ok:
             return f"; {kind.NAME} takes it (engine: {{backend: {backend}}})"
     return ""
+
+
+def _stepped_whole(engine: EngineSettings, thinnest: float, lead: str, measured: str) -> tuple[float, str]:
+    """m/s, the fastest a body stepped whole (no substeps) may move in ``engine``'s run: the
+    engine's measured limit, and less than ``thinnest`` (m) a step; and why, in words after
+    ``lead`` (``measured`` names what the limit was measured on)."""
+    limits = type(engine).LIMITS
+    per_step = thinnest / engine.timestep
+    most = min(limits.max_speed_no_substeps, per_step)
+    why = f"{lead}: at most {most:.3g} m/s, " + (
+        f"or in one {engine.timestep * 1000:.3g} ms step it moves further than the thinnest brick ({_mm(thinnest)}) "
+        "and may pass through it"
+        if per_step < limits.max_speed_no_substeps
+        else f"({measured}: {limits.measured['max_speed_no_substeps']})"
+    )
+    return most, why
 
 
 def _mm(metres: float) -> str:

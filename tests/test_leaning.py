@@ -315,6 +315,13 @@ def test_a_part_that_rests_on_a_brick_outside_it_is_tipped_over_its_whole_footpr
     assert s.ext.state(3) is BrickState.ACTIVE  # the lintel rests on it
 
 
+def _pusher(s: Scene, at: list[float]) -> None:
+    """A 20 x 10 x 6 mm pusher (body 7) at ``at`` (m), guided by a hand at 50 mm/s from t = 0.2 s."""
+    s.engine.poses[7] = Pose.from_euler(at)
+    s.ext.add_brick(7, Box(np.array([0.01, 0.005, 0.003]), 0.001), "pusher")
+    s.ext.guide(7, 0.2, "a pusher", 0.05)
+
+
 def test_a_brick_a_hand_drives_into_a_frozen_one_breaks_it_loose():
     """A pusher drives a loose brick at 50 mm/s (0.013 mJ) into another lying on the ground: by
     its own energy the blow was held (0.42 mJ to lift the other), and the 100 kg hand pushed
@@ -326,9 +333,7 @@ def test_a_brick_a_hand_drives_into_a_frozen_one_breaks_it_loose():
         s.ext.add_brick(body, KAPLA, "AB"[body - 1])
         s.engine.touch(body, 0, [[-0.06, y - 0.012, 0.0], [0.06, y + 0.012, 0.0]], normal=UP)
     s.ext.update(0.1)
-    s.engine.poses[7] = Pose.from_euler([0.0, -0.05, 0.004])
-    s.ext.add_brick(7, Box(np.array([0.01, 0.005, 0.003]), 0.001), "pusher")
-    s.ext.guide(7, 0.2, "a pusher", 0.05)
+    _pusher(s, [0.0, -0.05, 0.004])
     s.engine.velocities[7] = (np.array([0.0, 0.05, 0.0]), np.zeros(3))
     s.engine.touch(7, 1, [[0.0, -0.038, 0.004]], normal=[0, -1, 0])  # the pusher on A
     s.ext.update(0.2)
@@ -346,9 +351,7 @@ def test_a_brick_a_hand_drives_into_a_frozen_one_breaks_it_loose():
     t.ext.update(0.1)
     t.engine.poses[1] = Pose.from_euler([0.0, 0.0, 0.012])
     t.ext.add_brick(1, KAPLA, "A")
-    t.engine.poses[7] = Pose.from_euler([0.0, -0.03, 0.012])
-    t.ext.add_brick(7, Box(np.array([0.01, 0.005, 0.003]), 0.001), "pusher")
-    t.ext.guide(7, 0.2, "a pusher", 0.05)
+    _pusher(t, [0.0, -0.03, 0.012])
     t.engine.touch(7, 1, [[0.0, -0.012, 0.012]], normal=[0, -1, 0])
     t.ext.update(0.2)
     t.engine.velocities[1] = (np.array([0.0, 0.05, 0.0]), np.zeros(3))

@@ -976,3 +976,98 @@ def test_an_actions_fields_written_level_with_its_kind_are_told_to_indent():
     with pytest.raises(ScenarioError) as one:  # a typo still gets its 'did you mean'
         parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 3}}\nactions:\n  - psh: {target: {brick: L01.1}}\n")
     assert "did you mean 'push'" in one.value.message and "indent" not in one.value.message
+
+
+# numbers: one grammar in every form that reads one ------------------------------------------
+SWEEP = "stackdsl: 1\nstructure: {tower: {levels: 8}}\nsweep: {samples: 4}\nexpect: {%s}\n"
+
+
+@pytest.mark.parametrize(
+    "written, plain",
+    [
+        ("collapse: {mean: '3 ± .5'}", "collapse: {mean: '3 ± 0.5'}"),
+        ("collapse: {mean: '.5 ± 3'}", "collapse: {mean: '0.5 ± 3'}"),
+        ("collapse: {mean: '3. +- 1.'}", "collapse: {mean: '3 +- 1'}"),
+        ("collapse: {mean: '35e-1 +/- 5E-1'}", "collapse: {mean: '3.5 ± 0.5'}"),
+        ("collapse: {quantile: {q: .5, level: '3 ± .5'}}", "collapse: {quantile: {q: 0.5, level: '3 ± 0.5'}}"),
+        ("collapse: {quantile: {q: 0.5, level: '3.'}}", "collapse: {quantile: {q: 0.5, level: '3'}}"),
+        ("p_stands: '>= .9'", "p_stands: '>= 0.9'"),
+        ("p_stands: '<= 1.'", "p_stands: '<= 1'"),
+        ("p_stands: '> .05'", "p_stands: '> 0.05'"),
+        ("p_stands: '.5 ± .2'", "p_stands: '0.5 ± 0.2'"),
+        ("p_stands: '5e-1 ± 2e-1'", "p_stands: '0.5 ± 0.2'"),
+    ],
+)
+def test_a_statistic_reads_a_number_with_a_leading_or_trailing_point_as_python_does(written, plain):
+    """'3 ± .5' and '.5 ± .2' were refused as bad input where '3 ± 0.5' was taken; a quantity
+    ('.5 mm') and a condition ('x < .5') read them."""
+    assert scenario(SWEEP % written).expect == scenario(SWEEP % plain).expect
+
+
+JUNK_NUMBERS = [".", "..5", "5..", ".5.", "1e", "1e+", "e5", "1.2.3", "- 1", "0x1"]
+
+
+@pytest.mark.parametrize("junk", JUNK_NUMBERS)
+@pytest.mark.parametrize(
+    "form, field, message",
+    [
+        ("collapse: {mean: '3 ± %s'}", "expect.collapse.mean", "expected a level, alone (± 0) or with a tolerance"),
+        ("collapse: {mean: '%s ± 1'}", "expect.collapse.mean", "expected a level, alone (± 0) or with a tolerance"),
+        ("p_stands: '>= %s'", "expect.p_stands", "expected a comparison with a probability such as '>= 0.9'"),
+        ("p_stands: '%s ± 0.1'", "expect.p_stands", "expected a comparison with a probability such as '>= 0.9'"),
+    ],
+)
+def test_a_number_that_is_no_number_is_refused_as_any_junk_is(junk, form, field, message):
+    err = error(SWEEP % (form % junk))
+    assert (err.line, err.field) == (4, field) and err.message.startswith(message), err.message
+
+
+@pytest.mark.parametrize(
+    "written, says",
+    [
+        ("'9 ± .5'", "'9 ± .5' allows level 9 only: write 9"),
+        ("'.5'", "'.5' allows no whole level: write 1"),
+        ("'9. ± 1.5'", "'9. ± 1.5' allows levels 8 to 10, as '9±1' does: write that"),
+    ],
+)
+def test_a_runs_collapse_of_a_leading_point_fraction_gets_the_whole_level_advice(written, says):
+    err = error(f"stackdsl: 1\nstructure: {{tower: {{levels: 12}}}}\nexpect: {{collapse: {written}}}\n")
+    assert err.field == "expect.collapse" and says in err.message, err.message
+
+
+@pytest.mark.parametrize("key", ["collapse", "toppled"])
+@pytest.mark.parametrize("written", ["1e999 ± 1", "3 ± 1e999", "9" * 400 + ".5"])
+def test_a_whole_count_beyond_a_double_is_refused_cleanly(key, written):
+    """A fraction beyond a double ('1e999 ± 1') raised OverflowError (a traceback, exit 3)
+    while the whole-level advice was worked out."""
+    err = error(f"stackdsl: 1\nstructure: {{tower: {{levels: 12}}}}\nexpect: {{{key}: '{written}'}}\n")
+    assert err.field == f"expect.{key}" and err.message.endswith("(not finite)"), err.message
+
+
+def test_every_grammar_reads_the_same_numbers():
+    """A quantity, a tolerance, a bound and a condition share one number pattern (units.UNSIGNED)."""
+    import re
+
+    from stackdsl.lang.expressions import parse
+    from stackdsl.lang.grammar import BOUND, PLUS_MINUS
+    from stackdsl.lang.units import UNSIGNED
+
+    signed = ("- 1", "e5")  # in a condition, a negated number and a name
+    forms = ["5", "05", "5.", ".5", "0.5", "5e1", ".5e-1", "5.E+2", *(j for j in JUNK_NUMBERS if j not in signed), "", "5e1234"]
+    for form in forms:
+        number = re.fullmatch(UNSIGNED, form) is not None
+        assert number == (form in ("5", "05", "5.", ".5", "0.5", "5e1", ".5e-1", "5.E+2")), form
+        assert (re.fullmatch(PLUS_MINUS, f"{form} ± {form}") is not None) == number, form
+        assert (re.fullmatch(BOUND, f">= {form}") is not None) == number, form
+        try:
+            parse(f"x < {form}")
+            read = True
+        except ValueError:
+            read = False
+        assert read == number, form
+        try:
+            length(f"{form} mm")
+            measured = True
+        except ValueError:
+            measured = False
+        assert measured == number, form

@@ -455,6 +455,31 @@ def test_collapse_levels_are_accepted_alike(validator):
     assert differ == []
 
 
+STATISTIC_NUMBERS = ["3", "3.", ".5", "0.5", "3.5", "35e-1", "5E-1", ".", "..5", "5..", ".5.", "1e", "e5", "1.2.3", "x"]
+
+
+def statistic_forms() -> list[str]:
+    numbers = STATISTIC_NUMBERS
+    return [f"{n} ± {t}" for n in numbers for t in ("1", ".5", "5.", "..5")] + [
+        f"{t} +- {n}" for n in numbers for t in ("3", ".5")
+    ]
+
+
+def test_statistics_are_accepted_alike(validator):
+    """A sweep's mean and P(stands) read a number as the loader does, '.5' and '5.' too."""
+    sweep = "sweep: {samples: 4}\nexpect: {%s}"
+    differ = []
+    for form in statistic_forms():
+        for written in (f"collapse: {{mean: {json.dumps(form)}}}", f"p_stands: {json.dumps(form.replace('3', '0.3'))}"):
+            text = doc(sweep % written)
+            if schema_accepts(validator, text) != loader_accepts(text):
+                differ.append(written)
+    # a P(stands) above 1 is refused by the loader only (the pattern does not compare numbers)
+    assert [d for d in differ if not d.startswith("p_stands")] == []
+    assert all(loader_accepts(doc(sweep % w)) is False for w in differ)
+    assert loader_accepts(doc(sweep % "collapse: {mean: '3 ± .5'}")) and loader_accepts(doc(sweep % "p_stands: '.5 ± .2'"))
+
+
 def test_impact_times_are_accepted_alike(validator):
     forms: list[object] = [
         0,
@@ -503,6 +528,7 @@ def test_patterns_mean_the_same_in_ecma_262_as_in_python():
     found = sorted(set(patterns(json_schema())))
     samples = [s for s in QUANTITY_STRINGS if isinstance(s, str)] + [str(f) for f in level_forms()]
     samples += ["9±1", "9 +- 1", "after level 13", "abc\n", "a.b-c_1", "x" * 41, "7\u00b11\n"]
+    samples += [*statistic_forms(), ">= .9", ">= 1.", "> 5e-1", ">= ."]
     script = (
         "const {patterns, samples} = JSON.parse(require('fs').readFileSync(0, 'utf8'));"
         "console.log(JSON.stringify(patterns.map(p => samples.map(s => new RegExp(p, 'u').test(s)))));"

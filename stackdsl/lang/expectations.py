@@ -98,6 +98,8 @@ def _collapse(value: Any) -> Any:
         if not decimal:
             raise ValueError(f"expected a level such as 9, '9±1' or '9 +- 1', got {spelled(value)}")
         fraction = (float(decimal[1]), float(decimal[2] or 0))
+        if not all(map(math.isfinite, fraction)):  # '1e999 ± 1': beyond a double, no level
+            raise ValueError(f"expected a level such as 9, '9±1' or '9 +- 1', got {spelled(value)} (not finite)")
     if fraction is not None:
         target, tolerance = fraction
         raise ValueError(
@@ -252,6 +254,8 @@ def _toppled(value: Any) -> Any:
         decimal = re.fullmatch(PLUS_MINUS, value)
         if not match and decimal:
             target, tolerance = float(decimal[1]), float(decimal[2] or 0)
+            if not (math.isfinite(target) and math.isfinite(tolerance)):  # '1e999': beyond a double, no count
+                raise ValueError(f"expected a number of bricks such as 20, '20±1' or 'all', got {spelled(value)} (not finite)")
             raise ValueError(
                 f"expected a whole number of bricks such as 20, '20±1' or 'all', got {spelled(value)}: bricks are "
                 f"counted whole, so {_same_levels(value, target, tolerance, 'brick')}"

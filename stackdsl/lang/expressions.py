@@ -42,7 +42,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from .spelling import spelled
-from .units import angle, angular_speed, density, length, si_unit, speed, time
+from .units import UNSIGNED, angle, angular_speed, density, length, si_unit, speed, time
 
 MAX_CONDITION = 500
 """Characters a condition may have."""
@@ -50,7 +50,7 @@ _MAX_DEPTH = 50  # nested parentheses, functions and 'not'
 
 _TOKEN = re.compile(
     r"\s*(?:"
-    r"(?P<number>(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]{1,3})?)"
+    rf"(?P<number>{UNSIGNED})"
     r"(?:[ \t]*(?P<unit>[A-Za-zµ°][A-Za-zµ°0-9]*(?:[/^][A-Za-zµ°0-9]+)*))?"
     r"|(?P<name>[A-Za-z_][A-Za-z0-9_]*(?:\.[A-Za-z0-9_]+|\[[ \t]*[0-9]+[ \t]*\])*)"
     r"|(?P<op><=|>=|==|!=|<|>|\+|-|\*|/|\(|\)|,)"

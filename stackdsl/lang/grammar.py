@@ -10,6 +10,8 @@ Source: stackdsl's own.
 >>> import re
 >>> re.fullmatch(COLLAPSE, "9 +- 1").groups()
 ('9', '1')
+>>> re.fullmatch(PLUS_MINUS, ".5 ± 5.").groups(), re.fullmatch(BOUND, ">= .9").groups()
+(('.5', '5.'), ('>=', '.9'))
 >>> whole(5.0), as_int(True)
 (5, None)
 """
@@ -24,7 +26,7 @@ from pydantic.json_schema import JsonSchemaValue
 from pydantic_core import CoreSchema
 
 from .spelling import spelled
-from .units import WHITESPACE
+from .units import UNSIGNED, WHITESPACE
 
 # Regular expressions shared by the validators and the JSON Schema, written to mean the same in
 # Python and ECMA-262 (see stackdsl.lang.units). The JSON Schema narrows numbers to their ranges.
@@ -35,10 +37,10 @@ COLLAPSE = f"{SPACE}([0-9]+){SPACE}(?:(?:±|\\+-|\\+/-){SPACE}([0-9]+))?{SPACE}"
 LEVEL_RANGE = f"{SPACE}([0-9]+){SPACE}(?:(?:-|\\.\\.){SPACE}([0-9]+))?{SPACE}"  # "5", "1-11", "1..11"
 AFTER_LEVEL = f"{SPACE}after{WHITESPACE}+level{WHITESPACE}+([0-9]+){SPACE}"  # "after level 13"
 AFTER_PREVIOUS = f"{SPACE}after{WHITESPACE}+the{WHITESPACE}+previous{WHITESPACE}+action{SPACE}"  # an action's only
-_DECIMAL = "([0-9]+(?:\\.[0-9]*)?)"
-# "7 ± 0.5", "7 +- 0.5", "7" (± 0): a sweep's statistic; a run's level takes whole numbers only (COLLAPSE)
+_DECIMAL = f"({UNSIGNED})"  # the language's one number: "0.5", ".5", "5.", "5e-1"
+# "7 ± 0.5", "7 +- .5", "7" (± 0): a sweep's statistic; a run's level takes whole numbers only (COLLAPSE)
 PLUS_MINUS = f"{SPACE}{_DECIMAL}{SPACE}(?:(?:±|\\+-|\\+/-){SPACE}{_DECIMAL})?{SPACE}"
-BOUND = f"{SPACE}(>=|<=|>|<){SPACE}([0-9]*\\.?[0-9]+){SPACE}"  # ">= 0.9"
+BOUND = f"{SPACE}(>=|<=|>|<){SPACE}{_DECIMAL}{SPACE}"  # ">= 0.9", ">= .9"
 BODY_ID = r"^[A-Za-z_](?:[A-Za-z0-9_.-]{0,38}[A-Za-z0-9_-])?$"
 """A body's own id (a brick placed by hand, a projectile, a pusher): a letter or '_' first, since
 ``expect`` reads a digit first as a level ('3', '007', '1e3') and a '.' or '-' as nothing it

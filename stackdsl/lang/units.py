@@ -40,6 +40,9 @@ WHITESPACE = "[ \\t\\r\\n]"  # not \s, on which Python and ECMA-262 disagree
 SPACE = f"{WHITESPACE}*"  # what may surround the parts; a trailing newline is space, so `$` means the same in both
 _EXPONENT = "(?:[eE][-+]?[0-9]{1,3})?"
 UNSIGNED = f"(?:[0-9]+(?:\\.[0-9]*)?|\\.[0-9]+){_EXPONENT}"
+"""The one grammar of a number the language reads, unsigned, in a quantity, a tolerance (``'7 ± .5'``),
+a bound (``'>= .9'``) and a condition: ``5``, ``5.``, ``.5``, ``0.5``, ``5e-1``; not ``.``, ``..5``,
+``5..`` or ``1e`` (:data:`NONZERO` and :data:`ZERO` split it by its digits for the JSON Schema)."""
 NONZERO = f"(?:[0-9]*[1-9][0-9]*(?:\\.[0-9]*)?|[0-9]*\\.[0-9]*[1-9][0-9]*){_EXPONENT}"  # an UNSIGNED with a nonzero digit
 ZERO = f"(?:0+(?:\\.0*)?|\\.0+){_EXPONENT}"  # an UNSIGNED with no nonzero digit
 UNIT = "[A-Za-zµ°][A-Za-zµ°/^*·0-9 ]{0,30}"

@@ -10,7 +10,8 @@ import pytest
 from matplotlib.colors import to_rgb
 from PIL import Image
 
-from stackdsl.draw.sweepplot import COLLAPSED, MEAN, POINT, STOOD, plot_grid, plot_histogram
+from stackdsl.draw import sweepplot
+from stackdsl.draw.sweepplot import COLLAPSED, MEAN, POINT, SPREAD, SPREAD_LABEL, STOOD, grid_figure, plot_grid, plot_histogram
 
 
 def png(path: Path) -> np.ndarray:
@@ -88,3 +89,69 @@ def test_grid_errors(tmp_path: Path):
     with pytest.raises(ValueError):
         plot_histogram([0], tmp_path / "h.png")
     assert not (tmp_path / "g.png").exists() and not (tmp_path / "h.png").exists()
+
+
+def quantile_labels(fig) -> list[tuple[float, str]]:
+    """(x, text) of each cell's label of its quantiles, as the Axes hold them before saving."""
+    (ax,) = fig.axes
+    return sorted((t.xy[0], t.get_text()) for t in ax.texts if t.get_gid() == SPREAD_LABEL)
+
+
+def test_the_grid_of_the_mean_labels_each_cell_with_its_mean_and_quantiles():
+    """The sweep computes each cell's quantiles of the collapse level: grid_mean.png drew the
+    mean alone. Each cell is now labelled 'mean (5%-95%)', its spread drawn behind the point."""
+    cells = [
+        [3] * 10 + [5] * 10,  # mean 4, 5% quantile 3, 95% quantile 5
+        [4] * 5 + [None] * 5,  # half stood: the 95% quantile is among the standing samples
+        [None] * 4,  # all stood: no mean, no label
+        [2, 2, 2, 8],  # mean 3.5, from 2 to 8
+    ]
+    fig = grid_figure("e", [0.0, 1.0, 2.0, 3.0], cells, statistic="mean", levels_built=10)
+    assert quantile_labels(fig) == [(0.0, "4.00 (3-5)"), (1.0, "4.00 (4-stands)"), (3.0, "3.50 (2-8)")]
+    (ax,) = fig.axes
+    spread = [line for line in ax.get_lines() if line.get_color() == SPREAD and len(line.get_xdata()) == 2]
+    ends = sorted((line.get_xdata()[0], *sorted(line.get_ydata())) for line in spread)
+    assert (0.0, 3.0, 5.0) in ends and (3.0, 2.0, 8.0) in ends  # 5% to 95%
+    assert (1.0, 4.0, 10.5) in ends  # up to the levels built, for 'stands'
+    labels = ax.get_legend_handles_labels()[1]
+    assert {"5%-95% of levels", "25%-75%", "median", "label: mean (5%-95%)"} <= set(labels)
+    assert ax.get_ylim()[1] > 10.5  # room for the labels above the highest line
+
+
+def test_a_grid_of_many_cells_turns_its_quantile_labels_upright():
+    values = [float(v) for v in range(12)]
+    fig = grid_figure("e", values, [[3, 4, 5 + v % 3] for v in range(12)], statistic="mean")
+    (ax,) = fig.axes
+    labelled = [t for t in ax.texts if t.get_gid() == SPREAD_LABEL]
+    assert len(labelled) == 12 and all(t.get_rotation() == 90 for t in labelled)
+
+
+def test_the_grid_of_p_stands_has_no_quantiles():
+    fig = grid_figure("e", [0.0, 1.0], [[3, None], [4, 5]], statistic="p_stands")
+    assert quantile_labels(fig) == []
+    assert not [line for line in fig.axes[0].get_lines() if line.get_color() == SPREAD]
+
+
+def test_a_sweeps_grid_mean_png_carries_each_cells_quantiles(tmp_path: Path, monkeypatch):
+    """What ``stackdsl sweep`` writes: write_plots draws grid_mean.png with the labels."""
+    from stackdsl.batch.sweep import SampleResult
+    from stackdsl.batch.sweep_out import write_plots
+    from stackdsl.lang.loader import parse_scenario
+
+    template = parse_scenario(
+        "stackdsl: 1\nstructure: {tower: {levels: 9}}\nsweep: {samples: 4, grid: {timing.interval: [1 s, 2 s]}}\n"
+    ).template
+    levels = [[3, 3, 5, 5], [6, 6, 6, None]]
+    results = [SampleResult(c, k, 0, {}, level, 9, 0.1, 3.0, levels=9) for c in (0, 1) for k, level in enumerate(levels[c])]
+    figures: dict[str, list[tuple[float, str]]] = {}
+    drawn = sweepplot.grid_figure
+
+    def keep(*args, **kwargs):
+        fig = drawn(*args, **kwargs)
+        figures[kwargs["statistic"]] = quantile_labels(fig)
+        return fig
+
+    monkeypatch.setattr(sweepplot, "grid_figure", keep)
+    written = write_plots(template, results, tmp_path)
+    assert tmp_path / "grid_mean.png" in written and (tmp_path / "grid_mean.png").stat().st_size > 0
+    assert figures == {"p_stands": [], "mean": [(1.0, "4.00 (3-5)"), (2.0, "6.00 (6-stands)")]}

@@ -1,5 +1,6 @@
 """Monte-Carlo sweep plots as PNGs: one cell's collapse levels as a histogram, and a grid of
-cells over one numeric parameter as a statistic with its 95 % interval against the value.
+cells over one numeric parameter as a statistic with its 95 % interval against the value (the
+mean with each cell's quantiles of the collapse level behind it, labelled ``mean (5%-95%)``).
 
 Samples are collapse levels (an int) or None for a structure that stood. Statistics and
 intervals come from :mod:`stackdsl.verdicts.stats` (Student t for the mean over collapsed samples,
@@ -27,6 +28,8 @@ from ..verdicts import stats as _stats
 #: Colours: collapse-level bars, the "stood" bar, the mean and its interval, grid points, and
 #: what the file expects (its interval hatched, its threshold dashed).
 COLLAPSED, STOOD, MEAN, POINT, EXPECTED = "#4c72b0", "#55a868", "#c44e52", "#8172b2", "#dd8452"
+#: A grid plot's quantiles of the collapse level: their colour, and the gid of each cell's label of them.
+SPREAD, SPREAD_LABEL = "#8c8c8c", "quantiles"
 Statistic = Literal["p_stands", "mean"]
 _CONFIDENCE = 0.95
 
@@ -123,7 +126,39 @@ def plot_grid(
     cell_expected: Sequence[Sequence[Any]] = (),
     exact: bool = False,
 ) -> None:
-    """Write a PNG of a statistic per cell against a numeric parameter, with 95 % error bars
+    """Write :func:`grid_figure` of the same arguments as a PNG to ``path``. Raises as
+    :func:`grid_figure`, and OSError if ``path`` cannot be written."""
+    fig = grid_figure(
+        parameter,
+        values,
+        cells,
+        unit=unit,
+        statistic=statistic,
+        scale=scale,
+        levels_built=levels_built,
+        title=title,
+        expected=expected,
+        cell_expected=cell_expected,
+        exact=exact,
+    )
+    fig.savefig(os.fspath(path), format="png")
+
+
+def grid_figure(
+    parameter: str,
+    values: Sequence[float],
+    cells: Sequence[Sequence[int | None]],
+    *,
+    unit: str = "",
+    statistic: Statistic = "p_stands",
+    scale: float = 1.0,
+    levels_built: int | None = None,
+    title: str = "",
+    expected: Sequence[Any] = (),
+    cell_expected: Sequence[Sequence[Any]] = (),
+    exact: bool = False,
+) -> Figure:
+    """A figure of a statistic per cell against a numeric parameter, with 95 % error bars
     (none when ``exact``: a sweep that draws nothing, each cell one run repeated);
     the file's expectation on that statistic (``expected``, as :func:`plot_histogram` takes
     them) in :data:`EXPECTED`: a bound on P(stands) as a dashed threshold line with its accepted
@@ -139,9 +174,15 @@ def plot_grid(
     for the mean, no collapse) is left out and counted in a note; one with an estimate but no
     interval (a single collapse) is a point without a bar.
 
+    With "mean", each cell also shows how its collapse levels spread: the quantiles the sweep
+    computes (:data:`~stackdsl.verdicts.stats.SUMMARY_QUANTILES`, standing samples above every
+    level) behind its point, 5 % to 95 % as a thin line and 25 % to 75 % as a thick bar, the
+    median as a tick, and the point labelled ``mean (5%-95%)``, such as ``7.25 (5-10)``; a
+    quantile among the standing samples is written "stands", its line running up to
+    ``levels_built`` (or past the highest level drawn) and ending in an arrowhead.
+
     Raises ValueError when values and cells (or ``cell_expected``, when given) differ in length,
-    on an unknown statistic, or a bad level (as :func:`stackdsl.verdicts.stats.summary`); OSError
-    if ``path`` cannot be written.
+    on an unknown statistic, or a bad level (as :func:`stackdsl.verdicts.stats.summary`).
     """
     if len(values) != len(cells):
         raise ValueError(f"{len(values)} values for {len(cells)} cells")
@@ -150,6 +191,7 @@ def plot_grid(
     if statistic not in ("p_stands", "mean"):
         raise ValueError(f"statistic must be 'p_stands' or 'mean', got {statistic!r}")
     points: list[tuple[float, float, float, float]] = []  # (x, estimate, low, high)
+    spreads: list[tuple[float, float, dict[float, float]]] = []  # (x, mean, quantiles): "mean" only
     sizes: set[int] = set()
     for value, cell in zip(values, cells):
         s = _stats.summary(cell, levels_built, _CONFIDENCE, exact=exact)
@@ -158,17 +200,21 @@ def plot_grid(
         if estimate is not None:
             low, high = interval if interval is not None else (estimate, estimate)
             points.append((float(value) * scale, estimate, low, high))
+            if statistic == "mean":
+                spreads.append((float(value) * scale, estimate, s.quantiles))
     points.sort()
     fig = Figure(figsize=(7.0, 4.5), dpi=100)
     FigureCanvasAgg(fig)
     ax = fig.add_axes((0.12, 0.13, 0.84, 0.75 if title else 0.79))
+    room = None
     if points:
         xs = [p[0] for p in points]
         ys = [p[1] for p in points]
         below = [p[1] - p[2] for p in points]
         above = [p[3] - p[1] for p in points]
+        room = _draw_spreads(ax, sorted(spreads, key=lambda c: c[0]), levels_built, max(p[3] for p in points))
         label = "exact: nothing is drawn" if exact else "estimate, 95% CI"
-        ax.errorbar(xs, ys, yerr=[below, above], color=POINT, marker="o", ms=5, capsize=4, lw=1.5, label=label)
+        ax.errorbar(xs, ys, yerr=[below, above], color=POINT, marker="o", ms=5, capsize=4, lw=1.5, label=label, zorder=3)
         ax.legend(loc="best", fontsize=8, frameon=False)
         if len(set(xs)) == 1:
             ax.set_xlim(xs[0] - 1, xs[0] + 1)
@@ -183,17 +229,74 @@ def plot_grid(
     missing = len(cells) - len(points)
     if missing or not cells:
         note = "no cells" if not cells else f"{missing} cell(s) without an estimate left out"
-        ax.text(0.5, 0.5 if not points else 0.03, note, transform=ax.transAxes, ha="center", va="center", fontsize=9)
+        if points:  # below the axes, clear of the legend and the marks
+            fig.text(0.98, 0.01, note, ha="right", va="bottom", fontsize=8)
+        else:
+            ax.text(0.5, 0.5, note, transform=ax.transAxes, ha="center", va="center", fontsize=9)
     if statistic == "p_stands":
         ax.set_ylim(-0.03, 1.03)
         ax.set_ylabel("P(stands)" if levels_built is None else f"P(stands at {levels_built} levels)")
     else:
-        ax.set_ylabel("mean collapse level (collapsed samples)")
+        ax.set_ylabel("mean collapse level (collapsed samples)" if room is None else "collapse level")
+        if room is not None:  # the quantiles' labels above their lines; a legend of two columns, low
+            ax.set_ylim(top=max(ax.get_ylim()[1], room))
+            ax.legend(loc="best", fontsize=7, frameon=False, ncols=2)
     ax.set_xlabel(f"{parameter} ({unit})" if unit else parameter)
     ax.grid(True, alpha=0.3)
     per_cell = f"n = {sizes.pop()} per cell" if len(sizes) == 1 else f"n = {min(sizes)}..{max(sizes)} per cell" if sizes else ""
     fig.suptitle(", ".join(t for t in (title, per_cell) if t), fontsize=10)
-    fig.savefig(os.fspath(path), format="png")
+    return fig
+
+
+#: The quantiles a grid plot of the mean draws: the thin line's ends, the bar's ends, the tick.
+_OUTER, _INNER, _MIDDLE = (0.05, 0.95), (0.25, 0.75), 0.5
+
+
+def _draw_spreads(
+    ax: Any, spreads: Sequence[tuple[float, float, dict[float, float]]], levels_built: int | None, highest: float
+) -> float | None:
+    """Each cell's quantiles of the collapse level behind its mean (see :func:`grid_figure`):
+    ``spreads`` holds (x, mean, quantiles) a cell; ``highest``: the highest point drawn. The
+    top the y axis needs for the labels, or None when nothing was drawn."""
+    if not spreads or not all({*_OUTER, *_INNER, _MIDDLE} <= set(q) for _, _, q in spreads):
+        return None
+    finite = [v for _, _, q in spreads for v in q.values() if math.isfinite(v)]
+    top = float(levels_built) + 0.5 if levels_built is not None else max([highest, *finite]) + 1.0
+
+    def at(level: float) -> float:
+        return level if math.isfinite(level) else top
+
+    rotate = len(spreads) > 8  # side by side, the labels of many cells would run into each other
+    named: set[str] = set()
+
+    def label(text: str) -> str:  # each in the legend once
+        if text in named:
+            return "_"
+        named.add(text)
+        return text
+
+    for x, mean, q in spreads:
+        outer, inner = [at(q[e]) for e in _OUTER], [at(q[e]) for e in _INNER]
+        ax.plot([x, x], outer, color=SPREAD, lw=1.2, zorder=1, label=label("5%-95% of levels"))
+        ax.plot([x, x], inner, color=SPREAD, lw=7, alpha=0.45, solid_capstyle="butt", zorder=1, label=label("25%-75%"))
+        if math.isfinite(q[_MIDDLE]):
+            ax.plot([x], [q[_MIDDLE]], color=SPREAD, marker="_", ms=14, mew=2, ls="none", zorder=2, label=label("median"))
+        if not math.isfinite(q[_OUTER[1]]):
+            ax.plot([x], [top], color=SPREAD, marker="^", ms=6, ls="none", zorder=2)
+        low, high = (_stats.format_level(q[e]) for e in _OUTER)
+        ax.annotate(
+            f"{mean:.2f} ({low}-{high})",
+            (x, outer[1]),
+            xytext=(0, 6),
+            textcoords="offset points",
+            ha="center",
+            va="bottom",
+            fontsize=7,
+            rotation=90 if rotate else 0,
+            gid=SPREAD_LABEL,
+        )
+    ax.plot([], [], ls="none", label="label: mean (5%-95%)")  # the key to the labels
+    return top + (0.12 if rotate else 0.06) * (top - min([highest, *finite]) + 1.0) + 0.5
 
 
 def _draw_expected(

@@ -465,6 +465,7 @@ def statistic_forms() -> list[str]:
     ]
 
 
+@pytest.mark.slow
 def test_statistics_are_accepted_alike(validator):
     """A sweep's mean and P(stands) read a number as the loader does, '.5' and '5.' too."""
     sweep = "sweep: {samples: 4}\nexpect: {%s}"

@@ -132,6 +132,7 @@ def test_the_grid_of_p_stands_has_no_quantiles():
     assert not [line for line in fig.axes[0].get_lines() if line.get_color() == SPREAD]
 
 
+@pytest.mark.slow
 def test_a_sweeps_grid_mean_png_carries_each_cells_quantiles(tmp_path: Path, monkeypatch):
     """What ``stackdsl sweep`` writes: write_plots draws grid_mean.png with the labels."""
     from stackdsl.batch.sweep import SampleResult

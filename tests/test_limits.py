@@ -5,6 +5,7 @@ measured again: a straight column of the smallest cubes an engine takes stands a
 from __future__ import annotations
 
 import math
+import warnings
 
 import pytest
 
@@ -452,6 +453,62 @@ def test_at_each_modes_push_limit_a_pushed_brick_stops_at_the_wall(backend, mode
     outcome = run_program(compile_scenario(parse_scenario(pushed(backend, mode, push_limit(backend, mode)), "p.yaml")))
     x, _, z = next(n.position_mm for n in outcome.final_graph.nodes if n.id == "a")
     assert 186.0 - 45.0 < x < 186.0 + 1.0 and z > 3.5, (x, z)
+
+
+def pulled(backend: str, mode: str, speed: float, across: bool = False) -> str:
+    """A 4-level KAPLA tower (3 a level, 25 mm apart) whose level-2 middle brick is pulled at
+    ``speed`` m/s along its length, or 60 mm ``across`` the tower into the brick beside it."""
+    way = ", direction: +x, distance: 60 mm" if across else ""
+    return (
+        f"stackdsl: 1\nengine: {{backend: {backend}, mode: {mode}}}\n"
+        "structure: {tower: {levels: 4, bricks_per_layer: 3, spacing: 25 mm}}\ntiming: {interval: 0.2 s, settle: 1 s}\n"
+        f"actions:\n  - remove: {{brick: L02.2, at: after level 4{way}, speed: {speed!r} m/s}}\n"
+    )
+
+
+def pull_limit(backend: str, mode: str) -> float:
+    """The fastest pull the compiler should take on a KAPLA scene: the push's limit, or less where
+    the mode's pulled brick was measured to go wrong below it."""
+    own = ENGINES[backend].LIMITS.max_pull_speed_by_mode.get(mode)
+    return min(push_limit(backend, mode), own[0] if own else math.inf)
+
+
+@pytest.mark.parametrize("mode", ["raw", "tuned", "extension"])
+@pytest.mark.parametrize("backend", ENGINES)
+def test_a_pull_faster_than_the_engine_follows_in_its_mode_is_refused_at_its_speed(backend, mode):
+    """A pulled brick moves at its pull's speed, driving what lies in its way as a pusher does and
+    dragging what rests on it: held to the push's limit, and on MuJoCo, whose pulled brick is
+    driven by its own mass, to less (raw: 0.1 m/s, whose pull at 0.5 m/s dragged a tower 27 mm
+    and passed through the brick beside it). No pull speed was refused before."""
+    pytest.importorskip(backend)
+    most = pull_limit(backend, mode)
+    compile_scenario(parse_scenario(pulled(backend, mode, round(most * 0.99, 4)), "p.yaml"))  # just under: taken
+    if most >= 10.0:
+        return  # the language's own bound, 10 m/s, is below the engine's
+    err = refusal(pulled(backend, mode, round(most * 1.02, 4)))
+    assert err.field == "actions[0].remove.speed" and (err.line, err.column) == (6, 54), (err.line, err.column)
+    assert ENGINES[backend].NAME in err.message and f"in {mode} mode" in err.message
+    assert f"at most {most:.3g} m/s" in err.message
+    if backend == "mujoco":
+        assert most < push_limit(backend, mode)  # a pull's own limit, below the push's
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("mode", ["raw", "tuned", "extension"])
+@pytest.mark.parametrize("backend", ENGINES)
+def test_at_each_modes_pull_limit_the_pulled_brick_is_followed(backend, mode):
+    """At its mode's limit, a middle brick pulled along its length drags the tower above it no
+    more than a slow pull does (the two blocks beside it hold the level above back at any speed;
+    MuJoCo raw dragged it 27 mm at 0.5 m/s), and pulled across it drives the brick beside it out,
+    not through it (past 60 mm, as far again as it slides)."""
+    pytest.importorskip(backend)
+    most = pull_limit(backend, mode)
+    along = run_program(compile_scenario(parse_scenario(pulled(backend, mode, most), "p.yaml")))
+    assert along.collapse is None and along.drift < 0.003, along.drift
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the pull drives the brick into L02.1 of its level
+        across = run_program(compile_scenario(parse_scenario(pulled(backend, mode, most, across=True), "p.yaml")))
+    assert across.displacement["L02.1"] > 0.05, across.displacement["L02.1"]
 
 
 def shaken(backend: str, mode: str, amplitude_mm: float, frequency: float = 5.0) -> str:

@@ -4,7 +4,7 @@ The language's bounds (:mod:`stackdsl.lang.bounds`) hold for every engine; each 
 narrower ones of its own, measured on it (:class:`stackdsl.engines.protocol.Limits`,
 ``stackdsl bench limits``). A scene beyond them would run, and give an answer that is the
 engine's artefact, not the scene's: a 2 mm cube that falls over on pybullet's ground, a brick
-thrown or pushed through a wall, a light brick crushed under a heavy one by a solver that cannot
+thrown, pushed or pulled through a wall, a light brick crushed under a heavy one by a solver that cannot
 balance a mass ratio of 10,000, a brick that bounces higher than it fell. So the compiler refuses it, at the field to
 change, naming the engine, what was measured, and an engine or setting that would take it when
 there is one. The check uses the engine the run uses, after ``--backend`` and ``--mode``.
@@ -60,7 +60,7 @@ def check_limits(
         ScenarioError: at a brick type's ``size`` (a side below the engine's smallest; a
             wall's half brick's at the wall's ``brick``), an impact's ``speed`` (faster than the
             engine holds), a push's ``speed`` (the same, or a mode's measured limit for a pushed
-            brick), a shake's ``amplitude`` (its table as fast), a material's ``density`` or brick type's ``size`` (a mass ratio
+            brick), a pull's ``speed`` (the push's limit, or a mode's measured limit for a pulled brick), a shake's ``amplitude`` (its table as fast), a material's ``density`` or brick type's ``size`` (a mass ratio
             beyond the engine's) or a material's ``restitution`` (a contact bouncier than the
             engine holds in the run's mode).
     """
@@ -124,11 +124,13 @@ def check_limits(
     _check_restitution(scenario, engine, moving, [*fixed, *(t for t in specs if t not in set(moving))])
 
 
-def _guided_speed(engine: EngineSettings, thinnest: float) -> tuple[float, str]:
-    """m/s, the fastest a guided body (a pusher and the brick it drives, a shake table) may move in
-    ``engine``'s run, and why. Substeps follow the structure's bricks only in extension mode (:class:`stackdsl.runtime.subscribers.Substeps`); in the other modes a
+def _guided_speed(engine: EngineSettings, thinnest: float, pull: bool = False) -> tuple[float, str]:
+    """m/s, the fastest a guided body (a pusher and the brick it drives, a pulled brick and what it
+    drives) may move in ``engine``'s run, and why. Substeps follow the structure's bricks only in extension mode (:class:`stackdsl.runtime.subscribers.Substeps`); in the other modes a
     pushed brick is stepped whole, as a throw without substeps. A mode may hold less still,
-    measured with a pusher (:attr:`Limits.max_guided_speed_by_mode`)."""
+    measured with a pusher (:attr:`Limits.max_guided_speed_by_mode`), and a ``pull`` less than
+    that, measured with a pulled brick (:attr:`Limits.max_pull_speed_by_mode`: a pulled brick is
+    driven by its own mass, not held, so the bricks it meets can hold it back)."""
     kind = type(engine)
     limits = kind.LIMITS
     if engine.ccd and engine.mode == "extension":
@@ -140,23 +142,34 @@ def _guided_speed(engine: EngineSettings, thinnest: float) -> tuple[float, str]:
     own = limits.max_guided_speed_by_mode.get(engine.mode)
     if own is not None and own[0] < most:
         most, why = own[0], f"in {engine.mode} mode: at most {own[0]:g} m/s (measured: {own[1]})"
+    pulled = limits.max_pull_speed_by_mode.get(engine.mode) if pull else None
+    if pulled is not None and pulled[0] < most:
+        most, why = pulled[0], f"in {engine.mode} mode: at most {pulled[0]:g} m/s (measured: {pulled[1]})"
     return most, why
 
 
 def _check_motions(scenario: Scenario, engine: EngineSettings, thinnest: float) -> None:
-    """Refuse a push faster than ``engine`` follows in the run's mode (:func:`_guided_speed`), and
+    """Refuse a push or a pull faster than ``engine`` follows in the run's mode (:func:`_guided_speed`), and
     a shake whose table accelerates (at up to ``amplitude (2 pi frequency)^2``) more than the
     engine follows (:attr:`~stackdsl.engines.protocol.Limits.max_shake_acceleration`). Within the
     language's 100 mm amplitude that also keeps the table's peak speed under 1 m/s, below every
     mode's push limit. Source: stackdsl's own, measured (docs/results/shake-table.md)."""
     kind = type(engine)
     most, why = _guided_speed(engine, thinnest)
+    pull_most, pull_why = _guided_speed(engine, thinnest, pull=True)
     for index, action in enumerate(scenario.actions):
         if action.push is not None and action.push.speed > most * (1 + 1e-9):
             raise scenario.source.error(
                 ("actions", index, "push", "speed"),
                 f"a push at {action.push.speed:g} m/s is faster than {kind.NAME} simulates faithfully {why}; "
                 f"the pusher and the brick it drives move at that speed",
+            )
+        remove = action.remove
+        if remove is not None and remove.speed > pull_most * (1 + 1e-9):
+            raise scenario.source.error(
+                ("actions", index, "remove", "speed"),
+                f"a pull at {_speed(remove.speed)} is faster than {kind.NAME} simulates faithfully {pull_why}; "
+                f"the pulled brick moves at that speed, dragging what rests on it and driving what lies in its way",
             )
         shake = action.shake
         if shake is None:
@@ -256,6 +269,13 @@ def _stepped_whole(engine: EngineSettings, thinnest: float, lead: str, measured:
         else f"({measured}: {limits.measured['max_speed_no_substeps']})"
     )
     return most, why
+
+
+def _speed(metres_a_second: float) -> str:
+    """``40 mm/s`` below 1 m/s (as pulls are written), else ``1.5 m/s``."""
+    if metres_a_second < 1.0:
+        return f"{metres_a_second * 1000:.4g} mm/s"
+    return f"{metres_a_second:g} m/s"
 
 
 def _mm(metres: float) -> str:

@@ -75,6 +75,9 @@ class Limits:
         max_guided_speed_by_mode: mode -> (m/s, what was measured): the fastest push (its
             pusher and the brick it drives) in a mode that holds less than a
             thrown brick's limit gives it (``stackdsl.compile.limits``).
+        max_pull_speed_by_mode: mode -> (m/s, what was measured): the fastest pull (``actions:
+            remove``) in a mode whose pulled brick, driven by its own mass rather than held, goes
+            wrong below the push's limit; a mode not named holds pulls to the push's.
     """
 
     min_side: float
@@ -85,6 +88,7 @@ class Limits:
     measured: dict[str, str] = field(default_factory=dict)
     max_speed_by_mode: dict[str, tuple[float, str]] = field(default_factory=dict)
     max_guided_speed_by_mode: dict[str, tuple[float, str]] = field(default_factory=dict)
+    max_pull_speed_by_mode: dict[str, tuple[float, str]] = field(default_factory=dict)
     max_shake_acceleration: tuple[float, str] = (math.inf, "")
 
     def fastest(self, mode: str) -> tuple[float, str]:

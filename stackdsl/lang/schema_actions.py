@@ -132,7 +132,14 @@ class Remove(StrictModel):
             examples=["+x", [0, 1, 0]],
         ),
     ] = None
-    speed: Annotated[GuideSpeed, Field(description="how fast the hand pulls", examples=["20 mm/s"])] = 0.02
+    speed: Annotated[
+        GuideSpeed,
+        Field(
+            description="how fast the hand pulls: at most 10 m/s, and no faster than the run's engine follows a pulled "
+            "brick in its mode (docs/results/limits.md, 'Pulls')",
+            examples=["20 mm/s"],
+        ),
+    ] = 0.02
     distance: Annotated[
         Travel | None,
         Field(

@@ -103,6 +103,26 @@ class MuJoCoSettings(EngineSettings):
                 "restitution 0, 716 mm at 4 m/s and 5.9 m at 10 m/s (1.5 m/s: it stops at the wall)",
             ),
         },
+        max_pull_speed_by_mode={
+            "raw": (
+                0.1,
+                "the middle brick of a 4-level KAPLA tower, pulled along its length at 0.2 m/s, drags the tower "
+                "3.7 mm, at 0.3 m/s 12.8 mm and at 0.5 m/s 27 mm, and pulled 60 mm across it from 0.3 m/s passes "
+                "through the brick beside it (0.1 m/s: 1.4 mm, and it drives that brick 59 mm)",
+            ),
+            "tuned": (
+                0.5,
+                "the middle brick of a 4-level KAPLA tower pulled 60 mm across it at 1 m/s drives the brick beside "
+                "it 189 mm, 30 mm further than at a quarter of the step and 24 mm further than pybullet, at 1.5 m/s "
+                "115 and 148 mm further (0.5 m/s: within 5 and 8 mm)",
+            ),
+            "extension": (
+                0.5,
+                "the middle brick of a 4-level KAPLA tower pulled 60 mm across it at 0.75 m/s drives the brick "
+                "beside it 76 mm, 40 mm short of where a quarter of the step puts it (pybullet: 110 mm), and at 1.5 m/s "
+                "391 mm, 68 mm further (0.5 m/s: within 2 mm of both)",
+            ),
+        },
     )
 
     mode: Literal["raw", "tuned", "extension"]

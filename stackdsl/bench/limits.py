@@ -253,7 +253,11 @@ def format_report(backends: Sequence[str]) -> str:
             f"## {kind.NAME}\n\nIn force: sides from {lim.min_side * 1000:g} mm; projectiles up to {lim.max_speed:g} m/s "
             + "".join(f"({v:g} m/s in {mode} mode) " for mode, (v, _) in lim.max_speed_by_mode.items())
             + f"with substeps, {lim.max_speed_no_substeps:g} m/s without (and less than the thinnest brick a step); "
-            f"mass ratios up to {lim.max_mass_ratio:g}; restitution up to "
+            "pushes as throws, with substeps in extension mode only"
+            + "".join(f", at most {v:g} m/s in {mode} mode" for mode, (v, _) in lim.max_guided_speed_by_mode.items())
+            + "; pulls as pushes"
+            + "".join(f", at most {v:g} m/s in {mode} mode" for mode, (v, _) in lim.max_pull_speed_by_mode.items())
+            + f"; mass ratios up to {lim.max_mass_ratio:g}; restitution up to "
             + ", ".join(f"{lim.restitution(m):g} in {m} mode" for m in MODES)
             + ".\n\n"
             f"Smallest side (how far a cube moved, or the level that collapsed):\n\n{format_sides(backend)}\n\n"

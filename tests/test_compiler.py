@@ -159,6 +159,29 @@ def test_an_impact_on_a_side_is_aimed_among_the_bricks_left_when_it_arrives():
     assert "L04.1 by actions[0] from 8 s, L04.2 by actions[1] from 12 s" in str(info.value)
 
 
+def test_an_impact_on_a_side_is_aimed_among_the_bricks_placed_when_it_is_thrown():
+    """A brick placed after the throw is not there to aim at: a course of three (L03.1 to L03.3 at
+    y = 40, 0, -40 mm, placed at 6, 7 and 8 s) was hit on its middle brick, L03.2, even when only
+    L03.1 was there; thrown before any of its bricks is placed, the throw is refused at its ``at``."""
+
+    def aimed(at: str) -> float:
+        text = (
+            "stackdsl: 1\nstructure: {tower: {levels: 3, bricks_per_layer: 3, spacing: 40 mm}}\n"
+            f"impacts: [{{target: {{level: 3, side: +x}}, speed: 1 m/s, at: {at}}}]\n"
+        )
+        (launch,) = [a for a in program(text).actions if isinstance(a, Launch)]
+        return round(launch.target[1] * 1000, 3) + 0.0
+
+    assert aimed("after level 3") == 0.0
+    assert aimed("6 s") == 40.0
+    assert aimed("7 s") == 40.0  # equally near the middle of the two: the first
+    for at in ("5.5 s", "after level 1"):
+        with pytest.raises(ScenarioError) as info:
+            aimed(at)
+        assert info.value.field == "impacts[0].at", info.value
+        assert "before level 3 is built: its first brick, L03.1, is placed at 6 s" in info.value.message
+
+
 def test_impact_on_a_missing_level_is_an_error():
     with pytest.raises(ScenarioError) as info:
         program("stackdsl: 1\nstructure: {tower: {levels: 3}}\nimpacts: [{target: {level: 5, side: +x}, speed: 1, at: 10 s}]\n")

@@ -52,6 +52,7 @@ from ..lang.extras import installed, missing
 from ..lang.schema import BACKEND_FIELDS, BUILTIN_BRICKS, Scenario, reference_errors
 from ..lang.schema_impacts import SIDES, AfterLevel, Impact
 from .actions import check_measured, compile_actions, heading
+from .aim import outer_face
 from .clearance import check_launch, check_pusher
 from .layouts import LaidBrick, with_placement_error
 from .limits import check_limits
@@ -129,7 +130,7 @@ def compile_scenario(
 
     Raises:
         ScenarioError: an action time is not a whole number of timesteps, an impact
-            names a level that is not built or whose bricks are all pulled out before it arrives, the run would exceed the time limit or the
+            names a level that is not built, none of whose bricks is placed when it is thrown, or whose bricks are all pulled out before it arrives, the run would exceed the time limit or the
             work budget (:data:`MAX_WORK`), or a check before simulating fails
             (:mod:`stackdsl.compile.precheck`: bricks that overlap or rest on nothing where
             placed, expectations about levels never built), the scene is beyond what the
@@ -619,7 +620,10 @@ def _launch(
     if impact.target.point:
         target = np.array(impact.target.point)
     else:
-        target = _face_point(scenario, index, impact, bricks, pulls, step + flight / dt, launch_time + flight)
+        per_slot = _steps(scenario, ("timing", "interval"), scenario.timing.interval, dt)
+        placed = {b.id: (int(k) * per_slot, int(k) * scenario.timing.interval) for b, k in zip(bricks, slots)}
+        thrown, arrival = (step, launch_time), (step + flight / dt, launch_time + flight)
+        target = _face_point(scenario, index, impact, bricks, placed, pulls, thrown, arrival)
     start = target - direction * (impact.distance + spec.half_extents[0])
     start[2] += 0.5 * GRAVITY * flight**2
     yaw, pitch = heading(direction)
@@ -642,39 +646,43 @@ def _face_point(
     index: int,
     impact: Impact,
     bricks: list[LaidBrick],
+    placed: Mapping[str, tuple[int, float]],
     pulls: Mapping[str, tuple[int, Remove]],
-    arrival_step: float,
-    arrival: float,
+    thrown: tuple[int, float],
+    arrival: tuple[float, float],
 ) -> np.ndarray:
-    """The middle of the level's outer face on the target side: of the bricks whose faces there are
-    outermost, the one whose face's middle is nearest the middle of the level's extent along that
-    side (the first of equals), at its face's middle. A course of five bricks is hit on its middle
-    brick, a layer of two bricks side by side on the first. Only the bricks still in the scene when
-    the projectile arrives (``arrival``, s; ``arrival_step``, in steps) count: a brick whose pull
-    (of ``pulls``) has started by then is out of it, and a level with none left is refused."""
+    """The middle of the level's outer face on the target side (:func:`~stackdsl.compile.aim.outer_face`). Only the bricks in
+    the scene when the projectile is thrown (``thrown``, in steps and in seconds; ``placed``: each
+    brick's placing, the same) and still there when it arrives (``arrival``, the same) count: a
+    brick placed later is not there to aim at, a brick whose pull (of ``pulls``) has started by
+    then is out of the scene. A level none of whose bricks is placed yet is refused at the impact's ``at``, one
+    with none left at its ``target.level``."""
     path: FieldPath = ("impacts", index, "target", "level")
     built = [b for b in bricks if b.level == impact.target.level]
     if not built:
         raise scenario.source.error(path, f"level {impact.target.level} is not built")
-    level = [b for b in built if b.id not in pulls or pulls[b.id][1].step > arrival_step + 1e-9]
+    there = [b for b in built if placed[b.id][0] <= thrown[0]]
+    if not there:
+        first = min(built, key=lambda b: placed[b.id])
+        raise scenario.source.error(
+            ("impacts", index, "at"),
+            f"the projectile is thrown at {thrown[1]:.4g} s, before level {impact.target.level} is built: its first "
+            f"brick, {first.id}, is placed at {placed[first.id][1]:.4g} s; nothing is there to hit; throw it once the "
+            f"level is placed ('after level {impact.target.level}')",
+        )
+    arrival_step, arrival_time = arrival
+    level = [b for b in there if b.id not in pulls or pulls[b.id][1].step > arrival_step + 1e-9]
     if not level:
-        taken = ", ".join(f"{b.id} by actions[{pulls[b.id][0]}] from {pulls[b.id][1].time:g} s" for b in built)
+        taken = ", ".join(f"{b.id} by actions[{pulls[b.id][0]}] from {pulls[b.id][1].time:g} s" for b in there)
         raise scenario.source.error(
             path,
             f"every brick of level {impact.target.level} is pulled out of the scene before the projectile arrives at "
-            f"{arrival:.4g} s ({taken}): nothing is left there to hit; aim at a level that stays, or throw before the pulls",
+            f"{arrival_time:.4g} s ({taken}): nothing is left there to hit; aim at a level that stays, or throw before the pulls",
         )
     outward: np.ndarray = -np.array(_side(impact), dtype=np.float64)
-    along = np.array([-outward[1], outward[0], 0.0])  # horizontal, across the side
     poses = [Pose.from_euler(b.position, b.yaw, b.pitch, b.roll) for b in level]
     boxes = [Box(np.array(scenario.brick_type(b.type).size) / 2, 1.0) for b in level]
-    faces = [box.face(pose, outward)[0] for box, pose in zip(boxes, poses, strict=True)]
-    reach = [round(float((corners @ outward).max()), 9) for corners in faces]
-    spread = np.array([box.corners(pose) @ along for box, pose in zip(boxes, poses, strict=True)])
-    middle = (spread.min() + spread.max()) / 2
-    outermost = [f for f, r in zip(faces, reach, strict=True) if r == max(reach)]
-    nearest = min(outermost, key=lambda corners: round(abs(float(corners.mean(axis=0) @ along) - middle), 9))
-    return np.asarray(nearest.mean(axis=0))
+    return outer_face(boxes, poses, outward)[1]
 
 
 def _side(impact: Impact) -> tuple[float, float, float]:

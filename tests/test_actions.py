@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from stackdsl import compile_scenario, evaluate, parse_scenario, run_program
-from stackdsl.compile.program import Push, Remove, Shake, format_program
+from stackdsl.compile.program import Launch, Push, Remove, Shake, format_program
 from stackdsl.lang.expectations import selects
 from stackdsl.lang.extras import installed
 from stackdsl.lang.jsonschema import json_schema
@@ -1237,3 +1237,68 @@ def test_the_extension_wakes_the_frozen_brick_beside_a_guided_one_under_what_bot
     events = ext.guide(1, 0.4, "pulled")
     assert [(e.label, e.kind) for e in events] == [("s1", "wake"), ("bridge", "wake"), ("s2", "wake")]
     assert "carries bridge beside s1" in events[-1].reason
+
+
+THROWN_AFTER_A_PUSH = """stackdsl: 1
+structure:
+  bricks:
+    - {{id: b1, at: [0, 0, 4 mm]}}
+    - {{id: w, at: [{w} mm, 0, 11.7 mm], roll: 90, fixed: true}}
+engine: {{backend: {backend}}}
+timing: {{interval: 0.5 s, settle: 1 s}}
+actions:
+  - push: {{target: {{brick: b1}}, direction: {push}, at: 1 s, distance: {distance} mm}}
+impacts:
+  - {{id: hammer, target: {{level: 1, side: -x}}, speed: 1 m/s, at: 4 s}}
+"""
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_a_throw_at_a_brick_pushed_aside_meets_it_where_it_lies(backend):
+    """Pushed 30 mm aside (along y), b1 lay off the line of a throw aimed at its -x face as placed:
+    the projectile flew past it and b1 did not move. Thrown from 30 mm further along y, with the
+    same speed, direction and flight, it meets b1's face where it lies and drives it along +x."""
+    text = THROWN_AFTER_A_PUSH.format(w=-600, backend=backend, push="[0, 1, 0]", distance=35)
+    done = run_program(compile_scenario(parse_scenario(text, "t.yaml")))
+    launch = next(e.detail for e in done.events if e.kind == "launch")
+    assert "b1 lies 3" in launch and "to meet its face as it lies" in launch, launch
+    dx, dy, dz = (float(v) for v in launch.split("thrown from (")[1].split(")")[0].split(", "))
+    assert dx == pytest.approx(0.0, abs=0.5) and dy == pytest.approx(30.0, abs=2.0) and dz == pytest.approx(0.0, abs=0.5)
+    b1, hammer = (next(n for n in done.final_graph.nodes if n.id == i) for i in ("b1", "hammer"))
+    assert b1.position_mm[0] > 5.0, b1.position_mm  # struck: it lay at x = 0 after the push
+    assert hammer.position_mm[1] == pytest.approx(b1.position_mm[1], abs=3.0), (hammer.position_mm, b1.position_mm)
+
+
+def test_a_throw_whose_start_moved_with_its_brick_would_be_inside_a_body_is_not_thrown():
+    """Pushed 40 mm towards the thrower, b1's face lies 40 mm nearer; started its distance before
+    it, the projectile would be inside w, an upright wall its start as placed was clear of."""
+    text = THROWN_AFTER_A_PUSH.format(w=-290, backend="pybullet", push="[-1, 0, 0]", distance=45)
+    done = run_program(compile_scenario(parse_scenario(text, "t.yaml")))
+    launch = next(e.detail for e in done.events if e.kind == "launch")
+    assert "b1 lies 4" in launch and "not thrown: to meet its face as it lies, the projectile would start" in launch, launch
+    assert launch.endswith("mm inside w)"), launch
+    assert "hammer" not in {n.id for n in done.final_graph.nodes}
+
+
+def test_a_throw_at_a_level_whose_bricks_have_left_it_is_not_thrown_or_aimed_at_one_still_there():
+    """b, level 2 across a, was pushed off a onto the ground: nothing of level 2 is left to aim at,
+    and the throw is not made (it flew over a where b had been). With c beside b on level 2, the
+    throw aimed at b's face goes to c's, the level's outer face as it now is."""
+    head = "stackdsl: 1\nstructure:\n  bricks:\n    - {id: a, at: [0, 0, 4 mm]}\n    - {id: b, at: [-40 mm, 0, 12 mm], yaw: 90}\n"
+    tail = (
+        "timing: {interval: 0.5 s, settle: 1 s}\n"
+        "actions:\n  - push: {target: {brick: b}, direction: [0, 1, 0], at: 2 s, distance: 90 mm, speed: 0.2 m/s}\n"
+        "impacts:\n  - {id: hammer, target: {level: 2, side: -x}, speed: 1 m/s, at: 4 s}\n"
+    )
+    done = run_program(compile_scenario(parse_scenario(head + tail, "t.yaml")))
+    launch = next(e.detail for e in done.events if e.kind == "launch")
+    assert "not thrown: every brick of its level there has left it (b has " in launch, launch
+    assert "hammer" not in {n.id for n in done.final_graph.nodes}
+    beside = head + "    - {id: c, at: [40 mm, 0, 12 mm], yaw: 90}\n" + tail
+    program = compile_scenario(parse_scenario(beside, "t.yaml"))
+    assert next(a for a in program.actions if isinstance(a, Launch)).aim == ("b", "c")
+    done = run_program(program)
+    launch = next(e.detail for e in done.events if e.kind == "launch")
+    assert "aimed at c: thrown from (80.0, 0.0, 0.0) mm off its aim" in launch, launch
+    c = next(n for n in done.final_graph.nodes if n.id == "c")
+    assert c.position_mm[0] > 45.0, c.position_mm  # struck along +x

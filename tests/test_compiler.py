@@ -164,17 +164,17 @@ def test_an_impact_on_a_side_is_aimed_among_the_bricks_placed_when_it_is_thrown(
     y = 40, 0, -40 mm, placed at 6, 7 and 8 s) was hit on its middle brick, L03.2, even when only
     L03.1 was there; thrown before any of its bricks is placed, the throw is refused at its ``at``."""
 
-    def aimed(at: str) -> float:
+    def aimed(at: str) -> tuple[tuple[str, ...], float]:
         text = (
             "stackdsl: 1\nstructure: {tower: {levels: 3, bricks_per_layer: 3, spacing: 40 mm}}\n"
             f"impacts: [{{target: {{level: 3, side: +x}}, speed: 1 m/s, at: {at}}}]\n"
         )
         (launch,) = [a for a in program(text).actions if isinstance(a, Launch)]
-        return round(launch.target[1] * 1000, 3) + 0.0
+        return launch.aim, round(launch.target[1] * 1000, 3) + 0.0
 
-    assert aimed("after level 3") == 0.0
-    assert aimed("6 s") == 40.0
-    assert aimed("7 s") == 40.0  # equally near the middle of the two: the first
+    assert aimed("after level 3") == (("L03.2", "L03.1", "L03.3"), 0.0)
+    assert aimed("6 s") == (("L03.1",), 40.0)
+    assert aimed("7 s") == (("L03.1", "L03.2"), 40.0)  # equally near the middle of the two: the first
     for at in ("5.5 s", "after level 1"):
         with pytest.raises(ScenarioError) as info:
             aimed(at)

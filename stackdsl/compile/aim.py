@@ -1,6 +1,8 @@
 """Where a thrown brick is aimed at a level's side: the middle of the level's outer face there.
 
-The compiler aims at the bricks as the scenario places them.
+The compiler aims at the bricks as the scenario places them; the run aims again at the same
+brick as it lies when the projectile is thrown (:mod:`stackdsl.runtime.aim`), so both ask this
+module the same question of different poses.
 
 Source: stackdsl's own.
 """
@@ -12,6 +14,11 @@ from collections.abc import Sequence
 import numpy as np
 
 from stability import Box, Pose
+
+
+def face_middle(box: Box, pose: Pose, outward: np.ndarray) -> np.ndarray:
+    """The middle of the face of ``box`` at ``pose`` whose outward normal is nearest ``outward``."""
+    return np.asarray(box.face(pose, outward)[0].mean(axis=0))
 
 
 def outer_face(boxes: Sequence[Box], poses: Sequence[Pose], outward: np.ndarray) -> tuple[int, np.ndarray]:

@@ -604,7 +604,9 @@ def _launch(
 ) -> Launch:
     """A projectile aimed so that, falling under gravity, it reaches the target point (``pulls``:
     the bricks the actions pull out, each with its pull's index and motion: out of the scene from
-    its pull's start, a level's face is aimed among the bricks left)."""
+    its pull's start, a level's face is aimed among the bricks left). A throw at a level's side
+    names the brick it is aimed at first in its ``aim``, then the level's other bricks there to
+    aim at: the run aims at that brick as it lies when the projectile is thrown."""
     path = ("impacts", index)
     direction = np.array(impact.direction or _side(impact), dtype=np.float64)
     direction /= np.linalg.norm(direction)
@@ -617,13 +619,17 @@ def _launch(
         launch_time = impact.at
     step = _steps(scenario, path + ("at",), launch_time, dt)
     flight = impact.distance / impact.speed
+    aim: tuple[str, ...] = ()
+    face: tuple[float, float, float] | None = None
     if impact.target.point:
         target = np.array(impact.target.point)
     else:
         per_slot = _steps(scenario, ("timing", "interval"), scenario.timing.interval, dt)
         placed = {b.id: (int(k) * per_slot, int(k) * scenario.timing.interval) for b, k in zip(bricks, slots)}
         thrown, arrival = (step, launch_time), (step + flight / dt, launch_time + flight)
-        target = _face_point(scenario, index, impact, bricks, placed, pulls, thrown, arrival)
+        level, target = _face_point(scenario, index, impact, bricks, placed, pulls, thrown, arrival)
+        aim = tuple(b.id for b in level)
+        face = tuple(-np.array(_side(impact), dtype=np.float64))
     start = target - direction * (impact.distance + spec.half_extents[0])
     start[2] += 0.5 * GRAVITY * flight**2
     yaw, pitch = heading(direction)
@@ -638,6 +644,8 @@ def _launch(
         velocity=tuple(direction * impact.speed),
         target=tuple(target),
         arrival=launch_time + flight,
+        aim=aim,
+        face=face,
     )
 
 
@@ -650,8 +658,9 @@ def _face_point(
     pulls: Mapping[str, tuple[int, Remove]],
     thrown: tuple[int, float],
     arrival: tuple[float, float],
-) -> np.ndarray:
-    """The middle of the level's outer face on the target side (:func:`~stackdsl.compile.aim.outer_face`). Only the bricks in
+) -> tuple[list[LaidBrick], np.ndarray]:
+    """The level's bricks there to aim at, the one aimed at first, and the middle of the level's
+    outer face on the target side (:func:`~stackdsl.compile.aim.outer_face`). Only the bricks in
     the scene when the projectile is thrown (``thrown``, in steps and in seconds; ``placed``: each
     brick's placing, the same) and still there when it arrives (``arrival``, the same) count: a
     brick placed later is not there to aim at, a brick whose pull (of ``pulls``) has started by
@@ -682,7 +691,8 @@ def _face_point(
     outward: np.ndarray = -np.array(_side(impact), dtype=np.float64)
     poses = [Pose.from_euler(b.position, b.yaw, b.pitch, b.roll) for b in level]
     boxes = [Box(np.array(scenario.brick_type(b.type).size) / 2, 1.0) for b in level]
-    return outer_face(boxes, poses, outward)[1]
+    first_aimed, point = outer_face(boxes, poses, outward)
+    return [level[first_aimed], *(b for i, b in enumerate(level) if i != first_aimed)], point
 
 
 def _side(impact: Impact) -> tuple[float, float, float]:

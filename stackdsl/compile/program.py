@@ -124,7 +124,13 @@ class Place(_Frozen):
 
 
 class Launch(_Frozen):
-    """Throw projectile ``id`` from ``position`` with ``velocity``; it reaches ``target`` at ``arrival``."""
+    """Throw projectile ``id`` from ``position`` with ``velocity``; it reaches ``target`` at ``arrival``.
+
+    A throw at a level's side also names its ``aim``: the brick whose face ``target`` is the middle
+    of, as placed, then the level's other bricks there to aim at, and the outward normal of the
+    ``face`` hit. The run moves the throw by as much as that face has moved when it is thrown
+    (:mod:`stackdsl.runtime.aim`); a throw at a point has neither.
+    """
 
     kind: Literal["launch"] = "launch"
     step: int
@@ -137,6 +143,8 @@ class Launch(_Frozen):
     velocity: Vec3
     target: Vec3
     arrival: Seconds
+    aim: tuple[str, ...] = ()
+    face: Vec3 | None = None
 
 
 class Fixture(_Frozen):

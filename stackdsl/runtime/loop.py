@@ -29,6 +29,7 @@ from stability import Box, Pose
 
 from ..compile.program import End, Kinematic, Launch, Place, Program, Push, Remove, Shake
 from ..engines.protocol import BrickSpec, EngineUnstable, World
+from .aim import aim
 from .bricks import BrickRecord, Structure, footprint
 from .outcome import Event
 
@@ -286,17 +287,23 @@ class StepLoop:
             on_place(self, record)
         return record
 
-    def launch(self, a: Launch) -> BrickRecord:
+    def launch(self, a: Launch) -> BrickRecord | None:
         """Throw a projectile; with ``ccd`` it gets continuous collision detection (a swept
-        sphere of its half thickness, on the kind of body its engine needs for that)."""
+        sphere of its half thickness, on the kind of body its engine needs for that). A throw at a
+        level's side is aimed at its brick as it lies now (:func:`stackdsl.runtime.aim.aim`); one
+        that cannot be is not thrown (None), and its ``launch`` line says why."""
         ccd = self.program.engine.ccd
-        pose = Pose.from_euler(a.position, a.yaw, a.pitch, 0.0)
+        speed = float(np.linalg.norm(a.velocity))
+        pose, said = aim(a, self.structure, self.world, self.program.fixtures)
+        if pose is None:
+            self.events.append(Event(time=a.time, kind="launch", brick=a.id, detail=f"{speed:.3g} m/s ({said})"))
+            return None
         body = self._enter(a.id, a.brick, pose, projectile=ccd)
         self.world.throw(body, a.velocity, min(a.brick.half_extents) if ccd else None)
         record = BrickRecord(a.id, body, a.brick, None, pose, pose)
         self.structure.add(record)
-        speed = float(np.linalg.norm(a.velocity))
-        self.events.append(Event(time=a.time, kind="launch", brick=a.id, detail=f"{speed:.3g} m/s"))
+        detail = f"{speed:.3g} m/s ({said})" if said else f"{speed:.3g} m/s"
+        self.events.append(Event(time=a.time, kind="launch", brick=a.id, detail=detail))
         for on_launch in self._on_launch:
             on_launch(self, record)
         return record

@@ -55,7 +55,7 @@ class StabilityConfig:
         impacts: run the impact rule (report 3.6).
         impact_energy: what a blow must exceed to break the hit part loose: ``"least"``, the
             lesser of the energy to lift it from its base and the energy to tip it over the edge
-            of its support polygon ahead of the blow (a rocking block's barrier, stackdsl's own:
+            of its support polygon the blow turns it over (a rocking block's barrier, stackdsl's own:
             :func:`stability._impact.tipping_energy`) for a part nothing outside it holds, so
             that a blow that topples an upright brick (a domino, a post) wakes it; ``"lift"``,
             the lifting energy alone (report

@@ -9,9 +9,9 @@ impactor alone (against immovable bricks). Threshold-based, as the report's.
 
 The report's barrier is the energy to lift the part off its base. An upright part turns
 over the edge of its base long before it is lifted: by default the barrier is the lesser of
-the two (:func:`tipping_energy` about the edge of the part's support polygon,
-:func:`_footprint`, ``StabilityConfig.impact_energy``), so that no blow that topples a domino,
-a post or a column is held; and where the report's barrier is nothing (a fallen brick lying
+the two (:func:`tipping_energy` about the edge of the part's support polygon that the blow
+turns it over, :func:`_footprint`, ``StabilityConfig.impact_energy``), so that no blow that
+topples a domino, a post or a column, or one straight down on a cantilever's tip, is held; and where the report's barrier is nothing (a fallen brick lying
 tilted, its centre of mass below the contact it rests on) the tipping energy is the barrier,
 so that a touch at 0.01 m/s does not wake a fallen domino row brick by brick. A body a hand
 drives (one a pusher or a pulled brick touches) into the side of a frozen brick breaks it loose
@@ -20,13 +20,15 @@ whatever its own energy: the hand's weight is behind it (stackdsl's own).
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Set as AbstractSet
 from dataclasses import replace
 
 import numpy as np
-from shapely.geometry import LineString, Point, Polygon
+from shapely.geometry import Point, Polygon
 from shapely.geometry.base import BaseGeometry
+from shapely.geometry.polygon import orient
 from shapely.ops import unary_union
 
 from ._engine import ContactPoint
@@ -62,34 +64,104 @@ def potential_energy(mass_above: float, com_above_z: float, base_z: float, gravi
 
 
 def tipping_energy(
-    mass_above: float, com_above: np.ndarray, area: Polygon, base_z: float, heading: np.ndarray, gravity: float = GRAVITY
+    mass_above: float,
+    com_above: np.ndarray,
+    area: Polygon,
+    base_z: float,
+    heading: np.ndarray,
+    gravity: float = GRAVITY,
+    point: np.ndarray | None = None,
 ) -> float:
-    """Joules to tip the hit part over the edge of its contact ``area`` ahead along ``heading``
-    (a horizontal direction): its centre of mass above, ``h`` over the base and ``d`` from that
-    edge, rises from ``h`` to ``sqrt(d^2 + h^2)`` as the part turns about the edge until it is
-    over it, and past that its weight turns it on. The energy barrier of a rocking block
-    (Housner, "The behavior of inverted pendulum structures during earthquakes", Bull. Seismol.
-    Soc. Am. 53(2), 1963): a domino needs a few microjoules, where lifting it needs millijoules.
+    """Joules to tip the hit part over the edge of its contact ``area`` that a blow along
+    ``heading`` struck at ``point`` turns it over: its centre of mass above, ``h`` over the base
+    and ``d`` from that edge, rises from ``h`` to ``sqrt(d^2 + h^2)`` as the part turns about the
+    edge until it is over it, and past that its weight turns it on. The energy barrier of a
+    rocking block (Housner, "The behavior of inverted pendulum structures during earthquakes",
+    Bull. Seismol. Soc. Am. 53(2), 1963): a domino needs a few microjoules, where lifting it
+    needs millijoules.
+
+    Which edge (stackdsl's own, :func:`_tipping_edge`): the blow's line meets the base's plane at
+    a point ``Q`` (far off along the heading for a horizontal blow); a blow whose line passes
+    outside the support polygon turns the part toward ``Q`` about the polygon's edge between its
+    centre of mass and ``Q``, and one whose line meets the base inside the polygon turns it over
+    no edge (it presses the part on its base). A horizontal blow turns it over the edge ahead of
+    its centre of mass along the heading (a domino, a post); a vertical one on a cantilever's tip
+    over the edge it sticks out past. ``d`` is the centre of mass's distance to that edge's line,
+    across it (Housner's).
 
     Args:
         mass_above: kg; com_above: shape (3,), m; area: the main contact area's horizontal
             outline (shapely, m); base_z: m, its height; heading: shape (2,) or (3,), the blow's
-            direction (its horizontal part is used); gravity: m/s^2.
+            direction (a 2-vector is horizontal); gravity: m/s^2; point: shape (3,), m, where
+            the blow lands on the part (None: level with the centre of mass, which for a
+            horizontal blow changes nothing).
 
-    Returns the lifting energy (:func:`potential_energy`) when the heading has no horizontal part.
+    Returns the lifting energy (:func:`potential_energy`) when the blow turns the part over no
+    edge of ``area`` (a blow straight down inside the polygon, one with no moment about the
+    edges); a part whose centre of mass is outside ``area`` is not tipped over it (0 to go).
     """
     h = max(float(com_above[2]) - base_z, 0.0)
-    flat = np.asarray(heading[:2], dtype=float)
-    norm = float(np.linalg.norm(flat))
-    if norm < 1e-9:
-        return potential_energy(mass_above, float(com_above[2]), base_z, gravity)
-    x, y = float(com_above[0]), float(com_above[1])
-    reach = LineString([(x, y), (x + flat[0] / norm * 10.0, y + flat[1] / norm * 10.0)])
-    crossing = reach.intersection(area.boundary)
-    d = 0.0 if crossing.is_empty else float(Point(x, y).distance(crossing))
+    lift = potential_energy(mass_above, float(com_above[2]), base_z, gravity)
+    blow = np.zeros(3)
+    blow[: len(heading)] = np.asarray(heading, dtype=float)[:3]
+    struck = np.asarray(com_above if point is None else point, dtype=float)
+    edge = _tipping_edge(np.asarray(com_above, dtype=float), area, base_z, blow, struck)
+    if edge is None:
+        return lift
+    return mass_above * gravity * (math.hypot(edge, h) - h)
+
+
+def _tipping_edge(com: np.ndarray, area: Polygon, base_z: float, heading: np.ndarray, point: np.ndarray) -> float | None:
+    """The distance (m) from the centre of mass ``com`` to the line of the edge of the convex
+    polygon ``area`` (at height ``base_z``) that a blow along ``heading`` at ``point`` turns the
+    part over, or None when it turns it over none (stackdsl's own).
+
+    The blow's angular impulse about the foot of the centre of mass on the base plane,
+    ``(point - foot) x heading``, leans the part toward ``w = r_z heading_xy - heading_z
+    (point - com)_xy`` (``r_z`` the point's height over the base), which is the direction from
+    the centre of mass to where the blow's line meets the base plane (ahead along the heading
+    for a horizontal blow). The edge is the one the ray from the centre of mass along ``w``
+    leaves the polygon by: of the edges whose outward normal has a part along ``w``, the least
+    ``d / (w . n)`` (the least barrier measured along the lean; an edge nearly along the lean,
+    whose moment a heading off by a hair would make positive, never wins). The part turns over
+    it when the blow's moment about that edge's line, ``((point - a) x heading) . e`` with ``a``
+    on the edge and ``e`` along it (counterclockwise, so that a positive turn lifts the inside),
+    is positive: the blow's line passes outside the edge. None for a centre of mass outside
+    ``area``, a degenerate ``area`` or no lean."""
+    if not isinstance(area, Polygon) or area.is_empty or area.area <= 0.0:
+        return None
+    x, y = float(com[0]), float(com[1])
     if not area.contains(Point(x, y)):
-        d = 0.0
-    return mass_above * gravity * (math.hypot(d, h) - h)
+        return None
+    r_z = float(point[2]) - base_z
+    lean = r_z * heading[:2] - heading[2] * (point[:2] - com[:2])
+    norm = float(np.linalg.norm(lean))
+    if norm < 1e-12:
+        return None
+    lean = lean / norm
+    ring = np.asarray(orient(area, 1.0).exterior.coords, dtype=float)[:, :2]
+    best: tuple[float, float, np.ndarray, np.ndarray] | None = None  # (along the lean, across, a, e)
+    for a, b in itertools.pairwise(ring):
+        length = float(np.linalg.norm(b - a))
+        if length < 1e-12:
+            continue
+        e = (b - a) / length
+        n = np.array([e[1], -e[0]])  # outward: the ring runs counterclockwise
+        facing = float(lean @ n)
+        if facing <= 1e-12:
+            continue
+        across = float((a - com[:2]) @ n)
+        along = across / facing
+        if best is None or along < best[0]:
+            best = (along, across, a, e)
+    if best is None:
+        return None
+    _, across, a, e = best
+    arm = np.array([point[0] - a[0], point[1] - a[1], r_z])
+    moment = float(np.cross(arm, heading) @ np.array([e[0], e[1], 0.0]))
+    if moment <= 1e-12:
+        return None
+    return max(across, 0.0)
 
 
 def breaks_loose(kinetic: float, potential: float) -> bool:
@@ -167,7 +239,7 @@ class Impacts:
                 footprint = _footprint(stack, other) if config.impact_energy == "least" else None
                 com = np.asarray(other.com_above)
                 if footprint is not None and footprint.contains(Point(com[0], com[1])):  # else held by more than it
-                    tip = tipping_energy(other.mass_above, com, footprint, base, heading, config.gravity)
+                    tip = tipping_energy(other.mass_above, com, footprint, base, heading, config.gravity, hit.position)
                     potential = tip if potential <= 0.0 else min(potential, tip)
                 detail = f"impact of {rec.label} at {speed:.2f} m/s: {kinetic * 1000:.3g} mJ against {potential * 1000:.3g} mJ"
                 if breaks_loose(kinetic, potential):

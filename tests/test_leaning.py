@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 import pytest
+from shapely.geometry import box
 
 from stability import (
     Box,
@@ -21,6 +22,7 @@ from stability import (
     pair_friction,
     potential_energy,
 )
+from stability._impact import tipping_energy
 
 L = 0.12
 M = 0.0106
@@ -470,3 +472,110 @@ def test_the_edges_of_the_ranges_are_taken():
     # a negative face gap turns exact face areas off (the tests of engines' contact points use it)
     config = StabilityConfig(rest_speed=0, rest_duration=0.0, support_angle=90.0, face_gap=-1.0, com_margin=0.0)
     assert config.face_gap == -1.0 and config.support_angle == 90.0
+
+
+def test_the_tipping_barrier_of_a_blow_is_housners_about_the_edge_its_line_passes_outside():
+    """A counterweighted cantilever (two KAPLAs, 21.2 g, their centre of mass 3 mm inside a
+    table's edge at x = 0 and 8 mm above it), struck straight down on its tip 75 mm out: the
+    blow turns it over the edge, m g (sqrt(3^2 + 8^2) - 8) mm = 0.113 mJ, not 1.66 mJ to lift
+    it. Struck inside the table's edge, or by a blow whose line meets the table inside it, it
+    is pressed on its base: lifting it is the barrier."""
+    table = box(-0.1, -0.012, 0.0, 0.012)
+    mass, com, base, down = 2 * M, np.array([-0.003, 0.0, 0.048]), 0.04, np.array([0.0, 0.0, -1.0])
+    housner = mass * 9.81 * (math.hypot(0.003, 0.008) - 0.008)
+    lift = potential_energy(mass, 0.048, base)
+    assert lift == pytest.approx(1.66e-3, abs=1e-5) and housner == pytest.approx(0.113e-3, abs=1e-6)
+    for tip in ([0.075, 0.0, 0.048], [0.075, 0.01, 0.048], [0.001, -0.012, 0.044]):  # off its axis too
+        assert tipping_energy(mass, com, table, base, down, point=np.array(tip)) == pytest.approx(housner)
+    for inside in ([-0.05, 0.0, 0.048], [0.0, 0.0, 0.048], [-0.003, 0.0, 0.056]):  # on the edge: no moment
+        assert tipping_energy(mass, com, table, base, down, point=np.array(inside)) == pytest.approx(lift)
+    # 45 degrees down and out: struck 8 mm above the base, the line meets it 8 mm further out
+    slant = np.array([1.0, 0.0, -1.0]) / math.sqrt(2.0)
+    assert tipping_energy(mass, com, table, base, slant, point=np.array([-0.005, 0.0, 0.048])) == pytest.approx(housner)
+    assert tipping_energy(mass, com, table, base, slant, point=np.array([-0.02, 0.0, 0.048])) == pytest.approx(lift)
+    # up and in, under the overhang, past the edge: it turns the overhang up, over the far edge
+    up = np.array([0.0, 0.0, 1.0])
+    far = mass * 9.81 * (math.hypot(0.097, 0.008) - 0.008)
+    assert tipping_energy(mass, com, table, base, up, point=np.array([0.075, 0.0, 0.04])) == pytest.approx(far)
+
+
+def test_a_horizontal_blow_tips_the_part_over_the_edge_ahead_along_it_as_before():
+    """A domino's 8 mm foot, its centre of mass 60 mm up: 4 mm to the edge ahead whatever the
+    height struck, and a heading a hair off the axis never opens the 12 mm side; a trilithon
+    post braced along its lintel (its part's polygon reaches the far post, 74 mm ahead) is not
+    tipped sideways by a blow 1e-4 off the lintel's line."""
+    foot, com = box(-0.004, -0.012, 0.004, 0.012), np.array([0.0, 0.0, 0.06])
+    domino = M * 9.81 * (math.hypot(0.004, 0.06) - 0.06)
+    for heading in ([1.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1e-7, 0.0], [1.0, -1e-4, 0.0]):
+        for point in (None, np.array([-0.004, 0.0, 0.1]), np.array([-0.004, 0.0, 0.01])):
+            assert tipping_energy(M, com, foot, 0.0, np.array(heading), point=point) == pytest.approx(domino, rel=1e-6)
+    span, post = box(-0.004, -0.012, 0.104, 0.012), np.array([0.03, 0.0, 0.07])
+    along = 2 * M * 9.81 * (math.hypot(0.074, 0.07) - 0.07)
+    hit = np.array([-0.004, 0.0, 0.1])
+    assert tipping_energy(2 * M, post, span, 0.0, np.array([1.0, 1e-4, 0.0]), point=hit) == pytest.approx(along, rel=1e-6)
+    across = 2 * M * 9.81 * (math.hypot(0.012, 0.07) - 0.07)
+    assert tipping_energy(2 * M, post, span, 0.0, np.array([0.0, 1.0, 0.0]), point=hit) == pytest.approx(across)
+    # a blow 30 degrees off the axis turns the domino over the same edge: 4 mm across it
+    oblique = np.array([math.cos(math.radians(30)), math.sin(math.radians(30)), 0.0])
+    assert tipping_energy(M, com, foot, 0.0, oblique, point=hit) == pytest.approx(domino)
+
+
+def _rectangle(x0: float, x1: float, z: float) -> list[list[float]]:
+    """The corners of a KAPLA-wide contact from x0 to x1 (m) at height z."""
+    return [[x0, -0.012, z], [x1, -0.012, z], [x1, 0.012, z], [x0, 0.012, z]]
+
+
+def cantilever_scene(speed: float, at_x: float = 0.075) -> tuple[Scene, list]:
+    """A KAPLA A sticking 80 mm out over a fixed table's edge (x = 0, top z = 40 mm), a KAPLA B
+    on its back end (their centre of mass 3 mm inside the edge, 8 mm above it); a 10 mm pine
+    cube about to land on A's top at ``at_x``, straight down at ``speed``."""
+    s = Scene()
+    s.engine.frozen.add(9)
+    s.engine.poses[9] = Pose.from_euler([-0.1, 0.0, 0.02])
+    s.ext.add_ground(9, Box(np.array([0.1, 0.05, 0.02]), 1.0), "table")
+    s.engine.poses[1] = Pose.from_euler([0.02, 0.0, 0.044])
+    s.ext.add_brick(1, KAPLA, "A")
+    s.engine.touch(1, 9, _rectangle(-0.04, 0.0, 0.04), normal=UP)
+    s.engine.poses[2] = Pose.from_euler([-0.026, 0.0, 0.052])
+    s.ext.add_brick(2, KAPLA, "B")
+    s.engine.touch(2, 1, _rectangle(-0.04, 0.034, 0.048), normal=UP)
+    s.ext.update(0.1)
+    assert s.ext.state(1) is BrickState.FROZEN and s.ext.state(2) is BrickState.FROZEN
+    s.engine.poses[5] = Pose.from_euler([at_x, 0.0, 0.0535])
+    s.ext.add_brick(5, Box(np.array([0.005, 0.005, 0.005]), 0.00046), "pebble")
+    s.engine.velocities[5] = (np.array([0.0, 0.0, -speed]), np.zeros(3))
+    s.engine.touch(5, 1, [[at_x, 0.0, 0.048]], normal=UP)
+    return s, s.ext.update(1.0)
+
+
+@pytest.mark.parametrize("speed", [1.0, 2.0])
+def test_a_blow_straight_down_on_a_cantilevers_tip_tips_it_over_the_table_edge(speed):
+    # 0.23 mJ at 1 m/s against 0.113 mJ to turn the pair over the edge; lifting it takes 1.66 mJ,
+    # which held it where every tuned engine topples it
+    s, events = cantilever_scene(speed)
+    housner = 2 * M * 9.81 * (math.hypot(0.003, 0.008) - 0.008)
+    assert [(e.kind, e.label) for e in events] == [("wake", "A"), ("wake", "B")]
+    assert f"against {housner * 1000:.3g} mJ" in events[0].reason
+    assert s.ext.state(1) is BrickState.ACTIVE
+
+
+def test_a_gentle_tap_on_the_tip_or_a_blow_down_inside_the_table_is_held():
+    _, events = cantilever_scene(0.2)  # 0.0092 mJ
+    assert [(e.kind, e.label) for e in events] == [("impact", "A")] and "against 0.113 mJ" in events[0].reason
+    _, events = cantilever_scene(2.0, at_x=-0.02)  # over the table: pressed on it, lifting is the barrier
+    assert [(e.kind, e.label) for e in events] == [("impact", "A")] and "0.92 mJ against 1.66 mJ" in events[0].reason
+
+
+def test_a_blow_straight_down_on_a_flat_brick_is_weighed_against_lifting_it():
+    for speed, kind in ((0.2, "impact"), (1.0, "wake")):  # 0.21 and 5.3 mJ, struck 10 mm in from its end
+        s = Scene()
+        s.engine.poses[1] = Pose.from_euler([0.0, 0.0, 0.004])
+        s.ext.add_brick(1, KAPLA, "b1")
+        s.engine.touch(1, 0, _rectangle(-0.06, 0.06, 0.0), normal=UP)
+        s.ext.update(0.1)
+        s.engine.poses[5] = Pose.from_euler([0.05, 0.0, 0.012])
+        s.ext.add_brick(5, KAPLA, "hammer")
+        s.engine.velocities[5] = (np.array([0.0, 0.0, -speed]), np.zeros(3))
+        s.engine.touch(5, 1, [[0.05, 0.0, 0.008]], normal=UP)
+        events = s.ext.update(1.0 + speed)
+        assert [(e.kind, e.label) for e in events] == [(kind, "b1")] and "against 0.416 mJ" in events[0].reason

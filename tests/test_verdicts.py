@@ -5,6 +5,7 @@ whatever the drop gap (docs/design.md, "collapse" and "certificate")."""
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -566,3 +567,34 @@ timing: {settle: 2 s}
     result = run_program(compile_scenario(parse_scenario(text)))
     assert result.collapse is not None and result.certificate is not None and result.toppled == ()
     assert result.certificate.kind == "at rest displaced", result.certificate.detail
+
+
+def test_a_brick_woken_on_an_edge_says_how_far_past_the_edge():
+    """A KAPLA C tilted 2.9 deg from a KAPLA A onto the left top edge (x = 40 mm) of a 12.5 mm
+    block B, with a heavy brick D lying on it: C and D's centre of mass is past that edge, so C
+    wakes. Its only contact with B is the engine's points along the edge, padded 1 mm to decide
+    the stand; the wake said "2.1 mm outside its support" where the centre of mass is 3.1 mm past
+    the edge: the distance to the padding. It says the distance to the edge, and the mechanism's
+    proof repeats it."""
+    pitch, density = -2.86241, 1380.0
+    c_x, d_x = 9.7254, 54.2697
+    text = f"""stackdsl: 1
+materials: {{heavy: {{density: {density} kg/m^3, friction: 0.5}}}}
+brick_types:
+  tall: {{size: [120 mm, 24 mm, 12.5 mm], material: pine}}
+  load: {{size: [120 mm, 24 mm, 8 mm], material: heavy}}
+structure:
+  bricks:
+    - {{id: A, at: [-60 mm, 0, 4 mm]}}
+    - {{id: B, brick: tall, at: [100 mm, 0, 6.25 mm]}}
+    - {{id: C, at: [{c_x} mm, 0, 14.9913 mm], pitch: {pitch}}}
+    - {{id: D, brick: load, at: [{d_x} mm, 0, 25.2285 mm], pitch: {pitch}}}
+"""
+    c_mass = KAPLA.mass
+    d_mass = density * 0.120 * 0.024 * 0.008
+    past_mm = (c_mass * c_x + d_mass * d_x) / (c_mass + d_mass) - 40.0  # 3.13 mm
+    result = run_program(compile_scenario(parse_scenario(text)))
+    wakes = [e.detail for e in result.events if e.kind == "wake" and e.brick == "C" and "outside its support" in e.detail]
+    assert wakes, [(e.kind, e.brick, e.detail) for e in result.events]
+    said = float(re.search(r"above ([0-9.]+) mm outside", wakes[0]).group(1))  # type: ignore[union-attr]
+    assert said == pytest.approx(past_mm, abs=0.2), (wakes[0], past_mm)

@@ -569,6 +569,16 @@ timing: {settle: 2 s}
     assert result.certificate.kind == "at rest displaced", result.certificate.detail
 
 
+def test_a_stand_names_no_bricks_in_any_mode():
+    """``certificate.bricks`` of a stand was empty in extension mode and every brick in raw and
+    tuned mode, for the same stack and the same detail: it is empty in every mode."""
+    text = "stackdsl: 1\nstructure: {tower: {levels: 3, bricks_per_layer: 1, turn: 0, shift: 20 mm}}\n"
+    for mode in ("extension", "raw", "tuned"):
+        result = run_program(compile_scenario(parse_scenario(text), mode=mode))
+        assert result.collapse is None and result.certificate is not None, mode
+        assert result.certificate.verdict == "stands" and result.certificate.bricks == (), (mode, result.certificate)
+
+
 def test_a_brick_woken_on_an_edge_says_how_far_past_the_edge():
     """A KAPLA C tilted 2.9 deg from a KAPLA A onto the left top edge (x = 40 mm) of a 12.5 mm
     block B, with a heavy brick D lying on it: C and D's centre of mass is past that edge, so C

@@ -287,7 +287,6 @@ class CollapseMonitor(Subscriber):
                     else f"the equilibrium program balances {_count(certificate.bricks, 'brick')} on "
                     f"{_count(certificate.contacts, 'contact')}"
                 ),
-                bricks=certificate.active,
                 margin_mm=round(certificate.margin * 1000, 1) + 0.0,
             )
             return

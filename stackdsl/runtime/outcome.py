@@ -79,9 +79,10 @@ class Certificate(_Frozen):
             on; on the ground alone, passed the edge of the face it stood on), ``"mechanism"`` (it moves in a collapse mechanism statics proved),
             ``"displaced at the end"``, or ``"no equilibrium"`` (the final state has none).
         detail: the proof in words.
-        bricks: the bricks involved: those displaced at the collapse, those of the mechanism
-            with no equilibrium; for ``stands``, the bricks the engine still moved at the end
-            (solved on their live contacts).
+        bricks: for ``collapse``, the bricks it involves: those displaced when it was decided,
+            with those its proof names (the proved mechanism; with no
+            equilibrium, the mechanism's); for ``stands``, none, in every mode (the stand is of
+            every brick, and ``detail`` says how many were balanced).
         margin_mm: for ``stands``, how far every centre of mass could move together before
             it would not (at most 20 mm); else None.
     """

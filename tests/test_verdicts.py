@@ -569,6 +569,52 @@ timing: {settle: 2 s}
     assert result.certificate.kind == "at rest displaced", result.certificate.detail
 
 
+CANTILEVER = """stackdsl: 1
+brick_types: {{table: {{size: [200 mm, 100 mm, 40 mm], material: pine}}}}
+structure:
+  bricks:
+    - {{id: table, brick: table, at: [-100 mm, 0, 20 mm], fixed: true}}
+    - {{id: A, at: [20 mm, 0, 44 mm]}}
+{more}"""
+
+
+@pytest.mark.parametrize("counterweight_x_mm", [-26.0, -14.0])
+def test_a_counterweighted_cantilever_tips_by_the_pair_s_centre_of_mass(counterweight_x_mm):
+    """A KAPLA 80 mm out over a table's edge (x = 0) has its own centre of mass 20 mm outside the
+    table whether the counterweight B lying on its back end holds it or not: the pair's, at
+    (20 + x_B) / 2, decides. The proof of the one that tips said "A's centre of mass lies 20.2 mm
+    outside the support polygon it was placed on (20.0 mm as it was placed)", true of the twin
+    that stands; it is of A with B, about as far out as the pair was placed, and names both."""
+    pair_mm = (20.0 + counterweight_x_mm) / 2
+    more = f"    - {{id: B, at: [{counterweight_x_mm} mm, 0, 52 mm], together: true}}\n"
+    result = run_program(compile_scenario(parse_scenario(CANTILEVER.format(more=more))))
+    if pair_mm < 0.0:
+        assert result.collapse is None
+        return
+    proof = result.certificate
+    assert result.collapse is not None and proof is not None and proof.kind == "off its support", proof
+    assert {"A", "B"} <= set(proof.bricks) and "A with B" in proof.detail, proof.detail
+    said = [float(w) for w in re.findall(r"([0-9.]+) mm", proof.detail)]
+    assert said[0] == pytest.approx(pair_mm, abs=1.0) and said[1] == pytest.approx(pair_mm, abs=0.1), proof.detail
+
+
+@pytest.mark.parametrize("bridge_y_mm, stands", [(30.0, True), (36.0, False)])
+def test_a_brick_placed_off_its_support_and_held_down_proves_nothing_by_it(bridge_y_mm, stands):
+    """The same cantilever held down by a brick B laid across its back end and a brick C beside
+    it on the table: how much of B's weight A takes decides, and A's own centre of mass lies
+    20 mm outside the table as placed in both. Going 0.1 mm further out is no proof that it
+    tipped (it proved the collapse of the one that does): the proof is another."""
+    more = (
+        "    - {id: C, at: [-60 mm, 40 mm, 44 mm], together: true}\n"
+        f"    - {{id: B, at: [-30 mm, {bridge_y_mm} mm, 52 mm], yaw: 90, together: true}}\n"
+    )
+    result = run_program(compile_scenario(parse_scenario(CANTILEVER.format(more=more))))
+    assert (result.collapse is None) is stands
+    proof = result.certificate
+    assert proof is not None
+    assert not (proof.kind == "off its support" and proof.detail.startswith("A's centre of mass")), proof.detail
+
+
 def test_a_stand_names_no_bricks_in_any_mode():
     """``certificate.bricks`` of a stand was empty in extension mode and every brick in raw and
     tuned mode, for the same stack and the same detail: it is empty in every mode."""

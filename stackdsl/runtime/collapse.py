@@ -6,10 +6,10 @@ stays so:
 
 - it comes to rest displaced: its speeds stay under the rest thresholds for the rest
   duration (or the stability extension freezes it) while it is displaced; or
-- it cannot come back: its centre of mass has left the support polygon it was placed on (the
-  overlaps of its bottom face with what it rested on, carried along with those supports as
-  they move), so its weight turns it on away from its place and only a push could bring it
-  back; or it moves in a collapse mechanism that statics proved (the stability extension's
+- it cannot come back: its centre of mass, with the bricks it carries, has left the support
+  polygon it was placed on (the overlaps of its bottom face with what it rested on, carried
+  along with those supports as they move), so their weight turns it on away from its place and
+  only a push could bring it back; or it moves in a collapse mechanism that statics proved (the stability extension's
   equilibrium model: rigid-block equilibrium, or a part turning out about an edge); or
 - the run ends while it is displaced.
 
@@ -33,6 +33,7 @@ without a threshold).
 
 from __future__ import annotations
 
+import heapq
 import math
 import time
 from collections.abc import Callable, Sequence
@@ -40,6 +41,7 @@ from collections.abc import Set as AbstractSet
 from dataclasses import dataclass
 
 import numpy as np
+import shapely
 from shapely import contains_xy, convex_hull, multipoints
 from shapely.geometry import Point
 from shapely.geometry.base import BaseGeometry
@@ -49,7 +51,7 @@ from stability import Certificate as Equilibrium
 
 from ..compile.program import Fixture
 from .actions import Actions
-from .bricks import BrickRecord
+from .bricks import BrickRecord, footprint
 from .loop import StepLoop, Subscriber
 from .outcome import Certificate, Collapse, Event, Graph, ProofKind
 
@@ -133,16 +135,18 @@ class SupportPolygon:
         """Whether the brick was placed on the ground and on nothing else."""
         return bool(self.pieces) and self._on_planes == len(self.pieces)
 
-    def beyond_its_base(self, pose: Pose) -> float:
+    def beyond_its_base(self, pose: Pose, com: np.ndarray | None = None) -> float:
         """Metres the brick's centre of mass, at ``pose`` now, lies horizontally beyond the edge
         of the face it was placed on (that face as it is now, seen from above); 0 over it. On the
         ground, which reaches everywhere, this is what leaving its support means: a post that
-        tips past the edge of its foot has, one that slides along the ground has not."""
+        tips past the edge of its foot has, one that slides along the ground has not. ``com``:
+        another centre of mass to measure (shape (3,): of the brick with what it carries)."""
         placed = self.box.corners(self.pose)
         face = np.argsort(placed[:, 2])[:4]  # the four lowest corners as placed: the face it stood on
         now = self.box.corners(pose)[face]
         hull = convex_hull(multipoints(now[:, :2]))
-        x, y = float(pose.position[0]), float(pose.position[1])
+        point = pose.position if com is None else com
+        x, y = float(point[0]), float(point[1])
         return 0.0 if contains_xy(hull, x, y) else float(hull.distance(Point(x, y)))
 
     @property
@@ -158,14 +162,19 @@ class SupportPolygon:
         """Metres the brick's centre of mass lay inside the polygon's edge as it was placed
         (negative: outside it; inf with no polygon, a tilted brick)."""
         if self._placed_margin is None:
-            hull = self._hull({body: pose for body, _, pose in self.below if body is not None and pose is not None})
-            self._placed_margin = math.inf
-            if hull is not None:
-                x, y = (float(v) for v in self.pose.position[:2])
-                inside = contains_xy(hull, x, y)
-                edge = hull.exterior if inside and hasattr(hull, "exterior") else hull
-                self._placed_margin = float(edge.distance(Point(x, y))) * (1.0 if inside else -1.0)
+            self._placed_margin = self.placed_margin_of(self.pose.position)
         return self._placed_margin
+
+    def placed_margin_of(self, com: np.ndarray) -> float:
+        """:attr:`placed_margin` of another centre of mass ``com`` (shape (3,), in the world as
+        placed: of the brick with the bricks it carries)."""
+        hull = self._hull({body: pose for body, _, pose in self.below if body is not None and pose is not None})
+        if hull is None:
+            return math.inf
+        x, y = float(com[0]), float(com[1])
+        inside = contains_xy(hull, x, y)
+        edge = hull.exterior if inside and hasattr(hull, "exterior") else hull
+        return float(edge.distance(Point(x, y))) * (1.0 if inside else -1.0)
 
     def _hull(
         self, poses: dict[int, Pose], offset: tuple[float, float, float] = (0.0, 0.0, 0.0), gone: AbstractSet[int] = frozenset()
@@ -249,6 +258,8 @@ class CollapseMonitor(Subscriber):
         self.certify_time = 0.0
         self._displaced: dict[str, _Displaced] = {}
         self._supports: dict[str, SupportPolygon] = {}
+        self._carries: dict[str, list[str]] = {}  # brick id -> the ids of the bricks placed on it
+        self._parts: dict[str, tuple[tuple[int, int], list[BrickRecord]]] = {}  # :meth:`_part`, and when
 
     @property
     def quiet(self) -> bool:
@@ -263,6 +274,8 @@ class CollapseMonitor(Subscriber):
         below += [(None, Box(np.array(f.brick.half_extents), f.brick.mass), _fixture_pose(f)) for f in loop.program.fixtures]
         below += [(r.body, r.box, Pose(p, q)) for r, p, q in zip(others, positions, quaternions)]
         self._supports[record.id] = SupportPolygon(record.box, record.pose, below)
+        for r in others:
+            self._carries.setdefault(r.id, []).append(record.id)
 
     def at_end(self, loop: StepLoop) -> None:
         if self.collapse is None and self._displaced:
@@ -365,20 +378,8 @@ class CollapseMonitor(Subscriber):
                 )
             elif (mechanism := self._proved(record.id)) is not None:
                 proof = ("mechanism", f"{record.id} moves in {mechanism[0]}", mechanism[1])
-            elif (out := self._off_support(loop, record)) > OFF_SUPPORT and out - (placed := self._placed_outside(record)) > (
-                FURTHER_OFF if placed > 0.0 else 0.0
-            ):
-                where = (
-                    "beyond the edge of the face it stood on the ground with"
-                    if (support := self._supports.get(record.id)) is not None and support.on_the_ground_alone
-                    else "outside the support polygon it was placed on"
-                )
-                proof = (
-                    "off its support",
-                    f"{record.id}'s centre of mass lies {out * 1000:.1f} mm {where}"
-                    + (f" ({placed * 1000:.1f} mm as it was placed)" if placed > 0.0 else ""),
-                    (),
-                )
+            elif (off := self._off_support(loop, record)) is not None:
+                proof = off
             if proof is not None:
                 self._collapsed(loop, record, distance, proof)
                 return
@@ -394,29 +395,103 @@ class CollapseMonitor(Subscriber):
         engine = "pybullet's 1 mm collision margin" if loop.program.engine.backend == "pybullet" else "the engine's contacts"
         return f" (placed {margin * 1000:.2f} mm inside its support's edge: a near tie, within {engine})"
 
-    def _placed_outside(self, record: BrickRecord) -> float:
-        """Metres ``record``'s centre of mass lay outside its support polygon as it was placed."""
-        support = self._supports.get(record.id)
-        return 0.0 if support is None else support.placed_outside
+    def _part(self, loop: StepLoop, record: BrickRecord) -> list[BrickRecord]:
+        """``record`` and the bricks it carries: those placed on it, or on it and on bricks it
+        carries, and on nothing else (a counterweight on a cantilever's back end, the bricks of
+        a harmonic stack above it), in the order they were placed. They tip with it."""
+        records, removed = loop.structure.records, {r.id for r in loop.structure.removed}
+        key = (len(records), len(removed))  # a part changes only when a brick is placed or taken out
+        if (known := self._parts.get(record.id)) is not None and known[0] == key:
+            return known[1]
+        part, bodies = [record], {record.body}
+        heap = [(records[i].order, i) for i in self._carries.get(record.id, ())]
+        heapq.heapify(heap)
+        seen = {i for _, i in heap}
+        while heap:  # in the order placed: what a candidate rests on is decided before it
+            _, i = heapq.heappop(heap)
+            r = records[i]
+            support = self._supports.get(i)
+            if r.level is None or i in removed or support is None or not support.pieces:
+                continue
+            if not all(b is not None and b in bodies for b, _ in support.pieces):
+                continue
+            part.append(r)
+            bodies.add(r.body)
+            for j in self._carries.get(i, ()):
+                if j not in seen:
+                    seen.add(j)
+                    heapq.heappush(heap, (records[j].order, j))
+        self._parts[record.id] = (key, part)
+        return part
 
-    def _off_support(self, loop: StepLoop, record: BrickRecord) -> float:
-        """Metres ``record``'s centre of mass lies outside the support polygon it was placed on."""
+    def _held(self, loop: StepLoop, part: list[BrickRecord]) -> bool:
+        """Whether something other than what ``part`` was placed on touched it as placed: a
+        brick placed on it and on something else (it holds the part down), or one beside it (one
+        end of a flat arch, held by its partner), a fixed body included."""
+        ids = {r.id for r in part}
+        removed = {r.id for r in loop.structure.removed}
+        if any(j not in ids and j not in removed for r in part for j in self._carries.get(r.id, ())):
+            return True
+        others = [r for r in loop.structure.records.values() if r.level is not None and r.id not in ids and r.id not in removed]
+        shapes = [(r.footprint, r.corners) for r in others]
+        for f in loop.program.fixtures:
+            corners = Box(np.array(f.brick.half_extents), f.brick.mass).corners(_fixture_pose(f))
+            shapes.append((footprint(corners), corners))
+        if not shapes:
+            return False
+        lows = np.array([c[:, 2].min() for _, c in shapes])
+        highs = np.array([c[:, 2].max() for _, c in shapes])
+        for r in part:
+            low, high = float(r.corners[:, 2].min()), float(r.corners[:, 2].max())
+            beside = (np.minimum(highs, high) - np.maximum(lows, low)) > FACE_GAP  # at its height, not under or on it
+            if beside.any():
+                near = shapely.distance([shapes[k][0] for k in np.flatnonzero(beside)], r.footprint)
+                if (near <= FACE_GAP).any():
+                    return True
+        return False
+
+    def _off_support(self, loop: StepLoop, record: BrickRecord) -> tuple[ProofKind, str, tuple[str, ...]] | None:
+        """The proof that ``record`` has collapsed because the centre of mass of what tips with
+        it (itself and the bricks it carries, :meth:`_part`) has left the support polygon it was
+        placed on, or None. Placed with that centre of mass already outside, the part either
+        tips at once or something else holds it: only how much further out it went counts, and
+        nothing at all when something other than its supports touched it as placed."""
         support = self._supports.get(record.id)
         if support is None or not support.pieces:
-            return 0.0
+            return None
         # pulled out and taken away: it supports nothing; a brick the hand still pulls is still
         # there, its piece carried along with it (a polygon larger than the overlap left: a
         # centre of mass outside it is outside that overlap too)
         in_hand = {g.record.body for s in loop.subscribers if isinstance(s, Actions) for g in s.guided}
         gone = {r.body for r in loop.structure.removed} - in_hand
         if gone and all(b in gone for b, _ in support.pieces):
-            return 0.0
-        bodies = [record.body, *(b for b, _ in support.pieces if b is not None)]
+            return None
+        part = self._part(loop, record)
+        masses = np.array([r.box.mass for r in part])
+        bodies = [*(r.body for r in part), *(b for b, _ in support.pieces if b is not None)]
         positions, quaternions = loop.world.poses_of(bodies)
         poses = {b: Pose(p, q) for b, p, q in zip(bodies, positions, quaternions)}
+        com = masses @ positions[: len(part)] / masses.sum() - np.asarray(loop.structure.offset)
         if support.on_the_ground_alone:  # the ground is everywhere: off the face it stood on, or not
-            return support.beyond_its_base(Pose(positions[0] - loop.structure.offset, quaternions[0]))
-        return support.outside(positions[0] - loop.structure.offset, poses, loop.structure.offset, gone)
+            out = support.beyond_its_base(Pose(positions[0] - loop.structure.offset, quaternions[0]), com)
+        else:
+            out = support.outside(com, poses, loop.structure.offset, gone)
+        if out <= OFF_SUPPORT:
+            return None
+        if len(part) == 1:
+            placed = support.placed_outside
+        else:
+            placed = max(0.0, -support.placed_margin_of(masses @ np.array([r.pose.position for r in part]) / masses.sum()))
+        if placed > 0.0 and (out - placed <= FURTHER_OFF or self._held(loop, part)):
+            return None
+        on = "the face it stood on the ground with" if support.on_the_ground_alone else "the support polygon it was placed on"
+        where = f"beyond the edge of {on}" if support.on_the_ground_alone else f"outside {on}"
+        whose = f"{record.id}'s centre of mass"
+        if len(part) > 1:
+            whose = f"the centre of mass of {record.id} with {_and([r.id for r in part[1:]])} on it"
+            where = where.replace(" it ", f" {record.id} ")
+        as_placed = f" ({placed * 1000:.1f} mm as {'they were' if len(part) > 1 else 'it was'} placed)" if placed > 0.0 else ""
+        return ("off its support", f"{whose} lies {out * 1000:.1f} mm {where}{as_placed}", tuple(r.id for r in part[1:]))
 
     def _resting(self, loop: StepLoop, records: list[BrickRecord]) -> list[bool]:
         """Whether each brick's speeds are under the rest thresholds now (a frozen one's are)."""
@@ -487,6 +562,11 @@ class CollapseMonitor(Subscriber):
 
 def _fixture_pose(f: Fixture) -> Pose:
     return Pose.from_euler(f.position, f.yaw, f.pitch, f.roll)
+
+
+def _and(names: Sequence[str]) -> str:
+    """``"B"``, ``"B and C"``, ``"B, C and D"``."""
+    return names[0] if len(names) == 1 else f"{', '.join(names[:-1])} and {names[-1]}"
 
 
 def _count(n: int, noun: str) -> str:

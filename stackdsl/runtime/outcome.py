@@ -75,12 +75,13 @@ class Certificate(_Frozen):
         kind: how it was proved. For ``stands``: ``"equilibrium"``, rigid-block equilibrium of
             every brick where it is at the end (:meth:`stability.StabilityExtension.certificate`).
             For ``collapse``: ``"at rest displaced"`` (a brick came to rest out of its place),
-            ``"off its support"`` (its centre of mass left the support polygon it was placed
-            on; on the ground alone, passed the edge of the face it stood on), ``"mechanism"`` (it moves in a collapse mechanism statics proved),
+            ``"off its support"`` (its centre of mass, with the bricks it carries, left the
+            support polygon it was placed on; on the ground alone, passed the edge of the face it
+            stood on), ``"mechanism"`` (it moves in a collapse mechanism statics proved),
             ``"displaced at the end"``, or ``"no equilibrium"`` (the final state has none).
         detail: the proof in words.
         bricks: for ``collapse``, the bricks it involves: those displaced when it was decided,
-            with those its proof names (the proved mechanism; with no
+            with those its proof names (the part that tipped, the proved mechanism; with no
             equilibrium, the mechanism's); for ``stands``, none, in every mode (the stand is of
             every brick, and ``detail`` says how many were balanced).
         margin_mm: for ``stands``, how far every centre of mass could move together before

@@ -43,8 +43,9 @@ class StabilityConfig:
             (report 3.3.3, 3.4.2).
         support_angle: degrees; a contact whose normal is within this angle of vertical
             is one the brick rests on (stackdsl's own).
-        face_gap: m; two faces within this distance (and this flat) touch face to face,
-            and their overlap is the exact contact area (stackdsl's own).
+        face_gap: m; two faces within this distance (and this flat, and parallel to
+            :data:`stability._geometry.FACE_TILT`) touch face to face, and their overlap is
+            the exact contact area (stackdsl's own).
         com_margin: m; the centre of mass must lie this far inside the area (0: strictly
             inside; on the edge counts as unstable).
         lean_height: m; a brick whose support areas differ in height by more than this

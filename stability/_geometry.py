@@ -385,7 +385,21 @@ FLAT = 0.25
 their overlap (:func:`face_overlap`): a brick rocking on one edge of its face, its other edge
 1 mm up (2.4 deg across a KAPLA brick on end), is not lying face to face on the ground, though
 every corner is within the gap. The ground is flat and rigid; a brick on a brick may sit a
-little out of level on a stack that settled (a flatness rule there moved 12 of 37 goldens)."""
+little out of level on a stack that settled (a flatness rule there moved 12 of 37 goldens); two
+bricks' faces must be parallel instead (:data:`FACE_TILT`)."""
+
+
+FACE_TILT = math.cos(math.radians(0.5))
+"""Cosine of the largest relative tilt (0.5 deg) of two brick faces that lie face to face. A settled
+stack's faces are parallel to 0.22 deg or better on the engines measured (soft contacts let a
+brick sink unevenly: docs/design.md, "Exact contact areas"); a brick tilted 1 deg on the top edge
+of another touches it along that edge, though its face is within the face gap over the whole
+overlap. Left tilted by less, a brick up to 460 mm long rolls onto the face by less than a 4 mm
+collapse threshold. Source: stackdsl's own."""
+
+EDGE_STRIP = 0.002
+"""Metres an overlap may reach along its tilt and still be one edge's strip (a steep brick's end
+face under a flat one): its exact area is then that edge's contact already. Source: stackdsl's own."""
 
 
 def face_overlap(upper: Box, upper_pose: Pose, lower: Box | Plane, lower_pose: Pose | None, gap: float) -> ContactArea | None:
@@ -393,7 +407,9 @@ def face_overlap(upper: Box, upper_pose: Pose, lower: Box | Plane, lower_pose: P
 
     The upper body's bottom face and the lower body's top face (or the plane) must lie
     within ``gap`` metres of each other at every corner of their overlap: flat faces,
-    horizontal or tilted together (a tall tower settles a degree or so out of level).
+    horizontal or tilted together (a tall tower settles a degree or so out of level),
+    and parallel to :data:`FACE_TILT` unless the overlap is an edge's strip
+    (:data:`EDGE_STRIP`): a brick tilted on another's edge touches it along that edge.
     The area is the intersection of their horizontal projections, at the mean height
     of the lower face over it; its depth is how far the upper face lies below the lower
     one there, on the mean.
@@ -439,6 +455,9 @@ def face_overlap(upper: Box, upper_pose: Pose, lower: Box | Plane, lower_pose: P
     gaps = [w - u for w, u in zip(lower_z, upper_z)]
     if max(abs(g) for g in gaps) > gap or (isinstance(lower, Plane) and max(gaps) - min(gaps) > gap * FLAT):
         return None
+    parallel = nx * ux + ny * uy + nz * uz  # the cosine of the faces' relative tilt
+    if parallel < FACE_TILT and max(gaps) - min(gaps) > EDGE_STRIP * math.sqrt(max(0.0, 1.0 - parallel * parallel)) / parallel:
+        return None  # tilted on an edge: it touches along that edge, not over the overlap
     depth = _mean(gaps)
     return ContactArea(poly, _mean(lower_z), np.array(normal), exact=True, depth=depth)
 

@@ -89,6 +89,23 @@ def test_faces_tilted_together_touch_face_to_face():
     assert face_overlap(KAPLA, alone, KAPLA, Pose.from_euler([0, 0, 0.004]), gap=0.001) is None
 
 
+@pytest.mark.parametrize("degrees, face_to_face", [(1.0, False), (0.6, False), (0.2, True), (0.0, True)])
+def test_a_brick_tilted_on_an_edge_touches_along_it_though_within_the_face_gap(degrees, face_to_face):
+    """A KAPLA rising ``degrees`` to the right from the top left edge (x = -60 mm) of a level
+    KAPLA, overlapping it by 40 mm: its underside is within the face gap (1 mm) of that top over
+    the whole overlap (0.7 mm at 1 deg), but tilted against it by more than 0.5 deg it touches
+    along the edge only; as little as a settled stack's faces (0.2 deg) it lies on the face."""
+    lower = Pose.from_euler([0, 0, 0.004])
+    tilt = Rotation.from_euler("y", -degrees, degrees=True)
+    along, up = tilt.apply([1.0, 0, 0]), tilt.apply([0, 0, 1.0])
+    edge = np.array([-0.06, 0, 0.008])  # its underside meets it there; its right end is 40 mm on
+    upper = Pose(edge - 0.02 * along + 0.004 * up, tilt.as_quat())
+    area = face_overlap(KAPLA, upper, KAPLA, lower, gap=0.001)
+    assert (area is not None) is face_to_face
+    if area is not None:
+        assert area.area == pytest.approx(0.040 * 0.024, rel=0.01)
+
+
 @pytest.mark.parametrize("degrees", [1.5, 40.0])
 def test_the_corners_of_a_tilted_face_overlap_lie_on_the_faces(degrees):
     """A brick lying along another tilted by ``degrees`` about y: the overlap's corners lie on

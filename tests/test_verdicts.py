@@ -5,6 +5,7 @@ whatever the drop gap (docs/design.md, "collapse" and "certificate")."""
 from __future__ import annotations
 
 import json
+import math
 import re
 
 import numpy as np
@@ -654,3 +655,86 @@ structure:
     assert wakes, [(e.kind, e.brick, e.detail) for e in result.events]
     said = float(re.search(r"above ([0-9.]+) mm outside", wakes[0]).group(1))  # type: ignore[union-attr]
     assert said == pytest.approx(past_mm, abs=0.2), (wakes[0], past_mm)
+
+
+PLANK_ON_AN_EDGE = """stackdsl: 1
+materials:
+  heavy: {{density: {density} kg/m^3, friction: 0.5}}
+  light: {{density: 200 kg/m^3, friction: 0.5}}
+brick_types:
+  tall: {{size: [120 mm, 24 mm, 13 mm], material: pine}}
+  plank: {{size: [350 mm, 24 mm, 8 mm], material: light}}
+  load: {{size: [120 mm, 24 mm, 8 mm], material: heavy}}
+structure:
+  bricks:
+    - {{id: A, at: [-60 mm, 0, 4 mm]}}
+    - {{id: B, brick: tall, at: [310 mm, 0, 6.5 mm]}}
+    - {{id: C, brick: plank, at: [{c_x} mm, 0, {c_z} mm], pitch: {pitch}}}
+    - {{id: D, brick: load, at: [{d_x} mm, 0, {d_z} mm], pitch: {pitch}}}
+engine: {{backend: {backend}}}
+"""
+
+
+def plank_on_an_edge(density: float, backend: str) -> tuple[str, float]:
+    """A 350 mm plank C from a KAPLA A (top 8 mm) up onto the top left edge (x = 250 mm) of a
+    13 mm block B, 5 mm higher over 300 mm (0.95 deg), and a brick D of ``density`` lying on C's
+    far end; and C and D's centre of mass's x, from the poses written here."""
+    slope = math.atan2(0.005, 0.300)
+    along = np.array([math.cos(slope), 0.0, math.sin(slope)])
+    up = np.array([-math.sin(slope), 0.0, math.cos(slope)])
+    corner = np.array([-0.050, 0.0, 0.008])  # C's lower left bottom corner, on A
+    c = corner + 0.175 * along + 0.004 * up
+    d = corner + 0.330 * along + 0.012 * up
+    masses = (0.350 * 0.024 * 0.008 * 200, 0.120 * 0.024 * 0.008 * density)
+    com_x = (masses[0] * c[0] + masses[1] * d[0]) / sum(masses)
+    text = PLANK_ON_AN_EDGE.format(
+        density=density,
+        c_x=f"{c[0] * 1000:.4f}",
+        c_z=f"{c[2] * 1000:.4f}",
+        d_x=f"{d[0] * 1000:.4f}",
+        d_z=f"{d[2] * 1000:.4f}",
+        pitch=f"{-math.degrees(slope):.5f}",
+        backend=backend,
+    )
+    return text, com_x
+
+
+@pytest.mark.parametrize("backend", ["pybullet", "mujoco"])
+@pytest.mark.parametrize("density", [1500.0, 3500.0])
+def test_a_plank_tilted_onto_a_blocks_edge_rests_on_that_edge_not_its_face(density, backend):
+    """C's underside lies within the face gap (1 mm) of B's top over their whole 50 mm overlap,
+    but it touches B along B's edge only: with C and D's centre of mass past that edge, C turns
+    about it until it lies flat on B, and its other end rises 5 mm off A (collapse 3, as rigid
+    blocks and the tuned engines have it). Counted as lying on B's whole face, the extension
+    froze C and certified the stack "over its load path (margin 12.0 mm)". With the centre of
+    mass short of the edge it stands."""
+    pytest.importorskip(backend)
+    text, com_x = plank_on_an_edge(density, backend)
+    result = run_program(compile_scenario(parse_scenario(text)))
+    if com_x > 0.250:
+        assert result.collapse is not None and result.collapse.level == 3, result.certificate
+    else:
+        assert result.collapse is None, result.certificate
+
+
+def test_a_brick_tilted_from_one_support_onto_anothers_edge_shares_its_load_by_the_lever_rule_there():
+    """A KAPLA C tilted 1.9 deg from a KAPLA A (its corner at x = -50 mm) onto the top left edge
+    (x = 40 mm) of an 11 mm block B, a KAPLA D lying on it: statics puts B's reaction at that edge,
+    so B carries (x_com + 50) / 90 of C and D. Counted as lying on B's whole 30 mm overlap, the
+    lever went to the overlap's middle (0.569 where statics says 0.663)."""
+    text = """stackdsl: 1
+brick_types:
+  tall: {size: [120 mm, 24 mm, 11 mm], material: pine}
+structure:
+  bricks:
+    - {id: A, at: [-60 mm, 0, 4 mm]}
+    - {id: B, brick: tall, at: [100 mm, 0, 5.5 mm]}
+    - {id: C, at: [9.8334 mm, 0, 13.9967 mm], pitch: -1.90915}
+    - {id: D, at: [9.5669 mm, 0, 21.9922 mm], pitch: -1.90915}
+"""
+    result = run_program(compile_scenario(parse_scenario(text)))
+    assert result.collapse is None
+    com_x = (9.8334 + 9.5669) / 2
+    shares = {e.support: e.load_share for e in result.final_graph.edges if e.upper == "C"}
+    assert shares["B"] == pytest.approx((com_x + 50.0) / 90.0, abs=0.02), shares
+    assert shares["A"] == pytest.approx(1.0 - shares["B"], abs=1e-3), shares

@@ -400,7 +400,8 @@ def test_playback_slows_down_at_the_collapse_and_the_ghosts_are_listed(chromium,
     opened.call("seek", 0.5)  # a quiet wait between placements
     assert opened.call("rate()") == pytest.approx(10)
     opened.call("play()")
-    opened.page.wait_for_timeout(500)
+    # it plays on from 0.5 s: wait for a frame past it (a loaded machine may draw none in 0.5 s)
+    opened.page.wait_for_function("() => window.stackdslReplay.time() > 0.5", timeout=10_000)
     opened.call("pause()")
     assert opened.call("time()") > 0.5
     # a tenth of a wall second of playback: ten times faster through the wait between two

@@ -710,6 +710,40 @@ def test_a_toppled_count_that_is_no_whole_number_says_what_toppled_takes(written
 
 
 @pytest.mark.parametrize(
+    "written, count, tolerance",
+    [("'0.±1'", 0, 1), ("'2.±1'", 2, 1), ("'2.0 ± 1.'", 2, 1), ("'3.'", 3, 0), ("'007.00 +- 02.'", 7, 2)],
+)
+def test_a_whole_toppled_count_may_end_in_a_point(written, count, tolerance):
+    """'0.±1' was refused as allowing '0 to 1 bricks, which no whole N±T gives', though '0±1'
+    allows just that and 'toppled: 0.' is taken: '2.' is the whole number 2."""
+    s = scenario(f"stackdsl: 1\nstructure: {{tower: {{levels: 2}}}}\nexpect: {{toppled: {written}}}\n")
+    assert (s.expect.toppled.count, s.expect.toppled.tolerance) == (count, tolerance)
+
+
+@pytest.mark.parametrize("written, level, tolerance", [("'9.±1'", 9, 1), ("'9.0 +- 1.'", 9, 1), ("'9.'", 9, 0)])
+def test_a_whole_collapse_level_may_end_in_a_point(written, level, tolerance):
+    s = scenario(f"stackdsl: 1\nstructure: {{tower: {{levels: 12}}}}\nexpect: {{collapse: {written}}}\n")
+    assert (s.expect.collapse.level, s.expect.collapse.tolerance) == (level, tolerance)
+
+
+@pytest.mark.parametrize(
+    "key, written, message",
+    [
+        ("toppled", "'0.5±0.5'", "'0.5±0.5' allows 0 to 1 bricks, as '0±1' does: write that"),
+        ("toppled", "'0.4±1'", "'0.4±1' allows 0 to 1 bricks, as '0±1' does: write that"),
+        ("collapse", "'1.5±0.5'", "'1.5±0.5' allows levels 1 to 2, as '1±1' does: write that"),
+        ("toppled", "'2.5±1'", "allows 2 to 3 bricks, which no whole 'N±T' gives: write '2±1' or '3±1'"),
+    ],
+)
+def test_a_fraction_whose_range_starts_at_the_least_count_names_the_whole_form(key, written, message):
+    """A range from 0 bricks (or level 1) is what 'N±T' with N at that floor gives, so the
+    message does not call it impossible."""
+    with pytest.raises(ScenarioError) as err:
+        scenario(f"stackdsl: 1\nstructure: {{tower: {{levels: 12}}}}\nexpect: {{{key}: {written}}}\n")
+    assert err.value.field == f"expect.{key}" and message in err.value.message
+
+
+@pytest.mark.parametrize(
     "written, message",
     [
         ("-1", "expected a number of bricks from 0 to 5000 or 'all', got -1"),

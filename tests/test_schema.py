@@ -419,6 +419,12 @@ def test_levels_are_accepted_alike(validator):
     assert differ == DESCENDING
 
 
+@pytest.mark.parametrize("written", ["0.±1", "2.±1", "2.0 ± 1.", "all", "3.", "3.5", "3.."])
+def test_toppled_counts_are_accepted_alike(written, validator):
+    text = doc(f"expect: {{toppled: {json.dumps(written)}}}")
+    assert schema_accepts(validator, text) == loader_accepts(text)
+
+
 def test_collapse_levels_are_accepted_alike(validator):
     forms: list[object] = [
         0,
@@ -445,6 +451,17 @@ def test_collapse_levels_are_accepted_alike(validator):
         "7 ±1 ±1",
         "7±1\n",
         "7\u00b11",
+        "7.",
+        "7.±1",
+        "7.0 ± 1.00",
+        "0.±1",
+        "1000.±1",
+        "1001.±1",
+        "7..±1",
+        ".7±1",
+        "7.5±1",
+        "7.±1.5",
+        "7.e0",
     ]
     differ = [
         f

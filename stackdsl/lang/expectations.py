@@ -120,6 +120,8 @@ def _same_levels(value: Any, target: float, tolerance: float, unit: str = "level
     "'10.5±1' allows levels 10 to 11, which no whole 'N±T' gives: write '10±1' or '11±1'"
     >>> _same_levels("3±1.5", 3, 1.5, "brick")
     "'3±1.5' allows 2 to 4 bricks, as '3±1' does: write that"
+    >>> _same_levels("0.5±0.5", 0.5, 0.5, "brick"), _same_levels("1.5±0.5", 1.5, 0.5)
+    ("'0.5±0.5' allows 0 to 1 bricks, as '0±1' does: write that", "'1.5±0.5' allows levels 1 to 2, as '1±1' does: write that")
     """
     bricks = unit == "brick"
     low, high = max(math.ceil(target - tolerance - 1e-9), 0 if bricks else 1), math.floor(target + tolerance + 1e-9)
@@ -130,10 +132,12 @@ def _same_levels(value: Any, target: float, tolerance: float, unit: str = "level
         return f"level {first}" if first == last else f"levels {first} to {last}"
 
     said = spelled(value)
+    least = 0 if bricks else 1
     if low > high:
-        least = 0 if bricks else 1
         nearest = " or ".join(str(n) for n in sorted({max(math.floor(target), least), max(math.ceil(target), least)}))
         return f"{said} allows no whole {'count' if bricks else 'level'}: write {nearest}"
+    if (low + high) % 2 and low == least:  # 'N±T' counts from the least there is: '0±1' is 0 to 1 bricks
+        return f"{said} allows {named(low, high)}, as '{low}±{high - low}' does: write that"
     if (low + high) % 2:
         return f"{said} allows {named(low, high)}, which no whole 'N±T' gives: write '{low}±1' or '{high}±1'"
     middle, half = (low + high) // 2, (high - low) // 2

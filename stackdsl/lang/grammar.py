@@ -8,8 +8,8 @@ writes them: an integer is ``5`` or ``5.0``, not ``"5"`` or ``true``; a flag is 
 Source: stackdsl's own.
 
 >>> import re
->>> re.fullmatch(COLLAPSE, "9 +- 1").groups()
-('9', '1')
+>>> re.fullmatch(COLLAPSE, "9 +- 1").groups(), re.fullmatch(COLLAPSE, "0.±1.0").groups()
+(('9', '1'), ('0', '1'))
 >>> re.fullmatch(PLUS_MINUS, ".5 ± 5.").groups(), re.fullmatch(BOUND, ">= .9").groups()
 (('.5', '5.'), ('>=', '.9'))
 >>> whole(5.0), as_int(True)
@@ -33,7 +33,9 @@ from .units import UNSIGNED, WHITESPACE
 SPACE = f"{WHITESPACE}*"
 LEVEL_NUMBER = "0*(?:[1-9][0-9]{0,2}|1000)"  # 1 to MAX_LEVELS
 TOLERANCE_NUMBER = "0*(?:[0-9]{1,3}|1000)"  # 0 to MAX_LEVELS
-COLLAPSE = f"{SPACE}([0-9]+){SPACE}(?:(?:±|\\+-|\\+/-){SPACE}([0-9]+))?{SPACE}"  # "9", "9±1", "9 +- 1", "9 +/- 1"
+_POINT = "(?:\\.0*)?"  # a whole number may end in a point: "9.", "9.0" (as YAML's 9.0 is the integer 9)
+# "9", "9±1", "9 +- 1", "9 +/- 1", "9.±1."
+COLLAPSE = f"{SPACE}([0-9]+){_POINT}{SPACE}(?:(?:±|\\+-|\\+/-){SPACE}([0-9]+){_POINT})?{SPACE}"
 LEVEL_RANGE = f"{SPACE}([0-9]+){SPACE}(?:(?:-|\\.\\.){SPACE}([0-9]+))?{SPACE}"  # "5", "1-11", "1..11"
 AFTER_LEVEL = f"{SPACE}after{WHITESPACE}+level{WHITESPACE}+([0-9]+){SPACE}"  # "after level 13"
 AFTER_PREVIOUS = f"{SPACE}after{WHITESPACE}+the{WHITESPACE}+previous{WHITESPACE}+action{SPACE}"  # an action's only

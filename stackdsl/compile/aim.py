@@ -9,6 +9,7 @@ Source: stackdsl's own.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -42,3 +43,37 @@ def outer_face(boxes: Sequence[Box], poses: Sequence[Pose], outward: np.ndarray)
     outermost = [i for i, r in enumerate(reach) if r == max(reach)]
     nearest = min(outermost, key=lambda i: round(abs(float(faces[i].mean(axis=0) @ along) - middle), 9))
     return nearest, np.asarray(faces[nearest].mean(axis=0))
+
+
+def stepped_fall(
+    velocity: Sequence[float], flight: float, dt: float, gravity: float, threshold: float | None, most: int
+) -> float:
+    """How far a projectile thrown with ``velocity`` (m/s) falls in ``flight`` seconds from gravity,
+    as the engines step it: each step (``dt``) is split into substeps as the run's
+    :class:`~stackdsl.runtime.subscribers.Substeps` splits it from the projectile's speed at the
+    step's start, so that it moves at most ``threshold`` in one (None: never split), at most
+    ``most`` of them; and each substep ``h`` adds ``gravity h`` to its downward speed before it
+    moves (pybullet's and MuJoCo's semi-implicit Euler). That fall exceeds ``gravity flight^2 / 2``
+    by ``gravity h / 2`` over each substep's length: 0.5 mm over a 50 mm throw at 1 m/s in two
+    substeps of a 240 Hz step, 4 mm over a 100 mm throw at 0.5 m/s in whole steps, enough to
+    bring a projectile as thick as the face it is aimed at down onto the ledge under that face.
+
+    >>> round(stepped_fall((1.0, 0.0, 0.0), 0.05, 0.05, 9.81, None, 64) * 1000, 2)  # one step
+    24.53
+    >>> round(stepped_fall((1.0, 0.0, 0.0), 0.05, 1e-5, 9.81, None, 64) * 1000, 2)  # g t^2 / 2
+    12.26
+    """
+    horizontal = math.hypot(velocity[0], velocity[1])
+    fall, down, t = 0.0, -float(velocity[2]), 0.0
+    while t < flight - 1e-12:
+        speed = math.hypot(horizontal, down)
+        split = 1 if threshold is None else min(most, max(1, math.ceil(speed * dt / threshold)))
+        h = dt / split
+        for _ in range(split):
+            part = min(h, flight - t)
+            if part <= 0:
+                break
+            down += gravity * h
+            fall += (down + float(velocity[2])) * part  # gravity's share of the move, not the throw's own
+            t += part
+    return fall

@@ -52,14 +52,14 @@ from ..lang.extras import installed, missing
 from ..lang.schema import BACKEND_FIELDS, BUILTIN_BRICKS, Scenario, reference_errors
 from ..lang.schema_impacts import SIDES, AfterLevel, Impact
 from .actions import check_measured, compile_actions, heading
-from .aim import outer_face
+from .aim import outer_face, stepped_fall
 from .clearance import check_launch, check_pusher
 from .layouts import LaidBrick, with_placement_error
 from .limits import check_limits
 from .overlap import Body
 from .parts import arrange, summaries
 from .precheck import precheck
-from .program import End, Fixture, Kinematic, Launch, Place, Program, Push, Remove, Shake
+from .program import MAX_SUBSTEPS, End, Fixture, Kinematic, Launch, Place, Program, Push, Remove, Shake
 from .require import accept
 from .rules import choose_rules
 
@@ -189,8 +189,11 @@ def compile_scenario(
         [b.id for b in fixed],
     )
     pulls = {m.id: (j, m) for j, m in enumerate(motions) if isinstance(m, Remove)}
+    # a projectile's steps are split as the run's Substeps splits them (with continuous collision detection)
+    split = (scenario.collapse_threshold or min(min(specs[b.type].half_extents) for b in bricks)) if engine.ccd else None
     launches = [
-        _launch(scenario, i, imp, bricks, slots, specs[imp.projectile], dt, pulls) for i, imp in enumerate(scenario.impacts)
+        _launch(scenario, i, imp, bricks, slots, specs[imp.projectile], (dt, split), pulls)
+        for i, imp in enumerate(scenario.impacts)
     ]
     gone = {m.id: m.end_step for _, m in pulls.values()}  # pulled out and taken away
     for i, (imp, launch) in enumerate(zip(scenario.impacts, launches)):
@@ -599,15 +602,18 @@ def _launch(
     bricks: list[LaidBrick],
     slots: np.ndarray,
     spec: BrickSpec,
-    dt: float,
+    stepping: tuple[float, float | None],
     pulls: Mapping[str, tuple[int, Remove]],
 ) -> Launch:
-    """A projectile aimed so that, falling under gravity, it reaches the target point (``pulls``:
+    """A projectile aimed so that, falling under gravity as the engine steps it (``stepping``: the
+    step, and the most a thrown body moves in a substep, None when steps are not split: see
+    :func:`~stackdsl.compile.aim.stepped_fall`), its centre reaches the target point (``pulls``:
     the bricks the actions pull out, each with its pull's index and motion: out of the scene from
     its pull's start, a level's face is aimed among the bricks left). A throw at a level's side
     names the brick it is aimed at first in its ``aim``, then the level's other bricks there to
     aim at: the run aims at that brick as it lies when the projectile is thrown."""
     path = ("impacts", index)
+    dt, split = stepping
     direction = np.array(impact.direction or _side(impact), dtype=np.float64)
     direction /= np.linalg.norm(direction)
     if isinstance(impact.at, AfterLevel):
@@ -631,7 +637,7 @@ def _launch(
         aim = tuple(b.id for b in level)
         face = tuple(-np.array(_side(impact), dtype=np.float64))
     start = target - direction * (impact.distance + spec.half_extents[0])
-    start[2] += 0.5 * GRAVITY * flight**2
+    start[2] += stepped_fall(tuple(direction * impact.speed), flight, dt, GRAVITY, split, MAX_SUBSTEPS)
     yaw, pitch = heading(direction)
     return Launch(
         step=step,

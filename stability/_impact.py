@@ -181,6 +181,7 @@ class Impacts:
 
     def __init__(self, stack: Stack, tests: StackTest) -> None:
         self.stack, self.tests = stack, tests
+        self._parts = _Parts(stack)
 
     def check(self, active: list[Record], dt: float, time: float, driven: AbstractSet[int] = frozenset()) -> list[StabilityEvent]:
         """Each active body faster than the rest speed that will touch a frozen brick within
@@ -232,21 +233,154 @@ class Impacts:
                         events += [replace(w.event, source=rec.label) for w in stack.wake(other.body, time, detail)]
                         continue
                 kinetic = kinetic_energy(rec.box.mass, speed)
-                base = min(a.height for a in other.rests_on.values())
                 self.tests.refresh_loads()
-                assert other.com_above is not None, "the stack test sets it for every frozen brick"
-                potential = potential_energy(other.mass_above, other.com_above[2], base, config.gravity)
-                footprint = _footprint(stack, other) if config.impact_energy == "least" else None
-                com = np.asarray(other.com_above)
-                if footprint is not None and footprint.contains(Point(com[0], com[1])):  # else held by more than it
-                    tip = tipping_energy(other.mass_above, com, footprint, base, heading, config.gravity, hit.position)
-                    potential = tip if potential <= 0.0 else min(potential, tip)
+                potential, moved = self._barrier(other, heading, hit.position, kinetic)
                 detail = f"impact of {rec.label} at {speed:.2f} m/s: {kinetic * 1000:.3g} mJ against {potential * 1000:.3g} mJ"
+                if moved is not other:
+                    detail = (
+                        f"impact of {rec.label} at {speed:.2f} m/s on {other.label}: {kinetic * 1000:.3g} mJ against"
+                        f" {potential * 1000:.3g} mJ to turn {moved.label} and what it carries over its edge"
+                    )
                 if breaks_loose(kinetic, potential):
-                    events += [replace(w.event, source=rec.label) for w in stack.wake(other.body, time, detail)]
+                    events += [replace(w.event, source=rec.label) for w in stack.wake(moved.body, time, detail)]
                 else:
                     events.append(StabilityEvent(time, "impact", other.label, f"held, {detail}", rec.label))
         return events
+
+    def _barrier(self, struck: Record, heading: np.ndarray, point: np.ndarray, kinetic: float = math.inf) -> tuple[float, Record]:
+        """The least energy (J) a blow along ``heading`` landing at ``point`` on the frozen brick
+        ``struck`` must bring to move a part of the stack, and the brick whose part it moves.
+
+        The struck brick's part (it and what rests on it) is lifted off its base or tipped over
+        the edge of its support polygon (:func:`tipping_energy`, report 3.6's barrier or the
+        lesser of the two). The blow is passed down to what the struck brick rests on: for every
+        frozen brick below it through what each rests on, down to the ground or a fixed body,
+        the part that brick carries (itself and everything resting on it, :func:`_part`) is
+        tipped over the edge of its support polygon that the blow's line passes outside, if any
+        (a part below is pressed on its base, not lifted, by a blow on a brick above: no lifting
+        barrier there). Three KAPLAs lying flush on each other, overhanging a table's edge: a
+        blow straight down on the top one's tip meets the brick under it inside, and lifting it
+        is its barrier (1.66 mJ), but the three turn over the table's edge for 0.05 mJ. Each
+        part is weighed whole (its bricks' masses at their centres), and one whose centre of
+        mass lies outside its polygon is held by more than it and not tipped. Which part, and
+        the walk down, are stackdsl's own."""
+        stack, config = self.stack, self.stack.config
+        base = min(a.height for a in struck.rests_on.values())
+        assert struck.com_above is not None, "the stack test sets it for every frozen brick"
+        potential = potential_energy(struck.mass_above, struck.com_above[2], base, config.gravity)
+        if config.impact_energy != "least":
+            return potential, struck
+        footprint = _footprint(stack, struck)
+        com = np.asarray(struck.com_above)
+        if footprint is not None and footprint.contains(Point(com[0], com[1])):  # else held by more than it
+            tip = tipping_energy(struck.mass_above, com, footprint, base, heading, config.gravity, point)
+            potential = tip if potential <= 0.0 else min(potential, tip)
+        least, moved = potential, struck
+        blow = np.zeros(3)
+        blow[: len(heading)] = np.asarray(heading, dtype=float)[:3]
+        below, todo = set(), [s for s in struck.rests_on if self._carries(s)]
+        while todo:  # every frozen brick under it, through what each rests on
+            b = todo.pop()
+            if b not in below:
+                below.add(b)
+                todo += [s for s in stack.bodies[b].rests_on if s not in below and self._carries(s)]
+        if self._parts.version != stack.version:  # the parts stand as found until the stack changes
+            self._parts = _Parts(stack)
+        for lower in sorted((stack.bodies[b] for b in below), key=_top, reverse=True):  # the upper first
+            mass, centre, polygon = self._parts.of(lower.body)
+            if polygon is None:
+                continue
+            low = min(a.height for a in lower.rests_on.values())
+            h = max(float(centre[2]) - low, 0.0)
+            # only a centre of mass nearer than this to the polygon's edge tips for less than
+            # the least barrier found: m g (sqrt(d^2 + h^2) - h) < E for d < sqrt(e^2 + 2 h e), e = E / (m g)
+            e = min(least, kinetic) / (mass * config.gravity)
+            if not isinstance(polygon, Polygon) or polygon.exterior.distance(Point(centre[0], centre[1])) >= math.sqrt(
+                e * e + 2.0 * h * e
+            ):
+                continue
+            edge = _tipping_edge(centre, polygon, low, blow, np.asarray(point, dtype=float))
+            if edge is None:  # pressed on its base, or held by more than it
+                continue
+            tip = mass * config.gravity * (math.hypot(edge, h) - h)
+            if tip < least and tip < kinetic:
+                least, moved = tip, lower
+        return least, moved
+
+    def _carries(self, body: int) -> bool:
+        """Is ``body`` a frozen brick (a part the blow may move), not the ground, a fixed body or
+        an active brick?"""
+        rec = self.stack.bodies.get(body)
+        return rec is not None and rec.state is BrickState.FROZEN
+
+
+class _Parts:
+    """The parts that frozen bricks carry (a brick, what rests on it and on those), each found
+    once and taken whole into the parts under it: walking down a tower from the top, each
+    level's part is built from the ones above it, its bricks a bit set, and its support
+    pieces (the contacts by which its bricks rest on bricks outside it) from theirs, so that
+    weighing every part under the top of a 100-level tower costs a few milliseconds, not the
+    whole tower for each part (stackdsl's own)."""
+
+    def __init__(self, stack: Stack) -> None:
+        self.stack, self.version = stack, stack.version
+        self.weighed: dict[int, tuple[float, np.ndarray, BaseGeometry | None]] = {}  # body -> (of)
+        self.bit: dict[int, int] = {}  # body -> its bit
+        self.found: dict[int, tuple[int, list[tuple[int, BaseGeometry]]]] = {}  # body -> (bricks, (support, piece))
+        self.masses: list[float] = []  # kg, of each bit's brick
+        self.centres: list[np.ndarray] = []  # m, shape (3,), each bit's brick's centre of mass
+
+    def _bit(self, body: int) -> int:
+        if body not in self.bit:
+            self.bit[body] = 1 << len(self.bit)
+            rec = self.stack.bodies.get(body)
+            frozen = rec is not None and rec.state is BrickState.FROZEN
+            self.masses.append(rec.box.mass if rec is not None and frozen else 0.0)
+            self.centres.append(self.stack.pose(rec).position if rec is not None and frozen else np.zeros(3))
+        return self.bit[body]
+
+    def _find(self, body: int) -> tuple[int, list[tuple[int, BaseGeometry]]]:
+        if body in self.found:
+            return self.found[body]
+        bodies = self.stack.bodies
+        members, todo = self._bit(body), [body]
+        candidates = [(s, a.polygon) for s, a in bodies[body].rests_on.items()]
+        while todo:
+            for above in bodies[todo.pop()].objects_above:
+                if members & self._bit(above):
+                    continue
+                if above in self.found:
+                    bits, pieces = self.found[above]
+                    members |= bits
+                    candidates += pieces
+                else:
+                    members |= self._bit(above)
+                    candidates += [(s, a.polygon) for s, a in bodies[above].rests_on.items()]
+                    todo.append(above)
+        outside = [(s, piece) for s, piece in candidates if not members & self.bit.get(s, 0)]
+        self.found[body] = (members, outside)
+        return self.found[body]
+
+    def of(self, body: int) -> tuple[float, np.ndarray, BaseGeometry | None]:
+        """The mass (kg), centre of mass (shape (3,), m) and support polygon (None: it rests on
+        nothing) of the part ``body`` carries."""
+        if body in self.weighed:
+            return self.weighed[body]
+        members, outside = self._find(body)
+        n = len(self.bit)
+        bits = np.frombuffer(members.to_bytes((n + 7) // 8, "little"), dtype=np.uint8)
+        mask = np.unpackbits(bits, bitorder="little")[:n].astype(bool)
+        masses = np.asarray(self.masses)[mask]
+        mass = float(masses.sum())
+        centre: np.ndarray = masses @ np.asarray(self.centres)[mask] / mass
+        polygon = unary_union([piece for _, piece in outside]).convex_hull if outside else None
+        self.weighed[body] = (mass, centre, polygon)
+        return self.weighed[body]
+
+
+def _top(rec: Record) -> float:
+    """The top of a frozen brick (m)."""
+    return rec.extent[0] if rec.extent is not None else 0.0
 
 
 def _footprint(stack: Stack, rec: Record) -> BaseGeometry | None:

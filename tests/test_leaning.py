@@ -579,3 +579,39 @@ def test_a_blow_straight_down_on_a_flat_brick_is_weighed_against_lifting_it():
         s.engine.touch(5, 1, [[0.05, 0.0, 0.008]], normal=UP)
         events = s.ext.update(1.0 + speed)
         assert [(e.kind, e.label) for e in events] == [(kind, "b1")] and "against 0.416 mJ" in events[0].reason
+
+
+def flush_stack_scene(speed: float) -> tuple[Scene, list]:
+    """Three KAPLAs lying flush on each other on a fixed table (top z = 40 mm), their common
+    centre of mass 2 mm inside its edge (x = 0); a 10 mm pine cube about to land straight down
+    on the top one's tip, 54 mm past the edge, at ``speed``."""
+    s = Scene()
+    s.engine.frozen.add(9)
+    s.engine.poses[9] = Pose.from_euler([-0.1, 0.0, 0.02])
+    s.ext.add_ground(9, Box(np.array([0.1, 0.05, 0.02]), 1.0), "table")
+    for body, below, z in ((1, 9, 0.044), (2, 1, 0.052), (3, 2, 0.060)):
+        s.engine.poses[body] = Pose.from_euler([-0.002, 0.0, z])
+        s.ext.add_brick(body, KAPLA, "ABC"[body - 1])
+        s.engine.touch(body, below, _rectangle(-0.062, 0.0 if below == 9 else 0.058, z - 0.004), normal=UP)
+        s.ext.update(0.1 * body)
+    assert all(s.ext.state(b) is BrickState.FROZEN for b in (1, 2, 3))
+    s.engine.poses[5] = Pose.from_euler([0.052, 0.0, 0.0695])
+    s.ext.add_brick(5, Box(np.array([0.005, 0.005, 0.005]), 0.00046), "pebble")
+    s.engine.velocities[5] = (np.array([0.0, 0.0, -speed]), np.zeros(3))
+    s.engine.touch(5, 3, [[0.052, 0.0, 0.064]], normal=UP)
+    return s, s.ext.update(1.0)
+
+
+def test_a_blow_on_a_flush_stacks_top_is_passed_down_to_the_part_that_tips_over_the_table_edge():
+    """The top brick C lies flush on B, so the blow's line meets C's support inside and lifting
+    C (0.416 mJ) is its barrier, and B with C on it 1.66 mJ; but the blow is passed down to A,
+    and A with B and C on it turns over the table's edge for 3 m g (sqrt(2^2 + 12^2) - 12) mm."""
+    housner = 3 * M * 9.81 * (math.hypot(0.002, 0.012) - 0.012)
+    assert housner == pytest.approx(0.052e-3, abs=1e-6)
+    s, events = flush_stack_scene(1.0)  # 0.23 mJ: under the top brick's 0.416 mJ, above the stack's
+    assert [(e.kind, e.label) for e in events] == [("wake", "A"), ("wake", "B"), ("wake", "C")]
+    assert f"on C: 0.23 mJ against {housner * 1000:.3g} mJ to turn A and what it carries" in events[0].reason
+    assert all(s.ext.state(b) is BrickState.ACTIVE for b in (1, 2, 3))
+    s, events = flush_stack_scene(0.3)  # 0.0207 mJ: a gentle tap is held
+    assert [(e.kind, e.label) for e in events] == [("impact", "C")], events
+    assert events[0].reason.startswith("held") and s.ext.state(1) is BrickState.FROZEN

@@ -615,3 +615,24 @@ def test_a_blow_on_a_flush_stacks_top_is_passed_down_to_the_part_that_tips_over_
     s, events = flush_stack_scene(0.3)  # 0.0207 mJ: a gentle tap is held
     assert [(e.kind, e.label) for e in events] == [("impact", "C")], events
     assert events[0].reason.startswith("held") and s.ext.state(1) is BrickState.FROZEN
+
+
+def test_a_blow_on_a_tall_columns_top_brick_moves_that_brick_alone():
+    """A column of 20 KAPLAs on the ground struck on the top one's side across it at 0.5 m/s
+    (1.3 mJ): the top one is lifted for 0.416 mJ; the column under it, passed the blow, would
+    need 20 m g (sqrt(12^2 + 80^2) - 80) mm = 1.86 mJ to turn over, and stays frozen."""
+    s = Scene()
+    for body in range(1, 21):
+        z = 0.008 * body - 0.004
+        s.engine.poses[body] = Pose.from_euler([0.0, 0.0, z])
+        s.ext.add_brick(body, KAPLA, f"b{body}")
+        s.engine.touch(body, body - 1, _rectangle(-0.06, 0.06, z - 0.004), normal=UP)
+        s.ext.update(0.1 * body)
+    s.engine.poses[30] = Pose.from_euler([0.0, 0.03, 0.156], yaw=90)
+    s.ext.add_brick(30, KAPLA, "hammer")
+    s.engine.velocities[30] = (np.array([0.0, -0.5, 0.0]), np.zeros(3))
+    s.engine.touch(30, 20, [[0.0, 0.012, 0.156]], normal=[0, 1, 0])
+    events = s.ext.update(3.0)
+    assert [(e.kind, e.label) for e in events] == [("wake", "b20")], events
+    assert "1.32 mJ against 0.416 mJ" in events[0].reason and "to turn" not in events[0].reason
+    assert s.ext.state(19) is BrickState.FROZEN

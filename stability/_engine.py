@@ -84,6 +84,29 @@ class Engine(Protocol):
         at the pose ``at`` when it is given, else where it is."""
 
 
+class BoundCalls:
+    """A pybullet client whose functions are each looked up once: a ``BulletClient`` builds a
+    new ``functools.partial`` (and asks ``inspect`` whether the function is a built-in) on every
+    attribute access, some 3 us, a third of the cost of a step's own call; a run of a 30-level
+    tower asks for about 1500 of them. ``disconnect`` is looked up anew each time (a
+    ``BulletClient`` forgets its id when asked for it). Source: stackdsl's own.
+
+    >>> import types
+    >>> calls = BoundCalls(types.SimpleNamespace(stepSimulation=lambda: "stepped"))
+    >>> calls.stepSimulation(), "stepSimulation" in vars(calls)
+    ('stepped', True)
+    """
+
+    def __init__(self, client: Any) -> None:
+        self._raw = client
+
+    def __getattr__(self, name: str) -> Any:
+        attribute = getattr(self._raw, name)
+        if name != "disconnect":
+            self.__dict__[name] = attribute
+        return attribute
+
+
 class PyBulletEngine:
     """:class:`Engine` on a pybullet client.
 
@@ -102,7 +125,7 @@ class PyBulletEngine:
     near_is_geometric = True
 
     def __init__(self, client: Any) -> None:
-        self._client = client
+        self._client = BoundCalls(client)
         # asked of every active brick at every step: bound once (a BulletClient builds a new
         # partial on each attribute access, a third of the cost of the call)
         self._get_velocity = client.getBaseVelocity

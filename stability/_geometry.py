@@ -267,14 +267,14 @@ class ContactArea:
         >>> tilted.corners()[:, 2].tolist()  # z rises by tan = 0.75 along x
         [2.375, 2.375, 1.625, 1.625]
         """
-        ring = np.asarray(self.polygon.exterior.coords)[:-1]
+        ring = shapely.get_coordinates(self.polygon.exterior)[:-1]  # shapely's array: no coordinate objects
         heights = self.height - ((ring - ring.mean(axis=0)) @ self.normal[:2]) / self.normal[2]
         return np.column_stack([ring, heights])
 
     @cached_property
     def ring(self) -> tuple[tuple[float, float], ...]:
         """The polygon's vertices counter-clockwise, as floats (for fast point tests)."""
-        return tuple((float(x), float(y)) for x, y in orient(self.polygon, 1.0).exterior.coords[:-1])
+        return tuple((x, y) for x, y in shapely.get_coordinates(orient(self.polygon, 1.0).exterior)[:-1].tolist())
 
     def holds(self, x: float, y: float, strict: bool = True) -> bool:
         """Does the point (x, y) lie over the area? ``strict``: its edge counts as outside
@@ -446,7 +446,7 @@ def face_overlap(upper: Box, upper_pose: Pose, lower: Box | Plane, lower_pose: P
         poly = shapely.polygons([c[:2] for c in bottom]).intersection(shapely.polygons([c[:2] for c in top]))
     if not isinstance(poly, Polygon) or poly.area <= 0.0:
         return None
-    ring = poly.exterior.coords[:-1]
+    ring = shapely.get_coordinates(poly.exterior)[:-1].tolist()  # floats, without shapely's coordinate objects
     nx, ny, nz = normal
     bx, by, bz = _mean_rows(bottom)
     ux, uy, uz = -down[0], -down[1], -down[2]

@@ -330,10 +330,13 @@ class CollapseMonitor(Subscriber):
 
     def _decide(self, loop: StepLoop, displaced_at_end: bool = False) -> None:
         structure = loop.structure
-        watched = [structure.records[i] for i in self._displaced if not structure.records[i].moving]
         moving = list(structure.moving.values())
-        watched += [r for r in moving if r.id in self._displaced]
-        watched += [r for r in structure.may_have_moved(moving, self.threshold) if r.id not in self._displaced]
+        if not self._displaced:  # the usual step: only what may have moved is looked at
+            watched = structure.may_have_moved(moving, self.threshold)
+        else:
+            watched = [structure.records[i] for i in self._displaced if not structure.records[i].moving]
+            watched += [r for r in moving if r.id in self._displaced]
+            watched += [r for r in structure.may_have_moved(moving, self.threshold) if r.id not in self._displaced]
         if not watched:  # nothing displaced, nothing near the threshold: the usual step
             return
         watched.sort(key=lambda r: r.order)

@@ -194,9 +194,13 @@ class Substeps(Subscriber):
         self.floor = 1  # at least this many (a hand pulling a brick: see PULL_STEP)
 
     def before_step(self, loop: StepLoop) -> None:
-        structure = loop.structure
-        fast = structure.projectiles + (list(structure.moving.values()) if self.bricks_too else [])
-        speed, fastest = max(((loop.world.speeds(r.body)[0], r) for r in fast), key=lambda s: s[0], default=(0.0, None))
+        structure, speeds = loop.structure, loop.world.speeds
+        speed, fastest = 0.0, None  # the first of the fastest (max's own choice), asked every step
+        for records in (structure.projectiles, structure.moving.values() if self.bricks_too else ()):
+            for r in records:
+                s = speeds(r.body)[0]
+                if fastest is None or s > speed:
+                    speed, fastest = s, r
         needed = max(self.floor, math.ceil(speed * loop.dt / self.threshold))
         substeps = min(needed, MAX_SUBSTEPS)
         if substeps == MAX_SUBSTEPS and self.substeps != MAX_SUBSTEPS and fastest is not None:

@@ -123,6 +123,7 @@ class PyBulletWorld(PyBulletEngine, World):
         super().__init__(client)
         self._p, self._engine = pybullet, engine
         self._velocities: dict[int, Any] = {}  # this step's pybullet velocities, by body
+        self._poses: dict[int, Any] = {}  # pybullet's poses read since the last step, by body (until one is moved)
         self._read_velocity = client.getBaseVelocity
         self._read_pose = client.getBasePositionAndOrientation
         self._read_box = client.getAABB
@@ -184,6 +185,7 @@ class PyBulletWorld(PyBulletEngine, World):
         self._names.pop(engine_id, None)
         self._client.removeBody(engine_id)
         self._velocities.pop(body, None)
+        self._poses.pop(body, None)
 
     # bodies -------------------------------------------------------------------
     def create(self, spec: BrickSpec, pose: Pose, mass: float | None = None, projectile: bool = False) -> int:
@@ -204,6 +206,7 @@ class PyBulletWorld(PyBulletEngine, World):
 
     def _put(self, body: int, spec: BrickSpec, position: Any, orientation: Any, mass: float, maximal: bool) -> None:
         """Create ``body`` in pybullet's world."""
+        self._poses.pop(body, None)
         key = spec.half_extents
         if key not in self._shapes:
             self._shapes[key] = self._client.createCollisionShape(self._p.GEOM_BOX, halfExtents=list(key))
@@ -270,11 +273,18 @@ class PyBulletWorld(PyBulletEngine, World):
 
     # reading ------------------------------------------------------------------
     def _pose_now(self, body: int) -> Any:
-        """pybullet's (position, orientation) of ``body``; a shelved body's as it was shelved."""
+        """pybullet's (position, orientation) of ``body``, read once between steps (a brick the
+        soft landing watches is read after a step by the collapse monitor and again before the
+        next one; an admission reads its brick's pose seven times); a shelved body's as it was
+        shelved. A pose is only changed by a step and by the calls that put a body somewhere,
+        each of which forgets the body's pose read."""
         shelved = self._shelf.get(body)
         if shelved is not None:
             return shelved[0], shelved[1]
-        return self._read_pose(self._ids.get(body, body))
+        read = self._poses.get(body)
+        if read is None:
+            read = self._poses[body] = self._read_pose(self._ids.get(body, body))
+        return read
 
     def _velocity_now(self, body: int) -> Any:
         """pybullet's (linear, angular) velocity of ``body`` this step, read once."""
@@ -303,6 +313,7 @@ class PyBulletWorld(PyBulletEngine, World):
     # changing -----------------------------------------------------------------
     def set_frozen(self, body: int, frozen: bool, mass: float, at: Pose | None = None) -> None:
         self._velocities.pop(body, None)
+        self._poses.pop(body, None)
         if body in self._shelf:
             self._unshelve([body])
         super().set_frozen(body, frozen, mass, at)
@@ -313,6 +324,7 @@ class PyBulletWorld(PyBulletEngine, World):
 
     def move(self, body: int, pose: Pose, mass: float) -> None:
         self._velocities.pop(body, None)
+        self._poses.pop(body, None)
         if body in self._shelf:
             self._unshelve([body])
         engine_id = self._engine_id(body)
@@ -327,6 +339,7 @@ class PyBulletWorld(PyBulletEngine, World):
 
     def guide(self, body: int, pose: Pose, velocity: Vec3, hold: bool = True) -> None:
         self._velocities.pop(body, None)
+        self._poses.pop(body, None)
         if body in self._shelf:
             self._unshelve([body])
         engine_id = self._engine_id(body)
@@ -398,6 +411,7 @@ class PyBulletWorld(PyBulletEngine, World):
             (x, y, z), velocity = self._ground_at
             self._drive(self.ground, [x, y, z - TABLE_HALF[2]], [0.0, 0.0, 0.0, 1.0], velocity, TABLE_MASS)
         self._velocities.clear()
+        self._poses.clear()
         split = self._substeps > 1 and bool(self._paths or self._table)
         if split != self._split:
             self._stepping(split)
@@ -493,14 +507,11 @@ class PyBulletWorld(PyBulletEngine, World):
         """The steps (at least one) in which nothing moving at up to twice ``fastest`` m/s, and
         falling, travels half :data:`REACH`, and how far it may travel in them (m)."""
         dt, gravity = self._engine.timestep, self._engine.gravity
-
-        def travel(steps: int) -> float:
-            return dt * steps * 2.0 * fastest + gravity * dt * dt * steps * (steps + 1) / 2
-
-        steps = 1
-        while steps < 64 and travel(steps + 1) <= REACH / 2:
+        fall = gravity * dt * dt  # the travel's terms in their own order: the same bits
+        steps, half = 1, REACH / 2
+        while steps < 64 and dt * (steps + 1) * 2.0 * fastest + fall * (steps + 1) * (steps + 2) / 2 <= half:
             steps += 1
-        return steps, travel(steps)
+        return steps, dt * steps * 2.0 * fastest + fall * steps * (steps + 1) / 2
 
     def _shelve_out_of_reach(self) -> None:
         """Shelve every static body :data:`SHELVE` from each moving body (and what it may travel
@@ -512,7 +523,10 @@ class PyBulletWorld(PyBulletEngine, World):
             keep += [_grown(self._still_box(b), SHELVE) for b in self._recent if b in self._still]
             for body in sorted(self._still):
                 box = self._still_box(body)
-                if not any(_overlap(box, z) for z in keep):
+                for z in keep:
+                    if _overlap(box, z):
+                        break
+                else:  # out of every moving body's reach, and of the last frozen
                     self._shelve(body, box)
 
     def _still_box(self, body: int) -> _Box:

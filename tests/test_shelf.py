@@ -92,6 +92,25 @@ def test_a_woken_shelved_brick_comes_back_and_falls():
         assert world.pose(low).position[2] < 0.01  # fell onto the ground
 
 
+def test_a_pose_read_once_between_steps_follows_every_move():
+    """The world keeps a pose it read until the next step; a step, and every call that puts a
+    body somewhere (a freeze raised out of its support, a move, a guide), reads it anew."""
+    spec = _spec_of()
+    with pybullet_world(SETTINGS, 0.5, 0.0, shelve=False) as world:
+        body = world.create(spec, Pose.from_euler([0.0, 0.0, 0.05]))
+        assert world.pose(body).position[2] == pytest.approx(0.05)
+        world.step()
+        assert world.pose(body).position[2] < 0.05  # falling: read after the step
+        assert world.pose_floats(body)[0] == tuple(world.pose(body).position.tolist())
+        world.move(body, Pose.from_euler([0.1, 0.0, 0.02]), spec.mass)
+        assert world.pose(body).position.tolist() == pytest.approx([0.1, 0.0, 0.02])
+        world.set_frozen(body, True, spec.mass, Pose.from_euler([0.1, 0.0, 0.03]))
+        assert world.pose(body).position.tolist() == pytest.approx([0.1, 0.0, 0.03])
+        world.guide(body, Pose.from_euler([0.1, 0.0, 0.03]), (0.1, 0.0, 0.0))
+        world.step()
+        assert world.pose(body).position[0] > 0.1  # driven along its path: read after the step
+
+
 def test_a_tower_gives_the_same_verdict_and_graph_shelved_or_not():
     text = f"stackdsl: 1\nstructure: {{tower: {{levels: {LEVELS}}}}}\n"
     program = compile_scenario(parse_scenario(text, "tower.yaml"))

@@ -1116,6 +1116,7 @@ impacts:
 """
 
 
+@pytest.mark.slow  # engine runs in several settings: in .ci/run's slow part
 @pytest.mark.parametrize("backend", ["pybullet", "mujoco"])
 def test_a_blow_straight_down_on_a_cantilevers_tip_topples_it_as_the_tuned_engines_do(backend):
     """A KAPLA sticking 80 mm out over a table's edge, a KAPLA on its back end (their centre of
@@ -1149,6 +1150,7 @@ impacts:
 """
 
 
+@pytest.mark.slow  # engine runs in several settings: in .ci/run's slow part
 @pytest.mark.parametrize("backend", ["pybullet", "mujoco"])
 def test_a_blow_on_a_flush_stacks_tip_topples_the_stack_over_the_table_edge_as_the_tuned_engines_do(backend):
     """Three KAPLAs flush on each other, their centre of mass 2 mm inside a table's edge, a 10 mm

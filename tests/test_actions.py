@@ -1102,18 +1102,24 @@ def test_a_thrown_brick_topples_a_lone_domino_in_every_mode(backend):
         assert all(v.passed for v in evaluate(scenario.expect, outcome, 0.004)), mode
 
 
-TAPPED_CANTILEVER = """stackdsl: 1
+ON_A_TABLE = """stackdsl: 1
 brick_types:
   table: {size: [200 mm, 100 mm, 40 mm], material: pine}
   pebble: {size: [10 mm, 10 mm, 10 mm], material: pine}
 structure:
   bricks:
     - {id: table, brick: table, at: [-100 mm, 0, 20 mm], fixed: true}
-    - {id: A, at: [20 mm, 0, 44 mm]}
+"""
+"""A fixed 200 x 100 x 40 mm table whose right edge is at x = 0, and a 10 mm pine cube to drop."""
+
+TAPPED_CANTILEVER = (
+    ON_A_TABLE
+    + """    - {id: A, at: [20 mm, 0, 44 mm]}
     - {id: B, at: [-26 mm, 0, 52 mm], together: true}
 impacts:
   - {target: {point: [75 mm, 0, 48 mm]}, direction: [0, 0, -1], speed: SPEED, at: 1 s, distance: 5 mm, projectile: pebble}
 """
+)
 
 
 @pytest.mark.slow  # engine runs in several settings: in .ci/run's slow part
@@ -1135,19 +1141,15 @@ def test_a_blow_straight_down_on_a_cantilevers_tip_topples_it_as_the_tuned_engin
         assert (blow.kind == "wake") is woken and "against 0.11" in blow.detail, (speed, blow.detail)
 
 
-FLUSH_STACK = """stackdsl: 1
-brick_types:
-  table: {size: [200 mm, 100 mm, 40 mm], material: pine}
-  pebble: {size: [10 mm, 10 mm, 10 mm], material: pine}
-structure:
-  bricks:
-    - {id: table, brick: table, at: [-100 mm, 0, 20 mm], fixed: true}
-    - {id: A, at: [-2 mm, 0, 44 mm]}
+FLUSH_STACK = (
+    ON_A_TABLE
+    + """    - {id: A, at: [-2 mm, 0, 44 mm]}
     - {id: B, at: [-2 mm, 0, 52 mm]}
     - {id: C, at: [-2 mm, 0, 60 mm]}
 impacts:
   - {target: {point: [52 mm, 0, 64 mm]}, direction: [0, 0, -1], speed: SPEED, at: 3 s, distance: 5 mm, projectile: pebble}
 """
+)
 
 
 @pytest.mark.slow  # engine runs in several settings: in .ci/run's slow part

@@ -311,6 +311,7 @@ expect: {toppled: all}
     assert later[1:] == pytest.approx(start[1:], abs=1e-4)
 
 
+@pytest.mark.slow  # about 1 s or more: in .ci/run's slow part
 def test_a_recorded_pull_moves_the_pulled_brick_then_leaves_it_out():
     """A pulled brick was recorded frozen in its slot for the whole run (out of the structure, its
     wake never reached its record), and moved far away after: a replay showed it never leave, and

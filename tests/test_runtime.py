@@ -205,6 +205,7 @@ def test_a_pile_frozen_in_the_equilibrium_model_is_solved_once_with_the_whole_st
     assert calls["debris"] and max(calls["debris"]) == 10  # the pile with the bricks still frozen
 
 
+@pytest.mark.slow  # about 1 s or more: in .ci/run's slow part
 def test_a_few_bricks_at_rest_on_a_large_frozen_stack_are_solved_alone(monkeypatch):
     """A log cabin shifted 7 mm a level falls at level 17 (equilibrium model). With its
     fallen bricks left in pybullet's multibodies, its heap is solved with the bricks still

@@ -70,6 +70,7 @@ def test_a_brick_that_rocks_past_twice_the_threshold_and_returns_stands():
     assert max(farthest) > 2 * program.collapse_threshold  # the rock did pass the old "moving away" line
 
 
+@pytest.mark.slow  # about 1 s or more: in .ci/run's slow part
 def test_a_slanted_cabin_with_a_1_mm_margin_falls_at_its_closed_form_at_every_gap():
     # levels shifted 11 mm: the level-4 brick lies 1 mm inside its supports' ends; the tower
     # falls at 10 (closed form). Dropped freely from 1 mm, that brick slid off on pybullet (4).

@@ -72,7 +72,7 @@ REFERENCE_ERROR = "reference_error"
 
 
 class Material(StrictModel):
-    """A material: density, static friction coefficient and restitution of a pair of its bodies."""
+    """A material: density, friction coefficient and restitution of a pair of its bodies."""
 
     density: BoundedDensity = 460.0
     friction: Annotated[Number, Field(ge=0, le=10)] = 0.5

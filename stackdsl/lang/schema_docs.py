@@ -70,7 +70,10 @@ DOCS: dict[str, dict[str, tuple[str, Any]]] = {
     },
     "Material": {
         "density": ("Mass per volume of the material (default 460 kg/m^3, pine).", "460 kg/m^3"),
-        "friction": ("Static friction coefficient between two bodies of this material (default 0.5).", 0.5),
+        "friction": (
+            "Friction coefficient between two bodies of this material (default 0.5), for sticking and sliding alike; two materials touch with the geometric mean of theirs.",
+            0.5,
+        ),
         "restitution": (
             "Bounciness, 0 (none, the default) to 1; each engine takes up to what it simulates faithfully in the "
             "run's mode, measured (0.6 to 0.8), and refuses more.",

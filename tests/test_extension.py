@@ -336,6 +336,27 @@ def test_a_contact_polygon_between_tilted_faces_lies_on_them():
     assert np.abs((polygon.points - (support.position + 0.004 * up)) @ up).max() < 1e-9
 
 
+@pytest.mark.parametrize("tilt", [0.0, 10.0, 32.0, 44.0])
+@pytest.mark.parametrize("yaw", [0.0, 90.0])
+def test_a_brick_lying_on_a_tilted_face_is_found_on_it_from_the_poses(tilt, yaw):
+    """A brick lying face to face on a fixed ramp, along or across the slope: its bottom face
+    reaches below the ramp's top corner by the tilt (12.7 mm across a 24 mm face at 32 deg), and it
+    is still found lying on the ramp, and on nothing when lifted 2 mm off it. A brick refused
+    admission is carried on what it is found on: a column on a 32 deg ramp was built on to level 8."""
+    s = Scene()
+    ramp = Pose.from_euler([0.0, 0.0, 0.0], pitch=-tilt)
+    up = ramp.rotation[:, 2]
+    s.engine.poses[7], s.engine.frozen = ramp, s.engine.frozen | {7}
+    s.ext.add_ground(7, Box(np.array([0.2, 0.1, 0.01]), 1.0), "ramp")
+    body = s.brick(0.0, 1, on=())
+    turned = Pose.from_euler([0.0, 0.0, 0.0], yaw=yaw, pitch=-tilt if yaw == 0.0 else 0.0, roll=-tilt if yaw else 0.0)
+    areas, rec = s.ext._areas, s.ext._stack.bodies[body]
+    for lift, found in ((0.0, [7]), (0.002, [])):
+        pose = Pose(ramp.position + (0.014 + lift) * up, turned.orientation)
+        assert list(areas.lying_on(rec, pose)) == found
+        assert list(areas.lying_on(rec, pose, active=True)) == found
+
+
 def test_the_report_rule_wakes_nothing_that_rigid_block_equilibrium_holds():
     # The same columns and beam, B's load over R2's inner edge: the lever rule puts R2's share at
     # the middle of B's patch (56 mm) and finds R2's centre of mass above 0.55 mm outside its own

@@ -227,6 +227,38 @@ def test_a_stack_on_a_ramp_slides_at_level_1_beyond_the_friction_angle(model, an
     assert not any(e.kind == "freeze" and e.brick == "b1" and e.time < outcome.collapse.time for e in outcome.events)
 
 
+def ramp_column(angle: float, bricks: int) -> str:
+    """A column of ``bricks`` KAPLA stacked square on a fixed ramp tilted ``angle`` deg, each
+    across the slope (24 mm along it, 8 mm thick), every surface friction 1.0: none slides
+    below 45 deg."""
+    a = math.radians(angle)
+    normal = np.array([-math.sin(a), 0.0, math.cos(a)])
+    rows = [f"    - {{id: ramp, brick: ramp, at: [0, 0, 100 mm], pitch: {-angle}, fixed: true}}"]
+    for i in range(bricks):
+        x, _, z = 1000 * (np.array([0.0, 0.0, 0.1]) + (0.014 + 0.008 * i) * normal)
+        rows.append(f"    - {{id: c{i + 1}, brick: k, at: [{x:.3f} mm, 0, {z:.3f} mm], yaw: 90, roll: {-angle}, level: {i + 1}}}")
+    return (
+        "stackdsl: 1\nmaterials: {grip: {friction: 1.0}}\n"
+        "brick_types: {k: {size: [120 mm, 24 mm, 8 mm], material: grip}, ramp: {size: [300 mm, 100 mm, 20 mm], material: grip}}\n"
+        "structure:\n  bricks:\n" + "\n".join(rows) + "\n"
+    )
+
+
+@pytest.mark.parametrize("model", ["report", "equilibrium"])
+@pytest.mark.parametrize("angle", [28.0, 32.0, 35.0])
+def test_a_column_on_a_ramp_tips_at_its_closed_form_level_either_side_of_the_support_angle(model, angle):
+    """k bricks 24 mm wide and 8 mm thick tip about their downhill edge once their centre of mass,
+    4k mm above the ramp, passes it: tan a > 12 / 4k, so at the first k > 3 / tan a (6 at 28 deg,
+    5 at 32 and 35). Beyond the 30 deg support angle the bricks are frozen on the ramp by the
+    debris rule, and the brick that tips the column is refused admission: its weight on the
+    frozen column, found from the tilted faces it lies on, must wake it (the report model built
+    on to level 8 when those faces were missed)."""
+    level = math.floor(3.0 / math.tan(math.radians(angle))) + 1
+    outcome = run_program(compile_scenario(parse_scenario(ramp_column(angle, level + 1)), model=model))
+    assert outcome.collapse is not None and outcome.collapse.level == level, outcome.collapse
+    assert outcome.collapse.time < level  # when the brick of that level was placed (one a second), not the run's end
+
+
 @pytest.mark.parametrize("angle", [30.0, 35.0, 36.0])
 def test_a_leaning_bricks_margin_is_the_ladders_on_its_corner_contacts(angle):
     """A KAPLA brick leaning on a fixed wall, every surface friction 0.3: its centre of mass can

@@ -77,6 +77,28 @@ class ContactAreas:
             grouped[c.other].append(c)
         return {o: self._contact_area(rec, bodies[o], grouped[o]) for o in self.stack.ordered(grouped)}
 
+    def carrying(self, rec: Record, contacts: Iterable[ContactPoint]) -> dict[int, ContactArea]:
+        """What carries ``rec``, an active brick at rest, where it is: the frozen bricks and
+        environment bodies it lies on face to face (:meth:`lying_on`) and, when none of its
+        contacts is within the support angle, every frozen or environment body whose contact
+        pushes it up, as the debris rule would freeze it (:meth:`Admission.plan
+        <stability._admission.Admission.plan>`): a brick on a face steeper than 45 deg, whose
+        bottom face is then a side, or on an edge. Source: stackdsl's own."""
+        pose = self.stack.engine.pose(rec.body)
+        found = self.lying_on(rec, pose)
+        grouped: dict[int, list[ContactPoint]] = defaultdict(list)
+        for c in contacts:
+            other = self.stack.bodies.get(c.other)
+            if other is None or c.distance > self.config.contact_pad:
+                continue
+            if c.normal[2] >= self.support_cos:
+                return found  # it rests within the angle: what it lies on is found from the faces
+            if other.state is not BrickState.ACTIVE and rec.body not in other.rests_on and c.other not in found:
+                grouped[c.other].append(c)
+        pushing = {o: pts for o, pts in grouped.items() if float(np.mean([c.normal[2] for c in pts])) > 0.0}
+        found.update((o, self._contact_area(rec, self.stack.bodies[o], pts)) for o, pts in pushing.items())
+        return {o: found[o] for o in self.stack.ordered(found)}
+
     def face_to_face(self, rec: Record, other: Record) -> ContactArea | None:
         """The exact area through which ``rec`` lies face to face on ``other``, or None
         (:func:`stability._geometry.face_overlap`)."""

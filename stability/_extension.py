@@ -192,7 +192,7 @@ class StabilityExtension:
         # a refusal changes nothing: what it depended on is as it was before asking; but the
         # frozen bricks it lies on carry it, so they are checked against its weight
         rec.failed = (stack.attempt(rec, contacts, time) if attempt is None else attempt, time)
-        woken = self.carry(rec.body, time)
+        woken = self._tests.carry(rec, stack.engine.pose(rec.body), self._areas.carrying(rec, contacts[rec.body]), time)
         if woken:
             rec.failed = None
         return woken

@@ -229,8 +229,8 @@ def test_a_stack_on_a_ramp_slides_at_level_1_beyond_the_friction_angle(model, an
 
 def ramp_column(angle: float, bricks: int) -> str:
     """A column of ``bricks`` KAPLA stacked square on a fixed ramp tilted ``angle`` deg, each
-    across the slope (24 mm along it, 8 mm thick), every surface friction 1.0: none slides
-    below 45 deg."""
+    across the slope (24 mm along it, 8 mm thick), every surface friction 1.5: none slides
+    below 56 deg."""
     a = math.radians(angle)
     normal = np.array([-math.sin(a), 0.0, math.cos(a)])
     rows = [f"    - {{id: ramp, brick: ramp, at: [0, 0, 100 mm], pitch: {-angle}, fixed: true}}"]
@@ -238,21 +238,22 @@ def ramp_column(angle: float, bricks: int) -> str:
         x, _, z = 1000 * (np.array([0.0, 0.0, 0.1]) + (0.014 + 0.008 * i) * normal)
         rows.append(f"    - {{id: c{i + 1}, brick: k, at: [{x:.3f} mm, 0, {z:.3f} mm], yaw: 90, roll: {-angle}, level: {i + 1}}}")
     return (
-        "stackdsl: 1\nmaterials: {grip: {friction: 1.0}}\n"
+        "stackdsl: 1\nmaterials: {grip: {friction: 1.5}}\n"
         "brick_types: {k: {size: [120 mm, 24 mm, 8 mm], material: grip}, ramp: {size: [300 mm, 100 mm, 20 mm], material: grip}}\n"
         "structure:\n  bricks:\n" + "\n".join(rows) + "\n"
     )
 
 
 @pytest.mark.parametrize("model", ["report", "equilibrium"])
-@pytest.mark.parametrize("angle", [28.0, 32.0, 35.0])
+@pytest.mark.parametrize("angle", [28.0, 32.0, 35.0, 47.0])
 def test_a_column_on_a_ramp_tips_at_its_closed_form_level_either_side_of_the_support_angle(model, angle):
     """k bricks 24 mm wide and 8 mm thick tip about their downhill edge once their centre of mass,
     4k mm above the ramp, passes it: tan a > 12 / 4k, so at the first k > 3 / tan a (6 at 28 deg,
-    5 at 32 and 35). Beyond the 30 deg support angle the bricks are frozen on the ramp by the
-    debris rule, and the brick that tips the column is refused admission: its weight on the
-    frozen column, found from the tilted faces it lies on, must wake it (the report model built
-    on to level 8 when those faces were missed)."""
+    5 at 32 and 35, 3 at 47). Beyond the 30 deg support angle the bricks are frozen on the ramp by
+    the debris rule, and the brick that tips the column is refused admission: its weight on the
+    frozen column, found from the tilted faces it lies on (past 45 deg, whose bottom face is then
+    a side, from its contacts), must wake it (the report model built on to level 8 when those
+    faces were missed)."""
     level = math.floor(3.0 / math.tan(math.radians(angle))) + 1
     outcome = run_program(compile_scenario(parse_scenario(ramp_column(angle, level + 1)), model=model))
     assert outcome.collapse is not None and outcome.collapse.level == level, outcome.collapse

@@ -9,8 +9,11 @@ stays so:
 - it cannot come back: its centre of mass, with the bricks it carries, has left the support
   polygon it was placed on (the overlaps of its bottom face with what it rested on, carried
   along with those supports as they move), so their weight turns it on away from its place and
-  only a push could bring it back; or it moves in a collapse mechanism that statics proved (the stability extension's
-  equilibrium model: rigid-block equilibrium, or a part turning out about an edge); or
+  only a push could bring it back (where a brick it carries lies on others too, standing where
+  it stands, the centre of mass of them all with what they carry, against the convex hull of
+  their polygons); or it moves in a collapse mechanism that statics proved (the stability
+  extension's equilibrium model: rigid-block equilibrium, or a part turning out about an
+  edge); or
 - the run ends while it is displaced.
 
 How far a brick has moved is no proof by itself: a brick whose centre of mass lies 1.5 mm
@@ -168,13 +171,7 @@ class SupportPolygon:
     def placed_margin_of(self, com: np.ndarray) -> float:
         """:attr:`placed_margin` of another centre of mass ``com`` (shape (3,), in the world as
         placed: of the brick with the bricks it carries)."""
-        hull = self._hull({body: pose for body, _, pose in self.below if body is not None and pose is not None})
-        if hull is None:
-            return math.inf
-        x, y = float(com[0]), float(com[1])
-        inside = contains_xy(hull, x, y)
-        edge = hull.exterior if inside and hasattr(hull, "exterior") else hull
-        return float(edge.distance(Point(x, y))) * (1.0 if inside else -1.0)
+        return _signed_margin(self.placed_hull(), com)
 
     def _hull(
         self, poses: dict[int, Pose], offset: tuple[float, float, float] = (0.0, 0.0, 0.0), gone: AbstractSet[int] = frozenset()
@@ -187,6 +184,26 @@ class SupportPolygon:
             return None
         points = [c if b is None else c @ poses[b].rotation.T + poses[b].position - offset for b, c in pieces]
         return convex_hull(multipoints(np.vstack(points)[:, :2]))
+
+    def placed_hull(self) -> BaseGeometry | None:
+        """The polygon as the brick was placed (shapely, horizontal; None without a piece)."""
+        return self._hull({body: pose for body, _, pose in self.below if body is not None and pose is not None})
+
+    def region(
+        self,
+        pose: Pose,
+        poses: dict[int, Pose],
+        offset: tuple[float, float, float] = (0.0, 0.0, 0.0),
+        gone: AbstractSet[int] = frozenset(),
+    ) -> BaseGeometry | None:
+        """What the brick stands on now, seen from above (shapely; None without a piece): on the
+        ground alone, the face it stood on with the brick at ``pose`` (in the ground's frame), as
+        :meth:`beyond_its_base` measures; else the polygon, as :meth:`outside` measures."""
+        if self.on_the_ground_alone:
+            placed = self.box.corners(self.pose)
+            face = np.argsort(placed[:, 2])[:4]
+            return convex_hull(multipoints(self.box.corners(pose)[face][:, :2]))
+        return self._hull(poses, offset, gone)
 
     def outside(
         self,
@@ -260,6 +277,8 @@ class CollapseMonitor(Subscriber):
         self._supports: dict[str, SupportPolygon] = {}
         self._carries: dict[str, list[str]] = {}  # brick id -> the ids of the bricks placed on it
         self._parts: dict[str, tuple[tuple[int, int], list[BrickRecord]]] = {}  # :meth:`_part`, and when
+        self._placed: dict[tuple[tuple[str, ...], tuple[str, ...]], float] = {}  # :meth:`_placed_out`
+        self._groups: dict[str, tuple[tuple[int, int], tuple[list[BrickRecord], list[BrickRecord]] | None]] = {}
 
     @property
     def quiet(self) -> bool:
@@ -453,10 +472,58 @@ class CollapseMonitor(Subscriber):
                     return True
         return False
 
+    def _group(self, loop: StepLoop, record: BrickRecord) -> tuple[list[BrickRecord], list[BrickRecord]] | None:
+        """What tips with ``record`` when a brick it carries also lies on others: ``record``,
+        the bricks it carries, the bricks those lie on too (co-supports, standing where
+        ``record`` stands: their bottom faces in the plane of its own, on what is not in the
+        group) and what those carry, until every brick placed on one of them is one of them (two
+        cantilevers side by side on a table with a counterweight across their back ends). The
+        group (in the order placed) and its bottom bricks (those on what is not in it), or None
+        when a brick of it also lies on something out of that plane (a co-support standing on
+        another brick, or higher), where its weight is shared with what is not in the group."""
+        records, removed = loop.structure.records, {r.id for r in loop.structure.removed}
+        key = (len(records), len(removed))  # a group changes only when a brick is placed or taken out
+        if (known := self._groups.get(record.id)) is not None and known[0] == key:
+            return known[1]
+        group = self._grow(loop, record, removed)
+        self._groups[record.id] = (key, group)
+        return group
+
+    def _grow(
+        self, loop: StepLoop, record: BrickRecord, removed: AbstractSet[str]
+    ) -> tuple[list[BrickRecord], list[BrickRecord]] | None:
+        """:meth:`_group`, found."""
+        records, base = loop.structure.records, float(record.corners[:, 2].min())
+        members, bottoms, todo = {record.id: record}, [record], [record]
+        while todo:
+            for i in self._carries.get(todo.pop().id, ()):
+                carried, support = records[i], self._supports.get(i)
+                if i in members or i in removed or carried.level is None:
+                    continue
+                if support is None or not support.pieces:  # tilted: what it lies on is unknown
+                    return None
+                members[i] = carried
+                todo.append(carried)
+                for body, _ in support.pieces:
+                    beside = None if body is None else loop.structure.by_body(body)
+                    if beside is None or beside.level is None or beside.id in removed:
+                        return None  # on a fixed body, the ground or a brick taken out, above the plane
+                    if beside.id in members:
+                        continue
+                    under = self._supports.get(beside.id)
+                    if under is None or not under.pieces or abs(float(beside.corners[:, 2].min()) - base) > FACE_GAP:
+                        return None  # a co-support standing elsewhere
+                    members[beside.id] = beside
+                    bottoms.append(beside)
+                    todo.append(beside)
+        return sorted(members.values(), key=lambda r: r.order), sorted(bottoms, key=lambda r: r.order)
+
     def _off_support(self, loop: StepLoop, record: BrickRecord) -> tuple[ProofKind, str, tuple[str, ...]] | None:
         """The proof that ``record`` has collapsed because the centre of mass of what tips with
-        it (itself and the bricks it carries, :meth:`_part`) has left the support polygon it was
-        placed on, or None. Placed with that centre of mass already outside, the part either
+        it has left the support polygon it was placed on, or None: first of itself and the
+        bricks it carries (:meth:`_part`), then of the group it makes with the bricks beside it
+        that share a brick it carries (:meth:`_group`), against the polygons of the group's
+        bottom bricks together. Placed with that centre of mass already outside, the part either
         tips at once or something else holds it: only how much further out it went counts, and
         nothing at all when something other than its supports touched it as placed."""
         support = self._supports.get(record.id)
@@ -470,31 +537,94 @@ class CollapseMonitor(Subscriber):
         if gone and all(b in gone for b, _ in support.pieces):
             return None
         part = self._part(loop, record)
+        proof = self._tips(loop, part, [record], gone)
+        # the group is looked at only where the part's own proof may never come: the part, or the
+        # group, placed with its centre of mass outside (a cantilever whose counterweight lies on
+        # it and on the one beside it); elsewhere it costs every step of a falling tower's bricks
+        if (
+            proof is None
+            and (group := self._group(loop, record)) is not None
+            and len(group[0]) > len(part)
+            and (self._placed_out(part, [record]) > 0.0 or self._placed_out(*group) > 0.0)
+        ):
+            proof = self._tips(loop, *group, gone)
+        if proof is None:
+            return None
+        return ("off its support", proof[0], tuple(r.id for r in proof[1] if r is not record))
+
+    def _tips(
+        self, loop: StepLoop, part: list[BrickRecord], bottoms: list[BrickRecord], gone: AbstractSet[int]
+    ) -> tuple[str, list[BrickRecord]] | None:
+        """The words of the proof that ``part`` (its bottom bricks ``bottoms`` first, then the
+        bricks they carry) tips, its centre of mass off the polygons its ``bottoms`` were placed
+        on (a convex hull of them all), and the bricks it names; None when it does not."""
+        supports = [self._supports[r.id] for r in bottoms]
+        if any(not s.pieces or (gone and all(b in gone for b, _ in s.pieces)) for s in supports):
+            return None
         masses = np.array([r.box.mass for r in part])
-        bodies = [*(r.body for r in part), *(b for b, _ in support.pieces if b is not None)]
-        positions, quaternions = loop.world.poses_of(bodies)
-        poses = {b: Pose(p, q) for b, p, q in zip(bodies, positions, quaternions)}
-        com = masses @ positions[: len(part)] / masses.sum() - np.asarray(loop.structure.offset)
-        if support.on_the_ground_alone:  # the ground is everywhere: off the face it stood on, or not
-            out = support.beyond_its_base(Pose(positions[0] - loop.structure.offset, quaternions[0]), com)
+        under = list(dict.fromkeys(b for s in supports for b, _ in s.pieces if b is not None))
+        positions, quaternions = loop.world.poses_of([*(r.body for r in part), *under])
+        poses = {b: Pose(p, q) for b, p, q in zip(under, positions[len(part) :], quaternions[len(part) :])}
+        offset = np.asarray(loop.structure.offset)
+        com = masses @ positions[: len(part)] / masses.sum() - offset
+        index = {r.id: k for k, r in enumerate(part)}
+        if len(bottoms) == 1:
+            k = index[bottoms[0].id]
+            if supports[0].on_the_ground_alone:  # the ground is everywhere: off the face it stood on, or not
+                out = supports[0].beyond_its_base(Pose(positions[k] - offset, quaternions[k]), com)
+            else:
+                out = supports[0].outside(com, poses, loop.structure.offset, gone)
         else:
-            out = support.outside(com, poses, loop.structure.offset, gone)
+            regions = [
+                s.region(Pose(positions[index[r.id]] - offset, quaternions[index[r.id]]), poses, loop.structure.offset, gone)
+                for r, s in zip(bottoms, supports)
+            ]
+            hull = convex_hull(shapely.union_all([g for g in regions if g is not None]))
+            out = max(0.0, -_signed_margin(hull, com))
         if out <= OFF_SUPPORT:
             return None
-        if len(part) == 1:
-            placed = support.placed_outside
-        else:
-            placed = max(0.0, -support.placed_margin_of(masses @ np.array([r.pose.position for r in part]) / masses.sum()))
+        placed = self._placed_out(part, bottoms)
         if placed > 0.0 and (out - placed <= FURTHER_OFF or self._held(loop, part)):
             return None
-        on = "the face it stood on the ground with" if support.on_the_ground_alone else "the support polygon it was placed on"
-        where = f"beyond the edge of {on}" if support.on_the_ground_alone else f"outside {on}"
-        whose = f"{record.id}'s centre of mass"
-        if len(part) > 1:
-            whose = f"the centre of mass of {record.id} with {_and([r.id for r in part[1:]])} on it"
-            where = where.replace(" it ", f" {record.id} ")
+        names = _and([r.id for r in bottoms])
+        carried = [r.id for r in part if r not in bottoms]
+        ground = all(s.on_the_ground_alone for s in supports)
+        one = len(bottoms) == 1
+        if one and not carried:
+            whose, it = f"{names}'s centre of mass", "it"
+        else:
+            whose = f"the centre of mass of {names}" + (f" with {_and(carried)} on {'it' if one else 'them'}" if carried else "")
+            it = names
+        if ground:
+            where = (
+                f"beyond the edge of the face {it} stood on the ground with"
+                if one
+                else f"beyond the edges of the faces {it} stood on the ground with"
+            )
+        else:
+            where = f"outside the support polygon {it} {'was' if one else 'were'} placed on"
         as_placed = f" ({placed * 1000:.1f} mm as {'they were' if len(part) > 1 else 'it was'} placed)" if placed > 0.0 else ""
-        return ("off its support", f"{whose} lies {out * 1000:.1f} mm {where}{as_placed}", tuple(r.id for r in part[1:]))
+        return f"{whose} lies {out * 1000:.1f} mm {where}{as_placed}", part
+
+    def _placed_out(self, part: list[BrickRecord], bottoms: list[BrickRecord]) -> float:
+        """Metres the centre of mass of ``part`` lay outside the polygons its ``bottoms`` were
+        placed on (a convex hull of them all) as they were placed; 0 inside."""
+        key = (tuple(r.id for r in part), tuple(r.id for r in bottoms))
+        if (known := self._placed.get(key)) is not None:
+            return known
+        supports = [self._supports[r.id] for r in bottoms]
+        if len(part) == 1:
+            placed = supports[0].placed_outside
+        else:
+            masses = np.array([r.box.mass for r in part])
+            com = masses @ np.array([r.pose.position for r in part]) / masses.sum()
+            if len(bottoms) == 1:
+                placed = max(0.0, -supports[0].placed_margin_of(com))
+            else:
+                hulls = [h for s in supports if (h := s.placed_hull()) is not None]
+                placed = max(0.0, -_signed_margin(convex_hull(shapely.union_all(hulls)) if hulls else None, com))
+        self._placed[key] = placed
+        return placed
 
     def _resting(self, loop: StepLoop, records: list[BrickRecord]) -> list[bool]:
         """Whether each brick's speeds are under the rest thresholds now (a frozen one's are)."""
@@ -565,6 +695,17 @@ class CollapseMonitor(Subscriber):
 
 def _fixture_pose(f: Fixture) -> Pose:
     return Pose.from_euler(f.position, f.yaw, f.pitch, f.roll)
+
+
+def _signed_margin(hull: BaseGeometry | None, com: np.ndarray) -> float:
+    """Metres the horizontal projection of ``com`` lies inside ``hull``'s edge (negative:
+    outside it; inf with no hull)."""
+    if hull is None:
+        return math.inf
+    x, y = float(com[0]), float(com[1])
+    inside = contains_xy(hull, x, y)
+    edge = hull.exterior if inside and hasattr(hull, "exterior") else hull
+    return float(edge.distance(Point(x, y))) * (1.0 if inside else -1.0)
 
 
 def _and(names: Sequence[str]) -> str:

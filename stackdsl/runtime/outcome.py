@@ -75,9 +75,10 @@ class Certificate(_Frozen):
         kind: how it was proved. For ``stands``: ``"equilibrium"``, rigid-block equilibrium of
             every brick where it is at the end (:meth:`stability.StabilityExtension.certificate`).
             For ``collapse``: ``"at rest displaced"`` (a brick came to rest out of its place),
-            ``"off its support"`` (its centre of mass, with the bricks it carries, left the
-            support polygon it was placed on; on the ground alone, passed the edge of the face it
-            stood on), ``"mechanism"`` (it moves in a collapse mechanism statics proved),
+            ``"off its support"`` (its centre of mass, with the bricks it carries and those
+            beside it that share them, left the support polygon it was placed on; on the
+            ground alone, passed the edge of the face it stood on), ``"mechanism"`` (it moves
+            in a collapse mechanism statics proved),
             ``"displaced at the end"``, or ``"no equilibrium"`` (the final state has none).
         detail: the proof in words.
         bricks: for ``collapse``, the bricks it involves: those displaced when it was decided,

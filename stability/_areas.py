@@ -19,7 +19,7 @@ import numpy as np
 
 from ._engine import ContactPoint
 from ._equilibrium import ContactPolygon
-from ._geometry import Box, ContactArea, Plane, Pose, combined_hull, contains, face_overlap, padded_hull
+from ._geometry import Box, ContactArea, Faces, Plane, Pose, combined_hull, contains, face_overlap, padded_hull
 from ._graph import BrickState
 from ._leaning import lean_polygon_padded, pair_friction
 from ._stack import Record, Stack
@@ -28,7 +28,8 @@ Contacts = dict[int, list[ContactPoint]]
 """Contact points by the body they are seen from."""
 
 FACES = 64
-"""Face overlaps kept (:meth:`ContactAreas._face`); all are forgotten when there are this many."""
+"""Face overlaps kept (:meth:`ContactAreas._face`), and boxes' faces (:meth:`ContactAreas._made`);
+all of either are forgotten when there are this many."""
 
 
 @dataclass(frozen=True)
@@ -55,6 +56,7 @@ class ContactAreas:
     def __init__(self, stack: Stack) -> None:
         self.stack = stack
         self._faces: dict[tuple[float, ...], ContactArea | None] = {}  # the last face overlaps, by their bodies and poses
+        self._found: Faces = {}  # the boxes' faces face_overlap found, by half extents and pose
         self._still: tuple[tuple[int, int], Boxes] | None = None  # the frozen and environment boxes, of a stack version
         self.config = stack.config
         self.support_cos = math.cos(math.radians(self.config.support_angle))
@@ -116,8 +118,15 @@ class ContactAreas:
             return self._faces[key]
         if len(self._faces) >= FACES:
             self._faces.clear()
-        area = self._faces[key] = face_overlap(rec.box, pose, other.shape, other_pose, self.config.face_gap)
+        area = self._faces[key] = face_overlap(rec.box, pose, other.shape, other_pose, self.config.face_gap, self._made())
         return area
+
+    def _made(self) -> Faces:
+        """The boxes' faces found so far (:func:`stability._geometry.face_overlap`); all are
+        forgotten when there are :data:`FACES`."""
+        if len(self._found) >= FACES:
+            self._found.clear()
+        return self._found
 
     def _contact_area(self, rec: Record, other: Record, points: list[ContactPoint]) -> ContactArea:
         exact = self.face_to_face(rec, other)
@@ -231,7 +240,7 @@ class ContactAreas:
             if other is rec or other.body not in boxes.rank:
                 continue
             other_pose = None if isinstance(other.shape, Plane) else self.stack.pose(other)
-            area = face_overlap(rec.box, pose, other.shape, other_pose, gap)
+            area = face_overlap(rec.box, pose, other.shape, other_pose, gap, self._made())
             if area is not None and area.area > 0.0:
                 out[other.body] = area
         return out

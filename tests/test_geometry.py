@@ -174,3 +174,54 @@ def test_a_box_without_a_size_or_a_mass_is_refused(half, mass, said):
 def test_a_plane_must_be_somewhere(height):
     with pytest.raises(ValueError, match=r"Plane.height must be a finite number of metres"):
         Plane(height)
+
+
+def test_faces_are_found_once_and_give_the_same_overlaps():
+    """A brick's bottom face meets each of its supports, and a support's top face each brick
+    laid on it: with ``faces`` each face (and its horizontal projection) is found once and
+    reused, and the overlaps are those found without it, to the bit."""
+    made: dict = {}
+    left, right = (Pose.from_euler([0.001, y, 0.004], yaw=0.2, pitch=0.1, roll=0.1) for y in (-0.048, 0.048))
+    uppers = [Pose.from_euler([x, 0.001, 0.01195], yaw=90.3, pitch=0.1, roll=0.1) for x in (-0.048, 0.048)]
+    pairs = [(u, s) for u in uppers for s in (left, right)]
+    for upper, lower in pairs:
+        plain = face_overlap(KAPLA, upper, KAPLA, lower, gap=0.001)
+        reused = face_overlap(KAPLA, upper, KAPLA, lower, gap=0.001, faces=made)
+        assert plain is not None and reused is not None
+        assert reused.polygon.wkb == plain.polygon.wkb
+        assert (reused.height, reused.depth, reused.normal.tolist()) == (plain.height, plain.depth, plain.normal.tolist())
+    assert len(made) == 4  # two bottom faces and two top faces, for four overlaps
+    kept = {k: (f, f.projection) for k, f in made.items()}
+    assert all(p is not None for _, p in kept.values())  # each face's projection made, once
+    face_overlap(KAPLA, uppers[0], KAPLA, left, gap=0.001, faces=made)
+    assert all(made[k] is f and f.projection is p for k, (f, p) in kept.items()) and len(made) == 4  # nothing new made
+    ground = face_overlap(
+        KAPLA, Pose.from_euler([0.3, 0.1, 0.004], yaw=30, pitch=0.01, roll=0.01), Plane(0.0), None, gap=0.001, faces=made
+    )
+    assert ground is not None and len(made) == 5
+
+
+def test_a_face_at_a_zero_coordinate_is_not_kept():
+    """0.0 and -0.0 are one key: a face whose pose has a zero is found anew each time, so that
+    no face found at one of them serves the other (their corners may differ in a zero's sign)."""
+    made: dict = {}
+    lower = Pose(np.array([-0.0, 0.0, 0.004]), np.array([0.0, 0.0, 0.0, 1.0]))
+    upper = Pose(np.array([0.0, -0.0, 0.012]), np.array([-0.0, 0.0, 0.0, 1.0]))
+    area = face_overlap(KAPLA, upper, KAPLA, lower, gap=0.001, faces=made)
+    plain = face_overlap(KAPLA, upper, KAPLA, lower, gap=0.001)
+    assert area is not None and plain is not None and area.polygon.wkb == plain.polygon.wkb
+    assert made == {}
+
+
+def test_contact_area_corners_lie_on_the_tilted_plane_through_its_height():
+    normal = np.array([-0.6, 0.0, 0.8])
+    area = face_overlap(KAPLA, Pose.from_euler([0, 0, 0.012]), KAPLA, Pose.from_euler([0, 0, 0.004]), gap=0.001)
+    assert area is not None
+    tilted = type(area)(area.polygon, 0.008, normal, True)
+    corners = tilted.corners()
+    ring = np.asarray(area.polygon.exterior.coords)[:-1]
+    assert corners.shape == (len(ring), 3)
+    assert corners[:, :2].tolist() == ring.tolist()
+    # on the plane through (centre, 0.008) with that normal: n . (p - c) = 0
+    centre = np.array([*ring.mean(axis=0), 0.008])
+    assert np.abs((corners - centre) @ normal).max() < 1e-15

@@ -92,6 +92,7 @@ class Record:
         default_factory=lambda: (np.zeros((8, 3)), 0.0)
     )  # held: corners where, and since when (s), it has stayed within STILL
     still: bool = False  # held once and kept still by the engine: not held again
+    leans: bool = False  # frozen, and its balance or that of a brick under it needs a non-level contact (_prove)
 
     def held_by_pile(self) -> bool:
         """Fallen, frozen again with a debris pile that rigid-block equilibrium holds, and
@@ -140,6 +141,9 @@ class Stack:
         self.active: dict[int, Record] = {}  # the active bricks, so that a step costs what moves
         self.frozen: dict[int, Record] = {}  # the frozen bricks in the order they froze: supports first
         self.unproven: set[int] = set()  # frozen bricks with no load path under their centre of mass
+        # report model: unproven bricks frozen on a non-level load path since the stack test last
+        # asked rigid-block equilibrium of them (_prove)
+        self.leaning: set[int] = set()
         self.just_frozen: set[int] = set()  # frozen in the extension's update under way (StackTest undoes such a freeze alone)
         self.loads_fresh = True  # com_above / mass_above of every frozen brick are up to date
         self.version = 0  # counts the changes of the frozen stack (freezes and wakes)
@@ -333,7 +337,21 @@ class Stack:
     def _prove(self, rec: Record) -> None:
         """Find the load path of a brick being frozen and, with the equilibrium model, where it may
         push on each support (:mod:`stability._load_path`); note it when its centre of mass is
-        not over its path."""
+        not over its path.
+
+        With the report model, an unproven brick whose centre of mass is not over its own level
+        support contacts (it leans: it needs a sideways force), or that rests on a brick that
+        :attr:`Record.leans`, is noted in :attr:`leaning` too: its loads reach a non-level
+        contact, where the report's unlimited friction is not exact, and the stack test asks
+        rigid-block equilibrium with friction of its part
+        (:meth:`stability._stack_test.StackTest.run`). A proven brick adds nothing to what such
+        a contact carries (its load goes down by vertical forces on level contacts, and forces
+        within friction cones add up to forces within them), but a brick on it inherits the
+        mark: its load may leave the path. A brick that fell (woken from the stack, frozen again
+        with :attr:`Record.pile`) is not noted: it is held by the equilibrium that admitted it
+        (:meth:`Record.held_by_pile`), and the collapse it fell in is already recorded: solving
+        the heap again took a 16-level single file run to its collapse from 0.20 to 0.33 s.
+        Source: stackdsl's own."""
         pieces = []
         level: dict[int, list[np.ndarray]] = {}  # support -> its level contact polygons' points
         for c in rec.contacts:
@@ -345,8 +363,16 @@ class Stack:
         if self.config.model == "equilibrium":  # for its stack test's propagated loads only
             rec.support_regions = {s: r for s, points in level.items() if (r := share_region(points)) is not None}
         assert rec.frozen_pose is not None, "set by freeze"
-        if not proven(rec.frozen_pose.position, rec.load_path):
-            self.unproven.add(rec.body)
+        com = rec.frozen_pose.position
+        rec.leans = any(self.bodies[s].leans for s in rec.rests_on)
+        if proven(com, rec.load_path):
+            return
+        self.unproven.add(rec.body)
+        if self.config.model == "report":
+            own = load_path([support_piece(p, None, ground=True) for points in level.values() for p in points])
+            rec.leans = rec.leans or not proven(com, own)
+            if rec.leans and not rec.pile:  # a brick that fell: the debris rule's equilibrium holds it
+                self.leaning.add(rec.body)
 
     def wake(
         self,
@@ -378,6 +404,8 @@ class Stack:
         self.active[body] = rec
         del self.frozen[body]
         self.unproven.discard(body)
+        self.leaning.discard(body)
+        rec.leans = False
         rec.load_path, rec.support_regions, self.loads_fresh, self.version = None, {}, False, self.version + 1
         self.just_frozen.discard(body)
         for s in rec.rests_on:

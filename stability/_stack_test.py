@@ -9,6 +9,7 @@ the equilibrium model is Livesley (1978) and Whiting et al. (2009).
 
 from __future__ import annotations
 
+from collections.abc import Set as AbstractSet
 from graphlib import CycleError
 
 import numpy as np
@@ -165,21 +166,57 @@ class StackTest:
                     return events
                 blocks = {b: RigidBlock(r.box.mass, stack.pose(r).position) for b, r in frozen.items()}
                 # the parts with a brick off its load path: every other part stands on its paths
-                blocks, part = connected_part(blocks, polygons, stack.unproven)
-                resting, on = self._resting_on(blocks)  # with the active bricks lying on it
-                blocks, part = blocks | resting, part + on
-                moving = set(falling_part(blocks, part) or ()) if stack.config.gravity > 0 else set()
-                if not moving:
-                    result = solve_equilibrium(blocks, part, gravity=stack.config.gravity)
-                    if result.stands:
-                        return events
-                    moving = result.moving()
-                moving -= resting.keys()
-                if not moving:  # only active bricks would move: the engine has them
+                moving = self._mechanism(blocks, polygons, stack.unproven)
+                if not moving:  # it stands, or only active bricks would move: the engine has them
                     return events
             for b in stack.ordered(moving):
                 reason = "it moves in the collapse mechanism (rigid-block equilibrium)"
                 events += [w.event for w in stack.wake(b, time, reason, moving)]
+
+    def _mechanism(
+        self, blocks: dict[int, RigidBlock], polygons: list[ContactPolygon[int]], around: AbstractSet[int]
+    ) -> set[int]:
+        """The frozen bricks that move in the collapse mechanism of the part of the frozen stack
+        (``blocks`` on ``polygons``) that ``around`` belongs to, with the active bricks lying on it
+        (:meth:`_resting_on`); empty when that part stands. A part that provably turns out about
+        an edge of its footing (:func:`stability._cut.falling_part`) is the mechanism, and the
+        program is solved only when there is none."""
+        gravity = self.stack.config.gravity
+        blocks, part = connected_part(blocks, polygons, around)
+        resting, on = self._resting_on(blocks)
+        blocks, part = blocks | resting, part + on
+        moving = set(falling_part(blocks, part) or ()) if gravity > 0 else set()
+        if not moving:
+            result = solve_equilibrium(blocks, part, gravity=gravity)
+            if result.stands:
+                return set()
+            moving = result.moving()
+        return moving - resting.keys()
+
+    def _leaning(self, time: float) -> list[StabilityEvent]:
+        """The report model's test of the bricks frozen on a non-level load path since it last
+        ran (:attr:`stability._stack.Stack.leaning`): rigid-block equilibrium with friction of
+        their part of the frozen stack, as the equilibrium model's stack test asks it; the
+        bricks of its collapse mechanism wake, with what rests on them.
+
+        The report's load tree assumes unlimited friction, which is exact where every contact
+        a load reaches is level and the loads vertical. A leaning brick pushes sideways on what
+        it leans on (a plank on the top brick of a slick stack), and a brick laid on a leaning
+        one (the flat across the two Vs of a card house) pushes its feet outwards; the leaning
+        test holds the bricks leaned on as fixed, and the report's centre-of-mass test sees no
+        sideways force. A brick frozen in such a place is kept frozen only when equilibrium
+        holds its part; else the stack test's own mechanism wakes, when the push comes, and not
+        after later loads on the bricks it pushed made the pose balance again (then even the
+        end-of-run check said it stands). Stacks on level contacts never get here.
+        Source: stackdsl's own (Livesley 1978, as :meth:`_equilibrium`).
+        """
+        stack = self.stack
+        around, stack.leaning = stack.leaning, set()
+        if stack.config.gravity <= 0:
+            return []
+        moving = self._mechanism(*self._frozen_problem(), around)
+        reason = "it moves in the collapse mechanism (rigid-block equilibrium with friction)"
+        return [w.event for b in stack.ordered(moving) for w in stack.wake(b, time, reason, moving)]
 
     def _frozen_problem(self) -> tuple[dict[int, RigidBlock], list[ContactPolygon[int]]]:
         """The frozen stack as free blocks, on the contact polygons remembered from the freezes
@@ -274,7 +311,7 @@ class StackTest:
         stale (:meth:`refresh_loads` brings them up to date when the impact rule asks).
         """
         stack = self.stack
-        events: list[StabilityEvent] = []
+        events = self._leaning(time) if stack.leaning else []
         if stack.config.gravity > 0 and not stack.unproven:
             return events  # every brick over its load path: equilibrium stands (see above)
         gave_way: set[int] = set()

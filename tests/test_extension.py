@@ -485,6 +485,7 @@ def _under_a_piles_edge_failing_the_rule(monkeypatch: pytest.MonkeyPatch) -> tup
     up = np.array([0.0, 0.0, 1.0])
     on_edge = ContactArea(rect(0.238, -0.012, 0.262, 0.012), H, up, exact=True)
     leaning = ContactArea(rect(0.238, -0.012, 0.36, 0.012), H, up, exact=False)  # with what else it leans on
+    stack.bodies[pile].clock.fallen = True  # a pile of bricks that fell (the debris rule's)
     stack.freeze(stack.bodies[pile], {edge: on_edge}, leaning, [])
     stack.watch(stack.bodies[edge], {pile})
     s.engine.velocities.pop(edge)

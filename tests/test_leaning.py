@@ -636,3 +636,83 @@ def test_a_blow_on_a_tall_columns_top_brick_moves_that_brick_alone():
     assert [(e.kind, e.label) for e in events] == [("wake", "b20")], events
     assert "1.32 mJ against 0.416 mJ" in events[0].reason and "to turn" not in events[0].reason
     assert s.ext.state(19) is BrickState.FROZEN
+
+
+def post_scene(model: str, post_friction: float) -> Scene:
+    """A frozen post (60 x 100 x 120 mm, two bricks' mass) on the ground, and a KAPLA brick
+    leaning on its -x face at 30 deg from vertical, foot on the ground (pair 0.5). The leaner
+    pushes the post with H = W/2 sin a / (cos a + mu_w sin a) = 0.28 W; the post slides when the
+    ground's pair friction holds less: sqrt(0.5 f) (2 W + mu_w H) < 0.28 W, f < 0.08."""
+    s = Scene(model=model)
+    s.engine.poses[9] = Pose.from_euler([0.09, 0.0, 0.06])
+    s.ext.add_brick(9, Box(np.array([0.03, 0.05, 0.06]), 2 * M), "post", friction=post_friction)
+    s.engine.touch(9, 0, [[x, y, 0.0] for x in (0.06, 0.12) for y in (-0.05, 0.05)], normal=UP)
+    assert [e.kind for e in s.ext.update(0.0)] == ["freeze"]
+    top = s.leaner(1, 30)
+    s.engine.touch(1, 9, [top + [0, -0.012, 0], top + [0, 0.012, 0]], normal=[-1, 0, 0])
+    return s
+
+
+@pytest.mark.parametrize("model", ["report", "equilibrium"])
+@pytest.mark.parametrize("post_friction, stands", [(0.01, False), (0.5, True)])
+def test_a_brick_leaning_on_a_frozen_one_that_cannot_take_its_push_wakes_it(model, post_friction, stands):
+    """The leaning test holds the post as a wall; frozen with the leaner, the post is held only
+    by its friction on the ground, which rigid-block equilibrium of the two weighs in both
+    models: the report's centre-of-mass test sees no sideways push."""
+    s = post_scene(model, post_friction)
+    events = s.ext.update(0.1)
+    assert ("freeze", "b1") in [(e.kind, e.label) for e in events]
+    assert (s.ext.state(9) is BrickState.FROZEN) is stands
+    if not stands:
+        assert "collapse mechanism" in next(e.reason for e in events if e.kind == "wake" and e.label == "post")
+
+
+def vee_scene(model: str, leg_friction: float) -> Scene:
+    """A frozen V of two KAPLA bricks, 25 deg from vertical, on the ground (pair sqrt(0.5 f)),
+    and a flat KAPLA (mass W) laid across its apex. Thin-V statics: each foot needs
+    H/N = tan a (W/2 + P/2) / (W + P/2) with P the load on the apex: 0.233 alone, 0.311 with
+    the flat."""
+    s = Scene(model=model)
+    a = math.radians(25)
+    top = s.leaner(1, 25, x_foot=-L * math.sin(a))
+    s.leaner(2, 25, x_foot=L * math.sin(a), lean=-1)
+    for b in (1, 2):
+        s.ext._stack.bodies[b].friction = leg_friction
+    s.engine.touch(1, 2, [top + [0, -0.012, 0], top + [0, 0.012, 0]], normal=[-1, 0, 0])
+    assert [e.kind for e in s.ext.update(0.0)] == ["freeze", "freeze"]
+    s.engine.poses[3] = Pose.from_euler([0.0, 0.0, top[2] + 0.004])
+    s.ext.add_brick(3, KAPLA, "flat")
+    for leg, x in ((1, -0.001), (2, 0.001)):
+        s.engine.touch(3, leg, [[x, -0.012, top[2]], [x, 0.012, top[2]]], normal=UP)
+    return s
+
+
+@pytest.mark.parametrize("model", ["report", "equilibrium"])
+@pytest.mark.parametrize("pair, stands", [(0.28, False), (0.5, True)])
+def test_a_load_laid_on_a_v_wakes_it_when_its_feet_cannot_hold_the_push(model, pair, stands):
+    """The flat rests on level contacts, but its load goes down through leaning bricks: it is
+    frozen only when rigid-block equilibrium with friction holds the V under it."""
+    s = vee_scene(model, pair * pair / 0.5)
+    events = s.ext.update(0.1)
+    assert [(e.kind, e.label) for e in events][:1] == [("freeze", "flat")]
+    assert all((s.ext.state(b) is BrickState.FROZEN) is stands for b in (1, 2, 3))
+
+
+def test_a_slanted_stack_on_level_contacts_keeps_the_reports_fast_test(monkeypatch):
+    """Bricks stepping out 35 mm a level: the top one is off the lower bricks' load paths but over
+    its own level support, so nothing leans and no program is solved (the report's loads decide)."""
+    import stability._stack_test as stack_test
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("no rigid-block program on level contacts")
+
+    monkeypatch.setattr(stack_test, "solve_equilibrium", refuse)
+    s = Scene()
+    for body, x in ((1, 0.0), (2, 0.035), (3, 0.07)):
+        z = (body - 0.5) * 0.008
+        s.engine.poses[body] = Pose.from_euler([x, 0.0, z])
+        s.ext.add_brick(body, KAPLA, f"b{body}")
+        s.engine.touch(body, body - 1, [[x - 0.01, 0.0, z - 0.004]], normal=UP)  # areas come from the faces
+        assert [e.kind for e in s.ext.update(0.1 * body)] == ["freeze"]
+    stack = s.ext._stack
+    assert stack.unproven == {3} and not stack.leaning and not any(r.leans for r in stack.bodies.values())

@@ -58,6 +58,14 @@ TOUCH = 0.0015
 #: contact pad: within it the two still touch as they did).
 WATCH = 0.001
 
+_NONE: frozenset[int] = frozenset()
+"""The bodies a guided body touches in a step without one."""
+
+
+def _order(rec: Record) -> int:
+    """A record's place in the order of registration (a sort key)."""
+    return rec.order
+
 
 class StabilityExtension:
     """The report's stack stability system, attached to an :class:`Engine`.
@@ -133,9 +141,11 @@ class StabilityExtension:
         if not stack.active:
             stack.holding = True
             return []
-        events, touched = self._guided(time)
-        active = sorted(stack.active.values(), key=lambda r: r.order)
-        free = [rec for rec in active if rec.body not in stack.guided]
+        events, touched = self._guided(time) if stack.guided else ([], _NONE)
+        active = list(stack.active.values())
+        if len(active) > 1:
+            active.sort(key=_order)
+        free = [rec for rec in active if rec.body not in stack.guided] if stack.guided else active
         resting = [rec for rec in free if self._at_rest(rec, time)]  # every clock first: partners
         # only a brick at rest asks, only of its own contacts (and its resting partners'), and a
         # brick refused asks again once a rest duration has passed and something has changed

@@ -344,7 +344,7 @@ class CollapseMonitor(Subscriber):
         )
 
     def after_step(self, loop: StepLoop) -> None:
-        if self.collapse is None:
+        if self.collapse is None and (self._displaced or loop.structure.moving):  # else nothing can have moved
             self._decide(loop)
 
     def _decide(self, loop: StepLoop, displaced_at_end: bool = False) -> None:

@@ -238,26 +238,32 @@ class StepLoop:
 
     def advance(self, target: int) -> None:
         """Step the world up to step ``target`` (or the stop step), or until the deadline."""
+        before, after, watchers, hands = self._before_step, self._after_step, self._watchers, self._hands
+        step, clock, jump = self.world.step, _time.perf_counter, self.jump
         while self.step < self._limit(target):
             if self.deadline is not None and self.step % CLOCK_EVERY == 0 and self._out_of_time():
                 return
-            if self.jump and all(s.quiet for s in self._watchers):
-                self.skipped += self._limit(target) - self.step
-                self.step = self._limit(target)
-                return
-            for hook in self._before_step:
+            if jump:
+                for watcher in watchers:
+                    if not watcher.quiet:
+                        break
+                else:  # every subscriber is quiet
+                    self.skipped += self._limit(target) - self.step
+                    self.step = self._limit(target)
+                    return
+            for hook in before:
                 hook(self)
-            started = _time.perf_counter()
+            started = clock()
             try:
-                self.world.step()
+                step()
             except EngineUnstable as unstable:
                 self.stopped = str(unstable)
                 return
-            self.engine_time += _time.perf_counter() - started
+            self.engine_time += clock() - started
             self.step += 1
-            for hook in self._after_step:
+            for hook in after:
                 hook(self)
-            if self.stop_step is not None and any(s.under_way for s in self._hands):
+            if self.stop_step is not None and hands and any(s.under_way for s in hands):
                 self.stop_step = max(self.stop_step, self.step + self._settle_steps)  # it finishes, then the run settles
 
     # actions ------------------------------------------------------------------

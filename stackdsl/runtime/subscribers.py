@@ -53,8 +53,8 @@ class Stability(Subscriber):
             self.follow(loop, self.extension.update(loop.events[-1].time))
 
     def after_step(self, loop: StepLoop) -> None:
-        if self.acting:
-            self.follow(loop, self.extension.update(loop.now))
+        if self.acting and (events := self.extension.update(loop.now)):
+            self.follow(loop, events)
 
     def follow(self, loop: StepLoop, events: list[StabilityEvent]) -> None:
         """Update the records of frozen and woken bricks; put the events in the timeline
@@ -135,13 +135,14 @@ class SoftLanding(Subscriber):
         self.falling[record.id] = (record, loop.events[-1].time, None)
 
     def before_step(self, loop: StepLoop) -> None:
-        falling = [(r, last or 0.0) for r, _, last in self.falling.values() if r.moving]  # placed at rest
-        if not falling:
+        if not self.falling:
             return
         world, dt = loop.world, loop.dt
         fall = self.gravity * dt
-        for record, vz in falling:  # one or two bricks: one at a time, in floats
-            step = (fall - vz) * dt  # metres it falls in this step, freely
+        for record, _, last in self.falling.values():  # one or two bricks: one at a time, in floats
+            if not record.moving:
+                continue
+            step = (fall - (last or 0.0)) * dt  # metres it falls in this step, freely (placed at rest: 0 m/s)
             above = world.pose_floats(record.body)[0][2] - record.placed_xyz[2]
             if self.ARRIVED < above <= step + self.ARRIVED:
                 world.throw(record.body, (0.0, 0.0, fall - above / dt), None)
@@ -151,12 +152,12 @@ class SoftLanding(Subscriber):
         if not self.falling:
             return
         slowed = 0.5 * self.gravity * loop.dt
-        world = loop.world
+        world, now, lowered = loop.world, loop.now, self.lowered
         for record, placed, last in list(self.falling.values()):
-            if record.id in self.lowered:  # at rest where it is to lie, as if placed there now
-                self.lowered.discard(record.id)
+            if lowered and record.id in lowered:  # at rest where it is to lie, as if placed there now
+                lowered.discard(record.id)
                 world.throw(record.body, (0.0, 0.0, 0.0), None)
-                self.falling[record.id] = (record, loop.now, None)
+                self.falling[record.id] = (record, now, None)
                 continue
             vz = world.velocity_floats(record.body)[0][2]
             fell = last is not None or vz < -self.FALLING
@@ -165,8 +166,8 @@ class SoftLanding(Subscriber):
                 or world.pose_floats(record.body)[0][2] <= record.placed_xyz[2] + self.ARRIVED
             )
             if arrived and record.moving:
-                loop.world.throw(record.body, (0.0, 0.0, 0.0), None)
-            if arrived or not record.moving or loop.now - placed > self.WATCH:
+                world.throw(record.body, (0.0, 0.0, 0.0), None)
+            if arrived or not record.moving or now - placed > self.WATCH:
                 del self.falling[record.id]
             elif fell:
                 self.falling[record.id] = (record, placed, vz)
@@ -192,6 +193,7 @@ class Substeps(Subscriber):
         self.threshold, self.bricks_too = threshold, bricks_too
         self.substeps = 1
         self.floor = 1  # at least this many (a hand pulling a brick: see PULL_STEP)
+        self._told: int | None = None  # what the world was last told (set_substeps)
 
     def before_step(self, loop: StepLoop) -> None:
         structure, speeds = loop.structure, loop.world.speeds
@@ -207,7 +209,9 @@ class Substeps(Subscriber):
             detail = f"{speed:.3g} m/s needs {needed} substeps; capped at {MAX_SUBSTEPS}"
             loop.events.append(Event(time=loop.now, kind="substeps", brick=fastest.id, level=fastest.level, detail=detail))
         self.substeps = substeps
-        loop.world.set_substeps(substeps)
+        if substeps != self._told:  # the world keeps what it was told last
+            self._told = substeps
+            loop.world.set_substeps(substeps)
 
 
 class CheapDebris(Subscriber):

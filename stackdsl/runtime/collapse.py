@@ -448,8 +448,10 @@ class CollapseMonitor(Subscriber):
 
     def _held(self, loop: StepLoop, part: list[BrickRecord]) -> bool:
         """Whether something other than what ``part`` was placed on touched it as placed: a
-        brick placed on it and on something else (it holds the part down), or one beside it (one
-        end of a flat arch, held by its partner), a fixed body included."""
+        brick placed on it and on something else (it holds the part down), one beside it (one
+        end of a flat arch, held by its partner), or one on top of it that was not placed on it
+        (its bottom face on a brick's top face, their footprints overlapping: a fixed bar over a
+        counterweight, which the part cannot lift to tip), a fixed body included."""
         ids = {r.id for r in part}
         removed = {r.id for r in loop.structure.removed}
         if any(j not in ids and j not in removed for r in part for j in self._carries.get(r.id, ())):
@@ -469,6 +471,11 @@ class CollapseMonitor(Subscriber):
             if beside.any():
                 near = shapely.distance([shapes[k][0] for k in np.flatnonzero(beside)], r.footprint)
                 if (near <= FACE_GAP).any():
+                    return True
+            above = np.abs(lows - high) <= FACE_GAP  # lying on its top face: the part must lift it to tip
+            if above.any():
+                overlaps = shapely.area(shapely.intersection([shapes[k][0] for k in np.flatnonzero(above)], r.footprint))
+                if (overlaps > 1e-8).any():  # as :meth:`Structure.under` finds what a brick rests on
                     return True
         return False
 

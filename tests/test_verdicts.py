@@ -7,12 +7,13 @@ from __future__ import annotations
 import json
 import math
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from stability import Box, BrickState, FakeEngine, Plane, Pose, StabilityConfig, StabilityExtension
-from stackdsl import compile_scenario, parse_scenario, run_program
+from stackdsl import compile_scenario, load_scenario, parse_scenario, run_program
 from stackdsl.runtime.loop import Subscriber
 from stackdsl.runtime.run import run_in
 
@@ -686,6 +687,82 @@ structure:
     proof = result.certificate
     assert result.collapse is not None and proof is not None
     assert "on them" not in proof.detail and "A1 and A2" not in proof.detail, proof.detail
+
+
+def bridged_counterweights(bridge_x_mm: float) -> str:
+    """KAPLAs A1 and A2 75 mm out over a table's edge (x = 0), 80 mm apart, a KAPLA C1 along
+    A1's back end and C2 along A2's (each pair's centre of mass 2.5 mm inside the edge), and a
+    KAPLA C3 lying across C1 and C2 at ``bridge_x_mm``."""
+    return f"""stackdsl: 1
+brick_types: {{table: {{size: [200 mm, 200 mm, 40 mm], material: pine}}}}
+structure:
+  bricks:
+    - {{id: table, brick: table, at: [-100 mm, 0, 20 mm], fixed: true}}
+    - {{id: A1, at: [15 mm, -40 mm, 44 mm], together: true}}
+    - {{id: A2, at: [15 mm, 40 mm, 44 mm], together: true}}
+    - {{id: C1, at: [-20 mm, -40 mm, 52 mm], together: true}}
+    - {{id: C2, at: [-20 mm, 40 mm, 52 mm], together: true}}
+    - {{id: C3, at: [{bridge_x_mm} mm, 0, 60 mm], yaw: 90, together: true}}
+"""
+
+
+@pytest.mark.parametrize("bridge_x_mm", [25.0, 15.0, 0.0])
+def test_counterweights_bridged_one_level_up_tip_with_their_cantilevers_as_one_group(bridge_x_mm):
+    """Two cantilevers, a counterweight along each, a brick C3 across the counterweights: C3
+    lies on C1 and C2, whose bottoms are not in the plane A1 and A2 stand in, so the group was
+    not found, and the collapse was proved after A1 had moved 28 mm, of A1 with C1 on it, "0.6 mm
+    outside the support polygon A1 was placed on", a part placed 2.5 mm inside. The five bricks
+    hold one another and stand on the table through A1 and A2 alone: the proof is of them all,
+    within a few mm of moving, as far out as they were placed (hand: the mean of the five KAPLAs'
+    centres, (15 + 15 - 20 - 20 + x) / 5); placed inside, they stand with that margin."""
+    group_mm = (15.0 + 15.0 - 20.0 - 20.0 + bridge_x_mm) / 5
+    result = run_program(compile_scenario(parse_scenario(bridged_counterweights(bridge_x_mm))))
+    proof = result.certificate
+    assert proof is not None
+    if group_mm < 0.0:
+        assert result.collapse is None and proof.margin_mm == pytest.approx(-group_mm, abs=0.1), proof
+        return
+    assert result.collapse is not None and proof.kind == "off its support", proof
+    assert result.collapse.displacement < 0.006, result.collapse
+    assert {"A1", "A2", "C1", "C2", "C3"} <= {result.collapse.brick, *proof.bricks}, proof
+    assert proof.detail.startswith("the centre of mass of A1 and A2 with C1, C2 and C3 on them"), proof.detail
+    said = [float(w) for w in re.findall(r"([0-9.]+) mm", proof.detail)]
+    assert said[0] == pytest.approx(group_mm, abs=1.0) and said[1] == pytest.approx(group_mm, abs=0.1), proof.detail
+
+
+def test_a_counterweight_bridging_a_cantilever_and_a_brick_on_the_table_makes_no_proof_of_their_group():
+    """A counterweight C across a cantilever's back end and a brick B lying on the table: the
+    three hold one another and stand in one plane, but their centre of mass ((15 - 60 - 10) / 3
+    = -18 mm) lies over the table, so no proof is of the group: A1 tips because C gives it too
+    little of its weight (C pivots on B), which the group's centre of mass does not tell."""
+    text = """stackdsl: 1
+brick_types: {table: {size: [200 mm, 200 mm, 40 mm], material: pine}}
+structure:
+  bricks:
+    - {id: table, brick: table, at: [-100 mm, 0, 20 mm], fixed: true}
+    - {id: A1, at: [15 mm, -13 mm, 44 mm], together: true}
+    - {id: B, at: [-60 mm, 13 mm, 44 mm], together: true}
+    - {id: C, at: [-10 mm, 0, 52 mm], yaw: 90, together: true}
+"""
+    result = run_program(compile_scenario(parse_scenario(text)))
+    proof = result.certificate
+    assert result.collapse is not None and proof is not None
+    assert "on them" not in proof.detail and " and B" not in proof.detail, proof.detail
+
+
+def test_a_brick_lying_on_a_leaning_brick_s_corner_makes_no_group():
+    """The report's Figure 13: a flat brick from a fixed pillar to the top corner of a V's
+    leaning brick, three bricks on its end. The corner is no face of the flat's support polygon
+    (the pillar's top alone), so the flat with the three on it lies 62.5 mm outside that polygon
+    as placed, held by the corner; a group found from one of the three down to the flat said
+    "the centre of mass of flat with load1, load2 and load3 on it lies 66.0 mm outside". What
+    holds such a group up is not in its polygons: no group, and the mechanism proves the fall."""
+    result = run_program(
+        compile_scenario(load_scenario(Path(__file__).resolve().parents[1] / "scenarios" / "fig13_loaded_vee.yaml"))
+    )
+    proof = result.certificate
+    assert result.collapse is not None and proof is not None
+    assert proof.kind == "mechanism" and "on it" not in proof.detail, proof.detail
 
 
 HELD_BY_A_BAR = """stackdsl: 1

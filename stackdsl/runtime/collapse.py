@@ -9,11 +9,11 @@ stays so:
 - it cannot come back: its centre of mass, with the bricks it carries, has left the support
   polygon it was placed on (the overlaps of its bottom face with what it rested on, carried
   along with those supports as they move), so their weight turns it on away from its place and
-  only a push could bring it back (where a brick it carries lies on others too, standing where
-  it stands, the centre of mass of them all with what they carry, against the convex hull of
-  their polygons); or it moves in a collapse mechanism that statics proved (the stability
-  extension's equilibrium model: rigid-block equilibrium, or a part turning out about an
-  edge); or
+  only a push could bring it back (where a brick it carries lies on others too, the centre of
+  mass of all the bricks connected to it by where they were placed, standing in one plane,
+  against the convex hull of their bottom bricks' polygons); or it moves in a collapse
+  mechanism that statics proved (the stability extension's equilibrium model: rigid-block
+  equilibrium, or a part turning out about an edge); or
 - the run ends while it is displaced.
 
 How far a brick has moved is no proof by itself: a brick whose centre of mass lies 1.5 mm
@@ -91,6 +91,17 @@ class _Displaced:
     farthest: float
     graph: tuple[Graph, int]
     resting_since: float | None = None
+
+
+@dataclass
+class _Group:
+    """Bricks that tip as one (:meth:`CollapseMonitor._group`): all of them in the order placed,
+    their bottom bricks (on the ground or a fixed body, in one plane), and how far (m) their
+    centre of mass lay outside the convex hull of those bricks' polygons as placed (0 inside)."""
+
+    bricks: list[BrickRecord]
+    bottoms: list[BrickRecord]
+    placed_out: float
 
 
 @dataclass
@@ -278,7 +289,8 @@ class CollapseMonitor(Subscriber):
         self._carries: dict[str, list[str]] = {}  # brick id -> the ids of the bricks placed on it
         self._parts: dict[str, tuple[tuple[int, int], list[BrickRecord]]] = {}  # :meth:`_part`, and when
         self._placed: dict[tuple[tuple[str, ...], tuple[str, ...]], float] = {}  # :meth:`_placed_out`
-        self._groups: dict[str, tuple[tuple[int, int], tuple[list[BrickRecord], list[BrickRecord]] | None]] = {}
+        self._groups: dict[str, tuple[tuple[int, int], _Group | None]] = {}  # :meth:`_group`, and when
+        self._helds: dict[tuple[str, ...], tuple[tuple[int, int], bool]] = {}  # :meth:`_held`, and when
 
     @property
     def quiet(self) -> bool:
@@ -449,12 +461,26 @@ class CollapseMonitor(Subscriber):
     def _held(self, loop: StepLoop, part: list[BrickRecord]) -> bool:
         """Whether something other than what ``part`` was placed on touched it as placed: a
         brick placed on it and on something else (it holds the part down), one beside it (one
-        end of a flat arch, held by its partner), or one on top of it that was not placed on it
-        (its bottom face on a brick's top face, their footprints overlapping: a fixed bar over a
-        counterweight, which the part cannot lift to tip), a fixed body included."""
+        end of a flat arch, held by its partner), one on top of it that was not placed on it (its
+        bottom face on a brick's top face, their footprints overlapping: a fixed bar over a
+        counterweight, which the part cannot lift to tip), or one under it that is no face of its
+        polygon (:meth:`_on_an_edge`), a fixed body included. Found once for each part each
+        time a brick is placed or taken out: it looks at every brick for each of the part's, and
+        a group may be a whole tower."""
+        records, removed = loop.structure.records, {r.id for r in loop.structure.removed}
+        key, names = (len(records), len(removed)), tuple(r.id for r in part)
+        if (known := self._helds.get(names)) is not None and known[0] == key:
+            return known[1]
+        held = self._touched(loop, part, removed)
+        self._helds[names] = (key, held)
+        return held
+
+    def _touched(self, loop: StepLoop, part: list[BrickRecord], removed: AbstractSet[str]) -> bool:
+        """:meth:`_held`, found."""
         ids = {r.id for r in part}
-        removed = {r.id for r in loop.structure.removed}
         if any(j not in ids and j not in removed for r in part for j in self._carries.get(r.id, ())):
+            return True
+        if any(self._on_an_edge(loop, r, removed) for r in part):
             return True
         others = [r for r in loop.structure.records.values() if r.level is not None and r.id not in ids and r.id not in removed]
         shapes = [(r.footprint, r.corners) for r in others]
@@ -479,60 +505,106 @@ class CollapseMonitor(Subscriber):
                     return True
         return False
 
-    def _group(self, loop: StepLoop, record: BrickRecord) -> tuple[list[BrickRecord], list[BrickRecord]] | None:
-        """What tips with ``record`` when a brick it carries also lies on others: ``record``,
-        the bricks it carries, the bricks those lie on too (co-supports, standing where
-        ``record`` stands: their bottom faces in the plane of its own, on what is not in the
-        group) and what those carry, until every brick placed on one of them is one of them (two
-        cantilevers side by side on a table with a counterweight across their back ends). The
-        group (in the order placed) and its bottom bricks (those on what is not in it), or None
-        when a brick of it also lies on something out of that plane (a co-support standing on
-        another brick, or higher), where its weight is shared with what is not in the group."""
+    def _on_an_edge(self, loop: StepLoop, record: BrickRecord, removed: AbstractSet[str]) -> bool:
+        """Whether ``record`` was placed touching something under it that is no piece of its
+        support polygon: a brick it was placed on (its top within 1 mm) or a fixed body (its top
+        within :data:`FACE_GAP` of the brick's bottom, their footprints overlapping) that meets
+        its bottom face with no face of its own (the top corner of a leaning brick, a tilted
+        fixed body's edge). What holds the brick up there is not in its polygon."""
+        support = self._supports.get(record.id)
+        if support is None:
+            return False
+        bodies = {b for b, _ in support.pieces}
+        if any(r.body not in bodies and r.id not in removed and r.level is not None for r in record.below):
+            return True
+        bottom = float(record.corners[:, 2].min())
+        for f in loop.program.fixtures:
+            box, pose = Box(np.array(f.brick.half_extents), f.brick.mass), _fixture_pose(f)
+            corners = box.corners(pose)
+            if abs(float(corners[:, 2].max()) - bottom) > FACE_GAP:
+                continue
+            if shapely.area(shapely.intersection(footprint(corners), record.footprint)) <= 1e-8:
+                continue
+            area = face_overlap(record.box, record.pose, box, pose, FACE_GAP)
+            if area is None or area.area <= 0.0:
+                return True
+        return False
+
+    def _group(self, loop: StepLoop, record: BrickRecord) -> _Group | None:
+        """What tips with ``record`` when it is one of several bricks that hold one another
+        (two cantilevers side by side on a table with a counterweight across their back ends;
+        or with a counterweight along each and a brick across those): the bricks connected to
+        it by where they were placed, both ways (the bricks lying on one of them, the bricks
+        one of them lies on), until none is left out. Its bottom bricks are those lying on what
+        is not in it (the ground, a fixed body), each on that alone. None (no group) when its
+        bottom bricks stand in more than one plane (friction at two heights can hold a group
+        whose centre of mass is past the hull of its supports), a brick of it lies both on a
+        brick of it and on what is not, or on a brick taken out, or tilted (what it lies on is
+        unknown). Every brick connected so has the same group: it is found once for them all."""
         records, removed = loop.structure.records, {r.id for r in loop.structure.removed}
         key = (len(records), len(removed))  # a group changes only when a brick is placed or taken out
         if (known := self._groups.get(record.id)) is not None and known[0] == key:
             return known[1]
-        group = self._grow(loop, record, removed)
-        self._groups[record.id] = (key, group)
+        members, group = self._grow(loop, record, removed)
+        for i in members:
+            self._groups[i] = (key, group)
         return group
 
-    def _grow(
-        self, loop: StepLoop, record: BrickRecord, removed: AbstractSet[str]
-    ) -> tuple[list[BrickRecord], list[BrickRecord]] | None:
-        """:meth:`_group`, found."""
-        records, base = loop.structure.records, float(record.corners[:, 2].min())
-        members, bottoms, todo = {record.id: record}, [record], [record]
+    def _grow(self, loop: StepLoop, record: BrickRecord, removed: AbstractSet[str]) -> tuple[list[str], _Group | None]:
+        """:meth:`_group`, found: the ids of the bricks connected to ``record``, and their group
+        or None. What holds a group up pushes at its bottom bricks' supports alone, all in one
+        plane, so its centre of mass outside the convex hull of those cannot balance, whatever
+        its bricks do to one another."""
+        records, structure = loop.structure.records, loop.structure
+        members, todo = {record.id: record}, [record]
+        bottoms: list[BrickRecord] = []
+        whole = True  # no brick of it lies on what makes its weight another's
         while todo:
-            for i in self._carries.get(todo.pop().id, ()):
-                carried, support = records[i], self._supports.get(i)
-                if i in members or i in removed or carried.level is None:
-                    continue
-                if support is None or not support.pieces:  # tilted: what it lies on is unknown
-                    return None
-                members[i] = carried
-                todo.append(carried)
+            r = todo.pop()
+            support = self._supports.get(r.id)
+            if support is None or not support.pieces or self._on_an_edge(loop, r, removed):
+                whole = False  # tilted, or on a tilted brick's edge: what holds it up is unknown
+            else:
+                outside = inside = False
                 for body, _ in support.pieces:
-                    beside = None if body is None else loop.structure.by_body(body)
-                    if beside is None or beside.level is None or beside.id in removed:
-                        return None  # on a fixed body, the ground or a brick taken out, above the plane
-                    if beside.id in members:
+                    if body is None:
+                        outside = True  # the ground or a fixed body
                         continue
-                    under = self._supports.get(beside.id)
-                    if under is None or not under.pieces or abs(float(beside.corners[:, 2].min()) - base) > FACE_GAP:
-                        return None  # a co-support standing elsewhere
-                    members[beside.id] = beside
-                    bottoms.append(beside)
-                    todo.append(beside)
-        return sorted(members.values(), key=lambda r: r.order), sorted(bottoms, key=lambda r: r.order)
+                    under = structure.by_body(body)
+                    if under is None or under.level is None or under.id in removed:
+                        whole = False  # a brick taken out, or what is not the structure's
+                        continue
+                    inside = True
+                    if under.id not in members:
+                        members[under.id] = under
+                        todo.append(under)
+                if outside and inside:
+                    whole = False  # on a brick of the group and on what is not: at two heights
+                elif outside:
+                    bottoms.append(r)
+            for i in self._carries.get(r.id, ()):
+                carried = records[i]
+                if i not in members and i not in removed and carried.level is not None:
+                    members[i] = carried
+                    todo.append(carried)
+        if not whole or not bottoms:
+            return list(members), None
+        lows = [float(r.corners[:, 2].min()) for r in bottoms]
+        if max(lows) - min(lows) > FACE_GAP:
+            return list(members), None  # its bottom bricks stand in two planes
+        part = sorted(members.values(), key=lambda r: r.order)
+        bottoms.sort(key=lambda r: r.order)
+        return list(members), _Group(part, bottoms, self._placed_out(part, bottoms))
 
     def _off_support(self, loop: StepLoop, record: BrickRecord) -> tuple[ProofKind, str, tuple[str, ...]] | None:
         """The proof that ``record`` has collapsed because the centre of mass of what tips with
         it has left the support polygon it was placed on, or None: first of itself and the
-        bricks it carries (:meth:`_part`), then of the group it makes with the bricks beside it
-        that share a brick it carries (:meth:`_group`), against the polygons of the group's
-        bottom bricks together. Placed with that centre of mass already outside, the part either
-        tips at once or something else holds it: only how much further out it went counts, and
-        nothing at all when something other than its supports touched it as placed."""
+        bricks it carries (:meth:`_part`), then of the group of the bricks connected to it by
+        where they were placed (:meth:`_group`), against the polygons of the group's bottom
+        bricks together. Placed with that centre of mass already outside, the part either tips
+        at once or something else holds it: only how much further out it went counts, and
+        nothing at all when something other than its supports touched it as placed
+        (:meth:`_held`)."""
         support = self._supports.get(record.id)
         if support is None or not support.pieces:
             return None
@@ -551,10 +623,10 @@ class CollapseMonitor(Subscriber):
         if (
             proof is None
             and (group := self._group(loop, record)) is not None
-            and len(group[0]) > len(part)
-            and (self._placed_out(part, [record]) > 0.0 or self._placed_out(*group) > 0.0)
+            and len(group.bricks) > len(part)
+            and (self._placed_out(part, [record]) > 0.0 or group.placed_out > 0.0)
         ):
-            proof = self._tips(loop, *group, gone)
+            proof = self._tips(loop, group.bricks, group.bottoms, gone)
         if proof is None:
             return None
         return ("off its support", proof[0], tuple(r.id for r in proof[1] if r is not record))

@@ -19,7 +19,18 @@ import numpy as np
 
 from ._engine import ContactPoint
 from ._equilibrium import ContactPolygon
-from ._geometry import Box, ContactArea, Faces, Plane, Pose, combined_hull, contains, face_overlap, padded_hull
+from ._geometry import (
+    Box,
+    ContactArea,
+    Faces,
+    Plane,
+    Pose,
+    combined_hull,
+    contains,
+    face_overlap,
+    padded_hull,
+    touching_feature,
+)
 from ._graph import BrickState
 from ._leaning import lean_polygon_padded, pair_friction
 from ._stack import Record, Stack
@@ -143,10 +154,15 @@ class ContactAreas:
         touching: dict[int, list[ContactPoint]],
         skip: AbstractSet[int] = frozenset(),
         known: dict[int, ContactArea] | None = None,
+        shapes: bool = False,
     ) -> list[ContactPolygon[int]]:
         """One contact polygon per touched body (report 3.4.2): the exact face overlap where
         ``rec`` lies face to face on it, else the contact points padded across the normal.
-        ``known``: contact areas already found for some of these bodies (from :meth:`supports`)."""
+        ``known``: contact areas already found for some of these bodies (from :meth:`supports`).
+        ``shapes``: where the points have no area (one or two, or in a line), the corner, edge
+        or face the two bodies meet at is found from their shapes and poses, within the face
+        gap (:func:`stability._geometry.touching_feature`), and padded with the points: the
+        certificate's, since an engine may show an edge's contact as one point."""
         out = []
         pose = self.stack.engine.pose(rec.body)
         known = known or {}
@@ -166,8 +182,28 @@ class ContactAreas:
             normal /= np.linalg.norm(normal)
             own = np.array([c.position for c in points])
             polygon, padded = lean_polygon_padded(own, normal, self.config.contact_pad)
+            if padded and shapes:
+                own, polygon, padded = self._feature(rec, pose, o, own, normal, polygon, padded)
             out.append(ContactPolygon(rec.body, other, polygon, normal, friction, own if padded else None))
         return out
+
+    def _feature(
+        self, rec: Record, pose: Pose, other: Record, own: np.ndarray, normal: np.ndarray, polygon: np.ndarray, padded: bool
+    ) -> tuple[np.ndarray, np.ndarray, bool]:
+        """The contact points ``own`` of ``rec`` at ``pose`` with ``other`` (their ``polygon``
+        across ``normal``, ``padded``) with the vertices of the corner, edge or face the two
+        bodies meet at (:meth:`polygons`): as they were when the shapes show no contact
+        within the face gap."""
+        gap = self.config.face_gap
+        if gap <= 0.0:  # exact areas turned off: the engine's points alone
+            return own, polygon, padded
+        other_pose = None if isinstance(other.shape, Plane) else self.stack.pose(other)
+        found = touching_feature(rec.box, pose, other.shape, other_pose, normal, gap)
+        if found is None:
+            return own, polygon, padded
+        both = np.vstack([own, found])
+        polygon, padded = lean_polygon_padded(both, normal, self.config.contact_pad)
+        return both, polygon, padded
 
     def boxes(self, active: bool = False) -> Boxes:
         """The bounding boxes :meth:`lying_on` looks among: of the frozen bricks and environment

@@ -6,7 +6,12 @@ bodies supports; a frozen brick's contacts those remembered when it froze (two f
 bodies report none), an active brick's from its pose and the engine's contact points: the
 exact face overlap with every body it lies on face to face, found from the poses, and for any
 other pair the engine reports, the points padded across the normal, as the leaning test builds
-them (report 3.4.2). When forces exist that balance every block, the program's
+them (report 3.4.2), with the corner, edge or face where the two bodies' shapes meet when the
+points have no area (:func:`stability._geometry.touching_feature`): an engine may report one point for
+two boxes not face to face, and a cantilever at rest tipped 1 deg on a table's edge, its
+counterweight's edge on its back end, rested on two corners, a diagonal its centre of mass
+lay off ("no equilibrium", 1.02 N of tension, ten bricks' weight, for a structure rigid
+statics holds). When forces exist that balance every block, the program's
 solution proves that the structure stands; the margin says how far every centre of mass
 could move together before it would not (:func:`stability.equilibrium_margin`), found on the
 contacts themselves: a one- or two-point contact is padded across its normal to decide (report
@@ -125,7 +130,7 @@ def certify(stack: Stack, areas: ContactAreas) -> Certificate:
         points = by_body(stack.engine.contact_points())
         for r in active:
             touching = {o: p for o, p in areas.around(r, points).items() if frozenset((r.body, o)) not in pairs}
-            found = areas.polygons(r, touching)
+            found = areas.polygons(r, touching, shapes=True)
             polygons += found
             pairs |= {frozenset((c.body, c.other)) for c in found}
     # a body touching nothing is in flight (a thrown brick that missed): no contact force can act

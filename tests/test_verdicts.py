@@ -440,6 +440,73 @@ expect: {{stands: true}}
     assert result.certificate is not None and result.certificate.margin_mm == pytest.approx(min(reach), abs=0.5)
 
 
+@pytest.mark.parametrize("held", [True, False])
+def test_a_brick_tilted_on_an_edge_is_certified_on_the_whole_edge(held):
+    """A cantilever tipped 1 deg on a table's edge (its centre of mass 15 mm past it), its back
+    end pressed up under a fixed bar, both still simulated: it rests on the table's edge and
+    under the bar's edge along its whole width. The engine's one point a pair (MuJoCo's, at a
+    corner: at y = -12 mm on the table, y = +12 mm under the bar) left a diagonal between two
+    points, off which the centre of mass lay, and the certificate found no equilibrium of a
+    brick at rest. The edges are found from the shapes; without the bar, the brick on its edge
+    still has none."""
+    engine = FakeEngine()
+    ext = StabilityExtension(engine, StabilityConfig())
+    engine.frozen |= {0, 1, 2}
+    ext.add_ground(0, Plane(0.0))
+    engine.poses[1] = Pose.from_euler([-0.1, 0.0, 0.02])
+    ext.add_ground(1, Box(np.array([0.1, 0.1, 0.02]), 1.0), "table")
+    pose = engine.poses[3] = Pose.from_euler([0.015, 0.0, 0.0439], pitch=1.0)  # the front down
+    ext.add_brick(3, KAPLA, "A")
+    up = pose.rotation[:, 2]
+    engine.touch(3, 1, [[0.0, -0.012, 0.04]], normal=up, distance=-1e-4)
+    if held:
+        top = KAPLA.corners(pose)[:, 2].max()  # the back end's top edge
+        engine.poses[2] = Pose.from_euler([-0.05, 0.0, top + 0.005 - 1e-4])
+        ext.add_ground(2, Box(np.array([0.01, 0.1, 0.005]), 1.0), "bar")
+        engine.touch(3, 2, [[-0.045, 0.012, top]], normal=-up, distance=-1e-4)
+    c = ext.certificate()
+    assert c.stands is held, c
+    if held:  # the centre of mass may go back to the table's edge, 15 mm
+        assert c.margin == pytest.approx(0.015, abs=5e-4)
+    else:
+        assert c.mechanism == ("A",) and c.tension > 0.0
+
+
+TIPPING_GROUP_HELD = """stackdsl: 1
+name: two cantilevers with a counterweight across, 1.7 mm past the edge, held by a brick on a post
+brick_types:
+  table: {size: [200 mm, 200 mm, 40 mm], material: pine}
+  post: {size: [20 mm, 24 mm, 16 mm], material: pine}
+structure:
+  bricks:
+    - {id: table, brick: table, at: [-100 mm, 0, 20 mm], fixed: true}
+    - {id: post, brick: post, at: [-100 mm, 0, 48 mm], fixed: true}
+    - {id: A1, at: [15 mm, -13 mm, 44 mm], together: true}
+    - {id: A2, at: [15 mm, 13 mm, 44 mm], together: true}
+    - {id: C, at: [-25 mm, 0, 52 mm], yaw: 90, together: true}
+"""
+
+
+@pytest.mark.slow  # two MuJoCo runs
+@pytest.mark.parametrize("held", [True, False])
+def test_on_tuned_mujoco_a_cantilever_at_rest_on_the_table_edge_is_certified(held):
+    """D lies on the counterweight and on a fixed post and gives it more than the load the group
+    needs (rigid statics: it stands). Tuned MuJoCo lets A1 sink 0.5 mm into the table's edge and
+    tip 1 deg, and rest there; its contacts are a point a pair, at A1's corners, so the
+    certificate found "no equilibrium at the end: 1.02 N of tension needed" of a structure at
+    rest within 1.8 mm of where it was placed. Without D the group tips, and still collapses."""
+    pytest.importorskip("mujoco")
+    text = TIPPING_GROUP_HELD + ("    - {id: D, at: [-60 mm, 0, 60 mm], together: true}\n" if held else "")
+    result = run_program(compile_scenario(parse_scenario(text), mode="tuned", backend="mujoco"))
+    c = result.certificate
+    assert c is not None
+    if held:
+        assert result.collapse is None and c.verdict == "stands", c
+        assert c.margin_mm is not None and c.margin_mm > 5.0
+    else:
+        assert result.collapse is not None and c.verdict == "collapse"
+
+
 @pytest.mark.parametrize("model", ["report", "equilibrium"])
 def test_a_balanced_seesaw_loaded_at_both_ends_at_once_is_not_woken(model):
     """A plank across a fulcrum, two bricks put on its ends together: when one is frozen before

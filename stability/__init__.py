@@ -36,7 +36,7 @@ from ._certificate import Certificate
 from ._engine import ContactPoint, Engine, FakeEngine, PyBulletEngine
 from ._equilibrium import ContactPolygon, Equilibrium, RigidBlock, equilibrium_margin, is_level, solve_equilibrium
 from ._extension import StabilityConfig, StabilityEvent, StabilityExtension
-from ._geometry import Box, ContactArea, Plane, Pose, combined_hull, contains, face_overlap, padded_hull
+from ._geometry import Box, ContactArea, Plane, Pose, combined_hull, contains, face_overlap, hull_xy, padded_hull
 from ._graph import BrickGraph, BrickState, GraphEdge, GraphNode
 from ._impact import breaks_loose, kinetic_energy, potential_energy
 from ._leaning import lean_polygon, leaning_stands, pair_friction
@@ -70,6 +70,7 @@ __all__ = [
     "contains",
     "equilibrium_margin",
     "face_overlap",
+    "hull_xy",
     "is_level",
     "kinetic_energy",
     "lean_polygon",

@@ -47,8 +47,9 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 import shapely
-from shapely import Point, unary_union
 from shapely.geometry.base import BaseGeometry
+
+from ._geometry import hull_of_union, hull_xy
 
 MARGIN = 1e-5
 """Metres a share's point must lie inside its contact (:func:`loads_balance`), so that a point on
@@ -68,7 +69,7 @@ def load_path(pieces: Sequence[BaseGeometry]) -> BaseGeometry | None:
     kept = [p for p in pieces if not p.is_empty]
     if not kept:
         return None
-    return unary_union(kept).convex_hull
+    return hull_of_union(kept)
 
 
 def support_piece(contact_points: np.ndarray, support_path: BaseGeometry | None, ground: bool) -> BaseGeometry | None:
@@ -83,7 +84,7 @@ def support_piece(contact_points: np.ndarray, support_path: BaseGeometry | None,
         The piece (shapely, horizontal projection), or None when nothing of it is usable
         (an unproven support, or no overlap).
     """
-    hull = shapely.convex_hull(shapely.multipoints(np.asarray(contact_points, dtype=float)[:, :2]))
+    hull = hull_xy(np.asarray(contact_points, dtype=float)[:, :2])
     if ground:
         return hull
     if support_path is None:
@@ -102,7 +103,8 @@ def proven(com: Sequence[float] | np.ndarray, path: BaseGeometry | None) -> bool
     """
     if path is None:
         return False
-    return bool(path.covers(Point(float(com[0]), float(com[1]))))
+    # a point is covered where it meets the path: the same exact predicate, without making a Point
+    return bool(shapely.intersects_xy(path, float(com[0]), float(com[1])))
 
 
 def share_region(contact_points: Sequence[np.ndarray]) -> BaseGeometry | None:

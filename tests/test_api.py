@@ -79,6 +79,7 @@ def test_stability_exports():
             "StabilityExtension",
             "breaks_loose",
             "combined_hull",
+            "hull_xy",
             "contains",
             "equilibrium_margin",
             "face_overlap",

@@ -225,3 +225,65 @@ def test_contact_area_corners_lie_on_the_tilted_plane_through_its_height():
     # on the plane through (centre, 0.008) with that normal: n . (p - c) = 0
     centre = np.array([*ring.mean(axis=0), 0.008])
     assert np.abs((corners - centre) @ normal).max() < 1e-15
+
+
+def _same(a, b) -> bool:
+    """Two shapely geometries of one type with the same coordinates, bit for bit, in order."""
+    import shapely
+
+    return a.geom_type == b.geom_type and np.array_equal(shapely.get_coordinates(a), shapely.get_coordinates(b))
+
+
+def test_hull_xy_is_the_multipoints_hull_bit_for_bit() -> None:
+    """The ring-made hull is the multipoint's, coordinates and order, for 3 to 8 points, rounded,
+    repeated or collinear ones, and for one or two points."""
+    import shapely
+
+    from stability import hull_xy
+
+    rng = np.random.default_rng(7)
+    for i in range(3000):
+        xy = rng.normal(size=(int(rng.integers(1, 9)), 2)) * 0.03
+        if i % 3 == 0:
+            xy = np.round(xy, 3)
+        if i % 5 == 0 and len(xy) > 1:
+            xy[1] = xy[0]
+        if i % 7 == 0:
+            xy[:, 1] = 0.5 * xy[:, 0]
+        assert _same(hull_xy(xy), shapely.convex_hull(shapely.multipoints(xy))), xy
+
+
+def test_hull_of_union_is_the_union_hull_bit_for_bit() -> None:
+    """Without the union where the polygons lie apart, with it where they overlap or touch: the
+    same hull, coordinates and order, as the union's, for polygons, lines and points."""
+    import shapely
+
+    from stability._geometry import _apart, hull_of_union
+
+    rng = np.random.default_rng(11)
+    apart = 0
+    for i in range(3000):
+        parts = []
+        for _ in range(int(rng.integers(1, 4))):
+            c, kind = rng.normal(size=2) * 0.03, rng.random()
+            if kind < 0.15:
+                parts.append(shapely.points(c))
+            elif kind < 0.3:
+                parts.append(shapely.linestrings(rng.normal(size=(2, 2)) * 0.01 + c))
+            else:
+                pts = rng.normal(size=(int(rng.integers(3, 8)), 2)) * 0.01 + c
+                parts.append(shapely.convex_hull(shapely.multipoints(np.round(pts, 3) if i % 3 == 0 else pts)))
+        hull = hull_of_union(parts)
+        assert _same(hull, shapely.union_all(parts).convex_hull), parts
+        polygons = all(p.geom_type == "Polygon" for p in parts)
+        apart += polygons and len(parts) > 1 and _apart(shapely.bounds(parts).tolist())
+    assert apart > 100  # the hull without the union was found often
+
+
+def test_proven_counts_the_path_edge() -> None:
+    """A centre of mass on the load path's edge or corner is over it; just beyond, not."""
+    from stability._load_path import proven
+
+    path = box(-0.06, -0.012, 0.06, 0.012)
+    assert proven([0.06, 0.0, 0.004], path) and proven([0.06, 0.012], path) and proven([0.0, -0.012], path)
+    assert not proven([0.0600001, 0.0], path) and not proven([0.0, 0.0], None)

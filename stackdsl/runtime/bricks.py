@@ -17,9 +17,9 @@ from dataclasses import InitVar, dataclass, field
 import numpy as np
 import shapely
 from scipy.spatial.transform import Rotation
-from shapely.geometry import MultiPoint, Polygon
+from shapely.geometry import Polygon
 
-from stability import Box, Pose, kinetic_energy
+from stability import Box, Pose, hull_xy, kinetic_energy
 
 from ..engines.protocol import BrickSpec, World
 
@@ -127,7 +127,7 @@ def _half_diagonal(half_extents: tuple[float, float, float]) -> float:
 
 def footprint(corners: np.ndarray) -> Polygon:
     """The horizontal footprint of a brick's corners (shape (8, 3), m): their convex hull in x, y."""
-    hull: Polygon = MultiPoint(corners[:, :2]).convex_hull
+    hull: Polygon = hull_xy(corners[:, :2])
     return hull
 
 

@@ -45,11 +45,11 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
-from shapely import contains_xy, convex_hull, multipoints
+from shapely import contains_xy, convex_hull
 from shapely.geometry import Point
 from shapely.geometry.base import BaseGeometry
 
-from stability import Box, Plane, Pose, face_overlap
+from stability import Box, Plane, Pose, face_overlap, hull_xy
 from stability import Certificate as Equilibrium
 
 from ..compile.program import Fixture
@@ -158,7 +158,7 @@ class SupportPolygon:
         placed = self.box.corners(self.pose)
         face = np.argsort(placed[:, 2])[:4]  # the four lowest corners as placed: the face it stood on
         now = self.box.corners(pose)[face]
-        hull = convex_hull(multipoints(now[:, :2]))
+        hull = hull_xy(now[:, :2])
         point = pose.position if com is None else com
         x, y = float(point[0]), float(point[1])
         return 0.0 if contains_xy(hull, x, y) else float(hull.distance(Point(x, y)))
@@ -194,7 +194,7 @@ class SupportPolygon:
         if not pieces:
             return None
         points = [c if b is None else c @ poses[b].rotation.T + poses[b].position - offset for b, c in pieces]
-        return convex_hull(multipoints(np.vstack(points)[:, :2]))
+        return hull_xy(np.vstack(points)[:, :2])
 
     def placed_hull(self) -> BaseGeometry | None:
         """The polygon as the brick was placed (shapely, horizontal; None without a piece)."""
@@ -213,7 +213,7 @@ class SupportPolygon:
         if self.on_the_ground_alone:
             placed = self.box.corners(self.pose)
             face = np.argsort(placed[:, 2])[:4]
-            return convex_hull(multipoints(self.box.corners(pose)[face][:, :2]))
+            return hull_xy(self.box.corners(pose)[face][:, :2])
         return self._hull(poses, offset, gone)
 
     def outside(

@@ -194,19 +194,31 @@ def test_the_sweep_brackets_each_closed_form_within_a_degree():
     assert "| inverted V | 26.6 deg | extension |" in format_limits(found)
 
 
-def ramp_stack(angle: float, bricks: int) -> str:
-    """``bricks`` KAPLA laid parallel on a fixed ramp tilted ``angle`` deg, every surface friction 0.3."""
+def on_a_ramp(angle: float, bricks: int, prefix: str, tilt: str, material: str, ramp_length: int, ground: bool) -> str:
+    """``bricks`` KAPLA of ``material`` (a YAML mapping's entry, named first) stacked square on a
+    fixed ramp of it tilted ``angle`` deg, each posed by ``tilt`` (its angles, with ``{a}`` for
+    ``-angle``), ids ``prefix`` 1, 2, ...; the ground of it too when ``ground``."""
     a = math.radians(angle)
     normal = np.array([-math.sin(a), 0.0, math.cos(a)])
+    name = material.split(":")[0]
     rows = [f"    - {{id: ramp, brick: ramp, at: [0, 0, 100 mm], pitch: {-angle}, fixed: true}}"]
     for i in range(bricks):
         x, _, z = 1000 * (np.array([0.0, 0.0, 0.1]) + (0.014 + 0.008 * i) * normal)
-        rows.append(f"    - {{id: b{i + 1}, brick: k, at: [{x:.3f} mm, 0, {z:.3f} mm], pitch: {-angle}, level: {i + 1}}}")
+        pose = tilt.format(a=-angle)
+        rows.append(f"    - {{id: {prefix}{i + 1}, brick: k, at: [{x:.3f} mm, 0, {z:.3f} mm], {pose}, level: {i + 1}}}")
     return (
-        "stackdsl: 1\nmaterials: {slick: {density: 460 kg/m^3, friction: 0.3}}\n"
-        "brick_types: {k: {size: [120 mm, 24 mm, 8 mm], material: slick}, ramp: {size: [400 mm, 100 mm, 20 mm], material: slick}}\n"
-        "ground: {material: slick}\nstructure:\n  bricks:\n" + "\n".join(rows) + "\n"
+        f"stackdsl: 1\nmaterials: {{{material}}}\n"
+        f"brick_types: {{k: {{size: [120 mm, 24 mm, 8 mm], material: {name}}}, ramp: {{size: [{ramp_length} mm, 100 mm, 20 mm], material: {name}}}}}\n"
+        + (f"ground: {{material: {name}}}\n" if ground else "")
+        + "structure:\n  bricks:\n"
+        + "\n".join(rows)
+        + "\n"
     )
+
+
+def ramp_stack(angle: float, bricks: int) -> str:
+    """``bricks`` KAPLA laid parallel on a fixed ramp tilted ``angle`` deg, every surface friction 0.3."""
+    return on_a_ramp(angle, bricks, "b", "pitch: {a}", "slick: {density: 460 kg/m^3, friction: 0.3}", 400, ground=True)
 
 
 @pytest.mark.parametrize("model", ["report", "equilibrium"])
@@ -231,17 +243,7 @@ def ramp_column(angle: float, bricks: int) -> str:
     """A column of ``bricks`` KAPLA stacked square on a fixed ramp tilted ``angle`` deg, each
     across the slope (24 mm along it, 8 mm thick), every surface friction 1.5: none slides
     below 56 deg."""
-    a = math.radians(angle)
-    normal = np.array([-math.sin(a), 0.0, math.cos(a)])
-    rows = [f"    - {{id: ramp, brick: ramp, at: [0, 0, 100 mm], pitch: {-angle}, fixed: true}}"]
-    for i in range(bricks):
-        x, _, z = 1000 * (np.array([0.0, 0.0, 0.1]) + (0.014 + 0.008 * i) * normal)
-        rows.append(f"    - {{id: c{i + 1}, brick: k, at: [{x:.3f} mm, 0, {z:.3f} mm], yaw: 90, roll: {-angle}, level: {i + 1}}}")
-    return (
-        "stackdsl: 1\nmaterials: {grip: {friction: 1.5}}\n"
-        "brick_types: {k: {size: [120 mm, 24 mm, 8 mm], material: grip}, ramp: {size: [300 mm, 100 mm, 20 mm], material: grip}}\n"
-        "structure:\n  bricks:\n" + "\n".join(rows) + "\n"
-    )
+    return on_a_ramp(angle, bricks, "c", "yaw: 90, roll: {a}", "grip: {friction: 1.5}", 300, ground=False)
 
 
 @pytest.mark.parametrize("model", ["report", "equilibrium"])

@@ -39,18 +39,19 @@ class Admission:
     def basic(self, rec: Record, contacts: Contacts, time: float) -> list[StabilityEvent]:
         """Single object stability (report 3.3.4): freeze when the COM is over the support."""
         areas, stack = self.areas, self.stack
-        supports = areas.supports(rec, contacts[rec.body], stack_only=True)
+        pose = stack.engine.pose(rec.body)  # one pose for every test: it stays until the freeze
+        supports = areas.supports(rec, contacts[rec.body], stack_only=True, pose=pose)
         if not supports:
             return []
         heights = [a.height for a in supports.values()]
         if max(heights) - min(heights) > self.config.lean_height and not all(a.exact for a in supports.values()):
             return []  # report 3.5: contacts at different heights (not face to face on each): a leaning brick
         main = main_area(supports)
-        position = stack.engine.pose(rec.body).position
+        position = pose.position
         if not areas.holds(main, position):
             return []
         held = {o: pts for o, pts in areas.touching(rec, contacts).items() if stack.bodies[o].state is not BrickState.ACTIVE}
-        polygons = areas.polygons(rec, held, known=supports)
+        polygons = areas.polygons(rec, held, known=supports, pose=pose)
         if self._steep(rec, supports) and not leaning_stands({rec.body: (position, rec.box.mass)}, polygons, self.config.gravity):
             return []  # on a slope steeper than its friction angle, and nothing else holds it: it slides
         lift = overlap(contacts[rec.body], supports, areas.support_cos)

@@ -25,6 +25,7 @@ from ._geometry import (
     Faces,
     Plane,
     Pose,
+    _mean,
     combined_hull,
     contains,
     face_overlap,
@@ -72,13 +73,16 @@ class ContactAreas:
         self.config = stack.config
         self.support_cos = math.cos(math.radians(self.config.support_angle))
 
-    def supports(self, rec: Record, contacts: Iterable[ContactPoint], stack_only: bool) -> dict[int, ContactArea]:
+    def supports(
+        self, rec: Record, contacts: Iterable[ContactPoint], stack_only: bool, pose: Pose | None = None
+    ) -> dict[int, ContactArea]:
         """Contact areas of the bodies ``rec`` rests on (a contact normal within the support
         angle of straight up), keyed by body, in registration order; active bricks only when
-        not ``stack_only`` and lower than ``rec``."""
+        not ``stack_only`` and lower than ``rec``. ``pose``: ``rec``'s, the engine's when None."""
         grouped: dict[int, list[ContactPoint]] = defaultdict(list)
         bodies, engine = self.stack.bodies, self.stack.engine
-        my_z = engine.pose(rec.body).position[2]
+        pose = pose if pose is not None else engine.pose(rec.body)
+        my_z = pose.position[2]
         for c in contacts:
             other = bodies.get(c.other)
             if other is None or c.normal[2] < self.support_cos or rec.body in other.rests_on:
@@ -88,7 +92,7 @@ class ContactAreas:
             if other.state is BrickState.ACTIVE and (stack_only or engine.pose(other.body).position[2] >= my_z):
                 continue
             grouped[c.other].append(c)
-        return {o: self._contact_area(rec, bodies[o], grouped[o]) for o in self.stack.ordered(grouped)}
+        return {o: self._contact_area(rec, pose, bodies[o], grouped[o]) for o in self.stack.ordered(grouped)}
 
     def carrying(self, rec: Record, contacts: Iterable[ContactPoint]) -> dict[int, ContactArea]:
         """What carries ``rec``, an active brick at rest, where it is: the frozen bricks and
@@ -109,19 +113,19 @@ class ContactAreas:
             if other.state is not BrickState.ACTIVE and rec.body not in other.rests_on and c.other not in found:
                 grouped[c.other].append(c)
         pushing = {o: pts for o, pts in grouped.items() if float(np.mean([c.normal[2] for c in pts])) > 0.0}
-        found.update((o, self._contact_area(rec, self.stack.bodies[o], pts)) for o, pts in pushing.items())
+        found.update((o, self._contact_area(rec, pose, self.stack.bodies[o], pts)) for o, pts in pushing.items())
         return {o: found[o] for o in self.stack.ordered(found)}
 
     def face_to_face(self, rec: Record, other: Record) -> ContactArea | None:
         """The exact area through which ``rec`` lies face to face on ``other``, or None
         (:func:`stability._geometry.face_overlap`)."""
-        other_pose = None if isinstance(other.shape, Plane) else self.stack.pose(other)
-        return self._face(rec, self.stack.engine.pose(rec.body), other, other_pose)
+        return self._face(rec, self.stack.engine.pose(rec.body), other)
 
-    def _face(self, rec: Record, pose: Pose, other: Record, other_pose: Pose | None) -> ContactArea | None:
-        """:func:`stability._geometry.face_overlap` of ``rec`` at ``pose`` on ``other`` at
-        ``other_pose``, found once for the same bodies at the same poses: an admission asks it
-        for its contact polygons and again for how far to raise the brick."""
+    def _face(self, rec: Record, pose: Pose, other: Record) -> ContactArea | None:
+        """:func:`stability._geometry.face_overlap` of ``rec`` at ``pose`` on ``other`` where it
+        is, found once for the same bodies at the same poses: an admission asks it for its
+        contact polygons and again for how far to raise the brick."""
+        other_pose = None if isinstance(other.shape, Plane) else self.stack.pose(other)
         key = (rec.body, other.body, *pose.position.tolist(), *pose.orientation.tolist())
         if other_pose is not None:
             key += (*other_pose.position.tolist(), *other_pose.orientation.tolist())
@@ -139,8 +143,8 @@ class ContactAreas:
             self._found.clear()
         return self._found
 
-    def _contact_area(self, rec: Record, other: Record, points: list[ContactPoint]) -> ContactArea:
-        exact = self.face_to_face(rec, other)
+    def _contact_area(self, rec: Record, pose: Pose, other: Record, points: list[ContactPoint]) -> ContactArea:
+        exact = self._face(rec, pose, other)
         if exact is not None:
             return exact
         xyz = np.array([c.position for c in points])
@@ -155,6 +159,7 @@ class ContactAreas:
         skip: AbstractSet[int] = frozenset(),
         known: dict[int, ContactArea] | None = None,
         shapes: bool = False,
+        pose: Pose | None = None,
     ) -> list[ContactPolygon[int]]:
         """One contact polygon per touched body (report 3.4.2): the exact face overlap where
         ``rec`` lies face to face on it, else the contact points padded across the normal.
@@ -162,9 +167,10 @@ class ContactAreas:
         ``shapes``: where the points have no area (one or two, or in a line), the corner, edge
         or face the two bodies meet at is found from their shapes and poses, within the face
         gap (:func:`stability._geometry.touching_feature`), and padded with the points: the
-        certificate's, since an engine may show an edge's contact as one point."""
+        certificate's, since an engine may show an edge's contact as one point. ``pose``:
+        ``rec``'s, the engine's when None."""
         out = []
-        pose = self.stack.engine.pose(rec.body)
+        pose = pose if pose is not None else self.stack.engine.pose(rec.body)
         known = known or {}
         for other, points in touching.items():
             if other in skip:
@@ -174,7 +180,7 @@ class ContactAreas:
             if other in known:
                 exact = known[other] if known[other].exact else None
             else:
-                exact = self._face(rec, pose, o, None if isinstance(o.shape, Plane) else self.stack.pose(o))
+                exact = self._face(rec, pose, o)
             if exact is not None:
                 out.append(ContactPolygon(rec.body, other, exact.corners(), exact.normal, friction))
                 continue
@@ -379,8 +385,8 @@ def overlap(points: Iterable[ContactPoint], supports: Mapping[int, ContactArea],
         if c.other in supports and not supports[c.other].exact and c.normal[2] >= up and c.distance < 0
     ]
     if loose:
-        depths.append(float(np.mean(loose)))
-    return max(0.0, float(np.mean(depths))) if depths else 0.0
+        depths.append(float(_mean(loose)))
+    return max(0.0, float(_mean(depths))) if depths else 0.0  # numpy's means, bit for bit, without its arrays
 
 
 def by_body(points: Iterable[ContactPoint]) -> Contacts:

@@ -337,11 +337,13 @@ def is_level(contact: ContactPolygon[BodyKey], sides: int = 8) -> bool:
     """
     if sides < 3:
         raise ValueError(f"sides: the friction pyramid needs at least 3 sides, not {sides!r}")
-    normal = np.asarray(contact.normal, dtype=float)
-    cos = abs(normal[2]) / np.linalg.norm(normal)
+    normal = np.asarray(contact.normal, dtype=float).ravel(order="K")
+    # in floats (asked of every contact of every freeze): numpy's norm, the root of this dot
+    up = float(normal[2])
+    cos = abs(up) / math.sqrt(normal.dot(normal))
     tan = math.sqrt(max(1.0 - cos * cos, 0.0)) / max(cos, 1e-12)
     # a tilt under LEVEL_TILT is the engine's noise on a level face: level even without friction
-    return bool(normal[2] > 0 and tan <= max(contact.friction * math.cos(math.pi / sides), LEVEL_TILT))
+    return up > 0 and tan <= max(contact.friction * math.cos(math.pi / sides), LEVEL_TILT)
 
 
 def _solve_vertical(

@@ -631,18 +631,33 @@ def _mean_rows(rows: Sequence[_Vec]) -> _Vec:
 
 
 def _mean(values: Sequence[float]) -> float:
-    """The mean of a few floats, as numpy's ``mean`` sums them: in order below eight, else from
-    eight partial sums (numpy's pairwise summation), so that the result has the same bits."""
-    if len(values) < 8:
-        total = 0.0
-        for v in values:
+    """The mean of a few floats, as numpy's ``mean`` sums them (:func:`_pairwise_sum`), so that
+    the result has the same bits."""
+    return (0.0 + _pairwise_sum(values, 0, len(values))) / len(values)
+
+
+def _pairwise_sum(a: Sequence[float], start: int, n: int) -> float:
+    """The sum of ``a[start:start + n]`` as numpy's pairwise summation adds them: in order below
+    eight; else in eight partial sums, each over every eighth value, added pairwise, and the
+    rest in order; beyond 128 values (numpy's block), the two halves apart."""
+    if n < 8:
+        total = -0.0
+        for v in a[start : start + n]:
             total += v
-    else:
-        a = values
-        total = ((a[0] + a[1]) + (a[2] + a[3])) + ((a[4] + a[5]) + (a[6] + a[7]))
-        for v in values[8:]:
+        return total
+    if n <= 128:
+        r = list(a[start : start + 8])
+        end = start + n - n % 8
+        for i in range(start + 8, end, 8):
+            for j in range(8):
+                r[j] += a[i + j]
+        total = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
+        for v in a[end : start + n]:
             total += v
-    return total / len(values)
+        return total
+    half = n // 2
+    half -= half % 8
+    return _pairwise_sum(a, start, half) + _pairwise_sum(a, start + half, n - half)
 
 
 TOUCH = 5e-5

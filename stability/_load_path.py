@@ -72,19 +72,24 @@ def load_path(pieces: Sequence[BaseGeometry]) -> BaseGeometry | None:
     return hull_of_union(kept)
 
 
-def support_piece(contact_points: np.ndarray, support_path: BaseGeometry | None, ground: bool) -> BaseGeometry | None:
+def support_piece(
+    contact_points: np.ndarray, support_path: BaseGeometry | None, ground: bool, hull: BaseGeometry | None = None
+) -> BaseGeometry | None:
     """The piece of a level support contact that lies over the support's load path.
 
     Args:
         contact_points: shape (k, 3) or (k, 2), metres, the contact polygon's vertices.
         support_path: the support's load path (:func:`load_path`); ignored for the ground.
         ground: the support is the ground or a fixed body: the whole contact is usable.
+        hull: the convex hull of the vertices' horizontal projection (shapely), when it is
+            known already; else found from ``contact_points``.
 
     Returns:
         The piece (shapely, horizontal projection), or None when nothing of it is usable
         (an unproven support, or no overlap).
     """
-    hull = hull_xy(np.asarray(contact_points, dtype=float)[:, :2])
+    if hull is None:
+        hull = hull_xy(np.asarray(contact_points, dtype=float)[:, :2])
     if ground:
         return hull
     if support_path is None:

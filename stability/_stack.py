@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from typing import Literal, NamedTuple
 
 import numpy as np
+import shapely
 from shapely.geometry.base import BaseGeometry
 
 from ._config import StabilityConfig
@@ -310,7 +311,9 @@ class Stack:
     ) -> None:
         """Freeze ``rec`` on ``supports`` (its main contact area ``main``, every contact polygon
         ``polygons``), raised ``lift`` metres out of them (see :func:`stability._areas.overlap`),
-        and find its load path."""
+        and find its load path. The contact polygon with a support whose area is exact is that
+        area on its plane (:meth:`ContactArea.corners`), as :meth:`ContactAreas.polygons
+        <stability._areas.ContactAreas.polygons>` makes it."""
         at = None
         if lift > 0.0:
             pose = self.engine.pose(rec.body)
@@ -357,7 +360,11 @@ class Stack:
         for c in rec.contacts:
             support = self.bodies[c.other]
             if c.other in rec.rests_on and is_level(c):
-                pieces.append(support_piece(c.points, support.load_path, support.state is BrickState.GROUND))
+                area = rec.rests_on[c.other]
+                # an exact area's contact polygon is the area on its plane (its corners): the hull of
+                # its polygon is that of the points, bit for bit, without making a ring of them
+                hull = shapely.convex_hull(area.polygon) if area.exact else None
+                pieces.append(support_piece(c.points, support.load_path, support.state is BrickState.GROUND, hull))
                 level.setdefault(c.other, []).append(c.points)
         rec.load_path = load_path([p for p in pieces if p is not None])
         if self.config.model == "equilibrium":  # for its stack test's propagated loads only

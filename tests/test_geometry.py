@@ -287,3 +287,14 @@ def test_proven_counts_the_path_edge() -> None:
     path = box(-0.06, -0.012, 0.06, 0.012)
     assert proven([0.06, 0.0, 0.004], path) and proven([0.06, 0.012], path) and proven([0.0, -0.012], path)
     assert not proven([0.0600001, 0.0], path) and not proven([0.0, 0.0], None)
+
+
+def test_mean_is_numpys_to_the_bit():
+    """_mean sums as numpy's mean does (pairwise, in blocks of eight and halves beyond 128), so
+    that an admission's overlap and a face overlap's heights keep numpy's bits."""
+    from stability._geometry import _mean
+
+    rng = np.random.default_rng(5)
+    for n in [*range(1, 40), 127, 128, 129, 255, 300, 1000]:
+        values = (rng.normal(0.0, 1.0, n) * 10.0 ** rng.integers(-6, 6, n)).tolist()
+        assert _mean(values) == float(np.mean(values)), n

@@ -32,7 +32,7 @@ Register the ground and every brick, call ``update`` once per step, read the bri
 Source: "Simulating Object Stacking Using Stack Stability", chapter 3.
 """
 
-from ._certificate import Certificate
+from ._certificate import Certificate, friction_share
 from ._engine import ContactPoint, Engine, FakeEngine, PyBulletEngine
 from ._equilibrium import ContactPolygon, Equilibrium, RigidBlock, equilibrium_margin, is_level, solve_equilibrium
 from ._extension import StabilityConfig, StabilityEvent, StabilityExtension
@@ -70,6 +70,7 @@ __all__ = [
     "contains",
     "equilibrium_margin",
     "face_overlap",
+    "friction_share",
     "hull_xy",
     "is_level",
     "kinetic_energy",

@@ -83,6 +83,7 @@ def test_stability_exports():
             "contains",
             "equilibrium_margin",
             "face_overlap",
+            "friction_share",
             "is_level",
             "kinetic_energy",
             "lean_polygon",

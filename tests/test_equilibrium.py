@@ -233,3 +233,37 @@ def test_a_pyramid_of_fewer_than_three_sides_is_refused_everywhere(sides):
         args = (contact,) if ask is is_level else (blocks, [contact])
         with pytest.raises(ValueError, match=rf"sides: the friction pyramid needs at least 3 sides, not {sides}"):
             ask(*args, sides=sides)  # type: ignore[operator]
+
+
+@pytest.mark.parametrize("degrees", [30, 45, 50])
+def test_the_friction_share_of_a_thin_ladder_is_its_closed_form(degrees):
+    # a thin ladder at angle a from vertical on a floor and a wall of one coefficient mu s:
+    # moments about the foot give tan a = 2 mu s / (1 - (mu s)^2) at the limit
+    from stability import friction_share
+    from stability._certificate import FRICTION_STEP
+
+    a, mu = math.radians(degrees), 0.5
+    foot = np.array([[-L * math.sin(a), -0.01, 0.0], [-L * math.sin(a), 0.01, 0.0]])
+    top = np.array([[0.0, -0.01, L * math.cos(a)], [0.0, 0.01, L * math.cos(a)]])
+    contacts = [
+        ContactPolygon("ladder", "floor", foot, UP, mu),
+        ContactPolygon("ladder", "wall", top, np.array([-1.0, 0, 0]), mu),
+    ]
+    ladder = {"ladder": RigidBlock(M, np.array([-L * math.sin(a) / 2, 0.0, L * math.cos(a) / 2]))}
+    t = math.tan(a)
+    closed = (math.sqrt(1 + t * t) - 1) / t / mu
+    share = friction_share(ladder, contacts)
+    assert closed <= share <= closed + FRICTION_STEP
+    assert solve_equilibrium(ladder, [ContactPolygon(c.body, c.other, c.points, c.normal, mu * share) for c in contacts]).stands
+
+
+def test_a_brick_on_a_level_face_needs_no_friction():
+    from stability import friction_share
+
+    assert (
+        friction_share(
+            {"top": RigidBlock(M, np.array([0.0, 0.0, 0.012]))},
+            [ContactPolygon("top", "base", rectangle(-0.06, 0.06, 0.008), UP, 0.5)],
+        )
+        == 0.0
+    )

@@ -1008,3 +1008,16 @@ structure:
     shares = {e.support: e.load_share for e in result.final_graph.edges if e.upper == "C"}
     assert shares["B"] == pytest.approx((com_x + 50.0) / 90.0, abs=0.02), shares
     assert shares["A"] == pytest.approx(1.0 - shares["B"], abs=1e-3), shares
+
+
+def test_a_stand_held_by_friction_says_how_much_of_it_it_needs():
+    # the brick leaning 45 deg on a wall: a thin ladder there needs 82.8% of mu 0.5 on floor and
+    # wall (tan a = 2 mu s / (1 - (mu s)^2)); the KAPLA brick's thickness moves its contacts to its
+    # corners and lets it lean to 55.3 deg, so it needs less. A level tower needs none.
+    leaning = run_program(compile_scenario(load_scenario(Path(__file__).parents[1] / "scenarios" / "lean_wall_stands.yaml")))
+    assert leaning.certificate is not None and leaning.certificate.verdict == "stands"
+    found = re.search(r"needing (\d+)% of each friction coefficient", leaning.certificate.detail)
+    assert found is not None, leaning.certificate.detail
+    assert 50 < int(found.group(1)) < 83
+    tower = run_program(compile_scenario(parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 2}}\n")))
+    assert tower.certificate is not None and "friction" not in tower.certificate.detail

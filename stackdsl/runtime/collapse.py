@@ -329,7 +329,7 @@ class CollapseMonitor(Subscriber):
                     )
                     if certificate.method == "load paths"
                     else f"the equilibrium program balances {_count(certificate.bricks, 'brick')} on "
-                    f"{_count(certificate.contacts, 'contact')}"
+                    f"{_count(certificate.contacts, 'contact')}{_friction(certificate.friction)}"
                 ),
                 margin_mm=round(certificate.margin * 1000, 1) + 0.0,
             )
@@ -795,6 +795,15 @@ def _and(names: Sequence[str]) -> str:
 def _count(n: int, noun: str) -> str:
     """``"1 brick"``, ``"3 bricks"``."""
     return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
+def _friction(share: float) -> str:
+    """What a stand the program proved asks of friction (:attr:`stability.Certificate.friction`),
+    for its certificate's words: ``", needing 73% of each friction coefficient"``; nothing
+    when vertical forces hold it."""
+    if share <= 0.0:
+        return ""
+    return f", needing {math.ceil(share * 100)}% of each friction coefficient"
 
 
 def _named(bricks: Sequence[BrickRecord], moved: Sequence[float] | np.ndarray) -> tuple[BrickRecord, float]:

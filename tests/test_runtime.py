@@ -318,12 +318,36 @@ def test_the_world_reads_a_velocity_from_pybullet_once_a_step_and_again_after_a_
         assert calls == [body] and linear[2] == pytest.approx(-9.81 / 240)  # falling, read once
         world.throw(body, (1.0, 0.0, 0.0), None)
         assert world.velocity(body)[0] == pytest.approx([1.0, 0.0, 0.0])  # the throw, not the step before
+        assert calls == [body] and world._read_velocity(body) == world.velocity_floats(body)  # as given: not read
+        calls.clear()
         world.set_frozen(body, True, spec.mass)
         assert world.speeds(body) == (0.0, 0.0)
         world.set_frozen(body, False, spec.mass)
         world.step()
         assert world.velocity(body)[0][2] == pytest.approx(-9.81 / 240)
-        assert calls == [body] * 4
+        assert calls == [body] * 2
+
+
+def test_a_body_created_moved_or_thrown_has_the_velocity_it_was_given_without_a_read():
+    spec = _spec(parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 1}}\n"), "kapla")
+    settings = PyBulletSettings(
+        mode="raw", timestep=1 / 240, solver_iterations=50, friction_anchors=False, maximal_coordinates=False
+    )
+    with pybullet_world(settings, 0.5, 0.0) as world:
+        read, calls = world._read_velocity, []
+        world._read_velocity = lambda b: calls.append(b) or read(b)
+        body = world.create(spec, Pose.from_euler([0.0, 0.0, 0.5]))
+        assert world.velocity_floats(body) == ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)) and calls == []
+        world.step()
+        world.move(body, Pose.from_euler([0.1, 0.0, 0.5]), spec.mass)
+        assert world.velocity_floats(body) == ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)) and calls == []
+        world.step()
+        world.throw(body, (0.25, -0.5, 1 / 3), None)
+        assert world.velocity_floats(body) == ((0.25, -0.5, 1 / 3), (0.0, 0.0, 0.0)) and calls == []
+        assert repr(read(body)) == repr(world.velocity_floats(body))  # what pybullet holds, to the bit
+        parked = world.create(spec, Pose.from_euler([1.0, 0.0, 0.5]), mass=0.0)
+        world.velocity_floats(parked)
+        assert calls == [parked]  # immovable: read
 
 
 def test_a_run_stopped_where_its_collapse_is_decided_ends_with_that_steps_graph():

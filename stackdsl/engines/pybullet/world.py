@@ -80,7 +80,8 @@ class PyBulletWorld(PyBulletEngine, World):
 
     A body's velocity is read from pybullet once a step, however many ask (the rest test
     brick by brick, the substep control and the collapse monitor), and read again after
-    anything that changes it (a step, a placement, a throw, a freeze or a wake).
+    anything that changes it (a step, a freeze or a wake); a moving body just created, moved or
+    thrown has the velocity it was given, which pybullet would read back to the bit.
 
     Static bodies that nothing moving can reach are shelved: taken out of pybullet's world,
     their poses kept, and put back, under the same ids, before a step in which a moving body
@@ -202,6 +203,8 @@ class PyBulletWorld(PyBulletEngine, World):
         if carried:
             self._client.changeDynamics(self._engine_id(body), -1, mass=0.0)
             self._massed(body, 0.0)
+        if body in self._moving:  # created at rest
+            self._velocities[body] = _AT_REST
         return body
 
     def _put(self, body: int, spec: BrickSpec, position: Any, orientation: Any, mass: float, maximal: bool) -> None:
@@ -294,13 +297,19 @@ class PyBulletWorld(PyBulletEngine, World):
             self._velocities[body] = read
         return read
 
+    # the per-step tests ask these of every moving brick at every step: what was read answers at once
     def pose_floats(self, body: int) -> tuple[Vec3, Quat]:
-        position, orientation = self._pose_now(body)
-        return position, orientation
+        read: tuple[Vec3, Quat] | None = self._poses.get(body)  # never a shelved body's
+        return self._pose_now(body) if read is None else read
 
     def velocity_floats(self, body: int) -> tuple[Vec3, Vec3]:
-        linear, angular = self._velocity_now(body)
-        return linear, angular
+        read: tuple[Vec3, Vec3] | None = self._velocities.get(body)
+        return self._velocity_now(body) if read is None else read
+
+    def speeds(self, body: int) -> tuple[float, float]:
+        read = self._velocities.get(body)
+        linear, angular = self._velocity_now(body) if read is None else read
+        return math.hypot(*linear), math.hypot(*angular)
 
     def contact_points(self, bodies: Collection[int] | None = None) -> list[ContactPoint]:
         if bodies is not None:
@@ -336,6 +345,8 @@ class PyBulletWorld(PyBulletEngine, World):
         else:
             self._client.changeDynamics(engine_id, -1, mass=mass)
         self._massed(body, mass)
+        if mass > 0.0:
+            self._velocities[body] = _AT_REST
 
     def guide(self, body: int, pose: Pose, velocity: Vec3, hold: bool = True) -> None:
         self._velocities.pop(body, None)
@@ -401,7 +412,10 @@ class PyBulletWorld(PyBulletEngine, World):
         if swept_radius is not None:
             self._swept[body] = swept_radius
             self._client.changeDynamics(engine_id, -1, ccdSweptSphereRadius=swept_radius)
-        self._client.resetBaseVelocity(engine_id, list(velocity), [0.0, 0.0, 0.0])
+        linear = (float(velocity[0]), float(velocity[1]), float(velocity[2]))
+        self._client.resetBaseVelocity(engine_id, linear, (0.0, 0.0, 0.0))
+        if body in self._moving:  # pybullet reads back what it was given, to the bit, until the next step
+            self._velocities[body] = (linear, (0.0, 0.0, 0.0))
         self._due = 0
 
     def step(self) -> None:

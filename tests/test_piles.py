@@ -3,6 +3,8 @@ leans on, and a brick equilibrium held against the report's rule."""
 
 from __future__ import annotations
 
+from collections import Counter
+
 import numpy as np
 import pytest
 
@@ -89,4 +91,8 @@ def test_on_mujoco_a_fallen_domino_row_is_frozen_once_and_not_solved_again(monke
     assert len(outcome.toppled) == 120
     assert [w for w in wakes if "outside its support" in w and "not frozen after all" not in w] == []
     assert len(asked) <= 4, asked
-    assert sum(w.startswith("impact of") for w in wakes) == 119  # d002 to d120, each once; d001 by the pusher
+    # d002 to d120 by the chain's blows, d001 by the pusher; one of them, at most, again by a
+    # watched edge domino that settles (this machine's MuJoCo: d019 by d020 at 0.03 m/s)
+    blows = Counter(e.brick for e in outcome.events if e.kind == "wake" and e.detail.startswith("impact of"))
+    assert set(blows) == {f"d{i:03d}" for i in range(2, 121)}
+    assert sum(blows.values()) - len(blows) <= 1, blows

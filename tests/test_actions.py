@@ -113,6 +113,7 @@ actions:
     return top.position_mm[1] / 1000, 0.050
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_a_pulled_brick_drags_what_rests_on_it_by_friction(backend):
     """Static friction carries a brick lying on the pulled one along (it has nothing else to rest
@@ -121,6 +122,7 @@ def test_a_pulled_brick_drags_what_rests_on_it_by_friction(backend):
     assert moved > 0.7 * travel  # MuJoCo's soft contacts let it slip 10 mm of 50, pybullet 0.6
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("speed", [10, 20])
 def test_a_brick_on_one_pulled_in_split_steps_rides_the_whole_pull(speed):
     """With the extension on pybullet a pull's step is split in four: the pulled brick must move
@@ -220,6 +222,7 @@ def test_toppled_all_counts_the_dominoes_a_collapse_left_unplaced():
     assert why == "toppled: 1 brick ended tilted past its tipping angle: d0", why
 
 
+@pytest.mark.slow
 def test_the_loop_drives_a_pull_a_push_and_a_shake_in_a_fake_world():
     """The step loop's on_action hook and the World capabilities, without an engine: the fake world
     moves a guided body by its velocity, records the ground's offset, and the pulled brick and the
@@ -679,6 +682,7 @@ expect: {stands: true}
     ) in lines
 
 
+@pytest.mark.slow
 def test_an_action_timed_after_the_building_runs_after_a_collapse():
     """A push that topples a domino row is a collapse; a shake timed after it, with every
     brick placed, still runs, and the run settles after the shake: the tower beside the row
@@ -888,6 +892,7 @@ def test_a_toppled_tolerance_that_covers_every_count_is_warned():
         compile_scenario(parse_scenario(head + '"5±2"\n', "t.yaml"))
 
 
+@pytest.mark.slow
 def test_the_levels_placed_count_a_level_whose_bricks_were_pulled_out():
     """A one-brick tower whose brick is pulled out read 'stands (0 levels placed)'."""
     from stackdsl import run_program

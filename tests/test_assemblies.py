@@ -31,6 +31,7 @@ def overhang(inside_mm: float) -> str:
     return f"stackdsl: 1\nstructure:\n  bricks:\n    - {{at: [0, 0, 4 mm]}}\n    - {{at: [{60 - inside_mm} mm, 0, 12 mm]}}\n"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("inside", [0.5, 3.0, 7.0])
 def test_the_margin_is_how_far_the_centre_of_mass_can_move(inside):
     # the top brick's centre of mass `inside` mm inside the lower brick's end: moving every
@@ -40,6 +41,7 @@ def test_the_margin_is_how_far_the_centre_of_mass_can_move(inside):
     assert j.margin == pytest.approx(inside / 1000, abs=2 * RESOLUTION)
 
 
+@pytest.mark.slow
 def test_a_collapsing_assembly_has_the_margin_that_would_make_it_stand():
     j = judge(compile_scenario(parse_scenario(overhang(-2.0))))  # 2 mm past the edge
     assert j.collapse_level == 2 and j.margin == pytest.approx(0.002, abs=2 * RESOLUTION)
@@ -52,6 +54,7 @@ def _ladder(angle: float, yaw: float = 0.0) -> str:
     return _yaml([Brick(-0.4, 0.0, 1, 0.0)], "ladder", Leaner(0.0, 0.0, yaw, angle))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("yaw", [0.0, 22.5, 200.0])
 def test_a_brick_leaning_on_a_wall_stands_above_the_ladder_angle(yaw):
     """A ladder with its feet at the bottom edges of its end faces: friction mu_g on the
@@ -80,6 +83,7 @@ def test_a_brick_leaning_on_a_wall_stands_above_the_ladder_angle(yaw):
         assert (judge(compile_scenario(parse_scenario(_ladder(angle, yaw)))).collapse_level is None) is stands
 
 
+@pytest.mark.slow
 def test_some_assemblies_lean_on_a_wall():
     texts = [assembly(rng(k), f"a{k}") for k in range(30)]
     leaning = [t for t in texts if "fixed: true" in t]
@@ -88,6 +92,7 @@ def test_some_assemblies_lean_on_a_wall():
     assert program.placements[-1].pitch != 0.0 and judge(program).margin > 0
 
 
+@pytest.mark.slow
 def test_some_leaning_bricks_stand_on_a_step_brick_the_oracle_sees():
     """A step brick lies across the leaning brick's foot on the ground, placed just before it:
     the oracle's contacts are the foot's two corners on the step's top face, the top edge's two
@@ -127,6 +132,7 @@ def test_a_margin_is_found_where_the_verdict_first_flips_not_at_the_far_end():
     assert j.collapse_level is not None and j.margin < 0.001
 
 
+@pytest.mark.slow
 def test_a_support_narrower_than_the_margin_is_the_margin():
     # the top brick's centre of mass lies 3 mm past b1's end, and its far end lies 0.4 mm onto
     # b2: statics holds it as a bridge, but a move of 0.4 mm takes b2's support away

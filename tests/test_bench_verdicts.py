@@ -53,6 +53,7 @@ def few() -> list[Verdicts]:
     return run_verdicts(2, 5, 1, runs=PYBULLET)
 
 
+@pytest.mark.slow
 def test_every_assembly_runs_every_planned_setting(few):
     assert [v.index for v in few] == list(range(5))
     for v in few:
@@ -62,6 +63,7 @@ def test_every_assembly_runs_every_planned_setting(few):
     assert any(v.leaning for v in few)
 
 
+@pytest.mark.slow
 def test_the_table_counts_agreement_from_the_runs(few, tmp_path):
     table = format_verdicts(few, tmp_path, 1.0, PYBULLET)
     lines = table.splitlines()
@@ -121,6 +123,7 @@ def test_single_file_samples_are_judged_by_the_exact_rule_on_their_placed_centre
     assert "collapse 6 (exact collapse 5), margin 0.40 mm  near tie" in table
 
 
+@pytest.mark.slow
 def test_bench_verdicts_runs_and_refuses_nonsense(capsys, tmp_path):
     args = ["bench", "verdicts", "--count", "1", "--engines", "pybullet", "--gaps", "2", "--no-baselines"]
     assert main([*args, "--single-file", "1", "-j", "1", "--out", str(tmp_path)]) == 0
@@ -135,6 +138,7 @@ def test_bench_verdicts_runs_and_refuses_nonsense(capsys, tmp_path):
     assert main(["bench", "verdicts", "--engines", "bullet"]) == 2
 
 
+@pytest.mark.slow
 def test_a_journal_keeps_finished_assemblies_and_refuses_another_run(few, tmp_path):
     journal = Journal(tmp_path / JOURNAL, 2, PYBULLET)
     assert journal.load() == {}

@@ -125,6 +125,7 @@ def test_runaway_scenes_are_refused_at_the_field_to_change(name, monkeypatch):
     assert work > MAX_WORK
 
 
+@pytest.mark.slow
 def test_a_refusal_says_what_would_fit():
     err = refusal("stackdsl: 1\n" + RUNAWAYS["5000-brick tower, extension"][0])
     levels = int(err.message.split("At most ")[1].split(" levels")[0])
@@ -145,6 +146,7 @@ def test_a_refusal_says_what_would_fit():
     assert "With the raw default, 4.17 ms, it would be" in timestep.message
 
 
+@pytest.mark.slow
 def test_every_shipped_scenario_and_bench_scene_fits_the_budget():
     files = sorted((ROOT / "scenarios").rglob("*.yaml"))
     assert len(files) > 20
@@ -185,6 +187,7 @@ def test_substeps_are_capped_and_the_cap_is_recorded(monkeypatch):
 LONG = "stackdsl: 1\nstructure: {tower: {levels: 30}}\nengine: {mode: tuned}\nexpect: {stands: true}\n"
 
 
+@pytest.mark.slow
 def test_a_timeout_stops_the_run_cleanly_and_fails_its_expectations():
     scenario = parse_scenario(LONG, "long.yaml")
     p = compile_scenario(scenario)

@@ -71,6 +71,7 @@ def test_fallen_bricks_become_rigid_when_the_collapse_is_decided_and_the_verdict
     assert {records[b] for b in rigid.made} == moving and len(moving) >= 3
 
 
+@pytest.mark.slow
 def test_a_scene_judged_after_its_collapse_keeps_its_multibodies():
     impact = "impacts: [{target: {level: 12, side: +x}, speed: 3, at: after level 12}]\n"
     tower = "stackdsl: 1\nstructure: {tower: {levels: 12}}\n" + impact

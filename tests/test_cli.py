@@ -306,6 +306,7 @@ def test_junit_xml_into_a_missing_folder_is_bad_input(tmp_path, capsys, monkeypa
 # options and exit statuses
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("bad", ["", "--mode sideways", "-j 0", "-j 100000", "-j two", "-j 1.5"])
 def test_usage_errors_exit_2(bad, tmp_path, capsys):
     with pytest.raises(SystemExit) as info:
@@ -330,6 +331,7 @@ def test_version(capsys):
     assert capsys.readouterr().out.strip() == f"stackdsl {version('stackdsl')}"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("command", [[], ["check"], ["compare"], ["run"], ["compile"], ["schema"], ["bench"]])
 def test_exit_statuses_are_in_the_help(command, capsys):
     with pytest.raises(SystemExit):
@@ -440,6 +442,7 @@ INJECTED = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("where", list(INJECTED))
 def test_an_internal_error_in_one_file_is_its_row_and_every_other_file_is_reported(tmp_path, capsys, monkeypatch, where):
     module, name = INJECTED[where]
@@ -553,6 +556,7 @@ def test_an_internal_error_is_an_error_in_json_and_junit(tmp_path, capsys, monke
     assert error.get("message") == result["error"] and "Traceback" in error.text
 
 
+@pytest.mark.slow
 def test_timeout_is_passed_to_every_run_and_validated(tmp_path, capsys, monkeypatch):
     seen = []
 
@@ -598,6 +602,7 @@ def test_a_run_stopped_by_its_timeout_fails_and_says_when(tmp_path, capsys, monk
     assert any(x.startswith("FAIL  ") and x.endswith("timeout after 42 s at t = 5.0 s simulated (of 7 s)") for x in lines)
 
 
+@pytest.mark.slow
 @pytest.mark.skipif("timeout" not in inspect.signature(run_program).parameters, reason="the runtime takes no timeout")
 def test_a_short_timeout_stops_the_run_here_and_in_a_worker(tmp_path, capsys):
     slow = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nengine: {mode: raw, timestep: 0.1 ms}\ntiming: {settle: 600 s}\n"
@@ -649,6 +654,7 @@ def test_ctrl_c_while_the_command_loads_exits_130_without_a_traceback(capsys, mo
     assert capsys.readouterr().err == "stackdsl: interrupted\n"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("delay", [0.3, 0.6, 1.5])
 def test_ctrl_c_at_any_moment_of_a_real_command_exits_130(delay, tmp_path):
     # loading the modules takes about 0.7 s, the run 60 s of raw pybullet at 0.1 ms
@@ -666,6 +672,7 @@ def test_ctrl_c_at_any_moment_of_a_real_command_exits_130(delay, tmp_path):
     assert process.returncode == 130 and err == "stackdsl: interrupted\n"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("command", ["compile", "run", "check"])
 def test_a_closed_pipe_ends_quietly(command, tmp_path):
     # The reader is gone before the command writes anything: its first write meets a
@@ -678,6 +685,7 @@ def test_a_closed_pipe_ends_quietly(command, tmp_path):
     assert process.wait() == 141 and err == ""
 
 
+@pytest.mark.slow
 def test_console_script_output_has_no_engine_chatter(tmp_path):
     done = stackdsl_command("check", str(write(tmp_path, a=PASSING)), "-j", "1")
     assert done.returncode == 0, done.stderr
@@ -756,6 +764,7 @@ def test_compile_prints_the_program(tmp_path, capsys):
     assert json.loads(capsys.readouterr().out)["engine"]["mode"] == "extension"
 
 
+@pytest.mark.slow
 def test_compile_and_run_json_print_whole_step_times_without_float_noise(tmp_path, capsys):
     """Three intervals of 0.7 s sum to 2.0999999999999996 s in floats: the JSON says 2.1, as the
     text does, while the program itself keeps the times it computed (what it runs is unchanged)."""
@@ -1246,6 +1255,7 @@ def test_a_closed_standard_output_is_exit_141_as_a_closed_pipe():
         assert done.returncode == 141 and done.stderr == "", argv
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "argv", [["run"], ["check", "-j", "1"], ["check", "-j", "2"]], ids=["run", "check here", "check in workers"]
 )
@@ -1371,6 +1381,7 @@ def test_a_broken_link_in_a_folder_is_an_error_not_skipped(tmp_path, capsys):
     assert "gone.yaml: a broken symbolic link" in err and "loop.yaml: cannot read the file" in err, err
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", ["\uff15", "\u0665", "5.0", "-1", "9" * 41])
 def test_a_seed_is_written_in_the_digits_0_to_9(tmp_path, capsys, seed):
     """int() reads fullwidth and Arabic-Indic digits ('５' was taken as 5), which a file's seed may not have."""
@@ -1388,6 +1399,7 @@ def test_check_takes_one_path_as_well_as_a_list(tmp_path):
         assert [r.file for r in results] == [str(file)], results
 
 
+@pytest.mark.slow
 def test_compare_sizes_each_modes_column_to_its_own_cells(tmp_path, capsys):
     """One long cell widened every mode's column (a 700-character table for six settings)."""
     text = (

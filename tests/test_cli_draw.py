@@ -148,6 +148,7 @@ def test_graph_plots_the_collapse_by_default_and_refuses_a_collapse_that_did_not
     assert "nothing collapsed in this run" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("command", ["render", "animate", "graph"])
 def test_drawing_commands_have_exit_statuses_in_their_help(command, capsys):
     with pytest.raises(SystemExit):
@@ -156,6 +157,7 @@ def test_drawing_commands_have_exit_statuses_in_their_help(command, capsys):
     assert "exit status:" in out and "2    bad input" in out and "a trajectory file (.npz)" in out
 
 
+@pytest.mark.slow
 def test_bench_record_times_recording_off_and_on_alternately(files, capsys):
     assert main(["bench", "record", str(files / "stands.yaml"), "--repeats", "2"]) == 0
     versions, *lines = capsys.readouterr().out.splitlines()
@@ -265,6 +267,7 @@ def test_report_folder_names_stay_short_and_distinct():
     assert len(a) <= MAX_NAME and len(b) <= MAX_NAME and a != b and a.endswith(folder_name(long_a)[-8:])
 
 
+@pytest.mark.slow
 def test_an_earlier_reports_folders_go_and_a_persons_folders_stay(files, capsys):
     report = files / "report"
     main(["check", str(files / "stands.yaml"), str(files / "tips.yaml"), "-j", "1", "--report", str(report)])
@@ -298,6 +301,7 @@ def test_a_clip_too_large_to_draw_is_refused_before_anything_runs(tmp_path, caps
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_timeout_covers_drawing_and_a_clip_cut_short_leaves_no_file(tmp_path, capsys, monkeypatch):
     import time
 
@@ -348,6 +352,7 @@ def test_an_output_that_is_a_fifo_or_a_device_is_refused_never_opened_or_replace
     assert error.value.filename == str(tmp_path / "no" / "such.png")
 
 
+@pytest.mark.slow
 def test_a_drawing_command_runs_under_the_workers_memory_limit_and_says_so_when_hit(tmp_path):
     """The main process of a drawing command gets the address-space limit ``check``'s workers
     have: asking for 12 GiB (reserved, never touched; the machine itself would grant it) is refused
@@ -373,6 +378,7 @@ def test_a_drawing_command_runs_under_the_workers_memory_limit_and_says_so_when_
     )
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("at", ["0", "-0", "0.0", "0 s", "1e-400"])
 def test_at_zero_is_the_start_of_the_run_not_its_end(files, capsys, at):
     record = files / "stands.npz"

@@ -13,12 +13,14 @@ def oracle(structure: str) -> int | None:
     ).collapse_level
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("shift_mm", [8, 10, 11, 13, 14])
 def test_log_cabin_closed_form_is_the_equilibrium_answer(shift_mm):
     expected = log_cabin(shift_mm / 1000)
     assert oracle(f"levels: {expected + 1}, spacing: 96 mm, shift: {shift_mm} mm") == expected
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("shift_mm", [7, 9, 11, 13, 20])
 def test_single_file_closed_form_is_the_equilibrium_answer(shift_mm):
     expected = single_file(shift_mm / 1000)

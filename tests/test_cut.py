@@ -60,6 +60,7 @@ def _random_stack(rng: np.random.Generator, levels: int, tilt: float) -> tuple[d
     return blocks, contacts
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("tilt", [0.0, 0.02])
 def test_a_part_said_to_fall_cannot_stand_by_the_equilibrium_program(tilt: float) -> None:
     rng = np.random.default_rng(3)
@@ -112,6 +113,7 @@ def test_one_brick_of_a_level_turns_out_from_under_the_levels_above_while_its_si
     assert falling_part(blocks, contacts) == frozenset({2, 4}) == {k for k, v in result.mechanism.items() if v > 1e-4}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("tilt", [0.05, 1.0])
 def test_near_its_edge_a_brick_is_said_to_fall_only_where_the_program_agrees(tilt: float) -> None:
     """A brick on a brick, its centre of mass within 3 mm of the lower one's end, with contact
@@ -135,6 +137,7 @@ def test_near_its_edge_a_brick_is_said_to_fall_only_where_the_program_agrees(til
     assert agreed > 100
 
 
+@pytest.mark.slow
 def test_a_block_on_steep_contacts_is_said_to_fall_only_where_the_program_agrees() -> None:
     """A block on a small pad and a ledge whose normals are tilted up to 1.2 rad (a leaning
     brick's contacts), its centre of mass beyond the pad: turning out may close a steep contact,

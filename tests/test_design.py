@@ -13,6 +13,8 @@ import sys
 import tomllib
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 DESIGN = ROOT / "docs" / "design.md"
 WIDTH = 30  # the column where the descriptions start
@@ -65,6 +67,7 @@ def written() -> str:
     return text.split(BEGIN, 1)[1].split(END, 1)[0].strip()
 
 
+@pytest.mark.slow
 def test_the_layout_in_design_md_is_the_package():
     assert written() == layout(), "docs/design.md's Layout is stale: run `python tests/test_design.py`"
 
@@ -109,6 +112,7 @@ def import_graph() -> dict[str, set[str]]:
     return graph
 
 
+@pytest.mark.slow
 def test_the_import_graph_has_no_cycle():
     graph, seen, path = import_graph(), set(), []
 

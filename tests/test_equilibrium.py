@@ -112,6 +112,7 @@ def test_a_block_that_touches_nothing_falls():
     assert solve_equilibrium({}, []).stands
 
 
+@pytest.mark.slow
 def test_the_margin_program_agrees_with_bisection_on_random_assemblies():
     # equilibrium_margin finds the largest common shift of every centre of mass in one program;
     # a bisection on solve_equilibrium (the oracle's way) must find the same, to its resolution

@@ -150,6 +150,7 @@ def test_a_standing_scene_exported_at_its_end_stands_in_plain_mujoco(tmp_path, t
 
 
 @needs_mujoco
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("engine", "timestep", "cone", "solref"),
     [
@@ -246,6 +247,7 @@ def test_view_without_a_display_says_so_in_one_line_and_points_to_replay(monkeyp
     assert len(lines) == 1 and "no display" in lines[0] and f"stackdsl replay {scenario} -o DIR" in lines[0]
 
 
+@pytest.mark.slow
 @needs_mujoco
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="X11 and Wayland displays")
 @pytest.mark.parametrize("variable", ["DISPLAY", "WAYLAND_DISPLAY"])
@@ -551,6 +553,7 @@ def test_an_export_that_fails_on_the_trajectorys_numbers_names_the_file_not_at(s
     assert not (tmp_path / "x.urdf").exists()
 
 
+@pytest.mark.slow
 def test_export_at_a_time_writes_the_runs_state_then_not_an_earlier_frame(tmp_path, capsys):
     """``export --at T`` wrote the last frame recorded at or before T, up to 1/30 s earlier, under
     the label T: 15 mm off for a brick knocked at 1.7 m/s. The run now keeps a frame at the last

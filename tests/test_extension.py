@@ -273,6 +273,7 @@ def test_the_profile_rows_of_the_bench_name_functions_that_exist():
             assert function in names, label
 
 
+@pytest.mark.slow
 def test_the_sampled_profile_of_a_tower_splits_its_steps_from_the_rest():
     from stackdsl.bench.cost import PHYSICS, format_profiles, profile_tower
 

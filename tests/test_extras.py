@@ -156,6 +156,7 @@ def test_the_startup_bench_checks_a_scenario_of_its_own(tmp_path, monkeypatch):
     assert main(["check", str(small), "-j", "1"]) == 0
 
 
+@pytest.mark.slow
 def test_version_loads_nothing_heavy_and_the_startup_bench_runs(capsys):
     code = (
         "import sys; sys.argv = ['stackdsl', '--version']; from stackdsl._entry import main; main(); "
@@ -185,6 +186,7 @@ def _loaded_after(argv: list[str], names: tuple[str, ...]) -> list[str]:
     return ast.literal_eval(done.stdout.splitlines()[-1])  # the list printed last
 
 
+@pytest.mark.slow
 def test_help_loads_no_command_and_a_command_loads_no_other():
     heavy = ("numpy", "pydantic", "scipy", "stackdsl.lang.schema", "stackdsl.cli.check", "stackdsl.cli.bench")
     assert _loaded_after(["--help"], heavy) == []

@@ -59,6 +59,7 @@ def test_a_blow_below_the_top_names_the_brick_that_moved_first_and_the_levels_mo
     assert verdict.measured.endswith(" moved")
 
 
+@pytest.mark.slow
 def test_check_names_the_first_brick_and_the_moved_levels_in_its_row_and_json(tmp_path, capsys):
     (tmp_path / "hit.yaml").write_text(HIT_AT_8)
     assert main(["check", str(tmp_path), "-j", "1"]) == 0
@@ -281,6 +282,7 @@ def test_the_live_progress_line_shows_the_time_left():
     assert "left" in out.getvalue() and "0:00:0" in out.getvalue()
 
 
+@pytest.mark.slow
 def test_render_animate_and_graph_say_what_they_wrote(tmp_path, capsys):
     (tmp_path / "a.yaml").write_text(PASSING)
     outputs = {"render": "a.png", "animate": "a.gif", "graph": "g.png"}
@@ -352,6 +354,7 @@ def test_run_names_the_engine_in_its_summary_and_its_json(tmp_path, capsys):
     assert json.loads(capsys.readouterr().out)["backend"] == "pybullet"
 
 
+@pytest.mark.slow
 def test_sweep_names_the_engine_it_runs_on(tmp_path, capsys):
     (tmp_path / "s.yaml").write_text(
         "stackdsl: 1\nstructure: {tower: {levels: 2, yaw: {uniform: [0, 2]}}}\nsweep: {samples: 2}\n"
@@ -360,6 +363,7 @@ def test_sweep_names_the_engine_it_runs_on(tmp_path, capsys):
     assert capsys.readouterr().out.startswith("stackdsl sweep: 1 cell x 2 samples, pybullet raw, on 1 process")
 
 
+@pytest.mark.slow
 def test_pictures_and_clips_name_the_engine_and_the_brick_that_moved_first():
     from stackdsl.draw.render import headline
     from stackdsl.runtime.recorder import record_program

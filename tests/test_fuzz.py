@@ -10,6 +10,7 @@ import tempfile
 import warnings
 from pathlib import Path
 
+import pytest
 import yaml
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
@@ -111,12 +112,14 @@ def check(text: str) -> None:
         assert err.line is None or err.line >= 1
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=5000, suppress_health_check=[HealthCheck.too_slow])
 @given(mutated())
 def test_mutated_scenarios_give_clean_errors(text):
     check(text)
 
 
+@pytest.mark.slow
 @settings(max_examples=200, deadline=5000, suppress_health_check=[HealthCheck.too_slow])
 @given(structured())
 def test_random_documents_give_clean_errors(text):
@@ -164,6 +167,7 @@ def make(folder: Path, kind: str, data: bytes) -> Path:
     return path
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=5000, suppress_health_check=[HealthCheck.too_slow])
 @given(odd_file())
 def test_files_of_odd_kinds_and_encodings_load_cleanly(case):
@@ -193,6 +197,7 @@ def command(*args: str) -> tuple[int, str, str]:
 
 
 # the command costs some 0.2 s of start-up an example: few examples (the API is fuzzed above)
+@pytest.mark.slow
 @settings(max_examples=25, deadline=5000, suppress_health_check=[HealthCheck.too_slow])
 @given(st.one_of(mutated(), structured()))
 def test_compile_command_exits_0_or_2_at_the_apis_position(text):

@@ -82,6 +82,7 @@ def test_a_pyramid_is_no_higher_than_its_base_is_wide():
         bricks("{pyramid: {base: 3, levels: 4}}")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "structure",
     [

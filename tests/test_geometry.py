@@ -253,6 +253,7 @@ def test_hull_xy_is_the_multipoints_hull_bit_for_bit() -> None:
         assert _same(hull_xy(xy), shapely.convex_hull(shapely.multipoints(xy))), xy
 
 
+@pytest.mark.slow
 def test_hull_of_union_is_the_union_hull_bit_for_bit() -> None:
     """Without the union where the polygons lie apart, with it where they overlap or touch: the
     same hull, coordinates and order, as the union's, for polygons, lines and points."""

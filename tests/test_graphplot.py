@@ -172,6 +172,7 @@ def test_slant_tower_collapse_has_a_centre_of_mass_outside():
 # pictures -------------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_plot_a_standing_tower_has_no_red(tmp_path, monkeypatch):
     g = outcome("four_stack.yaml").final_graph
     fig, image = plot(g, tmp_path / "four.png", monkeypatch, title="four stack", max_panels=8)
@@ -183,6 +184,7 @@ def test_plot_a_standing_tower_has_no_red(tmp_path, monkeypatch):
     assert red_pixels(image) == 0
 
 
+@pytest.mark.slow
 def test_plot_a_collapse_shows_red_and_the_shares(tmp_path, monkeypatch):
     g = outcome("slant_tower.yaml").collapse_graph
     assert g is not None
@@ -196,6 +198,7 @@ def test_plot_a_collapse_shows_red_and_the_shares(tmp_path, monkeypatch):
     assert red_pixels(image) > 20
 
 
+@pytest.mark.slow
 def test_plot_leaning_bricks_and_fixtures(tmp_path, monkeypatch):
     for name in ("vee_stands.yaml", "lean_wall_stands.yaml", "card_house.yaml"):
         fig, image = plot(outcome(name).final_graph, tmp_path / f"{name}.png", monkeypatch, max_panels=6)
@@ -209,6 +212,7 @@ def test_plot_a_fixture_is_in_the_legend(tmp_path, monkeypatch):
     assert "wall" in fig.words()
 
 
+@pytest.mark.slow
 def test_plot_a_tall_tower_caps_the_panels(tmp_path, monkeypatch):
     # A synthetic 4 stack of 100 levels (200 bricks): as tall_100 builds it, without the 1.5 s run.
     def centre(level: int, side: float) -> tuple[float, float]:
@@ -233,6 +237,7 @@ def test_plot_a_tall_tower_caps_the_panels(tmp_path, monkeypatch):
     assert "398 edges: shares not labelled" in words
 
 
+@pytest.mark.slow
 def test_plot_degenerate_graphs(tmp_path, monkeypatch):
     fig, _ = plot(Graph(nodes=(), edges=()), tmp_path / "empty.png", monkeypatch)
     assert "empty graph: nothing placed" in fig.words() and "no bricks" in fig.words()

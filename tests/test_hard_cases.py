@@ -27,6 +27,7 @@ def run(name: str, **overrides):
     return scenario, program, run_program(program)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", HARD, ids=[p.stem for p in HARD])
 def test_every_hard_case_holds_its_promise(path):
     scenario = load_scenario(path)
@@ -73,6 +74,7 @@ def test_a_60_level_tower_left_alone_for_120_s_does_not_move():
     assert outcome.kinetic_energy == 0.0  # every brick frozen: no energy creeps in
 
 
+@pytest.mark.slow
 def test_a_100_level_tower_costs_no_more_steps_per_brick_than_a_10_level_one():
     # Wall time belongs to the benchmark; physics steps per placed brick are the cost
     # that must not grow (a growing stack that jitters would need ever more steps).
@@ -103,6 +105,7 @@ def test_a_250_level_tower_keeps_its_heights_and_stands():
 
 
 # timestep independence -------------------------------------------------------------------------
+@pytest.mark.slow
 @pytest.mark.parametrize("timestep", ["1/120 s", "1/500 s", "1/2000 s"])
 def test_the_slant_tower_collapses_at_9_whatever_the_timestep(timestep):
     text = (ROOT / "scenarios" / "slant_tower.yaml").read_text().replace("engine:\n", f"engine:\n  timestep: {timestep}\n")
@@ -117,6 +120,7 @@ def test_timesteps_that_change_the_answers_are_refused(timestep):
 
 
 # fast impacts ----------------------------------------------------------------------------------
+@pytest.mark.slow
 @pytest.mark.parametrize("speed", [1, 5, 20, 50])
 def test_a_thrown_brick_strikes_the_brick_it_is_aimed_at(speed):
     # The promise is that it does not slip past: the hit brick leaves its place, and what the
@@ -138,6 +142,7 @@ def _golden(path: str) -> str:
     return json.dumps(run_program(compile_scenario(load_scenario(path))).golden(), sort_keys=True)
 
 
+@pytest.mark.slow
 def test_runs_are_identical_in_this_process_and_in_others():
     path = str(ROOT / "scenarios" / "slant_tower.yaml")
     here = [_golden(path), _golden(path)]
@@ -185,6 +190,7 @@ def test_the_swept_scenes_are_the_library_scenarios(name, scene):
         assert np.allclose(a[1], b[1], atol=2e-5) and np.allclose(a[2:], b[2:], atol=1e-9)
 
 
+@pytest.mark.slow
 def test_the_sweep_brackets_each_closed_form_within_a_degree():
     found = leaning_limits(modes=("extension",), step=0.5, span=2.0)
     for (name, _), (stood, fell) in found.items():

@@ -275,6 +275,7 @@ def _limit_memory() -> None:
     os.setsid()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", BLOCKING)
 def test_device_and_fifo_are_refused_without_reading(kind, tmp_path):
     path, allowed = odd_files(tmp_path)[kind]

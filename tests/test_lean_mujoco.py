@@ -46,6 +46,7 @@ def test_the_lean_peer_takes_mujoco_placements_only():
     assert xml.count("<freejoint/>") == 4 and 'sleep="enable"' in xml and 'cone="elliptic"' in xml
 
 
+@pytest.mark.slow
 def test_the_bench_measures_the_lean_peer_as_a_cell():
     assert SETTINGS["MuJoCo lean"].lean
     n = single_file(0.011)

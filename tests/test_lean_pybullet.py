@@ -26,6 +26,7 @@ def test_a_standing_tower_stands_to_the_end():
     assert 0 < lean.engine < lean.wall and lean.steps == pytest.approx(p.duration * 240, abs=16)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("shift_mm", [9, 13])
 def test_the_lean_loop_falls_where_raw_pybullet_in_stackdsls_loop_falls(shift_mm):
     # the same engine and settings: the peer's own loop must not change the answer by more than a level
@@ -46,6 +47,7 @@ def test_the_lean_pybullet_peer_takes_pybullet_placements_only():
         run_pybullet(program("tower: {levels: 2}", thrown))
 
 
+@pytest.mark.slow
 def test_the_bench_measures_the_lean_pybullet_peer_as_a_cell():
     assert SETTINGS["pybullet lean"].lean and SETTINGS["pybullet lean"].mode == "raw"
     assert (SETTINGS["pybullet lean"].backend, SETTINGS["MuJoCo lean"].backend) == ("pybullet", "mujoco")

@@ -315,6 +315,7 @@ GAINS = [
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("backend", "mode", "above", "drop"), GAINS)
 def test_above_the_limit_a_dropped_brick_gains_energy_and_at_it_does_not(backend, mode, above, drop):
     """What the limit rests on, measured again: above it this drop rises with more energy than

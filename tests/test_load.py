@@ -63,6 +63,7 @@ def test_a_centre_over_a_joint_puts_half_on_each_side_whichever_side_it_lies(joi
         assert split[2][0] == pytest.approx(0.005, abs=1e-5), dx
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "supports",
     [

@@ -66,6 +66,7 @@ def _all_proven(centres: list[np.ndarray], contacts: list[ContactPolygon[int]]) 
     return True
 
 
+@pytest.mark.slow
 def test_a_proven_stack_stands_by_the_equilibrium_program() -> None:
     rng = np.random.default_rng(7)
     outcomes = {True: 0, False: 0}
@@ -92,6 +93,7 @@ def _loads_balance(centres: list[np.ndarray], contacts: list[ContactPolygon[int]
     return loads_balance(propagate_fast(nodes), regions)
 
 
+@pytest.mark.slow
 def test_stacks_the_propagated_loads_balance_stand_by_the_program_and_include_unproven_ones() -> None:
     rng = np.random.default_rng(11)
     balanced = {True: 0, False: 0}  # of the balanced stacks: proven by load paths or not

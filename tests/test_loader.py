@@ -245,6 +245,7 @@ def test_empty_file_and_top_level_list():
     assert "mapping of fields" in error("- 1\n- 2\n").message
 
 
+@pytest.mark.slow
 def test_alias_bomb_fails_fast():
     rows = ["a: &a [1, 1, 1, 1, 1, 1, 1, 1, 1, 1]"]
     for prev, name in zip("abcdef", "bcdefg"):

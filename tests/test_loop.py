@@ -192,6 +192,7 @@ def test_a_brick_still_displaced_when_the_run_ends_has_collapsed():
     assert result.collapse.decided == pytest.approx(result.simulated_time, abs=2 * p.engine.timestep)
 
 
+@pytest.mark.slow
 def test_an_engine_without_cheap_debris_gets_no_debris_subscriber_and_the_runtime_names_no_engine():
     import ast
     from pathlib import Path
@@ -244,6 +245,7 @@ def test_a_collapse_while_a_shake_or_push_is_under_way_lets_it_finish_then_settl
     assert loop.stopped is None and loop.not_run == ()
 
 
+@pytest.mark.slow
 def test_a_deadline_still_stops_a_run_waiting_for_an_action_under_way():
     p = program(f"{TOWER}actions:\n  - shake: {{amplitude: 1 mm, frequency: 1 Hz, duration: 600 s, at: after level 2}}\n")
     loop = run_in(FakeWorld(timestep=p.engine.timestep), p, subscribers=(Knock("L01.1"),), timeout=0.5)

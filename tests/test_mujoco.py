@@ -190,6 +190,7 @@ def test_a_brick_put_down_at_rest_settles_whatever_its_restitution(mode):
     assert max(late) - min(late) < 1e-6 and max(late) <= 0.004
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("mode", "e", "levels"), [("tuned", 0.3, 4), ("raw", 0.5, 4), ("extension", 0.99, 10)])
 def test_a_stack_of_bouncy_bricks_put_down_at_rest_stands(mode, e, levels):
     """A 4 stack of restitution 0.3 fell at level 3 on tuned MuJoCo, one of 0.99 at 2 with the
@@ -359,6 +360,7 @@ def test_bricks_declared_up_front_or_as_they_come_give_the_same_answer():
         assert max(outcome.displacement.values()) < 0.001
 
 
+@pytest.mark.slow
 def test_with_mujocos_sleeping_a_parked_brick_lands_where_it_is_put():
     """A parked body asleep far away and moved in stayed asleep 0.5 mm above its pose, in the
     air (every brick of the bench's parked peer drifted exactly the drop gap): a body out of
@@ -425,6 +427,7 @@ def test_the_stability_package_knows_no_engine():
         assert "mujoco" not in file.read_text().lower(), file.name
 
 
+@pytest.mark.slow
 def test_a_mujoco_setting_on_pybullet_is_bad_input(tmp_path):
     path = tmp_path / "s.yaml"
     path.write_text("stackdsl: 1\nstructure: {tower: {levels: 2}}\nengine:\n  sleep_tolerance: 0.0001\n")
@@ -433,6 +436,7 @@ def test_a_mujoco_setting_on_pybullet_is_bad_input(tmp_path):
     assert "s.yaml:4:3:" in result.stderr and "sleep_tolerance is a mujoco setting" in result.stderr
 
 
+@pytest.mark.slow
 def test_an_unknown_backend_is_bad_input(tmp_path):
     result = subprocess.run(
         [sys.executable, "-m", "stackdsl", "check", str(ROOT / "scenarios" / "vee_stands.yaml"), "--backend", "bullet"],
@@ -550,6 +554,7 @@ def test_a_held_brick_has_the_constants_mujoco_derives_for_its_mass(mode):
         np.testing.assert_allclose(getattr(m, k), own[k], rtol=1e-12, err_msg=k)
 
 
+@pytest.mark.slow
 def test_a_pusher_on_tuned_mujoco_pushes_the_shipped_domino_row_over():
     """The shipped domino row on the peer at its best: the pusher touching the first domino blew
     the simulation up when its 100 kg kept a 1 g finger's contact constants."""
@@ -561,6 +566,7 @@ def test_a_pusher_on_tuned_mujoco_pushes_the_shipped_domino_row_over():
     assert failed == []
 
 
+@pytest.mark.slow
 def test_the_extension_on_mujoco_topples_a_row_of_widely_spaced_dominoes():
     """Twenty dominoes 100 mm apart (of the 128 mm a KAPLA domino reaches): each top edge comes
     at the next domino's face down and forward. Judged by its centre of mass's heading, the

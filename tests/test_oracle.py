@@ -44,6 +44,7 @@ def tower(levels: int, spacing_mm: float, shift_mm: float):
     )
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("spacing, shift, level", [(70, 12.9, 9), (96, 8, 15)])
 def test_slant_towers_collapse_where_the_closed_form_says(spacing, shift, level):
     # closed forms: 1 + ceil((d + 24) / s) for spacing d < 96; ceil(120 / s) at 96 (stackdsl's own)
@@ -77,6 +78,7 @@ def test_solve_time_benchmark_runs():
     assert row.bricks == 10 and row.contacts == 18 and 0 < row.median < 1.0 and 0 < row.full < 1.0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "spacing, shift, bricks", [(96, 8, 29), (96, 8, 30), (70, 12.9, 16), (70, 12.9, 17), (96, 0, 40), (96, 13, 4)]
 )
@@ -86,6 +88,7 @@ def test_the_vertical_program_agrees_with_the_full_one(spacing, shift, bricks):
     assert solve_equilibrium(blocks, contacts).stands == solve_equilibrium(blocks, contacts, quick=False).stands
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("bricks", [29, 30])
 def test_the_vertical_program_gives_way_to_the_full_one_past_its_budget(monkeypatch, bricks):
     # With no iterations to spend, the vertical program decides nothing, and the full

@@ -152,6 +152,7 @@ def _fifo(path: Path) -> None:
     os.mkfifo(path)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("argv", "fifo", "words"),
     [
@@ -229,6 +230,7 @@ def test_checking_outputs_leaves_nothing_behind(tmp_path):
     assert paths == [tmp_path / "j.xml", out] and list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_a_sweep_into_the_folder_of_an_earlier_one_says_it_replaces_its_files(tmp_path, capsys):
     (tmp_path / "s.yaml").write_text(SWEEP)
     out = tmp_path / "o"
@@ -244,6 +246,7 @@ def test_a_sweep_into_the_folder_of_an_earlier_one_says_it_replaces_its_files(tm
     assert (out / "samples.csv").read_text().startswith("cell,")
 
 
+@pytest.mark.slow
 def test_a_sweep_over_an_earlier_grid_sweep_leaves_none_of_its_files_and_nothing_else_is_touched(tmp_path, capsys):
     grid = SWEEP.replace("sweep: {samples: 2}", "sweep: {samples: 2, grid: {timing.drop_gap: [0.5 mm, 1 mm, 2 mm]}}")
     (tmp_path / "grid.yaml").write_text(grid)

@@ -48,6 +48,7 @@ def test_each_part_of_a_rigid_block_problem_stands_or_falls_on_its_own():
     assert connected_part(blocks, contacts, {"ground"}) == ({}, [])  # a support is no part
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("setting", ["extension equilibrium", "extension report"])
 def test_a_pile_frozen_leaning_on_a_watched_brick_is_not_woken_at_the_step_it_froze(setting):
     """The debris rule freezes the settled part of a pile leaning on a brick that still moves,

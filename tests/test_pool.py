@@ -89,6 +89,7 @@ def gone(pids: set[int], within: float = 30.0) -> set[int]:
 # sharing work
 
 
+@pytest.mark.slow
 def test_work_is_shared_with_the_workers(ready_workers):
     # Each task reports the process that ran it (sh's parent).
     task = (["sh", "-c", "sleep 0.1; echo $PPID"],)
@@ -96,6 +97,7 @@ def test_work_is_shared_with_the_workers(ready_workers):
     assert len(runners) == 6 and os.getpid() in runners and set(runners) - {os.getpid()} == ready_workers[0].first_pids
 
 
+@pytest.mark.slow
 def test_with_here_false_every_task_runs_in_a_worker_and_none_here(ready_workers):
     task = (["sh", "-c", "sleep 0.05; echo $PPID"],)
     runners = [int(out) for out in _pool.fan_out(subprocess.check_output, [task] * 8, [1.0] * 8, jobs=2, here=False)]
@@ -111,6 +113,7 @@ def test_cheap_work_starts_no_worker(monkeypatch):
     assert list(_pool.fan_out(abs, [(-1,), (-2,)], [0.1, 0.1], jobs=2)) == [1, 2]
 
 
+@pytest.mark.slow
 def test_tasks_of_one_cost_are_read_as_they_are_handed_out(ready_workers):
     """An endless stream of tasks: the workers get them one by one, and closing the results
     after a few stops there (a list would never be built, let alone finished)."""
@@ -142,6 +145,7 @@ def test_an_executor_holds_at_most_its_window_of_an_endless_stream():
     assert len(set(got)) == 5 and set(got) <= set(taken) and len(taken) <= 5 + 2 * 3  # done, not yet yielded, and running
 
 
+@pytest.mark.slow
 def test_closing_the_results_stops_the_workers(ready_workers):
     results = _pool.fan_out(os.getpid, [()] * 4, [1.0] * 4, jobs=2)
     first = next(results)
@@ -150,6 +154,7 @@ def test_closing_the_results_stops_the_workers(ready_workers):
     assert first in pids | {os.getpid()} and pids and not gone(pids, within=0)
 
 
+@pytest.mark.slow
 def test_an_exception_in_a_worker_comes_with_its_traceback():
     workers = _pool.Workers(1)
     try:
@@ -164,6 +169,7 @@ def test_an_exception_in_a_worker_comes_with_its_traceback():
 # a worker lost: the others go on
 
 
+@pytest.mark.slow
 def test_a_dead_worker_loses_its_task_alone(ready_workers):
     # The costliest task goes to the (ready) worker, which it kills; the guard keeps the
     # kill from reaching this process if the task ever ran here.
@@ -183,6 +189,7 @@ def test_a_dead_worker_loses_its_task_alone(ready_workers):
     assert [int(r) for r in results if not isinstance(r, tuple)] == [me, me]
 
 
+@pytest.mark.slow
 def test_a_dead_worker_without_a_lost_callback_raises(ready_workers):
     me = os.getpid()
     killer = (["sh", "-c", f'[ "$PPID" != {me} ] && kill -9 $PPID; echo $PPID'],)
@@ -190,6 +197,7 @@ def test_a_dead_worker_without_a_lost_callback_raises(ready_workers):
         list(_pool.fan_out(subprocess.check_output, [killer, (["true"],)], [9.0, 1.0], jobs=2))
 
 
+@pytest.mark.slow
 def test_a_task_over_its_limit_ends_its_worker(ready_workers):
     results = list(_pool.fan_out(time.sleep, [(0,), (600,)], [1.0, 9.0], jobs=2, limit=0.5, lost=lambda task, error: error))
     (error,) = [r for r in results if r is not None]
@@ -198,6 +206,7 @@ def test_a_task_over_its_limit_ends_its_worker(ready_workers):
     assert not gone(ready_workers[0].first_pids, within=0)
 
 
+@pytest.mark.slow
 def test_a_dead_worker_is_its_scenarios_internal_error(tmp_path, ready_workers, monkeypatch, capsys):
     # The slow scenario goes to the worker, which is killed as soon as it has it.
     killed = []
@@ -228,6 +237,7 @@ def test_a_dead_worker_is_its_scenarios_internal_error(tmp_path, ready_workers, 
 # the guards in every worker
 
 
+@pytest.mark.slow
 def test_workers_ignore_ctrl_c_and_have_a_memory_limit():
     workers = _pool.Workers(1, memory_limit=3 * 2**30)
     try:
@@ -254,6 +264,7 @@ def test_out_of_memory_is_the_scenarios_internal_error(tmp_path, monkeypatch):
     assert r.expected == "stands" and r.measured == "internal error: out of memory"
 
 
+@pytest.mark.slow
 def test_a_worker_started_by_another_thread_outlives_that_thread():
     # The kernel's parent-death signal follows the starting thread: a worker started (and
     # ready) in a thread that then ends must go on, as a pool's replacement workers must.

@@ -264,6 +264,7 @@ def test_stays_and_may_fall_beyond_the_top_level(field):
     compile_text(f"stackdsl: 1\nstructure: {{tower: {{levels: 8}}}}\nexpect: {{{field}: 1-8}}\n")
 
 
+@pytest.mark.slow
 def test_stays_or_moved_above_the_highest_collapse_level_is_warned_of():
     """Building stops once the collapse is decided: a level above collapse N±t is placed only if
     deciding it takes longer than the placements after it, so naming it in 'stays' or 'moved' is
@@ -348,6 +349,7 @@ def test_check_simulates_nothing_when_a_check_fails(tmp_path, capsys, monkeypatc
     assert f"{tmp_path / 'tower.yaml'}:2:50: structure.tower.bricks_per_layer: level 2" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_compile_prints_the_program_first_with_no_engine_chatter():
     # the V's checks query pybullet; its client must print nothing
     done = subprocess.run(

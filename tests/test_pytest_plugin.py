@@ -113,6 +113,7 @@ def test_a_bad_file_fails_with_file_line_col_and_no_traceback(project):
     assert "During handling" not in failure and str(project.path) not in failure  # named as the user wrote it
 
 
+@pytest.mark.slow
 def test_k_x_lf_and_junit_xml_work_on_scenario_items(project):
     write(project, "good", TOWER)
     write(project, "wrong", TOWER.replace("{stands: true}", "{collapse: 2}"))
@@ -161,6 +162,7 @@ def test_without_syrupy_a_scenario_item_names_the_extra(project, monkeypatch):
     assert not any("fixture 'snapshot' not found" in line for line in result.outlines)
 
 
+@pytest.mark.slow
 def test_xdist_runs_scenario_items(project):
     pytest.importorskip("xdist")
     for name in ("a", "b"):
@@ -192,6 +194,7 @@ def test_the_golden_fixture_keeps_same_named_tests_of_two_files_apart(pytester):
     assert "Can not relate" not in result.stdout.str()
 
 
+@pytest.mark.slow
 def test_the_golden_fixture_says_what_changed_by_key_before_the_diff(pytester):
     pytester.makefile(".toml", pyproject="[tool.pytest.ini_options]\n")
     test = "def test_mine(golden):\n    assert golden == {'a': 1.0, 'b': {'c': [1, 2], 'd': %r}}\n"
@@ -235,6 +238,7 @@ def test_an_interrupted_golden_update_leaves_the_old_file_whole(tmp_path, monkey
     assert stored.read_text() == "new\n"
 
 
+@pytest.mark.slow
 def test_a_failed_scenario_keeps_its_pictures_when_asked(project):
     write(project, "tower", TOWER.replace("{stands: true}", "{collapse: 2}"))
     write(project, "fine", TOWER)
@@ -250,6 +254,7 @@ def test_a_failed_scenario_keeps_its_pictures_when_asked(project):
     assert not (project.path / "test-results" / "scenarios-fine").exists()  # it passed
 
 
+@pytest.mark.slow
 def test_pictures_for_every_scenario_and_none_by_default(project):
     write(project, "fine", TOWER)
     project.runpytest("--snapshot-update").assert_outcomes(passed=1)
@@ -278,6 +283,7 @@ expect:
 """
 
 
+@pytest.mark.slow
 def test_a_sweep_file_is_one_item_decided_by_its_interval_with_every_sample_in_its_golden(project):
     write(project, "walk", SWEEP.format(bound="<= 0.95"))
     project.runpytest("--snapshot-update").assert_outcomes(passed=1)
@@ -316,6 +322,7 @@ def test_an_output_folder_that_cannot_be_written_is_one_line_in_the_failure(proj
     assert "Traceback" not in text and "NotADirectoryError" not in text and "FileExistsError" not in text
 
 
+@pytest.mark.slow
 def test_a_missing_golden_says_to_run_with_snapshot_update(project):
     write(project, "tower", TOWER)
     result = project.runpytest()
@@ -338,6 +345,7 @@ def test_a_changed_golden_says_how_to_accept_the_change(project):
     assert "if the change is meant: rerun with --snapshot-update" in result.stdout.str()
 
 
+@pytest.mark.slow
 def test_a_folder_outside_the_configured_ones_gets_a_collection_hint(project):
     (project.path / "mine").mkdir()
     (project.path / "mine" / "tower.yaml").write_text(TOWER)
@@ -626,6 +634,7 @@ def test_snapshot_update_deletes_no_file_that_is_not_a_golden(project):
     assert {name: (folder / name).read_text() for name in notes} == notes
 
 
+@pytest.mark.slow
 def test_without_syrupy_the_snapshot_update_the_docs_give_names_the_extra(tmp_path):
     """``pytest --snapshot-update`` (the README's and the "no golden yet" message's command) was
     pytest's "unrecognized arguments" without syrupy; it runs, and the item names the extra."""

@@ -264,6 +264,7 @@ def test_a_projectile_that_froze_is_recorded_frozen():
     assert trajectory.at(freezes[-1] - 0.2).states[hammer] == ACTIVE
 
 
+@pytest.mark.slow
 def test_a_brick_pulled_out_and_let_go_of_has_no_pose():
     """A brick a hand pulls out of the tower and lets go of leaves the scene: the engine parks
     it kilometres away, where a frame put it (-4999.5, -5000, 100 m), so that a reader's

@@ -135,6 +135,7 @@ def test_replay_command_writes_the_page_and_refuses_a_file_as_its_folder(tmp_pat
     assert "golden snapshot" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_a_reports_replay_draws_the_scenarios_golden_as_ghosts_where_it_differs(tmp_path, monkeypatch):
     """check --report draws each run with draw_run, which finds the scenario's golden itself."""
     from stackdsl.draw.artefacts import draw_run, golden_of
@@ -224,6 +225,7 @@ def _write(path: Path, golden: object) -> Path:
     return path
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", BAD_GOLDENS, ids=list(BAD_GOLDENS))
 def test_a_golden_stackdsl_cannot_use_is_bad_input_given_or_found(case, tower_run, tmp_path, capsys):
     """Given to --golden or found at the scenario's own golden path: exit 2, one line naming the
@@ -277,6 +279,7 @@ def test_every_shipped_golden_reads_as_its_scenarios(slant):
         assert isinstance(read_golden(path), dict), path
 
 
+@pytest.mark.slow
 def test_a_reports_drawing_keeps_to_the_runs_deadline_and_reads_no_fifo_golden(tmp_path, monkeypatch):
     """draw_run leaves out the clip past its deadline (check --report's --timeout), draws the
     rest, and draws the replay without ghosts when the golden is a FIFO rather than block on it."""
@@ -497,6 +500,7 @@ def pulled():
     return trajectory
 
 
+@pytest.mark.slow
 def test_the_collapse_graph_is_labelled_with_the_moment_it_was_taken(pulled):
     """The page labelled the collapse graph with the time the collapse was decided, 3.1 s after
     the moment it was taken (when the collapse began), and showed it around the wrong time."""
@@ -515,6 +519,7 @@ def test_the_collapse_graph_is_labelled_with_the_moment_it_was_taken(pulled):
         assert np.allclose(node.position_mm, position, atol=0.06), (node.id, node.position_mm, position)
 
 
+@pytest.mark.slow
 def test_a_file_without_the_graphs_time_labels_it_with_the_collapses(pulled):
     meta = {k: v for k, v in pulled.meta.items() if k != "collapse_graph_time"}
     old = dataclasses.replace(pulled, meta=meta)

@@ -65,6 +65,7 @@ def parse(page: Path) -> Page:
     return p
 
 
+@pytest.mark.slow
 def test_the_report_has_a_row_per_scenario_failures_first(report):
     out, status = report
     assert status == 1  # the report changes nothing of check's verdicts
@@ -80,6 +81,7 @@ def test_the_report_has_a_row_per_scenario_failures_first(report):
     assert "stands, equilibrium" in text and "collapse, " in text and text.count("certificate") >= 2
 
 
+@pytest.mark.slow
 def test_every_picture_and_link_of_the_report_is_on_disk(report):
     out, _ = report
     page = parse(out / "index.html")
@@ -101,6 +103,7 @@ def test_the_page_is_self_contained(report):
     assert all(not src.startswith("/") for src in parse(out / "index.html").images)  # relative: the folder can move
 
 
+@pytest.mark.slow
 def test_a_picture_that_cannot_be_drawn_leaves_the_verdict_and_the_other_files(tmp_path, monkeypatch, capsys):
     import stackdsl.draw.render
 

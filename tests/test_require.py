@@ -90,6 +90,7 @@ def test_derived_quantities_of_a_known_scene():
     assert values["com_offset"] == pytest.approx(0.015)
 
 
+@pytest.mark.slow
 def test_the_acceptance_rate_is_the_chance_that_a_random_stack_stands_while_built():
     """5 bricks of a random walk stand while built with probability 1 - P(N = 3, 4, 5): the
     independent Monte Carlo (stackdsl.bench.random_stack, 10^7 stacks) gives 0.5841."""
@@ -121,12 +122,14 @@ def test_a_sample_is_a_function_of_the_seed_and_its_index():
     assert compile_scenario(template.scenario(0, next(k for k, (_, n) in enumerate(forward) if n > 1))).draws > 1
 
 
+@pytest.mark.slow
 def test_conditions_no_draw_meets_are_refused_after_the_cap():
     with pytest.raises(ScenarioError) as err:
         compile_scenario(parse_scenario(STACK + "require: [levels > 5 or overhang > 1 m]\n", "r.yaml"))
     assert err.value.field == "require[0]" and "none of 1000 draws" in err.value.message
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "condition, says, not_said",
     [
@@ -260,6 +263,7 @@ def test_the_draws_stop_at_their_time_budget(monkeypatch):
     assert all(accept(template.scenario(0, k), 0.0)[1] == accept(template.scenario(0, k))[1] for k in range(4))
 
 
+@pytest.mark.slow
 def test_check_timeout_bounds_the_draws_of_a_tall_random_stack(tmp_path, capsys):
     import time
 

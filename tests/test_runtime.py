@@ -162,6 +162,7 @@ def test_runs_are_repeatable():
     assert first.displacement == second.displacement
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("model", ["report", "equilibrium"])
 def test_fallen_bricks_are_frozen_again_where_they_lie(model):
     """A single-file stack shifted 13 mm a level falls at level 10; its bricks come to rest
@@ -236,6 +237,7 @@ def test_a_few_bricks_at_rest_on_a_large_frozen_stack_are_solved_alone(monkeypat
     assert len(calls) > heap + 1 and all(n <= trimmed for n, _ in calls[heap + 1 :])
 
 
+@pytest.mark.slow
 def test_a_tower_fallen_against_the_floor_is_frozen_again_with_the_report_model():
     """A log cabin shifted 9.5 mm a level falls at level 12 and lies against the floor and its
     own first level, held there by friction. The report's load tree cannot carry such a pile
@@ -259,6 +261,7 @@ def cabin_falling_at_26():
     return run_program(compile_scenario(parse_scenario(text, "cabin.yaml"), model="report"), RunOptions(soft_landing=False))
 
 
+@pytest.mark.slow
 def test_a_heap_resting_on_a_brick_that_fell_before_it_is_frozen_with_it(cabin_falling_at_26):
     """A log cabin shifted 4.5 mm a level falls at level 26. One of its bricks falls first
     and is frozen alone on its edge on the floor; the heap of 41 then comes to rest against
@@ -273,6 +276,7 @@ def test_a_heap_resting_on_a_brick_that_fell_before_it_is_frozen_with_it(cabin_f
     assert woken <= {e.brick for e in after}
 
 
+@pytest.mark.slow
 def test_a_heap_at_rest_as_a_whole_is_frozen_with_the_bricks_that_still_creep(cabin_falling_at_26):
     """The same heap: 0.8 s after the collapse its motion as a whole is under the rest
     thresholds (its kinetic energy is less than at them), though many of its bricks have not
@@ -288,6 +292,7 @@ def test_a_heap_at_rest_as_a_whole_is_frozen_with_the_bricks_that_still_creep(ca
     assert big[0].time - outcome.collapse.time < 0.9
 
 
+@pytest.mark.slow
 def test_a_pile_whose_top_bricks_slide_is_frozen_without_them():
     """A log cabin shifted 5.5 mm a level falls at level 21; its 39 woken bricks come to rest
     in a heap whose top bricks lean by less friction than they need, so the whole heap does

@@ -20,6 +20,7 @@ def test_the_library_holds_the_reports_capability_scenarios():
     assert {p.stem for p in SCENARIOS} >= {"four_stack", "slant_tower", "impact_top", "impact_level3"}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", [ROOT / "scenarios" / "slant_tower.yaml"], ids=["slant_tower"])
 def test_raw_mode_runs_and_reports_what_pybullet_alone_does(path):
     scenario = load_scenario(path)
@@ -32,6 +33,7 @@ def test_raw_mode_runs_and_reports_what_pybullet_alone_does(path):
 CAPABILITY = ["four_stack", "card_house", "slant_tower", "impact_top", "impact_level3"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", CAPABILITY)
 def test_the_equilibrium_model_also_gives_the_capability_outcomes(name):
     scenario = load_scenario(ROOT / "scenarios" / f"{name}.yaml")

@@ -74,6 +74,7 @@ def doc(*lines: str) -> str:
 
 
 # the schema itself ------------------------------------------------------------
+@pytest.mark.slow
 def test_the_schema_is_a_draft_2020_12_schema_with_an_id():
     schema = json_schema()
     assert schema["$schema"] == SCHEMA_DIALECT == "https://json-schema.org/draft/2020-12/schema"
@@ -749,6 +750,7 @@ def test_every_key_of_parts_and_the_new_generators_has_a_description_and_an_exam
         assert _examples_in(node), f"{model}.{name} has no example"
 
 
+@pytest.mark.slow
 def test_a_structure_is_one_layout_a_list_of_named_parts_or_a_map_of_them(validator):
     structure = json_schema()["properties"]["structure"]
     assert structure["description"] and all(_examples_in(form) for form in structure["anyOf"][1:])

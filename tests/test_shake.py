@@ -113,6 +113,7 @@ BACKENDS = [
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("backend", BACKENDS)
 @pytest.mark.parametrize("mode", ["tuned", "extension"])
 @pytest.mark.parametrize(("size", "mu", "kind"), HELD_OUT)
@@ -218,6 +219,7 @@ expect: {{toppled: 1}}
 """
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("backend", BACKENDS)
 @pytest.mark.parametrize("mode", ["raw", "tuned", "extension"])
 @pytest.mark.parametrize("text", [BESIDE_FIXTURES, TIPS_BY_A_FIXTURE], ids=["beside-stands", "tips"])

@@ -111,6 +111,7 @@ def test_a_pose_read_once_between_steps_follows_every_move():
         assert world.pose(body).position[0] > 0.1  # driven along its path: read after the step
 
 
+@pytest.mark.slow
 def test_a_tower_gives_the_same_verdict_and_graph_shelved_or_not():
     text = f"stackdsl: 1\nstructure: {{tower: {{levels: {LEVELS}}}}}\n"
     program = compile_scenario(parse_scenario(text, "tower.yaml"))
@@ -124,6 +125,7 @@ def test_a_tower_gives_the_same_verdict_and_graph_shelved_or_not():
     assert {(e.upper, e.support) for e in a.edges} == {(e.upper, e.support) for e in b.edges}
 
 
+@pytest.mark.slow
 def test_a_kept_client_simulates_as_a_new_one(monkeypatch):
     """A run on the client the last run left (emptied) gives the outcome, bitwise, that it
     gives on a new client; a run that raises disconnects its client instead of keeping it."""

@@ -122,6 +122,7 @@ def leaves(data, path=()):
         yield path, data
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["four_stack", "jenga_falls", "slope_slides"])
 def test_any_one_value_changed_in_a_shipped_golden_is_the_one_thing_named(name):
     stored = json.loads((ROOT / "golden" / "scenarios" / f"{name}.json").read_text())

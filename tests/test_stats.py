@@ -39,6 +39,7 @@ def test_t_interval_of_a_normal_sample_covers_its_mean():
     assert (low, high) == pytest.approx((x.mean() - half, x.mean() + half))
 
 
+@pytest.mark.slow
 def test_t_interval_coverage_is_95_percent():
     rng = np.random.default_rng(1)
     trials, hits = 3000, 0
@@ -81,6 +82,7 @@ def test_quantile_interval_is_the_binomial_order_statistic_interval():
     assert b.cdf(60) - b.cdf(39) >= 0.95
 
 
+@pytest.mark.slow
 def test_quantile_interval_coverage_and_standing_samples():
     # For n = 40 and q = 1/2 the interval is [x_(14), x_(27)]: it covers a continuous law's median
     # with probability P(14 <= B <= 26), B ~ Binom(40, 1/2), which is 0.9615.

@@ -83,6 +83,7 @@ def test_a_local_dask_cluster_needs_a_sensible_size():
                 pass
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "address, problem",
     [
@@ -148,6 +149,7 @@ def test_the_simulated_mean_collapse_level_agrees_with_an_independent_monte_carl
     assert sum(r.oracle_level == r.collapse_level for r in results) >= 0.95 * len(results)
 
 
+@pytest.mark.slow
 def test_the_sweep_command_writes_every_sample_and_decides_by_the_interval(tmp_path, capsys):
     (tmp_path / "s.yaml").write_text(STACK.format(levels=6, samples=16) + "expect:\n  p_stands: '<= 0.9'\n")
     out = tmp_path / "out"
@@ -172,6 +174,7 @@ def test_the_sweep_command_writes_every_sample_and_decides_by_the_interval(tmp_p
     assert (out / "histogram.png").stat().st_size > 5000
 
 
+@pytest.mark.slow
 def test_an_undecided_or_failed_expectation_exits_1(tmp_path, capsys):
     (tmp_path / "s.yaml").write_text(STACK.format(levels=10, samples=10) + "expect:\n  collapse: {mean: '4.5 ± 0.2'}\n")
     assert main(["sweep", str(tmp_path / "s.yaml"), "-j", "1", "--out", str(tmp_path / "o")]) == 1
@@ -179,6 +182,7 @@ def test_an_undecided_or_failed_expectation_exits_1(tmp_path, capsys):
     assert verdict.split()[0] in ("INCONCLUSIVE", "FAIL")
 
 
+@pytest.mark.slow
 def test_a_grid_sweep_plots_against_its_parameter(tmp_path, capsys):
     text = STACK.format(levels=4, samples=4).replace(
         "sweep: {samples: 4}", "sweep:\n  samples: 4\n  grid: {timing.placement_error: [0, 5 mm]}"
@@ -205,6 +209,7 @@ def test_sweep_refuses_what_it_cannot_run(tmp_path, capsys):
     assert main(["sweep", str(tmp_path / "s.yaml"), "--samples", "0"]) == 2
 
 
+@pytest.mark.slow
 def test_sweep_refuses_a_require_no_draw_meets_before_any_sample_runs(tmp_path, capsys, monkeypatch):
     import stackdsl.batch.sweep as sweep_module
     import stackdsl.compile.require as require_module
@@ -357,6 +362,7 @@ def test_drawn_levels_reach_as_high_as_their_highest_choice_unless_two_draws_add
     assert len(prepare([tmp_path / "c.yaml"])) == 1  # 6 + 6 levels reach 11: not refused
 
 
+@pytest.mark.slow
 def test_check_runs_a_sweep_as_one_row_beside_single_runs(tmp_path, capsys):
     (tmp_path / "walk.yaml").write_text(STACK.format(levels=6, samples=10) + "expect:\n  p_stands: '<= 0.95'\n")
     (tmp_path / "tower.yaml").write_text("stackdsl: 1\nstructure: {tower: {levels: 2}}\nexpect: {stands: true}\n")
@@ -369,6 +375,7 @@ def test_check_runs_a_sweep_as_one_row_beside_single_runs(tmp_path, capsys):
     assert "walk/histogram.png" in (report / "index.html").read_text()
 
 
+@pytest.mark.slow
 def test_check_says_why_a_sweep_did_not_hold_and_refuses_a_bad_sample(tmp_path, capsys):
     (tmp_path / "walk.yaml").write_text(STACK.format(levels=6, samples=10) + "expect:\n  collapse: {mean: '4.5 ± 0.1'}\n")
     assert main(["check", str(tmp_path / "walk.yaml"), "-j", "1"]) == 1
@@ -409,6 +416,7 @@ def test_bench_sweep_measures_a_sweep_file_on_every_executor(tmp_path, capsys):
     assert lines[-2].endswith("identical on every executor: yes")
 
 
+@pytest.mark.slow
 def test_the_loaded_rows_run_the_samples_beside_a_busy_core_and_stop_it(tmp_path, monkeypatch):
     import subprocess
 
@@ -436,6 +444,7 @@ def test_bench_sweep_refuses_a_file_with_nothing_to_sample(tmp_path, capsys):
     assert main(["bench", "sweep", "--samples", "0"]) == 2
 
 
+@pytest.mark.slow
 def test_sweep_takes_one_executor_and_checks_the_dask_address_before_saying_anything(tmp_path, capsys):
     path = tmp_path / "stack.yaml"
     path.write_text(STACK.format(levels=3, samples=2))
@@ -527,6 +536,7 @@ expect:
 """
 
 
+@pytest.mark.slow
 def test_check_of_an_undecided_sweep_says_inconclusive_everywhere_and_points_at_stackdsl_sweep(tmp_path, capsys):
     """Half its draws stand (shift beyond 60 mm tips), so 10 samples cannot decide P(stands) >= 0.5."""
     (tmp_path / "half.yaml").write_text(OVERHANG)

@@ -78,6 +78,7 @@ def test_a_sweep_that_draws_is_still_judged_by_its_interval():
     assert decide(ProportionBound(">=", 0.9), [1], exact=True).outcome == "FAIL"
 
 
+@pytest.mark.slow
 def test_a_cells_failed_expectation_points_at_its_line(tmp_path: Path, capsys):
     """The second cell expects the block to stand at 28 mm, where it slides: check names that
     cell's expectation at its line, shows the line, and JSON gives the place of each verdict."""
@@ -111,6 +112,7 @@ def test_a_per_run_expectation_in_a_sweep_is_refused_at_its_line(tmp_path: Path,
     assert "s.yaml:14:" in err and f"expect.{expectation.split(':')[0]}:" in err and "statistics over its samples" in err
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("backend", ["pybullet", "mujoco"])
 def test_the_shipped_shake_sweep_stands_below_the_tipping_threshold_and_falls_above(tmp_path: Path, capsys, backend):
     """sweeps/shake_amplitude.yaml on either engine (``sweep --backend``): the 30 x 30 x 90 mm
@@ -321,6 +323,7 @@ def test_an_exact_sweep_decides_every_statistical_expectation(exact_samples, tex
         assert v.interval is None or v.interval[0] == v.interval[1]  # no sampling interval on one run
 
 
+@pytest.mark.slow
 def test_an_exact_sweep_with_a_mean_gives_a_verdict_on_the_command_line(tmp_path: Path, capsys):
     """A grid of one sample a cell expecting a mean collapse level: sweep and check both judge it
     (this once failed with an internal error, exit 3, and check reported no file at all)."""
@@ -396,6 +399,7 @@ def test_a_fractional_mean_is_taken_where_samples_are_drawn():
     assert parse_scenario(text, "s.yaml").template.random
 
 
+@pytest.mark.slow
 def test_a_sweep_that_draws_nothing_runs_one_sample_a_cell_however_many_are_asked(tmp_path: Path, capsys):
     """Every sample of a cell is the same run: 100000 of them ran for 15 minutes to one result."""
     (tmp_path / "s.yaml").write_text(EXACT.format(expect="p_stands: '>= 0.9'"))

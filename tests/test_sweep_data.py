@@ -44,6 +44,7 @@ def swept(tmp_path_factory) -> Path:
     return folder / "out"
 
 
+@pytest.mark.slow
 def test_samples_parquet_holds_typed_si_numbers_with_their_units(swept):
     table = pq.read_table(swept / "samples.parquet")
     schema = table.schema
@@ -70,6 +71,7 @@ def test_samples_parquet_holds_typed_si_numbers_with_their_units(swept):
     ]
 
 
+@pytest.mark.slow
 def test_pandas_and_duckdb_read_the_samples(swept):
     pandas = pytest.importorskip("pandas")
     frame = pandas.read_parquet(swept / "samples.parquet")
@@ -90,6 +92,7 @@ def expected_pixels(path: Path) -> int:
     return int((np.abs(rgb - target).max(axis=2) <= 12).sum())
 
 
+@pytest.mark.slow
 def test_sweep_plots_draw_the_threshold_and_the_expectations_interval(tmp_path):
     levels = [3, 4, 4, 5, 6, None, 7, 5]
     plot_histogram(levels, tmp_path / "plain.png")
@@ -103,6 +106,7 @@ def test_sweep_plots_draw_the_threshold_and_the_expectations_interval(tmp_path):
     assert expected_pixels(tmp_path / "p.png") > 200 and expected_pixels(tmp_path / "m.png") > 200
 
 
+@pytest.mark.slow
 def test_an_expectation_of_some_cells_is_drawn_over_those_cells_only(tmp_path):
     values, cells = [0, 2, 4, 6], [[None] * 8, [None] * 7 + [3], [3, 4, None], [3, 3, 4]]
     high = [[], [], [ProportionBound("<=", 0.5)], [ProportionBound("<=", 0.5)]]  # the two cells right of 2
@@ -130,6 +134,7 @@ def test_a_histograms_bound_on_p_stands_is_a_line_on_the_stood_bar_not_text_over
     assert mask[:, : int(0.8 * mask.shape[1])].any()  # named in the legend
 
 
+@pytest.mark.slow
 def test_a_p_stands_within_a_tolerance_is_drawn_as_its_band(tmp_path):
     from stackdsl.verdicts.stats import ProportionWithin
 
@@ -145,6 +150,7 @@ def test_the_sweep_command_draws_the_expectation_on_its_plots(swept):
     assert expected_pixels(swept / "grid_p_stands.png") > 200  # the P(stands) >= 0.5 threshold
 
 
+@pytest.mark.slow
 def test_the_reports_sweep_row_links_its_samples_and_plots(tmp_path, capsys):
     (tmp_path / "s").mkdir()
     (tmp_path / "s" / "walk.yaml").write_text(GRID.format(samples=3))
@@ -155,6 +161,7 @@ def test_the_reports_sweep_row_links_its_samples_and_plots(tmp_path, capsys):
         assert (tmp_path / "r" / "walk" / name).is_file(), name
 
 
+@pytest.mark.slow
 def test_a_grid_over_the_towers_height_names_each_cells_own(tmp_path, capsys):
     """A grid over structure.tower.levels: every cell was summed up with the file's own height,
     its mean interval cut at it, and the grid plot crashed (a 95% interval below its estimate);

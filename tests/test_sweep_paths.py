@@ -53,6 +53,7 @@ def _with_grid(scene: str, key: str, values: str) -> str:
     return scene + f'sweep:\n  samples: 1\n  grid: {{"{key}": [{values}]}}\n'
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.sampled_from(sorted(SCENES)), paths(), st.sampled_from(VALUES))
 def test_any_grid_key_is_taken_or_refused_at_the_key(name, key, value):
@@ -221,6 +222,7 @@ def test_two_grid_keys_for_one_field_are_refused(scene, first, second, says):
     assert err.value.field == f"sweep.grid.{second}" and f"{says} '{first}'" in err.value.message
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.sampled_from(sorted(SCENES)), paths())
 def test_a_condition_reads_a_number_or_says_why_its_name_reads_none(name, path):
@@ -291,6 +293,7 @@ def test_a_part_of_a_list_is_read_by_its_name_or_its_index():
         assert all(p.levels >= 3 for p in drawn)
 
 
+@pytest.mark.slow
 def test_a_division_by_zero_is_said_as_such():
     with pytest.raises(ScenarioError) as err:
         parse_scenario(STACK + "require: ['1 / (2 - 2) > 0']\n", "r.yaml")

@@ -83,6 +83,7 @@ def test_a_slanted_cabin_with_a_1_mm_margin_falls_at_its_closed_form_at_every_ga
         assert result.collapse is not None and result.collapse.level == 10, f"drop gap {gap} mm"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("backend", ["pybullet", "mujoco"])
 @pytest.mark.parametrize("model", ["report", "equilibrium"])
 def test_a_scene_with_a_1_5_mm_margin_has_one_verdict_at_every_drop_gap(backend, model):

@@ -32,10 +32,11 @@ Register the ground and every brick, call ``update`` once per step, read the bri
 Source: "Simulating Object Stacking Using Stack Stability", chapter 3.
 """
 
-from ._certificate import Certificate, friction_share
+from ._certificate import Certificate
 from ._engine import ContactPoint, Engine, FakeEngine, PyBulletEngine
 from ._equilibrium import ContactPolygon, Equilibrium, RigidBlock, equilibrium_margin, is_level, solve_equilibrium
 from ._extension import StabilityConfig, StabilityEvent, StabilityExtension
+from ._friction import friction_share
 from ._geometry import Box, ContactArea, Plane, Pose, combined_hull, contains, face_overlap, hull_xy, padded_hull
 from ._graph import BrickGraph, BrickState, GraphEdge, GraphNode
 from ._impact import breaks_loose, kinetic_energy, potential_energy

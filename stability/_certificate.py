@@ -37,7 +37,6 @@ Source: stackdsl's own, on rigid-block equilibrium (Livesley 1978; Whiting et al
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -45,7 +44,8 @@ import shapely
 from shapely.geometry import Polygon
 
 from ._areas import ContactAreas, by_body
-from ._equilibrium import GRAVITY, BodyKey, ContactPolygon, RigidBlock, equilibrium_margin, solve_equilibrium
+from ._equilibrium import ContactPolygon, RigidBlock, equilibrium_margin, solve_equilibrium
+from ._friction import friction_share
 from ._graph import BrickState
 from ._leaning import pair_friction
 from ._stack import Record, Stack
@@ -56,8 +56,6 @@ MARGIN_LIMIT = 0.02
 #: the program's is solved (a brick placed well inside its support, over the edge of the load
 #: path the bricks below passed up, read 0.2 mm where the program gives 11.4).
 NARROW = 0.002
-#: The precision of :attr:`Certificate.friction`: 1/64 of the coefficients (six programs).
-FRICTION_STEP = 1 / 64
 
 
 @dataclass(frozen=True)
@@ -78,7 +76,7 @@ class Certificate:
         method: ``"load paths"`` (every brick frozen over its load path) or ``"program"``
             (the equilibrium program solved).
         friction: for a stand the program proved, the least share of every contact's friction
-            coefficient with which it still balances, to :data:`FRICTION_STEP` above
+            coefficient with which it still balances, to :data:`stability._friction.FRICTION_STEP` above
             (:func:`stability.friction_share`); 0 when vertical forces alone hold it (always with load
             paths), and when it does not stand.
     """
@@ -163,52 +161,6 @@ def certify(stack: Stack, areas: ContactAreas) -> Certificate:
 
 def _share(blocks: dict[int, RigidBlock], polygons: list[ContactPolygon[int]], stack: Stack) -> float:
     return friction_share(blocks, polygons, stack.config.gravity)
-
-
-def friction_share(
-    blocks: Mapping[BodyKey, RigidBlock], contacts: Sequence[ContactPolygon[BodyKey]], gravity: float = GRAVITY
-) -> float:
-    """The least share s of every contact's friction coefficient with which rigid-block
-    equilibrium still holds ``blocks`` on ``contacts`` (each coefficient mu taken as s mu), found
-    by bisection to :data:`FRICTION_STEP` and rounded up: 0 when they balance without friction,
-    1 when they balance only with all of it (or not at all: the caller asks this of a stand).
-    A stand that needs most of its friction rests on forces a shock or a rounded edge may not
-    give (a brick leaning on a slender column held by 73% of the wall's friction, which
-    tuned engines knock over): the share says how near the stand is to sliding, as the margin
-    says how near it is to tipping. Friction is what holds: a larger cone admits every force
-    a smaller one does, so equilibrium with s mu implies it with any larger share.
-
-    Args:
-        blocks: free blocks by key (:class:`stability.RigidBlock`).
-        contacts: the contact polygons (:class:`stability.ContactPolygon`).
-        gravity: m/s^2, acting along -z.
-
-    Raises:
-        ValueError: as :func:`stability.solve_equilibrium`.
-
-    Source: stackdsl's own, on the program of :func:`stability.solve_equilibrium`.
-
-    >>> from scipy.spatial.transform import Rotation
-    >>> turn = Rotation.from_euler("x", 0.2)  # a slope of 11.5 deg, tan 0.203, friction 0.5
-    >>> face = turn.apply([[-0.06, -0.012, 0], [0.06, -0.012, 0], [0.06, 0.012, 0], [-0.06, 0.012, 0]])
-    >>> on_slope = ContactPolygon("brick", "ramp", face, turn.apply([0, 0, 1.0]), 0.5)
-    >>> friction_share({"brick": RigidBlock(0.0106, turn.apply([0, 0, 0.004]))}, [on_slope])  # tan / mu 0.405, rounded up
-    0.40625
-    """
-    if solve_equilibrium(blocks, _scaled(contacts, 0.0), gravity=gravity).stands:
-        return 0.0
-    low, high = 0.0, 1.0
-    while high - low > FRICTION_STEP:
-        mid = (low + high) / 2
-        if solve_equilibrium(blocks, _scaled(contacts, mid), gravity=gravity).stands:
-            high = mid
-        else:
-            low = mid
-    return high
-
-
-def _scaled(contacts: Sequence[ContactPolygon[BodyKey]], share: float) -> list[ContactPolygon[BodyKey]]:
-    return [replace(c, friction=c.friction * share) for c in contacts]
 
 
 def _bare_margin(blocks: dict[int, RigidBlock], polygons: list[ContactPolygon[int]], gravity: float) -> float:

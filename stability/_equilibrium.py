@@ -195,6 +195,18 @@ def solve_equilibrium(
         vertical = _solve_vertical(blocks, contacts, gravity)
         if vertical is not None:
             return vertical
+    found = _solve(blocks, contacts, sides, gravity)
+    total = sum(b.mass for b in blocks.values()) * gravity
+    if not found.stands and sides < FINE_SIDES and found.tension < NEAR_TENSION * total:  # the pyramid's, or the blocks'?
+        return solve_equilibrium(blocks, contacts, sides=FINE_SIDES, gravity=gravity, quick=False)
+    return found
+
+
+def _solve(
+    blocks: Mapping[BodyKey, RigidBlock], contacts: Sequence[ContactPolygon[BodyKey]], sides: int, gravity: float
+) -> Equilibrium[BodyKey]:
+    """The program of :func:`solve_equilibrium` with a pyramid of ``sides`` sides, once (never
+    solved again with :data:`FINE_SIDES`)."""
     keys = list(blocks)
     if not contacts:  # nothing holds them: every block falls (none at all: they stand)
         return Equilibrium(
@@ -219,8 +231,6 @@ def solve_equilibrium(
     total = sum(b.mass for b in blocks.values()) * gravity
     forces, by_body, by_contact = _forces(result.x.reshape(n, per_point) * weight, contacts, generators, owner, keys)
     stands = tension <= 1e-7 * max(total, 1e-12)
-    if not stands and sides < FINE_SIDES and tension < NEAR_TENSION * total:  # the pyramid's, or the blocks'?
-        return solve_equilibrium(blocks, contacts, sides=FINE_SIDES, gravity=gravity, quick=False)
     mechanism = {} if stands else _mechanism(result.eqlin.marginals, keys)
     return Equilibrium(stands, tension, forces, by_body, by_contact, mechanism)
 

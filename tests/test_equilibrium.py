@@ -241,7 +241,7 @@ def test_the_friction_share_of_a_thin_ladder_is_its_closed_form(degrees):
     # a thin ladder at angle a from vertical on a floor and a wall of one coefficient mu s:
     # moments about the foot give tan a = 2 mu s / (1 - (mu s)^2) at the limit
     from stability import friction_share
-    from stability._certificate import FRICTION_STEP
+    from stability._friction import FRICTION_STEP
 
     a, mu = math.radians(degrees), 0.5
     foot = np.array([[-L * math.sin(a), -0.01, 0.0], [-L * math.sin(a), 0.01, 0.0]])
@@ -256,6 +256,32 @@ def test_the_friction_share_of_a_thin_ladder_is_its_closed_form(degrees):
     share = friction_share(ladder, contacts)
     assert closed <= share <= closed + FRICTION_STEP
     assert solve_equilibrium(ladder, [ContactPolygon(c.body, c.other, c.points, c.normal, mu * share) for c in contacts]).stands
+
+
+@pytest.mark.parametrize(("degrees", "yaw"), [(30, 20), (40, 35), (50, 20)])
+def test_the_friction_share_is_the_fine_pyramids_least_where_eight_sides_need_more(degrees, yaw):
+    # a ladder turned about the vertical against a wall needs its wall friction between the
+    # eight-sided pyramid's edges: the coarse pyramid fails where the 32-sided one stands, and the
+    # share is the fine pyramid's least, found here by trying every step from 0
+    from stability import friction_share
+    from stability._equilibrium import FINE_SIDES, _solve
+    from stability._friction import COARSE_SIDES, FRICTION_STEP
+
+    a, turn = math.radians(degrees), math.radians(yaw)
+    along, across = np.array([math.cos(turn), math.sin(turn), 0.0]), np.array([-math.sin(turn), math.cos(turn), 0.0])
+    foot, top = -L * math.sin(a) * along, np.array([0.0, 0.0, L * math.cos(a)])
+    contacts = [
+        ContactPolygon("ladder", "floor", np.array([foot - 0.01 * across, foot + 0.01 * across]), UP, 0.5),
+        ContactPolygon("ladder", "wall", np.array([top - 0.01 * across, top + 0.01 * across]), np.array([-1.0, 0, 0]), 0.5),
+    ]
+    ladder = {"ladder": RigidBlock(M, (foot + top) / 2)}
+
+    def scaled(share):
+        return [ContactPolygon(c.body, c.other, c.points, c.normal, c.friction * share) for c in contacts]
+
+    least = next(k * FRICTION_STEP for k in range(65) if _solve(ladder, scaled(k * FRICTION_STEP), FINE_SIDES, 9.81).stands)
+    assert friction_share(ladder, contacts) == least
+    assert not _solve(ladder, scaled(least), COARSE_SIDES, 9.81).stands
 
 
 def test_a_brick_on_a_level_face_needs_no_friction():

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import ast
+import importlib.util
+import py_compile
 import subprocess
 import sys
 from pathlib import Path
@@ -154,6 +156,25 @@ def test_the_startup_bench_checks_a_scenario_of_its_own(tmp_path, monkeypatch):
     small = tmp_path / "vee_stands.yaml"
     small.write_text(startup.SMALL)
     assert main(["check", str(small), "-j", "1"]) == 0
+
+
+def test_the_startup_bench_says_when_its_timings_include_compiling(tmp_path, monkeypatch):
+    from stackdsl.bench.startup import bytecode_note
+
+    package = tmp_path / "pkg"
+    package.mkdir()
+    (package / "a.py").write_text("x = 1\n")
+    (package / "b.py").write_text("y = 2\n")
+    monkeypatch.setenv("PYTHONDONTWRITEBYTECODE", "1")
+    sources = sorted(package.glob("*.py"))
+    assert "2 of the 2 modules a check imports have no compiled bytecode" in (bytecode_note(sources) or "")
+    for source in package.glob("*.py"):
+        py_compile.compile(str(source), cfile=importlib.util.cache_from_source(str(source)))
+    assert bytecode_note(sources) is None  # compiled: the timings are a user's
+    (package / "c.py").write_text("z = 3\n")
+    assert "1 of the 3 modules" in (bytecode_note(sorted(package.glob("*.py"))) or "")
+    monkeypatch.delenv("PYTHONDONTWRITEBYTECODE")
+    assert bytecode_note(sorted(package.glob("*.py"))) is None  # each start writes what it compiles
 
 
 @pytest.mark.slow

@@ -565,11 +565,14 @@ def _bench_verdicts(args: argparse.Namespace) -> int:
 
 
 def _bench_startup(args: argparse.Namespace) -> int:
-    from ..bench.startup import format_startup, measure
+    from ..bench.startup import bytecode_note, format_startup, measure
     from ..bench.versions import version_line
 
     if not 1 <= args.repeats <= 100:
         raise ScenarioError(f"--repeats must be from 1 to 100, not {args.repeats}", file="--repeats")
     print(version_line(), flush=True)
     print(format_startup(measure(args.repeats)))
+    note = bytecode_note()
+    if note is not None:
+        print(note)
     return OK

@@ -93,10 +93,22 @@ def bytecode_note(sources: list[Path] | None = None) -> str | None:
         importlib.import_module("stackdsl.cli.check")
         names = [n for n in sys.modules if n.split(".")[0] in ("stackdsl", "stability")]
         sources = sorted({Path(f) for n in names if (f := getattr(sys.modules[n], "__file__", None))})
-    missing = [p for p in sources if not Path(importlib.util.cache_from_source(str(p))).exists()]
+    missing = [p for p in sources if not _compiled(p)]
     if not missing:
         return None
     return (
         f"note: PYTHONDONTWRITEBYTECODE is set and {len(missing)} of the {len(sources)} modules a check imports have "
-        "no compiled bytecode: every start above compiled them; unset it and run once to time what an install costs"
+        "no up-to-date compiled bytecode: every start above compiled them; unset it and run once to time what an install costs"
     )
+
+
+def _compiled(source: Path) -> bool:
+    """Whether ``source`` has bytecode Python would use: a cached file whose header (PEP 552:
+    flags 0, then the source's modification time and size) matches it."""
+    try:
+        head = Path(importlib.util.cache_from_source(str(source))).read_bytes()[:16]
+        stat = source.stat()
+    except OSError:
+        return False
+    flags, mtime, size = (int.from_bytes(head[i : i + 4], "little") for i in (4, 8, 12))
+    return len(head) == 16 and flags == 0 and mtime == int(stat.st_mtime) & 0xFFFFFFFF and size == stat.st_size & 0xFFFFFFFF

@@ -5,19 +5,20 @@ they are at the end of a run: every brick a free block at its pose, the ground a
 bodies supports; a frozen brick's contacts those remembered when it froze (two frozen
 bodies report none), an active brick's from its pose and the engine's contact points: the
 exact face overlap with every body it lies on face to face, found from the poses, and for any
-other pair the engine reports, the points padded across the normal, as the leaning test builds
-them (report 3.4.2), with the corner, edge or face where the two bodies' shapes meet when the
-points have no area (:func:`stability._geometry.touching_feature`): an engine may report one point for
-two boxes not face to face, and a cantilever at rest tipped 1 deg on a table's edge, its
-counterweight's edge on its back end, rested on two corners, a diagonal its centre of mass
-lay off ("no equilibrium", 1.02 N of tension, ten bricks' weight, for a structure rigid
-statics holds). When forces exist that balance every block, the program's
-solution proves that the structure stands; the margin says how far every centre of mass
-could move together before it would not (:func:`stability.equilibrium_margin`), found on the
-contacts themselves: a one- or two-point contact is padded across its normal to decide (report
-3.4.2), and the padding would widen the margin by up to its half-width (a ladder's foot strip
-reaches 1 mm under the brick), so the margin is solved again with the bare points, and is 0
-when only the padding holds the structure. When none exist, the collapse mechanism names the
+other pair the engine reports, its points. Where a pair's points have no area (one, two, or in
+a line), frozen or not, they are taken with the corner, edge or face where the two bodies'
+shapes meet (:meth:`stability._areas.ContactAreas.shaped`), bare: an engine may report one
+point for two boxes not face to face, and a cantilever at rest tipped 1 deg on a table's edge,
+its counterweight's edge on its back end, rested on two corners, a diagonal its centre of mass
+lay off ("no equilibrium", 1.02 N of tension, ten bricks' weight, for a structure rigid statics
+holds); and the leaning test's padding across the normal (report 3.4.2) made a foot's edge a
+2 mm strip that carried a moment, on which an inverted V past its friction angle stood. Only
+where the shapes show no contact is the padding kept. When forces exist that balance every
+block, the program's solution proves that the structure stands; the margin says how far every
+centre of mass could move together before it would not (:func:`stability.equilibrium_margin`),
+found on the contacts themselves; a padding kept would widen it by up to its half-width, so it
+is solved again with those bare points, and is 0 when only the padding holds the structure.
+When none exist, the collapse mechanism names the
 bricks that must move.
 
 Most stacks need no program: when every brick is frozen and each one's centre of mass lies
@@ -44,7 +45,7 @@ import shapely
 from shapely.geometry import Polygon
 
 from ._areas import ContactAreas, by_body
-from ._equilibrium import ContactPolygon, RigidBlock, equilibrium_margin, solve_equilibrium
+from ._equilibrium import FINE_SIDES, ContactPolygon, RigidBlock, equilibrium_margin, solve_equilibrium
 from ._friction import friction_share
 from ._graph import BrickState
 from ._leaning import pair_friction
@@ -101,9 +102,9 @@ def certify(stack: Stack, areas: ContactAreas) -> Certificate:
     bricks = [r for r in stack.bodies.values() if r.state is not BrickState.GROUND]
     ground = {k for k, r in stack.bodies.items() if r.state is BrickState.GROUND}
     known = {r.body for r in bricks} | ground
-    polygons: list[ContactPolygon[int]] = [
-        c for r in bricks if r.state is BrickState.FROZEN for c in r.contacts if c.other in known
-    ]
+    polygons: list[ContactPolygon[int]] = areas.shaped(
+        [c for r in bricks if r.state is BrickState.FROZEN for c in r.contacts if c.other in known]
+    )
     active = [r for r in bricks if r.state is BrickState.ACTIVE]
     padded = any(c.core is not None for c in polygons)
     if bricks and not active and not stack.unproven:
@@ -116,7 +117,7 @@ def certify(stack: Stack, areas: ContactAreas) -> Certificate:
             if not bare:
                 return Certificate(True, 0.0, bare, (), len(bricks), (), len(polygons), "load paths")
             return Certificate(True, 0.0, bare, (), len(bricks), (), len(polygons), friction=_share(blocks, polygons, stack))
-        shift = equilibrium_margin(blocks, polygons, limit=MARGIN_LIMIT, gravity=stack.config.gravity)
+        shift = _margin(blocks, polygons, stack.config.gravity)
         if shift is None or shift <= margin:  # the paths' bound is the margin
             return Certificate(True, 0.0, margin, (), len(bricks), (), len(polygons), "load paths")
         return Certificate(True, 0.0, shift, (), len(bricks), (), len(polygons), friction=_share(blocks, polygons, stack))
@@ -138,7 +139,7 @@ def certify(stack: Stack, areas: ContactAreas) -> Certificate:
         points = by_body(stack.engine.contact_points())
         for r in active:
             touching = {o: p for o, p in areas.around(r, points).items() if frozenset((r.body, o)) not in pairs}
-            found = areas.polygons(r, touching, shapes=True)
+            found = areas.shaped(areas.polygons(r, touching, shapes=True))
             polygons += found
             pairs |= {frozenset((c.body, c.other)) for c in found}
     # a body touching nothing is in flight (a thrown brick that missed): no contact force can act
@@ -150,13 +151,14 @@ def certify(stack: Stack, areas: ContactAreas) -> Certificate:
     blocks = {r.body: RigidBlock(r.box.mass, stack.pose(r).position) for r in bricks}
     labels = {r.body: r.label for r in bricks}
     on_engine = tuple(r.label for r in sorted(active, key=lambda r: r.order))
-    shift = equilibrium_margin(blocks, polygons, limit=MARGIN_LIMIT, gravity=stack.config.gravity)
+    shift = _margin(blocks, polygons, stack.config.gravity)
     if shift is not None:  # it stands, and by how much: on the contacts themselves
         bare = _bare_margin(blocks, polygons, stack.config.gravity) if any(c.core is not None for c in polygons) else shift
         return Certificate(True, 0.0, bare, (), len(bricks), on_engine, len(polygons), friction=_share(blocks, polygons, stack))
     result = solve_equilibrium(blocks, polygons, gravity=stack.config.gravity)
     mechanism = tuple(labels[b] for b in stack.ordered(result.moving()))
-    return Certificate(result.stands, result.tension, 0.0, mechanism, len(bricks), on_engine, len(polygons))
+    share = _share(blocks, polygons, stack) if result.stands else 0.0
+    return Certificate(result.stands, result.tension, 0.0, mechanism, len(bricks), on_engine, len(polygons), friction=share)
 
 
 def _share(blocks: dict[int, RigidBlock], polygons: list[ContactPolygon[int]], stack: Stack) -> float:
@@ -167,7 +169,18 @@ def _bare_margin(blocks: dict[int, RigidBlock], polygons: list[ContactPolygon[in
     """Metres of :func:`stability.equilibrium_margin` with every padded contact polygon replaced by
     its own contact points (``core``); 0 when they alone hold nothing."""
     bare = [replace(c, points=c.core) if c.core is not None else c for c in polygons]
-    return equilibrium_margin(blocks, bare, limit=MARGIN_LIMIT, gravity=gravity) or 0.0
+    return _margin(blocks, bare, gravity) or 0.0
+
+
+def _margin(blocks: dict[int, RigidBlock], polygons: list[ContactPolygon[int]], gravity: float) -> float | None:
+    """Metres of :func:`stability.equilibrium_margin` (None: no balance), with the eight-sided
+    pyramid and, when that finds none, with the fine one: between its edges eight sides keep
+    only cos(pi/8) of a coefficient, and a ladder turned 30 deg against a wall, needing 95% of
+    its friction out of its plane, read a margin of 0 where it has 0.66 mm."""
+    found = equilibrium_margin(blocks, polygons, limit=MARGIN_LIMIT, gravity=gravity)
+    if found is None:
+        found = equilibrium_margin(blocks, polygons, limit=MARGIN_LIMIT, gravity=gravity, sides=FINE_SIDES)
+    return found
 
 
 def _inside(bricks: list[Record]) -> list[float]:

@@ -65,33 +65,18 @@ def friction_share(
     """
     if solve_equilibrium(blocks, _scaled(contacts, 0.0), gravity=gravity).stands:
         return 0.0
-    grid = round(1 / FRICTION_STEP)
-    coarse = _least(blocks, contacts, gravity, COARSE_SIDES, 0, grid)
-    fails = math.floor((coarse - 1) * math.cos(math.pi / COARSE_SIDES))  # where the fine pyramid fails too
+    fails, coarse = 0, round(1 / FRICTION_STEP)  # in steps: the coarse pyramid fails at 0, stands at 1 (taken)
+    while coarse - fails > 1:
+        mid = (fails + coarse) // 2
+        if _stands(blocks, contacts, gravity, COARSE_SIDES, mid):
+            coarse = mid
+        else:
+            fails = mid
+    fails = math.floor(fails * math.cos(math.pi / COARSE_SIDES))  # where the fine pyramid fails too
     share = coarse  # the fine answer is near the coarse one: a step down at a time
     while share - 1 > fails and _stands(blocks, contacts, gravity, FINE_SIDES, share - 1):
         share -= 1
-    return share / grid
-
-
-def _least(
-    blocks: Mapping[BodyKey, RigidBlock],
-    contacts: Sequence[ContactPolygon[BodyKey]],
-    gravity: float,
-    sides: int,
-    fails: int,
-    stands: int,
-) -> int:
-    """The least multiple of :data:`FRICTION_STEP` (as its count of steps) in (``fails``,
-    ``stands``] at which the pyramid of ``sides`` stands, by bisection: known to fail at
-    ``fails`` steps and taken to stand at ``stands``."""
-    while stands - fails > 1:
-        mid = (fails + stands) // 2
-        if _stands(blocks, contacts, gravity, sides, mid):
-            stands = mid
-        else:
-            fails = mid
-    return stands
+    return share * FRICTION_STEP
 
 
 def _stands(

@@ -158,17 +158,13 @@ class ContactAreas:
         touching: dict[int, list[ContactPoint]],
         skip: AbstractSet[int] = frozenset(),
         known: dict[int, ContactArea] | None = None,
-        shapes: bool = False,
         pose: Pose | None = None,
     ) -> list[ContactPolygon[int]]:
         """One contact polygon per touched body (report 3.4.2): the exact face overlap where
         ``rec`` lies face to face on it, else the contact points padded across the normal.
         ``known``: contact areas already found for some of these bodies (from :meth:`supports`).
-        ``shapes``: where the points have no area (one or two, or in a line), the corner, edge
-        or face the two bodies meet at is found from their shapes and poses, within the face
-        gap (:func:`stability._geometry.touching_feature`), and padded with the points: the
-        certificate's, since an engine may show an edge's contact as one point. ``pose``:
-        ``rec``'s, the engine's when None."""
+        ``pose``: ``rec``'s, the engine's when None. The certificate takes these with the
+        shapes' corner, edge or face instead of the padding (:meth:`shaped`)."""
         out = []
         pose = pose if pose is not None else self.stack.engine.pose(rec.body)
         known = known or {}
@@ -188,51 +184,34 @@ class ContactAreas:
             normal /= np.linalg.norm(normal)
             own = np.array([c.position for c in points])
             polygon, padded = lean_polygon_padded(own, normal, self.config.contact_pad)
-            if padded and shapes:
-                own, polygon, padded = self._feature(rec, pose, o, own, normal, polygon, padded)
             out.append(ContactPolygon(rec.body, other, polygon, normal, friction, own if padded else None))
         return out
 
     def shaped(self, contacts: Sequence[ContactPolygon[int]]) -> list[ContactPolygon[int]]:
         """``contacts`` with each padded one (one or two engine points, or points in a line, padded
         across the normal: ``core`` set) replaced by where the two bodies' shapes meet at their
-        poses now (:func:`stability._geometry.touching_feature`), with its points: a face where it
-        has area, else the bare edge or corner. Padding lets a contact carry a moment a real edge
-        cannot (an inverted V at 28 deg, tan 0.53 against friction 0.5, stood on its feet' 2 mm
-        strips); where the shapes show no contact within the face gap, the padded one is kept.
-        Source: stackdsl's own."""
-        out = []
+        poses now (:func:`stability._geometry.touching_feature`, within the face gap), with its
+        points: a face where it has area, else the bare edge or corner. An engine may show an
+        edge's contact as one point; and padding lets a contact carry a moment a real edge cannot
+        (an inverted V at 28 deg, tan 0.53 against friction 0.5, stood on its feet's 2 mm strips).
+        Where the shapes show no contact (or exact areas are off: a face gap <= 0), the padded
+        one is kept. Source: stackdsl's own."""
+        gap, out = self.config.face_gap, []
         for c in contacts:
-            if c.core is None:
+            if c.core is None or gap <= 0.0:
                 out.append(c)
                 continue
             rec, other = self.stack.bodies[c.body], self.stack.bodies[c.other]
             normal = np.asarray(c.normal, dtype=float)
-            own, _, _ = self._feature(rec, self.stack.pose(rec), other, np.asarray(c.core, dtype=float), normal, c.points, True)
-            if len(own) == len(c.core):  # no feature found: the padding stays
+            other_pose = None if isinstance(other.shape, Plane) else self.stack.pose(other)
+            found = touching_feature(rec.box, self.stack.pose(rec), other.shape, other_pose, normal, gap)
+            if found is None:
                 out.append(c)
                 continue
-            polygon, padded = lean_polygon_padded(own, normal, self.config.contact_pad)
-            out.append(ContactPolygon(c.body, c.other, own if padded else polygon, normal, c.friction))
+            both = np.vstack([np.asarray(c.core, dtype=float), found])
+            polygon, padded = lean_polygon_padded(both, normal, self.config.contact_pad)
+            out.append(ContactPolygon(c.body, c.other, both if padded else polygon, normal, c.friction))
         return out
-
-    def _feature(
-        self, rec: Record, pose: Pose, other: Record, own: np.ndarray, normal: np.ndarray, polygon: np.ndarray, padded: bool
-    ) -> tuple[np.ndarray, np.ndarray, bool]:
-        """The contact points ``own`` of ``rec`` at ``pose`` with ``other`` (their ``polygon``
-        across ``normal``, ``padded``) with the vertices of the corner, edge or face the two
-        bodies meet at (:meth:`polygons`): as they were when the shapes show no contact
-        within the face gap."""
-        gap = self.config.face_gap
-        if gap <= 0.0:  # exact areas turned off: the engine's points alone
-            return own, polygon, padded
-        other_pose = None if isinstance(other.shape, Plane) else self.stack.pose(other)
-        found = touching_feature(rec.box, pose, other.shape, other_pose, normal, gap)
-        if found is None:
-            return own, polygon, padded
-        both = np.vstack([own, found])
-        polygon, padded = lean_polygon_padded(both, normal, self.config.contact_pad)
-        return both, polygon, padded
 
     def boxes(self, active: bool = False) -> Boxes:
         """The bounding boxes :meth:`lying_on` looks among: of the frozen bricks and environment

@@ -139,7 +139,7 @@ def certify(stack: Stack, areas: ContactAreas) -> Certificate:
         points = by_body(stack.engine.contact_points())
         for r in active:
             touching = {o: p for o, p in areas.around(r, points).items() if frozenset((r.body, o)) not in pairs}
-            found = areas.shaped(areas.polygons(r, touching, shapes=True))
+            found = areas.shaped(areas.polygons(r, touching))
             polygons += found
             pairs |= {frozenset((c.body, c.other)) for c in found}
     # a body touching nothing is in flight (a thrown brick that missed): no contact force can act

@@ -38,6 +38,7 @@ Source: stackdsl's own, on rigid-block equilibrium (Livesley 1978; Whiting et al
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -45,8 +46,8 @@ import shapely
 from shapely.geometry import Polygon
 
 from ._areas import ContactAreas, by_body
-from ._equilibrium import FINE_SIDES, ContactPolygon, RigidBlock, equilibrium_margin, solve_equilibrium
-from ._friction import friction_share
+from ._equilibrium import FINE_SIDES, LEVEL_TILT, ContactPolygon, RigidBlock, equilibrium_margin, solve_equilibrium
+from ._friction import FRICTION_STEP, friction_share
 from ._graph import BrickState
 from ._leaning import pair_friction
 from ._stack import Record, Stack
@@ -78,8 +79,9 @@ class Certificate:
             (the equilibrium program solved).
         friction: for a stand the program proved, the least share of every contact's friction
             coefficient with which it still balances, to :data:`stability._friction.FRICTION_STEP` above
-            (:func:`stability.friction_share`); 0 when vertical forces alone hold it (always with load
-            paths), and when it does not stand.
+            (:func:`stability.friction_share`); with load paths, the share their vertical forces
+            need on supports out of level (:func:`_path_share`); 0 when vertical forces on level
+            faces hold it, and when it does not stand.
     """
 
     stands: bool
@@ -109,17 +111,18 @@ def certify(stack: Stack, areas: ContactAreas) -> Certificate:
     padded = any(c.core is not None for c in polygons)
     if bricks and not active and not stack.unproven:
         margin = min(_inside(bricks))
+        paths = _path_share(polygons, stack.config.support_angle)
         if margin >= NARROW and not padded:  # a lower bound, wide enough to say: the paths prove it
-            return Certificate(True, 0.0, min(margin, MARGIN_LIMIT), (), len(bricks), (), len(polygons), "load paths")
+            return Certificate(True, 0.0, min(margin, MARGIN_LIMIT), (), len(bricks), (), len(polygons), "load paths", paths)
         blocks = {r.body: RigidBlock(r.box.mass, stack.pose(r).position) for r in bricks}
         if padded:  # the paths prove the stand; its margin is the bare contacts' (0: the padding's alone)
             bare = _bare_margin(blocks, polygons, stack.config.gravity)
             if not bare:
-                return Certificate(True, 0.0, bare, (), len(bricks), (), len(polygons), "load paths")
+                return Certificate(True, 0.0, bare, (), len(bricks), (), len(polygons), "load paths", paths)
             return Certificate(True, 0.0, bare, (), len(bricks), (), len(polygons), friction=_share(blocks, polygons, stack))
         shift = _margin(blocks, polygons, stack.config.gravity)
         if shift is None or shift <= margin:  # the paths' bound is the margin
-            return Certificate(True, 0.0, margin, (), len(bricks), (), len(polygons), "load paths")
+            return Certificate(True, 0.0, margin, (), len(bricks), (), len(polygons), "load paths", paths)
         return Certificate(True, 0.0, shift, (), len(bricks), (), len(polygons), friction=_share(blocks, polygons, stack))
     pairs = {frozenset((c.body, c.other)) for c in polygons}
     if active:
@@ -163,6 +166,26 @@ def certify(stack: Stack, areas: ContactAreas) -> Certificate:
 
 def _share(blocks: dict[int, RigidBlock], polygons: list[ContactPolygon[int]], stack: Stack) -> float:
     return friction_share(blocks, polygons, stack.config.gravity)
+
+
+def _path_share(polygons: list[ContactPolygon[int]], support_angle: float) -> float:
+    """The share of the friction coefficients the load paths' vertical forces need: on a support
+    (a contact whose normal is within ``support_angle`` degrees of straight up) tilted by t, a
+    vertical force needs tan t of its normal part as friction, tan t / mu of the pair's
+    coefficient. A brick frozen on a 20 deg ramp of pine (mu 0.5) needs 73%, where its
+    certificate named no friction. Supports within :data:`stability._equilibrium.LEVEL_TILT` of
+    level (an engine's noise) need none. Rounded up to :data:`stability._friction.FRICTION_STEP`,
+    at most 1. Source: stackdsl's own (Coulomb's law, report eq. 12)."""
+    need, upright = 0.0, math.cos(math.radians(support_angle))
+    for c in polygons:
+        x, y, z = (float(v) for v in np.asarray(c.normal, dtype=float).ravel())
+        length = math.sqrt(x * x + y * y + z * z)
+        if z < upright * length:  # not a support: it carries no part of a load path
+            continue
+        tan = math.sqrt(x * x + y * y) / z
+        if tan > LEVEL_TILT:
+            need = max(need, tan / c.friction if c.friction > 0.0 else math.inf)
+    return min(1.0, math.ceil(need / FRICTION_STEP) * FRICTION_STEP)
 
 
 def _bare_margin(blocks: dict[int, RigidBlock], polygons: list[ContactPolygon[int]], gravity: float) -> float:

@@ -1066,3 +1066,20 @@ structure:
         assert c.margin_mm == pytest.approx(0.66, abs=0.15), (mode, c)
         found = re.search(r"needing (\d+)% of each friction coefficient", c.detail)
         assert found is not None and 95 <= int(found.group(1)) <= 98, (mode, c.detail)
+
+
+def test_a_brick_frozen_on_a_ramp_names_the_friction_its_load_path_needs():
+    # a brick on a fixed 20 deg pine ramp is frozen by the basic test (20 deg is inside pine's
+    # friction angle, 26.6 deg) and certified by its load path; a vertical force on a face tilted
+    # 20 deg needs tan 20 deg = 0.364 of its normal part as friction: 73% of mu 0.5 (47/64: 74%)
+    text = """stackdsl: 1
+brick_types:
+  ramp: {size: [300 mm, 100 mm, 20 mm], material: pine}
+structure:
+  bricks:
+    - {id: ramp, brick: ramp, at: [0, 0, 100 mm], pitch: -20, fixed: true}
+    - {id: slider, at: [-4.788 mm, 0, 113.156 mm], pitch: -20}
+"""
+    c = run_program(compile_scenario(parse_scenario(text))).certificate
+    assert c is not None and c.verdict == "stands" and "load path" in c.detail, c
+    assert c.detail.endswith(", needing 74% of each friction coefficient"), c.detail

@@ -327,6 +327,7 @@ class CollapseMonitor(Subscriber):
                         if certificate.bricks != 1
                         else "the brick frozen over its load path to the ground"
                     )
+                    + _friction(certificate.friction)
                     if certificate.method == "load paths"
                     else f"the equilibrium program balances {_count(certificate.bricks, 'brick')} on "
                     f"{_count(certificate.contacts, 'contact')}{_friction(certificate.friction)}"
@@ -798,9 +799,10 @@ def _count(n: int, noun: str) -> str:
 
 
 def _friction(share: float) -> str:
-    """What a stand the program proved asks of friction (:attr:`stability.Certificate.friction`),
-    for its certificate's words: ``", needing 73% of each friction coefficient"``; nothing
-    when vertical forces hold it."""
+    """What a stand asks of friction (:attr:`stability.Certificate.friction`: the program's least
+    share, or what the load paths' vertical forces need on supports out of level), for its
+    certificate's words: ``", needing 73% of each friction coefficient"``; nothing when vertical
+    forces on level faces hold it."""
     if share <= 0.0:
         return ""
     return f", needing {math.ceil(share * 100)}% of each friction coefficient"

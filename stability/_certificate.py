@@ -111,18 +111,22 @@ def certify(stack: Stack, areas: ContactAreas) -> Certificate:
     padded = any(c.core is not None for c in polygons)
     if bricks and not active and not stack.unproven:
         margin = min(_inside(bricks))
-        paths = _path_share(polygons, stack.config.support_angle)
+
+        def by_paths(width: float) -> Certificate:  # with what the paths' vertical forces need of friction
+            share = _path_share(polygons, stack.config.support_angle)
+            return Certificate(True, 0.0, width, (), len(bricks), (), len(polygons), "load paths", share)
+
         if margin >= NARROW and not padded:  # a lower bound, wide enough to say: the paths prove it
-            return Certificate(True, 0.0, min(margin, MARGIN_LIMIT), (), len(bricks), (), len(polygons), "load paths", paths)
+            return by_paths(min(margin, MARGIN_LIMIT))
         blocks = {r.body: RigidBlock(r.box.mass, stack.pose(r).position) for r in bricks}
         if padded:  # the paths prove the stand; its margin is the bare contacts' (0: the padding's alone)
             bare = _bare_margin(blocks, polygons, stack.config.gravity)
             if not bare:
-                return Certificate(True, 0.0, bare, (), len(bricks), (), len(polygons), "load paths", paths)
+                return by_paths(bare)
             return Certificate(True, 0.0, bare, (), len(bricks), (), len(polygons), friction=_share(blocks, polygons, stack))
         shift = _margin(blocks, polygons, stack.config.gravity)
         if shift is None or shift <= margin:  # the paths' bound is the margin
-            return Certificate(True, 0.0, margin, (), len(bricks), (), len(polygons), "load paths", paths)
+            return by_paths(margin)
         return Certificate(True, 0.0, shift, (), len(bricks), (), len(polygons), friction=_share(blocks, polygons, stack))
     pairs = {frozenset((c.body, c.other)) for c in polygons}
     if active:

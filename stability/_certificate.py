@@ -180,15 +180,19 @@ def _path_share(polygons: list[ContactPolygon[int]], support_angle: float) -> fl
     certificate named no friction. Supports within :data:`stability._equilibrium.LEVEL_TILT` of
     level (an engine's noise) need none. Rounded up to :data:`stability._friction.FRICTION_STEP`,
     at most 1. Source: stackdsl's own (Coulomb's law, report eq. 12)."""
-    need, upright = 0.0, math.cos(math.radians(support_angle))
-    for c in polygons:
-        x, y, z = (float(v) for v in np.asarray(c.normal, dtype=float).ravel())
-        length = math.sqrt(x * x + y * y + z * z)
-        if z < upright * length:  # not a support: it carries no part of a load path
-            continue
-        tan = math.sqrt(x * x + y * y) / z
-        if tan > LEVEL_TILT:
-            need = max(need, tan / c.friction if c.friction > 0.0 else math.inf)
+    if not polygons:
+        return 0.0
+    normals = np.array([c.normal for c in polygons], dtype=float).reshape(-1, 3)  # one array: a tower's hundreds
+    up = normals[:, 2]
+    support = up >= math.cos(math.radians(support_angle)) * np.linalg.norm(normals, axis=1)
+    tan = np.hypot(normals[:, 0], normals[:, 1]) / np.where(support, up, 1.0)
+    steep = support & (tan > LEVEL_TILT)
+    if not steep.any():
+        return 0.0
+    mu = np.array([c.friction for c in polygons], dtype=float)[steep]
+    if not (mu > 0.0).all():  # a frictionless support out of level: all of any friction
+        return 1.0
+    need = float(np.max(tan[steep] / mu))
     return min(1.0, math.ceil(need / FRICTION_STEP) * FRICTION_STEP)
 
 

@@ -1083,3 +1083,21 @@ structure:
     c = run_program(compile_scenario(parse_scenario(text))).certificate
     assert c is not None and c.verdict == "stands" and "load path" in c.detail, c
     assert c.detail.endswith(", needing 74% of each friction coefficient"), c.detail
+
+
+@pytest.mark.parametrize(
+    ("normal", "friction", "share"),
+    [
+        ((math.sin(math.radians(20)), 0.0, math.cos(math.radians(20))), 0.5, 47 / 64),  # tan 20 / 0.5 = 0.728, up
+        ((math.sin(math.radians(20)), 0.0, math.cos(math.radians(20))), 0.0, 1.0),  # frictionless, out of level
+        ((1.0, 0.0, 0.0), 0.5, 0.0),  # a wall's contact carries no load path
+        ((0.0, 0.0, 1.0), 0.5, 0.0),  # level: vertical forces need none
+        ((1e-5, 0.0, 1.0), 0.0, 0.0),  # an engine's noise on a level face, even frictionless
+    ],
+)
+def test_what_a_load_paths_vertical_forces_need_of_friction(normal, friction, share):
+    from stability import ContactPolygon
+    from stability._certificate import _path_share
+
+    contact = ContactPolygon(1, 0, np.zeros((1, 3)), np.array(normal), friction)
+    assert _path_share([contact], 30.0) == share

@@ -132,6 +132,13 @@ class EngineSettings(_Frozen):
     ccd: bool = False
     gravity: float = 9.81
 
+    @property
+    def contact_margin(self) -> float:
+        """Metres within which the engine's contacts, not the geometry, decide whether two bodies
+        touch and where: a brick whose centre of mass is closer than this to its support
+        polygon's edge is a near tie that the engine may decide either way (0: none known)."""
+        return 0.0
+
     def details(self) -> str:
         """The engine's own settings, as text (``stackdsl compile``)."""
         return f"continuous collision detection for thrown bricks {'on' if self.ccd else 'off'}"

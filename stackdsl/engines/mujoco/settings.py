@@ -134,6 +134,12 @@ class MuJoCoSettings(EngineSettings):
     solimp: tuple[float, float, float] = (0.9, 0.95, 0.001)
     sleep_tolerance: float | None = None
 
+    @property
+    def contact_margin(self) -> float:
+        """The width of the contacts' impedance (``solimp``'s third value, m): how deep MuJoCo's
+        soft contacts reach before they are stiff (1 mm raw, 0.1 mm tuned)."""
+        return self.solimp[2]
+
     def details(self) -> str:
         on = {True: "on", False: "off"}
         sleep = "off" if self.sleep_tolerance is None else f"tolerance {self.sleep_tolerance:g}"

@@ -76,6 +76,12 @@ class PyBulletSettings(EngineSettings):
     friction_anchors: bool = False
     maximal_coordinates: bool = False
 
+    @property
+    def contact_margin(self) -> float:
+        """1 mm: the collision margin of pybullet's box shapes, within which a brick near its
+        support's edge is tipped or kept by the engine's contact points (docs/design.md)."""
+        return 0.001
+
     def details(self) -> str:
         on = {True: "on", False: "off"}
         return (

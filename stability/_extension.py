@@ -34,9 +34,11 @@ from ._certificate import Certificate, certify
 from ._config import StabilityConfig
 from ._debris import Debris
 from ._engine import Engine
-from ._geometry import Box, Plane, Pose, corners_of
+from ._equilibrium import ContactPolygon
+from ._geometry import FACE_TILT, Box, Plane, Pose, corners_of
 from ._graph import BrickGraph, BrickState, GraphEdge, GraphNode
 from ._impact import Impacts
+from ._leaning import pair_friction
 from ._load import LoadNode, propagate
 from ._shake import withstands
 from ._stack import Record, StabilityEvent, Stack
@@ -165,6 +167,8 @@ class StabilityExtension:
             for rec in due:
                 events += self._admit(rec, contacts, time)
             stack.forget_contacts()
+            if stack.just_frozen:
+                self._carry_above(stack.just_frozen)
         if stack.watched:
             events += [w.event for w in stack.moved_away(time, WATCH)]
         if stack.frozen:
@@ -206,6 +210,42 @@ class StabilityExtension:
         if woken:
             rec.failed = None
         return woken
+
+    def _carry_above(self, frozen: set[int]) -> None:
+        """Each brick of ``frozen`` (frozen in this step) carries the frozen bricks that lie on it
+        face to face and do not rest on it yet: a brick that froze while this one was still
+        active (woken by a blow, say) left it out of its supports, and its load would go to its
+        other supports alone. So the brick graph, and the loads, are the geometry's whichever of
+        two bricks froze first (report Figure 3's restOn; stackdsl's own rule). Only a brick with
+        a frozen brick higher than its top is looked at (one frozen on top of a stack has none),
+        and only a level face (within :data:`stability._geometry.FACE_TILT`): debris lying tilted
+        on debris is its pile's."""
+        stack = self._stack
+        extents = {r.body: r.extent for r in stack.frozen.values() if r.extent is not None}
+        highest = max((e[0] for e in extents.values()), default=-np.inf)
+        gap = stack.config.face_gap
+        for body in sorted(frozen):
+            below = stack.bodies.get(body)
+            if below is None or below.state is not BrickState.FROZEN or below.extent is None or below.extent[0] + gap >= highest:
+                continue
+            top, x0, x1, y0, y1 = below.extent
+            for above in list(stack.frozen.values()):
+                if above.body == body or body in above.rests_on or above.body in below.rests_on:
+                    continue
+                if above.body not in extents:
+                    continue
+                upper, u0, u1, v0, v1 = extents[above.body]
+                if upper <= top or u1 < x0 or u0 > x1 or v1 < y0 or v0 > y1:
+                    continue
+                area = self._areas.face_to_face(above, below)
+                if area is None or area.normal[2] < FACE_TILT:  # debris lying tilted on debris: a pile's own
+                    continue
+                above.rests_on = {**above.rests_on, body: area}
+                above.node = LoadNode(above.box.mass, stack.pose(above).position, above.rests_on)
+                if not any(c.other == body for c in above.contacts):
+                    friction = pair_friction(above.friction, below.friction)
+                    above.contacts = [*above.contacts, ContactPolygon(above.body, body, area.corners(), area.normal, friction)]
+                stack.loads_fresh, stack.version = False, stack.version + 1
 
     def _release(self, held: list[Record], resting: set[int], time: float) -> None:
         """Let go of each brick of ``held`` (in order), held active since it was woken in a

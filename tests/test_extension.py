@@ -556,3 +556,33 @@ def test_the_graph_of_a_heap_of_active_bricks_looks_at_each_box_once(monkeypatch
     rests = {(e.upper, e.support) for e in graph.edges}
     assert rests == {(f"b{u}", f"b{b}") for u, b in zip(upper, lower)} | {(f"b{b}", "ground") for b in lower}
     assert calls < 10 * 2 * n  # a few a brick, not one for each pair (2n * 2n = 14400)
+
+
+JENGA = """\
+stackdsl: 1
+materials: {maple: {density: 700 kg/m^3, friction: 0.4}}
+brick_types: {jenga: {size: [75 mm, 25 mm, 15 mm], material: maple}}
+ground: {material: maple}
+structure: {tower: {levels: 5, bricks_per_layer: 3, spacing: 25.5 mm, turn: 90, brick: jenga}}
+timing: {interval: 0.5 s, settle: 1 s}
+actions: [{remove: {brick: L02.2, at: after level 5, speed: 150 mm/s}}]
+expect: {stands: true}
+"""
+
+
+def test_a_brick_woken_and_frozen_again_before_its_supports_rests_on_all_of_them():
+    """A pull wakes the bricks above it; those that freeze again before a brick under them does
+    rest on it once it freezes too: each brick of a Jenga tower rests on every brick of the level
+    below that is still there (three, or two over the pulled one), whichever froze first, and the
+    load is shared among them (a third each), not piled on the middle one."""
+    from stackdsl import compile_scenario, parse_scenario, run_program
+
+    graph = run_program(compile_scenario(parse_scenario(JENGA))).golden()["final_graph"]
+    for brick, fields in graph.items():
+        level = fields["level"]
+        if level == 1:
+            continue
+        below = {b for b, f in graph.items() if f["level"] == level - 1}
+        assert set(fields["rests_on"]) == below, brick
+        shares = [s["load_share"] for s in fields["rests_on"].values()]
+        assert max(shares) - min(shares) < 0.1, (brick, shares)

@@ -333,6 +333,7 @@ class CollapseMonitor(Subscriber):
                     f"{_count(certificate.contacts, 'contact')}{_friction(certificate.friction)}"
                 ),
                 margin_mm=round(certificate.margin * 1000, 1) + 0.0,
+                friction_share=math.ceil(round(certificate.friction * 100, 6)) / 100,
             )
             return
         records = loop.structure.records

@@ -87,6 +87,9 @@ class Certificate(_Frozen):
             every brick, and ``detail`` says how many were balanced).
         margin_mm: for ``stands``, how far every centre of mass could move together before
             it would not (at most 20 mm); else None.
+        friction_share: for ``stands``, the least share of every contact's friction coefficient
+            with which it still balances (0: vertical forces on level faces hold it; see
+            :attr:`stability.Certificate.friction`), to 0.01 above; else None.
     """
 
     verdict: Literal["stands", "collapse"]
@@ -94,6 +97,7 @@ class Certificate(_Frozen):
     detail: str
     bricks: tuple[str, ...] = ()
     margin_mm: float | None = None
+    friction_share: float | None = None
 
 
 def describe_certificate(c: Certificate) -> str:
@@ -108,7 +112,11 @@ class Node(_Frozen):
     ``quaternion_xyzw`` is its orientation as scipy writes a quaternion, (x, y, z, w), to 3
     decimals (about 0.1 deg, as the angles were), in canonical sign (w > 0; when w rounds to 0, the first nonzero part > 0): unlike
     yaw, pitch and roll it has no gimbal lock (a standing brick's yaw and roll are one angle
-    there, and scipy warns), and a small turn changes it a little."""
+    there, and scipy warns), and a small turn changes it a little. ``displaced_mm``: how far its
+    farthest corner is from where it was placed, to 0.1 mm (None: not a structure brick, a
+    thrown body or a pusher): beyond the collapse threshold it is debris, and where a brick
+    comes to rest is chaos's in proportion to how far it was knocked
+    (:mod:`stackdsl.verdicts.golden_compare`)."""
 
     id: str
     level: int | None
@@ -117,6 +125,7 @@ class Node(_Frozen):
     quaternion_xyzw: Vec4
     com_above_mm: Vec3
     mass_above_g: float
+    displaced_mm: float | None = None
 
     @property
     def yaw_pitch_roll_deg(self) -> Vec3:
@@ -144,8 +153,10 @@ class Graph(_Frozen):
     edges: tuple[Edge, ...]
 
     @classmethod
-    def from_stability(cls, graph: BrickGraph, levels: dict[str, int]) -> Graph:
-        """Round and rename a :class:`stability.BrickGraph`; ``levels`` maps ids to levels."""
+    def from_stability(cls, graph: BrickGraph, levels: dict[str, int], displaced: dict[str, float] | None = None) -> Graph:
+        """Round and rename a :class:`stability.BrickGraph`; ``levels`` maps ids to levels;
+        ``displaced``: structure brick id -> metres its farthest corner is from where it was placed."""
+        displaced = displaced or {}
         turns = canonical_quaternions([n.pose.orientation for n in graph.nodes])
         nodes = tuple(
             Node(
@@ -156,6 +167,7 @@ class Graph(_Frozen):
                 quaternion_xyzw=turn,
                 com_above_mm=_mm(n.com_above),
                 mass_above_g=_round(n.mass_above * 1000, 1),
+                displaced_mm=_round(displaced[n.label] * 1000, 1) if n.label in displaced else None,
             )
             for n, turn in zip(graph.nodes, turns, strict=True)
         )
@@ -173,8 +185,9 @@ class Graph(_Frozen):
 
     def bricks(self) -> dict[str, dict[str, Any]]:
         """The graph as plain data, one entry per brick (the ground left out): brick id ->
-        level, state, position (mm), yaw/pitch/roll (deg), centre of mass above (mm), mass
-        above (g), and ``rests_on``: support id -> contact area (mm^2) and load share."""
+        level, state, position (mm), orientation (quaternion), centre of mass above (mm), mass
+        above (g), ``rests_on``: support id -> contact area (mm^2) and load share, and
+        ``displaced_mm``: how far from where it was placed (None: not a structure brick)."""
         supports: dict[str, dict[str, dict[str, float]]] = {}
         for e in self.edges:
             supports.setdefault(e.upper, {})[e.support] = {"area_mm2": e.area_mm2, "load_share": e.load_share}
@@ -187,6 +200,7 @@ class Graph(_Frozen):
                 "com_above_mm": list(n.com_above_mm),
                 "mass_above_g": n.mass_above_g,
                 "rests_on": supports.get(n.id, {}),
+                "displaced_mm": n.displaced_mm,
             }
             for n in self.nodes
             if n.state != "ground"
@@ -225,6 +239,8 @@ class Outcome(_Frozen):
             in placing order; ``toppled: all`` counts them as standing.
         not_run: the actions (impacts, pulls, pushes, shakes) a collapse ended the run before,
             each in a few words, as "remove L06.2 at 29.83 s".
+        collapse_threshold_mm: the run's collapse threshold, mm (a brick farther from where it
+            was placed has moved: :attr:`Node.displaced_mm`).
         stopped: None when the run went to its end; else why and where it stopped early,
             e.g. ``"timeout after 120 s at t = 37.2 s simulated (of 201 s)"`` (the rest of
             the outcome then covers the simulated time so far, and the expectations fail:
@@ -256,10 +272,11 @@ class Outcome(_Frozen):
     unplaced: tuple[str, ...] = ()
     stopped: str | None = None
     not_run: tuple[str, ...] = ()
+    collapse_threshold_mm: float = 4.0
 
     def golden(self) -> dict[str, Any]:
-        """Plain JSON data for a golden snapshot: what was built, the collapse record, the
-        certificate (without its words, which carry unrounded numbers), and the brick graphs at
+        """Plain JSON data for a golden snapshot: what was built, how many bricks toppled, the
+        collapse record, the certificate (without its words, which carry unrounded numbers), and the brick graphs at
         the collapse and at the end, each brick keyed by its id (see :func:`Graph.bricks`). The collapse time is left out: the level and the brick are
         what a scenario asserts, and the time would show every small change as a diff."""
         collapse = None
@@ -273,6 +290,8 @@ class Outcome(_Frozen):
             "scenario": self.scenario,
             "mode": self.mode,
             "levels_placed": self.levels_placed,
+            "collapse_threshold_mm": self.collapse_threshold_mm,
+            "toppled": len(self.toppled),
             "collapse": collapse,
             "certificate": certificate,
             "collapse_graph": self.collapse_graph.bricks() if self.collapse_graph else None,

@@ -242,6 +242,10 @@ def run_in(
     return loop
 
 
+def _round_mm(metres: float) -> float:
+    return round(metres * 1000, 3) + 0.0
+
+
 def _lazy(engine: EngineSettings) -> bool:
     return engine.enters_when_placed
 
@@ -295,4 +299,5 @@ def outcome(loop: StepLoop, wall_time: float) -> Outcome:
         removed=tuple(r.id for r in structure.removed),
         stopped=loop.stopped,
         not_run=loop.not_run,
+        collapse_threshold_mm=_round_mm(loop.program.collapse_threshold),
     )

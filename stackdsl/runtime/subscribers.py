@@ -87,8 +87,10 @@ class Stability(Subscriber):
         return f"a collapse mechanism proved at {time:.3f} s ({reason})", bricks
 
     def graph(self, loop: StepLoop) -> Graph:
-        """The brick graph now."""
-        return Graph.from_stability(self.extension.graph(), loop.structure.levels)
+        """The brick graph now, with how far each structure brick is from where it was placed."""
+        placed = loop.structure.placed
+        displaced = {r.id: float(d) for r, d in zip(placed, loop.structure.displacements(placed))}
+        return Graph.from_stability(self.extension.graph(), loop.structure.levels, displaced)
 
 
 class SoftLanding(Subscriber):

@@ -41,6 +41,7 @@ Source: stackdsl's own, after Tavern's pytest plugin and syrupy's single-file ex
 
 from __future__ import annotations
 
+import json
 import os
 import shlex
 from collections.abc import Generator, Iterator
@@ -58,8 +59,10 @@ from .pytest_hint import SUFFIXES, collection_hint, remember_collected, scenario
 from .runtime.recorder import record_program
 from .runtime.run import run_program
 from .verdicts.expect import evaluate, explain
+from .verdicts.golden_compare import Comparison, compare_golden, near_tie
 from .verdicts.snapshot import dumps, scenario_golden_path, summarize
 from .verdicts.snapshot import golden_dir as golden_dir
+from .verdicts.tolerances import Tolerances, tolerances_for
 
 try:
     from syrupy.assertion import SnapshotAssertion
@@ -214,6 +217,18 @@ def pytest_terminal_summary(terminalreporter: Any, config: pytest.Config) -> Non
         terminalreporter.section("stackdsl: scenario files not collected", yellow=True)
         for line in hint:
             terminalreporter.line(line)
+    ties = [
+        value
+        for reports in terminalreporter.stats.values()
+        for report in reports
+        for name, value in getattr(report, "user_properties", ())
+        if name == NEAR_TIE and getattr(report, "when", "call") == "call"
+    ]
+    if ties:
+        terminalreporter.section("stackdsl: golden snapshots written on a near tie", yellow=True)
+        for line in ties:
+            terminalreporter.line(line)
+        terminalreporter.line("a near tie may flip on another machine: `stackdsl check --perturb 4 FILE` says whether it holds")
     orphans = orphan_goldens(config)
     if orphans:
         terminalreporter.section("stackdsl: golden snapshots with no scenario file", yellow=True)
@@ -287,6 +302,14 @@ def _run_scenario_item(request: pytest.FixtureRequest, scenario_golden: Any) -> 
     unusable = _unusable_golden(path, stored, config)
     if unusable:  # before anything runs, and before syrupy reads, compares or writes it
         pytest.fail(f"{shown}: {unusable}", pytrace=False)
+    try:
+        scenario_golden.extension.tolerances = tolerances_for(program, scenario, _pyproject(config))
+    except ScenarioError as exc:
+        error = str(exc)
+    if error:  # a project's tolerances refused: said as a bad file is
+        pytest.fail(error, pytrace=False)
+    scenario_golden.extension.toppled = scenario.expect.toppled is not None
+    scenario_golden.extension.may_fall = scenario.expect.may_fall or ()
     if scenario.sweep is not None:
         _sweep_test(request, scenario, program, shown, scenario_golden)
         return
@@ -309,7 +332,10 @@ def _run_scenario_item(request: pytest.FixtureRequest, scenario_golden: Any) -> 
     elif not scenario_golden == outcome.golden():
         with disable_color():  # plain text: the message also goes to JUnit XML and CI logs
             diff = scenario_golden.get_assert_diff()
-        lines = [f"{shown}: the outcome differs from {_shown(stored, config)}", *diff, UPDATE_HINT]
+        lines = [f"{shown}: the outcome differs from {_shown(stored, config)} beyond its tolerances", *diff, UPDATE_HINT]
+    if not lines and _written(scenario_golden) and (tie := near_tie(outcome, program)):
+        # a property of the item's report: said by the terminal summary, also of an xdist worker's item
+        request.node.user_properties.append((NEAR_TIE, f"{_shown(stored, config)}: {tie}"))
     if trajectory is not None and (lines or pictures == "on"):
         kept = _keep_pictures(trajectory, path, config)
         if lines:  # a failure: say where to look
@@ -349,6 +375,24 @@ def _sweep_test(request: pytest.FixtureRequest, scenario: Any, program: Any, sho
             diff = scenario_golden.get_assert_diff()
         where = _shown(scenario_golden_path(path), request.config)
         pytest.fail("\n".join([f"{shown}: the samples differ from {where}", *diff, UPDATE_HINT]), pytrace=False)
+
+
+def _pyproject(config: pytest.Config) -> Path:
+    """The project's ``pyproject.toml``: pytest's ini file when it is one, else the rootdir's."""
+    inipath = config.inipath
+    if inipath is not None and inipath.name == "pyproject.toml":
+        return Path(inipath)
+    return Path(config.rootpath) / "pyproject.toml"
+
+
+def _written(scenario_golden: Any) -> bool:
+    """The golden snapshot was written (made or replaced) by this comparison."""
+    results = getattr(scenario_golden, "executions", {})
+    return any(r.created or r.updated for r in results.values())
+
+
+#: The report property of an item whose golden was written on a near tie (said in the terminal summary).
+NEAR_TIE = "stackdsl_near_tie"
 
 
 def _unusable_golden(path: Path, stored: Path, config: pytest.Config) -> str:
@@ -510,11 +554,37 @@ if SingleFileSnapshotExtension is not None:
     class ScenarioSnapshotExtension(_AtomicWrites):
         """A scenario's golden snapshot: ``golden/<folder>/<file stem>.json``, mirroring the
         scenario's place below the project root, written one brick per line
-        (:func:`stackdsl.verdicts.snapshot.dumps`); a failing comparison starts with a per-brick
-        summary (:func:`stackdsl.verdicts.snapshot.summarize`)."""
+        (:func:`stackdsl.verdicts.snapshot.dumps`), and compared as a physicist would
+        (:func:`stackdsl.verdicts.golden_compare.compare_golden`): verdict fields exactly,
+        measured ones within :attr:`tolerances`, what chaos decides loosely. A failing comparison
+        lists what is outside its tolerance, worst first; ``--snapshot-update`` rewrites a golden
+        only then (within tolerance it matches, and is kept as it is)."""
 
         file_extension = "json"
         _write_mode = WriteMode.TEXT
+        #: What the item compares with (:func:`stackdsl.verdicts.tolerances.tolerances_for`).
+        tolerances: Tolerances = Tolerances()
+        #: The scene expects a number of toppled bricks: that count is a verdict field.
+        toppled: bool = False
+        #: The levels and bricks the scene says may fall (``expect: may_fall``).
+        may_fall: tuple[int | str, ...] = ()
+
+        def _compared(self, serialized_data: Any, snapshot_data: Any) -> Comparison | None:
+            """Both texts as snapshots, compared; None when either is not a JSON object (a
+            sweep's golden is compared key by key, exactly, as a snapshot with no graph)."""
+            try:
+                new, old = json.loads(str(serialized_data)), json.loads(str(snapshot_data))
+            except (TypeError, ValueError, RecursionError):
+                return None
+            if not isinstance(new, dict) or not isinstance(old, dict):
+                return None
+            return compare_golden(old, new, self.tolerances, toppled=self.toppled, may_fall=self.may_fall)
+
+        def matches(self, *, serialized_data: Any, snapshot_data: Any) -> bool:
+            compared = self._compared(serialized_data, snapshot_data)
+            if compared is None:
+                return bool(serialized_data == snapshot_data)
+            return compared.matches
 
         @classmethod
         def discovery_dirname(cls, *, test_location: Any) -> str:
@@ -547,8 +617,15 @@ if SingleFileSnapshotExtension is not None:
             return dumps(data) + "\n"
 
         def diff_lines(self, serialized_data: Any, snapshot_data: Any) -> Iterator[str]:
-            yield from _summarized(serialized_data, snapshot_data)
-            yield from super().diff_lines(serialized_data, snapshot_data)
+            compared = self._compared(serialized_data, snapshot_data)
+            if compared is None:
+                yield from _summarized(serialized_data, snapshot_data)
+                yield from super().diff_lines(serialized_data, snapshot_data)
+                return
+            yield "outside tolerance, worst first (stored -> this run):"
+            yield from (f"  {line}" for line in compared.lines())
+            yield f"tolerances: {compared.tolerances.described()}"
+            yield from compared.not_failures()
 
 
 if SnapshotAssertion is None:

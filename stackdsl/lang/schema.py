@@ -52,6 +52,7 @@ from .grammar import (
 )
 from .schema_actions import Action
 from .schema_generators import HALF, Dominoes, Pyramid, Wall
+from .schema_golden import Golden
 from .schema_impacts import Impact
 from .schema_layouts import BrickPlacement, CardHouse, Tower
 from .schema_parts import LAYOUTS, RESERVED, Parts, as_parts, check_parts, named_parts
@@ -268,6 +269,14 @@ class Scenario(StrictModel):
     expect: Expect = Expect()
     # checks before simulating that this scene silences: "floating" lets bricks be placed resting on nothing
     allow: list[Literal["floating"]] = []
+    golden: Annotated[
+        Golden,
+        Field(
+            description="how closely the golden snapshot must be matched: tolerance of its measured fields "
+            "(position, angle, mass, area, load_share, margin, friction_share, level)",
+            examples=[{"tolerance": {"position": "2 mm", "angle": 2}}],
+        ),
+    ] = Golden()
     sweep: Sweep | None = None
     require: Annotated[list[Requirement], Field(max_length=50)] = Field(
         default=[],

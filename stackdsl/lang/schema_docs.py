@@ -188,6 +188,23 @@ DOCS: dict[str, dict[str, tuple[str, Any]]] = {
         "ccd": ("Continuous collision detection and substeps for fast bodies; default per mode.", True),
         "sleep_tolerance": ("MuJoCo's own sleeping: the speed under which a body sleeps (MuJoCo only).", 0.0001),
     },
+    "Golden": {
+        "tolerance": (
+            "Tolerances of the golden snapshot's measured fields; each key left out is the project's "
+            "([tool.stackdsl.golden.tolerance] in pyproject.toml) or the default.",
+            {"position": "2 mm", "angle": 2},
+        ),
+    },
+    "GoldenTolerance": {
+        "position": ("How far a standing brick's position or centre of mass above may differ (default 1 mm).", "1 mm"),
+        "angle": ("Degrees a standing brick may be turned from its golden (default 0.95 for KAPLA).", 1),
+        "mass": ("A share of the mass above a brick by which it may differ (default 0.05: 5%).", 0.05),
+        "area": ("A share of a contact area by which it may differ (default 0.05).", 0.05),
+        "load_share": ("How far a load share (0 to 1) may differ (default 0.05).", 0.05),
+        "margin": ("How far the certificate's margin may differ (default 1 mm).", "1 mm"),
+        "friction_share": ("How far the share of friction a stand needs may differ (default 0.05).", 0.05),
+        "level": ("Levels by which the first moved brick and the moved levels' ends may differ (default 1).", 1),
+    },
     "Stability": {
         "model": ("report: the report's rules; equilibrium: rigid-block equilibrium (default report).", "report"),
         "rest_speed": ("A brick slower than this is at rest (default 5 mm/s).", "5 mm/s"),

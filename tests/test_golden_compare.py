@@ -1,0 +1,232 @@
+"""Golden snapshots compared as a physicist would: verdicts exactly, measurements within
+tolerances, what chaos decides loosely (stackdsl.verdicts.golden_compare, .tolerances)."""
+
+import copy
+import json
+from pathlib import Path
+
+import pytest
+
+from stackdsl import compile_scenario, parse_scenario
+from stackdsl.lang.errors import ScenarioError
+from stackdsl.verdicts.golden_compare import compare_golden
+from stackdsl.verdicts.tolerances import Tolerances, default_tolerances, project_tolerance, tolerances_for
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def brick(level, x, y=0.0, *, supports=None, displaced=0.0, state="frozen", quaternion=(0.0, 0.0, 0.0, 1.0)):
+    return {
+        "level": level,
+        "state": state,
+        "position_mm": [x, y, 8.0 * level - 4.0],
+        "quaternion_xyzw": list(quaternion),
+        "com_above_mm": [x, y, 8.0 * level],
+        "mass_above_g": 10.6 * (4 - level),
+        "rests_on": supports if supports is not None else {"ground": {"area_mm2": 2880.0, "load_share": 1.0}},
+        "displaced_mm": displaced,
+    }
+
+
+def tower(x=0.0):
+    """A three-level single file at ``x`` mm: plain snapshot data as Outcome.golden gives it."""
+    return {
+        "scenario": "three",
+        "mode": "extension",
+        "levels_placed": 3,
+        "collapse_threshold_mm": 4.0,
+        "toppled": 0,
+        "collapse": None,
+        "certificate": {"verdict": "stands", "kind": "equilibrium", "bricks": [], "margin_mm": 12.0, "friction_share": 0.0},
+        "collapse_graph": None,
+        "final_graph": {
+            "L01.1": brick(1, x),
+            "L02.1": brick(2, x, supports={"L01.1": {"area_mm2": 2880.0, "load_share": 1.0}}),
+            "L03.1": brick(3, x, supports={"L02.1": {"area_mm2": 2880.0, "load_share": 1.0}}),
+        },
+    }
+
+
+def test_the_same_snapshot_matches_with_nothing_to_say():
+    c = compare_golden(tower(), tower())
+    assert c.matches and c.within == 0 and c.chaos == [] and c.not_failures() == []
+
+
+def test_noise_within_the_tolerances_matches_and_is_counted():
+    new = tower()
+    for b in new["final_graph"].values():
+        b["position_mm"][0] += 0.3  # a third of the position tolerance
+        b["quaternion_xyzw"] = [0.0, 0.0, 0.003, 1.0]  # 0.34 deg
+        b["mass_above_g"] += 0.4
+    new["certificate"]["margin_mm"] = 11.4
+    c = compare_golden(tower(), new)
+    assert c.matches, c.lines()
+    assert c.within >= 9 and c.not_failures() == [f"not failures: {c.within} fields differ within their tolerance"]
+
+
+def test_a_tower_moved_beyond_the_tolerance_is_one_line_by_level():
+    c = compare_golden(tower(), tower(6.0))
+    assert not c.matches
+    assert c.lines() == [
+        "final_graph: levels 1-3 (3 bricks) moved by 6.0 mm in x (tolerance 1 mm), their centres of mass above with them"
+    ]
+
+
+def test_worst_first_verdicts_before_measurements():
+    new = tower(2.0)
+    new["final_graph"]["L03.1"]["position_mm"][0] += 10.0
+    new["certificate"]["kind"] = "load paths"
+    lines = compare_golden(tower(), new).lines()
+    assert lines[0] == "certificate.kind: equilibrium -> load paths"
+    assert lines[1].startswith("final_graph L03.1: moved by 12.0 mm in x")  # 12 tolerances off, then 2
+    assert lines[2].startswith("final_graph: levels 1-2 (2 bricks) moved by 2.0 mm in x")
+
+
+@pytest.mark.parametrize(
+    ("edit", "said"),
+    [
+        (lambda g: g.update(levels_placed=2), "levels_placed: 3 -> 2"),
+        (lambda g: g.update(collapse={"level": 3, "brick": "L03.1", "brick_level": 3}), "collapse: stands -> collapse 3"),
+        (lambda g: g["certificate"].update(verdict="collapse"), "certificate.verdict: stands -> collapse"),
+        (lambda g: g["final_graph"]["L02.1"].update(state="active"), "final_graph L02.1: state frozen -> active"),
+        (
+            lambda g: g["final_graph"]["L03.1"]["rests_on"].update(ground={"area_mm2": 1.0, "load_share": 0.0}),
+            "now rests on ground",
+        ),
+        (lambda g: g["final_graph"].pop("L03.1"), "final_graph: removed L03.1"),
+        (lambda g: g["final_graph"]["L02.1"].update(level=4), "final_graph L02.1: level 2 -> 4"),
+    ],
+)
+def test_a_verdict_field_is_compared_exactly(edit, said):
+    new = tower()
+    edit(new)
+    c = compare_golden(tower(), new)
+    assert not c.matches and any(said in line for line in c.lines()), c.lines()
+
+
+def test_a_measured_field_beyond_its_tolerance_names_it_and_the_tolerance():
+    new = tower()
+    new["final_graph"]["L01.1"]["mass_above_g"] = 30.0  # 31.8 stored: 1.6 g tolerance
+    new["final_graph"]["L02.1"]["rests_on"]["L01.1"]["load_share"] = 0.9
+    new["certificate"]["friction_share"] = 0.2
+    lines = compare_golden(tower(), new).lines()
+    assert "final_graph L01.1 mass above: 31.8 -> 30 g (tolerance 1.59 g)" in lines
+    assert "final_graph L02.1 rests on L01.1: load share: 1 -> 0.9 (tolerance 0.05)" in lines
+    assert "certificate.friction_share: 0 -> 0.2 (tolerance 0.05)" in lines
+
+
+def test_debris_is_not_compared_and_a_brick_at_the_edge_of_a_fall_is_chaos():
+    fell = tower()
+    fell["collapse"] = {"level": 3, "brick": "L03.1", "brick_level": 3}
+    fell["final_graph"]["L03.1"] = brick(3, 150.0, 40.0, displaced=160.0, state="active")
+    fell["final_graph"]["L02.1"]["displaced_mm"] = 0.2
+    elsewhere = copy.deepcopy(fell)
+    elsewhere["final_graph"]["L03.1"] = brick(3, -90.0, 12.0, displaced=100.0, state="frozen")  # another landing
+    elsewhere["final_graph"]["L02.1"] = brick(2, 70.0, 0.0, displaced=75.0, state="active")  # the level below went too
+    c = compare_golden(fell, elsewhere)
+    assert c.matches, c.lines()
+    assert any("L02.1: moved beyond the collapse threshold; it stood in the golden" in said for said in c.chaos)
+
+
+def test_a_brick_far_below_the_fall_that_moves_is_a_difference():
+    fell = tower()
+    fell["final_graph"]["L03.1"] = brick(3, 150.0, 40.0, displaced=160.0)
+    new = copy.deepcopy(fell)
+    new["final_graph"]["L01.1"] = brick(1, 20.0, displaced=20.0)  # level 1: two levels below the fall
+    lines = compare_golden(fell, new).lines()
+    assert "final_graph L01.1: moved beyond the collapse threshold; it stood in the golden" in lines
+
+
+def test_which_of_the_fallen_bricks_moved_first_is_chaos_but_a_standing_one_is_not():
+    fell = tower()
+    fell["collapse"] = {"level": 3, "brick": "L03.1", "brick_level": 3}
+    for b, x in (("L02.1", 90.0), ("L03.1", 150.0)):
+        fell["final_graph"][b] = brick(int(b[2]), x, displaced=x)
+    twin = copy.deepcopy(fell)
+    twin["collapse"] = {"level": 3, "brick": "L02.1", "brick_level": 2}
+    assert compare_golden(fell, twin).matches
+    elsewhere = copy.deepcopy(fell)
+    elsewhere["collapse"] = {"level": 3, "brick": "L01.1", "brick_level": 1}
+    lines = compare_golden(fell, elsewhere).lines()
+    assert lines == ["collapse.brick: L03.1 -> L01.1 (did not move in the golden)"]
+
+
+def test_a_knocked_brick_may_differ_by_as_much_as_the_runs_moved_it():
+    knocked = tower()
+    knocked["final_graph"]["L03.1"] = brick(3, 2.5, supports={"L02.1": {"area_mm2": 1400.0, "load_share": 1.0}}, displaced=2.5)
+    again = copy.deepcopy(knocked)
+    again["final_graph"]["L03.1"] = brick(3, -0.8, supports={"L02.1": {"area_mm2": 2880.0, "load_share": 1.0}}, displaced=0.8)
+    c = compare_golden(knocked, again)
+    assert c.matches, c.lines()  # 3.3 mm apart, 2.5 + 0.8 + 1 allowed; its contact area is chaos's
+    again["final_graph"]["L03.1"]["position_mm"][0] = -2.0  # 4.5 mm apart, more than the runs moved it
+    assert [line.split(" (")[0] for line in compare_golden(knocked, again).lines()] == [
+        "final_graph L03.1: moved by -4.5 mm in x"
+    ]
+
+
+def test_what_a_knocked_brick_carries_is_chaos_but_its_own_pose_is_not():
+    knocked = tower()
+    knocked["final_graph"]["L03.1"]["displaced_mm"] = 3.0
+    new = copy.deepcopy(knocked)
+    new["final_graph"]["L01.1"]["com_above_mm"][0] += 3.0  # loaded by a knocked brick: the model's numbers are chaos's
+    new["final_graph"]["L02.1"]["rests_on"]["L01.1"]["load_share"] = 0.7
+    c = compare_golden(knocked, new)
+    assert c.matches and c.loose == 2, c.lines()
+
+
+def test_toppled_is_a_verdict_only_where_the_scene_expects_it():
+    new = tower()
+    new["toppled"] = 2
+    assert compare_golden(tower(), new).matches
+    assert compare_golden(tower(), new, toppled=True).lines() == ["toppled: 0 -> 2"]
+
+
+def test_the_defaults_follow_from_the_collapse_threshold_and_the_contact_margin():
+    kapla = default_tolerances(compile_scenario(parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 2}}\n")))
+    assert kapla.position_mm == pytest.approx(1.0) and kapla.angle_deg == pytest.approx(0.955, abs=1e-3)
+    assert kapla.radius_mm == pytest.approx(12.65, abs=0.01) and kapla.width_mm == pytest.approx(24.0)
+    big = "stackdsl: 1\nstructure: {tower: {levels: 2}}\ncollapse_threshold: 20 mm\n"
+    assert default_tolerances(compile_scenario(parse_scenario(big))).position_mm == pytest.approx(5.0)
+
+
+def test_a_project_and_a_scenario_set_their_own_key_by_key(tmp_path):
+    pyproject = tmp_path / "pyproject.toml"
+    pyproject.write_text('[tool.stackdsl.golden.tolerance]\nposition = "2 mm"\nload_share = 0.1\n')
+    text = "stackdsl: 1\nstructure: {tower: {levels: 2}}\ngolden: {tolerance: {position: 3 mm, level: 2}}\n"
+    scenario = parse_scenario(text)
+    t = tolerances_for(compile_scenario(scenario), scenario, pyproject)
+    assert (t.position_mm, t.load_share, t.level, t.mass) == (pytest.approx(3.0), 0.1, 2, 0.05)
+    assert tolerances_for(compile_scenario(scenario), scenario, tmp_path / "none.toml").load_share == 0.05
+
+
+@pytest.mark.parametrize(
+    ("table", "said"),
+    [
+        ('position = "2 kg"', "tool.stackdsl.golden.tolerance.position: expected a length"),
+        ("speed = 1", "tool.stackdsl.golden.tolerance.speed: unknown key; known: position, angle"),
+        ("load_share = 2", "tool.stackdsl.golden.tolerance.load_share:"),
+    ],
+)
+def test_a_bad_project_tolerance_is_one_error_naming_the_file_and_key(tmp_path, table, said):
+    pyproject = tmp_path / "pyproject.toml"
+    pyproject.write_text(f"[tool.stackdsl.golden.tolerance]\n{table}\n")
+    with pytest.raises(ScenarioError) as caught:
+        project_tolerance(pyproject)
+    assert str(pyproject) in str(caught.value) and said in str(caught.value)
+
+
+def test_every_shipped_golden_matches_itself_and_fails_a_moved_structure():
+    """Each shipped golden against itself, and against itself with every standing brick moved
+    by twice the position tolerance (a scene changed): the first matches, the second not."""
+    goldens = sorted((ROOT / "golden" / "scenarios").rglob("*.json"))
+    assert len(goldens) >= 30
+    for path in goldens:
+        data = json.loads(path.read_text())
+        assert compare_golden(data, data).matches, path
+        moved = copy.deepcopy(data)
+        graph = moved["final_graph"]
+        standing = [b for b in graph.values() if b.get("displaced_mm") is not None and b["displaced_mm"] <= 1.0]
+        for b in standing:
+            b["position_mm"][1] += 2.0 * Tolerances().position_mm + b["displaced_mm"] * 2
+        if standing:
+            assert not compare_golden(data, moved).matches, path

@@ -84,6 +84,7 @@ def judge(file: str, program: Program, expect: Expect, timeout: float | None = T
             explanation=() if stopped else tuple(explain(expect, outcome, program.collapse_threshold)),
             stopped=stopped,
             certificate=describe_certificate(outcome.certificate) if outcome.certificate else "",
+            margin_mm=outcome.certificate.margin_mm if outcome.certificate else None,
         )
         if folder is None or trajectory is None:
             return result

@@ -170,6 +170,25 @@ def jobs_type(text: str) -> int:
     return jobs
 
 
+def perturb_type(text: str) -> int:
+    """``--perturb``: a whole number of perturbed reruns a scenario, 1 to :data:`MAX_PERTURB`.
+
+    Raises:
+        argparse.ArgumentTypeError: anything else (a usage error, exit 2).
+    """
+    try:
+        count = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number of reruns") from None
+    if not 1 <= count <= MAX_PERTURB:
+        raise argparse.ArgumentTypeError(f"{count} is not from 1 to {MAX_PERTURB} reruns a scenario")
+    return count
+
+
+#: The most perturbed reruns ``check --perturb`` makes of each scenario.
+MAX_PERTURB = 100
+
+
 def at_type(text: str) -> str | float:
     """``--at``: ``collapse``, ``end`` or a number of seconds at or above 0.
 

@@ -13,8 +13,10 @@ import sys
 import time
 from itertools import chain
 from pathlib import Path
+from typing import TextIO
 
-from ..batch.check import discover, prepare, run_checks, select_comparison, tabulate
+from ..batch.check import Prepared, discover, prepare, run_checks, select_comparison, tabulate
+from ..batch.perturb import Fragility, fragility_lines, perturbed_runs
 from ..batch.report import HEADER, failure_lines, json_document, junit_xml, row, run_command, summary
 from ..compile.compiler import BACKEND_DEFAULTS, MODE_DEFAULTS
 from ..draw.artefacts import FILES, folder_name
@@ -93,10 +95,16 @@ def check_command(args: argparse.Namespace) -> int:
             print(f"report: removed {stale} folders of an earlier report in {report}", file=stream)
         drawn = [r for r in results if r.draw_error]
         print(f"report: {page}" + (f" ({len(drawn)} runs not fully drawn: {drawn[0].draw_error})" if drawn else ""), file=stream)
+    fragile = _perturbed(args, prepared, results, stream) if args.perturb else None
     if args.json:
-        print(json.dumps(json_document("check", results, commands, total, wall), indent=2))
+        document = json_document("check", results, commands, total, wall)
+        if fragile is not None:
+            document["perturbed"] = [f.as_json() for f in fragile]
+        print(json.dumps(document, indent=2))
     else:
         print(summary(results, total, wall))
+        if fragile is not None:
+            print("\n".join(fragility_lines(fragile, args.perturb)))
     if _internal_errors(results, args.debug):
         return INTERNAL
     refused = [r for r in results if r.bad_input]
@@ -104,7 +112,17 @@ def check_command(args: argparse.Namespace) -> int:
         print(r.bad_input, file=sys.stderr)
     if refused:
         return BAD_INPUT
-    return FAILED if any(not r.passed for r in results) else OK
+    return FAILED if any(not r.passed for r in results) or any(f.fragile for f in fragile or ()) else OK
+
+
+def _perturbed(args: argparse.Namespace, prepared: list[Prepared], results: list[CheckResult], stream: TextIO) -> list[Fragility]:
+    """``check --perturb N``: every scenario that ran rerun N times perturbed, under a progress line."""
+    ran = {(r.file, r.backend, r.mode) for r in results if not r.error}
+    chosen = [p for p in prepared if (str(p.path), p.program.engine.backend, p.program.engine.mode) in ran]
+    runs = sum(args.perturb for p in chosen if p.template is None)
+    with Lines(runs, "perturbed runs", file=stream, live=is_live(stream)) as lines:
+        fragile = list(perturbed_runs(chosen, results, args.perturb, args.jobs, args.timeout, args.seed, lines.advance))
+    return fragile
 
 
 def _check_outputs(args: argparse.Namespace, files: list[Path]) -> Path | None:

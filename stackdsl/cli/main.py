@@ -39,6 +39,7 @@ from .args import (
     add_seed,
     command_of,
     jobs_type,
+    perturb_type,
     refused,
     timeout_type,
 )
@@ -449,6 +450,16 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
             "-x", "--exitfirst", action="store_true", help="stop after the first failure (runs not started are cancelled)"
         )
         p.add_argument("--junit-xml", metavar="FILE", help="also write JUnit XML to FILE: one testcase per scenario")
+        p.add_argument(
+            "--perturb",
+            metavar="N",
+            type=perturb_type,
+            default=0,
+            help="then rerun every scenario N times under changes that should not matter (a placement jitter of "
+            "10 micrometres, the timestep +-1%%, solver iterations +-10%%, the other engine where the scene allows) "
+            "and say, for each verdict, how many held, with the certificate's margin: a verdict that flips is "
+            "FRAGILE (exit 1), and what flipped it is named",
+        )
         p.add_argument(
             "--report",
             metavar="DIR",

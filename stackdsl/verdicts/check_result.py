@@ -49,6 +49,7 @@ class CheckResult:
             or mode (beyond what it simulates faithfully: :mod:`stackdsl.compile.limits`),
             one line, else empty; nothing ran.
         expects: in a refused cell, what the file expects (no verdict was reached), else empty.
+        margin_mm: a stand's certificate margin, mm (:attr:`stackdsl.Certificate.margin_mm`), else None.
     """
 
     file: str
@@ -79,6 +80,7 @@ class CheckResult:
     first_moved_level: int | None = None
     moved_levels: tuple[int, ...] = ()
     expects: str = ""
+    margin_mm: float | None = None
 
     @property
     def passed(self) -> bool:

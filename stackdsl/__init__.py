@@ -8,6 +8,7 @@ Data flows one way, one floor (subpackage) per step::
     record_program(program)               Program -> Outcome, Trajectory (runtime/recorder: every brick's pose and state)
     evaluate(expect, outcome, threshold)  Outcome -> verdicts  (verdicts/; threshold: the program's collapse_threshold, m)
     check(paths)                          all of it over files (batch/)
+    compare_golden(stored, new, tolerances)  a golden snapshot against a run's (verdicts/)
 
 The seam to an engine is public, as httpx's transports are: a :class:`World` (one adapter
 per engine; :class:`FakeWorld` moves bodies in memory, for tests), a :class:`StepLoop`
@@ -51,6 +52,8 @@ if TYPE_CHECKING:
     from .runtime.trajectory import Frame, Trajectory, load_trajectory
     from .verdicts.check_result import CheckResult
     from .verdicts.expect import Verdict, evaluate
+    from .verdicts.golden_compare import Comparison, compare_golden
+    from .verdicts.tolerances import Tolerances
 
 #: Where each public name lives. The modules load on first use, so that the ``stackdsl``
 #: command can take Ctrl-C while numpy, pybullet and shapely load (about 0.7 s).
@@ -90,6 +93,9 @@ _HOME = {
     "outcome": "runtime.run",
     "World": "engines.protocol",
     "FakeWorld": "engines.fake",
+    "Comparison": "verdicts.golden_compare",
+    "compare_golden": "verdicts.golden_compare",
+    "Tolerances": "verdicts.tolerances",
 }
 
 __all__ = [
@@ -97,6 +103,7 @@ __all__ = [
     "Certificate",
     "CheckResult",
     "Collapse",
+    "Comparison",
     "End",
     "EngineSettings",
     "Event",
@@ -114,10 +121,12 @@ __all__ = [
     "ScenarioErrors",
     "StepLoop",
     "Subscriber",
+    "Tolerances",
     "Trajectory",
     "Verdict",
     "World",
     "check",
+    "compare_golden",
     "compile_scenario",
     "evaluate",
     "format_program",

@@ -16,7 +16,6 @@ Source: stackdsl's own.
 
 from __future__ import annotations
 
-import re
 import traceback
 from collections.abc import Callable, Generator, Iterable, Sequence
 from concurrent.futures import Executor
@@ -39,6 +38,7 @@ from ..verdicts.expect import expected_texts
 from .address import free_cores
 from .check_sweep import run_unit, sweep_result, sweep_tasks
 from .judge import KILL_AFTER, TIMEOUT, failed, internal, lost
+from .keywords import KeywordError, parse_keywords
 from .pool import fan_out, on_executor
 from .sweep import SampleResult, compile_bounds, compile_cells, which_sample
 
@@ -253,47 +253,49 @@ def _known(backend: str | None, mode: str | None, model: str | None) -> None:
 
 
 def select(prepared: list[Prepared], pattern: str | Sequence[str] | None) -> list[Prepared]:
-    """The scenarios whose file path or name contains ``pattern`` (plain text, case-insensitive;
-    several texts, as ``-k`` given more than once: any of them), in order; all of them when
-    ``pattern`` is None or empty.
+    """The scenarios that ``pattern`` selects, in order: a ``-k`` expression of pytest's
+    (:mod:`stackdsl.batch.keywords`: words matched, ignoring case, in the file's path or the
+    scenario's name, joined by ``and``, ``or``, ``not`` and parentheses), or several (``-k`` given
+    more than once: a scenario any of them selects); all of them when ``pattern`` is None or
+    empty.
 
     Raises:
-        ScenarioErrors: ``pattern`` selects none.
+        ScenarioErrors: ``pattern`` cannot be read (:class:`stackdsl.batch.keywords.KeywordError`,
+            said at ``-k``), or selects none.
     """
     return select_comparison(prepared, [], pattern)[0]
 
 
 def select_comparison(
-    prepared: list[Prepared], refused: list[CheckResult], pattern: str | Sequence[str] | None
+    prepared: list[Prepared], results: list[CheckResult], pattern: str | Sequence[str] | None
 ) -> tuple[list[Prepared], list[CheckResult]]:
-    """:func:`select` on a comparison's runs and its refused cells alike (each by its file's
-    path or its scenario's name).
+    """:func:`select` on a check's runs and its results known before anything runs (a comparison's
+    refused cells, files an internal error met) alike, each by its file's path or
+    its scenario's name.
 
     Raises:
-        ScenarioErrors: ``pattern`` selects neither a run nor a refused cell.
+        ScenarioErrors: ``pattern`` cannot be read, or selects neither a run nor a result.
     """
     texts = [t for t in ([pattern] if isinstance(pattern, str) else pattern or []) if t]
     if not texts:
-        return prepared, refused
-    folded = [t.casefold() for t in texts]
+        return prepared, results
+    expressions = []
+    for text in texts:
+        try:
+            expressions.append(parse_keywords(text))
+        except KeywordError as exc:
+            raise ScenarioErrors([ScenarioError(f"cannot read {text!r}: {exc}", file="-k")]) from None
 
     def chosen(*names: str) -> bool:
-        return any(t in n.casefold() for t in folded for n in names)
+        return any(e.matches(*names) for e in expressions)
 
     runs = [p for p in prepared if chosen(str(p.path), p.program.name)]
-    cells = [r for r in refused if chosen(r.file, r.scenario)]
+    cells = [r for r in results if chosen(r.file, r.scenario)]
     if not runs and not cells:
-        files = len({str(p.path) for p in prepared} | {r.file for r in refused})
+        files = len({str(p.path) for p in prepared} | {r.file for r in results})
         shown = " or ".join(repr(t) for t in texts)
-        hint = ""
-        if any(_EXPRESSION.search(t) for t in texts):
-            hint = "; -k takes plain text, not pytest's expressions: give -k once for each text (a scenario runs when it contains any)"
-        raise ScenarioErrors([ScenarioError(f"no scenario's path or name contains {shown} ({files} files){hint}", file="-k")])
+        raise ScenarioErrors([ScenarioError(f"no scenario's path or name matches {shown} ({files} files)", file="-k")])
     return runs, cells
-
-
-#: What a -k text written as a pytest expression has ("a or b", "not slow", "(x and y)").
-_EXPRESSION = re.compile(r"\b(and|or|not)\b|[()]")
 
 
 def check(
@@ -322,8 +324,8 @@ def check(
             1 runs everything here. Work estimated below a worker's start-up runs here
             whatever ``jobs`` says (see :mod:`stackdsl.batch.pool`).
         executor: run on this executor instead (e.g. a Dask client's executor).
-        pattern: only the scenarios whose file path or name contains it, or any of several
-            (see :func:`select`).
+        pattern: a ``-k`` expression of pytest's over the file paths and scenario names, or
+            several (any of them), as :func:`select` reads them.
         timeout: wall seconds each run may take (None: no limit); a run stopped by it is
             a failed result whose ``stopped`` says so.
         seed: replaces every file's ``seed`` (its random draws and placement error) when given.

@@ -427,11 +427,12 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
     )
     many.add_argument(
         "-k",
-        metavar="TEXT",
+        metavar="EXPR",
         dest="pattern",
         action="append",
-        help="only the scenarios whose file path or name contains TEXT (plain text, case-insensitive; not pytest's "
-        "expressions); give -k again for more: a scenario runs when it contains any of them",
+        help="only the scenarios EXPR selects, as pytest's -k: words joined by and, or, not and parentheses, a word "
+        "holding when the file's path or the scenario's name contains it, ignoring case ('tower and not hard/'; a "
+        "word is letters, digits and _:+-.[]\\/); give -k again for more: a scenario runs when any of them selects it",
     )
     many.add_argument("--json", action="store_true", help="print one JSON document of every result instead of the table")
     if name == "check":

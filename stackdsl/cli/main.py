@@ -29,6 +29,7 @@ from ..lang.extras import installed, missing
 from .args import (
     BAD_INPUT,
     BROKEN_PIPE,
+    CHECK_STATUS,
     COMMANDS,
     EXIT_STATUS,
     FAILED,
@@ -441,8 +442,10 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
             parents=[many],
             help=COMMANDS["check"],
             description="Run scenario files or folders and check their expectations: a row per scenario as it "
-            "finishes (under a progress line on a terminal), what moved under each FAIL, then a summary.",
-            epilog=EXIT_STATUS,
+            "finishes (under a progress line on a terminal), what moved under each FAIL, then a summary. A row's "
+            "verdict: PASS, FAIL, INCONCLUSIVE (a sweep's statistic its samples did not decide), SKIP (the file's "
+            "skip mark, with its reason), XFAIL or XPASS (its xfail mark: failed as expected, or passed).",
+            epilog=CHECK_STATUS,
             formatter_class=raw,
         )
         p.add_argument("--mode", choices=modes, help="override every scenario's engine mode")
@@ -463,7 +466,7 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
             parents=[many],
             help=COMMANDS["compare"],
             description="Run scenario files or folders in every mode, in one run, and print one table.",
-            epilog=EXIT_STATUS.replace("  0    every expectation held", "  0    every expectation held, in every cell").replace(
+            epilog=CHECK_STATUS.replace("  0    every expectation held", "  0    in every cell, every expectation held").replace(
                 "  1    an expectation failed", "  1    an expectation failed in some cell"
             ),
             formatter_class=raw,

@@ -1,5 +1,5 @@
 """pytest's habits in stackdsl: a scenario's ``skip`` and ``xfail`` marks (the language, check,
-compare, the HTML report, JUnit XML), and an undecided sweep as INCONCLUSIVE."""
+compare, the HTML report, JUnit XML, pytest), and an undecided sweep as INCONCLUSIVE."""
 
 import json
 import xml.etree.ElementTree as ET
@@ -251,3 +251,35 @@ def test_rows_and_junit_of_marked_results(tmp_path):
     (failure,) = ET.parse(tmp_path / "j.xml").getroot().iter("failure")
     assert (failure.get("type"), failure.get("message")) == ("XPASS", "[XPASS(strict)] w")
     assert replace(strict, strict=False).held
+
+
+# pytest --------------------------------------------------------------------------------------
+
+
+def test_pytest_skips_xfails_and_says_why_without_r(pytester, monkeypatch):
+    monkeypatch.delenv("PYTEST_XDIST_WORKER", raising=False)  # the inner run is no xdist worker
+    pytester.makefile(".toml", pyproject="[tool.pytest.ini_options]\nstackdsl_paths = ['scenarios']\n")
+    folder = pytester.mkdir("scenarios")
+    write(
+        folder,
+        skipped=STANDS + "skip: {reason: not on pybullet, when: backend == pybullet}\n",
+        xfailed=WRONG + "xfail: {reason: it stands}\n",
+        xpassed=STANDS + "xfail: {reason: it may fall}\n",
+        strict=STANDS + "xfail: {reason: it may fall, strict: true}\n",
+        unmarked=STANDS + "xfail: {reason: raw only, when: mode == raw}\n",
+    )
+    result = pytester.runpytest("--snapshot-update", "-p", "no:cacheprovider", "--junit-xml=j.xml")
+    result.assert_outcomes(passed=1, skipped=1, xfailed=1, xpassed=1, failed=1)
+    out = result.stdout.str()
+    summary_lines = out[out.index("scenarios skipped or expected to fail, and why") :].splitlines()
+    assert "SKIPPED scenarios/skipped.yaml:5: not on pybullet" in summary_lines  # the file and line of its skip
+    assert "XFAIL scenarios/xfailed.yaml::xfailed - it stands" in summary_lines
+    assert "FAILED scenarios/strict.yaml::strict - [XPASS(strict)] it may fall" in out
+    cases = {c.get("name"): c for c in ET.parse(pytester.path / "j.xml").getroot().iter("testcase")}
+    assert cases["skipped"].find("skipped").get("type") == "pytest.skip"
+    assert cases["xfailed"].find("skipped").attrib == {"type": "pytest.xfail", "message": "it stands"}
+    goldens = sorted(p.stem for p in (pytester.path / "golden" / "scenarios").glob("*.json"))
+    assert goldens == ["strict", "unmarked", "xpassed"]  # none for what was skipped or failed
+    # -rs: pytest says the skip itself, once
+    again = pytester.runpytest("-p", "no:cacheprovider", "-rs", "scenarios/skipped.yaml").stdout.str()
+    assert "SKIPPED [1] scenarios/skipped.yaml:5: not on pybullet" in again and "and why" not in again

@@ -23,6 +23,12 @@ A golden that cannot be one (a FIFO, not JSON, ...), or none where it is looked 
 scenario has one where another project layout keeps goldens, fails its item in one line before
 the scenario runs, and ``--snapshot-update`` writes nothing over it (:mod:`stackdsl.pytest_golden`).
 
+A file's ``skip`` and ``xfail`` marks (:mod:`stackdsl.lang.schema_marks`) are pytest's, on the
+file's own backend, mode and model: a skipped item is ``s`` at the line of its ``skip:``, an item
+whose expectations fail under ``xfail`` is ``x``, one whose expectations hold and whose golden
+matches is ``X`` (a failure when strict: ``[XPASS(strict)] reason``); the terminal summary says
+their reasons without ``-r``.
+
 A sweep file (``sweep:``) is one item too: its samples run one after the other, each
 statistical expectation must be decided PASS in every grid cell (its 95% interval inside the
 tolerance), and its golden snapshot holds every sample's collapse level, a line a cell.
@@ -229,11 +235,39 @@ def pytest_terminal_summary(terminalreporter: Any, config: pytest.Config) -> Non
         for line in ties:
             terminalreporter.line(line)
         terminalreporter.line("a near tie may flip on another machine: `stackdsl check --perturb 4 FILE` says whether it holds")
+    marked = _marked_lines(terminalreporter)
+    if marked:
+        terminalreporter.section("stackdsl: scenarios skipped or expected to fail, and why", yellow=True)
+        for line in marked:
+            terminalreporter.line(line)
     orphans = orphan_goldens(config)
     if orphans:
         terminalreporter.section("stackdsl: golden snapshots with no scenario file", yellow=True)
         for golden in orphans:
             terminalreporter.line(f"{_shown(golden, config)} (its scenario file is gone: delete it or restore the file)")
+
+
+def _marked_lines(terminalreporter: Any) -> list[str]:
+    """The reason of each scenario item skipped, xfailed or xpassed by its file's marks, a line
+    each as pytest's ``-rs``/``-rx``/``-rX`` say them (``SKIPPED scenarios/t.yaml:3: why``,
+    ``XFAIL scenarios/t.yaml::t - why``), so that the default output says why without ``-r``;
+    none of a kind pytest's own ``-r`` shows already."""
+    shown = getattr(terminalreporter, "reportchars", "")
+    lines = []
+    for kind, char in (("skipped", "s"), ("xfailed", "x"), ("xpassed", "X")):
+        if char in shown:
+            continue
+        for report in terminalreporter.stats.get(kind, []):
+            nodeid = getattr(report, "nodeid", "")
+            if Path(nodeid.split("::", 1)[0]).suffix not in SUFFIXES:
+                continue  # not a scenario item: pytest's own reporting, unchanged
+            if kind == "skipped" and not hasattr(report, "wasxfail") and isinstance(report.longrepr, tuple):
+                where, line, reason = report.longrepr
+                where = _relative(Path(where), terminalreporter.startpath)
+                lines.append(f"SKIPPED {where}:{line}: {reason.removeprefix('Skipped: ')}")
+            elif hasattr(report, "wasxfail"):
+                lines.append(f"{'XFAIL' if kind == 'xfailed' else 'XPASS'} {nodeid} - {report.wasxfail}")
+    return lines
 
 
 class ScenarioFile(pytest.File):
@@ -275,11 +309,17 @@ def _scenario_test(request: pytest.FixtureRequest, scenario_golden: Any) -> None
     An item that fails before its golden is compared (a bad file, a failed expectation, a
     crash) still marks its golden as this run's, compared but never written
     (:func:`_keep_golden`): otherwise syrupy would count it unused, and ``--snapshot-update``
-    would delete the reviewed snapshot of a scenario that still exists."""
+    would delete the reviewed snapshot of a scenario that still exists. A skipped item's golden
+    is not compared at all (syrupy would count it failed): it is kept as every golden whose
+    scenario file exists is (:meth:`ScenarioSnapshotExtension.discover_snapshots`)."""
+    skipped = False
     try:
         _run_scenario_item(request, scenario_golden)
+    except pytest.skip.Exception:
+        skipped = True
+        raise
     finally:
-        if not scenario_golden.num_executions:
+        if not scenario_golden.num_executions and not skipped:
             _keep_golden(scenario_golden, Path(request.node.path), _NOT_COMPARED)
 
 
@@ -291,11 +331,21 @@ def _run_scenario_item(request: pytest.FixtureRequest, scenario_golden: Any) -> 
     shown = _shown(path, config)
     try:
         scenario = load_scenario(path, shown=shown)
-        program = compile_scenario(scenario)
     except ScenarioError as exc:
         error = str(exc)  # failed outside the handler: no "during handling" chain in the report
     else:
         error = ""
+    if error:
+        pytest.fail(error, pytrace=False)
+    run = (scenario.engine.backend, scenario.engine.mode, scenario.stability.model)
+    if scenario.skip is not None and scenario.skip.applies(*run):  # before compiling, as pytest's skip before setup
+        request.node.stash[_SKIP_LINE] = scenario.source.keys.get(("skip",), (0, 0))[0] + 1
+        pytest.skip(scenario.skip.reason)
+    xfail = scenario.xfail if scenario.xfail is not None and scenario.xfail.applies(*run) else None
+    try:
+        program = compile_scenario(scenario)
+    except ScenarioError as exc:
+        error = str(exc)
     if error:
         pytest.fail(error, pytrace=False)
     stored = scenario_golden_path(path)
@@ -311,7 +361,7 @@ def _run_scenario_item(request: pytest.FixtureRequest, scenario_golden: Any) -> 
     scenario_golden.extension.toppled = scenario.expect.toppled is not None
     scenario_golden.extension.may_fall = scenario.expect.may_fall or ()
     if scenario.sweep is not None:
-        _sweep_test(request, scenario, program, shown, scenario_golden)
+        _sweep_test(request, scenario, program, shown, scenario_golden, xfail)
         return
     pictures = config.getoption("stackdsl_pictures")
     trajectory = None
@@ -327,6 +377,7 @@ def _run_scenario_item(request: pytest.FixtureRequest, scenario_golden: Any) -> 
         lines += [f"  {line}" for line in explain(scenario.expect, outcome, program.collapse_threshold)]
         lines.append(f"more: stackdsl run {shlex.quote(shown)}")
         lines += _kept_golden(request, scenario_golden, path, outcome.golden())
+        _expect_failure(request, xfail)  # the expectations failed: XFAIL, when the file expects it
     elif missing := _no_golden_yet(request, path, shown):
         lines = [missing]
     elif not scenario_golden == outcome.golden():
@@ -342,12 +393,44 @@ def _run_scenario_item(request: pytest.FixtureRequest, scenario_golden: Any) -> 
             lines.append(kept)
     if lines:
         pytest.fail("\n".join(lines), pytrace=False)
+    _expect_failure(request, xfail)  # every expectation held and the golden matched: XPASS
 
 
-def _sweep_test(request: pytest.FixtureRequest, scenario: Any, program: Any, shown: str, scenario_golden: Any) -> None:
+def _expect_failure(request: pytest.FixtureRequest, xfail: Any) -> None:
+    """Put the file's ``xfail`` mark (when it holds on this run) on the item, as pytest's
+    ``request.applymarker`` does in a test: pytest then reports a failure after it as XFAIL
+    (``x``) and the item's end as XPASS (``X``, a failure when strict: pytest's
+    ``[XPASS(strict)] reason``), in the terminal and in JUnit XML alike. Put on only where the
+    expectations were judged, so that a bad golden, a missing golden or a crash fails as
+    any item does. ``strict`` not given: pytest's ``strict_xfail`` setting."""
+    if xfail is None:
+        return
+    strict = {} if xfail.strict is None else {"strict": xfail.strict}
+    request.applymarker(pytest.mark.xfail(reason=xfail.reason, **strict))
+
+
+#: The line of a skipped scenario's ``skip:`` key, which its report names (as pytest names a skip mark's test).
+_SKIP_LINE = pytest.StashKey[int]()
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_makereport(item: pytest.Item, call: Any) -> Generator[None, Any, Any]:
+    """A scenario skipped by its file's ``skip`` mark is reported at that file and line
+    (``SKIPPED [1] scenarios/t.yaml:3: why``), not at the line of this plugin that skipped it."""
+    report = yield
+    line = item.stash.get(_SKIP_LINE, None)
+    if line is not None and report.skipped and isinstance(report.longrepr, tuple) and not hasattr(report, "wasxfail"):
+        report.longrepr = (str(item.path), line, report.longrepr[2])
+    return report
+
+
+def _sweep_test(
+    request: pytest.FixtureRequest, scenario: Any, program: Any, shown: str, scenario_golden: Any, xfail: Any = None
+) -> None:
     """A sweep's item: every sample here, one after the other; each statistical expectation must
     be decided PASS in every grid cell; the golden snapshot holds every sample's collapse level,
-    one line a cell (sample k of a cell is the same run on any machine)."""
+    one line a cell (sample k of a cell is the same run on any machine). With the file's
+    ``xfail`` mark, a statistic not decided PASS is XFAIL, and all PASS with the golden matched XPASS."""
     from .batch.sweep import SweepOptions, collect, run_sweep
     from .batch.sweep_out import by_cell, failure_lines, verdicts
 
@@ -367,7 +450,9 @@ def _sweep_test(request: pytest.FixtureRequest, scenario: Any, program: Any, sho
     lines = failure_lines(template, scenario.expect, verdicts(template, scenario.expect, results), f"{shown}: ")
     if lines:
         lines.append(f"more: stackdsl sweep {shlex.quote(shown)}")
-        pytest.fail("\n".join([*lines, *_kept_golden(request, scenario_golden, path, golden)]), pytrace=False)
+        kept = _kept_golden(request, scenario_golden, path, golden)
+        _expect_failure(request, xfail)
+        pytest.fail("\n".join([*lines, *kept]), pytrace=False)
     if missing := _no_golden_yet(request, path, shown):
         pytest.fail(missing, pytrace=False)
     if not scenario_golden == golden:
@@ -375,6 +460,7 @@ def _sweep_test(request: pytest.FixtureRequest, scenario: Any, program: Any, sho
             diff = scenario_golden.get_assert_diff()
         where = _shown(scenario_golden_path(path), request.config)
         pytest.fail("\n".join([f"{shown}: the samples differ from {where}", *diff, UPDATE_HINT]), pytrace=False)
+    _expect_failure(request, xfail)
 
 
 def _pyproject(config: pytest.Config) -> Path:

@@ -161,15 +161,16 @@ def test_k_selects_by_path_or_name_case_insensitively(tmp_path, capsys):
 
 def test_k_selecting_nothing_is_bad_input(tmp_path, capsys):
     assert main(["check", str(write(tmp_path, a=PASSING)), "-k", "nothing-like-it"]) == 2
-    assert "no scenario's path or name contains 'nothing-like-it'" in capsys.readouterr().err
+    assert "no scenario's path or name matches 'nothing-like-it'" in capsys.readouterr().err
 
 
 def test_k_rule_is_in_the_help(capsys):
     with pytest.raises(SystemExit):
         main(["check", "--help"])
     shown = " ".join(capsys.readouterr().out.split())
-    assert "path or name contains TEXT (plain text, case-insensitive; not pytest's expressions)" in shown
-    assert "give -k again for more: a scenario runs when it contains any of them" in shown
+    assert "only the scenarios EXPR selects, as pytest's -k: words joined by and, or, not and parentheses" in shown
+    assert "when the file's path or the scenario's name contains it, ignoring case" in shown
+    assert "give -k again for more: a scenario runs when any of them selects it" in shown
 
 
 def test_exitfirst_stops_after_the_first_failure(tmp_path, capsys, monkeypatch):

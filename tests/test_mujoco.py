@@ -489,6 +489,7 @@ def test_near_points_from_the_other_body_into_this_one():
     assert np.allclose(hit.normal, [0.0, 0.0, 1.0])
 
 
+@pytest.mark.quick  # the quick set's run on MuJoCo
 def test_a_frozen_tower_on_mujoco_keeps_its_heights():
     """MuJoCo's soft contacts let a brick at rest sink about 0.02 mm into the one below: a
     13-level tower frozen with the overlaps stood 0.2 mm low at its top. Each brick is now

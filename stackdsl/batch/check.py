@@ -16,10 +16,10 @@ Source: stackdsl's own.
 
 from __future__ import annotations
 
-import re
 import traceback
 from collections.abc import Callable, Generator, Iterable, Sequence
 from concurrent.futures import Executor
+from dataclasses import replace
 from itertools import chain
 from numbers import Integral
 from pathlib import Path
@@ -33,24 +33,28 @@ from ..lang.expectations import Expect
 from ..lang.loader import load_scenario
 from ..lang.sampling import Template
 from ..lang.scenario_file import file_problem
+from ..lang.schema_marks import XFail
 from ..runtime.run import check_timeout
 from ..verdicts.check_result import CheckResult
 from ..verdicts.expect import expected_texts
 from .address import free_cores
 from .check_sweep import run_unit, sweep_result, sweep_tasks
 from .judge import KILL_AFTER, TIMEOUT, failed, internal, lost
+from .keywords import KeywordError, parse_keywords
 from .pool import fan_out, on_executor
 from .sweep import SampleResult, compile_bounds, compile_cells, which_sample
 
 
 class Prepared(NamedTuple):
     """A scenario file ready to run: its compiled ``program`` (a sweep's: sample 0 of cell 0),
-    ``expect``, and the sweep's ``template`` (None: one run)."""
+    ``expect``, the sweep's ``template`` (None: one run), and the file's ``xfail`` mark when it
+    holds on this run (None: none does)."""
 
     path: Path
     program: Program
     expect: Expect
     template: Template | None = None
+    xfail: XFail | None = None
 
 
 def discover(paths: list[str | Path]) -> list[Path]:
@@ -112,9 +116,13 @@ def prepare(
     seed: int | None = None,
     timeout: float | None = None,
     broken: list[CheckResult] | None = None,
+    skipped: list[CheckResult] | None = None,
 ) -> list[Prepared]:
     """Load and compile every file (on each of ``backends``, in each of ``modes`` when
-    given, with the stability ``model`` when given); nothing is simulated.
+    given, with the stability ``model`` when given); nothing is simulated. A run the file's
+    ``skip`` mark holds on (:mod:`stackdsl.lang.schema_marks`: on the backend, mode and model it
+    would run with) is not compiled: it is a result in ``skipped`` (left out when None); a run
+    its ``xfail`` mark holds on is prepared with that mark.
 
     Args:
         refused: given (a comparison), a file that compiles as written but that a compared
@@ -139,6 +147,12 @@ def prepare(
             sweep = scenario.template if scenario.sweep is not None else None
             for backend in backends:
                 for m in modes or (mode,):
+                    run = (backend or scenario.engine.backend, m or scenario.engine.mode, model or scenario.stability.model)
+                    if scenario.skip is not None and scenario.skip.applies(*run):
+                        if skipped is not None:
+                            skipped.append(_skipped(path, scenario, *run))
+                        continue
+                    xfail = scenario.xfail if scenario.xfail is not None and scenario.xfail.applies(*run) else None
                     try:
                         try:
                             program = compile_scenario(scenario, m, model, backend, draw_time=timeout)
@@ -153,7 +167,7 @@ def prepare(
                         compile_scenario(scenario, None, model, draw_time=timeout)  # as written: a bad file is an error still
                         refused.append(_refusal(path, scenario, m, model, backend, exc))
                         continue
-                    prepared.append(Prepared(path, program, scenario.expect, sweep))
+                    prepared.append(Prepared(path, program, scenario.expect, sweep, xfail))
         except ScenarioError as exc:
             errors.append(exc)
         except Exception as exc:  # a bug: said with the file it was met in, still exit 3
@@ -161,8 +175,9 @@ def prepare(
                 exc.add_note(f"while reading {path}")
                 raise
             prepared = [p for p in prepared if p.path != path]  # none of this file's runs: it is one result a run
-            if refused is not None:
-                refused[:] = [r for r in refused if r.file != str(path)]
+            for found in (refused, skipped):
+                if found is not None:
+                    found[:] = [r for r in found if r.file != str(path)]
             bugs += [_broken(path, scenario, m, model, b, exc) for b in backends for m in modes or (mode,)]
     if errors:
         summary = ""
@@ -192,6 +207,24 @@ def _broken(path: Path, scenario: Any, mode: str | None, model: str | None, back
         backend=backend or (scenario.engine.backend if scenario is not None else "?"),
         error=internal(exc),
         traceback="".join(traceback.format_exception(exc)),
+    )
+
+
+def _skipped(path: Path, scenario: Any, backend: str, mode: str, model: str) -> CheckResult:
+    """The result of a run the file's ``skip`` mark holds on: nothing ran; it says the reason."""
+    return CheckResult(
+        file=str(path),
+        scenario=scenario.name or path.stem,
+        mode=mode,
+        model=model,
+        verdicts=(),
+        collapse_level=None,
+        levels_placed=0,
+        simulated_time=0.0,
+        wall_time=0.0,
+        backend=backend,
+        skipped=scenario.skip.reason,
+        expects=", ".join(expected_texts(scenario.expect).values()),
     )
 
 
@@ -253,47 +286,49 @@ def _known(backend: str | None, mode: str | None, model: str | None) -> None:
 
 
 def select(prepared: list[Prepared], pattern: str | Sequence[str] | None) -> list[Prepared]:
-    """The scenarios whose file path or name contains ``pattern`` (plain text, case-insensitive;
-    several texts, as ``-k`` given more than once: any of them), in order; all of them when
-    ``pattern`` is None or empty.
+    """The scenarios that ``pattern`` selects, in order: a ``-k`` expression of pytest's
+    (:mod:`stackdsl.batch.keywords`: words matched, ignoring case, in the file's path or the
+    scenario's name, joined by ``and``, ``or``, ``not`` and parentheses), or several (``-k`` given
+    more than once: a scenario any of them selects); all of them when ``pattern`` is None or
+    empty.
 
     Raises:
-        ScenarioErrors: ``pattern`` selects none.
+        ScenarioErrors: ``pattern`` cannot be read (:class:`stackdsl.batch.keywords.KeywordError`,
+            said at ``-k``), or selects none.
     """
     return select_comparison(prepared, [], pattern)[0]
 
 
 def select_comparison(
-    prepared: list[Prepared], refused: list[CheckResult], pattern: str | Sequence[str] | None
+    prepared: list[Prepared], results: list[CheckResult], pattern: str | Sequence[str] | None
 ) -> tuple[list[Prepared], list[CheckResult]]:
-    """:func:`select` on a comparison's runs and its refused cells alike (each by its file's
-    path or its scenario's name).
+    """:func:`select` on a check's runs and its results known before anything runs (a comparison's
+    refused cells, skipped runs, files an internal error met) alike, each by its file's path or
+    its scenario's name.
 
     Raises:
-        ScenarioErrors: ``pattern`` selects neither a run nor a refused cell.
+        ScenarioErrors: ``pattern`` cannot be read, or selects neither a run nor a result.
     """
     texts = [t for t in ([pattern] if isinstance(pattern, str) else pattern or []) if t]
     if not texts:
-        return prepared, refused
-    folded = [t.casefold() for t in texts]
+        return prepared, results
+    expressions = []
+    for text in texts:
+        try:
+            expressions.append(parse_keywords(text))
+        except KeywordError as exc:
+            raise ScenarioErrors([ScenarioError(f"cannot read {text!r}: {exc}", file="-k")]) from None
 
     def chosen(*names: str) -> bool:
-        return any(t in n.casefold() for t in folded for n in names)
+        return any(e.matches(*names) for e in expressions)
 
     runs = [p for p in prepared if chosen(str(p.path), p.program.name)]
-    cells = [r for r in refused if chosen(r.file, r.scenario)]
+    cells = [r for r in results if chosen(r.file, r.scenario)]
     if not runs and not cells:
-        files = len({str(p.path) for p in prepared} | {r.file for r in refused})
+        files = len({str(p.path) for p in prepared} | {r.file for r in results})
         shown = " or ".join(repr(t) for t in texts)
-        hint = ""
-        if any(_EXPRESSION.search(t) for t in texts):
-            hint = "; -k takes plain text, not pytest's expressions: give -k once for each text (a scenario runs when it contains any)"
-        raise ScenarioErrors([ScenarioError(f"no scenario's path or name contains {shown} ({files} files){hint}", file="-k")])
+        raise ScenarioErrors([ScenarioError(f"no scenario's path or name matches {shown} ({files} files)", file="-k")])
     return runs, cells
-
-
-#: What a -k text written as a pytest expression has ("a or b", "not slow", "(x and y)").
-_EXPRESSION = re.compile(r"\b(and|or|not)\b|[()]")
 
 
 def check(
@@ -322,15 +357,17 @@ def check(
             1 runs everything here. Work estimated below a worker's start-up runs here
             whatever ``jobs`` says (see :mod:`stackdsl.batch.pool`).
         executor: run on this executor instead (e.g. a Dask client's executor).
-        pattern: only the scenarios whose file path or name contains it, or any of several
-            (see :func:`select`).
+        pattern: a ``-k`` expression of pytest's over the file paths and scenario names, or
+            several (any of them), as :func:`select` reads them.
         timeout: wall seconds each run may take (None: no limit); a run stopped by it is
             a failed result whose ``stopped`` says so.
         seed: replaces every file's ``seed`` (its random draws and placement error) when given.
         backend: overrides each scenario's engine (``"pybullet"`` or ``"mujoco"``).
 
     A file that hits an internal error (a bug) while it is read or compiled is a result with
-    its ``error``, first; the other files still run.
+    its ``error``, first; the other files still run. A run the file's ``skip`` mark holds on is
+    a result with its reason in ``skipped``, first, and nothing runs; one its ``xfail`` mark holds
+    on has the mark's reason in ``xfail`` (its :attr:`CheckResult.verdict` is XFAIL or XPASS).
 
     Raises:
         ScenarioErrors: a file is missing or invalid, or ``pattern`` selects nothing
@@ -344,9 +381,12 @@ def check(
     check_timeout(timeout)
     listed = [paths] if isinstance(paths, (str, Path)) else list(paths)  # one path, not its letters
     broken: list[CheckResult] = []
-    prepared = prepare(discover(listed), mode, model=model, backends=(backend,), seed=seed, timeout=timeout, broken=broken)
-    prepared, broken = select_comparison(prepared, broken, pattern)
-    return _after(broken, run_checks(prepared, jobs, executor, timeout))
+    skipped: list[CheckResult] = []
+    prepared = prepare(
+        discover(listed), mode, model=model, backends=(backend,), seed=seed, timeout=timeout, broken=broken, skipped=skipped
+    )
+    prepared, known = select_comparison(prepared, broken + skipped, pattern)
+    return _after(known, run_checks(prepared, jobs, executor, timeout))
 
 
 def _after(first: list[CheckResult], then: Generator[CheckResult, None, None]) -> Generator[CheckResult, None, None]:
@@ -398,13 +438,18 @@ def run_checks(
 def _gathered(
     stream: Generator[Any, None, None], prepared: list[Prepared], pending: dict[int, int], where: list[str | None]
 ) -> Generator[CheckResult, None, None]:
-    """Results as they finish: single runs at once, a sweep when its last batch is back."""
+    """Results as they finish: single runs at once, a sweep when its last batch is back; each
+    with its file's ``xfail`` mark when it holds on the run (:func:`marked`)."""
     samples: dict[int, list[SampleResult]] = {i: [] for i in pending}
     broken: dict[int, tuple[str, str]] = {}  # a sweep's first batch that raised: its error and traceback
+    # a file runs once on each backend and mode: that names its run among the results
+    marks: dict[tuple[str, str, str], XFail | None] = {
+        (str(p.path), p.program.engine.backend, p.program.engine.mode): p.xfail for p in prepared
+    }
     try:
         for item in stream:
             if isinstance(item, CheckResult):
-                yield item
+                yield marked(item, marks.get((item.file, item.backend, item.mode)))
                 continue
             kind, i, *rest = item
             if kind == "broken":
@@ -413,9 +458,17 @@ def _gathered(
                 samples[i] += rest[0]
             pending[i] -= 1
             if not pending[i]:
-                yield _swept(prepared[i], samples.pop(i), broken.pop(i, None), where[i])
+                yield marked(_swept(prepared[i], samples.pop(i), broken.pop(i, None), where[i]), prepared[i].xfail)
     finally:
         stream.close()
+
+
+def marked(result: CheckResult, xfail: XFail | None) -> CheckResult:
+    """``result`` with the ``xfail`` mark that holds on its run (None: as it is): its reason and
+    strictness (strict not given: false, pytest's default)."""
+    if xfail is None:
+        return result
+    return replace(result, xfail=xfail.reason, strict=bool(xfail.strict))
 
 
 def _swept(p: Prepared, samples: list[SampleResult], broken: tuple[str, str] | None, folder: str | None) -> CheckResult:
@@ -458,9 +511,11 @@ def compare(
     check_timeout(timeout)
     refusals: list[CheckResult] = []
     broken: list[CheckResult] = []
-    prepared = prepare(discover(paths), modes=modes, model=model, refused=refusals, timeout=timeout, broken=broken)
-    prepared, refused = select_comparison(prepared, refusals + broken, pattern)
-    return tabulate(prepared, modes, chain(refused, run_checks(prepared, jobs, timeout=timeout)))
+    skipped: list[CheckResult] = []
+    files = discover(paths)
+    prepared = prepare(files, modes=modes, model=model, refused=refusals, timeout=timeout, broken=broken, skipped=skipped)
+    prepared, refused = select_comparison(prepared, refusals + broken + skipped, pattern)
+    return tabulate(prepared, modes, chain(refused, run_checks(prepared, jobs, timeout=timeout)), files=files)
 
 
 def tabulate(
@@ -468,12 +523,15 @@ def tabulate(
     modes: tuple[str, ...],
     results: Iterable[CheckResult],
     each: Callable[[CheckResult], None] = lambda r: None,
+    files: Sequence[str | Path] = (),
 ) -> dict[str, dict[str, CheckResult]]:
-    """``results`` (in any order) as file -> column -> result, files in the order of
+    """``results`` (in any order) as file -> column -> result, files in the order of ``files``
+    when given (a file all of whose runs were skipped has no prepared run), else of
     ``prepared``; a column is a mode, or ``"backend mode"`` when ``modes`` name backends
     too; ``each`` is called with every result as it comes."""
-    table: dict[str, dict[str, CheckResult]] = {str(p.path): {} for p in prepared}
+    table: dict[str, dict[str, CheckResult]] = {str(f): {} for f in files}
+    table.update({str(p.path): {} for p in prepared if str(p.path) not in table})
     for r in results:
         table.setdefault(r.file, {})[r.mode if r.mode in modes else f"{r.backend} {r.mode}"] = r
         each(r)
-    return {file: {m: row[m] for m in modes if m in row} for file, row in table.items()}
+    return {file: {m: row[m] for m in modes if m in row} for file, row in table.items() if row}

@@ -64,8 +64,9 @@ def sweep_result(
             name="statistic",
             passed=v.outcome == "PASS",
             expected=v.expected,
-            measured=f"{v.outcome.lower()}: {v.measured}",  # its first word read by report.junit_xml
+            measured=f"{v.outcome.lower()}: {v.measured}",
             at=expect.at(v.field),
+            inconclusive=v.outcome == "INCONCLUSIVE",
         )
         for _, v in decided
     ]

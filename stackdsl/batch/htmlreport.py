@@ -4,7 +4,9 @@
 (:mod:`stackdsl.draw.artefacts`: picture, clip, brick-graph plot, trajectory file). The page
 has no script and loads nothing from elsewhere: its style is inline and its images are
 the files beside it, so the folder can be copied, archived by a CI server or opened from
-disk. Failures come first, then the scenarios that passed, then a summary table.
+disk. Failures come first (an undecided sweep, a strict xfail that passed), then the scenarios
+expected to fail (the file's xfail mark), the skipped ones with their reasons, the scenarios that
+passed, and a summary table.
 
 Source: stackdsl's own (the layout of pytest-html's report: a row per test, failures
 first, the test's extras linked from its row).
@@ -25,7 +27,7 @@ from ..runtime.outcome import Event
 from ..runtime.trajectory import load_trajectory
 from ..verdicts.check_result import CheckResult
 from ..verdicts.expect import describe
-from .report import mode_label
+from .report import mode_label, summary
 
 #: Events listed in a row's timeline at most (a 100-level tower has about 400).
 TIMELINE_LIMIT = 600
@@ -37,7 +39,8 @@ h2 { font-size: 1.2em; margin: 1.6em 0 0.6em; border-bottom: 1px solid #ccc; }
 .meta { color: #555; margin: 0; }
 code { background: #f3f3f3; padding: 0 0.25em; border-radius: 3px; }
 .verdict { font-weight: bold; padding: 0.1em 0.5em; border-radius: 3px; color: #fff; }
-.pass { background: #2e7d32; } .fail { background: #c62828; }
+.pass { background: #2e7d32; } .fail { background: #c62828; } .inconclusive { background: #ef6c00; }
+.skip { background: #757575; } .xfail { background: #6d4c41; } .xpass { background: #f9a825; color: #222; }
 .scenario { display: flex; gap: 1.2em; padding: 0.9em 0; border-bottom: 1px solid #eee; }
 .scenario.failed { background: #fff5f5; }
 .thumb { width: 320px; height: 240px; object-fit: contain; background: #fafafa; border: 1px solid #ddd; flex: none; }
@@ -80,8 +83,11 @@ def write_report(
         OSError: the page cannot be written.
     """
     out = Path(folder)
-    failed = [(r, c) for r, c in zip(results, commands, strict=True) if not r.passed]
-    passed = [(r, c) for r, c in zip(results, commands, strict=True) if r.passed]
+    pairs = list(zip(results, commands, strict=True))
+    failed = [(r, c) for r, c in pairs if not r.held]
+    passed = [(r, c) for r, c in pairs if r.verdict == "PASS"]
+    marked = [(r, c) for r, c in pairs if r.held and r.verdict in ("XFAIL", "XPASS")]
+    skipped = [(r, c) for r, c in pairs if r.verdict == "SKIP"]
     now = datetime.datetime.now().astimezone().strftime("%Y-%m-%d %H:%M %Z")
     command = shlex.join(["stackdsl", *argv]) if argv else "stackdsl check"
     parts = [
@@ -97,6 +103,12 @@ def write_report(
     if failed:
         parts.append(f'<h2 id="failed">Failed ({len(failed)})</h2>')
         parts += [_row(r, c, out) for r, c in failed]
+    if marked:  # the file's xfail mark: failed as expected, or passed (not strict)
+        parts.append(f'<h2 id="xfail">Expected to fail ({len(marked)})</h2>')
+        parts += [_row(r, c, out) for r, c in marked]
+    if skipped:
+        parts.append(f'<h2 id="skipped">Skipped ({len(skipped)})</h2>')
+        parts += [_row(r, c, out) for r, c in skipped]
     if passed:
         parts.append(f'<h2 id="passed">Passed ({len(passed)})</h2>')
         parts += [_row(r, c, out) for r, c in passed]
@@ -131,11 +143,8 @@ def _e(text: object) -> str:
 
 
 def _counts(results: Sequence[CheckResult], total: int, wall: float) -> str:
-    failed = sum(not r.passed for r in results)
-    text = f"{total} scenarios: {len(results) - failed} passed, {failed} failed"
-    if len(results) < total:
-        text += f", {total - len(results)} not run (stopped after the first failure)"
-    return text + f"; {wall:.1f} s wall"
+    """check's summary line (:func:`stackdsl.batch.report.summary`), the wall time after a ';'."""
+    return summary(results, total, wall).replace(f" ({wall:.1f} s wall)", f"; {wall:.1f} s wall")
 
 
 def _anchor(r: CheckResult) -> str:
@@ -154,17 +163,28 @@ def _link(r: CheckResult, kind: str, folder: Path) -> str | None:
         return path.resolve().as_uri()
 
 
+def _badge(r: CheckResult) -> str:
+    """The verdict as a coloured word (:attr:`CheckResult.verdict`); a strict XPASS in the colour of a failure."""
+    word = r.verdict
+    kind = "fail" if word == "XPASS" and not r.held else word.lower()
+    return f'<span class="verdict {kind}">{word}</span>'
+
+
 def _row(r: CheckResult, command: str, folder: Path) -> str:
-    verdict = '<span class="verdict pass">PASS</span>' if r.passed else '<span class="verdict fail">FAIL</span>'
+    verdict = _badge(r)
     picture = _link(r, "picture", folder)
     when = "at the collapse" if r.collapse_level is not None else "at the end"
     thumb = (
         f'<a href="{_e(picture)}"><img class="thumb" src="{_e(picture)}" alt="{_e(r.scenario)} {when}" '
         f'title="{_e(r.scenario)}, {when}"></a>'
         if picture
-        else f'<div class="nothumb">{_e(r.draw_error or r.error or "no picture")}</div>'
+        else f'<div class="nothumb">{_e(r.draw_error or r.error or ("not run" if r.skipped else "no picture"))}</div>'
     )
+    marks = [("skipped", r.skipped)] if r.skipped else []
+    if r.xfail:
+        marks.append(("xfail", r.xfail + (" (strict: a pass fails the check)" if r.strict else "")))
     facts = [
+        *marks,
         ("expected", r.expected),
         ("measured", r.measured),
         ("engine", r.backend),
@@ -183,7 +203,7 @@ def _row(r: CheckResult, command: str, folder: Path) -> str:
     problems = [p for p in (r.draw_error,) if p]
     return "\n".join(
         [
-            f'<section class="scenario{"" if r.passed else " failed"}" id="{_e(_anchor(r))}">',
+            f'<section class="scenario{"" if r.held else " failed"}" id="{_e(_anchor(r))}">',
             thumb,
             '<div class="body">',
             f"<h3>{verdict} {_e(r.file)} <small>{_e(r.scenario)}</small></h3>",
@@ -222,14 +242,15 @@ def _summary(results: Sequence[CheckResult], total: int, wall: float) -> str:
         '<th class="num">simulated</th><th class="num">wall</th></tr>'
     )
     rows = "".join(
-        f'<tr><td>{"PASS" if r.passed else "FAIL"}</td><td><a href="#{_e(_anchor(r))}">{_e(r.file)}</a></td>'
+        f'<tr><td>{_e(r.verdict)}</td><td><a href="#{_e(_anchor(r))}">{_e(r.file)}</a></td>'
         f"<td>{_e(r.backend)}</td><td>{_e(mode_label(r))}</td><td>{_e(r.expected)}</td><td>{_e(r.measured)}</td>"
         f'<td class="num">{r.simulated_time:.1f} s</td><td class="num">{r.wall_time:.2f} s</td></tr>'
-        for r in sorted(results, key=lambda r: r.passed)
+        for r in sorted(results, key=lambda r: (r.held, r.verdict != "PASS"))  # failures first, passes last
     )
-    collapsed = sum(r.collapse_level is not None for r in results)
+    ran = [r for r in results if not r.skipped]
+    collapsed = sum(r.collapse_level is not None for r in ran)
     line = (
-        f"{_counts(results, total, wall)}; {collapsed} collapsed ({describe(None)}: {len(results) - collapsed}); "
+        f"{_counts(results, total, wall)}; {collapsed} collapsed ({describe(None)}: {len(ran) - collapsed}); "
         f"{sum(r.simulated_time for r in results):.1f} s simulated in {sum(r.wall_time for r in results):.1f} s of runs"
     )
     return f'<p>{_e(line)}</p><table class="summary">{head}{rows}</table>'

@@ -35,8 +35,8 @@ def row(r: CheckResult) -> str:
     """One line of check's table: verdict, file, engine (the backend), mode, simulated and wall
     seconds, expected, and measured last (its length varies)."""
     file = r.file if len(r.file) <= 40 else "..." + r.file[-37:]
-    return (
-        f"{'PASS' if r.passed else 'FAIL':<4}  {file:<40} {r.backend:<8} {mode_label(r):<9} "
+    return (  # the verdict (CheckResult.verdict), as wide as XFAIL: INCONCLUSIVE pushes its row right
+        f"{r.verdict:<5} {file:<40} {r.backend:<8} {mode_label(r):<9} "
         f"{r.simulated_time:>7.1f} s {r.wall_time:>5.1f} s  {r.expected:<18} {r.measured}"
     ).rstrip()
 
@@ -60,11 +60,30 @@ def run_command(
 
 
 def failure_lines(r: CheckResult, command: str) -> list[str]:
-    """The indented lines under a FAIL row: the result's explanation, then ``command``
-    (with ``--debug`` after an internal error, to show its traceback)."""
+    """The indented lines under a row: under a FAIL or INCONCLUSIVE row, the result's explanation,
+    then ``command`` (with ``--debug`` after an internal error, to show its traceback); under an
+    XFAIL or XPASS row, the reason of the file's xfail mark (a strict XPASS: and what to do);
+    none under PASS and SKIP (a SKIP row says its reason itself)."""
+    verdict = r.verdict
+    if verdict in ("PASS", "SKIP"):
+        return []
+    if verdict == "XFAIL":
+        return [f"{INDENT}xfail: {r.xfail}"]
+    if verdict == "XPASS":
+        if not r.strict:
+            return [f"{INDENT}xpass: {r.xfail}"]
+        return [f"{INDENT}{xpass_strict(r)}", f"{INDENT}more: {command}"]
     if r.error:
         command = command.replace("stackdsl ", "stackdsl --debug ", 1)
     return [INDENT + line for line in _pointed(r)] + [f"{INDENT}more: {command}"]
+
+
+def xpass_strict(r: CheckResult) -> str:
+    """What a strict XPASS says: pytest's ``[XPASS(strict)] reason``, then what to do."""
+    return (
+        f"[XPASS(strict)] {r.xfail}: every expectation held, and the file's xfail mark is strict: "
+        "remove the mark (or narrow its when) if the fix is meant"
+    )
 
 
 def _pointed(r: CheckResult) -> list[str]:
@@ -82,18 +101,36 @@ def _pointed(r: CheckResult) -> list[str]:
     return lines
 
 
+def counts(results: Sequence[CheckResult]) -> dict[str, int]:
+    """How many results are of each kind, as pytest counts its outcomes: ``passed`` (PASS),
+    ``failed`` (FAIL, and a strict XPASS, which fails the check), ``inconclusive``, ``skipped``,
+    ``xfailed``, ``xpassed`` (not strict), and ``errors`` (internal errors, among the failed)."""
+    verdicts = [r.verdict for r in results]
+    strict = sum(r.verdict == "XPASS" and r.strict for r in results)
+    return {
+        "passed": verdicts.count("PASS"),
+        "failed": verdicts.count("FAIL") + strict,
+        "inconclusive": verdicts.count("INCONCLUSIVE"),
+        "skipped": verdicts.count("SKIP"),
+        "xfailed": verdicts.count("XFAIL"),
+        "xpassed": verdicts.count("XPASS") - strict,
+        "errors": sum(bool(r.error) for r in results),
+    }
+
+
 def summary(results: Sequence[CheckResult], total: int, wall: float) -> str:
     """``'29 scenarios: 28 passed, 1 failed (3.8 s wall)'``, with how many hit an internal
-    error (counted among the failed) when any did, and how many did not run when fewer than
+    error (counted among the failed) when any did, how many were inconclusive, skipped, xfailed
+    and xpassed when any were (:func:`counts`), and how many did not run when fewer than
     ``total`` did."""
-    failed = sum(not r.passed for r in results)
-    errors = sum(bool(r.error) for r in results)
-    counts = f"{len(results) - failed} passed, {failed} failed"
-    if errors:
-        counts += f" ({errors} of them internal error{'s' if errors > 1 else ''})"
+    n = counts(results)
+    said = f"{n['passed']} passed, {n['failed']} failed"
+    if n["errors"]:
+        said += f" ({n['errors']} of them internal error{'s' if n['errors'] > 1 else ''})"
+    said += "".join(f", {n[kind]} {kind}" for kind in ("inconclusive", "skipped", "xfailed", "xpassed") if n[kind])
     if len(results) < total:
-        counts += f", {total - len(results)} {NOT_RUN}"
-    return f"{total} scenarios: {counts} ({wall:.1f} s wall)"
+        said += f", {total - len(results)} {NOT_RUN}"
+    return f"{total} scenarios: {said} ({wall:.1f} s wall)"
 
 
 def result_data(r: CheckResult, command: str) -> dict[str, Any]:
@@ -105,6 +142,9 @@ def result_data(r: CheckResult, command: str) -> dict[str, Any]:
         "model": r.model,
         "backend": r.backend,
         "passed": r.passed,
+        "verdict": r.verdict,
+        "skipped": r.skipped or None,
+        "xfail": None if not r.xfail else {"reason": r.xfail, "strict": r.strict},
         "expected": r.expected,
         "measured": r.measured,
         "verdicts": [v.model_dump() for v in r.verdicts],
@@ -128,18 +168,16 @@ def json_document(
     command: str, results: Sequence[CheckResult], commands: Sequence[str], total: int, wall: float
 ) -> dict[str, Any]:
     """Every result of one ``stackdsl`` command as one JSON document: the version, the
-    command, a summary (``total``, ``passed``, ``failed``, ``errors`` (internal errors, among
-    the failed), ``not_run``, ``wall_time`` in s)
+    command, a summary (``total``, ``passed``, ``failed``, ``inconclusive``, ``skipped``,
+    ``xfailed``, ``xpassed`` (:func:`counts`), ``errors`` (internal errors, among the failed),
+    ``not_run``, ``wall_time`` in s)
     and the results in the order given (``commands``: one rerun command each)."""
-    failed = sum(not r.passed for r in results)
     return {
         "stackdsl": version(),
         "command": command,
         "summary": {
             "total": total,
-            "passed": len(results) - failed,
-            "failed": failed,
-            "errors": sum(bool(r.error) for r in results),
+            **counts(results),
             "not_run": total - len(results),
             "wall_time": round(wall, 3),
         },
@@ -150,21 +188,25 @@ def json_document(
 def junit_xml(
     results: Sequence[CheckResult], commands: Sequence[str], not_run: Sequence[str], wall: float, path: str | Path
 ) -> None:
-    """Write JUnit XML to ``path``: one testcase per scenario run (classname ``stackdsl.<backend>.<mode>``,
-    name the file, time its wall seconds), an ``error`` with the traceback for each internal
-    error, a ``failure`` with the explanation and the rerun command for each other failed
-    one, and a ``skipped`` testcase for each file in ``not_run``."""
-    errors = sum(bool(r.error) for r in results)
-    failed = sum(not r.passed for r in results) - errors
+    """Write JUnit XML to ``path``, in the shape pytest writes: one testcase per scenario run
+    (classname ``stackdsl.<backend>.<mode>``, name the file, time its wall seconds), an
+    ``error`` with the traceback for each internal error, a ``failure`` with the explanation and
+    the rerun command for each other run that did not hold (``type`` its verdict: ``FAIL``,
+    ``INCONCLUSIVE``, or ``XPASS`` for a strict xfail that passed, whose message is pytest's
+    ``[XPASS(strict)] reason``), a ``skipped`` of ``type`` ``stackdsl.skip`` for a run the file's
+    skip mark holds on and ``stackdsl.xfail`` for an XFAIL (pytest's ``pytest.skip`` and
+    ``pytest.xfail``; the message the reason), and a ``skipped`` testcase for each file in
+    ``not_run``. A non-strict XPASS is a testcase that passed, as in pytest's."""
+    n = counts(results)
     suites = ET.Element("testsuites")
     suite = ET.SubElement(
         suites,
         "testsuite",
         name="stackdsl check",
         tests=str(len(results) + len(not_run)),
-        failures=str(failed),
-        errors=str(errors),
-        skipped=str(len(not_run)),
+        failures=str(n["failed"] - n["errors"] + n["inconclusive"]),
+        errors=str(n["errors"]),
+        skipped=str(n["skipped"] + n["xfailed"] + len(not_run)),
         time=f"{wall:.3f}",
     )
     ET.SubElement(ET.SubElement(suite, "properties"), "property", name="stackdsl", value=version())
@@ -172,16 +214,26 @@ def junit_xml(
         case = ET.SubElement(
             suite, "testcase", classname=f"stackdsl.{r.backend}.{r.mode}", name=r.file, time=f"{r.wall_time:.3f}"
         )
+        verdict = r.verdict
         if r.error:
             error = ET.SubElement(case, "error", message=r.error)
             error.text = r.traceback or None
-        elif not r.passed:
+        elif verdict == "SKIP":
+            skipped = ET.SubElement(case, "skipped", type="stackdsl.skip", message=r.skipped)
+            skipped.text = f"{r.file}: {r.skipped}"
+        elif verdict == "XFAIL":
+            skipped = ET.SubElement(case, "skipped", type="stackdsl.xfail", message=r.xfail)
+            skipped.text = "\n".join([f"expected {r.expected}, measured {r.measured}", *_pointed(r)])
+        elif verdict == "XPASS" and r.strict:
+            failure = ET.SubElement(case, "failure", type="XPASS", message=f"[XPASS(strict)] {r.xfail}")
+            failure.text = "\n".join([xpass_strict(r), f"more: {command}"])
+        elif not r.held:
             first = next((v for v in r.verdicts if not v.passed and v.at is not None), None)
             at = first.at if first is not None else None
             said = f"expected {r.expected}, measured {r.measured}"
-            if r.sweep and first is not None and first.measured.startswith("inconclusive: "):
+            if verdict == "INCONCLUSIVE":
                 said = f"INCONCLUSIVE: {said}"  # not decided either way, as the failure's text says
-            failure = ET.SubElement(case, "failure", message=f"{at}: {said}" if at else said)
+            failure = ET.SubElement(case, "failure", type=verdict, message=f"{at}: {said}" if at else said)
             failure.text = "\n".join([*_pointed(r), f"more: {command}"])
     for file in not_run:
         case = ET.SubElement(suite, "testcase", classname="stackdsl", name=file, time="0")

@@ -15,15 +15,26 @@ import re
 import tempfile
 from pathlib import Path
 
-EXIT_STATUS = """\
-exit status:
-  0    every expectation held
-  1    an expectation failed, or a run reached its --timeout
+#: The lines of the exit status that every command shares: bad input, bugs, signals.
+_OTHER_STATUSES = """\
   2    bad input: a scenario file, a path or an option (nothing is simulated then), or a path
        the system refused (full disk, name too long, not a folder, no permission)
   3    internal error: a bug, out of memory, a worker died (one line; --debug shows the traceback)
   130  interrupted (Ctrl-C)
   141  the output pipe was closed early (as by | head); nothing more is printed"""
+EXIT_STATUS = f"""\
+exit status:
+  0    every expectation held
+  1    an expectation failed, or a run reached its --timeout
+{_OTHER_STATUSES}"""
+#: ``check``'s and ``compare``'s, which honour the files' skip and xfail marks and judge sweeps.
+CHECK_STATUS = f"""\
+exit status:
+  0    every expectation held, or the run was skipped (SKIP) or failed as its file's xfail mark
+       expects (XFAIL), or passed under a mark that is not strict (XPASS)
+  1    an expectation failed, a sweep's statistic was INCONCLUSIVE (its 95% interval decided
+       neither way: more samples would), a strict xfail passed, or a run reached its --timeout
+{_OTHER_STATUSES}"""
 
 #: The commands of ``stackdsl`` and each one's line in ``stackdsl --help``, in that order. Only the
 #: command given is built in full, so that its modules alone load (:func:`command_of`).

@@ -35,11 +35,18 @@ def check_command(args: argparse.Namespace) -> int:
     report = _check_outputs(args, files)
     backends = _backends(args.backend, several=False)
     broken: list[CheckResult] = []  # files an internal error met as they were read: a row each, the others run
-    prepared, broken = select_comparison(
-        prepare(files, args.mode, model=args.model, backends=backends, seed=args.seed, timeout=args.timeout, broken=broken),
-        broken,
-        args.pattern,
+    skipped: list[CheckResult] = []  # runs the file's skip mark holds on: a row each, nothing runs
+    prepared = prepare(
+        files,
+        args.mode,
+        model=args.model,
+        backends=backends,
+        seed=args.seed,
+        timeout=args.timeout,
+        broken=broken,
+        skipped=skipped,
     )  # bad input raises here
+    prepared, broken = select_comparison(prepared, broken + skipped, args.pattern)
     total = len(prepared) + len(broken)
     folders = None
     if report is not None:
@@ -70,11 +77,10 @@ def check_command(args: argparse.Namespace) -> int:
                 commands.append(run_command(r.file, args.mode, args.model, args.backend, sweep=bool(r.sweep)))
                 if not args.json:
                     lines.line(row(r))
-                    if not r.passed:
-                        for text in failure_lines(r, commands[-1]):
-                            lines.line(text)
+                    for text in failure_lines(r, commands[-1]):
+                        lines.line(text)
                 lines.advance()
-                if args.exitfirst and not r.passed:
+                if args.exitfirst and not r.held:
                     break
         finally:
             checks.close()  # cancels what has not started and stops the workers
@@ -112,12 +118,12 @@ def check_command(args: argparse.Namespace) -> int:
         print(r.bad_input, file=sys.stderr)
     if refused:
         return BAD_INPUT
-    return FAILED if any(not r.passed for r in results) or any(f.fragile for f in fragile or ()) else OK
+    return FAILED if any(not r.held for r in results) or any(f.fragile for f in fragile or ()) else OK
 
 
 def _perturbed(args: argparse.Namespace, prepared: list[Prepared], results: list[CheckResult], stream: TextIO) -> list[Fragility]:
     """``check --perturb N``: every scenario that ran rerun N times perturbed, under a progress line."""
-    ran = {(r.file, r.backend, r.mode) for r in results if not r.error}
+    ran = {(r.file, r.backend, r.mode) for r in results if not r.error and not r.skipped}
     chosen = [p for p in prepared if (str(p.path), p.program.engine.backend, p.program.engine.mode) in ran]
     runs = sum(args.perturb for p in chosen if p.template is None)
     with Lines(runs, "perturbed runs", file=stream, live=is_live(stream)) as lines:
@@ -185,8 +191,10 @@ def compare_command(args: argparse.Namespace) -> int:
     plain = tuple(dict.fromkeys(m.split()[-1] for m in modes))
     refusals: list[CheckResult] = []
     broken: list[CheckResult] = []  # a cell each for a file an internal error met as it was read
+    skipped: list[CheckResult] = []  # a cell each for a run the file's skip mark holds on
+    files = discover(args.paths)
     prepared = prepare(
-        discover(args.paths),
+        files,
         modes=plain,
         model=args.model,
         backends=backends,
@@ -194,8 +202,9 @@ def compare_command(args: argparse.Namespace) -> int:
         seed=args.seed,
         timeout=args.timeout,
         broken=broken,
+        skipped=skipped,
     )
-    prepared, refused = select_comparison(prepared, refusals + broken, args.pattern)
+    prepared, refused = select_comparison(prepared, refusals + broken + skipped, args.pattern)
     done: list[CheckResult] = []
     live = is_live(sys.stdout)
     # On a terminal a progress line; elsewhere a line per finished cell on stderr, so that
@@ -211,11 +220,13 @@ def compare_command(args: argparse.Namespace) -> int:
                     + (
                         "refused (beyond the engine; why: after the table)"  # said once, there
                         if r.refused
-                        else f"{'PASS' if r.passed else 'FAIL'} {r.error or r.stopped or _cell(r)} ({r.wall_time:.1f} s)"
+                        else f"SKIP: {r.skipped}"
+                        if r.skipped
+                        else f"{r.verdict} {r.error or r.stopped or _cell(r)} ({r.wall_time:.1f} s)"
                     )
                 )
 
-        table = tabulate(prepared, modes, chain(refused, run_checks(prepared, args.jobs, timeout=args.timeout)), each)
+        table = tabulate(prepared, modes, chain(refused, run_checks(prepared, args.jobs, timeout=args.timeout)), each, files)
     wall = time.perf_counter() - start
     if args.json:
         commands = [
@@ -225,12 +236,16 @@ def compare_command(args: argparse.Namespace) -> int:
         return _status(done, args.debug)
     width = max([len("scenario"), *(len(Path(f).stem) for f in table)])
     # a mode's measured texts as wide as its longest, so that its wall times stay in line
-    measured = {m: max([13, *(len(_cell(cells[m])) for cells in table.values() if not cells[m].refused)]) for m in modes}
+    measured = {
+        m: max([13, *(len(_cell(cells[m])) for cells in table.values() if m in cells and not cells[m].refused)]) for m in modes
+    }
     rows = {
         file: [
             "refused (beyond the engine)"
             if r.refused
-            else f"{'PASS' if r.passed else 'FAIL'} {_cell(r):<{measured[m]}} {r.wall_time:>7.1f} s"
+            else "SKIP"
+            if r.skipped
+            else f"{r.verdict} {_cell(r):<{measured[m]}} {r.wall_time:>7.1f} s"
             for m, r in ((m, cells[m]) for m in modes)
         ]
         for file, cells in table.items()
@@ -259,6 +274,14 @@ def compare_command(args: argparse.Namespace) -> int:
         for line in r.explanation if not r.passed else ():
             if line.startswith("still moving"):
                 print(f"{Path(r.file).stem} {r.backend} {r.mode}: {line}")
+    marked: dict[tuple[str, str, str], list[str]] = {}  # (file, word, reason) -> the columns it was said of
+    for file, cells in table.items():
+        for column, r in cells.items():
+            if r.skipped or r.xfail:
+                word = "SKIP" if r.skipped else "XPASS (strict)" if r.verdict == "XPASS" and r.strict else r.verdict
+                marked.setdefault((Path(file).stem, word, r.skipped or r.xfail), []).append(column)
+    for (stem, word, reason), where in marked.items():  # why cells were skipped or expected to fail, once each
+        print(f"{stem}: {word} in {', '.join(where)}: {reason}")
     for r in refused:  # why, once each, after the table
         if r.refused:
             print(f"refused in {r.mode} on {r.backend}: {r.refused}", file=sys.stderr)
@@ -267,10 +290,11 @@ def compare_command(args: argparse.Namespace) -> int:
 
 def _status(done: list[CheckResult], debug: bool) -> int:
     """compare's exit status, as check's: 3 when a run hit an internal error, else 1 when some
-    cell's expectation failed (raw mode failing where the extension holds is one), else 0."""
+    cell did not hold (:attr:`CheckResult.held`: an expectation failed or was undecided, raw mode
+    failing where the extension holds is one, or a strict xfail passed), else 0."""
     if _internal_errors(done, debug):
         return INTERNAL
-    return FAILED if any(not r.passed and not r.refused for r in done) else OK
+    return FAILED if any(not r.held and not r.refused for r in done) else OK
 
 
 def _backends(given: str | None, several: bool) -> tuple[str | None, ...]:

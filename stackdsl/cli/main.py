@@ -29,6 +29,7 @@ from ..lang.extras import installed, missing
 from .args import (
     BAD_INPUT,
     BROKEN_PIPE,
+    CHECK_STATUS,
     COMMANDS,
     EXIT_STATUS,
     FAILED,
@@ -428,11 +429,12 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
     )
     many.add_argument(
         "-k",
-        metavar="TEXT",
+        metavar="EXPR",
         dest="pattern",
         action="append",
-        help="only the scenarios whose file path or name contains TEXT (plain text, case-insensitive; not pytest's "
-        "expressions); give -k again for more: a scenario runs when it contains any of them",
+        help="only the scenarios EXPR selects, as pytest's -k: words joined by and, or, not and parentheses, a word "
+        "holding when the file's path or the scenario's name contains it, ignoring case ('tower and not hard/'; a "
+        "word is letters, digits and _:+-.[]\\/); give -k again for more: a scenario runs when any of them selects it",
     )
     many.add_argument("--json", action="store_true", help="print one JSON document of every result instead of the table")
     if name == "check":
@@ -441,8 +443,10 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
             parents=[many],
             help=COMMANDS["check"],
             description="Run scenario files or folders and check their expectations: a row per scenario as it "
-            "finishes (under a progress line on a terminal), what moved under each FAIL, then a summary.",
-            epilog=EXIT_STATUS,
+            "finishes (under a progress line on a terminal), what moved under each FAIL, then a summary. A row's "
+            "verdict: PASS, FAIL, INCONCLUSIVE (a sweep's statistic its samples did not decide), SKIP (the file's "
+            "skip mark, with its reason), XFAIL or XPASS (its xfail mark: failed as expected, or passed).",
+            epilog=CHECK_STATUS,
             formatter_class=raw,
         )
         p.add_argument("--mode", choices=modes, help="override every scenario's engine mode")
@@ -473,7 +477,7 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
             parents=[many],
             help=COMMANDS["compare"],
             description="Run scenario files or folders in every mode, in one run, and print one table.",
-            epilog=EXIT_STATUS.replace("  0    every expectation held", "  0    every expectation held, in every cell").replace(
+            epilog=CHECK_STATUS.replace("  0    every expectation held", "  0    in every cell, every expectation held").replace(
                 "  1    an expectation failed", "  1    an expectation failed in some cell"
             ),
             formatter_class=raw,

@@ -55,6 +55,7 @@ from .schema_generators import HALF, Dominoes, Pyramid, Wall
 from .schema_golden import Golden
 from .schema_impacts import Impact
 from .schema_layouts import BrickPlacement, CardHouse, Tower
+from .schema_marks import SkipMark, XFailMark
 from .schema_parts import LAYOUTS, RESERVED, Parts, as_parts, check_parts, named_parts
 from .schema_require import Requirement
 from .schema_sweep import Sweep, grid_name
@@ -285,6 +286,9 @@ class Scenario(StrictModel):
         "comparisons, and, or, not",
         examples=[["overhang >= 10 mm", "com_offset < 50 mm and gap > 1 mm"]],
     )
+    # pytest's marks: skip and xfail, each with a reason and a condition on the run (stackdsl.lang.schema_marks)
+    skip: SkipMark = None
+    xfail: XFailMark = None
 
     @model_validator(mode="after")
     def _expectations_fit_the_sweep(self) -> Scenario:

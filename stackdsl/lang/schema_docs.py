@@ -13,6 +13,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from .schema_marks import MARK_DOCS
+
 #: schema object -> key -> (description, example)
 DOCS: dict[str, dict[str, tuple[str, Any]]] = {
     "": {
@@ -299,6 +301,9 @@ DOCS: dict[str, dict[str, tuple[str, Any]]] = {
         "tolerance": ("How many more or fewer still pass.", 1),
     },
 }
+
+for _where, _keys in MARK_DOCS.items():  # the marks' own docs, beside their models
+    DOCS.setdefault(_where, {}).update(_keys)
 
 
 def documented(schema: dict[str, Any]) -> dict[str, Any]:

@@ -50,6 +50,10 @@ class CheckResult:
             one line, else empty; nothing ran.
         expects: in a refused cell, what the file expects (no verdict was reached), else empty.
         margin_mm: a stand's certificate margin, mm (:attr:`stackdsl.Certificate.margin_mm`), else None.
+        skipped: the reason of the file's ``skip`` mark when it holds on this run (nothing ran),
+            else empty (:mod:`stackdsl.lang.schema_marks`).
+        xfail: the reason of the file's ``xfail`` mark when it holds on this run, else empty;
+            strict: that mark's ``strict`` (an XPASS then fails the check).
     """
 
     file: str
@@ -81,17 +85,48 @@ class CheckResult:
     moved_levels: tuple[int, ...] = ()
     expects: str = ""
     margin_mm: float | None = None
+    skipped: str = ""
+    xfail: str = ""
+    strict: bool = False
 
     @property
     def passed(self) -> bool:
-        """True when the run ended normally and every expectation held."""
+        """True when the run ran, ended normally and every expectation held (an XPASS too; a
+        skipped run did not run)."""
         return (
             not self.error
             and not self.stopped
             and not self.bad_input
             and not self.refused
+            and not self.skipped
             and all(v.passed for v in self.verdicts)
         )
+
+    @property
+    def verdict(self) -> str:
+        """The word of the run's row (:data:`VERDICTS`): ``SKIP`` when the file's ``skip`` holds on
+        it; ``FAIL`` when it stopped early, hit an internal error, drew bad input or was refused
+        (xfail or not); else, with an ``xfail`` mark, ``XPASS`` when every expectation held and
+        ``XFAIL`` when not; without one, ``PASS``, ``INCONCLUSIVE`` when the only expectations
+        not held are a sweep's undecided statistics, or ``FAIL``."""
+        if self.skipped:
+            return "SKIP"
+        if self.error or self.stopped or self.bad_input or self.refused:
+            return "FAIL"
+        held = all(v.passed for v in self.verdicts)
+        if self.xfail:
+            return "XPASS" if held else "XFAIL"
+        if held:
+            return "PASS"
+        return "INCONCLUSIVE" if all(v.passed or v.inconclusive for v in self.verdicts) else "FAIL"
+
+    @property
+    def held(self) -> bool:
+        """Whether this result lets the check pass (exit 0): PASS, SKIP, XFAIL, and XPASS unless
+        its mark is strict; not FAIL, INCONCLUSIVE (exit 1: undecided is not held) or a strict
+        XPASS (pytest's meaning of strict)."""
+        verdict = self.verdict
+        return verdict in ("PASS", "SKIP", "XFAIL") or (verdict == "XPASS" and not self.strict)
 
     @property
     def expected(self) -> str:
@@ -108,6 +143,8 @@ class CheckResult:
         description names moved, nothing); the error or what stopped the run when either happened."""
         if self.refused:
             return "refused"
+        if self.skipped:
+            return f"skipped: {self.skipped}"
         if self.error or self.stopped or self.bad_input:
             return self.error or self.stopped or "bad input in a sample"
         if self.sweep:
@@ -124,6 +161,12 @@ class CheckResult:
                     continue
                 facts.append(fact)
         return ", ".join(dict.fromkeys(facts))
+
+
+#: The words of check's rows, as pytest's outcomes: PASS and FAIL, SKIP (the file's skip mark),
+#: XFAIL and XPASS (its xfail mark: failed as expected, or passed), and INCONCLUSIVE (a sweep's
+#: statistic its samples did not decide).
+VERDICTS = ("PASS", "FAIL", "INCONCLUSIVE", "SKIP", "XFAIL", "XPASS")
 
 
 def _moved_levels(fact: str) -> set[int] | None:

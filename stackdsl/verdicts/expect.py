@@ -24,6 +24,8 @@ class Verdict(BaseModel):
         name: the expectation's key (``collapse``, ``stays``...; ``finished`` for a run stopped early).
         at: where the expectation was written (file, line, column, the line's text), when it was
             read from a file.
+        inconclusive: a sweep's statistic whose 95% interval decided neither way (not passed,
+            not failed either: :mod:`stackdsl.verdicts.stats`).
     """
 
     model_config = ConfigDict(frozen=True)
@@ -33,6 +35,7 @@ class Verdict(BaseModel):
     expected: str
     measured: str
     at: Location | None = None
+    inconclusive: bool = False
 
     def lines(self) -> list[str]:
         """This verdict as a failure says it, pointing at its expectation as a parse error points

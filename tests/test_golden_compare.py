@@ -230,3 +230,26 @@ def test_every_shipped_golden_matches_itself_and_fails_a_moved_structure():
             b["position_mm"][1] += 2.0 * Tolerances().position_mm + b["displaced_mm"] * 2
         if standing:
             assert not compare_golden(data, moved).matches, path
+
+
+def test_the_levels_a_scene_says_may_fall_are_chaos():
+    stood = tower()
+    stood["final_graph"]["L03.1"]["displaced_mm"] = 40.0  # the top fell in the golden
+    fell = copy.deepcopy(stood)
+    fell["final_graph"]["L01.1"] = brick(1, 30.0, displaced=30.0)  # and the bottom too, in this run
+    assert not compare_golden(stood, fell).matches
+    assert compare_golden(stood, fell, may_fall=[1]).matches
+    assert compare_golden(stood, fell, may_fall=["L01"]).matches
+    assert not compare_golden(stood, fell, may_fall=["L0"]).matches  # the start of an id is a whole part of it
+
+
+def test_near_tie_names_a_stand_under_the_engines_contact_margin():
+    from stackdsl import run_program
+    from stackdsl.verdicts.golden_compare import near_tie
+
+    text = "stackdsl: 1\nstructure:\n  bricks:\n    - {{id: base, at: [0, 0, 4 mm]}}\n    - {{id: top, at: [{x}, 0, 12 mm]}}\n"
+    tie = compile_scenario(parse_scenario(text.format(x="59.5 mm")))
+    said = near_tie(run_program(tie), tie)
+    assert said.startswith("stands with a margin of 0.5 mm, under pybullet's 1 mm contact margin")
+    wide = compile_scenario(parse_scenario(text.format(x="50 mm")))
+    assert near_tie(run_program(wide), wide) == ""

@@ -13,11 +13,14 @@ import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..lang.errors import ScenarioError
 from ..lang.extras import installed, missing
 from .args import COMMANDS, at_type, fps_type, rate_type
+
+if TYPE_CHECKING:
+    from ..compile.program import Program
 
 #: Suffixes of trajectory files and of scenario files: what the drawing commands read.
 TRAJECTORY_SUFFIXES = (".npz",)
@@ -126,17 +129,24 @@ def add_record_options(p: argparse.ArgumentParser) -> None:
     )
 
 
-def trajectory_of(args: argparse.Namespace) -> Any:
-    """The trajectory ``args.file`` names: read, or run and recorded (with ``args.mode``,
-    ``args.model``, ``args.timeout``).
+def trajectory_of(args: argparse.Namespace, verb: str) -> Any:
+    """The trajectory ``args.file`` names, for the command ``verb``: :func:`recorded`'s."""
+    return recorded(args, verb)[1]
+
+
+def recorded(args: argparse.Namespace, verb: str) -> tuple[Program | None, Any]:
+    """The compiled scenario and the trajectory ``args.file`` names: a trajectory file read (no
+    Program), or a scenario run and recorded (with ``args.mode``, ``args.model``,
+    ``args.backend``, ``args.seed``, ``args.timeout``; of a random file, the sample
+    ``args.sample`` of cell ``args.cell``, as the command ``verb`` says on stderr).
 
     Raises:
         ScenarioError: a bad scenario, or a file that is not a trajectory.
     """
     from ..compile.compiler import compile_scenario
-    from ..lang.loader import load_scenario
     from ..runtime.recorder import record_program
     from ..runtime.trajectory import load_trajectory
+    from .sample import scenario_of
 
     path = Path(args.file)
     if path.suffix.lower() not in TRAJECTORY_SUFFIXES + SCENARIO_SUFFIXES:
@@ -144,22 +154,26 @@ def trajectory_of(args: argparse.Namespace) -> Any:
             "give a scenario (.yaml, .yml) or a trajectory file (.npz) from 'stackdsl run FILE --record'", file=args.file
         )
     if path.suffix.lower() in TRAJECTORY_SUFFIXES:
-        if args.mode or args.model or args.backend:
-            raise ScenarioError("--mode, --model and --backend apply to a scenario, not to a recorded trajectory", file=args.file)
+        if any(getattr(args, o, None) is not None for o in ("mode", "model", "backend", "seed", "sample", "cell")):
+            raise ScenarioError(
+                "--mode, --model and --backend apply to a scenario, not to a recorded trajectory, and so do --seed, "
+                "--sample and --cell",
+                file=args.file,
+            )
         try:
-            return load_trajectory(path)
+            return None, load_trajectory(path)
         except OSError as exc:  # said as the OS says it: 'No such file or directory', not '[Errno 2] ...'
             raise ScenarioError(exc.strerror or str(exc), file=args.file) from None
         except ValueError as exc:
             raise ScenarioError(str(exc).removeprefix(f"{path}: "), file=args.file) from None
-    scenario = load_scenario(path, getattr(args, "seed", None))
+    scenario = scenario_of(args, verb)
     program = compile_scenario(scenario, args.mode, args.model, args.backend, draw_time=args.timeout)
     at = getattr(args, "at", None)
     if isinstance(at, float) and at > program.duration:  # refused before anything is simulated
         raise ScenarioError(f"t = {at:g} s is outside the run, which lasts from 0 to {program.duration:g} s", file="--at")
     # a frame at the moment asked for, so that what is drawn or exported is the run's state then
     _, trajectory = record_program(program, source=args.file, timeout=args.timeout, at=(at,) if isinstance(at, float) else ())
-    return trajectory
+    return program, trajectory
 
 
 def when(shown: float, asked: float, step: object = None, digits: int = 3) -> str:
@@ -214,14 +228,16 @@ def _output(args: argparse.Namespace, suffixes: tuple[str, ...], what: str) -> P
     return out
 
 
-def _draw(args: argparse.Namespace, suffixes: tuple[str, ...], what: str, draw: Callable[[Any, Path, int, int], str]) -> int:
-    """Check the output and the size, get the trajectory, ``draw(trajectory, out, width,
+def _draw(
+    args: argparse.Namespace, verb: str, suffixes: tuple[str, ...], what: str, draw: Callable[[Any, Path, int, int], str]
+) -> int:
+    """Check the output and the size, get the trajectory (for the command ``verb``), ``draw(trajectory, out, width,
     height)`` (which says what it drew, in a few words). The options are checked before
     (``--at`` against the run by :func:`resolved`): a ValueError of the drawing is then the
     trajectory file's (bad input, :func:`undrawable`), or a bug when the run was made here."""
     out = _output(args, suffixes, what)
     width, height = size_of(args.size)
-    trajectory = trajectory_of(args)
+    trajectory = trajectory_of(args, verb)
     try:
         what = draw(trajectory, out, width, height)
     except ValueError as exc:
@@ -281,7 +297,7 @@ def _render(args: argparse.Namespace) -> int:
         named = f"{at}, " if at in ("collapse", "end") else ""
         return f"the run at {named}{when(drawn, asked, trajectory.meta.get('timestep'), digits=2)}"
 
-    return _draw(args, (".png",), "the picture", draw)
+    return _draw(args, "render", (".png",), "the picture", draw)
 
 
 def _animate(args: argparse.Namespace) -> int:
@@ -307,14 +323,14 @@ def _animate(args: argparse.Namespace) -> int:
             f"t = {plan.times[0]:.2f} to {plan.times[-1]:.2f} s simulated (x{plan.speeds.max():.3g} at most)"
         )
 
-    return _draw(args, (".gif", ".mp4"), "the clip", draw)
+    return _draw(args, "animate", (".gif", ".mp4"), "the clip", draw)
 
 
 def _graph(args: argparse.Namespace) -> int:
     from ..draw.graphplot import plot_graph
 
     out = _output(args, (".png",), "the plot")
-    trajectory = trajectory_of(args)
+    trajectory = trajectory_of(args, "graph")
     at = moment(args.at, "collapse" in trajectory.graphs)
     if at == "collapse" and "collapse" not in trajectory.graphs:
         raise ScenarioError("nothing collapsed in this run: there is no graph at the collapse (use --at end)", file="--at")

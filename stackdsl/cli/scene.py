@@ -13,16 +13,13 @@ import argparse
 import os
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from ..lang.errors import ScenarioError
 from ..lang.extras import installed, missing
 from .args import COMMANDS, at_type
-from .draw import _SOURCE, _wrote, moment, resolved, trajectory_of, undrawable, when
+from .draw import _SOURCE, _wrote, moment, recorded, resolved, trajectory_of, undrawable, when
 from .draw import NAMES as DRAWING
-
-if TYPE_CHECKING:
-    from ..compile.program import Program
 
 #: Exit status of ``view`` where there is no display to open a window on (as bad input: the
 #: command cannot do what was asked here).
@@ -63,14 +60,15 @@ def _add_replay(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -
         "--golden",
         metavar="FILE.json",
         help="the golden snapshot whose final poses are the ghosts (default: the scenario's own, golden/.../NAME.json, "
-        "when it exists)",
+        "when it exists); a sweep's golden holds each sample's collapse level and no poses: the replayed sample's "
+        "level is compared with it instead",
     )
     p.set_defaults(func=_replay)
 
 
 def _replay(args: argparse.Namespace) -> int:
     from ..draw.artefacts import golden_of
-    from ..draw.replay import GoldenError, read_golden, write_replay
+    from ..draw.replay import GoldenError, is_sweep_golden, read_golden, sweep_note, write_replay
     from ..verdicts.snapshot import scenario_golden_path
     from .outputs import Input, Output, check_default_golden, check_outputs
 
@@ -90,14 +88,24 @@ def _replay(args: argparse.Namespace) -> int:
         [Output("-o", args.output, "the replay", folder=True, inside=("replay.html",))],
         [Input(args.file, "the file being replayed"), *(Input(g, "the golden snapshot") for g in (golden_path, default) if g)],
     )
-    trajectory = trajectory_of(args)
+    trajectory = trajectory_of(args, "replay")
+    read = golden_path or golden_of(trajectory)
     try:  # the golden must be of this run's scenario; a trajectory's, found now, is refused unopened if not a regular file
-        golden = read_golden(golden_path or golden_of(trajectory), trajectory)
+        golden = read_golden(read, trajectory)
     except GoldenError as exc:
         raise ScenarioError(exc.why, file=exc.file) from None
+    note = None
+    if golden is not None and read is not None and is_sweep_golden(golden):  # each sample's level, no poses: said, and compared
+        collapse = trajectory.meta.get("collapse")
+        level = collapse.get("level") if isinstance(collapse, dict) else None
+        cell, sample = getattr(args, "cell", None) or 0, getattr(args, "sample", None) or 0
+        note = sweep_note(read, golden, cell, sample, level, trajectory.meta.get("mode"), getattr(args, "seed", None) is not None)
+        print(f"golden: {note}", flush=True)
     out.mkdir(parents=True, exist_ok=True)
     return _wrote(
-        write_replay(trajectory, out / "replay.html", golden), trajectory, f"a 3D replay of {len(trajectory.ids)} bodies"
+        write_replay(trajectory, out / "replay.html", golden, note),
+        trajectory,
+        f"a 3D replay of {len(trajectory.ids)} bodies",
     )
 
 
@@ -167,12 +175,12 @@ def _view(args: argparse.Namespace) -> int:
 
     from ..compile.compiler import compile_scenario
     from ..draw import live
-    from ..lang.loader import load_scenario
     from ..runtime.run import run_program
+    from .sample import scenario_of
 
     # the file is read (a scenario compiled) before the display is tried: bad input is said first
-    trajectory = trajectory_of(args) if Path(args.file).suffix.lower() == ".npz" else None
-    program = None if trajectory is not None else compile_scenario(load_scenario(args.file), args.mode, args.model, args.backend)
+    trajectory = trajectory_of(args, "view") if Path(args.file).suffix.lower() == ".npz" else None
+    program = None if trajectory is not None else compile_scenario(scenario_of(args, "view"), args.mode, args.model, args.backend)
     unusable = display_problem()
     if unusable:
         print(
@@ -253,8 +261,7 @@ def _export(args: argparse.Namespace) -> int:
                 f"the {kind.upper()} file must end in {' or '.join(_EXPORT_SUFFIXES[kind])}", file=path, field=f"--{kind}"
             )
     outputs = [(out, kind) for out, (_, kind) in zip(paths, given, strict=True)]
-    program = _program(args)
-    trajectory = trajectory_of(args)
+    program, trajectory = recorded(args, "export")
     at = resolved(trajectory, moment(args.at, trajectory.collapse_time is not None))
     try:  # the options were checked: what fails here is the trajectory's
         if program is None:  # a trajectory file: pine, and the engine its meta records
@@ -278,17 +285,6 @@ def _export(args: argparse.Namespace) -> int:
             f"{kind.upper()}, {len(scene.ids)} bod{'y' if len(scene.ids) == 1 else 'ies'} at {when(scene.time, at, trajectory.meta.get('timestep'))}",
         )
     return status
-
-
-def _program(args: argparse.Namespace) -> Program | None:
-    """The compiled scenario of a scenario file (its bricks' specs, materials and engine); None
-    for a trajectory file (which keeps only sizes)."""
-    if Path(args.file).suffix.lower() == ".npz":
-        return None
-    from ..compile.compiler import compile_scenario
-    from ..lang.loader import load_scenario
-
-    return compile_scenario(load_scenario(args.file), args.mode, args.model, args.backend)
 
 
 _ADD = {"replay": _add_replay, "view": _add_view, "export": _add_export}

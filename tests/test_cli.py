@@ -211,6 +211,33 @@ def test_junit_xml_has_a_testcase_per_scenario_and_the_failure_text(tmp_path, ca
     assert "\nstood:" in failure.text and failure.text.endswith(f"more: stackdsl run {tmp_path / 'b.yaml'}")
 
 
+def test_every_rerun_command_carries_the_options_that_change_the_result(tmp_path, capsys, monkeypatch):
+    """check's text, --json and JUnit, and compare --json, name the command that runs a scenario
+    again as it ran: --seed, --mode, --model, --backend, --timeout (the report and sweep: below)."""
+    monkeypatch.chdir(tmp_path)
+    write(tmp_path, b=FAILING)
+    options = ["--seed", "4", "--mode", "extension", "--model", "equilibrium", "--backend", "pybullet", "--timeout", "50"]
+    again = "stackdsl run b.yaml --mode extension --model equilibrium --backend pybullet --seed 4 --timeout 50"
+    assert main(["check", "b.yaml", "-j", "1", *options, "--junit-xml", "j.xml"]) == 1
+    assert f"      more: {again}" in capsys.readouterr().out.splitlines()
+    assert ET.parse("j.xml").getroot().find("testsuite/testcase/failure").text.endswith(f"more: {again}")
+    assert main(["check", "b.yaml", "-j", "1", *options, "--json"]) == 1
+    assert json.loads(capsys.readouterr().out)["results"][0]["command"] == again
+    assert main(["compare", "b.yaml", "-j", "1", "--modes", "extension", *options[:2], "--json"]) == 1
+    assert json.loads(capsys.readouterr().out)["results"][0]["command"] == "stackdsl run b.yaml --mode extension --seed 4"
+
+
+@pytest.mark.slow
+def test_the_reports_and_sweeps_rerun_commands_carry_the_options_that_change_the_result(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    write(tmp_path, b=FAILING)
+    assert main(["check", "b.yaml", "-j", "1", "--seed", "4", "--mode", "raw", "--report", "r"]) == 1
+    assert "<code>stackdsl run b.yaml --mode raw --seed 4</code>" in Path("r/index.html").read_text()
+    write(tmp_path, walk=RANDOM)  # a sample stopped by its --timeout: sweep names the run of that sample
+    assert main(["sweep", "walk.yaml", "--samples", "1", "-j", "1", "--seed", "4", "--timeout", "0.01", "--out", "s"]) == 1
+    assert "more: stackdsl run walk.yaml --seed 4 --sample 0 --timeout 0.01" in capsys.readouterr().out.splitlines()
+
+
 # levels 1-2 stay and level 3 does too: 'moved' and 'toppled' fail, 'stays' holds
 THREE_EXPECTED = """stackdsl: 1
 structure: {tower: {levels: 3}}
@@ -872,8 +899,8 @@ def test_run_on_a_sweep_file_says_which_sample_it_runs_and_runs_the_one_asked(tm
     assert "running sample 0 of 4 (seed 7); `stackdsl sweep` runs them all" in said and first == events(template.scenario(0, 0))
     third, said = ran("--sample", "2")
     assert "running sample 2 of 4 (seed 7)" in said and third == events(template.scenario(0, 2)) and third != first
-    assert main(["run", str(path), "--sample", "4"]) == 2
-    assert "--sample: the sweep has samples 0 to 3, not 4" in capsys.readouterr().err
+    assert main(["run", str(path), "--sample", "100000"]) == 2  # sample 4 is one 'sweep --samples 5' runs
+    assert "--sample: a sweep draws samples 0 to 99999 at most (this one 0 to 3), not 100000" in capsys.readouterr().err
     assert main(["run", str(write(tmp_path, plain=PASSING) / "plain.yaml"), "--sample", "1"]) == 2
     assert "no sweep and no random field" in capsys.readouterr().err
     assert main(["run", str(tmp_path / "plain.yaml")]) == 0 and "running sample" not in capsys.readouterr().err

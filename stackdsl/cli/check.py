@@ -15,7 +15,7 @@ from itertools import chain
 from pathlib import Path
 
 from ..batch.check import discover, prepare, run_checks, select_comparison, tabulate
-from ..batch.report import HEADER, failure_lines, json_document, junit_xml, row, run_command, summary
+from ..batch.report import HEADER, failure_lines, json_document, junit_xml, rerun_command, row, summary
 from ..compile.compiler import BACKEND_DEFAULTS, MODE_DEFAULTS
 from ..draw.artefacts import FILES, folder_name
 from ..lang.errors import ScenarioError
@@ -65,7 +65,17 @@ def check_command(args: argparse.Namespace) -> int:
         try:
             for r in chain(broken, checks):
                 results.append(r)
-                commands.append(run_command(r.file, args.mode, args.model, args.backend, sweep=bool(r.sweep)))
+                commands.append(
+                    rerun_command(
+                        "sweep" if r.sweep else "run",
+                        r.file,
+                        mode=args.mode,
+                        model=args.model,
+                        backend=args.backend,
+                        seed=args.seed,
+                        timeout=args.timeout,
+                    )
+                )
                 if not args.json:
                     lines.line(row(r))
                     if not r.passed:
@@ -201,7 +211,16 @@ def compare_command(args: argparse.Namespace) -> int:
     wall = time.perf_counter() - start
     if args.json:
         commands = [
-            run_command(r.file, r.mode, args.model, r.backend if args.backend else None, sweep=bool(r.sweep)) for r in done
+            rerun_command(
+                "sweep" if r.sweep else "run",
+                r.file,
+                mode=r.mode,
+                model=args.model,
+                backend=r.backend if args.backend else None,
+                seed=args.seed,
+                timeout=args.timeout,
+            )
+            for r in done
         ]
         print(json.dumps(json_document("compare", done, commands, len(prepared), wall), indent=2))
         return _status(done, args.debug)

@@ -43,8 +43,12 @@ def one_sample(scenario: Any, cell: int | None, sample: int | None, verb: str) -
     itself.
 
     Raises:
-        ScenarioError: ``--sample`` or ``--cell`` on a plain file, or past the sweep's samples or cells.
+        ScenarioError: ``--sample`` or ``--cell`` on a plain file, a sample past the most a sweep
+            draws (:data:`stackdsl.lang.schema_sweep.MAX_SAMPLES`: one past the file's own, which
+            ``sweep --samples`` draws, is run), or a cell past the grid's.
     """
+    from ..lang.schema_sweep import MAX_SAMPLES
+
     template = scenario.template
     if template is None:
         given = "--sample" if sample is not None else "--cell" if cell is not None else ""
@@ -52,15 +56,23 @@ def one_sample(scenario: Any, cell: int | None, sample: int | None, verb: str) -
             raise ScenarioError("this file has no sweep and no random field: it is one run, with no samples", file=given)
         return scenario
     c, k = cell or 0, sample or 0
-    if not 0 <= k < template.samples:
-        raise ScenarioError(f"the sweep has samples 0 to {template.samples - 1}, not {k}", file="--sample")
+    if not 0 <= k < MAX_SAMPLES:  # past the file's own samples: one 'sweep --samples' draws
+        raise ScenarioError(
+            f"a sweep draws samples 0 to {MAX_SAMPLES - 1} at most (this one 0 to {template.samples - 1}), not {k}",
+            file="--sample",
+        )
     if not 0 <= c < template.cells:
         raise ScenarioError(f"the sweep's grid has cells 0 to {template.cells - 1}, not {c}", file="--cell")
     chosen = scenario if (c, k) == (0, 0) else template.scenario(c, k)
     where = f" of grid cell {c} of {template.cells} ({template.label(c)})"
     doing, does = _DOING.get(verb, ("drawing", "draws"))
+    of = (
+        f"of {template.samples}"
+        if k < template.samples
+        else f"(past the file's {template.samples}: as 'sweep --samples {k + 1}' draws it)"
+    )
     print(
-        f"stackdsl {verb}: {doing} sample {k} of {template.samples}{where if template.grid else ''} (seed {template.seed}); "
+        f"stackdsl {verb}: {doing} sample {k} {of}{where if template.grid else ''} (seed {template.seed}); "
         f"`stackdsl sweep` runs them all and judges the statistics, --sample K {does} another",
         file=sys.stderr,
         flush=True,

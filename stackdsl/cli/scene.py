@@ -140,6 +140,24 @@ def display_problem() -> str | None:
     return None
 
 
+def _replay_command(args: argparse.Namespace) -> str:
+    """The ``stackdsl replay`` command of the run ``view`` was asked to show (its options kept)."""
+    from ..batch.report import rerun_command
+
+    return rerun_command(
+        "replay",
+        args.file,
+        mode=args.mode,
+        model=args.model,
+        backend=args.backend,
+        seed=args.seed,
+        sample=args.sample,
+        cell=args.cell,
+        timeout=args.timeout,
+        tail=("-o", "DIR"),
+    )
+
+
 def _add_view(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -> None:
     p = sub.add_parser(
         "view",
@@ -162,8 +180,7 @@ def _view(args: argparse.Namespace) -> int:
         raise ScenarioError(f"{args.speed:g} is not a speed-up above 0 and at most 1000", file="--speed")
     if not has_display():
         print(
-            f"stackdsl view: no display here (DISPLAY is not set): for a 3D page to open in a browser, run "
-            f"stackdsl replay {args.file} -o DIR",
+            f"stackdsl view: no display here (DISPLAY is not set): for a 3D page to open in a browser, run {_replay_command(args)}",
             file=sys.stderr,
         )
         return NO_DISPLAY
@@ -184,8 +201,7 @@ def _view(args: argparse.Namespace) -> int:
     unusable = display_problem()
     if unusable:
         print(
-            f"stackdsl view: the display cannot be opened ({unusable}): for a 3D page to open in a browser, run "
-            f"stackdsl replay {args.file} -o DIR",
+            f"stackdsl view: the display cannot be opened ({unusable}): for a 3D page to open in a browser, run {_replay_command(args)}",
             file=sys.stderr,
         )
         return NO_DISPLAY

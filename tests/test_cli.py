@@ -511,10 +511,9 @@ def test_an_internal_error_in_one_file_is_its_cells_in_compare(tmp_path, capsys,
     monkeypatch.setattr(_check, "load_scenario", _broken_for(_check, "load_scenario", "b"))
     monkeypatch.delenv("STACKDSL_TRACEBACK", raising=False)
     assert main(["compare", str(folder), "-j", "1", "--modes", "raw,extension"]) == 3
-    out = capsys.readouterr().out.splitlines()
-    (a,) = [line for line in out if line.startswith("a ")]
-    (b,) = [line for line in out if line.startswith("b ")]
-    assert a.count("PASS") == 2 and b.count("FAIL internal error") == 2
+    out = capsys.readouterr().out
+    a, b = out.split("\na: stands\n")[1].split("\nb: ")
+    assert a.count("PASS stands") == 2 and b.count("FAIL internal error") == 2, out
 
 
 @pytest.mark.parametrize("command", ["compile", "run", "schema", "bench", "compare"])
@@ -833,13 +832,14 @@ def test_schema_prints_the_json_schema_of_a_scenario(capsys):
 # compare
 
 
-def test_compare_prints_one_row_per_scenario_and_a_column_per_mode(tmp_path, capsys):
+def test_compare_prints_a_block_per_scenario_and_a_row_per_mode(tmp_path, capsys):
     assert main(["compare", str(write(tmp_path, a=PASSING, b=FAILING)), "--modes", "raw,extension", "-j", "1"]) == 1  # b fails
     captured = capsys.readouterr()
     out = captured.out.splitlines()
-    assert out[0].split() == ["scenario", "engine", "expected", "raw", "extension"]
-    assert out[1].split()[:5] == ["a", "pybullet", "stands", "PASS", "stands"] and out[1].count("PASS") == 2
-    assert out[2].startswith("b ") and out[2].count("FAIL") == 2
+    assert out[0] == "scenario: expected" and out[1].split() == ["engine", "mode", "result", "wall"]
+    assert out[2] == "a: stands" and out[3].split()[:4] == ["pybullet", "raw", "PASS", "stands"]
+    assert out[4].split()[:4] == ["pybullet", "extension", "PASS", "stands"]
+    assert out[5] == "b: collapse 2" and [line.split()[2] for line in out[6:8]] == ["FAIL", "FAIL"]
     assert out[-1].startswith("2 scenarios x 2 modes")
     progress = captured.err.splitlines()  # a line per finished cell, off stdout
     assert [line.split()[0] for line in progress] == ["[1/4]", "[2/4]", "[3/4]", "[4/4]"]
@@ -865,9 +865,9 @@ def test_compare_shows_the_toppled_count_in_every_mode(tmp_path, capsys):
     folder = write(tmp_path, row=DOMINOES)
     assert main(["compare", str(folder), "--modes", "raw,extension", "-j", "1"]) == 0
     captured = capsys.readouterr()
-    header, row = captured.out.splitlines()[:2]
-    assert row.startswith("row ") and row.count("3 of 3 toppled") == 2  # as check measures it, in both columns
-    assert row.index("PASS", row.index("PASS") + 1) == header.index("extension")  # the columns still line up
+    raw, extension = captured.out.splitlines()[3:5]
+    assert "PASS collapse 1, 3 of 3 toppled" in raw and "PASS collapse 1, 3 of 3 toppled" in extension  # as check says
+    assert raw.index("PASS") == extension.index("PASS")  # the columns still line up
     assert "raw: PASS collapse 1, 3 of 3 toppled" in captured.err  # the line a finished cell prints too
     assert main(["check", str(folder), "--mode", "raw", "-j", "1"]) == 0
     assert "3 of 3 toppled" in capsys.readouterr().out
@@ -933,21 +933,23 @@ def test_compare_json_and_k(tmp_path, capsys):
     assert doc["command"] == "compare" and doc["summary"]["failed"] == 2
 
 
-def test_compare_says_what_failed_besides_the_level_and_keeps_its_columns(tmp_path, capsys):
-    """A collapse at the level expected can still fail its 'stays': the cell says what moved; a
-    long expectation widens its column instead of pushing the cells out of line."""
+def test_compare_says_what_failed_besides_the_level_and_keeps_its_columns(tmp_path, capsys, monkeypatch):
+    """A collapse at the level expected can still fail its 'stays': the row says what moved; a long
+    measured text wraps under itself, and every line fits the width (100 piped, COLUMNS when narrower)."""
     text = (
         "stackdsl: 1\nstructure: {tower: {levels: 12, bricks_per_layer: 1, turn: 0, shift: 13 mm}}\n"
         "expect: {collapse: 10±1, stays: 1-9}\n"
     )
     folder = write(tmp_path, slant=text, tower=PASSING)
+    monkeypatch.setenv("COLUMNS", "60")
     assert main(["compare", str(folder), "--modes", "extension", "-j", "1"]) == 1
-    header, *rows = capsys.readouterr().out.splitlines()[:3]
-    (slant,) = [r for r in rows if r.startswith("slant")]
-    assert "FAIL collapse 10, levels " in slant and " moved" in slant
-    assert all(r.index("PASS" if "PASS" in r else "FAIL") == header.index("extension") for r in rows)
-    # the wall times of a column in line, however long a measured text
-    assert len({r.rstrip().rindex(" s") for r in rows}) == 1, rows
+    out = capsys.readouterr().out.splitlines()
+    at = out.index("slant: collapse 10±1, levels 1-9 stay")
+    row, more = out[at + 1], out[at + 2]
+    assert "FAIL collapse 10, levels " in row and more.strip().endswith("moved") and more.startswith(" " * 27)
+    assert max(len(line) for line in out) <= 60, out
+    # the wall times of every row in line, however long a measured text
+    assert len({r.rstrip().rindex(" s") for r in out if r.startswith("  pybullet")}) == 1, out
 
 
 def test_compare_unknown_mode_exits_2(tmp_path, capsys):
@@ -1424,20 +1426,6 @@ def test_check_takes_one_path_as_well_as_a_list(tmp_path):
     for given in (str(file), file, [file]):
         results = list(_check.check(given, jobs=1))
         assert [r.file for r in results] == [str(file)], results
-
-
-@pytest.mark.slow
-def test_compare_sizes_each_modes_column_to_its_own_cells(tmp_path, capsys):
-    """One long cell widened every mode's column (a 700-character table for six settings)."""
-    text = (
-        "stackdsl: 1\nstructure: {tower: {levels: 12, bricks_per_layer: 1, turn: 0, shift: 13 mm}}\n"
-        "expect: {collapse: 10±1, stays: 1-9}\n"
-    )
-    folder = write(tmp_path, slant=text, tower=PASSING)
-    main(["compare", str(folder), "--modes", "extension,raw", "-j", "1"])
-    header, *rows = capsys.readouterr().out.splitlines()[:3]
-    cells = [r[header.index("extension") : header.index("raw")].rstrip() for r in rows]
-    assert header.index("raw") - header.index("extension") == max(29, *(len(c) for c in cells)) + 1, (header, rows)
 
 
 def test_the_check_function_yields_a_result_for_a_file_an_internal_error_met(tmp_path, monkeypatch):

@@ -59,7 +59,8 @@ def _add_render(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -
         default=None,
         metavar="collapse|end|SECONDS",
         help="when: just after the first collapse, when its bricks are seen falling; the end; or a time in seconds "
-        "(default: collapse if the structure collapsed, else end)",
+        "(default: what the scenario's expectations judge: the end for toppled, stays and moved alone, else the "
+        "collapse if the structure collapsed, else the end)",
     )
     p.add_argument("-o", "--output", required=True, metavar="OUT.png", help="the picture to write")
     p.add_argument("--size", default="800x600", metavar="WxH", help=f"pixels, {MIN_SIDE} to {MAX_SIDE} a side (default: 800x600)")
@@ -98,7 +99,8 @@ def _add_graph(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) ->
         "--at",
         choices=["collapse", "end"],
         default=None,
-        help="the graph at the first collapse or at the end (default: collapse if the structure collapsed, else end)",
+        help="the graph at the first collapse or at the end (default: what the scenario's expectations judge: the end "
+        "for toppled, stays and moved alone, else the collapse if the structure collapsed, else the end)",
     )
     p.add_argument("-o", "--output", required=True, metavar="OUT.png", help="the plot to write")
     p.set_defaults(func=_graph)
@@ -191,16 +193,14 @@ def when(shown: float, asked: float, step: object = None, digits: int = 3) -> st
     return f"t = {shown:.3f} s (the last {which} at or before {asked:.3f} s)"
 
 
-def moment(at: str | float | None, collapsed: bool) -> str | float:
-    """The moment ``--at`` names (:func:`stackdsl.cli.args.at_type`), or when none is given the
-    collapse if the run ``collapsed``, else the end. ``--at 0`` is the start, not "not given".
-
-    >>> moment(0.0, True), moment(None, True), moment(None, False)
-    (0.0, 'collapse', 'end')
-    """
+def moment(at: str | float | None, trajectory: Any) -> str | float:
+    """The moment ``--at`` names (:func:`stackdsl.cli.args.at_type`), or when none is given the one
+    the scenario's expectations judge (:attr:`stackdsl.Trajectory.shown_at`: the end for final
+    positions such as ``toppled``, else the collapse if the run collapsed, else the end). ``--at
+    0`` is the start, not "not given"."""
     if at is not None:
         return at
-    return "collapse" if collapsed else "end"
+    return str(trajectory.shown_at)
 
 
 def size_of(text: str, option: str = "--size") -> tuple[int, int]:
@@ -291,7 +291,7 @@ def _render(args: argparse.Namespace) -> int:
     from ..draw.render import picture
 
     def draw(trajectory: Any, out: Path, width: int, height: int) -> str:
-        at = moment(args.at, trajectory.collapse_time is not None)
+        at = moment(args.at, trajectory)
         asked = resolved(trajectory, at)
         drawn = picture(trajectory, asked, out, width=width, height=height)
         named = f"{at}, " if at in ("collapse", "end") else ""
@@ -331,7 +331,9 @@ def _graph(args: argparse.Namespace) -> int:
 
     out = _output(args, (".png",), "the plot")
     trajectory = trajectory_of(args, "graph")
-    at = moment(args.at, "collapse" in trajectory.graphs)
+    at = moment(args.at, trajectory)
+    if at == "collapse" and args.at is None and "collapse" not in trajectory.graphs:  # a file without its graph
+        at = "end"
     if at == "collapse" and "collapse" not in trajectory.graphs:
         raise ScenarioError("nothing collapsed in this run: there is no graph at the collapse (use --at end)", file="--at")
     graph = trajectory.graphs["collapse" if at == "collapse" else "final"]

@@ -247,8 +247,8 @@ def _add_export(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -
         type=at_type,
         default=None,
         metavar="collapse|end|SECONDS",
-        help="when: 0.2 s after the first collapse (as 'render'), the end, or a time in seconds (default: collapse if "
-        "the structure collapsed, else end)",
+        help="when: 0.2 s after the first collapse (as 'render'), the end, or a time in seconds (default: as "
+        "'render', what the scenario's expectations judge)",
     )
     p.add_argument("--mjcf", metavar="OUT.xml", help="write MuJoCo XML")
     p.add_argument("--urdf", metavar="OUT.urdf", help="write a URDF")
@@ -278,7 +278,7 @@ def _export(args: argparse.Namespace) -> int:
             )
     outputs = [(out, kind) for out, (_, kind) in zip(paths, given, strict=True)]
     program, trajectory = recorded(args, "export")
-    at = resolved(trajectory, moment(args.at, trajectory.collapse_time is not None))
+    at = resolved(trajectory, moment(args.at, trajectory))
     try:  # the options were checked: what fails here is the trajectory's
         if program is None:  # a trajectory file: pine, and the engine its meta records
             scene, engine = snapshot(trajectory, at), recorded_engine(trajectory.meta)

@@ -272,6 +272,7 @@ def compile_scenario(
         actions=tuple(actions),
         draws=draws,
         parts=summaries(scenario, nominal),
+        judged_at=scenario.expect.judged_at,
     )
     try:  # before the checks of the placements, which take a while on a huge scene
         _budget(scenario, program)

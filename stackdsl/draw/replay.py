@@ -185,8 +185,9 @@ def replay_data(trajectory: Trajectory, golden: dict[str, Any] | None = None, no
     bodies int32, states uint8), ids, levels, half extents, fixtures (at rest: the page moves
     them with the ground's offset), events, brick graphs with their times, state names and
     colours, the golden's ghosts (:func:`ghosts`), how many final bricks the golden has (None:
-    no golden, or a sweep's, which has none) and ``note``, a line the page shows in their place
-    (:func:`sweep_note`)."""
+    no golden, or a sweep's, which has none), ``note``, a line the page shows in their place
+    (:func:`sweep_note`), and the moment the page opens at (``opening``,
+    :attr:`stackdsl.Trajectory.shown_at`: the collapse, or the end)."""
     meta = trajectory.meta
     collapse = meta.get("collapse")
     graphs = {"final": {"time": trajectory.end, "label": "at the end", "bricks": _graph(trajectory.graphs["final"])}}
@@ -232,6 +233,7 @@ def replay_data(trajectory: Trajectory, golden: dict[str, Any] | None = None, no
         "ghosts": ghosts(trajectory, golden),
         "golden_bricks": len(final) if isinstance(final := (golden or {}).get("final_graph"), dict) else None,
         "golden_note": note,
+        "opening": trajectory.shown_at,
     }
 
 

@@ -689,6 +689,23 @@ class Expect(StrictModel):
             or self.toppled is not None
         )
 
+    @property
+    def judged_at(self) -> Literal["collapse", "end"]:
+        """The moment of a run these expectations judge, which a picture of it shows by default:
+        ``"end"`` when they judge final positions alone (``toppled``, ``stays``, ``moved``: a
+        domino row's picture is the row fallen, not its first domino tipping), else
+        ``"collapse"`` (a collapse level, ``stands``, ``stands_until``, or nothing: the collapse
+        when there is one, else the end). Source: stackdsl's own.
+
+        >>> Expect.model_validate({"toppled": "all"}).judged_at, Expect.model_validate({"collapse": 9, "stays": "1-5"}).judged_at
+        ('end', 'collapse')
+        """
+        if isinstance(self.collapse, CollapseLevel) or self.stands or self.stands_until is not None:
+            return "collapse"
+        if self.toppled is not None or self.stays is not None or self.moved is not None:
+            return "end"
+        return "collapse"
+
     @model_validator(mode="after")
     def _consistent(self) -> Expect:
         if self.collapse is not None and self.stands:

@@ -572,7 +572,8 @@
     new ResizeObserver(resize).observe(view);
     resize();
     apply(0);
-    if (collapse) seekEvent(collapse.time);
+    // the moment the expectations judge: the collapse, or the end (a toppled row, or nothing collapsed)
+    if (collapse && data.opening !== "end") seekEvent(collapse.time);
     else seek(data.end);
     if (collapse && index.has(collapse.brick)) select(collapse.brick); // the brick that moved first
 

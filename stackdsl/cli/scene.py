@@ -234,8 +234,11 @@ def _add_export(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -
         help=COMMANDS["export"],
         description="Write the bricks at one moment of the run, at their poses, as MuJoCo XML (--mjcf: each brick "
         "a body with a free joint, the ground a plane; open it with 'python -m mujoco.viewer --mjcf=OUT.xml' or "
-        "MuJoCo's simulate) and/or as a URDF (--urdf: one robot, the ground its root link, each brick on a "
-        "floating joint; MuJoCo makes these free joints, pybullet fixed ones). Masses and friction are the "
+        "MuJoCo's simulate), as an SDFormat world (--sdf: a model a brick and a static ground; pybullet's "
+        "loadSDF(OUT.sdf) gives one body a brick, with the pybullet friction and restitution of the run's "
+        "materials) and/or as a URDF (--urdf: one robot, the ground its root link, each brick on a floating "
+        "joint; MuJoCo makes these free joints, pybullet fixed ones, every brick welded into one body: for "
+        "pybullet give --sdf). Masses and friction are the "
         "scenario's (a trajectory file: the built-in pine's); geoms are coloured by state. The XML carries MuJoCo's "
         "options and contacts (timestep, cone, impratio, integrator, solref, solimp, friction per material pair): "
         "the run's own on MuJoCo raw or tuned, else MuJoCo's tuned mode; a comment in the file says which. " + _SOURCE,
@@ -251,30 +254,33 @@ def _add_export(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -
         "'render', what the scenario's expectations judge)",
     )
     p.add_argument("--mjcf", metavar="OUT.xml", help="write MuJoCo XML")
-    p.add_argument("--urdf", metavar="OUT.urdf", help="write a URDF")
+    p.add_argument("--sdf", metavar="OUT.sdf", help="write an SDFormat world: pybullet.loadSDF(OUT.sdf), one body a brick")
+    p.add_argument("--urdf", metavar="OUT.urdf", help="write a URDF (one multibody: pybullet welds its bricks; see --sdf)")
     p.set_defaults(func=_export)
 
 
 #: What an exported file's name may end in, by kind.
-_EXPORT_SUFFIXES = {"mjcf": (".xml", ".mjcf"), "urdf": (".urdf", ".xml")}
+_EXPORT_SUFFIXES = {"mjcf": (".xml", ".mjcf"), "sdf": (".sdf", ".world"), "urdf": (".urdf", ".xml")}
+#: What each kind is called in what export says.
+_KINDS = {"mjcf": "MJCF", "sdf": "SDF", "urdf": "URDF"}
 
 
 def _export(args: argparse.Namespace) -> int:
     from ..compile.program import Fixture, Launch, Place
-    from ..draw.export import mjcf, recorded_engine, snapshot, urdf, write_text
+    from ..draw.export import mjcf, recorded_engine, sdf, snapshot, urdf, write_text
     from .outputs import Input, Output, check_outputs
 
-    given = [(path, kind) for path, kind in ((args.mjcf, "mjcf"), (args.urdf, "urdf")) if path is not None]
+    given = [(path, kind) for path, kind in ((args.mjcf, "mjcf"), (args.sdf, "sdf"), (args.urdf, "urdf")) if path is not None]
     if not given:
-        raise ScenarioError("give --mjcf OUT.xml, --urdf OUT.urdf or both", file="export")
+        raise ScenarioError("give --mjcf OUT.xml, --sdf OUT.sdf or --urdf OUT.urdf (or several)", file="export")
     paths = check_outputs(
-        [Output(f"--{kind}", path, f"the {kind.upper()} file") for path, kind in given],
+        [Output(f"--{kind}", path, f"the {_KINDS[kind]} file") for path, kind in given],
         [Input(args.file, "the file being exported")],
     )
     for path, kind in given:  # as the drawings' outputs are: a file named for what it holds
         if path.strip() and Path(path).suffix.lower() not in _EXPORT_SUFFIXES[kind]:
             raise ScenarioError(
-                f"the {kind.upper()} file must end in {' or '.join(_EXPORT_SUFFIXES[kind])}", file=path, field=f"--{kind}"
+                f"the {_KINDS[kind]} file must end in {' or '.join(_EXPORT_SUFFIXES[kind])}", file=path, field=f"--{kind}"
             )
     outputs = [(out, kind) for out, (_, kind) in zip(paths, given, strict=True)]
     program, trajectory = recorded(args, "export")
@@ -286,19 +292,25 @@ def _export(args: argparse.Namespace) -> int:
             specs = {a.id: a.brick for a in (*program.fixtures, *program.actions) if isinstance(a, (Place, Launch, Fixture))}
             scene = snapshot(trajectory, at, specs, program.ground_friction, program.ground_restitution)
             engine = program.engine
-        texts = {kind: mjcf(scene, engine=engine) if kind == "mjcf" else urdf(scene) for _, kind in outputs}
+        write = {"mjcf": lambda: mjcf(scene, engine=engine), "sdf": lambda: sdf(scene), "urdf": lambda: urdf(scene)}
+        texts = {kind: write[kind]() for _, kind in outputs}
     except ValueError as exc:
         refusal = undrawable(args.file, exc, "exported")
         if refusal is None:
             raise
         raise refusal from None
     status = 0
+    bodies = f"{len(scene.ids)} bod{'y' if len(scene.ids) == 1 else 'ies'}"
+    loaded = {  # how to load each, where it is not plain
+        "sdf": f", {bodies} and the ground (pybullet.loadSDF: one body each)",
+        "urdf": f", {bodies} in one multibody (pybullet welds them: use --sdf)",
+    }
     for out, kind in outputs:
-        text = texts[kind]
+        said = loaded.get(kind, f", {bodies}")
         status |= _wrote(
-            write_text(text, out),
+            write_text(texts[kind], out),
             trajectory,
-            f"{kind.upper()}, {len(scene.ids)} bod{'y' if len(scene.ids) == 1 else 'ies'} at {when(scene.time, at, trajectory.meta.get('timestep'))}",
+            f"{_KINDS[kind]}{said} at {when(scene.time, at, trajectory.meta.get('timestep'))}",
         )
     return status
 

@@ -56,6 +56,7 @@ from typing import Any
 
 import pytest
 
+from .batch.report import rerun_command
 from .compile.compiler import compile_scenario
 from .draw.artefacts import draw_run, folder_name
 from .lang.errors import ScenarioError
@@ -375,7 +376,7 @@ def _run_scenario_item(request: pytest.FixtureRequest, scenario_golden: Any) -> 
     if failed:
         lines = [line if v.at else f"{shown}: {line}" for v in failed for line in v.lines()]
         lines += [f"  {line}" for line in explain(scenario.expect, outcome, program.collapse_threshold)]
-        lines.append(f"more: stackdsl run {shlex.quote(shown)}")
+        lines.append(f"more: {rerun_command('run', shown)}")
         lines += _kept_golden(request, scenario_golden, path, outcome.golden())
         _expect_failure(request, xfail)  # the expectations failed: XFAIL, when the file expects it
     elif missing := _no_golden_yet(request, path, shown):
@@ -449,7 +450,7 @@ def _sweep_test(
         golden[f"cell {c}"] = {"grid": template.cell(c), "collapse_levels": [r.collapse_level for r in rs]}
     lines = failure_lines(template, scenario.expect, verdicts(template, scenario.expect, results), f"{shown}: ")
     if lines:
-        lines.append(f"more: stackdsl sweep {shlex.quote(shown)}")
+        lines.append(f"more: {rerun_command('sweep', shown)}")
         kept = _kept_golden(request, scenario_golden, path, golden)
         _expect_failure(request, xfail)
         pytest.fail("\n".join([*lines, *kept]), pytrace=False)

@@ -185,6 +185,25 @@ def test_moved_stays_and_toppled_are_judged_by_brick():
     assert stays.expected == "bricks L01 stay" and stays.measured == "bricks L01 stayed"
 
 
+def test_a_toppled_bound_is_judged_and_said_as_written():
+    from stackdsl.lang.expectations import Expect
+
+    _, outcome = tower_outcome("{toppled: 0}")  # a 2-level tower: 4 bricks, none toppled
+    counts = {
+        n: outcome.model_copy(update={"toppled": tuple(f"L0{1 + i // 2}.{1 + i % 2}" for i in range(n))}) for n in (0, 1, 4)
+    }
+    for bound, held in (
+        (">= 1", (False, True, True)),
+        ("> 0", (False, True, True)),
+        ("<= 3", (True, True, False)),
+        ("< 1", (True, False, False)),
+    ):
+        expect = Expect.model_validate({"toppled": bound})
+        verdicts = [evaluate(expect, counts[n], 0.004)[0] for n in (0, 1, 4)]
+        assert tuple(v.passed for v in verdicts) == held, bound
+        assert verdicts[0].expected == f"{bound} toppled" and verdicts[2].measured == "4 of 4 toppled"
+
+
 def test_the_check_tables_measured_column_says_each_fact_once():
     """A Jenga run that held 'moved: 6-12' measured 'levels 6-12 moved, levels 1-4 stayed, levels
     6-12 moved': the run's moved levels, then the moved verdict's words for the same levels."""

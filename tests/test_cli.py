@@ -212,6 +212,33 @@ def test_junit_xml_has_a_testcase_per_scenario_and_the_failure_text(tmp_path, ca
     assert "\nstood:" in failure.text and failure.text.endswith(f"more: stackdsl run {tmp_path / 'b.yaml'}")
 
 
+def test_every_rerun_command_carries_the_options_that_change_the_result(tmp_path, capsys, monkeypatch):
+    """check's text, --json and JUnit, and compare --json, name the command that runs a scenario
+    again as it ran: --seed, --mode, --model, --backend, --timeout (the report and sweep: below)."""
+    monkeypatch.chdir(tmp_path)
+    write(tmp_path, b=FAILING)
+    options = ["--seed", "4", "--mode", "extension", "--model", "equilibrium", "--backend", "pybullet", "--timeout", "50"]
+    again = "stackdsl run b.yaml --mode extension --model equilibrium --backend pybullet --seed 4 --timeout 50"
+    assert main(["check", "b.yaml", "-j", "1", *options, "--junit-xml", "j.xml"]) == 1
+    assert f"      more: {again}" in capsys.readouterr().out.splitlines()
+    assert ET.parse("j.xml").getroot().find("testsuite/testcase/failure").text.endswith(f"more: {again}")
+    assert main(["check", "b.yaml", "-j", "1", *options, "--json"]) == 1
+    assert json.loads(capsys.readouterr().out)["results"][0]["command"] == again
+    assert main(["compare", "b.yaml", "-j", "1", "--modes", "extension", *options[:2], "--json"]) == 1
+    assert json.loads(capsys.readouterr().out)["results"][0]["command"] == "stackdsl run b.yaml --mode extension --seed 4"
+
+
+@pytest.mark.slow
+def test_the_reports_and_sweeps_rerun_commands_carry_the_options_that_change_the_result(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    write(tmp_path, b=FAILING)
+    assert main(["check", "b.yaml", "-j", "1", "--seed", "4", "--mode", "raw", "--report", "r"]) == 1
+    assert "<code>stackdsl run b.yaml --mode raw --seed 4</code>" in Path("r/index.html").read_text()
+    write(tmp_path, walk=RANDOM)  # a sample stopped by its --timeout: sweep names the run of that sample
+    assert main(["sweep", "walk.yaml", "--samples", "1", "-j", "1", "--seed", "4", "--timeout", "0.01", "--out", "s"]) == 1
+    assert "more: stackdsl run walk.yaml --seed 4 --sample 0 --timeout 0.01" in capsys.readouterr().out.splitlines()
+
+
 # levels 1-2 stay and level 3 does too: 'moved' and 'toppled' fail, 'stays' holds
 THREE_EXPECTED = """stackdsl: 1
 structure: {tower: {levels: 3}}
@@ -485,10 +512,9 @@ def test_an_internal_error_in_one_file_is_its_cells_in_compare(tmp_path, capsys,
     monkeypatch.setattr(_check, "load_scenario", _broken_for(_check, "load_scenario", "b"))
     monkeypatch.delenv("STACKDSL_TRACEBACK", raising=False)
     assert main(["compare", str(folder), "-j", "1", "--modes", "raw,extension"]) == 3
-    out = capsys.readouterr().out.splitlines()
-    (a,) = [line for line in out if line.startswith("a ")]
-    (b,) = [line for line in out if line.startswith("b ")]
-    assert a.count("PASS") == 2 and b.count("FAIL internal error") == 2
+    out = capsys.readouterr().out
+    a, b = out.split("\na: stands\n")[1].split("\nb: ")
+    assert a.count("PASS stands") == 2 and b.count("FAIL internal error") == 2, out
 
 
 @pytest.mark.parametrize("command", ["compile", "run", "schema", "bench", "compare"])
@@ -807,13 +833,14 @@ def test_schema_prints_the_json_schema_of_a_scenario(capsys):
 # compare
 
 
-def test_compare_prints_one_row_per_scenario_and_a_column_per_mode(tmp_path, capsys):
+def test_compare_prints_a_block_per_scenario_and_a_row_per_mode(tmp_path, capsys):
     assert main(["compare", str(write(tmp_path, a=PASSING, b=FAILING)), "--modes", "raw,extension", "-j", "1"]) == 1  # b fails
     captured = capsys.readouterr()
     out = captured.out.splitlines()
-    assert out[0].split() == ["scenario", "engine", "expected", "raw", "extension"]
-    assert out[1].split()[:5] == ["a", "pybullet", "stands", "PASS", "stands"] and out[1].count("PASS") == 2
-    assert out[2].startswith("b ") and out[2].count("FAIL") == 2
+    assert out[0] == "scenario: expected" and out[1].split() == ["engine", "mode", "result", "wall"]
+    assert out[2] == "a: stands" and out[3].split()[:4] == ["pybullet", "raw", "PASS", "stands"]
+    assert out[4].split()[:4] == ["pybullet", "extension", "PASS", "stands"]
+    assert out[5] == "b: collapse 2" and [line.split()[2] for line in out[6:8]] == ["FAIL", "FAIL"]
     assert out[-1].startswith("2 scenarios x 2 modes")
     progress = captured.err.splitlines()  # a line per finished cell, off stdout
     assert [line.split()[0] for line in progress] == ["[1/4]", "[2/4]", "[3/4]", "[4/4]"]
@@ -839,9 +866,9 @@ def test_compare_shows_the_toppled_count_in_every_mode(tmp_path, capsys):
     folder = write(tmp_path, row=DOMINOES)
     assert main(["compare", str(folder), "--modes", "raw,extension", "-j", "1"]) == 0
     captured = capsys.readouterr()
-    header, row = captured.out.splitlines()[:2]
-    assert row.startswith("row ") and row.count("3 of 3 toppled") == 2  # as check measures it, in both columns
-    assert row.index("PASS", row.index("PASS") + 1) == header.index("extension")  # the columns still line up
+    raw, extension = captured.out.splitlines()[3:5]
+    assert "PASS collapse 1, 3 of 3 toppled" in raw and "PASS collapse 1, 3 of 3 toppled" in extension  # as check says
+    assert raw.index("PASS") == extension.index("PASS")  # the columns still line up
     assert "raw: PASS collapse 1, 3 of 3 toppled" in captured.err  # the line a finished cell prints too
     assert main(["check", str(folder), "--mode", "raw", "-j", "1"]) == 0
     assert "3 of 3 toppled" in capsys.readouterr().out
@@ -873,8 +900,8 @@ def test_run_on_a_sweep_file_says_which_sample_it_runs_and_runs_the_one_asked(tm
     assert "running sample 0 of 4 (seed 7); `stackdsl sweep` runs them all" in said and first == events(template.scenario(0, 0))
     third, said = ran("--sample", "2")
     assert "running sample 2 of 4 (seed 7)" in said and third == events(template.scenario(0, 2)) and third != first
-    assert main(["run", str(path), "--sample", "4"]) == 2
-    assert "--sample: the sweep has samples 0 to 3, not 4" in capsys.readouterr().err
+    assert main(["run", str(path), "--sample", "100000"]) == 2  # sample 4 is one 'sweep --samples 5' runs
+    assert "--sample: a sweep draws samples 0 to 99999 at most (this one 0 to 3), not 100000" in capsys.readouterr().err
     assert main(["run", str(write(tmp_path, plain=PASSING) / "plain.yaml"), "--sample", "1"]) == 2
     assert "no sweep and no random field" in capsys.readouterr().err
     assert main(["run", str(tmp_path / "plain.yaml")]) == 0 and "running sample" not in capsys.readouterr().err
@@ -907,21 +934,23 @@ def test_compare_json_and_k(tmp_path, capsys):
     assert doc["command"] == "compare" and doc["summary"]["failed"] == 2
 
 
-def test_compare_says_what_failed_besides_the_level_and_keeps_its_columns(tmp_path, capsys):
-    """A collapse at the level expected can still fail its 'stays': the cell says what moved; a
-    long expectation widens its column instead of pushing the cells out of line."""
+def test_compare_says_what_failed_besides_the_level_and_keeps_its_columns(tmp_path, capsys, monkeypatch):
+    """A collapse at the level expected can still fail its 'stays': the row says what moved; a long
+    measured text wraps under itself, and every line fits the width (100 piped, COLUMNS when narrower)."""
     text = (
         "stackdsl: 1\nstructure: {tower: {levels: 12, bricks_per_layer: 1, turn: 0, shift: 13 mm}}\n"
         "expect: {collapse: 10±1, stays: 1-9}\n"
     )
     folder = write(tmp_path, slant=text, tower=PASSING)
+    monkeypatch.setenv("COLUMNS", "60")
     assert main(["compare", str(folder), "--modes", "extension", "-j", "1"]) == 1
-    header, *rows = capsys.readouterr().out.splitlines()[:3]
-    (slant,) = [r for r in rows if r.startswith("slant")]
-    assert "FAIL collapse 10, levels " in slant and " moved" in slant
-    assert all(r.index("PASS" if "PASS" in r else "FAIL") == header.index("extension") for r in rows)
-    # the wall times of a column in line, however long a measured text
-    assert len({r.rstrip().rindex(" s") for r in rows}) == 1, rows
+    out = capsys.readouterr().out.splitlines()
+    at = out.index("slant: collapse 10±1, levels 1-9 stay")
+    row, more = out[at + 1], out[at + 2]
+    assert "FAIL collapse 10, levels " in row and more.strip().endswith("moved") and more.startswith(" " * 27)
+    assert max(len(line) for line in out) <= 60, out
+    # the wall times of every row in line, however long a measured text
+    assert len({r.rstrip().rindex(" s") for r in out if r.startswith("  pybullet")}) == 1, out
 
 
 def test_compare_unknown_mode_exits_2(tmp_path, capsys):
@@ -1398,20 +1427,6 @@ def test_check_takes_one_path_as_well_as_a_list(tmp_path):
     for given in (str(file), file, [file]):
         results = list(_check.check(given, jobs=1))
         assert [r.file for r in results] == [str(file)], results
-
-
-@pytest.mark.slow
-def test_compare_sizes_each_modes_column_to_its_own_cells(tmp_path, capsys):
-    """One long cell widened every mode's column (a 700-character table for six settings)."""
-    text = (
-        "stackdsl: 1\nstructure: {tower: {levels: 12, bricks_per_layer: 1, turn: 0, shift: 13 mm}}\n"
-        "expect: {collapse: 10±1, stays: 1-9}\n"
-    )
-    folder = write(tmp_path, slant=text, tower=PASSING)
-    main(["compare", str(folder), "--modes", "extension,raw", "-j", "1"])
-    header, *rows = capsys.readouterr().out.splitlines()[:3]
-    cells = [r[header.index("extension") : header.index("raw")].rstrip() for r in rows]
-    assert header.index("raw") - header.index("extension") == max(29, *(len(c) for c in cells)) + 1, (header, rows)
 
 
 def test_the_check_function_yields_a_result_for_a_file_an_internal_error_met(tmp_path, monkeypatch):

@@ -470,3 +470,38 @@ def test_a_graph_on_a_full_disk_names_the_file_and_leaves_none(files, capsys, mo
     assert main(["graph", str(files / "stands.yaml"), "-o", str(out)]) == 2
     assert capsys.readouterr().err == f"stackdsl: {out}: No space left on device\n"
     assert sorted(p.name for p in files.iterdir()) == ["stands.yaml", "tips.yaml"]
+
+
+def test_the_default_moment_is_the_one_the_expectations_judge(files, capsys, monkeypatch):
+    """A domino row expecting 'toppled' was drawn at its collapse, its first domino tipping: the
+    picture, the replay's opening frame and a report's picture now show what the expectations
+    judge (the end for final positions, the collapse for a collapse level); --at still chooses."""
+    import dataclasses
+
+    from stackdsl.draw import animate, artefacts, graphplot, render, replay
+
+    seen: list[object] = []
+    for expect, at in (("{moved: [top]}", "end"), ("{collapse: 2}", "collapse")):
+        scene = files / f"{at}.yaml"
+        scene.write_text(TIPS + f"expect: {expect}\n")
+        record = files / f"{at}.npz"
+        assert main(["run", str(scene), "--record", str(record)]) == 0
+        trajectory = load_trajectory(record)
+        assert trajectory.collapse_time is not None and trajectory.shown_at == at
+        assert replay.replay_data(trajectory)["opening"] == at
+        capsys.readouterr()
+        assert main(["render", str(record), "-o", str(files / "x.png")]) == 0
+        assert f"the run at {at}, " in capsys.readouterr().out
+        seen.clear()
+        with monkeypatch.context() as m:  # what a report's (and the pytest plugin's) picture is drawn at
+            m.setattr(render, "picture", lambda t, when, path, **k: seen.append(when))
+            for module, name in ((animate, "animate"), (graphplot, "plot_graph"), (replay, "write_replay")):
+                m.setattr(module, name, lambda *a, **k: None)  # only the picture's moment is looked at
+            artefacts.draw_run(trajectory, files / f"report-{at}")
+        assert seen == [at]
+    assert main(["render", str(files / "end.npz"), "--at", "collapse", "-o", str(files / "x.png")]) == 0
+    assert "the run at collapse, " in capsys.readouterr().out
+    odd = dataclasses.replace(load_trajectory(files / "end.npz"), meta={**trajectory.meta, "judged_at": "later"})
+    odd.save(files / "odd.npz")
+    with pytest.raises(ValueError, match="judged_at is neither 'collapse' nor 'end'"):
+        load_trajectory(files / "odd.npz")

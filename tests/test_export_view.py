@@ -215,7 +215,8 @@ def test_two_materials_touch_at_the_geometric_mean_of_their_friction_as_in_the_m
     [
         (["--mjcf", "{tmp}/no/such/out.xml"], "no such folder"),
         (["--mjcf", "{tmp}"], "this is a folder"),
-        ([], "give --mjcf OUT.xml, --urdf OUT.urdf or both"),
+        ([], "give --mjcf OUT.xml, --sdf OUT.sdf or --urdf OUT.urdf (or several)"),
+        (["--sdf", "{tmp}/a.urdf"], "the SDF file must end in .sdf or .world"),
         (["--mjcf", "{tmp}/a.xml", "--at", "99"], "outside the run"),
     ],
 )
@@ -224,6 +225,65 @@ def test_export_refuses_bad_requests_with_exit_2(slant_run, tmp_path, capsys, ar
     argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]
     assert main(["export", str(record), *argv]) == 2
     assert message in capsys.readouterr().err
+
+
+#: A brick turned on a brick, beside a fixed one: a fixture in the ground's model.
+ON_A_TABLE = """stackdsl: 1
+name: on a table
+structure:
+  bricks:
+    - {id: low, at: [0, 0, 4 mm]}
+    - {id: high, at: [0, 0, 12 mm], yaw: 30}
+    - {id: wall, at: [0, 100 mm, 4 mm], fixed: true}
+materials: {oak: {density: 700 kg/m^3, friction: 0.6}}
+brick_types: {oaken: {size: [120 mm, 24 mm, 8 mm], material: oak}}
+"""
+
+
+def test_the_sdf_loads_in_pybullet_as_one_body_a_brick_at_the_runs_poses(tmp_path, capsys):
+    """A URDF is one multibody: pybullet welded every brick into it. The SDF export is a model a
+    brick: loadSDF gives the ground and one body each, at the run's poses, masses and friction,
+    and the scene stands when stepped."""
+    import pybullet
+
+    from stackdsl.draw.export import snapshot
+
+    scenario = tmp_path / "table.yaml"
+    scenario.write_text(ON_A_TABLE.replace("{id: high,", "{id: high, brick: oaken,"))
+    out, urdf = tmp_path / "table.sdf", tmp_path / "table.urdf"
+    assert main(["export", str(scenario), "--sdf", str(out), "--urdf", str(urdf)]) == 0
+    assert "SDF, 2 bodies and the ground (pybullet.loadSDF: one body each)" in capsys.readouterr().out
+    program = stackdsl.compile_scenario(stackdsl.load_scenario(scenario))
+    scene = snapshot(record_program(program)[1], "end", {a.id: a.brick for a in program.placements})
+    client = pybullet.connect(pybullet.DIRECT)
+    try:
+        pybullet.loadURDF(str(urdf), physicsClientId=client)
+        assert pybullet.getNumBodies(physicsClientId=client) == 1  # the URDF: one body, the bricks welded to it
+        pybullet.resetSimulation(physicsClientId=client)
+        bodies = pybullet.loadSDF(str(out), physicsClientId=client)
+        names = [pybullet.getBodyInfo(b, physicsClientId=client)[1].decode() for b in bodies]
+        assert names == ["ground", "low", "high"] and pybullet.getNumBodies(physicsClientId=client) == 3
+        assert pybullet.getDynamicsInfo(bodies[0], -1, physicsClientId=client)[0] == 0.0  # the ground stays put
+        assert len(pybullet.getCollisionShapeData(bodies[0], -1, physicsClientId=client)) == 2  # the slab and the wall
+        for body, brick in zip(bodies[1:], scene.ids, strict=True):
+            i = scene.ids.index(brick)
+            position, quaternion = pybullet.getBasePositionAndOrientation(body, physicsClientId=client)
+            assert np.allclose(position, scene.positions[i], atol=1e-7) and _angle(quaternion, scene.orientations[i]) < 1e-4
+            mass, friction = pybullet.getDynamicsInfo(body, -1, physicsClientId=client)[:2]
+            assert mass == pytest.approx(scene.mass(i), rel=1e-5) and mass == pytest.approx(
+                (700 if brick == "high" else 460) * 2.304e-5
+            )
+            assert friction == pytest.approx(np.sqrt(0.6 if brick == "high" else 0.5), rel=1e-5)  # Bullet multiplies two
+        pybullet.setGravity(0, 0, -9.81, physicsClientId=client)
+        for _ in range(240):
+            pybullet.stepSimulation(physicsClientId=client)
+        moved = [
+            np.linalg.norm(np.subtract(pybullet.getBasePositionAndOrientation(b, physicsClientId=client)[0], scene.positions[i]))
+            for i, b in enumerate(bodies[1:])
+        ]
+        assert max(moved) < 1e-3, moved
+    finally:
+        pybullet.disconnect(client)
 
 
 def test_export_at_collapse_of_a_run_that_stood_is_bad_input(tmp_path, capsys):

@@ -101,8 +101,8 @@ def test_compare_shows_the_engine_of_each_row(tmp_path, capsys):
     (tmp_path / "a.yaml").write_text(PASSING)
     assert main(["compare", str(tmp_path), "--modes", "extension", "-j", "1"]) == 0
     out = capsys.readouterr()
-    header, row = out.out.splitlines()[:2]
-    assert header.split()[:2] == ["scenario", "engine"] and row.split()[1] == "pybullet"
+    header, row = out.out.splitlines()[1:4:2]
+    assert header.split()[:2] == ["engine", "mode"] and row.split()[:2] == ["pybullet", "extension"]
     assert "a pybullet extension: PASS" in out.err
 
 

@@ -761,6 +761,54 @@ def test_a_toppled_count_out_of_range_is_refused_at_toppled_as_written(written, 
 
 
 @pytest.mark.parametrize(
+    "written, op, count",
+    [("'>= 1'", ">=", 1), ("'<= 3'", "<=", 3), ("'> 0'", ">", 0), ("'< 5'", "<", 5), ("' >=2. '", ">=", 2)],
+)
+def test_toppled_takes_a_bound_as_p_stands_does(written, op, count):
+    s = scenario(f"stackdsl: 1\nstructure: {{dominoes: {{count: 16}}}}\nexpect: {{toppled: {written}}}\n")
+    assert (s.expect.toppled.op, s.expect.toppled.count, s.expect.toppled.text()) == (op, count, f"{op} {count}")
+    assert parse_scenario(s.to_yaml()) == s
+
+
+@pytest.mark.parametrize(
+    "written, message",
+    [
+        ("'< 0'", "'< 0' can never hold: a number of bricks is at least 0; write '<= 0' for no brick toppled"),
+        ("'> 5000'", "'> 5000' can never hold: a number of bricks is at most 5000, the most bricks a scene has"),
+        ("'>= 1.5'", "got '>= 1.5': bricks are counted whole, so it allows what '>= 2' does: write that"),
+        ("'< 2.5'", "got '< 2.5': bricks are counted whole, so it allows what '< 3' does: write that"),
+        ("'>= 6000'", "expected a number of bricks from 0 to 5000 or 'all', got '>= 6000'"),
+        ("'=> 1'", "expected a number of bricks such as 20, '20±1', a bound such as '>= 1', or 'all', got '=> 1'"),
+        ("{count: 2, tolerance: 1, op: '>='}", "a tolerance goes with '±' ('2 ± 1'), not with '>='"),
+        ("{count: all, op: '>='}", "a bound is a number of bricks, not 'all'"),
+    ],
+)
+def test_a_toppled_bound_no_count_meets_is_refused_as_p_stands_one_is(written, message):
+    """As 'p_stands: > 1' is refused ('can never hold: a probability is at most 1'), at toppled."""
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(f"stackdsl: 1\nstructure: {{dominoes: {{count: 16}}}}\nexpect: {{toppled: {written}}}\n", "t.yaml")
+    assert err.value.field == "expect.toppled" and message in err.value.message, err.value.message
+
+
+def test_a_toppled_bound_is_checked_against_the_scene_and_stands():
+    import warnings
+
+    from stackdsl.lang.errors import ScenarioWarning
+
+    head = "stackdsl: 1\nstructure: {dominoes: {count: 16}}\nexpect:\n  toppled: "
+    with pytest.raises(ScenarioError, match="'>= 17' toppled can never be measured: the scene has 16 bricks"):
+        compile_scenario(parse_scenario(head + "'>= 17'\n", "t.yaml"))
+    with pytest.warns(ScenarioWarning, match="expect.toppled: <= 16 covers every count from 0 to the scene's 16 bricks"):
+        compile_scenario(parse_scenario(head + "'<= 16'\n", "t.yaml"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ScenarioWarning)
+        compile_scenario(parse_scenario(head + "'>= 16'\n", "t.yaml"))
+    with pytest.raises(ScenarioError, match="a toppled brick has moved, so the structure does not stand"):
+        parse_scenario(head + "'> 0'\n  stands: true\n", "t.yaml")
+    assert parse_scenario(head + "'< 1'\n  stands: true\n", "t.yaml").expect.stands
+
+
+@pytest.mark.parametrize(
     "line, field, message",
     [
         ("expect: {stands_until: -1 s}", "expect.stands_until", "expected a time from 0 to 3600 s, got '-1 s'"),

@@ -271,6 +271,47 @@ def test_the_runs_own_golden_draws_and_a_changed_scene_is_warned_of(tower_run, t
     assert '"id":"L04.1"' in (tmp_path / "b" / "replay.html").read_text()
 
 
+#: A sweep of two random single-file stacks three levels high: one sample a run of about 0.1 s.
+SWEEP = (
+    "stackdsl: 1\nname: small walk\nstructure: {tower: {levels: 3, bricks_per_layer: 1, turn: 0, "
+    "shift: {uniform: [-60 mm, 60 mm], per: layer}}}\ntiming: {settle: 0.2 s}\nsweep: {samples: 2}\n"
+    "expect: {collapse: {mean: 2 ± 2}}\n"
+)
+
+
+def test_a_sweeps_golden_is_compared_with_the_sample_replayed_not_refused(tmp_path, capsys, monkeypatch):
+    """A sweep's golden (each sample's collapse level, as the pytest plugin writes it) has no
+    final_graph: replay runs the sample asked for, says what the golden holds of it, and exits 0."""
+    from stackdsl.runtime.run import run_program
+
+    (tmp_path / "pyproject.toml").write_text("")
+    scenario = tmp_path / "scenarios" / "walk.yaml"
+    scenario.parent.mkdir()
+    scenario.write_text(SWEEP)
+    template = stackdsl.load_scenario(scenario).template
+    outcome = run_program(stackdsl.compile_scenario(template.scenario(0, 1)))
+    level = outcome.collapse.level if outcome.collapse else None
+    wrong = 3 if level is None else None
+    golden = {"scenario": "small walk", "mode": "extension", "samples": 2, "cell 0": {"grid": {}, "collapse_levels": [1, level]}}
+    default = _write(tmp_path / "golden" / "scenarios" / "walk.json", golden)
+    monkeypatch.chdir(tmp_path)
+    assert main(["replay", "scenarios/walk.yaml", "--sample", "1", "-o", "out"]) == 0
+    said = capsys.readouterr()
+    assert "replaying sample 1 of 2" in said.err
+    assert f"golden: {default} is a sweep's golden snapshot" in said.out and "sample 1 of cell 0" in said.out
+    assert said.out.splitlines()[0].endswith("here: the same"), said.out
+    page = (tmp_path / "out" / "replay.html").read_text()
+    assert '"ghosts":[],"golden_bricks":null,"golden_note":' in page and "is a sweep" in page
+    other = _write(tmp_path / "other.json", {**golden, "cell 0": {"grid": {}, "collapse_levels": [1, wrong]}})
+    assert main(["replay", "scenarios/walk.yaml", "--sample", "1", "-o", "out", "--golden", str(other)]) == 0
+    assert capsys.readouterr().out.splitlines()[0].endswith("here: they differ")
+    assert main(["replay", "scenarios/walk.yaml", "-o", "out", "--mode", "raw"]) == 0  # another mode: said, not compared
+    assert "taken in extension mode and this run is in raw mode: not compared" in capsys.readouterr().out
+    broken = _write(tmp_path / "broken.json", {**golden, "cell 0": {"collapse_levels": ["x"]}})
+    assert main(["replay", "scenarios/walk.yaml", "-o", "out", "--golden", str(broken)]) == 2
+    assert "cell 0.collapse_levels[0]: expected a whole number" in capsys.readouterr().err
+
+
 def test_every_shipped_golden_reads_as_its_scenarios(slant):
     from stackdsl.draw.replay import read_golden
 

@@ -420,7 +420,9 @@ def test_levels_are_accepted_alike(validator):
     assert differ == DESCENDING
 
 
-@pytest.mark.parametrize("written", ["0.±1", "2.±1", "2.0 ± 1.", "all", "3.", "3.5", "3.."])
+@pytest.mark.parametrize(
+    "written", ["0.±1", "2.±1", "2.0 ± 1.", "all", "3.", "3.5", "3..", ">= 1", "> 0", "<= 3", " < 5. ", ">= 1.5", "=> 1", ">="]
+)
 def test_toppled_counts_are_accepted_alike(written, validator):
     text = doc(f"expect: {{toppled: {json.dumps(written)}}}")
     assert schema_accepts(validator, text) == loader_accepts(text)

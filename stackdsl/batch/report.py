@@ -17,6 +17,7 @@ from ..lang.errors import excerpt
 from ..lang.files import written
 from ..verdicts.check_result import CheckResult
 from ..verdicts.expect import located_lines
+from .guard import TIMEOUT
 
 #: The header of check's table; :func:`row` lines up under it.
 HEADER = f"{'':4}  {'scenario':<40} {'engine':<8} {'mode':<9} {'simulated':>9} {'wall':>7}  {'expected':<18} measured"
@@ -41,22 +42,45 @@ def row(r: CheckResult) -> str:
     ).rstrip()
 
 
-def run_command(
-    file: str, mode: str | None = None, model: str | None = None, backend: str | None = None, *, sweep: bool = False
+def rerun_command(
+    verb: str,
+    file: str,
+    *,
+    mode: str | None = None,
+    model: str | None = None,
+    backend: str | None = None,
+    seed: int | None = None,
+    sample: int | None = None,
+    cell: int | None = None,
+    timeout: float | None = None,
+    tail: Sequence[str] = (),
 ) -> str:
-    """The ``stackdsl run`` command that shows one scenario's timeline (shell-quoted); with
-    ``sweep``, the ``stackdsl sweep`` command that runs every sample of a sweep file and says
-    each cell's distribution and verdicts (``run`` would run one sample).
+    """The ``stackdsl`` command that does ``verb`` (``run``, ``sweep``, ``replay``...) to ``file``
+    as it was done here (shell-quoted): with every option given that changes the result, the
+    engine's ``--mode``, ``--model`` and ``--backend``, ``--seed`` (a file's draws and placement
+    error), ``--sample`` and ``--cell`` (which run of a random file), and ``--timeout`` when it is
+    not the default (:data:`stackdsl.batch.guard.TIMEOUT`: a run it stopped would not stop),
+    then ``tail`` (``-o DIR``). Every command that check, compare, sweep, run and the pytest
+    plugin print to run a scenario again is made here.
 
-    >>> run_command("scenarios/slant tower.yaml", mode="raw")
-    "stackdsl run 'scenarios/slant tower.yaml' --mode raw"
-    >>> run_command("sweeps/walk.yaml", sweep=True)
-    'stackdsl sweep sweeps/walk.yaml'
+    >>> rerun_command("run", "scenarios/slant tower.yaml", mode="raw", seed=4)
+    "stackdsl run 'scenarios/slant tower.yaml' --mode raw --seed 4"
+    >>> rerun_command("sweep", "sweeps/walk.yaml", timeout=100.0), rerun_command("run", "w.yaml", sample=3, timeout=5.0)
+    ('stackdsl sweep sweeps/walk.yaml', 'stackdsl run w.yaml --sample 3 --timeout 5')
     """
-    command = "sweep" if sweep else "run"
-    words = ["stackdsl", command, file] + (["--mode", mode] if mode else []) + (["--model", model] if model else [])
-    words += ["--backend", backend] if backend else []
-    return shlex.join(words)
+    words = ["stackdsl", verb, file]
+    given = (
+        ("--mode", mode),
+        ("--model", model),
+        ("--backend", backend),
+        ("--seed", seed),
+        ("--sample", sample),
+        ("--cell", cell),
+    )
+    for option, value in given:
+        words += [option, str(value)] if value is not None else []
+    words += ["--timeout", f"{timeout:g}"] if timeout is not None and timeout != TIMEOUT else []
+    return shlex.join([*words, *tail])
 
 
 def failure_lines(r: CheckResult, command: str) -> list[str]:

@@ -1,5 +1,5 @@
 """The ``stackdsl check`` and ``stackdsl compare`` commands: scenarios run in their modes,
-a line (or a table cell) each, and the exit status of the whole.
+a line (or a row of compare's table) each, and the exit status of the whole.
 
 Source: stackdsl's own.
 """
@@ -9,7 +9,9 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import sys
+import textwrap
 import time
 from itertools import chain
 from pathlib import Path
@@ -17,7 +19,7 @@ from typing import TextIO
 
 from ..batch.check import Prepared, discover, prepare, run_checks, select_comparison, tabulate
 from ..batch.perturb import Fragility, fragility_lines, perturbed_runs
-from ..batch.report import HEADER, failure_lines, json_document, junit_xml, row, run_command, summary
+from ..batch.report import HEADER, failure_lines, json_document, junit_xml, mode_label, rerun_command, row, summary
 from ..compile.compiler import BACKEND_DEFAULTS, MODE_DEFAULTS
 from ..draw.artefacts import FILES, folder_name
 from ..lang.errors import ScenarioError
@@ -74,7 +76,17 @@ def check_command(args: argparse.Namespace) -> int:
         try:
             for r in chain(broken, checks):
                 results.append(r)
-                commands.append(run_command(r.file, args.mode, args.model, args.backend, sweep=bool(r.sweep)))
+                commands.append(
+                    rerun_command(
+                        "sweep" if r.sweep else "run",
+                        r.file,
+                        mode=args.mode,
+                        model=args.model,
+                        backend=args.backend,
+                        seed=args.seed,
+                        timeout=args.timeout,
+                    )
+                )
                 if not args.json:
                     lines.line(row(r))
                     for text in failure_lines(r, commands[-1]):
@@ -230,50 +242,29 @@ def compare_command(args: argparse.Namespace) -> int:
     wall = time.perf_counter() - start
     if args.json:
         commands = [
-            run_command(r.file, r.mode, args.model, r.backend if args.backend else None, sweep=bool(r.sweep)) for r in done
+            rerun_command(
+                "sweep" if r.sweep else "run",
+                r.file,
+                mode=r.mode,
+                model=args.model,
+                backend=r.backend if args.backend else None,
+                seed=args.seed,
+                timeout=args.timeout,
+            )
+            for r in done
         ]
         print(json.dumps(json_document("compare", done, commands, len(prepared), wall), indent=2))
         return _status(done, args.debug)
-    width = max([len("scenario"), *(len(Path(f).stem) for f in table)])
-    # a mode's measured texts as wide as its longest, so that its wall times stay in line
-    measured = {
-        m: max([13, *(len(_cell(cells[m])) for cells in table.values() if m in cells and not cells[m].refused)]) for m in modes
-    }
-    rows = {
-        file: [
-            "refused (beyond the engine)"
-            if r.refused
-            else "SKIP"
-            if r.skipped
-            else f"{r.verdict} {_cell(r):<{measured[m]}} {r.wall_time:>7.1f} s"
-            for m, r in ((m, cells[m]) for m in modes)
-        ]
-        for file, cells in table.items()
-    }
-    # each mode's column as wide as its own cells (a toppled count widens one, not all)
-    columns = [max([29, len(m), *(len(texts[i]) for texts in rows.values())]) for i, m in enumerate(modes)]
-    said = max([18, *(len(c.expected) for cells in table.values() for c in cells.values())])
-    # the engine is a column of its own unless the columns name it (several backends)
-    engine = len(backends) == 1
-    print(
-        f"{'scenario':<{width}} "
-        + (f"{'engine':<8} " if engine else "")
-        + f"{'expected':<{said}} "
-        + " ".join(f"{m:<{w}}" for m, w in zip(modes, columns, strict=True)).rstrip()
-    )
-    for file, cells in table.items():
-        first = next((c for c in cells.values() if not c.refused), next(iter(cells.values())))
-        print(
-            f"{Path(file).stem:<{width}} "
-            + (f"{first.backend:<8} " if engine else "")
-            + f"{first.expected:<{said}} "
-            + " ".join(f"{c:<{w}}" for c, w in zip(rows[file], columns, strict=True)).rstrip()
-        )
+    width = table_width()
+    for line in compare_lines(table, width):
+        print(line)
     print(f"{len(table)} scenarios x {len(modes)} modes ({wall:.1f} s wall)")
     for r in done:  # a failure the run's end cut short: the hint check gives under it
         for line in r.explanation if not r.passed else ():
             if line.startswith("still moving"):
-                print(f"{Path(r.file).stem} {r.backend} {r.mode}: {line}")
+                print(
+                    "\n".join(textwrap.wrap(f"{Path(r.file).stem} {r.backend} {r.mode}: {line}", width, subsequent_indent="    "))
+                )
     marked: dict[tuple[str, str, str], list[str]] = {}  # (file, word, reason) -> the columns it was said of
     for file, cells in table.items():
         for column, r in cells.items():
@@ -286,6 +277,62 @@ def compare_command(args: argparse.Namespace) -> int:
         if r.refused:
             print(f"refused in {r.mode} on {r.backend}: {r.refused}", file=sys.stderr)
     return _status(done, args.debug)
+
+
+#: The widest compare's table is, in columns, and the narrowest a terminal makes it.
+MAX_WIDTH, MIN_WIDTH = 100, 60
+
+
+def table_width() -> int:
+    """The columns compare's table fits in: the terminal's (``COLUMNS`` first, as
+    :func:`shutil.get_terminal_size` reads it), at most :data:`MAX_WIDTH` and at least
+    :data:`MIN_WIDTH`; :data:`MAX_WIDTH` when stdout is no terminal (piped, in CI)."""
+    columns = shutil.get_terminal_size((MAX_WIDTH, 24)).columns
+    return max(MIN_WIDTH, min(MAX_WIDTH, columns))
+
+
+def compare_lines(table: dict[str, dict[str, CheckResult]], width: int = MAX_WIDTH) -> list[str]:
+    """compare's table as lines of at most ``width`` characters: a block a scenario, its name and
+    what it expects, then a row a mode (engine, mode, PASS or FAIL with what was measured
+    (:func:`_cell`), wall seconds), the measured text wrapped under itself when it is longer
+    than the room left; the wall times of every row in one column.
+
+    >>> from stackdsl.verdicts.check_result import CheckResult, Verdict
+    >>> held = Verdict(name="stands", passed=True, expected="stands", measured="stands")
+    >>> r = CheckResult(file="s/tower.yaml", scenario="t", mode="raw", model="report", verdicts=(held,),
+    ...     collapse_level=None, levels_placed=2, simulated_time=5.0, wall_time=1.25)
+    >>> print("\\n".join(compare_lines({"s/tower.yaml": {"raw": r}}, 60)))
+    scenario: expected
+      engine   mode       result        wall
+    tower: stands
+      pybullet raw        PASS stands  1.2 s
+    """
+    rows = [(c, _cell(c)) for cells in table.values() for c in cells.values()]
+    walls = [f"{c.wall_time:.1f} s" for c, _ in rows]
+    wall = max([6, *(len(w) for w in walls)])
+    words = max([4, *(len(_verdict(c)) for c, _ in rows)])  # PASS, FAIL, SKIP, XFAIL, INCONCLUSIVE...
+    lead = 2 + 8 + 1 + 9 + 2 + words + 1  # indent, engine, mode, verdict
+    room = max(12, width - lead - 1 - wall)
+    said = min(room, max([len("result") - 5, *(len(REFUSED if c.refused else text) for c, text in rows)]))
+    lines = ["scenario: expected", f"  {'engine':<8} {'mode':<9}  {'result':<{said + words + 1}} {'wall':>{wall}}".rstrip()]
+    for file, cells in table.items():
+        first = next((c for c in cells.values() if not c.refused), next(iter(cells.values())))
+        lines += textwrap.wrap(f"{Path(file).stem}: {first.expected}", width, subsequent_indent="    ")
+        for c in cells.values():
+            parts = textwrap.wrap(REFUSED if c.refused else _cell(c), said) or [""]
+            head = f"  {c.backend:<8} {mode_label(c):<9}  {_verdict(c):<{words}} "
+            lines.append(f"{head}{parts[0]:<{said}} {'' if c.refused else f'{c.wall_time:.1f} s':>{wall}}".rstrip())
+            lines += [f"{'':<{len(head)}}{part}" for part in parts[1:]]
+    return lines
+
+
+def _verdict(c: CheckResult) -> str:
+    """A cell's verdict word: PASS, FAIL, INCONCLUSIVE, SKIP, XFAIL or XPASS; none when refused."""
+    return "" if c.refused else c.verdict
+
+
+#: A refused cell of compare's table: the engine or mode does not simulate the file faithfully.
+REFUSED = "refused (beyond the engine)"
 
 
 def _status(done: list[CheckResult], debug: bool) -> int:

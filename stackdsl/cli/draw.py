@@ -13,11 +13,14 @@ import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..lang.errors import ScenarioError
 from ..lang.extras import installed, missing
 from .args import COMMANDS, at_type, fps_type, rate_type
+
+if TYPE_CHECKING:
+    from ..compile.program import Program
 
 #: Suffixes of trajectory files and of scenario files: what the drawing commands read.
 TRAJECTORY_SUFFIXES = (".npz",)
@@ -56,7 +59,8 @@ def _add_render(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -
         default=None,
         metavar="collapse|end|SECONDS",
         help="when: just after the first collapse, when its bricks are seen falling; the end; or a time in seconds "
-        "(default: collapse if the structure collapsed, else end)",
+        "(default: what the scenario's expectations judge: the end for toppled, stays and moved alone, else the "
+        "collapse if the structure collapsed, else the end)",
     )
     p.add_argument("-o", "--output", required=True, metavar="OUT.png", help="the picture to write")
     p.add_argument("--size", default="800x600", metavar="WxH", help=f"pixels, {MIN_SIDE} to {MAX_SIDE} a side (default: 800x600)")
@@ -95,7 +99,8 @@ def _add_graph(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) ->
         "--at",
         choices=["collapse", "end"],
         default=None,
-        help="the graph at the first collapse or at the end (default: collapse if the structure collapsed, else end)",
+        help="the graph at the first collapse or at the end (default: what the scenario's expectations judge: the end "
+        "for toppled, stays and moved alone, else the collapse if the structure collapsed, else the end)",
     )
     p.add_argument("-o", "--output", required=True, metavar="OUT.png", help="the plot to write")
     p.set_defaults(func=_graph)
@@ -126,17 +131,24 @@ def add_record_options(p: argparse.ArgumentParser) -> None:
     )
 
 
-def trajectory_of(args: argparse.Namespace) -> Any:
-    """The trajectory ``args.file`` names: read, or run and recorded (with ``args.mode``,
-    ``args.model``, ``args.timeout``).
+def trajectory_of(args: argparse.Namespace, verb: str) -> Any:
+    """The trajectory ``args.file`` names, for the command ``verb``: :func:`recorded`'s."""
+    return recorded(args, verb)[1]
+
+
+def recorded(args: argparse.Namespace, verb: str) -> tuple[Program | None, Any]:
+    """The compiled scenario and the trajectory ``args.file`` names: a trajectory file read (no
+    Program), or a scenario run and recorded (with ``args.mode``, ``args.model``,
+    ``args.backend``, ``args.seed``, ``args.timeout``; of a random file, the sample
+    ``args.sample`` of cell ``args.cell``, as the command ``verb`` says on stderr).
 
     Raises:
         ScenarioError: a bad scenario, or a file that is not a trajectory.
     """
     from ..compile.compiler import compile_scenario
-    from ..lang.loader import load_scenario
     from ..runtime.recorder import record_program
     from ..runtime.trajectory import load_trajectory
+    from .sample import scenario_of
 
     path = Path(args.file)
     if path.suffix.lower() not in TRAJECTORY_SUFFIXES + SCENARIO_SUFFIXES:
@@ -144,22 +156,26 @@ def trajectory_of(args: argparse.Namespace) -> Any:
             "give a scenario (.yaml, .yml) or a trajectory file (.npz) from 'stackdsl run FILE --record'", file=args.file
         )
     if path.suffix.lower() in TRAJECTORY_SUFFIXES:
-        if args.mode or args.model or args.backend:
-            raise ScenarioError("--mode, --model and --backend apply to a scenario, not to a recorded trajectory", file=args.file)
+        if any(getattr(args, o, None) is not None for o in ("mode", "model", "backend", "seed", "sample", "cell")):
+            raise ScenarioError(
+                "--mode, --model and --backend apply to a scenario, not to a recorded trajectory, and so do --seed, "
+                "--sample and --cell",
+                file=args.file,
+            )
         try:
-            return load_trajectory(path)
+            return None, load_trajectory(path)
         except OSError as exc:  # said as the OS says it: 'No such file or directory', not '[Errno 2] ...'
             raise ScenarioError(exc.strerror or str(exc), file=args.file) from None
         except ValueError as exc:
             raise ScenarioError(str(exc).removeprefix(f"{path}: "), file=args.file) from None
-    scenario = load_scenario(path, getattr(args, "seed", None))
+    scenario = scenario_of(args, verb)
     program = compile_scenario(scenario, args.mode, args.model, args.backend, draw_time=args.timeout)
     at = getattr(args, "at", None)
     if isinstance(at, float) and at > program.duration:  # refused before anything is simulated
         raise ScenarioError(f"t = {at:g} s is outside the run, which lasts from 0 to {program.duration:g} s", file="--at")
     # a frame at the moment asked for, so that what is drawn or exported is the run's state then
     _, trajectory = record_program(program, source=args.file, timeout=args.timeout, at=(at,) if isinstance(at, float) else ())
-    return trajectory
+    return program, trajectory
 
 
 def when(shown: float, asked: float, step: object = None, digits: int = 3) -> str:
@@ -177,16 +193,14 @@ def when(shown: float, asked: float, step: object = None, digits: int = 3) -> st
     return f"t = {shown:.3f} s (the last {which} at or before {asked:.3f} s)"
 
 
-def moment(at: str | float | None, collapsed: bool) -> str | float:
-    """The moment ``--at`` names (:func:`stackdsl.cli.args.at_type`), or when none is given the
-    collapse if the run ``collapsed``, else the end. ``--at 0`` is the start, not "not given".
-
-    >>> moment(0.0, True), moment(None, True), moment(None, False)
-    (0.0, 'collapse', 'end')
-    """
+def moment(at: str | float | None, trajectory: Any) -> str | float:
+    """The moment ``--at`` names (:func:`stackdsl.cli.args.at_type`), or when none is given the one
+    the scenario's expectations judge (:attr:`stackdsl.Trajectory.shown_at`: the end for final
+    positions such as ``toppled``, else the collapse if the run collapsed, else the end). ``--at
+    0`` is the start, not "not given"."""
     if at is not None:
         return at
-    return "collapse" if collapsed else "end"
+    return str(trajectory.shown_at)
 
 
 def size_of(text: str, option: str = "--size") -> tuple[int, int]:
@@ -214,14 +228,16 @@ def _output(args: argparse.Namespace, suffixes: tuple[str, ...], what: str) -> P
     return out
 
 
-def _draw(args: argparse.Namespace, suffixes: tuple[str, ...], what: str, draw: Callable[[Any, Path, int, int], str]) -> int:
-    """Check the output and the size, get the trajectory, ``draw(trajectory, out, width,
+def _draw(
+    args: argparse.Namespace, verb: str, suffixes: tuple[str, ...], what: str, draw: Callable[[Any, Path, int, int], str]
+) -> int:
+    """Check the output and the size, get the trajectory (for the command ``verb``), ``draw(trajectory, out, width,
     height)`` (which says what it drew, in a few words). The options are checked before
     (``--at`` against the run by :func:`resolved`): a ValueError of the drawing is then the
     trajectory file's (bad input, :func:`undrawable`), or a bug when the run was made here."""
     out = _output(args, suffixes, what)
     width, height = size_of(args.size)
-    trajectory = trajectory_of(args)
+    trajectory = trajectory_of(args, verb)
     try:
         what = draw(trajectory, out, width, height)
     except ValueError as exc:
@@ -275,13 +291,13 @@ def _render(args: argparse.Namespace) -> int:
     from ..draw.render import picture
 
     def draw(trajectory: Any, out: Path, width: int, height: int) -> str:
-        at = moment(args.at, trajectory.collapse_time is not None)
+        at = moment(args.at, trajectory)
         asked = resolved(trajectory, at)
         drawn = picture(trajectory, asked, out, width=width, height=height)
         named = f"{at}, " if at in ("collapse", "end") else ""
         return f"the run at {named}{when(drawn, asked, trajectory.meta.get('timestep'), digits=2)}"
 
-    return _draw(args, (".png",), "the picture", draw)
+    return _draw(args, "render", (".png",), "the picture", draw)
 
 
 def _animate(args: argparse.Namespace) -> int:
@@ -307,15 +323,17 @@ def _animate(args: argparse.Namespace) -> int:
             f"t = {plan.times[0]:.2f} to {plan.times[-1]:.2f} s simulated (x{plan.speeds.max():.3g} at most)"
         )
 
-    return _draw(args, (".gif", ".mp4"), "the clip", draw)
+    return _draw(args, "animate", (".gif", ".mp4"), "the clip", draw)
 
 
 def _graph(args: argparse.Namespace) -> int:
     from ..draw.graphplot import plot_graph
 
     out = _output(args, (".png",), "the plot")
-    trajectory = trajectory_of(args)
-    at = moment(args.at, "collapse" in trajectory.graphs)
+    trajectory = trajectory_of(args, "graph")
+    at = moment(args.at, trajectory)
+    if at == "collapse" and args.at is None and "collapse" not in trajectory.graphs:  # a file without its graph
+        at = "end"
     if at == "collapse" and "collapse" not in trajectory.graphs:
         raise ScenarioError("nothing collapsed in this run: there is no graph at the collapse (use --at end)", file="--at")
     graph = trajectory.graphs["collapse" if at == "collapse" else "final"]

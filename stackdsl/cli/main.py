@@ -44,6 +44,7 @@ from .args import (
     refused,
     timeout_type,
 )
+from .sample import add_sample_options, scenario_of
 
 MODELS = ["report", "equilibrium"]
 #: The engines and their modes, as the options offer them: written here, so that ``--help`` loads
@@ -395,10 +396,10 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
     one.add_argument("--model", choices=MODELS, help="override the scenario's stability model")
     one.add_argument("--backend", choices=BACKENDS, help="override the scenario's engine")
     add_seed(one)
+    add_sample_options(one, name)
     if name == "compile":  # the one that runs nothing
         p = sub.add_parser("compile", parents=[one], help=COMMANDS["compile"], epilog=_ONE_STATUS, formatter_class=raw)
         p.add_argument("--json", action="store_true", help="print the Program as JSON")
-        _add_sample_options(p, "compile")
         p.set_defaults(func=_compile)
         return
     from ..batch.guard import TIMEOUT
@@ -497,7 +498,6 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
         p.add_argument(
             "--json", action="store_true", help="print the whole Outcome as JSON (exit 1 still means a failed expectation)"
         )
-        _add_sample_options(p, "run")
         add_record_options(p)
         p.set_defaults(func=_run)
     else:
@@ -506,23 +506,11 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
         add_commands(sub, [one, guarded], _ONE_STATUS, (name,))
 
 
-def _add_sample_options(p: argparse.ArgumentParser, verb: str) -> None:
-    """``--sample`` and ``--cell``: which one of a random file's runs ``verb`` takes."""
-    p.add_argument(
-        "--sample",
-        type=int,
-        metavar="K",
-        help=f"of a file with a sweep or random fields: {verb} its sample K (default 0; the sample column of samples.csv)",
-    )
-    p.add_argument("--cell", type=int, metavar="C", help=f"of a sweep's grid: {verb} the sample in cell C (default 0)")
-
-
 def _compile(args: argparse.Namespace) -> int:
     from ..compile.compiler import compile_scenario
     from ..compile.program import format_program
-    from ..lang.loader import load_scenario
 
-    scenario = _one_sample(load_scenario(args.file, args.seed), args.cell, args.sample, "compile")
+    scenario = scenario_of(args, "compile")
     program = compile_scenario(scenario, args.mode, args.model, args.backend)
     print(program.model_dump_json(indent=2) if args.json else format_program(program))
     return OK
@@ -531,11 +519,10 @@ def _compile(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace) -> int:
     from ..batch.judge import run_guarded, stopped_by
     from ..compile.compiler import compile_scenario
-    from ..lang.loader import load_scenario
     from ..runtime.outcome import describe_certificate
     from ..verdicts.expect import describe_outcome, evaluate, explain, not_run_line
 
-    scenario = _one_sample(load_scenario(args.file, args.seed), args.cell, args.sample, "run")
+    scenario = scenario_of(args, "run")
     program = compile_scenario(scenario, args.mode, args.model, args.backend, draw_time=args.timeout)
     if args.rate is not None and args.record is None:
         raise ScenarioError("--rate is the recording's: give --record OUT.npz too", file="--rate")
@@ -587,37 +574,6 @@ def _run(args: argparse.Namespace) -> int:
         if stopped and all(v.passed for v in verdicts):  # no verdict says it
             print(f"FAIL  {stopped}")
     return OK if all(v.passed for v in verdicts) and not stopped else FAILED
-
-
-def _one_sample(scenario: Any, cell: int | None, sample: int | None, verb: str) -> Any:
-    """The scenario ``run`` runs (or ``compile`` shows, as ``verb`` says): a file with a sweep or
-    random fields is one of many runs, so its sample ``sample`` of grid cell ``cell`` (0 and 0
-    by default), said on stderr with how to take another; a plain file is itself.
-
-    Raises:
-        ScenarioError: ``--sample`` or ``--cell`` on a plain file, or past the sweep's samples or cells.
-    """
-    template = scenario.template
-    if template is None:
-        given = "--sample" if sample is not None else "--cell" if cell is not None else ""
-        if given:
-            raise ScenarioError("this file has no sweep and no random field: it is one run, with no samples", file=given)
-        return scenario
-    c, k = cell or 0, sample or 0
-    if not 0 <= k < template.samples:
-        raise ScenarioError(f"the sweep has samples 0 to {template.samples - 1}, not {k}", file="--sample")
-    if not 0 <= c < template.cells:
-        raise ScenarioError(f"the sweep's grid has cells 0 to {template.cells - 1}, not {c}", file="--cell")
-    chosen = scenario if (c, k) == (0, 0) else template.scenario(c, k)
-    where = f" of grid cell {c} of {template.cells} ({template.label(c)})"
-    print(
-        f"stackdsl {verb}: {'running' if verb == 'run' else 'showing'} sample {k} of {template.samples}"
-        f"{where if template.grid else ''} (seed {template.seed}); "
-        f"`stackdsl sweep` runs them all and judges the statistics, --sample K {'runs' if verb == 'run' else 'shows'} another",
-        file=sys.stderr,
-        flush=True,
-    )
-    return chosen
 
 
 def _print_schema(args: argparse.Namespace) -> int:

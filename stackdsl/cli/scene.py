@@ -13,16 +13,13 @@ import argparse
 import os
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from ..lang.errors import ScenarioError
 from ..lang.extras import installed, missing
 from .args import COMMANDS, at_type
-from .draw import _SOURCE, _wrote, moment, resolved, trajectory_of, undrawable, when
+from .draw import _SOURCE, _wrote, moment, recorded, resolved, trajectory_of, undrawable, when
 from .draw import NAMES as DRAWING
-
-if TYPE_CHECKING:
-    from ..compile.program import Program
 
 #: Exit status of ``view`` where there is no display to open a window on (as bad input: the
 #: command cannot do what was asked here).
@@ -63,14 +60,15 @@ def _add_replay(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -
         "--golden",
         metavar="FILE.json",
         help="the golden snapshot whose final poses are the ghosts (default: the scenario's own, golden/.../NAME.json, "
-        "when it exists)",
+        "when it exists); a sweep's golden holds each sample's collapse level and no poses: the replayed sample's "
+        "level is compared with it instead",
     )
     p.set_defaults(func=_replay)
 
 
 def _replay(args: argparse.Namespace) -> int:
     from ..draw.artefacts import golden_of
-    from ..draw.replay import GoldenError, read_golden, write_replay
+    from ..draw.replay import GoldenError, is_sweep_golden, read_golden, sweep_note, write_replay
     from ..verdicts.snapshot import scenario_golden_path
     from .outputs import Input, Output, check_default_golden, check_outputs
 
@@ -90,14 +88,24 @@ def _replay(args: argparse.Namespace) -> int:
         [Output("-o", args.output, "the replay", folder=True, inside=("replay.html",))],
         [Input(args.file, "the file being replayed"), *(Input(g, "the golden snapshot") for g in (golden_path, default) if g)],
     )
-    trajectory = trajectory_of(args)
+    trajectory = trajectory_of(args, "replay")
+    read = golden_path or golden_of(trajectory)
     try:  # the golden must be of this run's scenario; a trajectory's, found now, is refused unopened if not a regular file
-        golden = read_golden(golden_path or golden_of(trajectory), trajectory)
+        golden = read_golden(read, trajectory)
     except GoldenError as exc:
         raise ScenarioError(exc.why, file=exc.file) from None
+    note = None
+    if golden is not None and read is not None and is_sweep_golden(golden):  # each sample's level, no poses: said, and compared
+        collapse = trajectory.meta.get("collapse")
+        level = collapse.get("level") if isinstance(collapse, dict) else None
+        cell, sample = getattr(args, "cell", None) or 0, getattr(args, "sample", None) or 0
+        note = sweep_note(read, golden, cell, sample, level, trajectory.meta.get("mode"), getattr(args, "seed", None) is not None)
+        print(f"golden: {note}", flush=True)
     out.mkdir(parents=True, exist_ok=True)
     return _wrote(
-        write_replay(trajectory, out / "replay.html", golden), trajectory, f"a 3D replay of {len(trajectory.ids)} bodies"
+        write_replay(trajectory, out / "replay.html", golden, note),
+        trajectory,
+        f"a 3D replay of {len(trajectory.ids)} bodies",
     )
 
 
@@ -132,6 +140,24 @@ def display_problem() -> str | None:
     return None
 
 
+def _replay_command(args: argparse.Namespace) -> str:
+    """The ``stackdsl replay`` command of the run ``view`` was asked to show (its options kept)."""
+    from ..batch.report import rerun_command
+
+    return rerun_command(
+        "replay",
+        args.file,
+        mode=args.mode,
+        model=args.model,
+        backend=args.backend,
+        seed=args.seed,
+        sample=args.sample,
+        cell=args.cell,
+        timeout=args.timeout,
+        tail=("-o", "DIR"),
+    )
+
+
 def _add_view(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -> None:
     p = sub.add_parser(
         "view",
@@ -154,8 +180,7 @@ def _view(args: argparse.Namespace) -> int:
         raise ScenarioError(f"{args.speed:g} is not a speed-up above 0 and at most 1000", file="--speed")
     if not has_display():
         print(
-            f"stackdsl view: no display here (DISPLAY is not set): for a 3D page to open in a browser, run "
-            f"stackdsl replay {args.file} -o DIR",
+            f"stackdsl view: no display here (DISPLAY is not set): for a 3D page to open in a browser, run {_replay_command(args)}",
             file=sys.stderr,
         )
         return NO_DISPLAY
@@ -167,17 +192,16 @@ def _view(args: argparse.Namespace) -> int:
 
     from ..compile.compiler import compile_scenario
     from ..draw import live
-    from ..lang.loader import load_scenario
     from ..runtime.run import run_program
+    from .sample import scenario_of
 
     # the file is read (a scenario compiled) before the display is tried: bad input is said first
-    trajectory = trajectory_of(args) if Path(args.file).suffix.lower() == ".npz" else None
-    program = None if trajectory is not None else compile_scenario(load_scenario(args.file), args.mode, args.model, args.backend)
+    trajectory = trajectory_of(args, "view") if Path(args.file).suffix.lower() == ".npz" else None
+    program = None if trajectory is not None else compile_scenario(scenario_of(args, "view"), args.mode, args.model, args.backend)
     unusable = display_problem()
     if unusable:
         print(
-            f"stackdsl view: the display cannot be opened ({unusable}): for a 3D page to open in a browser, run "
-            f"stackdsl replay {args.file} -o DIR",
+            f"stackdsl view: the display cannot be opened ({unusable}): for a 3D page to open in a browser, run {_replay_command(args)}",
             file=sys.stderr,
         )
         return NO_DISPLAY
@@ -210,8 +234,11 @@ def _add_export(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -
         help=COMMANDS["export"],
         description="Write the bricks at one moment of the run, at their poses, as MuJoCo XML (--mjcf: each brick "
         "a body with a free joint, the ground a plane; open it with 'python -m mujoco.viewer --mjcf=OUT.xml' or "
-        "MuJoCo's simulate) and/or as a URDF (--urdf: one robot, the ground its root link, each brick on a "
-        "floating joint; MuJoCo makes these free joints, pybullet fixed ones). Masses and friction are the "
+        "MuJoCo's simulate), as an SDFormat world (--sdf: a model a brick and a static ground; pybullet's "
+        "loadSDF(OUT.sdf) gives one body a brick, with the pybullet friction and restitution of the run's "
+        "materials) and/or as a URDF (--urdf: one robot, the ground its root link, each brick on a floating "
+        "joint; MuJoCo makes these free joints, pybullet fixed ones, every brick welded into one body: for "
+        "pybullet give --sdf). Masses and friction are the "
         "scenario's (a trajectory file: the built-in pine's); geoms are coloured by state. The XML carries MuJoCo's "
         "options and contacts (timestep, cone, impratio, integrator, solref, solimp, friction per material pair): "
         "the run's own on MuJoCo raw or tuned, else MuJoCo's tuned mode; a comment in the file says which. " + _SOURCE,
@@ -223,39 +250,41 @@ def _add_export(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -
         type=at_type,
         default=None,
         metavar="collapse|end|SECONDS",
-        help="when: 0.2 s after the first collapse (as 'render'), the end, or a time in seconds (default: collapse if "
-        "the structure collapsed, else end)",
+        help="when: 0.2 s after the first collapse (as 'render'), the end, or a time in seconds (default: as "
+        "'render', what the scenario's expectations judge)",
     )
     p.add_argument("--mjcf", metavar="OUT.xml", help="write MuJoCo XML")
-    p.add_argument("--urdf", metavar="OUT.urdf", help="write a URDF")
+    p.add_argument("--sdf", metavar="OUT.sdf", help="write an SDFormat world: pybullet.loadSDF(OUT.sdf), one body a brick")
+    p.add_argument("--urdf", metavar="OUT.urdf", help="write a URDF (one multibody: pybullet welds its bricks; see --sdf)")
     p.set_defaults(func=_export)
 
 
 #: What an exported file's name may end in, by kind.
-_EXPORT_SUFFIXES = {"mjcf": (".xml", ".mjcf"), "urdf": (".urdf", ".xml")}
+_EXPORT_SUFFIXES = {"mjcf": (".xml", ".mjcf"), "sdf": (".sdf", ".world"), "urdf": (".urdf", ".xml")}
+#: What each kind is called in what export says.
+_KINDS = {"mjcf": "MJCF", "sdf": "SDF", "urdf": "URDF"}
 
 
 def _export(args: argparse.Namespace) -> int:
     from ..compile.program import Fixture, Launch, Place
-    from ..draw.export import mjcf, recorded_engine, snapshot, urdf, write_text
+    from ..draw.export import mjcf, recorded_engine, sdf, snapshot, urdf, write_text
     from .outputs import Input, Output, check_outputs
 
-    given = [(path, kind) for path, kind in ((args.mjcf, "mjcf"), (args.urdf, "urdf")) if path is not None]
+    given = [(path, kind) for path, kind in ((args.mjcf, "mjcf"), (args.sdf, "sdf"), (args.urdf, "urdf")) if path is not None]
     if not given:
-        raise ScenarioError("give --mjcf OUT.xml, --urdf OUT.urdf or both", file="export")
+        raise ScenarioError("give --mjcf OUT.xml, --sdf OUT.sdf or --urdf OUT.urdf (or several)", file="export")
     paths = check_outputs(
-        [Output(f"--{kind}", path, f"the {kind.upper()} file") for path, kind in given],
+        [Output(f"--{kind}", path, f"the {_KINDS[kind]} file") for path, kind in given],
         [Input(args.file, "the file being exported")],
     )
     for path, kind in given:  # as the drawings' outputs are: a file named for what it holds
         if path.strip() and Path(path).suffix.lower() not in _EXPORT_SUFFIXES[kind]:
             raise ScenarioError(
-                f"the {kind.upper()} file must end in {' or '.join(_EXPORT_SUFFIXES[kind])}", file=path, field=f"--{kind}"
+                f"the {_KINDS[kind]} file must end in {' or '.join(_EXPORT_SUFFIXES[kind])}", file=path, field=f"--{kind}"
             )
     outputs = [(out, kind) for out, (_, kind) in zip(paths, given, strict=True)]
-    program = _program(args)
-    trajectory = trajectory_of(args)
-    at = resolved(trajectory, moment(args.at, trajectory.collapse_time is not None))
+    program, trajectory = recorded(args, "export")
+    at = resolved(trajectory, moment(args.at, trajectory))
     try:  # the options were checked: what fails here is the trajectory's
         if program is None:  # a trajectory file: pine, and the engine its meta records
             scene, engine = snapshot(trajectory, at), recorded_engine(trajectory.meta)
@@ -263,32 +292,27 @@ def _export(args: argparse.Namespace) -> int:
             specs = {a.id: a.brick for a in (*program.fixtures, *program.actions) if isinstance(a, (Place, Launch, Fixture))}
             scene = snapshot(trajectory, at, specs, program.ground_friction, program.ground_restitution)
             engine = program.engine
-        texts = {kind: mjcf(scene, engine=engine) if kind == "mjcf" else urdf(scene) for _, kind in outputs}
+        write = {"mjcf": lambda: mjcf(scene, engine=engine), "sdf": lambda: sdf(scene), "urdf": lambda: urdf(scene)}
+        texts = {kind: write[kind]() for _, kind in outputs}
     except ValueError as exc:
         refusal = undrawable(args.file, exc, "exported")
         if refusal is None:
             raise
         raise refusal from None
     status = 0
+    bodies = f"{len(scene.ids)} bod{'y' if len(scene.ids) == 1 else 'ies'}"
+    loaded = {  # how to load each, where it is not plain
+        "sdf": f", {bodies} and the ground (pybullet.loadSDF: one body each)",
+        "urdf": f", {bodies} in one multibody (pybullet welds them: use --sdf)",
+    }
     for out, kind in outputs:
-        text = texts[kind]
+        said = loaded.get(kind, f", {bodies}")
         status |= _wrote(
-            write_text(text, out),
+            write_text(texts[kind], out),
             trajectory,
-            f"{kind.upper()}, {len(scene.ids)} bod{'y' if len(scene.ids) == 1 else 'ies'} at {when(scene.time, at, trajectory.meta.get('timestep'))}",
+            f"{_KINDS[kind]}{said} at {when(scene.time, at, trajectory.meta.get('timestep'))}",
         )
     return status
-
-
-def _program(args: argparse.Namespace) -> Program | None:
-    """The compiled scenario of a scenario file (its bricks' specs, materials and engine); None
-    for a trajectory file (which keeps only sizes)."""
-    if Path(args.file).suffix.lower() == ".npz":
-        return None
-    from ..compile.compiler import compile_scenario
-    from ..lang.loader import load_scenario
-
-    return compile_scenario(load_scenario(args.file), args.mode, args.model, args.backend)
 
 
 _ADD = {"replay": _add_replay, "view": _add_view, "export": _add_export}

@@ -69,6 +69,7 @@ def add_sweep(
 
 
 def _sweep(args: argparse.Namespace) -> int:
+    from ..batch.report import rerun_command
     from ..batch.sweep import (
         ClusterLost,
         SweepOptions,
@@ -174,6 +175,20 @@ def _sweep(args: argparse.Namespace) -> int:
     remove_leftovers(out, [table, jsonl, "samples.parquet", *plots])  # the folder holds this sweep's files alone
     for line in report(template, scenario.expect, results):
         print(line)
+    unfinished = next((r for r in results if r.error or r.stopped), None)
+    if unfinished is not None:  # the first that did not finish, as run takes it alone
+        again = rerun_command(
+            "run",
+            args.file,
+            mode=args.mode,
+            model=args.model,
+            backend=args.backend,
+            seed=args.seed,
+            sample=unfinished.sample,
+            cell=unfinished.cell if template.grid else None,
+            timeout=args.timeout,
+        )
+        print(f"more: {again}")
     print(
         f"{_count(total, 'sample')} in {wall:.1f} s ({total / wall:.1f} a second); wrote {table}, {jsonl.name}, samples.parquet, "
         + ", ".join(p.name for p in plots)

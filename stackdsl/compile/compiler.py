@@ -272,6 +272,7 @@ def compile_scenario(
         actions=tuple(actions),
         draws=draws,
         parts=summaries(scenario, nominal),
+        judged_at=scenario.expect.judged_at,
     )
     try:  # before the checks of the placements, which take a while on a huge scene
         _budget(scenario, program)
@@ -431,8 +432,9 @@ def _own_ids(scenario: Scenario, bricks: Sequence[str], launches: Sequence[Launc
 
 def _measurable(scenario: Scenario, end: float, bricks: int) -> None:
     """Refuse an expectation the run cannot measure: ``stands_until`` past the run's end (s), a
-    ``toppled`` count beyond the scene's ``bricks``, a ScenarioError at it; warn of a ``toppled``
-    tolerance that covers every count (it cannot fail)."""
+    ``toppled`` count or bound whose fewest bricks is beyond the scene's ``bricks``, a
+    ScenarioError at it; warn of a ``toppled`` tolerance or bound that allows every count (it
+    cannot fail)."""
     until = scenario.expect.stands_until
     if until is not None and until > end + 1e-9:
         raise scenario.source.error(
@@ -441,22 +443,22 @@ def _measurable(scenario: Scenario, end: float, bricks: int) -> None:
             f"after it is simulated; give a time up to {end:g} s, or a longer timing.settle",
         )
     toppled = scenario.expect.toppled
-    if toppled is not None and toppled.count != "all" and toppled.count - toppled.tolerance > bricks:
+    if toppled is None or toppled.count == "all":
+        return
+    least, most = toppled.allows(bricks)
+    if least > bricks:
+        shown = toppled.count if toppled.op == "±" else f"'{toppled.text()}'"
         raise scenario.source.error(
             ("expect", "toppled"),
-            f"{toppled.count} toppled can never be measured: the scene has {bricks} brick{'s' * (bricks != 1)}",
+            f"{shown} toppled can never be measured: the scene has {bricks} brick{'s' * (bricks != 1)}",
         )
-    if (
-        toppled is not None
-        and toppled.count != "all"
-        and toppled.count - toppled.tolerance <= 0
-        and toppled.count + toppled.tolerance >= bricks
-    ):
+    if least <= 0 and most >= bricks:
+        smaller = "a smaller tolerance" if toppled.op == "±" else "a bound that some count fails"
         warnings.warn(
             scenario.source.warning(
                 ("expect", "toppled"),
-                f"{toppled.count}±{toppled.tolerance} covers every count from 0 to the scene's {bricks} bricks: it cannot "
-                "fail; give a smaller tolerance",
+                f"{toppled.text() if toppled.op != '±' else f'{toppled.count}±{toppled.tolerance}'} covers every count from "
+                f"0 to the scene's {bricks} bricks: it cannot fail; give {smaller}",
             ),
             stacklevel=2,
         )

@@ -407,8 +407,8 @@ def _unplaceable(scenario: Scenario, ids: Sequence[str], level_of: Mapping[str, 
         return []
     pulled = set(pulled_out(scenario))
     total = sum(i not in pulled for i in ids)  # what toppled counts: the bricks left in the scene
-    least = (total if t.count == "all" else t.count) - t.tolerance
-    written = f"{t.count}±{t.tolerance}" if t.tolerance else str(t.count)
+    least = t.allows(total)[0]
+    written = t.text()
     if least > total and total < len(ids):  # beyond every brick is refused by the compiler already
         return [
             _Problem(

@@ -285,6 +285,10 @@ class Program(_Frozen):
             (``allow: [floating]``); they drop when placed.
         draws: how many draws of a random scene its sample took to meet ``require:`` (1 without).
         parts: the named parts of a composed structure, in order (none for a single layout).
+        judged_at: the moment the scenario's expectations judge
+            (:attr:`stackdsl.lang.expectations.Expect.judged_at`): ``"end"`` (final positions),
+            or ``"collapse"`` (the collapse when there is one, else the end); pictures, replays
+            and exports show it unless told another.
     """
 
     name: str
@@ -300,6 +304,7 @@ class Program(_Frozen):
     floating: tuple[str, ...] = ()
     draws: int = 1
     parts: tuple[PartSummary, ...] = ()
+    judged_at: Literal["collapse", "end"] = "collapse"
 
     @property
     def placements(self) -> list[Place]:

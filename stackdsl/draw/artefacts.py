@@ -73,8 +73,9 @@ def golden_of(trajectory: Trajectory) -> Path | None:
 def draw_run(trajectory: Trajectory, folder: str | Path, deadline: float | None = None) -> tuple[dict[str, str], str, float]:
     """Write :data:`FILES` for one recorded run into ``folder`` (made if missing).
 
-    The picture is at the collapse when there was one, else at the end; the brick-graph
-    plot likewise. A file that cannot be drawn is left out, and the first such failure is
+    The picture is at the moment the scenario's expectations judge (:attr:`stackdsl.Trajectory.shown_at`:
+    the end for final positions, such as a toppled domino row; else the collapse when there was
+    one, else the end); the brick-graph plot likewise. A file that cannot be drawn is left out, and the first such failure is
     returned as one line; the others are still drawn. The clip, the one long drawing, stops
     at ``deadline`` (``time.perf_counter()`` seconds; None: none) and is then left out. The
     scenario's golden snapshot is read for the replay's ghosts only when it is a regular file
@@ -91,13 +92,14 @@ def draw_run(trajectory: Trajectory, folder: str | Path, deadline: float | None 
     start = time.perf_counter()
     out = Path(folder)
     out.mkdir(parents=True, exist_ok=True)
-    collapsed = trajectory.collapse_time is not None
-    graph = trajectory.graphs.get("collapse" if collapsed else "final", trajectory.graphs["final"])
+    shown = trajectory.shown_at  # the moment the expectations judge: the end for a toppled domino row
+    at = shown if shown == "end" or "collapse" in trajectory.graphs else "end"
+    graph = trajectory.graphs["collapse" if at == "collapse" else "final"]
     name = trajectory.meta.get("scenario", "")
     steps: dict[str, Callable[[Path], object]] = {
         "trajectory": lambda path: trajectory.save(path),
-        "picture": lambda path: picture(trajectory, "collapse" if collapsed else "end", path),
-        "graph": lambda path: plot_graph(graph, path, title=f"{name}: brick graph at the {'collapse' if collapsed else 'end'}"),
+        "picture": lambda path: picture(trajectory, shown, path),
+        "graph": lambda path: plot_graph(graph, path, title=f"{name}: brick graph at the {at}"),
         "clip": lambda path: animate(trajectory, path, deadline=deadline),
         "replay": lambda path: write_replay(trajectory, path, golden),
     }

@@ -4,9 +4,11 @@ engine's) own tools.
 :func:`snapshot` takes every body in the world at a time of a :class:`stackdsl.Trajectory`
 (its pose and state, as :meth:`stackdsl.Trajectory.at`) and the fixed bodies; :func:`mjcf`
 writes them as MuJoCo XML (each brick a body with a free joint and a box geom, the fixed
-bodies static boxes, the ground a plane), :func:`urdf` as one URDF robot whose root link is
-the ground and whose bricks hang on ``floating`` joints placed at their poses (MuJoCo
-compiles a floating joint into a free joint; pybullet loads it as a fixed one). Geoms are
+bodies static boxes, the ground a plane), :func:`sdf` as an SDFormat world of one model a
+brick, which pybullet's ``loadSDF`` loads as one body a brick, and :func:`urdf` as one URDF
+robot whose root link is the ground and whose bricks hang on ``floating`` joints placed at
+their poses (MuJoCo compiles a floating joint into a free joint; pybullet, whose URDF is one
+multibody, loads it as a fixed one: the bricks welded into one body). Geoms are
 coloured by state (:data:`stackdsl.draw.render.COLOURS`). Masses and friction come from the
 run's brick specs when the scenario is at hand, else from the built-in pine (460 kg/m^3,
 friction 0.5).
@@ -384,7 +386,9 @@ def urdf(scene: Snapshot) -> str:
     top is z = 0, and the fixed bodies), each brick a link on a ``floating`` joint from the
     ground at its pose (``rpy``: roll, pitch, yaw about fixed x, y, z), with its mass, box
     inertia (:func:`box_inertia`) and state colour; links are named as :func:`body_name` names
-    MJCF bodies (MuJoCo reads a link named ``world`` as its world body)."""
+    MJCF bodies (MuJoCo reads a link named ``world`` as its world body). A URDF is one
+    multibody: MuJoCo frees its floating joints, pybullet fixes them (every brick welded to the
+    ground); for pybullet, :func:`sdf`."""
     from scipy.spatial.transform import Rotation
 
     robot = ET.Element("robot", name=scene.name)
@@ -428,6 +432,106 @@ def urdf(scene: Snapshot) -> str:
     return '<?xml version="1.0"?>\n' + ET.tostring(robot, encoding="unicode") + "\n"
 
 
+def _sdf_pose(position: np.ndarray, quaternion: np.ndarray) -> str:
+    """SDFormat's ``<pose>``: x y z (m) and roll pitch yaw (rad) about the fixed x, y, z axes."""
+    from scipy.spatial.transform import Rotation
+
+    return _numbers([*position, *Rotation.from_quat(quaternion).as_euler("xyz")])
+
+
+def _sdf_box(parent: ET.Element, kind: str, name: str, half: np.ndarray, pose: str | None = None) -> ET.Element:
+    """A ``<collision>`` or ``<visual>`` box of ``half`` extents (m) under ``parent``."""
+    element = ET.SubElement(parent, kind, name=name)
+    if pose is not None:
+        ET.SubElement(element, "pose").text = pose
+    ET.SubElement(ET.SubElement(ET.SubElement(element, "geometry"), "box"), "size").text = _numbers(2 * np.asarray(half))
+    return element
+
+
+def _sdf_material(link: ET.Element, collisions: list[ET.Element], friction: float, restitution: float) -> None:
+    """A link's friction and restitution: pybullet's own ``<contact>`` element (each body the
+    square root of its material's values, as stackdsl's pybullet world sets them: Bullet
+    multiplies the two bodies', :mod:`stackdsl.engines.pybullet.world`), and SDFormat's
+    ``<surface>`` of each collision, the material's own coefficients, for other readers."""
+    contact = ET.SubElement(link, "contact")
+    ET.SubElement(contact, "lateral_friction").text = f"{np.sqrt(friction):.6g}"
+    ET.SubElement(contact, "restitution").text = f"{np.sqrt(restitution):.6g}"
+    for collision in collisions:
+        surface = ET.SubElement(collision, "surface")
+        ode = ET.SubElement(ET.SubElement(surface, "friction"), "ode")
+        ET.SubElement(ode, "mu").text = f"{friction:.6g}"
+        ET.SubElement(ode, "mu2").text = f"{friction:.6g}"
+        ET.SubElement(ET.SubElement(surface, "bounce"), "restitution_coefficient").text = f"{restitution:.6g}"
+
+
+def _sdf_inertial(link: ET.Element, mass: float, half: np.ndarray | None) -> None:
+    """A link's mass (kg) and box inertia (:func:`box_inertia`; all 0 for a static link, which
+    pybullet then keeps still)."""
+    inertial = ET.SubElement(link, "inertial")
+    ET.SubElement(inertial, "mass").text = f"{mass:.6g}"
+    moments = box_inertia(mass, half) if half is not None else (0.0, 0.0, 0.0)
+    inertia = ET.SubElement(inertial, "inertia")
+    for key, value in zip(("ixx", "ixy", "ixz", "iyy", "iyz", "izz"), (moments[0], 0, 0, moments[1], 0, moments[2])):
+        ET.SubElement(inertia, key).text = f"{value:.6g}"
+
+
+def _sdf_colour(visual: ET.Element, key: str) -> None:
+    material = ET.SubElement(visual, "material")
+    for channel in ("ambient", "diffuse"):
+        ET.SubElement(material, channel).text = _rgba(key)
+
+
+def sdf(scene: Snapshot) -> str:
+    """``scene`` as an SDFormat 1.6 world of one model a body, which pybullet's ``loadSDF`` loads
+    as one body a brick (a URDF is one multibody, whose bricks pybullet welds): a static model
+    ``ground`` (a 0.1 m thick slab whose top is z = 0, and the fixed bodies, with mass 0, which
+    pybullet keeps still), then each brick a model named by its id at its pose (``<pose>``: x y z,
+    roll pitch yaw about the fixed axes), its one link of the brick's mass, box inertia
+    (:func:`box_inertia`), friction and restitution (:func:`_sdf_material`) and state colour.
+
+    >>> import pybullet, tempfile
+    >>> scene = Snapshot(0.0, "two", ["a", "b"], [1, 2], ["frozen", "active"], np.full((2, 3), 0.01),
+    ...     np.array([[0.0, 0.0, 0.01], [0.0, 0.0, 0.03]]), np.array([[0.0, 0.0, 0.0, 1.0]] * 2),
+    ...     [], np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 4)))
+    >>> folder = tempfile.TemporaryDirectory()
+    >>> path = write_text(sdf(scene), f"{folder.name}/two.sdf")
+    >>> client = pybullet.connect(pybullet.DIRECT)
+    >>> [pybullet.getBodyInfo(b, physicsClientId=client)[1].decode() for b in pybullet.loadSDF(str(path), physicsClientId=client)]
+    ['ground', 'a', 'b']
+    >>> pybullet.disconnect(client); folder.cleanup()
+    """
+    root = ET.Element("sdf", version="1.6")
+    world = ET.SubElement(root, "world", name=scene.name)
+    model = ET.SubElement(world, "model", name="ground")
+    ET.SubElement(model, "static").text = "true"
+    link = ET.SubElement(model, "link", name="ground")
+    _sdf_inertial(link, 0.0, None)
+    span = max(1.0, 2 * float(np.abs(scene.positions).max())) if len(scene.positions) else 1.0
+    collisions = []
+    origin = _sdf_pose(np.array([0.0, 0.0, -0.05]), np.array([0.0, 0.0, 0.0, 1.0]))
+    boxes = [("ground", np.array([span, span, 0.05]), origin, "ground")]
+    boxes += [
+        (fid, h, _sdf_pose(p, q), "fixture")
+        for fid, h, p, q in zip(
+            scene.fixture_ids, scene.fixture_half_extents, scene.fixture_positions, scene.fixture_orientations
+        )
+    ]
+    for name, half, pose, colour in boxes:
+        collisions.append(_sdf_box(link, "collision", name, half, pose))
+        _sdf_colour(_sdf_box(link, "visual", name, half, pose), colour)
+    _sdf_material(link, collisions, scene.ground_friction, scene.ground_restitution)
+    for i, brick in enumerate(scene.ids):
+        model = ET.SubElement(world, "model", name=brick)
+        ET.SubElement(model, "pose").text = _sdf_pose(scene.positions[i], scene.orientations[i])
+        link = ET.SubElement(model, "link", name=brick)
+        _sdf_inertial(link, scene.mass(i), scene.half_extents[i])
+        collision = _sdf_box(link, "collision", brick, scene.half_extents[i])
+        _sdf_colour(_sdf_box(link, "visual", brick, scene.half_extents[i]), colour_key(scene.levels[i], scene.states[i]))
+        _sdf_material(link, [collision], *scene.material(brick))
+    ET.indent(root)
+    return '<?xml version="1.0"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+
+
 def write_text(text: str, path: str | os.PathLike[str]) -> Path:
     """Write ``text`` at ``path`` whole or not at all (:func:`stackdsl.lang.files.written`).
 
@@ -439,4 +543,4 @@ def write_text(text: str, path: str | os.PathLike[str]) -> Path:
     return Path(path)
 
 
-__all__ = ["Snapshot", "box_inertia", "mjcf", "mujoco_settings", "recorded_engine", "snapshot", "urdf", "write_text"]
+__all__ = ["Snapshot", "box_inertia", "mjcf", "mujoco_settings", "recorded_engine", "sdf", "snapshot", "urdf", "write_text"]

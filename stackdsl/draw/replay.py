@@ -40,6 +40,7 @@ import html
 import json
 import math
 import os
+import re
 import stat
 import warnings
 from functools import cache
@@ -178,13 +179,15 @@ def ghosts(trajectory: Trajectory, golden: dict[str, Any] | None) -> list[dict[s
     return out
 
 
-def replay_data(trajectory: Trajectory, golden: dict[str, Any] | None = None) -> dict[str, Any]:
+def replay_data(trajectory: Trajectory, golden: dict[str, Any] | None = None, note: str | None = None) -> dict[str, Any]:
     """Everything the page reads, as JSON values: the trajectory's arrays (base64: times
     float64, positions, quaternions and the ground's offset at each frame float32, frames and
     bodies int32, states uint8), ids, levels, half extents, fixtures (at rest: the page moves
     them with the ground's offset), events, brick graphs with their times, state names and
-    colours, the golden's ghosts (:func:`ghosts`) and how many final bricks the golden has (None:
-    no golden)."""
+    colours, the golden's ghosts (:func:`ghosts`), how many final bricks the golden has (None:
+    no golden, or a sweep's, which has none), ``note``, a line the page shows in their place
+    (:func:`sweep_note`), and the moment the page opens at (``opening``,
+    :attr:`stackdsl.Trajectory.shown_at`: the collapse, or the end)."""
     meta = trajectory.meta
     collapse = meta.get("collapse")
     graphs = {"final": {"time": trajectory.end, "label": "at the end", "bricks": _graph(trajectory.graphs["final"])}}
@@ -229,6 +232,8 @@ def replay_data(trajectory: Trajectory, golden: dict[str, Any] | None = None) ->
         "graphs": graphs,
         "ghosts": ghosts(trajectory, golden),
         "golden_bricks": len(final) if isinstance(final := (golden or {}).get("final_graph"), dict) else None,
+        "golden_note": note,
+        "opening": trajectory.shown_at,
     }
 
 
@@ -237,14 +242,14 @@ def _script_json(value: Any) -> str:
     return json.dumps(value, separators=(",", ":"), ensure_ascii=False).replace("</", "<\\/").replace("<!--", "<\\!--")
 
 
-def replay_html(trajectory: Trajectory, golden: dict[str, Any] | None = None) -> str:
+def replay_html(trajectory: Trajectory, golden: dict[str, Any] | None = None, note: str | None = None) -> str:
     """The replay page of ``trajectory`` as one HTML text (see the module's docstring)."""
     meta = trajectory.meta
     title = f"{meta.get('scenario') or meta.get('file') or 'run'} · stackdsl replay"
     parts = {
         "{{title}}": html.escape(title),
         "{{style}}": _page_file("replay.css"),
-        "{{data}}": _script_json(replay_data(trajectory, golden)),
+        "{{data}}": _script_json(replay_data(trajectory, golden, note)),
         "{{three}}": _vendored(VENDORED[0]),
         "{{orbit}}": _vendored(VENDORED[1]),
         "{{script}}": _page_file("replay.js").replace("</", "<\\/"),
@@ -255,7 +260,9 @@ def replay_html(trajectory: Trajectory, golden: dict[str, Any] | None = None) ->
     return page
 
 
-def write_replay(trajectory: Trajectory, path: str | os.PathLike[str], golden: dict[str, Any] | None = None) -> Path:
+def write_replay(
+    trajectory: Trajectory, path: str | os.PathLike[str], golden: dict[str, Any] | None = None, note: str | None = None
+) -> Path:
     """Write the replay page of ``trajectory`` at ``path`` (under a temporary name, renamed
     when complete).
 
@@ -263,7 +270,9 @@ def write_replay(trajectory: Trajectory, path: str | os.PathLike[str], golden: d
         trajectory: a recorded run.
         path: the HTML file to write.
         golden: the scenario's golden snapshot (JSON data), whose final poses that differ from
-            the run's are drawn as ghosts; None: no ghosts.
+            the run's are drawn as ghosts; None (or a sweep's golden, which has no poses): no ghosts.
+        note: a line the page shows where the ghosts are listed (what a sweep's golden says of
+            this sample, :func:`sweep_note`); None: none.
 
     Returns:
         ``path``.
@@ -271,7 +280,7 @@ def write_replay(trajectory: Trajectory, path: str | os.PathLike[str], golden: d
     Raises:
         OSError: the file cannot be written.
     """
-    text = replay_html(trajectory, golden)
+    text = replay_html(trajectory, golden, note)
     with written(path) as part:
         Path(part).write_text(text, encoding="utf-8")
     return Path(path)
@@ -338,6 +347,73 @@ class _Golden(BaseModel):
     collapse_graph: dict[str, _GoldenBrick] | None = None
 
 
+#: A sweep's golden snapshot's key for grid cell N (``stackdsl.pytest_plugin``'s sweep items write them).
+SWEEP_CELL = re.compile(r"cell (0|[1-9][0-9]{0,5})")
+
+
+class _SweepCell(BaseModel):
+    """One grid cell of a sweep's golden snapshot: its grid values and each sample's collapse level."""
+
+    model_config = ConfigDict(extra="allow", frozen=True)
+
+    grid: dict[str, Any] = {}
+    collapse_levels: list[Annotated[StrictInt, Field(ge=1)] | None]
+
+
+class _SweepGolden(BaseModel):
+    """A sweep's golden snapshot: ``{scenario, mode, samples, "cell 0": {grid, collapse_levels}, ...}``
+    (each sample's collapse level, None where it stood; no brick poses)."""
+
+    model_config = ConfigDict(extra="allow", frozen=True)
+
+    scenario: StrictStr | None = None
+    mode: StrictStr | None = None
+    samples: Annotated[StrictInt, Field(ge=1)]
+
+
+def is_sweep_golden(data: Any) -> bool:
+    """Whether ``data`` (a golden snapshot's JSON) is a sweep's: no ``final_graph``, and a
+    ``cell N`` key (:data:`SWEEP_CELL`)."""
+    return isinstance(data, dict) and "final_graph" not in data and any(SWEEP_CELL.fullmatch(str(k)) for k in data)
+
+
+def sweep_note(
+    path: str | os.PathLike[str],
+    golden: dict[str, Any],
+    cell: int,
+    sample: int,
+    level: int | None,
+    mode: str | None,
+    reseeded: bool = False,
+) -> str:
+    """What a sweep's golden snapshot (:func:`is_sweep_golden`, read by :func:`read_golden`) says
+    of the sample replayed, in one line: it holds no poses, so no ghosts; then the collapse level
+    of cell ``cell``'s sample ``sample`` there against this run's ``level`` (None: it stood), or
+    why they are not compared: the run's ``mode`` is not the golden's, ``reseeded`` (``--seed``
+    draws other samples), or the golden has no such sample.
+
+    >>> sweep_note("g.json", {"mode": "raw", "samples": 2, "cell 0": {"collapse_levels": [4, None]}}, 0, 1, None, "raw")
+    "g.json is a sweep's golden snapshot (each sample's collapse level, no poses: no ghosts are drawn); sample 1 of cell 0 stands there and stands here: the same"
+    """
+    head = f"{path} is a sweep's golden snapshot (each sample's collapse level, no poses: no ghosts are drawn)"
+    taken = golden.get("mode")
+    levels = (golden.get(f"cell {cell}") or {}).get("collapse_levels") or []
+    if reseeded:
+        return f"{head}; --seed draws other samples than the golden's: not compared"
+    if taken is not None and mode is not None and taken != mode:
+        return f"{head}; it was taken in {taken} mode and this run is in {mode} mode: not compared"
+    if not 0 <= sample < len(levels):
+        return f"{head}; it holds no sample {sample} of cell {cell}: not compared"
+
+    def said(n: int | None) -> str:
+        return "stands" if n is None else f"collapses at level {n}"
+
+    there = levels[sample]
+    return f"{head}; sample {sample} of cell {cell} {said(there)} there and {said(level)} here: " + (
+        "the same" if there == level else "they differ"
+    )
+
+
 def _depth_exceeds(data: Any, limit: int) -> bool:
     """Whether lists and objects in ``data`` nest deeper than ``limit`` (walked without recursion)."""
     stack = [(data, 1)]
@@ -400,14 +476,18 @@ def read_golden(path: str | os.PathLike[str] | None, trajectory: Trajectory | No
             the run does not have gives a :class:`GoldenWarning`.
 
     Returns:
-        The data as written; None when ``path`` is None or no file is there.
+        The data as written; None when ``path`` is None or no file is there. A sweep's golden
+        (:func:`is_sweep_golden`: each sample's collapse level, no poses) is returned too, once
+        its ``samples`` and cells are checked; it draws no ghosts (:func:`sweep_note` says what
+        it holds of the sample replayed).
 
     Raises:
         GoldenError: one line naming the file: not a regular file, larger than
             :data:`MAX_GOLDEN_BYTES`, not UTF-8 JSON, nested deeper than :data:`MAX_GOLDEN_DEPTH`, no
             ``final_graph`` mapping brick ids to bricks, a brick without a position (3 finite
             numbers of mm within 1000 km) or an orientation (a unit quaternion), text where a number
-            belongs; another scenario's, or without a brick of the run.
+            belongs; a sweep's without whole ``samples`` or with a cell whose ``collapse_levels``
+            are not levels; another scenario's, or without a brick of the run.
     """
     if path is None:
         return None
@@ -439,6 +519,9 @@ def read_golden(path: str | os.PathLike[str] | None, trajectory: Trajectory | No
         raise bad(f"it is a JSON {type(data).__name__.replace('list', 'array').replace('str', 'string')}, not an object")
     if _depth_exceeds(data, MAX_GOLDEN_DEPTH):
         raise bad(f"lists and objects are nested more than {MAX_GOLDEN_DEPTH} levels deep")
+    if is_sweep_golden(data):
+        _read_sweep(data, path, trajectory)
+        return data
     try:
         golden = _Golden.model_validate(data)
     except pydantic.ValidationError as exc:
@@ -446,6 +529,31 @@ def read_golden(path: str | os.PathLike[str] | None, trajectory: Trajectory | No
     if trajectory is not None:
         _belongs(golden, trajectory, path)
     return data
+
+
+def _read_sweep(data: dict[str, Any], path: Path, trajectory: Trajectory | None) -> None:
+    """Check a sweep's golden snapshot (:class:`_SweepGolden`, each ``cell N`` a
+    :class:`_SweepCell`), and that it is of the scenario of ``trajectory`` (by name) when given.
+
+    Raises:
+        GoldenError: as :func:`read_golden` says.
+    """
+    try:
+        golden = _SweepGolden.model_validate(data)
+    except pydantic.ValidationError as exc:
+        raise GoldenError(path, f"not a sweep's golden snapshot stackdsl can read: {_first_problem(exc)}") from None
+    for key, cell in data.items():
+        if SWEEP_CELL.fullmatch(str(key)):
+            try:
+                _SweepCell.model_validate(cell)
+            except pydantic.ValidationError as exc:
+                said = _first_problem(exc)
+                raise GoldenError(path, f"not a sweep's golden snapshot stackdsl can read: {key}.{said}") from None
+    name = trajectory.meta.get("scenario") if trajectory is not None else None
+    if golden.scenario is not None and isinstance(name, str) and golden.scenario != name:
+        raise GoldenError(
+            path, f"the golden snapshot of scenario {golden.scenario!r}, and this run is of {name!r}: give this scenario's golden"
+        )
 
 
 def _belongs(golden: _Golden, trajectory: Trajectory, path: Path) -> None:
@@ -474,4 +582,15 @@ def _belongs(golden: _Golden, trajectory: Trajectory, path: Path) -> None:
         )
 
 
-__all__ = ["THREE_VERSION", "GoldenError", "GoldenWarning", "ghosts", "read_golden", "replay_data", "replay_html", "write_replay"]
+__all__ = [
+    "THREE_VERSION",
+    "GoldenError",
+    "GoldenWarning",
+    "ghosts",
+    "is_sweep_golden",
+    "read_golden",
+    "replay_data",
+    "replay_html",
+    "sweep_note",
+    "write_replay",
+]

@@ -30,6 +30,7 @@ from .errors import Location
 from .grammar import (
     BOUND,
     COLLAPSE,
+    COUNT_BOUND,
     LEVEL_NUMBER,
     LEVEL_RANGE,
     PLUS_MINUS,
@@ -244,15 +245,33 @@ Levels = Annotated[
 ]
 
 
+#: What ``toppled`` takes, said when it gets something else.
+_TOPPLED_FORMS = "20, '20±1', a bound such as '>= 1', or 'all'"
+
+
 def _toppled(value: Any) -> Any:
-    """``20``, ``"all"``, ``"20±1"`` or ``{count: 20, tolerance: 1}``. The first and third are
-    checked here, so that an error names ``toppled`` as written, not a ``count`` it does not have."""
+    """``20``, ``"all"``, ``"20±1"``, a bound ``">= 1"`` (also ``<=``, ``>``, ``<``: as
+    ``p_stands`` writes one, of whole bricks) or ``{count: 20, tolerance: 1}``. The first four
+    are checked here, so that an error names ``toppled`` as written, not a ``count`` it does not
+    have."""
     number = as_int(value)
     if number is not None:
         _bricks(number, value)
         return {"count": number}
     if value == "all":
         return {"count": "all"}
+    if isinstance(value, str) and (bound := re.fullmatch(BOUND, value)):
+        op, count = bound[1], float(bound[2])
+        if not math.isfinite(count):  # '>= 1e999': beyond a double, no count
+            raise ValueError(f"expected a number of bricks such as {_TOPPLED_FORMS}, got {spelled(value)} (not finite)")
+        if not count.is_integer():  # '>= 1.5' allows what '>= 2' does
+            same = (math.ceil if op in (">=", "<") else math.floor)(count)
+            raise ValueError(
+                f"expected a bound on a whole number of bricks such as '>= 1', got {spelled(value)}: bricks are counted "
+                f"whole, so it allows what '{op} {same}' does: write that"
+            )
+        _bricks(int(count), value)
+        return {"op": op, "count": int(count)}
     if isinstance(value, str):
         match = re.fullmatch(COLLAPSE, value)
         decimal = re.fullmatch(PLUS_MINUS, value)
@@ -266,7 +285,7 @@ def _toppled(value: Any) -> Any:
             )
         if not match:
             hint = "; did you mean 'all'?" if value.strip().lower() == "all" else ""
-            raise ValueError(f"expected a number of bricks such as 20, '20±1' or 'all', got {spelled(value)}{hint}")
+            raise ValueError(f"expected a number of bricks such as {_TOPPLED_FORMS}, got {spelled(value)}{hint}")
         _bricks(int(match[1]), value)
         _bricks(int(match[2] or 0), value)
         return {"count": int(match[1]), "tolerance": int(match[2] or 0)}
@@ -282,10 +301,50 @@ def _bricks(number: int, value: Any) -> None:
 
 
 class Toppled(StrictModel):
-    """How many structure bricks toppled: ``count`` (or ``"all"``) within ``tolerance``."""
+    """How many structure bricks toppled: ``count`` (or ``"all"``) within ``tolerance``, or
+    (``op`` ``>=``, ``<=``, ``>``, ``<``) at least, at most, more than or fewer than ``count``; a
+    bound no count meets (``'< 0'``, ``'> 5000'``) is refused, as ``p_stands``' is."""
 
     count: Annotated[int, Field(ge=0, le=MAX_BRICKS), WHOLE] | Literal["all"]
     tolerance: Annotated[int, Field(ge=0, le=MAX_BRICKS), WHOLE] = 0
+    op: Literal["±", ">=", "<=", ">", "<"] = "±"
+
+    @model_validator(mode="after")
+    def _reachable(self) -> Toppled:
+        if self.op == "±":
+            return self
+        if self.count == "all":
+            raise ValueError(f"a bound is a number of bricks, not 'all': write 'all' alone, or '{self.op} 20'")
+        if self.tolerance:
+            raise ValueError(f"a tolerance goes with '±' ('{self.count} ± {self.tolerance}'), not with '{self.op}'")
+        if (self.op == ">" and self.count >= MAX_BRICKS) or (self.op == "<" and self.count <= 0):
+            end = f"at most {MAX_BRICKS}, the most bricks a scene has" if self.op == ">" else "at least 0"
+            instead = "'all' for every brick toppled" if self.op == ">" else "'<= 0' for no brick toppled"
+            raise ValueError(f"'{self.op} {self.count}' can never hold: a number of bricks is {end}; write {instead}")
+        return self
+
+    def allows(self, total: int) -> tuple[int, int]:
+        """(the fewest, the most) toppled bricks this allows of a scene of ``total`` bricks (those
+        left in it): ``all`` is ``total``; a bound reaches 0 or ``total`` on its open side.
+
+        >>> [Toppled(count=c, tolerance=t, op=o).allows(10) for c, t, o in ((3, 1, "±"), ("all", 0, "±"), (2, 0, ">"), (2, 0, "<"))]
+        [(2, 4), (10, 10), (3, 10), (0, 1)]
+        """
+        if self.count == "all" or self.op == "±":
+            target = total if self.count == "all" else self.count
+            return max(0, target - self.tolerance), target + self.tolerance
+        return {
+            ">=": (self.count, total),
+            ">": (self.count + 1, total),
+            "<=": (0, self.count),
+            "<": (0, self.count - 1),
+        }[self.op]
+
+    def text(self) -> str:
+        """As a file writes it: ``"20"``, ``"20±1"``, ``"all"``, ``">= 1"``."""
+        if self.op != "±":
+            return f"{self.op} {self.count}"
+        return f"{self.count}" + (f"±{self.tolerance}" if self.tolerance else "")
 
 
 def _plus_minus(value: Any) -> Any:
@@ -559,16 +618,16 @@ class Expect(StrictModel):
             AlsoAccepts(
                 (
                     {"type": "integer", "minimum": 0, "maximum": 5000},
-                    {"type": "string", "pattern": f"^(?:all|{COLLAPSE})$"},
+                    {"type": "string", "pattern": f"^(?:all|{COLLAPSE}|{COUNT_BOUND})$"},
                 ),
-                "how many bricks topple: 20, '20±1' or 'all'",
+                "how many bricks topple: 20, '20±1', a bound '>= 1' or 'all'",
             ),
         ]
         | None,
         Field(
             description="how many structure bricks end tilted past their tipping angle (a domino fallen over): a "
-            "number, 'N±T' or 'all'",
-            examples=[30, "all", "20 +- 1"],
+            "number, 'N±T', a bound ('>= 1', '<= 3', '> 0', '< 5') or 'all'",
+            examples=[30, "all", "20 +- 1", ">= 1"],
         ),
     ] = None
     p_stands: PStands | None = None
@@ -630,6 +689,23 @@ class Expect(StrictModel):
             or self.toppled is not None
         )
 
+    @property
+    def judged_at(self) -> Literal["collapse", "end"]:
+        """The moment of a run these expectations judge, which a picture of it shows by default:
+        ``"end"`` when they judge final positions alone (``toppled``, ``stays``, ``moved``: a
+        domino row's picture is the row fallen, not its first domino tipping), else
+        ``"collapse"`` (a collapse level, ``stands``, ``stands_until``, or nothing: the collapse
+        when there is one, else the end). Source: stackdsl's own.
+
+        >>> Expect.model_validate({"toppled": "all"}).judged_at, Expect.model_validate({"collapse": 9, "stays": "1-5"}).judged_at
+        ('end', 'collapse')
+        """
+        if isinstance(self.collapse, CollapseLevel) or self.stands or self.stands_until is not None:
+            return "collapse"
+        if self.toppled is not None or self.stays is not None or self.moved is not None:
+            return "end"
+        return "collapse"
+
     @model_validator(mode="after")
     def _consistent(self) -> Expect:
         if self.collapse is not None and self.stands:
@@ -648,7 +724,7 @@ class Expect(StrictModel):
             )
         if self.stands and self.toppled is not None:
             t = self.toppled
-            if t.count == "all" or t.count - t.tolerance > 0:
+            if t.count == "all" or t.allows(MAX_BRICKS)[0] > 0:
                 raise ValueError(
                     "a toppled brick has moved, so the structure does not stand: give 'stands' or 'toppled', or "
                     "'stays' for the bricks that must not move"

@@ -43,6 +43,8 @@ _DECIMAL = f"({UNSIGNED})"  # the language's one number: "0.5", ".5", "5.", "5e-
 # "7 ± 0.5", "7 +- .5", "7" (± 0): a sweep's statistic; a run's level takes whole numbers only (COLLAPSE)
 PLUS_MINUS = f"{SPACE}{_DECIMAL}{SPACE}(?:(?:±|\\+-|\\+/-){SPACE}{_DECIMAL})?{SPACE}"
 BOUND = f"{SPACE}(>=|<=|>|<){SPACE}{_DECIMAL}{SPACE}"  # ">= 0.9", ">= .9"
+# ">= 1", "< 5.": a bound on a whole number (toppled bricks), as BOUND with a whole number
+COUNT_BOUND = f"{SPACE}(?:>=|<=|>|<){SPACE}[0-9]+{_POINT}{SPACE}"
 BODY_ID = r"^[A-Za-z_](?:[A-Za-z0-9_.-]{0,38}[A-Za-z0-9_-])?$"
 """A body's own id (a brick placed by hand, a projectile, a pusher): a letter or '_' first, since
 ``expect`` reads a digit first as a level ('3', '007', '1e3') and a '.' or '-' as nothing it

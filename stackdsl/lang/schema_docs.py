@@ -299,6 +299,7 @@ DOCS: dict[str, dict[str, tuple[str, Any]]] = {
     "Toppled": {
         "count": ("How many bricks must end tilted past their tipping angle, or all.", 20),
         "tolerance": ("How many more or fewer still pass.", 1),
+        "op": ("The comparison: ± for count within its tolerance, or >=, <=, > or < for a bound on the count.", ">="),
     },
 }
 

@@ -276,6 +276,7 @@ class Recorder(Subscriber):
             "levels_placed": outcome.levels_placed,
             "simulated_time": outcome.simulated_time,
             "stopped": outcome.stopped,
+            "judged_at": program.judged_at,
         }
         graphs = {"final": outcome.final_graph}
         if outcome.collapse_graph is not None:

@@ -107,7 +107,8 @@ class Trajectory:
         meta: scenario, file, mode, backend (from this version on), model, timestep (s), collapse_threshold (m), rate (Hz),
             collapse (the :class:`stackdsl.Collapse` as a dict, or None), collapse_graph_time (s, when
             the collapse graph was taken: when the collapse began; None without one), levels_placed,
-            simulated_time (s), stopped.
+            simulated_time (s), stopped, judged_at (the moment the scenario's expectations judge,
+            ``"collapse"`` or ``"end"``: :attr:`shown_at`; absent from files written before it).
         ids: (bodies,), each body's id, in the order they entered the world.
         levels: (bodies,), a structure brick's level; 0 for a projectile.
         half_extents: (bodies, 3), metres.
@@ -160,6 +161,14 @@ class Trajectory:
         """Seconds, when the first collapse was detected; None when the structure stood."""
         collapse = self.meta.get("collapse")
         return None if collapse is None else float(collapse["time"])
+
+    @property
+    def shown_at(self) -> str:
+        """The moment a picture, a replay's opening frame or an export shows when none is asked
+        for: the one the scenario's expectations judge (``meta["judged_at"]``,
+        :attr:`stackdsl.lang.expectations.Expect.judged_at`): ``"end"`` for final positions
+        (``toppled``, ``stays``, ``moved``) or when nothing collapsed, else ``"collapse"``."""
+        return "end" if self.meta.get("judged_at") == "end" or self.collapse_time is None else "collapse"
 
     def fixture_positions_at(self, index: int) -> np.ndarray:
         """(fixtures, 3), metres: where the fixtures are at frame ``index`` (negative counts from
@@ -409,6 +418,8 @@ def _checked_header(header: dict[str, Any]) -> dict[str, Any]:
         )
         if not ok or not math.isfinite(float(collapse["time"])):
             raise _Bad("its meta record's collapse has no time and level")
+    if meta.get("judged_at") not in (None, "collapse", "end"):
+        raise _Bad("its meta record's judged_at is neither 'collapse' nor 'end'")
     return meta
 
 

@@ -105,12 +105,12 @@ def evaluate(expect: Expect, outcome: Outcome, threshold: float) -> list[Verdict
     if expect.toppled is not None:
         t = expect.toppled
         count, total = len(outcome.toppled), len(outcome.displacement) + len(outcome.unplaced)
-        want = total if t.count == "all" else t.count  # all of the scene's bricks, placed or not
+        least, most = t.allows(total)  # 'all': all of the scene's bricks, placed or not
         never = f" ({len(outcome.unplaced)} never placed)" if outcome.unplaced else ""
         verdicts.append(
             Verdict(
                 name="toppled",
-                passed=abs(count - want) <= t.tolerance,
+                passed=least <= count <= most,
                 expected=texts["toppled"],
                 measured=f"{count} of {total} toppled{never}",
             )
@@ -164,8 +164,7 @@ def expected_texts(expect: Expect) -> dict[str, str]:
     if expect.moved:
         texts["moved"] = f"{_said(levels_of(expect.moved), bricks_of(expect.moved))} moved"
     if expect.toppled is not None:
-        t = expect.toppled
-        texts["toppled"] = f"{t.count}" + (f"±{t.tolerance}" if t.tolerance else "") + " toppled"
+        texts["toppled"] = f"{expect.toppled.text()} toppled"
     return texts
 
 

@@ -546,6 +546,11 @@
       .map((k) => `<span class="key"><span class="swatch" style="background:${data.colours[k]}"></span>${k === "projectile" ? "thrown or pushing" : k}</span>`)
       .join("");
 
+    if (data.golden_note) {
+      $("ghost-box").hidden = false;
+      $("ghost-text").textContent = data.golden_note;
+      $("ghost-mode").parentElement.hidden = true;
+    }
     if (data.golden_bricks !== null && !data.ghosts.length) {
       $("ghost-box").hidden = false;
       $("ghost-text").textContent = `All ${data.golden_bricks} bricks of the golden snapshot end where this run's do (within 1 mm and 1 deg, in the same state).`;
@@ -567,7 +572,8 @@
     new ResizeObserver(resize).observe(view);
     resize();
     apply(0);
-    if (collapse) seekEvent(collapse.time);
+    // the moment the expectations judge: the collapse, or the end (a toppled row, or nothing collapsed)
+    if (collapse && data.opening !== "end") seekEvent(collapse.time);
     else seek(data.end);
     if (collapse && index.has(collapse.brick)) select(collapse.brick); // the brick that moved first
 

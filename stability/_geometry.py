@@ -455,6 +455,20 @@ def contains(polygon: BaseGeometry, xy: Sequence[float] | np.ndarray, margin: fl
     return margin <= 0.0 or polygon.exterior.distance(Point(float(xy[0]), float(xy[1]))) > margin
 
 
+def signed_inside(polygon: BaseGeometry, xy: Sequence[float] | np.ndarray) -> float:
+    """Metres point ``xy`` lies inside ``polygon``'s edge (negative: outside it, by that much).
+
+    >>> from shapely.geometry import box
+    >>> round(signed_inside(box(0, 0, 1, 1), [0.25, 0.5]), 6), round(signed_inside(box(0, 0, 1, 1), [1.5, 0.5]), 6)
+    (0.25, -0.5)
+    """
+    point = Point(float(xy[0]), float(xy[1]))
+    if shapely.contains_xy(polygon, point.x, point.y):
+        edge = polygon.exterior if hasattr(polygon, "exterior") else polygon.boundary
+        return float(edge.distance(point))
+    return -float(polygon.distance(point))
+
+
 FLAT = 0.25
 """Fraction of the face gap by which the gap between a brick's face and the ground may vary over
 their overlap (:func:`face_overlap`): a brick rocking on one edge of its face, its other edge

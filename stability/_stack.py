@@ -38,7 +38,9 @@ class StabilityEvent:
     (an impact the stack held; every landing brick makes one); time in s; ``source`` is
     the impactor of an impact or of the wake it caused; ``proved``: a wake of a brick that
     moves in a collapse mechanism statics proved (rigid-block equilibrium, or a part that
-    turns out about an edge of its footing), not only one the report's rules suspect."""
+    turns out about an edge of its footing), not only one the report's rules suspect, or a
+    freeze that statics on the placed geometry decided on a near tie (the engine's contact
+    margin would have decided it by chance)."""
 
     time: float
     kind: Literal["freeze", "wake", "impact"]
@@ -94,6 +96,8 @@ class Record:
     )  # held: corners where, and since when (s), it has stayed within STILL
     still: bool = False  # held once and kept still by the engine: not held again
     leans: bool = False  # frozen, and its balance or that of a brick under it needs a non-level contact (_prove)
+    near_tie: float = 0.0  # m: the engine's contact margin, until it has landed (StabilityExtension._near_ties)
+    near_tie_from: float | None = None  # s: when the extension first looked for its landing
 
     def held_by_pile(self) -> bool:
         """Fallen, frozen again with a debris pile that rigid-block equilibrium holds, and

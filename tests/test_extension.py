@@ -586,3 +586,47 @@ def test_a_brick_woken_and_frozen_again_before_its_supports_rests_on_all_of_them
         assert set(fields["rests_on"]) == below, brick
         shares = [s["load_share"] for s in fields["rests_on"].values()]
         assert max(shares) - min(shares) < 0.1, (brick, shares)
+
+
+def test_a_brick_tilted_on_its_supports_edge_is_not_frozen_at_the_turning_point_of_a_rock():
+    """At rest is face to face on its support: a brick on one support, tilted to it by 0.5 to
+    10 deg, touches it along an edge only, as at the still top of a rock; it is refused (and
+    asked again once it lies flat)."""
+    s = Scene()
+    base, _ = s.place(0.0, 1)
+    top = s.n + 1
+    s.n = top
+    s.engine.poses[top] = Pose.from_euler([0.0595, 0.0, 1.5 * H + 0.0005], pitch=-1.5)  # its far end lifted
+    s.ext.add_brick(top, KAPLA, f"b{top}")
+    s.engine.touch(top, base, [[0.06, -0.012, H], [0.06, 0.012, H]], normal=[0, 0, 1])
+    assert s.ext.update(1.0) == [] and s.ext.state(top) is BrickState.ACTIVE
+    s.engine.poses[top] = Pose.from_euler([0.0595, 0.0, 1.5 * H])  # it came down flat on its face
+    s.engine.touch(top, base, corners(0.03, 0.0, 0.03, 0.012, H), normal=[0, 0, 1])
+    assert [e.kind for e in s.ext.update(1.1)] == ["freeze"]
+
+
+@pytest.mark.parametrize(("x", "decided"), [(0.0595, True), (0.0598, True), (0.0585, False), (0.0605, False)])
+def test_a_near_tie_is_frozen_by_statics_as_it_lands(x, decided):
+    """A brick that lands face to face with its centre of mass inside its support's edge by
+    less than the engine's contact margin (here 1 mm) is frozen at once by statics on its
+    placed geometry, before any rest duration, and the event says so (proved); clear of the tie,
+    or outside the edge, it waits for the rest test as ever."""
+    s = Scene(StabilityConfig(rest_duration=0.05))
+    base = s.brick(0.0, 1)
+    s.ext.update(0.0)
+    s.ext.update(0.06)
+    assert s.ext.state(base) is BrickState.FROZEN
+    top = s.n + 1
+    s.n = top
+    s.engine.poses[top] = Pose.from_euler([x, 0.0, 1.5 * H + 0.0005])  # in the air still: its drop gap
+    s.ext.add_brick(top, KAPLA, f"b{top}", near_tie=0.001)
+    s.engine.touch(top, base, corners((x + 0.06 - 0.06) / 2, 0.0, (0.12 - x) / 2, 0.012, H), normal=[0, 0, 1])
+    assert s.ext.update(0.07) == []  # not landed yet
+    s.engine.poses[top] = Pose.from_euler([x, 0.0, 1.5 * H])  # lowered onto its place
+    events = s.ext.update(0.08)
+    if decided:
+        (freeze,) = events
+        assert freeze.kind == "freeze" and freeze.proved and "by exact statics on its placed geometry" in freeze.reason
+        assert f"{(0.06 - x) * 1000:.2f} mm inside its support's edge" in freeze.reason
+    else:
+        assert events == [] and s.ext.state(top) is BrickState.ACTIVE

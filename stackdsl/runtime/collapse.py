@@ -273,8 +273,10 @@ class CollapseMonitor(Subscriber):
         rest_speed: float = 0.005,
         rest_angular_speed: float = 0.05,
         rest_duration: float = 0.05,
+        near_ties: Callable[[], dict[str, str]] = dict,
     ) -> None:
         self.threshold, self.settle, self._graph = threshold, settle, graph
+        self._near_ties = near_ties
         self._certify, self._proved = certify, proved
         self._rest = (rest_speed, rest_angular_speed, rest_duration)
         self.collapse: Collapse | None = None
@@ -314,6 +316,10 @@ class CollapseMonitor(Subscriber):
         self.record_drift(loop)
         if self.collapse is not None or loop.stopped is not None:
             return
+        moving = self._still_moving(loop)
+        if moving:  # no static argument on a pose in flight: the run was too short to tell
+            self.certificate = Certificate(verdict="undecided", kind="still moving", detail=moving, bricks=())
+            return
         started = time.perf_counter()
         certificate = self._certify()
         self.certify_time = time.perf_counter() - started
@@ -331,7 +337,8 @@ class CollapseMonitor(Subscriber):
                     if certificate.method == "load paths"
                     else f"the equilibrium program balances {_count(certificate.bricks, 'brick')} on "
                     f"{_count(certificate.contacts, 'contact')}{_friction(certificate.friction)}"
-                ),
+                )
+                + _statics(self._near_ties()),
                 margin_mm=round(certificate.margin * 1000, 1) + 0.0,
                 friction_share=math.ceil(round(certificate.friction * 100, 6)) / 100,
             )
@@ -379,9 +386,11 @@ class CollapseMonitor(Subscriber):
                 self._displaced.pop(record.id, None)  # within the threshold, or rocked and came back
         displaced = [(r, float(d)) for r, d in zip(watched, moved) if d > self.threshold]
         resting = self._resting(loop, [r for r, _ in displaced])
-        # a brick at rest on levels a hand still drags (a pull, a push, a shake under way) has
-        # not come to rest where it stays: it may ride back within the threshold
-        hands_busy = any(isinstance(s, Actions) and not s.quiet for s in loop.subscribers)
+        # while a hand drags (a pull, a push) or the ground shakes, nothing is decided: a brick at
+        # rest on what a hand moves has not come to rest where it stays, and a static argument
+        # (its centre of mass off its support, a mechanism) holds on a still base only: a slender
+        # block rocked 13.5 deg on a shake table, past its tipping angle, and came back
+        hands_busy = any(isinstance(s, Actions) and not s.quiet for s in loop.subscribers) and not displaced_at_end
         for (record, distance), rests in zip(displaced, resting):
             state = self._displaced.get(record.id)
             if state is None:
@@ -400,13 +409,17 @@ class CollapseMonitor(Subscriber):
                 state.resting_since = loop.now
             rested = state.resting_since is not None and loop.now - state.resting_since >= self._rest[2] - 1e-9
             proof: tuple[ProofKind, str, tuple[str, ...]] | None = None
+            if hands_busy:
+                continue
+            if displaced_at_end and not rests:  # in flight at the end: at_end says it still moves
+                continue
             if displaced_at_end:
                 proof = (
                     "displaced at the end",
                     f"{record.id} was {distance * 1000:.1f} mm from its place when the run ended{self._near_tie(loop, record)}",
                     (),
                 )
-            elif (not record.moving or rested) and not hands_busy:
+            elif not record.moving or rested:
                 proof = (
                     "at rest displaced",
                     f"{record.id} came to rest {distance * 1000:.1f} mm from its place{self._near_tie(loop, record)}",
@@ -707,6 +720,26 @@ class CollapseMonitor(Subscriber):
         self._placed[key] = placed
         return placed
 
+    def _still_moving(self, loop: StepLoop) -> str:
+        """The structure bricks that move faster than the rest thresholds at the end of a run that
+        decided no collapse, in words with the hint to settle longer; ``""`` when none does."""
+        records = [r for r in loop.structure.placed if r.moving]
+        if not records:
+            return ""
+        lin, ang = loop.world.velocities_of([r.body for r in records])
+        speed, spin = np.sqrt((lin**2).sum(axis=1)), np.sqrt((ang**2).sum(axis=1))
+        fast = [i for i in range(len(records)) if speed[i] > self._rest[0] or spin[i] > self._rest[1]]
+        if not fast:
+            return ""
+        worst = max(fast, key=lambda i: (speed[i] / self._rest[0], spin[i] / self._rest[1]))
+        names = [records[i].id for i in fast]
+        who = _and(names) if len(names) <= 3 else f"{', '.join(names[:3])} and {len(names) - 3} more"
+        return (
+            f"{who} still {'moves' if len(names) == 1 else 'move'} at the end (up to {speed[worst] * 1000:.3g} mm/s, "
+            f"{spin[worst]:.3g} rad/s; at rest is under {self._rest[0] * 1000:g} mm/s and {self._rest[1]:g} rad/s): "
+            f"settle longer (timing.settle, {loop.program.settle:g} s now)"
+        )
+
     def _resting(self, loop: StepLoop, records: list[BrickRecord]) -> list[bool]:
         """Whether each brick's speeds are under the rest thresholds now (a frozen one's are)."""
         moving = [r for r in records if r.moving]
@@ -797,6 +830,18 @@ def _and(names: Sequence[str]) -> str:
 def _count(n: int, noun: str) -> str:
     """``"1 brick"``, ``"3 bricks"``."""
     return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
+def _statics(near_ties: dict[str, str]) -> str:
+    """Which bricks' landings statics decided, for a stand's words: ``"; statics on the placed
+    geometry decided L05.1's landing (its centre of mass 0.56 mm inside its support's edge,
+    within the engine's 1 mm contact margin), not the engine"``; nothing when none."""
+    if not near_ties:
+        return ""
+    first, why = next(iter(near_ties.items()))
+    said = why.split(": ", 1)[-1]
+    more = f" and {len(near_ties) - 1} more near ties" if len(near_ties) > 1 else ""
+    return f"; statics on the placed geometry decided {first}'s landing ({said}){more}, not the engine"
 
 
 def _friction(share: float) -> str:

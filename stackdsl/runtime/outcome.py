@@ -63,7 +63,9 @@ class Collapse(_Frozen):
     decided: Seconds
 
 
-ProofKind = Literal["equilibrium", "at rest displaced", "off its support", "mechanism", "displaced at the end", "no equilibrium"]
+ProofKind = Literal[
+    "equilibrium", "at rest displaced", "off its support", "mechanism", "displaced at the end", "no equilibrium", "still moving"
+]
 """How a verdict was proved (:class:`Certificate`)."""
 
 
@@ -71,7 +73,9 @@ class Certificate(_Frozen):
     """The proof of a verdict (docs/design.md, "collapse" and "certificate").
 
     Attributes:
-        verdict: ``"stands"`` or ``"collapse"``.
+        verdict: ``"stands"``, ``"collapse"``, or ``"undecided"``: the run ended with bricks
+            still moving (kind ``"still moving"``) and no collapse proved before, so that no
+            static argument on a pose in flight decides it (settle longer: ``timing.settle``).
         kind: how it was proved. For ``stands``: ``"equilibrium"``, rigid-block equilibrium of
             every brick where it is at the end (:meth:`stability.StabilityExtension.certificate`).
             For ``collapse``: ``"at rest displaced"`` (a brick came to rest out of its place),
@@ -92,7 +96,7 @@ class Certificate(_Frozen):
             :attr:`stability.Certificate.friction`), to 0.01 above; else None.
     """
 
-    verdict: Literal["stands", "collapse"]
+    verdict: Literal["stands", "collapse", "undecided"]
     kind: ProofKind
     detail: str
     bricks: tuple[str, ...] = ()

@@ -215,6 +215,7 @@ def run_in(
         stability.extension.certificate,
         stability.proved,
         *rest,
+        near_ties=lambda: stability.near_ties,
     )
     own: list[Subscriber] = [SoftLanding(program.engine.gravity)] if options.soft_landing else []
     substeps = Substeps(program.collapse_threshold, acting) if program.engine.ccd else None

@@ -32,6 +32,7 @@ class Stability(Subscriber):
         self.extension = StabilityExtension(world, config)
         self.acting = acting
         self.mechanisms: dict[str, tuple[float, str]] = {}  # brick id -> when and why a proved mechanism woke it
+        self.near_ties: dict[str, str] = {}  # brick id -> why statics, not the engine, decided its landing
         self.extension.add_ground(world.ground, Plane(0.0), friction=program.ground_friction)
         self.fixtures: list[tuple[int, Pose]] = []  # each fixture's body and its pose on the unmoved ground
         for f in program.fixtures:
@@ -45,7 +46,10 @@ class Stability(Subscriber):
         return self.acting and self.extension.quiet  # without the extension anything may move
 
     def on_place(self, loop: StepLoop, record: BrickRecord) -> None:
-        self.extension.add_brick(record.body, record.box, record.id, record.spec.friction)
+        # a placed brick whose centre of mass lands within the engine's contact margin of its
+        # support's edge is decided by statics on its placed geometry (stability's near ties)
+        near_tie = loop.program.engine.contact_margin if self.acting else 0.0
+        self.extension.add_brick(record.body, record.box, record.id, record.spec.friction, near_tie=near_tie)
 
     def on_launch(self, loop: StepLoop, record: BrickRecord) -> None:
         self.extension.add_brick(record.body, record.box, record.id, record.spec.friction)
@@ -66,6 +70,8 @@ class Stability(Subscriber):
                 self.mechanisms[e.label] = (e.time, e.reason)
             elif e.kind == "freeze":
                 self.mechanisms.pop(e.label, None)
+                if e.proved:  # a near tie statics decided on the placed geometry
+                    self.near_ties[e.label] = e.reason
             if record is not None and record.structure and e.kind in ("freeze", "wake"):
                 loop.structure.set_moving(record, e.kind == "wake")
                 record.was_frozen = True

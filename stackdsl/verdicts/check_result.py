@@ -150,6 +150,8 @@ class CheckResult:
         if self.sweep:
             return self.sweep
         first = (self.first_moved, self.first_moved_level) if self.first_moved_level is not None else None
+        if self.certificate.startswith("undecided"):  # ended in motion: no verdict on the pose
+            return "undecided: still moving at the end"
         facts = [describe(self.collapse_level, first), *([levels_moved(self.moved_levels)] if self.moved_levels else [])]
         said = set(self.moved_levels)
         for v in self.verdicts:

@@ -24,8 +24,9 @@ class Verdict(BaseModel):
         name: the expectation's key (``collapse``, ``stays``...; ``finished`` for a run stopped early).
         at: where the expectation was written (file, line, column, the line's text), when it was
             read from a file.
-        inconclusive: a sweep's statistic whose 95% interval decided neither way (not passed,
-            not failed either: :mod:`stackdsl.verdicts.stats`).
+        inconclusive: decided neither way (not passed, not failed either): a sweep's statistic
+            whose 95% interval holds both (:mod:`stackdsl.verdicts.stats`), or a run that ended
+            with bricks still moving and no collapse proved (its certificate ``undecided``).
     """
 
     model_config = ConfigDict(frozen=True)
@@ -117,7 +118,18 @@ def evaluate(expect: Expect, outcome: Outcome, threshold: float) -> list[Verdict
         )
     if outcome.stopped:
         verdicts.append(Verdict(name="finished", passed=False, expected="the run finishes", measured=outcome.stopped))
+    elif outcome.certificate is not None and outcome.certificate.verdict == "undecided":
+        verdicts = [_undecided(v, outcome.certificate.detail) for v in verdicts]
     return [v.model_copy(update={"at": expect.at(v.name)}) if expect.at(v.name) else v for v in verdicts]
+
+
+def _undecided(verdict: Verdict, why: str) -> Verdict:
+    """A verdict of a run that ended with bricks still moving and no collapse proved: what the
+    final state would say is not known yet (inconclusive), save what held whatever comes
+    (``stands_until``: no collapse before its time)."""
+    if verdict.name == "stands_until" and verdict.passed:
+        return verdict
+    return verdict.model_copy(update={"passed": False, "inconclusive": True, "measured": f"undecided: {why}"})
 
 
 def check_threshold(threshold: float) -> None:
@@ -246,13 +258,25 @@ def explain(expect: Expect, outcome: Outcome, threshold: float) -> list[str]:
       end and its brick;
     - stays failed: the bricks of the levels that must stay that moved beyond
       ``threshold`` by the end, the farthest first (at most :data:`MOVED_SHOWN`);
-    - under any failure, the actions the collapse left undone (:func:`not_run_line`).
+    - under any failure, the actions the collapse left undone (:func:`not_run_line`);
+    - a run that ended with bricks still moving and no collapse proved (its certificate
+      ``undecided``): that, with the largest displacement then, and nothing else.
 
     Source: stackdsl's own.
     """
     failed = {v.name for v in evaluate(expect, outcome, threshold) if not v.passed}
     levels = _levels(outcome)
     lines = []
+    if failed and outcome.certificate is not None and outcome.certificate.verdict == "undecided":
+        # ended in motion with no collapse proved: what the pose says is no verdict
+        if outcome.displacement:
+            brick, largest = max(outcome.displacement.items(), key=lambda item: item[1])
+            lines.append(
+                f"undecided: the run ended at t={outcome.simulated_time:.2f} s before its bricks came to rest "
+                f"(the largest displacement then {_mm(largest)}, {_brick(brick, levels.get(brick))}); "
+                "a longer timing.settle lets them come to rest before they are judged"
+            )
+        return lines + ([not_run_line(outcome)] if outcome.not_run else [])
     if failed & {"collapse", "stands", "stands_until"}:
         c = outcome.collapse
         proof = outcome.certificate

@@ -1,0 +1,89 @@
+"""Verdicts at the edges: nothing decided while a hand or the ground moves, a run that ends in
+motion undecided, near ties decided by statics on the placed geometry."""
+
+import pytest
+
+from stackdsl import check, compile_scenario, evaluate, parse_scenario, run_program
+from stackdsl.compile.perturb import Perturbation, perturb
+from stackdsl.compile.program import Push
+from stackdsl.verdicts.expect import explain
+
+PUSH_OFF = """\
+stackdsl: 1
+structure:
+  bricks:
+    - {id: base, at: [0, 0, 4 mm]}
+    - {id: top, at: [0, 0, 12 mm]}
+timing: {settle: 0.5 s}
+actions:
+  - push: {target: {brick: top}, direction: [1, 0, 0], speed: 0.1 m/s, distance: 100 mm, at: after level 2}
+expect:
+  collapse: 2
+"""
+# a brick stood on an edge, 15 deg from upright: it falls over, and 0.1 s is not long enough to see it land
+FALLS_OVER = """\
+stackdsl: 1
+structure:
+  bricks:
+    - {id: domino, at: [0, 0, 59 mm], pitch: 75}
+timing: {settle: 0.1 s}
+expect: {stands: true}
+"""
+# a brick 0.5 mm inside the edge of the one below: statics says it stands; pybullet's 1 mm
+# collision margin tipped it at a timestep 1% shorter
+TIE = """\
+stackdsl: 1
+structure:
+  bricks:
+    - {id: base, at: [0, 0, 4 mm]}
+    - {id: top, at: [59.5 mm, 0, 12 mm]}
+timing: {settle: 1 s}
+expect: {stands: true}
+"""
+
+
+def test_no_collapse_is_decided_while_a_hand_still_pushes():
+    program = compile_scenario(parse_scenario(PUSH_OFF))
+    outcome = run_program(program)
+    push = next(a for a in program.actions if isinstance(a, Push))
+    assert outcome.collapse is not None and outcome.collapse.level == 2
+    assert outcome.collapse.time < push.end_time <= outcome.collapse.decided  # dated when it went, decided after
+
+
+def test_a_run_that_ends_in_motion_is_undecided_and_says_settle_longer(tmp_path):
+    scenario = parse_scenario(FALLS_OVER)
+    program = compile_scenario(scenario)
+    outcome = run_program(program)
+    assert outcome.collapse is None
+    assert outcome.certificate is not None and (outcome.certificate.verdict, outcome.certificate.kind) == (
+        "undecided",
+        "still moving",
+    )
+    assert "settle longer (timing.settle, 0.1 s now)" in outcome.certificate.detail
+    (verdict,) = evaluate(scenario.expect, outcome, program.collapse_threshold)
+    assert (verdict.passed, verdict.inconclusive) == (False, True) and verdict.measured.startswith("undecided: domino")
+    assert explain(scenario.expect, outcome, program.collapse_threshold)[0].startswith("undecided: the run ended at t=0.10 s")
+    (tmp_path / "falls.yaml").write_text(FALLS_OVER)
+    (result,) = check(tmp_path, jobs=1)
+    assert result.verdict == "INCONCLUSIVE" and result.measured == "undecided: still moving at the end"
+    (tmp_path / "falls.yaml").write_text(FALLS_OVER.replace("settle: 0.1 s", "settle: 2 s"))
+    (result,) = check(tmp_path, jobs=1)
+    assert result.verdict == "FAIL" and result.collapse_level == 1  # long enough: it fell, and that is decided
+
+
+@pytest.mark.parametrize("change", [Perturbation("timestep", -1), Perturbation("iterations", -1)])
+def test_a_near_tie_is_decided_by_statics_on_the_placed_geometry_whatever_the_engine_does(change):
+    program = perturb(compile_scenario(parse_scenario(TIE)), change)
+    outcome = run_program(program)
+    assert outcome.collapse is None
+    freeze = next(e for e in outcome.events if e.kind == "freeze" and e.brick == "top")
+    assert "by exact statics on its placed geometry" in freeze.detail and "0.50 mm inside its support's edge" in freeze.detail
+    assert outcome.certificate is not None
+    assert "statics on the placed geometry decided top's landing" in outcome.certificate.detail
+
+
+def test_outside_the_edge_a_near_tie_falls_as_statics_says():
+    outcome = run_program(
+        compile_scenario(parse_scenario(TIE.replace("59.5 mm", "60.5 mm").replace("stands: true", "collapse: 2")))
+    )
+    assert outcome.collapse is not None and outcome.collapse.level == 2

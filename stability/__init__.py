@@ -43,8 +43,10 @@ from ._impact import breaks_loose, kinetic_energy, potential_energy
 from ._leaning import lean_polygon, leaning_stands, pair_friction
 from ._load import Load, LoadNode, propagate, split_load, torque_split
 from ._load_path import load_path, proven, support_piece
+from ._rest import JITTER, still
 
 __all__ = [
+    "JITTER",
     "Box",
     "BrickGraph",
     "BrickState",
@@ -85,6 +87,7 @@ __all__ = [
     "proven",
     "solve_equilibrium",
     "split_load",
+    "still",
     "support_piece",
     "torque_split",
 ]

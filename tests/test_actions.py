@@ -1,9 +1,11 @@
+
 """Actions of a hand and of the ground (stackdsl.lang.schema_actions, stackdsl.compile.actions,
 stackdsl.runtime.actions) and the expectations about them (moved, stays by brick, toppled)."""
 
 from __future__ import annotations
 
 import math
+import re
 import warnings
 
 import numpy as np
@@ -328,8 +330,9 @@ expect: {toppled: all}
     ids = trajectory.ids.tolist()
     assert "finger1" in ids and trajectory.projectiles[ids.index("finger1")]
     finger = ids.index("finger1")
-    start, later = trajectory.at(3.0).positions[finger], trajectory.at(3.07).positions[finger]
-    assert later[0] - start[0] == pytest.approx(0.2 * 0.07, abs=0.004)  # along +x at 0.2 m/s
+    last = max(t for t in trajectory.times if t < 3.075)  # the last frame before it is withdrawn
+    start, later = trajectory.at(3.0).positions[finger], trajectory.at(last).positions[finger]
+    assert later[0] - start[0] == pytest.approx(0.2 * (last - 3.0), abs=0.001)  # along +x at 0.2 m/s
     assert later[1:] == pytest.approx(start[1:], abs=1e-4)
 
 
@@ -1392,6 +1395,6 @@ def test_a_throw_at_a_level_whose_bricks_have_left_it_is_not_thrown_or_aimed_at_
     assert next(a for a in program.actions if isinstance(a, Launch)).aim == ("b", "c")
     done = run_program(program)
     launch = next(e.detail for e in done.events if e.kind == "launch")
-    assert "aimed at c: thrown from (80.0, 0.0, 0.0) mm off its aim" in launch, launch
+    assert re.search(r"aimed at c: thrown from \(80\.0, -?0\.[01], 0\.0\) mm off its aim", launch), launch
     c = next(n for n in done.final_graph.nodes if n.id == "c")
     assert c.position_mm[0] > 45.0, c.position_mm  # struck along +x

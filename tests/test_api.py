@@ -59,6 +59,7 @@ def test_stackdsl_exports():
 def test_stability_exports():
     assert sorted(stability.__all__) == sorted(
         [
+            "JITTER",
             "Box",
             "BrickGraph",
             "BrickState",
@@ -99,6 +100,7 @@ def test_stability_exports():
             "proven",
             "solve_equilibrium",
             "split_load",
+            "still",
             "support_piece",
             "torque_split",
         ]

@@ -87,3 +87,29 @@ def test_outside_the_edge_a_near_tie_falls_as_statics_says():
         compile_scenario(parse_scenario(TIE.replace("59.5 mm", "60.5 mm").replace("stands: true", "collapse: 2")))
     )
     assert outcome.collapse is not None and outcome.collapse.level == 2
+
+
+PUSH_INTO_POST = """\
+stackdsl: 1
+brick_types:
+  post: {{size: [20 mm, 40 mm, 40 mm]}}
+structure:
+  bricks:
+    - {{id: post, brick: post, at: [85 mm, 0, 20 mm], fixed: true}}
+    - {{id: b, at: [0, 0, 4 mm]}}
+actions:
+  - push: {{target: {{brick: b}}, direction: [1, 0, 0], speed: 0.1 m/s, distance: {distance}, at: after level 1}}
+"""
+
+
+def test_a_push_that_drives_its_brick_into_a_fixed_body_is_refused_before_it_runs():
+    """b's end is 15 mm short of the post; the pusher starts 5 mm short of b. A push of 30 mm
+    carries b 25 mm: 10 mm into the post, which no two engines agree on. 20 mm fits exactly."""
+    from stackdsl import ScenarioError
+
+    with pytest.raises(ScenarioError) as refused:
+        compile_scenario(parse_scenario(PUSH_INTO_POST.format(distance="30 mm"), "push.yaml"))
+    said = str(refused.value)
+    assert said.startswith("push.yaml:9:80: actions[0].push.distance: the push drives b 10 mm into the fixed body post")
+    assert "it has 15 mm of room ahead and the pusher carries it 25 mm" in said and "at most 20 mm" in said
+    compile_scenario(parse_scenario(PUSH_INTO_POST.format(distance="20 mm")))  # room enough: it runs

@@ -187,6 +187,7 @@ def compile_scenario(
         dt,
         lambda path, seconds: _steps(scenario, path, seconds, dt),
         [b.id for b in fixed],
+        fixed,
     )
     pulls = {m.id: (j, m) for j, m in enumerate(motions) if isinstance(m, Remove)}
     # a projectile's steps are split as the run's Substeps splits them (with continuous collision detection)

@@ -49,7 +49,7 @@ from shapely import contains_xy, convex_hull
 from shapely.geometry import Point
 from shapely.geometry.base import BaseGeometry
 
-from stability import Box, Plane, Pose, face_overlap, hull_xy
+from stability import JITTER, Box, Plane, Pose, face_overlap, hull_xy, still
 from stability import Certificate as Equilibrium
 
 from ..compile.program import Fixture
@@ -277,6 +277,8 @@ class CollapseMonitor(Subscriber):
     ) -> None:
         self.threshold, self.settle, self._graph = threshold, settle, graph
         self._near_ties = near_ties
+        # where the moving bricks were, once a rest duration (:meth:`_watch`): (time, id -> pose)
+        self._window: tuple[tuple[float, dict[str, Pose]], ...] = ()
         self._certify, self._proved = certify, proved
         self._rest = (rest_speed, rest_angular_speed, rest_duration)
         self.collapse: Collapse | None = None
@@ -311,14 +313,14 @@ class CollapseMonitor(Subscriber):
             self._carries.setdefault(r.id, []).append(record.id)
 
     def at_end(self, loop: StepLoop) -> None:
+        moving, said = self._still_moving(loop) if self.collapse is None else (set(), "")
         if self.collapse is None and self._displaced:
-            self._decide(loop, displaced_at_end=True)
+            self._decide(loop, displaced_at_end=True, in_flight=moving)
         self.record_drift(loop)
         if self.collapse is not None or loop.stopped is not None:
             return
-        moving = self._still_moving(loop)
         if moving:  # no static argument on a pose in flight: the run was too short to tell
-            self.certificate = Certificate(verdict="undecided", kind="still moving", detail=moving, bricks=())
+            self.certificate = Certificate(verdict="undecided", kind="still moving", detail=said, bricks=())
             return
         started = time.perf_counter()
         certificate = self._certify()
@@ -366,9 +368,13 @@ class CollapseMonitor(Subscriber):
 
     def after_step(self, loop: StepLoop) -> None:
         if self.collapse is None and (self._displaced or loop.structure.moving):  # else nothing can have moved
+            self._watch(loop)
             self._decide(loop)
 
-    def _decide(self, loop: StepLoop, displaced_at_end: bool = False) -> None:
+    def _decide(self, loop: StepLoop, displaced_at_end: bool = False, in_flight: AbstractSet[str] = frozenset()) -> None:
+        """Decide whether a displaced brick has collapsed (the module docstring's proofs); with
+        ``displaced_at_end``, the run's end decides for a displaced brick that is not
+        ``in_flight`` (still moving: :meth:`_still_moving`)."""
         structure = loop.structure
         moving = list(structure.moving.values())
         if not self._displaced:  # the usual step: only what may have moved is looked at
@@ -411,7 +417,7 @@ class CollapseMonitor(Subscriber):
             proof: tuple[ProofKind, str, tuple[str, ...]] | None = None
             if hands_busy:
                 continue
-            if displaced_at_end and not rests:  # in flight at the end: at_end says it still moves
+            if displaced_at_end and record.id in in_flight:  # in flight at the end: at_end says it still moves
                 continue
             if displaced_at_end:
                 proof = (
@@ -720,21 +726,47 @@ class CollapseMonitor(Subscriber):
         self._placed[key] = placed
         return placed
 
-    def _still_moving(self, loop: StepLoop) -> str:
-        """The structure bricks that move faster than the rest thresholds at the end of a run that
-        decided no collapse, in words with the hint to settle longer; ``""`` when none does."""
+    def _watch(self, loop: StepLoop) -> None:
+        """Every rest duration, where the structure's moving bricks are (two such moments kept):
+        at the end, a brick that moved farther since than its speeds at rest allow still moves."""
+        if self._window and loop.now - self._window[-1][0] < self._rest[2] - 1e-9:
+            return
+        records = [r for r in loop.structure.placed if r.moving]
+        positions, quaternions = loop.world.poses_of([r.body for r in records]) if records else (np.zeros((0, 3)),) * 2
+        poses = {r.id: Pose(p, q) for r, p, q in zip(records, positions, quaternions)}
+        self._window = (*self._window[-1:], (loop.now, poses))
+
+    def _still_moving(self, loop: StepLoop) -> tuple[set[str], str]:
+        """The structure bricks that still move at the end of a run that decided no collapse, and
+        that in words with the hint to settle longer (none, ``""``): faster now than
+        :data:`stability.JITTER` times the rest thresholds, or moved farther or turned more over
+        the last rest duration or more than a brick under the thresholds could, the windowed rest
+        test of fallen bricks (:mod:`stability._rest`); a brick that jitters in place (raw
+        pybullet spins one at 0.4 rad/s, back and forth) does not."""
         records = [r for r in loop.structure.placed if r.moving]
         if not records:
-            return ""
+            return set(), ""
         lin, ang = loop.world.velocities_of([r.body for r in records])
         speed, spin = np.sqrt((lin**2).sum(axis=1)), np.sqrt((ang**2).sum(axis=1))
-        fast = [i for i in range(len(records)) if speed[i] > self._rest[0] or spin[i] > self._rest[1]]
+        rest_speed, rest_spin, _ = self._rest
+        then = next((w for w in self._window if loop.now - w[0] >= self._rest[2] - 1e-9), None)
+        positions, quaternions = loop.world.poses_of([r.body for r in records])
+        fast = []
+        for i, r in enumerate(records):
+            if speed[i] <= rest_speed and spin[i] <= rest_spin:
+                continue
+            before = then[1].get(r.id) if then is not None else None
+            span = loop.now - then[0] if then is not None else 0.0
+            if speed[i] > JITTER * rest_speed or spin[i] > JITTER * rest_spin or before is None:
+                fast.append(i)
+            elif not still(before, Pose(positions[i], quaternions[i]), rest_speed * span, rest_spin * span):
+                fast.append(i)
         if not fast:
-            return ""
+            return set(), ""
         worst = max(fast, key=lambda i: (speed[i] / self._rest[0], spin[i] / self._rest[1]))
         names = [records[i].id for i in fast]
         who = _and(names) if len(names) <= 3 else f"{', '.join(names[:3])} and {len(names) - 3} more"
-        return (
+        return {records[i].id for i in fast}, (
             f"{who} still {'moves' if len(names) == 1 else 'move'} at the end (up to {speed[worst] * 1000:.3g} mm/s, "
             f"{spin[worst]:.3g} rad/s; at rest is under {self._rest[0] * 1000:g} mm/s and {self._rest[1]:g} rad/s): "
             f"settle longer (timing.settle, {loop.program.settle:g} s now)"

@@ -195,7 +195,7 @@ def test_a_brick_still_displaced_when_the_run_ends_has_collapsed():
 
 def test_a_brick_still_on_its_way_when_the_run_ends_is_undecided():
     # still until 0.2 s before the run ends, then out at 30 mm/s: displaced 6 mm, and still going
-    p, _, result, _ = scripted(lambda t: 0.03 if t > 1.8 else 0.0)
+    _, _, result, _ = scripted(lambda t: 0.03 if t > 1.8 else 0.0)
     assert result.collapse is None and result.certificate is not None
     assert (result.certificate.verdict, result.certificate.kind) == ("undecided", "still moving")
     assert result.certificate.detail.startswith("L02.2 still moves at the end (up to 30 mm/s")

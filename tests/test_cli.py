@@ -22,6 +22,7 @@ from stackdsl import _entry, compile_scenario, parse_scenario, run_program
 from stackdsl.batch import check as _check
 from stackdsl.batch import check_sweep as _check_sweep
 from stackdsl.batch import judge as _judge
+from stackdsl.batch import sweep as _sweep
 from stackdsl.bench.bench import DEFAULT_SETTINGS
 from stackdsl.cli import bench as _cli_bench
 from stackdsl.cli import check as _cli_check
@@ -1523,7 +1524,7 @@ def test_the_measured_column_names_levels_moved_once():
     assert r.measured.endswith("level 4 moved, levels 2, 4 moved")
 
 
-def test_every_shipped_scenario_whose_run_raises_is_its_own_row_and_the_check_goes_on(capsys, monkeypatch):
+def test_every_shipped_scenario_whose_run_raises_is_its_own_row_and_the_check_goes_on(tmp_path, capsys, monkeypatch):
     """An engine that fails every run (MuJoCo 3.3.7 without sleeping did) costs each run its row,
     never the check: a result without an outcome once read ``levels_placed`` of an empty one, so
     the 14th row (the first whose file expects ``stays``) took the whole check down."""
@@ -1553,3 +1554,9 @@ def test_every_shipped_scenario_whose_run_raises_is_its_own_row_and_the_check_go
     rows = [line for line in out if "FAIL internal error" in line]  # a cell is that, or refused (raw)
     assert len(rows) == len(list(hard.glob("*.yaml"))) and not any("PASS" in row for row in rows)
     assert sum(row.count("FAIL internal error") + row.count("refused") for row in rows) == 2 * len(rows)
+    # sweep: every sample's run raises, every cell is still reported
+    monkeypatch.setattr(_sweep, "run_program", broken)
+    folder = write(tmp_path, s=SWEEP)
+    assert main(["sweep", str(folder / "s.yaml"), "-j", "1", "--out", str(tmp_path / "out")]) == 3
+    out = capsys.readouterr().out
+    assert out.count("did not finish: internal error: AttributeError") == 2 and "cell 1: " in out

@@ -22,6 +22,7 @@ from stackdsl import _entry, compile_scenario, parse_scenario, run_program
 from stackdsl.batch import check as _check
 from stackdsl.batch import check_sweep as _check_sweep
 from stackdsl.batch import judge as _judge
+from stackdsl.batch import sweep as _sweep
 from stackdsl.bench.bench import DEFAULT_SETTINGS
 from stackdsl.cli import bench as _cli_bench
 from stackdsl.cli import check as _cli_check
@@ -1537,3 +1538,41 @@ def test_the_measured_column_names_levels_moved_once():
         "a.yaml", "a", "raw", "report", (other,), 9, 9, 1.0, 0.1, first_moved="L04.1", first_moved_level=4, moved_levels=(4,)
     )
     assert r.measured.endswith("level 4 moved, levels 2, 4 moved")
+
+
+def test_every_shipped_scenario_whose_run_raises_is_its_own_row_and_the_check_goes_on(tmp_path, capsys, monkeypatch):
+    """An engine that fails every run (MuJoCo 3.3.7 without sleeping did) costs each run its row,
+    never the check: a result without an outcome once read ``levels_placed`` of an empty one, so
+    the 14th row (the first whose file expects ``stays``) took the whole check down."""
+
+    def broken(*args, **kwargs):
+        raise AttributeError("type object 'mjtEnableBit' has no attribute 'mjENBL_SLEEP'")
+
+    monkeypatch.setattr(_judge, "run_program", broken)
+    monkeypatch.delenv("STACKDSL_TRACEBACK", raising=False)
+    shipped = Path(__file__).parent.parent / "scenarios"
+    files = sorted(p.relative_to(shipped).as_posix() for p in shipped.rglob("*.yaml"))
+    assert main(["check", str(shipped), "-j", "1"]) == 3
+    captured = capsys.readouterr()
+    rows = [line for line in captured.out.splitlines() if line[:4] in ("PASS", "FAIL")]
+    assert len(rows) == len(files) and all(row.startswith("FAIL") and row.endswith("'mjENBL_SLEEP'") for row in rows)
+    assert f"{len(files)} scenarios: 0 passed, {len(files)} failed ({len(files)} of them internal errors)" in captured.out
+    (line,) = captured.err.splitlines()
+    assert line.startswith("stackdsl: internal error: AttributeError: ") and f"(and {len(files) - 1} more)" in line
+    assert main(["check", str(shipped), "-j", "1", "--json"]) == 3
+    results = json.loads(capsys.readouterr().out)["results"]
+    assert sorted(Path(r["file"]).relative_to(shipped).as_posix() for r in results) == files
+    assert all(r["error"].startswith("internal error: AttributeError") and r["verdicts"] for r in results)
+    # compare: every cell of every file, those expecting `stays` and `moved` among them
+    hard = shipped / "hard"
+    assert main(["compare", str(hard), "-j", "1", "--modes", "raw,extension"]) == 3
+    out = capsys.readouterr().out.splitlines()
+    rows = [line for line in out if "FAIL internal error" in line]  # a cell is that, or refused (raw)
+    assert len(rows) == len(list(hard.glob("*.yaml"))) and not any("PASS" in row for row in rows)
+    assert sum(row.count("FAIL internal error") + row.count("refused") for row in rows) == 2 * len(rows)
+    # sweep: every sample's run raises, every cell is still reported
+    monkeypatch.setattr(_sweep, "run_program", broken)
+    folder = write(tmp_path, s=SWEEP)
+    assert main(["sweep", str(folder / "s.yaml"), "-j", "1", "--out", str(tmp_path / "out")]) == 3
+    out = capsys.readouterr().out
+    assert out.count("did not finish: internal error: AttributeError") == 2 and "cell 1: " in out

@@ -141,7 +141,7 @@ def failed(file: str, program: Program, expect: Expect, error: str = "", traceba
 def unmeasured(expect: Expect, program: Program) -> tuple[Verdict, ...]:
     """A failed verdict per expectation, measured as ``'not measured'`` (a run without an
     outcome; a sweep's statistics, those of ``expect.cells`` too, without samples)."""
-    nothing = Outcome.model_construct(collapse=None, displacement={}, final_graph=Graph(nodes=(), edges=()))
+    nothing = _nothing(program)
     forms = expectations(expect) + [f for rule in expect.cells or [] for f in expectations(rule)]
     return tuple(
         v.model_copy(update={"passed": False, "measured": "not measured"})
@@ -149,6 +149,30 @@ def unmeasured(expect: Expect, program: Program) -> tuple[Verdict, ...]:
     ) + tuple(
         Verdict(name="statistic", passed=False, expected=text, measured="not measured")
         for text in dict.fromkeys(expected_text(f) for f in forms)
+    )
+
+
+def _nothing(program: Program) -> Outcome:
+    """The outcome of a run that produced none: nothing built, nothing moved, every field set
+    (the expectations read any of them: ``stays`` reads ``levels_placed``, ``toppled`` ``unplaced``)."""
+    empty = Graph(nodes=(), edges=())
+    return Outcome(
+        scenario=program.name,
+        mode=program.engine.mode,
+        backend=program.engine.backend,
+        collapse=None,
+        events=(),
+        final_graph=empty,
+        collapse_graph=None,
+        displacement={},
+        drift=0.0,
+        kinetic_energy=0.0,
+        levels_placed=0,
+        bricks_placed=0,
+        simulated_time=0.0,
+        wall_time=0.0,
+        steps=0,
+        steps_skipped=0,
     )
 
 

@@ -1,4 +1,3 @@
-
 """Actions of a hand and of the ground (stackdsl.lang.schema_actions, stackdsl.compile.actions,
 stackdsl.runtime.actions) and the expectations about them (moved, stays by brick, toppled)."""
 

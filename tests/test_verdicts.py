@@ -594,7 +594,7 @@ timing: {{settle: 1 s}}
 """
     result = run_program(compile_scenario(parse_scenario(text), "raw"))
     assert result.collapse is not None and result.certificate is not None
-    said = "placed 0.10 mm inside its support's edge: a near tie" in result.certificate.detail
+    said = "placed 0.10 mm inside its support's edge: an exact tie" in result.certificate.detail
     assert said == near, result.certificate.detail
     statics = run_program(compile_scenario(parse_scenario(text)))
     assert (statics.collapse is None) == near

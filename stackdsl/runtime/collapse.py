@@ -68,10 +68,9 @@ FACE_GAP = 0.001
 #: this within a step or two.
 OFF_SUPPORT = 0.0005
 
-#: Metres inside its support polygon's edge under which a placed brick is a near tie: statics says
-#: it stands, and pybullet's 1 mm collision margin may tip it (docs/results/verdicts.md: from 0.2
-#: to 1 mm, 98.8 to 99.5% of verdicts agree with the exact rule). A collapse of such a brick says so.
-NEAR_TIE = 0.001
+#: Metres from its support polygon's edge within which a placed brick is an exact tie: statics
+#: itself cannot tell where the engine's floats put it (a collapse of such a brick says so).
+EXACT_TIE = 1e-4
 
 #: Metres further out than it was placed that a brick placed with its centre of mass outside its
 #: support polygon must go for that to prove a collapse: an overhang placed 1.5 mm out is 0.27 mm
@@ -422,13 +421,13 @@ class CollapseMonitor(Subscriber):
             if displaced_at_end:
                 proof = (
                     "displaced at the end",
-                    f"{record.id} was {distance * 1000:.1f} mm from its place when the run ended{self._near_tie(loop, record)}",
+                    f"{record.id} was {distance * 1000:.1f} mm from its place when the run ended",
                     (),
                 )
             elif not record.moving or rested:
                 proof = (
                     "at rest displaced",
-                    f"{record.id} came to rest {distance * 1000:.1f} mm from its place{self._near_tie(loop, record)}",
+                    f"{record.id} came to rest {distance * 1000:.1f} mm from its place",
                     (),
                 )
             elif (mechanism := self._proved(record.id)) is not None:
@@ -440,15 +439,20 @@ class CollapseMonitor(Subscriber):
                 return
 
     def _near_tie(self, loop: StepLoop, record: BrickRecord) -> str:
-        """A note for a brick placed with its centre of mass under :data:`NEAR_TIE` inside its
-        support polygon's edge: statics says it stands, and the engine's contacts may tip it
-        (pybullet's 1 mm collision margin); "" otherwise."""
+        """A note for a brick placed with its centre of mass inside its support polygon's edge
+        by less than the engine's contact margin (:attr:`EngineSettings.contact_margin`: statics
+        says it stands, and the engine's contact points may tip it), or within :data:`EXACT_TIE`
+        of the edge either way (an exact tie, which statics cannot tell either); "" otherwise."""
         support = self._supports.get(record.id)
         margin = math.inf if support is None else support.placed_margin
-        if not 0.0 <= margin < NEAR_TIE:
+        engine = loop.program.engine
+        within = f"within {engine.NAME}'s {engine.contact_margin * 1000:g} mm contact margin"
+        if abs(margin) < EXACT_TIE:
+            side = "inside" if margin >= 0 else "outside"
+            return f" (placed {abs(margin) * 1000:.2f} mm {side} its support's edge: an exact tie, {within})"
+        if not 0.0 <= margin < engine.contact_margin:
             return ""
-        engine = "pybullet's 1 mm collision margin" if loop.program.engine.backend == "pybullet" else "the engine's contacts"
-        return f" (placed {margin * 1000:.2f} mm inside its support's edge: a near tie, within {engine})"
+        return f" (placed {margin * 1000:.2f} mm inside its support's edge: a near tie, {within})"
 
     def _part(self, loop: StepLoop, record: BrickRecord) -> list[BrickRecord]:
         """``record`` and the bricks it carries: those placed on it, or on it and on bricks it
@@ -793,6 +797,7 @@ class CollapseMonitor(Subscriber):
         kind, detail, moved_too = proof
         if first is not record:  # the collapse is named after the brick that moved first
             detail += f" ({first.id} moved first; this proof decided the collapse)"
+        detail += self._near_tie(loop, first)  # a tie the engine's contacts decided: said
         records = loop.structure.records
         bricks = tuple(sorted({*self._displaced, *(b for b in moved_too if b in records)}, key=lambda i: records[i].order))
         certificate = Certificate(verdict="collapse", kind=kind, detail=detail, bricks=bricks)

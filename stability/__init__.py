@@ -34,7 +34,7 @@ Source: "Simulating Object Stacking Using Stack Stability", chapter 3.
 
 from ._certificate import Certificate
 from ._engine import ContactPoint, Engine, FakeEngine, PyBulletEngine
-from ._equilibrium import ContactPolygon, Equilibrium, RigidBlock, equilibrium_margin, is_level, solve_equilibrium
+from ._equilibrium import ContactPolygon, Equilibrium, RigidBlock, is_level, solve_equilibrium
 from ._extension import StabilityConfig, StabilityEvent, StabilityExtension
 from ._friction import friction_share
 from ._geometry import Box, ContactArea, Plane, Pose, combined_hull, contains, face_overlap, hull_xy, padded_hull
@@ -43,6 +43,7 @@ from ._impact import breaks_loose, kinetic_energy, potential_energy
 from ._leaning import lean_polygon, leaning_stands, pair_friction
 from ._load import Load, LoadNode, propagate, split_load, torque_split
 from ._load_path import load_path, proven, support_piece
+from ._margin import equilibrium_margin
 from ._rest import JITTER, still
 
 __all__ = [

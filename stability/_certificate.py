@@ -23,15 +23,17 @@ bricks that must move.
 
 Most stacks need no program: when every brick is frozen and each one's centre of mass lies
 over its load path (:mod:`stability._load_path`), those paths are already a solution of the
-program with no tension, found brick by brick as they froze. The margin is then the least
-distance a centre of mass can move along x or y and stay over its path, the program's own
-directions: every centre of mass moved together by less stays over its path, so it is a lower
-bound of the program's margin (equal to it for a brick on the ground, a 4 stack or an
-overhang, turned or not). This keeps the certificate of a 60-level
-tower to a few milliseconds where the margin's eight programs took 130 ms. A bound under
-:data:`NARROW` can be far below the program's margin (a load path is the part of a contact
-over the path below, so a brick set back on a staggered single file has a path ending short
-of its support's edge): then the program's margin is solved and reported when larger.
+program with no tension, found brick by brick as they froze. The least distance from a centre
+of mass to the edge of its path, in any direction, is then a lower bound of the margin: every
+centre of mass moved together by less stays over its path (:func:`_inside`). It is the margin
+(to :data:`stability._margin.MARGIN_TOLERANCE`) when a brick that carries nothing lies that
+near its path's edge and its own contacts end there too (a tower's top brick,
+:func:`_over_its_contacts`): no shift further that way balances that brick, whatever the rest
+does. This keeps the certificate of a 60-level tower to a few milliseconds where the margin's
+programs take a second. Otherwise (a load path is the part of a contact over the path below,
+so a brick set back on a staggered single file has a path ending short of its support's edge,
+0.2 mm from its centre of mass where the program gives 11.4) the program's margin is solved,
+and reported when larger.
 
 Source: stackdsl's own, on rigid-block equilibrium (Livesley 1978; Whiting et al. 2009).
 """
@@ -46,18 +48,15 @@ import shapely
 from shapely.geometry import Polygon
 
 from ._areas import ContactAreas, by_body
-from ._equilibrium import FINE_SIDES, LEVEL_TILT, ContactPolygon, RigidBlock, equilibrium_margin, solve_equilibrium
+from ._equilibrium import FINE_SIDES, LEVEL_TILT, ContactPolygon, RigidBlock, solve_equilibrium
 from ._friction import FRICTION_STEP, friction_share
 from ._graph import BrickState
 from ._leaning import pair_friction
+from ._margin import MARGIN_TOLERANCE, equilibrium_margin
 from ._stack import Record, Stack
 
 #: Metres: the largest margin reported.
 MARGIN_LIMIT = 0.02
-#: Metres: a load-path margin under this is a lower bound too loose to report as the margin:
-#: the program's is solved (a brick placed well inside its support, over the edge of the load
-#: path the bricks below passed up, read 0.2 mm where the program gives 11.4).
-NARROW = 0.002
 
 
 @dataclass(frozen=True)
@@ -67,10 +66,14 @@ class Certificate:
     Attributes:
         stands: forces exist that balance every brick.
         tension: newtons, the least total tension the contacts would need (0 when it stands).
-        margin: metres, how far every centre of mass can move together horizontally before
-            it would not stand: the least over four directions (along x and y), with the
-            friction pyramid of eight sides (at most 20 mm; 0 when it does not stand, or when
-            only the eight-sided program's own tolerance lets it).
+        margin: metres, how far every centre of mass can move together horizontally, in any
+            direction, before it would not stand (one common shift of every brick's centre of
+            mass; the program's friction pyramid of eight sides, or of 32 when eight do not
+            balance it as it is): the distance from 0 to the edge of the polygon of shifts that
+            balance, never more than it and at most :data:`stability._margin.MARGIN_TOLERANCE`
+            (0.1 mm) less (:func:`stability.equilibrium_margin`; with load paths, a lower bound
+            proven that near it, :func:`_over_its_contacts`). At most :data:`MARGIN_LIMIT`
+            (20 mm); 0 when it does not stand, or when only the program's own tolerance lets it.
         mechanism: labels of the bricks that move in the collapse mechanism (empty when it
             stands).
         bricks: how many bricks were solved; active: labels of those the engine still moved.
@@ -110,14 +113,15 @@ def certify(stack: Stack, areas: ContactAreas) -> Certificate:
     active = [r for r in bricks if r.state is BrickState.ACTIVE]
     padded = any(c.core is not None for c in polygons)
     if bricks and not active and not stack.unproven:
-        margin = min(_inside(bricks))
+        reach = _inside(bricks)
+        margin = min(d for d, _ in reach)
 
         def by_paths(width: float) -> Certificate:  # with what the paths' vertical forces need of friction
             share = _path_share(polygons, stack.config.support_angle)
             return Certificate(True, 0.0, width, (), len(bricks), (), len(polygons), "load paths", share)
 
-        if margin >= NARROW and not padded:  # a lower bound, wide enough to say: the paths prove it
-            return by_paths(min(margin, MARGIN_LIMIT))
+        if not padded and (margin >= MARGIN_LIMIT or _over_its_contacts(bricks, polygons, reach) <= margin + MARGIN_TOLERANCE):
+            return by_paths(min(margin, MARGIN_LIMIT))  # a lower bound, and the margin is at most the tolerance more
         blocks = {r.body: RigidBlock(r.box.mass, stack.pose(r).position) for r in bricks}
         if padded:  # the paths prove the stand; its margin is the bare contacts' (0: the padding's alone)
             bare = _bare_margin(blocks, polygons, stack.config.gravity)
@@ -126,7 +130,7 @@ def certify(stack: Stack, areas: ContactAreas) -> Certificate:
             return Certificate(True, 0.0, bare, (), len(bricks), (), len(polygons), friction=_share(blocks, polygons, stack))
         shift = _margin(blocks, polygons, stack.config.gravity)
         if shift is None or shift <= margin:  # the paths' bound is the margin
-            return by_paths(margin)
+            return by_paths(min(margin, MARGIN_LIMIT))
         return Certificate(True, 0.0, shift, (), len(bricks), (), len(polygons), friction=_share(blocks, polygons, stack))
     pairs = {frozenset((c.body, c.other)) for c in polygons}
     if active:
@@ -214,18 +218,20 @@ def _margin(blocks: dict[int, RigidBlock], polygons: list[ContactPolygon[int]], 
     return found
 
 
-def _inside(bricks: list[Record]) -> list[float]:
-    """Metres each brick's centre of mass can move along x or y and stay over its load path
-    (proven frozen bricks): the margin's own directions (:func:`stability.equilibrium_margin`),
-    so that a structure turned about the vertical has the margin the program gives it (an
-    overhang turned 45 deg read 5.0 mm, the distance to the path's edge, where the program and
-    the engines' modes read 7.1, 5 / cos 45 deg). A path that is a line or a point, or that
-    does not cover the centre, leaves no room across it (0).
+def _inside(bricks: list[Record]) -> list[tuple[float, np.ndarray]]:
+    """How far each brick's centre of mass can move, in any horizontal direction, and stay
+    over its load path (proven frozen bricks): metres, the distance to the path's edge, with
+    the unit direction (shape (2,)) to the nearest point of it. Every centre of mass moved
+    together by less than the least of them stays over its path, so the paths still balance
+    every brick: the least is a lower bound of the program's margin
+    (:func:`stability.equilibrium_margin`), in every direction. (Along x and y only, the
+    reach to the path's edge is more than the distance wherever the edge is not square to
+    the axis: an overhang turned 45 deg read 7.1 mm, 5 / cos 45 deg, where its centre of mass
+    is 5.0 mm from the edge.) A path that is a line or a point, or that does not cover the
+    centre, leaves no room (0).
 
-    Each brick's ray along +x, -x, +y and -y is cut with its path's edge, and the nearest cut
-    is its margin. shapely's functions on arrays do each brick's (the same GEOS calls, brick by
-    brick, as the geometries' own methods make): one call for all bricks instead of eight for
-    each took 3 ms off the certificate of a 30-level tower. Source: stackdsl's own.
+    shapely's functions on arrays do every brick's at once (one call for all bricks instead of
+    some for each took 3 ms off the certificate of a 30-level tower). Source: stackdsl's own.
     """
     assert all(r.load_path is not None and r.frozen_pose is not None for r in bricks), "proven frozen bricks"
     xy = np.array([r.frozen_pose.position[:2] for r in bricks if r.frozen_pose is not None], dtype=float).reshape(-1, 2)
@@ -234,20 +240,56 @@ def _inside(bricks: list[Record]) -> list[float]:
     points = shapely.points(xy)
     wide = np.array([isinstance(p, Polygon) for p in paths.tolist()], dtype=bool)
     wide[wide] = shapely.covers(paths[wide], points[wide])
-    out = [0.0] * len(bricks)
+    out = [(0.0, np.array([1.0, 0.0]))] * len(bricks)
     if not wide.any():
         return out
-    exteriors, inner, (x, y) = shapely.get_exterior_ring(paths[wide]), points[wide], xy[wide].T
-    far = shapely.hausdorff_distance(exteriors, inner) + 1.0  # beyond the path's far side
-    reach = [
-        shapely.distance(
-            inner,
-            shapely.intersection(
-                shapely.linestrings(np.stack([x, y, x + far * dx, y + far * dy], axis=1).reshape(-1, 2, 2)), exteriors
-            ),
-        )
-        for dx, dy in ((1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0))
-    ]
-    for i, *each in zip(np.flatnonzero(wide).tolist(), *(r.tolist() for r in reach), strict=True):
-        out[i] = float(min(each))
+    exteriors = shapely.get_exterior_ring(paths[wide])
+    ends = shapely.get_coordinates(shapely.shortest_line(points[wide], exteriors)).reshape(-1, 2, 2)
+    step = ends[:, 1] - ends[:, 0]
+    distance = np.hypot(step[:, 0], step[:, 1])
+    direction = np.where(distance[:, None] > 0, step / np.maximum(distance, 1e-300)[:, None], [1.0, 0.0])
+    for i, d, u in zip(np.flatnonzero(wide).tolist(), distance.tolist(), direction, strict=True):
+        out[i] = (float(d), u)
     return out
+
+
+def _over_its_contacts(bricks: list[Record], polygons: list[ContactPolygon[int]], reach: list[tuple[float, np.ndarray]]) -> float:
+    """Metres, an upper bound of the program's margin (:func:`stability.equilibrium_margin`)
+    from the bricks that lie nearest the edge of their load paths (within
+    :data:`MARGIN_TOLERANCE` of the least, :func:`_inside`) and carry nothing, on level
+    contacts that all face up into them: the furthest any of their contact points lies along
+    the direction to that edge, from the centre of mass (inf when no brick is such).
+
+    Such a brick's shift is bounded whatever the rest does: the program holds its own six rows,
+    with every other body as a support that may give any compressive force within friction
+    (a relaxation, so its shifts include the whole program's). The brick carries nothing, so its
+    weight's line must meet the hull of its contact points, but for the couple of the forces'
+    horizontal parts (summing to 0, each at most (mu + tan t) / (1 - mu tan t) of its vertical
+    part on a contact tilted by t), whose arm is at most the spread of the contacts' heights:
+    that spread times the ratio is added. On a
+    tower's top brick the bound is its path's own edge, and the path's margin is proven exact
+    without a program. Source: stackdsl's own.
+    """
+    least = min(d for d, _ in reach)
+    carrying = {c.other for c in polygons}
+    own: dict[int, list[ContactPolygon[int]]] = {}
+    for c in polygons:
+        own.setdefault(c.body, []).append(c)
+    best = math.inf
+    for r, (distance, direction) in zip(bricks, reach, strict=True):
+        contacts = own.get(r.body, [])
+        if distance > least + MARGIN_TOLERANCE or r.body in carrying or not contacts or r.frozen_pose is None:
+            continue
+        normals = np.array([c.normal for c in contacts], dtype=float).reshape(-1, 3)
+        normals /= np.linalg.norm(normals, axis=1)[:, None]
+        if not (normals[:, 2] > 0.0).all():  # a contact that is no support from below
+            continue
+        tilt = float(np.max(np.hypot(normals[:, 0], normals[:, 1]) / normals[:, 2]))
+        mu = max(c.friction for c in contacts)
+        if mu * tilt >= 0.5:  # friction could pull down: no bound from the hull
+            continue
+        points = np.vstack([np.asarray(c.points, dtype=float).reshape(-1, 3) for c in contacts])
+        # horizontal over vertical part of a contact force: at most (mu + tan t) / (1 - mu tan t)
+        spread = float(np.ptp(points[:, 2])) * (mu + tilt) / (1.0 - mu * tilt)
+        best = min(best, float(np.max((points[:, :2] - r.frozen_pose.position[:2]) @ direction)) + spread)
+    return best

@@ -89,8 +89,10 @@ class Certificate(_Frozen):
             with those its proof names (the part that tipped, the proved mechanism; with no
             equilibrium, the mechanism's); for ``stands``, none, in every mode (the stand is of
             every brick, and ``detail`` says how many were balanced).
-        margin_mm: for ``stands``, how far every centre of mass could move together before
-            it would not (at most 20 mm); else None.
+        margin_mm: for ``stands``, how far every centre of mass could move together (one
+            common horizontal shift, in any direction) before rigid-block equilibrium would not
+            hold it: never more than that distance and at most 0.1 mm less (at most 20 mm; see
+            :attr:`stability.Certificate.margin`); else None.
         friction_share: for ``stands``, the least share of every contact's friction coefficient
             with which it still balances (0: vertical forces on level faces hold it; see
             :attr:`stability.Certificate.friction`), to 0.01 above; else None.

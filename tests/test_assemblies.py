@@ -113,7 +113,7 @@ def test_some_leaning_bricks_stand_on_a_step_brick_the_oracle_sees():
         assert touching == {(step, "ground"): 4, (leaner, "wall"): 2, (leaner, step): 2}, touching
 
 
-@pytest.mark.slow  # 3-5 s: in .ci/run's slow part
+@pytest.mark.slow  # 3-5 s: in .ci/nightly's slow part
 def test_a_margin_is_found_where_the_verdict_first_flips_not_at_the_far_end():
     # a ladder 0.3 deg below its limit slides: moving every centre of mass a fraction of a
     # millimetre toward the wall holds it, but 20 mm on the flat brick beside it (lying across

@@ -159,7 +159,7 @@ def test_a_journal_keeps_finished_assemblies_and_refuses_another_run(few, tmp_pa
         Journal(tmp_path / "junk.jsonl", 2, PYBULLET).load()
 
 
-@pytest.mark.slow  # 7-22 s: in .ci/run's slow part
+@pytest.mark.slow  # 7-22 s: in .ci/nightly's slow part
 def test_bench_verdicts_resumes_from_its_journal(capsys, tmp_path):
     args = ["bench", "verdicts", "--count", "2", "--engines", "pybullet", "--gaps", "2", "--no-baselines"]
     args += ["--single-file", "0", "-j", "1", "--out", str(tmp_path)]

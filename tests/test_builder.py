@@ -288,7 +288,7 @@ LABELS = st.one_of(st.sampled_from(LOOK_ALIKES), NAMES, st.text(min_size=1, max_
 IDS = NAMES.map(lambda n: n if n[:1].isalpha() or n[:1] == "_" else f"_{n}")
 
 
-@pytest.mark.slow  # 3-5 s: in .ci/run's slow part
+@pytest.mark.slow  # 3-5 s: in .ci/nightly's slow part
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(
     name=LABELS,

@@ -1322,7 +1322,7 @@ def test_the_engines_chatter_is_silenced_with_standard_error_closed():
     assert done.returncode == 0 and done.stdout == "closed again\n", done.stderr
 
 
-@pytest.mark.slow  # 7-22 s: in .ci/run's slow part
+@pytest.mark.slow  # 7-22 s: in .ci/nightly's slow part
 @pytest.mark.parametrize("closed", ["stdout", "stderr"])
 def test_a_pipe_closed_while_errors_are_said_is_exit_141(closed, tmp_path):
     # thousands of bad files: their errors fill the pipe long after its reader is gone

@@ -179,7 +179,7 @@ def test_the_drawing_modules_load_only_when_a_drawing_command_runs():
     assert _cli.main  # the command module itself loads
 
 
-@pytest.mark.slow  # 8-10 s: in .ci/run's slow part
+@pytest.mark.slow  # 8-10 s: in .ci/nightly's slow part
 def test_bench_record_before_times_another_install_and_this_one_alternately(files, capsys):
     import sys
 

@@ -376,7 +376,7 @@ def test_with_mujocos_sleeping_a_parked_brick_lands_where_it_is_put():
 
 
 SCENARIOS = sorted((ROOT / "scenarios").rglob("*.yaml"))
-#: The two Jenga scenes take 8-12 s each on MuJoCo: in .ci/run's slow part (pytest -m slow).
+#: The two Jenga scenes take 8-12 s each on MuJoCo: in .ci/nightly's slow part (pytest -m slow).
 LONG_ON_MUJOCO = {"jenga_falls", "jenga_stands"}
 
 
@@ -459,7 +459,7 @@ def test_the_freeze_means_chosen_holds_and_the_others_do_not():
         freeze_cost(6, "glue")
 
 
-@pytest.mark.slow  # 3-5 s: in .ci/run's slow part
+@pytest.mark.slow  # 3-5 s: in .ci/nightly's slow part
 def test_mujocos_own_sleeping_still_drops_the_slant_tower_at_its_closed_form():
     """With MuJoCo's sleeping on (bricks parked up front, the runtime's default on MuJoCo) the
     slant tower falls at its closed form; when a parked brick moved in stayed asleep where it
@@ -623,7 +623,7 @@ def _culled_run(monkeypatch, text: str, cull_from: int) -> tuple[object, int]:
     return outcome, most[0]
 
 
-@pytest.mark.slow  # two 30-level MuJoCo runs, 4 s: in .ci/run's slow part
+@pytest.mark.slow  # two 30-level MuJoCo runs, 4 s: in .ci/nightly's slow part
 def test_frozen_bricks_out_of_reach_leave_mujocos_collisions_and_change_nothing(monkeypatch):
     """A frozen brick that nothing moving can reach within a step is out of MuJoCo's collision
     detection (its broad phase paired every two frozen neighbours, each step); a brick thrown
@@ -707,7 +707,7 @@ expect: {{stands: true}}
 """
 
 
-@pytest.mark.slow  # 4 runs of 2-4 s: in .ci/run's slow part
+@pytest.mark.slow  # 4 runs of 2-4 s: in .ci/nightly's slow part
 @pytest.mark.parametrize("mu", [0.05, 0.4])
 @pytest.mark.parametrize("mode", ["extension", "tuned"])
 def test_a_middle_jenga_block_pulled_out_leaves_the_levels_above_on_the_others(mu, mode):

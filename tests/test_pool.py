@@ -354,7 +354,7 @@ def test_killing_check_leaves_no_process_behind(tmp_path, signum):
 
 
 @two_cores
-@pytest.mark.slow  # 8-10 s: in .ci/run's slow part
+@pytest.mark.slow  # 8-10 s: in .ci/nightly's slow part
 def test_ctrl_c_is_one_line_exit_130_and_no_worker_left(tmp_path):
     process, out, err = start_check(tmp_path)
     try:

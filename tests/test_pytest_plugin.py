@@ -414,7 +414,7 @@ def test_no_collection_hint_when_the_scenarios_are_collected(project):
     assert "not collected" not in project.runpytest("scenarios/", "--collect-only").stdout.str()
 
 
-@pytest.mark.slow  # 3-5 s: in .ci/run's slow part
+@pytest.mark.slow  # 3-5 s: in .ci/nightly's slow part
 def test_no_collection_hint_for_a_folder_whose_tests_are_collected(project):
     (project.path / "checks").mkdir()
     (project.path / "checks" / "test_x.py").write_text("def test_x():\n    pass\n")
@@ -434,7 +434,7 @@ def suggested_run(result) -> list[str]:
     return shlex.split(line.removeprefix("run: pytest "))
 
 
-@pytest.mark.slow  # pytest runs of its own, 13-28 s: in .ci/run's slow part
+@pytest.mark.slow  # pytest runs of its own, 13-28 s: in .ci/nightly's slow part
 def test_items_run_from_any_folder_and_the_hint_gives_a_command_that_works_there(pytester, monkeypatch):
     monkeypatch.delenv("PYTEST_XDIST_WORKER", raising=False)
     (pytester.path / "elsewhere").mkdir()
@@ -464,7 +464,7 @@ def test_items_run_from_any_folder_and_the_hint_gives_a_command_that_works_there
     assert "more: stackdsl run ../s/t.yaml" in out
 
 
-@pytest.mark.slow  # pytest runs of its own, 13-28 s: in .ci/run's slow part
+@pytest.mark.slow  # pytest runs of its own, 13-28 s: in .ci/nightly's slow part
 def test_a_failing_item_keeps_its_golden_through_snapshot_update(project):
     for name in ("two", "tower", "fine", "gone"):
         write(project, name, TWO_BRICKS.format(x="0 mm") if name == "two" else TOWER)
@@ -507,7 +507,7 @@ def test_a_crashed_item_keeps_its_golden_through_snapshot_update(project):
     assert stored.read_text() == text
 
 
-@pytest.mark.slow  # pytest runs of its own, 13-28 s: in .ci/run's slow part
+@pytest.mark.slow  # pytest runs of its own, 13-28 s: in .ci/nightly's slow part
 def test_failing_items_keep_their_goldens_under_xdist(project):
     pytest.importorskip("xdist")
     for name in ("a", "b", "c"):
@@ -537,7 +537,7 @@ DAMAGED = {
 }
 
 
-@pytest.mark.slow  # pytest runs of its own, 13-28 s: in .ci/run's slow part
+@pytest.mark.slow  # pytest runs of its own, 13-28 s: in .ci/nightly's slow part
 def test_a_damaged_golden_fails_its_item_in_one_line_and_is_never_replaced(project):
     folder = project.path / "golden" / "scenarios"
     folder.mkdir(parents=True)
@@ -579,7 +579,7 @@ def test_a_golden_folder_that_is_a_file_is_one_line_under_snapshot_update(projec
     assert (project.path / "golden").read_text() == "not a folder\n"
 
 
-@pytest.mark.slow  # pytest runs of its own, 13-28 s: in .ci/run's slow part
+@pytest.mark.slow  # pytest runs of its own, 13-28 s: in .ci/nightly's slow part
 def test_the_golden_fixture_says_a_damaged_golden_in_one_line_and_never_blocks_on_a_fifo(pytester, monkeypatch):
     """A FIFO, bytes that are not UTF-8, a folder: one line naming the golden, never syrupy's
     traceback, never a hang, never written over or deleted; a test's second assertion
@@ -622,7 +622,7 @@ def test_the_golden_fixture_says_a_damaged_golden_in_one_line_and_never_blocks_o
         pytester.runpytest_subprocess("-p", "no:cacheprovider", "-n", "0", "--snapshot-update").assert_outcomes(passed=2)
 
 
-@pytest.mark.slow  # pytest runs of its own, 13-28 s: in .ci/run's slow part
+@pytest.mark.slow  # pytest runs of its own, 13-28 s: in .ci/nightly's slow part
 def test_goldens_moved_by_a_new_pyproject_are_named_where_they_are(pytester, monkeypatch):
     monkeypatch.delenv("PYTEST_XDIST_WORKER", raising=False)
     (pytester.path / "s").mkdir()

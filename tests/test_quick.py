@@ -36,7 +36,7 @@ def test_the_installed_command_checks_a_shipped_scenario():
     assert done.stdout.splitlines()[-1].startswith("1 scenarios: 1 passed, 0 failed")
 
 
-@pytest.mark.slow  # a collection of the whole suite, 10-20 s: in .ci/run's slow part
+@pytest.mark.slow  # a collection of the whole suite, 10-20 s: in .ci/nightly's slow part
 def test_the_quick_set_is_what_its_docstring_says():
     listed = subprocess.run(
         [sys.executable, "-m", "pytest", "--collect-only", "-q", "-m", "quick", "-p", "no:cacheprovider", "-n", "0"],

@@ -30,7 +30,7 @@ def golden_command() -> tuple[list[str], str]:
     return command.split(), written.strip()
 
 
-@pytest.mark.slow  # 7-22 s: in .ci/run's slow part
+@pytest.mark.slow  # 7-22 s: in .ci/nightly's slow part
 @pytest.mark.parametrize("project", [True, False], ids=["in the clone", "no pyproject.toml above"])
 def test_the_golden_goes_where_the_readme_says(tmp_path, monkeypatch, project):
     """The quickstart runs in the clone, beside stackdsl's pyproject.toml: the command's comment

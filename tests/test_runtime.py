@@ -154,7 +154,7 @@ def test_a_callers_own_frozen_objects_stay_frozen_after_a_run():
         gc.unfreeze()
 
 
-@pytest.mark.slow  # engine runs in several settings: in .ci/run's slow part
+@pytest.mark.slow  # engine runs in several settings: in .ci/nightly's slow part
 def test_runs_are_repeatable():
     text = "stackdsl: 1\nstructure: {tower: {levels: 10, spacing: 70 mm, shift: 12.9 mm}}\n"
     first, second = run(text, "raw"), run(text, "raw")
@@ -206,7 +206,7 @@ def test_a_pile_frozen_in_the_equilibrium_model_is_solved_once_with_the_whole_st
     assert calls["debris"] and max(calls["debris"]) == 10  # the pile with the bricks still frozen
 
 
-@pytest.mark.slow  # about 1 s or more: in .ci/run's slow part
+@pytest.mark.slow  # about 1 s or more: in .ci/nightly's slow part
 def test_a_few_bricks_at_rest_on_a_large_frozen_stack_are_solved_alone(monkeypatch):
     """A log cabin shifted 7 mm a level falls at level 17 (equilibrium model). With its
     fallen bricks left in pybullet's multibodies, its heap is solved with the bricks still
@@ -422,7 +422,7 @@ impacts:
 """
 
 
-@pytest.mark.slow  # engine runs in several settings: in .ci/run's slow part
+@pytest.mark.slow  # engine runs in several settings: in .ci/nightly's slow part
 @pytest.mark.parametrize("backend, mode", [("pybullet", "tuned"), ("pybullet", "extension"), ("mujoco", "tuned")])
 def test_a_throw_at_a_levels_side_arrives_centred_on_its_face_as_the_engine_steps_it(backend, mode):
     """A throw at 0.5 m/s from 100 mm falls 196 mm in its 0.2 s flight; aimed for g t^2 / 2, it

@@ -825,7 +825,7 @@ def test_the_drop_gaps_description_gives_its_bounds():
         parse_scenario(doc("timing: {drop_gap: 51 mm}", "collapse_threshold: 60 mm"), "d.yaml")
 
 
-@pytest.mark.slow  # about 1 s or more: in .ci/run's slow part
+@pytest.mark.slow  # about 1 s or more: in .ci/nightly's slow part
 def test_the_timestep_description_says_where_raw_pybullet_drifts():
     # a single-file slant tower of 19 mm steps falls at level 7 (closed form); raw pybullet gives 7 at 5 ms
     # and less at 10 ms, the largest step the language takes, so the description may not claim one answer for all

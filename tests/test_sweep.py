@@ -39,7 +39,7 @@ def without_wall_time(results):
     return [replace(r, wall_time=0.0) for r in results]
 
 
-@pytest.mark.slow  # 3-5 s: in .ci/run's slow part
+@pytest.mark.slow  # 3-5 s: in .ci/nightly's slow part
 def test_every_executor_gives_the_same_per_sample_results():
     t = template()
     here = collect(run_sweep(t, jobs=1))
@@ -403,7 +403,7 @@ def test_the_throughput_table_gives_each_executors_efficiency_with_and_without_i
     assert lines[-2].endswith("yes")
 
 
-@pytest.mark.slow  # 8-10 s: in .ci/run's slow part
+@pytest.mark.slow  # 8-10 s: in .ci/nightly's slow part
 def test_bench_sweep_measures_a_sweep_file_on_every_executor(tmp_path, capsys):
     path = tmp_path / "stack.yaml"
     path.write_text(STACK.format(levels=4, samples=50))

@@ -26,7 +26,7 @@ def pixels(image: np.ndarray, colour: str, tolerance: int = 6) -> int:
     return int(np.all(np.abs(image - rgb) <= tolerance, axis=-1).sum())
 
 
-@pytest.mark.slow  # about 1 s or more: in .ci/run's slow part
+@pytest.mark.slow  # about 1 s or more: in .ci/nightly's slow part
 def test_histogram_of_a_cell(tmp_path: Path):
     path = tmp_path / "h.png"
     plot_histogram([3, 4, 4, 5, 5, 5, 6, 9, None, None], path, title="random stack", levels_built=30)
@@ -55,7 +55,7 @@ def test_histogram_degenerate(tmp_path: Path, levels: list[int | None], collapse
     assert (pixels(image, MEAN) > 50) is mean
 
 
-@pytest.mark.slow  # about 1 s or more: in .ci/run's slow part
+@pytest.mark.slow  # about 1 s or more: in .ci/nightly's slow part
 def test_grid_over_a_parameter(tmp_path: Path):
     rng = np.random.default_rng(0)
     values = np.linspace(0.0, 0.010, 6)  # metres

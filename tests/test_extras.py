@@ -261,3 +261,12 @@ def test_the_options_name_the_engines_modes_and_rate_the_code_has():
 
     assert BACKENDS == list(SETTINGS) and all(MODES == list(s.DEFAULTS) for s in SETTINGS.values())
     assert draw.RATE == RATE
+
+
+def test_the_startup_bench_looks_at_the_modules_its_caller_imported():
+    from stackdsl.batch import judge
+    from stackdsl.bench.startup import imported_sources
+
+    sources = imported_sources(judge)
+    assert sources == sorted(sources) and Path(judge.__file__) in sources
+    assert all(p.suffix == ".py" and {"stackdsl", "stability"} & set(p.parts) for p in sources)

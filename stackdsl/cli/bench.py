@@ -565,14 +565,15 @@ def _bench_verdicts(args: argparse.Namespace) -> int:
 
 
 def _bench_startup(args: argparse.Namespace) -> int:
-    from ..bench.startup import bytecode_note, format_startup, measure
+    from ..bench.startup import bytecode_note, format_startup, imported_sources, measure
     from ..bench.versions import version_line
+    from . import check  # what a one-file check imports, whose bytecode the note looks at
 
     if not 1 <= args.repeats <= 100:
         raise ScenarioError(f"--repeats must be from 1 to 100, not {args.repeats}", file="--repeats")
     print(version_line(), flush=True)
     print(format_startup(measure(args.repeats)))
-    note = bytecode_note()
+    note = bytecode_note(imported_sources(check))
     if note is not None:
         print(note)
     return OK

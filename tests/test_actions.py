@@ -13,8 +13,8 @@ import pytest
 from stackdsl import compile_scenario, evaluate, parse_scenario, run_program
 from stackdsl.compile.program import Launch, Push, Remove, Shake, format_program
 from stackdsl.lang.expectations import selects
-from stackdsl.lang.extras import installed
 from stackdsl.lang.jsonschema import json_schema
+from stackdsl.util.extras import installed
 
 BACKENDS = [
     "pybullet",

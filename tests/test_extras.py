@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from stackdsl.cli.main import main
-from stackdsl.lang import extras
+from stackdsl.util import extras
 
 ROOT = Path(__file__).resolve().parents[1]
 MUJOCO = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nengine:\n  backend: mujoco\nexpect: {stands: true}\n"

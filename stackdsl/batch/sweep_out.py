@@ -28,8 +28,8 @@ from typing import Any
 from ..lang.errors import excerpt
 from ..lang.expectations import CellExpect, Expect
 from ..lang.expressions import parse
-from ..lang.files import written
 from ..lang.sampling import Template
+from ..util.files import written
 from ..verdicts.stats import MeanWithin, ProportionBound, ProportionWithin, QuantileWithin, StatVerdict, decide, summary
 from .sweep import SampleResult
 

@@ -17,7 +17,7 @@ from ..bench.dominoes import DEFAULT as DOMINO_SETTINGS
 from ..bench.dominoes import KNOWN as DOMINO_KNOWN
 from ..lang.bounds import MAX_LEVELS
 from ..lang.errors import ScenarioError
-from ..lang.extras import installed, missing
+from ..util.extras import installed, missing
 from ..verdicts.expect import describe
 from .args import COMMANDS, OK, jobs_type, output_folder
 from .progress import Lines
@@ -190,7 +190,7 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
 
 
 def _need(extra: str, where: str) -> None:
-    """Nothing when ``extra`` (a key of :data:`stackdsl.lang.extras.EXTRAS`) is installed.
+    """Nothing when ``extra`` (a key of :data:`stackdsl.util.extras.EXTRAS`) is installed.
 
     Raises:
         ScenarioError: it is not; one line at ``where`` (the option or command that asks for it)
@@ -441,7 +441,7 @@ def _bench_limits(args: argparse.Namespace) -> int:
     from ..bench.limits import format_report
     from ..bench.versions import version_line
     from ..engines.settings import SETTINGS
-    from ..lang.extras import installed
+    from ..util.extras import installed
 
     if args.backend is not None and args.backend not in SETTINGS:
         raise ScenarioError(f"unknown backend {args.backend!r}; known: {', '.join(SETTINGS)}", file="--backend")

@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from ..lang.errors import ScenarioError, ScenarioErrors, ScenarioWarning
-from ..lang.extras import installed, missing
+from ..util.extras import installed, missing
 from .args import (
     BAD_INPUT,
     BROKEN_PIPE,

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from ..lang.errors import ScenarioError
-from ..lang.extras import installed, missing
+from ..util.extras import installed, missing
 from .args import COMMANDS, INTERNAL, add_seed, output_folder
 from .outputs import Input, Output, check_outputs
 

@@ -49,9 +49,9 @@ from ..engines.pybullet.settings import PyBulletSettings
 from ..engines.settings import SETTINGS, defaults, settings
 from ..lang.bounds import MAX_SIMULATED_TIME
 from ..lang.errors import FieldPath, ScenarioError, format_path
-from ..lang.extras import installed, missing
 from ..lang.schema import BACKEND_FIELDS, BUILTIN_BRICKS, Scenario, reference_errors
 from ..lang.schema_impacts import SIDES, AfterLevel, Impact
+from ..util.extras import installed, missing
 from .actions import check_measured, compile_actions, heading
 from .aim import outer_face, stepped_fall
 from .clearance import check_launch, check_pusher

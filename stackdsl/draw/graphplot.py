@@ -38,8 +38,8 @@ from shapely.geometry.base import BaseGeometry
 from shapely.geometry.polygon import orient
 from shapely.ops import nearest_points
 
-from ..lang.files import written
 from ..runtime.outcome import Edge, Graph, Node
+from ..util.files import written
 
 #: Size (length, width, height) in mm of a brick ``plot_graph`` is given no size for: KAPLA.
 KAPLA_MM = (120.0, 24.0, 8.0)

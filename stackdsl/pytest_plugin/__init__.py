@@ -21,7 +21,7 @@ happens to an item, ``-x``, ``--ignore`` or ``-k`` loses a golden whose file exi
 ``-x``, ``--lf``, ``-n`` (pytest-xdist) and ``--junit-xml`` work as on any test.
 A golden that cannot be one (a FIFO, not JSON, ...), or none where it is looked for while the
 scenario has one where another project layout keeps goldens, fails its item in one line before
-the scenario runs, and ``--snapshot-update`` writes nothing over it (:mod:`stackdsl.pytest_golden`).
+the scenario runs, and ``--snapshot-update`` writes nothing over it (:mod:`stackdsl.pytest_plugin.golden`).
 
 A file's ``skip`` and ``xfail`` marks (:mod:`stackdsl.lang.schema_marks`) are pytest's, on the
 file's own backend, mode and model: a skipped item is ``s`` at the line of its ``skip:``, an item
@@ -56,20 +56,20 @@ from typing import Any
 
 import pytest
 
-from .batch.report import rerun_command
-from .compile.compiler import compile_scenario
-from .draw.artefacts import draw_run, folder_name
-from .lang.errors import ScenarioError
-from .lang.loader import load_scenario
-from .pytest_golden import BadGolden, golden_elsewhere, golden_problem, read_golden_text, where_goldens_go
-from .pytest_hint import SUFFIXES, collection_hint, remember_collected, scenario_folders
-from .runtime.recorder import record_program
-from .runtime.run import run_program
-from .verdicts.expect import evaluate, explain
-from .verdicts.golden_compare import Comparison, compare_golden, near_tie
-from .verdicts.snapshot import dumps, scenario_golden_path, summarize
-from .verdicts.snapshot import golden_dir as golden_dir
-from .verdicts.tolerances import Tolerances, tolerances_for
+from ..batch.report import rerun_command
+from ..compile.compiler import compile_scenario
+from ..draw.artefacts import draw_run, folder_name
+from ..lang.errors import ScenarioError
+from ..lang.loader import load_scenario
+from ..runtime.recorder import record_program
+from ..runtime.run import run_program
+from ..verdicts.expect import evaluate, explain
+from ..verdicts.golden_compare import Comparison, compare_golden, near_tie
+from ..verdicts.snapshot import dumps, scenario_golden_path, summarize
+from ..verdicts.snapshot import golden_dir as golden_dir
+from ..verdicts.tolerances import Tolerances, tolerances_for
+from .golden import BadGolden, golden_elsewhere, golden_problem, read_golden_text, where_goldens_go
+from .hint import SUFFIXES, collection_hint, remember_collected, scenario_folders
 
 try:
     from syrupy.assertion import SnapshotAssertion
@@ -193,7 +193,7 @@ _BAD_GOLDEN = f"{BadGolden.__module__}.{BadGolden.__qualname__}: "
 def pytest_assertrepr_compare(
     config: pytest.Config, op: str, left: Any, right: Any
 ) -> Generator[None, list[list[str] | None], list[list[str] | None]]:
-    """A golden that could not be read (:class:`stackdsl.pytest_golden.BadGolden`: a FIFO, a
+    """A golden that could not be read (:class:`stackdsl.pytest_plugin.golden.BadGolden`: a FIFO, a
     folder, not UTF-8) fails its ``assert golden == ...`` in one line naming it and saying why,
     before syrupy's explanation (a traceback of the read), which pytest then leaves out; the
     snapshot still counts as used, so ``--snapshot-update`` never deletes it."""
@@ -484,9 +484,9 @@ NEAR_TIE = "stackdsl_near_tie"
 
 def _unusable_golden(path: Path, stored: Path, config: pytest.Config) -> str:
     """Why a scenario's golden ``stored`` cannot be compared or written, in one line: it is
-    damaged (:func:`stackdsl.pytest_golden.golden_problem`: never replaced, not even by
+    damaged (:func:`stackdsl.pytest_plugin.golden.golden_problem`: never replaced, not even by
     ``--snapshot-update``), or there is none while one for the scenario sits where another
-    project layout stores goldens (:func:`stackdsl.pytest_golden.golden_elsewhere`: to be moved,
+    project layout stores goldens (:func:`stackdsl.pytest_plugin.golden.golden_elsewhere`: to be moved,
     not written anew beside it); ``""`` when it can."""
 
     def show(p: Path) -> str:
@@ -585,7 +585,7 @@ if SingleFileSnapshotExtension is not None:
 
         def read_snapshot_data_from_location(self, *, snapshot_location: str, snapshot_name: str, session_id: str) -> Any:
             """The stored text (None: no golden yet), never blocking on a FIFO; a golden that
-            cannot be read (:func:`stackdsl.pytest_golden.read_golden_text`) fails the comparison
+            cannot be read (:func:`stackdsl.pytest_plugin.golden.read_golden_text`) fails the comparison
             with one line saying why, and is not written over."""
             return read_golden_text(Path(snapshot_location))
 

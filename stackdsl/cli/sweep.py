@@ -80,7 +80,16 @@ def _sweep(args: argparse.Namespace) -> int:
         run_sweep,
         samples_run,
     )
-    from ..batch.sweep_out import any_sweep_files, file_names, remove_leftovers, report, verdicts, write_plots, write_samples
+    from ..batch.sweep_out import (
+        PARQUET_MISSING,
+        any_sweep_files,
+        file_names,
+        remove_leftovers,
+        report,
+        verdicts,
+        write_plots,
+        write_samples,
+    )
     from ..lang.loader import load_scenario
     from .progress import Lines
 
@@ -170,9 +179,11 @@ def _sweep(args: argparse.Namespace) -> int:
         )
         _forget(out, made)
         return 2
-    table, jsonl = write_samples(results, out)
+    table, jsonl, parquet = write_samples(results, out)
+    if parquet is None:
+        print(f"stackdsl: {PARQUET_MISSING}", file=sys.stderr)
     plots = write_plots(template, results, out, scenario.expect)
-    remove_leftovers(out, [table, jsonl, "samples.parquet", *plots])  # the folder holds this sweep's files alone
+    remove_leftovers(out, [table, jsonl, *([parquet] if parquet else []), *plots])  # the folder holds this sweep's files alone
     for line in report(template, scenario.expect, results):
         print(line)
     unfinished = next((r for r in results if r.error or r.stopped), None)
@@ -190,7 +201,8 @@ def _sweep(args: argparse.Namespace) -> int:
         )
         print(f"more: {again}")
     print(
-        f"{_count(total, 'sample')} in {wall:.1f} s ({total / wall:.1f} a second); wrote {table}, {jsonl.name}, samples.parquet, "
+        f"{_count(total, 'sample')} in {wall:.1f} s ({total / wall:.1f} a second); wrote {table}, {jsonl.name}, "
+        + (f"{parquet.name}, " if parquet else "")
         + ", ".join(p.name for p in plots)
     )
     judged = verdicts(template, scenario.expect, results)

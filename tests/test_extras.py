@@ -190,9 +190,12 @@ def test_version_loads_nothing_heavy_and_the_startup_bench_runs(capsys):
     assert main(["bench", "startup", "--repeats", "1"]) == 0
     versions, head, _, *rows = capsys.readouterr().out.splitlines()
     assert versions.startswith("engines: pybullet ") and head.startswith("| command | median wall | target |")
-    from stackdsl.bench.startup import bytecode_note
+    from stackdsl.bench.startup import bytecode_note, imported_sources
+    from stackdsl.cli import check
 
-    note = bytecode_note()  # under PYTHONDONTWRITEBYTECODE with modules never compiled: said after the table
+    note = bytecode_note(
+        imported_sources(check)
+    )  # under PYTHONDONTWRITEBYTECODE with modules never compiled: said after the table
     assert rows[3:] == ([] if note is None else [note])
     assert [r.split(" | ")[0] for r in rows[:3]] == [
         "| stackdsl --version",

@@ -31,7 +31,10 @@ from .progress import Lines, is_live
 
 
 def check_command(args: argparse.Namespace) -> int:
-    """``stackdsl check``: run every scenario under ``args.paths``; the exit status."""
+    """``stackdsl check``: run every scenario under ``args.paths``; the exit status. The files
+    are read and compiled first (bad input raises there), the report's folders made
+    (:func:`_report_folders`), the runs shown as they finish (:func:`_run_all`), then listed in
+    file order in the reports (:func:`_write_reports`) and the summary."""
     start = time.perf_counter()
     files = discover(args.paths)
     report = _check_outputs(args, files)
@@ -50,26 +53,83 @@ def check_command(args: argparse.Namespace) -> int:
     )  # bad input raises here
     prepared, broken = select_comparison(prepared, broken + skipped, args.pattern)
     total = len(prepared) + len(broken)
-    folders = None
-    if report is not None:
-        try:
-            report.mkdir(parents=True, exist_ok=True)
-            probe = report / ".stackdsl-write-test"
-            probe.touch()
-            probe.unlink()
-        except OSError as exc:
-            raise ScenarioError(f"cannot write the report there: {exc.strerror or exc}", file=args.report) from None
-        taken: set[str] = set()
-        base = os.path.commonpath([path.resolve().parent for path, *_ in prepared] or [Path.cwd()])  # names relative to it
-        folders = [str(report / folder_name(os.path.relpath(path.resolve(), base), taken=taken)) for path, *_ in prepared]
-        for folder in folders:  # a FIFO where a run's picture goes would block its worker
-            problem = odd_files(Path(folder), FILES.values())
-            if problem:
-                raise ScenarioError(problem, file=folder, field="--report")
+    folders = _report_folders(args, report, prepared) if report is not None else None
+    stream = sys.stderr if args.json else sys.stdout  # with --json only the progress line, on a terminal
+    results, commands = _run_all(args, prepared, broken, folders, stream)
+    wall = time.perf_counter() - start
+    # rows came as runs finished; the reports list them in file order, so that they diff from run to run
+    order = {str(path): i for i, path in enumerate(files)}
+    pairs = sorted(zip(results, commands, strict=True), key=lambda pair: order.get(pair[0].file, len(order)))
+    results, commands = [r for r, _ in pairs], [c for _, c in pairs]
+    _write_reports(args, report, folders, prepared, results, commands, total, wall, stream)
+    fragile = _perturbed(args, prepared, results, stream) if args.perturb else None
+    return _finish(args, results, commands, fragile, total, wall)
+
+
+def _finish(
+    args: argparse.Namespace,
+    results: list[CheckResult],
+    commands: list[str],
+    fragile: list[Fragility] | None,
+    total: int,
+    wall: float,
+) -> int:
+    """The summary (or with ``--json`` the document) of a check, and its exit status: internal
+    errors first (3), then bad input found once a sample was drawn (2), then a failure or a
+    fragile scenario (1), else 0."""
+    if args.json:
+        document = json_document("check", results, commands, total, wall)
+        if fragile is not None:
+            document["perturbed"] = [f.as_json() for f in fragile]
+        print(json.dumps(document, indent=2))
+    else:
+        print(summary(results, total, wall))
+        if fragile is not None:
+            print("\n".join(fragility_lines(fragile, args.perturb)))
+    if _internal_errors(results, args.debug):
+        return INTERNAL
+    refused = [r for r in results if r.bad_input]
+    for r in refused:  # a sweep's sample the language refuses: bad input, found once it was drawn
+        print(r.bad_input, file=sys.stderr)
+    if refused:
+        return BAD_INPUT
+    return FAILED if any(not r.held for r in results) or any(f.fragile for f in fragile or ()) else OK
+
+
+def _report_folders(args: argparse.Namespace, report: Path, prepared: list[Prepared]) -> list[str]:
+    """``--report``: the report's folder made, and one folder in it for each prepared run, named
+    after its file relative to the files' common folder.
+
+    Raises:
+        ScenarioError: the report's folder takes no file, or a run's folder holds one that is
+            not a regular file (a FIFO where a run's picture goes would block its worker).
+    """
+    try:
+        report.mkdir(parents=True, exist_ok=True)
+        probe = report / ".stackdsl-write-test"
+        probe.touch()
+        probe.unlink()
+    except OSError as exc:
+        raise ScenarioError(f"cannot write the report there: {exc.strerror or exc}", file=args.report) from None
+    taken: set[str] = set()
+    base = os.path.commonpath([path.resolve().parent for path, *_ in prepared] or [Path.cwd()])  # names relative to it
+    folders = [str(report / folder_name(os.path.relpath(path.resolve(), base), taken=taken)) for path, *_ in prepared]
+    for folder in folders:
+        problem = odd_files(Path(folder), FILES.values())
+        if problem:
+            raise ScenarioError(problem, file=folder, field="--report")
+    return folders
+
+
+def _run_all(
+    args: argparse.Namespace, prepared: list[Prepared], broken: list[CheckResult], folders: list[str] | None, stream: TextIO
+) -> tuple[list[CheckResult], list[str]]:
+    """Every prepared run (the ``broken`` rows first), a row each and its failure's lines as it
+    finishes, under a progress line on ``stream``; until the first failure with ``-x``. The
+    results as they came, and the command that reruns each."""
     results: list[CheckResult] = []
     commands: list[str] = []
-    stream = sys.stderr if args.json else sys.stdout  # with --json only the progress line, on a terminal
-    with Lines(total, "check", file=stream, live=is_live(stream)) as lines:
+    with Lines(len(prepared) + len(broken), "check", file=stream, live=is_live(stream)) as lines:
         if not args.json:
             lines.line(HEADER)
         checks = run_checks(prepared, args.jobs, timeout=args.timeout, folders=folders)
@@ -96,41 +156,36 @@ def check_command(args: argparse.Namespace) -> int:
                     break
         finally:
             checks.close()  # cancels what has not started and stops the workers
-    wall = time.perf_counter() - start
-    # rows came as runs finished; the reports list them in file order, so that they diff from run to run
-    order = {str(path): i for i, path in enumerate(files)}
-    pairs = sorted(zip(results, commands, strict=True), key=lambda pair: order.get(pair[0].file, len(order)))
-    results, commands = [r for r, _ in pairs], [c for _, c in pairs]
+    return results, commands
+
+
+def _write_reports(
+    args: argparse.Namespace,
+    report: Path | None,
+    folders: list[str] | None,
+    prepared: list[Prepared],
+    results: list[CheckResult],
+    commands: list[str],
+    total: int,
+    wall: float,
+    stream: TextIO,
+) -> None:
+    """``--junit-xml`` (the runs that did not run, after ``-x``, as skipped) and ``--report`` (the
+    HTML page; the folders of an earlier report that this one has not, removed), each said on
+    ``stream``."""
     if args.junit_xml:
         ran = {r.file for r in results}
         junit_xml(results, commands, [str(p.path) for p in prepared if str(p.path) not in ran], wall, args.junit_xml)
-    if report is not None:
-        from ..batch.htmlreport import remove_stale_folders, write_report
+    if report is None:
+        return
+    from ..batch.htmlreport import remove_stale_folders, write_report
 
-        page = write_report(results, report, total=total, wall=wall, commands=commands, argv=sys.argv[1:] or ["check"])
-        stale = remove_stale_folders(report, {Path(f).name for f in folders or []})
-        if stale:
-            print(f"report: removed {stale} folders of an earlier report in {report}", file=stream)
-        drawn = [r for r in results if r.draw_error]
-        print(f"report: {page}" + (f" ({len(drawn)} runs not fully drawn: {drawn[0].draw_error})" if drawn else ""), file=stream)
-    fragile = _perturbed(args, prepared, results, stream) if args.perturb else None
-    if args.json:
-        document = json_document("check", results, commands, total, wall)
-        if fragile is not None:
-            document["perturbed"] = [f.as_json() for f in fragile]
-        print(json.dumps(document, indent=2))
-    else:
-        print(summary(results, total, wall))
-        if fragile is not None:
-            print("\n".join(fragility_lines(fragile, args.perturb)))
-    if _internal_errors(results, args.debug):
-        return INTERNAL
-    refused = [r for r in results if r.bad_input]
-    for r in refused:  # a sweep's sample the language refuses: bad input, found once it was drawn
-        print(r.bad_input, file=sys.stderr)
-    if refused:
-        return BAD_INPUT
-    return FAILED if any(not r.held for r in results) or any(f.fragile for f in fragile or ()) else OK
+    page = write_report(results, report, total=total, wall=wall, commands=commands, argv=sys.argv[1:] or ["check"])
+    stale = remove_stale_folders(report, {Path(f).name for f in folders or []})
+    if stale:
+        print(f"report: removed {stale} folders of an earlier report in {report}", file=stream)
+    drawn = [r for r in results if r.draw_error]
+    print(f"report: {page}" + (f" ({len(drawn)} runs not fully drawn: {drawn[0].draw_error})" if drawn else ""), file=stream)
 
 
 def _perturbed(args: argparse.Namespace, prepared: list[Prepared], results: list[CheckResult], stream: TextIO) -> list[Fragility]:

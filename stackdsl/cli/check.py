@@ -247,13 +247,7 @@ def _internal_errors(results: list[CheckResult], debug: bool) -> bool:
 
 def compare_command(args: argparse.Namespace) -> int:
     """``stackdsl compare``: every scenario in every mode, as one table; the exit status."""
-    modes = tuple(m.strip() for m in args.modes.split(",") if m.strip())
-    unknown = [m for m in modes if m not in MODE_DEFAULTS]
-    if unknown or not modes:
-        raise ScenarioError(f"unknown mode {', '.join(unknown) or '(none)'}; known: {', '.join(MODE_DEFAULTS)}", file="--modes")
-    backends = _backends(args.backend, several=True)
-    if len(backends) > 1:
-        modes = tuple(f"{b} {m}" for b in backends for m in modes)
+    modes, backends = _compared(args)
     start = time.perf_counter()
     plain = tuple(dict.fromkeys(m.split()[-1] for m in modes))
     refusals: list[CheckResult] = []
@@ -314,6 +308,31 @@ def compare_command(args: argparse.Namespace) -> int:
     for line in compare_lines(table, width):
         print(line)
     print(f"{len(table)} scenarios x {len(modes)} modes ({wall:.1f} s wall)")
+    _notes(table, done, refused, width)
+    return _status(done, args.debug)
+
+
+def _compared(args: argparse.Namespace) -> tuple[tuple[str, ...], tuple[str | None, ...]]:
+    """``--modes`` and ``--backend`` of compare: the table's columns (a mode each, ``"backend
+    mode"`` with several backends) and the backends.
+
+    Raises:
+        ScenarioError: an unknown mode, or none, at ``--modes``.
+    """
+    modes = tuple(m.strip() for m in args.modes.split(",") if m.strip())
+    unknown = [m for m in modes if m not in MODE_DEFAULTS]
+    if unknown or not modes:
+        raise ScenarioError(f"unknown mode {', '.join(unknown) or '(none)'}; known: {', '.join(MODE_DEFAULTS)}", file="--modes")
+    backends = _backends(args.backend, several=True)
+    if len(backends) > 1:
+        modes = tuple(f"{b} {m}" for b in backends for m in modes)
+    return modes, backends
+
+
+def _notes(table: dict[str, dict[str, CheckResult]], done: list[CheckResult], refused: list[CheckResult], width: int) -> None:
+    """What compare says under its table: a failure the run's end cut short (with check's hint),
+    why cells were skipped or expected to fail (once each), and on stderr why a compared engine
+    or mode refused a file."""
     for r in done:  # a failure the run's end cut short: the hint check gives under it
         for line in r.explanation if not r.passed else ():
             if line.startswith("still moving"):
@@ -331,7 +350,6 @@ def compare_command(args: argparse.Namespace) -> int:
     for r in refused:  # why, once each, after the table
         if r.refused:
             print(f"refused in {r.mode} on {r.backend}: {r.refused}", file=sys.stderr)
-    return _status(done, args.debug)
 
 
 #: The widest compare's table is, in columns, and the narrowest a terminal makes it.

@@ -296,8 +296,10 @@ def torque_split(com_above: np.ndarray, mass_above: float, at: np.ndarray, pivot
     summing to the load. Clipped to [0, mass_above].
 
     Args:
-        com_above, at, pivot: shape (3,), metres.
+        com_above: shape (3,), metres.
         mass_above: kilograms.
+        at: shape (3,), metres.
+        pivot: shape (3,), metres.
 
     Returns:
         kilograms.

@@ -1,5 +1,6 @@
-"""The README's claims that a command can check, each checked by running it as written: where
-goldens of a folder outside a project go, the sweep figures it quotes, and what check's -k takes."""
+"""The README's and its pages' claims that a command can check, each checked by running it as written: where
+goldens of a folder outside a project go (README.md), the sweep figures docs/sweeps.md quotes, and what check's -k
+takes (docs/cli.md)."""
 
 from __future__ import annotations
 
@@ -15,6 +16,8 @@ from stackdsl.cli.main import main
 
 ROOT = Path(__file__).resolve().parents[1]
 README = (ROOT / "README.md").read_text()
+SWEEPS = (ROOT / "docs" / "sweeps.md").read_text()
+CLI = (ROOT / "docs" / "cli.md").read_text()
 
 
 def quickstart(folder: Path) -> None:
@@ -23,11 +26,10 @@ def quickstart(folder: Path) -> None:
     (folder / "my_scenarios" / "tower.yaml").write_text(scenario)
 
 
-def golden_command() -> tuple[list[str], str]:
-    """The README's command that writes the quickstart's golden, and the file it says it writes."""
+def golden_command() -> list[str]:
+    """The README's command that writes the quickstart's golden."""
     (line,) = [x for x in README.splitlines() if "--snapshot-update" in x and "# writes " in x]
-    command, written = line.split("# writes ")
-    return command.split(), written.strip()
+    return line.split("# writes ")[0].split()
 
 
 @pytest.mark.slow  # 7-22 s: in .ci/nightly's slow part
@@ -37,11 +39,10 @@ def test_the_golden_goes_where_the_readme_says(tmp_path, monkeypatch, project):
     names that golden; the prose names the one of a folder with no pyproject.toml above."""
     monkeypatch.delenv("PYTEST_XDIST_WORKER", raising=False)  # the inner run is not an xdist worker
     quickstart(tmp_path)
-    command, written = golden_command()
+    command = golden_command()
     if project:
         (tmp_path / "pyproject.toml").write_text("[project]\nname = 'mine'\n")
-        (said,) = re.findall(r"here, in the clone[^`]*`pyproject.toml`[^`]*`([^`]+)`", README)
-        assert said == written  # the prose and the command's comment agree
+        (written,) = re.findall(r"here, in the clone[^`]*`pyproject.toml`[^`]*`([^`]+)`", README)
     else:
         (written,) = re.findall(r"with no `pyproject.toml` above, to `golden/` in the file's own folder \(`([^`]+)`\)", README)
     assert command[:3] == [".venv/bin/python", "-m", "pytest"]
@@ -67,7 +68,7 @@ def test_check_k_takes_pytests_expressions_and_more_than_one(tmp_path, capsys):
     text = "stackdsl: 1\nstructure: {{tower: {{levels: 2}}}}\nexpect: {{stands: true}}\n"
     for name in ("alpha", "beta", "gamma"):
         (tmp_path / f"{name}.yaml").write_text(text.format())
-    assert "`-k` pytest's `-k` expressions" in README and "give `-k` again for more: any of them" in README
+    assert "`-k` pytest's `-k` expressions" in CLI and "give `-k` again for more: any of them" in CLI
     assert main(["check", str(tmp_path), "-j", "1", "-k", "ALPHA or (ta and not gam)", "-k", "gam", "--json"]) == 0
     import json
 
@@ -90,9 +91,9 @@ def sweep_figures(text: str) -> tuple[str, str, str]:
 
 @pytest.mark.slow
 def test_the_quoted_sweep_figures_are_what_the_command_gives(tmp_path):
-    command = re.search(r"`(stackdsl sweep sweeps/random_single_file\.yaml --samples 2000 -j 2)`", README)
-    assert command, "the README quotes the 2000-sample sweep with its command"
-    quoted = sweep_figures(README[command.end() : command.end() + 600])
+    command = re.search(r"`(stackdsl sweep sweeps/random_single_file\.yaml --samples 2000 -j 2)`", SWEEPS)
+    assert command, "docs/sweeps.md quotes the 2000-sample sweep with its command"
+    quoted = sweep_figures(SWEEPS[command.end() : command.end() + 600])
     argv = [sys.executable, "-m", "stackdsl", *command[1].split()[1:], "--out", str(tmp_path / "out")]
     done = subprocess.run(
         argv, cwd=ROOT, capture_output=True, text=True, check=False, env={"STACKDSL_PROGRESS_SECONDS": "0", **_env()}

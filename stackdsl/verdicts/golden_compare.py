@@ -171,13 +171,10 @@ def _bricks(graph: Any) -> str:
 
 
 def _fallen(snapshot: Mapping[str, Any], threshold: float) -> set[str]:
-    """The bricks beyond the collapse threshold at the end (or at the collapse, with no final
-    graph): empty when the snapshot does not say."""
-    for key in reversed(GRAPHS):
-        graph = snapshot.get(key)
-        if isinstance(graph, dict):
-            return {x for x, b in graph.items() if isinstance(b, dict) and _moved(b, threshold)}
-    return set()
+    """The bricks beyond the collapse threshold at the collapse or at the end (a shaken brick
+    that passed it may come back under it by the end): empty when the snapshot does not say."""
+    graphs = [g for key in GRAPHS if isinstance(g := snapshot.get(key), dict)]
+    return {x for graph in graphs for x, b in graph.items() if isinstance(b, dict) and _moved(b, threshold)}
 
 
 def _threshold(*snapshots: Mapping[str, Any]) -> float:

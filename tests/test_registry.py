@@ -20,7 +20,7 @@ def test_an_unknown_backend_is_refused_with_the_known_names():
         backend("bullet")
     assert isinstance(caught.value, KeyError)
     assert str(caught.value) == f"unknown backend 'bullet'; known: {', '.join(names())}"
-    assert names()[:2] == ["pybullet", "mujoco"]
+    assert names()[:3] == ["pybullet", "mujoco", "statics"]
 
 
 @pytest.mark.parametrize("name", names())
@@ -32,13 +32,14 @@ def test_each_backend_is_found_by_its_name_with_its_own_settings(name):
 
 
 def test_the_backends_capabilities():
-    pybullet, mujoco = (backend(n) for n in ("pybullet", "mujoco"))
+    pybullet, mujoco, statics = (backend(n) for n in ("pybullet", "mujoco", "statics"))
     assert names()[0] == "pybullet"  # the default engine
     assert (pybullet.extra, pybullet.split_pulls, pybullet.dynamics) == (None, True, True)
     assert (mujoco.extra, mujoco.split_pulls, mujoco.dynamics) == ("mujoco", False, True)
+    assert (statics.extra, statics.split_pulls, statics.dynamics, statics.max_drop) == (None, False, False, 0.001)
     # the scenario language's fields of one engine are that backend's own settings (left out on another)
     assert all(set(fields) <= set(backend(n).own_fields) for n, fields in BACKEND_FIELDS.items())
-    assert "friction_anchors" not in mujoco.own_fields
+    assert statics.own_fields == () and "friction_anchors" not in mujoco.own_fields
 
 
 def test_the_registry_names_the_engines_without_loading_one():
@@ -65,13 +66,13 @@ def test_the_comparison_finder_finds_comparisons_and_no_mere_mentions():
     found = comparisons(
         'if backend == "mujoco":\n'
         "x = 'pybullet' != b\n"
-        'if "mujoco" in names:\n'
+        'if "statics" in names:\n'
         'if b in ("mujoco", "x"):\n'
         'missing("mujoco")\n'
         'NAME = "pybullet"\n',
         names(),
     )
-    assert found == ['if backend == "mujoco":', "x = 'pybullet' != b", 'if "mujoco" in names:', 'if b in ("mujoco", "x"):']
+    assert found == ['if backend == "mujoco":', "x = 'pybullet' != b", 'if "statics" in names:', 'if b in ("mujoco", "x"):']
 
 
 def test_no_layer_above_the_engines_compares_engine_names():

@@ -8,8 +8,8 @@ and one line of :data:`BACKENDS`. A backend's subpackage is imported when it is 
 for, and its engine's own package (pybullet, mujoco) only when a world is opened, so an
 engine that is an optional extra is imported only when used.
 
->>> names()[:2]
-['pybullet', 'mujoco']
+>>> names()[:3]
+['pybullet', 'mujoco', 'statics']
 >>> backend("mujoco").extra, backend("pybullet").split_pulls
 ('mujoco', True)
 
@@ -31,6 +31,7 @@ if TYPE_CHECKING:
 BACKENDS: dict[str, str] = {
     "pybullet": ".pybullet",
     "mujoco": ".mujoco",
+    "statics": ".statics",
 }
 
 

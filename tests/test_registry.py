@@ -84,3 +84,14 @@ def test_no_layer_above_the_engines_compares_engine_names():
         for line in comparisons(path.read_text(), list(BACKENDS))
     ]
     assert found == []
+
+
+def test_every_engine_the_scenario_language_names_is_a_registered_backend():
+    from typing import get_args
+
+    from stackdsl.lang.schema import Engine
+    from stackdsl.lang.schema_marks import RUN_WORDS
+
+    written = get_args(Engine.model_fields["backend"].annotation)
+    assert set(written) <= set(names()) and set(RUN_WORDS["backend"]) <= set(names())
+    assert Engine.model_fields["backend"].default == names()[0]

@@ -1,39 +1,38 @@
-"""stability: the stack stability extension for pybullet (report chapter 3).
+"""stability: the stack stability extension for a physics engine (report chapter 3).
 
 Reasons about a stack of bricks as a graph (who rests on whom, centre of mass above,
 mass above), freezes the bricks it proves stable and wakes them when it proves them
-unstable. It attaches to any pybullet client through :class:`PyBulletEngine` and knows
-nothing of YAML or scenarios.
+unstable. It drives any engine through the small :class:`Engine` protocol (poses,
+velocities, contact points, freezing), knows no engine by name and nothing of YAML or
+scenarios; :class:`FakeEngine` is one held in memory.
 
 Register the ground and every brick, call ``update`` once per step, read the brick graph:
 
->>> import numpy as np, pybullet
->>> from pybullet_utils.bullet_client import BulletClient
->>> from stability import Box, Plane, PyBulletEngine, StabilityExtension
->>> client = BulletClient(connection_mode=pybullet.DIRECT)
->>> client.setGravity(0, 0, -9.81)
->>> plane = client.createMultiBody(0, client.createCollisionShape(pybullet.GEOM_PLANE))
->>> half = np.array([0.06, 0.012, 0.004])  # a KAPLA brick, metres
->>> ext = StabilityExtension(PyBulletEngine(client))
->>> ext.add_ground(plane, Plane(0.0))
->>> shape = client.createCollisionShape(pybullet.GEOM_BOX, halfExtents=half.tolist())
->>> for i, z in enumerate([0.0045, 0.0125]):  # two bricks, 0.5 mm above their rest
-...     ext.add_brick(client.createMultiBody(0.0106, shape, basePosition=[0, 0, z]), Box(half, 0.0106), f"b{i + 1}")
+>>> import numpy as np
+>>> from stability import Box, FakeEngine, Plane, Pose, StabilityExtension
+>>> engine = FakeEngine()  # two KAPLA bricks at rest, one on the other (metres)
+>>> half = np.array([0.06, 0.012, 0.004])
+>>> engine.poses.update({1: Pose(np.array([0, 0, 0.004])), 2: Pose(np.array([0, 0, 0.012]))})
+>>> face = [[x, y, 0.0] for x in (-0.06, 0.06) for y in (-0.012, 0.012)]
+>>> engine.touch(1, 0, face, normal=[0, 0, 1])
+>>> engine.touch(2, 1, np.add(face, [0, 0, 0.008]), normal=[0, 0, 1])
+>>> ext = StabilityExtension(engine)
+>>> ext.add_ground(0, Plane(0.0))
+>>> for body in (1, 2):
+...     ext.add_brick(body, Box(half, 0.0106), f"b{body}")
 >>> events = []
 >>> for step in range(240):  # one second at 240 Hz
-...     _ = client.stepSimulation()
 ...     events += ext.update(step / 240)
 >>> [(e.kind, e.label, e.reason) for e in events]
 [('freeze', 'b1', 'at rest on ground'), ('freeze', 'b2', 'at rest on b1')]
 >>> [(e.upper, e.support, round(e.area * 1e6)) for e in ext.graph().edges]  # contact areas in mm^2
 [('b1', 'ground', 2880), ('b2', 'b1', 2880)]
->>> client.disconnect()
 
 Source: "Simulating Object Stacking Using Stack Stability", chapter 3.
 """
 
 from ._certificate import Certificate
-from ._engine import ContactPoint, Engine, FakeEngine, PyBulletEngine
+from ._engine import ContactPoint, Engine, FakeEngine
 from ._equilibrium import ContactPolygon, Equilibrium, RigidBlock, is_level, solve_equilibrium
 from ._extension import StabilityConfig, StabilityEvent, StabilityExtension
 from ._friction import friction_share
@@ -64,7 +63,6 @@ __all__ = [
     "LoadNode",
     "Plane",
     "Pose",
-    "PyBulletEngine",
     "RigidBlock",
     "StabilityConfig",
     "StabilityEvent",

@@ -76,7 +76,6 @@ def test_stability_exports():
             "LoadNode",
             "Plane",
             "Pose",
-            "PyBulletEngine",
             "RigidBlock",
             "StabilityConfig",
             "StabilityEvent",

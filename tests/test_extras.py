@@ -259,10 +259,11 @@ def test_a_commands_help_loads_no_engine_and_no_stability_package(command):
 def test_the_options_name_the_engines_modes_and_rate_the_code_has():
     from stackdsl.cli import draw
     from stackdsl.cli.main import BACKENDS, MODES
-    from stackdsl.engines.settings import SETTINGS
+    from stackdsl.engines.registry import BACKENDS as REGISTERED
+    from stackdsl.engines.registry import backend
     from stackdsl.runtime.recorder import RATE
 
-    assert BACKENDS == list(SETTINGS) and all(MODES == list(s.DEFAULTS) for s in SETTINGS.values())
+    assert BACKENDS == list(REGISTERED) and all(MODES == list(backend(b).settings.DEFAULTS) for b in BACKENDS)
     assert draw.RATE == RATE
 
 

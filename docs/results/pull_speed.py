@@ -31,7 +31,7 @@ import warnings
 from multiprocessing import Pool
 
 from stackdsl import compile_scenario, parse_scenario, run_program
-from stackdsl.engines.settings import SETTINGS
+from stackdsl.engines.registry import settings_class
 
 CELLS = [(b, m) for b in ("pybullet", "mujoco") for m in ("raw", "tuned", "extension")]
 SPEEDS = (0.1, 0.5, 1.0, 1.5, 2.0, 3.0, 5.0, 10.0)
@@ -68,7 +68,7 @@ def ends(text: str) -> dict[str, tuple[float, float, float]]:
 
 def cell(job: tuple[str, float, str, str]) -> str:
     name, speed, backend, mode = job
-    step = float(SETTINGS[backend].DEFAULTS[mode]["timestep"])  # type: ignore[arg-type]
+    step = float(settings_class(backend).DEFAULTS[mode]["timestep"])  # type: ignore[arg-type]
     own, fine = ends(scene(name, speed, backend, mode, step)), ends(scene(name, speed, backend, mode, step / 4))
     drift, finer = own.pop("_drift")[0], fine.pop("_drift")[0]
     apart = max(sum((a - b) ** 2 for a, b in zip(own[k], fine[k])) ** 0.5 for k in own)

@@ -23,6 +23,7 @@ from typing import Any
 from ..compile.compiler import BACKEND_DEFAULTS, compile_scenario
 from ..compile.perturb import Perturbation, perturb, perturbations
 from ..compile.program import Program
+from ..engines.registry import backend as registered
 from ..lang.errors import ScenarioError
 from ..lang.loader import load_scenario
 from ..verdicts.check_result import CheckResult
@@ -172,7 +173,7 @@ def perturbed_runs(
     notes: list[str] = []
     for i, p in enumerate(prepared):
         backend = p.program.engine.backend
-        others = [b for b in BACKEND_DEFAULTS if b != backend]
+        others = [b for b in BACKEND_DEFAULTS if b != backend and registered(b).dynamics]  # another engine that moves
         chosen = perturbations(count, others[0] if others else None)
         slots.append([None] * len(chosen))
         notes.append("a sweep: its samples are draws already" if p.template is not None else "")

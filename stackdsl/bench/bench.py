@@ -238,10 +238,10 @@ def measure(scene: Scene, setting: str, options: RunOptions) -> Cell:
 
 def _measure_lean(scene: Scene, setting: str) -> Cell:
     """:func:`measure` of a lean setting: the peer's own loop, after its own warm-up run."""
-    if SETTINGS[setting].backend == "mujoco":
-        from .lean_mujoco import run_lean
-    else:
-        from .lean_pybullet import run_lean
+    from . import lean_mujoco, lean_pybullet
+
+    # each peer's own loop on its own engine (a lean setting names one of these two)
+    run_lean = {"mujoco": lean_mujoco.run_lean, "pybullet": lean_pybullet.run_lean}[SETTINGS[setting].backend]
 
     run_lean(program_for(WARM_UP, setting))
     program = program_for(scene, setting)

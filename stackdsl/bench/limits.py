@@ -27,7 +27,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..compile.compiler import compile_scenario
-from ..engines.settings import SETTINGS
+from ..engines.registry import settings_class
 from ..lang.loader import parse_scenario
 from ..runtime.loop import StepLoop, Subscriber
 from ..runtime.outcome import Outcome
@@ -247,7 +247,7 @@ def format_report(backends: Sequence[str]) -> str:
     """Every engine's limits in force and their measurements, markdown."""
     parts = []
     for backend in backends:
-        kind = SETTINGS[backend]
+        kind = settings_class(backend)
         lim = kind.LIMITS
         parts.append(
             f"## {kind.NAME}\n\nIn force: sides from {lim.min_side * 1000:g} mm; projectiles up to {lim.max_speed:g} m/s "

@@ -8,12 +8,14 @@ from __future__ import annotations
 import statistics
 from pathlib import Path
 
+from ..engines.registry import names
 from .bench import SETTINGS, Cell, fit_exponent
 
 
 def _marker(setting: str) -> str:
-    """Squares for MuJoCo's settings, circles for pybullet's."""
-    return "s" if SETTINGS[setting].backend == "mujoco" else "o"
+    """A marker of its own for each engine (:mod:`stackdsl.engines.registry`'s order): circles for
+    pybullet's settings, squares for MuJoCo's."""
+    return "osD^v<>"[names().index(SETTINGS[setting].backend) % 7]
 
 
 def _pareto(points: list[tuple[float, float, str]]) -> list[tuple[float, float, str]]:

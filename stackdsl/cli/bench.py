@@ -206,8 +206,22 @@ def _need_engines(settings: list[str]) -> None:
     Raises:
         ScenarioError: a MuJoCo setting without MuJoCo, at ``--settings``.
     """
-    if any(SETTINGS[name].backend == "mujoco" for name in settings):
-        _need("mujoco", "--settings")
+    for name in settings:
+        _need_backend(SETTINGS[name].backend, "--settings")
+
+
+def _need_backend(name: str, where: str) -> None:
+    """Nothing when engine ``name`` is known and installed, or is not known (the bench's own
+    check says so).
+
+    Raises:
+        ScenarioError: an engine whose optional extra is not installed, at ``where``.
+    """
+    from ..engines.registry import backend, names
+
+    extra = backend(name).extra if name in names() else None
+    if extra is not None:
+        _need(extra, where)
 
 
 def _names(text: str, option: str, known: list[str], what: str) -> list[str]:
@@ -440,14 +454,17 @@ def _bench_sweep(args: argparse.Namespace) -> int:
 def _bench_limits(args: argparse.Namespace) -> int:
     from ..bench.limits import format_report
     from ..bench.versions import version_line
-    from ..engines.settings import SETTINGS
+    from ..engines.registry import backend, names
     from ..util.extras import installed
 
-    if args.backend is not None and args.backend not in SETTINGS:
-        raise ScenarioError(f"unknown backend {args.backend!r}; known: {', '.join(SETTINGS)}", file="--backend")
-    if args.backend == "mujoco":
-        _need("mujoco", "stackdsl bench limits --backend mujoco")
-    backends = [args.backend] if args.backend else [b for b in SETTINGS if b == "pybullet" or installed(b)]
+    moving = [b for b in names() if backend(b).dynamics]  # a static backend has no limits of motion
+    if args.backend is not None and args.backend not in moving:
+        raise ScenarioError(f"unknown backend {args.backend!r}; known: {', '.join(moving)}", file="--backend")
+    if args.backend is not None:
+        _need_backend(args.backend, f"stackdsl bench limits --backend {args.backend}")
+    backends = (
+        [args.backend] if args.backend else [b for b in moving if backend(b).extra is None or installed(str(backend(b).extra))]
+    )
     start = time.perf_counter()
     print(version_line(), flush=True)
     print(format_report(backends), end="\n\n")
@@ -489,8 +506,8 @@ def _bench_dominoes(args: argparse.Namespace) -> int:
     if unknown or not settings:
         known = ", ".join(n for n, s in KNOWN.items() if not s.lean)
         raise ScenarioError(f"unknown setting {unknown[0] if unknown else ''!r}; known: {known}", file="--settings")
-    if any(KNOWN[name].backend == "mujoco" for name in settings):
-        _need("mujoco", "--settings")
+    for name in settings:
+        _need_backend(KNOWN[name].backend, "--settings")
     print(version_line(), flush=True)
     costs = []
     for setting in settings:
@@ -535,8 +552,8 @@ def _bench_verdicts(args: argparse.Namespace) -> int:
         runs = plan(engines, gaps, baselines=not args.no_baselines)
     except ValueError as exc:
         raise ScenarioError(str(exc), file="--engines") from None
-    if "mujoco" in engines:
-        _need("mujoco", "--engines")
+    for name in engines:
+        _need_backend(name, "--engines")
     out = _out_folder(args.out, "stackdsl-verdicts-")
     print(version_line(), flush=True)
     if args.count:

@@ -24,6 +24,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, NoReturn
 
+from ..engines.registry import backend, names
 from ..lang.errors import ScenarioError, ScenarioErrors, ScenarioWarning
 from ..util.extras import installed, missing
 from .args import (
@@ -47,10 +48,24 @@ from .args import (
 from .sample import add_sample_options, scenario_of
 
 MODELS = ["report", "equilibrium"]
-#: The engines and their modes, as the options offer them: written here, so that ``--help`` loads
-#: no engine settings (their protocol loads the stability package); a test keeps them the settings'.
-BACKENDS = ["pybullet", "mujoco"]
+#: The engines (:mod:`stackdsl.engines.registry`, which loads none of them for their names) and
+#: their modes, as the options offer them: the modes written here, so that ``--help`` loads no
+#: engine settings (their protocol loads the stability package); a test keeps them the settings'.
+BACKENDS = names()
 MODES = ["raw", "tuned", "extension"]
+
+
+def _need_backends(option: object) -> None:
+    """Nothing when each engine ``--backend`` names (comma-separated) is known and installed.
+
+    Raises:
+        ScenarioError: at ``--backend``, an engine whose optional extra is not installed (an
+            unknown name is the command's own to refuse, with its choices).
+    """
+    for name in (b.strip() for b in str(option or "").split(",") if b.strip() in BACKENDS):
+        extra = backend(name).extra
+        if extra is not None and not installed(extra):
+            raise ScenarioError(missing(extra), file="--backend")
 
 
 @contextlib.contextmanager
@@ -153,8 +168,7 @@ def _main(argv: list[str], command: bool) -> int:
     try:
         args = _parser(argv).parse_args(argv)
         args.debug = debug
-        if "mujoco" in [b.strip() for b in str(getattr(args, "backend", None)).split(",")] and not installed("mujoco"):
-            raise ScenarioError(missing("mujoco"), file="--backend")
+        _need_backends(getattr(args, "backend", None))
         if command and command_of(argv) in _IN_PROCESS:  # the main process does the work: give it the workers' limit
             from ..batch.guard import limit_memory
 

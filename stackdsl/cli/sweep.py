@@ -14,6 +14,7 @@ from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from ..engines.registry import backend, names
 from ..lang.errors import ScenarioError
 from ..util.extras import installed, missing
 from .args import COMMANDS, INTERNAL, add_seed, output_folder
@@ -69,7 +70,7 @@ def add_sweep(
     )
     p.add_argument("--mode", choices=modes, help="override the scenario's engine mode")
     p.add_argument("--model", choices=models, help="override the scenario's stability model")
-    p.add_argument("--backend", choices=["pybullet", "mujoco"], help="override the scenario's engine")
+    p.add_argument("--backend", choices=names(), help="override the scenario's engine")
     p.set_defaults(func=_sweep)
 
 
@@ -97,11 +98,12 @@ def _sweep(args: argparse.Namespace) -> int:
         raise ScenarioError(
             "this scenario has no sweep and no random field: each run would be the same (use stackdsl run)", file=args.file
         )
-    backend = args.backend or scenario.engine.backend
-    if backend == "mujoco" and not installed("mujoco"):  # said once, before any sample is drawn
+    engine_name = args.backend or scenario.engine.backend
+    extra = backend(engine_name).extra
+    if extra is not None and not installed(extra):  # said once, before any sample is drawn
         if args.backend:
-            raise ScenarioError(missing("mujoco"), file="--backend")
-        raise scenario.source.error(("engine", "backend"), missing("mujoco"))
+            raise ScenarioError(missing(extra), file="--backend")
+        raise scenario.source.error(("engine", "backend"), missing(extra))
     if args.samples is not None:
         template = template.with_samples(args.samples)
     out, earlier = None, []
@@ -116,7 +118,7 @@ def _sweep(args: argparse.Namespace) -> int:
     # as check does: what the compiler refuses in any cell is bad input, said before anything runs
     tops = compile_cells(template, options.mode, options.model, options.backend, range(template.cells), options.timeout)
     compile_bounds(template, options.mode, options.model, options.backend, range(template.cells), options.timeout, tops)
-    engine = f"{backend} {args.mode or scenario.engine.mode}"  # which engine ran, said once
+    engine = f"{engine_name} {args.mode or scenario.engine.mode}"  # which engine ran, said once
     total = template.cells * samples_run(template)
     start = time.perf_counter()
 

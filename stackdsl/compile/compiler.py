@@ -43,18 +43,19 @@ from shapely.geometry import MultiPoint
 
 from stability import Box, Pose, StabilityConfig
 
-from ..engines.mujoco.settings import MuJoCoSettings
 from ..engines.protocol import BrickSpec, EngineSettings
-from ..engines.pybullet.settings import PyBulletSettings
-from ..engines.settings import SETTINGS, defaults, settings
+from ..engines.registry import UnknownBackend, names
+from ..engines.registry import backend as backend_named
+from ..engines.settings import defaults, settings
 from ..lang.bounds import MAX_SIMULATED_TIME
 from ..lang.errors import FieldPath, ScenarioError, format_path
-from ..lang.schema import BACKEND_FIELDS, BUILTIN_BRICKS, Scenario, reference_errors
+from ..lang.schema import BUILTIN_BRICKS, Scenario, reference_errors
 from ..lang.schema_impacts import SIDES, AfterLevel, Impact
 from ..util.extras import installed, missing
 from .actions import check_measured, compile_actions, heading
 from .aim import outer_face, stepped_fall
 from .clearance import check_launch, check_pusher
+from .dynamics import check_motion
 from .layouts import LaidBrick, with_placement_error
 from .limits import check_limits
 from .overlap import Body
@@ -65,19 +66,20 @@ from .require import accept
 from .rules import choose_rules
 
 #: Engine defaults per backend and mode, as each engine's settings class owns them
-#: (:mod:`stackdsl.engines.pybullet.settings`, :mod:`stackdsl.engines.mujoco.settings`).
-BACKEND_DEFAULTS: dict[str, dict[str, dict[str, object]]] = {name: cls.DEFAULTS for name, cls in SETTINGS.items()}
+#: (:mod:`stackdsl.engines.registry`: each backend's ``settings.DEFAULTS``).
+BACKEND_DEFAULTS: dict[str, dict[str, dict[str, object]]] = {name: backend_named(name).settings.DEFAULTS for name in names()}
 
 
 class ModeDefaults(dict[str, dict[str, object]]):
-    """The engine modes and what each sets, on pybullet (the default backend): mode
+    """The engine modes and what each sets, on the default backend (pybullet, the first of
+    :data:`stackdsl.engines.registry.BACKENDS`): mode
     (``"raw"``, ``"tuned"``, ``"extension"``) -> engine setting (``timestep`` in s,
     ``solver_iterations``, ``friction_anchors``, ``maximal_coordinates``, ``ccd``) -> its value.
 
     A scenario picks its mode in ``engine: {mode: ...}`` (``stackdsl check --mode`` overrides
-    it) and any setting it writes there replaces the mode's. The values are
-    :attr:`stackdsl.engines.pybullet.settings.PyBulletSettings.DEFAULTS`; MuJoCo's are
-    ``BACKEND_DEFAULTS["mujoco"]`` in :mod:`stackdsl.compile.compiler`. A dict, of a class of
+    it) and any setting it writes there replaces the mode's. The values are the default
+    backend's settings class's ``DEFAULTS``; every backend's are :data:`BACKEND_DEFAULTS` in
+    :mod:`stackdsl.compile.compiler`. A dict, of a class of
     its own so that ``help(stackdsl.MODE_DEFAULTS)`` says this. Source: stackdsl's own.
 
     >>> import stackdsl
@@ -86,8 +88,8 @@ class ModeDefaults(dict[str, dict[str, object]]):
     """
 
 
-#: The engine modes and the pybullet settings each one sets (:class:`ModeDefaults`).
-MODE_DEFAULTS = ModeDefaults(BACKEND_DEFAULTS["pybullet"])
+#: The engine modes and the default backend's settings each one sets (:class:`ModeDefaults`).
+MODE_DEFAULTS = ModeDefaults(BACKEND_DEFAULTS[names()[0]])
 GRAVITY = 9.81
 
 MAX_WORK = 1e8
@@ -183,7 +185,7 @@ class Compilation:
     scenario: Scenario
     asked: Asked = field(default_factory=Asked)
     draws: int = 1
-    settings: PyBulletSettings | MuJoCoSettings | None = None
+    settings: EngineSettings | None = None
     nominal: list[LaidBrick] = field(default_factory=list)
     laid: list[LaidBrick] = field(default_factory=list)
     bricks: list[LaidBrick] = field(default_factory=list)
@@ -199,7 +201,7 @@ class Compilation:
     program: Program | None = None
 
     @property
-    def engine(self) -> PyBulletSettings | MuJoCoSettings:
+    def engine(self) -> EngineSettings:
         """The engine's settings.
 
         Raises:
@@ -275,15 +277,18 @@ def choose_engine(state: Compilation) -> Compilation:
 
     Raises:
         ValueError: an unknown backend or mode asked.
-        ScenarioError: the engine is MuJoCo and it is not installed (at ``engine.backend`` when
-            the file asks for it).
+        ScenarioError: the backend's extra (MuJoCo's) is not installed (at ``engine.backend`` when
+            the file asks for it), or the backend cannot move what the scene asks it to
+            (:func:`stackdsl.compile.dynamics.check_motion`).
     """
     scenario, mode, backend = state.scenario, state.asked.mode, state.asked.backend
     engine = _engine(scenario, mode, backend)
-    if engine.backend == "mujoco" and not installed("mujoco"):
+    extra = backend_named(engine.backend).extra
+    if extra is not None and not installed(extra):
         if backend is None or backend == scenario.engine.backend:  # the file asks for it: say where
-            raise scenario.source.error(("engine", "backend"), missing("mujoco"))
-        raise ScenarioError(missing("mujoco", f"backend={backend!r}"), file=scenario.source.file)
+            raise scenario.source.error(("engine", "backend"), missing(extra))
+        raise ScenarioError(missing(extra, f"backend={backend!r}"), file=scenario.source.file)
+    check_motion(scenario, backend_named(engine.backend))
     state.settings = engine
     return state
 
@@ -301,9 +306,9 @@ def lay_out(state: Compilation) -> Compilation:
     state.laid = with_placement_error(scenario, state.nominal)
     state.bricks = [b for b in state.laid if not b.fixed]
     state.fixed = [b for b in state.laid if b.fixed]
-    names = {b.type for b in state.laid} | {i.projectile for i in scenario.impacts}
-    names |= {a.push.pusher for a in scenario.actions if a.push is not None and a.push.pusher in scenario_types(scenario)}
-    state.specs = {name: _spec(scenario, name) for name in sorted(names)}
+    used = {b.type for b in state.laid} | {i.projectile for i in scenario.impacts}
+    used |= {a.push.pusher for a in scenario.actions if a.push is not None and a.push.pusher in scenario_types(scenario)}
+    state.specs = {name: _spec(scenario, name) for name in sorted(used)}
     return state
 
 
@@ -465,7 +470,7 @@ def assemble(state: Compilation) -> Compilation:
     parts' summaries."""
     scenario, engine = state.scenario, state.engine
     ground = scenario.material(scenario.ground.material)
-    rules = choose_rules(state.bricks, state.launches, scenario.expect, state.motions, engine.backend)
+    rules = choose_rules(state.bricks, state.launches, scenario.expect, state.motions, backend_named(engine.backend).split_pulls)
     on = {r.name: r.on for r in rules}
     model = state.asked.model
     settings = {**scenario.stability.model_dump(exclude_none=True), **({"model": model} if model else {})}
@@ -722,16 +727,20 @@ def _measurable(scenario: Scenario, end: float, bricks: int) -> None:
         )
 
 
-def _engine(scenario: Scenario, mode: str | None, backend: str | None = None) -> PyBulletSettings | MuJoCoSettings:
+def _engine(scenario: Scenario, mode: str | None, backend: str | None = None) -> EngineSettings:
     chosen = mode or scenario.engine.mode
     engine = backend or scenario.engine.backend
-    if engine not in BACKEND_DEFAULTS:
-        raise ValueError(f"unknown backend {engine!r}; known: {', '.join(BACKEND_DEFAULTS)}")
-    if chosen not in BACKEND_DEFAULTS[engine]:
-        raise ValueError(f"unknown mode {chosen!r}; known: {', '.join(BACKEND_DEFAULTS[engine])}")
+    try:
+        own = backend_named(engine)
+    except UnknownBackend as exc:
+        if backend is None:  # the file's own: say where
+            raise scenario.source.error(("engine", "backend"), str(exc)) from None
+        raise ValueError(str(exc)) from None
+    if chosen not in own.settings.DEFAULTS:
+        raise ValueError(f"unknown mode {chosen!r}; known: {', '.join(own.settings.DEFAULTS)}")
     given = scenario.engine.model_dump(exclude_none=True, exclude={"mode", "backend"})
-    if backend is not None and backend != scenario.engine.backend:  # the other backend's own settings do not apply
-        given = {k: v for k, v in given.items() if k not in BACKEND_FIELDS[scenario.engine.backend]}
+    if backend is not None and backend != scenario.engine.backend:  # the file's backend's own settings do not apply
+        given = {k: v for k, v in given.items() if k not in backend_named(scenario.engine.backend).own_fields}
     return settings(engine, mode=chosen, gravity=GRAVITY, **{**defaults(engine, chosen), **given})
 
 

@@ -22,7 +22,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..engines.protocol import BrickSpec, EngineSettings
-from ..engines.settings import SETTINGS
+from ..engines.registry import backend as backend_named
+from ..engines.registry import names
 from ..lang.errors import FieldPath
 from ..lang.schema import Scenario
 from ..lang.schema_generators import HALF
@@ -223,7 +224,7 @@ def _bouncier(engine: EngineSettings, restitution: float) -> str:
     for mode in own.DEFAULTS:
         if mode != engine.mode and restitution <= own.LIMITS.restitution(mode) * (1 + 1e-9):
             return f"; {mode} mode takes it (engine: {{mode: {mode}}})"
-    for backend, kind in SETTINGS.items():
+    for backend, kind in _others():
         for mode in kind.DEFAULTS:
             if backend != engine.backend and restitution <= kind.LIMITS.restitution(mode) * (1 + 1e-9):
                 return f"; {kind.NAME} takes it in {mode} mode (engine: {{backend: {backend}, mode: {mode}}})"
@@ -244,7 +245,7 @@ def _mass_field(scenario: Scenario, heavy: str, light: str) -> FieldPath:
 def _elsewhere(engine: EngineSettings, bound: str, value: float, takes: Callable[[float], bool] | None = None) -> str:
     """``; MuJoCo takes it (engine: {backend: mujoco})`` when another engine's bound admits ``value``
     (a mass ratio: when ``takes`` says that engine's largest ratio admits the scene)."""
-    for backend, kind in SETTINGS.items():
+    for backend, kind in _others():
         limits = kind.LIMITS
         if bound == "min_side":
             ok = value >= limits.min_side
@@ -368,3 +369,9 @@ class _Reach:
         touching = np.all(self.low[i, :2] <= high[:, :2], axis=1) & np.all(low[:, :2] <= self.high[i, :2], axis=1)
         rests: np.ndarray = touching & (np.abs(self.low[i, 2] - high[:, 2]) <= REST_TOLERANCE)
         return rests
+
+
+def _others() -> list[tuple[str, type[EngineSettings]]]:
+    """Each engine that simulates motion, by name, and its settings class: where a refused scene
+    might go instead."""
+    return [(name, backend_named(name).settings) for name in names() if backend_named(name).dynamics]

@@ -42,6 +42,7 @@ from pydantic import BaseModel, ConfigDict, Field, PlainSerializer
 from stability import StabilityConfig
 
 from ..engines.protocol import BrickSpec, Vec3
+from ..engines.registry import backend
 from ..engines.settings import AnySettings
 
 
@@ -460,7 +461,7 @@ def _guided_substeps(program: Program, motion: Remove | Push | Shake) -> int:
     if isinstance(motion, Shake):
         return 1
     e = program.engine
-    pull = isinstance(motion, Remove) and e.mode == "extension" and e.backend == "pybullet"
+    pull = isinstance(motion, Remove) and e.mode == "extension" and backend(e.backend).split_pulls
     split = math.ceil(e.timestep / PULL_STEP - 1e-9) if pull else 1
     speed = math.sqrt(sum(v * v for v in motion.velocity))
     fast = math.ceil(speed * e.timestep / program.collapse_threshold - 1e-9) if e.ccd else 1

@@ -23,15 +23,16 @@ def choose_rules(
     launches: list[Launch],
     expect: Expect,
     motions: Sequence[Kinematic] = (),
-    backend: str = "pybullet",
+    split_pulls: bool = True,
 ) -> tuple[Rule, ...]:
     """The extension mode's rules this scene needs: leaning only if a brick does not lie flat
     or something is thrown, pulled or pushed (it may come to rest leaning), impacts only if
     something is thrown, fallen bricks made cheaper to step unless levels or bricks are expected to
     stay, move or topple, or may fall, which is judged after the collapse; and, listed only for
     a scene that has them, ``guided`` when a hand pulls or pushes, ``shake`` when the ground shakes
-    (docs/design.md: what the compiler switches on); on pybullet, ``guided`` says that the steps
-    are split while a pull lasts (:data:`stackdsl.compile.program.PULL_STEP`)."""
+    (docs/design.md: what the compiler switches on); on an engine whose pulls are split
+    (``split_pulls``: :attr:`stackdsl.engines.backend.Backend.split_pulls`), ``guided`` says that the
+    steps are split while a pull lasts (:data:`stackdsl.compile.program.PULL_STEP`)."""
     tilted = [b.id for b, flat in zip(bricks, lie_flat(bricks)) if not flat]
     faced = set(b.id for b, face in zip(bricks, on_a_face(bricks)) if face)
     judged_after = next((name for name in ("stays", "may_fall", "moved", "toppled") if getattr(expect, name) is not None), None)
@@ -55,7 +56,7 @@ def choose_rules(
         reason=f"{moved}: wakes what it carries and the frozen bricks it touches; never frozen while moved"
         + (
             f"; steps split to at most {PULL_STEP * 1000:.3g} ms ({1 / PULL_STEP:.0f} Hz) while a pull lasts"
-            if backend == "pybullet" and any(isinstance(m, Remove) for m in hands)
+            if split_pulls and any(isinstance(m, Remove) for m in hands)
             else ""
         ),
     )

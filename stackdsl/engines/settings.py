@@ -1,41 +1,47 @@
-"""Every engine's settings class, by backend name: what the compiler resolves a scenario's
-``engine:`` section into, and the defaults it starts from.
+"""Every engine's settings, by backend name (:mod:`stackdsl.engines.registry`): what the
+compiler resolves a scenario's ``engine:`` section into, and the defaults it starts from.
 
->>> sorted(SETTINGS), defaults("mujoco", "raw")["timestep"]
-(['mujoco', 'pybullet'], 0.002)
+>>> defaults("mujoco", "raw")["timestep"], type(settings("pybullet", mode="raw", timestep=0.01, solver_iterations=5)).__name__
+(0.002, 'PyBulletSettings')
 
 Source: stackdsl's own.
 """
 
 from __future__ import annotations
 
-from typing import Annotated, cast
+from typing import Annotated
 
-from pydantic import Field
+from pydantic import BeforeValidator, SerializeAsAny
 
-from .mujoco.settings import MuJoCoSettings
 from .protocol import EngineSettings
-from .pybullet.settings import PyBulletSettings
-
-#: backend -> its settings class.
-SETTINGS: dict[str, type[EngineSettings]] = {"pybullet": PyBulletSettings, "mujoco": MuJoCoSettings}
-#: A run's settings, of whichever engine (the ``backend`` field says which).
-AnySettings = Annotated[PyBulletSettings | MuJoCoSettings, Field(discriminator="backend")]
+from .registry import backend as _backend
 
 
 def defaults(backend: str, mode: str) -> dict[str, object]:
     """The engine's own values for ``mode``.
 
     Raises:
-        KeyError: an unknown backend or mode.
+        KeyError: an unknown backend (:class:`~stackdsl.engines.registry.UnknownBackend`) or mode.
     """
-    return dict(SETTINGS[backend].DEFAULTS[mode])
+    return dict(_backend(backend).settings.DEFAULTS[mode])
 
 
-def settings(backend: str, **values: object) -> PyBulletSettings | MuJoCoSettings:
-    """Validated settings of ``backend`` from ``values`` (mode, timestep, ...).
+def settings(backend: str, **values: object) -> EngineSettings:
+    """Validated settings of ``backend`` from ``values`` (mode, timestep, ...), of its own class.
 
     Raises:
         KeyError: an unknown backend; pydantic.ValidationError: a bad or foreign value.
     """
-    return cast(PyBulletSettings | MuJoCoSettings, SETTINGS[backend].model_validate({"backend": backend, **values}))
+    return _backend(backend).settings.model_validate({"backend": backend, **values})
+
+
+def _of_its_backend(value: object) -> object:
+    """A mapping of settings (a program read back from JSON) as its backend's own class."""
+    if isinstance(value, dict) and isinstance(value.get("backend"), str):
+        return settings(value["backend"], **{k: v for k, v in value.items() if k != "backend"})
+    return value
+
+
+#: A run's settings, of whichever engine's class (its ``backend`` field says which), written
+#: with that class's own fields.
+AnySettings = Annotated[SerializeAsAny[EngineSettings], BeforeValidator(_of_its_backend)]

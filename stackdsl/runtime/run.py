@@ -1,8 +1,7 @@
 """Program -> Outcome: run a program in a world, with or without the stability extension.
 
-:func:`run_program` builds a world on the program's backend (:func:`world_for`: a
-:class:`stackdsl.engines.pybullet.world.PyBulletWorld` on one DIRECT client per run, closed in all cases,
-or a :class:`stackdsl.engines.mujoco.world.MuJoCoWorld`), a :class:`stackdsl.runtime.loop.StepLoop` over the program, and
+:func:`run_program` builds a world on the program's backend (:func:`world_for`: the world its
+:class:`~stackdsl.engines.backend.Backend` opens, closed in all cases), a :class:`stackdsl.runtime.loop.StepLoop` over the program, and
 attaches its subscribers: the substep control, the stability extension, the collapse
 monitor and, when asked, a recorder. Bodies enter the engine when they are placed, in
 program order, so creation order is a function of the scenario alone (pybullet is
@@ -45,6 +44,7 @@ from numbers import Real
 
 from ..compile.program import Program, require_program
 from ..engines.protocol import EngineSettings, World
+from ..engines.registry import backend
 from .actions import Actions
 from .collapse import CollapseMonitor
 from .loop import CLOCK_EVERY, StepLoop, Subscriber
@@ -167,19 +167,14 @@ def world_for(program: Program, *, shelve: bool = True) -> Iterator[World]:
     :attr:`RunOptions.shelve`.
 
     Raises:
-        ImportError: the MuJoCo backend without the ``mujoco`` package.
+        ImportError: an engine that is an optional extra, not installed.
     """
-    engine, friction, restitution = program.engine, program.ground_friction, program.ground_restitution
-    movable = program.shakes
-    if engine.backend == "mujoco":
-        from ..engines.mujoco.world import MuJoCoWorld
-
-        yield MuJoCoWorld(engine, friction, restitution, movable_ground=movable)
-    else:
-        from ..engines.pybullet.world import pybullet_world
-
-        with pybullet_world(engine, friction, restitution, shelve=shelve, movable_ground=movable) as pybullet:
-            yield pybullet
+    engine = program.engine
+    opened = backend(engine.backend).world
+    with opened(
+        engine, program.ground_friction, program.ground_restitution, shelve=shelve, movable_ground=program.shakes
+    ) as world:
+        yield world
 
 
 def run_in(
@@ -223,7 +218,7 @@ def run_in(
     # finer steps while a pull lasts: pybullet's friction at 240 Hz drags what the pulled brick
     # carries (compile.program.PULL_STEP); MuJoCo's guided brick, its velocity set once a step, then
     # slips under what it carries (a brick lying on it stayed put where it rode 40 mm along)
-    split_pulls = acting and program.engine.backend == "pybullet"
+    split_pulls = acting and backend(program.engine.backend).split_pulls
     own += [Actions(stability, substeps, split_pulls)] if program.kinematic else []
     after: list[Subscriber] = []
     rigid = any(r.name == "rigid" and r.on for r in program.rules)

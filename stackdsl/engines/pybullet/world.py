@@ -30,10 +30,11 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from stability import ContactPoint, Pose, PyBulletEngine
+from stability import ContactPoint, Pose
 
 from ..protocol import BrickSpec, Quat, Vec3, World
 from .client import direct_client
+from .engine import PyBulletEngine
 from .settings import PyBulletSettings
 
 

@@ -1,0 +1,335 @@
+"""A world without dynamics: bricks stay where they are placed, and statics decides what falls.
+
+:class:`StaticsWorld` is a :class:`~stackdsl.engines.protocol.World` whose bodies never move by
+themselves. After each step in which bricks were placed (one, or a group placed together), it
+asks rigid-block equilibrium (:func:`stability.solve_equilibrium`) of every brick standing, at
+its pose, on the contacts the poses give (:mod:`stackdsl.engines.statics.contacts`, within
+:data:`GAP` of each other). When no forces balance them, the bricks of the collapse mechanism
+and the brick just placed fall: each is laid flat on the ground where it was, and leaves the
+problem; equilibrium is asked again of the rest until it holds. The runtime's collapse monitor
+sees the fallen bricks displaced at rest, so the collapse level is the level of the first
+placement after which the bricks have no equilibrium. Nothing else moves: velocities are zero,
+a throw is ignored, and a hand or a shake table is refused (the compiler refuses such scenes
+first: :attr:`stackdsl.engines.backend.Backend.dynamics`).
+
+Source: stackdsl's own, on rigid-block equilibrium (Livesley 1978; Whiting et al. 2009).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Collection, Sequence
+
+import numpy as np
+from scipy.optimize import nnls
+from scipy.spatial.transform import Rotation
+
+from stability import Box, ContactPoint, ContactPolygon, Pose, RigidBlock, solve_equilibrium
+
+from ..protocol import BrickSpec, EngineSettings, Vec3, World
+from .contacts import Body, contacts_of
+
+#: Metres within which two faces, or a corner and a face, touch: bricks are placed a drop gap
+#: above their poses (0.5 mm by default), and this backend takes drop gaps up to 1 mm
+#: (:data:`stackdsl.engines.statics.MAX_DROP`).
+GAP = 0.0011
+
+
+class StaticsWorld(World):
+    """The world of the statics backend (see the module's docstring).
+
+    Args:
+        engine: the run's settings (its timestep is the runtime's clock only).
+        ground_friction: of the ground's material (the restitution is not used).
+
+    Attributes:
+        fallen: the bodies laid on the ground by statics, in the order they fell.
+    """
+
+    def __init__(self, engine: EngineSettings, ground_friction: float) -> None:
+        self.ground = 0
+        self._timestep = engine.timestep
+        self._ground_friction = ground_friction
+        self._bodies: dict[int, Body] = {}
+        self._free: set[int] = set()  # bodies with mass: the bricks statics balances
+        self._placed: list[int] = []  # placed since the last step: equilibrium is asked then
+        self.fallen: list[int] = []
+        self._points: dict[int, list[ContactPoint]] | None = None  # every body's contact points, while no pose changes
+        self._stacked: tuple[tuple[int, ...], np.ndarray] | None = None  # the standing bodies' bounds, stacked
+        self._bounds: dict[int, np.ndarray] = {}  # body -> its box's bounds, shape (2, 3): low and high corners, m
+        self._polygons: dict[int, list[ContactPolygon[int]]] = {}  # body -> its contact polygons, until a neighbour moves
+
+    @property
+    def timestep(self) -> float:
+        return self._timestep
+
+    # bodies -------------------------------------------------------------------
+    def create(self, spec: BrickSpec, pose: Pose, mass: float | None = None, projectile: bool = False) -> int:
+        body = len(self._bodies) + 1
+        self._put(Body(body, Box(np.array(spec.half_extents), spec.mass), pose, spec.friction))
+        self._enter(body, spec.mass if mass is None else mass)
+        return body
+
+    def move(self, body: int, pose: Pose, mass: float) -> None:
+        old = self._bodies[body]
+        self._put(Body(body, old.box, pose, old.friction))
+        self._enter(body, mass)
+
+    def _put(self, body: Body) -> None:
+        """Put ``body`` where it says (its contacts are found anew)."""
+        self._bodies[body.key] = body
+        corners = body.box.corners(body.pose)
+        before = self._bounds.get(body.key)
+        self._bounds[body.key] = np.array([corners.min(axis=0) - GAP, corners.max(axis=0) + GAP])
+        self._points, self._stacked = None, None
+        for bounds in (before, self._bounds[body.key]):  # what it left and what it meets find their contacts anew
+            if bounds is not None:
+                for key in self._meeting(bounds):
+                    self._polygons.pop(key, None)
+
+    def _meeting(self, bounds: np.ndarray) -> list[int]:
+        """The bodies whose bounds meet ``bounds`` (shape (2, 3): low and high corners, m)."""
+        keys = tuple(self._bounds)
+        if self._stacked is None or self._stacked[0] != keys:
+            self._stacked = (keys, np.array([self._bounds[k] for k in keys]))  # (n, 2, 3)
+        stacked = self._stacked[1]
+        meets = np.all(stacked[:, 0] <= bounds[1], axis=1) & np.all(bounds[0] <= stacked[:, 1], axis=1)
+        return [k for k, m in zip(keys, meets.tolist()) if m]
+
+    def _enter(self, body: int, mass: float) -> None:
+        if mass > 0.0:
+            self._free.add(body)
+            self._placed.append(body)
+        else:
+            self._free.discard(body)
+
+    def throw(self, body: int, velocity: Vec3, swept_radius: float | None) -> None:
+        """Nothing moves by its velocity here: ignored."""
+
+    def guide(self, body: int, pose: Pose, velocity: Vec3, hold: bool = True) -> None:
+        """Refused: a hand moves bricks (the compiler refuses actions first)."""
+        raise NotImplementedError("the statics backend cannot guide a body: it has no dynamics")
+
+    def move_ground(self, offset: Vec3, velocity: Vec3) -> None:
+        """Refused: a shake table moves the ground (the compiler refuses actions first)."""
+        raise NotImplementedError("the statics backend cannot move its ground: it has no dynamics")
+
+    def set_substeps(self, substeps: int) -> None:
+        """No steps to split: ignored."""
+
+    def step(self) -> None:
+        """Decide, once after bricks were placed, which of them statics lets stand (module docstring)."""
+        if self._placed:
+            placed, self._placed = self._placed, []
+            self._settle(placed)
+
+    def _settle(self, placed: list[int]) -> None:
+        while True:
+            standing = set(self._bodies).difference(self.fallen)
+            free = [self._bodies[k] for k in sorted(standing & self._free)]
+            if not free:
+                return
+            blocks = {b.key: RigidBlock(b.box.mass, b.pose.position) for b in free}
+            if _paths_hold(free, {b.key: self._contacts(b, standing) for b in free}):
+                return
+            polygons = [c for b in free for c in self._contacts(b, standing)]
+            answer = solve_equilibrium(blocks, polygons)
+            if answer.stands:
+                return
+            falling = (answer.moving() | set(placed)) & {b.key for b in free}
+            for key in sorted(falling):
+                self._lay_down(key)
+
+    def _lay_down(self, key: int) -> None:
+        """Lay body ``key`` flat on the ground under its centre, its longest side along its
+        longest side's horizontal direction."""
+        body = self._bodies[key]
+        half = body.box.half_extents
+        thin, long = int(np.argmin(half)), int(np.argmax(half))
+        axis = body.pose.rotation[:, long]
+        direction = np.array([axis[0], axis[1], 0.0])
+        direction = direction / np.linalg.norm(direction) if np.linalg.norm(direction) > 1e-9 else np.array([1.0, 0.0, 0.0])
+        matrix = np.zeros((3, 3))
+        matrix[:, long], matrix[:, thin] = direction, [0.0, 0.0, 1.0]
+        middle = 3 - thin - long
+        matrix[:, middle] = np.cross(matrix[:, (middle + 1) % 3], matrix[:, (middle + 2) % 3])
+        x, y = float(body.pose.position[0]), float(body.pose.position[1])
+        pose = Pose(np.array([x, y, float(half[thin])]), Rotation.from_matrix(matrix).as_quat())
+        self.fallen.append(key)
+        self._put(Body(key, body.box, pose, body.friction))
+
+    def _contacts(self, body: Body, standing: set[int]) -> list[ContactPolygon[int]]:
+        """The contact polygons of ``body`` with the ground and the bodies of ``standing`` whose
+        bounds meet its own (within :data:`GAP`), kept until one of them is put elsewhere."""
+        kept = self._polygons.get(body.key)
+        if kept is not None:
+            return kept
+        near = [self._bodies[k] for k in self._meeting(self._bounds[body.key]) if k != body.key and k in standing]
+        found = contacts_of(body, near, self.ground, self._ground_friction, GAP)
+        self._polygons[body.key] = found
+        return found
+
+    # reading ------------------------------------------------------------------
+    def pose(self, body: int) -> Pose:
+        return self._bodies[body].pose
+
+    def poses_of(self, bodies: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+        poses = [self._bodies[b].pose for b in bodies]
+        return np.array([p.position for p in poses]).reshape(-1, 3), np.array([p.orientation for p in poses]).reshape(-1, 4)
+
+    def velocity(self, body: int) -> tuple[np.ndarray, np.ndarray]:
+        return np.zeros(3), np.zeros(3)
+
+    def velocities_of(self, bodies: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+        return np.zeros((len(bodies), 3)), np.zeros((len(bodies), 3))
+
+    def speeds(self, body: int) -> tuple[float, float]:
+        return 0.0, 0.0
+
+    def contact_points(self, bodies: Collection[int] | None = None) -> list[ContactPoint]:
+        points = self._all_points()
+        if bodies is None:
+            return [p for found in points.values() for p in found]
+        return [p for b in bodies for p in points.get(b, [])]
+
+    def near(self, body: int, distance: float, among: Collection[int] | None = None) -> list[ContactPoint]:
+        """What ``body`` touches (within :data:`GAP`; nothing nearer moves here)."""
+        return [p for p in self._all_points().get(body, []) if among is None or p.other in among]
+
+    def set_frozen(self, body: int, frozen: bool, mass: float, at: Pose | None = None) -> None:
+        if frozen and at is not None and body in self._bodies:
+            old = self._bodies[body]
+            same = np.array_equal(old.pose.position, at.position) and np.array_equal(old.pose.orientation, at.orientation)
+            if not same:
+                self._put(Body(body, old.box, at, old.friction))
+
+    def _all_points(self) -> dict[int, list[ContactPoint]]:
+        """Every body's contact points, seen from it (each pair from both sides): the polygons'
+        vertices; a fallen body touches the ground only."""
+        if self._points is not None:
+            return self._points
+        points: dict[int, list[ContactPoint]] = {}
+        fallen = set(self.fallen)
+        standing = set(self._bodies).difference(fallen)
+        for b in self._bodies.values():
+            for c in self._contacts(b, standing) if b.key not in fallen else self._contacts(b, set()):
+                normal = np.asarray(c.normal, dtype=float)
+                for p in np.asarray(c.points, dtype=float):
+                    points.setdefault(b.key, []).append(ContactPoint(b.key, c.other, p, normal))
+                    points.setdefault(c.other, []).append(ContactPoint(c.other, b.key, p, -normal))
+        self._points = points
+        return points
+
+
+#: Metres inside its contact polygon's edges that a load's point must lie for the brick-by-brick
+#: proof (nearer, the equilibrium program decides).
+INSIDE = 1e-6
+
+
+def _paths_hold(free: Sequence[Body], polygons: dict[int, list[ContactPolygon[int]]]) -> bool:
+    """Whether vertical forces found brick by brick balance every brick of ``free`` (its contact
+    polygons by key, each on the bodies it lies on): a proof that they stand, and no answer when
+    it fails (the equilibrium program then decides).
+
+    Only where every brick lies level on level faces. From the top down, each brick's load (its
+    weight at its centre of mass and the forces the bricks on it put on it) must act at a point
+    strictly inside the convex hull of its contact vertices; it is passed down split among its
+    contact polygons (:func:`_split`), each share a force at a point inside its polygon on the
+    body under it. These forces balance each brick, so the program has a solution; a split that
+    overloads one support below proves nothing. Source: stackdsl's own (the load paths of
+    :mod:`stability._certificate`, without the program).
+    """
+    if not all(b.level for b in free):
+        return False
+    if any(abs(float(c.normal[2])) < 1.0 - 1e-9 for found in polygons.values() for c in found):
+        return False
+    loads: dict[int, list[tuple[float, float, float]]] = {b.key: [] for b in free}
+    for body in sorted(free, key=lambda b: -float(b.pose.position[2])):
+        weight = body.box.mass * 9.81
+        items = [*loads[body.key], (weight, float(body.pose.position[0]), float(body.pose.position[1]))]
+        force = sum(f for f, _, _ in items)
+        point = np.array([sum(f * x for f, x, _ in items), sum(f * y for f, _, y in items)]) / force
+        found = polygons[body.key]
+        if not found:
+            return False
+        shares = _split(found, point)
+        if shares is None:
+            return False
+        for other, share, (x, y) in shares:
+            if other in loads:
+                loads[other].append((force * share, x, y))
+    return True
+
+
+def _split(found: list[ContactPolygon[int]], point: np.ndarray) -> list[tuple[int, float, tuple[float, float]]] | None:
+    """A load at ``point`` (shape (2,), m, horizontal) split among the contact polygons ``found``:
+    (the body under each, its share of the load, where it acts), the shares >= 0 summing to 1 and
+    the points inside their polygons (strictly), their combination ``point``; None when this split
+    (the least-squares one of the polygons' centres, every point moved by what it misses) does not
+    fit. Source: stackdsl's own."""
+    centres = np.array([c.points[:, :2].mean(axis=0) for c in found])
+    if len(found) == 1:
+        shares = np.ones(1)
+    else:
+        system = np.vstack([centres.T, np.full(len(found), 10.0)])  # the shares' sum, weighted to hold
+        shares, _ = nnls(system, np.array([point[0], point[1], 10.0]))
+        if shares.sum() <= 0:
+            return None
+        shares = shares / shares.sum()
+    missed = point - shares @ centres
+    out = []
+    for c, share, centre in zip(found, shares.tolist(), centres):
+        if share <= 1e-12:
+            continue
+        at = centre + missed
+        if not _inside(c.points[:, :2], at):
+            return None
+        out.append((c.other, share, (float(at[0]), float(at[1]))))
+    return out
+
+
+def _inside(points: np.ndarray, target: np.ndarray) -> bool:
+    """Whether ``target`` (shape (2,), m) lies strictly inside the convex hull of ``points``
+    (shape (n, 2)): more than :data:`INSIDE` m from each of its edges (on an edge, the
+    equilibrium program decides)."""
+    key = points.tobytes()
+    edges = _EDGES.get(key)
+    if edges is None:
+        hull = points[_hull(points)]
+        if len(hull) < 3:
+            return False
+        steps = np.roll(hull, -1, axis=0) - hull
+        edges = _EDGES[key] = (hull, steps / np.hypot(steps[:, 0], steps[:, 1])[:, None])
+        if len(_EDGES) > 100_000:
+            _EDGES.clear()
+    hull, units = edges
+    to = target - hull
+    return bool(np.all(units[:, 0] * to[:, 1] - units[:, 1] * to[:, 0] > INSIDE))
+
+
+#: Each contact polygon's hull (its vertices' bytes -> the hull's vertices and unit edges), as
+#: every placement walks every brick's polygons again.
+_EDGES: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+
+
+def _hull(points: np.ndarray) -> list[int]:
+    """The indices of ``points`` (shape (n, 2)) on their convex hull, counter-clockwise
+    (Andrew's monotone chain), without collinear ones."""
+    order = sorted(range(len(points)), key=lambda i: (float(points[i, 0]), float(points[i, 1])))
+
+    def cross(o: int, a: int, b: int) -> float:
+        return float(
+            (points[a, 0] - points[o, 0]) * (points[b, 1] - points[o, 1])
+            - (points[a, 1] - points[o, 1]) * (points[b, 0] - points[o, 0])
+        )
+
+    lower: list[int] = []
+    upper: list[int] = []
+    for i in order:
+        while len(lower) >= 2 and cross(lower[-2], lower[-1], i) <= 1e-15:
+            lower.pop()
+        lower.append(i)
+    for i in reversed(order):
+        while len(upper) >= 2 and cross(upper[-2], upper[-1], i) <= 1e-15:
+            upper.pop()
+        upper.append(i)
+    return lower[:-1] + upper[:-1]

@@ -83,6 +83,20 @@ def test_the_page_holds_everything_and_fetches_nothing(slant):
     assert "</script" not in json.dumps(replay_data(trajectory)).replace("<\\/", "")
 
 
+@pytest.mark.parametrize("name", ["a <!-- b", "a </script> b", "{{three}} & {{data}}", "--> <b>"])
+def test_the_pages_data_is_json_whatever_the_scenarios_name(slant, name):
+    # a scenario or folder named with "<!--" left the page blank: its data was not JSON
+    trajectory, _ = slant
+    trajectory = dataclasses.replace(trajectory, meta={**trajectory.meta, "scenario": name, "file": f"{name}/t.yaml"})
+    page = replay_html(trajectory)
+    block = re.search(r'id="replay-data">(.*?)</script>', page, re.S)
+    assert block is not None and "<" not in block.group(1) and ">" not in block.group(1)
+    data = json.loads(block.group(1))
+    assert data["meta"]["scenario"] == name and data["meta"]["file"] == f"{name}/t.yaml"
+    # the title, the data's scenario and its file: a placeholder the name spells stays text
+    assert page.count("<script") == 4 and page.count("{{") == name.count("{{") * 3
+
+
 def test_the_vendored_three_js_is_the_pinned_release():
     readme = (VENDOR / "README.md").read_text()
     assert f"**{THREE_VERSION}**" in readme

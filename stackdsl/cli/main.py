@@ -372,15 +372,15 @@ def _compare_command(args: argparse.Namespace) -> int:
     return compare_command(args)
 
 
-def _guarded(timeout: float) -> argparse.ArgumentParser:
-    """The parent parser of the commands that run scenarios: --timeout."""
+def _guarded(timeout: float, what: str = "a scenario may run") -> argparse.ArgumentParser:
+    """The parent parser of the commands that run scenarios: --timeout (``what`` it bounds)."""
     guarded = _Parser(add_help=False)
     guarded.add_argument(
         "--timeout",
         type=timeout_type,
         default=timeout,
         metavar="SECONDS",
-        help=f"wall seconds a scenario may run before it is stopped and fails (default: {timeout:g}); "
+        help=f"wall seconds {what} before it is stopped and fails (default: {timeout:g}); "
         "worker processes may also map at most 4 GiB each",
     )
     return guarded
@@ -405,7 +405,12 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
     from ..batch.guard import TIMEOUT
 
     guarded = _guarded(TIMEOUT)
-    many = _Parser(add_help=False, parents=[common, guarded])
+    files = _guarded(
+        TIMEOUT,
+        "a scenario file may run, a sweep file's runs all together (a sweep whose runs the compiler estimates "
+        "to take longer is refused before anything runs, and one that takes longer stops where its budget ran out),",
+    )
+    many = _Parser(add_help=False, parents=[common, files])
     many.add_argument(
         "paths",
         nargs="+",

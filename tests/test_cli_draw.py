@@ -505,3 +505,24 @@ def test_the_default_moment_is_the_one_the_expectations_judge(files, capsys, mon
     odd.save(files / "odd.npz")
     with pytest.raises(ValueError, match="judged_at is neither 'collapse' nor 'end'"):
         load_trajectory(files / "odd.npz")
+
+
+def test_an_unknown_matplotlib_backend_in_the_environment_is_bad_input(tmp_path):
+    # MPLBACKEND=nonsense made render exit 3 (matplotlib's ValueError): it is the user's environment
+    import os
+    import subprocess
+    import sys
+
+    (tmp_path / "t.yaml").write_text("stackdsl: 1\nstructure: {tower: {levels: 2}}\ntiming: {settle: 0.2 s}\n")
+    env = {**os.environ, "MPLBACKEND": "nonsense"}
+    env.pop("STACKDSL_TRACEBACK", None)
+    done = subprocess.run(
+        [sys.executable, "-m", "stackdsl", "render", "t.yaml", "-o", "a.png"],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.startswith("MPLBACKEND: 'nonsense' in the environment is not a backend matplotlib knows")
+    assert "Traceback" not in done.stderr and not (tmp_path / "a.png").exists()

@@ -24,7 +24,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, NoReturn
 
-from ..lang.errors import ScenarioError, ScenarioErrors, ScenarioWarning
+from ..lang.errors import ScenarioError, ScenarioErrors, ScenarioWarning, one_line
 from ..lang.extras import installed, missing
 from .args import (
     BAD_INPUT,
@@ -228,7 +228,7 @@ def _internal(exc: BaseException, debug: bool) -> int:
     if debug:
         traceback.print_exception(exc)
     message = (str(exc).splitlines() or [""])[0] or "(no message)"
-    where = "".join(f" ({note})" for note in getattr(exc, "__notes__", ()) if note.startswith("while "))
+    where = "".join(f" ({one_line(note)})" for note in getattr(exc, "__notes__", ()) if note.startswith("while "))
     print(f"stackdsl: internal error: {type(exc).__name__}: {message}{where}{'' if debug else HINT}", file=sys.stderr)
     return INTERNAL
 

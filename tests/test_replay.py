@@ -636,3 +636,15 @@ def test_the_page_opens_on_a_frame_that_shows_the_collapse(chromium, pulled, tmp
         for t, e in zip(seen, shown):
             assert t >= e - 1e-9 and opened.call("seekEvent", e) is not None
         assert opened.console == []
+
+
+def test_a_golden_larger_than_16_mib_is_refused_by_its_size_before_it_is_read(tmp_path, capsys, monkeypatch):
+    # a 50 MB golden took 792 MB and 15 s before replay refused it; 16 MiB at most (a 15 MiB one peaks at 224 MB)
+    monkeypatch.setattr("stackdsl.runtime.recorder.record_program", lambda *a, **k: pytest.fail("simulated"))
+    big = tmp_path / "big.json"
+    with open(big, "wb") as f:
+        f.truncate((16 << 20) + 1)  # sparse: nothing to read but its size
+    monkeypatch.setattr(Path, "read_text", lambda *a, **k: pytest.fail("read"))
+    assert main(["replay", str(ROOT / "scenarios" / "vee_stands.yaml"), "-o", str(tmp_path / "r"), "--golden", str(big)]) == 2
+    assert "big.json: not a golden snapshot stackdsl can draw: it is larger than 16 MiB" in capsys.readouterr().err
+    assert not (tmp_path / "r").exists()

@@ -103,6 +103,30 @@ def main(argv: list[str] | None = None) -> int:
             sys.stderr = None
 
 
+def _plotting_environment() -> None:
+    """Refuse, as bad input (exit 2), an ``MPLBACKEND`` in the environment that matplotlib does
+    not know: matplotlib reads it when first imported and raises ValueError, which a drawing met
+    as an internal error (exit 3). stackdsl draws to files with Agg whatever it names; it is
+    read only when set, importing matplotlib then (about 0.2 s).
+
+    Raises:
+        ScenarioError: naming ``MPLBACKEND``, its value and what to do.
+    """
+    value = os.environ.get("MPLBACKEND")
+    if value is None or "matplotlib" in sys.modules:
+        return
+    try:
+        import matplotlib  # noqa: F401  (reads MPLBACKEND)
+    except ValueError:
+        for name in [m for m in sys.modules if m == "matplotlib" or m.startswith("matplotlib.")]:
+            del sys.modules[name]  # half-imported: a later import would not read it again
+        raise ScenarioError(
+            f"{value[:60]!r} in the environment is not a backend matplotlib knows: unset MPLBACKEND or give one "
+            "matplotlib knows, such as Agg (stackdsl draws its pictures to files with Agg whatever it names)",
+            file="MPLBACKEND",
+        ) from None
+
+
 def _fill_closed_descriptors() -> None:
     """Put the null device on whichever of descriptors 0, 1 and 2 is closed, so that no file
     the command opens lands on one of them and takes what the engines print there."""
@@ -153,6 +177,7 @@ def _main(argv: list[str], command: bool) -> int:
     try:
         args = _parser(argv).parse_args(argv)
         args.debug = debug
+        _plotting_environment()
         if "mujoco" in [b.strip() for b in str(getattr(args, "backend", None)).split(",")] and not installed("mujoco"):
             raise ScenarioError(missing("mujoco"), file="--backend")
         if command and command_of(argv) in _IN_PROCESS:  # the main process does the work: give it the workers' limit

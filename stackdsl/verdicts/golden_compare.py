@@ -171,13 +171,10 @@ def _bricks(graph: Any) -> str:
 
 
 def _fallen(snapshot: Mapping[str, Any], threshold: float) -> set[str]:
-    """The bricks beyond the collapse threshold at the end (or at the collapse, with no final
-    graph): empty when the snapshot does not say."""
-    for key in reversed(GRAPHS):
-        graph = snapshot.get(key)
-        if isinstance(graph, dict):
-            return {x for x, b in graph.items() if isinstance(b, dict) and _moved(b, threshold)}
-    return set()
+    """The bricks beyond the collapse threshold at the collapse or at the end (a shaken brick
+    that passed it may come back under it by the end): empty when the snapshot does not say."""
+    graphs = [g for key in GRAPHS if isinstance(g := snapshot.get(key), dict)]
+    return {x for graph in graphs for x, b in graph.items() if isinstance(b, dict) and _moved(b, threshold)}
 
 
 def _threshold(*snapshots: Mapping[str, Any]) -> float:
@@ -696,8 +693,7 @@ def near_tie(outcome: Outcome, program: Program) -> str:
     """Why ``outcome``'s verdict sits on a near tie, in words, or ``""``: a stand whose
     certificate's margin is under the engine's contact margin
     (:attr:`stackdsl.engines.protocol.EngineSettings.contact_margin`), or a collapse its
-    certificate calls a near or exact tie (a brick placed within that margin of its support's
-    edge, or within 0.1 mm of it either way: :data:`stackdsl.runtime.collapse.EXACT_TIE`).
+    certificate calls a near tie (a brick placed within that margin of its support's edge).
     Such a verdict may flip on another machine or engine version."""
     c = outcome.certificate
     margin = program.engine.contact_margin * 1000
@@ -708,6 +704,6 @@ def near_tie(outcome: Outcome, program: Program) -> str:
             f"stands with a margin of {c.margin_mm:g} mm, under {program.engine.NAME}'s {margin:g} mm contact margin: "
             "a near tie the engine decides"
         )
-    if c.verdict == "collapse" and ("near tie" in c.detail or "exact tie" in c.detail):
+    if c.verdict == "collapse" and "near tie" in c.detail:
         return f"collapses on a near tie ({c.detail})"
     return ""

@@ -1193,3 +1193,14 @@ def test_an_empty_sweep_block_is_refused_not_read_as_no_sweep(block):
     with pytest.raises(ScenarioError) as err:
         parse_scenario(f"stackdsl: 1\nstructure: {{tower: {{levels: 2}}}}\n{block}\n", "e.yaml")
     assert (err.value.field, err.value.line) == ("sweep", 3) and "empty sweep block" in err.value.message
+
+
+@pytest.mark.parametrize(
+    "line, field",
+    [("skip: {reason: ''}\n", "skip.reason"), ("name: ''\n", "name"), ("xfail: {reason: ''}\n", "xfail.reason")],
+)
+def test_an_empty_text_is_said_in_the_languages_words(line, field):
+    # 'skip: {reason: ""}' said pydantic's "String should have at least 1 character"
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(f"stackdsl: 1\nstructure: {{tower: {{levels: 2}}}}\n{line}", "e.yaml")
+    assert (err.value.field, err.value.message) == (field, "expected some text, got ''")

@@ -345,6 +345,10 @@ _PLAIN: dict[str, Callable[[dict[str, Any]], str]] = {
     "tuple_type": lambda ctx: "expected a list",
     "string_type": lambda ctx: "expected text",
     "string_pattern_mismatch": _pattern,
+    "string_too_short": lambda ctx: (
+        "expected some text" if ctx.get("min_length") == 1 else f"expected text of {ctx.get('min_length')} characters or more"
+    ),
+    "string_too_long": lambda ctx: f"expected text of {ctx.get('max_length')} characters at most",
     "greater_than_equal": lambda ctx: f"expected {ctx.get('ge')} or more",
     "greater_than": lambda ctx: f"expected more than {ctx.get('gt')}",
     "less_than_equal": lambda ctx: f"expected {ctx.get('le')} or less",

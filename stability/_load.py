@@ -194,7 +194,10 @@ def _split(x: float, y: float, mass: float, supports: Mapping[int, ContactArea])
     if len(supports) == 2:
         (ax, ay), (bx, by) = centres
         ux, uy, rx, ry = bx - ax, by - ay, x - ax, y - ay
-        along = (rx * ux + ry * uy) / (ux * ux + uy * uy)
+        joining2 = ux * ux + uy * uy
+        # two areas with one centre (two bricks crossed at the same centre): no line joins them,
+        # both centres move by the offset that puts them under the centre of mass
+        along = 0.0 if joining2 <= 1e-24 else (rx * ux + ry * uy) / joining2
         dx, dy = rx - along * ux, ry - along * uy
     else:
         dx = x - sum(c[0] for c in centres) / len(centres)

@@ -225,3 +225,50 @@ def test_a_runs_wall_time_counts_the_brick_graph_built_after_its_last_step(monke
     took = time.perf_counter() - started
     assert outcome.wall_time >= 0.4 and took - outcome.wall_time < 0.1
     assert outcome.final_graph.nodes and outcome.stopped is None
+
+
+# check --timeout: one budget for a whole sweep file -------------------------------------------
+SWEEP = (
+    "stackdsl: 1\nstructure: {tower: {levels: 3, bricks_per_layer: 1, turn: 0, "
+    "shift: {uniform: [-10 mm, 10 mm], per: layer}}}\ntiming: {settle: 0.2 s}\nsweep: {samples: SAMPLES}\n"
+)
+
+
+def test_check_refuses_a_sweep_whose_runs_cannot_end_within_its_timeout(tmp_path, capsys):
+    # 'samples: 1e5' under 'check -j 1 --timeout 5' was still at "0 of 1 done" after 80 s (10 hours queued)
+    from stackdsl.cli.main import main
+
+    (tmp_path / "s.yaml").write_text(SWEEP.replace("SAMPLES", "1e5"))
+    start = time.perf_counter()
+    assert main(["check", str(tmp_path / "s.yaml"), "-j", "1", "--timeout", "5"]) == 2
+    assert time.perf_counter() - start < 30
+    err = capsys.readouterr().err
+    assert "s.yaml:4:18: sweep.samples: this sweep makes 100000 runs (1 cell x 100000 samples)" in err
+    assert "past --timeout 5 s, which bounds the whole file" in err and "samples fit" in err
+
+
+def test_a_sweeps_batches_share_one_budget_and_stop_where_it_runs_out():
+    import pickle
+
+    from stackdsl.batch.sweep import BUDGET_SPENT, Budget, SweepOptions, run_batch
+
+    template = parse_scenario(SWEEP.replace("SAMPLES", "400"), "s.yaml").template
+    budget = Budget(0.5)
+    options = SweepOptions(timeout=100.0, budget=budget)
+    copy = pickle.loads(pickle.dumps(options))  # a worker's: the clock started when it was handed out
+    assert budget.started is not None and copy.budget is not None and copy.budget.started == budget.started
+    results = run_batch(template, 0, range(400), copy)
+    ran = [r for r in results if r.stopped != BUDGET_SPENT]
+    assert 0 < len(ran) < 400 and results[-1].stopped == BUDGET_SPENT
+    assert sum(r.wall_time for r in ran) < 0.5 + 0.5  # each run had what was left as its timeout
+    assert all(r.stopped == BUDGET_SPENT for r in run_batch(template, 0, range(3), options))  # spent for every batch
+
+
+def test_a_sweep_the_budget_cuts_short_is_one_failed_row_that_says_so(tmp_path):
+    from stackdsl.batch.check import prepare, run_checks
+
+    (tmp_path / "s.yaml").write_text(SWEEP.replace("SAMPLES", "300"))
+    prepared = prepare([tmp_path / "s.yaml"], timeout=None)  # the estimate is not asked
+    (result,) = run_checks(prepared, jobs=1, timeout=0.3)
+    assert not result.held and result.stopped.startswith("timeout: the sweep's budget ran out after")
+    assert "of 300 samples: --timeout bounds the whole sweep file" in result.stopped

@@ -107,7 +107,7 @@ def test_a_brick_id_that_reads_as_a_level_or_the_ground_is_refused_as_in_a_file(
     with pytest.raises(ScenarioError) as err:
         parse_scenario(head + f"    - {{id: '{bad}', at: [0, 0, 12 mm]}}\n", "ids.yaml")
     assert (err.value.line, err.value.column, err.value.field) == (5, 12, "structure.bricks[1].id")
-    assert "a letter or '_' first" in err.value.message or "names the ground" in err.value.message
+    assert "an ASCII letter or '_' first" in err.value.message or "names the ground" in err.value.message
     assert BrickPlacement(id="_" + bad.strip("."), at=(0, 0, 0.004)).id  # with a '_' first it is an id
 
 
@@ -342,3 +342,26 @@ def test_a_scenario_read_back_from_its_yaml_equals_it():
     shipped = load_scenario(ROOT / "sweeps" / "required_to_stand.yaml")  # a sweep: its file data and sample too
     again = parse_scenario(shipped.to_yaml(), "elsewhere.yaml")
     assert again == shipped and again != shipped.template.scenario(0, 1)
+
+
+@pytest.mark.parametrize("text", ["a\x00b", "a\x07b", "\x1b[31mred", "a\ufffeb"])
+def test_the_builder_refuses_a_character_the_loader_refuses(text):
+    # Scenario(name="a\x00b") was built, and its to_yaml() refused by the loader
+    with pytest.raises(ValidationError, match=r"U\+[0-9A-F]{4}.* is not allowed in a value") as err:
+        Scenario(stackdsl=1, name=text, structure={"tower": {"levels": 2}})
+    assert err.value.errors()[0]["loc"] == ("name",)
+    with pytest.raises(ValidationError, match="is not allowed in a value") as err:
+        Scenario(stackdsl=1, materials={text: {"density": 500}}, structure={"tower": {"levels": 2}})
+    with pytest.raises(ValidationError, match="is not allowed in a value"):
+        Scenario(stackdsl=1, structure={"tower": {"levels": 2}}, xfail={"reason": text})
+
+
+@given(st.text(max_size=8))
+@settings(max_examples=200, deadline=None)
+def test_what_the_builder_accepts_the_loader_reads_back(text):
+    try:
+        built = Scenario(stackdsl=1, name=text or "x", description=text, structure={"tower": {"levels": 2}})
+    except ValidationError:
+        return
+    again = parse_scenario(built.to_yaml())
+    assert (again.name, again.description) == (built.name, built.description)

@@ -1575,3 +1575,20 @@ def test_every_shipped_scenario_whose_run_raises_is_its_own_row_and_the_check_go
     assert main(["sweep", str(folder / "s.yaml"), "-j", "1", "--out", str(tmp_path / "out")]) == 3
     out = capsys.readouterr().out
     assert out.count("did not finish: internal error: AttributeError") == 2 and "cell 1: " in out
+
+
+@pytest.mark.parametrize("odd", ["\n", "\r", "\t", "\x1b", "\u2028", "\x85"])
+def test_a_control_character_in_a_path_is_escaped_so_each_error_stays_one_line(odd, tmp_path, capsys, monkeypatch):
+    # a newline in a path was printed raw: the one-line error spanned two
+    monkeypatch.chdir(tmp_path)
+    folder = f"d{odd}ir"
+    (tmp_path / folder).mkdir()
+    (tmp_path / folder / "t.yaml").write_text("stackdsl: 1\nstructure: {tower: {levels: -2}}\n")
+    escaped = repr(odd)[1:-1]
+    assert main(["check", f"{folder}/t.yaml"]) == 2
+    head = capsys.readouterr().err.splitlines()[0]
+    assert head.startswith(f"d{escaped}ir/t.yaml:2:29: structure.tower.levels:")
+    assert main(["check", f"{folder}/missing.yaml"]) == 2
+    assert capsys.readouterr().err.strip() == f"d{escaped}ir/missing.yaml: no such file or folder"
+    assert main(["render", f"{folder}/t.yaml", "-o", f"no{odd}where/a.png"]) == 2
+    assert f"no{escaped}where/a.png" in capsys.readouterr().err

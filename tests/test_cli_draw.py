@@ -287,7 +287,7 @@ def test_a_clip_too_large_to_draw_is_refused_before_anything_runs(tmp_path, caps
                 "animate",
                 str(ROOT / "scenarios" / "vee_stands.yaml"),
                 "--size",
-                "4096x4096",
+                "2800x2800",
                 "--fps",
                 "120",
                 "-o",
@@ -297,7 +297,7 @@ def test_a_clip_too_large_to_draw_is_refused_before_anything_runs(tmp_path, caps
         == 2
     )
     err = capsys.readouterr().err.strip()
-    assert err.startswith("--size: 600 frames of 4096 x 4096 pixels are") and "at most 1.5e+09" in err
+    assert err.startswith("--size: 600 frames of 2800 x 2800 pixels are") and "at most 1.5e+09" in err
     assert list(tmp_path.iterdir()) == []
 
 
@@ -505,3 +505,35 @@ def test_the_default_moment_is_the_one_the_expectations_judge(files, capsys, mon
     odd.save(files / "odd.npz")
     with pytest.raises(ValueError, match="judged_at is neither 'collapse' nor 'end'"):
         load_trajectory(files / "odd.npz")
+
+
+def test_an_unknown_matplotlib_backend_in_the_environment_is_bad_input(tmp_path):
+    # MPLBACKEND=nonsense made render exit 3 (matplotlib's ValueError): it is the user's environment
+    import os
+    import subprocess
+    import sys
+
+    (tmp_path / "t.yaml").write_text("stackdsl: 1\nstructure: {tower: {levels: 2}}\ntiming: {settle: 0.2 s}\n")
+    env = {**os.environ, "MPLBACKEND": "nonsense"}
+    env.pop("STACKDSL_TRACEBACK", None)
+    done = subprocess.run(
+        [sys.executable, "-m", "stackdsl", "render", "t.yaml", "-o", "a.png"],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.startswith("MPLBACKEND: 'nonsense' in the environment is not a backend matplotlib knows")
+    assert "Traceback" not in done.stderr and not (tmp_path / "a.png").exists()
+
+
+@pytest.mark.parametrize("command, out", [("render", "a.png"), ("animate", "a.gif")])
+def test_a_picture_of_more_pixels_than_fit_in_memory_is_refused(command, out, tmp_path, capsys, monkeypatch):
+    # render --size 4096x4096 peaked at 2047 MiB; 8 million pixels at most keeps it under 1.5 GB
+    monkeypatch.setattr("stackdsl.runtime.recorder.record_program", lambda *a, **k: pytest.fail("simulated"))
+    scenario = str(ROOT / "scenarios" / "vee_stands.yaml")
+    assert main([command, scenario, "--size", "4096x4096", "-o", str(tmp_path / out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("--size: 4096x4096: 16.8 million pixels; a picture may have at most 8 million") and "\n" not in err
+    assert list(tmp_path.iterdir()) == []

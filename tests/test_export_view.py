@@ -667,3 +667,30 @@ def test_view_refuses_a_bad_speed_before_it_looks_for_a_display(monkeypatch, cap
     assert main(["view", str(scenario), "--speed", speed]) == 2
     lines = capsys.readouterr().err.splitlines()
     assert len(lines) == 1 and "--speed" in lines[0] and "speed-up above 0" in lines[0] and "display" not in lines[0]
+
+
+class _OpenWindow:
+    """A viewer whose window nobody closes (a virtual display)."""
+
+    def __init__(self) -> None:
+        self.closed = False
+
+    def is_running(self) -> bool:
+        return not self.closed
+
+    def close(self) -> None:
+        self.closed = True
+
+
+def test_view_closes_its_window_when_its_timeout_is_reached(capsys):
+    # under a virtual display 'view' waited for a window nobody closes, at 99% CPU past its --timeout
+    from stackdsl.cli.scene import wait_for_close
+
+    now = [0.0]
+    window = _OpenWindow()
+    assert wait_for_close(window, 5.0, sleep=lambda s: now.__setitem__(0, now[0] + s), clock=lambda: now[0])
+    assert window.closed and 5.0 <= now[0] < 5.2
+    assert "stackdsl view: --timeout reached: the window is closed" in capsys.readouterr().err
+    closed = _OpenWindow()
+    closed.closed = True
+    assert not wait_for_close(closed, 5.0)  # closed by its user: nothing to do

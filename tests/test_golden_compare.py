@@ -224,6 +224,8 @@ def test_a_project_and_a_scenario_set_their_own_key_by_key(tmp_path):
     [
         ('position = "2 kg"', "tool.stackdsl.golden.tolerance.position: expected a length"),
         ("speed = 1", "tool.stackdsl.golden.tolerance.speed: unknown key; known: position, angle"),
+        # the keys a scenario's golden.tolerance takes: radius and width are no tolerance given
+        ("radius = 1", "known: position, angle, mass, area, load_share, margin, friction_share, level\n"),
         ("load_share = 2", "tool.stackdsl.golden.tolerance.load_share:"),
     ],
 )
@@ -232,7 +234,7 @@ def test_a_bad_project_tolerance_is_one_error_naming_the_file_and_key(tmp_path, 
     pyproject.write_text(f"[tool.stackdsl.golden.tolerance]\n{table}\n")
     with pytest.raises(ScenarioError) as caught:
         project_tolerance(pyproject)
-    assert str(pyproject) in str(caught.value) and said in str(caught.value)
+    assert str(pyproject) in str(caught.value) and said in str(caught.value) + "\n"
 
 
 def test_every_shipped_golden_matches_itself_and_fails_a_moved_structure():

@@ -158,3 +158,12 @@ def test_more_than_two_supports_share_a_load_in_moment_balance(x):
     assert (masses @ points[:, :2]) / 0.6 == pytest.approx([x, 0.0], abs=1e-9)
     for k in (1, 2, 3):  # each share acts where its support touches
         assert supports[k].polygon.buffer(1e-9).contains(Point(points[k - 1][:2]))
+
+
+def test_two_supports_with_one_centre_split_the_load():
+    # two bricks crossed at one centre carry a third: no line joins the two centres
+    supports = {1: area(-0.06, -0.012, 0.06, 0.012), 2: area(-0.012, -0.06, 0.012, 0.06)}
+    split = split_load(np.array([0.005, 0.003, 0.01]), 0.04, supports)
+    assert sum(m for m, _ in split.values()) == pytest.approx(0.04)
+    resultant = sum(m * p[:2] for m, p in split.values()) / 0.04
+    assert resultant == pytest.approx([0.005, 0.003])

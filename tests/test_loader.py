@@ -917,13 +917,26 @@ def test_a_fixed_length_list_and_a_shake_of_no_time_are_refused_in_plain_words()
         (
             "structure: {tower: {levels: 2}}\nactions: [{remove: {brick: 'a b', at: 1 s}}]",
             "actions[0].remove.brick",
-            "expected a name of 1 to 40 letters, digits, '_', '.' or '-' (no spaces), got 'a b'",
+            "expected a name of 1 to 40 ASCII letters, digits, '_', '.' or '-' (no spaces), got 'a b'",
         ),
         (
             "structure: {bricks: [{id: 'a b', at: [0, 0, 4 mm]}]}",
             "structure.bricks[0].id",
-            "expected an id: a letter or '_' first (a digit first reads as a level in 'expect'), then letters, digits, "
-            "'_', '.' or '-' (no spaces), not ending in '.' (the start of ids in 'expect'), 40 at most, got 'a b'",
+            "expected an id: an ASCII letter or '_' first (a digit first reads as a level in 'expect'), then ASCII letters, "
+            "digits, '_', '.' or '-' (no spaces), not ending in '.' (the start of ids in 'expect'), 40 at most, got 'a b'",
+        ),
+        (
+            "structure: {bricks: [{id: é, at: [0, 0, 4 mm]}]}",
+            "structure.bricks[0].id",
+            "expected an id: an ASCII letter or '_' first (a digit first reads as a level in 'expect'), then ASCII letters, "
+            "digits, '_', '.' or '-' (no spaces), not ending in '.' (the start of ids in 'expect'), 40 at most, got 'é'; "
+            "'é' is U+00E9, not ASCII",
+        ),
+        (
+            "structure: [{name: lé, tower: {levels: 2}}]",
+            "structure[0].name",
+            "expected a part name: an ASCII letter or '_' first (a digit first reads as a level in 'expect'), then ASCII "
+            "letters, digits, '_' or '-', 40 at most, got 'lé'; 'é' is U+00E9, not ASCII",
         ),
         (
             "name: yes\nstructure: {tower: {levels: 2}}",
@@ -1154,3 +1167,40 @@ def test_every_grammar_reads_the_same_numbers():
         except ValueError:
             measured = False
         assert measured == number, form
+
+
+@pytest.mark.parametrize("depth", [65, 300, 600, 5000])
+def test_plain_data_nested_too_deep_is_the_nesting_error_at_any_depth(depth):
+    # 300 deep gave the nesting error, 600 deep a bare RecursionError
+    data: dict = {"stackdsl": 1, "structure": {"tower": {"levels": 2}}}
+    inner = data
+    for _ in range(depth):
+        inner["description"] = {}
+        inner = inner["description"]
+    with pytest.raises(ScenarioError, match="nested more than 64 levels deep"):
+        parse_scenario(data, "d.yaml")
+
+
+def test_plain_data_that_holds_itself_is_the_nesting_error():
+    data: dict = {"stackdsl": 1, "structure": {"tower": {"levels": 2}}}
+    data["structure"]["tower"]["shift"] = data
+    with pytest.raises(ScenarioError, match="nested more than 64 levels deep"):
+        parse_scenario(data)
+
+
+@pytest.mark.parametrize("block", ["sweep:", "sweep: null", "sweep: ~"])
+def test_an_empty_sweep_block_is_refused_not_read_as_no_sweep(block):
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(f"stackdsl: 1\nstructure: {{tower: {{levels: 2}}}}\n{block}\n", "e.yaml")
+    assert (err.value.field, err.value.line) == ("sweep", 3) and "empty sweep block" in err.value.message
+
+
+@pytest.mark.parametrize(
+    "line, field",
+    [("skip: {reason: ''}\n", "skip.reason"), ("name: ''\n", "name"), ("xfail: {reason: ''}\n", "xfail.reason")],
+)
+def test_an_empty_text_is_said_in_the_languages_words(line, field):
+    # 'skip: {reason: ""}' said pydantic's "String should have at least 1 character"
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(f"stackdsl: 1\nstructure: {{tower: {{levels: 2}}}}\n{line}", "e.yaml")
+    assert (err.value.field, err.value.message) == (field, "expected some text, got ''")

@@ -369,6 +369,16 @@ def test_an_output_folder_that_cannot_be_written_is_one_line_in_the_failure(proj
     assert "Traceback" not in text and "NotADirectoryError" not in text and "FileExistsError" not in text
 
 
+def test_pictures_on_that_cannot_be_written_fail_a_passing_item(project):
+    # '--stackdsl-pictures on --stackdsl-output /dev/full' passed and silently wrote no pictures
+    write(project, "tower", TOWER)
+    project.runpytest("-p", "no:cacheprovider", "--snapshot-update").assert_outcomes(passed=1)
+    result = project.runpytest("-p", "no:cacheprovider", "--stackdsl-pictures=on", "--stackdsl-output=/dev/full")
+    result.assert_outcomes(failed=1)
+    text = result.stdout.str()
+    assert "pictures: cannot write them to /dev/full" in text and "Traceback" not in text
+
+
 @pytest.mark.slow
 def test_a_missing_golden_says_to_run_with_snapshot_update(project):
     write(project, "tower", TOWER)

@@ -83,6 +83,20 @@ def test_the_page_holds_everything_and_fetches_nothing(slant):
     assert "</script" not in json.dumps(replay_data(trajectory)).replace("<\\/", "")
 
 
+@pytest.mark.parametrize("name", ["a <!-- b", "a </script> b", "{{three}} & {{data}}", "--> <b>"])
+def test_the_pages_data_is_json_whatever_the_scenarios_name(slant, name):
+    # a scenario or folder named with "<!--" left the page blank: its data was not JSON
+    trajectory, _ = slant
+    trajectory = dataclasses.replace(trajectory, meta={**trajectory.meta, "scenario": name, "file": f"{name}/t.yaml"})
+    page = replay_html(trajectory)
+    block = re.search(r'id="replay-data">(.*?)</script>', page, re.S)
+    assert block is not None and "<" not in block.group(1) and ">" not in block.group(1)
+    data = json.loads(block.group(1))
+    assert data["meta"]["scenario"] == name and data["meta"]["file"] == f"{name}/t.yaml"
+    # the title, the data's scenario and its file: a placeholder the name spells stays text
+    assert page.count("<script") == 4 and page.count("{{") == name.count("{{") * 3
+
+
 def test_the_vendored_three_js_is_the_pinned_release():
     readme = (VENDOR / "README.md").read_text()
     assert f"**{THREE_VERSION}**" in readme
@@ -622,3 +636,15 @@ def test_the_page_opens_on_a_frame_that_shows_the_collapse(chromium, pulled, tmp
         for t, e in zip(seen, shown):
             assert t >= e - 1e-9 and opened.call("seekEvent", e) is not None
         assert opened.console == []
+
+
+def test_a_golden_larger_than_16_mib_is_refused_by_its_size_before_it_is_read(tmp_path, capsys, monkeypatch):
+    # a 50 MB golden took 792 MB and 15 s before replay refused it; 16 MiB at most (a 15 MiB one peaks at 224 MB)
+    monkeypatch.setattr("stackdsl.runtime.recorder.record_program", lambda *a, **k: pytest.fail("simulated"))
+    big = tmp_path / "big.json"
+    with open(big, "wb") as f:
+        f.truncate((16 << 20) + 1)  # sparse: nothing to read but its size
+    monkeypatch.setattr(Path, "read_text", lambda *a, **k: pytest.fail("read"))
+    assert main(["replay", str(ROOT / "scenarios" / "vee_stands.yaml"), "-o", str(tmp_path / "r"), "--golden", str(big)]) == 2
+    assert "big.json: not a golden snapshot stackdsl can draw: it is larger than 16 MiB" in capsys.readouterr().err
+    assert not (tmp_path / "r").exists()

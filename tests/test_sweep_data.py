@@ -217,3 +217,21 @@ expect: {p_stands: '>= 0.1'}
     rows = list(csv.DictReader(open(tmp_path / "o" / "samples.csv")))
     assert sorted({(r["cell"], r["levels"]) for r in rows}) == [("0", "2"), ("1", "6")]
     assert (tmp_path / "o" / "grid_mean.png").is_file()
+
+
+def test_samples_csv_escapes_a_text_a_spreadsheet_reads_as_a_formula(tmp_path):
+    # a grid label '=HYPERLINK(...)' was written as it is: a formula where the CSV is opened
+    from stackdsl.batch.sweep import SampleResult
+    from stackdsl.batch.sweep_out import write_samples
+
+    texts = ['=HYPERLINK("http://127.0.0.1/x","y")', "+1+2", "-2+3", "@SUM(A1)", "\tx", "\rx", "plain"]
+    results = [
+        SampleResult(0, k, 0, {"label": text, "timing.drop_gap [m]": -3.2e-4}, None, 2, 0.1, 1.0, bad_input=text)
+        for k, text in enumerate(texts)
+    ]
+    write_samples(results, tmp_path)
+    rows = list(csv.DictReader(open(tmp_path / "samples.csv", newline="", encoding="utf-8")))
+    for row, text in zip(rows, texts):
+        safe = text if text == "plain" else "'" + text
+        assert (row["label"], row["bad_input"]) == (safe, safe)
+        assert float(row["timing.drop_gap [m]"]) == -3.2e-4 and row["levels_placed"] == "2"

@@ -43,7 +43,7 @@ from .check_sweep import run_unit, sweep_result, sweep_tasks
 from .judge import KILL_AFTER, TIMEOUT, failed, internal, lost
 from .keywords import KeywordError, parse_keywords
 from .pool import fan_out, on_executor
-from .sweep import SampleResult, compile_bounds, compile_cells, which_sample
+from .sweep import SampleResult, compile_bounds, compile_cells, samples_run, which_sample
 
 
 class Prepared(NamedTuple):
@@ -225,6 +225,7 @@ def _compiled(
         if sweep is not None:  # every grid cell, before anything of any file runs
             tops = {0: program.levels} | compile_cells(sweep, m, model, backend, range(1, sweep.cells), timeout)
             compile_bounds(sweep, m, model, backend, range(sweep.cells), timeout, tops)
+            within_budget(sweep, program, timeout)
     except ScenarioError as exc:
         if refused is None or (m is None and backend is None):
             raise
@@ -232,6 +233,45 @@ def _compiled(
         refused.append(_refusal(path, scenario, m, model, backend, exc))
         return None
     return program
+
+
+def sweep_runs(template: Template, program: Program) -> tuple[int, float]:
+    """A sweep's runs and the wall seconds they take added up, as on one core, by the compiler's
+    estimate (:attr:`stackdsl.Program.wall_estimate` of its first cell's sample 0, for each run)."""
+    runs = template.cells * samples_run(template)
+    return runs, runs * program.wall_estimate
+
+
+def within_budget(template: Template, program: Program, timeout: float | None) -> None:
+    """Refuse a sweep that cannot end within ``timeout``, the wall seconds ``check`` gives a whole
+    file: its runs added up, by the compiler's estimate (:func:`sweep_runs`), past ``timeout``
+    (a sweep of 100000 samples under ``--timeout 5`` queued 10 hours of runs). The estimate is
+    a floor (it leaves out starting each run); a sweep it lets through still stops when its
+    budget runs out (:class:`stackdsl.batch.sweep.Budget`). Source: stackdsl's own.
+
+    Raises:
+        ScenarioError: at the file's ``sweep.samples`` (or ``sweep``), with the runs, the estimate
+            and the samples that fit.
+    """
+    if timeout is None:
+        return
+    runs, seconds = sweep_runs(template, program)
+    if seconds <= timeout:
+        return
+    each = seconds / runs
+    fit = max(0, int(timeout / each) // template.cells) if template.random else 0
+    fits = f"at most {fit} samples fit" if fit else "not one run of each cell fits"
+    path = ("sweep", "samples") if ("sweep", "samples") in template.source.values else ("sweep",)
+    raise template.source.error(
+        path,
+        f"this sweep makes {runs} runs ({_many(template.cells, 'cell')} x {_many(samples_run(template), 'sample')}), about {seconds:.3g} s "
+        f"of wall time by the compiler's estimate ({each:.2g} s a run), past --timeout {timeout:g} s, which bounds the "
+        f"whole file: {fits}; give fewer samples or a longer --timeout",
+    )
+
+
+def _many(n: int, thing: str) -> str:
+    return f"{n} {thing}{'s' * (n != 1)}"
 
 
 def _broken(path: Path, scenario: Any, mode: str | None, model: str | None, backend: str | None, exc: Exception) -> CheckResult:
@@ -402,8 +442,11 @@ def check(
         executor: run on this executor instead (e.g. a Dask client's executor).
         pattern: a ``-k`` expression of pytest's over the file paths and scenario names, or
             several (any of them), as :func:`select` reads them.
-        timeout: wall seconds each run may take (None: no limit); a run stopped by it is
-            a failed result whose ``stopped`` says so.
+        timeout: wall seconds each file may take (None: no limit): one run, or a sweep's runs
+            all together (one budget for the file, :class:`stackdsl.batch.sweep.Budget`). A sweep
+            whose runs the compiler estimates past it is refused before anything runs
+            (:func:`within_budget`, a ScenarioError); a run stopped by it, or a sweep whose
+            budget ran out before its last samples, is a failed result whose ``stopped`` says so.
         seed: replaces every file's ``seed`` (its random draws and placement error) when given.
         backend: overrides each scenario's engine (``"pybullet"`` or ``"mujoco"``).
 
@@ -472,8 +515,8 @@ def run_checks(
     if executor is not None:
         stream = on_executor(executor, run_unit, tasks)
     else:
-        longest = max([len(t[4]) for t in tasks if t[0] == "batch"], default=1)
-        limit = None if timeout is None else (timeout + KILL_AFTER) * longest + (DRAW_LIMIT if folders else 0.0)
+        # a sweep's batches share its one budget (sweep_tasks): none outlasts the timeout either
+        limit = None if timeout is None else timeout + KILL_AFTER + (DRAW_LIMIT if folders else 0.0)
         stream = fan_out(run_unit, tasks, costs, jobs, limit=limit, lost=lost)
     return _gathered(stream, prepared, pending, where)
 

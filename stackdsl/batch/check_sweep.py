@@ -22,14 +22,16 @@ from ..lang.sampling import Template
 from ..verdicts.expect import Verdict
 from ..verdicts.stats import summary
 from .judge import failed, internal, judge
-from .sweep import SampleResult, SweepOptions, batches, run_batch
+from .sweep import BUDGET_SPENT, Budget, SampleResult, SweepOptions, batches, run_batch
 from .sweep_out import by_cell, failure_lines, levels_built, measured, verdicts, write_plots, write_samples
 
 
 def sweep_tasks(index: int, template: Template, program: Any, timeout: float | None, workers: int) -> list[tuple[Any, ...]]:
     """The batch tasks of prepared scenario ``index``: ``("batch", index, template, cell, samples,
-    options)``, run with the compiled program's mode and model."""
-    options = SweepOptions(program.engine.mode, program.stability.model, False, timeout, program.engine.backend)
+    options)``, run with the compiled program's mode and model; ``timeout`` bounds the whole
+    sweep (one :class:`stackdsl.batch.sweep.Budget` shared by its batches), not each run."""
+    budget = None if timeout is None else Budget(timeout)
+    options = SweepOptions(program.engine.mode, program.stability.model, False, timeout, program.engine.backend, budget)
     return [("batch", index, template, cell, samples, options) for cell, samples in batches(template, workers)]
 
 
@@ -73,6 +75,7 @@ def sweep_result(
     explanation = failure_lines(template, expect, decided, shown=False)  # check shows each place's line (its report)
     errors = [r for r in results if r.error]
     stopped = [r for r in results if r.stopped]
+    unrun = sum(r.stopped == BUDGET_SPENT for r in results)
     bad = [r for r in results if r.bad_input]
     levels = max((r.levels_placed for r in results), default=0)
     artefacts: tuple[tuple[str, str], ...] = ()
@@ -96,7 +99,14 @@ def sweep_result(
         wall_time=sum(r.wall_time for r in results),
         explanation=tuple(explanation),
         error=f"{errors[0].error} (sample {errors[0].sample})" if errors else "",
-        stopped=f"{len(stopped)} samples stopped early: {stopped[0].stopped}" if stopped else "",
+        stopped=(
+            f"{BUDGET_SPENT} after {len(results) - unrun} of {len(results)} samples: --timeout bounds the whole sweep "
+            "file; give fewer samples or a longer --timeout"
+            if unrun
+            else f"{len(stopped)} samples stopped early: {stopped[0].stopped}"
+            if stopped
+            else ""
+        ),
         bad_input=bad[0].bad_input if bad else "",
         sweep=_described(template, results),
         folder=folder or "",

@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from .._version import version
-from ..lang.errors import excerpt
+from ..lang.errors import excerpt, one_line
 from ..util.files import written
 from ..verdicts.check_result import CheckResult
 from ..verdicts.expect import located_lines
@@ -35,7 +35,8 @@ def mode_label(r: CheckResult) -> str:
 def row(r: CheckResult) -> str:
     """One line of check's table: verdict, file, engine (the backend), mode, simulated and wall
     seconds, expected, and measured last (its length varies)."""
-    file = r.file if len(r.file) <= 40 else "..." + r.file[-37:]
+    file = one_line(r.file)  # a newline in a path would split the row
+    file = file if len(file) <= 40 else "..." + file[-37:]
     return (  # the verdict (CheckResult.verdict), as wide as XFAIL: INCONCLUSIVE pushes its row right
         f"{r.verdict:<5} {file:<40} {r.backend:<8} {mode_label(r):<9} "
         f"{r.simulated_time:>7.1f} s {r.wall_time:>5.1f} s  {r.expected:<18} {r.measured}"

@@ -18,10 +18,11 @@ import math
 import shutil
 import socket
 import tempfile
+import time
 from collections.abc import Callable, Generator, Iterable, Iterator, Sequence
 from concurrent.futures import Executor
 from contextlib import contextmanager
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import Any, NamedTuple
 
 from ..compile.compiler import compile_scenario
@@ -86,25 +87,71 @@ class SampleResult:
         return {**data, **parameters}
 
 
+#: How a sample the sweep's budget (:class:`Budget`) ran out before starts its ``stopped``.
+BUDGET_SPENT = "timeout: the sweep's budget ran out"
+
+
+class Budget:
+    """Wall seconds a whole sweep may take (``check --timeout``: one budget for a file, not for
+    each of its runs), shared by all its batches: the clock starts when the first batch is handed
+    out (pickled for a worker, or run in this process) and every batch reads it as a deadline in
+    wall-clock time (``time.time()``; the workers run on this machine, or on a Dask cluster's
+    whose clocks agree to far better than a run's length). A sample that starts after it is
+    not run (:data:`BUDGET_SPENT`); one that starts before runs with what is left as its timeout.
+    Source: stackdsl's own."""
+
+    def __init__(self, seconds: float, started: float | None = None) -> None:
+        self.seconds, self.started = seconds, started
+
+    def left(self) -> float:
+        """Seconds left, starting the clock if it has not started."""
+        if self.started is None:
+            self.started = time.time()
+        return self.seconds - (time.time() - self.started)
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        if self.started is None:  # handed to a worker: the clock starts now, for every batch after
+            self.started = time.time()
+        return (Budget, (self.seconds, self.started))
+
+    def __repr__(self) -> str:
+        return f"Budget({self.seconds!r}, {self.started!r})"
+
+
 @dataclass(frozen=True)
 class SweepOptions:
     """How each sample runs: ``mode``, ``model`` and ``backend`` override the file's; ``oracle``
-    also asks rigid-block equilibrium; ``timeout``: wall seconds a run may take (None: no limit)."""
+    also asks rigid-block equilibrium; ``timeout``: wall seconds a run may take (None: no limit);
+    ``budget``: the whole sweep's (:class:`Budget`; None: none beyond each run's ``timeout``)."""
 
     mode: str | None = None
     model: str | None = None
     oracle: bool = False
     timeout: float | None = 100.0
     backend: str | None = None
+    budget: Budget | None = None
 
 
 def run_batch(template: Template, cell: int, samples: Sequence[int], options: SweepOptions) -> list[SampleResult]:
     """Draw, compile and run ``samples`` of ``cell`` (the unit of work a worker is given).
 
     A sample the language refuses, or whose run fails, is that sample's result (``bad_input``,
-    ``error``), not an exception: the others still run. Ctrl-C still interrupts.
+    ``error``), not an exception: the others still run. Ctrl-C still interrupts. With a
+    ``budget``, a sample runs with at most what is left of it as its timeout, and a sample the
+    budget ran out before is not run: its result is stopped (:data:`BUDGET_SPENT`).
     """
-    return [_one(template, cell, k, options) for k in samples]
+    out = []
+    for k in samples:
+        if options.budget is None:
+            out.append(_one(template, cell, k, options))
+            continue
+        left = options.budget.left()
+        if left <= 0:
+            out.append(SampleResult(cell, k, 0, {}, None, 0, 0.0, 0.0, stopped=BUDGET_SPENT))
+            continue
+        timeout = left if options.timeout is None else min(options.timeout, left)
+        out.append(_one(template, cell, k, replace(options, timeout=timeout)))
+    return out
 
 
 def _one(template: Template, cell: int, k: int, options: SweepOptions) -> SampleResult:

@@ -155,11 +155,14 @@ def write_samples(results: Sequence[SampleResult], folder: Path) -> tuple[Path, 
         columns += [k for k in row if k not in columns]
     table, lines = folder / "samples.csv", folder / "samples.jsonl"
     with written(table) as part, open(part, "w", newline="", encoding="utf-8") as f:
-        writer = csv.DictWriter(f, fieldnames=columns)
+        writer = csv.DictWriter(f, fieldnames=[csv_text(c) for c in columns])
         writer.writeheader()
         for row in rows:
             writer.writerow(
-                {k: json.dumps(v) if isinstance(v, (list, dict)) else ("" if v is None else v) for k, v in row.items()}
+                {
+                    csv_text(k): json.dumps(v) if isinstance(v, (list, dict)) else ("" if v is None else csv_text(v))
+                    for k, v in row.items()
+                }
             )
     with written(lines) as part, open(part, "w", encoding="utf-8") as f:
         for row in rows:
@@ -173,6 +176,18 @@ def write_samples(results: Sequence[SampleResult], folder: Path) -> tuple[Path, 
 
 #: What a sweep says when it writes no ``samples.parquet`` (:func:`write_samples`).
 PARQUET_MISSING = missing("parquet", "samples.parquet") + "; the samples are in samples.csv and samples.jsonl"
+
+
+#: What a spreadsheet reads as the start of a formula in a cell (OWASP, "CSV Injection").
+FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
+
+
+def csv_text(value: Any) -> Any:
+    """``value`` for a CSV cell a spreadsheet opens safely: a text starting with one of
+    :data:`FORMULA_START` (a grid label ``=HYPERLINK(...)``) gets a single quote before it, as
+    OWASP's "CSV Injection" page advises, so that it shows as text and runs nothing; numbers
+    (``-3.2``) and other values are as they are. Source: OWASP, CSV Injection."""
+    return "'" + value if isinstance(value, str) and value.startswith(FORMULA_START) else value
 
 
 #: Units of the columns every sample has (a parameter's is in its name: ``"timing.placement_error [m]"``).

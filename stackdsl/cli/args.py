@@ -15,6 +15,8 @@ import re
 import tempfile
 from pathlib import Path
 
+from ..lang.errors import one_line
+
 #: The lines of the exit status that every command shares: bad input, bugs, signals.
 _OTHER_STATUSES = """\
   2    bad input: a scenario file, a path or an option (nothing is simulated then), or a path
@@ -111,7 +113,7 @@ def refused(exc: OSError) -> str | None:
     """
     if exc.errno not in REFUSED:
         return None
-    where = exc.filename if exc.filename is not None else ""
+    where = one_line(str(exc.filename)) if exc.filename is not None else ""
     if where and getattr(exc, "option", ""):
         where = f"{where}: {getattr(exc, 'option', '')}"
     reason = exc.strerror or os.strerror(exc.errno or 0)

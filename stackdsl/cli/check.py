@@ -17,7 +17,7 @@ from itertools import chain
 from pathlib import Path
 from typing import TextIO
 
-from ..batch.check import Prepared, discover, prepare, run_checks, select_comparison, tabulate
+from ..batch.check import Prepared, discover, prepare, run_checks, select_comparison, sweep_runs, tabulate
 from ..batch.perturb import Fragility, fragility_lines, perturbed_runs
 from ..batch.report import HEADER, failure_lines, json_document, junit_xml, mode_label, rerun_command, row, summary
 from ..compile.compiler import BACKEND_DEFAULTS, MODE_DEFAULTS
@@ -28,6 +28,19 @@ from ..verdicts.expect import describe
 from .args import BAD_INPUT, FAILED, HINT, INTERNAL, OK
 from .outputs import Input, Output, check_default_golden, check_outputs, odd_files
 from .progress import Lines, is_live
+
+
+def _say_sweeps(prepared: list[Prepared], timeout: float | None) -> None:
+    """Say on stderr, before anything runs, how many runs each sweep makes and what they take by
+    the compiler's estimate, against the one --timeout that bounds the whole file."""
+    for p in prepared:
+        if p.template is not None:
+            runs, seconds = sweep_runs(p.template, p.program)
+            bound = "no --timeout" if timeout is None else f"--timeout {timeout:g} s bounds them all"
+            print(
+                f"stackdsl check: {p.path}: a sweep of {runs} runs, about {seconds:.2g} s by the compiler's estimate; {bound}",
+                file=sys.stderr,
+            )
 
 
 def check_command(args: argparse.Namespace) -> int:
@@ -52,6 +65,7 @@ def check_command(args: argparse.Namespace) -> int:
         skipped=skipped,
     )  # bad input raises here
     prepared, broken = select_comparison(prepared, broken + skipped, args.pattern)
+    _say_sweeps(prepared, args.timeout)
     total = len(prepared) + len(broken)
     folders = _report_folders(args, report, prepared) if report is not None else None
     stream = sys.stderr if args.json else sys.stdout  # with --json only the progress line, on a terminal

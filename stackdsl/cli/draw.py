@@ -27,6 +27,9 @@ TRAJECTORY_SUFFIXES = (".npz",)
 SCENARIO_SUFFIXES = (".yaml", ".yml")
 #: Pixels a side of a picture or a clip, at least and at most (a picture keeps a title strip).
 MIN_SIDE, MAX_SIDE = 64, 4096
+#: Pixels a picture may have: render peaked at 2047 MiB at 4096 x 4096 (16.8 million: the z-buffer's
+#: layers and each face's pixel arrays), about 125 bytes a pixel; 8 million keeps it under 1.5 GB.
+MAX_PIXELS = 8_000_000
 
 
 #: The drawing commands, in the order of ``stackdsl --help``.
@@ -63,7 +66,12 @@ def _add_render(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -
         "collapse if the structure collapsed, else the end)",
     )
     p.add_argument("-o", "--output", required=True, metavar="OUT.png", help="the picture to write")
-    p.add_argument("--size", default="800x600", metavar="WxH", help=f"pixels, {MIN_SIDE} to {MAX_SIDE} a side (default: 800x600)")
+    p.add_argument(
+        "--size",
+        default="800x600",
+        metavar="WxH",
+        help=f"pixels, {MIN_SIDE} to {MAX_SIDE} a side, {MAX_PIXELS / 1e6:g} million at most (default: 800x600)",
+    )
     p.set_defaults(func=_render)
 
 
@@ -81,7 +89,12 @@ def _add_animate(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) 
     p.add_argument(
         "--fps", type=fps_type, default=30.0, help="frames a second of the clip, 1 to 120 (a GIF: at most 50; default: 30)"
     )
-    p.add_argument("--size", default="480x360", metavar="WxH", help=f"pixels, {MIN_SIDE} to {MAX_SIDE} a side (default: 480x360)")
+    p.add_argument(
+        "--size",
+        default="480x360",
+        metavar="WxH",
+        help=f"pixels, {MIN_SIDE} to {MAX_SIDE} a side, {MAX_PIXELS / 1e6:g} million at most (default: 480x360)",
+    )
     p.set_defaults(func=_animate)
 
 
@@ -204,7 +217,8 @@ def moment(at: str | float | None, trajectory: Any) -> str | float:
 
 
 def size_of(text: str, option: str = "--size") -> tuple[int, int]:
-    """``'800x600'`` -> (800, 600); each side :data:`MIN_SIDE` to :data:`MAX_SIDE` pixels.
+    """``'800x600'`` -> (800, 600); each side :data:`MIN_SIDE` to :data:`MAX_SIDE` pixels, at most
+    :data:`MAX_PIXELS` in all.
 
     Raises:
         ScenarioError: anything else (exit 2).
@@ -215,6 +229,12 @@ def size_of(text: str, option: str = "--size") -> tuple[int, int]:
         raise ScenarioError(f"{text!r} is not WIDTHxHEIGHT in pixels, such as 800x600", file=option) from None
     if not (MIN_SIDE <= width <= MAX_SIDE and MIN_SIDE <= height <= MAX_SIDE):
         raise ScenarioError(f"{text}: each side must be {MIN_SIDE} to {MAX_SIDE} pixels", file=option)
+    if width * height > MAX_PIXELS:
+        raise ScenarioError(
+            f"{text}: {width * height / 1e6:.1f} million pixels; a picture may have at most {MAX_PIXELS / 1e6:g} million "
+            "(drawing more needs more than 1.5 GB of memory), such as 4096x1950 or 2800x2800",
+            file=option,
+        )
     return width, height
 
 

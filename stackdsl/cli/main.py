@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from ..engines.registry import backend, names
-from ..lang.errors import ScenarioError, ScenarioErrors, ScenarioWarning
+from ..lang.errors import ScenarioError, ScenarioErrors, ScenarioWarning, one_line
 from ..util.extras import installed, missing
 from .args import (
     BAD_INPUT,
@@ -118,6 +118,30 @@ def main(argv: list[str] | None = None) -> int:
             sys.stderr = None
 
 
+def _plotting_environment() -> None:
+    """Refuse, as bad input (exit 2), an ``MPLBACKEND`` in the environment that matplotlib does
+    not know: matplotlib reads it when first imported and raises ValueError, which a drawing met
+    as an internal error (exit 3). stackdsl draws to files with Agg whatever it names; it is
+    read only when set, importing matplotlib then (about 0.2 s).
+
+    Raises:
+        ScenarioError: naming ``MPLBACKEND``, its value and what to do.
+    """
+    value = os.environ.get("MPLBACKEND")
+    if value is None or "matplotlib" in sys.modules:
+        return
+    try:
+        import matplotlib  # noqa: F401  (reads MPLBACKEND)
+    except ValueError:
+        for name in [m for m in sys.modules if m == "matplotlib" or m.startswith("matplotlib.")]:
+            del sys.modules[name]  # half-imported: a later import would not read it again
+        raise ScenarioError(
+            f"{value[:60]!r} in the environment is not a backend matplotlib knows: unset MPLBACKEND or give one "
+            "matplotlib knows, such as Agg (stackdsl draws its pictures to files with Agg whatever it names)",
+            file="MPLBACKEND",
+        ) from None
+
+
 def _fill_closed_descriptors() -> None:
     """Put the null device on whichever of descriptors 0, 1 and 2 is closed, so that no file
     the command opens lands on one of them and takes what the engines print there."""
@@ -168,6 +192,7 @@ def _main(argv: list[str], command: bool) -> int:
     try:
         args = _parser(argv).parse_args(argv)
         args.debug = debug
+        _plotting_environment()
         _need_backends(getattr(args, "backend", None))
         if command and command_of(argv) in _IN_PROCESS:  # the main process does the work: give it the workers' limit
             from ..batch.guard import limit_memory
@@ -242,7 +267,7 @@ def _internal(exc: BaseException, debug: bool) -> int:
     if debug:
         traceback.print_exception(exc)
     message = (str(exc).splitlines() or [""])[0] or "(no message)"
-    where = "".join(f" ({note})" for note in getattr(exc, "__notes__", ()) if note.startswith("while "))
+    where = "".join(f" ({one_line(note)})" for note in getattr(exc, "__notes__", ()) if note.startswith("while "))
     print(f"stackdsl: internal error: {type(exc).__name__}: {message}{where}{'' if debug else HINT}", file=sys.stderr)
     return INTERNAL
 
@@ -386,15 +411,15 @@ def _compare_command(args: argparse.Namespace) -> int:
     return compare_command(args)
 
 
-def _guarded(timeout: float) -> argparse.ArgumentParser:
-    """The parent parser of the commands that run scenarios: --timeout."""
+def _guarded(timeout: float, what: str = "a scenario may run") -> argparse.ArgumentParser:
+    """The parent parser of the commands that run scenarios: --timeout (``what`` it bounds)."""
     guarded = _Parser(add_help=False)
     guarded.add_argument(
         "--timeout",
         type=timeout_type,
         default=timeout,
         metavar="SECONDS",
-        help=f"wall seconds a scenario may run before it is stopped and fails (default: {timeout:g}); "
+        help=f"wall seconds {what} before it is stopped and fails (default: {timeout:g}); "
         "worker processes may also map at most 4 GiB each",
     )
     return guarded
@@ -419,7 +444,12 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
     from ..batch.guard import TIMEOUT
 
     guarded = _guarded(TIMEOUT)
-    many = _Parser(add_help=False, parents=[common, guarded])
+    files = _guarded(
+        TIMEOUT,
+        "a scenario file may run, a sweep file's runs all together (a sweep whose runs the compiler estimates "
+        "to take longer is refused before anything runs, and one that takes longer stops where its budget ran out),",
+    )
+    many = _Parser(add_help=False, parents=[common, files])
     many.add_argument(
         "paths",
         nargs="+",

@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -175,7 +176,23 @@ def _add_view(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -> 
     p.set_defaults(func=_view)
 
 
+def wait_for_close(viewer: Any, deadline: float | None, sleep: Any = None, clock: Any = None) -> bool:
+    """Wait until the viewer's window is closed, or the wall ``deadline`` (``time.monotonic()``
+    seconds; None: none) passes: then close it and say so on stderr. ``view --timeout`` bounds
+    the whole command, the window included (under a virtual display nobody closes it, and its
+    render thread spun at 99% of a core past the timeout). True when the deadline closed it."""
+    sleep, clock = sleep or time.sleep, clock or time.monotonic
+    while viewer.is_running():
+        if deadline is not None and clock() >= deadline:
+            print("stackdsl view: --timeout reached: the window is closed", file=sys.stderr)
+            viewer.close()
+            return True
+        sleep(0.1)
+    return False
+
+
 def _view(args: argparse.Namespace) -> int:
+    start = time.monotonic()
     if not (0 < args.speed <= 1000):  # the arguments are said before the display is looked for
         raise ScenarioError(f"{args.speed:g} is not a speed-up above 0 and at most 1000", file="--speed")
     if not has_display():
@@ -186,8 +203,6 @@ def _view(args: argparse.Namespace) -> int:
         return NO_DISPLAY
     if not installed("mujoco"):
         raise ScenarioError(missing("mujoco", "the viewer"), file=args.file)
-    import time
-
     import mujoco.viewer
 
     from ..compile.compiler import compile_scenario
@@ -198,6 +213,7 @@ def _view(args: argparse.Namespace) -> int:
     # the file is read (a scenario compiled) before the display is tried: bad input is said first
     trajectory = trajectory_of(args, "view") if Path(args.file).suffix.lower() == ".npz" else None
     program = None if trajectory is not None else compile_scenario(scenario_of(args, "view"), args.mode, args.model, args.backend)
+    deadline = None if args.timeout is None else start + args.timeout
     unusable = display_problem()
     if unusable:
         print(
@@ -211,8 +227,7 @@ def _view(args: argparse.Namespace) -> int:
             with viewer.lock():
                 scene.aim(viewer.cam)
             live.play(trajectory, scene, viewer, args.speed)
-            while viewer.is_running():
-                time.sleep(0.1)
+            wait_for_close(viewer, deadline)
         return 0
     assert program is not None
     scene = live.program_scene(program)
@@ -222,8 +237,7 @@ def _view(args: argparse.Namespace) -> int:
         view = live.LiveView(program, scene, viewer, args.speed)
         outcome = run_program(program, timeout=args.timeout, subscribers=(view,))
         print(f"{program.name}: " + (f"collapse at level {outcome.collapse.level}" if outcome.collapse else "stands"))
-        while viewer.is_running():
-            time.sleep(0.1)
+        wait_for_close(viewer, deadline)
     return 0
 
 

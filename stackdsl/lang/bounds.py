@@ -12,8 +12,9 @@ Source: stackdsl's own.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Annotated, ClassVar
+from typing import TYPE_CHECKING, Annotated, Any, ClassVar
 
+import yaml
 from pydantic import (
     BaseModel,
     ConfigDict,
@@ -224,3 +225,32 @@ class StrictModel(BaseModel):
     #: other model is a section of fields (``timing``, an action, a part), and a grid key or a
     #: distribution names one field of it (:func:`stackdsl.lang.field_kinds.whole_of`).
     one_value: ClassVar[bool] = False
+
+
+#: What no text of a scenario may hold: PyYAML's test of a printable character, the loader's rule
+#: for a value written as an escape (stackdsl.lang.loader) and the builder's (:class:`StrictModel`).
+NOT_IN_A_VALUE = yaml.reader.Reader.NON_PRINTABLE
+
+
+def unprintable(value: Any) -> tuple[tuple[str | int, ...], str] | None:
+    """The first character of :data:`NOT_IN_A_VALUE` in ``value`` (a text, or texts inside models,
+    lists, tuples and mappings, keys too): (the field path to it inside ``value``, the character),
+    or None. Source: stackdsl's own."""
+    if isinstance(value, str):
+        bad = NOT_IN_A_VALUE.search(value)
+        return None if bad is None else ((), bad.group())
+    items: Any = ()
+    if isinstance(value, BaseModel):
+        items = value.__dict__.items()
+    elif isinstance(value, dict):
+        for key in value:
+            if isinstance(key, str) and NOT_IN_A_VALUE.search(key):
+                return ((), NOT_IN_A_VALUE.search(key).group())  # type: ignore[union-attr]
+        items = value.items()
+    elif isinstance(value, list | tuple):
+        items = enumerate(value)
+    for key, item in items:
+        found = unprintable(item)
+        if found is not None:
+            return ((key, *found[0]), found[1])
+    return None

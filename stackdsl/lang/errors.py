@@ -5,6 +5,7 @@ Source: stackdsl's own, modelled on Tavern (errors show the YAML line).
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from typing import TypeAlias
 
@@ -21,6 +22,16 @@ def format_path(path: FieldPath) -> str:
     for seg in path:
         out += f"[{seg}]" if isinstance(seg, int) else (f".{seg}" if out else str(seg))
     return out or "(top level)"
+
+
+_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f\u2028\u2029\ud800-\udfff]")
+
+
+def one_line(text: str) -> str:
+    """``text`` (a path) with its control characters, line and paragraph separators and lone
+    surrogates (bytes of a name not in the file system's encoding) written as Python escapes
+    (``"a\\nb.yaml"``), so that a message naming it stays one line and shows what is there."""
+    return _CONTROL.sub(lambda m: repr(m.group())[1:-1], text)
 
 
 class ScenarioError(Exception):
@@ -58,7 +69,8 @@ class ScenarioError(Exception):
         self.alike: list[str] = []
 
     def __str__(self) -> str:
-        where = self.file if self.line is None else f"{self.file}:{self.line}:{self.column}"
+        file = one_line(self.file)
+        where = file if self.line is None else f"{file}:{self.line}:{self.column}"
         head = f"{where}: {self.field}: {self.message}" if self.field else f"{where}: {self.message}"
         lines = [head, *excerpt(self.source_line, self.column)]
         if self.alike:

@@ -28,6 +28,7 @@ import yaml
 from yaml.events import AliasEvent, MappingStartEvent, SequenceStartEvent
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
+from .bounds import NOT_IN_A_VALUE
 from .errors import NO_FILE, FieldPath, ScenarioError, SourceMap
 from .sampling import Template
 from .scenario_file import character_name, check_characters, file_problem, read_text
@@ -76,18 +77,22 @@ def load_scenario(path: str | Path, seed: int | None = None, *, shown: str | Non
 SLIPS_SHOWN = 5
 
 
-def _as_yaml(data: Mapping[str, Any]) -> str:
-    """``data`` as YAML text, tuples as lists. Raises TypeError for what YAML cannot write."""
+def _as_yaml(data: Mapping[str, Any], file: str = NO_FILE) -> str:
+    """``data`` as YAML text, tuples as lists. Raises TypeError for what YAML cannot write, and
+    ScenarioError for lists and mappings nested more than :data:`MAX_DEPTH` deep (a mapping that
+    holds itself too), the loader's own limit, said before anything recurses that deep."""
 
-    def plain(value: Any) -> Any:
+    def plain(value: Any, depth: int) -> Any:
+        if isinstance(value, (Mapping, list, tuple)) and depth > MAX_DEPTH:
+            raise ScenarioError(f"lists and mappings are nested more than {MAX_DEPTH} levels deep", file=file)
         if isinstance(value, Mapping):
-            return {k: plain(v) for k, v in value.items()}
+            return {k: plain(v, depth + 1) for k, v in value.items()}
         if isinstance(value, (list, tuple)):
-            return [plain(v) for v in value]
+            return [plain(v, depth + 1) for v in value]
         return value
 
     try:
-        return dump(plain(data))  # text the loader reads back as it was (a part named '1e3' quoted)
+        return dump(plain(data, 1))  # text the loader reads back as it was (a part named '1e3' quoted)
     except yaml.representer.RepresenterError as exc:
         raise TypeError(
             f"parse_scenario takes YAML text or plain data (dicts, lists, numbers, strings), not {exc.args[-1]!r}"
@@ -121,7 +126,7 @@ def parse_scenario(text: str | Mapping[str, Any], file: str = NO_FILE, seed: int
     if isinstance(text, (bytes, bytearray, memoryview)):
         raise TypeError("parse_scenario takes the file's text (str), not bytes: decode them, or give the file to load_scenario")
     if not isinstance(text, str):
-        text = _as_yaml(text)
+        text = _as_yaml(text, file)
     text = text.removeprefix("\ufeff")
     check_characters(text, file)
     source = SourceMap(file, tuple(text.splitlines()))
@@ -295,7 +300,7 @@ def _scalar(node: ScalarNode, path: FieldPath, loader: _Loader, source: SourceMa
         value = loader.construct_object(node, deep=True)
     except Exception:  # only PyYAML's converters run here, on a node of a known tag
         raise source.error(path, f"cannot read {shown(node.value, 40)} as !!{name}{_READ_AS.get(name, '')}") from None
-    bad = yaml.reader.Reader.NON_PRINTABLE.search(value) if isinstance(value, str) else None
+    bad = NOT_IN_A_VALUE.search(value) if isinstance(value, str) else None
     if bad:  # the file's own characters were checked: this one was written as an escape ("\e")
         raise source.error(path, f"{character_name(bad.group())}, written as an escape, is not allowed in a value")
     return value

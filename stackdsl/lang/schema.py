@@ -40,6 +40,7 @@ from .bounds import (
     RestSpeed,
     Side,
     StrictModel,
+    unprintable,
 )
 from .errors import NO_FILE, FieldPath, SourceMap
 from .expectations import Expect
@@ -50,6 +51,7 @@ from .grammar import (
     given,
     whole,
 )
+from .scenario_file import character_name
 from .schema_actions import Action
 from .schema_generators import HALF, Dominoes, Pyramid, Wall
 from .schema_golden import Golden
@@ -58,7 +60,7 @@ from .schema_layouts import BrickPlacement, CardHouse, Tower
 from .schema_marks import SkipMark, XFailMark
 from .schema_parts import LAYOUTS, RESERVED, Parts, as_parts, check_parts, named_parts
 from .schema_require import Requirement
-from .schema_sweep import Sweep, grid_name
+from .schema_sweep import SweepField, grid_name
 from .unit_slips import metres_written
 from .units import (
     Time,
@@ -278,7 +280,7 @@ class Scenario(StrictModel):
             examples=[{"tolerance": {"position": "2 mm", "angle": 2}}],
         ),
     ] = Golden()
-    sweep: Sweep | None = None
+    sweep: SweepField = None
     require: Annotated[list[Requirement], Field(max_length=50)] = Field(
         default=[],
         description="conditions a sample's draws must meet before it runs (else it is drawn again): fields of the "
@@ -289,6 +291,18 @@ class Scenario(StrictModel):
     # pytest's marks: skip and xfail, each with a reason and a condition on the run (stackdsl.lang.schema_marks)
     skip: SkipMark = None
     xfail: XFailMark = None
+
+    @model_validator(mode="after")
+    def _text_a_file_can_hold(self) -> Scenario:
+        """Every text of the scenario (a value, a key, in any section) holds only characters a YAML
+        value may hold: the loader's rule (:data:`stackdsl.lang.bounds.NOT_IN_A_VALUE`), so that a
+        scenario built in Python writes (:meth:`to_yaml`) a file the loader reads back:
+        ``Scenario(name="a\\x00b")`` is refused, naming the field and the character."""
+        found = unprintable(self)
+        if found is not None:
+            where, ch = found
+            self._refuse(where, f"{character_name(ch)} is not allowed in a value: a scenario file cannot hold it")
+        return self
 
     @model_validator(mode="after")
     def _expectations_fit_the_sweep(self) -> Scenario:

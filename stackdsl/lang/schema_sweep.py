@@ -9,7 +9,7 @@ from __future__ import annotations
 import re
 from typing import Annotated, Any
 
-from pydantic import Field, model_validator
+from pydantic import BeforeValidator, Field, model_validator
 
 from .bounds import StrictModel
 from .grammar import WHOLE, Key
@@ -50,3 +50,20 @@ class Sweep(StrictModel):
                 f"{self.cells} cells x {self.samples} samples is {self.cells * self.samples} runs; at most {MAX_SWEEP_RUNS}"
             )
         return self
+
+
+def _given(value: Any) -> Any:
+    """An empty ``sweep:`` block is refused, not read as no sweep (it was, silently)."""
+    if value is None:
+        raise ValueError("an empty sweep block: give {samples: N} (and a grid), or leave the key out for one run")
+    return value
+
+
+def _no_null(schema: dict[str, Any]) -> None:
+    """The schema refuses an empty sweep block too."""
+    schema["anyOf"] = [s for s in schema.get("anyOf", []) if s != {"type": "null"}]
+    schema.pop("default", None)
+
+
+#: The scenario's ``sweep`` field: a sweep, or none when the key is left out.
+SweepField = Annotated[Sweep | None, BeforeValidator(_given), Field(json_schema_extra=_no_null)]

@@ -277,6 +277,8 @@ def _got(kind: str, given: Any) -> str:
         said = f", got a list: {shown(given)}"
     else:
         said = f", got {shown(given)}"
+    if kind == "string_pattern_mismatch" and isinstance(given, str):
+        said += _not_ascii(given)
     if kind == "string_type" and isinstance(given, bool):  # yes, no, on, off
         said += ": YAML reads an unquoted yes, no, on, off, true or false as true or false; quote it"
     return said
@@ -319,10 +321,13 @@ def _pattern(ctx: dict[str, Any]) -> str:
     """A name pattern (``^[A-Za-z0-9_.-]{1,40}$``) in words."""
     pattern = str(ctx.get("pattern", ""))
     if pattern == PART_NAME:
-        return "expected a part name: a letter or '_' first (a digit first reads as a level in 'expect'), then letters, digits, '_' or '-', 40 at most"
+        return (
+            "expected a part name: an ASCII letter or '_' first (a digit first reads as a level in 'expect'), "
+            "then ASCII letters, digits, '_' or '-', 40 at most"
+        )
     if pattern == BODY_ID:
         return (
-            "expected an id: a letter or '_' first (a digit first reads as a level in 'expect'), then letters, digits, "
+            "expected an id: an ASCII letter or '_' first (a digit first reads as a level in 'expect'), then ASCII letters, digits, "
             "'_', '.' or '-' (no spaces), not ending in '.' (the start of ids in 'expect'), 40 at most"
         )
     found = re.fullmatch(r"\^\[A-Za-z0-9([^\]]*)\]\{(\d+),(\d+)\}\$", pattern)
@@ -331,10 +336,17 @@ def _pattern(ctx: dict[str, Any]) -> str:
     signs = [repr(c) for c in found.group(1)]
     others = ", ".join(signs[:-1]) + f" or {signs[-1]}" if len(signs) > 1 else "".join(signs)
     return (
-        f"expected a name of {found.group(2)} to {found.group(3)} letters, digits"
+        f"expected a name of {found.group(2)} to {found.group(3)} ASCII letters, digits"
         + (f", {others}" if others else "")
         + " (no spaces)"
     )
+
+
+def _not_ascii(text: str) -> str:
+    """Where ``text`` has a character outside ASCII (which every name pattern of the language
+    refuses): its code point, ``"; 'é' is U+00E9, not ASCII"``; else nothing."""
+    odd = next((c for c in text if ord(c) > 127), None)
+    return "" if odd is None else f"; {odd!r} is U+{ord(odd):04X}, not ASCII"
 
 
 #: pydantic's error types whose words are said as the language says them: type -> message from ctx.
@@ -350,6 +362,10 @@ _PLAIN: dict[str, Callable[[dict[str, Any]], str]] = {
     "tuple_type": lambda ctx: "expected a list",
     "string_type": lambda ctx: "expected text",
     "string_pattern_mismatch": _pattern,
+    "string_too_short": lambda ctx: (
+        "expected some text" if ctx.get("min_length") == 1 else f"expected text of {ctx.get('min_length')} characters or more"
+    ),
+    "string_too_long": lambda ctx: f"expected text of {ctx.get('max_length')} characters at most",
     "greater_than_equal": lambda ctx: f"expected {ctx.get('ge')} or more",
     "greater_than": lambda ctx: f"expected more than {ctx.get('gt')}",
     "less_than_equal": lambda ctx: f"expected {ctx.get('le')} or less",

@@ -60,7 +60,7 @@ from ..batch.report import rerun_command
 from ..compile.compiler import compile_scenario
 from ..compile.program import Program
 from ..draw.artefacts import draw_run, folder_name
-from ..lang.errors import ScenarioError
+from ..lang.errors import ScenarioError, one_line
 from ..lang.loader import load_scenario
 from ..lang.schema import Scenario
 from ..lang.schema_marks import XFail
@@ -363,7 +363,7 @@ def _run_scenario_item(request: pytest.FixtureRequest, scenario_golden: Any) -> 
         request.node.user_properties.append((NEAR_TIE, f"{_shown(stored, config)}: {tie}"))
     if trajectory is not None and (lines or pictures == "on"):
         kept = _keep_pictures(trajectory, path, config)
-        if lines:  # a failure: say where to look
+        if lines or kept.startswith(CANNOT_KEEP):  # a failure: say where to look; pictures asked for and lost: fail
             lines.append(kept)
     if lines:
         pytest.fail("\n".join(lines), pytrace=False)
@@ -580,6 +580,10 @@ def _no_golden_yet(request: pytest.FixtureRequest, path: Path, shown: str) -> st
     return f"{shown}: no golden yet ({where}): run with --snapshot-update to write it ({again})"
 
 
+#: How :func:`_keep_pictures` starts its line when nothing could be written.
+CANNOT_KEEP = "pictures: cannot write them to"
+
+
 def _keep_pictures(trajectory: Any, path: Path, config: pytest.Config) -> str:
     """Draw a run into ``--stackdsl-output``/<its folder> (named after the scenario's path from
     the rootdir); one line saying where (or what failed)."""
@@ -588,7 +592,7 @@ def _keep_pictures(trajectory: Any, path: Path, config: pytest.Config) -> str:
     try:
         written, failure, _ = draw_run(trajectory, folder)
     except OSError as exc:  # the output folder cannot be made or written: say so in the failure
-        return f"pictures: cannot write them to {config.getoption('stackdsl_output')}: {exc.strerror or exc}"
+        return f"{CANNOT_KEEP} {one_line(str(config.getoption('stackdsl_output')))}: {exc.strerror or exc}"
     where = _shown(folder, config)
     return f"pictures: {where}/ ({', '.join(written.values())})" + (f"; {failure}" if failure else "")
 

@@ -17,7 +17,7 @@ from typing import Any
 from ..verdicts.snapshot import golden_dir
 
 #: A golden larger than this is not one stackdsl wrote (a 400-brick tower's is about 0.3 MB).
-MAX_BYTES = 64 * 2**20
+MAX_BYTES = 16 * 2**20  # as stackdsl.draw.replay.MAX_GOLDEN_BYTES: a 15 MiB one peaks at 224 MB read
 #: A golden nested deeper than this is not one stackdsl wrote (a scenario's nests 5 levels).
 MAX_DEPTH = 100
 #: What to do with a golden whose text is not a snapshot.

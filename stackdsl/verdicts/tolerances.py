@@ -46,7 +46,7 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -181,10 +181,9 @@ def project_tolerance(pyproject: str | Path) -> GoldenTolerance | None:
     except ValidationError as exc:
         first = exc.errors()[0]
         field = ".".join(str(part) for part in first["loc"])
-        known = ", ".join(f.name for f in fields(Tolerances))
         message = first["msg"].removeprefix("Value error, ")
-        if first["type"] == "extra_forbidden":
-            message = f"unknown key; known: {known.replace('_mm', '').replace('_deg', '')}"
+        if first["type"] == "extra_forbidden":  # the keys a scenario's golden.tolerance takes, the same
+            message = f"unknown key; known: {', '.join(GoldenTolerance.model_fields)}"
         raise ScenarioError(f"{where}.{field}: {message}", file=str(path)) from None
 
 

@@ -53,7 +53,7 @@ class MuJoCoSettings(EngineSettings):
         max_mass_ratio=3000.0,
         max_restitution={"raw": 0.6, "tuned": 0.8, "extension": 0.8},
         measured={
-            "min_side": "1.5 mm cubes settle within 0.02 mm in every mode and a column of ten stands at the defaults; "
+            "min_side": "1.5 mm cubes settle within 0.02 mm in every mode and a column of ten stands in extension mode; "
             "smaller, a brick's 0.5 mm drop gap is not below half its side",
             "max_speed": "a brick thrown at 40 m/s passes through a fixed 8 mm wall even with substeps (its soft "
             "contacts cannot stop it in time; 35 m/s: it stays)",

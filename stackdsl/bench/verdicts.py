@@ -86,6 +86,18 @@ SETTINGS: dict[str, Setting] = {
 #: (setting name, drop gap in metres) pairs to run.
 Plan = tuple[tuple[str, float], ...]
 
+#: The families ``stackdsl bench verdicts --families`` chooses from: the random assemblies, the
+#: random single-file stack (here), the near ties (:mod:`stackdsl.bench.near_tie`) and the
+#: shake table (:mod:`stackdsl.bench.shake_family`).
+FAMILIES: tuple[str, ...] = ("assemblies", "single-file", "near-tie", "shake")
+
+
+def family_settings(engines: Sequence[str] = ENGINES, baselines: bool = True) -> list[str]:
+    """The settings a family of samples runs in (each at the scenario's own drop gap): the
+    extension settings of ``engines`` and, with ``baselines``, their raw and tuned settings,
+    in table order."""
+    return [n for n, s in SETTINGS.items() if s.backend in engines and (baselines or s.extension)]
+
 
 def plan(engines: Sequence[str] = ENGINES, gaps: Sequence[float] = GAPS, baselines: bool = True) -> Plan:
     """The runs of each assembly: the extension settings of ``engines`` at each of ``gaps``,
@@ -115,7 +127,10 @@ class Run:
     """One run: its setting's name and drop gap (m), collapse level (None: stands), wall time
     (s), the structure bricks still ``active`` in its final brick graph, and an internal error
     or the reason it stopped early ('' when it ran to its end); ``certified``: its verdict has a
-    certificate (:class:`stackdsl.Certificate`; a "stands" one of rigid-block equilibrium)."""
+    certificate (:class:`stackdsl.Certificate`; a "stands" one of rigid-block equilibrium);
+    ``tie``: the certificate's words when it calls the verdict a near tie
+    (:func:`stackdsl.verdicts.golden_compare.near_tie`), else ''; ``proof``: how the
+    certificate proves a collapse (its kind, as "off its support"), else ''."""
 
     setting: str
     gap: float
@@ -124,6 +139,8 @@ class Run:
     active: tuple[str, ...] = ()
     error: str = ""
     certified: bool = True
+    tie: str = ""
+    proof: str = ""
 
     @property
     def stands_active(self) -> bool:
@@ -157,6 +174,7 @@ def run_setting(scenario: Scenario, setting: Setting, gap: float, timeout: float
     not an exception."""
     from ..compile.compiler import compile_scenario
     from ..runtime.run import run_program
+    from ..verdicts.golden_compare import near_tie
 
     try:
         timing = scenario.timing.model_copy(update={"drop_gap": gap})
@@ -169,7 +187,10 @@ def run_setting(scenario: Scenario, setting: Setting, gap: float, timeout: float
     level = outcome.collapse.level if outcome.collapse else None
     c = outcome.certificate
     certified = c is not None and (c.verdict == "collapse" if level is not None else c.kind == "equilibrium")
-    return Run(setting.name, gap, level, outcome.wall_time, active, outcome.stopped or "", certified)
+    proof = c.kind if c is not None and level is not None else ""
+    return Run(
+        setting.name, gap, level, outcome.wall_time, active, outcome.stopped or "", certified, near_tie(outcome, program), proof
+    )
 
 
 def verdicts(seed: int, index: int, runs: Plan | None = None) -> Verdicts:

@@ -85,16 +85,19 @@ def top_at(below: Sequence[float] | np.ndarray, target: float, right: bool) -> f
     below = list(below)
     last = below[-1]
     grid = np.linspace(last - LENGTH / 2, last + LENGTH / 2, 2401)
-    values = [least_margin([*below, g]) for g in grid]
+    x = np.asarray(below)
+    above = np.cumsum(x[::-1])[::-1] - x  # the centres above each brick below, summed, without the top's
+    carried = np.arange(len(x), 0, -1)  # how many bricks each carries, the top one included
+    values = (LENGTH / 2 - np.abs((above[:, None] + grid[None, :]) / carried[:, None] - x[:, None])).min(axis=0)
     peak = float(grid[int(np.argmax(values))])
-    if max(values) <= target:
-        raise ValueError(f"the stack below stands a top brick by at most {max(values) * 1000:.3f} mm")
+    if values.max() <= target:
+        raise ValueError(f"the stack below stands a top brick by at most {values.max() * 1000:.3f} mm")
     far = last + (LENGTH / 2 + 0.005) * (1 if right else -1)  # past the edge of the brick below: margin < -5 mm
     inner, outer = peak, far
     for _ in range(80):
         mid = (inner + outer) / 2
         inner, outer = (mid, outer) if least_margin([*below, mid]) > target else (inner, mid)
-    return (inner + outer) / 2
+    return float((inner + outer) / 2)
 
 
 def draw(seed: int, k: int) -> Draw:

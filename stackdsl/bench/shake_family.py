@@ -147,6 +147,7 @@ def reference(block: Block, amplitude: float, frequency: float, periods: int, th
         motion = "topples" if r.toppled else "rocks" if r.largest > ROCKED else "stays"
         return Reference(motion, 1 if r.toppled else None, 0.0, r.largest, 0.0)
     final, largest = coulomb_slip(amplitude, frequency, periods, block.mu)
+    final = abs(final)
     return Reference("slides" if largest > SLID else "stays", 1 if final > threshold else None, largest, 0.0, final)
 
 

@@ -25,7 +25,7 @@ from stackdsl.bench.shake_family import (
     shake_batch,
 )
 from stackdsl.bench.shake_models import G, coulomb_slip, rocking
-from stackdsl.bench.verdicts import Run, Sample, exact_margin, family_settings
+from stackdsl.bench.verdicts import Run, Sample, certificate_margins, exact_margin, family_settings, format_single_file
 from stackdsl.cli.main import main
 
 # --- the near ties ------------------------------------------------------------------------
@@ -69,6 +69,43 @@ def test_the_near_tie_table_counts_each_band_and_lists_each_disagreement(tmp_pat
     assert "      1  ext report pybullet       overhang of 2, inside: collapse 2 (off its support) (exact stands)" in table
     assert "margin 0.1" in table and "a near tie, said so" in table and "disagreements: 1, 1 that" in table
     assert (tmp_path / "near_tie_00001.yaml").read_text() == a.text
+
+
+def test_certificate_margins_above_or_far_below_the_true_one_are_counted_and_listed():
+    runs = [
+        ("    1", 0.0005, Run("ext report mujoco", 0.0005, None, 0.1, margin=0.0004)),  # 0.1 mm below: fine
+        ("    2", 0.0005, Run("ext report mujoco", 0.0005, None, 0.1, margin=0.0006)),  # above the true margin
+        ("    3", 0.0020, Run("ext report mujoco", 0.0005, None, 0.1, margin=0.0012)),  # 0.8 mm below
+        ("    4", 0.0020, Run("ext report pybullet", 0.0005, None, 0.1, margin=0.0020)),
+    ]
+    lines = certificate_margins(runs, ["ext report mujoco", "ext report pybullet"])
+    assert lines[1].split()[3:] == ["3", "1", "1", "+0.100", "mm", "-0.800", "mm"], lines[1]
+    assert lines[2].split()[3:] == ["1", "0", "0", "+0.000", "mm", "+0.000", "mm"], lines[2]
+    assert lines[3:] == ["  above:     2  ext report mujoco         certificate 0.600 mm, true 0.500 mm"]
+
+
+def test_the_single_file_table_says_whether_each_miss_is_an_exact_tie_and_what_the_certificate_said():
+    tie = Sample(
+        7, 3, 0.00004, (Run("ext report pybullet", 0.0005, 2, 0.1, proof="off its support", tie="collapses on a near tie (x)"),)
+    )
+    far = Sample(8, None, 0.0003, (Run("ext report pybullet", 0.0005, 2, 0.1, proof="off its support"),))
+    table = format_single_file([tie, far], ["ext report pybullet"], 1.0)
+    assert "disagreements: 2 (1 exact ties under 0.1 mm, 1 that the certificate calls a near tie)" in table
+    assert "margin 0.040 mm  exact tie; collapses on a near tie (x)" in table
+    assert "margin 0.300 mm; the certificate says no near tie" in table
+
+
+def test_a_stands_certificate_margin_is_rounded_down_never_above_the_true_one():
+    from stackdsl.compile.compiler import compile_scenario
+    from stackdsl.lang.loader import parse_scenario
+    from stackdsl.runtime.run import run_program
+
+    # a two-brick overhang 0.47 mm inside its edge: 0.5 mm rounded, 0.4 mm rounded down
+    text = "stackdsl: 1\nname: t\nstructure:\n  bricks:\n    - {id: a, at: [0, 0, 4 mm], level: 1}\n"
+    text += "    - {id: b, at: [59.53 mm, 0, 12 mm], level: 2}\ntiming: {settle: 1 s}\n"
+    outcome = run_program(compile_scenario(parse_scenario(text, "t.yaml"), "extension", "report", "pybullet"))
+    assert outcome.collapse is None and outcome.certificate is not None
+    assert outcome.certificate.margin_mm == pytest.approx(0.4), outcome.certificate
 
 
 # --- the shake table -----------------------------------------------------------------------

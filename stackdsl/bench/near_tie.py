@@ -211,9 +211,10 @@ def format_near_ties(
     column per margin band of :data:`BANDS` (the last, above 1 mm, from ``above``: the random
     single-file stack's :class:`stackdsl.bench.verdicts.Sample` list, when it ran), inside and
     outside apart; then every disagreement with its margin and, where the certificate calls
-    the verdict a near tie, its words. With ``out`` (a folder), each misjudged sample's
+    the verdict a near tie, its words; then the "stands" certificates' margins against the
+    exact rule's (:func:`stackdsl.bench.verdicts.certificate_margins`). With ``out`` (a folder), each misjudged sample's
     scenario is written there as ``near_tie_NNNNN.yaml``."""
-    from .verdicts import SETTINGS, _cell, _failures, _level, _stands_active
+    from .verdicts import SETTINGS, _cell, _failures, _level, _stands_active, certificate_margins
 
     good = [s for s in samples if not s.error]
     wide = [s for s in above if not s.error and band_of(s.margin) == len(BANDS) - 1]
@@ -265,6 +266,9 @@ def format_near_ties(
             f"  {s.sample:5d}  {r.setting:<25} {s.shape} of {s.bricks}, {s.side}: {_level(r.level)}{proof} (exact {_level(s.exact)}), "
             f"margin {s.margin * 1000:.3f} mm{tie}{where}"
         )
+    lines += certificate_margins(
+        [(f"{s.sample:5d}", s.margin, r) for s in good if s.exact is None for r in s.runs if r.level is None], settings
+    )
     lines += _stands_active([(f"{s.sample:5d}", r) for s in good for r in s.runs if SETTINGS[r.setting].extension])
     failed = [line for s in samples for line in _failures(f"{s.sample:5d}", s.error, s.runs, at_gap=False)]
     lines += ["runs that stopped with an internal error:", *failed] if failed else []

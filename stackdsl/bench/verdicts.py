@@ -43,6 +43,9 @@ if TYPE_CHECKING:
 #: near-tie column (from NEAR to MARGIN).
 MARGIN = 0.001
 NEAR = 0.0002
+#: Metres: a margin under this is an exact tie (the certificate's own near-tie width: a brick
+#: within 0.1 mm of its support's edge).
+EXACT_TIE = 0.0001
 #: Metres: the drop gaps the extension settings run at (the scenario's own is 0.5 mm).
 GAPS: tuple[float, ...] = (0.0, 0.0005, 0.001, 0.002)
 DEFAULT_GAP = 0.0005
@@ -130,7 +133,8 @@ class Run:
     certificate (:class:`stackdsl.Certificate`; a "stands" one of rigid-block equilibrium);
     ``tie``: the certificate's words when it calls the verdict a near tie
     (:func:`stackdsl.verdicts.golden_compare.near_tie`), else ''; ``proof``: how the
-    certificate proves a collapse (its kind, as "off its support"), else ''."""
+    certificate proves a collapse (its kind, as "off its support"), else ''; ``margin``: a
+    "stands" certificate's margin (m, :attr:`stackdsl.Certificate.margin_mm`), else None."""
 
     setting: str
     gap: float
@@ -141,6 +145,7 @@ class Run:
     certified: bool = True
     tie: str = ""
     proof: str = ""
+    margin: float | None = None
 
     @property
     def stands_active(self) -> bool:
@@ -188,8 +193,18 @@ def run_setting(scenario: Scenario, setting: Setting, gap: float, timeout: float
     c = outcome.certificate
     certified = c is not None and (c.verdict == "collapse" if level is not None else c.kind == "equilibrium")
     proof = c.kind if c is not None and level is not None else ""
+    margin = c.margin_mm / 1000 if c is not None and c.margin_mm is not None and level is None else None
     return Run(
-        setting.name, gap, level, outcome.wall_time, active, outcome.stopped or "", certified, near_tie(outcome, program), proof
+        setting.name,
+        gap,
+        level,
+        outcome.wall_time,
+        active,
+        outcome.stopped or "",
+        certified,
+        near_tie(outcome, program),
+        proof,
+        margin,
     )
 
 
@@ -426,6 +441,39 @@ def format_verdicts(results: list[Verdicts], out: Path | None, seconds: float, r
     return "\n".join(lines + (["runs that stopped with an internal error:", *failed] if failed else []))
 
 
+#: Metres: the half-width of a KAPLA brick, the margin of a single file of bricks across it
+#: (every brick of the single-file stacks is centred on y = 0).
+HALF_WIDTH = 0.012
+#: Metres: how far below the true margin a certificate's margin may be.
+MARGIN_SLACK = 0.0005
+
+
+def certificate_margins(pairs: Sequence[tuple[str, float, Run]], settings: Sequence[str]) -> list[str]:
+    """Each setting's "stands" certificate margins against the true margins of ``pairs``
+    ((label, true margin in m, run) of samples the exact rule says stand): how many, how many
+    above the true margin, how many more than :data:`MARGIN_SLACK` below it, the largest
+    excess and shortfall (mm), then a line for each margin above the true one."""
+    lines = [
+        "certificate margins of the stands it agrees on, against the true margin: runs with one; above the true "
+        f"margin; more than {MARGIN_SLACK * 1000:g} mm below it; largest excess and shortfall",
+    ]
+    above: list[tuple[str, float, Run]] = []
+    for name in settings:
+        mine = [(label, true, r) for label, true, r in pairs if r.setting == name and r.margin is not None and not r.error]
+        diffs = [r.margin - true for _, true, r in mine if r.margin is not None]
+        above += [(label, true, r) for label, true, r in mine if r.margin is not None and r.margin > true]
+        over = sum(d > 0 for d in diffs)
+        short = sum(d < -MARGIN_SLACK for d in diffs)
+        lines.append(
+            f"  {name:<25} {len(mine):>6} {over:>6} {short:>6}  {max(diffs, default=0.0) * 1000:+.3f} mm "
+            f"{min(diffs, default=0.0) * 1000:+.3f} mm"
+        )
+    for label, true, r in above:
+        assert r.margin is not None
+        lines.append(f"  above: {label}  {r.setting:<25} certificate {r.margin * 1000:.3f} mm, true {true * 1000:.3f} mm")
+    return lines
+
+
 def _stands_active(runs: Sequence[tuple[str, Run]]) -> list[str]:
     """One line for each run that says "stands" with a structure brick still active at its end."""
     found = [(label, r) for label, r in runs if r.stands_active]
@@ -591,14 +639,21 @@ def format_single_file(samples: list[Sample], settings: Sequence[str], seconds: 
         )
     wrong = [(s, r) for s in good for r in s.runs if not r.error and r.level != s.exact]
     lines.append(
-        f"disagreements: {len(wrong)} ({sum(s.margin < MARGIN for s, _ in wrong)} near ties under {MARGIN * 1000:g} mm)"
-        + (": sample, setting, measured, exact rule, margin" if wrong else "")
+        f"disagreements: {len(wrong)} ({sum(s.margin < EXACT_TIE for s, _ in wrong)} exact ties under "
+        f"{EXACT_TIE * 1000:g} mm, {sum(bool(r.tie) for _, r in wrong)} that the certificate calls a near tie)"
+        + (": sample, setting, measured (proof), exact rule, margin; the certificate's words" if wrong else "")
     )
     for s, r in wrong:
-        tie = "  near tie" if s.margin < MARGIN else ""
+        tie = f"; {r.tie}" if r.tie else "; the certificate says no near tie"
+        proof = f" ({r.proof})" if r.proof else ""
         lines.append(
-            f"  {s.sample:5d}  {r.setting:<25} {_level(r.level)} (exact {_level(s.exact)}), margin {s.margin * 1000:.2f} mm{tie}"
+            f"  {s.sample:5d}  {r.setting:<25} {_level(r.level)}{proof} (exact {_level(s.exact)}), margin {s.margin * 1000:.3f} mm"
+            f"{'  exact tie' if s.margin < EXACT_TIE else ''}{tie}"
         )
+    lines += certificate_margins(
+        [(f"{s.sample:5d}", min(s.margin, HALF_WIDTH), r) for s in good if s.exact is None for r in s.runs if r.level is None],
+        settings,
+    )
     lines += _stands_active([(f"{s.sample:5d}", r) for s in good for r in s.runs])
     failed = [line for s in samples for line in _failures(f"{s.sample:5d}", s.error, s.runs, at_gap=False)]
     lines += ["runs that stopped with an internal error:", *failed] if failed else []

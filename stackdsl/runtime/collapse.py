@@ -340,7 +340,7 @@ class CollapseMonitor(Subscriber):
                     f"{_count(certificate.contacts, 'contact')}{_friction(certificate.friction)}"
                 )
                 + _statics(self._near_ties()),
-                margin_mm=round(certificate.margin * 1000, 1) + 0.0,
+                margin_mm=math.floor(round(certificate.margin * 10_000, 6)) / 10 + 0.0,  # down: never above it
                 friction_share=math.ceil(round(certificate.friction * 100, 6)) / 100,
             )
             return

@@ -388,7 +388,8 @@ def _cell(pair: tuple[int, int]) -> str:
 
 def format_verdicts(results: list[Verdicts], out: Path | None, seconds: float, runs: Plan | None = None) -> str:
     """The agreement table of ``runs`` (default: :func:`plan`'s), and the misjudged assemblies
-    with a margin above :data:`MARGIN` (written to ``out`` as scenario files when it is given)."""
+    with a margin above :data:`NEAR` (written to ``out`` as scenario files when it is given),
+    each with its proof and the certificate's near-tie words."""
     runs = plan() if runs is None else runs
     good = [v for v in results if not v.error]
     sure = [v for v in good if v.margin > MARGIN]
@@ -412,10 +413,17 @@ def format_verdicts(results: list[Verdicts], out: Path | None, seconds: float, r
             f"{_cell(row.flat)} {_cell(row.leaning)} {active} {row.uncertified:>8} {row.errors:>6} {row.wall * 1000:>8.0f} ms"
         )
     wrong = [
-        (v, name, gap) for v in sure for name, gap in runs if (r := v.run(name, gap)) and not r.error and not agrees(v, name, gap)
+        (v, name, gap)
+        for v in good
+        if v.margin > NEAR
+        for name, gap in runs
+        if (r := v.run(name, gap)) and not r.error and not agrees(v, name, gap)
     ]
     if wrong:
-        lines.append("misjudged (margin above 1 mm): assembly, setting, gap, measured, oracle, margin")
+        lines.append(
+            f"misjudged (margin above {NEAR * 1000:g} mm): assembly, setting, gap, measured (proof), oracle, margin; "
+            "the certificate's words"
+        )
     written: set[int] = set()
     for v, name, gap in wrong:
         where = ""
@@ -428,12 +436,14 @@ def format_verdicts(results: list[Verdicts], out: Path | None, seconds: float, r
             where = f"  {path.name}"
         r = v.run(name, gap)
         lean = ", leaning" if v.leaning else ""
+        proof = f" ({r.proof})" if r and r.proof else ""
+        tie = f"; {r.tie}" if r and r.tie else ""
         lines.append(
-            f"  {v.index:4d}  {name:<25} {gap * 1000:.1f} mm  {_level(r.level if r else None)} (oracle {_level(v.oracle)}), "
-            f"margin {v.margin * 1000:.1f} mm{lean}{where}"
+            f"  {v.index:4d}  {name:<25} {gap * 1000:.1f} mm  {_level(r.level if r else None)}{proof} (oracle {_level(v.oracle)}), "
+            f"margin {v.margin * 1000:.2f} mm{lean}{where}{tie}"
         )
     if not wrong:
-        lines.append(f"no assembly with a margin above {MARGIN * 1000:g} mm misjudged: no files written")
+        lines.append(f"no assembly with a margin above {NEAR * 1000:g} mm misjudged: no files written")
     elif out is not None:
         lines.append(f"(their files are in {out})")
     lines += _stands_active([(f"{v.index:4d}", r) for v in good for r in v.runs])

@@ -20,9 +20,11 @@ from stackdsl.bench.shake_family import (
     came_back,
     format_shakes,
     onset,
+    onset_within,
     ratio_of,
     reference,
     shake_batch,
+    stirred,
 )
 from stackdsl.bench.shake_models import G, coulomb_slip, rocking
 from stackdsl.bench.verdicts import Run, Sample, certificate_margins, exact_margin, family_settings, format_single_file
@@ -178,6 +180,21 @@ def test_the_shake_tables_count_from_the_runs():
     assert rows[0].split()[3:5] == ["1/1", "100%"] and "1/2" in rows[0] and rows[0].split()[-5] == "1"  # 'upright'
     assert "verdict disagreements: 1" in table and "x1.070  ext report pybullet       collapse 1 (stands)" in table
     assert onset([(0.9, "stays"), (1.02, "rocks"), (1.05, "stays")]) == "102.0%*" and onset([(1.1, "stays")]) == "-"
+    # the onset of motion: the rocked samples tilted 0.1 rad, the first stayed still
+    assert (
+        "cells whose onset is within 5% of the closed form (still below 95%, moving above 105%): ext report pybullet 1/1" in table
+    )
+    onsets = table.split("onset of motion")[1].splitlines()
+    assert onsets[2].split()[-1] == "107.0%", onsets
+
+
+def test_the_onset_of_motion_is_within_5_percent_only_when_still_below_and_moving_above():
+    still = ShakeRun(Run("s", 0.0, None, 0.1), "stays", 0.000005, math.radians(0.02), 0.0, 0.0)
+    moved = replace(still, tilt=math.radians(0.06))
+    assert not stirred(still) and stirred(moved) and stirred(replace(still, slip=0.00002))
+    assert onset_within([(0.9, False), (0.97, False), (1.01, True), (1.1, True)])
+    assert onset_within([(0.97, True), (1.03, False), (1.2, True)])  # within 5%, either way
+    assert not onset_within([(0.9, True), (1.1, True)]) and not onset_within([(0.9, False), (1.1, False)])
 
 
 # --- the command -----------------------------------------------------------------------------

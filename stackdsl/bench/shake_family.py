@@ -50,6 +50,10 @@ ROCKED = math.radians(1.0)
 #: Metres: a block whose base's centre slipped more than this on the table has slid (MuJoCo's
 #: compliant contacts let a block creep 0.35 mm at 0.9 of mu g).
 SLID = 0.0005
+#: Metres and radians: a block whose base slipped more than this, or that tilted more than
+#: this, moved at all (the onset of motion; a block at rest on pybullet tilts 0.01 to 0.02 deg).
+STIRRED = 1e-5
+STIRRED_TILT = math.radians(0.05)
 #: Seconds the table shakes; seconds a run (and the rocking model) goes on after it.
 DURATION = 1.0
 SETTLE = 2.0
@@ -338,6 +342,19 @@ def onset(points: Sequence[tuple[float, str]]) -> str:
     return f"{moved[0] * 100:.1f}%" + ("*" if still_above else "")
 
 
+def stirred(run: ShakeRun) -> bool:
+    """The block moved at all on the table (slipped more than :data:`STIRRED` or tilted more
+    than :data:`STIRRED_TILT`)."""
+    return run.slip > STIRRED or run.tilt > STIRRED_TILT
+
+
+def onset_within(points: Sequence[tuple[float, bool]], tolerance: float = 0.05) -> bool:
+    """Whether the onset of motion of (ratio, moved) pairs is within ``tolerance`` of the closed
+    form (ratio 1): still at every ratio below ``1 - tolerance``, moved at every ratio above
+    ``1 + tolerance``."""
+    return all(moved == (r > 1) for r, moved in points if abs(r - 1) > tolerance)
+
+
 def format_shakes(samples: Sequence[ShakeSample], settings: Sequence[str], seconds: float) -> str:
     """The shake family's tables: each setting's collapse verdicts and motions against the
     reference by ratio band, the first motion of each (block, frequency) cell against the
@@ -405,6 +422,33 @@ def format_shakes(samples: Sequence[ShakeSample], settings: Sequence[str], secon
             f"{block.name:<32} {frequency:>3g} Hz {block.threshold:>5.3f} {kind:<6} {ref:>10} "
             + " ".join(f"{x:>25}" for x in cells)
         )
+    lines += [
+        "",
+        f"onset of motion (the least ratio at which the block moved at all: slipped > {STIRRED * 1000:g} mm or tilted > "
+        f"{math.degrees(STIRRED_TILT):g} deg) in % of the closed form; *: it stayed still at some larger ratio; "
+        "the closed form's own is 100%",
+        f"{'block':<32} {'f':>5} {'threshold':>12} " + " ".join(f"{n:>25}" for n in settings),
+    ]
+    within = {name: 0 for name in settings}
+    cells_run = 0
+    for block, frequency in CELLS:
+        mine_c = [s for s in good if s.block == block.name and round(s.frequency) == round(frequency)]
+        if not mine_c:
+            continue
+        cells_run += 1
+        cells = []
+        for name in settings:
+            points = [(s.ratio, stirred(r)) for s in mine_c for r in runs(s, name)]
+            within[name] += onset_within(points)
+            cells.append(onset([(ratio, "moves" if moved else "stays") for ratio, moved in points]))
+        kind = "mu g" if not block.tips else "g b / h"
+        lines.append(
+            f"{block.name:<32} {frequency:>3g} Hz {block.threshold:>5.3f} {kind:<6} " + " ".join(f"{x:>25}" for x in cells)
+        )
+    lines.append(
+        "cells whose onset is within 5% of the closed form (still below 95%, moving above 105%): "
+        + ", ".join(f"{name} {within[name]}/{cells_run}" for name in settings)
+    )
     wrong = [(s, r) for s in good for name in settings for r in runs(s, name) if not verdict(s, r)]
     lines += [
         "",

@@ -265,3 +265,17 @@ def test_near_tie_names_a_collapse_of_an_exact_tie():
     outcome = run_program(tie)
     assert outcome.collapse is not None and outcome.certificate is not None and "exact tie" in outcome.certificate.detail
     assert near_tie(outcome, tie).startswith("collapses on a near tie (")
+
+
+def test_near_tie_names_a_run_left_undecided_by_a_brick_tipping_off_an_exact_tie():
+    from stackdsl import run_program
+    from stackdsl.verdicts.golden_compare import near_tie
+
+    # 0.002 mm outside its support's edge, the top brick tips too slowly to fall in a second
+    text = "stackdsl: 1\nstructure:\n  bricks:\n    - {id: base, at: [0, 0, 4 mm]}\n"
+    text += "    - {id: top, at: [-60.002159 mm, 0, 12 mm]}\ntiming: {settle: 1 s}\n"
+    tie = compile_scenario(parse_scenario(text))
+    outcome = run_program(tie)
+    assert outcome.certificate is not None and outcome.certificate.verdict == "undecided", outcome.certificate
+    assert "placed 0.00 mm outside its support's edge: an exact tie" in outcome.certificate.detail
+    assert near_tie(outcome, tie).startswith("undecided on a near tie (")

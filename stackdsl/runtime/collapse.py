@@ -319,7 +319,9 @@ class CollapseMonitor(Subscriber):
         if self.collapse is not None or loop.stopped is not None:
             return
         if moving:  # no static argument on a pose in flight: the run was too short to tell
-            self.certificate = Certificate(verdict="undecided", kind="still moving", detail=said, bricks=())
+            records = loop.structure.records
+            ties = "".join(self._near_tie(loop, records[i]) for i in sorted(moving) if i in records)  # why it is slow
+            self.certificate = Certificate(verdict="undecided", kind="still moving", detail=said + ties, bricks=())
             return
         started = time.perf_counter()
         certificate = self._certify()

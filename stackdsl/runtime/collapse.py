@@ -319,7 +319,9 @@ class CollapseMonitor(Subscriber):
         if self.collapse is not None or loop.stopped is not None:
             return
         if moving:  # no static argument on a pose in flight: the run was too short to tell
-            self.certificate = Certificate(verdict="undecided", kind="still moving", detail=said, bricks=())
+            records = loop.structure.records
+            ties = "".join(self._near_tie(loop, records[i]) for i in sorted(moving) if i in records)  # why it is slow
+            self.certificate = Certificate(verdict="undecided", kind="still moving", detail=said + ties, bricks=())
             return
         started = time.perf_counter()
         certificate = self._certify()
@@ -340,7 +342,7 @@ class CollapseMonitor(Subscriber):
                     f"{_count(certificate.contacts, 'contact')}{_friction(certificate.friction)}"
                 )
                 + _statics(self._near_ties()),
-                margin_mm=round(certificate.margin * 1000, 1) + 0.0,
+                margin_mm=math.floor(round(certificate.margin * 10_000, 6)) / 10 + 0.0,  # down: never above it
                 friction_share=math.ceil(round(certificate.friction * 100, 6)) / 100,
             )
             return

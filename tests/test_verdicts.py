@@ -733,7 +733,8 @@ def test_cantilevers_sharing_a_counterweight_tip_by_the_group_s_centre_of_mass(x
     proof = result.certificate
     assert proof is not None
     if group_mm < 0.0:
-        assert result.collapse is None and proof.margin_mm == pytest.approx(-group_mm, abs=0.1), proof
+        assert result.collapse is None and proof.margin_mm is not None, proof
+        assert -group_mm - 0.2 <= proof.margin_mm <= -group_mm, proof  # rounded down, never above it
         return
     names = [f"A{k + 1}" for k in range(len(xs_mm))]
     assert result.collapse is not None and proof.kind == "off its support", proof
@@ -799,7 +800,8 @@ def test_counterweights_bridged_one_level_up_tip_with_their_cantilevers_as_one_g
     proof = result.certificate
     assert proof is not None
     if group_mm < 0.0:
-        assert result.collapse is None and proof.margin_mm == pytest.approx(-group_mm, abs=0.1), proof
+        assert result.collapse is None and proof.margin_mm is not None, proof
+        assert -group_mm - 0.2 <= proof.margin_mm <= -group_mm, proof  # rounded down, never above it
         return
     assert result.collapse is not None and proof.kind == "off its support", proof
     assert result.collapse.displacement < 0.006, result.collapse

@@ -43,6 +43,9 @@ if TYPE_CHECKING:
 #: near-tie column (from NEAR to MARGIN).
 MARGIN = 0.001
 NEAR = 0.0002
+#: Metres: a margin under this is an exact tie (the certificate's own near-tie width: a brick
+#: within 0.1 mm of its support's edge).
+EXACT_TIE = 0.0001
 #: Metres: the drop gaps the extension settings run at (the scenario's own is 0.5 mm).
 GAPS: tuple[float, ...] = (0.0, 0.0005, 0.001, 0.002)
 DEFAULT_GAP = 0.0005
@@ -86,6 +89,18 @@ SETTINGS: dict[str, Setting] = {
 #: (setting name, drop gap in metres) pairs to run.
 Plan = tuple[tuple[str, float], ...]
 
+#: The families ``stackdsl bench verdicts --families`` chooses from: the random assemblies, the
+#: random single-file stack (here), the near ties (:mod:`stackdsl.bench.near_tie`) and the
+#: shake table (:mod:`stackdsl.bench.shake_family`).
+FAMILIES: tuple[str, ...] = ("assemblies", "single-file", "near-tie", "shake")
+
+
+def family_settings(engines: Sequence[str] = ENGINES, baselines: bool = True) -> list[str]:
+    """The settings a family of samples runs in (each at the scenario's own drop gap): the
+    extension settings of ``engines`` and, with ``baselines``, their raw and tuned settings,
+    in table order."""
+    return [n for n, s in SETTINGS.items() if s.backend in engines and (baselines or s.extension)]
+
 
 def plan(engines: Sequence[str] = ENGINES, gaps: Sequence[float] = GAPS, baselines: bool = True) -> Plan:
     """The runs of each assembly: the extension settings of ``engines`` at each of ``gaps``,
@@ -115,7 +130,11 @@ class Run:
     """One run: its setting's name and drop gap (m), collapse level (None: stands), wall time
     (s), the structure bricks still ``active`` in its final brick graph, and an internal error
     or the reason it stopped early ('' when it ran to its end); ``certified``: its verdict has a
-    certificate (:class:`stackdsl.Certificate`; a "stands" one of rigid-block equilibrium)."""
+    certificate (:class:`stackdsl.Certificate`; a "stands" one of rigid-block equilibrium);
+    ``tie``: the certificate's words when it calls the verdict a near tie
+    (:func:`stackdsl.verdicts.golden_compare.near_tie`), else ''; ``proof``: how the
+    certificate proves a collapse (its kind, as "off its support"), else ''; ``margin``: a
+    "stands" certificate's margin (m, :attr:`stackdsl.Certificate.margin_mm`), else None."""
 
     setting: str
     gap: float
@@ -124,6 +143,9 @@ class Run:
     active: tuple[str, ...] = ()
     error: str = ""
     certified: bool = True
+    tie: str = ""
+    proof: str = ""
+    margin: float | None = None
 
     @property
     def stands_active(self) -> bool:
@@ -157,6 +179,7 @@ def run_setting(scenario: Scenario, setting: Setting, gap: float, timeout: float
     not an exception."""
     from ..compile.compiler import compile_scenario
     from ..runtime.run import run_program
+    from ..verdicts.golden_compare import near_tie
 
     try:
         timing = scenario.timing.model_copy(update={"drop_gap": gap})
@@ -169,7 +192,20 @@ def run_setting(scenario: Scenario, setting: Setting, gap: float, timeout: float
     level = outcome.collapse.level if outcome.collapse else None
     c = outcome.certificate
     certified = c is not None and (c.verdict == "collapse" if level is not None else c.kind == "equilibrium")
-    return Run(setting.name, gap, level, outcome.wall_time, active, outcome.stopped or "", certified)
+    proof = c.kind if c is not None and level is not None else ""
+    margin = c.margin_mm / 1000 if c is not None and c.margin_mm is not None and level is None else None
+    return Run(
+        setting.name,
+        gap,
+        level,
+        outcome.wall_time,
+        active,
+        outcome.stopped or "",
+        certified,
+        near_tie(outcome, program),
+        proof,
+        margin,
+    )
 
 
 def verdicts(seed: int, index: int, runs: Plan | None = None) -> Verdicts:
@@ -352,7 +388,8 @@ def _cell(pair: tuple[int, int]) -> str:
 
 def format_verdicts(results: list[Verdicts], out: Path | None, seconds: float, runs: Plan | None = None) -> str:
     """The agreement table of ``runs`` (default: :func:`plan`'s), and the misjudged assemblies
-    with a margin above :data:`MARGIN` (written to ``out`` as scenario files when it is given)."""
+    with a margin above :data:`NEAR` (written to ``out`` as scenario files when it is given),
+    each with its proof and the certificate's near-tie words."""
     runs = plan() if runs is None else runs
     good = [v for v in results if not v.error]
     sure = [v for v in good if v.margin > MARGIN]
@@ -376,10 +413,17 @@ def format_verdicts(results: list[Verdicts], out: Path | None, seconds: float, r
             f"{_cell(row.flat)} {_cell(row.leaning)} {active} {row.uncertified:>8} {row.errors:>6} {row.wall * 1000:>8.0f} ms"
         )
     wrong = [
-        (v, name, gap) for v in sure for name, gap in runs if (r := v.run(name, gap)) and not r.error and not agrees(v, name, gap)
+        (v, name, gap)
+        for v in good
+        if v.margin > NEAR
+        for name, gap in runs
+        if (r := v.run(name, gap)) and not r.error and not agrees(v, name, gap)
     ]
     if wrong:
-        lines.append("misjudged (margin above 1 mm): assembly, setting, gap, measured, oracle, margin")
+        lines.append(
+            f"misjudged (margin above {NEAR * 1000:g} mm): assembly, setting, gap, measured (proof), oracle, margin; "
+            "the certificate's words"
+        )
     written: set[int] = set()
     for v, name, gap in wrong:
         where = ""
@@ -392,17 +436,52 @@ def format_verdicts(results: list[Verdicts], out: Path | None, seconds: float, r
             where = f"  {path.name}"
         r = v.run(name, gap)
         lean = ", leaning" if v.leaning else ""
+        proof = f" ({r.proof})" if r and r.proof else ""
+        tie = f"; {r.tie}" if r and r.tie else ""
         lines.append(
-            f"  {v.index:4d}  {name:<25} {gap * 1000:.1f} mm  {_level(r.level if r else None)} (oracle {_level(v.oracle)}), "
-            f"margin {v.margin * 1000:.1f} mm{lean}{where}"
+            f"  {v.index:4d}  {name:<25} {gap * 1000:.1f} mm  {_level(r.level if r else None)}{proof} (oracle {_level(v.oracle)}), "
+            f"margin {v.margin * 1000:.2f} mm{lean}{where}{tie}"
         )
     if not wrong:
-        lines.append(f"no assembly with a margin above {MARGIN * 1000:g} mm misjudged: no files written")
+        lines.append(f"no assembly with a margin above {NEAR * 1000:g} mm misjudged: no files written")
     elif out is not None:
         lines.append(f"(their files are in {out})")
     lines += _stands_active([(f"{v.index:4d}", r) for v in good for r in v.runs])
     failed = [line for v in results for line in _failures(f"{v.index:4d}", v.error, v.runs, at_gap=True)]
     return "\n".join(lines + (["runs that stopped with an internal error:", *failed] if failed else []))
+
+
+#: Metres: the half-width of a KAPLA brick, the margin of a single file of bricks across it
+#: (every brick of the single-file stacks is centred on y = 0).
+HALF_WIDTH = 0.012
+#: Metres: how far below the true margin a certificate's margin may be.
+MARGIN_SLACK = 0.0005
+
+
+def certificate_margins(pairs: Sequence[tuple[str, float, Run]], settings: Sequence[str]) -> list[str]:
+    """Each setting's "stands" certificate margins against the true margins of ``pairs``
+    ((label, true margin in m, run) of samples the exact rule says stand): how many, how many
+    above the true margin, how many more than :data:`MARGIN_SLACK` below it, the largest
+    excess and shortfall (mm), then a line for each margin above the true one."""
+    lines = [
+        "certificate margins of the stands it agrees on, against the true margin: runs with one; above the true "
+        f"margin; more than {MARGIN_SLACK * 1000:g} mm below it; largest excess and shortfall",
+    ]
+    above: list[tuple[str, float, Run]] = []
+    for name in settings:
+        mine = [(label, true, r) for label, true, r in pairs if r.setting == name and r.margin is not None and not r.error]
+        diffs = [r.margin - true for _, true, r in mine if r.margin is not None]
+        above += [(label, true, r) for label, true, r in mine if r.margin is not None and r.margin > true]
+        over = sum(d > 0 for d in diffs)
+        short = sum(d < -MARGIN_SLACK for d in diffs)
+        lines.append(
+            f"  {name:<25} {len(mine):>6} {over:>6} {short:>6}  {max(diffs, default=0.0) * 1000:+.3f} mm "
+            f"{min(diffs, default=0.0) * 1000:+.3f} mm"
+        )
+    for label, true, r in above:
+        assert r.margin is not None
+        lines.append(f"  above: {label}  {r.setting:<25} certificate {r.margin * 1000:.3f} mm, true {true * 1000:.3f} mm")
+    return lines
 
 
 def _stands_active(runs: Sequence[tuple[str, Run]]) -> list[str]:
@@ -570,14 +649,21 @@ def format_single_file(samples: list[Sample], settings: Sequence[str], seconds: 
         )
     wrong = [(s, r) for s in good for r in s.runs if not r.error and r.level != s.exact]
     lines.append(
-        f"disagreements: {len(wrong)} ({sum(s.margin < MARGIN for s, _ in wrong)} near ties under {MARGIN * 1000:g} mm)"
-        + (": sample, setting, measured, exact rule, margin" if wrong else "")
+        f"disagreements: {len(wrong)} ({sum(s.margin < EXACT_TIE for s, _ in wrong)} exact ties under "
+        f"{EXACT_TIE * 1000:g} mm, {sum(bool(r.tie) for _, r in wrong)} that the certificate calls a near tie)"
+        + (": sample, setting, measured (proof), exact rule, margin; the certificate's words" if wrong else "")
     )
     for s, r in wrong:
-        tie = "  near tie" if s.margin < MARGIN else ""
+        tie = f"; {r.tie}" if r.tie else "; the certificate says no near tie"
+        proof = f" ({r.proof})" if r.proof else ""
         lines.append(
-            f"  {s.sample:5d}  {r.setting:<25} {_level(r.level)} (exact {_level(s.exact)}), margin {s.margin * 1000:.2f} mm{tie}"
+            f"  {s.sample:5d}  {r.setting:<25} {_level(r.level)}{proof} (exact {_level(s.exact)}), margin {s.margin * 1000:.3f} mm"
+            f"{'  exact tie' if s.margin < EXACT_TIE else ''}{tie}"
         )
+    lines += certificate_margins(
+        [(f"{s.sample:5d}", min(s.margin, HALF_WIDTH), r) for s in good if s.exact is None for r in s.runs if r.level is None],
+        settings,
+    )
     lines += _stands_active([(f"{s.sample:5d}", r) for s in good for r in s.runs])
     failed = [line for s in samples for line in _failures(f"{s.sample:5d}", s.error, s.runs, at_gap=False)]
     lines += ["runs that stopped with an internal error:", *failed] if failed else []

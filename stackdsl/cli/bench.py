@@ -142,6 +142,13 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
         help="each setting's collapse verdicts on random assemblies against rigid-block equilibrium, on both engines "
         "and at several drop gaps; random single-file stacks against the exact centre-of-mass rule",
     )
+    q.add_argument(
+        "--families",
+        default="assemblies,single-file",
+        help="comma-separated, of: assemblies, single-file, near-tie (single-file stacks and two-brick overhangs 0 to 1 mm "
+        "from their tipping edge), shake (a block on a shake table at 0.8 to 1.2 of its closed-form threshold) "
+        "(default: assemblies,single-file)",
+    )
     q.add_argument("--count", type=int, default=1000, help="assemblies (default: 1000; 0: none)")
     q.add_argument("--seed", type=int, default=1, help="assembly k is drawn from SeedSequence(seed, spawn_key=(k,))")
     q.add_argument("--engines", default="pybullet,mujoco", help="comma-separated, of: pybullet, mujoco (default: both)")
@@ -157,6 +164,20 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
         help="random single-file stacks run in the extension settings against the exact rule (default: 1000; 0: none)",
     )
     q.add_argument(
+        "--near-tie",
+        type=int,
+        default=1600,
+        metavar="N",
+        help="near-tie samples, a quarter in each margin band 0-0.1, 0.1-0.2, 0.2-0.5 and 0.5-1 mm (default: 1600)",
+    )
+    q.add_argument(
+        "--shakes",
+        type=int,
+        default=20,
+        metavar="N",
+        help="shake samples in each of the 11 (block, frequency) cells (default: 20)",
+    )
+    q.add_argument(
         "-j",
         "--jobs",
         type=jobs_type,
@@ -166,7 +187,7 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     q.add_argument(
         "--out",
         help="folder for the journal of finished assemblies (a run given the same folder again resumes) and the "
-        "misjudged assemblies' files (default: a new temporary folder)",
+        "misjudged assemblies' files, and each family's table and samples (default: a new temporary folder)",
     )
     q.set_defaults(func=_bench_verdicts)
     q = bench.add_parser("freeze", help="the ways to freeze a brick on MuJoCo: weld, its own sleeping, a held mocap body")
@@ -519,26 +540,20 @@ def _bench_dominoes(args: argparse.Namespace) -> int:
 
 
 def _bench_verdicts(args: argparse.Namespace) -> int:
-    from ..bench.verdicts import (
-        JOURNAL,
-        SETTINGS,
-        Journal,
-        Verdicts,
-        format_single_file,
-        format_verdicts,
-        plan,
-        run_single_file,
-        timed,
-    )
+    from ..bench.verdicts import FAMILIES, JOURNAL, Journal, Verdicts, family_settings, format_verdicts, plan, timed
     from ..bench.versions import version_line
-    from .progress import Lines
 
-    if not 0 <= args.count <= 100_000:
-        raise ScenarioError(f"--count must be from 0 to 100000, not {args.count}", file="--count")
-    if not 0 <= args.single_file <= 100_000:
-        raise ScenarioError(f"--single-file must be from 0 to 100000, not {args.single_file}", file="--single-file")
-    if args.count == 0 and args.single_file == 0:
-        raise ScenarioError("nothing to run: give --count or --single-file above 0", file="--count")
+    families = _names(args.families, "--families", list(FAMILIES), "family")
+    sizes = {"assemblies": args.count, "single-file": args.single_file, "near-tie": args.near_tie, "shake": args.shakes}
+    options = {"assemblies": "--count", "single-file": "--single-file", "near-tie": "--near-tie", "shake": "--shakes"}
+    for family, size in sizes.items():
+        if not 0 <= size <= 100_000:
+            raise ScenarioError(f"{options[family]} must be from 0 to 100000, not {size}", file=options[family])
+    chosen = [f for f in families if sizes[f]]
+    if not chosen:
+        raise ScenarioError(
+            "nothing to run: give " + " or ".join(f"{options[f]} above 0" for f in families), file=options[families[0]]
+        )
     if args.seed < 0:
         raise ScenarioError(f"--seed must be 0 or more, not {args.seed}", file="--seed")
     engines = [e.strip() for e in args.engines.split(",") if e.strip()]
@@ -556,7 +571,16 @@ def _bench_verdicts(args: argparse.Namespace) -> int:
         _need_backend(name, "--engines")
     out = _out_folder(args.out, "stackdsl-verdicts-")
     print(version_line(), flush=True)
-    if args.count:
+    printed = False
+
+    def show(text: str, name: str | None = None) -> None:
+        nonlocal printed
+        print("\n" * printed + text, flush=True)
+        printed = True
+        if name is not None:
+            (out / name).write_text(text + "\n", encoding="utf-8")
+
+    if "assemblies" in chosen:
         journal = Journal(out / JOURNAL, args.seed, runs)
         try:
             done = journal.load()
@@ -571,14 +595,46 @@ def _bench_verdicts(args: argparse.Namespace) -> int:
 
         with Lines(args.count - sum(k < args.count for k in done), "assemblies") as progress:
             results, seconds = timed(args.seed, args.count, args.jobs, finished, runs, done)
-        print(format_verdicts(results, out, seconds, runs), flush=True)
-    if args.single_file:
-        chosen = [n for n in SETTINGS if SETTINGS[n].extension and SETTINGS[n].backend in engines]
+        show(format_verdicts(results, out, seconds, runs))
+    samples: list[Any] = []
+    if "single-file" in chosen:
+        from ..bench.verdicts import format_single_file, run_single_file
+
+        extension = family_settings(engines, baselines=False)
         start = time.perf_counter()
         with Lines(args.single_file, "single-file stacks") as progress:
-            samples = run_single_file(args.seed, args.single_file, args.jobs, chosen, lambda b: progress.advance(len(b)))
-        print("\n" * bool(args.count) + format_single_file(samples, chosen, time.perf_counter() - start))
+            samples = run_single_file(args.seed, args.single_file, args.jobs, extension, lambda b: progress.advance(len(b)))
+        show(format_single_file(samples, extension, time.perf_counter() - start))
+    settings = family_settings(engines, baselines=not args.no_baselines)
+    if "near-tie" in chosen:
+        from ..bench.near_tie import format_near_ties, run_near_ties
+
+        start = time.perf_counter()
+        with Lines(args.near_tie, "near-tie samples") as progress:
+            ties = run_near_ties(args.seed, args.near_tie, args.jobs, settings, lambda b: progress.advance(len(b)))
+        _write_samples(out / "near_tie.jsonl", ties)
+        show(format_near_ties(ties, settings, time.perf_counter() - start, samples, out), "near_tie.txt")
+    if "shake" in chosen:
+        from ..bench.shake_family import CELLS, format_shakes, run_shakes
+
+        start = time.perf_counter()
+        with Lines(args.shakes * len(CELLS), "shake samples") as progress:
+            shaken = run_shakes(args.seed, args.shakes, args.jobs, settings, lambda b: progress.advance(len(b)))
+        _write_samples(out / "shake.jsonl", shaken)
+        show(format_shakes(shaken, settings, time.perf_counter() - start), "shake.txt")
+    if any(f in chosen for f in ("near-tie", "shake")):
+        print(f"(the tables and every sample are in {out})")
     return OK
+
+
+def _write_samples(path: Path, samples: list[Any]) -> None:
+    """One JSON line per sample (a dataclass, its runs included)."""
+    import dataclasses
+    import json
+
+    with path.open("w", encoding="utf-8") as f:
+        for sample in samples:
+            f.write(json.dumps(dataclasses.asdict(sample)) + "\n")
 
 
 def _bench_startup(args: argparse.Namespace) -> int:

@@ -147,7 +147,9 @@ class CollapseMonitor(Subscriber):
         if self.collapse is not None or loop.stopped is not None:
             return
         if moving:  # no static argument on a pose in flight: the run was too short to tell
-            self.certificate = Certificate(verdict="undecided", kind="still moving", detail=said, bricks=())
+            records = loop.structure.records
+            ties = "".join(self._near_tie(loop, records[i]) for i in sorted(moving) if i in records)  # why it is slow
+            self.certificate = Certificate(verdict="undecided", kind="still moving", detail=said + ties, bricks=())
             return
         started = time.perf_counter()
         certificate = self._certify()
@@ -157,7 +159,7 @@ class CollapseMonitor(Subscriber):
                 verdict="stands",
                 kind="equilibrium",
                 detail=stand_words(certificate, self._near_ties()),
-                margin_mm=round(certificate.margin * 1000, 1) + 0.0,
+                margin_mm=math.floor(round(certificate.margin * 10_000, 6)) / 10 + 0.0,  # down: never above it
                 friction_share=math.ceil(round(certificate.friction * 100, 6)) / 100,
             )
             return

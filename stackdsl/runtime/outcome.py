@@ -91,8 +91,8 @@ class Certificate(_Frozen):
             every brick, and ``detail`` says how many were balanced).
         margin_mm: for ``stands``, how far every centre of mass could move together (one
             common horizontal shift, in any direction) before rigid-block equilibrium would not
-            hold it: never more than that distance and at most 0.1 mm less (at most 20 mm; see
-            :attr:`stability.Certificate.margin`); else None.
+            hold it, rounded down to 0.1 mm: never more than that distance and at most 0.2 mm
+            less (at most 20 mm; see :attr:`stability.Certificate.margin`); else None.
         friction_share: for ``stands``, the least share of every contact's friction coefficient
             with which it still balances (0: vertical forces on level faces hold it; see
             :attr:`stability.Certificate.friction`), to 0.01 above; else None.

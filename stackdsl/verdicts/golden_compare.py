@@ -703,7 +703,9 @@ def near_tie(outcome: Outcome, program: Program) -> str:
     """Why ``outcome``'s verdict sits on a near tie, in words, or ``""``: a stand whose
     certificate's margin is under the engine's contact margin
     (:attr:`stackdsl.engines.protocol.EngineSettings.contact_margin`), or a collapse its
-    certificate calls a near tie (a brick placed within that margin of its support's edge).
+    certificate calls a near or exact tie (a brick placed within that margin of its support's
+    edge, or within 0.1 mm of it either way: :data:`stackdsl.runtime.collapse.EXACT_TIE`), or
+    a run left undecided with such a brick still moving (tipping too slowly to finish).
     Such a verdict may flip on another machine or engine version."""
     c = outcome.certificate
     margin = program.engine.contact_margin * 1000
@@ -714,6 +716,8 @@ def near_tie(outcome: Outcome, program: Program) -> str:
             f"stands with a margin of {c.margin_mm:g} mm, under {program.engine.NAME}'s {margin:g} mm contact margin: "
             "a near tie the engine decides"
         )
-    if c.verdict == "collapse" and "near tie" in c.detail:
+    if c.verdict == "collapse" and ("near tie" in c.detail or "exact tie" in c.detail):
         return f"collapses on a near tie ({c.detail})"
+    if c.verdict == "undecided" and ("near tie" in c.detail or "exact tie" in c.detail):
+        return f"undecided on a near tie ({c.detail})"
     return ""

@@ -28,7 +28,7 @@ from packaging.utils import canonicalize_name
 
 ROOT = Path(__file__).parent
 #: The extras whose ranges the sessions measure, beside [project.dependencies].
-EXTRAS = ("mujoco", "pytest")
+EXTRAS = ("mujoco", "pytest", "parquet")
 #: What the sessions print of what they installed.
 VERSIONS = ("pybullet", "mujoco", "numpy", "scipy", "shapely", "pydantic", "PyYAML", "Pint", "matplotlib", "rich", "pyarrow")
 

@@ -99,7 +99,10 @@ class Certificate:
 
 
 def certify(stack: Stack, areas: ContactAreas) -> Certificate:
-    """Solve every registered brick of ``stack`` where it is (module docstring).
+    """Solve every registered brick of ``stack`` where it is (module docstring): by the load
+    paths when every brick is frozen over its own (:func:`_by_load_paths`), else on every contact
+    (the frozen bricks' remembered ones, and :func:`_active_contacts`) by the program
+    (:func:`_by_program`).
 
     Raises:
         ValueError: a contact without points (not expected from the engine).
@@ -111,50 +114,74 @@ def certify(stack: Stack, areas: ContactAreas) -> Certificate:
         [c for r in bricks if r.state is BrickState.FROZEN for c in r.contacts if c.other in known]
     )
     active = [r for r in bricks if r.state is BrickState.ACTIVE]
-    padded = any(c.core is not None for c in polygons)
     if bricks and not active and not stack.unproven:
-        reach = _inside(bricks)
-        margin = min(d for d, _ in reach)
-
-        def by_paths(width: float) -> Certificate:  # with what the paths' vertical forces need of friction
-            share = _path_share(polygons, stack.config.support_angle)
-            return Certificate(True, 0.0, width, (), len(bricks), (), len(polygons), "load paths", share)
-
-        if not padded and (margin >= MARGIN_LIMIT or _over_its_contacts(bricks, polygons, reach) <= margin + MARGIN_TOLERANCE):
-            return by_paths(min(margin, MARGIN_LIMIT))  # a lower bound, and the margin is at most the tolerance more
-        blocks = {r.body: RigidBlock(r.box.mass, stack.pose(r).position) for r in bricks}
-        if padded:  # the paths prove the stand; its margin is the bare contacts' (0: the padding's alone)
-            bare = _bare_margin(blocks, polygons, stack.config.gravity)
-            if not bare:
-                return by_paths(bare)
-            return Certificate(True, 0.0, bare, (), len(bricks), (), len(polygons), friction=_share(blocks, polygons, stack))
-        shift = _margin(blocks, polygons, stack.config.gravity)
-        if shift is None or shift <= margin:  # the paths' bound is the margin
-            return by_paths(min(margin, MARGIN_LIMIT))
-        return Certificate(True, 0.0, shift, (), len(bricks), (), len(polygons), friction=_share(blocks, polygons, stack))
-    pairs = {frozenset((c.body, c.other)) for c in polygons}
+        return _by_load_paths(stack, bricks, polygons)
     if active:
-        # every brick's exact faces first, then the engine's points for the pairs no face covers:
-        # a face is the whole overlap, which the engine's few points of it may not span (a brick
-        # turned 30 deg on another: pybullet's four points left out a corner of the pentagon, the
-        # centre of mass fell outside their hull and a still brick had "no equilibrium")
-        boxes = areas.boxes(active=True)
-        for r in active:
-            faces = [
-                ContactPolygon(r.body, o, a.corners(), a.normal, pair_friction(r.friction, stack.bodies[o].friction))
-                for o, a in areas.lying_on(r, stack.engine.pose(r.body), active=True, boxes=boxes).items()
-                if frozenset((r.body, o)) not in pairs
-            ]
-            pairs |= {frozenset((c.body, c.other)) for c in faces}
-            polygons += faces
-        points = by_body(stack.engine.contact_points())
-        for r in active:
-            touching = {o: p for o, p in areas.around(r, points).items() if frozenset((r.body, o)) not in pairs}
-            found = areas.shaped(areas.polygons(r, touching))
-            polygons += found
-            pairs |= {frozenset((c.body, c.other)) for c in found}
-    # a body touching nothing is in flight (a thrown brick that missed): no contact force can act
-    # on it, so it is no part of what stands, and no program that holds it could be found
+        polygons += _active_contacts(stack, areas, active, polygons)
+    return _by_program(stack, bricks, active, polygons)
+
+
+def _by_load_paths(stack: Stack, bricks: list[Record], polygons: list[ContactPolygon[int]]) -> Certificate:
+    """The certificate of ``bricks``, every one frozen over its load path (module docstring): the
+    paths prove the stand; the margin is the least reach to a path's edge (:func:`_inside`) when
+    that is proven the margin (:func:`_over_its_contacts`) or at :data:`MARGIN_LIMIT`, else the
+    program's on the contacts (``polygons``) when larger, and the bare contacts' when a padding
+    was kept (:func:`_bare_margin`; 0 when only the padding holds)."""
+    reach = _inside(bricks)
+    margin = min(d for d, _ in reach)
+    padded = any(c.core is not None for c in polygons)
+
+    def by_paths(width: float) -> Certificate:  # with what the paths' vertical forces need of friction
+        share = _path_share(polygons, stack.config.support_angle)
+        return Certificate(True, 0.0, width, (), len(bricks), (), len(polygons), "load paths", share)
+
+    if not padded and (margin >= MARGIN_LIMIT or _over_its_contacts(bricks, polygons, reach) <= margin + MARGIN_TOLERANCE):
+        return by_paths(min(margin, MARGIN_LIMIT))  # a lower bound, and the margin is at most the tolerance more
+    blocks = {r.body: RigidBlock(r.box.mass, stack.pose(r).position) for r in bricks}
+    if padded:  # the paths prove the stand; its margin is the bare contacts' (0: the padding's alone)
+        bare = _bare_margin(blocks, polygons, stack.config.gravity)
+        if not bare:
+            return by_paths(bare)
+        return Certificate(True, 0.0, bare, (), len(bricks), (), len(polygons), friction=_share(blocks, polygons, stack))
+    shift = _margin(blocks, polygons, stack.config.gravity)
+    if shift is None or shift <= margin:  # the paths' bound is the margin
+        return by_paths(min(margin, MARGIN_LIMIT))
+    return Certificate(True, 0.0, shift, (), len(bricks), (), len(polygons), friction=_share(blocks, polygons, stack))
+
+
+def _active_contacts(
+    stack: Stack, areas: ContactAreas, active: list[Record], polygons: list[ContactPolygon[int]]
+) -> list[ContactPolygon[int]]:
+    """The contact polygons of the ``active`` bricks that ``polygons`` (the frozen bricks') leave
+    out: every brick's exact faces first, then the engine's points for the pairs no face covers.
+    A face is the whole overlap, which the engine's few points of it may not span (a brick turned
+    30 deg on another: pybullet's four points left out a corner of the pentagon, the centre of
+    mass fell outside their hull and a still brick had "no equilibrium")."""
+    pairs = {frozenset((c.body, c.other)) for c in polygons}
+    found: list[ContactPolygon[int]] = []
+    boxes = areas.boxes(active=True)
+    for r in active:
+        faces = [
+            ContactPolygon(r.body, o, a.corners(), a.normal, pair_friction(r.friction, stack.bodies[o].friction))
+            for o, a in areas.lying_on(r, stack.engine.pose(r.body), active=True, boxes=boxes).items()
+            if frozenset((r.body, o)) not in pairs
+        ]
+        pairs |= {frozenset((c.body, c.other)) for c in faces}
+        found += faces
+    points = by_body(stack.engine.contact_points())
+    for r in active:
+        touching = {o: p for o, p in areas.around(r, points).items() if frozenset((r.body, o)) not in pairs}
+        shaped = areas.shaped(areas.polygons(r, touching))
+        found += shaped
+        pairs |= {frozenset((c.body, c.other)) for c in shaped}
+    return found
+
+
+def _by_program(stack: Stack, bricks: list[Record], active: list[Record], polygons: list[ContactPolygon[int]]) -> Certificate:
+    """The certificate of ``bricks`` on ``polygons`` by the equilibrium program: its margin when
+    it stands (the bare contacts' when a padding was kept), else the tension and the collapse
+    mechanism. A body touching nothing is in flight (a thrown brick that missed): no contact force
+    can act on it, so it is no part of what stands, and no program that holds it could be found."""
     in_contact = {c.body for c in polygons} | {c.other for c in polygons}
     flying = {r.body for r in active if r.body not in in_contact}
     bricks = [r for r in bricks if r.body not in flying]

@@ -13,8 +13,8 @@ import pytest
 from stackdsl import compile_scenario, evaluate, parse_scenario, run_program
 from stackdsl.compile.program import Launch, Push, Remove, Shake, format_program
 from stackdsl.lang.expectations import selects
-from stackdsl.lang.extras import installed
 from stackdsl.lang.jsonschema import json_schema
+from stackdsl.util.extras import installed
 
 BACKENDS = [
     "pybullet",
@@ -891,7 +891,7 @@ def test_a_brick_in_the_hand_still_supports_in_the_off_support_proof():
         def after_step(self, loop):
             if 22.5 <= loop.now < 22.5 + loop.dt:  # the pull of L05.1 started at 22 s, at 40 mm/s
                 monitor = next(s for s in loop.subscribers if isinstance(s, CollapseMonitor))
-                self.seen.append(monitor._off_support(loop, loop.structure.records["L06.1"]))
+                self.seen.append(monitor.off_support.proof(loop, loop.structure.records["L06.1"]))
 
     probe = Probe()
     scenario = load_scenario(Path(__file__).resolve().parents[1] / "scenarios" / "jenga_falls.yaml")

@@ -321,7 +321,7 @@ def test_timeout_covers_drawing_and_a_clip_cut_short_leaves_no_file(tmp_path, ca
 
 
 def test_an_output_is_written_whole_or_not_at_all(tmp_path):
-    from stackdsl.lang.files import written
+    from stackdsl.util.files import written
 
     target = tmp_path / "report.html"
     target.write_text("the old one")
@@ -338,7 +338,7 @@ def test_an_output_that_is_a_fifo_or_a_device_is_refused_never_opened_or_replace
     import os
     import stat
 
-    from stackdsl.lang.files import NotRegularFile, written
+    from stackdsl.util.files import NotRegularFile, written
 
     fifo = tmp_path / "pipe.xml"
     os.mkfifo(fifo)  # opened for writing, it would block until something reads it

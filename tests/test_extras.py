@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from stackdsl.cli.main import main
-from stackdsl.lang import extras
+from stackdsl.util import extras
 
 ROOT = Path(__file__).resolve().parents[1]
 MUJOCO = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nengine:\n  backend: mujoco\nexpect: {stands: true}\n"
@@ -190,9 +190,12 @@ def test_version_loads_nothing_heavy_and_the_startup_bench_runs(capsys):
     assert main(["bench", "startup", "--repeats", "1"]) == 0
     versions, head, _, *rows = capsys.readouterr().out.splitlines()
     assert versions.startswith("engines: pybullet ") and head.startswith("| command | median wall | target |")
-    from stackdsl.bench.startup import bytecode_note
+    from stackdsl.bench.startup import bytecode_note, imported_sources
+    from stackdsl.cli import check
 
-    note = bytecode_note()  # under PYTHONDONTWRITEBYTECODE with modules never compiled: said after the table
+    note = bytecode_note(
+        imported_sources(check)
+    )  # under PYTHONDONTWRITEBYTECODE with modules never compiled: said after the table
     assert rows[3:] == ([] if note is None else [note])
     assert [r.split(" | ")[0] for r in rows[:3]] == [
         "| stackdsl --version",
@@ -262,3 +265,12 @@ def test_the_options_name_the_engines_modes_and_rate_the_code_has():
 
     assert BACKENDS == list(REGISTERED) and all(MODES == list(backend(b).settings.DEFAULTS) for b in BACKENDS)
     assert draw.RATE == RATE
+
+
+def test_the_startup_bench_looks_at_the_modules_its_caller_imported():
+    from stackdsl.batch import judge
+    from stackdsl.bench.startup import imported_sources
+
+    sources = imported_sources(judge)
+    assert sources == sorted(sources) and Path(judge.__file__) in sources
+    assert all(p.suffix == ".py" and {"stackdsl", "stability"} & set(p.parts) for p in sources)

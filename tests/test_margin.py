@@ -145,6 +145,10 @@ def test_the_certificate_of_a_brick_turned_across_a_turned_brick(mode):
     text = "stackdsl: 1\nstructure:\n  bricks:\n    - {id: a, at: [0, 0, 4 mm], yaw: -30}\n    - {id: top, at: [0, 0, 12 mm], yaw: 30}\n"
     outcome = run_program(compile_scenario(parse_scenario(text), mode=mode))
     assert outcome.certificate is not None and outcome.certificate.margin_mm == pytest.approx(12.0, abs=0.3)
+    # extension: every brick frozen, stability._certificate._by_load_paths; raw: every brick on the
+    # engine, its contacts from _active_contacts, solved by _by_program
+    said = "frozen over its load path" if mode == "extension" else "the equilibrium program balances 2 bricks"
+    assert said in outcome.certificate.detail
 
 
 def test_a_structure_that_does_not_stand_has_no_margin():

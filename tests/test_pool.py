@@ -35,8 +35,8 @@ class ReadyWorkers(_pool.Workers):
 
     started: ClassVar[list["ReadyWorkers"]] = []
 
-    def __init__(self, count, memory_limit=_guard.MEMORY_LIMIT):
-        super().__init__(count, memory_limit)
+    def __init__(self, count, memory_limit=_guard.MEMORY_LIMIT, warm=None):
+        super().__init__(count, memory_limit, warm)
         while self.ready < count:
             assert len(self.pids) == count, "a worker died while starting"
             self.collect(timeout=None)
@@ -152,6 +152,18 @@ def test_closing_the_results_stops_the_workers(ready_workers):
     pids = ready_workers[0].first_pids
     results.close()
     assert first in pids | {os.getpid()} and pids and not gone(pids, within=0)
+
+
+def test_a_worker_imports_what_it_is_warmed_with_before_it_is_ready():
+    """The pool is given the function its tasks run (fan_out passes its own), not a module name
+    of its own to import: a worker imports that function's module, and only then says it is ready."""
+    loaded = "'stackdsl.batch.judge' in __import__('sys').modules"
+    for warm, expected in ((_judge.judge, True), (None, False)):
+        workers = _pool.Workers(1, warm=warm)
+        try:
+            assert workers.run(eval, loaded) is expected
+        finally:
+            workers.stop()
 
 
 @pytest.mark.slow

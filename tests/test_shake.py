@@ -21,10 +21,10 @@ from scipy.spatial.transform import Rotation
 from stability import Box, FakeEngine, Plane, Pose, StabilityExtension
 from stackdsl import compile_scenario, evaluate, parse_scenario, run_program
 from stackdsl.compile.program import Shake
-from stackdsl.lang.extras import installed
 from stackdsl.runtime.loop import StepLoop, Subscriber
 from stackdsl.runtime.run import run_in, world_for
 from stackdsl.runtime.subscribers import Stability
+from stackdsl.util.extras import installed
 
 G = 9.81
 

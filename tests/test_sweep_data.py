@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import csv
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +15,9 @@ import pyarrow.parquet as pq
 import pytest
 from PIL import Image
 
+from stackdsl.batch import sweep_out
+from stackdsl.batch.sweep import SampleResult
+from stackdsl.batch.sweep_out import write_samples
 from stackdsl.cli.main import main
 from stackdsl.draw.sweepplot import EXPECTED, _cell_spans, plot_grid, plot_histogram
 from stackdsl.verdicts.stats import MeanWithin, ProportionBound
@@ -34,6 +38,39 @@ sweep:
 expect:
   p_stands: '>= 0.5'
 """
+
+
+RESULTS = [SampleResult(0, k, 7 + k, {"timing.placement_error [m]": 0.001 * k}, None if k else 3, 5, 0.5, 4.0) for k in range(2)]
+
+
+def test_the_samples_are_written_as_parquet_too_with_pyarrow(tmp_path):
+    table, lines, parquet = write_samples(RESULTS, tmp_path)
+    assert parquet == tmp_path / "samples.parquet"
+    read = pq.read_table(parquet)
+    assert read.column("collapse_level").to_pylist() == [3, None] and read.num_rows == 2
+    assert table.is_file() and lines.is_file()
+
+
+def test_without_pyarrow_the_samples_are_csv_and_json_lines_and_the_sweep_says_how_to_get_parquet(tmp_path, monkeypatch, capsys):
+    monkeypatch.setitem(sys.modules, "pyarrow", None)  # as if the parquet extra were not installed
+    monkeypatch.setitem(sys.modules, "pyarrow.parquet", None)
+    _, lines, parquet = write_samples(RESULTS, tmp_path / "direct")
+    assert parquet is None and sorted(p.name for p in (tmp_path / "direct").iterdir()) == ["samples.csv", "samples.jsonl"]
+    assert [json.loads(line)["collapse_level"] for line in lines.read_text().splitlines()] == [3, None]
+    monkeypatch.setattr(sweep_out, "write_plots", lambda *args: [])  # matplotlib's import is not under test here
+    (tmp_path / "tower.yaml").write_text(
+        "stackdsl: 1\nstructure: {tower: {levels: 1, bricks_per_layer: 1, shift: {uniform: [-1 mm, 1 mm], per: layer}}}\n"
+        "timing: {settle: 0.1 s}\nsweep: {samples: 2}\n"
+    )
+    assert main(["sweep", str(tmp_path / "tower.yaml"), "-j", "1", "--out", str(tmp_path / "out")]) == 0
+    captured = capsys.readouterr()
+    said = [line for line in captured.err.splitlines() if "parquet" in line]
+    assert said == [
+        "stackdsl: samples.parquet needs pyarrow (Parquet files), which is not installed: pip install 'stackdsl[parquet]'; "
+        "the samples are in samples.csv and samples.jsonl"
+    ]
+    assert not (tmp_path / "out" / "samples.parquet").exists() and (tmp_path / "out" / "samples.jsonl").is_file()
+    assert "samples.parquet" not in captured.out.splitlines()[-1]
 
 
 @pytest.fixture(scope="module")

@@ -576,7 +576,7 @@ def test_a_brick_placed_off_its_support_is_measured_from_where_it_was_placed(pla
     partner): that it lies outside proves nothing, and it was said to have "left its support
     polygon" by the 1.9 mm it lay outside, 2 mm as placed. The polygon knows how far out it was
     placed, and a collapse counts only the way it went further."""
-    from stackdsl.runtime.collapse import SupportPolygon
+    from stackdsl.runtime.support import SupportPolygon
 
     base = Pose(np.array([0.0, 0.0, 0.004]))
     top = Pose(np.array([placed_x_mm / 1000, 0.0, 0.012]))
@@ -619,7 +619,7 @@ def test_a_brick_on_the_ground_leaves_its_support_only_past_the_edge_of_its_foot
     centre of mass "lies outside the support polygon it was placed on" was false. It leaves its
     support when its centre of mass passes the edge of the face it stood on (a 30 x 30 x 90 mm
     post tips past atan(15 / 45) = 18.4 deg)."""
-    from stackdsl.runtime.collapse import SupportPolygon
+    from stackdsl.runtime.support import SupportPolygon
 
     post = Box(np.array([0.015, 0.015, 0.045]), 0.057)
     support = SupportPolygon(post, Pose(np.array([0.0, 0.0, 0.045])), [(None, Plane(0.0), None)])

@@ -33,6 +33,7 @@ from ..lang.expectations import Expect
 from ..lang.loader import load_scenario
 from ..lang.sampling import Template
 from ..lang.scenario_file import file_problem
+from ..lang.schema import Scenario
 from ..lang.schema_marks import XFail
 from ..runtime.run import check_timeout
 from ..verdicts.check_result import CheckResult
@@ -144,31 +145,8 @@ def prepare(
         scenario = None
         try:
             scenario = load_scenario(path, seed)
-            sweep = scenario.template if scenario.sweep is not None else None
-            for backend in backends:
-                for m in modes or (mode,):
-                    run = (backend or scenario.engine.backend, m or scenario.engine.mode, model or scenario.stability.model)
-                    if scenario.skip is not None and scenario.skip.applies(*run):
-                        if skipped is not None:
-                            skipped.append(_skipped(path, scenario, *run))
-                        continue
-                    xfail = scenario.xfail if scenario.xfail is not None and scenario.xfail.applies(*run) else None
-                    try:
-                        try:
-                            program = compile_scenario(scenario, m, model, backend, draw_time=timeout)
-                        except ScenarioError as exc:
-                            raise exc if sweep is None else which_sample(exc, sweep, 0, 0) from None
-                        if sweep is not None:  # every grid cell, before anything of any file runs
-                            tops = {0: program.levels} | compile_cells(sweep, m, model, backend, range(1, sweep.cells), timeout)
-                            compile_bounds(sweep, m, model, backend, range(sweep.cells), timeout, tops)
-                            within_budget(sweep, program, timeout)
-                    except ScenarioError as exc:
-                        if refused is None or (m is None and backend is None):
-                            raise
-                        compile_scenario(scenario, None, model, draw_time=timeout)  # as written: a bad file is an error still
-                        refused.append(_refusal(path, scenario, m, model, backend, exc))
-                        continue
-                    prepared.append(Prepared(path, program, scenario.expect, sweep, xfail))
+            runs = [(m, b) for b in backends for m in modes or (mode,)]
+            prepared += _prepare_file(path, scenario, runs, model, timeout, refused, skipped)
         except ScenarioError as exc:
             errors.append(exc)
         except Exception as exc:  # a bug: said with the file it was met in, still exit 3
@@ -190,6 +168,71 @@ def prepare(
     if broken is not None:
         broken += bugs
     return prepared
+
+
+def _prepare_file(
+    path: Path,
+    scenario: Scenario,
+    runs: list[tuple[str | None, str | None]],
+    model: str | None,
+    timeout: float | None,
+    refused: list[CheckResult] | None,
+    skipped: list[CheckResult] | None,
+) -> list[Prepared]:
+    """:func:`prepare` of one file, ``scenario``: each of its ``runs`` (mode, backend: None for the
+    file's own) compiled, but those its ``skip`` mark holds on (results in ``skipped``) and those a
+    compared engine or mode refuses (results in ``refused``, :func:`_compiled`).
+
+    Raises:
+        ScenarioError: the file is bad input.
+    """
+    sweep = scenario.template if scenario.sweep is not None else None
+    prepared = []
+    for m, backend in runs:
+        run = (backend or scenario.engine.backend, m or scenario.engine.mode, model or scenario.stability.model)
+        if scenario.skip is not None and scenario.skip.applies(*run):
+            if skipped is not None:
+                skipped.append(_skipped(path, scenario, *run))
+            continue
+        xfail = scenario.xfail if scenario.xfail is not None and scenario.xfail.applies(*run) else None
+        program = _compiled(path, scenario, sweep, (m, model, backend), timeout, refused)
+        if program is not None:
+            prepared.append(Prepared(path, program, scenario.expect, sweep, xfail))
+    return prepared
+
+
+def _compiled(
+    path: Path,
+    scenario: Scenario,
+    sweep: Template | None,
+    run: tuple[str | None, str | None, str | None],
+    timeout: float | None,
+    refused: list[CheckResult] | None,
+) -> Program | None:
+    """The program of one ``run`` (mode, model, backend) of ``scenario``, every grid cell of a
+    ``sweep`` compiled too before anything runs; None when a compared engine or mode refuses what
+    the file as written takes (a result in ``refused``).
+
+    Raises:
+        ScenarioError: bad input, of the file as written (a sweep's at the sample that shows it).
+    """
+    m, model, backend = run
+    try:
+        try:
+            program = compile_scenario(scenario, m, model, backend, draw_time=timeout)
+        except ScenarioError as exc:
+            raise exc if sweep is None else which_sample(exc, sweep, 0, 0) from None
+        if sweep is not None:  # every grid cell, before anything of any file runs
+            tops = {0: program.levels} | compile_cells(sweep, m, model, backend, range(1, sweep.cells), timeout)
+            compile_bounds(sweep, m, model, backend, range(sweep.cells), timeout, tops)
+            within_budget(sweep, program, timeout)
+    except ScenarioError as exc:
+        if refused is None or (m is None and backend is None):
+            raise
+        compile_scenario(scenario, None, model, draw_time=timeout)  # as written: a bad file is an error still
+        refused.append(_refusal(path, scenario, m, model, backend, exc))
+        return None
+    return program
 
 
 def sweep_runs(template: Template, program: Program) -> tuple[int, float]:

@@ -81,10 +81,10 @@ def sweep_result(
     artefacts: tuple[tuple[str, str], ...] = ()
     if folder is not None and not bad:
         out = Path(folder)
-        table, lines = write_samples(results, out)
+        table, lines, parquet = write_samples(results, out)
         plots = write_plots(template, results, out, expect)
         artefacts = (("picture", plots[0].name),) if plots else ()
-        artefacts += (("samples", table.name), ("parquet", "samples.parquet"), ("jsonl", lines.name))
+        artefacts += (("samples", table.name), *((("parquet", parquet.name),) if parquet else ()), ("jsonl", lines.name))
         artefacts += tuple((f"plot {p.stem}", p.name) for p in plots)
     return CheckResult(
         file=file,

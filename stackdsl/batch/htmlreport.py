@@ -22,9 +22,9 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from .._version import version
-from ..lang.files import written
 from ..runtime.outcome import Event
 from ..runtime.trajectory import load_trajectory
+from ..util.files import written
 from ..verdicts.check_result import CheckResult
 from ..verdicts.expect import describe
 from .report import mode_label, summary

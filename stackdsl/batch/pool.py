@@ -28,7 +28,6 @@ Source: stackdsl's own.
 
 from __future__ import annotations
 
-import importlib
 import multiprocessing
 import multiprocessing.connection
 import multiprocessing.context
@@ -138,7 +137,7 @@ def fan_out(
         for task in pending.in_order():
             yield fn(*task)
         return
-    pool = Workers(workers)
+    pool = Workers(workers, warm=fn)
     try:
         running: dict[int, tuple[Any, ...]] = {}
         while pending or running:
@@ -274,10 +273,15 @@ class Workers:
     Args:
         count: workers to start.
         memory_limit: bytes of address space per worker (None: no limit).
+        warm: a module-level function each worker imports, with its module and what that
+            imports, before it says it is ready, so that its first task does not pay for the
+            imports (:func:`fan_out` passes the function its tasks run: a check's judge); None:
+            nothing more than the pool's own.
     """
 
-    def __init__(self, count: int, memory_limit: int | None = MEMORY_LIMIT) -> None:
+    def __init__(self, count: int, memory_limit: int | None = MEMORY_LIMIT, warm: Callable[..., Any] | None = None) -> None:
         self._memory_limit = memory_limit
+        self._warm = warm
         self._workers: list[_Worker] = []
         self._tickets = 0
         self._stopped = False
@@ -302,7 +306,7 @@ class Workers:
     def add(self) -> None:
         """Start one more worker."""
         ours, theirs = multiprocessing.Pipe()
-        process = SPAWN.Process(target=_serve, args=(theirs,), daemon=True, name="stackdsl-worker")
+        process = SPAWN.Process(target=_serve, args=(theirs, self._warm), daemon=True, name="stackdsl-worker")
         process.memory_limit = self._memory_limit
         process.start()
         theirs.close()
@@ -407,10 +411,11 @@ def _terminate(processes: Sequence[multiprocessing.process.BaseProcess]) -> None
             process.join()
 
 
-def _serve(conn: multiprocessing.connection.Connection) -> None:
-    """A worker's loop: import what runs use, say so, then run each task sent and send back
-    ``('ok', result)`` or ``('raised', exception, traceback text)``, until the pipe closes."""
-    importlib.import_module("stackdsl.batch.judge")
+def _serve(conn: multiprocessing.connection.Connection, warm: Callable[..., Any] | None = None) -> None:
+    """A worker's loop: say it is ready, then run each task sent and send back ``('ok', result)``
+    or ``('raised', exception, traceback text)``, until the pipe closes. ``warm`` (see
+    :class:`Workers`) is not called: it came pickled by name, so its module was imported before
+    this runs."""
     conn.send(("ready", os.getpid()))
     while True:
         try:

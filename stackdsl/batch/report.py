@@ -14,7 +14,7 @@ from typing import Any
 
 from .._version import version
 from ..lang.errors import excerpt, one_line
-from ..lang.files import written
+from ..util.files import written
 from ..verdicts.check_result import CheckResult
 from ..verdicts.expect import located_lines
 from .guard import TIMEOUT

@@ -27,10 +27,10 @@ from typing import Any, NamedTuple
 
 from ..compile.compiler import compile_scenario
 from ..lang.errors import ScenarioError, format_path
-from ..lang.extras import installed, missing
 from ..lang.sampling import Template
 from ..lang.units import split_quantity
 from ..runtime.run import run_program
+from ..util.extras import installed, missing
 from .address import parse_address
 from .pool import WorkerLost, fan_out, on_executor
 

@@ -6,7 +6,7 @@
   ``timing.placement_error [m]``), the collapse level (empty: it stood), levels placed, wall
   and simulated seconds, the oracle's level and the rest of
   :class:`stackdsl.batch.sweep.SampleResult`; the Parquet file typed, with each column's
-  unit in its metadata (:func:`write_parquet`);
+  unit in its metadata (:func:`write_parquet`), when pyarrow (the ``parquet`` extra) is installed;
 * for each grid cell, the distribution of collapse levels (:func:`stackdsl.verdicts.stats.summary`)
   and the verdict of each statistical expectation (:func:`stackdsl.verdicts.stats.decide`);
 * ``histogram.png`` (one a cell, up to :data:`MAX_HISTOGRAMS`) and, for a grid over one
@@ -28,8 +28,9 @@ from typing import Any
 from ..lang.errors import excerpt
 from ..lang.expectations import CellExpect, Expect
 from ..lang.expressions import parse
-from ..lang.files import written
 from ..lang.sampling import Template
+from ..util.extras import installed, missing
+from ..util.files import written
 from ..verdicts.stats import MeanWithin, ProportionBound, ProportionWithin, QuantileWithin, StatVerdict, decide, summary
 from .sweep import SampleResult
 
@@ -139,9 +140,10 @@ def failure_lines(
     return lines
 
 
-def write_samples(results: Sequence[SampleResult], folder: Path) -> tuple[Path, Path]:
+def write_samples(results: Sequence[SampleResult], folder: Path) -> tuple[Path, Path, Path | None]:
     """``samples.csv``, ``samples.jsonl`` and ``samples.parquet`` (:func:`write_parquet`) in
-    ``folder`` (made if missing); the paths of the first two.
+    ``folder`` (made if missing); their paths, the last None when pyarrow (the ``parquet`` extra,
+    :data:`PARQUET_MISSING`) is not installed and only the first two are written.
 
     Raises:
         OSError: they cannot be written.
@@ -165,8 +167,15 @@ def write_samples(results: Sequence[SampleResult], folder: Path) -> tuple[Path, 
     with written(lines) as part, open(part, "w", encoding="utf-8") as f:
         for row in rows:
             f.write(json.dumps(row) + "\n")
-    write_parquet(rows, columns, folder / "samples.parquet")
-    return table, lines
+    if not installed("parquet"):
+        return table, lines, None
+    parquet = folder / "samples.parquet"
+    write_parquet(rows, columns, parquet)
+    return table, lines, parquet
+
+
+#: What a sweep says when it writes no ``samples.parquet`` (:func:`write_samples`).
+PARQUET_MISSING = missing("parquet", "samples.parquet") + "; the samples are in samples.csv and samples.jsonl"
 
 
 #: What a spreadsheet reads as the start of a formula in a cell (OWASP, "CSV Injection").
@@ -189,7 +198,7 @@ _INTEGERS = tuple(f.name for f in fields(SampleResult) if f.name != "seed" and s
 
 
 def write_parquet(rows: Sequence[dict[str, Any]], columns: Sequence[str], path: Path) -> None:
-    """``rows`` (:meth:`SampleResult.row`) as a Parquet file at ``path`` (pyarrow): a typed
+    """``rows`` (:meth:`SampleResult.row`) as a Parquet file at ``path`` (pyarrow, the ``parquet`` extra; imported here only): a typed
     column each, in ``columns``' order: integers (the levels null where a sample stood, the seed
     unsigned), floats, lists of floats for a tower's per-layer or per-brick draws, strings for the
     rest; numbers in SI (angles in degrees), each column's unit in its field metadata
@@ -197,7 +206,7 @@ def write_parquet(rows: Sequence[dict[str, Any]], columns: Sequence[str], path: 
     and every column's unit (``b"stackdsl.units"``, JSON). pandas, DuckDB and Polars read it as it is.
 
     Raises:
-        OSError: it cannot be written.
+        OSError: it cannot be written; ImportError: pyarrow is not installed.
     """
     import pyarrow as pa
     import pyarrow.parquet as pq

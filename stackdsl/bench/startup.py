@@ -19,6 +19,7 @@ import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from types import ModuleType
 
 #: The small scenario a one-file check runs: the shipped ``scenarios/vee_stands.yaml``'s two
 #: leaning KAPLA bricks, written out when measured (an installed copy has no scenarios folder).
@@ -79,20 +80,16 @@ def format_startup(rows: list[Startup]) -> str:
     return "\n".join(lines)
 
 
-def bytecode_note(sources: list[Path] | None = None) -> str | None:
+def bytecode_note(sources: list[Path]) -> str | None:
     """A warning when the timings include compiling stackdsl: ``PYTHONDONTWRITEBYTECODE`` is set
     (the commands inherit it) and some of ``sources`` have no compiled bytecode beside them, as
-    in an editable install that has never written any; by default the files of the stackdsl and
-    stability modules a one-file check imports. Every start then compiles them from source: on a
-    2-core machine the one-file check took 2.18 s so, 1.47 s with the bytecode there. None when
-    the timings are a user's.
+    in an editable install that has never written any; :func:`imported_sources` gives the files
+    of the stackdsl and stability modules a one-file check imports. Every start then compiles
+    them from source: on a 2-core machine the one-file check took 2.18 s so, 1.47 s with the
+    bytecode there. None when the timings are a user's.
     """
     if not os.environ.get("PYTHONDONTWRITEBYTECODE"):
         return None
-    if sources is None:
-        importlib.import_module("stackdsl.cli.check")
-        names = [n for n in sys.modules if n.split(".")[0] in ("stackdsl", "stability")]
-        sources = sorted({Path(f) for n in names if (f := getattr(sys.modules[n], "__file__", None))})
     missing = [p for p in sources if not _compiled(p)]
     if not missing:
         return None
@@ -100,6 +97,15 @@ def bytecode_note(sources: list[Path] | None = None) -> str | None:
         f"note: PYTHONDONTWRITEBYTECODE is set and {len(missing)} of the {len(sources)} modules a check imports have "
         "no up-to-date compiled bytecode: every start above compiled them; unset it and run once to time what an install costs"
     )
+
+
+def imported_sources(module: ModuleType) -> list[Path]:
+    """The source files of the stackdsl and stability modules imported in this process, sorted:
+    ``module``'s (which the caller imported: ``stackdsl.cli.check`` for a one-file check) and
+    every one imported before it or by it."""
+    names = [n for n in sys.modules if n.split(".")[0] in ("stackdsl", "stability")]
+    files = {Path(f) for n in names if (f := getattr(sys.modules[n], "__file__", None))}
+    return sorted(files | ({Path(module.__file__)} if module.__file__ else set()))
 
 
 def _compiled(source: Path) -> bool:

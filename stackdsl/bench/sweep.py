@@ -146,7 +146,7 @@ def _pool_startup(workers: int) -> float:
     from ..batch.pool import Workers
 
     start = time.perf_counter()
-    pool = Workers(workers)
+    pool = Workers(workers, warm=run_batch)
     try:
         while pool.ready < workers:
             pool.collect(timeout=None)

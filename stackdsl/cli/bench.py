@@ -17,7 +17,7 @@ from ..bench.dominoes import DEFAULT as DOMINO_SETTINGS
 from ..bench.dominoes import KNOWN as DOMINO_KNOWN
 from ..lang.bounds import MAX_LEVELS
 from ..lang.errors import ScenarioError
-from ..lang.extras import installed, missing
+from ..util.extras import installed, missing
 from ..verdicts.expect import describe
 from .args import COMMANDS, OK, jobs_type, output_folder
 from .progress import Lines
@@ -211,7 +211,7 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
 
 
 def _need(extra: str, where: str) -> None:
-    """Nothing when ``extra`` (a key of :data:`stackdsl.lang.extras.EXTRAS`) is installed.
+    """Nothing when ``extra`` (a key of :data:`stackdsl.util.extras.EXTRAS`) is installed.
 
     Raises:
         ScenarioError: it is not; one line at ``where`` (the option or command that asks for it)
@@ -476,7 +476,7 @@ def _bench_limits(args: argparse.Namespace) -> int:
     from ..bench.limits import format_report
     from ..bench.versions import version_line
     from ..engines.registry import backend, names
-    from ..lang.extras import installed
+    from ..util.extras import installed
 
     moving = [b for b in names() if backend(b).dynamics]  # a static backend has no limits of motion
     if args.backend is not None and args.backend not in moving:
@@ -638,14 +638,15 @@ def _write_samples(path: Path, samples: list[Any]) -> None:
 
 
 def _bench_startup(args: argparse.Namespace) -> int:
-    from ..bench.startup import bytecode_note, format_startup, measure
+    from ..bench.startup import bytecode_note, format_startup, imported_sources, measure
     from ..bench.versions import version_line
+    from . import check  # what a one-file check imports, whose bytecode the note looks at
 
     if not 1 <= args.repeats <= 100:
         raise ScenarioError(f"--repeats must be from 1 to 100, not {args.repeats}", file="--repeats")
     print(version_line(), flush=True)
     print(format_startup(measure(args.repeats)))
-    note = bytecode_note()
+    note = bytecode_note(imported_sources(check))
     if note is not None:
         print(note)
     return OK

@@ -44,7 +44,10 @@ def _say_sweeps(prepared: list[Prepared], timeout: float | None) -> None:
 
 
 def check_command(args: argparse.Namespace) -> int:
-    """``stackdsl check``: run every scenario under ``args.paths``; the exit status."""
+    """``stackdsl check``: run every scenario under ``args.paths``; the exit status. The files
+    are read and compiled first (bad input raises there), the report's folders made
+    (:func:`_report_folders`), the runs shown as they finish (:func:`_run_all`), then listed in
+    file order in the reports (:func:`_write_reports`) and the summary."""
     start = time.perf_counter()
     files = discover(args.paths)
     report = _check_outputs(args, files)
@@ -64,26 +67,83 @@ def check_command(args: argparse.Namespace) -> int:
     prepared, broken = select_comparison(prepared, broken + skipped, args.pattern)
     _say_sweeps(prepared, args.timeout)
     total = len(prepared) + len(broken)
-    folders = None
-    if report is not None:
-        try:
-            report.mkdir(parents=True, exist_ok=True)
-            probe = report / ".stackdsl-write-test"
-            probe.touch()
-            probe.unlink()
-        except OSError as exc:
-            raise ScenarioError(f"cannot write the report there: {exc.strerror or exc}", file=args.report) from None
-        taken: set[str] = set()
-        base = os.path.commonpath([path.resolve().parent for path, *_ in prepared] or [Path.cwd()])  # names relative to it
-        folders = [str(report / folder_name(os.path.relpath(path.resolve(), base), taken=taken)) for path, *_ in prepared]
-        for folder in folders:  # a FIFO where a run's picture goes would block its worker
-            problem = odd_files(Path(folder), FILES.values())
-            if problem:
-                raise ScenarioError(problem, file=folder, field="--report")
+    folders = _report_folders(args, report, prepared) if report is not None else None
+    stream = sys.stderr if args.json else sys.stdout  # with --json only the progress line, on a terminal
+    results, commands = _run_all(args, prepared, broken, folders, stream)
+    wall = time.perf_counter() - start
+    # rows came as runs finished; the reports list them in file order, so that they diff from run to run
+    order = {str(path): i for i, path in enumerate(files)}
+    pairs = sorted(zip(results, commands, strict=True), key=lambda pair: order.get(pair[0].file, len(order)))
+    results, commands = [r for r, _ in pairs], [c for _, c in pairs]
+    _write_reports(args, report, folders, prepared, results, commands, total, wall, stream)
+    fragile = _perturbed(args, prepared, results, stream) if args.perturb else None
+    return _finish(args, results, commands, fragile, total, wall)
+
+
+def _finish(
+    args: argparse.Namespace,
+    results: list[CheckResult],
+    commands: list[str],
+    fragile: list[Fragility] | None,
+    total: int,
+    wall: float,
+) -> int:
+    """The summary (or with ``--json`` the document) of a check, and its exit status: internal
+    errors first (3), then bad input found once a sample was drawn (2), then a failure or a
+    fragile scenario (1), else 0."""
+    if args.json:
+        document = json_document("check", results, commands, total, wall)
+        if fragile is not None:
+            document["perturbed"] = [f.as_json() for f in fragile]
+        print(json.dumps(document, indent=2))
+    else:
+        print(summary(results, total, wall))
+        if fragile is not None:
+            print("\n".join(fragility_lines(fragile, args.perturb)))
+    if _internal_errors(results, args.debug):
+        return INTERNAL
+    refused = [r for r in results if r.bad_input]
+    for r in refused:  # a sweep's sample the language refuses: bad input, found once it was drawn
+        print(r.bad_input, file=sys.stderr)
+    if refused:
+        return BAD_INPUT
+    return FAILED if any(not r.held for r in results) or any(f.fragile for f in fragile or ()) else OK
+
+
+def _report_folders(args: argparse.Namespace, report: Path, prepared: list[Prepared]) -> list[str]:
+    """``--report``: the report's folder made, and one folder in it for each prepared run, named
+    after its file relative to the files' common folder.
+
+    Raises:
+        ScenarioError: the report's folder takes no file, or a run's folder holds one that is
+            not a regular file (a FIFO where a run's picture goes would block its worker).
+    """
+    try:
+        report.mkdir(parents=True, exist_ok=True)
+        probe = report / ".stackdsl-write-test"
+        probe.touch()
+        probe.unlink()
+    except OSError as exc:
+        raise ScenarioError(f"cannot write the report there: {exc.strerror or exc}", file=args.report) from None
+    taken: set[str] = set()
+    base = os.path.commonpath([path.resolve().parent for path, *_ in prepared] or [Path.cwd()])  # names relative to it
+    folders = [str(report / folder_name(os.path.relpath(path.resolve(), base), taken=taken)) for path, *_ in prepared]
+    for folder in folders:
+        problem = odd_files(Path(folder), FILES.values())
+        if problem:
+            raise ScenarioError(problem, file=folder, field="--report")
+    return folders
+
+
+def _run_all(
+    args: argparse.Namespace, prepared: list[Prepared], broken: list[CheckResult], folders: list[str] | None, stream: TextIO
+) -> tuple[list[CheckResult], list[str]]:
+    """Every prepared run (the ``broken`` rows first), a row each and its failure's lines as it
+    finishes, under a progress line on ``stream``; until the first failure with ``-x``. The
+    results as they came, and the command that reruns each."""
     results: list[CheckResult] = []
     commands: list[str] = []
-    stream = sys.stderr if args.json else sys.stdout  # with --json only the progress line, on a terminal
-    with Lines(total, "check", file=stream, live=is_live(stream)) as lines:
+    with Lines(len(prepared) + len(broken), "check", file=stream, live=is_live(stream)) as lines:
         if not args.json:
             lines.line(HEADER)
         checks = run_checks(prepared, args.jobs, timeout=args.timeout, folders=folders)
@@ -110,41 +170,36 @@ def check_command(args: argparse.Namespace) -> int:
                     break
         finally:
             checks.close()  # cancels what has not started and stops the workers
-    wall = time.perf_counter() - start
-    # rows came as runs finished; the reports list them in file order, so that they diff from run to run
-    order = {str(path): i for i, path in enumerate(files)}
-    pairs = sorted(zip(results, commands, strict=True), key=lambda pair: order.get(pair[0].file, len(order)))
-    results, commands = [r for r, _ in pairs], [c for _, c in pairs]
+    return results, commands
+
+
+def _write_reports(
+    args: argparse.Namespace,
+    report: Path | None,
+    folders: list[str] | None,
+    prepared: list[Prepared],
+    results: list[CheckResult],
+    commands: list[str],
+    total: int,
+    wall: float,
+    stream: TextIO,
+) -> None:
+    """``--junit-xml`` (the runs that did not run, after ``-x``, as skipped) and ``--report`` (the
+    HTML page; the folders of an earlier report that this one has not, removed), each said on
+    ``stream``."""
     if args.junit_xml:
         ran = {r.file for r in results}
         junit_xml(results, commands, [str(p.path) for p in prepared if str(p.path) not in ran], wall, args.junit_xml)
-    if report is not None:
-        from ..batch.htmlreport import remove_stale_folders, write_report
+    if report is None:
+        return
+    from ..batch.htmlreport import remove_stale_folders, write_report
 
-        page = write_report(results, report, total=total, wall=wall, commands=commands, argv=sys.argv[1:] or ["check"])
-        stale = remove_stale_folders(report, {Path(f).name for f in folders or []})
-        if stale:
-            print(f"report: removed {stale} folders of an earlier report in {report}", file=stream)
-        drawn = [r for r in results if r.draw_error]
-        print(f"report: {page}" + (f" ({len(drawn)} runs not fully drawn: {drawn[0].draw_error})" if drawn else ""), file=stream)
-    fragile = _perturbed(args, prepared, results, stream) if args.perturb else None
-    if args.json:
-        document = json_document("check", results, commands, total, wall)
-        if fragile is not None:
-            document["perturbed"] = [f.as_json() for f in fragile]
-        print(json.dumps(document, indent=2))
-    else:
-        print(summary(results, total, wall))
-        if fragile is not None:
-            print("\n".join(fragility_lines(fragile, args.perturb)))
-    if _internal_errors(results, args.debug):
-        return INTERNAL
-    refused = [r for r in results if r.bad_input]
-    for r in refused:  # a sweep's sample the language refuses: bad input, found once it was drawn
-        print(r.bad_input, file=sys.stderr)
-    if refused:
-        return BAD_INPUT
-    return FAILED if any(not r.held for r in results) or any(f.fragile for f in fragile or ()) else OK
+    page = write_report(results, report, total=total, wall=wall, commands=commands, argv=sys.argv[1:] or ["check"])
+    stale = remove_stale_folders(report, {Path(f).name for f in folders or []})
+    if stale:
+        print(f"report: removed {stale} folders of an earlier report in {report}", file=stream)
+    drawn = [r for r in results if r.draw_error]
+    print(f"report: {page}" + (f" ({len(drawn)} runs not fully drawn: {drawn[0].draw_error})" if drawn else ""), file=stream)
 
 
 def _perturbed(args: argparse.Namespace, prepared: list[Prepared], results: list[CheckResult], stream: TextIO) -> list[Fragility]:
@@ -206,13 +261,7 @@ def _internal_errors(results: list[CheckResult], debug: bool) -> bool:
 
 def compare_command(args: argparse.Namespace) -> int:
     """``stackdsl compare``: every scenario in every mode, as one table; the exit status."""
-    modes = tuple(m.strip() for m in args.modes.split(",") if m.strip())
-    unknown = [m for m in modes if m not in MODE_DEFAULTS]
-    if unknown or not modes:
-        raise ScenarioError(f"unknown mode {', '.join(unknown) or '(none)'}; known: {', '.join(MODE_DEFAULTS)}", file="--modes")
-    backends = _backends(args.backend, several=True)
-    if len(backends) > 1:
-        modes = tuple(f"{b} {m}" for b in backends for m in modes)
+    modes, backends = _compared(args)
     start = time.perf_counter()
     plain = tuple(dict.fromkeys(m.split()[-1] for m in modes))
     refusals: list[CheckResult] = []
@@ -273,6 +322,31 @@ def compare_command(args: argparse.Namespace) -> int:
     for line in compare_lines(table, width):
         print(line)
     print(f"{len(table)} scenarios x {len(modes)} modes ({wall:.1f} s wall)")
+    _notes(table, done, refused, width)
+    return _status(done, args.debug)
+
+
+def _compared(args: argparse.Namespace) -> tuple[tuple[str, ...], tuple[str | None, ...]]:
+    """``--modes`` and ``--backend`` of compare: the table's columns (a mode each, ``"backend
+    mode"`` with several backends) and the backends.
+
+    Raises:
+        ScenarioError: an unknown mode, or none, at ``--modes``.
+    """
+    modes = tuple(m.strip() for m in args.modes.split(",") if m.strip())
+    unknown = [m for m in modes if m not in MODE_DEFAULTS]
+    if unknown or not modes:
+        raise ScenarioError(f"unknown mode {', '.join(unknown) or '(none)'}; known: {', '.join(MODE_DEFAULTS)}", file="--modes")
+    backends = _backends(args.backend, several=True)
+    if len(backends) > 1:
+        modes = tuple(f"{b} {m}" for b in backends for m in modes)
+    return modes, backends
+
+
+def _notes(table: dict[str, dict[str, CheckResult]], done: list[CheckResult], refused: list[CheckResult], width: int) -> None:
+    """What compare says under its table: a failure the run's end cut short (with check's hint),
+    why cells were skipped or expected to fail (once each), and on stderr why a compared engine
+    or mode refused a file."""
     for r in done:  # a failure the run's end cut short: the hint check gives under it
         for line in r.explanation if not r.passed else ():
             if line.startswith("still moving"):
@@ -290,7 +364,6 @@ def compare_command(args: argparse.Namespace) -> int:
     for r in refused:  # why, once each, after the table
         if r.refused:
             print(f"refused in {r.mode} on {r.backend}: {r.refused}", file=sys.stderr)
-    return _status(done, args.debug)
 
 
 #: The widest compare's table is, in columns, and the narrowest a terminal makes it.

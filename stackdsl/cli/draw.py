@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..lang.errors import ScenarioError
-from ..lang.extras import installed, missing
+from ..util.extras import installed, missing
 from .args import COMMANDS, at_type, fps_type, rate_type
 
 if TYPE_CHECKING:

@@ -26,7 +26,7 @@ from typing import Any, NoReturn
 
 from ..engines.registry import backend, names
 from ..lang.errors import ScenarioError, ScenarioErrors, ScenarioWarning, one_line
-from ..lang.extras import installed, missing
+from ..util.extras import installed, missing
 from .args import (
     BAD_INPUT,
     BROKEN_PIPE,

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..lang.errors import ScenarioError
-from ..lang.scenario_file import file_kind
+from ..util.files import file_kind
 from .args import OptionPathError
 
 

@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from ..lang.errors import ScenarioError
-from ..lang.extras import installed, missing
+from ..util.extras import installed, missing
 from .args import COMMANDS, at_type
 from .draw import _SOURCE, _wrote, moment, recorded, resolved, trajectory_of, undrawable, when
 from .draw import NAMES as DRAWING

@@ -12,13 +12,18 @@ import time
 from collections.abc import Callable
 from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..engines.registry import backend, names
 from ..lang.errors import ScenarioError
-from ..lang.extras import installed, missing
+from ..util.extras import installed, missing
 from .args import COMMANDS, INTERNAL, add_seed, output_folder
 from .outputs import Input, Output, check_outputs
+
+if TYPE_CHECKING:  # imported when a sweep runs: `stackdsl --help` stays quick
+    from ..batch.sweep import SampleResult
+    from ..lang.expectations import Expect
+    from ..lang.sampling import Template
 
 
 def add_sweep(
@@ -70,7 +75,6 @@ def add_sweep(
 
 
 def _sweep(args: argparse.Namespace) -> int:
-    from ..batch.report import rerun_command
     from ..batch.sweep import (
         ClusterLost,
         SweepOptions,
@@ -81,7 +85,10 @@ def _sweep(args: argparse.Namespace) -> int:
         run_sweep,
         samples_run,
     )
-    from ..batch.sweep_out import any_sweep_files, file_names, remove_leftovers, report, verdicts, write_plots, write_samples
+    from ..batch.sweep_out import (
+        any_sweep_files,
+        file_names,
+    )
     from ..lang.loader import load_scenario
     from .progress import Lines
 
@@ -172,10 +179,31 @@ def _sweep(args: argparse.Namespace) -> int:
         )
         _forget(out, made)
         return 2
-    table, jsonl = write_samples(results, out)
-    plots = write_plots(template, results, out, scenario.expect)
-    remove_leftovers(out, [table, jsonl, "samples.parquet", *plots])  # the folder holds this sweep's files alone
-    for line in report(template, scenario.expect, results):
+    return _write(args, template, scenario.expect, results, out, (total, wall))
+
+
+def _write(
+    args: argparse.Namespace,
+    template: Template,
+    expect: Expect,
+    results: list[SampleResult],
+    out: Path,
+    timing: tuple[int, float],
+) -> int:
+    """A finished sweep's files in ``out`` (samples, plots; an earlier sweep's others removed),
+    each cell's distribution and verdicts printed, the command that reruns the first sample that
+    did not finish, and ``timing``: how many samples ran in how many wall seconds; the exit status:
+    3 an internal error, 1 a verdict not PASS or a sample stopped, else 0."""
+    from ..batch.report import rerun_command
+    from ..batch.sweep_out import PARQUET_MISSING, remove_leftovers, report, verdicts, write_plots, write_samples
+
+    total, wall = timing
+    table, jsonl, parquet = write_samples(results, out)
+    if parquet is None:
+        print(f"stackdsl: {PARQUET_MISSING}", file=sys.stderr)
+    plots = write_plots(template, results, out, expect)
+    remove_leftovers(out, [table, jsonl, *([parquet] if parquet else []), *plots])  # the folder holds this sweep's files alone
+    for line in report(template, expect, results):
         print(line)
     unfinished = next((r for r in results if r.error or r.stopped), None)
     if unfinished is not None:  # the first that did not finish, as run takes it alone
@@ -192,10 +220,11 @@ def _sweep(args: argparse.Namespace) -> int:
         )
         print(f"more: {again}")
     print(
-        f"{_count(total, 'sample')} in {wall:.1f} s ({total / wall:.1f} a second); wrote {table}, {jsonl.name}, samples.parquet, "
+        f"{_count(total, 'sample')} in {wall:.1f} s ({total / wall:.1f} a second); wrote {table}, {jsonl.name}, "
+        + (f"{parquet.name}, " if parquet else "")
         + ", ".join(p.name for p in plots)
     )
-    judged = verdicts(template, scenario.expect, results)
+    judged = verdicts(template, expect, results)
     if any(r.error for r in results):
         print(f"stackdsl: {sum(bool(r.error) for r in results)} samples hit an internal error", file=sys.stderr)
         return 3

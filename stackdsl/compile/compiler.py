@@ -35,7 +35,8 @@ from __future__ import annotations
 import os
 import warnings
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import replace
+from dataclasses import dataclass, field, replace
+from typing import NamedTuple
 
 import numpy as np
 from shapely.geometry import MultiPoint
@@ -48,9 +49,9 @@ from ..engines.registry import backend as backend_named
 from ..engines.settings import defaults, settings
 from ..lang.bounds import MAX_SIMULATED_TIME
 from ..lang.errors import FieldPath, ScenarioError, format_path
-from ..lang.extras import installed, missing
 from ..lang.schema import BUILTIN_BRICKS, Scenario, reference_errors
 from ..lang.schema_impacts import SIDES, AfterLevel, Impact
+from ..util.extras import installed, missing
 from .actions import check_measured, compile_actions, heading
 from .aim import outer_face, stepped_fall
 from .clearance import check_launch, check_pusher
@@ -116,7 +117,7 @@ def compile_scenario(
     limits: bool = True,
     draw_time: float | None = None,
 ) -> Program:
-    """Compile a scenario into a :class:`Program`.
+    """Compile a scenario into a :class:`Program`: the passes of :data:`PASSES`, in order.
 
     Args:
         scenario: a validated scenario.
@@ -142,12 +143,145 @@ def compile_scenario(
         TypeError: ``scenario`` is not a :class:`Scenario` (a file name or YAML text: the
             message names :func:`stackdsl.load_scenario` or :func:`stackdsl.parse_scenario`).
     """
+    state = Compilation(scenario, Asked(mode, model, backend, limits, draw_time))
+    for compiler_pass in PASSES:
+        state = compiler_pass(state)
+    return state.built
+
+
+class Asked(NamedTuple):
+    """What :func:`compile_scenario` was asked besides the scenario (its arguments of the same names)."""
+
+    mode: str | None = None
+    model: str | None = None
+    backend: str | None = None
+    limits: bool = True
+    draw_time: float | None = None
+
+
+@dataclass
+class Compilation:
+    """A scenario on its way to a :class:`Program`: what the passes of :data:`PASSES` have found
+    so far, each pass filling in its part (SI units, steps of the engine's timestep).
+
+    Attributes:
+        scenario: the scenario; after :func:`draw`, the random scene's sample that meets ``require:``.
+        asked: :func:`compile_scenario`'s other arguments.
+        draws: the draws :func:`draw` took (1 without ``require:``).
+        settings: the engine's settings (:func:`choose_engine`; :attr:`engine` reads them).
+        nominal: every brick and fixture as laid out, in placement order; laid: the same with
+            the placement error (:func:`lay_out`).
+        bricks, fixed: the structure's bricks and the fixtures, of ``laid``.
+        specs: brick type -> its body, for every type the scene uses.
+        per_slot, settle: steps between two placements and after the last action (:func:`place`).
+        slots: each brick's placement slot (a brick placed ``together`` shares the one before it).
+        placements: a :class:`Place` for each brick.
+        motions: the actions' pulls, pushes and shakes, in the order written (:func:`act`).
+        launches: a :class:`Launch` for each impact (:func:`throw`).
+        actions: every action in time order, :class:`End` last (:func:`schedule`).
+        program: the program (:func:`assemble`; :attr:`built` reads it).
+    """
+
+    scenario: Scenario
+    asked: Asked = field(default_factory=Asked)
+    draws: int = 1
+    settings: EngineSettings | None = None
+    nominal: list[LaidBrick] = field(default_factory=list)
+    laid: list[LaidBrick] = field(default_factory=list)
+    bricks: list[LaidBrick] = field(default_factory=list)
+    fixed: list[LaidBrick] = field(default_factory=list)
+    specs: dict[str, BrickSpec] = field(default_factory=dict)
+    per_slot: int = 0
+    settle: int = 0
+    slots: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    placements: list[Place] = field(default_factory=list)
+    motions: list[Kinematic] = field(default_factory=list)
+    launches: list[Launch] = field(default_factory=list)
+    actions: list[Place | Launch | Remove | Push | Shake | End] = field(default_factory=list)
+    program: Program | None = None
+
+    @property
+    def engine(self) -> EngineSettings:
+        """The engine's settings.
+
+        Raises:
+            RuntimeError: asked before :func:`choose_engine` (a pass out of order).
+        """
+        if self.settings is None:
+            raise RuntimeError("the engine is chosen by choose_engine, a pass not run yet")
+        return self.settings
+
+    @property
+    def built(self) -> Program:
+        """The program.
+
+        Raises:
+            RuntimeError: asked before :func:`assemble` (a pass out of order).
+        """
+        if self.program is None:
+            raise RuntimeError("the program is made by assemble, a pass not run yet")
+        return self.program
+
+    @property
+    def threshold(self) -> float:
+        """Metres, the collapse threshold: the scenario's, else half the thinnest side of its bricks."""
+        return self.scenario.collapse_threshold or min(min(self.specs[b.type].half_extents) for b in self.bricks)
+
+    def steps(self, path: FieldPath, seconds: float) -> int:
+        """``seconds`` as a whole number of the engine's timesteps, or a ScenarioError at ``path`` (:func:`_steps`)."""
+        return _steps(self.scenario, path, seconds, self.engine.timestep)
+
+    def present(self, step: int) -> list[tuple[str, BrickSpec, Pose]]:
+        """(id, body, pose as placed) of every body in the scene at ``step``: the bricks placed by
+        then and not yet pulled out and taken away, then the fixtures."""
+        gone = {m.id: m.end_step for m in self.motions if isinstance(m, Remove)}
+        there = [
+            (b.id, self.specs[b.type], b.pose())
+            for b, k in zip(self.bricks, self.slots)
+            if int(k) * self.per_slot <= step and gone.get(b.id, step + 1) > step
+        ]
+        return there + [(b.id, self.specs[b.type], b.pose()) for b in self.fixed]
+
+
+def read(state: Compilation) -> Compilation:
+    """Pass 1: take only a :class:`Scenario` whose names all refer to something.
+
+    Raises:
+        TypeError: not a Scenario (the message says how to get one from what it is).
+        ScenarioError: at the first name that refers to nothing (refused when a scenario is
+            validated; here for one made without, ``Scenario.model_construct``).
+    """
+    scenario = state.scenario
     if not isinstance(scenario, Scenario):
         raise TypeError(_not_a_scenario(scenario))
-    unknown = reference_errors(scenario)  # refused when validated; here for a scenario made without (model_construct)
+    unknown = reference_errors(scenario)
     if unknown:
         raise scenario.source.error(*unknown[0], more=len(unknown) - 1)
-    scenario, draws = accept(scenario, draw_time)  # a random scene's first draw that meets its 'require:'
+    return state
+
+
+def draw(state: Compilation) -> Compilation:
+    """Pass 2: a random scene's first draw that meets its ``require:`` (:func:`stackdsl.compile.require.accept`),
+    within ``asked.draw_time`` seconds; a scene without ``require:`` as it is.
+
+    Raises:
+        ScenarioError: no draw meets it within its draws or the time.
+    """
+    state.scenario, state.draws = accept(state.scenario, state.asked.draw_time)
+    return state
+
+
+def choose_engine(state: Compilation) -> Compilation:
+    """Pass 3: the engine's settings: the backend and mode asked (else the file's), the mode's
+    defaults, then what the file writes (the other backend's own settings left out).
+
+    Raises:
+        ValueError: an unknown backend or mode asked.
+        ScenarioError: the backend's extra (MuJoCo's) is not installed (at ``engine.backend`` when
+            the file asks for it), or the backend cannot move what the scene asks it to
+            (:func:`stackdsl.compile.dynamics.check_motion`).
+    """
+    scenario, mode, backend = state.scenario, state.asked.mode, state.asked.backend
     engine = _engine(scenario, mode, backend)
     extra = backend_named(engine.backend).extra
     if extra is not None and not installed(extra):
@@ -155,82 +289,155 @@ def compile_scenario(
             raise scenario.source.error(("engine", "backend"), missing(extra))
         raise ScenarioError(missing(extra, f"backend={backend!r}"), file=scenario.source.file)
     check_motion(scenario, backend_named(engine.backend))
-    nominal = arrange(scenario)
-    everything = with_placement_error(scenario, nominal)
-    bricks = [b for b in everything if not b.fixed]
-    fixed = [b for b in everything if b.fixed]
-    interval, dt = scenario.timing.interval, engine.timestep
-    per_slot = _steps(scenario, ("timing", "interval"), interval, dt)
-    settle = _steps(scenario, ("timing", "settle"), scenario.timing.settle, dt)
-    names = {b.type for b in everything} | {i.projectile for i in scenario.impacts}
-    names |= {a.push.pusher for a in scenario.actions if a.push is not None and a.push.pusher in scenario_types(scenario)}
-    specs = {name: _spec(scenario, name) for name in sorted(names)}
-    slots = np.cumsum([not b.together for b in bricks]) - 1
-    placements: list[Place | Launch | End] = [
+    state.settings = engine
+    return state
+
+
+def lay_out(state: Compilation) -> Compilation:
+    """Pass 4: every brick and fixture where the structure puts it (:func:`stackdsl.compile.parts.arrange`),
+    then moved by the placement error; the body of each brick type the scene uses (projectiles'
+    and pushers' included).
+
+    Raises:
+        ScenarioError: a layout that cannot be built (:func:`stackdsl.compile.parts.arrange`).
+    """
+    scenario = state.scenario
+    state.nominal = arrange(scenario)
+    state.laid = with_placement_error(scenario, state.nominal)
+    state.bricks = [b for b in state.laid if not b.fixed]
+    state.fixed = [b for b in state.laid if b.fixed]
+    used = {b.type for b in state.laid} | {i.projectile for i in scenario.impacts}
+    used |= {a.push.pusher for a in scenario.actions if a.push is not None and a.push.pusher in scenario_types(scenario)}
+    state.specs = {name: _spec(scenario, name) for name in sorted(used)}
+    return state
+
+
+def place(state: Compilation) -> Compilation:
+    """Pass 5: the placements, one slot of ``timing.interval`` each (bricks placed ``together``
+    share one), ``timing.drop_gap`` above their poses.
+
+    Raises:
+        ScenarioError: ``timing.interval`` or ``timing.settle`` is not a whole number of timesteps.
+    """
+    timing = state.scenario.timing
+    state.per_slot = state.steps(("timing", "interval"), timing.interval)
+    state.settle = state.steps(("timing", "settle"), timing.settle)
+    state.slots = np.cumsum([not b.together for b in state.bricks]) - 1
+    state.placements = [
         Place(
-            step=int(k) * per_slot,
-            time=int(k) * interval,
+            step=int(k) * state.per_slot,
+            time=int(k) * timing.interval,
             id=b.id,
             level=b.level,
-            brick=specs[b.type],
+            brick=state.specs[b.type],
             position=tuple(b.position),
             yaw=b.yaw,
             pitch=b.pitch,
             roll=b.roll,
-            drop=scenario.timing.drop_gap,
+            drop=timing.drop_gap,
         )
-        for b, k in zip(bricks, slots)
+        for b, k in zip(state.bricks, state.slots)
     ]
-    places = [a for a in placements if isinstance(a, Place)]
-    motions = compile_actions(
-        scenario,
-        bricks,
-        slots,
-        specs,
-        places,
-        dt,
-        lambda path, seconds: _steps(scenario, path, seconds, dt),
-        [b.id for b in fixed],
-        fixed,
+    return state
+
+
+def act(state: Compilation) -> Compilation:
+    """Pass 6: the scenario's ``actions`` (pulls, pushes, shakes) as motions, in the order written
+    (:func:`stackdsl.compile.actions.compile_actions`, which says what it refuses)."""
+    state.motions = compile_actions(
+        state.scenario,
+        state.bricks,
+        state.slots,
+        state.specs,
+        state.placements,
+        state.engine.timestep,
+        state.steps,
+        [b.id for b in state.fixed],
+        state.fixed,
     )
-    pulls = {m.id: (j, m) for j, m in enumerate(motions) if isinstance(m, Remove)}
+    return state
+
+
+def throw(state: Compilation) -> Compilation:
+    """Pass 7: each impact's projectile, aimed as the engine steps its fall (:func:`_launch`),
+    with a clear path to its target among the bodies there when it is thrown
+    (:func:`stackdsl.compile.clearance.check_launch`).
+
+    Raises:
+        ScenarioError: at the impact: a level not built, not placed yet or all pulled out, a time
+            off the timestep grid, a path blocked.
+    """
+    scenario, dt = state.scenario, state.engine.timestep
+    pulls = {m.id: (j, m) for j, m in enumerate(state.motions) if isinstance(m, Remove)}
     # a projectile's steps are split as the run's Substeps splits them (with continuous collision detection)
-    split = (scenario.collapse_threshold or min(min(specs[b.type].half_extents) for b in bricks)) if engine.ccd else None
-    launches = [
-        _launch(scenario, i, imp, bricks, slots, specs[imp.projectile], (dt, split), pulls)
+    split = state.threshold if state.engine.ccd else None
+    state.launches = [
+        _launch(scenario, i, imp, state.bricks, state.slots, state.specs[imp.projectile], (dt, split), pulls)
         for i, imp in enumerate(scenario.impacts)
     ]
-    gone = {m.id: m.end_step for _, m in pulls.values()}  # pulled out and taken away
-    for i, (imp, launch) in enumerate(zip(scenario.impacts, launches)):
-        present = [
-            (b.id, specs[b.type], b.pose())
-            for b, k in zip(bricks, slots)
-            if int(k) * per_slot <= launch.step and gone.get(b.id, launch.step + 1) > launch.step
-        ]
-        check_launch(scenario, i, imp, launch, present + [(b.id, specs[b.type], b.pose()) for b in fixed])
-    if limits:
-        moving = [b.type for b in bricks] + [i.projectile for i in scenario.impacts]
-        made_by = {b.type: b.source for b in reversed(everything)}
-        still = [b.type for b in fixed]
-        try:
-            check_limits(scenario, engine, specs, moving, made_by, still, bricks)
-        except ScenarioError as exc:
-            raise _asked(
-                exc, scenario, mode, backend, lambda own: check_limits(scenario, own, specs, moving, made_by, still, bricks)
-            ) from None
-    check_measured(scenario, {b.id: b.level for b in bricks})
-    _own_ids(scenario, [b.id for b in everything], launches, motions)
-    _nothing_placed_on_pulled(scenario, bricks, specs, places, motions)
+    for i, (imp, launch) in enumerate(zip(scenario.impacts, state.launches)):
+        check_launch(scenario, i, imp, launch, state.present(launch.step))
+    return state
+
+
+def engine_limits(state: Compilation) -> Compilation:
+    """Pass 8: the scene within what the engine simulates faithfully (:func:`stackdsl.compile.limits.check_limits`),
+    unless ``asked.limits`` is False.
+
+    Raises:
+        ScenarioError: beyond a limit; when the command line's engine or mode refuses, the
+            message says whether the file's own takes it (:func:`_asked`).
+    """
+    if not state.asked.limits:
+        return state
+    scenario, bricks = state.scenario, state.bricks
+    moving = [b.type for b in bricks] + [i.projectile for i in scenario.impacts]
+    made_by = {b.type: b.source for b in reversed(state.laid)}
+    still = [b.type for b in state.fixed]
+    try:
+        check_limits(scenario, state.engine, state.specs, moving, made_by, still, bricks)
+    except ScenarioError as exc:
+        raise _asked(
+            exc,
+            scenario,
+            state.asked.mode,
+            state.asked.backend,
+            lambda own: check_limits(scenario, own, state.specs, moving, made_by, still, bricks),
+        ) from None
+    return state
+
+
+def check_hands(state: Compilation) -> Compilation:
+    """Pass 9: what the hands do, against the structure: expectations that measure only pulled
+    bricks (:func:`stackdsl.compile.actions.check_measured`), a projectile's or pusher's id that
+    is taken (:func:`_own_ids`), a brick placed on one being pulled (:func:`_nothing_placed_on_pulled`),
+    a pusher with no room (:func:`stackdsl.compile.clearance.check_pusher`).
+
+    Raises:
+        ScenarioError: at the field of the first of these.
+    """
+    scenario, motions = state.scenario, state.motions
+    check_measured(scenario, {b.id: b.level for b in state.bricks})
+    _own_ids(scenario, [b.id for b in state.laid], state.launches, motions)
+    _nothing_placed_on_pulled(scenario, state.bricks, state.specs, state.placements, motions)
     for i, motion in enumerate(motions):
         if isinstance(motion, Push):
-            present = [
-                (b.id, specs[b.type], b.pose())
-                for b, k in zip(bricks, slots)
-                if int(k) * per_slot <= motion.step and gone.get(b.id, motion.step + 1) > motion.step
-            ]
-            check_pusher(scenario, i, motion, present + [(b.id, specs[b.type], b.pose()) for b in fixed])
+            check_pusher(scenario, i, motion, state.present(motion.step))
+    return state
+
+
+def schedule(state: Compilation) -> Compilation:
+    """Pass 10: every action in time order (a placement before what happens at its step), then
+    :class:`End` ``timing.settle`` after the last; the expectations checked against the run's end
+    (:func:`_measurable`).
+
+    Raises:
+        ScenarioError: the run would last more than :data:`stackdsl.lang.bounds.MAX_SIMULATED_TIME`
+            (at what makes it long), or an expectation it cannot measure.
+    """
+    scenario, motions, launches = state.scenario, state.motions, state.launches
     actions: list[Place | Launch | Remove | Push | Shake | End] = sorted(
-        [*placements, *launches, *motions], key=lambda a: (a.step, a.kind != "place")
+        [*state.placements, *launches, *motions], key=lambda a: (a.step, a.kind != "place")
     )
     last_time = max([actions[-1].time, *(m.end_time for m in motions)])
     last_step = max([actions[-1].step, *(m.end_step for m in motions)])
@@ -244,47 +451,98 @@ def compile_scenario(
             where = ("actions", motions.index(latest), latest.kind, "at")
         elif last not in launches:  # the placements: at the interval if written, else at the structure
             why = (
-                f": {len(placements)} bricks placed {scenario.timing.interval:g} s apart, then {scenario.timing.settle:g} s "
+                f": {len(state.placements)} bricks placed {scenario.timing.interval:g} s apart, then {scenario.timing.settle:g} s "
                 "to settle; place them faster (timing.interval) or build fewer"
             )
             where = where if where in scenario.source.values else ("structure",)
         message = f"the run would last {_seconds(end)} s; at most {MAX_SIMULATED_TIME:.0f} s are simulated{why}"
         raise scenario.source.error(where, message)
-    actions.append(End(step=last_step + settle, time=end))
-    _measurable(scenario, end, len(bricks))
+    actions.append(End(step=last_step + state.settle, time=end))
+    _measurable(scenario, end, len(state.bricks))
+    state.actions = actions
+    return state
+
+
+def assemble(state: Compilation) -> Compilation:
+    """Pass 11: the :class:`Program`: the extension's rules this scene needs
+    (:func:`stackdsl.compile.rules.choose_rules`), the stability settings (the scenario's, the
+    model asked, the engine's gravity, those rules), the ground's material, the fixtures, the
+    parts' summaries."""
+    scenario, engine = state.scenario, state.engine
     ground = scenario.material(scenario.ground.material)
-    rules = choose_rules(bricks, launches, scenario.expect, motions, backend_named(engine.backend).split_pulls)
+    rules = choose_rules(state.bricks, state.launches, scenario.expect, state.motions, backend_named(engine.backend).split_pulls)
     on = {r.name: r.on for r in rules}
+    model = state.asked.model
     settings = {**scenario.stability.model_dump(exclude_none=True), **({"model": model} if model else {})}
-    program = Program(
+    state.program = Program(
         name=scenario.name or "scenario",
         engine=engine,
         ground_friction=ground.friction,
         ground_restitution=ground.restitution,
-        stability=StabilityConfig(
-            **settings,
-            gravity=engine.gravity,
-            leaning=on["leaning"],
-            impacts=on["impacts"],
-        ),
+        stability=StabilityConfig(**settings, gravity=engine.gravity, leaning=on["leaning"], impacts=on["impacts"]),
         rules=rules,
         fixtures=tuple(
-            Fixture(id=b.id, brick=specs[b.type], position=tuple(b.position), yaw=b.yaw, pitch=b.pitch, roll=b.roll)
-            for b in fixed
+            Fixture(id=b.id, brick=state.specs[b.type], position=tuple(b.position), yaw=b.yaw, pitch=b.pitch, roll=b.roll)
+            for b in state.fixed
         ),
-        collapse_threshold=scenario.collapse_threshold or min(min(specs[b.type].half_extents) for b in bricks),
+        collapse_threshold=state.threshold,
         settle=scenario.timing.settle,
-        actions=tuple(actions),
-        draws=draws,
-        parts=summaries(scenario, nominal),
+        actions=tuple(state.actions),
+        draws=state.draws,
+        parts=summaries(scenario, state.nominal),
         judged_at=scenario.expect.judged_at,
     )
-    try:  # before the checks of the placements, which take a while on a huge scene
+    return state
+
+
+def work_budget(state: Compilation) -> Compilation:
+    """Pass 12: the run's estimated work within :data:`MAX_WORK` (:func:`_budget`), before the
+    checks of the placements, which take a while on a huge scene.
+
+    Raises:
+        ScenarioError: over it, at the field to change (:func:`_budget`, :func:`_asked`).
+    """
+    scenario, program = state.scenario, state.built
+    try:
         _budget(scenario, program)
     except ScenarioError as exc:
-        raise _asked(exc, scenario, mode, backend, lambda own: _budget(scenario, _retimed(program, own))) from None
-    floating = precheck(scenario, _bodies(scenario, everything, nominal, specs, dict(zip(map(id, bricks), slots))))
-    return program.model_copy(update={"floating": floating})
+        raise _asked(
+            exc, scenario, state.asked.mode, state.asked.backend, lambda own: _budget(scenario, _retimed(program, own))
+        ) from None
+    return state
+
+
+def check_placements(state: Compilation) -> Compilation:
+    """Pass 13: the checks before simulating (:func:`stackdsl.compile.precheck.precheck`: bricks
+    that overlap or rest on nothing where placed, expectations about levels never built); the
+    program notes the bricks allowed to rest on nothing.
+
+    Raises:
+        ScenarioError: the first check that fails.
+    """
+    slots = dict(zip(map(id, state.bricks), state.slots))
+    floating = precheck(state.scenario, _bodies(state.scenario, state.laid, state.nominal, state.specs, slots))
+    state.program = state.built.model_copy(update={"floating": floating})
+    return state
+
+
+#: The compiler's passes, in the order :func:`compile_scenario` runs them; each takes the
+#: :class:`Compilation` so far and returns it with its own part found (or raises).
+PASSES: tuple[Callable[[Compilation], Compilation], ...] = (
+    read,
+    draw,
+    choose_engine,
+    lay_out,
+    place,
+    act,
+    throw,
+    engine_limits,
+    check_hands,
+    schedule,
+    assemble,
+    work_budget,
+    check_placements,
+)
 
 
 def scenario_types(scenario: Scenario) -> set[str]:

@@ -508,47 +508,65 @@ def unreachable_statistics(
     where = f" in grid cell {cell}" if cell else ""
     for path, expect in _statistics(scenario.expect, values):
         statistic = expect.collapse if isinstance(expect.collapse, CollapseStatistic) else None
-        if statistic is not None and top is not None and statistic.region.target - statistic.region.tolerance > top:
-            region = statistic.region
-            name = "mean" if statistic.mean is not None else "quantile"
-            at = (*path, "collapse", "mean") if statistic.mean is not None else (*path, "collapse", "quantile", "level")
-            raise scenario.source.error(
-                at,
-                f"{name} {region.target:g}±{region.tolerance:g} (levels {region.target - region.tolerance:g} to "
-                f"{region.target + region.tolerance:g}) can never be measured{where}: the structure builds at most {top} "
-                f"level{'s' * (top != 1)}, and the collapse level is the highest level placed when a brick first moves; "
-                f"expect a {name} whose tolerance reaches a level from 1 to {top}",
-            )
-        p = expect.p_stands
-        if sampled and p is not None and ((p.op == ">=" and p.bound >= 1) or (p.op == "<=" and p.bound <= 0)):
-            every = p.op == ">="
-            raise scenario.source.error(
-                (*path, "p_stands"),
-                f"'{p.op} {p.bound:g}' can never pass{where if len(path) > 1 else ''}: the samples draw, so P(stands) is judged by its 95% "
-                f"confidence interval, which reaches {'below 1' if every else 'above 0'} after any number of samples, "
-                f"even when {'every' if every else 'no'} sample stood; give a bound {'below 1' if every else 'above 0'}, "
-                f"such as '{p.op} {0.95 if every else 0.05:g}'",
-            )
-        if not sampled and p is not None and p.op == "±" and p.bound - p.tolerance > 0.0 and p.bound + p.tolerance < 1.0:
-            raise scenario.source.error(
-                (*path, "p_stands"),
-                f"'{p.text()}' can never pass{where if len(path) > 1 else ''}: this sweep draws nothing, so each cell's "
-                "samples are one run, and its P(stands) is 0 or 1 (it stands or not), which this holds neither of; "
-                "expect '>= 0.5' (it stands) or '<= 0.5' (it falls), or draw something",
-            )
-        if sampled and p is not None and p.op == "±" and p.tolerance == 0.0:
-            raise scenario.source.error(
-                (*path, "p_stands"),
-                f"'{p.text()}' can never pass{where if len(path) > 1 else ''}: the samples draw, so P(stands) is judged by "
-                f"its 95% confidence interval, which never narrows to one value; give a tolerance, such as "
-                f"'{p.bound:g} ± 0.05'",
-            )
-        if sampled and p is not None and not _decidable(p):
-            raise scenario.source.error(
-                (*path, "p_stands"),
-                f"'{p.text()}' can never pass{where if len(path) > 1 else ''}: even {MAX_SAMPLES} samples, the most a "
-                "sweep takes, give a 95% confidence interval of P(stands) wider than it allows; give it more room",
-            )
+        if statistic is not None and top is not None:
+            _unreachable_level(scenario, path, statistic, top, where)
+        if expect.p_stands is not None:
+            _unreachable_p_stands(scenario, path, expect.p_stands, sampled, where if len(path) > 1 else "")
+
+
+def _unreachable_level(scenario: Scenario, path: FieldPath, statistic: CollapseStatistic, top: int, where: str) -> None:
+    """Refuse a collapse level's mean or quantile whose region lies wholly above ``top`` (the
+    highest level a sample of the cell builds), at ``path`` (the expectation); ``where``: the cell
+    in words."""
+    region = statistic.region
+    if region.target - region.tolerance <= top:
+        return
+    name = "mean" if statistic.mean is not None else "quantile"
+    at = (*path, "collapse", "mean") if statistic.mean is not None else (*path, "collapse", "quantile", "level")
+    raise scenario.source.error(
+        at,
+        f"{name} {region.target:g}±{region.tolerance:g} (levels {region.target - region.tolerance:g} to "
+        f"{region.target + region.tolerance:g}) can never be measured{where}: the structure builds at most {top} "
+        f"level{'s' * (top != 1)}, and the collapse level is the highest level placed when a brick first moves; "
+        f"expect a {name} whose tolerance reaches a level from 1 to {top}",
+    )
+
+
+def _unreachable_p_stands(scenario: Scenario, path: FieldPath, p: Any, sampled: bool, where: str) -> None:
+    """Refuse a P(stands) rule ``p`` at ``path`` that no samples can pass (:func:`unreachable_statistics`:
+    a bound at 1 or 0, or no tolerance, when the samples draw; a tolerance that holds neither 0 nor 1
+    when they do not; one even :data:`MAX_SAMPLES` samples cannot decide); ``where``: the cell in
+    words, under ``expect.cells`` only."""
+    at = (*path, "p_stands")
+    if sampled and ((p.op == ">=" and p.bound >= 1) or (p.op == "<=" and p.bound <= 0)):
+        every = p.op == ">="
+        raise scenario.source.error(
+            at,
+            f"'{p.op} {p.bound:g}' can never pass{where}: the samples draw, so P(stands) is judged by its 95% "
+            f"confidence interval, which reaches {'below 1' if every else 'above 0'} after any number of samples, "
+            f"even when {'every' if every else 'no'} sample stood; give a bound {'below 1' if every else 'above 0'}, "
+            f"such as '{p.op} {0.95 if every else 0.05:g}'",
+        )
+    if not sampled and p.op == "±" and p.bound - p.tolerance > 0.0 and p.bound + p.tolerance < 1.0:
+        raise scenario.source.error(
+            at,
+            f"'{p.text()}' can never pass{where}: this sweep draws nothing, so each cell's "
+            "samples are one run, and its P(stands) is 0 or 1 (it stands or not), which this holds neither of; "
+            "expect '>= 0.5' (it stands) or '<= 0.5' (it falls), or draw something",
+        )
+    if sampled and p.op == "±" and p.tolerance == 0.0:
+        raise scenario.source.error(
+            at,
+            f"'{p.text()}' can never pass{where}: the samples draw, so P(stands) is judged by "
+            f"its 95% confidence interval, which never narrows to one value; give a tolerance, such as "
+            f"'{p.bound:g} ± 0.05'",
+        )
+    if sampled and not _decidable(p):
+        raise scenario.source.error(
+            at,
+            f"'{p.text()}' can never pass{where}: even {MAX_SAMPLES} samples, the most a "
+            "sweep takes, give a 95% confidence interval of P(stands) wider than it allows; give it more room",
+        )
 
 
 def _decidable(p: Any) -> bool:

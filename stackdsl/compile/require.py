@@ -32,7 +32,7 @@ import itertools
 import math
 from collections import Counter
 from time import perf_counter
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from shapely import Polygon, STRtree
@@ -360,59 +360,98 @@ def unreadable(tree: dict[str, Any], name: str, template: Any = None, listed: bo
     return why if why is None or why.startswith(repr(name)) else f"no such field {name!r}: {why}"
 
 
+class _Walk(NamedTuple):
+    """Where :func:`_why` has got to along a name: the scene's value there, its path in the file
+    as read (a part of a list by its index), and the value it is in."""
+
+    node: Any
+    at: FieldPath
+    parent: Any
+
+
 def _why(tree: dict[str, Any], name: str, template: Any, listed: bool) -> str | None:
+    """:func:`unreadable`'s answer before its prefix: the name followed one field or item at a time
+    (:func:`_step`), then what it ends at (:func:`_at_the_end`)."""
     drawn = [d for d in template.distributions] if template is not None else []
     per_layer: dict[FieldPath, list[str]] = {}  # a tower whose shift is drawn per layer -> its columns in samples.csv
     for d in drawn:
         if (spot := tower_field(d.path)) and spot[1] == "shift" and d.per != "sample":
             per_layer.setdefault(spot[0], []).append(d.label)
     segs = name.split(".")
-    node: Any = tree
-    at: FieldPath = ()  # where the name is in the file as read (a part of a list by its index)
-    parent: Any = None
-    for i, seg in enumerate(segs):
-        where = ".".join(segs[:i])
-        if seg == "shift" and at in per_layer:
-            columns = " and ".join(per_layer[at])
-            return (
-                f"{name!r} is no one number: {where}.shift is drawn per layer, into {where}.shifts (samples.csv's "
-                f"{columns}); read level 2's shift on level 1 as {where}.shifts.0.0 (along x) or "
-                f"{where}.shifts.0.1 (along y), level 3's as {where}.shifts.1.0, and so on"
-            )
-        if node is None:
-            if _made(at, drawn):
-                return None
-            kind = next((k for group in _ONE_OF for k in group if segs[i - 1] in group and parent.get(k) is not None), None)
-            if kind is not None:
-                return f"{'.'.join(segs[: i - 1])} is a {kind}, not a {segs[i - 1]}"
-            return f"{where} is not given in this scene, so it has no {seg!r}"
-        if isinstance(node, dict):
-            if seg not in node:
-                if at == ("structure",) and any(k not in Structure.model_fields for k in node):
-                    parts = [k for k in node if not k.isdigit()]
-                    return f"structure has no part {seg!r}; its parts are {', '.join(parts)}" + (
-                        f" (or by index, 0 to {len(node) - len(parts) - 1})" if listed else ""
-                    )
-                has = [str(k) for k in node if at != ("structure",) or node[k] is not None]
-                return f"{where or 'a scene'} has no field {seg!r}" + (f"; it has: {', '.join(has)}" if has else "")
-            parent = node
-            at += (_index_of(node, seg),) if at == ("structure",) and listed else (seg,)
-            node = node[seg]
-        elif isinstance(node, (list, tuple)):
-            if not seg.isdigit():
-                return f"{where} is a list: name an item by its index, {where}.0"
-            if int(seg) >= len(node):
-                if _made(at, drawn) or (at[-1:] == ("shifts",) and at[:-1] in per_layer and _made(at[:-1] + ("levels",), drawn)):
-                    return None  # a longer list in another draw
-                return f"{where} has {_items(where, len(node))}, no item {seg}"
-            at += (int(seg),)
-            node = node[int(seg)]
-        elif isinstance(node, bool) or not isinstance(node, (int, float)):
-            return f"{where} is {node!r}, not a number"
-        else:
-            return f"{where} is a number, with no {'item' if seg.isdigit() else 'field'} {seg}"
+    walk = _Walk(tree, (), None)
+    for i in range(len(segs)):
+        step = _step(walk, segs, i, drawn, per_layer, listed)
+        if not isinstance(step, _Walk):
+            return step
+        walk = step
+    return _at_the_end(name, walk, drawn)
+
+
+def _step(
+    walk: _Walk, segs: list[str], i: int, drawn: list[Any], per_layer: dict[FieldPath, list[str]], listed: bool
+) -> _Walk | str | None:
+    """``walk`` one step on, into its field or item ``segs[i]``; or why it cannot go (a string), or
+    None when a draw may make what is not there."""
+    node, at, parent = walk
+    seg, where = segs[i], ".".join(segs[:i])
+    if seg == "shift" and at in per_layer:
+        columns = " and ".join(per_layer[at])
+        return (
+            f"{'.'.join(segs)!r} is no one number: {where}.shift is drawn per layer, into {where}.shifts (samples.csv's "
+            f"{columns}); read level 2's shift on level 1 as {where}.shifts.0.0 (along x) or "
+            f"{where}.shifts.0.1 (along y), level 3's as {where}.shifts.1.0, and so on"
+        )
     if node is None:
-        return None if _made(at, drawn) else f"{name} is not given in this scene"
+        if _made(at, drawn):
+            return None
+        kind = next((k for group in _ONE_OF for k in group if segs[i - 1] in group and parent.get(k) is not None), None)
+        if kind is not None:
+            return f"{'.'.join(segs[: i - 1])} is a {kind}, not a {segs[i - 1]}"
+        return f"{where} is not given in this scene, so it has no {seg!r}"
+    if isinstance(node, dict):
+        return _into_field(walk, seg, where, listed)
+    if isinstance(node, (list, tuple)):
+        return _into_item(walk, seg, where, drawn, per_layer)
+    if isinstance(node, bool) or not isinstance(node, (int, float)):
+        return f"{where} is {node!r}, not a number"
+    return f"{where} is a number, with no {'item' if seg.isdigit() else 'field'} {seg}"
+
+
+def _into_field(walk: _Walk, seg: str, where: str, listed: bool) -> _Walk | str:
+    """``walk`` (at a mapping) into its field ``seg`` (a part of the structure by its name), or
+    what fields it has."""
+    node, at, _ = walk
+    if seg not in node:
+        if at == ("structure",) and any(k not in Structure.model_fields for k in node):
+            parts = [k for k in node if not k.isdigit()]
+            return f"structure has no part {seg!r}; its parts are {', '.join(parts)}" + (
+                f" (or by index, 0 to {len(node) - len(parts) - 1})" if listed else ""
+            )
+        has = [str(k) for k in node if at != ("structure",) or node[k] is not None]
+        return f"{where or 'a scene'} has no field {seg!r}" + (f"; it has: {', '.join(has)}" if has else "")
+    step = (_index_of(node, seg),) if at == ("structure",) and listed else (seg,)
+    return _Walk(node[seg], (*at, *step), node)
+
+
+def _into_item(walk: _Walk, seg: str, where: str, drawn: list[Any], per_layer: dict[FieldPath, list[str]]) -> _Walk | str | None:
+    """``walk`` (at a list) into its item ``seg``, or why there is none (None: a longer list in
+    another draw, the list or the tower's height being drawn)."""
+    node, at, parent = walk
+    if not seg.isdigit():
+        return f"{where} is a list: name an item by its index, {where}.0"
+    if int(seg) >= len(node):
+        if _made(at, drawn) or (at[-1:] == ("shifts",) and at[:-1] in per_layer and _made(at[:-1] + ("levels",), drawn)):
+            return None  # a longer list in another draw
+        return f"{where} has {_items(where, len(node))}, no item {seg}"
+    return _Walk(node[int(seg)], (*at, int(seg)), parent)
+
+
+def _at_the_end(name: str, walk: _Walk, drawn: list[Any]) -> str | None:
+    """Why what the whole ``name`` reaches (``walk``) is no number, or None when it is one (or
+    a draw may make it)."""
+    node = walk.node
+    if node is None:
+        return None if _made(walk.at, drawn) else f"{name} is not given in this scene"
     if isinstance(node, (list, tuple)):
         return f"{name} has {_items(name, len(node))}, not one number: name one, {name}.0"
     if isinstance(node, dict):

@@ -37,9 +37,9 @@ import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
 from ..lang.errors import ScenarioError
-from ..lang.extras import installed, missing
-from ..lang.files import written
 from ..runtime.trajectory import STATES, Trajectory
+from ..util.extras import installed, missing
+from ..util.files import written
 from .render import COLOURS, LABELS, Scene, collapse_text, legend_keys, scale_bar
 
 #: Frames a second of a clip, by default.
@@ -280,7 +280,7 @@ def animate(
     imageio-ffmpeg's ffmpeg), ``width`` x ``height`` pixels at ``fps`` frames a second, its
     frames chosen by :func:`timeline`; the last picture stays :data:`END_HOLD` seconds.
     Returns the timeline drawn. The file is written under a temporary name and renamed
-    when complete (:func:`stackdsl.lang.files.written`).
+    when complete (:func:`stackdsl.util.files.written`).
 
     Raises:
         ValueError: another suffix; ``fps`` not above 0 (above :data:`GIF_MAX_FPS` for a GIF);

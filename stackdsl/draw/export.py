@@ -50,8 +50,8 @@ from ..engines.mujoco.materials import Contact, Materials
 from ..engines.mujoco.settings import MuJoCoSettings
 from ..engines.protocol import BrickSpec, EngineSettings
 from ..engines.settings import defaults, settings
-from ..lang.files import written
 from ..runtime.trajectory import ABSENT, STATES, Trajectory
+from ..util.files import written
 from .render import COLOURS, resolve_time
 
 #: The built-in pine's density (kg/m^3) and friction coefficient, for bricks whose spec is unknown.
@@ -533,7 +533,7 @@ def sdf(scene: Snapshot) -> str:
 
 
 def write_text(text: str, path: str | os.PathLike[str]) -> Path:
-    """Write ``text`` at ``path`` whole or not at all (:func:`stackdsl.lang.files.written`).
+    """Write ``text`` at ``path`` whole or not at all (:func:`stackdsl.util.files.written`).
 
     Raises:
         OSError: the file cannot be written.

@@ -38,8 +38,8 @@ from shapely.geometry.base import BaseGeometry
 from shapely.geometry.polygon import orient
 from shapely.ops import nearest_points
 
-from ..lang.files import written
 from ..runtime.outcome import Edge, Graph, Node
+from ..util.files import written
 
 #: Size (length, width, height) in mm of a brick ``plot_graph`` is given no size for: KAPLA.
 KAPLA_MM = (120.0, 24.0, 8.0)
@@ -249,6 +249,20 @@ def _draw_graph(ax: Axes, graph: Graph, bricks: list[Node], margin: dict[str, fl
     if any(n.state == "frozen" and margin[n.id] < 0 for n in bricks):
         heading += "\nred-ringed frozen bricks lean (report 3.4) on something that is no edge"
     ax.set_title(heading, fontsize=10)
+    _draw_nodes(ax, bricks, fixtures, spread, row, margin)
+    ax.yaxis.set_major_locator(MaxNLocator(integer=True))
+    ax.set_yticks([t for t in ax.get_yticks() if 0.5 <= t <= top + 0.01] or [1])
+    ax.grid(axis="y", color="#eeeeee", zorder=0)
+    return _legend(bool(fixtures))
+
+
+def _draw_nodes(
+    ax: Axes, bricks: list[Node], fixtures: list[Node], spread: dict[str, float], row: dict[str, float], margin: dict[str, float]
+) -> None:
+    """The bricks (dots) and fixed bodies (squares) at (``spread``, ``row``), coloured by state: a
+    brick resting on nothing hollow, one whose centre of mass above lies outside (``margin`` < 0)
+    ringed; each named when there are few."""
+    nodes = [*bricks, *fixtures]
     for group, marker in ((bricks, "o"), (fixtures, "s")):
         outside = [margin.get(n.id, 0.0) < 0 for n in group]
         loose = [n.state != "ground" and math.isnan(margin.get(n.id, 0.0)) for n in group]
@@ -263,9 +277,10 @@ def _draw_graph(ax: Axes, graph: Graph, bricks: list[Node], margin: dict[str, fl
     if len(bricks) <= MAX_NODE_LABELS:
         for n in nodes:
             ax.annotate(n.id, (spread[n.id], row[n.id]), xytext=(5, 4), textcoords="offset points", fontsize=7, zorder=5)
-    ax.yaxis.set_major_locator(MaxNLocator(integer=True))
-    ax.set_yticks([t for t in ax.get_yticks() if 0.5 <= t <= top + 0.01] or [1])
-    ax.grid(axis="y", color="#eeeeee", zorder=0)
+
+
+def _legend(fixtures: bool) -> list[Line2D]:
+    """The legend's entries: the states, hollow and ringed bricks, and fixed bodies when there are ``fixtures``."""
     dot: dict[str, Any] = {"marker": "o", "linestyle": ""}
     handles = [
         Line2D([], [], color=_COLOURS["frozen"], label="frozen", **dot),

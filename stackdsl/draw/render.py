@@ -32,8 +32,8 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..lang.files import written
 from ..runtime.trajectory import ABSENT, COLLAPSE_DELAY, FROZEN, STATES, Frame, Trajectory
+from ..util.files import written
 from .camera import Camera, camera_view, placed_corners
 
 #: RGB (0 to 1) of a structure brick in each state, of projectiles, fixtures, the ground and

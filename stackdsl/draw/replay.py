@@ -53,9 +53,9 @@ import pydantic
 from pydantic import BaseModel, ConfigDict, Field, StrictFloat, StrictInt, StrictStr, model_validator
 
 from ..lang.errors import ScenarioWarning
-from ..lang.files import written
 from ..runtime.outcome import Graph
 from ..runtime.trajectory import MAX_POSITION, STATES, Trajectory
+from ..util.files import written
 from .render import COLOURS
 
 #: The three.js release vendored in ``stackdsl/draw/vendor/`` (npm ``three``, MIT licence).

@@ -19,6 +19,7 @@ import os
 from collections.abc import Sequence
 from typing import Any, Literal
 
+from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
@@ -190,19 +191,7 @@ def grid_figure(
         raise ValueError(f"{len(cell_expected)} cells' expectations for {len(cells)} cells")
     if statistic not in ("p_stands", "mean"):
         raise ValueError(f"statistic must be 'p_stands' or 'mean', got {statistic!r}")
-    points: list[tuple[float, float, float, float]] = []  # (x, estimate, low, high)
-    spreads: list[tuple[float, float, dict[float, float]]] = []  # (x, mean, quantiles): "mean" only
-    sizes: set[int] = set()
-    for value, cell in zip(values, cells):
-        s = _stats.summary(cell, levels_built, _CONFIDENCE, exact=exact)
-        sizes.add(s.n)
-        estimate, interval = (s.p_stands, s.p_stands_interval) if statistic == "p_stands" else (s.mean, s.mean_interval)
-        if estimate is not None:
-            low, high = interval if interval is not None else (estimate, estimate)
-            points.append((float(value) * scale, estimate, low, high))
-            if statistic == "mean":
-                spreads.append((float(value) * scale, estimate, s.quantiles))
-    points.sort()
+    points, spreads, sizes = _estimates(values, cells, statistic, scale, levels_built, exact)
     fig = Figure(figsize=(7.0, 4.5), dpi=100)
     FigureCanvasAgg(fig)
     ax = fig.add_axes((0.12, 0.13, 0.84, 0.75 if title else 0.79))
@@ -226,26 +215,65 @@ def grid_figure(
             continue
         named.append(form)
         ax.legend(loc="best", fontsize=8, frameon=False)
-    missing = len(cells) - len(points)
-    if missing or not cells:
-        note = "no cells" if not cells else f"{missing} cell(s) without an estimate left out"
-        if points:  # below the axes, clear of the legend and the marks
-            fig.text(0.98, 0.01, note, ha="right", va="bottom", fontsize=8)
-        else:
-            ax.text(0.5, 0.5, note, transform=ax.transAxes, ha="center", va="center", fontsize=9)
-    if statistic == "p_stands":
-        ax.set_ylim(-0.03, 1.03)
-        ax.set_ylabel("P(stands)" if levels_built is None else f"P(stands at {levels_built} levels)")
-    else:
-        ax.set_ylabel("mean collapse level (collapsed samples)" if room is None else "collapse level")
-        if room is not None:  # the quantiles' labels above their lines; a legend of two columns, low
-            ax.set_ylim(top=max(ax.get_ylim()[1], room))
-            ax.legend(loc="best", fontsize=7, frameon=False, ncols=2)
+    _note_left_out(fig, ax, len(cells), bool(points), len(cells) - len(points))
+    _label_y(ax, statistic, levels_built, room)
     ax.set_xlabel(f"{parameter} ({unit})" if unit else parameter)
     ax.grid(True, alpha=0.3)
     per_cell = f"n = {sizes.pop()} per cell" if len(sizes) == 1 else f"n = {min(sizes)}..{max(sizes)} per cell" if sizes else ""
     fig.suptitle(", ".join(t for t in (title, per_cell) if t), fontsize=10)
     return fig
+
+
+def _estimates(
+    values: Sequence[float],
+    cells: Sequence[Sequence[int | None]],
+    statistic: Statistic,
+    scale: float,
+    levels_built: int | None,
+    exact: bool,
+) -> tuple[list[tuple[float, float, float, float]], list[tuple[float, float, dict[float, float]]], set[int]]:
+    """Each cell's estimate of ``statistic`` at its value times ``scale``: (x, estimate, low,
+    high) sorted by x, a point without a bar where there is no interval, cells without an
+    estimate left out; for the mean, (x, mean, quantiles) of each; the cells' sample counts."""
+    points: list[tuple[float, float, float, float]] = []  # (x, estimate, low, high)
+    spreads: list[tuple[float, float, dict[float, float]]] = []  # (x, mean, quantiles): "mean" only
+    sizes: set[int] = set()
+    for value, cell in zip(values, cells):
+        s = _stats.summary(cell, levels_built, _CONFIDENCE, exact=exact)
+        sizes.add(s.n)
+        estimate, interval = (s.p_stands, s.p_stands_interval) if statistic == "p_stands" else (s.mean, s.mean_interval)
+        if estimate is not None:
+            low, high = interval if interval is not None else (estimate, estimate)
+            points.append((float(value) * scale, estimate, low, high))
+            if statistic == "mean":
+                spreads.append((float(value) * scale, estimate, s.quantiles))
+    points.sort()
+    return points, spreads, sizes
+
+
+def _note_left_out(fig: Figure, ax: Axes, cells: int, drawn: bool, missing: int) -> None:
+    """Say how many of the ``cells`` had no estimate (``missing``), or that there are none: below
+    the axes when some were ``drawn``, else in the middle of them."""
+    if not missing and cells:
+        return
+    note = "no cells" if not cells else f"{missing} cell(s) without an estimate left out"
+    if drawn:  # below the axes, clear of the legend and the marks
+        fig.text(0.98, 0.01, note, ha="right", va="bottom", fontsize=8)
+    else:
+        ax.text(0.5, 0.5, note, transform=ax.transAxes, ha="center", va="center", fontsize=9)
+
+
+def _label_y(ax: Axes, statistic: Statistic, levels_built: int | None, room: float | None) -> None:
+    """The y axis of ``statistic``: P(stands) from 0 to 1, or the collapse level, raised to
+    ``room`` for the quantiles' labels (with a legend of two columns)."""
+    if statistic == "p_stands":
+        ax.set_ylim(-0.03, 1.03)
+        ax.set_ylabel("P(stands)" if levels_built is None else f"P(stands at {levels_built} levels)")
+        return
+    ax.set_ylabel("mean collapse level (collapsed samples)" if room is None else "collapse level")
+    if room is not None:  # the quantiles' labels above their lines; a legend of two columns, low
+        ax.set_ylim(top=max(ax.get_ylim()[1], room))
+        ax.legend(loc="best", fontsize=7, frameon=False, ncols=2)
 
 
 #: The quantiles a grid plot of the mean draws: the thin line's ends, the bar's ends, the tick.

@@ -51,7 +51,7 @@ class Backend:
         settings: its settings class (defaults per mode, limits, name in messages).
         world: opens a world on it (:class:`WorldFactory`).
         extra: the optional extra that installs its package (a name of
-            :data:`stackdsl.lang.extras.EXTRAS`), None when it is a dependency or needs none.
+            :data:`stackdsl.util.extras.EXTRAS`), None when it is a dependency or needs none.
         split_pulls: with the extension acting, a pull (``actions: remove``) is stepped in
             steps of at most :data:`stackdsl.compile.program.PULL_STEP` (pybullet's friction at
             240 Hz drags what the pulled brick carries).

@@ -4,7 +4,7 @@ Every layer above the engines finds an engine here by name and asks it (its sett
 world, its capabilities); none imports an adapter or compares engine names
 (pyproject.toml's import contract, tests/test_registry.py). An adapter is a subpackage of
 :mod:`stackdsl.engines` whose ``__init__`` defines ``BACKEND``; adding one is that subpackage
-and one line of :data:`BACKENDS`. A backend's subpackage is imported when it is first asked
+and one loader in :data:`BACKENDS`. A backend's subpackage is imported when it is first asked
 for, and its engine's own package (pybullet, mujoco) only when a world is opened, so an
 engine that is an optional extra is imported only when used.
 
@@ -19,19 +19,38 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 from functools import cache
-from importlib import import_module
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from .backend import Backend
+    from .backend import Backend, Loader
     from .protocol import EngineSettings
 
-#: name -> the subpackage of :mod:`stackdsl.engines` that defines its ``BACKEND``; the first is
-#: the default engine.
-BACKENDS: dict[str, str] = {
-    "pybullet": ".pybullet",
-    "mujoco": ".mujoco",
-    "statics": ".statics",
+
+def _pybullet() -> Backend:
+    from .pybullet import BACKEND
+
+    return BACKEND
+
+
+def _mujoco() -> Backend:
+    from .mujoco import BACKEND
+
+    return BACKEND
+
+
+def _statics() -> Backend:
+    from .statics import BACKEND
+
+    return BACKEND
+
+
+#: name -> what imports the subpackage of :mod:`stackdsl.engines` that defines its ``BACKEND``
+#: and returns it (an import statement, which lint-imports sees, run when first asked for); the
+#: first is the default engine.
+BACKENDS: dict[str, Loader] = {
+    "pybullet": _pybullet,
+    "mujoco": _mujoco,
+    "statics": _statics,
 }
 
 
@@ -58,9 +77,9 @@ def backend(name: str) -> Backend:
 
     if name not in BACKENDS:
         raise UnknownBackend(f"unknown backend {name!r}; known: {', '.join(BACKENDS)}")
-    found = getattr(import_module(BACKENDS[name], __package__), "BACKEND", None)
+    found = BACKENDS[name]()
     if not isinstance(found, Backend) or found.name != name:
-        raise TypeError(f"stackdsl.engines{BACKENDS[name]} defines no BACKEND named {name!r}")
+        raise TypeError(f"the backend registered as {name!r} is named {getattr(found, 'name', None)!r}")
     return found
 
 

@@ -33,7 +33,7 @@ import copy
 import difflib
 import math
 from dataclasses import dataclass, replace
-from typing import Any, Literal
+from typing import Any, Literal, cast
 
 import numpy as np
 
@@ -68,6 +68,10 @@ MAX_CHOICES = 1000
 NAMED = (("materials",), ("brick_types",))
 
 
+#: How often a distribution draws: once a sample, or a tower's per layer or brick.
+Per = Literal["sample", "layer", "brick"]
+
+
 @dataclass(frozen=True)
 class Distribution:
     """One distribution in a scenario file.
@@ -89,7 +93,7 @@ class Distribution:
     kind: Literal["uniform", "normal", "choice"]
     values: tuple[Any, ...]
     unit: str
-    per: Literal["sample", "layer", "brick"] = "sample"
+    per: Per = "sample"
     part: str | None = None
     pinned: tuple[Any, ...] = ()
 
@@ -209,6 +213,24 @@ def _parse(node: dict[str, Any], path: FieldPath, source: SourceMap) -> Distribu
             path, f"a distribution is one of {{uniform: ...}}, {{normal: ...}}, {{choice: ...}}, with an optional 'per'{extra}"
         )
     kind = kinds[0]
+    per = _per(node, path, source)
+    try:
+        if kind == "choice":
+            return _choice(node[kind], path, per)
+        if kind == "uniform":
+            return _uniform(node[kind], path, per)
+        return _normal(node[kind], path, per)
+    except ValueError as exc:
+        raise source.error(path + (kind,), str(exc)) from None
+
+
+def _per(node: dict[str, Any], path: FieldPath, source: SourceMap) -> Per:
+    """How often the distribution at ``path`` draws (``per``): once a sample, or per layer or brick
+    where a tower's field allows it, on the whole field.
+
+    Raises:
+        ScenarioError: at ``per``, not allowed there.
+    """
     per = node.get("per", "sample")
     spot = tower_field(path)
     allowed = ("sample", *(PER[spot[1]] if spot else ()))
@@ -219,43 +241,48 @@ def _parse(node: dict[str, Any], path: FieldPath, source: SourceMap) -> Distribu
         )
     if per != "sample" and spot is not None and spot[1] != "shift" and len(path) != len(spot[0]) + 1:
         raise source.error(path + ("per",), "'per' goes on the whole field")
-    at = path + (kind,)
-    try:
-        if kind == "choice":
-            items = node[kind]
-            if not isinstance(items, list) or not items or len(items) > MAX_CHOICES:
-                raise ValueError(f"expected a list of 1 to {MAX_CHOICES} values to choose from")
-            if any(isinstance(i, (dict, list)) for i in items):
-                raise ValueError("each choice is a number or a quantity such as '12 mm'")
-            return Distribution(path, "choice", tuple(items), "", per)
-        if kind == "uniform":
-            ends = node[kind]
-            if not isinstance(ends, list) or len(ends) != 2:
-                raise ValueError("expected [low, high], such as [90 mm, 100 mm]")
-            unit = _unit_of(ends)
-            low, high = (in_unit(v, unit) for v in ends)
-            if low > high:
-                raise ValueError(f"low {ends[0]!r} is above high {ends[1]!r}")
-            return Distribution(path, "uniform", (low, high), unit, per)
-        spec = node[kind]
-        if not isinstance(spec, dict) or not {"mean", "sd"} <= set(spec) or set(spec) - {"mean", "sd", "clip"}:
-            raise ValueError("expected {mean: ..., sd: ...} and an optional clip: [low, high]")
-        unit = _unit_of([spec["mean"], spec["sd"], *(spec["clip"] if isinstance(spec.get("clip"), list) else [])])
-        mean = in_unit(spec["mean"], unit)
-        sd = in_unit(spec["sd"], unit)
-        if sd < 0:
-            raise ValueError(f"the standard deviation must be at least 0, not {spec['sd']!r}")
-        low, high = -math.inf, math.inf
-        if "clip" in spec:
-            clip = spec["clip"]
-            if not isinstance(clip, list) or len(clip) != 2:
-                raise ValueError("expected clip: [low, high]")
-            low, high = (in_unit(v, unit) for v in clip)
-            if low > high:
-                raise ValueError(f"clip's low {clip[0]!r} is above its high {clip[1]!r}")
-        return Distribution(path, "normal", (mean, sd, low, high), unit, per)
-    except ValueError as exc:
-        raise source.error(at, str(exc)) from None
+    return cast(Per, per)
+
+
+def _choice(items: Any, path: FieldPath, per: Per) -> Distribution:
+    """``{choice: [...]}``: 1 to :data:`MAX_CHOICES` numbers or quantities. Raises ValueError: not so."""
+    if not isinstance(items, list) or not items or len(items) > MAX_CHOICES:
+        raise ValueError(f"expected a list of 1 to {MAX_CHOICES} values to choose from")
+    if any(isinstance(i, (dict, list)) for i in items):
+        raise ValueError("each choice is a number or a quantity such as '12 mm'")
+    return Distribution(path, "choice", tuple(items), "", per)
+
+
+def _uniform(ends: Any, path: FieldPath, per: Per) -> Distribution:
+    """``{uniform: [low, high]}`` in one unit, low at most high. Raises ValueError: not so."""
+    if not isinstance(ends, list) or len(ends) != 2:
+        raise ValueError("expected [low, high], such as [90 mm, 100 mm]")
+    unit = _unit_of(ends)
+    low, high = (in_unit(v, unit) for v in ends)
+    if low > high:
+        raise ValueError(f"low {ends[0]!r} is above high {ends[1]!r}")
+    return Distribution(path, "uniform", (low, high), unit, per)
+
+
+def _normal(spec: Any, path: FieldPath, per: Per) -> Distribution:
+    """``{normal: {mean, sd, clip: [low, high]}}`` in one unit, sd at least 0, clip's low at most
+    its high. Raises ValueError: not so."""
+    if not isinstance(spec, dict) or not {"mean", "sd"} <= set(spec) or set(spec) - {"mean", "sd", "clip"}:
+        raise ValueError("expected {mean: ..., sd: ...} and an optional clip: [low, high]")
+    unit = _unit_of([spec["mean"], spec["sd"], *(spec["clip"] if isinstance(spec.get("clip"), list) else [])])
+    mean = in_unit(spec["mean"], unit)
+    sd = in_unit(spec["sd"], unit)
+    if sd < 0:
+        raise ValueError(f"the standard deviation must be at least 0, not {spec['sd']!r}")
+    low, high = -math.inf, math.inf
+    if "clip" in spec:
+        clip = spec["clip"]
+        if not isinstance(clip, list) or len(clip) != 2:
+            raise ValueError("expected clip: [low, high]")
+        low, high = (in_unit(v, unit) for v in clip)
+        if low > high:
+            raise ValueError(f"clip's low {clip[0]!r} is above its high {clip[1]!r}")
+    return Distribution(path, "normal", (mean, sd, low, high), unit, per)
 
 
 def _unit_of(values: list[Any]) -> str:

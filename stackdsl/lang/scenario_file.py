@@ -18,6 +18,7 @@ from pathlib import Path
 
 import yaml
 
+from ..util.files import file_kind
 from .errors import ScenarioError
 
 MAX_FILE_BYTES = 1 << 20  # a scenario file is at most 1 MiB
@@ -90,18 +91,6 @@ def not_a_scenario(path: Path) -> str:
     if path.suffix.lower() == ".npz":
         return f"this is a trajectory file (.npz), not a scenario: {readers}"
     return f"this is a zip archive, not a scenario (YAML text); if it is a trajectory file, {readers}"
-
-
-def file_kind(mode: int) -> str:
-    """A file that is not regular, in words."""
-    kinds = (
-        (stat.S_ISDIR, "a folder"),
-        (stat.S_ISCHR, "a character device"),
-        (stat.S_ISBLK, "a block device"),
-        (stat.S_ISFIFO, "a FIFO (named pipe)"),
-        (stat.S_ISSOCK, "a socket"),
-    )
-    return next((name for test, name in kinds if test(mode)), "a special file")
 
 
 def _read_bytes(path: Path, file: str) -> bytes:

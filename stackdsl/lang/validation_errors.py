@@ -202,18 +202,7 @@ def _one_error(err: ErrorDetails, source: SourceMap) -> ScenarioError:
     tagged = tuple(err["loc"])
     loc = _without_members(_untagged(tagged), source)
     if err["type"] == "extra_forbidden":
-        key = str(loc[-1])
-        message = f"unknown key {key!r}"
-        allowed = fields_at(tagged[:-1])
-        close = difflib.get_close_matches(key, allowed, n=1)
-        message += f"; did you mean {close[0]!r}?" if close else f"; allowed: {', '.join(allowed)}"
-        # a field of a key beside it, written level with it: `push:` and then `target:` under `- `
-        owners = [f for f in allowed if not close and key in fields_at((*tagged[:-1], f))]
-        written = [f for f in owners if (*loc[:-1], f) in source.keys]
-        if written or len(owners) == 1:
-            owner = (written or owners)[0]
-            message += f" ({key!r} is a field of {owner!r}: indent it under '{owner}:')"
-        return source.error(loc, message, at_key=True)
+        return _unknown_key(tagged, loc, source)
     if _short_list(err):  # said at the list: 'direction[2]: required field is missing' read as a key
         needed = int(err["loc"][-1]) + 1
         return source.error(loc[:-1], f"expected a list of {needed} items, got {shown(err['input'])}")
@@ -228,21 +217,7 @@ def _one_error(err: ErrorDetails, source: SourceMap) -> ScenarioError:
         allowed = fields_at(tagged)
         message = "expected a mapping" + (f" of {', '.join(allowed)}" if allowed else "")
     elif err["type"] in ("too_long", "too_short") and isinstance(err["input"], (list, dict)):  # pydantic: 'after validation'
-        ctx = err.get("ctx", {})
-        most = err["type"] == "too_long"
-        limit = ctx.get("max_length" if most else "min_length")
-        exactly = most and ctx.get("field_type") == "Tuple"  # the schema's tuples have a fixed length ([x, y])
-        bound = "" if exactly else "at most " if most else "at least "
-        kind = "mapping" if isinstance(err["input"], dict) else "list"
-        message = f"expected a {kind} of {bound}{limit} item{'s' * (limit != 1)}"
-        if most and not exactly and isinstance(limit, int) and len(err["input"]) > limit:  # at the first item too many
-            first = list(err["input"])[limit] if kind == "mapping" else limit
-            where = (*loc, first)
-            if where in source.values or where in source.keys:
-                return source.error(
-                    where, f"{message}: this is item {limit + 1} of {len(err['input'])}", at_key=kind == "mapping"
-                )
-        return source.error(loc, f"{message}, got {shown(err['input'])}")
+        return _wrong_length(err, loc, source)
     elif err["type"] == "finite_number":  # pydantic: "Input should be a finite number, got nan"
         kind = "a whole number" if _whole(tagged) else "a number"
         return source.error(loc, f"expected {kind}, got {shown(err.get('input'))} (not finite)")
@@ -253,18 +228,60 @@ def _one_error(err: ErrorDetails, source: SourceMap) -> ScenarioError:
     else:
         message = err["msg"].removeprefix("Value error, ").replace("a valid tuple", "a list")  # YAML has lists
     if "input" in err and err["type"] not in ("value_error", REFERENCE_ERROR):
-        given_ = err["input"]
-        if isinstance(given_, dict):
-            message += ", got a mapping"
-        elif isinstance(given_, list):
-            message += f", got a list: {shown(given_)}"
-        else:
-            message += f", got {shown(given_)}"
-        if err["type"] == "string_pattern_mismatch" and isinstance(given_, str):
-            message += _not_ascii(given_)
-        if err["type"] == "string_type" and isinstance(given_, bool):  # yes, no, on, off
-            message += ": YAML reads an unquoted yes, no, on, off, true or false as true or false; quote it"
+        message += _got(err["type"], err["input"])
     return source.error(loc, message)
+
+
+def _unknown_key(tagged: tuple[Any, ...], loc: FieldPath, source: SourceMap) -> ScenarioError:
+    """A key the schema does not have at ``loc`` (``tagged``: pydantic's location), at the key:
+    the allowed key it is closest to, else every allowed one, and the key beside it whose field
+    it is when it was written level with that key instead of under it."""
+    key = str(loc[-1])
+    message = f"unknown key {key!r}"
+    allowed = fields_at(tagged[:-1])
+    close = difflib.get_close_matches(key, allowed, n=1)
+    message += f"; did you mean {close[0]!r}?" if close else f"; allowed: {', '.join(allowed)}"
+    # a field of a key beside it, written level with it: `push:` and then `target:` under `- `
+    owners = [f for f in allowed if not close and key in fields_at((*tagged[:-1], f))]
+    written = [f for f in owners if (*loc[:-1], f) in source.keys]
+    if written or len(owners) == 1:
+        owner = (written or owners)[0]
+        message += f" ({key!r} is a field of {owner!r}: indent it under '{owner}:')"
+    return source.error(loc, message, at_key=True)
+
+
+def _wrong_length(err: ErrorDetails, loc: FieldPath, source: SourceMap) -> ScenarioError:
+    """A list or mapping with too many or too few items, said with how many it may have (exactly,
+    for the schema's tuples); too many, at the first item too many when the file shows it."""
+    ctx = err.get("ctx", {})
+    most = err["type"] == "too_long"
+    limit = ctx.get("max_length" if most else "min_length")
+    exactly = most and ctx.get("field_type") == "Tuple"  # the schema's tuples have a fixed length ([x, y])
+    bound = "" if exactly else "at most " if most else "at least "
+    kind = "mapping" if isinstance(err["input"], dict) else "list"
+    message = f"expected a {kind} of {bound}{limit} item{'s' * (limit != 1)}"
+    if most and not exactly and isinstance(limit, int) and len(err["input"]) > limit:  # at the first item too many
+        first = list(err["input"])[limit] if kind == "mapping" else limit
+        where = (*loc, first)
+        if where in source.values or where in source.keys:
+            return source.error(where, f"{message}: this is item {limit + 1} of {len(err['input'])}", at_key=kind == "mapping")
+    return source.error(loc, f"{message}, got {shown(err['input'])}")
+
+
+def _got(kind: str, given: Any) -> str:
+    """What the file gave instead, for the end of an error's message (``kind``: pydantic's error
+    type): a mapping, a list and its items, or the value; a YAML word read as a boolean, said so."""
+    if isinstance(given, dict):
+        said = ", got a mapping"
+    elif isinstance(given, list):
+        said = f", got a list: {shown(given)}"
+    else:
+        said = f", got {shown(given)}"
+    if kind == "string_pattern_mismatch" and isinstance(given, str):
+        said += _not_ascii(given)
+    if kind == "string_type" and isinstance(given, bool):  # yes, no, on, off
+        said += ": YAML reads an unquoted yes, no, on, off, true or false as true or false; quote it"
+    return said
 
 
 def _whole(loc: FieldPath) -> bool:

@@ -41,7 +41,7 @@ import numpy as np
 import pydantic
 
 from ..lang.bounds import MAX_COORDINATE, MAX_SIDE
-from ..lang.files import written
+from ..util.files import written
 from .outcome import Event, Graph
 
 #: Format version of a trajectory file.

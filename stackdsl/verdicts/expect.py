@@ -278,37 +278,9 @@ def explain(expect: Expect, outcome: Outcome, threshold: float) -> list[str]:
             )
         return lines + ([not_run_line(outcome)] if outcome.not_run else [])
     if failed & {"collapse", "stands", "stands_until"}:
-        c = outcome.collapse
-        proof = outcome.certificate
-        if c is not None and proof is not None and proof.kind == "no equilibrium":  # no brick passed the threshold
-            lines.append(
-                f"collapsed: no rigid-block equilibrium holds the bricks where they are at the end (t={c.time:.2f} s), "
-                f"with {c.level} level{'s' * (c.level != 1)} placed: {proof.detail}; in the mechanism: "
-                f"{', '.join(_short(list(proof.bricks)))}"
-            )
-        elif c is not None:
-            lines.append(
-                f"collapsed: {_brick(c.brick, c.brick_level)} moved past {_mm(threshold)} at t={c.time:.2f} s, "
-                f"with {c.level} level{'s' * (c.level != 1)} placed ({_mm(c.displacement)} by t={c.decided:.2f} s, "
-                f"when the collapse was decided)"
-            )
-        elif outcome.displacement:
-            brick, largest = max(outcome.displacement.items(), key=lambda item: item[1])
-            lines.append(
-                f"stood: the largest displacement at the end (t={outcome.simulated_time:.2f} s) was {_mm(largest)}, "
-                f"{_brick(brick, levels.get(brick))}; a collapse is a move beyond {_mm(threshold)}"
-            )
-        else:
-            lines.append("stood: no structure brick was placed")
+        lines.append(_collapse_line(outcome, threshold, levels))
     if "moved" in failed and expect.moved:
-        named = set(_selected(outcome, bricks_of(expect.moved))) | {
-            b for b, lv in levels.items() if lv in levels_of(expect.moved) and b in outcome.displacement
-        }
-        still = sorted((outcome.displacement[b], b) for b in named if outcome.displacement[b] <= threshold)
-        for d, b in still[:MOVED_SHOWN]:
-            lines.append(
-                f"stayed: {_brick(b, levels.get(b))} ended {_mm(d)} from where it was placed (a move is beyond {_mm(threshold)})"
-            )
+        lines += _stayed_lines(expect.moved, outcome, threshold, levels)
     if "toppled" in failed:
         lines.append(
             f"toppled: {len(outcome.toppled)} brick{'s' * (len(outcome.toppled) != 1)} ended tilted past "
@@ -324,21 +296,67 @@ def explain(expect: Expect, outcome: Outcome, threshold: float) -> list[str]:
             f"{outcome.kinetic_energy * 1000:.3g} mJ; a longer timing.settle lets them come to rest before they are judged"
         )
     if "stays" in failed and expect.stays:
-        keep = set(levels_of(expect.stays))
-        named = set(_selected(outcome, bricks_of(expect.stays)))
-        moved = sorted(
-            ((d, b) for b, d in outcome.displacement.items() if d > threshold and (levels.get(b) in keep or b in named)),
-            reverse=True,
-        )
-        for d, b in moved[:MOVED_SHOWN]:
-            lines.append(
-                f"moved: {_brick(b, levels.get(b))} moved {_mm(d)} by the end, t={outcome.simulated_time:.2f} s "
-                f"(allowed {_mm(threshold)})"
-            )
-        if len(moved) > MOVED_SHOWN:
-            lines.append(f"moved: and {len(moved) - MOVED_SHOWN} more bricks of levels that must stay")
+        lines += _moved_lines(expect.stays, outcome, threshold, levels)
     if failed and outcome.not_run:
         lines.append(not_run_line(outcome))
+    return lines
+
+
+def _collapse_line(outcome: Outcome, threshold: float, levels: dict[str, int | None]) -> str:
+    """Why ``collapse``, ``stands`` or ``stands_until`` failed: the collapse (its first moved brick,
+    or its mechanism when no brick passed the threshold), or what stood and moved most."""
+    c = outcome.collapse
+    proof = outcome.certificate
+    if c is not None and proof is not None and proof.kind == "no equilibrium":  # no brick passed the threshold
+        return (
+            f"collapsed: no rigid-block equilibrium holds the bricks where they are at the end (t={c.time:.2f} s), "
+            f"with {c.level} level{'s' * (c.level != 1)} placed: {proof.detail}; in the mechanism: "
+            f"{', '.join(_short(list(proof.bricks)))}"
+        )
+    if c is not None:
+        return (
+            f"collapsed: {_brick(c.brick, c.brick_level)} moved past {_mm(threshold)} at t={c.time:.2f} s, "
+            f"with {c.level} level{'s' * (c.level != 1)} placed ({_mm(c.displacement)} by t={c.decided:.2f} s, "
+            f"when the collapse was decided)"
+        )
+    if outcome.displacement:
+        brick, largest = max(outcome.displacement.items(), key=lambda item: item[1])
+        return (
+            f"stood: the largest displacement at the end (t={outcome.simulated_time:.2f} s) was {_mm(largest)}, "
+            f"{_brick(brick, levels.get(brick))}; a collapse is a move beyond {_mm(threshold)}"
+        )
+    return "stood: no structure brick was placed"
+
+
+def _stayed_lines(selection: Iterable[int | str], outcome: Outcome, threshold: float, levels: dict[str, int | None]) -> list[str]:
+    """Why ``moved`` failed: the bricks it names (``selection``: levels and brick selectors) that
+    ended within ``threshold`` of where they were placed, the nearest first."""
+    named = set(_selected(outcome, bricks_of(selection))) | {
+        b for b, lv in levels.items() if lv in levels_of(selection) and b in outcome.displacement
+    }
+    still = sorted((outcome.displacement[b], b) for b in named if outcome.displacement[b] <= threshold)
+    return [
+        f"stayed: {_brick(b, levels.get(b))} ended {_mm(d)} from where it was placed (a move is beyond {_mm(threshold)})"
+        for d, b in still[:MOVED_SHOWN]
+    ]
+
+
+def _moved_lines(selection: Iterable[int | str], outcome: Outcome, threshold: float, levels: dict[str, int | None]) -> list[str]:
+    """Why ``stays`` failed: the bricks it names (``selection``) that moved beyond ``threshold``
+    by the end, the farthest first, at most :data:`MOVED_SHOWN` and how many more."""
+    keep = set(levels_of(selection))
+    named = set(_selected(outcome, bricks_of(selection)))
+    moved = sorted(
+        ((d, b) for b, d in outcome.displacement.items() if d > threshold and (levels.get(b) in keep or b in named)),
+        reverse=True,
+    )
+    lines = [
+        f"moved: {_brick(b, levels.get(b))} moved {_mm(d)} by the end, t={outcome.simulated_time:.2f} s "
+        f"(allowed {_mm(threshold)})"
+        for d, b in moved[:MOVED_SHOWN]
+    ]
+    if len(moved) > MOVED_SHOWN:
+        lines.append(f"moved: and {len(moved) - MOVED_SHOWN} more bricks of levels that must stay")
     return lines
 
 

@@ -298,19 +298,7 @@ def _graph(
     if came or went:
         said = [*([f"added {_few(came)}"] if came else []), *([f"removed {_few(went)}"] if went else [])]
         out.differences.append(Difference(key, "; ".join(said), _VERDICT))
-    shared = [x for x in a if x in b and isinstance(a[x], dict) and isinstance(b[x], dict)]
-    # mid-collapse, a brick at rest where it was placed may be woken or lifted already: only a
-    # frozen one is settled there
-    still = {x for x in shared if key != "collapse_graph" or a[x].get("state") == b[x].get("state") == "frozen"}
-    settled = {x for x in still if _settled(a[x], t, threshold) and _settled(b[x], t, threshold)}
-    unsettled = {x for x in (*a, *b) if x not in settled}
-    above = _above([a, b], shared)
-    loaded = {x: _supports_of([a, b], x) for x in shared}
-    # what the stability model measured of a brick (its contact areas, load shares, centre of mass
-    # and mass above) is the geometry's where it, everything above it and all they rest on are settled
-    sound = {
-        x for x in settled if not (above[x] & unsettled) and not any(loaded.get(y, set()) & unsettled for y in {x} | above[x])
-    }
+    unsettled, sound = _soundness(key, a, b, t, threshold)
     for brick in (x for x in a if x in b):
         u, v = a[brick], b[brick]
         if u == v:
@@ -319,6 +307,28 @@ def _graph(
             out.differences.append(Difference(f"{key} {brick}", f"{_said(u)} -> {_said(v)}", _VERDICT, brick=brick))
             continue
         _brick(out, f"{key} {brick}", brick, u, v, t, threshold, edge, unsettled, brick in sound)
+
+
+def _soundness(
+    key: str, a: Mapping[str, Any], b: Mapping[str, Any], t: Tolerances, threshold: float
+) -> tuple[set[str], set[str]]:
+    """Of two graphs' bricks (``key``: which graph): those not settled in both (every brick but
+    those at rest where placed in both; mid-collapse, in the collapse graph, only a frozen one
+    counts), and those whose measures are sound: settled, with everything above them and all
+    that these rest on settled too (what the stability model measured of a brick, its contact
+    areas, load shares, centre of mass and mass above, is then the geometry's)."""
+    shared = [x for x in a if x in b and isinstance(a[x], dict) and isinstance(b[x], dict)]
+    # mid-collapse, a brick at rest where it was placed may be woken or lifted already: only a
+    # frozen one is settled there
+    still = {x for x in shared if key != "collapse_graph" or a[x].get("state") == b[x].get("state") == "frozen"}
+    settled = {x for x in still if _settled(a[x], t, threshold) and _settled(b[x], t, threshold)}
+    unsettled = {x for x in (*a, *b) if x not in settled}
+    above = _above([a, b], shared)
+    loaded = {x: _supports_of([a, b], x) for x in shared}
+    sound = {
+        x for x in settled if not (above[x] & unsettled) and not any(loaded.get(y, set()) & unsettled for y in {x} | above[x])
+    }
+    return unsettled, sound
 
 
 def _few(ids: list[str]) -> str:

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from .verdicts.snapshot import scenario_golden_path
+from ..verdicts.snapshot import scenario_golden_path
 
 #: The scenario folder when a project names none in ``stackdsl_paths``.
 DEFAULT_FOLDERS = ["scenarios"]

@@ -14,7 +14,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from .verdicts.snapshot import golden_dir
+from ..verdicts.snapshot import golden_dir
 
 #: A golden larger than this is not one stackdsl wrote (a 400-brick tower's is about 0.3 MB).
 MAX_BYTES = 16 * 2**20  # as stackdsl.draw.replay.MAX_GOLDEN_BYTES: a 15 MiB one peaks at 224 MB read

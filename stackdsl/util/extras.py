@@ -1,8 +1,8 @@
-"""Optional features and the extra that installs each: MuJoCo, Dask, MP4 clips, the profiler.
+"""Optional features and the extra that installs each: MuJoCo, Dask, MP4 clips, the profiler, Parquet.
 
 ``pip install stackdsl`` brings pybullet and what every scenario needs; the heavy optional
 features are extras (``pip install 'stackdsl[mujoco]'``, ``[dask]``, ``[video]``, ``[profile]``,
-``[all]``).
+``[parquet]``, ``[all]``).
 A feature used without its extra is one line naming the command that adds it, raised where
 the feature is asked for (the scenario's field, the command's option) before anything runs.
 
@@ -22,6 +22,7 @@ EXTRAS = {
     "dask": ("distributed", "Dask's distributed"),
     "video": ("imageio_ffmpeg", "imageio-ffmpeg (the ffmpeg that writes MP4)"),
     "profile": ("pyinstrument", "pyinstrument (a sampling profiler)"),
+    "parquet": ("pyarrow", "pyarrow (Parquet files)"),
 }
 
 

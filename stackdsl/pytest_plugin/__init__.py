@@ -21,7 +21,7 @@ happens to an item, ``-x``, ``--ignore`` or ``-k`` loses a golden whose file exi
 ``-x``, ``--lf``, ``-n`` (pytest-xdist) and ``--junit-xml`` work as on any test.
 A golden that cannot be one (a FIFO, not JSON, ...), or none where it is looked for while the
 scenario has one where another project layout keeps goldens, fails its item in one line before
-the scenario runs, and ``--snapshot-update`` writes nothing over it (:mod:`stackdsl.pytest_golden`).
+the scenario runs, and ``--snapshot-update`` writes nothing over it (:mod:`stackdsl.pytest_plugin.golden`).
 
 A file's ``skip`` and ``xfail`` marks (:mod:`stackdsl.lang.schema_marks`) are pytest's, on the
 file's own backend, mode and model: a skipped item is ``s`` at the line of its ``skip:``, an item
@@ -56,20 +56,24 @@ from typing import Any
 
 import pytest
 
-from .batch.report import rerun_command
-from .compile.compiler import compile_scenario
-from .draw.artefacts import draw_run, folder_name
-from .lang.errors import ScenarioError, one_line
-from .lang.loader import load_scenario
-from .pytest_golden import BadGolden, golden_elsewhere, golden_problem, read_golden_text, where_goldens_go
-from .pytest_hint import SUFFIXES, collection_hint, remember_collected, scenario_folders
-from .runtime.recorder import record_program
-from .runtime.run import run_program
-from .verdicts.expect import evaluate, explain
-from .verdicts.golden_compare import Comparison, compare_golden, near_tie
-from .verdicts.snapshot import dumps, scenario_golden_path, summarize
-from .verdicts.snapshot import golden_dir as golden_dir
-from .verdicts.tolerances import Tolerances, tolerances_for
+from ..batch.report import rerun_command
+from ..compile.compiler import compile_scenario
+from ..compile.program import Program
+from ..draw.artefacts import draw_run, folder_name
+from ..lang.errors import ScenarioError, one_line
+from ..lang.loader import load_scenario
+from ..lang.schema import Scenario
+from ..lang.schema_marks import XFail
+from ..runtime.outcome import Outcome
+from ..runtime.recorder import record_program
+from ..runtime.run import run_program
+from ..verdicts.expect import evaluate, explain
+from ..verdicts.golden_compare import Comparison, compare_golden, near_tie
+from ..verdicts.snapshot import dumps, scenario_golden_path, summarize
+from ..verdicts.snapshot import golden_dir as golden_dir
+from ..verdicts.tolerances import Tolerances, tolerances_for
+from .golden import BadGolden, golden_elsewhere, golden_problem, read_golden_text, where_goldens_go
+from .hint import SUFFIXES, collection_hint, remember_collected, scenario_folders
 
 try:
     from syrupy.assertion import SnapshotAssertion
@@ -193,7 +197,7 @@ _BAD_GOLDEN = f"{BadGolden.__module__}.{BadGolden.__qualname__}: "
 def pytest_assertrepr_compare(
     config: pytest.Config, op: str, left: Any, right: Any
 ) -> Generator[None, list[list[str] | None], list[list[str] | None]]:
-    """A golden that could not be read (:class:`stackdsl.pytest_golden.BadGolden`: a FIFO, a
+    """A golden that could not be read (:class:`stackdsl.pytest_plugin.golden.BadGolden`: a FIFO, a
     folder, not UTF-8) fails its ``assert golden == ...`` in one line naming it and saying why,
     before syrupy's explanation (a traceback of the read), which pytest then leaves out; the
     snapshot still counts as used, so ``--snapshot-update`` never deletes it."""
@@ -330,6 +334,46 @@ def _run_scenario_item(request: pytest.FixtureRequest, scenario_golden: Any) -> 
     path = Path(request.node.path)
     config = request.config
     shown = _shown(path, config)
+    scenario, program, xfail = _compiled_item(request, path, shown)
+    stored = scenario_golden_path(path)
+    unusable = _unusable_golden(path, stored, config)
+    if unusable:  # before anything runs, and before syrupy reads, compares or writes it
+        pytest.fail(f"{shown}: {unusable}", pytrace=False)
+    error = ""
+    try:
+        scenario_golden.extension.tolerances = tolerances_for(program, scenario, _pyproject(config))
+    except ScenarioError as exc:
+        error = str(exc)
+    if error:  # a project's tolerances refused: said as a bad file is
+        pytest.fail(error, pytrace=False)
+    scenario_golden.extension.toppled = scenario.expect.toppled is not None
+    scenario_golden.extension.may_fall = scenario.expect.may_fall or ()
+    if scenario.sweep is not None:
+        _sweep_test(request, scenario, program, shown, scenario_golden, xfail)
+        return
+    pictures = config.getoption("stackdsl_pictures")
+    trajectory = None
+    if pictures == "off":
+        outcome = run_program(program)
+    else:
+        outcome, trajectory = record_program(program, source=str(path))
+    lines = _failure_lines(request, (scenario, program, xfail), outcome, scenario_golden, path)
+    if not lines and _written(scenario_golden) and (tie := near_tie(outcome, program)):
+        # a property of the item's report: said by the terminal summary, also of an xdist worker's item
+        request.node.user_properties.append((NEAR_TIE, f"{_shown(stored, config)}: {tie}"))
+    if trajectory is not None and (lines or pictures == "on"):
+        kept = _keep_pictures(trajectory, path, config)
+        if lines or kept.startswith(CANNOT_KEEP):  # a failure: say where to look; pictures asked for and lost: fail
+            lines.append(kept)
+    if lines:
+        pytest.fail("\n".join(lines), pytrace=False)
+    _expect_failure(request, xfail)  # every expectation held and the golden matched: XPASS
+
+
+def _compiled_item(request: pytest.FixtureRequest, path: Path, shown: str) -> tuple[Scenario, Program, XFail | None]:
+    """The item's scenario, read and compiled, and its ``xfail`` mark when it holds on the file's
+    own backend, mode and model (else None); a bad file fails the item in its one message, and a
+    ``skip`` mark that holds skips it before compiling (at the line of its ``skip:``)."""
     try:
         scenario = load_scenario(path, shown=shown)
     except ScenarioError as exc:
@@ -349,52 +393,39 @@ def _run_scenario_item(request: pytest.FixtureRequest, scenario_golden: Any) -> 
         error = str(exc)
     if error:
         pytest.fail(error, pytrace=False)
-    stored = scenario_golden_path(path)
-    unusable = _unusable_golden(path, stored, config)
-    if unusable:  # before anything runs, and before syrupy reads, compares or writes it
-        pytest.fail(f"{shown}: {unusable}", pytrace=False)
-    try:
-        scenario_golden.extension.tolerances = tolerances_for(program, scenario, _pyproject(config))
-    except ScenarioError as exc:
-        error = str(exc)
-    if error:  # a project's tolerances refused: said as a bad file is
-        pytest.fail(error, pytrace=False)
-    scenario_golden.extension.toppled = scenario.expect.toppled is not None
-    scenario_golden.extension.may_fall = scenario.expect.may_fall or ()
-    if scenario.sweep is not None:
-        _sweep_test(request, scenario, program, shown, scenario_golden, xfail)
-        return
-    pictures = config.getoption("stackdsl_pictures")
-    trajectory = None
-    if pictures == "off":
-        outcome = run_program(program)
-    else:
-        outcome, trajectory = record_program(program, source=str(path))
+    return scenario, program, xfail
+
+
+def _failure_lines(
+    request: pytest.FixtureRequest,
+    compiled: tuple[Scenario, Program, XFail | None],
+    outcome: Outcome,
+    scenario_golden: Any,
+    path: Path,
+) -> list[str]:
+    """Why the item fails, a line each (none: it passes): its failed expectations where the file
+    writes them, why, how to rerun it, and the golden kept (then XFAIL when ``compiled``'s xfail
+    mark expects it); or no golden yet; or the outcome's difference from its golden."""
+    scenario, program, xfail = compiled
+    config = request.config
+    shown = _shown(path, config)
     verdicts = evaluate(scenario.expect, outcome, program.collapse_threshold)
     failed = [v for v in verdicts if not v.passed]
-    lines: list[str] = []
     if failed:
         lines = [line if v.at else f"{shown}: {line}" for v in failed for line in v.lines()]
         lines += [f"  {line}" for line in explain(scenario.expect, outcome, program.collapse_threshold)]
         lines.append(f"more: {rerun_command('run', shown)}")
         lines += _kept_golden(request, scenario_golden, path, outcome.golden())
         _expect_failure(request, xfail)  # the expectations failed: XFAIL, when the file expects it
-    elif missing := _no_golden_yet(request, path, shown):
-        lines = [missing]
-    elif not scenario_golden == outcome.golden():
+        return lines
+    if missing := _no_golden_yet(request, path, shown):
+        return [missing]
+    if not scenario_golden == outcome.golden():
         with disable_color():  # plain text: the message also goes to JUnit XML and CI logs
             diff = scenario_golden.get_assert_diff()
-        lines = [f"{shown}: the outcome differs from {_shown(stored, config)} beyond its tolerances", *diff, UPDATE_HINT]
-    if not lines and _written(scenario_golden) and (tie := near_tie(outcome, program)):
-        # a property of the item's report: said by the terminal summary, also of an xdist worker's item
-        request.node.user_properties.append((NEAR_TIE, f"{_shown(stored, config)}: {tie}"))
-    if trajectory is not None and (lines or pictures == "on"):
-        kept = _keep_pictures(trajectory, path, config)
-        if lines or kept.startswith(CANNOT_KEEP):  # a failure: say where to look; pictures asked for and lost: fail
-            lines.append(kept)
-    if lines:
-        pytest.fail("\n".join(lines), pytrace=False)
-    _expect_failure(request, xfail)  # every expectation held and the golden matched: XPASS
+        stored = _shown(scenario_golden_path(path), config)
+        return [f"{shown}: the outcome differs from {stored} beyond its tolerances", *diff, UPDATE_HINT]
+    return []
 
 
 def _expect_failure(request: pytest.FixtureRequest, xfail: Any) -> None:
@@ -484,9 +515,9 @@ NEAR_TIE = "stackdsl_near_tie"
 
 def _unusable_golden(path: Path, stored: Path, config: pytest.Config) -> str:
     """Why a scenario's golden ``stored`` cannot be compared or written, in one line: it is
-    damaged (:func:`stackdsl.pytest_golden.golden_problem`: never replaced, not even by
+    damaged (:func:`stackdsl.pytest_plugin.golden.golden_problem`: never replaced, not even by
     ``--snapshot-update``), or there is none while one for the scenario sits where another
-    project layout stores goldens (:func:`stackdsl.pytest_golden.golden_elsewhere`: to be moved,
+    project layout stores goldens (:func:`stackdsl.pytest_plugin.golden.golden_elsewhere`: to be moved,
     not written anew beside it); ``""`` when it can."""
 
     def show(p: Path) -> str:
@@ -589,7 +620,7 @@ if SingleFileSnapshotExtension is not None:
 
         def read_snapshot_data_from_location(self, *, snapshot_location: str, snapshot_name: str, session_id: str) -> Any:
             """The stored text (None: no golden yet), never blocking on a FIFO; a golden that
-            cannot be read (:func:`stackdsl.pytest_golden.read_golden_text`) fails the comparison
+            cannot be read (:func:`stackdsl.pytest_plugin.golden.read_golden_text`) fails the comparison
             with one line saying why, and is not written over."""
             return read_golden_text(Path(snapshot_location))
 

@@ -1,0 +1,48 @@
+"""The collapse proofs' words, each kind's module on its own (stackdsl.runtime.support's "off its
+support", stackdsl.runtime.end_proofs' stand), without an engine."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from stability import Box, Certificate, Plane, Pose
+from stackdsl.runtime.end_proofs import names_and, stand_words
+from stackdsl.runtime.support import SupportPolygon, _tips_words
+
+KAPLA = Box(np.array([0.06, 0.012, 0.004]), 0.0106)
+
+
+def test_a_stand_by_load_paths_and_by_the_program_in_words():
+    paths = Certificate(True, 0.0, 0.01, (), 3, (), 2, "load paths", 0.73)
+    assert (
+        stand_words(paths, {})
+        == "each of 3 bricks frozen over its load path to the ground, needing 73% of each friction coefficient"
+    )
+    one = Certificate(True, 0.0, 0.01, (), 1, (), 1, "load paths", 0.0)
+    assert stand_words(one, {}) == "the brick frozen over its load path to the ground"
+    program = Certificate(True, 0.0, 0.01, (), 2, ("a",), 1, "program", 0.0)
+    ties = {"L05.1": "near tie: its centre of mass 0.56 mm inside", "L06.1": "x"}
+    assert stand_words(program, ties) == (
+        "the equilibrium program balances 2 bricks on 1 contact; statics on the placed geometry decided "
+        "L05.1's landing (its centre of mass 0.56 mm inside) and 1 more near ties, not the engine"
+    )
+
+
+@pytest.mark.parametrize("names, said", [(["B"], "B"), (["B", "C"], "B and C"), (["B", "C", "D"], "B, C and D")])
+def test_names_are_listed_with_and(names, said):
+    assert names_and(names) == said
+
+
+def test_a_part_that_tips_is_said_with_what_it_carries_and_how_far_out_it_was_placed():
+    on_ground = SupportPolygon(KAPLA, Pose(np.array([0.0, 0.0, 0.004])), [(None, Plane(0.0), None)])
+    on_brick = SupportPolygon(KAPLA, Pose(np.array([0.0, 0.0, 0.012])), [(1, KAPLA, Pose(np.array([0.0, 0.0, 0.004])))])
+    a, b = SimpleNamespace(id="a"), SimpleNamespace(id="b")
+    assert _tips_words([a], [a], [on_ground], 0.0021, 0.0) == (
+        "a's centre of mass lies 2.1 mm beyond the edge of the face it stood on the ground with"
+    )
+    assert _tips_words([a, b], [a], [on_brick], 0.003, 0.0015) == (
+        "the centre of mass of a with b on it lies 3.0 mm outside the support polygon a was placed on (1.5 mm as they were placed)"
+    )

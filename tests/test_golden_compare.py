@@ -301,3 +301,27 @@ def test_near_tie_names_a_run_left_undecided_by_a_brick_tipping_off_an_exact_tie
     assert outcome.certificate is not None and outcome.certificate.verdict == "undecided", outcome.certificate
     assert "placed 0.00 mm outside its support's edge: an exact tie" in outcome.certificate.detail
     assert near_tie(outcome, tie).startswith("undecided on a near tie (")
+
+
+def test_which_proof_decided_a_collapse_first_is_chaos_but_an_end_proof_is_not():
+    """jenga_falls under ten perturbations: five collapses decided by "off its support", five by
+    "at rest displaced", at the same level. A collapse proved only at the end of the run ("no
+    equilibrium") where the golden's fell while it ran is a difference."""
+    fell = tower()
+    fell["collapse"] = {"level": 3, "brick": "L03.1", "brick_level": 3}
+    fell["certificate"] = {
+        "verdict": "collapse",
+        "kind": "at rest displaced",
+        "bricks": ["L03.1"],
+        "margin_mm": None,
+        "friction_share": None,
+    }
+    fell["final_graph"]["L03.1"] = brick(3, 150.0, displaced=150.0, state="active")
+    raced = copy.deepcopy(fell)
+    raced["certificate"]["kind"] = "off its support"
+    c = compare_golden(fell, raced)
+    assert c.matches, c.lines()
+    assert any("the first to hold decides" in said for said in c.chaos)
+    late = copy.deepcopy(fell)
+    late["certificate"]["kind"] = "no equilibrium"
+    assert compare_golden(fell, late).lines() == ["certificate.kind: at rest displaced -> no equilibrium"]

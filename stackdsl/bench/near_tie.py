@@ -204,24 +204,17 @@ def _band_name(i: int) -> str:
     return f"> {low * 1000:g} mm" if high == np.inf else f"{low * 1000:g}-{high * 1000:g} mm"
 
 
-def format_near_ties(
-    samples: Sequence[NearTie], settings: Sequence[str], seconds: float, above: Sequence[Any] = (), out: Any = None
-) -> str:
-    """The agreement table of ``samples`` with the exact rule, one row per setting and one
-    column per margin band of :data:`BANDS` (the last, above 1 mm, from ``above``: the random
-    single-file stack's :class:`stackdsl.bench.verdicts.Sample` list, when it ran), inside and
-    outside apart; then every disagreement with its margin and, where the certificate calls
-    the verdict a near tie, its words; then the "stands" certificates' margins against the
-    exact rule's (:func:`stackdsl.bench.verdicts.certificate_margins`). With ``out`` (a folder), each misjudged sample's
-    scenario is written there as ``near_tie_NNNNN.yaml``."""
-    from .verdicts import SETTINGS, _cell, _failures, _level, _stands_active, certificate_margins
+def _agreeing(subset: Sequence[Any], name: str) -> tuple[int, int]:
+    """(runs that agree with the exact rule, runs) of ``subset`` in setting ``name``."""
+    ran = [(s, r) for s in subset for r in s.runs if r.setting == name and not r.error]
+    return sum(r.level == s.exact for s, r in ran), len(ran)
 
-    good = [s for s in samples if not s.error]
-    wide = [s for s in above if not s.error and band_of(s.margin) == len(BANDS) - 1]
 
-    def count(subset: Sequence[Any], name: str) -> tuple[int, int]:
-        ran = [(s, r) for s in subset for r in s.runs if r.setting == name and not r.error]
-        return sum(r.level == s.exact for s, r in ran), len(ran)
+def _agreement_table(
+    samples: Sequence[NearTie], good: Sequence[NearTie], wide: Sequence[Any], settings: Sequence[str], seconds: float
+) -> list[str]:
+    """The head and one row per setting: agreement by margin band and by side."""
+    from .verdicts import _cell
 
     per_band = [[s for s in good if band_of(s.margin) == i] for i in range(len(BANDS) - 1)]
     overhangs = sum(s.shape == "overhang" for s in good)
@@ -239,17 +232,25 @@ def format_near_ties(
     for name in settings:
         mine = [r for s in good for r in s.runs if r.setting == name]
         walls = [r.wall for r in mine if not r.error] or [0.0]
-        cells = [_cell(count(b, name)) for b in per_band] + [_cell(count(wide, name))]
-        sides = [_cell(count([s for s in good if s.side == side], name)) for side in ("inside", "outside")]
+        cells = [_cell(_agreeing(b, name)) for b in per_band] + [_cell(_agreeing(wide, name))]
+        sides = [_cell(_agreeing([s for s in good if s.side == side], name)) for side in ("inside", "outside")]
         lines.append(
             f"{name:<25} {' '.join(cells)} {' '.join(sides)} {sum(not r.error and not r.certified for r in mine):>8} "
             f"{sum(bool(r.error) for r in mine):>6} {float(np.median(walls)) * 1000:>8.0f} ms"
         )
+    return lines
+
+
+def _disagreements(good: Sequence[NearTie], out: Any) -> list[str]:
+    """Every run that disagrees with the exact rule, with the certificate's words; with ``out``
+    (a folder), each such sample's scenario written there as ``near_tie_NNNNN.yaml``."""
+    from .verdicts import _level
+
     wrong = [(s, r) for s in good for r in s.runs if not r.error and r.level != s.exact]
-    lines.append(
+    lines = [
         f"disagreements: {len(wrong)}, {sum(bool(r.tie) for _, r in wrong)} that the certificate calls a near tie"
         + (": sample, setting, shape, measured (exact rule), margin; the certificate's words" if wrong else "")
-    )
+    ]
     written: set[int] = set()
     for s, r in wrong:
         where = ""
@@ -266,6 +267,25 @@ def format_near_ties(
             f"  {s.sample:5d}  {r.setting:<25} {s.shape} of {s.bricks}, {s.side}: {_level(r.level)}{proof} (exact {_level(s.exact)}), "
             f"margin {s.margin * 1000:.3f} mm{tie}{where}"
         )
+    return lines
+
+
+def format_near_ties(
+    samples: Sequence[NearTie], settings: Sequence[str], seconds: float, above: Sequence[Any] = (), out: Any = None
+) -> str:
+    """The agreement table of ``samples`` with the exact rule, one row per setting and one
+    column per margin band of :data:`BANDS` (the last, above 1 mm, from ``above``: the random
+    single-file stack's :class:`stackdsl.bench.verdicts.Sample` list, when it ran), inside and
+    outside apart; then every disagreement with its margin and, where the certificate calls
+    the verdict a near tie, its words; then the "stands" certificates' margins against the
+    exact rule's (:func:`stackdsl.bench.verdicts.certificate_margins`). With ``out`` (a folder), each misjudged sample's
+    scenario is written there as ``near_tie_NNNNN.yaml``."""
+    from .verdicts import SETTINGS, _failures, _stands_active, certificate_margins
+
+    good = [s for s in samples if not s.error]
+    wide = [s for s in above if not s.error and band_of(s.margin) == len(BANDS) - 1]
+    lines = _agreement_table(samples, good, wide, settings, seconds)
+    lines += _disagreements(good, out)
     lines += certificate_margins(
         [(f"{s.sample:5d}", s.margin, r) for s in good if s.exact is None for r in s.runs if r.level is None], settings
     )

@@ -355,27 +355,49 @@ def onset_within(points: Sequence[tuple[float, bool]], tolerance: float = 0.05) 
     return all(moved == (r > 1) for r, moved in points if abs(r - 1) > tolerance)
 
 
-def format_shakes(samples: Sequence[ShakeSample], settings: Sequence[str], seconds: float) -> str:
-    """The shake family's tables: each setting's collapse verdicts and motions against the
-    reference by ratio band, the first motion of each (block, frequency) cell against the
-    closed form (100%), and every disagreement."""
-    from .verdicts import _cell, _failures, _level
+def _runs(s: ShakeSample, name: str) -> list[ShakeRun]:
+    """The runs of sample ``s`` in setting ``name`` that ended without an internal error."""
+    return [r for r in s.runs if r.run.setting == name and not r.run.error]
 
-    good = [s for s in samples if not s.error and s.reference is not None and band_of(s.ratio) is not None]
-    bands = [[s for s in good if band_of(s.ratio) == i] for i in range(len(BANDS))]
 
-    def runs(s: ShakeSample, name: str) -> list[ShakeRun]:
-        return [r for r in s.runs if r.run.setting == name and not r.run.error]
+def _count(subset: Sequence[ShakeSample], name: str, same: Callable[[ShakeSample, ShakeRun], bool]) -> tuple[int, int]:
+    """(runs that ``same`` holds for, runs) of ``subset`` in setting ``name``."""
+    ran = [(s, r) for s in subset for r in _runs(s, name)]
+    return sum(same(s, r) for s, r in ran), len(ran)
 
-    def count(subset: Sequence[ShakeSample], name: str, same: Callable[[ShakeSample, ShakeRun], bool]) -> tuple[int, int]:
-        ran = [(s, r) for s in subset for r in runs(s, name)]
-        return sum(same(s, r) for s, r in ran), len(ran)
 
-    def verdict(s: ShakeSample, r: ShakeRun) -> bool:
-        return s.reference is not None and r.run.level == s.reference.level
+def _same_verdict(s: ShakeSample, r: ShakeRun) -> bool:
+    return s.reference is not None and r.run.level == s.reference.level
 
-    def motion(s: ShakeSample, r: ShakeRun) -> bool:
-        return s.reference is not None and r.motion == s.reference.motion
+
+def _same_motion(s: ShakeSample, r: ShakeRun) -> bool:
+    return s.reference is not None and r.motion == s.reference.motion
+
+
+def _cells(good: Sequence[ShakeSample]) -> list[tuple[Block, float, list[ShakeSample]]]:
+    """Each (block, frequency) cell of :data:`CELLS` with its samples, the cells with none left out."""
+    out = []
+    for block, frequency in CELLS:
+        mine = [s for s in good if s.block == block.name and round(s.frequency) == round(frequency)]
+        if mine:
+            out.append((block, frequency, mine))
+    return out
+
+
+def _cell_head(block: Block, frequency: float) -> str:
+    kind = "mu g" if not block.tips else "g b / h"
+    return f"{block.name:<32} {frequency:>3g} Hz {block.threshold:>5.3f} {kind:<6}"
+
+
+def _verdict_table(
+    samples: Sequence[ShakeSample],
+    good: Sequence[ShakeSample],
+    bands: list[list[ShakeSample]],
+    settings: Sequence[str],
+    seconds: float,
+) -> list[str]:
+    """Each setting's collapse verdicts against the reference, by ratio band."""
+    from .verdicts import _cell
 
     head = f"{'setting':<25} " + " ".join(f"{_band_name(i):^14}" for i in range(len(BANDS)))
     lines = [
@@ -391,9 +413,9 @@ def format_shakes(samples: Sequence[ShakeSample], settings: Sequence[str], secon
     for name in settings:
         mine = [r.run for s in good for r in s.runs if r.run.setting == name]
         walls = [r.wall for r in mine if not r.error] or [0.0]
-        back = sum(came_back(s, r) for s in good for r in runs(s, name))
+        back = sum(came_back(s, r) for s in good for r in _runs(s, name))
         lines.append(
-            f"{name:<25} {' '.join(_cell(count(b, name, verdict)) for b in bands)} {back:>9} "
+            f"{name:<25} {' '.join(_cell(_count(b, name, _same_verdict)) for b in bands)} {back:>9} "
             f"{sum(not r.error and not r.certified for r in mine):>8} {sum(bool(r.error) for r in mine):>6} "
             f"{float(np.median(walls)) * 1000:>8.0f} ms"
         )
@@ -403,25 +425,24 @@ def format_shakes(samples: Sequence[ShakeSample], settings: Sequence[str], secon
         f"{math.degrees(ROCKED):g} deg and came back; topples: ends tilted > {math.degrees(FALLEN):g} deg), agreeing/runs",
         head,
     ]
-    for name in settings:
-        lines.append(f"{name:<25} {' '.join(_cell(count(b, name, motion)) for b in bands)}")
-    lines += [
+    lines += [f"{name:<25} {' '.join(_cell(_count(b, name, _same_motion)) for b in bands)}" for name in settings]
+    return lines
+
+
+def _onset_tables(good: Sequence[ShakeSample], settings: Sequence[str]) -> list[str]:
+    """The first motion and the onset of motion of each (block, frequency) cell, in % of the
+    closed form, and how many cells' onsets are within 5% of it."""
+    lines = [
         "",
         "first motion (the least ratio at which the block did more than stay) in % of the closed form; "
         "*: it stayed at some larger ratio",
         f"{'block':<32} {'f':>5} {'threshold':>12} {'reference':>10} " + " ".join(f"{n:>25}" for n in settings),
     ]
-    for block, frequency in CELLS:
-        mine_c = [s for s in good if s.block == block.name and round(s.frequency) == round(frequency)]
-        if not mine_c:
-            continue
-        ref = onset([(s.ratio, s.reference.motion) for s in mine_c if s.reference is not None])
-        cells = [onset([(s.ratio, r.motion) for s in mine_c for r in runs(s, name)]) for name in settings]
-        kind = "mu g" if not block.tips else "g b / h"
-        lines.append(
-            f"{block.name:<32} {frequency:>3g} Hz {block.threshold:>5.3f} {kind:<6} {ref:>10} "
-            + " ".join(f"{x:>25}" for x in cells)
-        )
+    cells = _cells(good)
+    for block, frequency, mine in cells:
+        ref = onset([(s.ratio, s.reference.motion) for s in mine if s.reference is not None])
+        firsts = [onset([(s.ratio, r.motion) for s in mine for r in _runs(s, name)]) for name in settings]
+        lines.append(f"{_cell_head(block, frequency)} {ref:>10} " + " ".join(f"{x:>25}" for x in firsts))
     lines += [
         "",
         f"onset of motion (the least ratio at which the block moved at all: slipped > {STIRRED * 1000:g} mm or tilted > "
@@ -430,34 +451,33 @@ def format_shakes(samples: Sequence[ShakeSample], settings: Sequence[str], secon
         f"{'block':<32} {'f':>5} {'threshold':>12} " + " ".join(f"{n:>25}" for n in settings),
     ]
     within = {name: 0 for name in settings}
-    cells_run = 0
-    for block, frequency in CELLS:
-        mine_c = [s for s in good if s.block == block.name and round(s.frequency) == round(frequency)]
-        if not mine_c:
-            continue
-        cells_run += 1
-        cells = []
+    for block, frequency, mine in cells:
+        onsets = []
         for name in settings:
-            points = [(s.ratio, stirred(r)) for s in mine_c for r in runs(s, name)]
+            points = [(s.ratio, stirred(r)) for s in mine for r in _runs(s, name)]
             within[name] += onset_within(points)
-            cells.append(onset([(ratio, "moves" if moved else "stays") for ratio, moved in points]))
-        kind = "mu g" if not block.tips else "g b / h"
-        lines.append(
-            f"{block.name:<32} {frequency:>3g} Hz {block.threshold:>5.3f} {kind:<6} " + " ".join(f"{x:>25}" for x in cells)
-        )
+            onsets.append(onset([(ratio, "moves" if moved else "stays") for ratio, moved in points]))
+        lines.append(f"{_cell_head(block, frequency)} " + " ".join(f"{x:>25}" for x in onsets))
     lines.append(
         "cells whose onset is within 5% of the closed form (still below 95%, moving above 105%): "
-        + ", ".join(f"{name} {within[name]}/{cells_run}" for name in settings)
+        + ", ".join(f"{name} {within[name]}/{len(cells)}" for name in settings)
     )
-    wrong = [(s, r) for s in good for name in settings for r in runs(s, name) if not verdict(s, r)]
-    lines += [
+    return lines
+
+
+def _disagreements(samples: Sequence[ShakeSample], good: Sequence[ShakeSample], settings: Sequence[str]) -> list[str]:
+    """Every verdict and motion that differs from the reference's, and the runs that stopped."""
+    from .verdicts import _failures, _level
+
+    wrong = [(s, r) for s in good for name in settings for r in _runs(s, name) if not _same_verdict(s, r)]
+    lines = [
         "",
         f"verdict disagreements: {len(wrong)}"
         + (": sample, block, f, ratio, setting, measured (reference), motion" if wrong else ""),
     ]
     for s, r in wrong:
         lines.append(_shake_line(s, r, _level(r.run.level), _level(s.reference.level if s.reference else None)))
-    moved = [(s, r) for s in good for name in settings for r in runs(s, name) if not motion(s, r)]
+    moved = [(s, r) for s in good for name in settings for r in _runs(s, name) if not _same_motion(s, r)]
     lines += [
         f"motion disagreements: {len(moved)}" + (": sample, block, f, ratio, setting, motion (reference's)" if moved else "")
     ]
@@ -465,6 +485,18 @@ def format_shakes(samples: Sequence[ShakeSample], settings: Sequence[str], secon
         lines.append(_shake_line(s, r, r.motion, s.reference.motion if s.reference else ""))
     failed = [line for s in samples for line in _failures(f"{s.sample:5d}", s.error, [r.run for r in s.runs], at_gap=False)]
     lines += ["runs that stopped with an internal error:", *failed] if failed else []
+    return lines
+
+
+def format_shakes(samples: Sequence[ShakeSample], settings: Sequence[str], seconds: float) -> str:
+    """The shake family's tables: each setting's collapse verdicts and motions against the
+    reference by ratio band, the first motion and the onset of motion of each (block,
+    frequency) cell against the closed form (100%), and every disagreement."""
+    good = [s for s in samples if not s.error and s.reference is not None and band_of(s.ratio) is not None]
+    bands = [[s for s in good if band_of(s.ratio) == i] for i in range(len(BANDS))]
+    lines = _verdict_table(samples, good, bands, settings, seconds)
+    lines += _onset_tables(good, settings)
+    lines += _disagreements(samples, good, settings)
     return "\n".join(lines)
 
 

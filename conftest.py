@@ -9,6 +9,15 @@ tests/test_quick.py's docstring, which keeps the set small).
 
 import pytest
 
+
+@pytest.hookimpl(tryfirst=True)  # before xdist starts its workers
+def pytest_configure(config: pytest.Config) -> None:
+    """``-m quick`` runs in this one process: two xdist workers would each collect the whole
+    suite (about 3,700 items, most of the quick set's time) to run three tests."""
+    if config.getoption("markexpr", "") == "quick" and config.pluginmanager.hasplugin("xdist"):
+        config.option.numprocesses, config.option.dist, config.option.tx = 0, "no", []
+
+
 #: The scenario items in the quick set, by their path from the project's root.
 QUICK_SCENARIOS = ("scenarios/bridge.yaml",)
 

@@ -463,8 +463,8 @@ def _sweep_test(
     be decided PASS in every grid cell; the golden snapshot holds every sample's collapse level,
     one line a cell (sample k of a cell is the same run on any machine). With the file's
     ``xfail`` mark, a statistic not decided PASS is XFAIL, and all PASS with the golden matched XPASS."""
-    from .batch.sweep import SweepOptions, collect, run_sweep
-    from .batch.sweep_out import by_cell, failure_lines, verdicts
+    from ..batch.sweep import SweepOptions, collect, run_sweep
+    from ..batch.sweep_out import by_cell, failure_lines, verdicts
 
     path = Path(request.node.path)
     template = scenario.template

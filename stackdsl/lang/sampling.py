@@ -392,7 +392,7 @@ class Template:
         Raises:
             ScenarioError: at the later rule's ``p_stands``, naming the earlier one and the cell.
         """
-        written: list[tuple[FieldPath, str, Any, Condition | None]] = []
+        written: list[_Rule] = []
         if own is not None:
             written.append((("expect", "p_stands"), "the file's own p_stands", own, None))
         written += [
@@ -401,42 +401,21 @@ class Template:
             if rule.p_stands is not None
         ]
         for values in cells:
-            lowest: tuple[float, bool, int] | None = None  # the tightest lower bound: value, strict, rule
-            highest: tuple[float, bool, int] | None = None  # the tightest upper bound: value, not strict, rule
-            for i, (_, _, bound, condition) in enumerate(written):
-                if condition is not None and not condition.holds(values):
-                    continue
-                low, high = bound.ends()
-                if low is not None:
-                    lowest = max(lowest or (low[0], low[1], i), (low[0], low[1], i))
-                if high is not None:
-                    highest = min(highest or (high[0], not high[1], i), (high[0], not high[1], i))
-                if lowest is None or highest is None:
-                    continue
-                (lo, lo_strict, a), (hi, hi_open, b) = lowest, highest
-                empty = lo > hi or (lo == hi and (lo_strict or not hi_open))
-                point = lo == hi and a != b and self.random  # one probability, which no interval narrows to
-                ends = a != b and not self.random and lo > 0.0 and hi < 1.0  # one run a cell: P(stands) is 0 or 1
-                if empty or point or ends:
-                    first, later = sorted((a, b))
-                    shown = ", ".join(f"{k} = {v:g}" for k, v in values.items())
-                    why = (
-                        "no sweep can meet both"
-                        if empty
-                        else f"they meet at {lo:g} alone, which no 95% interval narrows to"
-                        if point
-                        else "this sweep draws nothing, so its P(stands) is 0 or 1, which they leave out"
-                    )
-                    raise self.source.error(
-                        written[later][0],
-                        f"in the grid cell {shown} (SI units), {written[first][1]} asks P(stands) {written[first][2].text()} "
-                        f"and this rule P(stands) {written[later][2].text()}: {why}; "
-                        + (
-                            "the file's own holds in every cell: give it to the cells it is for, in expect.cells"
-                            if written[first][3] is None
-                            else "make their conditions apart"
-                        ),
-                    )
+            clash = _bounds_clash(written, values, self.random)
+            if clash is None:
+                continue
+            first, later, why = clash
+            shown = ", ".join(f"{k} = {v:g}" for k, v in values.items())
+            raise self.source.error(
+                written[later][0],
+                f"in the grid cell {shown} (SI units), {written[first][1]} asks P(stands) {written[first][2].text()} "
+                f"and this rule P(stands) {written[later][2].text()}: {why}; "
+                + (
+                    "the file's own holds in every cell: give it to the cells it is for, in expect.cells"
+                    if written[first][3] is None
+                    else "make their conditions apart"
+                ),
+            )
 
     def _si(self, combination: tuple[Any, ...]) -> dict[str, float]:
         """A cell's grid values (``combination``, in grid order) as :meth:`values` gives them."""
@@ -540,6 +519,48 @@ def _ends(d: Distribution) -> list[tuple[Any, str]]:
     return out
 
 
+_Rule = tuple[FieldPath, str, Any, Condition | None]
+"""A ``p_stands`` rule of a sweep: where it is written, how a message names it, its bound, its condition."""
+
+
+def _bounds_clash(written: list[_Rule], values: dict[str, float], random: bool) -> tuple[int, int, str] | None:
+    """The first two ``p_stands`` rules (``written``, in file order) holding in the grid cell
+    ``values`` that no probability the sweep can measure meets (see :meth:`Template._check_bounds`):
+    their indices, earlier first, and why; ``None`` when they all can be met. ``random``: the
+    samples draw."""
+    lowest: tuple[float, bool, int] | None = None  # the tightest lower bound: value, strict, rule
+    highest: tuple[float, bool, int] | None = None  # the tightest upper bound: value, not strict, rule
+    for i, (_, _, bound, condition) in enumerate(written):
+        if condition is not None and not condition.holds(values):
+            continue
+        low, high = bound.ends()
+        if low is not None:
+            lowest = max(lowest or (low[0], low[1], i), (low[0], low[1], i))
+        if high is not None:
+            highest = min(highest or (high[0], not high[1], i), (high[0], not high[1], i))
+        if lowest is None or highest is None:
+            continue
+        why = _why_unmet(lowest, highest, random)
+        if why is not None:
+            first, later = sorted((lowest[2], highest[2]))
+            return first, later, why
+    return None
+
+
+def _why_unmet(lowest: tuple[float, bool, int], highest: tuple[float, bool, int], random: bool) -> str | None:
+    """Why the tightest lower and upper ``p_stands`` bounds (value, strict or not open, rule) can
+    never both hold: they leave no probability, meet at one (which no 95% interval narrows to,
+    when the samples draw: ``random``), or leave out both 0 and 1 (one run a cell); else ``None``."""
+    (lo, lo_strict, a), (hi, hi_open, b) = lowest, highest
+    if lo > hi or (lo == hi and (lo_strict or not hi_open)):
+        return "no sweep can meet both"
+    if lo == hi and a != b and random:  # one probability, which no interval narrows to
+        return f"they meet at {lo:g} alone, which no 95% interval narrows to"
+    if a != b and not random and lo > 0.0 and hi < 1.0:  # one run a cell: P(stands) is 0 or 1
+        return "this sweep draws nothing, so its P(stands) is 0 or 1, which they leave out"
+    return None
+
+
 def _grid_field(key: str, values: list[Any], source: SourceMap) -> tuple[FieldPath, str, tuple[Any, ...]]:
     """A grid key (``timing.placement_error``, ``structure.bricks.1.at.0`` or ``structure.bricks[1].at[0]``)
     as a field path."""
@@ -570,7 +591,6 @@ def _grid_path(data: Any, path: FieldPath, key: str, source: SourceMap, drawn: s
     Raises:
         ScenarioError: at the grid key, saying which step of the path the file does not have.
     """
-    from .validation_errors import model_at
 
     def refuse(why: str) -> ScenarioError:
         return source.error(("sweep", "grid", key), f"the grid names {key!r}, but {why}", at_key=True)
@@ -582,39 +602,70 @@ def _grid_path(data: Any, path: FieldPath, key: str, source: SourceMap, drawn: s
         if tuple(out) in drawn:
             raise refuse(f"{where} is a distribution; the grid may replace it whole, as {where!r}")
         if isinstance(node, list):
-            if isinstance(seg, str):
-                found = [j for j, item in enumerate(node) if isinstance(item, dict) and item.get("name") == seg]
-                if not found:
-                    names = [str(item["name"]) for item in node if isinstance(item, dict) and "name" in item]
-                    known = f"its items are named {', '.join(names)}" if names else "name an item by its index"
-                    raise refuse(f"{where} is a list with no item named {seg!r}; {known} (or by index, 0 to {len(node) - 1})")
-                seg = found[0]
-            elif not 0 <= seg < len(node):
-                raise refuse(f"this file has no item {seg} in {where}")
-            out.append(seg)
-            node = node[seg]
+            seg = _list_item(node, seg, where, refuse)
         elif isinstance(node, dict) and (seg in node or str(seg) in node):
             seg = seg if seg in node else str(seg)
-            out.append(seg)
-            node = node[seg]
         elif isinstance(node, dict) or node is None:  # a field the file leaves out: the grid puts it in
-            later = [j for j in range(i, len(path)) if isinstance(path[j], int)]
-            if later:
-                missing = format_path(path[: later[0]])
-                raise refuse(f"this file has no item {path[later[0]]} in {missing}")
-            if isinstance(node, dict) and tuple(out) == ("structure",) and node:
-                parts = [str(k) for k in node if k not in Structure.model_fields]
-                if parts or seg not in Structure.model_fields:
-                    has = f"its parts: {', '.join(parts)}" if parts else f"it is a {next(iter(node))}, not parts"
-                    raise refuse(f"structure has no part named {seg!r} ({has})")
-            if isinstance(node, dict):
-                _refuse_second_kind(model_at(tuple(out)), node, str(seg), where, refuse)
+            _check_left_out(node, path, i, tuple(out), where, refuse)
             return _one_field((*out, *path[i:]), None, key, refuse)
         elif isinstance(seg, int):
             raise refuse(f"this file has no item {seg} in {where} (it is {_value(node)})")
         else:
             raise refuse(f"{where} is {_value(node)}, which has no field {seg!r}")
+        out.append(seg)
+        node = node[seg]
     return _one_field(tuple(out), node, key, refuse)
+
+
+def _list_item(node: list[Any], seg: str | int, where: str, refuse: Callable[[str], ScenarioError]) -> int:
+    """The index in the file's list ``node`` (at ``where``) of the grid path's step ``seg``: an
+    index, or the name of an item (a part's ``name``).
+
+    Raises:
+        ScenarioError: (from ``refuse``) when no item has that name or the list has no such index.
+    """
+    if isinstance(seg, str):
+        found = [j for j, item in enumerate(node) if isinstance(item, dict) and item.get("name") == seg]
+        if not found:
+            names = [str(item["name"]) for item in node if isinstance(item, dict) and "name" in item]
+            known = f"its items are named {', '.join(names)}" if names else "name an item by its index"
+            raise refuse(f"{where} is a list with no item named {seg!r}; {known} (or by index, 0 to {len(node) - 1})")
+        return found[0]
+    if not 0 <= seg < len(node):
+        raise refuse(f"this file has no item {seg} in {where}")
+    return seg
+
+
+def _check_left_out(
+    node: dict[str, Any] | None,
+    path: FieldPath,
+    i: int,
+    out: tuple[str | int, ...],
+    where: str,
+    refuse: Callable[[str], ScenarioError],
+) -> None:
+    """Refuse the grid putting in step ``i`` of ``path`` (and those after it), a field the file
+    leaves out of ``node`` (at ``out``, shown as ``where``; ``None`` when the file leaves the whole
+    section out) when it would make up an item of a list, a part the structure has no name for,
+    or a second kind of a field that is one of several.
+
+    Raises:
+        ScenarioError: (from ``refuse``) saying which step the file does not have.
+    """
+    from .validation_errors import model_at
+
+    seg = path[i]
+    later = [j for j in range(i, len(path)) if isinstance(path[j], int)]
+    if later:
+        missing = format_path(path[: later[0]])
+        raise refuse(f"this file has no item {path[later[0]]} in {missing}")
+    if isinstance(node, dict) and out == ("structure",) and node:
+        parts = [str(k) for k in node if k not in Structure.model_fields]
+        if parts or seg not in Structure.model_fields:
+            has = f"its parts: {', '.join(parts)}" if parts else f"it is a {next(iter(node))}, not parts"
+            raise refuse(f"structure has no part named {seg!r} ({has})")
+    if isinstance(node, dict):
+        _refuse_second_kind(model_at(out), node, str(seg), where, refuse)
 
 
 def _one_field(path: FieldPath, node: Any, key: str, refuse: Callable[[str], ScenarioError]) -> FieldPath:

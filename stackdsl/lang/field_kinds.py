@@ -123,35 +123,51 @@ def a_field_in(path: FieldPath, data: Any = None) -> FieldPath:
         here = (*path, *out)
         if out and whole_of(here) is None:
             return tuple(out)
-        if isinstance(data, list) and data:
-            out.append(0)
-            data = data[0]
+        written = _written_step(here, data)
+        if written is not None:
+            key, data = written
+            out.append(key)
             continue
-        if isinstance(data, dict) and data:
-            keys = [k for k in data if isinstance(k, (str, int))]
-            plain = [k for k in keys if _plain(data[k]) and whole_of((*here, k)) is None]
-            inner = [k for k in keys if isinstance(data[k], (dict, list)) and whole_of((*here, k)) is not None]
-            if plain or inner:
-                key = (plain or inner)[0]
-                out.append(key)
-                data = data[key]
-                continue
         data = None  # nothing written here: the language's first field
-        node: Any = Scenario
-        for seg in here:
-            node = _step(node, seg)
-        model = next((m for m in _members(node) if _section(m)), None)
-        if model is None:
-            items = [typing.get_args(m)[-1] for m in _members(node) if typing.get_origin(m) in (list, dict)]
-            if not items:
-                break
-            out.append(0)
-            continue
-        fields = {f: info for f, info in model.model_fields.items() if not (model is Structure and f == "parts")}
-        leaves = [f for f in fields if whole_of((*here, f)) is None]
-        numbers = [f for f in leaves if not _wordy(fields[f].annotation)]
-        out.append(next(iter([f for f in numbers if fields[f].is_required()] + numbers + leaves + list(fields))))
+        step = _language_step(here)
+        if step is None:
+            break
+        out.append(step)
     return tuple(out)
+
+
+def _written_step(here: FieldPath, data: Any) -> tuple[str | int, Any] | None:
+    """The step :func:`a_field_in` takes into what the file writes at ``here`` (``data``): a
+    list's first item, else a mapping's first number or quantity (or list of them), else its first
+    section or list; with the value there. ``None`` when the file writes nothing to step into."""
+    if isinstance(data, list) and data:
+        return 0, data[0]
+    if isinstance(data, dict) and data:
+        keys = [k for k in data if isinstance(k, (str, int))]
+        plain = [k for k in keys if _plain(data[k]) and whole_of((*here, k)) is None]
+        inner = [k for k in keys if isinstance(data[k], (dict, list)) and whole_of((*here, k)) is not None]
+        if plain or inner:
+            key = (plain or inner)[0]
+            return key, data[key]
+    return None
+
+
+def _language_step(here: FieldPath) -> str | int | None:
+    """The step :func:`a_field_in` takes into what the language gives ``here`` when the file
+    writes nothing: the first item of a list or mapping, else the model's first required number,
+    then any number, any field that is one value, any field. ``None`` when there is no step."""
+    node: Any = Scenario
+    for seg in here:
+        node = _step(node, seg)
+    model = next((m for m in _members(node) if _section(m)), None)
+    if model is None:
+        items = [typing.get_args(m)[-1] for m in _members(node) if typing.get_origin(m) in (list, dict)]
+        return 0 if items else None
+    fields = {f: info for f, info in model.model_fields.items() if not (model is Structure and f == "parts")}
+    leaves = [f for f in fields if whole_of((*here, f)) is None]
+    numbers = [f for f in leaves if not _wordy(fields[f].annotation)]
+    step: str = next(iter([f for f in numbers if fields[f].is_required()] + numbers + leaves + list(fields)))
+    return step
 
 
 def _plain(value: Any) -> bool:

@@ -319,29 +319,44 @@ def draw(data: dict[str, Any], distributions: list[Distribution], seed: int, k: 
         else:
             later.append(d)
     for d in later:
-        spot = tower_field(d.path)
-        tower = _tower(out, spot[0]) if spot else None
-        if tower is None:  # the structure's own validation says what is wrong
-            continue
-        at = len(spot[0]) + 1 if spot else 0  # where the field's own path ends
-        levels, across = _whole(tower.get("levels")), _whole(tower.get("bricks_per_layer", 2))
-        if levels is None or across is None:  # the tower's own validation says what is wrong
-            continue
-        if spot and spot[1] == "shift":
-            if "shifts" not in tower:  # one shift a layer above the first, each a copy of the field
-                shift = tower.pop("shift")  # (drawn whole, each is replaced: no copy needed)
-                whole = len(d.path) == at
-                tower["shifts"] = [shift if whole else copy.deepcopy(shift) for _ in range(levels - 1)]
-            for i, value in enumerate(d.draw(rng, levels - 1)):
-                if len(d.path) == at:
-                    tower["shifts"][i] = value
-                else:  # one part of an (x, y) pair
-                    tower["shifts"][i][d.path[at]] = value
-        else:
-            values = d.draw(rng, levels if d.per == "layer" else levels * across)
-            tower["yaw_jitter"] = [v for v in values for _ in range(across)] if d.per == "layer" else values
+        _draw_into_tower(out, d, rng)
     out["seed"] = int(rng.integers(0, 2**63 - 1))
     return out
+
+
+def _draw_into_tower(out: dict[str, Any], d: Distribution, rng: np.random.Generator) -> None:
+    """Draw distribution ``d`` (one value a layer or a brick) into its tower in ``out``: a
+    ``shift`` becomes the tower's ``shifts``, one a layer above the first; a yaw becomes its
+    ``yaw_jitter``, one a brick. A tower that is not there, or whose ``levels`` or
+    ``bricks_per_layer`` is not a whole number, is left for its own validation to report."""
+    spot = tower_field(d.path)
+    tower = _tower(out, spot[0]) if spot else None
+    if tower is None:  # the structure's own validation says what is wrong
+        return
+    at = len(spot[0]) + 1 if spot else 0  # where the field's own path ends
+    levels, across = _whole(tower.get("levels")), _whole(tower.get("bricks_per_layer", 2))
+    if levels is None or across is None:  # the tower's own validation says what is wrong
+        return
+    if spot and spot[1] == "shift":
+        _draw_shifts(tower, d, rng, levels, at)
+    else:
+        values = d.draw(rng, levels if d.per == "layer" else levels * across)
+        tower["yaw_jitter"] = [v for v in values for _ in range(across)] if d.per == "layer" else values
+
+
+def _draw_shifts(tower: dict[str, Any], d: Distribution, rng: np.random.Generator, levels: int, at: int) -> None:
+    """Draw ``d``, a tower's ``shift`` (whole, or one of its (x, y) parts when its path goes on
+    past ``at``), once for each of the tower's ``levels - 1`` layers above the first, into its
+    ``shifts``."""
+    if "shifts" not in tower:  # one shift a layer above the first, each a copy of the field
+        shift = tower.pop("shift")  # (drawn whole, each is replaced: no copy needed)
+        whole = len(d.path) == at
+        tower["shifts"] = [shift if whole else copy.deepcopy(shift) for _ in range(levels - 1)]
+    for i, value in enumerate(d.draw(rng, levels - 1)):
+        if len(d.path) == at:
+            tower["shifts"][i] = value
+        else:  # one part of an (x, y) pair
+            tower["shifts"][i][d.path[at]] = value
 
 
 def _tower(data: Any, path: FieldPath) -> dict[str, Any] | None:

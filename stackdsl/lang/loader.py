@@ -207,22 +207,7 @@ def _read_yaml(text: str, source: SourceMap) -> Any:
             raise ScenarioError("the file is empty; a scenario starts with 'stackdsl: 1'", file=source.file)
         return _plain(node, (), loader, source, [MAX_NODES], 1)
     except yaml.MarkedYAMLError as exc:
-        mark = exc.problem_mark or exc.context_mark
-        line = mark.line if mark else None
-        text_line = source.lines[line] if line is not None and line < len(source.lines) else ""
-        hint = ""
-        if mark is not None and "but got '['" in str(exc.problem) and text_line[mark.column - 1 : mark.column].isalnum():
-            hint = (
-                "; inside {...} YAML reads '[' as a list: quote a key with an index "
-                '("actions[0].shake.amplitude": ...), write it with a dot (actions.0.shake.amplitude) or on a line of its own'
-            )
-        raise ScenarioError(
-            f"not valid YAML: {exc.problem or exc.context or exc}{hint}",
-            file=source.file,
-            line=None if line is None else line + 1,
-            column=None if mark is None else mark.column + 1,
-            source_line=source.lines[line] if line is not None and line < len(source.lines) else "",
-        ) from None
+        raise _marked_error(exc, source) from None
     except yaml.YAMLError as exc:
         raise ScenarioError(f"not valid YAML: {exc}", file=source.file) from None
     except ScenarioError:
@@ -236,6 +221,27 @@ def _read_yaml(text: str, source: SourceMap) -> Any:
     finally:
         if loader is not None:
             loader.dispose()
+
+
+def _marked_error(exc: yaml.MarkedYAMLError, source: SourceMap) -> ScenarioError:
+    """The error for PyYAML's ``exc`` at the line and column it marks, with a hint when a
+    ``[`` inside ``{...}`` follows a name (a grid key with an index written in flow style)."""
+    mark = exc.problem_mark or exc.context_mark
+    line = mark.line if mark else None
+    text_line = source.lines[line] if line is not None and line < len(source.lines) else ""
+    hint = ""
+    if mark is not None and "but got '['" in str(exc.problem) and text_line[mark.column - 1 : mark.column].isalnum():
+        hint = (
+            "; inside {...} YAML reads '[' as a list: quote a key with an index "
+            '("actions[0].shake.amplitude": ...), write it with a dot (actions.0.shake.amplitude) or on a line of its own'
+        )
+    return ScenarioError(
+        f"not valid YAML: {exc.problem or exc.context or exc}{hint}",
+        file=source.file,
+        line=None if line is None else line + 1,
+        column=None if mark is None else mark.column + 1,
+        source_line=source.lines[line] if line is not None and line < len(source.lines) else "",
+    )
 
 
 def _plain(
@@ -260,22 +266,21 @@ def _plain(
             _plain(item, path + (i,), loader, source, budget, depth + 1, alias or loader.aliases.get((id(node), i)))
             for i, item in enumerate(node.value)
         ]
+    return _mapping(node, path, loader, source, budget, depth, alias)
+
+
+def _mapping(
+    node: Node, path: FieldPath, loader: _Loader, source: SourceMap, budget: list[int], depth: int, alias: Any
+) -> dict[str, Any]:
+    """Plain data for a mapping ``node`` (as :func:`_plain`), recording where each key is written.
+
+    Raises:
+        ScenarioError: at a key that is not a name, a merge key or a duplicate key.
+    """
     out: dict[str, Any] = {}
     for key_node, value_node in node.value:
         where = (alias.line, alias.column) if alias else (key_node.start_mark.line, key_node.start_mark.column)
-        if not isinstance(key_node, ScalarNode):
-            shown = "a mapping" if isinstance(key_node, MappingNode) else "a list"
-            source.values[path + ("?",)] = where
-            raise source.error(path + ("?",), f"keys must be names, got {shown}")
-        source.values[path + (key_node.value,)] = where
-        # a plain key YAML 1.1 reads as true or false ("on", "yes") is the name as written: keys are names
-        plain_word = key_node.tag == _YAML + "bool" and key_node.style is None
-        key = key_node.value if plain_word else _scalar(key_node, path + (key_node.value,), loader, source)
-        if key == "<<":
-            raise source.error(path + ("<<",), "merge keys ('<<') are not supported; write the fields out")
-        if not isinstance(key, str):
-            source.values[path + (str(key),)] = where
-            raise source.error(path + (str(key),), f"keys must be names, got {spelled(key)} (quote it if it is meant as a name)")
+        key = _key(key_node, path, where, loader, source)
         if key in out:
             source.values[path + (key,)] = where
             raise source.error(path + (key,), f"duplicate key {key!r}")
@@ -283,6 +288,28 @@ def _plain(
         named = alias or loader.aliases.get((id(node), id(key_node)))
         out[key] = _plain(value_node, path + (key,), loader, source, budget, depth + 1, named)
     return out
+
+
+def _key(key_node: Node, path: FieldPath, where: tuple[int, int], loader: _Loader, source: SourceMap) -> str:
+    """The name a mapping key (``key_node``, written at ``where`` in the mapping at ``path``) gives.
+
+    Raises:
+        ScenarioError: when it is a mapping, a list, a merge key (``<<``) or a scalar that is not text.
+    """
+    if not isinstance(key_node, ScalarNode):
+        shown = "a mapping" if isinstance(key_node, MappingNode) else "a list"
+        source.values[path + ("?",)] = where
+        raise source.error(path + ("?",), f"keys must be names, got {shown}")
+    source.values[path + (key_node.value,)] = where
+    # a plain key YAML 1.1 reads as true or false ("on", "yes") is the name as written: keys are names
+    plain_word = key_node.tag == _YAML + "bool" and key_node.style is None
+    key = key_node.value if plain_word else _scalar(key_node, path + (key_node.value,), loader, source)
+    if key == "<<":
+        raise source.error(path + ("<<",), "merge keys ('<<') are not supported; write the fields out")
+    if not isinstance(key, str):
+        source.values[path + (str(key),)] = where
+        raise source.error(path + (str(key),), f"keys must be names, got {spelled(key)} (quote it if it is meant as a name)")
+    return key
 
 
 def _scalar(node: ScalarNode, path: FieldPath, loader: _Loader, source: SourceMap) -> Any:

@@ -438,13 +438,44 @@ class Scenario(StrictModel):
 def reference_errors(s: Scenario) -> list[tuple[FieldPath, str]]:
     """Names that point nowhere: (field path, message) for each, in file order."""
     bricks = {**BUILTIN_BRICKS, **s.brick_types}
-    materials = {**BUILTIN_MATERIALS, **s.materials}
-    problems: list[tuple[FieldPath, str]] = []
+    problems = _declaration_errors(s)
 
     def brick(path: FieldPath, name: str) -> None:
         if name not in bricks:
             problems.append((path, f"unknown brick type {name!r}; known: {', '.join(sorted(bricks))}"))
 
+    structure = s.structure
+    layouts: list[tuple[FieldPath, Any]] = (
+        [(path + (part.kind,), part.layout) for _, path, part in named_parts(structure.parts)]
+        if structure.parts is not None
+        else [(("structure", structure.layout_name or ""), getattr(structure, structure.layout_name or ""))]
+    )
+    if structure.parts is not None:
+        problems += check_parts(structure.parts)
+    impact_ids = [imp.id for imp in s.impacts if imp.id]
+    for where, layout in layouts:
+        if not isinstance(layout, list):
+            brick(where + ("brick",), layout.brick)
+            continue
+        for i, b in enumerate(layout):
+            brick(where + (i, "brick"), b.brick)
+        problems += _duplicate_ids(where, layout, impact_ids)
+    for i, imp in enumerate(s.impacts):
+        brick(("impacts", i, "projectile"), imp.projectile)
+    for i, action in enumerate(s.actions):
+        if action.push is not None:
+            brick(("actions", i, "push", "pusher"), action.push.pusher)
+    n_bricks = s.structure.tower.levels * s.structure.tower.bricks_per_layer if s.structure.tower else 0
+    if n_bricks > MAX_BRICKS:
+        problems.append((("structure", "tower", "levels"), f"the tower has {n_bricks} bricks; at most {MAX_BRICKS} are allowed"))
+    return problems
+
+
+def _declaration_errors(s: Scenario) -> list[tuple[FieldPath, str]]:
+    """The problems of the file's declarations, in file order: a brick type named as the wall's
+    half of one (``NAME/2``), a brick type's or the ground's unknown material."""
+    materials = {**BUILTIN_MATERIALS, **s.materials}
+    problems: list[tuple[FieldPath, str]] = []
     for name, bt in s.brick_types.items():
         if name.endswith(HALF):  # the wall's half of a type: its length halved, derived, never given
             problems.append(
@@ -462,34 +493,19 @@ def reference_errors(s: Scenario) -> list[tuple[FieldPath, str]]:
         problems.append(
             (("ground", "material"), f"unknown material {s.ground.material!r}; known: {', '.join(sorted(materials))}")
         )
-    structure = s.structure
-    layouts: list[tuple[FieldPath, Any]] = (
-        [(path + (part.kind,), part.layout) for _, path, part in named_parts(structure.parts)]
-        if structure.parts is not None
-        else [(("structure", structure.layout_name or ""), getattr(structure, structure.layout_name or ""))]
-    )
-    if structure.parts is not None:
-        problems += check_parts(structure.parts)
-    impact_ids = [imp.id for imp in s.impacts if imp.id]
-    for where, layout in layouts:
-        if not isinstance(layout, list):
-            brick(where + ("brick",), layout.brick)
-            continue
-        for i, b in enumerate(layout):
-            brick(where + (i, "brick"), b.brick)
-        ids = [b.id for b in layout if b.id] + impact_ids  # a part's ids are prefixed by its name: unique among parts
-        for i, b in enumerate(layout):
-            if b.id and ids.count(b.id) > 1:
-                problems.append((where + (i, "id"), f"brick id {b.id!r} is used more than once"))
-    for i, imp in enumerate(s.impacts):
-        brick(("impacts", i, "projectile"), imp.projectile)
-    for i, action in enumerate(s.actions):
-        if action.push is not None:
-            brick(("actions", i, "push", "pusher"), action.push.pusher)
-    n_bricks = s.structure.tower.levels * s.structure.tower.bricks_per_layer if s.structure.tower else 0
-    if n_bricks > MAX_BRICKS:
-        problems.append((("structure", "tower", "levels"), f"the tower has {n_bricks} bricks; at most {MAX_BRICKS} are allowed"))
     return problems
+
+
+def _duplicate_ids(where: FieldPath, layout: list[Any], impact_ids: list[str]) -> list[tuple[FieldPath, str]]:
+    """A problem at each brick of ``layout`` (a list of placed bricks at ``where``) whose id another
+    brick of it or an impact (``impact_ids``) also has; a part's ids are prefixed by its name, so
+    unique among parts."""
+    ids = [b.id for b in layout if b.id] + impact_ids
+    return [
+        (where + (i, "id"), f"brick id {b.id!r} is used more than once")
+        for i, b in enumerate(layout)
+        if b.id and ids.count(b.id) > 1
+    ]
 
 
 def _written_at(scenario: Scenario, path: FieldPath) -> Any:

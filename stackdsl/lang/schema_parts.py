@@ -182,33 +182,9 @@ def check_parts(parts: list[Part] | dict[str, Part]) -> list[tuple[FieldPath, st
     brick id (``PART.ID``) of one; the first brick placed is not 'together'; some brick is not fixed."""
     problems: list[tuple[FieldPath, str]] = []
     seen: list[str] = []
-    for name, path, part in named_parts(parts):
-        loc = path
-        if isinstance(parts, dict) and part.name is not None and part.name != name:
-            problems.append((loc + ("name",), f"the part's name is its key, {name!r}; leave 'name' out"))
-        if not name:
-            problems.append((loc, "a part in a list needs a 'name' (or write the parts as a map, name: part)"))
-        elif name in RESERVED:
-            problems.append((loc, f"{name!r} is a key of the structure; give the part another name"))
-        elif name in seen:
-            problems.append((loc + ("name",), f"there is already a part named {name!r}"))
-        targets = [((), part.on)] if isinstance(part.on, str) else [((j,), t) for j, t in enumerate(part.on or [])]
-        for at, target in targets:  # a list's problems at the name in it
-            head = target.split(".", 1)[0]
-            if head == name:
-                problems.append(
-                    (loc + ("on", *at), f"{target!r} names this part itself: a part rests on parts written before it")
-                )
-            elif head not in seen:
-                later = head in (n for n, _, _ in named_parts(parts))
-                why = (
-                    "it is written after this one: a part rests on parts written before it"
-                    if later
-                    else f"there is no part {head!r}" + (f"; the parts before this one: {', '.join(seen)}" if seen else "")
-                )
-                problems.append((loc + ("on", *at), f"{target!r} names no part before this one: {why}"))
-            elif target != head and isinstance(part.on, list):
-                problems.append((loc + ("on", *at), f"{target!r}: a list of 'on' names parts; a brick is given alone"))
+    for name, loc, part in named_parts(parts):
+        problems += _name_problems(parts, name, loc, part, seen)
+        problems += _on_problems(parts, name, loc, part, seen)
         if part.interleave and part.on:
             problems.append(
                 (
@@ -218,6 +194,56 @@ def check_parts(parts: list[Part] | dict[str, Part]) -> list[tuple[FieldPath, st
                 )
             )
         seen.append(name)
+    return problems + _first_part_problems(parts)
+
+
+def _name_problems(
+    parts: list[Part] | dict[str, Part], name: str, loc: FieldPath, part: Part, seen: list[str]
+) -> list[tuple[FieldPath, str]]:
+    """The problems of a part's name (``name``, the part at ``loc``): a map's part that gives
+    another ``name`` than its key; a list's that gives none; a reserved name; one of the parts
+    before it (``seen``)."""
+    problems: list[tuple[FieldPath, str]] = []
+    if isinstance(parts, dict) and part.name is not None and part.name != name:
+        problems.append((loc + ("name",), f"the part's name is its key, {name!r}; leave 'name' out"))
+    if not name:
+        problems.append((loc, "a part in a list needs a 'name' (or write the parts as a map, name: part)"))
+    elif name in RESERVED:
+        problems.append((loc, f"{name!r} is a key of the structure; give the part another name"))
+    elif name in seen:
+        problems.append((loc + ("name",), f"there is already a part named {name!r}"))
+    return problems
+
+
+def _on_problems(
+    parts: list[Part] | dict[str, Part], name: str, loc: FieldPath, part: Part, seen: list[str]
+) -> list[tuple[FieldPath, str]]:
+    """The problems of a part's ``on`` (the part ``name`` at ``loc``): each name in it must be a
+    part written before it (``seen``), not itself nor a later one; a brick (``PART.ID``) is given
+    alone, not in a list. A list's problems are at the name in it."""
+    problems: list[tuple[FieldPath, str]] = []
+    targets = [((), part.on)] if isinstance(part.on, str) else [((j,), t) for j, t in enumerate(part.on or [])]
+    for at, target in targets:
+        head = target.split(".", 1)[0]
+        if head == name:
+            problems.append((loc + ("on", *at), f"{target!r} names this part itself: a part rests on parts written before it"))
+        elif head not in seen:
+            later = head in (n for n, _, _ in named_parts(parts))
+            why = (
+                "it is written after this one: a part rests on parts written before it"
+                if later
+                else f"there is no part {head!r}" + (f"; the parts before this one: {', '.join(seen)}" if seen else "")
+            )
+            problems.append((loc + ("on", *at), f"{target!r} names no part before this one: {why}"))
+        elif target != head and isinstance(part.on, list):
+            problems.append((loc + ("on", *at), f"{target!r}: a list of 'on' names parts; a brick is given alone"))
+    return problems
+
+
+def _first_part_problems(parts: list[Part] | dict[str, Part]) -> list[tuple[FieldPath, str]]:
+    """The problems of the structure as a whole: its first part cannot interleave, nor its first
+    brick be placed 'together'; some brick must not be fixed."""
+    problems: list[tuple[FieldPath, str]] = []
     if named_parts(parts)[0][2].interleave:
         problems.append((named_parts(parts)[0][1] + ("interleave",), "the first part has no part before it to interleave with"))
     first = named_parts(parts)[0][2]

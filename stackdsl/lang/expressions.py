@@ -180,52 +180,102 @@ def check_kinds(condition: Condition, kinds: Mapping[str, str]) -> None:
 
 
 def _kind_of(node: Node, kinds: Mapping[str, str]) -> tuple[Kind, str]:
-    """(kind, how it is written) of a node (:data:`Kind`)."""
-    kind = node[0]
-    if kind == "num":
-        return _dimensions(node[2]), node[3]
-    if kind == "name":
-        return _dimensions(kinds.get(node[1], "")), node[1]
-    if kind == "neg":
-        inner, words = _kind_of(node[1], kinds)
-        return inner, f"-{words}"
-    if kind == "arith":
-        (a, wa), (b, wb) = _kind_of(node[2], kinds), _kind_of(node[3], kinds)
-        words = f"{wa} {node[1]} {wb}"
-        if node[1] == "+":
-            _same(a, wa, b, wb, "adds", "to")
-            return _either(a, b), words
-        if node[1] == "-":
-            _same(b, wb, a, wa, "subtracts", "from")  # a - b subtracts b from a
-            return _either(a, b), words
-        if b == "":  # a bare number scales what it multiplies or divides
-            return a, words
-        if a == "" and node[1] == "*":
-            return b, words
-        if (isinstance(a, str) and a) or isinstance(b, str):  # "?": not known, nor is the product
-            return "?", words
-        sign = 1 if node[1] == "*" else -1
-        base = (0, 0, 0, 0) if a == "" else a
-        return tuple(x + sign * y for x, y in zip(base, b, strict=True)), words
-    if kind == "call":
-        parts = [_kind_of(arg, kinds) for arg in node[2]]
-        for (a, wa), (b, wb) in itertools.pairwise(parts):
-            _same(a, wa, b, wb, f"takes the {node[1]} of", "and")
-        found: Kind = ""
-        for k, _ in parts:
-            found = _either(found, k)
-        return found, f"{node[1]}(...)"
-    if kind == "cmp":
-        parts = [_kind_of(operand, kinds) for operand in node[2]]
-        for (a, wa), (b, wb) in itertools.pairwise(parts):
-            _same(a, wa, b, wb, "compares", "with")
-        return "", ""
-    if kind == "not":
-        _kind_of(node[1], kinds)
-        return "", ""
-    for part in node[1]:  # "and", "or"
+    """(kind, how it is written) of a node (:data:`Kind`), by the rule for its kind of node
+    (``and`` and ``or`` check their parts alone)."""
+    return _KIND_RULES.get(node[0], _logic_kind)(node, kinds)
+
+
+def _num_kind(node: Node, kinds: Mapping[str, str]) -> tuple[Kind, str]:
+    """A number's kind: that of its unit."""
+    return _dimensions(node[2]), node[3]
+
+
+def _name_kind(node: Node, kinds: Mapping[str, str]) -> tuple[Kind, str]:
+    """A name's kind: the one ``kinds`` gives it (unknown when it gives none)."""
+    return _dimensions(kinds.get(node[1], "")), node[1]
+
+
+def _neg_kind(node: Node, kinds: Mapping[str, str]) -> tuple[Kind, str]:
+    """``-x``: the kind of ``x``."""
+    inner, words = _kind_of(node[1], kinds)
+    return inner, f"-{words}"
+
+
+def _arith_kind(node: Node, kinds: Mapping[str, str]) -> tuple[Kind, str]:
+    """``a + b`` and ``a - b``: of one kind, checked; ``a * b`` and ``a / b``: their dimensions
+    added or subtracted (a bare number scales; unknown if either side is).
+
+    Raises:
+        ValueError: when a sum or a difference has sides of two kinds.
+    """
+    (a, wa), (b, wb) = _kind_of(node[2], kinds), _kind_of(node[3], kinds)
+    words = f"{wa} {node[1]} {wb}"
+    if node[1] == "+":
+        _same(a, wa, b, wb, "adds", "to")
+        return _either(a, b), words
+    if node[1] == "-":
+        _same(b, wb, a, wa, "subtracts", "from")  # a - b subtracts b from a
+        return _either(a, b), words
+    if b == "":  # a bare number scales what it multiplies or divides
+        return a, words
+    if a == "" and node[1] == "*":
+        return b, words
+    if (isinstance(a, str) and a) or isinstance(b, str):  # "?": not known, nor is the product
+        return "?", words
+    sign = 1 if node[1] == "*" else -1
+    base = (0, 0, 0, 0) if a == "" else a
+    return tuple(x + sign * y for x, y in zip(base, b, strict=True)), words
+
+
+def _call_kind(node: Node, kinds: Mapping[str, str]) -> tuple[Kind, str]:
+    """``min``, ``max``, ``abs``: arguments of one kind, checked; the call is of that kind.
+
+    Raises:
+        ValueError: when two arguments are of two kinds.
+    """
+    parts = [_kind_of(arg, kinds) for arg in node[2]]
+    for (a, wa), (b, wb) in itertools.pairwise(parts):
+        _same(a, wa, b, wb, f"takes the {node[1]} of", "and")
+    found: Kind = ""
+    for k, _ in parts:
+        found = _either(found, k)
+    return found, f"{node[1]}(...)"
+
+
+def _cmp_kind(node: Node, kinds: Mapping[str, str]) -> tuple[Kind, str]:
+    """A comparison (a chain of them): each pair of sides of one kind, checked.
+
+    Raises:
+        ValueError: when two sides compared are of two kinds.
+    """
+    parts = [_kind_of(operand, kinds) for operand in node[2]]
+    for (a, wa), (b, wb) in itertools.pairwise(parts):
+        _same(a, wa, b, wb, "compares", "with")
+    return "", ""
+
+
+def _not_kind(node: Node, kinds: Mapping[str, str]) -> tuple[Kind, str]:
+    """``not x``: ``x`` checked."""
+    _kind_of(node[1], kinds)
+    return "", ""
+
+
+def _logic_kind(node: Node, kinds: Mapping[str, str]) -> tuple[Kind, str]:
+    """``and``, ``or``: each part checked."""
+    for part in node[1]:
         _kind_of(part, kinds)
     return "", ""
+
+
+_KIND_RULES: dict[str, Callable[[Node, Mapping[str, str]], tuple[Kind, str]]] = {
+    "num": _num_kind,
+    "name": _name_kind,
+    "neg": _neg_kind,
+    "arith": _arith_kind,
+    "call": _call_kind,
+    "cmp": _cmp_kind,
+    "not": _not_kind,
+}
 
 
 def _either(a: Kind, b: Kind) -> Kind:
@@ -310,23 +360,33 @@ def _span(node: Node, ranges: Mapping[str, tuple[float, float]]) -> tuple[float,
         lo, hi = _span(node[1], ranges)
         return -hi, -lo
     if kind == "arith":
-        (a0, a1), (b0, b1) = _span(node[2], ranges), _span(node[3], ranges)
-        if node[1] == "+":
-            return a0 + b0, a1 + b1
-        if node[1] == "-":
-            return a0 - b1, a1 - b0
-        if node[1] == "/":
-            if b0 <= 0 <= b1:
-                return -math.inf, math.inf
-            b0, b1 = 1 / b1, 1 / b0
-        products = [x * y for x in (a0, a1) for y in (b0, b1)]
-        if any(math.isnan(p) for p in products):  # 0 x inf: anything
+        return _arith_span(node[1], _span(node[2], ranges), _span(node[3], ranges))
+    return _call_span(node[1], [_span(arg, ranges) for arg in node[2]])  # "call"
+
+
+def _arith_span(op: str, a: tuple[float, float], b: tuple[float, float]) -> tuple[float, float]:
+    """The interval of ``x op y`` for x in ``a`` and y in ``b`` (``op``: ``+ - * /``); anything
+    when it divides by an interval holding 0, or multiplies 0 by infinity."""
+    (a0, a1), (b0, b1) = a, b
+    if op == "+":
+        return a0 + b0, a1 + b1
+    if op == "-":
+        return a0 - b1, a1 - b0
+    if op == "/":
+        if b0 <= 0 <= b1:
             return -math.inf, math.inf
-        return min(products), max(products)
-    spans = [_span(arg, ranges) for arg in node[2]]  # "call"
-    if node[1] == "min":
+        b0, b1 = 1 / b1, 1 / b0
+    products = [x * y for x in (a0, a1) for y in (b0, b1)]
+    if any(math.isnan(p) for p in products):  # 0 x inf: anything
+        return -math.inf, math.inf
+    return min(products), max(products)
+
+
+def _call_span(fn: str, spans: list[tuple[float, float]]) -> tuple[float, float]:
+    """The interval of ``fn`` (``min``, ``max`` or ``abs``) of arguments in ``spans``."""
+    if fn == "min":
         return min(lo for lo, _ in spans), min(hi for _, hi in spans)
-    if node[1] == "max":
+    if fn == "max":
         return max(lo for lo, _ in spans), max(hi for _, hi in spans)
     lo, hi = spans[0]  # abs
     return (lo, hi) if lo >= 0 else (-hi, -lo) if hi <= 0 else (0.0, max(-lo, hi))
@@ -336,22 +396,28 @@ def _truths(node: Node, ranges: Mapping[str, tuple[float, float]]) -> set[bool]:
     """What a condition node may come out as (True, False or both) with its names in ``ranges``."""
     kind = node[0]
     if kind == "cmp":
-        spans = [_span(operand, ranges) for operand in node[2]]
-        if any(math.isnan(v) for span in spans for v in span):
-            return {False}  # a name a draw lacks: every comparison is false
-        pairs = [_compared(op, a, b) for op, a, b in zip(node[1], spans, spans[1:])]
-        out = set()
-        if all(True in p for p in pairs):
-            out.add(True)
-        if any(False in p for p in pairs):
-            out.add(False)
-        return out
+        return _cmp_truths(node, ranges)
     if kind == "not":
         return {not t for t in _truths(node[1], ranges)}
     parts = [_truths(part, ranges) for part in node[1]]
     if kind == "and":
         return ({True} if all(True in p for p in parts) else set()) | ({False} if any(False in p for p in parts) else set())
     return ({True} if any(True in p for p in parts) else set()) | ({False} if all(False in p for p in parts) else set())
+
+
+def _cmp_truths(node: Node, ranges: Mapping[str, tuple[float, float]]) -> set[bool]:
+    """What a comparison (a chain of them) may come out as with its names in ``ranges``: true
+    when every pair may be, false when some pair may be; false alone when a name is NaN."""
+    spans = [_span(operand, ranges) for operand in node[2]]
+    if any(math.isnan(v) for span in spans for v in span):
+        return {False}  # a name a draw lacks: every comparison is false
+    pairs = [_compared(op, a, b) for op, a, b in zip(node[1], spans, spans[1:])]
+    out = set()
+    if all(True in p for p in pairs):
+        out.add(True)
+    if any(False in p for p in pairs):
+        out.add(False)
+    return out
 
 
 def _compared(op: str, a: tuple[float, float], b: tuple[float, float]) -> set[bool]:

@@ -61,6 +61,11 @@ def check_condition(text: str) -> str:
 
 
 def _check(node: Node) -> None:
+    """Check a parsed mark's condition: ``and``, ``or`` and ``not`` of comparisons of words.
+
+    Raises:
+        ValueError: at the first part that is not such a comparison.
+    """
     kind = node[0]
     if kind in ("and", "or"):
         for part in node[1]:
@@ -71,7 +76,16 @@ def _check(node: Node) -> None:
         return
     if kind != "cmp":  # a bare number or name where a comparison goes: the grammar refuses it first
         raise ValueError(f"expected a comparison such as {_EXAMPLE}")
-    ops, operands = node[1], node[2]
+    _check_comparison(node[1], node[2])
+
+
+def _check_comparison(ops: list[str], operands: list[Node]) -> None:
+    """Check one comparison of a mark's condition (its operators ``ops`` and ``operands``): one
+    ``==`` or ``!=`` between a field (backend, mode, model) and one of that field's words.
+
+    Raises:
+        ValueError: naming the operator, the operand or the word that does not fit.
+    """
     if len(ops) != 1 or ops[0] not in ("==", "!="):
         shown = next((op for op in ops if op not in ("==", "!=")), ops[0])
         raise ValueError(f"compares with {shown!r}: a mark's condition compares words with == or != ({_EXAMPLE})")

@@ -104,23 +104,31 @@ def _fitting_members(errors: list[ErrorDetails], source: SourceMap) -> list[Erro
             members.setdefault(split[0], {}).setdefault(split[1], []).append(err)
     dropped: set[int] = set()
     for by_member in members.values():
-        if len(by_member) < 2:
-            continue
-        fits = {m: not any(_misfit(e, source) for e in errs) for m, errs in by_member.items()}
-        if any(fits.values()):
-            dropped |= {id(e) for m, errs in by_member.items() if not fits[m] for e in errs}
-            continue
-        # none fits: of the members the value is the kind of, those with the fewest keys out of place
-        # ({after_level: 2, extra: 1} is a level with one key too many, not a previous action with three)
-        keys = {
-            m: sum(e["type"] == "extra_forbidden" or e["type"] == "missing" for e in errs)
-            for m, errs in by_member.items()
-            if not any(_wrong_kind(e, source) for e in errs)
-        }
-        if keys:
-            fewest = min(keys.values())
-            dropped |= {id(e) for m, errs in by_member.items() if keys.get(m) != fewest for e in errs}
+        dropped |= _misfits(by_member, source)
     return [e for e in errors if id(e) not in dropped]
+
+
+def _misfits(by_member: dict[str, list[ErrorDetails]], source: SourceMap) -> set[int]:
+    """The ids of the refusals to drop of one union's members (``by_member``: member name -> its
+    refusals of the node): those of the members the value does not have the shape of, when one
+    has it; when none has, those of all but the members the value is the kind of with the fewest
+    keys out of place; none when one member alone refused it."""
+    if len(by_member) < 2:
+        return set()
+    fits = {m: not any(_misfit(e, source) for e in errs) for m, errs in by_member.items()}
+    if any(fits.values()):
+        return {id(e) for m, errs in by_member.items() if not fits[m] for e in errs}
+    # none fits: of the members the value is the kind of, those with the fewest keys out of place
+    # ({after_level: 2, extra: 1} is a level with one key too many, not a previous action with three)
+    keys = {
+        m: sum(e["type"] == "extra_forbidden" or e["type"] == "missing" for e in errs)
+        for m, errs in by_member.items()
+        if not any(_wrong_kind(e, source) for e in errs)
+    }
+    if not keys:
+        return set()
+    fewest = min(keys.values())
+    return {id(e) for m, errs in by_member.items() if keys.get(m) != fewest for e in errs}
 
 
 def _member_split(loc: FieldPath, source: SourceMap) -> tuple[FieldPath, str] | None:

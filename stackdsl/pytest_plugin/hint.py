@@ -66,15 +66,21 @@ def uncollected(config: pytest.Config, ran: list[Path] | None = None) -> list[tu
         path = Path(config.invocation_params.dir, arg.split("::", 1)[0]).resolve()
         if any(path.is_relative_to(root) for root in roots) or any(item.is_relative_to(path) for item in collected):
             continue
-        if path.is_dir():
-            files = [f for suffix in SUFFIXES for f in islice(path.rglob(f"*{suffix}"), HINT_FILES)]
-        else:
-            files = [path] if path.suffix in SUFFIXES and path.is_file() else []
-        scenarios = [f for f in files if not any(f.is_relative_to(r) for r in roots) and _looks_like_scenario(f)]
+        scenarios = _scenarios_outside(path, roots)
         if scenarios:
             folder = path if path.is_dir() else path.parent
             found.append((Path(os.path.relpath(folder, config.rootpath)).as_posix(), scenarios))
     return found
+
+
+def _scenarios_outside(path: Path, roots: list[Path]) -> list[Path]:
+    """The scenario files at ``path`` (a file, or a folder's YAML files, at most :data:`HINT_FILES`
+    of each suffix) that are not below any of the folders ``roots``."""
+    if path.is_dir():
+        files = [f for suffix in SUFFIXES for f in islice(path.rglob(f"*{suffix}"), HINT_FILES)]
+    else:
+        files = [path] if path.suffix in SUFFIXES and path.is_file() else []
+    return [f for f in files if not any(f.is_relative_to(r) for r in roots) and _looks_like_scenario(f)]
 
 
 def collection_hint(config: pytest.Config, ran: list[Path] | None = None) -> list[str]:

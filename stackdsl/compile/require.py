@@ -99,20 +99,14 @@ def accept(scenario: Scenario, seconds: float | None = None) -> tuple[Scenario, 
         tried += 1
         candidate = scenario if attempt == 0 else template.scenario(*scenario.sample, attempt=attempt)
         values = quantities(candidate, wanted)
-        for name in wanted:
-            value = values.get(name, math.nan)
-            if not math.isnan(value):  # a name this draw lacks is left out: no draw may have it
-                lo, hi = seen.get(name, (value, value))
-                seen[name] = (min(lo, value), max(hi, value))
+        _note_ranges(seen, values, wanted)
         broken = next((i for i, c in enumerate(conditions) if not c.holds(values)), None)
         if broken is None:
             return candidate, attempt + 1
         failed[broken] += 1
         by_zero[broken] += conditions[broken].divides_by_zero(values)
         if template is None:
-            shown = ", ".join(f"{n} = {_with_unit(n, values.get(n, math.nan))}" for n in conditions[broken].names)
-            zero = "; it divides by zero" if by_zero[broken] else ""
-            raise scenario.source.error(("require", broken), f"the scene does not meet it ({shown}{zero}); it is not random")
+            raise _not_met(scenario, broken, conditions[broken], values, bool(by_zero[broken]))
     elapsed = perf_counter() - started
     worst, count = failed.most_common(1)[0]
     c, k = scenario.sample
@@ -121,20 +115,44 @@ def accept(scenario: Scenario, seconds: float | None = None) -> tuple[Scenario, 
         if by_zero[worst] == count
         else advice(conditions[worst], seen)
     )
-    if tried < MAX_DRAWS:  # out of time
-        limit = (
-            f"--timeout {budget:g}"
-            if seconds is not None and seconds < DRAW_TIME
-            else f"the {DRAW_TIME:g} s a sample's draws may take"
-        )
-        over = f" in {elapsed:.1f} s, stopped by {limit} before the {MAX_DRAWS} draws it may take"
-    else:
-        over = f" (in {elapsed:.1f} s)"
+    over = _time_taken(tried, elapsed, budget, seconds)
     raise scenario.source.error(
         ("require", worst),
         f"sample {k}{f' of grid cell {c}' if template is not None and template.grid else ''}: none of "
         f"{tried} draws met every condition{over}; {count} failed this one; {why}",
     )
+
+
+def _not_met(scenario: Scenario, i: int, condition: Condition, values: dict[str, float], by_zero: bool) -> ScenarioError:
+    """The error at ``require[i]`` when a scene that is not random fails its ``condition``: the
+    ``values`` it read, and whether it divided by zero."""
+    shown = ", ".join(f"{n} = {_with_unit(n, values.get(n, math.nan))}" for n in condition.names)
+    zero = "; it divides by zero" if by_zero else ""
+    return scenario.source.error(("require", i), f"the scene does not meet it ({shown}{zero}); it is not random")
+
+
+def _note_ranges(seen: dict[str, tuple[float, float]], values: dict[str, float], wanted: set[str]) -> None:
+    """Widen ``seen`` (each name's lowest and highest value over the draws) by this draw's
+    ``values`` of the ``wanted`` names; a name this draw lacks (NaN) is left out."""
+    for name in wanted:
+        value = values.get(name, math.nan)
+        if not math.isnan(value):  # a name this draw lacks is left out: no draw may have it
+            lo, hi = seen.get(name, (value, value))
+            seen[name] = (min(lo, value), max(hi, value))
+
+
+def _time_taken(tried: int, elapsed: float, budget: float, seconds: float | None) -> str:
+    """How long ``tried`` draws took (``elapsed`` s), for the message when none met the
+    conditions: when they ran out of time, which limit (``--timeout``, ``seconds``, or the
+    :data:`DRAW_TIME` a sample may take: ``budget``) stopped them."""
+    if tried >= MAX_DRAWS:
+        return f" (in {elapsed:.1f} s)"
+    limit = (
+        f"--timeout {budget:g}"
+        if seconds is not None and seconds < DRAW_TIME
+        else f"the {DRAW_TIME:g} s a sample's draws may take"
+    )
+    return f" in {elapsed:.1f} s, stopped by {limit} before the {MAX_DRAWS} draws it may take"
 
 
 #: The least a derived quantity can be, whatever is drawn: a distance or a count is never negative.
@@ -160,15 +178,25 @@ def advice(condition: Condition, seen: dict[str, tuple[float, float]]) -> str:
     free = [n for n in condition.names if n not in ranges]
     ranges |= {n: (LEAST[n], math.inf) for n in free if n in LEAST}
     if not condition.can_hold(ranges):
-        reasons = {n: f"{n} is {_with_unit(n, v)} in every draw (no distribution changes it)" for n, v in fixed.items()}
-        reasons |= {n: f"no draw of the scene has {n}" for n in missing}
-        reasons |= {n: f"{n} is never below 0" for n in free if n in LEAST}
-        # the names whose range alone keeps it from holding; all of them when it takes more than one
-        causes = [n for n in reasons if condition.can_hold({m: r for m, r in ranges.items() if m != n})] or list(reasons)
-        why = "; ".join(reasons[n] for n in causes) or "not for any values"
-        return f"it can never hold, whatever is drawn: {why}; change the condition"
+        return (
+            f"it can never hold, whatever is drawn: {_why_never(condition, ranges, fixed, missing, free)}; change the condition"
+        )
     spread = [f"{n} was {_with_unit(n, seen[n][0], bare=True)} to {_with_unit(n, seen[n][1])}" for n in free]
     return "widen the distributions or the condition" + (f" ({', '.join(spread)} in these draws)" if spread else "")
+
+
+def _why_never(
+    condition: Condition, ranges: dict[str, tuple[float, float]], fixed: dict[str, float], missing: list[str], free: list[str]
+) -> str:
+    """Why ``condition`` cannot hold with its names in ``ranges`` (see :func:`advice`): the names
+    whose range alone keeps it from holding (all of them when it takes more than one): one
+    ``fixed`` in every draw, ``missing`` from every draw, or ``free`` but never below 0."""
+    reasons = {n: f"{n} is {_with_unit(n, v)} in every draw (no distribution changes it)" for n, v in fixed.items()}
+    reasons |= {n: f"no draw of the scene has {n}" for n in missing}
+    reasons |= {n: f"{n} is never below 0" for n in free if n in LEAST}
+    # the names whose range alone keeps it from holding; all of them when it takes more than one
+    causes = [n for n in reasons if condition.can_hold({m: r for m, r in ranges.items() if m != n})] or list(reasons)
+    return "; ".join(reasons[n] for n in causes) or "not for any values"
 
 
 def _with_unit(name: str, value: float, bare: bool = False) -> str:

@@ -65,6 +65,24 @@ def check_limits(
             beyond the engine's) or a material's ``restitution`` (a contact bouncier than the
             engine holds in the run's mode).
     """
+    _check_sides(scenario, engine, specs, made_by)
+    thinnest = min(2 * min(s.half_extents) for s in specs.values())
+    _check_impacts(scenario, engine, thinnest)
+    _check_motions(scenario, engine, thinnest)
+    _check_masses(scenario, engine, specs, moving, bricks)
+    _check_restitution(scenario, engine, moving, [*fixed, *(t for t in specs if t not in set(moving))])
+
+
+def _check_sides(
+    scenario: Scenario, engine: EngineSettings, specs: Mapping[str, BrickSpec], made_by: Mapping[str, FieldPath] | None
+) -> None:
+    """Refuse a brick type (of ``specs``, in name order) with a side below the smallest ``engine``
+    simulates faithfully: at its ``size`` when the file declares it, at the wall's ``brick``
+    (``made_by``) when it is a wall's half brick of a declared type.
+
+    Raises:
+        ScenarioError: at the brick type's ``size`` or the wall's ``brick``.
+    """
     kind = type(engine)
     limits, name = kind.LIMITS, kind.NAME
     for type_name in sorted(specs):
@@ -86,7 +104,17 @@ def check_limits(
                 f"closers) has a side of {_mm(side)}, below what {name} simulates faithfully: at least "
                 f"{_mm(limits.min_side)} {measured}; give the wall a brick type at least {_mm(2 * limits.min_side)} long",
             )
-    thinnest = min(2 * min(s.half_extents) for s in specs.values())
+
+
+def _check_impacts(scenario: Scenario, engine: EngineSettings, thinnest: float) -> None:
+    """Refuse an impact faster than ``engine`` simulates faithfully: with substeps, its measured
+    fastest in the run's mode; without, what a step holds for the ``thinnest`` side (m).
+
+    Raises:
+        ScenarioError: at the impact's ``speed``.
+    """
+    kind = type(engine)
+    limits, name = kind.LIMITS, kind.NAME
     for index, impact in enumerate(scenario.impacts):
         if engine.ccd:
             most, measured = limits.fastest(engine.mode)
@@ -98,7 +126,24 @@ def check_limits(
             raise scenario.source.error(
                 ("impacts", index, "speed"), f"{impact.speed:g} m/s is faster than {name} simulates faithfully {why}"
             )
-    _check_motions(scenario, engine, thinnest)
+
+
+def _check_masses(
+    scenario: Scenario,
+    engine: EngineSettings,
+    specs: Mapping[str, BrickSpec],
+    moving: Sequence[str],
+    bricks: Sequence[LaidBrick] | None,
+) -> None:
+    """Refuse two types of ``moving`` bodies whose mass ratio is beyond what ``engine`` simulates
+    faithfully (see :func:`check_limits` for which pairs count).
+
+    Raises:
+        ScenarioError: at the material's ``density`` or the brick type's ``size`` that makes the
+            heavier one heavy (:func:`_mass_field`).
+    """
+    kind = type(engine)
+    limits, name = kind.LIMITS, kind.NAME
     masses = {t: specs[t].mass for t in set(moving)}
     if len(masses) > 1:
         static = bricks is not None and not scenario.impacts and not scenario.actions
@@ -122,7 +167,6 @@ def check_limits(
                 f"({masses[light]:.3g} kg){how}; {name} simulates at most {limits.max_mass_ratio:g} times faithfully "
                 f"(measured: {limits.measured['max_mass_ratio']}){taken}",
             )
-    _check_restitution(scenario, engine, moving, [*fixed, *(t for t in specs if t not in set(moving))])
 
 
 def _guided_speed(engine: EngineSettings, thinnest: float, pull: bool = False) -> tuple[float, str]:

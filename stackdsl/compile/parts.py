@@ -161,16 +161,34 @@ def _support(
     if part.on is None:
         return 0.0, 0, origin
     if isinstance(part.on, str) and "." in part.on:
-        brick = placed.get(part.on)
-        if brick is None:
-            head = part.on.split(".", 1)[0]
-            ids = [i for i in placed if i.startswith(head + ".")]
-            shown = f"{ids[0]} to {ids[-1]}" if len(ids) > 1 else ", ".join(ids) or "none"
-            raise scenario.source.error(path + ("on",), f"part {head!r} has no brick {part.on!r}: its bricks are {shown}")
+        brick = _on_brick(scenario, part.on, path, placed)
         centre = (float(brick.position[0]), float(brick.position[1]))
         return _top(scenario, brick), brick.level, part.origin or centre
     names = [part.on] if isinstance(part.on, str) else part.on
     top = max(tops[n][0] for n in names)
+    _warn_below(scenario, path, names, top, tops)
+    middle = (sum(origins[n][0] for n in names) / len(names), sum(origins[n][1] for n in names) / len(names))
+    return top, max(tops[n][1] for n in names), part.origin or middle
+
+
+def _on_brick(scenario: Scenario, on: str, path: FieldPath, placed: dict[str, LaidBrick]) -> LaidBrick:
+    """The brick a part's ``on`` (at ``path``) names as ``PART.ID``, among those ``placed``.
+
+    Raises:
+        ScenarioError: at the part's ``on`` when that part has no such brick, naming its bricks.
+    """
+    brick = placed.get(on)
+    if brick is None:
+        head = on.split(".", 1)[0]
+        ids = [i for i in placed if i.startswith(head + ".")]
+        shown = f"{ids[0]} to {ids[-1]}" if len(ids) > 1 else ", ".join(ids) or "none"
+        raise scenario.source.error(path + ("on",), f"part {head!r} has no brick {on!r}: its bricks are {shown}")
+    return brick
+
+
+def _warn_below(scenario: Scenario, path: FieldPath, names: list[str], top: float, tops: dict[str, tuple[float, int]]) -> None:
+    """Warn (at the part's ``on``, ``path``) when some of its ``on`` parts (``names``) have their
+    top more than :data:`GAP_WARNED` below the highest, ``top``: the part does not rest on them."""
     below = [n for n in names if top - tops[n][0] > GAP_WARNED]
     if below:
         lower = ", ".join(f"{n!r} ({(top - tops[n][0]) * 1000:.3g} mm lower)" for n in below)
@@ -180,10 +198,8 @@ def _support(
                 f"the part is put on the highest top of its 'on' parts, so it does not reach {lower}: it rests on "
                 f"{', '.join(repr(n) for n in names if n not in below)} alone",
             ),
-            stacklevel=2,
+            stacklevel=3,
         )
-    middle = (sum(origins[n][0] for n in names) / len(names), sum(origins[n][1] for n in names) / len(names))
-    return top, max(tops[n][1] for n in names), part.origin or middle
 
 
 GAP_WARNED = 0.001

@@ -28,10 +28,11 @@ import shapely
 from stability import Box, Pose
 
 from ..engines.protocol import BrickSpec
-from ..lang.errors import FieldPath
+from ..lang.errors import FieldPath, ScenarioError
 from ..lang.expectations import bricks_of, closest, levels_of, selects
 from ..lang.schema import Scenario
 from ..lang.schema_actions import AXES, SAMPLES_A_PERIOD, Action, AfterPrevious
+from ..lang.schema_actions import Push as WrittenPush
 from ..lang.schema_impacts import AfterLevel
 from .layouts import LaidBrick
 from .overlap import touching
@@ -142,25 +143,46 @@ def check_measured(scenario: Scenario, levels: Mapping[str, int]) -> None:
         return
     ids = list(levels)
     if ids and all(b in pulled for b in ids):  # nothing is left to judge
-        for name in ("toppled", "stands"):
-            if getattr(scenario.expect, name) is not None:
-                raise scenario.source.error(
-                    ("expect", name),
-                    f"every brick of the structure is pulled out of the scene: '{name}' would judge nothing; expect "
-                    "something of bricks that stay in it",
-                )
+        _nothing_left(scenario)
     for name in ("stays", "may_fall", "moved"):
-        selection = getattr(scenario.expect, name) or ()
-        named = [(f"level {lv} holds", [b for b in ids if levels[b] == lv]) for lv in levels_of(selection)]
-        named += [(f"{s!r} names", [b for b in ids if selects(s, b)]) for s in bricks_of(selection)]
-        for said, chosen in named:
-            if chosen and all(b in pulled for b in chosen):
-                pulls = ", ".join(dict.fromkeys(f"actions[{pulled[b]}]" for b in chosen))
-                raise scenario.source.error(
-                    ("expect", name),
-                    f"{said} only {'a brick' if len(chosen) == 1 else 'bricks'} pulled out of the scene "
-                    f"({pulls}): nothing of {'it' if len(chosen) == 1 else 'them'} is measured; name bricks that stay in the scene",
-                )
+        _selection_measured(scenario, name, levels, pulled)
+
+
+def _nothing_left(scenario: Scenario) -> None:
+    """Refuse ``expect.toppled`` or ``expect.stands`` when every brick of the structure is pulled
+    out of the scene.
+
+    Raises:
+        ScenarioError: at the first of them the file gives.
+    """
+    for name in ("toppled", "stands"):
+        if getattr(scenario.expect, name) is not None:
+            raise scenario.source.error(
+                ("expect", name),
+                f"every brick of the structure is pulled out of the scene: '{name}' would judge nothing; expect "
+                "something of bricks that stay in it",
+            )
+
+
+def _selection_measured(scenario: Scenario, name: str, levels: Mapping[str, int], pulled: dict[str, int]) -> None:
+    """Refuse ``expect.<name>`` (``stays``, ``may_fall``, ``moved``) when one of its levels or brick
+    selectors names only bricks the actions pull out (``pulled``: brick -> its pull's index).
+
+    Raises:
+        ScenarioError: at ``expect.<name>``, naming the level or selector and the pulls.
+    """
+    ids = list(levels)
+    selection = getattr(scenario.expect, name) or ()
+    named = [(f"level {lv} holds", [b for b in ids if levels[b] == lv]) for lv in levels_of(selection)]
+    named += [(f"{s!r} names", [b for b in ids if selects(s, b)]) for s in bricks_of(selection)]
+    for said, chosen in named:
+        if chosen and all(b in pulled for b in chosen):
+            pulls = ", ".join(dict.fromkeys(f"actions[{pulled[b]}]" for b in chosen))
+            raise scenario.source.error(
+                ("expect", name),
+                f"{said} only {'a brick' if len(chosen) == 1 else 'bricks'} pulled out of the scene "
+                f"({pulls}): nothing of {'it' if len(chosen) == 1 else 'them'} is measured; name bricks that stay in the scene",
+            )
 
 
 def _placed_before(scenario: Scenario, path: FieldPath, brick: str, slot: int, start: float, what: str) -> None:
@@ -455,44 +477,81 @@ def _pushes_reach(
         present = [b for b, there in zip(aimed, placed) if there and gone.get(b.id, push.step + 1) > push.step]
         first = _first_touch(push, direction, present, specs)
         if len(first) and np.isfinite(first.min()):
-            nearest = int(np.argmin(first))
-            reach = float(first[nearest])
-            if reach < p.distance - 1e-6:
-                continue
-            named = present[nearest].id
-            said = (
-                f"reaches {named} only at the end of its travel, and pushes nothing"
-                if reach - p.distance < 5e-7
-                else f"stops {_mm(reach - p.distance)} mm short of {named}"
-            )
-            raise scenario.source.error(
-                _written(scenario, path, "distance", "gap", "target"),
-                f"the pusher {said}: it starts {_mm(reach)} mm from {named} along its direction and moves "
-                f"{_mm(p.distance)} mm; give a distance of more than {_mm(reach)} mm, or a smaller gap",
-            )
+            _far_enough(scenario, path, p, present, first)
+            continue
         later = [b for b, there in zip(aimed, placed) if not there]
-        met = [(float(t), b) for t, b in zip(_first_touch(push, direction, later, specs), later) if np.isfinite(t)]
-        if met:
-            _, brick = min(met, key=lambda m: m[0])
-            when = next(int(k) * interval for b, k in zip(bricks, slots) if b is brick)
-            raise scenario.source.error(
-                (*path, "at"),
-                f"the pusher's path meets only bricks placed after the push starts at {push.time:g} s ({brick.id} at "
-                f"{when:g} s): it would move through empty space; start it once they are placed ('after level N')",
-            )
-        where: FieldPath = (*path, "target", "point") if p.target.point is not None else (*path, "target", "offset")
-        if p.target.brick is not None and p.target.offset == (0.0, 0.0, 0.0):
-            where = (*path, "direction")
-        x, y, z = (v * 1000 for v in push.position)
+        _placed_in_time(scenario, path, push, direction, later, bricks, slots, specs)
+        raise _misses(scenario, path, push, p)
+
+
+def _far_enough(scenario: Scenario, path: FieldPath, p: WrittenPush, present: list[LaidBrick], first: np.ndarray) -> None:
+    """Refuse a push (``p``, at ``path``) whose pusher stops before the nearest brick it meets
+    (of ``present``, each first touched after ``first`` m along its direction).
+
+    Raises:
+        ScenarioError: at the push's ``distance`` (else its ``gap``, else its ``target``).
+    """
+    nearest = int(np.argmin(first))
+    reach = float(first[nearest])
+    if reach < p.distance - 1e-6:
+        return
+    named = present[nearest].id
+    said = (
+        f"reaches {named} only at the end of its travel, and pushes nothing"
+        if reach - p.distance < 5e-7
+        else f"stops {_mm(reach - p.distance)} mm short of {named}"
+    )
+    raise scenario.source.error(
+        _written(scenario, path, "distance", "gap", "target"),
+        f"the pusher {said}: it starts {_mm(reach)} mm from {named} along its direction and moves "
+        f"{_mm(p.distance)} mm; give a distance of more than {_mm(reach)} mm, or a smaller gap",
+    )
+
+
+def _placed_in_time(
+    scenario: Scenario,
+    path: FieldPath,
+    push: Push,
+    direction: np.ndarray,
+    later: list[LaidBrick],
+    bricks: Sequence[LaidBrick],
+    slots: np.ndarray,
+    specs: dict[str, BrickSpec],
+) -> None:
+    """Refuse a push (at ``path``) whose pusher's path meets only bricks placed after it starts
+    (``later``; ``bricks`` with their ``slots`` tell when each is placed).
+
+    Raises:
+        ScenarioError: at the push's ``at``, naming the first brick met and when it is placed.
+    """
+    interval = scenario.timing.interval
+    met = [(float(t), b) for t, b in zip(_first_touch(push, direction, later, specs), later) if np.isfinite(t)]
+    if met:
+        _, brick = min(met, key=lambda m: m[0])
+        when = next(int(k) * interval for b, k in zip(bricks, slots) if b is brick)
         raise scenario.source.error(
-            where,
-            f"the pusher's path, from ({x:.1f}, {y:.1f}, {z:.1f}) mm along the direction, "
-            + (
-                f"passes beside {p.target.brick}: it never touches it; aim at a point of the brick (an offset within it)"
-                if p.target.brick is not None
-                else "meets no brick in the scene when it starts: aim it at a brick (target: {brick: ID, offset: [...]})"
-            ),
+            (*path, "at"),
+            f"the pusher's path meets only bricks placed after the push starts at {push.time:g} s ({brick.id} at "
+            f"{when:g} s): it would move through empty space; start it once they are placed ('after level N')",
         )
+
+
+def _misses(scenario: Scenario, path: FieldPath, push: Push, p: WrittenPush) -> ScenarioError:
+    """The error for a push (``p``, at ``path``) whose pusher's path meets no brick: at its
+    ``direction`` when it is aimed at a brick's centre, else at its target's point or offset."""
+    where: FieldPath = (*path, "target", "point") if p.target.point is not None else (*path, "target", "offset")
+    if p.target.brick is not None and p.target.offset == (0.0, 0.0, 0.0):
+        where = (*path, "direction")
+    x, y, z = (v * 1000 for v in push.position)
+    return scenario.source.error(
+        where,
+        f"the pusher's path, from ({x:.1f}, {y:.1f}, {z:.1f}) mm along the direction, "
+        + (
+            f"passes beside {p.target.brick}: it never touches it; aim at a point of the brick (an offset within it)"
+            if p.target.brick is not None
+            else "meets no brick in the scene when it starts: aim it at a brick (target: {brick: ID, offset: [...]})"
+        ),
+    )
 
 
 #: Metres a push may press its brick into a fixed body before it is refused: pybullet's
@@ -523,41 +582,59 @@ def _room_ahead(
     if not fixed:
         return
     boxes = [(f, specs[f.type]) for f in fixed]
-    poses = [f.pose() for f, _ in boxes]
     for i, push in enumerate(motions):
         p = scenario.actions[i].push
         if not isinstance(push, Push) or p is None or p.target.brick is None:
             continue
-        direction = np.array(push.velocity) / np.linalg.norm(push.velocity)
         brick = next((b for b in bricks if b.id == p.target.brick), None)
-        if brick is None:
-            continue
-        reach = _first_touch(push, direction, [brick], specs)
-        carried = p.distance - float(reach[0]) if len(reach) and np.isfinite(reach[0]) else 0.0
-        if carried <= PRESSED:
-            continue
-        pose = brick.pose()
-        room, _ = touching(
-            pose.position,
-            pose.rotation,
-            np.array(specs[brick.type].half_extents),
-            np.array([q.position for q in poses]),
-            np.array([q.rotation for q in poses]),
-            np.array([s.half_extents for _, s in boxes]),
-            direction,
-        )
-        if not len(room) or not np.isfinite(room.min()) or carried - float(room.min()) <= PRESSED:
-            continue
-        k = int(np.argmin(room))
-        ahead = max(0.0, float(room[k]))
-        raise scenario.source.error(
-            _written(scenario, ("actions", i, "push"), "distance"),
-            f"the push drives {brick.id} {_mm(carried - ahead)} mm into the fixed body {boxes[k][0].id}: it has "
-            f"{_mm(ahead)} mm of room ahead and the pusher carries it {_mm(carried)} mm; the engines do not agree on a "
-            "brick pressed into an immovable body (one pushes it through, one lifts it, one throws it back), so no "
-            f"verdict on it holds: give a distance of at most {_mm(p.distance - carried + ahead)} mm, or move "
-            f"{boxes[k][0].id}",
-        )
+        if brick is not None:
+            _room_for(scenario, i, push, p, brick, boxes, specs)
+
+
+def _room_for(
+    scenario: Scenario,
+    i: int,
+    push: Push,
+    p: WrittenPush,
+    brick: LaidBrick,
+    boxes: list[tuple[LaidBrick, BrickSpec]],
+    specs: dict[str, BrickSpec],
+) -> None:
+    """Refuse push ``i`` (``p`` as written) when the pusher carries its target ``brick`` along its
+    direction into one of the fixed bodies (``boxes``, each with its body) by more than
+    :data:`PRESSED` (see :func:`_room_ahead`).
+
+    Raises:
+        ScenarioError: at the push's ``distance``.
+    """
+    direction = np.array(push.velocity) / np.linalg.norm(push.velocity)
+    reach = _first_touch(push, direction, [brick], specs)
+    carried = p.distance - float(reach[0]) if len(reach) and np.isfinite(reach[0]) else 0.0
+    if carried <= PRESSED:
+        return
+    pose = brick.pose()
+    poses = [f.pose() for f, _ in boxes]
+    room, _ = touching(
+        pose.position,
+        pose.rotation,
+        np.array(specs[brick.type].half_extents),
+        np.array([q.position for q in poses]),
+        np.array([q.rotation for q in poses]),
+        np.array([s.half_extents for _, s in boxes]),
+        direction,
+    )
+    if not len(room) or not np.isfinite(room.min()) or carried - float(room.min()) <= PRESSED:
+        return
+    k = int(np.argmin(room))
+    ahead = max(0.0, float(room[k]))
+    raise scenario.source.error(
+        _written(scenario, ("actions", i, "push"), "distance"),
+        f"the push drives {brick.id} {_mm(carried - ahead)} mm into the fixed body {boxes[k][0].id}: it has "
+        f"{_mm(ahead)} mm of room ahead and the pusher carries it {_mm(carried)} mm; the engines do not agree on a "
+        "brick pressed into an immovable body (one pushes it through, one lifts it, one throws it back), so no "
+        f"verdict on it holds: give a distance of at most {_mm(p.distance - carried + ahead)} mm, or move "
+        f"{boxes[k][0].id}",
+    )
 
 
 def _not_pushed_while_pulled(scenario: Scenario, motions: Sequence[Kinematic]) -> None:

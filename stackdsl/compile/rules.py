@@ -34,41 +34,12 @@ def choose_rules(
     (``split_pulls``: :attr:`stackdsl.engines.backend.Backend.split_pulls`), ``guided`` says that the
     steps are split while a pull lasts (:data:`stackdsl.compile.program.PULL_STEP`)."""
     tilted = [b.id for b, flat in zip(bricks, lie_flat(bricks)) if not flat]
-    faced = set(b.id for b, face in zip(bricks, on_a_face(bricks)) if face)
     judged_after = next((name for name in ("stays", "may_fall", "moved", "toppled") if getattr(expect, name) is not None), None)
     hands = [m for m in motions if isinstance(m, (Remove, Push))]
     shakes = [m for m in motions if isinstance(m, Shake)]
-    listed = ", ".join(tilted[:4]) + (f" and {len(tilted) - 4} more" if len(tilted) > 4 else "")
-    lean = (
-        f"bricks placed {'on an edge or an end' if all(t in faced for t in tilted) else 'tilted'}: {listed}"
-        if tilted
-        else "a thrown brick may come to rest leaning"
-        if launches
-        else "a pulled or pushed brick may come to rest leaning"
-        if hands
-        else "every brick lies flat and nothing is thrown"
-    )
-    moved = ", ".join(f"{m.kind} {m.id} at {m.time:g} s" for m in hands)
-    peak = max((m.peak_acceleration for m in shakes), default=0.0)
-    hand = Rule(
-        name="guided",
-        on=True,
-        reason=f"{moved}: wakes what it carries and the frozen bricks it touches; never frozen while moved"
-        + (
-            f"; steps split to at most {PULL_STEP * 1000:.3g} ms ({1 / PULL_STEP:.0f} Hz) while a pull lasts"
-            if split_pulls and any(isinstance(m, Remove) for m in hands)
-            else ""
-        ),
-    )
-    ground = Rule(
-        name="shake",
-        on=True,
-        reason=f"the ground shakes (peak {peak:.3g} m/s^2): the frozen stack stays frozen only if it stands under gravity "
-        "tilted by the peak acceleration; else it wakes, and nothing freezes while the ground moves",
-    )
     return (
         Rule(name="basic", on=True, reason="every scene"),
-        Rule(name="leaning", on=bool(tilted or launches or hands), reason=lean),
+        Rule(name="leaning", on=bool(tilted or launches or hands), reason=_lean_reason(bricks, tilted, launches, hands)),
         Rule(
             name="impacts",
             on=bool(launches or hands),
@@ -85,6 +56,49 @@ def choose_rules(
             if judged_after
             else "nothing is judged on bricks after a collapse: they settle as cheaper bodies",
         ),
-        *((hand,) if hands else ()),
-        *((ground,) if shakes else ()),
+        *((_guided_rule(hands, split_pulls),) if hands else ()),
+        *((_shake_rule(shakes),) if shakes else ()),
+    )
+
+
+def _lean_reason(bricks: list[LaidBrick], tilted: list[str], launches: list[Launch], hands: Sequence[Remove | Push]) -> str:
+    """Why the ``leaning`` rule is on or off: the ``tilted`` bricks (on an edge or an end, or
+    tilted; the first four named), a throw, a pull or a push, or none of them."""
+    faced = set(b.id for b, face in zip(bricks, on_a_face(bricks)) if face)
+    listed = ", ".join(tilted[:4]) + (f" and {len(tilted) - 4} more" if len(tilted) > 4 else "")
+    return (
+        f"bricks placed {'on an edge or an end' if all(t in faced for t in tilted) else 'tilted'}: {listed}"
+        if tilted
+        else "a thrown brick may come to rest leaning"
+        if launches
+        else "a pulled or pushed brick may come to rest leaning"
+        if hands
+        else "every brick lies flat and nothing is thrown"
+    )
+
+
+def _guided_rule(hands: Sequence[Remove | Push], split_pulls: bool) -> Rule:
+    """The ``guided`` rule of a scene whose hands pull or push (``hands``), saying when the steps
+    are split while a pull lasts (``split_pulls``)."""
+    moved = ", ".join(f"{m.kind} {m.id} at {m.time:g} s" for m in hands)
+    return Rule(
+        name="guided",
+        on=True,
+        reason=f"{moved}: wakes what it carries and the frozen bricks it touches; never frozen while moved"
+        + (
+            f"; steps split to at most {PULL_STEP * 1000:.3g} ms ({1 / PULL_STEP:.0f} Hz) while a pull lasts"
+            if split_pulls and any(isinstance(m, Remove) for m in hands)
+            else ""
+        ),
+    )
+
+
+def _shake_rule(shakes: list[Shake]) -> Rule:
+    """The ``shake`` rule of a scene whose ground shakes (``shakes``), with the peak acceleration."""
+    peak = max((m.peak_acceleration for m in shakes), default=0.0)
+    return Rule(
+        name="shake",
+        on=True,
+        reason=f"the ground shakes (peak {peak:.3g} m/s^2): the frozen stack stays frozen only if it stands under gravity "
+        "tilted by the peak acceleration; else it wakes, and nothing freezes while the ground moves",
     )

@@ -337,57 +337,77 @@ def _expectation_problems(
     """Expectations about levels above the highest level placed (``top``), about bricks that
     none of the structure's ``ids`` is, or that name one brick (its level in ``level_of``) as
     both staying and moving or falling, by level, id or part."""
-    expect = scenario.expect
-    problems = []
+    problems = _collapse_beyond(scenario.expect, top)
+    for name in ("stays", "may_fall", "moved"):
+        problems += _selection_problems(scenario.expect, name, top, ids)
+    problems += _unplaceable(scenario, ids, level_of or {})
+    problems += _stay_and_move(scenario.expect, ids, level_of or {})
+    return problems
+
+
+def _collapse_beyond(expect: Expect, top: int) -> list[_Problem]:
+    """``expect.collapse`` at a level (with its tolerance) above the highest level placed, ``top``."""
     c = expect.collapse
-    if isinstance(c, CollapseLevel) and c.level - c.tolerance > top:
-        written = (
-            f"collapse {c.level}±{c.tolerance} (levels {c.level - c.tolerance}-{c.level + c.tolerance})"
-            if c.tolerance
-            else f"collapse {c.level}"
+    if not isinstance(c, CollapseLevel) or c.level - c.tolerance <= top:
+        return []
+    written = (
+        f"collapse {c.level}±{c.tolerance} (levels {c.level - c.tolerance}-{c.level + c.tolerance})"
+        if c.tolerance
+        else f"collapse {c.level}"
+    )
+    return [
+        _Problem(
+            ("expect", "collapse"),
+            (2, 0),
+            ("expect", "collapse"),
+            f"{written} can never be measured: the structure has {top} level{'s' * (top != 1)}, and the "
+            f"collapse level is the highest level placed when a brick first moves; expect a level from 1 to "
+            f"{top} (or a tolerance that reaches one), or 'stands: true'",
         )
+    ]
+
+
+def _selection_problems(expect: Expect, name: str, top: int, ids: Sequence[str]) -> list[_Problem]:
+    """``expect.<name>`` (``stays``, ``may_fall``, ``moved``) naming bricks that none of the
+    structure's ``ids`` is (at the first unknown name of a list), or levels above ``top``."""
+    problems = []
+    levels = levels_of(getattr(expect, name) or ())
+    unknown = [s for s in bricks_of(getattr(expect, name) or ()) if not any(selects(s, i) for i in ids)]
+    if unknown:
+        written = getattr(expect, name)
+        at = (list(written).index(unknown[0]),) if isinstance(written, (list, tuple)) else ()
         problems.append(
             _Problem(
-                ("expect", "collapse"),
-                (2, 0),
-                ("expect", "collapse"),
-                f"{written} can never be measured: the structure has {top} level{'s' * (top != 1)}, and the "
-                f"collapse level is the highest level placed when a brick first moves; expect a level from 1 to "
-                f"{top} (or a tolerance that reaches one), or 'stands: true'",
+                ("expect", name),
+                (2, 3),
+                ("expect", name, *at),  # at the first unknown name of a list
+                f"{', '.join(repr(u) for u in unknown)} name{'s' * (len(unknown) == 1)} no brick of the structure: "
+                f"give a brick id (such as {ids[0]!r})"
+                + (f" or the start of ids (such as {ids[0].rsplit('.', 1)[0]!r}), up to a '.'" if "." in ids[0] else "")
+                + closest(unknown[0], ids),
             )
         )
-    for name in ("stays", "may_fall", "moved"):
-        levels = levels_of(getattr(expect, name) or ())
-        unknown = [s for s in bricks_of(getattr(expect, name) or ()) if not any(selects(s, i) for i in ids)]
-        if unknown:
-            written = getattr(expect, name)
-            at = (list(written).index(unknown[0]),) if isinstance(written, (list, tuple)) else ()
-            problems.append(
-                _Problem(
-                    ("expect", name),
-                    (2, 3),
-                    ("expect", name, *at),  # at the first unknown name of a list
-                    f"{', '.join(repr(u) for u in unknown)} name{'s' * (len(unknown) == 1)} no brick of the structure: "
-                    f"give a brick id (such as {ids[0]!r})"
-                    + (f" or the start of ids (such as {ids[0].rsplit('.', 1)[0]!r}), up to a '.'" if "." in ids[0] else "")
-                    + closest(unknown[0], ids),
-                )
+    beyond = [lv for lv in levels if lv > top]
+    if beyond:
+        problems.append(
+            _Problem(
+                ("expect", name),
+                (2, 1 if name == "stays" else 2),
+                ("expect", name),
+                f"level{'s' * (len(beyond) != 1)} {span(beyond)} {'are' if len(beyond) != 1 else 'is'} never built: "
+                f"the structure has {top} level{'s' * (top != 1)}; name levels from 1 to {top}",
             )
-        beyond = [lv for lv in levels if lv > top]
-        if beyond:
-            problems.append(
-                _Problem(
-                    ("expect", name),
-                    (2, 1 if name == "stays" else 2),
-                    ("expect", name),
-                    f"level{'s' * (len(beyond) != 1)} {span(beyond)} {'are' if len(beyond) != 1 else 'is'} never built: "
-                    f"the structure has {top} level{'s' * (top != 1)}; name levels from 1 to {top}",
-                )
-            )
-    problems += _unplaceable(scenario, ids, level_of or {})
-    stays = _chosen(expect.stays, ids, level_of or {})
+        )
+    return problems
+
+
+def _stay_and_move(expect: Expect, ids: Sequence[str], level_of: Mapping[str, int]) -> list[_Problem]:
+    """Bricks (of ``ids``, each with its level in ``level_of``) that ``stays`` names and ``moved``
+    or ``may_fall`` names too, by level, id or part: a brick cannot both stay and move."""
+    problems = []
+    stays = _chosen(expect.stays, ids, level_of)
     for name, verb in (("moved", "move"), ("may_fall", "fall")):
-        both = [(i, why) for i, why in _chosen(getattr(expect, name), ids, level_of or {}).items() if i in stays]
+        both = [(i, why) for i, why in _chosen(getattr(expect, name), ids, level_of).items() if i in stays]
         if both:
             shown = ", ".join(i for i, _ in both[:3]) + (f" and {len(both) - 3} more" if len(both) > 3 else "")
             named = f"{'is' if len(both) == 1 else 'are'} named by both 'stays' ({stays[both[0][0]]}) and {name!r} ({both[0][1]})"

@@ -35,7 +35,8 @@ from __future__ import annotations
 import itertools
 import math
 import os
-from typing import Annotated, Literal, NamedTuple
+from collections.abc import Callable
+from typing import Annotated, Any, Literal, NamedTuple
 
 from pydantic import BaseModel, ConfigDict, Field, PlainSerializer
 
@@ -400,33 +401,50 @@ def estimate_work(program: Program) -> Work:
     (not counted: a run's timeout bounds it). Source: stackdsl's own.
     """
     e = program.engine
-    dt = e.timestep
-    end = program.actions[-1].step
     weight = max(1.0, e.solver_iterations / REFERENCE_ITERATIONS)
     entries = [a for a in program.actions if isinstance(a, (Place, Launch))]
+    work = _entry_work(program, entries, weight)
+    work = _guided_work(program, entries, weight, work)
+    return _flight_work(program, entries, weight, work)
+
+
+def _entry_work(program: Program, entries: list[Place | Launch], weight: float) -> Work:
+    """The work of the bricks placed and thrown (``entries``; ``weight``: the solver iterations'
+    factor) and of the fixtures: in raw and tuned modes every body steps to the end; in extension
+    mode a brick moves only while it falls and settles after its placement, and the bricks at rest
+    are counted once each while others move (plus the equilibrium model's solve)."""
+    e = program.engine
+    dt = e.timestep
+    end = program.actions[-1].step
     fixtures = len(program.fixtures)
     if e.mode != "extension":
-        steps = float(end)
-        moving = weight * sum(end - a.step for a in entries)
-        resting = float(fixtures * end)
-    else:
-        rest = program.stability.rest_duration
-        drop = max((a.drop for a in program.placements), default=0.0)
-        active = math.ceil((math.sqrt(2 * drop / e.gravity) + SETTLING + rest) / dt)
-        slots: dict[int, int] = {}
-        for a in program.placements:
-            slots[a.step] = slots.get(a.step, 0) + 1
-        marks = sorted({*slots, *(a.step for a in entries), end})
-        steps = moving = resting = 0.0
-        present = fixtures
-        solve = EQUILIBRIUM_SOLVE if program.stability.model == "equilibrium" else 0.0
-        for step, following in itertools.pairwise(marks):
-            placed = slots.get(step, 0)
-            stepped = min(following - step, active * placed)
-            steps += stepped
-            moving += stepped * weight * placed
-            resting += stepped * present + solve * placed * present**3
-            present += placed
+        return Work(float(end), weight * sum(end - a.step for a in entries), float(fixtures * end))
+    rest = program.stability.rest_duration
+    drop = max((a.drop for a in program.placements), default=0.0)
+    active = math.ceil((math.sqrt(2 * drop / e.gravity) + SETTLING + rest) / dt)
+    slots: dict[int, int] = {}
+    for a in program.placements:
+        slots[a.step] = slots.get(a.step, 0) + 1
+    marks = sorted({*slots, *(a.step for a in entries), end})
+    steps = moving = resting = 0.0
+    present = fixtures
+    solve = EQUILIBRIUM_SOLVE if program.stability.model == "equilibrium" else 0.0
+    for step, following in itertools.pairwise(marks):
+        placed = slots.get(step, 0)
+        stepped = min(following - step, active * placed)
+        steps += stepped
+        moving += stepped * weight * placed
+        resting += stepped * present + solve * placed * present**3
+        present += placed
+    return Work(steps, moving, resting)
+
+
+def _guided_work(program: Program, entries: list[Place | Launch], weight: float, work: Work) -> Work:
+    """``work`` plus that of the substeps a hand's path (a pull, a push) or a shake needs: every
+    body moving while it lasts, in extension mode too (raw and tuned: the extra substeps only)."""
+    e = program.engine
+    steps, moving, resting = work
+    fixtures = len(program.fixtures)
     for motion in (
         a for a in program.actions if isinstance(a, (Remove, Push, Shake))
     ):  # every body moving, in extension mode too, in the substeps a hand's path needs
@@ -441,6 +459,18 @@ def estimate_work(program: Program) -> Work:
             moving += span * (substeps - 1) * weight * (present - isinstance(motion, Push))
             moving += span * substeps * weight * isinstance(motion, Push)
             resting += span * (substeps - 1) * fixtures
+    return Work(steps, moving, resting)
+
+
+def _flight_work(program: Program, entries: list[Place | Launch], weight: float, work: Work) -> Work:
+    """``work`` plus that of each throw's flight and impact: its substeps (continuous collision
+    detection on), and in extension mode every body stepped through the flight and the impact's
+    window (raw, tuned: counted already)."""
+    e = program.engine
+    dt = e.timestep
+    end = program.actions[-1].step
+    fixtures = len(program.fixtures)
+    steps, moving, resting = work
     for launch in (a for a in entries if isinstance(a, Launch)):
         speed = math.sqrt(sum(v * v for v in launch.velocity))
         substeps = min(MAX_SUBSTEPS, max(1, math.ceil(speed * dt / program.collapse_threshold))) if e.ccd else 1
@@ -513,44 +543,63 @@ def format_program(program: Program) -> str:
         )
     for a in program.actions:
         head = f"  t={a.time:9.3f} s  step {a.step:>8}  "
-        if isinstance(a, Place):
-            x, y, z = (_mm(v) for v in a.position)
-            lines.append(
-                f"{head}place  {a.id:<10} level {a.level:>3}  at ({x:8.1f}, {y:8.1f}, {z:7.1f}) mm  "
-                f"yaw {a.yaw:6.1f}  pitch {a.pitch:5.1f}  roll {a.roll:5.1f}  {a.brick.type}"
-            )
-        elif isinstance(a, Launch):
-            x, y, z = (_mm(v) for v in a.target)
-            speed = sum(v * v for v in a.velocity) ** 0.5
-            lines.append(
-                f"{head}launch {a.id:<10} {speed:.3g} m/s at ({x:.1f}, {y:.1f}, {z:.1f}) mm, "
-                f"arriving t={a.arrival:.3f} s  {a.brick.type}"
-            )
-        elif isinstance(a, Remove):
-            speed = math.sqrt(sum(v * v for v in a.velocity))
-            direction = ", ".join(f"{round(v / speed, 9) + 0.0:.3g}" for v in a.velocity)
-            lines.append(
-                f"{head}remove {a.id:<10} pulled along ({direction}) at {speed * 1000:.3g} mm/s until t={a.end_time:.3f} s"
-            )
-        elif isinstance(a, Push):
-            x, y, z = (v * 1000 for v in a.position)
-            speed = math.sqrt(sum(v * v for v in a.velocity))
-            lines.append(
-                f"{head}push   {a.id:<10} from ({x:.1f}, {y:.1f}, {z:.1f}) mm at {speed * 1000:.3g} mm/s into {a.target} "
-                f"until t={a.end_time:.3f} s  {a.brick.type}"
-            )
-        elif isinstance(a, Shake):
-            fitted = (
-                ""
-                if a.written_frequency is None
-                else f" ({a.written_frequency:g} Hz fitted to {a.periods} period{'s' * (a.periods != 1)} in "
-                f"{a.end_step - a.step} steps)"
-            )
-            lines.append(
-                f"{head}shake  ground     {a.amplitude * 1000:.3g} mm at {a.frequency:.4g} Hz{fitted} along "
-                f"({a.direction[0]:.3g}, {a.direction[1]:.3g}) until t={a.end_time:.3f} s, peak acceleration "
-                f"{a.peak_acceleration:.3g} m/s^2"
-            )
-        else:
-            lines.append(f"{head}end")
+        line = _ACTION_LINES.get(type(a))
+        lines.append(head + (line(a) if line is not None else "end"))
     return "\n".join(lines)
+
+
+def _place_line(a: Place) -> str:
+    """A placement as ``stackdsl compile`` prints it (after its time and step)."""
+    x, y, z = (_mm(v) for v in a.position)
+    return (
+        f"place  {a.id:<10} level {a.level:>3}  at ({x:8.1f}, {y:8.1f}, {z:7.1f}) mm  "
+        f"yaw {a.yaw:6.1f}  pitch {a.pitch:5.1f}  roll {a.roll:5.1f}  {a.brick.type}"
+    )
+
+
+def _launch_line(a: Launch) -> str:
+    """A throw as ``stackdsl compile`` prints it."""
+    x, y, z = (_mm(v) for v in a.target)
+    speed = sum(v * v for v in a.velocity) ** 0.5
+    return f"launch {a.id:<10} {speed:.3g} m/s at ({x:.1f}, {y:.1f}, {z:.1f}) mm, arriving t={a.arrival:.3f} s  {a.brick.type}"
+
+
+def _remove_line(a: Remove) -> str:
+    """A pull as ``stackdsl compile`` prints it."""
+    speed = math.sqrt(sum(v * v for v in a.velocity))
+    direction = ", ".join(f"{round(v / speed, 9) + 0.0:.3g}" for v in a.velocity)
+    return f"remove {a.id:<10} pulled along ({direction}) at {speed * 1000:.3g} mm/s until t={a.end_time:.3f} s"
+
+
+def _push_line(a: Push) -> str:
+    """A push as ``stackdsl compile`` prints it."""
+    x, y, z = (v * 1000 for v in a.position)
+    speed = math.sqrt(sum(v * v for v in a.velocity))
+    return (
+        f"push   {a.id:<10} from ({x:.1f}, {y:.1f}, {z:.1f}) mm at {speed * 1000:.3g} mm/s into {a.target} "
+        f"until t={a.end_time:.3f} s  {a.brick.type}"
+    )
+
+
+def _shake_line(a: Shake) -> str:
+    """A shake of the ground as ``stackdsl compile`` prints it."""
+    fitted = (
+        ""
+        if a.written_frequency is None
+        else f" ({a.written_frequency:g} Hz fitted to {a.periods} period{'s' * (a.periods != 1)} in {a.end_step - a.step} steps)"
+    )
+    return (
+        f"shake  ground     {a.amplitude * 1000:.3g} mm at {a.frequency:.4g} Hz{fitted} along "
+        f"({a.direction[0]:.3g}, {a.direction[1]:.3g}) until t={a.end_time:.3f} s, peak acceleration "
+        f"{a.peak_acceleration:.3g} m/s^2"
+    )
+
+
+#: How :func:`format_program` prints each kind of action after its time and step ("end" for the end).
+_ACTION_LINES: dict[type, Callable[[Any], str]] = {
+    Place: _place_line,
+    Launch: _launch_line,
+    Remove: _remove_line,
+    Push: _push_line,
+    Shake: _shake_line,
+}

@@ -3,7 +3,7 @@
 :class:`StaticsWorld` is a :class:`~stackdsl.engines.protocol.World` whose bodies never move by
 themselves. After each step in which bricks were placed (one, or a group placed together), it
 asks rigid-block equilibrium (:func:`stability.solve_equilibrium`) of every brick standing, at
-its pose, on the contacts the poses give (:mod:`stackdsl.engines.statics.contacts`, within
+its pose, on the contacts the poses give (:func:`stability.contacts_of`, within
 :data:`GAP` of each other). When no forces balance them, the bricks of the collapse mechanism
 and the brick just placed fall: each is laid flat on the ground where it was, and leaves the
 problem; equilibrium is asked again of the rest until it holds. The runtime's collapse monitor
@@ -23,15 +23,14 @@ import numpy as np
 from scipy.optimize import nnls
 from scipy.spatial.transform import Rotation
 
-from stability import Box, ContactPoint, ContactPolygon, Pose, RigidBlock, solve_equilibrium
+from stability import CONTACT_GAP, Box, ContactPoint, ContactPolygon, PlacedBox, Pose, RigidBlock, contacts_of, solve_equilibrium
 
 from ..protocol import BrickSpec, EngineSettings, Vec3, World
-from .contacts import Body, contacts_of
 
 #: Metres within which two faces, or a corner and a face, touch: bricks are placed a drop gap
 #: above their poses (0.5 mm by default), and this backend takes drop gaps up to 1 mm
 #: (:data:`stackdsl.engines.statics.MAX_DROP`).
-GAP = 0.0011
+GAP = CONTACT_GAP
 
 
 class StaticsWorld(World):
@@ -49,7 +48,7 @@ class StaticsWorld(World):
         self.ground = 0
         self._timestep = engine.timestep
         self._ground_friction = ground_friction
-        self._bodies: dict[int, Body] = {}
+        self._bodies: dict[int, PlacedBox] = {}
         self._free: set[int] = set()  # bodies with mass: the bricks statics balances
         self._placed: list[int] = []  # placed since the last step: equilibrium is asked then
         self.fallen: list[int] = []
@@ -65,16 +64,16 @@ class StaticsWorld(World):
     # bodies -------------------------------------------------------------------
     def create(self, spec: BrickSpec, pose: Pose, mass: float | None = None, projectile: bool = False) -> int:
         body = len(self._bodies) + 1
-        self._put(Body(body, Box(np.array(spec.half_extents), spec.mass), pose, spec.friction))
+        self._put(PlacedBox(body, Box(np.array(spec.half_extents), spec.mass), pose, spec.friction))
         self._enter(body, spec.mass if mass is None else mass)
         return body
 
     def move(self, body: int, pose: Pose, mass: float) -> None:
         old = self._bodies[body]
-        self._put(Body(body, old.box, pose, old.friction))
+        self._put(PlacedBox(body, old.box, pose, old.friction))
         self._enter(body, mass)
 
-    def _put(self, body: Body) -> None:
+    def _put(self, body: PlacedBox) -> None:
         """Put ``body`` where it says (its contacts are found anew)."""
         self._bodies[body.key] = body
         corners = body.box.corners(body.pose)
@@ -155,9 +154,9 @@ class StaticsWorld(World):
         x, y = float(body.pose.position[0]), float(body.pose.position[1])
         pose = Pose(np.array([x, y, float(half[thin])]), Rotation.from_matrix(matrix).as_quat())
         self.fallen.append(key)
-        self._put(Body(key, body.box, pose, body.friction))
+        self._put(PlacedBox(key, body.box, pose, body.friction))
 
-    def _contacts(self, body: Body, standing: set[int]) -> list[ContactPolygon[int]]:
+    def _contacts(self, body: PlacedBox, standing: set[int]) -> list[ContactPolygon[int]]:
         """The contact polygons of ``body`` with the ground and the bodies of ``standing`` whose
         bounds meet its own (within :data:`GAP`), kept until one of them is put elsewhere."""
         kept = self._polygons.get(body.key)
@@ -200,7 +199,7 @@ class StaticsWorld(World):
             old = self._bodies[body]
             same = np.array_equal(old.pose.position, at.position) and np.array_equal(old.pose.orientation, at.orientation)
             if not same:
-                self._put(Body(body, old.box, at, old.friction))
+                self._put(PlacedBox(body, old.box, at, old.friction))
 
     def _all_points(self) -> dict[int, list[ContactPoint]]:
         """Every body's contact points, seen from it (each pair from both sides): the polygons'
@@ -225,7 +224,7 @@ class StaticsWorld(World):
 INSIDE = 1e-6
 
 
-def _paths_hold(free: Sequence[Body], polygons: dict[int, list[ContactPolygon[int]]]) -> bool:
+def _paths_hold(free: Sequence[PlacedBox], polygons: dict[int, list[ContactPolygon[int]]]) -> bool:
     """Whether vertical forces found brick by brick balance every brick of ``free`` (its contact
     polygons by key, each on the bodies it lies on): a proof that they stand, and no answer when
     it fails (the equilibrium program then decides).

@@ -1,0 +1,378 @@
+"""Rigid-block equilibrium of boxes placed one at a time, asked again only where a box loads.
+
+:class:`Placing` holds boxes at their poses (the ground plane, fixed boxes, and free boxes
+placed in order). After each placement it says whether forces exist that balance every free
+box (:meth:`Placing.place`), in two ways:
+
+1. **Load paths**, kept from one placement to the next. Each free box's load (its weight at its
+   centre of mass and the vertical forces the boxes on it put on it) is split among the contact
+   polygons it rests on (those whose normal into it is vertical: the ground, the top faces of
+   level boxes), each share a vertical force at a point strictly inside its polygon, by
+   :data:`INSIDE` (:func:`_split`); each share is a load on the box under it. These forces
+   balance every box (forces and moments: a vertical force at a point has no moment about the
+   vertical), so they are a solution of the equilibrium program: a proof that the boxes stand.
+   A new box changes the loads of the boxes under it only: those are split again, from the top
+   down, and nothing else is looked at. Contacts with other normals (side faces, a leaning box)
+   carry no force in this proof, which is still one.
+2. **The equilibrium program** (:func:`stability.solve_equilibrium`) over every free box and
+   contact, only when a load path fails (a load's point outside, or on the edge of, what its
+   polygons can carry; a box that rests on no level face): it decides, and names the collapse
+   mechanism when no forces balance the boxes.
+
+The load paths also bound the equilibrium margin from below (:attr:`Placing.slack`): moving
+every centre of mass by the same horizontal shift moves every load's point and every share's
+point by it, with the same shares, so the proof holds while every share's point stays inside
+its polygon.
+
+Source: stackdsl's own, on rigid-block equilibrium (Livesley 1978; Whiting et al. 2009); the
+load paths as those of :mod:`stability._load_path`, kept incrementally.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from scipy.optimize import nnls
+from shapely.geometry import Polygon
+
+from ._contacts import PlacedBox, contacts_of
+from ._equilibrium import GRAVITY, ContactPolygon, Equilibrium, RigidBlock, solve_equilibrium
+from ._geometry import ContactArea, Pose
+from ._graph import BrickGraph, BrickState, GraphEdge, GraphNode
+from ._load import LoadNode, propagate
+
+#: Metres inside its contact polygon's edges that a share's point must lie for the load paths
+#: (nearer, the equilibrium program decides).
+INSIDE = 1e-6
+#: Metres within which two faces, or a corner and a face, touch: a brick placed up to 1 mm above
+#: its pose (a drop gap) still lies on what is under it.
+GAP = 0.0011
+#: A contact normal whose vertical component is at least this is vertical (0.008 degrees).
+VERTICAL = 1.0 - 1e-8
+
+
+@dataclass(frozen=True)
+class Rest:
+    """Box ``upper`` rests on ``lower`` through a level contact polygon.
+
+    Attributes:
+        upper, lower: keys; polygon: the contact (its normal into ``upper``, vertical).
+        centre: (x, y) of its vertices' mean, metres; hull: its convex hull's vertices (x, y),
+        counter-clockwise; units: the unit direction of each hull edge (empty when the points
+        enclose no area: nothing can be carried strictly inside them).
+    """
+
+    upper: int
+    lower: int
+    polygon: ContactPolygon[int]
+    centre: tuple[float, float]
+    hull: tuple[tuple[float, float], ...]
+    units: tuple[tuple[float, float], ...]
+
+    @classmethod
+    def of(cls, upper: int, lower: int, polygon: ContactPolygon[int]) -> Rest:
+        """The rest through ``polygon`` (vertices of shape (k, 3), metres)."""
+        xy = np.asarray(polygon.points, dtype=float)[:, :2]
+        centre = (float(xy[:, 0].mean()), float(xy[:, 1].mean()))
+        hull = [tuple(map(float, xy[i])) for i in _hull(xy)]
+        units: list[tuple[float, float]] = []
+        if len(hull) >= 3:
+            for (x0, y0), (x1, y1) in zip(hull, hull[1:] + hull[:1]):
+                length = math.hypot(x1 - x0, y1 - y0)
+                units.append(((x1 - x0) / length, (y1 - y0) / length))
+        return cls(upper, lower, polygon, centre, tuple(hull), tuple(units))  # type: ignore[arg-type]
+
+    def inside(self, x: float, y: float) -> float:
+        """Metres from (x, y) to the nearest edge of the hull, positive inside (-inf when the
+        hull encloses no area)."""
+        if not self.units:
+            return -math.inf
+        return min(ux * (y - hy) - uy * (x - hx) for (hx, hy), (ux, uy) in zip(self.hull, self.units))
+
+
+@dataclass(frozen=True)
+class Placed:
+    """What :meth:`Placing.place` found.
+
+    Attributes:
+        stands: forces exist that balance every free box.
+        method: ``"load paths"`` (the kept paths prove it) or ``"program"`` (the equilibrium
+            program decided).
+        answer: the program's answer (None with the load paths): its tension and mechanism.
+    """
+
+    stands: bool
+    method: str
+    answer: Equilibrium[int] | None = None
+
+
+class Placing:
+    """Boxes placed one at a time on the plane z = 0 and fixed boxes, with rigid-block
+    equilibrium asked after each (module docstring).
+
+    Args:
+        ground: the key of the ground plane; ground_friction: its friction coefficient.
+        gap: metres within which two faces, or a corner and a face, touch (:data:`GAP`).
+        gravity: m/s^2, along -z.
+
+    Attributes:
+        boxes: every box by key (fixed and free), in the order added; free: the free ones' keys;
+        polygons: every contact polygon (normal into its ``body``), in the order found;
+        rests: every level rest, per upper box.
+    """
+
+    def __init__(self, ground: int, ground_friction: float, gap: float = GAP, gravity: float = GRAVITY) -> None:
+        self.ground, self.ground_friction, self.gap, self.gravity = ground, ground_friction, gap, gravity
+        self.boxes: dict[int, PlacedBox] = {}
+        self.free: list[int] = []
+        self.polygons: list[ContactPolygon[int]] = []
+        self.rests: dict[int, dict[int, Rest]] = {}
+        self._keys: list[int] = []
+        self._bounds = np.zeros((0, 2, 3))  # per box: its low and high corners, widened by gap, m
+        self._load: dict[int, list[float]] = {}  # free box -> (F, F x, F y, F z): N and N m about the origin
+        self._given: dict[int, dict[int, tuple[float, float, float, float]]] = {}  # box -> what it puts on each support
+        self._slack: dict[int, float] = {}  # box -> metres its shares' points lie inside their polygons
+        self._failed: set[int] = set()  # free boxes whose load paths fail
+
+    def add_fixed(self, box: PlacedBox) -> None:
+        """Add a fixed box (a support: nothing balances it). Raises ValueError for a key in use."""
+        self._add(box)
+
+    def place(self, boxes: Sequence[PlacedBox]) -> Placed:
+        """Place the free ``boxes`` (put there together: one step) at their poses and say
+        whether every free box stands (module docstring). Raises ValueError for a key in use, or
+        a box without mass."""
+        dirty: set[int] = set()
+        for box in boxes:
+            dirty |= self._put(box)
+        self._carry(dirty & set(self._load))
+        return self.solve()
+
+    def solve(self) -> Placed:
+        """Whether every free box stands now: by the load paths, else by the program."""
+        if not self._failed:
+            return Placed(True, "load paths")
+        blocks = {k: RigidBlock(self.boxes[k].box.mass, self.boxes[k].pose.position) for k in self.free}
+        answer = solve_equilibrium(blocks, self.polygons, gravity=self.gravity)
+        return Placed(answer.stands, "program", answer)
+
+    def _put(self, box: PlacedBox) -> set[int]:
+        """Add free box ``box`` with its contacts; the boxes whose rests changed (to split anew)."""
+        if box.box.mass <= 0.0:
+            raise ValueError(f"box {box.key} has no mass: add it with add_fixed")
+        near = [self.boxes[k] for k in self._meeting(box)]
+        self._add(box)
+        found = contacts_of(box, near, self.ground, self.ground_friction, self.gap)
+        for other in near:
+            if other.key in self._load:  # what a free box touches, from its side too (a fixed box is not balanced)
+                found += contacts_of(other, [box], None, self.ground_friction, self.gap)
+        self.polygons += found
+        self.free.append(box.key)
+        weight = box.box.mass * self.gravity
+        x, y, z = (float(v) for v in box.pose.position)
+        self._load[box.key] = [weight, weight * x, weight * y, weight * z]
+        self._given[box.key] = {}
+        dirty = {box.key}
+        for c in found:
+            rest = _rest(c)
+            if rest is not None and rest.lower not in self.rests.get(rest.upper, {}):
+                self.rests.setdefault(rest.upper, {})[rest.lower] = rest
+                dirty.add(rest.upper)
+        return dirty
+
+    @property
+    def proved(self) -> bool:
+        """Whether the load paths prove that every free box stands now."""
+        return not self._failed
+
+    @property
+    def slack(self) -> float:
+        """Metres: the least distance of a share's point inside its polygon, over every free
+        box, while the load paths prove the stand (module docstring: a lower bound of the
+        equilibrium margin); 0 when they do not."""
+        if self._failed or not self._slack:
+            return 0.0
+        return max(0.0, min(self._slack.values()))
+
+    def load(self, key: int) -> tuple[float, tuple[float, float, float]]:
+        """The load on free box ``key`` in its load path: newtons, and where it acts (x, y, z of
+        the centre of mass above, metres). Raises KeyError for a box that is not free."""
+        force, mx, my, mz = self._load[key]
+        return force, (mx / force, my / force, mz / force)
+
+    def graph(self, labels: dict[int, str], moving: frozenset[int] = frozenset()) -> BrickGraph:
+        """The brick graph of the boxes as they are: the ground (labelled ``labels[ground]``) and
+        the fixed boxes as ground, the free ones frozen (held by statics) but those of ``moving``
+        (a collapse mechanism) active; the edges are the level rests, their load shares
+        :func:`stability.propagate`'s (report 3.3.5-3.3.6). ``labels``: key -> label, for every
+        box and the ground. Raises KeyError for a box without a label."""
+        areas = {upper: {lower: _area(r) for lower, r in found.items()} for upper, found in self.rests.items()}
+        nodes = {k: LoadNode(self.boxes[k].box.mass, self.boxes[k].pose.position, areas.get(k, {})) for k in self.free}
+        loads = propagate(nodes)
+        ground_pose = Pose(np.zeros(3))
+        graph_nodes = [GraphNode(labels[self.ground], BrickState.GROUND, ground_pose, ground_pose.position, 0.0)]
+        edges = []
+        for key in self._keys:
+            box = self.boxes[key]
+            load = loads.get(key)
+            if load is None:
+                graph_nodes.append(GraphNode(labels[key], BrickState.GROUND, box.pose, box.pose.position, 0.0))
+                continue
+            state = BrickState.ACTIVE if key in moving else BrickState.FROZEN
+            graph_nodes.append(GraphNode(labels[key], state, box.pose, load.com_above, load.mass_above))
+            for lower, area in nodes[key].supports.items():
+                outline = tuple((float(x), float(y)) for x, y in list(area.polygon.exterior.coords)[:-1])
+                edges.append(GraphEdge(labels[key], labels[lower], area.area, load.shares.get(lower, 0.0), area.exact, outline))
+        return BrickGraph(tuple(graph_nodes), tuple(edges))
+
+    # the load paths -------------------------------------------------------------
+    def _carry(self, dirty: set[int]) -> None:
+        """Split again the load of every box of ``dirty`` and of every box under it whose load
+        changes, from the top down (highest centre first, then the latest placed)."""
+        order = {k: i for i, k in enumerate(self._keys)}
+        heap = [(-float(self.boxes[k].pose.position[2]), -order[k], k) for k in dirty]
+        heapq.heapify(heap)
+        queued = set(dirty)
+        while heap:
+            _, _, key = heapq.heappop(heap)
+            queued.discard(key)
+            load = self._load[key]
+            shares = _split(load, list(self.rests.get(key, {}).values()))
+            if shares is None:
+                self._failed.add(key)
+                self._slack.pop(key, None)
+                new: dict[int, tuple[float, float, float, float]] = {}
+            else:
+                self._failed.discard(key)
+                new = {lower: given for lower, given, _ in shares}
+                self._slack[key] = min(s for _, _, s in shares)
+            old = self._given[key]
+            self._given[key] = new
+            for lower in old.keys() | new.keys():
+                target = self._load.get(lower)
+                if target is None:
+                    continue  # the ground or a fixed box
+                before, after = old.get(lower, (0.0, 0.0, 0.0, 0.0)), new.get(lower, (0.0, 0.0, 0.0, 0.0))
+                if before == after:
+                    continue
+                for i in range(4):
+                    target[i] += after[i] - before[i]
+                if lower not in queued:
+                    queued.add(lower)
+                    heapq.heappush(heap, (-float(self.boxes[lower].pose.position[2]), -order[lower], lower))
+
+    # neighbours -------------------------------------------------------------------
+    def _add(self, box: PlacedBox) -> None:
+        if box.key in self.boxes or box.key == self.ground:
+            raise ValueError(f"box {box.key} is there already")
+        self.boxes[box.key] = box
+        self._keys.append(box.key)
+        corners = box.box.corners(box.pose)
+        bounds = np.array([corners.min(axis=0) - self.gap, corners.max(axis=0) + self.gap])
+        self._bounds = np.concatenate([self._bounds, bounds[None]])
+
+    def _meeting(self, box: PlacedBox) -> list[int]:
+        """The keys of the boxes whose bounds (widened by the gap) meet ``box``'s, in the order added."""
+        if not self._keys:
+            return []
+        corners = box.box.corners(box.pose)
+        low, high = corners.min(axis=0) - self.gap, corners.max(axis=0) + self.gap
+        stacked = self._bounds
+        meets = np.all(stacked[:, 0] <= high, axis=1) & np.all(low <= stacked[:, 1], axis=1)
+        return [self._keys[i] for i in np.flatnonzero(meets).tolist()]
+
+
+def _rest(polygon: ContactPolygon[int]) -> Rest | None:
+    """The level rest ``polygon`` makes (its ``body`` on its ``other`` when its normal points up
+    into its body, the other way round when down), or None when its normal is not vertical."""
+    nz = float(polygon.normal[2])
+    if nz >= VERTICAL:
+        return Rest.of(polygon.body, polygon.other, polygon)
+    if nz <= -VERTICAL:
+        flipped = ContactPolygon(polygon.other, polygon.body, polygon.points, -polygon.normal, polygon.friction)
+        return Rest.of(polygon.other, polygon.body, flipped)
+    return None
+
+
+def _area(rest: Rest) -> ContactArea:
+    """The contact area of a rest, for the brick graph (its hull, or a sliver round its points
+    where they enclose no area)."""
+    points = np.asarray(rest.polygon.points, dtype=float)
+    shape = shapely.MultiPoint(points[:, :2]).convex_hull
+    polygon = shape if isinstance(shape, Polygon) else shape.buffer(1e-6)
+    return ContactArea(polygon, float(points[:, 2].mean()), np.asarray(rest.polygon.normal, dtype=float), exact=True)
+
+
+def _split(load: Sequence[float], rests: Sequence[Rest]) -> list[tuple[int, tuple[float, float, float, float], float]] | None:
+    """A load (N, and its moments N m: F, F x, F y, F z) split among the level ``rests`` of its
+    box: per support, what it puts there (the same four), and how far (m) inside the rest's
+    polygon it acts; None when this split does not fit (the module docstring's load paths).
+
+    The shares: all on one rest; on two, the load's point projected on the line through their
+    centres, clipped to the segment; on more, the least-squares shares of the centres (scipy's
+    nnls). Each share acts at its rest's centre moved by what the shares' combination misses,
+    and must lie :data:`INSIDE` its polygon. Source: stackdsl's own."""
+    if not rests:
+        return None
+    force, mx, my, mz = load
+    if force <= 0.0:
+        return None
+    x, y, z = mx / force, my / force, mz / force
+    if len(rests) == 1:
+        weights = [1.0]
+    elif len(rests) == 2:
+        (x0, y0), (x1, y1) = rests[0].centre, rests[1].centre
+        dx, dy = x1 - x0, y1 - y0
+        length = dx * dx + dy * dy
+        t = 0.5 if length < 1e-18 else min(1.0, max(0.0, ((x - x0) * dx + (y - y0) * dy) / length))
+        weights = [1.0 - t, t]
+    else:
+        centres = np.array([r.centre for r in rests])
+        system = np.vstack([centres.T, np.full(len(rests), 10.0)])  # the shares' sum, weighted to hold
+        solved, _ = nnls(system, np.array([x, y, 10.0]))
+        total = float(solved.sum())
+        if total <= 0.0:
+            return None
+        weights = (solved / total).tolist()
+    missed_x = x - sum(w * r.centre[0] for w, r in zip(weights, rests))
+    missed_y = y - sum(w * r.centre[1] for w, r in zip(weights, rests))
+    out = []
+    for w, r in zip(weights, rests):
+        if w <= 1e-12:
+            continue
+        px, py = r.centre[0] + missed_x, r.centre[1] + missed_y
+        inside = r.inside(px, py)
+        if inside <= INSIDE:
+            return None
+        f = force * w
+        out.append((r.lower, (f, f * px, f * py, f * z), inside))
+    return out
+
+
+def _hull(points: np.ndarray) -> list[int]:
+    """The indices of ``points`` (shape (n, 2)) on their convex hull, counter-clockwise
+    (Andrew's monotone chain), without collinear ones."""
+    order = sorted(range(len(points)), key=lambda i: (float(points[i, 0]), float(points[i, 1])))
+
+    def cross(o: int, a: int, b: int) -> float:
+        return float(
+            (points[a, 0] - points[o, 0]) * (points[b, 1] - points[o, 1])
+            - (points[a, 1] - points[o, 1]) * (points[b, 0] - points[o, 0])
+        )
+
+    lower: list[int] = []
+    upper: list[int] = []
+    for i in order:
+        while len(lower) >= 2 and cross(lower[-2], lower[-1], i) <= 1e-15:
+            lower.pop()
+        lower.append(i)
+    for i in reversed(order):
+        while len(upper) >= 2 and cross(upper[-2], upper[-1], i) <= 1e-15:
+            upper.pop()
+        upper.append(i)
+    return lower[:-1] + upper[:-1]

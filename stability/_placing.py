@@ -52,6 +52,8 @@ INSIDE = 1e-6
 #: Metres within which two faces, or a corner and a face, touch: a brick placed up to 1 mm above
 #: its pose (a drop gap) still lies on what is under it.
 GAP = 0.0011
+#: The most free boxes :meth:`Placing.proved_steps` takes (it keeps 32 n^2 bytes).
+BATCH = 1000
 #: A contact normal whose vertical component is at least this is vertical (0.008 degrees).
 VERTICAL = 1.0 - 1e-8
 
@@ -78,14 +80,15 @@ class Rest:
     def of(cls, upper: int, lower: int, polygon: ContactPolygon[int]) -> Rest:
         """The rest through ``polygon`` (vertices of shape (k, 3), metres)."""
         xy = np.asarray(polygon.points, dtype=float)[:, :2]
-        centre = (float(xy[:, 0].mean()), float(xy[:, 1].mean()))
-        hull = [tuple(map(float, xy[i])) for i in _hull(xy)]
+        points = xy.tolist()
+        centre = (sum(p[0] for p in points) / len(points), sum(p[1] for p in points) / len(points))
+        hull = [tuple(points[i]) for i in _hull(points)]
         units: list[tuple[float, float]] = []
         if len(hull) >= 3:
             for (x0, y0), (x1, y1) in zip(hull, hull[1:] + hull[:1]):
                 length = math.hypot(x1 - x0, y1 - y0)
                 units.append(((x1 - x0) / length, (y1 - y0) / length))
-        return cls(upper, lower, polygon, centre, tuple(hull), tuple(units))  # type: ignore[arg-type]
+        return cls(upper, lower, polygon, centre, tuple(hull), tuple(units))
 
     def inside(self, x: float, y: float) -> float:
         """Metres from (x, y) to the nearest edge of the hull, positive inside (-inf when the
@@ -133,7 +136,7 @@ class Placing:
         self.polygons: list[ContactPolygon[int]] = []
         self.rests: dict[int, dict[int, Rest]] = {}
         self._keys: list[int] = []
-        self._bounds = np.zeros((0, 2, 3))  # per box: its low and high corners, widened by gap, m
+        self._bounds = np.zeros((16, 2, 3))  # per box (the first len(boxes) rows): its corners' low and high, widened by gap, m
         self._load: dict[int, list[float]] = {}  # free box -> (F, F x, F y, F z): N and N m about the origin
         self._given: dict[int, dict[int, tuple[float, float, float, float]]] = {}  # box -> what it puts on each support
         self._slack: dict[int, float] = {}  # box -> metres its shares' points lie inside their polygons
@@ -152,6 +155,67 @@ class Placing:
             dirty |= self._put(box)
         self._carry(dirty & set(self._load))
         return self.solve()
+
+    def put(self, boxes: Sequence[PlacedBox]) -> None:
+        """Place the free ``boxes`` at their poses and carry their loads, without asking whether
+        they stand (:meth:`solve` asks). Raises ValueError as :meth:`place`."""
+        dirty: set[int] = set()
+        for box in boxes:
+            dirty |= self._put(box)
+        self._carry(dirty & set(self._load))
+
+    def proved_steps(self, steps: Sequence[Sequence[PlacedBox]]) -> tuple[int, float]:
+        """Place every step's free boxes (their contacts found, their loads not carried) and say
+        how many steps, from the first, load paths with fixed shares prove: after each of them
+        every free box placed so far stands. Also the slack of the proof after the last of them
+        (metres, as :attr:`slack`; 0 when none is proved).
+
+        The shares of each box are fixed: those of its load path in the whole structure (that of
+        its own weight where that fails), each share acting at its rest's centre moved by what the
+        shares' combination misses of the load's point (:func:`_split`). The loads are then linear
+        in the weights placed: each box's load after every step is one running sum, found for all
+        steps at once (numpy, n^2 numbers for n boxes), and so is how far inside its polygon each
+        share acts. A box that rests on one placed after it, or more than :data:`BATCH` boxes,
+        leave it to :meth:`place` (0 steps proved), as does one on a rest without area from its
+        step on. Raises ValueError as :meth:`place`."""
+        for step in steps:
+            for box in step:
+                self._put(box)
+        n = len(self.free)
+        if n == 0 or n > BATCH:
+            return 0, 0.0
+        index = {k: i for i, k in enumerate(self.free)}
+        ends = np.cumsum([len(step) for step in steps]) - 1  # the index of each step's last box
+        step_of = np.repeat(np.arange(len(steps)), [len(step) for step in steps])
+        first_failed = len(steps)
+        influence = np.zeros((n, 3, n))  # box, its load (F, F x, F y), per box placed: what that one's weight gives it
+        rows: list[tuple[int, np.ndarray, np.ndarray]] = []  # box, a share's force and its edges' functionals of the load
+        for key in reversed(self.free):
+            i = index[key]
+            box = self.boxes[key]
+            weight = box.box.mass * self.gravity
+            influence[i, :, i] = (weight, weight * float(box.pose.position[0]), weight * float(box.pose.position[1]))
+            rests = list(self.rests.get(key, {}).values())
+            shares = _shares(influence[i].sum(axis=1), rests) if rests else None
+            if shares is None or any((r.lower in index and index[r.lower] > i) or not r.units for r in rests):
+                first_failed = min(first_failed, int(step_of[i]))
+                continue
+            for r, share in zip(rests, shares):
+                if r.lower in index:
+                    influence[index[r.lower]] += share @ influence[i]
+                rows.append((i, share[0], _edges(r, share)))
+        loads = np.cumsum(influence, axis=2)[:, :, ends]  # box, (F, F x, F y), after each step
+        slack = np.full(len(steps), np.inf)
+        for i, force, edges in rows:
+            on = ends >= i  # the steps after which box i is there
+            f = force @ loads[i][:, on]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                inside = np.where(f > 0.0, (edges @ loads[i][:, on]).min(axis=0) / f, -np.inf)
+            slack[on] = np.minimum(slack[on], inside)
+        failed = np.flatnonzero(~(slack > INSIDE))
+        if len(failed):
+            first_failed = min(first_failed, int(failed[0]))
+        return first_failed, float(slack[first_failed - 1]) if first_failed else 0.0
 
     def solve(self) -> Placed:
         """Whether every free box stands now: by the load paths, else by the program."""
@@ -273,8 +337,10 @@ class Placing:
         self.boxes[box.key] = box
         self._keys.append(box.key)
         corners = box.box.corners(box.pose)
-        bounds = np.array([corners.min(axis=0) - self.gap, corners.max(axis=0) + self.gap])
-        self._bounds = np.concatenate([self._bounds, bounds[None]])
+        n = len(self._keys) - 1
+        if n == len(self._bounds):
+            self._bounds = np.concatenate([self._bounds, np.zeros_like(self._bounds)])
+        self._bounds[n, 0], self._bounds[n, 1] = corners.min(axis=0) - self.gap, corners.max(axis=0) + self.gap
 
     def _meeting(self, box: PlacedBox) -> list[int]:
         """The keys of the boxes whose bounds (widened by the gap) meet ``box``'s, in the order added."""
@@ -282,7 +348,7 @@ class Placing:
             return []
         corners = box.box.corners(box.pose)
         low, high = corners.min(axis=0) - self.gap, corners.max(axis=0) + self.gap
-        stacked = self._bounds
+        stacked = self._bounds[: len(self._keys)]
         meets = np.all(stacked[:, 0] <= high, axis=1) & np.all(low <= stacked[:, 1], axis=1)
         return [self._keys[i] for i in np.flatnonzero(meets).tolist()]
 
@@ -306,6 +372,51 @@ def _area(rest: Rest) -> ContactArea:
     shape = shapely.MultiPoint(points[:, :2]).convex_hull
     polygon = shape if isinstance(shape, Polygon) else shape.buffer(1e-6)
     return ContactArea(polygon, float(points[:, 2].mean()), np.asarray(rest.polygon.normal, dtype=float), exact=True)
+
+
+def _shares(load: np.ndarray, rests: Sequence[Rest]) -> list[np.ndarray] | None:
+    """A linear split of a box's load (F, F x, F y: N, N m) among its ``rests``: per rest, the
+    matrix (3, 3) of what it carries (f, f q_x, f q_y: its force and where it acts) from the
+    load, None when the rule below does not fit ``load`` (the whole structure's).
+
+    On one rest, all of it. On two, the force share of each is that of the load's point
+    projected on the line through their centres (linear in the load, not clipped); on more,
+    fixed shares, those :func:`_split` finds for ``load``. Each share acts at its rest's centre;
+    what the shares' moments miss of the load's is shared among them in the proportions of the
+    force shares for ``load``. Forces and moments sum to the load's, for every load: the same
+    matrices prove every step whose shares act inside their polygons (:meth:`Placing.proved_steps`).
+    Source: stackdsl's own."""
+    found = _split(load.tolist() + [0.0], rests)
+    if found is None:
+        return None
+    by_lower = {lower: given[0] / float(load[0]) for lower, given, _ in found}
+    fractions = [by_lower.get(r.lower, 0.0) for r in rests]
+    unit = np.eye(3)
+    if len(rests) == 1:
+        return [unit]
+    if len(rests) == 2:
+        (x0, y0), (x1, y1) = rests[0].centre, rests[1].centre
+        dx, dy = x1 - x0, y1 - y0
+        length = dx * dx + dy * dy
+        if length < 1e-18:
+            return None
+        second = np.array([-(dx * x0 + dy * y0), dx, dy]) / length
+        forces = [unit[0] - second, second]
+    else:
+        forces = [w * unit[0] for w in fractions]
+    missed_x = unit[1] - sum(r.centre[0] * f for r, f in zip(rests, forces))
+    missed_y = unit[2] - sum(r.centre[1] * f for r, f in zip(rests, forces))
+    return [
+        np.array([f, r.centre[0] * f + w * missed_x, r.centre[1] * f + w * missed_y]) for r, f, w in zip(rests, forces, fractions)
+    ]
+
+
+def _edges(rest: Rest, share: np.ndarray) -> np.ndarray:
+    """For each edge of ``rest``'s hull, the functional (3,) of a box's load (F, F x, F y) that is
+    the share's force times how far inside that edge it acts (``share``: :func:`_shares`' matrix),
+    shape (edges, 3), for a hull with area."""
+    f, mx, my = share
+    return np.array([ux * my - uy * mx + (uy * hx - ux * hy) * f for (hx, hy), (ux, uy) in zip(rest.hull, rest.units)])
 
 
 def _split(load: Sequence[float], rests: Sequence[Rest]) -> list[tuple[int, tuple[float, float, float, float], float]] | None:
@@ -354,16 +465,14 @@ def _split(load: Sequence[float], rests: Sequence[Rest]) -> list[tuple[int, tupl
     return out
 
 
-def _hull(points: np.ndarray) -> list[int]:
-    """The indices of ``points`` (shape (n, 2)) on their convex hull, counter-clockwise
+def _hull(points: list[list[float]]) -> list[int]:
+    """The indices of ``points`` ((x, y) each, m) on their convex hull, counter-clockwise
     (Andrew's monotone chain), without collinear ones."""
-    order = sorted(range(len(points)), key=lambda i: (float(points[i, 0]), float(points[i, 1])))
+    order = sorted(range(len(points)), key=lambda i: (points[i][0], points[i][1]))
 
     def cross(o: int, a: int, b: int) -> float:
-        return float(
-            (points[a, 0] - points[o, 0]) * (points[b, 1] - points[o, 1])
-            - (points[a, 1] - points[o, 1]) * (points[b, 0] - points[o, 0])
-        )
+        (ox, oy), (ax, ay), (bx, by) = points[o], points[a], points[b]
+        return (ax - ox) * (by - oy) - (ay - oy) * (bx - ox)
 
     lower: list[int] = []
     upper: list[int] = []

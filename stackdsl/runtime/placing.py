@@ -52,46 +52,54 @@ def run_placed(program: Program, *, timeout: float | None = None, started: float
     start = _time.perf_counter() if started is None else started
     deadline = None if timeout is None else start + timeout
     engine = program.engine
-    placing = Placing(GROUND, program.ground_friction, gravity=engine.gravity)
     labels = {GROUND: "ground"}
-    for f in program.fixtures:
-        key = len(labels)
-        pose = Pose.from_euler(f.position, f.yaw, f.pitch, f.roll)
-        placing.add_fixed(PlacedBox(key, Box(np.array(f.brick.half_extents), f.brick.mass), pose, f.brick.friction))
-        labels[key] = f.id
-    events: list[Event] = []
-    placed: list[Place] = []
+    steps: list[list[Place]] = []
+    boxes: list[list[PlacedBox]] = []
+    now = 0.0
+    for step in _steps(program):
+        if isinstance(step, End):
+            now = step.time
+            break
+        steps.append(step)
+        boxes.append([])
+        for action in step:
+            nominal = Pose.from_euler(action.position, action.yaw, action.pitch, action.roll)
+            target = Pose(nominal.position - [0.0, 0.0, engine.SEAT], nominal.orientation)
+            box = Box(np.array(action.brick.half_extents), action.brick.mass)
+            boxes[-1].append(PlacedBox(len(labels) + len(program.fixtures), box, target, action.brick.friction))
+            labels[boxes[-1][-1].key] = action.id
+    placing = _placing(program, labels)
+    proved, slack = placing.proved_steps(boxes)  # every step at once, by fixed shares: most stacks end here
     collapse: Collapse | None = None
     certificate: Certificate | None = None
     stopped: str | None = None
-    now = 0.0
-    for group in _steps(program):
-        if isinstance(group, End):
-            now = group.time
-            break
-        if deadline is not None and _time.perf_counter() >= deadline:
-            stopped = f"timeout after {timeout:g} s at {len(placed)} of {len(program.placements)} bricks placed"
-            break
-        boxes = []
-        for action in group:
-            key = len(labels)
-            nominal = Pose.from_euler(action.position, action.yaw, action.pitch, action.roll)
-            target = Pose(nominal.position - [0.0, 0.0, engine.SEAT], nominal.orientation)
-            boxes.append(
-                PlacedBox(key, Box(np.array(action.brick.half_extents), action.brick.mass), target, action.brick.friction)
-            )
-            labels[key] = action.id
-            placed.append(action)
-            now = action.time
-            events.append(Event(time=action.time, kind="place", brick=action.id, level=action.level))
-        found = placing.place(boxes)
-        if not found.stands:
-            collapse, certificate = _collapse(found, group[-1], placed, labels, events)
-            break
+    reached = len(steps)
+    if proved < len(steps):  # from the first step they do not prove, one step at a time
+        placing = _placing(program, labels)
+        placing.put([b for step in boxes[:proved] for b in step])
+        for i in range(proved, len(steps)):
+            if deadline is not None and _time.perf_counter() >= deadline:
+                stopped = f"timeout after {timeout:g} s at {i} of {len(steps)} placements"
+                reached = i
+                break
+            found = placing.place(boxes[i])
+            if not found.stands:
+                reached = i + 1
+                placed = [a for step in steps[:reached] for a in step]
+                collapse, certificate = _collapse(found, steps[i][-1], placed, labels)
+                break
+    placed = [a for step in steps[:reached] for a in step]
+    events = [Event(time=a.time, kind="place", brick=a.id, level=a.level) for a in placed]
+    if collapse is not None:
+        now = collapse.time
+        said = f"collapse level {collapse.level}; {certificate.detail if certificate else ''}"
+        events.append(Event(time=now, kind="collapse", brick=collapse.brick, level=collapse.brick_level, detail=said))
+    elif stopped is not None:
+        now = placed[-1].time if placed else 0.0
     levels = {a.id: a.level for a in placed}
     certify_started = _time.perf_counter()
     if collapse is None and stopped is None:
-        certificate = _stands(placing)
+        certificate = _stands(placing, slack if proved == len(steps) else None)
     certify_time = _time.perf_counter() - certify_started
     moving = frozenset(k for k, label in labels.items() if certificate is not None and label in certificate.bricks)
     graph = Graph.from_stability(placing.graph(labels, moving), levels, {a.id: 0.0 for a in placed})
@@ -142,12 +150,21 @@ def _steps(program: Program) -> Iterator[list[Place] | End]:
         yield group
 
 
-def _collapse(
-    found: Placed, action: Place, placed: list[Place], labels: dict[int, str], events: list[Event]
-) -> tuple[Collapse, Certificate]:
+def _placing(program: Program, labels: dict[int, str]) -> Placing:
+    """A :class:`stability.Placing` on the program's ground, with its fixtures (keys from 1,
+    labelled in ``labels``)."""
+    placing = Placing(GROUND, program.ground_friction, gravity=program.engine.gravity)
+    for key, f in enumerate(program.fixtures, start=1):
+        pose = Pose.from_euler(f.position, f.yaw, f.pitch, f.roll)
+        placing.add_fixed(PlacedBox(key, Box(np.array(f.brick.half_extents), f.brick.mass), pose, f.brick.friction))
+        labels[key] = f.id
+    return placing
+
+
+def _collapse(found: Placed, action: Place, placed: list[Place], labels: dict[int, str]) -> tuple[Collapse, Certificate]:
     """The collapse once ``action``'s brick is placed and ``found`` says no forces balance the
     bricks: named after the lowest brick of the mechanism (then the first placed; the brick
-    just placed when the program names none), with its ``collapse`` event added to ``events``."""
+    just placed when the program names none)."""
     answer = found.answer
     order = {a.id: i for i, a in enumerate(placed)}
     level_of = {a.id: a.level for a in placed}
@@ -159,18 +176,18 @@ def _collapse(
     collapse = Collapse(
         level=action.level, time=action.time, brick=first, brick_level=level_of[first], displacement=0.0, decided=action.time
     )
-    said = f"collapse level {action.level}; {detail}"
-    events.append(Event(time=action.time, kind="collapse", brick=first, level=level_of[first], detail=said))
     return collapse, Certificate(verdict="collapse", kind="no equilibrium", detail=detail, bricks=bricks)
 
 
-def _stands(placing: Placing) -> Certificate:
-    """The certificate of bricks that all stand: their load paths (the margin their slack, no
-    friction asked), or the equilibrium program's solution (its margin and friction share,
-    :func:`stability.equilibrium_margin`, :func:`stability.friction_share`)."""
+def _stands(placing: Placing, slack: float | None) -> Certificate:
+    """The certificate of bricks that all stand: their load paths (the margin their ``slack``,
+    or :attr:`stability.Placing.slack` when None; no friction asked), or the equilibrium
+    program's solution (its margin and friction share, :func:`stability.equilibrium_margin`,
+    :func:`stability.friction_share`)."""
     n, contacts = len(placing.free), len(placing.polygons)
-    if placing.proved:
-        proof = Equilibrium(True, 0.0, placing.slack, (), n, (), contacts, method="load paths")
+    if slack is not None or placing.proved:
+        margin = slack if slack is not None else placing.slack
+        proof = Equilibrium(True, 0.0, margin, (), n, (), contacts, method="load paths")
     else:
         blocks = {k: RigidBlock(placing.boxes[k].box.mass, placing.boxes[k].pose.position) for k in placing.free}
         margin = equilibrium_margin(blocks, placing.polygons, gravity=placing.gravity) or 0.0

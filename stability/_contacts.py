@@ -41,7 +41,7 @@ class PlacedBox:
     pose: Pose
     friction: float
 
-    @property
+    @cached_property
     def level(self) -> bool:
         """Whether one of its axes is vertical (its top and bottom faces are level)."""
         return bool(np.abs(self.pose.rotation[2]).max() >= LEVEL)

@@ -79,8 +79,7 @@ class Rest:
     @classmethod
     def of(cls, upper: int, lower: int, polygon: ContactPolygon[int]) -> Rest:
         """The rest through ``polygon`` (vertices of shape (k, 3), metres)."""
-        xy = np.asarray(polygon.points, dtype=float)[:, :2]
-        points = xy.tolist()
+        points = [p[:2] for p in np.asarray(polygon.points, dtype=float).tolist()]
         centre = (sum(p[0] for p in points) / len(points), sum(p[1] for p in points) / len(points))
         hull = [tuple(points[i]) for i in _hull(points)]
         units: list[tuple[float, float]] = []
@@ -141,6 +140,8 @@ class Placing:
         self._given: dict[int, dict[int, tuple[float, float, float, float]]] = {}  # box -> what it puts on each support
         self._slack: dict[int, float] = {}  # box -> metres its shares' points lie inside their polygons
         self._failed: set[int] = set()  # free boxes whose load paths fail
+        # proved_steps' proof of every step: per free box its load (N) and point (x, y, z, m), per rest its force (N)
+        self._proof: tuple[dict[int, tuple[float, float, float, float]], dict[tuple[int, int], float]] | None = None
 
     def add_fixed(self, box: PlacedBox) -> None:
         """Add a fixed box (a support: nothing balances it). Raises ValueError for a key in use."""
@@ -148,8 +149,7 @@ class Placing:
 
     def place(self, boxes: Sequence[PlacedBox]) -> Placed:
         """Place the free ``boxes`` (put there together: one step) at their poses and say
-        whether every free box stands (module docstring). Raises ValueError for a key in use, or
-        a box without mass."""
+        whether every free box stands (module docstring). Raises ValueError for a key in use."""
         dirty: set[int] = set()
         for box in boxes:
             dirty |= self._put(box)
@@ -189,7 +189,8 @@ class Placing:
         step_of = np.repeat(np.arange(len(steps)), [len(step) for step in steps])
         first_failed = len(steps)
         influence = np.zeros((n, 3, n))  # box, its load (F, F x, F y), per box placed: what that one's weight gives it
-        rows: list[tuple[int, np.ndarray, np.ndarray]] = []  # box, a share's force and its edges' functionals of the load
+        carried: list[tuple[int, int, np.ndarray]] = []  # box, what it rests on, that share's force as a functional of its load
+        edges: list[np.ndarray] = []  # per share, its polygon's edges' functionals (edges, 3) of its box's load
         for key in reversed(self.free):
             i = index[key]
             box = self.boxes[key]
@@ -203,18 +204,39 @@ class Placing:
             for r, share in zip(rests, shares):
                 if r.lower in index:
                     influence[index[r.lower]] += share @ influence[i]
-                rows.append((i, share[0], _edges(r, share)))
+                carried.append((i, r.lower, share[0]))
+                edges.append(_edges(r, share))
         loads = np.cumsum(influence, axis=2)[:, :, ends]  # box, (F, F x, F y), after each step
+        boxes = np.array([i for i, _, _ in carried], dtype=int)
+        on = ends[None, :] >= boxes[:, None]  # share, step: its box is there after that step
         slack = np.full(len(steps), np.inf)
-        for i, force, edges in rows:
-            on = ends >= i  # the steps after which box i is there
-            f = force @ loads[i][:, on]
+        if len(boxes):
+            forces = np.einsum("rj,rjs->rs", np.array([f for _, _, f in carried]), loads[boxes])  # share, step
+            inside = np.empty(forces.shape)  # share, step: its force times how far inside its polygon it acts
+            four = [k for k, e in enumerate(edges) if len(e) == 4]  # a rectangle's (most): all at once
+            if four:
+                stacked = np.einsum("rej,rjs->res", np.stack([edges[k] for k in four]), loads[boxes[four]])
+                inside[four] = stacked.min(axis=1)
+            for k, e in enumerate(edges):
+                if len(e) != 4:
+                    inside[k] = (e @ loads[boxes[k]]).min(axis=0)
             with np.errstate(divide="ignore", invalid="ignore"):
-                inside = np.where(f > 0.0, (edges @ loads[i][:, on]).min(axis=0) / f, -np.inf)
-            slack[on] = np.minimum(slack[on], inside)
+                distance = np.where(forces > 0.0, inside / forces, -np.inf)
+            slack = np.where(on, distance, np.inf).min(axis=0)
         failed = np.flatnonzero(~(slack > INSIDE))
         if len(failed):
             first_failed = min(first_failed, int(failed[0]))
+        self._proof = None
+        if first_failed == len(steps):  # the brick graph of the proof (:meth:`graph`)
+            final = loads[:, :, -1]
+            heights = np.array([float(self.boxes[k].pose.position[2]) for k in self.free])
+            moment_z = influence[:, 0, :] @ heights  # the weights that reach a box, each at its own height
+            points = {
+                k: (float(final[i, 0]), *(float(v) / final[i, 0] for v in (final[i, 1], final[i, 2], moment_z[i])))
+                for k, i in index.items()
+            }
+            shared = {(self.free[i], lower): float(forces[row, -1]) for row, (i, lower, _) in enumerate(carried)}
+            self._proof = (points, shared)
         return first_failed, float(slack[first_failed - 1]) if first_failed else 0.0
 
     def solve(self) -> Placed:
@@ -227,8 +249,6 @@ class Placing:
 
     def _put(self, box: PlacedBox) -> set[int]:
         """Add free box ``box`` with its contacts; the boxes whose rests changed (to split anew)."""
-        if box.box.mass <= 0.0:
-            raise ValueError(f"box {box.key} has no mass: add it with add_fixed")
         near = [self.boxes[k] for k in self._meeting(box)]
         self._add(box)
         found = contacts_of(box, near, self.ground, self.ground_friction, self.gap)
@@ -274,7 +294,12 @@ class Placing:
         the fixed boxes as ground, the free ones frozen (held by statics) but those of ``moving``
         (a collapse mechanism) active; the edges are the level rests, their load shares
         :func:`stability.propagate`'s (report 3.3.5-3.3.6). ``labels``: key -> label, for every
-        box and the ground. Raises KeyError for a box without a label."""
+        box and the ground. When :meth:`proved_steps` proved every step and nothing was placed
+        since, the loads and shares are its proof's instead (the weights that reach a box, at
+        their centres of mass: the report's centre of mass above, on these load paths). Raises
+        KeyError for a box without a label."""
+        if self._proof is not None and len(self._proof[0]) == len(self.free):
+            return self._graph_of_proof(labels, moving, *self._proof)
         areas = {upper: {lower: _area(r) for lower, r in found.items()} for upper, found in self.rests.items()}
         nodes = {k: LoadNode(self.boxes[k].box.mass, self.boxes[k].pose.position, areas.get(k, {})) for k in self.free}
         loads = propagate(nodes)
@@ -293,6 +318,31 @@ class Placing:
                 outline = tuple((float(x), float(y)) for x, y in list(area.polygon.exterior.coords)[:-1])
                 edges.append(GraphEdge(labels[key], labels[lower], area.area, load.shares.get(lower, 0.0), area.exact, outline))
         return BrickGraph(tuple(graph_nodes), tuple(edges))
+
+    def _graph_of_proof(
+        self,
+        labels: dict[int, str],
+        moving: frozenset[int],
+        points: dict[int, tuple[float, float, float, float]],
+        shared: dict[tuple[int, int], float],
+    ) -> BrickGraph:
+        """:meth:`graph` from :meth:`proved_steps`' proof: per free box its load (N) and where
+        it acts (x, y, z, m), per rest the force it carries (N)."""
+        ground_pose = Pose(np.zeros(3))
+        nodes = [GraphNode(labels[self.ground], BrickState.GROUND, ground_pose, ground_pose.position, 0.0)]
+        edges = []
+        for key in self._keys:
+            box = self.boxes[key]
+            if key not in points:
+                nodes.append(GraphNode(labels[key], BrickState.GROUND, box.pose, box.pose.position, 0.0))
+                continue
+            force, x, y, z = points[key]
+            state = BrickState.ACTIVE if key in moving else BrickState.FROZEN
+            nodes.append(GraphNode(labels[key], state, box.pose, np.array([x, y, z]), force / self.gravity))
+            for lower, rest in self.rests.get(key, {}).items():
+                share = shared.get((key, lower), 0.0) / force
+                edges.append(GraphEdge(labels[key], labels[lower], _shoelace(rest.hull), share, True, rest.hull))
+        return BrickGraph(tuple(nodes), tuple(edges))
 
     # the load paths -------------------------------------------------------------
     def _carry(self, dirty: set[int]) -> None:
@@ -365,6 +415,11 @@ def _rest(polygon: ContactPolygon[int]) -> Rest | None:
     return None
 
 
+def _shoelace(hull: Sequence[tuple[float, float]]) -> float:
+    """The area (m^2) of a polygon, its vertices (x, y) in order (the shoelace formula)."""
+    return abs(sum(x0 * y1 - x1 * y0 for (x0, y0), (x1, y1) in zip(hull, [*hull[1:], *hull[:1]]))) / 2.0
+
+
 def _area(rest: Rest) -> ContactArea:
     """The contact area of a rest, for the brick graph (its hull, or a sliver round its points
     where they enclose no area)."""
@@ -415,8 +470,10 @@ def _edges(rest: Rest, share: np.ndarray) -> np.ndarray:
     """For each edge of ``rest``'s hull, the functional (3,) of a box's load (F, F x, F y) that is
     the share's force times how far inside that edge it acts (``share``: :func:`_shares`' matrix),
     shape (edges, 3), for a hull with area."""
-    f, mx, my = share
-    return np.array([ux * my - uy * mx + (uy * hx - ux * hy) * f for (hx, hy), (ux, uy) in zip(rest.hull, rest.units)])
+    hull, units = np.array(rest.hull), np.array(rest.units)
+    across = units[:, 1] * hull[:, 0] - units[:, 0] * hull[:, 1]
+    functionals: np.ndarray = np.outer(units[:, 0], share[2]) - np.outer(units[:, 1], share[1]) + np.outer(across, share[0])
+    return functionals
 
 
 def _split(load: Sequence[float], rests: Sequence[Rest]) -> list[tuple[int, tuple[float, float, float, float], float]] | None:

@@ -45,7 +45,7 @@ from ._load import Load, LoadNode, propagate, split_load, torque_split
 from ._load_path import load_path, proven, support_piece
 from ._margin import equilibrium_margin
 from ._placing import GAP as CONTACT_GAP
-from ._placing import Placed, Placing
+from ._placing import Placed, Placing, load_paths_hold
 from ._rest import JITTER, still
 
 __all__ = [
@@ -87,6 +87,7 @@ __all__ = [
     "lean_polygon",
     "leaning_stands",
     "load_path",
+    "load_paths_hold",
     "padded_hull",
     "pair_friction",
     "potential_energy",

@@ -403,6 +403,33 @@ class Placing:
         return [self._keys[i] for i in np.flatnonzero(meets).tolist()]
 
 
+def load_paths_hold(boxes: Sequence[PlacedBox], polygons: Sequence[ContactPolygon[int]], gravity: float = GRAVITY) -> bool:
+    """Whether load paths (the module docstring's, in one pass from the top down) prove that
+    every free box of ``boxes`` stands on ``polygons`` (normals into their ``body``; any other key
+    is a support): a proof when True, and no answer when False (the program then decides).
+    Source: stackdsl's own."""
+    loads: dict[int, list[float]] = {}
+    for box in boxes:
+        weight = box.box.mass * gravity
+        x, y, z = (float(v) for v in box.pose.position)
+        loads[box.key] = [weight, weight * x, weight * y, weight * z]
+    rests: dict[int, dict[int, Rest]] = {}
+    for polygon in polygons:
+        rest = _rest(polygon)
+        if rest is not None and rest.upper in loads:
+            rests.setdefault(rest.upper, {}).setdefault(rest.lower, rest)
+    for box in sorted(boxes, key=lambda b: -float(b.pose.position[2])):  # a box rests on lower ones only
+        shares = _split(loads[box.key], list(rests.get(box.key, {}).values()))
+        if shares is None:
+            return False
+        for lower, given, _ in shares:
+            if lower in loads:
+                carried = loads[lower]
+                for i in range(4):
+                    carried[i] += given[i]
+    return True
+
+
 def _rest(polygon: ContactPolygon[int]) -> Rest | None:
     """The level rest ``polygon`` makes (its ``body`` on its ``other`` when its normal points up
     into its body, the other way round when down), or None when its normal is not vertical."""

@@ -144,3 +144,13 @@ def test_a_collapse_without_dynamics_is_proved_by_no_equilibrium_and_places_noth
     assert outcome.collapse.brick in outcome.certificate.bricks
     assert outcome.bricks_placed == expected and len(outcome.unplaced) == 2
     assert [e.kind for e in outcome.events].count("collapse") == 1 and outcome.collapse_graph == outcome.final_graph
+
+
+@pytest.mark.parametrize("name", ["hard/overhang_falls", "hard/harmonic_098", "fig14_leaning_on_upright"])
+def test_the_statics_world_in_the_step_loop_gives_the_short_paths_verdict(name):
+    from stackdsl.runtime.loop import Subscriber
+
+    program = compile_scenario(load_scenario(ROOT / "scenarios" / f"{name}.yaml"), backend="statics")
+    short, looped = run_program(program), run_program(program, subscribers=(Subscriber(),))
+    assert looped.steps > 0 and short.steps == 0  # a subscriber asks for the step loop
+    assert level(looped) == level(short)

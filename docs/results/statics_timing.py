@@ -8,7 +8,8 @@ field and the reason. Each other is run with ``run_program`` on its own engine a
 file's ``engine:``) ROUNDS times (default 3) and on statics max(ROUNDS, 5) times (it is cheap),
 in one process after the imports (a first run of each warms nothing: the scenes run in file
 order); the table gives the median wall and CPU (``time.process_time``) milliseconds of each,
-the collapse level (or "stands") and how statics proved it. Then the same for towers of 10, 30, 100
+the collapse level (or "stands"), how statics proved it and the wall milliseconds of its
+certificate of a stand (its margin and friction share: :attr:`Outcome.certificate_time`). Then the same for towers of 10, 30, 100
 and 200 levels (``structure: {tower: {levels: N}}``, two bricks a level, on the default engine),
 and the cost of the imports alone (a fresh interpreter importing stackdsl's runtime, median of
 ROUNDS). Output: markdown (docs/results/statics.md).
@@ -16,6 +17,7 @@ ROUNDS). Output: markdown (docs/results/statics.md).
 
 from __future__ import annotations
 
+import resource
 import statistics
 import subprocess
 import sys
@@ -61,16 +63,17 @@ def row(name: str, scenario: Scenario, rounds: int) -> str:
     engine = f"{own.engine.backend} {own.engine.mode}"
     return (
         f"| {name} | {len(statics.placements)} | {engine} | {said(own_outcome)} | {own_ms:.0f} | {own_cpu:.0f} "
-        f"| {said(statics_outcome)} | {statics_ms:.1f} | {statics_cpu:.1f} | {proof(statics_outcome)} | {same} |"
+        f"| {said(statics_outcome)} | {statics_ms:.1f} | {statics_cpu:.1f} | {statics_outcome.certificate_time * 1000:.1f} "
+        f"| {proof(statics_outcome)} | {same} |"
     )
 
 
 def main(rounds: int) -> None:
     head = (
         "| {} | bricks | its engine | its verdict | its wall (ms) | its CPU (ms) | statics | statics wall (ms) "
-        "| statics CPU (ms) | proved by | same |"
+        "| statics CPU (ms) | of which certificate (ms) | proved by | same |"
     )
-    rule = "|---|---:|---|---|---:|---:|---|---:|---:|---|---|"
+    rule = "|---|---:|---|---|---:|---:|---|---:|---:|---:|---|---|"
     rows, refused, towers = [], [], []
     for path in sorted((ROOT / "scenarios").rglob("*.yaml")):
         name = str(path.relative_to(ROOT / "scenarios"))
@@ -87,11 +90,13 @@ def main(rounds: int) -> None:
             row(f"tower of {levels}", parse_scenario(f"stackdsl: 1\nstructure: {{tower: {{levels: {levels}}}}}\n"), rounds)
         )
         print(towers[-1], file=sys.stderr, flush=True)
-    imports = []
+    imports, import_cpus = [], []
     for _ in range(rounds):
-        start = time.perf_counter()
+        start, before = time.perf_counter(), resource.getrusage(resource.RUSAGE_CHILDREN)
         subprocess.run([sys.executable, "-c", IMPORTS], check=True)
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
         imports.append(time.perf_counter() - start)
+        import_cpus.append(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
     print(head.format("scenario"))
     print(rule)
     print("\n".join(rows))
@@ -99,7 +104,10 @@ def main(rounds: int) -> None:
     print(head.format("tower"))
     print(rule)
     print("\n".join(towers))
-    print(f"\nImports (a fresh interpreter running `{IMPORTS}`): {statistics.median(imports) * 1000:.0f} ms, median of {rounds}.")
+    print(
+        f"\nImports (a fresh interpreter running `{IMPORTS}`): {statistics.median(imports) * 1000:.0f} ms wall, "
+        f"{statistics.median(import_cpus) * 1000:.0f} ms CPU, median of {rounds}."
+    )
     print("\nRefused by statics (they need motion):\n")
     print("| scenario | field | why |")
     print("|---|---|---|")

@@ -69,12 +69,16 @@ def run_placed(program: Program, *, timeout: float | None = None, started: float
             boxes[-1].append(PlacedBox(len(labels) + len(program.fixtures), box, target, action.brick.friction))
             labels[boxes[-1][-1].key] = action.id
     placing = _placing(program, labels)
-    proved, slack = placing.proved_steps(boxes)  # every step at once, by fixed shares: most stacks end here
     collapse: Collapse | None = None
     certificate: Certificate | None = None
     stopped: str | None = None
     reached = len(steps)
-    if proved < len(steps):  # from the first step they do not prove, one step at a time
+    if deadline is not None and _time.perf_counter() >= deadline:
+        proved, slack, reached = 0, 0.0, 0
+        stopped = f"timeout after {timeout:g} s at 0 of {len(steps)} placements"
+    else:
+        proved, slack = placing.proved_steps(boxes)  # every step at once, by fixed shares: most stacks end here
+    if proved < len(steps) and stopped is None:  # from the first step they do not prove, one step at a time
         placing = _placing(program, labels)
         placing.put([b for step in boxes[:proved] for b in step])
         for i in range(proved, len(steps)):

@@ -32,6 +32,7 @@ Source: "Simulating Object Stacking Using Stack Stability", chapter 3.
 """
 
 from ._certificate import Certificate
+from ._contacts import PlacedBox, contacts_of
 from ._engine import ContactPoint, Engine, FakeEngine
 from ._equilibrium import ContactPolygon, Equilibrium, RigidBlock, is_level, solve_equilibrium
 from ._extension import StabilityConfig, StabilityEvent, StabilityExtension
@@ -43,9 +44,12 @@ from ._leaning import lean_polygon, leaning_stands, pair_friction
 from ._load import Load, LoadNode, propagate, split_load, torque_split
 from ._load_path import load_path, proven, support_piece
 from ._margin import equilibrium_margin
+from ._placing import GAP as CONTACT_GAP
+from ._placing import Placed, Placing, load_paths_hold
 from ._rest import JITTER, still
 
 __all__ = [
+    "CONTACT_GAP",
     "JITTER",
     "Box",
     "BrickGraph",
@@ -61,6 +65,9 @@ __all__ = [
     "GraphNode",
     "Load",
     "LoadNode",
+    "Placed",
+    "PlacedBox",
+    "Placing",
     "Plane",
     "Pose",
     "RigidBlock",
@@ -69,6 +76,7 @@ __all__ = [
     "StabilityExtension",
     "breaks_loose",
     "combined_hull",
+    "contacts_of",
     "contains",
     "equilibrium_margin",
     "face_overlap",
@@ -79,6 +87,7 @@ __all__ = [
     "lean_polygon",
     "leaning_stands",
     "load_path",
+    "load_paths_hold",
     "padded_hull",
     "pair_friction",
     "potential_energy",

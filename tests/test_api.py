@@ -59,6 +59,7 @@ def test_stackdsl_exports():
 def test_stability_exports():
     assert sorted(stability.__all__) == sorted(
         [
+            "CONTACT_GAP",
             "JITTER",
             "Box",
             "BrickGraph",
@@ -74,6 +75,9 @@ def test_stability_exports():
             "GraphNode",
             "Load",
             "LoadNode",
+            "Placed",
+            "PlacedBox",
+            "Placing",
             "Plane",
             "Pose",
             "RigidBlock",
@@ -82,6 +86,7 @@ def test_stability_exports():
             "StabilityExtension",
             "breaks_loose",
             "combined_hull",
+            "contacts_of",
             "hull_xy",
             "contains",
             "equilibrium_margin",
@@ -92,6 +97,7 @@ def test_stability_exports():
             "lean_polygon",
             "leaning_stands",
             "load_path",
+            "load_paths_hold",
             "padded_hull",
             "pair_friction",
             "potential_energy",

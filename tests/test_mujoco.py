@@ -415,6 +415,7 @@ def test_the_stability_package_knows_no_engine():
             "dataclasses",
             "enum",
             "graphlib",
+            "heapq",
             "functools",
             "itertools",
             "math",

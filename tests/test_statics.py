@@ -118,3 +118,39 @@ def test_the_command_refuses_a_moving_scene_on_statics_with_exit_2(tmp_path, cap
     assert main(["check", str(path), "--backend", "statics"]) == 2
     err = capsys.readouterr().err
     assert f"{path}:4:5: impacts[0]: statics places bricks" in err and "Traceback" not in err
+
+
+def test_a_backend_without_dynamics_takes_the_short_path_not_the_step_loop(monkeypatch):
+    import stackdsl.runtime.run as run
+
+    def no_loop(*args, **kwargs):
+        raise AssertionError("the step loop ran")
+
+    monkeypatch.setattr(run, "run_in", no_loop)
+    outcome = statics("stackdsl: 1\nstructure: {tower: {levels: 30}}\n")
+    assert outcome.collapse is None and outcome.bricks_placed == 60 and outcome.steps == 0
+    assert outcome.certificate is not None and "load path" in outcome.certificate.detail
+    with pytest.raises(AssertionError, match="step loop"):  # an engine still steps
+        run_program(compile_scenario(parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 1}}\n")))
+
+
+def test_a_collapse_without_dynamics_is_proved_by_no_equilibrium_and_places_nothing_after():
+    expected = single_file(0.013)
+    outcome = statics(
+        f"stackdsl: 1\nstructure: {{tower: {{levels: {expected + 2}, bricks_per_layer: 1, turn: 0, shift: 13 mm}}}}\n"
+    )
+    assert outcome.collapse is not None and outcome.collapse.level == expected
+    assert outcome.certificate is not None and outcome.certificate.kind == "no equilibrium" and outcome.certificate.bricks
+    assert outcome.collapse.brick in outcome.certificate.bricks
+    assert outcome.bricks_placed == expected and len(outcome.unplaced) == 2
+    assert [e.kind for e in outcome.events].count("collapse") == 1 and outcome.collapse_graph == outcome.final_graph
+
+
+@pytest.mark.parametrize("name", ["hard/overhang_falls", "hard/harmonic_098", "fig14_leaning_on_upright"])
+def test_the_statics_world_in_the_step_loop_gives_the_short_paths_verdict(name):
+    from stackdsl.runtime.loop import Subscriber
+
+    program = compile_scenario(load_scenario(ROOT / "scenarios" / f"{name}.yaml"), backend="statics")
+    short, looped = run_program(program), run_program(program, subscribers=(Subscriber(),))
+    assert looped.steps > 0 and short.steps == 0  # a subscriber asks for the step loop
+    assert level(looped) == level(short)

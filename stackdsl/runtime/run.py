@@ -49,6 +49,7 @@ from .actions import Actions
 from .collapse import CollapseMonitor
 from .loop import CLOCK_EVERY, StepLoop, Subscriber
 from .outcome import Outcome
+from .placing import run_placed
 from .subscribers import CheapDebris, SoftLanding, Stability, Substeps
 
 __all__ = ["CLOCK_EVERY", "RunOptions", "run_in", "run_program"]
@@ -124,6 +125,8 @@ def run_program(
     require_program(program, "run_program")
     check_timeout(timeout)
     start = _time.perf_counter()
+    if not backend(program.engine.backend).dynamics and not subscribers:  # nothing to step: placed and solved
+        return run_placed(program, timeout=timeout, started=start)
     with _older_objects_left_alone(), world_for(program, shelve=options.shelve) as world:
         loop = run_in(world, program, options, timeout=timeout, started=start, subscribers=subscribers)
         built = outcome(loop, 0.0)  # its wall time counts the final brick graph too: it is part of the run

@@ -2,15 +2,18 @@
 
 :class:`StaticsWorld` is a :class:`~stackdsl.engines.protocol.World` whose bodies never move by
 themselves. After each step in which bricks were placed (one, or a group placed together), it
-asks rigid-block equilibrium (:func:`stability.solve_equilibrium`) of every brick standing, at
-its pose, on the contacts the poses give (:mod:`stackdsl.engines.statics.contacts`, within
+asks rigid-block equilibrium (:func:`stability.load_paths_hold`, else
+:func:`stability.solve_equilibrium`) of every brick standing, at
+its pose, on the contacts the poses give (:func:`stability.contacts_of`, within
 :data:`GAP` of each other). When no forces balance them, the bricks of the collapse mechanism
 and the brick just placed fall: each is laid flat on the ground where it was, and leaves the
 problem; equilibrium is asked again of the rest until it holds. The runtime's collapse monitor
 sees the fallen bricks displaced at rest, so the collapse level is the level of the first
 placement after which the bricks have no equilibrium. Nothing else moves: velocities are zero,
 a throw is ignored, and a hand or a shake table is refused (the compiler refuses such scenes
-first: :attr:`stackdsl.engines.backend.Backend.dynamics`).
+first: :attr:`stackdsl.engines.backend.Backend.dynamics`). A run without subscribers of its own
+never opens one (:mod:`stackdsl.runtime.placing` places and solves without a world); a run with a
+recorder steps this world in the step loop.
 
 Source: stackdsl's own, on rigid-block equilibrium (Livesley 1978; Whiting et al. 2009).
 """
@@ -20,18 +23,27 @@ from __future__ import annotations
 from collections.abc import Collection, Sequence
 
 import numpy as np
-from scipy.optimize import nnls
 from scipy.spatial.transform import Rotation
 
-from stability import Box, ContactPoint, ContactPolygon, Pose, RigidBlock, solve_equilibrium
+from stability import (
+    CONTACT_GAP,
+    Box,
+    ContactPoint,
+    ContactPolygon,
+    PlacedBox,
+    Pose,
+    RigidBlock,
+    contacts_of,
+    load_paths_hold,
+    solve_equilibrium,
+)
 
 from ..protocol import BrickSpec, EngineSettings, Vec3, World
-from .contacts import Body, contacts_of
 
 #: Metres within which two faces, or a corner and a face, touch: bricks are placed a drop gap
 #: above their poses (0.5 mm by default), and this backend takes drop gaps up to 1 mm
 #: (:data:`stackdsl.engines.statics.MAX_DROP`).
-GAP = 0.0011
+GAP = CONTACT_GAP
 
 
 class StaticsWorld(World):
@@ -49,7 +61,7 @@ class StaticsWorld(World):
         self.ground = 0
         self._timestep = engine.timestep
         self._ground_friction = ground_friction
-        self._bodies: dict[int, Body] = {}
+        self._bodies: dict[int, PlacedBox] = {}
         self._free: set[int] = set()  # bodies with mass: the bricks statics balances
         self._placed: list[int] = []  # placed since the last step: equilibrium is asked then
         self.fallen: list[int] = []
@@ -65,16 +77,16 @@ class StaticsWorld(World):
     # bodies -------------------------------------------------------------------
     def create(self, spec: BrickSpec, pose: Pose, mass: float | None = None, projectile: bool = False) -> int:
         body = len(self._bodies) + 1
-        self._put(Body(body, Box(np.array(spec.half_extents), spec.mass), pose, spec.friction))
+        self._put(PlacedBox(body, Box(np.array(spec.half_extents), spec.mass), pose, spec.friction))
         self._enter(body, spec.mass if mass is None else mass)
         return body
 
     def move(self, body: int, pose: Pose, mass: float) -> None:
         old = self._bodies[body]
-        self._put(Body(body, old.box, pose, old.friction))
+        self._put(PlacedBox(body, old.box, pose, old.friction))
         self._enter(body, mass)
 
-    def _put(self, body: Body) -> None:
+    def _put(self, body: PlacedBox) -> None:
         """Put ``body`` where it says (its contacts are found anew)."""
         self._bodies[body.key] = body
         corners = body.box.corners(body.pose)
@@ -129,9 +141,9 @@ class StaticsWorld(World):
             if not free:
                 return
             blocks = {b.key: RigidBlock(b.box.mass, b.pose.position) for b in free}
-            if _paths_hold(free, {b.key: self._contacts(b, standing) for b in free}):
-                return
             polygons = [c for b in free for c in self._contacts(b, standing)]
+            if load_paths_hold(free, polygons):
+                return
             answer = solve_equilibrium(blocks, polygons)
             if answer.stands:
                 return
@@ -155,9 +167,9 @@ class StaticsWorld(World):
         x, y = float(body.pose.position[0]), float(body.pose.position[1])
         pose = Pose(np.array([x, y, float(half[thin])]), Rotation.from_matrix(matrix).as_quat())
         self.fallen.append(key)
-        self._put(Body(key, body.box, pose, body.friction))
+        self._put(PlacedBox(key, body.box, pose, body.friction))
 
-    def _contacts(self, body: Body, standing: set[int]) -> list[ContactPolygon[int]]:
+    def _contacts(self, body: PlacedBox, standing: set[int]) -> list[ContactPolygon[int]]:
         """The contact polygons of ``body`` with the ground and the bodies of ``standing`` whose
         bounds meet its own (within :data:`GAP`), kept until one of them is put elsewhere."""
         kept = self._polygons.get(body.key)
@@ -200,7 +212,7 @@ class StaticsWorld(World):
             old = self._bodies[body]
             same = np.array_equal(old.pose.position, at.position) and np.array_equal(old.pose.orientation, at.orientation)
             if not same:
-                self._put(Body(body, old.box, at, old.friction))
+                self._put(PlacedBox(body, old.box, at, old.friction))
 
     def _all_points(self) -> dict[int, list[ContactPoint]]:
         """Every body's contact points, seen from it (each pair from both sides): the polygons'
@@ -218,118 +230,3 @@ class StaticsWorld(World):
                     points.setdefault(c.other, []).append(ContactPoint(c.other, b.key, p, -normal))
         self._points = points
         return points
-
-
-#: Metres inside its contact polygon's edges that a load's point must lie for the brick-by-brick
-#: proof (nearer, the equilibrium program decides).
-INSIDE = 1e-6
-
-
-def _paths_hold(free: Sequence[Body], polygons: dict[int, list[ContactPolygon[int]]]) -> bool:
-    """Whether vertical forces found brick by brick balance every brick of ``free`` (its contact
-    polygons by key, each on the bodies it lies on): a proof that they stand, and no answer when
-    it fails (the equilibrium program then decides).
-
-    Only where every brick lies level on level faces. From the top down, each brick's load (its
-    weight at its centre of mass and the forces the bricks on it put on it) must act at a point
-    strictly inside the convex hull of its contact vertices; it is passed down split among its
-    contact polygons (:func:`_split`), each share a force at a point inside its polygon on the
-    body under it. These forces balance each brick, so the program has a solution; a split that
-    overloads one support below proves nothing. Source: stackdsl's own (the load paths of
-    :mod:`stability._certificate`, without the program).
-    """
-    if not all(b.level for b in free):
-        return False
-    if any(abs(float(c.normal[2])) < 1.0 - 1e-9 for found in polygons.values() for c in found):
-        return False
-    loads: dict[int, list[tuple[float, float, float]]] = {b.key: [] for b in free}
-    for body in sorted(free, key=lambda b: -float(b.pose.position[2])):
-        weight = body.box.mass * 9.81
-        items = [*loads[body.key], (weight, float(body.pose.position[0]), float(body.pose.position[1]))]
-        force = sum(f for f, _, _ in items)
-        point = np.array([sum(f * x for f, x, _ in items), sum(f * y for f, _, y in items)]) / force
-        found = polygons[body.key]
-        if not found:
-            return False
-        shares = _split(found, point)
-        if shares is None:
-            return False
-        for other, share, (x, y) in shares:
-            if other in loads:
-                loads[other].append((force * share, x, y))
-    return True
-
-
-def _split(found: list[ContactPolygon[int]], point: np.ndarray) -> list[tuple[int, float, tuple[float, float]]] | None:
-    """A load at ``point`` (shape (2,), m, horizontal) split among the contact polygons ``found``:
-    (the body under each, its share of the load, where it acts), the shares >= 0 summing to 1 and
-    the points inside their polygons (strictly), their combination ``point``; None when this split
-    (the least-squares one of the polygons' centres, every point moved by what it misses) does not
-    fit. Source: stackdsl's own."""
-    centres = np.array([c.points[:, :2].mean(axis=0) for c in found])
-    if len(found) == 1:
-        shares = np.ones(1)
-    else:
-        system = np.vstack([centres.T, np.full(len(found), 10.0)])  # the shares' sum, weighted to hold
-        shares, _ = nnls(system, np.array([point[0], point[1], 10.0]))
-        if shares.sum() <= 0:
-            return None
-        shares = shares / shares.sum()
-    missed = point - shares @ centres
-    out = []
-    for c, share, centre in zip(found, shares.tolist(), centres):
-        if share <= 1e-12:
-            continue
-        at = centre + missed
-        if not _inside(c.points[:, :2], at):
-            return None
-        out.append((c.other, share, (float(at[0]), float(at[1]))))
-    return out
-
-
-def _inside(points: np.ndarray, target: np.ndarray) -> bool:
-    """Whether ``target`` (shape (2,), m) lies strictly inside the convex hull of ``points``
-    (shape (n, 2)): more than :data:`INSIDE` m from each of its edges (on an edge, the
-    equilibrium program decides)."""
-    key = points.tobytes()
-    edges = _EDGES.get(key)
-    if edges is None:
-        hull = points[_hull(points)]
-        if len(hull) < 3:
-            return False
-        steps = np.roll(hull, -1, axis=0) - hull
-        edges = _EDGES[key] = (hull, steps / np.hypot(steps[:, 0], steps[:, 1])[:, None])
-        if len(_EDGES) > 100_000:
-            _EDGES.clear()
-    hull, units = edges
-    to = target - hull
-    return bool(np.all(units[:, 0] * to[:, 1] - units[:, 1] * to[:, 0] > INSIDE))
-
-
-#: Each contact polygon's hull (its vertices' bytes -> the hull's vertices and unit edges), as
-#: every placement walks every brick's polygons again.
-_EDGES: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
-
-
-def _hull(points: np.ndarray) -> list[int]:
-    """The indices of ``points`` (shape (n, 2)) on their convex hull, counter-clockwise
-    (Andrew's monotone chain), without collinear ones."""
-    order = sorted(range(len(points)), key=lambda i: (float(points[i, 0]), float(points[i, 1])))
-
-    def cross(o: int, a: int, b: int) -> float:
-        return float(
-            (points[a, 0] - points[o, 0]) * (points[b, 1] - points[o, 1])
-            - (points[a, 1] - points[o, 1]) * (points[b, 0] - points[o, 0])
-        )
-
-    lower: list[int] = []
-    upper: list[int] = []
-    for i in order:
-        while len(lower) >= 2 and cross(lower[-2], lower[-1], i) <= 1e-15:
-            lower.pop()
-        lower.append(i)
-    for i in reversed(order):
-        while len(upper) >= 2 and cross(upper[-2], upper[-1], i) <= 1e-15:
-            upper.pop()
-        upper.append(i)
-    return lower[:-1] + upper[:-1]

@@ -1,0 +1,492 @@
+"""Ask where it breaks: the value of one field where the verdict changes (a threshold), and draws
+of a file's distributions that break its expectation (counterexamples), both searched with the
+signed margin of each run's verdict (:attr:`stackdsl.Outcome.margin`).
+
+- **Threshold** (:func:`find_threshold`). Both ends of the interval run first (together on the
+  pool), then Brent's method (``scipy.optimize.brentq``) brackets the root of the signed margin:
+  on a boundary statics decides the margin is continuous and nearly linear, and the bracket
+  closes in a few runs. A margin that is not continuous (a shake that overturns a block: the
+  stand's margin is its static margin, the collapse's how far the proof was past its limit)
+  does not stop it: Brent's method keeps a bracket of opposite verdicts and falls back to
+  bisection when interpolation does not shrink it; and whatever bracket it leaves wider than
+  the tolerance is bisected on the verdict alone. The answer is the pair of runs nearest each
+  other with opposite verdicts, an interval that holds the change when the verdict changes once.
+- **Counterexample** (:func:`find_counterexamples`). Optuna's TPE sampler proposes values of the
+  distributions drawn once a sample (a batch as wide as the pool at a time) and is told the signed
+  margin, oriented so that the verdict the file does not expect is negative; a run with that
+  verdict is a counterexample. Each is shrunk towards the distributions' centres (a uniform's
+  middle, a normal's mean, a choice's first item), one distribution at a time, keeping a move only
+  while the run still breaks the expectation (as hypothesis shrinks a failing example), then
+  written as a plain scenario file (:func:`counterexample_file`).
+
+Every run is a :class:`stackdsl.batch.sweep.SampleResult` (its ``sample`` is the run's number in
+the search), so a search writes its runs as a sweep does (:func:`stackdsl.batch.sweep_out.write_samples`).
+
+Source: stackdsl's own; Brent's method (R. P. Brent, "Algorithms for Minimization without
+Derivatives", 1973, ch. 4, as scipy implements it); the TPE sampler (Bergstra et al., "Algorithms
+for Hyper-Parameter Optimization", NeurIPS 2011, as Optuna implements it).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import math
+from collections.abc import Callable, Sequence
+from concurrent.futures import Executor
+from dataclasses import dataclass, field
+from typing import Any
+
+from ..lang.distributions import Distribution
+from ..lang.errors import ScenarioError
+from ..lang.expectations import Expect
+from ..lang.sampling import Template
+from ..lang.schema import Scenario
+from ..lang.schema_search import Counterexample, Threshold
+from .pool import WorkerLost, Workers
+from .sweep import SampleResult, SweepOptions, run_batch
+
+#: The least |signed margin| a probe gives Brent's method (metres): a run on the boundary itself
+#: (margin 0) still has a side, its verdict's.
+LEAST = 1e-9
+
+
+def stands(result: SampleResult) -> bool | None:
+    """Whether a run stood (None: it has no verdict: refused, stopped, an internal error, or undecided)."""
+    if result.bad_input or result.error or result.stopped or result.margin is None:
+        return None
+    return result.collapse_level is None
+
+
+def verdict_word(result: SampleResult) -> str:
+    """``"stands"``, ``"collapses at level N"``, or why the run has no verdict."""
+    if result.bad_input:
+        return "bad input"
+    if result.error or result.stopped:
+        return (result.error or result.stopped).split(":")[0]
+    if result.margin is None:
+        return "undecided"
+    return "stands" if result.collapse_level is None else f"collapses at level {result.collapse_level}"
+
+
+class Evaluator:
+    """Runs of templates' sample 0 (or sample k), in the order given: in this process (one job, or one
+    run), on stackdsl's pool (``jobs`` worker processes kept for the whole search, started when
+    first needed) or on a caller's executor (a Dask client's). A worker lost is that run's internal
+    error. Use as a context manager (the pool's workers end with it)."""
+
+    def __init__(self, options: SweepOptions, jobs: int = 1, executor: Executor | None = None) -> None:
+        self.options, self.jobs, self.executor = options, jobs, executor
+        self._pool: Workers | None = None
+        self.runs = 0
+
+    def __enter__(self) -> Evaluator:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._pool is not None:
+            self._pool.stop()
+
+    def run(self, tasks: Sequence[tuple[Template, int]]) -> list[SampleResult]:
+        """The result of sample ``k`` of cell 0 of each ``(template, k)``; each result's ``sample``
+        is the run's number in the search (counted from 0 over every call)."""
+        if self.executor is not None:
+            futures = [self.executor.submit(run_batch, t, 0, [k], self.options) for t, k in tasks]
+            out = [f.result()[0] for f in futures]
+        elif self.jobs == 1 or len(tasks) == 1:
+            out = [run_batch(t, 0, [k], self.options)[0] for t, k in tasks]
+        else:
+            out = self._on_pool(tasks)
+        numbered = [dataclasses.replace(r, sample=self.runs + i) for i, r in enumerate(out)]
+        self.runs += len(numbered)
+        return numbered
+
+    def _on_pool(self, tasks: Sequence[tuple[Template, int]]) -> list[SampleResult]:
+        if self._pool is None:
+            self._pool = Workers(self.jobs, warm=run_batch)
+        pool, limit = self._pool, None if self.options.timeout is None else self.options.timeout + 10.0
+        out: list[SampleResult | None] = [None] * len(tasks)
+        pending, running = list(enumerate(tasks)), dict[int, int]()
+        while pending or running:
+            for done in pool.collect(timeout=0 if pending and pool.ready else None):
+                i = running.pop(done.ticket)
+                if isinstance(done.error, WorkerLost):
+                    pool.add()
+                    out[i] = SampleResult(
+                        0, 0, 0, tasks[i][0].parameters(0, 0), None, 0, 0.0, 0.0, error=f"internal error: {done.error}"
+                    )
+                else:
+                    out[i] = done.value()[0]
+            while pending and pool.ready:
+                i, (template, k) = pending.pop(0)
+                running[pool.submit(run_batch, template, 0, [k], self.options, limit=limit)] = i
+        return [r for r in out if r is not None]
+
+
+# --- threshold -------------------------------------------------------------------------------
+
+
+def threshold_template(template: Template, value: Any) -> Template:
+    """``template`` (whose grid is the one field searched) with that field at ``value`` (as a
+    file writes it): one cell."""
+    ((path, key, _),) = template.grid
+    return dataclasses.replace(template, grid=((path, key, (value,)),))
+
+
+def written(value: float, unit: str) -> Any:
+    """A number of ``unit`` as a file writes it: ``"24.000000001 mm"``, or the bare number."""
+    return f"{value!r} {unit}" if unit else value
+
+
+@dataclass
+class ThresholdFound:
+    """A threshold search's answer.
+
+    Attributes:
+        field, unit: the field searched and the unit of the numbers here (as ``between`` is written).
+        probes: (value, result) of each run, in the order run.
+        low, high: the interval holding the change: the nearest two values run with opposite
+            verdicts (None: no change was found; ``message`` says why).
+        below, above: the verdicts at ``low`` and ``high``.
+        method: ``"brent"`` (the margin's root bracketed), ``"brent, then bisection on the
+            verdict"``, or ``"bisection on the verdict"`` (Brent's method could not run).
+        changes: how many times the verdict changes among the probes in value order (1 when it
+            is monotone over them).
+        bad_input, error: a run refused as bad input or its internal error, else ``""``.
+    """
+
+    field: str
+    unit: str
+    probes: list[tuple[float, SampleResult]] = dataclasses.field(default_factory=list)
+    low: float | None = None
+    high: float | None = None
+    below: str = ""
+    above: str = ""
+    method: str = "brent"
+    changes: int = 0
+    message: str = ""
+    bad_input: str = ""
+    error: str = ""
+
+    @property
+    def found(self) -> bool:
+        return self.low is not None
+
+    @property
+    def runs(self) -> int:
+        return len(self.probes)
+
+    def grid_runs(self, step: float, ends: tuple[float, float]) -> int:
+        """Runs a grid over ``ends`` with spacing ``step`` takes (both ends included): what a
+        sweep would need to pin the change down as closely."""
+        return math.floor((ends[1] - ends[0]) / step + 1e-9) + 1
+
+
+class _Stop(Exception):
+    """A probe with no verdict, or the runs spent: the search stops where it is."""
+
+
+def find_threshold(
+    template: Template,
+    spec: Threshold,
+    evaluator: Evaluator,
+    progress: Callable[[str], None] = lambda line: None,
+) -> ThresholdFound:
+    """Where the verdict changes along ``spec.field`` between ``spec.between``'s ends, to
+    ``spec.step`` (the tolerance), in at most ``spec.runs`` runs (the module's description).
+    ``template``: the file with a one-field grid on the field searched (its one value is replaced
+    by each probe's). ``progress`` is told one line a run."""
+    from scipy.optimize import brentq
+
+    low, high = spec.ends
+    unit, step = spec.unit, spec.step
+    found = ThresholdFound(spec.field, unit)
+
+    def probe(values: Sequence[float]) -> list[SampleResult]:
+        results = evaluator.run([(threshold_template(template, written(v, unit)), 0) for v in values])
+        for v, r in zip(values, results):
+            found.probes.append((v, r))
+            margin = "" if r.margin is None else f", margin {r.margin * 1000:+.3f} mm"
+            progress(f"run {len(found.probes)}: {spec.field} = {v:.6g} {unit}: {verdict_word(r)}{margin}".replace("  ", " "))
+            if r.bad_input:
+                found.bad_input = r.bad_input
+            elif r.error:
+                found.error = r.error
+            if stands(r) is None:
+                raise _Stop(f"the run at {v:.6g} {unit} has no verdict ({verdict_word(r)})".replace("  ", " "))
+        return results
+
+    def signed(r: SampleResult) -> float:
+        margin = r.margin if r.margin is not None else 0.0
+        return max(margin, LEAST) if stands(r) else min(margin, -LEAST)
+
+    try:
+        ends = probe([low, high])
+    except _Stop as stop:
+        found.message = str(stop)
+        return found
+    if stands(ends[0]) == stands(ends[1]):
+        found.message = f"the verdict is the same at both ends ({verdict_word(ends[0])}): no change between them"
+        _bracket(found)
+        return found
+
+    def margin_at(x: float) -> float:
+        known = next((r for v, r in found.probes if v == x), None)
+        if known is not None:  # Brent's method asks for both ends again
+            return signed(known)
+        if len(found.probes) >= spec.runs:
+            raise _Stop(f"the runs were spent ({spec.runs})")
+        return signed(probe([x])[0])
+
+    try:
+        brentq(margin_at, low, high, xtol=step / 4, rtol=4 * 2.220446049250313e-16, maxiter=spec.runs)
+    except _Stop as stop:
+        found.message = str(stop)
+    except (RuntimeError, ValueError) as exc:  # not converged in maxiter; a probe without a sign
+        found.message = f"Brent's method stopped: {exc}"
+    _bracket(found)
+    bisected = False
+    while found.found and not found.message and found.high - found.low > step and len(found.probes) < spec.runs:  # type: ignore[operator]
+        bisected = True
+        try:
+            probe([(found.low + found.high) / 2])  # type: ignore[operator]
+        except _Stop as stop:
+            found.message = str(stop)
+        _bracket(found)
+    if bisected:
+        found.method = "brent, then bisection on the verdict"
+    if found.found and found.high - found.low > step and not found.message:  # type: ignore[operator]
+        found.message = f"the runs were spent ({spec.runs}) before the interval was {step:g} {unit} wide"
+    return found
+
+
+def _bracket(found: ThresholdFound) -> None:
+    """The nearest two probes with opposite verdicts (the narrowest such adjacent pair in value
+    order), and how many times the verdict changes in that order."""
+    decided = sorted(((v, r) for v, r in found.probes if stands(r) is not None), key=lambda p: p[0])
+    pairs = [(a, b) for a, b in itertools.pairwise(decided) if stands(a[1]) != stands(b[1])]
+    found.changes = len(pairs)
+    if not pairs:
+        found.low = found.high = None
+        return
+    (a, ra), (b, rb) = min(pairs, key=lambda p: p[1][0] - p[0][0])
+    found.low, found.high, found.below, found.above = a, b, verdict_word(ra), verdict_word(rb)
+
+
+# --- counterexample --------------------------------------------------------------------------
+
+
+def expects_stand(scenario: Scenario) -> bool | None:
+    """Whether the file expects its structure to stand (True), to collapse (False), or neither
+    is read from its expectation (None): ``stands: true`` or a lower bound on P(stands) above
+    one half expect a stand; a ``collapse`` level, ``stands: false``-like bounds (P(stands) at
+    most one half) a collapse."""
+    expect: Expect = scenario.expect
+    if expect.stands:
+        return True
+    if expect.collapse is not None and not expect.statistical:
+        return False
+    p = expect.p_stands
+    if p is not None and p.op in (">=", ">"):
+        return True
+    if p is not None and p.op in ("<=", "<"):
+        return False
+    return None
+
+
+def searched(template: Template) -> list[Distribution]:
+    """The distributions a counterexample search varies: those drawn once a sample that no grid
+    field replaces (per-layer and per-brick draws keep sample 0's)."""
+    grid = [path for path, _, _ in template.grid]
+    return [d for d in template.distributions if d.per == "sample" and not any(d.path[: len(p)] == p for p in grid)]
+
+
+def centre(d: Distribution) -> Any:
+    """Where a draw of ``d`` is simplest, as a file writes it: a uniform's middle, a normal's mean
+    (within its clip), a choice's first item."""
+    if d.kind == "choice":
+        return d.values[0]
+    if d.kind == "uniform":
+        return _as_written(d, (d.values[0] + d.values[1]) / 2)
+    mean, _, low, high = d.values
+    return _as_written(d, min(max(mean, low), high))
+
+
+def _as_written(d: Distribution, x: float) -> Any:
+    return f"{float(x)!r} {d.unit}" if d.unit else float(x)
+
+
+def _number(d: Distribution, value: Any) -> float:
+    """A uniform's or normal's value as a number of its unit."""
+    if isinstance(value, str):
+        return float(value.split()[0])
+    return float(value)
+
+
+def pinned(template: Template, values: dict[Distribution, Any]) -> Template:
+    """``template`` with each distribution of ``values`` giving that value (as a file writes it)."""
+    return dataclasses.replace(
+        template,
+        distributions=tuple(dataclasses.replace(d, pinned=(values[d],)) if d in values else d for d in template.distributions),
+    )
+
+
+@dataclass
+class Found:
+    """A counterexample: its values (distribution -> value as written), its run, and after
+    shrinking the simplest values that still break the expectation with their run."""
+
+    values: dict[Distribution, Any]
+    result: SampleResult
+    shrunk: dict[Distribution, Any] = field(default_factory=dict)
+    shrunk_result: SampleResult | None = None
+    first_run: int = 0
+
+
+@dataclass
+class CounterexamplesFound:
+    """A counterexample search's answer: what it found, every run (its ``runs`` in the order run),
+    how many runs the search itself took before the first counterexample (``first``, 1-based; None
+    when none was found) and how many shrinking took."""
+
+    found: list[Found] = field(default_factory=list)
+    results: list[SampleResult] = field(default_factory=list)
+    first: int | None = None
+    search_runs: int = 0
+    shrink_runs: int = 0
+    bad_input: str = ""
+    error: str = ""
+
+
+def find_counterexamples(
+    template: Template,
+    spec: Counterexample,
+    want_stand: bool,
+    evaluator: Evaluator,
+    seed: int,
+    progress: Callable[[str], None] = lambda line: None,
+    batch: int = 1,
+) -> CounterexamplesFound:
+    """Search ``template``'s distributions drawn once a sample (:func:`searched`) for runs whose
+    verdict is the one the file does not expect (``want_stand``: a stand is sought; else a
+    collapse), Optuna's TPE sampler (seeded by ``seed``) minimising the signed margin oriented so;
+    ``batch`` runs a round. Stops at ``spec.find`` counterexamples or ``spec.runs`` runs, then
+    shrinks each (:func:`shrink`) in at most ``spec.shrink`` runs.
+
+    Raises:
+        ScenarioError: no distribution to search (at the file).
+        ImportError: Optuna is not installed (the ``search`` extra).
+    """
+    import optuna
+
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    ds = searched(template)
+    if not ds:
+        raise ScenarioError(
+            "a counterexample search varies the distributions drawn once a sample, and this file has none",
+            file=template.source.file,
+        )
+    sign = -1.0 if want_stand else 1.0  # minimised: negative when the verdict sought is reached
+    sampler = optuna.samplers.TPESampler(seed=seed, n_startup_trials=min(10, max(2, spec.runs // 10)), multivariate=True)
+    study = optuna.create_study(direction="minimize", sampler=sampler)
+    out = CounterexamplesFound()
+    names = {d: f"{i}:{d.label}" for i, d in enumerate(ds)}
+    while len(out.found) < spec.find and out.search_runs < spec.runs:
+        trials = [study.ask() for _ in range(min(batch, spec.runs - out.search_runs))]
+        proposals = [{d: _suggest(t, names[d], d) for d in ds} for t in trials]
+        results = evaluator.run([(pinned(template, values), 0) for values in proposals])
+        for trial, values, result in zip(trials, proposals, results):
+            out.results.append(result)
+            out.search_runs += 1
+            verdict = stands(result)
+            if verdict is None:
+                study.tell(trial, state=optuna.trial.TrialState.FAIL)
+                out.bad_input = out.bad_input or result.bad_input
+                out.error = out.error or result.error
+                progress(f"run {result.sample + 1}: {verdict_word(result)}")
+                continue
+            assert result.margin is not None
+            study.tell(trial, sign * (max(result.margin, LEAST) if verdict else min(result.margin, -LEAST)))
+            hit = verdict == want_stand
+            progress(
+                f"run {result.sample + 1}: {verdict_word(result)}, margin {result.margin * 1000:+.3f} mm{'  COUNTEREXAMPLE' if hit else ''}"
+            )
+            if hit and len(out.found) < spec.find:
+                out.found.append(Found(values, result, first_run=out.search_runs))
+                out.first = out.first or out.search_runs
+    for f in out.found:
+        f.shrunk, f.shrunk_result, made = shrink(template, f.values, f.result, want_stand, evaluator, spec.shrink, progress)
+        out.shrink_runs += len(made)
+        out.results.extend(made)
+    return out
+
+
+def _suggest(trial: Any, name: str, d: Distribution) -> Any:
+    """Optuna's proposal for ``d``, as a file writes it: a uniform over its ends, a normal over its
+    clip or 4 standard deviations about its mean, whichever is narrower, a choice by its index."""
+    if d.kind == "choice":
+        return d.values[trial.suggest_categorical(name, list(range(len(d.values))))]
+    if d.kind == "uniform":
+        low, high = d.values
+    else:
+        mean, sd, clip_low, clip_high = d.values
+        low, high = max(mean - 4 * sd, clip_low), min(mean + 4 * sd, clip_high)
+    return _as_written(d, trial.suggest_float(name, float(low), float(high)))
+
+
+def shrink(
+    template: Template,
+    values: dict[Distribution, Any],
+    result: SampleResult,
+    want_stand: bool,
+    evaluator: Evaluator,
+    runs: int,
+    progress: Callable[[str], None] = lambda line: None,
+) -> tuple[dict[Distribution, Any], SampleResult, list[SampleResult]]:
+    """The counterexample ``values`` (whose run is ``result``) moved towards the simplest that still
+    breaks the expectation, in at most ``runs`` runs: for each distribution in file order, its
+    :func:`centre` is tried, then (a number) halfway from where it is towards it, three times
+    over, each move kept when the run's verdict is still the one sought. Returns the values, their
+    run and the runs made."""
+    best, best_result, made = dict(values), result, list[SampleResult]()
+    for d in values:
+        target = centre(d)
+        if best[d] == target:
+            continue
+        for attempt in range(4):
+            if len(made) >= runs:
+                return best, best_result, made
+            if attempt == 0:
+                candidate = target
+            elif d.kind == "choice":
+                break
+            else:
+                here, there = _number(d, best[d]), _number(d, target)
+                if math.isclose(here, there, rel_tol=1e-9, abs_tol=1e-12):
+                    break
+                candidate = _as_written(d, (here + there) / 2)
+            trial = {**best, d: candidate}
+            (run,) = evaluator.run([(pinned(template, trial), 0)])
+            made.append(run)
+            progress(f"shrink {len(made)}: {d.label} = {candidate}: {verdict_word(run)}")
+            if stands(run) == want_stand:
+                best, best_result = trial, run
+                if attempt == 0:
+                    break
+    return best, best_result, made
+
+
+def counterexample_file(template: Template, values: dict[Distribution, Any], expect: Expect, want_stand: bool, note: str) -> str:
+    """A plain scenario file (YAML text) of ``template``'s sample 0 with ``values`` fixed: the
+    drawn values written in, no ``sweep``, ``search`` or ``require``, and one run's expectation:
+    the file's own when it is one run's, else the one its statistics stand for (``stands: true``
+    for a lower bound on P(stands); ``collapse: 500±499``, any level, for an upper bound), so that
+    ``stackdsl run`` of it fails as the search's run did. ``note`` opens its description."""
+    from ..lang.yaml_out import yaml_text
+
+    data = pinned(template, values)._data(0, 0)  # the sample's own plain data, the values put in
+    data = {k: v for k, v in data.items() if k not in ("sweep", "search", "require")}
+    if expect.statistical:
+        data["expect"] = {"collapse": "500±499"} if want_stand else {"stands": True}
+    data["description"] = note + ("\n" + str(data["description"]) if data.get("description") else "")
+    return yaml_text(data)

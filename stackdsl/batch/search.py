@@ -239,7 +239,7 @@ def find_threshold(
         return signed(probe([x])[0])
 
     try:
-        brentq(margin_at, low, high, xtol=step / 4, rtol=4 * 2.220446049250313e-16, maxiter=spec.runs)
+        brentq(margin_at, low, high, xtol=step * 0.99, rtol=4 * 2.220446049250313e-16, maxiter=spec.runs)
     except _Stop as stop:
         found.message = str(stop)
     except (RuntimeError, ValueError) as exc:  # not converged in maxiter; a probe without a sign
@@ -453,6 +453,7 @@ def shrink(
         target = centre(d)
         if best[d] == target:
             continue
+        far = target  # the nearest value to the centre known to break nothing (or not yet tried)
         for attempt in range(4):
             if len(made) >= runs:
                 return best, best_result, made
@@ -461,7 +462,7 @@ def shrink(
             elif d.kind == "choice":
                 break
             else:
-                here, there = _number(d, best[d]), _number(d, target)
+                here, there = _number(d, best[d]), _number(d, far)
                 if math.isclose(here, there, rel_tol=1e-9, abs_tol=1e-12):
                     break
                 candidate = _as_written(d, (here + there) / 2)
@@ -473,6 +474,8 @@ def shrink(
                 best, best_result = trial, run
                 if attempt == 0:
                     break
+            else:
+                far = candidate
     return best, best_result, made
 
 

@@ -131,10 +131,16 @@ def _threshold(
             if at is not None:
                 values[("sweep", "grid", spec.field, i)] = at
     mapped = dataclasses.replace(source, values=values, keys=keys)
-    template = Template.of(data, mapped)
-    assert template is not None
-    template.scenario(0, 0, checked=True)
-    template.scenario(1, 0)
+    try:
+        template = Template.of(data, mapped)
+        assert template is not None
+        template.scenario(0, 0, checked=True)
+        template.scenario(1, 0)
+    except ScenarioError as exc:  # the grid is the search's own: said at its field or its ends
+        if not (exc.field or "").startswith("sweep"):
+            raise
+        at = ("search", "threshold", "between" if "value" in exc.message else "field")
+        raise source.error(at, exc.message.replace("the grid key", "the field").replace("grid value", "value")) from None
     found = find_threshold(template, spec, evaluator, _say)
     wall = time.perf_counter() - started
     results = [r for _, r in found.probes]

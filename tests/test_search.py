@@ -1,0 +1,73 @@
+"""stackdsl search: thresholds against closed forms, counterexamples that reproduce, and the
+search: block's errors (searches/, docs/searches.md)."""
+
+import json
+from pathlib import Path
+
+import pytest
+
+from stackdsl.cli.main import main
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def search(tmp_path: Path, file: str, *more: str) -> tuple[int, dict]:
+    out = tmp_path / "out"
+    status = main(["search", str(ROOT / file), "-j", "1", "--out", str(out), *more])
+    summary = json.loads((out / "search.json").read_text()) if (out / "search.json").is_file() else {}
+    return status, summary
+
+
+def test_the_single_file_stacks_critical_shift_is_bracketed_in_few_runs(tmp_path):
+    status, found = search(tmp_path, "searches/single_file_shift.yaml")
+    assert status == 0
+    low, high = found["interval"]
+    assert abs(low - 24.0) <= 0.2 and abs(high - 24.0) <= 0.2  # the closed form: 120 mm / 5
+    assert high - low <= 0.1  # the tolerance asked for
+    assert found["below"] == "stands" and found["above"].startswith("collapses")
+    assert found["runs"] * 10 <= found["grid_runs"]  # at least 10x fewer than a grid at 0.1 mm
+    assert (tmp_path / "out" / "margin.png").stat().st_size > 10_000
+    assert (tmp_path / "out" / "samples.csv").read_text().count("\n") == found["runs"] + 1
+
+
+@pytest.mark.slow
+def test_the_critical_shift_on_mujoco(tmp_path):
+    pytest.importorskip("mujoco")
+    status, found = search(tmp_path, "searches/single_file_shift.yaml", "--backend", "mujoco")
+    low, high = found["interval"]
+    assert status == 0 and abs(low - 24.0) <= 0.2 and abs(high - 24.0) <= 0.2
+    assert found["runs"] * 10 <= found["grid_runs"]
+
+
+@pytest.mark.slow
+def test_a_rare_counterexample_is_found_shrunk_and_reproduces(tmp_path):
+    pytest.importorskip("optuna")
+    status, found = search(tmp_path, "searches/rare_overhang.yaml", "--seed", "3")
+    assert status == 1  # a counterexample breaks the file's expectation
+    assert found["found"] == 1 and found["first"] <= 100
+    (file,) = found["files"]
+    assert main(["run", file]) == 1  # the plain scenario file fails as the search's run did
+
+
+@pytest.mark.parametrize(
+    ("block", "said"),
+    [
+        ("search: {threshold: {field: structure.tower.shift, between: [30 mm, 20 mm]}}", "5:"),
+        ("search: {threshold: {field: structure.tower.shift, between: [20 mm, 30 s]}}", "5:"),
+        ("search: {threshold: {field: structure.tower.shift, between: [20 mm, 30 mm], tolerance: 20 mm}}", "5:"),
+        ("search: {}", "5:"),
+        ("search:", "5:"),
+        ("search: {counterexample: {runs: 0}}", "5:"),
+        ("search: {threshold: {field: structure.tower.sift, between: [20 mm, 30 mm]}}", "5:"),
+    ],
+)
+def test_a_bad_search_block_is_refused_at_its_line(tmp_path, capsys, block, said):
+    path = tmp_path / "bad.yaml"
+    path.write_text(
+        "stackdsl: 1\nstructure: {tower: {levels: 3, bricks_per_layer: 1, turn: 0, shift: 1 mm}}\n"
+        f"timing: {{interval: 0.5 s}}\n\n{block}\n"
+    )
+    assert main(["search", str(path), "-j", "1", "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert f"bad.yaml:{said}" in err and "Traceback" not in err
+    assert not (tmp_path / "out" / "samples.csv").exists()

@@ -139,8 +139,8 @@ def _threshold(
     except ScenarioError as exc:  # the grid is the search's own: said at its field or its ends
         if not (exc.field or "").startswith("sweep"):
             raise
-        at = ("search", "threshold", "between" if "value" in exc.message else "field")
-        raise source.error(at, exc.message.replace("the grid key", "the field").replace("grid value", "value")) from None
+        blamed = ("search", "threshold", "between" if "value" in exc.message else "field")
+        raise source.error(blamed, exc.message.replace("the grid key", "the field").replace("grid value", "value")) from None
     found = find_threshold(template, spec, evaluator, _say)
     wall = time.perf_counter() - started
     results = [r for _, r in found.probes]

@@ -71,3 +71,19 @@ def test_a_bad_search_block_is_refused_at_its_line(tmp_path, capsys, block, said
     err = capsys.readouterr().err
     assert f"bad.yaml:{said}" in err and "Traceback" not in err
     assert not (tmp_path / "out" / "samples.csv").exists()
+
+
+def test_the_last_jenga_blocks_critical_offset(tmp_path):
+    status, found = search(tmp_path, "searches/jenga_last_block.yaml")
+    low, high = found["interval"]
+    assert status == 0 and low <= 12.5 + 0.2 and high >= 12.5 - 0.2 and high - low <= 0.1  # half the block's 25 mm
+    assert found["runs"] * 10 <= found["grid_runs"]
+
+
+def test_one_number_of_a_list_is_a_field():
+    from stackdsl.batch.search import in_list
+
+    data = {"structure": {"bricks": [{"at": [0, 0, "4 mm"]}], "tower": {"shift": "1 mm"}}}
+    key, put = in_list(data, "structure.bricks[0].at.2")
+    assert key == "structure.bricks.0.at" and put("5 mm") == [0, 0, "5 mm"]
+    assert in_list(data, "structure.tower.shift") is None and in_list(data, "structure.bricks.0.at.3") is None

@@ -37,12 +37,13 @@ from concurrent.futures import Executor
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..lang.distributions import Distribution
+from ..lang.distributions import INSIDE, Distribution
 from ..lang.errors import ScenarioError
 from ..lang.expectations import Expect
 from ..lang.sampling import Template
 from ..lang.schema import Scenario
 from ..lang.schema_search import Counterexample, Threshold
+from ..lang.schema_sweep import grid_name
 from .pool import WorkerLost, Workers
 from .sweep import SampleResult, SweepOptions, run_batch
 
@@ -133,6 +134,33 @@ def threshold_template(template: Template, value: Any) -> Template:
     return dataclasses.replace(template, grid=((path, key, (value,)),))
 
 
+def in_list(data: dict[str, Any], field: str) -> tuple[str, Callable[[Any], Any]] | None:
+    """For a field that names one number of a list of numbers in ``data`` (``structure.bricks.0.at.0``,
+    the x of a brick's position), the list's own key and a function putting a value in its place
+    in a copy of the list; None for any other field (a grid key names it whole).
+
+    >>> key, put = in_list({"structure": {"bricks": [{"at": [0, 0, "4 mm"]}]}}, "structure.bricks.0.at.0")
+    >>> key, put("2 mm")
+    ('structure.bricks.0.at', ['2 mm', 0, '4 mm'])
+    """
+    *head, last = grid_name(field).split(".")
+    if not head or not last.isdigit():
+        return None
+    node: Any = data
+    for seg in head:
+        if isinstance(node, dict) and seg in node:
+            node = node[seg]
+        elif isinstance(node, list) and seg.isdigit() and int(seg) < len(node):
+            node = node[int(seg)]
+        else:
+            return None
+    i = int(last)
+    if not isinstance(node, list) or i >= len(node) or any(isinstance(v, (dict, list)) for v in node):
+        return None
+    base = list(node)
+    return ".".join(head), lambda value: [*base[:i], value, *base[i + 1 :]]
+
+
 def written(value: float, unit: str) -> Any:
     """A number of ``unit`` as a file writes it: ``"24.000000001 mm"``, or the bare number."""
     return f"{value!r} {unit}" if unit else value
@@ -191,11 +219,13 @@ def find_threshold(
     spec: Threshold,
     evaluator: Evaluator,
     progress: Callable[[str], None] = lambda line: None,
+    value_of: Callable[[Any], Any] = lambda v: v,
 ) -> ThresholdFound:
     """Where the verdict changes along ``spec.field`` between ``spec.between``'s ends, to
     ``spec.step`` (the tolerance), in at most ``spec.runs`` runs (the module's description).
     ``template``: the file with a one-field grid on the field searched (its one value is replaced
-    by each probe's). ``progress`` is told one line a run."""
+    by each probe's, ``value_of`` the value as written: the whole list, for one number of a
+    list, :func:`in_list`). ``progress`` is told one line a run."""
     from scipy.optimize import brentq
 
     low, high = spec.ends
@@ -203,7 +233,7 @@ def find_threshold(
     found = ThresholdFound(spec.field, unit)
 
     def probe(values: Sequence[float]) -> list[SampleResult]:
-        results = evaluator.run([(threshold_template(template, written(v, unit)), 0) for v in values])
+        results = evaluator.run([(threshold_template(template, value_of(written(v, unit))), 0) for v in values])
         for v, r in zip(values, results):
             found.probes.append((v, r))
             margin = "" if r.margin is None else f", margin {r.margin * 1000:+.3f} mm"
@@ -392,6 +422,8 @@ def find_counterexamples(
     out = CounterexamplesFound()
     names = {d: f"{i}:{d.label}" for i, d in enumerate(ds)}
     while len(out.found) < spec.find and out.search_runs < spec.runs:
+        if (step := secant_step(study, ds, names)) is not None:
+            study.enqueue_trial(step, skip_if_exists=True)
         trials = [study.ask() for _ in range(min(batch, spec.runs - out.search_runs))]
         proposals = [{d: _suggest(t, names[d], d) for d in ds} for t in trials]
         results = evaluator.run([(pinned(template, values), 0) for values in proposals])
@@ -421,17 +453,64 @@ def find_counterexamples(
     return out
 
 
+#: How far past the margin's root a secant step aims, as a share of the step (a run exactly on
+#: the boundary is a tie: past it, the verdict sought is proved).
+OVERSHOOT = 0.2
+
+
+def secant_step(study: Any, ds: Sequence[Distribution], names: dict[Distribution, str]) -> dict[str, Any] | None:
+    """A proposal the signed margin itself makes (Optuna's trial parameters, to enqueue), or None:
+    of the completed trials, the best two that draw the same choices and differ in the numbers
+    (a uniform's or normal's value), the straight line through their margins extended to where it
+    crosses zero and :data:`OVERSHOOT` of its step beyond, each number kept within its range.
+    Where statics decides, the margin is close to linear in each number, so one step lands on the
+    verdict sought; where it is flat (a margin another direction bounds), no step is made.
+    Source: stackdsl's own (the secant method on the margin)."""
+    import optuna
+
+    done = sorted((t for t in study.trials if t.state == optuna.trial.TrialState.COMPLETE), key=lambda t: t.value)
+    numbers = [d for d in ds if d.kind != "choice"]
+    if len(done) < 2 or not numbers:
+        return None
+    best = done[0]
+    for other in done[1:]:
+        if any(best.params[names[d]] != other.params[names[d]] for d in ds if d.kind == "choice"):
+            continue
+        v1, v2 = best.value, other.value
+        if v2 - v1 <= 1e-12:
+            continue
+        t = v1 / (v2 - v1) * (1 + OVERSHOOT)  # along best - other, from best: v1 + t (v1 - v2) = -OVERSHOOT v1
+        step = dict(best.params)
+        moved = False
+        for d in numbers:
+            a, b = best.params[names[d]], other.params[names[d]]
+            low, high = best.distributions[names[d]].low, best.distributions[names[d]].high
+            x = min(max(a + t * (a - b), low), high)
+            moved = moved or abs(x - a) > 1e-12 * max(1.0, abs(a))
+            step[names[d]] = x
+        if moved:
+            return step
+        return None
+    return None
+
+
 def _suggest(trial: Any, name: str, d: Distribution) -> Any:
-    """Optuna's proposal for ``d``, as a file writes it: a uniform over its ends, a normal over its
+    """Optuna's proposal for ``d``, as a file writes it: a uniform over its ends less
+    :data:`stackdsl.lang.distributions.INSIDE` of its width at each, a normal over its
     clip or 4 standard deviations about its mean, whichever is narrower, a choice by its index."""
     if d.kind == "choice":
         return d.values[trial.suggest_categorical(name, list(range(len(d.values))))]
-    if d.kind == "uniform":
+    if d.kind == "uniform":  # its ends themselves are degenerate draws (Distribution.bounds): kept out
         low, high = d.values
+        low, high = low + INSIDE * (high - low), high - INSIDE * (high - low)
     else:
         mean, sd, clip_low, clip_high = d.values
         low, high = max(mean - 4 * sd, clip_low), min(mean + 4 * sd, clip_high)
     return _as_written(d, trial.suggest_float(name, float(low), float(high)))
+
+
+#: Runs shrinking spends on one distribution at most: its centre, then halving the way there.
+SHRINK_STEPS = 6
 
 
 def shrink(
@@ -445,8 +524,8 @@ def shrink(
 ) -> tuple[dict[Distribution, Any], SampleResult, list[SampleResult]]:
     """The counterexample ``values`` (whose run is ``result``) moved towards the simplest that still
     breaks the expectation, in at most ``runs`` runs: for each distribution in file order, its
-    :func:`centre` is tried, then (a number) halfway from where it is towards it, three times
-    over, each move kept when the run's verdict is still the one sought. Returns the values, their
+    :func:`centre` is tried, then (a number) halfway from where it is towards the nearest value
+    known to break nothing, up to :data:`SHRINK_STEPS` runs in all, each move kept when the run's verdict is still the one sought. Returns the values, their
     run and the runs made."""
     best, best_result, made = dict(values), result, list[SampleResult]()
     for d in values:
@@ -454,7 +533,7 @@ def shrink(
         if best[d] == target:
             continue
         far = target  # the nearest value to the centre known to break nothing (or not yet tried)
-        for attempt in range(4):
+        for attempt in range(SHRINK_STEPS):
             if len(made) >= runs:
                 return best, best_result, made
             if attempt == 0:

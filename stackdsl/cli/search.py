@@ -12,6 +12,7 @@ import dataclasses
 import json
 import sys
 import time
+from collections.abc import Callable
 from contextlib import ExitStack
 from pathlib import Path
 from typing import Any
@@ -108,6 +109,10 @@ def _data(file: str, seed: int | None) -> tuple[dict[str, Any], SourceMap]:
     return read_data(file, seed)
 
 
+def _as_it_is(value: Any) -> Any:
+    return value
+
+
 def _say(line: str) -> None:
     print(line, file=sys.stderr, flush=True)
 
@@ -115,21 +120,25 @@ def _say(line: str) -> None:
 def _threshold(
     args: argparse.Namespace, data: dict[str, Any], source: SourceMap, spec: Any, evaluator: Any, out: Path, started: float
 ) -> int:
-    from ..batch.search import find_threshold, stands
+    from ..batch.search import find_threshold, in_list, stands
     from ..draw.searchplot import plot_margin
     from ..lang.sampling import Template
 
     data = {k: copy.deepcopy(v) for k, v in data.items() if k not in ("sweep", "expect")}  # a run's verdict is what counts
-    data["sweep"] = {"samples": 1, "grid": {spec.field: list(spec.between)}}
+    key: str = spec.field
+    value_of: Callable[[Any], Any] = _as_it_is
+    if (one := in_list(data, spec.field)) is not None:  # one number of a list: the grid gives the whole list
+        key, value_of = one
+    data["sweep"] = {"samples": 1, "grid": {key: [value_of(v) for v in spec.between]}}
     here = source.values.get(("search", "threshold", "field"))
     ends = [source.values.get(("search", "threshold", "between", i)) for i in (0, 1)]
     values, keys = dict(source.values), dict(source.keys)
     if here is not None:  # the grid's key and values are the search's field and ends: errors point there
-        keys[("sweep", "grid", spec.field)] = source.keys.get(("search", "threshold", "field"), here)
-        values[("sweep", "grid", spec.field)] = here
+        keys[("sweep", "grid", key)] = source.keys.get(("search", "threshold", "field"), here)
+        values[("sweep", "grid", key)] = here
         for i, at in enumerate(ends):
             if at is not None:
-                values[("sweep", "grid", spec.field, i)] = at
+                values[("sweep", "grid", key, i)] = at
     mapped = dataclasses.replace(source, values=values, keys=keys)
     try:
         template = Template.of(data, mapped)
@@ -141,7 +150,7 @@ def _threshold(
             raise
         blamed = ("search", "threshold", "between" if "value" in exc.message else "field")
         raise source.error(blamed, exc.message.replace("the grid key", "the field").replace("grid value", "value")) from None
-    found = find_threshold(template, spec, evaluator, _say)
+    found = find_threshold(template, spec, evaluator, _say, value_of)
     wall = time.perf_counter() - started
     results = [r for _, r in found.probes]
     if found.bad_input:

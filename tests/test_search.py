@@ -87,3 +87,12 @@ def test_one_number_of_a_list_is_a_field():
     key, put = in_list(data, "structure.bricks[0].at.2")
     assert key == "structure.bricks.0.at" and put("5 mm") == [0, 0, "5 mm"]
     assert in_list(data, "structure.tower.shift") is None and in_list(data, "structure.bricks.0.at.3") is None
+
+
+@pytest.mark.slow
+def test_the_dominoes_reach_is_bracketed_on_the_expectations_verdict(tmp_path):
+    status, found = search(tmp_path, "searches/dominoes_reach.yaml")
+    low, high = found["interval"]
+    assert status == 0 and found["below"] == "expectations held" and found["above"] == "expectations failed"
+    assert 120 < low < high < 140 and high - low <= 0.2  # near h + t = 128 mm (the base slips: docs/results/search.md)
+    assert found["runs"] * 10 <= found["grid_runs"]

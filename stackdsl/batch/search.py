@@ -53,14 +53,68 @@ LEAST = 1e-9
 
 
 def stands(result: SampleResult) -> bool | None:
-    """Whether a run stood (None: it has no verdict: refused, stopped, an internal error, or undecided)."""
-    if result.bad_input or result.error or result.stopped or result.margin is None:
+    """Whether a run stood, or with its expectations judged (:func:`run_judged`) whether they held
+    (None: it has no verdict: refused, stopped, an internal error, or undecided)."""
+    if result.bad_input or result.error or result.stopped:
+        return None
+    if result.held is not None:
+        return result.held
+    if result.margin is None:
         return None
     return result.collapse_level is None
 
 
+def judged(expect: Expect) -> bool:
+    """Whether a threshold search judges ``expect`` on each run (one run's expectations beyond
+    ``stands`` alone: ``toppled: all``, ``stays``, a collapse level), rather than its stand or
+    collapse (and then its signed margin)."""
+    others = (expect.collapse, expect.stands_until, expect.stays, expect.moved, expect.toppled)
+    return expect.per_run and any(o is not None for o in others)
+
+
+def run_judged(template: Template, cell: int, k: int, options: SweepOptions, expect: Expect) -> SampleResult:
+    """Sample ``k`` of ``cell`` run as :func:`stackdsl.batch.sweep.run_batch` runs it, with one run's
+    expectations ``expect`` judged on its outcome (:func:`stackdsl.verdicts.expect.evaluate`): its
+    ``held``. A sample refused is its ``bad_input``; an exception its ``error``."""
+    from ..compile.compiler import compile_scenario
+    from ..runtime.run import run_program
+    from ..verdicts.expect import evaluate
+    from .sweep import which_sample
+
+    parameters = template.parameters(cell, k)
+    try:
+        scenario = template.scenario(cell, k)
+        program = compile_scenario(scenario, options.mode, options.model, options.backend, draw_time=options.timeout)
+    except ScenarioError as exc:
+        return SampleResult(cell, k, 0, parameters, None, 0, 0.0, 0.0, bad_input=str(which_sample(exc, template, cell, k)))
+    try:
+        outcome = run_program(program, timeout=options.timeout)
+        held = all(v.passed for v in evaluate(expect, outcome, program.collapse_threshold))
+    except Exception as exc:  # MemoryError included: this run's internal error
+        message = (str(exc).splitlines() or [""])[0]
+        return SampleResult(
+            cell, k, scenario.seed, parameters, None, 0, 0.0, 0.0, error=f"internal error: {type(exc).__name__}: {message}"
+        )
+    return SampleResult(
+        cell,
+        k,
+        scenario.seed,
+        parameters,
+        outcome.collapse.level if outcome.collapse else None,
+        outcome.levels_placed,
+        outcome.wall_time,
+        outcome.simulated_time,
+        stopped=outcome.stopped or "",
+        margin=outcome.margin,
+        held=None if outcome.stopped else held,
+    )
+
+
 def verdict_word(result: SampleResult) -> str:
-    """``"stands"``, ``"collapses at level N"``, or why the run has no verdict."""
+    """``"stands"``, ``"collapses at level N"`` (``"held"``, ``"failed"`` with its expectations
+    judged), or why the run has no verdict."""
+    if result.held is not None and not (result.bad_input or result.error or result.stopped):
+        return "expectations held" if result.held else "expectations failed"
     if result.bad_input:
         return "bad input"
     if result.error or result.stopped:
@@ -76,8 +130,10 @@ class Evaluator:
     first needed) or on a caller's executor (a Dask client's). A worker lost is that run's internal
     error. Use as a context manager (the pool's workers end with it)."""
 
-    def __init__(self, options: SweepOptions, jobs: int = 1, executor: Executor | None = None) -> None:
-        self.options, self.jobs, self.executor = options, jobs, executor
+    def __init__(
+        self, options: SweepOptions, jobs: int = 1, executor: Executor | None = None, expect: Expect | None = None
+    ) -> None:
+        self.options, self.jobs, self.executor, self.expect = options, jobs, executor, expect
         self._pool: Workers | None = None
         self.runs = 0
 
@@ -92,10 +148,10 @@ class Evaluator:
         """The result of sample ``k`` of cell 0 of each ``(template, k)``; each result's ``sample``
         is the run's number in the search (counted from 0 over every call)."""
         if self.executor is not None:
-            futures = [self.executor.submit(run_batch, t, 0, [k], self.options) for t, k in tasks]
-            out = [f.result()[0] for f in futures]
+            futures = [self.executor.submit(_one_run, t, k, self.options, self.expect) for t, k in tasks]
+            out = [f.result() for f in futures]
         elif self.jobs == 1 or len(tasks) == 1:
-            out = [run_batch(t, 0, [k], self.options)[0] for t, k in tasks]
+            out = [_one_run(t, k, self.options, self.expect) for t, k in tasks]
         else:
             out = self._on_pool(tasks)
         numbered = [dataclasses.replace(r, sample=self.runs + i) for i, r in enumerate(out)]
@@ -104,7 +160,7 @@ class Evaluator:
 
     def _on_pool(self, tasks: Sequence[tuple[Template, int]]) -> list[SampleResult]:
         if self._pool is None:
-            self._pool = Workers(self.jobs, warm=run_batch)
+            self._pool = Workers(self.jobs, warm=_one_run)
         pool, limit = self._pool, None if self.options.timeout is None else self.options.timeout + 10.0
         out: list[SampleResult | None] = [None] * len(tasks)
         pending, running = list(enumerate(tasks)), dict[int, int]()
@@ -117,11 +173,18 @@ class Evaluator:
                         0, 0, 0, tasks[i][0].parameters(0, 0), None, 0, 0.0, 0.0, error=f"internal error: {done.error}"
                     )
                 else:
-                    out[i] = done.value()[0]
+                    out[i] = done.value()
             while pending and pool.ready:
                 i, (template, k) = pending.pop(0)
-                running[pool.submit(run_batch, template, 0, [k], self.options, limit=limit)] = i
+                running[pool.submit(_one_run, template, k, self.options, self.expect, limit=limit)] = i
         return [r for r in out if r is not None]
+
+
+def _one_run(template: Template, k: int, options: SweepOptions, expect: Expect | None) -> SampleResult:
+    """Sample ``k`` of cell 0, its expectations judged when ``expect`` is given (a task of the pool)."""
+    if expect is not None:
+        return run_judged(template, 0, k, options, expect)
+    return run_batch(template, 0, [k], options)[0]
 
 
 # --- threshold -------------------------------------------------------------------------------
@@ -247,6 +310,8 @@ def find_threshold(
         return results
 
     def signed(r: SampleResult) -> float:
+        if r.held is not None:  # the expectations' verdict alone: Brent's method bisects
+            return 1.0 if r.held else -1.0
         margin = r.margin if r.margin is not None else 0.0
         return max(margin, LEAST) if stands(r) else min(margin, -LEAST)
 

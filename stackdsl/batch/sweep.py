@@ -64,6 +64,8 @@ class SampleResult:
             may set them), 0 without a tower or for a bad input.
         margin: metres, the run's signed margin (:attr:`stackdsl.Outcome.margin`: positive it
             stands, negative it collapsed), None when it has none.
+        held: whether one run's expectations held, when a search judged them
+            (:func:`stackdsl.batch.search.run_judged`), else None.
     """
 
     cell: int
@@ -82,6 +84,7 @@ class SampleResult:
     draws: int = 1
     levels: int = 0
     margin: float | None = None
+    held: bool | None = None
 
     def row(self) -> dict[str, Any]:
         """Plain data for CSV and JSON Lines (``parameters`` spread into their own fields)."""

@@ -54,7 +54,7 @@ def add_search(
 
 
 def _search(args: argparse.Namespace) -> int:
-    from ..batch.search import Evaluator
+    from ..batch.search import Evaluator, judged
     from ..batch.sweep import SweepOptions, dask_executor
     from ..lang.loader import load_scenario
 
@@ -84,7 +84,8 @@ def _search(args: argparse.Namespace) -> int:
         executor, jobs = None, args.jobs
         if args.dask:
             executor, jobs, _ = stack.enter_context(dask_executor(args.dask))
-        evaluator = stack.enter_context(Evaluator(options, jobs, executor))
+        judge = scenario.expect if search.threshold is not None and judged(scenario.expect) else None
+        evaluator = stack.enter_context(Evaluator(options, jobs, executor, judge))
         engine = f"{engine_name} {args.mode or scenario.engine.mode}"
         where = f"Dask {args.dask}" if args.dask else f"{jobs} process{'es' if jobs != 1 else ''}"
         if search.threshold is not None:

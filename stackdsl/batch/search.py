@@ -37,6 +37,8 @@ from concurrent.futures import Executor
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+
 from ..lang.distributions import INSIDE, Distribution
 from ..lang.errors import ScenarioError
 from ..lang.expectations import Expect
@@ -267,6 +269,11 @@ class ThresholdFound:
     def runs(self) -> int:
         return len(self.probes)
 
+    @property
+    def width(self) -> float:
+        """``high - low``; 0 when no change was found (nothing left to narrow)."""
+        return 0.0 if self.low is None or self.high is None else self.high - self.low
+
     def grid_runs(self, step: float, ends: tuple[float, float]) -> int:
         """Runs a grid over ``ends`` with spacing ``step`` takes (both ends included): what a
         sweep would need to pin the change down as closely."""
@@ -334,23 +341,24 @@ def find_threshold(
         return signed(probe([x])[0])
 
     try:
-        brentq(margin_at, low, high, xtol=step * 0.99, rtol=4 * 2.220446049250313e-16, maxiter=spec.runs)
+        brentq(margin_at, low, high, xtol=step * 0.99, rtol=4 * float(np.finfo(float).eps), maxiter=spec.runs)
     except _Stop as stop:
         found.message = str(stop)
     except (RuntimeError, ValueError) as exc:  # not converged in maxiter; a probe without a sign
         found.message = f"Brent's method stopped: {exc}"
     _bracket(found)
     bisected = False
-    while found.found and not found.message and found.high - found.low > step and len(found.probes) < spec.runs:  # type: ignore[operator]
+    while not found.message and found.width > step and len(found.probes) < spec.runs:
+        assert found.low is not None and found.high is not None
         bisected = True
         try:
-            probe([(found.low + found.high) / 2])  # type: ignore[operator]
+            probe([(found.low + found.high) / 2])
         except _Stop as stop:
             found.message = str(stop)
         _bracket(found)
     if bisected:
         found.method = "brent, then bisection on the verdict"
-    if found.found and found.high - found.low > step and not found.message:  # type: ignore[operator]
+    if found.found and found.width > step and not found.message:
         found.message = f"the runs were spent ({spec.runs}) before the interval was {step:g} {unit} wide"
     return found
 
@@ -373,9 +381,10 @@ def _bracket(found: ThresholdFound) -> None:
 
 def expects_stand(scenario: Scenario) -> bool | None:
     """Whether the file expects its structure to stand (True), to collapse (False), or neither
-    is read from its expectation (None): ``stands: true`` or a lower bound on P(stands) above
-    one half expect a stand; a ``collapse`` level, ``stands: false``-like bounds (P(stands) at
-    most one half) a collapse."""
+    is read from its expectation (None): ``stands: true`` or a lower bound on P(stands)
+    (``'>= 0.99'``) expect a stand; one run's ``collapse`` level or an upper bound on P(stands)
+    (``'<= 0.1'``) a collapse; P(stands) within a tolerance, or statistics of the level alone,
+    neither."""
     expect: Expect = scenario.expect
     if expect.stands:
         return True
@@ -411,8 +420,8 @@ def _as_written(d: Distribution, x: float) -> Any:
     return f"{float(x)!r} {d.unit}" if d.unit else float(x)
 
 
-def _number(d: Distribution, value: Any) -> float:
-    """A uniform's or normal's value as a number of its unit."""
+def _number(value: Any) -> float:
+    """A uniform's or normal's value, as a file writes it, as a number of its unit."""
     if isinstance(value, str):
         return float(value.split()[0])
     return float(value)
@@ -587,11 +596,12 @@ def shrink(
     runs: int,
     progress: Callable[[str], None] = lambda line: None,
 ) -> tuple[dict[Distribution, Any], SampleResult, list[SampleResult]]:
-    """The counterexample ``values`` (whose run is ``result``) moved towards the simplest that still
-    breaks the expectation, in at most ``runs`` runs: for each distribution in file order, its
-    :func:`centre` is tried, then (a number) halfway from where it is towards the nearest value
-    known to break nothing, up to :data:`SHRINK_STEPS` runs in all, each move kept when the run's verdict is still the one sought. Returns the values, their
-    run and the runs made."""
+    """The counterexample ``values`` (whose run is ``result``) moved towards the simplest that
+    still breaks the expectation, in at most ``runs`` runs: for each distribution in file order,
+    its :func:`centre` is tried, then (a number) halfway from where it is towards the nearest
+    value known to break nothing, up to :data:`SHRINK_STEPS` runs a distribution, each move kept
+    when the run's verdict is still the one sought. Returns the values, their run and the runs
+    made."""
     best, best_result, made = dict(values), result, list[SampleResult]()
     for d in values:
         target = centre(d)
@@ -606,7 +616,7 @@ def shrink(
             elif d.kind == "choice":
                 break
             else:
-                here, there = _number(d, best[d]), _number(d, far)
+                here, there = _number(best[d]), _number(far)
                 if math.isclose(here, there, rel_tol=1e-9, abs_tol=1e-12):
                     break
                 candidate = _as_written(d, (here + there) / 2)

@@ -83,7 +83,10 @@ def _search(args: argparse.Namespace) -> int:
     with ExitStack() as stack:
         executor, jobs = None, args.jobs
         if args.dask:
-            executor, jobs, _ = stack.enter_context(dask_executor(args.dask))
+            try:
+                executor, jobs, _ = stack.enter_context(dask_executor(args.dask))
+            except (ValueError, OSError, TimeoutError) as exc:  # a malformed address, no scheduler there
+                raise ScenarioError(str(exc), file="--dask") from None
         judge = scenario.expect if search.threshold is not None and judged(scenario.expect) else None
         evaluator = stack.enter_context(Evaluator(options, jobs, executor, judge))
         engine = f"{engine_name} {args.mode or scenario.engine.mode}"

@@ -282,14 +282,7 @@ class Scenario(StrictModel):
         ),
     ] = Golden()
     sweep: SweepField = None
-    search: Annotated[
-        SearchField,
-        Field(
-            description="where the verdict changes along one field (threshold), or draws that break the expectation "
-            "(counterexample): stackdsl search FILE",
-            examples=[{"threshold": {"field": "structure.tower.shift", "between": ["20 mm", "30 mm"], "tolerance": "0.1 mm"}}],
-        ),
-    ] = None
+    search: SearchField = None
     require: Annotated[list[Requirement], Field(max_length=50)] = Field(
         default=[],
         description="conditions a sample's draws must meet before it runs (else it is drawn again): fields of the "

@@ -73,6 +73,7 @@ def test_a_bad_search_block_is_refused_at_its_line(tmp_path, capsys, block, said
     assert not (tmp_path / "out" / "samples.csv").exists()
 
 
+@pytest.mark.slow
 def test_the_last_jenga_blocks_critical_offset(tmp_path):
     status, found = search(tmp_path, "searches/jenga_last_block.yaml")
     low, high = found["interval"]

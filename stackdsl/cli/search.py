@@ -77,6 +77,10 @@ def _search(args: argparse.Namespace) -> int:
         )
     data, source = _data(args.file, args.seed)
     options = SweepOptions(args.mode, args.model, False, args.timeout, args.backend)
+    if search.threshold is not None:  # the field and its ends checked before anything is made or runs
+        template, value_of = _threshold_template(data, source, search.threshold)
+    else:
+        template, expected = _counterexample_template(scenario, data, source)
     if out is None:
         out = output_folder(None, f"stackdsl-search-{Path(args.file).stem[:40]}-")
     started = time.perf_counter()
@@ -97,13 +101,13 @@ def _search(args: argparse.Namespace) -> int:
                 f"stackdsl search: threshold of {spec.field} in [{spec.between[0]}, {spec.between[1]}], {engine}, on {where}, writing to {out}",
                 flush=True,
             )
-            return _threshold(args, data, source, spec, evaluator, out, started)
+            return _threshold(args, template, value_of, spec, evaluator, out, started)
         spec_c = search.counterexample
         assert spec_c is not None
         if args.runs is not None:
             spec_c = spec_c.model_copy(update={"runs": args.runs})
         print(f"stackdsl search: counterexamples in {spec_c.runs} runs, {engine}, on {where}, writing to {out}", flush=True)
-        return _counterexamples(args, scenario, data, source, spec_c, evaluator, out, started)
+        return _counterexamples(args, scenario, template, expected, spec_c, evaluator, out, started)
 
 
 def _data(file: str, seed: int | None) -> tuple[dict[str, Any], SourceMap]:
@@ -121,11 +125,11 @@ def _say(line: str) -> None:
     print(line, file=sys.stderr, flush=True)
 
 
-def _threshold(
-    args: argparse.Namespace, data: dict[str, Any], source: SourceMap, spec: Any, evaluator: Any, out: Path, started: float
-) -> int:
-    from ..batch.search import find_threshold, in_list, stands
-    from ..draw.searchplot import plot_margin
+def _threshold_template(data: dict[str, Any], source: SourceMap, spec: Any) -> tuple[Any, Callable[[Any], Any]]:
+    """The file as a template whose one-field grid is the field searched (its ends checked as a
+    sweep's grid values are, errors said at the search's field or ends), and what puts a probe's
+    value in the grid (the whole list, for one number of a list)."""
+    from ..batch.search import in_list
     from ..lang.sampling import Template
 
     data = {k: copy.deepcopy(v) for k, v in data.items() if k not in ("sweep", "expect")}  # a run's verdict is what counts
@@ -154,6 +158,15 @@ def _threshold(
             raise
         blamed = ("search", "threshold", "between" if "value" in exc.message else "field")
         raise source.error(blamed, exc.message.replace("the grid key", "the field").replace("grid value", "value")) from None
+    return template, value_of
+
+
+def _threshold(
+    args: argparse.Namespace, template: Any, value_of: Callable[[Any], Any], spec: Any, evaluator: Any, out: Path, started: float
+) -> int:
+    from ..batch.search import find_threshold, stands
+    from ..draw.searchplot import plot_margin
+
     found = find_threshold(template, spec, evaluator, _say, value_of)
     wall = time.perf_counter() - started
     results = [r for _, r in found.probes]
@@ -206,17 +219,14 @@ def _threshold(
     return 0 if found.found and not found.message else 1
 
 
-def _counterexamples(
-    args: argparse.Namespace,
-    scenario: Any,
-    data: dict[str, Any],
-    source: SourceMap,
-    spec: Any,
-    evaluator: Any,
-    out: Path,
-    started: float,
-) -> int:
-    from ..batch.search import counterexample_file, expects_stand, find_counterexamples
+def _counterexample_template(scenario: Any, data: dict[str, Any], source: SourceMap) -> tuple[Any, bool]:
+    """The file as a template of one sample a cell (its sweep's grid and expectations left aside),
+    and whether the file expects a stand (the verdict a counterexample breaks).
+
+    Raises:
+        ScenarioError: at ``expect``, when it says neither.
+    """
+    from ..batch.search import expects_stand
     from ..lang.sampling import Template
 
     expected = expects_stand(scenario)
@@ -230,6 +240,21 @@ def _counterexamples(
     data["sweep"] = {"samples": 1}
     template = Template.of(data, source)
     assert template is not None
+    return template, expected
+
+
+def _counterexamples(
+    args: argparse.Namespace,
+    scenario: Any,
+    template: Any,
+    expected: bool,
+    spec: Any,
+    evaluator: Any,
+    out: Path,
+    started: float,
+) -> int:
+    from ..batch.search import counterexample_file, find_counterexamples
+
     seed = template.seed if args.seed is None else args.seed
     found = find_counterexamples(template, spec, not expected, evaluator, seed, _say, batch=max(1, evaluator.jobs))
     wall = time.perf_counter() - started

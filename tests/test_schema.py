@@ -99,7 +99,7 @@ def test_every_shipped_scenario_validates_and_loads(path, validator):
     load_scenario(path)
 
 
-@pytest.mark.parametrize("path", sorted(ROOT.glob("sweeps/*.yaml")), ids=lambda p: p.name)
+@pytest.mark.parametrize("path", sorted([*ROOT.glob("sweeps/*.yaml"), *ROOT.glob("searches/*.yaml")]), ids=lambda p: p.name)
 def test_every_shipped_sweep_validates_and_loads(path, validator):
     data = editor_load(path.read_text(encoding="utf-8"))
     assert [e.message for e in validator.iter_errors(data)] == []

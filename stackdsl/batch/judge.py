@@ -85,6 +85,7 @@ def judge(file: str, program: Program, expect: Expect, timeout: float | None = T
             stopped=stopped,
             certificate=describe_certificate(outcome.certificate) if outcome.certificate else "",
             margin_mm=outcome.certificate.margin_mm if outcome.certificate else None,
+            margin=outcome.margin,
         )
         if folder is None or trajectory is None:
             return result

@@ -175,6 +175,7 @@ def result_data(r: CheckResult, command: str) -> dict[str, Any]:
         "verdicts": [v.model_dump() for v in r.verdicts],
         "explanation": list(r.explanation),
         "certificate": r.certificate or None,
+        "margin": r.margin,
         "error": r.error or None,
         "stopped": r.stopped or None,
         "collapse_level": r.collapse_level,

@@ -62,6 +62,10 @@ class SampleResult:
         draws: how many draws the sample took to meet the file's ``require:`` (1 without).
         levels: the levels of the sample's tower when built in full (a grid or a distribution
             may set them), 0 without a tower or for a bad input.
+        margin: metres, the run's signed margin (:attr:`stackdsl.Outcome.margin`: positive it
+            stands, negative it collapsed), None when it has none.
+        held: whether one run's expectations held, when a search judged them
+            (:func:`stackdsl.batch.search.run_judged`), else None.
     """
 
     cell: int
@@ -79,6 +83,8 @@ class SampleResult:
     bad_input: str = ""
     draws: int = 1
     levels: int = 0
+    margin: float | None = None
+    held: bool | None = None
 
     def row(self) -> dict[str, Any]:
         """Plain data for CSV and JSON Lines (``parameters`` spread into their own fields)."""
@@ -184,6 +190,7 @@ def _one(template: Template, cell: int, k: int, options: SweepOptions) -> Sample
             stopped=outcome.stopped or "",
             draws=program.draws,
             levels=scenario.structure.tower.levels if scenario.structure.tower else 0,
+            margin=outcome.margin,
         )
     except Exception as exc:  # MemoryError included: this sample's internal error
         message = (str(exc).splitlines() or [""])[0]

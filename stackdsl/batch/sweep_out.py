@@ -191,7 +191,14 @@ def csv_text(value: Any) -> Any:
 
 
 #: Units of the columns every sample has (a parameter's is in its name: ``"timing.placement_error [m]"``).
-UNITS = {"wall_time": "s", "simulated_time": "s", "collapse_level": "level", "levels_placed": "level", "oracle_level": "level"}
+UNITS = {
+    "wall_time": "s",
+    "simulated_time": "s",
+    "collapse_level": "level",
+    "levels_placed": "level",
+    "oracle_level": "level",
+    "margin": "m",
+}
 #: Integer columns: every count of :class:`SampleResult` (the collapse and oracle levels may be
 #: null: the sample stood); the seed is unsigned.
 _INTEGERS = tuple(f.name for f in fields(SampleResult) if f.name != "seed" and str(f.type).startswith("int"))

@@ -52,6 +52,7 @@ COMMANDS = {
     "view": "run a scenario live in MuJoCo's viewer, bricks coloured by state (needs a display)",
     "export": "write the bricks at one moment of a run as MuJoCo XML (MJCF) or URDF",
     "sweep": "run every sample of a scenario's sweep: per-sample files, a summary a grid cell, verdicts, plots",
+    "search": "ask where it breaks: a threshold along one field, or counterexamples to the expectation",
     "bench": "speed against error: every engine setting on the same scenes (long)",
     "schema": "print the JSON Schema of scenario files (for editors)",
 }

@@ -372,6 +372,23 @@ def _add_command(sub: Any, name: str, common: argparse.ArgumentParser) -> None:
             MODELS,
             MODES,
         )
+    elif name == "search":
+        from ..batch.guard import TIMEOUT
+        from .search import add_search
+
+        add_search(
+            sub,
+            [common, _guarded(TIMEOUT)],
+            EXIT_STATUS.replace(
+                "  0    every expectation held", "  0    a threshold found; no counterexample in the runs"
+            ).replace(
+                "  1    an expectation failed, or a run reached its --timeout",
+                "  1    a counterexample found (the expectation fails), no threshold found, or a run reached its --timeout",
+            ),
+            jobs_type,
+            MODELS,
+            MODES,
+        )
     elif name == "bench":
         from .bench import add_bench
 

@@ -73,6 +73,28 @@ def load_scenario(path: str | Path, seed: int | None = None, *, shown: str | Non
     return parse_scenario(read_text(path, name), file=name, seed=seed)
 
 
+def read_data(path: str | Path, seed: int | None = None) -> tuple[dict[str, Any], SourceMap]:
+    """A scenario file's plain data (distributions in place) and where each field came from, read
+    as :func:`load_scenario` reads it (``seed`` replacing the file's); for a command that makes
+    templates of its own from the file (``stackdsl search``). Call :func:`load_scenario` first:
+    this checks nothing of the scenario.
+
+    Raises:
+        ScenarioError: as :func:`load_scenario`, or the file is not a mapping.
+    """
+    path = Path(path)
+    if problem := file_problem(path):
+        raise ScenarioError(problem, file=str(path))
+    text = read_text(path, str(path)).removeprefix("\ufeff")
+    source = SourceMap(str(path), tuple(text.splitlines()))
+    data = _read_yaml(text, source)
+    if not isinstance(data, dict):
+        raise ScenarioError("a scenario is a mapping of keys", file=str(path))
+    if seed is not None:
+        data["seed"] = seed
+    return data, source
+
+
 #: At most this many unit slips of a file are shown (the rest are counted).
 SLIPS_SHOWN = 5
 

@@ -60,6 +60,7 @@ from .schema_layouts import BrickPlacement, CardHouse, Tower
 from .schema_marks import SkipMark, XFailMark
 from .schema_parts import LAYOUTS, RESERVED, Parts, as_parts, check_parts, named_parts
 from .schema_require import Requirement
+from .schema_search import SearchField
 from .schema_sweep import SweepField, grid_name
 from .unit_slips import metres_written
 from .units import (
@@ -281,6 +282,7 @@ class Scenario(StrictModel):
         ),
     ] = Golden()
     sweep: SweepField = None
+    search: SearchField = None
     require: Annotated[list[Requirement], Field(max_length=50)] = Field(
         default=[],
         description="conditions a sample's draws must meet before it runs (else it is drawn again): fields of the "

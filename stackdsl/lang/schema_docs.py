@@ -69,6 +69,36 @@ DOCS: dict[str, dict[str, tuple[str, Any]]] = {
             "Many runs of this scenario: samples draws of its random fields in each cell of a grid of field values.",
             {"samples": 200, "grid": {"timing.placement_error": [0, "2 mm", "4 mm"]}},
         ),
+        "search": (
+            "Where it breaks, for stackdsl search: the value of one field where the verdict changes (threshold), or draws "
+            "of the distributions that break the expectation (counterexample).",
+            {"threshold": {"field": "structure.tower.shift", "between": ["20 mm", "30 mm"], "tolerance": "0.1 mm"}},
+        ),
+    },
+    "Search": {
+        "threshold": (
+            "The value of one field where the verdict changes between two ends, bracketed on each run's signed margin.",
+            {"field": "structure.tower.shift", "between": ["20 mm", "30 mm"], "tolerance": "0.1 mm"},
+        ),
+        "counterexample": (
+            "Draws of the distributions drawn once a sample that break the expectation, searched with Optuna on the "
+            "signed margin, each shrunk and written as a plain scenario file.",
+            {"runs": 200, "find": 1, "shrink": 40},
+        ),
+    },
+    "Threshold": {
+        "field": (
+            "The field searched, named as a sweep's grid key names it, or one number of a list of numbers.",
+            "structure.tower.shift",
+        ),
+        "between": ("Its two ends, the lower first, in a unit of the field's kind.", ["20 mm", "30 mm"]),
+        "tolerance": ("How narrow the answer must be, of the same kind (default a hundredth of the interval).", "0.1 mm"),
+        "runs": ("Runs the search may take, both ends included, 3 to 10,000 (default 40).", 40),
+    },
+    "Counterexample": {
+        "runs": ("Runs the search may take before shrinking, 1 to 10,000 (default 200).", 200),
+        "find": ("Counterexamples to find before it stops, 1 to 100 (default 1).", 1),
+        "shrink": ("Runs shrinking each counterexample may take, 0 to 1000 (default 40).", 40),
     },
     "Material": {
         "density": ("Mass per volume of the material (default 460 kg/m^3, pine).", "460 kg/m^3"),

@@ -247,6 +247,16 @@ class Outcome(_Frozen):
             each in a few words, as "remove L06.2 at 29.83 s".
         collapse_threshold_mm: the run's collapse threshold, mm (a brick farther from where it
             was placed has moved: :attr:`Node.displaced_mm`).
+        margin: metres, the verdict's signed margin (not part of a golden snapshot): positive
+            when it stands, the certificate's margin unrounded (how far every centre of mass
+            could move together before rigid-block equilibrium would not hold it,
+            :attr:`Certificate.margin_mm`); negative when it collapsed, minus how far the deciding
+            proof was past its limit (:func:`stackdsl.runtime.collapse.signed_margin`): a part placed
+            with its centre of mass d outside its support polygon gives -d (so the margin goes
+            through 0 where statics' verdict changes, continuous across that boundary), else the
+            proof's own distance when it decided (the centre of mass outside its support, or
+            the brick past the collapse threshold), or -0 (no equilibrium at the end, nothing
+            past the threshold). None when the run stopped early or is undecided.
         stopped: None when the run went to its end; else why and where it stopped early,
             e.g. ``"timeout after 120 s at t = 37.2 s simulated (of 201 s)"`` (the rest of
             the outcome then covers the simulated time so far, and the expectations fail:
@@ -279,6 +289,7 @@ class Outcome(_Frozen):
     stopped: str | None = None
     not_run: tuple[str, ...] = ()
     collapse_threshold_mm: float = 4.0
+    margin: float | None = None
 
     def golden(self) -> dict[str, Any]:
         """Plain JSON data for a golden snapshot: what was built, how many bricks toppled, the

@@ -299,4 +299,5 @@ def outcome(loop: StepLoop, wall_time: float) -> Outcome:
         stopped=loop.stopped,
         not_run=loop.not_run,
         collapse_threshold_mm=_round_mm(loop.program.collapse_threshold),
+        margin=monitor.margin if loop.stopped is None else None,
     )

@@ -212,6 +212,8 @@ class OffSupport:
         self._placed: dict[tuple[tuple[str, ...], tuple[str, ...]], float] = {}  # :meth:`_placed_out`
         self._groups: dict[str, tuple[tuple[int, int], Group | None]] = {}  # :meth:`_group`, and when
         self._helds: dict[tuple[str, ...], tuple[tuple[int, int], bool]] = {}  # :meth:`_held`, and when
+        #: metres the centre of mass of what tipped lay outside its support when :meth:`proof` last proved a collapse
+        self.proved_out = 0.0
 
     def place(self, loop: StepLoop, record: BrickRecord) -> None:
         """Note the support polygon ``record`` is placed on: the ground, the fixtures and the
@@ -275,7 +277,28 @@ class OffSupport:
         placed = self._placed_out(part, bottoms)
         if placed > 0.0 and (out - placed <= FURTHER_OFF or self._held(loop, part)):
             return None
+        self.proved_out = out
         return _tips_words(part, bottoms, supports, out, placed), part
+
+    def least_placed_margin(self, loop: StepLoop, records: list[BrickRecord]) -> float:
+        """Metres the centre of mass of each of ``records`` with the bricks it carries (its part,
+        :meth:`_part`) lay inside the support polygon it was placed on, as placed, the least of
+        them (negative: outside; inf when none has a polygon, or every one outside is held by
+        something else, :meth:`_held`). A part placed outside is past statics' limit by that
+        much: what a collapse's signed margin reports (:attr:`stackdsl.Outcome.margin`)."""
+        least = math.inf
+        for record in records:
+            support = self.supports.get(record.id)
+            if support is None or not support.pieces:
+                continue
+            part = self._part(loop, record)
+            masses = np.array([r.box.mass for r in part])
+            com = masses @ np.array([r.pose.position for r in part]) / masses.sum()
+            margin = support.placed_margin_of(com)
+            if margin < 0.0 and self._held(loop, part):
+                continue
+            least = min(least, margin)
+        return least
 
     def _outside(self, loop: StepLoop, part: list[BrickRecord], bottoms: list[BrickRecord], gone: AbstractSet[int]) -> float:
         """Metres the centre of mass of ``part`` lies outside what its ``bottoms`` stand on now

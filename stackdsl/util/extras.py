@@ -2,7 +2,7 @@
 
 ``pip install stackdsl`` brings pybullet and what every scenario needs; the heavy optional
 features are extras (``pip install 'stackdsl[mujoco]'``, ``[dask]``, ``[video]``, ``[profile]``,
-``[parquet]``, ``[all]``).
+``[parquet]``, ``[search]``, ``[all]``).
 A feature used without its extra is one line naming the command that adds it, raised where
 the feature is asked for (the scenario's field, the command's option) before anything runs.
 
@@ -23,6 +23,7 @@ EXTRAS = {
     "video": ("imageio_ffmpeg", "imageio-ffmpeg (the ffmpeg that writes MP4)"),
     "profile": ("pyinstrument", "pyinstrument (a sampling profiler)"),
     "parquet": ("pyarrow", "pyarrow (Parquet files)"),
+    "search": ("optuna", "Optuna (a counterexample search's sampler)"),
 }
 
 

@@ -50,6 +50,8 @@ class CheckResult:
             one line, else empty; nothing ran.
         expects: in a refused cell, what the file expects (no verdict was reached), else empty.
         margin_mm: a stand's certificate margin, mm (:attr:`stackdsl.Certificate.margin_mm`), else None.
+        margin: metres, the run's signed margin (:attr:`stackdsl.Outcome.margin`: positive it
+            stands, negative it collapsed), else None.
         skipped: the reason of the file's ``skip`` mark when it holds on this run (nothing ran),
             else empty (:mod:`stackdsl.lang.schema_marks`).
         xfail: the reason of the file's ``xfail`` mark when it holds on this run, else empty;
@@ -85,6 +87,7 @@ class CheckResult:
     moved_levels: tuple[int, ...] = ()
     expects: str = ""
     margin_mm: float | None = None
+    margin: float | None = None
     skipped: str = ""
     xfail: str = ""
     strict: bool = False

@@ -1,0 +1,308 @@
+"""``stackdsl search``: a file's ``search:`` block, a threshold or counterexamples, run, written
+and printed (:mod:`stackdsl.batch.search`).
+
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import dataclasses
+import json
+import sys
+import time
+from collections.abc import Callable
+from contextlib import ExitStack
+from pathlib import Path
+from typing import Any
+
+from ..engines.registry import backend, names
+from ..lang.errors import ScenarioError, SourceMap
+from ..util.extras import installed, missing
+from .args import COMMANDS, add_seed, output_folder
+from .outputs import Input, Output, check_outputs
+
+
+def add_search(
+    sub: Any, parents: list[argparse.ArgumentParser], epilog: str, jobs_type: Any, models: list[str], modes: list[str]
+) -> None:
+    """Add ``search`` to the ``stackdsl`` parser's subcommands."""
+    p = sub.add_parser(
+        "search",
+        parents=parents,
+        help=COMMANDS["search"],
+        description="Run FILE's search: block. threshold: the value of one field where the verdict changes, bracketed on "
+        "each run's signed margin (Brent's method, then bisection on the verdict), printed as an interval with the runs "
+        "it cost and the verdict on each side, with margin.png. counterexample: draws of the file's distributions that "
+        "break its expectation (Optuna's TPE sampler on the signed margin), each shrunk and written as a plain scenario "
+        "file (counterexample_N.yaml) that stackdsl run reproduces. The runs go to --out as a sweep's do.",
+        epilog=epilog,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("file", help="a scenario with a search: block")
+    p.add_argument("--runs", type=int, help="override the search's runs (its budget)")
+    add_seed(p)
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("-j", "--jobs", type=jobs_type, default="auto", help="processes (default: auto, one per free core)")
+    where.add_argument("--dask", metavar="ADDRESS", help="run on a Dask cluster: tcp://host:8786 or local:N")
+    p.add_argument("--out", default=None, help="folder for the files, made if missing (default: a new private folder)")
+    p.add_argument("--mode", choices=modes, help="override the scenario's engine mode")
+    p.add_argument("--model", choices=models, help="override the scenario's stability model")
+    p.add_argument("--backend", choices=names(), help="override the scenario's engine")
+    p.set_defaults(func=_search)
+
+
+def _search(args: argparse.Namespace) -> int:
+    from ..batch.search import Evaluator, judged
+    from ..batch.sweep import SweepOptions, dask_executor
+    from ..lang.loader import load_scenario
+
+    scenario = load_scenario(args.file, args.seed)
+    if scenario.search is None:
+        raise ScenarioError("this scenario has no search: block (threshold: or counterexample:)", file=args.file)
+    engine_name = args.backend or scenario.engine.backend
+    extra = backend(engine_name).extra
+    if extra is not None and not installed(extra):
+        raise scenario.source.error(("engine", "backend"), missing(extra))
+    search = scenario.search
+    if search.counterexample is not None and not installed("search"):
+        raise scenario.source.error(("search", "counterexample"), missing("search"))
+    if args.runs is not None and args.runs < 1:
+        raise ScenarioError(f"--runs must be 1 or more, not {args.runs}", file="--runs")
+    out = None
+    if args.out is not None:
+        (out,) = check_outputs(
+            [Output("--out", args.out, "the search's output", folder=True)], [Input(args.file, "the scenario searched")]
+        )
+    data, source = _data(args.file, args.seed)
+    options = SweepOptions(args.mode, args.model, False, args.timeout, args.backend)
+    if search.threshold is not None:  # the field and its ends checked before anything is made or runs
+        template, value_of = _threshold_template(data, source, search.threshold)
+    else:
+        template, expected = _counterexample_template(scenario, data, source)
+    if out is None:
+        out = output_folder(None, f"stackdsl-search-{Path(args.file).stem[:40]}-")
+    started = time.perf_counter()
+    with ExitStack() as stack:
+        executor, jobs = None, args.jobs
+        if args.dask:
+            try:
+                executor, jobs, _ = stack.enter_context(dask_executor(args.dask))
+            except (ValueError, OSError, TimeoutError) as exc:  # a malformed address, no scheduler there
+                raise ScenarioError(str(exc), file="--dask") from None
+        judge = scenario.expect if search.threshold is not None and judged(scenario.expect) else None
+        evaluator = stack.enter_context(Evaluator(options, jobs, executor, judge))
+        engine = f"{engine_name} {args.mode or scenario.engine.mode}"
+        where = f"Dask {args.dask}" if args.dask else f"{jobs} process{'es' if jobs != 1 else ''}"
+        if search.threshold is not None:
+            spec = search.threshold if args.runs is None else search.threshold.model_copy(update={"runs": max(3, args.runs)})
+            print(
+                f"stackdsl search: threshold of {spec.field} in [{spec.between[0]}, {spec.between[1]}], {engine}, on {where}, writing to {out}",
+                flush=True,
+            )
+            return _threshold(args, template, value_of, spec, evaluator, out, started)
+        spec_c = search.counterexample
+        assert spec_c is not None
+        if args.runs is not None:
+            spec_c = spec_c.model_copy(update={"runs": args.runs})
+        print(f"stackdsl search: counterexamples in {spec_c.runs} runs, {engine}, on {where}, writing to {out}", flush=True)
+        return _counterexamples(args, scenario, template, expected, spec_c, evaluator, out, started)
+
+
+def _data(file: str, seed: int | None) -> tuple[dict[str, Any], SourceMap]:
+    """The file's plain data and its source map (read as :func:`stackdsl.load_scenario` reads it)."""
+    from ..lang.loader import read_data
+
+    return read_data(file, seed)
+
+
+def _as_it_is(value: Any) -> Any:
+    return value
+
+
+def _say(line: str) -> None:
+    print(line, file=sys.stderr, flush=True)
+
+
+def _threshold_template(data: dict[str, Any], source: SourceMap, spec: Any) -> tuple[Any, Callable[[Any], Any]]:
+    """The file as a template whose one-field grid is the field searched (its ends checked as a
+    sweep's grid values are, errors said at the search's field or ends), and what puts a probe's
+    value in the grid (the whole list, for one number of a list)."""
+    from ..batch.search import in_list
+    from ..lang.sampling import Template
+
+    data = {k: copy.deepcopy(v) for k, v in data.items() if k not in ("sweep", "expect")}  # a run's verdict is what counts
+    key: str = spec.field
+    value_of: Callable[[Any], Any] = _as_it_is
+    if (one := in_list(data, spec.field)) is not None:  # one number of a list: the grid gives the whole list
+        key, value_of = one
+    data["sweep"] = {"samples": 1, "grid": {key: [value_of(v) for v in spec.between]}}
+    here = source.values.get(("search", "threshold", "field"))
+    ends = [source.values.get(("search", "threshold", "between", i)) for i in (0, 1)]
+    values, keys = dict(source.values), dict(source.keys)
+    if here is not None:  # the grid's key and values are the search's field and ends: errors point there
+        keys[("sweep", "grid", key)] = source.keys.get(("search", "threshold", "field"), here)
+        values[("sweep", "grid", key)] = here
+        for i, at in enumerate(ends):
+            if at is not None:
+                values[("sweep", "grid", key, i)] = at
+    mapped = dataclasses.replace(source, values=values, keys=keys)
+    try:
+        template = Template.of(data, mapped)
+        assert template is not None
+        template.scenario(0, 0, checked=True)
+        template.scenario(1, 0)
+    except ScenarioError as exc:  # the grid is the search's own: said at its field or its ends
+        if not (exc.field or "").startswith("sweep"):
+            raise
+        blamed = ("search", "threshold", "between" if "value" in exc.message else "field")
+        raise source.error(blamed, exc.message.replace("the grid key", "the field").replace("grid value", "value")) from None
+    return template, value_of
+
+
+def _threshold(
+    args: argparse.Namespace, template: Any, value_of: Callable[[Any], Any], spec: Any, evaluator: Any, out: Path, started: float
+) -> int:
+    from ..batch.search import find_threshold, stands
+    from ..draw.searchplot import plot_margin
+
+    found = find_threshold(template, spec, evaluator, _say, value_of)
+    wall = time.perf_counter() - started
+    results = [r for _, r in found.probes]
+    if found.bad_input:
+        print(found.bad_input, file=sys.stderr)
+        return 2
+    written = _write_runs(results, out)
+    picture = plot_margin(
+        [v for v, _ in found.probes],
+        [None if r.margin is None else r.margin * 1000 for _, r in found.probes],
+        [stands(r) for _, r in found.probes],
+        (found.low, found.high) if found.low is not None and found.high is not None else None,
+        spec.field,
+        spec.unit,
+        out / "margin.png",
+    )
+    grid = found.grid_runs(spec.step, spec.ends)
+    summary: dict[str, Any] = {
+        "kind": "threshold",
+        "field": spec.field,
+        "unit": spec.unit,
+        "interval": None if not found.found else [found.low, found.high],
+        "below": found.below,
+        "above": found.above,
+        "runs": found.runs,
+        "grid_runs": grid,
+        "method": found.method,
+        "changes": found.changes,
+        "message": found.message,
+        "wall_time": wall,
+    }
+    (out / "search.json").write_text(json.dumps(summary, indent=2) + "\n")
+    if found.found:
+        assert found.low is not None and found.high is not None
+        print(
+            f"threshold of {spec.field}: between {found.low:.6g} and {found.high:.6g} {spec.unit} "
+            f"(width {found.high - found.low:.3g} {spec.unit}; {found.below} below, {found.above} above)".replace("  ", " ")
+        )
+        print(
+            f"{found.runs} runs ({found.method}); a grid of the same resolution takes {grid} ({grid / found.runs:.1f}x as many)"
+        )
+        if found.changes > 1:
+            print(f"note: the verdict changes {found.changes} times among the runs: the interval is the narrowest change")
+    if found.message:
+        print(f"{'note' if found.found else 'no threshold'}: {found.message}")
+    print(f"{found.runs} runs in {wall:.1f} s; wrote {', '.join(p.name for p in written)}, {picture.name}, search.json in {out}")
+    if found.error:
+        print(f"stackdsl: a run hit an internal error: {found.error}", file=sys.stderr)
+        return 3
+    return 0 if found.found and not found.message else 1
+
+
+def _counterexample_template(scenario: Any, data: dict[str, Any], source: SourceMap) -> tuple[Any, bool]:
+    """The file as a template of one sample a cell (its sweep's grid and expectations left aside),
+    and whether the file expects a stand (the verdict a counterexample breaks).
+
+    Raises:
+        ScenarioError: at ``expect``, when it says neither.
+    """
+    from ..batch.search import expects_stand
+    from ..lang.sampling import Template
+
+    expected = expects_stand(scenario)
+    if expected is None:
+        raise scenario.source.error(
+            ("expect",),
+            "a counterexample search needs an expectation that the structure stands (stands: true, p_stands: '>= ...') "
+            "or collapses (collapse: N, p_stands: '<= ...')",
+        )
+    data = {k: v for k, v in data.items() if k not in ("sweep", "expect")}  # the expectation is read above
+    data["sweep"] = {"samples": 1}
+    template = Template.of(data, source)
+    assert template is not None
+    return template, expected
+
+
+def _counterexamples(
+    args: argparse.Namespace,
+    scenario: Any,
+    template: Any,
+    expected: bool,
+    spec: Any,
+    evaluator: Any,
+    out: Path,
+    started: float,
+) -> int:
+    from ..batch.search import counterexample_file, find_counterexamples
+
+    seed = template.seed if args.seed is None else args.seed
+    found = find_counterexamples(template, spec, not expected, evaluator, seed, _say, batch=max(1, evaluator.jobs))
+    wall = time.perf_counter() - started
+    if found.bad_input and not found.results:
+        print(found.bad_input, file=sys.stderr)
+        return 2
+    written = _write_runs(found.results, out)
+    files = []
+    sought = "a stand" if not expected else "a collapse"
+    for i, f in enumerate(found.found, 1):
+        values = f.shrunk or f.values
+        run = f.shrunk_result or f.result
+        drawn = ", ".join(f"{d.label} = {v}" for d, v in values.items())
+        note = f"A counterexample to {Path(args.file).name} (stackdsl search, run {f.first_run}, shrunk): {drawn}."
+        path = out / f"counterexample_{i}.yaml"
+        path.write_text(counterexample_file(template, values, scenario.expect, not expected, note))
+        files.append(path)
+        margin = "" if run.margin is None else f", margin {run.margin * 1000:+.3f} mm"
+        print(
+            f"counterexample {i} (found at run {f.first_run}): {drawn}: {'stands' if run.collapse_level is None else f'collapses at level {run.collapse_level}'}{margin}; wrote {path}"
+        )
+        print(f"  reproduce: stackdsl run {path}")
+    summary = {
+        "kind": "counterexample",
+        "sought": sought,
+        "found": len(found.found),
+        "first": found.first,
+        "search_runs": found.search_runs,
+        "shrink_runs": found.shrink_runs,
+        "files": [str(p) for p in files],
+        "wall_time": wall,
+    }
+    (out / "search.json").write_text(json.dumps(summary, indent=2) + "\n")
+    if not found.found:
+        print(f"no counterexample in {found.search_runs} runs: {sought} was never reached")
+    print(
+        f"{len(found.results)} runs ({found.search_runs} searching, {found.shrink_runs} shrinking) in {wall:.1f} s; wrote {', '.join(p.name for p in written)}, search.json in {out}"
+    )
+    if found.error:
+        print(f"stackdsl: a run hit an internal error: {found.error}", file=sys.stderr)
+        return 3
+    return 1 if found.found else 0
+
+
+def _write_runs(results: list[Any], out: Path) -> list[Path]:
+    from ..batch.sweep_out import PARQUET_MISSING, write_samples
+
+    table, jsonl, parquet = write_samples(results, out)
+    if parquet is None:
+        print(f"stackdsl: {PARQUET_MISSING}", file=sys.stderr)
+    return [table, jsonl, *([parquet] if parquet else [])]

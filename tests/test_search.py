@@ -1,0 +1,142 @@
+"""stackdsl search: thresholds against closed forms, counterexamples that reproduce, and the
+search: block's errors (searches/, docs/searches.md)."""
+
+import json
+from pathlib import Path
+
+import pytest
+
+from stackdsl.cli.main import main
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def search(tmp_path: Path, file: str, *more: str) -> tuple[int, dict]:
+    out = tmp_path / "out"
+    status = main(["search", str(ROOT / file), "-j", "1", "--out", str(out), *more])
+    summary = json.loads((out / "search.json").read_text()) if (out / "search.json").is_file() else {}
+    return status, summary
+
+
+def test_the_single_file_stacks_critical_shift_is_bracketed_in_few_runs(tmp_path):
+    status, found = search(tmp_path, "searches/single_file_shift.yaml")
+    assert status == 0
+    low, high = found["interval"]
+    assert abs(low - 24.0) <= 0.2 and abs(high - 24.0) <= 0.2  # the closed form: 120 mm / 5
+    assert high - low <= 0.1  # the tolerance asked for
+    assert found["below"] == "stands" and found["above"].startswith("collapses")
+    assert found["runs"] * 10 <= found["grid_runs"]  # at least 10x fewer than a grid at 0.1 mm
+    assert (tmp_path / "out" / "margin.png").stat().st_size > 10_000
+    assert (tmp_path / "out" / "samples.csv").read_text().count("\n") == found["runs"] + 1
+
+
+@pytest.mark.slow
+def test_the_critical_shift_on_mujoco(tmp_path):
+    pytest.importorskip("mujoco")
+    status, found = search(tmp_path, "searches/single_file_shift.yaml", "--backend", "mujoco")
+    low, high = found["interval"]
+    assert status == 0 and abs(low - 24.0) <= 0.2 and abs(high - 24.0) <= 0.2
+    assert found["runs"] * 10 <= found["grid_runs"]
+
+
+@pytest.mark.slow
+def test_a_rare_counterexample_is_found_shrunk_and_reproduces(tmp_path):
+    pytest.importorskip("optuna")
+    status, found = search(tmp_path, "searches/rare_overhang.yaml", "--seed", "3")
+    assert status == 1  # a counterexample breaks the file's expectation
+    assert found["found"] == 1 and found["first"] <= 100
+    (file,) = found["files"]
+    assert main(["run", file]) == 1  # the plain scenario file fails as the search's run did
+
+
+@pytest.mark.parametrize(
+    ("block", "said"),
+    [
+        ("search: {threshold: {field: structure.tower.shift, between: [30 mm, 20 mm]}}", "5:"),
+        ("search: {threshold: {field: structure.tower.shift, between: [20 mm, 30 s]}}", "5:"),
+        ("search: {threshold: {field: structure.tower.shift, between: [20 mm, 30 mm], tolerance: 20 mm}}", "5:"),
+        ("search: {}", "5:"),
+        ("search:", "5:"),
+        ("search: {counterexample: {runs: 0}}", "5:"),
+        ("search: {threshold: {field: structure.tower.sift, between: [20 mm, 30 mm]}}", "5:"),
+    ],
+)
+def test_a_bad_search_block_is_refused_at_its_line(tmp_path, capsys, block, said):
+    path = tmp_path / "bad.yaml"
+    path.write_text(
+        "stackdsl: 1\nstructure: {tower: {levels: 3, bricks_per_layer: 1, turn: 0, shift: 1 mm}}\n"
+        f"timing: {{interval: 0.5 s}}\n\n{block}\n"
+    )
+    assert main(["search", str(path), "-j", "1", "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert f"bad.yaml:{said}" in err and "Traceback" not in err
+    assert not (tmp_path / "out" / "samples.csv").exists()
+
+
+@pytest.mark.slow
+def test_the_last_jenga_blocks_critical_offset(tmp_path):
+    status, found = search(tmp_path, "searches/jenga_last_block.yaml")
+    low, high = found["interval"]
+    assert status == 0 and low <= 12.5 + 0.2 and high >= 12.5 - 0.2 and high - low <= 0.1  # half the block's 25 mm
+    assert found["runs"] * 10 <= found["grid_runs"]
+
+
+def test_one_number_of_a_list_is_a_field():
+    from stackdsl.batch.search import in_list
+
+    data = {"structure": {"bricks": [{"at": [0, 0, "4 mm"]}], "tower": {"shift": "1 mm"}}}
+    key, put = in_list(data, "structure.bricks[0].at.2")
+    assert key == "structure.bricks.0.at" and put("5 mm") == [0, 0, "5 mm"]
+    assert in_list(data, "structure.tower.shift") is None and in_list(data, "structure.bricks.0.at.3") is None
+
+
+@pytest.mark.slow
+def test_the_dominoes_reach_is_bracketed_on_the_expectations_verdict(tmp_path):
+    status, found = search(tmp_path, "searches/dominoes_reach.yaml")
+    low, high = found["interval"]
+    assert status == 0 and found["below"] == "expectations held" and found["above"] == "expectations failed"
+    assert (
+        120 < low < high < 140 and high - low <= 0.2
+    )  # near t + sqrt(h^2 + t^2) = 128.27 mm (the base slips: docs/results/search.md)
+    assert found["runs"] * 10 <= found["grid_runs"]
+
+
+class ClosedForm:
+    """An evaluator that judges searches/rare_overhang.yaml's draws by its closed form instead of
+    running them: the margin is 60 mm - n s / 2 (at most 12 mm, the brick's half-width across)."""
+
+    jobs = 1
+
+    def __init__(self):
+        self.runs = 0
+
+    def run(self, tasks):
+        from stackdsl.batch.sweep import SampleResult
+
+        out = []
+        for template, k in tasks:
+            p = template.parameters(0, k)
+            n, s = p["structure.tower.levels"], p["structure.tower.shift [m]"]
+            margin = min(0.012, 0.060 - n * s / 2)
+            out.append(SampleResult(0, self.runs, 0, p, None if margin > 0 else n, n, 0.0, 0.0, margin=margin))
+            self.runs += 1
+        return out
+
+
+def test_the_search_finds_and_shrinks_a_rare_counterexample_on_the_closed_form():
+    pytest.importorskip("optuna")
+    from stackdsl import load_scenario
+    from stackdsl.batch.search import find_counterexamples
+    from stackdsl.lang.schema_search import Counterexample
+
+    template = load_scenario(ROOT / "searches" / "rare_overhang.yaml").template
+    firsts = []
+    for seed in range(5):
+        found = find_counterexamples(template, Counterexample(runs=200, shrink=12), False, ClosedForm(), seed)
+        (f,) = found.found
+        shrunk = {d.label: v for d, v in f.shrunk.items()}
+        assert shrunk["structure.tower.levels"] == 5  # 4 levels never fail: not shrunk to the first choice
+        s = float(shrunk["structure.tower.shift"].split()[0])
+        assert 24.0 < s <= 24.04 and f.shrunk_result.collapse_level == 5
+        firsts.append(found.first)
+    assert sorted(firsts)[2] <= 1202 / 20  # the median beats plain sampling's 1 in 1202 by 20x

@@ -532,12 +532,15 @@ class StabilityExtension:
             (f"{stack.bodies[b].label} was woken" for b in proof.kept if stack.bodies[b].state is not BrickState.FROZEN), None
         )
         if why is None:
-            at = footprint(stack.bodies[body].box.half_extents, stack.engine.pose(body))
+            pose = stack.engine.pose(body)
+            if not proof.moved(pose.position):
+                return []
+            at = footprint(stack.bodies[body].box.half_extents, pose)
             now = proof.overlaps(at)
-            changed = {a for a in now if now[a] < (1.0 - SHRINK) * areas[a]}
+            changed = {a for a in now if now[a] <= areas[a] - SHRINK * proof.area[a] or (areas[a] > 0.0 and now[a] == 0.0)}
             if not changed:
                 return []
-            why = proof.check(at, stack.engine.pose(body).position, changed)
+            why = proof.check(at, pose.position, changed | proof.below.keys())
             if why is None:
                 self._proofs[body] = (proof, areas | {a: now[a] for a in changed})
                 return []

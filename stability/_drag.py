@@ -65,6 +65,10 @@ ACROSS = 0.2
 it to lie beside the path of a brick pulled along ``d``, or behind it: the pull slides past it
 or away from it, never toward it."""
 
+LEVEL_SIDE = 0.5
+"""A touched brick lies beside the pulled one only when the contact normal's vertical part is
+under 1 - this (a side face, not a face it lies on or under)."""
+
 SHRINK = 0.25
 """Fraction of a contact area of the pulled brick (with a brick it carries or rests on), as it
 was when proved first, that may go before the drag is proved again with the shares of the
@@ -299,8 +303,11 @@ class PullProof:
 
     def alongside(self, contact: ContactPoint) -> bool:
         """Does the pulled brick slide past or away from the brick of ``contact`` (one of its
-        contact points, the normal from that brick into it), never toward it (:data:`ACROSS`)?"""
-        return float(np.asarray(contact.normal)[:2] @ self.direction) >= -ACROSS
+        contact points, the normal from that brick into it), beside it, never toward it
+        (:data:`ACROSS`)? A brick it comes to lie on or under is not beside it: its friction
+        drags that brick, which no proof has asked."""
+        normal = np.asarray(contact.normal, dtype=float)
+        return abs(float(normal[2])) < 1.0 - LEVEL_SIDE and float(normal[:2] @ self.direction) >= -ACROSS
 
     def overlaps(self, pulled_at: BaseGeometry) -> dict[int, float]:
         """Carried brick or support -> area (m^2) of its contact with the pulled brick at ``pulled_at``."""

@@ -195,6 +195,7 @@ class PullProof:
         self.direction = d / length if length > 0 else d
         self.kept: frozenset[int] = frozenset()
         self.carried: dict[int, ContactArea] = {}  # carried brick -> its contact area with the pulled one when proved
+        self.beside: set[int] = set()  # the other supports of the carried bricks
         self.below: dict[int, ContactArea] = {}  # frozen brick it rests on -> the contact area
         self.supports: dict[int, ContactArea] = {}  # everything it rests on (the ground too)
         self._looked: np.ndarray | None = None  # where the pulled brick was when its overlaps were last looked at
@@ -211,6 +212,7 @@ class PullProof:
             if rec.state is not BrickState.FROZEN or body not in rec.rests_on:
                 return f"{rec.label} was frozen in one pile with it"
             self.carried[a] = rec.rests_on[body]
+            self.beside |= {s for s in rec.rests_on if s != body}
         self.supports = dict(pulled.rests_on)
         self.below = {s: area for s, area in pulled.rests_on.items() if stack.bodies[s].state is BrickState.FROZEN}
         beside = set()

@@ -546,8 +546,12 @@ class StabilityExtension:
                 return []
         del self._proofs[body]
         events: list[StabilityEvent] = []
-        for a in stack.ordered(stack.bodies[body].objects_above):  # what rests on it, kept frozen until now
-            events += self.wake(a, time, f"rests on {stack.bodies[body].label}, moved by hand: {why}")
+        label = stack.bodies[body].label
+        for a in stack.ordered(proof.carried):  # what rested on it, kept frozen until now
+            events += self.wake(a, time, f"rests on {label}, moved by hand: {why}")
+        for b in stack.ordered(proof.beside):  # and what carries it beside it: its load changes
+            if b in stack.bodies:
+                events += self.wake(b, time, f"carries what rested on {label} beside it, moved by hand: {why}")
         return events + self._guide(body, time, f"pulled by hand, its proof lost: {why}", stack.hand_speed.get(body, 0.0))
 
     def _touching(self, body: int, time: float, touched: set[int]) -> list[StabilityEvent]:

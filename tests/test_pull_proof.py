@@ -68,3 +68,48 @@ def test_a_proved_pull_moves_its_brick_alone_and_a_side_pull_wakes_the_level_it_
     assert outcome.collapse is None or not alone
     if not alone:
         assert {"L03.1", "L03.2", "L03.3"} <= woken
+
+
+def level_over_three_blocks():
+    """A fake world: three blocks on the ground along x, 30 mm apart, and one block across them."""
+    from stability import Box, FakeEngine, Plane, Pose, StabilityExtension
+
+    eng = FakeEngine()
+    ext = StabilityExtension(eng)
+    ext.add_ground(0, Plane(0.0))
+    along, across = np.array([0.0375, 0.0125, 0.0075]), np.array([0.0125, 0.0375, 0.0075])
+    for body, y in ((1, -0.03), (2, 0.0), (3, 0.03)):
+        eng.poses[body] = Pose(np.array([0.0, y, 0.0075]))
+        ext.add_brick(body, Box(along, 0.0098), f"b{body}", friction=0.4)
+        eng.touch(body, 0, [[x, y + dy, 0.0] for x in (-0.0375, 0.0375) for dy in (-0.0125, 0.0125)], normal=[0, 0, 1])
+    eng.poses[4] = Pose(np.array([0.0, 0.0, 0.0225]))
+    ext.add_brick(4, Box(across, 0.0098), "top", friction=0.4)
+    for body, y in ((1, -0.03), (2, 0.0), (3, 0.03)):
+        eng.touch(4, body, [[x, y + dy, 0.015] for x in (-0.0125, 0.0125) for dy in (-0.0125, 0.0125)], normal=[0, 0, 1])
+    for t in (0.0, 0.1, 0.2, 0.3):
+        ext.update(t)
+    assert {ext.state(b).value for b in (1, 2, 3, 4)} == {"frozen"}
+    return eng, ext
+
+
+def test_a_proved_pull_keeps_the_level_frozen_then_leaves_it_on_the_other_blocks():
+    eng, ext = level_over_three_blocks()
+    events = ext.guide(2, 0.4, "pulled", 0.04, (0.04, 0.0, 0.0))
+    assert [(e.label, e.kind) for e in events] == [("b2", "wake")] and ext.alone(2)
+    ext.update(0.5)
+    assert ext.state(4).value == "frozen" and ext.state(1).value == ext.state(3).value == "frozen"
+    eng.contacts = [c for c in eng.contacts if 2 not in (c.body, c.other)]  # the hand took it away
+    ext.forget(2)
+    ext.update(0.6)
+    assert ext.state(4).value == "frozen"
+    assert ext.certificate().stands
+
+
+def test_a_pull_whose_proof_is_lost_wakes_what_it_kept_frozen_as_an_unproved_pull_does():
+    """Something else wakes the level a proved pull kept frozen: the blocks beside the pulled one,
+    which carry that level, wake too (their load changes), as they do when a pull is not proved."""
+    _, ext = level_over_three_blocks()
+    ext.guide(2, 0.4, "pulled", 0.04, (0.04, 0.0, 0.0))
+    ext.wake(4, 0.45, "a blow")
+    events = ext.update(0.5)
+    assert {e.label for e in events if e.kind == "wake"} >= {"b1", "b3"} and not ext.alone(2)

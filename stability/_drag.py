@@ -26,7 +26,7 @@ pile (not resting on it) or that touches a frozen brick in its way: no proof, an
 wakes what rests on ``P`` and the bricks beside it, as it did before (the engine decides).
 
 :data:`DRAG_SAFETY` covers the share's indeterminacy: a block on three supports is statically
-indeterminate, and an engine whose contacts load the middle one more (MuJoCo's compliant
+indeterminate, and an engine whose contacts load the middle one more (compliant
 contacts: docs/actions.md) drags more. With equal shares the two side blocks of a Jenga level
 hold the level above against twice the middle block's drag; a side block's drag acts 25 mm off
 the centre line and the level is a near tie (docs/actions.md): the proof fails, and the pull is

@@ -10,7 +10,7 @@ import argparse
 import tempfile
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..bench.bench import DEFAULT_SETTINGS, SETTINGS, UPRIGHT, run_matrix, savings, scenes
 from ..bench.dominoes import DEFAULT as DOMINO_SETTINGS
@@ -21,6 +21,9 @@ from ..util.extras import installed, missing
 from ..verdicts.expect import describe
 from .args import COMMANDS, OK, jobs_type, output_folder
 from .progress import Lines
+
+if TYPE_CHECKING:
+    from ..bench.verdicts import Plan
 
 #: The most bricks ``bench solve`` takes a tower of: a 4 stack (two bricks a level) of the most levels a tower has.
 MAX_SOLVE_BRICKS = 2 * MAX_LEVELS
@@ -378,12 +381,7 @@ def _bench_height(args: argparse.Namespace) -> int:
     from ..bench.cost import format_heights, format_profiles, measure_heights, profile_tower
     from ..bench.versions import version_line
 
-    try:
-        levels = [int(x) for x in args.levels.split(",") if x.strip()]
-    except ValueError:
-        raise ScenarioError(f"--levels must be whole numbers separated by commas, not {args.levels!r}", file="--levels") from None
-    if not levels or not all(1 <= n <= 1000 for n in levels):
-        raise ScenarioError(f"--levels must be from 1 to 1000, not {args.levels!r}", file="--levels")
+    levels = _height_levels(args.levels)
     settings = [s.strip() for s in args.settings.split(",") if s.strip()]
     unknown = [s for s in settings if s not in SETTINGS]
     if unknown or not settings:
@@ -404,6 +402,21 @@ def _bench_height(args: argparse.Namespace) -> int:
         if profiled:
             print(format_profiles([profile_tower(s, n) for n in heights for s in profiled]))
     return OK
+
+
+def _height_levels(text: str) -> list[int]:
+    """``bench height --levels``: the tower heights, from ``"10,30,100"``.
+
+    Raises:
+        ScenarioError: not whole numbers separated by commas, none, or one outside 1..1000.
+    """
+    try:
+        levels = [int(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise ScenarioError(f"--levels must be whole numbers separated by commas, not {text!r}", file="--levels") from None
+    if not levels or not all(1 <= n <= 1000 for n in levels):
+        raise ScenarioError(f"--levels must be from 1 to 1000, not {text!r}", file="--levels")
+    return levels
 
 
 def _bench_hard(args: argparse.Namespace) -> int:
@@ -540,31 +553,15 @@ def _bench_dominoes(args: argparse.Namespace) -> int:
 
 
 def _bench_verdicts(args: argparse.Namespace) -> int:
-    from ..bench.verdicts import FAMILIES, JOURNAL, Journal, Verdicts, family_settings, format_verdicts, plan, timed
+    from ..bench.verdicts import FAMILIES, family_settings, plan
     from ..bench.versions import version_line
 
-    families = _names(args.families, "--families", list(FAMILIES), "family")
-    sizes = {"assemblies": args.count, "single-file": args.single_file, "near-tie": args.near_tie, "shake": args.shakes}
-    options = {"assemblies": "--count", "single-file": "--single-file", "near-tie": "--near-tie", "shake": "--shakes"}
-    for family, size in sizes.items():
-        if not 0 <= size <= 100_000:
-            raise ScenarioError(f"{options[family]} must be from 0 to 100000, not {size}", file=options[family])
-    chosen = [f for f in families if sizes[f]]
-    if not chosen:
-        raise ScenarioError(
-            "nothing to run: give " + " or ".join(f"{options[f]} above 0" for f in families), file=options[families[0]]
-        )
+    chosen = _verdict_families(args, _names(args.families, "--families", list(FAMILIES), "family"))
     if args.seed < 0:
         raise ScenarioError(f"--seed must be 0 or more, not {args.seed}", file="--seed")
     engines = [e.strip() for e in args.engines.split(",") if e.strip()]
     try:
-        gaps = [float(g) / 1000 for g in args.gaps.split(",") if g.strip()]
-    except ValueError:
-        raise ScenarioError(f"--gaps must be millimetres separated by commas, not {args.gaps!r}", file="--gaps") from None
-    if not gaps or not all(0 <= g <= 0.003 for g in gaps):
-        raise ScenarioError(f"--gaps must be from 0 to 3 mm (below the collapse threshold), not {args.gaps!r}", file="--gaps")
-    try:
-        runs = plan(engines, gaps, baselines=not args.no_baselines)
+        runs = plan(engines, _gaps(args.gaps), baselines=not args.no_baselines)
     except ValueError as exc:
         raise ScenarioError(str(exc), file="--engines") from None
     for name in engines:
@@ -581,21 +578,7 @@ def _bench_verdicts(args: argparse.Namespace) -> int:
             (out / name).write_text(text + "\n", encoding="utf-8")
 
     if "assemblies" in chosen:
-        journal = Journal(out / JOURNAL, args.seed, runs)
-        try:
-            done = journal.load()
-        except ValueError as exc:
-            raise ScenarioError(str(exc), file=str(journal.path)) from None
-        if done:
-            print(f"resuming: {sum(k < args.count for k in done)} of {args.count} assemblies done in {journal.path}")
-
-        def finished(v: Verdicts) -> None:
-            journal.add(v)
-            progress.advance()
-
-        with Lines(args.count - sum(k < args.count for k in done), "assemblies") as progress:
-            results, seconds = timed(args.seed, args.count, args.jobs, finished, runs, done)
-        show(format_verdicts(results, out, seconds, runs))
+        show(_assemblies(args, out, runs))
     samples: list[Any] = []
     if "single-file" in chosen:
         from ..bench.verdicts import format_single_file, run_single_file
@@ -625,6 +608,66 @@ def _bench_verdicts(args: argparse.Namespace) -> int:
     if any(f in chosen for f in ("near-tie", "shake")):
         print(f"(the tables and every sample are in {out})")
     return OK
+
+
+def _verdict_families(args: argparse.Namespace, families: list[str]) -> list[str]:
+    """The ``families`` ``bench verdicts`` runs: those whose size option is above 0.
+
+    Raises:
+        ScenarioError: a size outside 0..100000, or none above 0.
+    """
+    sizes = {"assemblies": args.count, "single-file": args.single_file, "near-tie": args.near_tie, "shake": args.shakes}
+    options = {"assemblies": "--count", "single-file": "--single-file", "near-tie": "--near-tie", "shake": "--shakes"}
+    for family, size in sizes.items():
+        if not 0 <= size <= 100_000:
+            raise ScenarioError(f"{options[family]} must be from 0 to 100000, not {size}", file=options[family])
+    chosen = [f for f in families if sizes[f]]
+    if not chosen:
+        raise ScenarioError(
+            "nothing to run: give " + " or ".join(f"{options[f]} above 0" for f in families), file=options[families[0]]
+        )
+    return chosen
+
+
+def _gaps(text: str) -> list[float]:
+    """``bench verdicts --gaps``: the gaps (m) from millimetres separated by commas.
+
+    Raises:
+        ScenarioError: not numbers, none, or one outside 0..3 mm.
+    """
+    try:
+        gaps = [float(g) / 1000 for g in text.split(",") if g.strip()]
+    except ValueError:
+        raise ScenarioError(f"--gaps must be millimetres separated by commas, not {text!r}", file="--gaps") from None
+    if not gaps or not all(0 <= g <= 0.003 for g in gaps):
+        raise ScenarioError(f"--gaps must be from 0 to 3 mm (below the collapse threshold), not {text!r}", file="--gaps")
+    return gaps
+
+
+def _assemblies(args: argparse.Namespace, out: Path, runs: Plan) -> str:
+    """The assemblies family of ``bench verdicts``: ``args.count`` assemblies run as ``runs``
+    plans, resumed from the journal in ``out`` and written to it as each ends; its table.
+
+    Raises:
+        ScenarioError: the journal is of another seed or plan, or damaged.
+    """
+    from ..bench.verdicts import JOURNAL, Journal, Verdicts, format_verdicts, timed
+
+    journal = Journal(out / JOURNAL, args.seed, runs)
+    try:
+        done = journal.load()
+    except ValueError as exc:
+        raise ScenarioError(str(exc), file=str(journal.path)) from None
+    if done:
+        print(f"resuming: {sum(k < args.count for k in done)} of {args.count} assemblies done in {journal.path}")
+
+    def finished(v: Verdicts) -> None:
+        journal.add(v)
+        progress.advance()
+
+    with Lines(args.count - sum(k < args.count for k in done), "assemblies") as progress:
+        results, seconds = timed(args.seed, args.count, args.jobs, finished, runs, done)
+    return format_verdicts(results, out, seconds, runs)
 
 
 def _write_samples(path: Path, samples: list[Any]) -> None:

@@ -37,10 +37,10 @@ def tiny(name: str) -> Scene:
 def test_the_family_is_the_shipped_scenes_and_those_written_like_them():
     scenes = action_scenes(ROOT / "scenarios")
     assert [s.name for s in scenes] == [
-        "Jenga 12, stands",
-        "Jenga 12, falls",
-        "Jenga 18, stands",
-        "Jenga 18, falls",
+        "Jenga 12 stands",
+        "Jenga 12 falls",
+        "Jenga 18 stands",
+        "Jenga 18 falls",
         "30 dominoes",
         "120 dominoes",
         "shake below",

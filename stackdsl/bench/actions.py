@@ -108,10 +108,10 @@ def action_scenes(folder: Path = Path("scenarios")) -> list[Scene]:
         )
 
     return [
-        Scene("Jenga 12, stands", stands, str(folder / "jenga_stands.yaml")),
-        Scene("Jenga 12, falls", falls, str(folder / "jenga_falls.yaml")),
-        Scene("Jenga 18, stands", taller(stands), "jenga_stands.yaml at 18 levels"),
-        Scene("Jenga 18, falls", taller(falls), "jenga_falls.yaml at 18 levels"),
+        Scene("Jenga 12 stands", stands, str(folder / "jenga_stands.yaml")),
+        Scene("Jenga 12 falls", falls, str(folder / "jenga_falls.yaml")),
+        Scene("Jenga 18 stands", taller(stands), "jenga_stands.yaml at 18 levels"),
+        Scene("Jenga 18 falls", taller(falls), "jenga_falls.yaml at 18 levels"),
         Scene("30 dominoes", _read(folder / "dominoes_30.yaml"), str(folder / "dominoes_30.yaml")),
         Scene("120 dominoes", domino_row(120), "dominoes_30.yaml with 120"),
         Scene("shake below", _read(folder / "four_stack_shake_below.yaml"), str(folder / "four_stack_shake_below.yaml")),

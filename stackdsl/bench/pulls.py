@@ -101,12 +101,13 @@ def _peer(arguments: tuple[Template, int, Sequence[int]]) -> list[int | None]:
     return out
 
 
-def run_sides(t: Template, jobs: int = 1, batch: int = 5) -> list[Side]:
+def run_sides(t: Template, jobs: int = 1, batch: int = 5, cells: int | None = None) -> list[Side]:
     """Run every sample of ``t`` (each grid cell's) with the extension (as ``stackdsl sweep``
     does) and with the lean peer, each on ``jobs`` fresh processes (batches of at most ``batch``
-    samples of a cell), one side after the other; see the module's description."""
+    samples of a cell), one side after the other, the first ``cells`` grid cells only when given;
+    see the module's description."""
     samples = list(range(t.samples))
-    chunks = [(c, samples[i : i + batch]) for c in range(t.cells) for i in range(0, len(samples), batch)]
+    chunks = [(c, samples[i : i + batch]) for c in range(min(t.cells, cells or t.cells)) for i in range(0, len(samples), batch)]
     sides = []
     for name, work in (("extension", _extension), ("MuJoCo lean", _peer)):
         with SPAWN.Pool(processes=jobs) as pool:
@@ -118,12 +119,13 @@ def run_sides(t: Template, jobs: int = 1, batch: int = 5) -> list[Side]:
     return sides
 
 
-def format_sides(sides: Sequence[Side], t: Template, jobs: int) -> str:
+def format_sides(sides: Sequence[Side], t: Template, jobs: int, cells: int | None = None) -> str:
     """A Markdown table of :func:`run_sides`: each side's wall time, samples a second, how many
     stood, and the agreement of the verdicts sample by sample."""
     name = t.data.get("name", "sweep")
+    ran = min(t.cells, cells or t.cells)
     lines = [
-        f"{name}: {t.cells * t.samples} samples ({t.cells} cells x {t.samples}; the same draws on each side), "
+        f"{name}: {ran * t.samples} samples ({ran} of {t.cells} cells x {t.samples}; the same draws on each side), "
         f"{jobs} process(es) a side:",
         "",
         "| side | wall (s) | samples/s | stood | peer / this |",

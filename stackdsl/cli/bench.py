@@ -231,7 +231,8 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
         "pulls", help="the sweep of Jenga pulls: samples a second, the extension against the lean MuJoCo peer, same draws"
     )
     q.add_argument("file", nargs="?", default="sweeps/jenga_pulls.yaml")
-    q.add_argument("--samples", type=int, default=None, help="samples (default: the file's own, 1000)")
+    q.add_argument("--samples", type=int, default=None, help="samples a grid cell (default: the file's own, 50)")
+    q.add_argument("--cells", type=int, default=None, help="run the first N grid cells only (default: all, 20)")
     q.add_argument("-j", "--jobs", type=jobs_type, default="1", help="worker processes a side (default: 1)")
     q.set_defaults(func=_bench_pulls)
     q = bench.add_parser(
@@ -749,7 +750,9 @@ def _bench_pulls(args: argparse.Namespace) -> int:
     t = template(Path(args.file), args.samples)
     print(version_line(), flush=True)
     print(_load_line(), flush=True)
-    print(format_sides(run_sides(t, args.jobs), t, args.jobs))
+    if args.cells is not None and args.cells < 1:
+        raise ScenarioError(f"--cells must be at least 1, not {args.cells}", file="--cells")
+    print(format_sides(run_sides(t, args.jobs, cells=args.cells), t, args.jobs, args.cells))
     print(_load_line())
     return OK
 

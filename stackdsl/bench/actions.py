@@ -137,9 +137,9 @@ def tiny_scenes() -> list[Scene]:
     jenga = (
         "stackdsl: 1\nmaterials: {maple: {density: 700 kg/m^3, friction: 0.4}}\n"
         "brick_types: {jenga: {size: [75 mm, 25 mm, 15 mm], material: maple}}\nground: {material: maple}\n"
-        "structure: {tower: {levels: 3, bricks_per_layer: 3, spacing: 25.5 mm, turn: 90, brick: jenga}}\n"
+        "structure: {tower: {levels: 5, bricks_per_layer: 3, spacing: 25.5 mm, turn: 90, brick: jenga}}\n"
         "timing: {interval: 0.2 s, settle: 0.2 s}\n"
-        "actions: [{remove: {brick: L02.2, at: after level 3, speed: 80 mm/s}}]\nexpect: {stands: true}\n"
+        "actions: [{remove: {brick: L02.1, at: after level 5, speed: 80 mm/s}}]\nexpect: {stands: true}\n"
     )
     shake = (
         "stackdsl: 1\nstructure: {tower: {levels: 2, bricks_per_layer: 2, spacing: 96 mm, turn: 90}}\n"
@@ -340,12 +340,13 @@ def folder_scenes(folder: Path) -> list[Scene]:
 
 @dataclass(frozen=True)
 class CheckTime:
-    """``stackdsl check FOLDER -j jobs``: wall seconds of each run (a fresh process each) and
-    the exit code of the first."""
+    """``stackdsl check FOLDER -j jobs``: wall seconds of each run (a fresh process each), the
+    exit code of the first and its last line (how many passed and failed)."""
 
     jobs: str
     walls: tuple[float, ...]
     exit_code: int
+    summary: str = ""
 
     @property
     def wall(self) -> float:
@@ -358,6 +359,7 @@ def check_times(folder: Path, jobs: Sequence[str] = ("1", "auto"), repeats: int 
     rounds, each a fresh process as a user runs it (its start and imports included)."""
     walls: dict[str, list[float]] = {j: [] for j in jobs}
     codes: dict[str, int] = {}
+    said: dict[str, str] = {}
     command = [sys.executable, "-m", "stackdsl", "check", str(folder)]
     for _ in range(max(1, repeats)):
         for j in jobs:
@@ -365,7 +367,10 @@ def check_times(folder: Path, jobs: Sequence[str] = ("1", "auto"), repeats: int 
             done = subprocess.run([*command, "-j", j], capture_output=True, env={**os.environ, "PYTHONHASHSEED": "0"})
             walls[j].append(time.perf_counter() - start)
             codes.setdefault(j, done.returncode)
-    return [CheckTime(j, tuple(walls[j]), codes[j]) for j in jobs]
+            said.setdefault(
+                j, next((line for line in reversed(done.stdout.decode(errors="replace").splitlines()) if line.strip()), "")
+            )
+    return [CheckTime(j, tuple(walls[j]), codes[j], said[j]) for j in jobs]
 
 
 def format_check_times(times: Sequence[CheckTime], folder: Path, files: int) -> str:
@@ -373,9 +378,10 @@ def format_check_times(times: Sequence[CheckTime], folder: Path, files: int) -> 
     lines = [
         f"`stackdsl check {folder}` ({files} files), each run a fresh `python -m stackdsl` process:",
         "",
-        "| -j | wall (s), median | runs (s) | exit code |",
-        "|---|---:|---|---:|",
+        "| -j | wall (s), median | runs (s) | exit code | the first run's last line |",
+        "|---|---:|---|---:|---|",
     ]
     for t in times:
-        lines.append(f"| {t.jobs} | {t.wall:.1f} | {' '.join(f'{w:.1f}' for w in sorted(t.walls))} | {t.exit_code} |")
+        runs = " ".join(f"{w:.1f}" for w in sorted(t.walls))
+        lines.append(f"| {t.jobs} | {t.wall:.1f} | {runs} | {t.exit_code} | {t.summary} |")
     return "\n".join(lines)

@@ -746,12 +746,12 @@ def _bench_pulls(args: argparse.Namespace) -> int:
 
     if args.samples is not None and not 1 <= args.samples <= 100_000:
         raise ScenarioError(f"--samples must be from 1 to 100000, not {args.samples}", file="--samples")
+    if args.cells is not None and args.cells < 1:
+        raise ScenarioError(f"--cells must be at least 1, not {args.cells}", file="--cells")
     _need("mujoco", "stackdsl bench pulls")
     t = template(Path(args.file), args.samples)
     print(version_line(), flush=True)
     print(_load_line(), flush=True)
-    if args.cells is not None and args.cells < 1:
-        raise ScenarioError(f"--cells must be at least 1, not {args.cells}", file="--cells")
     print(format_sides(run_sides(t, args.jobs, cells=args.cells), t, args.jobs, args.cells))
     print(_load_line())
     return OK

@@ -269,9 +269,9 @@ def run_matrix(
 
     A cell is measured ``repeats`` times in rounds, every cell once a round, and its wall
     time is the median (:func:`combine`); a cell whose first run takes ``repeat_below``
-    seconds or more runs once (by default none: every cell, extension and peer, is timed alike). Rounds, not runs back to back, because the machine's speed
-    drifts: on the development machine the same Python loop took 0.24 to 0.41 s within a
-    minute, so the settings compared on a scene must sample the same stretches of the run.
+    seconds or more runs once (by default none: every cell, extension and peer, is timed
+    alike). Rounds, not runs back to back, because the machine's speed drifts: on the
+    development machine the same Python loop took 0.24 to 0.41 s within a minute, so the settings compared on a scene must sample the same stretches of the run.
     ``progress`` is called with each cell once its last run is in.
 
     Every run stops at its first collapse and ends ``after_collapse`` seconds after it is

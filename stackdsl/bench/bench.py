@@ -10,6 +10,7 @@ Source: stackdsl's own.
 
 from __future__ import annotations
 
+import functools
 import resource
 import statistics
 from collections.abc import Callable, Sequence
@@ -23,6 +24,7 @@ from ..compile.program import Program
 from ..lang.loader import parse_scenario
 from ..runtime.run import RunOptions, run_program
 from ..verdicts.closed_form import log_cabin, single_file
+from .lean import LeanOutcome
 
 
 @dataclass(frozen=True)
@@ -227,13 +229,14 @@ def _measure_lean(scene: Scene, setting: str) -> Cell:
     from . import lean_mujoco, lean_pybullet
 
     # each peer's own loop on its own engine (a lean setting names one of these two)
-    run_lean = {"mujoco": lean_mujoco.run_lean, "pybullet": lean_pybullet.run_lean}[SETTINGS[setting].backend]
-
-    tolerance = LEAN_TOLERANCE if SETTINGS[setting].backend == "mujoco" else None
-    kw = {"tolerance": tolerance} if tolerance is not None else {}
-    run_lean(program_for(WARM_UP, setting), **kw)
+    runners: dict[str, Callable[[Program], LeanOutcome]] = {
+        "mujoco": functools.partial(lean_mujoco.run_lean, tolerance=LEAN_TOLERANCE),
+        "pybullet": lean_pybullet.run_lean,
+    }
+    run_lean = runners[SETTINGS[setting].backend]
+    run_lean(program_for(WARM_UP, setting))
     program = program_for(scene, setting)
-    o = run_lean(program, **kw)
+    o = run_lean(program)
     top = scene.levels + 1
     return Cell(
         setting=setting,

@@ -136,7 +136,11 @@ def test_the_cli_runs_the_quick_family_and_the_pulls(tmp_path, capsys, monkeypat
     assert "fresh process" in out and "load average" in out
     sweep = tmp_path / "pulls.yaml"
     sweep.write_text(
-        (ROOT / "sweeps/jenga_pulls.yaml").read_text().replace("levels: 12", "levels: 4").replace("L05.2", "L02.2"),
+        (ROOT / "sweeps/jenga_pulls.yaml")
+        .read_text()
+        .replace("levels: 12", "levels: 4")
+        .replace("level 12", "level 4")
+        .replace("L05.2", "L02.2"),
         encoding="utf-8",
     )
     text = sweep.read_text()

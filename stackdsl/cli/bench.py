@@ -12,7 +12,8 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..bench.bench import DEFAULT_SETTINGS, SETTINGS, UPRIGHT, run_matrix, savings, scenes
+from ..bench.actions import SIDES as ACTION_SIDES
+from ..bench.bench import DEFAULT_SETTINGS, SETTINGS, TIMING, UPRIGHT, run_matrix, savings, scenes
 from ..bench.dominoes import DEFAULT as DOMINO_SETTINGS
 from ..bench.dominoes import KNOWN as DOMINO_KNOWN
 from ..lang.bounds import MAX_LEVELS
@@ -55,8 +56,13 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     p.add_argument(
         "--upright", default=",".join(map(str, UPRIGHT)), help="comma-separated heights of the upright towers, in levels"
     )
-    p.add_argument("--repeats", type=int, default=3, help="runs per cell (median), for cells faster than --repeat-below")
-    p.add_argument("--repeat-below", type=float, default=30.0, help="seconds; slower cells run once")
+    p.add_argument("--repeats", type=int, default=3, help="runs per cell, every cell alike (median; default: 3)")
+    p.add_argument(
+        "--repeat-below",
+        type=float,
+        default=float("inf"),
+        help="seconds; a cell whose first run is slower runs once (default: inf, every cell runs --repeats times)",
+    )
     p.add_argument(
         "--after-collapse",
         type=float,
@@ -75,7 +81,8 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     )
     p.set_defaults(func=_bench)
     bench = p.add_subparsers(
-        metavar="[solve | height | hard | limits | record | sweep | verdicts | freeze | dominoes | startup]",
+        metavar="[solve | height | hard | limits | record | sweep | verdicts | freeze | dominoes | actions | folder | pulls "
+        "| startup]",
         title="other benchmarks (optional)",
     )
     q = bench.add_parser("solve", help="equilibrium solve time for towers of 10 to 100 bricks")
@@ -204,6 +211,34 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     q.add_argument("--repeats", type=int, default=1, help="timed runs of each setting (median; default: 1)")
     q.set_defaults(func=_bench_dominoes)
     q = bench.add_parser(
+        "actions",
+        help="Jenga pulls, domino rows pushed over, shake tables: the extension on both engines, raw pybullet and the "
+        "lean MuJoCo peer driving the same hands, every cell timed alike and judged against its scene's expectations",
+    )
+    q.add_argument("--scenes", default=None, help="comma-separated scene names (default: all; see the table)")
+    q.add_argument("--sides", default=",".join(ACTION_SIDES), help="comma-separated, of: " + ", ".join(ACTION_SIDES))
+    q.add_argument("--repeats", type=int, default=3, help="runs per cell, each in a fresh process (median; default: 3)")
+    q.add_argument("--quick", action="store_true", help="tiny scenes (a smoke test)")
+    q.add_argument("-j", "--jobs", type=jobs_type, default="1", help="worker processes (default: 1, for steady timings)")
+    q.set_defaults(func=_bench_actions)
+    q = bench.add_parser(
+        "folder",
+        help="`stackdsl check FOLDER` wall time with -j 1 and -j auto, then each scenario on its own settings "
+        "against the lean MuJoCo peer",
+    )
+    q.add_argument("folder", nargs="?", default="scenarios")
+    q.add_argument("--repeats", type=int, default=3, help="runs of each check and each cell (median; default: 3)")
+    q.add_argument("--no-cells", action="store_true", help="time the folder's check only")
+    q.set_defaults(func=_bench_folder)
+    q = bench.add_parser(
+        "pulls", help="the sweep of Jenga pulls: samples a second, the extension against the lean MuJoCo peer, same draws"
+    )
+    q.add_argument("file", nargs="?", default="sweeps/jenga_pulls.yaml")
+    q.add_argument("--samples", type=int, default=None, help="samples a grid cell (default: the file's own, 50)")
+    q.add_argument("--cells", type=int, default=None, help="run the first N grid cells only (default: all, 20)")
+    q.add_argument("-j", "--jobs", type=jobs_type, default="1", help="worker processes a side (default: 1)")
+    q.set_defaults(func=_bench_pulls)
+    q = bench.add_parser(
         "limits", help="each engine's own limits measured past them: smallest side, fastest throw, mass ratio, restitution"
     )
     q.add_argument("--backend", default=None, help="pybullet or mujoco (default: every installed engine)")
@@ -311,6 +346,12 @@ def _bench(args: argparse.Namespace) -> int:
     total = len(chosen) * len(settings)
     print(version_line())
     print(f"stackdsl bench: {len(chosen)} scenes x {len(settings)} settings, {args.jobs} workers, writing to {out}", flush=True)
+    repeats = 1 if args.quick else args.repeats  # a smoke test: one round
+    below = (
+        "" if args.repeat_below == float("inf") else f"; a cell whose first run takes {args.repeat_below:g} s or more runs once"
+    )
+    timing = TIMING.format(repeats=repeats, below=below)
+    print(timing, flush=True)
     with Lines(total, "bench") as lines:
         count = 0
 
@@ -323,11 +364,11 @@ def _bench(args: argparse.Namespace) -> int:
             )
             lines.advance()
 
-        repeats = 1 if args.quick else args.repeats  # a smoke test: one round
         cells = run_matrix(settings, chosen, repeats, args.repeat_below, args.jobs, progress, args.after_collapse)
     saved = [] if args.quick else savings(args.repeats)
     targets = write_outputs(cells, saved, out)
     print((out / "bench.md").read_text())
+    print(timing)
     for line in _targets(targets):
         print(line)
     print(
@@ -693,3 +734,75 @@ def _bench_startup(args: argparse.Namespace) -> int:
     if note is not None:
         print(note)
     return OK
+
+
+def _bench_actions(args: argparse.Namespace) -> int:
+    from ..bench.actions import action_scenes, format_cells, run_cells, tiny_scenes
+    from ..bench.versions import version_line
+
+    _at_least_one(args.repeats)
+    sides = _names(args.sides, "--sides", list(ACTION_SIDES), "side")
+    for side in sides:
+        _need_backend(ACTION_SIDES[side].backend or "pybullet", "--sides")
+    try:
+        family = tiny_scenes() if args.quick else action_scenes()
+    except OSError as exc:
+        raise ScenarioError(
+            f"run it from the project's folder: {exc.strerror or exc}", file=str(exc.filename or "scenarios")
+        ) from None
+    if args.scenes is not None:
+        names = _names(args.scenes, "--scenes", [s.name for s in family], "scene")
+        family = [s for s in family if s.name in names]
+    print(version_line(), flush=True)
+    print(_load_line(), flush=True)
+    with Lines(len(family) * len(sides) * args.repeats, "runs") as progress:
+        cells = run_cells(family, sides, args.repeats, args.jobs, lambda r: progress.advance())
+    print(format_cells(cells, args.repeats, reference=sides[0]))
+    print(_load_line())
+    return OK
+
+
+def _bench_folder(args: argparse.Namespace) -> int:
+    from ..bench.actions import AS_WRITTEN, check_times, folder_scenes, format_cells, format_check_times, run_cells
+    from ..bench.versions import version_line
+
+    _at_least_one(args.repeats)
+    folder = Path(args.folder)
+    scenes = folder_scenes(folder)
+    print(version_line(), flush=True)
+    print(_load_line(), flush=True)
+    print(format_check_times(check_times(folder, ("1", "auto"), args.repeats), folder, len(scenes)), flush=True)
+    if not args.no_cells:
+        print(flush=True)
+        with Lines(len(scenes) * 2 * args.repeats, "runs") as progress:
+            cells = run_cells(scenes, [AS_WRITTEN, "MuJoCo lean"], args.repeats, 1, lambda r: progress.advance())
+        print(format_cells(cells, args.repeats, reference=AS_WRITTEN))
+        ran = [c for c in cells if c.side == AS_WRITTEN]
+        print(f"\nthe {len(ran)} scenarios one after the other: {sum(c.wall for c in ran):.1f} s of runs (medians)")
+    print(_load_line())
+    return OK
+
+
+def _bench_pulls(args: argparse.Namespace) -> int:
+    from ..bench.pulls import format_sides, run_sides, template
+    from ..bench.versions import version_line
+
+    if args.samples is not None and not 1 <= args.samples <= 100_000:
+        raise ScenarioError(f"--samples must be from 1 to 100000, not {args.samples}", file="--samples")
+    if args.cells is not None and args.cells < 1:
+        raise ScenarioError(f"--cells must be at least 1, not {args.cells}", file="--cells")
+    _need("mujoco", "stackdsl bench pulls")
+    t = template(Path(args.file), args.samples)
+    print(version_line(), flush=True)
+    print(_load_line(), flush=True)
+    print(format_sides(run_sides(t, args.jobs, cells=args.cells), t, args.jobs, args.cells))
+    print(_load_line())
+    return OK
+
+
+def _load_line() -> str:
+    """The machine's load averages and cores, for a table's reader."""
+    import os
+
+    one, five, fifteen = os.getloadavg()
+    return f"load average {one:.2f}, {five:.2f}, {fifteen:.2f} on {os.cpu_count()} cores"

@@ -131,7 +131,7 @@ def _levelled(stack: Stack, bricks: list[Record], certificate: Certificate) -> C
     level about its centre (:func:`stability._geometry.level_offset`).
 
     The margin is found on the contacts as the engine settled them, and an engine's soft
-    contacts tilt a stack by its compliance: on MuJoCo a stack of 7 leaned 0.05 deg at its
+    contacts tilt a stack by its compliance: on one engine a stack of 7 leaned 0.05 deg at its
     second brick to 0.12 deg at its top, which put the top face of the sixth 8.3 um past its
     centre's edge, and the margin read 0.502 mm where the exact rule of level bricks has
     0.494 mm (a near-tie sample of ``stackdsl bench verdicts``). Every contact polygon is the

@@ -493,7 +493,7 @@ def level_offset(half_extents: np.ndarray, rotations: np.ndarray) -> np.ndarray:
     the least rotation), shape (n,), for n boxes of ``half_extents`` (n, 3) in m at
     ``rotations`` (n, 3, 3); 0 for a level box. A box tilted by t moves a corner at height h
     over its centre and w from it by about h sin t + w (1 - cos t): 8.5 um for a KAPLA brick's
-    top edge at 0.12 deg, the tilt of a settled stack's top on MuJoCo's soft contacts, where
+    top edge at 0.12 deg, the tilt of a settled stack's top on an engine's soft contacts, where
     the exact rule of level bricks places that edge. Source: stackdsl's own.
 
     >>> tilted = Rotation.from_euler("y", 0.12, degrees=True).as_matrix()[None]

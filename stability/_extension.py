@@ -282,7 +282,11 @@ class StabilityExtension:
         face to face and do not rest on it yet: a brick that froze while this one was still
         active (woken by a blow, say) left it out of its supports, and its load would go to its
         other supports alone. So the brick graph, and the loads, are the geometry's whichever of
-        two bricks froze first (report Figure 3's restOn; stackdsl's own rule). Only a brick with
+        two bricks froze first (report Figure 3's restOn; stackdsl's own rule). It knows them among
+        its objects above, so that woken it wakes them too: a brick left frozen on one woken
+        under it is a fixed body holding that one down, which a leaning or debris admission then
+        took for a support (a random assembly's level-2 brick, frozen again "leaning on" the
+        brick frozen on its edge where rigid statics has no equilibrium). Only a brick with
         a frozen brick higher than its top is looked at (one frozen on top of a stack has none),
         and only a level face (within :data:`stability._geometry.FACE_TILT`): debris lying tilted
         on debris is its pile's."""
@@ -307,6 +311,7 @@ class StabilityExtension:
                 if area is None or area.normal[2] < FACE_TILT:  # debris lying tilted on debris: a pile's own
                     continue
                 above.rests_on = {**above.rests_on, body: area}
+                below.objects_above.add(above.body)
                 above.node = LoadNode(above.box.mass, stack.pose(above).position, above.rests_on)
                 if not any(c.other == body for c in above.contacts):
                     friction = pair_friction(above.friction, below.friction)

@@ -170,7 +170,10 @@ def write_samples(results: Sequence[SampleResult], folder: Path) -> tuple[Path, 
     if not installed("parquet"):
         return table, lines, None
     parquet = folder / "samples.parquet"
-    write_parquet(rows, columns, parquet)
+    try:
+        write_parquet(rows, columns, parquet)
+    except ImportError:  # a pyarrow that is there but does not import: the user's install, not a bug (exit 3 was)
+        return table, lines, None
     return table, lines, parquet
 
 

@@ -483,8 +483,9 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
     guarded = _guarded(TIMEOUT)
     files = _guarded(
         TIMEOUT,
-        "a scenario file may run, a sweep file's runs all together (a sweep whose runs the compiler estimates "
-        "to take longer is refused before anything runs, and one that takes longer stops where its budget ran out),",
+        "a scenario file may run, a sweep file's runs all together, and with --perturb a scenario's run and its reruns "
+        "together (runs the compiler estimates to take longer are refused before anything runs, and runs that take "
+        "longer stop where the budget ran out),",
     )
     many = _Parser(add_help=False, parents=[common, files])
     many.add_argument(

@@ -283,9 +283,12 @@ MAX_HALF_EXTENT = MAX_SIDE / 2
 QUATERNION_TOLERANCE = 1e-3
 #: A body's id in a trajectory file: the characters of a scenario's ids and the ids it generates.
 _ID = re.compile(r"[A-Za-z0-9_.-]{1,200}")
-#: Bytes a trajectory file's arrays may hold once read (a 200-level tower recorded at 30 Hz for
-#: its whole run holds a few MB): a file claiming more is refused before anything is read.
-MAX_TRAJECTORY_BYTES = 1 << 30
+#: Bytes a trajectory file may take on disk, and its arrays once read (a 200-level tower recorded
+#: at 30 Hz for its whole run holds a few MB): a file larger, or claiming more, is refused before
+#: anything is read. What reads one holds several copies: ``render`` peaked at 864 MB on 63 MiB of
+#: arrays and at 1260 MB on 100 MiB, so 64 MiB keeps every command under 1.5 GB (the golden
+#: snapshot's limit is 16 MiB of JSON, :data:`stackdsl.draw.replay.MAX_GOLDEN_BYTES`).
+MAX_TRAJECTORY_BYTES = 64 << 20
 #: Each array: its dtype kind ("U" text, "i" integer, "f" float) and its shape (None: any length,
 #: an int: that size; names stand for lengths that must agree across arrays).
 _LAYOUT: dict[str, tuple[str, tuple[str | int, ...]]] = {
@@ -392,7 +395,11 @@ class _Bad(Exception):
 def _check_sizes(path: Path) -> None:
     """Refuse an archive whose arrays would take more than :data:`MAX_TRAJECTORY_BYTES` once
     read, by each member's own ``.npy`` header (a zip's sizes can lie, and so can a header's
-    shape: both are checked) before numpy reads any of it."""
+    shape: both are checked) before numpy reads any of it; a file larger than that is refused
+    before it is opened as an archive (its directory alone could be the file's size)."""
+    size = path.stat().st_size
+    if size > MAX_TRAJECTORY_BYTES:
+        raise _Bad(f"it is larger than {MAX_TRAJECTORY_BYTES >> 20} MiB ({size >> 20} MiB)")
     total = 0
     with zipfile.ZipFile(path) as archive:
         for info in archive.infolist():

@@ -9,7 +9,7 @@ refused its input (exit 2). ``env`` adds to the environment; ``tool: pytest`` ru
 instead (the plugin's project tolerances). The
 cases cover the sweep's options and language, ``--dask``, drawings, ``--record`` and
 trajectory files, check's outputs, each engine's own limits and refused paths. Marker
-``slow`` (.ci/run runs them after the README's test command)::
+``slow`` (.ci/nightly runs them)::
 
     .venv/bin/python -m pytest -m slow tests/test_hostile_commands.py
 

@@ -212,7 +212,7 @@ class Impacts:
             fast.append((rec, speed, reach, corner + reach))
         window = dt * 1.5
         if geometric and fast:  # no frozen brick's box within reach: the engine is not asked
-            centres = np.array([stack.engine.pose(rec.body).position for rec, *_ in fast])
+            centres = stack.engine.poses_of([rec.body for rec, *_ in fast])[0]  # one call, no Pose each
             near = stack.frozen_within(centres, np.array([radius for *_, radius in fast]))
             fast = [f for f, n in zip(fast, near, strict=True) if n]
         for rec, speed, reach, _ in fast:

@@ -13,7 +13,7 @@ from pydantic import BaseModel, ConfigDict
 
 from ..lang.bounds import MAX_SIDE
 from ..lang.errors import Location, excerpt
-from ..lang.expectations import CollapseLevel, Expect, bricks_of, levels_of, selects, span
+from ..lang.expectations import CollapseLevel, Expect, Still, bricks_of, levels_of, selects, span
 from ..runtime.outcome import Outcome
 
 
@@ -116,11 +116,25 @@ def evaluate(expect: Expect, outcome: Outcome, threshold: float) -> list[Verdict
                 measured=f"{count} of {total} toppled{never}",
             )
         )
+    if expect.still is not None:
+        verdicts.append(_still(expect.still, outcome, texts["still"]))
     if outcome.stopped:
         verdicts.append(Verdict(name="finished", passed=False, expected="the run finishes", measured=outcome.stopped))
     elif outcome.certificate is not None and outcome.certificate.verdict == "undecided":
         verdicts = [_undecided(v, outcome.certificate.detail) for v in verdicts]
     return [v.model_copy(update={"at": expect.at(v.name)}) if expect.at(v.name) else v for v in verdicts]
+
+
+def _still(still: Still, outcome: Outcome, expected: str) -> Verdict:
+    """The ``still`` verdict: the run's largest tilt and slip (:attr:`Outcome.peak_tilt`,
+    :attr:`Outcome.peak_slip`) within their bounds; failed when the run did not measure them
+    (an outcome built without the scenario's expectation, or an engine that simulates no motion)."""
+    if outcome.peak_tilt is None or outcome.peak_slip is None:
+        return Verdict(name="still", passed=False, expected=expected, measured="no motion measured (no engine steps)")
+    measured = f"tilted at most {math.degrees(outcome.peak_tilt):.3g} deg, slipped at most {outcome.peak_slip * 1000:.3g} mm"
+    return Verdict(
+        name="still", passed=still.margin(outcome.peak_tilt, outcome.peak_slip) >= 0, expected=expected, measured=measured
+    )
 
 
 def _undecided(verdict: Verdict, why: str) -> Verdict:
@@ -177,6 +191,8 @@ def expected_texts(expect: Expect) -> dict[str, str]:
         texts["moved"] = f"{_said(levels_of(expect.moved), bricks_of(expect.moved))} moved"
     if expect.toppled is not None:
         texts["toppled"] = f"{expect.toppled.text()} toppled"
+    if expect.still is not None:
+        texts["still"] = f"keeps still: {expect.still.text()}"
     return texts
 
 

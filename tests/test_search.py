@@ -18,6 +18,22 @@ def search(tmp_path: Path, file: str, *more: str) -> tuple[int, dict]:
     return status, summary
 
 
+def test_a_short_single_file_stacks_critical_shift_is_bracketed_in_few_runs(tmp_path):
+    # the shipped search's stack, 3 bricks (cheap): s* = 120 mm / 3 = 40 mm
+    path = tmp_path / "short.yaml"
+    text = (ROOT / "searches" / "single_file_shift.yaml").read_text().replace("levels: 5", "levels: 3")
+    path.write_text(text.replace("between: [20 mm, 30 mm]", "between: [36 mm, 44 mm]"))
+    out = tmp_path / "out"
+    assert main(["search", str(path), "-j", "1", "--out", str(out)]) == 0
+    found = json.loads((out / "search.json").read_text())
+    low, high = found["interval"]
+    assert low <= 40.0 + 0.1 and high >= 40.0 - 0.1 and high - low <= 0.1
+    assert found["below"] == "stands" and found["above"].startswith("collapses")
+    assert found["runs"] * 10 <= found["grid_runs"]  # at least 10x fewer than a grid at 0.1 mm
+    assert (out / "samples.csv").read_text().count("\n") == found["runs"] + 1
+
+
+@pytest.mark.slow
 def test_the_single_file_stacks_critical_shift_is_bracketed_in_few_runs(tmp_path):
     status, found = search(tmp_path, "searches/single_file_shift.yaml")
     assert status == 0

@@ -33,6 +33,7 @@ from ._areas import ContactAreas, Contacts, by_body, main_area
 from ._certificate import Certificate, certify
 from ._config import StabilityConfig
 from ._debris import Debris
+from ._drag import SHRINK, PullProof, footprint
 from ._engine import Engine
 from ._equilibrium import ContactPolygon
 from ._geometry import FACE_TILT, Box, Plane, Pose, corners_of, signed_inside
@@ -108,6 +109,8 @@ class StabilityExtension:
         self._debris = Debris(self._stack, self._areas, self._admission)
         self._tests = StackTest(self._stack, self._areas)
         self._impacts = Impacts(self._stack, self._tests)
+        # pulled bricks whose proof keeps what they touch frozen, with the overlap (m^2) it was proved at
+        self._proofs: dict[int, tuple[PullProof, dict[int, float]]] = {}
 
     @property
     def config(self) -> StabilityConfig:
@@ -279,7 +282,11 @@ class StabilityExtension:
         face to face and do not rest on it yet: a brick that froze while this one was still
         active (woken by a blow, say) left it out of its supports, and its load would go to its
         other supports alone. So the brick graph, and the loads, are the geometry's whichever of
-        two bricks froze first (report Figure 3's restOn; stackdsl's own rule). Only a brick with
+        two bricks froze first (report Figure 3's restOn; stackdsl's own rule). It knows them among
+        its objects above, so that woken it wakes them too: a brick left frozen on one woken
+        under it is a fixed body holding that one down, which a leaning or debris admission then
+        took for a support (a random assembly's level-2 brick, frozen again "leaning on" the
+        brick frozen on its edge where rigid statics has no equilibrium). Only a brick with
         a frozen brick higher than its top is looked at (one frozen on top of a stack has none),
         and only a level face (within :data:`stability._geometry.FACE_TILT`): debris lying tilted
         on debris is its pile's."""
@@ -304,6 +311,7 @@ class StabilityExtension:
                 if area is None or area.normal[2] < FACE_TILT:  # debris lying tilted on debris: a pile's own
                     continue
                 above.rests_on = {**above.rests_on, body: area}
+                below.objects_above.add(above.body)
                 above.node = LoadNode(above.box.mass, stack.pose(above).position, above.rests_on)
                 if not any(c.other == body for c in above.contacts):
                     friction = pair_friction(above.friction, below.friction)
@@ -423,7 +431,9 @@ class StabilityExtension:
         return [w.event for w in self._stack.wake(body, time, reason)]
 
     # bodies moved by an outside hand, and a moving ground -------------------------
-    def guide(self, body: int, time: float, reason: str, speed: float = 0.0) -> list[StabilityEvent]:
+    def guide(
+        self, body: int, time: float, reason: str, speed: float = 0.0, pull: tuple[float, float, float] | None = None
+    ) -> list[StabilityEvent]:
         """An outside hand moves ``body`` from now on (a gripper pulling a brick out, a pusher), at
         ``speed`` m/s along its path: it wakes, with everything resting on it (report 3.3.7), and
         is never frozen while guided. Now, and each step, the frozen bricks it touches, or will
@@ -441,8 +451,37 @@ class StabilityExtension:
         contact depth), carried the bricks bridging it and the pulled one on that edge alone: the
         pulled brick then carried 60% of their weight instead of half, the edge held them by two
         points, not four, and the tower above rode along at 80% of the pull's speed, at pair
-        friction 0.12 as at 0.32. Returns the events. Raises KeyError for an unknown body.
-        Source: stackdsl's own."""
+        friction 0.12 as at 0.32.
+
+        A pulled brick (``pull``: its velocity, m/s) is proved first (:class:`stability._drag.PullProof`):
+        when the frozen stack stands without it and the other supports of what it carries, and
+        of what it rests on, hold the drag of its friction, it wakes alone and the bricks it
+        slides between stay frozen, the proof asked again as its overlap with them shrinks
+        (:meth:`_guided`); when the proof fails, then or later, they wake as above. Returns the
+        events. Raises KeyError for an unknown body. Source: stackdsl's own."""
+        stack = self._stack
+        if pull is not None and stack.bodies[body].state is BrickState.FROZEN:
+            near = stack.engine.near(body, speed * stack.engine.timestep + TOUCH)
+            proof = PullProof(stack, body, np.asarray(pull, dtype=float), near)
+            if proof.why is None:
+                why = f"{reason}; the bricks it slides between stay frozen: statics holds them without it and against its drag"
+                events = [w.event for w in stack.wake(body, time, why, alone=True)]
+                stack.guided.add(body)
+                stack.hand_speed[body] = speed
+                self._proofs[body] = (
+                    proof,
+                    proof.overlaps(footprint(stack.bodies[body].box.half_extents, stack.engine.pose(body))),
+                )
+                return events + self._touching(body, time, set())
+        return self._guide(body, time, reason, speed)
+
+    def alone(self, body: int) -> bool:
+        """Whether guided ``body`` is pulled with the bricks it slides between kept frozen by a
+        proof (:meth:`guide`): nothing it touches moves with it."""
+        return body in self._proofs
+
+    def _guide(self, body: int, time: float, reason: str, speed: float) -> list[StabilityEvent]:
+        """:meth:`guide` without a proof: ``body`` wakes with what rests on it and the bricks beside."""
         beside = self._beside(body)
         events = [w.event for w in self._stack.wake(body, time, reason)]
         for other, carried in beside:
@@ -474,6 +513,7 @@ class StabilityExtension:
         """Take ``body`` out of the extension: a guided body the hand took away (it must have left
         what it touched: the harness moves it out of the scene first). Raises KeyError for an
         unknown body, ValueError for a frozen one. Source: stackdsl's own."""
+        self._proofs.pop(body, None)
         self._stack.forget(body)
 
     def _guided(self, time: float) -> tuple[list[StabilityEvent], set[int]]:
@@ -482,18 +522,56 @@ class StabilityExtension:
         events: list[StabilityEvent] = []
         touched: set[int] = set()
         for body in sorted(self._stack.guided):
+            if body in self._proofs:
+                events += self._reprove(body, time)
             events += self._touching(body, time, touched)
         return events, touched
+
+    def _reprove(self, body: int, time: float) -> list[StabilityEvent]:
+        """Keep the proof of a pull (:meth:`guide`) or, when it no longer holds (a brick it kept
+        frozen was woken, or the drag of the overlap left is not held), wake what it kept, as a
+        pull without a proof does."""
+        stack = self._stack
+        proof, areas = self._proofs[body]
+        why = next(
+            (f"{stack.bodies[b].label} was woken" for b in proof.kept if stack.bodies[b].state is not BrickState.FROZEN), None
+        )
+        if why is None:
+            pose = stack.engine.pose(body)
+            if not proof.moved(pose.position):
+                return []
+            at = footprint(stack.bodies[body].box.half_extents, pose)
+            now = proof.overlaps(at)
+            changed = {a for a in now if now[a] <= areas[a] - SHRINK * proof.area[a] or (areas[a] > 0.0 and now[a] == 0.0)}
+            if not changed:
+                return []
+            why = proof.check(at, pose.position, changed | proof.below.keys())
+            if why is None:
+                self._proofs[body] = (proof, areas | {a: now[a] for a in changed})
+                return []
+        del self._proofs[body]
+        events: list[StabilityEvent] = []
+        label = stack.bodies[body].label
+        for a in stack.ordered(proof.carried):  # what rested on it, kept frozen until now
+            events += self.wake(a, time, f"rests on {label}, moved by hand: {why}")
+        for b in stack.ordered(proof.beside):  # and what carries it beside it: its load changes
+            if b in stack.bodies:
+                events += self.wake(b, time, f"carries what rested on {label} beside it, moved by hand: {why}")
+        return events + self._guide(body, time, f"pulled by hand, its proof lost: {why}", stack.hand_speed.get(body, 0.0))
 
     def _touching(self, body: int, time: float, touched: set[int]) -> list[StabilityEvent]:
         """Wake the frozen bricks guided ``body`` touches or will within a step, at the faster of
         its speed in the engine and its hand's; add every body it touches to ``touched``."""
         stack, events = self._stack, []
         speed = max(stack.engine.speeds(body)[0], stack.hand_speed.get(body, 0.0))
+        proved = self._proofs.get(body)
+        kept = proved[0].kept if proved is not None else frozenset()
         for c in stack.engine.near(body, speed * stack.engine.timestep + TOUCH):
             other = stack.bodies.get(c.other)
-            if other is None or other.state is BrickState.GROUND:
+            if other is None or other.state is BrickState.GROUND or c.other in kept:
                 continue
+            if proved is not None and other.state is BrickState.FROZEN and proved[0].alongside(c):
+                continue  # it slides past it, never toward it
             touched.add(c.other)
             if other.state is BrickState.FROZEN:
                 events += self.wake(c.other, time, f"touched by {stack.bodies[body].label}, moved by hand")

@@ -20,7 +20,7 @@ from shapely.geometry.base import BaseGeometry
 from ._config import StabilityConfig
 from ._engine import ContactBook, ContactPoint, Engine
 from ._equilibrium import ContactPolygon, is_level
-from ._geometry import Box, ContactArea, Plane, Pose
+from ._geometry import Box, ContactArea, Plane, Pose, combined_hull
 from ._graph import BrickState
 from ._load import LoadNode
 from ._load_path import load_path, proven, share_region, support_piece
@@ -247,11 +247,44 @@ class Stack:
             raise ValueError(f"{rec.label} is {rec.state.value}: only an active body can be taken away")
         del self.bodies[body]
         self.registrations += 1
+        lost = [other for other in self.frozen.values() if body in other.rests_on]
+        if lost:  # a pulled brick they were kept frozen on (stability._drag)
+            self._unsupport(lost, body)
         self.active.pop(body, None)
         self.guided.discard(body)
         self.hand_speed.pop(body, None)
         for other in self.bodies.values():
             other.objects_above.discard(body)
+
+    def _unsupport(self, records: list[Record], body: int) -> None:
+        """Take ``body``, taken out of the scene, from the supports of the frozen ``records``:
+        they rest on the others (a proof held them on those: :class:`stability._drag.PullProof`).
+        Their load paths, and those of every frozen brick above them, are found again."""
+        above: set[int] = set()
+        for rec in records:
+            del rec.rests_on[body]
+            rec.contacts = [c for c in rec.contacts if c.other != body]
+            assert rec.frozen_pose is not None, "a frozen brick has a pose"
+            if rec.rests_on:
+                heights = [a.height for a in rec.rests_on.values()]
+                rec.main_contact = ContactArea(
+                    combined_hull(list(rec.rests_on.values())), min(heights), np.array([0.0, 0.0, 1.0]), False
+                )
+            rec.node = LoadNode(rec.box.mass, rec.frozen_pose.position, rec.rests_on)
+            above.add(rec.body)
+        todo = list(above)
+        while todo:
+            for a in self.bodies[todo.pop()].objects_above:
+                if a not in above:
+                    above.add(a)
+                    todo.append(a)
+        for rec in self.in_order():
+            if rec.body in above:
+                rec.held = None
+                self.unproven.discard(rec.body)
+                self.leaning.discard(rec.body)
+                self._prove(rec)
+        self.loads_fresh, self.version = False, self.version + 1
 
     def ordered(self, bodies: Iterable[int]) -> list[int]:
         """``bodies`` in registration order."""

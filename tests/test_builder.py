@@ -365,3 +365,18 @@ def test_what_the_builder_accepts_the_loader_reads_back(text):
         return
     again = parse_scenario(built.to_yaml())
     assert (again.name, again.description) == (built.name, built.description)
+
+
+def test_a_grid_key_the_loader_refuses_is_refused_by_the_models():
+    """Found by the grammar fuzzer (tests/test_grammar_fuzz.py): Sweep(grid={'L01.1': [...]}) was
+    accepted in Python, and its to_yaml() was a file the loader refused ('no field L01')."""
+    for key in ("L01.1", "timing.placement_eror", "expect.stands", "seed"):
+        with pytest.raises(ValidationError, match=r"the grid names|the grid varies the scene"):
+            Sweep(samples=2, grid={key: [1, 2]})
+        with pytest.raises(ScenarioError) as err:
+            parse_scenario(f"stackdsl: 1\nstructure: {{tower: {{levels: 2}}}}\nsweep:\n  grid: {{'{key}': [1, 2]}}\n", "g.yaml")
+        assert (err.value.line, err.value.field) == (4, f"sweep.grid.{key}")  # the loader's position, unchanged
+    built = Scenario(
+        stackdsl=1, structure=Structure(tower=Tower(levels=2)), sweep=Sweep(samples=2, grid={"timing.settle": [0.2, 0.3]})
+    )
+    assert parse_scenario(built.to_yaml()).template is not None  # a grid of a field: written and read back

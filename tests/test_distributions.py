@@ -177,6 +177,10 @@ def test_a_drawn_value_only_the_compiler_refuses_is_bad_input_at_the_distributio
     ("text", "where", "message"),
     [
         ("sweep: {samples: 3}\nexpect:\n  p_stands: {choice: ['>= 0.5']}\n", "expect.p_stands", "cannot stand in 'expect'"),
+        # a tolerance, a mark's reason or condition drawn at random: each sample judged by another rule
+        ("golden: {tolerance: {position: {uniform: [1 mm, 2 mm]}}}\n", "golden.tolerance.position", "cannot stand in 'golden'"),
+        ("xfail: {reason: {choice: [a, b]}}\n", "xfail.reason", "cannot stand in 'xfail'"),
+        ("skip: {reason: x, when: {choice: ['backend == mujoco', 'mode == raw']}}\n", "skip.when", "cannot stand in 'skip'"),
         (
             "sweep: {samples: 2, grid: {timing.placement_eror: [0, 1 mm]}}\n",
             "sweep.grid.timing.placement_eror",

@@ -113,3 +113,39 @@ def test_a_push_that_drives_its_brick_into_a_fixed_body_is_refused_before_it_run
     assert said.startswith("push.yaml:9:80: actions[0].push.distance: the push drives b 10 mm into the fixed body post")
     assert "it has 15 mm of room ahead and the pusher carries it 25 mm" in said and "at most 20 mm" in said
     compile_scenario(parse_scenario(PUSH_INTO_POST.format(distance="20 mm")))  # room enough: it runs
+
+
+# random assembly 143 of `stackdsl bench verdicts --seed 9090`: b04 (level 2) tips when b07 lands on
+# it, and b06, frozen on b05, was carried by b04 too once b04 froze under it
+CARRIED_ABOVE = """\
+stackdsl: 1
+brick_types:
+  wall: {size: [20 mm, 200 mm, 200 mm], material: pine}
+structure:
+  bricks:
+    - {id: b01, at: [90.009 mm, 84.569 mm, 4.0 mm], yaw: 90.000, level: 1}
+    - {id: b02, at: [14.809 mm, -25.621 mm, 4.0 mm], yaw: 0.000, level: 1}
+    - {id: b03, at: [15.560 mm, 87.775 mm, 4.0 mm], yaw: 90.000, level: 1}
+    - {id: b04, at: [3.872 mm, 58.516 mm, 12.0 mm], yaw: 0.000, level: 2}
+    - {id: b05, at: [26.383 mm, 116.080 mm, 12.0 mm], yaw: 0.000, level: 2}
+    - {id: b06, at: [30.581 mm, 126.817 mm, 20.0 mm], yaw: 68.642, level: 3}
+    - {id: b07, at: [-36.221 mm, 70.628 mm, 20.0 mm], yaw: 90.000, level: 3}
+    - {id: b08, at: [83.400 mm, 119.928 mm, 20.0 mm], yaw: 90.000, level: 3}
+    - {id: b09, at: [-246.239 mm, 125.271 mm, 4.0 mm], yaw: 43.995, level: 1}
+    - {id: wall, brick: wall, at: [-302.449 mm, 194.752 mm, 100.000 mm], yaw: 133.995, fixed: true}
+    - {id: b10, at: [-265.8177 mm, 156.8128 mm, 55.6448 mm], yaw: 133.995, pitch: -48.589, level: 4}
+timing: {interval: 0.5 s, settle: 1 s}
+"""
+
+
+@pytest.mark.parametrize("backend", ["pybullet", "mujoco"])
+def test_a_brick_frozen_onto_one_that_froze_later_wakes_with_it(backend):
+    # b06 was frozen on b05; b04 froze later under its edge and b06 was made to rest on it too,
+    # but b04 did not know b06 lay on it: woken, b04 left b06 frozen on it, a fixed body holding
+    # it down, and was frozen again "leaning on b03, b05, b06" where rigid statics has no
+    # equilibrium; the end certificate then called the collapse at level 4, the oracle's is 3
+    program = compile_scenario(parse_scenario(CARRIED_ABOVE), "extension", "report", backend)
+    outcome = run_program(program)
+    assert outcome.collapse is not None and outcome.collapse.level == 3
+    woken = {e.brick for e in outcome.events if e.kind == "wake" and "rests on b04" in e.detail}
+    assert "b06" in woken

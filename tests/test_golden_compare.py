@@ -238,6 +238,28 @@ def test_a_bad_project_tolerance_is_one_error_naming_the_file_and_key(tmp_path, 
     assert str(pyproject) in str(caught.value) and said in str(caught.value) + "\n"
 
 
+@pytest.mark.parametrize(
+    ("text", "said"),
+    [
+        ("[tool.stackdsl]\ngolden = 3\n", "tool.stackdsl.golden: expected a table, got int 3"),
+        ("[tool]\nstackdsl = 'strict'\n", "tool.stackdsl: expected a table, got str 'strict'"),
+        (
+            "[tool.stackdsl.golden.tolerances]\nposition = '1 mm'\n",
+            "tool.stackdsl.golden.tolerances: unknown key; known: tolerance",
+        ),
+    ],
+)
+def test_a_project_golden_table_of_another_shape_is_not_ignored(tmp_path, text, said):
+    """[tool.stackdsl] golden = 3, or a misspelt tolerance table, was read as no tolerances at all."""
+    pyproject = tmp_path / "pyproject.toml"
+    pyproject.write_text(text)
+    with pytest.raises(ScenarioError) as caught:
+        project_tolerance(pyproject)
+    assert str(caught.value) == f"{pyproject}: {said}"
+    pyproject.write_text("[tool]\nblack = 3\n[tool.stackdsl.other]\nx = 1\n")  # other tools' and other tables: none
+    assert project_tolerance(pyproject) is None
+
+
 def test_every_shipped_golden_matches_itself_and_fails_a_moved_structure():
     """Each shipped golden against itself, and against itself with every standing brick moved
     by twice the position tolerance (a scene changed): the first matches, the second not."""

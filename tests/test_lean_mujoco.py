@@ -36,11 +36,11 @@ def test_a_standing_tower_stands_to_the_end_and_sleeps():
     assert lean.level is None and lean.simulated == pytest.approx(p.duration, abs=0.05)
 
 
-def test_the_lean_peer_takes_mujoco_placements_only():
+def test_the_lean_peer_takes_mujoco_programs_without_fixtures_or_throws():
     with pytest.raises(ValueError, match="compiled for MuJoCo"):
         mjcf(program("tower: {levels: 2}", ""))
     thrown = "engine: {backend: mujoco}\nimpacts: [{id: h, projectile: kapla, target: {level: 2, side: +y}, speed: 1 m/s, at: after level 2}]"
-    with pytest.raises(ValueError, match="placements only"):
+    with pytest.raises(ValueError, match="no fixed bodies, no projectiles"):
         mjcf(program("tower: {levels: 2}", thrown))
     xml = mjcf(program("tower: {levels: 2}"))
     assert xml.count("<freejoint/>") == 4 and 'sleep="enable"' in xml and 'cone="elliptic"' in xml

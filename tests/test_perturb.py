@@ -2,10 +2,14 @@
 stackdsl.batch.perturb)."""
 
 import json
+from dataclasses import replace
 
 import pytest
 
 from stackdsl import compile_scenario, parse_scenario
+from stackdsl.batch.check import prepare
+from stackdsl.batch.judge import failed
+from stackdsl.batch.perturb import fragility_lines, perturbed_runs
 from stackdsl.cli.main import main
 from stackdsl.compile.perturb import JITTER, Perturbation, perturb, perturbations
 from stackdsl.compile.program import Place, Shake
@@ -98,3 +102,28 @@ def test_a_bad_perturb_count_is_a_usage_error(tmp_path, bad, capsys):
     with pytest.raises(SystemExit) as exited:
         main(["check", str(tmp_path), "--perturb", bad])
     assert exited.value.code == 2
+
+
+def test_perturb_past_the_timeout_is_refused_before_anything_runs(tmp_path, capsys):
+    """--timeout bounds a scenario's perturbed check whole: `--perturb 100 --timeout 1` took a
+    hundred times the timeout; now its estimate is refused up front, naming the reruns that fit."""
+    (tmp_path / "tower.yaml").write_text(TOWER)
+    status = main(["check", str(tmp_path / "tower.yaml"), "--perturb", "100", "--timeout", "0.5", "-j", "1"])
+    out, err = capsys.readouterr()
+    assert status == 2 and out == ""
+    (line,) = err.strip().splitlines()
+    assert line.startswith(f"{tmp_path / 'tower.yaml'}: --perturb 100: the run as written and 100 reruns take about ")
+    assert "past --timeout 0.5 s" in line and "reruns fit" in line
+
+
+def test_perturbed_reruns_share_what_the_timeout_leaves_after_the_run_as_written(tmp_path):
+    (tmp_path / "tower.yaml").write_text(TOWER)
+    (p,) = prepare([tmp_path / "tower.yaml"])
+    spent = replace(failed(str(p.path), p.program, p.expect, "as written"), wall_time=5.0)  # the whole budget
+    (fragility,) = perturbed_runs([p], [spent], 4, jobs=1, timeout=5.0)
+    assert [r.result for r in fragility.runs] == [None] * 4
+    assert all("--timeout 5 s, which bounds a scenario's perturbed check whole, was spent" in r.skipped for r in fragility.runs)
+    lines = fragility_lines([fragility], 4)
+    assert any("4 reruns: not run: --timeout 5 s" in line for line in lines)
+    (ran,) = perturbed_runs([p], [replace(spent, wall_time=0.0)], 1, jobs=1, timeout=60.0)
+    assert ran.runs[0].result is not None and not ran.runs[0].result.stopped  # time left: it ran

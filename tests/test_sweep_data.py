@@ -235,3 +235,12 @@ def test_samples_csv_escapes_a_text_a_spreadsheet_reads_as_a_formula(tmp_path):
         safe = text if text == "plain" else "'" + text
         assert (row["label"], row["bad_input"]) == (safe, safe)
         assert float(row["timing.drop_gap [m]"]) == -3.2e-4 and row["levels_placed"] == "2"
+
+
+def test_a_pyarrow_that_does_not_import_leaves_the_csv_and_json_lines(tmp_path, monkeypatch):
+    """A pyarrow found but broken (its import raises ImportError) was exit 3, an internal error: it
+    is the user's install, so the samples are written as without pyarrow."""
+    monkeypatch.setitem(sys.modules, "pyarrow.parquet", None)  # pyarrow is found, its parquet module fails to import
+    _, lines, parquet = write_samples(RESULTS, tmp_path / "broken")
+    assert parquet is None and sorted(p.name for p in (tmp_path / "broken").iterdir()) == ["samples.csv", "samples.jsonl"]
+    assert lines.read_text()

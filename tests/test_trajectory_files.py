@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import io
 import json
+import os
 import zipfile
 from pathlib import Path
 
@@ -40,6 +41,12 @@ def rewrite(good: Path, target: Path, **changes: object) -> Path:
         else:
             arrays[name] = value  # type: ignore[assignment]
     np.savez(target, **arrays)
+    return target
+
+
+def rewrite_compressed(good: Path, target: Path, **changes: np.ndarray) -> Path:
+    """As :func:`rewrite`, compressed: a small file whose arrays are large once read."""
+    np.savez_compressed(target, **{**arrays_of(good), **changes})
     return target
 
 
@@ -154,6 +161,11 @@ CASES = {
         "an event's time is NaN or infinite",
     ),
     "21.8 TiB claimed": (huge_claim, "times.npy claims 24000000000000 bytes but holds"),
+    "65 MiB on disk": (lambda g, t: (t.write_bytes(b""), os.truncate(t, 65 << 20), t)[2], "it is larger than 64 MiB (65 MiB)"),
+    "65 MiB of zeros, compressed": (
+        lambda g, t: rewrite_compressed(g, t, row_state=np.zeros(65 << 20, dtype=np.int8)),
+        "its arrays take more than 64 MiB once read",
+    ),
     "a text file": (lambda g, t: (t.write_text("hello\n" * 10), t)[1], "it is not a whole .npz archive"),
 }
 

@@ -154,20 +154,33 @@ def prepare(
                 exc.add_note(f"while reading {path}")
                 raise
             prepared = [p for p in prepared if p.path != path]  # none of this file's runs: it is one result a run
-            for found in (refused, skipped):
-                if found is not None:
-                    found[:] = [r for r in found if r.file != str(path)]
+            _forget_results(path, refused, skipped)
             bugs += [_broken(path, scenario, m, model, b, exc) for b in backends for m in modes or (mode,)]
     if errors:
-        summary = ""
-        if len(files) > 1:  # a folder: every file is read before any runs
-            summary = f"{len(errors)} of {len(files)} files refused; none was run (check the good ones by name to run them)"
-        if bugs:  # not run either: said, so that the bug is not lost behind the bad input
-            summary += f"{'; ' if summary else ''}{_bugs(bugs)}"
-        raise ScenarioErrors(errors, summary)
+        raise ScenarioErrors(errors, _refused_summary(len(errors), len(files), bugs))
     if broken is not None:
         broken += bugs
     return prepared
+
+
+def _forget_results(path: Path, *found: list[CheckResult] | None) -> None:
+    """Drop the results of file ``path`` from each list of ``found`` (None: not kept): a file an
+    internal error was met in is one result a run, its bug."""
+    for results in found:
+        if results is not None:
+            results[:] = [r for r in results if r.file != str(path)]
+
+
+def _refused_summary(errors: int, files: int, bugs: list[CheckResult]) -> str:
+    """The line under the ``errors`` of bad files, among ``files`` read: that none was run when
+    there are several (a folder: every file is read before any runs), and the ``bugs`` met,
+    which were not run either (said, so that the bug is not lost behind the bad input)."""
+    summary = ""
+    if files > 1:
+        summary = f"{errors} of {files} files refused; none was run (check the good ones by name to run them)"
+    if bugs:
+        summary += f"{'; ' if summary else ''}{_bugs(bugs)}"
+    return summary
 
 
 def _prepare_file(

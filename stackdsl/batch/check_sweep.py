@@ -74,18 +74,9 @@ def sweep_result(
     ]
     explanation = failure_lines(template, expect, decided, shown=False)  # check shows each place's line (its report)
     errors = [r for r in results if r.error]
-    stopped = [r for r in results if r.stopped]
-    unrun = sum(r.stopped == BUDGET_SPENT for r in results)
     bad = [r for r in results if r.bad_input]
     levels = max((r.levels_placed for r in results), default=0)
-    artefacts: tuple[tuple[str, str], ...] = ()
-    if folder is not None and not bad:
-        out = Path(folder)
-        table, lines, parquet = write_samples(results, out)
-        plots = write_plots(template, results, out, expect)
-        artefacts = (("picture", plots[0].name),) if plots else ()
-        artefacts += (("samples", table.name), *((("parquet", parquet.name),) if parquet else ()), ("jsonl", lines.name))
-        artefacts += tuple((f"plot {p.stem}", p.name) for p in plots)
+    artefacts = _write_files(template, expect, results, Path(folder)) if folder is not None and not bad else ()
     return CheckResult(
         file=file,
         scenario=program.name,
@@ -99,19 +90,35 @@ def sweep_result(
         wall_time=sum(r.wall_time for r in results),
         explanation=tuple(explanation),
         error=f"{errors[0].error} (sample {errors[0].sample})" if errors else "",
-        stopped=(
-            f"{BUDGET_SPENT} after {len(results) - unrun} of {len(results)} samples: --timeout bounds the whole sweep "
-            "file; give fewer samples or a longer --timeout"
-            if unrun
-            else f"{len(stopped)} samples stopped early: {stopped[0].stopped}"
-            if stopped
-            else ""
-        ),
+        stopped=_stopped(results),
         bad_input=bad[0].bad_input if bad else "",
         sweep=_described(template, results),
         folder=folder or "",
         artefacts=artefacts,
     )
+
+
+def _write_files(template: Template, expect: Expect, results: Sequence[SampleResult], out: Path) -> tuple[tuple[str, str], ...]:
+    """A sweep's files written in ``out`` (its samples and plots), as a result's artefacts: kind
+    and file name, the first plot its picture."""
+    table, lines, parquet = write_samples(results, out)
+    plots = write_plots(template, results, out, expect)
+    artefacts: tuple[tuple[str, str], ...] = (("picture", plots[0].name),) if plots else ()
+    artefacts += (("samples", table.name), *((("parquet", parquet.name),) if parquet else ()), ("jsonl", lines.name))
+    return artefacts + tuple((f"plot {p.stem}", p.name) for p in plots)
+
+
+def _stopped(results: Sequence[SampleResult]) -> str:
+    """Why a sweep's samples stopped before their end, one line, or ``""``: the --timeout spent
+    before every sample ran, or how many stopped early and the first one's reason."""
+    unrun = sum(r.stopped == BUDGET_SPENT for r in results)
+    if unrun:
+        return (
+            f"{BUDGET_SPENT} after {len(results) - unrun} of {len(results)} samples: --timeout bounds the whole sweep "
+            "file; give fewer samples or a longer --timeout"
+        )
+    stopped = [r for r in results if r.stopped]
+    return f"{len(stopped)} samples stopped early: {stopped[0].stopped}" if stopped else ""
 
 
 def _described(template: Template, results: Sequence[SampleResult]) -> str:

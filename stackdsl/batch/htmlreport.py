@@ -171,15 +171,42 @@ def _badge(r: CheckResult) -> str:
 
 
 def _row(r: CheckResult, command: str, folder: Path) -> str:
-    verdict = _badge(r)
+    """One result's section: its picture, verdict, facts, why it failed, links to its files
+    and the command that reruns it (``command``), and its timeline."""
+    located = [] if r.sweep else [v.lines()[0] for v in r.verdicts if not v.passed and v.at is not None]
+    why = "".join(f"<li>{_e(line)}</li>" for line in [*located, *r.explanation])  # where each failed expectation is written
+    problems = [p for p in (r.draw_error,) if p]
+    return "\n".join(
+        [
+            f'<section class="scenario{"" if r.held else " failed"}" id="{_e(_anchor(r))}">',
+            _thumb(r, folder),
+            '<div class="body">',
+            f"<h3>{_badge(r)} {_e(r.file)} <small>{_e(r.scenario)}</small></h3>",
+            f'<table class="facts">{_facts(r)}</table>',
+            f'<ul class="why">{why}</ul>' if why else "",
+            f'<p class="links">{" ".join(_links(r, folder))} <code>{_e(command)}</code></p>',
+            "".join(f'<p class="meta">{_e(p)}</p>' for p in problems),
+            _timeline(r),
+            "</div></section>",
+        ]
+    )
+
+
+def _thumb(r: CheckResult, folder: Path) -> str:
+    """The result's picture, linked to itself, or why there is none."""
     picture = _link(r, "picture", folder)
+    if not picture:
+        return f'<div class="nothumb">{_e(r.draw_error or r.error or ("not run" if r.skipped else "no picture"))}</div>'
     when = "at the collapse" if r.collapse_level is not None else "at the end"
-    thumb = (
+    return (
         f'<a href="{_e(picture)}"><img class="thumb" src="{_e(picture)}" alt="{_e(r.scenario)} {when}" '
         f'title="{_e(r.scenario)}, {when}"></a>'
-        if picture
-        else f'<div class="nothumb">{_e(r.draw_error or r.error or ("not run" if r.skipped else "no picture"))}</div>'
     )
+
+
+def _facts(r: CheckResult) -> str:
+    """The rows of the result's facts table: its marks, what was expected and measured, the
+    engine and mode, the certificate, and the simulated and wall seconds."""
     marks = [("skipped", r.skipped)] if r.skipped else []
     if r.xfail:
         marks.append(("xfail", r.xfail + (" (strict: a pass fails the check)" if r.strict else "")))
@@ -193,28 +220,16 @@ def _row(r: CheckResult, command: str, folder: Path) -> str:
         ("simulated", f"{r.simulated_time:.1f} s"),
         ("wall", f"{r.wall_time:.2f} s" + (f" (drawing {r.draw_time:.1f} s)" if r.draw_time else "")),
     ]
-    rows = "".join(f"<tr><td>{_e(k)}</td><td>{_e(v)}</td></tr>" for k, v in facts)
-    located = [] if r.sweep else [v.lines()[0] for v in r.verdicts if not v.passed and v.at is not None]
-    why = "".join(f"<li>{_e(line)}</li>" for line in [*located, *r.explanation])  # where each failed expectation is written
+    return "".join(f"<tr><td>{_e(k)}</td><td>{_e(v)}</td></tr>" for k, v in facts)
+
+
+def _links(r: CheckResult, folder: Path) -> list[str]:
+    """Links to the result's files there are: its replay, clip, graph, trajectory, a sweep's
+    samples and plots."""
     kinds = [("3D replay", "replay"), ("clip", "clip"), ("brick graph", "graph"), ("trajectory (.npz)", "trajectory")]
     kinds += [("samples (.csv)", "samples"), ("samples (.parquet)", "parquet"), ("samples (.jsonl)", "jsonl")]
     kinds += [(name, kind) for kind, name in r.artefacts if kind.startswith("plot ")]  # a sweep's plots
-    links = [f'<a href="{_e(href)}">{_e(label)}</a>' for label, kind in kinds if (href := _link(r, kind, folder))]
-    problems = [p for p in (r.draw_error,) if p]
-    return "\n".join(
-        [
-            f'<section class="scenario{"" if r.held else " failed"}" id="{_e(_anchor(r))}">',
-            thumb,
-            '<div class="body">',
-            f"<h3>{verdict} {_e(r.file)} <small>{_e(r.scenario)}</small></h3>",
-            f'<table class="facts">{rows}</table>',
-            f'<ul class="why">{why}</ul>' if why else "",
-            f'<p class="links">{" ".join(links)} <code>{_e(command)}</code></p>',
-            "".join(f'<p class="meta">{_e(p)}</p>' for p in problems),
-            _timeline(r),
-            "</div></section>",
-        ]
-    )
+    return [f'<a href="{_e(href)}">{_e(label)}</a>' for label, kind in kinds if (href := _link(r, kind, folder))]
 
 
 def _timeline(r: CheckResult) -> str:

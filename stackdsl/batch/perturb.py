@@ -16,6 +16,7 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 import traceback
+from collections import Counter
 from collections.abc import Callable, Generator, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -32,6 +33,7 @@ from .check import Prepared
 from .check_sweep import run_unit
 from .judge import KILL_AFTER, TIMEOUT, failed, internal, lost
 from .pool import fan_out
+from .sweep import Budget
 
 
 @dataclass(frozen=True)
@@ -167,6 +169,10 @@ def perturbed_runs(
     if count < 1:
         raise ValueError(f"--perturb takes a number of runs of at least 1, not {count}")
     by_key = {(r.file, r.backend, r.mode): r for r in nominal}
+    # one budget a scenario: what --timeout leaves after its run as written, shared by its reruns
+    budgets = [
+        None if timeout is None else Budget(max(0.0, timeout - _wall(by_key.get((str(p.path), *_engine(p)))))) for p in prepared
+    ]
     tasks: list[tuple[Any, ...]] = []
     costs: list[float] = []
     slots: list[list[Perturbed | None]] = []
@@ -184,12 +190,12 @@ def perturbed_runs(
             if program is None:
                 slots[i][j] = Perturbed(change.label, None, skipped)
                 continue
-            tasks.append(("perturbed", i, j, change.label, str(p.path), program, p.expect, timeout))
+            tasks.append(("perturbed", i, j, change.label, str(p.path), program, p.expect, budgets[i]))
             costs.append(program.wall_estimate)
     jobs = free_cores() if jobs is None else jobs
     limit = None if timeout is None else timeout + KILL_AFTER
     for i, j, label, result in fan_out(run_perturbed, tasks, costs, jobs, limit=limit, lost=_lost):
-        slots[i][j] = Perturbed(label, result)
+        slots[i][j] = Perturbed(label, None, SPENT.format(timeout=timeout)) if result is None else Perturbed(label, result)
         each()
     for i, p in enumerate(prepared):
         key = (str(p.path), p.program.engine.backend, p.program.engine.mode)
@@ -210,20 +216,67 @@ def _program(p: Prepared, change: Perturbation, seed: int | None) -> tuple[Progr
         return None, exc.message
 
 
-def run_perturbed(kind: str, i: int, j: int, label: str, *judged: Any) -> tuple[int, int, str, CheckResult]:
+#: Why a perturbed run did not run: its scenario's share of --timeout was spent.
+SPENT = "--timeout {timeout:g} s, which bounds a scenario's perturbed check whole, was spent (or stopped them)"
+
+
+def within_budget(prepared: Sequence[Prepared], count: int, timeout: float | None) -> None:
+    """Refuse, before anything runs, a perturbed check that cannot end within ``timeout``: a
+    scenario's run as written and its ``count`` reruns, by the compiler's estimate
+    (:attr:`stackdsl.Program.wall_estimate` each), past the ``timeout`` that bounds them all
+    (``--perturb 100 --timeout 1`` took a hundred times the timeout). As a sweep file's
+    (:func:`stackdsl.batch.check.within_budget`), the estimate is a floor; reruns it lets through
+    still stop when the budget is spent. A sweep is not perturbed. Source: stackdsl's own.
+
+    Raises:
+        ScenarioError: naming the file, with the runs, the estimate and the reruns that fit.
+    """
+    if timeout is None:
+        return
+    for p in prepared:
+        each = p.program.wall_estimate
+        if p.template is not None or (count + 1) * each <= timeout:
+            continue
+        fit = int(timeout / each) - 1 if each > 0 else count
+        fits = f"at most {fit} reruns fit" if fit > 0 else "no rerun fits after the run as written"
+        raise ScenarioError(
+            f"--perturb {count}: the run as written and {count} reruns take about {(count + 1) * each:.3g} s of wall "
+            f"time by the compiler's estimate ({each:.2g} s a run), past --timeout {timeout:g} s, which bounds a "
+            f"scenario's perturbed check whole: {fits}; give a smaller --perturb or a longer --timeout",
+            file=str(p.path),
+        )
+
+
+def _engine(p: Prepared) -> tuple[str, str]:
+    return p.program.engine.backend, p.program.engine.mode
+
+
+def _wall(result: CheckResult | None) -> float:
+    return 0.0 if result is None else result.wall_time + result.draw_time
+
+
+def run_perturbed(kind: str, i: int, j: int, label: str, *judged: Any) -> tuple[int, int, str, CheckResult | None]:
     """One perturbed run (a module-level function, for the workers): its place and its result
-    (:func:`stackdsl.batch.check_sweep.run_unit`'s, which never raises for a run's own error)."""
+    (:func:`stackdsl.batch.check_sweep.run_unit`'s, which never raises for a run's own error),
+    run with what its scenario's :class:`~stackdsl.batch.sweep.Budget` has left as its timeout;
+    None when nothing is left."""
+    file, program, expect, budget = judged
+    left = None if budget is None else budget.left()
+    if left is not None and left <= 0:
+        return i, j, label, None
     try:
-        result = run_unit("run", *judged, None)
+        result = run_unit("run", file, program, expect, left, None)
     except Exception as exc:  # pragma: no cover - run_unit returns a run's errors as its result
-        file, program, expect, *_ = judged
         result = failed(file, program, expect, internal(exc), traceback.format_exc())
+    if budget is not None and (result.stopped or "").startswith("timeout"):
+        return i, j, label, None  # stopped by what the budget had left: not a verdict that flipped
     return i, j, label, result
 
 
 def _lost(task: tuple[Any, ...], error: Any) -> tuple[int, int, str, CheckResult]:
     """A perturbed run whose worker died or was stopped: its failed result, in its place."""
-    _, i, j, label, file, program, expect, timeout = task
+    _, i, j, label, file, program, expect, budget = task
+    timeout = None if budget is None else budget.seconds
     return i, j, label, lost(("run", file, program, expect, timeout, None), error)
 
 
@@ -241,7 +294,10 @@ def fragility_lines(fragile: Sequence[Fragility], count: int) -> list[str]:
             margin += f" (a near tie: under {f.nominal.backend}'s {f.contact_margin * 1000:g} mm contact margin)"
         lines.append(f"{f.verdict:<13} {f.nominal.file:<{width}}  {f.note or held:<28} {margin}".rstrip())
         lines += [f"{'':<14}flipped by {flip}" for flip in f.flips]
-        lines += [f"{'':<14}{p.label}: not run: {p.skipped}" for p in f.runs if p.result is None]
+        unrun = Counter(p.skipped for p in f.runs if p.result is None)
+        for why, n in unrun.items():
+            label = next(p.label for p in f.runs if p.result is None and p.skipped == why)
+            lines.append(f"{'':<14}{label if n == 1 else f'{n} reruns'}: not run: {why}")
     fragile_ones = sum(f.fragile for f in fragile)
     ties = sum(f.near_tie for f in fragile)
     lines.append(

@@ -143,16 +143,7 @@ def fan_out(
         while pending or running:
             # this process waits for a worker unless it has a task of its own to run meanwhile
             finished = pool.collect(timeout=0 if pending and (here or pool.ready) else None)
-            for done in finished:
-                task = running.pop(done.ticket)
-                if isinstance(done.error, WorkerLost):
-                    if pending:
-                        pool.add()
-                    if lost is None:
-                        raise done.error
-                    yield lost(task, done.error)
-                else:
-                    yield done.value()
+            yield from _results(finished, running, pool, pending, lost)
             while pending and pool.ready:
                 task = pending.longest()
                 running[pool.submit(fn, *task, limit=limit)] = task
@@ -160,6 +151,32 @@ def fan_out(
                 yield fn(*pending.cheapest())
     finally:
         pool.stop()
+
+
+def _results(
+    finished: list[Done],
+    running: dict[int, tuple[Any, ...]],
+    pool: Workers,
+    pending: _Pending,
+    lost: Callable[[tuple[Any, ...], WorkerLost], T] | None,
+) -> Generator[T, None, None]:
+    """The result of each of the ``finished`` tasks (:meth:`Workers.collect`), each taken out of
+    ``running`` (by ticket); a lost worker's task as ``lost`` says (a new worker in its place
+    while ``pending`` has tasks to hand out).
+
+    Raises:
+        whatever the task raised in its worker; :class:`WorkerLost` when ``lost`` is None.
+    """
+    for done in finished:
+        task = running.pop(done.ticket)
+        if isinstance(done.error, WorkerLost):
+            if pending:
+                pool.add()
+            if lost is None:
+                raise done.error
+            yield lost(task, done.error)
+        else:
+            yield done.value()
 
 
 class _Pending:

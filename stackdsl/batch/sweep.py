@@ -23,7 +23,7 @@ from collections.abc import Callable, Generator, Iterable, Iterator, Sequence
 from concurrent.futures import Executor
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass, replace
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 from ..compile.compiler import compile_scenario
 from ..lang.errors import ScenarioError, format_path
@@ -33,6 +33,10 @@ from ..runtime.run import run_program
 from ..util.extras import installed, missing
 from .address import parse_address
 from .pool import WorkerLost, fan_out, on_executor
+
+if TYPE_CHECKING:
+    from ..lang.distributions import Distribution
+    from ..lang.schema import Scenario
 
 #: Samples a batch holds at most; a sweep is cut into about this many batches a worker, so that
 #: the workers finish together.
@@ -263,9 +267,6 @@ def compile_bounds(
     Raises:
         ScenarioError: at the distribution that can draw the value; at a statistic no sample can measure.
     """
-    from ..compile.require import quantities
-    from ..lang.expressions import parse
-
     bounds = template.bounds()
     sampled = tops is not None and template.random
     left = MAX_BOUND_COMPILES
@@ -278,26 +279,38 @@ def compile_bounds(
                 return
             left -= 1
             scenario = template.pinned(c, d, value)
-            if scenario.require:
-                texts = tuple(scenario.require)
-                conditions = parsed.get(texts) or parsed.setdefault(texts, [parse(text) for text in texts])
-                values = quantities(scenario, {name for condition in conditions for name in condition.names})
-                if not all(condition.holds(values) for condition in conditions):
-                    whole = False
-                    continue
+            if scenario.require and not _required(scenario, parsed):
+                whole = False
+                continue
             try:
                 built.setdefault(format_path(d.path), []).append(
                     compile_scenario(scenario, mode, model, backend, draw_time=draw_time).levels
                 )
             except ScenarioError as exc:
-                drawn = f"{'a choice' if d.kind == 'choice' else 'a value'} this distribution can draw, {value!r}"
-                cell = f" in grid cell {c} ({template.label(c)})" if template.grid else ""
-                where = (
-                    "" if exc.field == format_path(d.path) else f" at {exc.field}" + (f" (line {exc.line})" if exc.line else "")
-                )
-                raise template.source.error(d.path, f"{drawn}, makes the scene refused{cell}{where}: {exc.message}") from None
+                raise _bound_refused(template, c, d, value, exc) from None
         if tops is not None and c in tops:  # a bound passed over (require:): the levels it builds are not known
             _reachable(template, c, tops[c] if whole else None, built, sampled)
+
+
+def _required(scenario: Scenario, parsed: dict[tuple[str, ...], list[Any]]) -> bool:
+    """Whether ``scenario`` meets its file's ``require:`` conditions (``parsed``: each list of
+    conditions parsed once, by their texts, filled as they are met)."""
+    from ..compile.require import quantities
+    from ..lang.expressions import parse
+
+    texts = tuple(scenario.require)
+    conditions = parsed.get(texts) or parsed.setdefault(texts, [parse(text) for text in texts])
+    values = quantities(scenario, {name for condition in conditions for name in condition.names})
+    return all(condition.holds(values) for condition in conditions)
+
+
+def _bound_refused(template: Template, c: int, d: Distribution, value: Any, exc: ScenarioError) -> ScenarioError:
+    """The error of a ``value`` distribution ``d`` can draw that makes the scene of cell ``c``
+    refused (``exc``): said at the distribution, with the refused field and its words."""
+    drawn = f"{'a choice' if d.kind == 'choice' else 'a value'} this distribution can draw, {value!r}"
+    cell = f" in grid cell {c} ({template.label(c)})" if template.grid else ""
+    where = "" if exc.field == format_path(d.path) else f" at {exc.field}" + (f" (line {exc.line})" if exc.line else "")
+    return template.source.error(d.path, f"{drawn}, makes the scene refused{cell}{where}: {exc.message}")
 
 
 def _reachable(template: Template, c: int, top: int | None, built: dict[str, list[int]], sampled: bool) -> None:

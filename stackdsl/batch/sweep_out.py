@@ -170,7 +170,10 @@ def write_samples(results: Sequence[SampleResult], folder: Path) -> tuple[Path, 
     if not installed("parquet"):
         return table, lines, None
     parquet = folder / "samples.parquet"
-    write_parquet(rows, columns, parquet)
+    try:
+        write_parquet(rows, columns, parquet)
+    except ImportError:  # a pyarrow that is there but does not import: the user's install, not a bug (exit 3 was)
+        return table, lines, None
     return table, lines, parquet
 
 
@@ -222,19 +225,7 @@ def write_parquet(rows: Sequence[dict[str, Any]], columns: Sequence[str], path: 
 
     fields, data, units = [], {}, {}
     for name in columns:
-        values = [row.get(name) for row in rows]
-        kind: Any
-        if name == "seed":
-            kind = pa.uint64()
-        elif name in _INTEGERS:
-            kind = pa.int64()
-        elif all(_number(v) or v is None for v in values):
-            kind = pa.float64()
-        elif all(isinstance(v, list) and all(_number(x) for x in v) for v in values if v is not None):
-            kind = pa.list_(pa.float64())
-        else:
-            kind = pa.string()
-            values = [None if v is None else v if isinstance(v, str) else json.dumps(v) for v in values]
+        kind, values = _arrow_column(name, [row.get(name) for row in rows])
         unit = UNITS.get(name) or (name[name.rindex("[") + 1 : -1] if name.endswith("]") and "[" in name else "")
         if unit:
             units[name] = unit
@@ -244,6 +235,23 @@ def write_parquet(rows: Sequence[dict[str, Any]], columns: Sequence[str], path: 
     table = pa.Table.from_pydict(data, schema=schema)
     with written(path) as part:
         pq.write_table(table, part)
+
+
+def _arrow_column(name: str, values: list[Any]) -> tuple[Any, list[Any]]:
+    """The pyarrow type of column ``name`` and its ``values`` as written: the seed unsigned, the
+    counts of :data:`_INTEGERS` integers, numbers (or nulls) floats, lists of numbers lists of
+    floats, and anything else a string (JSON where it is not one)."""
+    import pyarrow as pa
+
+    if name == "seed":
+        return pa.uint64(), values
+    if name in _INTEGERS:
+        return pa.int64(), values
+    if all(_number(v) or v is None for v in values):
+        return pa.float64(), values
+    if all(isinstance(v, list) and all(_number(x) for x in v) for v in values if v is not None):
+        return pa.list_(pa.float64()), values
+    return pa.string(), [None if v is None else v if isinstance(v, str) else json.dumps(v) for v in values]
 
 
 def _number(value: Any) -> bool:
@@ -402,24 +410,8 @@ def report(template: Template, expect: Expect, results: Sequence[SampleResult]) 
     the verdict of each statistical expectation."""
     lines = []
     judged = verdicts(template, expect, results)
-    exact = not template.random
     for c, rs in enumerate(by_cell(results, template.cells)):
-        head = f"cell {c}: {_cell_text(template, c)}" if template.grid else "all samples"
-        s = summary(measured(rs), levels_built(rs), exact=exact)  # the cell's own height, if one
-        lines.append(f"{head}: {s.text()}")
-        for cell, v in judged:
-            if cell == c:
-                more = (
-                    f" ({v.samples_to_decide} samples would decide it)"
-                    if v.outcome == "INCONCLUSIVE" and v.samples_to_decide
-                    else ""
-                )
-                lines.append(f"  {v.outcome:<12} expected {v.expected}, measured {v.measured}{more}")
-        problems = [r for r in rs if r.error or r.stopped]
-        if problems:
-            lines.append(
-                f"  {len(problems)} samples did not finish: {problems[0].error or problems[0].stopped} (sample {problems[0].sample})"
-            )
+        lines += _cell_lines(template, c, rs, [v for cell, v in judged if cell == c])
     lines += thresholds(template, results)
     if template.data.get("require"):
         draws = sum(r.draws for r in results if not r.bad_input)
@@ -431,5 +423,23 @@ def report(template: Template, expect: Expect, results: Sequence[SampleResult]) 
         agree = sum(r.oracle_level == r.collapse_level for r in oracle)
         lines.append(
             f"oracle: the simulated level is the equilibrium oracle's in {agree} of {len(oracle)} samples ({agree / len(oracle):.1%})"
+        )
+    return lines
+
+
+def _cell_lines(template: Template, c: int, rs: Sequence[SampleResult], judged: Sequence[StatVerdict]) -> list[str]:
+    """Cell ``c``'s lines of :func:`report`: its values and distribution of collapse levels
+    (``rs``, its samples), the verdict of each of its statistical expectations (``judged``),
+    and the samples that did not finish."""
+    head = f"cell {c}: {_cell_text(template, c)}" if template.grid else "all samples"
+    s = summary(measured(rs), levels_built(rs), exact=not template.random)  # the cell's own height, if one
+    lines = [f"{head}: {s.text()}"]
+    for v in judged:
+        more = f" ({v.samples_to_decide} samples would decide it)" if v.outcome == "INCONCLUSIVE" and v.samples_to_decide else ""
+        lines.append(f"  {v.outcome:<12} expected {v.expected}, measured {v.measured}{more}")
+    problems = [r for r in rs if r.error or r.stopped]
+    if problems:
+        lines.append(
+            f"  {len(problems)} samples did not finish: {problems[0].error or problems[0].stopped} (sample {problems[0].sample})"
         )
     return lines

@@ -10,11 +10,11 @@ Source: stackdsl's own.
 
 from __future__ import annotations
 
+import functools
 import resource
 import statistics
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
-from typing import TypeVar
 
 import numpy as np
 
@@ -24,6 +24,7 @@ from ..compile.program import Program
 from ..lang.loader import parse_scenario
 from ..runtime.run import RunOptions, run_program
 from ..verdicts.closed_form import log_cabin, single_file
+from .lean import LeanOutcome
 
 
 @dataclass(frozen=True)
@@ -58,6 +59,10 @@ the towers and the cabins of 4.5 to 9.5 mm (one bench run, two cells at a time, 
 2 cores; docs/results/speed-against-error.md, "The lean MuJoCo peer's placement and sleep
 tolerance"). "MuJoCo lean 1e-4" runs the other, to check that again."""
 _LEAN = (*_MUJOCO, ("sleep_tolerance", LEAN_SLEEP_TOLERANCE))
+LEAN_TOLERANCE = 1e-10
+"""The lean MuJoCo peer's solver tolerance (MuJoCo's ``tolerance``; its default is 1e-8), chosen
+by measurement as the faster of 1e-8 and 1e-10 whose towers still stand
+(docs/results/actions.md, "The lean peer's settings")."""
 
 SETTINGS: dict[str, Setting] = {
     "raw 240 Hz": Setting("raw"),
@@ -159,35 +164,18 @@ class Cell:
 WARM_UP = Scene("warm-up", 1, 1, "tower: {levels: 1}", None)
 """The untimed scene each benchmark worker runs first (see :func:`measure`)."""
 
-SHORT = 0.5
-"""Seconds under which a run is timed :data:`AGAIN` more times in its worker (see :func:`timed`)."""
+TIMING = (
+    "every cell timed alike, extension and peers: the median of {repeats} runs in rounds, each run in a fresh "
+    "process after one untimed 1-level tower of its own setting{below}"
+)
+"""How :func:`run_matrix` times every cell, as ``stackdsl bench`` prints it (``{repeats}``: runs a
+cell; ``{below}``: the exception ``--repeat-below`` makes, if any).
 
-AGAIN = 5
-"""How many more times a short run is timed in its worker (odd: a median run)."""
-
-_T = TypeVar("_T")
-
-
-def timed(run: Callable[[], _T], wall: Callable[[_T], float]) -> _T:
-    """``run()``'s result, and for a short run (``wall`` of it under :data:`SHORT` seconds)
-    the one of the median wall time among :data:`AGAIN` more runs in this process, the first
-    dropped.
-
-    A worker's first run of a scene is slower than its later ones by more than the warm-up
-    scene takes away: a 7 ms run (a log cabin that falls at level 2) took 12 to 13 ms as the
-    first after the warm-up and 7.4 ms as the sixth, for the extension and the lean peers
-    alike, which an interleaved harness running every scene in one process does not see.
-    Long runs are timed once: their first-run costs are lost in them. Source: stackdsl's own.
-
-    >>> times = iter([0.02, 0.011, 0.010, 0.014, 0.012, 0.013])
-    >>> timed(lambda: next(times), lambda t: t)
-    0.012
-    """
-    first = run()
-    if wall(first) >= SHORT:
-        return first
-    runs = sorted((run() for _ in range(AGAIN)), key=wall)
-    return runs[len(runs) // 2]
+Every setting is timed the same way. The bench once ran a short run (under 0.5 s) five more
+times in its warm worker and kept the median: that cut the extension's times by 8 to 53% and the
+peer's by 0 to 6% (an independent harness with fresh processes, docs/results/independent_timing.py),
+and the level-2 cabin read 3.70x where fresh processes gave 1.81x; and a cell over 30 s ran
+once, the 60-level peer cells among them."""
 
 
 def program_for(scene: Scene, setting: str) -> Program:
@@ -199,8 +187,8 @@ def program_for(scene: Scene, setting: str) -> Program:
 
 
 def measure(scene: Scene, setting: str, options: RunOptions) -> Cell:
-    """Run one cell once (in its own process, for its peak memory; a short run several times,
-    :func:`timed`); :func:`run_matrix` repeats it in rounds and :func:`combine` takes the median.
+    """Run one cell once (in its own process, for its peak memory); :func:`run_matrix` repeats
+    it in rounds and :func:`combine` takes the median (:data:`TIMING`).
 
     A one-level tower in the same setting runs first, untimed: the worker is a fresh
     process, and its first run would also pay one-off costs (lazy imports, first calls into
@@ -210,7 +198,7 @@ def measure(scene: Scene, setting: str, options: RunOptions) -> Cell:
     options = replace(options, lazy_bodies=SETTINGS[setting].lazy_bodies)
     run_program(program_for(WARM_UP, setting), options)
     program = program_for(scene, setting)
-    o = timed(lambda: run_program(program, options), lambda o: o.wall_time)
+    o = run_program(program, options)
     measured = o.collapse.level if o.collapse else None
     top = scene.levels + 1
     error = (measured or top) - (scene.closed_form or top)
@@ -241,11 +229,14 @@ def _measure_lean(scene: Scene, setting: str) -> Cell:
     from . import lean_mujoco, lean_pybullet
 
     # each peer's own loop on its own engine (a lean setting names one of these two)
-    run_lean = {"mujoco": lean_mujoco.run_lean, "pybullet": lean_pybullet.run_lean}[SETTINGS[setting].backend]
-
+    runners: dict[str, Callable[[Program], LeanOutcome]] = {
+        "mujoco": functools.partial(lean_mujoco.run_lean, tolerance=LEAN_TOLERANCE),
+        "pybullet": lean_pybullet.run_lean,
+    }
+    run_lean = runners[SETTINGS[setting].backend]
     run_lean(program_for(WARM_UP, setting))
     program = program_for(scene, setting)
-    o = timed(lambda: run_lean(program), lambda o: o.wall)
+    o = run_lean(program)
     top = scene.levels + 1
     return Cell(
         setting=setting,
@@ -272,7 +263,7 @@ def run_matrix(
     settings: list[str],
     scene_list: list[Scene],
     repeats: int = 3,
-    repeat_below: float = 30.0,
+    repeat_below: float = float("inf"),
     jobs: int = 2,
     progress: Callable[[Cell], None] = lambda c: None,
     after_collapse: float | None = 0.0,
@@ -281,9 +272,9 @@ def run_matrix(
 
     A cell is measured ``repeats`` times in rounds, every cell once a round, and its wall
     time is the median (:func:`combine`); a cell whose first run takes ``repeat_below``
-    seconds or more runs once. Rounds, not runs back to back, because the machine's speed
-    drifts: on the development machine the same Python loop took 0.24 to 0.41 s within a
-    minute, so the settings compared on a scene must sample the same stretches of the run.
+    seconds or more runs once (by default none: every cell, extension and peer, is timed
+    alike). Rounds, not runs back to back, because the machine's speed drifts: on the
+    development machine the same Python loop took 0.24 to 0.41 s within a minute, so the settings compared on a scene must sample the same stretches of the run.
     ``progress`` is called with each cell once its last run is in.
 
     Every run stops at its first collapse and ends ``after_collapse`` seconds after it is

@@ -24,7 +24,7 @@ True
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -38,13 +38,20 @@ _CORNERS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in 
 @dataclass(frozen=True)
 class LeanOutcome:
     """What a lean peer measured: the collapse level (None: stood), wall seconds, seconds
-    of it inside the engine's step, simulated seconds and physics steps."""
+    of it inside the engine's step, simulated seconds and physics steps; for a peer that runs
+    to the scene's end (the actions family), each placed brick's displacement at the end
+    (``moved``: id -> m, its farthest corner from where it was placed, in the ground's frame),
+    the bricks tilted past their tipping angle (``toppled``) and those a hand pulled out
+    (``removed``, left out of both)."""
 
     level: int | None
     wall: float
     engine: float
     simulated: float
     steps: int
+    moved: dict[str, float] = field(default_factory=dict)
+    toppled: tuple[str, ...] = ()
+    removed: tuple[str, ...] = ()
 
 
 class CollapseWatch:
@@ -63,6 +70,11 @@ class CollapseWatch:
         self._top = 0
         self._since: float | None = None
         self._level = 0
+        self._watched = np.ones(len(self._local), dtype=bool)
+
+    def forget(self, index: int) -> None:
+        """Watch brick ``index`` no more (a hand pulls it out)."""
+        self._watched[index] = False
 
     def place(self, index: int, level: int, position: np.ndarray, rotation: np.ndarray) -> None:
         """Brick ``index`` (the next one) of ``level`` is in place at ``position`` (3,),
@@ -78,7 +90,7 @@ class CollapseWatch:
         if n == 0:
             return False
         corners = positions[:n, None, :] + np.einsum("nkj,nij->nki", self._local[:n], rotations[:n])
-        moved = float(np.linalg.norm(corners - self._targets[:n], axis=2).max())
+        moved = float(np.linalg.norm(corners - self._targets[:n], axis=2)[self._watched[:n]].max(initial=0.0))
         if moved <= self._threshold:
             self._since = None
             return False
@@ -87,7 +99,34 @@ class CollapseWatch:
             return False
         return time - self._since >= WINDOW - 1e-9
 
+    def displacements(self, positions: np.ndarray, rotations: np.ndarray) -> np.ndarray:
+        """Each placed brick's farthest corner from where it was placed (m), shape (placed,),
+        from ``positions`` (placed, 3) and ``rotations`` (placed, 3, 3)."""
+        n = self.placed
+        corners = positions[:n, None, :] + np.einsum("nkj,nij->nki", self._local[:n], rotations[:n])
+        return np.asarray(np.linalg.norm(corners - self._targets[:n], axis=2).max(axis=1, initial=0.0))
+
     @property
     def level(self) -> int | None:
         """The level the collapse began at (None: no brick is displaced now)."""
         return self._level if self._since is not None else None
+
+
+def tipped(half_extents: np.ndarray, placed: np.ndarray, now: np.ndarray) -> np.ndarray:
+    """Which bricks are tilted past their tipping angle, shape (n,) of bool: the axis that was
+    vertical when placed has turned further than atan(least horizontal half-extent / vertical
+    half-extent), both as placed (the rule of :meth:`stackdsl.runtime.bricks.Structure.toppled`).
+
+    Args:
+        half_extents: (n, 3), m. placed, now: (n, 3, 3), each brick's rotation as placed and now.
+
+    >>> flat = np.eye(3)[None]
+    >>> on_side = np.array([[[1.0, 0, 0], [0, 0, -1], [0, 1, 0]]])
+    >>> tipped(np.array([[0.06, 0.012, 0.004]]), flat, flat).tolist(), tipped(np.array([[0.06, 0.012, 0.004]]), flat, on_side).tolist()
+    ([False], [True])
+    """
+    half = np.einsum("nij,nj->ni", np.abs(placed), np.asarray(half_extents, dtype=float))  # as placed, in the world
+    tip = np.arctan2(np.minimum(half[:, 0], half[:, 1]), half[:, 2])
+    up = placed[:, 2, :]  # each brick's own axis that was vertical: the third row of its placed rotation
+    tilt = np.arccos(np.clip(np.einsum("nij,nj->ni", now, up)[:, 2], -1.0, 1.0))
+    return np.asarray(tilt > tip)

@@ -10,9 +10,10 @@ import argparse
 import tempfile
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from ..bench.bench import DEFAULT_SETTINGS, SETTINGS, UPRIGHT, run_matrix, savings, scenes
+from ..bench.actions import SIDES as ACTION_SIDES
+from ..bench.bench import DEFAULT_SETTINGS, SETTINGS, TIMING, UPRIGHT, run_matrix, savings, scenes
 from ..bench.dominoes import DEFAULT as DOMINO_SETTINGS
 from ..bench.dominoes import KNOWN as DOMINO_KNOWN
 from ..lang.bounds import MAX_LEVELS
@@ -21,6 +22,9 @@ from ..util.extras import installed, missing
 from ..verdicts.expect import describe
 from .args import COMMANDS, OK, jobs_type, output_folder
 from .progress import Lines
+
+if TYPE_CHECKING:
+    from ..bench.verdicts import Plan
 
 #: The most bricks ``bench solve`` takes a tower of: a 4 stack (two bricks a level) of the most levels a tower has.
 MAX_SOLVE_BRICKS = 2 * MAX_LEVELS
@@ -52,8 +56,13 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     p.add_argument(
         "--upright", default=",".join(map(str, UPRIGHT)), help="comma-separated heights of the upright towers, in levels"
     )
-    p.add_argument("--repeats", type=int, default=3, help="runs per cell (median), for cells faster than --repeat-below")
-    p.add_argument("--repeat-below", type=float, default=30.0, help="seconds; slower cells run once")
+    p.add_argument("--repeats", type=int, default=3, help="runs per cell, every cell alike (median; default: 3)")
+    p.add_argument(
+        "--repeat-below",
+        type=float,
+        default=float("inf"),
+        help="seconds; a cell whose first run is slower runs once (default: inf, every cell runs --repeats times)",
+    )
     p.add_argument(
         "--after-collapse",
         type=float,
@@ -72,7 +81,8 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     )
     p.set_defaults(func=_bench)
     bench = p.add_subparsers(
-        metavar="[solve | height | hard | limits | record | sweep | verdicts | freeze | dominoes | startup]",
+        metavar="[solve | height | hard | limits | record | sweep | verdicts | freeze | dominoes | actions | folder | pulls "
+        "| startup]",
         title="other benchmarks (optional)",
     )
     q = bench.add_parser("solve", help="equilibrium solve time for towers of 10 to 100 bricks")
@@ -201,6 +211,34 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     q.add_argument("--repeats", type=int, default=1, help="timed runs of each setting (median; default: 1)")
     q.set_defaults(func=_bench_dominoes)
     q = bench.add_parser(
+        "actions",
+        help="Jenga pulls, domino rows pushed over, shake tables: the extension on both engines, raw pybullet and the "
+        "lean MuJoCo peer driving the same hands, every cell timed alike and judged against its scene's expectations",
+    )
+    q.add_argument("--scenes", default=None, help="comma-separated scene names (default: all; see the table)")
+    q.add_argument("--sides", default=",".join(ACTION_SIDES), help="comma-separated, of: " + ", ".join(ACTION_SIDES))
+    q.add_argument("--repeats", type=int, default=3, help="runs per cell, each in a fresh process (median; default: 3)")
+    q.add_argument("--quick", action="store_true", help="tiny scenes (a smoke test)")
+    q.add_argument("-j", "--jobs", type=jobs_type, default="1", help="worker processes (default: 1, for steady timings)")
+    q.set_defaults(func=_bench_actions)
+    q = bench.add_parser(
+        "folder",
+        help="`stackdsl check FOLDER` wall time with -j 1 and -j auto, then each scenario on its own settings "
+        "against the lean MuJoCo peer",
+    )
+    q.add_argument("folder", nargs="?", default="scenarios")
+    q.add_argument("--repeats", type=int, default=3, help="runs of each check and each cell (median; default: 3)")
+    q.add_argument("--no-cells", action="store_true", help="time the folder's check only")
+    q.set_defaults(func=_bench_folder)
+    q = bench.add_parser(
+        "pulls", help="the sweep of Jenga pulls: samples a second, the extension against the lean MuJoCo peer, same draws"
+    )
+    q.add_argument("file", nargs="?", default="sweeps/jenga_pulls.yaml")
+    q.add_argument("--samples", type=int, default=None, help="samples a grid cell (default: the file's own, 50)")
+    q.add_argument("--cells", type=int, default=None, help="run the first N grid cells only (default: all, 20)")
+    q.add_argument("-j", "--jobs", type=jobs_type, default="1", help="worker processes a side (default: 1)")
+    q.set_defaults(func=_bench_pulls)
+    q = bench.add_parser(
         "limits", help="each engine's own limits measured past them: smallest side, fastest throw, mass ratio, restitution"
     )
     q.add_argument("--backend", default=None, help="pybullet or mujoco (default: every installed engine)")
@@ -308,6 +346,12 @@ def _bench(args: argparse.Namespace) -> int:
     total = len(chosen) * len(settings)
     print(version_line())
     print(f"stackdsl bench: {len(chosen)} scenes x {len(settings)} settings, {args.jobs} workers, writing to {out}", flush=True)
+    repeats = 1 if args.quick else args.repeats  # a smoke test: one round
+    below = (
+        "" if args.repeat_below == float("inf") else f"; a cell whose first run takes {args.repeat_below:g} s or more runs once"
+    )
+    timing = TIMING.format(repeats=repeats, below=below)
+    print(timing, flush=True)
     with Lines(total, "bench") as lines:
         count = 0
 
@@ -320,11 +364,11 @@ def _bench(args: argparse.Namespace) -> int:
             )
             lines.advance()
 
-        repeats = 1 if args.quick else args.repeats  # a smoke test: one round
         cells = run_matrix(settings, chosen, repeats, args.repeat_below, args.jobs, progress, args.after_collapse)
     saved = [] if args.quick else savings(args.repeats)
     targets = write_outputs(cells, saved, out)
     print((out / "bench.md").read_text())
+    print(timing)
     for line in _targets(targets):
         print(line)
     print(
@@ -378,12 +422,7 @@ def _bench_height(args: argparse.Namespace) -> int:
     from ..bench.cost import format_heights, format_profiles, measure_heights, profile_tower
     from ..bench.versions import version_line
 
-    try:
-        levels = [int(x) for x in args.levels.split(",") if x.strip()]
-    except ValueError:
-        raise ScenarioError(f"--levels must be whole numbers separated by commas, not {args.levels!r}", file="--levels") from None
-    if not levels or not all(1 <= n <= 1000 for n in levels):
-        raise ScenarioError(f"--levels must be from 1 to 1000, not {args.levels!r}", file="--levels")
+    levels = _height_levels(args.levels)
     settings = [s.strip() for s in args.settings.split(",") if s.strip()]
     unknown = [s for s in settings if s not in SETTINGS]
     if unknown or not settings:
@@ -404,6 +443,21 @@ def _bench_height(args: argparse.Namespace) -> int:
         if profiled:
             print(format_profiles([profile_tower(s, n) for n in heights for s in profiled]))
     return OK
+
+
+def _height_levels(text: str) -> list[int]:
+    """``bench height --levels``: the tower heights, from ``"10,30,100"``.
+
+    Raises:
+        ScenarioError: not whole numbers separated by commas, none, or one outside 1..1000.
+    """
+    try:
+        levels = [int(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise ScenarioError(f"--levels must be whole numbers separated by commas, not {text!r}", file="--levels") from None
+    if not levels or not all(1 <= n <= 1000 for n in levels):
+        raise ScenarioError(f"--levels must be from 1 to 1000, not {text!r}", file="--levels")
+    return levels
 
 
 def _bench_hard(args: argparse.Namespace) -> int:
@@ -540,31 +594,15 @@ def _bench_dominoes(args: argparse.Namespace) -> int:
 
 
 def _bench_verdicts(args: argparse.Namespace) -> int:
-    from ..bench.verdicts import FAMILIES, JOURNAL, Journal, Verdicts, family_settings, format_verdicts, plan, timed
+    from ..bench.verdicts import FAMILIES, family_settings, plan
     from ..bench.versions import version_line
 
-    families = _names(args.families, "--families", list(FAMILIES), "family")
-    sizes = {"assemblies": args.count, "single-file": args.single_file, "near-tie": args.near_tie, "shake": args.shakes}
-    options = {"assemblies": "--count", "single-file": "--single-file", "near-tie": "--near-tie", "shake": "--shakes"}
-    for family, size in sizes.items():
-        if not 0 <= size <= 100_000:
-            raise ScenarioError(f"{options[family]} must be from 0 to 100000, not {size}", file=options[family])
-    chosen = [f for f in families if sizes[f]]
-    if not chosen:
-        raise ScenarioError(
-            "nothing to run: give " + " or ".join(f"{options[f]} above 0" for f in families), file=options[families[0]]
-        )
+    chosen = _verdict_families(args, _names(args.families, "--families", list(FAMILIES), "family"))
     if args.seed < 0:
         raise ScenarioError(f"--seed must be 0 or more, not {args.seed}", file="--seed")
     engines = [e.strip() for e in args.engines.split(",") if e.strip()]
     try:
-        gaps = [float(g) / 1000 for g in args.gaps.split(",") if g.strip()]
-    except ValueError:
-        raise ScenarioError(f"--gaps must be millimetres separated by commas, not {args.gaps!r}", file="--gaps") from None
-    if not gaps or not all(0 <= g <= 0.003 for g in gaps):
-        raise ScenarioError(f"--gaps must be from 0 to 3 mm (below the collapse threshold), not {args.gaps!r}", file="--gaps")
-    try:
-        runs = plan(engines, gaps, baselines=not args.no_baselines)
+        runs = plan(engines, _gaps(args.gaps), baselines=not args.no_baselines)
     except ValueError as exc:
         raise ScenarioError(str(exc), file="--engines") from None
     for name in engines:
@@ -581,21 +619,7 @@ def _bench_verdicts(args: argparse.Namespace) -> int:
             (out / name).write_text(text + "\n", encoding="utf-8")
 
     if "assemblies" in chosen:
-        journal = Journal(out / JOURNAL, args.seed, runs)
-        try:
-            done = journal.load()
-        except ValueError as exc:
-            raise ScenarioError(str(exc), file=str(journal.path)) from None
-        if done:
-            print(f"resuming: {sum(k < args.count for k in done)} of {args.count} assemblies done in {journal.path}")
-
-        def finished(v: Verdicts) -> None:
-            journal.add(v)
-            progress.advance()
-
-        with Lines(args.count - sum(k < args.count for k in done), "assemblies") as progress:
-            results, seconds = timed(args.seed, args.count, args.jobs, finished, runs, done)
-        show(format_verdicts(results, out, seconds, runs))
+        show(_assemblies(args, out, runs))
     samples: list[Any] = []
     if "single-file" in chosen:
         from ..bench.verdicts import format_single_file, run_single_file
@@ -627,6 +651,66 @@ def _bench_verdicts(args: argparse.Namespace) -> int:
     return OK
 
 
+def _verdict_families(args: argparse.Namespace, families: list[str]) -> list[str]:
+    """The ``families`` ``bench verdicts`` runs: those whose size option is above 0.
+
+    Raises:
+        ScenarioError: a size outside 0..100000, or none above 0.
+    """
+    sizes = {"assemblies": args.count, "single-file": args.single_file, "near-tie": args.near_tie, "shake": args.shakes}
+    options = {"assemblies": "--count", "single-file": "--single-file", "near-tie": "--near-tie", "shake": "--shakes"}
+    for family, size in sizes.items():
+        if not 0 <= size <= 100_000:
+            raise ScenarioError(f"{options[family]} must be from 0 to 100000, not {size}", file=options[family])
+    chosen = [f for f in families if sizes[f]]
+    if not chosen:
+        raise ScenarioError(
+            "nothing to run: give " + " or ".join(f"{options[f]} above 0" for f in families), file=options[families[0]]
+        )
+    return chosen
+
+
+def _gaps(text: str) -> list[float]:
+    """``bench verdicts --gaps``: the gaps (m) from millimetres separated by commas.
+
+    Raises:
+        ScenarioError: not numbers, none, or one outside 0..3 mm.
+    """
+    try:
+        gaps = [float(g) / 1000 for g in text.split(",") if g.strip()]
+    except ValueError:
+        raise ScenarioError(f"--gaps must be millimetres separated by commas, not {text!r}", file="--gaps") from None
+    if not gaps or not all(0 <= g <= 0.003 for g in gaps):
+        raise ScenarioError(f"--gaps must be from 0 to 3 mm (below the collapse threshold), not {text!r}", file="--gaps")
+    return gaps
+
+
+def _assemblies(args: argparse.Namespace, out: Path, runs: Plan) -> str:
+    """The assemblies family of ``bench verdicts``: ``args.count`` assemblies run as ``runs``
+    plans, resumed from the journal in ``out`` and written to it as each ends; its table.
+
+    Raises:
+        ScenarioError: the journal is of another seed or plan, or damaged.
+    """
+    from ..bench.verdicts import JOURNAL, Journal, Verdicts, format_verdicts, timed
+
+    journal = Journal(out / JOURNAL, args.seed, runs)
+    try:
+        done = journal.load()
+    except ValueError as exc:
+        raise ScenarioError(str(exc), file=str(journal.path)) from None
+    if done:
+        print(f"resuming: {sum(k < args.count for k in done)} of {args.count} assemblies done in {journal.path}")
+
+    def finished(v: Verdicts) -> None:
+        journal.add(v)
+        progress.advance()
+
+    with Lines(args.count - sum(k < args.count for k in done), "assemblies") as progress:
+        results, seconds = timed(args.seed, args.count, args.jobs, finished, runs, done)
+    return format_verdicts(results, out, seconds, runs)
+
+
 def _write_samples(path: Path, samples: list[Any]) -> None:
     """One JSON line per sample (a dataclass, its runs included)."""
     import dataclasses
@@ -650,3 +734,75 @@ def _bench_startup(args: argparse.Namespace) -> int:
     if note is not None:
         print(note)
     return OK
+
+
+def _bench_actions(args: argparse.Namespace) -> int:
+    from ..bench.actions import action_scenes, format_cells, run_cells, tiny_scenes
+    from ..bench.versions import version_line
+
+    _at_least_one(args.repeats)
+    sides = _names(args.sides, "--sides", list(ACTION_SIDES), "side")
+    for side in sides:
+        _need_backend(ACTION_SIDES[side].backend or "pybullet", "--sides")
+    try:
+        family = tiny_scenes() if args.quick else action_scenes()
+    except OSError as exc:
+        raise ScenarioError(
+            f"run it from the project's folder: {exc.strerror or exc}", file=str(exc.filename or "scenarios")
+        ) from None
+    if args.scenes is not None:
+        names = _names(args.scenes, "--scenes", [s.name for s in family], "scene")
+        family = [s for s in family if s.name in names]
+    print(version_line(), flush=True)
+    print(_load_line(), flush=True)
+    with Lines(len(family) * len(sides) * args.repeats, "runs") as progress:
+        cells = run_cells(family, sides, args.repeats, args.jobs, lambda r: progress.advance())
+    print(format_cells(cells, args.repeats, reference=sides[0]))
+    print(_load_line())
+    return OK
+
+
+def _bench_folder(args: argparse.Namespace) -> int:
+    from ..bench.actions import AS_WRITTEN, check_times, folder_scenes, format_cells, format_check_times, run_cells
+    from ..bench.versions import version_line
+
+    _at_least_one(args.repeats)
+    folder = Path(args.folder)
+    scenes = folder_scenes(folder)
+    print(version_line(), flush=True)
+    print(_load_line(), flush=True)
+    print(format_check_times(check_times(folder, ("1", "auto"), args.repeats), folder, len(scenes)), flush=True)
+    if not args.no_cells:
+        print(flush=True)
+        with Lines(len(scenes) * 2 * args.repeats, "runs") as progress:
+            cells = run_cells(scenes, [AS_WRITTEN, "MuJoCo lean"], args.repeats, 1, lambda r: progress.advance())
+        print(format_cells(cells, args.repeats, reference=AS_WRITTEN))
+        ran = [c for c in cells if c.side == AS_WRITTEN]
+        print(f"\nthe {len(ran)} scenarios one after the other: {sum(c.wall for c in ran):.1f} s of runs (medians)")
+    print(_load_line())
+    return OK
+
+
+def _bench_pulls(args: argparse.Namespace) -> int:
+    from ..bench.pulls import format_sides, run_sides, template
+    from ..bench.versions import version_line
+
+    if args.samples is not None and not 1 <= args.samples <= 100_000:
+        raise ScenarioError(f"--samples must be from 1 to 100000, not {args.samples}", file="--samples")
+    if args.cells is not None and args.cells < 1:
+        raise ScenarioError(f"--cells must be at least 1, not {args.cells}", file="--cells")
+    _need("mujoco", "stackdsl bench pulls")
+    t = template(Path(args.file), args.samples)
+    print(version_line(), flush=True)
+    print(_load_line(), flush=True)
+    print(format_sides(run_sides(t, args.jobs, cells=args.cells), t, args.jobs, args.cells))
+    print(_load_line())
+    return OK
+
+
+def _load_line() -> str:
+    """The machine's load averages and cores, for a table's reader."""
+    import os
+
+    one, five, fifteen = os.getloadavg()
+    return f"load average {one:.2f}, {five:.2f}, {fifteen:.2f} on {os.cpu_count()} cores"

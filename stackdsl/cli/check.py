@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import TextIO
 
 from ..batch.check import Prepared, discover, prepare, run_checks, select_comparison, sweep_runs, tabulate
-from ..batch.perturb import Fragility, fragility_lines, perturbed_runs
+from ..batch.perturb import Fragility, fragility_lines, perturbed_runs, within_budget
 from ..batch.report import HEADER, failure_lines, json_document, junit_xml, mode_label, rerun_command, row, summary
 from ..compile.compiler import BACKEND_DEFAULTS, MODE_DEFAULTS
 from ..draw.artefacts import FILES, folder_name
@@ -66,6 +66,8 @@ def check_command(args: argparse.Namespace) -> int:
     )  # bad input raises here
     prepared, broken = select_comparison(prepared, broken + skipped, args.pattern)
     _say_sweeps(prepared, args.timeout)
+    if args.perturb:
+        within_budget(prepared, args.perturb, args.timeout)  # bad input raises here, before anything runs
     total = len(prepared) + len(broken)
     folders = _report_folders(args, report, prepared) if report is not None else None
     stream = sys.stderr if args.json else sys.stdout  # with --json only the progress line, on a terminal

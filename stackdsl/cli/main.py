@@ -22,7 +22,7 @@ import traceback
 import warnings
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 from ..engines.registry import backend, names
 from ..lang.errors import ScenarioError, ScenarioErrors, ScenarioWarning, one_line
@@ -46,6 +46,11 @@ from .args import (
     timeout_type,
 )
 from .sample import add_sample_options, scenario_of
+
+if TYPE_CHECKING:
+    from ..compile.program import Program
+    from ..runtime.outcome import Outcome
+    from ..verdicts.expect import Verdict
 
 MODELS = ["report", "equilibrium"]
 #: The engines (:mod:`stackdsl.engines.registry`, which loads none of them for their names) and
@@ -190,45 +195,13 @@ def _main(argv: list[str], command: bool) -> int:
         sys.unraisablehook = _ignore
     _RUNNING.set()
     try:
-        args = _parser(argv).parse_args(argv)
-        args.debug = debug
-        _plotting_environment()
-        _need_backends(getattr(args, "backend", None))
-        if command and command_of(argv) in _IN_PROCESS:  # the main process does the work: give it the workers' limit
-            from ..batch.guard import limit_memory
-
-            limit_memory()
-        with _warnings_as_lines():
-            status = int(args.func(args))
-        sys.stdout.flush()
-        return status
-    except ScenarioErrors as exc:
-        for err in exc.errors:
-            print(err, file=sys.stderr)
-        if exc.summary:
-            print(exc.summary, file=sys.stderr)
-        return BAD_INPUT
-    except ScenarioError as exc:
-        print(exc, file=sys.stderr)
-        return BAD_INPUT
+        return _command(argv, command, debug)
     except BrokenPipeError:
         return _pipe_closed(command)
-    except OSError as exc:
-        line = refused(exc)
-        if line is None:
-            return _internal(exc, debug)
-        print(line, file=sys.stderr)
-        return BAD_INPUT
-    except MemoryError:
-        from ..batch.guard import MEMORY_LIMIT
-
-        print(
-            f"stackdsl: out of memory: this command may use {MEMORY_LIMIT >> 30} GiB of address space "
-            "(give a smaller --size, fewer frames, or a smaller file)",
-            file=sys.stderr,
-        )
-        return INTERNAL
     except Exception as exc:
+        status = _said_error(exc, debug)
+        if status is not None:
+            return status
         if not pressed:
             return _internal(exc, debug)
         # Ctrl-C inside a C extension's import or call comes out as that call's error
@@ -253,6 +226,53 @@ def _main(argv: list[str], command: bool) -> int:
                 os.environ.pop("STACKDSL_TRACEBACK", None)
             else:
                 os.environ["STACKDSL_TRACEBACK"] = variable
+
+
+def _command(argv: list[str], command: bool, debug: bool) -> int:
+    """Parse ``argv`` and run its command, warnings as lines; its exit status."""
+    args = _parser(argv).parse_args(argv)
+    args.debug = debug
+    _plotting_environment()
+    _need_backends(getattr(args, "backend", None))
+    if command and command_of(argv) in _IN_PROCESS:  # the main process does the work: give it the workers' limit
+        from ..batch.guard import limit_memory
+
+        limit_memory()
+    with _warnings_as_lines():
+        status = int(args.func(args))
+    sys.stdout.flush()
+    return status
+
+
+def _said_error(exc: Exception, debug: bool) -> int | None:
+    """Say an error a command's user can act on, on standard error, and return its exit status:
+    bad input (the scenario's errors, a path the OS refused), running out of memory, and an
+    OS error that is neither (an internal one); None for any other error."""
+    if isinstance(exc, ScenarioErrors):
+        for err in exc.errors:
+            print(err, file=sys.stderr)
+        if exc.summary:
+            print(exc.summary, file=sys.stderr)
+        return BAD_INPUT
+    if isinstance(exc, ScenarioError):
+        print(exc, file=sys.stderr)
+        return BAD_INPUT
+    if isinstance(exc, OSError):
+        line = refused(exc)
+        if line is None:
+            return _internal(exc, debug)
+        print(line, file=sys.stderr)
+        return BAD_INPUT
+    if isinstance(exc, MemoryError):
+        from ..batch.guard import MEMORY_LIMIT
+
+        print(
+            f"stackdsl: out of memory: this command may use {MEMORY_LIMIT >> 30} GiB of address space "
+            "(give a smaller --size, fewer frames, or a smaller file)",
+            file=sys.stderr,
+        )
+        return INTERNAL
+    return None
 
 
 def _say_interrupted(main_thread: bool) -> None:
@@ -473,8 +493,9 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
     guarded = _guarded(TIMEOUT)
     files = _guarded(
         TIMEOUT,
-        "a scenario file may run, a sweep file's runs all together (a sweep whose runs the compiler estimates "
-        "to take longer is refused before anything runs, and one that takes longer stops where its budget ran out),",
+        "a scenario file may run, a sweep file's runs all together, and with --perturb a scenario's run and its reruns "
+        "together (runs the compiler estimates to take longer are refused before anything runs, and runs that take "
+        "longer stop where the budget ran out),",
     )
     many = _Parser(add_help=False, parents=[common, files])
     many.add_argument(
@@ -590,61 +611,78 @@ def _compile(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace) -> int:
     from ..batch.judge import run_guarded, stopped_by
     from ..compile.compiler import compile_scenario
-    from ..runtime.outcome import describe_certificate
-    from ..verdicts.expect import describe_outcome, evaluate, explain, not_run_line
+    from ..verdicts.expect import evaluate, explain
 
     scenario = scenario_of(args, "run")
     program = compile_scenario(scenario, args.mode, args.model, args.backend, draw_time=args.timeout)
     if args.rate is not None and args.record is None:
         raise ScenarioError("--rate is the recording's: give --record OUT.npz too", file="--rate")
-    if args.record is not None:
-        from .outputs import Input, Output, check_outputs
-
-        if args.record.strip() and Path(args.record).suffix.lower() != ".npz":
-            raise ScenarioError("a trajectory file must end in .npz", file=args.record, field="--record")
-        (record,) = check_outputs(
-            [Output("--record", args.record, "the trajectory file")], [Input(args.file, "the scenario being run")]
-        )
-        from ..runtime.recorder import RATE, record_program
-
-        outcome, trajectory = record_program(program, args.rate or RATE, source=args.file, timeout=args.timeout)
-        trajectory.save(record)
-        print(
-            f"wrote {record}: {len(trajectory.times)} frames of {len(trajectory.ids)} bodies",
-            file=sys.stderr if args.json else sys.stdout,
-        )
-    else:
-        outcome = run_guarded(program, args.timeout)
+    outcome = _run_recorded(args, program) if args.record is not None else run_guarded(program, args.timeout)
     stopped = stopped_by(outcome)
     verdicts = evaluate(scenario.expect, outcome, program.collapse_threshold)
     if args.json:  # the outcome, with the verdicts of the file's expectations beside its certificate
         data = {**outcome.model_dump(mode="json"), "verdicts": [v.model_dump() for v in verdicts]}
         print(json.dumps(data, indent=2))
     else:
-        for e in outcome.events:
-            level = "" if e.level is None else f"level {e.level}"
-            print(f"t={e.time:9.3f} s  {e.kind:<8} {e.brick:<10} {level:<9} {e.detail}")
-        print(
-            f"{Path(args.file).name} on {program.engine.backend} {program.engine.mode}: "
-            f"{describe_outcome(outcome, program.collapse_threshold)} "
-            f"({outcome.levels_placed} level{'s' * (outcome.levels_placed != 1)} placed), {outcome.simulated_time:.1f} s simulated, "
-            f"{outcome.wall_time:.2f} s wall ({outcome.engine_time:.2f} s in the engine's steps"
-            + (f", {outcome.after_collapse:.2f} s after the collapse" if outcome.collapse else "")
-            + f"), {outcome.steps} steps ({outcome.steps_skipped} skipped)"
-        )
-        if outcome.certificate is not None:
-            print(f"certificate: {describe_certificate(outcome.certificate)}")
-        if outcome.not_run:
-            print(not_run_line(outcome))
-        for v in verdicts:  # a failure at the line of its expectation, as a parse error is shown
-            head, *shown = v.lines() if not v.passed else [f"expected {v.expected}, measured {v.measured}"]
-            print(f"{'PASS' if v.passed else 'FAIL'}  {head}", *(f"      {line}" for line in shown), sep="\n")
+        _print_run(args, outcome, program, verdicts)
         if not stopped and not all(v.passed for v in verdicts):  # what check says under a failure
             for line in explain(scenario.expect, outcome, program.collapse_threshold):
                 print(f"      {line}")
         if stopped and all(v.passed for v in verdicts):  # no verdict says it
             print(f"FAIL  {stopped}")
     return OK if all(v.passed for v in verdicts) and not stopped else FAILED
+
+
+def _run_recorded(args: argparse.Namespace, program: Program) -> Outcome:
+    """``run --record OUT.npz``: run ``program`` with a recorder, write its trajectory to the
+    checked path, say so (on standard error under ``--json``), and return the outcome.
+
+    Raises:
+        ScenarioError: the path does not end in ``.npz``, or is refused as an output.
+        OSError: the trajectory cannot be written.
+    """
+    from .outputs import Input, Output, check_outputs
+
+    if args.record.strip() and Path(args.record).suffix.lower() != ".npz":
+        raise ScenarioError("a trajectory file must end in .npz", file=args.record, field="--record")
+    (record,) = check_outputs(
+        [Output("--record", args.record, "the trajectory file")], [Input(args.file, "the scenario being run")]
+    )
+    from ..runtime.recorder import RATE, record_program
+
+    outcome, trajectory = record_program(program, args.rate or RATE, source=args.file, timeout=args.timeout)
+    trajectory.save(record)
+    print(
+        f"wrote {record}: {len(trajectory.times)} frames of {len(trajectory.ids)} bodies",
+        file=sys.stderr if args.json else sys.stdout,
+    )
+    return outcome
+
+
+def _print_run(args: argparse.Namespace, outcome: Outcome, program: Program, verdicts: list[Verdict]) -> None:
+    """What ``run`` prints without ``--json``: the events, a summary line, the certificate, the
+    actions not run, and each verdict (a failure at the line of its expectation)."""
+    from ..runtime.outcome import describe_certificate
+    from ..verdicts.expect import describe_outcome, not_run_line
+
+    for e in outcome.events:
+        level = "" if e.level is None else f"level {e.level}"
+        print(f"t={e.time:9.3f} s  {e.kind:<8} {e.brick:<10} {level:<9} {e.detail}")
+    print(
+        f"{Path(args.file).name} on {program.engine.backend} {program.engine.mode}: "
+        f"{describe_outcome(outcome, program.collapse_threshold)} "
+        f"({outcome.levels_placed} level{'s' * (outcome.levels_placed != 1)} placed), {outcome.simulated_time:.1f} s simulated, "
+        f"{outcome.wall_time:.2f} s wall ({outcome.engine_time:.2f} s in the engine's steps"
+        + (f", {outcome.after_collapse:.2f} s after the collapse" if outcome.collapse else "")
+        + f"), {outcome.steps} steps ({outcome.steps_skipped} skipped)"
+    )
+    if outcome.certificate is not None:
+        print(f"certificate: {describe_certificate(outcome.certificate)}")
+    if outcome.not_run:
+        print(not_run_line(outcome))
+    for v in verdicts:  # a failure at the line of its expectation, as a parse error is shown
+        head, *shown = v.lines() if not v.passed else [f"expected {v.expected}, measured {v.measured}"]
+        print(f"{'PASS' if v.passed else 'FAIL'}  {head}", *(f"      {line}" for line in shown), sep="\n")
 
 
 def _print_schema(args: argparse.Namespace) -> int:

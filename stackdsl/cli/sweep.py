@@ -24,6 +24,7 @@ if TYPE_CHECKING:  # imported when a sweep runs: `stackdsl --help` stays quick
     from ..batch.sweep import SampleResult
     from ..lang.expectations import Expect
     from ..lang.sampling import Template
+    from ..lang.schema import Scenario
 
 
 def add_sweep(
@@ -85,10 +86,6 @@ def _sweep(args: argparse.Namespace) -> int:
         run_sweep,
         samples_run,
     )
-    from ..batch.sweep_out import (
-        any_sweep_files,
-        file_names,
-    )
     from ..lang.loader import load_scenario
     from .progress import Lines
 
@@ -99,21 +96,10 @@ def _sweep(args: argparse.Namespace) -> int:
             "this scenario has no sweep and no random field: each run would be the same (use stackdsl run)", file=args.file
         )
     engine_name = args.backend or scenario.engine.backend
-    extra = backend(engine_name).extra
-    if extra is not None and not installed(extra):  # said once, before any sample is drawn
-        if args.backend:
-            raise ScenarioError(missing(extra), file="--backend")
-        raise scenario.source.error(("engine", "backend"), missing(extra))
+    _need_engine(args, scenario, engine_name)
     if args.samples is not None:
         template = template.with_samples(args.samples)
-    out, earlier = None, []
-    if args.out is not None:  # checked before anything runs; an earlier sweep's files there are replaced, and said so
-        (out,) = check_outputs(
-            [Output("--out", args.out, "the sweep's output", folder=True, inside=file_names(template.cells))],
-            [Input(args.file, "the scenario swept")],
-        )
-        # every file an earlier sweep may have left, also those this one does not write: removed once it has written its own
-        earlier = [name for name in any_sweep_files() if (out / name).is_file()]
+    out, earlier = _out_folder(args, template) if args.out is not None else (None, [])
     options = SweepOptions(args.mode, args.model, args.oracle, args.timeout, args.backend)
     # as check does: what the compiler refuses in any cell is bad input, said before anything runs
     tops = compile_cells(template, options.mode, options.model, options.backend, range(template.cells), options.timeout)
@@ -180,6 +166,36 @@ def _sweep(args: argparse.Namespace) -> int:
         _forget(out, made)
         return 2
     return _write(args, template, scenario.expect, results, out, (total, wall))
+
+
+def _need_engine(args: argparse.Namespace, scenario: Scenario, engine_name: str) -> None:
+    """Nothing when the engine the sweep runs on (``--backend``, else the scenario's) is
+    installed; said once, before any sample is drawn.
+
+    Raises:
+        ScenarioError: its extra is missing, at ``--backend`` or at the file's ``engine.backend``.
+    """
+    extra = backend(engine_name).extra
+    if extra is not None and not installed(extra):
+        if args.backend:
+            raise ScenarioError(missing(extra), file="--backend")
+        raise scenario.source.error(("engine", "backend"), missing(extra))
+
+
+def _out_folder(args: argparse.Namespace, template: Template) -> tuple[Path, list[str]]:
+    """The ``--out`` folder, checked before anything runs, and the files an earlier sweep left
+    there (also those this one does not write: removed once it has written its own, and said).
+
+    Raises:
+        ScenarioError: the folder is refused as an output (:func:`stackdsl.cli.outputs.check_outputs`).
+    """
+    from ..batch.sweep_out import any_sweep_files, file_names
+
+    (out,) = check_outputs(
+        [Output("--out", args.out, "the sweep's output", folder=True, inside=file_names(template.cells))],
+        [Input(args.file, "the scenario swept")],
+    )
+    return out, [name for name in any_sweep_files() if (out / name).is_file()]
 
 
 def _write(

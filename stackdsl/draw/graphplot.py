@@ -224,36 +224,50 @@ def _draw_graph(ax: Axes, graph: Graph, bricks: list[Node], margin: dict[str, fl
         ax.axis("off")
         ax.text(0.5, 0.5, "empty graph: nothing placed", ha="center", va="center", transform=ax.transAxes)
         return []
-    axis, label = _main_axis(bricks)
-    nodes = [*bricks, *fixtures]
-    row = {**_rows(bricks), **{n.id: 0.0 for n in fixtures}}
-    across = {n.id: float(np.dot(n.position_mm[:2], axis)) for n in nodes}
-    spread = _spread(nodes, row, across, {n.id: float(np.dot(n.position_mm[:2], (-axis[1], axis[0]))) for n in nodes})
+    spread, row, label = _layout(bricks, fixtures)
     lo, hi = min([*spread.values(), 0.0]) - 40.0, max([*spread.values(), 0.0]) + 40.0
     top = max([*row.values(), 1.0])
     unit = max(1.0, top / 15)  # the ground band's height and the margins grow with the rows
     ground = -0.5 * unit
     ax.set_xlim(lo, hi)
     ax.set_ylim(ground - 0.6 * unit, top + 0.7 * unit)
-    pushed = any(abs(spread[k] - across[k]) > 5.0 for k in spread)
-    ax.set_xlabel(label + (" (bricks at one spot pushed apart)" if pushed else ""))
+    ax.set_xlabel(label)
     ax.set_ylabel("level")
     if has_ground:
         band = Rectangle((lo, ground - 0.4 * unit), hi - lo, 0.4 * unit, facecolor="#d9c9a8", edgecolor="#8c7a55", hatch="//")
         ax.add_patch(band)
         ax.text(lo + 0.02 * (hi - lo), ground - 0.2 * unit, "ground", va="center", fontsize=8, zorder=2)
     few = _draw_edges(ax, graph.edges, spread, row, ground)
-    heading = "rests on: arrow to each support, width and label = load share"
-    if not few:
-        heading = f"rests on: a line down to each support, width = load share\n({len(graph.edges)} edges: shares not labelled)"
-    if any(n.state == "frozen" and margin[n.id] < 0 for n in bricks):
-        heading += "\nred-ringed frozen bricks lean (report 3.4) on something that is no edge"
-    ax.set_title(heading, fontsize=10)
+    ax.set_title(_graph_heading(len(graph.edges), few, bricks, margin), fontsize=10)
     _draw_nodes(ax, bricks, fixtures, spread, row, margin)
     ax.yaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_yticks([t for t in ax.get_yticks() if 0.5 <= t <= top + 0.01] or [1])
     ax.grid(axis="y", color="#eeeeee", zorder=0)
     return _legend(bool(fixtures))
+
+
+def _layout(bricks: list[Node], fixtures: list[Node]) -> tuple[dict[str, float], dict[str, float], str]:
+    """Where each node is drawn: along the bricks' main axis (mm, those at one spot pushed apart)
+    and on its row (fixtures on the ground's), by id; and the horizontal axis's label."""
+    axis, label = _main_axis(bricks)
+    nodes = [*bricks, *fixtures]
+    row = {**_rows(bricks), **{n.id: 0.0 for n in fixtures}}
+    across = {n.id: float(np.dot(n.position_mm[:2], axis)) for n in nodes}
+    spread = _spread(nodes, row, across, {n.id: float(np.dot(n.position_mm[:2], (-axis[1], axis[0]))) for n in nodes})
+    pushed = any(abs(spread[k] - across[k]) > 5.0 for k in spread)
+    return spread, row, label + (" (bricks at one spot pushed apart)" if pushed else "")
+
+
+def _graph_heading(edges: int, few: bool, bricks: list[Node], margin: dict[str, float]) -> str:
+    """The graph's title: how its ``edges`` are drawn (arrows labelled with their load shares when
+    ``few``, else plain lines), and what a red ring on a frozen brick means when one has it
+    (``margin`` < 0)."""
+    heading = "rests on: arrow to each support, width and label = load share"
+    if not few:
+        heading = f"rests on: a line down to each support, width = load share\n({edges} edges: shares not labelled)"
+    if any(n.state == "frozen" and margin[n.id] < 0 for n in bricks):
+        heading += "\nred-ringed frozen bricks lean (report 3.4) on something that is no edge"
+    return heading
 
 
 def _draw_nodes(

@@ -54,7 +54,7 @@ from pydantic import BaseModel, ConfigDict, Field, StrictFloat, StrictInt, Stric
 
 from ..lang.errors import ScenarioWarning
 from ..runtime.outcome import Graph
-from ..runtime.trajectory import MAX_POSITION, STATES, Trajectory
+from ..runtime.trajectory import MAX_POSITION, STATES, Frame, Trajectory
 from ..util.files import written
 from .render import COLOURS
 
@@ -133,8 +133,6 @@ def ghosts(trajectory: Trajectory, golden: dict[str, Any] | None) -> list[dict[s
         (m), quaternion (x, y, z, w), half_extents (m, the run's brick or the golden's first
         brick's), state, why}``. Empty when the golden matches or is missing.
     """
-    from scipy.spatial.transform import Rotation
-
     final = (golden or {}).get("final_graph")
     if not isinstance(final, dict) or not len(trajectory.times):
         return []
@@ -150,20 +148,11 @@ def ghosts(trajectory: Trajectory, golden: dict[str, Any] | None) -> list[dict[s
         if quaternion is None or position.shape != (3,):
             continue
         i = index.get(brick)
-        why = []
-        if i is None:
-            why.append("not in this run")
-        else:
-            moved = float(np.linalg.norm(last.positions[i] - position))
-            turned = float(
-                np.degrees((Rotation.from_quat(last.orientations[i]).inv() * Rotation.from_quat(quaternion)).magnitude())
-            )
-            if moved > GHOST_DISTANCE:
-                why.append(f"{moved * 1000:.1f} mm away")
-            if turned > GHOST_ANGLE:
-                why.append(f"turned {turned:.1f} deg")
-            if fields.get("state") and run_states.get(brick) and fields["state"] != run_states[brick]:
-                why.append(f"{fields['state']} in the golden, {run_states[brick]} here")
+        why = (
+            ["not in this run"]
+            if i is None
+            else _ghost_why(last, i, position, quaternion, fields.get("state"), run_states.get(brick))
+        )
         if why:
             half = trajectory.half_extents[i] if i is not None else trajectory.half_extents[0]
             out.append(
@@ -177,6 +166,27 @@ def ghosts(trajectory: Trajectory, golden: dict[str, Any] | None) -> list[dict[s
                 }
             )
     return out
+
+
+def _ghost_why(
+    last: Frame, i: int, position: np.ndarray, quaternion: list[float], golden_state: Any, run_state: str | None
+) -> list[str]:
+    """How the golden's brick, body ``i`` of the run (``position`` in m, ``quaternion`` x, y, z,
+    w, ``golden_state``), differs from it in the run's ``last`` frame (``run_state``), in words:
+    farther than :data:`GHOST_DISTANCE`, turned more than :data:`GHOST_ANGLE`, another state;
+    empty when it does not."""
+    from scipy.spatial.transform import Rotation
+
+    why = []
+    moved = float(np.linalg.norm(last.positions[i] - position))
+    turned = float(np.degrees((Rotation.from_quat(last.orientations[i]).inv() * Rotation.from_quat(quaternion)).magnitude()))
+    if moved > GHOST_DISTANCE:
+        why.append(f"{moved * 1000:.1f} mm away")
+    if turned > GHOST_ANGLE:
+        why.append(f"turned {turned:.1f} deg")
+    if golden_state and run_state and golden_state != run_state:
+        why.append(f"{golden_state} in the golden, {run_state} here")
+    return why
 
 
 def replay_data(trajectory: Trajectory, golden: dict[str, Any] | None = None, note: str | None = None) -> dict[str, Any]:

@@ -185,36 +185,13 @@ def grid_figure(
     Raises ValueError when values and cells (or ``cell_expected``, when given) differ in length,
     on an unknown statistic, or a bad level (as :func:`stackdsl.verdicts.stats.summary`).
     """
-    if len(values) != len(cells):
-        raise ValueError(f"{len(values)} values for {len(cells)} cells")
-    if cell_expected and len(cell_expected) != len(cells):
-        raise ValueError(f"{len(cell_expected)} cells' expectations for {len(cells)} cells")
-    if statistic not in ("p_stands", "mean"):
-        raise ValueError(f"statistic must be 'p_stands' or 'mean', got {statistic!r}")
+    _check_grid(values, cells, cell_expected, statistic)
     points, spreads, sizes = _estimates(values, cells, statistic, scale, levels_built, exact)
     fig = Figure(figsize=(7.0, 4.5), dpi=100)
     FigureCanvasAgg(fig)
     ax = fig.add_axes((0.12, 0.13, 0.84, 0.75 if title else 0.79))
-    room = None
-    if points:
-        xs = [p[0] for p in points]
-        ys = [p[1] for p in points]
-        below = [p[1] - p[2] for p in points]
-        above = [p[3] - p[1] for p in points]
-        room = _draw_spreads(ax, sorted(spreads, key=lambda c: c[0]), levels_built, max(p[3] for p in points))
-        label = "exact: nothing is drawn" if exact else "estimate, 95% CI"
-        ax.errorbar(xs, ys, yerr=[below, above], color=POINT, marker="o", ms=5, capsize=4, lw=1.5, label=label, zorder=3)
-        ax.legend(loc="best", fontsize=8, frameon=False)
-        if len(set(xs)) == 1:
-            ax.set_xlim(xs[0] - 1, xs[0] + 1)
-    spans: list[tuple[Any, float | None, float | None]] = [(form, None, None) for form in expected]
-    spans += _cell_spans([float(v) * scale for v in values], cell_expected)
-    named: list[Any] = []
-    for form, start, end in spans:
-        if not _draw_expected(ax, form, statistic, start, end, cell=start is not None, named=form not in named):
-            continue
-        named.append(form)
-        ax.legend(loc="best", fontsize=8, frameon=False)
+    room = _draw_points(ax, points, spreads, levels_built, exact) if points else None
+    _draw_grid_expected(ax, statistic, expected, _cell_spans([float(v) * scale for v in values], cell_expected))
     _note_left_out(fig, ax, len(cells), bool(points), len(cells) - len(points))
     _label_y(ax, statistic, levels_built, room)
     ax.set_xlabel(f"{parameter} ({unit})" if unit else parameter)
@@ -222,6 +199,61 @@ def grid_figure(
     per_cell = f"n = {sizes.pop()} per cell" if len(sizes) == 1 else f"n = {min(sizes)}..{max(sizes)} per cell" if sizes else ""
     fig.suptitle(", ".join(t for t in (title, per_cell) if t), fontsize=10)
     return fig
+
+
+def _check_grid(
+    values: Sequence[float], cells: Sequence[Sequence[int | None]], cell_expected: Sequence[Sequence[Any]], statistic: str
+) -> None:
+    """Refuse what :func:`grid_figure` cannot draw.
+
+    Raises:
+        ValueError: values and cells (or ``cell_expected``, when given) differ in length, or an
+            unknown statistic.
+    """
+    if len(values) != len(cells):
+        raise ValueError(f"{len(values)} values for {len(cells)} cells")
+    if cell_expected and len(cell_expected) != len(cells):
+        raise ValueError(f"{len(cell_expected)} cells' expectations for {len(cells)} cells")
+    if statistic not in ("p_stands", "mean"):
+        raise ValueError(f"statistic must be 'p_stands' or 'mean', got {statistic!r}")
+
+
+def _draw_points(
+    ax: Axes,
+    points: list[tuple[float, float, float, float]],
+    spreads: list[tuple[float, float, dict[float, float]]],
+    levels_built: int | None,
+    exact: bool,
+) -> float | None:
+    """Each cell's estimate with its 95 % error bar (``points``: x, estimate, low, high; none of
+    them empty) over its spread of collapse levels (``spreads``, for the mean), and the legend;
+    returns the top the y axis needs for the spreads' labels, or None (:func:`_draw_spreads`)."""
+    xs = [p[0] for p in points]
+    ys = [p[1] for p in points]
+    below = [p[1] - p[2] for p in points]
+    above = [p[3] - p[1] for p in points]
+    room = _draw_spreads(ax, sorted(spreads, key=lambda c: c[0]), levels_built, max(p[3] for p in points))
+    label = "exact: nothing is drawn" if exact else "estimate, 95% CI"
+    ax.errorbar(xs, ys, yerr=[below, above], color=POINT, marker="o", ms=5, capsize=4, lw=1.5, label=label, zorder=3)
+    ax.legend(loc="best", fontsize=8, frameon=False)
+    if len(set(xs)) == 1:
+        ax.set_xlim(xs[0] - 1, xs[0] + 1)
+    return room
+
+
+def _draw_grid_expected(
+    ax: Axes, statistic: Statistic, expected: Sequence[Any], cell_spans: list[tuple[Any, float | None, float | None]]
+) -> None:
+    """The file's expectations on ``statistic`` over the whole axis (``expected``), then each
+    cell's over its own span (``cell_spans``: form, start, end), one legend entry a form."""
+    spans: list[tuple[Any, float | None, float | None]] = [(form, None, None) for form in expected]
+    spans += cell_spans
+    named: list[Any] = []
+    for form, start, end in spans:
+        if not _draw_expected(ax, form, statistic, start, end, cell=start is not None, named=form not in named):
+            continue
+        named.append(form)
+        ax.legend(loc="best", fontsize=8, frameon=False)
 
 
 def _estimates(

@@ -571,6 +571,17 @@ def _why_unmet(lowest: tuple[float, bool, int], highest: tuple[float, bool, int]
 def _grid_field(key: str, values: list[Any], source: SourceMap) -> tuple[FieldPath, str, tuple[Any, ...]]:
     """A grid key (``timing.placement_error``, ``structure.bricks.1.at.0`` or ``structure.bricks[1].at[0]``)
     as a field path."""
+    path: FieldPath = tuple(int(part) if part.isdigit() else part for part in grid_name(key).split("."))
+    problem = grid_key_problem(key)
+    if problem:
+        raise source.error(("sweep", "grid", key), problem, at_key=True)
+    return path, key, tuple(values)
+
+
+def grid_key_problem(key: str) -> str | None:
+    """Why the grid key ``key`` names no field of the scene (one line), or None. The loader says it
+    at the key (:func:`_grid_field`); the Python builder's :class:`~stackdsl.lang.schema_sweep.Sweep`
+    refuses the same keys, so that what it builds its ``to_yaml()`` writes as a file the loader reads."""
     from .validation_errors import fields_at
 
     path: FieldPath = tuple(int(part) if part.isdigit() else part for part in grid_name(key).split("."))
@@ -578,14 +589,10 @@ def _grid_field(key: str, values: list[Any], source: SourceMap) -> tuple[FieldPa
         named = path[:i] == ("structure",) or path[:i] in NAMED  # a part's, a material's or a brick type's name
         allowed = fields_at(path[:i]) if isinstance(part, str) and not named else []
         if allowed and part not in allowed:
-            raise source.error(
-                ("sweep", "grid", key),
-                f"the grid names {key!r}, but {'.'.join(map(str, path[:i])) or 'a scenario'} has no field {part!r}; it has: {', '.join(allowed)}",
-                at_key=True,
-            )
+            return f"the grid names {key!r}, but {'.'.join(map(str, path[:i])) or 'a scenario'} has no field {part!r}; it has: {', '.join(allowed)}"
         if path[0] in ("stackdsl", "sweep", "expect", "seed"):
-            raise source.error(("sweep", "grid", key), f"the grid varies the scene: {key!r} is not part of it", at_key=True)
-    return path, key, tuple(values)
+            return f"the grid varies the scene: {key!r} is not part of it"
+    return None
 
 
 def _grid_path(data: Any, path: FieldPath, key: str, source: SourceMap, drawn: set[FieldPath]) -> FieldPath:

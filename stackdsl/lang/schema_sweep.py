@@ -9,7 +9,7 @@ from __future__ import annotations
 import re
 from typing import Annotated, Any
 
-from pydantic import BeforeValidator, Field, model_validator
+from pydantic import AfterValidator, BeforeValidator, Field, model_validator
 
 from .bounds import StrictModel
 from .grammar import WHOLE, Key
@@ -25,13 +25,28 @@ def grid_name(key: str) -> str:
     return re.sub(r"\[\s*(\d+)\s*\]", r".\1", key.strip())
 
 
+def _names_a_field(key: str) -> str:
+    """A grid key must name a field of the scene, as the loader requires (:func:`stackdsl.lang.sampling.grid_key_problem`):
+    the Python builder took ``grid: {L01.1: [...]}`` and wrote a file the loader refused."""
+    from .sampling import grid_key_problem
+
+    problem = grid_key_problem(key)
+    if problem:
+        raise ValueError(problem)
+    return key
+
+
+#: A grid key: a field path of the scene.
+GridKey = Annotated[Key, AfterValidator(_names_a_field)]
+
+
 class Sweep(StrictModel):
     """Many runs of one scenario: ``samples`` draws of its random fields (sample k seeded by the
     k-th child of the scenario's seed), for each cell of ``grid``: field paths (``timing.placement_error``)
     each with a list of values, run as their product; every cell's sample k has the same seed."""
 
     samples: Annotated[int, Field(ge=1, le=MAX_SAMPLES), WHOLE] = 1
-    grid: Annotated[dict[Key, Annotated[list[Any], Field(min_length=1, max_length=100)]], Field(max_length=4)] = {}
+    grid: Annotated[dict[GridKey, Annotated[list[Any], Field(min_length=1, max_length=100)]], Field(max_length=4)] = {}
 
     @property
     def cells(self) -> int:

@@ -237,7 +237,7 @@ def _one_error(err: ErrorDetails, source: SourceMap) -> ScenarioError:
         message = err["msg"].removeprefix("Value error, ").replace("a valid tuple", "a list")  # YAML has lists
     if "input" in err and err["type"] not in ("value_error", REFERENCE_ERROR):
         message += _got(err["type"], err["input"])
-    return source.error(loc, message)
+    return source.error(loc, message, at_key=tagged[-1:] == ("[key]",))  # a refused key, at the key
 
 
 def _unknown_key(tagged: tuple[Any, ...], loc: FieldPath, source: SourceMap) -> ScenarioError:

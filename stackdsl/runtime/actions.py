@@ -88,6 +88,7 @@ class Actions(Subscriber):
         self.shake: Shake | None = None  # the shake under way, when the ground moves
         self.away: list[BrickRecord] = []  # taken out of the scene this step: forgotten before the next
         self._taken = 0
+        self._carried = False  # a pull under way drags bricks the engine moves (finer steps)
 
     @property
     def quiet(self) -> bool:
@@ -150,7 +151,8 @@ class Actions(Subscriber):
         start = loop.world.pose(record.body)
         self.guided.append(_Guided(record, start, time, np.array(velocity), end, kind))
         speed = float(np.linalg.norm(velocity))
-        self.stability.follow(loop, self.stability.extension.guide(record.body, time, why, speed))
+        pull = (float(velocity[0]), float(velocity[1]), float(velocity[2])) if kind == "pull" and self.stability.acting else None
+        self.stability.follow(loop, self.stability.extension.guide(record.body, time, why, speed, pull))
 
     def _shake(self, loop: StepLoop, a: Shake) -> None:
         extension, acting = self.stability.extension, self.stability.acting
@@ -179,13 +181,21 @@ class Actions(Subscriber):
         control reads speeds before the hand sets its velocity, a step late)."""
         if self.substeps is None:
             return
-        pulling = self.split_pulls and any(g.kind == "pull" for g in self.guided)
+        pulling = self.split_pulls and self._carrying()
+        self._carried = pulling
         fastest = max((float(np.linalg.norm(g.velocity)) for g in self.guided), default=0.0)
         self.substeps.floor = max(
             math.ceil(loop.dt / PULL_STEP - 1e-9) if pulling else 1,
             math.ceil(fastest * loop.dt / self.substeps.threshold - 1e-9),
             1,
         )
+
+    def _carrying(self) -> bool:
+        """Whether a pull under way drags bricks the engine moves: one whose proof keeps what it
+        slides between frozen (:meth:`stability.StabilityExtension.alone`) carries none, and
+        needs no finer steps."""
+        alone = self.stability.extension.alone
+        return any(g.kind == "pull" and not alone(g.record.body) for g in self.guided)
 
     @staticmethod
     def _clear(loop: StepLoop, g: _Guided) -> bool:
@@ -200,6 +210,10 @@ class Actions(Subscriber):
 
     def before_step(self, loop: StepLoop) -> None:
         t = loop.now
+        if self.split_pulls and self.substeps is not None and self._carrying() != self._carried:
+            self._carried = not self._carried  # a pull's proof was lost: finer steps from this one
+            self._finer(loop)
+            self.substeps.before_step(loop)
         for g in self.guided:
             pose = Pose(g.start.position + g.velocity * (t - g.since), g.start.orientation)
             x, y, z = g.velocity.tolist()

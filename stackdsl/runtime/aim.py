@@ -41,21 +41,10 @@ def aim(a: Launch, structure: Structure, world: World, fixtures: Sequence[Fixtur
     if not a.aim or a.face is None:
         return pose, ""
     outward = np.array(a.face)
-    records = [structure.records.get(i) for i in a.aim]
-    placed = set(map(id, structure.placed))
-    there = [r for r in records if r is not None and id(r) in placed]
-    if not there:
-        return None, f"not thrown: no brick of its level is in the scene ({', '.join(a.aim)})"
-    off = {r.id: why for r in there if (why := _off_level(world, r))}
-    on = [r for r in there if r.id not in off]
-    if not on:
-        said = "; ".join(f"{k} {v}" for k, v in off.items())
-        return None, f"not thrown: every brick of its level there has left it ({said}): nothing is left to aim at"
-    if on[0].id == a.aim[0]:
-        chosen = on[0]
-    else:  # the brick aimed at has left its level: the level's outer face among those still on it
-        poses = [world.pose(r.body) for r in on]
-        chosen = on[outer_face([r.box for r in on], poses, outward)[0]]
+    choice = _choose(a, structure, world, outward)
+    if isinstance(choice, str):
+        return None, choice
+    chosen, off = choice
     now = face_middle(chosen.box, world.pose(chosen.body), outward)
     # the compiler aimed at the face as the scenario places it; a brick is placed a little lower (its
     # supports' sink, its engine's seat): that offset is left as the compiler left it
@@ -71,6 +60,28 @@ def aim(a: Launch, structure: Structure, world: World, fixtures: Sequence[Fixtur
         return None, f"{lies}: not thrown: to meet its face as it lies, {blocked}"
     dx, dy, dz = (round(float(v) * 1000, 1) + 0.0 for v in shift)
     return moved, f"{lies}: thrown from ({dx:.1f}, {dy:.1f}, {dz:.1f}) mm off its aim as placed, to meet its face as it lies"
+
+
+def _choose(a: Launch, structure: Structure, world: World, outward: np.ndarray) -> tuple[BrickRecord, dict[str, str]] | str:
+    """The brick projectile ``a`` is aimed at as the run left its level, with why each brick of
+    its level in the scene has left it (by id); or why it is not thrown, in words. The first
+    brick the compiler aimed at when it is still on its level, else the one with the level's
+    outer face along ``outward`` (a unit vector) among those still on it."""
+    records = [structure.records.get(i) for i in a.aim]
+    placed = set(map(id, structure.placed))
+    there = [r for r in records if r is not None and id(r) in placed]
+    if not there:
+        return f"not thrown: no brick of its level is in the scene ({', '.join(a.aim)})"
+    off = {r.id: why for r in there if (why := _off_level(world, r))}
+    on = [r for r in there if r.id not in off]
+    if not on:
+        said = "; ".join(f"{k} {v}" for k, v in off.items())
+        return f"not thrown: every brick of its level there has left it ({said}): nothing is left to aim at"
+    if on[0].id == a.aim[0]:
+        return on[0], off
+    # the brick aimed at has left its level: the level's outer face among those still on it
+    poses = [world.pose(r.body) for r in on]
+    return on[outer_face([r.box for r in on], poses, outward)[0]], off
 
 
 def _off_level(world: World, r: BrickRecord) -> str:

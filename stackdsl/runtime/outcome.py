@@ -91,8 +91,10 @@ class Certificate(_Frozen):
             every brick, and ``detail`` says how many were balanced).
         margin_mm: for ``stands``, how far every centre of mass could move together (one
             common horizontal shift, in any direction) before rigid-block equilibrium would not
-            hold it, rounded down to 0.1 mm: never more than that distance and at most 0.2 mm
-            less (at most 20 mm; see :attr:`stability.Certificate.margin`); else None.
+            hold it, with every brick within 0.5 deg of level taken level about its centre,
+            rounded down to 0.1 mm: never more than that distance and at most 0.2 mm less, and
+            less what a settled brick's tilt moved its corners (up to 0.04 mm for a flat KAPLA
+            brick; at most 20 mm; see :attr:`stability.Certificate.margin`); else None.
         friction_share: for ``stands``, the least share of every contact's friction coefficient
             with which it still balances (0: vertical forces on level faces hold it; see
             :attr:`stability.Certificate.friction`), to 0.01 above; else None.

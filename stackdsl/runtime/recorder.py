@@ -37,6 +37,7 @@ from __future__ import annotations
 import heapq
 import math
 from collections.abc import Iterable
+from typing import Any
 
 import numpy as np
 
@@ -258,11 +259,27 @@ class Recorder(Subscriber):
     def trajectory(self, outcome: Outcome) -> Trajectory:
         """The recorded trajectory of the run that produced ``outcome``."""
         records, program = self._records, self.program
-        rows = self._rows
-        fixtures = program.fixtures
-        quaternions = [Pose.from_euler(f.position, f.yaw, f.pitch, f.roll).orientation for f in fixtures]
         placed = {a.id: a.level for a in program.placements}  # a pulled brick's level, which its record lets go of
-        meta = {
+        graphs = {"final": outcome.final_graph}
+        if outcome.collapse_graph is not None:
+            graphs["collapse"] = outcome.collapse_graph
+        return Trajectory(
+            meta=self._meta(outcome),
+            ids=np.array([r.id for r in records], dtype=str),
+            levels=np.array([r.level or placed.get(r.id, 0) for r in records], dtype=np.int32),
+            half_extents=np.array([r.spec.half_extents for r in records], dtype=float).reshape(-1, 3),
+            **self._fixture_arrays(),
+            times=np.array(self._times, dtype=float),
+            ground_offset=np.array(self._ground, dtype=float).reshape(-1, 3),
+            **self._row_arrays(),
+            events=outcome.events,
+            graphs=graphs,
+        )
+
+    def _meta(self, outcome: Outcome) -> dict[str, Any]:
+        """The trajectory's ``meta`` record: the program's settings and the outcome's summary."""
+        program = self.program
+        return {
             "scenario": program.name,
             "file": self.source,
             "mode": program.engine.mode,
@@ -278,28 +295,29 @@ class Recorder(Subscriber):
             "stopped": outcome.stopped,
             "judged_at": program.judged_at,
         }
-        graphs = {"final": outcome.final_graph}
-        if outcome.collapse_graph is not None:
-            graphs["collapse"] = outcome.collapse_graph
-        return Trajectory(
-            meta=meta,
-            ids=np.array([r.id for r in records], dtype=str),
-            levels=np.array([r.level or placed.get(r.id, 0) for r in records], dtype=np.int32),
-            half_extents=np.array([r.spec.half_extents for r in records], dtype=float).reshape(-1, 3),
-            fixture_ids=np.array([f.id for f in fixtures], dtype=str),
-            fixture_half_extents=np.array([f.brick.half_extents for f in fixtures], dtype=float).reshape(-1, 3),
-            fixture_positions=np.array([f.position for f in fixtures], dtype=float).reshape(-1, 3),
-            fixture_orientations=np.array(quaternions, dtype=float).reshape(-1, 4),
-            times=np.array(self._times, dtype=float),
-            ground_offset=np.array(self._ground, dtype=float).reshape(-1, 3),
-            row_frame=np.concatenate([r[0] for r in rows] or [np.zeros(0, np.int32)]),
-            row_body=np.concatenate([r[1] for r in rows] or [np.zeros(0, np.int32)]),
-            row_position=np.concatenate([r[2] for r in rows] or [np.zeros((0, 3))]),
-            row_orientation=np.concatenate([r[3] for r in rows] or [np.zeros((0, 4))]),
-            row_state=np.concatenate([r[4] for r in rows] or [np.zeros(0, np.int8)]),
-            events=outcome.events,
-            graphs=graphs,
-        )
+
+    def _fixture_arrays(self) -> dict[str, np.ndarray]:
+        """The program's fixtures: ids, half extents (m), positions (m) and unit quaternions."""
+        fixtures = self.program.fixtures
+        quaternions = [Pose.from_euler(f.position, f.yaw, f.pitch, f.roll).orientation for f in fixtures]
+        return {
+            "fixture_ids": np.array([f.id for f in fixtures], dtype=str),
+            "fixture_half_extents": np.array([f.brick.half_extents for f in fixtures], dtype=float).reshape(-1, 3),
+            "fixture_positions": np.array([f.position for f in fixtures], dtype=float).reshape(-1, 3),
+            "fixture_orientations": np.array(quaternions, dtype=float).reshape(-1, 4),
+        }
+
+    def _row_arrays(self) -> dict[str, np.ndarray]:
+        """The recorded rows, one a moving body a kept frame: frame, body, position (m),
+        orientation and state, each an array empty of the right shape when nothing was kept."""
+        rows = self._rows
+        return {
+            "row_frame": np.concatenate([r[0] for r in rows] or [np.zeros(0, np.int32)]),
+            "row_body": np.concatenate([r[1] for r in rows] or [np.zeros(0, np.int32)]),
+            "row_position": np.concatenate([r[2] for r in rows] or [np.zeros((0, 3))]),
+            "row_orientation": np.concatenate([r[3] for r in rows] or [np.zeros((0, 4))]),
+            "row_state": np.concatenate([r[4] for r in rows] or [np.zeros(0, np.int8)]),
+        }
 
 
 def record_program(

@@ -283,9 +283,12 @@ MAX_HALF_EXTENT = MAX_SIDE / 2
 QUATERNION_TOLERANCE = 1e-3
 #: A body's id in a trajectory file: the characters of a scenario's ids and the ids it generates.
 _ID = re.compile(r"[A-Za-z0-9_.-]{1,200}")
-#: Bytes a trajectory file's arrays may hold once read (a 200-level tower recorded at 30 Hz for
-#: its whole run holds a few MB): a file claiming more is refused before anything is read.
-MAX_TRAJECTORY_BYTES = 1 << 30
+#: Bytes a trajectory file may take on disk, and its arrays once read (a 200-level tower recorded
+#: at 30 Hz for its whole run holds a few MB): a file larger, or claiming more, is refused before
+#: anything is read. What reads one holds several copies: ``render`` peaked at 864 MB on 63 MiB of
+#: arrays and at 1260 MB on 100 MiB, so 64 MiB keeps every command under 1.5 GB (the golden
+#: snapshot's limit is 16 MiB of JSON, :data:`stackdsl.draw.replay.MAX_GOLDEN_BYTES`).
+MAX_TRAJECTORY_BYTES = 64 << 20
 #: Each array: its dtype kind ("U" text, "i" integer, "f" float) and its shape (None: any length,
 #: an int: that size; names stand for lengths that must agree across arrays).
 _LAYOUT: dict[str, tuple[str, tuple[str | int, ...]]] = {
@@ -325,29 +328,7 @@ def load_trajectory(path: str | os.PathLike[str]) -> Trajectory:
         ValueError: ``"PATH: not a stackdsl trajectory: WHAT"``, or of a newer format.
     """
     path = Path(path)
-    try:
-        _check_sizes(path)
-        with np.load(path, allow_pickle=False) as data:
-            if "header" not in data.files:
-                raise _Bad("it has no header record")
-            try:
-                header = json.loads(str(data["header"]))
-            except RecursionError:
-                raise _Bad("its header record is nested too deeply to be one stackdsl writes") from None
-            missing = [name for name in _ARRAYS if name not in data.files and name not in _LATER]
-            if missing:
-                raise _Bad(f"it has no {missing[0]!r} array")
-            arrays = {name: data[name] for name in _ARRAYS if name in data.files}
-            arrays |= {name: make(arrays) for name, make in _LATER.items() if name not in arrays}
-    except _Bad as exc:
-        raise ValueError(f"{path}: not a stackdsl trajectory: {exc}") from None
-    except zipfile.BadZipFile:
-        raise ValueError(f"{path}: not a stackdsl trajectory, or a damaged one: it is not a whole .npz archive") from None
-    except (json.JSONDecodeError, EOFError, zlib.error) as exc:
-        raise ValueError(f"{path}: not a stackdsl trajectory, or a damaged one ({type(exc).__name__}: {exc})") from None
-    except ValueError as exc:  # numpy: not an archive at all, or one holding pickled objects
-        why = "it holds pickled objects, which stackdsl never writes" if "pickle" in str(exc) else "not a numpy archive"
-        raise ValueError(f"{path}: not a stackdsl trajectory ({why})") from None
+    header, arrays = _read_archive(path)
     if not isinstance(header, dict) or header.get("format") != FORMAT:
         raise ValueError(
             f"{path}: a trajectory of format {header.get('format') if isinstance(header, dict) else '?'}; this stackdsl reads {FORMAT}"
@@ -373,6 +354,40 @@ def load_trajectory(path: str | os.PathLike[str]) -> Trajectory:
         raise ValueError(f"{path}: not a stackdsl trajectory: {what}") from None
 
 
+def _read_archive(path: Path) -> tuple[Any, dict[str, np.ndarray]]:
+    """The decoded header record (not yet checked) and the arrays of the archive at ``path``,
+    those an earlier stackdsl did not write filled in from :data:`_LATER`.
+
+    Raises:
+        OSError: the file cannot be read.
+        ValueError: ``"PATH: not a stackdsl trajectory..."``, naming what is not one.
+    """
+    try:
+        _check_sizes(path)
+        with np.load(path, allow_pickle=False) as data:
+            if "header" not in data.files:
+                raise _Bad("it has no header record")
+            try:
+                header = json.loads(str(data["header"]))
+            except RecursionError:
+                raise _Bad("its header record is nested too deeply to be one stackdsl writes") from None
+            missing = [name for name in _ARRAYS if name not in data.files and name not in _LATER]
+            if missing:
+                raise _Bad(f"it has no {missing[0]!r} array")
+            arrays = {name: data[name] for name in _ARRAYS if name in data.files}
+            arrays |= {name: make(arrays) for name, make in _LATER.items() if name not in arrays}
+    except _Bad as exc:
+        raise ValueError(f"{path}: not a stackdsl trajectory: {exc}") from None
+    except zipfile.BadZipFile:
+        raise ValueError(f"{path}: not a stackdsl trajectory, or a damaged one: it is not a whole .npz archive") from None
+    except (json.JSONDecodeError, EOFError, zlib.error) as exc:
+        raise ValueError(f"{path}: not a stackdsl trajectory, or a damaged one ({type(exc).__name__}: {exc})") from None
+    except ValueError as exc:  # numpy: not an archive at all, or one holding pickled objects
+        why = "it holds pickled objects, which stackdsl never writes" if "pickle" in str(exc) else "not a numpy archive"
+        raise ValueError(f"{path}: not a stackdsl trajectory ({why})") from None
+    return header, arrays
+
+
 class _Bad(Exception):
     """What is wrong with a trajectory file (one line)."""
 
@@ -380,7 +395,11 @@ class _Bad(Exception):
 def _check_sizes(path: Path) -> None:
     """Refuse an archive whose arrays would take more than :data:`MAX_TRAJECTORY_BYTES` once
     read, by each member's own ``.npy`` header (a zip's sizes can lie, and so can a header's
-    shape: both are checked) before numpy reads any of it."""
+    shape: both are checked) before numpy reads any of it; a file larger than that is refused
+    before it is opened as an archive (its directory alone could be the file's size)."""
+    size = path.stat().st_size
+    if size > MAX_TRAJECTORY_BYTES:
+        raise _Bad(f"it is larger than {MAX_TRAJECTORY_BYTES >> 20} MiB ({size >> 20} MiB)")
     total = 0
     with zipfile.ZipFile(path) as archive:
         for info in archive.infolist():
@@ -424,7 +443,27 @@ def _checked_header(header: dict[str, Any]) -> dict[str, Any]:
 
 
 def _check_arrays(arrays: dict[str, np.ndarray]) -> None:
-    """Dtypes, shapes that agree, finite numbers, indices within the arrays they name."""
+    """Dtypes, shapes that agree, finite numbers, sizes a run can reach, unit quaternions,
+    unique ids, times that go forwards, indices within the arrays they name."""
+    lengths = _check_layout(arrays)
+    _check_magnitudes(arrays)
+    _check_quaternions(arrays)
+    _check_ids([str(i) for i in arrays["ids"].tolist()] + [str(i) for i in arrays["fixture_ids"].tolist()])
+    if (np.diff(arrays["times"]) < 0).any():
+        raise _Bad("its times go backwards")
+    for name, limit in (
+        ("row_frame", lengths.get("frames", 0)),
+        ("row_body", lengths.get("bodies", 0)),
+        ("row_state", len(STATES)),
+    ):
+        values = arrays[name]
+        if len(values) and (values.min() < 0 or values.max() >= limit):
+            raise _Bad(f"its {name!r} array points outside 0..{limit - 1}")
+
+
+def _check_layout(arrays: dict[str, np.ndarray]) -> dict[str, int]:
+    """Each array's dtype, dimensions and columns as :data:`_LAYOUT` says, lengths that agree
+    along each named axis, and finite floats; returns each named axis's length."""
     lengths: dict[str, int] = {}
     for name, (kind, shape) in _LAYOUT.items():
         array = arrays[name]
@@ -440,6 +479,12 @@ def _check_arrays(arrays: dict[str, np.ndarray]) -> None:
                 raise _Bad(f"its {name!r} array has {axis} {want}, the others {lengths[want]}")
         if kind == "f" and not np.isfinite(array).all():
             raise _Bad(f"its {name!r} array holds NaN or infinite values")
+    return lengths
+
+
+def _check_magnitudes(arrays: dict[str, np.ndarray]) -> None:
+    """Half extents above 0 and at most :data:`MAX_HALF_EXTENT`; positions within
+    :data:`MAX_POSITION` of the origin."""
     if not (arrays["half_extents"] > 0).all() or not (arrays["fixture_half_extents"] > 0).all():
         raise _Bad("a body's half extents are not above 0")
     for name in ("half_extents", "fixture_half_extents"):
@@ -453,6 +498,10 @@ def _check_arrays(arrays: dict[str, np.ndarray]) -> None:
                 f"its {name!r} array holds a coordinate of {float(np.abs(arrays[name]).max()):.3g} m, "
                 f"beyond {MAX_POSITION / 1000:g} km from the origin, farther than any run goes"
             )
+
+
+def _check_quaternions(arrays: dict[str, np.ndarray]) -> None:
+    """Every orientation a unit quaternion, within :data:`QUATERNION_TOLERANCE`."""
     for name in ("row_orientation", "fixture_orientations"):
         q = arrays[name].astype(np.float64)
         scale = np.abs(q).max(axis=1, initial=0.0)  # scaled first: 1e308 squared overflows
@@ -460,17 +509,6 @@ def _check_arrays(arrays: dict[str, np.ndarray]) -> None:
         wrong = np.flatnonzero(np.abs(norms - 1.0) > QUATERNION_TOLERANCE)
         if len(wrong):
             raise _Bad(f"its {name!r} array holds a quaternion of length {norms[wrong[0]]:.3g} (row {wrong[0]}), not a unit one")
-    _check_ids([str(i) for i in arrays["ids"].tolist()] + [str(i) for i in arrays["fixture_ids"].tolist()])
-    if (np.diff(arrays["times"]) < 0).any():
-        raise _Bad("its times go backwards")
-    for name, limit in (
-        ("row_frame", lengths.get("frames", 0)),
-        ("row_body", lengths.get("bodies", 0)),
-        ("row_state", len(STATES)),
-    ):
-        values = arrays[name]
-        if len(values) and (values.min() < 0 or values.max() >= limit):
-            raise _Bad(f"its {name!r} array points outside 0..{limit - 1}")
 
 
 def _check_ids(ids: list[str]) -> None:

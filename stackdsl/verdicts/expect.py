@@ -81,41 +81,12 @@ def evaluate(expect: Expect, outcome: Outcome, threshold: float) -> list[Verdict
         said = "stands" if outcome.collapse is None else f"{measured} at {outcome.collapse.time:.2f} s"
         verdicts.append(Verdict(name="stands_until", passed=held, expected=texts["stands_until"], measured=said))
     if expect.stays:
-        levels, bricks = levels_of(expect.stays), bricks_of(expect.stays)
-        moved = _moved_levels(outcome, threshold)
-        bad = sorted(set(levels) & moved)
-        bad_bricks = [b for b in _selected(outcome, bricks) if outcome.displacement[b] > threshold]
-        never = _never(outcome, levels, bricks)
-        said = _said(levels, bricks, _named(outcome, bricks))
-        wrong = ([_said(bad, _short(bad_bricks)) + " moved"] if bad or bad_bricks else []) + ([never] if never else [])
-        verdicts.append(
-            Verdict(name="stays", passed=not wrong, expected=f"{said} stay", measured="; ".join(wrong) or f"{said} stayed")
-        )
+        verdicts.append(_stays_verdict(expect.stays, outcome, threshold))
     if expect.moved:
-        levels, bricks = levels_of(expect.moved), bricks_of(expect.moved)
-        named = _selected(outcome, bricks) + [
-            b for b, lv in _levels(outcome).items() if lv in levels and b in outcome.displacement
-        ]
-        still = [b for b in dict.fromkeys(named) if outcome.displacement[b] <= threshold]
-        never = _never(outcome, levels, bricks)
-        said = _said(levels, bricks, _named(outcome, bricks))
-        wrong = ([f"{', '.join(_short(still))} stayed"] if still else []) + ([never] if never else [])
-        verdicts.append(
-            Verdict(name="moved", passed=not wrong, expected=f"{said} moved", measured="; ".join(wrong) or f"{said} moved")
-        )
+        verdicts.append(_moved_verdict(expect.moved, outcome, threshold))
     if expect.toppled is not None:
-        t = expect.toppled
-        count, total = len(outcome.toppled), len(outcome.displacement) + len(outcome.unplaced)
-        least, most = t.allows(total)  # 'all': all of the scene's bricks, placed or not
-        never = f" ({len(outcome.unplaced)} never placed)" if outcome.unplaced else ""
-        verdicts.append(
-            Verdict(
-                name="toppled",
-                passed=least <= count <= most,
-                expected=texts["toppled"],
-                measured=f"{count} of {total} toppled{never}",
-            )
-        )
+        least, most = expect.toppled.allows(len(outcome.displacement) + len(outcome.unplaced))
+        verdicts.append(_toppled_verdict(outcome, least, most, texts["toppled"]))
     if expect.still is not None:
         verdicts.append(_still(expect.still, outcome, texts["still"]))
     if outcome.stopped:
@@ -123,6 +94,41 @@ def evaluate(expect: Expect, outcome: Outcome, threshold: float) -> list[Verdict
     elif outcome.certificate is not None and outcome.certificate.verdict == "undecided":
         verdicts = [_undecided(v, outcome.certificate.detail) for v in verdicts]
     return [v.model_copy(update={"at": expect.at(v.name)}) if expect.at(v.name) else v for v in verdicts]
+
+
+def _stays_verdict(selectors: Sequence[int | str], outcome: Outcome, threshold: float) -> Verdict:
+    """The ``stays`` verdict: none of the levels and bricks ``selectors`` name moved more than
+    ``threshold`` (m), and all of them were placed."""
+    levels, bricks = levels_of(selectors), bricks_of(selectors)
+    moved = _moved_levels(outcome, threshold)
+    bad = sorted(set(levels) & moved)
+    bad_bricks = [b for b in _selected(outcome, bricks) if outcome.displacement[b] > threshold]
+    never = _never(outcome, levels, bricks)
+    said = _said(levels, bricks, _named(outcome, bricks))
+    wrong = ([_said(bad, _short(bad_bricks)) + " moved"] if bad or bad_bricks else []) + ([never] if never else [])
+    return Verdict(name="stays", passed=not wrong, expected=f"{said} stay", measured="; ".join(wrong) or f"{said} stayed")
+
+
+def _moved_verdict(selectors: Sequence[int | str], outcome: Outcome, threshold: float) -> Verdict:
+    """The ``moved`` verdict: every brick of the levels and bricks ``selectors`` name moved more
+    than ``threshold`` (m), and all of them were placed."""
+    levels, bricks = levels_of(selectors), bricks_of(selectors)
+    named = _selected(outcome, bricks) + [b for b, lv in _levels(outcome).items() if lv in levels and b in outcome.displacement]
+    still = [b for b in dict.fromkeys(named) if outcome.displacement[b] <= threshold]
+    never = _never(outcome, levels, bricks)
+    said = _said(levels, bricks, _named(outcome, bricks))
+    wrong = ([f"{', '.join(_short(still))} stayed"] if still else []) + ([never] if never else [])
+    return Verdict(name="moved", passed=not wrong, expected=f"{said} moved", measured="; ".join(wrong) or f"{said} moved")
+
+
+def _toppled_verdict(outcome: Outcome, least: int, most: int, expected: str) -> Verdict:
+    """The ``toppled`` verdict: between ``least`` and ``most`` bricks ended tilted past their
+    tipping angle, of all the scene's bricks, placed or not."""
+    count, total = len(outcome.toppled), len(outcome.displacement) + len(outcome.unplaced)
+    never = f" ({len(outcome.unplaced)} never placed)" if outcome.unplaced else ""
+    return Verdict(
+        name="toppled", passed=least <= count <= most, expected=expected, measured=f"{count} of {total} toppled{never}"
+    )
 
 
 def _still(still: Still, outcome: Outcome, expected: str) -> Verdict:
@@ -282,27 +288,15 @@ def explain(expect: Expect, outcome: Outcome, threshold: float) -> list[str]:
     """
     failed = {v.name for v in evaluate(expect, outcome, threshold) if not v.passed}
     levels = _levels(outcome)
-    lines = []
     if failed and outcome.certificate is not None and outcome.certificate.verdict == "undecided":
-        # ended in motion with no collapse proved: what the pose says is no verdict
-        if outcome.displacement:
-            brick, largest = max(outcome.displacement.items(), key=lambda item: item[1])
-            lines.append(
-                f"undecided: the run ended at t={outcome.simulated_time:.2f} s before its bricks came to rest "
-                f"(the largest displacement then {_mm(largest)}, {_brick(brick, levels.get(brick))}); "
-                "a longer timing.settle lets them come to rest before they are judged"
-            )
-        return lines + ([not_run_line(outcome)] if outcome.not_run else [])
+        return _undecided_lines(outcome, levels)
+    lines = []
     if failed & {"collapse", "stands", "stands_until"}:
         lines.append(_collapse_line(outcome, threshold, levels))
     if "moved" in failed and expect.moved:
         lines += _stayed_lines(expect.moved, outcome, threshold, levels)
     if "toppled" in failed:
-        lines.append(
-            f"toppled: {len(outcome.toppled)} brick{'s' * (len(outcome.toppled) != 1)} ended tilted past "
-            f"{'its' if len(outcome.toppled) == 1 else 'their'} tipping angle: "
-            f"{', '.join(_short(list(outcome.toppled))) or 'none'}"
-        )
+        lines.append(_toppled_line(outcome))
     if "finished" in failed:
         lines.append(f"stopped: {outcome.stopped}; the rest of the run was not simulated")
     judged_at_end = {"toppled", "moved", "stays"} | ({"collapse", "stands"} if outcome.collapse is None else set())
@@ -316,6 +310,29 @@ def explain(expect: Expect, outcome: Outcome, threshold: float) -> list[str]:
     if failed and outcome.not_run:
         lines.append(not_run_line(outcome))
     return lines
+
+
+def _undecided_lines(outcome: Outcome, levels: dict[str, int | None]) -> list[str]:
+    """Why a run that ended in motion with no collapse proved decided nothing (what the pose
+    says is no verdict): its largest displacement then, and the actions left undone."""
+    lines = []
+    if outcome.displacement:
+        brick, largest = max(outcome.displacement.items(), key=lambda item: item[1])
+        lines.append(
+            f"undecided: the run ended at t={outcome.simulated_time:.2f} s before its bricks came to rest "
+            f"(the largest displacement then {_mm(largest)}, {_brick(brick, levels.get(brick))}); "
+            "a longer timing.settle lets them come to rest before they are judged"
+        )
+    return lines + ([not_run_line(outcome)] if outcome.not_run else [])
+
+
+def _toppled_line(outcome: Outcome) -> str:
+    """Why ``toppled`` failed: the bricks that ended tilted past their tipping angle."""
+    return (
+        f"toppled: {len(outcome.toppled)} brick{'s' * (len(outcome.toppled) != 1)} ended tilted past "
+        f"{'its' if len(outcome.toppled) == 1 else 'their'} tipping angle: "
+        f"{', '.join(_short(list(outcome.toppled))) or 'none'}"
+    )
 
 
 def _collapse_line(outcome: Outcome, threshold: float, levels: dict[str, int | None]) -> str:

@@ -470,41 +470,14 @@ def _brick(
     of bricks at rest where placed (``sound``), what the stability model measured of it."""
     level = u.get("level")
     da, db = _displaced(u), _displaced(v)
-    if u.get("level", _MISSING) != v.get("level", _MISSING):
-        text = f"level {_said(u.get('level', _MISSING))} -> {_said(v.get('level', _MISSING))}"
-        out.differences.append(Difference(where, text, _VERDICT, brick=brick))
+    if _fate(out, where, brick, u, v, t, threshold, edge, da, db):
         return
-    if da is None or db is None or (_moved(u, threshold) and _moved(v, threshold)):  # debris, or thrown: chaos's
-        out.loose += 1
-        return
-    if _moved(u, threshold) != _moved(v, threshold):
-        now = "moved beyond the collapse threshold; it stood" if _moved(v, threshold) else "stands; it had moved"
-        standing = da if _moved(v, threshold) else db
-        # near what fell in the run where it stood, or knocked there too: past the threshold or just short is chaos's
-        if level in edge[0 if _moved(v, threshold) else 1] or standing > t.position_mm or _may_fall(brick, level, edge[2]):
-            out.chaos.append(f"{where}: {now} in the golden")
-            return
-        out.differences.append(Difference(where, f"{now} in the golden", _VERDICT, brick=brick, level=level))
-        return
+    assert da is not None and db is not None  # _fate decides debris, which has no displacement
     knocked = da + db  # mm: how far the two runs moved it, together
-    settled = brick not in unsettled
-    if u.get("state", _MISSING) != v.get("state", _MISSING):
-        text = f"state {_said(u.get('state', _MISSING))} -> {_said(v.get('state', _MISSING))}"
-        if settled:
-            out.differences.append(Difference(where, text, _VERDICT, brick=brick, level=level))
-        else:
-            out.chaos.append(f"{where}: {text} (knocked or tilted)")
+    _state(out, where, brick, u, v, level, settled=brick not in unsettled)
     _position(out, where, brick, u, v, t, level, knocked)
     _turn(out, where, brick, u, v, t, level, knocked)
-    if sound:
-        _com_above(out, where, brick, u, v, t, level)
-        p, q = u.get("mass_above_g", _MISSING), v.get("mass_above_g", _MISSING)
-        if p != q and _numbers(p, q):
-            _measured(out, f"{where} mass above", float(p), float(q), t.mass_g(max(p, q)), " g", brick, level)
-        elif p != q:
-            out.differences.append(Difference(where, f"mass above {_said(p)} -> {_said(q)}", _VERDICT, brick=brick))
-    elif any(u.get(k) != v.get(k) for k in ("com_above_mm", "mass_above_g")):
-        out.loose += 1
+    _loads_above(out, where, brick, u, v, t, level, sound)
     _supports(out, where, brick, u.get("rests_on", {}), v.get("rests_on", {}), t, level, sound)
     for name in dict.fromkeys([*u, *v]):
         if name in _BRICK_FIELDS:
@@ -512,6 +485,71 @@ def _brick(
         if u.get(name, _MISSING) != v.get(name, _MISSING):
             text = f"{name} {_said(u.get(name, _MISSING))} -> {_said(v.get(name, _MISSING))}"
             out.differences.append(Difference(where, text, _VERDICT, brick=brick, level=level))
+
+
+def _fate(
+    out: Comparison,
+    where: str,
+    brick: str,
+    u: dict[str, Any],
+    v: dict[str, Any],
+    t: Tolerances,
+    threshold: float,
+    edge: tuple[set[int], set[int], tuple[int | str, ...]],
+    da: float | None,
+    db: float | None,
+) -> bool:
+    """Whether the brick's level and fall already decide it (True: nothing more of it is
+    compared): another level, debris or thrown in both runs (loose), or moved beyond the
+    collapse threshold in one run only (``da``, ``db``: mm each run moved it), which is chaos's
+    at a fall's edge (``edge``) and a verdict difference elsewhere."""
+    level = u.get("level")
+    if u.get("level", _MISSING) != v.get("level", _MISSING):
+        text = f"level {_said(u.get('level', _MISSING))} -> {_said(v.get('level', _MISSING))}"
+        out.differences.append(Difference(where, text, _VERDICT, brick=brick))
+        return True
+    if da is None or db is None or (_moved(u, threshold) and _moved(v, threshold)):  # debris, or thrown: chaos's
+        out.loose += 1
+        return True
+    if _moved(u, threshold) == _moved(v, threshold):
+        return False
+    now = "moved beyond the collapse threshold; it stood" if _moved(v, threshold) else "stands; it had moved"
+    standing = da if _moved(v, threshold) else db
+    # near what fell in the run where it stood, or knocked there too: past the threshold or just short is chaos's
+    if level in edge[0 if _moved(v, threshold) else 1] or standing > t.position_mm or _may_fall(brick, level, edge[2]):
+        out.chaos.append(f"{where}: {now} in the golden")
+        return True
+    out.differences.append(Difference(where, f"{now} in the golden", _VERDICT, brick=brick, level=level))
+    return True
+
+
+def _state(out: Comparison, where: str, brick: str, u: dict[str, Any], v: dict[str, Any], level: Any, *, settled: bool) -> None:
+    """The brick's state exactly where it ``settled`` in both runs; elsewhere a knock or a tilt
+    can change it by chance."""
+    if u.get("state", _MISSING) == v.get("state", _MISSING):
+        return
+    text = f"state {_said(u.get('state', _MISSING))} -> {_said(v.get('state', _MISSING))}"
+    if settled:
+        out.differences.append(Difference(where, text, _VERDICT, brick=brick, level=level))
+    else:
+        out.chaos.append(f"{where}: {text} (knocked or tilted)")
+
+
+def _loads_above(
+    out: Comparison, where: str, brick: str, u: dict[str, Any], v: dict[str, Any], t: Tolerances, level: Any, sound: bool
+) -> None:
+    """The centre of mass and the mass above the brick, within tolerance where its loads are
+    ``sound``; loose elsewhere."""
+    if not sound:
+        if any(u.get(k) != v.get(k) for k in ("com_above_mm", "mass_above_g")):
+            out.loose += 1
+        return
+    _com_above(out, where, brick, u, v, t, level)
+    p, q = u.get("mass_above_g", _MISSING), v.get("mass_above_g", _MISSING)
+    if p != q and _numbers(p, q):
+        _measured(out, f"{where} mass above", float(p), float(q), t.mass_g(max(p, q)), " g", brick, level)
+    elif p != q:
+        out.differences.append(Difference(where, f"mass above {_said(p)} -> {_said(q)}", _VERDICT, brick=brick))
 
 
 _BRICK_FIELDS = ("level", "state", "position_mm", "quaternion_xyzw", "com_above_mm", "mass_above_g", "rests_on", "displaced_mm")
@@ -626,17 +664,25 @@ def _supports(out: Comparison, where: str, brick: str, a: Any, b: Any, t: Tolera
         if not (isinstance(u, dict) and isinstance(v, dict)):
             out.differences.append(Difference(where, f"rests on {s}: {_said(u)} -> {_said(v)}", _VERDICT, brick=brick))
             continue
-        p, q = u.get("area_mm2", _MISSING), v.get("area_mm2", _MISSING)
-        if p != q and _numbers(p, q):
-            side = min(math.sqrt(max(p, q)), t.width_mm)  # a contact's shorter side, at most a brick's width
-            _measured(out, f"{where} rests on {s}: area", float(p), float(q), t.area_mm2(max(p, q), side), " mm^2", brick, level)
-        elif p != q:
-            out.differences.append(Difference(where, f"rests on {s}: area {_said(p)} -> {_said(q)}", _VERDICT, brick=brick))
-        p, q = u.get("load_share", _MISSING), v.get("load_share", _MISSING)
-        if p != q and _numbers(p, q):
-            _measured(out, f"{where} rests on {s}: load share", float(p), float(q), t.load_share, "", brick, level)
-        elif p != q:
-            out.differences.append(Difference(where, f"rests on {s}: load share {_said(p)} -> {_said(q)}", _VERDICT, brick=brick))
+        _support(out, where, brick, s, u, v, t, level)
+
+
+def _support(
+    out: Comparison, where: str, brick: str, s: str, u: dict[str, Any], v: dict[str, Any], t: Tolerances, level: Any
+) -> None:
+    """One support ``s`` the brick rests on in both runs: its contact area (mm^2) and load share
+    within tolerance."""
+    p, q = u.get("area_mm2", _MISSING), v.get("area_mm2", _MISSING)
+    if p != q and _numbers(p, q):
+        side = min(math.sqrt(max(p, q)), t.width_mm)  # a contact's shorter side, at most a brick's width
+        _measured(out, f"{where} rests on {s}: area", float(p), float(q), t.area_mm2(max(p, q), side), " mm^2", brick, level)
+    elif p != q:
+        out.differences.append(Difference(where, f"rests on {s}: area {_said(p)} -> {_said(q)}", _VERDICT, brick=brick))
+    p, q = u.get("load_share", _MISSING), v.get("load_share", _MISSING)
+    if p != q and _numbers(p, q):
+        _measured(out, f"{where} rests on {s}: load share", float(p), float(q), t.load_share, "", brick, level)
+    elif p != q:
+        out.differences.append(Difference(where, f"rests on {s}: load share {_said(p)} -> {_said(q)}", _VERDICT, brick=brick))
 
 
 def _grouped(differences: list[Difference], t: Tolerances) -> list[str]:
@@ -646,57 +692,71 @@ def _grouped(differences: list[Difference], t: Tolerances) -> list[str]:
     said with it: ``final_graph left: levels 1-6 (12 bricks) moved by -6.0 mm in x, their
     centres of mass above with them``."""
     moved = {(d.where.split(" ", 1)[0], d.brick): d for d in differences if d.field == "position"}
-
-    def carried(d: Difference) -> bool:  # a centre of mass above that moved as its brick did
-        own = moved.get((d.where.split(" ", 1)[0], d.brick))
-        return (
-            d.field == "centre of mass above"
-            and own is not None
-            and d.delta is not None
-            and own.delta is not None
-            and float(np.linalg.norm(np.subtract(d.delta, own.delta))) <= t.position_mm
-        )
-
+    carried = [_carried(d, moved, t) for d in differences]
     lines: list[str] = []
     done: set[int] = set()
     for i, d in enumerate(differences):
-        if i in done or carried(d):
+        if i in done or carried[i]:
             continue
         if d.delta is None:
             lines.append(f"{d.where}: {d.text}")
             continue
-        graph = d.where.split(" ", 1)[0]
-        alike = [
-            j
-            for j, e in enumerate(differences)
-            if j not in done
-            and e.delta is not None
-            and e.field == d.field
-            and not carried(e)
-            and e.where.split(" ", 1)[0] == graph
-            and float(np.linalg.norm(np.subtract(e.delta, d.delta))) <= t.position_mm
-        ]
+        alike = _alike(differences, d, done, carried, t)
         done |= set(alike)
         group = [differences[j] for j in alike]
-        also = (
-            ", their centres of mass above with them"
-            if any(carried(e) for e in differences if e.brick in {g.brick for g in group})
-            else ""
-        )
-        if len(alike) == 1:
-            lines.append(f"{d.where}: {d.text}{also.replace('their centres', 'its centre').replace('them', 'it')}")
-            continue
-        mean = np.mean([g.delta for g in group if g.delta is not None], axis=0)
-        levels = sorted({g.level for g in group if g.level is not None})
-        parts = {g.brick.rsplit(".", 2)[0] for g in group if g.brick.count(".") >= 2}
-        part = f" {parts.pop()}" if len(parts) == 1 and all(g.brick.count(".") >= 2 for g in group) else ""
-        who = f"levels {_spans(levels)}" if len(levels) > 1 else f"level {levels[0]}" if levels else "bricks"
-        what = "" if d.field == "position" else f"{d.field} of "
-        lines.append(
-            f"{graph}{part}: {what}{who} ({len(group)} bricks) moved by {_direction(mean, t.position_mm)} "
-            f"(tolerance {_num(t.position_mm)} mm){also}"
-        )
+        bricks = {g.brick for g in group}
+        lines.append(_group_line(d, group, any(c and e.brick in bricks for e, c in zip(differences, carried)), t))
     return lines
+
+
+def _carried(d: Difference, moved: Mapping[tuple[str, str], Difference], t: Tolerances) -> bool:
+    """Whether ``d`` is a centre of mass above that moved as its brick did (within the position
+    tolerance of its brick's move in ``moved``, by graph and brick)."""
+    own = moved.get((d.where.split(" ", 1)[0], d.brick))
+    return (
+        d.field == "centre of mass above"
+        and own is not None
+        and d.delta is not None
+        and own.delta is not None
+        and float(np.linalg.norm(np.subtract(d.delta, own.delta))) <= t.position_mm
+    )
+
+
+def _alike(differences: list[Difference], d: Difference, done: set[int], carried: list[bool], t: Tolerances) -> list[int]:
+    """The indices of the differences not yet said (``done``) and not ``carried`` that moved as
+    ``d`` did: the same field of the same graph, within the position tolerance of ``d``'s move."""
+    assert d.delta is not None  # the caller says a difference without a move on its own line
+    graph = d.where.split(" ", 1)[0]
+    return [
+        j
+        for j, e in enumerate(differences)
+        if j not in done
+        and e.delta is not None
+        and e.field == d.field
+        and not carried[j]
+        and e.where.split(" ", 1)[0] == graph
+        and float(np.linalg.norm(np.subtract(e.delta, d.delta))) <= t.position_mm
+    ]
+
+
+def _group_line(d: Difference, group: list[Difference], with_them: bool, t: Tolerances) -> str:
+    """The line for the bricks of ``group`` (``d`` first) that moved alike: ``d``'s own line for
+    one brick, else their levels (or part) and count with their mean move; ``with_them``: their
+    centres of mass above moved with them."""
+    also = ", their centres of mass above with them" if with_them else ""
+    if len(group) == 1:
+        return f"{d.where}: {d.text}{also.replace('their centres', 'its centre').replace('them', 'it')}"
+    graph = d.where.split(" ", 1)[0]
+    mean = np.mean([g.delta for g in group if g.delta is not None], axis=0)
+    levels = sorted({g.level for g in group if g.level is not None})
+    parts = {g.brick.rsplit(".", 2)[0] for g in group if g.brick.count(".") >= 2}
+    part = f" {parts.pop()}" if len(parts) == 1 and all(g.brick.count(".") >= 2 for g in group) else ""
+    who = f"levels {_spans(levels)}" if len(levels) > 1 else f"level {levels[0]}" if levels else "bricks"
+    what = "" if d.field == "position" else f"{d.field} of "
+    return (
+        f"{graph}{part}: {what}{who} ({len(group)} bricks) moved by {_direction(mean, t.position_mm)} "
+        f"(tolerance {_num(t.position_mm)} mm){also}"
+    )
 
 
 def _spans(levels: list[int]) -> str:

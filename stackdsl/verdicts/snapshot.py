@@ -143,19 +143,31 @@ def _changes(where: str, a: Any, b: Any) -> list[tuple[str, str]]:
 
 
 def _list_changes(where: str, a: list[Any], b: list[Any]) -> list[tuple[str, str]]:
+    """The changes from list ``a`` to list ``b`` at ``where``: the ids that came and went, a
+    length that changed, or each element that differs (counted when many scalars do)."""
     if (a or b) and all(isinstance(x, str) for x in (*a, *b)) and set(a) != set(b):  # ids: what came and went
-        gone, came = [x for x in a if x not in b], [x for x in b if x not in a]
-        said = ([f"added {_ids(came)}"] if came else []) + ([f"removed {_ids(gone)}"] if gone else [])
-        return [(where, "; ".join(said))]
+        return [(where, _came_and_went(a, b))]
     if len(a) != len(b):
-        if len(_text(a)) + len(_text(b)) > 2 * _WIDTH:
-            return [(where, f"{len(a)} -> {len(b)} items")]
-        return [(where, _pair(a, b))]
+        return [(where, _resized(a, b))]
     changed = [i for i, (u, v) in enumerate(zip(a, b)) if not _same(u, v)]
     if all(_scalar(u) and _scalar(v) for u, v in zip(a, b)) and len(changed) > _ELEMENTS_SHOWN:
         first = ", ".join(f"[{i}] {_pair(a[i], b[i])}" for i in changed[:_ELEMENTS_SHOWN])
         return [(where, f"{len(changed)} of {len(a)} differ ({first}, ...)")]
     return [change for i in changed for change in _changes(f"{where}[{i}]", a[i], b[i])]
+
+
+def _came_and_went(a: list[str], b: list[str]) -> str:
+    """``'added L03.1; removed L01.2'``: the ids of ``b`` not in ``a``, and of ``a`` not in ``b``."""
+    gone, came = [x for x in a if x not in b], [x for x in b if x not in a]
+    said = ([f"added {_ids(came)}"] if came else []) + ([f"removed {_ids(gone)}"] if gone else [])
+    return "; ".join(said)
+
+
+def _resized(a: list[Any], b: list[Any]) -> str:
+    """A list whose length changed: both whole when short, else their lengths alone."""
+    if len(_text(a)) + len(_text(b)) > 2 * _WIDTH:
+        return f"{len(a)} -> {len(b)} items"
+    return _pair(a, b)
 
 
 def _ids(ids: list[str]) -> str:

@@ -169,10 +169,15 @@ def project_tolerance(pyproject: str | Path) -> GoldenTolerance | None:
         table: Any = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"not TOML: {exc}", file=str(path)) from None
-    for key in PROJECT_TABLE:
-        if not isinstance(table, dict) or key not in table:
+    for depth, key in enumerate(PROJECT_TABLE):
+        if not isinstance(table, dict) or key not in table:  # 'tool' is every tool's: not ours to judge
             return None
         table = table[key]
+        here = ".".join(PROJECT_TABLE[: depth + 1])
+        if depth + 1 < len(PROJECT_TABLE) and depth >= 1 and not isinstance(table, dict):  # tool.stackdsl = 3
+            raise ScenarioError(f"{here}: expected a table, got {type(table).__name__} {table!r:.40}", file=str(path))
+        if here == "tool.stackdsl.golden" and set(table) - {"tolerance"}:  # a misspelt tolerance table is not ignored
+            raise ScenarioError(f"{here}.{sorted(set(table) - {'tolerance'})[0]}: unknown key; known: tolerance", file=str(path))
     where = ".".join(PROJECT_TABLE)
     if not isinstance(table, dict):
         raise ScenarioError(f"{where}: expected a table of tolerances", file=str(path))

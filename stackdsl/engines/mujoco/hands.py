@@ -237,50 +237,66 @@ class Hands:
         n, hands = d.ncon, self.holding()
         if n == 0 or not hands:
             return False
-        contact = d.contact
         own = {int(free_geom[b - 1]): b for b in hands}
-        geoms = contact.geom[:n]
-        mine = np.isin(geoms, list(own)).any(axis=1) & (contact.exclude[:n] <= 1)  # acted on, or in a gap
-        if not mine.any():
-            return False
-        struck: dict[tuple[int, int], list[tuple[int, float]]] = {}
-        for k in np.flatnonzero(mine).tolist():
-            g1, g2 = (int(g) for g in contact.geom[k])
-            if (g1 in own) == (g2 in own):
-                continue  # no hand, or two hands
-            hand, other, sign = (own[g1], g2, 1.0) if g1 in own else (own[g2], g1, -1.0)
-            body = int(geom_body[other])
-            if body == 0 or frozen[body - 1] or other != free_geom[body - 1]:
-                continue  # the ground, or a frozen brick: static
-            struck.setdefault((hand, body), []).append((k, sign))
-        step = float(m.opt.timestep)
+        struck = _contacts_struck(d.contact, n, own, frozen, free_geom, geom_body)
         changed = False
         for (hand, body), found in struck.items():
-            rows = [k for k, _ in found]
-            point = contact.pos[rows].mean(axis=0)
-            normal = (contact.frame[rows, :3] * np.array([sign for _, sign in found])[:, None]).sum(axis=0)
-            normal /= np.linalg.norm(normal)  # from the hand into the brick
-            gap = float(contact.dist[rows].min())
-            mu = float(contact.friction[rows, 0].max())
-            at_brick, at_hand = np.zeros((3, m.nv)), np.zeros((3, m.nv))
-            self._mj.mj_jac(m, d, at_brick, None, point, int(m.geom_bodyid[free_geom[body - 1]]))
-            self._mj.mj_jac(m, d, at_hand, None, point, int(m.geom_bodyid[free_geom[hand - 1]]))
-            relative = (at_hand - at_brick) @ d.qvel  # the hand's point's velocity on the brick's
-            closing = float(relative @ normal)
-            if closing <= 0.0 or gap >= closing * step or (gap <= 0.0 and closing <= BLOW_SPEED):
-                continue  # parting, or not meeting within this step
-            mobility = np.zeros((3, m.nv))
-            self._mj.mj_solveM(m, d, mobility, at_brick)  # rows: M^-1 times each row of the Jacobian
-            k_matrix = at_brick @ mobility.T  # velocity of the brick's point per unit impulse there
-            share = 1.0 - max(0.0, gap) / (closing * step)  # of the step after they touch
-            impulse = np.linalg.solve(k_matrix, share * relative)  # the point moves with the hand's
-            normal_part = float(impulse @ normal)
-            if np.linalg.norm(impulse - normal_part * normal) > mu * normal_part:  # slides on the hand
-                slip = relative - closing * normal
-                length = float(np.linalg.norm(slip))
-                direction = normal + (mu * slip / length if length > 1e-12 else 0.0)
-                impulse = direction * (share * closing / float(normal @ k_matrix @ direction))
-            d.qvel[:] += mobility.T @ impulse
-            self.struck.add(body)
-            changed = True
+            if self._strike(m, d, hand, body, found, free_geom):
+                self.struck.add(body)
+                changed = True
         return changed
+
+    def _strike(self, m: Any, d: Any, hand: int, body: int, found: list[tuple[int, float]], free_geom: np.ndarray) -> bool:
+        """Hand ``hand`` strikes brick ``body`` at the contacts ``found`` (their indices in
+        ``d.contact``, each with the sign that turns its normal from the hand into the brick), if
+        they meet within this step: the brick's velocity changes in ``d.qvel`` by the impulse that
+        moves its point with the hand's (inelastic), or by Coulomb's limit when that would slide
+        on the hand; returns whether it did."""
+        contact, step = d.contact, float(m.opt.timestep)
+        rows = [k for k, _ in found]
+        point = contact.pos[rows].mean(axis=0)
+        normal = (contact.frame[rows, :3] * np.array([sign for _, sign in found])[:, None]).sum(axis=0)
+        normal /= np.linalg.norm(normal)  # from the hand into the brick
+        gap = float(contact.dist[rows].min())
+        mu = float(contact.friction[rows, 0].max())
+        at_brick, at_hand = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+        self._mj.mj_jac(m, d, at_brick, None, point, int(m.geom_bodyid[free_geom[body - 1]]))
+        self._mj.mj_jac(m, d, at_hand, None, point, int(m.geom_bodyid[free_geom[hand - 1]]))
+        relative = (at_hand - at_brick) @ d.qvel  # the hand's point's velocity on the brick's
+        closing = float(relative @ normal)
+        if closing <= 0.0 or gap >= closing * step or (gap <= 0.0 and closing <= BLOW_SPEED):
+            return False  # parting, or not meeting within this step
+        mobility = np.zeros((3, m.nv))
+        self._mj.mj_solveM(m, d, mobility, at_brick)  # rows: M^-1 times each row of the Jacobian
+        k_matrix = at_brick @ mobility.T  # velocity of the brick's point per unit impulse there
+        share = 1.0 - max(0.0, gap) / (closing * step)  # of the step after they touch
+        impulse = np.linalg.solve(k_matrix, share * relative)  # the point moves with the hand's
+        normal_part = float(impulse @ normal)
+        if np.linalg.norm(impulse - normal_part * normal) > mu * normal_part:  # slides on the hand
+            slip = relative - closing * normal
+            length = float(np.linalg.norm(slip))
+            direction = normal + (mu * slip / length if length > 1e-12 else 0.0)
+            impulse = direction * (share * closing / float(normal @ k_matrix @ direction))
+        d.qvel[:] += mobility.T @ impulse
+        return True
+
+
+def _contacts_struck(
+    contact: Any, n: int, own: dict[int, int], frozen: np.ndarray, free_geom: np.ndarray, geom_body: np.ndarray
+) -> dict[tuple[int, int], list[tuple[int, float]]]:
+    """The contacts among MuJoCo's first ``n`` (acted on, or in a hand's gap) between a hand (a geom
+    of ``own``, mapped to its body) and a free brick that is not frozen, grouped by (hand, brick)
+    body: each contact's index with the sign that turns its normal from the hand into the brick."""
+    geoms = contact.geom[:n]
+    mine = np.isin(geoms, list(own)).any(axis=1) & (contact.exclude[:n] <= 1)  # acted on, or in a gap
+    struck: dict[tuple[int, int], list[tuple[int, float]]] = {}
+    for k in np.flatnonzero(mine).tolist():
+        g1, g2 = (int(g) for g in contact.geom[k])
+        if (g1 in own) == (g2 in own):
+            continue  # no hand, or two hands
+        hand, other, sign = (own[g1], g2, 1.0) if g1 in own else (own[g2], g1, -1.0)
+        body = int(geom_body[other])
+        if body == 0 or frozen[body - 1] or other != free_geom[body - 1]:
+            continue  # the ground, or a frozen brick: static
+        struck.setdefault((hand, body), []).append((k, sign))
+    return struck

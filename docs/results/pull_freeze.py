@@ -1,0 +1,79 @@
+"""What keeping the bricks a pull slides between frozen changes: drag and wall time, per setting.
+
+Runs one scenario file in each setting named, one after the other in this process (so that
+both sides of a ratio run under the same load), and prints a line each: the collapse, the
+largest distance (mm) a brick above ``LEVEL`` ended from where it was placed, the largest of
+any standing brick (drift), the wall time of the run, the time in the engine's steps and the
+steps taken. Settings:
+
+* ``ext``: the extension on pybullet (a proved pull moves its brick alone: stability/_drag.py);
+* ``ext-woken``: the same with every proof refused (the drag held to an impossible safety
+  factor): what rests on a pulled brick and the blocks beside it wake, as before the proof;
+* ``ext-mj``: the extension on MuJoCo;
+* ``tuned-pb``, ``raw-pb``: pybullet tuned (1 kHz, friction anchors, 150 solver iterations), raw;
+* ``tuned-mj``: MuJoCo tuned, with its own sleeping at tolerance 1e-4;
+* ``raw-1920``, ``ext-1920``: pybullet raw, the extension, at a 1/1920 s timestep.
+
+    python docs/results/pull_freeze.py FILE SETTING[,SETTING...] [LEVEL]
+    # LEVEL: the pulled brick's level (default 5); the load average is printed first
+
+Output: docs/results/actions-freeze.md.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+
+import stability._drag as drag
+from stackdsl import compile_scenario, parse_scenario, run_program
+
+
+def setting(name: str, text: str) -> tuple[str, str, str, float]:
+    """The scenario text, mode, backend and drag safety factor of a setting's name."""
+    mode, backend, safety = "extension", "pybullet", drag.DRAG_SAFETY
+    engine = {
+        "tuned-mj": "{backend: mujoco, sleep_tolerance: 0.0001}",
+        "raw-1920": "{timestep: 1/1920 s}",
+        "ext-1920": "{timestep: 1/1920 s}",
+    }.get(name)
+    if engine is not None:
+        text = text.replace("structure:", f"engine: {engine}\nstructure:", 1)
+    if name == "ext-woken":
+        safety = 1e9
+    elif name in ("tuned-pb", "tuned-mj"):
+        mode = "tuned"
+    elif name in ("raw-pb", "raw-1920"):
+        mode = "raw"
+    if name in ("ext-mj", "tuned-mj"):
+        backend = "mujoco"
+    return text, mode, backend, safety
+
+
+def main(path: str, names: list[str], level: int) -> None:
+    """Run ``path`` in each setting of ``names`` and print a line each."""
+    base = open(path, encoding="utf-8").read()
+    print(f"{path}: load average {os.getloadavg()[0]:.1f}", flush=True)
+    for name in names:
+        text, mode, backend, safety = setting(name, base)
+        kept, drag.DRAG_SAFETY = drag.DRAG_SAFETY, safety
+        try:
+            program = compile_scenario(parse_scenario(text, path), mode, None, backend)
+            started = time.perf_counter()
+            out = run_program(program)
+            wall = time.perf_counter() - started
+        finally:
+            drag.DRAG_SAFETY = kept
+        above = {b: d for b, d in out.displacement.items() if b[:1] == "L" and int(b[1:3]) > level}
+        brick, most = max(above.items(), key=lambda bd: bd[1]) if above else ("-", 0.0)
+        collapse = out.collapse.level if out.collapse else None
+        print(
+            f"{name:9s} collapse {collapse}  above {most * 1000:5.2f} mm ({brick})  drift {out.drift * 1000:5.2f} mm  "
+            f"wall {wall:6.2f} s  engine {out.engine_time:6.2f} s  {out.steps} steps",
+            flush=True,
+        )
+
+
+if __name__ == "__main__":
+    main(sys.argv[1], sys.argv[2].split(","), int(sys.argv[3]) if len(sys.argv) > 3 else 5)

@@ -1,0 +1,143 @@
+"""``stackdsl bench pulls``: the sweep of Jenga pulls (``sweeps/jenga_pulls.yaml``), samples a second
+with the extension against the lean MuJoCo peer over the same draws.
+
+The extension runs the sweep as ``stackdsl sweep`` runs it (:func:`stackdsl.batch.sweep.run_sweep`,
+``jobs`` processes, the file's own engine); the peer runs the same samples (each cell's sample k of
+the same template, the same draws) compiled for tuned MuJoCo with its own sleeping at
+:data:`stackdsl.bench.actions.PEER_SLEEP_TOLERANCE` in its own loop
+(:func:`stackdsl.bench.lean_mujoco.run_lean`), in as many processes. Each side's processes are
+fresh (spawned) and run a one-level tower first, untimed; the wall time of a side is from
+handing out the first sample to the last result. The two sides' verdicts (the collapse level,
+None: stands) are compared sample by sample.
+
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..batch.guard import SPAWN
+from ..compile.program import Program
+from ..lang.loader import load_scenario
+from ..lang.sampling import Template
+
+#: The shipped sweep the bench runs by default.
+SWEEP = Path("sweeps/jenga_pulls.yaml")
+
+
+@dataclass(frozen=True)
+class Side:
+    """One side's run of the samples: wall seconds, and each sample's collapse level (None: stood)."""
+
+    name: str
+    seconds: float
+    levels: tuple[int | None, ...]
+
+    @property
+    def rate(self) -> float:
+        """Samples a second."""
+        return len(self.levels) / self.seconds if self.seconds > 0 else 0.0
+
+
+def template(path: Path = SWEEP, samples: int | None = None) -> Template:
+    """The sweep's template, with ``samples`` samples (None: the file's own).
+
+    Raises:
+        ScenarioError: the file is not a valid sweep.
+    """
+    from ..lang.errors import ScenarioError
+
+    scenario = load_scenario(path)
+    if scenario.template is None:
+        raise ScenarioError("this scenario has no sweep and no random field: nothing to sample", file=str(path))
+    t: Template = scenario.template
+    return t if samples is None else t.with_samples(samples)
+
+
+def _warm(_: int) -> None:
+    """A worker's untimed first run: a one-level tower on each side."""
+    from ..compile.compiler import compile_scenario
+    from ..lang.loader import parse_scenario
+    from ..runtime.run import run_program
+    from .bench import LEAN_TOLERANCE
+    from .lean_mujoco import run_lean
+
+    text = "stackdsl: 1\nstructure: {tower: {levels: 1}}\n"
+    run_program(compile_scenario(parse_scenario(text, "warm-up.yaml")))
+    run_lean(
+        _peer_program(compile_scenario(parse_scenario(text, "warm-up.yaml"), mode="tuned", backend="mujoco")),
+        tolerance=LEAN_TOLERANCE,
+    )
+
+
+def _peer_program(program: Program) -> Program:
+    """``program`` with MuJoCo's own sleeping at the peer's tolerance."""
+    from .actions import PEER_SLEEP_TOLERANCE
+
+    return program.model_copy(update={"engine": program.engine.model_copy(update={"sleep_tolerance": PEER_SLEEP_TOLERANCE})})
+
+
+def _extension(arguments: tuple[Template, int, Sequence[int]]) -> list[int | None]:
+    from ..batch.sweep import SweepOptions, run_batch
+
+    t, cell, samples = arguments
+    return [r.collapse_level for r in run_batch(t, cell, samples, SweepOptions(timeout=None))]
+
+
+def _peer(arguments: tuple[Template, int, Sequence[int]]) -> list[int | None]:
+    from ..compile.compiler import compile_scenario
+    from .bench import LEAN_TOLERANCE
+    from .lean_mujoco import run_lean
+
+    t, cell, samples = arguments
+    out = []
+    for k in samples:
+        program = _peer_program(compile_scenario(t.scenario(cell, k), mode="tuned", backend="mujoco"))
+        out.append(run_lean(program, tolerance=LEAN_TOLERANCE, settle=None).level)
+    return out
+
+
+def run_sides(t: Template, jobs: int = 1, batch: int = 5, cells: int | None = None) -> list[Side]:
+    """Run every sample of ``t`` (each grid cell's) with the extension (as ``stackdsl sweep``
+    does) and with the lean peer, each on ``jobs`` fresh processes (batches of at most ``batch``
+    samples of a cell), one side after the other, the first ``cells`` grid cells only when given;
+    see the module's description."""
+    samples = list(range(t.samples))
+    chunks = [(c, samples[i : i + batch]) for c in range(min(t.cells, cells or t.cells)) for i in range(0, len(samples), batch)]
+    sides = []
+    for name, work in (("extension", _extension), ("MuJoCo lean", _peer)):
+        with SPAWN.Pool(processes=jobs) as pool:
+            pool.map(_warm, range(jobs), chunksize=1)  # each worker's first calls, untimed (one each, as likely as not)
+            start = time.perf_counter()
+            results = pool.map(work, [(t, c, k) for c, k in chunks], chunksize=1)
+            seconds = time.perf_counter() - start
+        sides.append(Side(name, seconds, tuple(level for r in results for level in r)))
+    return sides
+
+
+def format_sides(sides: Sequence[Side], t: Template, jobs: int, cells: int | None = None) -> str:
+    """A Markdown table of :func:`run_sides`: each side's wall time, samples a second, how many
+    stood, and the agreement of the verdicts sample by sample."""
+    name = t.data.get("name", "sweep")
+    ran = min(t.cells, cells or t.cells)
+    lines = [
+        f"{name}: {ran * t.samples} samples ({ran} of {t.cells} cells x {t.samples}; the same draws on each side), "
+        f"{jobs} process(es) a side:",
+        "",
+        "| side | wall (s) | samples/s | stood | peer / this |",
+        "|---|---:|---:|---:|---:|",
+    ]
+    peer = next((s for s in sides if s.name == "MuJoCo lean"), None)
+    for s in sides:
+        ratio = f"{peer.seconds / s.seconds:.1f}" if peer is not None and s is not peer and s.seconds > 0 else ""
+        stood = sum(level is None for level in s.levels)
+        lines.append(f"| {s.name} | {s.seconds:.1f} | {s.rate:.2f} | {stood} of {len(s.levels)} | {ratio} |")
+    if len(sides) == 2:
+        a, b = sides
+        same = sum((x is None) == (y is None) for x, y in zip(a.levels, b.levels))
+        lines += ["", f"stands or falls alike on {same} of {len(a.levels)} samples"]
+    return "\n".join(lines)

@@ -1,0 +1,160 @@
+"""The actions bench: the lean MuJoCo peer driving the hands (a pull, a push, a shake table), its
+verdicts against a scene's expectations, the cells timed alike, the folder's check and the sweep
+of Jenga pulls against the peer."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("mujoco")
+
+from stackdsl.bench.actions import (
+    Cell,
+    Run,
+    Scene,
+    action_scenes,
+    domino_row,
+    format_cells,
+    peer_verdicts,
+    program_for,
+    run_cells,
+    tiny_scenes,
+)
+from stackdsl.bench.lean import LeanOutcome, tipped
+from stackdsl.bench.lean_mujoco import _sink, mjcf, run_lean
+from stackdsl.lang.loader import parse_scenario
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def tiny(name: str) -> Scene:
+    return next(s for s in tiny_scenes() if s.name == name)
+
+
+def test_the_family_is_the_shipped_scenes_and_those_written_like_them():
+    scenes = action_scenes(ROOT / "scenarios")
+    assert [s.name for s in scenes] == [
+        "Jenga 12 stands",
+        "Jenga 12 falls",
+        "Jenga 18 stands",
+        "Jenga 18 falls",
+        "30 dominoes",
+        "120 dominoes",
+        "shake below",
+        "shake above",
+    ]
+    taller = parse_scenario(scenes[2].text, "t.yaml")
+    assert taller.structure.tower.levels == 18 and taller.expect.stands
+    row = parse_scenario(domino_row(120), "row.yaml")
+    assert len(row.structure.bricks) == 120 and row.expect.toppled.count == "all"
+
+
+def test_the_peers_mjcf_has_the_hands_and_the_table():
+    pushed = mjcf(program_for(tiny("4 dominoes").text, "t.yaml", "MuJoCo lean"))
+    assert pushed.count("<freejoint/>") == 5 and 'gravcomp="1"' in pushed  # 4 dominoes and the finger
+    shaken = mjcf(program_for(tiny("tiny shake").text, "t.yaml", "MuJoCo lean"), tolerance=1e-10)
+    assert 'name="table"' in shaken and shaken.count('type="slide"') == 2 and 'tolerance="1e-10"' in shaken
+
+
+def test_the_peer_pushes_a_row_over_and_pulls_a_block_out():
+    row = program_for(tiny("4 dominoes").text, "t.yaml", "MuJoCo lean")
+    pushed = run_lean(row, settle=None)
+    assert len(pushed.toppled) == 4 and pushed.level == 1
+    assert peer_verdicts(parse_scenario(tiny("4 dominoes").text, "t.yaml").expect, row, pushed) == (True, "4 of 4 toppled")
+    jenga = program_for(tiny("tiny Jenga").text, "t.yaml", "MuJoCo lean")
+    pulled = run_lean(jenga, settle=None)
+    assert pulled.removed == ("L02.1",) and "L02.1" not in pulled.moved  # out of the scene, not judged
+    assert len(pulled.moved) == 14
+
+
+def test_the_shake_table_carries_the_stack_and_comes_back():
+    shake = program_for(tiny("tiny shake").text, "t.yaml", "MuJoCo lean")
+    lean = run_lean(shake, settle=None)
+    assert lean.level is None and max(lean.moved.values()) < shake.collapse_threshold
+    assert lean.simulated == pytest.approx(shake.duration, abs=0.02)
+
+
+def test_a_brick_is_let_go_above_the_actual_top_of_what_it_rests_on():
+    low = np.array([[0.0, 0.0, 0.0], [0.5, 0.0, 0.0], [0.0, 0.0, 0.008]])
+    high = np.array([[0.12, 0.024, 0.008], [0.62, 0.024, 0.008], [0.12, 0.024, 0.016]])
+    tops = np.array([0.0075, 0.0060])  # the first has sunk 0.5 mm; the second is not under the third
+    assert _sink(2, low, high, tops, set()) == pytest.approx(0.0005)
+    assert _sink(2, low, high, tops, {0}) == 0.0  # pulled out: nothing under it
+    assert _sink(0, low, high, tops, set()) == 0.0
+
+
+def test_tipped_is_past_the_tipping_angle():
+    half = np.array([[0.004, 0.012, 0.06]] * 2)  # a domino on end
+    up, fallen = np.eye(3), np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])
+    assert tipped(half, np.stack([up, up]), np.stack([up, fallen])).tolist() == [False, True]
+
+
+def test_the_peers_verdicts_follow_the_expectations():
+    text = "stackdsl: 1\nstructure: {tower: {levels: 3}}\nexpect: {collapse: 3, stays: 1-2}\n"
+    program = program_for(text, "t.yaml", "MuJoCo lean")
+    expect = parse_scenario(text, "t.yaml").expect
+    ids = [p.id for p in program.placements]
+    still = {b: 0.0 for b in ids}
+    fell = LeanOutcome(3, 1.0, 0.5, 3.0, 100, moved={**still, ids[-1]: 0.05})
+    assert peer_verdicts(expect, program, fell) == (True, "collapse at level 3")
+    early = LeanOutcome(2, 1.0, 0.5, 3.0, 100, moved={**still, ids[0]: 0.05})
+    passed, words = peer_verdicts(expect, program, early)
+    assert not passed and "collapse: collapse at level 2" in words and "stays: 1 bricks of levels 1 moved" in words
+
+
+def test_the_table_marks_a_side_that_disagrees_and_says_how_it_was_timed():
+    cells = [
+        Cell("s", "extension", 0.5, (0.4, 0.5, 0.6), True, "stands", True),
+        Cell("s", "MuJoCo lean", 5.0, (5.0, 5.0, 5.1), False, "stands: collapse at level 3", True),
+    ]
+    table = format_cells(cells, 3, reference="extension")
+    assert "| s | extension | PASS: stands | 0.50 | 0.40 0.50 0.60 | 10.0 |" in table
+    assert "FAIL (disagrees with the expectation): stands: collapse at level 3" in table
+    assert "3 run(s) in rounds, each in a fresh process" in table
+
+
+def test_a_cell_runs_in_a_fresh_process_on_each_side():
+    seen: list[Run] = []
+    cells = run_cells([tiny("4 dominoes")], ["extension", "MuJoCo lean"], repeats=1, jobs=2, progress=seen.append)
+    assert len(seen) == 2 and [c.side for c in cells] == ["extension", "MuJoCo lean"]
+    assert all(c.passed and c.wall > 0 and len(c.walls) == 1 for c in cells), cells
+
+
+@pytest.mark.slow
+def test_the_cli_runs_the_quick_family_and_the_pulls(tmp_path, capsys, monkeypatch):
+    from stackdsl.cli.main import main
+
+    monkeypatch.chdir(ROOT)
+    assert main(["bench", "actions", "--quick", "--repeats", "1", "--sides", "extension,MuJoCo lean"]) == 0
+    out = capsys.readouterr().out
+    rows = [line for line in out.splitlines() if line.startswith("| tiny") or line.startswith("| 4 dominoes")]
+    assert len(rows) == 6 and all("| PASS" in r or "| FAIL (disagrees" in r for r in rows)
+    assert sum("| extension | PASS" in r for r in rows) == 3  # the reference meets every expectation
+    assert "fresh process" in out and "load average" in out
+    sweep = tmp_path / "pulls.yaml"
+    sweep.write_text(
+        (ROOT / "sweeps/jenga_pulls.yaml")
+        .read_text()
+        .replace("levels: 12", "levels: 4")
+        .replace("level 12", "level 4")
+        .replace("L05.2", "L02.2"),
+        encoding="utf-8",
+    )
+    text = sweep.read_text()
+    sweep.write_text(text[: text.index("  grid:")] + "expect:\n  p_stands: '>= 0.9'\n", encoding="utf-8")
+    assert main(["bench", "pulls", str(sweep), "--samples", "2"]) == 0
+    out = capsys.readouterr().out
+    assert "| extension |" in out and "| MuJoCo lean |" in out and "alike on" in out
+
+
+@pytest.mark.slow
+def test_the_folder_bench_times_the_check(tmp_path):
+    from stackdsl.bench.actions import check_times
+
+    (tmp_path / "t.yaml").write_text("stackdsl: 1\nstructure: {tower: {levels: 2}}\nexpect: {stands: true}\n", encoding="utf-8")
+    (one, auto) = check_times(tmp_path, ("1", "auto"), repeats=1)
+    assert one.exit_code == auto.exit_code == 0 and one.wall > 0 and auto.jobs == "auto"
+    assert one.summary.startswith("1 scenarios: 1 passed")

@@ -1,0 +1,115 @@
+"""A pull that keeps the frozen bricks it slides between frozen (stability._drag): the drag proof
+and what it does to a run."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from shapely.geometry import box
+
+from stability import ContactArea
+from stability._drag import DRAG_SAFETY, drag_held
+from stackdsl import compile_scenario, parse_scenario, run_program
+
+G = 9.81
+UP = np.array([0.0, 0.0, 1.0])
+
+
+def patch(x: float, y: float, half: float = 0.0125) -> ContactArea:
+    return ContactArea(box(x - half, y - half, x + half, y + half), 0.0, UP, True)
+
+
+def level_on(ys: list[float], mass: float, mu: float, drag: float, at_y: float) -> bool:
+    """A brick lying across blocks at ``ys`` (equal shares of ``mass``), dragged along x at y = ``at_y``."""
+    supports = {i: patch(0.0, y) for i, y in enumerate(ys)}
+    loads = {i: (mass / len(ys), np.array([0.0, y, 0.0])) for i, y in enumerate(ys)}
+    return drag_held(supports, loads, dict.fromkeys(supports, mu), np.array([drag, 0.0]), np.array([0.0, at_y]), G)
+
+
+@pytest.mark.parametrize(("factor", "held"), [(0.95, True), (1.05, False)])
+def test_a_drag_through_the_supports_centre_is_held_up_to_their_friction(factor, held):
+    mass, mu = 0.3, 0.4
+    assert level_on([-0.025, 0.025], mass, mu, factor * mu * mass * G, 0.0) is held
+
+
+def test_a_middle_pull_is_held_with_the_safety_and_a_side_pull_is_not_for_the_twist():
+    """A Jenga level on three blocks, a third of its weight on each: pulled from the middle, the
+    two side blocks hold its drag twice over; pulled from a side, the drag acts 25 mm off the
+    centre line and the two blocks left (each of which could hold it alone by force) cannot
+    hold the twist as well (docs/actions.md: a near tie by point contacts)."""
+    mass, mu = 0.3, 0.4
+    drag = mu * mass / 3 * G
+    assert level_on([-0.025, 0.025], 2 * mass / 3, mu, DRAG_SAFETY * drag, 0.0)
+    assert not level_on([-0.025, 0.0], 2 * mass / 3, mu, drag, 0.025)
+
+
+JENGA = """stackdsl: 1
+materials: {maple: {density: 700 kg/m^3, friction: 0.4}}
+brick_types: {jenga: {size: [75 mm, 25 mm, 15 mm], material: maple}}
+ground: {material: maple}
+structure: {tower: {levels: 4, bricks_per_layer: 3, spacing: 25.5 mm, turn: 90, brick: jenga}}
+timing: {interval: 0.2 s, settle: 0.5 s}
+actions:
+  - remove: {brick: BRICK, at: after level 4, speed: 40 mm/s}
+expect: {stands: true}
+"""
+
+
+@pytest.mark.parametrize(("brick", "alone"), [("L02.2", True), pytest.param("L02.3", False, marks=pytest.mark.slow)])
+def test_a_proved_pull_moves_its_brick_alone_and_a_side_pull_wakes_the_level_it_drags(brick, alone):
+    """The middle block of level 2 slides out of a frozen tower: statics holds the levels without
+    it and against its drag, and nothing else wakes; a side block's drag twists the level above
+    beyond what the two blocks left hold, and that level wakes with what it carries (under two
+    levels only, the engine drags it past the collapse threshold: a near tie, docs/actions.md)."""
+    outcome = run_program(compile_scenario(parse_scenario(JENGA.replace("BRICK", brick), "pull.yaml")))
+    pull = next(e.time for e in outcome.events if e.kind == "remove")
+    woken = {e.brick for e in outcome.events if e.kind == "wake" and e.time >= pull} - {brick}
+    assert (woken == set()) is alone, woken
+    assert outcome.collapse is None or not alone
+    if not alone:
+        assert {"L03.1", "L03.2", "L03.3"} <= woken
+
+
+def level_over_three_blocks():
+    """A fake world: three blocks on the ground along x, 30 mm apart, and one block across them."""
+    from stability import Box, FakeEngine, Plane, Pose, StabilityExtension
+
+    eng = FakeEngine()
+    ext = StabilityExtension(eng)
+    ext.add_ground(0, Plane(0.0))
+    along, across = np.array([0.0375, 0.0125, 0.0075]), np.array([0.0125, 0.0375, 0.0075])
+    for body, y in ((1, -0.03), (2, 0.0), (3, 0.03)):
+        eng.poses[body] = Pose(np.array([0.0, y, 0.0075]))
+        ext.add_brick(body, Box(along, 0.0098), f"b{body}", friction=0.4)
+        eng.touch(body, 0, [[x, y + dy, 0.0] for x in (-0.0375, 0.0375) for dy in (-0.0125, 0.0125)], normal=[0, 0, 1])
+    eng.poses[4] = Pose(np.array([0.0, 0.0, 0.0225]))
+    ext.add_brick(4, Box(across, 0.0098), "top", friction=0.4)
+    for body, y in ((1, -0.03), (2, 0.0), (3, 0.03)):
+        eng.touch(4, body, [[x, y + dy, 0.015] for x in (-0.0125, 0.0125) for dy in (-0.0125, 0.0125)], normal=[0, 0, 1])
+    for t in (0.0, 0.1, 0.2, 0.3):
+        ext.update(t)
+    assert {ext.state(b).value for b in (1, 2, 3, 4)} == {"frozen"}
+    return eng, ext
+
+
+def test_a_proved_pull_keeps_the_level_frozen_then_leaves_it_on_the_other_blocks():
+    eng, ext = level_over_three_blocks()
+    events = ext.guide(2, 0.4, "pulled", 0.04, (0.04, 0.0, 0.0))
+    assert [(e.label, e.kind) for e in events] == [("b2", "wake")] and ext.alone(2)
+    ext.update(0.5)
+    assert ext.state(4).value == "frozen" and ext.state(1).value == ext.state(3).value == "frozen"
+    eng.contacts = [c for c in eng.contacts if 2 not in (c.body, c.other)]  # the hand took it away
+    ext.forget(2)
+    ext.update(0.6)
+    assert ext.state(4).value == "frozen"
+    assert ext.certificate().stands
+
+
+def test_a_pull_whose_proof_is_lost_wakes_what_it_kept_frozen_as_an_unproved_pull_does():
+    """Something else wakes the level a proved pull kept frozen: the blocks beside the pulled one,
+    which carry that level, wake too (their load changes), as they do when a pull is not proved."""
+    _, ext = level_over_three_blocks()
+    ext.guide(2, 0.4, "pulled", 0.04, (0.04, 0.0, 0.0))
+    ext.wake(4, 0.45, "a blow")
+    events = ext.update(0.5)
+    assert {e.label for e in events if e.kind == "wake"} >= {"b1", "b3"} and not ext.alone(2)

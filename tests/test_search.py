@@ -18,6 +18,22 @@ def search(tmp_path: Path, file: str, *more: str) -> tuple[int, dict]:
     return status, summary
 
 
+def test_a_short_single_file_stacks_critical_shift_is_bracketed_in_few_runs(tmp_path):
+    # the shipped search's stack, 3 bricks (cheap): s* = 120 mm / 3 = 40 mm
+    path = tmp_path / "short.yaml"
+    text = (ROOT / "searches" / "single_file_shift.yaml").read_text().replace("levels: 5", "levels: 3")
+    path.write_text(text.replace("between: [20 mm, 30 mm]", "between: [36 mm, 44 mm]"))
+    out = tmp_path / "out"
+    assert main(["search", str(path), "-j", "1", "--out", str(out)]) == 0
+    found = json.loads((out / "search.json").read_text())
+    low, high = found["interval"]
+    assert low <= 40.0 + 0.1 and high >= 40.0 - 0.1 and high - low <= 0.1
+    assert found["below"] == "stands" and found["above"].startswith("collapses")
+    assert found["runs"] * 10 <= found["grid_runs"]  # at least 10x fewer than a grid at 0.1 mm
+    assert (out / "samples.csv").read_text().count("\n") == found["runs"] + 1
+
+
+@pytest.mark.slow
 def test_the_single_file_stacks_critical_shift_is_bracketed_in_few_runs(tmp_path):
     status, found = search(tmp_path, "searches/single_file_shift.yaml")
     assert status == 0
@@ -140,3 +156,27 @@ def test_the_search_finds_and_shrinks_a_rare_counterexample_on_the_closed_form()
         assert 24.0 < s <= 24.04 and f.shrunk_result.collapse_level == 5
         firsts.append(found.first)
     assert sorted(firsts)[2] <= 1202 / 20  # the median beats plain sampling's 1 in 1202 by 20x
+
+
+def test_timeout_bounds_the_whole_search(tmp_path, capsys):
+    # refused up front: at least 2 + log2(10 mm / 0.001 mm) = 16 runs cannot fit in a millisecond
+    path = tmp_path / "fine.yaml"
+    path.write_text(
+        (ROOT / "searches" / "single_file_shift.yaml").read_text().replace("tolerance: 0.1 mm", "tolerance: 0.001 mm")
+    )
+    assert main(["search", str(path), "-j", "1", "--out", str(tmp_path / "no"), "--timeout", "0.001"]) == 2
+    err = capsys.readouterr().err
+    assert "fine.yaml:" in err and "--timeout 0.001" in err and "whole search" in err
+    assert not (tmp_path / "no" / "samples.csv").exists()
+
+
+def test_a_search_stops_where_its_shared_budget_ran_out():
+    from stackdsl import load_scenario
+    from stackdsl.batch.search import Evaluator
+    from stackdsl.batch.sweep import BUDGET_SPENT, Budget, SweepOptions
+
+    template = load_scenario(ROOT / "searches" / "rare_overhang.yaml").template
+    budget = Budget(0.0)
+    with Evaluator(SweepOptions(None, None, False, 100.0, None, budget)) as evaluator:
+        results = evaluator.run([(template, 0), (template, 0)])
+    assert [r.stopped for r in results] == [BUDGET_SPENT, BUDGET_SPENT]  # not run: nothing is left

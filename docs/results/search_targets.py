@@ -26,6 +26,8 @@ THRESHOLDS = [
     ("searches/single_file_shift.yaml", 24.0, "critical shift of 5 bricks in single file, 120 mm / 5"),
     ("searches/jenga_last_block.yaml", 12.5, "last Jenga block's critical offset, 25 mm / 2"),
     ("searches/shake_tipping.yaml", 20.71, "shake amplitude where rocking starts, g b / h at 2 Hz"),
+    ("searches/shake_rocking_onset.yaml", 20.71, "shake amplitude where rocking starts (still: tilt 0.02 deg), g b / h at 2 Hz"),
+    ("searches/shake_sliding_onset.yaml", 31.06, "shake amplitude where sliding starts (still: slip 0.02 mm), mu g at 2 Hz"),
     ("searches/dominoes_reach.yaml", 128.27, "dominoes' reach, t + sqrt(h^2 + t^2)"),
 ]
 RARE = "searches/rare_overhang.yaml"

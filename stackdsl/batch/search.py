@@ -47,7 +47,7 @@ from ..lang.schema import Scenario
 from ..lang.schema_search import Counterexample, Threshold
 from ..lang.schema_sweep import grid_name
 from .pool import WorkerLost, Workers
-from .sweep import SampleResult, SweepOptions, run_batch
+from .sweep import BUDGET_SPENT, SampleResult, SweepOptions, run_batch
 
 #: The least |signed margin| a probe gives Brent's method (metres): a run on the boundary itself
 #: (margin 0) still has a side, its verdict's.
@@ -68,9 +68,9 @@ def stands(result: SampleResult) -> bool | None:
 
 def judged(expect: Expect) -> bool:
     """Whether a threshold search judges ``expect`` on each run (one run's expectations beyond
-    ``stands`` alone: ``toppled: all``, ``stays``, a collapse level), rather than its stand or
+    ``stands`` alone: ``toppled: all``, ``stays``, ``still``, a collapse level), rather than its stand or
     collapse (and then its signed margin)."""
-    others = (expect.collapse, expect.stands_until, expect.stays, expect.moved, expect.toppled)
+    others = (expect.collapse, expect.stands_until, expect.stays, expect.moved, expect.toppled, expect.still)
     return expect.per_run and any(o is not None for o in others)
 
 
@@ -87,11 +87,16 @@ def run_judged(template: Template, cell: int, k: int, options: SweepOptions, exp
     try:
         scenario = template.scenario(cell, k)
         program = compile_scenario(scenario, options.mode, options.model, options.backend, draw_time=options.timeout)
+        if expect.still is not None:  # the template's own expectations are left aside: the motion is watched for ``expect``
+            program = program.model_copy(update={"watch_motion": True})
     except ScenarioError as exc:
         return SampleResult(cell, k, 0, parameters, None, 0, 0.0, 0.0, bad_input=str(which_sample(exc, template, cell, k)))
     try:
         outcome = run_program(program, timeout=options.timeout)
         held = all(v.passed for v in evaluate(expect, outcome, program.collapse_threshold))
+        still = None
+        if expect.still is not None and outcome.peak_tilt is not None and outcome.peak_slip is not None:
+            still = expect.still.margin(outcome.peak_tilt, outcome.peak_slip)
     except Exception as exc:  # MemoryError included: this run's internal error
         message = (str(exc).splitlines() or [""])[0]
         return SampleResult(
@@ -109,6 +114,7 @@ def run_judged(template: Template, cell: int, k: int, options: SweepOptions, exp
         stopped=outcome.stopped or "",
         margin=outcome.margin,
         held=None if outcome.stopped else held,
+        still_margin=None if outcome.stopped else still,
     )
 
 
@@ -183,10 +189,55 @@ class Evaluator:
 
 
 def _one_run(template: Template, k: int, options: SweepOptions, expect: Expect | None) -> SampleResult:
-    """Sample ``k`` of cell 0, its expectations judged when ``expect`` is given (a task of the pool)."""
+    """Sample ``k`` of cell 0, its expectations judged when ``expect`` is given (a task of the pool).
+    With the search's ``budget`` (:class:`stackdsl.batch.sweep.Budget`), the run's timeout is at
+    most what is left of it, and a run the budget ran out before is not made: its result is
+    stopped (:data:`stackdsl.batch.sweep.BUDGET_SPENT`)."""
+    if options.budget is not None:
+        left = options.budget.left()
+        if left <= 0:
+            return SampleResult(0, k, 0, {}, None, 0, 0.0, 0.0, stopped=BUDGET_SPENT)
+        options = dataclasses.replace(options, timeout=left if options.timeout is None else min(options.timeout, left))
     if expect is not None:
         return run_judged(template, 0, k, options, expect)
     return run_batch(template, 0, [k], options)[0]
+
+
+def least_runs(spec: Threshold | Counterexample, jobs: int) -> int:
+    """The runs a search makes however its runs turn out: a threshold search's both ends and the
+    bisections that narrow its interval to the tolerance, ``2 + ceil(log2(width / tolerance))``
+    (Brent's method takes no more on a margin it can interpolate); a counterexample search's
+    first round (``jobs`` runs, at most its ``runs``). What ``--timeout`` must fit
+    (:func:`within_time`). Source: stackdsl's own."""
+    if isinstance(spec, Threshold):
+        low, high = spec.ends
+        return min(spec.runs, 2 + max(0, math.ceil(math.log2((high - low) / spec.step))))
+    return min(spec.runs, max(1, jobs))
+
+
+def within_time(template: Template, spec: Threshold | Counterexample, options: SweepOptions, jobs: int, timeout: float) -> None:
+    """Refuse a search that cannot end within ``timeout``, the wall seconds ``--timeout`` gives the
+    whole search: the runs it makes however they turn out (:func:`least_runs`), each by the
+    compiler's estimate of sample 0's run (:attr:`stackdsl.Program.wall_estimate`), shared among
+    ``jobs`` processes, past it (as ``check`` refuses a sweep:
+    :func:`stackdsl.batch.check.within_budget`). The estimate is a floor; a search it lets through
+    still stops when its budget runs out (:class:`stackdsl.batch.sweep.Budget`).
+
+    Raises:
+        ScenarioError: at the file's ``search``, with the runs, the estimate and the timeout.
+    """
+    from ..compile.compiler import compile_scenario
+
+    program = compile_scenario(template.scenario(0, 0), options.mode, options.model, options.backend)
+    runs = least_runs(spec, jobs)
+    seconds = math.ceil(runs / max(1, jobs)) * program.wall_estimate
+    if seconds > timeout:
+        raise template.source.error(
+            ("search",),
+            f"this search makes at least {runs} run{'s' * (runs != 1)}, about {seconds:.3g} s of wall time by the "
+            f"compiler's estimate ({program.wall_estimate:.2g} s a run), past --timeout {timeout:g} s, which bounds the "
+            "whole search: give a wider tolerance or a longer --timeout",
+        )
 
 
 # --- threshold -------------------------------------------------------------------------------
@@ -307,6 +358,8 @@ def find_threshold(
         for v, r in zip(values, results):
             found.probes.append((v, r))
             margin = "" if r.margin is None else f", margin {r.margin * 1000:+.3f} mm"
+            if r.still_margin is not None:  # the margin the search follows: the share of still's bound left
+                margin = f", still's margin {r.still_margin:+.3f}"
             progress(f"run {len(found.probes)}: {spec.field} = {v:.6g} {unit}: {verdict_word(r)}{margin}".replace("  ", " "))
             if r.bad_input:
                 found.bad_input = r.bad_input
@@ -317,6 +370,8 @@ def find_threshold(
         return results
 
     def signed(r: SampleResult) -> float:
+        if r.held is not None and r.still_margin is not None:  # continuous in the motion: Brent's method converges
+            return max(r.still_margin, LEAST) if r.held else min(r.still_margin, -LEAST)
         if r.held is not None:  # the expectations' verdict alone: Brent's method bisects
             return 1.0 if r.held else -1.0
         margin = r.margin if r.margin is not None else 0.0
@@ -451,7 +506,7 @@ class Found:
 class CounterexamplesFound:
     """A counterexample search's answer: what it found, every run (its ``runs`` in the order run),
     how many runs the search itself took before the first counterexample (``first``, 1-based; None
-    when none was found) and how many shrinking took."""
+    when none was found) and how many shrinking took; ``spent``: the search's time budget ran out."""
 
     found: list[Found] = field(default_factory=list)
     results: list[SampleResult] = field(default_factory=list)
@@ -460,6 +515,7 @@ class CounterexamplesFound:
     shrink_runs: int = 0
     bad_input: str = ""
     error: str = ""
+    spent: bool = False
 
 
 def find_counterexamples(
@@ -495,7 +551,7 @@ def find_counterexamples(
     study = optuna.create_study(direction="minimize", sampler=sampler)
     out = CounterexamplesFound()
     names = {d: f"{i}:{d.label}" for i, d in enumerate(ds)}
-    while len(out.found) < spec.find and out.search_runs < spec.runs:
+    while len(out.found) < spec.find and out.search_runs < spec.runs and not out.spent:
         if (step := secant_step(study, ds, names)) is not None:
             study.enqueue_trial(step, skip_if_exists=True)
         trials = [study.ask() for _ in range(min(batch, spec.runs - out.search_runs))]
@@ -505,6 +561,8 @@ def find_counterexamples(
             out.results.append(result)
             out.search_runs += 1
             verdict = stands(result)
+            if result.stopped == BUDGET_SPENT:
+                out.spent = True
             if verdict is None:
                 study.tell(trial, state=optuna.trial.TrialState.FAIL)
                 out.bad_input = out.bad_input or result.bad_input
@@ -624,6 +682,8 @@ def shrink(
             (run,) = evaluator.run([(pinned(template, trial), 0)])
             made.append(run)
             progress(f"shrink {len(made)}: {d.label} = {candidate}: {verdict_word(run)}")
+            if run.stopped == BUDGET_SPENT:
+                return best, best_result, made
             if stands(run) == want_stand:
                 best, best_result = trial, run
                 if attempt == 0:
@@ -641,7 +701,7 @@ def counterexample_file(template: Template, values: dict[Distribution, Any], exp
     ``stackdsl run`` of it fails as the search's run did. ``note`` opens its description."""
     from ..lang.yaml_out import yaml_text
 
-    data = pinned(template, values)._data(0, 0)  # the sample's own plain data, the values put in
+    data = pinned(template, values).plain(0, 0)  # the sample's own plain data, the values put in
     data = {k: v for k, v in data.items() if k not in ("sweep", "search", "require")}
     if expect.statistical:
         data["expect"] = {"collapse": "500±499"} if want_stand else {"stands": True}

@@ -70,6 +70,9 @@ class SampleResult:
             stands, negative it collapsed), None when it has none.
         held: whether one run's expectations held, when a search judged them
             (:func:`stackdsl.batch.search.run_judged`), else None.
+        still_margin: with ``held``, the signed distance of the run's largest tilt and slip to the
+            expectation ``still:``'s bounds, a share of each bound
+            (:meth:`stackdsl.lang.expectations.Still.margin`), when the file expects it; else None.
     """
 
     cell: int
@@ -89,6 +92,7 @@ class SampleResult:
     levels: int = 0
     margin: float | None = None
     held: bool | None = None
+    still_margin: float | None = None
 
     def row(self) -> dict[str, Any]:
         """Plain data for CSV and JSON Lines (``parameters`` spread into their own fields)."""

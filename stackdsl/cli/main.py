@@ -398,7 +398,14 @@ def _add_command(sub: Any, name: str, common: argparse.ArgumentParser) -> None:
 
         add_search(
             sub,
-            [common, _guarded(TIMEOUT)],
+            [
+                common,
+                _guarded(
+                    None,
+                    "a whole search's runs may take all together (a search whose least runs the compiler estimates to "
+                    f"take longer is refused before anything runs; without it, each run may take {TIMEOUT:g} s)",
+                ),
+            ],
             EXIT_STATUS.replace(
                 "  0    every expectation held", "  0    a threshold found; no counterexample in the runs"
             ).replace(
@@ -448,15 +455,18 @@ def _compare_command(args: argparse.Namespace) -> int:
     return compare_command(args)
 
 
-def _guarded(timeout: float, what: str = "a scenario may run") -> argparse.ArgumentParser:
-    """The parent parser of the commands that run scenarios: --timeout (``what`` it bounds)."""
+def _guarded(timeout: float | None, what: str = "a scenario may run") -> argparse.ArgumentParser:
+    """The parent parser of the commands that run scenarios: --timeout (``what`` it bounds;
+    ``timeout`` None: no default, the command's own)."""
     guarded = _Parser(add_help=False)
     guarded.add_argument(
         "--timeout",
         type=timeout_type,
         default=timeout,
         metavar="SECONDS",
-        help=f"wall seconds {what} before it is stopped and fails (default: {timeout:g}); "
+        help=f"wall seconds {what} before it is stopped and fails (default: "
+        + ("none" if timeout is None else f"{timeout:g}")
+        + "); "
         "worker processes may also map at most 4 GiB each",
     )
     return guarded

@@ -76,11 +76,23 @@ def _search(args: argparse.Namespace) -> int:
             [Output("--out", args.out, "the search's output", folder=True)], [Input(args.file, "the scenario searched")]
         )
     data, source = _data(args.file, args.seed)
-    options = SweepOptions(args.mode, args.model, False, args.timeout, args.backend)
+    from ..batch.guard import TIMEOUT
+
+    options = SweepOptions(args.mode, args.model, False, TIMEOUT if args.timeout is None else args.timeout, args.backend)
     if search.threshold is not None:  # the field and its ends checked before anything is made or runs
         template, value_of = _threshold_template(data, source, search.threshold)
     else:
         template, expected = _counterexample_template(scenario, data, source)
+    if args.timeout is not None:  # --timeout bounds the whole search: refused up front if it cannot fit
+        from ..batch.search import within_time
+        from ..batch.sweep import Budget
+
+        spec_any = search.threshold or search.counterexample
+        assert spec_any is not None
+        within_time(template, spec_any, options, args.jobs if not args.dask else 1, args.timeout)
+        budget = Budget(args.timeout)
+        budget.left()  # the clock starts now
+        options = dataclasses.replace(options, budget=budget)
     if out is None:
         out = output_folder(None, f"stackdsl-search-{Path(args.file).stem[:40]}-")
     started = time.perf_counter()

@@ -491,6 +491,7 @@ def assemble(state: Compilation) -> Compilation:
         draws=state.draws,
         parts=summaries(scenario, state.nominal),
         judged_at=scenario.expect.judged_at,
+        watch_motion=scenario.expect.still is not None,
     )
     return state
 

@@ -291,6 +291,8 @@ class Program(_Frozen):
             (:attr:`stackdsl.lang.expectations.Expect.judged_at`): ``"end"`` (final positions),
             or ``"collapse"`` (the collapse when there is one, else the end); pictures, replays
             and exports show it unless told another.
+        watch_motion: the run measures the structure's largest tilt and slip
+            (:class:`stackdsl.runtime.motion.PeakMotion`): the expectation ``still:`` judges them.
     """
 
     name: str
@@ -307,6 +309,7 @@ class Program(_Frozen):
     draws: int = 1
     parts: tuple[PartSummary, ...] = ()
     judged_at: Literal["collapse", "end"] = "collapse"
+    watch_motion: bool = False
 
     @property
     def placements(self) -> list[Place]:

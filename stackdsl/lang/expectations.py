@@ -46,12 +46,16 @@ from .grammar import (
 )
 from .schema_require import Requirement
 from .spelling import spelled
-from .units import Time, time, within
+from .units import Angle, Length, Time, angle, length, time, within
 
 if TYPE_CHECKING:  # to mypy a float; to pydantic a time within a run's longest
     StandsUntil = float
+    StillTilt = float
+    StillSlip = float
 else:
     StandsUntil = within(Time, time, 0.0, MAX_SIMULATED_TIME, "a time from 0 to 3600 s", ("", "a run lasts at most 3600 s"))
+    StillTilt = within(Angle, angle, 0.0, 90.0, "an angle above 0 and at most 90 degrees", above=True)
+    StillSlip = within(Length, length, 0.0, 1.0, "a length above 0 and at most 1 m", above=True)
 
 
 _RUN_LEVEL = "a run collapses at a whole level"
@@ -70,6 +74,49 @@ def _whole_level(value: Any) -> Any:
 
 
 WHOLE_LEVEL = BeforeValidator(_whole_level)
+
+
+class Still(StrictModel):
+    """The structure keeps still through the run: no structure brick ever tilts more than
+    ``tilt`` (degrees) from the orientation it was placed with, nor does the centre of its base
+    slip more than ``slip`` (metres) on the ground, a shaken table's offset taken off
+    (:class:`stackdsl.runtime.motion.PeakMotion`). A block that "does not rock" or "does not
+    slide" on a shake table: the onset of motion, well below a collapse. Source: stackdsl's own."""
+
+    tilt: Annotated[
+        StillTilt | None,
+        Field(description="the largest tilt any brick may reach during the run", examples=["0.2 deg"]),
+    ] = None
+    slip: Annotated[
+        StillSlip | None,
+        Field(description="the largest slip of any brick's base on the ground during the run", examples=["0.1 mm"]),
+    ] = None
+
+    @model_validator(mode="after")
+    def _some(self) -> Still:
+        if self.tilt is None and self.slip is None:
+            raise ValueError("give the largest 'tilt', the largest 'slip' or both")
+        return self
+
+    def margin(self, tilt: float, slip: float) -> float:
+        """The signed distance of a run's largest ``tilt`` (rad) and ``slip`` (m) to these bounds,
+        as a share of each bound, the nearer one: ``min(1 - tilt / bound, 1 - slip / bound)``,
+        positive while both keep within, negative past one; continuous in the motion.
+
+        >>> Still(tilt=1.0).margin(math.radians(0.5), 0.0)
+        0.5
+        """
+        shares = ([1 - tilt / math.radians(self.tilt)] if self.tilt is not None else []) + (
+            [1 - slip / self.slip] if self.slip is not None else []
+        )
+        return min(shares)
+
+    def text(self) -> str:
+        """``"tilts at most 0.2 deg, slips at most 0.1 mm"``."""
+        return ", ".join(
+            ([f"tilts at most {self.tilt:g} deg"] if self.tilt is not None else [])
+            + ([f"slips at most {self.slip * 1000:g} mm"] if self.slip is not None else [])
+        )
 
 
 class CollapseLevel(StrictModel):
@@ -630,6 +677,14 @@ class Expect(StrictModel):
             examples=[30, "all", "20 +- 1", ">= 1"],
         ),
     ] = None
+    still: Annotated[
+        Still | None,
+        Field(
+            description="the structure keeps still through the run: no brick tilts more than 'tilt' nor slips more than "
+            "'slip' on the ground (a shaken table's offset taken off) at any step; the onset of rocking or sliding",
+            examples=[{"tilt": "0.2 deg"}, {"slip": "0.1 mm"}],
+        ),
+    ] = None
     p_stands: PStands | None = None
 
     cells: Annotated[
@@ -687,6 +742,7 @@ class Expect(StrictModel):
             or self.stays is not None
             or self.moved is not None
             or self.toppled is not None
+            or self.still is not None
         )
 
     @property

@@ -183,6 +183,13 @@ class Template:
             drawn = [pin if d.path == pin.path else d for d in drawn]
         return draw(data, drawn, self.seed, k, attempt)
 
+    def plain(self, c: int, k: int) -> dict[str, Any]:
+        """Cell ``c``'s sample ``k`` as the plain data a scenario file holds (a new dict: grid
+        values put in, every distribution drawn, a pinned one giving its value), before any
+        validation: what a counterexample file writes
+        (:func:`stackdsl.batch.search.counterexample_file`). Source: stackdsl's own."""
+        return self._data(c, k)
+
     def drawn(self, c: int, k: int) -> dict[str, Any]:
         """What cell ``c``'s sample ``k`` drew once a sample, by field (dotted), as a file writes it
         (``{"structure.dominoes.count": 3}``); the fields the grid replaces are left out."""

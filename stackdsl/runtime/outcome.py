@@ -259,6 +259,10 @@ class Outcome(_Frozen):
             proof's own distance when it decided (the centre of mass outside its support, or
             the brick past the collapse threshold), or -0 (no equilibrium at the end, nothing
             past the threshold). None when the run stopped early or is undecided.
+        peak_tilt, peak_slip: radians and metres, the largest tilt of any structure brick from
+            its placed orientation and the largest slip of its base's centre on the ground (a
+            shaken table's offset taken off) over the run (:class:`stackdsl.runtime.motion.PeakMotion`),
+            when the scenario expects ``still:``; else None.
         stopped: None when the run went to its end; else why and where it stopped early,
             e.g. ``"timeout after 120 s at t = 37.2 s simulated (of 201 s)"`` (the rest of
             the outcome then covers the simulated time so far, and the expectations fail:
@@ -292,6 +296,8 @@ class Outcome(_Frozen):
     not_run: tuple[str, ...] = ()
     collapse_threshold_mm: float = 4.0
     margin: float | None = None
+    peak_tilt: float | None = None
+    peak_slip: float | None = None
 
     def golden(self) -> dict[str, Any]:
         """Plain JSON data for a golden snapshot: what was built, how many bricks toppled, the

@@ -48,6 +48,7 @@ from ..engines.registry import backend
 from .actions import Actions
 from .collapse import CollapseMonitor
 from .loop import CLOCK_EVERY, StepLoop, Subscriber
+from .motion import PeakMotion
 from .outcome import Outcome
 from .placing import run_placed
 from .subscribers import CheapDebris, SoftLanding, Stability, Substeps
@@ -227,6 +228,7 @@ def run_in(
     rigid = any(r.name == "rigid" and r.on for r in program.rules)
     if acting and rigid and options.cheap_debris and world.cheap_debris and options.settle != 0.0:  # 0: nothing falls on
         after.append(CheapDebris(world.make_debris))
+    after += [PeakMotion()] if program.watch_motion else []
     loop = StepLoop(
         world,
         program,
@@ -268,6 +270,7 @@ def outcome(loop: StepLoop, wall_time: float) -> Outcome:
         raise ValueError("outcome() reads a loop made by run_in(): this one has no collapse monitor or stability extension")
     structure = loop.structure
     placed = structure.placed
+    motion = next((s for s in loop.subscribers if isinstance(s, PeakMotion)), None)
     # a run stopped at the step its collapse was decided in has that step's graph already
     final_graph = monitor.collapse_graph if monitor.graph_step == loop.step else None
     final_graph = final_graph or stability.graph(loop)
@@ -295,6 +298,8 @@ def outcome(loop: StepLoop, wall_time: float) -> Outcome:
         certificate=monitor.certificate,
         certificate_time=monitor.certify_time,
         toppled=tuple(r.id for r in structure.toppled()),
+        peak_tilt=None if motion is None else motion.tilt,
+        peak_slip=None if motion is None else motion.slip,
         removed=tuple(r.id for r in structure.removed),
         stopped=loop.stopped,
         not_run=loop.not_run,

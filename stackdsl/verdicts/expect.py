@@ -13,7 +13,7 @@ from pydantic import BaseModel, ConfigDict
 
 from ..lang.bounds import MAX_SIDE
 from ..lang.errors import Location, excerpt
-from ..lang.expectations import CollapseLevel, Expect, bricks_of, levels_of, selects, span
+from ..lang.expectations import CollapseLevel, Expect, Still, bricks_of, levels_of, selects, span
 from ..runtime.outcome import Outcome
 
 
@@ -87,6 +87,8 @@ def evaluate(expect: Expect, outcome: Outcome, threshold: float) -> list[Verdict
     if expect.toppled is not None:
         least, most = expect.toppled.allows(len(outcome.displacement) + len(outcome.unplaced))
         verdicts.append(_toppled_verdict(outcome, least, most, texts["toppled"]))
+    if expect.still is not None:
+        verdicts.append(_still(expect.still, outcome, texts["still"]))
     if outcome.stopped:
         verdicts.append(Verdict(name="finished", passed=False, expected="the run finishes", measured=outcome.stopped))
     elif outcome.certificate is not None and outcome.certificate.verdict == "undecided":
@@ -126,6 +128,18 @@ def _toppled_verdict(outcome: Outcome, least: int, most: int, expected: str) -> 
     never = f" ({len(outcome.unplaced)} never placed)" if outcome.unplaced else ""
     return Verdict(
         name="toppled", passed=least <= count <= most, expected=expected, measured=f"{count} of {total} toppled{never}"
+    )
+
+
+def _still(still: Still, outcome: Outcome, expected: str) -> Verdict:
+    """The ``still`` verdict: the run's largest tilt and slip (:attr:`Outcome.peak_tilt`,
+    :attr:`Outcome.peak_slip`) within their bounds; failed when the run did not measure them
+    (an outcome built without the scenario's expectation, or an engine that simulates no motion)."""
+    if outcome.peak_tilt is None or outcome.peak_slip is None:
+        return Verdict(name="still", passed=False, expected=expected, measured="no motion measured (no engine steps)")
+    measured = f"tilted at most {math.degrees(outcome.peak_tilt):.3g} deg, slipped at most {outcome.peak_slip * 1000:.3g} mm"
+    return Verdict(
+        name="still", passed=still.margin(outcome.peak_tilt, outcome.peak_slip) >= 0, expected=expected, measured=measured
     )
 
 
@@ -183,6 +197,8 @@ def expected_texts(expect: Expect) -> dict[str, str]:
         texts["moved"] = f"{_said(levels_of(expect.moved), bricks_of(expect.moved))} moved"
     if expect.toppled is not None:
         texts["toppled"] = f"{expect.toppled.text()} toppled"
+    if expect.still is not None:
+        texts["still"] = f"keeps still: {expect.still.text()}"
     return texts
 
 

@@ -172,134 +172,193 @@ def run_lean(
     Raises:
         ValueError: as :func:`mjcf`.
     """
-    import mujoco
-
     started = time.perf_counter()
-    model = mujoco.MjModel.from_xml_string(mjcf(program, tolerance))
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
-    never = mujoco.mjtSleepPolicy.mjSLEEP_NEVER
-    places = program.placements
-    index = {p.id: k for k, p in enumerate(places)}
-    body = np.array([model.body(p.id).id for p in places], dtype=int)
-    adr = np.array([model.jnt_qposadr[model.body_jntadr[b]] for b in body], dtype=int)
-    dof = np.array([model.jnt_dofadr[model.body_jntadr[b]] for b in body], dtype=int)
-    half = np.array([p.brick.half_extents for p in places]).reshape(-1, 3)
-    nominal = np.array([p.position for p in places]).reshape(-1, 3) - [0.0, 0.0, program.engine.SEAT]
-    quats = np.array([_quat(p) for p in places]).reshape(-1, 4)
-    turned = Rotation.from_quat(quats[:, [1, 2, 3, 0]]).as_matrix() if places else np.zeros((0, 3, 3))
-    corners = nominal[:, None, :] + np.einsum("nij,nkj->nki", turned, _SIGNS[None] * half[:, None, :])
-    low, high = corners.min(axis=1), corners.max(axis=1)  # (n, 3): each brick's nominal bounding box
-    watch = CollapseWatch(half, program.collapse_threshold)
-    table_q = table_v = -1
-    if program.shakes:
-        table = model.body("table").id
-        table_q, table_v = int(model.jnt_qposadr[model.body_jntadr[table]]), int(model.jnt_dofadr[model.body_jntadr[table]])
-        model.tree_sleep_policy[model.body_treeid[table]] = never
-    dt = model.opt.timestep
-    every = max(1, round(1.0 / (WATCH_RATE * dt)))
-    kinematic = [a for a in program.actions if isinstance(a, (Remove, Push, Shake))]
-    pushers = [model.body(f"hand {a.id}").id for a in program.actions if isinstance(a, Push)]
-    driven: list[_Driven] = []
-    shakes: list[Shake] = []
-    removed: list[str] = []
-    placed, steps, engine, pushed = 0, 0, 0.0, 0
-    stop: float | None = None  # when the run ends, once a collapse is decided
-    cut = False  # a placement the collapse cancelled: nothing after it runs
-    end = program.duration
-    offset = np.zeros(3)
-    while data.time < (end if stop is None else min(stop, end)) - 1e-9 and time.perf_counter() - started < timeout:
-        now = float(data.time)
-        while placed < len(places) and places[placed].time <= now + 1e-9:
-            if stop is not None:  # nothing is placed after a collapse
-                cut = True
-                placed = len(places)
-                break
-            p, k = places[placed], placed
-            corners_now = data.xpos[body[:k], None, :] + np.einsum(
-                "nij,nkj->nki", data.xmat[body[:k]].reshape(-1, 3, 3), _SIGNS[None] * half[:k, None, :]
-            )
-            sink = (
-                _sink(k, low, high, corners_now[:, :, 2].max(axis=1, initial=-np.inf), {index[r] for r in removed})
-                if from_top
-                else 0.0
-            )
-            rest = nominal[k] - [0.0, 0.0, sink]
-            data.qpos[adr[k] : adr[k] + 3] = rest + [0.0, 0.0, p.drop]  # let go the drop gap above
-            data.qpos[adr[k] + 3 : adr[k] + 7] = quats[k]
-            data.qvel[dof[k] : dof[k] + 6] = 0.0
-            mujoco.mj_forward(model, data)  # moving a body by hand and forwarding wakes it
-            watch.place(k, p.level, rest, turned[k])
-            placed += 1
-        while kinematic and kinematic[0].time <= now + 1e-9:
-            a = kinematic.pop(0)
-            if cut:
+    run = _LeanRun(program, tolerance, settle, from_top)
+    while run.going() and time.perf_counter() - started < timeout:
+        now = float(run.data.time)
+        run.place_due(now)
+        run.start_actions(now)
+        if run.step():
+            break
+    return run.outcome(time.perf_counter() - started)
+
+
+class _LeanRun:
+    """One lean run's MuJoCo model and data and the state of its loop: what is placed, the
+    bodies driven along their paths, the shakes under way, and when the run stops (stackdsl's
+    own)."""
+
+    def __init__(self, program: Program, tolerance: float | None, settle: float | None, from_top: bool) -> None:
+        import mujoco
+
+        self.mujoco = mujoco
+        self.program, self.settle, self.from_top = program, settle, from_top
+        model = self.model = mujoco.MjModel.from_xml_string(mjcf(program, tolerance))
+        self.data = mujoco.MjData(model)
+        mujoco.mj_forward(model, self.data)
+        self.never = mujoco.mjtSleepPolicy.mjSLEEP_NEVER
+        places = self.places = program.placements
+        self.index = {p.id: k for k, p in enumerate(places)}
+        self.body = np.array([model.body(p.id).id for p in places], dtype=int)
+        self.adr = np.array([model.jnt_qposadr[model.body_jntadr[b]] for b in self.body], dtype=int)
+        self.dof = np.array([model.jnt_dofadr[model.body_jntadr[b]] for b in self.body], dtype=int)
+        self.half = np.array([p.brick.half_extents for p in places]).reshape(-1, 3)
+        self.nominal = np.array([p.position for p in places]).reshape(-1, 3) - [0.0, 0.0, program.engine.SEAT]
+        self.quats = np.array([_quat(p) for p in places]).reshape(-1, 4)
+        self.turned = Rotation.from_quat(self.quats[:, [1, 2, 3, 0]]).as_matrix() if places else np.zeros((0, 3, 3))
+        corners = self.nominal[:, None, :] + np.einsum("nij,nkj->nki", self.turned, _SIGNS[None] * self.half[:, None, :])
+        self.low, self.high = corners.min(axis=1), corners.max(axis=1)  # (n, 3): nominal bounding boxes
+        self.watch = CollapseWatch(self.half, program.collapse_threshold)
+        self.table_q = self.table_v = -1
+        if program.shakes:
+            table = model.body("table").id
+            self.table_q = int(model.jnt_qposadr[model.body_jntadr[table]])
+            self.table_v = int(model.jnt_dofadr[model.body_jntadr[table]])
+            model.tree_sleep_policy[model.body_treeid[table]] = self.never
+        self.dt = model.opt.timestep
+        self.every = max(1, round(1.0 / (WATCH_RATE * self.dt)))
+        self.kinematic = [a for a in program.actions if isinstance(a, (Remove, Push, Shake))]
+        self.pushers = [model.body(f"hand {a.id}").id for a in program.actions if isinstance(a, Push)]
+        self.driven: list[_Driven] = []
+        self.shakes: list[Shake] = []
+        self.removed: list[str] = []
+        self.placed = self.steps = self.pushed = 0
+        self.engine = 0.0
+        self.stop: float | None = None  # when the run ends, once a collapse is decided
+        self.cut = False  # a placement the collapse cancelled: nothing after it runs
+        self.end = program.duration
+        self.offset = np.zeros(3)
+
+    def going(self) -> bool:
+        """Whether simulated time is left before the program's end or the stop a collapse set."""
+        end = self.end if self.stop is None else min(self.stop, self.end)
+        return bool(self.data.time < end - 1e-9)
+
+    def place_due(self, now: float) -> None:
+        """Let go every brick due by ``now`` (s), the drop gap above where it will rest; after a
+        collapse nothing more is placed."""
+        data, k = self.data, self.placed
+        while k < len(self.places) and self.places[k].time <= now + 1e-9:
+            if self.stop is not None:  # nothing is placed after a collapse
+                self.cut = True
+                self.placed = len(self.places)
+                return
+            p = self.places[k]
+            rest = self.nominal[k] - [0.0, 0.0, self._sink(k) if self.from_top else 0.0]
+            data.qpos[self.adr[k] : self.adr[k] + 3] = rest + [0.0, 0.0, p.drop]  # let go the drop gap above
+            data.qpos[self.adr[k] + 3 : self.adr[k] + 7] = self.quats[k]
+            data.qvel[self.dof[k] : self.dof[k] + 6] = 0.0
+            self.mujoco.mj_forward(self.model, data)  # moving a body by hand and forwarding wakes it
+            self.watch.place(k, p.level, rest, self.turned[k])
+            k = self.placed = k + 1
+
+    def _sink(self, k: int) -> float:
+        """How far the actual top under brick ``k`` lies below its nominal bottom (m): :func:`_sink`
+        on the bodies' corners now."""
+        data = self.data
+        corners_now = data.xpos[self.body[:k], None, :] + np.einsum(
+            "nij,nkj->nki", data.xmat[self.body[:k]].reshape(-1, 3, 3), _SIGNS[None] * self.half[:k, None, :]
+        )
+        tops = corners_now[:, :, 2].max(axis=1, initial=-np.inf)
+        return _sink(k, self.low, self.high, tops, {self.index[r] for r in self.removed})
+
+    def start_actions(self, now: float) -> None:
+        """Start every pull, push and shake due by ``now`` (s): a shake is kept for :func:`_drive`; a
+        pulled brick or a pusher becomes a driven body that never sleeps."""
+        while self.kinematic and self.kinematic[0].time <= now + 1e-9:
+            a = self.kinematic.pop(0)
+            if self.cut:
                 continue
-            if stop is not None:
-                stop = max(stop, a.end_time + (settle or 0.0))
+            if self.stop is not None:
+                self.stop = max(self.stop, a.end_time + (self.settle or 0.0))
             if isinstance(a, Shake):
-                shakes.append(a)
-                continue
-            if isinstance(a, Remove):
-                k = index[a.id]
-                b, q, v, height = int(body[k]), int(adr[k]), int(dof[k]), False
-                removed.append(a.id)
-                watch.forget(k)
-                start = data.qpos[q : q + 3].copy()
+                self.shakes.append(a)
             else:
-                b, height, k = pushers[pushed], True, -1
-                pushed += 1
-                q, v = int(model.jnt_qposadr[model.body_jntadr[b]]), int(model.jnt_dofadr[model.body_jntadr[b]])
-                start = np.asarray(a.position, dtype=float)
-                x, y, z, w = Pose.from_euler(a.position, a.yaw, a.pitch, 0.0).orientation
-                data.qpos[q : q + 3] = start
-                data.qpos[q + 3 : q + 7] = [w, x, y, z]
-                data.qvel[v : v + 6] = 0.0
-            model.tree_sleep_policy[model.body_treeid[b]] = never
-            data.qpos[q : q + 3] = data.qpos[q : q + 3].copy()  # written: a sleeping body wakes
-            mujoco.mj_forward(model, data)
-            driven.append(
-                _Driven(
-                    q, v, start, now, np.asarray(a.velocity, dtype=float), data.qpos[q + 3 : q + 7].copy(), a.end_time, height, k
-                )
-            )
-        hands = bool(driven or shakes)
+                self._drive_body(a, now)
+
+    def _drive_body(self, a: Remove | Push, now: float) -> None:
+        """Hand a pulled brick (``Remove``) or a pusher (``Push``) its path from ``now`` (s)."""
+        model, data = self.model, self.data
+        if isinstance(a, Remove):
+            k = self.index[a.id]
+            b, q, v, height = int(self.body[k]), int(self.adr[k]), int(self.dof[k]), False
+            self.removed.append(a.id)
+            self.watch.forget(k)
+            start = data.qpos[q : q + 3].copy()
+        else:
+            b, height, k = self.pushers[self.pushed], True, -1
+            self.pushed += 1
+            q, v = int(model.jnt_qposadr[model.body_jntadr[b]]), int(model.jnt_dofadr[model.body_jntadr[b]])
+            start = np.asarray(a.position, dtype=float)
+            x, y, z, w = Pose.from_euler(a.position, a.yaw, a.pitch, 0.0).orientation
+            data.qpos[q : q + 3] = start
+            data.qpos[q + 3 : q + 7] = [w, x, y, z]
+            data.qvel[v : v + 6] = 0.0
+        model.tree_sleep_policy[model.body_treeid[b]] = self.never
+        data.qpos[q : q + 3] = data.qpos[q : q + 3].copy()  # written: a sleeping body wakes
+        self.mujoco.mj_forward(model, data)
+        velocity = np.asarray(a.velocity, dtype=float)
+        self.driven.append(_Driven(q, v, start, now, velocity, data.qpos[q + 3 : q + 7].copy(), a.end_time, height, k))
+
+    def step(self) -> bool:
+        """Step the engine one watch interval, end what is over and watch for a collapse; True when
+        the run ends at once (a collapse with ``settle`` 0)."""
+        mujoco, model, data = self.mujoco, self.model, self.data
+        hands = bool(self.driven or self.shakes)
         tick = time.perf_counter()
-        for _ in range(every):
+        for _ in range(self.every):
             if hands:
-                offset = _drive(data, driven, shakes, table_q, table_v, dt)
+                self.offset = _drive(data, self.driven, self.shakes, self.table_q, self.table_v, self.dt)
             mujoco.mj_step(model, data)
-        engine += time.perf_counter() - tick
-        steps += every
+        self.engine += time.perf_counter() - tick
+        self.steps += self.every
         t = float(data.time)
-        for d in [d for d in driven if d.end <= t + 1e-9]:  # over: a pulled brick is taken out, a pusher withdrawn
-            driven.remove(d)
+        self._end_over(t)
+        return self._look(t)
+
+    def _end_over(self, t: float) -> None:
+        """Take out a pulled brick, withdraw a pusher, and hold the table still once a shake is over."""
+        data = self.data
+        for d in [d for d in self.driven if d.end <= t + 1e-9]:
+            self.driven.remove(d)
             data.qpos[d.qpos : d.qpos + 3] = [*(_PARK + [_SLOT * (d.brick if d.brick >= 0 else -1), -2 * _SLOT]), 1.0]
             data.qvel[d.dof : d.dof + 6] = 0.0
-            mujoco.mj_forward(model, data)
-        shakes = [s for s in shakes if s.end_time > t + 1e-9]
-        if not shakes and table_q >= 0:  # the table held where it rests (the bricks' pushes on it move it a little)
-            offset = np.zeros(3)
-            data.qpos[table_q : table_q + 2] = data.qvel[table_v : table_v + 2] = 0.0
-        if stop is None and watch.look(t, data.xpos[body[:placed]] - offset, data.xmat[body[:placed]].reshape(-1, 3, 3)):
-            if settle == 0.0:
-                break
-            after = program.settle if settle is None else settle
-            stop = max([t, *(d.end for d in driven), *(s.end_time for s in shakes)]) + after
-    rotations = data.xmat[body[:placed]].reshape(-1, 3, 3)
-    moved = watch.displacements(data.xpos[body[:placed]] - offset, rotations)
-    tilted = tipped(half[:placed], turned[:placed], rotations)
-    kept = [k for k in range(placed) if places[k].id not in removed]
-    return LeanOutcome(
-        watch.level,
-        time.perf_counter() - started,
-        engine,
-        float(data.time),
-        steps,
-        moved={places[k].id: float(moved[k]) for k in kept},
-        toppled=tuple(places[k].id for k in kept if tilted[k]),
-        removed=tuple(removed),
-    )
+            self.mujoco.mj_forward(self.model, data)
+        self.shakes = [s for s in self.shakes if s.end_time > t + 1e-9]
+        if not self.shakes and self.table_q >= 0:  # the table held where it rests (the bricks' pushes move it)
+            self.offset = np.zeros(3)
+            data.qpos[self.table_q : self.table_q + 2] = data.qvel[self.table_v : self.table_v + 2] = 0.0
+
+    def _look(self, t: float) -> bool:
+        """Watch the placed bricks for a collapse at ``t`` (s); set when the run stops after one."""
+        data, body = self.data, self.body[: self.placed]
+        if self.stop is not None:
+            return False
+        if not self.watch.look(t, data.xpos[body] - self.offset, data.xmat[body].reshape(-1, 3, 3)):
+            return False
+        if self.settle == 0.0:
+            return True
+        after = self.program.settle if self.settle is None else self.settle
+        self.stop = max([t, *(d.end for d in self.driven), *(s.end_time for s in self.shakes)]) + after
+        return False
+
+    def outcome(self, wall: float) -> LeanOutcome:
+        """The run's level, times, steps, and each kept brick's displacement and tipping."""
+        data, placed, places = self.data, self.placed, self.places
+        rotations = data.xmat[self.body[:placed]].reshape(-1, 3, 3)
+        moved = self.watch.displacements(data.xpos[self.body[:placed]] - self.offset, rotations)
+        tilted = tipped(self.half[:placed], self.turned[:placed], rotations)
+        kept = [k for k in range(placed) if places[k].id not in self.removed]
+        return LeanOutcome(
+            self.watch.level,
+            wall,
+            self.engine,
+            float(data.time),
+            self.steps,
+            moved={places[k].id: float(moved[k]) for k in kept},
+            toppled=tuple(places[k].id for k in kept if tilted[k]),
+            removed=tuple(self.removed),
+        )
 
 
 _SIGNS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)

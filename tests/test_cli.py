@@ -848,6 +848,21 @@ def test_compare_prints_a_block_per_scenario_and_a_row_per_mode(tmp_path, capsys
     assert "a pybullet raw: PASS stands" in captured.err
 
 
+def test_compare_refuses_a_sweep_past_its_budget_as_bad_input(tmp_path, capsys):
+    """A sweep whose runs cannot end within --timeout is bad input in every mode (exit 2, the
+    sweep's field named), not a cell "beyond the engine" of an otherwise passing table."""
+    sweep = (
+        "stackdsl: 1\nstructure: {tower: {levels: 3, bricks_per_layer: 1, turn: 0,"
+        " shift: {uniform: [-10 mm, 10 mm], per: layer}}}\nsweep: {samples: 2000}\n"
+    )
+    (tmp_path / "s.yaml").write_text(sweep)
+    code = main(["compare", str(tmp_path / "s.yaml"), "--modes", "raw,extension", "--timeout", "2", "-j", "1"])
+    captured = capsys.readouterr()
+    assert code == 2, captured
+    assert "sweep.samples" in captured.err and "this sweep makes 2000 runs" in captured.err
+    assert "beyond the engine" not in captured.out + captured.err
+
+
 DOMINOES = """stackdsl: 1
 brick_types: {finger: {size: [20 mm, 10 mm, 10 mm]}}
 structure:

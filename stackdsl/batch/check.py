@@ -227,7 +227,8 @@ def _compiled(
     the file as written takes (a result in ``refused``).
 
     Raises:
-        ScenarioError: bad input, of the file as written (a sweep's at the sample that shows it).
+        ScenarioError: bad input, of the file as written (a sweep's at the sample that shows it), or
+            a sweep whose runs cannot end within ``timeout`` (:func:`within_budget`).
     """
     m, model, backend = run
     try:
@@ -238,13 +239,14 @@ def _compiled(
         if sweep is not None:  # every grid cell, before anything of any file runs
             tops = {0: program.levels} | compile_cells(sweep, m, model, backend, range(1, sweep.cells), timeout)
             compile_bounds(sweep, m, model, backend, range(sweep.cells), timeout, tops)
-            within_budget(sweep, program, timeout)
     except ScenarioError as exc:
         if refused is None or (m is None and backend is None):
             raise
         compile_scenario(scenario, None, model, draw_time=timeout)  # as written: a bad file is an error still
         refused.append(_refusal(path, scenario, m, model, backend, exc))
         return None
+    if sweep is not None:  # a sweep past its budget is bad input in every engine and mode, not a refusal
+        within_budget(sweep, program, timeout)
     return program
 
 

@@ -23,6 +23,7 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 from .expectations import CollapseLevel, CollapseStatistic, Expect, Probability, Quantile, Within
+from .sampling import grid_key_problem  # noqa: F401  (loading it adds its check to Sweep's grid keys)
 from .schema import BrickType, Engine, Ground, Material, Scenario, Stability, Structure, Timing
 from .schema_generators import Dominoes, Pyramid, Wall
 from .schema_impacts import AfterLevel, Impact, Target

@@ -32,7 +32,7 @@ from .errors import FieldPath, ScenarioError, SourceMap, format_path
 from .expressions import Condition, check_kinds, parse
 from .field_kinds import a_field_in, field_kind, whole_of
 from .schema import Scenario, Structure
-from .schema_sweep import MAX_SAMPLES, MAX_SWEEP_RUNS, grid_name
+from .schema_sweep import GRID_KEY_CHECKS, MAX_SAMPLES, MAX_SWEEP_RUNS, grid_name
 from .spelling import spelled
 from .units import in_language_units, in_unit, language_unit, split_quantity
 from .validate import validate
@@ -593,6 +593,9 @@ def grid_key_problem(key: str) -> str | None:
         if path[0] in ("stackdsl", "sweep", "expect", "seed"):
             return f"the grid varies the scene: {key!r} is not part of it"
     return None
+
+
+GRID_KEY_CHECKS.append(grid_key_problem)  # the models' grid keys pass the loader's check too
 
 
 def _grid_path(data: Any, path: FieldPath, key: str, source: SourceMap, drawn: set[FieldPath]) -> FieldPath:

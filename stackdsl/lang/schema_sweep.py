@@ -7,6 +7,7 @@ Source: stackdsl's own (docs/design.md, words).
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from typing import Annotated, Any
 
 from pydantic import AfterValidator, BeforeValidator, Field, model_validator
@@ -25,14 +26,25 @@ def grid_name(key: str) -> str:
     return re.sub(r"\[\s*(\d+)\s*\]", r".\1", key.strip())
 
 
-def _names_a_field(key: str) -> str:
-    """A grid key must name a field of the scene, as the loader requires (:func:`stackdsl.lang.sampling.grid_key_problem`):
-    the Python builder took ``grid: {L01.1: [...]}`` and wrote a file the loader refused."""
-    from .sampling import grid_key_problem
+#: The checks a grid key must pass, each giving why the key names no field of the scene (one
+#: line) or None. The loader's own (:func:`stackdsl.lang.sampling.grid_key_problem`) is added by
+#: :mod:`stackdsl.lang.sampling` as it loads: it walks the whole scenario's models, which import
+#: this module, so it cannot be imported here (:mod:`stackdsl.lang.models`, the builder's
+#: module, imports it). Without it the Python builder took ``grid: {L01.1: [...]}`` and wrote a
+#: file the loader refused.
+GRID_KEY_CHECKS: list[Callable[[str], str | None]] = []
 
-    problem = grid_key_problem(key)
-    if problem:
-        raise ValueError(problem)
+
+def _names_a_field(key: str) -> str:
+    """A grid key must name a field of the scene, as the loader requires (:data:`GRID_KEY_CHECKS`).
+
+    Raises:
+        ValueError: the first check's reason, which pydantic reports at the key.
+    """
+    for check in GRID_KEY_CHECKS:
+        problem = check(key)
+        if problem:
+            raise ValueError(problem)
     return key
 
 

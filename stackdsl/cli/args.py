@@ -256,3 +256,31 @@ def add_seed(p: argparse.ArgumentParser) -> None:
         metavar="N",
         help="replace the file's seed: its random draws (sample k draws from the k-th child of N) and placement error",
     )
+
+
+def dask_address(text: str) -> str:
+    """``--dask``'s type: a usage error (exit 2) for an empty or malformed address."""
+    from ..batch.address import parse_address
+
+    try:
+        return parse_address(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def add_executor(p: argparse.ArgumentParser) -> None:
+    """Where the runs of ``sweep`` and ``search`` go: ``-j N`` processes or ``--dask ADDRESS``, one of the two."""
+    where = p.add_mutually_exclusive_group()
+    where.add_argument(
+        "-j",
+        "--jobs",
+        type=jobs_type,
+        default="auto",
+        help="processes, this one included (default: auto, one per free core: the cores less the load average)",
+    )
+    where.add_argument(
+        "--dask",
+        metavar="ADDRESS",
+        type=dask_address,
+        help="run on a Dask cluster: a scheduler's address (tcp://host:8786) or local:N (N up to the cores)",
+    )

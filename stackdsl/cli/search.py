@@ -20,7 +20,7 @@ from typing import Any
 from ..engines.registry import backend, names
 from ..lang.errors import ScenarioError, SourceMap
 from ..util.extras import installed, missing
-from .args import COMMANDS, add_seed, output_folder
+from .args import COMMANDS, add_executor, add_seed, output_folder
 from .outputs import Input, Output, check_outputs
 
 
@@ -43,9 +43,7 @@ def add_search(
     p.add_argument("file", help="a scenario with a search: block")
     p.add_argument("--runs", type=int, help="override the search's runs (its budget)")
     add_seed(p)
-    where = p.add_mutually_exclusive_group()
-    where.add_argument("-j", "--jobs", type=jobs_type, default="auto", help="processes (default: auto, one per free core)")
-    where.add_argument("--dask", metavar="ADDRESS", help="run on a Dask cluster: tcp://host:8786 or local:N")
+    add_executor(p)
     p.add_argument("--out", default=None, help="folder for the files, made if missing (default: a new private folder)")
     p.add_argument("--mode", choices=modes, help="override the scenario's engine mode")
     p.add_argument("--model", choices=models, help="override the scenario's stability model")

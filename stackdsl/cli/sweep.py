@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 from ..engines.registry import backend, names
 from ..lang.errors import ScenarioError
 from ..util.extras import installed, missing
-from .args import COMMANDS, INTERNAL, add_seed, output_folder
+from .args import COMMANDS, INTERNAL, add_executor, add_seed, output_folder
 from .outputs import Input, Output, check_outputs
 
 if TYPE_CHECKING:  # imported when a sweep runs: `stackdsl --help` stays quick
@@ -45,20 +45,7 @@ def add_sweep(
     p.add_argument("file", help="a scenario with a sweep: or random fields")
     p.add_argument("--samples", type=int, help="override the sweep's samples a cell")
     add_seed(p)
-    where = p.add_mutually_exclusive_group()
-    where.add_argument(
-        "-j",
-        "--jobs",
-        type=jobs_type,
-        default="auto",
-        help="processes, this one included (default: auto, one per free core: the cores less the load average)",
-    )
-    where.add_argument(
-        "--dask",
-        metavar="ADDRESS",
-        type=_dask_address,
-        help="run on a Dask cluster: a scheduler's address (tcp://host:8786) or local:N (N up to the cores)",
-    )
+    add_executor(p)
     p.add_argument(
         "--oracle", action="store_true", help="also the equilibrium oracle's collapse level of each sample, and the agreement"
     )
@@ -259,16 +246,6 @@ def _forget(folder: Path, made: bool) -> None:
             folder.rmdir()
         except OSError:
             pass  # not empty, or gone: leave it
-
-
-def _dask_address(text: str) -> str:
-    """``--dask``'s type: a usage error (exit 2) for an empty or malformed address."""
-    from ..batch.address import parse_address
-
-    try:
-        return parse_address(text)
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def _no_worker(connected: Callable[[], int | None]) -> str | None:

@@ -2,11 +2,13 @@
 
 import math
 import re
+import warnings
 
 import numpy as np
 import pytest
 
 from stackdsl import End, Launch, Place, ScenarioError, compile_scenario, format_program, parse_scenario
+from stackdsl.lang.errors import ScenarioWarning
 
 
 def program(text: str, mode=None):
@@ -329,3 +331,25 @@ def test_compile_scenario_names_the_type_it_takes_and_how_to_get_one(tmp_path):
     compiled = compile_scenario(load_scenario(path))
     with pytest.raises(TypeError, match=r"not Program: this one is compiled already: run it with run_program"):
         compile_scenario(compiled)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(
+    ("engine", "asked", "field", "line"),
+    [
+        ("  backend: mujoco\n  sleep_tolerance: 1.0e-4\n", "pybullet", "sleep_tolerance", 5),
+        ("  friction_anchors: true\n  maximal_coordinates: false\n", "mujoco", "friction_anchors", 4),
+    ],
+)
+def test_a_setting_of_the_files_own_engine_left_out_under_another_backend_is_warned_of(engine, asked, field, line):
+    text = f"stackdsl: 1\nstructure: {{tower: {{levels: 2}}}}\nengine:\n{engine}"
+    scenario = parse_scenario(text, "engines.yaml")
+    with pytest.warns(ScenarioWarning) as caught:
+        program = compile_scenario(scenario, backend=asked)
+    said = [str(w.message) for w in caught]
+    assert program.engine.backend == asked and not hasattr(program.engine, field)
+    assert said[0].startswith(f"engines.yaml:{line}:") and f"engine.{field}: " in said[0], said
+    assert ("maximal_coordinates" in " ".join(said)) == (asked == "mujoco")  # each one the run leaves out
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # on the file's own engine, nothing is left out
+        compile_scenario(scenario)
+        compile_scenario(scenario, backend=scenario.engine.backend)

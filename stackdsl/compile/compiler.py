@@ -125,7 +125,8 @@ def compile_scenario(
             the mode picks the engine defaults the scenario does not set.
         model: ``"report"`` or ``"equilibrium"`` to override the scenario's stability model.
         backend: ``"pybullet"`` or ``"mujoco"`` to override the scenario's engine; the
-            other engine's own settings in the scenario are then left out.
+            other engine's own settings in the scenario are then left out, a
+            :class:`~stackdsl.lang.errors.ScenarioWarning` at each.
         limits: False skips the engine's own limits (:mod:`stackdsl.compile.limits`), to
             measure them (``stackdsl bench limits``); a run beyond them is the engine's artefact.
         draw_time: wall seconds the draws that meet ``require:`` may take (a run's ``--timeout``),
@@ -289,8 +290,30 @@ def choose_engine(state: Compilation) -> Compilation:
             raise scenario.source.error(("engine", "backend"), missing(extra))
         raise ScenarioError(missing(extra, f"backend={backend!r}"), file=scenario.source.file)
     check_motion(scenario, backend_named(engine.backend))
+    _warn_left_out(scenario, engine)
     state.settings = engine
     return state
+
+
+def _warn_left_out(scenario: Scenario, engine: EngineSettings) -> None:
+    """Warn, at each field, of the file's own engine's settings that a ``backend`` asked over
+    the file's (``--backend``) leaves out: ``sleep_tolerance`` under pybullet, ``friction_anchors``
+    under MuJoCo. A warning, not a refusal: the file is right for its own engine, and running a
+    scenario on each engine (``compare --backend pybullet,mujoco``) is what the option is for; the
+    run takes the other engine's default for that mode, and says so."""
+    written = scenario.engine.backend
+    if engine.backend == written:
+        return
+    for name in backend_named(written).own_fields:
+        if getattr(scenario.engine, name, None) is not None:
+            warnings.warn(
+                scenario.source.warning(
+                    ("engine", name),
+                    f"{written}'s own setting, not applied: this run is on {engine.backend} (asked over the "
+                    f"file's backend, {written}), which has no such setting and runs at its {engine.mode} defaults",
+                ),
+                stacklevel=2,
+            )
 
 
 def lay_out(state: Compilation) -> Compilation:

@@ -3,17 +3,33 @@
 from __future__ import annotations
 
 import re
+import zipfile
 
 import numpy as np
 import pytest
 
 from stackdsl import compile_scenario, load_scenario, parse_scenario, run_program
+from stackdsl.cli.main import main
 from stackdsl.compile.program import Shake
 from stackdsl.engines.fake import FakeWorld
+from stackdsl.runtime import recorder as recorder_module
+from stackdsl.runtime import trajectory as trajectory_module
 from stackdsl.runtime.loop import Subscriber
 from stackdsl.runtime.recorder import Recorder, record_program
 from stackdsl.runtime.run import outcome, run_in
-from stackdsl.runtime.trajectory import ABSENT, ACTIVE, FALLEN, FROZEN, POSITION_TOLERANCE, STATES, WOKEN, load_trajectory
+from stackdsl.runtime.trajectory import (
+    ABSENT,
+    ACTIVE,
+    FALLEN,
+    FRAME_BYTES,
+    FROZEN,
+    POSITION_TOLERANCE,
+    ROW_BYTES,
+    STATES,
+    WOKEN,
+    TrajectoryTooLarge,
+    load_trajectory,
+)
 
 OVERHANG = "scenarios/hard/overhang_falls.yaml"  # the top brick tips off at level 2
 TOWER = "stackdsl: 1\nstructure: {tower: {levels: 3}}\n"
@@ -305,3 +321,36 @@ def test_a_time_outside_the_run_or_not_a_number_is_refused_by_name():
     # within the run: the last frame at or before; after its end, the last frame
     assert trajectory.at(0.0).index == 0 and trajectory.at(np.float64(2.0)).time <= 2.0
     assert trajectory.at(trajectory.end + 10.0).index == len(trajectory.times) - 1
+
+
+def test_what_a_trajectory_counts_is_what_its_reader_adds_up(tmp_path):
+    """The bytes the recorder holds a recording to are the reader's: the members' sizes in the file."""
+    _, _, trajectory = recorded(OVERHANG, rate=240.0)
+    trajectory.save(tmp_path / "t.npz")
+    with zipfile.ZipFile(tmp_path / "t.npz") as archive:
+        assert sum(i.file_size for i in archive.infolist()) == trajectory.stored_size
+
+
+def test_a_recording_past_what_a_trajectory_file_may_hold_ends_the_run_and_writes_nothing(monkeypatch, tmp_path, capsys):
+    """The recorder and the reader share one limit: a run whose recording would pass it is refused
+    (exit 2, at --record) when it passes, not written for replay and render to refuse."""
+    _, _, whole = recorded(OVERHANG, rate=240.0)
+    rows = len(whole.times) * FRAME_BYTES + len(whole.row_frame) * ROW_BYTES  # what the recorder counts as it goes
+    monkeypatch.setattr(recorder_module, "MAX_TRAJECTORY_BYTES", rows // 2)  # passed halfway through the run's frames
+    monkeypatch.setattr(trajectory_module, "MAX_TRAJECTORY_BYTES", rows // 2)
+    with pytest.raises(
+        TrajectoryTooLarge, match=r"passed the 0 MiB a trajectory file may hold at t = [\d.]+ s simulated"
+    ) as caught:
+        recorded(OVERHANG, rate=240.0)
+    when = float(re.search(r"t = ([\d.]+) s", str(caught.value)).group(1))
+    assert 0 < when < whole.end  # it ends the run when it passes the limit, not after
+    monkeypatch.setattr(recorder_module, "MAX_TRAJECTORY_BYTES", whole.stored_size - 1)  # the header tips it over
+    with pytest.raises(TrajectoryTooLarge, match="with its events and brick graphs"):
+        recorded(OVERHANG, rate=240.0)
+    with pytest.raises(TrajectoryTooLarge):
+        whole.save(tmp_path / "whole.npz")  # what the reader would refuse is not written either
+    assert not list(tmp_path.iterdir())
+    assert main(["run", OVERHANG, "--record", str(tmp_path / "out.npz"), "--rate", "240"]) == 2
+    err = capsys.readouterr().err
+    assert "--record" in err and "nothing was written: give a lower --rate than 240" in err and "Traceback" not in err
+    assert not list(tmp_path.iterdir())

@@ -21,6 +21,7 @@ from ..lang.expectations import Expect
 from ..runtime.outcome import Graph, Outcome, describe_certificate
 from ..runtime.recorder import record_program
 from ..runtime.run import run_program
+from ..runtime.trajectory import TrajectoryTooLarge
 from ..verdicts.check_result import CheckResult
 from ..verdicts.expect import Verdict, evaluate, explain, moved_levels
 from ..verdicts.stats import expected_text
@@ -59,11 +60,16 @@ def judge(file: str, program: Program, expect: Expect, timeout: float | None = T
     too: a clip not done by then is left out (the result's ``draw_error`` says so).
     """
     deadline = None if timeout is None else time.perf_counter() + timeout
+    too_large = ""  # why the run was not drawn: its recording passed what a trajectory file may hold
     try:
         if folder is None:
             outcome, trajectory = run_guarded(program, timeout), None
         else:
-            outcome, trajectory = record_program(program, source=file, timeout=timeout)
+            try:
+                outcome, trajectory = record_program(program, source=file, timeout=timeout)
+            except TrajectoryTooLarge as exc:  # judged still, from a run without a recorder; not drawn
+                left = None if deadline is None else max(deadline - time.perf_counter(), 0.0)
+                outcome, trajectory, too_large = run_guarded(program, left), None, f"not drawn: {exc}"
         stopped = stopped_by(outcome)
         result = CheckResult(
             file=file,
@@ -88,7 +94,7 @@ def judge(file: str, program: Program, expect: Expect, timeout: float | None = T
             margin=outcome.margin,
         )
         if folder is None or trajectory is None:
-            return result
+            return result if not too_large else replace(result, draw_error=too_large)
         written, draw_error, draw_time = draw_run(trajectory, folder, deadline)
         return replace(result, folder=folder, artefacts=tuple(written.items()), draw_error=draw_error, draw_time=draw_time)
     except Exception as exc:  # MemoryError included

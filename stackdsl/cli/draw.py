@@ -156,11 +156,12 @@ def recorded(args: argparse.Namespace, verb: str) -> tuple[Program | None, Any]:
     ``args.sample`` of cell ``args.cell``, as the command ``verb`` says on stderr).
 
     Raises:
-        ScenarioError: a bad scenario, or a file that is not a trajectory.
+        ScenarioError: a bad scenario, or a file that is not a trajectory, or a run whose recording
+            passes what a trajectory file may hold.
     """
     from ..compile.compiler import compile_scenario
     from ..runtime.recorder import record_program
-    from ..runtime.trajectory import load_trajectory
+    from ..runtime.trajectory import TrajectoryTooLarge, load_trajectory
     from .sample import scenario_of
 
     path = Path(args.file)
@@ -187,7 +188,10 @@ def recorded(args: argparse.Namespace, verb: str) -> tuple[Program | None, Any]:
     if isinstance(at, float) and at > program.duration:  # refused before anything is simulated
         raise ScenarioError(f"t = {at:g} s is outside the run, which lasts from 0 to {program.duration:g} s", file="--at")
     # a frame at the moment asked for, so that what is drawn or exported is the run's state then
-    _, trajectory = record_program(program, source=args.file, timeout=args.timeout, at=(at,) if isinstance(at, float) else ())
+    try:
+        _, trajectory = record_program(program, source=args.file, timeout=args.timeout, at=(at,) if isinstance(at, float) else ())
+    except TrajectoryTooLarge as exc:  # as a trajectory file of that size would be refused
+        raise ScenarioError(f"{exc}: too large to {verb}", file=args.file) from None
     return program, trajectory
 
 

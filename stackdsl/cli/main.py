@@ -638,7 +638,8 @@ def _run_recorded(args: argparse.Namespace, program: Program) -> Outcome:
     checked path, say so (on standard error under ``--json``), and return the outcome.
 
     Raises:
-        ScenarioError: the path does not end in ``.npz``, or is refused as an output.
+        ScenarioError: the path does not end in ``.npz``, or is refused as an output, or the
+            recording passes what a trajectory file may hold (the run ends then; nothing is written).
         OSError: the trajectory cannot be written.
     """
     from .outputs import Input, Output, check_outputs
@@ -649,9 +650,16 @@ def _run_recorded(args: argparse.Namespace, program: Program) -> Outcome:
         [Output("--record", args.record, "the trajectory file")], [Input(args.file, "the scenario being run")]
     )
     from ..runtime.recorder import RATE, record_program
+    from ..runtime.trajectory import TrajectoryTooLarge
 
-    outcome, trajectory = record_program(program, args.rate or RATE, source=args.file, timeout=args.timeout)
-    trajectory.save(record)
+    try:
+        outcome, trajectory = record_program(program, args.rate or RATE, source=args.file, timeout=args.timeout)
+        trajectory.save(record)
+    except TrajectoryTooLarge as exc:  # nothing written: replay and render would refuse it
+        lower = f"a lower --rate than {args.rate or RATE:g}, " if args.rate is None or args.rate > 1 else ""
+        raise ScenarioError(
+            f"{exc}; nothing was written: give {lower}or record a shorter run", file=args.record, field="--record"
+        ) from None
     print(
         f"wrote {record}: {len(trajectory.times)} frames of {len(trajectory.ids)} bodies",
         file=sys.stderr if args.json else sys.stdout,

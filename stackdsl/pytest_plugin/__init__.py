@@ -67,6 +67,7 @@ from ..lang.schema_marks import XFail
 from ..runtime.outcome import Outcome
 from ..runtime.recorder import record_program
 from ..runtime.run import run_program
+from ..runtime.trajectory import TrajectoryTooLarge
 from ..verdicts.expect import evaluate, explain
 from ..verdicts.golden_compare import Comparison, compare_golden, near_tie
 from ..verdicts.snapshot import dumps, scenario_golden_path, summarize
@@ -352,12 +353,17 @@ def _run_scenario_item(request: pytest.FixtureRequest, scenario_golden: Any) -> 
         _sweep_test(request, scenario, program, shown, scenario_golden, xfail)
         return
     pictures = config.getoption("stackdsl_pictures")
-    trajectory = None
+    trajectory, too_large = None, ""
     if pictures == "off":
         outcome = run_program(program)
     else:
-        outcome, trajectory = record_program(program, source=str(path))
+        try:
+            outcome, trajectory = record_program(program, source=str(path))
+        except TrajectoryTooLarge as exc:  # judged from a run without a recorder; its pictures said lost
+            outcome, too_large = run_program(program), f"pictures: not drawn: {exc}"
     lines = _failure_lines(request, (scenario, program, xfail), outcome, scenario_golden, path)
+    if too_large and (lines or pictures == "on"):
+        lines.append(too_large)
     if not lines and _written(scenario_golden) and (tie := near_tie(outcome, program)):
         # a property of the item's report: said by the terminal summary, also of an xdist worker's item
         request.node.user_properties.append((NEAR_TIE, f"{_shown(stored, config)}: {tie}"))

@@ -18,6 +18,12 @@ It takes a frame
   frame when everything has come to rest);
 * at the end.
 
+A recording is held to what a trajectory file may hold, :data:`~stackdsl.runtime.trajectory.MAX_TRAJECTORY_BYTES`
+(64 MiB, what ``replay`` and ``render`` read): the recorder counts its rows and frames as it keeps them, and
+the step that would pass it ends the run with :class:`~stackdsl.runtime.trajectory.TrajectoryTooLarge`
+(saying when, and at what rate), as does a whole trajectory larger than it, so that nothing a reader
+would refuse is ever written.
+
 Each frame also keeps the ground's offset from its rest (a shake moves it, and the fixtures
 bolted to it), so that a replay, a picture or a clip moves the fixtures with the ground.
 
@@ -55,10 +61,14 @@ from .trajectory import (
     ANGLE_TOLERANCE,
     COLLAPSE_DELAY,
     FALLEN,
+    FRAME_BYTES,
     FROZEN,
+    MAX_TRAJECTORY_BYTES,
     POSITION_TOLERANCE,
+    ROW_BYTES,
     WOKEN,
     Trajectory,
+    TrajectoryTooLarge,
 )
 
 #: Frames a simulated second while anything moves, by default.
@@ -89,6 +99,8 @@ class Recorder(Subscriber):
 
     Raises:
         ValueError: ``rate`` is not a number above 0; a time of ``at`` is not a number.
+        TrajectoryTooLarge: (from a hook, ending the run; or from :meth:`trajectory`) the recording
+            passes :data:`~stackdsl.runtime.trajectory.MAX_TRAJECTORY_BYTES`.
     """
 
     def __init__(self, program: Program, rate: float = RATE, source: str = "", at: Iterable[float] = ()) -> None:
@@ -119,6 +131,7 @@ class Recorder(Subscriber):
         self._graph_time: float | None = None  # when the collapse graph was taken (s), once there is one
         self._monitor: CollapseMonitor | None = None  # the run's collapse monitor (found at the first step)
         self._passed = 0  # how many threshold crossings the monitor had seen at the last step
+        self._bytes = 0  # what the kept frames and rows take in the trajectory's arrays
 
     # hooks --------------------------------------------------------------------
     def on_place(self, loop: StepLoop, record: BrickRecord) -> None:
@@ -192,6 +205,7 @@ class Recorder(Subscriber):
             elif self._times and self._times[-1] < step * loop.dt - 1e-12:
                 self._times.append(step * loop.dt)
                 self._ground.append(self._ground[-1])
+                self._bytes += FRAME_BYTES
         return now
 
     def _anything_moves(self, loop: StepLoop) -> bool:
@@ -219,6 +233,7 @@ class Recorder(Subscriber):
             self._resting = np.concatenate([self._resting, np.zeros(new, bool)])
         watched = np.array([i for i, r in enumerate(records) if r.moving or not self._resting[i]], dtype=int)
         if not len(watched):
+            self._count(loop, 0)
             return
         chosen = [records[i] for i in watched]
         positions, quaternions = loop.world.poses_of([r.body for r in chosen])
@@ -240,6 +255,17 @@ class Recorder(Subscriber):
                 states[changed],
             )
         )
+        self._count(loop, len(bodies))
+
+    def _count(self, loop: StepLoop, rows: int) -> None:
+        """Count a frame of ``rows`` rows; past :data:`MAX_TRAJECTORY_BYTES`, end the run."""
+        self._bytes += FRAME_BYTES + rows * ROW_BYTES
+        if self._bytes > MAX_TRAJECTORY_BYTES:
+            raise TrajectoryTooLarge(
+                f"the recording passed the {MAX_TRAJECTORY_BYTES >> 20} MiB a trajectory file may hold at t = {loop.now:.2f} s "
+                f"simulated (of {self.program.duration:g} s), {len(self._times)} frames of {len(self._records)} bodies "
+                f"at {self.rate:g} frames a second while anything moves"
+            )
 
     def _states(self, loop: StepLoop, records: list[BrickRecord]) -> np.ndarray:
         """The state codes of ``records`` now (:data:`stackdsl.runtime.trajectory.STATES`): a
@@ -263,7 +289,7 @@ class Recorder(Subscriber):
         graphs = {"final": outcome.final_graph}
         if outcome.collapse_graph is not None:
             graphs["collapse"] = outcome.collapse_graph
-        return Trajectory(
+        trajectory = Trajectory(
             meta=self._meta(outcome),
             ids=np.array([r.id for r in records], dtype=str),
             levels=np.array([r.level or placed.get(r.id, 0) for r in records], dtype=np.int32),
@@ -275,6 +301,13 @@ class Recorder(Subscriber):
             events=outcome.events,
             graphs=graphs,
         )
+        size = trajectory.stored_size  # the rows counted, and the header (events, graphs) besides
+        if size > MAX_TRAJECTORY_BYTES:
+            raise TrajectoryTooLarge(
+                f"the recording takes {size / 2**20:.1f} MiB with its events and brick graphs, more than the "
+                f"{MAX_TRAJECTORY_BYTES >> 20} MiB a trajectory file may hold"
+            )
+        return trajectory
 
     def _meta(self, outcome: Outcome) -> dict[str, Any]:
         """The trajectory's ``meta`` record: the program's settings and the outcome's summary."""
@@ -334,6 +367,7 @@ def record_program(
 
     Raises:
         ValueError: a bad ``rate`` or ``timeout``.
+        TrajectoryTooLarge: the recording passed what a trajectory file may hold (the run ends then).
         TypeError: ``program`` is not a :class:`Program` (as :func:`stackdsl.run_program`).
     """
     require_program(program, "record_program")

@@ -259,15 +259,37 @@ class Trajectory:
         Raises:
             OSError: the file cannot be written.
         """
+        header, arrays = self._stored()
+        size = stored_bytes(header, arrays)
+        if size > MAX_TRAJECTORY_BYTES:  # what load_trajectory would refuse is not written
+            raise TrajectoryTooLarge(
+                f"the trajectory's arrays take {size / 2**20:.1f} MiB, more than the {MAX_TRAJECTORY_BYTES >> 20} MiB "
+                "a trajectory file may hold"
+            )
+        with written(path) as part, open(part, "wb") as f:  # np.savez_compressed adds '.npz' to a name without it
+            np.savez_compressed(f, header=header, **arrays)
+
+    @property
+    def stored_size(self) -> int:
+        """Bytes the trajectory's arrays take in its file once read (:func:`stored_bytes`): what
+        :func:`load_trajectory` checks against :data:`MAX_TRAJECTORY_BYTES`."""
+        return stored_bytes(*self._stored())
+
+    def _stored(self) -> tuple[np.ndarray, dict[str, Any]]:
+        """The header record (a text array of JSON) and the arrays, as :meth:`save` writes them."""
         header = {
             "format": FORMAT,
             "meta": self.meta,
             "events": [e.model_dump(mode="json") for e in self.events],
             "graphs": {k: g.model_dump(mode="json") for k, g in self.graphs.items()},
         }
-        arrays = {name: getattr(self, name) for name in _ARRAYS}
-        with written(path) as part, open(part, "wb") as f:  # np.savez_compressed adds '.npz' to a name without it
-            np.savez_compressed(f, header=np.array(json.dumps(header)), **arrays)
+        return np.array(json.dumps(header)), {name: np.asarray(getattr(self, name)) for name in _ARRAYS}
+
+
+def stored_bytes(header: np.ndarray, arrays: dict[str, np.ndarray]) -> int:
+    """Bytes ``header`` and ``arrays`` take as ``.npy`` members of an archive, each its data and
+    a header of :data:`NPY_HEADER_BYTES` (the sizes :func:`load_trajectory` adds up)."""
+    return sum(int(a.nbytes) + NPY_HEADER_BYTES for a in (header, *arrays.values()))
 
 
 #: Metres: the farthest from the origin a recorded position (a body's, a fixture's, the ground's
@@ -289,6 +311,23 @@ _ID = re.compile(r"[A-Za-z0-9_.-]{1,200}")
 #: arrays and at 1260 MB on 100 MiB, so 64 MiB keeps every command under 1.5 GB (the golden
 #: snapshot's limit is 16 MiB of JSON, :data:`stackdsl.draw.replay.MAX_GOLDEN_BYTES`).
 MAX_TRAJECTORY_BYTES = 64 << 20
+#: Bytes a ``.npy`` member's header takes in a trajectory file, at most (numpy pads each to a
+#: multiple of 64; a trajectory's are 128): what :func:`stored_bytes` adds for each array.
+NPY_HEADER_BYTES = 128
+#: Bytes a frame adds to a trajectory's arrays (its time and the ground's offset, float64) and a
+#: row (frame and body, int32; position and quaternion, float64; state, int8), as the recorder
+#: stores them: what :class:`stackdsl.runtime.recorder.Recorder` counts against
+#: :data:`MAX_TRAJECTORY_BYTES` as it records.
+FRAME_BYTES = 8 + 3 * 8
+ROW_BYTES = 4 + 4 + 3 * 8 + 4 * 8 + 1
+
+
+class TrajectoryTooLarge(ValueError):
+    """A recording that would take more than :data:`MAX_TRAJECTORY_BYTES`, the most a trajectory
+    file may hold (what :func:`load_trajectory`, and so ``replay`` and ``render``, read): it is
+    neither kept nor written. ``str()`` is one line saying when it passed the limit."""
+
+
 #: Each array: its dtype kind ("U" text, "i" integer, "f" float) and its shape (None: any length,
 #: an int: that size; names stand for lengths that must agree across arrays).
 _LAYOUT: dict[str, tuple[str, tuple[str | int, ...]]] = {

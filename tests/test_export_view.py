@@ -694,3 +694,86 @@ def test_view_closes_its_window_when_its_timeout_is_reached(capsys):
     closed = _OpenWindow()
     closed.closed = True
     assert not wait_for_close(closed, 5.0)  # closed by its user: nothing to do
+
+
+def test_views_window_thread_is_waited_for_once_closed():
+    # left running, the viewer's thread tore its window down as the interpreter exited: under a
+    # virtual display 'view' then hung after its --timeout, or aborted (a mutex assertion, exit 134)
+    import threading
+    import time
+
+    from stackdsl.cli.scene import _window
+
+    done = threading.Event()
+
+    class Viewer(_OpenWindow):
+        def close(self) -> None:
+            super().close()
+            done.set()
+
+    def launch(model, data):
+        thread = threading.Thread(target=lambda: (done.wait(), time.sleep(0.3)), daemon=True)
+        thread.start()
+        launch.thread = thread
+        return Viewer()
+
+    scene = type("Scene", (), {"model": None, "data": None})()
+    with _window(launch, scene) as viewer:
+        assert launch.thread.is_alive() and not viewer.closed
+    assert viewer.closed and not launch.thread.is_alive()
+
+
+def test_a_trajectory_played_in_view_stops_at_its_deadline():
+    from stackdsl.draw import live
+
+    _, trajectory = record_program(stackdsl.compile_scenario(stackdsl.parse_scenario(TOWER)))
+    now = [0.0]
+    window = _OpenWindow()
+    window.sync = window.lock = lambda *a: contextlib.nullcontext()
+    scene = type("Scene", (), {"show": lambda *a: None})()
+    sleep, clock = (lambda s: now.__setitem__(0, now[0] + s)), (lambda: now[0])
+    whole = live.play(trajectory, scene, window, sleep=sleep, clock=clock)
+    now[0] = 0.0
+    cut = live.play(trajectory, scene, window, sleep=sleep, clock=clock, deadline=1.5)
+    assert whole == len(trajectory.times) and 0 < cut < whole and now[0] < 1.5 + live.QUIET_HOLD
+
+
+@pytest.mark.slow
+def test_view_under_a_virtual_display_ends_by_its_timeout(tmp_path):
+    """``view`` of a 20-level tower (41 s at real time) under Xvfb with --timeout 6: it closes its
+    window and ends, exit 0, within a few seconds of its timeout (startup: imports, the window)."""
+    import resource
+    import shutil
+    import time
+
+    if shutil.which("Xvfb") is None:
+        pytest.skip("no Xvfb here to give 'view' a virtual display (apt-get install xvfb)")
+    pytest.importorskip("mujoco", reason="'view' is MuJoCo's viewer: the mujoco extra is not installed")
+    display = f":{90 + os.getpid() % 100}"
+    server = subprocess.Popen(["Xvfb", display, "-screen", "0", "1024x768x24"], stderr=subprocess.DEVNULL)
+    try:
+        time.sleep(1.0)
+        (tmp_path / "t.yaml").write_text("stackdsl: 1\nstructure: {tower: {levels: 20}}\n")
+        for name in ("t.yaml", "t.npz"):
+            if name == "t.npz":
+                assert main(["run", str(tmp_path / "t.yaml"), "--record", str(tmp_path / "t.npz")]) == 0
+            before = resource.getrusage(resource.RUSAGE_CHILDREN)
+            start = time.monotonic()
+            done = subprocess.run(
+                [sys.executable, "-m", "stackdsl", "view", name, "--timeout", "6"],
+                cwd=tmp_path,
+                env={**os.environ, "DISPLAY": display},
+                capture_output=True,
+                text=True,
+                timeout=60,
+            )
+            wall = time.monotonic() - start
+            after = resource.getrusage(resource.RUSAGE_CHILDREN)
+            cpu = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
+            assert done.returncode == 0, done.stderr
+            assert "--timeout reached" in done.stderr and "Traceback" not in done.stderr
+            assert wall < 6 + 8, wall  # its timeout, and the imports and window it cannot stop
+            assert cpu < 0.9 * wall, (cpu, wall)  # not a core spinning
+    finally:
+        server.terminate()
+        server.wait(10)

@@ -10,9 +10,12 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
+import threading
 import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -221,24 +224,50 @@ def _view(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return NO_DISPLAY
+    if deadline is not None and time.monotonic() >= deadline:  # not a window opened only to be closed
+        print("stackdsl view: --timeout reached before the window opened", file=sys.stderr)
+        return 0
     if trajectory is not None:
         scene = live.trajectory_scene(trajectory)
-        with mujoco.viewer.launch_passive(scene.model, scene.data) as viewer:
+        with _window(mujoco.viewer.launch_passive, scene) as viewer:
             with viewer.lock():
                 scene.aim(viewer.cam)
-            live.play(trajectory, scene, viewer, args.speed)
+            live.play(trajectory, scene, viewer, args.speed, clock=time.monotonic, deadline=deadline)
             wait_for_close(viewer, deadline)
         return 0
     assert program is not None
     scene = live.program_scene(program)
-    with mujoco.viewer.launch_passive(scene.model, scene.data) as viewer:
+    with _window(mujoco.viewer.launch_passive, scene) as viewer:
         with viewer.lock():
             scene.aim(viewer.cam)
         view = live.LiveView(program, scene, viewer, args.speed)
-        outcome = run_program(program, timeout=args.timeout, subscribers=(view,))
-        print(f"{program.name}: " + (f"collapse at level {outcome.collapse.level}" if outcome.collapse else "stands"))
+        left = None if deadline is None else max(deadline - time.monotonic(), 0.0)  # the command's budget, not the run's own
+        outcome = run_program(program, timeout=left, subscribers=(view,))
+        said = f"collapse at level {outcome.collapse.level}" if outcome.collapse else "stands"
+        print(f"{program.name}: " + (f"stopped early ({outcome.stopped}); {said} until then" if outcome.stopped else said))
         wait_for_close(viewer, deadline)
     return 0
+
+
+@contextlib.contextmanager
+def _window(launch: Any, scene: Any) -> Iterator[Any]:
+    """MuJoCo's passive viewer of ``scene`` (``launch``: ``mujoco.viewer.launch_passive``), closed on
+    exit and its window's thread waited for (at most :data:`CLOSE_WAIT` seconds): left running, the
+    thread tore its window down while the interpreter exited, which hung the command or aborted it
+    (a pthread mutex assertion, exit 134) under a virtual display."""
+    before = set(threading.enumerate())
+    viewer = launch(scene.model, scene.data)
+    started = [t for t in threading.enumerate() if t not in before]
+    try:
+        yield viewer
+    finally:
+        viewer.close()
+        for thread in started:
+            thread.join(CLOSE_WAIT)
+
+
+#: Seconds ``view`` waits for the viewer's window to close once asked to.
+CLOSE_WAIT = 5.0
 
 
 def _add_export(sub: Any, parents: list[argparse.ArgumentParser], epilog: str) -> None:

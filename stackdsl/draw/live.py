@@ -251,6 +251,9 @@ class LiveView(Recorder):
         super().at_end(loop)
         self._picture(loop)
 
+    def _count(self, loop: StepLoop, rows: int) -> None:
+        """Nothing: a live view shows its run whole, and writes no trajectory file to hold to its limit."""
+
     def _picture(self, loop: StepLoop) -> None:
         if not self.open:
             return
@@ -293,12 +296,16 @@ def play(
     speed: float = 1.0,
     sleep: Callable[[float], None] = time.sleep,
     clock: Callable[[], float] = time.perf_counter,
+    deadline: float | None = None,
 ) -> int:
     """Show a recorded trajectory's frames in ``viewer`` at ``speed`` (``sleep`` and ``clock`` as
-    :class:`LiveView`'s); the pictures shown (fewer when the viewer is closed before the end)."""
+    :class:`LiveView`'s) until ``deadline`` (``clock`` seconds; None: none); the pictures shown
+    (fewer when the viewer is closed or the deadline passes before the end)."""
     shown = _paced(viewer, speed, sleep, clock)
     pictures = 0
     for frame in trajectory.frames():
+        if deadline is not None and clock() >= deadline:
+            break
         present = np.flatnonzero(~np.isnan(frame.positions[:, 0]))
         with viewer.lock():
             scene.show(

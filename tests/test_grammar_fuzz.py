@@ -22,7 +22,8 @@ hang): exit 0, 1 or 2 (an up-front refusal with file:line:col), no traceback, un
 resident memory. Cases it found are in tests/hostile/ (``fuzz_*.yaml``).
 
 The default suite runs :func:`test_fuzz_smoke` (a few examples, load and compile only); the long one
-is marker ``slow``, its number of examples from ``STACKDSL_FUZZ_EXAMPLES`` (default 40)::
+is marker ``slow``, its number of examples from ``STACKDSL_FUZZ_EXAMPLES`` (default 40). A run of a
+given length is one command, ``nox -s fuzz -- 3600`` (noxfile.py; docs/development.md), which runs::
 
     STACKDSL_FUZZ_EXAMPLES=100000 STACKDSL_FUZZ_SECONDS=3600 STACKDSL_FUZZ_LOG=/tmp/fuzz.log \\
         nice -n 10 .venv/bin/python -m pytest -m slow -n 0 tests/test_grammar_fuzz.py -p no:cacheprovider

@@ -38,7 +38,7 @@ def _say_sweeps(prepared: list[Prepared], timeout: float | None) -> None:
             runs, seconds = sweep_runs(p.template, p.program)
             bound = "no --timeout" if timeout is None else f"--timeout {timeout:g} s bounds them all"
             print(
-                f"stackdsl check: {p.path}: a sweep of {runs} runs, about {seconds:.2g} s by the compiler's estimate; {bound}",
+                f"stackdsl check: {p.path}: a sweep of {runs} run{'s' * (runs != 1)}, about {seconds:.2g} s by the compiler's estimate; {bound}",
                 file=sys.stderr,
             )
 

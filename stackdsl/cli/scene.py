@@ -208,6 +208,7 @@ def _view(args: argparse.Namespace) -> int:
     from ..compile.compiler import compile_scenario
     from ..draw import live
     from ..runtime.run import run_program
+    from ..verdicts.expect import describe_outcome
     from .sample import scenario_of
 
     # the file is read (a scenario compiled) before the display is tried: bad input is said first
@@ -236,7 +237,7 @@ def _view(args: argparse.Namespace) -> int:
             scene.aim(viewer.cam)
         view = live.LiveView(program, scene, viewer, args.speed)
         outcome = run_program(program, timeout=args.timeout, subscribers=(view,))
-        print(f"{program.name}: " + (f"collapse at level {outcome.collapse.level}" if outcome.collapse else "stands"))
+        print(f"{program.name}: {describe_outcome(outcome, program.collapse_threshold)}")
         wait_for_close(viewer, deadline)
     return 0
 

@@ -180,3 +180,19 @@ def test_a_search_stops_where_its_shared_budget_ran_out():
     with Evaluator(SweepOptions(None, None, False, 100.0, None, budget)) as evaluator:
         results = evaluator.run([(template, 0), (template, 0)])
     assert [r.stopped for r in results] == [BUDGET_SPENT, BUDGET_SPENT]  # not run: nothing is left
+
+
+def test_the_picture_follows_what_the_search_bracketed_on():
+    # an onset search follows still's share of its bound, not the verdict's margin in mm
+    from stackdsl.batch.search import followed
+    from stackdsl.batch.sweep import SampleResult
+
+    def run(margin, held=None, still=None):
+        return SampleResult(0, 0, 0, {}, None, 1, 0.0, 0.0, margin=margin, held=held, still_margin=still)
+
+    name, unit, values = followed([run(0.012, True, 0.4), run(0.012, False, -2.0)])
+    assert (unit, values) == ("", [0.4, -2.0]) and "still" in name
+    name, unit, values = followed([run(0.012, True), run(-0.03, False)])
+    assert (unit, values) == ("", [1.0, -1.0]) and "held" in name
+    name, unit, values = followed([run(0.0002), run(-0.0046), run(None)])
+    assert (name, unit) == ("signed margin", "mm") and values[:2] == pytest.approx([0.2, -4.6]) and values[2] is None

@@ -118,6 +118,20 @@ def run_judged(template: Template, cell: int, k: int, options: SweepOptions, exp
     )
 
 
+def followed(results: Sequence[SampleResult]) -> tuple[str, str, list[float | None]]:
+    """What a threshold search bracketed on, for each of ``results`` (its runs): the name of the
+    quantity, its unit (``""``: a pure number) and its value a run (None: the run has none), as
+    :func:`find_threshold` follows it: with ``still:`` judged, the share of its bound the largest
+    tilt or slip leaves (:attr:`SampleResult.still_margin`, ``1 - peak / bound``); with other
+    expectations judged, the verdict alone (+1 held, -1 failed: the search bisects); else the
+    signed margin (:attr:`SampleResult.margin`), in mm. Source: stackdsl's own."""
+    if any(r.still_margin is not None for r in results):
+        return "still's margin, 1 - peak / bound", "", [r.still_margin for r in results]
+    if any(r.held is not None for r in results):
+        return "expectations (+1 held, -1 failed)", "", [None if r.held is None else 1.0 if r.held else -1.0 for r in results]
+    return "signed margin", "mm", [None if r.margin is None else r.margin * 1000 for r in results]
+
+
 def verdict_word(result: SampleResult) -> str:
     """``"stands"``, ``"collapses at level N"`` (``"held"``, ``"failed"`` with its expectations
     judged), or why the run has no verdict."""

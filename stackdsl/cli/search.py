@@ -174,7 +174,7 @@ def _threshold_template(data: dict[str, Any], source: SourceMap, spec: Any) -> t
 def _threshold(
     args: argparse.Namespace, template: Any, value_of: Callable[[Any], Any], spec: Any, evaluator: Any, out: Path, started: float
 ) -> int:
-    from ..batch.search import find_threshold, stands
+    from ..batch.search import find_threshold, followed, stands
     from ..draw.searchplot import plot_margin
 
     found = find_threshold(template, spec, evaluator, _say, value_of)
@@ -184,14 +184,18 @@ def _threshold(
         print(found.bad_input, file=sys.stderr)
         return 2
     written = _write_runs(results, out)
+    name, unit, bracketed = followed(results)  # what the search bracketed on: the axis says which
+    judged = any(r.held is not None for r in results)
     picture = plot_margin(
         [v for v, _ in found.probes],
-        [None if r.margin is None else r.margin * 1000 for _, r in found.probes],
+        bracketed,
         [stands(r) for _, r in found.probes],
         (found.low, found.high) if found.low is not None and found.high is not None else None,
         spec.field,
         spec.unit,
         out / "margin.png",
+        (name, unit),
+        ("expectations held", "expectations failed") if judged else ("stands", "collapses"),
     )
     grid = found.grid_runs(spec.step, spec.ends)
     summary: dict[str, Any] = {
@@ -204,6 +208,7 @@ def _threshold(
         "runs": found.runs,
         "grid_runs": grid,
         "method": found.method,
+        "bracketed_on": f"{name} [{unit}]" if unit else name,
         "changes": found.changes,
         "message": found.message,
         "wall_time": wall,

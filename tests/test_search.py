@@ -33,6 +33,23 @@ def test_a_short_single_file_stacks_critical_shift_is_bracketed_in_few_runs(tmp_
     assert (out / "samples.csv").read_text().count("\n") == found["runs"] + 1
 
 
+def test_a_search_is_a_row_of_the_html_report_as_a_sweep_is(tmp_path):
+    # the 3-brick stack of the shipped search: its row holds the verdict, the interval, the picture and the runs' files
+    path = tmp_path / "short.yaml"
+    text = (ROOT / "searches" / "single_file_shift.yaml").read_text().replace("levels: 5", "levels: 3")
+    path.write_text(text.replace("between: [20 mm, 30 mm]", "between: [36 mm, 44 mm]"))
+    report = tmp_path / "report"
+    assert main(["search", str(path), "-j", "1", "--report", str(report)]) == 0
+    found = json.loads((report / "short" / "search.json").read_text())
+    page = (report / "index.html").read_text()
+    row = page[page.index('<section class="scenario"') : page.index("</section>")]
+    assert '<span class="verdict pass">PASS</span>' in row and "short.yaml" in row
+    assert f"between {found['interval'][0]:.6g} and {found['interval'][1]:.6g} mm" in row
+    assert 'src="short/margin.png"' in row and 'href="short/samples.csv"' in row and 'href="short/samples.parquet"' in row
+    assert 'href="short/search.json"' in row and "<code>stackdsl search " in row
+    assert (report / "short" / "samples.csv").read_text().count("\n") == found["runs"] + 1
+
+
 @pytest.mark.slow
 def test_the_single_file_stacks_critical_shift_is_bracketed_in_few_runs(tmp_path):
     status, found = search(tmp_path, "searches/single_file_shift.yaml")

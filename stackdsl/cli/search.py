@@ -187,10 +187,13 @@ def _threshold(
 ) -> tuple[int, Row | None]:
     """Run a threshold search, write its files and print its answer; the exit status and its
     report row (None: a run was bad input, nothing written)."""
-    from ..batch.search import find_threshold, followed, stands
+    from ..batch.search import find_threshold, followed, stands, tie_band
+    from ..compile.compiler import compile_scenario
     from ..draw.searchplot import plot_margin
 
-    found = find_threshold(template, spec, evaluator, _say, value_of)
+    options = evaluator.options  # the engine's tie band: the reported interval's ends carry it
+    engine = compile_scenario(template.scenario(0, 0), options.mode, options.model, options.backend).engine
+    found = find_threshold(template, spec, evaluator, _say, value_of, tie_band(engine.mode, engine.contact_margin))
     wall = time.perf_counter() - started
     results = [r for _, r in found.probes]
     if found.bad_input:
@@ -203,7 +206,7 @@ def _threshold(
         [v for v, _ in found.probes],
         bracketed,
         [stands(r) for _, r in found.probes],
-        (found.low, found.high) if found.low is not None and found.high is not None else None,
+        found.interval,
         spec.field,
         spec.unit,
         out / "margin.png",
@@ -215,7 +218,9 @@ def _threshold(
         "kind": "threshold",
         "field": spec.field,
         "unit": spec.unit,
-        "interval": None if not found.found else [found.low, found.high],
+        "interval": None if found.interval is None else list(found.interval),
+        "runs_interval": None if not found.found else [found.low, found.high],
+        "tie_band": list(found.widened),
         "below": found.below,
         "above": found.above,
         "runs": found.runs,
@@ -227,12 +232,17 @@ def _threshold(
         "wall_time": wall,
     }
     (out / "search.json").write_text(json.dumps(summary, indent=2) + "\n")
-    if found.found:
-        assert found.low is not None and found.high is not None
+    if found.interval is not None:
+        (low, high), widened = found.interval, found.widened
         print(
-            f"threshold of {spec.field}: between {found.low:.6g} and {found.high:.6g} {spec.unit} "
-            f"(width {found.high - found.low:.3g} {spec.unit}; {found.below} below, {found.above} above)".replace("  ", " ")
+            f"threshold of {spec.field}: between {low:.6g} and {high:.6g} {spec.unit} "
+            f"(width {high - low:.3g} {spec.unit}; {found.below} below, {found.above} above)".replace("  ", " ")
         )
+        if any(widened):
+            print(
+                f"  the runs' interval, {found.low:.6g} to {found.high:.6g} {spec.unit}, widened by the engine's tie band "
+                f"({widened[0]:.3g} and {widened[1]:.3g} {spec.unit}): within it the engine decides the verdict either way"
+            )
         print(
             f"{found.runs} runs ({found.method}); a grid of the same resolution takes {grid} ({grid / found.runs:.1f}x as many)"
         )
@@ -242,9 +252,9 @@ def _threshold(
         print(f"{'note' if found.found else 'no threshold'}: {found.message}")
     print(f"{found.runs} runs in {wall:.1f} s; wrote {', '.join(p.name for p in written)}, {picture.name}, search.json in {out}")
     expected = f"a threshold of {spec.field} in [{spec.between[0]}, {spec.between[1]}] to {spec.step:g} {spec.unit}"
-    if found.found:
+    if found.interval is not None:
         measured = (
-            f"between {found.low:.6g} and {found.high:.6g} {spec.unit} ({found.below} below, {found.above} above); "
+            f"between {found.interval[0]:.6g} and {found.interval[1]:.6g} {spec.unit} ({found.below} below, {found.above} above); "
             f"{found.runs} runs, a grid takes {grid}"
         )
     else:

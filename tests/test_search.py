@@ -132,9 +132,9 @@ def test_the_dominoes_reach_is_bracketed_on_the_expectations_verdict(tmp_path):
     status, found = search(tmp_path, "searches/dominoes_reach.yaml")
     low, high = found["interval"]
     assert status == 0 and found["below"] == "expectations held" and found["above"] == "expectations failed"
-    assert (
-        120 < low < high < 140 and high - low <= 0.2
-    )  # near t + sqrt(h^2 + t^2) = 128.27 mm (the base slips: docs/results/search.md)
+    # past h + t = 128 mm, where the top of a domino whose foot held would stop reaching the next: the
+    # foot slides forward first (docs/results/domino_reach.py), by less than its 6 mm measured alone
+    assert 128.0 < low < high < 128.0 + 6.0 and high - low <= 0.2
     assert found["runs"] * 10 <= found["grid_runs"]
 
 

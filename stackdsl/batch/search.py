@@ -449,11 +449,11 @@ def find_threshold(
 def tie_band(mode: str, contact_margin: float) -> float:
     """Metres of signed margin within which a statics-decided verdict is the engine's to decide:
     in the extension mode, which decides near ties by statics on the placed geometry, the exact
-    tie (:data:`stackdsl.runtime.collapse.EXACT_TIE`, 0.1 mm: a centre of mass that close to its
+    tie (:data:`stackdsl.runtime.support.EXACT_TIE`, 0.1 mm: a centre of mass that close to its
     support's edge, which statics cannot tell either); in the other modes also the engine's
     contact margin (``contact_margin``, :attr:`stackdsl.engines.protocol.EngineSettings.contact_margin`,
     1 mm on pybullet: its contact points tip or keep such a brick). Source: stackdsl's own."""
-    from ..runtime.collapse import EXACT_TIE
+    from ..runtime.support import EXACT_TIE
 
     return EXACT_TIE if mode == "extension" else max(EXACT_TIE, contact_margin)
 

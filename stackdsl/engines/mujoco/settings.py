@@ -33,13 +33,13 @@ _TUNED: dict[str, object] = dict(
 )
 
 
-
 #: Metres from a support's edge within which MuJoCo's soft contacts, not the geometry, were
 #: measured deciding a brick's fate whatever ``solimp``'s width: at a width of 0.1 mm they held
 #: a brick placed 0.28 mm past the edge of the one under it through its settle, and tipped one
 #: placed 0.15 mm inside (the near-tie family of ``stackdsl bench verdicts``,
 #: docs/results/verdicts.md). A near tie within it is decided by statics on the placed geometry.
 SOFT_REACH = 0.0005
+
 
 class MuJoCoSettings(EngineSettings):
     """:class:`~stackdsl.engines.protocol.EngineSettings` of MuJoCo: friction cones, impratio,

@@ -141,3 +141,16 @@ def test_a_support_narrower_than_the_margin_is_the_margin():
         text += f"    - {{id: {name}, at: [{x} mm, 0, {z} mm]}}\n"
     j = judge(compile_scenario(parse_scenario(text)))
     assert j.collapse_level is None and j.margin == pytest.approx(0.0004, abs=RESOLUTION / 2)
+
+
+def test_a_stand_that_needs_all_its_friction_is_a_friction_tie_and_a_flat_stack_is_not():
+    # assembly 18 of seed 4242: b06 leans on the ground and a wall at 35 deg, held by all of its
+    # friction; the margin (centres of mass moved together) is 0.5 mm and says nothing of that
+    from stackdsl.verdicts.assemblies import FRICTION_TIE
+
+    text = assembly(np.random.default_rng(np.random.SeedSequence(4242, spawn_key=(18,))), "a")
+    leaning = judge(compile_scenario(parse_scenario(text)))
+    assert leaning.collapse_level is None and leaning.friction >= FRICTION_TIE and leaning.friction_tie
+    flat = "stackdsl: 1\nstructure:\n  bricks:\n    - {id: a, at: [0, 0, 4 mm]}\n    - {id: b, at: [30 mm, 0, 12 mm]}\n"
+    stack = judge(compile_scenario(parse_scenario(flat)))
+    assert stack.friction == 0.0 and not stack.friction_tie

@@ -46,3 +46,15 @@ def test_a_part_that_tips_is_said_with_what_it_carries_and_how_far_out_it_was_pl
     assert _tips_words([a, b], [a], [on_brick], 0.003, 0.0015) == (
         "the centre of mass of a with b on it lies 3.0 mm outside the support polygon a was placed on (1.5 mm as they were placed)"
     )
+
+
+def test_the_quick_margin_test_agrees_with_the_exact_distance_on_either_side_of_the_edge():
+    # a brick crossed at 30 deg over another, 20 mm off its centre: its support polygon is a
+    # parallelogram; the side-line test must say what the exact distance says about a margin
+    rng = np.random.default_rng(5)
+    base = Pose(np.array([0.0, 0.0, 0.004]))
+    top = Pose.from_euler(np.array([0.02, 0.0, 0.012]), 30.0, 0.0, 0.0)
+    support = SupportPolygon(KAPLA, top, [(1, KAPLA, base)])
+    least = 1e-4
+    for com in rng.uniform([-0.08, -0.05, 0.0], [0.08, 0.05, 0.0], (400, 3)):
+        assert support.placed_margin_above(com, least) == (support.placed_margin_of(com) >= least)

@@ -1,6 +1,7 @@
 """stackdsl search: thresholds against closed forms, counterexamples that reproduce, and the
 search: block's errors (searches/, docs/searches.md)."""
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -27,10 +28,29 @@ def test_a_short_single_file_stacks_critical_shift_is_bracketed_in_few_runs(tmp_
     assert main(["search", str(path), "-j", "1", "--out", str(out)]) == 0
     found = json.loads((out / "search.json").read_text())
     low, high = found["interval"]
-    assert low <= 40.0 + 0.1 and high >= 40.0 - 0.1 and high - low <= 0.1
+    assert low <= 40.0 <= high and abs(low - 40.0) <= 0.2 and abs(high - 40.0) <= 0.2
+    runs_low, runs_high = found["runs_interval"]
+    assert runs_high - runs_low <= 0.1  # the tolerance; the ends carry the 0.1 mm tie band, 0.067 mm of shift here
     assert found["below"] == "stands" and found["above"].startswith("collapses")
     assert found["runs"] * 10 <= found["grid_runs"]  # at least 10x fewer than a grid at 0.1 mm
     assert (out / "samples.csv").read_text().count("\n") == found["runs"] + 1
+
+
+def test_a_search_is_a_row_of_the_html_report_as_a_sweep_is(tmp_path):
+    # the 3-brick stack of the shipped search: its row holds the verdict, the interval, the picture and the runs' files
+    path = tmp_path / "short.yaml"
+    text = (ROOT / "searches" / "single_file_shift.yaml").read_text().replace("levels: 5", "levels: 3")
+    path.write_text(text.replace("between: [20 mm, 30 mm]", "between: [36 mm, 44 mm]"))
+    report = tmp_path / "report"
+    assert main(["search", str(path), "-j", "1", "--report", str(report)]) == 0
+    found = json.loads((report / "short" / "search.json").read_text())
+    page = (report / "index.html").read_text()
+    row = page[page.index('<section class="scenario"') : page.index("</section>")]
+    assert '<span class="verdict pass">PASS</span>' in row and "short.yaml" in row
+    assert f"between {found['interval'][0]:.6g} and {found['interval'][1]:.6g} mm" in row
+    assert 'src="short/margin.png"' in row and 'href="short/samples.csv"' in row and 'href="short/samples.parquet"' in row
+    assert 'href="short/search.json"' in row and "<code>stackdsl search " in row
+    assert (report / "short" / "samples.csv").read_text().count("\n") == found["runs"] + 1
 
 
 @pytest.mark.slow
@@ -38,8 +58,8 @@ def test_the_single_file_stacks_critical_shift_is_bracketed_in_few_runs(tmp_path
     status, found = search(tmp_path, "searches/single_file_shift.yaml")
     assert status == 0
     low, high = found["interval"]
-    assert abs(low - 24.0) <= 0.2 and abs(high - 24.0) <= 0.2  # the closed form: 120 mm / 5
-    assert high - low <= 0.1  # the tolerance asked for
+    assert low <= 24.0 <= high and abs(low - 24.0) <= 0.2 and abs(high - 24.0) <= 0.2  # the closed form: 120 mm / 5
+    assert found["runs_interval"][1] - found["runs_interval"][0] <= 0.1  # the tolerance asked for
     assert found["below"] == "stands" and found["above"].startswith("collapses")
     assert found["runs"] * 10 <= found["grid_runs"]  # at least 10x fewer than a grid at 0.1 mm
     assert (tmp_path / "out" / "margin.png").stat().st_size > 10_000
@@ -51,7 +71,7 @@ def test_the_critical_shift_on_mujoco(tmp_path):
     pytest.importorskip("mujoco")
     status, found = search(tmp_path, "searches/single_file_shift.yaml", "--backend", "mujoco")
     low, high = found["interval"]
-    assert status == 0 and abs(low - 24.0) <= 0.2 and abs(high - 24.0) <= 0.2
+    assert status == 0 and low <= 24.0 <= high and abs(low - 24.0) <= 0.2 and abs(high - 24.0) <= 0.2
     assert found["runs"] * 10 <= found["grid_runs"]
 
 
@@ -93,7 +113,8 @@ def test_a_bad_search_block_is_refused_at_its_line(tmp_path, capsys, block, said
 def test_the_last_jenga_blocks_critical_offset(tmp_path):
     status, found = search(tmp_path, "searches/jenga_last_block.yaml")
     low, high = found["interval"]
-    assert status == 0 and low <= 12.5 + 0.2 and high >= 12.5 - 0.2 and high - low <= 0.1  # half the block's 25 mm
+    assert status == 0 and low <= 12.5 <= high and abs(low - 12.5) <= 0.2 and abs(high - 12.5) <= 0.2  # 25 mm / 2
+    assert found["runs_interval"][1] - found["runs_interval"][0] <= 0.1
     assert found["runs"] * 10 <= found["grid_runs"]
 
 
@@ -111,9 +132,9 @@ def test_the_dominoes_reach_is_bracketed_on_the_expectations_verdict(tmp_path):
     status, found = search(tmp_path, "searches/dominoes_reach.yaml")
     low, high = found["interval"]
     assert status == 0 and found["below"] == "expectations held" and found["above"] == "expectations failed"
-    assert (
-        120 < low < high < 140 and high - low <= 0.2
-    )  # near t + sqrt(h^2 + t^2) = 128.27 mm (the base slips: docs/results/search.md)
+    # past h + t = 128 mm, where the top of a domino whose foot held would stop reaching the next: the
+    # foot slides forward first (docs/results/domino_reach.py), by less than its 6 mm measured alone
+    assert 128.0 < low < high < 128.0 + 6.0 and high - low <= 0.2
     assert found["runs"] * 10 <= found["grid_runs"]
 
 
@@ -180,3 +201,47 @@ def test_a_search_stops_where_its_shared_budget_ran_out():
     with Evaluator(SweepOptions(None, None, False, 100.0, None, budget)) as evaluator:
         results = evaluator.run([(template, 0), (template, 0)])
     assert [r.stopped for r in results] == [BUDGET_SPENT, BUDGET_SPENT]  # not run: nothing is left
+
+
+def test_the_picture_follows_what_the_search_bracketed_on():
+    # an onset search follows still's share of its bound, not the verdict's margin in mm
+    from stackdsl.batch.search import followed
+    from stackdsl.batch.sweep import SampleResult
+
+    def run(margin, held=None, still=None):
+        return SampleResult(0, 0, 0, {}, None, 1, 0.0, 0.0, margin=margin, held=held, still_margin=still)
+
+    name, unit, values = followed([run(0.012, True, 0.4), run(0.012, False, -2.0)])
+    assert (unit, values) == ("", [0.4, -2.0]) and "still" in name
+    name, unit, values = followed([run(0.012, True), run(-0.03, False)])
+    assert (unit, values) == ("", [1.0, -1.0]) and "held" in name
+    name, unit, values = followed([run(0.0002), run(-0.0046), run(None)])
+    assert (name, unit) == ("signed margin", "mm") and values[:2] == pytest.approx([0.2, -4.6]) and values[2] is None
+
+
+def test_an_exact_tie_the_engine_decided_does_not_end_the_interval_short_of_the_truth():
+    # MuJoCo's single-file stack (60 mm - 5 s / 2): the run at 23.9991 mm, its centre of mass 0.002 mm
+    # inside the edge, collapsed; the runs' interval 23.929 to 23.9991 mm stopped 0.001 mm short of 24 mm
+    from stackdsl.batch.search import ThresholdFound, _bracket, tie_band, tie_widening
+    from stackdsl.batch.sweep import SampleResult
+
+    def run(shift, stood, margin):
+        return shift, SampleResult(0, 0, 0, {}, None if stood else 5, 5, 0.0, 0.0, margin=margin)
+
+    found = ThresholdFound("structure.tower.shift", "mm")
+    found.probes = [run(20.0, True, 0.010), run(30.0, False, -0.0006), run(23.929, True, 0.0001775), run(23.9991, False, -0.0007)]
+    _bracket(found)
+    assert (found.low, found.high) == (23.929, 23.9991)
+    tie = tie_band("extension", 0.001)
+    assert tie == pytest.approx(1e-4) and tie_band("raw", 0.001) == pytest.approx(1e-3)
+    found.widened = tie_widening(found, tie)
+    low, high = found.interval
+    assert low <= 24.0 <= high and high - 24.0 <= 0.2 and 24.0 - low <= 0.2  # the band: 0.1 mm / 2.5 = 0.04 mm each side
+    # a stand proved with more margin than the band (0.18 mm) stays; a collapse placed inside may be a tie
+    assert found.widened[0] == 0.0 and found.widened[1] == pytest.approx(0.04, rel=0.01)
+    found.probes[2] = run(23.97, True, 0.000075)  # a stand within the band is moved too
+    _bracket(found)
+    assert tie_widening(found, tie) == pytest.approx((0.04, 0.04), rel=0.01)
+    # nothing is moved on a judged verdict (not statics')
+    found.probes = [(v, dataclasses.replace(r, held=r.collapse_level is None)) for v, r in found.probes]
+    assert tie_widening(found, tie) == (0.0, 0.0)

@@ -101,6 +101,7 @@ BASE = "stackdsl: 1\nstructure: {tower: {levels: 2}}\n"
         ("timing: {drop_gap: 2 mm}\n", "timing.drop_gap", "a brick dropped 2 mm"),
         ("allow: [floating]\n", "allow", "a floating brick"),
         ("expect: {toppled: 1}\n", "expect.toppled", "where bricks end"),
+        ("expect: {still: {tilt: 0.02 deg}}\n", "expect.still", "the onset of motion"),
     ],
 )
 def test_a_scene_that_needs_motion_is_refused_at_its_field(more, field, why):
@@ -118,6 +119,16 @@ def test_the_command_refuses_a_moving_scene_on_statics_with_exit_2(tmp_path, cap
     assert main(["check", str(path), "--backend", "statics"]) == 2
     err = capsys.readouterr().err
     assert f"{path}:4:5: impacts[0]: statics places bricks" in err and "Traceback" not in err
+
+
+def test_the_command_refuses_still_on_statics_with_exit_2_before_it_runs(tmp_path, capsys):
+    # statics cannot see a tilt or slip begin: refused at the field, not failed as "no motion measured"
+    path = tmp_path / "still.yaml"
+    path.write_text(BASE + "expect:\n  still: {tilt: 0.02 deg}\n")
+    assert main(["run", str(path), "--backend", "statics"]) == 2
+    out, err = capsys.readouterr()
+    assert f"{path}:4:10: expect.still: statics places bricks" in err and "onset of motion" in err
+    assert "Traceback" not in err and "FAIL" not in out + err
 
 
 def test_a_backend_without_dynamics_takes_the_short_path_not_the_step_loop(monkeypatch):

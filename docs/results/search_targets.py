@@ -8,6 +8,9 @@ from the k-th child of the seed), each judged by the closed form (5 levels and a
 24 mm) rather than simulated: the search's runs and tests/test_signed_margin.py show the
 simulation agrees with it to 0.08 mm of the boundary.
 
+The interval is the one reported (the runs' interval, its ends moved out by the engine's tie band
+where statics decides: docs/searches.md).
+
 Run: python docs/results/search_targets.py [OUT] (about 10 minutes on 2 cores).
 """
 
@@ -28,7 +31,11 @@ THRESHOLDS = [
     ("searches/shake_tipping.yaml", 20.71, "shake amplitude where rocking starts, g b / h at 2 Hz"),
     ("searches/shake_rocking_onset.yaml", 20.71, "shake amplitude where rocking starts (still: tilt 0.02 deg), g b / h at 2 Hz"),
     ("searches/shake_sliding_onset.yaml", 31.06, "shake amplitude where sliding starts (still: slip 0.02 mm), mu g at 2 Hz"),
-    ("searches/dominoes_reach.yaml", 128.27, "dominoes' reach, t + sqrt(h^2 + t^2)"),
+    (
+        "searches/dominoes_reach.yaml",
+        128.0,
+        "dominoes' reach, h + t for a foot that holds (none does: docs/results/domino_reach.py)",
+    ),
 ]
 RARE = "searches/rare_overhang.yaml"
 
@@ -38,17 +45,19 @@ def stackdsl(*args: str) -> int:
 
 
 def thresholds(out: Path) -> None:
-    print("| search | closed form | engine | interval | contains it | off by | runs | grid runs | fewer |")
-    print("|---|---:|---|---|---|---:|---:|---:|---:|")
+    print("| search | closed form | engine | interval | the runs' interval | contains it | off by | runs | grid runs | fewer |")
+    print("|---|---:|---|---|---|---|---:|---:|---:|---:|")
     for file, truth, what in THRESHOLDS:
         for engine in ("pybullet", "mujoco"):
             folder = out / f"{Path(file).stem}-{engine}"
             stackdsl("search", file, "-j", "1", "--backend", engine, "--out", str(folder))
             s = json.loads((folder / "search.json").read_text())
             low, high = s["interval"]
+            runs_low, runs_high = s["runs_interval"]
             off = 0.0 if low <= truth <= high else min(abs(low - truth), abs(high - truth))
             print(
                 f"| {Path(file).name}: {what} | {truth:g} {s['unit']} | {engine} | {low:.3f} to {high:.3f} {s['unit']} | "
+                f"{runs_low:.3f} to {runs_high:.3f} | "
                 f"{'yes' if off == 0 else 'no'} | {off:.3f} {s['unit']} | {s['runs']} | {s['grid_runs']} | "
                 f"{s['grid_runs'] / s['runs']:.1f}x |",
                 flush=True,

@@ -70,6 +70,7 @@ def write_report(
     wall: float,
     commands: Sequence[str],
     argv: Sequence[str] = (),
+    title: str = "stackdsl check",
 ) -> Path:
     """Write ``folder/index.html`` for ``results`` (in file order), whose pictures are
     already in their folders under ``folder``; its path.
@@ -77,7 +78,8 @@ def write_report(
     Args:
         results: one per scenario run; ``commands``: the ``stackdsl run`` command of each.
         total: scenarios selected (more than ``len(results)`` when check stopped early).
-        wall: seconds the whole check took; argv: the command line, shown on the page.
+        wall: seconds the whole check took; argv: the command line, shown on the page;
+        title: the page's heading (``stackdsl search`` writes one too).
 
     Raises:
         OSError: the page cannot be written.
@@ -89,14 +91,14 @@ def write_report(
     marked = [(r, c) for r, c in pairs if r.held and r.verdict in ("XFAIL", "XPASS")]
     skipped = [(r, c) for r, c in pairs if r.verdict == "SKIP"]
     now = datetime.datetime.now().astimezone().strftime("%Y-%m-%d %H:%M %Z")
-    command = shlex.join(["stackdsl", *argv]) if argv else "stackdsl check"
+    command = shlex.join(["stackdsl", *argv]) if argv else title
     parts = [
         "<!DOCTYPE html>",
         '<html lang="en"><head><meta charset="utf-8">',
         '<meta name="viewport" content="width=device-width, initial-scale=1">',
-        f"<title>stackdsl check: {len(failed)} failed, {len(passed)} passed</title>",
+        f"<title>{_e(title)}: {len(failed)} failed, {len(passed)} passed</title>",
         f"<style>{STYLE}</style></head><body>",
-        "<h1>stackdsl check</h1>",
+        f"<h1>{_e(title)}</h1>",
         f'<p class="meta">{_e(_counts(results, total, wall))}</p>',
         f'<p class="meta"><code>{_e(command)}</code> &middot; stackdsl {_e(version())} &middot; {_e(now)}</p>',
     ]
@@ -225,10 +227,11 @@ def _facts(r: CheckResult) -> str:
 
 def _links(r: CheckResult, folder: Path) -> list[str]:
     """Links to the result's files there are: its replay, clip, graph, trajectory, a sweep's
-    samples and plots."""
+    samples and plots, a search's other files (``file NAME``: search.json, counterexample files)."""
     kinds = [("3D replay", "replay"), ("clip", "clip"), ("brick graph", "graph"), ("trajectory (.npz)", "trajectory")]
     kinds += [("samples (.csv)", "samples"), ("samples (.parquet)", "parquet"), ("samples (.jsonl)", "jsonl")]
     kinds += [(name, kind) for kind, name in r.artefacts if kind.startswith("plot ")]  # a sweep's plots
+    kinds += [(kind[5:], kind) for kind, _ in r.artefacts if kind.startswith("file ")]  # a search's answer and counterexamples
     return [f'<a href="{_e(href)}">{_e(label)}</a>' for label, kind in kinds if (href := _link(r, kind, folder))]
 
 

@@ -118,6 +118,20 @@ def run_judged(template: Template, cell: int, k: int, options: SweepOptions, exp
     )
 
 
+def followed(results: Sequence[SampleResult]) -> tuple[str, str, list[float | None]]:
+    """What a threshold search bracketed on, for each of ``results`` (its runs): the name of the
+    quantity, its unit (``""``: a pure number) and its value a run (None: the run has none), as
+    :func:`find_threshold` follows it: with ``still:`` judged, the share of its bound the largest
+    tilt or slip leaves (:attr:`SampleResult.still_margin`, ``1 - peak / bound``); with other
+    expectations judged, the verdict alone (+1 held, -1 failed: the search bisects); else the
+    signed margin (:attr:`SampleResult.margin`), in mm. Source: stackdsl's own."""
+    if any(r.still_margin is not None for r in results):
+        return "still's margin, 1 - peak / bound", "", [r.still_margin for r in results]
+    if any(r.held is not None for r in results):
+        return "expectations (+1 held, -1 failed)", "", [None if r.held is None else 1.0 if r.held else -1.0 for r in results]
+    return "signed margin", "mm", [None if r.margin is None else r.margin * 1000 for r in results]
+
+
 def verdict_word(result: SampleResult) -> str:
     """``"stands"``, ``"collapses at level N"`` (``"held"``, ``"failed"`` with its expectations
     judged), or why the run has no verdict."""
@@ -296,6 +310,8 @@ class ThresholdFound:
             verdict"``, or ``"bisection on the verdict"`` (Brent's method could not run).
         changes: how many times the verdict changes among the probes in value order (1 when it
             is monotone over them).
+        widened: how far each end of the reported interval (:attr:`interval`) lies beyond
+            ``low`` and ``high`` (numbers of ``unit``): the engine's tie band (:func:`tie_widening`).
         bad_input, error: a run refused as bad input or its internal error, else ``""``.
     """
 
@@ -308,6 +324,7 @@ class ThresholdFound:
     above: str = ""
     method: str = "brent"
     changes: int = 0
+    widened: tuple[float, float] = (0.0, 0.0)
     message: str = ""
     bad_input: str = ""
     error: str = ""
@@ -319,6 +336,13 @@ class ThresholdFound:
     @property
     def runs(self) -> int:
         return len(self.probes)
+
+    @property
+    def interval(self) -> tuple[float, float] | None:
+        """The interval reported: ``low`` and ``high`` moved out by :attr:`widened` (None: no change found)."""
+        if self.low is None or self.high is None:
+            return None
+        return self.low - self.widened[0], self.high + self.widened[1]
 
     @property
     def width(self) -> float:
@@ -341,12 +365,15 @@ def find_threshold(
     evaluator: Evaluator,
     progress: Callable[[str], None] = lambda line: None,
     value_of: Callable[[Any], Any] = lambda v: v,
+    tie: float = 0.0,
 ) -> ThresholdFound:
     """Where the verdict changes along ``spec.field`` between ``spec.between``'s ends, to
     ``spec.step`` (the tolerance), in at most ``spec.runs`` runs (the module's description).
     ``template``: the file with a one-field grid on the field searched (its one value is replaced
     by each probe's, ``value_of`` the value as written: the whole list, for one number of a
-    list, :func:`in_list`). ``progress`` is told one line a run."""
+    list, :func:`in_list`). ``progress`` is told one line a run. ``tie``: metres of signed margin
+    within which the engine, not statics, decides the verdict (:func:`tie_band`): the reported
+    interval's ends carry it (:func:`tie_widening`)."""
     from scipy.optimize import brentq
 
     low, high = spec.ends
@@ -415,7 +442,61 @@ def find_threshold(
         found.method = "brent, then bisection on the verdict"
     if found.found and found.width > step and not found.message:
         found.message = f"the runs were spent ({spec.runs}) before the interval was {step:g} {unit} wide"
+    found.widened = tie_widening(found, tie)
     return found
+
+
+def tie_band(mode: str, contact_margin: float) -> float:
+    """Metres of signed margin within which a statics-decided verdict is the engine's to decide:
+    in the extension mode, which decides near ties by statics on the placed geometry, the exact
+    tie (:data:`stackdsl.runtime.support.EXACT_TIE`, 0.1 mm: a centre of mass that close to its
+    support's edge, which statics cannot tell either); in the other modes also the engine's
+    contact margin (``contact_margin``, :attr:`stackdsl.engines.protocol.EngineSettings.contact_margin`,
+    1 mm on pybullet: its contact points tip or keep such a brick). Source: stackdsl's own."""
+    from ..runtime.support import EXACT_TIE
+
+    return EXACT_TIE if mode == "extension" else max(EXACT_TIE, contact_margin)
+
+
+def tie_widening(found: ThresholdFound, tie: float) -> tuple[float, float]:
+    """How far to move each end of ``found``'s interval out (numbers of its unit) so that it holds
+    statics' boundary (where the signed margin of the parts as placed crosses zero: the closed
+    form) although the engine decides verdicts within ``tie`` metres of it either way
+    (:func:`tie_band`): the field's width of the band, ``tie / slope``, the slope of the signed
+    margin along the field from the two stands nearest the interval whose margins differ by at
+    least ``tie`` (a stand's margin is its certificate's, continuous and nearly linear where
+    statics decides). An end is moved when its run could lie in the band: a stand with a margin
+    under ``tie``, or any collapse (a collapse's margin is how far its proof went past its limit,
+    not its placed margin, when it was placed inside). Nothing is moved (0, 0) when no change
+    was found, ``tie`` is 0, the runs' expectations were judged (the verdict is not statics'), or
+    no slope shows (a flat margin: not a statics-decided boundary). Source: stackdsl's own.
+
+    Example: MuJoCo's single-file stack tipped at 23.9991 mm, its centre of mass 0.002 mm inside
+    the edge; with a slope of 2.5 (60 mm - 5 s / 2) and a 0.1 mm band the end moves 0.04 mm out.
+    """
+    low, high = found.low, found.high
+    if low is None or high is None or tie <= 0 or any(r.held is not None for _, r in found.probes):
+        return 0.0, 0.0
+    kept = sorted(
+        ((v, r.margin) for v, r in found.probes if stands(r) and r.margin is not None),
+        key=lambda p: min(abs(p[0] - low), abs(p[0] - high)),
+    )
+    slope = None
+    for (a, ma), (b, mb) in itertools.combinations(kept, 2):  # the nearest pair whose margins differ by the band
+        if abs(ma - mb) >= tie and a != b:
+            slope = abs(ma - mb) / abs(a - b)
+            break
+    if slope is None:
+        return 0.0, 0.0
+    band = tie / slope
+    ends = {v: r for v, r in found.probes}
+
+    def moved(v: float) -> float:
+        r = ends[v]
+        could_tie = not stands(r) or r.margin is None or r.margin < tie
+        return band if could_tie else 0.0
+
+    return moved(low), moved(high)
 
 
 def _bracket(found: ThresholdFound) -> None:

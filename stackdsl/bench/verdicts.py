@@ -167,6 +167,21 @@ class Verdicts:
     margin: float
     runs: tuple[Run, ...]
     error: str = ""
+    friction: float = 0.0
+
+    @property
+    def friction_tie(self) -> bool:
+        """A step that stands needs nearly all of its friction
+        (:attr:`stackdsl.verdicts.assemblies.Judgement.friction_tie`): a tie the margin does not
+        measure, banded as one (:attr:`band_margin`)."""
+        from ..verdicts.assemblies import FRICTION_TIE
+
+        return self.friction >= FRICTION_TIE
+
+    @property
+    def band_margin(self) -> float:
+        """Metres: the margin its agreement band is chosen by, 0 for a friction tie."""
+        return 0.0 if self.friction_tie else self.margin
 
     def run(self, setting: str, gap: float) -> Run | None:
         """The run of ``setting`` at ``gap`` (m), or None."""
@@ -228,7 +243,9 @@ def verdicts(seed: int, index: int, runs: Plan | None = None) -> Verdicts:
         return Verdicts(index, text, 0, False, None, 0.0, (), f"{type(exc).__name__}: {exc}")
     leaning = not all(_flat(p) for p in program.placements)
     done = tuple(run_setting(scenario, SETTINGS[name], gap) for name, gap in runs)
-    return Verdicts(index, text, len(program.placements), leaning, oracle.collapse_level, oracle.margin, done)
+    return Verdicts(
+        index, text, len(program.placements), leaning, oracle.collapse_level, oracle.margin, done, "", oracle.friction
+    )
 
 
 def run_verdicts(
@@ -353,8 +370,8 @@ class Row:
 def rows(results: Sequence[Verdicts], runs: Plan) -> list[Row]:
     """The agreement table's rows, one per (setting, gap) of ``runs``, counted from the runs."""
     good = [v for v in results if not v.error]
-    sure = [v for v in good if v.margin > MARGIN]
-    near = [v for v in good if NEAR < v.margin <= MARGIN]
+    sure = [v for v in good if v.band_margin > MARGIN]
+    near = [v for v in good if NEAR < v.band_margin <= MARGIN]
 
     def count(subset: Sequence[Verdicts], name: str, gap: float) -> tuple[int, int]:
         ran = [v for v in subset if (r := v.run(name, gap)) is not None and not r.error]
@@ -391,15 +408,18 @@ def format_verdicts(results: list[Verdicts], out: Path | None, seconds: float, r
     with a margin above :data:`NEAR` (written to ``out`` as scenario files when it is given),
     each with its proof and the certificate's near-tie words."""
     runs = plan() if runs is None else runs
+    from ..verdicts.assemblies import FRICTION_TIE
+
     good = [v for v in results if not v.error]
-    sure = [v for v in good if v.margin > MARGIN]
-    near = [v for v in good if NEAR < v.margin <= MARGIN]
+    sure = [v for v in good if v.band_margin > MARGIN]
+    near = [v for v in good if NEAR < v.band_margin <= MARGIN]
     stands = sum(v.oracle is None for v in good)
     leaning = sum(v.leaning for v in good)
     lines = [
         f"{len(results)} random assemblies ({stands} stand by the oracle, {leaning} with a leaning brick), "
         f"{len(sure)} with an oracle margin above {MARGIN * 1000:g} mm ({sum(v.leaning for v in sure)} leaning), "
-        f"{len(near)} from {NEAR * 1000:g} to {MARGIN * 1000:g} mm; {seconds:.0f} s wall",
+        f"{len(near)} from {NEAR * 1000:g} to {MARGIN * 1000:g} mm, {sum(v.friction_tie for v in good)} friction ties "
+        f"(a step that stands needs {FRICTION_TIE:.0%} or more of its friction: banded with the ties); {seconds:.0f} s wall",
         "agreement with the oracle, agreeing/runs: every assembly; margin > 1 mm; margin 0.2-1 mm; margin > 1 mm "
         "without and with a leaning brick. 'stand+active': stands with a structure brick still active at the end; "
         "'no cert.': a verdict without its certificate",
@@ -415,7 +435,7 @@ def format_verdicts(results: list[Verdicts], out: Path | None, seconds: float, r
     wrong = [
         (v, name, gap)
         for v in good
-        if v.margin > NEAR
+        if v.band_margin > NEAR
         for name, gap in runs
         if (r := v.run(name, gap)) and not r.error and not agrees(v, name, gap)
     ]

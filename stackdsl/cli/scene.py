@@ -211,6 +211,7 @@ def _view(args: argparse.Namespace) -> int:
     from ..compile.compiler import compile_scenario
     from ..draw import live
     from ..runtime.run import run_program
+    from ..verdicts.expect import describe_outcome
     from .sample import scenario_of
 
     # the file is read (a scenario compiled) before the display is tried: bad input is said first
@@ -243,7 +244,7 @@ def _view(args: argparse.Namespace) -> int:
         view = live.LiveView(program, scene, viewer, args.speed)
         left = None if deadline is None else max(deadline - time.monotonic(), 0.0)  # the command's budget, not the run's own
         outcome = run_program(program, timeout=left, subscribers=(view,))
-        said = f"collapse at level {outcome.collapse.level}" if outcome.collapse else "stands"
+        said = describe_outcome(outcome, program.collapse_threshold)
         print(f"{program.name}: " + (f"stopped early ({outcome.stopped}); {said} until then" if outcome.stopped else said))
         wait_for_close(viewer, deadline)
     return 0

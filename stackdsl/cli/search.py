@@ -45,6 +45,12 @@ def add_search(
     add_seed(p)
     add_executor(p)
     p.add_argument("--out", default=None, help="folder for the files, made if missing (default: a new private folder)")
+    p.add_argument(
+        "--report",
+        metavar="DIR",
+        help="also write DIR/index.html: the search as one row, as check --report shows a sweep (its verdict, interval or "
+        "counterexamples, the picture, links to the runs' files); the files go to DIR/<file's stem> unless --out is given",
+    )
     p.add_argument("--mode", choices=modes, help="override the scenario's engine mode")
     p.add_argument("--model", choices=models, help="override the scenario's stability model")
     p.add_argument("--backend", choices=names(), help="override the scenario's engine")
@@ -69,10 +75,13 @@ def _search(args: argparse.Namespace) -> int:
     if args.runs is not None and args.runs < 1:
         raise ScenarioError(f"--runs must be 1 or more, not {args.runs}", file="--runs")
     out = None
-    if args.out is not None:
-        (out,) = check_outputs(
-            [Output("--out", args.out, "the search's output", folder=True)], [Input(args.file, "the scenario searched")]
-        )
+    if args.report is not None and args.out is None:  # the row's files beside its page
+        args.out = str(Path(args.report) / _safe(Path(args.file).stem))
+    outputs = [Output("--out", args.out, "the search's output", folder=True)] if args.out is not None else []
+    outputs += [Output("--report", args.report, "the report", folder=True, inside=("index.html",))] if args.report else []
+    if outputs:
+        made = check_outputs(outputs, [Input(args.file, "the scenario searched")])
+        out = made[0] if args.out is not None else None
     data, source = _data(args.file, args.seed)
     from ..batch.guard import TIMEOUT
 
@@ -111,13 +120,15 @@ def _search(args: argparse.Namespace) -> int:
                 f"stackdsl search: threshold of {spec.field} in [{spec.between[0]}, {spec.between[1]}], {engine}, on {where}, writing to {out}",
                 flush=True,
             )
-            return _threshold(args, template, value_of, spec, evaluator, out, started)
+            status, row = _threshold(args, template, value_of, spec, evaluator, out, started)
+            return _reported(args, scenario, engine_name, status, row, out, started)
         spec_c = search.counterexample
         assert spec_c is not None
         if args.runs is not None:
             spec_c = spec_c.model_copy(update={"runs": args.runs})
         print(f"stackdsl search: counterexamples in {spec_c.runs} runs, {engine}, on {where}, writing to {out}", flush=True)
-        return _counterexamples(args, scenario, template, expected, spec_c, evaluator, out, started)
+        status, row = _counterexamples(args, scenario, template, expected, spec_c, evaluator, out, started)
+        return _reported(args, scenario, engine_name, status, row, out, started)
 
 
 def _data(file: str, seed: int | None) -> tuple[dict[str, Any], SourceMap]:
@@ -173,48 +184,65 @@ def _threshold_template(data: dict[str, Any], source: SourceMap, spec: Any) -> t
 
 def _threshold(
     args: argparse.Namespace, template: Any, value_of: Callable[[Any], Any], spec: Any, evaluator: Any, out: Path, started: float
-) -> int:
-    from ..batch.search import find_threshold, stands
+) -> tuple[int, Row | None]:
+    """Run a threshold search, write its files and print its answer; the exit status and its
+    report row (None: a run was bad input, nothing written)."""
+    from ..batch.search import find_threshold, followed, stands, tie_band
+    from ..compile.compiler import compile_scenario
     from ..draw.searchplot import plot_margin
 
-    found = find_threshold(template, spec, evaluator, _say, value_of)
+    options = evaluator.options  # the engine's tie band: the reported interval's ends carry it
+    engine = compile_scenario(template.scenario(0, 0), options.mode, options.model, options.backend).engine
+    found = find_threshold(template, spec, evaluator, _say, value_of, tie_band(engine.mode, engine.contact_margin))
     wall = time.perf_counter() - started
     results = [r for _, r in found.probes]
     if found.bad_input:
         print(found.bad_input, file=sys.stderr)
-        return 2
+        return 2, None
     written = _write_runs(results, out)
+    name, unit, bracketed = followed(results)  # what the search bracketed on: the axis says which
+    judged = any(r.held is not None for r in results)
     picture = plot_margin(
         [v for v, _ in found.probes],
-        [None if r.margin is None else r.margin * 1000 for _, r in found.probes],
+        bracketed,
         [stands(r) for _, r in found.probes],
-        (found.low, found.high) if found.low is not None and found.high is not None else None,
+        found.interval,
         spec.field,
         spec.unit,
         out / "margin.png",
+        (name, unit),
+        ("expectations held", "expectations failed") if judged else ("stands", "collapses"),
     )
     grid = found.grid_runs(spec.step, spec.ends)
     summary: dict[str, Any] = {
         "kind": "threshold",
         "field": spec.field,
         "unit": spec.unit,
-        "interval": None if not found.found else [found.low, found.high],
+        "interval": None if found.interval is None else list(found.interval),
+        "runs_interval": None if not found.found else [found.low, found.high],
+        "tie_band": list(found.widened),
         "below": found.below,
         "above": found.above,
         "runs": found.runs,
         "grid_runs": grid,
         "method": found.method,
+        "bracketed_on": f"{name} [{unit}]" if unit else name,
         "changes": found.changes,
         "message": found.message,
         "wall_time": wall,
     }
     (out / "search.json").write_text(json.dumps(summary, indent=2) + "\n")
-    if found.found:
-        assert found.low is not None and found.high is not None
+    if found.interval is not None:
+        (low, high), widened = found.interval, found.widened
         print(
-            f"threshold of {spec.field}: between {found.low:.6g} and {found.high:.6g} {spec.unit} "
-            f"(width {found.high - found.low:.3g} {spec.unit}; {found.below} below, {found.above} above)".replace("  ", " ")
+            f"threshold of {spec.field}: between {low:.6g} and {high:.6g} {spec.unit} "
+            f"(width {high - low:.3g} {spec.unit}; {found.below} below, {found.above} above)".replace("  ", " ")
         )
+        if any(widened):
+            print(
+                f"  the runs' interval, {found.low:.6g} to {found.high:.6g} {spec.unit}, widened by the engine's tie band "
+                f"({widened[0]:.3g} and {widened[1]:.3g} {spec.unit}): within it the engine decides the verdict either way"
+            )
         print(
             f"{found.runs} runs ({found.method}); a grid of the same resolution takes {grid} ({grid / found.runs:.1f}x as many)"
         )
@@ -223,10 +251,19 @@ def _threshold(
     if found.message:
         print(f"{'note' if found.found else 'no threshold'}: {found.message}")
     print(f"{found.runs} runs in {wall:.1f} s; wrote {', '.join(p.name for p in written)}, {picture.name}, search.json in {out}")
+    expected = f"a threshold of {spec.field} in [{spec.between[0]}, {spec.between[1]}] to {spec.step:g} {spec.unit}"
+    if found.interval is not None:
+        measured = (
+            f"between {found.interval[0]:.6g} and {found.interval[1]:.6g} {spec.unit} ({found.below} below, {found.above} above); "
+            f"{found.runs} runs, a grid takes {grid}"
+        )
+    else:
+        measured = f"no threshold: {found.message}; {found.runs} runs"
+    row = Row(expected, measured, results, [picture, *written, out / "search.json"], found.error)
     if found.error:
         print(f"stackdsl: a run hit an internal error: {found.error}", file=sys.stderr)
-        return 3
-    return 0 if found.found and not found.message else 1
+        return 3, row
+    return (0 if found.found and not found.message else 1), row
 
 
 def _counterexample_template(scenario: Any, data: dict[str, Any], source: SourceMap) -> tuple[Any, bool]:
@@ -262,7 +299,9 @@ def _counterexamples(
     evaluator: Any,
     out: Path,
     started: float,
-) -> int:
+) -> tuple[int, Row | None]:
+    """Run a counterexample search, write its files and print what it found; the exit status and
+    its report row (None: every run was bad input, nothing written)."""
     from ..batch.search import counterexample_file, find_counterexamples
 
     seed = template.seed if args.seed is None else args.seed
@@ -270,7 +309,7 @@ def _counterexamples(
     wall = time.perf_counter() - started
     if found.bad_input and not found.results:
         print(found.bad_input, file=sys.stderr)
-        return 2
+        return 2, None
     written = _write_runs(found.results, out)
     files = []
     sought = "a stand" if not expected else "a collapse"
@@ -303,10 +342,17 @@ def _counterexamples(
     print(
         f"{len(found.results)} runs ({found.search_runs} searching, {found.shrink_runs} shrinking) in {wall:.1f} s; wrote {', '.join(p.name for p in written)}, search.json in {out}"
     )
+    expected_text = f"no counterexample ({sought}) in {spec.runs} runs"
+    measured = (
+        f"{len(found.found)} counterexample{'s' * (len(found.found) != 1)}, the first at run {found.first}"
+        if found.found
+        else f"none in {found.search_runs} runs"
+    )
+    row = Row(expected_text, measured, found.results, [*written, *files, out / "search.json"], found.error)
     if found.error:
         print(f"stackdsl: a run hit an internal error: {found.error}", file=sys.stderr)
-        return 3
-    return 1 if found.found else 0
+        return 3, row
+    return (1 if found.found else 0), row
 
 
 def _write_runs(results: list[Any], out: Path) -> list[Path]:
@@ -316,3 +362,66 @@ def _write_runs(results: list[Any], out: Path) -> list[Path]:
     if parquet is None:
         print(f"stackdsl: {PARQUET_MISSING}", file=sys.stderr)
     return [table, jsonl, *([parquet] if parquet else [])]
+
+
+@dataclasses.dataclass
+class Row:
+    """What a search's row in the HTML report says: what it asked (``expected``) and found
+    (``measured``), its runs, the files it wrote (the first, a picture when it is a PNG) and an
+    internal error of a run (one line, or ``""``)."""
+
+    expected: str
+    measured: str
+    results: list[Any]
+    files: list[Path]
+    error: str = ""
+
+
+def _reported(
+    args: argparse.Namespace, scenario: Any, engine: str, status: int, row: Row | None, out: Path | None, started: float
+) -> int:
+    """``--report DIR``: ``DIR/index.html`` with the search as one row, as ``check --report`` shows a
+    sweep (:func:`stackdsl.batch.htmlreport.write_report`): PASS when the search's exit status is
+    0, its picture and links to its files. Returns ``status``."""
+    if args.report is None or row is None or out is None:
+        return status
+    from ..batch.htmlreport import write_report
+    from ..batch.report import rerun_command
+    from ..verdicts.check_result import CheckResult
+    from ..verdicts.expect import Verdict
+
+    pictures = [("picture", row.files[0].name)] if row.files and row.files[0].suffix == ".png" else []
+    kinds = {"samples.csv": "samples", "samples.parquet": "parquet", "samples.jsonl": "jsonl"}
+    links = [(kinds.get(f.name, f"file {f.name}"), f.name) for f in row.files if f.suffix != ".png"]
+    mode = args.mode or scenario.engine.mode
+    result = CheckResult(
+        file=args.file,
+        scenario=scenario.name,
+        mode=mode,
+        model=args.model or scenario.stability.model,
+        backend=engine,
+        verdicts=(Verdict(name="search", passed=status == 0, expected=row.expected, measured=row.measured),),
+        collapse_level=None,
+        levels_placed=max((r.levels_placed for r in row.results), default=0),
+        simulated_time=sum(r.simulated_time for r in row.results),
+        wall_time=time.perf_counter() - started,
+        error=row.error,
+        sweep=row.measured,
+        folder=str(out),
+        artefacts=tuple([*pictures, *links]),
+    )
+    command = rerun_command(
+        "search", args.file, mode=args.mode, model=args.model, backend=args.backend, seed=args.seed, timeout=args.timeout
+    )
+    page = write_report(
+        [result], args.report, total=1, wall=result.wall_time, commands=[command], argv=sys.argv[1:], title="stackdsl search"
+    )
+    print(f"wrote {page}")
+    return status
+
+
+def _safe(name: str) -> str:
+    """``name`` with only letters, digits, ``-`` and ``_`` (a folder name), at most 40 characters."""
+    import re
+
+    return re.sub(r"[^A-Za-z0-9_-]", "_", name)[:40] or "search"

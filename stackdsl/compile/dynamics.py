@@ -2,8 +2,9 @@
 
 A backend whose :attr:`~stackdsl.engines.backend.Backend.dynamics` is False (the statics one)
 places bricks and solves equilibrium; it cannot say what a thrown brick, a hand or a shake
-table does, where a dropped or fallen brick ends, or how a floating brick lands. Such a scene is
-refused at the field that makes it move, before anything runs.
+table does, where a dropped or fallen brick ends, how a floating brick lands, or whether a brick
+ever tilts or slips (the onset of motion, ``expect: still``). Such a scene is refused at the field
+that makes it move or asks about motion, before anything runs.
 
 Source: stackdsl's own.
 """
@@ -24,7 +25,8 @@ def check_motion(scenario: Scenario, backend: Backend) -> None:
     Raises:
         ScenarioError: at the first field that needs motion (an impact, an action, a drop gap
             above the backend's :attr:`~stackdsl.engines.backend.Backend.max_drop`, floating
-            bricks allowed, an expectation of where bricks end), naming the backend and why.
+            bricks allowed, an expectation of where bricks end or of the onset of motion, ``still``),
+            naming the backend and why.
     """
     if backend.dynamics:
         return
@@ -42,6 +44,8 @@ def check_motion(scenario: Scenario, backend: Backend) -> None:
         said = next((name for name in _AFTER_A_FALL if getattr(scenario.expect, name) is not None), None)
         if said is not None:
             where, what = ("expect", said), f"where bricks end ({said}) needs motion"
+        elif scenario.expect.still is not None:
+            where, what = ("expect", "still"), "the onset of motion (still: the largest tilt and slip) needs motion"
     if where is None:
         return
     message = f"{backend.refusal}: {what}; run it on an engine (engine: {{backend: ...}} or --backend)"

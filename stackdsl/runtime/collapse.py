@@ -54,11 +54,7 @@ from .bricks import BrickRecord
 from .end_proofs import MotionWindow, named, stand_words
 from .loop import StepLoop, Subscriber
 from .outcome import Certificate, Collapse, Event, Graph, ProofKind
-from .support import OffSupport
-
-#: Metres from its support polygon's edge within which a placed brick is an exact tie: statics
-#: itself cannot tell where the engine's floats put it (a collapse of such a brick says so).
-EXACT_TIE = 1e-4
+from .support import EXACT_TIE, OffSupport, PlacedLoad
 
 
 @dataclass
@@ -158,15 +154,20 @@ class CollapseMonitor(Subscriber):
         self.off_support.place(loop, record)
 
     def at_end(self, loop: StepLoop) -> None:
+        self.off_support.weigh(loop)
         moving, said = self._window.still_moving(loop) if self.collapse is None else (set(), "")
         if self.collapse is None and self._displaced:
             self._decide(loop, displaced_at_end=True, in_flight=moving)
         self.record_drift(loop)
         if self.collapse is not None or loop.stopped is not None:
             return
+        if (off := self.off_support.placed_off) is not None:  # the engine held what statics fells
+            self._placed_off(loop, off)
+            return
         if moving:  # no static argument on a pose in flight: the run was too short to tell
             records = loop.structure.records
-            ties = "".join(self._near_tie(loop, records[i]) for i in sorted(moving) if i in records)  # why it is slow
+            ties = "".join(dict.fromkeys(self._near_tie(loop, records[i]) for i in sorted(moving) if i in records))  # why slow
+            ties = ties or self._load_tie(loop)
             self.certificate = Certificate(verdict="undecided", kind="still moving", detail=said + ties, bricks=())
             return
         started = time.perf_counter()
@@ -176,7 +177,7 @@ class CollapseMonitor(Subscriber):
             self.certificate = Certificate(
                 verdict="stands",
                 kind="equilibrium",
-                detail=stand_words(certificate, self._near_ties()),
+                detail=stand_words(certificate, self._near_ties()) + self._load_tie(loop, "; "),
                 margin_mm=math.floor(round(certificate.margin * 10_000, 6)) / 10 + 0.0,  # down: never above it
                 friction_share=math.ceil(round(certificate.friction * 100, 6)) / 100,
             )
@@ -206,6 +207,7 @@ class CollapseMonitor(Subscriber):
         self.margin = signed_margin(self.off_support.least_placed_margin(loop, placed), 0.0)
 
     def after_step(self, loop: StepLoop) -> None:
+        self.off_support.weigh(loop)
         if self.collapse is None and (self._displaced or loop.structure.moving):  # else nothing can have moved
             self._window.watch(loop)
             self._decide(loop)
@@ -293,7 +295,9 @@ class CollapseMonitor(Subscriber):
         """A note for a brick placed with its centre of mass inside its support polygon's edge
         by less than the engine's contact margin (:attr:`EngineSettings.contact_margin`: statics
         says it stands, and the engine's contact points may tip it), or within :data:`EXACT_TIE`
-        of the edge either way (an exact tie, which statics cannot tell either); "" otherwise."""
+        of the edge either way (an exact tie, which statics cannot tell either); else, the first
+        part placed so (a brick with the load it carries, :attr:`OffSupport.ties`: two bricks
+        together 1.5 um past the edge of the one under them); "" otherwise."""
         support = self.off_support.supports.get(record.id)
         margin = math.inf if support is None else support.placed_margin
         engine = loop.program.engine
@@ -301,9 +305,34 @@ class CollapseMonitor(Subscriber):
         if abs(margin) < EXACT_TIE:
             side = "inside" if margin >= 0 else "outside"
             return f" (placed {abs(margin) * 1000:.2f} mm {side} its support's edge: an exact tie, {within})"
-        if not 0.0 <= margin < engine.contact_margin:
+        if 0.0 <= margin < engine.contact_margin:
+            return f" (placed {margin * 1000:.2f} mm inside its support's edge: a near tie, {within})"
+        return self._load_tie(loop)
+
+    def _load_tie(self, loop: StepLoop, lead: str = " (") -> str:
+        """The first part of several bricks placed on an exact tie (:attr:`OffSupport.ties`: two
+        bricks together 1.5 um past the edge of the one under them), in words led by ``lead``
+        (closed by ")" after " ("), or ""."""
+        load = next((t for t in self.off_support.ties if t.bricks > 1), None)
+        if load is None:
             return ""
-        return f" (placed {margin * 1000:.2f} mm inside its support's edge: a near tie, {within})"
+        engine = loop.program.engine
+        said = f"{load.words()}: an exact tie, within {engine.NAME}'s {engine.contact_margin * 1000:g} mm contact margin"
+        return f"{lead}{said}{')' if lead == ' (' else ''}"
+
+    def _placed_off(self, loop: StepLoop, off: PlacedLoad) -> None:
+        """Record the collapse exact statics on the placed geometry proves and the engine's
+        contacts did not show (:attr:`OffSupport.placed_off`): a part placed with its centre of
+        mass outside its support polygon falls at the level placed then (MuJoCo's soft contacts
+        held a brick placed 0.265 mm past the edge of the one under it for its whole settle)."""
+        records = loop.structure.records
+        first = records[off.brick]
+        tie = ": an exact tie" if abs(off.margin) < EXACT_TIE else ""
+        detail = f"{off.words()}{tie}: statics on the placed geometry decided, not the engine, whose contacts held it"
+        certificate = Certificate(verdict="collapse", kind="off its support", detail=detail, bricks=(off.brick,))
+        (moved,) = loop.structure.displacements([first])
+        self._record(loop, first, off.level, off.time, float(moved), loop.now, certificate, None)
+        self.margin = off.margin
 
     def _resting(self, loop: StepLoop, records: list[BrickRecord]) -> list[bool]:
         """Whether each brick's speeds are under the rest thresholds now (a frozen one's are)."""
@@ -322,6 +351,9 @@ class CollapseMonitor(Subscriber):
         and those of the proved mechanism."""
         first_id = min(self._displaced, key=lambda i: self._displaced[i].since)
         first, state = loop.structure.records[first_id], self._displaced[first_id]
+        if (off := self.off_support.placed_off) is not None and off.level < state.level:
+            self._placed_off(loop, off)  # statics felled it a level before the engine let it go
+            return
         farthest = moved if first is record else state.farthest
         kind, detail, moved_too = proof
         if first is not record:  # the collapse is named after the brick that moved first

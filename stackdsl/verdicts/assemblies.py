@@ -31,7 +31,7 @@ import numpy as np
 from shapely.affinity import rotate, translate
 from shapely.geometry import MultiPoint, Polygon, box
 
-from stability import Box, Pose, RigidBlock, is_level, solve_equilibrium
+from stability import Box, Pose, RigidBlock, friction_share, is_level, solve_equilibrium
 
 from ..compile.program import Fixture, Place, Program
 from .oracle import equilibrium_collapse, structure
@@ -235,12 +235,29 @@ def _yaml(bricks: list[Brick], name: str, leaner: Leaner | None = None) -> str:
     return "\n".join(lines) + "\n"
 
 
+#: The share of its friction coefficients above which a standing step is a friction tie: engines
+#: model friction differently from the oracle's Coulomb cone (MuJoCo's default pyramid of four
+#: edges reaches 71% of the cone between its edges; a brick leaning at 35 deg on the ground and a
+#: wall, needing all of its friction, slid 69 mm down the wall on MuJoCo and stood on pybullet).
+FRICTION_TIE = 0.9
+
+
 @dataclass(frozen=True)
 class Judgement:
-    """The oracle's collapse level (None: stands) and margin (metres, at most :data:`MAX_MARGIN`)."""
+    """The oracle's collapse level (None: stands), margin (metres, at most :data:`MAX_MARGIN`)
+    and friction: the largest share of its friction coefficients that a step which stands needs
+    (:func:`stability.friction_share`; 0 with none), so that a stand held only by nearly all of
+    its friction is known as a friction tie (:data:`FRICTION_TIE`), which the margin, moving
+    centres of mass, does not measure."""
 
     collapse_level: int | None
     margin: float
+    friction: float = 0.0
+
+    @property
+    def friction_tie(self) -> bool:
+        """Whether a step that stands needs at least :data:`FRICTION_TIE` of its friction."""
+        return self.friction >= FRICTION_TIE
 
 
 def judge(program: Program) -> Judgement:
@@ -254,7 +271,16 @@ def judge(program: Program) -> Judgement:
     margin = min(_step_margin(program, k) for k in range(1, steps + 1))
     if verdict.brick is not None:
         margin = min(margin, catch_clearance(program, steps))
-    return Judgement(verdict.collapse_level, margin)
+    standing = steps if verdict.brick is None else steps - 1
+    return Judgement(
+        verdict.collapse_level, margin, max((_step_friction(program, k) for k in range(1, standing + 1)), default=0.0)
+    )
+
+
+def _step_friction(program: Program, k: int) -> float:
+    """The share of its friction coefficients step ``k`` (which stands) needs."""
+    blocks, contacts = structure(list(program.placements[:k]), program.fixtures, program.ground_friction)
+    return friction_share(blocks, contacts)
 
 
 def catch_clearance(program: Program, k: int) -> float:

@@ -216,10 +216,14 @@ def moved_levels(outcome: Outcome, threshold: float) -> tuple[int, ...]:
 
 def describe_outcome(outcome: Outcome, threshold: float) -> str:
     """What a run measured, in words (:func:`describe`): the collapse level, the brick that
-    moved first and its level, and the levels moved at the end (``threshold`` in m)."""
+    moved first and its level, and the levels moved at the end (``threshold`` in m); a run that
+    ended with bricks still moving and no collapse proved is "undecided", not "stands"."""
     c = outcome.collapse
     first = (c.brick, c.brick_level) if c is not None else None
-    return describe(c.level if c is not None else None, first, moved_levels(outcome, threshold))
+    said = describe(c.level if c is not None else None, first, moved_levels(outcome, threshold))
+    if c is None and outcome.certificate is not None and outcome.certificate.verdict == "undecided":
+        return said.replace("stands", "undecided: still moving at the end", 1)
+    return said
 
 
 def _levels(outcome: Outcome) -> dict[str, int | None]:

@@ -775,7 +775,7 @@ def near_tie(outcome: Outcome, program: Program) -> str:
     certificate's margin is under the engine's contact margin
     (:attr:`stackdsl.engines.protocol.EngineSettings.contact_margin`), or a collapse its
     certificate calls a near or exact tie (a brick placed within that margin of its support's
-    edge, or within 0.1 mm of it either way: :data:`stackdsl.runtime.collapse.EXACT_TIE`), or
+    edge, or within 0.1 mm of it either way: :data:`stackdsl.runtime.support.EXACT_TIE`), or
     a run left undecided with such a brick still moving (tipping too slowly to finish).
     Such a verdict may flip on another machine or engine version."""
     c = outcome.certificate

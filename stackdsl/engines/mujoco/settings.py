@@ -33,6 +33,14 @@ _TUNED: dict[str, object] = dict(
 )
 
 
+#: Metres from a support's edge within which MuJoCo's soft contacts, not the geometry, were
+#: measured deciding a brick's fate whatever ``solimp``'s width: at a width of 0.1 mm they held
+#: a brick placed 0.28 mm past the edge of the one under it through its settle, and tipped one
+#: placed 0.15 mm inside (the near-tie family of ``stackdsl bench verdicts``,
+#: docs/results/verdicts.md). A near tie within it is decided by statics on the placed geometry.
+SOFT_REACH = 0.0005
+
+
 class MuJoCoSettings(EngineSettings):
     """:class:`~stackdsl.engines.protocol.EngineSettings` of MuJoCo: friction cones, impratio,
     integrator, ``solref`` (time constant in s, damping ratio), ``solimp`` (impedance: d0,
@@ -136,9 +144,10 @@ class MuJoCoSettings(EngineSettings):
 
     @property
     def contact_margin(self) -> float:
-        """The width of the contacts' impedance (``solimp``'s third value, m): how deep MuJoCo's
-        soft contacts reach before they are stiff (1 mm raw, 0.1 mm tuned)."""
-        return self.solimp[2]
+        """The width of the contacts' impedance (``solimp``'s third value, m: how deep MuJoCo's
+        soft contacts reach before they are stiff, 1 mm raw, 0.1 mm tuned), and no less than
+        :data:`SOFT_REACH`, how far from an edge they were measured deciding a tie."""
+        return max(self.solimp[2], SOFT_REACH)
 
     def details(self) -> str:
         on = {True: "on", False: "off"}

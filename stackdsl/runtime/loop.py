@@ -228,7 +228,9 @@ class StepLoop:
         """Past the deadline? Then record where the run stopped."""
         if self.deadline is None or _time.perf_counter() < self.deadline:
             return False
-        self.stopped = f"timeout after {self.timeout:g} s at t = {self.now:.1f} s simulated (of {self.program.duration:g} s)"
+        self.stopped = (
+            f"timeout after {float(f'{self.timeout:.3g}'):g} s at t = {self.now:.1f} s simulated (of {self.program.duration:g} s)"
+        )
         return True
 
     def _limit(self, target: int) -> int:

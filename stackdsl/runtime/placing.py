@@ -75,7 +75,7 @@ def run_placed(program: Program, *, timeout: float | None = None, started: float
     reached = len(steps)
     if deadline is not None and _time.perf_counter() >= deadline:
         proved, slack, reached = 0, 0.0, 0
-        stopped = f"timeout after {timeout:g} s at 0 of {len(steps)} placements"
+        stopped = f"timeout after {float(f'{timeout:.3g}'):g} s at 0 of {len(steps)} placements"
     else:
         proved, slack = placing.proved_steps(boxes)  # every step at once, by fixed shares: most stacks end here
     if proved < len(steps) and stopped is None:  # from the first step they do not prove, one step at a time
@@ -83,7 +83,7 @@ def run_placed(program: Program, *, timeout: float | None = None, started: float
         placing.put([b for step in boxes[:proved] for b in step])
         for i in range(proved, len(steps)):
             if deadline is not None and _time.perf_counter() >= deadline:
-                stopped = f"timeout after {timeout:g} s at {i} of {len(steps)} placements"
+                stopped = f"timeout after {float(f'{timeout:.3g}'):g} s at {i} of {len(steps)} placements"
                 reached = i
                 break
             found = placing.place(boxes[i])

@@ -70,6 +70,8 @@ class ContactAreas:
         self._faces: dict[tuple[float, ...], ContactArea | None] = {}  # the last face overlaps, by their bodies and poses
         self._found: Faces = {}  # the boxes' faces face_overlap found, by half extents and pose
         self._still: tuple[tuple[int, int], Boxes] | None = None  # the frozen and environment boxes, of a stack version
+        # each frozen brick's row of the boxes' table, by the pose it froze at (the same object while frozen)
+        self._rows: dict[int, tuple[Pose, tuple[float, float, float, float, float, float] | None]] = {}
         self.config = stack.config
         self.support_cos = math.cos(math.radians(self.config.support_angle))
 
@@ -238,6 +240,12 @@ class ContactAreas:
         below that top (:func:`face_span`)."""
         extent, box = other.extent, other.box
         pose = self.stack.pose(other)
+        if other.frozen_pose is not None:  # frozen: its row, found once for the pose it froze at
+            row = self._rows.get(other.body)
+            if row is None or row[0] is not pose:
+                row = self._rows[other.body] = (pose, (*extent, face_span(box, pose)) if extent is not None else None)
+            if row[1] is not None:
+                return row[1]
         if extent is None:  # an environment box (still: found once), or an active brick
             c = box.corners(pose)
             low, high = c.min(axis=0), c.max(axis=0)

@@ -22,7 +22,7 @@ from ._engine import ContactBook, ContactPoint, Engine
 from ._equilibrium import ContactPolygon, is_level
 from ._geometry import Box, ContactArea, Plane, Pose, combined_hull
 from ._graph import BrickState
-from ._load import LoadNode
+from ._load import LoadNode, Splits
 from ._load_path import load_path, proven, share_region, support_piece
 from ._rest import RestClock
 
@@ -162,6 +162,7 @@ class Stack:
         # active bricks that frozen bricks lean on: body -> (its pose then, the frozen bricks on it)
         self.watched: dict[int, tuple[Pose, set[int]]] = {}
         self._contacts: ContactBook | None = None  # this step's, read in full before a change
+        self.splits: Splits = {}  # the last split of each brick's load (propagate_fast's memo)
 
     def add(self, rec: Record) -> None:
         """Register ``rec``. Raises ValueError for a body registered already."""
@@ -261,6 +262,7 @@ class Stack:
         they rest on the others (a proof held them on those: :class:`stability._drag.PullProof`).
         Their load paths, and those of every frozen brick above them, are found again."""
         above: set[int] = set()
+        self.splits.clear()  # their nodes' supports change in place
         for rec in records:
             del rec.rests_on[body]
             rec.contacts = [c for c in rec.contacts if c.other != body]

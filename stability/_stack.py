@@ -161,6 +161,7 @@ class Stack:
         self._boxes: tuple[int, np.ndarray] | None = None  # the frozen bricks' boxes, of a stack version
         # active bricks that frozen bricks lean on: body -> (its pose then, the frozen bricks on it)
         self.watched: dict[int, tuple[Pose, set[int]]] = {}
+        self._watched_corners: dict[int, tuple[Pose, np.ndarray]] = {}  # body -> its watched pose, and its corners there
         self._contacts: ContactBook | None = None  # this step's, read in full before a change
         self.splits: Splits = {}  # the last split of each brick's load (propagate_fast's memo)
 
@@ -181,22 +182,19 @@ class Stack:
         bricks: in a domino row the fallen dominoes behind the chain's front are near none.
         Every moving brick of a step is tested at once. Source: stackdsl's own."""
         if self._boxes is None or self._boxes[0] != self.version:
-            extents = [r.extent for r in self.frozen.values() if r.extent is not None]
-            self._boxes = (self.version, np.array(extents, dtype=float).reshape(-1, 5))
+            extents = np.array([r.extent for r in self.frozen.values() if r.extent is not None], dtype=float).reshape(-1, 5)
+            extents[:, 1:4:2] *= -1.0  # top, -x min, x max, -y min, y max: each at least its bound below
+            self._boxes = (self.version, extents)
         boxes = self._boxes[1]
         centres = np.asarray(centres, dtype=float).reshape(-1, 3)
         if len(boxes) == 0:
             return np.zeros(len(centres), dtype=bool)
-        x, y, z = (centres[:, i : i + 1] for i in range(3))  # (n, 1) against the boxes' (m,)
-        r = np.asarray(radii, dtype=float).reshape(-1, 1)
-        near = (
-            (boxes[:, 0] >= z - r)
-            & (boxes[:, 1] <= x + r)
-            & (boxes[:, 2] >= x - r)
-            & (boxes[:, 3] <= y + r)
-            & (boxes[:, 4] >= y - r)
-        )
-        found: np.ndarray = near.any(axis=1)
+        x, y, z = centres.T
+        r = np.asarray(radii, dtype=float).reshape(-1)
+        # top >= z - r, x min <= x + r, x max >= x - r, y min <= y + r, y max >= y - r (negating is exact)
+        bounds = np.stack([z - r, -(x + r), x - r, -(y + r), y - r], axis=1)
+        within: np.ndarray = np.greater_equal(boxes[None, :, :], bounds[:, None, :])
+        found: np.ndarray = np.any(np.all(within, axis=2), axis=1)
         return found
 
     def frozen_contacts(self, blocks: Collection[int]) -> list[ContactPolygon[int]]:
@@ -232,7 +230,10 @@ class Stack:
                 del self.watched[body]
                 continue
             box = rec.box
-            moved = float(np.linalg.norm(box.corners(self.engine.pose(body)) - box.corners(pose), axis=1).max())
+            then = self._watched_corners.get(body)
+            if then is None or then[0] is not pose:  # its corners where it was watched from, found once
+                then = self._watched_corners[body] = (pose, box.corners(pose))
+            moved = float(np.linalg.norm(box.corners(self.engine.pose(body)) - then[1], axis=1).max())
             if moved < distance:
                 continue
             del self.watched[body]

@@ -6,10 +6,14 @@ Builds a row of ``COUNT`` dominoes the way ``stackdsl bench dominoes`` does
 (``time.process_time``), the median wall time, the steps, and the dominoes toppled and thrown
 out of the row. On a machine shared with other jobs the wall time is mostly waiting for a core;
 the CPU time is the run's own work, so ratios of CPU times are what the settings cost.
-``--profile`` prints instead a cProfile of one warm run of the extension, in CPU time.
+``--profile`` prints instead a cProfile of one warm run of the extension, in CPU time;
+``--runs N`` runs the extension N times and prints nothing but the toppled count, for a
+sampling profiler or an instruction count (``valgrind --tool=callgrind``: the counts of 1 and
+of 3 runs differ by two warm runs, whatever the machine's load).
 
     python docs/results/domino_cpu.py COUNT REPEATS [SETTING,SETTING...]
     python docs/results/domino_cpu.py COUNT --profile
+    python docs/results/domino_cpu.py COUNT --runs N
 
 Output: docs/results/dominoes.md.
 """
@@ -63,6 +67,12 @@ def main(argv: list[str]) -> None:
     print(f"{count} dominoes: load average {os.getloadavg()[0]:.1f}", flush=True)
     if argv[1] == "--profile":
         profile(count)
+        return
+    if argv[1] == "--runs":
+        program = compile_scenario(parse_scenario(domino_row(count, "extension report"), f"dominoes-{count}.yaml"))
+        for _ in range(int(argv[2])):
+            outcome = run_program(program)
+        print(f"{row_count(outcome)[0]} toppled")
         return
     for setting in (argv[2] if len(argv) > 2 else DEFAULT).split(","):
         print(cost(count, setting, int(argv[1])), f"(load {os.getloadavg()[0]:.1f})", flush=True)

@@ -182,19 +182,22 @@ class Stack:
         bricks: in a domino row the fallen dominoes behind the chain's front are near none.
         Every moving brick of a step is tested at once. Source: stackdsl's own."""
         if self._boxes is None or self._boxes[0] != self.version:
-            extents = np.array([r.extent for r in self.frozen.values() if r.extent is not None], dtype=float).reshape(-1, 5)
-            extents[:, 1:4:2] *= -1.0  # top, -x min, x max, -y min, y max: each at least its bound below
-            self._boxes = (self.version, extents)
+            extents = [r.extent for r in self.frozen.values() if r.extent is not None]
+            self._boxes = (self.version, np.array(extents, dtype=float).reshape(-1, 5))
         boxes = self._boxes[1]
         centres = np.asarray(centres, dtype=float).reshape(-1, 3)
         if len(boxes) == 0:
             return np.zeros(len(centres), dtype=bool)
-        x, y, z = centres.T
-        r = np.asarray(radii, dtype=float).reshape(-1)
-        # top >= z - r, x min <= x + r, x max >= x - r, y min <= y + r, y max >= y - r (negating is exact)
-        bounds = np.stack([z - r, -(x + r), x - r, -(y + r), y - r], axis=1)
-        within: np.ndarray = np.greater_equal(boxes[None, :, :], bounds[:, None, :])
-        found: np.ndarray = np.any(np.all(within, axis=2), axis=1)
+        x, y, z = (centres[:, i : i + 1] for i in range(3))  # (n, 1) against the boxes' (m,)
+        r = np.asarray(radii, dtype=float).reshape(-1, 1)
+        near = (
+            (boxes[:, 0] >= z - r)
+            & (boxes[:, 1] <= x + r)
+            & (boxes[:, 2] >= x - r)
+            & (boxes[:, 3] <= y + r)
+            & (boxes[:, 4] >= y - r)
+        )
+        found: np.ndarray = near.any(axis=1)
         return found
 
     def frozen_contacts(self, blocks: Collection[int]) -> list[ContactPolygon[int]]:

@@ -1,4 +1,4 @@
-"""The domino row's cost per setting in CPU time, which a shared machine does not inflate.
+"""The domino row's cost per setting in CPU time, which a shared machine inflates less than wall time.
 
 Builds a row of ``COUNT`` dominoes the way ``stackdsl bench dominoes`` does
 (:func:`stackdsl.bench.dominoes.domino_row`), runs it once untimed in each setting, then
@@ -7,13 +7,14 @@ Builds a row of ``COUNT`` dominoes the way ``stackdsl bench dominoes`` does
 out of the row. On a machine shared with other jobs the wall time is mostly waiting for a core;
 the CPU time is the run's own work, so ratios of CPU times are what the settings cost.
 ``--profile`` prints instead a cProfile of one warm run of the extension, in CPU time;
-``--runs N`` runs the extension N times and prints nothing but the toppled count, for a
-sampling profiler or an instruction count (``valgrind --tool=callgrind``: the counts of 1 and
-of 3 runs differ by two warm runs, whatever the machine's load).
+``--runs N [SETTING]`` runs one setting (the extension unless given) N times and prints
+nothing but the toppled count, for a sampling profiler or an instruction count (``valgrind
+--tool=callgrind``: the counts of 1 and of 3 runs differ by two warm runs, whatever the
+machine's load).
 
     python docs/results/domino_cpu.py COUNT REPEATS [SETTING,SETTING...]
     python docs/results/domino_cpu.py COUNT --profile
-    python docs/results/domino_cpu.py COUNT --runs N
+    python docs/results/domino_cpu.py COUNT --runs N [SETTING]
 
 Output: docs/results/dominoes.md.
 """
@@ -69,7 +70,8 @@ def main(argv: list[str]) -> None:
         profile(count)
         return
     if argv[1] == "--runs":
-        program = compile_scenario(parse_scenario(domino_row(count, "extension report"), f"dominoes-{count}.yaml"))
+        setting = argv[3] if len(argv) > 3 else "extension report"
+        program = compile_scenario(parse_scenario(domino_row(count, setting), f"dominoes-{count}.yaml"))
         for _ in range(int(argv[2])):
             outcome = run_program(program)
         print(f"{row_count(outcome)[0]} toppled")

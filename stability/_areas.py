@@ -43,6 +43,9 @@ FACES = 64
 """Face overlaps kept (:meth:`ContactAreas._face`), and boxes' faces (:meth:`ContactAreas._made`);
 all of either are forgotten when there are this many."""
 
+HELD_KEPT = 4096
+"""Answers of :meth:`ContactAreas.holds` kept (one per area); all are forgotten when there are this many."""
+
 
 @dataclass(frozen=True)
 class Boxes:
@@ -70,6 +73,11 @@ class ContactAreas:
         self._faces: dict[tuple[float, ...], ContactArea | None] = {}  # the last face overlaps, by their bodies and poses
         self._found: Faces = {}  # the boxes' faces face_overlap found, by half extents and pose
         self._still: tuple[tuple[int, int], Boxes] | None = None  # the frozen and environment boxes, of a stack version
+        # each frozen brick's row of the boxes' table, by the pose it froze at (the same object while frozen)
+        self._rows: dict[int, tuple[Pose, tuple[float, float, float, float, float, float] | None]] = {}
+        self._held: dict[
+            int, tuple[ContactArea, float, float, bool]
+        ] = {}  # id of an area -> it, the last point asked, the answer
         self.config = stack.config
         self.support_cos = math.cos(math.radians(self.config.support_angle))
 
@@ -238,6 +246,12 @@ class ContactAreas:
         below that top (:func:`face_span`)."""
         extent, box = other.extent, other.box
         pose = self.stack.pose(other)
+        if other.frozen_pose is not None:  # frozen: its row, found once for the pose it froze at
+            row = self._rows.get(other.body)
+            if row is None or row[0] is not pose:
+                row = self._rows[other.body] = (pose, (*extent, face_span(box, pose)) if extent is not None else None)
+            if row[1] is not None:
+                return row[1]
         if extent is None:  # an environment box (still: found once), or an active brick
             c = box.corners(pose)
             low, high = c.min(axis=0), c.max(axis=0)
@@ -290,10 +304,21 @@ class ContactAreas:
         return out
 
     def holds(self, main: ContactArea, point: Sequence[float] | np.ndarray) -> bool:
-        """Centre of mass ``point`` over the main contact area ``main`` (by ``com_margin`` when it is set)."""
+        """Centre of mass ``point`` over the main contact area ``main`` (by ``com_margin`` when it is set).
+        The last answer for each area is kept: the stack test asks it of every frozen brick at
+        every change of the stack, most of them with the same area and centre of mass as before."""
+        x, y = float(point[0]), float(point[1])
+        kept = self._held.get(id(main))
+        if kept is not None and kept[0] is main and kept[1] == x and kept[2] == y:
+            return kept[3]
         if self.config.com_margin > 0:
-            return contains(main.polygon, point, self.config.com_margin)
-        return main.holds(float(point[0]), float(point[1]))
+            held = contains(main.polygon, (x, y), self.config.com_margin)
+        else:
+            held = main.holds(x, y)
+        if len(self._held) >= HELD_KEPT:
+            self._held.clear()
+        self._held[id(main)] = (main, x, y, held)
+        return held
 
     def around(self, rec: Record, contacts: Contacts) -> dict[int, list[ContactPoint]]:
         """Every registered body ``rec`` touches, with the contact points, in registration order."""

@@ -279,7 +279,7 @@ class Debris:
             nodes[m.body] = LoadNode(m.box.mass, stack.engine.pose(m.body).position, plan[m.body][0])
             mains[m.body] = plan[m.body][1]
         try:
-            loads = propagate_fast(nodes)
+            loads = propagate_fast(nodes, stack.splits)
         except CycleError:  # the group and the stack would carry each other: not frozen so
             return False
         fallen = {m.body for m in group if m.clock.fallen} | {r.body for r in earlier}

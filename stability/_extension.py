@@ -168,7 +168,10 @@ class StabilityExtension:
             events += self._near_ties(free, time)
             free = [rec for rec in free if rec.state is BrickState.ACTIVE]
             active = [rec for rec in active if rec.state is BrickState.ACTIVE]
-        resting = [rec for rec in free if self._at_rest(rec, time)]  # every clock first: partners
+        # each free brick's speeds, read once for the rest clocks and the impact rule (valid while
+        # the stack does not change: a freeze or a wake sets a body's velocity)
+        speeds, read_at = {rec.body: stack.engine.speeds(rec.body) for rec in free}, stack.version
+        resting = [rec for rec in free if self._at_rest(rec, time, speeds[rec.body])]  # every clock first: partners
         # only a brick at rest asks, only of its own contacts (and its resting partners'), and a
         # brick refused asks again once a rest duration has passed and something has changed
         held = [rec for rec in active if rec.proved_at is not None]
@@ -196,7 +199,7 @@ class StabilityExtension:
         if events or not config.per_event:
             events += self._tests.run(time)
         if config.impacts:
-            hits = self._impacts.check(free, stack.engine.timestep, time, touched)
+            hits = self._impacts.check(free, stack.engine.timestep, time, touched, speeds if stack.version == read_at else None)
             events += hits
             if any(e.kind == "wake" for e in hits):
                 events += self._tests.run(time)
@@ -402,10 +405,10 @@ class StabilityExtension:
             events += self.carry(rec.body, time, pose)
         return events
 
-    def _at_rest(self, rec: Record, time: float) -> bool:
+    def _at_rest(self, rec: Record, time: float, speeds: tuple[float, float]) -> bool:
         """At rest for the rest duration (report 3.3.2; a fallen brick by the windowed test
-        of :mod:`stability._rest`)."""
-        speed, angular_speed = self._stack.engine.speeds(rec.body)
+        of :mod:`stability._rest`), at ``speeds`` (m/s, rad/s: the engine's this step)."""
+        speed, angular_speed = speeds
         return rec.clock.tick(speed, angular_speed, lambda: self._stack.engine.pose(rec.body), time, self._stack.config)
 
     def carry(self, body: int, time: float, pose: Pose | None = None) -> list[StabilityEvent]:

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Mapping
 from collections.abc import Set as AbstractSet
 from dataclasses import replace
 
@@ -187,13 +188,22 @@ class Impacts:
         self.stack, self.tests = stack, tests
         self._parts = _Parts(stack)
 
-    def check(self, active: list[Record], dt: float, time: float, driven: AbstractSet[int] = frozenset()) -> list[StabilityEvent]:
+    def check(
+        self,
+        active: list[Record],
+        dt: float,
+        time: float,
+        driven: AbstractSet[int] = frozenset(),
+        speeds: Mapping[int, tuple[float, float]] | None = None,
+    ) -> list[StabilityEvent]:
         """Each active body faster than the rest speed that will touch a frozen brick within
         1.5 steps of ``dt`` s (at its fastest point's speed, rotation included): wake that brick
         (with what is above it) when the blow breaks it loose, else an ``impact`` event: the
         stack held. A body of ``driven`` (one a hand touches) that closes on a side of the frozen
         brick (a contact normal farther than the support angle from vertical) faster than the
-        rest speed breaks it loose: the hand drives it."""
+        rest speed breaks it loose: the hand drives it. ``speeds``: each body's linear (m/s) and
+        angular (rad/s) speed this step, as the engine gives them, when read already (every
+        body of ``active``)."""
         stack, config = self.stack, self.stack.config
         events: list[StabilityEvent] = []
         geometric = getattr(stack.engine, "near_is_geometric", False)
@@ -201,7 +211,7 @@ class Impacts:
         for rec in active:
             # the speeds first (floats, read once a step for the rest test too): most active
             # bricks are slow or far from every frozen brick, and need no vector
-            speed, angular_speed = stack.engine.speeds(rec.body)
+            speed, angular_speed = stack.engine.speeds(rec.body) if speeds is None else speeds[rec.body]
             if speed <= config.rest_speed:
                 rec.impacted.clear()
                 continue

@@ -22,7 +22,7 @@ from ._engine import ContactBook, ContactPoint, Engine
 from ._equilibrium import ContactPolygon, is_level
 from ._geometry import Box, ContactArea, Plane, Pose, combined_hull
 from ._graph import BrickState
-from ._load import LoadNode
+from ._load import LoadNode, Splits
 from ._load_path import load_path, proven, share_region, support_piece
 from ._rest import RestClock
 
@@ -161,7 +161,9 @@ class Stack:
         self._boxes: tuple[int, np.ndarray] | None = None  # the frozen bricks' boxes, of a stack version
         # active bricks that frozen bricks lean on: body -> (its pose then, the frozen bricks on it)
         self.watched: dict[int, tuple[Pose, set[int]]] = {}
+        self._watched_corners: dict[int, tuple[Pose, np.ndarray]] = {}  # body -> its watched pose, and its corners there
         self._contacts: ContactBook | None = None  # this step's, read in full before a change
+        self.splits: Splits = {}  # the last split of each brick's load (propagate_fast's memo)
 
     def add(self, rec: Record) -> None:
         """Register ``rec``. Raises ValueError for a body registered already."""
@@ -231,7 +233,10 @@ class Stack:
                 del self.watched[body]
                 continue
             box = rec.box
-            moved = float(np.linalg.norm(box.corners(self.engine.pose(body)) - box.corners(pose), axis=1).max())
+            then = self._watched_corners.get(body)
+            if then is None or then[0] is not pose:  # its corners where it was watched from, found once
+                then = self._watched_corners[body] = (pose, box.corners(pose))
+            moved = float(np.linalg.norm(box.corners(self.engine.pose(body)) - then[1], axis=1).max())
             if moved < distance:
                 continue
             del self.watched[body]
@@ -261,6 +266,7 @@ class Stack:
         they rest on the others (a proof held them on those: :class:`stability._drag.PullProof`).
         Their load paths, and those of every frozen brick above them, are found again."""
         above: set[int] = set()
+        self.splits.clear()  # their nodes' supports change in place
         for rec in records:
             del rec.rests_on[body]
             rec.contacts = [c for c in rec.contacts if c.other != body]

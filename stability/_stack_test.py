@@ -72,7 +72,7 @@ class StackTest:
             nodes = stack.nodes(frozen.values())
             nodes[rec.body] = LoadNode(mass, com, areas)
             try:
-                loads = propagate_fast(nodes)
+                loads = propagate_fast(nodes, stack.splits)
             except CycleError:
                 return []
             failing = []
@@ -127,7 +127,7 @@ class StackTest:
         stack = self.stack
         if stack.loads_fresh:
             return
-        loads = propagate_fast(stack.nodes(stack.in_order()))
+        loads = propagate_fast(stack.nodes(stack.in_order()), stack.splits)
         for rec in stack.in_order():
             rec.com_above, rec.mass_above = loads[rec.body][0], loads[rec.body][1]
         stack.loads_fresh = True
@@ -259,7 +259,7 @@ class StackTest:
         (:func:`stability._load_path.loads_balance`)? A cycle of supports has no such order: False."""
         frozen = self.stack.in_order()
         try:
-            loads = propagate_fast(self.stack.nodes(frozen))
+            loads = propagate_fast(self.stack.nodes(frozen), self.stack.splits)
         except CycleError:
             return False
         return loads_balance(loads, {r.body: r.support_regions for r in frozen})
@@ -323,7 +323,7 @@ class StackTest:
                 kept = {s: a for s, a in node.supports.items() if s not in gave_way}
                 if kept:
                     nodes[body] = LoadNode(node.mass, node.com, kept)
-            loads = propagate_fast(nodes)
+            loads = propagate_fast(nodes, stack.splits)
             failing = []
             for rec in stack.in_order():
                 rec.com_above, rec.mass_above = loads[rec.body][0], loads[rec.body][1]

@@ -167,3 +167,51 @@ def test_two_supports_with_one_centre_split_the_load():
     assert sum(m for m, _ in split.values()) == pytest.approx(0.04)
     resultant = sum(m * p[:2] for m, p in split.values()) / 0.04
     assert resultant == pytest.approx([0.005, 0.003])
+
+
+def _random_dag(rng, n):
+    """Nodes 0..n-1 in a random order, each resting on up to three others (mostly later ones: out of
+    order), with now and then a cycle."""
+    order = rng.permutation(n).tolist()
+    above = {b: [] for b in order}
+    for a in order:
+        for s in rng.choice(n, size=min(n, int(rng.integers(0, 4))), replace=False).tolist():
+            if s != a and (a < s or rng.random() < 0.02):
+                above[s].append(a)
+    return above
+
+
+def test_the_loads_order_is_graphlibs_node_for_node():
+    # the loads are summed in this order: the same order, so the same sums to the bit
+    import graphlib
+
+    from stability._load import _static_order
+
+    rng, cycles = np.random.default_rng(7), 0
+    for _ in range(400):
+        above = _random_dag(rng, int(rng.integers(1, 25)))
+        try:
+            expected = list(graphlib.TopologicalSorter(above).static_order())
+        except graphlib.CycleError:
+            cycles += 1
+            with pytest.raises(graphlib.CycleError):
+                _static_order(above)
+            continue
+        assert _static_order(above) == expected
+    assert cycles > 0  # the cycles were tried too
+
+
+def test_a_memo_of_splits_gives_the_loads_without_it_and_splits_a_changed_node_again():
+    from stability._load import propagate_fast
+
+    nodes = {
+        1: LoadNode(0.01, np.array([0, 0, 0.004]), {GROUND: area(-0.06, -0.06, 0.06, 0.06)}),
+        2: LoadNode(0.01, np.array([-0.03, 0, 0.012]), {1: area(-0.05, -0.01, -0.01, 0.01, 0.008)}),
+        3: LoadNode(0.02, np.array([0.03, 0, 0.012]), {1: area(0.01, -0.01, 0.05, 0.01, 0.008)}),
+    }
+    memo: dict = {}
+    assert propagate_fast(nodes, memo) == propagate_fast(nodes)
+    assert propagate_fast(nodes, memo) == propagate_fast(nodes)  # from the memo
+    moved = {**nodes, 3: LoadNode(0.02, np.array([0.04, 0, 0.012]), nodes[3].supports)}
+    assert propagate_fast(moved, memo) == propagate_fast(moved)  # brick 3 and the load on 1 split again
+    assert propagate_fast(moved, memo)[1] != propagate_fast(nodes)[1]

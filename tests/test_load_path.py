@@ -176,9 +176,9 @@ def test_the_report_models_stack_test_propagates_nothing_while_every_brick_is_ov
     propagated: list[int] = []
     real = stack_test.propagate_fast
 
-    def counting(nodes):  # type: ignore[no-untyped-def]
+    def counting(nodes, memo=None):  # type: ignore[no-untyped-def]
         propagated.append(len(nodes))
-        return real(nodes)
+        return real(nodes, memo)
 
     monkeypatch.setattr(stack_test, "propagate_fast", counting)
     tower = program_for(Scene("upright", 12, 12, "tower: {levels: 12}", None), "extension report")

@@ -1,4 +1,4 @@
-"""The domino row's cost per setting in CPU time, which a shared machine does not inflate.
+"""The domino row's cost per setting in CPU time, which a shared machine inflates less than wall time.
 
 Builds a row of ``COUNT`` dominoes the way ``stackdsl bench dominoes`` does
 (:func:`stackdsl.bench.dominoes.domino_row`), runs it once untimed in each setting, then
@@ -6,10 +6,15 @@ Builds a row of ``COUNT`` dominoes the way ``stackdsl bench dominoes`` does
 (``time.process_time``), the median wall time, the steps, and the dominoes toppled and thrown
 out of the row. On a machine shared with other jobs the wall time is mostly waiting for a core;
 the CPU time is the run's own work, so ratios of CPU times are what the settings cost.
-``--profile`` prints instead a cProfile of one warm run of the extension, in CPU time.
+``--profile`` prints instead a cProfile of one warm run of the extension, in CPU time;
+``--runs N [SETTING]`` runs one setting (the extension unless given) N times and prints
+nothing but the toppled count, for a sampling profiler or an instruction count (``valgrind
+--tool=callgrind``: the counts of 1 and of 3 runs differ by two warm runs, whatever the
+machine's load).
 
     python docs/results/domino_cpu.py COUNT REPEATS [SETTING,SETTING...]
     python docs/results/domino_cpu.py COUNT --profile
+    python docs/results/domino_cpu.py COUNT --runs N [SETTING]
 
 Output: docs/results/dominoes.md.
 """
@@ -63,6 +68,13 @@ def main(argv: list[str]) -> None:
     print(f"{count} dominoes: load average {os.getloadavg()[0]:.1f}", flush=True)
     if argv[1] == "--profile":
         profile(count)
+        return
+    if argv[1] == "--runs":
+        setting = argv[3] if len(argv) > 3 else "extension report"
+        program = compile_scenario(parse_scenario(domino_row(count, setting), f"dominoes-{count}.yaml"))
+        for _ in range(int(argv[2])):
+            outcome = run_program(program)
+        print(f"{row_count(outcome)[0]} toppled")
         return
     for setting in (argv[2] if len(argv) > 2 else DEFAULT).split(","):
         print(cost(count, setting, int(argv[1])), f"(load {os.getloadavg()[0]:.1f})", flush=True)

@@ -79,7 +79,9 @@ class Admission:
         only, as a brick rocking on landing does at the still turning point of its rock (two
         bricks 0.6 and 0.8 mm inside their support's edge were frozen so, tilted 0.5 and 1.7 deg,
         at 0.13 deg in the last rest duration, and the later stack test on that pose put their
-        centres of mass outside the support). At rest on its support is face to face: it is asked
+        centres of mass outside the support), or a brick woken by a shake or a blow does (a KAPLA
+        brick on end rocked 11 deg by a shake was frozen 2.6 deg tilted on the ground, its top
+        4.5 mm from its place, and called a collapse). At rest on its support is face to face: it is asked
         again once the engine has settled it, or it falls. Source: stackdsl's own."""
         if len(supports) != 1:
             return False  # on two supports a tilted brick can rest, bridging them

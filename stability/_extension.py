@@ -215,8 +215,8 @@ class StabilityExtension:
         if rec.failed is not None and attempt == rec.failed[0]:
             rec.failed = (attempt, time)  # nothing it rests on, touches or is has changed: wait again
             return []
-        if not rec.clock.fallen and self._admission.rocking(rec, contacts):
-            return []  # a placed brick still on an edge of its support, tilted to it: mid-rock, not at rest
+        if self._admission.rocking(rec, contacts):
+            return []  # on an edge of its one support, tilted to it: mid-rock, not at rest (placed or woken)
         if config.model == "equilibrium":
             found = self._admission.leaning(rec, contacts, time, limit=None)
         else:

@@ -66,7 +66,8 @@ def test_a_brick_that_rocks_past_twice_the_threshold_and_returns_stands():
             result = outcome(run_in(world, program, RunOptions(soft_landing=False), subscribers=(rocking,)), 0.0)
         assert result.collapse is None, f"drop gap {gap} mm"
         assert result.certificate is not None and result.certificate.kind == "equilibrium"
-        assert result.certificate.margin_mm == pytest.approx(1.5, abs=0.15)
+        # a bound of the placed geometry's 1.5 mm: less the spread of the bricks' settling
+        assert 1.25 <= result.certificate.margin_mm <= 1.5
         farthest.append(rocking.farthest)
     assert max(farthest) > 2 * program.collapse_threshold  # the rock did pass the old "moving away" line
 

@@ -258,6 +258,13 @@ def add_seed(p: argparse.ArgumentParser) -> None:
     )
 
 
+def add_engine_overrides(p: argparse.ArgumentParser, modes: list[str], models: list[str], backends: list[str]) -> None:
+    """``--mode``, ``--model`` and ``--backend``: each replaces the scenario's own (choices as given)."""
+    p.add_argument("--mode", choices=modes, help="override the scenario's engine mode")
+    p.add_argument("--model", choices=models, help="override the scenario's stability model")
+    p.add_argument("--backend", choices=backends, help="override the scenario's engine")
+
+
 def dask_address(text: str) -> str:
     """``--dask``'s type: a usage error (exit 2) for an empty or malformed address."""
     from ..batch.address import parse_address

@@ -38,6 +38,7 @@ from .args import (
     INTERNAL,
     INTERRUPTED,
     OK,
+    add_engine_overrides,
     add_seed,
     command_of,
     jobs_type,
@@ -478,9 +479,7 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
     modes = MODES
     one = _Parser(add_help=False, parents=[common])
     one.add_argument("file")
-    one.add_argument("--mode", choices=modes, help="override the scenario's engine mode")
-    one.add_argument("--model", choices=MODELS, help="override the scenario's stability model")
-    one.add_argument("--backend", choices=BACKENDS, help="override the scenario's engine")
+    add_engine_overrides(one, modes, MODELS, BACKENDS)
     add_seed(one)
     add_sample_options(one, name)
     if name == "compile":  # the one that runs nothing

@@ -20,7 +20,7 @@ from typing import Any
 from ..engines.registry import backend, names
 from ..lang.errors import ScenarioError, SourceMap
 from ..util.extras import installed, missing
-from .args import COMMANDS, add_executor, add_seed, output_folder
+from .args import COMMANDS, add_engine_overrides, add_executor, add_seed, output_folder
 from .outputs import Input, Output, check_outputs
 
 
@@ -51,9 +51,7 @@ def add_search(
         help="also write DIR/index.html: the search as one row, as check --report shows a sweep (its verdict, interval or "
         "counterexamples, the picture, links to the runs' files); the files go to DIR/<file's stem> unless --out is given",
     )
-    p.add_argument("--mode", choices=modes, help="override the scenario's engine mode")
-    p.add_argument("--model", choices=models, help="override the scenario's stability model")
-    p.add_argument("--backend", choices=names(), help="override the scenario's engine")
+    add_engine_overrides(p, modes, models, names())
     p.set_defaults(func=_search)
 
 

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 from ..engines.registry import backend, names
 from ..lang.errors import ScenarioError
 from ..util.extras import installed, missing
-from .args import COMMANDS, INTERNAL, add_executor, add_seed, output_folder
+from .args import COMMANDS, INTERNAL, add_engine_overrides, add_executor, add_seed, output_folder
 from .outputs import Input, Output, check_outputs
 
 if TYPE_CHECKING:  # imported when a sweep runs: `stackdsl --help` stays quick
@@ -56,9 +56,7 @@ def add_sweep(
         "does not write removed (default: a new "
         "private folder stackdsl-sweep-NAME-* in the temporary directory)",
     )
-    p.add_argument("--mode", choices=modes, help="override the scenario's engine mode")
-    p.add_argument("--model", choices=models, help="override the scenario's stability model")
-    p.add_argument("--backend", choices=names(), help="override the scenario's engine")
+    add_engine_overrides(p, modes, models, names())
     p.set_defaults(func=_sweep)
 
 

@@ -19,11 +19,17 @@ def search(tmp_path: Path, file: str, *more: str) -> tuple[int, dict]:
     return status, summary
 
 
-def test_a_short_single_file_stacks_critical_shift_is_bracketed_in_few_runs(tmp_path):
-    # the shipped search's stack, 3 bricks (cheap): s* = 120 mm / 3 = 40 mm
+def _short_stack(tmp_path: Path) -> Path:
+    """The shipped single-file search cut to 3 bricks (cheap): its critical shift 120 mm / 3 = 40 mm."""
     path = tmp_path / "short.yaml"
     text = (ROOT / "searches" / "single_file_shift.yaml").read_text().replace("levels: 5", "levels: 3")
     path.write_text(text.replace("between: [20 mm, 30 mm]", "between: [36 mm, 44 mm]"))
+    return path
+
+
+def test_a_short_single_file_stacks_critical_shift_is_bracketed_in_few_runs(tmp_path):
+    # the shipped search's stack, 3 bricks (cheap): s* = 120 mm / 3 = 40 mm
+    path = _short_stack(tmp_path)
     out = tmp_path / "out"
     assert main(["search", str(path), "-j", "1", "--out", str(out)]) == 0
     found = json.loads((out / "search.json").read_text())
@@ -38,9 +44,7 @@ def test_a_short_single_file_stacks_critical_shift_is_bracketed_in_few_runs(tmp_
 
 def test_a_search_is_a_row_of_the_html_report_as_a_sweep_is(tmp_path):
     # the 3-brick stack of the shipped search: its row holds the verdict, the interval, the picture and the runs' files
-    path = tmp_path / "short.yaml"
-    text = (ROOT / "searches" / "single_file_shift.yaml").read_text().replace("levels: 5", "levels: 3")
-    path.write_text(text.replace("between: [20 mm, 30 mm]", "between: [36 mm, 44 mm]"))
+    path = _short_stack(tmp_path)
     report = tmp_path / "report"
     assert main(["search", str(path), "-j", "1", "--report", str(report)]) == 0
     found = json.loads((report / "short" / "search.json").read_text())

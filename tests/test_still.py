@@ -56,17 +56,14 @@ def onset(tmp_path: Path, file: str, *more: str) -> dict:
 
 @pytest.mark.slow
 @pytest.mark.parametrize("backend", ["pybullet", "mujoco"])
-def test_the_rocking_onset_is_found_within_one_percent_of_g_b_over_h(tmp_path, backend):
-    found = onset(tmp_path, "shake_rocking_onset.yaml", "--backend", backend)
+@pytest.mark.parametrize(
+    "file, closed_form",
+    [("shake_rocking_onset.yaml", ROCKING), ("shake_sliding_onset.yaml", SLIDING)],
+    ids=["rocking", "sliding"],
+)
+def test_a_shakes_onset_is_found_within_one_percent_of_its_closed_form(tmp_path, backend, file, closed_form):
+    # rocking at g b / h, sliding at mu g
+    found = onset(tmp_path, file, "--backend", backend)
     low, high = found["interval"]
-    assert low <= ROCKING * 1.01 and high >= ROCKING * 0.99 and high - low <= 0.2
-    assert found["runs"] * 10 <= found["grid_runs"]
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("backend", ["pybullet", "mujoco"])
-def test_the_sliding_onset_is_found_within_one_percent_of_mu_g(tmp_path, backend):
-    found = onset(tmp_path, "shake_sliding_onset.yaml", "--backend", backend)
-    low, high = found["interval"]
-    assert low <= SLIDING * 1.01 and high >= SLIDING * 0.99 and high - low <= 0.2
+    assert low <= closed_form * 1.01 and high >= closed_form * 0.99 and high - low <= 0.2
     assert found["runs"] * 10 <= found["grid_runs"]

@@ -19,6 +19,11 @@ sides, two bounds apart (stackdsl's own; the programs are :func:`stability.solve
 So six cheap programs of eight sides bracket the answer within 8%, and the fine pyramid is
 solved only there, a step at a time down from the coarse answer (where the downhill edge
 decides, as on a slope, a ladder or a V, the two agree and one fine program ends it).
+Each program is first tried as vertical forces on the contacts level with that share of their
+friction alone (:func:`stability._equilibrium.is_level`): where those hold the blocks, so does
+the whole program, a tenth of its size. A settled Jenga tower, whose blocks touch side by side,
+needed seven programs of 34 bricks, 0.5 s, and read "2%" for its faces' tilt of an engine's
+noise, which the rest of the model counts as level.
 """
 
 from __future__ import annotations
@@ -27,7 +32,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
 
-from ._equilibrium import FINE_SIDES, GRAVITY, BodyKey, ContactPolygon, RigidBlock, _solve, solve_equilibrium
+from ._equilibrium import FINE_SIDES, GRAVITY, BodyKey, ContactPolygon, RigidBlock, _solve, _solve_vertical, is_level
 
 #: The precision of :func:`friction_share`: 1/64 of the coefficients.
 FRICTION_STEP = 1 / 64
@@ -63,7 +68,7 @@ def friction_share(
     >>> friction_share({"brick": RigidBlock(0.0106, turn.apply([0, 0, 0.004]))}, [on_slope])  # tan / mu 0.405, rounded up
     0.40625
     """
-    if solve_equilibrium(blocks, _scaled(contacts, 0.0), gravity=gravity).stands:
+    if _stands(blocks, contacts, gravity, COARSE_SIDES, 0):
         return 0.0
     fails, coarse = 0, round(1 / FRICTION_STEP)  # in steps: the coarse pyramid fails at 0, stands at 1 (taken)
     while coarse - fails > 1:
@@ -82,7 +87,15 @@ def friction_share(
 def _stands(
     blocks: Mapping[BodyKey, RigidBlock], contacts: Sequence[ContactPolygon[BodyKey]], gravity: float, sides: int, steps: int
 ) -> bool:
-    return _solve(blocks, _scaled(contacts, steps * FRICTION_STEP), sides, gravity).stands
+    """Does the program with ``steps`` of :data:`FRICTION_STEP` of every coefficient hold the
+    blocks? First by vertical forces on the contacts that are level with that friction alone
+    (a tenth of the program: fewer contacts hold less, so where they hold the blocks, all do),
+    then by the program with a pyramid of ``sides``."""
+    scaled = _scaled(contacts, steps * FRICTION_STEP)
+    level = [c for c in scaled if is_level(c, sides)]
+    if level and _solve_vertical(blocks, level, gravity) is not None:
+        return True
+    return _solve(blocks, scaled, sides, gravity).stands
 
 
 def _scaled(contacts: Sequence[ContactPolygon[BodyKey]], share: float) -> list[ContactPolygon[BodyKey]]:

@@ -22,8 +22,9 @@ margin is exact); otherwise the new point moves the hull out there. The answer i
 bound, once the upper one is within :data:`MARGIN_TOLERANCE` of it: never more than the
 margin, and at most the tolerance less. A brick on a rectangle needs four to ten programs.
 
-Where every contact is level the vertical-force program's polygon is searched (ten times
-smaller; its shifts are some of the full program's), and then one program with friction, on
+Where the level contacts hold the blocks the vertical-force program on them alone is searched
+(ten times smaller; its shifts are some of the full program's: a contact left out, a brick's
+side against its neighbour's, only adds forces), and then one program with friction, on
 the blocks whose rows bind the weakest direction (the dual solution names them; every other
 body a support: a relaxation, so it bounds the whole program's reach from above), says
 whether friction reaches further that way. Only when it does is the full program's polygon
@@ -90,9 +91,10 @@ def equilibrium_margin(
     less than it (module docstring). None when the blocks do not stand as they are (then
     :func:`stability.solve_equilibrium` gives the mechanism).
 
-    Where every contact is level the vertical-force program (:func:`stability.solve_equilibrium`'s
-    quick test) is searched first: its shifts are some of the full program's, so its margin
-    is a lower bound; the full program along its weakest direction, on the blocks that
+    The vertical-force program (:func:`stability.solve_equilibrium`'s quick test) on the level
+    contacts alone is searched first: its shifts are some of the full program's (a contact
+    that is not level, a brick's side against its neighbour's, only adds forces), so its
+    margin is a lower bound; the full program along its weakest direction, on the blocks that
     direction binds, then bounds the full margin from above, and only when the two are further
     apart than ``tolerance`` is the full program's polygon searched, from the points already
     found. Source: stackdsl's own, on the program of Livesley (1978) and Whiting et al. (2009).
@@ -122,8 +124,9 @@ def equilibrium_margin(
         return limit
     if not contacts:
         return None
-    if all(is_level(c, sides) for c in contacts):
-        vertical = _ShiftProgram.of(blocks, contacts, sides, gravity, level=True, limit=limit)
+    level = [c for c in contacts if is_level(c, sides)]
+    if level:
+        vertical = _ShiftProgram.of(blocks, level, sides, gravity, level=True, limit=limit)
         search = _Search.start(vertical, tolerance)
         if search is not None:
             search.run(MARGIN_PROGRAMS)

@@ -297,3 +297,22 @@ def test_a_brick_on_a_level_face_needs_no_friction():
         )
         == 0.0
     )
+
+
+def test_a_brick_on_a_face_tilted_by_an_engines_noise_needs_no_friction_beside_a_side_contact():
+    """A brick on a face tilted 0.03 deg (an engine's noise on a level face: is_level's
+    LEVEL_TILT) and touching a wall with its side: vertical forces on the level contact hold it,
+    so it needs no friction. The side contact made the share's first program the full one,
+    whose frictionless pyramid at the tilted face cannot cancel the normal's sideways part: a
+    settled Jenga tower's certificate read "needing 2% of each friction coefficient"."""
+    from scipy.spatial.transform import Rotation
+
+    from stability import friction_share
+
+    turn = Rotation.from_euler("x", 5e-4)
+    brick = {"top": RigidBlock(M, turn.apply([0.0, 0.0, 0.004]))}
+    face = ContactPolygon("top", "base", turn.apply(rectangle(-0.06, 0.06, 0.0)), turn.apply(UP), 0.5)
+    wall = ContactPolygon(
+        "top", "wall", np.array([[-0.06, 0.012, 0.0], [0.06, 0.012, 0.0], [0.0, 0.012, 0.008]]), np.array([0.0, -1.0, 0.0]), 0.5
+    )
+    assert friction_share(brick, [face, wall]) == 0.0

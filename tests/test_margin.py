@@ -225,3 +225,45 @@ def test_a_settled_stack_leaning_by_its_compliance_reads_no_more_than_level_bric
     c = outcome.certificate
     assert outcome.collapse is None and c is not None and c.margin_mm is not None
     assert truth - TIGHT <= c.margin_mm / 1000 <= truth
+
+
+def test_bricks_touching_side_by_side_are_searched_by_vertical_forces(monkeypatch):
+    """Two bricks on the ground, 24 mm wide, touching side by side (a contact whose normal is
+    horizontal, so not level), the right one carrying a third across both: the margin is the
+    one vertical forces give on the level contacts (the side contact only adds forces), and the
+    full program is solved once, to bound it from above. Every contact had to be level for the
+    vertical search: a settled Jenga tower's certificate solved eight full programs of 34
+    bricks where a tenth of the program decides."""
+    import stability._margin as margin_module
+
+    full = []
+    reach = margin_module._ShiftProgram.reach
+
+    def counted(self, direction):
+        full.append(self.a.shape[0] == 6 * len(self.keys))
+        return reach(self, direction)
+
+    monkeypatch.setattr(margin_module._ShiftProgram, "reach", counted)
+    blocks = {
+        "a": RigidBlock(M, np.array([0.0, -0.012, 0.004])),
+        "b": RigidBlock(M, np.array([0.0, 0.012, 0.004])),
+        "top": RigidBlock(M, np.array([0.0, 0.006, 0.012])),
+    }
+    ground = [
+        ContactPolygon(k, "g", polygon(box(-0.06, y - 0.012, 0.06, y + 0.012), 0.0), UP, 0.5)
+        for k, y in (("a", -0.012), ("b", 0.012))
+    ]
+    on = [
+        ContactPolygon("top", k, polygon(box(-0.012, y0, 0.012, y1), 0.008), UP, 0.5)
+        for k, y0, y1 in (("a", -0.006, 0.0), ("b", 0.0, 0.018))
+    ]
+    side = ContactPolygon(
+        "b",
+        "a",
+        np.array([[-0.06, 0.0, 0.0], [0.06, 0.0, 0.0], [0.06, 0.0, 0.008], [-0.06, 0.0, 0.008]]),
+        np.array([0.0, 1.0, 0.0]),
+        0.5,
+    )
+    margin, _ = check(blocks, [*ground, *on, side])
+    assert margin == pytest.approx(equilibrium_margin(blocks, [*ground, *on]), abs=1e-6)
+    assert full.count(True) <= 2  # the bound, with and without the side contact

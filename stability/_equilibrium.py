@@ -356,6 +356,24 @@ def is_level(contact: ContactPolygon[BodyKey], sides: int = 8) -> bool:
     return up > 0 and tan <= max(contact.friction * math.cos(math.pi / sides), LEVEL_TILT)
 
 
+def upward(contact: ContactPolygon[BodyKey]) -> ContactPolygon[BodyKey]:
+    """``contact`` seen from the body above it: the same contact, its two bodies swapped and its
+    normal turned, when the normal points down (a pile frozen together records each contact
+    from either side). The program is the same (each force acts on both bodies, opposite);
+    :func:`is_level` asks for a normal pointing up into ``body``. Source: stackdsl's own.
+
+    >>> import numpy as np
+    >>> down = ContactPolygon("base", "top", np.zeros((1, 3)), np.array([0, 0, -1.0]), 0.5)
+    >>> flipped = upward(down)
+    >>> flipped.body, flipped.other, float(flipped.normal[2]), is_level(down), is_level(flipped)
+    ('top', 'base', 1.0, False, True)
+    """
+    normal = np.asarray(contact.normal, dtype=float)
+    if normal[2] >= 0.0:
+        return contact
+    return ContactPolygon(contact.other, contact.body, contact.points, -normal, contact.friction, contact.core)
+
+
 def _solve_vertical(
     blocks: Mapping[BodyKey, RigidBlock], contacts: Sequence[ContactPolygon[BodyKey]], gravity: float
 ) -> Equilibrium[BodyKey] | None:

@@ -32,7 +32,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
 
-from ._equilibrium import FINE_SIDES, GRAVITY, BodyKey, ContactPolygon, RigidBlock, _solve, _solve_vertical, is_level
+from ._equilibrium import FINE_SIDES, GRAVITY, BodyKey, ContactPolygon, RigidBlock, _solve, _solve_vertical, is_level, upward
 
 #: The precision of :func:`friction_share`: 1/64 of the coefficients.
 FRICTION_STEP = 1 / 64
@@ -92,7 +92,7 @@ def _stands(
     (a tenth of the program: fewer contacts hold less, so where they hold the blocks, all do),
     then by the program with a pyramid of ``sides``."""
     scaled = _scaled(contacts, steps * FRICTION_STEP)
-    level = [c for c in scaled if is_level(c, sides)]
+    level = [c for c in map(upward, scaled) if is_level(c, sides)]
     if level and _solve_vertical(blocks, level, gravity) is not None:
         return True
     return _solve(blocks, scaled, sides, gravity).stands

@@ -60,6 +60,7 @@ from ._equilibrium import (
     _generators,
     _vertices,
     is_level,
+    upward,
 )
 
 MARGIN_TOLERANCE = 1e-4
@@ -124,7 +125,7 @@ def equilibrium_margin(
         return limit
     if not contacts:
         return None
-    level = [c for c in contacts if is_level(c, sides)]
+    level = [c for c in map(upward, contacts) if is_level(c, sides)]
     if level:
         vertical = _ShiftProgram.of(blocks, level, sides, gravity, level=True, limit=limit)
         search = _Search.start(vertical, tolerance)

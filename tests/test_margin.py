@@ -227,13 +227,15 @@ def test_a_settled_stack_leaning_by_its_compliance_reads_no_more_than_level_bric
     assert truth - TIGHT <= c.margin_mm / 1000 <= truth
 
 
-def test_bricks_touching_side_by_side_are_searched_by_vertical_forces(monkeypatch):
+@pytest.mark.parametrize("seen_from_below", [False, True])
+def test_bricks_touching_side_by_side_are_searched_by_vertical_forces(monkeypatch, seen_from_below):
     """Two bricks on the ground, 24 mm wide, touching side by side (a contact whose normal is
     horizontal, so not level), the right one carrying a third across both: the margin is the
     one vertical forces give on the level contacts (the side contact only adds forces), and the
     full program is solved once, to bound it from above. Every contact had to be level for the
     vertical search: a settled Jenga tower's certificate solved eight full programs of 34
-    bricks where a tenth of the program decides."""
+    bricks where a tenth of the program decides. A contact seen from the brick below (its
+    normal down: a pile frozen together records them so) is the same contact."""
     import stability._margin as margin_module
 
     full = []
@@ -264,6 +266,8 @@ def test_bricks_touching_side_by_side_are_searched_by_vertical_forces(monkeypatc
         np.array([0.0, 1.0, 0.0]),
         0.5,
     )
+    if seen_from_below:
+        on = [ContactPolygon(c.other, c.body, c.points, -c.normal, c.friction) for c in on]
     margin, _ = check(blocks, [*ground, *on, side])
     assert margin == pytest.approx(equilibrium_margin(blocks, [*ground, *on]), abs=1e-6)
     assert full.count(True) <= 2  # the bound, with and without the side contact

@@ -82,6 +82,17 @@ class Engine(Protocol):
         """Freeze (immovable, still colliding, velocity zeroed) or restore ``body``; frozen
         at the pose ``at`` when it is given, else where it is."""
 
+    def merge(self, bodies: Sequence[int]) -> bool:
+        """Make the frozen ``bodies`` one rigid body the engine moves (their masses, where they
+        are, touching what they touch), or say False and change nothing (an engine that cannot).
+        While merged, :meth:`pose`, :meth:`velocity` and :meth:`speeds` of each read its part of
+        that body, and a contact point on that body is seen from, and names, the one of
+        ``bodies`` whose part it lies on."""
+
+    def unmerge(self, bodies: Sequence[int]) -> None:
+        """End a :meth:`merge` of ``bodies``: each a frozen body of its own again, where its part
+        of the merged body is."""
+
 
 class ContactBook(dict[int, list[ContactPoint]]):
     """One step's contact points by the body they are seen from, read from ``engine`` for a
@@ -129,6 +140,9 @@ class FakeEngine:
             (use :meth:`touch` to add a pair).
         frozen: the bodies currently frozen.
         timestep: seconds of one step.
+        mergeable: whether :meth:`merge` merges (False: it says it cannot, as an engine
+            without compound bodies does).
+        merged: the groups merged now.
 
     >>> eng = FakeEngine()
     >>> eng.touch(1, 0, [[0, 0, 0]], normal=[0, 0, 1])
@@ -141,6 +155,8 @@ class FakeEngine:
     contacts: list[ContactPoint] = field(default_factory=list)
     frozen: set[int] = field(default_factory=set)
     timestep: float = 1 / 240
+    mergeable: bool = False
+    merged: list[tuple[int, ...]] = field(default_factory=list)
 
     def touch(
         self,
@@ -189,3 +205,14 @@ class FakeEngine:
         if frozen and at is not None:
             self.poses[body] = at
         (self.frozen.add if frozen else self.frozen.discard)(body)
+
+    def merge(self, bodies: Sequence[int]) -> bool:
+        if not self.mergeable or not set(bodies) <= self.frozen:
+            return False
+        self.merged.append(tuple(bodies))
+        self.frozen.difference_update(bodies)  # they move, as one
+        return True
+
+    def unmerge(self, bodies: Sequence[int]) -> None:
+        self.merged.remove(tuple(bodies))
+        self.frozen.update(bodies)

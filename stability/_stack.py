@@ -8,7 +8,7 @@ everything resting on it (3.3.7). Source: report 3.3.
 
 from __future__ import annotations
 
-from collections.abc import Collection, Iterable
+from collections.abc import Collection, Iterable, Sequence
 from collections.abc import Set as AbstractSet
 from dataclasses import dataclass, field
 from typing import Literal, NamedTuple
@@ -57,6 +57,13 @@ class Woken(NamedTuple):
     body: int
     node: LoadNode
     event: StabilityEvent
+
+
+class Ride(NamedTuple):
+    """Frozen bricks merged into one body in the engine, riding a pull (:meth:`Stack.ride`)."""
+
+    label: str  # the pulled brick's
+    riders: tuple[int, ...]  # in the order they froze
 
 
 @dataclass
@@ -156,6 +163,8 @@ class Stack:
         self.standing_version: int | None = None  # a version whose whole frozen stack a program showed to stand
         self.holding = True  # bricks woken in a proved mechanism are held active (none while a heap settles)
         self.guided: set[int] = set()  # bodies an outside hand moves (a gripper, a pusher): never frozen
+        self.rides: dict[int, Ride] = {}  # pulled body -> the frozen bricks riding it, one body in the engine
+        self.riding: dict[int, int] = {}  # each of those -> the pulled body it rides
         self.hand_speed: dict[int, float] = {}  # m/s along a guided body's path, as the hand gave it
         self.admitting = True  # False while the ground moves: nothing is frozen in the world's frame
         self._boxes: tuple[int, np.ndarray] | None = None  # the frozen bricks' boxes, of a stack version
@@ -242,6 +251,33 @@ class Stack:
             del self.watched[body]
             for b in self.ordered(leaning):
                 woken += self.wake(b, time, f"{rec.label}, which it leaned on, moved {moved * 1000:.1f} mm")
+        return woken
+
+    def ride(self, pulled: int, riders: Sequence[int]) -> bool:
+        """Merge the frozen ``riders`` into one body in the engine, riding the pull of ``pulled``
+        (:meth:`stability.StabilityExtension.guide`); False when the engine cannot merge them.
+        They stay frozen here, at the poses they froze at, until :meth:`end_ride`."""
+        if not self.engine.merge(riders):
+            return False
+        self.rides[pulled] = Ride(self.bodies[pulled].label, tuple(riders))
+        self.riding.update(dict.fromkeys(riders, pulled))
+        return True
+
+    def end_ride(
+        self, pulled: int, time: float, reason: str, proved: AbstractSet[int] = frozenset(), hold: bool = False
+    ) -> list[Woken]:
+        """End the ride of the bricks riding the pull of ``pulled``: each a body of its own in the
+        engine again, where it rode to, and woken (the poses they froze at are no longer
+        theirs), with ``reason``."""
+        riders = self.rides.pop(pulled).riders
+        for body in riders:
+            del self.riding[body]
+        if self._contacts is not None:
+            self._contacts.fill()
+        self.engine.unmerge(riders)
+        woken: list[Woken] = []
+        for body in riders:
+            woken += self.wake(body, time, reason, proved, hold)
         return woken
 
     def forget(self, body: int) -> None:
@@ -443,6 +479,8 @@ class Stack:
         rec = self.bodies[body]
         if rec.state is not BrickState.FROZEN:
             return []
+        if body in self.riding:  # merged with the others riding a pull: they wake together
+            return self.end_ride(self.riding[body], time, reason, proved, hold)
         node = rec.node
         assert node is not None, "a frozen brick has a load node"
         if self._contacts is not None:

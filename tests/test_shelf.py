@@ -1,7 +1,8 @@
 """Static bodies out of every moving body's reach leave pybullet's world (the shelf) and come
 back, under their ids, before anything could touch them: a run reads them as it would read
 them in the world, a projectile hits a shelved brick as it hits one that stayed, and a tower
-gives the same verdict and graph either way."""
+gives the same verdict and graph either way. Static bodies merged into one body the engine
+moves (a group riding a dragged support) read where their boxes of it are."""
 
 from __future__ import annotations
 
@@ -197,3 +198,33 @@ def test_the_kept_client_is_disconnected_at_exit_while_pybullet_is_loaded():
     assert kept.isConnected()
     client_module._disconnect_spare()
     assert client_module._SPARE == [] and not kept.isConnected()
+
+
+def test_merged_bricks_move_as_one_body_and_come_apart_where_they_are():
+    spec = _spec_of()
+    with pybullet_world(SETTINGS, 0.5, 0.0, shelve=False) as world:
+        base, middle, top = _column(world, spec, 3)
+        world.set_frozen(base, False, spec.mass)
+        assert world.merge([middle, top])
+        assert not world.merge([middle, base])  # merged already, or moving
+        for k in range(48):  # a hand slides the base out: friction carries what rests on it
+            world.guide(base, Pose.from_euler([0.05 * k / 240, 0.0, 0.004]), (0.05, 0.0, 0.0), hold=False)
+            world.step()
+        moved = {b: world.pose(b).position - np.array([0.0, 0.0, 0.004 + 0.008 * i]) for i, b in enumerate((base, middle, top))}
+        assert moved[middle][0] > 0.005  # carried along
+        gap = world.pose(top).position - world.pose(middle).position
+        assert float(np.linalg.norm(gap)) == pytest.approx(0.008, abs=1e-9)  # rigid: one body
+        turn = world.pose(top).orientation @ world.pose(middle).orientation
+        assert abs(float(turn)) == pytest.approx(1.0, abs=1e-12)
+        (v_middle, spin), (v_top, spin_top) = world.velocity(middle), world.velocity(top)
+        assert spin_top.tolist() == spin.tolist() and v_middle[0] > 0.0
+        assert (v_top - v_middle).tolist() == pytest.approx(np.cross(spin, gap).tolist(), abs=1e-12)
+        seen = {(c.body, c.other) for c in world.contact_points([base])}
+        assert seen == {(base, world.ground), (base, middle)}  # named by the brick touched, never the merged body
+        assert {c.other for c in world.contact_points([middle])} == {base}
+        there = world.pose(top).position
+        world.unmerge([middle, top])
+        assert world.pose(top).position.tolist() == pytest.approx(there.tolist(), abs=1e-12)
+        world.set_frozen(top, False, spec.mass)
+        world.step()
+        assert world.pose(top).position[2] == pytest.approx(there[2], abs=2e-4)  # it rests where it rode to

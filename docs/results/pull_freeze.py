@@ -9,6 +9,8 @@ steps taken. Settings:
 * ``ext``: the extension on pybullet (a proved pull moves its brick alone: stability/_drag.py);
 * ``ext-woken``: the same with every proof refused (the drag held to an impossible safety
   factor): what rests on a pulled brick and the blocks beside it wake, as before the proof;
+* ``ext-free``: the extension on pybullet with nothing merged (pybullet's world refuses
+  ``merge``): an unproved pull wakes everything above it, as before the riding group;
 * ``ext-mj``: the extension on MuJoCo;
 * ``tuned-pb``, ``raw-pb``: pybullet tuned (1 kHz, friction anchors, 150 solver iterations), raw;
 * ``tuned-mj``: MuJoCo tuned, with its own sleeping at tolerance 1e-4;
@@ -28,6 +30,7 @@ import time
 
 import stability._drag as drag
 from stackdsl import compile_scenario, parse_scenario, run_program
+from stackdsl.engines.pybullet.world import PyBulletWorld
 
 
 def setting(name: str, text: str) -> tuple[str, str, str, float]:
@@ -42,6 +45,8 @@ def setting(name: str, text: str) -> tuple[str, str, str, float]:
         text = text.replace("structure:", f"engine: {engine}\nstructure:", 1)
     if name == "ext-woken":
         safety = 1e9
+    elif name == "ext-free":
+        mode = "extension-free"
     elif name in ("tuned-pb", "tuned-mj"):
         mode = "tuned"
     elif name in ("raw-pb", "raw-1920"):
@@ -58,6 +63,10 @@ def main(path: str, names: list[str], level: int) -> None:
     for name in names:
         text, mode, backend, safety = setting(name, base)
         kept, drag.DRAG_SAFETY = drag.DRAG_SAFETY, safety
+        merge = PyBulletWorld.merge
+        if mode == "extension-free":
+            mode = "extension"
+            PyBulletWorld.merge = lambda self, bodies: False  # type: ignore[method-assign]
         try:
             program = compile_scenario(parse_scenario(text, path), mode, None, backend)
             started = time.perf_counter()
@@ -65,6 +74,7 @@ def main(path: str, names: list[str], level: int) -> None:
             wall = time.perf_counter() - started
         finally:
             drag.DRAG_SAFETY = kept
+            PyBulletWorld.merge = merge  # type: ignore[method-assign]
         above = {b: d for b, d in out.displacement.items() if b[:1] == "L" and int(b[1:3]) > level}
         brick, most = max(above.items(), key=lambda bd: bd[1]) if above else ("-", 0.0)
         collapse = out.collapse.level if out.collapse else None

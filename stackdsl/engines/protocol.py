@@ -239,3 +239,12 @@ class World(Engine, Protocol):
         pybullet re-creates them as rigid bodies, MuJoCo loosens its contacts. Default: none
         (an engine with no cheaper way)."""
         return []
+
+    def merge(self, bodies: Sequence[int]) -> bool:
+        """:meth:`stability.Engine.merge`: static ``bodies`` one rigid body the engine moves.
+        Default: False (MuJoCo's model is compiled once; pybullet makes a compound body)."""
+        return False
+
+    def unmerge(self, bodies: Sequence[int]) -> None:
+        """:meth:`stability.Engine.unmerge`. Default: refused (nothing was merged)."""
+        raise ValueError(f"{type(self).__name__} merged no bodies")

@@ -148,6 +148,9 @@ class PyBulletWorld(PyBulletEngine, World):
         self._substeps = 1
         self._split = False  # stepping in substeps of its own (see step), not pybullet's numSubSteps
         self._paths: dict[int, tuple[Any, Any, Vec3, float | None]] = {}  # this step's guided bodies: their path
+        self._merged: dict[int, tuple[int, np.ndarray, Any]] = {}  # body -> its merged body, position in it, orientation
+        self._groups: dict[int, tuple[int, ...]] = {}  # merged body -> the bodies merged (see merge)
+        self._frames: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}  # merged body -> its boxes (_part_at)
         client.setGravity(0.0, 0.0, -engine.gravity)
         client.setTimeStep(engine.timestep)
         client.setPhysicsEngineParameter(numSolverIterations=engine.solver_iterations, numSubSteps=0)  # a kept client's own
@@ -285,6 +288,8 @@ class PyBulletWorld(PyBulletEngine, World):
         shelved = self._shelf.get(body)
         if shelved is not None:
             return shelved[0], shelved[1]
+        if body in self._merged:
+            return self._part_pose(body)
         read = self._poses.get(body)
         if read is None:
             read = self._poses[body] = self._read_pose(self._ids.get(body, body))
@@ -294,7 +299,10 @@ class PyBulletWorld(PyBulletEngine, World):
         """pybullet's (linear, angular) velocity of ``body`` this step, read once."""
         read = self._velocities.get(body)
         if read is None:
-            read = _AT_REST if body in self._shelf else self._read_velocity(self._ids.get(body, body))
+            if body in self._merged:
+                read = self._part_velocity(body)
+            else:
+                read = _AT_REST if body in self._shelf else self._read_velocity(self._ids.get(body, body))
             self._velocities[body] = read
         return read
 
@@ -315,10 +323,141 @@ class PyBulletWorld(PyBulletEngine, World):
     def contact_points(self, bodies: Collection[int] | None = None) -> list[ContactPoint]:
         if bodies is not None:
             bodies = [b for b in bodies if b not in self._shelf]  # static, touching only static bodies
-        return super().contact_points(bodies)
+        if not self._groups:
+            return super().contact_points(bodies)
+        if bodies is None:
+            return self._parts(super().contact_points())
+        asked = set(bodies)
+        merged = sorted({self._merged[b][0] for b in bodies if b in self._merged})
+        points = self._parts(super().contact_points([b for b in bodies if b not in self._merged] + merged))
+        return [c for c in points if c.body in asked]
 
     def near(self, body: int, distance: float, among: Collection[int] | None = None) -> list[ContactPoint]:
-        return [] if body in self._shelf else super().near(body, distance, among)
+        if body in self._shelf or body in self._merged:
+            return []
+        if not self._groups:
+            return super().near(body, distance, among)
+        wanted = None if among is None else {*among, *(g for g, parts in self._groups.items() if any(b in among for b in parts))}
+        points = self._parts(super().near(body, distance, wanted))
+        return points if among is None else [c for c in points if c.other in among]
+
+    # merged bodies --------------------------------------------------------------
+    def merge(self, bodies: Sequence[int]) -> bool:
+        """One body of pybullet's (a one-link multibody: a rigid body given its inertia went to NaN
+        in its first step, pybullet 3.2.7) whose collision shape is the boxes of
+        the static ``bodies`` where they are (a compound shape), its mass theirs, its inertia the
+        diagonal of their inertia tensor about its centre of mass in the world's axes (the
+        products of inertia are left out: it slides and turns slowly under a pull), of their
+        material; they leave pybullet's world until :meth:`unmerge`. False for fewer than two,
+        a body that moves, materials that differ, or on a shake table. A contact point on it
+        names the body whose box it lies nearest. Source: stackdsl's own."""
+        if self._table or len(bodies) < 2 or any(b in self._moving or b in self._merged for b in bodies):
+            return False
+        specs = [self._made[b][0] for b in bodies]
+        if len({(s.friction, s.restitution) for s in specs}) > 1:
+            return False
+        poses = [self._pose_now(b) for b in bodies]
+        positions = np.array([p for p, _ in poses], dtype=float)
+        masses = np.array([s.mass for s in specs], dtype=float)
+        mass = float(masses.sum())
+        centre = masses @ positions / mass
+        rotations = Rotation.from_quat([q for _, q in poses])
+        tensor = np.zeros((3, 3))
+        for spec, r, arm in zip(specs, rotations, positions - centre, strict=True):
+            matrix = r.as_matrix()
+            tensor += matrix @ np.diag(_box_inertia(spec.half_extents, spec.mass)) @ matrix.T
+            tensor += spec.mass * (float(arm @ arm) * np.eye(3) - np.outer(arm, arm))
+        shape = self._client.createCollisionShapeArray(
+            shapeTypes=[self._p.GEOM_BOX] * len(bodies),
+            halfExtents=[list(s.half_extents) for s in specs],
+            collisionFramePositions=(positions - centre).tolist(),
+            collisionFrameOrientations=[list(q) for _, q in poses],
+        )
+        engine_id = self._client.createMultiBody(
+            baseMass=mass, baseCollisionShapeIndex=shape, basePosition=centre.tolist(), useMaximalCoordinates=False
+        )
+        group, self._next = self._next, self._next + 1
+        self._bind(group, engine_id)
+        self._material(group, specs[0].friction, specs[0].restitution)
+        self._client.changeDynamics(engine_id, -1, localInertiaDiagonal=np.diag(tensor).tolist())
+        low, high = positions.min(axis=0), positions.max(axis=0)
+        reach = max(max(s.half_extents) for s in specs)
+        hx, hy, hz = ((high - low) / 2 + reach).tolist()
+        half = (hx, hy, hz)
+        self._made[group] = (
+            BrickSpec(
+                type=specs[0].type, half_extents=half, mass=mass, friction=specs[0].friction, restitution=specs[0].restitution
+            ),
+            False,
+        )
+        for body, (_, orientation), arm in zip(bodies, poses, positions - centre, strict=True):
+            if body in self._shelf:
+                del self._shelf[body]
+                self._shelf_box = None
+            else:
+                self._remove(body)
+            self._still.pop(body, None)
+            self._merged[body] = (group, arm, orientation)
+        self._groups[group] = tuple(bodies)
+        halves = np.array([s.half_extents for s in specs], dtype=float)
+        self._frames[group] = (positions - centre, rotations.inv().as_matrix(), halves)
+        self._massed(group, mass)
+        self._velocities[group] = _AT_REST
+        return True
+
+    def unmerge(self, bodies: Sequence[int]) -> None:
+        """Each of ``bodies`` a static body of pybullet's again, where its box of the merged body
+        is; the merged body leaves the world."""
+        group = self._merged[bodies[0]][0]
+        poses = {b: self._part_pose(b) for b in self._groups.pop(group)}
+        for body, (position, orientation) in poses.items():
+            del self._merged[body]
+            spec, maximal = self._made[body]
+            self._put(body, spec, list(position), list(orientation), spec.mass, maximal)  # made with a mass: it moves when woken
+            self._client.changeDynamics(self._engine_id(body), -1, mass=0.0)
+            self._massed(body, 0.0)
+        self._remove(group)
+        self._moving.discard(group)
+        del self._made[group], self._frames[group]
+
+    def _part_pose(self, body: int) -> tuple[Vec3, Quat]:
+        """Where ``body``, merged, is: its box of the merged body."""
+        group, arm, orientation = self._merged[body]
+        (x, y, z), turn = self._pose_now(group)
+        rotation = Rotation.from_quat(turn)
+        px, py, pz = rotation.apply(arm)
+        qx, qy, qz, qw = (rotation * Rotation.from_quat(orientation)).as_quat()
+        return (x + px, y + py, z + pz), (float(qx), float(qy), float(qz), float(qw))
+
+    def _part_velocity(self, body: int) -> tuple[Vec3, Vec3]:
+        """How ``body``, merged, moves: the merged body's velocity at its centre, and its spin."""
+        group, arm, _ = self._merged[body]
+        linear, angular = self._velocity_now(group)
+        lever = Rotation.from_quat(self._pose_now(group)[1]).apply(arm)
+        vx, vy, vz = np.asarray(linear) + np.cross(angular, lever)
+        return (float(vx), float(vy), float(vz)), (float(angular[0]), float(angular[1]), float(angular[2]))
+
+    def _parts(self, points: list[ContactPoint]) -> list[ContactPoint]:
+        """``points`` with a merged body named as the body whose box the point lies nearest."""
+        out = []
+        for c in points:
+            body, other = c.body, c.other
+            if body in self._groups:
+                body = self._part_at(body, c.position)
+            if other in self._groups:
+                other = self._part_at(other, c.position)
+            same = body == c.body and other == c.other
+            out.append(c if same else ContactPoint(body, other, c.position, c.normal, c.normal_force, c.distance))
+        return out
+
+    def _part_at(self, group: int, point: np.ndarray) -> int:
+        """The body merged into ``group`` whose box lies nearest ``point`` (m, world)."""
+        arms, inverse, halves = self._frames[group]
+        position, turn = self._pose_now(group)
+        local = Rotation.from_quat(turn).inv().apply(np.asarray(point, dtype=float) - position)  # in the merged body
+        inside = np.einsum("nij,nj->ni", inverse, local - arms)  # in each box's own axes
+        outside = np.linalg.norm(np.maximum(np.abs(inside) - halves, 0.0), axis=1)
+        return self._groups[group][int(np.argmin(outside))]
 
     # changing -----------------------------------------------------------------
     def set_frozen(self, body: int, frozen: bool, mass: float, at: Pose | None = None) -> None:

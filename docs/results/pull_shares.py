@@ -4,12 +4,13 @@ For each pull of a scenario file, run in each setting named, one after the other
 
 * the load shares two steps before the pull starts: for each brick resting on the pulled brick's
   level, the normal force (N, the sum of its contact points' ``normal_force``) it puts on each brick
-  of that level, that force's share of its total on the level (%), and the pulled brick's share
-  of all the load on its level; in brackets, the range of the pulled brick's share over the
+  of that level, that force's share of its total on the level (%), and each brick of the level's share
+  of all the load on it; in brackets, the range of the pulled brick's share over the
   0.25 s before the pull, read every step;
 * the drag: each brick above the pulled one, its horizontal displacement (mm) from two steps before
   the pull to the pull's end (along the pull and in all), and its rotation about the vertical (deg);
-  in brackets, its horizontal creep without a pull, over the 0.4 s before (mm).
+  in brackets, its horizontal creep without a pull, over the 0.4 s before (mm); and the time course:
+  the largest of these displacements and the mean rotation after 1/8, 1/4, 1/2, 3/4 and all of the pull.
 
 Settings (tuned mode: the engine alone, every brick simulated):
 
@@ -22,7 +23,9 @@ Settings (tuned mode: the engine alone, every brick simulated):
     # --tall: the tower made 18 levels, and only a side block of level 10 (L10.3) pulled, after level 18
     # e.g. nice -n 10 python docs/results/pull_shares.py scenarios/jenga_stands.yaml tuned-pb,tuned-mj
 
-Takes minutes per setting (a tuned run of scenarios/jenga_stands.yaml: 25,125 steps of 36 bricks).
+A setting takes 20 s (MuJoCo, 2 ms) to 110 s (pybullet, 1/1920 s) of wall time for scenarios/jenga_stands.yaml
+(36 bricks, 25.1 s simulated), and up to 110 s with ``--tall`` (54 bricks, 30.1 s), measured with nice -n 10
+on a shared 2-core machine.
 Source: stackdsl's own.
 """
 
@@ -45,6 +48,8 @@ BEFORE = 2
 WINDOW = 0.25
 #: Seconds before a pull over which the bricks' creep without a pull is measured (it ends ``BEFORE`` steps before).
 CREEP = 0.4
+#: Parts of a pull at which the largest displacement of the bricks above it and their mean rotation are read.
+PARTS = (0.125, 0.25, 0.5, 0.75)
 
 SETTINGS = {  # name: (backend, engine section or None)
     "tuned-pb": ("pybullet", None),
@@ -65,7 +70,13 @@ class Watch(Subscriber):
         self.marks: dict[int, list[tuple[str, str]]] = {}
         self.reads: dict[int, str] = {}  # step: the pull whose level's forces are read then
         for p in pulls:
-            for step, what in ((p.step - BEFORE - round(CREEP / dt), "creep"), (p.step - BEFORE, "before"), (p.end_step, "end")):
+            during = [(p.step + round(f * (p.end_step - p.step)), f"{f:g}") for f in PARTS]
+            for step, what in [
+                (p.step - BEFORE - round(CREEP / dt), "creep"),
+                (p.step - BEFORE, "before"),
+                *during,
+                (p.end_step, "end"),
+            ]:
                 self.marks.setdefault(step, []).append((p.id, what))
             self.reads |= {step: p.id for step in range(p.step - round(WINDOW / dt), p.step - BEFORE + 1)}
         self.poses: dict[tuple[str, str], Poses] = {}
@@ -112,6 +123,12 @@ def share(forces: Forces, above: str | None, pulled: str) -> float:
     return 100 * sum(f for (_, b), f in on.items() if b == pulled) / total if total else 0.0
 
 
+def yaw(start: tuple[np.ndarray, np.ndarray], then: tuple[np.ndarray, np.ndarray]) -> float:
+    """Degrees a brick turned about the vertical from pose ``start`` to pose ``then`` (position, quaternion)."""
+    turn = Rotation.from_quat(then[1]) * Rotation.from_quat(start[1]).inv()
+    return float(np.degrees(turn.as_euler("ZYX")[0]))
+
+
 def report(watch: Watch, pull: Remove) -> None:
     """Print the shares and the drag of one pull."""
     pulled = level(pull.id)
@@ -132,7 +149,7 @@ def report(watch: Watch, pull: Remove) -> None:
     total = sum(forces.values())
     seen = [share(f, None, pull.id) for f in window]
     print(
-        f"    {pull.id} carries {share(forces, None, pull.id):.1f}% of the {total:.3f} N on level {pulled} (equal: 33.3%)  "
+        f"    the {total:.3f} N on level {pulled}: {', '.join(f'{b} {share(forces, None, b):.1f}%' for b in below)}  "
         f"[{min(seen):.1f}-{max(seen):.1f}%]"
     )
     creep, end = watch.poses[(pull.id, "creep")], watch.poses[(pull.id, "end")]
@@ -141,14 +158,21 @@ def report(watch: Watch, pull: Remove) -> None:
         f"  drag from t = {watch.times[(pull.id, 'before')]:.4f} s to the pull's end at {watch.times[(pull.id, 'end')]:.4f} s "
         f"[creep without a pull, the {CREEP:g} s before]:"
     )
-    for brick in sorted(b for b in before if level(b) > pulled and b in end):
+    above = sorted(b for b in before if level(b) > pulled and b in end)
+    course = []
+    for part in [*(f"{f:g}" for f in PARTS), "end"]:
+        then = watch.poses[(pull.id, part)]
+        most = max(1000 * np.hypot(*(then[b][0] - before[b][0])[:2]) for b in above)
+        course.append(
+            f"{watch.times[(pull.id, part)] - pull.time:.3f} s: {most:.3f} mm {np.mean([yaw(before[b], then[b]) for b in above]):.3f} deg"
+        )
+    print(f"    the bricks above: largest horizontal displacement, mean rotation, after {'; '.join(course)}")
+    for brick in above:
         moved = end[brick][0] - before[brick][0]
-        turn = Rotation.from_quat(end[brick][1]) * Rotation.from_quat(before[brick][1]).inv()
-        yaw = np.degrees(turn.as_euler("ZYX")[0])
         crept = 1000 * np.hypot(*(before[brick][0] - creep[brick][0])[:2])
         print(
             f"    {brick}: along the pull {1000 * moved @ along:7.3f} mm, horizontal {1000 * np.hypot(*moved[:2]):7.3f} mm, "
-            f"about the vertical {yaw:7.3f} deg  [{crept:.3f} mm]"
+            f"about the vertical {yaw(before[brick], end[brick]):7.3f} deg  [{crept:.3f} mm]"
         )
 
 

@@ -48,6 +48,8 @@ def test_the_family_is_the_shipped_scenes_and_those_written_like_them():
     ]
     taller = parse_scenario(scenes[2].text, "t.yaml")
     assert taller.structure.tower.levels == 18 and taller.expect.stands
+    falls = parse_scenario(scenes[3].text, "t.yaml")  # it falls once all 18 levels are placed, not at 12
+    assert falls.structure.tower.levels == 18 and "18" in str(falls.expect.collapse)
     row = parse_scenario(domino_row(120), "row.yaml")
     assert len(row.structure.bricks) == 120 and row.expect.toppled.count == "all"
 

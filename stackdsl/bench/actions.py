@@ -104,7 +104,10 @@ def action_scenes(folder: Path = Path("scenarios")) -> list[Scene]:
 
     def taller(text: str) -> str:  # 18 levels: 54 blocks, built by 27 s; the second pull 9 s later than at 12
         return (
-            text.replace("levels: 12", "levels: 18").replace("after level 12", "after level 18").replace("at: 22 s", "at: 31 s")
+            text.replace("levels: 12", "levels: 18")
+            .replace("after level 12", "after level 18")
+            .replace("at: 22 s", "at: 31 s")
+            .replace("collapse: 12", "collapse: 18")  # it falls once all 18 levels are placed
         )
 
     return [

@@ -1,7 +1,9 @@
 """The engine interface the stability extension drives, and a fake engine.
 
 The extension needs five things from a physics engine: a body's pose, its velocity,
-the contact points, and a way to freeze (immovable but colliding) and restore a body.
+the contact points, and a way to freeze (immovable but colliding) and restore a body; and
+one it may be refused, merging frozen bodies into one the engine moves (bricks riding a
+dragged level).
 Any object with them is an :class:`Engine`; this package knows no engine by name.
 :class:`FakeEngine` holds them in plain attributes so that stability rules can be tested
 on hand-built contact graphs without a simulation.

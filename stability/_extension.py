@@ -648,8 +648,10 @@ class StabilityExtension:
                 up = (now.rotation @ then.rotation.T)[:, 2]  # where the vertical it froze with points now
                 tilt = math.degrees(math.acos(min(1.0, float(up[2]))))
                 drop = float(then.position[2] - now.position[2])
-                if tilt > RIDE_TILT or drop > RIDE_DROP:
-                    why = f"rode the pull of {label} as one body until it tilted {tilt:.2f} deg and dropped {drop * 1000:.2f} mm"
+                if tilt > RIDE_TILT:
+                    why = f"rode the pull of {label} as one body until it tilted {tilt:.2f} deg"
+                elif drop > RIDE_DROP:
+                    why = f"rode the pull of {label} as one body until it dropped {drop * 1000:.2f} mm"
             if why is not None:
                 events += [w.event for w in stack.end_ride(pulled, time, why)]
         return events

@@ -154,7 +154,7 @@ def test_what_rests_on_the_bricks_a_pull_drags_rides_them_as_one_body_until_the_
     assert woken == {"b1", "b2", "b3", "top", "up5", "up6"} and eng.merged == []
 
 
-def test_a_ride_ends_for_all_when_one_rider_wakes_or_they_tilt():
+def test_a_ride_ends_for_all_when_one_rider_wakes_or_they_tilt_or_drop():
     from scipy.spatial.transform import Rotation
 
     from stability import Pose
@@ -170,3 +170,8 @@ def test_a_ride_ends_for_all_when_one_rider_wakes_or_they_tilt():
     eng.poses[5] = Pose(eng.poses[5].position, Rotation.from_euler("x", 0.6, degrees=True).as_quat())
     rode = {e.label: e.reason for e in ext.update(0.9) if e.kind == "wake"}
     assert set(rode) == {"up5", "up6"} and "until it tilted 0.60 deg" in rode["up5"]
+    eng, ext = two_levels_over_three_blocks(mergeable=True)
+    ext.guide(2, 0.8, "pushed", 0.04)
+    eng.poses[5] = Pose(eng.poses[5].position - [0.0, 0.0, 0.0015])  # its support pulled from under it
+    rode = {e.label: e.reason for e in ext.update(0.85) if e.kind == "wake"}
+    assert set(rode) == {"up5", "up6"} and "until it dropped 1.50 mm" in rode["up5"]

@@ -439,23 +439,27 @@ class PyBulletWorld(PyBulletEngine, World):
 
     def _parts(self, points: list[ContactPoint]) -> list[ContactPoint]:
         """``points`` with a merged body named as the body whose box the point lies nearest."""
-        out = []
+        out, frames = [], {}  # merged body -> its position and inverse rotation, read once a call
         for c in points:
             body, other = c.body, c.other
-            if body in self._groups:
-                body = self._part_at(body, c.position)
-            if other in self._groups:
-                other = self._part_at(other, c.position)
+            for end in (body, other):
+                if end in self._groups and end not in frames:
+                    position, turn = self._pose_now(end)
+                    frames[end] = (np.asarray(position, dtype=float), Rotation.from_quat(turn).inv())
+            if body in frames:
+                body = self._part_at(body, c.position, *frames[body])
+            if other in frames:
+                other = self._part_at(other, c.position, *frames[other])
             same = body == c.body and other == c.other
             out.append(c if same else ContactPoint(body, other, c.position, c.normal, c.normal_force, c.distance))
         return out
 
-    def _part_at(self, group: int, point: np.ndarray) -> int:
-        """The body merged into ``group`` whose box lies nearest ``point`` (m, world)."""
-        arms, inverse, halves = self._frames[group]
-        position, turn = self._pose_now(group)
-        local = Rotation.from_quat(turn).inv().apply(np.asarray(point, dtype=float) - position)  # in the merged body
-        inside = np.einsum("nij,nj->ni", inverse, local - arms)  # in each box's own axes
+    def _part_at(self, group: int, point: np.ndarray, position: np.ndarray, inverse: Rotation) -> int:
+        """The body merged into ``group`` (at ``position``, turned back by ``inverse``) whose box
+        lies nearest ``point`` (m, world)."""
+        arms, turns, halves = self._frames[group]
+        local = inverse.apply(np.asarray(point, dtype=float) - position)  # in the merged body
+        inside = np.einsum("nij,nj->ni", turns, local - arms)  # in each box's own axes
         outside = np.linalg.norm(np.maximum(np.abs(inside) - halves, 0.0), axis=1)
         return self._groups[group][int(np.argmin(outside))]
 

@@ -503,8 +503,9 @@ class StabilityExtension:
         body (:meth:`_rides` ends the ride)."""
         stack = self._stack
         label = stack.bodies[body].label
-        beside = self._beside(body)
-        carried, riders = self._riders(body, beside)
+        above = self._above(body)
+        beside = self._beside(body, above)
+        carried, riders = self._riders(body, above, beside)
         if riders and stack.ride(body, riders):
             events = [w.event for w in stack.wake(body, time, reason, alone=True)]
             for a in carried:
@@ -520,37 +521,28 @@ class StabilityExtension:
         stack.hand_speed[body] = speed
         return events + self._touching(body, time, set())
 
-    def _riders(self, body: int, beside: list[tuple[int, str]]) -> tuple[list[int], list[int]]:
-        """The bricks resting on ``body`` and the frozen bricks above them that may ride them
-        merged into one rigid body (at least :data:`RIDERS`), each in the order they froze:
-        everything above is frozen, and every brick beside carries nothing else (a frozen brick
-        left on a woken one would be an immovable support on a moving body). The riders are
-        empty when they may not ride.
+    def _riders(self, body: int, above: set[int], beside: list[tuple[int, str]]) -> tuple[list[int], list[int]]:
+        """The bricks resting on ``body`` and the frozen bricks above them (``above``: everything
+        resting on ``body``, :meth:`_above`) that may ride them merged into one rigid body (at
+        least :data:`RIDERS`), each in the order they froze: everything above is frozen, and every
+        brick beside carries nothing else (a frozen brick left on a woken one would be an
+        immovable support on a moving body). The riders are empty when they may not ride.
 
         The bricks on ``body`` stay bodies of their own: its friction drags them, and how far
         is decided by how each shares its load between ``body`` and the bricks beside (a side
         block of a Jenga level drags the level above at the limit of its friction: merged with
         what it carries, that level slid 22 mm where, free, it slid 0.6 mm)."""
         stack = self._stack
-        carried = set(stack.bodies[body].objects_above)
-        above: set[int] = set()
-        todo = list(carried)
-        while todo:
-            for a in stack.bodies[todo.pop()].objects_above:
-                if a not in above and a not in carried:
-                    above.add(a)
-                    todo.append(a)
-        everything = carried | above
-        if len(above) < RIDERS or any(stack.bodies[a].state is not BrickState.FROZEN for a in everything):
+        carried = stack.bodies[body].objects_above
+        riders = above - carried
+        if len(riders) < RIDERS or any(stack.bodies[a].state is not BrickState.FROZEN for a in above):
             return stack.ordered(carried), []
-        if any(not stack.bodies[b].objects_above <= everything for b, _ in beside):
+        if any(not stack.bodies[b].objects_above <= above for b, _ in beside):
             return stack.ordered(carried), []
-        return stack.ordered(carried), stack.ordered(above)
+        return stack.ordered(carried), stack.ordered(riders)
 
-    def _beside(self, body: int) -> list[tuple[int, str]]:
-        """The frozen bricks that carry a brick resting on ``body`` (or on what rests on it: what
-        :meth:`wake` of ``body`` wakes) and are not woken with it, each with the label of one
-        brick it carries, in body order."""
+    def _above(self, body: int) -> set[int]:
+        """Every brick resting on ``body``, or on one that does (what :meth:`wake` of ``body`` wakes)."""
         stack = self._stack
         above: set[int] = set()
         todo = [body]
@@ -559,6 +551,12 @@ class StabilityExtension:
                 if a not in above:
                     above.add(a)
                     todo.append(a)
+        return above
+
+    def _beside(self, body: int, above: set[int]) -> list[tuple[int, str]]:
+        """The frozen bricks that carry one of ``above`` (:meth:`_above` of ``body``) and are not
+        woken with it, each with the label of one brick it carries, in body order."""
+        stack = self._stack
         beside: dict[int, str] = {}
         for a in sorted(above):
             for s in stack.bodies[a].rests_on:

@@ -25,7 +25,7 @@ import math
 from collections import deque
 from collections.abc import Collection, Iterator, Sequence
 from contextlib import contextmanager
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -148,9 +148,9 @@ class PyBulletWorld(PyBulletEngine, World):
         self._substeps = 1
         self._split = False  # stepping in substeps of its own (see step), not pybullet's numSubSteps
         self._paths: dict[int, tuple[Any, Any, Vec3, float | None]] = {}  # this step's guided bodies: their path
-        self._merged: dict[int, tuple[int, np.ndarray, Any]] = {}  # body -> its merged body, position in it, orientation
+        self._merged: dict[int, tuple[int, int]] = {}  # body -> its merged body, and its place among the bodies merged
         self._groups: dict[int, tuple[int, ...]] = {}  # merged body -> the bodies merged (see merge)
-        self._frames: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}  # merged body -> its boxes (_part_at)
+        self._frames: dict[int, _Parts] = {}  # merged body -> where each of its boxes lies in it
         client.setGravity(0.0, 0.0, -engine.gravity)
         client.setTimeStep(engine.timestep)
         client.setPhysicsEngineParameter(numSolverIterations=engine.solver_iterations, numSubSteps=0)  # a kept client's own
@@ -288,11 +288,12 @@ class PyBulletWorld(PyBulletEngine, World):
         shelved = self._shelf.get(body)
         if shelved is not None:
             return shelved[0], shelved[1]
-        if body in self._merged:
-            return self._part_pose(body)
         read = self._poses.get(body)
         if read is None:
-            read = self._poses[body] = self._read_pose(self._ids.get(body, body))
+            if body in self._merged:
+                read = self._poses[body] = self._part_pose(body)
+            else:
+                read = self._poses[body] = self._read_pose(self._ids.get(body, body))
         return read
 
     def _velocity_now(self, body: int) -> Any:
@@ -390,17 +391,17 @@ class PyBulletWorld(PyBulletEngine, World):
             ),
             False,
         )
-        for body, (_, orientation), arm in zip(bodies, poses, positions - centre, strict=True):
+        for index, body in enumerate(bodies):
             if body in self._shelf:
                 del self._shelf[body]
                 self._shelf_box = None
             else:
                 self._remove(body)
             self._still.pop(body, None)
-            self._merged[body] = (group, arm, orientation)
+            self._merged[body] = (group, index)
         self._groups[group] = tuple(bodies)
         halves = np.array([s.half_extents for s in specs], dtype=float)
-        self._frames[group] = (positions - centre, rotations.inv().as_matrix(), halves)
+        self._frames[group] = _Parts(positions - centre, rotations, rotations.inv().as_matrix(), halves)
         self._massed(group, mass)
         self._velocities[group] = _AT_REST
         return True
@@ -412,6 +413,8 @@ class PyBulletWorld(PyBulletEngine, World):
         poses = {b: self._part_pose(b) for b in self._groups.pop(group)}
         for body, (position, orientation) in poses.items():
             del self._merged[body]
+            self._poses.pop(body, None)
+            self._velocities.pop(body, None)
             spec, maximal = self._made[body]
             self._put(body, spec, list(position), list(orientation), spec.mass, maximal)  # made with a mass: it moves when woken
             self._client.changeDynamics(self._engine_id(body), -1, mass=0.0)
@@ -422,18 +425,19 @@ class PyBulletWorld(PyBulletEngine, World):
 
     def _part_pose(self, body: int) -> tuple[Vec3, Quat]:
         """Where ``body``, merged, is: its box of the merged body."""
-        group, arm, orientation = self._merged[body]
+        group, index = self._merged[body]
+        parts = self._frames[group]
         (x, y, z), turn = self._pose_now(group)
         rotation = Rotation.from_quat(turn)
-        px, py, pz = rotation.apply(arm)
-        qx, qy, qz, qw = (rotation * Rotation.from_quat(orientation)).as_quat()
+        px, py, pz = rotation.apply(parts.arms[index])
+        qx, qy, qz, qw = (rotation * parts.turns[index]).as_quat()
         return (x + px, y + py, z + pz), (float(qx), float(qy), float(qz), float(qw))
 
     def _part_velocity(self, body: int) -> tuple[Vec3, Vec3]:
         """How ``body``, merged, moves: the merged body's velocity at its centre, and its spin."""
-        group, arm, _ = self._merged[body]
+        group, index = self._merged[body]
         linear, angular = self._velocity_now(group)
-        lever = Rotation.from_quat(self._pose_now(group)[1]).apply(arm)
+        lever = Rotation.from_quat(self._pose_now(group)[1]).apply(self._frames[group].arms[index])
         vx, vy, vz = np.asarray(linear) + np.cross(angular, lever)
         return (float(vx), float(vy), float(vz)), (float(angular[0]), float(angular[1]), float(angular[2]))
 
@@ -457,10 +461,10 @@ class PyBulletWorld(PyBulletEngine, World):
     def _part_at(self, group: int, point: np.ndarray, position: np.ndarray, inverse: Rotation) -> int:
         """The body merged into ``group`` (at ``position``, turned back by ``inverse``) whose box
         lies nearest ``point`` (m, world)."""
-        arms, turns, halves = self._frames[group]
+        parts = self._frames[group]
         local = inverse.apply(np.asarray(point, dtype=float) - position)  # in the merged body
-        inside = np.einsum("nij,nj->ni", turns, local - arms)  # in each box's own axes
-        outside = np.linalg.norm(np.maximum(np.abs(inside) - halves, 0.0), axis=1)
+        inside = np.einsum("nij,nj->ni", parts.back, local - parts.arms)  # in each box's own axes
+        outside = np.linalg.norm(np.maximum(np.abs(inside) - parts.halves, 0.0), axis=1)
         return self._groups[group][int(np.argmin(outside))]
 
     # changing -----------------------------------------------------------------
@@ -714,6 +718,17 @@ def _box_inertia(half_extents: Vec3, mass: float) -> list[float]:
     """The principal moments of inertia (kg m^2) of a uniform box of ``half_extents`` (m)."""
     a, b, c = (2.0 * h for h in half_extents)
     return [mass / 12.0 * (b * b + c * c), mass / 12.0 * (a * a + c * c), mass / 12.0 * (a * a + b * b)]
+
+
+class _Parts(NamedTuple):
+    """The boxes of a merged body, in the order of its bodies: where each lies from its centre of
+    mass (m, shape (n, 3)), turned as (scipy Rotation of n), that turn's inverse as matrices
+    (shape (n, 3, 3)) and its half extents (m, shape (n, 3))."""
+
+    arms: np.ndarray
+    turns: Rotation
+    back: np.ndarray
+    halves: np.ndarray
 
 
 _Box = tuple[float, float, float, float, float, float]

@@ -542,8 +542,9 @@ class PyBulletWorld(PyBulletEngine, World):
             self._client.applyExternalForce(
                 engine_id, -1, [0.0, 0.0, held * self._engine.gravity], [x, y, z], self._p.WORLD_FRAME
             )
-        turn = (Rotation.from_quat(orientation) * Rotation.from_quat(now).inv()).as_rotvec() * rate
-        self._client.resetBaseVelocity(engine_id, [vx, vy, vz], turn.tolist())
+        axis, angle = self._client.getAxisAngleFromQuaternion(self._client.getDifferenceQuaternion(now, orientation))
+        spin = angle * rate  # the shortest turn from now to the path's orientation, over the step
+        self._client.resetBaseVelocity(engine_id, [vx, vy, vz], [axis[0] * spin, axis[1] * spin, axis[2] * spin])
         self._due = 0
 
     def move_ground(self, offset: Vec3, velocity: Vec3) -> None:

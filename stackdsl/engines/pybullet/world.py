@@ -401,7 +401,8 @@ class PyBulletWorld(PyBulletEngine, World):
             self._merged[body] = (group, index)
         self._groups[group] = tuple(bodies)
         halves = np.array([s.half_extents for s in specs], dtype=float)
-        self._frames[group] = _Parts(positions - centre, rotations, rotations.inv().as_matrix(), halves)
+        turns = tuple((float(x), float(y), float(z), float(w)) for x, y, z, w in rotations.as_quat())
+        self._frames[group] = _Parts(positions - centre, turns, rotations.inv().as_matrix(), halves)
         self._massed(group, mass)
         self._velocities[group] = _AT_REST
         return True
@@ -428,16 +429,19 @@ class PyBulletWorld(PyBulletEngine, World):
         group, index = self._merged[body]
         parts = self._frames[group]
         (x, y, z), turn = self._pose_now(group)
-        rotation = Rotation.from_quat(turn)
-        px, py, pz = rotation.apply(parts.arms[index])
-        qx, qy, qz, qw = (rotation * parts.turns[index]).as_quat()
-        return (x + px, y + py, z + pz), (float(qx), float(qy), float(qz), float(qw))
+        px, py, pz = self._matrix(turn) @ parts.arms[index]
+        return (x + float(px), y + float(py), z + float(pz)), _product(turn, parts.turns[index])
+
+    def _matrix(self, turn: Quat) -> np.ndarray:
+        """The rotation matrix (shape (3, 3)) of quaternion ``turn`` (x, y, z, w), by pybullet
+        (in double precision, a microsecond; scipy's Rotation takes a hundred)."""
+        return np.array(self._client.getMatrixFromQuaternion(turn), dtype=float).reshape(3, 3)
 
     def _part_velocity(self, body: int) -> tuple[Vec3, Vec3]:
         """How ``body``, merged, moves: the merged body's velocity at its centre, and its spin."""
         group, index = self._merged[body]
         linear, angular = self._velocity_now(group)
-        lever = Rotation.from_quat(self._pose_now(group)[1]).apply(self._frames[group].arms[index])
+        lever = self._matrix(self._pose_now(group)[1]) @ self._frames[group].arms[index]
         vx, vy, vz = np.asarray(linear) + np.cross(angular, lever)
         return (float(vx), float(vy), float(vz)), (float(angular[0]), float(angular[1]), float(angular[2]))
 
@@ -449,7 +453,7 @@ class PyBulletWorld(PyBulletEngine, World):
             for end in (body, other):
                 if end in self._groups and end not in frames:
                     position, turn = self._pose_now(end)
-                    frames[end] = (np.asarray(position, dtype=float), Rotation.from_quat(turn).inv())
+                    frames[end] = (np.asarray(position, dtype=float), self._matrix(turn))
             if body in frames:
                 body = self._part_at(body, c.position, *frames[body])
             if other in frames:
@@ -458,11 +462,11 @@ class PyBulletWorld(PyBulletEngine, World):
             out.append(c if same else ContactPoint(body, other, c.position, c.normal, c.normal_force, c.distance))
         return out
 
-    def _part_at(self, group: int, point: np.ndarray, position: np.ndarray, inverse: Rotation) -> int:
-        """The body merged into ``group`` (at ``position``, turned back by ``inverse``) whose box
-        lies nearest ``point`` (m, world)."""
+    def _part_at(self, group: int, point: np.ndarray, position: np.ndarray, matrix: np.ndarray) -> int:
+        """The body merged into ``group`` (at ``position``, turned by the rotation ``matrix``,
+        shape (3, 3)) whose box lies nearest ``point`` (m, world)."""
         parts = self._frames[group]
-        local = inverse.apply(np.asarray(point, dtype=float) - position)  # in the merged body
+        local = (np.asarray(point, dtype=float) - position) @ matrix  # in the merged body
         inside = np.einsum("nij,nj->ni", parts.back, local - parts.arms)  # in each box's own axes
         outside = np.linalg.norm(np.maximum(np.abs(inside) - parts.halves, 0.0), axis=1)
         return self._groups[group][int(np.argmin(outside))]
@@ -542,9 +546,8 @@ class PyBulletWorld(PyBulletEngine, World):
             self._client.applyExternalForce(
                 engine_id, -1, [0.0, 0.0, held * self._engine.gravity], [x, y, z], self._p.WORLD_FRAME
             )
-        axis, angle = self._client.getAxisAngleFromQuaternion(self._client.getDifferenceQuaternion(now, orientation))
-        spin = angle * rate  # the shortest turn from now to the path's orientation, over the step
-        self._client.resetBaseVelocity(engine_id, [vx, vy, vz], [axis[0] * spin, axis[1] * spin, axis[2] * spin])
+        tx, ty, tz = _turn(now, orientation)
+        self._client.resetBaseVelocity(engine_id, [vx, vy, vz], [tx * rate, ty * rate, tz * rate])
         self._due = 0
 
     def move_ground(self, offset: Vec3, velocity: Vec3) -> None:
@@ -715,6 +718,35 @@ class PyBulletWorld(PyBulletEngine, World):
         self._shelf_box = None
 
 
+def _product(a: Quat, b: Quat) -> Quat:
+    """The quaternion (x, y, z, w) of turning by ``b``, then by ``a`` (Hamilton's product ``a b``).
+    In plain floats: pybullet's ``multiplyTransforms`` rounds to single precision (2e-7), scipy's
+    Rotation costs 0.1 ms a call. Source: Hamilton's product."""
+    ax, ay, az, aw = a
+    bx, by, bz, bw = b
+    return (
+        aw * bx + ax * bw + ay * bz - az * by,
+        aw * by - ax * bz + ay * bw + az * bx,
+        aw * bz + ax * by - ay * bx + az * bw,
+        aw * bw - ax * bx - ay * by - az * bz,
+    )
+
+
+def _turn(now: Quat, to: Quat) -> Vec3:
+    """The shortest turn (rotation vector, rad) from orientation ``now`` to ``to`` (quaternions
+    x, y, z, w), in the world's axes. pybullet's ``getAxisAngleFromQuaternion`` reads a turn under
+    0.04 deg as none (single precision); this is exact to double precision for every angle.
+    Source: the quaternion's logarithm, 2 atan2(|v|, w) v / |v|."""
+    x, y, z, w = _product(to, (-now[0], -now[1], -now[2], now[3]))
+    if w < 0.0:
+        x, y, z, w = -x, -y, -z, -w
+    sine = math.sqrt(x * x + y * y + z * z)
+    if sine < 1e-300:
+        return (0.0, 0.0, 0.0)
+    scale = 2.0 * math.atan2(sine, w) / sine
+    return (x * scale, y * scale, z * scale)
+
+
 def _box_inertia(half_extents: Vec3, mass: float) -> list[float]:
     """The principal moments of inertia (kg m^2) of a uniform box of ``half_extents`` (m)."""
     a, b, c = (2.0 * h for h in half_extents)
@@ -723,11 +755,11 @@ def _box_inertia(half_extents: Vec3, mass: float) -> list[float]:
 
 class _Parts(NamedTuple):
     """The boxes of a merged body, in the order of its bodies: where each lies from its centre of
-    mass (m, shape (n, 3)), turned as (scipy Rotation of n), that turn's inverse as matrices
+    mass (m, shape (n, 3)), turned as (quaternions x, y, z, w), that turn's inverse as matrices
     (shape (n, 3, 3)) and its half extents (m, shape (n, 3))."""
 
     arms: np.ndarray
-    turns: Rotation
+    turns: tuple[Quat, ...]
     back: np.ndarray
     halves: np.ndarray
 

@@ -499,8 +499,8 @@ class StabilityExtension:
     def _guide(self, body: int, time: float, reason: str, speed: float) -> list[StabilityEvent]:
         """:meth:`guide` without a proof: ``body`` wakes with what rests on it and the bricks
         beside; or, when the engine can merge them (:meth:`_riders`), only the bricks resting on
-        it wake, with those beside, and everything frozen above them rides them as one rigid
-        body (:meth:`_rides` ends the ride)."""
+        it and those resting on them wake, with those beside, and everything frozen above rides
+        them as one rigid body (:meth:`_rides` ends the ride)."""
         stack = self._stack
         label = stack.bodies[body].label
         above = self._above(body)
@@ -509,7 +509,8 @@ class StabilityExtension:
         if riders and stack.ride(body, riders):
             events = [w.event for w in stack.wake(body, time, reason, alone=True)]
             for a in carried:
-                why = f"rests on {label}, moved by hand; the {len(riders)} bricks above ride it as one rigid body"
+                on = label if body in stack.bodies[a].rests_on else f"what rests on {label}"
+                why = f"rests on {on}, moved by hand; the {len(riders)} bricks above ride as one rigid body"
                 events += [w.event for w in stack.wake(a, time, why, alone=True)]
             for other, on in beside:
                 events += [w.event for w in stack.wake(other, time, f"carries {on} beside {label}, moved by hand", alone=True)]
@@ -522,24 +523,31 @@ class StabilityExtension:
         return events + self._touching(body, time, set())
 
     def _riders(self, body: int, above: set[int], beside: list[tuple[int, str]]) -> tuple[list[int], list[int]]:
-        """The bricks resting on ``body`` and the frozen bricks above them (``above``: everything
-        resting on ``body``, :meth:`_above`) that may ride them merged into one rigid body (at
-        least :data:`RIDERS`), each in the order they froze: everything above is frozen, and every
+        """The bricks to wake, and the frozen bricks above them (``above``: everything resting on
+        ``body``, :meth:`_above`) that may ride them merged into one rigid body (at least
+        :data:`RIDERS`), each in the order they froze: everything above is frozen, and every
         brick beside carries nothing else (a frozen brick left on a woken one would be an
-        immovable support on a moving body). The riders are empty when they may not ride.
+        immovable support on a moving body). The riders are empty when they may not ride, and
+        then the bricks to wake are those resting on ``body``.
 
         The bricks on ``body`` stay bodies of their own: its friction drags them, and how far
         is decided by how each shares its load between ``body`` and the bricks beside (a side
         block of a Jenga level drags the level above at the limit of its friction: merged with
-        what it carries, that level slid 22 mm where, free, it slid 0.6 mm)."""
+        what it carries, that level slid 22 mm where, free, it slid 0.6 mm). So do the bricks
+        resting on them: their friction ties the dragged bricks into one level, which holds a
+        side pull's twist that no dragged brick holds alone (docs/results/pull_coupled.py:
+        0.89 of the drag alone, 1.14 tied, at equal shares); merged into the riders' body, that
+        tie held less in pybullet, and 5 of 40 side pulls of a Jenga tower that stand free slid
+        their level 18 to 28 mm (docs/results/actions-freeze.md)."""
         stack = self._stack
         carried = stack.bodies[body].objects_above
-        riders = above - carried
+        woken = carried | {t for a in carried for t in stack.bodies[a].objects_above}
+        riders = above - woken
         if len(riders) < RIDERS or any(stack.bodies[a].state is not BrickState.FROZEN for a in above):
             return stack.ordered(carried), []
         if any(not stack.bodies[b].objects_above <= above for b, _ in beside):
             return stack.ordered(carried), []
-        return stack.ordered(carried), stack.ordered(riders)
+        return stack.ordered(woken), stack.ordered(riders)
 
     def _above(self, body: int) -> set[int]:
         """Every brick resting on ``body``, or on one that does (what :meth:`wake` of ``body`` wakes)."""

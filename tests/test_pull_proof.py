@@ -115,43 +115,45 @@ def test_a_pull_whose_proof_is_lost_wakes_what_it_kept_frozen_as_an_unproved_pul
     assert {e.label for e in events if e.kind == "wake"} >= {"b1", "b3"} and not ext.alone(2)
 
 
-def two_levels_over_three_blocks(mergeable):
-    """:func:`level_over_three_blocks` with two more blocks stacked on the one across (5 on 4, 6 on 5)."""
+def levels_over_three_blocks(mergeable):
+    """:func:`level_over_three_blocks` with three more blocks stacked on the one across (5 on 4,
+    6 on 5, 7 on 6)."""
     from stability import Box, Pose
 
     eng, ext = level_over_three_blocks()
     eng.mergeable = mergeable
     across = np.array([0.0125, 0.0375, 0.0075])
-    for body, below in ((5, 4), (6, 5)):
+    for body, below in ((5, 4), (6, 5), (7, 6)):
         z = 0.0225 + 0.015 * (body - 4)
         eng.poses[body] = Pose(np.array([0.0, 0.0, z]))
         ext.add_brick(body, Box(across, 0.0098), f"up{body}", friction=0.4)
         eng.touch(body, below, [[x, y, z - 0.0075] for x in (-0.0125, 0.0125) for y in (-0.0375, 0.0375)], normal=[0, 0, 1])
     for t in (0.4, 0.5, 0.6, 0.7):
         ext.update(t)
-    assert {ext.state(b).value for b in range(1, 7)} == {"frozen"}
+    assert {ext.state(b).value for b in range(1, 8)} == {"frozen"}
     return eng, ext
 
 
 def test_what_rests_on_the_bricks_a_pull_drags_rides_them_as_one_body_until_the_pull_ends():
     """A hand moves block 2 without a proof: the block across it (4) wakes, with the blocks
-    beside that carry it (1, 3); the two above 4 stay frozen, merged into one body in the engine,
-    and wake when the pull ends. An engine that cannot merge wakes them all at once."""
-    eng, ext = two_levels_over_three_blocks(mergeable=True)
+    beside that carry it (1, 3) and the block that rests on it (5: free, its friction ties what
+    the pull drags, as a free brick's does); the two above 5 stay frozen, merged into one body in
+    the engine, and wake when the pull ends. An engine that cannot merge wakes them all at once."""
+    eng, ext = levels_over_three_blocks(mergeable=True)
     woken = {e.label for e in ext.guide(2, 0.8, "pushed", 0.04) if e.kind == "wake"}
-    assert woken == {"b1", "b2", "b3", "top"}
-    assert eng.merged == [(5, 6)] and ext.state(5).value == ext.state(6).value == "frozen"
+    assert woken == {"b1", "b2", "b3", "top", "up5"}
+    assert eng.merged == [(6, 7)] and ext.state(6).value == ext.state(7).value == "frozen"
     ext.update(0.85)
-    assert eng.merged == [(5, 6)]
+    assert eng.merged == [(6, 7)]
     eng.contacts = [c for c in eng.contacts if 2 not in (c.body, c.other)]
     ext.forget(2)
     events = ext.update(0.9)
     rode = {e.label: e.reason for e in events if e.kind == "wake"}
-    assert set(rode) == {"up5", "up6"} and "rode the pull of b2 as one body until it ended" in rode["up5"]
-    assert eng.merged == [] and ext.state(5).value == "active"
-    eng, ext = two_levels_over_three_blocks(mergeable=False)
+    assert set(rode) == {"up6", "up7"} and "rode the pull of b2 as one body until it ended" in rode["up6"]
+    assert eng.merged == [] and ext.state(6).value == "active"
+    eng, ext = levels_over_three_blocks(mergeable=False)
     woken = {e.label for e in ext.guide(2, 0.8, "pushed", 0.04) if e.kind == "wake"}
-    assert woken == {"b1", "b2", "b3", "top", "up5", "up6"} and eng.merged == []
+    assert woken == {"b1", "b2", "b3", "top", "up5", "up6", "up7"} and eng.merged == []
 
 
 def test_a_ride_ends_for_all_when_one_rider_wakes_or_they_tilt_or_drop():
@@ -159,19 +161,19 @@ def test_a_ride_ends_for_all_when_one_rider_wakes_or_they_tilt_or_drop():
 
     from stability import Pose
 
-    eng, ext = two_levels_over_three_blocks(mergeable=True)
+    eng, ext = levels_over_three_blocks(mergeable=True)
     ext.guide(2, 0.8, "pushed", 0.04)
-    woken = {w.label for w in ext.wake(6, 0.85, "a blow")}
-    assert woken == {"up5", "up6"} and eng.merged == []
-    eng, ext = two_levels_over_three_blocks(mergeable=True)
+    woken = {w.label for w in ext.wake(7, 0.85, "a blow")}
+    assert woken == {"up6", "up7"} and eng.merged == []
+    eng, ext = levels_over_three_blocks(mergeable=True)
     ext.guide(2, 0.8, "pushed", 0.04)
-    eng.poses[5] = Pose(eng.poses[5].position, Rotation.from_euler("x", 0.4, degrees=True).as_quat())
-    assert not [e for e in ext.update(0.85) if e.label == "up5"]  # under RIDE_TILT
-    eng.poses[5] = Pose(eng.poses[5].position, Rotation.from_euler("x", 0.6, degrees=True).as_quat())
+    eng.poses[6] = Pose(eng.poses[6].position, Rotation.from_euler("x", 0.4, degrees=True).as_quat())
+    assert not [e for e in ext.update(0.85) if e.label == "up6"]  # under RIDE_TILT
+    eng.poses[6] = Pose(eng.poses[6].position, Rotation.from_euler("x", 0.6, degrees=True).as_quat())
     rode = {e.label: e.reason for e in ext.update(0.9) if e.kind == "wake"}
-    assert set(rode) == {"up5", "up6"} and "until it tilted 0.60 deg" in rode["up5"]
-    eng, ext = two_levels_over_three_blocks(mergeable=True)
+    assert set(rode) == {"up6", "up7"} and "until it tilted 0.60 deg" in rode["up6"]
+    eng, ext = levels_over_three_blocks(mergeable=True)
     ext.guide(2, 0.8, "pushed", 0.04)
-    eng.poses[5] = Pose(eng.poses[5].position - [0.0, 0.0, 0.0015])  # its support pulled from under it
+    eng.poses[6] = Pose(eng.poses[6].position - [0.0, 0.0, 0.0015])  # its support pulled from under it
     rode = {e.label: e.reason for e in ext.update(0.85) if e.kind == "wake"}
-    assert set(rode) == {"up5", "up6"} and "until it dropped 1.50 mm" in rode["up5"]
+    assert set(rode) == {"up6", "up7"} and "until it dropped 1.50 mm" in rode["up6"]

@@ -14,7 +14,9 @@ steps taken. Settings:
 * ``ext-mj``: the extension on MuJoCo;
 * ``tuned-pb``, ``raw-pb``: pybullet tuned (1 kHz, friction anchors, 150 solver iterations), raw;
 * ``tuned-mj``: MuJoCo tuned, with its own sleeping at tolerance 1e-4;
-* ``raw-1920``, ``ext-1920``: pybullet raw, the extension, at a 1/1920 s timestep.
+* ``raw-1920``, ``ext-1920``: pybullet raw, the extension, at a 1/1920 s timestep;
+* ``ext-itN`` (``ext-it100``): the extension with N solver iterations a step (50 by default);
+* ``ext-anchors``: the extension with pybullet's friction anchors (tuned mode's).
 
     python docs/results/pull_freeze.py FILE SETTING[,SETTING...] [LEVEL]
     # LEVEL: the pulled brick's level (default 5); the load average is printed first
@@ -41,6 +43,10 @@ def setting(name: str, text: str) -> tuple[str, str, str, float]:
         "raw-1920": "{timestep: 1/1920 s}",
         "ext-1920": "{timestep: 1/1920 s}",
     }.get(name)
+    if name == "ext-anchors":
+        engine = "{friction_anchors: true}"
+    if name.startswith("ext-it"):
+        engine = f"{{solver_iterations: {int(name[6:])}}}"
     if engine is not None:
         text = text.replace("structure:", f"engine: {engine}\nstructure:", 1)
     if name == "ext-woken":

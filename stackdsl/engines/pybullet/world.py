@@ -147,7 +147,7 @@ class PyBulletWorld(PyBulletEngine, World):
         self._shelves = shelve
         self._substeps = 1
         self._split = False  # stepping in substeps of its own (see step), not pybullet's numSubSteps
-        self._anchored = False  # friction anchors on every body while a hand's path is stepped (see _anchor)
+        self._anchored = False  # friction anchors on every body while a pull's path is stepped (see _anchor)
         self._paths: dict[int, tuple[Any, Any, Vec3, float | None]] = {}  # this step's guided bodies: their path
         self._merged: dict[int, tuple[int, int]] = {}  # body -> its merged body, and its place among the bodies merged
         self._groups: dict[int, tuple[int, ...]] = {}  # merged body -> the bodies merged (see merge)
@@ -582,7 +582,7 @@ class PyBulletWorld(PyBulletEngine, World):
         split = self._substeps > 1 and bool(self._paths or self._table)
         if split != self._split:
             self._stepping(split)
-        if (split and bool(self._paths)) != self._anchored:
+        if any(held is None for *_, held in self._paths.values()) != self._anchored:  # a pull's path
             self._anchor(not self._anchored)
         if split:
             self._split_step()
@@ -609,14 +609,14 @@ class PyBulletWorld(PyBulletEngine, World):
 
     def _anchor(self, on: bool) -> None:
         """Friction anchors (pybullet's ``frictionAnchor``, which holds a sticking contact where it
-        first touched) on every body in the world while a hand's path is stepped in substeps
-        (``on``: a pull that drags what it carries), and the engine's own setting again after.
+        first touched) on every body in the world while a pull's path is stepped (``on``: a body
+        guided without being held up, :meth:`guide`), and the engine's own setting again after.
         Without them pybullet's solver, stopped at its iterations, lets a level that static
         friction holds creep under a pull: a Jenga side pull's level 0.84 mm at 50 iterations
         (0.14 mm at 200), with them 0.27 mm at the same cost; on two pulls of sweeps/jenga_pulls.yaml
         the creep passed the collapse threshold (13 mm) where with them it stays under it, as tuned
-        MuJoCo's does (docs/results/actions-freeze.md). Not on for every step: the shipped
-        scenarios' other tests measured pybullet without them. Source: stackdsl's own."""
+        MuJoCo's does (docs/results/actions-freeze.md). Not on for every step, nor for a push:
+        the shipped scenarios' other tests measured pybullet without them. Source: stackdsl's own."""
         self._anchored = on
         flag = int(on or self._engine.friction_anchors)
         for index in range(self._client.getNumBodies()):

@@ -612,8 +612,8 @@ class PyBulletWorld(PyBulletEngine, World):
         first touched) on every body in the world while a pull's path is stepped (``on``: a body
         guided without being held up, :meth:`guide`), and the engine's own setting again after.
         Without them pybullet's solver, stopped at its iterations, lets a level that static
-        friction holds creep under a pull: a Jenga side pull's level 0.84 mm at 50 iterations
-        (0.14 mm at 200), with them 0.27 mm at the same cost; on two pulls of sweeps/jenga_pulls.yaml
+        friction holds creep under a pull: a Jenga side pull's level 1.00 mm at 50 iterations
+        (0.14 mm at 200), with them 0.17 mm at the same cost; on two pulls of sweeps/jenga_pulls.yaml
         the creep passed the collapse threshold (13 mm) where with them it stays under it, as tuned
         MuJoCo's does (docs/results/actions-freeze.md). Not on for every step, nor for a push:
         the shipped scenarios' other tests measured pybullet without them. Source: stackdsl's own."""

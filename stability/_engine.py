@@ -88,8 +88,8 @@ class Engine(Protocol):
         """Make the frozen ``bodies`` one rigid body the engine moves (their masses, where they
         are, touching what they touch), or say False and change nothing (an engine that cannot).
         While merged, :meth:`pose`, :meth:`velocity` and :meth:`speeds` of each read its part of
-        that body, and a contact point on that body is seen from, and names, the one of
-        ``bodies`` whose part it lies on."""
+        that body, a contact point on that body is seen from, and names, the one of
+        ``bodies`` whose part it lies on, and :meth:`near` of any of them is of that body."""
 
     def unmerge(self, bodies: Sequence[int]) -> None:
         """End a :meth:`merge` of ``bodies``: each a frozen body of its own again, where its part

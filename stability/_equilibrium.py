@@ -164,6 +164,7 @@ def solve_equilibrium(
     sides: int = 8,
     gravity: float = GRAVITY,
     quick: bool = True,
+    sideways: tuple[float, float] = (0.0, 0.0),
 ) -> Equilibrium[BodyKey]:
     """Do forces exist that hold every free block in ``blocks`` still?
 
@@ -174,6 +175,8 @@ def solve_equilibrium(
             :data:`NEAR_TENSION` of the weight is solved again with :data:`FINE_SIDES`.
         gravity: m/s^2, acting along -z.
         quick: try the vertical-force program first when every contact is level.
+        sideways: m/s^2, (x, y): a horizontal part of gravity (d'Alembert's inertial force of
+            a frame accelerating by minus it: blocks on a shaken ground); (0, 0) by default.
 
     Returns:
         :class:`Equilibrium`.
@@ -191,19 +194,24 @@ def solve_equilibrium(
     """
     if sides < 3:
         raise ValueError(f"sides: the friction pyramid needs at least 3 sides, not {sides!r}")
-    if quick and contacts and all(is_level(c, sides) for c in contacts):
+    upright = sideways == (0.0, 0.0)
+    if quick and upright and contacts and all(is_level(c, sides) for c in contacts):
         vertical = _solve_vertical(blocks, contacts, gravity)
         if vertical is not None:
             return vertical
-    found = _solve(blocks, contacts, sides, gravity)
+    found = _solve(blocks, contacts, sides, gravity, sideways)
     total = sum(b.mass for b in blocks.values()) * gravity
     if not found.stands and sides < FINE_SIDES and found.tension < NEAR_TENSION * total:  # the pyramid's, or the blocks'?
-        return solve_equilibrium(blocks, contacts, sides=FINE_SIDES, gravity=gravity, quick=False)
+        return solve_equilibrium(blocks, contacts, sides=FINE_SIDES, gravity=gravity, quick=False, sideways=sideways)
     return found
 
 
 def _solve(
-    blocks: Mapping[BodyKey, RigidBlock], contacts: Sequence[ContactPolygon[BodyKey]], sides: int, gravity: float
+    blocks: Mapping[BodyKey, RigidBlock],
+    contacts: Sequence[ContactPolygon[BodyKey]],
+    sides: int,
+    gravity: float,
+    sideways: tuple[float, float] = (0.0, 0.0),
 ) -> Equilibrium[BodyKey]:
     """The program of :func:`solve_equilibrium` with a pyramid of ``sides`` sides, once (never
     solved again with :data:`FINE_SIDES`)."""
@@ -216,14 +224,19 @@ def _solve(
     weight = max((b.mass for b in blocks.values()), default=1.0) * gravity or 1.0
     per_point = 1 + sides  # tension, the pyramid's edges
     points, owner = _vertices(contacts)
-    generators = _generators(contacts, blocks, sides, points, owner)
+    along = None if sideways == (0.0, 0.0) else np.array([sideways[0], sideways[1], 0.0])
+    generators = _generators(contacts, blocks, sides, points, owner, along)
     a_eq = _balance(contacts, blocks, index, generators, points, owner)
     n = len(owner)
     cost = np.zeros(n * per_point)
     cost[::per_point] = 1.0  # the tension of every point
     rhs = np.zeros(6 * len(keys))
-    for key, block in blocks.items():
-        rhs[6 * index[key] + 2] = block.mass * gravity / weight
+    for key, block in blocks.items():  # the contact forces bear the block's weight, and its inertia
+        rhs[6 * index[key] : 6 * index[key] + 3] = (
+            -block.mass * sideways[0] / weight,
+            -block.mass * sideways[1] / weight,
+            block.mass * gravity / weight,
+        )
     result = linprog(cost, A_eq=a_eq, b_eq=rhs, bounds=(0, None), method="highs")
     if result.status != 0:
         return Equilibrium(False, float("inf"), (), {k: float("inf") for k in keys}, (), {k: 1.0 for k in keys})
@@ -275,18 +288,22 @@ def _generators(
     sides: int,
     points: np.ndarray,
     owner: np.ndarray,
+    along: np.ndarray | None = None,
 ) -> np.ndarray:
     """Per contact the force directions of each of its vertices, shape (C, 1 + sides, 3):
     the opposite of the unit normal (a tension) and the friction pyramid's edges, normal +
     mu x tangent; ``points`` and ``owner`` are the contacts' vertices as :func:`_vertices`
-    gives them."""
+    gives them. With ``along`` (shape (3,): a horizontal part of gravity), a level contact's
+    first edge lies along it (:func:`_tangents`): an even pyramid then reaches the cone fully
+    both ways along a shake, where a sliding part needs its friction."""
     if not contacts:
         return np.zeros((0, 1 + sides, 3))
     generators = []
     for contact, polygon in zip(contacts, np.split(points, np.flatnonzero(np.diff(owner)) + 1)):
         normal = np.asarray(contact.normal, dtype=float)
         normal = normal / np.linalg.norm(normal)
-        edges = normal + contact.friction * _tangents(normal, sides, _toward(contact, polygon, blocks))
+        toward = along if along is not None else _toward(contact, polygon, blocks)
+        edges = normal + contact.friction * _tangents(normal, sides, toward)
         generators.append(np.vstack([-normal, edges]))
     return np.stack(generators)
 

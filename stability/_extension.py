@@ -43,7 +43,7 @@ from ._graph import BrickGraph, BrickState, GraphEdge, GraphNode
 from ._impact import Impacts
 from ._leaning import pair_friction
 from ._load import LoadNode, propagate
-from ._shake import withstands
+from ._shake import sliding_parts, withstands
 from ._stack import Record, StabilityEvent, Stack
 from ._stack_test import StackTest
 
@@ -153,8 +153,9 @@ class StabilityExtension:
 
     @property
     def quiet(self) -> bool:
-        """True when no registered brick is active: nothing can move until an action."""
-        return not self._stack.active
+        """True when no registered brick is active and none rides a shaken ground: nothing can
+        move until an action."""
+        return not self._stack.active and not self._stack.rides
 
     @property
     def moving(self) -> tuple[str, ...]:
@@ -641,12 +642,16 @@ class StabilityExtension:
         return events
 
     def _rides(self, time: float) -> list[StabilityEvent]:
-        """End each ride whose pull has ended, or whose riders have tilted by :data:`RIDE_TILT` or
-        dropped by :data:`RIDE_DROP` from where they froze (they tip or fall: no longer one rigid
-        body); the events."""
+        """End each ride whose pull has ended (of a shake: :meth:`_shaken`), or whose riders have
+        tilted by :data:`RIDE_TILT` or dropped by :data:`RIDE_DROP` from where they froze (they
+        tip or fall: no longer one rigid body); the events."""
         stack, events = self._stack, []
-        for pulled, (label, riders) in list(stack.rides.items()):
-            why = None if pulled in stack.guided else f"rode the pull of {label} as one body until it ended"
+        for pulled, (label, riders, ground) in list(stack.rides.items()):
+            what = f"rode the pull of {label}" if ground is None else f"rode the shaken {label}"
+            if ground is None:
+                why = None if pulled in stack.guided else f"{what} as one body until it ended"
+            else:
+                why = self._shaken(riders, ground, what)
             if why is None:
                 first = stack.bodies[riders[0]]
                 assert first.frozen_pose is not None, "a rider is frozen"
@@ -655,11 +660,57 @@ class StabilityExtension:
                 tilt = math.degrees(math.acos(min(1.0, float(up[2]))))
                 drop = float(then.position[2] - now.position[2])
                 if tilt > RIDE_TILT:
-                    why = f"rode the pull of {label} as one body until it tilted {tilt:.2f} deg"
+                    why = f"{what} as one body until it tilted {tilt:.2f} deg"
                 elif drop > RIDE_DROP:
-                    why = f"rode the pull of {label} as one body until it dropped {drop * 1000:.2f} mm"
+                    why = f"{what} as one body until it dropped {drop * 1000:.2f} mm"
             if why is not None:
                 events += [w.event for w in stack.end_ride(pulled, time, why)]
+        return events
+
+    def _shaken(self, riders: tuple[int, ...], ground: int, what: str) -> str | None:
+        """Why the ride of ``riders`` on the shaken ``ground`` (:meth:`shake`) ends now, in words
+        led by ``what``, or None: the ground has stopped and they have come to rest on it (they
+        wake at rest, to be frozen where they are), or they come within :data:`TOUCH` of a body
+        other than the ground and each other (what they hit may part them)."""
+        stack = self._stack
+        config = stack.config
+        if stack.admitting:  # the ground has stopped
+            linear, angular = stack.engine.speeds(riders[0])
+            if linear <= config.rest_speed and angular <= config.rest_angular_speed:
+                return f"{what} as one body until it came to rest"
+        part = set(riders)
+        others = [b for b in stack.bodies if b not in part and b != ground]
+        hit = next(iter(stack.engine.near(riders[0], TOUCH, others)), None) if others else None
+        if hit is not None:
+            return f"{what} as one body until it came within {TOUCH * 1000:g} mm of {stack.bodies[hit.other].label}"
+        return None
+
+    def shake(self, acceleration: tuple[float, float], ground: int, time: float, reason: str) -> list[StabilityEvent]:
+        """Every frozen brick, for a ground about to shake with peak horizontal ``acceleration``
+        (m/s^2, (a_x, a_y)) that the frozen stack does not withstand as it stands
+        (:meth:`withstands`): each part of it that moves on ``ground`` as one rigid body
+        (:func:`stability._shake.sliding_parts`: it slides on the ground, or the ground carries
+        it, and nothing in it slips or tips) rides the ground merged into one body in the engine,
+        when the engine can merge, and stays frozen here ("ride" events); every other brick wakes
+        with ``reason`` (why the stack does not withstand it) and why its part does not ride.
+
+        A ride ends (its bricks wake where it took them) when the ground has stopped and the part
+        is at rest, when it tilts by :data:`RIDE_TILT` or drops by :data:`RIDE_DROP`, when it
+        comes within :data:`TOUCH` of another body (the engine's ``near`` of a merged brick: of
+        the whole merged body), or when a rule wakes one of its bricks. Returns the events.
+        Source: stackdsl's own (module :mod:`stability._shake`)."""
+        stack = self._stack
+        events: list[StabilityEvent] = []
+        for part, why in sliding_parts(stack, self._areas, acceleration, ground):
+            if why is None and stack.ride(part[0], part, ground):
+                words = f"{reason}; moves as one rigid body of {len(part)} bricks on {stack.bodies[ground].label}"
+                events += [StabilityEvent(time, "ride", stack.bodies[b].label, words) for b in part]
+                continue
+            said = reason  # a brick alone is simulated alone
+            if len(part) > 1:
+                said += f"; not as one rigid body: {why or 'the engine cannot merge them'}"
+            for body in part:
+                events += self.wake(body, time, said)
         return events
 
     def withstands(self, acceleration: tuple[float, float]) -> str | None:

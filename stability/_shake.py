@@ -34,13 +34,27 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import replace
 
 import numpy as np
 import shapely
 
+from ._areas import ContactAreas
+from ._equilibrium import LEVEL_TILT, ContactPolygon, RigidBlock, solve_equilibrium
+from ._graph import BrickState
 from ._leaning import pair_friction
 from ._load import propagate
-from ._stack import Stack
+from ._stack import Record, Stack
+
+#: The friction coefficients of a part's contacts are multiplied by this in
+#: :func:`sliding_parts`: a part sliding on the ground needs exactly the ground's coefficient
+#: there, and the same of each contact above of that coefficient (Coulomb's static friction
+#: reaches its limit). The equilibrium program's pyramid reaches its cone along the shake
+#: (:func:`stability.solve_equilibrium` with ``sideways``); what is left is the engine's tilt of
+#: level faces (:data:`stability._equilibrium.LEVEL_TILT`, a sine of 1e-3), which moves what a
+#: contact needs by about as much: the 4 stack of scenarios/four_stack_shake_above.yaml, settled
+#: by pybullet, needs its contacts' friction times 1.0001 to 1.001.
+ROOM = 1.0 + 2.0 * LEVEL_TILT
 
 
 def withstands(stack: Stack, effective_gravity: Sequence[float], margin: float = 0.0) -> str | None:
@@ -92,4 +106,91 @@ def withstands(stack: Stack, effective_gravity: Sequence[float], margin: float =
             return f"{rec.label} {tips}, and {slides}"
         if slides or tips:
             return f"{rec.label} {slides or tips}"
+    return None
+
+
+def sliding_parts(
+    stack: Stack, areas: ContactAreas, acceleration: Sequence[float], ground: int
+) -> list[tuple[list[int], str | None]]:
+    """The frozen stack's parts on a shaking ``ground``, each with why it may not move as one
+    rigid body (None when it may), for a shake of peak horizontal ``acceleration`` (m/s^2, shape
+    (2,)), either way.
+
+    A part is a set of frozen bricks connected by their contacts. The ground moves it by
+    friction alone, so it accelerates by at most ``a_s = min(|a|, mu_0 g)``, ``mu_0`` the
+    largest friction coefficient of its bricks on the ground: the ground carries it while its
+    own acceleration is under that, and it slides on the ground otherwise. It moves as one rigid
+    body when, in its own frame, rigid-block equilibrium holds every brick on its contacts under
+    the weight and the inertial force of ``a_s`` either way (d'Alembert: gravity tilted to
+    ``(-+a_s, -g)``; :func:`stability.solve_equilibrium` with ``sideways``): no contact slips,
+    opens or tips. Each contact's friction pyramid reaches its cone along the shake (:data:`ROOM`),
+    since a sliding part loads the ground's contact, and every contact above of the same
+    coefficient, at exactly its limit (Coulomb's law gives each layer the acceleration of the one
+    under it); between its edges the pyramid lies inside the cone.
+    Parts are in the order their first brick froze, each part's bricks too.
+
+    Why not, in words: a part of one brick (it is simulated on its own), a brick touching a
+    body of the environment other than ``ground`` (a fixture moves with the ground and would push
+    the part), no brick on the ground, or the bricks equilibrium would move.
+
+    Source: rigid-block equilibrium (report 3.4; Whiting et al. 2009) under the tilted gravity of
+    this module's docstring; Shenton 1996 for the slide mode of a rigid block on a shaken base.
+    stackdsl's own in applying it to a whole part.
+    """
+    ax, ay = (float(v) for v in acceleration)
+    frozen = stack.in_order()
+    linked: dict[int, set[int]] = {rec.body: set() for rec in frozen}
+    for rec in frozen:
+        for other in [*rec.rests_on, *(c.other for c in rec.contacts)]:
+            if other in linked and other != rec.body:
+                linked[rec.body].add(other)
+                linked[other].add(rec.body)
+    parts: list[tuple[list[int], str | None]] = []
+    seen: set[int] = set()
+    for rec in frozen:
+        if rec.body in seen:
+            continue
+        part, todo = {rec.body}, [rec.body]
+        while todo:
+            for other in linked[todo.pop()] - part:
+                part.add(other)
+                todo.append(other)
+        seen |= part
+        bricks = [r for r in frozen if r.body in part]
+        parts.append(([r.body for r in bricks], _why_not(stack, areas, bricks, stack.bodies[ground], (ax, ay))))
+    return parts
+
+
+def _why_not(
+    stack: Stack, areas: ContactAreas, bricks: list[Record], floor: Record, acceleration: tuple[float, float]
+) -> str | None:
+    """Why the part of ``bricks`` may not move as one rigid body on ``floor`` (see
+    :func:`sliding_parts`), or None."""
+    if len(bricks) < 2:
+        return f"{bricks[0].label} is a part of one brick"
+    part = {r.body for r in bricks}
+    touched = [(r, o) for r in bricks for o in [*r.rests_on, *(c.other for c in r.contacts)] if o not in part]
+    fixture = next(((r, o) for r, o in touched if o != floor.body and stack.bodies[o].state is BrickState.GROUND), None)
+    if fixture is not None:
+        return f"{fixture[0].label} touches {stack.bodies[fixture[1]].label}, which the ground carries"
+    on_floor = [pair_friction(r.friction, floor.friction) for r in bricks if floor.body in r.rests_on]
+    if not on_floor:
+        return f"{bricks[0].label}'s part does not rest on {floor.label}"
+    gravity = stack.config.gravity
+    peak = math.hypot(*acceleration)
+    carried = min(peak, max(on_floor) * gravity)  # the most the ground's friction accelerates it by
+    ax, ay = (a * carried / peak for a in acceleration) if peak > 0.0 else (0.0, 0.0)
+    polygons: list[ContactPolygon[int]] = [
+        replace(c, friction=c.friction * ROOM)
+        for c in areas.shaped([c for r in bricks for c in r.contacts if c.other in part or c.other == floor.body])
+    ]
+    blocks = {r.body: RigidBlock(r.box.mass, stack.pose(r).position) for r in bricks}
+    for sign in (1.0, -1.0):
+        found = solve_equilibrium(blocks, polygons, gravity=gravity, quick=False, sideways=(-sign * ax, -sign * ay))
+        if not found.stands:
+            moved = [stack.bodies[b].label for b in stack.ordered(found.moving())]
+            return (
+                f"at {carried:.3g} m/s^2 rigid-block equilibrium fails by {found.tension:.3g} N "
+                f"({', '.join(moved[:4])}{', ...' if len(moved) > 4 else ''} would move)"
+            )
     return None

@@ -34,8 +34,9 @@ the same numbers but for round-off."""
 
 @dataclass(frozen=True)
 class StabilityEvent:
-    """Something the extension did: ``kind`` is ``"freeze"``, ``"wake"`` or ``"impact"``
-    (an impact the stack held; every landing brick makes one); time in s; ``source`` is
+    """Something the extension did: ``kind`` is ``"freeze"``, ``"wake"``, ``"impact"``
+    (an impact the stack held; every landing brick makes one) or ``"ride"`` (a frozen brick
+    that moves with others as one rigid body on a shaken ground, until it wakes); time in s; ``source`` is
     the impactor of an impact or of the wake it caused; ``proved``: a wake of a brick that
     moves in a collapse mechanism statics proved (rigid-block equilibrium, or a part that
     turns out about an edge of its footing), not only one the report's rules suspect, or a
@@ -43,7 +44,7 @@ class StabilityEvent:
     margin would have decided it by chance)."""
 
     time: float
-    kind: Literal["freeze", "wake", "impact"]
+    kind: Literal["freeze", "wake", "impact", "ride"]
     label: str
     reason: str
     source: str = ""
@@ -60,10 +61,12 @@ class Woken(NamedTuple):
 
 
 class Ride(NamedTuple):
-    """Frozen bricks merged into one body in the engine, riding a pull (:meth:`Stack.ride`)."""
+    """Frozen bricks merged into one body in the engine (:meth:`Stack.ride`), riding a pull, or
+    a shaken ground they slide on or are carried by."""
 
-    label: str  # the pulled brick's
+    label: str  # the pulled brick's, or the ground's
     riders: tuple[int, ...]  # in the order they froze
+    ground: int | None = None  # the shaken ground, for a ride of a shake
 
 
 @dataclass
@@ -163,8 +166,8 @@ class Stack:
         self.standing_version: int | None = None  # a version whose whole frozen stack a program showed to stand
         self.holding = True  # bricks woken in a proved mechanism are held active (none while a heap settles)
         self.guided: set[int] = set()  # bodies an outside hand moves (a gripper, a pusher): never frozen
-        self.rides: dict[int, Ride] = {}  # pulled body -> the frozen bricks riding it, one body in the engine
-        self.riding: dict[int, int] = {}  # each of those -> the pulled body it rides
+        self.rides: dict[int, Ride] = {}  # pulled body (a shake's: first rider) -> the frozen bricks riding it, one body
+        self.riding: dict[int, int] = {}  # each of those -> the ride's key
         self.hand_speed: dict[int, float] = {}  # m/s along a guided body's path, as the hand gave it
         self.admitting = True  # False while the ground moves: nothing is frozen in the world's frame
         self._boxes: tuple[int, np.ndarray] | None = None  # the frozen bricks' boxes, of a stack version
@@ -253,13 +256,16 @@ class Stack:
                 woken += self.wake(b, time, f"{rec.label}, which it leaned on, moved {moved * 1000:.1f} mm")
         return woken
 
-    def ride(self, pulled: int, riders: Sequence[int]) -> bool:
+    def ride(self, pulled: int, riders: Sequence[int], ground: int | None = None) -> bool:
         """Merge the frozen ``riders`` into one body in the engine, riding the pull of ``pulled``
-        (:meth:`stability.StabilityExtension.guide`); False when the engine cannot merge them.
-        They stay frozen here, at the poses they froze at, until :meth:`end_ride`."""
+        (:meth:`stability.StabilityExtension.guide`), or, with ``ground``, the shaken ground
+        (:meth:`stability.StabilityExtension.shake`; ``pulled`` is then the first rider, which
+        names the ride); False when the engine cannot merge them. They stay frozen here, at the
+        poses they froze at, until :meth:`end_ride`."""
         if not self.engine.merge(riders):
             return False
-        self.rides[pulled] = Ride(self.bodies[pulled].label, tuple(riders))
+        label = self.bodies[pulled if ground is None else ground].label
+        self.rides[pulled] = Ride(label, tuple(riders), ground)
         self.riding.update(dict.fromkeys(riders, pulled))
         return True
 
@@ -479,7 +485,7 @@ class Stack:
         rec = self.bodies[body]
         if rec.state is not BrickState.FROZEN:
             return []
-        if body in self.riding:  # merged with the others riding a pull: they wake together
+        if body in self.riding:  # merged with the others riding a pull or a shake: they wake together
             return self.end_ride(self.riding[body], time, reason, proved, hold)
         node = rec.node
         assert node is not None, "a frozen brick has a load node"

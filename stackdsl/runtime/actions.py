@@ -15,10 +15,13 @@
   frozen stack stands under gravity tilted by the ground's peak acceleration, either way
   (:meth:`stability.StabilityExtension.withstands`). When it does and nothing else moves, the
   stack rides the table as one rigid body: nothing is simulated, and the ground, which ends
-  whole periods later at rest where it started, need not move either. Otherwise every frozen
-  brick wakes, the ground moves each step (:meth:`~stackdsl.engines.protocol.World.move_ground`),
-  and nothing is frozen until it has stopped (a brick frozen while the ground moves would stay
-  where it was in the world). Fixtures are bolted to the table: each is guided along with the
+  whole periods later at rest where it started, need not move either. Otherwise the ground moves
+  each step (:meth:`~stackdsl.engines.protocol.World.move_ground`), and nothing is frozen until
+  it has stopped (a brick frozen while the ground moves would stay where it was in the world).
+  When nothing else moves, each part of the frozen stack that the ground's friction moves as one
+  rigid body (it slides on the table or is carried by it, and nothing in it slips or tips:
+  :meth:`stability.StabilityExtension.shake`) is one body in the engine until it comes to rest
+  after the shake; every other brick wakes. Fixtures are bolted to the table: each is guided along with the
   ground while it moves (:meth:`~stackdsl.engines.protocol.World.guide`, held) and fixed again
   where it was when the ground stops, so the environment moves as one rigid body, on every
   engine and in every mode, and the extension's proof (fixtures are ground to it) holds for it.
@@ -170,7 +173,11 @@ class Actions(Subscriber):
             return
         if acting:
             extension.admitting = False
-            self.stability.follow(loop, extension.wake_all(a.time, f"the ground shakes at {peak:.3g} m/s^2: {why}"))
+            reason = f"the ground shakes at {peak:.3g} m/s^2: {why}"
+            if extension.quiet:  # each part that moves on the ground as one rigid body rides it merged
+                self.stability.follow(loop, extension.shake(acceleration, loop.world.ground, a.time, reason))
+            else:
+                self.stability.follow(loop, extension.wake_all(a.time, reason))
         self.shake = a
 
     def _finer(self, loop: StepLoop) -> None:

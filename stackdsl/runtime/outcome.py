@@ -34,7 +34,9 @@ class Event(_Frozen):
     """One entry of the timeline; ``time`` in seconds (to JSON without float noise)."""
 
     time: Seconds
-    kind: Literal["place", "launch", "freeze", "wake", "impact", "collapse", "substeps", "remove", "push", "shake", "release"]
+    kind: Literal[
+        "place", "launch", "freeze", "wake", "impact", "collapse", "substeps", "remove", "push", "shake", "release", "ride"
+    ]
     brick: str
     level: int | None = None
     detail: str = ""

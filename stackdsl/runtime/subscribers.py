@@ -72,12 +72,12 @@ class Stability(Subscriber):
                 self.mechanisms.pop(e.label, None)
                 if e.proved:  # a near tie statics decided on the placed geometry
                     self.near_ties[e.label] = e.reason
-            if record is not None and record.structure and e.kind in ("freeze", "wake"):
-                loop.structure.set_moving(record, e.kind == "wake")
+            if record is not None and record.structure and e.kind in ("freeze", "wake", "ride"):
+                loop.structure.set_moving(record, e.kind != "freeze")  # a rider moves in the world
                 record.was_frozen = True
                 loop.structure.settle(record)
-            elif record is not None and e.kind in ("freeze", "wake"):  # a projectile, or a brick pulled out
-                record.moving = e.kind == "wake"
+            elif record is not None and e.kind in ("freeze", "wake", "ride"):  # a projectile, or a brick pulled out
+                record.moving = e.kind != "freeze"
             source = records.get(e.source)
             if e.kind != "impact" or (source is not None and not source.structure):
                 level = record.level if record is not None else None

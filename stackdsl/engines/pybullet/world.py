@@ -152,6 +152,7 @@ class PyBulletWorld(PyBulletEngine, World):
         self._merged: dict[int, tuple[int, int]] = {}  # body -> its merged body, and its place among the bodies merged
         self._groups: dict[int, tuple[int, ...]] = {}  # merged body -> the bodies merged (see merge)
         self._frames: dict[int, _Parts] = {}  # merged body -> where each of its boxes lies in it
+        self._last_turn: tuple[object, np.ndarray] = (None, np.eye(3))  # a merged body's turn read, its matrix
         client.setGravity(0.0, 0.0, -engine.gravity)
         client.setTimeStep(engine.timestep)
         client.setPhysicsEngineParameter(numSolverIterations=engine.solver_iterations, numSubSteps=0)  # a kept client's own
@@ -257,8 +258,8 @@ class PyBulletWorld(PyBulletEngine, World):
         made = []
         for body in bodies:
             spec = self._multibodies.get(body)
-            if spec is None or body in self._shelf:
-                continue  # created rigid, or static
+            if spec is None or body in self._shelf or body in self._merged:
+                continue  # created rigid, static, or a part of a merged body
             engine_id = self._engine_id(body)
             mass = float(self._client.getDynamicsInfo(engine_id, -1)[0])
             if mass == 0.0:
@@ -335,12 +336,18 @@ class PyBulletWorld(PyBulletEngine, World):
         return [c for c in points if c.body in asked]
 
     def near(self, body: int, distance: float, among: Collection[int] | None = None) -> list[ContactPoint]:
-        if body in self._shelf or body in self._merged:
+        """A merged body's parts answer for the whole merged body (what is near any of them), each
+        point seen from the part it lies nearest; the parts of one merged body are never near
+        each other."""
+        if body in self._shelf:
             return []
         if not self._groups:
             return super().near(body, distance, among)
+        own = self._merged[body][0] if body in self._merged else body
         wanted = None if among is None else {*among, *(g for g, parts in self._groups.items() if any(b in among for b in parts))}
-        points = self._parts(super().near(body, distance, wanted))
+        if wanted is not None:
+            wanted.discard(own)
+        points = self._parts(super().near(own, distance, wanted))
         return points if among is None else [c for c in points if c.other in among]
 
     # merged bodies --------------------------------------------------------------
@@ -351,9 +358,9 @@ class PyBulletWorld(PyBulletEngine, World):
         diagonal of their inertia tensor about its centre of mass in the world's axes (the
         products of inertia are left out: it slides and turns slowly under a pull), of their
         material; they leave pybullet's world until :meth:`unmerge`. False for fewer than two,
-        a body that moves, materials that differ, or on a shake table. A contact point on it
-        names the body whose box it lies nearest. Source: stackdsl's own."""
-        if self._table or len(bodies) < 2 or any(b in self._moving or b in self._merged for b in bodies):
+        a body that moves, or materials that differ. A contact point on it names the body whose
+        box it lies nearest. Source: stackdsl's own."""
+        if len(bodies) < 2 or any(b in self._moving or b in self._merged for b in bodies):
             return False
         specs = [self._made[b][0] for b in bodies]
         if len({(s.friction, s.restitution) for s in specs}) > 1:
@@ -430,8 +437,15 @@ class PyBulletWorld(PyBulletEngine, World):
         group, index = self._merged[body]
         parts = self._frames[group]
         (x, y, z), turn = self._pose_now(group)
-        px, py, pz = self._matrix(turn) @ parts.arms[index]
+        px, py, pz = self._turned(turn) @ parts.arms[index]
         return (x + float(px), y + float(py), z + float(pz)), _product(turn, parts.turns[index])
+
+    def _turned(self, turn: Quat) -> np.ndarray:
+        """:meth:`_matrix` of a merged body's ``turn`` as read this step, once for all its parts
+        (the collapse monitor reads twenty bricks riding a shaken ground every step)."""
+        if self._last_turn[0] is not turn:
+            self._last_turn = (turn, self._matrix(turn))
+        return self._last_turn[1]
 
     def _matrix(self, turn: Quat) -> np.ndarray:
         """The rotation matrix (shape (3, 3)) of quaternion ``turn`` (x, y, z, w), by pybullet
@@ -441,10 +455,10 @@ class PyBulletWorld(PyBulletEngine, World):
     def _part_velocity(self, body: int) -> tuple[Vec3, Vec3]:
         """How ``body``, merged, moves: the merged body's velocity at its centre, and its spin."""
         group, index = self._merged[body]
-        linear, angular = self._velocity_now(group)
-        lever = self._matrix(self._pose_now(group)[1]) @ self._frames[group].arms[index]
-        vx, vy, vz = np.asarray(linear) + np.cross(angular, lever)
-        return (float(vx), float(vy), float(vz)), (float(angular[0]), float(angular[1]), float(angular[2]))
+        (vx, vy, vz), (wx, wy, wz) = self._velocity_now(group)
+        rx, ry, rz = (self._turned(self._pose_now(group)[1]) @ self._frames[group].arms[index]).tolist()
+        linear = (vx + wy * rz - wz * ry, vy + wz * rx - wx * rz, vz + wx * ry - wy * rx)  # v + w x r
+        return linear, (float(wx), float(wy), float(wz))
 
     def _parts(self, points: list[ContactPoint]) -> list[ContactPoint]:
         """``points`` with a merged body named as the body whose box the point lies nearest."""

@@ -1,0 +1,117 @@
+"""A stack on a shaken ground that moves as one rigid body: it rides the ground merged.
+
+A rigid stack on a base accelerating horizontally is moved by the base's friction alone: it
+accelerates by at most mu_0 g and slides on the base beyond that. A block standing on such a
+sliding stack is pushed by at most that acceleration, so it tips only when b / h < mu_0 (half-width
+b along the shake, centre of mass h above its contact), and slips only when its own contact's
+friction coefficient is under the ground's. The extension proves a part rigid by rigid-block
+equilibrium under gravity tilted by mu_0 g (:func:`stability._shake.sliding_parts`), and then the
+engine moves it as one body: its slip on the base must follow the closed form of a rigid block on
+a harmonically moving base with Coulomb friction (Shenton 1996, slide mode), and its bricks must
+keep their places in it.
+
+The closed form of the slip is :func:`stackdsl.bench.shake_models.coulomb_slip`'s.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from stability import Box, FakeEngine, Plane, Pose, StabilityExtension
+from stackdsl import compile_scenario, parse_scenario
+from stackdsl.bench.shake_models import coulomb_slip
+from stackdsl.runtime.run import run_in, world_for
+
+G = 9.81
+MU = 0.5
+
+
+def two_blocks(half_top: tuple[float, float, float], mu_top: float = MU) -> tuple[FakeEngine, StabilityExtension]:
+    """A wide flat block on the ground and a block of half extents ``half_top`` on it, both
+    frozen; ``mu_top``: the top block's friction coefficient."""
+    eng = FakeEngine()
+    eng.mergeable = True
+    ext = StabilityExtension(eng)
+    ext.add_ground(0, Plane(0.0), friction=MU)
+    base = np.array([0.05, 0.05, 0.005])
+    eng.poses[1] = Pose(np.array([0.0, 0.0, base[2]]))
+    ext.add_brick(1, Box(base, 0.05), "base", friction=MU)
+    eng.touch(1, 0, [[-0.05, -0.05, 0], [0.05, -0.05, 0], [0.05, 0.05, 0], [-0.05, 0.05, 0]], normal=[0, 0, 1])
+    hx, hy, hz = half_top
+    eng.poses[2] = Pose(np.array([0.0, 0.0, 2 * base[2] + hz]))
+    ext.add_brick(2, Box(np.array(half_top), 0.01), "top", friction=mu_top)
+    z = 2 * base[2]
+    eng.touch(2, 1, [[-hx, -hy, z], [hx, -hy, z], [hx, hy, z], [-hx, hy, z]], normal=[0, 0, 1])
+    ext.update(0.0)
+    ext.update(0.1)
+    assert ext.state(1).value == "frozen" and ext.state(2).value == "frozen"
+    return eng, ext
+
+
+@pytest.mark.parametrize(("ratio", "rides"), [(1.1, True), (0.9, False)])
+def test_a_block_on_a_sliding_base_tips_only_below_the_ground_friction(ratio, rides):
+    """b / h = ratio x mu_0; the ground shakes at 1.4 mu_0 g (the stack slides): it rides as one
+    body when the top block cannot tip under mu_0 g, and is simulated when it can."""
+    h = 0.02  # the top block's centre of mass above its contact
+    eng, ext = two_blocks((ratio * MU * h, 0.01, h))
+    assert ext.withstands((1.4 * MU * G, 0.0)) is not None  # as it stands, it does not withstand the shake
+    events = ext.shake((1.4 * MU * G, 0.0), 0, 1.0, "the ground shakes")
+    kinds = {e.label: e.kind for e in events}
+    if rides:
+        assert kinds == {"base": "ride", "top": "ride"}
+        assert eng.merged == [(1, 2)] and not ext.quiet  # a ride under way moves them
+    else:
+        assert kinds == {"base": "wake", "top": "wake"}, events
+        assert "rigid-block equilibrium fails" in events[0].reason and not eng.merged
+
+
+def test_a_block_of_less_friction_than_the_ground_slips_and_is_simulated():
+    """The ground's pair is 0.5, the top block's contact only 0.3: under 0.5 g it slips."""
+    _, ext = two_blocks((0.02, 0.01, 0.005), mu_top=0.18)  # pair with the base: sqrt(0.18 x 0.5) = 0.3
+    events = ext.shake((0.8 * G, 0.0), 0, 1.0, "the ground shakes")
+    assert {e.kind for e in events} == {"wake"} and "would move" in events[0].reason
+
+
+def test_a_ride_ends_near_another_body_and_when_it_rests_on_a_still_ground():
+    eng, ext = two_blocks((0.02, 0.01, 0.005))
+    ext.admitting = False  # the ground moves
+    ext.shake((0.8 * G, 0.0), 0, 1.0, "the ground shakes")
+    eng.velocities[1] = (np.array([0.2, 0.0, 0.0]), np.zeros(3))
+    assert ext.update(1.01) == [] and eng.merged  # moving, on a moving ground: it rides on
+    eng.poses[3] = Pose(np.array([0.2, 0.0, 0.005]))
+    ext.add_brick(3, Box(np.array([0.01, 0.01, 0.005]), 0.01), "other")
+    eng.touch(1, 3, [[0.05, 0.0, 0.005]], normal=[-1, 0, 0])
+    woken = ext.update(1.02)
+    assert not eng.merged and {e.label for e in woken if e.kind == "wake"} >= {"base", "top"}
+    assert "came within" in next(e.reason for e in woken if e.label == "base")
+    eng2, ext2 = two_blocks((0.02, 0.01, 0.005))
+    ext2.admitting = False
+    ext2.shake((0.8 * G, 0.0), 0, 1.0, "the ground shakes")
+    ext2.admitting = True  # the ground has stopped, and the part is at rest
+    woken = ext2.update(3.0)
+    assert not eng2.merged and "came to rest" in next(e.reason for e in woken if e.label == "base")
+
+
+def test_a_four_stack_slides_as_one_body_by_the_closed_form():
+    """A 2-level 4 stack on a ground shaken at 0.71 g (mu 0.5): it rides as one body, its four
+    bricks keep their places in it, and it slips on the ground as a rigid block does."""
+    text = """stackdsl: 1
+structure:
+  tower: {levels: 2, bricks_per_layer: 2, spacing: 96 mm, turn: 90}
+timing: {settle: 1 s}
+actions:
+  - shake: {amplitude: 44 mm, frequency: 2 Hz, duration: 2 s, direction: [1, 0], at: after level 2}
+"""
+    program = compile_scenario(parse_scenario(text, "slide.yaml"))
+    with world_for(program) as world:
+        loop = run_in(world, program)
+        records = loop.structure.records
+        moved = {rid: np.array(loop.world.pose_floats(r.body)[0]) - r.pose.position for rid, r in records.items()}
+    rides = [e for e in loop.events if e.kind == "ride"]
+    assert {e.brick for e in rides} == set(records), [e.detail for e in loop.events if e.kind == "wake"][:1]
+    shifts = np.array([m[:2] for m in moved.values()])
+    assert np.ptp(shifts, axis=0).max() < 0.0002, shifts  # one rigid body: every brick moved alike
+    expected, _ = coulomb_slip(0.044, 2.0, 4, 0.5, dt=1e-4)  # 9.5 mm
+    assert abs(abs(shifts[0, 0]) - abs(expected)) < 0.15 * abs(expected), (shifts[0, 0], expected)
+    assert abs(shifts[0, 1]) < 0.001

@@ -752,12 +752,17 @@ class StabilityExtension:
     # the brick graph ----------------------------------------------------------
     def graph(self) -> BrickGraph:
         """The brick graph now: frozen bricks as remembered, active ones from live contacts.
+        A frozen brick riding a pull or a shaken ground (merged) is where the engine has carried
+        it, with its centre of mass above carried by the same rigid motion: its part moves as one
+        body, on the contact areas and load shares it froze with.
 
         Loads are propagated over every brick, frozen or not, so the graph is the same
         kind of object with the extension acting or not (the engine alone).
         """
-        bricks = [r for r in self._stack.bodies.values() if r.state is not BrickState.GROUND]
+        stack = self._stack
+        bricks = [r for r in stack.bodies.values() if r.state is not BrickState.GROUND]
         nodes = self._stack.nodes(bricks)
+        carried = {b: stack.engine.pose(b) for b in stack.riding}
         active = [r for r in bricks if r.state is BrickState.ACTIVE]
         contacts = by_body(self._stack.engine.contact_points()) if active else {}  # a frozen stack: none read
         boxes = self._areas.boxes(active=True) if active else None
@@ -777,6 +782,9 @@ class StabilityExtension:
             pose = self._stack.pose(rec) if not isinstance(rec.shape, Plane) else Pose(np.array([0.0, 0.0, rec.shape.height]))
             load = loads.get(rec.body)
             com = load.com_above if load else pose.position
+            if rec.body in carried:  # the rigid motion from where it froze to where it is
+                then, pose = pose, carried[rec.body]
+                com = pose.position + pose.rotation @ then.rotation.T @ (np.asarray(com) - then.position)
             graph_nodes.append(GraphNode(rec.label, rec.state, pose, com, load.mass_above if load else 0.0))
             if load is None:  # the ground: no node, no supports
                 continue

@@ -29,7 +29,8 @@ class GraphNode:
     Attributes:
         label: the name the body was registered with.
         state: :class:`BrickState`.
-        pose: current pose (for frozen bricks, the pose they were frozen in).
+        pose: current pose (for frozen bricks, the pose they were frozen in; for one riding a
+            pull or a shaken ground, merged, where it has been carried).
         com_above: shape (3,), metres (the brick's own centre of mass for the ground).
         mass_above: kilograms (0 for the ground).
     """

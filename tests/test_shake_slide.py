@@ -115,3 +115,20 @@ actions:
     expected, _ = coulomb_slip(0.044, 2.0, 4, 0.5, dt=1e-4)  # 9.5 mm
     assert abs(abs(shifts[0, 0]) - abs(expected)) < 0.15 * abs(expected), (shifts[0, 0], expected)
     assert abs(shifts[0, 1]) < 0.001
+
+
+def test_the_graph_of_a_ride_is_where_the_part_is_carried():
+    """Its bricks are drawn where the engine carried them, with their centre of mass above
+    carried alike, on the supports they froze with."""
+    eng, ext = two_blocks((0.02, 0.01, 0.005))
+    still = {n.label: n for n in ext.graph().nodes}
+    ext.shake((0.8 * G, 0.0), 0, 1.0, "the ground shakes")
+    shift = np.array([0.007, -0.002, 0.0])
+    for body in (1, 2):
+        eng.poses[body] = Pose(eng.poses[body].position + shift)
+    graph = ext.graph()
+    moved = {n.label: n for n in graph.nodes}
+    for label in ("base", "top"):
+        assert np.allclose(moved[label].pose.position, still[label].pose.position + shift)
+        assert np.allclose(moved[label].com_above, still[label].com_above + shift)
+    assert {(e.upper, e.support) for e in graph.edges} == {("base", "ground"), ("top", "base")}

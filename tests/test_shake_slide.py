@@ -27,17 +27,21 @@ G = 9.81
 MU = 0.5
 
 
-def two_blocks(half_top: tuple[float, float, float], mu_top: float = MU) -> tuple[FakeEngine, StabilityExtension]:
-    """A wide flat block on the ground and a block of half extents ``half_top`` on it, both
-    frozen; ``mu_top``: the top block's friction coefficient."""
+def two_blocks(
+    half_top: tuple[float, float, float], mu_top: float = MU, half_base: tuple[float, float, float] = (0.05, 0.05, 0.005)
+) -> tuple[FakeEngine, StabilityExtension]:
+    """A block of half extents ``half_base`` (wide and flat by default) on the ground and a block
+    of half extents ``half_top`` on it, both frozen; ``mu_top``: the top block's friction
+    coefficient."""
     eng = FakeEngine()
     eng.mergeable = True
     ext = StabilityExtension(eng)
     ext.add_ground(0, Plane(0.0), friction=MU)
-    base = np.array([0.05, 0.05, 0.005])
+    base = np.array(half_base)
+    bx, by, _ = half_base
     eng.poses[1] = Pose(np.array([0.0, 0.0, base[2]]))
     ext.add_brick(1, Box(base, 0.05), "base", friction=MU)
-    eng.touch(1, 0, [[-0.05, -0.05, 0], [0.05, -0.05, 0], [0.05, 0.05, 0], [-0.05, 0.05, 0]], normal=[0, 0, 1])
+    eng.touch(1, 0, [[-bx, -by, 0], [bx, -by, 0], [bx, by, 0], [-bx, by, 0]], normal=[0, 0, 1])
     hx, hy, hz = half_top
     eng.poses[2] = Pose(np.array([0.0, 0.0, 2 * base[2] + hz]))
     ext.add_brick(2, Box(np.array(half_top), 0.01), "top", friction=mu_top)
@@ -64,6 +68,14 @@ def test_a_block_on_a_sliding_base_tips_only_below_the_ground_friction(ratio, ri
     else:
         assert kinds == {"base": "wake", "top": "wake"}, events
         assert "rigid-block equilibrium fails" in events[0].reason and not eng.merged
+
+
+def test_a_column_that_tips_over_as_one_block_is_simulated():
+    """Two 20 mm-wide blocks, 80 mm tall together: under mu_0 g their centre of mass, 40 mm up,
+    acts 20 mm aside, at the footing's edge and past it (the part's own test, before the program)."""
+    _, ext = two_blocks((0.01, 0.01, 0.02), half_base=(0.01, 0.01, 0.02))
+    events = ext.shake((0.8 * G, 0.0), 0, 1.0, "the ground shakes")
+    assert {e.kind for e in events} == {"wake"} and "tips over as one block" in events[0].reason
 
 
 def test_a_block_of_less_friction_than_the_ground_slips_and_is_simulated():

@@ -2,7 +2,9 @@
 
 Writes one scenario a cell and speed into ``FOLDER`` (the sweep's tower and its one pull, the
 speed fixed, ``expect: stands``), then runs each in every setting named (the settings of
-docs/results/pull_freeze.py: ``ext``, ``ext-free``, ``tuned-mj``, ...), two processes at a time,
+docs/results/pull_freeze.py: ``ext``, ``ext-free``, ``tuned-mj``, ...; and ``ext-hzN``, the extension
+with a pull's substeps at N Hz instead of 960; ``ext-splitN``, with N solver iterations a substep
+of a split step instead of the engine's), two processes at a time,
 and prints a row each: the pull, the setting, stands or the collapse level, the largest
 distance (mm) a brick above the pulled level ended from where it was placed, and the wall time.
 Then a line a setting: how many stood, and how many verdicts differ from the first setting's.
@@ -58,10 +60,26 @@ def run(path: str, name: str, level: int) -> tuple[str, str, str, float, float]:
     import pull_freeze
 
     import stability._drag as drag
+    import stackdsl.runtime.actions as actions
     from stackdsl import compile_scenario, parse_scenario, run_program
+    from stackdsl.compile.program import PULL_STEP
     from stackdsl.engines.pybullet.world import PyBulletWorld
 
-    text, mode, backend, safety = pull_freeze.setting(name, Path(path).read_text(encoding="utf-8"))
+    hz = int(name[6:]) if name.startswith("ext-hz") else None  # ext-hz480: a pull's substeps at 480 Hz
+    actions.PULL_STEP = 1.0 / hz if hz else PULL_STEP  # a worker runs several settings
+    split = int(name[9:]) if name.startswith("ext-split") else None  # ext-split25: 25 iterations a substep
+    if not hasattr(PyBulletWorld, "_kept_stepping"):
+        PyBulletWorld._kept_stepping = PyBulletWorld._stepping  # type: ignore[attr-defined]
+    kept = PyBulletWorld._kept_stepping  # type: ignore[attr-defined]
+
+    def stepping(self: PyBulletWorld, on: bool) -> None:
+        kept(self, on)
+        iterations = split if on and split else self._engine.solver_iterations
+        self._client.setPhysicsEngineParameter(numSolverIterations=iterations)
+
+    PyBulletWorld._stepping = stepping  # type: ignore[method-assign]
+    plain = "ext" if hz or split else name
+    text, mode, backend, safety = pull_freeze.setting(plain, Path(path).read_text(encoding="utf-8"))
     drag.DRAG_SAFETY = safety
     if mode == "extension-free":
         mode = "extension"

@@ -208,6 +208,8 @@ def _tips_whole(
     convex hull of those contacts (report 3.3.4 with a tilted gravity; module docstring). A part
     that fails this fails rigid-block equilibrium too, which is asked only of the others (the
     program of a 60-level tower took 1.4 s)."""
+    if not on_floor:
+        return "the part has no contact area on the floor"
     points = np.concatenate([np.asarray(c.points, dtype=float) for c in on_floor])
     masses = np.array([b.mass for b in blocks.values()])
     centre = masses @ np.array([b.com for b in blocks.values()]) / masses.sum()

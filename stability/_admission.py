@@ -171,8 +171,10 @@ class Admission:
         if len(partners) > 1:
             return []
         (partner,) = partners
+        if not self.stack.rested(partner, time):
+            return []  # what it touches is not asked: it still moves
         theirs = self.areas.touching(partner, contacts)
-        if not (self.stack.rested(partner, time) and rec.body in theirs and self._leans(theirs, limit)):
+        if not (rec.body in theirs and self._leans(theirs, limit)):
             return []
         if any(bodies[o].state is BrickState.ACTIVE for o in theirs if o != rec.body):
             return []

@@ -15,6 +15,7 @@ from graphlib import CycleError, TopologicalSorter
 import numpy as np
 
 from ._areas import ContactAreas, Contacts, horizontal, main_area, overlap
+from ._engine import ContactPoint
 from ._equilibrium import LEVEL_TILT, ContactPolygon
 from ._geometry import FACE_TILT, Box, ContactArea, Pose
 from ._graph import BrickState
@@ -41,12 +42,32 @@ class Admission:
 
     def __init__(self, stack: Stack, areas: ContactAreas) -> None:
         self.stack, self.areas, self.config = stack, areas, stack.config
+        # the pose and supports :meth:`rocking` found last, with what they were found from
+        self._rocked: tuple[Record, list[ContactPoint], tuple[int, int], Pose, dict[int, ContactArea]] | None = None
+
+    def _supports(self, rec: Record, points: list[ContactPoint]) -> tuple[Pose, dict[int, ContactArea]]:
+        """``rec``'s pose and its supports in the stack (:meth:`ContactAreas.supports`): those
+        :meth:`rocking` found just before, when they were found from the same contact points
+        (the step's), on the same stack, at the same pose, as each brick is asked first whether
+        it rocks and then the basic test; else found anew."""
+        stack, rocked = self.stack, self._rocked
+        self._rocked = None
+        pose = stack.engine.pose(rec.body)
+        if (
+            rocked is not None
+            and rocked[0] is rec
+            and rocked[1] is points
+            and rocked[2] == (stack.version, stack.registrations)
+            and rocked[3].position.tolist() == pose.position.tolist()
+            and rocked[3].orientation.tolist() == pose.orientation.tolist()
+        ):
+            return rocked[3], rocked[4]
+        return pose, self.areas.supports(rec, points, stack_only=True, pose=pose)
 
     def basic(self, rec: Record, contacts: Contacts, time: float) -> list[StabilityEvent]:
         """Single object stability (report 3.3.4): freeze when the COM is over the support."""
         areas, stack = self.areas, self.stack
-        pose = stack.engine.pose(rec.body)  # one pose for every test: it stays until the freeze
-        supports = areas.supports(rec, contacts[rec.body], stack_only=True, pose=pose)
+        pose, supports = self._supports(rec, contacts[rec.body])  # one pose for every test: it stays until the freeze
         if not supports:
             return []
         heights = [a.height for a in supports.values()]
@@ -69,8 +90,11 @@ class Admission:
         """Whether ``rec``, a brick at rest by its speeds, lies on one support tilted to it
         (:meth:`_rocking`): at the turning point of a rock, not at rest on its support, so that no
         admission test (the basic, the leaning, the debris rule) is asked of it yet."""
-        pose = self.stack.engine.pose(rec.body)
-        return self._rocking(pose, self.areas.supports(rec, contacts[rec.body], stack_only=True, pose=pose))
+        stack, points = self.stack, contacts[rec.body]
+        pose = stack.engine.pose(rec.body)
+        supports = self.areas.supports(rec, points, stack_only=True, pose=pose)
+        self._rocked = (rec, points, (stack.version, stack.registrations), pose, supports)
+        return self._rocking(pose, supports)
 
     def _rocking(self, pose: Pose, supports: dict[int, ContactArea]) -> bool:
         """Whether a brick on a single support lies tilted to it by more than faces that lie face
@@ -147,8 +171,10 @@ class Admission:
         if len(partners) > 1:
             return []
         (partner,) = partners
+        if not self.stack.rested(partner, time):
+            return []  # what it touches is not asked: it still moves
         theirs = self.areas.touching(partner, contacts)
-        if not (self.stack.rested(partner, time) and rec.body in theirs and self._leans(theirs, limit)):
+        if not (rec.body in theirs and self._leans(theirs, limit)):
             return []
         if any(bodies[o].state is BrickState.ACTIVE for o in theirs if o != rec.body):
             return []

@@ -9,6 +9,7 @@ Source: report 3.3.3 and 3.4.2.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections import defaultdict
 from collections.abc import Iterable, Mapping, Sequence
@@ -73,6 +74,8 @@ class ContactAreas:
         self._faces: dict[tuple[float, ...], ContactArea | None] = {}  # the last face overlaps, by their bodies and poses
         self._found: Faces = {}  # the boxes' faces face_overlap found, by half extents and pose
         self._still: tuple[tuple[int, int], Boxes] | None = None  # the frozen and environment boxes, of a stack version
+        # of the registered bodies (by :attr:`Stack.registrations`): rank, planes, boxed records
+        self._registered: tuple[int, dict[int, int], list[Record], list[Record]] | None = None
         # each frozen brick's row of the boxes' table, by the pose it froze at (the same object while frozen)
         self._rows: dict[int, tuple[Pose, tuple[float, float, float, float, float, float] | None]] = {}
         self._held: dict[
@@ -229,10 +232,19 @@ class ContactAreas:
         stack = self.stack
         key = (stack.version, stack.registrations)
         if self._still is None or self._still[0] != key:
-            rank = {body: i for i, body in enumerate(stack.bodies)}
-            planes = [r for r in stack.bodies.values() if isinstance(r.shape, Plane)]
-            still = [r for r in stack.bodies.values() if r.state is not BrickState.ACTIVE and not isinstance(r.shape, Plane)]
-            self._still = (key, Boxes(rank, planes, still, np.array([self._extent(r) for r in still]).reshape(-1, 6)))
+            if self._registered is None or self._registered[0] != stack.registrations:
+                rank = {body: i for i, body in enumerate(stack.bodies)}
+                planes = [r for r in stack.bodies.values() if isinstance(r.shape, Plane)]
+                boxed = [r for r in stack.bodies.values() if not isinstance(r.shape, Plane)]
+                self._registered = (stack.registrations, rank, planes, boxed)
+            _, rank, planes, boxed = self._registered
+            still = [r for r in boxed if r.state is not BrickState.ACTIVE]
+            rows, kept = self._rows, []
+            for r in still:  # a frozen brick's row as it froze (:meth:`_extent`), without a call for each
+                row, pose = rows.get(r.body), r.frozen_pose
+                kept.append(row[1] if row is not None and row[0] is pose and row[1] is not None else self._extent(r))
+            flat = np.fromiter(itertools.chain.from_iterable(kept), float, 6 * len(kept))
+            self._still = (key, Boxes(rank, planes, still, flat.reshape(-1, 6)))
         boxes = self._still[1]
         if not active or not stack.active:
             return boxes
@@ -297,8 +309,7 @@ class ContactAreas:
         for other in found:
             if other is rec or other.body not in boxes.rank:
                 continue
-            other_pose = None if isinstance(other.shape, Plane) else self.stack.pose(other)
-            area = face_overlap(rec.box, pose, other.shape, other_pose, gap, self._made())
+            area = self._face(rec, pose, other)  # found once: the admission tests ask it too
             if area is not None and area.area > 0.0:
                 out[other.body] = area
         return out

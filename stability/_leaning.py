@@ -23,7 +23,7 @@ import math
 from collections.abc import Mapping, Sequence
 
 import numpy as np
-from shapely.geometry import MultiPoint
+import shapely
 
 from ._equilibrium import GRAVITY, BodyKey, ContactPolygon, RigidBlock, is_level, solve_equilibrium
 from ._geometry import needs_padding, padded_hull
@@ -65,14 +65,19 @@ def lean_polygon(points: np.ndarray, normal: np.ndarray, pad: float) -> np.ndarr
 def lean_polygon_padded(points: np.ndarray, normal: np.ndarray, pad: float) -> tuple[np.ndarray, bool]:
     """:func:`lean_polygon`, and whether it was padded (the points had no area). Source: report 3.4.2."""
     points = np.asarray(points, dtype=float).reshape(-1, 3)
-    t1 = np.cross(normal, [1.0, 0.0, 0.0] if abs(normal[0]) < 0.9 else [0.0, 1.0, 0.0])
+    # the tangents as numpy's cross products compute them (the same products and differences,
+    # in floats: a numpy call costs more than the arithmetic on three components)
+    nx, ny, nz = (float(v) for v in np.asarray(normal, dtype=float).reshape(3))
+    ex, ey, ez = (1.0, 0.0, 0.0) if abs(nx) < 0.9 else (0.0, 1.0, 0.0)
+    t1 = np.array([ny * ez - nz * ey, nz * ex - nx * ez, nx * ey - ny * ex])
     t1 /= np.linalg.norm(t1)
-    t2 = np.cross(normal, t1)
+    ax, ay, az = t1.tolist()
+    t2 = np.array([ny * az - nz * ay, nz * ax - nx * az, nx * ay - ny * ax])
     origin = points.mean(axis=0)
     uv = np.column_stack([(points - origin) @ t1, (points - origin) @ t2])
-    ring = np.asarray(padded_hull(uv, pad).exterior.coords)[:-1]
+    ring = shapely.get_coordinates(padded_hull(uv, pad))[:-1]  # the exterior's: a hull has no hole
     polygon: np.ndarray = origin + ring[:, :1] * t1 + ring[:, 1:] * t2
-    return polygon, needs_padding(MultiPoint(uv).convex_hull, pad)
+    return polygon, needs_padding(shapely.convex_hull(shapely.multipoints(uv)), pad)
 
 
 def leaning_stands(

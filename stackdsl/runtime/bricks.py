@@ -143,7 +143,7 @@ def rotation_matrices(quaternions: np.ndarray) -> np.ndarray:
     """Rotation matrices, shape (n, 3, 3), of quaternions (x, y, z, w), shape (n, 4), each divided
     by its length first: the standard unit-quaternion formula (:attr:`stability.Pose.rotation`'s),
     the same floats as scipy's ``Rotation.from_quat(quaternions).as_matrix()`` (the same sums in the
-    same order), in a dozen numpy calls: scipy's checks and dispatch took 30 to 90 us a call, a
+    same order), in a dozen numpy calls: scipy's checks and dispatch took 30 to 100 us a call, a
     third or more of the collapse monitor's displacements of 20 bricks a step.
     Source: stackdsl's own."""
     squares = quaternions * quaternions
@@ -354,12 +354,13 @@ class Structure:
 
     def measure(self, pending: Collection[str], threshold: float) -> tuple[list[BrickRecord], np.ndarray]:
         """The structure bricks a collapse monitor measures now, in the order placed, and how far
-        each has moved (m, :meth:`displacements`): those of ``pending`` (ids, moving or frozen)
-        and the moving ones whose corner is more than ``threshold`` m from where it was placed.
-        One read of the poses serves all. Up to :data:`FEW` moving bricks, brick by brick in
-        floats; else, with more than :data:`FEW` pending, the displacements of all at once;
-        else the others' bound first (:meth:`bounds`), and the displacements of those it
-        leaves (the bound is no less than the displacement). Source: stackdsl's own."""
+        each has moved (shape (n,), m, :meth:`displacements`): those of ``pending`` (ids, moving
+        or frozen), every moving one whose corner is more than ``threshold`` m from where it was
+        placed, and maybe moving ones within it that the bound could not rule out. One read of
+        the poses serves all. With more than :data:`FEW` moving bricks and more than :data:`FEW`
+        pending, the displacements of all at once; else the others' bound first (:meth:`bounds`,
+        in floats up to :data:`FEW` moving bricks: it is never less than the displacement), then
+        the displacements of the bricks it leaves. Source: stackdsl's own."""
         records = self.records
         frozen = [r for r in map(records.__getitem__, pending) if not r.moving]
         if len(self.moving) <= FEW:  # in floats: numpy's fixed costs are most of it for a few bricks
@@ -393,7 +394,7 @@ class Structure:
         return watched, self.displacements(watched, (positions[rows], quaternions[rows]))
 
     def bounds(self, records: list[BrickRecord], poses: Poses) -> np.ndarray:
-        """For each brick, m, at least how far its farthest-moved corner can be from where it
+        """For each brick, shape (n,), m, the most its farthest-moved corner can be from where it
         was placed (its pose now: ``poses``, one row a brick): the centre's displacement plus the
         most a corner can move in the rotation since placing, 2 r sin(angle / 2) for the half
         diagonal r (cos(angle / 2) = |q . q0| for unit quaternions). Source: stackdsl's own."""

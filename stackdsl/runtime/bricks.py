@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Collection
 from dataclasses import InitVar, dataclass, field
 
 import numpy as np
@@ -125,6 +126,48 @@ def _half_diagonal(half_extents: tuple[float, float, float]) -> float:
     return float(np.linalg.norm(np.array(half_extents)))
 
 
+Poses = tuple[np.ndarray, np.ndarray]
+"""Bricks' poses, one row a brick: positions (n, 3), m, and unit quaternions (x, y, z, w), (n, 4)."""
+
+
+_NONE = np.zeros(0)
+_NONE.flags.writeable = False
+
+
+def _order(r: BrickRecord) -> int:
+    """Where ``r`` entered the world, to sort by."""
+    return r.order
+
+
+def rotation_matrices(quaternions: np.ndarray) -> np.ndarray:
+    """Rotation matrices, shape (n, 3, 3), of quaternions (x, y, z, w), shape (n, 4), each divided
+    by its length first: the standard unit-quaternion formula (:attr:`stability.Pose.rotation`'s),
+    the same floats as scipy's ``Rotation.from_quat(quaternions).as_matrix()`` (the same sums in the
+    same order), in a dozen numpy calls: scipy's checks and dispatch took 30 to 100 us a call, a
+    third or more of the collapse monitor's displacements of 20 bricks a step.
+    Source: stackdsl's own."""
+    squares = quaternions * quaternions
+    length = np.sqrt(((squares[:, 0] + squares[:, 1]) + squares[:, 2]) + squares[:, 3])
+    unit = quaternions / length[:, None]
+    products = (unit[:, :, None] * unit[:, None, :]).reshape(-1, 16)  # column 4 a + b: q_a q_b
+    terms = products[:, None, ::5] * _DIAGONAL_SIGNS  # x^2, y^2, z^2, w^2 signed for each diagonal entry
+    diagonal = ((terms[:, :, 0] + terms[:, :, 1]) + terms[:, :, 2]) + terms[:, :, 3]
+    off = 2 * (products.take(_OFF_A, axis=1) + products.take(_OFF_B, axis=1) * _OFF_SIGNS)
+    matrices: np.ndarray = np.concatenate((diagonal, off), axis=1).take(_ENTRIES, axis=1).reshape(-1, 3, 3)
+    return matrices
+
+
+# the rotation matrix's diagonal: +-x^2 +-y^2 +-z^2 + w^2
+_DIAGONAL_SIGNS = np.array([[1.0, -1.0, -1.0, 1.0], [-1.0, 1.0, -1.0, 1.0], [-1.0, -1.0, 1.0, 1.0]])
+# off the diagonal, 2 (a + b): m10 = 2 (xy + zw), m20 = 2 (xz - yw), m01 = 2 (xy - zw), m21 = 2 (yz + xw),
+# m02 = 2 (xz + yw), m12 = 2 (yz - xw), a and b columns of the products (4 a + b)
+_OFF_A = np.array([1, 2, 1, 6, 2, 6])
+_OFF_B = np.array([11, 7, 11, 3, 7, 3])
+_OFF_SIGNS = np.array([1.0, -1.0, -1.0, 1.0, 1.0, -1.0])
+# the diagonal and off-diagonal entries (m00 m11 m22 m10 m20 m01 m21 m02 m12) in row-major order
+_ENTRIES = np.array([0, 5, 7, 3, 1, 8, 4, 6, 2])
+
+
 Extent = tuple[float, float, float, float, float]
 """A footprint's bounding box (min x, min y, max x, max y, m) and the area the box has beyond
 the footprint (m^2)."""
@@ -143,7 +186,7 @@ def footprint(corners: np.ndarray) -> Polygon:
 
 
 FEW = 4
-"""Up to this many bricks, :meth:`Structure.may_have_moved` works in floats, brick by brick."""
+"""Up to this many bricks, :meth:`Structure.measure` and :meth:`Structure.displacements` work in floats, brick by brick."""
 
 OVERLAP = 1e-8
 """Square metres two footprints must share for a brick to rest on the other (:meth:`Structure.under`)."""
@@ -176,6 +219,8 @@ class Structure:
         self._cached: tuple[tuple[int, ...], np.ndarray, np.ndarray] = ((), np.zeros((0, 8, 3)), np.zeros((0, 8, 3)))
         # the placed positions, orientations and half diagonals of the bricks last bounded
         self._placed: tuple[tuple[int, ...], np.ndarray, np.ndarray, np.ndarray] = ((), *(np.zeros(0),) * 3)
+        # what :meth:`measure` last read, in the order placed, and the rows of the pending bricks
+        self._layout: tuple[tuple[tuple[str, ...], ...], list[BrickRecord], list[int]] = ((), [], [])
 
     def add(self, record: BrickRecord) -> None:
         """Register a brick that entered the world."""
@@ -278,19 +323,19 @@ class Structure:
         positions, _ = self.world.poses_of([r.body for r in below])
         return max(0.0, min(float(r.nominal.position[2]) - float(z) for r, z in zip(below, positions[:, 2])))
 
-    def displacements(self, records: list[BrickRecord]) -> np.ndarray:
+    def displacements(self, records: list[BrickRecord], poses: Poses | None = None) -> np.ndarray:
         """How far each brick's farthest-moved corner is from where it was placed, m, in the
         ground's frame (:attr:`offset`, moved by a shake table) (a
         brick tipping in place counts, not only one whose centre moves); all at once, as
-        raw and tuned modes ask it of every brick at every step. Up to :data:`FEW` bricks,
-        brick by brick in floats (:meth:`displacement`)."""
+        raw and tuned modes ask it of every brick at every step, from ``poses`` when read
+        already (:meth:`poses`, one row a brick). Up to :data:`FEW` bricks, brick by brick in
+        floats (:meth:`displacement`)."""
         if not records:
             return np.zeros(0)
         if len(records) <= FEW:
             return np.array([self.displacement(r) for r in records])
         bodies = tuple(r.body for r in records)
-        positions, quaternions = self.world.poses_of(bodies)
-        positions = positions - self.offset
+        positions, quaternions = self.poses(records) if poses is None else poses
         if self._cached[0] != bodies:
             self._cached = (
                 bodies,
@@ -298,30 +343,71 @@ class Structure:
                 np.stack([r.corners for r in records]),
             )
         _, local, placed = self._cached
-        now = positions[:, None, :] + np.einsum("nij,nkj->nki", Rotation.from_quat(quaternions).as_matrix(), local)
+        now = positions[:, None, :] + np.einsum("nij,nkj->nki", rotation_matrices(quaternions), local)
         farthest: np.ndarray = np.sqrt(((now - placed) ** 2).sum(axis=2).max(axis=1))
         return farthest
 
-    def may_have_moved(self, records: list[BrickRecord], threshold: float) -> list[BrickRecord]:
-        """The bricks whose corner could be more than ``threshold`` m from where it was placed.
-        A bound, for all at once: the centre's displacement plus the most a corner can move
-        in the rotation since placing, 2 r sin(angle / 2) for the half diagonal r
-        (cos(angle / 2) = |q . q0| for unit quaternions)."""
-        if not records:
-            return []
-        if len(records) <= FEW:  # in floats: numpy's fixed costs are most of it for a few bricks
-            return [r for r in records if self._bound(r) > threshold]
+    def poses(self, records: list[BrickRecord]) -> Poses:
+        """:data:`Poses` of ``records`` now, in the ground's frame (:attr:`offset`)."""
+        positions, quaternions = self.world.poses_of([r.body for r in records])
+        return positions - self.offset, quaternions
+
+    def measure(self, pending: Collection[str], threshold: float) -> tuple[list[BrickRecord], np.ndarray]:
+        """The structure bricks a collapse monitor measures now, in the order placed, and how far
+        each has moved (shape (n,), m, :meth:`displacements`): those of ``pending`` (ids, moving
+        or frozen), every moving one whose corner is more than ``threshold`` m from where it was
+        placed, and maybe moving ones within it that the bound could not rule out. One read of
+        the poses serves all. With more than :data:`FEW` moving bricks and more than :data:`FEW`
+        pending, the displacements of all at once; else the others' bound first (:meth:`bounds`,
+        in floats up to :data:`FEW` moving bricks: it is never less than the displacement), then
+        the displacements of the bricks it leaves. Source: stackdsl's own."""
+        records = self.records
+        frozen = [r for r in map(records.__getitem__, pending) if not r.moving]
+        if len(self.moving) <= FEW:  # in floats: numpy's fixed costs are most of it for a few bricks
+            watched = [r for r in self.moving.values() if r.id in pending or self._bound(r) > threshold]
+            if frozen or len(watched) > 1:
+                watched = sorted(frozen + watched, key=_order)
+            return watched, self.displacements(watched) if watched else _NONE
+        key = (tuple(pending), tuple(r.id for r in frozen), tuple(self.moving))
+        if self._layout[0] != key:  # the same bricks step after step: sorted once
+            read = sorted(frozen + list(self.moving.values()), key=_order)
+            self._layout = (key, read, [i for i, r in enumerate(read) if r.id in pending])
+        _, read, rows = self._layout
+        positions, quaternions = self.poses(read)
+        if len(rows) > FEW:  # measured whatever the bound says: one pass over all
+            moved = self.displacements(read, (positions, quaternions))
+            keep = [i for i, d in enumerate(moved.tolist()) if d > threshold or read[i].id in pending]
+            return [read[i] for i in keep], moved[keep]
+        if not rows:  # the usual step: only what may have moved is measured
+            bound = self.bounds(read, (positions, quaternions))
+            rows = [i for i, b in enumerate(bound.tolist()) if b > threshold]
+        else:
+            others = [i for i, r in enumerate(read) if r.id not in pending]
+            if others:
+                bound = self.bounds([read[i] for i in others], (positions[others], quaternions[others]))
+                rows = sorted(rows + [i for i, b in zip(others, bound.tolist()) if b > threshold])
+        if not rows:
+            return [], _NONE
+        watched = [read[i] for i in rows]
+        if len(watched) <= FEW:
+            return watched, self.displacements(watched)
+        return watched, self.displacements(watched, (positions[rows], quaternions[rows]))
+
+    def bounds(self, records: list[BrickRecord], poses: Poses) -> np.ndarray:
+        """For each brick, shape (n,), m, the most its farthest-moved corner can be from where it
+        was placed (its pose now: ``poses``, one row a brick): the centre's displacement plus the
+        most a corner can move in the rotation since placing, 2 r sin(angle / 2) for the half
+        diagonal r (cos(angle / 2) = |q . q0| for unit quaternions). Source: stackdsl's own."""
+        positions, quaternions = poses
         bodies = tuple(r.body for r in records)
-        positions, quaternions = self.world.poses_of(bodies)
-        positions = positions - self.offset
         if self._placed[0] != bodies:  # the same bricks step after step: read their placing once
             placed = np.array([r.pose.position for r in records])
             placed_q = np.array([r.pose.orientation for r in records])
             self._placed = (bodies, placed, placed_q, np.array([r.half_diagonal for r in records]))
         _, placed, placed_q, radius = self._placed
         cos_half = np.minimum(1.0, np.abs((quaternions * placed_q).sum(axis=1)))
-        bound = np.linalg.norm(positions - placed, axis=1) + 2.0 * radius * np.sqrt(1.0 - cos_half**2)
-        return [r for r, b in zip(records, bound) if b > threshold]
+        bound: np.ndarray = np.linalg.norm(positions - placed, axis=1) + 2.0 * radius * np.sqrt(1.0 - cos_half**2)
+        return bound
 
     def displacement(self, r: BrickRecord) -> float:
         """How far the farthest-moved corner of ``r`` is from where it was placed, m, in floats:
@@ -342,7 +428,7 @@ class Structure:
         return math.sqrt(farthest)
 
     def _bound(self, r: BrickRecord) -> float:
-        """:meth:`may_have_moved`'s bound for one brick, in floats."""
+        """:meth:`bounds` for one brick, in floats."""
         (x, y, z), (qx, qy, qz, qw) = self.world.pose_floats(r.body)
         ox, oy, oz = self.offset
         px, py, pz = r.placed_xyz[0] + ox, r.placed_xyz[1] + oy, r.placed_xyz[2] + oz

@@ -220,65 +220,56 @@ class CollapseMonitor(Subscriber):
         order of :meth:`_proof`); with ``displaced_at_end``, the run's end decides for a displaced
         brick that is not ``in_flight`` (still moving:
         :meth:`stackdsl.runtime.end_proofs.MotionWindow.still_moving`)."""
-        watched = self._watched(loop)
+        watched, moved = loop.structure.measure(self._displaced, self.threshold)
         if not watched:  # nothing displaced, nothing near the threshold: the usual step
             return
-        moved = loop.structure.displacements(watched)
-        for record, distance in zip(watched, moved):
-            if distance <= self.threshold:
-                self._displaced.pop(record.id, None)  # within the threshold, or rocked and came back
-        displaced = [(r, float(d)) for r, d in zip(watched, moved) if d > self.threshold]
+        pending, threshold = self._displaced, self.threshold
+        displaced: list[tuple[BrickRecord, float]] = []
+        for record, distance in zip(watched, moved.tolist()):
+            if distance > threshold:
+                displaced.append((record, distance))
+            elif distance <= threshold:
+                pending.pop(record.id, None)  # within the threshold, or rocked and came back
         resting = self._resting(loop, [r for r, _ in displaced])
         # while a hand drags (a pull, a push) or the ground shakes, nothing is decided: a brick at
         # rest on what a hand moves has not come to rest where it stays, and a static argument
         # (its centre of mass off its support, a mechanism) holds on a still base only: a slender
         # block rocked 13.5 deg on a shake table, past its tipping angle, and came back
         hands_busy = any(isinstance(s, Actions) and not s.quiet for s in loop.subscribers) and not displaced_at_end
+        now = loop.now
         for (record, distance), rests in zip(displaced, resting):
-            rested = self._track(loop, record, distance, rests)
+            state = pending.get(record.id)
+            if state is None:
+                state = self._track(loop, record, distance)
+            elif distance > state.farthest:
+                state.farthest = distance
+            if not rests:
+                state.resting_since = None
+            elif state.resting_since is None:
+                state.resting_since = now
             if hands_busy:
                 continue
             if displaced_at_end and record.id in in_flight:  # in flight at the end: at_end says it still moves
                 continue
+            rested = state.resting_since is not None and now - state.resting_since >= self._rest[2] - 1e-9
             proof = self._proof(loop, record, distance, rested, displaced_at_end)
             if proof is not None:
                 self._collapsed(loop, record, distance, proof)
                 return
 
-    def _watched(self, loop: StepLoop) -> list[BrickRecord]:
-        """The structure bricks to measure now, in the order placed: those that may have passed
-        the threshold (moving ones near it), and every displaced one still pending."""
-        structure = loop.structure
-        moving = list(structure.moving.values())
-        if not self._displaced:  # the usual step: only what may have moved is looked at
-            watched = structure.may_have_moved(moving, self.threshold)
-        else:
-            watched = [structure.records[i] for i in self._displaced if not structure.records[i].moving]
-            watched += [r for r in moving if r.id in self._displaced]
-            watched += [r for r in structure.may_have_moved(moving, self.threshold) if r.id not in self._displaced]
-        watched.sort(key=lambda r: r.order)
-        return watched
-
-    def _track(self, loop: StepLoop, record: BrickRecord, distance: float, rests: bool) -> bool:
-        """Note that ``record`` is ``distance`` metres from its place, past the threshold, and at
-        rest now or not (``rests``); whether it has stayed at rest for the rest duration. A brick
-        newly displaced is dated now, with the level placed now and the brick graph now."""
-        state = self._displaced.get(record.id)
-        if state is None:
-            level = max(loop.structure.levels.values())
-            # the graph of the moment the first pending brick was displaced serves the others
-            # (a collapse is dated at the earliest of them; one graph a brick cost 85 ms each
-            # for the 50 bricks of a falling tower)
-            pending = [d for d in self._displaced.values() if d.level == level]
-            graph = min(pending, key=lambda d: d.since).graph if pending else (self._graph(loop), loop.step)
-            state = self._displaced[record.id] = _Displaced(loop.now, level, distance, graph)
-            self.passed += 1
-        state.farthest = max(state.farthest, distance)
-        if not rests:
-            state.resting_since = None
-        elif state.resting_since is None:
-            state.resting_since = loop.now
-        return state.resting_since is not None and loop.now - state.resting_since >= self._rest[2] - 1e-9
+    def _track(self, loop: StepLoop, record: BrickRecord, distance: float) -> _Displaced:
+        """Note that ``record``, not displaced before, is ``distance`` metres from its place, past
+        the threshold: dated now, with the level placed now and the brick graph now. The caller
+        keeps its farthest displacement and since when it rests (:meth:`_decide`)."""
+        level = max(loop.structure.levels.values())
+        # the graph of the moment the first pending brick was displaced serves the others
+        # (a collapse is dated at the earliest of them; one graph a brick cost 85 ms each
+        # for the 50 bricks of a falling tower)
+        pending = [d for d in self._displaced.values() if d.level == level]
+        graph = min(pending, key=lambda d: d.since).graph if pending else (self._graph(loop), loop.step)
+        state = self._displaced[record.id] = _Displaced(loop.now, level, distance, graph)
+        self.passed += 1
+        return state
 
     def _proof(
         self, loop: StepLoop, record: BrickRecord, distance: float, rested: bool, displaced_at_end: bool
@@ -362,8 +353,11 @@ class CollapseMonitor(Subscriber):
         if not moving:
             return [True] * len(records)
         lin, ang = loop.world.velocities_of([r.body for r in moving])
-        slow = iter(((lin**2).sum(axis=1) <= self._rest[0] ** 2) & ((ang**2).sum(axis=1) <= self._rest[1] ** 2))
-        return [bool(next(slow)) if r.moving else True for r in records]
+        slow: list[bool] = (((lin**2).sum(axis=1) <= self._rest[0] ** 2) & ((ang**2).sum(axis=1) <= self._rest[1] ** 2)).tolist()
+        if len(moving) == len(records):
+            return slow
+        each = iter(slow)
+        return [next(each) if r.moving else True for r in records]
 
     def _collapsed(
         self, loop: StepLoop, record: BrickRecord, moved: float, proof: tuple[ProofKind, str, tuple[str, ...]]

@@ -1,0 +1,69 @@
+"""What the collapse monitor measures each step (stackdsl.runtime.bricks.Structure.measure), held to
+its definition on a world without an engine, and the batch rotation matrices held to scipy's."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from stability import Pose
+from stackdsl.engines.fake import FakeWorld
+from stackdsl.engines.protocol import BrickSpec
+from stackdsl.runtime.bricks import BrickRecord, Structure, rotation_matrices
+
+KAPLA = BrickSpec(type="kapla", half_extents=(0.06, 0.012, 0.004), mass=0.0106, friction=0.5, restitution=0.0)
+THRESHOLD = 0.004
+
+
+def test_the_batch_rotation_matrices_are_scipys_to_the_last_bit():
+    rng = np.random.default_rng(7)
+    quaternions = rng.normal(size=(400, 4))
+    quaternions[:200] /= np.linalg.norm(quaternions[:200], axis=1)[:, None]  # unit ones, as engines give
+    quaternions[:4] = [[0.0, 0.0, 0.0, 1.0], [0.0, 0.0, 0.0, -1.0], [0.0, 0.0, math.sqrt(0.5), math.sqrt(0.5)], [1e-170, 0, 0, 1]]
+    assert np.array_equal(rotation_matrices(quaternions), Rotation.from_quat(quaternions).as_matrix())
+    assert np.array_equal(rotation_matrices(quaternions[7:8]), Rotation.from_quat(quaternions[7:8]).as_matrix())
+
+
+def _structure(bricks: int) -> tuple[FakeWorld, Structure]:
+    """``bricks`` bricks side by side, each moved as its index says: b0 slid 10 mm, b1 turned 5 deg
+    in place, b2 slid 3 mm (within the threshold), b3 lifted 6 mm, the others where they were placed."""
+    world = FakeWorld()
+    structure = Structure(world)
+    for i in range(bricks):
+        pose = Pose(np.array([0.0, 0.05 * i, 0.004]))
+        body = world.create(KAPLA, pose)
+        structure.add(BrickRecord(f"b{i}", body, KAPLA, 1, pose, pose))
+        moved = {
+            0: Pose(np.array([0.01, 0.05 * i, 0.004])),
+            1: Pose.from_euler([0.0, 0.05 * i, 0.004], yaw=5.0),
+            2: Pose(np.array([0.003, 0.05 * i, 0.004])),
+            3: Pose(np.array([0.0, 0.05 * i, 0.010])),
+        }.get(i)
+        if moved is not None:
+            world.poses[body] = moved
+    return world, structure
+
+
+@pytest.mark.parametrize("bricks", [3, 10])
+@pytest.mark.parametrize(
+    "pending, frozen",
+    [((), ()), (("b2",), ()), (("b5", "b2"), ("b5",)), (("b9", "b8", "b7", "b6", "b5", "b2"), ("b9", "b5"))],
+)
+def test_the_pending_bricks_and_every_moving_one_past_the_threshold_are_measured(bricks, pending, frozen):
+    _, structure = _structure(bricks)
+    pending = tuple(i for i in pending if i in structure.records)
+    for i in frozen:
+        if i in structure.records:
+            structure.set_moving(structure.records[i], False)
+    watched, moved = structure.measure(dict.fromkeys(pending), THRESHOLD)
+    assert [r.order for r in watched] == sorted(r.order for r in watched)  # in the order placed
+    exact = {r.id: structure.displacement(r) for r in structure.placed}
+    for r, d in zip(watched, moved.tolist()):
+        assert d == pytest.approx(exact[r.id], abs=1e-12)
+    past = {r.id for r in structure.placed if r.moving and exact[r.id] > THRESHOLD}
+    measured = {r.id for r, d in zip(watched, moved.tolist()) if r.id in pending or d > THRESHOLD}
+    assert measured == past | set(pending)
+    assert past == {"b0", "b1", "b3"} & set(structure.records)  # the slid, the turned and the lifted brick

@@ -41,6 +41,7 @@ import shapely
 
 from ._areas import ContactAreas
 from ._equilibrium import LEVEL_TILT, ContactPolygon, RigidBlock, solve_equilibrium
+from ._geometry import hull_xy
 from ._graph import BrickState
 from ._leaning import pair_friction
 from ._load import propagate
@@ -214,7 +215,7 @@ def _tips_whole(
     masses = np.array([b.mass for b in blocks.values()])
     centre = masses @ np.array([b.com for b in blocks.values()]) / masses.sum()
     height = float(centre[2] - points[:, 2].mean())
-    hull = shapely.MultiPoint(points[:, :2].tolist()).convex_hull
+    hull = hull_xy(points[:, :2])
     for sign in (1.0, -1.0):
         x, y = centre[:2] + sign * np.asarray(sideways) * height / gravity
         if not shapely.contains_xy(hull, float(x), float(y)):

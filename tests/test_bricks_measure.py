@@ -1,30 +1,18 @@
 """What the collapse monitor measures each step (stackdsl.runtime.bricks.Structure.measure), held to
-its definition on a world without an engine, and the batch rotation matrices held to scipy's."""
+its definition on a world without an engine."""
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
-from scipy.spatial.transform import Rotation
 
 from stability import Pose
 from stackdsl.engines.fake import FakeWorld
 from stackdsl.engines.protocol import BrickSpec
-from stackdsl.runtime.bricks import BrickRecord, Structure, rotation_matrices
+from stackdsl.runtime.bricks import BrickRecord, Structure
 
 KAPLA = BrickSpec(type="kapla", half_extents=(0.06, 0.012, 0.004), mass=0.0106, friction=0.5, restitution=0.0)
 THRESHOLD = 0.004
-
-
-def test_the_batch_rotation_matrices_are_scipys_to_the_last_bit():
-    rng = np.random.default_rng(7)
-    quaternions = rng.normal(size=(400, 4))
-    quaternions[:200] /= np.linalg.norm(quaternions[:200], axis=1)[:, None]  # unit ones, as engines give
-    quaternions[:4] = [[0.0, 0.0, 0.0, 1.0], [0.0, 0.0, 0.0, -1.0], [0.0, 0.0, math.sqrt(0.5), math.sqrt(0.5)], [1e-170, 0, 0, 1]]
-    assert np.array_equal(rotation_matrices(quaternions), Rotation.from_quat(quaternions).as_matrix())
-    assert np.array_equal(rotation_matrices(quaternions[7:8]), Rotation.from_quat(quaternions[7:8]).as_matrix())
 
 
 def _structure(bricks: int) -> tuple[FakeWorld, Structure]:

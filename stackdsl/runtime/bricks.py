@@ -139,35 +139,6 @@ def _order(r: BrickRecord) -> int:
     return r.order
 
 
-def rotation_matrices(quaternions: np.ndarray) -> np.ndarray:
-    """Rotation matrices, shape (n, 3, 3), of quaternions (x, y, z, w), shape (n, 4), each divided
-    by its length first: the standard unit-quaternion formula (:attr:`stability.Pose.rotation`'s),
-    the same floats as scipy's ``Rotation.from_quat(quaternions).as_matrix()`` (the same sums in the
-    same order), in a dozen numpy calls: scipy's checks and dispatch took 30 to 100 us a call, a
-    third or more of the collapse monitor's displacements of 20 bricks a step.
-    Source: stackdsl's own."""
-    squares = quaternions * quaternions
-    length = np.sqrt(((squares[:, 0] + squares[:, 1]) + squares[:, 2]) + squares[:, 3])
-    unit = quaternions / length[:, None]
-    products = (unit[:, :, None] * unit[:, None, :]).reshape(-1, 16)  # column 4 a + b: q_a q_b
-    terms = products[:, None, ::5] * _DIAGONAL_SIGNS  # x^2, y^2, z^2, w^2 signed for each diagonal entry
-    diagonal = ((terms[:, :, 0] + terms[:, :, 1]) + terms[:, :, 2]) + terms[:, :, 3]
-    off = 2 * (products.take(_OFF_A, axis=1) + products.take(_OFF_B, axis=1) * _OFF_SIGNS)
-    matrices: np.ndarray = np.concatenate((diagonal, off), axis=1).take(_ENTRIES, axis=1).reshape(-1, 3, 3)
-    return matrices
-
-
-# the rotation matrix's diagonal: +-x^2 +-y^2 +-z^2 + w^2
-_DIAGONAL_SIGNS = np.array([[1.0, -1.0, -1.0, 1.0], [-1.0, 1.0, -1.0, 1.0], [-1.0, -1.0, 1.0, 1.0]])
-# off the diagonal, 2 (a + b): m10 = 2 (xy + zw), m20 = 2 (xz - yw), m01 = 2 (xy - zw), m21 = 2 (yz + xw),
-# m02 = 2 (xz + yw), m12 = 2 (yz - xw), a and b columns of the products (4 a + b)
-_OFF_A = np.array([1, 2, 1, 6, 2, 6])
-_OFF_B = np.array([11, 7, 11, 3, 7, 3])
-_OFF_SIGNS = np.array([1.0, -1.0, -1.0, 1.0, 1.0, -1.0])
-# the diagonal and off-diagonal entries (m00 m11 m22 m10 m20 m01 m21 m02 m12) in row-major order
-_ENTRIES = np.array([0, 5, 7, 3, 1, 8, 4, 6, 2])
-
-
 Extent = tuple[float, float, float, float, float]
 """A footprint's bounding box (min x, min y, max x, max y, m) and the area the box has beyond
 the footprint (m^2)."""
@@ -343,7 +314,7 @@ class Structure:
                 np.stack([r.corners for r in records]),
             )
         _, local, placed = self._cached
-        now = positions[:, None, :] + np.einsum("nij,nkj->nki", rotation_matrices(quaternions), local)
+        now = positions[:, None, :] + np.einsum("nij,nkj->nki", Rotation.from_quat(quaternions).as_matrix(), local)
         farthest: np.ndarray = np.sqrt(((now - placed) ** 2).sum(axis=2).max(axis=1))
         return farthest
 

@@ -39,6 +39,22 @@ def test_the_lean_loop_falls_where_raw_pybullet_in_stackdsls_loop_falls(shift_mm
     assert lean.simulated < p.duration - 1.0  # it stopped once the collapse was decided
 
 
+def test_the_lean_peers_settle_after_a_collapse_when_told_as_stackdsl_does():
+    # the bench's --after-collapse times every side alike: each peer goes on that long, placing nothing
+    from stackdsl.bench.lean_mujoco import run_lean as run_mujoco
+
+    n = single_file(0.013)  # built 6 levels past its collapse: the peers stop placing at the decision
+    structure = f"tower: {{levels: {n + 6}, bricks_per_layer: 1, turn: 0, shift: 13 mm}}"
+    for run, engine in ((run_pybullet, "engine: {mode: raw}"), (run_mujoco, "engine: {backend: mujoco}")):
+        p = program(structure, engine)
+        stopped, settled = run(p), run(p, settle=1.5)  # past the next placement (one a second)
+        assert stopped.level is not None and settled.level == stopped.level, (engine, stopped.level, settled.level)
+        assert settled.simulated == pytest.approx(stopped.simulated + 1.5, abs=0.05), engine
+        assert stopped.after_collapse < 0.001 < settled.after_collapse < settled.wall, engine
+        assert settled.steps > stopped.steps
+    assert 0 < len(settled.moved) < n + 6  # the MuJoCo peer's bricks never placed are left out
+
+
 def test_the_lean_pybullet_peer_takes_pybullet_placements_only():
     with pytest.raises(ValueError, match="compiled for pybullet"):
         run_pybullet(program("tower: {levels: 2}", "engine: {backend: mujoco}"))

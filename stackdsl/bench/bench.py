@@ -194,7 +194,7 @@ def measure(scene: Scene, setting: str, options: RunOptions) -> Cell:
     process, and its first run would also pay one-off costs (lazy imports, first calls into
     shapely and scipy, about 0.2 s) that belong to no scene."""
     if SETTINGS[setting].lean:
-        return _measure_lean(scene, setting)
+        return _measure_lean(scene, setting, options.settle)
     options = replace(options, lazy_bodies=SETTINGS[setting].lazy_bodies)
     run_program(program_for(WARM_UP, setting), options)
     program = program_for(scene, setting)
@@ -224,14 +224,15 @@ def measure(scene: Scene, setting: str, options: RunOptions) -> Cell:
     )
 
 
-def _measure_lean(scene: Scene, setting: str) -> Cell:
-    """:func:`measure` of a lean setting: the peer's own loop, after its own warm-up run."""
+def _measure_lean(scene: Scene, setting: str, settle: float | None) -> Cell:
+    """:func:`measure` of a lean setting: the peer's own loop, after its own warm-up run, going on
+    ``settle`` seconds after a collapse is decided, as stackdsl's runs do (``RunOptions.settle``)."""
     from . import lean_mujoco, lean_pybullet
 
     # each peer's own loop on its own engine (a lean setting names one of these two)
     runners: dict[str, Callable[[Program], LeanOutcome]] = {
-        "mujoco": functools.partial(lean_mujoco.run_lean, tolerance=LEAN_TOLERANCE),
-        "pybullet": lean_pybullet.run_lean,
+        "mujoco": functools.partial(lean_mujoco.run_lean, tolerance=LEAN_TOLERANCE, settle=settle),
+        "pybullet": functools.partial(lean_pybullet.run_lean, settle=settle),
     }
     run_lean = runners[SETTINGS[setting].backend]
     run_lean(program_for(WARM_UP, setting))
@@ -250,7 +251,7 @@ def _measure_lean(scene: Scene, setting: str) -> Cell:
         wall=round(o.wall, 4),
         walls=f"{o.wall:.3f}",
         engine=round(o.engine, 4),
-        after_collapse=0.0,
+        after_collapse=round(o.after_collapse, 4),
         simulated=round(o.simulated, 3),
         speed=round(o.simulated / o.wall, 1) if o.wall > 0 else 0.0,
         peak_memory=round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),

@@ -38,7 +38,8 @@ _CORNERS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in 
 @dataclass(frozen=True)
 class LeanOutcome:
     """What a lean peer measured: the collapse level (None: stood), wall seconds, seconds
-    of it inside the engine's step, simulated seconds and physics steps; for a peer that runs
+    of it inside the engine's step, simulated seconds and physics steps, wall seconds after the
+    collapse was decided (``after_collapse``: a run told to settle after it); for a peer that runs
     to the scene's end (the actions family), each placed brick's displacement at the end
     (``moved``: id -> m, its farthest corner from where it was placed, in the ground's frame),
     the bricks tilted past their tipping angle (``toppled``) and those a hand pulled out
@@ -49,6 +50,7 @@ class LeanOutcome:
     engine: float
     simulated: float
     steps: int
+    after_collapse: float = 0.0
     moved: dict[str, float] = field(default_factory=dict)
     toppled: tuple[str, ...] = ()
     removed: tuple[str, ...] = ()

@@ -225,6 +225,7 @@ class _LeanRun:
         self.placed = self.steps = self.pushed = 0
         self.engine = 0.0
         self.stop: float | None = None  # when the run ends, once a collapse is decided
+        self.decided = 0.0  # the wall clock (perf_counter) when it was decided
         self.cut = False  # a placement the collapse cancelled: nothing after it runs
         self.end = program.duration
         self.offset = np.zeros(3)
@@ -238,10 +239,9 @@ class _LeanRun:
         """Let go every brick due by ``now`` (s), the drop gap above where it will rest; after a
         collapse nothing more is placed."""
         data, k = self.data, self.placed
-        while k < len(self.places) and self.places[k].time <= now + 1e-9:
-            if self.stop is not None:  # nothing is placed after a collapse
+        while not self.cut and k < len(self.places) and self.places[k].time <= now + 1e-9:
+            if self.stop is not None:  # nothing is placed after a collapse (the rest stay parked)
                 self.cut = True
-                self.placed = len(self.places)
                 return
             p = self.places[k]
             rest = self.nominal[k] - [0.0, 0.0, self._sink(k) if self.from_top else 0.0]
@@ -339,6 +339,7 @@ class _LeanRun:
         if self.settle == 0.0:
             return True
         after = self.program.settle if self.settle is None else self.settle
+        self.decided = time.perf_counter()
         self.stop = max([t, *(d.end for d in self.driven), *(s.end_time for s in self.shakes)]) + after
         return False
 
@@ -355,6 +356,7 @@ class _LeanRun:
             self.engine,
             float(data.time),
             self.steps,
+            after_collapse=time.perf_counter() - self.decided if self.stop is not None else 0.0,
             moved={places[k].id: float(moved[k]) for k in kept},
             toppled=tuple(places[k].id for k in kept if tilted[k]),
             removed=tuple(self.removed),

@@ -5,7 +5,8 @@ placing times and poses, its pybullet settings) and runs it without stackdsl's s
 DIRECT client of its own, a ground plane, each brick created as a box (``createMultiBody``)
 when its time comes, and ``stepSimulation`` called in a plain loop. The collapse is watched as
 every lean peer watches it (:class:`stackdsl.bench.lean.CollapseWatch`), from pybullet's own
-base poses; the run stops when the collapse is decided, or at the program's end.
+base poses; the run stops when the collapse is decided (or ``settle`` seconds after it, placing
+nothing more), or at the program's end.
 
 Settings are the program's (``engine: {mode: raw}`` is raw pybullet: 240 Hz, 50 solver
 iterations, multibodies): timestep, solver iterations, gravity, maximal coordinates and
@@ -45,9 +46,11 @@ from ..engines.pybullet.settings import PyBulletSettings
 from .lean import WATCH_RATE, CollapseWatch, LeanOutcome
 
 
-def run_lean(program: Program, timeout: float = 600.0) -> LeanOutcome:
+def run_lean(program: Program, timeout: float = 600.0, settle: float | None = 0.0) -> LeanOutcome:
     """Run ``program`` in the lean loop (see the module's description) for at most
-    ``timeout`` wall seconds (then the level so far is returned).
+    ``timeout`` wall seconds (then the level so far is returned), going on ``settle`` seconds
+    after a collapse is decided with nothing more placed (0: the run ends there; None: the
+    program's settle time), as :func:`stackdsl.bench.lean_mujoco.run_lean` does.
 
     Raises:
         ValueError: the program's engine is not pybullet, or it has fixtures or launches.
@@ -64,12 +67,15 @@ def run_lean(program: Program, timeout: float = 600.0) -> LeanOutcome:
     with quiet_c_output():
         client = pybullet.connect(pybullet.DIRECT)
     try:
-        return _run(pybullet, client, program, e, started, timeout)
+        after = program.settle if settle is None else settle
+        return _run(pybullet, client, program, e, started, timeout, after)
     finally:
         pybullet.disconnect(client)
 
 
-def _run(p: Any, client: int, program: Program, e: PyBulletSettings, started: float, timeout: float) -> LeanOutcome:
+def _run(
+    p: Any, client: int, program: Program, e: PyBulletSettings, started: float, timeout: float, settle: float
+) -> LeanOutcome:
     """The loop of :func:`run_lean` on a connected ``client`` of the ``pybullet`` module ``p``."""
     kw = {"physicsClientId": client}
     p.setGravity(0.0, 0.0, -e.gravity, **kw)
@@ -85,8 +91,9 @@ def _run(p: Any, client: int, program: Program, e: PyBulletSettings, started: fl
     bodies: list[int] = []
     every = max(1, round(1.0 / (WATCH_RATE * e.timestep)))
     step, engine, now = 0, 0.0, 0.0
-    while now < program.duration - 1e-9 and time.perf_counter() - started < timeout:
-        while len(bodies) < len(places) and places[len(bodies)].time <= now + 1e-9:
+    end, decided, decided_at = program.duration, False, 0.0  # once a collapse is decided: ``settle`` more
+    while now < end - 1e-9 and time.perf_counter() - started < timeout:
+        while not decided and len(bodies) < len(places) and places[len(bodies)].time <= now + 1e-9:
             a, k = places[len(bodies)], len(bodies)
             half = a.brick.half_extents
             if half not in shapes:
@@ -116,7 +123,9 @@ def _run(p: Any, client: int, program: Program, e: PyBulletSettings, started: fl
         engine += time.perf_counter() - tick
         step += every
         now = step * e.timestep
-        now_at = [p.getBasePositionAndOrientation(b, **kw) for b in bodies]
-        if now_at and watch.look(now, np.array([q[0] for q in now_at]), Rotation.from_quat([q[1] for q in now_at]).as_matrix()):
-            break
-    return LeanOutcome(watch.level, time.perf_counter() - started, engine, now, step)
+        if not decided and bodies:
+            now_at = [p.getBasePositionAndOrientation(b, **kw) for b in bodies]
+            decided = watch.look(now, np.array([q[0] for q in now_at]), Rotation.from_quat([q[1] for q in now_at]).as_matrix())
+            end, decided_at = (min(end, now + settle), time.perf_counter()) if decided else (end, decided_at)
+    after = time.perf_counter() - decided_at if decided else 0.0
+    return LeanOutcome(watch.level, time.perf_counter() - started, engine, now, step, after_collapse=after)

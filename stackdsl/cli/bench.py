@@ -68,8 +68,8 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
         type=float,
         default=0.0,
         metavar="SECONDS",
-        help="how long a slant scene's run goes on once its collapse is decided (default: 0, it ends there, "
-        "as the lean peer's does; 2 also times the falling debris)",
+        help="how long a run goes on once its collapse is decided, every setting alike, the lean peers too "
+        "(default: 0, it ends there; 2 also times the falling debris, as a run of stackdsl's settles)",
     )
     p.add_argument("--quick", action="store_true", help="one small cell per setting (a smoke test)")
     p.add_argument(

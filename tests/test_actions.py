@@ -1454,3 +1454,21 @@ def test_a_throw_at_a_level_whose_bricks_have_left_it_is_not_thrown_or_aimed_at_
     assert re.search(r"aimed at c: thrown from \(80\.0, -?0\.[01], 0\.0\) mm off its aim", launch), launch
     c = next(n for n in done.final_graph.nodes if n.id == "c")
     assert c.position_mm[0] > 45.0, c.position_mm  # struck along +x
+
+
+def test_an_action_after_a_level_not_built_says_how_many_levels_there_are():
+    """A domino row is one level, however many dominoes: 'after level 15' of 15 dominoes is
+    refused, and the message says the structure has 1 level, the level to write (an impact's
+    'after level' alike)."""
+    from stackdsl.lang.errors import ScenarioError
+
+    head = "stackdsl: 1\nstructure: {dominoes: {count: 15, spacing: 30 mm}}\n"
+    push = "actions:\n  - push: {target: {brick: D01, offset: [0, 0, 45 mm]}, direction: [1, 0, 0], at: after level 15}\n"
+    throw = "impacts:\n  - {target: {point: [0, 0, 60 mm]}, direction: [1, 0, 0], speed: 1 m/s, at: after level 15}\n"
+    for body in (push, throw):
+        with pytest.raises(ScenarioError) as err:
+            compile_scenario(parse_scenario(head + body + "expect: {toppled: all}\n", "row.yaml"))
+        assert "level 15 is not built: the structure has 1 level (every brick of it on level 1)" in str(err.value)
+    tower = "stackdsl: 1\nstructure: {tower: {levels: 9}}\nactions:\n  - remove: {brick: L05.2, at: after level 10}\n"
+    with pytest.raises(ScenarioError, match="level 10 is not built: the structure has 9 levels; name a level from 1 to 9"):
+        compile_scenario(parse_scenario(tower + "expect: {stands: true}\n", "tower.yaml"))

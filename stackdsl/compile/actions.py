@@ -227,8 +227,17 @@ def _start(
         return float(spec.at)
     last = [int(k) for b, k in zip(bricks, slots) if b.level == spec.at.after_level]
     if not last:
-        raise scenario.source.error((*path, "at"), f"level {spec.at.after_level} is not built")
+        raise scenario.source.error((*path, "at"), not_built(spec.at.after_level, bricks))
     return float((last[-1] + 1) * scenario.timing.interval)
+
+
+def not_built(level: int, bricks: Sequence[LaidBrick]) -> str:
+    """Why ``level`` names no level of ``bricks``: how many levels the structure has, and which
+    to write (a domino row, however long, is one level). Source: stackdsl's own."""
+    top = max((b.level for b in bricks), default=0)
+    if top == 1:
+        return f"level {level} is not built: the structure has 1 level (every brick of it on level 1): write level 1"
+    return f"level {level} is not built: the structure has {top} levels; name a level from 1 to {top}"
 
 
 def _remove(

@@ -52,7 +52,7 @@ from ..lang.errors import FieldPath, ScenarioError, format_path
 from ..lang.schema import BUILTIN_BRICKS, Scenario, reference_errors
 from ..lang.schema_impacts import SIDES, AfterLevel, Impact
 from ..util.extras import installed, missing
-from .actions import check_measured, compile_actions, heading
+from .actions import check_measured, compile_actions, heading, not_built
 from .aim import outer_face, stepped_fall
 from .clearance import check_launch, check_pusher
 from .dynamics import check_motion
@@ -912,7 +912,7 @@ def _launch(
     if isinstance(impact.at, AfterLevel):
         last = [int(k) for b, k in zip(bricks, slots) if b.level == impact.at.after_level]
         if not last:
-            raise scenario.source.error(path + ("at",), f"level {impact.at.after_level} is not built")
+            raise scenario.source.error(path + ("at",), not_built(impact.at.after_level, bricks))
         launch_time = (last[-1] + 1) * scenario.timing.interval
     else:
         launch_time = impact.at
@@ -966,9 +966,10 @@ def _face_point(
     then is out of the scene. A level none of whose bricks is placed yet is refused at the impact's ``at``, one
     with none left at its ``target.level``."""
     path: FieldPath = ("impacts", index, "target", "level")
+    assert impact.target.level is not None, "a target without a point names a level"
     built = [b for b in bricks if b.level == impact.target.level]
     if not built:
-        raise scenario.source.error(path, f"level {impact.target.level} is not built")
+        raise scenario.source.error(path, not_built(impact.target.level, bricks))
     there = [b for b in built if placed[b.id][0] <= thrown[0]]
     if not there:
         first = min(built, key=lambda b: placed[b.id])

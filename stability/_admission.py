@@ -92,10 +92,11 @@ class Admission:
         admission test (the basic, the leaning, the debris rule) is asked of it yet.
 
         Not when another body also presses up on it (an active brick it lies on, which the
-        stack's supports leave out): propped on two bodies it is not rocking. A domino fallen 7.7 deg onto the next one of a row 60 mm apart, still active,
-        has the ground for its one stack support; called mid-rock every step, it was never
-        handed to the debris rule, and the 50 dominoes of such a row stayed awake behind the
-        front to the end (12,955 refusals, 4.7 s, where the engine took 0.8 s).
+        stack's supports leave out): propped on two bodies it is not rocking. A domino fallen
+        7.7 deg onto the next one of a row 60 mm apart, still active, has the ground for its one
+        stack support; called mid-rock every step, it was never handed to the debris rule, and
+        the 50 dominoes of such a row stayed awake behind the front to the end (12,955
+        refusals, 4.7 s, where the engine took 0.8 s).
         Source: stackdsl's own."""
         stack, points = self.stack, contacts[rec.body]
         pose = stack.engine.pose(rec.body)

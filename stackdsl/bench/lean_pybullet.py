@@ -125,7 +125,7 @@ def _run(
         now = step * e.timestep
         if not decided and bodies:
             now_at = [p.getBasePositionAndOrientation(b, **kw) for b in bodies]
-            decided = watch.look(now, np.array([q[0] for q in now_at]), Rotation.from_quat([q[1] for q in now_at]).as_matrix())
-            end, decided_at = (min(end, now + settle), time.perf_counter()) if decided else (end, decided_at)
+            if watch.look(now, np.array([q[0] for q in now_at]), Rotation.from_quat([q[1] for q in now_at]).as_matrix()):
+                decided, decided_at, end = True, time.perf_counter(), min(end, now + settle)
     after = time.perf_counter() - decided_at if decided else 0.0
     return LeanOutcome(watch.level, time.perf_counter() - started, engine, now, step, after_collapse=after)

@@ -885,6 +885,12 @@ expect: {toppled: all}
     last_woken = woken["D30"]  # the front reaches the end of the row
     frozen_again = [e.brick for e in outcome.events if e.kind == "freeze" and woken.get(e.brick, math.inf) < e.time < last_woken]
     assert {"D01", "D05", "D10"} <= set(frozen_again), frozen_again
+    # a pile frozen together: each member names what it touches, not the brick that asked, 5 dominoes off
+    together = [e for e in outcome.events if e.kind == "freeze" and "frozen together" in e.detail]
+    assert together
+    for e in together:
+        named = re.findall(r"D(\d\d)", e.detail.split("frozen together", 1)[1])
+        assert all(abs(int(n) - int(e.brick[1:])) <= 1 for n in named), (e.brick, e.detail)
 
 
 def test_compile_says_the_steps_are_split_while_a_pull_lasts_on_pybullet_only():

@@ -262,8 +262,9 @@ class Admission:
         for m in group:
             resting, main = plan[m.body]
             self.stack.freeze(m, resting, main, polygons[m.body], lifts[m.body])
-            # a partner names what it touches (its foot's support, the brick that asked if it touches it)
-            touched = dict.fromkeys(sorted((p.other for p in polygons[m.body]), key=lambda o: o == rec.body))
+            # a partner names what it touches (its foot's support), and the brick that asked if it touches it
+            asker = [rec.body] if m.body in touching else []
+            touched = dict.fromkeys([*(p.other for p in polygons[m.body] if p.other != rec.body), *asker])
             on = names if m is rec else ", ".join(self.stack.bodies[o].label for o in touched)
             if len(group) > 2:
                 still = "at rest" if self.stack.rested(m, time) else "creeping"  # the debris rule's (stability._debris)

@@ -809,6 +809,48 @@ def test_while_a_pull_lasts_the_extension_steps_pybullet_at_960_hz():
     assert during == {4} and after == {1}
 
 
+def test_a_pull_that_fells_the_tower_is_stepped_whole_once_a_brick_is_past_the_threshold():
+    """The 960 Hz steps of a pull are for the drag that decides whether the tower stands; once a
+    brick is past the collapse threshold the collapse is dated and its level fixed, and the fall
+    is stepped at the engine's own step, as every other collapse is. A 6-level Jenga tower whose
+    level 2 loses its middle block, then a side one: level 3 is left on one block and tips."""
+    from stackdsl.runtime.collapse import CollapseMonitor
+    from stackdsl.runtime.loop import Subscriber
+    from stackdsl.runtime.run import run_in, world_for
+
+    class Watch(Subscriber):
+        def __init__(self) -> None:
+            self.rows: list[tuple[float, int, bool]] = []
+
+        def after_step(self, loop):
+            monitor = next(s for s in loop.subscribers if isinstance(s, CollapseMonitor))
+            self.rows.append((loop.now, loop.world._substeps, monitor.past_threshold))
+
+    text = """stackdsl: 1
+materials:
+  maple: {density: 700 kg/m^3, friction: 0.4}
+brick_types:
+  jenga: {size: [75 mm, 25 mm, 15 mm], material: maple}
+ground: {material: maple}
+structure:
+  tower: {levels: 6, bricks_per_layer: 3, spacing: 25.5 mm, turn: 90, brick: jenga}
+timing: {interval: 0.5 s, settle: 1 s}
+actions:
+  - remove: {brick: L02.2, at: after level 6, speed: 40 mm/s}
+  - remove: {brick: L02.1, at: 12 s, speed: 40 mm/s}
+"""
+    p = compile_scenario(parse_scenario(text, "jenga.yaml"))
+    second = p.kinematic[1]
+    watch = Watch()
+    with world_for(p) as world:
+        loop = run_in(world, p, subscribers=(watch,))
+    assert ["collapse level 6" in e.detail for e in loop.events if e.kind == "collapse"] == [True]
+    during = [(s, past) for t, s, past in watch.rows if second.time + 0.01 < t < second.end_time - 0.01]
+    first = next(i for i, (_, past) in enumerate(during) if past)
+    assert first > 0 and {s for s, _ in during[:first]} == {4}  # split until a brick passes the threshold
+    assert {s for s, _ in during[first + 1 :]} == {1}  # then whole (the step it passed was split already)
+
+
 @pytest.mark.slow
 def test_a_pull_in_split_steps_ends_as_at_a_960_hz_timestep():
     """The extension's split pull is a 960 Hz step for as long as the pull lasts: on a near tie

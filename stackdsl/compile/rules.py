@@ -86,7 +86,7 @@ def _guided_rule(hands: Sequence[Remove | Push], split_pulls: bool) -> Rule:
         on=True,
         reason=f"{moved}: wakes what it carries and the frozen bricks it touches; never frozen while moved"
         + (
-            f"; steps split to at most {PULL_STEP * 1000:.3g} ms ({1 / PULL_STEP:.0f} Hz) while a pull lasts"
+            f"; steps split to at most {PULL_STEP * 1000:.3g} ms ({1 / PULL_STEP:.0f} Hz) while a pull lasts, until a brick is past the collapse threshold"
             if split_pulls and any(isinstance(m, Remove) for m in hands)
             else ""
         ),

@@ -151,6 +151,12 @@ class CollapseMonitor(Subscriber):
         """Not while a displaced brick is yet to be told rocking from falling."""
         return not self._displaced
 
+    @property
+    def past_threshold(self) -> bool:
+        """A structure brick is past the collapse threshold now, or a collapse was decided: the
+        collapse, if it comes, is dated already and its level fixed (:meth:`_track`)."""
+        return self.collapse is not None or bool(self._displaced)
+
     def on_place(self, loop: StepLoop, record: BrickRecord) -> None:
         self.record_drift(loop, exclude=record)
         self.off_support.place(loop, record)

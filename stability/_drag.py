@@ -6,7 +6,9 @@ bricks it touches are of three kinds: those that rest on it (*carried*), those i
 frozen, and the engine simulate ``P`` alone, while three things hold:
 
 * **Statics without P.** Rigid-block equilibrium of the frozen stack with ``P`` gone
-  (:func:`stability._equilibrium.solve_equilibrium`). While it lasts the pull only takes support
+  (:func:`stability._equilibrium.solve_equilibrium`; where every contact is level, by vertical
+  forces alone, :func:`stability._equilibrium.balanced_vertically`, and refused where they do
+  not hold it). While it lasts the pull only takes support
   away from the bricks on ``P`` (its overlap with each shrinks), and a support added to a set of
   blocks that stand leaves them standing (the same forces, ``P``'s at zero): proved for the end,
   it holds throughout. Asked once, when the pull starts.
@@ -45,7 +47,7 @@ from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 
 from ._engine import ContactPoint
-from ._equilibrium import RigidBlock, is_level, solve_equilibrium
+from ._equilibrium import RigidBlock, balanced_vertically, is_level, solve_equilibrium
 from ._geometry import ContactArea, Pose
 from ._graph import BrickState
 from ._leaning import pair_friction
@@ -235,13 +237,21 @@ class PullProof:
         return why
 
     def _stands_without(self) -> str | None:
-        """Rigid-block equilibrium of the frozen stack without the pulled brick."""
+        """Rigid-block equilibrium of the frozen stack without the pulled brick. Where every
+        contact is level (a Jenga tower), vertical forces alone must hold it
+        (:func:`stability._equilibrium.balanced_vertically`): refusing where they do not is
+        the safe side, and spares the program with friction, which for an 18-level tower that
+        does not stand took 0.7 s (a stack that stands is held by vertical forces in 0.01 s)."""
         stack, body = self.stack, self.body
         frozen = [r for r in stack.in_order() if r.body != body]
         blocks = {r.body: RigidBlock(r.box.mass, stack.pose(r).position) for r in frozen}
         contacts = [c for c in stack.frozen_contacts(blocks) if c.body != body and c.other != body]
         if not blocks:
             return None
+        if contacts and all(is_level(c) for c in contacts):
+            if balanced_vertically(blocks, contacts, stack.config.gravity):
+                return None
+            return "the frozen stack does not stand without it on vertical forces alone (its contacts are level)"
         if not solve_equilibrium(blocks, contacts, gravity=stack.config.gravity).stands:
             return "the frozen stack does not stand without it by rigid-block equilibrium"
         return None

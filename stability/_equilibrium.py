@@ -391,6 +391,33 @@ def upward(contact: ContactPolygon[BodyKey]) -> ContactPolygon[BodyKey]:
     return ContactPolygon(contact.other, contact.body, contact.points, -normal, contact.friction, contact.core)
 
 
+def balanced_vertically(
+    blocks: Mapping[BodyKey, RigidBlock], contacts: Sequence[ContactPolygon[BodyKey]], gravity: float = GRAVITY
+) -> bool:
+    """Do vertical compressive forces alone hold every free block, every contact being level
+    (:func:`is_level`)? The fast sufficient test that :func:`solve_equilibrium` tries first, on
+    its own: True proves that the blocks stand. False is no proof that they fall (friction
+    couples across a block's height, or a tilted contact, may hold what vertical forces do not),
+    so a caller may act on it only where refusing is the safe side (a proof not given).
+
+    Args:
+        blocks, contacts, gravity: as :func:`solve_equilibrium`'s.
+
+    Source: stackdsl's own.
+
+    >>> import numpy as np
+    >>> face = np.array([[-0.06, -0.012, 0], [0.06, -0.012, 0], [0.06, 0.012, 0], [-0.06, 0.012, 0]])
+    >>> ground = ContactPolygon("brick", "ground", face, np.array([0, 0, 1.0]), 0.5)
+    >>> balanced_vertically({"brick": RigidBlock(0.0106, np.array([0, 0, 0.004]))}, [ground])
+    True
+    >>> balanced_vertically({"brick": RigidBlock(0.0106, np.array([0.07, 0, 0.004]))}, [ground])
+    False
+    """
+    if not contacts or not all(is_level(c) for c in contacts):
+        return False
+    return _solve_vertical(blocks, contacts, gravity) is not None
+
+
 def _solve_vertical(
     blocks: Mapping[BodyKey, RigidBlock], contacts: Sequence[ContactPolygon[BodyKey]], gravity: float
 ) -> Equilibrium[BodyKey] | None:

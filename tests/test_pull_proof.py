@@ -177,3 +177,28 @@ def test_a_ride_ends_for_all_when_one_rider_wakes_or_they_tilt_or_drop():
     eng.poses[6] = Pose(eng.poses[6].position - [0.0, 0.0, 0.0015])  # its support pulled from under it
     rode = {e.label: e.reason for e in ext.update(0.85) if e.kind == "wake"}
     assert set(rode) == {"up6", "up7"} and "until it dropped 1.50 mm" in rode["up6"]
+
+
+def test_a_level_stack_that_stands_on_no_vertical_forces_without_the_pulled_block_is_refused_at_once(monkeypatch):
+    """Where every contact is level, the frozen stack must stand without the pulled block on
+    vertical forces alone; where it does not, the proof is refused without the program with
+    friction (0.7 s for an 18-level tower that a side pull fells). The block across the level
+    is left on the block at one side, its centre of mass 17.5 mm past that block's edge."""
+    import stability._drag as drag
+    from stability._drag import PullProof
+
+    eng, ext = level_over_three_blocks()
+    ext.guide(2, 0.4, "pulled", 0.04, (0.04, 0.0, 0.0))
+    eng.contacts = [c for c in eng.contacts if 2 not in (c.body, c.other)]  # the middle block taken away
+    ext.forget(2)
+    ext.update(0.5)
+    assert {ext.state(b).value for b in (1, 3, 4)} == {"frozen"}
+
+    def no_friction_program(*args, **kwargs):
+        raise AssertionError("the program with friction was solved")
+
+    monkeypatch.setattr(drag, "solve_equilibrium", no_friction_program)
+    stack = ext._stack
+    proof = PullProof(stack, 1, np.array([0.04, 0.0, 0.0]), stack.engine.near(1, 0.001))
+    assert proof.why is not None and "vertical forces alone" in proof.why
+    assert PullProof(stack, 3, np.array([0.04, 0.0, 0.0]), stack.engine.near(3, 0.001)).why == proof.why

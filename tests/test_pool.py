@@ -401,12 +401,40 @@ def test_a_worker_that_fails_says_so_in_one_line(capfd, monkeypatch):
 
 
 def test_auto_jobs_are_the_free_cores(monkeypatch):
-    """-j auto: the cores less the 1-minute load average, at least 1: on a half-busy
-    machine fewer processes than cores, on a saturated one a single process."""
+    """-j auto: the cores less what other work keeps busy, at least 1: on a half-busy
+    machine fewer processes than cores, on a saturated one a single process. Where the system
+    has no count of running tasks, the 1-minute load average stands for it."""
     from stackdsl.batch import address
     from stackdsl.cli.args import jobs_type
 
     monkeypatch.setattr(address, "cores", lambda: 4)
+    monkeypatch.setattr(address, "_running_others", lambda: None)
     for load, expected in ((0.0, 4), (1.4, 3), (2.0, 2), (3.6, 1), (40.0, 1)):
         monkeypatch.setattr(address.os, "getloadavg", lambda load=load: (load, load, load))
         assert jobs_type("auto") == expected, load
+
+
+def test_auto_jobs_count_the_tasks_running_now_not_the_last_minute(monkeypatch):
+    """The load average lags by a minute: an install just before a check left it near 1 on an
+    idle 2-core machine, and -j auto ran one process. The tasks running now decide, the
+    median of a few looks (one look that catches a passing task does not)."""
+    from stackdsl.batch import address
+
+    monkeypatch.setattr(address, "cores", lambda: 2)
+    monkeypatch.setattr(address.os, "getloadavg", lambda: (0.9, 0.5, 0.2))  # the install's, just ended
+    looks = iter([0, 1, 0, 0, 0])
+    monkeypatch.setattr(address, "_running_others", lambda: next(looks))
+    assert address.free_cores() == 2
+    monkeypatch.setattr(address, "_running_others", lambda: 1)  # another process busy on a core now
+    monkeypatch.setattr(address.os, "getloadavg", lambda: (0.05, 0.01, 0.0))  # started a moment ago
+    assert address.free_cores() == 1
+
+
+def test_the_running_tasks_are_read_from_the_kernel_less_this_process():
+    """On Linux the count is read (this process's own runnable threads left out): never negative."""
+    from stackdsl.batch import address
+
+    if not os.path.exists("/proc/loadavg"):
+        pytest.skip("no /proc/loadavg on this system: the load average stands for it")
+    running = address._running_others()
+    assert running is not None and running >= 0

@@ -283,7 +283,7 @@ def add_executor(p: argparse.ArgumentParser) -> None:
         "--jobs",
         type=jobs_type,
         default="auto",
-        help="processes, this one included (default: auto, one per free core: the cores less the load average)",
+        help="processes, this one included (default: auto, one per free core: the cores less the tasks other processes run now)",
     )
     where.add_argument(
         "--dask",

@@ -116,7 +116,7 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
         "--jobs",
         type=jobs_type,
         default="auto",
-        help="runs at the same time (default: auto, one per free core: the cores less the load average)",
+        help="runs at the same time (default: auto, one per free core: the cores less the tasks other processes run now)",
     )
     q.set_defaults(func=_bench_hard)
     q = bench.add_parser("record", help="what recording costs: the 30-level tower with recording off and on, alternately")
@@ -192,7 +192,7 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
         "--jobs",
         type=jobs_type,
         default="auto",
-        help="worker processes (default: auto, one per free core: the cores less the load average)",
+        help="worker processes (default: auto, one per free core: the cores less the tasks other processes run now)",
     )
     q.add_argument(
         "--out",

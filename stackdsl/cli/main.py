@@ -516,7 +516,7 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
         type=jobs_type,
         default="auto",
         help="runs at the same time, this process included: 1 to the number of cores, or auto (default: one per "
-        "free core, the cores less the 1-minute load average). Work estimated cheaper than starting a worker runs "
+        "free core, the cores less the tasks other processes run now). Work estimated cheaper than starting a worker runs "
         "in this process whatever -j says",
     )
     many.add_argument(

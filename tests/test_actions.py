@@ -1556,3 +1556,21 @@ def test_a_hand_aimed_at_a_level_or_a_part_is_told_to_name_one_brick(structure, 
         compile_scenario(parse_scenario(text + "expect: {stands: true}\n", "hand.yaml"))
     assert err.value.field == "actions[0].remove.brick" and told in err.value.message, err.value.message
     assert not re.search(r"did you mean '(t\.)?L05'\?|did you mean 't'\?", err.value.message), err.value.message
+
+
+def test_every_member_of_a_pile_frozen_together_names_what_it_touches():
+    """A contact between two members of a pile is held under one of them: a member whose
+    contacts were all with members held under the others named nothing, "one of 8 touching
+    bricks frozen together, with " (levels 7 and 8 of a 2-a-layer tower felled by a pull, at
+    rest on each other at 20.7 s)."""
+    text = """stackdsl: 1
+structure: {tower: {levels: 8, bricks_per_layer: 2, spacing: 96 mm, turn: 90}}
+actions:
+  - remove: {brick: L04.1, at: after level 8, speed: 30 mm/s}
+expect: {collapse: 8}
+"""
+    outcome = run_program(compile_scenario(parse_scenario(text, "cabin.yaml")))
+    together = [e for e in outcome.events if e.kind == "freeze" and "frozen together" in e.detail]
+    assert together
+    for e in together:
+        assert re.search(r"frozen together, (on|with) [A-Za-z]", e.detail), (e.brick, e.detail)

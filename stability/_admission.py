@@ -264,7 +264,9 @@ class Admission:
             self.stack.freeze(m, resting, main, polygons[m.body], lifts[m.body])
             # a partner names what it touches (its foot's support), and the brick that asked if it touches it
             asker = [rec.body] if m.body in touching else []
-            touched = dict.fromkeys([*(p.other for p in polygons[m.body] if p.other != rec.body), *asker])
+            # a contact between two members is held under one of them (plan): the other names it too
+            held = [g.body for g in group if g is not m and any(c.other == m.body for c in polygons[g.body])]
+            touched = dict.fromkeys([*(p.other for p in polygons[m.body] if p.other != rec.body), *held, *asker])
             on = names if m is rec else ", ".join(self.stack.bodies[o].label for o in touched)
             if len(group) > 2:
                 still = "at rest" if self.stack.rested(m, time) else "creeping"  # the debris rule's (stability._debris)

@@ -1520,3 +1520,57 @@ def test_an_action_after_a_level_not_built_says_how_many_levels_there_are():
     tower = "stackdsl: 1\nstructure: {tower: {levels: 9}}\nactions:\n  - remove: {brick: L05.2, at: after level 10}\n"
     with pytest.raises(ScenarioError, match="level 10 is not built: the structure has 9 levels; name a level from 1 to 9"):
         compile_scenario(parse_scenario(tower + "expect: {stands: true}\n", "tower.yaml"))
+
+
+@pytest.mark.parametrize(
+    ("structure", "written", "told"),
+    [
+        (
+            "{tower: {levels: 6, bricks_per_layer: 3, spacing: 25 mm}}",
+            "L05",
+            "'L05' names the bricks L05.1 to L05.3, not one: give the id of the one brick to pull, such as 'L05.1'",
+        ),
+        (
+            "{tower: {levels: 6, bricks_per_layer: 3, spacing: 25 mm}}",
+            "L5",
+            "no brick of the structure is 'L5' (its "
+            "bricks: L01.1, L01.2, L01.3, ...); did you mean a brick of 'L05' (the bricks L05.1 to L05.3)?",
+        ),
+        (
+            "[{name: t, tower: {levels: 6, bricks_per_layer: 3, spacing: 25 mm}}]",
+            "t",
+            "'t' names the bricks t.L01.1 to t.L06.3, not one",
+        ),
+        ("[{name: t, tower: {levels: 6, bricks_per_layer: 3, spacing: 25 mm}}]", "t.L5.2", "did you mean 't.L05.2'?"),
+        ("{tower: {levels: 6, bricks_per_layer: 1, turn: 0}}", "L05", "did you mean 'L05.1'?"),
+    ],
+)
+def test_a_hand_aimed_at_a_level_or_a_part_is_told_to_name_one_brick(structure, written, told):
+    """A level ('L05') or a part ('t') names bricks in an expectation, not the one brick a hand
+    pulls: the hint was "no brick of the structure is 'L05' ...; did you mean 'L05'?", the
+    same word refused again, and 'L5' was offered 'L05', which is refused in turn."""
+    from stackdsl.lang.errors import ScenarioError
+
+    text = f"stackdsl: 1\nstructure: {structure}\nactions:\n  - remove: {{brick: {written}, at: after level 6}}\n"
+    with pytest.raises(ScenarioError) as err:
+        compile_scenario(parse_scenario(text + "expect: {stands: true}\n", "hand.yaml"))
+    assert err.value.field == "actions[0].remove.brick" and told in err.value.message, err.value.message
+    assert not re.search(r"did you mean '(t\.)?L05'\?|did you mean 't'\?", err.value.message), err.value.message
+
+
+def test_every_member_of_a_pile_frozen_together_names_what_it_touches():
+    """A contact between two members of a pile is held under one of them: a member whose
+    contacts were all with members held under the others named nothing, "one of 8 touching
+    bricks frozen together, with " (levels 7 and 8 of a 2-a-layer tower felled by a pull, at
+    rest on each other at 20.7 s)."""
+    text = """stackdsl: 1
+structure: {tower: {levels: 8, bricks_per_layer: 2, spacing: 96 mm, turn: 90}}
+actions:
+  - remove: {brick: L04.1, at: after level 8, speed: 30 mm/s}
+expect: {collapse: 8}
+"""
+    outcome = run_program(compile_scenario(parse_scenario(text, "cabin.yaml")))
+    together = [e for e in outcome.events if e.kind == "freeze" and "frozen together" in e.detail]
+    assert together
+    for e in together:
+        assert re.search(r"frozen together, (on|with) [A-Za-z]", e.detail), (e.brick, e.detail)

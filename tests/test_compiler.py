@@ -76,6 +76,20 @@ def test_times_must_be_whole_timesteps():
     program("stackdsl: 1\nstructure: {tower: {levels: 2}}\ntiming: {interval: 0.301 s}\nengine: {timestep: 1 ms}\n")
 
 
+def test_a_time_off_the_grid_of_a_step_the_file_did_not_write_says_whose_step_it_is():
+    """0.25 s runs on pybullet (60 steps of 1/240 s) and was refused on MuJoCo's extension with
+    "0.25 s is not a whole number of timesteps (4 ms)", a step the file never wrote: the
+    message names the engine and mode it comes from; a step the file writes is its own."""
+    text = "stackdsl: 1\nstructure: {tower: {levels: 2}}\ntiming: {interval: 0.25 s}\nengine: {backend: mujoco}\n"
+    with pytest.raises(ScenarioError) as info:
+        program(text)
+    assert info.value.field == "timing.interval"
+    assert "(4 ms, mujoco's in extension mode); use a multiple such as 0.248 s" in info.value.message
+    with pytest.raises(ScenarioError) as info:
+        program(text.replace("backend: mujoco", "timestep: 3 ms"))
+    assert "0.25 s is not a whole number of timesteps (3 ms); use a multiple such as 0.249 s" in info.value.message
+
+
 @pytest.mark.parametrize(
     ("tail", "field", "where", "write"),
     [

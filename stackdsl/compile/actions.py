@@ -29,7 +29,7 @@ from stability import Box, Pose
 
 from ..engines.protocol import BrickSpec
 from ..lang.errors import FieldPath, ScenarioError
-from ..lang.expectations import bricks_of, closest, levels_of, selects
+from ..lang.expectations import bricks_of, levels_of, nearest, selects
 from ..lang.schema import Scenario
 from ..lang.schema_actions import AXES, SAMPLES_A_PERIOD, Action, AfterPrevious
 from ..lang.schema_actions import Push as WrittenPush
@@ -748,12 +748,30 @@ def _above_ground(
 
 
 def _unknown(name: str, bricks: Sequence[LaidBrick], fixtures: Sequence[str], verb: str) -> str:
-    """Why no brick of the structure is ``name``: a fixture (fixed: a hand cannot ``verb`` it), or
-    none at all; with the structure's first bricks."""
-    listed = ", ".join(b.id for b in bricks[:3]) + (", ..." if len(bricks) > 3 else "")
+    """Why no brick of the structure is ``name``: a fixture (fixed: a hand cannot ``verb`` it), the
+    start of several ids (a level 'L05', a part 'left', which name bricks in an expectation but
+    not the one brick a hand takes), or none at all; with the structure's first bricks, and a
+    hint that is a brick's id: a start of ids offered as 'did you mean' was refused again."""
+    ids = [b.id for b in bricks]
+    listed = ", ".join(ids[:3]) + (", ..." if len(ids) > 3 else "")
     if name in fixtures:
         return f"{name!r} is fixed (a fixture): a hand does not {verb} it; the structure's bricks: {listed}"
-    return f"no brick of the structure is {name!r} (its bricks: {listed}){closest(name, [b.id for b in bricks])}"
+    named = [i for i in ids if selects(name, i)]
+    if len(named) > 1:
+        return f"{name!r} names {_span(named)}, not one: give the id of the one brick to {verb}, such as {named[0]!r}"
+    near = named[0] if named else nearest(name, ids)
+    if near is None:
+        hint = ""
+    elif near in ids:
+        hint = f"; did you mean {near!r}?"
+    else:
+        hint = f"; did you mean a brick of {near!r} ({_span([i for i in ids if selects(near, i)])})?"
+    return f"no brick of the structure is {name!r} (its bricks: {listed}){hint}"
+
+
+def _span(ids: Sequence[str]) -> str:
+    """``L05.1 to L05.3``, or the one id."""
+    return ids[0] if len(ids) == 1 else f"the bricks {ids[0]} to {ids[-1]}"
 
 
 def _vec(v: np.ndarray) -> tuple[float, float, float]:

@@ -229,8 +229,11 @@ class Compilation:
         return self.scenario.collapse_threshold or min(min(self.specs[b.type].half_extents) for b in self.bricks)
 
     def steps(self, path: FieldPath, seconds: float) -> int:
-        """``seconds`` as a whole number of the engine's timesteps, or a ScenarioError at ``path`` (:func:`_steps`)."""
-        return _steps(self.scenario, path, seconds, self.engine.timestep)
+        """``seconds`` as a whole number of the engine's timesteps, or a ScenarioError at ``path`` (:func:`_steps`),
+        which says whose the timestep is when the file does not write it (a mode's, or the other engine's)."""
+        e = self.engine
+        whose = "" if _written(self.scenario, ("engine", "timestep")) else f", {e.backend}'s in {e.mode} mode"
+        return _steps(self.scenario, path, seconds, e.timestep, whose)
 
     def present(self, step: int) -> list[tuple[str, BrickSpec, Pose]]:
         """(id, body, pose as placed) of every body in the scene at ``step``: the bricks placed by
@@ -829,11 +832,12 @@ def _nothing_placed_on_pulled(
                 )
 
 
-def _steps(scenario: Scenario, path: FieldPath, seconds: float, dt: float) -> int:
+def _steps(scenario: Scenario, path: FieldPath, seconds: float, dt: float, whose: str = "") -> int:
     """``seconds`` as a whole number of timesteps (``dt``, s), or a ScenarioError at ``path``:
     a time past the run's limit (:data:`MAX_SIMULATED_TIME`: the run would last at least that
     long, and a time of 1e306 s or more counts no whole number of steps), or one off the grid
-    (also a positive duration shorter than one timestep). Source: stackdsl's own."""
+    (also a positive duration shorter than one timestep); ``whose`` follows the step's length in
+    the message (``", mujoco's in extension mode"``). Source: stackdsl's own."""
     if not seconds <= MAX_SIMULATED_TIME:
         raise scenario.source.error(
             path, f"the run would last at least {_seconds(seconds)} s; at most {MAX_SIMULATED_TIME:.0f} s are simulated"
@@ -841,14 +845,13 @@ def _steps(scenario: Scenario, path: FieldPath, seconds: float, dt: float) -> in
     steps = seconds / dt
     if abs(steps - round(steps)) > 1e-6 * max(1.0, steps) or (seconds > 0 and round(steps) == 0):
         such = f"{max(1, round(steps)) * dt:.6g} s"
+        step = f"({dt * 1000:.4g} ms{whose})"
         if _written(scenario, path):
             raise scenario.source.error(
-                path, f"{seconds:g} s is not a whole number of timesteps ({dt * 1000:.4g} ms); use a multiple such as {such}"
+                path, f"{seconds:g} s is not a whole number of timesteps {step}; use a multiple such as {such}"
             )
         raise _at_default(
-            scenario,
-            path,
-            f"the default {seconds:g} s is not a whole number of timesteps ({dt * 1000:.4g} ms): write {path[-1]}: {such}",
+            scenario, path, f"the default {seconds:g} s is not a whole number of timesteps {step}: write {path[-1]}: {such}"
         )
     return round(steps)
 

@@ -246,6 +246,17 @@ def closest(selector: str, ids: Sequence[str]) -> str:
     >>> closest("L1", ["L01.1", "L12.1"]), closest("L02.1", ["west.L02.1"])
     ("; did you mean 'L01'?", "; did you mean 'west.L02.1'?")
     """
+    near = nearest(selector, ids)
+    return f"; did you mean {near!r}?" if near is not None else ""
+
+
+def nearest(selector: str, ids: Sequence[str]) -> str | None:
+    """The id, or start of ids up to a '.', of ``ids`` nearest to ``selector``, or None
+    (:func:`closest`). Source: stackdsl's own.
+
+    >>> nearest("L5", ["L05.1", "L05.2"]), nearest("X", ["L05.1"])
+    ('L05', None)
+    """
     starts = list(dict.fromkeys(i.rsplit(".", k)[0] for i in ids for k in range(i.count(".") + 1)))
     tails: dict[str, str] = {}
     for start in starts:  # each start, and each without its part's name ('L01.1' for 'left.L01.1'), the first kept
@@ -258,7 +269,7 @@ def closest(selector: str, ids: Sequence[str]) -> str:
 
     same = [t for t in tails if numbers(t) == numbers(selector)]
     close = same or difflib.get_close_matches(selector, list(tails), n=1, cutoff=0.6)
-    return f"; did you mean {tails[close[0]]!r}?" if close else ""
+    return tails[close[0]] if close else None
 
 
 def levels_of(selection: Iterable[int | str]) -> tuple[int, ...]:

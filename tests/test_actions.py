@@ -1574,3 +1574,18 @@ expect: {collapse: 8}
     assert together
     for e in together:
         assert re.search(r"frozen together, (on|with) [A-Za-z]", e.detail), (e.brick, e.detail)
+
+
+def test_a_push_takes_an_axis_by_name_as_a_pull_does():
+    """A pull's direction may be '+x', '-x', '+y' or '-y'; a new user wrote the same for a push
+    and was told it expected a list. Both forms now compile to the same push."""
+    text = """stackdsl: 1
+structure: {tower: {levels: 2}}
+actions:
+  - push: {target: {brick: L02.1}, direction: DIR, speed: 0.05 m/s, distance: 20 mm, at: after level 2}
+"""
+    named = compile_scenario(parse_scenario(text.replace("DIR", "-y"), "push.yaml"))
+    listed = compile_scenario(parse_scenario(text.replace("DIR", "[0, -1, 0]"), "push.yaml"))
+    (a,) = [k for k in named.kinematic if isinstance(k, Push)]
+    (b,) = [k for k in listed.kinematic if isinstance(k, Push)]
+    assert a.velocity == b.velocity and a.velocity[1] < 0

@@ -382,7 +382,7 @@ def _push(
     p = action.push
     assert p is not None
     path: FieldPath = ("actions", index, "push")
-    direction = np.array(p.direction, dtype=float)
+    direction = np.array(AXES[p.direction] if isinstance(p.direction, str) else p.direction, dtype=float)
     direction /= np.linalg.norm(direction)
     if p.target.brick is not None:
         found = [(b, int(k)) for b, k in zip(bricks, slots) if b.id == p.target.brick]

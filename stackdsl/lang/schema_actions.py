@@ -181,7 +181,10 @@ class Push(StrictModel):
     withdrawn: a robot's finger, a bulldozer's blade."""
 
     target: Annotated[PushTarget, Field(description="what is pushed: {brick: ID, offset} or {point: [x, y, z]}")]
-    direction: Annotated[Direction, Field(description="the push's direction ([x, y, z], any length)", examples=[[1, 0, 0]])]
+    direction: Annotated[
+        Literal["+x", "-x", "+y", "-y"] | Direction,
+        Field(description="the push's direction ('+x', '-x', '+y', '-y' or [x, y, z], any length)", examples=["+x", [1, 0, 0]]),
+    ]
     at: Annotated[ActionWhen, Field(description="when the pusher enters and starts to move", examples=["1 s", "after level 3"])]
     speed: Annotated[
         GuideSpeed,

@@ -213,7 +213,9 @@ class StabilityExtension:
         if events or not config.per_event:
             events += self._tests.run(time)
         if config.impacts:
-            hits = self._impacts.check(free, stack.engine.timestep, time, touched, speeds if stack.version == read_at else None)
+            hits = self._impacts.check(
+                free, stack.engine.timestep, time, touched, speeds if stack.version == read_at else None, WATCH
+            )
             events += hits
             if any(e.kind == "wake" for e in hits):
                 events += self._tests.run(time)

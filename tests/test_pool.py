@@ -422,7 +422,7 @@ def test_auto_jobs_count_the_tasks_running_now_not_the_last_minute(monkeypatch):
 
     monkeypatch.setattr(address, "cores", lambda: 2)
     monkeypatch.setattr(address.os, "getloadavg", lambda: (0.9, 0.5, 0.2))  # the install's, just ended
-    looks = iter([0, 1, 0, 0, 0])
+    looks = iter([0, 1, 0])
     monkeypatch.setattr(address, "_running_others", lambda: next(looks))
     assert address.free_cores() == 2
     monkeypatch.setattr(address, "_running_others", lambda: 1)  # another process busy on a core now

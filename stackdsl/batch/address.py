@@ -46,7 +46,7 @@ def free_cores(load: float | None = None) -> int:
     return max(1, min(cores(), cores() - round(load)))
 
 
-def busy(samples: int = 5, gap: float = 0.01) -> float:
+def busy(samples: int = 3, gap: float = 0.01) -> float:
     """How many tasks of other processes are running on this machine now: the median, over
     ``samples`` reads ``gap`` seconds apart, of the kernel's count of runnable tasks
     (``/proc/loadavg``'s fourth field) less this process's own; where there is no such count,

@@ -46,6 +46,31 @@ def test_the_schemas_own_example_of_actions_loads():
     assert [a.kind for a in program.kinematic] == ["remove"]
 
 
+JENGA_6 = """stackdsl: 1
+materials:
+  maple: {density: 700 kg/m^3, friction: 0.4}
+brick_types:
+  jenga: {size: [75 mm, 25 mm, 15 mm], material: maple}
+ground: {material: maple}
+structure:
+  tower: {levels: 6, bricks_per_layer: 3, spacing: 25.5 mm, turn: 90, brick: jenga}
+timing: {interval: 0.5 s, settle: 1 s}
+"""
+"""A 6-level Jenga tower of maple blocks, three a level, without its actions."""
+
+
+def pushed_row(count: int, spacing: str, settle: str) -> str:
+    """A row of ``count`` KAPLA dominoes ``spacing`` apart, its first pushed over near its top,
+    the run going on ``settle`` after the collapse; every domino is to topple."""
+    return (
+        f"stackdsl: 1\nstructure: {{dominoes: {{count: {count}, spacing: {spacing}}}}}\n"
+        f"timing: {{interval: 0.1 s, settle: {settle}}}\nactions:\n"
+        "  - push: {target: {brick: D01, offset: [0, 0, 45 mm]}, direction: [1, 0, 0], speed: 0.2 m/s,"
+        " distance: 15 mm, at: after level 1}\n"
+        "expect: {toppled: all}\n"
+    )
+
+
 SCENE = """stackdsl: 1
 structure: {tower: {levels: 3}}
 actions:
@@ -154,18 +179,7 @@ def test_a_side_pull_holds_the_level_it_drags_with_friction_anchors(monkeypatch)
     a millimetre)."""
     from stackdsl.engines.pybullet.world import PyBulletWorld
 
-    text = """stackdsl: 1
-materials:
-  maple: {density: 700 kg/m^3, friction: 0.4}
-brick_types:
-  jenga: {size: [75 mm, 25 mm, 15 mm], material: maple}
-ground: {material: maple}
-structure:
-  tower: {levels: 6, bricks_per_layer: 3, spacing: 25.5 mm, turn: 90, brick: jenga}
-timing: {interval: 0.5 s, settle: 1 s}
-actions:
-  - remove: {brick: L03.1, at: after level 6, speed: 40 mm/s}
-"""
+    text = JENGA_6 + "actions:\n  - remove: {brick: L03.1, at: after level 6, speed: 40 mm/s}\n"
 
     def drag() -> float:
         outcome = run_program(compile_scenario(parse_scenario(text, "side_pull.yaml")))
@@ -826,19 +840,10 @@ def test_a_pull_that_fells_the_tower_is_stepped_whole_once_a_brick_is_past_the_t
             monitor = next(s for s in loop.subscribers if isinstance(s, CollapseMonitor))
             self.rows.append((loop.now, loop.world._substeps, monitor.past_threshold))
 
-    text = """stackdsl: 1
-materials:
-  maple: {density: 700 kg/m^3, friction: 0.4}
-brick_types:
-  jenga: {size: [75 mm, 25 mm, 15 mm], material: maple}
-ground: {material: maple}
-structure:
-  tower: {levels: 6, bricks_per_layer: 3, spacing: 25.5 mm, turn: 90, brick: jenga}
-timing: {interval: 0.5 s, settle: 1 s}
-actions:
-  - remove: {brick: L02.2, at: after level 6, speed: 40 mm/s}
-  - remove: {brick: L02.1, at: 12 s, speed: 40 mm/s}
-"""
+    text = JENGA_6 + (
+        "actions:\n  - remove: {brick: L02.2, at: after level 6, speed: 40 mm/s}\n"
+        "  - remove: {brick: L02.1, at: 12 s, speed: 40 mm/s}\n"
+    )
     p = compile_scenario(parse_scenario(text, "jenga.yaml"))
     second = p.kinematic[1]
     watch = Watch()
@@ -914,13 +919,7 @@ def test_fallen_dominoes_propped_on_the_next_are_frozen_behind_the_front():
     debris rule, and the row stayed awake behind the front to the end (50 dominoes: 4.9 s, the
     engine 0.7 s). Propped on two bodies it is not rocking: the first dominoes are frozen again
     while the front is still on its way."""
-    text = """stackdsl: 1
-structure: {dominoes: {count: 30, spacing: 60 mm}}
-timing: {interval: 0.1 s, settle: 2 s}
-actions:
-  - push: {target: {brick: D01, offset: [0, 0, 45 mm]}, direction: [1, 0, 0], speed: 0.2 m/s, distance: 15 mm, at: after level 1}
-expect: {toppled: all}
-"""
+    text = pushed_row(30, "60 mm", "2 s")
     outcome = run_program(compile_scenario(parse_scenario(text, "row.yaml")))
     assert len(outcome.toppled) == 30
     woken = {e.brick: e.time for e in outcome.events if e.kind == "wake"}
@@ -1599,13 +1598,7 @@ def test_a_pile_leaning_on_a_creeping_domino_is_left_to_its_watch():
     woke the whole pile, which froze and woke again (100 dominoes: 245 pile wakes). The watch
     follows a brick a pile leans on and wakes the pile once it has moved 1 mm, so a slow touch is
     left to it: no touch slower than 1 mm a step wakes a brick against a barrier of 0."""
-    text = """stackdsl: 1
-structure: {dominoes: {count: 60, spacing: 30 mm}}
-timing: {interval: 0.1 s, settle: 3 s}
-actions:
-  - push: {target: {brick: D01, offset: [0, 0, 45 mm]}, direction: [1, 0, 0], speed: 0.2 m/s, distance: 15 mm, at: after level 1}
-expect: {toppled: all}
-"""
+    text = pushed_row(60, "30 mm", "3 s")
     outcome = run_program(compile_scenario(parse_scenario(text, "row.yaml")))
     assert len(outcome.toppled) == 60
     slow = [

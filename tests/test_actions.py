@@ -1609,3 +1609,22 @@ def test_a_pile_leaning_on_a_creeping_domino_is_left_to_its_watch():
         and float(m.group(1)) < 0.24
     ]
     assert slow == []
+
+
+@pytest.mark.parametrize(
+    ("at", "said"),
+    [
+        ("after level 0", "expected a level from 1 to"),
+        ("-3 s", "expected a time >= 0"),
+        ("soon", "'after the previous action'"),
+    ],
+)
+def test_a_hands_time_out_of_range_is_said_as_such(at, said):
+    """A new user's `at: after level 0` and `at: -3 s` were told only what a time looks like; the
+    level's range and the sign are said now, as an impact's time says them."""
+    from stackdsl.lang.errors import ScenarioError
+
+    text = f"stackdsl: 1\nstructure: {{tower: {{levels: 2}}}}\nactions:\n  - remove: {{brick: L02.1, at: {at}}}\n"
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(text, "at.yaml")
+    assert said in info.value.message and "actions[0].remove.at" in str(info.value)

@@ -44,7 +44,9 @@ def _action_when(value: Any) -> Any:
         return AfterPrevious(after="the previous action")
     try:
         return _when(value)
-    except ValueError:
+    except ValueError as exc:
+        if not str(exc).startswith("expected a time such as"):
+            raise  # a level out of range, or a negative time: said as such
         raise ValueError(
             f"expected a time such as '14 s', 'after level N' or 'after the previous action', got {spelled(value)}"
         ) from None

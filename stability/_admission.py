@@ -259,13 +259,17 @@ class Admission:
         plan = plan or self.plan(group, polygons)
         names = ", ".join(self.stack.bodies[o].label for o in touching if o != rec.body)
         lifts = self.lifts(group, plan, contacts)
+        # a contact between two members is held under one of them (plan): the other names it too
+        held_by: dict[int, list[int]] = {}
+        for g in group:
+            for other in dict.fromkeys(c.other for c in polygons[g.body]):
+                held_by.setdefault(other, []).append(g.body)
         for m in group:
             resting, main = plan[m.body]
             self.stack.freeze(m, resting, main, polygons[m.body], lifts[m.body])
             # a partner names what it touches (its foot's support), and the brick that asked if it touches it
             asker = [rec.body] if m.body in touching else []
-            # a contact between two members is held under one of them (plan): the other names it too
-            held = [g.body for g in group if g is not m and any(c.other == m.body for c in polygons[g.body])]
+            held = [b for b in held_by.get(m.body, ()) if b != m.body]
             touched = dict.fromkeys([*(p.other for p in polygons[m.body] if p.other != rec.body), *held, *asker])
             on = names if m is rec else ", ".join(self.stack.bodies[o].label for o in touched)
             if len(group) > 2:

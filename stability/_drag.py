@@ -248,10 +248,13 @@ class PullProof:
         contacts = [c for c in stack.frozen_contacts(blocks) if c.body != body and c.other != body]
         if not blocks:
             return None
-        if contacts and all(is_level(c) for c in contacts):
-            if balanced_vertically(blocks, contacts, stack.config.gravity):
-                return None
-            return "the frozen stack does not stand without it on vertical forces alone (its contacts are level)"
+        vertical = balanced_vertically(blocks, contacts, stack.config.gravity)  # None: a contact is not level
+        if vertical is not None:
+            return (
+                None
+                if vertical
+                else "the frozen stack does not stand without it on vertical forces alone (its contacts are level)"
+            )
         if not solve_equilibrium(blocks, contacts, gravity=stack.config.gravity).stands:
             return "the frozen stack does not stand without it by rigid-block equilibrium"
         return None

@@ -393,12 +393,13 @@ def upward(contact: ContactPolygon[BodyKey]) -> ContactPolygon[BodyKey]:
 
 def balanced_vertically(
     blocks: Mapping[BodyKey, RigidBlock], contacts: Sequence[ContactPolygon[BodyKey]], gravity: float = GRAVITY
-) -> bool:
-    """Do vertical compressive forces alone hold every free block, every contact being level
-    (:func:`is_level`)? The fast sufficient test that :func:`solve_equilibrium` tries first, on
-    its own: True proves that the blocks stand. False is no proof that they fall (friction
-    couples across a block's height, or a tilted contact, may hold what vertical forces do not),
-    so a caller may act on it only where refusing is the safe side (a proof not given).
+) -> bool | None:
+    """Do vertical compressive forces alone hold every free block? None when there is no contact
+    or one is not level (:func:`is_level`: the test does not apply). The fast sufficient test
+    that :func:`solve_equilibrium` tries first, on its own: True proves that the blocks stand.
+    False is no proof that they fall (friction couples across a block's height may hold what
+    vertical forces do not), so a caller may act on it only where refusing is the safe side (a
+    proof not given).
 
     Args:
         blocks, contacts, gravity: as :func:`solve_equilibrium`'s.
@@ -414,7 +415,7 @@ def balanced_vertically(
     False
     """
     if not contacts or not all(is_level(c) for c in contacts):
-        return False
+        return None
     return _solve_vertical(blocks, contacts, gravity) is not None
 
 

@@ -17,9 +17,12 @@ frozen, and the engine simulate ``P`` alone, while three things hold:
   on ``P`` by the stability model's shares (:func:`stability._load.split_load`, report 3.3.6:
   equal shares on three blocks, the lever rule on two). ``A``'s other supports must hold that
   drag, :data:`DRAG_SAFETY` times over, each within its Coulomb cone under its own share of the
-  load, force and twist about the vertical both balanced (:func:`drag_held`, a small linear
-  program: a side block's drag acts off the level's centre line and twists it). Asked again as
-  the overlap shrinks (the shares move).
+  load, force and twist about the vertical both balanced (:func:`held_together`, a small linear
+  program: a side block's drag acts off the level's centre line and twists it). Where frozen
+  bricks rest on the carried ones, their friction ties them into one: together they must hold
+  the drag :data:`TIE_SAFETY` times over, one program for them all (carried bricks that each
+  hold it :data:`DRAG_SAFETY` times over hold it so tied). Asked again as the overlap shrinks
+  (the shares move).
 * **The drag on what P rests on.** Each brick under ``P`` is dragged by at most ``mu`` times the
   whole load on ``P``; its supports must hold that as above, under its load without ``P``'s.
 
@@ -30,19 +33,23 @@ wakes what rests on ``P`` and the bricks beside it, as it did before (the engine
 :data:`DRAG_SAFETY` covers the share's indeterminacy: a block on three supports is statically
 indeterminate, and an engine whose contacts load the middle one more (compliant
 contacts: docs/actions.md) drags more. With equal shares the two side blocks of a Jenga level
-hold the level above against twice the middle block's drag; a side block's drag acts 25 mm off
-the centre line and the level is a near tie (docs/actions.md): the proof fails, and the pull is
-simulated. Source: stackdsl's own, on Coulomb friction and the report's load shares.
+hold the level above against twice the middle block's drag. A side block's drag acts 25 mm off
+the centre line: each block of the level above holds 0.89 of it alone, and 1.14 of it tied by
+the level resting on them. The tied proof takes the report's shares as they are, with a smaller
+margin (:data:`TIE_SAFETY`): a model choice, measured against the engines in
+docs/results/actions-freeze.md. The level under the top one, which nothing ties, is simulated.
+Source: stackdsl's own, on Coulomb friction and the report's load shares.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Collection, Mapping, Sequence
+from dataclasses import dataclass, replace
 
 import numpy as np
 import shapely
 from scipy.optimize import linprog
+from scipy.sparse import coo_matrix
 from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 
@@ -51,13 +58,20 @@ from ._equilibrium import RigidBlock, balanced_vertically, is_level, solve_equil
 from ._geometry import ContactArea, Pose
 from ._graph import BrickState
 from ._leaning import pair_friction
-from ._load import LoadNode, propagate, split_load
+from ._load import Load, LoadNode, propagate, split_load
 from ._stack import Stack
 
 DRAG_SAFETY = 1.5
 """How many times over a frozen brick's other supports must hold the drag of a pulled brick:
 a middle Jenga block may carry up to 40% of the level above (equal shares: a third) and the
 level still be proved held."""
+
+TIE_SAFETY = 1.1
+"""How many times over the bricks a pull drags, tied into one by the frozen bricks resting on
+them, must hold the drag at the report's load shares, where one of them alone does not hold it
+:data:`DRAG_SAFETY` times over: the level above a side block of a Jenga level, whose drag acts
+off the level's centre line. At equal shares the tied level holds 1.14 times the drag (one
+block alone 0.89; docs/results/actions-freeze.md, "A side pull proved on the tied level")."""
 
 LEVEL = 0.999
 """Least vertical component of a level contact's normal."""
@@ -94,80 +108,117 @@ def footprint(half_extents: np.ndarray, pose: Pose) -> Polygon:
     return hull
 
 
-def drag_held(
-    supports: Mapping[int, ContactArea],
-    loads: Mapping[int, tuple[float, np.ndarray]],
-    friction: Mapping[int, float],
-    drag: np.ndarray,
-    at: np.ndarray,
-    gravity: float,
-) -> bool:
-    """Can the supports of a frozen brick hold a horizontal ``drag`` on it?
+@dataclass(frozen=True)
+class Dragged:
+    """A frozen brick in a drag proof: what holds it, and the drag of a pulled brick on it.
 
-    Args:
-        supports: support body -> contact area (level, convex).
+    Attributes:
+        supports: support body -> contact area (level, convex). A support that is itself a
+            :class:`Dragged` of the same proof takes the friction force back (the two are tied).
         loads: support body -> (equivalent mass in kg, point of application shape (3,) in
             metres): the brick's load on it (:func:`stability._load.split_load`).
         friction: support body -> Coulomb coefficient of the pair.
-        drag: shape (2,), newtons, the horizontal force on the brick.
-        at: shape (2,), metres, where it acts.
+        drag: shape (2,), newtons, the horizontal force a pulled brick's friction puts on it
+            (zero for a brick that only ties the dragged ones).
+        at: shape (2,), metres, where the drag acts.
+
+    Source: stackdsl's own.
+    """
+
+    supports: Mapping[int, ContactArea]
+    loads: Mapping[int, tuple[float, np.ndarray]]
+    friction: Mapping[int, float]
+    drag: np.ndarray
+    at: np.ndarray
+
+
+def held_together(bricks: Mapping[int, Dragged], gravity: float) -> bool:
+    """Can the supports of frozen bricks hold the horizontal drags on them, together?
+
+    Each contact of a brick with a support pushes with the brick's load share on it (its normal
+    force's resultant and point fixed, :func:`stability._load.split_load`), spread over the
+    corners of the contact area as the program likes, each corner's friction inside the friction
+    pyramid of :data:`SIDES` sides inscribed in its Coulomb cone (so the program allows only
+    what the cone allows). Every brick must balance, force and twist about the vertical; a
+    friction force between two of ``bricks`` acts on both, equal and opposite (the brick on top
+    ties the ones it lies on).
+
+    Args:
+        bricks: body -> :class:`Dragged`.
         gravity: m/s^2.
 
     Returns:
-        True when forces exist at the vertices of each contact area, each within its inscribed
-        friction pyramid under a normal force whose resultant is the support's load at its
-        point, that balance ``drag`` and its twist about the vertical.
+        True when such forces exist; False when they do not, or a brick has no loaded support.
+
+    Example:
+        >>> from shapely.geometry import box
+        >>> from stability._geometry import ContactArea
+        >>> pad = ContactArea(box(-0.01, -0.01, 0.01, 0.01), 0.0, np.array([0.0, 0.0, 1.0]), True)
+        >>> brick = lambda drag: Dragged({0: pad}, {0: (1.0, np.zeros(3))}, {0: 0.5}, np.array([drag, 0.0]), np.zeros(2))
+        >>> held_together({1: brick(4.0)}, 9.81), held_together({1: brick(5.0)}, 9.81)
+        (True, False)
 
     Source: Coulomb friction; stackdsl's own linear program (scipy's HiGHS).
     """
-    edges = np.array([[math.cos(2 * math.pi * k / SIDES), math.sin(2 * math.pi * k / SIDES)] for k in range(SIDES)])
-    scale = max(float(np.hypot(*drag)), 1e-12)
-    cols: list[tuple[int, int, np.ndarray]] = []  # (support index, vertex, position)
-    rows_eq: list[dict[int, float]] = []
-    rhs_eq: list[float] = []
-    per = 1 + SIDES
-    held = [(s, a) for s, a in supports.items() if loads.get(s, (0.0, at))[0] > 0.0]
-    if not held:
-        return False
-    for i, (_, area) in enumerate(held):
-        ring = np.asarray(shapely.get_coordinates(area.polygon.exterior))[:-1]
-        for v in ring:
-            cols.append((i, len(cols), v - at))
-    n = len(cols) * per
-    force_x, force_y, twist = {}, {}, {}
-    ub_rows = []
-    for j, (i, _, r) in enumerate(cols):
-        s = held[i][0]
-        mu = friction[s]
-        for k in range(SIDES):
-            c = j * per + 1 + k
-            ex, ey = mu * edges[k]
-            force_x[c], force_y[c] = ex, ey
-            twist[c] = float(r[0] * ey - r[1] * ex)
-        ub_rows.append({j * per + kk: 1.0 for kk in range(1, per)} | {j * per: -1.0})
-    for i, (s, _) in enumerate(held):
-        mass, point = loads[s]
-        normal = mass * gravity / scale
-        members = [j for j, (ii, _, _) in enumerate(cols) if ii == i]
-        rel = np.asarray(point[:2], dtype=float) - at
-        rows_eq.append({j * per: 1.0 for j in members})
-        rhs_eq.append(normal)
-        rows_eq.append({j * per: float(cols[j][2][0]) for j in members})
-        rhs_eq.append(normal * float(rel[0]))
-        rows_eq.append({j * per: float(cols[j][2][1]) for j in members})
-        rhs_eq.append(normal * float(rel[1]))
-    rows_eq += [force_x, force_y, twist]
-    rhs_eq += [-float(drag[0]) / scale, -float(drag[1]) / scale, 0.0]
-    a_eq = np.zeros((len(rows_eq), n))
-    for r_i, row in enumerate(rows_eq):
-        for c, value in row.items():
-            a_eq[r_i, c] = value
-    a_ub = np.zeros((len(ub_rows), n))
-    for r_i, row in enumerate(ub_rows):
-        for c, value in row.items():
-            a_ub[r_i, c] = value
+    scale = max([float(np.hypot(*b.drag)) for b in bricks.values()] + [1e-12])
+    origin = np.mean([np.asarray(b.at, dtype=float) for b in bricks.values()], axis=0)
+    index = {body: i for i, body in enumerate(bricks)}
+    rings, owner, other, mu, normal = [], [], [], [], []  # per loaded contact
+    for body, brick in bricks.items():
+        held = [(s, a) for s, a in brick.supports.items() if brick.loads.get(s, (0.0, None))[0] > 0.0]
+        if not held:
+            return False
+        for s, area in held:
+            rings.append(np.asarray(shapely.get_coordinates(area.polygon.exterior))[:-1] - origin)
+            mass, point = brick.loads[s]
+            force = mass * gravity / scale
+            normal.append([force, force * (float(point[0]) - origin[0]), force * (float(point[1]) - origin[1])])
+            owner.append(index[body])
+            other.append(index.get(s, -1))
+            mu.append(brick.friction[s])
+    sizes = np.array([len(r) for r in rings])
+    corner = np.concatenate(rings)  # (C, 2): every corner, relative to the origin
+    contact = np.repeat(np.arange(len(rings)), sizes)  # (C,): its contact
+    count, per = len(corner), 1 + SIDES  # a corner's normal force, then its weight on each pyramid edge
+    # friction: (C, SIDES, 3) -> fx, fy and twist of each edge of each corner's pyramid
+    edge = np.stack([np.cos(2 * np.pi * np.arange(SIDES) / SIDES), np.sin(2 * np.pi * np.arange(SIDES) / SIDES)], axis=1)
+    f = np.asarray(mu)[contact][:, None, None] * edge[None, :, :]
+    pull = np.concatenate([f, (corner[:, 0, None] * f[:, :, 1] - corner[:, 1, None] * f[:, :, 0])[:, :, None]], axis=2)
+    cols = (np.arange(count)[:, None, None] * per + 1 + np.arange(SIDES)[None, :, None]).repeat(3, axis=2)
+    on = 3 * np.asarray(owner)[contact][:, None, None] + np.arange(3)[None, None, :]
+    rows, columns, data = [np.broadcast_to(on, pull.shape).ravel()], [cols.ravel()], [pull.ravel()]
+    tied = np.asarray(other)[contact] >= 0  # the reaction on the other brick of a contact between two
+    if tied.any():
+        back = 3 * np.asarray(other)[contact][tied][:, None, None] + np.arange(3)[None, None, :]
+        rows.append(np.broadcast_to(back, pull[tied].shape).ravel())
+        columns.append(cols[tied].ravel())
+        data.append(-pull[tied].ravel())
+    first = 3 * len(bricks)  # then each contact's normal force: its resultant and its moments
+    rows.append((first + 3 * contact[:, None] + np.arange(3)[None, :]).ravel())
+    columns.append(np.repeat(np.arange(count) * per, 3))
+    data.append(np.column_stack([np.ones(count), corner]).ravel())
+    a_eq = coo_matrix(
+        (np.concatenate(data), (np.concatenate(rows), np.concatenate(columns))), shape=(first + 3 * len(rings), count * per)
+    )
+    rhs = np.zeros(first)
+    for body, brick in bricks.items():
+        d, r = np.asarray(brick.drag, dtype=float) / scale, np.asarray(brick.at, dtype=float) - origin
+        rhs[3 * index[body] : 3 * index[body] + 3] = [-d[0], -d[1], -float(r[0] * d[1] - r[1] * d[0])]
+    cone = coo_matrix(  # each corner's pyramid weights sum to at most its normal force
+        (
+            np.tile(np.r_[-1.0, np.ones(SIDES)], count),
+            (np.repeat(np.arange(count), per), np.arange(count * per)),
+        ),
+        shape=(count, count * per),
+    )
     result = linprog(
-        np.zeros(n), A_ub=a_ub, b_ub=np.zeros(len(ub_rows)), A_eq=a_eq, b_eq=np.array(rhs_eq), bounds=(0, None), method="highs"
+        np.zeros(count * per),
+        A_ub=cone.tocsc(),
+        b_ub=np.zeros(count),
+        A_eq=a_eq.tocsc(),
+        b_eq=np.concatenate([rhs, np.asarray(normal).ravel()]),
+        bounds=(0, None),
+        method="highs",
     )
     return bool(result.status == 0)
 
@@ -283,19 +334,29 @@ class PullProof:
                 supports[body] = left
             nodes[a] = LoadNode(node.mass, node.com, supports)
         loads = propagate(nodes)
+        dragged: dict[int, tuple[float, Dragged]] = {}  # carried brick -> (its drag's newtons a unit, it)
         for a in self.carried:
             rec, load, held_on = stack.bodies[a], loads[a], nodes[a].supports
-            if body not in held_on or (only is not None and a not in only):
+            if body not in held_on:
                 continue
             shares = split_load(load.com_above, load.mass_above, held_on)
             mass, point = shares[body]
-            mu = pair_friction(rec.friction, pulled.friction)
-            drag = DRAG_SAFETY * mu * mass * g * self.direction
             friction = {s: pair_friction(rec.friction, stack.bodies[s].friction) for s in held_on}
             others = {s: v for s, v in held_on.items() if s != body}
-            if not drag_held(others, {s: shares[s] for s in others}, friction, drag, np.asarray(point[:2]), g):
-                return f"{rec.label}'s other supports would not hold the drag of its friction"
+            unit = friction[body] * mass * g
+            dragged[a] = (unit, Dragged(others, {s: shares[s] for s in others}, friction, self.direction, np.asarray(point[:2])))
+        ties = {t for a in dragged for t in stack.bodies[a].objects_above} - set(dragged) - {body}
+        if ties:  # held one by one DRAG_SAFETY times over, they are held tied TIE_SAFETY (smaller) times over
+            if (only is None or not dragged.keys().isdisjoint(only)) and not self._tied(dragged, ties, nodes, loads):
+                return "the bricks it drags, tied by those resting on them, would not hold the drag of its friction"
+        else:
+            for a, (unit, brick) in dragged.items():
+                if only is not None and a not in only:
+                    continue
+                if not held_together({a: replace(brick, drag=DRAG_SAFETY * unit * brick.drag)}, g):
+                    return f"{stack.bodies[a].label}'s other supports would not hold the drag of its friction"
         on = split_load(loads[body].com_above, loads[body].mass_above, under)
+        below: dict[int, Dragged] = {}  # asked in one program: each alone holds or the group fails
         for b in self.below:
             if b not in under or (only is not None and b not in only):
                 continue
@@ -304,9 +365,37 @@ class PullProof:
             drag = DRAG_SAFETY * mu * on[b][0] * g * self.direction
             shares = split_load(load.com_above, load.mass_above, held_on)
             friction = {s: pair_friction(rec.friction, stack.bodies[s].friction) for s in held_on}
-            if not drag_held(held_on, shares, friction, drag, np.asarray(area.centre_xy), g):
-                return f"{rec.label}'s supports would not hold the drag of its friction"
+            below[b] = Dragged(held_on, shares, friction, drag, np.asarray(area.centre_xy))
+        if below and not held_together(below, g):
+            b = next((b for b, brick in below.items() if not held_together({b: brick}, g)), next(iter(below)))
+            return f"{stack.bodies[b].label}'s supports would not hold the drag of its friction"
         return None
+
+    def _tied(
+        self,
+        dragged: Mapping[int, tuple[float, Dragged]],
+        ties: Collection[int],
+        nodes: Mapping[int, LoadNode],
+        loads: Mapping[int, Load],
+    ) -> bool:
+        """Do the ``ties``, the bricks resting on the dragged ones, tie them into one that holds
+        the drag :data:`TIE_SAFETY` times over (:func:`held_together` of the dragged bricks and the
+        ties, each on its supports' load shares; a tie that is not frozen or has a contact that is
+        not level: no)? Where each dragged brick alone holds the drag :data:`DRAG_SAFETY` times
+        over, they hold it tied too (the same forces scaled down, the ties' friction at zero)."""
+        stack, g = self.stack, self.stack.config.gravity
+        bricks = {a: replace(brick, drag=TIE_SAFETY * unit * brick.drag) for a, (unit, brick) in dragged.items()}
+        for t in sorted(ties):
+            rec = stack.bodies[t]
+            if rec.state is not BrickState.FROZEN or any(float(a.normal[2]) < LEVEL for a in rec.rests_on.values()):
+                return False
+            held_on = nodes[t].supports
+            if self.body in held_on:
+                return False  # it lies on the pulled brick too: dragged, not a tie
+            shares = split_load(loads[t].com_above, loads[t].mass_above, held_on)
+            friction = {s: pair_friction(rec.friction, stack.bodies[s].friction) for s in held_on}
+            bricks[t] = Dragged(held_on, shares, friction, np.zeros(2), np.asarray(shares[next(iter(shares))][1][:2]))
+        return held_together(bricks, g)
 
     def moved(self, position: np.ndarray) -> bool:
         """Has the pulled brick, now at ``position`` (shape (3,), m), moved :data:`LOOK` since this

@@ -632,7 +632,8 @@ class StabilityExtension:
         speed = max(stack.engine.speeds(body)[0], stack.hand_speed.get(body, 0.0))
         proved = self._proofs.get(body)
         kept = proved[0].kept if proved is not None else frozenset(stack.rides[body].riders if body in stack.rides else ())
-        for c in stack.engine.near(body, speed * stack.engine.timestep + TOUCH):
+        among = [b for b, r in stack.bodies.items() if b not in kept and r.state is not BrickState.GROUND] if kept else None
+        for c in stack.engine.near(body, speed * stack.engine.timestep + TOUCH, among):
             other = stack.bodies.get(c.other)
             if other is None or other.state is BrickState.GROUND or c.other in kept:
                 continue

@@ -8,7 +8,7 @@ import pytest
 from shapely.geometry import box
 
 from stability import ContactArea
-from stability._drag import DRAG_SAFETY, drag_held
+from stability._drag import DRAG_SAFETY, Dragged, held_together
 from stackdsl import compile_scenario, parse_scenario, run_program
 
 G = 9.81
@@ -23,7 +23,9 @@ def level_on(ys: list[float], mass: float, mu: float, drag: float, at_y: float) 
     """A brick lying across blocks at ``ys`` (equal shares of ``mass``), dragged along x at y = ``at_y``."""
     supports = {i: patch(0.0, y) for i, y in enumerate(ys)}
     loads = {i: (mass / len(ys), np.array([0.0, y, 0.0])) for i, y in enumerate(ys)}
-    return drag_held(supports, loads, dict.fromkeys(supports, mu), np.array([drag, 0.0]), np.array([0.0, at_y]), G)
+    return held_together(
+        {-1: Dragged(supports, loads, dict.fromkeys(supports, mu), np.array([drag, 0.0]), np.array([0.0, at_y]))}, G
+    )
 
 
 @pytest.mark.parametrize(("factor", "held"), [(0.95, True), (1.05, False)])
@@ -55,19 +57,23 @@ expect: {stands: true}
 """
 
 
-@pytest.mark.parametrize(("brick", "alone"), [("L02.2", True), pytest.param("L02.3", False, marks=pytest.mark.slow)])
-def test_a_proved_pull_moves_its_brick_alone_and_a_side_pull_wakes_the_level_it_drags(brick, alone):
+@pytest.mark.parametrize(
+    ("brick", "alone"),
+    [("L02.2", True), pytest.param("L02.3", True, marks=pytest.mark.slow), pytest.param("L03.3", False, marks=pytest.mark.slow)],
+)
+def test_a_proved_pull_moves_its_brick_alone_and_a_top_side_pull_wakes_the_level_it_drags(brick, alone):
     """The middle block of level 2 slides out of a frozen tower: statics holds the levels without
-    it and against its drag, and nothing else wakes; a side block's drag twists the level above
-    beyond what the two blocks left hold, and that level wakes with what it carries (under two
-    levels only, the engine drags it past the collapse threshold: a near tie, docs/actions.md)."""
+    it and against its drag, and nothing else wakes. A side block's drag twists the level above
+    beyond what the two blocks left hold one by one; tied into one by level 4 resting on them,
+    they hold it (stability._drag.TIE_SAFETY), and nothing wakes either. A side block of level 3
+    drags the top level, which nothing ties: that level wakes."""
     outcome = run_program(compile_scenario(parse_scenario(JENGA.replace("BRICK", brick), "pull.yaml")))
     pull = next(e.time for e in outcome.events if e.kind == "remove")
     woken = {e.brick for e in outcome.events if e.kind == "wake" and e.time >= pull} - {brick}
     assert (woken == set()) is alone, woken
     assert outcome.collapse is None or not alone
     if not alone:
-        assert {"L03.1", "L03.2", "L03.3"} <= woken
+        assert {"L04.1", "L04.2", "L04.3"} <= woken
 
 
 def level_over_three_blocks():
@@ -202,3 +208,86 @@ def test_a_level_stack_that_stands_on_no_vertical_forces_without_the_pulled_bloc
     proof = PullProof(stack, 1, np.array([0.04, 0.0, 0.0]), stack.engine.near(1, 0.001))
     assert proof.why is not None and "vertical forces alone" in proof.why
     assert PullProof(stack, 3, np.array([0.04, 0.0, 0.0]), stack.engine.near(3, 0.001)).why == proof.why
+
+
+def jenga_levels(levels):
+    """A fake world: ``levels`` Jenga levels of three 75 x 25 x 15 mm blocks 25 mm apart, each
+    level turned 90 degrees from the one under it (bodies 1-3 the first, 4-6 the second...)."""
+    from stability import Box, FakeEngine, Plane, Pose, StabilityExtension
+
+    eng = FakeEngine()
+    ext = StabilityExtension(eng)
+    ext.add_ground(0, Plane(0.0))
+    along, across = np.array([0.0375, 0.0125, 0.0075]), np.array([0.0125, 0.0375, 0.0075])
+    lines = (-0.025, 0.0, 0.025)
+    for level in range(levels):
+        z = 0.0075 + 0.015 * level
+        for i, line in enumerate(lines):
+            body = 3 * level + i + 1
+            centre = [0.0, line, z] if level % 2 == 0 else [line, 0.0, z]
+            eng.poses[body] = Pose(np.array(centre))
+            ext.add_brick(body, Box(along if level % 2 == 0 else across, 0.0275), f"L{level + 1}.{i + 1}", friction=0.4)
+            if level == 0:
+                eng.touch(body, 0, [[x, line + dy, 0.0] for x in (-0.0375, 0.0375) for dy in (-0.0125, 0.0125)], normal=[0, 0, 1])
+                continue
+            for other in lines:
+                below = 3 * (level - 1) + lines.index(other) + 1
+                x, y = (other, line) if level % 2 == 0 else (line, other)
+                square = [[x + dx, y + dy, z - 0.0075] for dx in (-0.0125, 0.0125) for dy in (-0.0125, 0.0125)]
+                eng.touch(body, below, square, normal=[0, 0, 1])
+    for t in (0.0, 0.1, 0.2, 0.3):
+        ext.update(t)
+    assert {ext.state(b).value for b in range(1, 3 * levels + 1)} == {"frozen"}
+    return eng, ext
+
+
+@pytest.mark.parametrize(("levels", "proved"), [(2, False), (3, True)])
+def test_a_side_pull_is_proved_only_when_a_layer_ties_the_level_it_drags(levels, proved):
+    """A side block of the first level pulled along its length drags the three blocks of the
+    second off their centre line: each alone on the two blocks left holds 0.89 times that drag
+    at equal shares, under the 1.5 asked (DRAG_SAFETY); a third level resting on them ties them
+    into one, which holds it 1.12 times (docs/results/pull_coupled.py 1), over TIE_SAFETY."""
+    from stability._drag import TIE_SAFETY, PullProof
+
+    assert 1.0 < TIE_SAFETY < 1.12
+    _, ext = jenga_levels(levels)
+    stack = ext._stack
+    proof = PullProof(stack, 3, np.array([0.04, 0.0, 0.0]), stack.engine.near(3, 0.001))
+    assert (proof.why is None) is proved, proof.why
+    assert (proof.kept >= {4, 5, 6}) is proved
+
+
+def test_a_tie_passes_on_no_more_than_its_friction():
+    """Two blocks on fixed pads, 100 mm apart, a third lying across both: a drag on one block is
+    held by its own pad's friction (up to ``mu`` times its load) and, through the tie's friction
+    on it (up to ``mu`` times the tie's share), by the other block's pad: 1.5 times what the
+    block alone holds, no more."""
+    from shapely.geometry import box as rectangle
+
+    def pad(x):
+        return ContactArea(rectangle(x - 0.01, -0.01, x + 0.01, 0.01), 0.0, np.array([0.0, 0.0, 1.0]), True)
+
+    mu, g, kg = 0.5, 9.81, 1.0  # each block and the tie weigh 2 kg; the tie puts 1 kg on each block
+
+    def bricks(drag):
+        return {
+            1: Dragged(
+                {0: pad(-0.05)},
+                {0: (2 * kg, np.array([-0.05, 0.0, 0.0]))},
+                {0: mu},
+                np.array([drag, 0.0]),
+                np.array([-0.05, 0.0]),
+            ),
+            2: Dragged({0: pad(0.05)}, {0: (2 * kg, np.array([0.05, 0.0, 0.0]))}, {0: mu}, np.zeros(2), np.array([0.05, 0.0])),
+            3: Dragged(
+                {1: pad(-0.05), 2: pad(0.05)},
+                {1: (kg, np.array([-0.05, 0.0, 0.0])), 2: (kg, np.array([0.05, 0.0, 0.0]))},
+                {1: mu, 2: mu},
+                np.zeros(2),
+                np.zeros(2),
+            ),
+        }
+
+    alone = mu * 2 * kg * g
+    assert held_together(bricks(1.45 * alone), g) and not held_together(bricks(1.55 * alone), g)
+    assert held_together({1: bricks(0.95 * alone)[1]}, g) and not held_together({1: bricks(1.05 * alone)[1]}, g)

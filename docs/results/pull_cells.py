@@ -4,7 +4,8 @@ Writes one scenario a cell and speed into ``FOLDER`` (the sweep's tower and its 
 speed fixed, ``expect: stands``), then runs each in every setting named (the settings of
 docs/results/pull_freeze.py: ``ext``, ``ext-free``, ``tuned-mj``, ...; and ``ext-hzN``, the extension
 with a pull's substeps at N Hz instead of 960; ``ext-splitN``, with N solver iterations a substep
-of a split step instead of the engine's), two processes at a time,
+of a split step instead of the engine's; ``ext-untied``, without the proof of a level tied by the
+one on it, ``stability._drag.TIE_SAFETY``), two processes at a time,
 and prints a row each: the pull, the setting, stands or the collapse level, the largest
 distance (mm) a brick above the pulled level ended from where it was placed, and the wall time.
 Then a line a setting: how many stood, and how many verdicts differ from the first setting's.
@@ -79,8 +80,7 @@ def run(path: str, name: str, level: int) -> tuple[str, str, str, float, float]:
 
     PyBulletWorld._stepping = stepping  # type: ignore[method-assign]
     plain = "ext" if hz or split else name
-    text, mode, backend, safety = pull_freeze.setting(plain, Path(path).read_text(encoding="utf-8"))
-    drag.DRAG_SAFETY = safety
+    text, mode, backend, drag.DRAG_SAFETY, drag.TIE_SAFETY = pull_freeze.setting(plain, Path(path).read_text(encoding="utf-8"))
     if mode == "extension-free":
         mode = "extension"
         PyBulletWorld.merge = lambda self, bodies: False  # type: ignore[method-assign]

@@ -9,7 +9,7 @@ contact square, under that contact's share of the load), that hold every block s
 twist about the vertical:
 
 * ``alone``: each block of the level above on its own two other supports (what
-  ``stability._drag.drag_held`` asks, block by block);
+  ``stability._drag.held_together`` asks of one brick);
 * ``coupled``: the three blocks held together by the layer resting on them (each brick of that
   layer in balance on its three contacts), the friction between the layers carrying the twist
   from block to block.

@@ -9,6 +9,8 @@ steps taken. Settings:
 * ``ext``: the extension on pybullet (a proved pull moves its brick alone: stability/_drag.py);
 * ``ext-woken``: the same with every proof refused (the drag held to an impossible safety
   factor): what rests on a pulled brick and the blocks beside it wake, as before the proof;
+* ``ext-untied``: the extension without the proof of a level tied by the one on it
+  (``stability._drag.TIE_SAFETY`` impossible): a side pull is stepped, as before that proof;
 * ``ext-free``: the extension on pybullet with nothing merged (pybullet's world refuses
   ``merge``): an unproved pull wakes everything above it, as before the riding group;
 * ``ext-mj``: the extension on MuJoCo;
@@ -34,10 +36,12 @@ import stability._drag as drag
 from stackdsl import compile_scenario, parse_scenario, run_program
 from stackdsl.engines.pybullet.world import PyBulletWorld
 
+SAFETY = (drag.DRAG_SAFETY, drag.TIE_SAFETY)  # the extension's, before any setting changes them
 
-def setting(name: str, text: str) -> tuple[str, str, str, float]:
-    """The scenario text, mode, backend and drag safety factor of a setting's name."""
-    mode, backend, safety = "extension", "pybullet", drag.DRAG_SAFETY
+
+def setting(name: str, text: str) -> tuple[str, str, str, float, float]:
+    """The scenario text, mode, backend, drag safety factor and tied safety factor of a setting's name."""
+    mode, backend, (safety, tie) = "extension", "pybullet", SAFETY
     engine = {
         "tuned-mj": "{backend: mujoco, sleep_tolerance: 0.0001}",
         "raw-1920": "{timestep: 1/1920 s}",
@@ -50,7 +54,9 @@ def setting(name: str, text: str) -> tuple[str, str, str, float]:
     if engine is not None:
         text = text.replace("structure:", f"engine: {engine}\nstructure:", 1)
     if name == "ext-woken":
-        safety = 1e9
+        safety, tie = 1e9, 1e9
+    elif name == "ext-untied":
+        tie = 1e9
     elif name == "ext-free":
         mode = "extension-free"
     elif name in ("tuned-pb", "tuned-mj"):
@@ -59,7 +65,7 @@ def setting(name: str, text: str) -> tuple[str, str, str, float]:
         mode = "raw"
     if name in ("ext-mj", "tuned-mj"):
         backend = "mujoco"
-    return text, mode, backend, safety
+    return text, mode, backend, safety, tie
 
 
 def main(path: str, names: list[str], level: int) -> None:
@@ -67,8 +73,9 @@ def main(path: str, names: list[str], level: int) -> None:
     base = open(path, encoding="utf-8").read()
     print(f"{path}: load average {os.getloadavg()[0]:.1f}", flush=True)
     for name in names:
-        text, mode, backend, safety = setting(name, base)
+        text, mode, backend, safety, tie = setting(name, base)
         kept, drag.DRAG_SAFETY = drag.DRAG_SAFETY, safety
+        kept_tie, drag.TIE_SAFETY = drag.TIE_SAFETY, tie
         merge = PyBulletWorld.merge
         if mode == "extension-free":
             mode = "extension"
@@ -79,7 +86,7 @@ def main(path: str, names: list[str], level: int) -> None:
             out = run_program(program)
             wall = time.perf_counter() - started
         finally:
-            drag.DRAG_SAFETY = kept
+            drag.DRAG_SAFETY, drag.TIE_SAFETY = kept, kept_tie
             PyBulletWorld.merge = merge  # type: ignore[method-assign]
         above = {b: d for b, d in out.displacement.items() if b[:1] == "L" and int(b[1:3]) > level}
         brick, most = max(above.items(), key=lambda bd: bd[1]) if above else ("-", 0.0)

@@ -346,17 +346,21 @@ class PullProof:
             unit = friction[body] * mass * g
             dragged[a] = (unit, Dragged(others, {s: shares[s] for s in others}, friction, self.direction, np.asarray(point[:2])))
         ties = {t for a in dragged for t in stack.bodies[a].objects_above} - set(dragged) - {body}
+        asked: list[tuple[dict[int, Dragged], str]] = []  # the programs, each with what its failing says
         if ties:  # held one by one DRAG_SAFETY times over, they are held tied TIE_SAFETY (smaller) times over
-            if (only is None or not dragged.keys().isdisjoint(only)) and not self._tied(dragged, ties, nodes, loads):
-                return "the bricks it drags, tied by those resting on them, would not hold the drag of its friction"
+            if only is None or not dragged.keys().isdisjoint(only):
+                tied = self._tied(dragged, ties, nodes, loads)
+                if isinstance(tied, str):
+                    return tied
+                asked.append(
+                    (tied, "the bricks it drags, tied by those resting on them, would not hold the drag of its friction")
+                )
         else:
             for a, (unit, brick) in dragged.items():
-                if only is not None and a not in only:
-                    continue
-                if not held_together({a: replace(brick, drag=DRAG_SAFETY * unit * brick.drag)}, g):
-                    return f"{stack.bodies[a].label}'s other supports would not hold the drag of its friction"
+                if only is None or a in only:
+                    why = f"{stack.bodies[a].label}'s other supports would not hold the drag of its friction"
+                    asked.append(({a: replace(brick, drag=DRAG_SAFETY * unit * brick.drag)}, why))
         on = split_load(loads[body].com_above, loads[body].mass_above, under)
-        below: dict[int, Dragged] = {}  # asked in one program: each alone holds or the group fails
         for b in self.below:
             if b not in under or (only is not None and b not in only):
                 continue
@@ -365,11 +369,12 @@ class PullProof:
             drag = DRAG_SAFETY * mu * on[b][0] * g * self.direction
             shares = split_load(load.com_above, load.mass_above, held_on)
             friction = {s: pair_friction(rec.friction, stack.bodies[s].friction) for s in held_on}
-            below[b] = Dragged(held_on, shares, friction, drag, np.asarray(area.centre_xy))
-        if below and not held_together(below, g):
-            b = next((b for b, brick in below.items() if not held_together({b: brick}, g)), next(iter(below)))
-            return f"{stack.bodies[b].label}'s supports would not hold the drag of its friction"
-        return None
+            why = f"{rec.label}'s supports would not hold the drag of its friction"
+            asked.append(({b: Dragged(held_on, shares, friction, drag, np.asarray(area.centre_xy))}, why))
+        every = {b: brick for bricks, _ in asked for b, brick in bricks.items()}
+        if not every or held_together(every, g):  # one program for them all: a solve costs a few milliseconds
+            return None
+        return next((why for bricks, why in asked if not held_together(bricks, g)), asked[0][1])
 
     def _tied(
         self,
@@ -377,25 +382,26 @@ class PullProof:
         ties: Collection[int],
         nodes: Mapping[int, LoadNode],
         loads: Mapping[int, Load],
-    ) -> bool:
-        """Do the ``ties``, the bricks resting on the dragged ones, tie them into one that holds
-        the drag :data:`TIE_SAFETY` times over (:func:`held_together` of the dragged bricks and the
-        ties, each on its supports' load shares; a tie that is not frozen or has a contact that is
-        not level: no)? Where each dragged brick alone holds the drag :data:`DRAG_SAFETY` times
-        over, they hold it tied too (the same forces scaled down, the ties' friction at zero)."""
-        stack, g = self.stack, self.stack.config.gravity
+    ) -> dict[int, Dragged] | str:
+        """The program of the ``ties``, the bricks resting on the dragged ones, tying them into
+        one that must hold the drag :data:`TIE_SAFETY` times over (:func:`held_together` of the
+        dragged bricks and the ties, each on its supports' load shares); or, for a tie that is not
+        frozen, lies on the pulled brick or has a contact that is not level, why there is none.
+        Where each dragged brick alone holds the drag :data:`DRAG_SAFETY` times over, they hold it
+        tied too (the same forces scaled down, the ties' friction at zero)."""
+        stack = self.stack
         bricks = {a: replace(brick, drag=TIE_SAFETY * unit * brick.drag) for a, (unit, brick) in dragged.items()}
         for t in sorted(ties):
             rec = stack.bodies[t]
             if rec.state is not BrickState.FROZEN or any(float(a.normal[2]) < LEVEL for a in rec.rests_on.values()):
-                return False
+                return f"{rec.label}, which rests on the bricks it drags, is not frozen on level contacts"
             held_on = nodes[t].supports
             if self.body in held_on:
-                return False  # it lies on the pulled brick too: dragged, not a tie
+                return f"{rec.label} rests on it and on the bricks it drags"
             shares = split_load(loads[t].com_above, loads[t].mass_above, held_on)
             friction = {s: pair_friction(rec.friction, stack.bodies[s].friction) for s in held_on}
             bricks[t] = Dragged(held_on, shares, friction, np.zeros(2), np.asarray(shares[next(iter(shares))][1][:2]))
-        return held_together(bricks, g)
+        return bricks
 
     def moved(self, position: np.ndarray) -> bool:
         """Has the pulled brick, now at ``position`` (shape (3,), m), moved :data:`LOOK` since this

@@ -177,11 +177,12 @@ def test_a_side_pull_holds_the_level_it_drags_with_friction_anchors(monkeypatch)
     iterations, lets it creep. With friction anchors while the pull is stepped the levels above
     move 0.08 mm; without them 0.91 mm (the same solver converged, at 200 iterations: a tenth of
     a millimetre). The level above is proved held when tied by the one on it
-    (stability._drag.TIE_SAFETY): that proof is switched off here, so that the pull is stepped."""
+    (stability._drag.TIE_SAFETY): held here to a brick's safety alone, the proof fails and the
+    pull is stepped."""
     import stability._drag as drag_proof
     from stackdsl.engines.pybullet.world import PyBulletWorld
 
-    monkeypatch.setattr(drag_proof, "TIE_SAFETY", 100.0)
+    monkeypatch.setattr(drag_proof, "TIE_SAFETY", drag_proof.DRAG_SAFETY)
     text = JENGA_6 + "actions:\n  - remove: {brick: L03.1, at: after level 6, speed: 40 mm/s}\n"
 
     def drag() -> float:

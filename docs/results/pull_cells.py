@@ -4,8 +4,8 @@ Writes one scenario a cell and speed into ``FOLDER`` (the sweep's tower and its 
 speed fixed, ``expect: stands``), then runs each in every setting named (the settings of
 docs/results/pull_freeze.py: ``ext``, ``ext-free``, ``tuned-mj``, ...; and ``ext-hzN``, the extension
 with a pull's substeps at N Hz instead of 960; ``ext-splitN``, with N solver iterations a substep
-of a split step instead of the engine's; ``ext-untied``, without the proof of a level tied by the
-one on it, ``stability._drag.TIE_SAFETY``), two processes at a time,
+of a split step instead of the engine's; ``ext-untied``, a level tied by the one on it held to the
+safety of one brick alone, ``stability._drag.TIE_SAFETY``), two processes at a time,
 and prints a row each: the pull, the setting, stands or the collapse level, the largest
 distance (mm) a brick above the pulled level ended from where it was placed, and the wall time.
 Then a line a setting: how many stood, and how many verdicts differ from the first setting's.

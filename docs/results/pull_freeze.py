@@ -9,8 +9,9 @@ steps taken. Settings:
 * ``ext``: the extension on pybullet (a proved pull moves its brick alone: stability/_drag.py);
 * ``ext-woken``: the same with every proof refused (the drag held to an impossible safety
   factor): what rests on a pulled brick and the blocks beside it wake, as before the proof;
-* ``ext-untied``: the extension without the proof of a level tied by the one on it
-  (``stability._drag.TIE_SAFETY`` impossible): a side pull is stepped, as before that proof;
+* ``ext-untied``: the extension with a level tied by the one on it held to the safety of one
+  brick alone (``stability._drag.TIE_SAFETY`` set to ``DRAG_SAFETY``): a side pull is stepped,
+  a middle pull proved, as before the tied proof;
 * ``ext-free``: the extension on pybullet with nothing merged (pybullet's world refuses
   ``merge``): an unproved pull wakes everything above it, as before the riding group;
 * ``ext-mj``: the extension on MuJoCo;
@@ -56,7 +57,7 @@ def setting(name: str, text: str) -> tuple[str, str, str, float, float]:
     if name == "ext-woken":
         safety, tie = 1e9, 1e9
     elif name == "ext-untied":
-        tie = 1e9
+        tie = safety
     elif name == "ext-free":
         mode = "extension-free"
     elif name in ("tuned-pb", "tuned-mj"):

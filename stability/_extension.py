@@ -79,9 +79,6 @@ RIDE_TILT = 0.5
 #: Metres they may drop (a support pulled from under them).
 RIDE_DROP = 0.001
 
-_NONE: frozenset[int] = frozenset()
-"""The bodies a guided body touches in a step without one."""
-
 
 def _order(rec: Record) -> int:
     """A record's place in the order of registration (a sort key)."""
@@ -172,7 +169,7 @@ class StabilityExtension:
         if not stack.active:
             stack.holding = True
             return ended
-        events, touched = self._guided(time) if stack.guided else ([], _NONE)
+        events, touched = self._guided(time) if stack.guided else ([], {})
         events = ended + events
         active = list(stack.active.values())
         if len(active) > 1:
@@ -451,7 +448,13 @@ class StabilityExtension:
 
     # bodies moved by an outside hand, and a moving ground -------------------------
     def guide(
-        self, body: int, time: float, reason: str, speed: float = 0.0, pull: tuple[float, float, float] | None = None
+        self,
+        body: int,
+        time: float,
+        reason: str,
+        speed: float = 0.0,
+        pull: tuple[float, float, float] | None = None,
+        velocity: tuple[float, float, float] | None = None,
     ) -> list[StabilityEvent]:
         """An outside hand moves ``body`` from now on (a gripper pulling a brick out, a pusher), at
         ``speed`` m/s along its path: it wakes, with everything resting on it (report 3.3.7), and
@@ -477,8 +480,15 @@ class StabilityExtension:
         of what it rests on, hold the drag of its friction, it wakes alone and the bricks it
         slides between stay frozen, the proof asked again as its overlap with them shrinks
         (:meth:`_guided`); when the proof fails, then or later, they wake as above. Returns the
-        events. Raises KeyError for an unknown body. Source: stackdsl's own."""
+        events. Raises KeyError for an unknown body. Source: stackdsl's own.
+
+        ``velocity`` (m/s, the hand's along its path; a pull's by default) is the direction the
+        impact rule asks of a brick the body drives: a frozen brick it closes on across that
+        direction is not driven into by the hand (:meth:`stability._impact.Impacts.check`)."""
         stack = self._stack
+        hand = velocity if velocity is not None else pull
+        if hand is not None:
+            stack.hand_velocity[body] = np.asarray(hand, dtype=float)
         if pull is not None and stack.bodies[body].state is BrickState.FROZEN:
             near = stack.engine.near(body, speed * stack.engine.timestep + TOUCH)
             proof = PullProof(stack, body, np.asarray(pull, dtype=float), near)
@@ -491,7 +501,7 @@ class StabilityExtension:
                     proof,
                     proof.overlaps(footprint(stack.bodies[body].box.half_extents, stack.engine.pose(body))),
                 )
-                return events + self._touching(body, time, set())
+                return events + self._touching(body, time, {})
         return self._guide(body, time, reason, speed)
 
     def alone(self, body: int) -> bool:
@@ -523,7 +533,7 @@ class StabilityExtension:
                 events += self.wake(other, time, f"carries {on} beside {label}, moved by hand")
         stack.guided.add(body)
         stack.hand_speed[body] = speed
-        return events + self._touching(body, time, set())
+        return events + self._touching(body, time, {})
 
     def _riders(self, body: int, above: set[int], beside: list[tuple[int, str]]) -> tuple[list[int], list[int]]:
         """The bricks to wake, and the frozen bricks above them (``above``: everything resting on
@@ -582,11 +592,12 @@ class StabilityExtension:
         self._proofs.pop(body, None)
         self._stack.forget(body)
 
-    def _guided(self, time: float) -> tuple[list[StabilityEvent], set[int]]:
+    def _guided(self, time: float) -> tuple[list[StabilityEvent], dict[int, np.ndarray | None]]:
         """Wake the frozen bricks each guided body touches or will within a step (:data:`TOUCH`
-        beyond what it travels in one); return the events and every body a guided one touches."""
+        beyond what it travels in one); return the events and every body a guided one touches,
+        with the hand's velocity that drives it (None when the hand gave none)."""
         events: list[StabilityEvent] = []
-        touched: set[int] = set()
+        touched: dict[int, np.ndarray | None] = {}
         for body in sorted(self._stack.guided):
             if body in self._proofs:
                 events += self._reprove(body, time)
@@ -625,9 +636,10 @@ class StabilityExtension:
                 events += self.wake(b, time, f"carries what rested on {label} beside it, moved by hand: {why}")
         return events + self._guide(body, time, f"pulled by hand, its proof lost: {why}", stack.hand_speed.get(body, 0.0))
 
-    def _touching(self, body: int, time: float, touched: set[int]) -> list[StabilityEvent]:
+    def _touching(self, body: int, time: float, touched: dict[int, np.ndarray | None]) -> list[StabilityEvent]:
         """Wake the frozen bricks guided ``body`` touches or will within a step, at the faster of
-        its speed in the engine and its hand's; add every body it touches to ``touched``."""
+        its speed in the engine and its hand's; add every body it touches to ``touched``, with
+        the hand's velocity."""
         stack, events = self._stack, []
         speed = max(stack.engine.speeds(body)[0], stack.hand_speed.get(body, 0.0))
         proved = self._proofs.get(body)
@@ -639,7 +651,7 @@ class StabilityExtension:
                 continue
             if proved is not None and other.state is BrickState.FROZEN and proved[0].alongside(c):
                 continue  # it slides past it, never toward it
-            touched.add(c.other)
+            touched[c.other] = stack.hand_velocity.get(body)
             if other.state is BrickState.FROZEN:
                 events += self.wake(c.other, time, f"touched by {stack.bodies[body].label}, moved by hand")
         return events

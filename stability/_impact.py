@@ -26,7 +26,6 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Mapping
-from collections.abc import Set as AbstractSet
 from dataclasses import replace
 
 import numpy as np
@@ -193,16 +192,19 @@ class Impacts:
         active: list[Record],
         dt: float,
         time: float,
-        driven: AbstractSet[int] = frozenset(),
+        driven: Mapping[int, np.ndarray | None] | None = None,
         speeds: Mapping[int, tuple[float, float]] | None = None,
         watch: float = 0.0,
     ) -> list[StabilityEvent]:
         """Each active body faster than the rest speed that will touch a frozen brick within
         1.5 steps of ``dt`` s (at its fastest point's speed, rotation included): wake that brick
         (with what is above it) when the blow breaks it loose, else an ``impact`` event: the
-        stack held. A body of ``driven`` (one a hand touches) that closes on a side of the frozen
-        brick (a contact normal farther than the support angle from vertical) faster than the
-        rest speed breaks it loose: the hand drives it. ``speeds``: each body's linear (m/s) and
+        stack held. A body of ``driven`` (one a hand touches, with the hand's velocity in m/s,
+        shape (3,), or None) that the hand drives onto a side of the frozen brick (a contact
+        normal farther than the support angle from vertical) faster than the rest speed breaks it
+        loose: the hand's velocity along the normal, where the hand gave one (a block pushed out
+        along its length between two others may wobble into them at 0.01 to 0.03 m/s, across
+        the push: not driven into them), else the body's own at the contact. ``speeds``: each body's linear (m/s) and
         angular (rad/s) speed this step, as the engine gives them, when read already (every
         body of ``active``).
 
@@ -253,9 +255,11 @@ class Impacts:
                 if not _reaches(hit, linear, angular, pose.position, other.box, stack.pose(other), window, config.contact_pad):
                     continue
                 rec.impacted.add(other.body)
-                if rec.body in driven and abs(float(hit.normal[2])) < math.cos(math.radians(config.support_angle)):
+                if driven and rec.body in driven and abs(float(hit.normal[2])) < math.cos(math.radians(config.support_angle)):
                     # a side of it, not what it rests on or carries (a brick under a pulled one settling)
-                    closing = -float(np.dot(linear + np.cross(angular, hit.position - pose.position), hit.normal))
+                    hand = driven[rec.body]
+                    along = linear + np.cross(angular, hit.position - pose.position) if hand is None else hand
+                    closing = -float(np.dot(along, hit.normal))
                     if closing > config.rest_speed:  # into it, not along it (a brick riding on a pulled one)
                         detail = f"driven into it by a hand at {closing:.2f} m/s, through {rec.label}"
                         events += [replace(w.event, source=rec.label) for w in stack.wake(other.body, time, detail)]

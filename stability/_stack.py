@@ -169,6 +169,7 @@ class Stack:
         self.rides: dict[int, Ride] = {}  # pulled body (a shake's: first rider) -> the frozen bricks riding it, one body
         self.riding: dict[int, int] = {}  # each of those -> the ride's key
         self.hand_speed: dict[int, float] = {}  # m/s along a guided body's path, as the hand gave it
+        self.hand_velocity: dict[int, np.ndarray] = {}  # m/s, shape (3,): a guided body's, as the hand gave it
         self.admitting = True  # False while the ground moves: nothing is frozen in the world's frame
         self._boxes: tuple[int, np.ndarray] | None = None  # the frozen bricks' boxes, of a stack version
         # active bricks that frozen bricks lean on: body -> (its pose then, the frozen bricks on it)
@@ -300,6 +301,7 @@ class Stack:
         self.active.pop(body, None)
         self.guided.discard(body)
         self.hand_speed.pop(body, None)
+        self.hand_velocity.pop(body, None)
         for other in self.bodies.values():
             other.objects_above.discard(body)
 

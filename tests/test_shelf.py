@@ -53,6 +53,24 @@ def test_buried_bricks_leave_the_world_and_read_as_they_were():
         assert world.poses_of(bricks)[0][:, 2] == pytest.approx([0.004 + 0.008 * i for i in range(LEVELS)])
 
 
+def test_what_lies_near_a_shelved_brick_is_found_as_if_it_had_stayed():
+    """A hand about to pull a brick deep in a frozen column asks what lies within reach of it
+    (a pull's proof: what it slides between). The brick and its neighbours are on the shelf:
+    they come back to answer, as a column that stayed in the world answers, and leave again
+    once nothing moving needs them."""
+    spec = _spec_of()
+    with pybullet_world(SETTINGS, 0.5, 0.0) as world:
+        bricks = _column(world, spec)
+        world.step()
+        middle = bricks[5]
+        assert {bricks[4], middle, bricks[6]} <= world.shelved
+        near = {c.other for c in world.near(middle, 0.001)}
+        assert near == {bricks[4], bricks[6]}
+        assert middle not in world.shelved
+        world.step()
+        assert {bricks[4], middle, bricks[6]} <= world.shelved
+
+
 def test_a_shelved_brick_comes_back_before_a_projectile_reaches_it():
     """A brick thrown at the bottom of a column whose bottom is shelved stops against it as
     against a column that stayed in the world (shelved for good, it would pass through), and

@@ -338,9 +338,14 @@ class PyBulletWorld(PyBulletEngine, World):
     def near(self, body: int, distance: float, among: Collection[int] | None = None) -> list[ContactPoint]:
         """A merged body's parts answer for the whole merged body (what is near any of them), each
         point seen from the part it lies nearest; the parts of one merged body are never near
-        each other."""
+        each other. A shelved body is put back in pybullet's world first, with every shelved
+        body within ``distance`` of it (a pull's proof asks what a frozen brick deep in a tower
+        slides between: asked of the shelf, it found nothing), to be shelved again when no
+        moving body needs them."""
         if body in self._shelf:
-            return []
+            reach = _grown(self._shelf[body][2], distance)
+            self._unshelve([b for b, (_, _, box) in self._shelf.items() if _overlap(box, reach)])
+            self._look = self._shelves
         if not self._groups:
             return super().near(body, distance, among)
         own = self._merged[body][0] if body in self._merged else body

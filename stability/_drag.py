@@ -99,6 +99,12 @@ SIDES = 8
 """Sides of the friction pyramid inscribed in each Coulomb cone (it allows only forces the
 cone allows)."""
 
+ITERATIONS = 10_000
+"""Most simplex iterations a drag program may take before it counts as not held: the proofs of
+the shipped and new users' Jenga pulls take up to 193, but a tied program just past its limit
+(a side pull of a stickier block, pair friction 1.06 times the level's) ran HiGHS for minutes
+without an answer, deaf to SIGTERM (the pull is then stepped, as an unproved one is)."""
+
 
 def footprint(half_extents: np.ndarray, pose: Pose) -> Polygon:
     """The horizontal projection of a box at ``pose``: shapely polygon, metres."""
@@ -148,7 +154,8 @@ def held_together(bricks: Mapping[int, Dragged], gravity: float) -> bool:
         gravity: m/s^2.
 
     Returns:
-        True when such forces exist; False when they do not, or a brick has no loaded support.
+        True when such forces exist; False when they do not, a brick has no loaded support, or
+        the solver finds neither within :data:`ITERATIONS`.
 
     Example:
         >>> from shapely.geometry import box
@@ -219,6 +226,7 @@ def held_together(bricks: Mapping[int, Dragged], gravity: float) -> bool:
         b_eq=np.concatenate([rhs, np.asarray(normal).ravel()]),
         bounds=(0, None),
         method="highs",
+        options={"maxiter": ITERATIONS},
     )
     return bool(result.status == 0)
 

@@ -291,3 +291,54 @@ def test_a_tie_passes_on_no_more_than_its_friction():
     alone = mu * 2 * kg * g
     assert held_together(bricks(1.45 * alone), g) and not held_together(bricks(1.55 * alone), g)
     assert held_together({1: bricks(0.95 * alone)[1]}, g) and not held_together({1: bricks(1.05 * alone)[1]}, g)
+
+
+def sticky_block_tower() -> str:
+    """8 levels of beech blocks (90 x 30 x 18 mm, friction 0.3, 30.5 mm apart), L06.1 of a beech
+    of friction 0.34: its side pull's tied program (the drag 1.1 times over) is just infeasible."""
+    lines = [
+        "stackdsl: 1",
+        "materials: {beech: {density: 720 kg/m^3, friction: 0.3}, sticky: {density: 720 kg/m^3, friction: 0.34}}",
+        "brick_types: {block: {size: [90 mm, 30 mm, 18 mm], material: beech},"
+        " sblock: {size: [90 mm, 30 mm, 18 mm], material: sticky}}",
+        "ground: {material: beech}",
+        "structure:",
+        "  bricks:",
+    ]
+    for level in range(1, 9):
+        yaw = (level - 1) * 90
+        for k, off in ((1, -30.5), (2, 0.0), (3, 30.5)):
+            x, y = -np.sin(np.radians(yaw)) * off, np.cos(np.radians(yaw)) * off
+            kind = "sblock" if (level, k) == (6, 1) else "block"
+            lines.append(
+                f"    - {{id: L{level:02d}.{k}, at: [{x:.1f} mm, {y:.1f} mm, {(level - 0.5) * 18:.1f} mm],"
+                f" yaw: {yaw % 360}, level: {level}, brick: {kind}}}"
+            )
+    lines += [
+        "timing: {interval: 0.5 s, settle: 1 s}",
+        "actions: [{remove: {brick: L06.1, at: after level 8, speed: 25 mm/s}}]",
+        "expect: {stands: true}",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def test_a_drag_program_the_solver_cannot_settle_refuses_the_proof_in_bounded_time(tmp_path):
+    """HiGHS ran the tied program of this pull for minutes (SIGTERM unheard, memory growing); with
+    ITERATIONS it gives up, the proof is refused and the pull is stepped. In a child process, so
+    that a solver stuck in C fails the test instead of hanging it."""
+    import subprocess
+    import sys
+
+    scene = tmp_path / "sticky.yaml"
+    scene.write_text(sticky_block_tower())
+    code = (
+        "import sys, stackdsl\n"
+        "o = stackdsl.run_program(stackdsl.compile_scenario(stackdsl.load_scenario(sys.argv[1])))\n"
+        "print(sum('stay frozen' in e.detail for e in o.events if e.kind == 'wake'))\n"
+    )
+    try:
+        done = subprocess.run([sys.executable, "-c", code, str(scene)], capture_output=True, text=True, timeout=90)
+    except subprocess.TimeoutExpired:
+        pytest.fail("the drag proof's program did not return within 90 s")
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["0"]  # not proved: stepped

@@ -322,6 +322,7 @@ def sticky_block_tower() -> str:
     return "\n".join(lines) + "\n"
 
 
+@pytest.mark.slow  # 11 s; test_a_stuck_tied_program_is_not_held_after_its_iterations asks its program alone
 def test_a_drag_program_the_solver_cannot_settle_refuses_the_proof_in_bounded_time(tmp_path):
     """HiGHS ran the tied program of this pull for minutes (SIGTERM unheard, memory growing); with
     ITERATIONS it gives up, the proof is refused and the pull is stepped. In a child process, so
@@ -342,3 +343,44 @@ def test_a_drag_program_the_solver_cannot_settle_refuses_the_proof_in_bounded_ti
         pytest.fail("the drag proof's program did not return within 90 s")
     assert done.returncode == 0, done.stderr
     assert done.stdout.split() == ["0"]  # not proved: stepped
+
+
+STUCK = """
+import json, sys
+import numpy as np
+from shapely.geometry import Polygon
+from stability import ContactArea
+from stability._drag import Dragged, held_together
+UP = np.array([0.0, 0.0, 1.0])
+bricks = {
+    int(b): Dragged(
+        {int(s): ContactArea(Polygon(c), 0.0, UP, True) for s, c in d["supports"].items()},
+        {int(s): (m, np.array(p)) for s, (m, p) in d["loads"].items()},
+        {int(s): f for s, f in d["friction"].items()},
+        np.array(d["drag"]),
+        np.array(d["at"]),
+    )
+    for b, d in json.load(open(sys.argv[1])).items()
+}
+print(held_together(bricks, 9.81))
+"""
+"""Asks the program of tests/stuck_tied_program.json: the tied program of the side pull of
+:func:`sticky_block_tower` (the dragged level's three blocks along y, 0.0776 N each, and the
+level above that ties them), as the proof asked it, every float as it was. HiGHS cycles on it."""
+
+
+def test_a_stuck_tied_program_is_not_held_after_its_iterations():
+    """A program the solver cannot settle counts as not held once it has taken ITERATIONS (the
+    pull is then stepped, as an unproved one is), instead of hanging the run; in a child
+    process, so that a solver stuck in C fails the test instead of hanging it."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    try:
+        program = str(Path(__file__).with_name("stuck_tied_program.json"))
+        done = subprocess.run([sys.executable, "-c", STUCK, program], capture_output=True, text=True, timeout=60)
+    except subprocess.TimeoutExpired:
+        pytest.fail("the tied program did not come back within 60 s")
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "False"

@@ -71,7 +71,10 @@ TIE_SAFETY = 1.1
 them, must hold the drag at the report's load shares, where one of them alone does not hold it
 :data:`DRAG_SAFETY` times over: the level above a side block of a Jenga level, whose drag acts
 off the level's centre line. At equal shares the tied level holds 1.14 times the drag (one
-block alone 0.89; docs/results/actions-freeze.md, "A side pull proved on the tied level")."""
+block alone 0.89; docs/results/actions-freeze.md, "A side pull proved on the tied level").
+The ties must carry frozen bricks themselves: tied by the top level alone, the level holds
+1.12 to 1.13 times the drag, and both tuned engines of a new user's test fell such a pull at
+friction 0.3 (docs/results/actions-freeze.md); such a pull is stepped."""
 
 LEVEL = 0.999
 """Least vertical component of a level contact's normal."""
@@ -403,6 +406,8 @@ class PullProof:
             rec = stack.bodies[t]
             if rec.state is not BrickState.FROZEN or any(float(a.normal[2]) < LEVEL for a in rec.rests_on.values()):
                 return f"{rec.label}, which rests on the bricks it drags, is not frozen on level contacts"
+            if not rec.objects_above:
+                return f"{rec.label}, which ties the bricks it drags, carries nothing (a tie on top is the lightest)"
             held_on = nodes[t].supports
             if self.body in held_on:
                 return f"{rec.label} rests on it and on the bricks it drags"

@@ -49,31 +49,38 @@ JENGA = """stackdsl: 1
 materials: {maple: {density: 700 kg/m^3, friction: 0.4}}
 brick_types: {jenga: {size: [75 mm, 25 mm, 15 mm], material: maple}}
 ground: {material: maple}
-structure: {tower: {levels: 4, bricks_per_layer: 3, spacing: 25.5 mm, turn: 90, brick: jenga}}
+structure: {tower: {levels: 5, bricks_per_layer: 3, spacing: 25.5 mm, turn: 90, brick: jenga}}
 timing: {interval: 0.2 s, settle: 0.5 s}
 actions:
-  - remove: {brick: BRICK, at: after level 4, speed: 40 mm/s}
+  - remove: {brick: BRICK, at: after level 5, speed: 40 mm/s}
 expect: {stands: true}
 """
 
 
 @pytest.mark.parametrize(
     ("brick", "alone"),
-    [("L02.2", True), pytest.param("L02.3", True, marks=pytest.mark.slow), pytest.param("L03.3", False, marks=pytest.mark.slow)],
+    [
+        ("L02.2", True),
+        pytest.param("L02.3", True, marks=pytest.mark.slow),
+        pytest.param("L03.3", False, marks=pytest.mark.slow),
+        pytest.param("L04.3", False, marks=pytest.mark.slow),
+    ],
 )
-def test_a_proved_pull_moves_its_brick_alone_and_a_top_side_pull_wakes_the_level_it_drags(brick, alone):
-    """The middle block of level 2 slides out of a frozen tower: statics holds the levels without
-    it and against its drag, and nothing else wakes. A side block's drag twists the level above
-    beyond what the two blocks left hold one by one; tied into one by level 4 resting on them,
-    they hold it (stability._drag.TIE_SAFETY), and nothing wakes either. A side block of level 3
-    drags the top level, which nothing ties: that level wakes."""
+def test_a_proved_pull_moves_its_brick_alone_and_a_high_side_pull_wakes_the_level_it_drags(brick, alone):
+    """The middle block of level 2 slides out of a frozen 5-level tower: statics holds the levels
+    without it and against its drag, and nothing else wakes. A side block's drag twists the level
+    above beyond what the two blocks left hold one by one; tied into one by levels 4 and 5 resting
+    on them, they hold it (stability._drag.TIE_SAFETY), and nothing wakes either. A side block of
+    level 3 drags level 4, which only the top level ties (a tie that carries nothing is not
+    taken), and one of level 4 drags the top level, which nothing ties: that level wakes."""
     outcome = run_program(compile_scenario(parse_scenario(JENGA.replace("BRICK", brick), "pull.yaml")))
     pull = next(e.time for e in outcome.events if e.kind == "remove")
     woken = {e.brick for e in outcome.events if e.kind == "wake" and e.time >= pull} - {brick}
     assert (woken == set()) is alone, woken
     assert outcome.collapse is None or not alone
     if not alone:
-        assert {"L04.1", "L04.2", "L04.3"} <= woken
+        dragged = int(brick[1:3]) + 1
+        assert {f"L{dragged:02d}.1", f"L{dragged:02d}.2", f"L{dragged:02d}.3"} <= woken
 
 
 def level_over_three_blocks():
@@ -241,15 +248,16 @@ def jenga_levels(levels):
     return eng, ext
 
 
-@pytest.mark.parametrize(("levels", "proved"), [(2, False), (3, True)])
-def test_a_side_pull_is_proved_only_when_a_layer_ties_the_level_it_drags(levels, proved):
+@pytest.mark.parametrize(("levels", "proved"), [(2, False), (3, False), (4, True), (6, True)])
+def test_a_side_pull_is_proved_only_when_the_levels_above_tie_the_level_it_drags(levels, proved):
     """A side block of the first level pulled along its length drags the three blocks of the
     second off their centre line: each alone on the two blocks left holds 0.89 times that drag
-    at equal shares, under the 1.5 asked (DRAG_SAFETY); a third level resting on them ties them
-    into one, which holds it 1.12 times (docs/results/pull_coupled.py 1), over TIE_SAFETY."""
+    at equal shares, under the 1.5 asked (DRAG_SAFETY). A third level resting on them ties them
+    into one, which holds it 1.13 times, but as the top level it carries nothing and is not
+    taken as a tie; a third with a fourth on it ties them 1.15 times, over TIE_SAFETY."""
     from stability._drag import TIE_SAFETY, PullProof
 
-    assert 1.0 < TIE_SAFETY < 1.12
+    assert 1.0 < TIE_SAFETY < 1.14
     _, ext = jenga_levels(levels)
     stack = ext._stack
     proof = PullProof(stack, 3, np.array([0.04, 0.0, 0.0]), stack.engine.near(3, 0.001))
@@ -293,58 +301,6 @@ def test_a_tie_passes_on_no_more_than_its_friction():
     assert held_together({1: bricks(0.95 * alone)[1]}, g) and not held_together({1: bricks(1.05 * alone)[1]}, g)
 
 
-def sticky_block_tower() -> str:
-    """8 levels of beech blocks (90 x 30 x 18 mm, friction 0.3, 30.5 mm apart), L06.1 of a beech
-    of friction 0.34: its side pull's tied program (the drag 1.1 times over) is just infeasible."""
-    lines = [
-        "stackdsl: 1",
-        "materials: {beech: {density: 720 kg/m^3, friction: 0.3}, sticky: {density: 720 kg/m^3, friction: 0.34}}",
-        "brick_types: {block: {size: [90 mm, 30 mm, 18 mm], material: beech},"
-        " sblock: {size: [90 mm, 30 mm, 18 mm], material: sticky}}",
-        "ground: {material: beech}",
-        "structure:",
-        "  bricks:",
-    ]
-    for level in range(1, 9):
-        yaw = (level - 1) * 90
-        for k, off in ((1, -30.5), (2, 0.0), (3, 30.5)):
-            x, y = -np.sin(np.radians(yaw)) * off, np.cos(np.radians(yaw)) * off
-            kind = "sblock" if (level, k) == (6, 1) else "block"
-            lines.append(
-                f"    - {{id: L{level:02d}.{k}, at: [{x:.1f} mm, {y:.1f} mm, {(level - 0.5) * 18:.1f} mm],"
-                f" yaw: {yaw % 360}, level: {level}, brick: {kind}}}"
-            )
-    lines += [
-        "timing: {interval: 0.5 s, settle: 1 s}",
-        "actions: [{remove: {brick: L06.1, at: after level 8, speed: 25 mm/s}}]",
-        "expect: {stands: true}",
-    ]
-    return "\n".join(lines) + "\n"
-
-
-@pytest.mark.slow  # 11 s; test_a_stuck_tied_program_is_not_held_after_its_iterations asks its program alone
-def test_a_drag_program_the_solver_cannot_settle_refuses_the_proof_in_bounded_time(tmp_path):
-    """HiGHS ran the tied program of this pull for minutes (SIGTERM unheard, memory growing); with
-    ITERATIONS it gives up, the proof is refused and the pull is stepped. In a child process, so
-    that a solver stuck in C fails the test instead of hanging it."""
-    import subprocess
-    import sys
-
-    scene = tmp_path / "sticky.yaml"
-    scene.write_text(sticky_block_tower())
-    code = (
-        "import sys, stackdsl\n"
-        "o = stackdsl.run_program(stackdsl.compile_scenario(stackdsl.load_scenario(sys.argv[1])))\n"
-        "print(sum('stay frozen' in e.detail for e in o.events if e.kind == 'wake'))\n"
-    )
-    try:
-        done = subprocess.run([sys.executable, "-c", code, str(scene)], capture_output=True, text=True, timeout=90)
-    except subprocess.TimeoutExpired:
-        pytest.fail("the drag proof's program did not return within 90 s")
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.split() == ["0"]  # not proved: stepped
-
-
 STUCK = """
 import json, sys
 import numpy as np
@@ -364,9 +320,12 @@ bricks = {
 }
 print(held_together(bricks, 9.81))
 """
-"""Asks the program of tests/stuck_tied_program.json: the tied program of the side pull of
-:func:`sticky_block_tower` (the dragged level's three blocks along y, 0.0776 N each, and the
-level above that ties them), as the proof asked it, every float as it was. HiGHS cycles on it."""
+"""Asks the program of tests/stuck_tied_program.json: the tied program of a new user's side pull
+(8 levels of beech blocks, 90 x 30 x 18 mm, friction 0.3, 30.5 mm apart; L06.1 of a beech of
+friction 0.34 pulled at 25 mm/s), its dragged level's three blocks along y, 0.0776 N each, and
+the level above that ties them, as the proof asked it, every float as it was. HiGHS cycled on
+it for minutes (SIGTERM unheard, memory growing). A tie on top is no longer taken, so that pull
+no longer asks it; a program like it may still come."""
 
 
 def test_a_stuck_tied_program_is_not_held_after_its_iterations():

@@ -188,6 +188,17 @@ class Box:
         """Metres from the centre to a corner: no point of the box is farther from its centre."""
         return float(np.linalg.norm(self.half_extents))
 
+    @_cached
+    def largest_moment(self) -> float:
+        """kg m^2: the largest principal moment of inertia about the centre of mass,
+        ``m (a^2 + b^2) / 3`` of the two largest half extents ``a`` and ``b``.
+
+        >>> round(Box(np.array([0.06, 0.012, 0.004]), 0.0106).largest_moment, 10)
+        1.32288e-05
+        """
+        a, b = sorted(self.half_extents.tolist())[1:]
+        return float(self.mass * (a * a + b * b) / 3.0)
+
     def corners(self, pose: Pose) -> np.ndarray:
         """The eight corners in the world frame, shape (8, 3), metres."""
         corners: np.ndarray = pose.position + (_CORNER_SIGNS * self.half_extents) @ pose.rotation.T

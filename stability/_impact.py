@@ -43,16 +43,19 @@ from ._stack import Record, StabilityEvent, Stack
 from ._stack_test import StackTest
 
 
-def kinetic_energy(mass: float, speed: float) -> float:
-    """Joules of a body of ``mass`` kg at ``speed`` m/s (report 3.6.2). Raises ValueError on a
-    mass that is not a finite number > 0.
+def kinetic_energy(mass: float, speed: float, angular_speed: float = 0.0, moment: float = 0.0) -> float:
+    """Joules of a body of ``mass`` kg whose centre of mass moves at ``speed`` m/s, turning at
+    ``angular_speed`` rad/s about an axis through it of moment of inertia at most ``moment``
+    kg m^2 (report 3.6.2, with the turn's share by Koenig's theorem: a domino toppling about its
+    foot brings a third more than its centre's speed gives). Raises ValueError on a mass that
+    is not a finite number > 0.
 
     >>> kinetic_energy(0.0106, 1.0)
     0.0053
     """
     if not (math.isfinite(mass) and mass > 0.0):
         raise ValueError(f"mass must be a finite number of kg > 0, got {mass!r}")
-    return 0.5 * mass * speed * speed
+    return 0.5 * mass * speed * speed + 0.5 * moment * angular_speed * angular_speed
 
 
 def potential_energy(mass_above: float, com_above_z: float, base_z: float, gravity: float = GRAVITY) -> float:
@@ -230,14 +233,14 @@ class Impacts:
             # toppling domino's top edge moves twice as fast as its centre of mass
             corner = rec.box.half_diagonal
             reach = (speed + angular_speed * corner) * dt * 1.5 + config.contact_pad
-            fast.append((rec, speed, reach, corner + reach))
+            fast.append((rec, speed, angular_speed, reach, corner + reach))
         watched = stack.watched
         window = dt * 1.5
         if geometric and fast:  # no frozen brick's box within reach: the engine is not asked
             centres = stack.engine.poses_of([rec.body for rec, *_ in fast])[0]  # one call, no Pose each
             near = stack.frozen_within(centres, np.array([radius for *_, radius in fast]))
             fast = [f for f, n in zip(fast, near, strict=True) if n]
-        for rec, speed, reach, _ in fast:
+        for rec, speed, angular_speed, reach, _ in fast:
             hits = stack.engine.near(rec.body, reach, stack.frozen.keys())
             if not hits:
                 continue
@@ -264,7 +267,7 @@ class Impacts:
                         detail = f"driven into it by a hand at {closing:.2f} m/s, through {rec.label}"
                         events += [replace(w.event, source=rec.label) for w in stack.wake(other.body, time, detail)]
                         continue
-                kinetic = kinetic_energy(rec.box.mass, speed)
+                kinetic = kinetic_energy(rec.box.mass, speed, angular_speed, rec.box.largest_moment)
                 self.tests.refresh_loads()
                 potential, moved = self._barrier(other, heading, hit.position, kinetic)
                 detail = f"impact of {rec.label} at {speed:.2f} m/s: {kinetic * 1000:.3g} mJ against {potential * 1000:.3g} mJ"

@@ -364,12 +364,15 @@ class PullProof:
                 if isinstance(tied, str):
                     return tied
                 asked.append(
-                    (tied, "the bricks it drags, tied by those resting on them, would not hold the drag of its friction")
+                    (
+                        tied,
+                        f"the bricks it drags, tied by those resting on them, would not hold the drag of {pulled.label}'s friction",
+                    )
                 )
         else:
             for a, (unit, brick) in dragged.items():
                 if only is None or a in only:
-                    why = f"{stack.bodies[a].label}'s other supports would not hold the drag of its friction"
+                    why = f"{stack.bodies[a].label}'s other supports would not hold the drag of {pulled.label}'s friction"
                     asked.append(({a: replace(brick, drag=DRAG_SAFETY * unit * brick.drag)}, why))
         on = split_load(loads[body].com_above, loads[body].mass_above, under)
         for b in self.below:
@@ -380,7 +383,7 @@ class PullProof:
             drag = DRAG_SAFETY * mu * on[b][0] * g * self.direction
             shares = split_load(load.com_above, load.mass_above, held_on)
             friction = {s: pair_friction(rec.friction, stack.bodies[s].friction) for s in held_on}
-            why = f"{rec.label}'s supports would not hold the drag of its friction"
+            why = f"{rec.label}'s supports would not hold the drag of {pulled.label}'s friction"
             asked.append(({b: Dragged(held_on, shares, friction, drag, np.asarray(area.centre_xy))}, why))
         every = {b: brick for bricks, _ in asked for b, brick in bricks.items()}
         if not every or held_together(every, g):  # one program for them all: a solve costs a few milliseconds

@@ -37,7 +37,8 @@ hold the level above against twice the middle block's drag. A side block's drag 
 the centre line: each block of the level above holds 0.89 of it alone, and 1.14 of it tied by
 the level resting on them. The tied proof takes the report's shares as they are, with a smaller
 margin (:data:`TIE_SAFETY`): a model choice, measured against the engines in
-docs/results/actions-freeze.md. The level under the top one, which nothing ties, is simulated.
+docs/results/actions-freeze.md. A level tied by the top level alone, and the level under the top
+one, which nothing ties, are simulated.
 Source: stackdsl's own, on Coulomb friction and the report's load shares.
 """
 
@@ -345,7 +346,7 @@ class PullProof:
                 supports[body] = left
             nodes[a] = LoadNode(node.mass, node.com, supports)
         loads = propagate(nodes)
-        dragged: dict[int, tuple[float, Dragged]] = {}  # carried brick -> (its drag's newtons a unit, it)
+        dragged: dict[int, Dragged] = {}  # carried brick -> it, with the drag of the pulled brick's friction, once
         for a in self.carried:
             rec, load, held_on = stack.bodies[a], loads[a], nodes[a].supports
             if body not in held_on:
@@ -354,8 +355,8 @@ class PullProof:
             mass, point = shares[body]
             friction = {s: pair_friction(rec.friction, stack.bodies[s].friction) for s in held_on}
             others = {s: v for s, v in held_on.items() if s != body}
-            unit = friction[body] * mass * g
-            dragged[a] = (unit, Dragged(others, {s: shares[s] for s in others}, friction, self.direction, np.asarray(point[:2])))
+            drag = friction[body] * mass * g * self.direction
+            dragged[a] = Dragged(others, {s: shares[s] for s in others}, friction, drag, np.asarray(point[:2]))
         ties = {t for a in dragged for t in stack.bodies[a].objects_above} - set(dragged) - {body}
         asked: list[tuple[dict[int, Dragged], str]] = []  # the programs, each with what its failing says
         if ties:  # held one by one DRAG_SAFETY times over, they are held tied TIE_SAFETY (smaller) times over
@@ -370,10 +371,10 @@ class PullProof:
                     )
                 )
         else:
-            for a, (unit, brick) in dragged.items():
+            for a, brick in dragged.items():
                 if only is None or a in only:
                     why = f"{stack.bodies[a].label}'s other supports would not hold the drag of {pulled.label}'s friction"
-                    asked.append(({a: replace(brick, drag=DRAG_SAFETY * unit * brick.drag)}, why))
+                    asked.append(({a: replace(brick, drag=DRAG_SAFETY * brick.drag)}, why))
         on = split_load(loads[body].com_above, loads[body].mass_above, under)
         for b in self.below:
             if b not in under or (only is not None and b not in only):
@@ -392,7 +393,7 @@ class PullProof:
 
     def _tied(
         self,
-        dragged: Mapping[int, tuple[float, Dragged]],
+        dragged: Mapping[int, Dragged],
         ties: Collection[int],
         nodes: Mapping[int, LoadNode],
         loads: Mapping[int, Load],
@@ -400,11 +401,11 @@ class PullProof:
         """The program of the ``ties``, the bricks resting on the dragged ones, tying them into
         one that must hold the drag :data:`TIE_SAFETY` times over (:func:`held_together` of the
         dragged bricks and the ties, each on its supports' load shares); or, for a tie that is not
-        frozen, lies on the pulled brick or has a contact that is not level, why there is none.
+        frozen on level contacts or carries nothing, why there is none.
         Where each dragged brick alone holds the drag :data:`DRAG_SAFETY` times over, they hold it
         tied too (the same forces scaled down, the ties' friction at zero)."""
         stack = self.stack
-        bricks = {a: replace(brick, drag=TIE_SAFETY * unit * brick.drag) for a, (unit, brick) in dragged.items()}
+        bricks = {a: replace(brick, drag=TIE_SAFETY * brick.drag) for a, brick in dragged.items()}
         for t in sorted(ties):
             rec = stack.bodies[t]
             if rec.state is not BrickState.FROZEN or any(float(a.normal[2]) < LEVEL for a in rec.rests_on.values()):
@@ -412,8 +413,6 @@ class PullProof:
             if not rec.objects_above:
                 return f"{rec.label}, which ties the bricks it drags, carries nothing (a tie on top is the lightest)"
             held_on = nodes[t].supports
-            if self.body in held_on:
-                return f"{rec.label} rests on it and on the bricks it drags"
             shares = split_load(loads[t].com_above, loads[t].mass_above, held_on)
             friction = {s: pair_friction(rec.friction, stack.bodies[s].friction) for s in held_on}
             bricks[t] = Dragged(held_on, shares, friction, np.zeros(2), np.asarray(shares[next(iter(shares))][1][:2]))

@@ -119,6 +119,7 @@ class StabilityExtension:
         self._impacts = Impacts(self._stack, self._tests)
         # pulled bricks whose proof keeps what they touch frozen, with the overlap (m^2) it was proved at
         self._proofs: dict[int, tuple[PullProof, dict[int, float]]] = {}
+        self._unkept_at: dict[int, tuple[int, frozenset[int], list[int]]] = {}  # guided body -> (version, kept, :meth:`_unkept`)
 
     @property
     def config(self) -> StabilityConfig:
@@ -644,8 +645,7 @@ class StabilityExtension:
         speed = max(stack.engine.speeds(body)[0], stack.hand_speed.get(body, 0.0))
         proved = self._proofs.get(body)
         kept = proved[0].kept if proved is not None else frozenset(stack.rides[body].riders if body in stack.rides else ())
-        among = [b for b, r in stack.bodies.items() if b not in kept and r.state is not BrickState.GROUND] if kept else None
-        for c in stack.engine.near(body, speed * stack.engine.timestep + TOUCH, among):
+        for c in stack.engine.near(body, speed * stack.engine.timestep + TOUCH, self._unkept(body, kept) if kept else None):
             other = stack.bodies.get(c.other)
             if other is None or other.state is BrickState.GROUND or c.other in kept:
                 continue
@@ -655,6 +655,17 @@ class StabilityExtension:
             if other.state is BrickState.FROZEN:
                 events += self.wake(c.other, time, f"touched by {stack.bodies[body].label}, moved by hand")
         return events
+
+    def _unkept(self, body: int, kept: frozenset[int]) -> list[int]:
+        """The bodies guided ``body`` may touch that ``kept`` (frozen by its pull's proof, or riding
+        it) leaves out, the ground aside: the engine is asked for closest points to these only.
+        Found once a stack version and ``kept``."""
+        stack = self._stack
+        found = self._unkept_at.get(body)
+        if found is None or found[0] != stack.version or found[1] != kept:
+            bodies = [b for b, r in stack.bodies.items() if b not in kept and r.state is not BrickState.GROUND]
+            found = self._unkept_at[body] = (stack.version, kept, bodies)
+        return found[2]
 
     def _rides(self, time: float) -> list[StabilityEvent]:
         """End each ride whose pull has ended (of a shake: :meth:`_shaken`), or whose riders have

@@ -591,6 +591,7 @@ class StabilityExtension:
         what it touched: the harness moves it out of the scene first). Raises KeyError for an
         unknown body, ValueError for a frozen one. Source: stackdsl's own."""
         self._proofs.pop(body, None)
+        self._unkept_at.pop(body, None)
         self._stack.forget(body)
 
     def _guided(self, time: float) -> tuple[list[StabilityEvent], dict[int, np.ndarray | None]]:

@@ -165,8 +165,8 @@ class Actions(Subscriber):
         start = loop.world.pose(record.body)
         self.guided.append(_Guided(record, start, time, np.array(velocity), end, kind))
         speed = float(np.linalg.norm(velocity))
-        pull = (float(velocity[0]), float(velocity[1]), float(velocity[2])) if kind == "pull" and self.stability.acting else None
         hand = (float(velocity[0]), float(velocity[1]), float(velocity[2]))
+        pull = hand if kind == "pull" and self.stability.acting else None
         self.stability.follow(loop, self.stability.extension.guide(record.body, time, why, speed, pull, hand))
 
     def _shake(self, loop: StepLoop, a: Shake) -> None:

@@ -26,8 +26,6 @@ frozen bodies, so the extension keeps the contact graph it had when it froze the
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ._admission import Admission
@@ -43,6 +41,7 @@ from ._graph import BrickGraph, BrickState, GraphEdge, GraphNode
 from ._impact import Impacts
 from ._leaning import pair_friction
 from ._load import LoadNode, propagate
+from ._ride import AHEAD, MOST_TILT, RIDE_DROP, RIDE_TILT, RideLimit, centre_drop, felt_gravity, holds_tilted, reach_of, tilt_of
 from ._shake import sliding_parts, withstands
 from ._stack import Record, StabilityEvent, Stack
 from ._stack_test import StackTest
@@ -73,11 +72,6 @@ WATCH = 0.001
 #: Fewest frozen bricks that ride a pull merged into one body (:meth:`StabilityExtension._riders`):
 #: one brick costs the engine no more alone.
 RIDERS = 2
-#: Degrees the bricks riding a pull may tilt from how they froze before they wake: a ride that
-#: tips is no longer one rigid body (its bricks may part). Turning about the vertical is not tilt.
-RIDE_TILT = 0.5
-#: Metres they may drop (a support pulled from under them).
-RIDE_DROP = 0.001
 
 
 def _order(rec: Record) -> int:
@@ -120,6 +114,8 @@ class StabilityExtension:
         # pulled bricks whose proof keeps what they touch frozen, with the overlap (m^2) it was proved at
         self._proofs: dict[int, tuple[PullProof, dict[int, float]]] = {}
         self._unkept_at: dict[int, tuple[int, frozenset[int], list[int]]] = {}  # guided body -> (version, kept, :meth:`_unkept`)
+        self._limits: dict[int, RideLimit] = {}  # a tilted ride's proof, by the pulled brick (:meth:`_tilted`)
+        self._reaches: dict[tuple[int, ...], float] = {}  # riders -> metres, :func:`stability._ride.reach_of`
 
     @property
     def config(self) -> StabilityConfig:
@@ -669,30 +665,72 @@ class StabilityExtension:
         return found[2]
 
     def _rides(self, time: float) -> list[StabilityEvent]:
-        """End each ride whose pull has ended (of a shake: :meth:`_shaken`), or whose riders have
-        tilted by :data:`RIDE_TILT` or dropped by :data:`RIDE_DROP` from where they froze (they
-        tip or fall: no longer one rigid body); the events."""
+        """End each ride whose pull has ended or that is no longer proved one rigid body
+        (:meth:`_tilted`); or, of a shake (:meth:`_shaken`), whose riders' centre of mass has
+        dropped by :data:`stability._ride.RIDE_DROP` from where they froze (they fall) or that
+        has tilted by :data:`stability._ride.RIDE_TILT`; the events."""
         stack, events = self._stack, []
+        for pulled in [p for p in self._limits if p not in stack.rides]:
+            del self._limits[pulled]
         for pulled, (label, riders, ground) in list(stack.rides.items()):
             what = f"rode the pull of {label}" if ground is None else f"rode the shaken {label}"
             if ground is None:
-                why = None if pulled in stack.guided else f"{what} as one body until it ended"
+                why = self._tilted(pulled, riders, time, what) if pulled in stack.guided else f"{what} as one body until it ended"
             else:
                 why = self._shaken(riders, ground, what)
-            if why is None:
                 first = stack.bodies[riders[0]]
                 assert first.frozen_pose is not None, "a rider is frozen"
-                now, then = stack.engine.pose(first.body), first.frozen_pose
-                up = (now.rotation @ then.rotation.T)[:, 2]  # where the vertical it froze with points now
-                tilt = math.degrees(math.acos(min(1.0, float(up[2]))))
-                drop = float(then.position[2] - now.position[2])
-                if tilt > RIDE_TILT:
+                now = stack.engine.pose(first.body)
+                tilt, _ = tilt_of(now, first.frozen_pose)
+                if why is None and (drop := centre_drop(stack, riders, now)) > RIDE_DROP:
+                    why = f"{what} as one body until its centre of mass dropped {drop * 1000:.2f} mm"
+                elif why is None and tilt > RIDE_TILT:
                     why = f"{what} as one body until it tilted {tilt:.2f} deg"
-                elif drop > RIDE_DROP:
-                    why = f"{what} as one body until it dropped {drop * 1000:.2f} mm"
             if why is not None:
+                self._limits.pop(pulled, None)
                 events += [w.event for w in stack.end_ride(pulled, time, why)]
         return events
+
+    def _tilted(self, pulled: int, riders: tuple[int, ...], time: float, what: str) -> str | None:
+        """Why the ride of ``riders`` on the pull of ``pulled`` ends now, in words led by
+        ``what``, or None while it is one rigid body (module :mod:`stability._ride`): the
+        gravity its bricks feel (:func:`stability._ride.felt_gravity`) tilts up to
+        :data:`RIDE_TILT` as they froze; each time it tilts past what was proved, or out of its
+        cone, they are proved again (:func:`stability._ride.holds_tilted`) for :data:`AHEAD`
+        times that tilt, in its direction; and it
+        ends when it comes within :data:`TOUCH` of a body it did not touch when it began."""
+        stack = self._stack
+        first = stack.bodies[riders[0]]
+        assert first.frozen_pose is not None, "a rider is frozen"
+        now = stack.engine.pose(first.body)
+        velocity, spin = stack.engine.velocity(riders[0])
+        limit = self._limits.get(pulled)
+        if limit is None:
+            touching = frozenset(c.other for c in stack.engine.near(riders[0], TOUCH))
+            limit = self._limits[pulled] = RideLimit(RIDE_TILT, np.zeros(2), 0.0, touching, velocity, spin, time)
+        reach = self._reaches.get(riders)
+        if reach is None:
+            reach = self._reaches[riders] = reach_of(stack, riders)
+        needed, towards, swirl = felt_gravity(limit, now, first.frozen_pose, velocity, spin, time, reach, stack.config.gravity)
+        if not limit.covers(needed, towards, swirl):
+            tilt, _ = tilt_of(now, first.frozen_pose)
+            if needed >= MOST_TILT:
+                return f"{what} as one body until it tilted {tilt:.2f} deg: its bricks feel gravity tilted {needed:.0f} deg"
+            why: str | None = None
+            for bound, more in ((min(AHEAD * needed, MOST_TILT), AHEAD * swirl), (min(needed + RIDE_TILT, MOST_TILT), swirl)):
+                if float(np.linalg.norm(towards)) == 0.0:  # upright: any direction, the swirl alone
+                    towards = np.array([1.0, 0.0])
+                why = holds_tilted(stack, riders, bound, towards, more)
+                if why is None:
+                    limit.bound, limit.direction, limit.swirl = bound, towards, more
+                    break
+            if why is not None:
+                return f"{what} as one body until it tilted {tilt:.2f} deg: {why}"
+        others = [b for b in stack.bodies if b not in stack.riding and b not in limit.touching and b != pulled]
+        hit = next(iter(stack.engine.near(riders[0], TOUCH, others)), None) if others else None
+        if hit is not None:
+            return f"{what} as one body until it came within {TOUCH * 1000:g} mm of {stack.bodies[hit.other].label}"
+        return None
 
     def _shaken(self, riders: tuple[int, ...], ground: int, what: str) -> str | None:
         """Why the ride of ``riders`` on the shaken ``ground`` (:meth:`shake`) ends now, in words

@@ -240,8 +240,11 @@ class Impacts:
             centres = stack.engine.poses_of([rec.body for rec, *_ in fast])[0]  # one call, no Pose each
             near = stack.frozen_within(centres, np.array([radius for *_, radius in fast]))
             fast = [f for f, n in zip(fast, near, strict=True) if n]
+        # a riding brick is where the engine carried it, not where it froze: its ride's own rules
+        # watch what touches it (stability.StabilityExtension._rides)
+        struck = stack.frozen.keys() - stack.riding.keys() if stack.riding else stack.frozen.keys()
         for rec, speed, angular_speed, reach, _ in fast:
-            hits = stack.engine.near(rec.body, reach, stack.frozen.keys())
+            hits = stack.engine.near(rec.body, reach, struck)
             if not hits:
                 continue
             slow = (reach - config.contact_pad) / 1.5 < watch  # no point of it moves `watch` in a step

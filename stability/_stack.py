@@ -171,7 +171,9 @@ class Stack:
         self.hand_speed: dict[int, float] = {}  # m/s along a guided body's path, as the hand gave it
         self.hand_velocity: dict[int, np.ndarray] = {}  # m/s, shape (3,): a guided body's, as the hand gave it
         self.admitting = True  # False while the ground moves: nothing is frozen in the world's frame
-        self._boxes: tuple[int, np.ndarray] | None = None  # the frozen bricks' boxes, of a stack version
+        self._boxes: tuple[tuple[int, tuple[int, ...]], np.ndarray] | None = (
+            None  # the frozen bricks' boxes, of a stack version and its rides
+        )
         # active bricks that frozen bricks lean on: body -> (its pose then, the frozen bricks on it)
         self.watched: dict[int, tuple[Pose, set[int]]] = {}
         self._watched_corners: dict[int, tuple[Pose, np.ndarray]] = {}  # body -> its watched pose, and its corners there
@@ -194,9 +196,9 @@ class Stack:
         changes), so that the impact rule asks the engine for closest points only near frozen
         bricks: in a domino row the fallen dominoes behind the chain's front are near none.
         Every moving brick of a step is tested at once. Source: stackdsl's own."""
-        if self._boxes is None or self._boxes[0] != self.version:
-            extents = [r.extent for r in self.frozen.values() if r.extent is not None]
-            self._boxes = (self.version, np.array(extents, dtype=float).reshape(-1, 5))
+        if self._boxes is None or self._boxes[0] != (self.version, tuple(self.rides)):
+            extents = [r.extent for r in self.frozen.values() if r.extent is not None and r.body not in self.riding]
+            self._boxes = ((self.version, tuple(self.rides)), np.array(extents, dtype=float).reshape(-1, 5))
         boxes = self._boxes[1]
         centres = np.asarray(centres, dtype=float).reshape(-1, 3)
         if len(boxes) == 0:

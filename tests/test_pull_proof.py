@@ -169,27 +169,90 @@ def test_what_rests_on_the_bricks_a_pull_drags_rides_them_as_one_body_until_the_
     assert woken == {"b1", "b2", "b3", "top", "up5", "up6", "up7"} and eng.merged == []
 
 
-def test_a_ride_ends_for_all_when_one_rider_wakes_or_they_tilt_or_drop():
-    from scipy.spatial.transform import Rotation
-
-    from stability import Pose
-
+def test_a_ride_ends_for_all_when_one_rider_wakes_or_it_falls_freely():
+    """A blow that wakes one rider wakes them all; a ride whose support is pulled from under it
+    falls freely (its first rider gains 0.49 m/s downwards in 0.05 s): it feels no gravity, and
+    ends."""
     eng, ext = levels_over_three_blocks(mergeable=True)
     ext.guide(2, 0.8, "pushed", 0.04)
     woken = {w.label for w in ext.wake(7, 0.85, "a blow")}
     assert woken == {"up6", "up7"} and eng.merged == []
     eng, ext = levels_over_three_blocks(mergeable=True)
     ext.guide(2, 0.8, "pushed", 0.04)
-    eng.poses[6] = Pose(eng.poses[6].position, Rotation.from_euler("x", 0.4, degrees=True).as_quat())
-    assert not [e for e in ext.update(0.85) if e.label == "up6"]  # under RIDE_TILT
-    eng.poses[6] = Pose(eng.poses[6].position, Rotation.from_euler("x", 0.6, degrees=True).as_quat())
+    assert not [e for e in ext.update(0.85) if e.kind == "wake"]
+    eng.velocities[6] = (np.array([0.0, 0.0, -0.4905]), np.zeros(3))
     rode = {e.label: e.reason for e in ext.update(0.9) if e.kind == "wake"}
-    assert set(rode) == {"up6", "up7"} and "until it tilted 0.60 deg" in rode["up6"]
+    assert set(rode) == {"up6", "up7"} and "its bricks feel gravity tilted 90 deg" in rode["up6"]
+
+
+def tilted(eng, degrees, about="x"):
+    """Turn the ride's first rider (6) about its centre by ``degrees`` about ``about``: the
+    fake engine's merged body moves no other part, and the ride is read from its first rider."""
+    from scipy.spatial.transform import Rotation
+
+    from stability import Pose
+
+    eng.poses[6] = Pose(eng.poses[6].position, Rotation.from_euler(about, degrees, degrees=True).as_quat())
+
+
+def test_a_tilted_ride_rides_on_while_its_bricks_are_proved_to_hold_tilted_and_ends_when_they_slide():
+    """Up to RIDE_TILT nothing is asked; past it the riders are proved rigid under gravity tilted
+    twice as far (or, failing that, 0.5 deg further), and ride on; friction 0.4 holds a level to
+    21.8 deg (tan 0.4), 19.1 deg over the proof's 30 deg cone, and at 25 deg the top rider slides
+    on the one under it: the ride ends, every rider woken, with why."""
     eng, ext = levels_over_three_blocks(mergeable=True)
     ext.guide(2, 0.8, "pushed", 0.04)
-    eng.poses[6] = Pose(eng.poses[6].position - [0.0, 0.0, 0.0015])  # its support pulled from under it
-    rode = {e.label: e.reason for e in ext.update(0.85) if e.kind == "wake"}
-    assert set(rode) == {"up6", "up7"} and "until it dropped 1.50 mm" in rode["up6"]
+    tilted(eng, 0.4)
+    assert not [e for e in ext.update(0.85) if e.kind == "wake"]  # under RIDE_TILT
+    for t, degrees in ((0.9, 0.6), (0.95, 5.0), (1.0, 10.0), (1.05, 18.0)):
+        tilted(eng, degrees)
+        assert not [e for e in ext.update(t) if e.kind == "wake"], degrees
+        assert eng.merged == [(6, 7)]
+    tilted(eng, 25.0)
+    rode = {e.label: e.reason for e in ext.update(1.1) if e.kind == "wake"}
+    assert set(rode) == {"up6", "up7"} and eng.merged == []
+    assert "until it tilted 25.00 deg" in rode["up6"] and "up7 slides on up6" in rode["up6"]
+
+
+def test_a_tilted_ride_feels_its_acceleration_as_tilted_gravity():
+    """A ride tilted 1 deg whose first rider's velocity changes by 0.6 m/s across in 0.1 s
+    (6 m/s^2: gravity felt tilted 31 deg) is not held by friction 0.4: it ends; the same ride
+    moving steadily rides on."""
+    eng, ext = levels_over_three_blocks(mergeable=True)
+    ext.guide(2, 0.8, "pushed", 0.04)
+    tilted(eng, 1.0)
+    assert not [e for e in ext.update(0.85) if e.kind == "wake"]
+    eng.velocities[6] = (np.array([0.0, 0.01, 0.0]), np.zeros(3))
+    assert not [e for e in ext.update(0.9) if e.kind == "wake"]  # a steady 10 mm/s over 0.05 s
+    eng.velocities[6] = (np.array([0.0, 0.61, 0.0]), np.zeros(3))
+    rode = {e.label: e.reason for e in ext.update(1.0) if e.kind == "wake"}
+    assert set(rode) == {"up6", "up7"} and "slides" in rode["up6"]
+
+
+def test_a_ride_turned_about_the_vertical_asks_friction_for_its_swirl():
+    """A side pull twists what rides it: spun up to 0.5 rad/s about the vertical in 0.05 s
+    (10 rad/s^2, 2 alpha reach / g = 0.08 of friction's 0.4) it rides on; spun up to 3 rad/s in
+    0.05 s (60 rad/s^2: 0.49) its bricks would slide on each other, and it ends."""
+    for spin, ends in ((0.5, False), (3.0, True)):
+        eng, ext = levels_over_three_blocks(mergeable=True)
+        ext.guide(2, 0.8, "pushed", 0.04)
+        assert not [e for e in ext.update(0.85) if e.kind == "wake"]
+        eng.velocities[6] = (np.zeros(3), np.array([0.0, 0.0, spin]))
+        rode = {e.label: e.reason for e in ext.update(0.9) if e.kind == "wake"}
+        assert bool(rode) is ends, spin
+        assert not ends or ("slides" in rode["up6"] and "swirl" in rode["up6"])
+
+
+def test_a_tilted_ride_ends_when_it_comes_near_a_body_it_did_not_touch():
+    from stability import ContactPoint
+
+    eng, ext = levels_over_three_blocks(mergeable=True)
+    ext.guide(2, 0.8, "pushed", 0.04)
+    tilted(eng, 1.0)
+    assert not [e for e in ext.update(0.85) if e.kind == "wake"]
+    eng.contacts.append(ContactPoint(6, 3, np.array([0.0, 0.03, 0.05]), np.array([0.0, 0.0, 1.0]), 0.0, 0.001))
+    rode = {e.label: e.reason for e in ext.update(0.9) if e.kind == "wake"}
+    assert set(rode) == {"up6", "up7"} and "it came within 1.5 mm of b3" in rode["up6"]
 
 
 def test_a_level_stack_that_stands_on_no_vertical_forces_without_the_pulled_block_is_refused_at_once(monkeypatch):

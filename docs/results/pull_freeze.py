@@ -12,6 +12,8 @@ steps taken. Settings:
 * ``ext-untied``: the extension with a level tied by the one on it held to the safety of one
   brick alone (``stability._drag.TIE_SAFETY`` set to ``DRAG_SAFETY``): a side pull is stepped,
   a middle pull proved, as before the tied proof;
+* ``ext-flat``: the extension with a pull's ride ended once its first rider tilts 0.5 deg or
+  drops 1 mm, as before a ride was proved rigid as it moves (:func:`flat_ride`; stability/_ride.py);
 * ``ext-free``: the extension on pybullet with nothing merged (pybullet's world refuses
   ``merge``): an unproved pull wakes everything above it, as before the riding group;
 * ``ext-mj``: the extension on MuJoCo;
@@ -34,10 +36,27 @@ import sys
 import time
 
 import stability._drag as drag
+import stability._ride as ride
+from stability import StabilityExtension
 from stackdsl import compile_scenario, parse_scenario, run_program
 from stackdsl.engines.pybullet.world import PyBulletWorld
 
 SAFETY = (drag.DRAG_SAFETY, drag.TIE_SAFETY)  # the extension's, before any setting changes them
+
+
+def flat_ride(self: StabilityExtension, pulled: int, riders: tuple[int, ...], time: float, what: str) -> str | None:
+    """The rule a pull's ride ended by before it was proved rigid as it moves: its first rider
+    tilted :data:`stability._ride.RIDE_TILT` or dropped :data:`stability._ride.RIDE_DROP` from
+    how it froze (``StabilityExtension._tilted`` in its place)."""
+    stack = self._stack
+    first = stack.bodies[riders[0]]
+    assert first.frozen_pose is not None, "a rider is frozen"
+    now = stack.engine.pose(first.body)
+    tilt, _ = ride.tilt_of(now, first.frozen_pose)
+    drop = float(first.frozen_pose.position[2] - now.position[2])
+    if tilt > ride.RIDE_TILT:
+        return f"{what} as one body until it tilted {tilt:.2f} deg"
+    return f"{what} as one body until it dropped {drop * 1000:.2f} mm" if drop > ride.RIDE_DROP else None
 
 
 def setting(name: str, text: str) -> tuple[str, str, str, float, float]:
@@ -77,7 +96,9 @@ def main(path: str, names: list[str], level: int) -> None:
         text, mode, backend, safety, tie = setting(name, base)
         kept, drag.DRAG_SAFETY = drag.DRAG_SAFETY, safety
         kept_tie, drag.TIE_SAFETY = drag.TIE_SAFETY, tie
-        merge = PyBulletWorld.merge
+        merge, tilted = PyBulletWorld.merge, StabilityExtension._tilted
+        if name == "ext-flat":
+            StabilityExtension._tilted = flat_ride  # type: ignore[method-assign]
         if mode == "extension-free":
             mode = "extension"
             PyBulletWorld.merge = lambda self, bodies: False  # type: ignore[method-assign]
@@ -89,6 +110,7 @@ def main(path: str, names: list[str], level: int) -> None:
         finally:
             drag.DRAG_SAFETY, drag.TIE_SAFETY = kept, kept_tie
             PyBulletWorld.merge = merge  # type: ignore[method-assign]
+            StabilityExtension._tilted = tilted  # type: ignore[method-assign]
         above = {b: d for b, d in out.displacement.items() if b[:1] == "L" and int(b[1:3]) > level}
         brick, most = max(above.items(), key=lambda bd: bd[1]) if above else ("-", 0.0)
         collapse = out.collapse.level if out.collapse else None

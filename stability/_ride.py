@@ -1,0 +1,239 @@
+"""A ride that tilts: frozen bricks merged into one body, kept merged while they are proved rigid.
+
+Frozen bricks above a pulled brick ride it merged into one body in the engine
+(:meth:`stability.StabilityExtension.guide`). Up to :data:`RIDE_TILT` of tilt they ride unasked,
+as they froze, until their centre of mass drops :data:`RIDE_DROP` (a support gone from under
+them). A ride that tilts further (the top of a Jenga tower, left on one block at its edge, tips
+over it for a second and more before it falls) stays one body while the report's tests hold each
+of its bricks on the riders under it with gravity as the ride's own frame feels it
+(:func:`holds_tilted`): no contact inside it then slips or tips, and the engine may move the
+bricks as one body. It still simulates the ride's contacts with the bricks that carry it.
+
+The gravity a ride's bricks feel (:func:`felt_gravity`) is gravity less the ride's acceleration
+(d'Alembert), turned into the frame they froze in, and tilted further by the angle of the most
+its spin (``w``) and angular acceleration (``alpha``) add at any of its points, ``2 (w^2 + alpha)
+reach``. A proof holds within :data:`SPREAD` of the direction it tilts in, for :data:`AHEAD` times
+the tilt it was asked at (the tilt grows: a proof a few times, not one a step); a ride falling
+freely feels none, and ends.
+
+The ride ends, and its bricks wake where it took them (:meth:`stability.Stack.end_ride`), when a
+proof fails, when the gravity felt tilts :data:`MOST_TILT` or more, or, once past
+:data:`RIDE_TILT`, when it comes within the extension's touching distance of a body it did not
+touch then (what it hits may part it). Measured on ``scenarios/jenga_falls.yaml`` in
+docs/results/actions-freeze.md, "The top of a tower tipping off its last block".
+
+Source: the report's tipping and sliding tests (3.3.4-3.3.5) under a tilted gravity, as
+:mod:`stability._shake` asks them of a shaken stack; stackdsl's own in applying them to a moving
+body.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import shapely
+
+from ._geometry import Pose
+from ._leaning import pair_friction
+from ._load import propagate
+from ._stack import Stack
+
+#: Degrees the bricks riding a pull may tilt from how they froze before a proof is asked
+#: (:func:`holds_tilted`): within it they ride as they froze. Turning about the vertical is not tilt.
+RIDE_TILT = 0.5
+#: Metres their centre of mass may drop (a support pulled from under them: they fall).
+RIDE_DROP = 0.001
+#: A tilted ride is proved for this many times its tilt (its tilt grows: one proof, not one a step).
+AHEAD = 2.0
+#: Degrees past which no tilted ride is proved: it is falling over.
+MOST_TILT = 45.0
+#: Degrees either side of the direction the gravity felt tilts in that a proof covers.
+SPREAD = 30.0
+#: Seconds over which a tilted ride's accelerations are taken (:func:`felt_gravity`).
+WINDOW = 0.05
+
+
+@dataclass
+class RideLimit:
+    """What a ride has been proved for: up to ``bound`` degrees of tilt of the gravity its bricks
+    feel, within :data:`SPREAD` of ``direction`` (shape (2,), the horizontal part of that gravity
+    in the frame the riders froze in; zero: any, within :data:`RIDE_TILT`), and up to ``swirl``
+    (a tangent: :func:`felt_gravity`) of turning about the vertical; ``touching``, the
+    bodies it touched when it began; its first rider's ``velocity`` (m/s) and ``spin`` (rad/s),
+    shape (3,) each, as read at ``when`` (s), the start of the window its accelerations are taken
+    over; and those accelerations, ``accel`` (m/s^2, shape (3,)) and ``turn`` (rad/s^2), over the
+    last window. Source: stackdsl's own."""
+
+    bound: float
+    direction: np.ndarray
+    swirl: float
+    touching: frozenset[int]
+    velocity: np.ndarray
+    spin: np.ndarray
+    when: float
+    accel: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    turn: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    def covers(self, needed: float, towards: np.ndarray, swirl: float) -> bool:
+        """Whether gravity felt tilted ``needed`` degrees towards ``towards`` (shape (2,)), with a
+        turn about the vertical of ``swirl`` (:func:`felt_gravity`), is within what was proved: a
+        swirl up to the one proved, and a tilt of at most :data:`RIDE_TILT` in any direction, or
+        at most ``bound`` within :data:`SPREAD` of ``direction``."""
+        if swirl > self.swirl:
+            return False
+        if needed <= RIDE_TILT:
+            return True
+        across = float(np.linalg.norm(towards) * np.linalg.norm(self.direction))
+        within = across > 0.0 and float(np.dot(towards, self.direction)) >= math.cos(math.radians(SPREAD)) * across
+        return needed <= self.bound and within
+
+
+def felt_gravity(
+    limit: RideLimit, now: Pose, then: Pose, velocity: np.ndarray, spin: np.ndarray, time: float, reach: float, gravity: float
+) -> tuple[float, np.ndarray, float]:
+    """The tilt (degrees) a ride's proof must cover now, the direction it tilts in (shape (2,),
+    the horizontal part of the gravity felt in the frame the riders froze in), and its swirl: the
+    most its angular acceleration about the vertical adds to any point's horizontal acceleration,
+    over the gravity felt (a tangent); from its first
+    rider's pose ``now``
+    (frozen at ``then``), ``velocity`` and ``spin`` read at ``time``, the accelerations over the
+    last :data:`WINDOW` (``limit`` keeps them), ``reach`` (:func:`reach_of`) and ``gravity``
+    (m/s^2).
+
+    The bricks of a body accelerating by ``a`` feel gravity minus ``a`` (d'Alembert): the first
+    rider's acceleration, turned into the frozen frame, tilts it; every other point of the ride
+    accelerates by at most ``2 (w^2 + alpha) reach`` more, added as the angle it makes against
+    the gravity felt (along the direction of the tilt: a margin for what an engine's contacts
+    leave of the spin, not a direction of its own). Turning about the vertical tilts nothing: a
+    side pull's twist spins a Jenga tower's top up to 0.5 rad/s in 30 ms (12 rad/s^2); what its
+    angular acceleration about the vertical adds, ``2 alpha_z reach``, is the swirl, which the
+    proof asks of friction alone (:func:`holds_tilted`). Accelerations are taken over :data:`WINDOW`: an engine's contacts shake a
+    body resting on others by a few rad/s^2 from one step to the next (20 rad/s^2 and 1 m/s^2 on
+    a Jenga tower's tipping top in pybullet), which moves nothing. A ride falling freely feels no
+    gravity: its tilt is then 90 degrees (nothing is proved for it). Source: stackdsl's own
+    (module docstring).
+    """
+    if time - limit.when >= WINDOW - 1e-9:
+        step = time - limit.when
+        limit.accel = (velocity - limit.velocity) / step
+        limit.turn = (spin - limit.spin) / step
+        limit.velocity, limit.spin, limit.when = velocity, spin, time
+    turned = now.rotation @ then.rotation.T
+    felt = turned.T @ (np.array([0.0, 0.0, -gravity]) - limit.accel)  # in the frozen frame
+    size = float(np.linalg.norm(felt))
+    if size < 1e-9 or felt[2] >= 0.0:
+        return 90.0, felt[:2].copy(), math.inf
+    tilt = math.degrees(math.acos(min(1.0, -float(felt[2]) / size)))
+    tipping = float(np.hypot(limit.turn[0], limit.turn[1]))  # about a horizontal axis: turning about the vertical is no tilt
+    uneven = 2.0 * (float(np.dot(spin, spin)) + tipping) * reach
+    swirl = 2.0 * abs(float(limit.turn[2])) * reach / size
+    return tilt + math.degrees(math.atan(uneven / size)), felt[:2].copy(), swirl
+
+
+def tilt_of(now: Pose, then: Pose) -> tuple[float, np.ndarray]:
+    """Degrees a body has tilted from ``then`` to ``now`` (turning about the vertical is not
+    tilt), and the horizontal part of gravity's direction in its frame as it was ``then`` (shape
+    (2,), zero when upright).
+
+    >>> import numpy as np
+    >>> from scipy.spatial.transform import Rotation
+    >>> q = Rotation.from_euler("y", 10, degrees=True).as_quat()
+    >>> tilt, towards = tilt_of(Pose(np.zeros(3), q), Pose(np.zeros(3), np.array([0.0, 0, 0, 1])))
+    >>> round(tilt, 6), np.round(towards / np.linalg.norm(towards), 6).tolist()
+    (10.0, [1.0, 0.0])
+    """
+    turned = now.rotation @ then.rotation.T  # the rotation since it froze, in the world
+    down = turned.T @ np.array([0.0, 0.0, -1.0])  # gravity's direction in the frozen frame
+    tilt = math.degrees(math.acos(min(1.0, max(-1.0, -float(down[2])))))
+    return tilt, down[:2].copy()
+
+
+def centre_drop(stack: Stack, riders: tuple[int, ...], now: Pose) -> float:
+    """Metres the centre of mass of ``riders`` has dropped from where they froze, the first of
+    them now at ``now`` (they move as one body). Source: stackdsl's own."""
+    first = stack.bodies[riders[0]].frozen_pose
+    assert first is not None, "a rider is frozen"
+    recs = [stack.bodies[b] for b in riders]
+    masses = np.array([r.box.mass for r in recs])
+    centres = np.array([r.frozen_pose.position for r in recs if r.frozen_pose is not None])
+    centre = masses @ centres / masses.sum()
+    moved = now.rotation @ (first.rotation.T @ (centre - first.position)) + now.position
+    return float(centre[2] - moved[2])
+
+
+def reach_of(stack: Stack, riders: tuple[int, ...]) -> float:
+    """Metres from the centre of mass of ``riders`` (as they froze) to the farthest corner of any
+    of them. Source: stackdsl's own."""
+    recs = [stack.bodies[b] for b in riders]
+    masses = np.array([r.box.mass for r in recs])
+    centre = masses @ np.array([r.frozen_pose.position for r in recs if r.frozen_pose is not None]) / masses.sum()
+    corners = np.concatenate([r.box.corners(r.frozen_pose) for r in recs if r.frozen_pose is not None])
+    return float(np.linalg.norm(corners - centre, axis=1).max())
+
+
+def holds_tilted(stack: Stack, riders: tuple[int, ...], tilt: float, towards: np.ndarray, swirl: float = 0.0) -> str | None:
+    """Does each of the frozen ``riders`` that rests on riders alone stay where it froze on them
+    under gravity tilted by up to ``tilt`` degrees within :data:`SPREAD` of ``towards`` (shape
+    (2,), the horizontal part of gravity's direction in their frozen frame), and a horizontal
+    acceleration in any direction of up to ``swirl`` times that gravity (a turn about the
+    vertical)? None when it does; else why not, in words, naming the first that would slide or
+    tip.
+
+    The report's tests with the tilted gravity (as :func:`stability._shake.withstands` asks them
+    of a shaken stack), at the cone's two edges pushed out by ``1 / cos(SPREAD)`` (with upright,
+    where they froze, they span the cone): under a uniform tilt every contact carries a
+    tangential force ``tan(tilt)`` times its normal force, which holds while that is at most the
+    pair's friction coefficient (Coulomb), with ``swirl`` added; and the resultant of a brick and what it carries,
+    through its centre of mass above (report 3.3.5), meets its main contact area's plane
+    ``rise tan(tilt)`` away from where it acts upright, against the tilt: that point must lie
+    inside the area less the stability model's margin (report 3.3.4). The swirl is asked of
+    friction alone: a turn about the vertical twists a level tied by the levels above and below
+    it, which no block of it tips under alone (the report's test would charge each block with
+    the sideways load of everything above it). A rider resting on a
+    brick that is not a rider rests on a body the engine moves: the engine simulates that
+    contact.
+
+    Raises:
+        ValueError: ``tilt`` not in [0, 90) degrees, ``towards`` zero, or ``swirl`` negative.
+
+    Source: report 3.3.4-3.3.5 under a tilted gravity (module docstring; Meriam & Kraige,
+    Statics, ch. 6, for the slide and tip thresholds of a block).
+    """
+    if not 0.0 <= tilt < 90.0:
+        raise ValueError(f"tilt: degrees in [0, 90), not {tilt!r}")
+    length = float(np.linalg.norm(towards))
+    if length == 0.0:
+        raise ValueError("towards: a direction, not zero")
+    if not swirl >= 0.0:
+        raise ValueError(f"swirl: a tangent >= 0, not {swirl!r}")
+    run = math.tan(math.radians(tilt)) / math.cos(math.radians(SPREAD))
+    ux, uy = (float(v) / length for v in towards)
+    edges = []
+    for side in (-1.0, 1.0):
+        c, s = math.cos(math.radians(side * SPREAD)), math.sin(math.radians(side * SPREAD))
+        edges.append((run * (ux * c - uy * s), run * (ux * s + uy * c)))
+    part = set(riders)
+    recs = [stack.bodies[b] for b in riders]
+    loads = propagate(stack.nodes(recs))
+    margin = stack.config.com_margin
+    for rec in recs:
+        if not rec.rests_on or not set(rec.rests_on) <= part:
+            continue
+        for support in rec.rests_on:
+            mu = pair_friction(rec.friction, stack.bodies[support].friction)
+            if run + swirl > mu:
+                return (
+                    f"tilted {tilt:.2f} deg {rec.label} slides on {stack.bodies[support].label}: "
+                    f"tan {run:.3f} + swirl {swirl:.3f} > friction {mu:.3f}"
+                )
+        main, load = rec.main_contact, loads.get(rec.body)
+        if main is None or load is None:
+            continue
+        rise = float(load.com_above[2]) - main.height
+        region = main.polygon.buffer(-margin) if margin > 0 else main.polygon
+        x, y = (float(v) for v in load.com_above[:2])
+        if not all(shapely.contains_xy(region, x + rise * ex, y + rise * ey) for ex, ey in edges):
+            return f"tilted {tilt:.2f} deg {rec.label} tips: its centre of mass above, {rise * 1000:.1f} mm over its contact area, acts outside it"
+    return None

@@ -6,11 +6,17 @@ catch cleanly (a C extension's initialisation reports it as an ImportError; the
 interpreter may end by the signal after the message), so Ctrl-C is only noted while the
 modules load, and ends the command as it does later: "stackdsl: interrupted", exit 130.
 ``stackdsl --version`` alone is answered before any of them loads.
+
+A check of a folder or of several files that may run in parallel (``-j`` above 1, or ``auto``
+with a second core free) starts its worker processes first (:func:`spare_workers`): they load
+their modules on the other cores while this one loads its own, about 1 s each, instead of after
+it. ``-j auto`` is decided then, once: a spare worker loading is itself a busy task.
 Source: stackdsl's own.
 """
 
 from __future__ import annotations
 
+import os
 import signal
 import sys
 from typing import Any
@@ -26,6 +32,7 @@ def main() -> int:
 
         print(f"stackdsl {version()}")
         return 0
+    sys.argv[1:] = spare_workers(sys.argv[1:])
     pressed: list[int] = []
 
     def note(signum: int, frame: Any) -> None:
@@ -40,3 +47,44 @@ def main() -> int:
         print("stackdsl: interrupted", file=sys.stderr)
         return INTERRUPTED
     return run()
+
+
+def spare_workers(args: list[str]) -> list[str]:
+    """For ``stackdsl check`` of a folder or of two or more scenario files with more than one
+    job (``-j N``, ``--jobs N``, or ``auto``, the default: one per free core), start the worker
+    processes now (:func:`stackdsl.batch.pool.start_spares`); returns ``args``, with ``-j auto``
+    replaced by the number it came to. Anything else: ``args`` as given, nothing started."""
+    words = [a for a in args if not a.startswith("-")]
+    if not words or words[0] != "check":
+        return args
+    at = args.index("check") + 1
+    rest, jobs, given = args[at:], "auto", None
+    for i, arg in enumerate(rest):
+        if arg in ("-j", "--jobs") and i + 1 < len(rest):
+            jobs, given = rest[i + 1], (i, 2)
+        elif arg.startswith("--jobs="):
+            jobs, given = arg[len("--jobs=") :], (i, 1)
+        elif arg.startswith("-j") and len(arg) > 2:
+            jobs, given = arg[2:], (i, 1)
+    paths = [a for a in rest if not a.startswith("-")]
+    if not any(os.path.isdir(p) for p in paths) and sum(p.endswith((".yaml", ".yml")) for p in paths) < 2:
+        return args
+    if jobs.strip().lower() == "auto":
+        from .batch.address import free_cores
+
+        count = free_cores()
+        if given is not None:
+            rest = rest[: given[0]] + rest[given[0] + given[1] :]
+        args, jobs = [*args[:at], "--jobs", str(count), *rest], str(count)
+    if not jobs.strip().isdigit() or int(jobs) < 2:
+        return args
+    from .batch.address import cores
+    from .batch.pool import start_spares
+
+    start_spares(min(int(jobs), cores()) - 1, load_check)  # more than the cores is refused later
+    return args
+
+
+def load_check() -> None:
+    """Import what a check's runs need (a spare worker's load, :func:`spare_workers`)."""
+    from .batch import check_sweep  # noqa: F401

@@ -1607,3 +1607,30 @@ def test_a_control_character_in_a_path_is_escaped_so_each_error_stays_one_line(o
     assert capsys.readouterr().err.strip() == f"d{escaped}ir/missing.yaml: no such file or folder"
     assert main(["render", f"{folder}/t.yaml", "-o", f"no{odd}where/a.png"]) == 2
     assert f"no{escaped}where/a.png" in capsys.readouterr().err
+
+
+def test_a_check_of_a_folder_starts_its_workers_before_it_loads(monkeypatch, tmp_path):
+    """``stackdsl check`` of a folder, or of two files or more, with more than one job starts
+    its workers first (stackdsl._entry.spare_workers), and decides ``-j auto`` once; one file,
+    one job or another command starts none and keeps its arguments."""
+    from stackdsl.batch import address, pool
+
+    started: list[int] = []
+    monkeypatch.setattr(pool, "start_spares", lambda count, load: started.append(count))
+    monkeypatch.setattr(address, "free_cores", lambda: 2)
+    monkeypatch.setattr(address, "cores", lambda: 2)
+    folder = str(tmp_path)
+    cases = [
+        (["check", folder], ["check", "--jobs", "2", folder], [1]),
+        (["--debug", "check", "-j", "auto", folder], ["--debug", "check", "--jobs", "2", folder], [1]),
+        (["check", "-j2", "a.yaml", "b.yml"], ["check", "-j2", "a.yaml", "b.yml"], [1]),
+        (["check", "--jobs=8", folder], ["check", "--jobs=8", folder], [1]),  # no more than the cores
+        (["check", "a.yaml"], ["check", "a.yaml"], []),
+        (["check", "-j", "1", folder], ["check", "-j", "1", folder], []),
+        (["run", folder], ["run", folder], []),
+    ]
+    for args, expected, spares in cases:
+        started.clear()
+        assert _entry.spare_workers(list(args)) == expected, args
+        assert started == spares, args
+

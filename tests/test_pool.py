@@ -167,6 +167,30 @@ def test_a_worker_imports_what_it_is_warmed_with_before_it_is_ready():
             workers.stop()
 
 
+def test_a_spare_worker_loads_first_and_the_next_pool_adopts_it(monkeypatch):
+    """A spare (started before anything asked for it) calls its load before it says it is
+    ready, and the next pool takes it in place of starting a worker of its own; a pool of
+    another memory limit does not (it ends the spare and starts its own)."""
+    from stackdsl import _entry
+
+    monkeypatch.setattr(_pool, "_SPARES", [])
+    _pool.start_spares(1, _entry.load_check)
+    spare = _pool._SPARES[0][0].pid
+    workers = _pool.Workers(1)
+    try:
+        assert workers.pids == [spare] and not _pool._SPARES
+        assert workers.run(eval, "'stackdsl.batch.check_sweep' in __import__('sys').modules") is True
+    finally:
+        workers.stop()
+    _pool.start_spares(1, _entry.load_check)
+    spare = _pool._SPARES[0][0].pid
+    workers = _pool.Workers(1, memory_limit=None)
+    try:
+        assert workers.pids != [spare] and not _pool._SPARES and not gone({spare}, within=10.0)
+    finally:
+        workers.stop()
+
+
 @pytest.mark.slow
 def test_an_exception_in_a_worker_comes_with_its_traceback():
     workers = _pool.Workers(1)

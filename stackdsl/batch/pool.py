@@ -11,6 +11,10 @@ on, longer when the cores are busy). So:
   the longest ones. No run waits on a worker that is still starting, so a parallel check
   costs at most the CPU the workers' start-up takes from this one.
 
+A command that will fan out may start its workers before it has loaded its own modules
+(:func:`start_spares`, from the ``stackdsl`` console script): they then load side by side with
+it, on the other cores, and the first :class:`Workers` adopts them.
+
 Results come back as each run finishes. Closing the iterator early (or an exception in
 this process) cancels what has not started and stops the workers.
 
@@ -48,6 +52,10 @@ T = TypeVar("T")
 
 #: Seconds of estimated work below which no worker process is started.
 STARTUP = 1.0
+
+#: Workers started before anything asked for them (:func:`start_spares`), with the memory limit
+#: each was given, for the next :class:`Workers` to adopt.
+_SPARES: list[tuple[_Worker, int | None]] = []
 
 
 class WorkerLost(RuntimeError):
@@ -321,13 +329,16 @@ class Workers:
         return [w.pid for w in self._workers]
 
     def add(self) -> None:
-        """Start one more worker."""
-        ours, theirs = multiprocessing.Pipe()
-        process = SPAWN.Process(target=_serve, args=(theirs, self._warm), daemon=True, name="stackdsl-worker")
-        process.memory_limit = self._memory_limit
-        process.start()
-        theirs.close()
-        self._workers.append(_Worker(process, ours))
+        """Start one more worker, or adopt a spare one of the same memory limit that is still
+        alive (:func:`start_spares`)."""
+        while _SPARES:
+            spare, limit = _SPARES.pop(0)
+            if limit == self._memory_limit and spare.process.exitcode is None:
+                self._workers.append(spare)
+                return
+            _terminate([spare.process])
+            spare.conn.close()
+        self._workers.append(_start(self._warm, self._memory_limit))
 
     def submit(self, fn: Callable[..., Any], *args: Any, limit: float | None = None) -> int:
         """Hand ``fn(*args)`` to a ready worker; returns its ticket (see :meth:`collect`).
@@ -408,6 +419,26 @@ class Workers:
             w.conn.close()
 
 
+def start_spares(count: int, load: Callable[[], object], memory_limit: int | None = MEMORY_LIMIT) -> None:
+    """Start ``count`` workers now, each calling ``load`` (a module-level function, in a module
+    that imports little: it is pickled by name, and the worker imports what it needs) before it
+    says it is ready, for the next :class:`Workers` to adopt in place of starting its own (the
+    ``stackdsl`` console script, for a check of more than one file that may run in parallel,
+    before it loads its own modules: both load at once, on two cores). Spares never adopted are
+    daemons: they end with this process. Source: stackdsl's own."""
+    _SPARES.extend((_start(None, memory_limit, load), memory_limit) for _ in range(count))
+
+
+def _start(warm: Callable[..., Any] | None, memory_limit: int | None, load: Callable[[], object] | None = None) -> _Worker:
+    """A new worker process (:func:`_serve`), guarded, warmed by ``warm`` and ``load``."""
+    ours, theirs = multiprocessing.Pipe()
+    process = SPAWN.Process(target=_serve, args=(theirs, warm, load), daemon=True, name="stackdsl-worker")
+    process.memory_limit = memory_limit
+    process.start()
+    theirs.close()
+    return _Worker(process, ours)
+
+
 def _unpack(message: tuple[Any, ...]) -> tuple[Any, BaseException | None]:
     if message[0] == "ok":
         return message[1], None
@@ -428,11 +459,17 @@ def _terminate(processes: Sequence[multiprocessing.process.BaseProcess]) -> None
             process.join()
 
 
-def _serve(conn: multiprocessing.connection.Connection, warm: Callable[..., Any] | None = None) -> None:
+def _serve(
+    conn: multiprocessing.connection.Connection,
+    warm: Callable[..., Any] | None = None,
+    load: Callable[[], object] | None = None,
+) -> None:
     """A worker's loop: say it is ready, then run each task sent and send back ``('ok', result)``
     or ``('raised', exception, traceback text)``, until the pipe closes. ``warm`` (see
     :class:`Workers`) is not called: it came pickled by name, so its module was imported before
-    this runs."""
+    this runs; ``load`` (:func:`start_spares`) is called first."""
+    if load is not None:
+        load()
     conn.send(("ready", os.getpid()))
     while True:
         try:

@@ -1633,4 +1633,3 @@ def test_a_check_of_a_folder_starts_its_workers_before_it_loads(monkeypatch, tmp
         started.clear()
         assert _entry.spare_workers(list(args)) == expected, args
         assert started == spares, args
-

@@ -37,7 +37,7 @@ from shapely.ops import unary_union
 
 from ._engine import ContactPoint
 from ._equilibrium import GRAVITY
-from ._geometry import Box, Pose
+from ._geometry import Box, Pose, corners_of
 from ._graph import BrickState
 from ._stack import Record, StabilityEvent, Stack
 from ._stack_test import StackTest
@@ -233,17 +233,19 @@ class Impacts:
             # toppling domino's top edge moves twice as fast as its centre of mass
             corner = rec.box.half_diagonal
             reach = (speed + angular_speed * corner) * dt * 1.5 + config.contact_pad
-            fast.append((rec, speed, angular_speed, reach, corner + reach))
+            fast.append((rec, speed, angular_speed, reach))
         watched = stack.watched
         window = dt * 1.5
-        if geometric and fast:  # no frozen brick's box within reach: the engine is not asked
-            centres = stack.engine.poses_of([rec.body for rec, *_ in fast])[0]  # one call, no Pose each
-            near = stack.frozen_within(centres, np.array([radius for *_, radius in fast]))
+        if geometric and fast:  # no frozen brick's box within reach of its own box: the engine is not asked
+            positions, quaternions = stack.engine.poses_of([rec.body for rec, *_ in fast])  # one call, no Pose each
+            halves = np.array([rec.box.half_extents for rec, *_ in fast], dtype=float)
+            corners = corners_of(halves, positions, quaternions)
+            near = stack.frozen_within(corners.min(axis=1), corners.max(axis=1), np.array([reach for *_, reach in fast]))
             fast = [f for f, n in zip(fast, near, strict=True) if n]
         # a riding brick is where the engine carried it, not where it froze: its ride's own rules
         # watch what touches it (stability.StabilityExtension._rides)
         struck = stack.frozen.keys() - stack.riding.keys() if stack.riding else stack.frozen.keys()
-        for rec, speed, angular_speed, reach, _ in fast:
+        for rec, speed, angular_speed, reach in fast:
             hits = stack.engine.near(rec.body, reach, struck)
             if not hits:
                 continue

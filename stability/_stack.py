@@ -189,28 +189,33 @@ class Stack:
         if rec.state is BrickState.ACTIVE:
             self.active[rec.body] = rec
 
-    def frozen_within(self, centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
-        """For each centre (shape (n, 3), m) and radius (shape (n,), m): does the bounding box of
-        some frozen brick come within that radius of it? Shape (n,), bool. A bound, from the
-        boxes found when they froze (their tops and horizontal extents; kept until the stack
-        changes), so that the impact rule asks the engine for closest points only near frozen
-        bricks: in a domino row the fallen dominoes behind the chain's front are near none.
-        Every moving brick of a step is tested at once. Source: stackdsl's own."""
+    def frozen_within(self, lows: np.ndarray, highs: np.ndarray, reach: np.ndarray) -> np.ndarray:
+        """For each box (its lowest and highest corners, shapes (n, 3), m) and distance (shape
+        (n,), m): does the bounding box of some frozen brick come within that distance of it?
+        Shape (n,), bool. A bound, from the boxes found when they froze (their tops and
+        horizontal extents; kept until the stack changes, or a ride starts or ends: a riding
+        brick is where the engine carried it, and is left out), so that the impact rule asks
+        the engine for closest points only near frozen bricks: in a domino row the fallen
+        dominoes behind the chain's front are near none, and in a Jenga tower a moving block two
+        levels over a frozen one is not near it (its box is 15 mm thick, where the sphere about
+        its centre that bounded it before reached 40 mm down). Every moving brick of a step is
+        tested at once. Source: stackdsl's own."""
         if self._boxes is None or self._boxes[0] != (self.version, tuple(self.rides)):
             extents = [r.extent for r in self.frozen.values() if r.extent is not None and r.body not in self.riding]
             self._boxes = ((self.version, tuple(self.rides)), np.array(extents, dtype=float).reshape(-1, 5))
         boxes = self._boxes[1]
-        centres = np.asarray(centres, dtype=float).reshape(-1, 3)
+        lows, highs = np.asarray(lows, dtype=float).reshape(-1, 3), np.asarray(highs, dtype=float).reshape(-1, 3)
         if len(boxes) == 0:
-            return np.zeros(len(centres), dtype=bool)
-        x, y, z = (centres[:, i : i + 1] for i in range(3))  # (n, 1) against the boxes' (m,)
-        r = np.asarray(radii, dtype=float).reshape(-1, 1)
+            return np.zeros(len(lows), dtype=bool)
+        r = np.asarray(reach, dtype=float).reshape(-1, 1)
+        low = [lows[:, i : i + 1] - r for i in range(3)]  # (n, 1) against the boxes' (m,)
+        high = [highs[:, i : i + 1] + r for i in range(2)]
         near = (
-            (boxes[:, 0] >= z - r)
-            & (boxes[:, 1] <= x + r)
-            & (boxes[:, 2] >= x - r)
-            & (boxes[:, 3] <= y + r)
-            & (boxes[:, 4] >= y - r)
+            (boxes[:, 0] >= low[2])
+            & (boxes[:, 1] <= high[0])
+            & (boxes[:, 2] >= low[0])
+            & (boxes[:, 3] <= high[1])
+            & (boxes[:, 4] >= low[1])
         )
         found: np.ndarray = near.any(axis=1)
         return found

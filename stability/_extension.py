@@ -26,6 +26,8 @@ frozen bodies, so the extension keeps the contact graph it had when it froze the
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ._admission import Admission
@@ -714,6 +716,8 @@ class StabilityExtension:
         needed, towards, swirl = felt_gravity(limit, now, first.frozen_pose, velocity, spin, time, reach, stack.config.gravity)
         if not limit.covers(needed, towards, swirl):
             tilt, _ = tilt_of(now, first.frozen_pose)
+            if not math.isfinite(needed + swirl):  # an engine's motion gone wrong: nothing is proved of it
+                return f"{what} as one body until its motion was no longer finite"
             if needed >= MOST_TILT:
                 return f"{what} as one body until it tilted {tilt:.2f} deg: its bricks feel gravity tilted {needed:.0f} deg"
             why: str | None = None

@@ -124,7 +124,7 @@ def felt_gravity(
     felt = turned.T @ (np.array([0.0, 0.0, -gravity]) - limit.accel)  # in the frozen frame
     size = float(np.linalg.norm(felt))
     if size < 1e-9 or felt[2] >= 0.0:
-        return 90.0, felt[:2].copy(), math.inf
+        return 90.0, felt[:2].copy(), 0.0
     tilt = math.degrees(math.acos(min(1.0, -float(felt[2]) / size)))
     tipping = float(np.hypot(limit.turn[0], limit.turn[1]))  # about a horizontal axis: turning about the vertical is no tilt
     uneven = 2.0 * (float(np.dot(spin, spin)) + tipping) * reach

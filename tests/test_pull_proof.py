@@ -243,6 +243,15 @@ def test_a_ride_turned_about_the_vertical_asks_friction_for_its_swirl():
         assert not ends or ("slides" in rode["up6"] and "swirl" in rode["up6"])
 
 
+def test_a_ride_whose_motion_is_not_finite_ends():
+    eng, ext = levels_over_three_blocks(mergeable=True)
+    ext.guide(2, 0.8, "pushed", 0.04)
+    assert not [e for e in ext.update(0.85) if e.kind == "wake"]
+    eng.velocities[6] = (np.array([np.nan, 0.0, 0.0]), np.zeros(3))
+    rode = {e.label: e.reason for e in ext.update(0.9) if e.kind == "wake"}
+    assert set(rode) == {"up6", "up7"} and "no longer finite" in rode["up6"]
+
+
 def test_a_tilted_ride_ends_when_it_comes_near_a_body_it_did_not_touch():
     from stability import ContactPoint
 

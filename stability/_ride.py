@@ -1,26 +1,29 @@
 """A ride that tilts: frozen bricks merged into one body, kept merged while they are proved rigid.
 
 Frozen bricks above a pulled brick ride it merged into one body in the engine
-(:meth:`stability.StabilityExtension.guide`). Up to :data:`RIDE_TILT` of tilt they ride unasked,
-as they froze, until their centre of mass drops :data:`RIDE_DROP` (a support gone from under
-them). A ride that tilts further (the top of a Jenga tower, left on one block at its edge, tips
+(:meth:`stability.StabilityExtension.guide`). The engine still simulates the ride's contacts with
+the bricks that carry it; the extension asks, each step, whether the bricks inside it would stay
+as they froze. While the gravity they feel tilts at most :data:`RIDE_TILT` they ride as they
+froze. A ride that tilts further (the top of a Jenga tower, left on one block at its edge, tips
 over it for a second and more before it falls) stays one body while the report's tests hold each
-of its bricks on the riders under it with gravity as the ride's own frame feels it
-(:func:`holds_tilted`): no contact inside it then slips or tips, and the engine may move the
-bricks as one body. It still simulates the ride's contacts with the bricks that carry it.
+of its bricks on the riders under it with that gravity (:func:`holds_tilted`): no contact inside
+it then slips or tips.
 
 The gravity a ride's bricks feel (:func:`felt_gravity`) is gravity less the ride's acceleration
 (d'Alembert), turned into the frame they froze in, and tilted further by the angle of the most
-its spin (``w``) and angular acceleration (``alpha``) add at any of its points, ``2 (w^2 + alpha)
-reach``. A proof holds within :data:`SPREAD` of the direction it tilts in, for :data:`AHEAD` times
-the tilt it was asked at (the tilt grows: a proof a few times, not one a step); a ride falling
-freely feels none, and ends.
+its spin (``w``) and its angular acceleration about a horizontal axis (``alpha``) add at any of
+its points, ``2 (w^2 + alpha) reach``; its angular acceleration about the vertical (a side pull
+twists the level it drags) is a swirl, asked of friction alone. A proof holds within
+:data:`SPREAD` of the direction the gravity felt tilts in, for :data:`AHEAD` times the tilt it was
+asked at (the tilt grows: a proof a few times, not one a step).
 
 The ride ends, and its bricks wake where it took them (:meth:`stability.Stack.end_ride`), when a
-proof fails, when the gravity felt tilts :data:`MOST_TILT` or more, or, once past
-:data:`RIDE_TILT`, when it comes within the extension's touching distance of a body it did not
-touch then (what it hits may part it). Measured on ``scenarios/jenga_falls.yaml`` in
-docs/results/actions-freeze.md, "The top of a tower tipping off its last block".
+proof fails, when the gravity felt tilts :data:`MOST_TILT` or more (a ride falling freely feels
+none: 90 degrees), or when it comes within the extension's touching distance of a body it did
+not touch when it began (what it hits may part it). Measured on ``scenarios/jenga_falls.yaml``
+in docs/results/actions-freeze.md, "The top of a tower tipping off its last block". A ride of a
+shaken ground keeps the simpler rule of :meth:`stability.StabilityExtension._rides`: it ends
+once it tilts :data:`RIDE_TILT` or its centre of mass drops :data:`RIDE_DROP`.
 
 Source: the report's tipping and sliding tests (3.3.4-3.3.5) under a tilted gravity, as
 :mod:`stability._shake` asks them of a shaken stack; stackdsl's own in applying them to a moving
@@ -40,10 +43,12 @@ from ._leaning import pair_friction
 from ._load import propagate
 from ._stack import Stack
 
-#: Degrees the bricks riding a pull may tilt from how they froze before a proof is asked
-#: (:func:`holds_tilted`): within it they ride as they froze. Turning about the vertical is not tilt.
+#: Degrees the gravity a pull's riders feel may tilt from how they froze before a proof is asked
+#: (:func:`holds_tilted`): within it they ride as they froze. Turning about the vertical is not
+#: tilt. A shaken ground's ride ends past it.
 RIDE_TILT = 0.5
-#: Metres their centre of mass may drop (a support pulled from under them: they fall).
+#: Metres the centre of mass of a shaken ground's riders may drop (the ground's edge gone from
+#: under them: they fall).
 RIDE_DROP = 0.001
 #: A tilted ride is proved for this many times its tilt (its tilt grows: one proof, not one a step).
 AHEAD = 2.0
@@ -94,12 +99,11 @@ def felt_gravity(
     limit: RideLimit, now: Pose, then: Pose, velocity: np.ndarray, spin: np.ndarray, time: float, reach: float, gravity: float
 ) -> tuple[float, np.ndarray, float]:
     """The tilt (degrees) a ride's proof must cover now, the direction it tilts in (shape (2,),
-    the horizontal part of the gravity felt in the frame the riders froze in), and its swirl: the
-    most its angular acceleration about the vertical adds to any point's horizontal acceleration,
-    over the gravity felt (a tangent); from its first
-    rider's pose ``now``
-    (frozen at ``then``), ``velocity`` and ``spin`` read at ``time``, the accelerations over the
-    last :data:`WINDOW` (``limit`` keeps them), ``reach`` (:func:`reach_of`) and ``gravity``
+    the horizontal part of the gravity felt in the frame the riders froze in), and its swirl (a
+    tangent: the most its angular acceleration about the vertical adds to any point's horizontal
+    acceleration, over the gravity felt); from its first rider's pose ``now`` (frozen at
+    ``then``), ``velocity`` and ``spin`` read at ``time``, the accelerations over the last
+    :data:`WINDOW` (``limit`` keeps them), ``reach`` (:func:`reach_of`, m) and ``gravity``
     (m/s^2).
 
     The bricks of a body accelerating by ``a`` feel gravity minus ``a`` (d'Alembert): the first
@@ -109,11 +113,11 @@ def felt_gravity(
     leave of the spin, not a direction of its own). Turning about the vertical tilts nothing: a
     side pull's twist spins a Jenga tower's top up to 0.5 rad/s in 30 ms (12 rad/s^2); what its
     angular acceleration about the vertical adds, ``2 alpha_z reach``, is the swirl, which the
-    proof asks of friction alone (:func:`holds_tilted`). Accelerations are taken over :data:`WINDOW`: an engine's contacts shake a
-    body resting on others by a few rad/s^2 from one step to the next (20 rad/s^2 and 1 m/s^2 on
-    a Jenga tower's tipping top in pybullet), which moves nothing. A ride falling freely feels no
-    gravity: its tilt is then 90 degrees (nothing is proved for it). Source: stackdsl's own
-    (module docstring).
+    proof asks of friction alone (:func:`holds_tilted`). Accelerations are taken over
+    :data:`WINDOW`: an engine's contacts shake a body resting on others by a few rad/s^2 from one
+    step to the next (20 rad/s^2 and 1 m/s^2 on a Jenga tower's tipping top in pybullet), which
+    moves nothing. A ride falling freely feels no gravity: its tilt is then 90 degrees (nothing
+    is proved for it). Source: stackdsl's own (module docstring).
     """
     if time - limit.when >= WINDOW - 1e-9:
         step = time - limit.when

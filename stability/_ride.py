@@ -229,7 +229,7 @@ def holds_tilted(stack: Stack, riders: tuple[int, ...], tilt: float, towards: np
             mu = pair_friction(rec.friction, stack.bodies[support].friction)
             if run + swirl > mu:
                 return (
-                    f"tilted {tilt:.2f} deg {rec.label} slides on {stack.bodies[support].label}: "
+                    f"under gravity tilted {tilt:.2f} deg {rec.label} slides on {stack.bodies[support].label}: "
                     f"tan {run:.3f} + swirl {swirl:.3f} > friction {mu:.3f}"
                 )
         main, load = rec.main_contact, loads.get(rec.body)
@@ -239,5 +239,5 @@ def holds_tilted(stack: Stack, riders: tuple[int, ...], tilt: float, towards: np
         region = main.polygon.buffer(-margin) if margin > 0 else main.polygon
         x, y = (float(v) for v in load.com_above[:2])
         if not all(shapely.contains_xy(region, x + rise * ex, y + rise * ey) for ex, ey in edges):
-            return f"tilted {tilt:.2f} deg {rec.label} tips: its centre of mass above, {rise * 1000:.1f} mm over its contact area, acts outside it"
+            return f"under gravity tilted {tilt:.2f} deg {rec.label} tips: its centre of mass above, {rise * 1000:.1f} mm over its contact area, acts outside it"
     return None

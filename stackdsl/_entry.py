@@ -32,7 +32,6 @@ def main() -> int:
 
         print(f"stackdsl {version()}")
         return 0
-    sys.argv[1:] = spare_workers(sys.argv[1:])
     pressed: list[int] = []
 
     def note(signum: int, frame: Any) -> None:
@@ -40,6 +39,7 @@ def main() -> int:
 
     previous = signal.signal(signal.SIGINT, note)
     try:
+        sys.argv[1:] = spare_workers(sys.argv[1:])
         from .cli.main import main as run
     finally:
         signal.signal(signal.SIGINT, previous)

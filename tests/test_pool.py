@@ -167,6 +167,21 @@ def test_a_worker_imports_what_it_is_warmed_with_before_it_is_ready():
             workers.stop()
 
 
+def test_a_worker_ignores_ctrl_c_from_its_first_instruction():
+    """A Ctrl-C to the whole group (``timeout -s INT``, a terminal) while a worker loads its
+    modules stopped it with a "Fatal Python error" and a traceback: a spawned child does not keep
+    the blocked mask it was started under. It is now started with SIGINT ignored, which a new
+    program keeps: read from /proc at once, long before the worker's own guard runs."""
+    workers = _pool.Workers(1)
+    try:
+        status = Path(f"/proc/{workers.pids[0]}/status").read_text()
+        ignored = int(next(line.split()[1] for line in status.splitlines() if line.startswith("SigIgn:")), 16)
+        assert ignored & (1 << (signal.SIGINT - 1))
+        assert signal.getsignal(signal.SIGINT) is not signal.SIG_IGN  # this process has its own handler back
+    finally:
+        workers.stop()
+
+
 def test_a_spare_worker_loads_first_and_the_next_pool_adopts_it(monkeypatch):
     """A spare (started before anything asked for it) calls its load before it says it is
     ready, and the next pool takes it in place of starting a worker of its own; a pool of

@@ -526,6 +526,9 @@ class StabilityExtension:
                 events += [w.event for w in stack.wake(a, time, why, alone=True)]
             for other, on in beside:
                 events += [w.event for w in stack.wake(other, time, f"carries {on} beside {label}, moved by hand", alone=True)]
+            # frozen in these books, moved by the engine: the runtime reads and records them as moving
+            words = f"rides the pull of {label}, one rigid body of {len(riders)} bricks in the engine"
+            events += [StabilityEvent(time, "ride", stack.bodies[b].label, words) for b in riders]
         else:
             events = [w.event for w in stack.wake(body, time, reason)]
             for other, on in beside:

@@ -53,20 +53,31 @@ def spare_workers(args: list[str]) -> list[str]:
     """For ``stackdsl check`` of a folder or of two or more scenario files with more than one
     job (``-j N``, ``--jobs N``, or ``auto``, the default: one per free core), start the worker
     processes now (:func:`stackdsl.batch.pool.start_spares`); returns ``args``, with ``-j auto``
-    replaced by the number it came to. Anything else: ``args`` as given, nothing started."""
+    replaced by the number it came to. The value of an option (``--report DIR``,
+    :func:`stackdsl.cli.main.value_options`) is not a path. Anything else: ``args`` as given,
+    nothing started."""
     words = [a for a in args if not a.startswith("-")]
     if not words or words[0] != "check":
         return args
+    from .cli.main import value_options
+
+    valued = value_options("check")
     at = args.index("check") + 1
-    rest, jobs, given = args[at:], "auto", None
+    rest, jobs, given, paths = args[at:], "auto", None, []
+    skip = False
     for i, arg in enumerate(rest):
-        if arg in ("-j", "--jobs") and i + 1 < len(rest):
-            jobs, given = rest[i + 1], (i, 2)
+        if skip:
+            skip = False
+        elif arg in ("-j", "--jobs") and i + 1 < len(rest):
+            jobs, given, skip = rest[i + 1], (i, 2), True
         elif arg.startswith("--jobs="):
             jobs, given = arg[len("--jobs=") :], (i, 1)
         elif arg.startswith("-j") and len(arg) > 2:
             jobs, given = arg[2:], (i, 1)
-    paths = [a for a in rest if not a.startswith("-")]
+        elif arg in valued:
+            skip = True
+        elif not arg.startswith("-"):
+            paths.append(arg)
     if not any(os.path.isdir(p) for p in paths) and sum(p.endswith((".yaml", ".yml")) for p in paths) < 2:
         return args
     if jobs.strip().lower() == "auto":

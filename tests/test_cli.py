@@ -1626,6 +1626,8 @@ def test_a_check_of_a_folder_starts_its_workers_before_it_loads(monkeypatch, tmp
         (["check", "-j2", "a.yaml", "b.yml"], ["check", "-j2", "a.yaml", "b.yml"], [1]),
         (["check", "--jobs=8", folder], ["check", "--jobs=8", folder], [1]),  # no more than the cores
         (["check", "a.yaml"], ["check", "a.yaml"], []),
+        (["check", "-j", "2", "--report", folder, "a.yaml"], ["check", "-j", "2", "--report", folder, "a.yaml"], []),
+        (["check", "--json", folder], ["check", "--jobs", "2", "--json", folder], [1]),
         (["check", "-j", "1", folder], ["check", "-j", "1", folder], []),
         (["run", folder], ["run", folder], []),
     ]

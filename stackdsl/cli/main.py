@@ -343,6 +343,15 @@ class _Parser(argparse.ArgumentParser):
         self.exit(BAD_INPUT, f"{self.prog}: error: {message} (see: {self.prog} --help)\n")
 
 
+def value_options(command: str) -> frozenset[str]:
+    """The options of ``command`` (``"check"``) that take a value (``-j``, ``--report``, ...), from
+    its parser: what a word after one of them is, before the command runs
+    (:func:`stackdsl._entry.spare_workers`). Raises KeyError for an unknown command."""
+    parser = _parser([command])
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return frozenset(o for a in sub.choices[command]._actions if a.nargs != 0 for o in a.option_strings)
+
+
 def _parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     """The ``stackdsl`` parser. Given ``argv``, only the command it names is built in full, so
     that only that command's modules load; the others are their line of help (:data:`COMMANDS`)."""

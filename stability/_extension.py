@@ -117,7 +117,6 @@ class StabilityExtension:
         self._proofs: dict[int, tuple[PullProof, dict[int, float]]] = {}
         self._unkept_at: dict[int, tuple[int, frozenset[int], list[int]]] = {}  # guided body -> (version, kept, :meth:`_unkept`)
         self._limits: dict[int, RideLimit] = {}  # a tilted ride's proof, by the pulled brick (:meth:`_tilted`)
-        self._reaches: dict[tuple[int, ...], float] = {}  # riders -> metres, :func:`stability._ride.reach_of`
 
     @property
     def config(self) -> StabilityConfig:
@@ -702,8 +701,8 @@ class StabilityExtension:
         gravity its bricks feel (:func:`stability._ride.felt_gravity`) tilts up to
         :data:`RIDE_TILT` as they froze; each time it tilts past what was proved, or out of its
         cone, they are proved again (:func:`stability._ride.holds_tilted`) for :data:`AHEAD`
-        times that tilt, in its direction; and it
-        ends when it comes within :data:`TOUCH` of a body it did not touch when it began."""
+        times that tilt, in its direction; and it ends when it comes within :data:`TOUCH` of a
+        body it did not touch when it began."""
         stack = self._stack
         first = stack.bodies[riders[0]]
         assert first.frozen_pose is not None, "a rider is frozen"
@@ -712,28 +711,29 @@ class StabilityExtension:
         limit = self._limits.get(pulled)
         if limit is None:
             touching = frozenset(c.other for c in stack.engine.near(riders[0], TOUCH))
-            limit = self._limits[pulled] = RideLimit(RIDE_TILT, np.zeros(2), 0.0, touching, velocity, spin, time)
-        reach = self._reaches.get(riders)
-        if reach is None:
-            reach = self._reaches[riders] = reach_of(stack, riders)
-        needed, towards, swirl = felt_gravity(limit, now, first.frozen_pose, velocity, spin, time, reach, stack.config.gravity)
+            reach = reach_of(stack, riders)
+            limit = self._limits[pulled] = RideLimit(RIDE_TILT, np.zeros(2), 0.0, touching, reach, velocity, spin, time)
+        needed, towards, swirl = felt_gravity(limit, now, first.frozen_pose, velocity, spin, time, stack.config.gravity)
         if not limit.covers(needed, towards, swirl):
             tilt, _ = tilt_of(now, first.frozen_pose)
             if not math.isfinite(needed + swirl):  # an engine's motion gone wrong: nothing is proved of it
                 return f"{what} as one body until its motion was no longer finite"
             if needed >= MOST_TILT:
                 return f"{what} as one body until it tilted {tilt:.2f} deg: its bricks feel gravity tilted {needed:.0f} deg"
+            if float(np.linalg.norm(towards)) == 0.0:  # upright: any direction, the swirl alone
+                towards = np.array([1.0, 0.0])
             why: str | None = None
             for bound, more in ((min(AHEAD * needed, MOST_TILT), AHEAD * swirl), (min(needed + RIDE_TILT, MOST_TILT), swirl)):
-                if float(np.linalg.norm(towards)) == 0.0:  # upright: any direction, the swirl alone
-                    towards = np.array([1.0, 0.0])
                 why = holds_tilted(stack, riders, bound, towards, more)
                 if why is None:
                     limit.bound, limit.direction, limit.swirl = bound, towards, more
                     break
             if why is not None:
                 return f"{what} as one body until it tilted {tilt:.2f} deg: {why}"
-        others = [b for b in stack.bodies if b not in stack.riding and b not in limit.touching and b != pulled]
+        key = (stack.registrations, tuple(stack.rides))  # the bodies it may come to touch, found once for them
+        if limit.others[0] != key:
+            limit.others = (key, [b for b in stack.bodies if b not in stack.riding and b not in limit.touching and b != pulled])
+        others = limit.others[1]
         hit = next(iter(stack.engine.near(riders[0], TOUCH, others)), None) if others else None
         if hit is not None:
             return f"{what} as one body until it came within {TOUCH * 1000:g} mm of {stack.bodies[hit.other].label}"

@@ -66,7 +66,7 @@ class RideLimit:
     feel, within :data:`SPREAD` of ``direction`` (shape (2,), the horizontal part of that gravity
     in the frame the riders froze in; zero: any, within :data:`RIDE_TILT`), and up to ``swirl``
     (a tangent: :func:`felt_gravity`) of turning about the vertical; ``touching``, the
-    bodies it touched when it began; its first rider's ``velocity`` (m/s) and ``spin`` (rad/s),
+    bodies it touched when it began; ``reach`` (:func:`reach_of`, m); its first rider's ``velocity`` (m/s) and ``spin`` (rad/s),
     shape (3,) each, as read at ``when`` (s), the start of the window its accelerations are taken
     over; and those accelerations, ``accel`` (m/s^2, shape (3,)) and ``turn`` (rad/s^2), over the
     last window. Source: stackdsl's own."""
@@ -75,11 +75,13 @@ class RideLimit:
     direction: np.ndarray
     swirl: float
     touching: frozenset[int]
+    reach: float
     velocity: np.ndarray
     spin: np.ndarray
     when: float
     accel: np.ndarray = field(default_factory=lambda: np.zeros(3))
     turn: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    others: tuple[object, list[int]] = field(default_factory=lambda: ((), []))  # the bodies it may come to touch, and what for
 
     def covers(self, needed: float, towards: np.ndarray, swirl: float) -> bool:
         """Whether gravity felt tilted ``needed`` degrees towards ``towards`` (shape (2,)), with a
@@ -96,15 +98,14 @@ class RideLimit:
 
 
 def felt_gravity(
-    limit: RideLimit, now: Pose, then: Pose, velocity: np.ndarray, spin: np.ndarray, time: float, reach: float, gravity: float
+    limit: RideLimit, now: Pose, then: Pose, velocity: np.ndarray, spin: np.ndarray, time: float, gravity: float
 ) -> tuple[float, np.ndarray, float]:
     """The tilt (degrees) a ride's proof must cover now, the direction it tilts in (shape (2,),
     the horizontal part of the gravity felt in the frame the riders froze in), and its swirl (a
     tangent: the most its angular acceleration about the vertical adds to any point's horizontal
     acceleration, over the gravity felt); from its first rider's pose ``now`` (frozen at
     ``then``), ``velocity`` and ``spin`` read at ``time``, the accelerations over the last
-    :data:`WINDOW` (``limit`` keeps them), ``reach`` (:func:`reach_of`, m) and ``gravity``
-    (m/s^2).
+    :data:`WINDOW` (``limit`` keeps them, with the ride's reach) and ``gravity`` (m/s^2).
 
     The bricks of a body accelerating by ``a`` feel gravity minus ``a`` (d'Alembert): the first
     rider's acceleration, turned into the frozen frame, tilts it; every other point of the ride
@@ -131,8 +132,8 @@ def felt_gravity(
         return 90.0, felt[:2].copy(), 0.0
     tilt = math.degrees(math.acos(min(1.0, -float(felt[2]) / size)))
     tipping = float(np.hypot(limit.turn[0], limit.turn[1]))  # about a horizontal axis: turning about the vertical is no tilt
-    uneven = 2.0 * (float(np.dot(spin, spin)) + tipping) * reach
-    swirl = 2.0 * abs(float(limit.turn[2])) * reach / size
+    uneven = 2.0 * (float(np.dot(spin, spin)) + tipping) * limit.reach
+    swirl = 2.0 * abs(float(limit.turn[2])) * limit.reach / size
     return tilt + math.degrees(math.atan(uneven / size)), felt[:2].copy(), swirl
 
 

@@ -171,9 +171,8 @@ class Stack:
         self.hand_speed: dict[int, float] = {}  # m/s along a guided body's path, as the hand gave it
         self.hand_velocity: dict[int, np.ndarray] = {}  # m/s, shape (3,): a guided body's, as the hand gave it
         self.admitting = True  # False while the ground moves: nothing is frozen in the world's frame
-        self._boxes: tuple[tuple[int, tuple[int, ...]], np.ndarray] | None = (
-            None  # the frozen bricks' boxes, of a stack version and its rides
-        )
+        # the frozen bricks' boxes, of a stack version and its rides (frozen_within)
+        self._boxes: tuple[tuple[int, tuple[int, ...]], np.ndarray] | None = None
         # active bricks that frozen bricks lean on: body -> (its pose then, the frozen bricks on it)
         self.watched: dict[int, tuple[Pose, set[int]]] = {}
         self._watched_corners: dict[int, tuple[Pose, np.ndarray]] = {}  # body -> its watched pose, and its corners there
@@ -197,9 +196,9 @@ class Stack:
         brick is where the engine carried it, and is left out), so that the impact rule asks
         the engine for closest points only near frozen bricks: in a domino row the fallen
         dominoes behind the chain's front are near none, and in a Jenga tower a moving block two
-        levels over a frozen one is not near it (its box is 15 mm thick, where the sphere about
-        its centre that bounded it before reached 40 mm down). Every moving brick of a step is
-        tested at once. Source: stackdsl's own."""
+        levels over a frozen one is not near it (its box is 15 mm thick; a sphere of its half
+        diagonal would reach 40 mm down). Every moving brick of a step is tested at once.
+        Source: stackdsl's own."""
         if self._boxes is None or self._boxes[0] != (self.version, tuple(self.rides)):
             extents = [r.extent for r in self.frozen.values() if r.extent is not None and r.body not in self.riding]
             self._boxes = ((self.version, tuple(self.rides)), np.array(extents, dtype=float).reshape(-1, 5))

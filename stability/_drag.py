@@ -108,6 +108,9 @@ ITERATIONS = 10_000
 the shipped and new users' Jenga pulls take up to 193, but a tied program just past its limit
 (a side pull of a stickier block, pair friction 1.06 times the level's) ran HiGHS for minutes
 without an answer, deaf to SIGTERM (the pull is then stepped, as an unproved one is)."""
+# HiGHS solves a drag program without its presolve: for these programs of a few hundred columns
+# presolve costs more than it saves (48 programs of the two Jenga scenes: 7.5 to 7.9 ms a call
+# through scipy against 9.0 to 9.6 ms, the same answer to each; docs/results/actions-freeze.md)
 
 
 def footprint(half_extents: np.ndarray, pose: Pose) -> Polygon:
@@ -230,7 +233,7 @@ def held_together(bricks: Mapping[int, Dragged], gravity: float) -> bool:
         b_eq=np.concatenate([rhs, np.asarray(normal).ravel()]),
         bounds=(0, None),
         method="highs",
-        options={"maxiter": ITERATIONS},
+        options={"maxiter": ITERATIONS, "presolve": False},
     )
     return bool(result.status == 0)
 

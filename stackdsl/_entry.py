@@ -87,12 +87,13 @@ def spare_workers(args: list[str]) -> list[str]:
         if given is not None:
             rest = rest[: given[0]] + rest[given[0] + given[1] :]
         args, jobs = [*args[:at], "--jobs", str(count), *rest], str(count)
-    if not jobs.strip().isdigit() or int(jobs) < 2:
-        return args
     from .batch.address import cores
+
+    if not jobs.strip().isdigit() or not 2 <= int(jobs) <= cores():  # more than the cores is refused later
+        return args
     from .batch.pool import start_spares
 
-    start_spares(min(int(jobs), cores()) - 1, load_check)  # more than the cores is refused later
+    start_spares(int(jobs) - 1, load_check)
     return args
 
 

@@ -1624,7 +1624,7 @@ def test_a_check_of_a_folder_starts_its_workers_before_it_loads(monkeypatch, tmp
         (["check", folder], ["check", "--jobs", "2", folder], [1]),
         (["--debug", "check", "-j", "auto", folder], ["--debug", "check", "--jobs", "2", folder], [1]),
         (["check", "-j2", "a.yaml", "b.yml"], ["check", "-j2", "a.yaml", "b.yml"], [1]),
-        (["check", "--jobs=8", folder], ["check", "--jobs=8", folder], [1]),  # no more than the cores
+        (["check", "--jobs=8", folder], ["check", "--jobs=8", folder], []),  # more than the cores: refused, nothing started
         (["check", "a.yaml"], ["check", "a.yaml"], []),
         (["check", "-j", "2", "--report", folder, "a.yaml"], ["check", "-j", "2", "--report", folder, "a.yaml"], []),
         (["check", "--json", folder], ["check", "--jobs", "2", "--json", folder], [1]),

@@ -155,15 +155,21 @@ def tilt_of(now: Pose, then: Pose) -> tuple[float, np.ndarray]:
     return tilt, down[:2].copy()
 
 
+def frozen_centre(stack: Stack, riders: tuple[int, ...]) -> np.ndarray:
+    """The centre of mass of the frozen ``riders`` as they froze, shape (3,), m. Source:
+    stackdsl's own."""
+    recs = [stack.bodies[b] for b in riders]
+    masses = np.array([r.box.mass for r in recs])
+    centre: np.ndarray = masses @ np.array([r.frozen_pose.position for r in recs if r.frozen_pose is not None]) / masses.sum()
+    return centre
+
+
 def centre_drop(stack: Stack, riders: tuple[int, ...], now: Pose) -> float:
     """Metres the centre of mass of ``riders`` has dropped from where they froze, the first of
     them now at ``now`` (they move as one body). Source: stackdsl's own."""
     first = stack.bodies[riders[0]].frozen_pose
     assert first is not None, "a rider is frozen"
-    recs = [stack.bodies[b] for b in riders]
-    masses = np.array([r.box.mass for r in recs])
-    centres = np.array([r.frozen_pose.position for r in recs if r.frozen_pose is not None])
-    centre = masses @ centres / masses.sum()
+    centre = frozen_centre(stack, riders)
     moved = now.rotation @ (first.rotation.T @ (centre - first.position)) + now.position
     return float(centre[2] - moved[2])
 
@@ -172,10 +178,8 @@ def reach_of(stack: Stack, riders: tuple[int, ...]) -> float:
     """Metres from the centre of mass of ``riders`` (as they froze) to the farthest corner of any
     of them. Source: stackdsl's own."""
     recs = [stack.bodies[b] for b in riders]
-    masses = np.array([r.box.mass for r in recs])
-    centre = masses @ np.array([r.frozen_pose.position for r in recs if r.frozen_pose is not None]) / masses.sum()
     corners = np.concatenate([r.box.corners(r.frozen_pose) for r in recs if r.frozen_pose is not None])
-    return float(np.linalg.norm(corners - centre, axis=1).max())
+    return float(np.linalg.norm(corners - frozen_centre(stack, riders), axis=1).max())
 
 
 def holds_tilted(stack: Stack, riders: tuple[int, ...], tilt: float, towards: np.ndarray, swirl: float = 0.0) -> str | None:

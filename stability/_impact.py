@@ -320,11 +320,12 @@ class Impacts:
             tip = tipping_energy(struck.mass_above, com, footprint, base, heading, config.gravity, point)
             potential = tip if potential <= 0.0 else min(potential, tip)
         least, moved = potential, struck
-        if min(least, kinetic) <= self._least_tip():  # no part below tips for less: none is weighed
+        todo = [s for s in struck.rests_on if self._carries(s)]
+        if not todo or min(least, kinetic) <= self._least_tip():  # no part below, or none tips for less
             return least, moved
         blow = np.zeros(3)
         blow[: len(heading)] = np.asarray(heading, dtype=float)[:3]
-        below, todo = set(), [s for s in struck.rests_on if self._carries(s)]
+        below: set[int] = set()
         while todo:  # every frozen brick under it, through what each rests on
             b = todo.pop()
             if b not in below:

@@ -59,7 +59,7 @@ from ._equilibrium import RigidBlock, balanced_vertically, is_level, solve_equil
 from ._geometry import ContactArea, Pose
 from ._graph import BrickState
 from ._leaning import pair_friction
-from ._load import Load, LoadNode, propagate, split_load
+from ._load import Load, LoadNode, Splits, propagate, split_load
 from ._stack import Stack
 
 DRAG_SAFETY = 1.5
@@ -268,6 +268,7 @@ class PullProof:
         self.supports: dict[int, ContactArea] = {}  # everything it rests on (the ground too)
         self._looked: np.ndarray | None = None  # where the pulled brick was when its overlaps were last looked at
         self.area: dict[int, float] = {}  # carried brick or support -> m^2 of its contact when proved
+        self._splits: Splits = {}  # the load splits of the last check: each check changes a few nodes
         self.why = self._start(near)
 
     def _start(self, near: Sequence[ContactPoint]) -> str | None:
@@ -348,7 +349,7 @@ class PullProof:
             else:
                 supports[body] = left
             nodes[a] = LoadNode(node.mass, node.com, supports)
-        loads = propagate(nodes)
+        loads = propagate(nodes, self._splits)
         dragged: dict[int, Dragged] = {}  # carried brick -> it, with the drag of the pulled brick's friction, once
         for a in self.carried:
             rec, load, held_on = stack.bodies[a], loads[a], nodes[a].supports

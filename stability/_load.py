@@ -72,11 +72,13 @@ class Load:
     shares: dict[int, float]
 
 
-def propagate(nodes: Mapping[int, LoadNode]) -> dict[int, Load]:
+def propagate(nodes: Mapping[int, LoadNode], memo: Splits | None = None) -> dict[int, Load]:
     """Compute ``com_above``/``mass_above`` of every node, top of the stack first.
 
     Args:
         nodes: body -> :class:`LoadNode`. ``supports`` must form no cycle.
+        memo: the splits of an earlier call, kept by the caller (:func:`propagate_fast`'s):
+            the same answer, bit for bit, with only the loads that changed split again.
 
     Returns:
         body -> :class:`Load`.
@@ -98,7 +100,7 @@ def propagate(nodes: Mapping[int, LoadNode]) -> dict[int, Load]:
     """
     return {
         b: Load(np.array(com), mass, {s: m / mass for s, m, _, _ in shares})
-        for b, (com, mass, shares) in propagate_fast(nodes).items()
+        for b, (com, mass, shares) in propagate_fast(nodes, memo).items()
     }
 
 

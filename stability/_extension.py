@@ -36,7 +36,7 @@ from ._certificate import Certificate, certify
 from ._config import StabilityConfig
 from ._debris import Debris
 from ._drag import SHRINK, PullProof, footprint
-from ._engine import Engine
+from ._engine import ContactPoint, Engine
 from ._equilibrium import ContactPolygon
 from ._geometry import FACE_TILT, Box, Plane, Pose, corners_of, signed_inside
 from ._graph import BrickGraph, BrickState, GraphEdge, GraphNode
@@ -117,6 +117,9 @@ class StabilityExtension:
         self._proofs: dict[int, tuple[PullProof, dict[int, float]]] = {}
         self._unkept_at: dict[int, tuple[int, frozenset[int], list[int]]] = {}  # guided body -> (version, kept, :meth:`_unkept`)
         self._limits: dict[int, RideLimit] = {}  # a tilted ride's proof, by the pulled brick (:meth:`_tilted`)
+        self._pushers: set[int] = set()  # guided bodies a hand pushes with (guided without a pull)
+        self._driven: dict[int, int] = {}  # a brick a pusher drives, as a pulled one (:meth:`_drive`) -> the pusher
+        self._aims: dict[int, int] = {}  # a pusher -> the brick its push is aimed at
 
     @property
     def config(self) -> StabilityConfig:
@@ -453,6 +456,7 @@ class StabilityExtension:
         speed: float = 0.0,
         pull: tuple[float, float, float] | None = None,
         velocity: tuple[float, float, float] | None = None,
+        aim: int | None = None,
     ) -> list[StabilityEvent]:
         """An outside hand moves ``body`` from now on (a gripper pulling a brick out, a pusher), at
         ``speed`` m/s along its path: it wakes, with everything resting on it (report 3.3.7), and
@@ -482,11 +486,20 @@ class StabilityExtension:
 
         ``velocity`` (m/s, the hand's along its path; a pull's by default) is the direction the
         impact rule asks of a brick the body drives: a frozen brick it closes on across that
-        direction is not driven into by the hand (:meth:`stability._impact.Impacts.check`)."""
+        direction is not driven into by the hand (:meth:`stability._impact.Impacts.check`).
+
+        A body guided without a ``pull`` pushes: a frozen brick carrying others that it pushes
+        along its level is driven by the hand as a pulled brick is (:meth:`_drive`). ``aim``: the
+        brick the push is aimed at, when it names one; while that brick is frozen and carries
+        others, the push drags from its start (:meth:`drags`)."""
         stack = self._stack
         hand = velocity if velocity is not None else pull
         if hand is not None:
             stack.hand_velocity[body] = np.asarray(hand, dtype=float)
+        if pull is None and stack.bodies[body].state is not BrickState.FROZEN:
+            self._pushers.add(body)
+            if aim is not None:
+                self._aims[body] = aim
         if pull is not None and stack.bodies[body].state is BrickState.FROZEN:
             near = stack.engine.near(body, speed * stack.engine.timestep + TOUCH)
             proof = PullProof(stack, body, np.asarray(pull, dtype=float), near)
@@ -502,10 +515,24 @@ class StabilityExtension:
                 return events + self._touching(body, time, {})
         return self._guide(body, time, reason, speed)
 
-    def alone(self, body: int) -> bool:
-        """Whether guided ``body`` is pulled with the bricks it slides between kept frozen by a
-        proof (:meth:`guide`): nothing it touches moves with it."""
-        return body in self._proofs
+    def driven(self) -> list[str]:
+        """The labels of the bricks a pusher drives now, as a hand pulls a brick (:meth:`_drive`)."""
+        return [self._stack.bodies[b].label for b in self._driven if b in self._stack.bodies]
+
+    def drags(self, body: int) -> bool:
+        """Whether guided ``body`` drags bricks the engine moves: a pulled brick, or a pusher's
+        driven brick (:meth:`_drive`), that no proof keeps alone (:meth:`guide`: with a proof,
+        the bricks it slides between stay frozen and nothing it touches moves with it). A pusher
+        drags from its start while the brick it is aimed at is frozen and carries others: the
+        drag it will put on them is stepped from the first (a side block of a Jenga level 11 pushed
+        30 mm dragged level 12 11 mm when the steps were split from the push's start, as both
+        tuned engines drag it, and 0.3 mm when they were split from the step it was first driven); a pusher that drives no brick carrying others drags none."""
+        if body in self._pushers:
+            aim = self._stack.bodies.get(self._aims.get(body, -1))
+            if aim is not None and aim.state is BrickState.FROZEN and aim.objects_above:
+                return True
+            return any(pusher == body and brick not in self._proofs for brick, pusher in self._driven.items())
+        return body not in self._proofs
 
     def _guide(self, body: int, time: float, reason: str, speed: float) -> list[StabilityEvent]:
         """:meth:`guide` without a proof: ``body`` wakes with what rests on it and the bricks
@@ -592,7 +619,30 @@ class StabilityExtension:
         unknown body, ValueError for a frozen one. Source: stackdsl's own."""
         self._proofs.pop(body, None)
         self._unkept_at.pop(body, None)
+        self._pushers.discard(body)
+        self._driven.pop(body, None)
+        self._aims.pop(body, None)
+        for brick in [b for b, pusher in self._driven.items() if pusher == body]:
+            self._let_go(brick)
         self._stack.forget(body)
+
+    def _let_go(self, brick: int) -> None:
+        """The push that drove ``brick`` (:meth:`_drive`) has ended: it is a brick like any other
+        again, and the frozen bricks kept resting on it are watched (:meth:`Stack.watch`), waking
+        once it moves :data:`WATCH` from where it is now (a pushed block stops within a fraction
+        of a millimetre once the hand does)."""
+        stack = self._stack
+        del self._driven[brick]
+        self._proofs.pop(brick, None)
+        self._unkept_at.pop(brick, None)
+        stack.guided.discard(brick)
+        stack.hand_speed.pop(brick, None)
+        stack.hand_velocity.pop(brick, None)
+        rec = stack.bodies.get(brick)
+        if rec is not None and rec.state is BrickState.ACTIVE:
+            kept = {r.body for r in stack.frozen.values() if brick in r.rests_on}
+            if kept:
+                stack.watch(rec, kept)
 
     def _guided(self, time: float) -> tuple[list[StabilityEvent], dict[int, np.ndarray | None]]:
         """Wake the frozen bricks each guided body touches or will within a step (:data:`TOUCH`
@@ -654,8 +704,62 @@ class StabilityExtension:
                 continue  # it slides past it, never toward it
             touched[c.other] = stack.hand_velocity.get(body)
             if other.state is BrickState.FROZEN:
-                events += self.wake(c.other, time, f"touched by {stack.bodies[body].label}, moved by hand")
+                way = self._pushes(c, body) if body in self._pushers else "into"
+                if way == "past":
+                    continue  # a pusher gliding by it, clear of it, never toward it
+                if way == "into" and body in self._pushers and other.objects_above:
+                    events += self._drive(c.other, body, time)
+                else:
+                    events += self.wake(c.other, time, f"touched by {stack.bodies[body].label}, moved by hand")
         return events
+
+    def _pushes(self, contact: ContactPoint, pusher: int) -> str:
+        """How ``pusher``, held on a straight path, meets the frozen brick of ``contact`` (one of
+        the pusher's contact points, its normal from that brick into the pusher): "past" it,
+        when a gap is left between them and the pusher's box, swept along the hand's velocity,
+        misses the brick's box (their shadows across the path do not overlap: a finger gliding
+        over the block under the one it pushes, a pusher's edge by the corner of the block
+        beside); "into" a side of it along its level (the hand's velocity mostly horizontal, the
+        face turned toward it within 60 deg); else "on" it. Source: stackdsl's own."""
+        stack = self._stack
+        hand = stack.hand_velocity.get(pusher)
+        if hand is None or not np.any(hand[:2]):
+            return "on"
+        normal = np.asarray(contact.normal, dtype=float)
+        if contact.distance > 0.0:
+            own = stack.bodies[pusher].box.corners(stack.engine.pose(pusher))
+            other = stack.bodies[contact.other]
+            theirs = other.box.corners(stack.pose(other))
+            way = np.asarray(hand, dtype=float) / float(np.linalg.norm(hand))
+            side = np.cross(way, [0.0, 0.0, 1.0])
+            for axis in (side / float(np.linalg.norm(side)), np.cross(way, side) / float(np.linalg.norm(side))):
+                a, b = own @ axis, theirs @ axis
+                if a.max() <= b.min() or b.max() <= a.min():
+                    return "past"
+        along = np.asarray(hand[:2], dtype=float) / float(np.hypot(hand[0], hand[1]))
+        facing = -float(normal[:2] @ along)
+        level = abs(float(hand[2])) <= float(np.hypot(hand[0], hand[1])) and abs(float(normal[2])) < 0.5
+        return "into" if level and facing >= 0.5 else "on"
+
+    def _drive(self, brick: int, pusher: int, time: float) -> list[StabilityEvent]:
+        """The frozen ``brick``, which carries others, is pushed by ``pusher`` along its level:
+        it is driven by the hand as a pulled brick is (:meth:`guide` with the pusher's velocity:
+        its friction drags what rests on it, and what it rests on). Proved, it wakes alone and the
+        bricks it slides between stay frozen (:class:`stability._drag.PullProof`, asked again as
+        it moves); unproved, it wakes with what rests on it and the bricks beside that carry
+        that, which stay in the engine while it is driven. Until the push ends (:meth:`forget`
+        of the pusher) it is a guided body: never frozen, and what it touches wakes.
+
+        Woken as a plain brick, everything resting on a pushed Jenga block woke, and froze again
+        a tenth of a second later on the blocks beside it, the push's drag never weighed: a side
+        block of level 11 pushed 30 mm left level 12 in place where both tuned engines and raw
+        pybullet dragged it past the collapse threshold. Source: stackdsl's own."""
+        stack = self._stack
+        hand = stack.hand_velocity[pusher]
+        self._driven[brick] = pusher
+        velocity = (float(hand[0]), float(hand[1]), float(hand[2]))
+        why = f"pushed by {stack.bodies[pusher].label}, moved by hand"
+        return self.guide(brick, time, why, stack.hand_speed.get(pusher, 0.0), pull=velocity, velocity=velocity)
 
     def _unkept(self, body: int, kept: frozenset[int]) -> list[int]:
         """The bodies guided ``body`` may touch that ``kept`` (frozen by its pull's proof, or riding

@@ -214,15 +214,17 @@ class World(Engine, Protocol):
         return (a, b, c), (d, e, f)
 
     # optional capabilities, with their defaults -------------------------------------
-    def guide(self, body: int, pose: Pose, velocity: Vec3, hold: bool = True) -> None:
+    def guide(self, body: int, pose: Pose, velocity: Vec3, hold: bool = True, drags: bool = False) -> None:
         """Move ``body`` kinematically through the next step: put it at ``pose`` with linear
         ``velocity`` (m/s) and no spin, so that what it touches feels a body moving at that
         velocity (friction drags it), while contacts and gravity cannot push it off its path
         (``hold``: a pusher in a hand). Without ``hold`` only its horizontal position, its
         orientation and its horizontal velocity are set: it keeps its mass, height and vertical
         motion, resting on what carries it and carrying its share of what rests on it (a brick
-        slid out of a tower). Called before every step it is guided; :meth:`move` ends it.
-        Default: refused."""
+        slid out of a tower). ``drags``: a held body that drives a brick whose friction drags
+        what it carries (a pusher sliding a Jenga block out): an engine holds sticking contacts
+        as it does for a body guided without ``hold``. Called before every step it is guided;
+        :meth:`move` ends it. Default: refused."""
         raise NotImplementedError(f"{type(self).__name__} cannot guide a body")
 
     def move_ground(self, offset: Vec3, velocity: Vec3) -> None:

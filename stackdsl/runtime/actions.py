@@ -33,7 +33,7 @@ moves the ground. Source: stackdsl's own.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from dataclasses import dataclass
 
 import numpy as np
@@ -83,9 +83,11 @@ class Actions(Subscriber):
         substeps: the run's substep control (None: the engine alone, no substeps).
         split_pulls: steps of at most :data:`PULL_STEP` while a pull lasts (the extension acting,
             on pybullet).
-        past_threshold: whether a structure brick is past the collapse threshold now
-            (:attr:`stackdsl.runtime.collapse.CollapseMonitor.past_threshold`): from then on a
-            pull's steps are the engine's own, not split.
+        past_threshold: whether a structure brick is past the collapse threshold now, the
+            bricks of the ids given left out
+            (:meth:`stackdsl.runtime.collapse.CollapseMonitor.past_threshold_besides`): from then
+            on a pull's steps are the engine's own, not split. The ids given are those of the
+            bricks a pusher drives (:meth:`stability.StabilityExtension.driven`).
     """
 
     def __init__(
@@ -93,7 +95,7 @@ class Actions(Subscriber):
         stability: Stability,
         substeps: Substeps | None = None,
         split_pulls: bool = False,
-        past_threshold: Callable[[], bool] = lambda: False,
+        past_threshold: Callable[[Collection[str]], bool] = lambda moved_by_hand: False,
     ) -> None:
         self.stability = stability
         self.substeps, self.split_pulls = substeps, split_pulls
@@ -149,7 +151,8 @@ class Actions(Subscriber):
         loop.structure.add(record)
         self.stability.extension.add_brick(body, record.box, a.id, a.brick.friction)
         loop.events.append(Event(time=a.time, kind="push", brick=a.id, detail=detail))
-        self._guide(loop, record, a.time, a.velocity, a.end_step, "push", "a pusher")
+        aimed = loop.structure.records.get(a.target)
+        self._guide(loop, record, a.time, a.velocity, a.end_step, "push", "a pusher", aimed.body if aimed else None)
         self._finer(loop)
 
     def _guide(
@@ -161,13 +164,14 @@ class Actions(Subscriber):
         end: int,
         kind: str,
         why: str,
+        aim: int | None = None,
     ) -> None:
         start = loop.world.pose(record.body)
         self.guided.append(_Guided(record, start, time, np.array(velocity), end, kind))
         speed = float(np.linalg.norm(velocity))
         hand = (float(velocity[0]), float(velocity[1]), float(velocity[2]))
         pull = hand if kind == "pull" and self.stability.acting else None
-        self.stability.follow(loop, self.stability.extension.guide(record.body, time, why, speed, pull, hand))
+        self.stability.follow(loop, self.stability.extension.guide(record.body, time, why, speed, pull, hand, aim))
 
     def _shake(self, loop: StepLoop, a: Shake) -> None:
         extension, acting = self.stability.extension, self.stability.acting
@@ -210,18 +214,18 @@ class Actions(Subscriber):
         )
 
     def _carrying(self) -> bool:
-        """Whether a pull under way drags bricks the engine moves: one whose proof keeps what it
-        slides between frozen (:meth:`stability.StabilityExtension.alone`) carries none, and
-        needs no finer steps. Nor does one once a structure brick is past the collapse
+        """Whether a pull or a push under way drags bricks the engine moves
+        (:meth:`stability.StabilityExtension.drags`): one whose proof keeps what it slides
+        between frozen carries none, and needs no finer steps. Nor does one once a structure brick is past the collapse
         threshold: the finer steps are there for the drag that decides whether the structure
         stands, and with a brick past the threshold the collapse is dated and its level fixed;
         what follows is a fall, which the engine's own step simulates as it does any other
         (docs/actions.md, "Pull": a 12-level tower that a side pull fells, 5.4 to 5.8 s split to
         the pull's end, 3.0 to 3.6 s so)."""
-        if self._past_threshold():
+        if self._past_threshold(self.stability.extension.driven()):
             return False
-        alone = self.stability.extension.alone
-        return any(g.kind == "pull" and not alone(g.record.body) for g in self.guided)
+        drags = self.stability.extension.drags
+        return any(g.kind in ("pull", "push") and drags(g.record.body) for g in self.guided)
 
     @staticmethod
     def _clear(loop: StepLoop, g: _Guided) -> bool:
@@ -243,7 +247,7 @@ class Actions(Subscriber):
         for g in self.guided:
             pose = Pose(g.start.position + g.velocity * (t - g.since), g.start.orientation)
             x, y, z = g.velocity.tolist()
-            loop.world.guide(g.record.body, pose, (x, y, z), hold=g.kind == "push")
+            loop.world.guide(g.record.body, pose, (x, y, z), hold=g.kind == "push", drags=g.kind == "push" and self._carried)
         if self.shake is not None:
             offset, velocity = self.shake.at(t)
             loop.world.move_ground(offset, velocity)

@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from collections.abc import Set as AbstractSet
 from dataclasses import dataclass
 
@@ -156,6 +156,11 @@ class CollapseMonitor(Subscriber):
         """A structure brick is past the collapse threshold now, or a collapse was decided: the
         collapse, if it comes, is dated already and its level fixed (:meth:`_track`)."""
         return self.collapse is not None or bool(self._displaced)
+
+    def past_threshold_besides(self, moved_by_hand: Collection[str]) -> bool:
+        """:attr:`past_threshold`, the bricks of ``moved_by_hand`` (ids) left out: a brick a pusher
+        drives is displaced by the hand, and its drag on what it carries still decides."""
+        return self.collapse is not None or any(i not in moved_by_hand for i in self._displaced)
 
     def on_place(self, loop: StepLoop, record: BrickRecord) -> None:
         self.record_drift(loop, exclude=record)

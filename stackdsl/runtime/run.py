@@ -223,7 +223,7 @@ def run_in(
     # carries (compile.program.PULL_STEP); MuJoCo's guided brick, its velocity set once a step, then
     # slips under what it carries (a brick lying on it stayed put where it rode 40 mm along)
     split_pulls = acting and backend(program.engine.backend).split_pulls
-    own += [Actions(stability, substeps, split_pulls, lambda: monitor.past_threshold)] if program.kinematic else []
+    own += [Actions(stability, substeps, split_pulls, monitor.past_threshold_besides)] if program.kinematic else []
     after: list[Subscriber] = []
     rigid = any(r.name == "rigid" and r.on for r in program.rules)
     if acting and rigid and options.cheap_debris and world.cheap_debris and options.settle != 0.0:  # 0: nothing falls on

@@ -41,6 +41,7 @@ def test_the_family_is_the_shipped_scenes_and_those_written_like_them():
         "Jenga 12 falls",
         "Jenga 18 stands",
         "Jenga 18 falls",
+        "Jenga 12 push",
         "30 dominoes",
         "120 dominoes",
         "shake below",
@@ -50,6 +51,8 @@ def test_the_family_is_the_shipped_scenes_and_those_written_like_them():
     assert taller.structure.tower.levels == 18 and taller.expect.stands
     falls = parse_scenario(scenes[3].text, "t.yaml")  # it falls once all 18 levels are placed, not at 12
     assert falls.structure.tower.levels == 18 and "18" in str(falls.expect.collapse)
+    push = parse_scenario(scenes[4].text, "p.yaml")  # a finger slides the middle block of level 5 out
+    assert [a.push.target.brick for a in push.actions] == ["L05.2"] and push.expect.moved is not None
     row = parse_scenario(domino_row(120), "row.yaml")
     assert len(row.structure.bricks) == 120 and row.expect.toppled.count == "all"
 

@@ -110,11 +110,21 @@ def action_scenes(folder: Path = Path("scenarios")) -> list[Scene]:
             .replace("collapse: 12", "collapse: 18")  # it falls once all 18 levels are placed
         )
 
+    def pushed(text: str) -> str:  # the middle block of level 5 slid 30 mm out by a finger, not pulled
+        head, _ = text.split("actions:\n", 1)
+        return (
+            head.replace("brick_types:\n", "brick_types:\n  finger: {size: [10 mm, 10 mm, 10 mm], material: maple}\n")
+            + "actions:\n  - push: {target: {brick: L05.2}, direction: +x, speed: 40 mm/s, distance: 30 mm,"
+            " at: after level 12, pusher: finger}\n"
+            "expect:\n  moved: L05.2\n  stays: [1-4, L05.1, L05.3, 6-12]\n"
+        )
+
     return [
         Scene("Jenga 12 stands", stands, str(folder / "jenga_stands.yaml")),
         Scene("Jenga 12 falls", falls, str(folder / "jenga_falls.yaml")),
         Scene("Jenga 18 stands", taller(stands), "jenga_stands.yaml at 18 levels"),
         Scene("Jenga 18 falls", taller(falls), "jenga_falls.yaml at 18 levels"),
+        Scene("Jenga 12 push", pushed(stands), "jenga_stands.yaml, its middle block of level 5 pushed 30 mm"),
         Scene("30 dominoes", _read(folder / "dominoes_30.yaml"), str(folder / "dominoes_30.yaml")),
         Scene("120 dominoes", domino_row(120), "dominoes_30.yaml with 120"),
         Scene("shake below", _read(folder / "four_stack_shake_below.yaml"), str(folder / "four_stack_shake_below.yaml")),

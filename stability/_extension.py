@@ -519,6 +519,11 @@ class StabilityExtension:
         """The labels of the bricks a pusher drives now, as a hand pulls a brick (:meth:`_drive`)."""
         return [self._stack.bodies[b].label for b in self._driven if b in self._stack.bodies]
 
+    def _hand(self, body: int) -> str:
+        """How the hand moves guided ``body``, in a word: "push" (a brick a pusher drives,
+        :meth:`_drive`) or "pull"."""
+        return "push" if body in self._driven else "pull"
+
     def drags(self, body: int) -> bool:
         """Whether guided ``body`` drags bricks the engine moves: a pulled brick, or a pusher's
         driven brick (:meth:`_drive`), that no proof keeps alone (:meth:`guide`: with a proof,
@@ -553,7 +558,7 @@ class StabilityExtension:
             for other, on in beside:
                 events += [w.event for w in stack.wake(other, time, f"carries {on} beside {label}, moved by hand", alone=True)]
             # frozen in these books, moved by the engine: the runtime reads and records them as moving
-            words = f"rides the pull of {label}, one rigid body of {len(riders)} bricks in the engine"
+            words = f"rides the {self._hand(body)} of {label}, one rigid body of {len(riders)} bricks in the engine"
             events += [StabilityEvent(time, "ride", stack.bodies[b].label, words) for b in riders]
         else:
             events = [w.event for w in stack.wake(body, time, reason)]
@@ -686,7 +691,8 @@ class StabilityExtension:
         for b in stack.ordered(proof.beside):  # and what carries it beside it: its load changes
             if b in stack.bodies:
                 events += self.wake(b, time, f"carries what rested on {label} beside it, moved by hand: {why}")
-        return events + self._guide(body, time, f"pulled by hand, its proof lost: {why}", stack.hand_speed.get(body, 0.0))
+        how = f"{self._hand(body)}ed by hand, its proof lost: {why}"
+        return events + self._guide(body, time, how, stack.hand_speed.get(body, 0.0))
 
     def _touching(self, body: int, time: float, touched: dict[int, np.ndarray | None]) -> list[StabilityEvent]:
         """Wake the frozen bricks guided ``body`` touches or will within a step, at the faster of
@@ -781,7 +787,7 @@ class StabilityExtension:
         for pulled in [p for p in self._limits if p not in stack.rides]:
             del self._limits[pulled]
         for pulled, (label, riders, ground) in list(stack.rides.items()):
-            what = f"rode the pull of {label}" if ground is None else f"rode the shaken {label}"
+            what = f"rode the {self._hand(pulled)} of {label}" if ground is None else f"rode the shaken {label}"
             if ground is None:
                 why = self._tilted(pulled, riders, time, what) if pulled in stack.guided else f"{what} as one body until it ended"
             else:

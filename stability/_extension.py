@@ -553,17 +553,19 @@ class StabilityExtension:
             events = [w.event for w in stack.wake(body, time, reason, alone=True)]
             for a in carried:
                 on = label if body in stack.bodies[a].rests_on else f"what rests on {label}"
-                why = f"rests on {on}, moved by hand; the {len(riders)} bricks above ride as one rigid body"
+                why = f"rests on {on}, which a hand moves; the {len(riders)} bricks above ride as one rigid body"
                 events += [w.event for w in stack.wake(a, time, why, alone=True)]
             for other, on in beside:
-                events += [w.event for w in stack.wake(other, time, f"carries {on} beside {label}, moved by hand", alone=True)]
+                events += [
+                    w.event for w in stack.wake(other, time, f"carries {on} beside {label}, which a hand moves", alone=True)
+                ]
             # frozen in these books, moved by the engine: the runtime reads and records them as moving
             words = f"rides the {self._hand(body)} of {label}, one rigid body of {len(riders)} bricks in the engine"
             events += [StabilityEvent(time, "ride", stack.bodies[b].label, words) for b in riders]
         else:
             events = [w.event for w in stack.wake(body, time, reason)]
             for other, on in beside:
-                events += self.wake(other, time, f"carries {on} beside {label}, moved by hand")
+                events += self.wake(other, time, f"carries {on} beside {label}, which a hand moves")
         stack.guided.add(body)
         stack.hand_speed[body] = speed
         return events + self._touching(body, time, {})
@@ -687,10 +689,10 @@ class StabilityExtension:
         events: list[StabilityEvent] = []
         label = stack.bodies[body].label
         for a in stack.ordered(proof.carried):  # what rested on it, kept frozen until now
-            events += self.wake(a, time, f"rests on {label}, moved by hand: {why}")
+            events += self.wake(a, time, f"rests on {label}, which a hand moves: {why}")
         for b in stack.ordered(proof.beside):  # and what carries it beside it: its load changes
             if b in stack.bodies:
-                events += self.wake(b, time, f"carries what rested on {label} beside it, moved by hand: {why}")
+                events += self.wake(b, time, f"carries what rested on {label}, which a hand moves, beside it: {why}")
         how = f"{self._hand(body)}ed by hand, its proof lost: {why}"
         return events + self._guide(body, time, how, stack.hand_speed.get(body, 0.0))
 
@@ -716,7 +718,7 @@ class StabilityExtension:
                 if way == "into" and body in self._pushers and other.objects_above:
                     events += self._drive(c.other, body, time)
                 else:
-                    events += self.wake(c.other, time, f"touched by {stack.bodies[body].label}, moved by hand")
+                    events += self.wake(c.other, time, f"touched by {stack.bodies[body].label}, which a hand moves")
         return events
 
     def _pushes(self, contact: ContactPoint, pusher: int) -> str:

@@ -379,6 +379,28 @@ def test_a_drawing_command_runs_under_the_workers_memory_limit_and_says_so_when_
 
 
 @pytest.mark.slow
+def test_a_run_out_of_memory_asks_for_a_smaller_scene_not_a_smaller_drawing(tmp_path):
+    """``run`` has no --size and draws no frames: its out-of-memory line asks for a smaller scene
+    (a new user was told to "give a smaller --size, fewer frames" by a run)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, numpy as np\n"
+        "import stackdsl.runtime.run as run\n"
+        "def greedy(*args, **kwargs):\n"
+        "    np.empty(12 * 2**30, dtype=np.uint8)\n"
+        "run.run_in = greedy\n"
+        f"sys.argv = ['stackdsl', 'run', {str(ROOT / 'scenarios' / 'vee_stands.yaml')!r}]\n"
+        "from stackdsl._entry import main\n"
+        "sys.exit(main())\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 3, done.stderr
+    assert done.stderr.strip().endswith("GiB of address space (give a smaller scene)"), done.stderr
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize("at", ["0", "-0", "0.0", "0 s", "1e-400"])
 def test_at_zero_is_the_start_of_the_run_not_its_end(files, capsys, at):
     record = files / "stands.npz"

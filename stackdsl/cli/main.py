@@ -200,7 +200,7 @@ def _main(argv: list[str], command: bool) -> int:
     except BrokenPipeError:
         return _pipe_closed(command)
     except Exception as exc:
-        status = _said_error(exc, debug)
+        status = _said_error(exc, debug, command_of(argv))
         if status is not None:
             return status
         if not pressed:
@@ -245,10 +245,11 @@ def _command(argv: list[str], command: bool, debug: bool) -> int:
     return status
 
 
-def _said_error(exc: Exception, debug: bool) -> int | None:
+def _said_error(exc: Exception, debug: bool, command: str | None = None) -> int | None:
     """Say an error a command's user can act on, on standard error, and return its exit status:
-    bad input (the scenario's errors, a path the OS refused), running out of memory, and an
-    OS error that is neither (an internal one); None for any other error."""
+    bad input (the scenario's errors, a path the OS refused), running out of memory (with what to
+    give ``command`` instead), and an OS error that is neither (an internal one); None for any
+    other error."""
     if isinstance(exc, ScenarioErrors):
         for err in exc.errors:
             print(err, file=sys.stderr)
@@ -267,10 +268,10 @@ def _said_error(exc: Exception, debug: bool) -> int | None:
     if isinstance(exc, MemoryError):
         from ..batch.guard import MEMORY_LIMIT
 
+        drawing = command in _DRAWING
+        hint = "give a smaller --size, fewer frames, or a smaller file" if drawing else "give a smaller scene"
         print(
-            f"stackdsl: out of memory: this command may use {MEMORY_LIMIT >> 30} GiB of address space "
-            "(give a smaller --size, fewer frames, or a smaller file)",
-            file=sys.stderr,
+            f"stackdsl: out of memory: this command may use {MEMORY_LIMIT >> 30} GiB of address space ({hint})", file=sys.stderr
         )
         return INTERNAL
     return None
@@ -726,3 +727,4 @@ if __name__ == "__main__":  # pragma: no cover
 #: Commands whose work runs in this process (drawing, reading trajectories, one recorded run):
 #: they get the address-space limit the workers of ``check`` have.
 _IN_PROCESS = {"render", "animate", "graph", "run", "replay", "view", "export"}
+_DRAWING = {"render", "animate"}  # the commands that take --size and draw frames

@@ -441,7 +441,7 @@ class _Parts:
         # each piece once: a piece on a body that is not frozen (a pulled or pushed brick that
         # frozen bricks are kept on) has no bit, is never inside a part, and came in once through
         # each brick of each level above it: 3^k copies k levels down (3.7 GB, a push at level 13)
-        candidates = {id(a.polygon): (s, a.polygon) for s, a in bodies[body].rests_on.items()}
+        candidates = [(s, a.polygon) for s, a in bodies[body].rests_on.items()]
         while todo:
             for above in bodies[todo.pop()].objects_above:
                 bit = self._bit(above)
@@ -451,13 +451,17 @@ class _Parts:
                 if above in self.found:
                     inner, pieces = self.found[above]
                     members |= inner
-                    candidates.update((id(piece), (s, piece)) for s, piece in pieces)
+                    candidates += pieces
                 else:
                     members |= bit
-                    candidates.update((id(a.polygon), (s, a.polygon)) for s, a in bodies[above].rests_on.items())
+                    candidates += [(s, a.polygon) for s, a in bodies[above].rests_on.items()]
                     todo.append(above)
-        now = self.now
-        outside = [(s, piece) for s, piece in candidates.values() if not members & (now[s] if s in now else self._bit(s))]
+        now, seen = self.now, set()
+        outside = []
+        for s, piece in candidates:
+            if id(piece) not in seen and not members & (now[s] if s in now else self._bit(s)):
+                seen.add(id(piece))
+                outside.append((s, piece))
         self.found[body] = (members, outside)
         return self.found[body]
 

@@ -529,9 +529,10 @@ class StabilityExtension:
         driven brick (:meth:`_drive`), that no proof keeps alone (:meth:`guide`: with a proof,
         the bricks it slides between stay frozen and nothing it touches moves with it). A pusher
         drags from its start while the brick it is aimed at is frozen and carries others: the
-        drag it will put on them is stepped from the first (a side block of a Jenga level 11 pushed
-        30 mm dragged level 12 11 mm when the steps were split from the push's start, as both
-        tuned engines drag it, and 0.3 mm when they were split from the step it was first driven); a pusher that drives no brick carrying others drags none."""
+        drag it will put on them is stepped from the first (a side block of a Jenga level 11
+        pushed 30 mm dragged level 12 11 mm when the steps were split from the push's start, as
+        both tuned engines drag it, and 0.3 mm when they were split from the step it was first
+        driven); a pusher that drives no brick carrying others drags none."""
         if body in self._pushers:
             aim = self._stack.bodies.get(self._aims.get(body, -1))
             if aim is not None and aim.state is BrickState.FROZEN and aim.objects_above:

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -352,25 +354,28 @@ def test_an_output_that_is_a_fifo_or_a_device_is_refused_never_opened_or_replace
     assert error.value.filename == str(tmp_path / "no" / "such.png")
 
 
-@pytest.mark.slow
-def test_a_drawing_command_runs_under_the_workers_memory_limit_and_says_so_when_hit(tmp_path):
-    """The main process of a drawing command gets the address-space limit ``check``'s workers
-    have: asking for 12 GiB (reserved, never touched; the machine itself would grant it) is refused
-    there, with one clear line."""
-    import subprocess
-    import sys
-
+def _greedy(module: str, name: str, argv: list[str]) -> subprocess.CompletedProcess[str]:
+    """Run ``stackdsl`` with ``argv`` in a fresh process whose ``module.name`` asks for 12 GiB
+    (reserved, never touched; the machine itself would grant it)."""
     code = (
         "import sys, numpy as np\n"
-        "import stackdsl.draw.render as render\n"
+        f"import {module} as greedy_module\n"
         "def greedy(*args, **kwargs):\n"
         "    np.empty(12 * 2**30, dtype=np.uint8)\n"
-        "render.picture = greedy\n"
-        f"sys.argv = ['stackdsl', 'render', {str(ROOT / 'scenarios' / 'vee_stands.yaml')!r}, '-o', {str(tmp_path / 'x.png')!r}]\n"
+        f"greedy_module.{name} = greedy\n"
+        f"sys.argv = ['stackdsl', *{argv!r}]\n"
         "from stackdsl._entry import main\n"
         "sys.exit(main())\n"
     )
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+
+
+@pytest.mark.slow
+def test_a_drawing_command_runs_under_the_workers_memory_limit_and_says_so_when_hit(tmp_path):
+    """The main process of a drawing command gets the address-space limit ``check``'s workers
+    have: asking for 12 GiB is refused there, with one clear line."""
+    scene = str(ROOT / "scenarios" / "vee_stands.yaml")
+    done = _greedy("stackdsl.draw.render", "picture", ["render", scene, "-o", str(tmp_path / "x.png")])
     assert done.returncode == 3, done.stderr
     assert done.stderr.strip() == (
         "stackdsl: out of memory: this command may use 4 GiB of address space "
@@ -379,23 +384,10 @@ def test_a_drawing_command_runs_under_the_workers_memory_limit_and_says_so_when_
 
 
 @pytest.mark.slow
-def test_a_run_out_of_memory_asks_for_a_smaller_scene_not_a_smaller_drawing(tmp_path):
+def test_a_run_out_of_memory_asks_for_a_smaller_scene_not_a_smaller_drawing():
     """``run`` has no --size and draws no frames: its out-of-memory line asks for a smaller scene
     (a new user was told to "give a smaller --size, fewer frames" by a run)."""
-    import subprocess
-    import sys
-
-    code = (
-        "import sys, numpy as np\n"
-        "import stackdsl.runtime.run as run\n"
-        "def greedy(*args, **kwargs):\n"
-        "    np.empty(12 * 2**30, dtype=np.uint8)\n"
-        "run.run_in = greedy\n"
-        f"sys.argv = ['stackdsl', 'run', {str(ROOT / 'scenarios' / 'vee_stands.yaml')!r}]\n"
-        "from stackdsl._entry import main\n"
-        "sys.exit(main())\n"
-    )
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    done = _greedy("stackdsl.runtime.run", "run_in", ["run", str(ROOT / "scenarios" / "vee_stands.yaml")])
     assert done.returncode == 3, done.stderr
     assert done.stderr.strip().endswith("GiB of address space (give a smaller scene)"), done.stderr
 

@@ -222,8 +222,8 @@ class Actions(Subscriber):
         what follows is a fall, which the engine's own step simulates as it does any other
         (docs/actions.md, "Pull": a 12-level tower that a side pull fells, 5.4 to 5.8 s split to
         the pull's end, 3.0 to 3.6 s so)."""
-        if self._past_threshold(self.stability.extension.driven()):
-            return False
+        if not self.guided or self._past_threshold(self.stability.extension.driven()):
+            return False  # asked every step: nothing guided, no list of driven bricks
         drags = self.stability.extension.drags
         return any(g.kind in ("pull", "push") and drags(g.record.body) for g in self.guided)
 

@@ -643,9 +643,7 @@ class StabilityExtension:
         del self._driven[brick]
         self._proofs.pop(brick, None)
         self._unkept_at.pop(brick, None)
-        stack.guided.discard(brick)
-        stack.hand_speed.pop(brick, None)
-        stack.hand_velocity.pop(brick, None)
+        stack.unguide(brick)
         rec = stack.bodies.get(brick)
         if rec is not None and rec.state is BrickState.ACTIVE:
             kept = {r.body for r in stack.frozen.values() if brick in r.rests_on}

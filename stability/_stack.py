@@ -305,11 +305,16 @@ class Stack:
         if lost:  # a pulled brick they were kept frozen on (stability._drag)
             self._unsupport(lost, body)
         self.active.pop(body, None)
+        self.unguide(body)
+        for other in self.bodies.values():
+            other.objects_above.discard(body)
+
+    def unguide(self, body: int) -> None:
+        """No hand moves ``body`` any more: it is not guided, and its hand's speed and velocity
+        are forgotten (a pushed brick the push let go of, a body taken away)."""
         self.guided.discard(body)
         self.hand_speed.pop(body, None)
         self.hand_velocity.pop(body, None)
-        for other in self.bodies.values():
-            other.objects_above.discard(body)
 
     def _unsupport(self, records: list[Record], body: int) -> None:
         """Take ``body``, taken out of the scene, from the supports of the frozen ``records``:

@@ -155,7 +155,7 @@ class CollapseMonitor(Subscriber):
     def past_threshold(self) -> bool:
         """A structure brick is past the collapse threshold now, or a collapse was decided: the
         collapse, if it comes, is dated already and its level fixed (:meth:`_track`)."""
-        return self.collapse is not None or bool(self._displaced)
+        return self.past_threshold_besides(())
 
     def past_threshold_besides(self, moved_by_hand: Collection[str]) -> bool:
         """:attr:`past_threshold`, the bricks of ``moved_by_hand`` (ids) left out: a brick a pusher

@@ -44,6 +44,8 @@ Source: stackdsl's own, on Coulomb friction and the report's load shares.
 
 from __future__ import annotations
 
+import itertools
+import math
 from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, replace
 
@@ -174,6 +176,12 @@ def held_together(bricks: Mapping[int, Dragged], gravity: float) -> bool:
 
     Source: Coulomb friction; stackdsl's own linear program (scipy's HiGHS).
     """
+    return held_in_line(bricks, gravity) or held_by_program(bricks, gravity)  # in line: a solution of the program
+
+
+def held_by_program(bricks: Mapping[int, Dragged], gravity: float) -> bool:
+    """:func:`held_together` by its linear program alone (HiGHS, through scipy): arguments and
+    answer as there. Source: stackdsl's own."""
     scale = max([float(np.hypot(*b.drag)) for b in bricks.values()] + [1e-12])
     origin = np.mean([np.asarray(b.at, dtype=float) for b in bricks.values()], axis=0)
     index = {body: i for i, body in enumerate(bricks)}
@@ -236,6 +244,79 @@ def held_together(bricks: Mapping[int, Dragged], gravity: float) -> bool:
         options={"maxiter": ITERATIONS, "presolve": False},
     )
     return bool(result.status == 0)
+
+
+def held_in_line(bricks: Mapping[int, Dragged], gravity: float) -> bool:
+    """A solution of :func:`held_together`'s program found directly, when it is a simple one: each
+    brick's drag held by friction forces parallel to it (with it or against it) at two of its
+    supports (or one) that are not bricks of the program, their resultant on the drag's line of
+    action so that no twist is left, each within the circle its friction pyramid contains (radius
+    ``mu N cos(pi / SIDES)``); the ties' friction, and every other contact's, at zero. True only
+    when those forces exist and every loaded contact's load point lies on its area (its normal
+    force can be spread over the area's corners); False leaves the answer to the program.
+
+    Such forces are a solution of the program (a contact's friction spread over its corners as its
+    normal force is keeps its resultant and its twist), so the answer is the program's, without
+    it. A middle Jenga block's drag on a block of the level above acts midway between that
+    block's two other supports: held in line while each carries at least ``safety / (2 cos(pi /
+    SIDES))`` of the middle block's share (0.81 at :data:`DRAG_SAFETY`, 0.60 tied). A side block's
+    drag twists the block it drags, which the program holds (or not) by the friction spread over
+    the contacts. Of the 24 drag programs of ``scenarios/jenga_stands.yaml``, about 5 ms each in
+    HiGHS, 14 are held in line: the 12 of its middle pull and 2 of its side pull.
+
+    Args:
+        bricks: body -> :class:`Dragged`.
+        gravity: m/s^2.
+
+    Returns:
+        True when the forces above hold every brick; False when they do not, or a brick has no
+        loaded support.
+
+    Example:
+        >>> from shapely.geometry import box
+        >>> from stability._geometry import ContactArea
+        >>> pad = lambda x: ContactArea(box(x - 0.01, -0.01, x + 0.01, 0.01), 0.0, np.array([0.0, 0.0, 1.0]), True)
+        >>> loads = {8: (1.0, np.array([-0.02, 0.0, 0.0])), 9: (1.0, np.array([0.02, 0.0, 0.0]))}
+        >>> brick = lambda drag: Dragged({8: pad(-0.02), 9: pad(0.02)}, loads, {8: 0.5, 9: 0.5}, np.array([0.0, drag]), np.zeros(2))
+        >>> held_in_line({1: brick(9.0)}, 9.81), held_in_line({1: brick(9.1)}, 9.81)  # each takes 4.53 N at most
+        (True, False)
+
+    Source: stackdsl's own (Coulomb friction).
+    """
+    inscribed = math.cos(math.pi / SIDES)
+    for brick in bricks.values():
+        loaded = [(s, area) for s, area in brick.supports.items() if brick.loads.get(s, (0.0, None))[0] > 0.0]
+        if not loaded:
+            return False
+        points = shapely.points([np.asarray(brick.loads[s][1], dtype=float)[:2] for s, _ in loaded])
+        if not bool(np.all(shapely.covers([area.polygon for _, area in loaded], points))):
+            return False  # a load point off its area: the program decides
+        dx, dy = (float(v) for v in brick.drag)
+        size = math.hypot(dx, dy)
+        if size == 0.0:
+            continue  # a tie: no friction asked of it
+        rx, ry = (float(v) for v in brick.at)
+        ends = []  # each support that is not a brick of the program: its load point and the friction it can give
+        for s, _ in loaded:
+            if s not in bricks:
+                mass, point = brick.loads[s]
+                ends.append((float(point[0]) - rx, float(point[1]) - ry, brick.friction[s] * mass * gravity * inscribed))
+        if not any(_in_line(a, b, dx, dy, size) for a, b in itertools.combinations_with_replacement(ends, 2)):
+            return False
+    return True
+
+
+def _in_line(a: tuple[float, float, float], b: tuple[float, float, float], dx: float, dy: float, size: float) -> bool:
+    """Can two supports ``a`` and ``b`` (x, y of a load point relative to where the drag acts, m;
+    the friction it can give, N) hold a drag ``(dx, dy)`` (N, of length ``size``) with forces
+    parallel to it, ``-(1 - w)`` and ``-w`` times it, their resultant on its line of action? ``a``
+    may be ``b``."""
+    off = a[0] * dy - a[1] * dx  # the twist of the drag's share at a, per unit of share: zero on its line
+    turn = (b[0] - a[0]) * dy - (b[1] - a[1]) * dx
+    if turn == 0.0:  # both on one line parallel to the drag (or one support): on the drag's, or not at all
+        return abs(off) <= 1e-12 * size and size <= a[2] + b[2] and (a is not b or size <= a[2])
+    w = -off / turn  # outside 0 to 1, one of the two pushes along the drag: a couple against its twist
+    return abs(1.0 - w) * size <= a[2] and abs(w) * size <= b[2]
 
 
 class PullProof:

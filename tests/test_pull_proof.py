@@ -5,10 +5,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, example, given, settings
+from hypothesis import strategies as st
 from shapely.geometry import box
 
 from stability import ContactArea
-from stability._drag import DRAG_SAFETY, Dragged, held_together
+from stability._drag import DRAG_SAFETY, Dragged, held_by_program, held_in_line, held_together
 from stackdsl import compile_scenario, parse_scenario, run_program
 
 G = 9.81
@@ -415,3 +417,62 @@ def test_a_stuck_tied_program_is_not_held_after_its_iterations():
         pytest.fail("the tied program did not come back within 60 s")
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "False"
+
+
+def _pads(xs: list[float], ys: list[float]) -> tuple[dict[int, ContactArea], list[np.ndarray]]:
+    """Square pads of 25 mm centred at (x, y), bodies 10, 11, ..., and a load point inside each."""
+    areas = {10 + i: patch(x, y) for i, (x, y) in enumerate(zip(xs, ys, strict=True))}
+    return areas, [np.array([x, y, 0.0]) for x, y in zip(xs, ys, strict=True)]
+
+
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@example(
+    xs=[0.0, 0.0], ys=[-0.0255, 0.0255, 0.0], shifts=[0.0] * 6, masses=[0.1, 0.1, 0.0], mu=0.4, drag=(0.5, 0.0), at=(0.0, 0.0)
+)
+@given(
+    xs=st.lists(st.floats(-0.05, 0.05), min_size=1, max_size=3),
+    ys=st.lists(st.floats(-0.05, 0.05), min_size=3, max_size=3),
+    shifts=st.lists(st.floats(-0.012, 0.012), min_size=6, max_size=6),
+    masses=st.lists(st.floats(0.0, 1.0), min_size=3, max_size=3),
+    mu=st.floats(0.1, 0.9),
+    drag=st.tuples(st.floats(-8.0, 8.0), st.floats(-8.0, 8.0)),
+    at=st.tuples(st.floats(-0.06, 0.06), st.floats(-0.06, 0.06)),
+)
+def test_what_is_held_in_line_the_friction_program_holds_too(xs, ys, shifts, masses, mu, drag, at):
+    """The forces ``held_in_line`` finds are a solution of ``held_together``'s program: whenever it
+    says held, the program (asked alone) says so too. Random pads, loads anywhere on them (and
+    one off its pad now and then), drags anywhere."""
+    areas, points = _pads(xs, ys[: len(xs)])
+    loads = {
+        b: (m, p + np.array([shifts[2 * i], shifts[2 * i + 1], 0.0]))
+        for i, ((b, _), p, m) in enumerate(zip(areas.items(), points, masses, strict=False))
+    }
+    bricks = {1: Dragged(areas, loads, dict.fromkeys(areas, mu), np.array(drag), np.array(at))}
+    if held_in_line(bricks, G):
+        assert held_by_program(bricks, G)
+
+
+def test_a_middle_pull_is_held_in_line_without_the_program_and_a_side_pull_asks_it(monkeypatch):
+    """A Jenga block on three others, equal shares, dragged from the middle one (half of the drag
+    on each side block, 0.75 of the friction of its share at the safety): held with no linear
+    program; dragged from a side one, its drag twists it, and the program decides (not held)."""
+    mass, mu = 0.3, 0.4
+    ys = [-0.0255, 0.0, 0.0255]
+    areas, points = _pads([0.0, 0.0, 0.0], ys)
+    loads = {b: (mass / 3, p) for b, p in zip(areas, points, strict=True)}
+
+    def dragged(pulled: int) -> dict[int, Dragged]:
+        others = {b: a for b, a in areas.items() if b != pulled}
+        drag = np.array([DRAG_SAFETY * mu * mass / 3 * G, 0.0])
+        return {
+            1: Dragged(others, {b: loads[b] for b in others}, dict.fromkeys(others, mu), drag, np.array([0.0, ys[pulled - 10]]))
+        }
+
+    def no_program(*_args, **_kwargs):
+        raise AssertionError("the linear program was asked")
+
+    monkeypatch.setattr("stability._drag.linprog", no_program)
+    assert held_in_line(dragged(11), G) and held_together(dragged(11), G)
+    assert not held_in_line(dragged(12), G)
+    with pytest.raises(AssertionError, match="the linear program was asked"):
+        held_together(dragged(12), G)

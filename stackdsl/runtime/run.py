@@ -122,11 +122,15 @@ def run_program(
         TypeError: ``program`` is not a :class:`Program` (a Scenario or a file name: the
             message says how to compile it), or a timeout that is not a number.
         pybullet.error: the engine failed (not expected for a compiled program).
+        ImportError: the program's engine is an optional extra that is not installed.
     """
     require_program(program, "run_program")
     check_timeout(timeout)
+    engine = backend(program.engine.backend)
+    if engine.prepare is not None:
+        engine.prepare()  # a process's one-off import, not this run's wall time
     start = _time.perf_counter()
-    if not backend(program.engine.backend).dynamics and not subscribers:  # nothing to step: placed and solved
+    if not engine.dynamics and not subscribers:  # nothing to step: placed and solved
         return run_placed(program, timeout=timeout, started=start)
     with _older_objects_left_alone(), world_for(program, shelve=options.shelve) as world:
         loop = run_in(world, program, options, timeout=timeout, started=start, subscribers=subscribers)

@@ -30,6 +30,15 @@ def _world(
     yield MuJoCoWorld(engine, ground_friction, ground_restitution, movable_ground=movable_ground)
 
 
+def _prepare() -> object:
+    """Import MuJoCo and the world adapter (:attr:`Backend.prepare`)."""
+    import mujoco
+
+    from . import world
+
+    return (mujoco, world)
+
+
 #: MuJoCo, the ``mujoco`` extra; a guided brick's velocity is set once a step, so its pulls are
 #: not split (a brick lying on it then slips less than on pybullet).
-BACKEND = Backend(name="mujoco", settings=MuJoCoSettings, world=_world, extra="mujoco")
+BACKEND = Backend(name="mujoco", settings=MuJoCoSettings, world=_world, extra="mujoco", prepare=_prepare)

@@ -33,4 +33,11 @@ def _world(
 
 #: pybullet, the default engine; the extension splits its pulls (its friction at 240 Hz drags
 #: what a pulled brick carries: :data:`stackdsl.compile.program.PULL_STEP`).
-BACKEND = Backend(name="pybullet", settings=PyBulletSettings, world=_world, split_pulls=True)
+def _prepare() -> object:
+    """Import pybullet and the world adapter (:attr:`Backend.prepare`)."""
+    from . import world
+
+    return world
+
+
+BACKEND = Backend(name="pybullet", settings=PyBulletSettings, world=_world, split_pulls=True, prepare=_prepare)

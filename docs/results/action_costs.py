@@ -38,7 +38,7 @@ PARTS = (
     ("the extension's update, all", "stability._extension:StabilityExtension.update"),
     ("- a pull's or push's proof kept", "stability._extension:StabilityExtension._reprove"),
     ("-- its statics checks", "stability._drag:PullProof.check"),
-    ("--- their friction programs (HiGHS)", "stability._drag:held_together"),
+    ("--- their friction programs (in line, else HiGHS)", "stability._drag:held_together"),
     ("- rides", "stability._extension:StabilityExtension._rides"),
     ("- admissions", "stability._extension:StabilityExtension._admit"),
     ("- the stack test", "stability._stack_test:StackTest.run"),

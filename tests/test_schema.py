@@ -604,6 +604,21 @@ OUT_OF_RANGE = {
         "expected a frequency of 0.1 Hz or more that the run's timestep samples 5 times a period (48 Hz at the default "
         "1/240 s, 20 kHz at the shortest, 0.01 ms), got '0.5 rad/s' (0.07958 Hz); slower",
     ),
+    "a vertical shake, told a shake moves the ground horizontally": (
+        "structure: {tower: {levels: 2}}\n"
+        "actions: [{shake: {amplitude: 2 mm, frequency: 4 Hz, duration: 1 s, direction: [0, 0, 1], at: 9 s}}]",
+        "actions[0].shake.direction",
+        3,
+        80,
+        "expected a list of 2 items, got [0, 0, 1]: the horizontal direction of the motion, [x, y]",
+    ),
+    "a shake shorter than half a period, told how long it must be": (
+        "structure: {tower: {levels: 2}}\nactions: [{shake: {amplitude: 2 mm, frequency: 4 Hz, duration: 0.1 s, at: 9 s}}]",
+        "actions[0].shake",
+        3,
+        19,
+        "0.1 s at 4 Hz is 0.4 of a period, which rounds to none; give at least half a period (0.125 s, made one, 0.25 s long)",
+    ),
     "an amplitude of 20 cm, said in mm as its bounds are": (
         "structure: {tower: {levels: 2}}\nactions: [{shake: {amplitude: 20 cm, frequency: 1 Hz, duration: 1 s, at: 9 s}}]",
         "actions[0].shake.amplitude",

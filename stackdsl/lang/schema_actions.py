@@ -246,7 +246,8 @@ class Shake(StrictModel):
         if round(periods) < 1:  # it would round to none, and be made one: 0.1 s at 2 Hz lasted 0.5 s
             raise ValueError(
                 f"a shake lasts whole periods: {self.duration:g} s at {self.frequency:g} Hz is {periods:.2g} of a period, "
-                f"which would be made one, {1 / self.frequency:g} s long; give at least that, or a higher frequency"
+                f"which rounds to none; give at least half a period ({0.5 / self.frequency:g} s, made one, "
+                f"{1 / self.frequency:g} s long), or a higher frequency"
             )
         return self
 

@@ -273,7 +273,16 @@ def _wrong_length(err: ErrorDetails, loc: FieldPath, source: SourceMap) -> Scena
         where = (*loc, first)
         if where in source.values or where in source.keys:
             return source.error(where, f"{message}: this is item {limit + 1} of {len(err['input'])}", at_key=kind == "mapping")
-    return source.error(loc, f"{message}, got {shown(err['input'])}")
+    about = _description(tuple(err["loc"])) if exactly else None  # what the fixed items are: "[x, y]"
+    return source.error(loc, f"{message}, got {shown(err['input'])}" + (f": {about}" if about else ""))
+
+
+def _description(loc: FieldPath) -> str | None:
+    """The schema's description of the field at ``loc`` (a pydantic location, tags included),
+    or None."""
+    model = model_at(loc[:-1])
+    field = model.model_fields.get(str(loc[-1])) if model is not None and loc else None
+    return field.description if field is not None else None
 
 
 def _got(kind: str, given: Any) -> str:

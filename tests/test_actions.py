@@ -671,6 +671,32 @@ actions:
         compile_scenario(parse_scenario(gone, "gone.yaml"))
 
 
+def test_an_action_that_starts_before_one_written_above_it_is_warned_of():
+    """Actions run by their times: a pull at 2 s written after one 'after level 4' (2.4 s, one
+    brick every 0.2 s) runs first, while level 4 is still being placed. It is said, at its time;
+    the same two in time order, or written in order, are not."""
+    import warnings
+
+    from stackdsl.lang.errors import ScenarioWarning
+
+    head = """stackdsl: 1
+structure: {tower: {levels: 4, bricks_per_layer: 3, spacing: 25 mm}}
+timing: {interval: 0.2 s}
+actions:
+  - remove: {brick: L02.2, at: after level 4}
+"""
+    with pytest.warns(
+        ScenarioWarning,
+        match=r"late.yaml:6:32: warning: actions\[1\].remove.at: starts at 2 s, before actions\[0\] \(2.4 s\), which is written "
+        r"above it: actions run in the order of their times",
+    ):
+        compile_scenario(parse_scenario(head + "  - remove: {brick: L01.2, at: 2 s}\n", "late.yaml"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ScenarioWarning)
+        compile_scenario(parse_scenario(head + "  - remove: {brick: L01.2, at: 5 s}\n", "in_order.yaml"))
+        compile_scenario(parse_scenario(head + "  - remove: {brick: L01.2, at: after the previous action}\n", "after.yaml"))
+
+
 def test_a_push_whose_pusher_would_reach_below_the_ground_is_refused():
     """A pusher is kinematic: driven down, it goes through the tower and the ground alike. On
     L03.1 (top at 24 mm) a pusher stood on its end starts 5 mm above the top, its foot at 29 mm:

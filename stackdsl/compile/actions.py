@@ -71,7 +71,8 @@ def compile_actions(
     fixtures: Sequence[str] = (),
     fixed: Sequence[LaidBrick] = (),
 ) -> list[Kinematic]:
-    """The scenario's ``actions`` as motions, in the order written.
+    """The scenario's ``actions`` as motions, in the order written (an action that starts before
+    one written above it is warned of: :func:`_in_time_order`).
 
     Args:
         scenario: the scenario (its actions, timing and source map).
@@ -120,6 +121,7 @@ def compile_actions(
     _pushes_reach(scenario, out, bricks, slots, specs)
     _room_ahead(scenario, out, bricks, specs, fixed)
     _pushers_apart(scenario, out)
+    _in_time_order(scenario, out)  # once nothing refuses the file: a refusal comes alone
     return out
 
 
@@ -644,6 +646,25 @@ def _room_for(
         f"verdict on it holds: give a distance of at most {_mm(p.distance - carried + ahead)} mm, or move "
         f"{boxes[k][0].id}",
     )
+
+
+def _in_time_order(scenario: Scenario, motions: Sequence[Kinematic]) -> None:
+    """Warn of an action that starts before one written above it: actions run by their times,
+    not in the order written. A new user's pull at 12 s, written after one 'after level 10' (15 s,
+    one brick every 0.5 s), ran first, while level 9 was being placed, and nothing said so. A
+    warning, not a refusal: a file may list its actions in any order on purpose."""
+    for i in range(1, len(motions)):
+        first = max(range(i), key=lambda j: motions[j].time)  # the latest start written above it
+        if motions[i].time < motions[first].time - 1e-9:
+            action = scenario.actions[i]
+            warnings.warn(
+                scenario.source.warning(
+                    ("actions", i, action.kind, "at"),
+                    f"starts at {motions[i].time:g} s, before actions[{first}] ({motions[first].time:g} s), which is "
+                    "written above it: actions run in the order of their times, not in the order written",
+                ),
+                stacklevel=3,
+            )
 
 
 def _not_pushed_while_pulled(scenario: Scenario, motions: Sequence[Kinematic]) -> None:

@@ -389,7 +389,7 @@ def _moved_lines(selection: Iterable[int | str], outcome: Outcome, threshold: fl
     )
     lines = [
         f"moved: {_brick(b, levels.get(b))} moved {_mm(d)} by the end, t={outcome.simulated_time:.2f} s "
-        f"(allowed {_mm(threshold)})"
+        f"(allowed {_mm(threshold)}, the collapse threshold)"
         for d, b in moved[:MOVED_SHOWN]
     ]
     if len(moved) > MOVED_SHOWN:

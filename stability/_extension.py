@@ -717,8 +717,21 @@ class StabilityExtension:
                 if way == "into" and body in self._pushers and other.objects_above:
                     events += self._drive(c.other, body, time)
                 else:
-                    events += self.wake(c.other, time, f"touched by {stack.bodies[body].label}, which a hand moves")
+                    events += self.wake(c.other, time, f"{self._by(c, body)}, which a hand moves")
         return events
+
+    def _by(self, contact: ContactPoint, guided: int) -> str:
+        """How the frozen brick of ``contact`` (one of ``guided``'s contact points, its normal from
+        that brick into ``guided``) meets it, in words for its wake: it carries it (the normal
+        within the support angle of straight up), rests on it (of straight down), or is touched by
+        it (a new user read "touched by L03.2" of the level under a pulled L03.2 as a blow)."""
+        label = self._stack.bodies[guided].label
+        up = float(contact.normal[2])
+        if up >= self._areas.support_cos:
+            return f"carries {label}"
+        if -up >= self._areas.support_cos:
+            return f"rests on {label}"
+        return f"touched by {label}"
 
     def _pushes(self, contact: ContactPoint, pusher: int) -> str:
         """How ``pusher``, held on a straight path, meets the frozen brick of ``contact`` (one of

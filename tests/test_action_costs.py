@@ -12,21 +12,12 @@ import pytest
 import stability
 from stability._drag import PullProof
 
+from .test_actions import JENGA_6
+
 SCRIPT = Path(__file__).parent.parent / "docs" / "results" / "action_costs.py"
 
-PULL = """stackdsl: 1
-materials:
-  maple: {density: 700 kg/m^3, friction: 0.4}
-brick_types:
-  jenga: {size: [75 mm, 25 mm, 15 mm], material: maple}
-ground: {material: maple}
-structure:
-  tower: {levels: 6, bricks_per_layer: 3, spacing: 25.5 mm, turn: 90, brick: jenga}
-timing: {interval: 0.5 s, settle: 0.5 s}
-actions:
-  - remove: {brick: L02.2, at: after level 6, speed: 40 mm/s}
-expect: {stands: true}
-"""
+PULL = JENGA_6 + "actions:\n  - remove: {brick: L02.2, at: after level 6, speed: 40 mm/s}\nexpect: {stands: true}\n"
+"""A 6-level Jenga tower whose middle block of level 2 is pulled (proved) once it is built (9 s)."""
 
 
 @pytest.fixture(scope="module")

@@ -60,8 +60,8 @@ class Backend:
             :attr:`max_drop`, bricks placed together, floating bricks) with :attr:`refusal`.
         max_drop: metres, the largest drop gap it takes without dynamics (inf with dynamics).
         refusal: why a backend without dynamics refuses a scene that moves, in words.
-        prepare: imports the engine's own package and its world adapter, once a process (None:
-            nothing to import). :func:`stackdsl.runtime.run.run_program` calls it before its
+        prepare: imports the engine's own package and its world adapter, and pays any other
+            one-off start-up of the engine, once a process (None: nothing to prepare). :func:`stackdsl.runtime.run.run_program` calls it before its
             clock starts: importing MuJoCo took 0.17 s, eight times a small run, and the first
             run of each engine in a process (``stackdsl compare``'s first mode) paid it. Raises
             ImportError when the engine is an optional extra that is not installed.

@@ -121,6 +121,7 @@ def compile_actions(
     _pushes_reach(scenario, out, bricks, slots, specs)
     _room_ahead(scenario, out, bricks, specs, fixed)
     _pushers_apart(scenario, out)
+    _not_pressed_down(scenario, out, bricks, specs)
     _in_time_order(scenario, out)  # once nothing refuses the file: a refusal comes alone
     return out
 
@@ -646,6 +647,69 @@ def _room_for(
         f"verdict on it holds: give a distance of at most {_mm(p.distance - carried + ahead)} mm, or move "
         f"{boxes[k][0].id}",
     )
+
+
+#: The steepest a push may point down (the sine of 30 deg below the horizontal) before it is asked
+#: whether it presses its brick into what carries it (:func:`_not_pressed_down`).
+DOWNWARD = -0.5
+
+
+def _not_pressed_down(
+    scenario: Scenario, motions: Sequence[Kinematic], bricks: Sequence[LaidBrick], specs: dict[str, BrickSpec]
+) -> None:
+    """Refuse a push that points more than 30 deg down and, where its pusher meets its target, drives
+    the target by more than :data:`PRESSED` into what carries it there: the bricks under it (their
+    tops within 1 mm of its bottom) or the ground. A pusher on a path is never pushed back, so the
+    engines have it go through what carries the brick (a new user's finger pressed 60 mm down on the
+    top of a 6-level Jenga tower: MuJoCo passed it through four levels, nothing moving; pybullet
+    threw the four levels up 30 mm), and the verdicts disagree. Pressed where nothing carries it
+    (a free end over an edge), a brick turns away from the pusher, and the push is taken.
+
+    Raises:
+        ScenarioError: at the push's ``direction``.
+
+    Source: stackdsl's own.
+    """
+    for i, push in enumerate(motions):
+        p = scenario.actions[i].push
+        if not isinstance(push, Push) or p is None or p.target.brick is None:
+            continue
+        direction = np.array(push.velocity) / np.linalg.norm(push.velocity)
+        brick = next((b for b in bricks if b.id == p.target.brick), None)
+        if brick is None or direction[2] > DOWNWARD:
+            continue
+        reach = _first_touch(push, direction, [brick], specs)
+        if not len(reach) or not np.isfinite(reach[0]) or p.distance - float(reach[0]) <= PRESSED:
+            continue
+        pusher = Box(np.array(push.brick.half_extents), push.brick.mass).corners(
+            Pose.from_euler(np.array(push.position) + direction * float(reach[0]), push.yaw, push.pitch)
+        )
+        target = Box(np.array(specs[brick.type].half_extents), specs[brick.type].mass).corners(brick.pose())
+        shape = shapely.convex_hull(shapely.multipoints(target[:, :2]))
+        met = shape.intersection(shapely.convex_hull(shapely.multipoints(pusher[:, :2])))
+        where = met.centroid if not met.is_empty else shapely.Point(*pusher[:, :2].mean(axis=0))
+        bottom = float(target[:, 2].min())
+        carriers: list[str] = []
+        pieces = [shape] if bottom <= 1e-3 else []  # on the ground: it carries all of it
+        for other in bricks:
+            if other.id == brick.id:
+                continue
+            corners = Box(np.array(specs[other.type].half_extents), specs[other.type].mass).corners(other.pose())
+            if abs(float(corners[:, 2].max()) - bottom) > 1e-3:
+                continue
+            under = shape.intersection(shapely.convex_hull(shapely.multipoints(corners[:, :2])))
+            if not under.is_empty and under.area > 0.0:
+                pieces.append(under)
+                carriers.append(other.id)
+        if pieces and shapely.convex_hull(shapely.union_all(pieces)).covers(where):
+            said = ", ".join(carriers) if carriers else "the ground"
+            raise scenario.source.error(
+                _written(scenario, ("actions", i, "push"), "direction"),
+                f"the push presses {brick.id} down ({direction[2]:+.3g} of its direction) onto what carries it where the "
+                f"pusher meets it ({said}): a pusher on a path is never pushed back, so it would be driven through "
+                "them, and the engines disagree on what follows (MuJoCo passes it through, pybullet throws the bricks "
+                "up); press where nothing carries the brick (a free end over an edge, which turns), or push sideways",
+            )
 
 
 def _in_time_order(scenario: Scenario, motions: Sequence[Kinematic]) -> None:

@@ -721,6 +721,27 @@ actions:
     assert outcome.collapse is not None and outcome.collapse.brick == "plank"  # the free end pressed down: it tips
 
 
+def test_a_pusher_that_would_start_inside_a_brick_is_told_what_to_change():
+    """A whole-brick pusher aimed at the tenth domino starts inside the ninth: its length (give a
+    shorter pusher). A finger aimed 9 mm above a Jenga block's centre reaches into the level above
+    across its direction, however short it were: where it is aimed (a new user was told to give a
+    shorter pusher)."""
+    from stackdsl.lang.errors import ScenarioError
+
+    rows = "stackdsl: 1\nstructure: {dominoes: {count: 12, spacing: 60 mm}}\nactions:\n"
+    rows += "  - push: {target: {brick: D10, offset: [0, 0, 45 mm]}, direction: [1, 0, 0], at: after level 1}\n"
+    with pytest.raises(
+        ScenarioError, match=r"120 mm long along its direction\) would start .* inside brick 'D09'; give a shorter"
+    ):
+        compile_scenario(parse_scenario(rows, "long.yaml"))
+    high = JENGA_6.replace("brick_types:\n", "brick_types:\n  finger: {size: [20 mm, 10 mm, 10 mm]}\n")
+    high += (
+        "actions:\n  - push: {target: {brick: L02.2, offset: [0, 0, 9 mm]}, direction: +y, at: after level 6, pusher: finger}\n"
+    )
+    with pytest.raises(ScenarioError, match=r"10 x 10 mm across its direction\) would start 6.5 mm inside brick 'L03.2' beside"):
+        compile_scenario(parse_scenario(high, "high.yaml"))
+
+
 def test_a_push_whose_pusher_would_reach_below_the_ground_is_refused():
     """A pusher is kinematic: driven down, it goes through the tower and the ground alike. On
     L03.1 (top at 24 mm) a pusher stood on its end starts 5 mm above the top, its foot at 29 mm:

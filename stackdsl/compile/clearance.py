@@ -78,11 +78,22 @@ def check_pusher(scenario: Scenario, index: int, push: Push, bodies: Sequence[tu
     action = scenario.actions[index].push
     named = action is not None and "pusher" in action.model_fields_set
     path: FieldPath = ("actions", index, "push", "pusher") if named else ("actions", index, "push")
-    length = 2 * push.brick.half_extents[0] * 1000
+    hx, hy, hz = push.brick.half_extents
+    face = Box(np.array([TOLERANCE, hy, hz]), push.brick.mass)  # its front face alone, as thin as the tolerance
+    front = Pose(pose.position + pose.rotation[:, 0] * (hx - TOLERANCE), pose.orientation)
+    if deepest(face, front, bodies) is not None:  # its cross-section reaches in, not its length: where it is aimed
+        raise scenario.source.error(
+            path,
+            f"the pusher ({push.brick.type}, {2 * hy * 1000:.0f} x {2 * hz * 1000:.0f} mm across its direction) would start "
+            f"{inside[1] * 1000:.1f} mm inside brick {inside[0]!r} beside the point it is aimed at; aim it so that its "
+            "face meets the target alone (an offset nearer the target's middle), or give a thinner pusher "
+            "(a brick type of brick_types)",
+        )
     raise scenario.source.error(
         path,
-        f"the pusher ({push.brick.type}, {length:.0f} mm long along its direction) would start {inside[1] * 1000:.1f} mm "
-        f"inside brick {inside[0]!r}; give a shorter pusher (a brick type of brick_types) or aim it from outside the structure",
+        f"the pusher ({push.brick.type}, {2 * hx * 1000:.0f} mm long along its direction) would start {inside[1] * 1000:.1f} "
+        f"mm inside brick {inside[0]!r}; give a shorter pusher (a brick type of brick_types) or aim it from outside the "
+        "structure",
     )
 
 

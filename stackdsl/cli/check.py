@@ -295,7 +295,7 @@ def compare_command(args: argparse.Namespace) -> int:
                 lines.line(
                     f"[{len(done)}/{len(prepared) + len(refused)}] {Path(r.file).stem} {r.backend} {r.mode}: "
                     + (
-                        "refused (beyond the engine; why: after the table)"  # said once, there
+                        "refused (beyond the engine; why is said after the table)"  # said once, there
                         if r.refused
                         else f"SKIP: {r.skipped}"
                         if r.skipped

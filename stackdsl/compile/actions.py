@@ -825,8 +825,8 @@ def _above_ground(
     where: FieldPath = (*path, "distance") if (*path, "distance") in scenario.source.values else (*path, "direction")
     raise scenario.source.error(
         where,
-        f"the pusher would end {-end * 1000:.3g} mm below the ground (its lowest point goes from z = {low * 1000:.3g} mm "
-        f"to {end * 1000:.3g} mm along the direction's downward part, {direction[2]:+.3g}): a pusher moves through the "
+        f"the pusher would end {-end * 1000:.3g} mm below the ground (the direction goes down, {direction[2]:+.3g} of it "
+        f"vertical, and the pusher's lowest point from z = {low * 1000:.3g} mm to {end * 1000:.3g} mm): a pusher moves through the "
         f"ground, not on it, and would drive the bricks into it; give a distance of at most {allowed:g} mm (it moves "
         f"in whole steps of {step * 1000:.3g} mm at this speed), or a direction that goes less steeply down",
     )

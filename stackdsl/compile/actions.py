@@ -324,7 +324,7 @@ def footprint_extent(brick: LaidBrick, spec: BrickSpec, direction: np.ndarray) -
     >>> [round(footprint_extent(brick, kapla, np.array(d)), 4) for d in ([1.0, 0, 0], [0, -1.0, 0])]
     [0.12, 0.024]
     """
-    xy = Box(np.array(spec.half_extents), spec.mass).corners(brick.pose())[:, :2] @ direction[:2]
+    xy = brick.corners(spec)[:, :2] @ direction[:2]
     return float(xy.max() - xy.min())
 
 
@@ -351,7 +351,7 @@ def in_the_way(
     """
 
     def corners(b: LaidBrick, s: BrickSpec) -> np.ndarray:
-        xy: np.ndarray = Box(np.array(s.half_extents), s.mass).corners(b.pose())[:, :2]
+        xy: np.ndarray = b.corners(s)[:, :2]
         return xy
 
     start = corners(brick, spec)
@@ -684,7 +684,7 @@ def _not_pressed_down(
         pusher = Box(np.array(push.brick.half_extents), push.brick.mass).corners(
             Pose.from_euler(np.array(push.position) + direction * float(reach[0]), push.yaw, push.pitch)
         )
-        target = Box(np.array(specs[brick.type].half_extents), specs[brick.type].mass).corners(brick.pose())
+        target = brick.corners(specs[brick.type])
         shape = shapely.convex_hull(shapely.multipoints(target[:, :2]))
         met = shape.intersection(shapely.convex_hull(shapely.multipoints(pusher[:, :2])))
         where = met.centroid if not met.is_empty else shapely.Point(*pusher[:, :2].mean(axis=0))
@@ -694,7 +694,7 @@ def _not_pressed_down(
         for other in bricks:
             if other.id == brick.id:
                 continue
-            corners = Box(np.array(specs[other.type].half_extents), specs[other.type].mass).corners(other.pose())
+            corners = other.corners(specs[other.type])
             if abs(float(corners[:, 2].max()) - bottom) > 1e-3:
                 continue
             under = shape.intersection(shapely.convex_hull(shapely.multipoints(corners[:, :2])))

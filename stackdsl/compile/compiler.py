@@ -810,7 +810,7 @@ def _nothing_placed_on_pulled(
     if not pulls:  # the common case: nothing to compare
         return
     laid = {b.id: b for b in bricks}
-    boxes = {b.id: Box(np.array(specs[b.type].half_extents), specs[b.type].mass).corners(b.pose()) for b in bricks}
+    boxes = {b.id: b.corners(specs[b.type]) for b in bricks}
     for index, motion in pulls:
         if motion.id not in boxes:
             continue

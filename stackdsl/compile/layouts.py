@@ -15,6 +15,7 @@ from scipy.spatial.transform import Rotation
 
 from stability import Box, Pose
 
+from ..engines.protocol import BrickSpec
 from ..lang.errors import FieldPath
 from ..lang.schema import Scenario
 from ..lang.schema_layouts import BrickPlacement, CardHouse, Tower
@@ -42,6 +43,11 @@ class LaidBrick:
     def pose(self) -> Pose:
         """Its pose."""
         return Pose.from_euler(self.position, self.yaw, self.pitch, self.roll)
+
+    def corners(self, spec: BrickSpec) -> np.ndarray:
+        """Its box's eight corners where it is laid, shape (8, 3), m (``spec``: its brick type's body)."""
+        corners: np.ndarray = Box(np.array(spec.half_extents), spec.mass).corners(self.pose())
+        return corners
 
 
 def layout(scenario: Scenario) -> list[LaidBrick]:

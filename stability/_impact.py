@@ -223,7 +223,10 @@ class Impacts:
         events: list[StabilityEvent] = []
         geometric = getattr(stack.engine, "near_is_geometric", False)
         fast = []
+        lowered = stack.lowered
         for rec in active:
+            if lowered and rec.body in lowered:  # a hand sets it down at rest: no blow
+                continue
             # the speeds first (floats, read once a step for the rest test too): most active
             # bricks are slow or far from every frozen brick, and need no vector
             speed, angular_speed = stack.engine.speeds(rec.body) if speeds is None else speeds[rec.body]

@@ -166,6 +166,7 @@ class Stack:
         self.standing_version: int | None = None  # a version whose whole frozen stack a program showed to stand
         self.holding = True  # bricks woken in a proved mechanism are held active (none while a heap settles)
         self.guided: set[int] = set()  # bodies an outside hand moves (a gripper, a pusher): never frozen
+        self.lowered: frozenset[int] = frozenset()  # bricks a hand is setting down: their fall is no blow
         self.rides: dict[int, Ride] = {}  # pulled body (a shake's: first rider) -> the frozen bricks riding it, one body
         self.riding: dict[int, int] = {}  # each of those -> the ride's key
         self.hand_speed: dict[int, float] = {}  # m/s along a guided body's path, as the hand gave it

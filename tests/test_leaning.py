@@ -263,6 +263,25 @@ def test_an_impact_below_the_potential_energy_is_held():
     assert s.ext.update(1.01) == []  # the same approach is judged once
 
 
+def test_a_brick_a_hand_sets_down_is_no_blow_until_it_lets_go():
+    # the hammer of the scene above at 1 m/s, as a brick a hand lowers onto its place: the hand
+    # stops it there, so the rule weighs no blow; let go of, the same approach wakes b2
+    s = Scene()
+    for body, z in ((1, 0.004), (2, 0.012)):
+        s.engine.poses[body] = Pose.from_euler([0.0, 0.0, z])
+        s.ext.add_brick(body, KAPLA, f"b{body}")
+        s.engine.touch(body, body - 1, [[-0.06, -0.012, z - 0.004], [0.06, 0.012, z - 0.004]], normal=UP)
+        s.ext.update(0.1 * body)
+    s.engine.poses[5] = Pose.from_euler([0.2, 0.0, 0.012])
+    s.ext.add_brick(5, KAPLA, "hammer")
+    s.engine.velocities[5] = (np.array([-1.0, 0.0, 0.0]), np.zeros(3))
+    s.engine.touch(5, 2, [[0.06, 0.0, 0.012]], normal=[1, 0, 0])
+    s.ext.lowering({5})
+    assert s.ext.update(1.0) == [] and s.ext.state(2) is BrickState.FROZEN
+    s.ext.lowering(set())
+    assert [(e.kind, e.label) for e in s.ext.update(1.01)] == [("wake", "b2")]
+
+
 def domino_scene(speed: float, lintel: bool, across: bool = False, **config) -> tuple[Scene, list]:
     """A frozen KAPLA domino on end (8 mm along x, 24 along y, centre of mass 60 mm up); with
     ``lintel``, a second one at x = 100 mm and a flat KAPLA lying across their tops. A hammer

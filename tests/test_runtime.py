@@ -7,7 +7,7 @@ import numpy as np
 import pybullet
 import pytest
 
-from stability import Pose, StabilityConfig
+from stability import Pose, StabilityConfig, StabilityExtension
 from stackdsl import End, Launch, Program, compile_scenario, parse_scenario, run_program
 from stackdsl.compile.compiler import _spec
 from stackdsl.compile.program import Rule
@@ -62,6 +62,18 @@ def test_extension_freezes_settled_bricks_and_skips_quiet_steps():
     assert all(n.state in ("frozen", "ground") for n in outcome.final_graph.nodes)
     edge = next(e for e in outcome.final_graph.edges if e.upper == "b002")
     assert edge.support == "b001" and edge.area_mm2 == pytest.approx(22 * 24, abs=5)  # x from 38 to 60 mm
+
+
+def test_the_placing_hand_tells_the_extension_which_bricks_it_sets_down(monkeypatch):
+    # each brick dropped onto its place is set down by the hand until it arrives, and then is
+    # a brick like any other: the impact rule leaves out its fall only while the hand has it
+    told: list[set[int]] = []
+    lowering = StabilityExtension.lowering
+    monkeypatch.setattr(StabilityExtension, "lowering", lambda self, bodies: (told.append(set(bodies)), lowering(self, bodies)))
+    outcome = run_program(compile_scenario(parse_scenario(TWO_BRICKS.format(x=50) + "timing: {drop_gap: 2 mm}\n", "r.yaml")))
+    assert outcome.collapse is None
+    assert len([t for t in told if t]) >= 2 and all(len(t) <= 1 for t in told)  # one brick at a time, each told
+    assert told[-1] == set()  # let go of at the end
 
 
 def test_building_stops_at_the_first_collapse():

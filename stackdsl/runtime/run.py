@@ -220,7 +220,8 @@ def run_in(
         *rest,
         near_ties=lambda: stability.near_ties,
     )
-    own: list[Subscriber] = [SoftLanding(program.engine.gravity)] if options.soft_landing else []
+    hand = stability.extension.lowering if acting else None
+    own: list[Subscriber] = [SoftLanding(program.engine.gravity, hand)] if options.soft_landing else []
     substeps = Substeps(program.collapse_threshold, acting) if program.engine.ccd else None
     own += [substeps] if substeps is not None else []
     # finer steps while a pull lasts: pybullet's friction at 240 Hz drags what the pulled brick

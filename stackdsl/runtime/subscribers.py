@@ -118,6 +118,10 @@ class SoftLanding(Subscriber):
     others. Same in every mode, so modes compare. A brick watched longer than :data:`WATCH` is
     forgotten.
 
+    While it sets a brick down, the hand says so (``hand``, called after each step with the
+    bodies still falling to their place: :meth:`stability.StabilityExtension.lowering`): the
+    fall it stops is no blow on what the brick lands on.
+
     Source: stackdsl's own (docs/design.md, placement independence).
     """
 
@@ -130,10 +134,11 @@ class SoftLanding(Subscriber):
     FALLING = 1e-3
     """m/s downward from which a brick has begun to fall."""
 
-    def __init__(self, gravity: float) -> None:
-        self.gravity = gravity
+    def __init__(self, gravity: float, hand: Callable[[set[int]], None] | None = None) -> None:
+        self.gravity, self.hand = gravity, hand
         self.falling: dict[str, tuple[BrickRecord, float, float | None]] = {}  # id -> (record, placed, last vz)
         self.lowered: set[str] = set()  # lowered onto their resting heights in this step
+        self.setting_down: set[int] = set()  # the bodies of those falling to their place, as last told to ``hand``
 
     @property
     def quiet(self) -> bool:
@@ -158,9 +163,12 @@ class SoftLanding(Subscriber):
 
     def after_step(self, loop: StepLoop) -> None:
         if not self.falling:
+            if self.setting_down:
+                self._tell(set())
             return
         slowed = 0.5 * self.gravity * loop.dt
         world, now, lowered = loop.world, loop.now, self.lowered
+        setting_down = set()
         for record, placed, last in list(self.falling.values()):
             if lowered and record.id in lowered:  # at rest where it is to lie, as if placed there now
                 lowered.discard(record.id)
@@ -179,6 +187,15 @@ class SoftLanding(Subscriber):
                 del self.falling[record.id]
             elif fell:
                 self.falling[record.id] = (record, placed, vz)
+                setting_down.add(record.body)
+        if setting_down != self.setting_down:
+            self._tell(setting_down)
+
+    def _tell(self, bodies: set[int]) -> None:
+        """Tell the hand's listener which bodies it is setting down now."""
+        self.setting_down = bodies
+        if self.hand is not None:
+            self.hand(bodies)
 
 
 class Substeps(Subscriber):

@@ -269,6 +269,23 @@ def test_a_finger_gliding_over_the_block_under_the_one_it_pushes_leaves_it_froze
     assert [e.brick for e in woken] == ["L04.2"] and "stay frozen" in woken[0].detail, woken
 
 
+def test_a_finger_flush_with_the_pushed_blocks_neighbour_passes_it_by():
+    """A finger 8 mm wide pushes the middle block of level 3 of a 6-level Jenga tower 9 mm off
+    its axis: its side lies flush with the neighbouring block's face, and the engine reports the
+    two touching along that edge as the finger starts. Its box swept along the push meets the
+    neighbour along a line only: it passes it by. Before, the neighbour was driven as pushed and
+    carried the levels above it along (50 mm on a 12-level tower), where both tuned engines
+    left it in place."""
+    text = (
+        JENGA_6.replace("brick_types:\n", "brick_types:\n  finger: {size: [20 mm, 8 mm, 8 mm]}\n")
+        + "actions:\n  - push: {target: {brick: L03.2, offset: [0, 9 mm, 0]}, direction: +x, speed: 40 mm/s,"
+        " distance: 50 mm, at: after level 6, pusher: finger}\n"
+    )
+    outcome = run_program(compile_scenario(parse_scenario(text, "flush.yaml"), None, None, "pybullet"))
+    woken = [e for e in outcome.events if e.kind in ("wake", "ride")]
+    assert [e.brick for e in woken] == ["L03.2"] and "stay frozen" in woken[0].detail, woken
+
+
 def test_the_parts_under_a_block_pushed_high_in_a_tower_name_each_support_piece_once(monkeypatch):
     """The impact rule weighs the part each frozen brick carries, its support polygon the hull of
     the pieces by which the part rests on bricks outside it. The pieces of bricks kept frozen on a

@@ -493,7 +493,7 @@ def _pushes_reach(
             continue
         later = [b for b, there in zip(aimed, placed) if not there]
         _placed_in_time(scenario, path, push, direction, later, bricks, slots, specs)
-        raise _misses(scenario, path, push, p)
+        raise _misses(scenario, path, push, p, [b.corners(specs[b.type]) for b in aimed] if p.target.brick else [])
 
 
 def _far_enough(scenario: Scenario, path: FieldPath, p: WrittenPush, present: list[LaidBrick], first: np.ndarray) -> None:
@@ -548,18 +548,25 @@ def _placed_in_time(
         )
 
 
-def _misses(scenario: Scenario, path: FieldPath, push: Push, p: WrittenPush) -> ScenarioError:
+def _misses(scenario: Scenario, path: FieldPath, push: Push, p: WrittenPush, target: Sequence[np.ndarray]) -> ScenarioError:
     """The error for a push (``p``, at ``path``) whose pusher's path meets no brick: at its
-    ``direction`` when it is aimed at a brick's centre, else at its target's point or offset."""
+    ``direction`` when it is aimed at a brick's centre, else at its target's point or offset.
+    ``target``: the corners of the brick it names (shape (8, 3), m), when it names one: the
+    path passes above it, below it, or beside it."""
     where: FieldPath = (*path, "target", "point") if p.target.point is not None else (*path, "target", "offset")
     if p.target.brick is not None and p.target.offset == (0.0, 0.0, 0.0):
         where = (*path, "direction")
     x, y, z = (v * 1000 for v in push.position)
+    side = "beside"
+    if target and abs(float(push.velocity[2])) < 1e-12:  # a level path keeps its height: above or below
+        own = Box(np.array(push.brick.half_extents), 1.0).corners(Pose.from_euler(push.position, push.yaw, push.pitch, 0.0))
+        theirs = target[0][:, 2]
+        side = "above" if own[:, 2].min() >= theirs.max() else "below" if own[:, 2].max() <= theirs.min() else side
     return scenario.source.error(
         where,
         f"the pusher's path, from ({x:.1f}, {y:.1f}, {z:.1f}) mm along the direction, "
         + (
-            f"passes beside {p.target.brick}: it never touches it; aim at a point of the brick (an offset within it)"
+            f"passes {side} {p.target.brick}: it never touches it; aim at a point of the brick (an offset within it)"
             if p.target.brick is not None
             else "meets no brick in the scene when it starts: aim it at a brick (target: {brick: ID, offset: [...]})"
         ),

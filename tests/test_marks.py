@@ -246,6 +246,13 @@ def test_the_html_report_says_each_verdict_with_its_reason(tmp_path):
     assert "3 scenarios: 0 passed, 0 failed, 1 inconclusive, 1 skipped, 1 xfailed" in page
 
 
+def test_an_expectation_longer_than_its_column_is_set_apart_from_the_measured_text():
+    long = Verdict(name="collapse", passed=True, expected="collapse 3±1, brick L02.1 moved", measured="collapse 3")
+    assert row(result(verdicts=(long,))).endswith("collapse 3±1, brick L02.1 moved | stands")
+    short = Verdict(name="stands", passed=True, expected="stands", measured="stands")
+    assert row(result(verdicts=(short,))).endswith("stands" + " " * 13 + "stands")
+
+
 def test_rows_and_junit_of_marked_results(tmp_path):
     strict = result(verdicts=(Verdict(name="stands", passed=True, expected="stands", measured="stands"),), xfail="w", strict=True)
     assert row(strict).startswith("XPASS s.yaml")

@@ -37,9 +37,11 @@ def row(r: CheckResult) -> str:
     seconds, expected, and measured last (its length varies)."""
     file = one_line(r.file)  # a newline in a path would split the row
     file = file if len(file) <= 40 else "..." + file[-37:]
+    # an expectation longer than its column ends with a bar: it would run into the measured text
+    expected = f"{r.expected:<18}" if len(r.expected) < 18 else f"{r.expected} |"
     return (  # the verdict (CheckResult.verdict), as wide as XFAIL: INCONCLUSIVE pushes its row right
         f"{r.verdict:<5} {file:<40} {r.backend:<8} {mode_label(r):<9} "
-        f"{r.simulated_time:>7.1f} s {r.wall_time:>5.1f} s  {r.expected:<18} {r.measured}"
+        f"{r.simulated_time:>7.1f} s {r.wall_time:>5.1f} s  {expected} {r.measured}"
     ).rstrip()
 
 

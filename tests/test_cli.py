@@ -950,6 +950,22 @@ def test_compare_json_and_k(tmp_path, capsys):
     assert doc["command"] == "compare" and doc["summary"]["failed"] == 2
 
 
+def test_compare_json_lists_its_results_in_the_tables_order_not_as_they_finished(tmp_path, capsys, monkeypatch):
+    import stackdsl.cli.check as cli_check
+
+    folder = write(tmp_path, a=PASSING, b=FAILING)
+    finishing = cli_check.run_checks
+
+    def backwards(*args, **kwargs):  # the last run to finish first, as parallel workers may
+        return reversed(list(finishing(*args, **kwargs)))
+
+    monkeypatch.setattr(cli_check, "run_checks", backwards)
+    assert main(["compare", str(folder), "--modes", "raw,extension", "-j", "1", "--json"]) == 1
+    doc = json.loads(capsys.readouterr().out)
+    order = [(Path(r["file"]).name, r["mode"]) for r in doc["results"]]
+    assert order == [("a.yaml", "raw"), ("a.yaml", "extension"), ("b.yaml", "raw"), ("b.yaml", "extension")]
+
+
 def test_compare_says_what_failed_besides_the_level_and_keeps_its_columns(tmp_path, capsys, monkeypatch):
     """A collapse at the level expected can still fail its 'stays': the row says what moved; a long
     measured text wraps under itself, and every line fits the width (100 piped, COLUMNS when narrower)."""

@@ -306,6 +306,9 @@ def compare_command(args: argparse.Namespace) -> int:
         table = tabulate(prepared, modes, chain(refused, run_checks(prepared, args.jobs, timeout=args.timeout)), each, files)
     wall = time.perf_counter() - start
     if args.json:
+        # the table's order (files, then modes as given), not the order the runs finished in
+        ordered = [r for cells in table.values() for r in cells.values()]
+        done = ordered + [r for r in done if not any(r is o for o in ordered)]
         commands = [
             rerun_command(
                 "sweep" if r.sweep else "run",

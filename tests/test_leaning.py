@@ -232,8 +232,9 @@ def test_contacts_at_different_heights_are_not_admitted_by_the_basic_test():
     assert [e.kind for e in flat.ext.update(0.0)] == ["freeze"]
 
 
-def impact_scene(speed: float) -> tuple[Scene, list]:
-    """A frozen column of two bricks; a projectile about to hit the top one at ``speed``."""
+def impact_scene(speed: float, lowered: bool = False) -> tuple[Scene, list]:
+    """A frozen column of two bricks; a projectile about to hit the top one at ``speed`` (with
+    ``lowered``, a brick a hand sets down there)."""
     s = Scene()
     for body, z in ((1, 0.004), (2, 0.012)):
         s.engine.poses[body] = Pose.from_euler([0.0, 0.0, z])
@@ -244,6 +245,8 @@ def impact_scene(speed: float) -> tuple[Scene, list]:
     s.ext.add_brick(5, KAPLA, "hammer")
     s.engine.velocities[5] = (np.array([-speed, 0.0, 0.0]), np.zeros(3))
     s.engine.touch(5, 2, [[0.06, 0.0, 0.012]], normal=[1, 0, 0])
+    if lowered:
+        s.ext.lowering({5})
     return s, s.ext.update(1.0)
 
 
@@ -266,18 +269,8 @@ def test_an_impact_below_the_potential_energy_is_held():
 def test_a_brick_a_hand_sets_down_is_no_blow_until_it_lets_go():
     # the hammer of the scene above at 1 m/s, as a brick a hand lowers onto its place: the hand
     # stops it there, so the rule weighs no blow; let go of, the same approach wakes b2
-    s = Scene()
-    for body, z in ((1, 0.004), (2, 0.012)):
-        s.engine.poses[body] = Pose.from_euler([0.0, 0.0, z])
-        s.ext.add_brick(body, KAPLA, f"b{body}")
-        s.engine.touch(body, body - 1, [[-0.06, -0.012, z - 0.004], [0.06, 0.012, z - 0.004]], normal=UP)
-        s.ext.update(0.1 * body)
-    s.engine.poses[5] = Pose.from_euler([0.2, 0.0, 0.012])
-    s.ext.add_brick(5, KAPLA, "hammer")
-    s.engine.velocities[5] = (np.array([-1.0, 0.0, 0.0]), np.zeros(3))
-    s.engine.touch(5, 2, [[0.06, 0.0, 0.012]], normal=[1, 0, 0])
-    s.ext.lowering({5})
-    assert s.ext.update(1.0) == [] and s.ext.state(2) is BrickState.FROZEN
+    s, events = impact_scene(1.0, lowered=True)
+    assert events == [] and s.ext.state(2) is BrickState.FROZEN
     s.ext.lowering(set())
     assert [(e.kind, e.label) for e in s.ext.update(1.01)] == [("wake", "b2")]
 

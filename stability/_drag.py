@@ -489,9 +489,9 @@ class PullProof:
         Then its load shares among its supports are statically indeterminate with no load above
         to press it evenly onto them, and an engine's compliant contacts may put all of it on the
         pulled brick, where the drag is then held by nothing: the top level of a KAPLA tower of
-        8, over the middle block of level 7 pulled at 20 mm/s, was dragged 20.8 mm by tuned
-        pybullet and 5.2 mm by tuned MuJoCo (both past its 4 mm collapse threshold), where the
-        proof at equal shares held it 1.5 times over. Source: stackdsl's own."""
+        8, over the middle block of level 7 pulled at 20 mm/s, was dragged 20.8 mm and 5.2 mm by
+        the two engines' tuned settings (both past its 4 mm collapse threshold), where the proof
+        at equal shares held it 1.5 times over (docs/actions.md, "Pull"). Source: stackdsl's own."""
         if self.stack.bodies[carried].objects_above:
             return False
         return bool(shapely.contains_xy(area.polygon, float(com[0]), float(com[1])))

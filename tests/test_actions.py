@@ -759,10 +759,14 @@ def test_a_pusher_that_would_start_inside_a_brick_is_told_what_to_change():
         compile_scenario(parse_scenario(high, "high.yaml"))
 
 
-@pytest.mark.parametrize(("brick", "offset", "way"), [("L03.2", "[0, 0, 30 mm]", "above"), ("L03.1", "[0, -30 mm, 0]", "beside")])
+@pytest.mark.parametrize(
+    ("brick", "offset", "way"),
+    [("L03.2", "[0, 0, 30 mm]", "above"), ("L06.2", "[0, 0, 11.5 mm]", "above"), ("L03.1", "[0, -30 mm, 0]", "beside")],
+)
 def test_a_push_that_misses_its_brick_says_whether_it_passes_above_or_beside_it(brick, offset, way):
     """Aimed 30 mm over the middle of a middle block 15 mm thick, a level pusher's path runs
-    over it (a new user read "passes beside" of it); aimed 30 mm off a side block, beside it."""
+    over it (a new user read "passes beside" of it), as one whose underside lies exactly on the top
+    block's face; aimed 30 mm off a side block, beside it."""
     from stackdsl.lang.errors import ScenarioError
 
     text = JENGA_6 + f"actions:\n  - push: {{target: {{brick: {brick}, offset: {offset}}}, direction: +x, at: after level 6}}\n"

@@ -552,16 +552,18 @@ def _misses(scenario: Scenario, path: FieldPath, push: Push, p: WrittenPush, tar
     """The error for a push (``p``, at ``path``) whose pusher's path meets no brick: at its
     ``direction`` when it is aimed at a brick's centre, else at its target's point or offset.
     ``target``: the corners of the brick it names (shape (8, 3), m), when it names one: the
-    path passes above it, below it, or beside it."""
+    path passes above it, below it (every height it sweeps, from start to end), or beside it."""
     where: FieldPath = (*path, "target", "point") if p.target.point is not None else (*path, "target", "offset")
     if p.target.brick is not None and p.target.offset == (0.0, 0.0, 0.0):
         where = (*path, "direction")
     x, y, z = (v * 1000 for v in push.position)
     side = "beside"
-    if target and abs(float(push.velocity[2])) < 1e-12:  # a level path keeps its height: above or below
-        own = Box(np.array(push.brick.half_extents), 1.0).corners(Pose.from_euler(push.position, push.yaw, push.pitch, 0.0))
-        theirs = target[0][:, 2]
-        side = "above" if own[:, 2].min() >= theirs.max() else "below" if own[:, 2].max() <= theirs.min() else side
+    if target:  # the heights the pusher's box sweeps over its whole path, against the brick's
+        start = Box(np.array(push.brick.half_extents), 1.0).corners(Pose.from_euler(push.position, push.yaw, push.pitch, 0.0))
+        travel = np.asarray(push.velocity, dtype=float) * (push.end_time - push.time)
+        low, high = min(start[:, 2].min(), start[:, 2].min() + travel[2]), max(start[:, 2].max(), start[:, 2].max() + travel[2])
+        bottom, top = float(target[0][:, 2].min()), float(target[0][:, 2].max())
+        side = "above" if low >= top - 1e-9 else "below" if high <= bottom + 1e-9 else side
     return scenario.source.error(
         where,
         f"the pusher's path, from ({x:.1f}, {y:.1f}, {z:.1f}) mm along the direction, "

@@ -308,7 +308,8 @@ def compare_command(args: argparse.Namespace) -> int:
     if args.json:
         # the table's order (files, then modes as given), not the order the runs finished in
         ordered = [r for cells in table.values() for r in cells.values()]
-        done = ordered + [r for r in done if not any(r is o for o in ordered)]
+        tabled = {id(r) for r in ordered}
+        done = ordered + [r for r in done if id(r) not in tabled]
         commands = [
             rerun_command(
                 "sweep" if r.sweep else "run",

@@ -493,7 +493,8 @@ def _pushes_reach(
             continue
         later = [b for b, there in zip(aimed, placed) if not there]
         _placed_in_time(scenario, path, push, direction, later, bricks, slots, specs)
-        raise _misses(scenario, path, push, p, [b.corners(specs[b.type]) for b in aimed] if p.target.brick else [])
+        named = aimed[0].corners(specs[aimed[0].type]) if p.target.brick is not None and aimed else None
+        raise _misses(scenario, path, push, p, named)
 
 
 def _far_enough(scenario: Scenario, path: FieldPath, p: WrittenPush, present: list[LaidBrick], first: np.ndarray) -> None:
@@ -548,7 +549,7 @@ def _placed_in_time(
         )
 
 
-def _misses(scenario: Scenario, path: FieldPath, push: Push, p: WrittenPush, target: Sequence[np.ndarray]) -> ScenarioError:
+def _misses(scenario: Scenario, path: FieldPath, push: Push, p: WrittenPush, target: np.ndarray | None) -> ScenarioError:
     """The error for a push (``p``, at ``path``) whose pusher's path meets no brick: at its
     ``direction`` when it is aimed at a brick's centre, else at its target's point or offset.
     ``target``: the corners of the brick it names (shape (8, 3), m), when it names one: the
@@ -558,11 +559,11 @@ def _misses(scenario: Scenario, path: FieldPath, push: Push, p: WrittenPush, tar
         where = (*path, "direction")
     x, y, z = (v * 1000 for v in push.position)
     side = "beside"
-    if target:  # the heights the pusher's box sweeps over its whole path, against the brick's
+    if target is not None:  # the heights the pusher's box sweeps over its whole path, against the brick's
         start = Box(np.array(push.brick.half_extents), 1.0).corners(Pose.from_euler(push.position, push.yaw, push.pitch, 0.0))
         travel = np.asarray(push.velocity, dtype=float) * (push.end_time - push.time)
         low, high = min(start[:, 2].min(), start[:, 2].min() + travel[2]), max(start[:, 2].max(), start[:, 2].max() + travel[2])
-        bottom, top = float(target[0][:, 2].min()), float(target[0][:, 2].max())
+        bottom, top = float(target[:, 2].min()), float(target[:, 2].max())
         side = "above" if low >= top - 1e-9 else "below" if high <= bottom + 1e-9 else side
     return scenario.source.error(
         where,

@@ -560,7 +560,7 @@ def _misses(scenario: Scenario, path: FieldPath, push: Push, p: WrittenPush, tar
     x, y, z = (v * 1000 for v in push.position)
     side = "beside"
     if target is not None:  # the heights the pusher's box sweeps over its whole path, against the brick's
-        start = Box(np.array(push.brick.half_extents), 1.0).corners(Pose.from_euler(push.position, push.yaw, push.pitch, 0.0))
+        start = _pusher_corners(push, np.asarray(push.position, dtype=float))
         travel = np.asarray(push.velocity, dtype=float) * (push.end_time - push.time)
         low, high = min(start[:, 2].min(), start[:, 2].min() + travel[2]), max(start[:, 2].max(), start[:, 2].max() + travel[2])
         bottom, top = float(target[:, 2].min()), float(target[:, 2].max())
@@ -659,6 +659,14 @@ def _room_for(
     )
 
 
+def _pusher_corners(push: Push, position: np.ndarray) -> np.ndarray:
+    """The eight corners (shape (8, 3), m) of ``push``'s pusher with its centre at ``position`` (m)."""
+    corners: np.ndarray = Box(np.array(push.brick.half_extents), push.brick.mass).corners(
+        Pose.from_euler(position, push.yaw, push.pitch)
+    )
+    return corners
+
+
 #: The steepest a push may point down (the sine of 30 deg below the horizontal) before it is asked
 #: whether it presses its brick into what carries it (:func:`_not_pressed_down`).
 DOWNWARD = -0.5
@@ -691,9 +699,7 @@ def _not_pressed_down(
         reach = _first_touch(push, direction, [brick], specs)
         if not len(reach) or not np.isfinite(reach[0]) or p.distance - float(reach[0]) <= PRESSED:
             continue
-        pusher = Box(np.array(push.brick.half_extents), push.brick.mass).corners(
-            Pose.from_euler(np.array(push.position) + direction * float(reach[0]), push.yaw, push.pitch)
-        )
+        pusher = _pusher_corners(push, np.array(push.position) + direction * float(reach[0]))
         target = brick.corners(specs[brick.type])
         shape = shapely.convex_hull(shapely.multipoints(target[:, :2]))
         met = shape.intersection(shapely.convex_hull(shapely.multipoints(pusher[:, :2])))

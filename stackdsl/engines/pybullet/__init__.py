@@ -32,8 +32,6 @@ def _world(
         yield world
 
 
-#: pybullet, the default engine; the extension splits its pulls (its friction at 240 Hz drags
-#: what a pulled brick carries: :data:`stackdsl.compile.program.PULL_STEP`).
 @cache
 def _prepare() -> object:
     """Import pybullet and the world adapter, and open and close one client (:attr:`Backend.prepare`):
@@ -46,4 +44,6 @@ def _prepare() -> object:
     return world
 
 
+#: pybullet, the default engine; the extension splits its pulls (its friction at 240 Hz drags
+#: what a pulled brick carries: :data:`stackdsl.compile.program.PULL_STEP`).
 BACKEND = Backend(name="pybullet", settings=PyBulletSettings, world=_world, split_pulls=True, prepare=_prepare)

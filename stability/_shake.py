@@ -123,15 +123,25 @@ def _leaning(stack: Stack, frozen: list[Record], sideways: tuple[float, float], 
     tilt asks each contact for ``a / g`` of its normal force, where a leaning contact already
     needs a share of its friction at rest, and the tilt adds to it on one side. A V of KAPLA
     legs at 24 deg, needing 91% of its friction at rest, was kept riding a table shaken at 1.26
-    m/s^2, which felled it on both tuned engines. Source: rigid-block equilibrium (Livesley
-    1978; Whiting et al. 2009) under the module docstring's tilted gravity."""
+    m/s^2, which felled it on both tuned engines.
+
+    Each contact is its bare contact points here (:attr:`stability.ContactPolygon.core`), not the
+    area padded around a line or a point for the report's centre-of-mass test (3.4.2): an edge
+    meets a face along a line, and a line takes no moment about itself. With the padding (1 mm
+    each side of the line where the two legs of a V meet) a V of KAPLA legs at 22 deg was held up
+    to 0.273 m/s^2; on its bare contacts it holds up to 0.102, and the engines felled it from 0.07
+    (raw pybullet, tuned MuJoCo) and 0.14 m/s^2 (tuned pybullet) on, where the extension had kept it
+    frozen to 0.25 (docs/results/shake_leaning.py). Source: rigid-block equilibrium (Livesley
+    1978; Whiting et al. 2009) under the module docstring's tilted gravity; the bare contacts as
+    :mod:`stability._certificate` takes them for a margin."""
     blocks = {r.body: RigidBlock(r.box.mass, stack.pose(r).position) for r in frozen}
     contacts = stack.frozen_contacts(blocks)
     steep = {b for c in contacts if not is_level(c) for b in (c.body, c.other) if b in blocks}
     if not steep:
         return None
     part, polygons = connected_part(blocks, contacts, steep)
-    found = solve_equilibrium(part, polygons, gravity=gravity, quick=False, sideways=sideways)
+    bare = [replace(c, points=c.core) if c.core is not None else c for c in polygons]
+    found = solve_equilibrium(part, bare, gravity=gravity, quick=False, sideways=sideways)
     if found.stands:
         return None
     moved = [stack.bodies[b].label for b in stack.ordered(found.moving())]

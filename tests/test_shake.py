@@ -253,12 +253,15 @@ actions:
 """
 
 
-@pytest.mark.parametrize(("amplitude", "rides"), [("0.2 mm", True), ("2 mm", False)])
+@pytest.mark.parametrize(("amplitude", "rides"), [("0.05 mm", True), ("0.2 mm", False), ("2 mm", False)])
 def test_a_leaning_v_rides_the_table_only_while_its_friction_holds_it_under_the_tilted_gravity(amplitude, rides):
     # the two legs of a V at 24 deg need 91% of their friction at rest; a shake's tilt of
     # gravity asks more of one of them, which the level-contact tests (a / g against mu) never
-    # see: rigid-block equilibrium under the tilted gravity does. At 2 mm and 4 Hz (1.26 m/s^2)
-    # both tuned engines fell the V; at 0.2 mm (0.13 m/s^2) it stands under the tilt
+    # see: rigid-block equilibrium under the tilted gravity does, on the legs' bare contacts
+    # (the line where they meet takes no moment about itself). At 2 mm and 4 Hz (1.26 m/s^2)
+    # both tuned engines fell the V, at 0.2 mm (0.13 m/s^2) tuned MuJoCo and raw pybullet and
+    # MuJoCo did; at 0.05 mm (0.03 m/s^2) it stands under the tilt. With the meeting line
+    # padded 1 mm each side, as the report's centre-of-mass test takes it, it rode 0.2 mm
     outcome = run_program(compile_scenario(parse_scenario(LEANING_V.format(amplitude=amplitude), "v.yaml"), "extension"))
     said = next(e.detail for e in outcome.events if e.kind == "shake")
     if rides:

@@ -538,6 +538,16 @@ class StabilityExtension:
         """The labels of the bricks a pusher drives now, as a hand pulls a brick (:meth:`_drive`)."""
         return [self._stack.bodies[b].label for b in self._driven if b in self._stack.bodies]
 
+    def on_path(self) -> dict[int, int]:
+        """The bricks a pusher drives under a proof now (body -> the pusher): the proof takes each
+        as a hand takes a pulled brick, moving along the hand's path with its orientation held
+        (:class:`stability._drag.PullProof`), and the bricks it slides between stay frozen, so
+        the engine must move it so too (a free block pushed by a finger between frozen bricks
+        rocked between the levels above and below, which give no way as a weight does, and
+        was thrown). Empty once the proof is lost or the push has ended. Source: stackdsl's own.
+        """
+        return {b: pusher for b, pusher in self._driven.items() if b in self._proofs}
+
     def _hand(self, body: int) -> str:
         """How the hand moves guided ``body``, in a word: "push" (a brick a pusher drives,
         :meth:`_drive`) or "pull"."""

@@ -148,7 +148,7 @@ class PyBulletWorld(PyBulletEngine, World):
         self._substeps = 1
         self._split = False  # stepping in substeps of its own (see step), not pybullet's numSubSteps
         self._anchored = False  # friction anchors on every body while a pull's path is stepped (see _anchor)
-        self._dragging = False  # a held body guided this step drags what it drives (guide's drags)
+        self._dragging = False  # friction anchors this step: a pull's path, or a held body that drags what it drives (guide)
         self._paths: dict[int, tuple[Any, Any, Vec3, float | None]] = {}  # this step's guided bodies: their path
         self._merged: dict[int, tuple[int, int]] = {}  # body -> its merged body, and its place among the bodies merged
         self._groups: dict[int, tuple[int, ...]] = {}  # merged body -> the bodies merged (see merge)
@@ -521,7 +521,7 @@ class PyBulletWorld(PyBulletEngine, World):
         if mass > 0.0:
             self._velocities[body] = _AT_REST
 
-    def guide(self, body: int, pose: Pose, velocity: Vec3, hold: bool = True, drags: bool = False) -> None:
+    def guide(self, body: int, pose: Pose, velocity: Vec3, hold: bool = True, drags: bool = False, anchored: bool = True) -> None:
         self._velocities.pop(body, None)
         self._poses.pop(body, None)
         if body in self._shelf:
@@ -537,7 +537,7 @@ class PyBulletWorld(PyBulletEngine, World):
             self._massed(body, GUIDED_MASS if hold else mass)
         position, orientation, held = pose.position.tolist(), pose.orientation.tolist(), GUIDED_MASS if hold else None
         self._paths[engine_id] = (position, orientation, velocity, held)
-        if drags:
+        if drags or (held is None and anchored):  # a pull's path, a push's drag: friction anchors (:meth:`_anchor`)
             self._dragging = True
         self._drive(engine_id, position, orientation, velocity, held)
 
@@ -604,7 +604,7 @@ class PyBulletWorld(PyBulletEngine, World):
         split = self._substeps > 1 and bool(self._paths or self._table)
         if split != self._split:
             self._stepping(split)
-        dragging = self._dragging or any(held is None for *_, held in self._paths.values())  # a pull's path, a push's drag
+        dragging = self._dragging
         if dragging != self._anchored:
             self._anchor(not self._anchored)
         if split:

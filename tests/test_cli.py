@@ -1383,6 +1383,19 @@ def test_a_compare_cell_says_why_a_run_stopped():
     assert stopped("MuJoCo's simulation became unstable at t = 1.030 s: nothing after it is physics") == "unstable"
 
 
+def test_compare_says_under_its_table_how_to_let_a_timed_out_cell_finish(tmp_path, capsys):
+    """A cell its --timeout stopped shows 'FAIL timeout' and fails compare (exit 1, as check fails
+    a run that did not finish); a new user read it as an expectation that failed. Under the
+    table it now says what stopped it, that nothing was judged, and that a longer --timeout lets
+    it finish."""
+    slow = "stackdsl: 1\nstructure: {tower: {levels: 8, bricks_per_layer: 1, turn: 0}}\nexpect: {stands: true}\n"
+    folder = write(tmp_path, slow=slow)
+    assert main(["compare", str(folder), "--modes", "raw", "-j", "1", "--timeout", "0.3"]) == 1
+    out = capsys.readouterr().out
+    assert "FAIL timeout" in out and "slow pybullet raw: timeout after 0.3 s at t = " in out, out
+    assert "nothing was judged: a longer --timeout lets it finish" in " ".join(out.split()), out
+
+
 def test_a_folder_with_a_bad_file_runs_none_and_says_so_last(tmp_path, capsys):
     """check DIR reads every file before it runs any: with one bad file none runs (exit 2), each
     bad file's error is said, and a last line says how many were refused and that none ran (a

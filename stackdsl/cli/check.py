@@ -351,14 +351,20 @@ def _compared(args: argparse.Namespace) -> tuple[tuple[str, ...], tuple[str | No
 
 def _notes(table: dict[str, dict[str, CheckResult]], done: list[CheckResult], refused: list[CheckResult], width: int) -> None:
     """What compare says under its table: a failure the run's end cut short (with check's hint),
-    why cells were skipped or expected to fail (once each), and on stderr why a compared engine
-    or mode refused a file."""
+    a cell its ``--timeout`` stopped (and how to let it finish), why cells were skipped or
+    expected to fail (once each), and on stderr why a compared engine or mode refused a file."""
     for r in done:  # a failure the run's end cut short: the hint check gives under it
         for line in r.explanation if not r.passed else ():
             if line.startswith("still moving"):
                 print(
                     "\n".join(textwrap.wrap(f"{Path(r.file).stem} {r.backend} {r.mode}: {line}", width, subsequent_indent="    "))
                 )
+    for r in done:  # a cell its --timeout cut short judged nothing: how to let it finish
+        if r.stopped.startswith("timeout"):
+            words = (
+                f"{Path(r.file).stem} {r.backend} {r.mode}: {r.stopped}; nothing was judged: a longer --timeout lets it finish"
+            )
+            print("\n".join(textwrap.wrap(words, width, subsequent_indent="    ")))
     marked: dict[tuple[str, str, str], list[str]] = {}  # (file, word, reason) -> the columns it was said of
     for file, cells in table.items():
         for column, r in cells.items():

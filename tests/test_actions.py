@@ -278,6 +278,28 @@ def test_a_pushed_block_proved_alone_moves_on_the_fingers_path_and_is_not_thrown
     assert all(v.passed for v in evaluate(scenario.expect, outcome, program.collapse_threshold))
 
 
+def test_a_pull_of_a_brick_that_has_moved_says_where_the_hand_takes_it():
+    """A new user pulled a block out of a tower's debris and nothing said it no longer lay where
+    it was placed: the hand takes a brick where it lies, and the pull's line now says how far
+    that is from its place when it is past the collapse threshold (a pushed brick, 30 mm), and
+    nothing for one that has not moved."""
+    text = """stackdsl: 1
+brick_types: {finger: {size: [20 mm, 10 mm, 6 mm]}}
+structure:
+  bricks:
+    - {id: a, at: [0, 0, 4 mm]}
+    - {id: b, at: [0, 100 mm, 4 mm]}
+actions:
+  - push: {target: {brick: a}, direction: +x, speed: 50 mm/s, distance: 35 mm, at: 1 s, pusher: finger}
+  - remove: {brick: a, at: 3 s, speed: 40 mm/s, direction: -y}
+  - remove: {brick: b, at: 7 s, speed: 40 mm/s, direction: +y}
+"""
+    outcome = run_program(compile_scenario(parse_scenario(text, "pulls.yaml")))
+    said = {e.brick: e.detail for e in outcome.events if e.kind == "remove"}
+    assert said["a"].startswith("pulled out at 40 mm/s, from where it lies, 3") and said["a"].endswith(" mm from its place")
+    assert said["b"] == "pulled out at 40 mm/s", said
+
+
 def test_a_finger_gliding_over_the_block_under_the_one_it_pushes_leaves_it_frozen():
     """A finger 12 mm tall pushes the middle block of level 4 (15 mm thick) of an 8-level Jenga
     tower 45 mm out at its middle height: its underside passes 1.5 mm over the blocks of level 3,

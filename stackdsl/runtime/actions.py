@@ -129,9 +129,13 @@ class Actions(Subscriber):
 
     def _remove(self, loop: StepLoop, a: Remove) -> None:
         record = loop.structure.records[a.id]
+        moved = loop.structure.displacement(record)  # before it leaves the structure's books
         loop.structure.detach(record)
         speed = float(np.linalg.norm(a.velocity))
-        loop.events.append(Event(time=a.time, kind="remove", brick=a.id, detail=f"pulled out at {speed * 1000:.3g} mm/s"))
+        detail = f"pulled out at {speed * 1000:.3g} mm/s"
+        if moved > loop.program.collapse_threshold:  # a brick the hand takes where it lies, not where it was placed
+            detail += f", from where it lies, {moved * 1000:.3g} mm from its place"
+        loop.events.append(Event(time=a.time, kind="remove", brick=a.id, detail=detail))
         self._guide(loop, record, a.time, a.velocity, a.end_step, "pull", f"pulled out by hand at {a.time:g} s")
         self._finer(loop)
 

@@ -1383,6 +1383,23 @@ def test_a_compare_cell_says_why_a_run_stopped():
     assert stopped("MuJoCo's simulation became unstable at t = 1.030 s: nothing after it is physics") == "unstable"
 
 
+def test_a_compare_cell_of_a_run_that_ended_still_moving_says_undecided_not_stands():
+    """A new user's card house, shaken in tuned pybullet, lay 90 mm from its place and still moved
+    at 794 mm/s when the run ended: the cell read 'INCONCLUSIVE stands'. No collapse was decided,
+    and none could be: the cell says so."""
+    from stackdsl.cli.check import _cell
+    from stackdsl.verdicts.check_result import CheckResult
+    from stackdsl.verdicts.expect import Verdict
+
+    undecided = Verdict(
+        name="stands", passed=False, expected="stands", measured="undecided: 7 bricks still move", inconclusive=True
+    )
+    r = CheckResult("a.yaml", "a", "tuned", "report", (undecided,), None, 3, 8.0, 1.0)
+    assert r.verdict == "INCONCLUSIVE" and _cell(r) == "undecided: still moving at the end"
+    held = Verdict(name="stands", passed=True, expected="stands", measured="stands")
+    assert _cell(CheckResult("a.yaml", "a", "tuned", "report", (held,), None, 3, 8.0, 1.0)) == "stands"
+
+
 def test_compare_says_under_its_table_how_to_let_a_timed_out_cell_finish(tmp_path, capsys):
     """A cell its --timeout stopped shows 'FAIL timeout' and fails compare (exit 1, as check fails
     a run that did not finish); a new user read it as an expectation that failed. Under the

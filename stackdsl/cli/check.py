@@ -353,9 +353,9 @@ def _notes(table: dict[str, dict[str, CheckResult]], done: list[CheckResult], re
     """What compare says under its table: a failure the run's end cut short (with check's hint),
     a cell its ``--timeout`` stopped (and how to let it finish), why cells were skipped or
     expected to fail (once each), and on stderr why a compared engine or mode refused a file."""
-    for r in done:  # a failure the run's end cut short: the hint check gives under it
+    for r in done:  # a failure or an undecided run the run's end cut short: the hint check gives under it
         for line in r.explanation if not r.passed else ():
-            if line.startswith("still moving"):
+            if line.startswith(("still moving", "undecided: the run ended")):
                 print(
                     "\n".join(textwrap.wrap(f"{Path(r.file).stem} {r.backend} {r.mode}: {line}", width, subsequent_indent="    "))
                 )
@@ -467,11 +467,15 @@ def _backends(given: str | None, several: bool) -> tuple[str | None, ...]:
 
 def _cell(r: CheckResult) -> str:
     """What compare's table shows of a result: the collapse level and the bricks toppled when the
-    file expects a count (``stands, 0 of 5 toppled``), or what went wrong."""
+    file expects a count (``stands, 0 of 5 toppled``), that a run ended still moving judged
+    nothing (an undecided run read "INCONCLUSIVE stands" of a card house lying 90 mm from its
+    place), or what went wrong."""
     if r.error:
         return "out of memory" if "out of memory" in r.error else "internal error"
     if r.stopped:  # a timeout, or an engine that blew up (MuJoCo's "became unstable")
         return "timeout" if r.stopped.startswith("timeout") else "unstable" if "unstable" in r.stopped else "stopped"
+    if not r.sweep and r.verdict == "INCONCLUSIVE":  # still moving when the run ended: judged neither way
+        return "undecided: still moving at the end"
     toppled = [v.measured for v in r.verdicts if v.name == "toppled"]
     # what failed besides the level: a collapse at the level expected can still fail its 'stays'
     failed = [v.measured for v in r.verdicts if not v.passed and v.name not in ("collapse", "stands", "toppled")]

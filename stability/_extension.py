@@ -125,6 +125,7 @@ class StabilityExtension:
         self._pushers: set[int] = set()  # guided bodies a hand pushes with (guided without a pull)
         self._driven: dict[int, int] = {}  # a brick a pusher drives, as a pulled one (:meth:`_drive`) -> the pusher
         self._aims: dict[int, int] = {}  # a pusher -> the brick its push is aimed at
+        self._ride_hands: dict[int, str] = {}  # a guided body whose riders ride it -> "push" or "pull"
 
     @property
     def config(self) -> StabilityConfig:
@@ -590,7 +591,8 @@ class StabilityExtension:
                     w.event for w in stack.wake(other, time, f"carries {on} beside {label}, which a hand moves", alone=True)
                 ]
             # frozen in these books, moved by the engine: the runtime reads and records them as moving
-            words = f"rides the {self._hand(body)} of {label}, one rigid body of {len(riders)} bricks in the engine"
+            self._ride_hands[body] = self._hand(body)  # said again when the ride ends, after the push has
+            words = f"rides the {self._ride_hands[body]} of {label}, one rigid body of {len(riders)} bricks in the engine"
             events += [StabilityEvent(time, "ride", stack.bodies[b].label, words) for b in riders]
         else:
             events = [w.event for w in stack.wake(body, time, reason)]
@@ -833,7 +835,8 @@ class StabilityExtension:
         for pulled in [p for p in self._limits if p not in stack.rides]:
             del self._limits[pulled]
         for pulled, (label, riders, ground) in list(stack.rides.items()):
-            what = f"rode the {self._hand(pulled)} of {label}" if ground is None else f"rode the shaken {label}"
+            hand = self._ride_hands.get(pulled, self._hand(pulled))  # a push's ride outlives the push's books
+            what = f"rode the {hand} of {label}" if ground is None else f"rode the shaken {label}"
             if ground is None:
                 why = self._tilted(pulled, riders, time, what) if pulled in stack.guided else f"{what} as one body until it ended"
             else:
@@ -848,6 +851,7 @@ class StabilityExtension:
                     why = f"{what} as one body until it tilted {tilt:.2f} deg"
             if why is not None:
                 self._limits.pop(pulled, None)
+                self._ride_hands.pop(pulled, None)
                 events += [w.event for w in stack.end_ride(pulled, time, why)]
         return events
 

@@ -300,6 +300,28 @@ actions:
     assert said["b"] == "pulled out at 40 mm/s", said
 
 
+def test_a_ride_on_a_pushed_block_ends_as_the_push_of_it_not_a_pull():
+    """The bricks above a pushed block not proved ride it as one rigid body; the ride ends after
+    the push, when the push's own books are closed, and its words read 'rode the pull of L04.2'
+    of a push (a new user's block pushed out and back)."""
+    text = """stackdsl: 1
+materials: {m: {density: 700 kg/m^3, friction: 0.5}}
+brick_types:
+  jenga: {size: [75 mm, 25 mm, 15 mm], material: m}
+  finger: {size: [30 mm, 10 mm, 10 mm], material: m}
+ground: {material: m}
+structure:
+  tower: {levels: 10, bricks_per_layer: 3, spacing: 25.5 mm, turn: 90, brick: jenga}
+timing: {interval: 0.3 s, settle: 1 s}
+actions:
+  - push: {target: {brick: L04.2}, direction: +y, speed: 45 mm/s, distance: 30 mm, at: after level 10, pusher: finger}
+  - push: {target: {brick: L04.2}, direction: -y, speed: 45 mm/s, distance: 15 mm, at: after the previous action, pusher: finger}
+"""
+    outcome = run_program(compile_scenario(parse_scenario(text, "push_back.yaml"), None, None, "pybullet"))
+    rode = [e.detail for e in outcome.events if e.detail.startswith("rode the ")]
+    assert rode and all(d.startswith("rode the push of L04.2") for d in rode), rode
+
+
 def test_a_finger_gliding_over_the_block_under_the_one_it_pushes_leaves_it_frozen():
     """A finger 12 mm tall pushes the middle block of level 4 (15 mm thick) of an 8-level Jenga
     tower 45 mm out at its middle height: its underside passes 1.5 mm over the blocks of level 3,

@@ -591,7 +591,7 @@ class StabilityExtension:
                     w.event for w in stack.wake(other, time, f"carries {on} beside {label}, which a hand moves", alone=True)
                 ]
             # frozen in these books, moved by the engine: the runtime reads and records them as moving
-            self._ride_hands[body] = self._hand(body)  # said again when the ride ends, after the push has
+            self._ride_hands[body] = self._hand(body)  # said again when the ride ends, maybe after the push
             words = f"rides the {self._ride_hands[body]} of {label}, one rigid body of {len(riders)} bricks in the engine"
             events += [StabilityEvent(time, "ride", stack.bodies[b].label, words) for b in riders]
         else:

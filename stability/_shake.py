@@ -129,10 +129,10 @@ def _leaning(stack: Stack, frozen: list[Record], sideways: tuple[float, float], 
     area padded around a line or a point for the report's centre-of-mass test (3.4.2): an edge
     meets a face along a line, and a line takes no moment about itself. With the padding (1 mm
     each side of the line where the two legs of a V meet) a V of KAPLA legs at 22 deg was held up
-    to 0.273 m/s^2; on its bare contacts it holds up to 0.100, and the engines' settings felled it from 0.07
-    to 0.14 m/s^2 on, where the extension had kept it frozen to 0.25
-    (docs/results/shake_leaning.py). Source: rigid-block equilibrium (Livesley
-    1978; Whiting et al. 2009) under the module docstring's tilted gravity; the bare contacts as
+    to 0.273 m/s^2; on its bare contacts it holds up to 0.100, and the engines' settings felled it
+    from 0.07 to 0.14 m/s^2 on, where the extension had kept it frozen to 0.25
+    (docs/results/shake_leaning.py). Source: rigid-block equilibrium (Livesley 1978; Whiting et al.
+    2009) under the module docstring's tilted gravity; the bare contacts as
     :mod:`stability._certificate` takes them for a margin."""
     blocks = {r.body: RigidBlock(r.box.mass, stack.pose(r).position) for r in frozen}
     contacts = stack.frozen_contacts(blocks)

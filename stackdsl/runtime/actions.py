@@ -274,7 +274,7 @@ class Actions(Subscriber):
         hands = {g.record.body: g for g in self.guided}
         for body in [b for b in self._on_path if b not in proved or proved[b] not in hands]:
             del self._on_path[body]
-            record = next((r for r in loop.structure.records.values() if r.body == body), None)
+            record = loop.structure.by_body(body)
             if record is not None:
                 loop.world.move(body, loop.world.pose(body), record.box.mass)
         for body, pusher in proved.items():
@@ -284,7 +284,9 @@ class Actions(Subscriber):
             if g is None:
                 if not any(c.other == body for c in loop.world.contact_points([pusher])):
                     continue  # woken as the finger nears it: on the path once the finger touches it
-                record = next(r for r in loop.structure.records.values() if r.body == body)
+                record = loop.structure.by_body(body)
+                if record is None:
+                    continue
                 hand = hands[pusher]
                 g = self._on_path[body] = _Guided(record, loop.world.pose(body), t, hand.velocity, hand.end_step, "pull")
             pose = Pose(g.start.position + g.velocity * (t - g.since), g.start.orientation)

@@ -48,7 +48,7 @@ import shapely
 from shapely.geometry import Polygon
 
 from ._areas import ContactAreas, by_body
-from ._equilibrium import FINE_SIDES, LEVEL_TILT, ContactPolygon, RigidBlock, solve_equilibrium
+from ._equilibrium import FINE_SIDES, LEVEL_TILT, ContactPolygon, RigidBlock, bare_contacts, solve_equilibrium
 from ._friction import FRICTION_STEP, friction_share
 from ._geometry import FACE_TILT, level_offset
 from ._graph import BrickState
@@ -259,8 +259,7 @@ def _path_share(polygons: list[ContactPolygon[int]], support_angle: float) -> fl
 def _bare_margin(blocks: dict[int, RigidBlock], polygons: list[ContactPolygon[int]], gravity: float) -> float:
     """Metres of :func:`stability.equilibrium_margin` with every padded contact polygon replaced by
     its own contact points (``core``); 0 when they alone hold nothing."""
-    bare = [replace(c, points=c.core) if c.core is not None else c for c in polygons]
-    return _margin(blocks, bare, gravity) or 0.0
+    return _margin(blocks, bare_contacts(polygons), gravity) or 0.0
 
 
 def _margin(blocks: dict[int, RigidBlock], polygons: list[ContactPolygon[int]], gravity: float) -> float | None:

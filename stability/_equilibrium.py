@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Collection, Hashable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Generic, TypeVar
 
 import numpy as np
@@ -246,6 +246,13 @@ def _solve(
     stands = tension <= 1e-7 * max(total, 1e-12)
     mechanism = {} if stands else _mechanism(result.eqlin.marginals, keys)
     return Equilibrium(stands, tension, forces, by_body, by_contact, mechanism)
+
+
+def bare_contacts(contacts: Sequence[ContactPolygon[BodyKey]]) -> list[ContactPolygon[BodyKey]]:
+    """``contacts`` with each padded polygon replaced by its own contact points (its
+    :attr:`ContactPolygon.core`): a line or a point takes no moment about itself, which the
+    padding for the report's centre-of-mass test (3.4.2) would. Source: stackdsl's own."""
+    return [replace(c, points=c.core) if c.core is not None else c for c in contacts]
 
 
 def connected_part(

@@ -44,7 +44,7 @@ import numpy as np
 import shapely
 
 from ._areas import ContactAreas
-from ._equilibrium import LEVEL_TILT, ContactPolygon, RigidBlock, connected_part, is_level, solve_equilibrium
+from ._equilibrium import LEVEL_TILT, ContactPolygon, RigidBlock, bare_contacts, connected_part, is_level, solve_equilibrium
 from ._geometry import hull_xy
 from ._graph import BrickState
 from ._leaning import pair_friction
@@ -140,8 +140,7 @@ def _leaning(stack: Stack, frozen: list[Record], sideways: tuple[float, float], 
     if not steep:
         return None
     part, polygons = connected_part(blocks, contacts, steep)
-    bare = [replace(c, points=c.core) if c.core is not None else c for c in polygons]
-    found = solve_equilibrium(part, bare, gravity=gravity, quick=False, sideways=sideways)
+    found = solve_equilibrium(part, bare_contacts(polygons), gravity=gravity, quick=False, sideways=sideways)
     if found.stands:
         return None
     moved = [stack.bodies[b].label for b in stack.ordered(found.moving())]

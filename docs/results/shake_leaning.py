@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import math
 import sys
-from dataclasses import replace
 
 SCENE = """stackdsl: 1
 structure: {{card_house: {{levels: 1, angle: {angle}}}}}
@@ -40,7 +39,7 @@ SETTINGS = {
 def limits(angle: int) -> tuple[float, float]:
     """The V's limits (m/s^2), padded and bare, once it has frozen at rest."""
     from stability import ContactPolygon, RigidBlock, solve_equilibrium
-    from stability._equilibrium import connected_part
+    from stability._equilibrium import bare_contacts, connected_part
     from stackdsl import compile_scenario, parse_scenario
     from stackdsl.runtime.loop import StepLoop, Subscriber
     from stackdsl.runtime.run import run_in, world_for
@@ -69,8 +68,9 @@ def limits(angle: int) -> tuple[float, float]:
             frozen = stack.in_order()
             blocks = {r.body: RigidBlock(r.box.mass, stack.pose(r).position) for r in frozen}
             part, polygons = connected_part(blocks, stack.frozen_contacts(blocks), set(blocks))
-            bare = [replace(c, points=c.core) if c.core is not None else c for c in polygons]
-            found.extend([limit(part, polygons, stack.config.gravity), limit(part, bare, stack.config.gravity)])
+            found.extend(
+                [limit(part, polygons, stack.config.gravity), limit(part, bare_contacts(polygons), stack.config.gravity)]
+            )
 
     program = compile_scenario(parse_scenario(SCENE.format(angle=angle, amplitude=0.1), "v.yaml"), "extension")
     with world_for(program) as world:

@@ -59,7 +59,7 @@ from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 
 from ._engine import ContactPoint
-from ._equilibrium import RigidBlock, balanced_vertically, is_level, solve_equilibrium
+from ._equilibrium import RigidBlock, balanced_vertically, is_level, solve_equilibrium, upward
 from ._geometry import ContactArea, Pose
 from ._graph import BrickState
 from ._leaning import pair_friction
@@ -376,7 +376,10 @@ class PullProof:
                 return f"{other.label} lies in its way"
             beside.add(c.other)
         for rec in [pulled, *(stack.bodies[b] for b in (*self.carried, *self.below))]:
-            if any(float(a.normal[2]) < LEVEL for a in rec.rests_on.values()) or any(not is_level(c) for c in rec.contacts):
+            # a brick frozen under frozen ones (pushed and frozen again) keeps its contacts with
+            # them seen from below, their normals down into it: level all the same
+            tilted = any(not is_level(upward(c)) for c in rec.contacts)
+            if tilted or any(float(a.normal[2]) < LEVEL for a in rec.rests_on.values()):
                 return f"{rec.label} has a contact that is not level"
         why = self._stands_without()
         if why is None:

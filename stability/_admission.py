@@ -79,7 +79,7 @@ class Admission:
             return []
         held = {o: pts for o, pts in areas.touching(rec, contacts).items() if stack.bodies[o].state is not BrickState.ACTIVE}
         polygons = areas.polygons(rec, held, known=supports, pose=pose)
-        if self._steep(rec, supports) and not leaning_stands({rec.body: (position, rec.box.mass)}, polygons, self.config.gravity):
+        if self.steep(rec, supports) and not leaning_stands({rec.body: (position, rec.box.mass)}, polygons, self.config.gravity):
             return []  # on a slope steeper than its friction angle, and nothing else holds it: it slides
         lift = overlap(contacts[rec.body], supports, areas.support_cos)
         stack.freeze(rec, supports, main, polygons, lift)
@@ -133,7 +133,7 @@ class Admission:
         tilt = float(np.max(np.abs(pose.rotation.T @ up)))  # cosine of the angle between its face and the support's
         return math.cos(math.radians(ROCK_TILT)) < tilt < FACE_TILT
 
-    def _steep(self, rec: Record, supports: dict[int, ContactArea]) -> bool:
+    def steep(self, rec: Record, supports: dict[int, ContactArea]) -> bool:
         """Whether a support of ``rec`` is tilted beyond its friction angle (tan tilt > mu of the
         pair). The basic test's vertical support forces are then outside that contact's friction
         cone, and only an equilibrium with friction (:func:`stability.leaning_stands`) can say

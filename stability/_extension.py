@@ -32,14 +32,14 @@ from collections.abc import Set as AbstractSet
 import numpy as np
 
 from ._admission import Admission
-from ._areas import ContactAreas, Contacts, by_body, main_area
+from ._areas import ContactAreas, Contacts, by_body, main_area, overlap
 from ._certificate import Certificate, certify
 from ._config import StabilityConfig
 from ._debris import Debris
 from ._drag import SHRINK, PullProof, footprint
 from ._engine import ContactPoint, Engine
 from ._equilibrium import ContactPolygon
-from ._geometry import FACE_TILT, Box, Plane, Pose, corners_of, signed_inside
+from ._geometry import FACE_TILT, Box, ContactArea, Plane, Pose, corners_of, signed_inside
 from ._graph import BrickGraph, BrickState, GraphEdge, GraphNode
 from ._impact import Impacts
 from ._leaning import pair_friction
@@ -55,6 +55,9 @@ __all__ = ["LINGER", "StabilityConfig", "StabilityEvent", "StabilityExtension"]
 #: Metres below its supports' faces a placed brick's bottom face may lie and count as landed
 #: (a brick lowered onto its place sinks 0.01 mm into it; one in the air lies its drop gap above).
 LANDED = 1e-4
+#: Metres a placed brick's corners may have moved sideways from where the hand set it down and
+#: it still be frozen where it landed (:meth:`StabilityExtension._landings`).
+LANDED_SLIP = 0.001
 #: Seconds after a placed brick is first seen within which it is looked at for a near tie.
 NEAR_TIE_WINDOW = 0.5
 #: How a freeze decided by statics on a near tie begins its words (the certificate counts them).
@@ -139,15 +142,21 @@ class StabilityExtension:
         ValueError for a body registered already."""
         self._stack.add(Record(body, label, shape, BrickState.GROUND, len(self._stack.bodies), friction))
 
-    def add_brick(self, body: int, box: Box, label: str, friction: float = 0.5, near_tie: float = 0.0) -> None:
-        """Register a brick; it starts active (simulated by the engine). ``near_tie``: metres,
-        the engine's contact margin (0: none): a brick placed that lands face to face on frozen
-        bricks or the ground with its centre of mass inside their combined area by less than
-        this is frozen there at once, decided by exact statics on its placed geometry, where
-        the engine's contact points would decide it by chance (:meth:`_near_ties`). Raises
-        ValueError for a body registered already."""
+    def add_brick(
+        self, body: int, box: Box, label: str, friction: float = 0.5, near_tie: float = 0.0, placed: bool = False
+    ) -> None:
+        """Register a brick; it starts active (simulated by the engine). ``placed``: set down in
+        its place (by a hand, at rest): frozen once it has landed at rest face to face on frozen
+        bricks or the ground with its centre of mass over their area (:meth:`_landings`).
+        ``near_tie``: metres, the engine's contact margin (0: none): a brick that so lands with
+        its centre of mass inside their combined area by less than this (placed or not) is
+        decided by exact statics on its placed geometry, where the engine's contact points would
+        decide it by chance, and its freeze says so. Raises ValueError for a body registered
+        already."""
         record = Record(body, label, box, BrickState.ACTIVE, len(self._stack.bodies), friction)
-        record.near_tie = near_tie
+        record.near_tie, record.placed, record.landing = near_tie, placed, placed or near_tie > 0.0
+        if placed:
+            record.set_down = box.corners(self._stack.engine.pose(body))
         self._stack.add(record)
 
     # queries ------------------------------------------------------------------
@@ -182,8 +191,8 @@ class StabilityExtension:
         if len(active) > 1:
             active.sort(key=_order)
         free = [rec for rec in active if rec.body not in stack.guided] if stack.guided else active
-        if any(rec.near_tie for rec in free):
-            events += self._near_ties(free, time)
+        if any(rec.landing for rec in free):
+            events += self._landings(free, time)
             free = [rec for rec in free if rec.state is BrickState.ACTIVE]
             active = [rec for rec in active if rec.state is BrickState.ACTIVE]
         # each free brick's speeds, read once for the rest clocks and the impact rule (valid while
@@ -256,24 +265,33 @@ class StabilityExtension:
             rec.failed = None
         return woken
 
-    def _near_ties(self, free: list[Record], time: float) -> list[StabilityEvent]:
-        """Freeze each just placed brick that has landed, face to face, on frozen bricks or the
-        ground with its centre of mass inside their combined area by less than its ``near_tie``
-        (the engine's contact margin): statics on the placed geometry says it stands, and the
-        engine's contact points, which reach that far, would tip it or keep it by chance
-        (pybullet's 1 mm collision margin tipped five of 3000 random single-file stacks, each
-        0.15 to 0.82 mm inside its support's edge, and froze two others tilted at the top of a
-        rock). Each brick is looked at once, when it has landed (its faces within
-        :data:`LANDED` of its supports' and its speeds under the rest thresholds), for at most
+    def _landings(self, free: list[Record], time: float) -> list[StabilityEvent]:
+        """Freeze each just placed brick once it has landed at rest, face to face, on frozen
+        bricks or the ground (its faces within :data:`LANDED` of theirs, its speeds under the
+        rest thresholds), with its centre of mass over their combined area: the report's basic
+        test at the first frame at rest (report 3.3.2, 3.3.4), without the rest duration that a
+        woken brick needs (:class:`StabilityConfig`). The hand sets a brick down at rest: waiting
+        out the rest duration stepped each placed brick some 12 steps more (a 12-level Jenga
+        tower's build 605 steps, 108 without), to freeze it where it lay. A brick on an edge's
+        strip (not parallel to its support, :func:`_flat_on`), a support tilted beyond its
+        friction angle (:meth:`Admission.steep <stability._admission.Admission.steep>`), or a
+        centre of mass outside, is left to the engine and the admission tests, as ever.
+
+        A centre of mass inside by less than the brick's ``near_tie`` (the engine's contact
+        margin) is a near tie: statics on the placed geometry says it stands, and the engine's
+        contact points, which reach that far, would tip it or keep it by chance (pybullet's 1 mm
+        collision margin tipped five of 3000 random single-file stacks, each 0.15 to 0.82 mm
+        inside its support's edge, and froze two others tilted at the top of a rock); its freeze
+        says so (``proved``). Each brick is looked at once, when it has landed, for at most
         :data:`NEAR_TIE_WINDOW` seconds after it was first seen. Source: stackdsl's own."""
         stack, config, events = self._stack, self._stack.config, []
         for rec in free:
-            if not rec.near_tie or rec.state is not BrickState.ACTIVE or rec.was_frozen:
+            if not rec.landing or rec.state is not BrickState.ACTIVE or rec.was_frozen:
                 continue
-            if rec.near_tie_from is None:
-                rec.near_tie_from = time
-            if time - rec.near_tie_from > NEAR_TIE_WINDOW:
-                rec.near_tie = 0.0
+            if rec.landing_from is None:
+                rec.landing_from = time
+            if time - rec.landing_from > NEAR_TIE_WINDOW:
+                rec.landing = False
                 continue
             speed, angular_speed = stack.engine.speeds(rec.body)
             if speed > config.rest_speed or angular_speed > config.rest_angular_speed:
@@ -282,22 +300,32 @@ class StabilityExtension:
             supports = self._areas.lying_on(rec, pose)
             if not supports or max(a.depth for a in supports.values()) < -LANDED:
                 continue  # in the air still: lowered onto its place within a few steps
-            limit, rec.near_tie = rec.near_tie, 0.0
+            rec.landing = False
+            if rec.set_down is not None and _slid(rec.set_down, rec.box.corners(pose)) > LANDED_SLIP:
+                continue  # it moved on landing: the engine and the tests decide, and the monitor sees it move
             main = main_area(supports)
             inside = signed_inside(main.polygon, pose.position)
-            if not 0.0 <= inside < limit:
-                continue  # clear of the tie, or outside: the engine and the tests decide as ever
             polygons = [
                 ContactPolygon(rec.body, o, a.corners(), a.normal, pair_friction(rec.friction, stack.bodies[o].friction))
                 for o, a in supports.items()
             ]
-            stack.freeze(rec, supports, main, polygons)
             names = ", ".join(stack.bodies[o].label for o in supports)
-            reason = (
-                f"{NEAR_TIE_WORDS} on {names}: its centre of mass {inside * 1000:.2f} mm inside its support's edge, "
-                f"within the engine's {limit * 1000:g} mm contact margin"
-            )
-            events.append(StabilityEvent(time, "freeze", rec.label, reason, proved=True))
+            if 0.0 <= inside < rec.near_tie:
+                stack.freeze(rec, supports, main, polygons)
+                reason = (
+                    f"{NEAR_TIE_WORDS} on {names}: its centre of mass {inside * 1000:.2f} mm inside its support's edge, "
+                    f"within the engine's {rec.near_tie * 1000:g} mm contact margin"
+                )
+                events.append(StabilityEvent(time, "freeze", rec.label, reason, proved=True))
+            elif (
+                rec.placed
+                and inside > 0.0
+                and self._areas.holds(main, pose.position)
+                and not self._admission.steep(rec, supports)
+                and all(_flat_on(pose, a) for a in supports.values())
+            ):
+                stack.freeze(rec, supports, main, polygons, overlap((), supports, self._areas.support_cos))
+                events.append(StabilityEvent(time, "freeze", rec.label, f"at rest on {names}"))
         return events
 
     def _carry_above(self, frozen: set[int]) -> None:
@@ -1032,3 +1060,14 @@ def _farthest(corners: np.ndarray, before: np.ndarray) -> np.ndarray:
     ``before`` of shape (n, 8, 3), metres; shape (n,)."""
     farthest: np.ndarray = np.sqrt(np.square(corners - before).sum(axis=2).max(axis=1))
     return farthest
+
+
+def _flat_on(pose: Pose, area: ContactArea) -> bool:
+    """Does a brick at ``pose`` lie on ``area`` with a face parallel to it, within
+    :data:`stability._geometry.FACE_TILT`, not on an edge's strip? Source: stackdsl's own."""
+    return float(np.max(np.abs(pose.rotation.T @ np.asarray(area.normal, dtype=float)))) >= FACE_TILT
+
+
+def _slid(before: np.ndarray, after: np.ndarray) -> float:
+    """Metres the farthest of a box's corners (shape (8, 3) each) moved sideways."""
+    return float(np.max(np.hypot(*(after[:, :2] - before[:, :2]).T)))

@@ -202,11 +202,12 @@ def test_a_block_pushed_out_along_its_length_does_not_drive_the_blocks_beside_it
     finger at 30 mm/s: it slides between the two blocks beside it. On MuJoCo it wobbles into them
     at 0.01 to 0.03 m/s across the push, which the impact rule took for the hand driving it into
     them: they woke again and again and the levels above were dragged 13 mm. The hand drives it
-    along the push only, and the blocks beside are not driven into. On pybullet the levels above
-    stay in place, as on both tuned engines. On MuJoCo the push is not proved (two levels above,
-    tied by the top one alone) and the engine's own drag of a pushed block moves levels 5-6 18.7
-    mm where tuned MuJoCo drags them 5 mm (docs/actions.md, "A push that slides a brick out from
-    under others"); before, they froze on the blocks beside and the drag was never weighed."""
+    along the push only, and the blocks beside are not driven into. The push is not proved (two
+    levels above, tied by the top one alone), and the engine's own drag of a pushed block moves
+    the levels above: on MuJoCo levels 5-6 18.7 mm, where tuned MuJoCo drags them 5 mm; on
+    pybullet L05.3 9.0 mm, as raw pybullet (10.1 mm), where tuned pybullet keeps them in place
+    (docs/actions.md, "A push that slides a brick out from under others"); before, they froze on
+    the blocks beside and the drag was never weighed."""
     text = (
         JENGA_6.replace("brick_types:\n", "brick_types:\n  finger: {size: [20 mm, 10 mm, 10 mm]}\n")
         + "actions:\n  - push: {target: {brick: L04.2, offset: [0, 0, 0]}, direction: [0, 1, 0], speed: 30 mm/s,"
@@ -220,8 +221,6 @@ def test_a_block_pushed_out_along_its_length_does_not_drive_the_blocks_beside_it
     assert driven == []
     verdicts = {v.name: v.passed for v in evaluate(scenario.expect, outcome, program.collapse_threshold)}
     assert verdicts["moved"] and outcome.displacement["L04.1"] < 0.001 and outcome.displacement["L04.3"] < 0.001
-    if backend == "pybullet":
-        assert verdicts["stays"], outcome.displacement
 
 
 def _pushed_12(brick: str, direction: str, expect: str) -> str:
@@ -822,7 +821,8 @@ def test_a_push_that_presses_a_brick_down_onto_what_carries_it_is_refused_and_a_
     """A pusher on a path is never pushed back: pressed down on a brick where other bricks carry
     it, it was driven through them (MuJoCo passed a finger through four Jenga levels; pybullet
     threw them 30 mm up). Pressed down on a plank's free end, over its support's edge, the plank
-    turns away, and the push is taken (and tips it)."""
+    turns away, and the push is taken: it tips the plank, which falls back onto its support when
+    the finger withdraws (1.6 mm from its place: it stands, as on raw and tuned pybullet)."""
     from stackdsl.lang.errors import ScenarioError
 
     text = """stackdsl: 1
@@ -839,7 +839,9 @@ actions:
     assert (caught.value.field, caught.value.line) == ("actions[0].push.direction", 8)
     assert "presses plank down (-1 of its direction) onto what carries it where the pusher meets it (base)" in str(caught.value)
     outcome = run_program(compile_scenario(parse_scenario(text.replace("OFFSET", "50 mm"), "lever.yaml")))
-    assert outcome.collapse is not None and outcome.collapse.brick == "plank"  # the free end pressed down: it tips
+    woken = [e for e in outcome.events if e.kind == "wake" and e.brick == "plank"]
+    assert woken and "carries pusher1, which a hand moves" in woken[0].detail, outcome.events  # the push is taken
+    assert outcome.collapse is None and 0.0005 < outcome.displacement["plank"] < 0.004, outcome.displacement
 
 
 def test_a_pusher_that_would_start_inside_a_brick_is_told_what_to_change():
@@ -1787,7 +1789,7 @@ def test_a_throw_at_a_brick_pushed_aside_meets_it_where_it_lies(backend):
     text = THROWN_AFTER_A_PUSH.format(w=-600, backend=backend, push="[0, 1, 0]", distance=35)
     done = run_program(compile_scenario(parse_scenario(text, "t.yaml")))
     launch = next(e.detail for e in done.events if e.kind == "launch")
-    assert "b1 lies 3" in launch and "to meet its face as it lies" in launch, launch
+    assert re.search(r"b1 lies (29\.[5-9]|3\d\.\d) mm", launch) and "to meet its face as it lies" in launch, launch
     dx, dy, dz = (float(v) for v in launch.split("thrown from (")[1].split(")")[0].split(", "))
     assert dx == pytest.approx(0.0, abs=0.5) and dy == pytest.approx(30.0, abs=2.0) and dz == pytest.approx(0.0, abs=0.5)
     b1, hammer = (next(n for n in done.final_graph.nodes if n.id == i) for i in ("b1", "hammer"))

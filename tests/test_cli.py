@@ -903,19 +903,19 @@ def test_run_on_a_sweep_file_says_which_sample_it_runs_and_runs_the_one_asked(tm
     path = write(tmp_path, walk=RANDOM) / "walk.yaml"
     template = parse_scenario(RANDOM, "walk.yaml").template
 
-    def events(scenario) -> list[tuple[float, str, str]]:
+    def events(scenario) -> list[tuple[float, str, str, str]]:
         outcome = run_program(compile_scenario(scenario))
-        return [(e.time, e.kind, e.brick) for e in outcome.events]
+        return [(e.time, e.kind, e.brick, e.detail) for e in outcome.events]
 
-    def ran(*extra: str) -> tuple[list[tuple[float, str, str]], str]:
+    def ran(*extra: str) -> tuple[list[tuple[float, str, str, str]], str]:
         assert main(["run", str(path), "--json", *extra]) in (0, 1)
         captured = capsys.readouterr()
-        return [(e["time"], e["kind"], e["brick"]) for e in json.loads(captured.out)["events"]], captured.err
+        return [(e["time"], e["kind"], e["brick"], e["detail"]) for e in json.loads(captured.out)["events"]], captured.err
 
     first, said = ran()
     assert "running sample 0 of 4 (seed 7); `stackdsl sweep` runs them all" in said and first == events(template.scenario(0, 0))
-    third, said = ran("--sample", "2")
-    assert "running sample 2 of 4 (seed 7)" in said and third == events(template.scenario(0, 2)) and third != first
+    fourth, said = ran("--sample", "3")  # sample 2 stands as sample 0 does, to the same events
+    assert "running sample 3 of 4 (seed 7)" in said and fourth == events(template.scenario(0, 3)) and fourth != first
     assert main(["run", str(path), "--sample", "100000"]) == 2  # sample 4 is one 'sweep --samples 5' runs
     assert "--sample: a sweep draws samples 0 to 99999 at most (this one 0 to 3), not 100000" in capsys.readouterr().err
     assert main(["run", str(write(tmp_path, plain=PASSING) / "plain.yaml"), "--sample", "1"]) == 2

@@ -368,7 +368,7 @@ def test_the_live_view_shows_the_engines_poses_and_the_state_colours():
     viewer, wall = StandIn(), Clock()
     view = live.LiveView(program, scene, viewer, speed=1.0, sleep=wall.sleep, clock=wall)
     outcome = stackdsl.run_program(program, subscribers=(view,))
-    assert outcome.collapse is not None and viewer.syncs == view.pictures > 100
+    assert outcome.collapse is not None and viewer.syncs == view.pictures > 50  # 65: each brick frozen as it lands
     # at the end the viewer shows the run's last poses (the recording's, to its tolerances), in its colours
     trajectory = view.trajectory(outcome)
     frame = trajectory.at(trajectory.end)
@@ -733,9 +733,9 @@ def test_a_trajectory_played_in_view_stops_at_its_deadline():
     scene = type("Scene", (), {"show": lambda *a: None})()
     sleep, clock = (lambda s: now.__setitem__(0, now[0] + s)), (lambda: now[0])
     whole = live.play(trajectory, scene, window, sleep=sleep, clock=clock)
-    now[0] = 0.0
-    cut = live.play(trajectory, scene, window, sleep=sleep, clock=clock, deadline=1.5)
-    assert whole == len(trajectory.times) and 0 < cut < whole and now[0] < 1.5 + live.QUIET_HOLD
+    deadline, now[0] = now[0] / 2, 0.0  # half the whole play's time
+    cut = live.play(trajectory, scene, window, sleep=sleep, clock=clock, deadline=deadline)
+    assert whole == len(trajectory.times) and 0 < cut < whole and now[0] < deadline + live.QUIET_HOLD
 
 
 @pytest.mark.slow

@@ -119,14 +119,18 @@ def test_picture_writes_a_png_of_the_asked_size(tower: Trajectory, tmp_path) -> 
     assert not (tmp_path / "none.png").exists() and not (tmp_path / "tower.jpg").exists()
 
 
-def test_a_clip_plays_in_real_time_while_bricks_move_and_shortens_the_waits(tower: Trajectory) -> None:
+def test_a_clip_plays_in_real_time_while_bricks_move_and_shortens_the_waits() -> None:
+    # the second brick placed 70 mm along the first topples off it (one that lands at rest is frozen at once)
+    text = "stackdsl: 1\nstructure: {tower: {levels: 3, bricks_per_layer: 1, turn: 0, shift: 70 mm}}\n"
+    tower = record_program(compile_scenario(parse_scenario(text)))[1]
     plan = timeline(tower, fps=30.0)
     assert plan.times[0] == tower.times[0] and plan.times[-1] == pytest.approx(tower.end)
     assert (np.diff(plan.times) > 0).all() and (np.diff(plan.frames) >= 0).all()
     assert plan.frames[-1] == len(tower.times) - 1
     assert (plan.speeds >= 1.0 - 1e-9).all() and (plan.speeds == 1.0).any() and plan.speeds.max() > 5
     live = (plan.speeds[:-1] == 1.0) & (plan.speeds[1:] == 1.0)
-    assert live.any() and np.diff(plan.times)[live] == pytest.approx(1 / 30)  # real time: a frame each 1/30 s
+    steps = np.diff(plan.times)[live]  # real time: a frame each 1/30 s, and a key frame (the collapse) between
+    assert live.any() and np.median(steps) == pytest.approx(1 / 30) and (steps <= 1 / 30 + 1e-9).all(), steps
     assert len(plan.frames) < tower.end * 30 / 3  # four waits of about a second, cut short
     for event in (e for e in tower.events if e.kind == "place"):  # each placement starts a burst: drawn as it is
         assert tower.frame_index(event.time) in plan.frames

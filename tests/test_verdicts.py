@@ -51,25 +51,27 @@ class Farthest(Subscriber):
             self.farthest = max(self.farthest, float(loop.structure.displacements([record])[0]))
 
 
-def test_a_brick_that_rocks_past_twice_the_threshold_and_returns_stands():
-    # 1.5 mm inside its support's edge, the top brick dropped freely rocks on landing at some
-    # gaps until its far end is 8 mm up (past twice the 4 mm threshold), and comes back: it
-    # stands at every gap (the old rule called it collapse 3 at 0.1 and 1 mm)
+def test_a_brick_dropped_across_a_crossed_pair_stands_and_rocks_no_more_than_raw_pybullet():
+    # 1.5 mm inside its support's edge, the top brick dropped freely stands at every gap. It once
+    # rocked on landing until its far end was 8 mm up (past twice the 4 mm threshold) at some gaps,
+    # on the pair frozen where the engine had settled them; frozen flat where they landed, they
+    # let it land as raw pybullet does (0.5 to 1.8 mm, the gap and a rebound)
     from stackdsl.engines.pybullet.world import pybullet_world
     from stackdsl.runtime.run import RunOptions, outcome
 
-    farthest = []
     for gap in GAPS_MM:
-        program = compile_scenario(parse_scenario(crosswise(10.5, gap)))
-        rocking = Farthest("b3")
-        with pybullet_world(program.engine, program.ground_friction, program.ground_restitution) as world:
-            result = outcome(run_in(world, program, RunOptions(soft_landing=False), subscribers=(rocking,)), 0.0)
-        assert result.collapse is None, f"drop gap {gap} mm"
-        assert result.certificate is not None and result.certificate.kind == "equilibrium"
-        # a bound of the placed geometry's 1.5 mm: less the spread of the bricks' settling
-        assert 1.25 <= result.certificate.margin_mm <= 1.5
-        farthest.append(rocking.farthest)
-    assert max(farthest) > 2 * program.collapse_threshold  # the rock did pass the old "moving away" line
+        farthest = {}
+        for mode in ("extension", "raw"):
+            program = compile_scenario(parse_scenario(crosswise(10.5, gap).replace("mode: extension", f"mode: {mode}")))
+            rocking = Farthest("b3")
+            with pybullet_world(program.engine, program.ground_friction, program.ground_restitution) as world:
+                result = outcome(run_in(world, program, RunOptions(soft_landing=False), subscribers=(rocking,)), 0.0)
+            assert result.collapse is None, f"drop gap {gap} mm, {mode}"
+            assert result.certificate is not None and result.certificate.kind == "equilibrium"
+            # a bound of the placed geometry's 1.5 mm: less the spread of the bricks' settling
+            assert 1.25 <= result.certificate.margin_mm <= 1.5
+            farthest[mode] = rocking.farthest
+        assert farthest["extension"] <= farthest["raw"] + 0.0005, (gap, farthest)
 
 
 @pytest.mark.slow  # about 1 s or more: in .ci/nightly's slow part
@@ -738,8 +740,12 @@ def test_cantilevers_sharing_a_counterweight_tip_by_the_group_s_centre_of_mass(x
         assert -group_mm - 0.2 <= proof.margin_mm <= -group_mm, proof  # rounded down, never above it
         return
     names = [f"A{k + 1}" for k in range(len(xs_mm))]
-    assert result.collapse is not None and proof.kind == "off its support", proof
-    assert result.collapse.displacement < 0.006, result.collapse
+    assert result.collapse is not None and result.collapse.displacement < 0.006, result.collapse
+    if proof.kind == "mechanism":  # the KAPLAs frozen as they landed: the stack test proves it as C lands on them
+        assert {*names, "C"} <= set(proof.bricks), proof
+        assert f"centre of mass above {group_mm:.1f} mm outside its support" in proof.detail, proof.detail
+        return
+    assert proof.kind == "off its support", proof
     assert {*names, "C"} <= {result.collapse.brick, *proof.bricks}, proof
     assert proof.detail.startswith(f"the centre of mass of {', '.join(names[:-1])} and {names[-1]} with C on them"), proof.detail
     said = [float(w) for w in re.findall(r"([0-9.]+) mm", proof.detail)]

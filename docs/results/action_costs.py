@@ -40,6 +40,7 @@ PARTS = (
     ("-- its statics checks", "stability._drag:PullProof.check"),
     ("--- their friction programs (in line, else HiGHS)", "stability._drag:held_together"),
     ("- rides", "stability._extension:StabilityExtension._rides"),
+    ("- landings of placed bricks", "stability._extension:StabilityExtension._landings"),
     ("- admissions", "stability._extension:StabilityExtension._admit"),
     ("- the stack test", "stability._stack_test:StackTest.run"),
     ("- the impact rule", "stability._impact:Impacts.check"),

@@ -46,10 +46,11 @@ class Stability(Subscriber):
         return self.acting and self.extension.quiet  # without the extension anything may move
 
     def on_place(self, loop: StepLoop, record: BrickRecord) -> None:
-        # a placed brick whose centre of mass lands within the engine's contact margin of its
-        # support's edge is decided by statics on its placed geometry (stability's near ties)
+        # a placed brick is frozen once it has landed at rest on what is frozen; one whose centre
+        # of mass lands within the engine's contact margin of its support's edge is decided by
+        # statics on its placed geometry (stability's near ties)
         near_tie = loop.program.engine.contact_margin if self.acting else 0.0
-        self.extension.add_brick(record.body, record.box, record.id, record.spec.friction, near_tie=near_tie)
+        self.extension.add_brick(record.body, record.box, record.id, record.spec.friction, near_tie=near_tie, placed=self.acting)
 
     def on_launch(self, loop: StepLoop, record: BrickRecord) -> None:
         self.extension.add_brick(record.body, record.box, record.id, record.spec.friction)

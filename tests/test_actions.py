@@ -76,7 +76,7 @@ structure: {tower: {levels: 3}}
 actions:
   - remove: {brick: L02.1, at: after level 3, speed: 20 mm/s}
   - shake: {amplitude: 2 mm, frequency: 3 Hz, duration: 1 s, at: 14 s}
-  - push: {target: {brick: L01.1, offset: [0, 0, 2 mm]}, direction: [1, 0, 0], at: 16 s, id: finger}
+  - push: {target: {brick: L01.1, offset: [0, 0, 0]}, direction: [1, 0, 0], at: 16 s, id: finger}
 """
 
 
@@ -1957,3 +1957,26 @@ def test_a_hands_time_out_of_range_is_said_as_such(at, said):
     with pytest.raises(ScenarioError) as info:
         parse_scenario(text, "at.yaml")
     assert said in info.value.message and "actions[0].remove.at" in str(info.value)
+
+
+@pytest.mark.parametrize(("finger_mm", "warned"), [(10, True), (6, False)])
+def test_a_pusher_wider_than_the_slot_it_moves_into_is_warned_of(finger_mm, warned):
+    """A new user's 10 mm finger pushed the middle KAPLA of level 6 out of an 8 mm slot: moving
+    into the slot as the brick left it, it drove the levels above and below and felled the tower in
+    every mode, with no word. A 6 mm finger fits the slot and is not warned of."""
+    from stackdsl.lang.errors import ScenarioWarning
+
+    text = f"""stackdsl: 1
+brick_types: {{finger: {{size: [20 mm, {finger_mm} mm, {finger_mm} mm]}}}}
+structure:
+  tower: {{levels: 8, bricks_per_layer: 3, spacing: 25 mm}}
+actions:
+  - push: {{target: {{brick: L06.2}}, direction: +y, speed: 40 mm/s, distance: 140 mm, at: after level 8, pusher: finger}}
+"""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        compile_scenario(parse_scenario(text, "slot.yaml"))
+    said = [str(w.message) for w in caught if issubclass(w.category, ScenarioWarning) and "wider than the place" in str(w.message)]
+    assert bool(said) is warned, said
+    if warned:
+        assert said[0].startswith("slot.yaml:6:") and "actions[0].push.pusher" in said[0] and "into brick 'L0" in said[0]

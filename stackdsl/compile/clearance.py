@@ -11,6 +11,7 @@ Source: stackdsl's own.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 
 import numpy as np
@@ -26,6 +27,8 @@ from .program import Launch, Push
 
 #: Metres a projectile may reach into the ground or a body at its start (contact, not overlap).
 TOLERANCE = 0.0005
+#: Metres between the poses at which a pusher's path through its target's place is looked at.
+PATH_STEP = 0.001
 
 
 def check_launch(
@@ -95,6 +98,51 @@ def check_pusher(scenario: Scenario, index: int, push: Push, bodies: Sequence[tu
         f"mm inside brick {inside[0]!r}; give a shorter pusher (a brick type of brick_types) or aim it from outside the "
         "structure",
     )
+
+
+def warn_wide_pusher(scenario: Scenario, index: int, push: Push, bodies: Sequence[tuple[str, BrickSpec, Pose]]) -> None:
+    """Warn of a pusher wider than the place of the brick it pushes: moving on into that place
+    (a Jenga block's slot) as the brick leaves it, it would reach into the bricks around it (a
+    new user's 10 mm finger, pushed into the 8 mm slot of a KAPLA block, drove the levels above
+    and below and felled the tower in every mode). Each pose of its path, :data:`PATH_STEP`
+    apart, whose front lies within the target's extent along the push is looked at; a warning,
+    not an error: pushing two bricks at once may be meant.
+
+    Args:
+        index: the action's index in ``actions``; push: as compiled.
+        bodies: (id, spec, pose) of every brick and fixture in the world when the pusher enters.
+    """
+    target = next(((i, s, p) for i, s, p in bodies if i == push.target), None)
+    speed = float(np.linalg.norm(push.velocity))
+    if target is None or speed <= 0.0:
+        return  # a point pushed, or a pusher that does not move
+    direction = np.asarray(push.velocity, dtype=float) / speed
+    box = Box(np.array(push.brick.half_extents), push.brick.mass)
+    pose = Pose.from_euler(push.position, push.yaw, push.pitch, 0.0)
+    _, spec, where = target
+    along = Box(np.array(spec.half_extents), spec.mass).corners(where) @ direction
+    start = float(pose.position @ direction) + float(box.half_extents[0])  # its front, along the push
+    travel = speed * (push.end_time - push.time)
+    others = [b for b in bodies if b[0] != push.target]
+    for s in np.arange(max(0.0, float(along.min()) - start), min(travel, float(along.max()) - start), PATH_STEP):
+        inside = deepest(box, Pose(pose.position + direction * s, pose.orientation), others)
+        if inside is None:
+            continue
+        action = scenario.actions[index].push
+        named = action is not None and "pusher" in action.model_fields_set
+        path: FieldPath = ("actions", index, "push", "pusher") if named else ("actions", index, "push")
+        _, hy, hz = push.brick.half_extents
+        warnings.warn(
+            scenario.source.warning(
+                path,
+                f"the pusher ({push.brick.type}, {2 * hy * 1000:.0f} x {2 * hz * 1000:.0f} mm across its direction) "
+                f"is wider than the place of {push.target} it moves into: {s * 1000:.0f} mm along its path it reaches "
+                f"{inside[1] * 1000:.1f} mm into brick {inside[0]!r}, and will push it too; give a thinner pusher (a "
+                "brick type of brick_types) or an offset that keeps it within the brick's face",
+            ),
+            stacklevel=2,
+        )
+        return
 
 
 def deepest(box: Box, pose: Pose, bodies: Sequence[tuple[str, BrickSpec, Pose]]) -> tuple[str, float] | None:

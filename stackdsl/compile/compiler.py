@@ -54,7 +54,7 @@ from ..lang.schema_impacts import SIDES, AfterLevel, Impact
 from ..util.extras import installed, missing
 from .actions import check_measured, compile_actions, heading, not_built
 from .aim import outer_face, stepped_fall
-from .clearance import check_launch, check_pusher
+from .clearance import check_launch, check_pusher, warn_wide_pusher
 from .dynamics import check_motion
 from .layouts import LaidBrick, with_placement_error
 from .limits import check_limits
@@ -437,7 +437,8 @@ def check_hands(state: Compilation) -> Compilation:
     """Pass 9: what the hands do, against the structure: expectations that measure only pulled
     bricks (:func:`stackdsl.compile.actions.check_measured`), a projectile's or pusher's id that
     is taken (:func:`_own_ids`), a brick placed on one being pulled (:func:`_nothing_placed_on_pulled`),
-    a pusher with no room (:func:`stackdsl.compile.clearance.check_pusher`).
+    a pusher with no room (:func:`stackdsl.compile.clearance.check_pusher`), and a warning of a
+    pusher wider than the place it moves into (:func:`stackdsl.compile.clearance.warn_wide_pusher`).
 
     Raises:
         ScenarioError: at the field of the first of these.
@@ -449,6 +450,7 @@ def check_hands(state: Compilation) -> Compilation:
     for i, motion in enumerate(motions):
         if isinstance(motion, Push):
             check_pusher(scenario, i, motion, state.present(motion.step))
+            warn_wide_pusher(scenario, i, motion, state.present(motion.step))
     return state
 
 

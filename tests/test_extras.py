@@ -49,7 +49,10 @@ def test_a_mujoco_scenario_without_mujoco_points_at_its_backend(tmp_path, capsys
     monkeypatch.setattr("stackdsl.batch.judge.run_program", lambda *a, **k: pytest.fail("simulated"))
     assert main(["check", str(path), "-j", "1"]) == 2
     first, *shown = capsys.readouterr().err.splitlines()  # the message, then the YAML line and a caret
-    assert first == f"{path}:4:12: engine.backend: MuJoCo is not installed: pip install 'stackdsl[mujoco]'"
+    assert (
+        first
+        == f"{path}:4:12: engine.backend: MuJoCo is not installed: pip install 'stackdsl[mujoco]' (in a source checkout: pip install -c constraints.txt '.[mujoco]')"
+    )
     assert shown[0].strip() == "backend: mujoco"
 
 
@@ -59,7 +62,10 @@ def test_backend_mujoco_on_the_command_line_without_mujoco_names_the_option(caps
     four = str(ROOT / "scenarios" / "four_stack.yaml")
     for argv in (["run", four, "--backend", "mujoco"], ["compare", four, "--backend", "pybullet, mujoco", "-j", "1"]):
         assert main(argv) == 2
-        assert one_line(capsys) == "--backend: MuJoCo is not installed: pip install 'stackdsl[mujoco]'"
+        assert (
+            one_line(capsys)
+            == "--backend: MuJoCo is not installed: pip install 'stackdsl[mujoco]' (in a source checkout: pip install -c constraints.txt '.[mujoco]')"
+        )
 
 
 def test_compile_with_backend_mujoco_without_mujoco_names_the_argument(without):
@@ -70,7 +76,10 @@ def test_compile_with_backend_mujoco_without_mujoco_names_the_argument(without):
     without("mujoco")
     with pytest.raises(stackdsl.ScenarioError) as caught:
         stackdsl.compile_scenario(scenario, backend="mujoco")
-    assert str(caught.value) == "t.yaml: backend='mujoco' needs MuJoCo, which is not installed: pip install 'stackdsl[mujoco]'"
+    assert (
+        str(caught.value)
+        == "t.yaml: backend='mujoco' needs MuJoCo, which is not installed: pip install 'stackdsl[mujoco]' (in a source checkout: pip install -c constraints.txt '.[mujoco]')"
+    )
 
 
 def test_a_mujoco_sweep_without_mujoco_points_at_its_backend_before_any_sample(tmp_path, capsys, without):
@@ -79,7 +88,10 @@ def test_a_mujoco_sweep_without_mujoco_points_at_its_backend_before_any_sample(t
     without("mujoco")
     assert main(["sweep", str(path), "-j", "1", "--out", str(tmp_path / "out")]) == 2
     first, *_ = capsys.readouterr().err.splitlines()
-    assert first == f"{path}:4:12: engine.backend: MuJoCo is not installed: pip install 'stackdsl[mujoco]'"
+    assert (
+        first
+        == f"{path}:4:12: engine.backend: MuJoCo is not installed: pip install 'stackdsl[mujoco]' (in a source checkout: pip install -c constraints.txt '.[mujoco]')"
+    )
     assert not (tmp_path / "out").exists()
 
 
@@ -98,14 +110,18 @@ def test_a_bench_without_its_engine_names_the_extra(hidden, argv, where, tmp_pat
     without(hidden)
     assert main(argv) == 2
     line = one_line(capsys)
-    assert line.startswith(f"{where}: ") and line.endswith(f"pip install 'stackdsl[{hidden}]'")
+    assert line.startswith(f"{where}: ") and line.endswith(
+        f"pip install 'stackdsl[{hidden}]' (in a source checkout: pip install -c constraints.txt '.[{hidden}]')"
+    )
     assert list(tmp_path.iterdir()) == []  # no output folder made
 
 
 def test_a_sweep_on_dask_without_distributed_names_the_extra(capsys, without):
     without("dask")
     assert main(["sweep", str(ROOT / "sweeps" / "random_single_file.yaml"), "--dask", "local:1", "--samples", "2"]) == 2
-    assert one_line(capsys).endswith("needs Dask's distributed, which is not installed: pip install 'stackdsl[dask]'")
+    assert one_line(capsys).endswith(
+        "needs Dask's distributed, which is not installed: pip install 'stackdsl[dask]' (in a source checkout: pip install -c constraints.txt '.[dask]')"
+    )
 
 
 def test_an_mp4_without_ffmpeg_names_the_extra_before_anything_runs(tmp_path, capsys, monkeypatch, without):
@@ -113,7 +129,7 @@ def test_an_mp4_without_ffmpeg_names_the_extra_before_anything_runs(tmp_path, ca
     monkeypatch.setattr("stackdsl.runtime.recorder.record_program", lambda *a, **k: pytest.fail("simulated"))
     assert main(["animate", str(ROOT / "scenarios" / "four_stack.yaml"), "-o", str(tmp_path / "clip.mp4")]) == 2
     assert one_line(capsys).endswith(
-        "an MP4 clip needs imageio-ffmpeg (the ffmpeg that writes MP4), which is not installed: pip install 'stackdsl[video]'"
+        "an MP4 clip needs imageio-ffmpeg (the ffmpeg that writes MP4), which is not installed: pip install 'stackdsl[video]' (in a source checkout: pip install -c constraints.txt '.[video]')"
     )
 
 
@@ -234,7 +250,7 @@ def test_bench_height_without_the_profiler_says_the_extra_or_no_profile(capsys, 
     assert main(["bench", "height", "--levels", "2"]) == 2
     assert one_line(capsys) == (
         "bench height: the profile needs pyinstrument (a sampling profiler), which is not installed: "
-        "pip install 'stackdsl[profile]' (or --no-profile)"
+        "pip install 'stackdsl[profile]' (in a source checkout: pip install -c constraints.txt '.[profile]') (or --no-profile)"
     )
 
 

@@ -66,7 +66,7 @@ def test_without_pyarrow_the_samples_are_csv_and_json_lines_and_the_sweep_says_h
     captured = capsys.readouterr()
     said = [line for line in captured.err.splitlines() if "parquet" in line]
     assert said == [
-        "stackdsl: samples.parquet needs pyarrow (Parquet files), which is not installed: pip install 'stackdsl[parquet]'; "
+        "stackdsl: samples.parquet needs pyarrow (Parquet files), which is not installed: pip install 'stackdsl[parquet]' (in a source checkout: pip install -c constraints.txt '.[parquet]'); "
         "the samples are in samples.csv and samples.jsonl"
     ]
     assert not (tmp_path / "out" / "samples.parquet").exists() and (tmp_path / "out" / "samples.jsonl").is_file()

@@ -27,15 +27,17 @@ _OTHER_STATUSES = """\
 EXIT_STATUS = f"""\
 exit status:
   0    every expectation held
-  1    an expectation failed, or a run reached its --timeout
+  1    an expectation failed, a run ended undecided (INCONCLUSIVE: a brick still moved at its end;
+       a longer settle decides it), or a run reached its --timeout
 {_OTHER_STATUSES}"""
 #: ``check``'s and ``compare``'s, which honour the files' skip and xfail marks and judge sweeps.
 CHECK_STATUS = f"""\
 exit status:
   0    every expectation held, or the run was skipped (SKIP) or failed as its file's xfail mark
        expects (XFAIL), or passed under a mark that is not strict (XPASS)
-  1    an expectation failed, a sweep's statistic was INCONCLUSIVE (its 95% interval decided
-       neither way: more samples would), a strict xfail passed, or a run reached its --timeout
+  1    an expectation failed, a run or a sweep's statistic was INCONCLUSIVE (a brick still moved
+       at the run's end: a longer settle decides it; the statistic's 95% interval decided neither
+       way: more samples would), a strict xfail passed, or a run reached its --timeout
 {_OTHER_STATUSES}"""
 
 #: The commands of ``stackdsl`` and each one's line in ``stackdsl --help``, in that order. Only the

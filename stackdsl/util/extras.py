@@ -7,7 +7,7 @@ A feature used without its extra is one line naming the command that adds it, ra
 the feature is asked for (the scenario's field, the command's option) before anything runs.
 
 >>> missing("mujoco")
-"MuJoCo is not installed: pip install 'stackdsl[mujoco]'"
+"MuJoCo is not installed: pip install 'stackdsl[mujoco]' (in a source checkout: pip install -c constraints.txt '.[mujoco]')"
 
 Source: stackdsl's own.
 """
@@ -43,7 +43,13 @@ def installed(extra: str) -> bool:
 def missing(extra: str, what: str = "") -> str:
     """The one-line message for ``what`` (the thing asked for, if said) needing ``extra``:
     ``"an MP4 clip needs imageio-ffmpeg (...), which is not installed: pip install 'stackdsl[video]'"``,
-    or ``"MuJoCo is not installed: pip install 'stackdsl[mujoco]'"``."""
+    or ``"MuJoCo is not installed: pip install 'stackdsl[mujoco]' (in a source checkout: ...)"``."""
     _, name = EXTRAS[extra]
     needs = f"{what} needs {name}, which is" if what else f"{name} is"
-    return f"{needs} not installed: pip install 'stackdsl[{extra}]'"
+    return f"{needs} not installed: pip install 'stackdsl[{extra}]' (in a source checkout: {checkout(extra)})"
+
+
+def checkout(extra: str) -> str:
+    """The command that adds ``extra`` to an install from a source checkout of stackdsl (the
+    README's, run in the checkout's folder): ``pip install -c constraints.txt '.[mujoco]'``."""
+    return f"pip install -c constraints.txt '.[{extra}]'"

@@ -78,9 +78,7 @@ def check_pusher(scenario: Scenario, index: int, push: Push, bodies: Sequence[tu
     inside = deepest(box, pose, bodies)
     if inside is None:
         return
-    action = scenario.actions[index].push
-    named = action is not None and "pusher" in action.model_fields_set
-    path: FieldPath = ("actions", index, "push", "pusher") if named else ("actions", index, "push")
+    path = _pusher_field(scenario, index)
     hx, hy, hz = push.brick.half_extents
     face = Box(np.array([TOLERANCE, hy, hz]), push.brick.mass)  # its front face alone, as thin as the tolerance
     front = Pose(pose.position + pose.rotation[:, 0] * (hx - TOLERANCE), pose.orientation)
@@ -128,13 +126,10 @@ def warn_wide_pusher(scenario: Scenario, index: int, push: Push, bodies: Sequenc
         inside = deepest(box, Pose(pose.position + direction * s, pose.orientation), others)
         if inside is None:
             continue
-        action = scenario.actions[index].push
-        named = action is not None and "pusher" in action.model_fields_set
-        path: FieldPath = ("actions", index, "push", "pusher") if named else ("actions", index, "push")
         _, hy, hz = push.brick.half_extents
         warnings.warn(
             scenario.source.warning(
-                path,
+                _pusher_field(scenario, index),
                 f"the pusher ({push.brick.type}, {2 * hy * 1000:.0f} x {2 * hz * 1000:.0f} mm across its direction) "
                 f"is wider than the place of {push.target} it moves into: {s * 1000:.0f} mm along its path it reaches "
                 f"{inside[1] * 1000:.1f} mm into brick {inside[0]!r}, and will push it too; give a thinner pusher (a "
@@ -164,6 +159,14 @@ def deepest(box: Box, pose: Pose, bodies: Sequence[tuple[str, BrickSpec, Pose]])
     )
     worst = int(np.argmax(depth))
     return (bodies[worst][0], float(depth[worst])) if depth[worst] > TOLERANCE else None
+
+
+def _pusher_field(scenario: Scenario, index: int) -> FieldPath:
+    """The field a pusher's fault is told at: the push's ``pusher`` when the scenario names its
+    brick type, else the push."""
+    action = scenario.actions[index].push
+    named = action is not None and "pusher" in action.model_fields_set
+    return ("actions", index, "push", "pusher") if named else ("actions", index, "push")
 
 
 def _blame(impact: Impact, index: int) -> FieldPath:

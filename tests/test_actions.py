@@ -1976,7 +1976,9 @@ actions:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         compile_scenario(parse_scenario(text, "slot.yaml"))
-    said = [str(w.message) for w in caught if issubclass(w.category, ScenarioWarning) and "wider than the place" in str(w.message)]
+    said = [
+        str(w.message) for w in caught if issubclass(w.category, ScenarioWarning) and "wider than the place" in str(w.message)
+    ]
     assert bool(said) is warned, said
     if warned:
         assert said[0].startswith("slot.yaml:6:") and "actions[0].push.pusher" in said[0] and "into brick 'L0" in said[0]

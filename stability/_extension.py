@@ -154,7 +154,7 @@ class StabilityExtension:
         decide it by chance, and its freeze says so. Raises ValueError for a body registered
         already."""
         record = Record(body, label, box, BrickState.ACTIVE, len(self._stack.bodies), friction)
-        record.near_tie, record.placed, record.landing = near_tie, placed, placed or near_tie > 0.0
+        record.near_tie, record.landing = near_tie, placed or near_tie > 0.0
         if placed:
             record.set_down = box.corners(self._stack.engine.pose(body))
         self._stack.add(record)
@@ -305,26 +305,22 @@ class StabilityExtension:
                 continue  # it moved on landing: the engine and the tests decide, and the monitor sees it move
             main = main_area(supports)
             inside = signed_inside(main.polygon, pose.position)
-            polygons = [
-                ContactPolygon(rec.body, o, a.corners(), a.normal, pair_friction(rec.friction, stack.bodies[o].friction))
-                for o, a in supports.items()
-            ]
             names = ", ".join(stack.bodies[o].label for o in supports)
             if 0.0 <= inside < rec.near_tie:
-                stack.freeze(rec, supports, main, polygons)
+                stack.freeze(rec, supports, main, _face_polygons(stack, rec, supports))
                 reason = (
                     f"{NEAR_TIE_WORDS} on {names}: its centre of mass {inside * 1000:.2f} mm inside its support's edge, "
                     f"within the engine's {rec.near_tie * 1000:g} mm contact margin"
                 )
                 events.append(StabilityEvent(time, "freeze", rec.label, reason, proved=True))
             elif (
-                rec.placed
-                and inside > 0.0
+                rec.set_down is not None  # placed by a hand
                 and self._areas.holds(main, pose.position)
                 and not self._admission.steep(rec, supports)
                 and all(_flat_on(pose, a) for a in supports.values())
             ):
-                stack.freeze(rec, supports, main, polygons, overlap((), supports, self._areas.support_cos))
+                lift = overlap((), supports, self._areas.support_cos)
+                stack.freeze(rec, supports, main, _face_polygons(stack, rec, supports), lift)
                 events.append(StabilityEvent(time, "freeze", rec.label, f"at rest on {names}"))
         return events
 
@@ -1060,6 +1056,15 @@ def _farthest(corners: np.ndarray, before: np.ndarray) -> np.ndarray:
     ``before`` of shape (n, 8, 3), metres; shape (n,)."""
     farthest: np.ndarray = np.sqrt(np.square(corners - before).sum(axis=2).max(axis=1))
     return farthest
+
+
+def _face_polygons(stack: Stack, rec: Record, supports: dict[int, ContactArea]) -> list[ContactPolygon[int]]:
+    """The contact polygons of ``rec`` lying face to face on ``supports`` (each exact area on its
+    plane, with the pair's friction coefficient)."""
+    return [
+        ContactPolygon(rec.body, o, a.corners(), a.normal, pair_friction(rec.friction, stack.bodies[o].friction))
+        for o, a in supports.items()
+    ]
 
 
 def _flat_on(pose: Pose, area: ContactArea) -> bool:

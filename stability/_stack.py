@@ -107,8 +107,7 @@ class Record:
     still: bool = False  # held once and kept still by the engine: not held again
     leans: bool = False  # frozen, and its balance or that of a brick under it needs a non-level contact (_prove)
     near_tie: float = 0.0  # m: the engine's contact margin (StabilityExtension._landings)
-    placed: bool = False  # set down in its place by a hand (StabilityExtension._landings)
-    set_down: np.ndarray | None = None  # corners (8, 3), m, where the hand set it down
+    set_down: np.ndarray | None = None  # corners (8, 3), m, where a hand set it down (placed; StabilityExtension._landings)
     landing: bool = False  # placed or with a near tie, and not yet looked at landed (StabilityExtension._landings)
     landing_from: float | None = None  # s: when the extension first looked for its landing
 

@@ -1066,8 +1066,11 @@ actions:
   - remove: {brick: a, at: 5 s}
 expect: {stands: true}
 """
+    from stackdsl.lang.errors import ScenarioWarning
+
     scenario = parse_scenario(text, "s.yaml")
-    p = compile_scenario(scenario)
+    with pytest.warns(ScenarioWarning, match="'stands' cannot hold"):  # the push would move a past the threshold
+        p = compile_scenario(scenario)
     done = run_program(p)
     assert done.collapse is not None and done.collapse.brick == "b"
     assert done.unplaced == ("c",)
@@ -1982,3 +1985,30 @@ actions:
     assert bool(said) is warned, said
     if warned:
         assert said[0].startswith("slot.yaml:6:") and "actions[0].push.pusher" in said[0] and "into brick 'L0" in said[0]
+
+
+@pytest.mark.parametrize(
+    ("distance", "expect", "warned"),
+    [("30 mm", "{stands: true}", True), ("30 mm", "{moved: L04.2, stays: [1-3, 5-6]}", False), ("8 mm", "{stands: true}", False)],
+)
+def test_stands_with_a_brick_pushed_past_the_threshold_is_warned_of(distance, expect, warned):
+    """A pushed brick stays in the scene, moved: past the collapse threshold the run is a collapse
+    from its level, and a new user's pushes expecting 'stands: true' all failed, in every mode. The
+    compiler says so at expect.stands, and what to write instead; a push that moves its brick less
+    than the threshold (its distance less its 5 mm gap), or moved/stays, is not warned of."""
+    from stackdsl.lang.errors import ScenarioWarning
+
+    text = f"""stackdsl: 1
+brick_types: {{finger: {{size: [20 mm, 6 mm, 6 mm]}}}}
+structure: {{tower: {{levels: 6, bricks_per_layer: 3, spacing: 25 mm}}}}
+actions:
+  - push: {{target: {{brick: L04.2}}, direction: +y, speed: 40 mm/s, distance: {distance}, at: after level 6, pusher: finger}}
+expect: {expect}
+"""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        compile_scenario(parse_scenario(text, "pushed.yaml"))
+    said = [str(w.message) for w in caught if issubclass(w.category, ScenarioWarning) and "cannot hold" in str(w.message)]
+    assert bool(said) is warned, said
+    if warned:
+        assert said[0].startswith("pushed.yaml:6:") and "expect.stands" in said[0] and "moves L04.2 25 mm" in said[0]

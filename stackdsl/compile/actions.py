@@ -151,6 +151,31 @@ def check_measured(scenario: Scenario, levels: Mapping[str, int]) -> None:
         _selection_measured(scenario, name, levels, pulled)
 
 
+def warn_pushed_stands(scenario: Scenario, levels: Mapping[str, int], threshold: float) -> None:
+    """Warn at ``expect.stands: true`` when a push moves a brick of the structure further than the
+    collapse threshold (``threshold``, m: its distance less its gap): the pushed brick stays in
+    the scene, moved, so the run is a collapse from its level and ``stands`` cannot hold (a new
+    user's pushes all failed so, in every mode). What is meant is said by ``moved`` and ``stays``.
+    Source: stackdsl's own."""
+    if scenario.expect.stands is not True:
+        return
+    for a in scenario.actions:
+        p = a.push
+        if p is None or p.target.brick is None or p.target.brick not in levels or p.distance - p.gap <= threshold:
+            continue
+        warnings.warn(
+            scenario.source.warning(
+                ("expect", "stands"),
+                f"the push moves {p.target.brick} {(p.distance - p.gap) * 1000:g} mm by hand, past the "
+                f"{threshold * 1000:g} mm collapse threshold: it stays in the scene, moved, so the run collapses "
+                f"from its level and 'stands' cannot hold; to judge the rest, expect moved: {p.target.brick} and "
+                "stays: the levels and bricks that must not move",
+            ),
+            stacklevel=2,
+        )
+        return
+
+
 def _nothing_left(scenario: Scenario) -> None:
     """Refuse ``expect.toppled`` or ``expect.stands`` when every brick of the structure is pulled
     out of the scene.

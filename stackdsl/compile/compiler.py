@@ -52,7 +52,7 @@ from ..lang.errors import FieldPath, ScenarioError, format_path
 from ..lang.schema import BUILTIN_BRICKS, Scenario, reference_errors
 from ..lang.schema_impacts import SIDES, AfterLevel, Impact
 from ..util.extras import installed, missing
-from .actions import check_measured, compile_actions, heading, not_built
+from .actions import check_measured, compile_actions, heading, not_built, warn_pushed_stands
 from .aim import outer_face, stepped_fall
 from .clearance import check_launch, check_pusher, warn_wide_pusher
 from .dynamics import check_motion
@@ -437,14 +437,17 @@ def check_hands(state: Compilation) -> Compilation:
     """Pass 9: what the hands do, against the structure: expectations that measure only pulled
     bricks (:func:`stackdsl.compile.actions.check_measured`), a projectile's or pusher's id that
     is taken (:func:`_own_ids`), a brick placed on one being pulled (:func:`_nothing_placed_on_pulled`),
-    a pusher with no room (:func:`stackdsl.compile.clearance.check_pusher`), and a warning of a
-    pusher wider than the place it moves into (:func:`stackdsl.compile.clearance.warn_wide_pusher`).
+    a pusher with no room (:func:`stackdsl.compile.clearance.check_pusher`), and warnings of a
+    pusher wider than the place it moves into (:func:`stackdsl.compile.clearance.warn_wide_pusher`)
+    and of ``stands: true`` with a brick pushed past the threshold
+    (:func:`stackdsl.compile.actions.warn_pushed_stands`).
 
     Raises:
         ScenarioError: at the field of the first of these.
     """
     scenario, motions = state.scenario, state.motions
     check_measured(scenario, {b.id: b.level for b in state.bricks})
+    warn_pushed_stands(scenario, {b.id: b.level for b in state.bricks}, state.threshold)
     _own_ids(scenario, [b.id for b in state.laid], state.launches, motions)
     _nothing_placed_on_pulled(scenario, state.bricks, state.specs, state.placements, motions)
     for i, motion in enumerate(motions):

@@ -253,3 +253,34 @@ def test_a_woken_brick_is_not_frozen_at_the_turning_point_of_a_rock():
     outcome = run_program(compile_scenario(parse_scenario(ROCKED_BACK), "extension", "report", "pybullet"))
     assert outcome.collapse is None
     assert outcome.displacement["b"] < 0.001  # its farthest corner within 1 mm of its place: it came back
+
+
+# a brick 0.3 mm past the edge of the pillar it lies on, a narrow step 0.9 mm lower beside the pillar:
+# within the 1 mm face gap of the step, but not on it (a new user's, with both tuned engines)
+STEP_BESIDE = """\
+stackdsl: 1
+brick_types:
+  a: {size: [30 mm, 40 mm, 50 mm]}
+  b: {size: [10 mm, 40 mm, STEP mm]}
+structure:
+  bricks:
+    - {id: A, brick: a, at: [-15 mm, 0, 25 mm], fixed: true}
+    - {id: B, brick: b, at: [5.5 mm, 0, HALF mm], fixed: true}
+    - {id: top, at: [0.3 mm, 0, 54 mm]}
+"""
+
+
+@pytest.mark.parametrize("backend", ["pybullet", "mujoco"])
+@pytest.mark.parametrize(("step_mm", "tips"), [(49.1, True), (50.0, False)])
+def test_a_placed_brick_is_frozen_only_on_what_it_touches_not_a_step_below(backend, step_mm, tips):
+    """A placed brick is frozen where it lands only on the faces it touches. The step 0.9 mm lower
+    lies within the face gap of its bottom, and was counted among its supports: its centre of mass
+    lay inside the two together, and it was frozen flat (stands, a margin of 10.2 mm) where both
+    tuned engines tip it onto the step, its far end 5.2 mm down. Level with the pillar, the step
+    is a support, and the brick stands."""
+    text = STEP_BESIDE.replace("STEP", f"{step_mm}").replace("HALF", f"{step_mm / 2}")
+    outcome = run_program(compile_scenario(parse_scenario(text), "extension", "report", backend))
+    assert (outcome.collapse is not None) is tips, outcome.certificate
+    placed = next(e.time for e in outcome.events if e.kind == "place" and e.brick == "top")
+    frozen = next(e for e in outcome.events if e.kind == "freeze" and e.brick == "top")
+    assert (frozen.time - placed < 0.05) is not tips, frozen  # frozen as it landed only where it lies on both

@@ -446,8 +446,9 @@ def check_hands(state: Compilation) -> Compilation:
         ScenarioError: at the field of the first of these.
     """
     scenario, motions = state.scenario, state.motions
-    check_measured(scenario, {b.id: b.level for b in state.bricks})
-    warn_pushed_stands(scenario, {b.id: b.level for b in state.bricks}, state.threshold)
+    levels = {b.id: b.level for b in state.bricks}
+    check_measured(scenario, levels)
+    warn_pushed_stands(scenario, levels, state.threshold)
     _own_ids(scenario, [b.id for b in state.laid], state.launches, motions)
     _nothing_placed_on_pulled(scenario, state.bricks, state.specs, state.placements, motions)
     for i, motion in enumerate(motions):

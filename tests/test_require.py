@@ -90,6 +90,19 @@ def test_derived_quantities_of_a_known_scene():
     assert values["com_offset"] == pytest.approx(0.015)
 
 
+@pytest.mark.parametrize("spacing", ["0 mm", "24 mm", "10 mm"])
+def test_the_gap_of_bricks_that_touch_or_overlap_is_zero(spacing):
+    """Three bricks of a layer laid at one place (spacing 0) have no nearest other footprint for
+    shapely's STRtree (it leaves out equal ones): the gap is 0, not an internal error, and the
+    overlap is then refused where it is written."""
+    text = f"stackdsl: 1\nstructure: {{tower: {{levels: 2, spacing: {spacing}}}}}\nrequire: ['gap > 1 mm']\n"
+    scenario = parse_scenario(text, "g.yaml")
+    assert quantities(scenario)["gap"] == 0.0
+    with pytest.raises(ScenarioError) as err:
+        compile_scenario(scenario)
+    assert err.value.field in ("require[0]", "structure.tower.spacing"), err.value.field
+
+
 @pytest.mark.slow
 def test_the_acceptance_rate_is_the_chance_that_a_random_stack_stands_while_built():
     """5 bricks of a random walk stand while built with probability 1 - P(N = 3, 4, 5): the

@@ -307,10 +307,15 @@ def _derived(scenario: Scenario, bricks: list[LaidBrick], gap: bool, com: bool =
 
 
 def _gap(scenario: Scenario, bricks: list[LaidBrick]) -> float:
-    """The smallest horizontal gap between two of ``bricks``' footprints, m (shapely's STRtree
-    finds each one's nearest, so a long row costs n log n, not n^2)."""
+    """The smallest horizontal gap between two of ``bricks``' footprints, m: 0 where two touch or
+    overlap (shapely's STRtree finds each one's nearest, so a long row costs n log n, not n^2;
+    its nearest leaves out a footprint equal to the one asked, so overlaps are asked first: a
+    level of three bricks laid at one place, spacing 0, had no nearest at all)."""
     footprints = [_footprint(scenario, b) for b in bricks]
     tree = STRtree(footprints)
+    inputs, found = tree.query(footprints, predicate="intersects")
+    if bool((inputs != found).any()):
+        return 0.0
     return min(
         float(footprints[i].distance(footprints[j]))
         for i, j in tree.query_nearest(footprints, exclusive=True, all_matches=False).T

@@ -47,3 +47,19 @@ def test_phases_add_up_parts_land_in_their_phase_and_are_put_back(costs: ModuleT
     assert sum(books.steps) == sum(books.calls["the engine's steps"])  # an update a step
     table = costs.table(books, wall)
     assert "| wall (ms) |" in table and "the engine's steps" in table and "- rides" not in table  # none: left out
+
+
+def test_the_lean_peers_phases_add_up_and_its_step_is_put_back(costs: ModuleType, tmp_path: Path) -> None:
+    pytest.importorskip("mujoco", reason="the lean peer runs MuJoCo: pip install -c constraints.txt '.[mujoco]'")
+    from stackdsl.bench import lean_mujoco
+
+    scene = tmp_path / "pull.yaml"
+    scene.write_text(PULL)
+    before = lean_mujoco._LeanRun.step
+    walls = costs.peer(str(scene), [9.0])
+    assert lean_mujoco._LeanRun.step is before  # unwrapped again
+    assert len(walls) == 3 and walls[0] > 0.0 and walls[1] > 0.0  # the build, the pull, the whole run
+    assert walls[0] + walls[1] == pytest.approx(walls[2], rel=1e-9)
+    books, wall = costs.measure(str(scene), [9.0])
+    table = costs.table(books, wall, walls)
+    assert "| the lean MuJoCo peer's wall (ms) |" in table and "| peer / this |" in table

@@ -3,6 +3,7 @@
     python docs/results/action_costs.py "Jenga 12 stands" 18,22
     python docs/results/action_costs.py "Jenga 18 stands" 27,31
     python docs/results/action_costs.py "Jenga 12 falls" 18,22,22.2,24,24.7
+    python docs/results/action_costs.py "Jenga 12 falls" 18,22,22.2,24,24.7 --peer   # and the lean peer's phases
     python docs/results/action_costs.py "30 dominoes" 3.5 --runs 5
     python docs/results/action_costs.py "120 dominoes" 12.5 --runs 2
 
@@ -15,6 +16,12 @@ the time of each part of :data:`PARTS` charged to the phase its call began in. E
 function wrapped in ``time.perf_counter``, inclusive (a part called inside another counts in
 both; the wrapping adds about a microsecond a call; a part never called is left out). Admissions
 are split by their answer: a freeze, or a refusal.
+
+With ``--peer``, the lean MuJoCo peer of ``stackdsl bench actions`` (``stackdsl/bench/lean_mujoco.py``,
+its settings and solver tolerance as the bench gives them) runs the same scene as many times, after
+its own warm-up, and its fastest run's wall time is charged to the same phases, a watch interval
+(1/60 s of simulated time) at a time: two more rows, its wall time and its wall time over the
+extension's, phase by phase.
 
 Output: docs/results/actions.md, "Where the time goes".
 """
@@ -30,6 +37,7 @@ from pathlib import Path
 from typing import Any
 
 from stackdsl.bench.actions import _WARM_UP, action_scenes, program_for
+from stackdsl.bench.bench import LEAN_TOLERANCE
 from stackdsl.runtime.loop import StepLoop, Subscriber
 from stackdsl.runtime.run import run_in, run_program, world_for
 
@@ -139,13 +147,46 @@ def measure(name: str, cuts: list[float]) -> tuple[_Books, float]:
     return books, end - start
 
 
-def table(books: _Books, wall: float) -> str:
-    """The books as a markdown table: a column a phase, then the whole run."""
+def peer(name: str, cuts: list[float]) -> list[float]:
+    """One run of the scene ``name`` by the lean MuJoCo peer, as ``stackdsl bench actions`` runs
+    it: the wall time (s) of each phase between ``cuts``, then of the whole run, from its model on."""
+    from stackdsl.bench import lean_mujoco
+
+    program = program_for(scene(name), name, "MuJoCo lean")
+    walls = [0.0] * (len(cuts) + 1)
+    owner: Any = lean_mujoco._LeanRun
+    original = owner.step
+
+    def timed(run: Any) -> bool:
+        k = sum(float(run.data.time) >= c for c in cuts)
+        start = time.perf_counter()
+        ended: bool = original(run)
+        walls[k] += time.perf_counter() - start
+        return ended
+
+    owner.step = timed
+    try:
+        start = time.perf_counter()
+        lean_mujoco.run_lean(program, tolerance=LEAN_TOLERANCE, settle=None)
+        whole = time.perf_counter() - start
+    finally:
+        owner.step = original
+    walls[0] += whole - sum(walls)  # building its model, and its steps' bookkeeping between them
+    return [*walls, whole]
+
+
+def table(books: _Books, wall: float, peers: list[float] | None = None) -> str:
+    """The books as a markdown table: a column a phase, then the whole run; with ``peers`` (the
+    lean peer's wall times, :func:`peer`), its rows too."""
     edges = ["0", *(f"{c:g}" for c in books.cuts), "end"]
     heads = [f"{a} to {b} s" for a, b in itertools.pairwise(edges)]
     lines = ["| | " + " | ".join(heads) + " | whole run |", "|---" + "|---:" * (len(heads) + 1) + "|"]
     walls = [b - a for a, b in itertools.pairwise(books.marks)]
     lines.append("| wall (ms) | " + " | ".join(f"{w * 1000:.0f}" for w in walls) + f" | {wall * 1000:.0f} |")
+    if peers is not None:
+        lines.append("| the lean MuJoCo peer's wall (ms) | " + " | ".join(f"{w * 1000:.0f}" for w in peers) + " |")
+        ratios = [f"{p / w:.1f}" if w > 0 else "-" for p, w in zip(peers, [*walls, wall])]
+        lines.append("| peer / this | " + " | ".join(ratios) + " |")
     lines.append("| steps | " + " | ".join(str(s) for s in books.steps) + f" | {sum(books.steps)} |")
     mean = [f"{a / s:.1f}" if s else "-" for a, s in zip(books.active, books.steps)]
     lines.append("| active bricks, mean | " + " | ".join(mean) + " | |")
@@ -163,12 +204,20 @@ def main() -> None:
     parser.add_argument("scene", help="a cell of `stackdsl bench actions`, or a scenario file")
     parser.add_argument("cuts", nargs="?", default="", help="comma-separated simulated times, s")
     parser.add_argument("--runs", type=int, default=3, help="runs; the fastest is kept (default 3)")
+    parser.add_argument("--peer", action="store_true", help="also the lean MuJoCo peer's wall time by phase")
     args = parser.parse_args()
     cuts = sorted(float(c) for c in args.cuts.split(",") if c.strip())
     run_program(program_for(_WARM_UP, "warm-up", "extension"))
     best = min((measure(args.scene, cuts) for _ in range(max(1, args.runs))), key=lambda m: m[1])
-    print(f"{args.scene}: the fastest of {args.runs} runs, the extension on pybullet\n")
-    print(table(*best))
+    peers = None
+    if args.peer:
+        from stackdsl.bench.lean_mujoco import run_lean
+
+        run_lean(program_for(_WARM_UP, "warm-up", "MuJoCo lean"), tolerance=LEAN_TOLERANCE)  # as the bench warms it
+        peers = min((peer(args.scene, cuts) for _ in range(max(1, args.runs))), key=lambda w: w[-1])
+    sides = "the extension on pybullet" + (" and the lean MuJoCo peer" if args.peer else "")
+    print(f"{args.scene}: the fastest of {args.runs} runs, {sides}\n")
+    print(table(*best, peers))
 
 
 if __name__ == "__main__":

@@ -31,6 +31,7 @@ from stability import Box, Plane, Pose, face_overlap, hull_xy
 from ..compile.program import Fixture
 from .actions import Actions
 from .bricks import BrickRecord, footprint
+from .catch import caught
 from .end_proofs import names_and
 from .loop import StepLoop
 from .outcome import ProofKind
@@ -262,8 +263,11 @@ class OffSupport:
         ties: the parts placed with their centre of mass within :data:`EXACT_TIE` of their
             polygon's edge, either way, as each brick was placed (:meth:`weigh`).
         placed_off: the first part placed with its centre of mass more than :data:`EXACT_TIE`
-            outside its polygon and held by nothing else, or None: exact statics on the placed
-            geometry says it falls there, whether or not the engine's contacts hold it.
+            outside its polygon and held by nothing else, and not caught since, or None: exact
+            statics on the placed geometry says it falls there, whether or not the engine's
+            contacts hold it (:attr:`offs`: each such part).
+        caught: each part placed off its support that bricks placed on it caught in time
+            (:func:`stackdsl.runtime.catch.caught`), with the brick placed last then and when.
     """
 
     def __init__(self) -> None:
@@ -276,10 +280,16 @@ class OffSupport:
         #: metres the centre of mass of what tipped lay outside its support when :meth:`proof` last proved a collapse
         self.proved_out = 0.0
         self.ties: list[PlacedLoad] = []
-        self.placed_off: PlacedLoad | None = None
+        self.offs: list[PlacedLoad] = []  # in the order found
+        self.caught: list[tuple[PlacedLoad, str, float]] = []
         self._within: dict[str, tuple[str, ...]] = {}  # brick id -> the bottom bricks of the parts it is in, itself first
         self._loads: dict[str, tuple[int, float, np.ndarray]] = {}  # brick id -> its part's bricks, mass, mass moment
         self._pending: list[str] = []  # placed, not yet weighed
+
+    @property
+    def placed_off(self) -> PlacedLoad | None:
+        """The first of :attr:`offs`, or None."""
+        return self.offs[0] if self.offs else None
 
     def place(self, loop: StepLoop, record: BrickRecord) -> None:
         """Note the support polygon ``record`` is placed on: the ground, the fixtures and the
@@ -323,6 +333,8 @@ class OffSupport:
         if loop.structure.removed:
             return
         records = loop.structure.records
+        if self.offs:
+            self._catch(loop, pending)
         level = max(loop.structure.levels.values(), default=0)
         top: dict[str, str] = {}
         for brick in pending:
@@ -339,8 +351,41 @@ class OffSupport:
             load = PlacedLoad(bottom, placed, count, level, loop.now, margin)
             if abs(margin) < EXACT_TIE:
                 self.ties.append(load)
-            if margin <= -EXACT_TIE and self.placed_off is None and not self._held(loop, self._part(loop, records[bottom])):
-                self.placed_off = load
+            if (
+                margin <= -EXACT_TIE
+                and all(off.brick != bottom for off in self.offs)
+                and all(c.brick != bottom for c, _, _ in self.caught)  # its load misses what caught it
+                and not self._held(loop, self._part(loop, records[bottom]))
+            ):
+                self.offs.append(load)
+
+    def _catch(self, loop: StepLoop, pending: list[str]) -> None:
+        """Each part placed off its support (:attr:`offs`) that the bricks ``pending`` (ids, just
+        placed) were placed on, bringing its centre of mass inside: caught when they came in
+        time (:func:`stackdsl.runtime.catch.caught`), and then no longer off. A brick placed on
+        the part as the bricks under it were placed (:attr:`BrickRecord.below`) counts though
+        the part has turned under it since: a cantilever tipping 1.5 deg when its counterweight
+        landed on it, which no face of it met flat."""
+        records = loop.structure.records
+        for off in list(self.offs):
+            part = self._part(loop, records[off.brick])
+            ids = {r.id for r in part}
+            on = [records[b] for b in pending if b in ids or (records[b].below and all(u.id in ids for u in records[b].below))]
+            if not on:
+                continue
+            after = [*part, *(r for r in on if r.id not in ids)]  # the part as flagged first, in the order placed
+            masses = np.array([r.box.mass for r in after])
+            com = masses @ np.array([r.pose.position for r in after]) / masses.sum()
+            support = self.supports[off.brick]
+            hull = support.placed_hull()
+            if hull is None or support.placed_margin_of(com) < EXACT_TIE:
+                continue
+            bricks = [(r.box, r.pose) for r in after]
+            height = float(records[off.brick].corners[:, 2].min())
+            program, late = loop.program, loop.now - off.time
+            if caught(bricks[: off.bricks], bricks, hull, height, late, program.collapse_threshold, program.engine.gravity):
+                self.offs.remove(off)
+                self.caught.append((off, on[-1].id, loop.now))
 
     def proof(self, loop: StepLoop, record: BrickRecord) -> tuple[ProofKind, str, tuple[str, ...]] | None:
         """The proof that ``record`` has collapsed because the centre of mass of what tips with

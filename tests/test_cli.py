@@ -1,6 +1,7 @@
 """The stackdsl command: check's rows, failure details, JSON, JUnit XML, selection, exit
 codes; compile, run, schema, compare, bench; the fan-out that runs scenarios."""
 
+import argparse
 import inspect
 import io
 import json
@@ -1681,3 +1682,21 @@ def test_a_check_of_a_folder_starts_its_workers_before_it_loads(monkeypatch, tmp
         started.clear()
         assert _entry.spare_workers(list(args)) == expected, args
         assert started == spares, args
+
+
+def test_every_command_and_subcommand_help_opens_with_what_it_does(capsys):
+    from stackdsl.cli.main import _parser
+
+    def commands(parser, path):
+        for action in parser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for name, command in action.choices.items():
+                    yield [*path, name], command
+                    yield from commands(command, [*path, name])
+
+    found = list(commands(_parser(), []))
+    assert {"run", "check"} <= {p[0] for p, _ in found} and ["bench", "folder"] in [p for p, _ in found]
+    assert [p for p, command in found if not command.description] == []
+    with pytest.raises(SystemExit):
+        main(["bench", "folder", "--help"])
+    assert "with -j 1 and -j auto" in capsys.readouterr().out.split("positional arguments")[0]

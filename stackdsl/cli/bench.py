@@ -226,7 +226,7 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
         help="`stackdsl check FOLDER` wall time with -j 1 and -j auto, then each scenario on its own settings "
         "against the lean MuJoCo peer",
     )
-    q.add_argument("folder", nargs="?", default="scenarios")
+    q.add_argument("folder", nargs="?", default="scenarios", help="a folder of scenario files (default: scenarios)")
     q.add_argument("--repeats", type=int, default=3, help="runs of each check and each cell (median; default: 3)")
     q.add_argument("--no-cells", action="store_true", help="time the folder's check only")
     q.set_defaults(func=_bench_folder)

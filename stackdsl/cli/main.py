@@ -373,7 +373,21 @@ def _parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
             _add_command(sub, name, common)
         else:
             sub.add_parser(name, help=COMMANDS[name])
+    _described(parser)
     return parser
+
+
+def _described(parser: argparse.ArgumentParser) -> None:
+    """Give each command and subcommand under ``parser`` that has no description its line of
+    help as one, so that its own ``--help`` opens with what it does (``stackdsl run --help``,
+    ``stackdsl bench folder --help`` said only their usage)."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            helps = {a.dest: a.help for a in action._choices_actions}
+            for name, command in action.choices.items():
+                if command.description is None and helps.get(name):
+                    command.description = helps[name]
+                _described(command)
 
 
 _DEBUG_HELP = "on an internal error, print the traceback (also STACKDSL_TRACEBACK=1)"

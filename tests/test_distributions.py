@@ -370,3 +370,41 @@ def test_a_sample_refused_at_a_field_no_distribution_draws_says_what_it_drew(tmp
     first = capsys.readouterr().err.splitlines()[0]
     assert first.startswith(f"{path}:4:28: actions[0].push.target.brick: sample 0: no brick of the structure is 'D05'"), first
     assert first.endswith("(this sample drew structure.dominoes.count = 3, structure.dominoes.spacing = 63.16 mm)")
+
+
+CARD_HOUSE_ERRORS = """\
+stackdsl: 1
+structure:
+  b:
+    card_house:
+      levels: 1
+sweep:
+  samples: 200
+  grid:
+    timing.placement_error: [0, 2 mm]
+"""
+"""A card house's leaning bricks touch as written: 2 mm of placement error moves one into the
+other in most samples, though not in sample 0 of that cell."""
+
+
+def test_a_placement_error_that_moves_a_brick_into_another_is_refused_before_any_sample_runs(tmp_path, capsys, monkeypatch):
+    """Each sample draws its placement offsets from its own seed: a sweep of 400 runs was refused
+    20 s in, after the samples before the one that overlapped had run, and its first line of
+    standard error was not the error."""
+    import stackdsl.batch.sweep
+    from stackdsl.cli.main import main
+
+    t = template(CARD_HOUSE_ERRORS)
+    compile_scenario(t.scenario(1, 0))  # sample 0 of the 2 mm cell is not refused: only a later one shows it
+
+    def no_run(*args, **kwargs):
+        raise AssertionError("a sample ran before the file was refused")
+
+    monkeypatch.setattr(stackdsl.batch.sweep, "run_batch", no_run)
+    path = tmp_path / "s.yaml"
+    path.write_text(CARD_HOUSE_ERRORS)
+    for command in (["sweep", str(path), "-j", "1", "--out", str(tmp_path / "o")], ["check", str(path), "-j", "1"]):
+        assert main(command) == 2
+        first = capsys.readouterr().err.splitlines()[0]
+        assert first.startswith(f"{path}:9:33: sweep.grid.timing.placement_error[1]: the grid value '2 mm'"), first
+        assert "placement error of up to 2.0 mm (seed " in first and not (tmp_path / "o").exists()

@@ -43,7 +43,7 @@ from .check_sweep import run_unit, sweep_result, sweep_tasks
 from .judge import KILL_AFTER, TIMEOUT, failed, internal, lost
 from .keywords import KeywordError, parse_keywords
 from .pool import fan_out, on_executor
-from .sweep import SampleResult, compile_bounds, compile_cells, samples_run, which_sample
+from .sweep import SampleResult, compile_bounds, compile_cells, compile_placement_errors, samples_run, which_sample
 
 
 class Prepared(NamedTuple):
@@ -239,6 +239,7 @@ def _compiled(
         if sweep is not None:  # every grid cell, before anything of any file runs
             tops = {0: program.levels} | compile_cells(sweep, m, model, backend, range(1, sweep.cells), timeout)
             compile_bounds(sweep, m, model, backend, range(sweep.cells), timeout, tops)
+            compile_placement_errors(sweep, m, model, backend, range(sweep.cells), timeout)
     except ScenarioError as exc:
         if refused is None or (m is None and backend is None):
             raise

@@ -67,6 +67,7 @@ def _sweep(args: argparse.Namespace) -> int:
         collect,
         compile_bounds,
         compile_cells,
+        compile_placement_errors,
         dask_executor,
         run_sweep,
         samples_run,
@@ -89,6 +90,7 @@ def _sweep(args: argparse.Namespace) -> int:
     # as check does: what the compiler refuses in any cell is bad input, said before anything runs
     tops = compile_cells(template, options.mode, options.model, options.backend, range(template.cells), options.timeout)
     compile_bounds(template, options.mode, options.model, options.backend, range(template.cells), options.timeout, tops)
+    compile_placement_errors(template, options.mode, options.model, options.backend, range(template.cells), options.timeout)
     engine = f"{engine_name} {args.mode or scenario.engine.mode}"  # which engine ran, said once
     total = template.cells * samples_run(template)
     start = time.perf_counter()

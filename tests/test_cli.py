@@ -1700,3 +1700,26 @@ def test_every_command_and_subcommand_help_opens_with_what_it_does(capsys):
     with pytest.raises(SystemExit):
         main(["bench", "folder", "--help"])
     assert "with -j 1 and -j auto" in capsys.readouterr().out.split("positional arguments")[0]
+
+
+@pytest.mark.parametrize("command", ["check", "compare"])
+def test_an_empty_path_is_refused_not_read_as_the_current_folder(command, tmp_path, monkeypatch, capsys):
+    # Path("") is "."; an unset $DIR in a script ran every scenario of the folder it was in
+    write(tmp_path, a=PASSING)
+    monkeypatch.chdir(tmp_path)
+    assert main([command, ""]) == 2
+    captured = capsys.readouterr()
+    assert captured.err.splitlines()[0] == "'': an empty path: give a scenario file or a folder"
+    assert "a.yaml" not in captured.out
+
+
+@pytest.mark.filterwarnings("error::pytest.PytestUnhandledThreadExceptionWarning")
+@pytest.mark.parametrize("value", ["1e10", "inf", "1e400"])
+def test_a_huge_progress_interval_is_capped_not_a_traceback(value, tmp_path, monkeypatch, capsys):
+    # the progress thread's wait overflowed (OverflowError: timestamp out of range), a traceback
+    from stackdsl.cli.progress import LONGEST, progress_seconds
+
+    monkeypatch.setenv("STACKDSL_PROGRESS_SECONDS", value)
+    assert progress_seconds() == LONGEST
+    assert main(["check", "-j", "1", str(write(tmp_path, a=PASSING) / "a.yaml")]) == 0
+    assert "Traceback" not in capsys.readouterr().err

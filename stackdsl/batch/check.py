@@ -64,13 +64,16 @@ def discover(paths: list[str | Path]) -> list[Path]:
     listed once, where it first comes.
 
     Raises:
-        ScenarioErrors: a path does not exist, is not a regular file (a device, a FIFO, a
-            broken link, also one found in a folder) or is over the loader's size cap (decided
-            from ``os.stat``, nothing is opened), or a folder holds no scenario file.
+        ScenarioErrors: a path is empty, does not exist, is not a regular file (a device, a
+            FIFO, a broken link, also one found in a folder) or is over the loader's size cap
+            (decided from ``os.stat``, nothing is opened), or a folder holds no scenario file.
     """
     files, errors = [], []
     for raw in paths:
         path = Path(raw)
+        if str(raw) == "":  # Path("") is ".": an unset $DIR in a script ran the folder it was in
+            errors.append(ScenarioError("an empty path: give a scenario file or a folder", file=repr(str(raw))))
+            continue
         if path.is_dir():
             named = sorted(p for p in path.rglob("*") if p.suffix in SCENARIO_SUFFIXES and not p.is_dir())
             found = [p for p in named if p.is_file()]

@@ -13,6 +13,7 @@ Source: stackdsl's own, on rich.progress.
 
 from __future__ import annotations
 
+import math
 import os
 import sys
 import threading
@@ -41,13 +42,32 @@ def is_live(stream: IO[str]) -> bool:
 EVERY = 10.0
 
 
+#: Seconds: the shortest and the longest wait between two progress lines that
+#: ``STACKDSL_PROGRESS_SECONDS`` may set (1e-9 printed 800 lines a second; 1e10 and inf
+#: overflowed the progress thread's wait, a traceback on standard error).
+SHORTEST, LONGEST = 0.1, 86400.0
+
+
 def progress_seconds() -> float:
-    """:data:`EVERY`, or ``STACKDSL_PROGRESS_SECONDS`` when it is set to a number (0: no lines)."""
+    """:data:`EVERY`, or ``STACKDSL_PROGRESS_SECONDS`` when it is set to a number (0 or less: no
+    lines), brought within :data:`SHORTEST` and :data:`LONGEST`; not a number (nan too): :data:`EVERY`.
+
+    >>> import os; os.environ["STACKDSL_PROGRESS_SECONDS"] = "inf"; progress_seconds()
+    86400.0
+    >>> os.environ["STACKDSL_PROGRESS_SECONDS"] = "1e-9"; progress_seconds()
+    0.1
+    >>> os.environ["STACKDSL_PROGRESS_SECONDS"] = "0"; progress_seconds()
+    0.0
+    >>> del os.environ["STACKDSL_PROGRESS_SECONDS"]
+    """
     text = os.environ.get("STACKDSL_PROGRESS_SECONDS", "").strip()
     try:
-        return max(float(text), 0.0) if text else EVERY
+        every = float(text) if text else EVERY
     except ValueError:
         return EVERY
+    if math.isnan(every):
+        return EVERY
+    return 0.0 if every <= 0.0 else min(max(every, SHORTEST), LONGEST)
 
 
 def progress_text(description: str, done: int, total: int, elapsed: float, status: str | None = None) -> str:

@@ -1204,3 +1204,24 @@ def test_an_empty_text_is_said_in_the_languages_words(line, field):
     with pytest.raises(ScenarioError) as err:
         parse_scenario(f"stackdsl: 1\nstructure: {{tower: {{levels: 2}}}}\n{line}", "e.yaml")
     assert (err.value.field, err.value.message) == (field, "expected some text, got ''")
+
+
+@pytest.mark.parametrize(
+    "expect",
+    ["{collapse: 'ONES'}", "{collapse: '2 ± ONES'}", "{stays: ['ONES']}", "{toppled: 'ONES'}", "{moved: 'ONES-2'}"],
+)
+def test_a_whole_number_of_thousands_of_digits_is_too_large_in_stackdsls_words(expect):
+    # Python refuses to read a decimal string of over 4300 digits, and its words named
+    # sys.set_int_max_str_digits()
+    text = "stackdsl: 1\nstructure: {tower: {levels: 3}}\nexpect: " + expect.replace("ONES", "1" * 5000) + "\n"
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(text, "big.yaml")
+    assert err.value.message == "a whole number written with 5000 digits is too large", err.value.message
+
+
+def test_a_value_of_300000_characters_is_cut_in_the_error_not_echoed():
+    text = "stackdsl: 1\nstructure: {tower: {levels: 3, spacing: '96 " + "x" * 300_000 + "'}}\n"
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(text, "long.yaml")
+    said = str(err.value)
+    assert len(said) < 2000 and "(300001 characters)" in said and said.startswith("long.yaml:2:41: structure.tower.spacing:")

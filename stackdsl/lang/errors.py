@@ -71,7 +71,8 @@ class ScenarioError(Exception):
     def __str__(self) -> str:
         file = one_line(self.file)
         where = file if self.line is None else f"{file}:{self.line}:{self.column}"
-        head = f"{where}: {self.field}: {self.message}" if self.field else f"{where}: {self.message}"
+        message = cut_words(self.message)
+        head = f"{where}: {self.field}: {message}" if self.field else f"{where}: {message}"
         lines = [head, *excerpt(self.source_line, self.column)]
         if self.alike:
             lines.append(f"    (the same at {', '.join(self.alike)})")
@@ -122,6 +123,21 @@ class ScenarioErrors(Exception):
 #: At most this many problems of one file are shown at once (the rest are counted).
 MAX_SHOWN = 10
 SHOWN_LINE_CHARS = 120  # an error shows at most this much of its source line
+
+
+#: Characters a word of an error's message may have before it is cut (:func:`cut_words`).
+LONGEST_WORD = 1000
+
+
+def cut_words(text: str, longest: int = LONGEST_WORD) -> str:
+    """``text`` with every run of over ``longest`` characters that are not spaces (a value the
+    file wrote, quoted back; a path is shorter) cut to a tenth of that, saying how long it was:
+    a spacing of '96 x...' with 300,000 x's was a line of 300 KB on standard error.
+
+    >>> cut_words("got '96 " + "x" * 300 + "' as a length", longest=100)
+    "got '96 xxxxxxxxxx… (301 characters) as a length"
+    """
+    return re.sub(rf"\S{{{longest + 1},}}", lambda m: f"{m.group()[: longest // 10]}… ({len(m.group())} characters)", text)
 
 
 def excerpt(line: str, column: int | None) -> list[str]:

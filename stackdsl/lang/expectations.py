@@ -126,6 +126,22 @@ class CollapseLevel(StrictModel):
     tolerance: Annotated[int, Field(ge=0, le=MAX_LEVELS), WHOLE_LEVEL] = 0
 
 
+def digits_value(digits: str) -> int:
+    """The whole number ``digits`` (a regular expression's group of digits) spells.
+
+    Raises:
+        ValueError: over 18 digits, said so (Python's own words for one of over 4300 digits
+            named ``sys.set_int_max_str_digits``; a level, a count or a tolerance that long is
+            out of every range anyway).
+
+    >>> digits_value("0012"), digits_value("9" * 18) > 0
+    (12, True)
+    """
+    if len(digits) > 18:
+        raise ValueError(f"a whole number written with {len(digits)} digits is too large")
+    return int(digits)
+
+
 def _collapse(value: Any) -> Any:
     """``9``, ``"9±1"``, ``"9 +- 1"`` or ``{level: 9, tolerance: 1}``: whole numbers, since a run
     collapses at a whole level; a fraction (``"11±0.5"``, ``10.5``) is refused with the whole form
@@ -141,7 +157,7 @@ def _collapse(value: Any) -> Any:
     elif isinstance(value, str):
         match = re.fullmatch(COLLAPSE, value)
         if match:
-            return {"level": int(match[1]), "tolerance": int(match[2] or 0)}
+            return {"level": digits_value(match[1]), "tolerance": digits_value(match[2] or "0")}
         decimal = re.fullmatch(PLUS_MINUS, value)
         if not decimal:
             raise ValueError(f"expected a level such as 9, '9±1' or '9 +- 1', got {spelled(value)}")
@@ -211,7 +227,7 @@ def _levels(value: Any) -> Any:
         if number is not None:
             first = last = number
         elif match:
-            first, last = int(match[1]), int(match[2] or match[1])
+            first, last = digits_value(match[1]), digits_value(match[2] or match[1])
         elif isinstance(item, str) and re.fullmatch(f"{SPACE}{SELECTOR}{SPACE}", item):
             if item.strip() not in bricks:
                 bricks.append(item.strip())
@@ -265,7 +281,7 @@ def nearest(selector: str, ids: Sequence[str]) -> str | None:
             tails.setdefault(start.split(".", 1)[1], start)
 
     def numbers(text: str) -> str:
-        return re.sub(r"\d+", lambda m: str(int(m.group())), text)
+        return re.sub(r"\d+", lambda m: m.group().lstrip("0") or "0", text)  # str(int(...)), of any length
 
     same = [t for t in tails if numbers(t) == numbers(selector)]
     close = same or difflib.get_close_matches(selector, list(tails), n=1, cutoff=0.6)
@@ -344,9 +360,9 @@ def _toppled(value: Any) -> Any:
         if not match:
             hint = "; did you mean 'all'?" if value.strip().lower() == "all" else ""
             raise ValueError(f"expected a number of bricks such as {_TOPPLED_FORMS}, got {spelled(value)}{hint}")
-        _bricks(int(match[1]), value)
-        _bricks(int(match[2] or 0), value)
-        return {"count": int(match[1]), "tolerance": int(match[2] or 0)}
+        _bricks(digits_value(match[1]), value)
+        _bricks(digits_value(match[2] or "0"), value)
+        return {"count": digits_value(match[1]), "tolerance": digits_value(match[2] or "0")}
     if not isinstance(value, dict):  # true, 19.5: a mapping's fields would be the wrong thing to name
         raise ValueError(f"expected a whole number of bricks such as 20, '20±1' or 'all', got {spelled(value)}")
     return value

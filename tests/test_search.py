@@ -7,6 +7,7 @@ from pathlib import Path
 
 import pytest
 
+from stackdsl import ScenarioError, parse_scenario
 from stackdsl.cli.main import main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -249,3 +250,22 @@ def test_an_exact_tie_the_engine_decided_does_not_end_the_interval_short_of_the_
     # nothing is moved on a judged verdict (not statics')
     found.probes = [(v, dataclasses.replace(r, held=r.collapse_level is None)) for v, r in found.probes]
     assert tie_widening(found, tie) == (0.0, 0.0)
+
+
+@pytest.mark.parametrize(
+    "search, at",
+    [
+        ("{threshold: {field: structure.tower.shift, between: [{uniform: [1 mm, 2 mm]}, 30 mm]}}", "search.threshold.between[0]"),
+        (
+            "{threshold: {field: structure.tower.shift, between: [1 mm, 30 mm], tolerance: {choice: [1 mm, 2 mm]}}}",
+            "search.threshold.tolerance",
+        ),
+        ("{counterexample: {runs: {choice: [3, 4]}}}", "search.counterexample.runs"),
+    ],
+)
+def test_a_distribution_in_search_is_refused_not_drawn(search, at):
+    # it was drawn: the search ran in [1.94 mm, 30 mm], and with another seed in [1.54 mm, 30 mm]
+    text = f"stackdsl: 1\nstructure: {{tower: {{levels: 3, bricks_per_layer: 1, turn: 0, shift: 10 mm}}}}\nsearch: {search}\nexpect: {{stands: true}}\n"
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(text, "s.yaml")
+    assert err.value.field == at and "a distribution cannot stand in 'search'" in err.value.message

@@ -62,8 +62,22 @@ def tower_field(path: FieldPath) -> tuple[FieldPath, str] | None:
 
 
 #: Sections whose values are not the scene's and take no distribution (a golden tolerance, a mark or its
-#: reason drawn at random would judge each sample by another rule).
-NOT_RANDOM = ("stackdsl", "seed", "sweep", "expect", "name", "description", "allow", "golden", "skip", "xfail")
+#: reason drawn at random would judge each sample by another rule; a search's ends, tolerance or runs
+#: drawn at random searched another range with each seed).
+NOT_RANDOM = (
+    "stackdsl",
+    "seed",
+    "sweep",
+    "search",
+    "require",
+    "expect",
+    "name",
+    "description",
+    "allow",
+    "golden",
+    "skip",
+    "xfail",
+)
 MAX_CHOICES = 1000
 #: Mappings keyed by names the file chooses, not by fields: their keys are never distributions.
 NAMED = (("materials",), ("brick_types",))

@@ -269,3 +269,18 @@ def test_a_distribution_in_search_is_refused_not_drawn(search, at):
     with pytest.raises(ScenarioError) as err:
         parse_scenario(text, "s.yaml")
     assert err.value.field == at and "a distribution cannot stand in 'search'" in err.value.message
+
+
+def test_a_counterexample_search_whose_every_run_is_refused_exits_2_not_0(tmp_path, capsys):
+    # the search proposes the shifts itself, and each proposal failed require:; it said "no
+    # counterexample in 4 runs" and exited 0
+    path = tmp_path / "x.yaml"
+    path.write_text(
+        "stackdsl: 1\nstructure: {tower: {levels: 4, bricks_per_layer: 1, turn: 0, shift: {uniform: [0, 30 mm]}}}\n"
+        "timing: {interval: 0.3 s, settle: 0.5 s}\nrequire: ['structure.tower.shift.0 < 0.5 mm']\nsweep: {samples: 4}\n"
+        "search:\n  counterexample: {runs: 4}\nexpect: {p_stands: '>= 0.9'}\n"
+    )
+    assert main(["search", str(path), "-j", "1", "--out", str(tmp_path / "o")]) == 2
+    captured = capsys.readouterr()
+    assert "no counterexample" not in captured.out and f"{path}:4:11: require[0]:" in captured.err
+    assert "require: is asked of them as proposed" in captured.err and not (tmp_path / "o" / "search.json").exists()

@@ -305,8 +305,15 @@ def _counterexamples(
     seed = template.seed if args.seed is None else args.seed
     found = find_counterexamples(template, spec, not expected, evaluator, seed, _say, batch=max(1, evaluator.jobs))
     wall = time.perf_counter() - started
-    if found.bad_input and not found.results:
+    if found.bad_input and all(r.bad_input for r in found.results):  # no run to judge: bad input, never "none found"
         print(found.bad_input, file=sys.stderr)
+        if "require" in template.data:
+            print(
+                f"    (each of the search's {len(found.results)} runs was refused: it proposes the drawn fields' values "
+                "itself, and require: is asked of them as proposed, never drawn again; give the distributions ranges "
+                "that meet it)",
+                file=sys.stderr,
+            )
         return 2, None
     written = _write_runs(found.results, out)
     files = []

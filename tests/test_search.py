@@ -284,3 +284,15 @@ def test_a_counterexample_search_whose_every_run_is_refused_exits_2_not_0(tmp_pa
     captured = capsys.readouterr()
     assert "no counterexample" not in captured.out and f"{path}:4:11: require[0]:" in captured.err
     assert "require: is asked of them as proposed" in captured.err and not (tmp_path / "o" / "search.json").exists()
+
+
+def test_an_end_the_compiler_refuses_is_said_at_that_end_of_between(tmp_path, capsys):
+    # it was said at 1:1, at a sweep.grid key the file does not have, after the search had begun
+    path = tmp_path / "q.yaml"
+    path.write_text(
+        "stackdsl: 1\nstructure: {tower: {levels: 3}}\nsearch:\n"
+        "  threshold: {field: structure.tower.spacing, between: [10 mm, 96 mm]}\nexpect: {stands: true}\n"
+    )
+    assert main(["search", str(path), "-j", "1", "--out", str(tmp_path / "o")]) == 2
+    first = capsys.readouterr().err.splitlines()[0]
+    assert first.startswith(f"{path}:4:57: search.threshold.between[0]: the value '10 mm': brick L01.2"), first

@@ -10,6 +10,7 @@ import argparse
 import copy
 import dataclasses
 import json
+import re
 import sys
 import time
 from collections.abc import Callable
@@ -149,6 +150,7 @@ def _threshold_template(data: dict[str, Any], source: SourceMap, spec: Any) -> t
     sweep's grid values are, errors said at the search's field or ends), and what puts a probe's
     value in the grid (the whole list, for one number of a list)."""
     from ..batch.search import in_list
+    from ..compile.compiler import compile_scenario
     from ..lang.sampling import Template
 
     data = {k: copy.deepcopy(v) for k, v in data.items() if k not in ("sweep", "expect")}  # a run's verdict is what counts
@@ -162,7 +164,7 @@ def _threshold_template(data: dict[str, Any], source: SourceMap, spec: Any) -> t
     values, keys = dict(source.values), dict(source.keys)
     if here is not None:  # the grid's key and values are the search's field and ends: errors point there
         keys[("sweep", "grid", key)] = source.keys.get(("search", "threshold", "field"), here)
-        values[("sweep", "grid", key)] = here
+        values[("sweep",)] = values[("sweep", "grid")] = values[("sweep", "grid", key)] = here  # a path is found node by node
         for i, at in enumerate(ends):
             if at is not None:
                 values[("sweep", "grid", key, i)] = at
@@ -172,10 +174,20 @@ def _threshold_template(data: dict[str, Any], source: SourceMap, spec: Any) -> t
         assert template is not None
         template.scenario(0, 0, checked=True)
         template.scenario(1, 0)
+        for end in (0, 1):  # what the compiler refuses at an end (a spacing that overlaps the bricks): said there, first
+            try:
+                compile_scenario(template.scenario(end, 0))
+            except ScenarioError as exc:
+                if not (exc.field or "").startswith("sweep"):  # elsewhere, made so by the end: said so
+                    exc.message += f" (with the search's {('lower', 'upper')[end]} end, {spec.field} = {spec.between[end]})"
+                raise
     except ScenarioError as exc:  # the grid is the search's own: said at its field or its ends
         if not (exc.field or "").startswith("sweep"):
             raise
-        blamed = ("search", "threshold", "between" if "value" in exc.message else "field")
+        end_at = re.search(r"\[(\d)\]$", exc.field or "")
+        blamed: tuple[str | int, ...] = ("search", "threshold", "between" if "value" in exc.message else "field")
+        if end_at is not None and blamed[-1] == "between":
+            blamed += (int(end_at[1]),)
         raise source.error(blamed, exc.message.replace("the grid key", "the field").replace("grid value", "value")) from None
     return template, value_of
 

@@ -408,3 +408,29 @@ def test_a_placement_error_that_moves_a_brick_into_another_is_refused_before_any
         first = capsys.readouterr().err.splitlines()[0]
         assert first.startswith(f"{path}:9:33: sweep.grid.timing.placement_error[1]: the grid value '2 mm'"), first
         assert "placement error of up to 2.0 mm (seed " in first and not (tmp_path / "o").exists()
+
+
+JITTER_OVERLAP = """\
+stackdsl: 1
+structure: {tower: {levels: 12, bricks_per_layer: 2, spacing: 30 mm, yaw_jitter: {uniform: [-3.4, 3.4], per: brick}}}
+sweep: {samples: 150}
+expect: {p_stands: ">= 0.5"}
+"""
+"""Each sample turns each brick by its own draw: sample 7's turn two bricks of a layer into each other."""
+
+
+def test_check_stops_a_sweep_at_the_first_sample_refused_as_sweep_does(tmp_path, capsys, monkeypatch):
+    """check ran all 150 samples (15.9 s) to refuse the file at sample 7; sweep stops there."""
+    import stackdsl.batch.sweep
+    from stackdsl.cli.main import main
+
+    ran = []
+    one = stackdsl.batch.sweep._one
+    monkeypatch.setattr(stackdsl.batch.sweep, "_one", lambda *a, **k: ran.append(a[2]) or one(*a, **k))
+    path = tmp_path / "j.yaml"
+    path.write_text(JITTER_OVERLAP)
+    assert main(["check", str(path), "-j", "1", "--timeout", "60"]) == 2
+    captured = capsys.readouterr()
+    assert "bad input in a sample" in captured.out and "budget ran out" not in captured.out
+    refused = int(captured.err.split("sample ")[1].split(":")[0])
+    assert ran == list(range(refused + 1)), ran

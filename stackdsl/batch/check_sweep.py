@@ -22,7 +22,7 @@ from ..lang.sampling import Template
 from ..verdicts.expect import Verdict
 from ..verdicts.stats import summary
 from .judge import failed, internal, judge
-from .sweep import BUDGET_SPENT, Budget, SampleResult, SweepOptions, batches, run_batch
+from .sweep import BUDGET_SPENT, NOT_RUN_REFUSED, Budget, SampleResult, SweepOptions, batches, run_batch
 from .sweep_out import by_cell, failure_lines, levels_built, measured, verdicts, write_plots, write_samples
 
 
@@ -117,7 +117,7 @@ def _stopped(results: Sequence[SampleResult]) -> str:
             f"{BUDGET_SPENT} after {len(results) - unrun} of {len(results)} samples: --timeout bounds the whole sweep "
             "file; give fewer samples or a longer --timeout"
         )
-    stopped = [r for r in results if r.stopped]
+    stopped = [r for r in results if r.stopped and r.stopped != NOT_RUN_REFUSED]  # the bad input says why for those
     return f"{len(stopped)} samples stopped early: {stopped[0].stopped}" if stopped else ""
 
 

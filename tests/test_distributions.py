@@ -434,3 +434,5 @@ def test_check_stops_a_sweep_at_the_first_sample_refused_as_sweep_does(tmp_path,
     assert "bad input in a sample" in captured.out and "budget ran out" not in captured.out
     refused = int(captured.err.split("sample ")[1].split(":")[0])
     assert ran == list(range(refused + 1)), ran
+    # the turn, not the spacing (30 mm for bricks 24 mm wide), put them into each other: said at yaw_jitter
+    assert f"{path}:2:82: structure.tower.yaw_jitter: sample {refused}:" in captured.err, captured.err

@@ -186,6 +186,17 @@ def _overlap_problem(scenario: Scenario, bodies: Sequence[Body], b: int, s: int,
     if _kind(brick.path) == "tower" and s != GROUND:
         t = layout_at(scenario, brick.path)
         width = float(scenario.brick_type(t.brick).size[1])
+        turns = t.yaw_jitter if isinstance(t.yaw_jitter, list) else [t.yaw_jitter]
+        if t.spacing >= width and any(turns):  # apart enough as laid: the turns put them into each other
+            most = max(abs(float(a)) for a in turns)
+            return _Problem(
+                key,
+                order,
+                brick.path + ("yaw_jitter",),
+                f"{what}: the bricks of a layer are {_mm(t.spacing)} apart centre to centre and {_mm(width)} wide, "
+                f"and yaw_jitter turns them (up to {most:.3g} deg here): give a smaller turn or a wider spacing",
+                effect,
+            )
         return _Problem(
             key,
             order,

@@ -215,7 +215,8 @@ def status_of(argv: list[str]) -> int:
         (["run", "{tmp}/stands.yaml", "--rate", "5"], "--rate is the recording's: give --record OUT.npz too"),
         (["check", "{tmp}/stands.yaml", "--report", ""], "give the folder for the report"),
         (["check", "{tmp}/stands.yaml", "--report", "{tmp}/stands.yaml/sub"], "cannot write the report there"),
-        (["bench", "record", "{tmp}/stands.yaml", "--before", "{tmp}/no-python"], "cannot run it"),
+        (["bench", "record", "{tmp}/stands.yaml", "--before", "{tmp}/no-python"], "cannot run it: no such file or directory"),
+        (["bench", "record", "{tmp}/stands.yaml", "--before", "{tmp}/dir.png"], "cannot run it: a folder, not a program"),
         (["bench", "record", "{tmp}/stands.yaml", "--rounds", "3"], "--rounds is the comparison's"),
     ],
 )

@@ -127,3 +127,16 @@ def test_perturbed_reruns_share_what_the_timeout_leaves_after_the_run_as_written
     assert any("4 reruns: not run: --timeout 5 s" in line for line in lines)
     (ran,) = perturbed_runs([p], [replace(spent, wall_time=0.0)], 1, jobs=1, timeout=60.0)
     assert ran.runs[0].result is not None and not ran.runs[0].result.stopped  # time left: it ran
+
+
+def test_a_sweep_listed_not_perturbed_is_not_counted_robust(tmp_path, capsys):
+    # the table said NOT PERTURBED and the summary "1 scenarios perturbed: 1 robust, 0 fragile"
+    (tmp_path / "tower.yaml").write_text(TOWER)
+    (tmp_path / "sweep.yaml").write_text(
+        "stackdsl: 1\nstructure: {tower: {levels: 2, bricks_per_layer: 1, turn: 0, shift: {uniform: [0, 5 mm]}}}\n"
+        "sweep: {samples: 3}\nexpect: {p_stands: '>= 0.5'}\n"
+    )
+    assert main(["check", str(tmp_path), "--perturb", "3", "-j", "1"]) in (0, 1)  # 3 samples may not decide P(stands)
+    out = capsys.readouterr().out
+    assert any(line.startswith("NOT PERTURBED") and "sweep.yaml" in line for line in out.splitlines())
+    assert "1 scenarios perturbed: 1 robust, 0 fragile; 1 not perturbed" in out

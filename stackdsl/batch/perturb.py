@@ -298,11 +298,14 @@ def fragility_lines(fragile: Sequence[Fragility], count: int) -> list[str]:
         for why, n in unrun.items():
             label = next(p.label for p in f.runs if p.result is None and p.skipped == why)
             lines.append(f"{'':<14}{label if n == 1 else f'{n} reruns'}: not run: {why}")
-    fragile_ones = sum(f.fragile for f in fragile)
-    ties = sum(f.near_tie for f in fragile)
+    perturbed = [f for f in fragile if not f.note]  # a sweep, say, is listed NOT PERTURBED and counted apart
+    fragile_ones = sum(f.fragile for f in perturbed)
+    ties = sum(f.near_tie for f in perturbed)
+    unperturbed = len(fragile) - len(perturbed)
     lines.append(
-        f"{len(fragile)} scenarios perturbed: {len(fragile) - fragile_ones} robust, {fragile_ones} fragile"
+        f"{len(perturbed)} scenarios perturbed: {len(perturbed) - fragile_ones} robust, {fragile_ones} fragile"
         + (f", {ties} near ties" if ties else "")
+        + (f"; {unperturbed} not perturbed" if unperturbed else "")
     )
     return lines
 

@@ -118,8 +118,11 @@ def check_interpreter(python: str) -> str:
 
     try:
         done = subprocess.run([python, "-c", "import stackdsl"], capture_output=True, text=True, timeout=60)
-    except (OSError, subprocess.TimeoutExpired) as exc:
-        return f"cannot run it: {exc}"
+    except subprocess.TimeoutExpired:
+        return "cannot run it: it did not import stackdsl within 60 s"
+    except OSError as exc:  # not there, a folder, not executable: the OS's reason, not its errno
+        kind = "a folder, not a program" if Path(python).is_dir() else (exc.strerror or str(exc)).lower()
+        return f"cannot run it: {kind}"
     if done.returncode:
         last = (done.stderr.strip().splitlines() or ["(no message)"])[-1]
         return f"not a Python with stackdsl installed: {last}"

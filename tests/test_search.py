@@ -282,8 +282,14 @@ def test_a_counterexample_search_whose_every_run_is_refused_exits_2_not_0(tmp_pa
     )
     assert main(["search", str(path), "-j", "1", "--out", str(tmp_path / "o")]) == 2
     captured = capsys.readouterr()
-    assert "no counterexample" not in captured.out and f"{path}:4:11: require[0]:" in captured.err
-    assert "require: is asked of them as proposed" in captured.err and not (tmp_path / "o" / "search.json").exists()
+    assert "no counterexample" not in captured.out and f"{path}:4:10: require: none of the search's 4 proposals" in captured.err
+    assert not (tmp_path / "o" / "search.json").exists()
+    # where the condition can hold, the proposals that fail it are not run, and said so
+    path.write_text(path.read_text().replace("< 0.5 mm", "< 15 mm").replace("runs: 4", "runs: 6"))
+    assert main(["search", str(path), "-j", "1", "--out", str(tmp_path / "p")]) == 0
+    summary = json.loads((tmp_path / "p" / "search.json").read_text())
+    assert summary["search_runs"] == 6 and 0 < summary["outside_require"] < 6
+    assert "bad input" not in capsys.readouterr().err
 
 
 def test_an_end_the_compiler_refuses_is_said_at_that_end_of_between(tmp_path, capsys):

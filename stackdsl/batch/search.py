@@ -47,7 +47,7 @@ from ..lang.schema import Scenario
 from ..lang.schema_search import Counterexample, Threshold
 from ..lang.schema_sweep import grid_name
 from .pool import WorkerLost, Workers
-from .sweep import BUDGET_SPENT, SampleResult, SweepOptions, run_batch
+from .sweep import BUDGET_SPENT, SampleResult, SweepOptions, meets_require, run_batch
 
 #: The least |signed margin| a probe gives Brent's method (metres): a run on the boundary itself
 #: (margin 0) still has a side, its verdict's.
@@ -597,6 +597,19 @@ class CounterexamplesFound:
     bad_input: str = ""
     error: str = ""
     spent: bool = False
+    outside: int = 0  # proposals no draw of the others made meet the file's require: (not run)
+
+
+#: Draws of the other distributions tried before a proposal counts as outside ``require:``.
+REQUIRE_TRIES = 20
+
+
+def _meets(template: Template, values: dict[Distribution, Any], parsed: dict[tuple[str, ...], list[Any]]) -> bool:
+    """Whether ``values`` (a proposal of the searched distributions) can meet the file's
+    ``require:``: one of :data:`REQUIRE_TRIES` draws of the rest does, as a sweep's sample is
+    drawn again until it does."""
+    t = pinned(template, values)
+    return any(meets_require(t.scenario(0, 0, attempt=a), parsed) for a in range(REQUIRE_TRIES))
 
 
 def find_counterexamples(
@@ -631,12 +644,25 @@ def find_counterexamples(
     sampler = optuna.samplers.TPESampler(seed=seed, n_startup_trials=min(10, max(2, spec.runs // 10)), multivariate=True)
     study = optuna.create_study(direction="minimize", sampler=sampler)
     out = CounterexamplesFound()
+    parsed: dict[tuple[str, ...], list[Any]] = {}  # the file's require:, parsed once
     names = {d: f"{i}:{d.label}" for i, d in enumerate(ds)}
     while len(out.found) < spec.find and out.search_runs < spec.runs and not out.spent:
         if (step := secant_step(study, ds, names)) is not None:
             study.enqueue_trial(step, skip_if_exists=True)
         trials = [study.ask() for _ in range(min(batch, spec.runs - out.search_runs))]
         proposals = [{d: _suggest(t, names[d], d) for d in ds} for t in trials]
+        if "require" in template.data:  # a proposal no draw makes meet require: is not run, and counts as a run
+            kept = [_meets(template, values, parsed) for values in proposals]
+            for trial, ok in zip(trials, kept):
+                if not ok:
+                    study.tell(trial, state=optuna.trial.TrialState.FAIL)
+                    out.search_runs += 1
+                    out.outside += 1
+                    progress(f"proposal {out.search_runs}: fails require:, not run")
+            trials = [t for t, ok in zip(trials, kept) if ok]
+            proposals = [v for v, ok in zip(proposals, kept) if ok]
+            if not trials:
+                continue
         results = evaluator.run([(pinned(template, values), 0) for values in proposals])
         for trial, values, result in zip(trials, proposals, results):
             out.results.append(result)

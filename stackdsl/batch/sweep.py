@@ -292,7 +292,7 @@ def compile_bounds(
                 return
             left -= 1
             scenario = template.pinned(c, d, value)
-            if scenario.require and not _required(scenario, parsed):
+            if scenario.require and not meets_require(scenario, parsed):
                 whole = False
                 continue
             try:
@@ -345,7 +345,7 @@ def compile_placement_errors(
                 raise which_sample(exc, template, c, k) from None
 
 
-def _required(scenario: Scenario, parsed: dict[tuple[str, ...], list[Any]]) -> bool:
+def meets_require(scenario: Scenario, parsed: dict[tuple[str, ...], list[Any]]) -> bool:
     """Whether ``scenario`` meets its file's ``require:`` conditions (``parsed``: each list of
     conditions parsed once, by their texts, filled as they are met)."""
     from ..compile.require import quantities

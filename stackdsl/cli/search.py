@@ -317,15 +317,16 @@ def _counterexamples(
     seed = template.seed if args.seed is None else args.seed
     found = find_counterexamples(template, spec, not expected, evaluator, seed, _say, batch=max(1, evaluator.jobs))
     wall = time.perf_counter() - started
+    if not found.results and found.outside:  # every proposal failed require:: nothing to judge, never "none found"
+        said = template.source.error(
+            ("require",),
+            f"none of the search's {found.outside} proposals meets it, whatever the other draws: the search proposes "
+            "the drawn fields' values within their distributions' ranges; give ranges where it can hold",
+        )
+        print(said, file=sys.stderr)
+        return 2, None
     if found.bad_input and all(r.bad_input for r in found.results):  # no run to judge: bad input, never "none found"
         print(found.bad_input, file=sys.stderr)
-        if "require" in template.data:
-            print(
-                f"    (each of the search's {len(found.results)} runs was refused: it proposes the drawn fields' values "
-                "itself, and require: is asked of them as proposed, never drawn again; give the distributions ranges "
-                "that meet it)",
-                file=sys.stderr,
-            )
         return 2, None
     written = _write_runs(found.results, out)
     files = []
@@ -350,12 +351,14 @@ def _counterexamples(
         "first": found.first,
         "search_runs": found.search_runs,
         "shrink_runs": found.shrink_runs,
+        "outside_require": found.outside,
         "files": [str(p) for p in files],
         "wall_time": wall,
     }
     (out / "search.json").write_text(json.dumps(summary, indent=2) + "\n")
+    outside = f", {found.outside} of them proposals that fail require: (not run)" if found.outside else ""
     if not found.found:
-        print(f"no counterexample in {found.search_runs} runs: {sought} was never reached")
+        print(f"no counterexample in {found.search_runs} runs{outside}: {sought} was never reached")
     print(
         f"{len(found.results)} runs ({found.search_runs} searching, {found.shrink_runs} shrinking) in {wall:.1f} s; wrote {', '.join(p.name for p in written)}, search.json in {out}"
     )

@@ -302,3 +302,24 @@ def test_an_end_the_compiler_refuses_is_said_at_that_end_of_between(tmp_path, ca
     assert main(["search", str(path), "-j", "1", "--out", str(tmp_path / "o")]) == 2
     first = capsys.readouterr().err.splitlines()[0]
     assert first.startswith(f"{path}:4:57: search.threshold.between[0]: the value '10 mm': brick L01.2"), first
+
+
+@pytest.mark.parametrize(
+    "search, runs, says",
+    [
+        ("{threshold: {field: structure.tower.shift, between: [1 mm, 30 mm]}}", "1", "must be from 3 to 10000, not 1"),
+        ("{threshold: {field: structure.tower.shift, between: [1 mm, 30 mm]}}", "10001", "must be from 3 to 10000, not 10001"),
+        ("{counterexample: {runs: 5}}", "100000", "--runs of a search must be from 1 to 10000, not 100000"),
+    ],
+)
+def test_runs_on_the_command_line_has_the_files_bounds(tmp_path, capsys, search, runs, says):
+    # --runs 1 made 3 runs of a threshold search, and 100000 was taken where the file allows 10000
+    path = tmp_path / "s.yaml"
+    shift = "{uniform: [0, 30 mm]}" if "counterexample" in search else "10 mm"
+    sweep, expect = ("", "stands: true") if "threshold" in search else ("sweep: {samples: 4}\n", "p_stands: '>= 0.5'")
+    path.write_text(
+        f"stackdsl: 1\nstructure: {{tower: {{levels: 3, bricks_per_layer: 1, turn: 0, shift: {shift}}}}}\n"
+        f"{sweep}search: {search}\nexpect: {{{expect}}}\n"
+    )
+    assert main(["search", str(path), "--runs", runs, "-j", "1"]) == 2
+    assert says in capsys.readouterr().err

@@ -20,6 +20,7 @@ from typing import Any
 
 from ..engines.registry import backend, names
 from ..lang.errors import ScenarioError, SourceMap
+from ..lang.schema_search import MAX_SEARCH_RUNS
 from ..util.extras import installed, missing
 from .args import COMMANDS, add_engine_overrides, add_executor, add_seed, output_folder
 from .outputs import Input, Output, check_outputs
@@ -71,8 +72,11 @@ def _search(args: argparse.Namespace) -> int:
     search = scenario.search
     if search.counterexample is not None and not installed("search"):
         raise scenario.source.error(("search", "counterexample"), missing("search"))
-    if args.runs is not None and args.runs < 1:
-        raise ScenarioError(f"--runs must be 1 or more, not {args.runs}", file="--runs")
+    if args.runs is not None:  # the file's bounds: a threshold needs both ends and one between (max(3, 1) made 3 of 1)
+        least = 3 if search.threshold is not None else 1
+        if not least <= args.runs <= MAX_SEARCH_RUNS:
+            kind = "a threshold search (both ends and one between)" if least == 3 else "a search"
+            raise ScenarioError(f"--runs of {kind} must be from {least} to {MAX_SEARCH_RUNS}, not {args.runs}", file="--runs")
     out = None
     if args.report is not None and args.out is None:  # the row's files beside its page
         args.out = str(Path(args.report) / _safe(Path(args.file).stem))
@@ -114,7 +118,7 @@ def _search(args: argparse.Namespace) -> int:
         engine = f"{engine_name} {args.mode or scenario.engine.mode}"
         where = f"Dask {args.dask}" if args.dask else f"{jobs} process{'es' if jobs != 1 else ''}"
         if search.threshold is not None:
-            spec = search.threshold if args.runs is None else search.threshold.model_copy(update={"runs": max(3, args.runs)})
+            spec = search.threshold if args.runs is None else search.threshold.model_copy(update={"runs": args.runs})
             print(
                 f"stackdsl search: threshold of {spec.field} in [{spec.between[0]}, {spec.between[1]}], {engine}, on {where}, writing to {out}",
                 flush=True,

@@ -1225,3 +1225,13 @@ def test_a_value_of_300000_characters_is_cut_in_the_error_not_echoed():
         parse_scenario(text, "long.yaml")
     said = str(err.value)
     assert len(said) < 2000 and "(300001 characters)" in said and said.startswith("long.yaml:2:41: structure.tower.spacing:")
+
+
+def test_a_mean_beyond_a_double_says_what_was_written_not_inf():
+    text = (
+        "stackdsl: 1\nstructure: {tower: {levels: 3, bricks_per_layer: 1, turn: 0, shift: {uniform: [0, 5 mm]}}}\n"
+        "sweep: {samples: 3}\nexpect: {collapse: {mean: '" + "1" * 5000 + "'}}\n"
+    )
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(text, "m.yaml")
+    assert "(not finite)" in err.value.message and "got '1111" in err.value.message and ".inf" not in err.value.message

@@ -428,7 +428,10 @@ def _plus_minus(value: Any) -> Any:
         return {"target": value, "tolerance": 0.0}
     match = re.fullmatch(PLUS_MINUS, value) if isinstance(value, str) else None
     if match:
-        return {"target": float(match[1]), "tolerance": float(match[2] or 0)}
+        target, tolerance = float(match[1]), float(match[2] or 0)
+        if not (math.isfinite(target) and math.isfinite(tolerance)):  # '1e999', 5000 digits: beyond a double, no level
+            raise ValueError(f"expected a level such as 7 or '7 ± 0.5', got {spelled(value, 60)} (not finite)")
+        return {"target": target, "tolerance": tolerance}
     if isinstance(value, dict):
         return value
     raise ValueError(f"expected a level, alone (± 0) or with a tolerance, such as 7 or '7 ± 0.5', got {spelled(value)}")

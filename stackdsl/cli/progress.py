@@ -49,18 +49,19 @@ SHORTEST, LONGEST = 0.1, 86400.0
 
 
 def progress_seconds() -> float:
-    """:data:`EVERY`, or ``STACKDSL_PROGRESS_SECONDS`` when it is set to a number (0 or less: no
-    lines), brought within :data:`SHORTEST` and :data:`LONGEST`; not a number (nan too): :data:`EVERY`.
+    """:data:`EVERY`, or ``STACKDSL_PROGRESS_SECONDS`` when it is set (:func:`interval`)."""
+    return interval(os.environ.get("STACKDSL_PROGRESS_SECONDS", ""))
 
-    >>> import os; os.environ["STACKDSL_PROGRESS_SECONDS"] = "inf"; progress_seconds()
-    86400.0
-    >>> os.environ["STACKDSL_PROGRESS_SECONDS"] = "1e-9"; progress_seconds()
-    0.1
-    >>> os.environ["STACKDSL_PROGRESS_SECONDS"] = "0"; progress_seconds()
-    0.0
-    >>> del os.environ["STACKDSL_PROGRESS_SECONDS"]
+
+def interval(text: str) -> float:
+    """Seconds between two progress lines for ``text`` (``STACKDSL_PROGRESS_SECONDS``'s value):
+    a number brought within :data:`SHORTEST` and :data:`LONGEST`, 0 or less for no lines;
+    :data:`EVERY` when empty or not a number (nan too).
+
+    >>> interval("inf"), interval("1e-9"), interval("0"), interval("nan"), interval("")
+    (86400.0, 0.1, 0.0, 10.0, 10.0)
     """
-    text = os.environ.get("STACKDSL_PROGRESS_SECONDS", "").strip()
+    text = text.strip()
     try:
         every = float(text) if text else EVERY
     except ValueError:

@@ -267,7 +267,7 @@ class OffSupport:
             statics on the placed geometry says it falls there, whether or not the engine's
             contacts hold it (:attr:`offs`: each such part).
         caught: each part placed off its support that bricks placed on it caught in time
-            (:func:`stackdsl.runtime.catch.caught`), with the brick placed last then and when.
+            (:func:`stackdsl.runtime.catch.caught`).
     """
 
     def __init__(self) -> None:
@@ -281,7 +281,7 @@ class OffSupport:
         self.proved_out = 0.0
         self.ties: list[PlacedLoad] = []
         self.offs: list[PlacedLoad] = []  # in the order found
-        self.caught: list[tuple[PlacedLoad, str, float]] = []
+        self.caught: list[PlacedLoad] = []
         self._within: dict[str, tuple[str, ...]] = {}  # brick id -> the bottom bricks of the parts it is in, itself first
         self._loads: dict[str, tuple[int, float, np.ndarray]] = {}  # brick id -> its part's bricks, mass, mass moment
         self._pending: list[str] = []  # placed, not yet weighed
@@ -354,7 +354,7 @@ class OffSupport:
             if (
                 margin <= -EXACT_TIE
                 and all(off.brick != bottom for off in self.offs)
-                and all(c.brick != bottom for c, _, _ in self.caught)  # its load misses what caught it
+                and all(c.brick != bottom for c in self.caught)  # its load misses what caught it
                 and not self._held(loop, self._part(loop, records[bottom]))
             ):
                 self.offs.append(load)
@@ -385,7 +385,7 @@ class OffSupport:
             program, late = loop.program, loop.now - off.time
             if caught(bricks[: off.bricks], bricks, hull, height, late, program.collapse_threshold, program.engine.gravity):
                 self.offs.remove(off)
-                self.caught.append((off, on[-1].id, loop.now))
+                self.caught.append(off)
 
     def proof(self, loop: StepLoop, record: BrickRecord) -> tuple[ProofKind, str, tuple[str, ...]] | None:
         """The proof that ``record`` has collapsed because the centre of mass of what tips with

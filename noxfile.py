@@ -39,7 +39,20 @@ ROOT = Path(__file__).parent
 #: The extras whose ranges the sessions measure, beside [project.dependencies].
 EXTRAS = ("mujoco", "pytest", "parquet")
 #: What the sessions print of what they installed.
-VERSIONS = ("pybullet", "mujoco", "numpy", "scipy", "shapely", "pydantic", "PyYAML", "Pint", "matplotlib", "rich", "pyarrow")
+VERSIONS = (
+    "pybullet",
+    "mujoco",
+    "numpy",
+    "scipy",
+    "highspy",
+    "shapely",
+    "pydantic",
+    "PyYAML",
+    "Pint",
+    "matplotlib",
+    "rich",
+    "pyarrow",
+)
 
 nox.options.sessions = ["lowest", "highest"]
 nox.options.default_venv_backend = "venv"

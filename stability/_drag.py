@@ -53,7 +53,6 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 import shapely
-from scipy.optimize import linprog
 from scipy.sparse import coo_matrix
 from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
@@ -64,6 +63,7 @@ from ._geometry import ContactArea, Pose
 from ._graph import BrickState
 from ._leaning import pair_friction
 from ._load import Load, LoadNode, Splits, propagate, split_load
+from ._lp import OPTIMAL, solve
 from ._stack import Stack
 
 DRAG_SAFETY = 1.5
@@ -235,17 +235,16 @@ def held_by_program(bricks: Mapping[int, Dragged], gravity: float) -> bool:
         ),
         shape=(count, count * per),
     )
-    result = linprog(
+    result = solve(
         np.zeros(count * per),
-        A_ub=cone.tocsc(),
+        a_eq,
+        np.concatenate([rhs, np.asarray(normal).ravel()]),
+        a_ub=cone,
         b_ub=np.zeros(count),
-        A_eq=a_eq.tocsc(),
-        b_eq=np.concatenate([rhs, np.asarray(normal).ravel()]),
-        bounds=(0, None),
-        method="highs",
-        options={"maxiter": ITERATIONS, "presolve": False},
+        iteration_limit=ITERATIONS,
+        presolve=False,
     )
-    return bool(result.status == 0)
+    return result.status == OPTIMAL
 
 
 def held_in_line(bricks: Mapping[int, Dragged], gravity: float) -> bool:

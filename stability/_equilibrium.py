@@ -25,7 +25,7 @@ alone is tried first: if it balances the blocks, they stand (friction takes the 
 otherwise the full program decides. Each vertex may also carry a tension (a negative
 normal force), which the program minimises: the minimum total tension is 0 exactly when the blocks stand, and otherwise
 measures how far from standing they are (Whiting et al.'s infeasibility measure).
-Solved with scipy's HiGHS (``scipy.optimize.linprog``). Sources: Livesley, "Limit
+Solved with HiGHS (:mod:`stability._lp`). Sources: Livesley, "Limit
 analysis of structures formed from rigid blocks" (1978); Whiting, Ochsendorf, Durand,
 "Procedural modeling of structurally-sound masonry buildings" (2009).
 """
@@ -39,8 +39,9 @@ from typing import Generic, TypeVar
 
 import numpy as np
 from scipy import sparse
-from scipy.optimize import linprog
 from scipy.sparse.csgraph import connected_components
+
+from ._lp import OPTIMAL, solve
 
 GRAVITY = 9.81
 
@@ -237,14 +238,14 @@ def _solve(
             -block.mass * sideways[1] / weight,
             block.mass * gravity / weight,
         )
-    result = linprog(cost, A_eq=a_eq, b_eq=rhs, bounds=(0, None), method="highs")
-    if result.status != 0:
+    result = solve(cost, a_eq, rhs)
+    if result.status != OPTIMAL:
         return Equilibrium(False, float("inf"), (), {k: float("inf") for k in keys}, (), {k: 1.0 for k in keys})
     tension = float(result.fun) * weight
     total = sum(b.mass for b in blocks.values()) * gravity
     forces, by_body, by_contact = _forces(result.x.reshape(n, per_point) * weight, contacts, generators, owner, keys)
     stands = tension <= 1e-7 * max(total, 1e-12)
-    mechanism = {} if stands else _mechanism(result.eqlin.marginals, keys)
+    mechanism = {} if stands else _mechanism(result.eq_duals, keys)
     return Equilibrium(stands, tension, forces, by_body, by_contact, mechanism)
 
 
@@ -459,8 +460,8 @@ def _solve_vertical(
         rhs[3 * index[key]] = b.mass * gravity / weight
     a_eq = sparse.csr_matrix((_cat(vals), (_cat(rows), _cat(cols))), shape=(3 * len(keys), len(owner)))
     budget = max(1, round(VERTICAL_PIVOTS * a_eq.shape[0]))
-    result = linprog(np.zeros(len(owner)), A_eq=a_eq, b_eq=rhs, bounds=(0, None), method="highs", options={"maxiter": budget})
-    if result.status != 0:  # no balance, or none found within the budget
+    result = solve(np.zeros(len(owner)), a_eq, rhs, iteration_limit=budget)
+    if result.status != OPTIMAL:  # no balance, or none found within the budget
         return None
     vertical = np.zeros((len(owner), 3))
     vertical[:, 2] = result.x * weight

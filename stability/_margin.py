@@ -40,12 +40,11 @@ approximating convex functions", Computing 48, 1992).
 from __future__ import annotations
 
 from collections.abc import Hashable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import shapely
 from scipy import sparse
-from scipy.optimize import OptimizeResult, linprog
 from shapely.geometry import Polygon
 from shapely.geometry.polygon import orient
 
@@ -62,6 +61,7 @@ from ._equilibrium import (
     is_level,
     upward,
 )
+from ._lp import OPTIMAL, LinearProgram, Solution
 
 MARGIN_TOLERANCE = 1e-4
 """Metres: the margin is found to within this, from below (the search stops when its upper
@@ -170,6 +170,7 @@ class _ShiftProgram:
     upper: np.ndarray  # per force column: 0 for a tension (none allowed), else inf
     limit: float
     keys: tuple[Hashable, ...]  # the blocks, in the order of their rows
+    _program: list[LinearProgram] = field(default_factory=list, compare=False, repr=False)  # HiGHS's, once made
 
     @classmethod
     def of(
@@ -218,17 +219,24 @@ class _ShiftProgram:
             shift[row + torque_x + 1, 0] = load
         return cls(a, shift, rhs, upper, limit, tuple(keys))
 
-    def _reach(self, direction: np.ndarray) -> OptimizeResult | None:
+    def _reach(self, direction: np.ndarray) -> Solution | None:
         """The program that moves every centre of mass by ``t direction`` (unit, shape (2,))
         and maximises ``t``, from 0 to ``limit`` (one column more); None when it has no
-        solution (not even at 0: the blocks do not stand)."""
+        solution (not even at 0: the blocks do not stand). One HiGHS program serves every
+        direction: only the column ``t`` changes, and each solve starts from the last basis
+        (:class:`stability._lp.LinearProgram`)."""
+        column = self.shift @ np.asarray(direction, dtype=float)
         n = self.a.shape[1]
-        a = sparse.hstack([self.a, sparse.csr_matrix((self.shift @ np.asarray(direction, dtype=float))[:, None])])
-        bounds = np.vstack([np.column_stack([np.zeros(n), self.upper]), [[0.0, self.limit]]])
-        cost = np.zeros(n + 1)
-        cost[-1] = -1.0
-        result = linprog(cost, A_eq=a.tocsr(), b_eq=self.rhs, bounds=bounds, method="highs")
-        return result if result.status == 0 else None
+        if not self._program:
+            cost = np.zeros(n + 1)
+            cost[-1] = -1.0
+            a = sparse.hstack([self.a, sparse.csr_matrix(column[:, None])])
+            self._program.append(LinearProgram(cost, a, self.rhs, upper=np.append(self.upper, self.limit)))
+        else:
+            rows = np.flatnonzero(self.shift.any(axis=1))
+            self._program[0].set_column(n, rows, column[rows])
+        result = self._program[0].solve()
+        return result if result.status == OPTIMAL else None
 
     def reach(self, direction: np.ndarray) -> float | None:
         """Metres, how far every centre of mass can move together along the unit ``direction``
@@ -247,7 +255,7 @@ class _ShiftProgram:
         result = self._reach(direction)
         if result is None:
             return list(self.keys)
-        duals = np.abs(np.asarray(result.eqlin.marginals, dtype=float)).reshape(len(self.keys), -1).max(axis=1)
+        duals = np.abs(result.eq_duals).reshape(len(self.keys), -1).max(axis=1)
         top = float(duals.max(initial=0.0))
         return [k for k, y in zip(self.keys, duals.tolist(), strict=True) if not top > 0 or y > 1e-9 * top]
 

@@ -53,20 +53,20 @@ def test_brick_on_a_slope_slides_at_tan_equal_mu(angle, stands):
 def test_the_full_program_is_the_equilibrium_rows_alone_and_its_forces_stay_in_the_friction_cone(monkeypatch):
     from stability import _equilibrium
 
-    programs, solve = [], _equilibrium.linprog
+    programs, solve = [], _equilibrium.solve
 
-    def recorded(cost, **kwargs):
-        programs.append(kwargs)
-        return solve(cost, **kwargs)
+    def recorded(cost, a_eq, b_eq, **kwargs):
+        programs.append({"A_eq": a_eq, **kwargs})
+        return solve(cost, a_eq, b_eq, **kwargs)
 
-    monkeypatch.setattr(_equilibrium, "linprog", recorded)
+    monkeypatch.setattr(_equilibrium, "solve", recorded)
     a = math.radians(26.0)  # on a slope steeper than level: the full program decides at once
     normal = np.array([-math.sin(a), 0.0, math.cos(a)])
     along = np.array([math.cos(a), 0.0, math.sin(a)])
     corners = np.array([sx * 0.06 * along + [0, sy * 0.012, 0] for sx in (-1, 1) for sy in (-1, 1)])
     result = solve_equilibrium({"b": RigidBlock(M, 0.004 * normal)}, [ContactPolygon("b", "slope", corners, normal, 0.5)])
     (program,) = programs
-    assert program.get("A_ub") is None and program["A_eq"].shape == (6, 4 * 9)  # 4 vertices: a tension, 8 edges
+    assert program.get("a_ub") is None and program["A_eq"].shape == (6, 4 * 9)  # 4 vertices: a tension, 8 edges
     assert result.stands and result.forces[0].sum(axis=0) == pytest.approx([0.0, 0.0, W], abs=1e-9)
     pressing = result.forces[0] @ normal
     sliding = np.linalg.norm(result.forces[0] - np.outer(pressing, normal), axis=1)

@@ -424,6 +424,7 @@ def test_the_stability_package_knows_no_engine():
             "numpy",
             "scipy",
             "shapely",
+            "highspy",
         }, file.name
         assert "mujoco" not in file.read_text().lower(), file.name
 

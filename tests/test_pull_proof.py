@@ -492,7 +492,7 @@ def test_a_middle_pull_is_held_in_line_without_the_program_and_a_side_pull_asks_
     def no_program(*_args, **_kwargs):
         raise AssertionError("the linear program was asked")
 
-    monkeypatch.setattr("stability._drag.linprog", no_program)
+    monkeypatch.setattr("stability._drag.solve", no_program)
     assert held_in_line(dragged(11), G) and held_together(dragged(11), G)
     assert not held_in_line(dragged(12), G)
     with pytest.raises(AssertionError, match="the linear program was asked"):

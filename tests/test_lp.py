@@ -1,0 +1,74 @@
+"""The stability model's linear programs through highspy (stability/_lp.py) against scipy's linprog."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import sparse
+from scipy.optimize import linprog
+
+from stability._lp import INFEASIBLE, ITERATION_LIMIT, OPTIMAL, LinearProgram, solve
+
+
+def _random_program(seed: int, rows: int = 12, columns: int = 40) -> tuple[np.ndarray, sparse.csr_matrix, np.ndarray]:
+    """A feasible program with a unique optimum (random costs), as dense as the equilibrium's."""
+    rng = np.random.default_rng(seed)
+    a = sparse.random(rows, columns, density=0.3, random_state=rng, format="csr")
+    x = rng.uniform(0.0, 1.0, columns)
+    return rng.uniform(0.1, 1.0, columns), a, a @ x
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_a_program_has_scipys_optimum_and_duals(seed):
+    cost, a, b = _random_program(seed)
+    ours = solve(cost, a, b)
+    theirs = linprog(cost, A_eq=a, b_eq=b, bounds=(0, None), method="highs")
+    assert ours.status == OPTIMAL and theirs.status == 0
+    assert ours.fun == pytest.approx(theirs.fun, rel=1e-9, abs=1e-12)
+    assert np.allclose(ours.x, theirs.x, atol=1e-9)
+    assert np.allclose(ours.eq_duals, theirs.eqlin.marginals, atol=1e-9)
+
+
+def test_inequalities_and_upper_bounds_are_kept():
+    # max x0 + x1 with x0 + 2 x1 <= 4, x0 <= 3, x1 <= 5
+    found = solve(
+        np.array([-1.0, -1.0]),
+        np.zeros((0, 2)),
+        np.zeros(0),
+        a_ub=np.array([[1.0, 2.0]]),
+        b_ub=np.array([4.0]),
+        upper=np.array([3.0, 5.0]),
+    )
+    assert found.status == OPTIMAL
+    assert found.x.tolist() == pytest.approx([3.0, 0.5])
+
+
+def test_an_infeasible_program_says_so():
+    # x0 + x1 = -1 with both >= 0
+    assert solve(np.zeros(2), np.array([[1.0, 1.0]]), np.array([-1.0])).status == INFEASIBLE
+
+
+def test_the_iteration_limit_stops_the_solver():
+    cost, a, b = _random_program(3, rows=30, columns=120)
+    assert solve(cost, a, b, iteration_limit=1, presolve=False).status == ITERATION_LIMIT
+
+
+def test_a_changed_column_solves_as_a_new_program():
+    """The margin's search changes one column between solves: warm, the answer is a cold solve's."""
+    cost, a, b = _random_program(5)
+    rng = np.random.default_rng(9)
+    program = LinearProgram(cost, a, b)
+    program.solve()
+    for _ in range(5):
+        column = int(rng.integers(a.shape[1]))
+        values = rng.uniform(0.0, 1.0, a.shape[0])
+        program.set_column(column, np.arange(a.shape[0]), values)
+        changed = a.tolil()
+        changed[:, column] = values[:, None]
+        a = changed.tocsr()
+        assert program.solve().fun == pytest.approx(solve(cost, a, b).fun, rel=1e-9, abs=1e-12)
+
+
+def test_shapes_that_disagree_are_refused():
+    with pytest.raises(ValueError, match="cannot have a matrix"):
+        LinearProgram(np.zeros(3), np.zeros((2, 4)), np.zeros(2))

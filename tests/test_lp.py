@@ -72,3 +72,25 @@ def test_a_changed_column_solves_as_a_new_program():
 def test_shapes_that_disagree_are_refused():
     with pytest.raises(ValueError, match="cannot have a matrix"):
         LinearProgram(np.zeros(3), np.zeros((2, 4)), np.zeros(2))
+
+
+def test_the_results_script_solves_a_scenes_programs_both_ways_alike(capsys):
+    """docs/results/lp_costs.py on a leaning wall that stands: its programs and its margin's."""
+    import importlib.util
+    import sys
+    from pathlib import Path
+
+    script = Path(__file__).parent.parent / "docs" / "results" / "lp_costs.py"
+    spec = importlib.util.spec_from_file_location("lp_costs", script)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["lp_costs"] = module
+    spec.loader.exec_module(module)
+    from stability import _equilibrium
+
+    before = _equilibrium.solve
+    module.main(["scenarios/lean_wall_stands.yaml"])
+    row = capsys.readouterr().out.splitlines()[-1].split("|")
+    assert row[1].strip() == "lean_wall_stands" and int(row[2]) > 0, row
+    assert row[5].strip() == "yes" and int(row[6]) > 0, row  # both ways agree; the margin asked directions
+    assert _equilibrium.solve is before  # the recording is undone

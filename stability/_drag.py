@@ -99,6 +99,10 @@ was when proved first, that may go before the drag is proved again with the shar
 overlap left (:data:`DRAG_SAFETY` covers the shares' change within it): on that brick, and on
 every brick the pulled one rests on (its load moves among them)."""
 
+SLACK = 1e-12
+"""Square metres (1e-6 mm^2) :meth:`PullProof.unchanged` adds to an overlap's bound, so that an
+overlap found in floats on its threshold is always looked at."""
+
 LOOK = 0.0005
 """Metres the pulled brick moves between two looks at its overlaps (2% of a Jenga block's
 width: a look costs a tenth of a millisecond, a step at 40 mm/s moves 0.17 mm)."""
@@ -349,6 +353,7 @@ class PullProof:
         self.below: dict[int, ContactArea] = {}  # frozen brick it rests on -> the contact area
         self.supports: dict[int, ContactArea] = {}  # everything it rests on (the ground too)
         self._looked: np.ndarray | None = None  # where the pulled brick was when its overlaps were last looked at
+        self._seen: tuple[Pose, Polygon, dict[int, float]] | None = None  # the last overlaps found: where, its footprint, them
         self.area: dict[int, float] = {}  # carried brick or support -> m^2 of its contact when proved
         self._splits: Splits = {}  # the load splits of the last check: each check changes a few nodes
         self.why = self._start(near)
@@ -541,10 +546,40 @@ class PullProof:
         normal = np.asarray(contact.normal, dtype=float)
         return abs(float(normal[2])) < 1.0 - LEVEL_SIDE and float(normal[:2] @ self.direction) >= -ACROSS
 
-    def overlaps(self, pulled_at: BaseGeometry) -> dict[int, float]:
-        """Carried brick or support -> area (m^2) of its contact with the pulled brick at ``pulled_at``."""
+    def overlaps(self, pulled_at: Polygon, pose: Pose | None = None) -> dict[int, float]:
+        """Carried brick or support -> area (m^2) of its contact with the pulled brick at ``pulled_at``
+        (its footprint at ``pose``, which :meth:`unchanged` then bounds from, when given)."""
         both = self.carried | self.supports
-        return {a: 0.0 if (o := _overlap(area, pulled_at)) is None else o.area for a, area in both.items()}
+        found = {a: 0.0 if (o := _overlap(area, pulled_at)) is None else o.area for a, area in both.items()}
+        if pose is not None:
+            self._seen = (pose, pulled_at, found)
+        return found
+
+    def unchanged(self, areas: Mapping[int, float], pose: Pose) -> bool:
+        """Can no overlap of the pulled brick, now at ``pose``, have shrunk to ``areas`` (m^2, each
+        as last proved) less :data:`SHRINK` of its proved area, nor gone, since :meth:`overlaps`
+        last found them? Then they need not be found now. Moved by t and turned by an angle a
+        about its centre, a footprint keeps all of its overlap with an area but ``|t| w + p a r``
+        at most: ``w`` its width across t (the strip a translation leaves behind), ``p`` its
+        perimeter and ``r`` the box's half diagonal (no point of it moves more than ``a r`` in
+        the turn, and a convex footprint keeps every point deeper inside than that). A Jenga
+        block pulled along its length (25 mm wide; it turns a few microradians a look) moves
+        about 6 mm before a quarter of a square contact of 625 mm^2 may have gone: one look at
+        its overlaps where there were twelve. False when it may have lost that much.
+        Source: stackdsl's own."""
+        if self._seen is None:
+            return False
+        seen_pose, seen_at, seen = self._seen
+        q, was = np.asarray(pose.orientation, dtype=float), np.asarray(seen_pose.orientation, dtype=float)
+        chord = min(float(np.linalg.norm(q - was)), float(np.linalg.norm(q + was))) / math.sqrt(float(q @ q))
+        turn = 4.0 * math.asin(min(1.0, chord / 2.0))  # radians between the two orientations
+        tx, ty = (float(v) for v in np.asarray(pose.position, dtype=float)[:2] - seen_pose.position[:2])
+        travel = math.hypot(tx, ty)
+        lost = SLACK + turn * self.stack.bodies[self.body].box.half_diagonal * float(seen_at.length)
+        if travel > 0.0:
+            across = shapely.get_coordinates(seen_at) @ np.array([-ty / travel, tx / travel])
+            lost += travel * float(across.max() - across.min())
+        return all(seen[a] - lost > areas[a] - SHRINK * self.area[a] and (areas[a] <= 0.0 or seen[a] - lost > 0.0) for a in seen)
 
 
 def _overlap(area: ContactArea, pulled_at: BaseGeometry) -> ContactArea | None:

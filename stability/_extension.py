@@ -730,10 +730,10 @@ class StabilityExtension:
         )
         if why is None:
             pose = stack.engine.pose(body)
-            if not proof.moved(pose.position):
+            if not proof.moved(pose.position) or proof.unchanged(areas, pose):
                 return []
             at = footprint(stack.bodies[body].box.half_extents, pose)
-            now = proof.overlaps(at)
+            now = proof.overlaps(at, pose)
             changed = {a for a in now if now[a] <= areas[a] - SHRINK * proof.area[a] or (areas[a] > 0.0 and now[a] == 0.0)}
             if not changed:
                 return []

@@ -36,6 +36,7 @@ from shapely.geometry import Point
 from shapely.ops import nearest_points
 
 from ._geometry import ContactArea
+from ._lp import OPTIMAL, solve
 
 
 @dataclass(frozen=True)
@@ -305,17 +306,13 @@ def _balanced(points: list[tuple[float, float]], x: float, y: float) -> list[flo
     equal = [1.0 / n] * n
     if math.hypot(mx - x, my - y) <= 1e-9:
         return equal
-    from scipy.optimize import linprog
-
     px, py = [p[0] for p in points], [p[1] for p in points]
     # the change from equal shares as u - v (u, v >= 0): sums to 0, moves the resultant from
     # the mean of the points to (x, y), leaves no share below 0; least sum of |change|
-    a_eq = [[1.0] * n + [-1.0] * n, px + [-v for v in px], py + [-v for v in py]]
-    a_ub = [[-1.0 if j == i else 0.0 for j in range(n)] + [1.0 if j == i else 0.0 for j in range(n)] for i in range(n)]
-    result = linprog(
-        [1.0] * (2 * n), A_ub=a_ub, b_ub=equal, A_eq=a_eq, b_eq=[0.0, x - mx, y - my], bounds=(0, None), method="highs"
-    )
-    if result.status != 0:
+    a_eq = np.array([[1.0] * n + [-1.0] * n, px + [-v for v in px], py + [-v for v in py]])
+    a_ub = np.hstack([-np.eye(n), np.eye(n)])
+    result = solve(np.ones(2 * n), a_eq, np.array([0.0, x - mx, y - my]), a_ub=a_ub, b_ub=np.array(equal))
+    if result.status != OPTIMAL:
         return None
     change = result.x[:n] - result.x[n:]
     return [max(0.0, 1.0 / n + float(c)) for c in change]

@@ -73,7 +73,9 @@ class LinearProgram:
         presolve: let HiGHS simplify the program first (its default).
 
     Raises:
-        ValueError: the shapes do not agree.
+        ValueError: the shapes do not agree, or a cost, coefficient or right-hand side is not
+            finite (NaN or infinite), as scipy's ``linprog`` refuses them: HiGHS would answer
+            "optimal" with a NaN objective.
 
     Source: stackdsl's own (module docstring).
 
@@ -114,6 +116,8 @@ class LinearProgram:
                 f"a program of {n} unknowns and {equalities} equalities cannot have a matrix of shape {matrix.shape}"
             )
         matrix.sort_indices()
+        if not all(np.isfinite(v).all() for v in (cost, matrix.data, *upper_rows)):
+            raise ValueError("a linear program's costs, coefficients and right-hand sides must be finite, not NaN or infinite")
         lp = HighsLp()
         lp.num_col_, lp.num_row_ = n, matrix.shape[0]
         lp.col_cost_ = cost

@@ -94,3 +94,18 @@ def test_the_results_script_solves_a_scenes_programs_both_ways_alike(capsys):
     assert row[1].strip() == "lean_wall_stands" and int(row[2]) > 0, row
     assert row[5].strip() == "yes" and int(row[6]) > 0, row  # both ways agree; the margin asked directions
     assert _equilibrium.solve is before  # the recording is undone
+
+
+@pytest.mark.parametrize(
+    "cost, a, b",
+    [
+        ([1.0, 2.0], [[1.0, np.nan]], [3.0]),  # HiGHS alone calls this optimal, its value NaN
+        ([1.0, np.inf], [[1.0, 1.0]], [3.0]),
+        ([1.0, 1.0], [[1.0, 1.0]], [np.inf]),
+    ],
+)
+def test_a_number_that_is_not_finite_is_refused_as_scipy_refuses_it(cost, a, b):
+    with pytest.raises(ValueError, match="must be finite"):
+        solve(np.array(cost), np.array(a), np.array(b))
+    with pytest.raises(ValueError):
+        linprog(cost, A_eq=a, b_eq=b, bounds=(0, None), method="highs")

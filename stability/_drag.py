@@ -59,7 +59,7 @@ from shapely.geometry.base import BaseGeometry
 
 from ._engine import ContactPoint
 from ._equilibrium import RigidBlock, balanced_vertically, is_level, solve_equilibrium, upward
-from ._geometry import ContactArea, Pose
+from ._geometry import ContactArea, Pose, turn_between
 from ._graph import BrickState
 from ._leaning import pair_friction
 from ._load import Load, LoadNode, Splits, propagate, split_load
@@ -570,9 +570,7 @@ class PullProof:
         if self._seen is None:
             return False
         seen_pose, seen_at, seen = self._seen
-        q, was = np.asarray(pose.orientation, dtype=float), np.asarray(seen_pose.orientation, dtype=float)
-        chord = min(float(np.linalg.norm(q - was)), float(np.linalg.norm(q + was))) / math.sqrt(float(q @ q))
-        turn = 4.0 * math.asin(min(1.0, chord / 2.0))  # radians between the two orientations
+        turn = turn_between(seen_pose.orientation, pose.orientation)
         tx, ty = (float(v) for v in np.asarray(pose.position, dtype=float)[:2] - seen_pose.position[:2])
         travel = math.hypot(tx, ty)
         lost = SLACK + turn * self.stack.bodies[self.body].box.half_diagonal * float(seen_at.length)

@@ -75,6 +75,20 @@ def corners_of(half_extents: np.ndarray, positions: np.ndarray, quaternions: np.
     return corners
 
 
+def turn_between(a: npt.ArrayLike, b: npt.ArrayLike) -> float:
+    """Radians of the rotation from orientation ``a`` to ``b`` (quaternions x, y, z, w, shape (4,),
+    of any non-zero length): no point of a body turned so about its centre moves more than this
+    times its distance from the centre. Source: stackdsl's own.
+
+    >>> round(turn_between([0, 0, 0, 1], [0, 0, math.sin(0.05), math.cos(0.05)]), 6)  # 0.1 rad about z
+    0.1
+    """
+    p, q = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    p, q = p / math.sqrt(float(p @ p)), q / math.sqrt(float(q @ q))
+    chord = min(float(np.linalg.norm(p - q)), float(np.linalg.norm(p + q)))
+    return 4.0 * math.asin(min(1.0, chord / 2.0))
+
+
 @dataclass(frozen=True)
 class Pose:
     """A rigid-body pose.

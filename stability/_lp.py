@@ -4,7 +4,7 @@ The stability model's programs are small (tens to a few thousand unknowns) and m
 pull's proof asks one each time a quarter of a contact area has gone, a standing structure's
 margin one per direction searched, a fallen pile's admission one per try. For such programs
 scipy's ``linprog`` costs more around HiGHS than HiGHS itself: on the 2-level cabin that falls
-(two programs of 45 and 102 rows), 3.2 ms a call of which 0.6 ms in HiGHS. :class:`LinearProgram`
+(two programs of 6 and 18 rows), 3.2 ms a call of which 0.6 ms in HiGHS. :class:`LinearProgram`
 hands the matrix to HiGHS as it is (compressed columns), and keeps the solver: a program solved
 again with one column changed (:meth:`LinearProgram.set_column`) starts from the last basis, a
 few pivots instead of a solve from scratch, as the margin's search along one direction after

@@ -564,8 +564,9 @@ class PullProof:
         perimeter and ``r`` the box's half diagonal (no point of it moves more than ``a r`` in
         the turn, and a convex footprint keeps every point deeper inside than that). A Jenga
         block pulled along its length (25 mm wide; it turns a few microradians a look) moves
-        about 6 mm before a quarter of a square contact of 625 mm^2 may have gone: one look at
-        its overlaps where there were twelve. False when it may have lost that much.
+        about 6 mm before a quarter of a square contact of 625 mm^2 may have gone, where it was
+        looked at every :data:`LOOK`; the pulls of ``jenga_stands`` left out 165 of their 264
+        looks. False when it may have lost that much.
         Source: stackdsl's own."""
         if self._seen is None:
             return False

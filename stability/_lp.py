@@ -73,7 +73,8 @@ class LinearProgram:
         presolve: let HiGHS simplify the program first (its default).
 
     Raises:
-        ValueError: the shapes do not agree, or a cost, coefficient or right-hand side is not
+        ValueError: the shapes do not agree, ``a_ub`` comes without ``b_ub`` or the other way
+            round, or a cost, coefficient or right-hand side is not
             finite (NaN or infinite), as scipy's ``linprog`` refuses them: HiGHS would answer
             "optimal" with a NaN objective.
 
@@ -105,6 +106,8 @@ class LinearProgram:
         n, equalities = len(cost), len(b_eq)
         blocks = [sparse.csc_matrix(a_eq)]
         lower_rows, upper_rows = [b_eq], [b_eq]
+        if (a_ub is None) != (b_ub is None):
+            raise ValueError("a program's inequalities need both their matrix a_ub and their right-hand side b_ub")
         if a_ub is not None and b_ub is not None:
             blocks.append(sparse.csc_matrix(a_ub))
             b_ub = np.asarray(b_ub, dtype=float)
@@ -141,7 +144,9 @@ class LinearProgram:
 
     def set_column(self, column: int, rows: list[int] | np.ndarray, values: list[float] | np.ndarray) -> None:
         """Set the coefficients of ``column`` in ``rows`` to ``values`` (the next :meth:`solve`
-        starts from the last basis)."""
+        starts from the last basis). Raises ValueError for a value that is not finite."""
+        if not np.isfinite(np.asarray(values, dtype=float)).all():
+            raise ValueError("a linear program's coefficients must be finite, not NaN or infinite")
         for row, value in zip(rows, values, strict=True):
             self._solver.changeCoeff(int(row), int(column), float(value))
 

@@ -109,3 +109,11 @@ def test_a_number_that_is_not_finite_is_refused_as_scipy_refuses_it(cost, a, b):
         solve(np.array(cost), np.array(a), np.array(b))
     with pytest.raises(ValueError):
         linprog(cost, A_eq=a, b_eq=b, bounds=(0, None), method="highs")
+
+
+def test_an_inequality_needs_its_matrix_and_its_bound_and_a_changed_column_finite_values():
+    with pytest.raises(ValueError, match="both their matrix"):
+        LinearProgram(np.zeros(2), np.ones((1, 2)), np.ones(1), a_ub=np.ones((1, 2)))
+    program = LinearProgram(np.ones(2), np.ones((1, 2)), np.ones(1))
+    with pytest.raises(ValueError, match="must be finite"):
+        program.set_column(0, [0], [np.nan])

@@ -3,9 +3,9 @@
     python docs/results/lp_costs.py [SCENARIO ...]    # default: six shipped scenarios
 
 Runs each scenario once with the extension (the programs it solves are recorded as they are
-asked: the equilibrium program, its vertical-force test, a pull's drag program, and each
-direction of a stand's margin), then solves every recorded program ``REPEATS`` times both ways
-in this process and prints, per scenario, the programs' count and the mean wall time a program
+asked: the equilibrium program, its vertical-force test, a pull's drag program, the load split's
+least change, and each direction of a stand's margin), then solves every recorded program
+``REPEATS`` times both ways in this process and prints, per scenario, the programs' count and the mean wall time a program
 through scipy's ``linprog(method="highs")`` and through :func:`stability._lp.solve`, with
 whether the two agree (status, optimal value within 1e-9, and the equality duals within 1e-9
 where the program was solved). The margin's programs are also timed as the margin asks them: one
@@ -29,6 +29,7 @@ from scipy.optimize import linprog
 
 import stability._drag as drag_module
 import stability._equilibrium as equilibrium_module
+import stability._load as load_module
 import stability._margin as margin_module
 from stability._lp import OPTIMAL, LinearProgram, solve
 from stackdsl import compile_scenario, parse_scenario, run_program
@@ -46,7 +47,7 @@ REPEATS = 5
 
 
 PROGRAMS: list[dict[str, Any]] = []
-"""The programs the run now going asked for (cleared for each scenario)."""
+"""The programs the run going now asked for (cleared for each scenario)."""
 SHIFTS: dict[int, tuple[Any, list[np.ndarray]]] = {}
 """The margin's programs of shifts the run asked for, with the directions asked of each."""
 
@@ -55,11 +56,11 @@ def _record() -> Callable[[], None]:
     """Wrap the modules' ``solve`` to record each program in :data:`PROGRAMS`, and the margin's
     ``_reach`` to record each program of shifts and its directions in :data:`SHIFTS`; returns
     what puts the originals back."""
-    originals = (equilibrium_module.solve, drag_module.solve, margin_module._ShiftProgram._reach)
+    originals = (equilibrium_module.solve, drag_module.solve, load_module.solve, margin_module._ShiftProgram._reach)
 
     def undo() -> None:
-        equilibrium_module.solve, drag_module.solve = originals[0], originals[1]  # type: ignore[assignment]
-        margin_module._ShiftProgram._reach = originals[2]  # type: ignore[method-assign]
+        equilibrium_module.solve, drag_module.solve, load_module.solve = originals[:3]  # type: ignore[assignment]
+        margin_module._ShiftProgram._reach = originals[3]  # type: ignore[method-assign]
 
     def recording(original: Any) -> Any:
         def solve_recorded(cost: np.ndarray, a_eq: Any, b_eq: np.ndarray, **options: Any) -> Any:
@@ -70,6 +71,7 @@ def _record() -> Callable[[], None]:
 
     equilibrium_module.solve = recording(equilibrium_module.solve)  # type: ignore[assignment]
     drag_module.solve = recording(drag_module.solve)  # type: ignore[assignment]
+    load_module.solve = recording(load_module.solve)  # type: ignore[assignment]
     reach = margin_module._ShiftProgram._reach
 
     def reach_recorded(self: Any, direction: np.ndarray) -> Any:

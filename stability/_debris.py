@@ -37,7 +37,7 @@ from ._areas import ContactAreas, Contacts
 from ._equilibrium import ContactPolygon, Equilibrium, RigidBlock, solve_equilibrium
 from ._graph import BrickState
 from ._leaning import leaning_stands
-from ._load import LoadNode, propagate_fast
+from ._load import LoadNode, Loads, propagate_fast, propagate_part
 from ._stack import Record, StabilityEvent, Stack
 
 MAX_PILE = 64
@@ -131,6 +131,7 @@ class Debris:
             a.objects_above.add(b.body)
             b.objects_above.add(a.body)
             b.pile = pile
+            stack.touched(b.body)
         return events
 
     def _with_stack(
@@ -272,22 +273,51 @@ class Debris:
         stack = self.stack
         if stack.config.model != "report":
             return True
-        frozen = stack.in_order()
-        nodes = stack.nodes(frozen)
-        mains = {r.body: r.main_contact for r in frozen}
-        for m in group:
-            nodes[m.body] = LoadNode(m.box.mass, stack.engine.pose(m.body).position, plan[m.body][0])
-            mains[m.body] = plan[m.body][1]
-        try:
-            loads = propagate_fast(nodes, stack.splits)
-        except CycleError:  # the group and the stack would carry each other: not frozen so
-            return False
-        fallen = {m.body for m in group if m.clock.fallen} | {r.body for r in earlier}
+        trial = {m.body: LoadNode(m.box.mass, stack.engine.pose(m.body).position, plan[m.body][0]) for m in group}
         loaded = {s for m in group for s in plan[m.body][0]}  # they lose the exemption unless in the pile
+        loads = self._part_loads(trial, loaded)
+        if loads is not None:  # every other frozen brick carries what it did at the last stack test, and passed
+            mains = {b: stack.frozen[b].main_contact for b in loads if b not in trial}
+        else:
+            frozen = stack.in_order()
+            nodes = stack.nodes(frozen)
+            mains = {r.body: r.main_contact for r in frozen}
+            nodes.update(trial)
+            try:
+                loads = propagate_fast(nodes, stack.splits)
+            except CycleError:  # the group and the stack would carry each other: not frozen so
+                return False
+        mains.update((m.body, plan[m.body][1]) for m in group)
+        fallen = {m.body for m in group if m.clock.fallen} | {r.body for r in earlier}
         return all(
             main is not None and self.areas.holds(main, loads[b][0])
             for b, main in mains.items()
             if b not in fallen and (b in loaded or not stack.bodies[b].held_by_pile()) and not stack.bodies[b].held_as(loads[b])
+        )
+
+    def _part_loads(self, trial: dict[int, LoadNode], loaded: set[int]) -> Loads | None:
+        """The loads of the bricks of ``trial`` (body -> its node were it frozen) and of the frozen
+        bricks whose loads they, or the changes since the last stack test, reach
+        (:meth:`Stack.changed_part`), propagated alone (:func:`stability._load.propagate_part`),
+        the other frozen bricks' kept: None when no loads are kept, the part is over half the
+        stack, or it must be propagated whole (a cycle, a brick after its supports)."""
+        stack = self.stack
+        part = stack.changed_part(loaded)
+        frozen = stack.frozen
+        if part is None or 2 * (len(part) + len(trial)) > len(frozen):
+            return None
+        last = len(frozen) + stack.seq_now()  # the trial nodes come after every frozen brick, in order
+        places = {b: last + i for i, b in enumerate(trial)}
+        above = {a for b in (*part, *trial) for a in stack.bodies[b].objects_above if a in frozen}
+        nodes = stack.nodes(frozen[b] for b in part | above)
+        nodes.update(trial)
+        return propagate_part(
+            nodes,
+            part | trial.keys(),
+            stack.kept,
+            lambda b: stack.bodies[b].objects_above,
+            lambda b: places[b] if b in places else frozen[b].seq,
+            stack.splits,
         )
 
     def _pile(self, rec: Record, contacts: Contacts, time: float) -> list[Record]:

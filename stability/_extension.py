@@ -362,6 +362,7 @@ class StabilityExtension:
                 above.rests_on = {**above.rests_on, body: area}
                 below.objects_above.add(above.body)
                 above.node = LoadNode(above.box.mass, stack.pose(above).position, above.rests_on)
+                stack.touched(above.body)
                 if not any(c.other == body for c in above.contacts):
                     friction = pair_friction(above.friction, below.friction)
                     above.contacts = [*above.contacts, ContactPolygon(above.body, body, area.corners(), area.normal, friction)]

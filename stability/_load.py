@@ -27,7 +27,7 @@ shares' resultant passes through A's centre of mass above (:func:`split_load`).
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Collection, Iterable, Mapping
 from dataclasses import dataclass
 from graphlib import CycleError
 
@@ -133,27 +133,96 @@ def propagate_fast(
     carried: dict[int, list[float]] = {b: [0.0, 0.0, 0.0, 0.0] for b in nodes}
     loads = {}
     for b in _top_down(nodes):
+        load = loads[b] = _carrying(b, nodes[b], carried[b], memo)
+        _pass_down(load, carried)
+    return loads
+
+
+def _carrying(b: int, node: LoadNode, c: list[float], memo: Splits | None) -> tuple[tuple[float, float, float], float, Shares]:
+    """The load of brick ``b`` (its ``node``) with what it carries (``c``: mass, and its moments
+    about the origin, summed), and its split among its supports, from ``memo`` when the same."""
+    m0 = node.mass
+    x0, y0, z0 = node.com.tolist()
+    mass = m0 + c[0]
+    x, y, z = (m0 * x0 + c[1]) / mass, (m0 * y0 + c[2]) / mass, (m0 * z0 + c[3]) / mass  # eq. 1-2
+    kept = memo.get(b) if memo is not None else None
+    if kept is not None and kept[0] is node and kept[1] == x and kept[2] == y and kept[3] == mass:
+        shares = kept[4]
+    else:
+        shares = _split(x, y, mass, node.supports)
+        if memo is not None:
+            memo[b] = (node, x, y, mass, shares)
+    return (x, y, z), mass, shares
+
+
+def _pass_down(load: tuple[tuple[float, float, float], float, Shares], carried: dict[int, list[float]]) -> None:
+    """Add a brick's shares (its ``load``'s) to what each of its supports in ``carried`` carries."""
+    z = load[0][2]
+    for s, m, px, py in load[2]:
+        if s in carried and m:
+            t = carried[s]
+            t[0] += m
+            t[1] += m * px
+            t[2] += m * py
+            t[3] += m * z
+
+
+Loads = dict[int, tuple[tuple[float, float, float], float, Shares]]
+""":func:`propagate_fast`'s answer: body -> ((x, y, z) of the centre of mass above in m, mass
+above in kg, its shares)."""
+
+
+def propagate_part(
+    nodes: Mapping[int, LoadNode],
+    part: Collection[int],
+    kept: Mapping[int, tuple[tuple[float, float, float], float, Shares]],
+    uppers: Callable[[int], Iterable[int]],
+    position: Callable[[int], int],
+    memo: Splits | None = None,
+) -> Loads | None:
+    """:func:`propagate_fast` of the bricks of ``part`` alone, the loads of every other brick
+    being ``kept``: those of an earlier call, which nothing has changed since (no brick above
+    them, nor their own node). ``part`` must hold every node under one it holds (the bricks a
+    change can reach down the supports); the loads of the others pass into it through their
+    kept shares.
+
+    Args:
+        nodes: body -> :class:`LoadNode` of at least every brick of ``part``.
+        part: the bricks whose loads to find.
+        kept: body -> load of the bricks outside ``part`` that rest on one of it.
+        uppers: the bricks whose nodes rest on a brick of ``part`` (a superset does: the others
+            are left out), in any order.
+        position: a brick's place in the order of :func:`propagate_fast`'s ``nodes`` (a brick
+            after its supports), so that each load is summed in the order a full call sums it.
+        memo: as :func:`propagate_fast`'s.
+
+    Returns:
+        body -> load of each brick of ``part``, as :func:`propagate_fast` gives it; None when
+        a brick resting on one of ``part`` has no kept load, or when the bricks of ``part`` do
+        not come after their supports in ``position``'s order (then :func:`propagate_fast`
+        of every node is the answer).
+
+    Source: report 3.3.5-3.3.6, as :func:`propagate_fast`; propagating only what changed is
+    stackdsl's own.
+    """
+    outside: set[int] = set()
+    for s in part:
+        for a in uppers(s):
+            if a not in part and a in nodes and s in nodes[a].supports:
+                if a not in kept:
+                    return None
+                outside.add(a)
+    carried: dict[int, list[float]] = {b: [0.0, 0.0, 0.0, 0.0] for b in part}
+    loads: Loads = {}
+    for b in sorted((*part, *outside), key=position, reverse=True):  # the reverse of the nodes' order, as propagate_fast
+        if b in outside:
+            _pass_down(kept[b], carried)
+            continue
         node = nodes[b]
-        m0 = node.mass
-        x0, y0, z0 = node.com.tolist()
-        c = carried[b]
-        mass = m0 + c[0]
-        x, y, z = (m0 * x0 + c[1]) / mass, (m0 * y0 + c[2]) / mass, (m0 * z0 + c[3]) / mass  # eq. 1-2
-        kept = memo.get(b) if memo is not None else None
-        if kept is not None and kept[0] is node and kept[1] == x and kept[2] == y and kept[3] == mass:
-            shares = kept[4]
-        else:
-            shares = _split(x, y, mass, node.supports)
-            if memo is not None:
-                memo[b] = (node, x, y, mass, shares)
-        loads[b] = ((x, y, z), mass, shares)
-        for s, m, px, py in shares:
-            if s in carried and m:
-                t = carried[s]
-                t[0] += m
-                t[1] += m * px
-                t[2] += m * py
-                t[3] += m * z
+        if any(s in loads for s in node.supports):
+            return None  # a support found before it (after it in the nodes' order): propagate_fast sorts such nodes
+        load = loads[b] = _carrying(b, node, carried[b], memo)
+        _pass_down(load, carried)
     return loads
 
 

@@ -22,7 +22,7 @@ from ._engine import ContactBook, ContactPoint, Engine
 from ._equilibrium import ContactPolygon, is_level
 from ._geometry import Box, ContactArea, Plane, Pose, combined_hull
 from ._graph import BrickState
-from ._load import LoadNode, Splits
+from ._load import LoadNode, Loads, Splits
 from ._load_path import load_path, proven, share_region, support_piece
 from ._rest import RestClock
 
@@ -110,6 +110,7 @@ class Record:
     set_down: np.ndarray | None = None  # corners (8, 3), m, where a hand set it down (placed; StabilityExtension._landings)
     landing: bool = False  # placed or with a near tie, and not yet looked at landed (StabilityExtension._landings)
     landing_from: float | None = None  # s: when the extension first looked for its landing
+    seq: int = 0  # frozen: its place in the order the frozen bricks froze in (Stack.frozen's)
 
     def held_by_pile(self) -> bool:
         """Fallen, frozen again with a debris pile that rigid-block equilibrium holds, and
@@ -181,6 +182,11 @@ class Stack:
         self._watched_corners: dict[int, tuple[Pose, np.ndarray]] = {}  # body -> its watched pose, and its corners there
         self._contacts: ContactBook | None = None  # this step's, read in full before a change
         self.splits: Splits = {}  # the last split of each brick's load (propagate_fast's memo)
+        # the loads of the last stack test that every frozen brick passed, and the bricks changed
+        # since (frozen, or lost or gained a brick resting on them); None: no such loads (changed_part)
+        self.kept: Loads = {}
+        self.changed: set[int] | None = None
+        self._seq = 0
 
     def add(self, rec: Record) -> None:
         """Register ``rec``. Raises ValueError for a body registered already."""
@@ -325,6 +331,7 @@ class Stack:
         Their load paths, and those of every frozen brick above them, are found again."""
         above: set[int] = set()
         self.splits.clear()  # their nodes' supports change in place
+        self.changed = None
         for rec in records:
             del rec.rests_on[body]
             rec.contacts = [c for c in rec.contacts if c.other != body]
@@ -361,6 +368,47 @@ class Stack:
     def nodes(self, bricks: Iterable[Record]) -> dict[int, LoadNode]:
         """The load node of each brick: as frozen, or where it is on what it rests on."""
         return {r.body: r.node or LoadNode(r.box.mass, self.pose(r).position, r.rests_on) for r in bricks}
+
+    def touched(self, body: int) -> None:
+        """Note that the load of ``body``, or whether it passes the stack test under it, may have
+        changed since the loads were kept (:meth:`changed_part`): it froze, or a brick resting on it
+        froze or woke, or what it rests on or the pile it is held in changed."""
+        if self.changed is not None:
+            self.changed.add(body)
+
+    def keep(self, loads: Loads | None, part: bool = False) -> None:
+        """Keep ``loads``, the loads of every frozen brick (with ``part``, of the bricks of
+        :meth:`changed_part`, the others' kept already), each of which has just passed the stack
+        test under them (:meth:`stability._stack_test.StackTest.run`); None: forget them."""
+        if loads is None:
+            self.kept, self.changed = {}, None
+        elif part:
+            self.kept.update(loads)
+            self.changed = set()
+        else:
+            self.kept, self.changed = loads, set()
+
+    def seq_now(self) -> int:
+        """The place in the order of freezing (:attr:`Record.seq`) of the brick frozen last."""
+        return self._seq
+
+    def changed_part(self, seeds: Iterable[int] = ()) -> set[int] | None:
+        """The frozen bricks whose loads may differ from the kept ones (:meth:`keep`): the bricks
+        changed since (:meth:`touched`) and ``seeds``, with every frozen brick under them, down
+        their supports (a brick's load reaches only those). None when no loads are kept. Every
+        other frozen brick carries what it carried when the loads were kept, and passes the
+        stack test as it did then. Source: stackdsl's own."""
+        if self.changed is None:
+            return None
+        part: set[int] = set()
+        todo = [*self.changed, *seeds]
+        frozen = self.frozen
+        while todo:
+            b = todo.pop()
+            if b not in part and b in frozen:
+                part.add(b)
+                todo += frozen[b].rests_on
+        return part
 
     def in_order(self) -> list[Record]:
         """The frozen bricks, in the order they froze (each after its supports)."""
@@ -433,6 +481,9 @@ class Stack:
         self.just_frozen.add(rec.body)
         rec.node = LoadNode(rec.box.mass, rec.frozen_pose.position, supports)
         self.frozen[rec.body] = rec
+        self._seq += 1
+        rec.seq = self._seq
+        self.touched(rec.body)
         self.loads_fresh, self.version = False, self.version + 1
         for s in supports:
             self.bodies[s].objects_above.add(rec.body)
@@ -520,6 +571,7 @@ class Stack:
         self.just_frozen.discard(body)
         for s in rec.rests_on:
             self.bodies[s].objects_above.discard(body)
+            self.touched(s)
         rec.rests_on, rec.main_contact, rec.com_above, rec.mass_above = {}, None, None, 0.0
         rec.contacts, rec.pile, rec.held = [], frozenset(), None
         held = self.holding and not rec.still and (hold or body in proved)

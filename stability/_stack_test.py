@@ -23,7 +23,7 @@ from ._equilibrium import ContactPolygon, RigidBlock, connected_part, is_level, 
 from ._geometry import ContactArea, Pose, padded_hull
 from ._graph import BrickState
 from ._leaning import pair_friction
-from ._load import LoadNode, propagate_fast
+from ._load import LoadNode, propagate_fast, propagate_part
 from ._load_path import load_path, loads_balance, proven, support_piece
 from ._stack import Record, StabilityEvent, Stack
 
@@ -264,6 +264,43 @@ class StackTest:
             return False
         return loads_balance(loads, {r.body: r.support_regions for r in frozen})
 
+    def _part_passes(self) -> bool:
+        """The report's test of the part of the frozen stack changed since the last test that
+        every frozen brick passed (:meth:`stability._stack.Stack.changed_part`): its loads
+        propagated alone (:func:`stability._load.propagate_part`), every other brick's kept. True
+        when each brick of it passes (then so does the stack: every other brick carries what it
+        carried then, and passed), and its loads are kept; False when one fails, or the part is
+        over half the stack, or no loads are kept: the whole stack is then tested
+        (:meth:`_report`), as before. In a row of 120 fallen dominoes each freeze propagated the
+        loads of the whole row, where a domino's load reaches only what it leans on. Source:
+        stackdsl's own."""
+        stack = self.stack
+        part = stack.changed_part()
+        frozen = stack.frozen
+        if part is None or 2 * len(part) > len(frozen):
+            return False
+        above = {a for b in part for a in frozen[b].objects_above if a in frozen}
+        loads = propagate_part(
+            stack.nodes(frozen[b] for b in part | above),
+            part,
+            stack.kept,
+            lambda b: frozen[b].objects_above,
+            lambda b: frozen[b].seq,
+            stack.splits,
+        )
+        if loads is None:
+            return False
+        for b, load in loads.items():
+            rec = frozen[b]
+            assert rec.main_contact is not None, "a frozen brick has a main contact area"
+            if not (rec.held_by_pile() or rec.held_as(load) or self.areas.holds(rec.main_contact, load[0])):
+                return False
+        for b, load in loads.items():
+            frozen[b].com_above, frozen[b].mass_above = load[0], load[1]
+        stack.keep(loads, part=True)
+        stack.loads_fresh = True
+        return True
+
     def _undone(self, rec: Record) -> bool:
         """Is ``rec``'s freeze to be undone rather than the stack woken from it? When it was frozen
         in this very update and everything resting on it was frozen before, while it moved: the
@@ -314,6 +351,8 @@ class StackTest:
         events = self._leaning(time) if stack.leaning else []
         if stack.config.gravity > 0 and not stack.unproven:
             return events  # every brick over its load path: equilibrium stands (see above)
+        if self._part_passes():
+            return events
         gave_way: set[int] = set()
         leaning: dict[int, LoadNode] = {}
         proved: frozenset[int] | None = None
@@ -334,6 +373,7 @@ class StackTest:
                     failing.append(rec)
             if not failing:
                 stack.loads_fresh = True
+                stack.keep(None if leaning else loads)  # with woken bricks' loads in them, not the stack's
                 return events
             if proved is None:  # before any of it wakes: what statics says of the stack as it stands
                 # of the parts the failing bricks belong to: any other part is not in question,
@@ -352,6 +392,7 @@ class StackTest:
                     stack.loads_fresh = True  # a bridge or a counterweight the rule cannot see: it stands
                     for rec in failing:  # under these loads: not asked again while they stay
                         rec.held = (loads[rec.body][1], *loads[rec.body][0])
+                    stack.keep(None if leaning else loads)
                     return events
             undone = [r for r in failing if self._undone(r)]
             if undone:  # frozen this step under a pile's edge frozen on it while it moved, and statics

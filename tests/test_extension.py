@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from stability import Box, BrickState, FakeEngine, Plane, Pose, StabilityConfig, StabilityExtension
+from stability._load import propagate_fast
 
 KAPLA = Box(np.array([0.06, 0.012, 0.004]), 0.0106)
 H = 0.008
@@ -131,6 +132,35 @@ def test_stack_test_wakes_the_failing_brick_and_everything_above():
     assert s.ext.state(b1) is BrickState.FROZEN
     assert all(s.ext.state(b) is BrickState.ACTIVE for b in (b2, b3, b4))
     assert b2 not in s.engine.frozen
+
+
+def test_the_stack_test_propagates_only_the_part_a_change_reaches_and_still_finds_a_failing_brick(monkeypatch):
+    # The leaning column of the test above, and two straight ones 300 and 600 mm away. Once a
+    # stack test has passed every brick, a brick frozen on a straight column is tested with the
+    # loads of that column alone (the others' kept); the fourth brick on the leaning column is
+    # tested on its column's loads, fails b2 there, and the whole stack is tested as before:
+    # the same wakes.
+    import stability._stack_test as stack_test
+
+    s = Scene()
+    b1, _ = s.place(0.0, 1)
+    b2, _ = s.place(0.035, 2, on=(b1,))
+    b3, _ = s.place(0.07, 3, on=(b2,))
+    columns = []
+    for x, height in ((0.3, 2), (0.6, 4)):
+        columns.append([s.place(x, 1)[0]])
+        for level in range(2, height + 1):
+            columns[-1].append(s.place(x, level, on=(columns[-1][-1],))[0])
+    assert s.ext._stack.unproven and s.ext._stack.changed == set()  # b3 leans: the loads are propagated, and kept
+    whole = []
+    monkeypatch.setattr(stack_test, "propagate_fast", lambda *a: whole.append(a) or propagate_fast(*a))
+    top, events = s.place(0.3, 3, on=(columns[0][-1],))
+    assert [(e.kind, e.label) for e in events] == [("freeze", f"b{top}")] and not whole
+    assert s.ext._stack.kept[columns[0][0]][1] == pytest.approx(3 * KAPLA.mass)  # its column's load, propagated alone
+    b4, events = s.place(0.105, 4, on=(b3,))
+    woken = [("wake", f"b{b}") for b in (b2, b3, b4)]
+    assert [(e.kind, e.label) for e in events] == [("freeze", f"b{b4}"), *woken]
+    assert whole  # b2 failed in its part: the whole stack was tested
 
 
 def test_wake_clears_the_woken_brick_from_its_supports():

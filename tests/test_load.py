@@ -215,3 +215,55 @@ def test_a_memo_of_splits_gives_the_loads_without_it_and_splits_a_changed_node_a
     moved = {**nodes, 3: LoadNode(0.02, np.array([0.04, 0, 0.012]), nodes[3].supports)}
     assert propagate_fast(moved, memo) == propagate_fast(moved)  # brick 3 and the load on 1 split again
     assert propagate_fast(moved, memo)[1] != propagate_fast(nodes)[1]
+
+
+def wall(levels, heavier=0.0):
+    """A stepped wall of 120 mm bricks, each on halves of the two under it, every level after the
+    one under it (bodies 1, 2... the first level, 101, 102... the second); the first brick of the
+    second level ``heavier`` kg heavier, its centre of mass 10 mm along for each 10 g."""
+    nodes, below = {}, []
+    for level in range(levels):
+        count = levels - level
+        row = []
+        for i in range(count):
+            b = 100 * level + i + 1
+            x = 0.12 * i + 0.06 * level
+            z = 0.004 + 0.008 * level
+            if not below:
+                supports = {GROUND: area(x - 0.06, -0.012, x + 0.06, 0.012)}
+            else:
+                supports = {
+                    s: area(max(x - 0.06, sx - 0.06), -0.012, min(x + 0.06, sx + 0.06), 0.012, z - 0.004)
+                    for s, sx in below
+                    if abs(sx - x) < 0.12
+                }
+            extra = heavier if b == 101 else 0.0
+            nodes[b] = LoadNode(0.01 + 0.001 * i + extra, np.array([x + extra, 0.0, z]), supports)
+            row.append((b, x))
+        below = row
+    return nodes
+
+
+def test_a_part_propagated_alone_gives_the_whole_propagation_bit_for_bit():
+    from stability._load import propagate_fast, propagate_part
+
+    before = wall(5)
+    kept = propagate_fast(before)
+    after = wall(5, heavier=0.01)  # brick 101 changed: its load and those of the bricks under it change
+    part, todo = set(), [101]
+    while todo:
+        b = todo.pop()
+        if b in after and b not in part:
+            part.add(b)
+            todo += after[b].supports
+    order = {b: i for i, b in enumerate(after)}
+    uppers = {s: [a for a, n in after.items() if s in n.supports] for s in after}
+    whole = propagate_fast(after)
+    found = propagate_part(after, part, kept, uppers.__getitem__, order.__getitem__)
+    assert found is not None and found.keys() == part and len(part) < len(after)
+    assert all(found[b] == whole[b] for b in part)
+    assert any(found[b] != kept[b] for b in part)  # a real change, not the kept loads again
+    # a brick resting on the part with no kept load, or a part out of its supports' order: no answer
+    assert propagate_part(after, part, {}, uppers.__getitem__, order.__getitem__) is None
+    backwards = {b: -i for b, i in order.items()}
+    assert propagate_part(after, part, kept, uppers.__getitem__, backwards.__getitem__) is None

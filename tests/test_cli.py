@@ -1651,7 +1651,8 @@ def test_a_control_character_in_a_path_is_escaped_so_each_error_stays_one_line(o
     head = capsys.readouterr().err.splitlines()[0]
     assert head.startswith(f"d{escaped}ir/t.yaml:2:29: structure.tower.levels:")
     assert main(["check", f"{folder}/missing.yaml"]) == 2
-    assert capsys.readouterr().err.strip() == f"d{escaped}ir/missing.yaml: no such file or folder"
+    looked = f"looked for in {tmp_path}"  # a relative path: the folder it was looked for in
+    assert capsys.readouterr().err.strip() == f"d{escaped}ir/missing.yaml: no such file or folder ({looked})"
     assert main(["render", f"{folder}/t.yaml", "-o", f"no{odd}where/a.png"]) == 2
     assert f"no{escaped}where/a.png" in capsys.readouterr().err
 

@@ -19,7 +19,7 @@ from pathlib import Path
 import yaml
 
 from ..util.files import file_kind
-from .errors import ScenarioError
+from .errors import ScenarioError, one_line
 
 MAX_FILE_BYTES = 1 << 20  # a scenario file is at most 1 MiB
 # Line breaks as an editor counts them (and as YAML does in a file without the characters below).
@@ -68,7 +68,7 @@ def file_problem(path: Path) -> str | None:
     try:
         info = path.stat()
     except FileNotFoundError:
-        return "a broken symbolic link" if path.is_symlink() else "no such file or folder"
+        return "a broken symbolic link" if path.is_symlink() else "no such file or folder" + _relative_to(path)
     except OSError as exc:
         return f"cannot read the file: {exc.strerror or exc}"
     if not stat.S_ISREG(info.st_mode):
@@ -78,6 +78,18 @@ def file_problem(path: Path) -> str | None:
             return not_a_scenario(path)
         return f"the file is larger than {MAX_FILE_BYTES} bytes ({info.st_size} bytes)"
     return None
+
+
+def _relative_to(path: Path) -> str:
+    """For a relative ``path``, the folder it was looked for in, as a note to a message: a new
+    user who ran a command from another folder saw only the name they gave. Empty for an
+    absolute path, or when the working folder is gone."""
+    if path.is_absolute():
+        return ""
+    try:
+        return f" (looked for in {one_line(os.getcwd())})"
+    except OSError:
+        return ""
 
 
 #: The first bytes of a zip archive (a trajectory file, ``.npz``, is one).

@@ -1384,6 +1384,19 @@ def test_a_compare_cell_says_why_a_run_stopped():
     assert stopped("MuJoCo's simulation became unstable at t = 1.030 s: nothing after it is physics") == "unstable"
 
 
+def test_a_compare_cell_says_the_bricks_that_moved_as_the_file_expects():
+    """A new user's push that slid one block out of a Jenga tower read 'PASS collapse 12' in every
+    row: which brick moved was shown only in a row that failed."""
+    from stackdsl.cli.check import _cell
+    from stackdsl.verdicts.check_result import CheckResult
+    from stackdsl.verdicts.expect import Verdict
+
+    moved = Verdict(name="moved", passed=True, expected="brick L06.2 moved", measured="brick L06.2 moved")
+    stayed = Verdict(name="stays", passed=True, expected="levels 1-5 stay", measured="levels 1-5 stayed")
+    r = CheckResult("a.yaml", "a", "extension", "report", (moved, stayed), 12, 12, 8.0, 1.0)
+    assert _cell(r) == "collapse 12, brick L06.2 moved"
+
+
 def test_a_compare_cell_of_a_run_that_ended_still_moving_says_undecided_not_stands():
     """A new user's card house, shaken in tuned pybullet, lay 90 mm from its place and still moved
     at 794 mm/s when the run ended: the cell read 'INCONCLUSIVE stands'. No collapse was decided,

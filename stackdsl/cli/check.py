@@ -466,8 +466,9 @@ def _backends(given: str | None, several: bool) -> tuple[str | None, ...]:
 
 
 def _cell(r: CheckResult) -> str:
-    """What compare's table shows of a result: the collapse level and the bricks toppled when the
-    file expects a count (``stands, 0 of 5 toppled``), that a run ended still moving judged
+    """What compare's table shows of a result: the collapse level, the bricks toppled when the
+    file expects a count (``stands, 0 of 5 toppled``), the bricks it expects to move that did
+    (``collapse 12, brick L06.2 moved``), that a run ended still moving judged
     nothing (an undecided run read "INCONCLUSIVE stands" of a card house lying 90 mm from its
     place), or what went wrong."""
     if r.error:
@@ -477,6 +478,9 @@ def _cell(r: CheckResult) -> str:
     if not r.sweep and r.verdict == "INCONCLUSIVE":  # still moving when the run ended: judged neither way
         return "undecided: still moving at the end"
     toppled = [v.measured for v in r.verdicts if v.name == "toppled"]
+    # what moved, when the file names it: a push that slid one block out reads "collapse 12" alone,
+    # and which brick moved was shown only when a cell failed
+    moved = [v.measured for v in r.verdicts if v.name == "moved" and v.passed]
     # what failed besides the level: a collapse at the level expected can still fail its 'stays'
     failed = [v.measured for v in r.verdicts if not v.passed and v.name not in ("collapse", "stands", "toppled")]
-    return ", ".join([describe(r.collapse_level), *toppled, *failed])
+    return ", ".join([describe(r.collapse_level), *toppled, *moved, *failed])

@@ -37,7 +37,7 @@ from ._areas import ContactAreas, Contacts
 from ._equilibrium import ContactPolygon, Equilibrium, RigidBlock, solve_equilibrium
 from ._graph import BrickState
 from ._leaning import leaning_stands
-from ._load import LoadNode, Loads, propagate_fast, propagate_part
+from ._load import LoadNode, Loads, propagate_fast
 from ._stack import Record, StabilityEvent, Stack
 
 MAX_PILE = 64
@@ -301,24 +301,10 @@ class Debris:
         (:meth:`Stack.changed_part`), propagated alone (:func:`stability._load.propagate_part`),
         the other frozen bricks' kept: None when no loads are kept, the part is over half the
         stack, or it must be propagated whole (a cycle, a brick after its supports)."""
-        stack = self.stack
-        part = stack.changed_part(loaded)
-        frozen = stack.frozen
-        if part is None or 2 * (len(part) + len(trial)) > len(frozen):
+        part = self.stack.changed_part(loaded)
+        if part is None or 2 * (len(part) + len(trial)) > len(self.stack.frozen):
             return None
-        last = len(frozen) + stack.seq_now()  # the trial nodes come after every frozen brick, in order
-        places = {b: last + i for i, b in enumerate(trial)}
-        above = {a for b in (*part, *trial) for a in stack.bodies[b].objects_above if a in frozen}
-        nodes = stack.nodes(frozen[b] for b in part | above)
-        nodes.update(trial)
-        return propagate_part(
-            nodes,
-            part | trial.keys(),
-            stack.kept,
-            lambda b: stack.bodies[b].objects_above,
-            lambda b: places[b] if b in places else frozen[b].seq,
-            stack.splits,
-        )
+        return self.stack.part_loads(part, trial)
 
     def _pile(self, rec: Record, contacts: Contacts, time: float) -> list[Record]:
         """``rec`` and the active bricks connected to it by contacts, in registration order;

@@ -113,9 +113,12 @@ Splits = dict[int, tuple[LoadNode, float, float, float, Shares]]
 the x, y (m) and mass (kg) of its load above, the shares)."""
 
 
-def propagate_fast(
-    nodes: Mapping[int, LoadNode], memo: Splits | None = None
-) -> dict[int, tuple[tuple[float, float, float], float, Shares]]:
+Loads = dict[int, tuple[tuple[float, float, float], float, Shares]]
+""":func:`propagate_fast`'s answer: body -> ((x, y, z) of the centre of mass above in m, mass
+above in kg, its shares)."""
+
+
+def propagate_fast(nodes: Mapping[int, LoadNode], memo: Splits | None = None) -> Loads:
     """:func:`propagate` in plain floats, for the extension's stack test at every freeze.
 
     ``memo``: the splits of an earlier call, kept by the caller and updated here: a brick whose
@@ -167,15 +170,10 @@ def _pass_down(load: tuple[tuple[float, float, float], float, Shares], carried: 
             t[3] += m * z
 
 
-Loads = dict[int, tuple[tuple[float, float, float], float, Shares]]
-""":func:`propagate_fast`'s answer: body -> ((x, y, z) of the centre of mass above in m, mass
-above in kg, its shares)."""
-
-
 def propagate_part(
     nodes: Mapping[int, LoadNode],
     part: Collection[int],
-    kept: Mapping[int, tuple[tuple[float, float, float], float, Shares]],
+    kept: Loads,
     uppers: Callable[[int], Iterable[int]],
     position: Callable[[int], int],
     memo: Splits | None = None,

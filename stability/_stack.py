@@ -8,7 +8,7 @@ everything resting on it (3.3.7). Source: report 3.3.
 
 from __future__ import annotations
 
-from collections.abc import Collection, Iterable, Sequence
+from collections.abc import Collection, Iterable, Mapping, Sequence
 from collections.abc import Set as AbstractSet
 from dataclasses import dataclass, field
 from typing import Literal, NamedTuple
@@ -22,7 +22,7 @@ from ._engine import ContactBook, ContactPoint, Engine
 from ._equilibrium import ContactPolygon, is_level
 from ._geometry import Box, ContactArea, Plane, Pose, combined_hull
 from ._graph import BrickState
-from ._load import LoadNode, Loads, Splits
+from ._load import LoadNode, Loads, Splits, propagate_part
 from ._load_path import load_path, proven, share_region, support_piece
 from ._rest import RestClock
 
@@ -388,10 +388,6 @@ class Stack:
         else:
             self.kept, self.changed = loads, set()
 
-    def seq_now(self) -> int:
-        """The place in the order of freezing (:attr:`Record.seq`) of the brick frozen last."""
-        return self._seq
-
     def changed_part(self, seeds: Iterable[int] = ()) -> set[int] | None:
         """The frozen bricks whose loads may differ from the kept ones (:meth:`keep`): the bricks
         changed since (:meth:`touched`) and ``seeds``, with every frozen brick under them, down
@@ -409,6 +405,25 @@ class Stack:
                 part.add(b)
                 todo += frozen[b].rests_on
         return part
+
+    def part_loads(self, part: set[int], trial: Mapping[int, LoadNode] | None = None) -> Loads | None:
+        """The loads of the frozen bricks of ``part`` (:meth:`changed_part`) and of ``trial`` (active
+        bricks, body -> its node were it frozen, after every frozen brick), propagated alone with
+        the kept loads (:meth:`keep`) of the bricks resting on them
+        (:func:`stability._load.propagate_part`); None when it must be propagated whole."""
+        frozen, trial = self.frozen, trial or {}
+        places = {b: self._seq + 1 + i for i, b in enumerate(trial)}
+        above = {a for b in (*part, *trial) for a in self.bodies[b].objects_above if a in frozen}
+        nodes = self.nodes(frozen[b] for b in part | above)
+        nodes.update(trial)
+        return propagate_part(
+            nodes,
+            part | trial.keys(),
+            self.kept,
+            lambda b: self.bodies[b].objects_above,
+            lambda b: places[b] if b in places else frozen[b].seq,
+            self.splits,
+        )
 
     def in_order(self) -> list[Record]:
         """The frozen bricks, in the order they froze (each after its supports)."""

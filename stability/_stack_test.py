@@ -23,7 +23,7 @@ from ._equilibrium import ContactPolygon, RigidBlock, connected_part, is_level, 
 from ._geometry import ContactArea, Pose, padded_hull
 from ._graph import BrickState
 from ._leaning import pair_friction
-from ._load import LoadNode, propagate_fast, propagate_part
+from ._load import LoadNode, propagate_fast
 from ._load_path import load_path, loads_balance, proven, support_piece
 from ._stack import Record, StabilityEvent, Stack
 
@@ -279,15 +279,7 @@ class StackTest:
         frozen = stack.frozen
         if part is None or 2 * len(part) > len(frozen):
             return False
-        above = {a for b in part for a in frozen[b].objects_above if a in frozen}
-        loads = propagate_part(
-            stack.nodes(frozen[b] for b in part | above),
-            part,
-            stack.kept,
-            lambda b: frozen[b].objects_above,
-            lambda b: frozen[b].seq,
-            stack.splits,
-        )
+        loads = stack.part_loads(part)
         if loads is None:
             return False
         for b, load in loads.items():

@@ -159,9 +159,8 @@ class ContactAreas:
         if exact is not None:
             return exact
         xyz = np.array([c.position for c in points])
-        normal = np.mean([c.normal for c in points], axis=0)
         polygon = padded_hull(xyz[:, :2], self.config.contact_pad)
-        return ContactArea(polygon, float(xyz[:, 2].mean()), normal / np.linalg.norm(normal), exact=False)
+        return ContactArea(polygon, float(xyz[:, 2].mean()), mean_normal(points), exact=False)
 
     def polygons(
         self,
@@ -191,8 +190,7 @@ class ContactAreas:
             if exact is not None:
                 out.append(ContactPolygon(rec.body, other, exact.corners(), exact.normal, friction))
                 continue
-            normal = np.mean([c.normal for c in points], axis=0)
-            normal /= np.linalg.norm(normal)
+            normal = mean_normal(points)
             own = np.array([c.position for c in points])
             polygon, padded = lean_polygon_padded(own, normal, self.config.contact_pad)
             out.append(ContactPolygon(rec.body, other, polygon, normal, friction, own if padded else None))
@@ -375,6 +373,31 @@ def face_span(box: Box, pose: Pose) -> float:
     reach = (a * ha, b * hb, c * hc)  # each axis's half reach in z
     up = 0 if a >= b and a >= c else 1 if b >= c else 2  # the axis nearest vertical: the faces' normal
     return 2.0 * (reach[0] + reach[1] + reach[2] - reach[up])
+
+
+#: Length below which the mean of a contact's unit normals is taken to cancel out (:func:`mean_normal`).
+CANCELLED = 1e-6
+
+
+def mean_normal(points: Sequence[ContactPoint]) -> np.ndarray:
+    """The unit normal of a contact of one or more engine points (shape (3,)): the mean of theirs,
+    or, where they cancel out (points on opposite sides: a body a blow drove into another, which
+    the engine pushes out both ways), the deepest point's. The mean of such normals was zero, and
+    a contact polygon built on it had no points: an internal error where the run should go on
+    (a 3-level tower struck 100 times at its base). Source: stackdsl's own.
+
+    >>> from stability._engine import ContactPoint
+    >>> up, down = np.array([0.0, 0.0, 1.0]), np.array([0.0, 0.0, -1.0])
+    >>> at = np.zeros(3)
+    >>> mean_normal([ContactPoint(1, 2, at, up, distance=-0.001), ContactPoint(1, 2, at, down, distance=-0.003)]).tolist()
+    [0.0, 0.0, -1.0]
+    """
+    normal: np.ndarray = np.mean([c.normal for c in points], axis=0)
+    length = float(np.linalg.norm(normal))
+    if length > CANCELLED:
+        return normal / length
+    deepest = min(points, key=lambda c: c.distance)
+    return np.asarray(deepest.normal, dtype=float) / float(np.linalg.norm(deepest.normal))
 
 
 def main_area(areas: dict[int, ContactArea]) -> ContactArea:

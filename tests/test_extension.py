@@ -163,6 +163,24 @@ def test_the_stack_test_propagates_only_the_part_a_change_reaches_and_still_find
     assert whole  # b2 failed in its part: the whole stack was tested
 
 
+def test_a_contact_whose_points_push_both_ways_gets_the_deepest_points_normal():
+    # a 3-level tower struck 100 times at its base: a brick driven into another touched it on two
+    # sides, the engine's normals cancelled out, and its contact polygon had no points (an
+    # internal error where the run should have gone on)
+    from stability import ContactPoint
+
+    s = Scene()
+    b1, _ = s.place(0.0, 1)
+    b2 = s.brick(0.3, 2, on=())  # not lying on b1 face to face: its contact is the engine's points, padded
+    at = np.array([0.06, 0.0, H])
+    points = [
+        ContactPoint(b2, b1, at, np.array([0.0, 0.0, 1.0]), distance=-0.001),
+        ContactPoint(b2, b1, at + [0.01, 0.0, 0.0], np.array([0.0, 0.0, -1.0]), distance=-0.002),
+    ]
+    (polygon,) = s.ext._areas.polygons(s.ext._stack.bodies[b2], {b1: points})
+    assert polygon.normal.tolist() == [0.0, 0.0, -1.0] and np.isfinite(polygon.points).all() and len(polygon.points)
+
+
 def test_wake_clears_the_woken_brick_from_its_supports():
     s = Scene()
     b1, _ = s.place(0.0, 1)

@@ -44,6 +44,7 @@ from ._graph import BrickGraph, BrickState, GraphEdge, GraphNode
 from ._impact import Impacts
 from ._leaning import pair_friction
 from ._load import LoadNode, propagate
+from ._lp import within
 from ._ride import AHEAD, MOST_TILT, RIDE_DROP, RIDE_TILT, RideLimit, centre_drop, felt_gravity, holds_tilted, reach_of, tilt_of
 from ._shake import sliding_parts, withstands
 from ._stack import Record, StabilityEvent, Stack
@@ -1002,11 +1003,19 @@ class StabilityExtension:
     def admitting(self, on: bool) -> None:
         self._stack.admitting = on
 
-    def certificate(self) -> Certificate:
+    def certificate(self, deadline: float | None = None) -> Certificate:
         """Rigid-block equilibrium of every registered brick where it is now, frozen or not
         (:mod:`stability._certificate`): the proof that a structure stands, with its margin,
-        or the bricks of its collapse mechanism."""
-        return certify(self._stack, self._areas)
+        or the bricks of its collapse mechanism.
+
+        Args:
+            deadline: ``time.perf_counter()`` seconds by which its programs must be solved
+                (:func:`stability._lp.within`); None, no limit.
+
+        Raises:
+            OutOfTime: the deadline passed before the proof was found."""
+        with within(deadline):
+            return certify(self._stack, self._areas)
 
     # the brick graph ----------------------------------------------------------
     def graph(self) -> BrickGraph:

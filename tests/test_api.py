@@ -75,6 +75,7 @@ def test_stability_exports():
             "GraphNode",
             "Load",
             "LoadNode",
+            "OutOfTime",
             "Placed",
             "PlacedBox",
             "Placing",

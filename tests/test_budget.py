@@ -4,6 +4,7 @@ import math
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from stackdsl import ScenarioError, compile_scenario, evaluate, load_scenario, parse_scenario, run_program
@@ -225,6 +226,23 @@ def test_a_runs_wall_time_counts_the_brick_graph_built_after_its_last_step(monke
     took = time.perf_counter() - started
     assert outcome.wall_time >= 0.4 and took - outcome.wall_time < 0.1
     assert outcome.final_graph.nodes and outcome.stopped is None
+
+
+def test_statics_past_the_runs_deadline_stop_it_as_a_timeout_not_an_internal_error(monkeypatch):
+    # a 3-level tower struck by 100 bricks, which lay about it, took 87 s of a 100 s budget to
+    # certify, one program 15 s: the budget held for the engine's steps, not for the statics
+    from stability import _extension
+    from stability._lp import solve
+
+    def slow(stack, areas):
+        time.sleep(0.6)  # the run's 0.5 s are gone: the next program is asked past its deadline
+        solve(np.array([1.0]), np.zeros((0, 1)), np.zeros(0))
+        raise AssertionError("a program asked past the deadline was solved")
+
+    monkeypatch.setattr(_extension, "certify", slow)
+    outcome = run_program(program(TWO), timeout=0.5)
+    assert outcome.stopped == "timeout after 0.5 s proving that it stands, at t = 3.0 s simulated (of 3 s)"
+    assert outcome.certificate is None and outcome.collapse is None
 
 
 # check --timeout: one budget for a whole sweep file -------------------------------------------

@@ -412,6 +412,8 @@ def test_the_stability_package_knows_no_engine():
         assert imported <= {
             "__future__",
             "collections",
+            "contextlib",
+            "contextvars",
             "dataclasses",
             "enum",
             "graphlib",
@@ -419,6 +421,7 @@ def test_the_stability_package_knows_no_engine():
             "functools",
             "itertools",
             "math",
+            "time",
             "typing",
             "warnings",
             "numpy",

@@ -335,7 +335,7 @@ def test_a_run_whose_end_has_no_equilibrium_is_not_a_stand(monkeypatch):
     text = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nexpect: {stands: true}\n"
     program = compile_scenario(parse_scenario(text))
     broken = Certificate(False, 0.02, 0.0, ("L02.1",), 4, (), 4)
-    monkeypatch.setattr(StabilityExtension, "certificate", lambda self: broken)
+    monkeypatch.setattr(StabilityExtension, "certificate", lambda self, deadline=None: broken)
     result = run_program(program)
     assert result.collapse is not None and result.collapse.brick == "L02.1" and result.collapse.level == 2
     assert result.certificate is not None and result.certificate.kind == "no equilibrium"
@@ -354,7 +354,9 @@ def test_no_equilibrium_at_the_end_names_the_brick_of_the_mechanism_that_moved_m
     text = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nexpect: {stands: true}\n"
     program = compile_scenario(parse_scenario(text))
     mechanism = ("L02.1", "L01.1", "L01.2", "L02.2")  # the order the certificate lists them in
-    monkeypatch.setattr(StabilityExtension, "certificate", lambda self: Certificate(False, 0.02, 0.0, mechanism, 4, (), 4))
+    monkeypatch.setattr(
+        StabilityExtension, "certificate", lambda self, deadline=None: Certificate(False, 0.02, 0.0, mechanism, 4, (), 4)
+    )
     measured = Structure.displacements
 
     def displacements(self, records):  # the tipped brick 1.1 mm out, below the 4 mm threshold

@@ -50,6 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from stability import Certificate as Equilibrium
+from stability import OutOfTime
 
 from .actions import Actions
 from .bricks import BrickRecord
@@ -100,7 +101,9 @@ class CollapseMonitor(Subscriber):
         threshold: metres (the program's collapse threshold).
         settle: seconds the run goes on after the collapse is decided.
         graph: the brick graph now.
-        certify: rigid-block equilibrium of the bricks where they are now.
+        certify: rigid-block equilibrium of the bricks where they are now, its programs solved
+            by the deadline given (``time.perf_counter`` seconds, None: no limit), else
+            :class:`stability.OutOfTime`.
         proved: brick id -> the collapse mechanism statics proved it moves in (in words, and
             the bricks it moves), or None.
         rest_speed, rest_angular_speed: m/s and rad/s under which a brick is at rest.
@@ -122,7 +125,7 @@ class CollapseMonitor(Subscriber):
         threshold: float,
         settle: float,
         graph: Callable[[StepLoop], Graph],
-        certify: Callable[[], Equilibrium],
+        certify: Callable[[float | None], Equilibrium],
         proved: Callable[[str], tuple[str, tuple[str, ...]] | None],
         rest_speed: float = 0.005,
         rest_angular_speed: float = 0.05,
@@ -184,7 +187,12 @@ class CollapseMonitor(Subscriber):
             self.certificate = Certificate(verdict="undecided", kind="still moving", detail=said + ties, bricks=())
             return
         started = time.perf_counter()
-        certificate = self._certify()
+        try:
+            certificate = self._certify(loop.deadline)
+        except OutOfTime:  # the run's budget holds for statics too: stopped, as a run out of time is
+            self.certify_time = time.perf_counter() - started
+            loop.time_out("proving that it stands")
+            return
         self.certify_time = time.perf_counter() - started
         if certificate.stands:
             margin = max(0.0, float(certificate.margin) - self._settling(loop))

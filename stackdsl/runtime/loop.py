@@ -228,10 +228,15 @@ class StepLoop:
         """Past the deadline? Then record where the run stopped."""
         if self.deadline is None or _time.perf_counter() < self.deadline:
             return False
-        self.stopped = (
-            f"timeout after {float(f'{self.timeout:.3g}'):g} s at t = {self.now:.1f} s simulated (of {self.program.duration:g} s)"
-        )
+        self.time_out()
         return True
+
+    def time_out(self, doing: str = "") -> None:
+        """Record that the run stopped at its deadline, ``doing`` what (words), now: a subscriber
+        whose own work ran out of the run's time says so (the statics of a standing structure's
+        proof)."""
+        at = f"t = {self.now:.1f} s simulated (of {self.program.duration:g} s)"
+        self.stopped = f"timeout after {float(f'{self.timeout:.3g}'):g} s " + (f"{doing}, at {at}" if doing else f"at {at}")
 
     def _limit(self, target: int) -> int:
         if self.stop_step is None or not self.stop_at_collapse:

@@ -112,7 +112,8 @@ def run_program(
         program: a compiled program.
         options: how much of the scene to simulate.
         timeout: seconds of wall time after which the run stops (checked every
-            :data:`CLOCK_EVERY` steps and at every action); the outcome then covers the
+            :data:`CLOCK_EVERY` steps and at every action, and by each linear program of the
+            end's proof that a structure stands); the outcome then covers the
             simulated time so far and :attr:`Outcome.stopped` says where it stopped.
             None: no limit.
         subscribers: more subscribers for the step loop (a recorder), after the run's own.

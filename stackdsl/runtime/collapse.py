@@ -190,10 +190,10 @@ class CollapseMonitor(Subscriber):
         try:
             certificate = self._certify(loop.deadline)
         except OutOfTime:  # the run's budget holds for statics too: stopped, as a run out of time is
-            self.certify_time = time.perf_counter() - started
             loop.time_out("proving that it stands")
             return
-        self.certify_time = time.perf_counter() - started
+        finally:
+            self.certify_time = time.perf_counter() - started
         if certificate.stands:
             margin = max(0.0, float(certificate.margin) - self._settling(loop))
             self.certificate = Certificate(

@@ -31,6 +31,9 @@ HELD_SAME = 1e-9
 that load (:meth:`Record.held_as`): frozen poses do not change, so the same bricks above give
 the same numbers but for round-off."""
 
+Extent = tuple[float, float, float, float, float]
+"""A frozen brick's bounding box: top z, x min, x max, y min and y max (m)."""
+
 
 @dataclass(frozen=True)
 class StabilityEvent:
@@ -92,7 +95,7 @@ class Record:
     load_path: BaseGeometry | None = None
     support_regions: dict[int, BaseGeometry] = field(default_factory=dict)  # where it may push on each support
     failed: tuple[tuple[object, ...], float] | None = None  # its last refusal: what it depended on, when
-    extent: tuple[float, float, float, float, float] | None = None  # frozen: top z, x min, x max, y min, y max (m)
+    extent: Extent | None = None  # frozen: top z, x min, x max, y min, y max (m)
     placed_at: float | None = None  # s: when the extension's update first saw it
     was_frozen: bool = False  # frozen at least once (a woken brick is the debris rule's)
     carried: tuple[float, tuple[int, ...]] | None = None  # its last load check (carry): when (s), and on what
@@ -175,8 +178,8 @@ class Stack:
         self.hand_speed: dict[int, float] = {}  # m/s along a guided body's path, as the hand gave it
         self.hand_velocity: dict[int, np.ndarray] = {}  # m/s, shape (3,): a guided body's, as the hand gave it
         self.admitting = True  # False while the ground moves: nothing is frozen in the world's frame
-        # the frozen bricks' boxes, of a stack version and its rides (frozen_within)
-        self._boxes: tuple[tuple[int, tuple[int, ...]], np.ndarray] | None = None
+        # the frozen bricks' boxes, of a stack version and its rides (frozen_boxes): a table, by body, their generation
+        self._boxes: tuple[tuple[int, tuple[int, ...]], np.ndarray, dict[int, Extent], int] | None = None
         # active bricks that frozen bricks lean on: body -> (its pose then, the frozen bricks on it)
         self.watched: dict[int, tuple[Pose, set[int]]] = {}
         self._watched_corners: dict[int, tuple[Pose, np.ndarray]] = {}  # body -> its watched pose, and its corners there
@@ -197,36 +200,52 @@ class Stack:
         if rec.state is BrickState.ACTIVE:
             self.active[rec.body] = rec
 
-    def frozen_within(self, lows: np.ndarray, highs: np.ndarray, reach: np.ndarray) -> np.ndarray:
-        """For each box (its lowest and highest corners, shapes (n, 3), m) and distance (shape
-        (n,), m): does the bounding box of some frozen brick come within that distance of it?
-        Shape (n,), bool. A bound, from the boxes found when they froze (their tops and
+    def frozen_boxes(self) -> tuple[np.ndarray, int]:
+        """The frozen bricks' bounding boxes :meth:`frozen_gaps` measures against, as a table,
+        shape (n, 5) (top z, x min, x max, y min, y max, m), found anew when the stack changes or
+        a ride starts or ends; and their generation, which counts the times a box joined them
+        (a brick frozen, a ride ended): while it stays the same, the boxes are some of those of
+        any earlier moment of the same generation, never one more."""
+        key = (self.version, tuple(self.rides))
+        if self._boxes is None or self._boxes[0] != key:
+            rows = {r.body: r.extent for r in self.frozen.values() if r.extent is not None and r.body not in self.riding}
+            table = np.array(list(rows.values()), dtype=float).reshape(-1, 5)
+            before, generation = (self._boxes[2], self._boxes[3]) if self._boxes is not None else ({}, -1)
+            if any(before.get(b) is not e for b, e in rows.items()):  # the same extent is the same object while frozen
+                generation += 1
+            self._boxes = (key, table, rows, generation)
+        return self._boxes[1], self._boxes[3]
+
+    def frozen_gaps(self, lows: np.ndarray, highs: np.ndarray) -> tuple[np.ndarray, int]:
+        """For each box (its lowest and highest corners, shapes (n, 3), m): how near the
+        bounding box of the nearest frozen brick comes to it, shape (n,), m (inf when none is
+        frozen), and the generation of the boxes it was measured against (:meth:`frozen_boxes`). A box is ``reach`` m from a
+        frozen brick's box when, in each of x and y, their spans come within ``reach`` of each
+        other, and that brick's top within ``reach`` of its bottom: the gap is the largest of
+        those separations, and the box is within ``reach`` of some frozen brick when its gap
+        is at most ``reach``. A bound, from the boxes found when they froze (their tops and
         horizontal extents; kept until the stack changes, or a ride starts or ends: a riding
         brick is where the engine carried it, and is left out), so that the impact rule asks
         the engine for closest points only near frozen bricks: in a domino row the fallen
         dominoes behind the chain's front are near none, and in a Jenga tower a moving block two
         levels over a frozen one is not near it (its box is 15 mm thick; a sphere of its half
-        diagonal would reach 40 mm down). Every moving brick of a step is tested at once.
+        diagonal would reach 40 mm down). Every box of a step is measured at once.
         Source: stackdsl's own."""
-        if self._boxes is None or self._boxes[0] != (self.version, tuple(self.rides)):
-            extents = [r.extent for r in self.frozen.values() if r.extent is not None and r.body not in self.riding]
-            self._boxes = ((self.version, tuple(self.rides)), np.array(extents, dtype=float).reshape(-1, 5))
-        boxes = self._boxes[1]
+        boxes, generation = self.frozen_boxes()
         lows, highs = np.asarray(lows, dtype=float).reshape(-1, 3), np.asarray(highs, dtype=float).reshape(-1, 3)
         if len(boxes) == 0:
-            return np.zeros(len(lows), dtype=bool)
-        r = np.asarray(reach, dtype=float).reshape(-1, 1)
-        low = [lows[:, i : i + 1] - r for i in range(3)]  # (n, 1) against the boxes' (m,)
-        high = [highs[:, i : i + 1] + r for i in range(2)]
-        near = (
-            (boxes[:, 0] >= low[2])
-            & (boxes[:, 1] <= high[0])
-            & (boxes[:, 2] >= low[0])
-            & (boxes[:, 3] <= high[1])
-            & (boxes[:, 4] >= low[1])
+            return np.full(len(lows), np.inf), generation
+        gaps = np.maximum.reduce(
+            [
+                lows[:, 2:3] - boxes[:, 0],  # down from its bottom to the frozen top
+                boxes[:, 1] - highs[:, 0:1],
+                lows[:, 0:1] - boxes[:, 2],
+                boxes[:, 3] - highs[:, 1:2],
+                lows[:, 1:2] - boxes[:, 4],
+            ]
         )
-        found: np.ndarray = near.any(axis=1)
-        return found
+        nearest: np.ndarray = gaps.min(axis=1)
+        return nearest, generation
 
     def frozen_contacts(self, blocks: Collection[int]) -> list[ContactPolygon[int]]:
         """The contact polygons remembered from the freezes of the frozen bricks, those with

@@ -678,3 +678,47 @@ def test_a_near_tie_is_frozen_by_statics_as_it_lands(x, decided):
         assert f"{(0.06 - x) * 1000:.2f} mm inside its support's edge" in freeze.reason
     else:
         assert events == [] and s.ext.state(top) is BrickState.ACTIVE
+
+
+def _clearance_scene():
+    """A brick frozen at the origin and a moving one 0.3 m along x; the impact rule's bound."""
+    from stability._impact import _Clearances
+
+    s = Scene()
+    frozen = s.brick(0.0, 1)
+    s.ext.update(0.0)
+    assert s.ext.state(frozen) is BrickState.FROZEN
+    moving = s.brick(0.3, 1, on=())
+    stack = s.ext._stack
+    return s, stack, _Clearances(stack), stack.bodies[moving]
+
+
+def test_a_body_far_from_every_frozen_box_is_measured_once_until_it_moves_near(monkeypatch):
+    s, stack, clearances, rec = _clearance_scene()
+    assert clearances.near([rec], [0.01]) == [False]
+    measured = []
+    gaps = type(stack).frozen_gaps
+    monkeypatch.setattr(type(stack), "frozen_gaps", lambda self, *a: measured.append(1) or gaps(self, *a))
+    s.engine.poses[rec.body] = Pose.from_euler([0.29, 0.0, H / 2])  # 10 mm nearer: far still
+    assert clearances.near([rec], [0.01]) == [False] and measured == []  # the kept gap answers
+    s.engine.poses[rec.body] = Pose.from_euler([0.125, 0.0, H / 2])  # 5 mm from the frozen brick's end
+    assert clearances.near([rec], [0.01]) == [True] and measured == [1]
+
+
+def test_a_body_turning_near_a_frozen_box_is_measured_again():
+    s, _, clearances, rec = _clearance_scene()
+    s.engine.poses[rec.body] = Pose.from_euler([0.0, 0.08, H / 2])  # beside it, 56 mm off in y
+    assert clearances.near([rec], [0.01]) == [False]
+    s.engine.poses[rec.body] = Pose.from_euler([0.0, 0.08, H / 2], yaw=90)  # its end turned to 8 mm off
+    assert clearances.near([rec], [0.01]) == [True]
+
+
+def test_a_box_joining_the_frozen_ones_voids_every_kept_gap():
+    s, stack, clearances, rec = _clearance_scene()
+    assert clearances.near([rec], [0.01]) == [False]
+    beside = s.brick(0.425, 1)  # 5 mm past the moving brick's end, on the ground
+    s.ext.update(0.1)
+    assert s.ext.state(beside) is BrickState.FROZEN
+    assert clearances.near([rec], [0.01]) == [True]
+    stack.wake(beside, 0.2, "a test")
+    assert clearances.near([rec], [0.01]) == [False]  # its box left: the gap is the first one's again

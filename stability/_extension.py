@@ -961,9 +961,19 @@ class StabilityExtension:
         Source: stackdsl's own (module :mod:`stability._shake`)."""
         stack = self._stack
         events: list[StabilityEvent] = []
-        for part, why in sliding_parts(stack, self._areas, acceleration, ground):
+        peak = math.hypot(*acceleration)
+        for part, why, carried in sliding_parts(stack, self._areas, acceleration, ground):
             if why is None and stack.ride(part[0], part, ground):
-                words = f"{reason}; moves as one rigid body of {len(part)} bricks on {stack.bodies[ground].label}"
+                floor = stack.bodies[ground].label
+                how = (
+                    f"sliding on {floor}, whose friction accelerates it by at most {carried:.3g} m/s^2"
+                    if carried < peak
+                    else f"carried by {floor} at {carried:.3g} m/s^2"
+                )
+                words = (
+                    f"{reason}; moves as one rigid body of {len(part)} bricks, {how}: at that no contact above"
+                    f" {floor} slips, opens or tips"
+                )
                 events += [StabilityEvent(time, "ride", stack.bodies[b].label, words) for b in part]
                 continue
             said = reason  # a brick alone is simulated alone

@@ -153,10 +153,11 @@ def _leaning(stack: Stack, frozen: list[Record], sideways: tuple[float, float], 
 
 def sliding_parts(
     stack: Stack, areas: ContactAreas, acceleration: Sequence[float], ground: int
-) -> list[tuple[list[int], str | None]]:
+) -> list[tuple[list[int], str | None, float]]:
     """The frozen stack's parts on a shaking ``ground``, each with why it may not move as one
     rigid body (None when it may), for a shake of peak horizontal ``acceleration`` (m/s^2, shape
-    (2,)), either way.
+    (2,)), either way, and the most the ground accelerates it by (m/s^2, ``a_s`` below; 0 for a
+    part that does not rest on the ground).
 
     A part is a set of frozen bricks connected by their contacts. The ground moves it by
     friction alone, so it accelerates by at most ``a_s = min(|a|, mu_0 g)``, ``mu_0`` the
@@ -187,7 +188,7 @@ def sliding_parts(
             if other in linked and other != rec.body:
                 linked[rec.body].add(other)
                 linked[other].add(rec.body)
-    parts: list[tuple[list[int], str | None]] = []
+    parts: list[tuple[list[int], str | None, float]] = []
     seen: set[int] = set()
     for rec in frozen:
         if rec.body in seen:
@@ -199,28 +200,28 @@ def sliding_parts(
                 todo.append(other)
         seen |= part
         bricks = [r for r in frozen if r.body in part]
-        parts.append(([r.body for r in bricks], _why_not(stack, areas, bricks, stack.bodies[ground], (ax, ay))))
+        parts.append(([r.body for r in bricks], *_why_not(stack, areas, bricks, stack.bodies[ground], (ax, ay))))
     return parts
 
 
 def _why_not(
     stack: Stack, areas: ContactAreas, bricks: list[Record], floor: Record, acceleration: tuple[float, float]
-) -> str | None:
+) -> tuple[str | None, float]:
     """Why the part of ``bricks`` may not move as one rigid body on ``floor`` (see
-    :func:`sliding_parts`), or None."""
+    :func:`sliding_parts`), or None; and the most the floor accelerates it by (m/s^2)."""
+    gravity = stack.config.gravity
+    peak = math.hypot(*acceleration)
+    on_floor = [pair_friction(r.friction, floor.friction) for r in bricks if floor.body in r.rests_on]
+    carried = min(peak, max(on_floor) * gravity) if on_floor else 0.0  # the most the ground's friction accelerates it by
     if len(bricks) < 2:
-        return f"{bricks[0].label} is a part of one brick"
+        return f"{bricks[0].label} is a part of one brick", carried
     part = {r.body for r in bricks}
     touched = [(r, o) for r in bricks for o in [*r.rests_on, *(c.other for c in r.contacts)] if o not in part]
     fixture = next(((r, o) for r, o in touched if o != floor.body and stack.bodies[o].state is BrickState.GROUND), None)
     if fixture is not None:
-        return f"{fixture[0].label} touches {stack.bodies[fixture[1]].label}, which the ground carries"
-    on_floor = [pair_friction(r.friction, floor.friction) for r in bricks if floor.body in r.rests_on]
+        return f"{fixture[0].label} touches {stack.bodies[fixture[1]].label}, which the ground carries", carried
     if not on_floor:
-        return f"{bricks[0].label}'s part does not rest on {floor.label}"
-    gravity = stack.config.gravity
-    peak = math.hypot(*acceleration)
-    carried = min(peak, max(on_floor) * gravity)  # the most the ground's friction accelerates it by
+        return f"{bricks[0].label}'s part does not rest on {floor.label}", carried
     ax, ay = (a * carried / peak for a in acceleration) if peak > 0.0 else (0.0, 0.0)
     polygons: list[ContactPolygon[int]] = [
         replace(c, friction=c.friction * ROOM)
@@ -229,7 +230,7 @@ def _why_not(
     blocks = {r.body: RigidBlock(r.box.mass, stack.pose(r).position) for r in bricks}
     tips = _tips_whole(blocks, [c for c in polygons if c.other == floor.body], (ax, ay), gravity)
     if tips is not None:  # a necessary condition, without the program: the part as one block
-        return f"at {carried:.3g} m/s^2 {tips}"
+        return f"at {carried:.3g} m/s^2 {tips}", carried
     for sign in (1.0, -1.0):
         found = solve_equilibrium(blocks, polygons, gravity=gravity, quick=False, sideways=(-sign * ax, -sign * ay))
         if not found.stands:
@@ -237,8 +238,8 @@ def _why_not(
             return (
                 f"at {carried:.3g} m/s^2 rigid-block equilibrium fails by {found.tension:.3g} N "
                 f"({', '.join(moved[:4])}{', ...' if len(moved) > 4 else ''} would move)"
-            )
-    return None
+            ), carried
+    return None, carried
 
 
 def _tips_whole(

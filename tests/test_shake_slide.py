@@ -65,6 +65,8 @@ def test_a_block_on_a_sliding_base_tips_only_below_the_ground_friction(ratio, ri
     if rides:
         assert kinds == {"base": "ride", "top": "ride"}
         assert eng.merged == [(1, 2)] and not ext.quiet  # a ride under way moves them
+        # the words say that it slides, and at what the ground's friction accelerates what it carries
+        assert f"sliding on ground, whose friction accelerates it by at most {MU * G:.3g} m/s^2" in events[0].reason
     else:
         assert kinds == {"base": "wake", "top": "wake"}, events
         assert "rigid-block equilibrium fails" in events[0].reason and not eng.merged

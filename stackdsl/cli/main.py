@@ -516,7 +516,8 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
     guarded = _guarded(TIMEOUT)
     files = _guarded(
         TIMEOUT,
-        "a scenario file may run, a sweep file's runs all together, and with check's --perturb a scenario's run and its "
+        "a scenario file may run (with compare, each of its runs: one mode on one engine), a sweep file's runs all "
+        "together, and with check's --perturb a scenario's run and its "
         "reruns together (runs the compiler estimates to take longer are refused before anything runs, and runs that take "
         "longer stop where the budget ran out),",
     )

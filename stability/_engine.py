@@ -65,6 +65,10 @@ class Engine(Protocol):
         """Positions (n, 3) in m and unit quaternions (x, y, z, w), (n, 4), of ``bodies``: the
         poses of several bodies in one call (the held bricks of a collapse mechanism, every step)."""
 
+    def pose_floats(self, body: int) -> tuple[tuple[float, float, float], tuple[float, float, float, float]]:
+        """:meth:`pose` of ``body`` in floats: its position (m) and unit quaternion (x, y, z, w), with
+        no array made (the impact rule reads the few fast bodies of a step so)."""
+
     def velocity(self, body: int) -> tuple[np.ndarray, np.ndarray]:
         """Linear (m/s) and angular (rad/s) velocity of ``body``, shape (3,) each."""
 
@@ -179,6 +183,10 @@ class FakeEngine:
 
     def pose(self, body: int) -> Pose:
         return self.poses[body]
+
+    def pose_floats(self, body: int) -> tuple[tuple[float, float, float], tuple[float, float, float, float]]:
+        (x, y, z), (a, b, c, d) = self.poses[body].position.tolist(), self.poses[body].orientation.tolist()
+        return (x, y, z), (a, b, c, d)
 
     def poses_of(self, bodies: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
         poses = [self.poses[b] for b in bodies]

@@ -75,6 +75,33 @@ def corners_of(half_extents: np.ndarray, positions: np.ndarray, quaternions: np.
     return corners
 
 
+def box_bounds(
+    half_extents: np.ndarray | Sequence[float], position: Sequence[float], quaternion: Sequence[float]
+) -> tuple[list[float], list[float]]:
+    """The lowest and highest corners (x, y, z, m) of the axis-aligned bounding box of a box of
+    ``half_extents`` (m) at ``position`` (m) turned by the unit quaternion ``quaternion`` (x, y, z,
+    w), in floats: its half width along each world axis is ``|R| h``, ``R`` the rotation matrix by
+    the formula :attr:`Pose.rotation` writes out. The impact rule bounds a few bodies a step with
+    it, where scipy's ``Rotation`` for the corners (:func:`corners_of`) costs about a tenth of a
+    millisecond a call, most of it fixed. The least and greatest of :func:`corners_of` but for
+    round-off. Source: stackdsl's own.
+
+    >>> low, high = box_bounds([0.06, 0.012, 0.004], [0.0, 0.0, 0.0], [0.0, 0.0, 0.7071068, 0.7071068])
+    >>> [round(v, 4) for v in high]  # a brick turned 90 degrees about z: 12 mm along x, 60 mm along y
+    [0.012, 0.06, 0.004]
+    """
+    a, b, c = half_extents.tolist() if isinstance(half_extents, np.ndarray) else (float(v) for v in half_extents)
+    x, y, z, w = (float(v) for v in quaternion)
+    n = 2.0 / (x * x + y * y + z * z + w * w)
+    half = (
+        abs(1 - n * (y * y + z * z)) * a + abs(n * (x * y - z * w)) * b + abs(n * (x * z + y * w)) * c,
+        abs(n * (x * y + z * w)) * a + abs(1 - n * (x * x + z * z)) * b + abs(n * (y * z - x * w)) * c,
+        abs(n * (x * z - y * w)) * a + abs(n * (y * z + x * w)) * b + abs(1 - n * (x * x + y * y)) * c,
+    )
+    centre = [float(v) for v in position]
+    return [p - h for p, h in zip(centre, half, strict=True)], [p + h for p, h in zip(centre, half, strict=True)]
+
+
 def turn_between(a: npt.ArrayLike, b: npt.ArrayLike) -> float:
     """Radians of the rotation from orientation ``a`` to ``b`` (quaternions x, y, z, w, shape (4,),
     of any non-zero length): no point of a body turned so about its centre moves more than this

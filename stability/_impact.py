@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -37,7 +37,7 @@ from shapely.ops import unary_union
 
 from ._engine import ContactPoint
 from ._equilibrium import GRAVITY
-from ._geometry import Box, Pose, corners_of
+from ._geometry import Box, Pose, box_bounds
 from ._graph import BrickState
 from ._stack import Record, StabilityEvent, Stack
 from ._stack_test import StackTest
@@ -207,14 +207,14 @@ class _Clearances:
         self.stack = stack
         # body -> its position (3) and quaternion (4) when measured, its gap (m), the boxes' generation
         # then, its half diagonal (m)
-        self._kept: dict[int, tuple[list[float], list[float], float, int, float]] = {}
+        self._kept: dict[int, tuple[Sequence[float], Sequence[float], float, int, float]] = {}
 
     def near(self, bodies: list[Record], reaches: list[float]) -> list[bool]:
         """For each of ``bodies`` (active), whether some frozen brick's box may lie within its
         reach (m, one each) of the body's box."""
         stack = self.stack
-        positions, quaternions = stack.engine.poses_of([rec.body for rec in bodies])  # one call, no Pose each
-        places, turns = positions.tolist(), quaternions.tolist()
+        read = stack.engine.pose_floats
+        places, turns = zip(*(read(rec.body) for rec in bodies), strict=True)
         _, generation = stack.frozen_boxes()
         kept, out, todo = self._kept, [True] * len(bodies), []
         for i, rec in enumerate(bodies):
@@ -229,9 +229,8 @@ class _Clearances:
                     continue
             todo.append(i)
         if todo:
-            halves = np.array([bodies[i].box.half_extents for i in todo], dtype=float)
-            corners = corners_of(halves, positions[todo], quaternions[todo])
-            gaps, generation = stack.frozen_gaps(corners.min(axis=1), corners.max(axis=1))
+            bounds = [box_bounds(bodies[i].box.half_extents, places[i], turns[i]) for i in todo]
+            gaps, generation = stack.frozen_gaps(np.array([lo for lo, _ in bounds]), np.array([hi for _, hi in bounds]))
             for i, gap in zip(todo, gaps.tolist(), strict=True):
                 kept[bodies[i].body] = (places[i], turns[i], gap, generation, bodies[i].box.half_diagonal)
                 out[i] = gap <= reaches[i] + CLEARANCE_SLACK

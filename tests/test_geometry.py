@@ -299,3 +299,17 @@ def test_mean_is_numpys_to_the_bit():
     for n in [*range(1, 40), 127, 128, 129, 255, 300, 1000]:
         values = (rng.normal(0.0, 1.0, n) * 10.0 ** rng.integers(-6, 6, n)).tolist()
         assert _mean(values) == float(np.mean(values)), n
+
+
+def test_box_bounds_are_the_corners_least_and_greatest():
+    """The bounding box in floats (the impact rule's bound) against scipy's corners, on 200 random poses."""
+    from stability._geometry import box_bounds, corners_of
+
+    rng = np.random.default_rng(7)
+    halves, positions = rng.uniform(0.004, 0.06, (200, 3)), rng.normal(size=(200, 3))
+    quaternions = Rotation.random(200, random_state=8).as_quat() * rng.uniform(0.5, 2.0, (200, 1))  # not all unit
+    corners = corners_of(halves, positions, quaternions / np.linalg.norm(quaternions, axis=1, keepdims=True))
+    for i in range(200):
+        low, high = box_bounds(halves[i], positions[i].tolist(), quaternions[i].tolist())
+        assert low == pytest.approx(corners[i].min(axis=0).tolist(), abs=1e-12)
+        assert high == pytest.approx(corners[i].max(axis=0).tolist(), abs=1e-12)

@@ -77,6 +77,10 @@ class PyBulletEngine:
         pos, orn = self._get_pose(body)
         return Pose(np.array(pos), np.array(orn))
 
+    def pose_floats(self, body: int) -> tuple[tuple[float, float, float], tuple[float, float, float, float]]:
+        (x, y, z), (a, b, c, d) = self._get_pose(body)
+        return (x, y, z), (a, b, c, d)
+
     def poses_of(self, bodies: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
         states = [self._get_pose(b) for b in bodies]
         return np.array([p for p, _ in states]).reshape(-1, 3), np.array([q for _, q in states]).reshape(-1, 4)

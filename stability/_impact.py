@@ -206,8 +206,8 @@ class _Clearances:
     def __init__(self, stack: Stack) -> None:
         self.stack = stack
         # body -> its position (3) and quaternion (4) when measured, its gap (m), the boxes' generation
-        # then, its half diagonal (m)
-        self._kept: dict[int, tuple[Sequence[float], Sequence[float], float, int, float]] = {}
+        # then, its half diagonal (m), and its record (a body forgotten and its id taken again is not it)
+        self._kept: dict[int, tuple[Sequence[float], Sequence[float], float, int, float, Record]] = {}
 
     def near(self, bodies: list[Record], reaches: list[float]) -> list[bool]:
         """For each of ``bodies`` (active), whether some frozen brick's box may lie within its
@@ -219,8 +219,8 @@ class _Clearances:
         kept, out, todo = self._kept, [True] * len(bodies), []
         for i, rec in enumerate(bodies):
             was = kept.get(rec.body)
-            if was is not None and was[3] == generation:
-                (x, y, z), (a, b, c, d), gap, _, corner = was
+            if was is not None and was[3] == generation and was[5] is rec:
+                (x, y, z), (a, b, c, d), gap, _, corner, _ = was
                 (x1, y1, z1), (a1, b1, c1, d1) = places[i], turns[i]
                 dot = min(1.0, abs(a * a1 + b * b1 + c * c1 + d * d1))
                 moved = math.sqrt((x1 - x) ** 2 + (y1 - y) ** 2 + (z1 - z) ** 2) + 2.0 * math.acos(dot) * corner
@@ -232,7 +232,7 @@ class _Clearances:
             bounds = [box_bounds(bodies[i].box.half_extents, places[i], turns[i]) for i in todo]
             gaps, generation = stack.frozen_gaps(np.array([lo for lo, _ in bounds]), np.array([hi for _, hi in bounds]))
             for i, gap in zip(todo, gaps.tolist(), strict=True):
-                kept[bodies[i].body] = (places[i], turns[i], gap, generation, bodies[i].box.half_diagonal)
+                kept[bodies[i].body] = (places[i], turns[i], gap, generation, bodies[i].box.half_diagonal, bodies[i])
                 out[i] = gap <= reaches[i] + CLEARANCE_SLACK
         return out
 

@@ -219,11 +219,11 @@ class Stack:
     def frozen_gaps(self, lows: np.ndarray, highs: np.ndarray) -> tuple[np.ndarray, int]:
         """For each box (its lowest and highest corners, shapes (n, 3), m): how near the
         bounding box of the nearest frozen brick comes to it, shape (n,), m (inf when none is
-        frozen), and the generation of the boxes it was measured against (:meth:`frozen_boxes`). A box is ``reach`` m from a
-        frozen brick's box when, in each of x and y, their spans come within ``reach`` of each
-        other, and that brick's top within ``reach`` of its bottom: the gap is the largest of
-        those separations, and the box is within ``reach`` of some frozen brick when its gap
-        is at most ``reach``. A bound, from the boxes found when they froze (their tops and
+        frozen), and the generation of the boxes it was measured against (:meth:`frozen_boxes`).
+        A box is ``reach`` m from a frozen brick's box when, in each of x and y, their spans come
+        within ``reach`` of each other, and that brick's top within ``reach`` of its bottom: the
+        gap is the largest of those separations, and the box is within ``reach`` of some frozen
+        brick when its gap is at most ``reach``. A bound, from the boxes found when they froze (their tops and
         horizontal extents; kept until the stack changes, or a ride starts or ends: a riding
         brick is where the engine carried it, and is left out), so that the impact rule asks
         the engine for closest points only near frozen bricks: in a domino row the fallen

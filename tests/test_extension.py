@@ -722,3 +722,13 @@ def test_a_box_joining_the_frozen_ones_voids_every_kept_gap():
     assert clearances.near([rec], [0.01]) == [True]
     stack.wake(beside, 0.2, "a test")
     assert clearances.near([rec], [0.01]) == [False]  # its box left: the gap is the first one's again
+
+
+def test_a_body_id_taken_again_is_measured_afresh():
+    """A body the scene took away, its id given to a longer brick at the same pose: the kept gap
+    was the first one's and is not used."""
+    s, stack, clearances, rec = _clearance_scene()
+    assert clearances.near([rec], [0.01]) == [False]  # 0.3 m along x: 180 mm from the frozen brick's end
+    stack.forget(rec.body)
+    s.ext.add_brick(rec.body, Box(np.array([0.25, 0.012, 0.004]), 0.05), "long")  # reaches to 50 mm along x
+    assert clearances.near([stack.bodies[rec.body]], [0.01]) == [True]

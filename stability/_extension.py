@@ -129,6 +129,10 @@ class StabilityExtension:
         self._pushers: set[int] = set()  # guided bodies a hand pushes with (guided without a pull)
         self._driven: dict[int, int] = {}  # a brick a pusher drives, as a pulled one (:meth:`_drive`) -> the pusher
         self._aims: dict[int, int] = {}  # a pusher -> the brick its push is aimed at
+        # a pusher -> its hand's velocity, the axes across its path and along it (:meth:`_pushes`)
+        self._paths: dict[int, tuple[tuple[float, ...], tuple[np.ndarray, np.ndarray], np.ndarray]] = {}
+        # a frozen brick -> the pose and axes its shadows across a pusher's path were found for, and them
+        self._shadows: dict[int, tuple[Pose, tuple[np.ndarray, np.ndarray], list[tuple[float, float]]]] = {}
         self._ride_hands: dict[int, str] = {}  # a guided body whose riders ride it -> "push" or "pull"
 
     @property
@@ -689,6 +693,7 @@ class StabilityExtension:
         self._pushers.discard(body)
         self._driven.pop(body, None)
         self._aims.pop(body, None)
+        self._paths.pop(body, None)
         for brick in [b for b, pusher in self._driven.items() if pusher == body]:
             self._let_go(brick)
         self._stack.forget(body)
@@ -810,18 +815,42 @@ class StabilityExtension:
             return "on"
         normal = np.asarray(contact.normal, dtype=float)
         own = stack.bodies[pusher].box.corners(stack.engine.pose(pusher))
-        other = stack.bodies[contact.other]
-        theirs = other.box.corners(stack.pose(other))
-        way = np.asarray(hand, dtype=float) / float(np.linalg.norm(hand))
-        side = np.cross(way, [0.0, 0.0, 1.0])
-        for axis in (side / float(np.linalg.norm(side)), np.cross(way, side) / float(np.linalg.norm(side))):
-            a, b = own @ axis, theirs @ axis
-            if a.max() <= b.min() + GRAZE or b.max() <= a.min() + GRAZE:
+        axes, along = self._across(pusher, hand)
+        for axis, (low, high) in zip(axes, self._shadow(stack.bodies[contact.other], axes), strict=True):
+            a = own @ axis
+            if a.max() <= low + GRAZE or high <= a.min() + GRAZE:
                 return "past"
-        along = np.asarray(hand[:2], dtype=float) / float(np.hypot(hand[0], hand[1]))
         facing = -float(normal[:2] @ along)
         level = abs(float(hand[2])) <= float(np.hypot(hand[0], hand[1])) and abs(float(normal[2])) < 0.5
         return "into" if level and facing >= 0.5 else "on"
+
+    def _across(self, pusher: int, hand: np.ndarray) -> tuple[tuple[np.ndarray, np.ndarray], np.ndarray]:
+        """The two axes across ``pusher``'s path (the hand's velocity ``hand``, m/s, shape (3,)):
+        level, and square to the path and to it; and the path's horizontal direction. Found once
+        for a hand's velocity: a push holds it from start to end."""
+        key = tuple(hand.tolist())
+        found = self._paths.get(pusher)
+        if found is None or found[0] != key:
+            way = np.asarray(hand, dtype=float) / float(np.linalg.norm(hand))
+            side = np.cross(way, [0.0, 0.0, 1.0])
+            axes = (side / float(np.linalg.norm(side)), np.cross(way, side) / float(np.linalg.norm(side)))
+            along = np.asarray(hand[:2], dtype=float) / float(np.hypot(hand[0], hand[1]))
+            found = self._paths[pusher] = (key, axes, along)
+        return found[1], found[2]
+
+    def _shadow(self, brick: Record, axes: tuple[np.ndarray, np.ndarray]) -> list[tuple[float, float]]:
+        """The least and greatest of the frozen ``brick``'s corners along each of ``axes`` (a
+        pusher's, :meth:`_across`): found once for the pose it froze at and those axes."""
+        pose = self._stack.pose(brick)
+        found = self._shadows.get(brick.body)
+        if found is None or found[0] is not pose or found[1] is not axes:
+            corners = brick.box.corners(pose)
+            found = self._shadows[brick.body] = (
+                pose,
+                axes,
+                [(float((corners @ a).min()), float((corners @ a).max())) for a in axes],
+            )
+        return found[2]
 
     def _drive(self, brick: int, pusher: int, time: float) -> list[StabilityEvent]:
         """The frozen ``brick``, which carries others, is pushed by ``pusher`` along its level:

@@ -732,3 +732,23 @@ def test_a_body_id_taken_again_is_measured_afresh():
     stack.forget(rec.body)
     s.ext.add_brick(rec.body, Box(np.array([0.25, 0.012, 0.004]), 0.05), "long")  # reaches to 50 mm along x
     assert clearances.near([stack.bodies[rec.body]], [0.01]) == [True]
+
+
+def test_a_pushers_shadow_of_a_brick_is_found_again_where_it_froze_again():
+    """What a pusher's path is measured against (the frozen brick's extent across the path) is
+    kept for the pose the brick froze at, and found again once it froze somewhere else."""
+    s = Scene()
+    b = s.brick(0.0, 1)
+    s.ext.update(0.0)
+    stack = s.ext._stack
+    axes, along = s.ext._across(99, np.array([0.05, 0.0, 0.0]))  # a pusher's path along +x
+    assert along.tolist() == [1.0, 0.0]
+    before = s.ext._shadow(stack.bodies[b], axes)
+    assert s.ext._shadow(stack.bodies[b], axes) is before  # kept
+    stack.wake(b, 0.1, "a test")
+    s.engine.poses[b] = Pose.from_euler([0.0, 0.03, H / 2])  # 30 mm across the path
+    s.ext.update(0.2)
+    assert s.ext.state(b) is BrickState.FROZEN
+    after = s.ext._shadow(stack.bodies[b], axes)
+    moved = [abs(now - then) for then, now in zip(before[0], after[0], strict=True)]
+    assert moved == pytest.approx([0.03, 0.03])  # its extent along the level axis across the path

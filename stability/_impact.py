@@ -192,7 +192,10 @@ class _Clearances:
     woken leaves its box out), no point of the body has moved farther than its centre's travel
     and its turn (radians) times its half diagonal, and its gap can have shrunk by no more: a
     body whose kept gap, less that, is still beyond its reach is not near, and costs no corners
-    and no comparison with every frozen box. In a row of 120 dominoes the fallen ones behind
+    and no comparison with every frozen box. Nor is a body measured again whose kept gap, plus
+    that, is still within its reach: it is near, unless the box it was near has gone (a wake),
+    and the engine is asked, as it would be were it measured near (a brick pushed along the one
+    under it is near it at every step of the push). In a row of 120 dominoes the fallen ones behind
     the chain's front creep, fast enough to be asked every step, and far from every frozen
     box: 126 of 13,451 asks found one near. A bound only: the engine's closest points decide
     (:meth:`Impacts.check`).
@@ -226,6 +229,8 @@ class _Clearances:
                 moved = math.sqrt((x1 - x) ** 2 + (y1 - y) ** 2 + (z1 - z) ** 2) + 2.0 * math.acos(dot) * corner
                 if gap - moved > reaches[i] + CLEARANCE_SLACK:
                     out[i] = False
+                    continue
+                if gap + moved < reaches[i]:  # near still, or a box it was near has gone: asked, as when near
                     continue
             todo.append(i)
         if todo:

@@ -703,6 +703,10 @@ def test_a_body_far_from_every_frozen_box_is_measured_once_until_it_moves_near(m
     assert clearances.near([rec], [0.01]) == [False] and measured == []  # the kept gap answers
     s.engine.poses[rec.body] = Pose.from_euler([0.125, 0.0, H / 2])  # 5 mm from the frozen brick's end
     assert clearances.near([rec], [0.01]) == [True] and measured == [1]
+    s.engine.poses[rec.body] = Pose.from_euler([0.127, 0.0, H / 2])  # 2 mm on: near still, by the kept gap
+    assert clearances.near([rec], [0.01]) == [True] and measured == [1]
+    s.engine.poses[rec.body] = Pose.from_euler([0.14, 0.0, H / 2])  # 20 mm off: measured again, and not near
+    assert clearances.near([rec], [0.01]) == [False] and measured == [1, 1]
 
 
 def test_a_body_turning_near_a_frozen_box_is_measured_again():
@@ -721,7 +725,7 @@ def test_a_box_joining_the_frozen_ones_voids_every_kept_gap():
     assert s.ext.state(beside) is BrickState.FROZEN
     assert clearances.near([rec], [0.01]) == [True]
     stack.wake(beside, 0.2, "a test")
-    assert clearances.near([rec], [0.01]) == [False]  # its box left: the gap is the first one's again
+    assert clearances.near([rec], [0.01]) == [True]  # near by its kept gap: the engine is asked, and finds nothing
 
 
 def test_a_body_id_taken_again_is_measured_afresh():

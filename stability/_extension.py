@@ -130,7 +130,7 @@ class StabilityExtension:
         self._driven: dict[int, int] = {}  # a brick a pusher drives, as a pulled one (:meth:`_drive`) -> the pusher
         self._aims: dict[int, int] = {}  # a pusher -> the brick its push is aimed at
         # a pusher -> its hand's velocity, the axes across its path and along it (:meth:`_pushes`)
-        self._paths: dict[int, tuple[tuple[float, ...], tuple[np.ndarray, np.ndarray], np.ndarray]] = {}
+        self._push_axes: dict[int, tuple[tuple[float, ...], tuple[np.ndarray, np.ndarray], np.ndarray]] = {}
         # a frozen brick -> the pose and axes its shadows across a pusher's path were found for, and them
         self._shadows: dict[int, tuple[Pose, tuple[np.ndarray, np.ndarray], list[tuple[float, float]]]] = {}
         self._ride_hands: dict[int, str] = {}  # a guided body whose riders ride it -> "push" or "pull"
@@ -693,7 +693,7 @@ class StabilityExtension:
         self._pushers.discard(body)
         self._driven.pop(body, None)
         self._aims.pop(body, None)
-        self._paths.pop(body, None)
+        self._push_axes.pop(body, None)
         for brick in [b for b, pusher in self._driven.items() if pusher == body]:
             self._let_go(brick)
         self._stack.forget(body)
@@ -829,13 +829,13 @@ class StabilityExtension:
         level, and square to the path and to it; and the path's horizontal direction. Found once
         for a hand's velocity: a push holds it from start to end."""
         key = tuple(hand.tolist())
-        found = self._paths.get(pusher)
+        found = self._push_axes.get(pusher)
         if found is None or found[0] != key:
             way = np.asarray(hand, dtype=float) / float(np.linalg.norm(hand))
             side = np.cross(way, [0.0, 0.0, 1.0])
             axes = (side / float(np.linalg.norm(side)), np.cross(way, side) / float(np.linalg.norm(side)))
             along = np.asarray(hand[:2], dtype=float) / float(np.hypot(hand[0], hand[1]))
-            found = self._paths[pusher] = (key, axes, along)
+            found = self._push_axes[pusher] = (key, axes, along)
         return found[1], found[2]
 
     def _shadow(self, brick: Record, axes: tuple[np.ndarray, np.ndarray]) -> list[tuple[float, float]]:

@@ -225,6 +225,8 @@ class _Clearances:
             if was is not None and was[3] == generation and was[5] is rec:
                 (x, y, z), (a, b, c, d), gap, _, corner, _ = was
                 (x1, y1, z1), (a1, b1, c1, d1) = places[i], turns[i]
+                # the turn of stability._geometry.turn_between, in floats for the few bodies of a step; the
+                # round-off of its acos near 1 (some 1e-8 rad) is far inside CLEARANCE_SLACK
                 dot = min(1.0, abs(a * a1 + b * b1 + c * c1 + d * d1))
                 moved = math.sqrt((x1 - x) ** 2 + (y1 - y) ** 2 + (z1 - z) ** 2) + 2.0 * math.acos(dot) * corner
                 if gap - moved > reaches[i] + CLEARANCE_SLACK:

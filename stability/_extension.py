@@ -45,7 +45,7 @@ from ._impact import Impacts
 from ._leaning import pair_friction
 from ._load import LoadNode, propagate
 from ._lp import within
-from ._ride import AHEAD, MOST_TILT, RIDE_DROP, RIDE_TILT, RideLimit, centre_drop, felt_gravity, holds_tilted, reach_of, tilt_of
+from ._ride import AHEAD, MOST_TILT, RIDE_DROP, RIDE_TILT, RideLimit, ShakenRide, felt_gravity, holds_tilted, reach_of, tilt_of
 from ._shake import sliding_parts, withstands
 from ._stack import Record, StabilityEvent, Stack
 from ._stack_test import StackTest
@@ -126,6 +126,7 @@ class StabilityExtension:
         self._proofs: dict[int, tuple[PullProof, dict[int, float]]] = {}
         self._unkept_at: dict[int, tuple[int, frozenset[int], list[int]]] = {}  # guided body -> (version, kept, :meth:`_unkept`)
         self._limits: dict[int, RideLimit] = {}  # a tilted ride's proof, by the pulled brick (:meth:`_tilted`)
+        self._shaken_rides: dict[int, ShakenRide] = {}  # how a shaken ground's riders froze, by its key in stack.rides
         self._pushers: set[int] = set()  # guided bodies a hand pushes with (guided without a pull)
         self._driven: dict[int, int] = {}  # a brick a pusher drives, as a pulled one (:meth:`_drive`) -> the pusher
         self._aims: dict[int, int] = {}  # a pusher -> the brick its push is aimed at
@@ -891,6 +892,8 @@ class StabilityExtension:
         stack, events = self._stack, []
         for pulled in [p for p in self._limits if p not in stack.rides]:
             del self._limits[pulled]
+        for key in [k for k in self._shaken_rides if k not in stack.rides]:
+            del self._shaken_rides[key]
         for pulled, (label, riders, ground) in list(stack.rides.items()):
             hand = self._ride_hands.get(pulled, self._hand(pulled))  # a push's ride outlives the push's books
             what = f"rode the {hand} of {label}" if ground is None else f"rode the shaken {label}"
@@ -898,16 +901,17 @@ class StabilityExtension:
                 why = self._tilted(pulled, riders, time, what) if pulled in stack.guided else f"{what} as one body until it ended"
             else:
                 why = self._shaken(riders, ground, what)
-                first = stack.bodies[riders[0]]
-                assert first.frozen_pose is not None, "a rider is frozen"
-                now = stack.engine.pose(first.body)
-                tilt, _ = tilt_of(now, first.frozen_pose)
-                if why is None and (drop := centre_drop(stack, riders, now)) > RIDE_DROP:
+                ride = self._shaken_rides.get(pulled)
+                if ride is None or ride.riders != riders or ride.frozen is not stack.bodies[riders[0]].frozen_pose:
+                    ride = self._shaken_rides[pulled] = ShakenRide.of(stack, riders)
+                tilt, drop = ride.tilt_and_drop(*stack.engine.pose_floats(riders[0]))
+                if why is None and drop > RIDE_DROP:
                     why = f"{what} as one body until its centre of mass dropped {drop * 1000:.2f} mm"
                 elif why is None and tilt > RIDE_TILT:
                     why = f"{what} as one body until it tilted {tilt:.2f} deg"
             if why is not None:
                 self._limits.pop(pulled, None)
+                self._shaken_rides.pop(pulled, None)
                 self._ride_hands.pop(pulled, None)
                 events += [w.event for w in stack.end_ride(pulled, time, why)]
         return events

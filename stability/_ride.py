@@ -164,14 +164,54 @@ def frozen_centre(stack: Stack, riders: tuple[int, ...]) -> np.ndarray:
     return centre
 
 
-def centre_drop(stack: Stack, riders: tuple[int, ...], now: Pose) -> float:
-    """Metres the centre of mass of ``riders`` has dropped from where they froze, the first of
-    them now at ``now`` (they move as one body). Source: stackdsl's own."""
-    first = stack.bodies[riders[0]].frozen_pose
-    assert first is not None, "a rider is frozen"
-    centre = frozen_centre(stack, riders)
-    moved = now.rotation @ (first.rotation.T @ (centre - first.position)) + now.position
-    return float(centre[2] - moved[2])
+@dataclass(frozen=True)
+class ShakenRide:
+    """How the riders of a shaken ground froze, as a shaken ride's per-step rule asks it
+    (:meth:`stability.StabilityExtension._rides`: it ends once they tilt :data:`RIDE_TILT` or their
+    centre of mass drops :data:`RIDE_DROP`), found once a ride: ``riders`` (ids, the first the one
+    whose pose is read) and ``frozen``, the first's pose as it froze; ``up``, the world's vertical
+    in that frame (the third row of its rotation matrix), ``arm``, the riders' centre of mass from
+    the first rider in that frame (m), and ``height``, the centre of mass's height as they froze
+    (m). Source: stackdsl's own.
+
+    >>> upright = Pose(np.array([0.0, 0.0, 0.004]), np.array([0.0, 0.0, 0.0, 1.0]))
+    >>> ride = ShakenRide((1, 2), upright, (0.0, 0.0, 1.0), (0.0, 0.0, 0.05), 0.054)
+    >>> tilt, drop = ride.tilt_and_drop((0.0, 0.0, 0.004), (0.0, math.sin(math.radians(5)), 0.0, math.cos(math.radians(5))))
+    >>> round(tilt, 9), round(drop * 1000, 6)  # turned 10 degrees about y: tilted 10, the centre 0.76 mm lower
+    (10.0, 0.759612)
+    """
+
+    riders: tuple[int, ...]
+    frozen: Pose
+    up: tuple[float, float, float]
+    arm: tuple[float, float, float]
+    height: float
+
+    @classmethod
+    def of(cls, stack: Stack, riders: tuple[int, ...]) -> ShakenRide:
+        """The ride of frozen ``riders`` of ``stack``, as they froze."""
+        first = stack.bodies[riders[0]].frozen_pose
+        assert first is not None, "a rider is frozen"
+        centre = frozen_centre(stack, riders)
+        ux, uy, uz = first.rotation[2].tolist()
+        ax, ay, az = (first.rotation.T @ (centre - first.position)).tolist()
+        return cls(riders, first, (ux, uy, uz), (ax, ay, az), float(centre[2]))
+
+    def tilt_and_drop(
+        self, position: tuple[float, float, float], orientation: tuple[float, float, float, float]
+    ) -> tuple[float, float]:
+        """Degrees the riders have tilted from how they froze (turning about the vertical is not
+        tilt; :func:`tilt_of`), and metres their centre of mass has dropped, the first rider now
+        at ``position`` turned by ``orientation`` (a quaternion x, y, z, w): they move as one
+        body. In floats (the third row of the rotation matrix of :attr:`Pose.rotation`'s formula);
+        the shaken ride asks it every step."""
+        x, y, z, w = orientation
+        n = 2.0 / (x * x + y * y + z * z + w * w)
+        r0, r1, r2 = n * (x * z - y * w), n * (y * z + x * w), 1.0 - n * (x * x + y * y)
+        ux, uy, uz = self.up
+        ax, ay, az = self.arm
+        tilt = math.degrees(math.acos(min(1.0, max(-1.0, ux * r0 + uy * r1 + uz * r2))))
+        return tilt, self.height - (r0 * ax + r1 * ay + r2 * az + position[2])
 
 
 def reach_of(stack: Stack, riders: tuple[int, ...]) -> float:

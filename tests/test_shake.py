@@ -269,3 +269,30 @@ def test_a_leaning_v_rides_the_table_only_while_its_friction_holds_it_under_the_
     else:
         assert "rigid-block equilibrium of what leans fails" in said, said
         assert outcome.collapse is not None and outcome.collapse.level == 1
+
+
+def test_a_shaken_rides_tilt_and_drop_in_floats_are_the_rotations():
+    """The per-step rule of a shaken ground's ride reads its tilt and its centre of mass's drop
+    from the first rider's pose in floats (:class:`stability._ride.ShakenRide`); they are the
+    tilt of :func:`stability._ride.tilt_of` and the drop of the centre of mass carried rigidly
+    by that pose, on random poses; a turn about the vertical alone is no tilt and drops
+    nothing."""
+    from stability._ride import ShakenRide, tilt_of
+
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        frozen = Pose(rng.uniform(-0.1, 0.1, size=3), Rotation.random(random_state=rng).as_quat())
+        centre = frozen.position + rng.uniform(-0.05, 0.05, size=3)
+        arm = frozen.rotation.T @ (centre - frozen.position)
+        ride = ShakenRide((1,), frozen, tuple(frozen.rotation[2].tolist()), tuple(arm.tolist()), float(centre[2]))
+        turn = Rotation.from_rotvec(rng.normal(size=3) * 10.0 ** rng.uniform(-4, 0))
+        now = Pose(frozen.position + rng.uniform(-0.02, 0.02, size=3), (turn * Rotation.from_quat(frozen.orientation)).as_quat())
+        tilt, drop = ride.tilt_and_drop(tuple(now.position.tolist()), tuple(now.orientation.tolist()))
+        assert tilt == pytest.approx(tilt_of(now, frozen)[0], abs=1e-6)
+        assert drop == pytest.approx(float(centre[2] - (now.rotation @ arm + now.position)[2]), abs=1e-12)
+        spun = Pose(
+            frozen.position, (Rotation.from_euler("z", rng.uniform(-3, 3)) * Rotation.from_quat(frozen.orientation)).as_quat()
+        )
+        assert ride.tilt_and_drop(tuple(spun.position.tolist()), tuple(spun.orientation.tolist())) == pytest.approx(
+            (0.0, 0.0), abs=2e-6
+        )

@@ -9,7 +9,7 @@ import pytest
 from stability import Pose
 from stackdsl.engines.fake import FakeWorld
 from stackdsl.engines.protocol import BrickSpec
-from stackdsl.runtime.bricks import BrickRecord, Structure
+from stackdsl.runtime.bricks import FEW, BrickRecord, Structure
 
 KAPLA = BrickSpec(type="kapla", half_extents=(0.06, 0.012, 0.004), mass=0.0106, friction=0.5, restitution=0.0)
 THRESHOLD = 0.004
@@ -35,7 +35,7 @@ def _structure(bricks: int) -> tuple[FakeWorld, Structure]:
     return world, structure
 
 
-@pytest.mark.parametrize("bricks", [3, 10])
+@pytest.mark.parametrize("bricks", [3, 10, FEW + 8])  # in floats, and past FEW in numpy
 @pytest.mark.parametrize(
     "pending, frozen",
     [((), ()), (("b2",), ()), (("b5", "b2"), ("b5",)), (("b9", "b8", "b7", "b6", "b5", "b2"), ("b9", "b5"))],
@@ -55,3 +55,32 @@ def test_the_pending_bricks_and_every_moving_one_past_the_threshold_are_measured
     measured = {r.id for r, d in zip(watched, moved.tolist()) if r.id in pending or d > THRESHOLD}
     assert measured == past | set(pending)
     assert past == {"b0", "b1", "b3"} & set(structure.records)  # the slid, the turned and the lifted brick
+
+
+@pytest.mark.parametrize("bricks", [3, FEW + 8])  # in floats, and past FEW in numpy
+def test_the_monitor_reads_a_brick_at_rest_when_both_its_speeds_are_within_the_rest_thresholds(bricks):
+    """The collapse monitor's rest test of displaced bricks (``CollapseMonitor._resting``): a
+    frozen brick rests; a moving one while its speed is at most the rest speed and its spin at
+    most the rest spin, the thresholds themselves included, in floats for a few bricks and in
+    numpy for more, the same answers."""
+    from types import SimpleNamespace
+
+    from stackdsl.runtime.collapse import CollapseMonitor
+
+    world, structure = _structure(bricks)
+    monitor = CollapseMonitor(THRESHOLD, 1.0, lambda loop: None, lambda deadline: None, lambda brick: None)  # type: ignore[arg-type,return-value]
+    speed, spin = 0.005, 0.05
+    rng = np.random.default_rng(3)
+    records = structure.placed
+    structure.set_moving(records[0], False)
+    expected = [True]
+    for r in records[1:]:
+        towards, about = rng.normal(size=3), rng.normal(size=3)
+        linear = towards / np.linalg.norm(towards) * speed * (1.01 if r.order % 3 == 2 else 0.99)
+        angular = about / np.linalg.norm(about) * spin * (1.01 if r.order % 3 == 0 else 0.99)
+        if r.order == 1:
+            linear, angular = np.array([speed, 0.0, 0.0]), np.array([0.0, 0.0, -spin])  # on both thresholds
+        world.velocities[r.body] = (linear, angular)
+        expected.append(bool(np.linalg.norm(linear) <= speed and np.linalg.norm(angular) <= spin))
+    assert monitor._resting(SimpleNamespace(world=world), records) == expected
+    assert True in expected[1:] and False in expected

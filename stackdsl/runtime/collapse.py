@@ -53,7 +53,7 @@ from stability import Certificate as Equilibrium
 from stability import OutOfTime
 
 from .actions import Actions
-from .bricks import BrickRecord
+from .bricks import FEW, BrickRecord
 from .end_proofs import MotionWindow, named, stand_words
 from .loop import StepLoop, Subscriber
 from .outcome import Certificate, Collapse, Event, Graph, ProofKind
@@ -371,8 +371,15 @@ class CollapseMonitor(Subscriber):
         moving = [r for r in records if r.moving]
         if not moving:
             return [True] * len(records)
-        lin, ang = loop.world.velocities_of([r.body for r in moving])
-        slow: list[bool] = (((lin**2).sum(axis=1) <= self._rest[0] ** 2) & ((ang**2).sum(axis=1) <= self._rest[1] ** 2)).tolist()
+        speed, spin = self._rest[0] ** 2, self._rest[1] ** 2
+        if len(moving) <= FEW:  # in floats, the squares summed in numpy's order: numpy's fixed costs are most of it
+            slow = []
+            for r in moving:
+                (vx, vy, vz), (wx, wy, wz) = loop.world.velocity_floats(r.body)
+                slow.append(vx * vx + vy * vy + vz * vz <= speed and wx * wx + wy * wy + wz * wz <= spin)
+        else:
+            lin, ang = loop.world.velocities_of([r.body for r in moving])
+            slow = (((lin**2).sum(axis=1) <= speed) & ((ang**2).sum(axis=1) <= spin)).tolist()
         if len(moving) == len(records):
             return slow
         each = iter(slow)

@@ -298,7 +298,7 @@ def test_the_boxes_of_a_merged_body_read_together_are_each_boxs_own_arithmetic_t
             for index, body in enumerate(bricks[1:]):
                 part = world._frames[group]
                 rx, ry, rz = (matrix @ part.arms[index]).tolist()
-                own = ((x + rx, y + ry, z + rz), _product(turn, tuple(part.quats[:, index].tolist())))
+                own = ((x + rx, y + ry, z + rz), _product(turn, part.turns[index]))
                 moves = ((vx + wy * rz - wz * ry, vy + wz * rx - wx * rz, vz + wx * ry - wy * rx), (wx, wy, wz))
                 assert read[body] == (own, moves)
         assert abs(wx) + abs(wy) + abs(wz) > 0.0  # it turned: the arms' products were tested

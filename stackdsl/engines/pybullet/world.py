@@ -417,8 +417,8 @@ class PyBulletWorld(PyBulletEngine, World):
             self._merged[body] = (group, index)
         self._groups[group] = tuple(bodies)
         halves = np.array([s.half_extents for s in specs], dtype=float)
-        turns = rotations.as_quat()
-        self._frames[group] = _Parts(positions - centre, turns.T.copy(), rotations.inv().as_matrix(), halves)
+        turns = tuple((float(x), float(y), float(z), float(w)) for x, y, z, w in rotations.as_quat())
+        self._frames[group] = _Parts(positions - centre, turns, rotations.inv().as_matrix(), halves)
         self._massed(group, mass)
         self._velocities[group] = _AT_REST
         return True
@@ -444,26 +444,16 @@ class PyBulletWorld(PyBulletEngine, World):
     def _part_poses(self, group: int) -> None:
         """Where each body merged in ``group`` is this step (its box of the merged body), read for
         all of them at once (the collapse monitor and the substep rule read every brick riding a
-        shaken ground each step: twenty at a time). The same arithmetic as one box at a time, to
-        the bit: the matrix times each arm as a stack of columns (numpy's product of the matrix
-        and the arms' rows as one array rounds differently), then Hamilton's product of the turns
-        in plain floats' order."""
+        shaken ground each step: twenty at a time): each arm turned by the merged body's matrix,
+        the arms as one stack of columns (to the bit each arm's own product; a product with the
+        arms' rows as one array rounds differently), then the turns' Hamilton products in
+        floats (numpy's fixed costs on arrays of a few are more than twenty products)."""
         parts = self._frames[group]
         (x, y, z), turn = self._pose_now(group)
-        arms = (self._turned(turn) @ parts.arms[:, :, None])[:, :, 0]
-        ax, ay, az, aw = turn
-        bx, by, bz, bw = parts.quats
-        turns = zip(
-            (aw * bx + ax * bw + ay * bz - az * by).tolist(),
-            (aw * by - ax * bz + ay * bw + az * bx).tolist(),
-            (aw * bz + ax * by - ay * bx + az * bw).tolist(),
-            (aw * bw - ax * bx - ay * by - az * bz).tolist(),
-            strict=True,
-        )
-        places = zip((x + arms[:, 0]).tolist(), (y + arms[:, 1]).tolist(), (z + arms[:, 2]).tolist(), strict=True)
+        arms = (self._turned(turn) @ parts.arms[:, :, None])[:, :, 0].tolist()
         poses = self._poses
-        for body, place, part_turn in zip(self._groups[group], places, turns, strict=True):
-            poses[body] = (place, part_turn)
+        for body, (px, py, pz), part_turn in zip(self._groups[group], arms, parts.turns, strict=True):
+            poses[body] = ((x + px, y + py, z + pz), _product(turn, part_turn))
 
     def _turned(self, turn: Quat) -> np.ndarray:
         """:meth:`_matrix` of a merged body's ``turn`` as read this step, once for all its parts
@@ -482,15 +472,11 @@ class PyBulletWorld(PyBulletEngine, World):
         :meth:`_part_poses`): the merged body's velocity at its centre plus its spin crossed with
         the body's arm, v + w x r, and its spin."""
         (vx, vy, vz), (wx, wy, wz) = self._velocity_now(group)
-        arms = (self._turned(self._pose_now(group)[1]) @ self._frames[group].arms[:, :, None])[:, :, 0]
-        rx, ry, rz = arms[:, 0], arms[:, 1], arms[:, 2]
-        linear = zip(
-            (vx + wy * rz - wz * ry).tolist(), (vy + wz * rx - wx * rz).tolist(), (vz + wx * ry - wy * rx).tolist(), strict=True
-        )
+        arms = (self._turned(self._pose_now(group)[1]) @ self._frames[group].arms[:, :, None])[:, :, 0].tolist()
         spin = (float(wx), float(wy), float(wz))
         velocities = self._velocities
-        for body, moves in zip(self._groups[group], linear, strict=True):
-            velocities[body] = (moves, spin)
+        for body, (rx, ry, rz) in zip(self._groups[group], arms, strict=True):
+            velocities[body] = ((vx + wy * rz - wz * ry, vy + wz * rx - wx * rz, vz + wx * ry - wy * rx), spin)
 
     def _parts(self, points: list[ContactPoint]) -> list[ContactPoint]:
         """``points`` with a merged body named as the body whose box the point lies nearest."""
@@ -827,11 +813,11 @@ def _box_inertia(half_extents: Vec3, mass: float) -> list[float]:
 
 class _Parts(NamedTuple):
     """The boxes of a merged body, in the order of its bodies: where each lies from its centre of
-    mass (m, shape (n, 3)), turned as quaternions (shape (4, n): the x, y, z and w of each), that
-    turn's inverse as matrices (shape (n, 3, 3)) and its half extents (m, shape (n, 3))."""
+    mass (m, shape (n, 3)), turned as (quaternions x, y, z, w), that turn's inverse as matrices
+    (shape (n, 3, 3)) and its half extents (m, shape (n, 3))."""
 
     arms: np.ndarray
-    quats: np.ndarray
+    turns: tuple[Quat, ...]
     back: np.ndarray
     halves: np.ndarray
 

@@ -523,7 +523,7 @@ class PullProof:
             if rec.state is not BrickState.FROZEN or any(float(a.normal[2]) < LEVEL for a in rec.rests_on.values()):
                 return f"{rec.label}, which rests on the bricks it drags, is not frozen on level contacts"
             if not rec.objects_above:
-                return f"{rec.label}, which ties the bricks it drags, carries nothing (a tie on top is the lightest)"
+                return f"{rec.label}, which ties the bricks it drags, carries nothing: a top level's tie, the lightest, is left to the engine"
             held_on = nodes[t].supports
             shares = split_load(loads[t].com_above, loads[t].mass_above, held_on)
             friction = {s: pair_friction(rec.friction, stack.bodies[s].friction) for s in held_on}

@@ -566,6 +566,7 @@ class StabilityExtension:
                     proof.overlaps(footprint(stack.bodies[body].box.half_extents, stack.engine.pose(body))),
                 )
                 return events + self._touching(body, time, {})
+            reason = f"{reason}; statics does not keep the bricks it slides between frozen: {proof.why}"
         return self._guide(body, time, reason, speed)
 
     def driven(self) -> list[str]:

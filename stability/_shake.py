@@ -66,7 +66,9 @@ def withstands(stack: Stack, effective_gravity: Sequence[float], margin: float =
     """Does the frozen stack stand pseudo-statically under ``effective_gravity`` (m/s^2, shape (3,),
     pointing down: gravity plus the inertial force of the base's acceleration, ``(-a_x, -a_y, -g)``
     for a base accelerating by ``(a_x, a_y)``)? None when it does; else why not, in words, naming
-    the first brick that would tip or slide (in the order they froze).
+    the first brick that fails the tipping or the sliding test (in the order they froze): a brick
+    with the load above it, each on its own, as report 3.3.4-3.3.5 asks it; a part that moves as
+    one rigid body may still hold (:func:`sliding_parts`).
 
     Args:
         stack: the extension's bodies (only the frozen ones are asked).
@@ -90,7 +92,7 @@ def withstands(stack: Stack, effective_gravity: Sequence[float], margin: float =
     for rec in frozen:
         slides = next(
             (
-                f"slides on {stack.bodies[s].label}: a/g = {sideways / g:.3f} > friction {mu:.3f}"
+                f"would slide on {stack.bodies[s].label}: a/g = {sideways / g:.3f} > friction {mu:.3f}"
                 for s in rec.rests_on
                 if sideways / g > (mu := pair_friction(rec.friction, stack.bodies[s].friction))
             ),
@@ -104,8 +106,8 @@ def withstands(stack: Stack, effective_gravity: Sequence[float], margin: float =
             x, y = np.asarray(load.com_above[:2]) + rise * tilt
             if not shapely.contains_xy(region, float(x), float(y)):
                 tips = (
-                    f"tips: under a = {sideways:.3g} m/s^2 its centre of mass above, {rise * 1000:.1f} mm over its "
-                    "contact area, acts outside it"
+                    f"fails the tipping test (report 3.3.5): under a = {sideways:.3g} m/s^2 its centre of mass above, "
+                    f"{rise * 1000:.1f} mm over its contact area, would act outside it"
                 )
         if slides and tips:  # past both thresholds: the slide-rock mode (Shenton 1996)
             return f"{rec.label} {tips}, and {slides}"

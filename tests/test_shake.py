@@ -298,3 +298,31 @@ def test_a_shaken_rides_tilt_and_drop_in_floats_are_the_rotations():
         assert ride.tilt_and_drop(tuple(spun.position.tolist()), tuple(spun.orientation.tolist())) == pytest.approx(
             (0.0, 0.0), abs=2e-6
         )
+
+
+def test_a_shaken_ride_keeps_the_riders_centre_of_mass_as_they_froze():
+    """:meth:`stability._ride.ShakenRide.of` reads how frozen riders froze: the first rider's
+    vertical in its own frame, and the riders' centre of mass from it in that frame, its height;
+    the first rider turned 90 degrees about z and a heavier brick on it, off its centre."""
+    from stability._ride import ShakenRide
+
+    eng = FakeEngine()
+    ext = StabilityExtension(eng)
+    ext.add_ground(0, Plane(0.0))
+    half = np.array([0.06, 0.012, 0.004])
+    eng.poses[1] = Pose.from_euler([0.1, 0.2, 0.004], yaw=90.0)
+    ext.add_brick(1, Box(half, 0.01), "low", friction=0.5)
+    eng.touch(1, 0, [[0.1 + dx, 0.2 + dy, 0.0] for dx in (-0.012, 0.012) for dy in (-0.06, 0.06)], normal=[0, 0, 1])
+    eng.poses[2] = Pose(np.array([0.1, 0.23, 0.012]))
+    ext.add_brick(2, Box(half, 0.03), "high", friction=0.5)
+    eng.touch(2, 1, [[0.1 + dx, 0.23 + dy, 0.008] for dx in (-0.012, 0.012) for dy in (-0.012, 0.012)], normal=[0, 0, 1])
+    for t in (0.0, 0.1, 0.2, 0.3):
+        ext.update(t)
+    assert {ext.state(b).value for b in (1, 2)} == {"frozen"}
+    ride = ShakenRide.of(ext._stack, (1, 2))
+    centre = (0.01 * np.array([0.1, 0.2, 0.004]) + 0.03 * np.array([0.1, 0.23, 0.012])) / 0.04
+    assert ride.height == pytest.approx(centre[2], abs=1e-12)
+    assert ride.up == pytest.approx((0.0, 0.0, 1.0), abs=1e-12)
+    # in the first rider's frame, turned 90 degrees about z: the world's +y is its +x
+    assert ride.arm == pytest.approx((centre[1] - 0.2, -(centre[0] - 0.1), centre[2] - 0.004), abs=1e-12)
+    assert ride.tilt_and_drop((0.1, 0.2, 0.004), tuple(eng.poses[1].orientation.tolist())) == pytest.approx((0.0, 0.0), abs=1e-9)

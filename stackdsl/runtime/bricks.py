@@ -95,15 +95,13 @@ class BrickRecord:
         return x, y, z, w
 
     @functools.cached_property
-    def local_corners(self) -> tuple[tuple[float, float, float], ...]:
-        """Its eight corners in its own frame, m, as floats (the order of :attr:`corners`)."""
+    def corner_rows(self) -> tuple[tuple[float, float, float, float, float, float], ...]:
+        """Each of its eight corners (the order of :attr:`corners`) as six floats, m: where it
+        lies in the brick's own frame, then where it was placed (:meth:`Structure.displacement`
+        reads them every step, one flat row a corner)."""
         x, y, z = self.spec.half_extents
-        return _local_corners((x, y, z))
-
-    @functools.cached_property
-    def corner_list(self) -> tuple[tuple[float, float, float], ...]:
-        """:attr:`corners` as floats."""
-        return tuple((a, b, c) for a, b, c in self.corners.tolist())
+        placed = self.corners.tolist()
+        return tuple((a, b, c, px, py, pz) for (a, b, c), (px, py, pz) in zip(_local_corners((x, y, z)), placed, strict=True))
 
     @functools.cached_property
     def half_diagonal(self) -> float:
@@ -114,7 +112,8 @@ class BrickRecord:
 
 @functools.lru_cache(maxsize=256)
 def _local_corners(half_extents: tuple[float, float, float]) -> tuple[tuple[float, float, float], ...]:
-    """:attr:`BrickRecord.local_corners` of a brick of ``half_extents`` (m), found once for each
+    """The eight corners in its own frame of a brick of ``half_extents`` (m), as floats in the
+    order of :attr:`BrickRecord.corners` (:attr:`BrickRecord.corner_rows`), found once for each
     size: a run places many bricks of a few sizes, and each brick asked its own (20 us)."""
     box = Box(np.array(half_extents), 1.0)
     return tuple((a, b, c) for a, b, c in box.corners(Pose(np.zeros(3))).tolist())
@@ -394,11 +393,13 @@ class Structure:
         m10, m11, m12 = n * (qx * qy + qz * qw), 1 - n * (qx * qx + qz * qz), n * (qy * qz - qx * qw)
         m20, m21, m22 = n * (qx * qz - qy * qw), n * (qy * qz + qx * qw), 1 - n * (qx * qx + qy * qy)
         farthest = 0.0
-        for (a, b, c), (px, py, pz) in zip(r.local_corners, r.corner_list):
+        for a, b, c, px, py, pz in r.corner_rows:  # flat rows and a comparison, not max(): a third faster
             dx = x + m00 * a + m01 * b + m02 * c - px
             dy = y + m10 * a + m11 * b + m12 * c - py
             dz = z + m20 * a + m21 * b + m22 * c - pz
-            farthest = max(farthest, dx * dx + dy * dy + dz * dz)
+            moved = dx * dx + dy * dy + dz * dz
+            if moved > farthest:
+                farthest = moved
         return math.sqrt(farthest)
 
     def _bound(self, r: BrickRecord) -> float:

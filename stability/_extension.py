@@ -30,6 +30,7 @@ import math
 from collections.abc import Set as AbstractSet
 
 import numpy as np
+import shapely
 
 from ._admission import Admission
 from ._areas import ContactAreas, Contacts, by_body, main_area, overlap
@@ -39,7 +40,7 @@ from ._debris import Debris
 from ._drag import SHRINK, PullProof, footprint
 from ._engine import ContactPoint, Engine
 from ._equilibrium import ContactPolygon
-from ._geometry import FACE_TILT, Box, ContactArea, Plane, Pose, corners_of, signed_inside
+from ._geometry import FACE_TILT, Box, ContactArea, Plane, Pose, corners_of, face_overlap, signed_inside
 from ._graph import BrickGraph, BrickState, GraphEdge, GraphNode
 from ._impact import Impacts
 from ._leaning import pair_friction
@@ -898,10 +899,11 @@ class StabilityExtension:
         for pulled, (label, riders, ground) in list(stack.rides.items()):
             hand = self._ride_hands.get(pulled, self._hand(pulled))  # a push's ride outlives the push's books
             what = f"rode the {hand} of {label}" if ground is None else f"rode the shaken {label}"
+            rested = False
             if ground is None:
                 why = self._tilted(pulled, riders, time, what) if pulled in stack.guided else f"{what} as one body until it ended"
             else:
-                why = self._shaken(riders, ground, what)
+                why, rested = self._shaken(riders, ground, what)
                 ride = self._shaken_rides.get(pulled)
                 if ride is None or ride.riders != riders or ride.frozen is not stack.bodies[riders[0]].frozen_pose:
                     ride = self._shaken_rides[pulled] = ShakenRide.of(stack, riders)
@@ -914,7 +916,67 @@ class StabilityExtension:
                 self._limits.pop(pulled, None)
                 self._shaken_rides.pop(pulled, None)
                 self._ride_hands.pop(pulled, None)
-                events += [w.event for w in stack.end_ride(pulled, time, why)]
+                settled = self._settle(pulled, riders, time, why) if rested else None
+                events += settled if settled is not None else [w.event for w in stack.end_ride(pulled, time, why)]
+        return events
+
+    def _settle(self, pulled: int, riders: tuple[int, ...], time: float, why: str) -> list[StabilityEvent] | None:
+        """Freeze again, where they lie, the bricks that rode a shaken ground as one rigid body
+        and have come to rest on it, the ground stopped (:meth:`_rides`, ``why`` their ride's
+        end in words): each must lie face to face on the bodies it lay on when it froze, the
+        ground or others of the ride (:func:`stability._geometry.face_overlap` at the poses the
+        ride took them to), its centre of mass over them. Returns the events, or None, with
+        nothing changed, when one does not (they then wake, as a ride's end wakes them).
+
+        The ride proved that nothing in them slips, opens or tips: at rest on a still ground they
+        stand as they froze. Woken instead, they were a stack the engine had never held, each
+        brick only touching the one under it (frozen out of the engine's overlaps,
+        :func:`stability._areas.overlap`): pybullet makes no contact between boxes that only
+        touch until they overlap, and its 50 solver iterations, started cold, do not hold a
+        tall column. A single file of 15 KAPLA bricks that had ridden a shake table sank 0.3 mm
+        a joint within 0.05 s, buckled and fell, where both tuned engines keep it standing
+        (docs/results/shake-table.md). Source: stackdsl's own."""
+        stack = self._stack
+        poses = {b: stack.engine.pose(b) for b in riders}
+        part = set(riders)
+        first = stack.bodies[riders[0]].frozen_pose
+        assert first is not None, "a rider is frozen"
+        turn = poses[riders[0]].rotation @ first.rotation.T  # the ride's rigid motion: x -> turn x + shift
+        shift = poses[riders[0]].position - turn @ first.position
+        found: dict[int, dict[int, ContactArea]] = {}
+        for body in riders:
+            rec = stack.bodies[body]
+            assert rec.frozen_pose is not None, "a rider is frozen"
+            if not _rigidly(rec.frozen_pose, poses[body], turn, shift):
+                return None  # it moved in the ride: not the part that froze
+            supports: dict[int, ContactArea] = {}
+            for s in stack.ordered(rec.rests_on):
+                was = rec.rests_on[s]
+                other = stack.bodies[s]
+                if s in part:  # moved with it: the same area, moved as they were
+                    supports[s] = _moved(was, turn, shift)
+                    continue
+                if other.state is not BrickState.GROUND:
+                    return None
+                at = None if isinstance(other.shape, Plane) else stack.pose(other)
+                area = face_overlap(rec.box, poses[body], other.shape, at, stack.config.face_gap)
+                if area is None or area.area <= 0.0:
+                    return None
+                supports[s] = area
+            if not supports or not self._areas.holds(main_area(supports), poses[body].position):
+                return None
+            found[body] = supports
+        stack.unride(pulled)
+        events = []
+        for body in riders:  # in the order they froze: each after what it lies on
+            rec, supports = stack.bodies[body], found[body]
+            fallen, windowed = rec.clock.fallen, rec.clock.windowed
+            stack.wake(body, time, why, alone=True)  # its books of where it froze go
+            rec.clock.fallen, rec.clock.windowed = fallen, windowed
+            lift = overlap((), supports, self._areas.support_cos)
+            stack.freeze(rec, supports, main_area(supports), _face_polygons(stack, rec, supports), lift)
+            names = ", ".join(stack.bodies[s].label for s in supports)
+            events.append(StabilityEvent(time, "freeze", rec.label, f"{why}: frozen again where it lies, on {names}"))
         return events
 
     def _tilted(self, pulled: int, riders: tuple[int, ...], time: float, what: str) -> str | None:
@@ -961,23 +1023,24 @@ class StabilityExtension:
             return f"{what} as one body until it came within {TOUCH * 1000:g} mm of {stack.bodies[hit.other].label}"
         return None
 
-    def _shaken(self, riders: tuple[int, ...], ground: int, what: str) -> str | None:
+    def _shaken(self, riders: tuple[int, ...], ground: int, what: str) -> tuple[str | None, bool]:
         """Why the ride of ``riders`` on the shaken ``ground`` (:meth:`shake`) ends now, in words
-        led by ``what``, or None: the ground has stopped and they have come to rest on it (they
-        wake at rest, to be frozen where they are), or they come within :data:`TOUCH` of a body
-        other than the ground and each other (what they hit may part them)."""
+        led by ``what``, or None; and whether they have come to rest on it, the ground stopped
+        (they are frozen again where they lie, :meth:`_settle`). It ends too when they come
+        within :data:`TOUCH` of a body other than the ground and each other (what they hit may
+        part them)."""
         stack = self._stack
         config = stack.config
         if stack.admitting:  # the ground has stopped
             linear, angular = stack.engine.speeds(riders[0])
             if linear <= config.rest_speed and angular <= config.rest_angular_speed:
-                return f"{what} as one body until it came to rest"
+                return f"{what} as one body until it came to rest", True
         part = set(riders)
         others = [b for b in stack.bodies if b not in part and b != ground]
         hit = next(iter(stack.engine.near(riders[0], TOUCH, others)), None) if others else None
         if hit is not None:
-            return f"{what} as one body until it came within {TOUCH * 1000:g} mm of {stack.bodies[hit.other].label}"
-        return None
+            return f"{what} as one body until it came within {TOUCH * 1000:g} mm of {stack.bodies[hit.other].label}", False
+        return None, False
 
     def shake(self, acceleration: tuple[float, float], ground: int, time: float, reason: str) -> list[StabilityEvent]:
         """Every frozen brick, for a ground about to shake with peak horizontal ``acceleration``
@@ -1112,6 +1175,28 @@ def _farthest(corners: np.ndarray, before: np.ndarray) -> np.ndarray:
     ``before`` of shape (n, 8, 3), metres; shape (n,)."""
     farthest: np.ndarray = np.sqrt(np.square(corners - before).sum(axis=2).max(axis=1))
     return farthest
+
+
+#: Metres (and, as a matrix's entries, radians) by which a part that rode as one body may differ
+#: from its first brick's motion and still count as moved rigidly with it (:func:`_rigidly`).
+RIGID = 1e-6
+
+
+def _rigidly(was: Pose, now: Pose, turn: np.ndarray, shift: np.ndarray) -> bool:
+    """Has a body moved from ``was`` to ``now`` as ``x -> turn @ x + shift`` moves (within
+    :data:`RIGID`)? Source: stackdsl's own."""
+    there = turn @ was.position + shift
+    return bool(np.max(np.abs(there - now.position)) <= RIGID and np.max(np.abs(turn @ was.rotation - now.rotation)) <= RIGID)
+
+
+def _moved(area: ContactArea, turn: np.ndarray, shift: np.ndarray) -> ContactArea:
+    """``area`` moved rigidly as a body moved from ``x`` to ``turn @ x + shift`` (a rotation matrix,
+    shape (3, 3), and metres, shape (3,)): its corners on its plane moved, their horizontal
+    projection the new area, their mean height its height. Two faces moved alike lie on each
+    other as before; intersected anew, two faces whose edges coincide to 1e-17 m gave GEOS a point,
+    not their area. Source: stackdsl's own."""
+    corners = area.corners() @ turn.T + shift
+    return ContactArea(shapely.polygons(corners[:, :2]), float(corners[:, 2].mean()), turn @ area.normal, area.exact, area.depth)
 
 
 def _face_polygons(stack: Stack, rec: Record, supports: dict[int, ContactArea]) -> list[ContactPolygon[int]]:

@@ -310,16 +310,25 @@ class Stack:
         """End the ride of the bricks riding the pull of ``pulled``: each a body of its own in the
         engine again, where it rode to, and woken (the poses they froze at are no longer
         theirs), with ``reason``."""
+        riders = self.unride(pulled)
+        woken: list[Woken] = []
+        for body in riders:
+            woken += self.wake(body, time, reason, proved, hold)
+        return woken
+
+    def unride(self, pulled: int) -> tuple[int, ...]:
+        """End the ride of the bricks riding the pull of ``pulled`` (or a shaken ground) in the
+        engine only: each a static body of its own again, where it rode to; returns them, in the
+        order they froze. They stay frozen here, with the books of where they froze, until the
+        caller wakes each (:meth:`end_ride`) or freezes it again where it lies (:meth:`wake` of
+        it ``alone``, then :meth:`freeze`)."""
         riders = self.rides.pop(pulled).riders
         for body in riders:
             del self.riding[body]
         if self._contacts is not None:
             self._contacts.fill()
         self.engine.unmerge(riders)
-        woken: list[Woken] = []
-        for body in riders:
-            woken += self.wake(body, time, reason, proved, hold)
-        return woken
+        return riders
 
     def forget(self, body: int) -> None:
         """Unregister ``body``, an active brick taken out of the scene (a pulled brick, a withdrawn

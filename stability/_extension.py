@@ -923,10 +923,12 @@ class StabilityExtension:
     def _settle(self, pulled: int, riders: tuple[int, ...], time: float, why: str) -> list[StabilityEvent] | None:
         """Freeze again, where they lie, the bricks that rode a shaken ground as one rigid body
         and have come to rest on it, the ground stopped (:meth:`_rides`, ``why`` their ride's
-        end in words): each must lie face to face on the bodies it lay on when it froze, the
-        ground or others of the ride (:func:`stability._geometry.face_overlap` at the poses the
-        ride took them to), its centre of mass over them. Returns the events, or None, with
-        nothing changed, when one does not (they then wake, as a ride's end wakes them).
+        end in words): each must have moved with the first as one rigid body, and lie face to face
+        on the bodies it lay on when it froze, its centre of mass over them: on the ground by
+        :func:`stability._geometry.face_overlap` at the pose the ride took it to, on another
+        rider by the area they froze with, moved as the ride moved them (:func:`_moved`). Returns
+        the events, or None, with nothing changed, when one does not (they then wake, as a
+        ride's end wakes them).
 
         The ride proved that nothing in them slips, opens or tips: at rest on a still ground they
         stand as they froze. Woken instead, they were a stack the engine had never held, each

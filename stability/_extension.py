@@ -262,7 +262,10 @@ class StabilityExtension:
         if not found and config.debris:
             found = self._debris.admit(rec, contacts, time)
         if found:
-            rec.failed = None
+            # the asker may be left out of what froze (it lies on a brick that still moves, at the
+            # edge of its settled pile): it then waits as a refused brick does, until the stack
+            # changes again or a rest duration has passed; asked again at once, it was refused
+            rec.failed = None if rec.state is not BrickState.ACTIVE else (stack.attempt(rec, contacts, time), time)
             return found
         # a refusal changes nothing: what it depended on is as it was before asking; but the
         # frozen bricks it lies on carry it, so they are checked against its weight

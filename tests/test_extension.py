@@ -277,6 +277,30 @@ def test_a_refused_brick_waits_a_rest_duration_on_the_same_stack(monkeypatch):
     assert asked == [b, b]
 
 
+def test_a_refused_brick_waits_out_a_lone_brick_elsewhere_but_not_a_change_under_it(monkeypatch):
+    s = Scene(StabilityConfig(rest_duration=0.05))
+    s.brick(0.0, 1)
+    s.ext.update(0.0)
+    s.ext.update(0.1)  # b1 frozen on the ground
+    b = s.brick(0.065, 2, on=(1,))  # refused: its centre of mass is beyond b1's end
+    lone = s.brick(0.5, 1)  # on the ground alone, touching nothing b touches
+    asked = []
+    real = s.ext._admission.basic
+    monkeypatch.setattr(s.ext._admission, "basic", lambda *a: asked.append(a[0].body) or real(*a))
+    s.ext.update(1.0)
+    on_b1 = s.brick(-0.03, 2, on=(1,))  # at rest from 1.03 on: frozen at 1.08, on b1
+    s.ext.update(1.03)
+    version = s.ext._stack.version
+    s.ext.update(1.06)  # at rest for the rest duration: b asked and refused, then the lone brick frozen
+    assert asked == [b, lone] and lone in s.engine.frozen and s.ext._stack.version > version
+    s.ext.update(1.07)
+    assert asked == [b, lone]  # the stack changed far from b: b waits its rest duration all the same
+    s.ext.update(1.08)
+    assert on_b1 in s.engine.frozen and asked.count(b) == 1
+    s.ext.update(1.09)
+    assert asked.count(b) == 2  # b1, which b lies on, carries more: asked again within the rest duration
+
+
 class DroppingEngine(FakeEngine):
     """Forgets every contact of a body whose mass changes until the next step, as pybullet does."""
 

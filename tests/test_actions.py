@@ -1243,6 +1243,43 @@ expect: {toppled: all}
     assert len(outcome.toppled) < 20
     lines = explain(scenario.expect, outcome, program.collapse_threshold)
     assert any(line.startswith("still moving: the run ended at t=") for line in lines), lines
+    (toppled,) = evaluate(scenario.expect, outcome, program.collapse_threshold)
+    assert toppled.inconclusive and not toppled.passed  # undecided: the chain may topple the rest
+    assert toppled.measured.startswith(f"undecided: {len(outcome.toppled)} of 20 toppled when the run ended at t=")
+
+
+@pytest.mark.parametrize(
+    ("toppled", "settle", "decided"),
+    [
+        ("all", "2 s", True),  # the chain stopped at the gap and lies still: it failed
+        ("<= 1", "0.3 s", True),  # more toppled than allowed while it still runs: failed whatever comes
+        ("all", "0.3 s", False),  # cut off while it runs: undecided
+    ],
+)
+def test_a_toppled_count_judged_in_motion_is_undecided_only_while_motion_may_still_meet_it(toppled, settle, decided):
+    from stackdsl.verdicts.expect import STILL_MOVING
+
+    bricks = "\n".join(
+        f"    - {{id: d{k}, at: [{x} mm, 0, 60 mm], pitch: 90, level: 1}}" for k, x in enumerate([0, 60, 120, 180, 400, 460])
+    )
+    text = f"""stackdsl: 1
+brick_types: {{finger: {{size: [20 mm, 10 mm, 10 mm]}}}}
+structure:
+  bricks:
+{bricks}
+timing: {{interval: 0.05 s, settle: {settle}}}
+actions:
+  - push: {{target: {{brick: d0, offset: [0, 0, 45 mm]}}, direction: [1, 0, 0], speed: 0.2 m/s, distance: 15 mm, at: after level 1, pusher: finger}}
+expect: {{toppled: '{toppled}'}}
+"""
+    scenario = parse_scenario(text, "gap.yaml")
+    program = compile_scenario(scenario)
+    outcome = run_program(program)
+    (verdict,) = evaluate(scenario.expect, outcome, program.collapse_threshold)
+    assert not verdict.passed and verdict.inconclusive is not decided
+    assert (outcome.kinetic_energy > STILL_MOVING) is (settle == "0.3 s")  # in motion when cut off, at rest after 2 s
+    if decided and settle == "2 s":
+        assert len(outcome.toppled) == 4  # the four before the gap
 
 
 def test_fallen_dominoes_propped_on_the_next_are_frozen_behind_the_front():

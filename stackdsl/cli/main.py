@@ -561,7 +561,8 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
             help=COMMANDS["check"],
             description="Run scenario files or folders and check their expectations: a row per scenario as it "
             "finishes (under a progress line on a terminal), what moved under each FAIL, then a summary. A row's "
-            "verdict: PASS, FAIL, INCONCLUSIVE (a sweep's statistic its samples did not decide), SKIP (the file's "
+            "verdict: PASS, FAIL, INCONCLUSIVE (a sweep's statistic its samples did not decide, or a run that ended "
+            "with its bricks still moving before they could decide an expectation), SKIP (the file's "
             "skip mark, with its reason), XFAIL or XPASS (its xfail mark: failed as expected, or passed).",
             epilog=CHECK_STATUS,
             formatter_class=raw,
@@ -714,7 +715,8 @@ def _print_run(args: argparse.Namespace, outcome: Outcome, program: Program, ver
         print(not_run_line(outcome))
     for v in verdicts:  # a failure at the line of its expectation, as a parse error is shown
         head, *shown = v.lines() if not v.passed else [f"expected {v.expected}, measured {v.measured}"]
-        print(f"{'PASS' if v.passed else 'FAIL'}  {head}", *(f"      {line}" for line in shown), sep="\n")
+        said = "PASS" if v.passed else "INCONCLUSIVE" if v.inconclusive else "FAIL"
+        print(f"{said}  {head}", *(f"      {line}" for line in shown), sep="\n")
 
 
 def _print_schema(args: argparse.Namespace) -> int:

@@ -93,6 +93,8 @@ def evaluate(expect: Expect, outcome: Outcome, threshold: float) -> list[Verdict
         verdicts.append(Verdict(name="finished", passed=False, expected="the run finishes", measured=outcome.stopped))
     elif outcome.certificate is not None and outcome.certificate.verdict == "undecided":
         verdicts = [_undecided(v, outcome.certificate.detail) for v in verdicts]
+    elif outcome.kinetic_energy > STILL_MOVING:
+        verdicts = [_cut_off(v, expect, outcome) for v in verdicts]
     return [v.model_copy(update={"at": expect.at(v.name)}) if expect.at(v.name) else v for v in verdicts]
 
 
@@ -150,6 +152,25 @@ def _undecided(verdict: Verdict, why: str) -> Verdict:
     if verdict.name == "stands_until" and verdict.passed:
         return verdict
     return verdict.model_copy(update={"passed": False, "inconclusive": True, "measured": f"undecided: {why}"})
+
+
+def _cut_off(verdict: Verdict, expect: Expect, outcome: Outcome) -> Verdict:
+    """A failed final-state verdict of a run that ended with its bricks still moving (kinetic
+    energy above :data:`STILL_MOVING`), a collapse decided or not, that the motion may still turn:
+    fewer toppled than the least asked (a domino chain the run's end cut off), or a brick asked
+    to move that has not yet. Undecided, as a run ended in motion with no collapse proved is;
+    a brick that moved where it must stay, or more toppled than allowed, has failed whatever
+    comes. Source: stackdsl's own."""
+    if verdict.passed:
+        return verdict
+    ended = f"the run ended at t={outcome.simulated_time:.2f} s with its bricks still moving"
+    if verdict.name == "toppled" and expect.toppled is not None:
+        least, _ = expect.toppled.allows(len(outcome.displacement) + len(outcome.unplaced))
+        if len(outcome.toppled) < least:
+            return _undecided(verdict, f"{verdict.measured} when {ended}")
+    if verdict.name == "moved" and expect.moved and not _never(outcome, levels_of(expect.moved), bricks_of(expect.moved)):
+        return _undecided(verdict, f"{verdict.measured} when {ended}")
+    return verdict
 
 
 def check_threshold(threshold: float) -> None:

@@ -80,6 +80,19 @@ actions:
 """
 
 
+@pytest.mark.parametrize(("duration", "periods"), [("0.5 s", 1), ("1.5 s", 2), ("2.5 s", 3), ("2.49 s", 2)])
+def test_a_shakes_half_period_rounds_up_as_its_refusal_says(duration, periods):
+    """0.5 s at 1 Hz was refused as rounding to none while the refusal asked for half a period
+    (Python's round takes a half to the even number), and 2.5 s shook for two periods."""
+    text = (
+        "stackdsl: 1\nstructure: {tower: {levels: 2}}\n"
+        f"actions: [{{shake: {{amplitude: 2 mm, frequency: 1 Hz, duration: {duration}, at: 9 s}}}}]\n"
+    )
+    (shake,) = compile_scenario(parse_scenario(text, "s.yaml")).kinematic
+    assert isinstance(shake, Shake) and shake.periods == periods
+    assert shake.end_time - shake.time == pytest.approx(periods / shake.frequency)
+
+
 def test_compile_shows_each_action_with_its_time_and_the_rules_it_switches_on():
     program = compile_scenario(parse_scenario(SCENE, "s.yaml"))
     remove, shake, push = program.kinematic

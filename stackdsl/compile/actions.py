@@ -934,7 +934,7 @@ def _shake(scenario: Scenario, path: FieldPath, action: Action, start: float, st
             f"step of {step_text(dt)} samples a period {1 / (s.frequency * dt):.3g} times, fewer than {SAMPLES_A_PERIOD}: "
             f"give a lower frequency or a shorter engine.timestep (at most {1 / (SAMPLES_A_PERIOD * s.frequency) * 1000:.4g} ms)",
         )
-    periods = max(1, round(s.duration * s.frequency))
+    periods = max(1, s.whole_periods())
     span = max(1, round(periods / s.frequency / dt))
     # whole periods in whole steps: the frequency is fitted to them, so that the ground ends at rest
     # (the motion's offset and speed are 0 at its last step); at least as many steps a period as before

@@ -14,6 +14,7 @@ Source: stackdsl's own (docs/design.md, "Actions").
 
 from __future__ import annotations
 
+import math
 import re
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
@@ -240,10 +241,20 @@ class Shake(StrictModel):
         Field(description="the horizontal direction of the motion, [x, y] (any length)", examples=[[1, 0]]),
     ] = (1.0, 0.0)
 
+    def whole_periods(self) -> int:
+        """The whole periods the shake lasts: its duration times its frequency, half a period
+        rounded up (0.5 s at 1 Hz is one period, 2.5 s three), as the refusal below says; Python's
+        ``round`` rounds a half to the even number, and made 0.5 s at 1 Hz none and 2.5 s two.
+
+        >>> Shake(amplitude=0.01, frequency=1.0, duration=2.5, at=1.0).whole_periods()
+        3
+        """
+        return math.floor(self.duration * self.frequency + 0.5 + 1e-9)
+
     @model_validator(mode="after")
     def _a_period_at_least(self) -> Shake:
         periods = self.duration * self.frequency
-        if round(periods) < 1:  # it would round to none, and be made one: 0.1 s at 2 Hz lasted 0.5 s
+        if self.whole_periods() < 1:  # it would round to none, and be made one: 0.1 s at 2 Hz lasted 0.5 s
             raise ValueError(
                 f"a shake lasts whole periods: {self.duration:g} s at {self.frequency:g} Hz is {periods:.2g} of a period, "
                 f"which rounds to none; give at least half a period ({0.5 / self.frequency:g} s, made one, "

@@ -46,6 +46,7 @@ from .args import (
     refused,
     timeout_type,
 )
+from .progress import EVERY
 from .sample import add_sample_options, scenario_of
 
 if TYPE_CHECKING:
@@ -560,7 +561,8 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
             parents=[many],
             help=COMMANDS["check"],
             description="Run scenario files or folders and check their expectations: a row per scenario as it "
-            "finishes (under a progress line on a terminal), what moved under each FAIL, then a summary. A row's "
+            f"finishes (under a progress line on a terminal; elsewhere, a line on standard error every {EVERY:g} s says how "
+            "far it is), what moved under each FAIL, then a summary. A row's "
             "verdict: PASS, FAIL, INCONCLUSIVE (a sweep's statistic its samples did not decide, or a run that ended "
             "with its bricks still moving before they could decide an expectation), SKIP (the file's "
             "skip mark, with its reason), XFAIL or XPASS (its xfail mark: failed as expected, or passed).",

@@ -629,6 +629,7 @@ def test_a_run_stopped_by_its_timeout_fails_and_says_when(tmp_path, capsys, monk
     assert main(["run", str(path), "--timeout", "42"]) == 1
     lines = capsys.readouterr().out.splitlines()
     assert any(x.startswith("FAIL  ") and x.endswith("timeout after 42 s at t = 5.0 s simulated (of 7 s)") for x in lines)
+    assert lines[-1].strip() == "the rest of the run was not simulated: a longer --timeout (now 42 s) lets it finish"
 
 
 @pytest.mark.slow

@@ -657,6 +657,8 @@ def _run(args: argparse.Namespace) -> int:
                 print(f"      {line}")
         if stopped and all(v.passed for v in verdicts):  # no verdict says it
             print(f"FAIL  {stopped}")
+        if stopped and stopped.startswith("timeout"):  # as check says it after its table
+            print(f"      the rest of the run was not simulated: a longer --timeout (now {args.timeout:g} s) lets it finish")
     return OK if all(v.passed for v in verdicts) and not stopped else FAILED
 
 

@@ -211,11 +211,15 @@ class StabilityExtension:
         held = [rec for rec in active if rec.proved_at is not None]
         if held:
             self._release(held, {rec.body for rec in resting}, time)
-        due = [
-            rec
-            for rec in resting
-            if rec.proved_at is None and rec.body not in touched and (rec.failed is None or not stack.soon(rec.failed, time))
-        ]
+        due, after = [], []
+        for rec in resting:
+            if rec.proved_at is not None or rec.body in touched:
+                continue
+            if rec.failed is None or not stack.soon(rec.failed, time):
+                due.append(rec)
+            elif stack.settled_around(rec.failed, time):  # last: a pile asked before may take it
+                after.append(rec)
+        due += after
         if not stack.admitting:
             due = []
         if due:  # the step's contacts, read only when some brick asks

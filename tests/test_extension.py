@@ -301,6 +301,30 @@ def test_a_refused_brick_waits_out_a_lone_brick_elsewhere_but_not_a_change_under
     assert asked.count(b) == 2  # b1, which b lies on, carries more: asked again within the rest duration
 
 
+def test_a_refused_brick_waiting_out_a_lone_change_is_asked_once_a_brick_it_touches_rests(monkeypatch):
+    s = Scene(StabilityConfig(rest_duration=0.05))
+    s.brick(0.0, 1)
+    s.ext.update(0.0)
+    s.ext.update(0.1)  # b1 frozen on the ground
+    b = s.brick(0.065, 2, on=(1,))  # refused: its centre of mass is beyond b1's end
+    m = s.brick(-0.065, 2, on=(1,))  # refused too, and still moving when b is first asked
+    s.engine.touch(b, m, [[0.0, 0.0, 1.5 * H]], normal=[1, 0, 0])
+    s.engine.velocities[m] = (np.array([0.05, 0.0, 0.0]), np.zeros(3))
+    lone = s.brick(0.5, 1)
+    asked = []
+    real = s.ext._admit
+    monkeypatch.setattr(s.ext, "_admit", lambda rec, *a: asked.append(rec.body) or real(rec, *a))
+    s.ext.update(1.0)
+    del s.engine.velocities[m]  # at rest from 1.03 on: rested at 1.08
+    s.ext.update(1.03)
+    s.ext.update(1.06)  # b asked and refused while m moved; then the lone brick frozen
+    assert asked == [b, lone] and lone in s.engine.frozen
+    s.ext.update(1.07)
+    assert asked == [b, lone]  # the lone brick changed nothing b depends on: it waits
+    s.ext.update(1.08)
+    assert asked == [b, lone, m, b]  # m has rested: b asked again, after m, within its rest duration
+
+
 class DroppingEngine(FakeEngine):
     """Forgets every contact of a body whose mass changes until the next step, as pybullet does."""
 

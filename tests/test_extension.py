@@ -256,12 +256,18 @@ def test_a_refused_brick_is_asked_again_only_when_something_changed(monkeypatch)
     assert asked.count(b) == 3
 
 
-def test_a_refused_brick_waits_a_rest_duration_on_the_same_stack(monkeypatch):
+def _overhanging() -> tuple[Scene, int]:
+    """A scene with a rest duration of 50 ms, b1 frozen on the ground and b2 lying on it with its
+    centre of mass beyond b1's end (refused once asked), not yet seen by an update."""
     s = Scene(StabilityConfig(rest_duration=0.05))
     s.brick(0.0, 1)
     s.ext.update(0.0)
     s.ext.update(0.1)  # b1 frozen on the ground
-    b = s.brick(0.065, 2, on=(1,))  # refused: its centre of mass is beyond b1's end
+    return s, s.brick(0.065, 2, on=(1,))
+
+
+def test_a_refused_brick_waits_a_rest_duration_on_the_same_stack(monkeypatch):
+    s, b = _overhanging()
     asked = []
     real = s.ext._admission.basic
     monkeypatch.setattr(s.ext._admission, "basic", lambda *a: asked.append(a[0].body) or real(*a))
@@ -278,11 +284,7 @@ def test_a_refused_brick_waits_a_rest_duration_on_the_same_stack(monkeypatch):
 
 
 def test_a_refused_brick_waits_out_a_lone_brick_elsewhere_but_not_a_change_under_it(monkeypatch):
-    s = Scene(StabilityConfig(rest_duration=0.05))
-    s.brick(0.0, 1)
-    s.ext.update(0.0)
-    s.ext.update(0.1)  # b1 frozen on the ground
-    b = s.brick(0.065, 2, on=(1,))  # refused: its centre of mass is beyond b1's end
+    s, b = _overhanging()
     lone = s.brick(0.5, 1)  # on the ground alone, touching nothing b touches
     asked = []
     real = s.ext._admission.basic
@@ -302,11 +304,7 @@ def test_a_refused_brick_waits_out_a_lone_brick_elsewhere_but_not_a_change_under
 
 
 def test_a_refused_brick_waiting_out_a_lone_change_is_asked_once_a_brick_it_touches_rests(monkeypatch):
-    s = Scene(StabilityConfig(rest_duration=0.05))
-    s.brick(0.0, 1)
-    s.ext.update(0.0)
-    s.ext.update(0.1)  # b1 frozen on the ground
-    b = s.brick(0.065, 2, on=(1,))  # refused: its centre of mass is beyond b1's end
+    s, b = _overhanging()
     m = s.brick(-0.065, 2, on=(1,))  # refused too, and still moving when b is first asked
     s.engine.touch(b, m, [[0.0, 0.0, 1.5 * H]], normal=[1, 0, 0])
     s.engine.velocities[m] = (np.array([0.05, 0.0, 0.0]), np.zeros(3))

@@ -218,7 +218,7 @@ class _Clearances:
         stack = self.stack
         read = stack.engine.pose_floats
         places, turns = zip(*(read(rec.body) for rec in bodies), strict=True)
-        _, generation = stack.frozen_boxes()
+        generation = stack.box_generation
         kept, out, todo = self._kept, [True] * len(bodies), []
         for i, rec in enumerate(bodies):
             was = kept.get(rec.body)

@@ -67,6 +67,17 @@ class Woken(NamedTuple):
     event: StabilityEvent
 
 
+class Attempt(NamedTuple):
+    """What an admission of a brick depended on when it was refused (:meth:`Stack.attempt`): the
+    stack's version, the brick's pose rounded (to 0.1 mm and 0.01 rad), and the bodies it touched,
+    each with whether it was frozen or at rest then; ``around`` None when any change of the stack
+    counts (a freeze undone by the stack test)."""
+
+    version: int
+    where: tuple[int, ...] = ()
+    around: tuple[tuple[int, bool], ...] | None = None
+
+
 class Ride(NamedTuple):
     """Frozen bricks merged into one body in the engine (:meth:`Stack.ride`), riding a pull, or
     a shaken ground they slide on or are carried by."""
@@ -98,7 +109,7 @@ class Record:
     impacted: set[int] = field(default_factory=set)
     load_path: BaseGeometry | None = None
     support_regions: dict[int, BaseGeometry] = field(default_factory=dict)  # where it may push on each support
-    failed: tuple[tuple[object, ...], float] | None = None  # its last refusal: what it depended on, when
+    failed: tuple[Attempt, float] | None = None  # its last refusal: what it depended on, when
     extent: Extent | None = None  # frozen: top z, x min, x max, y min, y max (m)
     placed_at: float | None = None  # s: when the extension's update first saw it
     was_frozen: bool = False  # frozen at least once (a woken brick is the debris rule's)
@@ -471,7 +482,7 @@ class Stack:
         """Has ``rec`` been under the rest thresholds for the rest duration at ``time`` s?"""
         return rec.clock.rested(time, self.config)
 
-    def attempt(self, rec: Record, contacts: dict[int, list[ContactPoint]], time: float) -> tuple[object, ...]:
+    def attempt(self, rec: Record, contacts: dict[int, list[ContactPoint]], time: float) -> Attempt:
         """What an admission of ``rec`` depends on: the stack (its version), the brick's pose
         to 0.1 mm and 0.01 rad, and the bodies it touches with whether each is frozen or
         at rest. A brick refused once is not asked again until one of them changes."""
@@ -484,9 +495,9 @@ class Stack:
                 if o in self.bodies
             )
         )
-        return (self.version, where, around)
+        return Attempt(self.version, where, around)
 
-    def soon(self, failed: tuple[tuple[object, ...], float], time: float) -> bool:
+    def soon(self, failed: tuple[Attempt, float], time: float) -> bool:
         """Was the refusal ``failed`` (what it depended on, when) less than a rest duration ago,
         on the same stack? Then the brick waits: in a heap that still settles around it, it
         would be asked every step.
@@ -500,15 +511,14 @@ class Stack:
         (key, when), version = failed, self.version
         if time - when >= self.config.rest_duration:
             return False
-        if key[0] == version:
+        if key.version == version:
             return True
-        if len(key) < 3 or not isinstance(key[0], int) or key[0] < self.linked_version:
+        if key.around is None or key.version < self.linked_version:
             return False
-        around: tuple[tuple[int, bool], ...] = key[2]  # type: ignore[assignment]
-        lone, since = self._lone, key[0]
-        return not any(lone.get(o, -1) > since for o, _ in around)
+        lone, since = self._lone, key.version
+        return not any(lone.get(o, -1) > since for o, _ in key.around)
 
-    def settled_around(self, failed: tuple[tuple[object, ...], float], time: float) -> bool:
+    def settled_around(self, failed: tuple[Attempt, float], time: float) -> bool:
         """Whether, since the refusal ``failed``, which :meth:`soon` keeps waiting on a stack
         changed only by lone bricks, a brick it touched that still moved then has come to rest
         or been frozen. Then it is asked again, after the other bricks of the step, whose piles
@@ -519,13 +529,12 @@ class Stack:
         rest duration instead, the dominoes of 12 rows of 15 to 50 stayed active longer (their
         runs 2.5% and 5.7% slower on the two engines, one arc 58%)."""
         key = failed[0]
-        if len(key) < 3 or key[0] == self.version:
+        if key.around is None or key.version == self.version:
             return False
         bodies = self.bodies
-        around: tuple[tuple[int, bool], ...] = key[2]  # type: ignore[assignment]
         return any(
             not resting and o in bodies and (bodies[o].state is not BrickState.ACTIVE or self.rested(bodies[o], time))
-            for o, resting in around
+            for o, resting in key.around
         )
 
     def _changed(self, rec: Record) -> None:

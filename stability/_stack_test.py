@@ -25,7 +25,7 @@ from ._graph import BrickState
 from ._leaning import pair_friction
 from ._load import LoadNode, propagate_fast
 from ._load_path import load_path, loads_balance, proven, support_piece
-from ._stack import Record, StabilityEvent, Stack
+from ._stack import Attempt, Record, StabilityEvent, Stack
 
 
 class StackTest:
@@ -395,7 +395,7 @@ class StackTest:
                     reason = f"centre of mass above {out:.1f} mm outside its support: not frozen after all"
                     events += [w.event for w in stack.wake(rec.body, time, reason, alone=True)]
                     stack.watch(rec, set(rec.objects_above))
-                    rec.failed = ((stack.version,), time)  # asked again a rest duration on, or once the stack changes
+                    rec.failed = (Attempt(stack.version), time)  # asked again a rest duration on, or once the stack changes
                 continue
             for rec in failing:
                 if rec.state is not BrickState.FROZEN:  # woken already, resting on one that failed

@@ -338,6 +338,8 @@ class PullProof:
     Attributes:
         kept: the frozen bricks the pulled one touches that stay frozen (empty without a proof).
         why: None when proved; else the reason.
+        falls: whether the proof failed on statics without the pulled brick: the frozen stack,
+            rigid blocks on their frozen contacts, does not stand once it is gone.
 
     Source: stackdsl's own.
     """
@@ -356,6 +358,7 @@ class PullProof:
         self._seen: tuple[Pose, Polygon, dict[int, float]] | None = None  # the last overlaps found: where, its footprint, them
         self.area: dict[int, float] = {}  # carried brick or support -> m^2 of its contact when proved
         self._splits: Splits = {}  # the load splits of the last check: each check changes a few nodes
+        self.falls = False
         self.why = self._start(near)
 
     def _start(self, near: Sequence[ContactPoint]) -> str | None:
@@ -386,6 +389,7 @@ class PullProof:
             if tilted or any(float(a.normal[2]) < LEVEL for a in rec.rests_on.values()):
                 return f"{rec.label} has a contact that is not level"
         why = self._stands_without()
+        self.falls = why is not None
         if why is None:
             why = self.check(None)
         if why is None:

@@ -575,6 +575,7 @@ class StabilityExtension:
                 )
                 return events + self._touching(body, time, {})
             reason = f"{reason}; statics does not keep the bricks it slides between frozen: {proof.why}"
+            return self._guide(body, time, reason, speed, falls=proof.falls)
         return self._guide(body, time, reason, speed)
 
     def driven(self) -> list[str]:
@@ -612,16 +613,17 @@ class StabilityExtension:
             return any(pusher == body and brick not in self._proofs for brick, pusher in self._driven.items())
         return body not in self._proofs
 
-    def _guide(self, body: int, time: float, reason: str, speed: float) -> list[StabilityEvent]:
+    def _guide(self, body: int, time: float, reason: str, speed: float, falls: bool = False) -> list[StabilityEvent]:
         """:meth:`guide` without a proof: ``body`` wakes with what rests on it and the bricks
         beside; or, when the engine can merge them (:meth:`_riders`), only the bricks resting on
         it and those resting on them wake, with those beside, and everything frozen above rides
-        them as one rigid body (:meth:`_rides` ends the ride)."""
+        them as one rigid body (:meth:`_rides` ends the ride). With ``falls`` (statics proved
+        that the frozen stack does not stand without ``body``), everything above rides it."""
         stack = self._stack
         label = stack.bodies[body].label
         above = self._above(body)
         beside = self._beside(body, above)
-        carried, riders = self._riders(body, above, beside)
+        carried, riders = self._riders(body, above, beside, falls)
         if riders and stack.ride(body, riders):
             events = [w.event for w in stack.wake(body, time, reason, alone=True)]
             for a in carried:
@@ -644,7 +646,9 @@ class StabilityExtension:
         stack.hand_speed[body] = speed
         return events + self._touching(body, time, {})
 
-    def _riders(self, body: int, above: set[int], beside: list[tuple[int, str]]) -> tuple[list[int], list[int]]:
+    def _riders(
+        self, body: int, above: set[int], beside: list[tuple[int, str]], falls: bool = False
+    ) -> tuple[list[int], list[int]]:
         """The bricks to wake, and the frozen bricks above them (``above``: everything resting on
         ``body``, :meth:`_above`) that may ride them merged into one rigid body (at least
         :data:`RIDERS`), each in the order they froze: everything above is frozen, and every
@@ -660,16 +664,48 @@ class StabilityExtension:
         side pull's twist that no dragged brick holds alone (docs/results/pull_coupled.py:
         0.89 of the drag alone, 1.14 tied, at equal shares); merged into the riders' body, that
         tie held less in pybullet, and 5 of 40 side pulls of a Jenga tower that stand free slid
-        their level 18 to 28 mm (docs/results/actions-freeze.md)."""
+        their level 18 to 28 mm (docs/results/actions-freeze.md).
+
+        Not where the pull fells them (``falls``: statics proved that the frozen stack does not
+        stand without ``body``): then the bricks on ``body`` ride with everything above them,
+        one rigid body, until the ride's own proof fails (:meth:`_tilted`: it tilts, or comes
+        near a body it did not touch). How far a side block of a Jenga level left on it and one
+        other drags the tower above is a Coulomb tie at equal shares (its friction's drag is
+        what the other block's friction holds), which the engines decide apart: one, free or
+        merged, drags the tower at half the pull's speed, the other not at all (docs/actions.md,
+        "A pull that fells the tower"). Either way the riders must be one piece: a frozen brick
+        linked to the others by their contacts, each through a chain of them (two stacks on
+        one pulled plank ride as none)."""
         stack = self._stack
         carried = stack.bodies[body].objects_above
-        woken = carried | {t for a in carried for t in stack.bodies[a].objects_above}
-        riders = above - woken
-        if len(riders) < RIDERS or any(stack.bodies[a].state is not BrickState.FROZEN for a in above):
+        if any(stack.bodies[a].state is not BrickState.FROZEN for a in above):
             return stack.ordered(carried), []
         if any(not stack.bodies[b].objects_above <= above for b, _ in beside):
             return stack.ordered(carried), []
+        if falls and len(above) >= RIDERS and self._one_piece(above):
+            return [], stack.ordered(above)
+        woken = carried | {t for a in carried for t in stack.bodies[a].objects_above}
+        riders = above - woken
+        if len(riders) < RIDERS or not self._one_piece(riders):
+            return stack.ordered(carried), []
         return stack.ordered(woken), stack.ordered(riders)
+
+    def _one_piece(self, bricks: set[int]) -> bool:
+        """Whether ``bricks`` are linked into one piece by what each rests on among them."""
+        stack = self._stack
+        links: dict[int, set[int]] = {b: set() for b in bricks}
+        for b in bricks:
+            for s in stack.bodies[b].rests_on:
+                if s in links:
+                    links[b].add(s)
+                    links[s].add(b)
+        start = next(iter(bricks))
+        seen, todo = {start}, [start]
+        while todo:
+            for n in links[todo.pop()] - seen:
+                seen.add(n)
+                todo.append(n)
+        return len(seen) == len(bricks)
 
     def _above(self, body: int) -> set[int]:
         """Every brick resting on ``body``, or on one that does (what :meth:`wake` of ``body`` wakes)."""

@@ -183,6 +183,64 @@ def test_what_rests_on_the_bricks_a_pull_drags_rides_them_as_one_body_until_the_
     assert woken == {"b1", "b2", "b3", "top", "up5", "up6", "up7"} and eng.merged == []
 
 
+def level_left_on_two_blocks(apart=False):
+    """A fake world: two blocks on the ground along x, at y = -30 and +30 mm (the middle one of a
+    Jenga level taken), a block across them and three stacked on it (5 on 4, 6 on 5, 7 on 6),
+    all frozen; merging allowed. With ``apart``, a fourth stacked on block 1 beside the level,
+    touching nothing else (8)."""
+    from stability import Box, FakeEngine, Plane, Pose, StabilityExtension
+
+    eng = FakeEngine()
+    eng.mergeable = True
+    ext = StabilityExtension(eng)
+    ext.add_ground(0, Plane(0.0))
+    along, across = np.array([0.0375, 0.0125, 0.0075]), np.array([0.0125, 0.0375, 0.0075])
+    for body, y in ((1, -0.03), (3, 0.03)):
+        eng.poses[body] = Pose(np.array([0.0, y, 0.0075]))
+        ext.add_brick(body, Box(along, 0.0098), f"b{body}", friction=0.4)
+        eng.touch(body, 0, [[x, y + dy, 0.0] for x in (-0.0375, 0.0375) for dy in (-0.0125, 0.0125)], normal=[0, 0, 1])
+    for body in (4, 5, 6, 7):
+        z = 0.0225 + 0.015 * (body - 4)
+        eng.poses[body] = Pose(np.array([0.0, 0.0, z]))
+        ext.add_brick(body, Box(across, 0.0098), f"up{body}", friction=0.4)
+    for body, y in ((1, -0.03), (3, 0.03)):
+        eng.touch(4, body, [[x, y + dy, 0.015] for x in (-0.0125, 0.0125) for dy in (-0.0125, 0.0125)], normal=[0, 0, 1])
+    for body in (5, 6, 7):
+        z = 0.015 * (body - 3)
+        eng.touch(body, body - 1, [[x, y, z] for x in (-0.0125, 0.0125) for y in (-0.0375, 0.0375)], normal=[0, 0, 1])
+    if apart:
+        eng.poses[8] = Pose(np.array([0.03, -0.03, 0.0225]))
+        ext.add_brick(8, Box(np.array([0.0075, 0.0075, 0.0075]), 0.0034), "apart", friction=0.4)
+        eng.touch(
+            8, 1, [[0.03 + dx, -0.03 + dy, 0.015] for dx in (-0.0075, 0.0075) for dy in (-0.0075, 0.0075)], normal=[0, 0, 1]
+        )
+    for t in (0.0, 0.1, 0.2, 0.3):
+        ext.update(t)
+    assert {ext.state(b).value for b in eng.poses} == {"frozen"}
+    return eng, ext
+
+
+def test_a_pull_that_fells_what_it_carries_lets_all_of_it_ride_as_one_body():
+    """Block 1 pulled out from under a level left on it and block 3: without it, the level and
+    the three above lie on block 3 alone, their centre of mass 30 mm off its middle, and statics
+    says they fall. The level rides the pull with the three above, one body in the engine (the
+    drag of a side block on a level left on it and one other is a Coulomb tie, which no free
+    brick decides better); only the pulled block and the one beside wake. A brick on block 1
+    apart from the level would be merged with it across the air: then only what rests on the
+    level rides it, as when a pull is not proved for another reason."""
+    eng, ext = level_left_on_two_blocks()
+    events = ext.guide(1, 0.4, "pulled", 0.04, (0.04, 0.0, 0.0))
+    (said,) = [e.reason for e in events if e.kind == "wake" and e.label == "b1"]
+    assert "the frozen stack does not stand without it" in said
+    assert {e.label for e in events if e.kind == "wake"} == {"b1", "b3"}
+    assert {e.label for e in events if e.kind == "ride"} == {"up4", "up5", "up6", "up7"}
+    assert eng.merged == [(4, 5, 6, 7)]
+    eng, ext = level_left_on_two_blocks(apart=True)
+    events = ext.guide(1, 0.4, "pulled", 0.04, (0.04, 0.0, 0.0))
+    assert {e.label for e in events if e.kind == "ride"} == {"up6", "up7"} and eng.merged == [(6, 7)]
+    assert {"up4", "up5", "apart"} <= {e.label for e in events if e.kind == "wake"}
+
+
 def test_a_ride_ends_for_all_when_one_rider_wakes_or_it_falls_freely():
     """A blow that wakes one rider wakes them all; a ride whose support is pulled from under it
     falls freely (its first rider gains 0.49 m/s downwards in 0.05 s): it feels no gravity, and

@@ -78,6 +78,7 @@ def tipping_energy(
     heading: np.ndarray,
     gravity: float = GRAVITY,
     point: np.ndarray | None = None,
+    edges: Edges | None = None,
 ) -> float:
     """Joules to tip the hit part over the edge of its contact ``area`` that a blow along
     ``heading`` struck at ``point`` turns it over: its centre of mass above, ``h`` over the base
@@ -101,7 +102,8 @@ def tipping_energy(
             outline (shapely, m); base_z: m, its height; heading: shape (2,) or (3,), the blow's
             direction (a 2-vector is horizontal); gravity: m/s^2; point: shape (3,), m, where
             the blow lands on the part (None: level with the centre of mass, which for a
-            horizontal blow changes nothing).
+            horizontal blow changes nothing); edges: :func:`edges_of` ``area``, when found
+            already.
 
     Returns the lifting energy (:func:`potential_energy`) when the blow turns the part over no
     edge of ``area`` (a blow straight down inside the polygon, one with no moment about the
@@ -112,13 +114,33 @@ def tipping_energy(
     blow = np.zeros(3)
     blow[: len(heading)] = np.asarray(heading, dtype=float)[:3]
     struck = np.asarray(com_above if point is None else point, dtype=float)
-    edge = _tipping_edge(np.asarray(com_above, dtype=float), area, base_z, blow, struck)
+    edge = _tipping_edge(np.asarray(com_above, dtype=float), area, base_z, blow, struck, edges)
     if edge is None:
         return lift
     return mass_above * gravity * (math.hypot(edge, h) - h)
 
 
-def _tipping_edge(com: np.ndarray, area: Polygon, base_z: float, heading: np.ndarray, point: np.ndarray) -> float | None:
+Edges = list[tuple[np.ndarray, np.ndarray, np.ndarray]]
+"""A convex polygon's edges, counterclockwise: a point of each (shape (2,), m), its direction
+and its outward normal (unit, shape (2,) each)."""
+
+
+def edges_of(area: Polygon) -> Edges:
+    """The edges of the convex polygon ``area`` (:data:`Edges`), none shorter than 1e-12 m."""
+    ring = np.asarray(orient(area, 1.0).exterior.coords, dtype=float)[:, :2]
+    edges: Edges = []
+    for a, b in itertools.pairwise(ring):
+        length = float(np.linalg.norm(b - a))
+        if length < 1e-12:
+            continue
+        e = (b - a) / length
+        edges.append((a, e, np.array([e[1], -e[0]])))  # outward: the ring runs counterclockwise
+    return edges
+
+
+def _tipping_edge(
+    com: np.ndarray, area: Polygon, base_z: float, heading: np.ndarray, point: np.ndarray, edges: Edges | None = None
+) -> float | None:
     """The distance (m) from the centre of mass ``com`` to the line of the edge of the convex
     polygon ``area`` (at height ``base_z``) that a blow along ``heading`` at ``point`` turns the
     part over, or None when it turns it over none (stackdsl's own).
@@ -134,7 +156,8 @@ def _tipping_edge(com: np.ndarray, area: Polygon, base_z: float, heading: np.nda
     it when the blow's moment about that edge's line, ``((point - a) x heading) . e`` with ``a``
     on the edge and ``e`` along it (counterclockwise, so that a positive turn lifts the inside),
     is positive: the blow's line passes outside the edge. None for a centre of mass outside
-    ``area``, a degenerate ``area`` or no lean."""
+    ``area``, a degenerate ``area`` or no lean. ``edges``: :func:`edges_of` ``area``, when
+    found already."""
     if not isinstance(area, Polygon) or area.is_empty or area.area <= 0.0:
         return None
     x, y = float(com[0]), float(com[1])
@@ -146,14 +169,8 @@ def _tipping_edge(com: np.ndarray, area: Polygon, base_z: float, heading: np.nda
     if norm < 1e-12:
         return None
     lean = lean / norm
-    ring = np.asarray(orient(area, 1.0).exterior.coords, dtype=float)[:, :2]
     best: tuple[float, float, np.ndarray, np.ndarray] | None = None  # (along the lean, across, a, e)
-    for a, b in itertools.pairwise(ring):
-        length = float(np.linalg.norm(b - a))
-        if length < 1e-12:
-            continue
-        e = (b - a) / length
-        n = np.array([e[1], -e[0]])  # outward: the ring runs counterclockwise
+    for a, e, n in edges_of(area) if edges is None else edges:
         facing = float(lean @ n)
         if facing <= 1e-12:
             continue
@@ -259,6 +276,8 @@ class Impacts:
         self._parts = _Parts(stack)
         self._clearances = _Clearances(stack)
         self._least: tuple[int, float] | None = None  # a stack version, and :meth:`_least_tip` then
+        # struck brick -> a stack version, its record, and its part's support polygon then with its edges
+        self._shapes: dict[int, tuple[int, Record, BaseGeometry | None, Edges | None]] = {}
 
     def check(
         self,
@@ -383,10 +402,10 @@ class Impacts:
         potential = potential_energy(struck.mass_above, struck.com_above[2], base, config.gravity)
         if config.impact_energy != "least":
             return potential, struck
-        footprint = _footprint(stack, struck)
+        footprint, edges = self._shape(struck)
         com = np.asarray(struck.com_above)
         if footprint is not None and footprint.contains(Point(com[0], com[1])):  # else held by more than it
-            tip = tipping_energy(struck.mass_above, com, footprint, base, heading, config.gravity, point)
+            tip = tipping_energy(struck.mass_above, com, footprint, base, heading, config.gravity, point, edges)
             potential = tip if potential <= 0.0 else min(potential, tip)
         least, moved = potential, struck
         todo = [s for s in struck.rests_on if self._carries(s)]
@@ -420,6 +439,19 @@ class Impacts:
             if tip < least and tip < kinetic:
                 least, moved = tip, lower
         return least, moved
+
+    def _shape(self, struck: Record) -> tuple[BaseGeometry | None, Edges | None]:
+        """The support polygon of the part ``struck`` carries (:func:`_footprint`) and its edges
+        (:func:`edges_of`, None for no polygon), found once a stack version: a brick jostled on
+        a frozen one, faster than the rest speed at some steps and not at others, strikes it
+        anew each time (the level under a pulled Jenga block, 200 times in a pull)."""
+        stack = self.stack
+        kept = self._shapes.get(struck.body)
+        if kept is None or kept[0] != stack.version or kept[1] is not struck:
+            footprint = _footprint(stack, struck)
+            edges = edges_of(footprint) if isinstance(footprint, Polygon) and not footprint.is_empty else None
+            kept = self._shapes[struck.body] = (stack.version, struck, footprint, edges)
+        return kept[2], kept[3]
 
     def _least_tip(self) -> float:
         """Joules: less than any frozen brick's part (it and what rests on it, :class:`_Parts`)

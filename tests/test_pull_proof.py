@@ -183,6 +183,28 @@ def test_what_rests_on_the_bricks_a_pull_drags_rides_them_as_one_body_until_the_
     assert woken == {"b1", "b2", "b3", "top", "up5", "up6", "up7"} and eng.merged == []
 
 
+def test_two_stacks_on_a_moved_block_do_not_ride_it_as_one_body():
+    """The block a hand moves carries the level of :func:`levels_over_three_blocks` and, apart
+    from it, a column of three small blocks (8 on 2, 9 on 8, 10 on 9, 11 on 10): what would
+    ride (6 and 7 over the level, 10 and 11 over the column) is two pieces, which one body would
+    hold together across the air. Nothing rides, and everything above wakes."""
+    from stability import Box, Pose
+
+    eng, ext = levels_over_three_blocks(mergeable=True)
+    half = np.array([0.0075, 0.0075, 0.0075])
+    for body, below in ((8, 2), (9, 8), (10, 9), (11, 10)):
+        z = 0.0225 + 0.015 * (body - 8)
+        eng.poses[body] = Pose(np.array([0.03, 0.0, z]))
+        ext.add_brick(body, Box(half, 0.0034), f"col{body}", friction=0.4)
+        corners = [[0.03 + dx, dy, z - 0.0075] for dx in (-0.0075, 0.0075) for dy in (-0.0075, 0.0075)]
+        eng.touch(body, below, corners, normal=[0, 0, 1])
+    for t in (0.8, 0.9, 1.0, 1.1):
+        ext.update(t)
+    assert {ext.state(b).value for b in range(1, 12)} == {"frozen"}
+    woken = {e.label for e in ext.guide(2, 1.2, "pushed", 0.04) if e.kind == "wake"}
+    assert eng.merged == [] and {"up6", "up7", "col10", "col11"} <= woken
+
+
 def level_left_on_two_blocks(apart=False):
     """A fake world: two blocks on the ground along x, at y = -30 and +30 mm (the middle one of a
     Jenga level taken), a block across them and three stacked on it (5 on 4, 6 on 5, 7 on 6),

@@ -126,7 +126,13 @@ and its outward normal (unit, shape (2,) each)."""
 
 
 def edges_of(area: Polygon) -> Edges:
-    """The edges of the convex polygon ``area`` (:data:`Edges`), none shorter than 1e-12 m."""
+    """The edges of the convex polygon ``area`` (:data:`Edges`), none shorter than 1e-12 m.
+    Source: stackdsl's own.
+
+    >>> from shapely.geometry import box
+    >>> [tuple(float(v) + 0.0 for v in n) for _, _, n in edges_of(box(0.0, 0.0, 0.12, 0.024))]
+    [(1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0)]
+    """
     ring = np.asarray(orient(area, 1.0).exterior.coords, dtype=float)[:, :2]
     edges: Edges = []
     for a, b in itertools.pairwise(ring):

@@ -79,6 +79,42 @@ def test_describe_names_the_first_brick_and_the_moved_levels():
     assert describe(None) == "stands"
 
 
+@pytest.mark.parametrize("end_mm, said", [(4.4, "level 8 moved"), (3.97, "no brick past the threshold at the end")])
+def test_a_collapse_with_no_brick_past_the_threshold_at_the_end_says_so(end_mm, said):
+    """A new user's tuned MuJoCo run: L08.3 came to rest 4.4 mm from its place (a collapse past
+    the 4 mm threshold) and crept back to 3.97 mm by the end, and the row said "collapse 8 from
+    L08.3 (level 8)" with no level moved. Both descriptions, run's and check's, now say that no
+    brick was past the threshold at the end."""
+    from types import SimpleNamespace
+
+    from stackdsl.verdicts.check_result import CheckResult
+    from stackdsl.verdicts.expect import describe_outcome
+
+    outcome = SimpleNamespace(
+        collapse=SimpleNamespace(level=8, brick="L08.3", brick_level=8),
+        certificate=SimpleNamespace(verdict="collapse"),
+        displacement={"L07.3": 0.00355, "L08.3": end_mm / 1000},
+        final_graph=SimpleNamespace(nodes=[SimpleNamespace(id="L07.3", level=7), SimpleNamespace(id="L08.3", level=8)]),
+    )
+    assert describe_outcome(outcome, 0.004) == f"collapse 8 from L08.3 (level 8), {said}"
+    row = CheckResult(
+        "k08.yaml",
+        "k08",
+        "tuned",
+        "report",
+        (),
+        8,
+        8,
+        17.0,
+        11.7,
+        first_moved="L08.3",
+        first_moved_level=8,
+        moved_levels=moved_levels(outcome, 0.004),
+    )
+    assert row.measured == f"collapse 8 from L08.3 (level 8), {said}"
+    assert describe_outcome(SimpleNamespace(**{**vars(outcome), "collapse": None}), 0.004).startswith("stands")
+
+
 # 7. the engine in every output: check's rows, its JSON, JUnit XML, compare, the report
 
 

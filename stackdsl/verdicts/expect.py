@@ -237,14 +237,24 @@ def moved_levels(outcome: Outcome, threshold: float) -> tuple[int, ...]:
 
 def describe_outcome(outcome: Outcome, threshold: float) -> str:
     """What a run measured, in words (:func:`describe`): the collapse level, the brick that
-    moved first and its level, and the levels moved at the end (``threshold`` in m); a run that
-    ended with bricks still moving and no collapse proved is "undecided", not "stands"."""
+    moved first and its level, and the levels moved at the end (``threshold`` in m), or, of a
+    collapse, that no brick was past the threshold at the end (:data:`NONE_PAST`: a brick that
+    came to rest past it and crept back, or a fall statics proved that the engine's contacts
+    held); a run that ended with bricks still moving and no collapse proved is "undecided", not
+    "stands"."""
     c = outcome.collapse
     first = (c.brick, c.brick_level) if c is not None else None
-    said = describe(c.level if c is not None else None, first, moved_levels(outcome, threshold))
+    moved = moved_levels(outcome, threshold)
+    said = describe(c.level if c is not None else None, first, moved)
     if c is None and outcome.certificate is not None and outcome.certificate.verdict == "undecided":
         return said.replace("stands", "undecided: still moving at the end", 1)
-    return said
+    return f"{said}, {NONE_PAST}" if c is not None and not moved else said
+
+
+NONE_PAST = "no brick past the threshold at the end"
+"""Said of a collapse when no structure brick is past the collapse threshold at the end of the
+run: the collapse was decided on a brick that was (at rest past it, or falling by a proof), or
+on statics (a part placed off its support), and the levels moved at the end are none."""
 
 
 def _levels(outcome: Outcome) -> dict[str, int | None]:

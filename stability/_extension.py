@@ -31,6 +31,8 @@ from collections.abc import Set as AbstractSet
 
 import numpy as np
 import shapely
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 
 from ._admission import Admission
 from ._areas import ContactAreas, Contacts, by_body, main_area, overlap
@@ -701,20 +703,11 @@ class StabilityExtension:
 
     def _one_piece(self, bricks: set[int]) -> bool:
         """Whether ``bricks`` are linked into one piece by what each rests on among them."""
-        stack = self._stack
-        links: dict[int, set[int]] = {b: set() for b in bricks}
-        for b in bricks:
-            for s in stack.bodies[b].rests_on:
-                if s in links:
-                    links[b].add(s)
-                    links[s].add(b)
-        start = next(iter(bricks))
-        seen, todo = {start}, [start]
-        while todo:
-            for n in links[todo.pop()] - seen:
-                seen.add(n)
-                todo.append(n)
-        return len(seen) == len(bricks)
+        index = {b: i for i, b in enumerate(sorted(bricks))}
+        links = [(i, index[s]) for b, i in index.items() for s in self._stack.bodies[b].rests_on if s in index]
+        rows, cols = [i for i, _ in links], [j for _, j in links]
+        graph = coo_matrix((np.ones(len(links)), (rows, cols)), shape=(len(index), len(index)))
+        return int(connected_components(graph, directed=False)[0]) == 1
 
     def _above(self, body: int) -> set[int]:
         """Every brick resting on ``body``, or on one that does (what :meth:`wake` of ``body`` wakes)."""

@@ -9,7 +9,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from .expect import NONE_PAST, Verdict, describe, levels_moved
+from .expect import Verdict, describe, past_words
 
 
 @dataclass(frozen=True)
@@ -155,8 +155,8 @@ class CheckResult:
         first = (self.first_moved, self.first_moved_level) if self.first_moved_level is not None else None
         if self.certificate.startswith("undecided"):  # ended in motion: no verdict on the pose
             return "undecided: still moving at the end"
-        past = [levels_moved(self.moved_levels)] if self.moved_levels else [NONE_PAST] if self.collapse_level is not None else []
-        facts = [describe(self.collapse_level, first), *past]
+        past = past_words(self.collapse_level, self.moved_levels)
+        facts = [describe(self.collapse_level, first), *([past] if past is not None else [])]
         said = set(self.moved_levels)
         for v in self.verdicts:
             if v.name not in ("stays", "moved", "toppled"):

@@ -243,18 +243,28 @@ def describe_outcome(outcome: Outcome, threshold: float) -> str:
     held); a run that ended with bricks still moving and no collapse proved is "undecided", not
     "stands"."""
     c = outcome.collapse
-    first = (c.brick, c.brick_level) if c is not None else None
-    moved = moved_levels(outcome, threshold)
-    said = describe(c.level if c is not None else None, first, moved)
+    level = c.level if c is not None else None
+    said = describe(level, (c.brick, c.brick_level) if c is not None else None)
+    if (past := past_words(level, moved_levels(outcome, threshold))) is not None:
+        said += f", {past}"
     if c is None and outcome.certificate is not None and outcome.certificate.verdict == "undecided":
         return said.replace("stands", "undecided: still moving at the end", 1)
-    return f"{said}, {NONE_PAST}" if c is not None and not moved else said
+    return said
 
 
 NONE_PAST = "no brick past the threshold at the end"
 """Said of a collapse when no structure brick is past the collapse threshold at the end of the
 run: the collapse was decided on a brick that was (at rest past it, or falling by a proof), or
 on statics (a part placed off its support), and the levels moved at the end are none."""
+
+
+def past_words(collapse_level: int | None, moved: Sequence[int]) -> str | None:
+    """What a run's end says of the levels ``moved`` past the threshold, after :func:`describe`
+    of its collapse level: "levels 8-10 moved", :data:`NONE_PAST` of a collapse with none, or
+    None (a stand with none). The words of run's and check's descriptions alike."""
+    if moved:
+        return levels_moved(moved)
+    return NONE_PAST if collapse_level is not None else None
 
 
 def _levels(outcome: Outcome) -> dict[str, int | None]:

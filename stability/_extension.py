@@ -564,6 +564,7 @@ class StabilityExtension:
             self._pushers.add(body)
             if aim is not None:
                 self._aims[body] = aim
+        falls = False  # statics proved that what it carries falls without it (PullProof.falls)
         if pull is not None and stack.bodies[body].state is BrickState.FROZEN:
             near = stack.engine.near(body, speed * stack.engine.timestep + TOUCH)
             proof = PullProof(stack, body, np.asarray(pull, dtype=float), near)
@@ -577,9 +578,8 @@ class StabilityExtension:
                     proof.overlaps(footprint(stack.bodies[body].box.half_extents, stack.engine.pose(body))),
                 )
                 return events + self._touching(body, time, {})
-            reason = f"{reason}; statics does not keep the bricks it slides between frozen: {proof.why}"
-            return self._guide(body, time, reason, speed, falls=proof.falls)
-        return self._guide(body, time, reason, speed)
+            reason, falls = f"{reason}; statics does not keep the bricks it slides between frozen: {proof.why}", proof.falls
+        return self._guide(body, time, reason, speed, falls)
 
     def driven(self) -> list[str]:
         """The labels of the bricks a pusher drives now, as a hand pulls a brick (:meth:`_drive`)."""

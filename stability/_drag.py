@@ -25,6 +25,14 @@ frozen, and the engine simulate ``P`` alone, while three things hold:
   (the shares move).
 * **The drag on what P rests on.** Each brick under ``P`` is dragged by at most ``mu`` times the
   whole load on ``P``; its supports must hold that as above, under its load without ``P``'s.
+* **A pushed P's own balance.** A hand that pulls holds its brick level; a finger that pushes
+  does not. ``P`` pushed past its support's edge tips over it, and its end still under the
+  bricks above pries them up: both tuned engines threw the tower above a KAPLA block pushed
+  out along its length, where the proof had kept it frozen. So a pushed ``P`` must pass the
+  report's tipping test as it moves (3.3.5): its centre of mass above, its own and the loads
+  of the bricks on it by their shares, over the hull of its contacts with what it rests on
+  now. Asked with the drag, and again when ``P`` has moved as far as would carry that centre
+  of mass to the hull's edge with the loads on it where they were (:meth:`PullProof.tipping`).
 
 Any brick whose contacts are not level, a pulled brick that carries bricks frozen with it in a
 pile (not resting on it) or that touches a frozen brick in its way: no proof, and the extension
@@ -59,7 +67,7 @@ from shapely.geometry.base import BaseGeometry
 
 from ._engine import ContactPoint
 from ._equilibrium import RigidBlock, balanced_vertically, is_level, solve_equilibrium, upward
-from ._geometry import ContactArea, Pose, turn_between
+from ._geometry import ContactArea, Pose, combined_hull, contains, turn_between
 from ._graph import BrickState
 from ._leaning import pair_friction
 from ._load import Load, LoadNode, Splits, propagate, split_load
@@ -334,6 +342,8 @@ class PullProof:
         body: the pulled brick (frozen).
         direction: shape (3,), the pull's velocity (only its horizontal direction is used).
         near: the engine's contact points of ``body`` within what it travels in a step.
+        held: whether the hand holds the brick level (a pull), or only pushes it (a finger):
+            a pushed brick must also balance on what it rests on (the module docstring).
 
     Attributes:
         kept: the frozen bricks the pulled one touches that stay frozen (empty without a proof).
@@ -344,8 +354,9 @@ class PullProof:
     Source: stackdsl's own.
     """
 
-    def __init__(self, stack: Stack, body: int, direction: np.ndarray, near: Sequence[ContactPoint]) -> None:
-        self.stack, self.body = stack, body
+    def __init__(self, stack: Stack, body: int, direction: np.ndarray, near: Sequence[ContactPoint], held: bool = True) -> None:
+        self.stack, self.body, self.held = stack, body, held
+        self._tips: tuple[np.ndarray, float] | None = None  # a pushed brick: where it was last balanced, and how far on it may go
         d = np.asarray(direction, dtype=float)[:2]
         length = float(np.hypot(*d))
         self.direction = d / length if length > 0 else d
@@ -444,6 +455,10 @@ class PullProof:
                 supports[body] = left
             nodes[a] = LoadNode(node.mass, node.com, supports)
         loads = propagate(nodes, self._splits)
+        if not self.held:
+            tips = self._balance(under, loads[body], np.asarray(where, dtype=float))
+            if tips is not None:
+                return tips
         dragged: dict[int, Dragged] = {}  # carried brick -> it, with the drag of the pulled brick's friction, once
         for a in self.carried:
             rec, load, held_on = stack.bodies[a], loads[a], nodes[a].supports
@@ -493,6 +508,38 @@ class PullProof:
         if not every or held_together(every, g):  # one program for them all: a solve costs a few milliseconds
             return None
         return next((why for bricks, why in asked if not held_together(bricks, g)), asked[0][1])
+
+    def _balance(self, under: Mapping[int, ContactArea], load: Load, where: np.ndarray) -> str | None:
+        """The report's tipping test of a pushed brick at ``where`` (its centre, shape (3,), m)
+        on its contacts ``under`` (support -> the overlap left), under ``load`` (its own and the
+        loads on it): None when its centre of mass above lies over their hull, by the stability
+        model's margin, else why not; when it does, how far along the push it may travel before
+        its own centre of mass, the loads on it held where they are, carries that centre of mass
+        to the hull's edge (:meth:`tipping`). Source: report 3.3.4-3.3.5."""
+        stack, pulled = self.stack, self.stack.bodies[self.body]
+        hull = combined_hull(list(under.values()))
+        margin = stack.config.com_margin
+        com = np.asarray(load.com_above, dtype=float)
+        if not contains(hull, com[:2], margin):
+            self._tips = None
+            return (
+                f"{pulled.label} is pushed, not held, past its support's edge: its centre of mass above, its own "
+                "and the loads of the bricks on it, lies outside the hull of its contacts with what it rests on, "
+                "and it tips (report 3.3.5)"
+            )
+        edge = float(np.max(shapely.get_coordinates(hull) @ self.direction)) - margin
+        share = pulled.box.mass / load.mass_above  # of its travel, what its centre of mass above moves
+        self._tips = (where[:2].copy(), (edge - float(com[:2] @ self.direction)) / share)
+        return None
+
+    def tipping(self, position: np.ndarray) -> bool:
+        """Has a pushed brick, now at ``position`` (shape (3,), m), gone as far along its push
+        as its last balance allowed (:meth:`_balance`)? Then it is asked again. Always False for
+        a held one."""
+        if self._tips is None:
+            return False
+        start, room = self._tips
+        return float((np.asarray(position[:2], dtype=float) - start) @ self.direction) >= room
 
     def _on_it_alone(self, carried: int, area: ContactArea, com: np.ndarray) -> bool:
         """Could the ``carried`` brick, with nothing frozen resting on it, lie on the pulled brick

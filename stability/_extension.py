@@ -567,7 +567,7 @@ class StabilityExtension:
         falls = False  # statics proved that what it carries falls without it (PullProof.falls)
         if pull is not None and stack.bodies[body].state is BrickState.FROZEN:
             near = stack.engine.near(body, speed * stack.engine.timestep + TOUCH)
-            proof = PullProof(stack, body, np.asarray(pull, dtype=float), near)
+            proof = PullProof(stack, body, np.asarray(pull, dtype=float), near, held=body not in self._driven)
             if proof.why is None:
                 why = f"{reason}; the bricks it slides between stay frozen: statics holds them without it and against its drag"
                 events = [w.event for w in stack.wake(body, time, why, alone=True)]
@@ -786,14 +786,17 @@ class StabilityExtension:
         )
         if why is None:
             pose = stack.engine.pose(body)
-            if not proof.moved(pose.position) or proof.unchanged(areas, pose):
+            if not proof.moved(pose.position):
+                return []
+            tipping = proof.tipping(pose.position)  # a pushed brick nearing its support's edge
+            if not tipping and proof.unchanged(areas, pose):
                 return []
             at = footprint(stack.bodies[body].box.half_extents, pose)
             now = proof.overlaps(at, pose)
             changed = {a for a in now if now[a] <= areas[a] - SHRINK * proof.area[a] or (areas[a] > 0.0 and now[a] == 0.0)}
-            if not changed:
+            if not changed and not tipping:
                 return []
-            why = proof.check(at, pose.position, changed | proof.below.keys())
+            why = proof.check(at, pose.position, changed | proof.below.keys() if changed else set())
             if why is None:
                 self._proofs[body] = (proof, areas | {a: now[a] for a in changed})
                 return []

@@ -317,6 +317,47 @@ def test_a_block_pushed_out_and_back_is_proved_both_ways_under_the_levels_it_car
     assert all(v.passed for v in evaluate(scenario.expect, outcome, program.collapse_threshold))
 
 
+KAPLA_8 = """stackdsl: 1
+brick_types: {finger: {size: [20 mm, 6 mm, 6 mm]}}
+structure: {tower: {levels: 8, bricks_per_layer: 3, spacing: 27 mm}}
+timing: {interval: 0.3 s}
+"""
+
+
+@pytest.mark.parametrize(
+    ("action", "tips"),
+    [
+        (
+            "push: {target: {brick: L04.2}, direction: +y, speed: 40 mm/s, distance: 135 mm, at: after level 8, pusher: finger}",
+            True,
+        ),
+        (
+            "push: {target: {brick: L04.2}, direction: +y, speed: 40 mm/s, distance: 40 mm, at: after level 8, pusher: finger}",
+            False,
+        ),
+        ("remove: {brick: L04.2, direction: +y, speed: 40 mm/s, at: after level 8}", False),
+    ],
+)
+def test_a_block_pushed_past_its_supports_edge_tips_and_wakes_the_levels_on_it(action, tips):
+    """The middle block of level 4 of an 8-level KAPLA tower (120 mm long, level 3 spans 78 mm
+    under it) pushed out along its length by a finger. The proof keeps the levels above frozen
+    while it slides; pushed past the edge of what it rests on, its centre of mass above (its own
+    and the loads of level 5 on it) leaves its support and it tips, its end under level 5 prying
+    that level up: both tuned engines threw the levels above past the threshold, where the proof
+    had kept them frozen to the end. Now they wake once the block's centre of mass above leaves
+    its support: after its own centre of mass has passed the edge (39 mm out), before its end has
+    left level 5 (99 mm). Pushed 40 mm it stays over its support; pulled, the hand holds it level."""
+    text = KAPLA_8 + f"actions:\n  - {action}\nexpect: {{stays: 1-3}}\n"
+    outcome = run_program(compile_scenario(parse_scenario(text, "push_out.yaml"), None, None, "pybullet"))
+    woken = [e for e in outcome.events if e.kind == "wake"]
+    assert woken[0].brick == "L04.2" and "stay frozen" in woken[0].detail, woken
+    tipped = [e for e in woken if "tips (report 3.3.5)" in e.detail]
+    assert bool(tipped) is tips, woken
+    if tips:
+        travel = (tipped[0].time - woken[0].time) * 0.04
+        assert {e.brick for e in tipped} >= {"L05.1", "L05.2", "L05.3"} and 0.039 < travel < 0.099, (travel, tipped)
+
+
 def test_a_pull_of_a_brick_that_has_moved_says_where_the_hand_takes_it():
     """A new user pulled a block out of a tower's debris and nothing said it no longer lay where
     it was placed: the hand takes a brick where it lies, and the pull's line now says how far

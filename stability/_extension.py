@@ -357,21 +357,23 @@ class StabilityExtension:
         and only a level face (within :data:`stability._geometry.FACE_TILT`): debris lying tilted
         on debris is its pile's."""
         stack = self._stack
-        extents = {r.body: r.extent for r in stack.frozen.values() if r.extent is not None}
-        highest = max((e[0] for e in extents.values()), default=-np.inf)
+        records = [r for r in stack.frozen.values() if r.extent is not None]
+        if not records:
+            return
+        table = np.array([r.extent for r in records], dtype=float)  # top z, x min, x max, y min, y max
+        highest = float(table[:, 0].max())
         gap = stack.config.face_gap
         for body in sorted(frozen):
             below = stack.bodies.get(body)
             if below is None or below.state is not BrickState.FROZEN or below.extent is None or below.extent[0] + gap >= highest:
                 continue
             top, x0, x1, y0, y1 = below.extent
-            for above in list(stack.frozen.values()):
+            # the boxes higher than its top that overlap it across, in one comparison of arrays (a
+            # loop over every frozen brick for each one frozen grew with the square of a domino row)
+            over = (table[:, 0] > top) & (table[:, 2] >= x0) & (table[:, 1] <= x1) & (table[:, 4] >= y0) & (table[:, 3] <= y1)
+            for i in np.flatnonzero(over).tolist():
+                above = records[i]
                 if above.body == body or body in above.rests_on or above.body in below.rests_on:
-                    continue
-                if above.body not in extents:
-                    continue
-                upper, u0, u1, v0, v1 = extents[above.body]
-                if upper <= top or u1 < x0 or u0 > x1 or v1 < y0 or v0 > y1:
                     continue
                 area = self._areas.face_to_face(above, below)
                 if area is None or area.normal[2] < FACE_TILT:  # debris lying tilted on debris: a pile's own

@@ -37,7 +37,7 @@ from shapely.ops import unary_union
 
 from ._engine import ContactPoint
 from ._equilibrium import GRAVITY
-from ._geometry import Box, Pose, box_bounds
+from ._geometry import Box, Pose, box_bounds, moved_at_most
 from ._graph import BrickState
 from ._stack import Record, StabilityEvent, Stack
 from ._stack_test import StackTest
@@ -246,12 +246,8 @@ class _Clearances:
         for i, rec in enumerate(bodies):
             was = kept.get(rec.body)
             if was is not None and was[3] == generation and was[5] is rec:
-                (x, y, z), (a, b, c, d), gap, _, corner, _ = was
-                (x1, y1, z1), (a1, b1, c1, d1) = places[i], turns[i]
-                # the turn of stability._geometry.turn_between, in floats for the few bodies of a step; the
-                # round-off of its acos near 1 (some 1e-8 rad) is far inside CLEARANCE_SLACK
-                dot = min(1.0, abs(a * a1 + b * b1 + c * c1 + d * d1))
-                moved = math.sqrt((x1 - x) ** 2 + (y1 - y) ** 2 + (z1 - z) ** 2) + 2.0 * math.acos(dot) * corner
+                place, turn, gap, _, corner, _ = was
+                moved = moved_at_most(place, turn, places[i], turns[i], corner)  # its round-off is far inside CLEARANCE_SLACK
                 if gap - moved > reaches[i] + CLEARANCE_SLACK:
                     out[i] = False
                     continue

@@ -20,11 +20,17 @@ from shapely.geometry.base import BaseGeometry
 from ._config import StabilityConfig
 from ._engine import ContactBook, ContactPoint, Engine
 from ._equilibrium import ContactPolygon, is_level
-from ._geometry import Box, ContactArea, Plane, Pose, combined_hull
+from ._geometry import Box, ContactArea, Plane, Pose, combined_hull, moved_at_most
 from ._graph import BrickState
 from ._load import LoadNode, Loads, Splits, propagate_part
 from ._load_path import load_path, proven, share_region, support_piece
 from ._rest import RestClock
+
+BOUND_SLACK = 1e-6
+"""Metres under the watch's distance that a bound on how far a watched brick's corners moved
+(:meth:`Stack.moved_away`) must lie to answer without the corners: far above the bound's
+round-off (its turn's acos near 1 is off by some 1e-8 rad, times a half diagonal of 0.06 m), so
+the answer is the corners' own."""
 
 LONE_KEPT = 4096
 """Most lone bricks whose last change is kept between two changes of linked ones (:meth:`Stack.soon`);
@@ -203,7 +209,8 @@ class Stack:
         self._boxes: tuple[tuple[int, tuple[int, ...]], np.ndarray] | None = None
         # active bricks that frozen bricks lean on: body -> (its pose then, the frozen bricks on it)
         self.watched: dict[int, tuple[Pose, set[int]]] = {}
-        self._watched_corners: dict[int, tuple[Pose, np.ndarray]] = {}  # body -> its watched pose, and its corners there
+        # body -> its watched pose, its corners there, and its position and quaternion in floats
+        self._watched_corners: dict[int, tuple[Pose, np.ndarray, tuple[float, ...], tuple[float, ...]]] = {}
         self._contacts: ContactBook | None = None  # this step's, read in full before a change
         self.splits: Splits = {}  # the last split of each brick's load (propagate_fast's memo)
         # the loads of the last stack test that every frozen brick passed, and the bricks changed
@@ -300,8 +307,17 @@ class Stack:
                 continue
             box = rec.box
             then = self._watched_corners.get(body)
-            if then is None or then[0] is not pose:  # its corners where it was watched from, found once
-                then = self._watched_corners[body] = (pose, box.corners(pose))
+            if then is None or then[0] is not pose:  # where it was watched from, found once
+                then = self._watched_corners[body] = (
+                    pose,
+                    box.corners(pose),
+                    tuple(pose.position.tolist()),
+                    tuple(pose.orientation.tolist()),
+                )
+            # no corner moves farther than the centre's shift plus the turn's angle times the half
+            # diagonal: most steps a watched brick creeps, and that bound answers without the corners
+            if moved_at_most(then[2], then[3], *self.engine.pose_floats(body), box.half_diagonal) < distance - BOUND_SLACK:
+                continue
             moved = float(np.linalg.norm(box.corners(self.engine.pose(body)) - then[1], axis=1).max())
             if moved < distance:
                 continue

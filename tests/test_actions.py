@@ -915,8 +915,29 @@ def test_a_pusher_that_would_start_inside_a_brick_is_told_what_to_change():
     high += (
         "actions:\n  - push: {target: {brick: L02.2, offset: [0, 0, 9 mm]}, direction: +y, at: after level 6, pusher: finger}\n"
     )
-    with pytest.raises(ScenarioError, match=r"10 x 10 mm across its direction\) would start 6.5 mm inside brick 'L03.2' beside"):
+    with pytest.raises(
+        ScenarioError, match=r"10 x 10 mm across its direction\) would start 6.5 mm inside brick 'L03.2' beside"
+    ) as told:
         compile_scenario(parse_scenario(high, "high.yaml"))
+    assert "runs across" not in str(told.value)  # along the block's length: aimed too high, and no more
+
+
+def test_a_pusher_meeting_its_block_side_on_is_told_which_way_the_block_lies():
+    """A new user pushed a KAPLA tower's level-4 middle block along +x, across its length (level 4
+    lies along y): the finger starts inside the block beside it, and the error now says which way
+    the block lies, not only to aim nearer its middle or thin the finger."""
+    from stackdsl.lang.errors import ScenarioError
+
+    text = (
+        "stackdsl: 1\nbrick_types: {finger: {size: [20 mm, 6 mm, 6 mm]}}\n"
+        "structure: {tower: {levels: 8, bricks_per_layer: 3, spacing: 25 mm}}\nactions:\n"
+        "  - push: {target: {brick: L04.2}, direction: DIRECTION, distance: 135 mm, at: after level 8, pusher: finger}\n"
+    )
+    with pytest.raises(
+        ScenarioError, match=r"inside brick 'L04.1'.*runs across 'L04.2', whose length lies along y: .* push it along y"
+    ):
+        compile_scenario(parse_scenario(text.replace("DIRECTION", "+x"), "across.yaml"))
+    compile_scenario(parse_scenario(text.replace("DIRECTION", "+y"), "along.yaml"))  # along its length: no error
 
 
 @pytest.mark.parametrize(

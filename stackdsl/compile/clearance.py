@@ -88,13 +88,38 @@ def check_pusher(scenario: Scenario, index: int, push: Push, bodies: Sequence[tu
             f"the pusher ({push.brick.type}, {2 * hy * 1000:.0f} x {2 * hz * 1000:.0f} mm across its direction) would start "
             f"{inside[1] * 1000:.1f} mm inside brick {inside[0]!r} beside the point it is aimed at; aim it so that its "
             "face meets the target alone (an offset nearer the target's middle), or give a thinner pusher "
-            "(a brick type of brick_types)",
+            f"(a brick type of brick_types){_across(push, bodies)}",
         )
     raise scenario.source.error(
         path,
         f"the pusher ({push.brick.type}, {2 * hx * 1000:.0f} mm long along its direction) would start {inside[1] * 1000:.1f} "
         f"mm inside brick {inside[0]!r}; give a shorter pusher (a brick type of brick_types) or aim it from outside the "
         "structure",
+    )
+
+
+def _across(push: Push, bodies: Sequence[tuple[str, BrickSpec, Pose]]) -> str:
+    """Words for a push that runs across its target brick's length, which a pusher meant to
+    slide the brick out along its level meets side-on with its neighbours beside it (a new user's
+    ``+x`` into a block of a level that lies along y): "" when the target is a point, or the push
+    runs along the brick's length."""
+    found = next(((spec, pose) for name, spec, pose in bodies if name == push.target), None)
+    if found is None:
+        return ""
+    spec, pose = found
+    length = pose.rotation[:, int(np.argmax(spec.half_extents))]
+    along = np.array([length[0], length[1]])
+    heading = np.array(push.velocity[:2], dtype=float)
+    if float(np.linalg.norm(along)) < 0.5 or float(np.linalg.norm(heading)) == 0.0:
+        return ""  # the brick stands on end, or the push is vertical: no level to slide along
+    along, heading = along / np.linalg.norm(along), heading / np.linalg.norm(heading)
+    if abs(float(along @ heading)) > 0.5:
+        return ""
+    axis = next((name for name, unit in (("x", (1.0, 0.0)), ("y", (0.0, 1.0))) if abs(float(along @ unit)) > 0.999), None)
+    lies = f"along {axis}" if axis else f"along [{along[0]:.2f}, {along[1]:.2f}, 0]"
+    return (
+        f"; note that the push runs across {push.target!r}, whose length lies {lies}: to slide it out of its level, "
+        f"push it {lies} (`stackdsl compile` shows how each level lies)"
     )
 
 

@@ -288,6 +288,18 @@ def test_each_failed_expectation_points_at_its_line_in_check_json_junit_and_run(
     )
 
 
+def test_run_prints_what_held_first_and_why_a_failure_failed_right_under_it(tmp_path, capsys):
+    """`stands` is judged before `stays`: run printed the failed `stands`, then the `stays` that
+    held, then why `stands` failed, which a new user read as the PASS's. What held comes first now,
+    and the lines saying why follow the failures."""
+    assert main(["run", str(write(tmp_path, t=TIPS + "expect: {stands: true, stays: base}\n") / "t.yaml")]) == 1
+    out = capsys.readouterr().out.splitlines()
+    verdicts = [i for i, line in enumerate(out) if line.startswith(("PASS  ", "FAIL  "))]
+    assert [out[i][:4] for i in verdicts] == ["PASS", "FAIL"], out
+    assert all(line.startswith("      ") for line in out[verdicts[-1] + 1 :]), out[verdicts[-1] :]
+    assert any(line.strip().startswith("collapsed: brick top") for line in out[verdicts[-1] + 1 :]), out
+
+
 def test_an_expectation_built_in_python_has_no_place_and_says_its_verdict_alone():
     from stackdsl.lang.expectations import Expect
     from stackdsl.verdicts.expect import evaluate, located_lines

@@ -698,7 +698,8 @@ def _run_recorded(args: argparse.Namespace, program: Program) -> Outcome:
 
 def _print_run(args: argparse.Namespace, outcome: Outcome, program: Program, verdicts: list[Verdict]) -> None:
     """What ``run`` prints without ``--json``: the events, a summary line, the certificate, the
-    actions not run, and each verdict (a failure at the line of its expectation)."""
+    actions not run, and each verdict, those that held first (a failure at the line of its
+    expectation)."""
     from ..runtime.outcome import describe_certificate
     from ..verdicts.expect import describe_outcome, not_run_line
 
@@ -717,7 +718,9 @@ def _print_run(args: argparse.Namespace, outcome: Outcome, program: Program, ver
         print(f"certificate: {describe_certificate(outcome.certificate)}")
     if outcome.not_run:
         print(not_run_line(outcome))
-    for v in verdicts:  # a failure at the line of its expectation, as a parse error is shown
+    # what held first, then each failure at the line of its expectation, as a parse error is shown,
+    # so that the lines saying why (run's caller prints them next) follow the failures, not a PASS
+    for v in sorted(verdicts, key=lambda v: not v.passed):
         head, *shown = v.lines() if not v.passed else [f"expected {v.expected}, measured {v.measured}"]
         said = "PASS" if v.passed else "INCONCLUSIVE" if v.inconclusive else "FAIL"
         print(f"{said}  {head}", *(f"      {line}" for line in shown), sep="\n")

@@ -1578,7 +1578,7 @@ def test_a_shake_that_starts_with_an_impact_says_what_moves_in_every_output(tmp_
     assert main(["run", str(path)]) == 0
     text = capsys.readouterr().out
     shake = next(line for line in text.splitlines() if " shake " in line)
-    assert shake.endswith("simulated (impact1 is moving)"), shake
+    assert shake.endswith("stepped in the engine (impact1 is moving)"), shake
     assert "the ground shakes at 0.158 m/s^2: impact1 is moving" in text
     assert main(["run", "--json", str(path)]) == 0
     data = capsys.readouterr().out

@@ -131,7 +131,7 @@ def test_the_engines_bracket_the_closed_form(size, mu, kind, mode, backend):
     else:
         assert above.tilt > math.radians(5), (above.slip, above.tilt)
     if mode == "extension":
-        assert "simulated" in said[0] and (SLIDES if kind == "slide" else TIPS) in said[0]
+        assert "stepped in the engine" in said[0] and (SLIDES if kind == "slide" else TIPS) in said[0]
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
@@ -238,8 +238,8 @@ def test_fixtures_ride_the_shake_table_on_every_engine_and_mode(text, mode, back
     verdicts = evaluate(scenario.expect, outcome, program.collapse_threshold)
     assert verdicts and all(v.passed for v in verdicts), [(v.expected, v.measured) for v in verdicts]
     said = [e.detail for e in outcome.events if e.kind == "shake"]
-    if mode == "extension":  # proved to stand: it rides frozen; past g b / h: simulated
-        assert ("rides the table" if carried else "simulated") in said[0], said
+    if mode == "extension":  # proved to stand: it rides frozen; past g b / h: stepped in the engine
+        assert ("rides the table" if carried else "stepped in the engine") in said[0], said
     if carried is not None and mode != "extension":  # the ground moved: the fixtures and b with it
         # (MuJoCo's raw soft contacts let a brick creep 1.7 mm on the ground and 1.5 mm on the
         # shelf; a shelf left in place would leave b 60 mm behind the table at the stroke's end)

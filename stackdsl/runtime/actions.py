@@ -187,7 +187,9 @@ class Actions(Subscriber):
         if why is None and not rides:  # the frozen stack would stand, but something moves on it
             why = _moving(extension.moving)
         detail = f"{a.amplitude * 1000:.3g} mm at {a.frequency:.3g} Hz, peak {peak:.3g} m/s^2: " + (
-            "the frozen stack stands under gravity tilted by it and rides the table" if rides else f"simulated ({why})"
+            "the frozen stack stands under gravity tilted by it and rides the table"
+            if rides
+            else f"stepped in the engine ({why})"
         )
         loop.events.append(Event(time=a.time, kind="shake", brick="ground", detail=detail))
         if rides:

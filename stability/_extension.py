@@ -699,17 +699,22 @@ class StabilityExtension:
             return [], stack.ordered(above)
         woken = carried | {t for a in carried for t in stack.bodies[a].objects_above}
         riders = above - woken
-        if len(riders) < RIDERS or not self._one_piece(riders):
+        if len(riders) < RIDERS or not self._one_piece(riders, woken):
             return stack.ordered(carried), []
         return stack.ordered(woken), stack.ordered(riders)
 
-    def _one_piece(self, bricks: set[int]) -> bool:
-        """Whether ``bricks`` are linked into one piece by what each rests on among them."""
-        index = {b: i for i, b in enumerate(sorted(bricks))}
+    def _one_piece(self, bricks: set[int], through: set[int] | None = None) -> bool:
+        """Whether ``bricks`` are linked into one piece by what each rests on among them and the
+        bricks of ``through`` (the woken bricks they ride on: the top level of a Jenga tower, three
+        blocks side by side, is one piece through the level under it, each block of which it
+        crosses; two stacks on one moved plank are two, linked only through the plank)."""
+        nodes = bricks | (through or set())
+        index = {b: i for i, b in enumerate(sorted(nodes))}
         links = [(i, index[s]) for b, i in index.items() for s in self._stack.bodies[b].rests_on if s in index]
         rows, cols = [i for i, _ in links], [j for _, j in links]
         graph = coo_matrix((np.ones(len(links)), (rows, cols)), shape=(len(index), len(index)))
-        return int(connected_components(graph, directed=False)[0]) == 1
+        labels = connected_components(graph, directed=False)[1]
+        return len({int(labels[index[b]]) for b in bricks}) == 1
 
     def _above(self, body: int) -> set[int]:
         """Every brick resting on ``body``, or on one that does (what :meth:`wake` of ``body`` wakes)."""

@@ -184,14 +184,16 @@ actions:
 
 
 @pytest.mark.slow  # 7 s
-def test_a_side_pull_holds_the_level_it_drags_with_friction_anchors(monkeypatch):
-    """A side block of level 3 of a 6-level Jenga tower pulled at 40 mm/s: static friction holds
-    the level above (Coulomb's answer: it stays), and pybullet's solver, stopped at its
-    iterations, lets it creep. With friction anchors while the pull is stepped the levels above
-    move 0.08 mm; without them 0.91 mm (the same solver converged, at 200 iterations: a tenth of
-    a millimetre). The level above is proved held when tied by the one on it
-    (stability._drag.TIE_SAFETY): held here to a brick's safety alone, the proof fails and the
-    pull is stepped."""
+def test_a_side_pull_stepped_without_its_proof_leaves_the_level_above_in_place(monkeypatch):
+    """A side block of level 3 of a 6-level Jenga tower pulled at 40 mm/s, its proof made to fail
+    (the tie held to a brick's safety alone), so the pull is stepped: levels 4 and 5 wake and the
+    top level rides them as one body, one piece through level 5, each block of which it crosses.
+    Static friction holds the level above (Coulomb's answer: it stays; pybullet's solver
+    converged, at 200 iterations, a tenth of a millimetre). The levels above move 0.31 mm with
+    friction anchors while the pull is stepped and 0.27 mm without: since a placed brick freezes
+    where it lands the anchors no longer change this pull, where they cut its creep from 0.91 to
+    0.08 mm before. With the top level's blocks taken for three pieces (linked only through level
+    5) and left out of the ride, level 4 was dragged 15 mm, a collapse."""
     import stability._drag as drag_proof
     from stackdsl.engines.pybullet.world import PyBulletWorld
 
@@ -201,12 +203,14 @@ def test_a_side_pull_holds_the_level_it_drags_with_friction_anchors(monkeypatch)
     def drag() -> float:
         outcome = run_program(compile_scenario(parse_scenario(text, "side_pull.yaml")))
         assert outcome.collapse is None
+        rides = {e.brick for e in outcome.events if e.kind == "ride"}
+        assert rides == {"L06.1", "L06.2", "L06.3"}, rides
         return max(d for b, d in outcome.displacement.items() if int(b[1:3]) > 3)
 
     anchored = drag()
     monkeypatch.setattr(PyBulletWorld, "_anchor", lambda self, on: setattr(self, "_anchored", on))
     creeping = drag()
-    assert anchored < 0.0003 and creeping > 2.0 * anchored
+    assert anchored < 0.001 and creeping < 0.001, (anchored, creeping)
 
 
 @pytest.mark.parametrize("backend", BACKENDS)

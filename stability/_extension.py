@@ -131,7 +131,6 @@ class StabilityExtension:
         self._limits: dict[int, RideLimit] = {}  # a tilted ride's proof, by the pulled brick (:meth:`_tilted`)
         self._shaken_rides: dict[int, ShakenRide] = {}  # how a shaken ground's riders froze, by its key in stack.rides
         self._pushers: set[int] = set()  # guided bodies a hand pushes with (guided without a pull)
-        self._fells: set[int] = set()  # pulled bricks that fell what they carry, which rides them (_guide)
         self._driven: dict[int, int] = {}  # a brick a pusher drives, as a pulled one (:meth:`_drive`) -> the pusher
         self._aims: dict[int, int] = {}  # a pusher -> the brick its push is aimed at
         # a pusher -> its hand's velocity, the axes across its path and along it (:meth:`_pushes`)
@@ -610,13 +609,7 @@ class StabilityExtension:
         drag it will put on them is stepped from the first (a side block of a Jenga level 11
         pushed 30 mm dragged level 12 11 mm when the steps were split from the push's start, as
         both tuned engines drag it, and 0.3 mm when they were split from the step it was first
-        driven); a pusher that drives no brick carrying others drags none. Nor does a pull that
-        fells what it carries, all of which rides it (:meth:`_guide`): statics proved that the
-        frozen stack does not stand without it, and what follows is a fall, which the engine's
-        own step simulates as any other (the runtime's finer steps are for a drag that decides
-        whether a structure stands)."""
-        if body in self._fells:
-            return False
+        driven); a pusher that drives no brick carrying others drags none."""
         if body in self._pushers:
             aim = self._stack.bodies.get(self._aims.get(body, -1))
             if aim is not None and aim.state is BrickState.FROZEN and aim.objects_above:
@@ -636,8 +629,6 @@ class StabilityExtension:
         beside = self._beside(body, above)
         carried, riders = self._riders(body, above, beside, falls)
         if riders and stack.ride(body, riders):
-            if falls and not carried:  # all it carries rides it: the pull fells them (_riders)
-                self._fells.add(body)
             events = [w.event for w in stack.wake(body, time, reason, alone=True)]
             for a in carried:
                 on = label if body in stack.bodies[a].rests_on else f"what rests on {label}"
@@ -746,7 +737,6 @@ class StabilityExtension:
         self._proofs.pop(body, None)
         self._unkept_at.pop(body, None)
         self._pushers.discard(body)
-        self._fells.discard(body)
         self._driven.pop(body, None)
         self._aims.pop(body, None)
         self._push_axes.pop(body, None)

@@ -228,8 +228,9 @@ class Actions(Subscriber):
         stands, and with a brick past the threshold the collapse is dated and its level fixed;
         what follows is a fall, which the engine's own step simulates as it does any other
         (docs/actions.md, "Pull": a 12-level tower that a side pull fells, 5.4 to 5.8 s split to
-        the pull's end, 3.0 to 3.6 s so). A pull whose fall statics proved drags nothing that
-        decides it, and is not split at all (docs/actions.md, "A pull that fells the tower")."""
+        the pull's end, 3.0 to 3.6 s so). A pull whose fall statics proved is split as well until
+        then: its drag before the fall dates the collapse (docs/actions.md, "A pull that fells
+        the tower")."""
         if not self.guided or self._past_threshold(self.stability.extension.driven()):
             return False  # asked every step: nothing guided, no list of driven bricks
         drags = self.stability.extension.drags

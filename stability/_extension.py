@@ -678,8 +678,10 @@ class StabilityExtension:
         what the other block's friction holds), which the engines decide apart: one, free or
         merged, drags the tower at half the pull's speed, the other not at all (docs/actions.md,
         "A pull that fells the tower"). Either way the riders must be one piece: a frozen brick
-        linked to the others by their contacts, each through a chain of them (two stacks on
-        one pulled plank ride as none)."""
+        linked to the others by their contacts, each through a chain of them, which on the usual
+        path may pass through the bricks woken under them (a Jenga tower's top level, three
+        blocks side by side, is one piece through the level it crosses; two stacks on one
+        pulled plank, linked only through the plank, ride as none)."""
         stack = self._stack
         carried = stack.bodies[body].objects_above
         if any(stack.bodies[a].state is not BrickState.FROZEN for a in above):

@@ -24,12 +24,22 @@ _OTHER_STATUSES = """\
   3    internal error: a bug, out of memory, a worker died (one line; --debug shows the traceback)
   130  interrupted (Ctrl-C)
   141  the output pipe was closed early (as by | head); nothing more is printed"""
-EXIT_STATUS = f"""\
-exit status:
-  0    every expectation held
-  1    an expectation failed, a run ended undecided (INCONCLUSIVE: a brick still moved at its end;
-       a longer settle decides it), or a run reached its --timeout
-{_OTHER_STATUSES}"""
+
+
+def exit_status(zero: str, one: str | None) -> str:
+    """The ``exit status:`` epilog of a command: what 0 means for it, what 1 means (``one``, its
+    lines wrapped and indented as they print; None: the command never exits 1), then the statuses
+    every command shares. Each command's words are its own, not another's text edited: an edit
+    that no longer matches leaves the other's words in place, unseen."""
+    ones = f"  1    {one}\n" if one is not None else ""
+    return f"exit status:\n  0    {zero}\n{ones}{_OTHER_STATUSES}"
+
+
+EXIT_STATUS = exit_status(
+    "every expectation held",
+    "an expectation failed, a run ended undecided (INCONCLUSIVE: a brick still moved at its end;\n"
+    "       a longer settle decides it), or a run reached its --timeout",
+)
 #: ``check``'s and ``compare``'s, which honour the files' skip and xfail marks and judge sweeps.
 CHECK_STATUS = f"""\
 exit status:

@@ -41,6 +41,7 @@ from .args import (
     add_engine_overrides,
     add_seed,
     command_of,
+    exit_status,
     jobs_type,
     perturb_type,
     refused,
@@ -392,9 +393,7 @@ def _described(parser: argparse.ArgumentParser) -> None:
 
 
 _DEBUG_HELP = "on an internal error, print the traceback (also STACKDSL_TRACEBACK=1)"
-_ONE_STATUS = EXIT_STATUS.replace(
-    "  0    every expectation held\n  1    an expectation failed, or a run reached its --timeout\n", "  0    done\n"
-)
+_ONE_STATUS = exit_status("done", None)
 
 
 def _add_command(sub: Any, name: str, common: argparse.ArgumentParser) -> None:
@@ -410,9 +409,9 @@ def _add_command(sub: Any, name: str, common: argparse.ArgumentParser) -> None:
         add_sweep(
             sub,
             [common, _guarded(TIMEOUT)],
-            EXIT_STATUS.replace("  0    every expectation held", "  0    every statistical expectation held (PASS)").replace(
-                "  1    an expectation failed, or a run reached its --timeout",
-                "  1    an expectation failed or was inconclusive, or a run reached its --timeout",
+            exit_status(
+                "every statistical expectation held (PASS)",
+                "an expectation failed or was inconclusive, or a run reached its --timeout",
             ),
             jobs_type,
             MODELS,
@@ -432,11 +431,9 @@ def _add_command(sub: Any, name: str, common: argparse.ArgumentParser) -> None:
                     f"take longer is refused before anything runs; without it, each run may take {TIMEOUT:g} s)",
                 ),
             ],
-            EXIT_STATUS.replace(
-                "  0    every expectation held", "  0    a threshold found; no counterexample in the runs"
-            ).replace(
-                "  1    an expectation failed, or a run reached its --timeout",
-                "  1    a counterexample found (the expectation fails), no threshold found, or a run reached its --timeout",
+            exit_status(
+                "a threshold found; no counterexample in the runs",
+                "a counterexample found (the expectation fails), no threshold found, or a run reached its --timeout",
             ),
             jobs_type,
             MODELS,

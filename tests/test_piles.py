@@ -97,3 +97,53 @@ def test_on_mujoco_a_fallen_domino_row_is_frozen_once_and_not_solved_again(monke
     blows = Counter(e.brick for e in outcome.events if e.kind == "wake" and e.detail.startswith("impact of"))
     assert set(blows) == {f"d{i:03d}" for i in range(2, 121)}
     assert sum(blows.values()) - len(blows) <= 1, blows
+
+
+def _pile_on_a_stack(frozen_overhang: float = 0.0):
+    """A stack of two frozen bricks (1 on the ground 0, 2 on 1, shifted ``frozen_overhang`` m
+    along x) and a pile of three resting on it (3 on 2, 4 on 3, 5 on 4 with its centre of
+    mass 40 mm past 4's end): the debris rule, its fake stack and the pile's polygons."""
+    from types import SimpleNamespace
+
+    from stability._debris import Debris
+
+    mass, level = 0.0106, 0.008
+    x = {1: 0.0, 2: frozen_overhang, 3: frozen_overhang, 4: frozen_overhang, 5: frozen_overhang + 0.1}
+    com = {b: np.array([x[b], 0.0, level * (b - 0.5)]) for b in x}
+    rec = {b: SimpleNamespace(body=b, box=SimpleNamespace(mass=mass), com=com[b]) for b in x}
+
+    def under(body: int, other: int) -> ContactPolygon[int]:
+        below = x.get(other, x[body])  # the ground: under the whole brick
+        lo, hi = max(x[body], below) - 0.06, min(x[body], below) + 0.06
+        square = np.array([[lo, -0.012, 0.0], [hi, -0.012, 0.0], [hi, 0.012, 0.0], [lo, 0.012, 0.0]])
+        return _on(body, other, square, level * (body - 1))
+
+    remembered = [under(1, 0), under(2, 1)]
+    stack = SimpleNamespace(
+        config=SimpleNamespace(model="equilibrium", gravity=9.81),
+        frozen={1: rec[1], 2: rec[2]},
+        in_order=lambda: [rec[1], rec[2]],
+        pose=lambda r: SimpleNamespace(position=r.com),
+        engine=SimpleNamespace(pose=lambda body: SimpleNamespace(position=com[body])),
+        frozen_contacts=lambda blocks: [c for c in remembered if c.other in blocks or c.other == 0],
+    )
+    debris = Debris(stack, None, None)  # the program of a pile with the stack needs no areas nor admission
+    return debris, [rec[3], rec[4], rec[5]], {3: [under(3, 2)], 4: [under(4, 3)], 5: [under(5, 4)]}
+
+
+def test_a_pile_solved_with_the_frozen_stack_is_trimmed_of_the_bricks_its_mechanism_moves():
+    """The debris rule's program of a pile with every frozen brick free too: a pile whose top
+    brick overhangs is solved again without it, and the part that stands is frozen with its
+    contacts; a brick the pile's collapse would move among the frozen ones, or fewer than two
+    left, leave the pile to the rule that solves it against the frozen bricks as supports."""
+    debris, pile, polygons = _pile_on_a_stack()
+    found = debris._with_stack(pile, polygons)
+    assert found is not None
+    kept, kept_polygons = found
+    assert [m.body for m in kept] == [3, 4]
+    assert sorted(kept_polygons) == [3, 4] and all(c.other != 5 for cs in kept_polygons.values() for c in cs)
+
+    leaning, pile, polygons = _pile_on_a_stack(frozen_overhang=0.07)  # the frozen brick 2 tips off 1 with it
+    assert leaning._with_stack(pile, polygons) is None
+    debris, pile, polygons = _pile_on_a_stack()
+    assert debris._with_stack(pile[:1], {3: polygons[3]}) is None  # one brick on a stack of two: solved alone

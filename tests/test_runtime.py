@@ -218,37 +218,6 @@ def test_a_pile_frozen_in_the_equilibrium_model_is_solved_once_with_the_whole_st
     assert calls["debris"] and max(calls["debris"]) == 10  # the pile with the bricks still frozen
 
 
-@pytest.mark.slow  # about 1 s or more: in .ci/nightly's slow part
-def test_a_few_bricks_at_rest_on_a_large_frozen_stack_are_solved_alone(monkeypatch):
-    """A log cabin shifted 7 mm a level falls at level 17 (equilibrium model). With its
-    fallen bricks left in pybullet's multibodies, its heap is solved with the bricks still
-    frozen and frozen, trimmed of the few on top that slide on it, which are refused and
-    asked again until they rest: each time they are solved against the frozen bricks as
-    supports, not with them (a program several times their own). (As rigid bodies, the
-    default, or with the buried bricks shelved, the heap lands otherwise and needs no trim.)"""
-    import stability._debris as debris
-
-    calls: list[tuple[int, bool]] = []
-
-    def counting(blocks, *args, _real=debris.solve_equilibrium, **kwargs):
-        result = _real(blocks, *args, **kwargs)
-        calls.append((len(blocks), result.stands))
-        return result
-
-    monkeypatch.setattr(debris, "solve_equilibrium", counting)
-    text = "stackdsl: 1\nstructure: {tower: {levels: 23, spacing: 96 mm, shift: 7 mm}}\n"
-    program = compile_scenario(parse_scenario(text, "cabin.yaml"), model="equilibrium")
-    # bricks dropped freely from their gap: let go of on arrival, this heap lands whole
-    outcome = run_program(program, RunOptions(cheap_debris=False, soft_landing=False, shelve=False))
-    assert outcome.collapse is not None and outcome.collapse.level == 17
-    heap = next(i for i, (_, stands) in enumerate(calls) if stands)
-    piles = [int(e.detail.split("one of ")[1].split()[0]) for e in outcome.events if "frozen together" in e.detail]
-    assert piles[0] > 20 and calls[heap][0] > piles[0]  # the heap was solved with the frozen bricks
-    trimmed = calls[0][0] - calls[heap][0]
-    assert 0 < trimmed <= 6  # less the few on its top
-    assert len(calls) > heap + 1 and all(n <= trimmed for n, _ in calls[heap + 1 :])
-
-
 @pytest.mark.slow
 def test_a_tower_fallen_against_the_floor_is_frozen_again_with_the_report_model():
     """A log cabin shifted 9.5 mm a level falls at level 12 and lies against the floor and its

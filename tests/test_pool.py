@@ -356,7 +356,7 @@ def said(err: str) -> list[str]:
 def start_check(tmp_path: Path) -> tuple[subprocess.Popen, Path, Path]:
     folder = tmp_path / "slow"
     folder.mkdir()
-    (folder / "a_medium.yaml").write_text(SLOW % 3)
+    (folder / "a_medium.yaml").write_text(SLOW % 1)
     (folder / "b_slow.yaml").write_text(SLOW % 600)
     (folder / "c_slow.yaml").write_text(SLOW % 600)
     out, err = tmp_path / "out.txt", tmp_path / "err.txt"

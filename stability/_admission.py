@@ -274,7 +274,8 @@ class Admission:
             on = names if m is rec else ", ".join(self.stack.bodies[o].label for o in touched)
             if len(group) > 2:
                 still = "at rest" if self.stack.rested(m, time) else "creeping"  # the debris rule's (stability._debris)
-                reason = f"{still}, one of {len(group)} touching bricks frozen together, {'on' if m is rec else 'with'} {on}"
+                together = f"{still}, one of {len(group)} touching bricks frozen together"
+                reason = f"{together}; together they touch {on}" if m is rec else f"{together}, with {on}"
             else:
                 reason = f"{'leaning on' if len(touching) > 1 else 'at rest on'} {on}"
             events.append(StabilityEvent(time, "freeze", m.label, reason))

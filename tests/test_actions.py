@@ -2020,7 +2020,10 @@ expect: {collapse: 8}
     together = [e for e in outcome.events if e.kind == "freeze" and "frozen together" in e.detail]
     assert together
     for e in together:
-        assert re.search(r"frozen together, (on|with) [A-Za-z]", e.detail), (e.brick, e.detail)
+        assert re.search(r"frozen together(; together they touch|, with) [A-Za-z]", e.detail), (e.brick, e.detail)
+    # the brick that asked names what the whole pile touches, and says so; each other member its own
+    asker = [e for e in together if "together they touch" in e.detail]
+    assert asker and len(asker) < len(together)
 
 
 def test_a_push_takes_an_axis_by_name_as_a_pull_does():
@@ -2128,3 +2131,27 @@ expect: {expect}
     assert bool(said) is warned, said
     if warned:
         assert said[0].startswith("pushed.yaml:6:") and "expect.stands" in said[0] and "moves L04.2 25 mm" in said[0]
+
+
+def test_the_collapse_line_says_when_it_was_decided_and_by_what_proof_of_which_brick():
+    """A new user read "collapse L12.1 ... moved 13.0 mm by t=9.25 s; collapse level 12; at
+    rest displaced" under a certificate of L08.1, and could not tell whose rest decided it. The
+    timeline's line now says the distance is when it was decided, and when the proof is of
+    another brick than the one named, the proof's own words (``jenga_falls``: the tower above
+    level 5 falls as a whole, and the collapse is named after the brick that moved first)."""
+    from pathlib import Path
+
+    from stackdsl import load_scenario
+
+    falls = load_scenario(Path(__file__).resolve().parents[1] / "scenarios" / "jenga_falls.yaml")
+    outcome = run_program(compile_scenario(falls))
+    assert outcome.collapse is not None and outcome.certificate is not None
+    (line,) = [e for e in outcome.events if e.kind == "collapse"]
+    assert line.brick == outcome.collapse.brick
+    assert f"by t={outcome.collapse.decided:.2f} s, when it was decided; collapse level 12; " in line.detail
+    kind, detail, first = outcome.certificate.kind, outcome.certificate.detail, outcome.collapse.brick
+    said = f" ({first} moved first; this proof decided the collapse)"
+    if detail.endswith(said):
+        assert line.detail.endswith(f"; {kind}: {detail.removesuffix(said)}"), line.detail
+    else:
+        assert line.detail.endswith(f"; {kind}"), line.detail

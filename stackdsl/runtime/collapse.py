@@ -398,6 +398,7 @@ class CollapseMonitor(Subscriber):
             return
         farthest = moved if first is record else state.farthest
         kind, detail, moved_too = proof
+        by = None if first is record else detail  # the timeline's line says what decided it, of another brick
         if first is not record:  # the collapse is named after the brick that moved first
             detail += f" ({first.id} moved first; this proof decided the collapse)"
         detail += self._near_tie(loop, first)  # a tie the engine's contacts decided: said
@@ -406,7 +407,7 @@ class CollapseMonitor(Subscriber):
         certificate = Certificate(verdict="collapse", kind=kind, detail=detail, bricks=bricks)
         past = self.off_support.proved_out if kind == "off its support" else moved - self.threshold
         self.margin = signed_margin(self.off_support.least_placed_margin(loop, loop.structure.placed), past)
-        self._record(loop, first, state.level, state.since, farthest, loop.now, certificate, state.graph)
+        self._record(loop, first, state.level, state.since, farthest, loop.now, certificate, state.graph, by)
 
     def _record(
         self,
@@ -418,15 +419,19 @@ class CollapseMonitor(Subscriber):
         decided: float,
         proof: Certificate,
         graph: tuple[Graph, int] | None,
+        by: str | None = None,
     ) -> None:
-        """Record the collapse of ``first`` (the brick named), proved by ``proof``."""
+        """Record the collapse of ``first`` (the brick named), proved by ``proof``; ``by``, the
+        proof's words when it is of another brick (the timeline's line then says them)."""
         assert first.level is not None
         self.record_drift(loop)
         self.collapse = Collapse(
             level=level, time=since, brick=first.id, brick_level=first.level, displacement=farthest, decided=decided
         )
         self.certificate = proof
-        detail = f"moved {farthest * 1000:.1f} mm by t={decided:.2f} s; collapse level {level}; {proof.kind}"
+        detail = f"moved {farthest * 1000:.1f} mm by t={decided:.2f} s, when it was decided; collapse level {level}; {proof.kind}"
+        if by is not None:
+            detail += f": {by}"
         if proof.kind == "no equilibrium":
             detail = f"collapse level {level}; {proof.detail}"
         loop.events.append(Event(time=since, kind="collapse", brick=first.id, level=first.level, detail=detail))

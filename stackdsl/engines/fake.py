@@ -51,7 +51,7 @@ class FakeWorld(FakeEngine, World):
         self.velocities.pop(body, None)
         self.guided.discard(body)
 
-    def guide(self, body: int, pose: Pose, velocity: Vec3, hold: bool = True, drags: bool = False, anchored: bool = True) -> None:
+    def guide(self, body: int, pose: Pose, velocity: Vec3, hold: bool = True) -> None:
         self.poses[body] = pose
         self.velocities[body] = (np.array(velocity, dtype=float), np.zeros(3))
         self.guided.add(body)

@@ -214,19 +214,14 @@ class World(Engine, Protocol):
         return (a, b, c), (d, e, f)
 
     # optional capabilities, with their defaults -------------------------------------
-    def guide(self, body: int, pose: Pose, velocity: Vec3, hold: bool = True, drags: bool = False, anchored: bool = True) -> None:
+    def guide(self, body: int, pose: Pose, velocity: Vec3, hold: bool = True) -> None:
         """Move ``body`` kinematically through the next step: put it at ``pose`` with linear
         ``velocity`` (m/s) and no spin, so that what it touches feels a body moving at that
         velocity (friction drags it), while contacts and gravity cannot push it off its path
         (``hold``: a pusher in a hand). Without ``hold`` only its horizontal position, its
         orientation and its horizontal velocity are set: it keeps its mass, height and vertical
         motion, resting on what carries it and carrying its share of what rests on it (a brick
-        slid out of a tower). ``drags``: a held body that drives a brick whose friction drags
-        what it carries (a pusher sliding a Jenga block out): an engine holds sticking contacts
-        as it does for a body guided without ``hold``. ``anchored``: whether a body guided without
-        ``hold`` has the engine hold its sticking contacts so (a pull's drag on what it carries);
-        False for a brick the extension's proof moves on a pusher's path, with nothing the engine
-        moves to drag. Called before every step it is guided;
+        slid out of a tower). Called before every step it is guided;
         :meth:`move` ends it. Default: refused."""
         raise NotImplementedError(f"{type(self).__name__} cannot guide a body")
 

@@ -256,7 +256,7 @@ class Actions(Subscriber):
         for g in self.guided:
             pose = Pose(g.start.position + g.velocity * (t - g.since), g.start.orientation)
             x, y, z = g.velocity.tolist()
-            loop.world.guide(g.record.body, pose, (x, y, z), hold=g.kind == "push", drags=g.kind == "push" and self._carried)
+            loop.world.guide(g.record.body, pose, (x, y, z), hold=g.kind == "push")
         if self._on_path or (self.stability.acting and self.guided):
             self._drive_proved(loop)
         if self.shake is not None:
@@ -295,7 +295,7 @@ class Actions(Subscriber):
                 g = self._on_path[body] = _Guided(record, loop.world.pose(body), t, hand.velocity, hand.end_step, "pull")
             pose = Pose(g.start.position + g.velocity * (t - g.since), g.start.orientation)
             x, y, z = g.velocity.tolist()
-            loop.world.guide(body, pose, (x, y, z), hold=False, anchored=False)
+            loop.world.guide(body, pose, (x, y, z), hold=False)
 
     def after_step(self, loop: StepLoop) -> None:
         for record in self.away:  # out of the scene since the last step: no contact reads it now

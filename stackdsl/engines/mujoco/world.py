@@ -422,7 +422,7 @@ class MuJoCoWorld(World):
             m.geom_gap[self._free_geom[body - 1]] = 0.0
         self._put(body, pose, mass <= 0.0)
 
-    def guide(self, body: int, pose: Pose, velocity: Vec3, hold: bool = True, drags: bool = False, anchored: bool = True) -> None:
+    def guide(self, body: int, pose: Pose, velocity: Vec3, hold: bool = True) -> None:
         """Drive the brick's free body along its path by its velocity for the next step (the path's
         velocity plus :data:`GAIN` of the way back to it); with ``hold``, in a hand's grip
         (:meth:`Hands.grip <stackdsl.engines.mujoco.hands.Hands.grip>`) and its height driven too,

@@ -147,8 +147,6 @@ class PyBulletWorld(PyBulletEngine, World):
         self._shelves = shelve
         self._substeps = 1
         self._split = False  # stepping in substeps of its own (see step), not pybullet's numSubSteps
-        self._anchored = False  # friction anchors on every body while a pull's path is stepped (see _anchor)
-        self._dragging = False  # friction anchors this step: a pull's path, or a held body that drags what it drives (guide)
         self._paths: dict[int, tuple[Any, Any, Vec3, float | None]] = {}  # this step's guided bodies: their path
         self._merged: dict[int, tuple[int, int]] = {}  # body -> its merged body, and its place among the bodies merged
         self._groups: dict[int, tuple[int, ...]] = {}  # merged body -> the bodies merged (see merge)
@@ -278,7 +276,7 @@ class PyBulletWorld(PyBulletEngine, World):
             -1,
             lateralFriction=math.sqrt(friction),
             restitution=math.sqrt(restitution),
-            frictionAnchor=int(self._engine.friction_anchors or self._anchored),
+            frictionAnchor=int(self._engine.friction_anchors),
         )
 
     # reading ------------------------------------------------------------------
@@ -533,7 +531,7 @@ class PyBulletWorld(PyBulletEngine, World):
         if mass > 0.0:
             self._velocities[body] = _AT_REST
 
-    def guide(self, body: int, pose: Pose, velocity: Vec3, hold: bool = True, drags: bool = False, anchored: bool = True) -> None:
+    def guide(self, body: int, pose: Pose, velocity: Vec3, hold: bool = True) -> None:
         self._velocities.pop(body, None)
         self._poses.pop(body, None)
         if body in self._shelf:
@@ -549,8 +547,6 @@ class PyBulletWorld(PyBulletEngine, World):
             self._massed(body, GUIDED_MASS if hold else mass)
         position, orientation, held = pose.position.tolist(), pose.orientation.tolist(), GUIDED_MASS if hold else None
         self._paths[engine_id] = (position, orientation, velocity, held)
-        if drags or (held is None and anchored):  # a pull's path, a push's drag: friction anchors (:meth:`_anchor`)
-            self._dragging = True
         self._drive(engine_id, position, orientation, velocity, held)
 
     def _drive(
@@ -616,15 +612,11 @@ class PyBulletWorld(PyBulletEngine, World):
         split = self._substeps > 1 and bool(self._paths or self._table)
         if split != self._split:
             self._stepping(split)
-        dragging = self._dragging
-        if dragging != self._anchored:
-            self._anchor(not self._anchored)
         if split:
             self._split_step()
         else:
             self._client.stepSimulation()
         self._paths.clear()
-        self._dragging = False
 
     def _split_step(self) -> None:
         """One step as :attr:`_substeps` calls of pybullet's step, each a substep long, a guided
@@ -642,27 +634,6 @@ class PyBulletWorld(PyBulletEngine, World):
                 there = [x + velocity[0] * k * h, y + velocity[1] * k * h, z - TABLE_HALF[2] + velocity[2] * k * h]
                 self._drive(self.ground, there, [0.0, 0.0, 0.0, 1.0], velocity, TABLE_MASS, h, force=k > 0)
             self._client.stepSimulation()
-
-    def _anchor(self, on: bool) -> None:
-        """Friction anchors (pybullet's ``frictionAnchor``, which holds a sticking contact where it
-        first touched) on every body in the world while a pull's path is stepped (``on``: a body
-        guided without being held up, :meth:`guide`), and the engine's own setting again after.
-        Without them pybullet's solver, stopped at its iterations, lets a level that static
-        friction holds creep under a pull: a Jenga side pull's level 1.00 mm at 50 iterations
-        (0.14 mm at 200), with them 0.17 mm at the same cost; on two pulls of sweeps/jenga_pulls.yaml
-        the creep passed the collapse threshold (13 mm) where with them it stays under it, as tuned
-        MuJoCo's does (docs/results/actions-freeze.md). On too while a pusher drives a brick that
-        drags what it carries (:meth:`guide`'s ``drags``): a finger sliding the middle block of
-        level 4 of a 6-level tower 45 mm out dragged level 5 8.1 mm without them, past the
-        threshold, where both tuned engines keep it in place, and 1.7 mm with them. Those were
-        measured before a placed brick froze where it lands; since, the two move 0.27 and 0.31 mm
-        (the side pull, without and with) and 10.0 and 9.0 mm (the push): the anchors' part in
-        them is to be measured again. Not on for every step, nor for other pushes: the shipped
-        scenarios' other tests measured pybullet without them. Source: stackdsl's own."""
-        self._anchored = on
-        flag = int(on or self._engine.friction_anchors)
-        for index in range(self._client.getNumBodies()):
-            self._client.changeDynamics(self._client.getBodyUniqueId(index), -1, frictionAnchor=flag)
 
     def _stepping(self, split: bool) -> None:
         """Step in substeps of :meth:`_split_step` (``split``) or pybullet's own."""

@@ -117,7 +117,7 @@ class StaticsWorld(World):
     def throw(self, body: int, velocity: Vec3, swept_radius: float | None) -> None:
         """Nothing moves by its velocity here: ignored."""
 
-    def guide(self, body: int, pose: Pose, velocity: Vec3, hold: bool = True, drags: bool = False, anchored: bool = True) -> None:
+    def guide(self, body: int, pose: Pose, velocity: Vec3, hold: bool = True) -> None:
         """Refused: a hand moves bricks (the compiler refuses actions first)."""
         raise NotImplementedError("the statics backend cannot guide a body: it has no dynamics")
 

@@ -524,7 +524,7 @@ def test_moved_stays_and_toppled_are_judged_by_brick():
     assert not toppled.passed and toppled.expected == "all toppled"
     scenario, outcome = tower_outcome("{stays: [L01]}")  # one prefix, two bricks: plural
     (stays,) = evaluate(scenario.expect, outcome, 0.004)
-    assert stays.expected == "bricks L01 stay" and stays.measured == "bricks L01 stayed"
+    assert stays.expected == "the bricks of L01 stay" and stays.measured == "the bricks of L01 stayed"
 
 
 def test_a_toppled_bound_is_judged_and_said_as_written():
@@ -1203,7 +1203,7 @@ expect: {moved: deck}
     outcome = run_program(compile_scenario(scenario))
     assert outcome.unplaced == ("deck.b002",)
     (moved,) = evaluate(scenario.expect, outcome, 0.004)
-    assert moved.expected == "bricks deck moved"
+    assert moved.expected == "the bricks of deck moved"
 
 
 def test_while_a_pull_lasts_the_extension_steps_pybullet_at_960_hz():

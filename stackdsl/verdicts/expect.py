@@ -291,13 +291,15 @@ def _never(outcome: Outcome, levels: Sequence[int], selectors: tuple[str, ...]) 
 
 
 def _said(levels: Iterable[int], bricks: Iterable[str], selected: int = 1) -> str:
-    """``"levels 1-3, bricks L05, left."``; one selector is "bricks" too when it names more than
-    one brick (``selected``: how many the selectors name, a part's or a level's prefix)."""
+    """``"levels 1-3, bricks L05.2, left.L01.1"``; one selector that names more than one brick
+    (``selected``: how many the selectors name), a part's or a level's prefix, is "the bricks of"
+    it: ``"the bricks of deck"``."""
     levels, bricks = list(levels), list(bricks)
-    parts = ([f"level{'s' * (len(levels) != 1)} {span(levels)}"] if levels else []) + (
-        [f"brick{'s' * (len(bricks) != 1 or selected > 1)} {', '.join(bricks)}"] if bricks else []
-    )
-    return ", ".join(parts)
+    if len(bricks) == 1 and selected > 1:
+        named = [f"the bricks of {bricks[0]}"]
+    else:
+        named = [f"brick{'s' * (len(bricks) != 1)} {', '.join(bricks)}"] if bricks else []
+    return ", ".join(([f"level{'s' * (len(levels) != 1)} {span(levels)}"] if levels else []) + named)
 
 
 def _short(ids: list[str]) -> list[str]:

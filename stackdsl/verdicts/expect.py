@@ -346,8 +346,14 @@ def explain(expect: Expect, outcome: Outcome, threshold: float) -> list[str]:
         lines.append(_toppled_line(outcome))
     if "finished" in failed:
         lines.append(f"stopped: {outcome.stopped}; the rest of the run was not simulated")
-    judged_at_end = {"toppled", "moved", "stays"} | ({"collapse", "stands"} if outcome.collapse is None else set())
-    if failed & judged_at_end and outcome.kinetic_energy > STILL_MOVING:
+    # what more settling may still turn (a brick that moved where it must stay, or more toppled
+    # than allowed, has failed whatever comes: no hint to settle longer under those)
+    may_turn = {"moved"} | ({"collapse", "stands"} if outcome.collapse is None else set())
+    if expect.toppled is not None:
+        least, _ = expect.toppled.allows(len(outcome.displacement) + len(outcome.unplaced))
+        if len(outcome.toppled) < least:
+            may_turn.add("toppled")
+    if failed & may_turn and outcome.kinetic_energy > STILL_MOVING:
         lines.append(
             f"still moving: the run ended at t={outcome.simulated_time:.2f} s with its bricks' kinetic energy at "
             f"{outcome.kinetic_energy * 1000:.3g} mJ; a longer timing.settle lets them come to rest before they are judged"

@@ -1771,3 +1771,33 @@ def test_a_huge_progress_interval_is_capped_not_a_traceback(value, tmp_path, mon
     assert progress_seconds() == LONGEST
     assert main(["check", "-j", "1", str(write(tmp_path, a=PASSING) / "a.yaml")]) == 0
     assert "Traceback" not in capsys.readouterr().err
+
+
+def test_compares_cell_says_how_far_a_standing_brick_moved_from_1_mm():
+    """A new user could not tell from compare's table a pull that dragged the top level 7.1 mm,
+    0.4 mm under its threshold, from one that moved nothing: a stand's cell now says its
+    largest move from 1 mm on."""
+    from stackdsl.cli.check import _cell
+    from stackdsl.verdicts.check_result import CheckResult, Verdict
+
+    held = Verdict(name="stands", passed=True, expected="stands", measured="stands")
+
+    def cell(drift: float, level: int | None = None) -> str:
+        return _cell(
+            CheckResult(
+                file="t.yaml",
+                scenario="t",
+                mode="extension",
+                model="report",
+                verdicts=(held,),
+                collapse_level=level,
+                levels_placed=10,
+                simulated_time=5.0,
+                wall_time=1.0,
+                drift=drift,
+            )
+        )
+
+    assert cell(0.00708) == "stands, moved 7.1 mm at most"
+    assert cell(0.0009) == "stands"
+    assert cell(0.00708, 10) == "collapse 10"  # a collapse's drift is of the bricks that stood: not said

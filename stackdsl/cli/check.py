@@ -468,7 +468,8 @@ def _backends(given: str | None, several: bool) -> tuple[str | None, ...]:
 def _cell(r: CheckResult) -> str:
     """What compare's table shows of a result: the collapse level, the bricks toppled when the
     file expects a count (``stands, 0 of 5 toppled``), the bricks it expects to move that did
-    (``collapse 12, brick L06.2 moved``), that a run ended still moving judged
+    (``collapse 12, brick L06.2 moved``), how far a standing brick moved at most from 1 mm
+    (:data:`SHOWN_DRIFT`: ``stands, moved 7.1 mm at most``), that a run ended still moving judged
     nothing (an undecided run read "INCONCLUSIVE stands" of a card house lying 90 mm from its
     place), or what went wrong."""
     if r.error:
@@ -483,4 +484,11 @@ def _cell(r: CheckResult) -> str:
     moved = [v.measured for v in r.verdicts if v.name == "moved" and v.passed]
     # what failed besides the level: a collapse at the level expected can still fail its 'stays'
     failed = [v.measured for v in r.verdicts if not v.passed and v.name not in ("collapse", "stands", "toppled")]
-    return ", ".join([describe(r.collapse_level), *toppled, *moved, *failed])
+    # how close a stand came: a new user could not tell a pull that dragged the top level 7.1 mm
+    # (0.4 mm under its threshold) from one that moved nothing
+    near = [f"moved {r.drift * 1000:.1f} mm at most"] if r.collapse_level is None and r.drift >= SHOWN_DRIFT else []
+    return ", ".join([describe(r.collapse_level), *near, *toppled, *moved, *failed])
+
+
+#: Metres of the largest move of a standing brick from which compare's cell says it (1 mm).
+SHOWN_DRIFT = 0.001

@@ -148,6 +148,7 @@ class PyBulletWorld(PyBulletEngine, World):
         self._substeps = 1
         self._split = False  # stepping in substeps of its own (see step), not pybullet's numSubSteps
         self._paths: dict[int, tuple[Any, Any, Vec3, float | None]] = {}  # this step's guided bodies: their path
+        self._anchored: set[int] = set()  # engine ids of the pulled bricks given friction anchors (see _anchor)
         self._merged: dict[int, tuple[int, int]] = {}  # body -> its merged body, and its place among the bodies merged
         self._groups: dict[int, tuple[int, ...]] = {}  # merged body -> the bodies merged (see merge)
         self._frames: dict[int, _Parts] = {}  # merged body -> where each of its boxes lies in it
@@ -189,6 +190,7 @@ class PyBulletWorld(PyBulletEngine, World):
     def _remove(self, body: int) -> None:
         engine_id = self._ids.pop(body, body)
         self._names.pop(engine_id, None)
+        self._anchored.discard(engine_id)
         self._client.removeBody(engine_id)
         self._velocities.pop(body, None)
         self._poses.pop(body, None)
@@ -612,6 +614,9 @@ class PyBulletWorld(PyBulletEngine, World):
         split = self._substeps > 1 and bool(self._paths or self._table)
         if split != self._split:
             self._stepping(split)
+        pulled = {engine_id for engine_id, path in self._paths.items() if path[3] is None}
+        if pulled != self._anchored:
+            self._anchor(pulled)
         if split:
             self._split_step()
         else:
@@ -634,6 +639,27 @@ class PyBulletWorld(PyBulletEngine, World):
                 there = [x + velocity[0] * k * h, y + velocity[1] * k * h, z - TABLE_HALF[2] + velocity[2] * k * h]
                 self._drive(self.ground, there, [0.0, 0.0, 0.0, 1.0], velocity, TABLE_MASS, h, force=k > 0)
             self._client.stepSimulation()
+
+    def _anchor(self, pulled: set[int]) -> None:
+        """Friction anchors (pybullet's ``frictionAnchor``, which holds a sticking contact where it
+        first touched) on the bricks a hand drives along a path without holding them up (engine
+        ids ``pulled``: a pulled brick, a pushed one its proof moves on the finger's path), and the
+        engine's own setting again on those it no longer drives. Without them pybullet's solver,
+        stopped at its 50 iterations, lets a brick lying on a pulled one slip: 3.2 mm of a 50 mm
+        pull at 10 mm/s, where static friction carries it all the way (0.04 mm while it is
+        accelerated). On every body instead, as until 2026-11-29, they held the bricks a pull drags
+        by their other contacts too, and stood near ties that every other engine and mode fell: a
+        side block of level 3 of a 5-level Jenga tower (levels 4 and 5 dragged 4.8 mm at 40 mm/s,
+        9.7 mm with the pulled brick's alone, 16 to 20 mm with none); a side block of level 9 of a
+        10-level tower at friction 0.45 (the top level dragged 7.1 mm: 22 to 169 mm at six of seven
+        speeds with the pulled brick's alone, 3 to 4 mm at ten of twelve with none). Measured by
+        docs/results/pull_anchors.py. Source: stackdsl's own."""
+        own = int(self._engine.friction_anchors)
+        for engine_id in pulled - self._anchored:
+            self._client.changeDynamics(engine_id, -1, frictionAnchor=1)
+        for engine_id in self._anchored - pulled:
+            self._client.changeDynamics(engine_id, -1, frictionAnchor=own)
+        self._anchored = set(pulled)
 
     def _stepping(self, split: bool) -> None:
         """Step in substeps of :meth:`_split_step` (``split``) or pybullet's own."""

@@ -2162,15 +2162,7 @@ def test_a_side_pull_under_two_levels_drags_them_off_as_every_engine_does():
     pybullet had them, it dragged them 4.8 mm at 40 mm/s and 5.9 mm at 60, and the tower stood;
     with anchors on the pulled brick alone every speed from 20 to 60 mm/s drags them 8.7 to 15.3
     mm, past the 7.5 mm threshold (with none, 16 to 20 mm)."""
-    text = """stackdsl: 1
-materials: {maple: {density: 700 kg/m^3, friction: 0.4}}
-brick_types: {jenga: {size: [75 mm, 25 mm, 15 mm], material: maple}}
-ground: {material: maple}
-structure: {tower: {levels: 5, bricks_per_layer: 3, spacing: 25.5 mm, turn: 90, brick: jenga}}
-timing: {interval: 0.5 s, settle: 1 s}
-actions:
-  - remove: {brick: L03.3, at: after level 5, speed: 40 mm/s}
-"""
+    text = JENGA_6.replace("levels: 6", "levels: 5") + "actions:\n  - remove: {brick: L03.3, at: after level 5, speed: 40 mm/s}\n"
     program = compile_scenario(parse_scenario(text, "side_pull_5.yaml"), None, None, "pybullet")
     outcome = run_program(program)
     assert any("statics does not keep" in e.detail for e in outcome.events if e.brick == "L03.3")

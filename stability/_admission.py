@@ -273,7 +273,9 @@ class Admission:
             touched = dict.fromkeys([*(p.other for p in polygons[m.body] if p.other != rec.body), *held, *asker])
             on = names if m is rec else ", ".join(self.stack.bodies[o].label for o in touched)
             if len(group) > 2:
-                still = "at rest" if self.stack.rested(m, time) else "creeping"  # the debris rule's (stability._debris)
+                # the debris rule's (stability._debris): a brick still ringing, frozen with its pile, whose
+                # motion as a whole is under the rest thresholds
+                still = "at rest" if self.stack.rested(m, time) else "creeping in a pile at rest"
                 together = f"{still}, one of {len(group)} touching bricks frozen together"
                 reason = f"{together}; together they touch {on}" if m is rec else f"{together}, with {on}"
             else:

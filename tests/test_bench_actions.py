@@ -119,6 +119,8 @@ def test_the_table_marks_a_side_that_disagrees_and_says_how_it_was_timed():
     assert "| s | extension | PASS: stands | 0.50 | 0.40 0.50 0.60 | 10.0 |" in table
     assert "FAIL (disagrees with the expectation): stands: collapse at level 3" in table
     assert "3 run(s) in rounds, each in a fresh process" in table
+    # a new user had to infer what the last column is: it is said under the table
+    assert "peer / this: the MuJoCo lean peer's median wall time over the row's (above 1" in table
 
 
 def test_a_cell_runs_in_a_fresh_process_on_each_side():

@@ -71,6 +71,9 @@ AS_WRITTEN = "as written"
 
 _ALL_SIDES: dict[str, Side] = {**SIDES, AS_WRITTEN: Side(None, None)}
 
+#: What the tables' last column is, said under each.
+RATIO = "peer / this: the {peer} peer's median wall time over the row's (above 1, the row's side is faster)"
+
 TIMING = (
     "every cell timed alike: {repeats} run(s) in rounds, each in a fresh process that first runs a one-level "
     "tower on its own side, untimed; wall time from the compiled program to the run's result; the median is kept"
@@ -329,8 +332,9 @@ def format_cells(cells: Sequence[Cell], repeats: int, reference: str, peer: str 
         ratio = f"{peers[c.scene] / c.wall:.1f}" if c.scene in peers and c.side != peer and c.wall > 0 else ""
         runs = " ".join(f"{w:.2f}" for w in c.walls)
         lines.append(f"| {c.scene} | {c.side} | {mark}: {c.verdict} | {c.wall:.2f} | {runs} | {ratio} |")
-    lines += ["", TIMING.format(repeats=repeats) + "."]
+    lines += ["", RATIO.format(peer=peer), TIMING.format(repeats=repeats) + "."]
     return "\n".join(lines)
+
 
 
 def folder_scenes(folder: Path) -> list[Scene]:

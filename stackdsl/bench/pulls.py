@@ -136,6 +136,8 @@ def format_sides(sides: Sequence[Side], t: Template, jobs: int, cells: int | Non
         ratio = f"{peer.seconds / s.seconds:.1f}" if peer is not None and s is not peer and s.seconds > 0 else ""
         stood = sum(level is None for level in s.levels)
         lines.append(f"| {s.name} | {s.seconds:.1f} | {s.rate:.2f} | {stood} of {len(s.levels)} | {ratio} |")
+    if peer is not None:
+        lines += ["", "peer / this: the MuJoCo lean peer's wall time over the row's (above 1, the row's side is faster)"]
     if len(sides) == 2:
         a, b = sides
         same = sum((x is None) == (y is None) for x, y in zip(a.levels, b.levels))

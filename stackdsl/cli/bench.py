@@ -234,8 +234,10 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
         "pulls", help="the sweep of Jenga pulls: samples a second, the extension against the lean MuJoCo peer, same draws"
     )
     q.add_argument("file", nargs="?", default="sweeps/jenga_pulls.yaml")
-    q.add_argument("--samples", type=int, default=None, help="samples a grid cell (default: the file's own, 50)")
-    q.add_argument("--cells", type=int, default=None, help="run the first N grid cells only (default: all, 20)")
+    q.add_argument("--samples", type=int, default=None, help="samples a grid cell (default: the file's own, sweep.samples)")
+    q.add_argument(
+        "--cells", type=int, default=None, help="run the first N grid cells only (default: every cell of the file's grid)"
+    )
     q.add_argument("-j", "--jobs", type=jobs_type, default="1", help="worker processes a side (default: 1)")
     q.set_defaults(func=_bench_pulls)
     q = bench.add_parser(

@@ -336,7 +336,6 @@ def format_cells(cells: Sequence[Cell], repeats: int, reference: str, peer: str 
     return "\n".join(lines)
 
 
-
 def folder_scenes(folder: Path) -> list[Scene]:
     """Every scenario file under ``folder`` (as ``stackdsl check`` finds them) that is not a
     sweep, as scenes named by their path below ``folder``.

@@ -123,11 +123,44 @@ def test_the_table_marks_a_side_that_disagrees_and_says_how_it_was_timed():
     assert "peer / this: the MuJoCo lean peer's median wall time over the row's (above 1" in table
 
 
+def test_the_table_ends_with_each_sides_overall_ratio():
+    from stackdsl.bench.actions import overall
+
+    cells = [
+        Cell("long", "extension", 2.0, (2.0,), True, "stands", True),
+        Cell("long", "MuJoCo lean", 8.0, (8.0,), True, "stands", True),
+        Cell("short", "extension", 1.0, (1.0,), False, "stands: collapse at level 2", True),
+        Cell("short", "MuJoCo lean", 1.0, (1.0,), True, "stands", True),
+        Cell("refused", "extension", 0.0, (0.0,), None, "too fast", True),
+    ]
+    # summed: 9 s over 3 s; the rows' 4x and 1x: 2x their geometric mean
+    assert overall(cells) == [
+        "overall, extension: 9.00 s of the peer's over 3.00 s = 3.0x summed, 2.0x the geometric mean of 2 rows; 1 of 2 PASS"
+    ]
+    assert overall(cells)[0] in format_cells(cells, 1, reference="extension")
+
+
 def test_a_cell_runs_in_a_fresh_process_on_each_side():
     seen: list[Run] = []
     cells = run_cells([tiny("4 dominoes")], ["extension", "MuJoCo lean"], repeats=1, jobs=2, progress=seen.append)
     assert len(seen) == 2 and [c.side for c in cells] == ["extension", "MuJoCo lean"]
     assert all(c.passed and c.wall > 0 and len(c.walls) == 1 for c in cells), cells
+
+
+def test_the_pulls_table_judges_each_side_against_the_sweeps_expectation():
+    from stackdsl.bench.pulls import Side, format_sides, template
+
+    t, expect = template(ROOT / "sweeps/jenga_pulls.yaml", samples=40)
+    stood = (None,) * 40  # P(stands) >= 0.9 passes
+    fell = (None,) * 26 + (12,) * 14  # 26 of 40 stood: it fails
+    sides = [Side("extension", 10.0, stood + fell), Side("MuJoCo lean", 50.0, fell + fell)]
+    table = format_sides(sides, t, expect, jobs=1, cells=2)
+    assert "| extension | 10.0 | 8.00 | 66 of 80 | 1 / 1 / 0 | 5.0 |" in table
+    assert "| MuJoCo lean | 50.0 | 1.60 | 52 of 80 | 0 / 2 / 0 |  |" in table
+    assert f"extension, {t.label(1)}: FAIL, P(stands) >= 0.9 expected" in table
+    assert f"MuJoCo lean, {t.label(0)}: FAIL" in table and "alike on 66 of 80 samples" in table
+    few = format_sides([Side("extension", 1.0, (None, None))], template(ROOT / "sweeps/jenga_pulls.yaml", 2)[0], expect, 1, 1)
+    assert "| 0 / 0 / 1 |" in few and "INCONCLUSIVE" in few and "samples would decide it" in few
 
 
 @pytest.mark.slow
@@ -155,6 +188,7 @@ def test_the_cli_runs_the_quick_family_and_the_pulls(tmp_path, capsys, monkeypat
     assert main(["bench", "pulls", str(sweep), "--samples", "2"]) == 0
     out = capsys.readouterr().out
     assert "| extension |" in out and "| MuJoCo lean |" in out and "alike on" in out
+    assert "judged against the file's P(stands) >= 0.9" in out
 
 
 @pytest.mark.slow
@@ -165,3 +199,19 @@ def test_the_folder_bench_times_the_check(tmp_path):
     (one, auto) = check_times(tmp_path, ("1", "auto"), repeats=1)
     assert one.exit_code == auto.exit_code == 0 and one.wall > 0 and auto.jobs == "auto"
     assert one.summary.startswith("1 scenarios: 1 passed")
+
+
+def test_the_scenes_run_in_the_order_given(monkeypatch, capsys):
+    import stackdsl.bench.actions as actions
+    from stackdsl.cli.main import main
+
+    asked: list[str] = []
+
+    def record(scenes, sides, repeats, jobs, progress):
+        asked.extend(s.name for s in scenes)
+        return []
+
+    monkeypatch.setattr(actions, "run_cells", record)
+    monkeypatch.chdir(ROOT)
+    assert main(["bench", "actions", "--scenes", "shake above,Jenga 12 stands", "--sides", "extension"]) == 0
+    assert asked == ["shake above", "Jenga 12 stands"]

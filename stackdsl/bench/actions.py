@@ -66,7 +66,7 @@ SIDES: dict[str, Side] = {
 }
 """The actions family's sides, by name (see the module's description)."""
 
-AS_WRITTEN = "as written"
+AS_WRITTEN = "file's own settings"
 """The folder's own side: each scenario on its own engine and mode, through stackdsl's runtime."""
 
 _ALL_SIDES: dict[str, Side] = {**SIDES, AS_WRITTEN: Side(None, None)}
@@ -332,8 +332,29 @@ def format_cells(cells: Sequence[Cell], repeats: int, reference: str, peer: str 
         ratio = f"{peers[c.scene] / c.wall:.1f}" if c.scene in peers and c.side != peer and c.wall > 0 else ""
         runs = " ".join(f"{w:.2f}" for w in c.walls)
         lines.append(f"| {c.scene} | {c.side} | {mark}: {c.verdict} | {c.wall:.2f} | {runs} | {ratio} |")
-    lines += ["", RATIO.format(peer=peer), TIMING.format(repeats=repeats) + "."]
+    lines += ["", RATIO.format(peer=peer), *overall(cells, peer), TIMING.format(repeats=repeats) + "."]
     return "\n".join(lines)
+
+
+def overall(cells: Sequence[Cell], peer: str = "MuJoCo lean") -> list[str]:
+    """A line for each side but ``peer``: over the scenes both ran, the peer's summed median wall
+    time over the side's, and the geometric mean of the rows' ``peer / this`` (each scene
+    weighed alike, where the sums weigh the long scenes); and how many of its cells passed."""
+    peers = {c.scene: c.wall for c in cells if c.side == peer and c.passed is not None}
+    lines = []
+    for side in dict.fromkeys(c.side for c in cells if c.side != peer):
+        both = [c for c in cells if c.side == side and c.passed is not None and c.scene in peers and c.wall > 0]
+        if not both:
+            continue
+        mine, theirs = sum(c.wall for c in both), sum(peers[c.scene] for c in both)
+        ratios = [peers[c.scene] / c.wall for c in both]
+        mean = statistics.geometric_mean(ratios) if min(ratios) > 0 else 0.0
+        passed = sum(bool(c.passed) for c in both)
+        lines.append(
+            f"overall, {side}: {theirs:.2f} s of the peer's over {mine:.2f} s = {theirs / mine:.1f}x summed, "
+            f"{mean:.1f}x the geometric mean of {len(both)} rows; {passed} of {len(both)} PASS"
+        )
+    return lines
 
 
 def folder_scenes(folder: Path) -> list[Scene]:

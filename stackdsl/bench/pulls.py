@@ -8,7 +8,9 @@ the same template, the same draws) compiled for tuned MuJoCo with its own sleepi
 (:func:`stackdsl.bench.lean_mujoco.run_lean`), in as many processes. Each side's processes are
 fresh (spawned) and run a one-level tower first, untimed; the wall time of a side is from
 handing out the first sample to the last result. The two sides' verdicts (the collapse level,
-None: stands) are compared sample by sample.
+None: stands) are compared sample by sample, and each side's samples are judged, cell by cell,
+against the file's statistical expectations (``p_stands >= 0.9`` for the shipped sweep) as
+``stackdsl check`` judges them (:func:`stackdsl.verdicts.stats.decide`).
 
 Source: stackdsl's own.
 """
@@ -21,9 +23,12 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..batch.guard import SPAWN
+from ..batch.sweep_out import cell_expectations
 from ..compile.program import Program
+from ..lang.expectations import Expect
 from ..lang.loader import load_scenario
 from ..lang.sampling import Template
+from ..verdicts.stats import decide, expected_text
 
 #: The shipped sweep the bench runs by default.
 SWEEP = Path("sweeps/jenga_pulls.yaml")
@@ -43,8 +48,8 @@ class Side:
         return len(self.levels) / self.seconds if self.seconds > 0 else 0.0
 
 
-def template(path: Path = SWEEP, samples: int | None = None) -> Template:
-    """The sweep's template, with ``samples`` samples (None: the file's own).
+def template(path: Path = SWEEP, samples: int | None = None) -> tuple[Template, Expect]:
+    """The sweep's template, with ``samples`` samples (None: the file's own), and its expectations.
 
     Raises:
         ScenarioError: the file is not a valid sweep.
@@ -55,7 +60,7 @@ def template(path: Path = SWEEP, samples: int | None = None) -> Template:
     if scenario.template is None:
         raise ScenarioError("this scenario has no sweep and no random field: nothing to sample", file=str(path))
     t: Template = scenario.template
-    return t if samples is None else t.with_samples(samples)
+    return (t if samples is None else t.with_samples(samples)), scenario.expect
 
 
 def _warm(_: int) -> None:
@@ -119,23 +124,51 @@ def run_sides(t: Template, jobs: int = 1, batch: int = 5, cells: int | None = No
     return sides
 
 
-def format_sides(sides: Sequence[Side], t: Template, jobs: int, cells: int | None = None) -> str:
+def judged(side: Side, t: Template, expect: Expect, cells: int) -> tuple[dict[str, int], list[str]]:
+    """``side``'s samples judged cell by cell (the first ``cells`` of ``t``'s grid, ``t.samples``
+    each, in order) against the file's statistical expectations, as ``stackdsl check`` judges a
+    sweep: how many verdicts are PASS, FAIL and INCONCLUSIVE, and a line for each that is not
+    PASS (the cell, what was expected and measured, and for an undecided one how many samples
+    would decide it)."""
+    counts = {"PASS": 0, "FAIL": 0, "INCONCLUSIVE": 0}
+    lines = []
+    for c in range(cells):
+        levels = side.levels[c * t.samples : (c + 1) * t.samples]
+        for form in cell_expectations(t, expect, c):
+            v = decide(form, levels, exact=not t.random)
+            counts[v.outcome] += 1
+            if v.outcome != "PASS":
+                more = f"; about {v.samples_to_decide} samples would decide it" if v.samples_to_decide else ""
+                lines.append(f"{side.name}, {t.label(c)}: {v.outcome}, {v.expected} expected, {v.measured}{more}")
+    return counts, lines
+
+
+def format_sides(sides: Sequence[Side], t: Template, expect: Expect, jobs: int, cells: int | None = None) -> str:
     """A Markdown table of :func:`run_sides`: each side's wall time, samples a second, how many
-    stood, and the agreement of the verdicts sample by sample."""
+    stood, its verdicts against the file's expectations cell by cell (:func:`judged`), and the
+    agreement of the verdicts sample by sample."""
     name = t.data.get("name", "sweep")
     ran = min(t.cells, cells or t.cells)
+    forms = sorted({expected_text(f) for c in range(ran) for f in cell_expectations(t, expect, c)})
     lines = [
         f"{name}: {ran * t.samples} samples ({ran} of {t.cells} cells x {t.samples}; the same draws on each side), "
         f"{jobs} process(es) a side:",
         "",
-        "| side | wall (s) | samples/s | stood | peer / this |",
-        "|---|---:|---:|---:|---:|",
+        "| side | wall (s) | samples/s | stood | cells PASS / FAIL / INCONCLUSIVE | peer / this |",
+        "|---|---:|---:|---:|---:|---:|",
     ]
     peer = next((s for s in sides if s.name == "MuJoCo lean"), None)
+    notes = []
     for s in sides:
         ratio = f"{peer.seconds / s.seconds:.1f}" if peer is not None and s is not peer and s.seconds > 0 else ""
         stood = sum(level is None for level in s.levels)
-        lines.append(f"| {s.name} | {s.seconds:.1f} | {s.rate:.2f} | {stood} of {len(s.levels)} | {ratio} |")
+        counts, said = judged(s, t, expect, ran)
+        cells_said = " / ".join(str(counts[k]) for k in ("PASS", "FAIL", "INCONCLUSIVE")) if forms else "no expectation"
+        lines.append(f"| {s.name} | {s.seconds:.1f} | {s.rate:.2f} | {stood} of {len(s.levels)} | {cells_said} | {ratio} |")
+        notes += said
+    if forms:
+        lines += ["", f"cells: each cell's samples judged against the file's {', '.join(forms)}, as `stackdsl check` does"]
+        lines += [f"  {line}" for line in notes]
     if peer is not None:
         lines += ["", "peer / this: the MuJoCo lean peer's wall time over the row's (above 1, the row's side is faster)"]
     if len(sides) == 2:

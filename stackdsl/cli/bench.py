@@ -754,7 +754,7 @@ def _bench_actions(args: argparse.Namespace) -> int:
         ) from None
     if args.scenes is not None:
         names = _names(args.scenes, "--scenes", [s.name for s in family], "scene")
-        family = [s for s in family if s.name in names]
+        family = [next(s for s in family if s.name == name) for name in names]  # in the order given
     print(version_line(), flush=True)
     print(_load_line(), flush=True)
     with Lines(len(family) * len(sides) * args.repeats, "runs") as progress:
@@ -794,10 +794,10 @@ def _bench_pulls(args: argparse.Namespace) -> int:
     if args.cells is not None and args.cells < 1:
         raise ScenarioError(f"--cells must be at least 1, not {args.cells}", file="--cells")
     _need("mujoco", "stackdsl bench pulls")
-    t = template(Path(args.file), args.samples)
+    t, expect = template(Path(args.file), args.samples)
     print(version_line(), flush=True)
     print(_load_line(), flush=True)
-    print(format_sides(run_sides(t, args.jobs, cells=args.cells), t, args.jobs, args.cells))
+    print(format_sides(run_sides(t, args.jobs, cells=args.cells), t, expect, args.jobs, args.cells))
     print(_load_line())
     return OK
 

@@ -305,6 +305,27 @@ def test_progress_without_a_terminal_is_a_line_on_stderr_every_few_seconds_with_
     assert capsys.readouterr().err == ""  # 0: none
 
 
+def test_the_time_left_weighs_each_run_by_its_estimate(capsys):
+    import io
+    import re
+
+    from stackdsl.cli.progress import Lines, Remaining
+
+    # a quick extension run done first: the tuned runs left take what the compiler estimates,
+    # and the other extension run the time its kind took against its estimate
+    estimates = {("a", "pybullet", "extension"): 0.1, ("b", "pybullet", "extension"): 0.2, ("a", "pybullet", "tuned"): 60.0}
+    with Lines(3, "compare", file=io.StringIO(), live=False, every=0.05, remaining=Remaining(estimates)) as lines:
+        time.sleep(0.02)
+        lines.advance(key=("a", "pybullet", "extension"), took=0.01)  # one at a time
+        time.sleep(0.3)
+    err = capsys.readouterr().err.splitlines()
+    assert err and all(re.search(r"about (59|60) s left$", line) for line in err), err  # 60 s + 0.2 s x 0.1, less 0.3 s
+    out = io.StringIO()
+    with Lines(2, "compare", file=out, live=True, remaining=Remaining({("a", "x", "y"): 1.0, ("b", "x", "y"): 1.0})) as lines:
+        lines.advance(key=("a", "x", "y"), took=1.0)
+    assert "1/2" in out.getvalue()  # the count is of runs
+
+
 def test_the_live_progress_line_shows_the_time_left():
     import io
 

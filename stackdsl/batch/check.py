@@ -254,6 +254,18 @@ def _compiled(
     return program
 
 
+def estimates(prepared: Sequence[Prepared]) -> dict[tuple[str, ...], float]:
+    """The compiler's estimate of each prepared run's wall seconds (a sweep's runs added up,
+    :func:`sweep_runs`), by the (file, backend, mode) of its :class:`CheckResult`: what a progress
+    line weighs a finished run by."""
+    return {
+        (str(p.path), p.program.engine.backend, p.program.engine.mode): (
+            sweep_runs(p.template, p.program)[1] if p.template is not None else p.program.wall_estimate
+        )
+        for p in prepared
+    }
+
+
 def sweep_runs(template: Template, program: Program) -> tuple[int, float]:
     """A sweep's runs and the wall seconds they take added up, as on one core, by the compiler's
     estimate (:attr:`stackdsl.Program.wall_estimate` of its first cell's sample 0, for each run)."""

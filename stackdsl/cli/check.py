@@ -17,7 +17,7 @@ from itertools import chain
 from pathlib import Path
 from typing import TextIO
 
-from ..batch.check import Prepared, discover, prepare, run_checks, select_comparison, sweep_runs, tabulate
+from ..batch.check import Prepared, discover, estimates, prepare, run_checks, select_comparison, sweep_runs, tabulate
 from ..batch.perturb import Fragility, fragility_lines, perturbed_runs, within_budget
 from ..batch.report import HEADER, failure_lines, json_document, junit_xml, mode_label, rerun_command, row, summary
 from ..compile.compiler import BACKEND_DEFAULTS, MODE_DEFAULTS
@@ -27,7 +27,7 @@ from ..verdicts.check_result import CheckResult
 from ..verdicts.expect import describe
 from .args import BAD_INPUT, FAILED, HINT, INTERNAL, OK
 from .outputs import Input, Output, check_default_golden, check_outputs, odd_files
-from .progress import Lines, is_live
+from .progress import Lines, Remaining, is_live
 
 
 def _say_sweeps(prepared: list[Prepared], timeout: float | None) -> None:
@@ -145,7 +145,8 @@ def _run_all(
     results as they came, and the command that reruns each."""
     results: list[CheckResult] = []
     commands: list[str] = []
-    with Lines(len(prepared) + len(broken), "check", file=stream, live=is_live(stream)) as lines:
+    remaining = Remaining(estimates(prepared))
+    with Lines(len(prepared) + len(broken), "check", file=stream, live=is_live(stream), remaining=remaining) as lines:
         if not args.json:
             lines.line(HEADER)
         checks = run_checks(prepared, args.jobs, timeout=args.timeout, folders=folders)
@@ -167,7 +168,7 @@ def _run_all(
                     lines.line(row(r))
                     for text in failure_lines(r, commands[-1]):
                         lines.line(text)
-                lines.advance()
+                lines.advance(key=(r.file, r.backend, r.mode), took=r.wall_time)
                 if args.exitfirst and not r.held:
                     break
         finally:
@@ -286,11 +287,12 @@ def compare_command(args: argparse.Namespace) -> int:
     live = is_live(sys.stdout)
     # On a terminal a progress line; elsewhere a line per finished cell on stderr, so that
     # stdout holds the table (or the JSON) alone.
-    with Lines(len(prepared) + len(refused), "compare", file=sys.stdout if live else sys.stderr, live=live) as lines:
+    stream, remaining = (sys.stdout if live else sys.stderr), Remaining(estimates(prepared))
+    with Lines(len(prepared) + len(refused), "compare", file=stream, live=live, remaining=remaining) as lines:
 
         def each(r: CheckResult) -> None:
             done.append(r)
-            lines.advance()
+            lines.advance(key=(r.file, r.backend, r.mode), took=r.wall_time)
             if not live:
                 lines.line(
                     f"[{len(done)}/{len(prepared) + len(refused)}] {Path(r.file).stem} {r.backend} {r.mode}: "

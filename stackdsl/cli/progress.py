@@ -18,7 +18,7 @@ import os
 import sys
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from types import TracebackType
 from typing import IO, TYPE_CHECKING
 
@@ -71,10 +71,12 @@ def interval(text: str) -> float:
     return 0.0 if every <= 0.0 else min(max(every, SHORTEST), LONGEST)
 
 
-def progress_text(description: str, done: int, total: int, elapsed: float, status: str | None = None) -> str:
+def progress_text(
+    description: str, done: int, total: int, elapsed: float, status: str | None = None, left: float | None = None
+) -> str:
     """A progress line: ``'sweep: 120 of 2000 done (6%), 45 s, about 12 min left'`` (the time
-    left from the rate so far; none before the first item is done); a ``status`` (why nothing
-    moves) in place of the time left.
+    left ``left``, seconds, when known; else from the rate so far; none before the first item is
+    done); a ``status`` (why nothing moves) in place of the time left.
 
     >>> progress_text("sweep", 120, 2000, 45.0)
     'sweep: 120 of 2000 done (6%), 45 s, about 12 min left'
@@ -82,14 +84,66 @@ def progress_text(description: str, done: int, total: int, elapsed: float, statu
     'check: 0 of 29 done (0%), 10 s'
     >>> progress_text("sweep", 120, 2000, 45.0, "no worker connected to the scheduler: waiting")
     'sweep: 120 of 2000 done (6%), 45 s; no worker connected to the scheduler: waiting'
+    >>> progress_text("compare", 1, 4, 3.0, left=100.0)
+    'compare: 1 of 4 done (25%), 3 s, about 2 min left'
     """
     share = done / total if total else 1.0
     text = f"{description}: {done} of {total} done ({share:.0%}), {_duration(elapsed)}"
     if status:
         text += f"; {status}"
     elif 0 < done < total:
-        text += f", about {_duration(elapsed * (total - done) / done)} left"
+        text += f", about {_duration(left if left is not None else elapsed * (total - done) / done)} left"
     return text
+
+
+class Remaining:
+    """The seconds left of runs each weighed by the compiler's estimate of its wall time,
+    corrected by the runs done: the estimate of a run is scaled by how long the done runs of its
+    kind (its engine and mode) took against theirs (the estimate is good to a factor of about
+    two, and errs differently in each mode), and unscaled while none of its kind is done; the
+    sum is divided by how many ran at once so far (their seconds over the wall time), and counts
+    down from the last run done.
+
+    Args:
+        estimates: each run's estimated seconds, by a key whose items after the first name its
+            kind (``(file, backend, mode)``).
+
+    Source: stackdsl's own.
+
+    >>> r = Remaining({("a", "pybullet", "tuned"): 10.0, ("b", "pybullet", "tuned"): 20.0, ("a", "mujoco", "tuned"): 4.0})
+    >>> r.seconds(0.0) is None
+    True
+    >>> r.finish(("a", "pybullet", "tuned"), took=5.0, at=5.0)  # its kind runs in half its estimate
+    >>> r.seconds(elapsed=5.0), r.seconds(elapsed=9.0)  # 20 s x 0.5, and 4 s as estimated; 4 s later
+    (14.0, 10.0)
+    """
+
+    def __init__(self, estimates: Mapping[tuple[str, ...], float]) -> None:
+        self._left = dict(estimates)
+        self._kinds: dict[tuple[str, ...], tuple[float, float]] = {}  # kind -> (seconds taken, estimated)
+        self._busy = 0.0
+        self._at = 0.0  # seconds from the start when the last run was done
+
+    def finish(self, key: tuple[str, ...], took: float, at: float) -> None:
+        """Run ``key`` is done, ``at`` seconds from the start; it took ``took`` seconds."""
+        self._at = max(self._at, at)
+        estimated = self._left.pop(key, None)
+        took = max(took, 0.0)
+        self._busy += took
+        if estimated is not None and estimated > 0:
+            spent, guessed = self._kinds.get(key[1:], (0.0, 0.0))
+            self._kinds[key[1:]] = (spent + took, guessed + estimated)
+
+    def seconds(self, elapsed: float) -> float | None:
+        """Seconds left, ``elapsed`` seconds after the start; None before a run is done."""
+        if not self._kinds:
+            return None
+        total = 0.0
+        for key, estimated in self._left.items():
+            spent, guessed = self._kinds.get(key[1:], (1.0, 1.0))
+            total += estimated * spent / guessed
+        at_once = max(1.0, self._busy / self._at) if self._at > 0 else 1.0
+        return max(0.0, total / at_once - max(0.0, elapsed - self._at))
 
 
 def _duration(seconds: float) -> str:
@@ -114,6 +168,9 @@ class Lines:
         status: asked at each progress line (and every second on the live line): None while
             the work moves, else why it does not, said on the progress line. It must not
             wait (it runs on the progress thread).
+        remaining: the time left of the items, each weighed by its estimate (:class:`Remaining`;
+            each :meth:`advance` names the item and how long it took); None: from the rate of
+            items so far, each alike.
     """
 
     def __init__(
@@ -124,8 +181,10 @@ class Lines:
         live: bool | None = None,
         every: float | None = None,
         status: Callable[[], str | None] | None = None,
+        remaining: Remaining | None = None,
     ) -> None:
         self.file = file if file is not None else sys.stdout
+        self.remaining = remaining
         self.live = is_live(self.file) if live is None else live
         self.total, self.description, self.done = total, description, 0
         self.every = progress_seconds() if every is None else every
@@ -139,12 +198,10 @@ class Lines:
             from rich.console import Console
             from rich.progress import (
                 BarColumn,
-                MofNCompleteColumn,
                 Progress,
                 SpinnerColumn,
                 TextColumn,
                 TimeElapsedColumn,
-                TimeRemainingColumn,
             )
 
             console = Console(file=self.file, force_terminal=True, highlight=False, emoji=False, markup=False)
@@ -152,22 +209,20 @@ class Lines:
                 SpinnerColumn(),
                 TextColumn("{task.description}"),
                 BarColumn(),
-                MofNCompleteColumn(),
+                TextColumn("{task.fields[count]}"),
                 TimeElapsedColumn(),
-                TextColumn("left"),
-                TimeRemainingColumn(),
+                TextColumn("{task.fields[left]}"),
                 console=console,
                 transient=True,
             )
-            self._task = self._progress.add_task(description, total=total)
+            self._task = self._progress.add_task(description, total=total, count=f"0/{total}", left="")
 
     def __enter__(self) -> Lines:
         self._started = time.monotonic()
         if self._progress is not None:
             self._progress.start()
-            if self.status is not None:
-                self._ticker = threading.Thread(target=self._tick_live, name="stackdsl-progress", daemon=True)
-                self._ticker.start()
+            self._ticker = threading.Thread(target=self._tick_live, name="stackdsl-progress", daemon=True)
+            self._ticker.start()
         elif self.every > 0 and self.total > 0:
             self._ticker = threading.Thread(target=self._tick, name="stackdsl-progress", daemon=True)
             self._ticker.start()
@@ -184,18 +239,37 @@ class Lines:
         """Every :attr:`every` seconds until the work ends, a progress line on standard error."""
         while not self._stop.wait(self.every):
             status = self.status() if self.status is not None else None
-            text = progress_text(self.description, self.done, self.total, time.monotonic() - self._started, status)
+            elapsed = time.monotonic() - self._started
+            text = progress_text(self.description, self.done, self.total, elapsed, status, self._left(elapsed))
             try:
                 print(text, file=sys.stderr, flush=True)
             except (OSError, ValueError):  # standard error closed: nothing more to say
                 return
 
     def _tick_live(self) -> None:
-        """Every second until the work ends, the status in the live line's description."""
+        """Every second until the work ends, the status in the live line's description, and the
+        time left (:func:`time_left`, the same as the plain lines say)."""
         while not self._stop.wait(1.0):
-            status = self.status() if self.status is not None else None
-            if self._progress is not None and self._task is not None:
-                self._progress.update(self._task, description=f"{self.description} ({status})" if status else self.description)
+            self._show()
+
+    def _show(self) -> None:
+        """The live line's status, count and time left, now."""
+        if self._progress is None or self._task is None:
+            return
+        status = self.status() if self.status is not None else None
+        text = progress_text("", self.done, self.total, time.monotonic() - self._started, None, self._left())
+        self._progress.update(
+            self._task,
+            description=f"{self.description} ({status})" if status else self.description,
+            count=f"{self.done}/{self.total}",
+            left=text[text.index(", about") + 2 :] if ", about" in text else "",
+        )
+
+    def _left(self, elapsed: float | None = None) -> float | None:
+        """Seconds left by :attr:`remaining`, or None (then the rate of items says it)."""
+        if self.remaining is None:
+            return None
+        return self.remaining.seconds(time.monotonic() - self._started if elapsed is None else elapsed)
 
     def line(self, text: str) -> None:
         """Print ``text`` (above the progress line when live)."""
@@ -204,8 +278,12 @@ class Lines:
         else:
             print(text, file=self.file, flush=True)
 
-    def advance(self, items: int = 1) -> None:
-        """Count ``items`` more as done."""
+    def advance(self, items: int = 1, key: tuple[str, ...] | None = None, took: float = 0.0) -> None:
+        """Count ``items`` more as done; ``key``: the item of :attr:`remaining` done, which took
+        ``took`` seconds."""
         self.done += items
+        if self.remaining is not None and key is not None:
+            self.remaining.finish(key, took, time.monotonic() - self._started)
         if self._progress is not None and self._task is not None:
             self._progress.advance(self._task, items)
+            self._show()

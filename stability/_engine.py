@@ -52,6 +52,11 @@ class Engine(Protocol):
     a class attribute ``near_is_geometric = True``: the impact rule then asks it only when a
     frozen brick's box is within reach (a fake engine's ``near`` answers from contacts set by
     hand, wherever the bodies are).
+
+    An engine that makes a contact between two bodies only once they overlap (pybullet's boxes,
+    which only touch when a frozen brick, raised out of its supports, is woken) says so with a
+    class attribute ``contacts_need_overlap = True``: a woken brick is then lowered back into what
+    it rests on (:meth:`stability._stack.Stack.wake`).
     """
 
     @property
@@ -85,8 +90,8 @@ class Engine(Protocol):
         ``body``; with ``among``, only those of these bodies (the impact rule asks of the frozen ones)."""
 
     def set_frozen(self, body: int, frozen: bool, mass: float, at: Pose | None = None) -> None:
-        """Freeze (immovable, still colliding, velocity zeroed) or restore ``body``; frozen
-        at the pose ``at`` when it is given, else where it is."""
+        """Freeze (immovable, still colliding, velocity zeroed) or restore ``body``; frozen or
+        restored at the pose ``at`` when it is given, else where it is."""
 
     def merge(self, bodies: Sequence[int]) -> bool:
         """Make the frozen ``bodies`` one rigid body the engine moves (their masses, where they
@@ -212,7 +217,7 @@ class FakeEngine:
 
     def set_frozen(self, body: int, frozen: bool, mass: float, at: Pose | None = None) -> None:
         self.velocities.pop(body, None)
-        if frozen and at is not None:
+        if at is not None:
             self.poses[body] = at
         (self.frozen.add if frozen else self.frozen.discard)(body)
 

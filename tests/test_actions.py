@@ -189,11 +189,12 @@ def test_a_side_pull_stepped_without_its_proof_leaves_the_level_above_in_place(m
     (the tie held to a brick's safety alone), so the pull is stepped: levels 4 and 5 wake and the
     top level rides them as one body, one piece through level 5, each block of which it crosses.
     Static friction holds the level above (Coulomb's answer: it stays; pybullet's solver
-    converged, at 200 iterations, a tenth of a millimetre). The levels above move 0.41 mm (0.27
-    mm without friction anchors on the pulled brick, 0.31 mm with them on every body, as they were
-    until placed bricks froze where they land cut this creep from 0.91 mm). With the top level's
-    blocks taken for three pieces (linked only through level 5) and left out of the ride, level 4
-    was dragged 15 mm, a collapse."""
+    converged, at 200 iterations, a tenth of a millimetre). The levels above move 1.03 mm, woken
+    with the overlaps they had at rest (0.41 mm woken only touching, as until 2026-11-29: 0.27 mm
+    without friction anchors on the pulled brick, 0.31 mm with them on every body; 0.17 mm with the
+    pulled block alone left touching, which drags a level 7.7 mm over a middle pull elsewhere).
+    With the top level's blocks taken for three pieces (linked only through level 5) and left out
+    of the ride, level 4 was dragged 15 mm, a collapse."""
     import stability._drag as drag_proof
 
     monkeypatch.setattr(drag_proof, "TIE_SAFETY", drag_proof.DRAG_SAFETY)
@@ -207,7 +208,7 @@ def test_a_side_pull_stepped_without_its_proof_leaves_the_level_above_in_place(m
         return max(d for b, d in outcome.displacement.items() if int(b[1:3]) > 3)
 
     creeping = drag()
-    assert creeping < 0.001, creeping
+    assert creeping < 0.002, creeping
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
@@ -292,21 +293,24 @@ def test_a_pushed_block_proved_alone_moves_on_the_fingers_path_and_is_not_thrown
 
 
 def test_a_block_pushed_out_and_back_is_proved_both_ways_under_the_levels_it_carries():
-    """A finger pushes the middle block of level 4 of a 10-level Jenga tower (friction 0.5) 30 mm
-    out along its length, then 15 mm back. Frozen again where the first push left it, the block
-    keeps its contacts with the level above, seen from below (their normals point down into it):
-    the second push's proof read those as contacts that are not level and was refused, and in the
-    engine the tower above rode the block and was dragged 8 mm, where tuned pybullet moves the
-    block alone (15 mm) and tuned MuJoCo drags the levels above about 4 mm, under the threshold."""
+    """A finger pushes the middle block of level 4 of a 10-level Jenga tower (friction 0.5) out
+    along its length, then back. Frozen again where the first push left it, the block keeps its
+    contacts with the level above, seen from below (their normals point down into it): the second
+    push's proof read those as contacts that are not level and was refused, and in the engine the
+    tower above rode the block and was dragged 8 mm (30 mm out, 15 mm back), where tuned pybullet
+    moves the block alone (15 mm) and tuned MuJoCo drags the levels above about 4 mm, under the
+    threshold. Pushed 20 mm out (15 mm once past the finger's gap), the block still lies on all
+    three blocks under it: pushed 30 mm, its end stops at the edge of one of them, and whether it
+    counts as a support when the block freezes again is the engine's contact at that edge."""
     text = (
         JENGA_6.replace("levels: 6", "levels: 10")
         .replace("friction: 0.4", "friction: 0.5")
         .replace("interval: 0.5 s", "interval: 0.3 s")
         .replace("brick_types:\n", "brick_types:\n  finger: {size: [30 mm, 10 mm, 10 mm], material: maple}\n")
         + "actions:\n  - push: {target: {brick: L04.2, offset: [0, 0, 0]}, direction: +y, speed: 45 mm/s,"
-        " distance: 30 mm, at: after level 10, pusher: finger}\n"
+        " distance: 20 mm, at: after level 10, pusher: finger}\n"
         "  - push: {target: {brick: L04.2, offset: [0, 0, 0]}, direction: -y, speed: 45 mm/s,"
-        " distance: 15 mm, at: after the previous action, pusher: finger}\n"
+        " distance: 10 mm, at: after the previous action, pusher: finger}\n"
         "expect: {moved: L04.2, stays: [1-3, L04.1, L04.3, 5-10]}\n"
     )
     scenario = parse_scenario(text, "push_back.yaml")
@@ -476,14 +480,25 @@ def test_a_pushed_side_block_under_the_top_level_drags_it_as_both_tuned_engines_
     pybullet. The push is not proved; the block is driven as an unproved pull is, what it
     carries and the blocks beside stay in the engine while it moves, and on pybullet the steps
     are split from the push's start. Before, level 12 froze on the two other blocks of level 11
-    and stayed in place."""
+    and stayed in place.
+
+    How far level 12 is dragged is the engine's, and on pybullet it is not decided by the
+    statics: a block lying on three is statically indeterminate, and pybullet's stiff contacts
+    split its weight by overlaps of a micrometre. Woken with the overlaps each brick had at rest
+    (as every woken brick now is), one block of level 12 carried 0.04 N on the pushed block and
+    0.13 N and 0.02 N on the two others, and level 12 moved 0.6 mm at most; woken touching, as
+    before, 23 mm. So the drag is asked of MuJoCo (15 mm), and of pybullet only that the push is
+    not proved and leaves what it carries to the engine."""
     text = _pushed_12("L11.1", "[1, 0, 0]", "{moved: L11.1, stays: [1-10, L11.2, L11.3], may_fall: 12}")
     scenario = parse_scenario(text, "push_unproved.yaml")
     program = compile_scenario(scenario, None, None, backend)
     outcome = run_program(program)
     assert all(v.passed for v in evaluate(scenario.expect, outcome, program.collapse_threshold))
-    top = [d for b, d in outcome.displacement.items() if b.startswith("L12")]
-    assert len(top) == 3 and max(top) > program.collapse_threshold, outcome.displacement
+    woken = {e.brick for e in outcome.events if e.kind == "wake" and e.time >= 18.0}
+    assert {"L11.1", "L12.1", "L12.2", "L12.3"} <= woken, woken  # not proved: what it carries is the engine's
+    if backend == "mujoco":
+        top = [d for b, d in outcome.displacement.items() if b.startswith("L12")]
+        assert len(top) == 3 and max(top) > program.collapse_threshold, outcome.displacement
 
 
 @pytest.mark.slow  # 15 s; the scenario items run the same two files, with their goldens
@@ -2191,3 +2206,37 @@ def test_a_brick_that_moved_where_it_must_stay_gets_no_hint_to_settle_longer():
     assert lines and not any(line.startswith("still moving") for line in lines), lines
     toppled = parse_scenario(text.replace("{stays: [D01]}", "{toppled: all}"), "row.yaml")
     assert any(line.startswith("still moving") for line in explain(toppled.expect, outcome, program.collapse_threshold))
+
+
+def test_a_column_woken_at_once_is_carried_from_its_first_step():
+    """A single file of ten KAPLA bricks, each frozen where it landed, shaken past what it
+    withstands as one block: every brick wakes in the same step. A frozen brick is raised out of
+    the overlap the engine gave it at rest, and pybullet makes no contact for two boxes that only
+    touch: each woken brick fell until it overlapped the one under it, a step later for each
+    brick below, the column above in free fall meanwhile. The top brick fell 4.6 mm in the
+    first 7 steps (7.5 mm in 9, past the collapse threshold, with the ground moved 1.7 mm). Woken
+    lowered back into its supports, every brick has its contacts from the first step; the column
+    still sinks into itself as pybullet's solver, started cold, takes its weight (1.1 mm)."""
+    from stackdsl.runtime.loop import Subscriber
+
+    text = (
+        "stackdsl: 1\nstructure: {tower: {levels: 10, bricks_per_layer: 1, turn: 0}}\n"
+        "actions:\n  - shake: {amplitude: 19.2 mm, frequency: 2 Hz, duration: 2 s, direction: [0, 1], at: after level 10}\n"
+    )
+    program = compile_scenario(parse_scenario(text, "column.yaml"), None, None, "pybullet")
+    shake = next(a for a in program.kinematic if isinstance(a, Shake))
+
+    class Top(Subscriber):
+        def __init__(self) -> None:
+            self.heights: list[float] = []
+
+        def after_step(self, loop):
+            if shake.time <= loop.now <= shake.time + 7.5 * loop.dt:
+                (_, _, z), _ = loop.world.pose_floats(loop.structure.records["L10.1"].body)
+                self.heights.append(z)
+
+    top = Top()
+    outcome = run_program(program, subscribers=(top,))
+    woken = [e.brick for e in outcome.events if e.kind == "wake" and e.time == pytest.approx(shake.time)]
+    assert len(woken) == 10, woken  # the whole column, in the shake's first step
+    assert len(top.heights) >= 7 and top.heights[0] - min(top.heights) < 2.5e-3, top.heights

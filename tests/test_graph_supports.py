@@ -83,6 +83,7 @@ timing: {interval: 0.5 s, settle: 2 s}
     supported = {e.upper for e in graph.edges}
     woken = [n for n in graph.nodes if n.level is not None and n.state == "active"]
     assert woken, "the impact woke bricks"
-    # a brick still where it was placed (within 1 mm) lies on what it was placed on
-    still = [n for n in woken if abs(n.position_mm[2] - (n.level - 0.5) * 8.0) < 1.0]
+    # a brick still where it was placed (within 1 mm) lies on what it was placed on; one the hammer
+    # moved (L06.1, 15 mm along x and tilted 1.3 deg as it rocks) need not lie face to face
+    still = [n for n in woken if (n.displaced_mm or 0.0) < 1.0 and abs(n.position_mm[2] - (n.level - 0.5) * 8.0) < 1.0]
     assert still and all(n.id in supported for n in still), [n.id for n in still if n.id not in supported]

@@ -545,9 +545,12 @@ def test_the_replay_draws_the_fixtures_carried_by_the_shake(chromium, shaken):
 
 # A pyramid with a middle brick of its base pulled out slowly: the collapse begins (4.66 s) seconds
 # before it is decided (7.75 s, when the hand lets go), and is dated back to its beginning.
+# L01.2 pulled: L02.1 is left on L01.1 alone, half over its edge. (L01.3, the middle one, was
+# pulled until every engine and mode was found to leave that pyramid standing: the extension on
+# pybullet had fallen only where its woken bricks had no contact yet with those under them.)
 PULLED = (
     "stackdsl: 1\nname: pyramid with a brick pulled\nstructure:\n  pyramid: {base: 5, joint: 1 mm}\n"
-    "actions:\n  - remove: {brick: L01.3, at: after level 5, speed: 40 mm/s, direction: [0, 1, 0]}\n"
+    "actions:\n  - remove: {brick: L01.2, at: after level 5, speed: 40 mm/s, direction: [0, 1, 0]}\n"
     "timing: {interval: 0.3 s, settle: 2 s}\n"
 )
 

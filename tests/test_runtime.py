@@ -262,13 +262,14 @@ def test_a_heap_at_rest_as_a_whole_is_frozen_with_the_bricks_that_still_creep(ca
     """The same heap: 0.8 s after the collapse its motion as a whole is under the rest
     thresholds (its kinetic energy is less than at them), though many of its bricks have not
     yet been still for a whole window. It is frozen then, with those bricks; waiting for each
-    of them kept it in the engine until 1.1 s after the collapse."""
+    of them kept it in the engine until 1.1 s after the collapse. (Which bricks the heap holds is
+    the fall's: 43 in one pile, or 40 and a pile of 3 since woken bricks keep their overlaps.)"""
     outcome = cabin_falling_at_26
     assert outcome.collapse is not None
     piles = [e for e in outcome.events if e.kind == "freeze" and e.time > outcome.collapse.time and "frozen together" in e.detail]
-    big = [e for e in piles if int(re.search(r"one of (\d+)", e.detail).group(1)) > 40]
+    big = [e for e in piles if int(re.search(r"one of (\d+)", e.detail).group(1)) >= 35]
     creeping = [e for e in big if e.detail.startswith("creeping in a pile at rest, one of")]
-    assert len(big) > 40 and len({e.time for e in big}) == 1
+    assert len(big) >= 35 and len({e.time for e in big}) == 1
     assert 0 < len(creeping) < len(big)
     assert big[0].time - outcome.collapse.time < 0.9
 

@@ -379,8 +379,8 @@ class MuJoCoWorld(World):
         return out
 
     def set_frozen(self, body: int, frozen: bool, mass: float, at: Pose | None = None) -> None:
-        if frozen != self._frozen[body - 1]:
-            self._put(body, at if frozen and at is not None else self.pose(body), frozen)
+        if frozen != self._frozen[body - 1] or (not frozen and at is not None):
+            self._put(body, at if at is not None else self.pose(body), frozen)
 
     def _put(self, body: int, pose: Pose, frozen: bool) -> None:
         """``body`` at ``pose``, at rest, frozen (its held body there) or not (its free body)."""

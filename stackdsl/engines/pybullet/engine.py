@@ -53,6 +53,8 @@ class PyBulletEngine:
     """
 
     near_is_geometric = True
+    # two boxes that touch without overlapping have no contact point (Stack.wake lowers a woken brick)
+    contacts_need_overlap = True
 
     def __init__(self, client: Any) -> None:
         self._client = BoundCalls(client)
@@ -127,6 +129,6 @@ class PyBulletEngine:
     def set_frozen(self, body: int, frozen: bool, mass: float, at: Pose | None = None) -> None:
         own = self._engine_id(body)
         self._client.resetBaseVelocity(own, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0])
-        if frozen and at is not None:
+        if at is not None:
             self._client.resetBasePositionAndOrientation(own, at.position.tolist(), at.orientation.tolist())
         self._client.changeDynamics(own, -1, mass=0.0 if frozen else mass)

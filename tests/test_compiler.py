@@ -88,6 +88,24 @@ def test_a_time_off_the_grid_of_a_step_the_file_did_not_write_says_whose_step_it
     with pytest.raises(ScenarioError) as info:
         program(text.replace("backend: mujoco", "timestep: 3 ms"))
     assert "0.25 s is not a whole number of timesteps (3 ms); use a multiple such as 0.249 s" in info.value.message
+    assert "every engine" not in info.value.message  # 3 ms does not divide 0.1 s
+
+
+def test_a_time_off_one_engines_grid_is_offered_one_on_every_engines():
+    """A new user's 0.05 s interval was refused on MuJoCo's extension (4 ms) with "use a multiple
+    such as 0.048 s", which pybullet's (1/240 s) then refused with "such as 0.05 s": neither
+    suggestion ran in `compare`. The message now also offers the nearest multiple of 0.1 s, a whole
+    number of every engine's and mode's default timestep, and that one runs on each."""
+    from stackdsl.compile.compiler import BACKEND_DEFAULTS, COMMON_STEP
+
+    assert COMMON_STEP == pytest.approx(0.1)
+    text = "stackdsl: 1\nstructure: {tower: {levels: 2}}\ntiming: {interval: 0.05 s}\nengine: {backend: mujoco}\n"
+    with pytest.raises(ScenarioError) as info:
+        program(text)
+    assert "such as 0.048 s, or 0.1 s, a whole number of steps on every engine and mode" in info.value.message
+    for backend, modes in BACKEND_DEFAULTS.items():
+        for mode in modes:
+            compile_scenario(parse_scenario(text.replace("0.05 s", "0.1 s"), "t.yaml"), mode, None, backend)
 
 
 @pytest.mark.parametrize(

@@ -32,10 +32,13 @@ Source: stackdsl's own.
 
 from __future__ import annotations
 
+import math
 import os
 import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from fractions import Fraction
+from functools import reduce
 from typing import NamedTuple
 
 import numpy as np
@@ -838,6 +841,19 @@ def _nothing_placed_on_pulled(
                 )
 
 
+def _common_step() -> float:
+    """Seconds: the shortest time that is a whole number of every backend's default timestep in
+    every mode (1/240 s, 1 ms, 2 ms, 4 ms, 10 ms: 0.1 s), so that a time on its grid runs on each
+    engine ``stackdsl compare`` may ask for. Source: stackdsl's own."""
+    steps = [Fraction(str(d["timestep"])).limit_denominator(100_000) for m in BACKEND_DEFAULTS.values() for d in m.values()]
+    return float(reduce(lambda a, b: Fraction(math.lcm(a.numerator, b.numerator), math.gcd(a.denominator, b.denominator)), steps))
+
+
+#: Seconds that every engine and mode's default timestep divides (:func:`_common_step`): what a
+#: time refused as off one engine's grid is suggested a multiple of.
+COMMON_STEP = _common_step()
+
+
 def _steps(scenario: Scenario, path: FieldPath, seconds: float, dt: float, whose: str = "") -> int:
     """``seconds`` as a whole number of timesteps (``dt``, s), or a ScenarioError at ``path``:
     a time past the run's limit (:data:`MAX_SIMULATED_TIME`: the run would last at least that
@@ -851,6 +867,12 @@ def _steps(scenario: Scenario, path: FieldPath, seconds: float, dt: float, whose
     steps = seconds / dt
     if abs(steps - round(steps)) > 1e-6 * max(1.0, steps) or (seconds > 0 and round(steps) == 0):
         such = f"{max(1, round(steps)) * dt:.6g} s"
+        common = COMMON_STEP / dt
+        if abs(common - round(common)) <= 1e-9 * common:  # this run's step divides every default's grid
+            such += (
+                f", or {max(1, round(seconds / COMMON_STEP)) * COMMON_STEP:.6g} s, a whole number of steps on every "
+                f"engine and mode (a multiple of {COMMON_STEP:g} s)"
+            )
         step = f"({dt * 1000:.4g} ms{whose})"
         if _written(scenario, path):
             raise scenario.source.error(

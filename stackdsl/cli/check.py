@@ -468,7 +468,8 @@ def _backends(given: str | None, several: bool) -> tuple[str | None, ...]:
 
 
 def _cell(r: CheckResult) -> str:
-    """What compare's table shows of a result: the collapse level, the bricks toppled when the
+    """What compare's table shows of a result: the collapse level and the brick that moved first
+    (``collapse 9 from L03.1``), the bricks toppled when the
     file expects a count (``stands, 0 of 5 toppled``), the bricks it expects to move that did
     (``collapse 12, brick L06.2 moved``), how far a standing brick moved at most from 1 mm
     (:data:`SHOWN_DRIFT`: ``stands, moved 7.1 mm at most``), that a run ended still moving judged
@@ -489,7 +490,9 @@ def _cell(r: CheckResult) -> str:
     # how close a stand came: a new user could not tell a pull that dragged the top level 7.1 mm
     # (0.4 mm under its threshold) from one that moved nothing
     near = [f"moved {r.drift * 1000:.1f} mm at most"] if r.collapse_level is None and r.drift >= SHOWN_DRIFT else []
-    return ", ".join([describe(r.collapse_level), *near, *toppled, *moved, *failed])
+    # which brick moved first: cells that agree on the level may not on where the collapse began
+    head = describe(r.collapse_level) + (f" from {r.first_moved}" if r.collapse_level is not None and r.first_moved else "")
+    return ", ".join([head, *near, *toppled, *moved, *failed])
 
 
 #: Metres of the largest move of a standing brick from which compare's cell says it (1 mm).

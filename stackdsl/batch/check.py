@@ -254,15 +254,22 @@ def _compiled(
     return program
 
 
+def run_key(p: Prepared) -> tuple[str, str, str]:
+    """What names a prepared run among the results: a file runs once on each backend and mode
+    (:func:`result_key` of its :class:`CheckResult`)."""
+    return (str(p.path), p.program.engine.backend, p.program.engine.mode)
+
+
+def result_key(r: CheckResult) -> tuple[str, str, str]:
+    """The :func:`run_key` of the run ``r`` is the result of."""
+    return (r.file, r.backend, r.mode)
+
+
 def estimates(prepared: Sequence[Prepared]) -> dict[tuple[str, ...], float]:
     """The compiler's estimate of each prepared run's wall seconds (a sweep's runs added up,
-    :func:`sweep_runs`), by the (file, backend, mode) of its :class:`CheckResult`: what a progress
-    line weighs a finished run by."""
+    :func:`sweep_runs`), by its :func:`run_key`: what a progress line weighs a finished run by."""
     return {
-        (str(p.path), p.program.engine.backend, p.program.engine.mode): (
-            sweep_runs(p.template, p.program)[1] if p.template is not None else p.program.wall_estimate
-        )
-        for p in prepared
+        run_key(p): sweep_runs(p.template, p.program)[1] if p.template is not None else p.program.wall_estimate for p in prepared
     }
 
 
@@ -560,13 +567,11 @@ def _gathered(
     samples: dict[int, list[SampleResult]] = {i: [] for i in pending}
     broken: dict[int, tuple[str, str]] = {}  # a sweep's first batch that raised: its error and traceback
     # a file runs once on each backend and mode: that names its run among the results
-    marks: dict[tuple[str, str, str], XFail | None] = {
-        (str(p.path), p.program.engine.backend, p.program.engine.mode): p.xfail for p in prepared
-    }
+    marks: dict[tuple[str, str, str], XFail | None] = {run_key(p): p.xfail for p in prepared}
     try:
         for item in stream:
             if isinstance(item, CheckResult):
-                yield marked(item, marks.get((item.file, item.backend, item.mode)))
+                yield marked(item, marks.get(result_key(item)))
                 continue
             kind, i, *rest = item
             if kind == "broken":

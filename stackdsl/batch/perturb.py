@@ -29,7 +29,7 @@ from ..lang.errors import ScenarioError
 from ..lang.loader import load_scenario
 from ..verdicts.check_result import CheckResult
 from .address import free_cores
-from .check import Prepared
+from .check import Prepared, result_key, run_key
 from .check_sweep import run_unit
 from .judge import KILL_AFTER, TIMEOUT, failed, internal, lost
 from .pool import fan_out
@@ -168,11 +168,9 @@ def perturbed_runs(
     """
     if count < 1:
         raise ValueError(f"--perturb takes a number of runs of at least 1, not {count}")
-    by_key = {(r.file, r.backend, r.mode): r for r in nominal}
+    by_key = {result_key(r): r for r in nominal}
     # one budget a scenario: what --timeout leaves after its run as written, shared by its reruns
-    budgets = [
-        None if timeout is None else Budget(max(0.0, timeout - _wall(by_key.get((str(p.path), *_engine(p)))))) for p in prepared
-    ]
+    budgets = [None if timeout is None else Budget(max(0.0, timeout - _wall(by_key.get(run_key(p))))) for p in prepared]
     tasks: list[tuple[Any, ...]] = []
     costs: list[float] = []
     slots: list[list[Perturbed | None]] = []
@@ -245,10 +243,6 @@ def within_budget(prepared: Sequence[Prepared], count: int, timeout: float | Non
             f"scenario's perturbed check whole: {fits}; give a smaller --perturb or a longer --timeout",
             file=str(p.path),
         )
-
-
-def _engine(p: Prepared) -> tuple[str, str]:
-    return p.program.engine.backend, p.program.engine.mode
 
 
 def _wall(result: CheckResult | None) -> float:

@@ -17,7 +17,18 @@ from itertools import chain
 from pathlib import Path
 from typing import TextIO
 
-from ..batch.check import Prepared, discover, estimates, prepare, run_checks, select_comparison, sweep_runs, tabulate
+from ..batch.check import (
+    Prepared,
+    discover,
+    estimates,
+    prepare,
+    result_key,
+    run_checks,
+    run_key,
+    select_comparison,
+    sweep_runs,
+    tabulate,
+)
 from ..batch.perturb import Fragility, fragility_lines, perturbed_runs, within_budget
 from ..batch.report import HEADER, failure_lines, json_document, junit_xml, mode_label, rerun_command, row, summary
 from ..compile.compiler import BACKEND_DEFAULTS, MODE_DEFAULTS
@@ -168,7 +179,7 @@ def _run_all(
                     lines.line(row(r))
                     for text in failure_lines(r, commands[-1]):
                         lines.line(text)
-                lines.advance(key=(r.file, r.backend, r.mode), took=r.wall_time)
+                lines.advance(key=result_key(r), took=r.wall_time)
                 if args.exitfirst and not r.held:
                     break
         finally:
@@ -207,8 +218,8 @@ def _write_reports(
 
 def _perturbed(args: argparse.Namespace, prepared: list[Prepared], results: list[CheckResult], stream: TextIO) -> list[Fragility]:
     """``check --perturb N``: every scenario that ran rerun N times perturbed, under a progress line."""
-    ran = {(r.file, r.backend, r.mode) for r in results if not r.error and not r.skipped}
-    chosen = [p for p in prepared if (str(p.path), p.program.engine.backend, p.program.engine.mode) in ran]
+    ran = {result_key(r) for r in results if not r.error and not r.skipped}
+    chosen = [p for p in prepared if run_key(p) in ran]
     runs = sum(args.perturb for p in chosen if p.template is None)
     with Lines(runs, "perturbed runs", file=stream, live=is_live(stream)) as lines:
         fragile = list(perturbed_runs(chosen, results, args.perturb, args.jobs, args.timeout, args.seed, lines.advance))
@@ -292,7 +303,7 @@ def compare_command(args: argparse.Namespace) -> int:
 
         def each(r: CheckResult) -> None:
             done.append(r)
-            lines.advance(key=(r.file, r.backend, r.mode), took=r.wall_time)
+            lines.advance(key=result_key(r), took=r.wall_time)
             if not live:
                 lines.line(
                     f"[{len(done)}/{len(prepared) + len(refused)}] {Path(r.file).stem} {r.backend} {r.mode}: "

@@ -91,9 +91,21 @@ def progress_text(
     text = f"{description}: {done} of {total} done ({share:.0%}), {_duration(elapsed)}"
     if status:
         text += f"; {status}"
-    elif 0 < done < total:
-        text += f", about {_duration(left if left is not None else elapsed * (total - done) / done)} left"
+    elif said := time_left(done, total, elapsed, left):
+        text += f", {said}"
     return text
+
+
+def time_left(done: int, total: int, elapsed: float, left: float | None = None) -> str:
+    """``'about 12 min left'``: ``left`` seconds when known, else from the rate of items so far;
+    ``''`` before the first item is done and after the last.
+
+    >>> time_left(120, 2000, 45.0), time_left(1, 4, 3.0, left=100.0), time_left(0, 4, 3.0)
+    ('about 12 min left', 'about 2 min left', '')
+    """
+    if not 0 < done < total:
+        return ""
+    return f"about {_duration(left if left is not None else elapsed * (total - done) / done)} left"
 
 
 class Remaining:
@@ -257,12 +269,11 @@ class Lines:
         if self._progress is None or self._task is None:
             return
         status = self.status() if self.status is not None else None
-        text = progress_text("", self.done, self.total, time.monotonic() - self._started, None, self._left())
         self._progress.update(
             self._task,
             description=f"{self.description} ({status})" if status else self.description,
             count=f"{self.done}/{self.total}",
-            left=text[text.index(", about") + 2 :] if ", about" in text else "",
+            left=time_left(self.done, self.total, time.monotonic() - self._started, self._left()),
         )
 
     def _left(self, elapsed: float | None = None) -> float | None:

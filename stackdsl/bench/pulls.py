@@ -23,12 +23,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..batch.guard import SPAWN
-from ..batch.sweep_out import cell_expectations
+from ..batch.sweep import SampleResult
+from ..batch.sweep_out import cell_expectations, verdicts
 from ..compile.program import Program
 from ..lang.expectations import Expect
 from ..lang.loader import load_scenario
 from ..lang.sampling import Template
-from ..verdicts.stats import decide, expected_text
+from ..verdicts.stats import expected_text
 
 #: The shipped sweep the bench runs by default.
 SWEEP = Path("sweeps/jenga_pulls.yaml")
@@ -127,19 +128,23 @@ def run_sides(t: Template, jobs: int = 1, batch: int = 5, cells: int | None = No
 def judged(side: Side, t: Template, expect: Expect, cells: int) -> tuple[dict[str, int], list[str]]:
     """``side``'s samples judged cell by cell (the first ``cells`` of ``t``'s grid, ``t.samples``
     each, in order) against the file's statistical expectations, as ``stackdsl check`` judges a
-    sweep: how many verdicts are PASS, FAIL and INCONCLUSIVE, and a line for each that is not
-    PASS (the cell, what was expected and measured, and for an undecided one how many samples
-    would decide it)."""
+    sweep (:func:`stackdsl.batch.sweep_out.verdicts`): how many verdicts are PASS, FAIL and
+    INCONCLUSIVE, and a line for each that is not PASS (the cell, what was expected and measured,
+    and for an undecided one how many samples would decide it)."""
+    results = [
+        SampleResult(c, k, 0, {}, level, 0, 0.0, 0.0)
+        for c in range(cells)
+        for k, level in enumerate(side.levels[c * t.samples : (c + 1) * t.samples])
+    ]
     counts = {"PASS": 0, "FAIL": 0, "INCONCLUSIVE": 0}
     lines = []
-    for c in range(cells):
-        levels = side.levels[c * t.samples : (c + 1) * t.samples]
-        for form in cell_expectations(t, expect, c):
-            v = decide(form, levels, exact=not t.random)
-            counts[v.outcome] += 1
-            if v.outcome != "PASS":
-                more = f"; about {v.samples_to_decide} samples would decide it" if v.samples_to_decide else ""
-                lines.append(f"{side.name}, {t.label(c)}: {v.outcome}, {v.expected} expected, {v.measured}{more}")
+    for c, v in verdicts(t, expect, results):
+        if c >= cells:  # a cell this side did not run
+            continue
+        counts[v.outcome] += 1
+        if v.outcome != "PASS":
+            more = f"; about {v.samples_to_decide} samples would decide it" if v.samples_to_decide else ""
+            lines.append(f"{side.name}, {t.label(c)}: {v.outcome}, {v.expected} expected, {v.measured}{more}")
     return counts, lines
 
 

@@ -483,7 +483,9 @@ def _cell(r: CheckResult) -> str:
     (``collapse 9 from L03.1``), the bricks toppled when the
     file expects a count (``stands, 0 of 5 toppled``), the bricks it expects to move that did
     (``collapse 12, brick L06.2 moved``), how far a standing brick moved at most from 1 mm
-    (:data:`SHOWN_DRIFT`: ``stands, moved 7.1 mm at most``), that a run ended still moving judged
+    (:data:`SHOWN_DRIFT`: ``stands, moved 7.1 mm at most``), how little past its limit a collapse
+    was decided under :data:`SHOWN_PAST` (``collapse 9 from L03.1, 0.5 mm past its limit, a near
+    tie``), that a run ended still moving judged
     nothing (an undecided run read "INCONCLUSIVE stands" of a card house lying 90 mm from its
     place), or what went wrong."""
     if r.error:
@@ -501,6 +503,10 @@ def _cell(r: CheckResult) -> str:
     # how close a stand came: a new user could not tell a pull that dragged the top level 7.1 mm
     # (0.4 mm under its threshold) from one that moved nothing
     near = [f"moved {r.drift * 1000:.1f} mm at most"] if r.collapse_level is None and r.drift >= SHOWN_DRIFT else []
+    # and how close a collapse came to standing: its deciding proof's signed margin (a pull that
+    # dragged a level 4.5 mm against a 4 mm threshold read "collapse 9" as one that threw it off)
+    if r.collapse_level is not None and r.margin is not None and -r.margin < SHOWN_PAST:
+        near = [f"{-r.margin * 1000:.1f} mm past its limit, a near tie"]
     # which brick moved first: cells that agree on the level may not on where the collapse began
     head = describe(r.collapse_level) + (f" from {r.first_moved}" if r.collapse_level is not None and r.first_moved else "")
     return ", ".join([head, *near, *toppled, *moved, *failed])
@@ -508,3 +514,6 @@ def _cell(r: CheckResult) -> str:
 
 #: Metres of the largest move of a standing brick from which compare's cell says it (1 mm).
 SHOWN_DRIFT = 0.001
+#: Metres past its limit (:attr:`stackdsl.Outcome.margin`) under which compare's cell says how
+#: near a collapse came to standing (1 mm).
+SHOWN_PAST = 0.001

@@ -238,14 +238,22 @@ def run_cell(scene: Scene, side: str) -> Run:
 def peer_verdicts(expect: Expect, program: Program, lean: LeanOutcome) -> tuple[bool, str]:
     """Whether what the lean peer measured meets ``expect`` (the rules of
     :func:`stackdsl.verdicts.expect.evaluate` on the peer's collapse level, final displacements and
-    toppled bricks), and in words: the failed expectations, else what it measured. ``collapse``,
-    ``stands``, ``stays`` and ``toppled`` are judged; the others are not."""
+    toppled bricks), and in words: the failed expectations, else what it measured (with the brick
+    farthest from its place at the end: ``collapse at level 11 (L12.1 ended 9.3 mm from its
+    place)``, ``stands, moved 2.2 mm at most``). ``collapse``, ``stands``, ``stays`` and ``toppled``
+    are judged; the others are not."""
     from ..lang.expectations import CollapseLevel
 
     threshold = program.collapse_threshold
     level = {p.id: p.level for p in program.placements}
     failed = []
     said = "stands" if lean.level is None else f"collapse at level {lean.level}"
+    if lean.moved:  # how far it came: a peer that drags a level 9 mm and one that throws it 200 mm read alike
+        brick, far = max(lean.moved.items(), key=lambda item: item[1])
+        if lean.level is not None:
+            said += f" ({brick} ended {far * 1000:.1f} mm from its place)"
+        elif far >= 0.001:
+            said += f", moved {far * 1000:.1f} mm at most"
     if isinstance(expect.collapse, CollapseLevel):
         c = expect.collapse
         if lean.level is None or abs(lean.level - c.level) > c.tolerance:

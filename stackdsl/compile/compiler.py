@@ -38,7 +38,6 @@ import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from fractions import Fraction
-from functools import reduce
 from typing import NamedTuple
 
 import numpy as np
@@ -846,7 +845,8 @@ def _common_step() -> float:
     every mode (1/240 s, 1 ms, 2 ms, 4 ms, 10 ms: 0.1 s), so that a time on its grid runs on each
     engine ``stackdsl compare`` may ask for. Source: stackdsl's own."""
     steps = [Fraction(str(d["timestep"])).limit_denominator(100_000) for m in BACKEND_DEFAULTS.values() for d in m.values()]
-    return float(reduce(lambda a, b: Fraction(math.lcm(a.numerator, b.numerator), math.gcd(a.denominator, b.denominator)), steps))
+    # of fractions in lowest terms: the numerators' least common multiple over the denominators' greatest divisor
+    return math.lcm(*(f.numerator for f in steps)) / math.gcd(*(f.denominator for f in steps))
 
 
 #: Seconds that every engine and mode's default timestep divides (:func:`_common_step`): what a

@@ -307,3 +307,26 @@ def test_a_counterweight_placed_in_time_catches_a_brick_placed_past_the_edge(bac
     # 0.3 s after, it has tipped past the threshold before the counterweight comes
     late = run_program(compile_scenario(parse_scenario(_counterweight(0.3)), "extension", "report", backend))
     assert late.collapse is not None and (late.collapse.level, late.collapse.brick) == (2, "L2")
+
+
+@pytest.mark.parametrize("expects", ["stands: true", "collapse: 2", "stays: [base]"])
+def test_a_run_stopped_early_decides_only_what_came_before_it_stopped(expects):
+    """A timeout leaves what the rest of the run would have said undecided; the run fails on its
+    own ``finished`` verdict. A collapse seen before it stopped is decided: ``stands`` failed and
+    ``collapse: 2`` held; ``stays: [base]`` is decided only had the base moved."""
+    scenario = parse_scenario(PUSH_OFF.replace("collapse: 2", expects))
+    program = compile_scenario(scenario)
+    whole = run_program(program)
+    assert whole.collapse is not None and whole.collapse.level == 2
+    stopped = "timeout after 1 s at t = 0.1 s simulated (of 2 s)"
+    early = whole.model_copy(update={"stopped": stopped, "collapse": None, "simulated_time": 0.1})
+    late = whole.model_copy(update={"stopped": stopped})
+    for outcome, decided in ((early, False), (late, expects != "stays: [base]")):
+        verdict, finished = evaluate(scenario.expect, outcome, program.collapse_threshold)
+        assert (finished.name, finished.passed, finished.measured) == ("finished", False, stopped)
+        if decided:
+            assert verdict == evaluate(scenario.expect, whole, program.collapse_threshold)[0]
+        else:
+            assert (verdict.passed, verdict.inconclusive) == (False, True), verdict
+            said = f"not decided: the run stopped at t = {outcome.simulated_time:.2f} s (so far: "
+            assert verdict.measured.startswith(said), verdict

@@ -90,6 +90,7 @@ def evaluate(expect: Expect, outcome: Outcome, threshold: float) -> list[Verdict
     if expect.still is not None:
         verdicts.append(_still(expect.still, outcome, texts["still"]))
     if outcome.stopped:
+        verdicts = [_stopped(v, expect, outcome) for v in verdicts]
         verdicts.append(Verdict(name="finished", passed=False, expected="the run finishes", measured=outcome.stopped))
     elif outcome.certificate is not None and outcome.certificate.verdict == "undecided":
         verdicts = [_undecided(v, outcome.certificate.detail) for v in verdicts]
@@ -152,6 +153,28 @@ def _undecided(verdict: Verdict, why: str) -> Verdict:
     if verdict.name == "stands_until" and verdict.passed:
         return verdict
     return verdict.model_copy(update={"passed": False, "inconclusive": True, "measured": f"undecided: {why}"})
+
+
+def _stopped(verdict: Verdict, expect: Expect, outcome: Outcome) -> Verdict:
+    """A verdict of a run stopped early (a timeout): what the rest of the run would have said is
+    not known (inconclusive, not failed: the run's ``finished`` verdict fails it), save what was
+    decided for good before it stopped: a collapse (its level, and that the stack did not stand),
+    ``stands_until`` once its time or a collapse came, a brick moved that must stay, more
+    toppled than allowed, a bound of ``still`` passed. Source: stackdsl's own."""
+    name, collapse = verdict.name, outcome.collapse
+    if name in ("collapse", "stands"):
+        final = collapse is not None
+    elif name == "stands_until":
+        final = collapse is not None or (expect.stands_until is not None and outcome.simulated_time >= expect.stands_until)
+    elif name == "toppled" and expect.toppled is not None:
+        _, most = expect.toppled.allows(len(outcome.displacement) + len(outcome.unplaced))
+        final = len(outcome.toppled) > most
+    else:  # stays, still: failed for good once failed; moved: a brick may move yet
+        final = name in ("stays", "still") and not verdict.passed
+    if final:
+        return verdict
+    why = f"not decided: the run stopped at t = {outcome.simulated_time:.2f} s (so far: {verdict.measured})"
+    return verdict.model_copy(update={"passed": False, "inconclusive": True, "measured": why})
 
 
 def _cut_off(verdict: Verdict, expect: Expect, outcome: Outcome) -> Verdict:

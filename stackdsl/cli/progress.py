@@ -98,13 +98,19 @@ def progress_text(
 
 def time_left(done: int, total: int, elapsed: float, left: float | None = None) -> str:
     """``'about 12 min left'``: ``left`` seconds when known, else from the rate of items so far;
-    ``''`` before the first item is done and after the last.
+    ``''`` before the first item is done and after the last; once ``left`` has counted down to
+    nothing with items still running, ``'longer than estimated'`` (not "about 0 s left" for the
+    minutes a slow last run may take).
 
     >>> time_left(120, 2000, 45.0), time_left(1, 4, 3.0, left=100.0), time_left(0, 4, 3.0)
     ('about 12 min left', 'about 2 min left', '')
+    >>> time_left(3, 4, 30.0, left=0.0)
+    'longer than estimated'
     """
     if not 0 < done < total:
         return ""
+    if left is not None and left < 0.5:
+        return "longer than estimated"
     return f"about {_duration(left if left is not None else elapsed * (total - done) / done)} left"
 
 

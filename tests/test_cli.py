@@ -1435,16 +1435,22 @@ def test_a_compare_cell_says_how_near_a_collapse_came_to_standing():
     """A new user's pull read "FAIL collapse 9" on the extension where three other cells stood;
     its brick had been dragged 4.5 mm against a 4 mm threshold, which only `run` said. A cell
     decided less than 1 mm past its limit (the run's signed margin) says so, as a stand says how
-    far it moved; one decided far past it does not."""
+    far it moved; one decided far past it does not, nor one whose brick ended far from its place
+    (a brick knocked off a single file, decided as its centre of mass crossed the edge under it,
+    0.5 mm past; it lay on the ground)."""
     from dataclasses import replace
 
     from stackdsl.cli.check import _cell
     from stackdsl.verdicts.check_result import CheckResult
 
     fell = CheckResult("a.yaml", "a", "extension", "report", (), 9, 9, 30.0, 1.0, first_moved="L03.1", first_moved_level=3)
-    assert _cell(replace(fell, margin=-0.0005)) == "collapse 9 from L03.1, 0.5 mm past its limit, a near tie"
-    assert _cell(replace(fell, margin=-0.19)) == "collapse 9 from L03.1"
-    assert _cell(replace(fell, margin=None)) == "collapse 9 from L03.1"
+    near = replace(fell, margin=-0.0005, ended_past=0.0004)
+    assert _cell(near) == "collapse 9 from L03.1, 0.5 mm past its limit, a near tie"
+    assert _cell(replace(near, ended_past=0.0007)) == "collapse 9 from L03.1, 0.7 mm past its limit, a near tie"
+    assert _cell(replace(near, ended_past=0.0126)) == "collapse 9 from L03.1"  # knocked off: no tie
+    assert _cell(replace(near, margin=-0.19)) == "collapse 9 from L03.1"
+    assert _cell(replace(near, margin=None)) == "collapse 9 from L03.1"
+    assert _cell(replace(near, ended_past=None)) == "collapse 9 from L03.1"
 
 
 def test_a_compare_cell_of_a_run_that_ended_still_moving_says_undecided_not_stands():

@@ -504,9 +504,12 @@ def _cell(r: CheckResult) -> str:
     # (0.4 mm under its threshold) from one that moved nothing
     near = [f"moved {r.drift * 1000:.1f} mm at most"] if r.collapse_level is None and r.drift >= SHOWN_DRIFT else []
     # and how close a collapse came to standing: its deciding proof's signed margin (a pull that
-    # dragged a level 4.5 mm against a 4 mm threshold read "collapse 9" as one that threw it off)
-    if r.collapse_level is not None and r.margin is not None and -r.margin < SHOWN_PAST:
-        near = [f"{-r.margin * 1000:.1f} mm past its limit, a near tie"]
+    # dragged a level 4.5 mm against a 4 mm threshold read "collapse 9" as one that threw it off),
+    # and where the brick it is named after ended (a proof decided as a knocked brick's centre of
+    # mass crossed its support's edge is 0.5 mm past it, and the brick lay on the ground)
+    past = None if r.margin is None or r.ended_past is None else max(-r.margin, r.ended_past)
+    if r.collapse_level is not None and past is not None and past < SHOWN_PAST:
+        near = [f"{max(past, 0.0) * 1000:.1f} mm past its limit, a near tie"]
     # which brick moved first: cells that agree on the level may not on where the collapse began
     head = describe(r.collapse_level) + (f" from {r.first_moved}" if r.collapse_level is not None and r.first_moved else "")
     return ", ".join([head, *near, *toppled, *moved, *failed])
@@ -514,6 +517,7 @@ def _cell(r: CheckResult) -> str:
 
 #: Metres of the largest move of a standing brick from which compare's cell says it (1 mm).
 SHOWN_DRIFT = 0.001
-#: Metres past its limit (:attr:`stackdsl.Outcome.margin`) under which compare's cell says how
-#: near a collapse came to standing (1 mm).
+#: Metres past its limit (:attr:`stackdsl.Outcome.margin`, and where the brick it is named after
+#: ended: :attr:`CheckResult.ended_past`) under which compare's cell says how near a collapse came
+#: to standing (1 mm).
 SHOWN_PAST = 0.001

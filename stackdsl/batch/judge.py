@@ -92,7 +92,8 @@ def judge(file: str, program: Program, expect: Expect, timeout: float | None = T
             certificate=describe_certificate(outcome.certificate) if outcome.certificate else "",
             margin_mm=outcome.certificate.margin_mm if outcome.certificate else None,
             margin=outcome.margin,
-            ended_past=_ended_past(outcome, program.collapse_threshold),
+            first_moved_ended=outcome.displacement.get(outcome.collapse.brick) if outcome.collapse else None,
+            threshold=program.collapse_threshold,
         )
         if folder is None or trajectory is None:
             return result if not too_large else replace(result, draw_error=too_large)
@@ -100,14 +101,6 @@ def judge(file: str, program: Program, expect: Expect, timeout: float | None = T
         return replace(result, folder=folder, artefacts=tuple(written.items()), draw_error=draw_error, draw_time=draw_time)
     except Exception as exc:  # MemoryError included
         return failed(file, program, expect, internal(exc), traceback.format_exc())
-
-
-def _ended_past(outcome: Outcome, threshold: float) -> float | None:
-    """Metres past ``threshold`` that the brick a collapse is named after ended the run at
-    (:attr:`CheckResult.ended_past`); None without a collapse or that brick's displacement."""
-    if outcome.collapse is None or outcome.collapse.brick not in outcome.displacement:
-        return None
-    return outcome.displacement[outcome.collapse.brick] - threshold
 
 
 def internal(exc: BaseException) -> str:

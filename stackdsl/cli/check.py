@@ -483,7 +483,9 @@ def _cell(r: CheckResult) -> str:
     (``collapse 9 from L03.1``), the bricks toppled when the
     file expects a count (``stands, 0 of 5 toppled``), the bricks it expects to move that did
     (``collapse 12, brick L06.2 moved``), how far a standing brick moved at most from 1 mm
-    (:data:`SHOWN_DRIFT`: ``stands, moved 7.1 mm at most``), how little past its limit a collapse
+    (:data:`SHOWN_DRIFT`: ``stands, moved 7.1 mm at most``), where the brick a collapse is named
+    after ended when that is within :data:`SHOWN_ENDED` thresholds (``collapse 7 from L06.1, which
+    ended 10.5 mm out``), how little past its limit a collapse
     was decided under :data:`SHOWN_PAST` (``collapse 9 from L03.1, 0.5 mm past its limit, a near
     tie``), that a run ended still moving judged
     nothing (an undecided run read "INCONCLUSIVE stands" of a card house lying 90 mm from its
@@ -507,16 +509,25 @@ def _cell(r: CheckResult) -> str:
     # dragged a level 4.5 mm against a 4 mm threshold read "collapse 9" as one that threw it off),
     # and where the brick it is named after ended (a proof decided as a knocked brick's centre of
     # mass crossed its support's edge is 0.5 mm past it, and the brick lay on the ground)
-    past = None if r.margin is None or r.ended_past is None else max(-r.margin, r.ended_past)
-    if r.collapse_level is not None and past is not None and past < SHOWN_PAST:
-        near = [f"{max(past, 0.0) * 1000:.1f} mm past its limit, a near tie"]
-    # which brick moved first: cells that agree on the level may not on where the collapse began
+    ended = r.first_moved_ended if r.collapse_level is not None and r.first_moved else None
+    if ended is not None and r.margin is not None and r.threshold is not None:
+        past = max(-r.margin, ended - r.threshold)
+        if past < SHOWN_PAST:
+            near = [f"{max(past, 0.0) * 1000:.1f} mm past its limit, a near tie"]
+    # which brick moved first, and where it ended when that was near: cells that agree on the
+    # level may not on where the collapse began, and a block dragged 10.5 mm in a tower that
+    # stands read as a fall
     head = describe(r.collapse_level) + (f" from {r.first_moved}" if r.collapse_level is not None and r.first_moved else "")
+    if ended is not None and r.threshold is not None and ended < SHOWN_ENDED * r.threshold:
+        head += f", which ended {ended * 1000:.1f} mm out"
     return ", ".join([head, *near, *toppled, *moved, *failed])
 
 
 #: Metres of the largest move of a standing brick from which compare's cell says it (1 mm).
 SHOWN_DRIFT = 0.001
+#: Times the collapse threshold under which compare's cell says where the brick a collapse is
+#: named after ended (``collapse 7 from L06.1, which ended 10.5 mm out``): dragged, not fallen.
+SHOWN_ENDED = 3.0
 #: Metres past its limit (:attr:`stackdsl.Outcome.margin`, and where the brick it is named after
 #: ended: :attr:`CheckResult.ended_past`) under which compare's cell says how near a collapse came
 #: to standing (1 mm).

@@ -52,9 +52,10 @@ class CheckResult:
         margin_mm: a stand's certificate margin, mm (:attr:`stackdsl.Certificate.margin_mm`), else None.
         margin: metres, the run's signed margin (:attr:`stackdsl.Outcome.margin`: positive it
             stands, negative it collapsed), else None.
-        ended_past: metres past the collapse threshold that the brick the collapse is named
-            after ended the run at (its final displacement less the threshold; below 0 it came
-            back within it), for a collapse; else None.
+        first_moved_ended: metres from its place that the brick the collapse is named after
+            ended the run at, for a collapse; else None.
+        threshold: the run's collapse threshold, metres (how far a brick that stays may move),
+            else None.
         skipped: the reason of the file's ``skip`` mark when it holds on this run (nothing ran),
             else empty (:mod:`stackdsl.lang.schema_marks`).
         xfail: the reason of the file's ``xfail`` mark when it holds on this run, else empty;
@@ -91,7 +92,8 @@ class CheckResult:
     expects: str = ""
     margin_mm: float | None = None
     margin: float | None = None
-    ended_past: float | None = None
+    first_moved_ended: float | None = None
+    threshold: float | None = None
     skipped: str = ""
     xfail: str = ""
     strict: bool = False

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Set as AbstractSet
+from dataclasses import replace
 
 import numpy as np
 import shapely
@@ -965,7 +966,15 @@ class StabilityExtension:
                 self._shaken_rides.pop(pulled, None)
                 self._ride_hands.pop(pulled, None)
                 settled = self._settle(pulled, riders, time, why) if rested else None
-                events += settled if settled is not None else [w.event for w in stack.end_ride(pulled, time, why)]
+                if settled is not None:
+                    events += settled
+                    continue
+                # a pull's ride that has tipped past its proof falls (the top of a Jenga tower off
+                # its last block): its bricks are said to fall, which an engine may step as debris
+                frozen = stack.bodies[riders[0]].frozen_pose
+                falling = ground is None and frozen is not None and tilt_of(stack.engine.pose(riders[0]), frozen)[0] > RIDE_TILT
+                woken = [w.event for w in stack.end_ride(pulled, time, why)]
+                events += [replace(e, falling=True) for e in woken] if falling else woken
         return events
 
     def _settle(self, pulled: int, riders: tuple[int, ...], time: float, why: str) -> list[StabilityEvent] | None:

@@ -55,7 +55,9 @@ class StabilityEvent:
     moves in a collapse mechanism statics proved (rigid-block equilibrium, or a part that
     turns out about an edge of its footing), not only one the report's rules suspect, or a
     freeze that statics on the placed geometry decided on a near tie (the engine's contact
-    margin would have decided it by chance)."""
+    margin would have decided it by chance); ``falling``: a wake of a brick whose ride on a
+    pulled or pushed brick tipped over (:meth:`stability.StabilityExtension._rides`): it falls
+    with the ride's other bricks, and an engine may step it as debris, more cheaply."""
 
     time: float
     kind: Literal["freeze", "wake", "impact", "ride"]
@@ -63,6 +65,7 @@ class StabilityEvent:
     reason: str
     source: str = ""
     proved: bool = False
+    falling: bool = False
 
 
 class Woken(NamedTuple):

@@ -101,3 +101,37 @@ def test_on_mujoco_the_debris_settles_at_the_default_impratio_and_the_verdict_is
         assert bool(made) == cheap and (not cheap or len(made[0]) >= 3)
         outcomes[cheap] = next(s for s in loop.subscribers if isinstance(s, CollapseMonitor)).collapse
     assert outcomes[True] is not None and outcomes[True].level == outcomes[False].level == 10
+
+
+def test_the_bricks_of_a_ride_that_tips_over_fall_as_debris_and_the_verdict_holds():
+    """The second pull of ``scenarios/jenga_falls.yaml`` leaves levels 6-12 on one block at its
+    edge: their ride on the pulled block ends when its proof fails as it tips, and its bricks
+    wake falling (``StabilityEvent.falling``). They are made debris as they wake (pybullet's
+    rigid bodies: a falling column of 40 costs about half a step), although the scene judges what
+    stays after the collapse and the rigid rule is off; the collapse and levels 1-3 hold."""
+    from pathlib import Path
+
+    from stackdsl import evaluate
+    from stackdsl.runtime.run import outcome
+
+    path = Path(__file__).resolve().parents[1] / "scenarios" / "jenga_falls.yaml"
+    scenario = parse_scenario(path.read_text(), "jenga_falls.yaml")
+    program = compile_scenario(scenario)
+    made: list[int] = []
+    with pybullet_world(program.engine, program.ground_friction, program.ground_restitution) as world:
+        make = world.make_debris
+
+        def recorded(bodies):
+            done = make(bodies)
+            made.extend(done)
+            return done
+
+        world.make_debris = recorded  # type: ignore[method-assign]
+        loop = run_in(world, program, RunOptions())
+    assert not any(isinstance(s, CheapDebris) for s in loop.subscribers)  # the rigid rule is off
+    ended = {e.time for e in loop.events if e.kind == "wake" and e.detail.startswith("rode the pull") and " tilted " in e.detail}
+    tipped = {e.brick for e in loop.events if e.kind == "wake" and e.time in ended}  # with what rests on each
+    records = {r.body: r.id for r in loop.structure.records.values()}
+    assert len(tipped) >= 15 and {records[b] for b in made} == tipped
+    verdicts = evaluate(scenario.expect, outcome(loop, 0.0), program.collapse_threshold)
+    assert [v.name for v in verdicts] == ["collapse", "stays"] and all(v.passed for v in verdicts), verdicts

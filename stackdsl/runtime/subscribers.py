@@ -63,8 +63,14 @@ class Stability(Subscriber):
 
     def follow(self, loop: StepLoop, events: list[StabilityEvent]) -> None:
         """Update the records of frozen and woken bricks; put the events in the timeline
-        (impacts only of projectiles, not of every landing brick)."""
+        (impacts only of projectiles, not of every landing brick). The bricks of a ride that
+        tipped over as it woke (``falling``: the top of a Jenga tower tipping off its last
+        block) are made debris in the engine (:meth:`stackdsl.engines.protocol.World.make_debris`:
+        pybullet's rigid bodies, about half the cost a step of a falling column of 40)."""
         records = loop.structure.records
+        falling = [r.body for e in events if e.falling and (r := records.get(e.label)) is not None]
+        if falling:
+            loop.world.make_debris(falling)
         for e in events:
             record = records.get(e.label)
             if e.kind == "wake" and e.proved:

@@ -150,6 +150,7 @@ def test_a_cell_runs_in_a_fresh_process_on_each_side():
     cells = run_cells([tiny("4 dominoes")], ["extension", "MuJoCo lean"], repeats=1, jobs=2, progress=seen.append)
     assert len(seen) == 2 and [c.side for c in cells] == ["extension", "MuJoCo lean"]
     assert all(c.passed and c.wall > 0 and len(c.walls) == 1 for c in cells), cells
+    assert [c.verdict for c in cells] == ["4 of 4 toppled"] * 2  # both sides say a count alike
 
 
 def test_the_pulls_table_judges_each_side_against_the_sweeps_expectation():

@@ -230,8 +230,8 @@ def run_cell(scene: Scene, side: str) -> Run:
     verdicts = evaluate(expect, outcome, program.collapse_threshold)
     failed = [f"{v.name}: {v.measured}" for v in verdicts if not v.passed]
     words = "; ".join(failed) if failed else describe_outcome(outcome, program.collapse_threshold)
-    if outcome.toppled and expect.toppled is not None and not failed:
-        words = f"{len(outcome.toppled)} toppled"
+    if expect.toppled is not None and not failed:  # as the peer's cell says it (peer_verdicts)
+        words = f"{len(outcome.toppled)} of {len(outcome.displacement) + len(outcome.unplaced)} toppled"
     return Run(scene.name, side, wall, all(v.passed for v in verdicts), words, outcome.simulated_time, outcome.steps)
 
 

@@ -1445,12 +1445,16 @@ def test_a_compare_cell_says_how_near_a_collapse_came_to_standing():
 
     fell = CheckResult("a.yaml", "a", "extension", "report", (), 9, 9, 30.0, 1.0, first_moved="L03.1", first_moved_level=3)
     near = replace(fell, margin=-0.0005, first_moved_ended=0.0044, threshold=0.004)
-    assert _cell(near) == "collapse 9 from L03.1, which ended 4.4 mm out, 0.5 mm past its limit, a near tie"
-    assert _cell(replace(near, first_moved_ended=0.0047)).endswith("ended 4.7 mm out, 0.7 mm past its limit, a near tie")
-    assert _cell(replace(near, first_moved_ended=0.0105)) == "collapse 9 from L03.1, which ended 10.5 mm out"  # dragged
+    assert _cell(near) == "collapse 9 from L03.1, which ended 4.4 mm from its place, 0.5 mm past its limit, a near tie"
+    assert _cell(replace(near, first_moved_ended=0.0047)).endswith(
+        "ended 4.7 mm from its place, 0.7 mm past its limit, a near tie"
+    )
+    assert (
+        _cell(replace(near, first_moved_ended=0.0105)) == "collapse 9 from L03.1, which ended 10.5 mm from its place"
+    )  # dragged
     assert _cell(replace(near, first_moved_ended=0.1873)) == "collapse 9 from L03.1"  # knocked off: it fell
-    assert _cell(replace(near, margin=-0.19)) == "collapse 9 from L03.1, which ended 4.4 mm out"
-    assert _cell(replace(near, margin=None)) == "collapse 9 from L03.1, which ended 4.4 mm out"
+    assert _cell(replace(near, margin=-0.19)) == "collapse 9 from L03.1, which ended 4.4 mm from its place"
+    assert _cell(replace(near, margin=None)) == "collapse 9 from L03.1, which ended 4.4 mm from its place"
     assert _cell(fell) == "collapse 9 from L03.1"  # a result that does not know where it ended
 
 

@@ -485,7 +485,7 @@ def _cell(r: CheckResult) -> str:
     (``collapse 12, brick L06.2 moved``), how far a standing brick moved at most from 1 mm
     (:data:`SHOWN_DRIFT`: ``stands, moved 7.1 mm at most``), where the brick a collapse is named
     after ended when that is within :data:`SHOWN_ENDED` thresholds (``collapse 7 from L06.1, which
-    ended 10.5 mm out``), how little past its limit a collapse
+    ended 10.5 mm from its place``), how little past its limit a collapse
     was decided under :data:`SHOWN_PAST` (``collapse 9 from L03.1, 0.5 mm past its limit, a near
     tie``), that a run ended still moving judged
     nothing (an undecided run read "INCONCLUSIVE stands" of a card house lying 90 mm from its
@@ -519,14 +519,14 @@ def _cell(r: CheckResult) -> str:
     # stands read as a fall
     head = describe(r.collapse_level) + (f" from {r.first_moved}" if r.collapse_level is not None and r.first_moved else "")
     if ended is not None and r.threshold is not None and ended < SHOWN_ENDED * r.threshold:
-        head += f", which ended {ended * 1000:.1f} mm out"
+        head += f", which ended {ended * 1000:.1f} mm from its place"
     return ", ".join([head, *near, *toppled, *moved, *failed])
 
 
 #: Metres of the largest move of a standing brick from which compare's cell says it (1 mm).
 SHOWN_DRIFT = 0.001
 #: Times the collapse threshold under which compare's cell says where the brick a collapse is
-#: named after ended (``collapse 7 from L06.1, which ended 10.5 mm out``): dragged, not fallen.
+#: named after ended (``collapse 7 from L06.1, which ended 10.5 mm from its place``): dragged, not fallen.
 SHOWN_ENDED = 3.0
 #: Metres past its limit (:attr:`stackdsl.Outcome.margin`, and where the brick it is named after
 #: ended: :attr:`CheckResult.ended_past`) under which compare's cell says how near a collapse came

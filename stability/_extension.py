@@ -949,8 +949,9 @@ class StabilityExtension:
             hand = self._ride_hands.get(pulled, self._hand(pulled))  # a push's ride outlives the push's books
             what = f"rode the {hand} of {label}" if ground is None else f"rode the shaken {label}"
             rested = False
+            proved = ground is None and pulled in stack.guided  # a hand still moves it: its proof asked
             if ground is None:
-                why = self._tilted(pulled, riders, time, what) if pulled in stack.guided else f"{what} as one body until it ended"
+                why = self._tilted(pulled, riders, time, what) if proved else f"{what} as one body until it ended"
             else:
                 why, rested = self._shaken(riders, ground, what)
                 ride = self._shaken_rides.get(pulled)
@@ -969,10 +970,11 @@ class StabilityExtension:
                 if settled is not None:
                     events += settled
                     continue
-                # a pull's ride that has tipped past its proof falls (the top of a Jenga tower off
-                # its last block): its bricks are said to fall, which an engine may step as debris
+                # a pull's or push's ride that tipped past its proof falls (the top of a Jenga tower
+                # off its last block): its bricks are said to fall, which an engine may step as
+                # debris; not one that ended with its hand (it may rest tilted where it was left)
                 frozen = stack.bodies[riders[0]].frozen_pose
-                falling = ground is None and frozen is not None and tilt_of(stack.engine.pose(riders[0]), frozen)[0] > RIDE_TILT
+                falling = proved and frozen is not None and tilt_of(stack.engine.pose(riders[0]), frozen)[0] > RIDE_TILT
                 woken = [w.event for w in stack.end_ride(pulled, time, why)]
                 events += [replace(e, falling=True) for e in woken] if falling else woken
         return events

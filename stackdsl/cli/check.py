@@ -529,6 +529,6 @@ SHOWN_DRIFT = 0.001
 #: named after ended (``collapse 7 from L06.1, which ended 10.5 mm from its place``): dragged, not fallen.
 SHOWN_ENDED = 3.0
 #: Metres past its limit (:attr:`stackdsl.Outcome.margin`, and where the brick it is named after
-#: ended: :attr:`CheckResult.ended_past`) under which compare's cell says how near a collapse came
+#: ended: :attr:`CheckResult.first_moved_ended`) under which compare's cell says how near a collapse came
 #: to standing (1 mm).
 SHOWN_PAST = 0.001

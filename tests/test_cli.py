@@ -1456,6 +1456,8 @@ def test_a_compare_cell_says_how_near_a_collapse_came_to_standing():
     assert _cell(replace(near, margin=-0.19)) == "collapse 9 from L03.1, which ended 4.4 mm from its place"
     assert _cell(replace(near, margin=None)) == "collapse 9 from L03.1, which ended 4.4 mm from its place"
     assert _cell(fell) == "collapse 9 from L03.1"  # a result that does not know where it ended
+    # within 0.05 mm of the threshold, to the micrometre, as check's lines say it: never "ended 4.0 mm" of a 4 mm limit
+    assert _cell(replace(near, first_moved_ended=0.00403)).startswith("collapse 9 from L03.1, which ended 4.030 mm from")
 
 
 def test_a_compare_cell_of_a_run_that_ended_still_moving_says_undecided_not_stands():

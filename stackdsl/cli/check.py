@@ -35,7 +35,7 @@ from ..compile.compiler import BACKEND_DEFAULTS, MODE_DEFAULTS
 from ..draw.artefacts import FILES, folder_name
 from ..lang.errors import ScenarioError
 from ..verdicts.check_result import CheckResult
-from ..verdicts.expect import describe
+from ..verdicts.expect import describe, millimetres
 from .args import BAD_INPUT, FAILED, HINT, INTERNAL, OK
 from .outputs import Input, Output, check_default_golden, check_outputs, odd_files
 from .progress import Lines, Remaining, is_live
@@ -519,7 +519,7 @@ def _cell(r: CheckResult) -> str:
     # stands read as a fall
     head = describe(r.collapse_level) + (f" from {r.first_moved}" if r.collapse_level is not None and r.first_moved else "")
     if ended is not None and r.threshold is not None and ended < SHOWN_ENDED * r.threshold:
-        head += f", which ended {ended * 1000:.1f} mm from its place"
+        head += f", which ended {millimetres(ended, against=r.threshold)} from its place"
     return ", ".join([head, *near, *toppled, *moved, *failed])
 
 

@@ -396,7 +396,7 @@ def _undecided_lines(outcome: Outcome, levels: dict[str, int | None]) -> list[st
         brick, largest = max(outcome.displacement.items(), key=lambda item: item[1])
         lines.append(
             f"undecided: the run ended at t={outcome.simulated_time:.2f} s before its bricks came to rest "
-            f"(the largest displacement then {_mm(largest)}, {_brick(brick, levels.get(brick))}); "
+            f"(the largest displacement then {millimetres(largest)}, {_brick(brick, levels.get(brick))}); "
             "a longer timing.settle lets them come to rest before they are judged"
         )
     return lines + ([not_run_line(outcome)] if outcome.not_run else [])
@@ -424,15 +424,15 @@ def _collapse_line(outcome: Outcome, threshold: float, levels: dict[str, int | N
         )
     if c is not None:
         return (
-            f"collapsed: {_brick(c.brick, c.brick_level)} moved past {_mm(threshold)} at t={c.time:.2f} s, "
-            f"with {c.level} level{'s' * (c.level != 1)} placed ({_mm(c.displacement, threshold)} by t={c.decided:.2f} s, "
+            f"collapsed: {_brick(c.brick, c.brick_level)} moved past {millimetres(threshold)} at t={c.time:.2f} s, "
+            f"with {c.level} level{'s' * (c.level != 1)} placed ({millimetres(c.displacement, threshold)} by t={c.decided:.2f} s, "
             f"when the collapse was decided)"
         )
     if outcome.displacement:
         brick, largest = max(outcome.displacement.items(), key=lambda item: item[1])
         return (
-            f"stood: the largest displacement at the end (t={outcome.simulated_time:.2f} s) was {_mm(largest, threshold)}, "
-            f"{_brick(brick, levels.get(brick))}; a collapse is a move beyond {_mm(threshold)}"
+            f"stood: the largest displacement at the end (t={outcome.simulated_time:.2f} s) was {millimetres(largest, threshold)}, "
+            f"{_brick(brick, levels.get(brick))}; a collapse is a move beyond {millimetres(threshold)}"
         )
     return "stood: no structure brick was placed"
 
@@ -445,8 +445,8 @@ def _stayed_lines(selection: Iterable[int | str], outcome: Outcome, threshold: f
     }
     still = sorted((outcome.displacement[b], b) for b in named if outcome.displacement[b] <= threshold)
     return [
-        f"stayed: {_brick(b, levels.get(b))} ended {_mm(d, threshold)} from where it was placed "
-        f"(a move is beyond {_mm(threshold)})"
+        f"stayed: {_brick(b, levels.get(b))} ended {millimetres(d, threshold)} from where it was placed "
+        f"(a move is beyond {millimetres(threshold)})"
         for d, b in still[:MOVED_SHOWN]
     ]
 
@@ -461,8 +461,8 @@ def _moved_lines(selection: Iterable[int | str], outcome: Outcome, threshold: fl
         reverse=True,
     )
     lines = [
-        f"moved: {_brick(b, levels.get(b))} moved {_mm(d, threshold)} by the end, t={outcome.simulated_time:.2f} s "
-        f"(allowed {_mm(threshold)}, the collapse threshold)"
+        f"moved: {_brick(b, levels.get(b))} moved {millimetres(d, threshold)} by the end, t={outcome.simulated_time:.2f} s "
+        f"(allowed {millimetres(threshold)}, the collapse threshold)"
         for d, b in moved[:MOVED_SHOWN]
     ]
     if len(moved) > MOVED_SHOWN:
@@ -485,12 +485,12 @@ def _brick(brick: str, level: int | None) -> str:
     return brick if level is None else f"brick {brick} (level {level})"
 
 
-def _mm(metres: float, against: float | None = None) -> str:
+def millimetres(metres: float, against: float | None = None) -> str:
     """``0.0081`` -> ``'8.1 mm'``, ``1.2e-05`` -> ``'0.012 mm'``; within 0.05 mm of ``against``
     (metres: the threshold it is judged by), to the micrometre, so that the two never read alike
     (a brick 4.03 mm from its place failed a 4 mm ``stays`` and read "moved 4.0 mm").
 
-    >>> _mm(0.00403), _mm(0.00403, against=0.004), _mm(0.0081, against=0.004)
+    >>> millimetres(0.00403), millimetres(0.00403, against=0.004), millimetres(0.0081, against=0.004)
     ('4.0 mm', '4.030 mm', '8.1 mm')
     """
     mm = metres * 1000

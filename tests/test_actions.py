@@ -542,6 +542,26 @@ def test_moved_stays_and_toppled_are_judged_by_brick():
     assert stays.expected == "the bricks of L01 stay" and stays.measured == "the bricks of L01 stayed"
 
 
+def test_a_stays_that_held_says_how_near_its_bricks_came_to_their_limit():
+    """A new user's push moved level 4 2.4 mm against a 4 mm threshold on the extension and 4.8
+    mm on tuned pybullet: the extension's cell read "levels 1-4 stayed" as if nothing had moved.
+    A ``stays`` that held says how far its bricks moved at most from 1 mm; under that, nothing."""
+    from stackdsl.cli.check import _cell
+    from stackdsl.verdicts.check_result import CheckResult
+
+    scenario, outcome = tower_outcome("{stays: 1-2}")
+    (still,) = evaluate(scenario.expect, outcome, 0.004)
+    assert still.passed and still.measured == "levels 1-2 stayed"  # a settled tower: far under 1 mm
+    pushed = outcome.model_copy(update={"displacement": {**outcome.displacement, "L01.2": 0.0024}})
+    (near,) = evaluate(scenario.expect, pushed, 0.004)
+    assert near.passed and near.measured == "levels 1-2 stayed, moved 2.4 mm at most"
+    beyond = outcome.model_copy(update={"displacement": {**outcome.displacement, "L01.2": 0.0041}})
+    (moved,) = evaluate(scenario.expect, beyond, 0.004)
+    assert not moved.passed and moved.measured == "level 1 moved"
+    cells = [CheckResult("t.yaml", "t", "extension", "report", (v,), None, None, 8.0, 1.0) for v in (still, near)]
+    assert [_cell(c) for c in cells] == ["stands", "stands, levels 1-2 stayed, moved 2.4 mm at most"]
+
+
 def test_a_toppled_bound_is_judged_and_said_as_written():
     from stackdsl.lang.expectations import Expect
 

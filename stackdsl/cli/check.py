@@ -482,7 +482,8 @@ def _cell(r: CheckResult) -> str:
     """What compare's table shows of a result: the collapse level and the brick that moved first
     (``collapse 9 from L03.1``), the bricks toppled when the
     file expects a count (``stands, 0 of 5 toppled``), the bricks it expects to move that did
-    (``collapse 12, brick L06.2 moved``), how far a standing brick moved at most from 1 mm
+    (``collapse 12, brick L06.2 moved``), the bricks it expects to stay when they moved 1 mm or
+    more (``levels 1-4 stayed, moved 2.4 mm at most``), how far a standing brick moved at most from 1 mm
     (:data:`SHOWN_DRIFT`: ``stands, moved 7.1 mm at most``), where the brick a collapse is named
     after ended when that is within :data:`SHOWN_ENDED` thresholds (``collapse 7 from L06.1, which
     ended 10.5 mm from its place``), how little past its limit a collapse
@@ -500,6 +501,9 @@ def _cell(r: CheckResult) -> str:
     # what moved, when the file names it: a push that slid one block out reads "collapse 12" alone,
     # and which brick moved was shown only when a cell failed
     moved = [v.measured for v in r.verdicts if v.name == "moved" and v.passed]
+    # and what was to stay, when it moved near its limit (a push that moved level 4 2.4 mm read
+    # "collapse 10 from L05.1" beside a setting that moved it 4.8 mm and failed)
+    moved += [v.measured for v in r.verdicts if v.name == "stays" and v.passed and v.measured.endswith(" at most")]
     # what failed besides the level: a collapse at the level expected can still fail its 'stays'
     failed = [v.measured for v in r.verdicts if not v.passed and v.name not in ("collapse", "stands", "toppled")]
     # how close a stand came: a new user could not tell a pull that dragged the top level 7.1 mm

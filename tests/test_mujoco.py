@@ -724,3 +724,43 @@ def test_a_middle_jenga_block_pulled_out_leaves_the_levels_above_on_the_others(m
     outcome = run_program(compile_scenario(scenario, mode, backend="mujoco"))
     assert outcome.collapse is None
     assert max(d for b, d in outcome.displacement.items() if b != "L03.2") < 0.003
+
+
+def test_merged_bricks_move_as_one_body_and_come_apart_where_they_are():
+    """As on pybullet (tests/test_shelf.py): two frozen bricks on a third merged into one free
+    body ride the third as a hand slides it out, rigid, read brick by brick (pose, v + w x r,
+    contacts named by the brick touched), and come apart frozen where they rode to."""
+    world = _world("extension")
+    spec = _brick()
+    bricks = []
+    for i in range(3):
+        body = world.create(spec, Pose.from_euler([0.0, 0.0, 0.004 + 0.008 * i]), mass=0.0)
+        bricks.append(body)
+    base, middle, top = bricks
+    world.set_frozen(base, False, spec.mass)
+    assert not world.merge([middle])  # one alone is not merged
+    assert world.merge([middle, top])
+    assert not world.merge([middle, base])  # merged already, or moving
+    for k in range(48):  # a hand slides the base out: friction carries what rests on it
+        world.guide(base, Pose.from_euler([0.05 * k / 240, 0.0, 0.004]), (0.05, 0.0, 0.0), hold=False)
+        world.step()
+    assert world.pose(middle).position[0] > 0.002  # carried along (MuJoCo lets it slip some of the way)
+    gap = world.pose(top).position - world.pose(middle).position
+    assert float(np.linalg.norm(gap)) == pytest.approx(0.008, abs=1e-9)  # rigid: one body
+    assert abs(float(world.pose(top).orientation @ world.pose(middle).orientation)) == pytest.approx(1.0, abs=1e-12)
+    (v_middle, spin), (v_top, spin_top) = world.velocity(middle), world.velocity(top)
+    assert spin_top.tolist() == pytest.approx(spin.tolist(), abs=1e-12) and v_middle[0] > 0.0
+    assert (v_top - v_middle).tolist() == pytest.approx(np.cross(spin, gap).tolist(), abs=1e-9)
+    assert world.speeds(top)[0] == pytest.approx(float(np.linalg.norm(v_top)), abs=1e-12)
+    seen = {(c.body, c.other) for c in world.contact_points([base])}
+    assert seen == {(base, world.ground), (base, middle)}  # named by the brick touched
+    assert {c.other for c in world.near(top, 0.001)} == {base}  # of the whole merged body, itself left out
+    positions, _ = world.poses_of([base, middle, top, top, middle, base, top, middle, base])
+    assert positions[2].tolist() == pytest.approx(world.pose(top).position.tolist(), abs=1e-12)
+    there = world.pose(top).position
+    world.unmerge([middle, top])
+    assert world.pose(top).position.tolist() == pytest.approx(there.tolist(), abs=1e-9)
+    assert world.speeds(top) == (0.0, 0.0)  # frozen again
+    world.set_frozen(top, False, spec.mass)
+    world.step()
+    assert world.pose(top).position[2] == pytest.approx(there[2], abs=2e-4)  # it rests where it rode to

@@ -17,6 +17,8 @@ steps taken. Settings:
 * ``ext-free``: the extension on pybullet with nothing merged (pybullet's world refuses
   ``merge``): an unproved pull wakes everything above it, as before the riding group;
 * ``ext-mj``: the extension on MuJoCo;
+* ``ext-mj-free``: the extension on MuJoCo with nothing merged (MuJoCo's world refuses
+  ``merge``), as before 2026-11-29;
 * ``tuned-pb``, ``raw-pb``: pybullet tuned (1 kHz, friction anchors, 150 solver iterations), raw;
 * ``tuned-mj``: MuJoCo tuned, with its own sleeping at tolerance 1e-4;
 * ``raw-1920``, ``ext-1920``: pybullet raw, the extension, at a 1/1920 s timestep;
@@ -39,6 +41,7 @@ import stability._drag as drag
 import stability._ride as ride
 from stability import StabilityExtension
 from stackdsl import compile_scenario, parse_scenario, run_program
+from stackdsl.engines.mujoco.world import MuJoCoWorld
 from stackdsl.engines.pybullet.world import PyBulletWorld
 
 SAFETY = (drag.DRAG_SAFETY, drag.TIE_SAFETY)  # the extension's, before any setting changes them
@@ -77,13 +80,13 @@ def setting(name: str, text: str) -> tuple[str, str, str, float, float]:
         safety, tie = 1e9, 1e9
     elif name == "ext-untied":
         tie = safety
-    elif name == "ext-free":
+    elif name in ("ext-free", "ext-mj-free"):
         mode = "extension-free"
     elif name in ("tuned-pb", "tuned-mj"):
         mode = "tuned"
     elif name in ("raw-pb", "raw-1920"):
         mode = "raw"
-    if name in ("ext-mj", "tuned-mj"):
+    if name in ("ext-mj", "ext-mj-free", "tuned-mj"):
         backend = "mujoco"
     return text, mode, backend, safety, tie
 
@@ -96,12 +99,13 @@ def main(path: str, names: list[str], level: int) -> None:
         text, mode, backend, safety, tie = setting(name, base)
         kept, drag.DRAG_SAFETY = drag.DRAG_SAFETY, safety
         kept_tie, drag.TIE_SAFETY = drag.TIE_SAFETY, tie
-        merge, tilted = PyBulletWorld.merge, StabilityExtension._tilted
+        merge, mj_merge, tilted = PyBulletWorld.merge, MuJoCoWorld.merge, StabilityExtension._tilted
         if name == "ext-flat":
             StabilityExtension._tilted = flat_ride  # type: ignore[method-assign]
         if mode == "extension-free":
             mode = "extension"
             PyBulletWorld.merge = lambda self, bodies: False  # type: ignore[method-assign]
+            MuJoCoWorld.merge = lambda self, bodies: False  # type: ignore[method-assign]
         try:
             program = compile_scenario(parse_scenario(text, path), mode, None, backend)
             started = time.perf_counter()
@@ -110,6 +114,7 @@ def main(path: str, names: list[str], level: int) -> None:
         finally:
             drag.DRAG_SAFETY, drag.TIE_SAFETY = kept, kept_tie
             PyBulletWorld.merge = merge  # type: ignore[method-assign]
+            MuJoCoWorld.merge = mj_merge  # type: ignore[method-assign]
             StabilityExtension._tilted = tilted  # type: ignore[method-assign]
         above = {b: d for b, d in out.displacement.items() if b[:1] == "L" and int(b[1:3]) > level}
         brick, most = max(above.items(), key=lambda bd: bd[1]) if above else ("-", 0.0)

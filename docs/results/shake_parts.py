@@ -12,7 +12,9 @@ Settings (those of ``docs/results/pull_freeze.py``):
 * ``ext``: the extension on pybullet (a part that moves as one rigid body rides the table merged);
 * ``ext-free``: the same with nothing merged (pybullet's world refuses ``merge``): every brick
   wakes and is simulated while the ground moves, as before the riding parts;
-* ``ext-mj``: the extension on MuJoCo (which cannot merge: every brick wakes);
+* ``ext-mj``: the extension on MuJoCo (a part that moves as one rigid body rides the table merged);
+* ``ext-mj-free``: the same with nothing merged (MuJoCo's world refuses ``merge``), as before
+  2026-11-29;
 * ``tuned-pb``, ``raw-pb``: pybullet tuned (1 kHz, friction anchors, 150 solver iterations), raw;
 * ``tuned-mj``: MuJoCo tuned, with its own sleeping at tolerance 1e-4;
 * ``raw-1920``: pybullet raw at a 1/1920 s timestep.
@@ -40,6 +42,7 @@ from stability import pair_friction
 from stackdsl import compile_scenario, parse_scenario
 from stackdsl.bench.shake_models import coulomb_slip
 from stackdsl.compile.program import Shake
+from stackdsl.engines.mujoco.world import MuJoCoWorld
 from stackdsl.engines.pybullet.world import PyBulletWorld
 from stackdsl.runtime.loop import StepLoop, Subscriber
 from stackdsl.runtime.run import outcome, run_in, world_for
@@ -61,13 +64,14 @@ def main(path: str, names: list[str]) -> None:
     base = open(path, encoding="utf-8").read()
     print(f"{path}: load average {os.getloadavg()[0]:.1f}", flush=True)
     for name in names:
-        text, mode, backend, _ = setting(name.replace("ext-free", "ext"), base)
+        text, mode, backend, *_ = setting({"ext-free": "ext", "ext-mj-free": "ext-mj"}.get(name, name), base)
         program = compile_scenario(parse_scenario(text, path), mode, None, backend)
         shake = next(a for a in program.actions if isinstance(a, Shake))
         start = Start(shake)
-        merge = PyBulletWorld.merge
-        if name == "ext-free":
+        merge, mj_merge = PyBulletWorld.merge, MuJoCoWorld.merge
+        if name in ("ext-free", "ext-mj-free"):
             PyBulletWorld.merge = lambda self, bodies: False  # type: ignore[method-assign]
+            MuJoCoWorld.merge = lambda self, bodies: False  # type: ignore[method-assign]
         try:
             started = time.perf_counter()
             with world_for(program) as world:
@@ -76,6 +80,7 @@ def main(path: str, names: list[str]) -> None:
             wall = time.perf_counter() - started
         finally:
             PyBulletWorld.merge = merge  # type: ignore[method-assign]
+            MuJoCoWorld.merge = mj_merge  # type: ignore[method-assign]
         out = outcome(loop, wall)
         if not start.at:
             print(f"{name:9s} collapse {out.collapse.level if out.collapse else None} before the shake: not shaken", flush=True)

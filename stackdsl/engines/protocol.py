@@ -242,7 +242,8 @@ class World(Engine, Protocol):
 
     def merge(self, bodies: Sequence[int]) -> bool:
         """:meth:`stability.Engine.merge`: static ``bodies`` one rigid body the engine moves.
-        Default: False (MuJoCo's model is compiled once; pybullet makes a compound body)."""
+        Default: False (an engine that cannot; pybullet makes a compound body, MuJoCo one free
+        body of their geoms, its model compiled again)."""
         return False
 
     def unmerge(self, bodies: Sequence[int]) -> None:

@@ -94,6 +94,11 @@ class Culling:
         self._frozen: list[int] = []  # bricks frozen (or held ones moved) since the last update
         self._stale = True
 
+    @property
+    def culls(self) -> bool:
+        """Whether held bricks out of every moving body's reach are out of the collisions now."""
+        return self._on
+
     def changed(self, i: int, frozen: bool) -> None:
         """Brick ``i + 1``'s collision bits are the world's again: it froze or its held body moved
         (at the next update its held geom leaves the collisions if nothing moving reaches it), or

@@ -177,24 +177,40 @@ class Materials:
         geom.solref = list(c.solref)
         geom.solimp = list(c.solimp)
 
-    def pairs(self, spec: Any, body: int, brick: BrickSpec, bricks: Sequence[BrickSpec]) -> None:
+    def pairs(
+        self,
+        spec: Any,
+        body: int,
+        brick: BrickSpec,
+        bricks: Sequence[BrickSpec],
+        merged: Sequence[tuple[str, tuple[float, float]]] = (),
+    ) -> None:
         """Explicit contact pairs in ``spec`` (an ``MjSpec``) between brick ``body``'s geoms
-        (``f{body}``, ``h{body}``) and every geom of another material: the ground and the
-        ``bricks`` so far (numbered from 1)."""
-        mine = (brick.friction, brick.restitution)
+        (``f{body}``, ``h{body}``) and every geom of another material: the ground, the
+        ``bricks`` so far (numbered from 1) and the ``merged`` geoms (name, material)."""
+        others = [(f"{s}{i}", (b.friction, b.restitution)) for i, b in enumerate(bricks, 1) if i != body for s in "fh"]
+        self.pairs_of(spec, [f"f{body}", f"h{body}"], (brick.friction, brick.restitution), [*others, *merged])
+
+    def pairs_of(
+        self, spec: Any, names: Sequence[str], mine: tuple[float, float], others: Sequence[tuple[str, tuple[float, float]]]
+    ) -> list[Any]:
+        """Explicit contact pairs in ``spec`` between each geom of ``names``, of material ``mine``
+        (friction, restitution), and the ground and each geom of ``others`` (name, material) of
+        another material; returns the pairs made (none in a world of one material so far)."""
         if set(self._groups) == {mine}:
-            return  # one material in the scene so far: MuJoCo's own rule gives its coefficient
-        others = [("ground", self._ground)]
-        others += [(f"{s}{i}", (b.friction, b.restitution)) for i, b in enumerate(bricks, 1) if i != body for s in "fh"]
-        for name, material in others:
+            return []  # one material in the scene so far: MuJoCo's own rule gives its coefficient
+        made = []
+        for name, material in [("ground", self._ground), *others]:
             if material == mine:
                 continue
             c = self.pair(mine, material)
-            for own in (f"f{body}", f"h{body}"):
+            for own in names:
                 pair = spec.add_pair(geomname1=own, geomname2=name)
                 pair.friction = list(c.friction)
                 pair.solref = list(c.solref)
                 pair.solimp = list(c.solimp)
+                made.append(pair)
+        return made
 
 
 class Bounce:

@@ -15,6 +15,12 @@ costs no degrees of freedom and MuJoCo makes no contacts between two frozen bric
 pybullet makes none between two bodies of mass 0 (docs/design.md, "MuJoCo", gives the measurements
 that chose this over a weld equality or MuJoCo's own sleeping).
 
+Frozen bricks that ride a pull or a shaken ground (:meth:`MuJoCoWorld.merge`) become one more
+free body whose geoms are their boxes where they lie, added to the spec and compiled again; each
+brick's own two bodies leave the collisions meanwhile, and a brick's pose and velocity are read
+from the merged body's. Unmerged, the body leaves the spec and each brick is frozen where its box
+was carried.
+
 Materials (friction of a pair, restitution, density): :mod:`stackdsl.engines.mujoco.materials`.
 
 While a hand holds a brick, a step is ``mj_step``'s stages run one by one, so that the hand
@@ -29,6 +35,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Collection, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -107,6 +114,12 @@ class MuJoCoWorld(World):
         self._bounce: Bounce | None = None  # which contacts bounce, in a world with a restitution
         self._culling: Culling | None = None  # which frozen bricks nothing moving can reach
         self._dof6 = np.zeros((0, 6), dtype=int)
+        # merged bodies (see merge): group -> its bricks, its spec body and pairs; brick -> its
+        # group, its arm (3,) in the group's frame and its turn (w, x, y, z) in it; each group's
+        # free joint's qpos and dof address and geoms in the compiled model
+        self._groups: dict[int, _Group] = {}
+        self._part_of: dict[int, tuple[int, np.ndarray, np.ndarray]] = {}
+        self._next_group = 0
         spec = mujoco.MjSpec()
         option = spec.option
         option.timestep = engine.timestep
@@ -163,7 +176,8 @@ class MuJoCoWorld(World):
             self._materials.surface(geom, spec.friction, spec.restitution)
         self._specs.append(spec)
         self._frozen = np.append(self._frozen, frozen)
-        self._materials.pairs(self._spec, body, spec, self._specs)
+        merged = [(name, g.material) for g in self._groups.values() for name in g.geom_names]
+        self._materials.pairs(self._spec, body, spec, self._specs, merged)
         if self._model is not None:
             self._compile()
         return body
@@ -193,6 +207,13 @@ class MuJoCoWorld(World):
         self._geom_body = np.zeros(m.ngeom, dtype=int)
         self._geom_body[self._free_geom] = self._geom_body[self._held_geom] = np.arange(1, len(self._specs) + 1)
         self._dof6 = self._dof[:, None] + np.arange(6)
+        for k, group in self._groups.items():
+            joint = mj.mj_name2id(m, mj.mjtObj.mjOBJ_JOINT, f"mjoint{k}")
+            group.qpos, group.dof = int(m.jnt_qposadr[joint]), int(m.jnt_dofadr[joint])
+            group.geoms = np.array([mj.mj_name2id(m, mj.mjtObj.mjOBJ_GEOM, n) for n in group.geom_names], dtype=int)
+            self._geom_body[group.geoms] = group.bricks
+            if self._extension:
+                m.tree_sleep_policy[m.body_treeid[m.geom_bodyid[group.geoms[0]]]] = mj.mjtSleepPolicy.mjSLEEP_NEVER
         self._hands.compiled(m)
         self._solref = (m.geom_solref[:, 0].copy(), m.pair_solref[:, 0].copy())  # as compiled: see set_substeps
         self._bounce = None
@@ -237,6 +258,8 @@ class MuJoCoWorld(World):
         bit = 1 << self._materials.group(spec.friction, spec.restitution)
         free, held = self._free_geom[i], self._held_geom[i]
         on, off = (held, free) if self._frozen[i] else (free, held)
+        if body in self._part_of:  # its box is the merged body's: neither of its own collides
+            on, bit = held, 0
         m.geom_contype[on] = m.geom_conaffinity[on] = bit
         m.geom_contype[off] = m.geom_conaffinity[off] = 0
         m.body_contype[m.geom_bodyid[on]] = m.body_conaffinity[m.geom_bodyid[on]] = bit
@@ -263,6 +286,8 @@ class MuJoCoWorld(World):
         """Position and quaternion (x, y, z, w), as MuJoCo holds them (not normalized), of brick
         ``i`` (its body id - 1), as floats: its held body's when frozen."""
         _, d = self._ready()
+        if self._part_of and i + 1 in self._part_of:
+            return self._part_pose(d, i + 1)
         if self._frozen[i]:
             m = int(self._mocap[i])
             (px, py, pz), (w, x, y, z) = d.mocap_pos[m].tolist(), d.mocap_quat[m].tolist()
@@ -280,6 +305,9 @@ class MuJoCoWorld(World):
         length of an angular velocity is the same in the body frame as in the world's."""
         _, d = self._ready()
         i = body - 1
+        if self._part_of and body in self._part_of:
+            (a, b, c), (e, f, g) = self._part_velocity(d, body)
+            return math.hypot(a, b, c), math.hypot(e, f, g)
         if self._frozen[i]:
             return 0.0, 0.0
         v = int(self._dof[i])
@@ -294,6 +322,8 @@ class MuJoCoWorld(World):
     def velocity_floats(self, body: int) -> tuple[Vec3, Vec3]:
         _, d = self._ready()
         i = body - 1
+        if self._part_of and body in self._part_of:
+            return self._part_velocity(d, body)
         if self._frozen[i]:
             return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
         v, q = int(self._dof[i]), int(self._qpos[i])
@@ -350,6 +380,8 @@ class MuJoCoWorld(World):
             mj.mj_kinematics(m, d)
             self._placed = False
         i = body - 1
+        if self._part_of and body in self._part_of:
+            return self._near_merged(m, d, body, distance, among)
         own = self._held_geom[i] if self._frozen[i] else self._free_geom[i]
         reach = float(m.geom_rbound[own]) + distance
         fromto = np.zeros(6)
@@ -413,6 +445,143 @@ class MuJoCoWorld(World):
         m, _ = self._ready()
         m.opt.impratio = 1.0
         return [b for b in bodies if not self._frozen[b - 1]]
+
+    def merge(self, bodies: Sequence[int]) -> bool:
+        """One free body of MuJoCo's whose geoms are the boxes of the frozen ``bodies`` where
+        they are (its mass and inertia MuJoCo's, from the geoms), of their material; each
+        brick's own two bodies leave the collisions until :meth:`unmerge`. The model is
+        compiled again with the new body (``MjSpec.recompile`` keeps the state). A contact
+        point on it names the brick whose geom it lies on. False, changing nothing, for fewer
+        than two bodies, one that moves or is merged already, materials that differ, a world
+        with a restitution (its contacts' bounce is kept per brick: :class:`Bounce`), or one
+        that culls frozen bricks now (:class:`Culling`, from 200). Source: stackdsl's own."""
+        self._ready()
+        if len(bodies) < 2 or any(not self._frozen[b - 1] or b in self._part_of or b in self._hands.guided for b in bodies):
+            return False
+        specs = [self._specs[b - 1] for b in bodies]
+        material = (specs[0].friction, specs[0].restitution)
+        if any((s.friction, s.restitution) != material for s in specs) or self._bounce is not None:
+            return False
+        if self._culling is not None and self._culling.culls:
+            return False
+        mj = self._mj
+        poses = [self._raw_pose(b - 1) for b in bodies]
+        positions = np.array([p for p, _ in poses], dtype=float)
+        masses = np.array([s.mass for s in specs], dtype=float)
+        centre = masses @ positions / float(masses.sum())
+        k, self._next_group = self._next_group, self._next_group + 1
+        holder = self._spec.worldbody.add_body(name=f"merged{k}", pos=centre.tolist(), quat=[1.0, 0.0, 0.0, 0.0])
+        holder.add_freejoint(name=f"mjoint{k}")
+        names = []
+        for body, spec, (position, (x, y, z, w)) in zip(bodies, specs, poses, strict=True):
+            name = f"g{k}_{body}"
+            arm = (np.array(position) - centre).tolist()
+            turn = [w, x, y, z]
+            if self._extension:
+                hx, hy, hz = spec.half_extents
+                geom = holder.add_geom(
+                    name=name,
+                    type=mj.mjtGeom.mjGEOM_MESH,
+                    meshname=self._meshes[(hx, hy, hz)],
+                    mass=spec.mass,
+                    pos=arm,
+                    quat=turn,
+                )
+            else:
+                geom = holder.add_geom(
+                    name=name, type=mj.mjtGeom.mjGEOM_BOX, size=list(spec.half_extents), mass=spec.mass, pos=arm, quat=turn
+                )
+            self._materials.surface(geom, *material)
+            names.append(name)
+        others = [(f"{s}{i}", (b.friction, b.restitution)) for i, b in enumerate(self._specs, 1) for s in "fh"]
+        others += [(n, g.material) for g in self._groups.values() for n in g.geom_names]
+        pairs = self._materials.pairs_of(self._spec, names, material, others)
+        group = _Group(tuple(bodies), names, material, holder, pairs)
+        self._groups[k] = group
+        for body, (position, (x, y, z, w)) in zip(bodies, poses, strict=True):
+            norm = math.sqrt(w * w + x * x + y * y + z * z)
+            self._part_of[body] = (k, np.array(position) - centre, np.array([w, x, y, z]) / norm)
+        self._compile()
+        return True
+
+    def unmerge(self, bodies: Sequence[int]) -> None:
+        """Each of ``bodies`` a frozen brick of its own again, where its box of the merged body
+        is; the merged body leaves the model (compiled again)."""
+        _, d = self._ready()
+        k = self._part_of[bodies[0]][0]
+        group = self._groups[k]
+        poses = {b: self._part_pose(d, b) for b in group.bricks}
+        del self._groups[k]
+        for body in group.bricks:
+            del self._part_of[body]
+        for pair in group.pairs:
+            self._spec.delete(pair)
+        self._spec.delete(group.holder)
+        self._compile()
+        for body, ((px, py, pz), (x, y, z, w)) in poses.items():
+            norm = math.sqrt(w * w + x * x + y * y + z * z)
+            self._put(body, Pose(np.array([px, py, pz]), np.array([x, y, z, w]) / norm), True)
+
+    def _part_pose(self, d: Any, body: int) -> tuple[Vec3, Quat]:
+        """Position and quaternion (x, y, z, w) of merged ``body``: its box of its group's body,
+        in floats (the collapse monitor and the ride's rules read every brick of a ride each
+        step)."""
+        k, arm, turn = self._part_of[body]
+        q = self._groups[k].qpos
+        x, y, z, qw, qx, qy, qz = d.qpos[q : q + 7].tolist()
+        ax, ay, az = arm.tolist()
+        rx, ry, rz = _rotated(qw, qx, qy, qz, ax, ay, az)
+        tw, tx, ty, tz = turn.tolist()
+        pw = qw * tw - qx * tx - qy * ty - qz * tz
+        px = qw * tx + qx * tw + qy * tz - qz * ty
+        py = qw * ty - qx * tz + qy * tw + qz * tx
+        pz = qw * tz + qx * ty - qy * tx + qz * tw
+        return (x + rx, y + ry, z + rz), (px, py, pz, pw)
+
+    def _part_velocity(self, d: Any, body: int) -> tuple[Vec3, Vec3]:
+        """Linear (m/s, of its box's centre) and angular (rad/s) velocity of merged ``body`` in
+        the world frame: its group's, v + w x r (a free joint's angular velocity is in its
+        body's frame), in floats."""
+        k, arm, _ = self._part_of[body]
+        group = self._groups[k]
+        q, v = group.qpos, group.dof
+        qw, qx, qy, qz = d.qpos[q + 3 : q + 7].tolist()
+        vx, vy, vz, lx, ly, lz = d.qvel[v : v + 6].tolist()
+        ax, ay, az = arm.tolist()
+        rx, ry, rz = _rotated(qw, qx, qy, qz, ax, ay, az)
+        wx, wy, wz = _rotated(qw, qx, qy, qz, lx, ly, lz)
+        return (vx + wy * rz - wz * ry, vy + wz * rx - wx * rz, vz + wx * ry - wy * rx), (wx, wy, wz)
+
+    def _near_merged(self, m: Any, d: Any, body: int, distance: float, among: Collection[int] | None) -> list[ContactPoint]:
+        """:meth:`near` of a merged ``body``: of its whole group's body, each of its geoms
+        against every colliding geom of another body near enough by their bounding spheres."""
+        mj = self._mj
+        group = self._groups[self._part_of[body][0]]
+        owns = group.geoms
+        keep = m.geom_contype != 0
+        keep &= ~np.isin(self._geom_body, group.bricks) | (self._geom_body == 0)
+        keep[owns] = False
+        if among is not None:
+            wanted = np.zeros(len(self._frozen) + 1, dtype=bool)
+            wanted[np.asarray(list(among), dtype=int)] = True
+            keep &= wanted[self._geom_body]
+        candidates = np.flatnonzero(keep)
+        if len(candidates) == 0:
+            return []
+        plane = m.geom_type[candidates] == int(mj.mjtGeom.mjGEOM_PLANE)
+        apart = np.linalg.norm(d.geom_xpos[candidates][:, None, :] - d.geom_xpos[owns][None, :, :], axis=2)
+        close = plane[:, None] | (apart <= m.geom_rbound[candidates][:, None] + m.geom_rbound[owns][None, :] + distance)
+        fromto, out = np.zeros(6), []
+        for c, o in zip(*np.nonzero(close), strict=True):
+            geom, own = int(candidates[c]), int(owns[o])
+            gap = mj.mj_geomDistance(m, d, own, geom, distance, fromto)
+            if gap < distance:
+                mine, theirs = fromto[:3], fromto[3:]
+                n = (mine - theirs) * (1.0 if gap >= 0 else -1.0)
+                length = float(np.linalg.norm(n))
+                n = n / length if length > 1e-12 else np.array([0.0, 0.0, 1.0])
+                out.append(ContactPoint(body, int(self._geom_body[geom]), theirs.copy(), n, 0.0, float(gap)))
+        return out
 
     def move(self, body: int, pose: Pose, mass: float) -> None:
         m, _ = self._ready()
@@ -481,7 +650,7 @@ class MuJoCoWorld(World):
             linear, angular = np.linalg.norm(velocities[:, :3], axis=1), np.linalg.norm(velocities[:, 3:], axis=1)
             linear[self._frozen] = angular[self._frozen] = 0.0
             self._bounce.update(float(d.time), linear, angular)
-        if self._culling is not None:
+        if self._culling is not None and not self._groups:  # merged only while it culls nothing (merge)
             self._culling.update(d, self._frozen)
         began = float(d.time)
         mj, hands = self._mj, self._hands
@@ -556,6 +725,10 @@ class MuJoCoWorld(World):
                 mocap = self._mocap[index[frozen]]
                 table[frozen, :3], table[frozen, 3:] = d.mocap_pos[mocap], d.mocap_quat[mocap]
             positions, quaternions = table[:, :3], table[:, [4, 5, 6, 3]]
+            if self._part_of:
+                for row, body in enumerate(bodies):
+                    if body in self._part_of:
+                        positions[row], quaternions[row] = self._part_pose(d, body)
         return positions, quaternions / np.linalg.norm(quaternions, axis=1)[:, None]
 
     def velocities_of(self, bodies: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
@@ -581,14 +754,39 @@ class MuJoCoWorld(World):
                 self._mj.mju_rotVecQuat(angular[row], w, q)
         else:
             angular[rows] = Rotation.from_quat(wxyz[:, [1, 2, 3, 0]]).apply(local)
+        for body in self._part_of:
+            linear[body - 1], angular[body - 1] = self._part_velocity(d, body)
         self._read = (linear, angular)
         return self._read
+
+
+@dataclass
+class _Group:
+    """Frozen bricks merged into one free body (:meth:`MuJoCoWorld.merge`): the bricks, the
+    names of their geoms in it, their material, its spec body and explicit pairs, and, in the
+    compiled model, its free joint's qpos and dof addresses and its geoms."""
+
+    bricks: tuple[int, ...]
+    geom_names: list[str]
+    material: tuple[float, float]
+    holder: Any
+    pairs: list[Any]
+    qpos: int = 0
+    dof: int = 0
+    geoms: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
 
 
 _FEW = 8
 """Up to this many bodies, :meth:`MuJoCoWorld.poses_of` reads them one by one, and so does the
 velocity read for this many moving bodies (numpy's and scipy's fixed costs are larger for one
 or two)."""
+
+
+def _rotated(w: float, x: float, y: float, z: float, vx: float, vy: float, vz: float) -> Vec3:
+    """Vector (vx, vy, vz) turned by the unit quaternion (w, x, y, z), in floats:
+    v + 2 w (u x v) + 2 u x (u x v), u = (x, y, z)."""
+    tx, ty, tz = 2.0 * (y * vz - z * vy), 2.0 * (z * vx - x * vz), 2.0 * (x * vy - y * vx)
+    return vx + w * tx + y * tz - z * ty, vy + w * ty + z * tx - x * tz, vz + w * tz + x * ty - y * tx
 
 
 def _quiet(message: str) -> None:

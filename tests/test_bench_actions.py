@@ -107,7 +107,7 @@ def test_the_peers_verdicts_follow_the_expectations():
     assert peer_verdicts(expect, program, fell) == (True, f"collapse at level 3 ({ids[-1]} ended 50.0 mm from its place)")
     early = LeanOutcome(2, 1.0, 0.5, 3.0, 100, moved={**still, ids[0]: 0.05})
     passed, words = peer_verdicts(expect, program, early)
-    assert not passed and "collapse: collapse at level 2 (" in words and "stays: 1 bricks of levels 1 moved" in words
+    assert not passed and "collapse: collapse at level 2 (" in words and "stays: 1 brick of level 1 moved" in words
     # a stand says how far it came from 1 mm, as compare's cell does
     stood = parse_scenario("stackdsl: 1\nstructure: {tower: {levels: 3}}\nexpect: {stands: true}\n", "s.yaml").expect
     crept = LeanOutcome(None, 1.0, 0.5, 3.0, 100, moved={**still, ids[-1]: 0.0022})

@@ -264,7 +264,9 @@ def peer_verdicts(expect: Expect, program: Program, lean: LeanOutcome) -> tuple[
         levels, starts = set(levels_of(expect.stays)), bricks_of(expect.stays)
         moved = [b for b, d in lean.moved.items() if d > threshold and (level[b] in levels or b.startswith(starts))]
         if moved:
-            failed.append(f"stays: {len(moved)} bricks of levels {', '.join(map(str, sorted({level[b] for b in moved})))} moved")
+            at = sorted({level[b] for b in moved})
+            bricks = "1 brick" if len(moved) == 1 else f"{len(moved)} bricks"
+            failed.append(f"stays: {bricks} of level{'s' if len(at) > 1 else ''} {', '.join(map(str, at))} moved")
     toppled = f"{len(lean.toppled)} of {len(lean.moved)} toppled"
     if expect.toppled is not None:
         least, most = expect.toppled.allows(len(program.placements) - len(lean.removed))

@@ -102,7 +102,9 @@ class Engine(Protocol):
 
     def unmerge(self, bodies: Sequence[int]) -> None:
         """End a :meth:`merge` of ``bodies``: each a frozen body of its own again, where its part
-        of the merged body is."""
+        of the merged body is; one restored (:meth:`set_frozen`) before the next step moves on
+        with the velocity its part had, not from rest (a ride that ends on a shaken table is
+        moving with it)."""
 
 
 class ContactBook(dict[int, list[ContactPoint]]):

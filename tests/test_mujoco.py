@@ -729,7 +729,8 @@ def test_a_middle_jenga_block_pulled_out_leaves_the_levels_above_on_the_others(m
 def test_merged_bricks_move_as_one_body_and_come_apart_where_they_are():
     """As on pybullet (tests/test_shelf.py): two frozen bricks on a third merged into one free
     body ride the third as a hand slides it out, rigid, read brick by brick (pose, v + w x r,
-    contacts named by the brick touched), and come apart frozen where they rode to."""
+    contacts named by the brick touched), and come apart frozen where they rode to; one woken
+    at once moves on with the velocity it rode with."""
     world = _world("extension")
     spec = _brick()
     bricks = []
@@ -757,10 +758,13 @@ def test_merged_bricks_move_as_one_body_and_come_apart_where_they_are():
     assert {c.other for c in world.near(top, 0.001)} == {base}  # of the whole merged body, itself left out
     positions, _ = world.poses_of([base, middle, top, top, middle, base, top, middle, base])
     assert positions[2].tolist() == pytest.approx(world.pose(top).position.tolist(), abs=1e-12)
-    there = world.pose(top).position
+    there, rode = world.pose(top).position, world.velocity(top)
     world.unmerge([middle, top])
     assert world.pose(top).position.tolist() == pytest.approx(there.tolist(), abs=1e-9)
     assert world.speeds(top) == (0.0, 0.0)  # frozen again
-    world.set_frozen(top, False, spec.mass)
+    world.set_frozen(top, False, spec.mass)  # woken in the same step: it moves on as it rode
+    assert np.concatenate(world.velocity(top)).tolist() == pytest.approx(np.concatenate(rode).tolist(), abs=1e-9)
     world.step()
+    world.set_frozen(middle, False, spec.mass)  # a step later: from rest
+    assert world.speeds(middle) == (0.0, 0.0)
     assert world.pose(top).position[2] == pytest.approx(there[2], abs=2e-4)  # it rests where it rode to

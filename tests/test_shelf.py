@@ -240,11 +240,15 @@ def test_merged_bricks_move_as_one_body_and_come_apart_where_they_are():
         seen = {(c.body, c.other) for c in world.contact_points([base])}
         assert seen == {(base, world.ground), (base, middle)}  # named by the brick touched, never the merged body
         assert {c.other for c in world.contact_points([middle])} == {base}
-        there = world.pose(top).position
+        there, rode = world.pose(top).position, world.velocity(top)
         world.unmerge([middle, top])
         assert world.pose(top).position.tolist() == pytest.approx(there.tolist(), abs=1e-12)
-        world.set_frozen(top, False, spec.mass)
+        assert world.speeds(top) == (0.0, 0.0)  # frozen
+        world.set_frozen(top, False, spec.mass)  # woken in the same step: it moves on as it rode
+        assert np.concatenate(world.velocity(top)).tolist() == pytest.approx(np.concatenate(rode).tolist(), abs=1e-6)
         world.step()
+        world.set_frozen(middle, False, spec.mass)  # a step later: from rest
+        assert world.speeds(middle) == (0.0, 0.0)
         assert world.pose(top).position[2] == pytest.approx(there[2], abs=2e-4)  # it rests where it rode to
 
 

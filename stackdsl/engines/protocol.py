@@ -247,5 +247,6 @@ class World(Engine, Protocol):
         return False
 
     def unmerge(self, bodies: Sequence[int]) -> None:
-        """:meth:`stability.Engine.unmerge`. Default: refused (nothing was merged)."""
+        """:meth:`stability.Engine.unmerge`: each a frozen body of its own where it rode to; woken
+        before the next step, it moves on with the velocity it rode with. Default: refused (nothing was merged)."""
         raise ValueError(f"{type(self).__name__} merged no bodies")

@@ -120,6 +120,7 @@ class MuJoCoWorld(World):
         self._groups: dict[int, _Group] = {}
         self._part_of: dict[int, tuple[int, np.ndarray, np.ndarray]] = {}
         self._next_group = 0
+        self._carried: dict[int, tuple[Vec3, Vec3]] = {}  # brick unmerged this step -> the velocity it rode with
         spec = mujoco.MjSpec()
         option = spec.option
         option.timestep = engine.timestep
@@ -413,6 +414,15 @@ class MuJoCoWorld(World):
     def set_frozen(self, body: int, frozen: bool, mass: float, at: Pose | None = None) -> None:
         if frozen != self._frozen[body - 1] or (not frozen and at is not None):
             self._put(body, at if at is not None else self.pose(body), frozen)
+        carried = None if frozen else self._carried.get(body)
+        if carried is not None:  # unmerged this step: it moves on as it rode (angular in its body's frame)
+            _, d = self._ready()
+            (vx, vy, vz), (wx, wy, wz) = carried
+            v, q = int(self._dof[body - 1]), int(self._qpos[body - 1])
+            qw, qx, qy, qz = d.qpos[q + 3 : q + 7].tolist()
+            d.qvel[v : v + 3] = [vx, vy, vz]
+            d.qvel[v + 3 : v + 6] = _rotated(qw, -qx, -qy, -qz, wx, wy, wz)
+            self._read = None
 
     def _put(self, body: int, pose: Pose, frozen: bool) -> None:
         """``body`` at ``pose``, at rest, frozen (its held body there) or not (its free body)."""
@@ -511,6 +521,7 @@ class MuJoCoWorld(World):
         k = self._part_of[bodies[0]][0]
         group = self._groups[k]
         poses = {b: self._part_pose(d, b) for b in group.bricks}
+        self._carried.update({b: self._part_velocity(d, b) for b in group.bricks})
         del self._groups[k]
         for body in group.bricks:
             del self._part_of[body]
@@ -639,6 +650,7 @@ class MuJoCoWorld(World):
 
     def step(self) -> None:
         m, d = self._ready()
+        self._carried.clear()
         self._read = None
         self._placed = True
         if self._table:  # the shake table where the shake puts it, with its velocity

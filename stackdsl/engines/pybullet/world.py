@@ -152,6 +152,7 @@ class PyBulletWorld(PyBulletEngine, World):
         self._merged: dict[int, tuple[int, int]] = {}  # body -> its merged body, and its place among the bodies merged
         self._groups: dict[int, tuple[int, ...]] = {}  # merged body -> the bodies merged (see merge)
         self._frames: dict[int, _Parts] = {}  # merged body -> where each of its boxes lies in it
+        self._carried: dict[int, tuple[Vec3, Vec3]] = {}  # body unmerged this step -> the velocity it rode with
         self._last_turn: tuple[object, np.ndarray] = (None, np.eye(3))  # a merged body's turn read, its matrix
         client.setGravity(0.0, 0.0, -engine.gravity)
         client.setTimeStep(engine.timestep)
@@ -428,6 +429,8 @@ class PyBulletWorld(PyBulletEngine, World):
         is; the merged body leaves the world."""
         group = self._merged[bodies[0]][0]
         self._part_poses(group)
+        self._part_velocities(group)
+        self._carried.update({b: self._velocities[b] for b in self._groups[group]})
         poses = {b: self._poses[b] for b in self._groups.pop(group)}
         for body, (position, orientation) in poses.items():
             del self._merged[body]
@@ -512,6 +515,9 @@ class PyBulletWorld(PyBulletEngine, World):
             self._unshelve([body])
         super().set_frozen(body, frozen, mass, at)
         self._massed(body, 0.0 if frozen else mass)
+        carried = None if frozen else self._carried.get(body)
+        if carried is not None:  # unmerged this step: it moves on as it rode
+            self._client.resetBaseVelocity(self._engine_id(body), *carried)
         if frozen:
             self._recent.append(body)
             self._look = self._shelves
@@ -604,6 +610,7 @@ class PyBulletWorld(PyBulletEngine, World):
         self._due = 0
 
     def step(self) -> None:
+        self._carried.clear()
         if self._shelf or self._look:
             self._reach()
         if self._table:  # held where the shake puts it, every step (it is a dynamic body)

@@ -1132,7 +1132,15 @@ class StabilityExtension:
                     f"{reason}; moves as one rigid body of {len(part)} bricks, {how}: at that no contact above"
                     f" {floor} slips, opens or tips"
                 )
-                events += [StabilityEvent(time, "ride", stack.bodies[b].label, words) for b in part]
+                # the part's first brick says why; the others which brick's ride they are in
+                first = stack.bodies[part[0]].label
+                events.append(StabilityEvent(time, "ride", first, words))
+                events += [
+                    StabilityEvent(
+                        time, "ride", stack.bodies[b].label, f"moves with {first}, one rigid body of {len(part)} bricks"
+                    )
+                    for b in part[1:]
+                ]
                 continue
             said = reason  # a brick alone is simulated alone
             if len(part) > 1:

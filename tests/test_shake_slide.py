@@ -188,6 +188,37 @@ actions:
     assert abs(shifts[0, 1]) < 0.001
 
 
+@pytest.mark.parametrize("backend", ["pybullet", "mujoco"])
+def test_a_stack_on_a_ground_of_another_material_slides_by_their_pair(backend):
+    """Bricks of friction 0.5 on a ground of 0.3 (pair 0.39), shaken at 0.48 g: the stack slides
+    as one body by the Coulomb block of the pair's coefficient. On MuJoCo the pair is an explicit
+    contact pair, which collides whatever a geom's collision bits: the merged bricks' own bodies,
+    left where they froze, held the table still (0.00 mm) until they were put out of the way."""
+    text = f"""stackdsl: 1
+engine: {{backend: {backend}}}
+materials:
+  pine: {{density: 500 kg/m^3, friction: 0.5}}
+  slick: {{density: 500 kg/m^3, friction: 0.3}}
+brick_types: {{b: {{size: [120 mm, 24 mm, 8 mm], material: pine}}}}
+ground: {{material: slick}}
+structure:
+  tower: {{levels: 3, bricks_per_layer: 2, spacing: 96 mm, turn: 90, brick: b}}
+timing: {{settle: 1 s}}
+actions:
+  - shake: {{amplitude: 30 mm, frequency: 2 Hz, duration: 2 s, direction: [1, 0], at: after level 3}}
+"""
+    program = compile_scenario(parse_scenario(text, "pair.yaml"))
+    with world_for(program) as world:
+        loop = run_in(world, program)
+        records = loop.structure.records
+        moved = {rid: np.array(loop.world.pose_floats(r.body)[0]) - r.pose.position for rid, r in records.items()}
+    assert {e.brick for e in loop.events if e.kind == "ride"} == set(records)
+    shifts = np.array([m[:2] for m in moved.values()])
+    assert np.ptp(shifts, axis=0).max() < 0.0005, shifts
+    expected, _ = coulomb_slip(0.03, 2.0, 4, float(np.sqrt(0.5 * 0.3)), dt=1e-4)  # 2.95 mm
+    assert abs(abs(shifts[0, 0]) - abs(expected)) < 0.15 * abs(expected), (shifts[0, 0], expected)
+
+
 def test_the_graph_of_a_ride_is_where_the_part_is_carried():
     """Its bricks are drawn where the engine carried them, with their centre of mass above
     carried alike, on the supports they froze with."""

@@ -192,7 +192,9 @@ class MuJoCoWorld(World):
             self._model = self._spec.compile()
             self._data = mj.MjData(self._model)
         else:
+            now = float(self._data.time)  # recompile keeps the state but not the clock
             self._model, self._data = self._spec.recompile(self._model, self._data)
+            self._data.time = now
         m = self._model
         m.opt.timestep = self._engine.timestep / self._substeps  # a recompile takes the spec's
         self._read = None
@@ -512,6 +514,10 @@ class MuJoCoWorld(World):
             norm = math.sqrt(w * w + x * x + y * y + z * z)
             self._part_of[body] = (k, np.array(position) - centre, np.array([w, x, y, z]) / norm)
         self._compile()
+        _, d = self._ready()
+        for body in bodies:  # out of the way: an explicit pair of materials collides whatever the bits
+            d.mocap_pos[self._mocap[body - 1]] = self._away(body)
+        self._placed = True
         return True
 
     def unmerge(self, bodies: Sequence[int]) -> None:

@@ -284,5 +284,5 @@ def holds_tilted(stack: Stack, riders: tuple[int, ...], tilt: float, towards: np
         region = main.polygon.buffer(-margin) if margin > 0 else main.polygon
         x, y = (float(v) for v in load.com_above[:2])
         if not all(shapely.contains_xy(region, x + rise * ex, y + rise * ey) for ex, ey in edges):
-            return f"under gravity tilted {tilt:.2f} deg {rec.label} tips: its centre of mass above, {rise * 1000:.1f} mm over its contact area, acts outside it"
+            return f"under gravity tilted {tilt:.2f} deg {rec.label} tips: its centre of mass above, {rise * 1000:.1f} mm high above its contact area, acts outside it"
     return None

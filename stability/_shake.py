@@ -107,7 +107,7 @@ def withstands(stack: Stack, effective_gravity: Sequence[float], margin: float =
             if not shapely.contains_xy(region, float(x), float(y)):
                 tips = (
                     f"fails the tipping test (report 3.3.5): under a = {sideways:.3g} m/s^2 its centre of mass above, "
-                    f"{rise * 1000:.1f} mm over its contact area, would act outside it"
+                    f"{rise * 1000:.1f} mm high above its contact area, would act outside it"
                 )
         if slides and tips:  # past both thresholds: the slide-rock mode (Shenton 1996)
             return f"{rec.label} {tips}, and {slides}"

@@ -161,6 +161,22 @@ expect: {stands: true}
     assert not any(e.kind == "collapse" for e in loop.events)
 
 
+def _rode_whole(text: str, apart: float) -> np.ndarray:
+    """Run the scenario ``text``: every brick rode the shaken ground, and their horizontal
+    shifts from where they were placed (shape (bricks, 2), m) agree within ``apart`` metres (one
+    rigid body); returns the shifts."""
+    program = compile_scenario(parse_scenario(text, "slide.yaml"))
+    with world_for(program) as world:
+        loop = run_in(world, program)
+        records = loop.structure.records
+        moved = {rid: np.array(loop.world.pose_floats(r.body)[0]) - r.pose.position for rid, r in records.items()}
+    rides = [e for e in loop.events if e.kind == "ride"]
+    assert {e.brick for e in rides} == set(records), [e.detail for e in loop.events if e.kind == "wake"][:1]
+    shifts = np.array([m[:2] for m in moved.values()])
+    assert np.ptp(shifts, axis=0).max() < apart, shifts  # one rigid body: every brick moved alike
+    return shifts
+
+
 @pytest.mark.parametrize("backend", ["pybullet", "mujoco"])
 def test_a_four_stack_slides_as_one_body_by_the_closed_form(backend):
     """A 2-level 4 stack on a ground shaken at 0.71 g (mu 0.5): it rides as one body, its four
@@ -174,15 +190,7 @@ timing: {{settle: 1 s}}
 actions:
   - shake: {{amplitude: 44 mm, frequency: 2 Hz, duration: 2 s, direction: [1, 0], at: after level 2}}
 """
-    program = compile_scenario(parse_scenario(text, "slide.yaml"))
-    with world_for(program) as world:
-        loop = run_in(world, program)
-        records = loop.structure.records
-        moved = {rid: np.array(loop.world.pose_floats(r.body)[0]) - r.pose.position for rid, r in records.items()}
-    rides = [e for e in loop.events if e.kind == "ride"]
-    assert {e.brick for e in rides} == set(records), [e.detail for e in loop.events if e.kind == "wake"][:1]
-    shifts = np.array([m[:2] for m in moved.values()])
-    assert np.ptp(shifts, axis=0).max() < 0.0002, shifts  # one rigid body: every brick moved alike
+    shifts = _rode_whole(text, 0.0002)
     expected, _ = coulomb_slip(0.044, 2.0, 4, 0.5, dt=1e-4)  # 9.5 mm
     assert abs(abs(shifts[0, 0]) - abs(expected)) < 0.15 * abs(expected), (shifts[0, 0], expected)
     assert abs(shifts[0, 1]) < 0.001
@@ -207,14 +215,7 @@ timing: {{settle: 1 s}}
 actions:
   - shake: {{amplitude: 30 mm, frequency: 2 Hz, duration: 2 s, direction: [1, 0], at: after level 3}}
 """
-    program = compile_scenario(parse_scenario(text, "pair.yaml"))
-    with world_for(program) as world:
-        loop = run_in(world, program)
-        records = loop.structure.records
-        moved = {rid: np.array(loop.world.pose_floats(r.body)[0]) - r.pose.position for rid, r in records.items()}
-    assert {e.brick for e in loop.events if e.kind == "ride"} == set(records)
-    shifts = np.array([m[:2] for m in moved.values()])
-    assert np.ptp(shifts, axis=0).max() < 0.0005, shifts
+    shifts = _rode_whole(text, 0.0005)
     expected, _ = coulomb_slip(0.03, 2.0, 4, float(np.sqrt(0.5 * 0.3)), dt=1e-4)  # 2.95 mm
     assert abs(abs(shifts[0, 0]) - abs(expected)) < 0.15 * abs(expected), (shifts[0, 0], expected)
 

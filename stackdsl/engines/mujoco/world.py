@@ -262,7 +262,7 @@ class MuJoCoWorld(World):
         free, held = self._free_geom[i], self._held_geom[i]
         on, off = (held, free) if self._frozen[i] else (free, held)
         if body in self._part_of:  # its box is the merged body's: neither of its own collides
-            on, bit = held, 0
+            bit = 0
         m.geom_contype[on] = m.geom_conaffinity[on] = bit
         m.geom_contype[off] = m.geom_conaffinity[off] = 0
         m.body_contype[m.geom_bodyid[on]] = m.body_conaffinity[m.geom_bodyid[on]] = bit

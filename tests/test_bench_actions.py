@@ -221,3 +221,28 @@ def test_the_scenes_run_in_the_order_given(monkeypatch, capsys):
     monkeypatch.chdir(ROOT)
     assert main(["bench", "actions", "--scenes", "shake above,Jenga 12 stands", "--sides", "extension"]) == 0
     assert asked == ["shake above", "Jenga 12 stands"]
+
+
+def test_the_folder_bench_runs_each_scene_on_the_sides_given(tmp_path, monkeypatch, capsys):
+    """A new user on MuJoCo could not bench a folder on the extension there: the cells were the
+    file's own settings and the lean peer only. ``--sides`` names them, the first the row the
+    summary sums; an unknown one is refused before anything runs."""
+    import stackdsl.bench.actions as actions
+    from stackdsl.cli.main import main
+
+    (tmp_path / "t.yaml").write_text("stackdsl: 1\nstructure: {tower: {levels: 2}}\n", encoding="utf-8")
+    asked: list[tuple[str, ...]] = []
+
+    def record(scenes, sides, repeats, jobs, progress):
+        asked.append(tuple(sides))
+        return []
+
+    monkeypatch.setattr(actions, "run_cells", record)
+    monkeypatch.setattr(actions, "check_times", lambda folder, jobs, repeats: [])
+    monkeypatch.setattr(actions, "format_check_times", lambda times, folder, count: "")
+    assert main(["bench", "folder", str(tmp_path), "--sides", "MuJoCo extension,MuJoCo lean"]) == 0
+    assert main(["bench", "folder", str(tmp_path)]) == 0
+    assert asked == [("MuJoCo extension", "MuJoCo lean"), ("file's own settings", "MuJoCo lean")]
+    assert "on MuJoCo extension" in capsys.readouterr().out
+    assert main(["bench", "folder", str(tmp_path), "--sides", "tuned"]) == 2
+    assert "--sides: unknown side 'tuned'" in capsys.readouterr().err

@@ -12,6 +12,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from ..bench.actions import AS_WRITTEN
 from ..bench.actions import SIDES as ACTION_SIDES
 from ..bench.bench import DEFAULT_SETTINGS, SETTINGS, TIMING, UPRIGHT, run_matrix, savings, scenes
 from ..bench.dominoes import DEFAULT as DOMINO_SETTINGS
@@ -229,6 +230,12 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     q.add_argument("folder", nargs="?", default="scenarios", help="a folder of scenario files (default: scenarios)")
     q.add_argument("--repeats", type=int, default=3, help="runs of each check and each cell (median; default: 3)")
     q.add_argument("--no-cells", action="store_true", help="time the folder's check only")
+    q.add_argument(
+        "--sides",
+        default=f"{AS_WRITTEN},MuJoCo lean",
+        help=f"comma-separated, each scenario run on each (default: {AS_WRITTEN!r} and the lean MuJoCo peer), of: "
+        + ", ".join([AS_WRITTEN, *ACTION_SIDES]),
+    )
     q.set_defaults(func=_bench_folder)
     q = bench.add_parser(
         "pulls", help="the sweep of Jenga pulls: samples a second, the extension against the lean MuJoCo peer, same draws"
@@ -765,10 +772,11 @@ def _bench_actions(args: argparse.Namespace) -> int:
 
 
 def _bench_folder(args: argparse.Namespace) -> int:
-    from ..bench.actions import AS_WRITTEN, check_times, folder_scenes, format_cells, format_check_times, run_cells
+    from ..bench.actions import check_times, folder_scenes, format_cells, format_check_times, run_cells
     from ..bench.versions import version_line
 
     _at_least_one(args.repeats)
+    sides = _names(args.sides, "--sides", [AS_WRITTEN, *ACTION_SIDES], "side")
     folder = Path(args.folder)
     scenes = folder_scenes(folder)
     print(version_line(), flush=True)
@@ -776,11 +784,11 @@ def _bench_folder(args: argparse.Namespace) -> int:
     print(format_check_times(check_times(folder, ("1", "auto"), args.repeats), folder, len(scenes)), flush=True)
     if not args.no_cells:
         print(flush=True)
-        with Lines(len(scenes) * 2 * args.repeats, "runs") as progress:
-            cells = run_cells(scenes, [AS_WRITTEN, "MuJoCo lean"], args.repeats, 1, lambda r: progress.advance())
-        print(format_cells(cells, args.repeats, reference=AS_WRITTEN))
-        ran = [c for c in cells if c.side == AS_WRITTEN]
-        print(f"\nthe {len(ran)} scenarios one after the other: {sum(c.wall for c in ran):.1f} s of runs (medians)")
+        with Lines(len(scenes) * len(sides) * args.repeats, "runs") as progress:
+            cells = run_cells(scenes, sides, args.repeats, 1, lambda r: progress.advance())
+        print(format_cells(cells, args.repeats, reference=sides[0]))
+        ran = [c for c in cells if c.side == sides[0]]
+        print(f"\nthe {len(ran)} scenarios one after the other on {sides[0]}: {sum(c.wall for c in ran):.1f} s of runs (medians)")
     print(_load_line())
     return OK
 

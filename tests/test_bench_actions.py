@@ -4,6 +4,7 @@ of Jenga pulls against the peer."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -62,6 +63,27 @@ def test_the_peers_mjcf_has_the_hands_and_the_table():
     assert pushed.count("<freejoint/>") == 5 and 'gravcomp="1"' in pushed  # 4 dominoes and the finger
     shaken = mjcf(program_for(tiny("tiny shake").text, "t.yaml", "MuJoCo lean"), tolerance=1e-10)
     assert 'name="table"' in shaken and shaken.count('type="slide"') == 2 and 'tolerance="1e-10"' in shaken
+
+
+def test_the_peers_ground_has_the_pair_friction_of_a_scene_of_two_materials():
+    """Pine bricks (0.5) on an ice ground: MuJoCo's own rule takes the larger friction of two
+    geoms, so the peer's stack stood where the scene's pair (the geometric mean, as stackdsl's
+    engines have it) slides; its ground now carries the pair's coefficient, first by priority.
+    A scene of one material keeps the ground as it was."""
+    text = """stackdsl: 1
+engine: {backend: mujoco}
+materials:
+  pine: {density: 500 kg/m^3, friction: 0.5}
+  ice: {density: 900 kg/m^3, friction: 0.05}
+brick_types: {b: {size: [120 mm, 24 mm, 8 mm], material: pine}}
+ground: {material: ice}
+structure: {tower: {levels: 2, bricks_per_layer: 2, spacing: 96 mm, turn: 90, brick: b}}
+"""
+    two = mjcf(program_for(text, "t.yaml", "MuJoCo lean"))
+    pair = math.sqrt(0.5 * 0.05)
+    assert f'friction="{pair} 0.005 0.0001" priority="1"' in two
+    one = mjcf(program_for(text.replace("material: ice}", "material: pine}"), "t.yaml", "MuJoCo lean"))
+    assert 'friction="0.5 0.005 0.0001" solref' in one and "priority" not in one
 
 
 def test_the_peer_pushes_a_row_over_and_pulls_a_block_out():

@@ -53,6 +53,7 @@ Source: stackdsl's own, on MuJoCo 4.0's Python bindings (``MjModel.from_xml_stri
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -102,7 +103,9 @@ def mjcf(program: Program, tolerance: float | None = None) -> str:
     contact = f'solref="{e.solref[0]} {e.solref[1]}" solimp="{e.solimp[0]} {e.solimp[1]} {e.solimp[2]} 0.5 2"'
     table = program.shakes
     wait = _BELOW if table else 0.0
-    ground = f'friction="{program.ground_friction} 0.005 0.0001" {contact}'
+    mu = _ground_friction(program)
+    first = ' priority="1"' if mu != program.ground_friction else ""  # its friction, not the larger of two
+    ground = f'friction="{mu} 0.005 0.0001"{first} {contact}'
     bodies = []
     if table:  # the table collides with the bricks only (contype 1), the plane below it with the bricks only (2)
         hx, hy, hz = _TABLE_HALF
@@ -136,6 +139,21 @@ def mjcf(program: Program, tolerance: float | None = None) -> str:
         f'impratio="{e.impratio}" integrator="{e.integrator}" gravity="0 0 {-e.gravity}"{sleep}{solver}>{flags}</option>'
         f"<worldbody>{''.join(bodies)}</worldbody></mujoco>"
     )
+
+
+def _ground_friction(program: Program) -> float:
+    """The ground geom's friction coefficient, which its ``priority`` makes MuJoCo use for every
+    contact with it (its own rule takes the larger of two geoms'): stackdsl's pair rule, the
+    geometric mean of the two materials' (``stackdsl.engines.mujoco.materials``), when every
+    brick and pusher is of one material; the ground's own otherwise. Pine bricks on an ice
+    ground, shaken at 1.5 times their pair's slide threshold, stood on the peer at the pine's
+    0.5 (the extension and both tuned engines slid them 4 to 6 mm)."""
+    frictions = {p.brick.friction for p in program.placements}
+    frictions |= {a.brick.friction for a in program.actions if isinstance(a, Push)}
+    if len(frictions) != 1 or frictions == {program.ground_friction}:
+        return program.ground_friction
+    (brick,) = frictions
+    return math.sqrt(brick * program.ground_friction)
 
 
 @dataclass

@@ -39,7 +39,6 @@ from typing import Any
 
 import numpy as np
 
-from ..protocol import BrickSpec
 from .settings import MuJoCoSettings
 
 BOUNCE_SPEED = 0.1
@@ -176,20 +175,6 @@ class Materials:
         geom.friction = list(c.friction)
         geom.solref = list(c.solref)
         geom.solimp = list(c.solimp)
-
-    def pairs(
-        self,
-        spec: Any,
-        body: int,
-        brick: BrickSpec,
-        bricks: Sequence[BrickSpec],
-        merged: Sequence[tuple[str, tuple[float, float]]] = (),
-    ) -> None:
-        """Explicit contact pairs in ``spec`` (an ``MjSpec``) between brick ``body``'s geoms
-        (``f{body}``, ``h{body}``) and every geom of another material: the ground, the
-        ``bricks`` so far (numbered from 1) and the ``merged`` geoms (name, material)."""
-        others = [(f"{s}{i}", (b.friction, b.restitution)) for i, b in enumerate(bricks, 1) if i != body for s in "fh"]
-        self.pairs_of(spec, [f"f{body}", f"h{body}"], (brick.friction, brick.restitution), [*others, *merged])
 
     def pairs_of(
         self, spec: Any, names: Sequence[str], mine: tuple[float, float], others: Sequence[tuple[str, tuple[float, float]]]

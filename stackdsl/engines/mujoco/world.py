@@ -151,7 +151,6 @@ class MuJoCoWorld(World):
     # building -----------------------------------------------------------------
     def create(self, spec: BrickSpec, pose: Pose, mass: float | None = None, projectile: bool = False) -> int:
         """A new brick at ``pose``; ``mass`` 0 creates it frozen. MuJoCo needs nothing special for a ``projectile``."""
-        mj = self._mj
         body = len(self._specs) + 1
         frozen = mass is not None and mass <= 0.0
         free_at, held_at = (self._away(body), pose.position) if frozen else (pose.position, self._away(body))
@@ -170,18 +169,28 @@ class MuJoCoWorld(World):
             self._spec.add_mesh(name=mesh, uservert=corners)
             self._meshes[(hx, hy, hz)] = mesh
         for name, owner in ((f"f{body}", free), (f"h{body}", held)):
-            if self._extension:
-                geom = owner.add_geom(name=name, type=mj.mjtGeom.mjGEOM_MESH, meshname=mesh, mass=spec.mass)
-            else:
-                geom = owner.add_geom(name=name, type=mj.mjtGeom.mjGEOM_BOX, size=[hx, hy, hz], mass=spec.mass)
+            geom = owner.add_geom(name=name, mass=spec.mass, **self._shape(spec))
             self._materials.surface(geom, spec.friction, spec.restitution)
         self._specs.append(spec)
         self._frozen = np.append(self._frozen, frozen)
-        merged = [(name, g.material) for g in self._groups.values() for name in g.geom_names]
-        self._materials.pairs(self._spec, body, spec, self._specs, merged)
+        names = [f"f{body}", f"h{body}"]
+        self._materials.pairs_of(self._spec, names, (spec.friction, spec.restitution), self._named_materials(body))
         if self._model is not None:
             self._compile()
         return body
+
+    def _shape(self, spec: BrickSpec) -> dict[str, Any]:
+        """The geom of a brick of ``spec``: the convex mesh of its size (extension mode, made by
+        :meth:`create`), else MuJoCo's box."""
+        if self._extension:
+            return {"type": self._mj.mjtGeom.mjGEOM_MESH, "meshname": self._meshes[spec.half_extents]}
+        return {"type": self._mj.mjtGeom.mjGEOM_BOX, "size": list(spec.half_extents)}
+
+    def _named_materials(self, skip: int = 0) -> list[tuple[str, tuple[float, float]]]:
+        """Every brick's geoms (``f{i}``, ``h{i}``; brick ``skip``'s left out) and every merged
+        geom, each with its material (friction, restitution), in the order their pairs are made."""
+        named = [(f"{s}{i}", (b.friction, b.restitution)) for i, b in enumerate(self._specs, 1) if i != skip for s in "fh"]
+        return named + [(name, g.material) for g in self._groups.values() for name in g.geom_names]
 
     def _away(self, body: int) -> np.ndarray:
         return _AWAY + [_SLOT * body, 0.0, 0.0]
@@ -476,43 +485,21 @@ class MuJoCoWorld(World):
             return False
         if self._culling is not None and self._culling.culls:
             return False
-        mj = self._mj
-        poses = [self._raw_pose(b - 1) for b in bodies]
-        positions = np.array([p for p, _ in poses], dtype=float)
+        poses = [self.pose(b) for b in bodies]
+        positions = np.array([p.position for p in poses])
         masses = np.array([s.mass for s in specs], dtype=float)
         centre = masses @ positions / float(masses.sum())
         k, self._next_group = self._next_group, self._next_group + 1
         holder = self._spec.worldbody.add_body(name=f"merged{k}", pos=centre.tolist(), quat=[1.0, 0.0, 0.0, 0.0])
         holder.add_freejoint(name=f"mjoint{k}")
-        names = []
-        for body, spec, (position, (x, y, z, w)) in zip(bodies, specs, poses, strict=True):
-            name = f"g{k}_{body}"
-            arm = (np.array(position) - centre).tolist()
-            turn = [w, x, y, z]
-            if self._extension:
-                hx, hy, hz = spec.half_extents
-                geom = holder.add_geom(
-                    name=name,
-                    type=mj.mjtGeom.mjGEOM_MESH,
-                    meshname=self._meshes[(hx, hy, hz)],
-                    mass=spec.mass,
-                    pos=arm,
-                    quat=turn,
-                )
-            else:
-                geom = holder.add_geom(
-                    name=name, type=mj.mjtGeom.mjGEOM_BOX, size=list(spec.half_extents), mass=spec.mass, pos=arm, quat=turn
-                )
+        names = [f"g{k}_{body}" for body in bodies]
+        for name, body, spec, pose in zip(names, bodies, specs, poses, strict=True):
+            arm, turn = pose.position - centre, np.array(_wxyz(pose.orientation))
+            geom = holder.add_geom(name=name, mass=spec.mass, pos=arm.tolist(), quat=turn.tolist(), **self._shape(spec))
             self._materials.surface(geom, *material)
-            names.append(name)
-        others = [(f"{s}{i}", (b.friction, b.restitution)) for i, b in enumerate(self._specs, 1) for s in "fh"]
-        others += [(n, g.material) for g in self._groups.values() for n in g.geom_names]
-        pairs = self._materials.pairs_of(self._spec, names, material, others)
-        group = _Group(tuple(bodies), names, material, holder, pairs)
-        self._groups[k] = group
-        for body, (position, (x, y, z, w)) in zip(bodies, poses, strict=True):
-            norm = math.sqrt(w * w + x * x + y * y + z * z)
-            self._part_of[body] = (k, np.array(position) - centre, np.array([w, x, y, z]) / norm)
+            self._part_of[body] = (k, arm, turn)
+        pairs = self._materials.pairs_of(self._spec, names, material, self._named_materials())
+        self._groups[k] = _Group(tuple(bodies), names, material, holder, pairs)
         self._compile()
         _, d = self._ready()
         for body in bodies:  # out of the way: an explicit pair of materials collides whatever the bits
@@ -526,7 +513,7 @@ class MuJoCoWorld(World):
         _, d = self._ready()
         k = self._part_of[bodies[0]][0]
         group = self._groups[k]
-        poses = {b: self._part_pose(d, b) for b in group.bricks}
+        poses = {b: self.pose(b) for b in group.bricks}
         self._carried.update({b: self._part_velocity(d, b) for b in group.bricks})
         del self._groups[k]
         for body in group.bricks:
@@ -535,9 +522,8 @@ class MuJoCoWorld(World):
             self._spec.delete(pair)
         self._spec.delete(group.holder)
         self._compile()
-        for body, ((px, py, pz), (x, y, z, w)) in poses.items():
-            norm = math.sqrt(w * w + x * x + y * y + z * z)
-            self._put(body, Pose(np.array([px, py, pz]), np.array([x, y, z, w]) / norm), True)
+        for body, pose in poses.items():
+            self._put(body, pose, True)
 
     def _part_pose(self, d: Any, body: int) -> tuple[Vec3, Quat]:
         """Position and quaternion (x, y, z, w) of merged ``body``: its box of its group's body,

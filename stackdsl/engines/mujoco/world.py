@@ -514,7 +514,8 @@ class MuJoCoWorld(World):
         k = self._part_of[bodies[0]][0]
         group = self._groups[k]
         poses = {b: self.pose(b) for b in group.bricks}
-        self._carried.update({b: self._part_velocity(d, b) for b in group.bricks})
+        motion = self._group_motion(d, group)
+        self._carried.update({b: _arm_velocity(*motion, self._part_of[b][1]) for b in group.bricks})
         del self._groups[k]
         for body in group.bricks:
             del self._part_of[body]
@@ -546,14 +547,15 @@ class MuJoCoWorld(World):
         the world frame: its group's, v + w x r (a free joint's angular velocity is in its
         body's frame), in floats."""
         k, arm, _ = self._part_of[body]
-        group = self._groups[k]
+        return _arm_velocity(*self._group_motion(d, self._groups[k]), arm)
+
+    def _group_motion(self, d: Any, group: _Group) -> tuple[Quat, Vec3, Vec3]:
+        """The merged body's quaternion (w, x, y, z), linear velocity (m/s) and angular velocity
+        (rad/s) turned into the world frame, read once for all its bricks."""
         q, v = group.qpos, group.dof
         qw, qx, qy, qz = d.qpos[q + 3 : q + 7].tolist()
         vx, vy, vz, lx, ly, lz = d.qvel[v : v + 6].tolist()
-        ax, ay, az = arm.tolist()
-        rx, ry, rz = _rotated(qw, qx, qy, qz, ax, ay, az)
-        wx, wy, wz = _rotated(qw, qx, qy, qz, lx, ly, lz)
-        return (vx + wy * rz - wz * ry, vy + wz * rx - wx * rz, vz + wx * ry - wy * rx), (wx, wy, wz)
+        return (qw, qx, qy, qz), (vx, vy, vz), _rotated(qw, qx, qy, qz, lx, ly, lz)
 
     def _near_merged(self, m: Any, d: Any, body: int, distance: float, among: Collection[int] | None) -> list[ContactPoint]:
         """:meth:`near` of a merged ``body``: of its whole group's body, each of its geoms
@@ -758,8 +760,10 @@ class MuJoCoWorld(World):
                 self._mj.mju_rotVecQuat(angular[row], w, q)
         else:
             angular[rows] = Rotation.from_quat(wxyz[:, [1, 2, 3, 0]]).apply(local)
-        for body in self._part_of:
-            linear[body - 1], angular[body - 1] = self._part_velocity(d, body)
+        for group in self._groups.values():
+            motion = self._group_motion(d, group)
+            for body in group.bricks:
+                linear[body - 1], angular[body - 1] = _arm_velocity(*motion, self._part_of[body][1])
         self._read = (linear, angular)
         return self._read
 
@@ -791,6 +795,16 @@ def _rotated(w: float, x: float, y: float, z: float, vx: float, vy: float, vz: f
     v + 2 w (u x v) + 2 u x (u x v), u = (x, y, z)."""
     tx, ty, tz = 2.0 * (y * vz - z * vy), 2.0 * (z * vx - x * vz), 2.0 * (x * vy - y * vx)
     return vx + w * tx + y * tz - z * ty, vy + w * ty + z * tx - x * tz, vz + w * tz + x * ty - y * tx
+
+
+def _arm_velocity(q: Quat, v: Vec3, w: Vec3, arm: np.ndarray) -> tuple[Vec3, Vec3]:
+    """Linear (m/s) and angular (rad/s) velocity of a point ``arm`` (m, in the body's frame)
+    from the centre of a body turned by ``q`` (w, x, y, z) and moving at ``v`` and ``w`` (world
+    frame): v + w x r, r the arm turned, in floats."""
+    ax, ay, az = arm.tolist()
+    rx, ry, rz = _rotated(*q, ax, ay, az)
+    (vx, vy, vz), (wx, wy, wz) = v, w
+    return (vx + wy * rz - wz * ry, vy + wz * rx - wx * rz, vz + wx * ry - wy * rx), w
 
 
 def _quiet(message: str) -> None:

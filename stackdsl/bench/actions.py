@@ -349,7 +349,8 @@ def format_cells(cells: Sequence[Cell], repeats: int, reference: str, peer: str 
 def overall(cells: Sequence[Cell], peer: str = "MuJoCo lean") -> list[str]:
     """A line for each side but ``peer``: over the scenes both ran, the peer's summed median wall
     time over the side's, and the geometric mean of the rows' ``peer / this`` (each scene
-    weighed alike, where the sums weigh the long scenes); and how many of its cells passed."""
+    weighed alike, where the sums weigh the long scenes); and how many of its cells passed; then
+    how many of the peer's passed."""
     peers = {c.scene: c.wall for c in cells if c.side == peer and c.passed is not None}
     lines = []
     for side in dict.fromkeys(c.side for c in cells if c.side != peer):
@@ -364,6 +365,10 @@ def overall(cells: Sequence[Cell], peer: str = "MuJoCo lean") -> list[str]:
             f"overall, {side}: {theirs:.2f} s of the peer's over {mine:.2f} s = {theirs / mine:.1f}x summed, "
             f"{mean:.1f}x the geometric mean of {len(both)} rows; {passed} of {len(both)} PASS"
         )
+    # and the peer's own verdicts: a peer that failed two scenes read as if every side had passed
+    judged = [c for c in cells if c.side == peer and c.passed is not None]
+    if lines and judged:
+        lines.append(f"overall, {peer}: {sum(bool(c.passed) for c in judged)} of {len(judged)} PASS")
     return lines
 
 

@@ -29,6 +29,7 @@ from ..lang.schema import Scenario
 from ..lang.schema_generators import HALF
 from .layouts import LaidBrick
 from .overlap import REST_TOLERANCE
+from .program import speed_words
 
 
 def check_limits(
@@ -213,7 +214,7 @@ def _check_motions(scenario: Scenario, engine: EngineSettings, thinnest: float) 
         if remove is not None and remove.speed > pull_most * (1 + 1e-9):
             raise scenario.source.error(
                 ("actions", index, "remove", "speed"),
-                f"a pull at {_speed(remove.speed)} is faster than {kind.NAME} simulates faithfully {pull_why}; "
+                f"a pull at {speed_words(remove.speed)} is faster than {kind.NAME} simulates faithfully {pull_why}; "
                 f"the pulled brick moves at that speed, dragging what rests on it and driving what lies in its way",
             )
         shake = action.shake
@@ -314,13 +315,6 @@ def _stepped_whole(engine: EngineSettings, thinnest: float, lead: str, measured:
         else f"({measured}: {limits.measured['max_speed_no_substeps']})"
     )
     return most, why
-
-
-def _speed(metres_a_second: float) -> str:
-    """``40 mm/s`` below 1 m/s (as pulls are written), else ``1.5 m/s``."""
-    if metres_a_second < 1.0:
-        return f"{metres_a_second * 1000:.4g} mm/s"
-    return f"{metres_a_second:g} m/s"
 
 
 def _mm(metres: float) -> str:

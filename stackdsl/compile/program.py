@@ -567,11 +567,23 @@ def _launch_line(a: Launch) -> str:
     return f"launch {a.id:<10} {speed:.3g} m/s at ({x:.1f}, {y:.1f}, {z:.1f}) mm, arriving t={a.arrival:.3f} s  {a.brick.type}"
 
 
+def speed_words(metres_a_second: float) -> str:
+    """A speed as a scenario writes it: ``40 mm/s`` under 1 m/s (as pulls and pushes are
+    written), else ``1.5 m/s`` (``1e+03 mm/s`` read as an error). Source: stackdsl's own.
+
+    >>> speed_words(0.04), speed_words(1.0), speed_words(0.1234)
+    ('40 mm/s', '1 m/s', '123 mm/s')
+    """
+    if metres_a_second < 1.0:
+        return f"{metres_a_second * 1000:.3g} mm/s"
+    return f"{metres_a_second:.3g} m/s"
+
+
 def _remove_line(a: Remove) -> str:
     """A pull as ``stackdsl compile`` prints it."""
     speed = math.sqrt(sum(v * v for v in a.velocity))
     direction = ", ".join(f"{round(v / speed, 9) + 0.0:.3g}" for v in a.velocity)
-    return f"remove {a.id:<10} pulled along ({direction}) at {speed * 1000:.3g} mm/s until t={a.end_time:.3f} s"
+    return f"remove {a.id:<10} pulled along ({direction}) at {speed_words(speed)} until t={a.end_time:.3f} s"
 
 
 def _push_line(a: Push) -> str:
@@ -579,7 +591,7 @@ def _push_line(a: Push) -> str:
     x, y, z = (v * 1000 for v in a.position)
     speed = math.sqrt(sum(v * v for v in a.velocity))
     return (
-        f"push   {a.id:<10} from ({x:.1f}, {y:.1f}, {z:.1f}) mm at {speed * 1000:.3g} mm/s into {a.target} "
+        f"push   {a.id:<10} from ({x:.1f}, {y:.1f}, {z:.1f}) mm at {speed_words(speed)} into {a.target} "
         f"until t={a.end_time:.3f} s  {a.brick.type}"
     )
 

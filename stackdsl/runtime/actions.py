@@ -43,7 +43,7 @@ from stability import Box, Pose
 from ..compile.actions import REACHES
 from ..compile.clearance import deepest
 from ..compile.overlap import touching
-from ..compile.program import PULL_STEP, Kinematic, Push, Remove, Shake
+from ..compile.program import PULL_STEP, Kinematic, Push, Remove, Shake, speed_words
 from .bricks import BrickRecord
 from .loop import StepLoop, Subscriber
 from .outcome import Event
@@ -132,7 +132,7 @@ class Actions(Subscriber):
         moved = loop.structure.displacement(record)  # before it leaves the structure's books
         loop.structure.detach(record)
         speed = float(np.linalg.norm(a.velocity))
-        detail = f"pulled out at {speed * 1000:.3g} mm/s"
+        detail = f"pulled out at {speed_words(speed)}"
         if moved > loop.program.collapse_threshold:  # a brick the hand takes where it lies, not where it was placed
             detail += f", from where it lies, {moved * 1000:.3g} mm from its place"
         loop.events.append(Event(time=a.time, kind="remove", brick=a.id, detail=detail))
@@ -141,7 +141,7 @@ class Actions(Subscriber):
 
     def _push(self, loop: StepLoop, a: Push) -> None:
         speed = float(np.linalg.norm(a.velocity))
-        detail = f"{speed * 1000:.3g} mm/s into {a.target}"
+        detail = f"{speed_words(speed)} into {a.target}"
         pose, lies, how = _pusher_start(loop, a)
         inside = _blocked(loop, a, pose)
         if inside is not None:

@@ -181,6 +181,12 @@ class StabilityExtension:
         return not self._stack.active and not self._stack.rides
 
     @property
+    def riding(self) -> bool:
+        """True while a part of the frozen stack rides a shaken ground merged into one body
+        (:meth:`shake`)."""
+        return bool(self._stack.rides)
+
+    @property
     def moving(self) -> tuple[str, ...]:
         """The labels of the registered bricks that are active (simulated by the engine), in
         the order they were registered: what keeps the extension from being :attr:`quiet`."""

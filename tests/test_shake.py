@@ -326,3 +326,46 @@ def test_a_shaken_ride_keeps_the_riders_centre_of_mass_as_they_froze():
     # in the first rider's frame, turned 90 degrees about z: the world's +y is its +x
     assert ride.arm == pytest.approx((centre[1] - 0.2, -(centre[0] - 0.1), centre[2] - 0.004), abs=1e-12)
     assert ride.tilt_and_drop((0.1, 0.2, 0.004), tuple(eng.poses[1].orientation.tolist())) == pytest.approx((0.0, 0.0), abs=1e-9)
+
+
+ON_END = """stackdsl: 1
+engine: {{backend: {backend}}}
+structure: {{bricks: [{{id: p1, at: [0, 0, 60 mm], pitch: 90}}]}}
+actions:
+  - shake: {{amplitude: {amplitude}, frequency: {frequency}, duration: 3 s, direction: [1, 0], at: after level 1}}
+"""
+
+
+def _on_end(
+    backend: str, amplitude: str, steady: bool, monkeypatch: pytest.MonkeyPatch, frequency: str = "1 Hz"
+) -> tuple[list[str], dict[str, float], int]:
+    """A KAPLA brick on end shaken along x for 3 s: the shake's events, where each brick ended (m
+    from its place) and the steps, with the steady state asked or not."""
+    from stackdsl.runtime import actions
+
+    monkeypatch.setattr(actions, "STEADY_DRIFT", actions.STEADY_DRIFT if steady else -1.0)
+    text = ON_END.format(backend=backend, amplitude=amplitude, frequency=frequency)
+    outcome = run_program(compile_scenario(parse_scenario(text, "on_end.yaml")))
+    return [e.detail for e in outcome.events if e.kind == "shake"], outcome.displacement, outcome.steps
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_a_shake_that_only_carries_what_lies_on_it_stops_at_a_whole_period(backend, monkeypatch):
+    """Shaken at 2.4 times its tipping threshold, the brick on end topples in the first period
+    and lies flat on the table, which carries it (1.58 m/s^2, under mu g). Once it has lain still
+    for a period, the ground stops at the end of the next whole one, back where it started, as
+    the shake's end leaves it: the brick ends where the whole shake leaves it, in fewer steps."""
+    said, ended, steps = _on_end(backend, "40 mm", True, monkeypatch)
+    whole, ended_whole, steps_whole = _on_end(backend, "40 mm", False, monkeypatch)
+    assert len(said) == 2 and "lain still on the ground for a period" in said[1], said
+    assert len(whole) == 1
+    assert ended["p1"] > 0.1 and abs(ended["p1"] - ended_whole["p1"]) < 5e-5, (ended, ended_whole)
+    assert steps < steps_whole - 200, (steps, steps_whole)
+
+
+def test_a_brick_that_slides_on_the_shaken_ground_is_shaken_to_the_end(monkeypatch):
+    """Shaken at 1.9 mu g (60 mm at 2 Hz: 9.5 m/s^2, friction 0.5), the brick on end topples and
+    slides on the table twice a period: it never lies still for a period, so the whole shake
+    is stepped."""
+    said, _, _ = _on_end("pybullet", "60 mm", True, monkeypatch, "2 Hz")
+    assert len(said) == 1, said

@@ -33,12 +33,13 @@ moves the ground. Source: stackdsl's own.
 from __future__ import annotations
 
 import math
+from collections import deque
 from collections.abc import Callable, Collection
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from stability import Box, Pose
+from stability import JITTER, Box, Pose
 
 from ..compile.actions import REACHES
 from ..compile.clearance import deepest
@@ -106,6 +107,7 @@ class Actions(Subscriber):
         self._taken = 0
         self._carried = False  # a pull under way drags bricks the engine moves (finer steps)
         self._on_path: dict[int, _Guided] = {}  # a pushed brick the extension's proof moves on the hand's path
+        self._steady: _Window | None = None  # since when everything has lain still on the shaken ground
 
     @property
     def quiet(self) -> bool:
@@ -315,12 +317,110 @@ class Actions(Subscriber):
         if self.shake is not None:
             loop.structure.offset = self.shake.at(loop.now)[0]  # the collapse monitor reads displacements in the ground's frame
             if loop.step >= self.shake.end_step:
-                loop.world.move_ground((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
-                for body, home in self.stability.fixtures:  # back where the table is back, fixed again
-                    loop.world.move(body, home, 0.0)
-                loop.structure.offset = (0.0, 0.0, 0.0)
-                self.stability.extension.admitting = True
-                self.shake = None
+                self._stop_ground(loop)
+            elif self.stability.acting:
+                self._steady_state(loop, self.shake)
+
+    def _stop_ground(self, loop: StepLoop) -> None:
+        """The shake is over: the ground at rest where it started, the fixtures fixed again."""
+        loop.world.move_ground((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        for body, home in self.stability.fixtures:  # back where the table is back, fixed again
+            loop.world.move(body, home, 0.0)
+        loop.structure.offset = (0.0, 0.0, 0.0)
+        self.stability.extension.admitting = True
+        self.shake = None
+        self._steady = None
+
+    def _steady_state(self, loop: StepLoop, shake: Shake) -> None:
+        """End ``shake`` at the end of a whole period when the periods left would carry
+        everything on the ground as one rigid body: each body has lain still on the ground for a
+        whole period (at every step of it, its speeds relative to the ground's within
+        :data:`stability.JITTER` times the rest thresholds, as the windowed rest test of a fallen
+        brick allows an engine's jitter), and its pose relative to the ground has changed so
+        little over that period that the periods left would move it by at most
+        :data:`STEADY_DRIFT` and turn it by at most :data:`STEADY_TURN`; nothing else happens
+        before the shake's end (no hand, no ride, no action). The shake's motion is periodic, so
+        a state that repeats over one period repeats over the next; and at the end of each whole
+        period the ground is back where it started, at rest, as the shake's end leaves it, with
+        everything on it where the periods left would bring it back: the ground stops there.
+        The bricks a fallen structure left lying on a shaken table were stepped to the shake's
+        end (a brick on end toppled by a 3 s shake lay 2.9 s on the table). Source: stackdsl's
+        own."""
+        bodies = self._on_ground(loop, shake)
+        if not bodies:
+            self._steady = None
+            return
+        offset, velocity = shake.at(loop.now)
+        linear, angular = loop.world.velocities_of(bodies)
+        config = self.stability.extension.config
+        relative = np.linalg.norm(linear - np.array(velocity), axis=1)
+        spin = np.linalg.norm(angular, axis=1)
+        if relative.max() > JITTER * config.rest_speed or spin.max() > JITTER * config.rest_angular_speed:
+            self._steady = None
+            return
+        positions, quaternions = loop.world.poses_of(bodies)
+        positions = positions - np.array(offset)
+        window = self._steady
+        if window is None or window.bodies != bodies:
+            window = self._steady = _Window(bodies)
+        window.seen.append((loop.now, positions, quaternions))
+        period = 1.0 / shake.frequency - 1e-9
+        while len(window.seen) > 1 and loop.now - window.seen[1][0] >= period:
+            window.seen.popleft()  # the latest a whole period ago is kept
+        began, then, turned = window.seen[0]
+        if loop.now - began < period:
+            return
+        periods = (shake.end_time - loop.now) * shake.frequency
+        drift = float(np.linalg.norm(positions - then, axis=1).max())
+        dots = np.clip(np.abs(np.sum(quaternions * turned, axis=1)), 0.0, 1.0)
+        turn = math.degrees(2.0 * float(np.arccos(dots.min())))
+        if drift * periods > STEADY_DRIFT or turn * periods > STEADY_TURN:
+            return  # creeping: asked again at the next step, of the period before it
+        # the ground is back where it started, at rest, at the end of each whole period: stopped
+        # there, it is where the shake's end leaves it, and so is everything lying on it
+        done = (loop.now - shake.time) * shake.frequency
+        if abs(done - round(done)) > 0.5 * loop.dt * shake.frequency:
+            return
+        detail = (
+            f"every body has lain still on the ground for a period ({1000 * drift:.2g} mm, {turn:.2g} deg): "
+            f"{'the period' if round(periods) == 1 else f'the {round(periods)} periods'} left, to t={shake.end_time:.3f} s,"
+            " would carry them with it; stopped where it started, at rest"
+        )
+        loop.events.append(Event(time=loop.now, kind="shake", brick="ground", detail=detail))
+        self._stop_ground(loop)
+
+    def _on_ground(self, loop: StepLoop, shake: Shake) -> list[int]:
+        """The bodies a steady shake would carry (:meth:`_steady_state`): every brick and
+        projectile in the scene, each simulated by the engine; empty when the steady state
+        cannot be asked (a hand moves, a part rides merged, a brick is frozen, or an action
+        comes before the shake's end)."""
+        if self.guided or self._on_path or self.stability.extension.riding:
+            return []
+        if any(a.step > loop.step and a.step < shake.end_step and a.kind != "end" for a in loop.program.actions):
+            return []
+        removed = {id(r) for r in loop.structure.removed}
+        records = [r for r in (*loop.structure.placed, *loop.structure.projectiles) if id(r) not in removed]
+        if not records or not all(r.moving for r in records):
+            return []
+        return [r.body for r in records]
+
+
+#: Metres a body lying on a shaken ground may be carried off its place relative to the ground
+#: over the periods a steady shake leaves out (:meth:`Actions._steady_state`), by its drift in one.
+STEADY_DRIFT = 0.0005
+
+#: Degrees it may so turn.
+STEADY_TURN = 0.5
+
+
+@dataclass
+class _Window:
+    """The ``bodies`` lying still on the shaken ground: at each step since they have, the time
+    (s), their positions (m, (n, 3), relative to the ground) and orientations ((n, 4)
+    quaternions), back to the latest a whole period ago."""
+
+    bodies: list[int]
+    seen: deque[tuple[float, np.ndarray, np.ndarray]] = field(default_factory=deque)
 
 
 def _pusher_start(loop: StepLoop, a: Push) -> tuple[Pose, str, str]:

@@ -181,10 +181,10 @@ class StabilityExtension:
         return not self._stack.active and not self._stack.rides
 
     @property
-    def riding(self) -> bool:
-        """True while a part of the frozen stack rides a shaken ground merged into one body
-        (:meth:`shake`)."""
-        return bool(self._stack.rides)
+    def riding(self) -> frozenset[int]:
+        """The frozen bricks merged into one body in the engine now, each with its part: riding a
+        shaken ground (:meth:`shake`), a pull or a push."""
+        return frozenset(self._stack.riding)
 
     @property
     def moving(self) -> tuple[str, ...]:

@@ -339,7 +339,7 @@ class Actions(Subscriber):
         brick allows an engine's jitter), and its pose relative to the ground has changed so
         little over that period that the periods left would move it by at most
         :data:`STEADY_DRIFT` and turn it by at most :data:`STEADY_TURN`; nothing else happens
-        before the shake's end (no hand, no ride, no action). The shake's motion is periodic, so
+        before the shake's end (no hand, no action). The shake's motion is periodic, so
         a state that repeats over one period repeats over the next; and at the end of each whole
         period the ground is back where it started, at rest, as the shake's end leaves it, with
         everything on it where the periods left would bring it back: the ground stops there.
@@ -391,16 +391,17 @@ class Actions(Subscriber):
 
     def _on_ground(self, loop: StepLoop, shake: Shake) -> list[int]:
         """The bodies a steady shake would carry (:meth:`_steady_state`): every brick and
-        projectile in the scene, each simulated by the engine; empty when the steady state
-        cannot be asked (a hand moves, a part rides merged, a brick is frozen, or an action
-        comes before the shake's end)."""
-        if self.guided or self._on_path or self.stability.extension.riding:
+        projectile in the scene, each simulated by the engine (on its own or in a part riding the
+        ground merged); empty when the steady state cannot be asked (a hand moves, a brick is
+        frozen, or an action comes before the shake's end)."""
+        if self.guided or self._on_path:
             return []
         if any(a.step > loop.step and a.step < shake.end_step and a.kind != "end" for a in loop.program.actions):
             return []
         removed = {id(r) for r in loop.structure.removed}
         records = [r for r in (*loop.structure.placed, *loop.structure.projectiles) if id(r) not in removed]
-        if not records or not all(r.moving for r in records):
+        riding = self.stability.extension.riding  # a part riding the ground merged: its bricks move with it
+        if not records or not all(r.moving or r.body in riding for r in records):
             return []
         return [r.body for r in records]
 

@@ -108,6 +108,8 @@ class Actions(Subscriber):
         self._carried = False  # a pull under way drags bricks the engine moves (finer steps)
         self._on_path: dict[int, _Guided] = {}  # a pushed brick the extension's proof moves on the hand's path
         self._steady: _Window | None = None  # since when everything has lain still on the shaken ground
+        self._every = 1  # steps between two looks at the shake's steady state
+        self._quiet_from = 0  # the step from which no other action comes before the shake's end
 
     @property
     def quiet(self) -> bool:
@@ -196,6 +198,10 @@ class Actions(Subscriber):
         loop.events.append(Event(time=a.time, kind="shake", brick="ground", detail=detail))
         if rides:
             return
+        self._every = max(1, int(1.0 / (a.frequency * loop.dt * STEADY_LOOKS)))
+        # the steady state is asked once no other action is to come before the shake's end
+        during = [b.step for b in loop.program.actions if a.step < b.step < a.end_step and b.kind != "end"]
+        self._quiet_from = max(during, default=a.step)
         if acting:
             extension.admitting = False
             reason = f"the ground shakes at {peak:.3g} m/s^2: {why}"
@@ -318,7 +324,9 @@ class Actions(Subscriber):
             loop.structure.offset = self.shake.at(loop.now)[0]  # the collapse monitor reads displacements in the ground's frame
             if loop.step >= self.shake.end_step:
                 self._stop_ground(loop)
-            elif self.stability.acting:
+            elif self.stability.acting and (
+                (loop.step - self.shake.step) % self._every == 0 or (self._steady is not None and self._steady.stop is not None)
+            ):
                 self._steady_state(loop, self.shake)
 
     def _stop_ground(self, loop: StepLoop) -> None:
@@ -334,9 +342,9 @@ class Actions(Subscriber):
     def _steady_state(self, loop: StepLoop, shake: Shake) -> None:
         """End ``shake`` at the end of a whole period when the periods left would carry
         everything on the ground as one rigid body: each body has lain still on the ground for a
-        whole period (at every step of it, its speeds relative to the ground's within
-        :data:`stability.JITTER` times the rest thresholds, as the windowed rest test of a fallen
-        brick allows an engine's jitter), and its pose relative to the ground has changed so
+        whole period (at each of :data:`STEADY_LOOKS` looks a period, its speeds relative to the
+        ground's within :data:`stability.JITTER` times the rest thresholds, as the windowed rest
+        test of a fallen brick allows an engine's jitter), and its pose relative to the ground has changed so
         little over that period that the periods left would move it by at most
         :data:`STEADY_DRIFT` and turn it by at most :data:`STEADY_TURN`; nothing else happens
         before the shake's end (no hand, no action). The shake's motion is periodic, so
@@ -346,13 +354,28 @@ class Actions(Subscriber):
         The bricks a fallen structure left lying on a shaken table were stepped to the shake's
         end (a brick on end toppled by a 3 s shake lay 2.9 s on the table). Source: stackdsl's
         own."""
+        window = self._steady
+        if window is not None and window.stop is not None and loop.step >= window.stop[0]:
+            loop.events.append(Event(time=loop.now, kind="shake", brick="ground", detail=window.stop[1]))
+            self._stop_ground(loop)
+            return
+        if (loop.step - shake.step) % self._every:
+            return
         bodies = self._on_ground(loop, shake)
         if not bodies:
             self._steady = None
             return
         offset, velocity = shake.at(loop.now)
-        linear, angular = loop.world.velocities_of(bodies)
         config = self.stability.extension.config
+        (vx, vy, vz), (wx, wy, wz) = loop.world.velocity_floats(bodies[0])  # a sliding part: one body says so
+        gx, gy, _ = velocity
+        if (
+            math.hypot(vx - gx, vy - gy, vz) > JITTER * config.rest_speed
+            or math.hypot(wx, wy, wz) > JITTER * config.rest_angular_speed
+        ):
+            self._steady = None
+            return
+        linear, angular = loop.world.velocities_of(bodies)
         relative = np.linalg.norm(linear - np.array(velocity), axis=1)
         spin = np.linalg.norm(angular, axis=1)
         if relative.max() > JITTER * config.rest_speed or spin.max() > JITTER * config.rest_angular_speed:
@@ -360,7 +383,6 @@ class Actions(Subscriber):
             return
         positions, quaternions = loop.world.poses_of(bodies)
         positions = positions - np.array(offset)
-        window = self._steady
         if window is None or window.bodies != bodies:
             window = self._steady = _Window(bodies)
         window.seen.append((loop.now, positions, quaternions))
@@ -375,28 +397,30 @@ class Actions(Subscriber):
         dots = np.clip(np.abs(np.sum(quaternions * turned, axis=1)), 0.0, 1.0)
         turn = math.degrees(2.0 * float(np.arccos(dots.min())))
         if drift * periods > STEADY_DRIFT or turn * periods > STEADY_TURN:
-            return  # creeping: asked again at the next step, of the period before it
+            window.stop = None  # creeping: asked again at the next look, of the period before it
+            return
+        if window.stop is not None:
+            return
         # the ground is back where it started, at rest, at the end of each whole period: stopped
         # there, it is where the shake's end leaves it, and so is everything lying on it
-        done = (loop.now - shake.time) * shake.frequency
-        if abs(done - round(done)) > 0.5 * loop.dt * shake.frequency:
-            return
+        whole = shake.time + math.ceil((loop.now - shake.time) * shake.frequency - 1e-9) / shake.frequency
+        step = round(whole / loop.dt)
+        if step >= shake.end_step:
+            return  # it ends there anyway
+        left = round((shake.end_time - whole) * shake.frequency)
         detail = (
             f"every body has lain still on the ground for a period ({1000 * drift:.2g} mm, {turn:.2g} deg): "
-            f"{'the period' if round(periods) == 1 else f'the {round(periods)} periods'} left, to t={shake.end_time:.3f} s,"
+            f"{'the period' if left == 1 else f'the {left} periods'} left, to t={shake.end_time:.3f} s,"
             " would carry them with it; stopped where it started, at rest"
         )
-        loop.events.append(Event(time=loop.now, kind="shake", brick="ground", detail=detail))
-        self._stop_ground(loop)
+        window.stop = (step, detail)
 
     def _on_ground(self, loop: StepLoop, shake: Shake) -> list[int]:
         """The bodies a steady shake would carry (:meth:`_steady_state`): every brick and
         projectile in the scene, each simulated by the engine (on its own or in a part riding the
         ground merged); empty when the steady state cannot be asked (a hand moves, a brick is
         frozen, or an action comes before the shake's end)."""
-        if self.guided or self._on_path:
-            return []
-        if any(a.step > loop.step and a.step < shake.end_step and a.kind != "end" for a in loop.program.actions):
+        if self.guided or self._on_path or loop.step <= self._quiet_from:
             return []
         removed = {id(r) for r in loop.structure.removed}
         records = [r for r in (*loop.structure.placed, *loop.structure.projectiles) if id(r) not in removed]
@@ -413,15 +437,21 @@ STEADY_DRIFT = 0.0005
 #: Degrees it may so turn.
 STEADY_TURN = 0.5
 
+#: Times a period the steady state of a shake is looked at (a look reads every body's pose and
+#: velocity: at every step, it cost a shaken single file of 5 riding the table a quarter of its run).
+STEADY_LOOKS = 16
+
 
 @dataclass
 class _Window:
-    """The ``bodies`` lying still on the shaken ground: at each step since they have, the time
+    """The ``bodies`` lying still on the shaken ground: at each look since they have, the time
     (s), their positions (m, (n, 3), relative to the ground) and orientations ((n, 4)
-    quaternions), back to the latest a whole period ago."""
+    quaternions), back to the latest a whole period ago; once they are steady, where the ground
+    stops."""
 
     bodies: list[int]
     seen: deque[tuple[float, np.ndarray, np.ndarray]] = field(default_factory=deque)
+    stop: tuple[int, str] | None = None  # the step the ground stops at, and why in words
 
 
 def _pusher_start(loop: StepLoop, a: Push) -> tuple[Pose, str, str]:

@@ -344,12 +344,12 @@ class Actions(Subscriber):
         everything on the ground as one rigid body: each body has lain still on the ground for a
         whole period (at each of :data:`STEADY_LOOKS` looks a period, its speeds relative to the
         ground's within :data:`stability.JITTER` times the rest thresholds, as the windowed rest
-        test of a fallen brick allows an engine's jitter), and its pose relative to the ground has changed so
-        little over that period that the periods left would move it by at most
+        test of a fallen brick allows an engine's jitter), and its pose relative to the ground
+        has changed so little over that period that the periods left would move it by at most
         :data:`STEADY_DRIFT` and turn it by at most :data:`STEADY_TURN`; nothing else happens
-        before the shake's end (no hand, no action). The shake's motion is periodic, so
-        a state that repeats over one period repeats over the next; and at the end of each whole
-        period the ground is back where it started, at rest, as the shake's end leaves it, with
+        before the shake's end (no hand, no action). The shake's motion is periodic, so a state
+        that repeats over one period repeats over the next; and at the end of each whole period
+        the ground is back where it started, at rest, as the shake's end leaves it, with
         everything on it where the periods left would bring it back: the ground stops there.
         The bricks a fallen structure left lying on a shaken table were stepped to the shake's
         end (a brick on end toppled by a 3 s shake lay 2.9 s on the table). Source: stackdsl's

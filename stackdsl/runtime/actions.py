@@ -44,7 +44,7 @@ from stability import JITTER, Box, Pose
 from ..compile.actions import REACHES
 from ..compile.clearance import deepest
 from ..compile.overlap import touching
-from ..compile.program import PULL_STEP, Kinematic, Push, Remove, Shake, speed_words
+from ..compile.program import PULL_STEP, Action, Kinematic, Push, Remove, Shake, speed_words
 from .bricks import BrickRecord
 from .loop import StepLoop, Subscriber
 from .outcome import Event
@@ -187,9 +187,12 @@ class Actions(Subscriber):
         peak = a.peak_acceleration
         acceleration = (peak * a.direction[0], peak * a.direction[1])
         why = extension.withstands(acceleration) if acting else "the extension is not acting"
-        rides = acting and why is None and extension.quiet
-        if why is None and not rides:  # the frozen stack would stand, but something moves on it
-            why = _moving(extension.moving)
+        # what else happens before the shake's end: a frozen stack cannot ride it unsimulated then
+        # (a brick thrown mid-shake knocked bricks loose onto a table left still, whatever the phase)
+        during = [b for b in loop.program.actions if a.step < b.step < a.end_step and b.kind != "end"]
+        rides = acting and why is None and extension.quiet and not during
+        if why is None and not rides:  # the frozen stack would stand, but something moves on it or comes
+            why = _moving(extension.moving) if extension.moving or not during else _coming(during[0])
         detail = f"{a.amplitude * 1000:.3g} mm at {a.frequency:.3g} Hz, peak {peak:.3g} m/s^2: " + (
             "the frozen stack stands under gravity tilted by it and rides the table"
             if rides
@@ -200,8 +203,7 @@ class Actions(Subscriber):
             return
         self._every = max(1, int(1.0 / (a.frequency * loop.dt * STEADY_LOOKS)))
         # the steady state is asked once no other action is to come before the shake's end
-        during = [b.step for b in loop.program.actions if a.step < b.step < a.end_step and b.kind != "end"]
-        self._quiet_from = max(during, default=a.step)
+        self._quiet_from = max((b.step for b in during), default=a.step)
         if acting:
             extension.admitting = False
             reason = f"the ground shakes at {peak:.3g} m/s^2: {why}"
@@ -517,6 +519,23 @@ def _blocked(loop: StepLoop, a: Push, pose: Pose) -> str | None:
     if inside is None:
         return None
     return f"its pusher would start {inside[1] * 1000:.3g} mm inside {inside[0]}"
+
+
+def _coming(action: Action) -> str:
+    """Why a shake the frozen stack would withstand is simulated all the same: an action comes
+    before its end.
+
+    >>> from stackdsl.compile.program import End
+    >>> _coming(End(step=2400, time=10.0))
+    'the end comes at t=10.000 s, before it ends'
+    """
+    noun = {"launch": "impact", "remove": "pull", "place": "placing of"}.get(action.kind, action.kind)
+    what = getattr(action, "id", None)
+    return (
+        f"{noun} {what} comes at t={action.time:.3f} s, before it ends"
+        if what
+        else f"the {noun} comes at t={action.time:.3f} s, before it ends"
+    )
 
 
 def _moving(labels: tuple[str, ...], shown: int = 3) -> str:

@@ -884,7 +884,7 @@ def test_compare_prints_a_block_per_scenario_and_a_row_per_mode(tmp_path, capsys
 
 def test_compare_refuses_a_sweep_past_its_budget_as_bad_input(tmp_path, capsys):
     """A sweep whose runs cannot end within --timeout is bad input in every mode (exit 2, the
-    sweep's field named), not a cell "beyond the engine" of an otherwise passing table."""
+    sweep's field named), not a refused cell of an otherwise passing table."""
     sweep = (
         "stackdsl: 1\nstructure: {tower: {levels: 3, bricks_per_layer: 1, turn: 0,"
         " shift: {uniform: [-10 mm, 10 mm], per: layer}}}\nsweep: {samples: 2000}\n"
@@ -894,7 +894,7 @@ def test_compare_refuses_a_sweep_past_its_budget_as_bad_input(tmp_path, capsys):
     captured = capsys.readouterr()
     assert code == 2, captured
     assert "sweep.samples" in captured.err and "this sweep makes 2000 runs" in captured.err
-    assert "beyond the engine" not in captured.out + captured.err
+    assert "refused (why" not in captured.out + captured.err
 
 
 DOMINOES = """stackdsl: 1
@@ -1706,7 +1706,7 @@ def test_every_shipped_scenario_whose_run_raises_is_its_own_row_and_the_check_go
     hard = shipped / "hard"
     assert main(["compare", str(hard), "-j", "1", "--modes", "raw,extension"]) == 3
     out = capsys.readouterr().out.splitlines()
-    cells = [line for line in out if "FAIL internal error" in line or "refused (beyond the engine)" in line]
+    cells = [line for line in out if "FAIL internal error" in line or "refused (why: below the table)" in line]
     assert len(cells) == 2 * len(list(hard.glob("*.yaml"))) and not any("PASS" in line for line in out)  # a row a cell
     # sweep: every sample's run raises, every cell is still reported
     monkeypatch.setattr(_sweep, "run_program", broken)

@@ -299,7 +299,7 @@ def test_compare_shows_a_mode_beyond_the_restitution_it_holds_as_refused(tmp_pat
     path.write_text(BOUNCY % ("0.75", "pybullet", "tuned"))
     assert main(["compare", str(path), "--modes", "raw,tuned,extension", "-j", "1"]) == 0
     said = capsys.readouterr()
-    assert said.out.count("refused (beyond the engine)") == 2  # raw (0.6) and extension (0.7); tuned (0.8) runs
+    assert said.out.count("refused (why: below the table)") == 2  # raw (0.6) and extension (0.7); tuned (0.8) runs
     assert (said.out + said.err).count("restitution 0.75 is more than pybullet simulates faithfully in raw mode") == 1
     assert (said.out + said.err).count("restitution 0.75 is more than pybullet simulates faithfully in extension mode") == 1
 

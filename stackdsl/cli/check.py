@@ -308,7 +308,7 @@ def compare_command(args: argparse.Namespace) -> int:
                 lines.line(
                     f"[{len(done)}/{len(prepared) + len(refused)}] {Path(r.file).stem} {r.backend} {r.mode}: "
                     + (
-                        "refused (beyond the engine; why is said after the table)"  # said once, there
+                        "refused (why is said after the table)"  # said once, there
                         if r.refused
                         else f"SKIP: {r.skipped}"
                         if r.skipped
@@ -443,8 +443,9 @@ def _verdict(c: CheckResult) -> str:
     return "" if c.refused else c.verdict
 
 
-#: A refused cell of compare's table: the engine or mode does not simulate the file faithfully.
-REFUSED = "refused (beyond the engine)"
+#: A refused cell of compare's table: the engine or mode refused the file (beyond what it simulates
+#: faithfully, or a time off its step grid): why is said after the table.
+REFUSED = "refused (why: below the table)"
 
 
 def _status(done: list[CheckResult], debug: bool) -> int:

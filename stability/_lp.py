@@ -46,6 +46,10 @@ _STATUS = {
 
 _DEADLINE: ContextVar[float | None] = ContextVar("stability_lp_deadline", default=None)
 
+SIMPLEX_SECONDS = 2.0
+"""Seconds HiGHS's simplex may take on one program before it is solved again by the interior
+point method (the stability model's programs take milliseconds)."""
+
 
 class OutOfTime(Exception):
     """A program of a :func:`within` scope was asked, or still being solved, past its deadline:
@@ -174,7 +178,6 @@ class LinearProgram:
             self._solver.setOptionValue("presolve", "off")
         self._solver.passModel(lp)
         self._equalities = equalities
-        self._limited = False  # a time limit set for a scope's deadline (:func:`within`)
 
     def set_column(self, column: int, rows: list[int] | np.ndarray, values: list[float] | np.ndarray) -> None:
         """Set the coefficients of ``column`` in ``rows`` to ``values`` (the next :meth:`solve`
@@ -185,27 +188,39 @@ class LinearProgram:
             self._solver.changeCoeff(int(row), int(column), float(value))
 
     def solve(self) -> Solution:
-        """Solve the program as it is now. Raises :class:`OutOfTime` in a :func:`within` scope
-        whose deadline has passed, or passes while HiGHS solves it."""
+        """Solve the program as it is now: by HiGHS's choice of method (the dual simplex), and
+        when that has not finished in :data:`SIMPLEX_SECONDS`, again by its interior point
+        method. Raises :class:`OutOfTime` in a :func:`within` scope whose deadline has passed,
+        or passes while HiGHS solves it."""
         solver = self._solver
         deadline = _DEADLINE.get()
-        if deadline is not None:
-            left = deadline - time.perf_counter()
-            if left <= 0.0:
-                raise OutOfTime(f"a linear program asked {-left:.1f} s past its deadline")
-            solver.setOptionValue("time_limit", left)
-            self._limited = True
-        elif self._limited:
-            solver.setOptionValue("time_limit", kHighsInf)
-            self._limited = False
+        solver.setOptionValue("time_limit", min(self._left(deadline), SIMPLEX_SECONDS))
         solver.run()
-        if deadline is not None and solver.getModelStatus() == HighsModelStatus.kTimeLimit:
-            raise OutOfTime("a linear program ran past its deadline")
+        if solver.getModelStatus() == HighsModelStatus.kTimeLimit:
+            # a program of 246 rows, badly scaled by contacts microns apart, kept the simplex
+            # pivoting for minutes; the interior point method said it infeasible in 0.02 s
+            solver.setOptionValue("solver", "ipm")
+            solver.setOptionValue("time_limit", self._left(deadline))
+            solver.run()
+            solver.setOptionValue("solver", "choose")
+            if solver.getModelStatus() == HighsModelStatus.kTimeLimit:
+                raise OutOfTime("a linear program ran past its deadline")
         status = _STATUS.get(solver.getModelStatus(), OTHER)
         solution = solver.getSolution()
         x = np.asarray(solution.col_value, dtype=float)
         duals = np.asarray(solution.row_dual, dtype=float)[: self._equalities]
         return Solution(status, x, float(solver.getInfo().objective_function_value), duals)
+
+    @staticmethod
+    def _left(deadline: float | None) -> float:
+        """Seconds left until ``deadline`` (HiGHS's infinity for none). Raises :class:`OutOfTime`
+        once it has passed."""
+        if deadline is None:
+            return float(kHighsInf)
+        left = deadline - time.perf_counter()
+        if left <= 0.0:
+            raise OutOfTime(f"a linear program asked {-left:.1f} s past its deadline")
+        return left
 
 
 def solve(

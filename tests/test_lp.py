@@ -117,3 +117,32 @@ def test_an_inequality_needs_its_matrix_and_its_bound_and_a_changed_column_finit
     program = LinearProgram(np.ones(2), np.ones((1, 2)), np.ones(1))
     with pytest.raises(ValueError, match="must be finite"):
         program.set_column(0, [0], [np.nan])
+
+
+def test_a_program_the_simplex_does_not_finish_in_time_is_solved_by_the_interior_point_method(monkeypatch):
+    """A program of 246 rows whose contacts lay microns apart kept HiGHS's simplex pivoting for
+    minutes (a tuned MuJoCo tower's stand took 395 s to certify); past SIMPLEX_SECONDS the
+    program is solved again by the interior point method, and the solver goes back to HiGHS's
+    choice for the next solve. Here the simplex is given no time at all."""
+    from stability import _lp
+
+    cost, a, b = _random_program(3, rows=60, columns=200)
+    program = LinearProgram(cost, a, b)
+    runs: list[str] = []
+    solver = program._solver
+
+    class Watched:
+        def __getattr__(self, name):
+            return getattr(solver, name)
+
+        def run(self):
+            runs.append(solver.getOptionValue("solver")[1])
+            return solver.run()
+
+    program._solver = Watched()
+    monkeypatch.setattr(_lp, "SIMPLEX_SECONDS", 0.0)
+    ours = program.solve()
+    theirs = linprog(cost, A_eq=a, b_eq=b, bounds=(0, None), method="highs")
+    assert runs == ["choose", "ipm"]
+    assert ours.status == OPTIMAL and ours.fun == pytest.approx(theirs.fun, rel=1e-7)
+    assert solver.getOptionValue("solver")[1] == "choose"

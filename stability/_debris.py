@@ -276,7 +276,7 @@ class Debris:
         stack, with ``group`` as free blocks, must stand (:meth:`_held_with`). Without that, a
         fallen domino that equilibrium held leaning back on the one before it failed the rule
         once the pile beyond it froze and changed its load, and every later pile of the row
-        was refused: 13 dominoes of a 20 row on MuJoCo stayed in the engine, at rest, for 2 s.
+        was refused: 13 dominoes of a 20 row stayed in the engine, at rest, for 2 s.
         Always True with the equilibrium model (its stack test is the equilibrium that
         :func:`stability.leaning_stands` checks)."""
         stack = self.stack

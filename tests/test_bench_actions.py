@@ -86,6 +86,34 @@ structure: {tower: {levels: 2, bricks_per_layer: 2, spacing: 96 mm, turn: 90, br
     assert 'friction="0.5 0.005 0.0001" solref' in one and "priority" not in one
 
 
+def test_the_peers_bricks_of_two_materials_touch_with_their_pair_friction():
+    """An ice brick lying on a pine one, the table shaken at 3.16 m/s^2: the pair slips at 2.19
+    (sqrt(0.5 * 0.1) g). MuJoCo's own rule took the larger coefficient (0.5), and the peer's top
+    brick stood where the extension and both tuned engines slid it 132 to 139 mm off the end.
+    Each two bodies of different materials now touch as an explicit pair of the geometric mean,
+    their own contact excluded; with the table and the plane under it too."""
+    text = """stackdsl: 1
+engine: {backend: mujoco}
+materials: {ice: {density: 460 kg/m^3, friction: 0.1}}
+brick_types: {icy: {size: [120 mm, 24 mm, 8 mm], material: ice}}
+structure:
+  bricks:
+    - {id: base, at: [0, 0, 4 mm]}
+    - {id: top, at: [40 mm, 0, 12 mm], brick: icy}
+actions:
+  - shake: {amplitude: 80 mm, frequency: 1 Hz, duration: 4 s, direction: [1, 0], at: after level 2}
+"""
+    program = program_for(text, "t.yaml", "MuJoCo lean")
+    said = mjcf(program)
+    pair = math.sqrt(0.5 * 0.1)
+    assert f'<pair geom1="g base" geom2="g top" friction="{pair} {pair} ' in said
+    assert '<exclude body1="base" body2="top"/>' in said and '<exclude body1="table" body2="top"/>' in said
+    assert '<exclude body1="table" body2="base"/>' not in said  # of the ground's own coefficient
+    slid = run_lean(program, settle=None)
+    assert slid.moved["top"] > 0.1 and slid.moved["base"] < 0.001, slid.moved
+    assert "<contact>" not in mjcf(program_for(text.replace("brick: icy", "brick: kapla"), "t.yaml", "MuJoCo lean"))
+
+
 def test_the_peer_pushes_a_row_over_and_pulls_a_block_out():
     row = program_for(tiny("4 dominoes").text, "t.yaml", "MuJoCo lean")
     pushed = run_lean(row, settle=None)

@@ -53,6 +53,7 @@ Source: stackdsl's own, on MuJoCo 4.0's Python bindings (``MjModel.from_xml_stri
 
 from __future__ import annotations
 
+import itertools
 import math
 import time
 from dataclasses import dataclass
@@ -111,19 +112,19 @@ def mjcf(program: Program, tolerance: float | None = None) -> str:
         hx, hy, hz = _TABLE_HALF
         bodies.append(
             f'<body name="table" pos="0 0 {-hz}"><joint name="table_x" type="slide" axis="1 0 0"/>'
-            f'<joint name="table_y" type="slide" axis="0 1 0"/><geom type="box" size="{hx} {hy} {hz}" mass="{_TABLE_MASS}" '
+            f'<joint name="table_y" type="slide" axis="0 1 0"/><geom name="table" type="box" size="{hx} {hy} {hz}" mass="{_TABLE_MASS}" '
             f'contype="1" conaffinity="1" {ground}/></body>'
         )
-        bodies.append(f'<geom type="plane" size="0 0 1" pos="0 0 {_BELOW}" contype="2" conaffinity="2" {ground}/>')
+        bodies.append(f'<geom name="below" type="plane" size="0 0 1" pos="0 0 {_BELOW}" contype="2" conaffinity="2" {ground}/>')
     else:
-        bodies.append(f'<geom type="plane" size="0 0 1" {ground}/>')
+        bodies.append(f'<geom name="ground" type="plane" size="0 0 1" {ground}/>')
     kinds = ' contype="3" conaffinity="3"' if table else ""
     for k, p in enumerate(program.placements):
         hx, hy, hz = p.brick.half_extents
         x, y = _PARK + [_SLOT * k, 0.0]
         bodies.append(
             f'<body name="{p.id}" pos="{x} {y} {wait + hz}"><freejoint/>'
-            f'<geom type="box" size="{hx} {hy} {hz}" mass="{p.brick.mass}" friction="{p.brick.friction} 0.005 0.0001" '
+            f'<geom name="g {p.id}" type="box" size="{hx} {hy} {hz}" mass="{p.brick.mass}" friction="{p.brick.friction} 0.005 0.0001" '
             f"{contact}{kinds}/></body>"
         )
     for k, a in enumerate(a for a in program.actions if isinstance(a, Push)):
@@ -131,14 +132,42 @@ def mjcf(program: Program, tolerance: float | None = None) -> str:
         x, y = _PARK + [_SLOT * k, -_SLOT]
         bodies.append(
             f'<body name="hand {a.id}" pos="{x} {y} 1" gravcomp="1"><freejoint/>'
-            f'<geom type="box" size="{hx} {hy} {hz}" mass="{_HAND_MASS}" friction="{a.brick.friction} 0.005 0.0001" '
+            f'<geom name="g hand {a.id}" type="box" size="{hx} {hy} {hz}" mass="{_HAND_MASS}" friction="{a.brick.friction} 0.005 0.0001" '
             f"{contact}{kinds}/></body>"
         )
     return (
         f'<mujoco><option timestep="{e.timestep}" iterations="{e.solver_iterations}" cone="{cone}" '
         f'impratio="{e.impratio}" integrator="{e.integrator}" gravity="0 0 {-e.gravity}"{sleep}{solver}>{flags}</option>'
-        f"<worldbody>{''.join(bodies)}</worldbody></mujoco>"
+        f"<worldbody>{''.join(bodies)}</worldbody>{_pairs(program, contact, mu)}</mujoco>"
     )
+
+
+def _pairs(program: Program, contact: str, ground: float) -> str:
+    """The MJCF ``contact`` element for a scene of bricks (and pushers) of more than one
+    material: each two bodies of different coefficients collide as an explicit pair with
+    stackdsl's pair rule, the geometric mean of the two (``stackdsl.engines.mujoco.materials``),
+    their own contact excluded (MuJoCo would take the larger); with the ground or the table too
+    when a brick's coefficient differs from the one the ground's priority gives. Empty for one
+    material. An ice brick on a pine stack, shaken, stood on the peer at the pine's 0.5 where the
+    extension and both tuned engines slid it off."""
+    own = [(f"g {p.id}", p.id, p.brick.friction) for p in program.placements]
+    own += [(f"g hand {a.id}", f"hand {a.id}", a.brick.friction) for a in program.actions if isinstance(a, Push)]
+    if len({mu for _, _, mu in own}) < 2:
+        return ""
+    pairs, excluded = [], []
+    for (g1, b1, m1), (g2, b2, m2) in itertools.combinations(own, 2):
+        if m1 != m2:
+            pairs.append((g1, g2, math.sqrt(m1 * m2)))
+            excluded.append((b1, b2))
+    floors = [("table", "table"), ("below", "world")] if program.shakes else [("ground", "world")]
+    for geom, body, mu in own:
+        if mu != ground:
+            for floor, holder in floors:
+                pairs.append((floor, geom, math.sqrt(mu * program.ground_friction)))
+                excluded.append((holder, body))
+    said = [f'<pair geom1="{g1}" geom2="{g2}" friction="{m} {m} 0.005 0.0001 0.0001" {contact}/>' for g1, g2, m in pairs]
+    said += [f'<exclude body1="{b1}" body2="{b2}"/>' for b1, b2 in excluded]
+    return f"<contact>{''.join(said)}</contact>"
 
 
 def _ground_friction(program: Program) -> float:

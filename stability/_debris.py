@@ -153,12 +153,9 @@ class Debris:
         stack = self.stack
         if stack.config.model != "equilibrium" or len(group) < max(2, len(stack.frozen)):
             return None
-        frozen = {r.body: RigidBlock(r.box.mass, stack.pose(r).position) for r in stack.in_order()}
+        frozen = self._frozen_blocks()
         for _ in range(MAX_TRIMS + 1):
-            blocks = {m.body: RigidBlock(m.box.mass, stack.engine.pose(m.body).position) for m in group}
-            blocks.update(frozen)
-            contacts = [c for cs in polygons.values() for c in cs]
-            contacts += stack.frozen_contacts(blocks)
+            blocks, contacts = self._with_frozen(group, polygons, frozen)
             result = solve_equilibrium(blocks, contacts, gravity=stack.config.gravity)
             if result.stands:
                 return group, polygons
@@ -316,12 +313,22 @@ class Debris:
         """Does rigid-block equilibrium hold the part of the frozen stack that the frozen bricks
         ``failing`` belong to, with ``group`` frozen too (free blocks on ``polygons``), on the
         contacts remembered from the freezes?"""
-        stack = self.stack
-        blocks = {r.body: RigidBlock(r.box.mass, stack.pose(r).position) for r in stack.in_order()}
-        blocks.update((m.body, RigidBlock(m.box.mass, stack.engine.pose(m.body).position)) for m in group)
-        contacts = [c for cs in polygons.values() for c in cs] + stack.frozen_contacts(blocks)
+        blocks, contacts = self._with_frozen(group, polygons, self._frozen_blocks())
         part, on = connected_part(blocks, contacts, failing)
-        return solve_equilibrium(part, on, gravity=stack.config.gravity).stands
+        return solve_equilibrium(part, on, gravity=self.stack.config.gravity).stands
+
+    def _frozen_blocks(self) -> dict[int, RigidBlock]:
+        """Every frozen brick as a free block where it froze."""
+        return {r.body: RigidBlock(r.box.mass, self.stack.pose(r).position) for r in self.stack.in_order()}
+
+    def _with_frozen(
+        self, group: list[Record], polygons: dict[int, list[ContactPolygon[int]]], frozen: dict[int, RigidBlock]
+    ) -> tuple[dict[int, RigidBlock], list[ContactPolygon[int]]]:
+        """The program of ``group`` (free blocks where they lie, on ``polygons``) with the
+        ``frozen`` bricks as free blocks too, on the contacts remembered from their freezes."""
+        blocks = {m.body: RigidBlock(m.box.mass, self.stack.engine.pose(m.body).position) for m in group}
+        blocks.update(frozen)
+        return blocks, [c for cs in polygons.values() for c in cs] + self.stack.frozen_contacts(blocks)
 
     def _part_loads(self, trial: dict[int, LoadNode], loaded: set[int]) -> Loads | None:
         """The loads of the bricks of ``trial`` (body -> its node were it frozen) and of the frozen

@@ -178,6 +178,7 @@ class LinearProgram:
             self._solver.setOptionValue("presolve", "off")
         self._solver.passModel(lp)
         self._equalities = equalities
+        self._limit = float(kHighsInf)  # HiGHS's time limit as last set
 
     def set_column(self, column: int, rows: list[int] | np.ndarray, values: list[float] | np.ndarray) -> None:
         """Set the coefficients of ``column`` in ``rows`` to ``values`` (the next :meth:`solve`
@@ -194,13 +195,13 @@ class LinearProgram:
         or passes while HiGHS solves it."""
         solver = self._solver
         deadline = _DEADLINE.get()
-        solver.setOptionValue("time_limit", min(self._left(deadline), SIMPLEX_SECONDS))
+        self._time_limit(min(self._left(deadline), SIMPLEX_SECONDS))
         solver.run()
         if solver.getModelStatus() == HighsModelStatus.kTimeLimit:
             # a program of 246 rows, badly scaled by contacts microns apart, kept the simplex
             # pivoting for minutes; the interior point method said it infeasible in 0.02 s
             solver.setOptionValue("solver", "ipm")
-            solver.setOptionValue("time_limit", self._left(deadline))
+            self._time_limit(self._left(deadline))
             solver.run()
             solver.setOptionValue("solver", "choose")
             if solver.getModelStatus() == HighsModelStatus.kTimeLimit:
@@ -210,6 +211,13 @@ class LinearProgram:
         x = np.asarray(solution.col_value, dtype=float)
         duals = np.asarray(solution.row_dual, dtype=float)[: self._equalities]
         return Solution(status, x, float(solver.getInfo().objective_function_value), duals)
+
+    def _time_limit(self, seconds: float) -> None:
+        """HiGHS's time limit for the next run, set only when it changes (a program is solved
+        thousands of times in a run, mostly with no deadline)."""
+        if seconds != self._limit:
+            self._solver.setOptionValue("time_limit", seconds)
+            self._limit = seconds
 
     @staticmethod
     def _left(deadline: float | None) -> float:

@@ -150,8 +150,7 @@ def _pairs(program: Program, contact: str, ground: float) -> str:
     when a brick's coefficient differs from the one the ground's priority gives. Empty for one
     material. An ice brick on a pine stack, shaken, stood on the peer at the pine's 0.5 where the
     extension and both tuned engines slid it off."""
-    own = [(f"g {p.id}", p.id, p.brick.friction) for p in program.placements]
-    own += [(f"g hand {a.id}", f"hand {a.id}", a.brick.friction) for a in program.actions if isinstance(a, Push)]
+    own = _bodies(program)
     if len({mu for _, _, mu in own}) < 2:
         return ""
     pairs, excluded = [], []
@@ -170,6 +169,12 @@ def _pairs(program: Program, contact: str, ground: float) -> str:
     return f"<contact>{''.join(said)}</contact>"
 
 
+def _bodies(program: Program) -> list[tuple[str, str, float]]:
+    """Each brick's and pusher's geom name, body name and friction coefficient in the MJCF."""
+    own = [(f"g {p.id}", p.id, p.brick.friction) for p in program.placements]
+    return own + [(f"g hand {a.id}", f"hand {a.id}", a.brick.friction) for a in program.actions if isinstance(a, Push)]
+
+
 def _ground_friction(program: Program) -> float:
     """The ground geom's friction coefficient, which its ``priority`` makes MuJoCo use for every
     contact with it (its own rule takes the larger of two geoms'): stackdsl's pair rule, the
@@ -177,8 +182,7 @@ def _ground_friction(program: Program) -> float:
     brick and pusher is of one material; the ground's own otherwise. Pine bricks on an ice
     ground, shaken at 1.5 times their pair's slide threshold, stood on the peer at the pine's
     0.5 (the extension and both tuned engines slid them 4 to 6 mm)."""
-    frictions = {p.brick.friction for p in program.placements}
-    frictions |= {a.brick.friction for a in program.actions if isinstance(a, Push)}
+    frictions = {mu for _, _, mu in _bodies(program)}
     if len(frictions) != 1 or frictions == {program.ground_friction}:
         return program.ground_friction
     (brick,) = frictions

@@ -142,13 +142,16 @@ def _leaning(stack: Stack, frozen: list[Record], sideways: tuple[float, float], 
     if not steep:
         return None
     part, polygons = connected_part(blocks, contacts, steep)
-    found = solve_equilibrium(part, bare_contacts(polygons), gravity=gravity, quick=False, sideways=sideways)
+    margin = stack.config.leaning_margin
+    asked = (margin * sideways[0], margin * sideways[1])
+    found = solve_equilibrium(part, bare_contacts(polygons), gravity=gravity, quick=False, sideways=asked)
     if found.stands:
         return None
     moved = [stack.bodies[b].label for b in stack.ordered(found.moving())]
     a = math.hypot(*sideways)
     return (
-        f"{', '.join(moved[:4])}{', ...' if len(moved) > 4 else ''} would move: under a = {a:.3g} m/s^2 "
+        f"{', '.join(moved[:4])}{', ...' if len(moved) > 4 else ''} would move: under "
+        f"{f'{margin:g} x a = {margin * a:.3g} m/s^2 (a margin for what leans)' if margin != 1.0 else f'a = {a:.3g} m/s^2'} "
         f"rigid-block equilibrium of what leans fails by {found.tension:.3g} N"
     )
 
@@ -167,8 +170,9 @@ def sliding_parts(
     own acceleration is under that, and it slides on the ground otherwise. It moves as one rigid
     body when, in its own frame, rigid-block equilibrium holds every brick on its contacts under
     the weight and the inertial force of ``a_s`` either way (d'Alembert: gravity tilted to
-    ``(-+a_s, -g)``; :func:`stability.solve_equilibrium` with ``sideways``): no contact slips,
-    opens or tips. Each contact's friction pyramid reaches its cone along the shake (:data:`ROOM`),
+    ``(-+a_s, -g)``; :func:`stability.solve_equilibrium` with ``sideways``;
+    :attr:`stability.StabilityConfig.leaning_margin` times ``a_s`` for a part with a contact that
+    is not level): no contact slips, opens or tips. Each contact's friction pyramid reaches its cone along the shake (:data:`ROOM`),
     since a sliding part loads the ground's contact, and every contact above of the same
     coefficient, at exactly its limit (Coulomb's law gives each layer the acceleration of the one
     under it); between its edges the pyramid lies inside the cone.
@@ -233,12 +237,15 @@ def _why_not(
     tips = _tips_whole(blocks, [c for c in polygons if c.other == floor.body], (ax, ay), gravity)
     if tips is not None:  # a necessary condition, without the program: the part as one block
         return f"at {carried:.3g} m/s^2 {tips}", carried
+    scale = stack.config.leaning_margin if any(not is_level(c) for c in polygons) else 1.0
+    said = f"at {carried:.3g} m/s^2" if scale == 1.0 else f"at {scale:g} x {carried:.3g} m/s^2 (a margin for what leans)"
     for sign in (1.0, -1.0):
-        found = solve_equilibrium(blocks, polygons, gravity=gravity, quick=False, sideways=(-sign * ax, -sign * ay))
+        sideways = (-sign * scale * ax, -sign * scale * ay)
+        found = solve_equilibrium(blocks, polygons, gravity=gravity, quick=False, sideways=sideways)
         if not found.stands:
             moved = [stack.bodies[b].label for b in stack.ordered(found.moving())]
             return (
-                f"at {carried:.3g} m/s^2 rigid-block equilibrium fails by {found.tension:.3g} N "
+                f"{said} rigid-block equilibrium fails by {found.tension:.3g} N "
                 f"({', '.join(moved[:4])}{', ...' if len(moved) > 4 else ''} would move)"
             ), carried
     return None, carried

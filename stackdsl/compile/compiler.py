@@ -513,7 +513,13 @@ def assemble(state: Compilation) -> Compilation:
         engine=engine,
         ground_friction=ground.friction,
         ground_restitution=ground.restitution,
-        stability=StabilityConfig(**settings, gravity=engine.gravity, leaning=on["leaning"], impacts=on["impacts"]),
+        stability=StabilityConfig(
+            **settings,
+            gravity=engine.gravity,
+            leaning=on["leaning"],
+            impacts=on["impacts"],
+            leaning_margin=engine.LEANING_MARGIN,
+        ),
         rules=rules,
         fixtures=tuple(
             Fixture(id=b.id, brick=state.specs[b.type], position=tuple(b.position), yaw=b.yaw, pitch=b.pitch, roll=b.roll)

@@ -121,6 +121,10 @@ class EngineSettings(_Frozen):
     #: Metres a brick is placed into what will carry it: about how far one sinks at rest on
     #: this engine, so that its first step meets the whole contact patch (0: at zero distance).
     SEAT: ClassVar[float] = 0.0
+    #: Times a shake's acceleration under which a frozen part that leans must stand to be kept
+    #: frozen (:attr:`stability.StabilityConfig.leaning_margin`): how far rigid-block equilibrium,
+    #: on the geometry this engine settled, may be trusted to hold what the engines hold.
+    LEANING_MARGIN: ClassVar[float] = 1.5
     #: The engine's name in messages, and what it simulates faithfully.
     NAME: ClassVar[str] = "the engine"
     LIMITS: ClassVar[Limits] = Limits(min_side=0.0, max_speed=math.inf, max_speed_no_substeps=math.inf, max_mass_ratio=math.inf)

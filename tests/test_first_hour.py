@@ -93,6 +93,7 @@ def test_a_collapse_with_no_brick_past_the_threshold_at_the_end_says_so(end_mm, 
     outcome = SimpleNamespace(
         collapse=SimpleNamespace(level=8, brick="L08.3", brick_level=8),
         certificate=SimpleNamespace(verdict="collapse"),
+        margin=None,  # how far past its limit it was decided: unknown here (a near tie: the next test)
         displacement={"L07.3": 0.00355, "L08.3": end_mm / 1000},
         final_graph=SimpleNamespace(nodes=[SimpleNamespace(id="L07.3", level=7), SimpleNamespace(id="L08.3", level=8)]),
     )
@@ -113,6 +114,49 @@ def test_a_collapse_with_no_brick_past_the_threshold_at_the_end_says_so(end_mm, 
     )
     assert row.measured == f"collapse 8 from L08.3 (level 8), {said}"
     assert describe_outcome(SimpleNamespace(**{**vars(outcome), "collapse": None}), 0.004).startswith("stands")
+
+
+def test_a_collapse_decided_a_hair_past_its_limit_says_it_is_a_near_tie():
+    """A new user's flat wall stood with one brick slid 4.005 mm, 0.005 mm past the 4 mm threshold:
+    run and check said "collapse 8 from L02.2 (level 2), level 2 moved", a fall, where compare's
+    cell said "a near tie". All three say it now; a collapse a millimetre past, or decided on a
+    brick that ended far off, does not."""
+    from types import SimpleNamespace
+
+    from stackdsl.verdicts.check_result import CheckResult
+    from stackdsl.verdicts.expect import describe_outcome
+
+    def said(margin: float, ended_mm: float) -> tuple[str, str]:
+        outcome = SimpleNamespace(
+            collapse=SimpleNamespace(level=8, brick="L02.2", brick_level=2),
+            certificate=SimpleNamespace(verdict="collapse"),
+            margin=margin,
+            displacement={"L02.2": ended_mm / 1000, "L03.1": 0.001},
+            final_graph=SimpleNamespace(nodes=[SimpleNamespace(id="L02.2", level=2), SimpleNamespace(id="L03.1", level=3)]),
+        )
+        row = CheckResult(
+            "w.yaml",
+            "w",
+            "extension",
+            "report",
+            (),
+            8,
+            8,
+            19.0,
+            1.0,
+            first_moved="L02.2",
+            first_moved_level=2,
+            moved_levels=moved_levels(outcome, 0.004),
+            margin=margin,
+            first_moved_ended=ended_mm / 1000,
+            threshold=0.004,
+        )
+        return describe_outcome(outcome, 0.004), row.measured
+
+    near = "collapse 8 from L02.2 (level 2), level 2 moved, 0.0 mm past its limit, a near tie"
+    assert said(-5e-6, 4.005) == (near, near)
+    assert "near tie" not in " ".join(said(-0.002, 4.005))  # decided 2 mm past its limit
+    assert "near tie" not in " ".join(said(-5e-6, 12.0))  # the brick ended 8 mm past the threshold
 
 
 # 7. the engine in every output: check's rows, its JSON, JUnit XML, compare, the report

@@ -35,7 +35,7 @@ from ..compile.compiler import BACKEND_DEFAULTS, MODE_DEFAULTS
 from ..draw.artefacts import FILES, folder_name
 from ..lang.errors import ScenarioError
 from ..verdicts.check_result import CheckResult
-from ..verdicts.expect import describe, millimetres
+from ..verdicts.expect import describe, millimetres, near_tie
 from .args import BAD_INPUT, FAILED, HINT, INTERNAL, OK
 from .outputs import Input, Output, check_default_golden, check_outputs, odd_files
 from .progress import Lines, Remaining, is_live
@@ -488,7 +488,7 @@ def _cell(r: CheckResult) -> str:
     (:data:`SHOWN_DRIFT`: ``stands, moved 7.1 mm at most``), where the brick a collapse is named
     after ended when that is within :data:`SHOWN_ENDED` thresholds (``collapse 7 from L06.1, which
     ended 10.5 mm from its place``), how little past its limit a collapse
-    was decided under :data:`SHOWN_PAST` (``collapse 9 from L03.1, 0.5 mm past its limit, a near
+    was decided under :data:`stackdsl.verdicts.expect.NEAR_TIE` (``collapse 9 from L03.1, 0.5 mm past its limit, a near
     tie``), that a run ended still moving judged
     nothing (an undecided run read "INCONCLUSIVE stands" of a card house lying 90 mm from its
     place), or what went wrong."""
@@ -515,10 +515,8 @@ def _cell(r: CheckResult) -> str:
     # and where the brick it is named after ended (a proof decided as a knocked brick's centre of
     # mass crossed its support's edge is 0.5 mm past it, and the brick lay on the ground)
     ended = r.first_moved_ended if r.collapse_level is not None and r.first_moved else None
-    if ended is not None and r.margin is not None and r.threshold is not None:
-        past = max(-r.margin, ended - r.threshold)
-        if past < SHOWN_PAST:
-            near = [f"{max(past, 0.0) * 1000:.1f} mm past its limit, a near tie"]
+    if tie := near_tie(r.margin, ended, r.threshold):
+        near = [tie]
     # which brick moved first, and where it ended when that was near: cells that agree on the
     # level may not on where the collapse began, and a block dragged 10.5 mm in a tower that
     # stands read as a fall
@@ -533,7 +531,3 @@ SHOWN_DRIFT = 0.001
 #: Times the collapse threshold under which compare's cell says where the brick a collapse is
 #: named after ended (``collapse 7 from L06.1, which ended 10.5 mm from its place``): dragged, not fallen.
 SHOWN_ENDED = 3.0
-#: Metres past its limit (:attr:`stackdsl.Outcome.margin`, and where the brick it is named after
-#: ended: :attr:`CheckResult.first_moved_ended`) under which compare's cell says how near a collapse came
-#: to standing (1 mm).
-SHOWN_PAST = 0.001

@@ -9,7 +9,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from .expect import Verdict, describe, past_words
+from .expect import Verdict, describe, near_tie, past_words
 
 
 @dataclass(frozen=True)
@@ -149,7 +149,8 @@ class CheckResult:
         ``toppled`` verdicts measured, each fact once (a ``moved: 6-12`` that held measured the
         levels the description names; a ``stays`` that failed, "levels 4-8 moved; levels 10-12
         never placed", adds the levels never placed, and "levels 3-8 moved" of levels the
-        description names moved, nothing); the error or what stopped the run when either happened."""
+        description names moved, nothing); how near a tie a collapse was (:func:`stackdsl.verdicts.expect.near_tie`);
+        the error or what stopped the run when either happened."""
         if self.refused:
             return "refused"
         if self.skipped:
@@ -163,6 +164,8 @@ class CheckResult:
             return "undecided: still moving at the end"
         past = past_words(self.collapse_level, self.moved_levels)
         facts = [describe(self.collapse_level, first), *([past] if past is not None else [])]
+        if self.collapse_level is not None and (tie := near_tie(self.margin, self.first_moved_ended, self.threshold)):
+            facts.append(tie)  # a slide 0.005 mm past the threshold read as a fall
         said = set(self.moved_levels)
         for v in self.verdicts:
             if v.name not in ("stays", "moved", "toppled"):

@@ -284,7 +284,26 @@ def describe_outcome(outcome: Outcome, threshold: float) -> str:
         said += f", {past}"
     if c is None and outcome.certificate is not None and outcome.certificate.verdict == "undecided":
         return said.replace("stands", "undecided: still moving at the end", 1)
+    if c is not None and (tie := near_tie(outcome.margin, outcome.displacement.get(c.brick), threshold)):
+        said += f", {tie}"
     return said
+
+
+NEAR_TIE = 0.001
+"""Metres past its limit under which a collapse is said to be a near tie (:func:`near_tie`)."""
+
+
+def near_tie(margin: float | None, ended: float | None, threshold: float | None) -> str:
+    """``"0.0 mm past its limit, a near tie"`` for a collapse decided less than :data:`NEAR_TIE`
+    past its limit (``margin``: the deciding proof's signed margin, m, :attr:`Outcome.margin`)
+    whose first brick also ended less than that past ``threshold`` (``ended``: m from its place);
+    else "" (and when any is unknown). A new user read "collapse 8 from L02.2, level 2 moved" of
+    a wall that stood with one brick slid 4.0 mm against a 4 mm threshold as a fall: run's,
+    check's and compare's words say it alike."""
+    if margin is None or ended is None or threshold is None:
+        return ""
+    past = max(-margin, ended - threshold)
+    return f"{max(past, 0.0) * 1000:.1f} mm past its limit, a near tie" if past < NEAR_TIE else ""
 
 
 NONE_PAST = "no brick past the threshold at the end"

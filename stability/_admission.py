@@ -275,7 +275,7 @@ class Admission:
             if len(group) > 2:
                 # the debris rule's (stability._debris): a brick still ringing, frozen with its pile, whose
                 # motion as a whole is under the rest thresholds
-                still = "at rest" if self.stack.rested(m, time) else "creeping in a pile at rest"
+                still = "at rest" if self.stack.rested(m, time) else "still creeping, in a pile at rest as a whole"
                 together = f"{still}, one of {len(group)} touching bricks frozen together"
                 reason = f"{together}; together they touch {on}" if m is rec else f"{together}, with {on}"
             else:

@@ -268,7 +268,7 @@ def test_a_heap_at_rest_as_a_whole_is_frozen_with_the_bricks_that_still_creep(ca
     assert outcome.collapse is not None
     piles = [e for e in outcome.events if e.kind == "freeze" and e.time > outcome.collapse.time and "frozen together" in e.detail]
     big = [e for e in piles if int(re.search(r"one of (\d+)", e.detail).group(1)) >= 35]
-    creeping = [e for e in big if e.detail.startswith("creeping in a pile at rest, one of")]
+    creeping = [e for e in big if e.detail.startswith("still creeping, in a pile at rest as a whole, one of")]
     assert len(big) >= 35 and len({e.time for e in big}) == 1
     assert 0 < len(creeping) < len(big)
     assert big[0].time - outcome.collapse.time < 0.9

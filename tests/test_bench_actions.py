@@ -170,7 +170,7 @@ def test_the_table_marks_a_side_that_disagrees_and_says_how_it_was_timed():
         Cell("s", "extension", 0.5, (0.4, 0.5, 0.6), True, "stands", True),
         Cell("s", "MuJoCo lean", 5.0, (5.0, 5.0, 5.1), False, "stands: collapse at level 3", True),
     ]
-    table = format_cells(cells, 3, reference="extension")
+    table = format_cells(cells, 3)
     assert "| s | extension | PASS: stands | 0.50 | 0.40 0.50 0.60 | 10.0 |" in table
     assert "FAIL (disagrees with the expectation): stands: collapse at level 3" in table
     assert "3 run(s) in rounds, each in a fresh process" in table
@@ -193,7 +193,12 @@ def test_the_table_ends_with_each_sides_overall_ratio():
         "overall, extension: 9.00 s of the peer's over 3.00 s = 3.0x summed, 2.0x the geometric mean of 2 rows; 1 of 2 PASS",
         "overall, MuJoCo lean: 2 of 2 PASS",
     ]
-    assert overall(cells)[0] in format_cells(cells, 1, reference="extension")
+    assert overall(cells)[0] in format_cells(cells, 1)
+    # a row the peer could not run (a projectile) is counted apart: a new user read "9 of 9 PASS"
+    # above a check that said "9 passed, 1 failed"
+    cells.append(Cell("thrown", "extension", 0.5, (0.5,), False, "stays: levels 4-9 moved", True))
+    cells.append(Cell("thrown", "MuJoCo lean", 0.0, (0.0,), None, "no projectiles", True))
+    assert overall(cells)[0].endswith("1 of 2 PASS (and 0 of 1 PASS where the peer did not run)")
 
 
 def test_a_cell_runs_in_a_fresh_process_on_each_side():
@@ -256,6 +261,18 @@ def test_the_folder_bench_times_the_check(tmp_path):
     (one, auto) = check_times(tmp_path, ("1", "auto"), repeats=1)
     assert one.exit_code == auto.exit_code == 0 and one.wall > 0 and auto.jobs == "auto"
     assert one.summary.startswith("1 scenarios: 1 passed")
+
+
+def test_a_folder_check_that_refuses_its_input_says_why_under_the_table(tmp_path):
+    """A new user's folder with refused files read exit code 2 and an empty last line, over a time
+    that measured the refusal: the refusal's words (on stderr) are shown, and a note says so."""
+    from stackdsl.bench.actions import check_times, format_check_times
+
+    (tmp_path / "bad.yaml").write_text("stackdsl: 1\nstructure: {tower: {levels: -2}}\n", encoding="utf-8")
+    (one,) = check_times(tmp_path, ("1",), repeats=1)
+    assert one.exit_code == 2 and one.summary, one
+    table = format_check_times([one], tmp_path, 1)
+    assert "exit code 2: check refused bad input" in table and one.summary.replace("|", "/") in table
 
 
 def test_the_scenes_run_in_the_order_given(monkeypatch, capsys):

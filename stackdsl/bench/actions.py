@@ -322,11 +322,11 @@ def run_cells(
     return cells
 
 
-def format_cells(cells: Sequence[Cell], repeats: int, reference: str, peer: str = "MuJoCo lean") -> str:
+def format_cells(cells: Sequence[Cell], repeats: int, peer: str = "MuJoCo lean") -> str:
     """A Markdown table of :func:`run_cells`' cells: each cell's verdict against its scene's
-    expectation (PASS or FAIL; a peer cell, or any cell not the reference, that disagrees with the
-    expectation is marked), its median wall time and every run's, and the peer's wall time over
-    the cell's (``peer / this``), then how every cell was timed."""
+    expectation (PASS, or FAIL and that it disagrees with the expectation, on every side alike),
+    its median wall time and every run's, and the peer's wall time over the cell's (``peer /
+    this``), then how every cell was timed."""
     peers = {c.scene: c.wall for c in cells if c.side == peer and c.passed is not None}
     lines = [
         "| scene | side | verdict | wall (s), median | runs (s) | peer / this |",
@@ -336,7 +336,7 @@ def format_cells(cells: Sequence[Cell], repeats: int, reference: str, peer: str 
         if c.passed is None:
             lines.append(f"| {c.scene} | {c.side} | not run: {c.verdict} | | | |")
             continue
-        mark = "PASS" if c.passed else ("FAIL" if c.side == reference else "FAIL (disagrees with the expectation)")
+        mark = "PASS" if c.passed else "FAIL (disagrees with the expectation)"
         if not c.steady:
             mark += " (not every run agreed)"
         ratio = f"{peers[c.scene] / c.wall:.1f}" if c.scene in peers and c.side != peer and c.wall > 0 else ""
@@ -349,8 +349,8 @@ def format_cells(cells: Sequence[Cell], repeats: int, reference: str, peer: str 
 def overall(cells: Sequence[Cell], peer: str = "MuJoCo lean") -> list[str]:
     """A line for each side but ``peer``: over the scenes both ran, the peer's summed median wall
     time over the side's, and the geometric mean of the rows' ``peer / this`` (each scene
-    weighed alike, where the sums weigh the long scenes); and how many of its cells passed; then
-    how many of the peer's passed."""
+    weighed alike, where the sums weigh the long scenes); and how many of its cells passed, and
+    of those the peer did not run; then how many of the peer's passed."""
     peers = {c.scene: c.wall for c in cells if c.side == peer and c.passed is not None}
     lines = []
     for side in dict.fromkeys(c.side for c in cells if c.side != peer):
@@ -361,9 +361,13 @@ def overall(cells: Sequence[Cell], peer: str = "MuJoCo lean") -> list[str]:
         ratios = [peers[c.scene] / c.wall for c in both]
         mean = statistics.geometric_mean(ratios) if min(ratios) > 0 else 0.0
         passed = sum(bool(c.passed) for c in both)
+        alone = [c for c in cells if c.side == side and c.passed is not None and c not in both]
+        more = (  # its rows the peer did not run: a failure there read as if every row had passed
+            f" (and {sum(bool(c.passed) for c in alone)} of {len(alone)} PASS where the peer did not run)" if alone else ""
+        )
         lines.append(
             f"overall, {side}: {theirs:.2f} s of the peer's over {mine:.2f} s = {theirs / mine:.1f}x summed, "
-            f"{mean:.1f}x the geometric mean of {len(both)} rows; {passed} of {len(both)} PASS"
+            f"{mean:.1f}x the geometric mean of {len(both)} rows; {passed} of {len(both)} PASS{more}"
         )
     # and the peer's own verdicts: a peer that failed two scenes read as if every side had passed
     judged = [c for c in cells if c.side == peer and c.passed is not None]
@@ -419,14 +423,18 @@ def check_times(folder: Path, jobs: Sequence[str] = ("1", "auto"), repeats: int 
             done = subprocess.run([*command, "-j", j], capture_output=True, env={**os.environ, "PYTHONHASHSEED": "0"})
             walls[j].append(time.perf_counter() - start)
             codes.setdefault(j, done.returncode)
-            said.setdefault(
-                j, next((line for line in reversed(done.stdout.decode(errors="replace").splitlines()) if line.strip()), "")
-            )
+            said.setdefault(j, _last_line(done.stdout) or _last_line(done.stderr))  # a refusal says why on stderr
     return [CheckTime(j, tuple(walls[j]), codes[j], said[j]) for j in jobs]
 
 
+def _last_line(output: bytes) -> str:
+    """The last line of ``output`` that is not blank, "" if none."""
+    return next((line for line in reversed(output.decode(errors="replace").splitlines()) if line.strip()), "")
+
+
 def format_check_times(times: Sequence[CheckTime], folder: Path, files: int) -> str:
-    """A Markdown table of :func:`check_times`."""
+    """A Markdown table of :func:`check_times`; under it, a note when a run refused bad input
+    (exit code 2: its time is of a refusal, not of the folder's runs)."""
     lines = [
         f"`stackdsl check {folder}` ({files} files), each run a fresh `python -m stackdsl` process:",
         "",
@@ -435,5 +443,7 @@ def format_check_times(times: Sequence[CheckTime], folder: Path, files: int) -> 
     ]
     for t in times:
         runs = " ".join(f"{w:.1f}" for w in sorted(t.walls))
-        lines.append(f"| {t.jobs} | {t.wall:.1f} | {runs} | {t.exit_code} | {t.summary} |")
+        lines.append(f"| {t.jobs} | {t.wall:.1f} | {runs} | {t.exit_code} | {t.summary.replace('|', '/')} |")
+    if any(t.exit_code == 2 for t in times):
+        lines += ["", "exit code 2: check refused bad input and ran nothing, or only part: its time is not the folder's"]
     return "\n".join(lines)

@@ -766,7 +766,7 @@ def _bench_actions(args: argparse.Namespace) -> int:
     print(_load_line(), flush=True)
     with Lines(len(family) * len(sides) * args.repeats, "runs") as progress:
         cells = run_cells(family, sides, args.repeats, args.jobs, lambda r: progress.advance())
-    print(format_cells(cells, args.repeats, reference=sides[0]))
+    print(format_cells(cells, args.repeats))
     print(_load_line())
     return OK
 
@@ -786,7 +786,7 @@ def _bench_folder(args: argparse.Namespace) -> int:
         print(flush=True)
         with Lines(len(scenes) * len(sides) * args.repeats, "runs") as progress:
             cells = run_cells(scenes, sides, args.repeats, 1, lambda r: progress.advance())
-        print(format_cells(cells, args.repeats, reference=sides[0]))
+        print(format_cells(cells, args.repeats))
         ran = [c for c in cells if c.side == sides[0]]
         print(f"\nthe {len(ran)} scenarios one after the other on {sides[0]}: {sum(c.wall for c in ran):.1f} s of runs (medians)")
     print(_load_line())

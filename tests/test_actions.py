@@ -909,6 +909,33 @@ actions:
         compile_scenario(parse_scenario(head + "  - remove: {brick: L01.2, at: after the previous action}\n", "after.yaml"))
 
 
+def test_a_pull_given_a_time_before_the_build_ends_is_warned_of():
+    """A new user pulled a pier's brick at 10 s out of a bridge built until 12.5 s: the deck was
+    placed on the falling pier, and only the compiled timeline showed it. A pull or a push given
+    a time while bricks are still to be placed is warned of, naming the last; 'after level N',
+    or a time after the build, is not."""
+    import warnings
+
+    from stackdsl.lang.errors import ScenarioWarning
+
+    head = "stackdsl: 1\nstructure: {tower: {levels: 4, bricks_per_layer: 3, spacing: 25 mm}}\ntiming: {interval: 0.2 s}\n"
+    with pytest.warns(
+        ScenarioWarning,
+        match=r"early.yaml:5:32: warning: actions\[0\].remove.at: starts at 2 s, while bricks are still placed \(the "
+        r"last, L04.3, at 2.2 s\): they land on what it moves; to act on the built structure, write 'after level 4'",
+    ):
+        compile_scenario(parse_scenario(head + "actions:\n  - remove: {brick: L04.1, at: 2 s}\n", "early.yaml"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ScenarioWarning)
+        for at in ("after level 4", "2.4 s"):  # once it is built
+            compile_scenario(parse_scenario(head + f"actions:\n  - remove: {{brick: L04.1, at: {at}}}\n", "ok.yaml"))
+        mid = (
+            head
+            + "actions:\n  - push: {target: {brick: L01.1}, direction: +x, speed: 20 mm/s, distance: 15 mm, at: after level 1}\n"
+        )
+        compile_scenario(parse_scenario(mid, "mid.yaml"))  # mid-build on purpose: said by its 'after level 1'
+
+
 def test_a_push_that_presses_a_brick_down_onto_what_carries_it_is_refused_and_a_free_end_is_not():
     """A pusher on a path is never pushed back: pressed down on a brick where other bricks carry
     it, it was driven through them (MuJoCo passed a finger through four Jenga levels; pybullet

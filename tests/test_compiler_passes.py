@@ -45,9 +45,10 @@ def test_the_passes_run_in_a_visible_order_and_make_what_compile_scenario_makes(
         "assemble",
         "work_budget",
         "check_placements",
+        "late_warnings",
     ]
     assert all(p.__doc__ and p.__doc__.startswith(f"Pass {i + 1}: ") for i, p in enumerate(PASSES))
-    assert until(JENGA, "check_placements").built == compile_scenario(parse_scenario(JENGA, "p.yaml"))
+    assert until(JENGA, "late_warnings").built == compile_scenario(parse_scenario(JENGA, "p.yaml"))
 
 
 def test_read_refuses_what_is_not_a_scenario_and_says_how_to_get_one():

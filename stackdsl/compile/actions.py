@@ -772,6 +772,33 @@ def _in_time_order(scenario: Scenario, motions: Sequence[Kinematic]) -> None:
             )
 
 
+def warn_during_build(
+    scenario: Scenario, motions: Sequence[Kinematic], places: Sequence[Place], bricks: Sequence[LaidBrick]
+) -> None:
+    """Warn of a pull or a push given a time (not 'after level N') that starts while bricks are
+    still to be placed: they land on what it moves. A new user pulled a pier's brick at 10 s, in
+    a bridge built until 12.5 s: the deck was placed on the falling pier, and only the compiled
+    timeline showed it. A warning, not a refusal: a hand may act on a structure half built.
+    Source: stackdsl's own."""
+    top = max((b.level for b in bricks), default=0)
+    for i, motion in enumerate(motions):
+        action = scenario.actions[i]
+        spec = action.remove or action.push
+        if spec is None or isinstance(spec.at, (AfterLevel, AfterPrevious)):
+            continue
+        later = [p for p in places if p.step > motion.step]
+        if later:
+            warnings.warn(
+                scenario.source.warning(
+                    ("actions", i, action.kind, "at"),
+                    f"starts at {motion.time:g} s, while bricks are still placed (the last, {later[-1].id}, at "
+                    f"{later[-1].time:g} s): they land on what it moves; to act on the built structure, write "
+                    f"'after level {top}'",
+                ),
+                stacklevel=3,
+            )
+
+
 def _not_pushed_while_pulled(scenario: Scenario, motions: Sequence[Kinematic]) -> None:
     """Refuse a push at a brick once its pull has started, in whatever order the two are written
     (the same step included), and a pull that starts while a push at its brick lasts: a brick in

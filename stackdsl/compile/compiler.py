@@ -54,7 +54,7 @@ from ..lang.errors import FieldPath, ScenarioError, format_path
 from ..lang.schema import BUILTIN_BRICKS, Scenario, reference_errors
 from ..lang.schema_impacts import SIDES, AfterLevel, Impact
 from ..util.extras import installed, missing
-from .actions import check_measured, compile_actions, heading, not_built, warn_pushed_stands
+from .actions import check_measured, compile_actions, heading, not_built, warn_during_build, warn_pushed_stands
 from .aim import outer_face, stepped_fall
 from .clearance import check_launch, check_pusher, warn_wide_pusher
 from .dynamics import check_motion
@@ -567,6 +567,14 @@ def check_placements(state: Compilation) -> Compilation:
     return state
 
 
+def late_warnings(state: Compilation) -> Compilation:
+    """Pass 14: the warnings that wait until nothing refuses the file (a refusal comes alone, on
+    the first line): a pull or a push given a time while bricks are still to be placed
+    (:func:`stackdsl.compile.actions.warn_during_build`)."""
+    warn_during_build(state.scenario, state.motions, state.placements, state.bricks)
+    return state
+
+
 #: The compiler's passes, in the order :func:`compile_scenario` runs them; each takes the
 #: :class:`Compilation` so far and returns it with its own part found (or raises).
 PASSES: tuple[Callable[[Compilation], Compilation], ...] = (
@@ -583,6 +591,7 @@ PASSES: tuple[Callable[[Compilation], Compilation], ...] = (
     assemble,
     work_budget,
     check_placements,
+    late_warnings,
 )
 
 

@@ -58,6 +58,8 @@ MOST_TILT = 45.0
 SPREAD = 30.0
 #: Seconds over which a tilted ride's accelerations are taken (:func:`felt_gravity`).
 WINDOW = 0.05
+#: How a failed proof of a tilted ride begins, in words (:func:`holds_tilted`).
+FELT = "its bricks feel gravity tilted {tilt:.2f} deg (gravity less the ride's acceleration)"
 
 
 @dataclass
@@ -273,9 +275,10 @@ def holds_tilted(stack: Stack, riders: tuple[int, ...], tilt: float, towards: np
         for support in rec.rests_on:
             mu = pair_friction(rec.friction, stack.bodies[support].friction)
             if run + swirl > mu:
+                twist = f" and {swirl:.3f} more for its twist" if swirl > 0.0 else ""
                 return (
-                    f"under gravity tilted {tilt:.2f} deg {rec.label} slides on {stack.bodies[support].label}: "
-                    f"tan {run:.3f} + swirl {swirl:.3f} > friction {mu:.3f}"
+                    f"{FELT.format(tilt=tilt)}, and {rec.label} slides on {stack.bodies[support].label}: it needs "
+                    f"{run:.3f} of friction{twist}, and the pair has {mu:.3f}"
                 )
         main, load = rec.main_contact, loads.get(rec.body)
         if main is None or load is None:
@@ -284,5 +287,8 @@ def holds_tilted(stack: Stack, riders: tuple[int, ...], tilt: float, towards: np
         region = main.polygon.buffer(-margin) if margin > 0 else main.polygon
         x, y = (float(v) for v in load.com_above[:2])
         if not all(shapely.contains_xy(region, x + rise * ex, y + rise * ey) for ex, ey in edges):
-            return f"under gravity tilted {tilt:.2f} deg {rec.label} tips: its centre of mass above, {rise * 1000:.1f} mm high above its contact area, acts outside it"
+            return (
+                f"{FELT.format(tilt=tilt)}, and {rec.label} tips: the centre of mass of it and what it carries, "
+                f"{rise * 1000:.1f} mm above its contact area, acts outside it"
+            )
     return None

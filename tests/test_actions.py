@@ -936,6 +936,18 @@ def test_a_pull_given_a_time_before_the_build_ends_is_warned_of():
         compile_scenario(parse_scenario(mid, "mid.yaml"))  # mid-build on purpose: said by its 'after level 1'
 
 
+def test_a_push_whose_gap_no_travel_closes_is_told_to_shorten_the_gap():
+    """A new user's 'gap: 10 m' was told to give a distance of more than 10000 mm, which the
+    distance's own limit (1 m) then refused: past that limit, only a smaller gap is offered."""
+    from stackdsl.lang.errors import ScenarioError
+
+    head = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nactions:\n  - push: {target: {brick: L02.1}, direction: [0, 1, 0], "
+    with pytest.raises(ScenarioError, match=r"give a smaller gap \(a pusher moves at most 1000 mm\)\n"):
+        compile_scenario(parse_scenario(head + "at: after level 2, gap: 2 m}\n", "far.yaml"))
+    with pytest.raises(ScenarioError, match=r"give a distance of more than 200 mm, or a smaller gap\n"):
+        compile_scenario(parse_scenario(head + "at: after level 2, gap: 200 mm}\n", "near.yaml"))
+
+
 def test_a_push_that_presses_a_brick_down_onto_what_carries_it_is_refused_and_a_free_end_is_not():
     """A pusher on a path is never pushed back: pressed down on a brick where other bricks carry
     it, it was driven through them (MuJoCo passed a finger through four Jenga levels; pybullet

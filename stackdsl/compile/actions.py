@@ -31,7 +31,7 @@ from ..engines.protocol import BrickSpec
 from ..lang.errors import FieldPath, ScenarioError
 from ..lang.expectations import bricks_of, levels_of, nearest, selects
 from ..lang.schema import Scenario
-from ..lang.schema_actions import AXES, SAMPLES_A_PERIOD, Action, AfterPrevious
+from ..lang.schema_actions import AXES, MAX_TRAVEL, SAMPLES_A_PERIOD, Action, AfterPrevious
 from ..lang.schema_actions import Push as WrittenPush
 from ..lang.schema_impacts import AfterLevel
 from .layouts import LaidBrick
@@ -539,10 +539,15 @@ def _far_enough(scenario: Scenario, path: FieldPath, p: WrittenPush, present: li
         if reach - p.distance < 5e-7
         else f"stops {_mm(reach - p.distance)} mm short of {named}"
     )
+    # a distance past what a hand may travel is no fix: the gap is (a new user's 'gap: 10 m' was
+    # told to give a distance of more than 10000 mm, then refused it)
+    fix = f"a distance of more than {_mm(reach)} mm, or a smaller gap" if reach < MAX_TRAVEL else "a smaller gap"
+    if reach >= MAX_TRAVEL:
+        fix += f" (a pusher moves at most {MAX_TRAVEL * 1000:g} mm)"
     raise scenario.source.error(
         _written(scenario, path, "distance", "gap", "target"),
         f"the pusher {said}: it starts {_mm(reach)} mm from {named} along its direction and moves "
-        f"{_mm(p.distance)} mm; give a distance of more than {_mm(reach)} mm, or a smaller gap",
+        f"{_mm(p.distance)} mm; give {fix}",
     )
 
 
@@ -825,7 +830,9 @@ def _pushers_apart(scenario: Scenario, motions: Sequence[Kinematic]) -> None:
     from its push's start to its end), the later written must not reach into the earlier by more
     than :data:`PUSHERS_APART` (their boxes' separating-axis test as they
     move, :func:`~stackdsl.compile.overlap.touching`). Kinematic pushers do not stop each other:
-    one inside the other would run as one body, twice. A ScenarioError at the later one's
+    one inside the other would run as one body, twice. Nor may two push one brick at once: a new
+    user's two pushers, aimed at either end of a brick, each drove 30 mm into it and squeezed it
+    50 mm (pybullet threw it; MuJoCo passed them through it). A ScenarioError at the later one's
     ``target``."""
     pushes = [(i, m) for i, m in enumerate(motions) if isinstance(m, Push)]
     for (i, a), (j, b) in itertools.combinations(pushes, 2):
@@ -854,6 +861,14 @@ def _pushers_apart(scenario: Scenario, motions: Sequence[Kinematic]) -> None:
                 f"this push's pusher ({b.id}) would reach into actions[{i}]'s ({a.id}) at {t0 + float(first[0]):.4g} s, "
                 "while both are in the scene: two pushers cannot be in one place at once; aim them apart, or start this "
                 f"one after {a.end_time:g} s",
+            )
+        brick = scenario.actions[j].push.target.brick  # type: ignore[union-attr]
+        if brick is not None and brick == scenario.actions[i].push.target.brick:  # type: ignore[union-attr]
+            raise scenario.source.error(
+                ("actions", j, "push", "target", "brick"),
+                f"{brick} is pushed by actions[{i}] too, from {a.time:g} to {a.end_time:g} s: one push at a brick at a "
+                f"time (two pushers pressing it at once would squeeze it); start this one after {a.end_time:g} s "
+                "('after the previous action')",
             )
 
 

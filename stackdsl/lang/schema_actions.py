@@ -18,7 +18,7 @@ import math
 import re
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
-from pydantic import AfterValidator, BeforeValidator, ConfigDict, Field, model_validator
+from pydantic import AfterValidator, BeforeValidator, ConfigDict, Field, field_validator, model_validator
 
 from .bounds import MAX_SIDE, Component, StrictModel, Vector3
 from .grammar import AFTER_LEVEL, AFTER_PREVIOUS, LEVEL_NUMBER, AlsoAccepts, BodyId, given, json_pattern
@@ -71,6 +71,8 @@ ActionWhen = Annotated[
 SAMPLES_A_PERIOD = 5
 #: Hz, the fastest shake at any timestep: 5 samples a period at the shortest, 0.01 ms.
 MAX_SHAKE_FREQUENCY = 20000.0
+#: Metres a hand's path (a pull's or a push's distance) may be at most: it moves within the scene.
+MAX_TRAVEL = 1.0
 
 if TYPE_CHECKING:
     GuideSpeed = float
@@ -88,7 +90,9 @@ else:
         "a speed from 1 mm/s to 10 m/s",
         ("slower, a pull of a brick's length outlasts any run", "faster, a hand is a projectile: use an impact"),
     )
-    Travel = within(Length, length, 0.0, 1.0, "a length above 0 and at most 1 m", "a hand moves within the scene", above=True)
+    Travel = within(
+        Length, length, 0.0, MAX_TRAVEL, "a length above 0 and at most 1 m", "a hand moves within the scene", above=True
+    )
     Amplitude = within(
         Length, length, 0.0, 0.1, "a length above 0 and at most 100 mm", "shake tables move within 100 mm", above=True
     )
@@ -273,6 +277,15 @@ class Action(StrictModel):
         None
     )
     shake: Annotated[Shake | None, Field(description="a mapping of amplitude, frequency, direction, duration and at")] = None
+
+    @field_validator("remove", "push", "shake", mode="before")
+    @classmethod
+    def _written(cls, value: Any) -> Any:
+        """A kind written with nothing after it (``- remove:``) is refused at its key, not as an
+        action of no kind."""
+        if value is None:
+            raise ValueError("expected a mapping of its fields, got nothing (null)")
+        return value
 
     @model_validator(mode="after")
     def _one(self) -> Action:

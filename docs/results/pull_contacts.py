@@ -1,0 +1,81 @@
+"""A stepped pull's contacts on pybullet: solver iterations and friction anchors while it is split.
+
+While a pull or a push that drags bricks the engine moves is stepped, the extension on pybullet
+splits each step into four substeps (``stackdsl.compile.program.PULL_STEP``), at its own 50 solver
+iterations, with friction anchors on the pulled brick alone (``PyBulletWorld._anchor``). This runs
+each scenario FILE with the extension on pybullet in each WAY, ``ITERATIONS-ANCHORS``: the solver
+iterations while a step is split (50 is the extension's own), and the anchors then on the
+``pulled`` brick alone (as shipped), on ``every`` body, or on ``none``; a row each, with the
+verdict and the brick that ended farthest from its place, and the CPU time of the run.
+
+    python docs/results/pull_contacts.py WAYS FILE...
+    # e.g. python docs/results/pull_contacts.py 50-pulled,150-pulled,150-every,150-none WALL.yaml PULL.yaml
+
+Output: docs/results/actions-freeze.md ("Tuned contacts while a pull is stepped: tried, not kept").
+Source: stackdsl's own.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from stackdsl import compile_scenario, parse_scenario, run_program
+from stackdsl.engines.pybullet.world import PyBulletWorld
+
+SPLIT, ANCHOR = PyBulletWorld._split_step, PyBulletWorld._anchor
+
+
+def _every(self: Any, pulled: set[int]) -> None:
+    """Anchors on every body while a pull is driven, the mode's own setting after."""
+    if bool(pulled) != bool(self._anchored):
+        flag = int(bool(pulled) or self._engine.friction_anchors)
+        for index in range(self._client.getNumBodies()):
+            self._client.changeDynamics(self._client.getBodyUniqueId(index), -1, frictionAnchor=flag)
+    self._anchored = set(pulled)
+
+
+def _none(self: Any, pulled: set[int]) -> None:
+    """No anchors: only what is pulled is kept track of."""
+    self._anchored = set(pulled)
+
+
+def use(way: str) -> None:
+    """Put ``way`` (``ITERATIONS-ANCHORS``) in place on :class:`PyBulletWorld`."""
+    iterations, anchors = way.split("-")
+
+    def split(self: Any) -> None:
+        self._client.setPhysicsEngineParameter(numSolverIterations=int(iterations))
+        SPLIT(self)
+        self._client.setPhysicsEngineParameter(numSolverIterations=self._engine.solver_iterations)
+
+    PyBulletWorld._split_step = split  # type: ignore[method-assign]
+    PyBulletWorld._anchor = {"pulled": ANCHOR, "every": _every, "none": _none}[anchors]  # type: ignore[method-assign]
+
+
+def run(path: str) -> str:
+    """The verdict, the farthest brick and the CPU time of ``path`` with the extension on pybullet."""
+    program = compile_scenario(parse_scenario(Path(path).read_text(encoding="utf-8"), path), "extension", None, "pybullet")
+    start = time.process_time()
+    outcome = run_program(program)
+    cpu = time.process_time() - start
+    brick, far = max(outcome.displacement.items(), key=lambda item: item[1])
+    verdict = f"collapse {outcome.collapse.level}" if outcome.collapse else "stands"
+    return f"{verdict}, {brick} {far * 1000:.2f} mm, {cpu:.2f} s"
+
+
+def main(ways: list[str], paths: list[str]) -> None:
+    print(f"| file | {' | '.join(ways)} |")
+    print(f"|---|{'---|' * len(ways)}")
+    for path in paths:
+        cells = []
+        for way in ways:
+            use(way)
+            cells.append(run(path))
+        print(f"| {Path(path).name} | {' | '.join(cells)} |", flush=True)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1].split(","), sys.argv[2:])

@@ -10,6 +10,7 @@ verdict and the brick that ended farthest from its place, and the CPU time of th
 
     python docs/results/pull_contacts.py WAYS FILE...
     # e.g. python docs/results/pull_contacts.py 50-pulled,150-pulled,150-every,150-none WALL.yaml PULL.yaml
+    # FILE@K: sample K of a sweep file, e.g. SWEEP.yaml@5 SWEEP.yaml@8
 
 Output: docs/results/actions-freeze.md ("Tuned contacts while a pull is stepped: tried, not kept").
 Source: stackdsl's own.
@@ -22,8 +23,10 @@ import time
 from pathlib import Path
 from typing import Any
 
-from stackdsl import compile_scenario, parse_scenario, run_program
+from stackdsl import Scenario, compile_scenario, parse_scenario, run_program
 from stackdsl.engines.pybullet.world import PyBulletWorld
+from stackdsl.lang.loader import SourceMap, _read_yaml
+from stackdsl.lang.sampling import Template
 
 SPLIT, ANCHOR = PyBulletWorld._split_step, PyBulletWorld._anchor
 
@@ -55,9 +58,21 @@ def use(way: str) -> None:
     PyBulletWorld._anchor = {"pulled": ANCHOR, "every": _every, "none": _none}[anchors]  # type: ignore[method-assign]
 
 
+def scenario(path: str) -> Scenario:
+    """The scenario of ``path``; of ``FILE@K``, sample K of FILE's sweep or random fields."""
+    file, _, sample = path.partition("@")
+    text = Path(file).read_text(encoding="utf-8")
+    if not sample:
+        return parse_scenario(text, file)
+    source = SourceMap(file, tuple(text.splitlines()))
+    template = Template.of(_read_yaml(text, source), source)
+    assert template is not None, f"{file} draws nothing: no sample {sample}"
+    return template.scenario(0, int(sample), checked=True)
+
+
 def run(path: str) -> str:
     """The verdict, the farthest brick and the CPU time of ``path`` with the extension on pybullet."""
-    program = compile_scenario(parse_scenario(Path(path).read_text(encoding="utf-8"), path), "extension", None, "pybullet")
+    program = compile_scenario(scenario(path), "extension", None, "pybullet")
     start = time.process_time()
     outcome = run_program(program)
     cpu = time.process_time() - start

@@ -948,9 +948,12 @@ def test_run_on_a_sweep_file_says_which_sample_it_runs_and_runs_the_one_asked(tm
         return [(e["time"], e["kind"], e["brick"], e["detail"]) for e in json.loads(captured.out)["events"]], captured.err
 
     first, said = ran()
-    assert "running sample 0 of 4 (seed 7); `stackdsl sweep` runs them all" in said and first == events(template.scenario(0, 0))
+    own = template.scenario(0, 0).seed  # a new user took the sweep's seed for the sample's own
+    assert f"running sample 0 of 4 (the sweep's seed 7, this sample's {own}: samples.csv's seed column); `stackdsl sweep`" in said
+    assert first == events(template.scenario(0, 0)) and own != 7
     fourth, said = ran("--sample", "3")  # sample 2 stands as sample 0 does, to the same events
-    assert "running sample 3 of 4 (seed 7)" in said and fourth == events(template.scenario(0, 3)) and fourth != first
+    assert f"running sample 3 of 4 (the sweep's seed 7, this sample's {template.scenario(0, 3).seed}:" in said
+    assert fourth == events(template.scenario(0, 3)) and fourth != first
     assert main(["run", str(path), "--sample", "100000"]) == 2  # sample 4 is one 'sweep --samples 5' runs
     assert "--sample: a sweep draws samples 0 to 99999 at most (this one 0 to 3), not 100000" in capsys.readouterr().err
     assert main(["run", str(write(tmp_path, plain=PASSING) / "plain.yaml"), "--sample", "1"]) == 2
@@ -968,7 +971,7 @@ def test_compile_on_a_sweep_file_says_which_sample_it_shows_and_shows_the_one_as
         return [a["position"] for a in json.loads(captured.out)["actions"] if a["kind"] == "place"], captured.err
 
     first, said = shown()
-    assert "stackdsl compile: showing sample 0 of 4 (seed 7)" in said
+    assert "stackdsl compile: showing sample 0 of 4 (the sweep's seed 7, this sample's " in said
     assert first == [list(a.position) for a in compile_scenario(template.scenario(0, 0)).placements]
     third, said = shown("--sample", "2")
     assert "showing sample 2 of 4" in said and "--sample K shows another" in said

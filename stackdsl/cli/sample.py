@@ -72,7 +72,8 @@ def one_sample(scenario: Any, cell: int | None, sample: int | None, verb: str) -
         else f"(past the file's {template.samples}: as 'sweep --samples {k + 1}' draws it)"
     )
     print(
-        f"stackdsl {verb}: {doing} sample {k} {of}{where if template.grid else ''} (seed {template.seed}); "
+        f"stackdsl {verb}: {doing} sample {k} {of}{where if template.grid else ''} (the sweep's seed {template.seed}, "
+        f"this sample's {chosen.seed}: samples.csv's seed column); "
         f"`stackdsl sweep` runs them all and judges the statistics, --sample K {does} another",
         file=sys.stderr,
         flush=True,

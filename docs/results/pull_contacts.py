@@ -23,26 +23,14 @@ import time
 from pathlib import Path
 from typing import Any
 
+from pull_anchors import _every_body, _none  # the other ways of friction anchors, run from this folder
+
 from stackdsl import Scenario, compile_scenario, parse_scenario, run_program
 from stackdsl.engines.pybullet.world import PyBulletWorld
 from stackdsl.lang.loader import SourceMap, _read_yaml
 from stackdsl.lang.sampling import Template
 
 SPLIT, ANCHOR = PyBulletWorld._split_step, PyBulletWorld._anchor
-
-
-def _every(self: Any, pulled: set[int]) -> None:
-    """Anchors on every body while a pull is driven, the mode's own setting after."""
-    if bool(pulled) != bool(self._anchored):
-        flag = int(bool(pulled) or self._engine.friction_anchors)
-        for index in range(self._client.getNumBodies()):
-            self._client.changeDynamics(self._client.getBodyUniqueId(index), -1, frictionAnchor=flag)
-    self._anchored = set(pulled)
-
-
-def _none(self: Any, pulled: set[int]) -> None:
-    """No anchors: only what is pulled is kept track of."""
-    self._anchored = set(pulled)
 
 
 def use(way: str) -> None:
@@ -55,7 +43,7 @@ def use(way: str) -> None:
         self._client.setPhysicsEngineParameter(numSolverIterations=self._engine.solver_iterations)
 
     PyBulletWorld._split_step = split  # type: ignore[method-assign]
-    PyBulletWorld._anchor = {"pulled": ANCHOR, "every": _every, "none": _none}[anchors]  # type: ignore[method-assign]
+    PyBulletWorld._anchor = {"pulled": ANCHOR, "every": _every_body, "none": _none}[anchors]  # type: ignore[method-assign]
 
 
 def scenario(path: str) -> Scenario:

@@ -148,12 +148,18 @@ def _leaning(stack: Stack, frozen: list[Record], sideways: tuple[float, float], 
     if found.stands:
         return None
     moved = [stack.bodies[b].label for b in stack.ordered(found.moving())]
-    a = math.hypot(*sideways)
     return (
-        f"{', '.join(moved[:4])}{', ...' if len(moved) > 4 else ''} would move: under "
-        f"{f'{margin:g} x a = {margin * a:.3g} m/s^2 (a margin for what leans)' if margin != 1.0 else f'a = {a:.3g} m/s^2'} "
-        f"rigid-block equilibrium of what leans fails by {found.tension:.3g} N"
+        f"{', '.join(moved[:4])}{', ...' if len(moved) > 4 else ''} would move: under a = "
+        f"{_asked(math.hypot(*sideways), margin)} rigid-block equilibrium of what leans fails by {found.tension:.3g} N"
     )
+
+
+def _asked(acceleration: float, margin: float) -> str:
+    """The acceleration (m/s^2) a part that leans was asked to stand under, in words: with its
+    margin (:attr:`stability.StabilityConfig.leaning_margin`) when there is one."""
+    if margin == 1.0:
+        return f"{acceleration:.3g} m/s^2"
+    return f"{margin:g} x {acceleration:.3g} m/s^2 (a margin for what leans)"
 
 
 def sliding_parts(
@@ -238,7 +244,7 @@ def _why_not(
     if tips is not None:  # a necessary condition, without the program: the part as one block
         return f"at {carried:.3g} m/s^2 {tips}", carried
     scale = stack.config.leaning_margin if any(not is_level(c) for c in polygons) else 1.0
-    said = f"at {carried:.3g} m/s^2" if scale == 1.0 else f"at {scale:g} x {carried:.3g} m/s^2 (a margin for what leans)"
+    said = f"at {_asked(carried, scale)}"
     for sign in (1.0, -1.0):
         sideways = (-sign * scale * ax, -sign * scale * ay)
         found = solve_equilibrium(blocks, polygons, gravity=gravity, quick=False, sideways=sideways)

@@ -293,7 +293,7 @@ def test_a_shaken_card_house_near_its_rigid_limit_is_left_to_the_engine():
     assert compile_scenario(scene, "extension", None, "mujoco").stability.leaning_margin == 1.0
     said = next(e.detail for e in run_program(program).events if e.kind == "shake")
     assert said.startswith("0.633 mm at 2 Hz, peak 0.1 m/s^2: stepped in the engine"), said
-    assert "under 1.5 x a = 0.15 m/s^2 (a margin for what leans) rigid-block equilibrium of what leans fails" in said
+    assert "under a = 1.5 x 0.1 m/s^2 (a margin for what leans) rigid-block equilibrium of what leans fails" in said
     plain = program.model_copy(update={"stability": replace(program.stability, leaning_margin=1.0)})
     said = next(e.detail for e in run_program(plain).events if e.kind == "shake")
     assert "rides the table" in said, said  # without it: frozen through the shake, as it was

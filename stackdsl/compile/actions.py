@@ -862,8 +862,8 @@ def _pushers_apart(scenario: Scenario, motions: Sequence[Kinematic]) -> None:
                 "while both are in the scene: two pushers cannot be in one place at once; aim them apart, or start this "
                 f"one after {a.end_time:g} s",
             )
-        brick = scenario.actions[j].push.target.brick  # type: ignore[union-attr]
-        if brick is not None and brick == scenario.actions[i].push.target.brick:  # type: ignore[union-attr]
+        earlier, later = scenario.actions[i].push, scenario.actions[j].push
+        if earlier and later and (brick := later.target.brick) is not None and brick == earlier.target.brick:
             raise scenario.source.error(
                 ("actions", j, "push", "target", "brick"),
                 f"{brick} is pushed by actions[{i}] too, from {a.time:g} to {a.end_time:g} s: one push at a brick at a "

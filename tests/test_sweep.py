@@ -549,3 +549,29 @@ def test_check_of_an_undecided_sweep_says_inconclusive_everywhere_and_points_at_
     (failure,) = ET.parse(junit).getroot().iter("failure")
     assert failure.get("message", "").startswith(f"{tmp_path / 'half.yaml'}:7:3: INCONCLUSIVE: expected P(stands) >= 0.5")
     assert failure.text is not None and failure.text.endswith(f"more: stackdsl sweep {tmp_path / 'half.yaml'} --mode tuned")
+
+
+def test_a_workers_sample_warning_is_a_line_as_the_command_shows_it(capsys):
+    """A sweep's workers compile their own samples: a pull timed before one sample's build ends
+    was shown as Python reports a warning, '.../stackdsl/compile/compiler.py:151: ScenarioWarning:
+    ...', with the line of stackdsl's source under it. A worker's batch shows it as the command
+    does, one line naming the file, line and column."""
+    import warnings
+
+    from stackdsl.batch.sweep import run_batch
+
+    text = (
+        "stackdsl: 1\nstructure: {tower: {levels: 4, bricks_per_layer: 3, spacing: 25 mm}}\n"
+        "timing: {interval: {choice: [0.2 s, 0.25 s]}, settle: 0.5 s}\n"
+        "actions:\n  - remove: {brick: L04.1, at: 2.6 s, speed: 40 mm/s}\n"
+        "sweep: {samples: 4}\nexpect: {p_stands: '>= 0.5'}\n"
+    )
+    template = parse_scenario(text, "late.yaml").template
+    late = [k for k in range(4) if template.scenario(0, k).timing.interval == 0.25]
+    assert late, "no sample drew the longer interval"
+    with warnings.catch_warnings():
+        warnings.simplefilter("always")
+        run_batch(template, 0, late[:1], SweepOptions())
+    err = capsys.readouterr().err
+    assert "late.yaml:5:32: warning: actions[0].remove.at: starts at 2.6 s, while bricks are still placed" in err
+    assert "ScenarioWarning" not in err and "compiler.py" not in err, err

@@ -26,7 +26,7 @@ from dataclasses import asdict, dataclass, replace
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 from ..compile.compiler import compile_scenario
-from ..lang.errors import ScenarioError, format_path
+from ..lang.errors import ScenarioError, format_path, warnings_as_lines
 from ..lang.sampling import Template
 from ..lang.units import split_quantity
 from ..runtime.run import run_program
@@ -164,6 +164,12 @@ def run_batch(template: Template, cell: int, samples: Sequence[int], options: Sw
     ``budget``, a sample runs with at most what is left of it as its timeout, and a sample the
     budget ran out before is not run: its result is stopped (:data:`BUDGET_SPENT`).
     """
+    with warnings_as_lines():  # in a worker too: a sample's warnings as the command shows them
+        return _run_batch(template, cell, samples, options)
+
+
+def _run_batch(template: Template, cell: int, samples: Sequence[int], options: SweepOptions) -> list[SampleResult]:
+    """:func:`run_batch`'s samples, one after the other."""
     out = []
     for k in samples:
         if options.budget is None:

@@ -19,13 +19,11 @@ import signal
 import sys
 import threading
 import traceback
-import warnings
-from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn
 
 from ..engines.registry import backend, names
-from ..lang.errors import ScenarioError, ScenarioErrors, ScenarioWarning, one_line
+from ..lang.errors import ScenarioError, ScenarioErrors, one_line, warnings_as_lines
 from ..util.extras import installed, missing
 from .args import (
     BAD_INPUT,
@@ -74,26 +72,6 @@ def _need_backends(option: object) -> None:
         extra = backend(name).extra
         if extra is not None and not installed(extra):
             raise ScenarioError(missing(extra), file="--backend")
-
-
-@contextlib.contextmanager
-def _warnings_as_lines() -> Iterator[None]:
-    """Show the language's warnings (:class:`stackdsl.lang.errors.ScenarioWarning`: a unit slip, a
-    pull into a neighbour) as their own line on stderr, ``file:line:col: warning: ...``, not as
-    Python's report of where in stackdsl they were raised; other warnings as Python shows them."""
-    shown = warnings.showwarning
-
-    def show(message: Any, category: type[Warning], filename: str, lineno: int, file: Any = None, line: Any = None) -> None:
-        if issubclass(category, ScenarioWarning):
-            print(message, file=sys.stderr)
-        else:
-            shown(message, category, filename, lineno, file, line)
-
-    warnings.showwarning = show
-    try:
-        yield
-    finally:
-        warnings.showwarning = shown
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -241,7 +219,7 @@ def _command(argv: list[str], command: bool, debug: bool) -> int:
         from ..batch.guard import limit_memory
 
         limit_memory()
-    with _warnings_as_lines():
+    with warnings_as_lines():
         status = int(args.func(args))
     sys.stdout.flush()
     return status

@@ -5,9 +5,13 @@ Source: stackdsl's own, modelled on Tavern (errors show the YAML line).
 
 from __future__ import annotations
 
+import contextlib
 import re
+import sys
+import warnings
+from collections.abc import Iterator
 from dataclasses import dataclass, field
-from typing import TypeAlias
+from typing import Any, TypeAlias
 
 FieldPath: TypeAlias = tuple[str | int, ...]  # a field path: keys (str) and list indices (int)
 
@@ -118,6 +122,28 @@ class ScenarioErrors(Exception):
     def __init__(self, errors: list[ScenarioError], summary: str = "") -> None:
         super().__init__("\n".join([*(str(e) for e in errors), *([summary] if summary else [])]))
         self.errors, self.summary = errors, summary
+
+
+@contextlib.contextmanager
+def warnings_as_lines() -> Iterator[None]:
+    """Show the language's warnings (:class:`ScenarioWarning`: a unit slip, a pull into a
+    neighbour) as their own line on stderr, ``file:line:col: warning: ...``, not as Python's
+    report of where in stackdsl they were raised; other warnings as Python shows them. The
+    command line's, and a sweep's workers' (whose samples are compiled there: a pull timed before
+    one sample's build ends was shown as ``.../compiler.py:151: ScenarioWarning: ...``)."""
+    shown = warnings.showwarning
+
+    def show(message: Any, category: type[Warning], filename: str, lineno: int, file: Any = None, line: Any = None) -> None:
+        if issubclass(category, ScenarioWarning):
+            print(message, file=sys.stderr)
+        else:
+            shown(message, category, filename, lineno, file, line)
+
+    warnings.showwarning = show
+    try:
+        yield
+    finally:
+        warnings.showwarning = shown
 
 
 #: At most this many problems of one file are shown at once (the rest are counted).

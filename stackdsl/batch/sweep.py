@@ -156,6 +156,7 @@ class SweepOptions:
     budget: Budget | None = None
 
 
+@warnings_as_lines()  # in a worker too: a sample's warnings as the command shows them
 def run_batch(template: Template, cell: int, samples: Sequence[int], options: SweepOptions) -> list[SampleResult]:
     """Draw, compile and run ``samples`` of ``cell`` (the unit of work a worker is given).
 
@@ -164,12 +165,6 @@ def run_batch(template: Template, cell: int, samples: Sequence[int], options: Sw
     ``budget``, a sample runs with at most what is left of it as its timeout, and a sample the
     budget ran out before is not run: its result is stopped (:data:`BUDGET_SPENT`).
     """
-    with warnings_as_lines():  # in a worker too: a sample's warnings as the command shows them
-        return _run_batch(template, cell, samples, options)
-
-
-def _run_batch(template: Template, cell: int, samples: Sequence[int], options: SweepOptions) -> list[SampleResult]:
-    """:func:`run_batch`'s samples, one after the other."""
     out = []
     for k in samples:
         if options.budget is None:

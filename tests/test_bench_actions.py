@@ -314,3 +314,23 @@ def test_the_folder_bench_runs_each_scene_on_the_sides_given(tmp_path, monkeypat
     assert "on MuJoCo extension" in capsys.readouterr().out
     assert main(["bench", "folder", str(tmp_path), "--sides", "tuned"]) == 2
     assert "--sides: unknown side 'tuned'" in capsys.readouterr().err
+
+
+def test_a_benchmark_named_after_out_writes_its_tables_there(tmp_path, monkeypatch, capsys):
+    """New users gave ``stackdsl bench --out DIR folder``: it printed its tables and wrote
+    nothing, and said nothing of it. The tables now go there too, and the command says where."""
+    import stackdsl.bench.actions as actions
+    from stackdsl.cli.main import main
+
+    (tmp_path / "t.yaml").write_text("stackdsl: 1\nstructure: {tower: {levels: 2}}\n", encoding="utf-8")
+    monkeypatch.setattr(actions, "run_cells", lambda *args: [])
+    monkeypatch.setattr(actions, "check_times", lambda folder, jobs, repeats: [])
+    monkeypatch.setattr(actions, "format_check_times", lambda times, folder, count: "the check's table")
+    out = tmp_path / "out"
+    assert main(["bench", "--out", str(out), "folder", str(tmp_path), "--no-cells"]) == 0
+    printed = capsys.readouterr().out
+    written = (out / "bench-folder.txt").read_text(encoding="utf-8")
+    assert "the check's table" in written and written in printed
+    assert printed.rstrip().endswith(f"wrote {(out / 'bench-folder.txt').resolve()}")
+    assert main(["bench", "folder", str(tmp_path), "--no-cells"]) == 0  # no --out: nothing written
+    assert sorted(p.name for p in out.iterdir()) == ["bench-folder.txt"]

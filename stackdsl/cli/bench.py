@@ -7,10 +7,14 @@ Source: stackdsl's own.
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
+import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import IO, TYPE_CHECKING, Any
 
 from ..bench.actions import AS_WRITTEN
 from ..bench.actions import SIDES as ACTION_SIDES
@@ -46,7 +50,8 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     p.add_argument(
         "--out",
         default=None,
-        help="folder for bench.csv, bench.md and the plots (default: a new private folder stackdsl-bench-* in the temporary directory)",
+        help="folder for bench.csv, bench.md and the plots (default: a new private folder stackdsl-bench-* in the temporary "
+        "directory); before another benchmark's name, its tables go there as bench-NAME.txt",
     )
     p.add_argument(
         "--settings",
@@ -255,6 +260,41 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     q = bench.add_parser("startup", help="how long stackdsl takes to start: --version, import, a one-file check")
     q.add_argument("--repeats", type=int, default=5, help="runs of each command (median; default: 5)")
     q.set_defaults(func=_bench_startup)
+    for name, parser in bench.choices.items():
+        if name != "verdicts":  # its own --out: a journal and every family's files
+            parser.set_defaults(func=_written(name, parser.get_default("func")))
+
+
+def _written(name: str, func: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Namespace], int]:
+    """The sub-benchmark ``func`` (``stackdsl bench NAME``), whose tables also go into the folder
+    of ``--out`` when it is given (``stackdsl bench --out DIR NAME``), as ``bench-NAME.txt``."""
+
+    def run(args: argparse.Namespace) -> int:
+        if args.out is None:
+            return func(args)
+        path = _out_folder(args.out, "stackdsl-bench-") / f"bench-{name}.txt"
+        with open(path, "w", encoding="utf-8") as file, contextlib.redirect_stdout(_Tee(sys.stdout, file)):
+            status = func(args)
+        print(f"wrote {path.resolve()}")
+        return status
+
+    return run
+
+
+class _Tee(io.TextIOBase):
+    """A text stream that writes to each of ``streams``."""
+
+    def __init__(self, *streams: IO[str]) -> None:
+        self._streams = streams
+
+    def write(self, text: str) -> int:
+        for stream in self._streams:
+            stream.write(text)
+        return len(text)
+
+    def flush(self) -> None:
+        for stream in self._streams:
+            stream.flush()
 
 
 def _need(extra: str, where: str) -> None:

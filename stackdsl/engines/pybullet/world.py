@@ -15,6 +15,13 @@ pybullet facts this adapter encodes (measured with pybullet 3.2.7):
   or not: 90 us with 400 frozen bricks against 6 us with 2. Only removing a body saves it.
 * A step of a settling heap costs about half as much in rigid bodies (maximal coordinates)
   as in one-link multibodies (docs/results/collapse-phase.md).
+* A box that comes to touch a static plane meets it at one contact point in its first step and
+  two in the next; the other corners of their face come in only as it rocks (all four after
+  about 200 steps at rest). A box on a static box meets it at all four at once. Made static,
+  a body keeps no contact with the static plane, and given its mass back it starts again
+  from one: a domino woken 1.5 steps before the next one struck it turned about that point,
+  and the chain veered off its line. So a body woken where it rested on the ground meets the
+  ground as a static box whose top is the plane (:data:`GROUND_HALF`, only its pairs).
 
 Source: stackdsl's own (the world adapter of dm_control's composer).
 """
@@ -55,6 +62,14 @@ def pybullet_world(
 #: kg of a guided body while it is guided: a hand's grip, which no brick's contact moves
 #: within a step (its inertia scaled with it).
 GUIDED_MASS = 100.0
+#: Half extents (m) of the box a body woken where it rested on the ground meets the ground as (its
+#: top the plane z = 0; the module's facts): every corner of its face at once, as a body at rest
+#: on the plane has come to meet it.
+GROUND_HALF = (1000.0, 1000.0, 0.5)
+#: Metres above the ground within which the lowest point of a body woken lies on it (its bounding
+#: box's foot, pybullet's collision margin of 1 mm below its lowest corner included): woken there,
+#: it meets the ground as that box (a body woken higher up lands on the plane as any body does).
+ON_THE_GROUND = 0.003
 #: kg and half extents (m) of a movable ground: a box whose top is the plane z = 0.
 TABLE_MASS = 1.0e5
 TABLE_HALF = (5.0, 5.0, 0.5)
@@ -77,7 +92,9 @@ _AT_REST = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
 
 class PyBulletWorld(PyBulletEngine, World):
     """:class:`World` on a pybullet client: gravity, timestep, solver iterations and the
-    ground plane are set up at once; ``ground`` is the plane's body id.
+    ground plane are set up at once; ``ground`` is the plane's body id (a brick woken where it
+    rested on the plane meets it as a box whose top is the plane, read as the ground in contacts:
+    the module's facts).
 
     A body's velocity is read from pybullet once a step, however many ask (the rest test
     brick by brick, the substep control and the collapse monitor), and read again after
@@ -139,6 +156,9 @@ class PyBulletWorld(PyBulletEngine, World):
         self._names: dict[int, int] = {}  # pybullet's id -> body, where they differ
         self._moving: set[int] = set()  # bodies of mass above 0
         self._still: dict[int, _Box | None] = {}  # bodies of mass 0 in pybullet's world (the ground aside): box
+        self._rested: set[int] = set()  # bodies that were static: woken on the ground, they meet it as a box (the module's facts)
+        self._on_box: set[int] = set()  # pybullet's ids of the bodies that meet the ground as that box
+        self._ground_box: int | None = None  # pybullet's id of that box, made when first needed
         self._shelf: dict[int, tuple[Any, Any, _Box]] = {}  # body -> position, orientation, bounding box
         self._shelf_box: _Box | None = None  # the shelf's bounding box (None: to be found)
         self._recent: deque[int] = deque(maxlen=RECENT)
@@ -167,6 +187,7 @@ class PyBulletWorld(PyBulletEngine, World):
             self.ground = client.createMultiBody(0.0, client.createCollisionShape(pybullet.GEOM_PLANE))
         self._next: int = self.ground + 1
         self._material(self.ground, ground_friction, ground_restitution)
+        self._ground_material = self._dynamics(ground_friction, ground_restitution)
 
     @property
     def timestep(self) -> float:
@@ -191,6 +212,8 @@ class PyBulletWorld(PyBulletEngine, World):
     def _remove(self, body: int) -> None:
         engine_id = self._ids.pop(body, body)
         self._names.pop(engine_id, None)
+        if engine_id in self._on_box:  # pybullet gives its id to the next body made: as new
+            self._on_ground_box(engine_id, False)
         self._anchored.discard(engine_id)
         self._client.removeBody(engine_id)
         self._velocities.pop(body, None)
@@ -245,9 +268,32 @@ class PyBulletWorld(PyBulletEngine, World):
             self._still.pop(body, None)
             self._moving.add(body)
             self._due = 0  # something new moves: look at the shelf before the next step
+            if body in self._rested and not self._table and self._engine_id(body) not in self._on_box:
+                if self._box(body, 0.0)[2] < ON_THE_GROUND:  # woken where it rested on the plane
+                    self._on_ground_box(self._engine_id(body), True)
         else:
             self._moving.discard(body)
             self._still[body] = None  # its box, once asked
+            self._rested.add(body)
+
+    def _on_ground_box(self, engine_id: int, on: bool) -> None:
+        """Let the body of pybullet's ``engine_id`` meet the static ground as the box of
+        :data:`GROUND_HALF` instead of the plane (``on``), or as the plane again (the module's
+        facts); the box is made when first asked, colliding with nothing but the bodies let meet it,
+        and read as the ground in contacts."""
+        box = self._ground_box
+        if box is None:
+            shape = self._client.createCollisionShape(self._p.GEOM_BOX, halfExtents=list(GROUND_HALF))
+            box = self._ground_box = self._client.createMultiBody(0.0, shape, basePosition=[0.0, 0.0, -GROUND_HALF[2]])
+            self._client.setCollisionFilterGroupMask(box, -1, 0, 0)
+            self._client.changeDynamics(box, -1, **self._ground_material)
+            self._names[box] = self.ground
+        self._client.setCollisionFilterPair(self._engine_id(self.ground), engine_id, -1, -1, int(not on))
+        self._client.setCollisionFilterPair(box, engine_id, -1, -1, int(on))
+        if on:
+            self._on_box.add(engine_id)
+        else:
+            self._on_box.discard(engine_id)
 
     def make_debris(self, bodies: Sequence[int]) -> list[int]:
         """Re-create in maximal coordinates (pybullet's rigid bodies) each of ``bodies`` that
@@ -274,13 +320,16 @@ class PyBulletWorld(PyBulletEngine, World):
         return made
 
     def _material(self, body: int, friction: float, restitution: float) -> None:
-        self._client.changeDynamics(
-            self._engine_id(body),
-            -1,
-            lateralFriction=math.sqrt(friction),
-            restitution=math.sqrt(restitution),
-            frictionAnchor=int(self._engine.friction_anchors),
-        )
+        self._client.changeDynamics(self._engine_id(body), -1, **self._dynamics(friction, restitution))
+
+    def _dynamics(self, friction: float, restitution: float) -> dict[str, float]:
+        """pybullet's dynamics of a body of a material of ``friction`` and ``restitution`` (each
+        the square root: pybullet multiplies a pair's)."""
+        return {
+            "lateralFriction": math.sqrt(friction),
+            "restitution": math.sqrt(restitution),
+            "frictionAnchor": int(self._engine.friction_anchors),
+        }
 
     # reading ------------------------------------------------------------------
     def _pose_now(self, body: int) -> Any:

@@ -42,6 +42,8 @@ from dataclasses import replace
 
 import numpy as np
 import shapely
+from shapely.geometry import LineString, Point
+from shapely.geometry.base import BaseGeometry
 
 from ._areas import ContactAreas
 from ._equilibrium import LEVEL_TILT, ContactPolygon, RigidBlock, bare_contacts, connected_part, is_level, solve_equilibrium
@@ -105,15 +107,37 @@ def withstands(stack: Stack, effective_gravity: Sequence[float], margin: float =
             region = main.polygon.buffer(-margin) if margin > 0 else main.polygon
             x, y = np.asarray(load.com_above[:2]) + rise * tilt
             if not shapely.contains_xy(region, float(x), float(y)):
+                limit = g * _run_inside(region, np.asarray(load.com_above[:2]), tilt) / rise if rise > 0.0 else 0.0
                 tips = (
                     f"fails the tipping test (report 3.3.5): under a = {sideways:.3g} m/s^2 its centre of mass above, "
-                    f"{rise * 1000:.1f} mm high above its contact area, would act outside it"
+                    f"{rise * 1000:.1f} mm high above its contact area, would act outside it (it holds up to "
+                    f"{limit:.3g} m/s^2, {100.0 * (1.0 - limit / sideways):.1f}% under this)"
                 )
         if slides and tips:  # past both thresholds: the slide-rock mode (Shenton 1996)
             return f"{rec.label} {tips}, and {slides}"
         if slides or tips:
             return f"{rec.label} {slides or tips}"
     return _leaning(stack, frozen, (gx, gy), g)
+
+
+def _run_inside(region: BaseGeometry, point: np.ndarray, direction: np.ndarray) -> float:
+    """Metres ``point`` (shape (2,)) may move along ``direction`` (shape (2,), not zero) before it
+    leaves ``region`` (a shapely polygon); 0 when it lies outside already. The tipping test's
+    line of action meets the contact area ``rise a / g`` along the tilt from the centre of mass
+    above, so a brick holds up to ``a = g run / rise``.
+
+    >>> from shapely.geometry import box
+    >>> round(_run_inside(box(-0.004, -0.012, 0.004, 0.012), np.zeros(2), np.array([1.0, 0.0])), 6)
+    0.004
+    """
+    x, y = (float(v) for v in point)
+    if not shapely.contains_xy(region, x, y):
+        return 0.0
+    unit = direction / float(np.linalg.norm(direction))
+    minx, miny, maxx, maxy = region.bounds
+    far = math.hypot(maxx - minx, maxy - miny) + 1.0  # past the region, whatever its size
+    crossings = region.boundary.intersection(LineString([(x, y), (x + far * unit[0], y + far * unit[1])]))
+    return min((Point(x, y).distance(Point(c)) for c in shapely.get_coordinates(crossings)), default=0.0)
 
 
 def _leaning(stack: Stack, frozen: list[Record], sideways: tuple[float, float], gravity: float) -> str | None:

@@ -74,6 +74,8 @@ def test_the_pseudo_static_check_gives_both_thresholds(size, mu, mode):
     assert (TIPS if mode == "slide" else SLIDES) not in why  # below the other threshold
     both = ext.withstands((1.01 * max(slide, tip), 0.0))  # past both: both said (it said the slide alone)
     assert both is not None and TIPS in both and SLIDES in both, both
+    if mode == "tip":  # how far past it: the closed form g b / h, and the peak's share over it
+        assert f"it holds up to {tip:.3g} m/s^2, 1.0% under this" in why, why
 
 
 class Motion(Subscriber):

@@ -872,7 +872,7 @@ def test_compare_prints_a_block_per_scenario_and_a_row_per_mode(tmp_path, capsys
     assert main(["compare", str(write(tmp_path, a=PASSING, b=FAILING)), "--modes", "raw,extension", "-j", "1"]) == 1  # b fails
     captured = capsys.readouterr()
     out = captured.out.splitlines()
-    assert out[0] == "scenario: expected" and out[1].split() == ["engine", "mode", "result", "wall"]
+    assert out[0] == "scenario: what it expects" and out[1].split() == ["engine", "mode", "result", "wall"]
     assert out[2] == "a: stands" and out[3].split()[:4] == ["pybullet", "raw", "PASS", "stands"]
     assert out[4].split()[:4] == ["pybullet", "extension", "PASS", "stands"]
     assert out[5] == "b: collapse 2" and [line.split()[2] for line in out[6:8]] == ["FAIL", "FAIL"]

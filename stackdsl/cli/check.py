@@ -414,7 +414,7 @@ def compare_lines(table: dict[str, dict[str, CheckResult]], width: int = MAX_WID
     >>> r = CheckResult(file="s/tower.yaml", scenario="t", mode="raw", model="report", verdicts=(held,),
     ...     collapse_level=None, levels_placed=2, simulated_time=5.0, wall_time=1.25)
     >>> print("\\n".join(compare_lines({"s/tower.yaml": {"raw": r}}, 60)))
-    scenario: expected
+    scenario: what it expects
       engine   mode       result        wall
     tower: stands
       pybullet raw        PASS stands  1.2 s
@@ -426,7 +426,10 @@ def compare_lines(table: dict[str, dict[str, CheckResult]], width: int = MAX_WID
     lead = 2 + 8 + 1 + 9 + 2 + words + 1  # indent, engine, mode, verdict
     room = max(12, width - lead - 1 - wall)
     said = min(room, max([len("result") - 5, *(len(REFUSED if c.refused else text) for c, text in rows)]))
-    lines = ["scenario: expected", f"  {'engine':<8} {'mode':<9}  {'result':<{said + words + 1}} {'wall':>{wall}}".rstrip()]
+    lines = [
+        "scenario: what it expects",
+        f"  {'engine':<8} {'mode':<9}  {'result':<{said + words + 1}} {'wall':>{wall}}".rstrip(),
+    ]
     for file, cells in table.items():
         first = next((c for c in cells.values() if not c.refused), next(iter(cells.values())))
         lines += textwrap.wrap(f"{Path(file).stem}: {first.expected}", width, subsequent_indent="    ")

@@ -50,7 +50,7 @@ from ._leaning import pair_friction
 from ._load import LoadNode, propagate
 from ._lp import within
 from ._ride import AHEAD, MOST_TILT, RIDE_DROP, RIDE_TILT, RideLimit, ShakenRide, felt_gravity, holds_tilted, reach_of, tilt_of
-from ._shake import sliding_parts, withstands
+from ._shake import shake_limit, sliding_parts, withstands
 from ._stack import Record, StabilityEvent, Stack
 from ._stack_test import StackTest
 
@@ -1167,6 +1167,15 @@ class StabilityExtension:
             if why is not None:
                 return why
         return None
+
+    def shake_limit(self, acceleration: tuple[float, float]) -> tuple[float, str] | None:
+        """The least peak acceleration (m/s^2) along ``acceleration``'s direction (either way)
+        that the frozen stack does not withstand by the report's tests, and the brick and test
+        that fail first, in words (:func:`stability._shake.shake_limit`); None without a frozen
+        brick, a direction, or where a frozen contact is not level."""
+        if acceleration == (0.0, 0.0):
+            return None
+        return shake_limit(self._stack, acceleration, self._stack.config.com_margin)
 
     def wake_all(self, time: float, reason: str) -> list[StabilityEvent]:
         """Wake every frozen brick (report 3.3.7 from the bottom); returns the events."""

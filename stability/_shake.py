@@ -120,6 +120,49 @@ def withstands(stack: Stack, effective_gravity: Sequence[float], margin: float =
     return _leaning(stack, frozen, (gx, gy), g)
 
 
+def shake_limit(stack: Stack, direction: Sequence[float], margin: float = 0.0) -> tuple[float, str] | None:
+    """The least peak acceleration (m/s^2) of a ground shaking along ``direction`` (shape (2,),
+    either way) under which a frozen brick fails the tipping or the sliding test of
+    :func:`withstands`, and that brick and test in words (``"post tips"``, ``"b slides on
+    ground"``); None with no frozen brick, or when a frozen contact is not level (rigid-block
+    equilibrium decides there, :func:`_leaning`: no such bound). ``margin``: as
+    :func:`withstands`'.
+
+    Raises:
+        ValueError: ``direction`` zero.
+
+    Source: the tests of :func:`withstands` solved for the acceleration (module docstring: a
+    block tips from ``g b / h`` and slides from ``mu g``).
+    """
+    length = math.hypot(*(float(v) for v in direction))
+    if length == 0.0:
+        raise ValueError("direction: a horizontal direction, not zero")
+    unit = np.array([float(direction[0]), float(direction[1])]) / length
+    frozen = stack.in_order()
+    if not frozen:
+        return None
+    blocks = {r.body: RigidBlock(r.box.mass, stack.pose(r).position) for r in frozen}
+    if not all(is_level(c) for c in stack.frozen_contacts(blocks)):
+        return None
+    g = stack.config.gravity
+    loads = propagate(stack.nodes(frozen))
+    least: tuple[float, str] | None = None
+    for rec in frozen:
+        limits = [
+            (pair_friction(rec.friction, stack.bodies[s].friction) * g, f"{rec.label} slides on {stack.bodies[s].label}")
+            for s in rec.rests_on
+        ]
+        main, load = rec.main_contact, loads.get(rec.body)
+        if main is not None and load is not None and (rise := float(load.com_above[2]) - main.height) > 0.0:
+            region = main.polygon.buffer(-margin) if margin > 0 else main.polygon
+            run = min(_run_inside(region, np.asarray(load.com_above[:2]), sign * unit) for sign in (1.0, -1.0))
+            limits.append((g * run / rise, f"{rec.label} tips"))
+        for limit in limits:
+            if least is None or limit[0] < least[0]:
+                least = limit
+    return least
+
+
 def _run_inside(region: BaseGeometry, point: np.ndarray, direction: np.ndarray) -> float:
     """Metres ``point`` (shape (2,)) may move along ``direction`` (shape (2,), not zero) before it
     leaves ``region`` (a shapely polygon); 0 when it lies outside already. The tipping test's

@@ -76,6 +76,8 @@ def test_the_pseudo_static_check_gives_both_thresholds(size, mu, mode):
     assert both is not None and TIPS in both and SLIDES in both, both
     if mode == "tip":  # how far past it: the closed form g b / h, and the peak's share over it
         assert f"it holds up to {tip:.3g} m/s^2, 1.0% under this" in why, why
+    limit, words = ext.shake_limit((1.0, 0.0))  # the first threshold, along the shake: a ride says how near
+    assert limit == pytest.approx(first, rel=1e-9) and words == ("b tips" if mode == "tip" else "b slides on ground")
 
 
 class Motion(Subscriber):

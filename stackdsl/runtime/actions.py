@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from stability import JITTER, Box, Pose
+from stability import JITTER, Box, Pose, StabilityExtension
 
 from ..compile.actions import REACHES
 from ..compile.clearance import deepest
@@ -194,7 +194,7 @@ class Actions(Subscriber):
         if why is None and not rides:  # the frozen stack would stand, but something moves on it or comes
             why = _moving(extension.moving) if extension.moving or not during else _coming(during[0])
         detail = f"{a.amplitude * 1000:.3g} mm at {a.frequency:.3g} Hz, peak {peak:.3g} m/s^2: " + (
-            "the frozen stack stands under gravity tilted by it and rides the table"
+            "the frozen stack stands under gravity tilted by it and rides the table" + _limit(extension, acceleration)
             if rides
             else f"stepped in the engine ({why})"
         )
@@ -536,6 +536,16 @@ def _coming(action: Action) -> str:
         if what
         else f"the {noun} comes at t={action.time:.3f} s, before it ends"
     )
+
+
+def _limit(extension: StabilityExtension, acceleration: tuple[float, float]) -> str:
+    """How near a shake the frozen stack rides is to the first brick that fails the report's tests
+    (:meth:`stability.StabilityExtension.shake_limit`), in words led by " ("; "" where that has no
+    bound (a leaning contact: equilibrium decides)."""
+    limit = extension.shake_limit(acceleration)
+    if limit is None or not math.isfinite(limit[0]) or limit[0] <= 0.0:
+        return ""
+    return f" ({limit[1]} from {limit[0]:.3g} m/s^2: the peak is {100.0 * math.hypot(*acceleration) / limit[0]:.0f}% of it)"
 
 
 def _moving(labels: tuple[str, ...], shown: int = 3) -> str:

@@ -1458,6 +1458,10 @@ def test_a_compare_cell_says_how_near_a_collapse_came_to_standing():
     assert _cell(replace(near, first_moved_ended=0.1873)) == "collapse 9 from L03.1"  # knocked off: it fell
     assert _cell(replace(near, margin=-0.19)) == "collapse 9 from L03.1, which ended 4.4 mm from its place"
     assert _cell(replace(near, margin=None)) == "collapse 9 from L03.1, which ended 4.4 mm from its place"
+    # statics' collapse at the end: its margin is no distance, and its brick moved 0.95 mm
+    statics = replace(near, margin=-0.0, first_moved_ended=0.00095, certificate="collapse, no equilibrium: 0.000328 N")
+    assert statics.kind == "no equilibrium"
+    assert _cell(statics) == "collapse 9 from L03.1, which ended 0.95 mm from its place, no equilibrium at the end, a near tie"
     assert _cell(fell) == "collapse 9 from L03.1"  # a result that does not know where it ended
     # within 0.05 mm of the threshold, to the micrometre, as check's lines say it: never "ended 4.0 mm" of a 4 mm limit
     assert _cell(replace(near, first_moved_ended=0.00403)).startswith("collapse 9 from L03.1, which ended 4.030 mm from")

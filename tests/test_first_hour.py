@@ -92,7 +92,7 @@ def test_a_collapse_with_no_brick_past_the_threshold_at_the_end_says_so(end_mm, 
 
     outcome = SimpleNamespace(
         collapse=SimpleNamespace(level=8, brick="L08.3", brick_level=8),
-        certificate=SimpleNamespace(verdict="collapse"),
+        certificate=SimpleNamespace(verdict="collapse", kind="at rest displaced"),
         margin=None,  # how far past its limit it was decided: unknown here (a near tie: the next test)
         displacement={"L07.3": 0.00355, "L08.3": end_mm / 1000},
         final_graph=SimpleNamespace(nodes=[SimpleNamespace(id="L07.3", level=7), SimpleNamespace(id="L08.3", level=8)]),
@@ -129,7 +129,7 @@ def test_a_collapse_decided_a_hair_past_its_limit_says_it_is_a_near_tie():
     def said(margin: float, ended_mm: float) -> tuple[str, str]:
         outcome = SimpleNamespace(
             collapse=SimpleNamespace(level=8, brick="L02.2", brick_level=2),
-            certificate=SimpleNamespace(verdict="collapse"),
+            certificate=SimpleNamespace(verdict="collapse", kind="at rest displaced"),
             margin=margin,
             displacement={"L02.2": ended_mm / 1000, "L03.1": 0.001},
             final_graph=SimpleNamespace(nodes=[SimpleNamespace(id="L02.2", level=2), SimpleNamespace(id="L03.1", level=3)]),

@@ -518,7 +518,7 @@ def _cell(r: CheckResult) -> str:
     # and where the brick it is named after ended (a proof decided as a knocked brick's centre of
     # mass crossed its support's edge is 0.5 mm past it, and the brick lay on the ground)
     ended = r.first_moved_ended if r.collapse_level is not None and r.first_moved else None
-    if tie := near_tie(r.margin, ended, r.threshold):
+    if tie := near_tie(r.margin, ended, r.threshold, r.kind):
         near = [tie]
     # which brick moved first, and where it ended when that was near: cells that agree on the
     # level may not on where the collapse began, and a block dragged 10.5 mm in a tower that

@@ -99,6 +99,13 @@ class CheckResult:
     strict: bool = False
 
     @property
+    def kind(self) -> str | None:
+        """The kind of the verdict's proof (``"no equilibrium"``, ``"off its support"``, ...), as
+        :attr:`certificate` says it; None without a certificate."""
+        head = self.certificate.split(": ", 1)[0]
+        return head.split(", ", 1)[1] if ", " in head else None
+
+    @property
     def passed(self) -> bool:
         """True when the run ran, ended normally and every expectation held (an XPASS too; a
         skipped run did not run)."""
@@ -164,7 +171,7 @@ class CheckResult:
             return "undecided: still moving at the end"
         past = past_words(self.collapse_level, self.moved_levels)
         facts = [describe(self.collapse_level, first), *([past] if past is not None else [])]
-        if self.collapse_level is not None and (tie := near_tie(self.margin, self.first_moved_ended, self.threshold)):
+        if self.collapse_level is not None and (tie := near_tie(self.margin, self.first_moved_ended, self.threshold, self.kind)):
             facts.append(tie)  # a slide 0.005 mm past the threshold read as a fall
         said = set(self.moved_levels)
         for v in self.verdicts:

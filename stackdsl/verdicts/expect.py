@@ -284,7 +284,8 @@ def describe_outcome(outcome: Outcome, threshold: float) -> str:
         said += f", {past}"
     if c is None and outcome.certificate is not None and outcome.certificate.verdict == "undecided":
         return said.replace("stands", "undecided: still moving at the end", 1)
-    if c is not None and (tie := near_tie(outcome.margin, outcome.displacement.get(c.brick), threshold)):
+    kind = outcome.certificate.kind if outcome.certificate is not None else None
+    if c is not None and (tie := near_tie(outcome.margin, outcome.displacement.get(c.brick), threshold, kind)):
         said += f", {tie}"
     return said
 
@@ -293,17 +294,24 @@ NEAR_TIE = 0.001
 """Metres past its limit under which a collapse is said to be a near tie (:func:`near_tie`)."""
 
 
-def near_tie(margin: float | None, ended: float | None, threshold: float | None) -> str:
+def near_tie(margin: float | None, ended: float | None, threshold: float | None, kind: str | None = None) -> str:
     """``"0.0 mm past its limit, a near tie"`` for a collapse decided less than :data:`NEAR_TIE`
     past its limit (``margin``: the deciding proof's signed margin, m, :attr:`Outcome.margin`)
     whose first brick also ended less than that past ``threshold`` (``ended``: m from its place);
     else "" (and when any is unknown). A new user read "collapse 8 from L02.2, level 2 moved" of
     a wall that stood with one brick slid 4.0 mm against a 4 mm threshold as a fall: run's,
-    check's and compare's words say it alike."""
+    check's and compare's words say it alike. A collapse statics decided at the end (``kind``
+    "no equilibrium", whose margin is no distance) with its first brick within the threshold
+    says that instead: "0.0 mm past its limit" read as a measure of a card house whose brick had
+    moved 0.95 mm."""
     if margin is None or ended is None or threshold is None:
         return ""
     past = max(-margin, ended - threshold)
-    return f"{max(past, 0.0) * 1000:.1f} mm past its limit, a near tie" if past < NEAR_TIE else ""
+    if past >= NEAR_TIE:
+        return ""
+    if kind == "no equilibrium" and ended < threshold:
+        return "no equilibrium at the end, a near tie"
+    return f"{max(past, 0.0) * 1000:.1f} mm past its limit, a near tie"
 
 
 NONE_PAST = "no brick past the threshold at the end"

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -13,7 +14,7 @@ import pytest
 from stackdsl import compile_scenario, run_program
 from stackdsl.compile.generators import tipping_angle
 from stackdsl.compile.parts import arrange
-from stackdsl.lang.errors import ScenarioError
+from stackdsl.lang.errors import ScenarioError, ScenarioWarning
 from stackdsl.lang.loader import parse_scenario
 
 L, W, H = 0.12, 0.024, 0.008  # a KAPLA brick, m
@@ -129,6 +130,19 @@ def test_an_arc_of_dominoes_lies_on_its_circle_spaced_along_it(radius):
     for b, (x, y) in zip(row, xy - centre):
         tangent = math.degrees(math.atan2(x, -y)) if radius > 0 else math.degrees(math.atan2(-x, y))
         assert math.isclose(math.remainder(b.yaw - tangent, 360.0), 0.0, abs_tol=1e-9)
+
+
+def test_an_arc_of_dominoes_that_runs_round_past_its_start_is_warned_of():
+    # a new user's 22 slats 120 mm apart on a 400 mm radius: D22 stood 0.7 mm in front of D01
+    # (6.7 mm centre to centre), the row ran into its own start, and nothing said so
+    row = "stackdsl: 1\nbrick_types: {{slat: {{size: [150 mm, 25 mm, 6 mm]}}}}\nstructure: {{dominoes: {{count: {}, spacing: 120 mm, radius: 400 mm, brick: slat}}}}\n"
+    with pytest.warns(
+        ScenarioWarning, match=r"arc.yaml:3:\d+: warning: structure\.dominoes\.count: .*D22 comes back to D01, its centre 6\.7 mm"
+    ):
+        compile_scenario(parse_scenario(row.format(22), "arc.yaml"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        compile_scenario(parse_scenario(row.format(21), "arc.yaml"))  # 2400 mm of a 2513 mm round: short of D01
 
 
 def test_dominoes_that_would_overlap_are_refused_at_their_spacing():

@@ -58,6 +58,7 @@ from .actions import check_measured, compile_actions, heading, not_built, warn_d
 from .aim import outer_face, stepped_fall
 from .clearance import check_launch, check_pusher, warn_wide_pusher
 from .dynamics import check_motion
+from .generators import warn_wrapped_rows
 from .layouts import LaidBrick, with_placement_error
 from .limits import check_limits
 from .overlap import Body
@@ -570,8 +571,10 @@ def check_placements(state: Compilation) -> Compilation:
 def late_warnings(state: Compilation) -> Compilation:
     """Pass 14: the warnings that wait until nothing refuses the file (a refusal comes alone, on
     the first line): a pull or a push given a time while bricks are still to be placed
-    (:func:`stackdsl.compile.actions.warn_during_build`)."""
+    (:func:`stackdsl.compile.actions.warn_during_build`), a row of dominoes that runs round its
+    arc past its start (:func:`stackdsl.compile.generators.warn_wrapped_rows`)."""
     warn_during_build(state.scenario, state.motions, state.placements, state.bricks)
+    warn_wrapped_rows(state.scenario, state.nominal)
     return state
 
 

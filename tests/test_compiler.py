@@ -226,6 +226,37 @@ def test_impact_on_a_missing_level_is_an_error():
     assert info.value.field == "impacts[0].target.level"
 
 
+@pytest.mark.parametrize(("direction", "refused"), [("[0, 1, 0]", True), ("[1, 0, 0]", True), ("[0.3, -1, -0.2]", False)])
+def test_a_throw_at_a_side_must_fly_into_it(direction, refused):
+    # a new user's throw at the +y side flying +y started inside the tower and "hit" L06.1 from within
+    text = (
+        "stackdsl: 1\nstructure: {tower: {levels: 6}}\n"
+        f"impacts: [{{target: {{level: 6, side: +y}}, direction: {direction}, speed: 1 m/s, at: after level 6}}]\n"
+    )
+    if not refused:
+        assert next(a for a in program(text).actions if isinstance(a, Launch)).velocity[1] < 0.0
+        return
+    with pytest.raises(ScenarioError) as info:
+        program(text)
+    assert info.value.field == "impacts[0].direction"
+    assert (
+        f"a throw at the +y side must fly into it, and {direction} does not: give a direction with a -y part"
+        in info.value.message
+    )
+
+
+def test_a_slow_throw_says_the_speed_it_arrives_at():
+    # docs/language.md: 0.3 m/s from 50 mm is launched 136 mm above and arrives at 1.6 m/s; compile
+    # and run said only the 0.3 m/s it was thrown at
+    p = program(
+        "stackdsl: 1\nstructure: {tower: {levels: 6}}\n"
+        "impacts: [{target: {level: 6, side: +y}, speed: 0.3 m/s, at: after level 6, distance: 50 mm}]\n"
+    )
+    launch = next(a for a in p.actions if isinstance(a, Launch))
+    assert launch.arrival_speed() == pytest.approx(math.hypot(0.3, 9.81 * 0.05 / 0.3))
+    assert "0.3 m/s aimed at (48.0, 60.0, 44.0) mm, arriving t=12.167 s at 1.66 m/s" in format_program(p)
+
+
 def test_placement_error_is_seeded():
     text = "stackdsl: 1\nseed: 7\nstructure: {tower: {levels: 2}}\ntiming: {placement_error: 1 mm}\n"
     a, b = program(text), program(text)

@@ -958,6 +958,15 @@ def _launch(
     dt, split = stepping
     direction = np.array(impact.direction or _side(impact), dtype=np.float64)
     direction /= np.linalg.norm(direction)
+    if impact.target.side is not None and float(direction @ np.array(_side(impact))) <= 1e-9:
+        into = _side(impact)
+        axis = "xyz"[int(np.argmax(np.abs(into)))]
+        raise scenario.source.error(
+            path + ("direction",),
+            f"a throw at the {impact.target.side} side must fly into it, and [{', '.join(f'{v:g}' for v in impact.direction or ())}] "
+            "does not: "
+            f"give a direction with a {'-' if min(into) < 0 else '+'}{axis} part, or leave it out to throw straight in",
+        )
     if isinstance(impact.at, AfterLevel):
         last = [int(k) for b, k in zip(bricks, slots) if b.level == impact.at.after_level]
         if not last:

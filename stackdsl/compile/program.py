@@ -148,6 +148,13 @@ class Launch(_Frozen):
     aim: tuple[str, ...] = ()
     face: Vec3 | None = None
 
+    def arrival_speed(self, gravity: float = 9.81) -> float:
+        """m/s the projectile moves at when it reaches ``target``: its ``velocity`` with what
+        ``gravity`` (m/s^2) added in its flight from ``time`` to ``arrival`` (a slow throw arrives
+        faster and steeper than it was thrown)."""
+        vx, vy, vz = self.velocity
+        return math.sqrt(vx * vx + vy * vy + (vz - gravity * (self.arrival - self.time)) ** 2)
+
 
 class Fixture(_Frozen):
     """An immovable environment body (a wall, a ramp), in the world from the start."""
@@ -564,7 +571,10 @@ def _launch_line(a: Launch) -> str:
     """A throw as ``stackdsl compile`` prints it."""
     x, y, z = (_mm(v) for v in a.target)
     speed = sum(v * v for v in a.velocity) ** 0.5
-    return f"launch {a.id:<10} {speed:.3g} m/s at ({x:.1f}, {y:.1f}, {z:.1f}) mm, arriving t={a.arrival:.3f} s  {a.brick.type}"
+    return (
+        f"launch {a.id:<10} {speed:.3g} m/s aimed at ({x:.1f}, {y:.1f}, {z:.1f}) mm, arriving t={a.arrival:.3f} s at "
+        f"{a.arrival_speed():.3g} m/s  {a.brick.type}"
+    )
 
 
 def speed_words(metres_a_second: float) -> str:

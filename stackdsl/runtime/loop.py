@@ -315,7 +315,8 @@ class StepLoop:
         self.world.throw(body, a.velocity, min(a.brick.half_extents) if ccd else None)
         record = BrickRecord(a.id, body, a.brick, None, pose, pose)
         self.structure.add(record)
-        detail = f"{speed:.3g} m/s ({said})" if said else f"{speed:.3g} m/s"
+        arriving = f"{speed:.3g} m/s, arriving at {a.arrival_speed(self.program.engine.gravity):.3g} m/s"
+        detail = f"{arriving} ({said})" if said else arriving
         self.events.append(Event(time=a.time, kind="launch", brick=a.id, detail=detail))
         for on_launch in self._on_launch:
             on_launch(self, record)

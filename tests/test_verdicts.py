@@ -589,7 +589,7 @@ def test_a_brick_placed_off_its_support_is_measured_from_where_it_was_placed(pla
     assert support.placed_outside == pytest.approx(max(0.0, placed_x_mm - 60.0) / 1000)
     assert support.placed_margin == pytest.approx((60.0 - placed_x_mm) / 1000)  # signed: inside the edge > 0
     moved = np.array([moved_x_mm / 1000, 0.0, 0.012])
-    assert support.outside(moved, {1: base}) == pytest.approx(max(0.0, moved_x_mm - 60.0) / 1000)
+    assert support.margin_now(moved, {1: base}) == pytest.approx((60.0 - moved_x_mm) / 1000)
 
 
 @pytest.mark.parametrize("shift_mm, near", [(59.9, True), (61.0, False)])

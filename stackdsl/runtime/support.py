@@ -235,26 +235,12 @@ class SupportPolygon:
     ) -> BaseGeometry | None:
         """What the brick stands on now, seen from above (shapely; None without a piece): on the
         ground alone, the face it stood on with the brick at ``pose`` (in the ground's frame), as
-        :meth:`beyond_its_base` measures; else the polygon, as :meth:`outside` measures."""
+        :meth:`beyond_its_base` measures; else the polygon, as :meth:`margin_now` measures."""
         if self.on_the_ground_alone:
             placed = self.box.corners(self.pose)
             face = np.argsort(placed[:, 2])[:4]
             return hull_xy(self.box.corners(pose)[face][:, :2])
         return self._hull(poses, offset, gone)
-
-    def outside(
-        self,
-        com: np.ndarray,
-        poses: dict[int, Pose],
-        offset: tuple[float, float, float] = (0.0, 0.0, 0.0),
-        gone: AbstractSet[int] = frozenset(),
-    ) -> float:
-        """Metres the horizontal projection of ``com`` (shape (3,), in the ground's frame) lies
-        outside the polygon, the supports at ``poses`` (body -> pose now, in the world; the
-        ground ``offset`` m from where it started, as a shake table moves it), leaving out the
-        pieces on the bodies ``gone`` (pulled out of the scene); 0 inside, and when there are no
-        pieces."""
-        return max(0.0, -self.margin_now(com, poses, offset, gone))
 
     def margin_now(
         self,
@@ -263,8 +249,11 @@ class SupportPolygon:
         offset: tuple[float, float, float] = (0.0, 0.0, 0.0),
         gone: AbstractSet[int] = frozenset(),
     ) -> float:
-        """Metres :meth:`outside`'s centre of mass lies inside the polygon's edge (negative:
-        outside it; inf with no pieces)."""
+        """Metres the horizontal projection of ``com`` (shape (3,), in the ground's frame) lies
+        inside the polygon's edge (negative: outside it; inf with no pieces), the supports at
+        ``poses`` (body -> pose now, in the world; the ground ``offset`` m from where it started,
+        as a shake table moves it), leaving out the pieces on the bodies ``gone`` (pulled out of
+        the scene)."""
         return signed_margin(self._hull(poses, offset, gone), com)
 
 

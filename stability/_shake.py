@@ -37,7 +37,7 @@ are enough. Source: report 3.3.4-3.3.5 with a tilted gravity; the thresholds abo
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -50,7 +50,7 @@ from ._equilibrium import LEVEL_TILT, ContactPolygon, RigidBlock, bare_contacts,
 from ._geometry import hull_xy
 from ._graph import BrickState
 from ._leaning import pair_friction
-from ._load import propagate
+from ._load import Load, propagate
 from ._stack import Record, Stack
 
 #: The friction coefficients of a part's contacts are multiplied by this in
@@ -101,13 +101,11 @@ def withstands(stack: Stack, effective_gravity: Sequence[float], margin: float =
             None,
         )
         tips = None
-        main, load = rec.main_contact, loads.get(rec.body)
-        if main is not None and load is not None:
-            rise = float(load.com_above[2]) - main.height
-            region = main.polygon.buffer(-margin) if margin > 0 else main.polygon
-            x, y = np.asarray(load.com_above[:2]) + rise * tilt
+        if (footing := _footing(rec, loads, margin)) is not None:
+            region, centre, rise = footing
+            x, y = centre + rise * tilt
             if not shapely.contains_xy(region, float(x), float(y)):
-                limit = g * _run_inside(region, np.asarray(load.com_above[:2]), tilt) / rise if rise > 0.0 else 0.0
+                limit = g * _run_inside(region, centre, tilt) / rise if rise > 0.0 else 0.0
                 tips = (
                     f"fails the tipping test (report 3.3.5): under a = {sideways:.3g} m/s^2 its centre of mass above, "
                     f"{rise * 1000:.1f} mm high above its contact area, would act outside it (it holds up to "
@@ -152,15 +150,26 @@ def shake_limit(stack: Stack, direction: Sequence[float], margin: float = 0.0) -
             (pair_friction(rec.friction, stack.bodies[s].friction) * g, f"{rec.label} slides on {stack.bodies[s].label}")
             for s in rec.rests_on
         ]
-        main, load = rec.main_contact, loads.get(rec.body)
-        if main is not None and load is not None and (rise := float(load.com_above[2]) - main.height) > 0.0:
-            region = main.polygon.buffer(-margin) if margin > 0 else main.polygon
-            run = min(_run_inside(region, np.asarray(load.com_above[:2]), sign * unit) for sign in (1.0, -1.0))
+        if (footing := _footing(rec, loads, margin)) is not None and footing[2] > 0.0:
+            region, centre, rise = footing
+            run = min(_run_inside(region, centre, sign * unit) for sign in (1.0, -1.0))
             limits.append((g * run / rise, f"{rec.label} tips"))
         for limit in limits:
             if least is None or limit[0] < least[0]:
                 least = limit
     return least
+
+
+def _footing(rec: Record, loads: Mapping[int, Load], margin: float) -> tuple[BaseGeometry, np.ndarray, float] | None:
+    """What the tipping test of ``rec`` asks (report 3.3.4-3.3.5): its main contact area less
+    ``margin`` (m), the horizontal place of its centre of mass above (shape (2,), m) and how high
+    that lies above the area (m); None without a main contact area or a load (``loads``:
+    :func:`stability._load.propagate`'s)."""
+    main, load = rec.main_contact, loads.get(rec.body)
+    if main is None or load is None:
+        return None
+    region = main.polygon.buffer(-margin) if margin > 0 else main.polygon
+    return region, np.asarray(load.com_above[:2], dtype=float), float(load.com_above[2]) - main.height
 
 
 def _run_inside(region: BaseGeometry, point: np.ndarray, direction: np.ndarray) -> float:

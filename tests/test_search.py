@@ -304,6 +304,41 @@ def test_an_end_the_compiler_refuses_is_said_at_that_end_of_between(tmp_path, ca
     assert first.startswith(f"{path}:4:57: search.threshold.between[0]: the value '10 mm': brick L01.2"), first
 
 
+def test_a_field_of_whole_numbers_is_refused_before_the_search_runs(tmp_path, capsys, monkeypatch):
+    # a new user searched structure.tower.levels between 3 and 10: both ends ran, then 8.79 levels
+    # stopped the search with a sweep's words (exit 2 all the same, after the runs)
+    import stackdsl.batch.search as search
+
+    monkeypatch.setattr(search, "find_threshold", lambda *a, **k: pytest.fail("the search ran"))
+    path = tmp_path / "levels.yaml"
+    path.write_text(
+        "stackdsl: 1\nstructure: {tower: {levels: 3}}\nsearch:\n"
+        "  threshold: {field: structure.tower.levels, between: [3, 10], tolerance: 1}\nexpect: {stands: true}\n"
+    )
+    assert main(["search", str(path), "-j", "1", "--out", str(tmp_path / "o")]) == 2
+    first = capsys.readouterr().err.splitlines()[0]
+    assert first.startswith(f"{path}:4:22: search.threshold.field: structure.tower.levels does not take 6.5"), first
+    assert "expected a whole number" in first and "grid cell" not in first, first
+
+
+def test_the_ends_are_compiled_for_the_backend_given(tmp_path, capsys):
+    # a 2 mm pusher, below what pybullet simulates faithfully: with --backend mujoco the search's
+    # ends were compiled for the file's pybullet and refused
+    pytest.importorskip("mujoco", reason="the MuJoCo extra is not installed")
+    path = tmp_path / "thin.yaml"
+    path.write_text(
+        "stackdsl: 1\nbrick_types: {finger: {size: [10 mm, 10 mm, 2 mm]}}\nstructure: {tower: {levels: 2}}\n"
+        "actions: [{push: {target: {brick: L02.1}, direction: +x, speed: 0.05 m/s, distance: 5 mm, at: after level 2, "
+        "pusher: finger}}]\n"
+        "search:\n  threshold: {field: 'actions[0].push.distance', between: [10 mm, 40 mm]}\nexpect: {stands: true}\n"
+    )
+    assert main(["search", str(path), "-j", "1", "--out", str(tmp_path / "o")]) == 2  # pybullet: refused
+    assert "a side of 2 mm is below what pybullet simulates faithfully" in capsys.readouterr().err
+    assert main(["search", str(path), "-j", "1", "--out", str(tmp_path / "m"), "--backend", "mujoco", "--runs", "3"]) in (0, 1)
+    said = capsys.readouterr()
+    assert "simulates faithfully" not in said.err and "threshold of actions[0].push.distance" in said.out + said.err
+
+
 @pytest.mark.parametrize(
     "search, runs, says",
     [

@@ -90,7 +90,7 @@ def _search(args: argparse.Namespace) -> int:
 
     options = SweepOptions(args.mode, args.model, False, TIMEOUT if args.timeout is None else args.timeout, args.backend)
     if search.threshold is not None:  # the field and its ends checked before anything is made or runs
-        template, value_of = _threshold_template(data, source, search.threshold)
+        template, value_of = _threshold_template(data, source, search.threshold, options)
     else:
         template, expected = _counterexample_template(scenario, data, source)
     if args.timeout is not None:  # --timeout bounds the whole search: refused up front if it cannot fit
@@ -149,10 +149,11 @@ def _say(line: str) -> None:
     print(line, file=sys.stderr, flush=True)
 
 
-def _threshold_template(data: dict[str, Any], source: SourceMap, spec: Any) -> tuple[Any, Callable[[Any], Any]]:
+def _threshold_template(data: dict[str, Any], source: SourceMap, spec: Any, options: Any) -> tuple[Any, Callable[[Any], Any]]:
     """The file as a template whose one-field grid is the field searched (its ends checked as a
-    sweep's grid values are, errors said at the search's field or ends), and what puts a probe's
-    value in the grid (the whole list, for one number of a list)."""
+    sweep's grid values are, and compiled on the command line's mode, model and backend:
+    ``options``, a :class:`stackdsl.batch.sweep.SweepOptions`; errors said at the search's field or
+    ends), and what puts a probe's value in the grid (the whole list, for one number of a list)."""
     from ..batch.search import in_list
     from ..compile.compiler import compile_scenario
     from ..lang.sampling import Template
@@ -180,11 +181,26 @@ def _threshold_template(data: dict[str, Any], source: SourceMap, spec: Any) -> t
         template.scenario(1, 0)
         for end in (0, 1):  # what the compiler refuses at an end (a spacing that overlaps the bricks): said there, first
             try:
-                compile_scenario(template.scenario(end, 0))
+                compile_scenario(template.scenario(end, 0), options.mode, options.model, options.backend)
             except ScenarioError as exc:
                 if not (exc.field or "").startswith("sweep"):  # elsewhere, made so by the end: said so
                     exc.message += f" (with the search's {('lower', 'upper')[end]} end, {spec.field} = {spec.between[end]})"
                 raise
+        low, high = spec.ends
+        middle: Any = (low + high) / 2 if not spec.unit else f"{(low + high) / 2:g} {spec.unit}"
+        try:  # a value between the ends, as the search proposes them: a field of whole numbers takes none
+            between = Template.of({**data, "sweep": {"samples": 1, "grid": {key: [value_of(middle)]}}}, mapped)
+            assert between is not None
+            between.scenario(0, 0, checked=True)
+        except ScenarioError as exc:
+            if not (exc.field or "").startswith("sweep"):
+                raise
+            raise source.error(
+                ("search", "threshold", "field"),
+                f"{spec.field} does not take {middle}, between the ends, as the search proposes: "
+                f"{exc.message.split(': ', 1)[-1]}; a threshold search moves its field by fractions, so search a field "
+                "that takes any value between its ends (a length, a speed, a time), or list whole values in a sweep's grid",
+            ) from None
     except ScenarioError as exc:  # the grid is the search's own: said at its field or its ends
         if not (exc.field or "").startswith("sweep"):
             raise

@@ -43,6 +43,15 @@ def test_a_short_single_file_stacks_critical_shift_is_bracketed_in_few_runs(tmp_
     assert (out / "samples.csv").read_text().count("\n") == found["runs"] + 1
 
 
+def test_runs_spent_before_the_tolerance_are_not_set_against_a_grid(tmp_path, capsys):
+    # --runs 3 printed "between 30 and 40.1 mm" and "a grid of the same resolution takes 201 (67.0x
+    # as many)", as if it were an answer
+    path = _short_stack(tmp_path)
+    assert main(["search", str(path), "-j", "1", "--out", str(tmp_path / "o"), "--runs", "3"]) in (0, 1)
+    out = capsys.readouterr().out
+    assert "3 runs (brent), spent before the runs' interval was 0.1 mm wide" in out and "as many" not in out, out
+
+
 def test_a_search_is_a_row_of_the_html_report_as_a_sweep_is(tmp_path):
     # the 3-brick stack of the shipped search: its row holds the verdict, the interval, the picture and the runs' files
     path = _short_stack(tmp_path)

@@ -273,9 +273,15 @@ def _threshold(
                 f"  the runs' interval, {found.low:.6g} to {found.high:.6g} {spec.unit}, widened by the engine's tie band "
                 f"({widened[0]:.3g} and {widened[1]:.3g} {spec.unit}): within it the engine decides the verdict either way"
             )
-        print(
-            f"{found.runs} runs ({found.method}); a grid of the same resolution takes {grid} ({grid / found.runs:.1f}x as many)"
-        )
+        if high - low - widened[0] - widened[1] <= spec.step * (1.0 + 1e-9):  # the runs' interval, within the tolerance
+            print(
+                f"{found.runs} runs ({found.method}); a grid of the same resolution takes {grid} ({grid / found.runs:.1f}x as many)"
+            )
+        else:  # --runs spent first: no resolution reached to set a grid against
+            print(
+                f"{found.runs} runs ({found.method}), spent before the runs' interval was {spec.step:g} {spec.unit} wide: "
+                "the interval above is as narrow as they got, not the threshold to the tolerance".replace("  ", " ")
+            )
         if found.changes > 1:
             print(f"note: the verdict changes {found.changes} times among the runs: the interval is the narrowest change")
     if found.message:

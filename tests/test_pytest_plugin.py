@@ -58,6 +58,18 @@ def test_each_scenario_file_is_one_item_named_after_it(project):
     ]
 
 
+def test_k_matches_a_scenarios_name_and_its_path_as_check_does(project):
+    # a new user's -k tips (of "name: my overhang that tips") and -k scenarios/tower deselected
+    # everything: pytest matched the file's stem alone
+    write(project, "over", "stackdsl: 1\nname: 'my overhang that tips'\n" + TOWER.split("\n", 1)[1])
+    write(project, "tower", TOWER)
+    picked = {
+        k: sorted(line.split("::")[1] for line in project.runpytest("--collect-only", "-q", "-k", k).outlines if "::" in line)
+        for k in ("tips", "scenarios/tow", "my and not tower", "tower")
+    }
+    assert picked == {"tips": ["over"], "scenarios/tow": ["tower"], "my and not tower": ["over"], "tower": ["tower"]}
+
+
 def test_golden_written_on_update_then_matched(project):
     write(project, "two", TWO_BRICKS.format(x="0 mm"))
     project.runpytest("--snapshot-update").assert_outcomes(passed=1)

@@ -49,6 +49,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shlex
 from collections.abc import Generator, Iterator
 from pathlib import Path
@@ -283,7 +284,31 @@ class ScenarioFile(pytest.File):
         if SnapshotAssertion is None:  # no syrupy: its golden cannot be compared
             yield NeedsExtra.from_parent(self, name=self.path.stem)
             return
-        yield ScenarioItem.from_parent(self, name=self.path.stem, callobj=_scenario_test)
+        item = ScenarioItem.from_parent(self, name=self.path.stem, callobj=_scenario_test)
+        item.extra_keyword_matches.update(_keywords(self.path, Path(self.config.rootpath)))
+        yield item
+
+
+#: Characters of a scenario file read for its ``name:`` at collection (a name lies near the top).
+NAME_READ = 65536
+
+
+def _keywords(path: Path, root: Path) -> set[str]:
+    """What ``-k`` matches of a scenario item besides pytest's own names: its path from pytest's
+    rootdir, ``/`` and all (``-k scenarios/tower``), and the scenario's top-level ``name:``
+    (``-k tips`` of "my overhang that tips"), as ``stackdsl check -k`` matches them. The name is
+    read from the file's first lines as text, not parsed: collecting must not wait on a file
+    that a run would refuse."""
+    words = {Path(_relative(path, root)).as_posix()}
+    try:
+        with open(path, encoding="utf-8", errors="replace") as file:
+            head = file.read(NAME_READ)
+    except OSError:
+        return words
+    found = re.search(r"^name:[ \t]*(.+?)[ \t]*$", head, re.MULTILINE)
+    if found is not None:
+        words.add(found.group(1).strip("'\""))
+    return words
 
 
 #: What a scenario item says when syrupy, which compares its golden snapshot, is not installed.

@@ -240,6 +240,16 @@ def test_invalid_yaml():
     assert err.line is not None and "not valid YAML" in err.message
 
 
+def test_an_unclosed_quote_or_bracket_is_shown_where_it_opens():
+    # a new user's quote left open on line 2 read "7:1: found unexpected end of stream" of a
+    # 6-line file, with no line shown; a bracket left open named only where parsing stopped
+    quote = error('stackdsl: 1\nname: "unterminated\nstructure:\n  tower: {levels: 3}\n')
+    assert (quote.line, quote.column) == (2, 7) and quote.source_line == 'name: "unterminated'
+    assert "a quoted scalar that starts here and is still open at the file's end" in quote.message
+    bracket = error("stackdsl: 1\nstructure:\n  tower: {levels: 3, shift: [1 mm,\n    spacing: 96 mm}\nexpect: {stands: true}\n")
+    assert bracket.line == 4 and "while parsing a flow sequence that starts at 3:29" in bracket.message, bracket.message
+
+
 def test_empty_file_and_top_level_list():
     assert "empty" in error("").message
     assert "mapping of fields" in error("- 1\n- 2\n").message

@@ -246,10 +246,18 @@ def _read_yaml(text: str, source: SourceMap) -> Any:
 
 
 def _marked_error(exc: yaml.MarkedYAMLError, source: SourceMap) -> ScenarioError:
-    """The error for PyYAML's ``exc`` at the line and column it marks, with a hint when a
-    ``[`` inside ``{...}`` follows a name (a grid key with an index written in flow style)."""
+    """The error for PyYAML's ``exc`` at the line and column it marks, with where what it was
+    reading began when that is another line (a quote or a bracket left open: at that line when
+    it failed past the file's end), and a hint when a ``[`` inside ``{...}`` follows a name (a
+    grid key with an index written in flow style)."""
     mark = exc.problem_mark or exc.context_mark
     line = mark.line if mark else None
+    started = ""  # where what PyYAML was reading began, when not where it failed: an unclosed quote or bracket
+    if exc.problem and exc.context and (begun := exc.context_mark) is not None and (mark is None or begun.line != mark.line):
+        started = f", {exc.context} that starts at {begun.line + 1}:{begun.column + 1}"
+        if line is None or line >= len(source.lines):  # failed past the file's end: shown where it began
+            mark, line = begun, begun.line
+            started = f", {exc.context} that starts here and is still open at the file's end"
     text_line = source.lines[line] if line is not None and line < len(source.lines) else ""
     hint = ""
     if mark is not None and "but got '['" in str(exc.problem) and text_line[mark.column - 1 : mark.column].isalnum():
@@ -258,7 +266,7 @@ def _marked_error(exc: yaml.MarkedYAMLError, source: SourceMap) -> ScenarioError
             '("actions[0].shake.amplitude": ...), write it with a dot (actions.0.shake.amplitude) or on a line of its own'
         )
     return ScenarioError(
-        f"not valid YAML: {exc.problem or exc.context or exc}{hint}",
+        f"not valid YAML: {exc.problem or exc.context or exc}{started}{hint}",
         file=source.file,
         line=None if line is None else line + 1,
         column=None if mark is None else mark.column + 1,

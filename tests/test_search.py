@@ -301,33 +301,36 @@ def test_a_counterexample_search_whose_every_run_is_refused_exits_2_not_0(tmp_pa
     assert "bad input" not in capsys.readouterr().err
 
 
-def test_an_end_the_compiler_refuses_is_said_at_that_end_of_between(tmp_path, capsys):
-    # it was said at 1:1, at a sweep.grid key the file does not have, after the search had begun
-    path = tmp_path / "q.yaml"
-    path.write_text(
-        "stackdsl: 1\nstructure: {tower: {levels: 3}}\nsearch:\n"
-        "  threshold: {field: structure.tower.spacing, between: [10 mm, 96 mm]}\nexpect: {stands: true}\n"
-    )
-    assert main(["search", str(path), "-j", "1", "--out", str(tmp_path / "o")]) == 2
-    first = capsys.readouterr().err.splitlines()[0]
-    assert first.startswith(f"{path}:4:57: search.threshold.between[0]: the value '10 mm': brick L01.2"), first
-
-
-def test_a_field_of_whole_numbers_is_refused_before_the_search_runs(tmp_path, capsys, monkeypatch):
-    # a new user searched structure.tower.levels between 3 and 10: both ends ran, then 8.79 levels
-    # stopped the search with a sweep's words (exit 2 all the same, after the runs)
+@pytest.mark.parametrize(
+    ("threshold", "begins", "says"),
+    [
+        # an end the compiler refuses: it was said at 1:1, at a sweep.grid key the file does not
+        # have, after the search had begun
+        (
+            "{field: structure.tower.spacing, between: [10 mm, 96 mm]}",
+            "4:57: search.threshold.between[0]",
+            "the value '10 mm': brick L01.2",
+        ),
+        # a field of whole numbers: a new user's levels between 3 and 10 ran both ends, then 8.79
+        # levels stopped the search with a sweep's words ("sample 0 of grid cell 0 ...")
+        (
+            "{field: structure.tower.levels, between: [3, 10], tolerance: 1}",
+            "4:22: search.threshold.field",
+            "structure.tower.levels does not take 6.5, between the ends, as the search proposes: expected a whole number",
+        ),
+    ],
+)
+def test_a_search_refused_before_it_runs_is_said_where_the_file_is_wrong(threshold, begins, says, tmp_path, capsys, monkeypatch):
     import stackdsl.batch.search as search
 
     monkeypatch.setattr(search, "find_threshold", lambda *a, **k: pytest.fail("the search ran"))
-    path = tmp_path / "levels.yaml"
+    path = tmp_path / "q.yaml"
     path.write_text(
-        "stackdsl: 1\nstructure: {tower: {levels: 3}}\nsearch:\n"
-        "  threshold: {field: structure.tower.levels, between: [3, 10], tolerance: 1}\nexpect: {stands: true}\n"
+        f"stackdsl: 1\nstructure: {{tower: {{levels: 3}}}}\nsearch:\n  threshold: {threshold}\nexpect: {{stands: true}}\n"
     )
     assert main(["search", str(path), "-j", "1", "--out", str(tmp_path / "o")]) == 2
     first = capsys.readouterr().err.splitlines()[0]
-    assert first.startswith(f"{path}:4:22: search.threshold.field: structure.tower.levels does not take 6.5"), first
-    assert "expected a whole number" in first and "grid cell" not in first, first
+    assert first.startswith(f"{path}:{begins}: {says}") and "grid cell" not in first, first
 
 
 def test_the_ends_are_compiled_for_the_backend_given(tmp_path, capsys):

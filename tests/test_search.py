@@ -318,6 +318,18 @@ def test_a_counterexample_search_whose_every_run_is_refused_exits_2_not_0(tmp_pa
             "4:22: search.threshold.field",
             "structure.tower.levels does not take 6.5, between the ends, as the search proposes: expected a whole number",
         ),
+        # ends of another kind than the field's: said as the search's end, not a sweep's sample
+        (
+            "{field: structure.tower.spacing, between: [1 s, 2 s]}",
+            "4:22: search.threshold.field",
+            "the search's lower end (structure.tower.spacing = 1 s): expected a length",
+        ),
+        # ends of two kinds: a search's words, not a distribution's
+        (
+            "{field: structure.tower.spacing, between: [60 mm, 90 s]}",
+            "4:14: search.threshold",
+            "between: '90 s' cannot be written in 'mm': give both ends of between and the tolerance in units of one kind",
+        ),
     ],
 )
 def test_a_search_refused_before_it_runs_is_said_where_the_file_is_wrong(threshold, begins, says, tmp_path, capsys, monkeypatch):

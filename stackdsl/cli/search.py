@@ -208,7 +208,12 @@ def _threshold_template(data: dict[str, Any], source: SourceMap, spec: Any, opti
         blamed: tuple[str | int, ...] = ("search", "threshold", "between" if "value" in exc.message else "field")
         if end_at is not None and blamed[-1] == "between":
             blamed += (int(end_at[1]),)
-        raise source.error(blamed, exc.message.replace("the grid key", "the field").replace("grid value", "value")) from None
+        message = re.sub(  # the grid's two cells are the search's ends
+            r"sample 0 of grid cell ([01]) \(",
+            lambda m: f"the search's {('lower', 'upper')[int(m[1])]} end (",
+            exc.message.replace("the grid key", "the field").replace("grid value", "value"),
+        )
+        raise source.error(blamed, message) from None
     return template, value_of
 
 

@@ -16,6 +16,8 @@ from .bounds import StrictModel
 from .grammar import WHOLE, Key
 from .units import in_unit, split_quantity
 
+_ENDS = "both ends of between and the tolerance"
+
 #: Runs a search may take at most.
 MAX_SEARCH_RUNS = 10_000
 
@@ -39,13 +41,13 @@ class Threshold(StrictModel):
     @property
     def ends(self) -> tuple[float, float]:
         """``between`` as numbers of :attr:`unit`."""
-        return in_unit(self.between[0], self.unit), in_unit(self.between[1], self.unit)
+        return in_unit(self.between[0], self.unit, of=_ENDS), in_unit(self.between[1], self.unit, of=_ENDS)
 
     @property
     def step(self) -> float:
         """``tolerance`` as a number of :attr:`unit`."""
         low, high = self.ends
-        return (high - low) / 100 if self.tolerance is None else in_unit(self.tolerance, self.unit)
+        return (high - low) / 100 if self.tolerance is None else in_unit(self.tolerance, self.unit, of=_ENDS)
 
     @model_validator(mode="after")
     def _an_interval(self) -> Threshold:

@@ -383,9 +383,10 @@ def in_language_units(value: Any) -> tuple[Any, str]:
     return number * factor, name
 
 
-def in_unit(value: Any, unit: str) -> float:
+def in_unit(value: Any, unit: str, *, of: str = "every value of a distribution") -> float:
     """``value`` (a number or a quantity string) as a number of ``unit`` (as written in a file,
-    ``""``: a bare number, whose own unit is the field's).
+    ``""``: a bare number, whose own unit is the field's); ``of`` names, in an error, the values
+    that must share a unit.
 
     >>> in_unit("2 cm", "mm"), in_unit(4, "")
     (20.0, 4.0)
@@ -398,14 +399,10 @@ def in_unit(value: Any, unit: str) -> float:
     if own == unit or (number == 0.0 and not own):  # a bare 0 is 0 of any unit
         return number
     if not own or not unit:
-        raise ValueError(
-            f"give every value of a distribution with the same kind of unit, or none: {value!r} and {unit or 'no unit'!r}"
-        )
+        raise ValueError(f"give {of} with the same kind of unit, or none: {value!r} and {unit or 'no unit'!r}")
     ureg = _registry()
     try:
         quantity = ureg.Quantity(number, ureg.parse_units(own))
         return float(quantity.to(ureg.parse_units(unit)).magnitude)
     except Exception:  # pint raises many kinds: a unit it does not know, or of another dimension
-        raise ValueError(
-            f"{value!r} cannot be written in {unit!r}: give every value of a distribution in units of one kind"
-        ) from None
+        raise ValueError(f"{value!r} cannot be written in {unit!r}: give {of} in units of one kind") from None

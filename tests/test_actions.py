@@ -93,6 +93,23 @@ def test_a_shakes_half_period_rounds_up_as_its_refusal_says(duration, periods):
     assert shake.end_time - shake.time == pytest.approx(periods / shake.frequency)
 
 
+@pytest.mark.parametrize(("named", "written"), [("+x", "[1, 0]"), ("-y", "[0, -3]")])
+def test_a_shakes_direction_may_be_named_as_a_pulls_and_a_pushs_are(named, written):
+    """A new user wrote a shake's direction '+x', as pulls and pushes take it, and was told a list."""
+
+    def shake_of(direction: str) -> Shake:
+        text = (
+            "stackdsl: 1\nstructure: {tower: {levels: 2}}\n"
+            f"actions: [{{shake: {{amplitude: 2 mm, frequency: 1 Hz, duration: 1 s, at: 9 s, direction: '{direction}'}}}}]\n"
+        )
+        (shake,) = compile_scenario(parse_scenario(text.replace("'[", "[").replace("]'", "]"), "s.yaml")).kinematic
+        assert isinstance(shake, Shake)
+        return shake
+
+    assert shake_of(named) == shake_of(written)
+    assert shake_of(named).at(9.25)[0] != shake_of("+x" if named != "+x" else "+y").at(9.25)[0]
+
+
 def test_compile_shows_each_action_with_its_time_and_the_rules_it_switches_on():
     program = compile_scenario(parse_scenario(SCENE, "s.yaml"))
     remove, shake, push = program.kinematic

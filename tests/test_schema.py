@@ -604,13 +604,13 @@ OUT_OF_RANGE = {
         "expected a frequency of 0.1 Hz or more that the run's timestep samples 5 times a period (48 Hz at the default "
         "1/240 s, 20 kHz at the shortest, 0.01 ms), got '0.5 rad/s' (0.07958 Hz); slower",
     ),
-    "a vertical shake, told a shake moves the ground horizontally": (
+    "a vertical shake, told the horizontal directions a shake takes": (
         "structure: {tower: {levels: 2}}\n"
         "actions: [{shake: {amplitude: 2 mm, frequency: 4 Hz, duration: 1 s, direction: [0, 0, 1], at: 9 s}}]",
         "actions[0].shake.direction",
         3,
         80,
-        "expected a list of 2 items, got [0, 0, 1]: the horizontal direction of the motion, [x, y]",
+        "expected '+x', '-x', '+y' or '-y', or a list of 2 items, got [0, 0, 1]",
     ),
     "a shake shorter than half a period, told how long it must be": (
         "structure: {tower: {levels: 2}}\nactions: [{shake: {amplitude: 2 mm, frequency: 4 Hz, duration: 0.1 s, at: 9 s}}]",

@@ -240,9 +240,12 @@ class Shake(StrictModel):
     ]
     at: Annotated[ActionWhen, Field(description="when the shake starts", examples=["after level 4", "5 s"])]
     direction: Annotated[
-        tuple[Component, Component],
-        AfterValidator(lambda d: _nonzero((*d, 0.0))[:2]),
-        Field(description="the horizontal direction of the motion, [x, y] (any length)", examples=[[1, 0]]),
+        Literal["+x", "-x", "+y", "-y"] | tuple[Component, Component],
+        AfterValidator(lambda d: AXES[d][:2] if isinstance(d, str) else _nonzero((*d, 0.0))[:2]),
+        Field(
+            description="the horizontal direction of the motion ('+x', '-x', '+y', '-y' or [x, y], any length)",
+            examples=["+y", [1, 0]],
+        ),
     ] = (1.0, 0.0)
 
     def whole_periods(self) -> int:

@@ -1016,6 +1016,35 @@ def test_a_pusher_that_would_start_inside_a_brick_is_told_what_to_change():
     assert "runs across" not in str(told.value)  # along the block's length: aimed too high, and no more
 
 
+def test_a_slanted_pusher_is_told_the_gap_or_the_slant_not_to_aim_nearer_the_middle():
+    """A new user pushed the top of a 3-stack at 30 deg to its width, aimed at its middle: the
+    pusher's corner starts inside that very brick, and the error said to aim nearer the middle.
+    It now says the gap that clears it, and that gap compiles. A finger aimed at a Jenga block's
+    middle at 20 deg, which starts inside the block beside, is told the slant."""
+    import re
+
+    from stackdsl.lang.errors import ScenarioError
+
+    text = (
+        "stackdsl: 1\nstructure: {tower: {levels: 3, bricks_per_layer: 1, turn: 0}}\nactions:\n"
+        "  - push: {target: {brick: L03.1}, direction: [0.5, 0.866, 0], speed: 80 mm/s, distance: 60 mm, at: after level 3}\n"
+    )
+    with pytest.raises(ScenarioError, match=r"inside 'L03.1', the brick it is aimed at: .* at a slant") as told:
+        compile_scenario(parse_scenario(text, "slant.yaml"))
+    assert "nearer the target's middle" not in str(told.value)
+    found = re.search(r"a gap of at least ([0-9.]+) mm \(it is 5 mm\)", str(told.value))
+    assert found is not None, told.value
+    compile_scenario(parse_scenario(text.replace("at: after level 3}", f"at: after level 3, gap: {found[1]} mm}}"), "g.yaml"))
+    jenga = (
+        "stackdsl: 1\nbrick_types: {finger: {size: [20 mm, 5 mm, 5 mm]}}\n"
+        "structure: {tower: {levels: 9, bricks_per_layer: 3, spacing: 25 mm}}\nactions:\n"
+        "  - push: {target: {brick: L03.2}, direction: [0.94, 0.342, 0], speed: 25 mm/s, distance: 17 mm, "
+        "at: after level 9, pusher: finger}\n"
+    )
+    with pytest.raises(ScenarioError, match=r"inside brick 'L03.3' beside .* 20 deg from square to the face of 'L03.2'"):
+        compile_scenario(parse_scenario(jenga, "jenga.yaml"))
+
+
 def test_a_pusher_meeting_its_block_side_on_is_told_which_way_the_block_lies():
     """A new user pushed a KAPLA tower's level-4 middle block along +x, across its length (level 4
     lies along y): the finger starts inside the block beside it, and the error now says which way

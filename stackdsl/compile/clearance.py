@@ -82,13 +82,15 @@ def check_pusher(scenario: Scenario, index: int, push: Push, bodies: Sequence[tu
     hx, hy, hz = push.brick.half_extents
     face = Box(np.array([TOLERANCE, hy, hz]), push.brick.mass)  # its front face alone, as thin as the tolerance
     front = Pose(pose.position + pose.rotation[:, 0] * (hx - TOLERANCE), pose.orientation)
+    if inside[0] == push.target and deepest(face, front, bodies) is not None:  # its corner, into the brick it aims at
+        raise scenario.source.error(path, _slanted(scenario, index, push, box, pose, inside[1], bodies))
     if deepest(face, front, bodies) is not None:  # its cross-section reaches in, not its length: where it is aimed
         raise scenario.source.error(
             path,
             f"the pusher ({push.brick.type}, {2 * hy * 1000:.0f} x {2 * hz * 1000:.0f} mm across its direction) would start "
             f"{inside[1] * 1000:.1f} mm inside brick {inside[0]!r} beside the point it is aimed at; aim it so that its "
             "face meets the target alone (an offset nearer the target's middle), or give a thinner pusher "
-            f"(a brick type of brick_types){_across(push, bodies)}",
+            f"(a brick type of brick_types){_slant(push, bodies)}{_across(push, bodies)}",
         )
     raise scenario.source.error(
         path,
@@ -96,6 +98,53 @@ def check_pusher(scenario: Scenario, index: int, push: Push, bodies: Sequence[tu
         f"mm inside brick {inside[0]!r}; give a shorter pusher (a brick type of brick_types) or aim it from outside the "
         "structure",
     )
+
+
+def _slanted(
+    scenario: Scenario, index: int, push: Push, box: Box, pose: Pose, depth: float, bodies: Sequence[tuple[str, BrickSpec, Pose]]
+) -> str:
+    """Words for a pusher whose front reaches into the very brick it is aimed at: its direction
+    meets that brick's face at a slant, so a corner of its face is there before the point aimed
+    at (a new user's push at 30 deg to a brick's width, told to aim nearer the middle it was
+    aimed at). The gap that starts it clear is found by backing it off along its direction,
+    :data:`PATH_STEP` at a time (at most 10 times the pusher's length); the words say that gap."""
+    action = scenario.actions[index].push
+    gap = action.gap if action is not None else 0.0
+    speed = float(np.linalg.norm(push.velocity))
+    back = -np.asarray(push.velocity, dtype=float) / speed if speed > 0.0 else -pose.rotation[:, 0]
+    hx, hy, hz = push.brick.half_extents
+    needed = next(
+        (
+            gap + k * PATH_STEP
+            for k in range(1, int(20 * hx / PATH_STEP) + 1)
+            if deepest(box, Pose(pose.position + back * k * PATH_STEP, pose.orientation), bodies) is None
+        ),
+        None,
+    )
+    more = f"a gap of at least {needed * 1000:.1f} mm (it is {gap * 1000:g} mm), " if needed is not None else ""
+    return (
+        f"the pusher ({push.brick.type}, {2 * hy * 1000:.0f} x {2 * hz * 1000:.0f} mm across its direction) would start "
+        f"{depth * 1000:.1f} mm inside {push.target!r}, the brick it is aimed at: its direction meets that brick's face at a "
+        f"slant, so a corner of the pusher's face reaches the brick before the point aimed at; give {more}a pusher narrower "
+        "across its direction (a brick type of brick_types), or a direction square to the face"
+    )
+
+
+def _slant(push: Push, bodies: Sequence[tuple[str, BrickSpec, Pose]]) -> str:
+    """Words for a push whose direction is more than a degree from square to the face of its
+    target brick it meets, which swings the pusher's side towards the bricks beside (a new
+    user's finger aimed at a Jenga block's middle at 20 deg, told to aim nearer the middle): ""
+    when the target is a point, or the push is square."""
+    found = next(((spec, pose) for name, spec, pose in bodies if name == push.target), None)
+    speed = float(np.linalg.norm(push.velocity))
+    if found is None or speed == 0.0:
+        return ""
+    heading = np.asarray(push.velocity, dtype=float) / speed
+    square = float(np.max(np.abs(found[1].rotation.T @ heading)))  # the cosine to the nearest face's normal
+    off = float(np.degrees(np.arccos(min(1.0, square))))
+    if off <= 1.0:
+        return ""
+    return f"; its direction is {off:.0f} deg from square to the face of {push.target!r} it meets: a square one keeps it there"
 
 
 def _across(push: Push, bodies: Sequence[tuple[str, BrickSpec, Pose]]) -> str:

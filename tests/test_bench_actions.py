@@ -201,6 +201,26 @@ def test_the_table_ends_with_each_sides_overall_ratio():
     assert overall(cells)[0].endswith("1 of 2 PASS (and 0 of 1 PASS where the peer did not run)")
 
 
+def test_the_cheaper_peer_runs_on_pyramidal_cones_and_gets_its_own_ratios():
+    """An independent reviewer's MuJoCo peer on pyramidal cones stood where the tuned peer fell and
+    ran twice as fast: the bench now runs that peer too, and gives every side's ratio against it."""
+    from stackdsl.bench.actions import CHEAP_PEER, program_for
+
+    text = tiny("tiny Jenga").text
+    tuned, cheap = (program_for(text, "t.yaml", side).engine for side in ("MuJoCo lean", CHEAP_PEER))
+    assert tuned.elliptic_cones and tuned.impratio == 10.0 and tuned.sleep_tolerance == 1e-4
+    assert not cheap.elliptic_cones and cheap.impratio == 1.0 and cheap.sleep_tolerance == 1e-3
+    assert cheap.model_copy(update={"elliptic_cones": True, "impratio": 10.0, "sleep_tolerance": 1e-4}) == tuned
+    cells = [
+        Cell("s", "extension", 0.5, (0.5,), True, "stands", True),
+        Cell("s", "MuJoCo lean", 5.0, (5.0,), True, "stands", True),
+        Cell("s", CHEAP_PEER, 2.0, (2.0,), True, "stands", True),
+    ]
+    table = format_cells(cells, 1)
+    assert "| s | extension | PASS: stands | 0.50 | 0.50 | 10.0 |" in table  # the column: the tuned peer's
+    assert f"against the {CHEAP_PEER} peer:\n  overall, extension: 2.00 s of the peer's over 0.50 s = 4.0x summed" in table
+
+
 def test_a_cell_runs_in_a_fresh_process_on_each_side():
     seen: list[Run] = []
     cells = run_cells([tiny("4 dominoes")], ["extension", "MuJoCo lean"], repeats=1, jobs=2, progress=seen.append)

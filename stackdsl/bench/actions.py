@@ -9,7 +9,8 @@ written like it), and the 4 stack on a shake table below and above its threshold
 extension on pybullet and on MuJoCo and raw pybullet, through stackdsl's runtime; and the lean
 MuJoCo peer (:mod:`stackdsl.bench.lean_mujoco`), tuned MuJoCo with its own sleeping at
 :data:`PEER_SLEEP_TOLERANCE` and the bench's solver tolerance
-(:data:`stackdsl.bench.bench.LEAN_TOLERANCE`), driving the same guided bodies in its own loop.
+(:data:`stackdsl.bench.bench.LEAN_TOLERANCE`), driving the same guided bodies in its own loop,
+and the same peer on cheaper contacts (:data:`CHEAP_PEER`), whose ratios the output gives too.
 
 Every cell is timed the same way (:data:`TIMING`): ``repeats`` runs, in rounds (every cell once
 a round, as :func:`stackdsl.bench.bench.run_matrix` does), each run in a fresh process that first
@@ -56,13 +57,24 @@ class Side:
     mode: str | None
     backend: str | None
     lean: bool = False
+    engine: tuple[tuple[str, bool | float], ...] = ()  # the lean peer's settings changed from tuned's
 
+
+CHEAP_PEER = "MuJoCo lean pyramidal"
+"""The lean peer on cheaper contacts: pyramidal friction cones, impratio 1 and MuJoCo's default
+sleep tolerance, 1e-3. On the actions family's scenes it keeps every verdict of the tuned peer and
+runs up to twice as fast (Jenga pulls and pushes most; docs/results/actions.md, "A cheaper peer");
+tuned's elliptic cones stay the reference, as the settings that keep the slant scenes' closed
+forms (docs/engines.md)."""
 
 SIDES: dict[str, Side] = {
     "extension": Side("extension", "pybullet"),
     "MuJoCo extension": Side("extension", "mujoco"),
     "raw pybullet": Side("raw", "pybullet"),
     "MuJoCo lean": Side("tuned", "mujoco", lean=True),
+    CHEAP_PEER: Side(
+        "tuned", "mujoco", lean=True, engine=(("elliptic_cones", False), ("impratio", 1.0), ("sleep_tolerance", 1e-3))
+    ),
 }
 """The actions family's sides, by name (see the module's description)."""
 
@@ -176,7 +188,7 @@ def program_for(text: str, source: str, side: str) -> Program:
     chosen = _ALL_SIDES[side]
     program = compile_scenario(parse_scenario(text, source), mode=chosen.mode, backend=chosen.backend)
     if chosen.lean:
-        engine = program.engine.model_copy(update={"sleep_tolerance": PEER_SLEEP_TOLERANCE})
+        engine = program.engine.model_copy(update={"sleep_tolerance": PEER_SLEEP_TOLERANCE, **dict(chosen.engine)})
         program = program.model_copy(update={"engine": engine})
     return program
 
@@ -342,7 +354,10 @@ def format_cells(cells: Sequence[Cell], repeats: int, peer: str = "MuJoCo lean")
         ratio = f"{peers[c.scene] / c.wall:.1f}" if c.scene in peers and c.side != peer and c.wall > 0 else ""
         runs = " ".join(f"{w:.2f}" for w in c.walls)
         lines.append(f"| {c.scene} | {c.side} | {mark}: {c.verdict} | {c.wall:.2f} | {runs} | {ratio} |")
-    lines += ["", RATIO.format(peer=peer), *overall(cells, peer), TIMING.format(repeats=repeats) + "."]
+    lines += ["", RATIO.format(peer=peer), *overall(cells, peer)]
+    for other in dict.fromkeys(c.side for c in cells if c.side != peer and _ALL_SIDES[c.side].lean):  # and each other peer
+        lines += [f"against the {other} peer:", *(f"  {line}" for line in overall(cells, other))]
+    lines.append(TIMING.format(repeats=repeats) + ".")
     return "\n".join(lines)
 
 

@@ -3,6 +3,7 @@ stackdsl.runtime.actions) and the expectations about them (moved, stays by brick
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 import warnings
@@ -577,6 +578,11 @@ def test_a_stays_that_held_says_how_near_its_bricks_came_to_their_limit():
     assert not moved.passed and moved.measured == "level 1 moved"
     cells = [CheckResult("t.yaml", "t", "extension", "report", (v,), None, None, 8.0, 1.0) for v in (still, near)]
     assert [_cell(c) for c in cells] == ["stands", "stands, levels 1-2 stayed, moved 2.4 mm at most"]
+    # the stand's largest move said once where it is the stays' too (a new user's cell said it twice)
+    drifted = dataclasses.replace(cells[1], drift=0.0024)
+    assert _cell(drifted) == "stands, moved 2.4 mm at most, levels 1-2 stayed"
+    drifted = dataclasses.replace(cells[1], drift=0.0031)  # a brick the stays does not name moved farther: both
+    assert _cell(drifted) == "stands, moved 3.1 mm at most, levels 1-2 stayed, moved 2.4 mm at most"
 
 
 def test_a_toppled_bound_is_judged_and_said_as_written():
@@ -1021,8 +1027,6 @@ def test_a_slanted_pusher_is_told_the_gap_or_the_slant_not_to_aim_nearer_the_mid
     pusher's corner starts inside that very brick, and the error said to aim nearer the middle.
     It now says the gap that clears it, and that gap compiles. A finger aimed at a Jenga block's
     middle at 20 deg, which starts inside the block beside, is told the slant."""
-    import re
-
     from stackdsl.lang.errors import ScenarioError
 
     text = (

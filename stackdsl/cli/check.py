@@ -523,6 +523,8 @@ def _cell(r: CheckResult) -> str:
     # which brick moved first, and where it ended when that was near: cells that agree on the
     # level may not on where the collapse began, and a block dragged 10.5 mm in a tower that
     # stands read as a fall
+    if near:  # a stand's largest move said once: "stands, moved 1.0 mm at most, ..., levels 1-3 stayed" (it was said twice)
+        moved = [m.removesuffix(f", {near[0]}") for m in moved]
     head = describe(r.collapse_level) + (f" from {r.first_moved}" if r.collapse_level is not None and r.first_moved else "")
     if ended is not None and r.threshold is not None and ended < SHOWN_ENDED * r.threshold:
         head += f", which ended {millimetres(ended, against=r.threshold)} from its place"

@@ -241,6 +241,12 @@ def test_the_pulls_table_judges_each_side_against_the_sweeps_expectation():
     assert "| MuJoCo lean | 50.0 | 1.60 | 52 of 80 | 0 / 2 / 0 |  |" in table
     assert f"extension, {t.label(1)}: FAIL, P(stands) >= 0.9 expected" in table
     assert f"MuJoCo lean, {t.label(0)}: FAIL" in table and "alike on 66 of 80 samples" in table
+    cheap = Side("MuJoCo lean pyramidal", 25.0, stood + stood)  # a cheaper peer: its ratio and agreement too
+    table = format_sides([*sides, cheap], t, expect, jobs=1, cells=2)
+    assert "| MuJoCo lean pyramidal | 25.0 | 3.20 | 80 of 80 | 2 / 0 / 0 | 2.0 |" in table
+    assert "MuJoCo lean pyramidal / extension: 2.5" in table
+    assert "extension and MuJoCo lean: stands or falls alike on 66 of 80 samples" in table
+    assert "extension and MuJoCo lean pyramidal: stands or falls alike on 66 of 80 samples" in table
     few = format_sides([Side("extension", 1.0, (None, None))], template(ROOT / "sweeps/jenga_pulls.yaml", 2)[0], expect, 1, 1)
     assert "| 0 / 0 / 1 |" in few and "INCONCLUSIVE" in few and "samples would decide it" in few
 

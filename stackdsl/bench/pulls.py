@@ -5,7 +5,8 @@ The extension runs the sweep as ``stackdsl sweep`` runs it (:func:`stackdsl.batc
 ``jobs`` processes, the file's own engine); the peer runs the same samples (each cell's sample k of
 the same template, the same draws) compiled for tuned MuJoCo with its own sleeping at
 :data:`stackdsl.bench.actions.PEER_SLEEP_TOLERANCE` in its own loop
-(:func:`stackdsl.bench.lean_mujoco.run_lean`), in as many processes. Each side's processes are
+(:func:`stackdsl.bench.lean_mujoco.run_lean`), in as many processes, and then on the cheaper
+contacts of :data:`stackdsl.bench.actions.CHEAP_PEER`. Each side's processes are
 fresh (spawned) and run a one-level tower first, untimed; the wall time of a side is from
 handing out the first sample to the last result. The two sides' verdicts (the collapse level,
 None: stands) are compared sample by sample, and each side's samples are judged, cell by cell,
@@ -17,8 +18,9 @@ Source: stackdsl's own.
 
 from __future__ import annotations
 
+import functools
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -30,6 +32,10 @@ from ..lang.expectations import Expect
 from ..lang.loader import load_scenario
 from ..lang.sampling import Template
 from ..verdicts.stats import expected_text
+
+#: The lean peers that run the samples after the extension: the tuned peer, whose ratio is the
+#: table's column, and the same on cheaper contacts (:data:`stackdsl.bench.actions.CHEAP_PEER`).
+PEERS = ("MuJoCo lean", "MuJoCo lean pyramidal")
 
 #: The shipped sweep the bench runs by default.
 SWEEP = Path("sweeps/jenga_pulls.yaml")
@@ -74,17 +80,20 @@ def _warm(_: int) -> None:
 
     text = "stackdsl: 1\nstructure: {tower: {levels: 1}}\n"
     run_program(compile_scenario(parse_scenario(text, "warm-up.yaml")))
-    run_lean(
-        _peer_program(compile_scenario(parse_scenario(text, "warm-up.yaml"), mode="tuned", backend="mujoco")),
-        tolerance=LEAN_TOLERANCE,
-    )
+    for peer in PEERS:
+        run_lean(
+            _peer_program(compile_scenario(parse_scenario(text, "warm-up.yaml"), mode="tuned", backend="mujoco"), peer),
+            tolerance=LEAN_TOLERANCE,
+        )
 
 
-def _peer_program(program: Program) -> Program:
-    """``program`` with MuJoCo's own sleeping at the peer's tolerance."""
-    from .actions import PEER_SLEEP_TOLERANCE
+def _peer_program(program: Program, peer: str) -> Program:
+    """``program`` with MuJoCo's own sleeping at the peer's tolerance, on ``peer``'s contacts (a
+    lean side of :data:`stackdsl.bench.actions.SIDES`)."""
+    from .actions import PEER_SLEEP_TOLERANCE, SIDES
 
-    return program.model_copy(update={"engine": program.engine.model_copy(update={"sleep_tolerance": PEER_SLEEP_TOLERANCE})})
+    engine = program.engine.model_copy(update={"sleep_tolerance": PEER_SLEEP_TOLERANCE, **dict(SIDES[peer].engine)})
+    return program.model_copy(update={"engine": engine})
 
 
 def _extension(arguments: tuple[Template, int, Sequence[int]]) -> list[int | None]:
@@ -94,7 +103,7 @@ def _extension(arguments: tuple[Template, int, Sequence[int]]) -> list[int | Non
     return [r.collapse_level for r in run_batch(t, cell, samples, SweepOptions(timeout=None))]
 
 
-def _peer(arguments: tuple[Template, int, Sequence[int]]) -> list[int | None]:
+def _peer(peer: str, arguments: tuple[Template, int, Sequence[int]]) -> list[int | None]:
     from ..compile.compiler import compile_scenario
     from .bench import LEAN_TOLERANCE
     from .lean_mujoco import run_lean
@@ -102,7 +111,7 @@ def _peer(arguments: tuple[Template, int, Sequence[int]]) -> list[int | None]:
     t, cell, samples = arguments
     out = []
     for k in samples:
-        program = _peer_program(compile_scenario(t.scenario(cell, k), mode="tuned", backend="mujoco"))
+        program = _peer_program(compile_scenario(t.scenario(cell, k), mode="tuned", backend="mujoco"), peer)
         out.append(run_lean(program, tolerance=LEAN_TOLERANCE, settle=None).level)
     return out
 
@@ -115,7 +124,9 @@ def run_sides(t: Template, jobs: int = 1, batch: int = 5, cells: int | None = No
     samples = list(range(t.samples))
     chunks = [(c, samples[i : i + batch]) for c in range(min(t.cells, cells or t.cells)) for i in range(0, len(samples), batch)]
     sides = []
-    for name, work in (("extension", _extension), ("MuJoCo lean", _peer)):
+    works: list[tuple[str, Callable[[tuple[Template, int, Sequence[int]]], list[int | None]]]] = [("extension", _extension)]
+    works += [(peer, functools.partial(_peer, peer)) for peer in PEERS]
+    for name, work in works:
         with SPAWN.Pool(processes=jobs) as pool:
             pool.map(_warm, range(jobs), chunksize=1)  # each worker's first calls, untimed (one each, as likely as not)
             start = time.perf_counter()
@@ -176,8 +187,14 @@ def format_sides(sides: Sequence[Side], t: Template, expect: Expect, jobs: int, 
         lines += [f"  {line}" for line in notes]
     if peer is not None:
         lines += ["", "peer / this: the MuJoCo lean peer's wall time over the row's (above 1, the row's side is faster)"]
-    if len(sides) == 2:
-        a, b = sides
-        same = sum((x is None) == (y is None) for x, y in zip(a.levels, b.levels))
-        lines += ["", f"stands or falls alike on {same} of {len(a.levels)} samples"]
+    for other in sides[2:]:  # a cheaper peer: the first side's ratio against it too
+        if other.seconds > 0 and sides[0].seconds > 0:
+            lines.append(f"{other.name} / {sides[0].name}: {other.seconds / sides[0].seconds:.1f}")
+    if len(sides) >= 2:
+        first = sides[0]
+        lines.append("")
+        for other in sides[1:]:
+            same = sum((x is None) == (y is None) for x, y in zip(first.levels, other.levels))
+            pair = "" if len(sides) == 2 else f"{first.name} and {other.name}: "
+            lines.append(f"{pair}stands or falls alike on {same} of {len(first.levels)} samples")
     return "\n".join(lines)

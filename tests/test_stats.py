@@ -168,6 +168,12 @@ def test_quantile_verdicts():
     mostly_standing = [None] * 90 + [4] * 10
     v = decide(QuantileWithin(0.5, 30, 5), mostly_standing)
     assert (v.outcome, v.estimate, v.interval) == ("FAIL", math.inf, (math.inf, math.inf))
+    # an end below every sample is the lowest level, not -inf: a new user read "median 1 [-inf,
+    # stands]" of a single brick that collapsed at 1 in two of four samples
+    v = decide(QuantileWithin(0.5, 1, 0), [1, 1, None, None])
+    assert v.outcome == "INCONCLUSIVE" and v.interval == (1.0, math.inf), v
+    assert v.measured == "median 1 [1, stands], n=4, 2 stood"
+    assert decide(QuantileWithin(0.2, 1, 0), [1] * 30).outcome == "PASS"  # low end no sample gives: still 1
 
 
 def test_samples_to_decide_for_a_mean_narrows_the_interval_to_the_gap():

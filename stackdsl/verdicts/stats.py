@@ -17,7 +17,9 @@ structure collapsed) or ``None`` (the structure stood, every level built). Three
   statistics and the binomial distribution of the count below the quantile
   (``scipy.stats.quantile_test(x, p=q).confidence_interval``; Thompson, Ann. Math. Statist.
   7 (1936) 122-128; Conover, *Practical Nonparametric Statistics*, 3rd ed. 1999). An end no
-  order statistic can give is unbounded: -inf below, +inf above.
+  order statistic can give is unbounded: +inf above ("stands"), and below the lowest level a
+  collapse can have, 1 (-inf in :func:`~stackdsl.verdicts.intervals.quantile_interval`, which
+  knows nothing of levels).
 
 Collapsed samples all at one level give a zero-width t interval: the verdict then takes
 them at their word, however few (two samples at 7 PASS ``mean 7±0.5``).
@@ -50,6 +52,8 @@ from .intervals import check_confidence, mean_interval, proportion_interval, qua
 
 Outcome = Literal["PASS", "FAIL", "INCONCLUSIVE"]
 Op = Literal[">=", "<=", ">", "<"]
+#: The lowest level a collapse can have: a quantile's interval ends no lower.
+LOWEST_LEVEL = 1.0
 #: The quantiles a :class:`CellSummary` reports.
 SUMMARY_QUANTILES = (0.05, 0.25, 0.5, 0.75, 0.95)
 #: ``samples_to_decide`` looks no further than this many samples (None beyond).
@@ -425,6 +429,7 @@ def _decide_quantile(e: QuantileWithin, collapsed: list[int], n: int, c: float) 
         return StatVerdict("INCONCLUSIVE", None, None, 0, expected, "no samples")
     stood = n - len(collapsed)
     estimate, low, high = quantile_interval([float(v) for v in collapsed] + [math.inf] * stood, e.q, c)
+    low = max(low, LOWEST_LEVEL)  # an end below every order statistic: still no collapse is below level 1
     measured = f"{name} {format_level(estimate)} [{format_level(low)}, {format_level(high)}], n={n}, {stood} stood"
     a, b = e.target - e.tolerance, e.target + e.tolerance
     outcome = _judge_region((low, high), a, b)
@@ -436,7 +441,7 @@ def _decide_quantile(e: QuantileWithin, collapsed: list[int], n: int, c: float) 
     def decides(m: int) -> bool:
         bd = scipy_stats().binom(m, e.q)
         lo_i, hi_i = int(bd.ppf((1 - c) / 2)) - 1, int(bd.isf((1 - c) / 2))  # as quantile_test's interval
-        lo_v = -math.inf if lo_i < 0 else _projected(below_a * m, upto_b * m, lo_i, a, b)
+        lo_v = LOWEST_LEVEL if lo_i < 0 else _projected(below_a * m, upto_b * m, lo_i, a, b)
         hi_v = math.inf if hi_i >= m else _projected(below_a * m, upto_b * m, hi_i, a, b)
         return _judge_region((lo_v, hi_v), a, b) != "INCONCLUSIVE"
 

@@ -223,8 +223,10 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     )
     q.add_argument("--scenes", default=None, help="comma-separated scene names (default: all; see the table)")
     q.add_argument("--sides", default=",".join(ACTION_SIDES), help="comma-separated, of: " + ", ".join(ACTION_SIDES))
-    q.add_argument("--repeats", type=int, default=3, help="runs per cell, each in a fresh process (median; default: 3)")
-    q.add_argument("--quick", action="store_true", help="tiny scenes (a smoke test)")
+    q.add_argument(
+        "--repeats", type=int, default=None, help="runs per cell, each in a fresh process (median; default: 3, with --quick 1)"
+    )
+    q.add_argument("--quick", action="store_true", help="tiny scenes, one run a cell (a smoke test)")
     q.add_argument("-j", "--jobs", type=jobs_type, default="1", help="worker processes (default: 1, for steady timings)")
     q.set_defaults(func=_bench_actions)
     q = bench.add_parser(
@@ -789,6 +791,8 @@ def _bench_actions(args: argparse.Namespace) -> int:
     from ..bench.actions import action_scenes, format_cells, run_cells, tiny_scenes
     from ..bench.versions import version_line
 
+    if args.repeats is None:  # a smoke test: one round, unless asked for more
+        args.repeats = 1 if args.quick else 3
     _at_least_one(args.repeats)
     sides = _names(args.sides, "--sides", list(ACTION_SIDES), "side")
     for side in sides:

@@ -187,10 +187,14 @@ def program_for(text: str, source: str, side: str) -> Program:
     """
     chosen = _ALL_SIDES[side]
     program = compile_scenario(parse_scenario(text, source), mode=chosen.mode, backend=chosen.backend)
-    if chosen.lean:
-        engine = program.engine.model_copy(update={"sleep_tolerance": PEER_SLEEP_TOLERANCE, **dict(chosen.engine)})
-        program = program.model_copy(update={"engine": engine})
-    return program
+    return as_peer(program, side) if chosen.lean else program
+
+
+def as_peer(program: Program, side: str) -> Program:
+    """``program`` (compiled for tuned MuJoCo) on the lean peer ``side``'s settings: MuJoCo's own
+    sleeping at :data:`PEER_SLEEP_TOLERANCE`, then what the side changes (:attr:`Side.engine`)."""
+    engine = program.engine.model_copy(update={"sleep_tolerance": PEER_SLEEP_TOLERANCE, **dict(_ALL_SIDES[side].engine)})
+    return program.model_copy(update={"engine": engine})
 
 
 @dataclass(frozen=True)

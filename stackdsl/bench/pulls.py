@@ -88,12 +88,10 @@ def _warm(_: int) -> None:
 
 
 def _peer_program(program: Program, peer: str) -> Program:
-    """``program`` with MuJoCo's own sleeping at the peer's tolerance, on ``peer``'s contacts (a
-    lean side of :data:`stackdsl.bench.actions.SIDES`)."""
-    from .actions import PEER_SLEEP_TOLERANCE, SIDES
+    """``program`` on the lean peer ``peer``'s settings (:func:`stackdsl.bench.actions.as_peer`)."""
+    from .actions import as_peer
 
-    engine = program.engine.model_copy(update={"sleep_tolerance": PEER_SLEEP_TOLERANCE, **dict(SIDES[peer].engine)})
-    return program.model_copy(update={"engine": engine})
+    return as_peer(program, peer)
 
 
 def _extension(arguments: tuple[Template, int, Sequence[int]]) -> list[int | None]:

@@ -82,13 +82,13 @@ def check_pusher(scenario: Scenario, index: int, push: Push, bodies: Sequence[tu
     hx, hy, hz = push.brick.half_extents
     face = Box(np.array([TOLERANCE, hy, hz]), push.brick.mass)  # its front face alone, as thin as the tolerance
     front = Pose(pose.position + pose.rotation[:, 0] * (hx - TOLERANCE), pose.orientation)
+    across = f"the pusher ({push.brick.type}, {2 * hy * 1000:.0f} x {2 * hz * 1000:.0f} mm across its direction) would start"
     if inside[0] == push.target and deepest(face, front, bodies) is not None:  # its corner, into the brick it aims at
-        raise scenario.source.error(path, _slanted(scenario, index, push, box, pose, inside[1], bodies))
+        raise scenario.source.error(path, f"{across} {_slanted(scenario, index, push, box, pose, inside[1], bodies)}")
     if deepest(face, front, bodies) is not None:  # its cross-section reaches in, not its length: where it is aimed
         raise scenario.source.error(
             path,
-            f"the pusher ({push.brick.type}, {2 * hy * 1000:.0f} x {2 * hz * 1000:.0f} mm across its direction) would start "
-            f"{inside[1] * 1000:.1f} mm inside brick {inside[0]!r} beside the point it is aimed at; aim it so that its "
+            f"{across} {inside[1] * 1000:.1f} mm inside brick {inside[0]!r} beside the point it is aimed at; aim it so that its "
             "face meets the target alone (an offset nearer the target's middle), or give a thinner pusher "
             f"(a brick type of brick_types){_slant(push, bodies)}{_across(push, bodies)}",
         )
@@ -103,16 +103,16 @@ def check_pusher(scenario: Scenario, index: int, push: Push, bodies: Sequence[tu
 def _slanted(
     scenario: Scenario, index: int, push: Push, box: Box, pose: Pose, depth: float, bodies: Sequence[tuple[str, BrickSpec, Pose]]
 ) -> str:
-    """Words for a pusher whose front reaches into the very brick it is aimed at: its direction
-    meets that brick's face at a slant, so a corner of its face is there before the point aimed
-    at (a new user's push at 30 deg to a brick's width, told to aim nearer the middle it was
-    aimed at). The gap that starts it clear is found by backing it off along its direction,
+    """The words after "the pusher ... would start" for a pusher whose front reaches into the
+    very brick it is aimed at: its direction meets that brick's face at a slant, so a corner of
+    its face is there before the point aimed at (a new user's push at 30 deg to a brick's width,
+    told to aim nearer the middle it was aimed at). The gap that starts it clear is found by backing it off along its direction,
     :data:`PATH_STEP` at a time (at most 10 times the pusher's length); the words say that gap."""
     action = scenario.actions[index].push
     gap = action.gap if action is not None else 0.0
     speed = float(np.linalg.norm(push.velocity))
     back = -np.asarray(push.velocity, dtype=float) / speed if speed > 0.0 else -pose.rotation[:, 0]
-    hx, hy, hz = push.brick.half_extents
+    hx = push.brick.half_extents[0]
     needed = next(
         (
             gap + k * PATH_STEP
@@ -123,7 +123,6 @@ def _slanted(
     )
     more = f"a gap of at least {needed * 1000:.1f} mm (it is {gap * 1000:g} mm), " if needed is not None else ""
     return (
-        f"the pusher ({push.brick.type}, {2 * hy * 1000:.0f} x {2 * hz * 1000:.0f} mm across its direction) would start "
         f"{depth * 1000:.1f} mm inside {push.target!r}, the brick it is aimed at: its direction meets that brick's face at a "
         f"slant, so a corner of the pusher's face reaches the brick before the point aimed at; give {more}a pusher narrower "
         "across its direction (a brick type of brick_types), or a direction square to the face"

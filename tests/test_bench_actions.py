@@ -360,3 +360,6 @@ def test_a_benchmark_named_after_out_writes_its_tables_there(tmp_path, monkeypat
     assert printed.rstrip().endswith(f"wrote {(out / 'bench-folder.txt').resolve()}")
     assert main(["bench", "folder", str(tmp_path), "--no-cells"]) == 0  # no --out: nothing written
     assert sorted(p.name for p in out.iterdir()) == ["bench-folder.txt"]
+    after = tmp_path / "after"  # a new user wrote it after the benchmark's name: refused until now
+    assert main(["bench", "folder", str(tmp_path), "--no-cells", "--out", str(after)]) == 0
+    assert (after / "bench-folder.txt").read_text(encoding="utf-8") == written

@@ -265,6 +265,8 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     for name, parser in bench.choices.items():
         if name != "verdicts":  # its own --out: a journal and every family's files
             parser.set_defaults(func=_written(name, parser.get_default("func")))
+            # `stackdsl bench NAME ... --out DIR` as well as `stackdsl bench --out DIR NAME ...`
+            parser.add_argument("--out", default=argparse.SUPPRESS, help="as `stackdsl bench --out`: its tables go there")
 
 
 def _written(name: str, func: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Namespace], int]:

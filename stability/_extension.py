@@ -128,7 +128,8 @@ class StabilityExtension:
         self._impacts = Impacts(self._stack, self._tests)
         # pulled bricks whose proof keeps what they touch frozen, with the overlap (m^2) it was proved at
         self._proofs: dict[int, tuple[PullProof, dict[int, float]]] = {}
-        self._unkept_at: dict[int, tuple[int, frozenset[int], list[int]]] = {}  # guided body -> (version, kept, :meth:`_unkept`)
+        # guided body -> (stack version, kept, :meth:`_unkept`)
+        self._unkept_at: dict[int, tuple[int, frozenset[int], frozenset[int]]] = {}
         self._limits: dict[int, RideLimit] = {}  # a tilted ride's proof, by the pulled brick (:meth:`_tilted`)
         self._shaken_rides: dict[int, ShakenRide] = {}  # how a shaken ground's riders froze, by its key in stack.rides
         self._pushers: set[int] = set()  # guided bodies a hand pushes with (guided without a pull)
@@ -603,6 +604,43 @@ class StabilityExtension:
         """
         return {b: pusher for b, pusher in self._driven.items() if b in self._proofs}
 
+    def glides(self, body: int, to: Pose) -> bool:
+        """May guided ``body``, pulled under its proof (:meth:`guide`), be carried straight from
+        where it is to ``to`` (a pose on its hand's path) without the steps between? Yes when
+        nothing the extension watches can change on the way: it is the only brick that moves
+        (no other active brick, no ride, no pusher), every brick its proof keeps is frozen, no
+        contact area the proof holds can have shrunk past the point where it is checked again
+        (:data:`stability._drag.SHRINK`, as :meth:`_reprove` asks it) nor gone at ``to``
+        (:meth:`PullProof.unchanged <stability._drag.PullProof.unchanged>`, a bound that grows
+        with the way along the path; the step after the glide looks at the overlaps again), a
+        support still carries it, and within the way and :data:`TOUCH` it meets only the
+        ground, what its proof keeps and frozen bricks it slides past (:meth:`PullProof.alongside
+        <stability._drag.PullProof.alongside>`). The frozen stack is then the same whatever the
+        pulled brick does on the way: the steps skipped would only have moved the brick itself,
+        along the hand's path at its own height, and tilted it once it slides past its last
+        support's edge (held by what lies on it; it falls from there a little sooner or later,
+        docs/actions.md). Source: stackdsl's own."""
+        stack = self._stack
+        proved = self._proofs.get(body)
+        if proved is None or stack.rides or self._pushers or self._driven or len(stack.active) != 1 or body not in stack.active:
+            return False
+        proof, areas = proved
+        if any(stack.bodies[b].state is not BrickState.FROZEN for b in proof.kept) or proof.tipping(to.position):
+            return False
+        if not proof.unchanged(areas, to):
+            return False
+        if not any(areas[s] > 0.0 for s in proof.supports):
+            return False
+        pose = stack.engine.pose(body)
+        way = float(np.linalg.norm(to.position - pose.position)) + TOUCH
+        for c in stack.engine.near(body, way, self._unkept(body, proof.kept)):
+            other = stack.bodies.get(c.other)
+            if other is None or other.state is BrickState.GROUND:
+                continue
+            if other.state is not BrickState.FROZEN or not proof.alongside(c):
+                return False
+        return True
+
     def _hand(self, body: int) -> str:
         """How the hand moves guided ``body``, in a word: "push" (a brick a pusher drives,
         :meth:`_drive`) or "pull"."""
@@ -930,14 +968,14 @@ class StabilityExtension:
         why = f"pushed by {stack.bodies[pusher].label}, moved by hand"
         return self.guide(brick, time, why, stack.hand_speed.get(pusher, 0.0), pull=velocity, velocity=velocity)
 
-    def _unkept(self, body: int, kept: frozenset[int]) -> list[int]:
+    def _unkept(self, body: int, kept: frozenset[int]) -> frozenset[int]:
         """The bodies guided ``body`` may touch that ``kept`` (frozen by its pull's proof, or riding
         it) leaves out, the ground aside: the engine is asked for closest points to these only.
         Found once a stack version and ``kept``."""
         stack = self._stack
         found = self._unkept_at.get(body)
         if found is None or found[0] != stack.version or found[1] != kept:
-            bodies = [b for b, r in stack.bodies.items() if b not in kept and r.state is not BrickState.GROUND]
+            bodies = frozenset(b for b, r in stack.bodies.items() if b not in kept and r.state is not BrickState.GROUND)
             found = self._unkept_at[body] = (stack.version, kept, bodies)
         return found[2]
 

@@ -117,6 +117,32 @@ def test_the_loop_jumps_only_while_every_subscriber_is_quiet():
     assert quiet.skipped == 0
 
 
+def test_a_glide_skips_the_steps_its_subscriber_carries_and_steps_the_one_after():
+    """A subscriber that glides (Subscriber.glide) takes steps off the loop: no hook and no engine
+    step runs for them, they count as skipped, and the loop steps on from where it glided to,
+    never past the step it was asked to reach."""
+
+    class Glider(Log):
+        quiet = False
+
+        def __init__(self) -> None:
+            super().__init__()
+            self.asked: list[tuple[int, int]] = []
+
+        def glide(self, loop, limit):
+            self.asked.append((loop.step, limit))
+            return min(7, limit - loop.step - 1) if loop.step % 10 == 0 else 0
+
+    p, glider = program(), Glider()
+    loop = run_in(FakeWorld(timestep=p.engine.timestep), p, RunOptions(jump=True), subscribers=(glider,))
+    glided = sum(min(7, limit - step - 1) for step, limit in glider.asked if step % 10 == 0)
+    assert glided > 0 and loop.skipped == glided
+    assert glider.calls.count("after_step") == glider.calls.count("before_step") == loop.world.steps == loop.step - glided
+    assert all(step < limit for step, limit in glider.asked) and loop.step == p.actions[-1].step
+    stepped = StepLoop(FakeWorld(timestep=p.engine.timestep), p, (Glider(),), jump=False)
+    assert stepped._gliders == ()  # without jumps every step is stepped
+
+
 def test_parked_bodies_enter_where_they_are_placed():
     p = program()
     loop = run_in(FakeWorld(timestep=p.engine.timestep), p, RunOptions(lazy_bodies=False))

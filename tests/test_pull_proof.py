@@ -95,6 +95,30 @@ def test_a_proved_pull_moves_its_brick_alone_and_a_high_side_pull_wakes_the_leve
         assert {f"L{dragged:02d}.1", f"L{dragged:02d}.2", f"L{dragged:02d}.3"} <= woken
 
 
+def test_a_proved_pull_glides_over_the_steps_its_proof_covers_with_the_same_result(monkeypatch):
+    """The middle block of level 2 slides out under its proof: the hand carries it along its path
+    over the steps nothing else moves in (Actions.glide, StabilityExtension.glides), and the run
+    steps under half of what it steps without the glides, with the same timeline but for the
+    times of the pulled brick's fall (once past its last support's edge it tilts on its way out,
+    and leaves the scene a little sooner or later) and every other brick where it was."""
+    from stackdsl.runtime.actions import Actions
+
+    def run():
+        return run_program(compile_scenario(parse_scenario(JENGA.replace("BRICK", "L02.2"), "pull.yaml")))
+
+    glided = run()
+    monkeypatch.setattr(Actions, "glide", lambda self, loop, limit: 0)
+    stepped = run()
+    assert glided.steps < stepped.steps / 2, (glided.steps, stepped.steps)
+    assert glided.steps + glided.steps_skipped == stepped.steps + stepped.steps_skipped
+    assert [(e.kind, e.brick) for e in glided.events] == [(e.kind, e.brick) for e in stepped.events]
+    released = [next(e.time for e in o.events if e.kind == "release") for o in (glided, stepped)]
+    assert abs(released[0] - released[1]) < 0.25, released
+    assert glided.collapse is None and stepped.collapse is None
+    for brick, moved in stepped.displacement.items():
+        assert abs(glided.displacement[brick] - moved) < 1e-4, brick
+
+
 def level_over_three_blocks():
     """A fake world: three blocks on the ground along x, 30 mm apart, and one block across them."""
     from stability import Box, FakeEngine, Plane, Pose, StabilityExtension

@@ -56,6 +56,12 @@ class FakeWorld(FakeEngine, World):
         self.velocities[body] = (np.array(velocity, dtype=float), np.zeros(3))
         self.guided.add(body)
 
+    carries = True
+
+    def carry(self, body: int, pose: Pose, velocity: Vec3) -> None:
+        self.poses[body] = pose
+        self.velocities[body] = (np.array(velocity, dtype=float), np.zeros(3))
+
     def move_ground(self, offset: Vec3, velocity: Vec3) -> None:
         self.ground_offset = offset
 

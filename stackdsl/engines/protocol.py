@@ -164,6 +164,7 @@ class World(Engine, Protocol):
         ground: the body id of the ground plane.
         cheap_debris: whether :meth:`make_debris` does anything (an optional capability;
             default False).
+        carries: whether :meth:`carry` does anything (an optional capability; default False).
 
     Two capabilities move bodies kinematically, as a hand or a shake table does: :meth:`guide`
     (a gripper pulling a brick out, a pusher) and :meth:`move_ground` (on a world made with a
@@ -172,6 +173,7 @@ class World(Engine, Protocol):
 
     ground: int
     cheap_debris: bool = False
+    carries: bool = False
 
     def create(self, spec: BrickSpec, pose: Pose, mass: float | None = None, projectile: bool = False) -> int:
         """A new box body of ``spec`` at ``pose`` (``mass`` 0: immovable); its id. A
@@ -228,6 +230,13 @@ class World(Engine, Protocol):
         slid out of a tower). Called before every step it is guided;
         :meth:`move` ends it. Default: refused."""
         raise NotImplementedError(f"{type(self).__name__} cannot guide a body")
+
+    def carry(self, body: int, pose: Pose, velocity: Vec3) -> None:
+        """Put a guided ``body`` (:meth:`guide`, without ``hold``) at ``pose`` moving at linear
+        ``velocity`` (m/s) with no spin, its mass and guide as they are: a hand's glide over steps
+        nobody needs stepped (:meth:`stackdsl.runtime.actions.Actions.glide`). Only where
+        :attr:`carries`. Default: refused."""
+        raise NotImplementedError(f"{type(self).__name__} cannot carry a body")
 
     def move_ground(self, offset: Vec3, velocity: Vec3) -> None:
         """Put the ground ``offset`` (m) from where it started, moving at ``velocity`` (m/s),

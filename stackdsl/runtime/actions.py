@@ -58,6 +58,12 @@ AWAY = np.array([-5000.0, -5000.0, 100.0])
 #: has pulled free (a 1 mm fall takes 14 ms, 3.4 steps at 240 Hz).
 CLEARED = 0.001
 
+#: Metres a hand carries a pulled brick in one glide at most (:meth:`Actions.glide`): its proof
+#: is asked about the way at once, and a proved pull's contact areas are checked again each time a
+#: quarter of one has gone (the middle block of a Jenga level, pulled along its 75 mm, passes a
+#: 25 mm support in about 6 mm steps).
+GLIDE = 0.005
+
 #: Metres the surface of a push's target brick must have moved along the push, since it was
 #: placed, for the pusher to start that much further on or back (less is a brick settling).
 SHIFTED = 0.0001
@@ -114,6 +120,35 @@ class Actions(Subscriber):
     @property
     def quiet(self) -> bool:
         return not (self.guided or self.shake or self.away)
+
+    def glide(self, loop: StepLoop, limit: int) -> int:
+        """Carry a brick pulled under its proof along its path over the steps the proof covers,
+        up to :data:`GLIDE` of it, and return how many (0: none). A pull whose proof keeps the
+        bricks it slides between frozen has nothing in the engine but the pulled brick on its
+        path, its height resting on what carries it: when the extension says nothing it watches
+        can change on the way (:meth:`stability.StabilityExtension.glides`), and every other
+        subscriber is quiet, the brick is put where its path has it then, at its own height and
+        orientation (the hand turns it back to its path's as ever once stepped), moving with the hand (:meth:`~stackdsl.engines.protocol.World.carry`), without the steps
+        between. A pull's last steps, a pull that drags what the engine moves (finer steps), a
+        push and a shake are stepped as ever. Source: stackdsl's own."""
+        if len(self.guided) != 1 or self.shake is not None or self.away or self._on_path or self._carried:
+            return 0
+        g = self.guided[0]
+        if g.kind != "pull" or not loop.world.carries or not self.stability.acting:
+            return 0
+        speed = float(np.linalg.norm(g.velocity))
+        steps = min(int(GLIDE / (speed * loop.dt)) if speed > 0.0 else 0, limit - loop.step - 1, g.end_step - loop.step - 1)
+        if steps < 2 or any(not s.quiet for s in loop.subscribers if s is not self and s is not self.stability):
+            return 0
+        (_, _, z), turned = loop.world.pose_floats(g.record.body)
+        while steps >= 2:  # the longest way the proof covers, halving it
+            then = g.start.position + g.velocity * ((loop.step + steps) * loop.dt - g.since)
+            to = Pose(np.array([then[0], then[1], z + float(g.velocity[2]) * steps * loop.dt]), np.array(turned))
+            if self.stability.extension.glides(g.record.body, to):
+                loop.world.carry(g.record.body, to, (float(g.velocity[0]), float(g.velocity[1]), float(g.velocity[2])))
+                return steps
+            steps //= 2
+        return 0
 
     @property
     def under_way(self) -> bool:

@@ -57,6 +57,13 @@ class Subscriber:
         """Nothing this subscriber watches can move before the next action."""
         return True
 
+    def glide(self, loop: StepLoop, limit: int) -> int:
+        """Carry what this subscriber moves over steps nobody needs stepped, from ``loop.step``
+        on, and return how many (0: none; at most ``limit - loop.step - 1``, so that the
+        step ``limit - 1`` is stepped). The loop counts them as :attr:`StepLoop.skipped` and
+        steps on from there."""
+        return 0
+
     @property
     def under_way(self) -> bool:
         """An action this subscriber carries out is under way (a hand or the ground moves):
@@ -103,7 +110,9 @@ class StepLoop:
         world: the engine adapter.
         program: what to do.
         subscribers: called at each hook they override (:func:`overrides`), in this order.
-        jump: jump to the next action while every subscriber is quiet.
+        jump: jump to the next action while every subscriber is quiet, and let a subscriber
+            that can glide (:meth:`Subscriber.glide`) carry its bodies over the steps it needs
+            no engine for.
         stop_at_collapse: once :meth:`stop_after` was called, place nothing more and end
             then; a shake, a push or a pull under way then (:attr:`Subscriber.under_way`), or an
             action timed before the first placement this cancels, still runs, and the run
@@ -142,6 +151,7 @@ class StepLoop:
         self._on_action = bound["on_action"]
         self._watchers = tuple(s for s in self.subscribers if overrides(s, "quiet"))
         self._hands = tuple(s for s in self.subscribers if overrides(s, "under_way"))
+        self._gliders = tuple(s for s in self.subscribers if overrides(s, "glide")) if jump else ()
         self.jump, self.stop_at_collapse, self.timeout = jump, stop_at_collapse, timeout
         self.deadline = None if timeout is None else (_time.perf_counter() if started is None else started) + timeout
         self.dt = program.engine.timestep
@@ -246,10 +256,18 @@ class StepLoop:
     def advance(self, target: int) -> None:
         """Step the world up to step ``target`` (or the stop step), or until the deadline."""
         before, after, watchers, hands = self._before_step, self._after_step, self._watchers, self._hands
-        step, clock, jump = self.world.step, _time.perf_counter, self.jump
+        step, clock, jump, gliders = self.world.step, _time.perf_counter, self.jump, self._gliders
         while self.step < self._limit(target):
             if self.deadline is not None and self.step % CLOCK_EVERY == 0 and self._out_of_time():
                 return
+            for glider in gliders:
+                glided = glider.glide(self, self._limit(target))
+                if glided:
+                    self.step += glided
+                    self.skipped += glided
+                    if self.deadline is not None and self._out_of_time():
+                        return
+                    break
             if jump:
                 for watcher in watchers:
                     if not watcher.quiet:

@@ -628,6 +628,18 @@ class MuJoCoWorld(World):
         d.qvel[v + 3 : v + 6] = Rotation.from_quat([now[1], now[2], now[3], now[0]]).inv().apply(turn * rate)  # body frame
         self._read = None
 
+    carries = True
+
+    def carry(self, body: int, pose: Pose, velocity: Vec3) -> None:
+        _, d = self._ready()
+        i = body - 1
+        q, v = self._qpos[i], self._dof[i]
+        d.qpos[q : q + 3] = pose.position
+        d.qpos[q + 3 : q + 7] = _wxyz(pose.orientation)
+        d.qvel[v : v + 3] = np.asarray(velocity, dtype=float)  # a free joint's linear velocity: the world's axes
+        d.qvel[v + 3 : v + 6] = 0.0
+        self._read = None
+
     def move_ground(self, offset: Vec3, velocity: Vec3) -> None:
         if not self._table:
             raise NotImplementedError("this world's ground is a static plane: make it with movable_ground=True")

@@ -638,6 +638,16 @@ class PyBulletWorld(PyBulletEngine, World):
         self._client.resetBaseVelocity(engine_id, [vx, vy, vz], [tx * rate, ty * rate, tz * rate])
         self._due = 0
 
+    carries = True
+
+    def carry(self, body: int, pose: Pose, velocity: Vec3) -> None:
+        self._velocities.pop(body, None)
+        self._poses.pop(body, None)
+        engine_id = self._engine_id(body)
+        self._client.resetBasePositionAndOrientation(engine_id, pose.position.tolist(), pose.orientation.tolist())
+        self._client.resetBaseVelocity(engine_id, [float(v) for v in velocity], [0.0, 0.0, 0.0])
+        self._due = 0
+
     def move_ground(self, offset: Vec3, velocity: Vec3) -> None:
         if not self._table:
             raise NotImplementedError("this world's ground is a static plane: make it with movable_ground=True")

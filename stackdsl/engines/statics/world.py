@@ -121,6 +121,10 @@ class StaticsWorld(World):
         """Refused: a hand moves bricks (the compiler refuses actions first)."""
         raise NotImplementedError("the statics backend cannot guide a body: it has no dynamics")
 
+    def carry(self, body: int, pose: Pose, velocity: Vec3) -> None:
+        """Refused: only a hand's body is carried (the compiler refuses actions first)."""
+        raise NotImplementedError("the statics backend cannot carry a body: it has no dynamics")
+
     def move_ground(self, offset: Vec3, velocity: Vec3) -> None:
         """Refused: a shake table moves the ground (the compiler refuses actions first)."""
         raise NotImplementedError("the statics backend cannot move its ground: it has no dynamics")

@@ -606,6 +606,36 @@ class PullProof:
             self._seen = (pose, pulled_at, found)
         return found
 
+    def room(self, areas: Mapping[int, float], pose: Pose) -> float:
+        """Metres the pulled brick, now at ``pose``, may still go along its pull's direction, its
+        orientation kept, before :meth:`unchanged` could say no: the bound of :meth:`unchanged`
+        with the way split in two, from where the overlaps were last found to ``pose`` and on
+        along the pull (a footprint moved by u and then v keeps all of its overlap but
+        ``|u| w_u + |v| w_v``), solved for the second. 0 when they were never found or may have
+        changed already. Source: stackdsl's own."""
+        if self._seen is None:
+            return 0.0
+        seen_pose, seen_at, seen = self._seen
+        coords = shapely.get_coordinates(seen_at)
+        tx, ty = (float(v) for v in np.asarray(pose.position, dtype=float)[:2] - seen_pose.position[:2])
+        travel = math.hypot(tx, ty)
+        turn = turn_between(seen_pose.orientation, pose.orientation)
+        lost = SLACK + turn * self.stack.bodies[self.body].box.half_diagonal * float(seen_at.length)
+        if travel > 0.0:
+            across = coords @ np.array([-ty / travel, tx / travel])
+            lost += travel * float(across.max() - across.min())
+        across = coords @ np.array([-self.direction[1], self.direction[0]])
+        width = float(across.max() - across.min())
+        least = math.inf
+        for a, found in seen.items():
+            floor = areas[a] - SHRINK * self.area[a]
+            if areas[a] > 0.0:
+                floor = max(floor, 0.0)
+            least = min(least, found - lost - floor)
+        if least <= 0.0:
+            return 0.0
+        return least / width if width > 0.0 else math.inf
+
     def unchanged(self, areas: Mapping[int, float], pose: Pose) -> bool:
         """Can no overlap of the pulled brick, now at ``pose``, have shrunk to ``areas`` (m^2, each
         as last proved) less :data:`SHRINK` of its proved area, nor gone, since :meth:`overlaps`

@@ -604,6 +604,17 @@ class StabilityExtension:
         """
         return {b: pusher for b, pusher in self._driven.items() if b in self._proofs}
 
+    def glide_room(self, body: int) -> float:
+        """Metres guided ``body``, pulled under its proof, may be carried on along its pull before
+        a glide must stop for a look at its overlaps (:meth:`PullProof.room
+        <stability._drag.PullProof.room>`); 0 for a brick pulled without a proof, or when
+        another brick moves. :meth:`glides` decides. Source: stackdsl's own."""
+        proved = self._proofs.get(body)
+        stack = self._stack
+        if proved is None or len(stack.active) != 1 or body not in stack.active:
+            return 0.0
+        return proved[0].room(proved[1], stack.engine.pose(body))
+
     def glides(self, body: int, to: Pose) -> bool:
         """May guided ``body``, pulled under its proof (:meth:`guide`), be carried straight from
         where it is to ``to`` (a pose on its hand's path) without the steps between? Yes when

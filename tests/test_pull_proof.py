@@ -640,3 +640,33 @@ def test_a_look_left_out_by_the_travel_bound_would_have_found_nothing_changed():
         now = proof.overlaps(footprint(half, pose), pose)
         areas = areas | {a: now[a] for a in now if now[a] <= areas[a] - SHRINK * proof.area[a]}
     assert 20 < skipped < 140, skipped  # it skips some looks, and looks again
+
+
+def test_the_room_of_a_glide_is_a_way_the_travel_bound_still_skips():
+    """PullProof.room: the way along the pull that unchanged's bound still covers. At every look of
+    a pull of the middle block of a 4-level Jenga tower (drifting and turning a little), a pose
+    that far on (less a hair) is one unchanged skips, and the room shrinks to nothing as the
+    brick nears the point where a look is due."""
+    from stability._drag import PullProof, footprint
+    from stability._geometry import Pose
+
+    _, ext = jenga_levels(4)
+    stack = ext._stack
+    proof = PullProof(stack, 2, np.array([0.04, 0.0, 0.0]), stack.engine.near(2, 0.001))
+    start = stack.pose(stack.bodies[2])
+    half = stack.bodies[2].box.half_extents
+    areas = proof.overlaps(footprint(half, start), start)
+    rooms = []
+    for step in range(1, 160):
+        turn = Rotation.from_euler("z", 2e-6 * step) * Rotation.from_quat(start.orientation)
+        pose = Pose(start.position + np.array([0.0005 * step, 2e-6 * step, 0.0]), turn.as_quat())
+        room = proof.room(areas, pose)
+        rooms.append(room)
+        if room > 0.0:
+            on = Pose(pose.position + np.array([0.999 * room, 0.0, 0.0]), pose.orientation)
+            assert proof.unchanged(areas, on), (step, room)
+        if not proof.unchanged(areas, pose):
+            assert room == 0.0
+            now = proof.overlaps(footprint(half, pose), pose)
+            areas = areas | {a: now[a] for a in now if now[a] <= areas[a] - 0.25 * proof.area[a]}
+    assert max(rooms) > 0.004 and rooms.count(0.0) > 5, rooms

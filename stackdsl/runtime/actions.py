@@ -137,18 +137,19 @@ class Actions(Subscriber):
         if g.kind != "pull" or not loop.world.carries or not self.stability.acting:
             return 0
         speed = float(np.linalg.norm(g.velocity))
-        steps = min(int(GLIDE / (speed * loop.dt)) if speed > 0.0 else 0, limit - loop.step - 1, g.end_step - loop.step - 1)
-        if steps < 2 or any(not s.quiet for s in loop.subscribers if s is not self and s is not self.stability):
+        if speed <= 0.0 or any(not s.quiet for s in loop.subscribers if s is not self and s is not self.stability):
+            return 0
+        room = min(GLIDE, self.stability.extension.glide_room(g.record.body))
+        steps = min(int(room / (speed * loop.dt)), limit - loop.step - 1, g.end_step - loop.step - 1)
+        if steps < 2:
             return 0
         (_, _, z), turned = loop.world.pose_floats(g.record.body)
-        while steps >= 2:  # the longest way the proof covers, halving it
-            then = g.start.position + g.velocity * ((loop.step + steps) * loop.dt - g.since)
-            to = Pose(np.array([then[0], then[1], z + float(g.velocity[2]) * steps * loop.dt]), np.array(turned))
-            if self.stability.extension.glides(g.record.body, to):
-                loop.world.carry(g.record.body, to, (float(g.velocity[0]), float(g.velocity[1]), float(g.velocity[2])))
-                return steps
-            steps //= 2
-        return 0
+        then = g.start.position + g.velocity * ((loop.step + steps) * loop.dt - g.since)
+        to = Pose(np.array([then[0], then[1], z + float(g.velocity[2]) * steps * loop.dt]), np.array(turned))
+        if not self.stability.extension.glides(g.record.body, to):
+            return 0
+        loop.world.carry(g.record.body, to, (float(g.velocity[0]), float(g.velocity[1]), float(g.velocity[2])))
+        return steps
 
     @property
     def under_way(self) -> bool:

@@ -119,6 +119,9 @@ def test_the_peer_pushes_a_row_over_and_pulls_a_block_out():
     pushed = run_lean(row, settle=None)
     assert len(pushed.toppled) == 4 and pushed.level == 1
     assert peer_verdicts(parse_scenario(tiny("4 dominoes").text, "t.yaml").expect, row, pushed) == (True, "4 of 4 toppled")
+    both = tiny("4 dominoes").text.replace("  toppled: all", "  collapse: 1\n  toppled: all")  # it asks both
+    said = peer_verdicts(parse_scenario(both, "t.yaml").expect, row, pushed)
+    assert said[0] and said[1].startswith("collapse at level 1") and said[1].endswith("; 4 of 4 toppled"), said
     jenga = program_for(tiny("tiny Jenga").text, "t.yaml", "MuJoCo lean")
     pulled = run_lean(jenga, settle=None)
     assert pulled.removed == ("L02.1",) and "L02.1" not in pulled.moved  # out of the scene, not judged

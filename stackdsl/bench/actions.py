@@ -247,7 +247,8 @@ def run_cell(scene: Scene, side: str) -> Run:
     failed = [f"{v.name}: {v.measured}" for v in verdicts if not v.passed]
     words = "; ".join(failed) if failed else describe_outcome(outcome, program.collapse_threshold)
     if expect.toppled is not None and not failed:  # as the peer's cell says it (peer_verdicts)
-        words = f"{len(outcome.toppled)} of {len(outcome.displacement) + len(outcome.unplaced)} toppled"
+        count = f"{len(outcome.toppled)} of {len(outcome.displacement) + len(outcome.unplaced)} toppled"
+        words = f"{words}; {count}" if _judges_more(expect) else count
     return Run(scene.name, side, wall, all(v.passed for v in verdicts), words, outcome.simulated_time, outcome.steps)
 
 
@@ -288,8 +289,15 @@ def peer_verdicts(expect: Expect, program: Program, lean: LeanOutcome) -> tuple[
         least, most = expect.toppled.allows(len(program.placements) - len(lean.removed))
         if not least <= len(lean.toppled) <= most:
             failed.append(f"toppled: {toppled}")
-        said = toppled
+        said = f"{said}; {toppled}" if _judges_more(expect) else toppled
     return not failed, "; ".join(failed) if failed else said
+
+
+def _judges_more(expect: Expect) -> bool:
+    """Whether ``expect`` asks of the collapse, or of what stands or stays, beside the toppled
+    count: a cell that held says both (a new user's "collapse: 8, toppled: 0" read only "0 of 16
+    toppled")."""
+    return expect.collapse is not None or bool(expect.stands) or bool(expect.stays)
 
 
 def _run_cell(arguments: tuple[Scene, str]) -> Run:

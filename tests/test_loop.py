@@ -133,10 +133,15 @@ def test_a_glide_skips_the_steps_its_subscriber_carries_and_steps_the_one_after(
             self.asked.append((loop.step, limit))
             return min(7, limit - loop.step - 1) if loop.step % 10 == 0 else 0
 
+        def on_glide(self, loop, steps):
+            self.calls.append(f"on_glide {steps} to {loop.step}")
+
     p, glider = program(), Glider()
     loop = run_in(FakeWorld(timestep=p.engine.timestep), p, RunOptions(jump=True), subscribers=(glider,))
     glided = sum(min(7, limit - step - 1) for step, limit in glider.asked if step % 10 == 0)
     assert glided > 0 and loop.skipped == glided
+    told = [c.split() for c in glider.calls if c.startswith("on_glide")]  # every subscriber is told, after each glide
+    assert sum(int(c[1]) for c in told) == glided and all(int(c[3]) % 10 == int(c[1]) for c in told)
     assert glider.calls.count("after_step") == glider.calls.count("before_step") == loop.world.steps == loop.step - glided
     assert all(step < limit for step, limit in glider.asked) and loop.step == p.actions[-1].step
     stepped = StepLoop(FakeWorld(timestep=p.engine.timestep), p, (Glider(),), jump=False)

@@ -301,6 +301,29 @@ timing: {settle: 1 s}
     assert np.abs(last.positions[others]).max() < 1.0  # every other body within a metre
 
 
+def test_a_pull_carried_over_steps_is_recorded_at_the_rate_along_its_path():
+    """The hand carries a brick pulled under its proof over the steps its proof covers (the
+    loop's glide): the recording still has a frame at its rate while the brick slides, each the
+    brick's place on its straight path then, and recording changes nothing of the run."""
+    text = """stackdsl: 1
+structure: {tower: {levels: 5, bricks_per_layer: 3, spacing: 40 mm}}
+actions:
+  - remove: {brick: L02.2, at: after level 5, speed: 40 mm/s}
+timing: {settle: 1 s}
+"""
+    program, outcome, trajectory = recorded(text, rate=30.0)
+    assert outcome.steps_skipped > 0 and outcome.events == run_program(program).events
+    pulled = trajectory.ids.tolist().index("L02.2")
+    start = next(e.time for e in outcome.events if e.kind == "remove")
+    end = next(e.time for e in outcome.events if e.kind == "release")
+    seen = [(f.time, f.positions[pulled]) for f in trajectory.frames() if start <= f.time < end]
+    times = np.array([t for t, _ in seen])
+    assert len(seen) > 0.8 * 30 * (end - start) and np.diff(times).max() < 1.5 / 30, np.diff(times).max()
+    way = np.array([p for _, p in seen])
+    moved = np.linalg.norm(np.diff(way[:, :2], axis=0), axis=1)
+    assert moved.max() < 2.5 * 0.04 / 30, moved.max()  # a frame's way, 1.3 mm at 40 mm/s, never a glide's
+
+
 def test_a_time_outside_the_run_or_not_a_number_is_refused_by_name():
     # at(-1) was the frame at t = 0, at(nan) the last frame and at("2") a TypeError about
     # concatenating a str and a float

@@ -7,13 +7,16 @@ projectiles (launches), and calls its subscribers at named moments:
 * ``on_place`` and ``on_launch``, when a brick or a projectile has entered the world;
 * ``on_action``, when a pull, a push or a shake starts (:mod:`stackdsl.runtime.actions`
   carries them out);
+* ``on_glide``, when a subscriber has carried what it moves over steps without the engine
+  (:meth:`Subscriber.glide`);
 * ``at_end``, once, when the run ends (at its end, at a collapse's settle time or at the
   wall-clock deadline).
 
 The stability extension, the collapse monitor, the substep control and the recorder are
 subscribers (:mod:`stackdsl.runtime.subscribers`, :mod:`stackdsl.runtime.recorder`). While every
 subscriber is quiet (nothing can move until the next action) the loop jumps to that
-action instead of stepping.
+action instead of stepping; a subscriber that can glide skips the steps it carries its
+bodies over.
 
 Source: stackdsl's own (the step loop of dm_control's composer, with its lifecycle hooks).
 """
@@ -85,11 +88,15 @@ class Subscriber:
     def on_action(self, loop: StepLoop, action: Kinematic) -> None:
         """A pull, a push or a shake starts now."""
 
+    def on_glide(self, loop: StepLoop, steps: int) -> None:
+        """A subscriber carried what it moves over the last ``steps`` steps without the engine
+        (:meth:`glide`); ``loop.step`` is where it went, nothing stepped there yet."""
+
     def at_end(self, loop: StepLoop) -> None:
         """The run ended."""
 
 
-HOOKS = ("before_step", "after_step", "on_place", "on_launch", "on_action", "at_end")
+HOOKS = ("before_step", "after_step", "on_place", "on_launch", "on_action", "on_glide", "at_end")
 """The step loop's lifecycle hooks, in the order they can first be called."""
 
 
@@ -148,7 +155,7 @@ class StepLoop:
         bound = {h: tuple(getattr(s, h) for s in self.subscribers if overrides(s, h)) for h in HOOKS}
         self._before_step, self._after_step = bound["before_step"], bound["after_step"]
         self._on_place, self._on_launch, self._at_end = bound["on_place"], bound["on_launch"], bound["at_end"]
-        self._on_action = bound["on_action"]
+        self._on_action, self._on_glide = bound["on_action"], bound["on_glide"]
         self._watchers = tuple(s for s in self.subscribers if overrides(s, "quiet"))
         self._hands = tuple(s for s in self.subscribers if overrides(s, "under_way"))
         self._gliders = tuple(s for s in self.subscribers if overrides(s, "glide")) if jump else ()
@@ -265,6 +272,8 @@ class StepLoop:
                 if glided:
                     self.step += glided
                     self.skipped += glided
+                    for on_glide in self._on_glide:
+                        on_glide(self, glided)
                     if self.deadline is not None and self._out_of_time():
                         return
                     break

@@ -322,6 +322,15 @@ timing: {settle: 1 s}
     way = np.array([p for _, p in seen])
     moved = np.linalg.norm(np.diff(way[:, :2], axis=0), axis=1)
     assert moved.max() < 2.5 * 0.04 / 30, moved.max()  # a frame's way, 1.3 mm at 40 mm/s, never a glide's
+    # a time asked for inside a glide (an export's, a picture's) is the brick's place on its path then
+    asks = [start + 0.3 + 0.0173 * k for k in range(12)]
+    _, slow = record_program(program, 1.0, at=asks)
+    for t in asks:
+        frame = slow.frame(int(np.searchsorted(slow.times, t + 1e-9, side="right")) - 1)  # the last at or before t
+        assert abs(frame.time - t) < program.engine.timestep
+        placed = next(f.positions[pulled] for f in slow.frames() if f.time >= start)
+        along = np.linalg.norm(frame.positions[pulled][:2] - placed[:2])
+        assert abs(along - 0.04 * (t - start)) < 0.0005, (t, along)
 
 
 def test_a_time_outside_the_run_or_not_a_number_is_refused_by_name():

@@ -181,38 +181,38 @@ class Recorder(Subscriber):
             self._next_sample = loop.step + self.every
 
     def on_glide(self, loop: StepLoop, steps: int) -> None:
-        """Frames at the rate over a glide (:meth:`stackdsl.runtime.loop.Subscriber.glide`): the
-        hand carried a pulled brick along its straight path at its constant velocity, so each
-        moving body's row is the straight way from its last row to where it is now, at the
-        frame's time (a replay showed the brick in 6 mm jumps, 7 a second, where it slides)."""
-        if not self._times or self._next_sample > loop.step:
-            return
+        """Frames over a glide (:meth:`stackdsl.runtime.loop.Subscriber.glide`), at the rate and
+        at the times asked for (``at``): the hand carried a pulled brick along its straight path
+        at its constant velocity, so each moving body's row is the straight way from its last
+        row to where it is now, at the frame's time (a replay showed the brick in 6 mm jumps, 7 a
+        second, where it slides, and an export at a time inside a glide the brick where the last
+        frame left it)."""
         watched = np.array([i for i, r in enumerate(self._records) if r.moving], dtype=int)
-        since = self._times[-1]
+        since = self._times[-1] if self._times else loop.now
         if not len(watched) or loop.now <= since or np.isnan(self._last_position[watched, 0]).any():
-            return
+            return  # nothing to draw a way for: the frames asked for come without rows (_catch_up)
+        wanted = set()
+        while self._wanted and self._wanted[0] <= loop.step:
+            wanted.add(heapq.heappop(self._wanted))
+        while self._next_sample < loop.step:
+            wanted.add(self._next_sample)
+            self._next_sample += self.every
         chosen = [self._records[i] for i in watched]
         positions, _ = loop.world.poses_of([r.body for r in chosen])
         start, states = self._last_position[watched].copy(), self._states(loop, chosen)
-        while self._next_sample < loop.step:
-            at = self._next_sample * loop.dt
-            if at > since:
-                index = len(self._times)
-                self._times.append(at)
-                self._ground.append(self._ground[-1])
-                now = start + (positions - start) * ((at - since) / (loop.now - since))
-                self._last_position[watched] = now
-                self._rows.append(
-                    (
-                        np.full(len(watched), index, np.int32),
-                        watched.astype(np.int32),
-                        now,
-                        self._last_orientation[watched],
-                        states,
-                    )
-                )
-                self._count(loop, len(watched))
-            self._next_sample += self.every
+        for step in sorted(wanted):
+            at = step * loop.dt
+            if at <= since:
+                continue
+            index = len(self._times)
+            self._times.append(at)
+            self._ground.append(self._ground[-1])
+            now = start + (positions - start) * ((at - since) / (loop.now - since))
+            self._last_position[watched] = now
+            self._rows.append(
+                (np.full(len(watched), index, np.int32), watched.astype(np.int32), now, self._last_orientation[watched], states)
+            )
+            self._count(loop, len(watched))
 
     def at_end(self, loop: StepLoop) -> None:
         self._catch_up(loop)

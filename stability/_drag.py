@@ -97,6 +97,12 @@ ACROSS = 0.2
 it to lie beside the path of a brick pulled along ``d``, or behind it: the pull slides past it
 or away from it, never toward it."""
 
+TOWARD = 0.01
+"""Largest -n . d of a brick beside the pulled one when the pull starts (at rest, its contact
+normals are its faces') for the proof to keep it frozen: a pull written 2.9 deg into the block
+beside it (``direction: [0.05, 1, 0]``, within :data:`ACROSS`) was proved, kept that block
+frozen, and went 2.2 mm into it over 100 mm, the engine unable to move it."""
+
 LEVEL_SIDE = 0.5
 """A touched brick lies beside the pulled one only when the contact normal's vertical part is
 under 1 - this (a side face, not a face it lies on or under)."""
@@ -390,7 +396,7 @@ class PullProof:
             other = stack.bodies.get(c.other)
             if other is None or other.state is not BrickState.FROZEN or c.other in self.carried or c.other in self.below:
                 continue
-            if not self.alongside(c):
+            if not self.alongside(c) or float(np.asarray(c.normal, dtype=float)[:2] @ self.direction) < -TOWARD:
                 return f"{other.label} lies in its way"
             beside.add(c.other)
         for rec in [pulled, *(stack.bodies[b] for b in (*self.carried, *self.below))]:

@@ -670,3 +670,24 @@ def test_the_room_of_a_glide_is_a_way_the_travel_bound_still_skips():
             now = proof.overlaps(footprint(half, pose), pose)
             areas = areas | {a: now[a] for a in now if now[a] <= areas[a] - 0.25 * proof.area[a]}
     assert max(rooms) > 0.004 and rooms.count(0.0) > 5, rooms
+
+
+@pytest.mark.parametrize(("toward", "proved"), [(0.0, True), (0.005, True), (0.05, False)])
+def test_a_pull_heading_into_the_block_beside_it_keeps_nothing_frozen(toward, proved):
+    """A block beside the pulled one, touching it, is kept frozen only while the pull runs along
+    it: one written 2.9 deg into it (``direction: [0.05, 1, 0]``) was proved, kept it frozen,
+    and went 2.2 mm into it. Headed into it by more than TOWARD, it lies in the pull's way."""
+    from stability._drag import TOWARD, PullProof
+
+    assert 0.005 < TOWARD < 0.05
+    eng, ext = jenga_levels(4)
+    stack = ext._stack
+    for side, y in ((1, -0.0125), (3, 0.0125)):  # the middle block of level 1 touches both side blocks
+        eng.touch(2, side, [[x, y, z] for x in (-0.0375, 0.0375) for z in (0.0, 0.015)], normal=[0, -np.sign(y), 0])
+    way = np.array([0.04, 0.04 * toward, 0.0])  # along its length, turned toward block 3 (+y)
+    proof = PullProof(stack, 2, way, stack.engine.near(2, 0.001))
+    assert (proof.why is None) is proved, proof.why
+    if not proved:
+        assert proof.why == "L1.3 lies in its way"
+    else:
+        assert {1, 3} <= proof.kept

@@ -608,12 +608,17 @@ class StabilityExtension:
         """Metres guided ``body``, pulled under its proof, may be carried on along its pull before
         a glide must stop for a look at its overlaps (:meth:`PullProof.room
         <stability._drag.PullProof.room>`); 0 for a brick pulled without a proof, or when
-        another brick moves. :meth:`glides` decides. Source: stackdsl's own."""
-        proved = self._proofs.get(body)
-        stack = self._stack
-        if proved is None or len(stack.active) != 1 or body not in stack.active:
-            return 0.0
-        return proved[0].room(proved[1], stack.engine.pose(body))
+        another brick moves or rides. :meth:`glides` decides. Source: stackdsl's own."""
+        proved = self._gliding(body)
+        return 0.0 if proved is None else proved[0].room(proved[1], self._stack.engine.pose(body))
+
+    def _gliding(self, body: int) -> tuple[PullProof, dict[int, float]] | None:
+        """The proof of guided ``body`` and its overlaps when it alone moves: no other active
+        brick, no ride, no pusher (:meth:`glides`); None else."""
+        stack, proved = self._stack, self._proofs.get(body)
+        if proved is None or stack.rides or self._pushers or self._driven or len(stack.active) != 1 or body not in stack.active:
+            return None
+        return proved
 
     def glides(self, body: int, to: Pose) -> bool:
         """May guided ``body``, pulled under its proof (:meth:`guide`), be carried straight from
@@ -631,9 +636,8 @@ class StabilityExtension:
         along the hand's path at its own height, and tilted it once it slides past its last
         support's edge (held by what lies on it; it falls from there a little sooner or later,
         docs/actions.md). Source: stackdsl's own."""
-        stack = self._stack
-        proved = self._proofs.get(body)
-        if proved is None or stack.rides or self._pushers or self._driven or len(stack.active) != 1 or body not in stack.active:
+        stack, proved = self._stack, self._gliding(body)
+        if proved is None:
             return False
         proof, areas = proved
         if any(stack.bodies[b].state is not BrickState.FROZEN for b in proof.kept) or proof.tipping(to.position):

@@ -83,9 +83,10 @@ def check_pusher(scenario: Scenario, index: int, push: Push, bodies: Sequence[tu
     face = Box(np.array([TOLERANCE, hy, hz]), push.brick.mass)  # its front face alone, as thin as the tolerance
     front = Pose(pose.position + pose.rotation[:, 0] * (hx - TOLERANCE), pose.orientation)
     across = f"the pusher ({push.brick.type}, {2 * hy * 1000:.0f} x {2 * hz * 1000:.0f} mm across its direction) would start"
-    if inside[0] == push.target and deepest(face, front, bodies) is not None:  # its corner, into the brick it aims at
+    reaches = deepest(face, front, bodies) is not None  # its cross-section reaches in, not its length
+    if reaches and inside[0] == push.target:  # its corner, into the brick it aims at
         raise scenario.source.error(path, f"{across} {_slanted(scenario, index, push, box, pose, inside[1], bodies)}")
-    if deepest(face, front, bodies) is not None:  # its cross-section reaches in, not its length: where it is aimed
+    if reaches:  # beside the point it is aimed at
         raise scenario.source.error(
             path,
             f"{across} {inside[1] * 1000:.1f} mm inside brick {inside[0]!r} beside the point it is aimed at; aim it so that its "

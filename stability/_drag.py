@@ -595,6 +595,14 @@ class PullProof:
         self._looked = np.array(position, dtype=float)
         return True
 
+    def unlooked(self, position: np.ndarray) -> float:
+        """Metres the pulled brick, now at ``position`` (shape (3,), m), may still go before
+        :meth:`moved` says yes and its overlaps are next looked at: until then a stepped pull
+        asks nothing of them either. 0 before the first look. Source: stackdsl's own."""
+        if self._looked is None:
+            return 0.0
+        return max(0.0, LOOK - float(np.linalg.norm(np.asarray(position, dtype=float) - self._looked)))
+
     def alongside(self, contact: ContactPoint) -> bool:
         """Does the pulled brick slide past or away from the brick of ``contact`` (one of its
         contact points, the normal from that brick into it), beside it, never toward it

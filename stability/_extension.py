@@ -607,10 +607,16 @@ class StabilityExtension:
     def glide_room(self, body: int) -> float:
         """Metres guided ``body``, pulled under its proof, may be carried on along its pull before
         a glide must stop for a look at its overlaps (:meth:`PullProof.room
-        <stability._drag.PullProof.room>`); 0 for a brick pulled without a proof, or when
+        <stability._drag.PullProof.room>`), or where that is less, as far as a stepped pull goes
+        before it next looks at them (:meth:`PullProof.unlooked
+        <stability._drag.PullProof.unlooked>`); 0 for a brick pulled without a proof, or when
         another brick moves or rides. :meth:`glides` decides. Source: stackdsl's own."""
         proved = self._gliding(body)
-        return 0.0 if proved is None else proved[0].room(proved[1], self._stack.engine.pose(body))
+        if proved is None:
+            return 0.0
+        proof, areas = proved
+        pose = self._stack.engine.pose(body)
+        return max(proof.room(areas, pose), proof.unlooked(pose.position))
 
     def _gliding(self, body: int) -> tuple[PullProof, dict[int, float]] | None:
         """The proof of guided ``body`` and its overlaps when it alone moves: no other active
@@ -628,9 +634,11 @@ class StabilityExtension:
         contact area the proof holds can have shrunk past the point where it is checked again
         (:data:`stability._drag.SHRINK`, as :meth:`_reprove` asks it) nor gone at ``to``
         (:meth:`PullProof.unchanged <stability._drag.PullProof.unchanged>`, a bound that grows
-        with the way along the path; the step after the glide looks at the overlaps again), a
-        support still carries it, and within the way and :data:`TOUCH` it meets only the
-        ground, what its proof keeps and frozen bricks it slides past (:meth:`PullProof.alongside
+        with the way along the path; the step after the glide looks at the overlaps again) or
+        ``to`` is short of where a stepped pull would next look at them (:meth:`PullProof.unlooked
+        <stability._drag.PullProof.unlooked>`: it asks nothing of them before), a support
+        still carries it (the ground plane, unbounded, always does), and within the way and
+        :data:`TOUCH` it meets only the ground, what its proof keeps and frozen bricks it slides past (:meth:`PullProof.alongside
         <stability._drag.PullProof.alongside>`). The frozen stack is then the same whatever the
         pulled brick does on the way: the steps skipped would only have moved the brick itself,
         along the hand's path at its own height, and tilted it once it slides past its last
@@ -642,10 +650,10 @@ class StabilityExtension:
         proof, areas = proved
         if any(stack.bodies[b].state is not BrickState.FROZEN for b in proof.kept) or proof.tipping(to.position):
             return False
-        if not proof.unchanged(areas, to):
-            return False
-        if not any(areas[s] > 0.0 for s in proof.supports):
-            return False
+        if not proof.unchanged(areas, to) and proof.unlooked(to.position) <= 0.0:
+            return False  # its overlaps may have changed, and a stepped pull would have looked by then
+        if not any(areas[s] > 0.0 or isinstance(stack.bodies[s].shape, Plane) for s in proof.supports):
+            return False  # past its last support's edge (a ground plane has none)
         pose = stack.engine.pose(body)
         way = float(np.linalg.norm(to.position - pose.position)) + TOUCH
         for c in stack.engine.near(body, way, self._unkept(body, proof.kept)):

@@ -119,6 +119,29 @@ def test_a_proved_pull_glides_over_the_steps_its_proof_covers_with_the_same_resu
         assert abs(glided.displacement[brick] - moved) < 1e-4, brick
 
 
+@pytest.mark.parametrize("distance", [26, 100])
+def test_a_pull_across_a_brick_and_on_over_the_ground_glides_too(distance):
+    """An end brick of a flat pyramid's base slides out across its length under its proof, and on
+    over the bare ground. Across, a quarter of its 120 mm wide overlap goes every 1.5 mm or so, no
+    more than the brick lags its hand's path by a few steps: a glide as long as the room less
+    that lag is still one the proof covers (Actions.glide). Past where it lay, the overlaps it was
+    proved on are gone, but the ground plane carries it on (StabilityExtension.glides). The run
+    steps under half of the pull's own steps, and the pyramid stands."""
+    speed = 0.01
+    text = f"""stackdsl: 1
+name: pull across
+structure: {{pyramid: {{base: 5}}}}
+timing: {{interval: 0.5 s}}
+actions:
+  - remove: {{brick: L01.1, direction: +y, at: after level 5, speed: {speed * 1000:g} mm/s, distance: {distance} mm}}
+"""
+    program = compile_scenario(parse_scenario(text, "across.yaml"))
+    outcome = run_program(program)
+    pull_steps = distance / 1000 / speed / program.engine.timestep
+    assert outcome.steps < pull_steps / 2, (outcome.steps, pull_steps)
+    assert outcome.collapse is None
+
+
 def level_over_three_blocks():
     """A fake world: three blocks on the ground along x, 30 mm apart, and one block across them."""
     from stability import Box, FakeEngine, Plane, Pose, StabilityExtension
@@ -670,6 +693,26 @@ def test_the_room_of_a_glide_is_a_way_the_travel_bound_still_skips():
             now = proof.overlaps(footprint(half, pose), pose)
             areas = areas | {a: now[a] for a in now if now[a] <= areas[a] - 0.25 * proof.area[a]}
     assert max(rooms) > 0.004 and rooms.count(0.0) > 5, rooms
+
+
+def test_a_glide_goes_as_far_as_a_stepped_pull_goes_without_a_look():
+    """PullProof.unlooked: the way a stepped pull goes before moved() says yes and the overlaps
+    are looked at. A pose that far on (less a hair) is one moved() says no to, a pose past it one
+    it says yes to: a glide that far asks no less of the overlaps than the steps it skips."""
+    from stability._drag import LOOK, PullProof
+
+    _, ext = jenga_levels(4)
+    stack = ext._stack
+    proof = PullProof(stack, 2, np.array([0.04, 0.0, 0.0]), stack.engine.near(2, 0.001))
+    start = stack.pose(stack.bodies[2]).position
+    assert proof.unlooked(start) == 0.0  # never looked: nothing to go by
+    assert proof.moved(start)
+    for way in (0.0, 0.0001, 0.0003, 0.00049):
+        assert proof.unlooked(start + [way, 0.0, 0.0]) == pytest.approx(LOOK - way)
+    far = proof.unlooked(start + [0.0001, 0.0, 0.0])
+    assert not proof.moved(start + [0.0001 + 0.999 * far, 0.0, 0.0])
+    assert proof.unlooked(start + [0.0001 + 1.001 * far, 0.0, 0.0]) == 0.0
+    assert proof.moved(start + [0.0001 + 1.001 * far, 0.0, 0.0])
 
 
 @pytest.mark.parametrize(("toward", "proved"), [(0.0, True), (0.005, True), (0.05, False)])

@@ -116,7 +116,7 @@ class Actions(Subscriber):
         self.away: list[BrickRecord] = []  # taken out of the scene this step: forgotten before the next
         self._taken = 0
         self._carried = False  # a pull under way drags bricks the engine moves (finer steps)
-        self._landed = -LANDING  # the step a glide last ended on
+        self._landed: int | None = None  # the step a glide last ended on
         self._on_path: dict[int, _Guided] = {}  # a pushed brick the extension's proof moves on the hand's path
         self._steady: _Window | None = None  # since when everything has lain still on the shaken ground
         self._every = 1  # steps between two looks at the shake's steady state
@@ -296,7 +296,7 @@ class Actions(Subscriber):
         carries it), so once nothing carries it, it falls; a hand would hold it. Not asked within
         :data:`LANDING` steps of a glide's end: a brick rocking on a support's edge is carried
         with its tilt, a hair clear of that edge, and lands back on it."""
-        if g.kind != "pull" or loop.step - self._landed <= LANDING:
+        if g.kind != "pull" or (self._landed is not None and loop.step - self._landed <= LANDING):
             return False
         (_, _, z), _ = loop.world.pose_floats(g.record.body)
         path_z = g.start.position[2] + g.velocity[2] * (loop.now - g.since)

@@ -5,6 +5,7 @@ of Jenga pulls against the peer."""
 from __future__ import annotations
 
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -343,6 +344,15 @@ def test_the_folder_bench_runs_each_scene_on_the_sides_given(tmp_path, monkeypat
     assert "on MuJoCo extension" in capsys.readouterr().out
     assert main(["bench", "folder", str(tmp_path), "--sides", "tuned"]) == 2
     assert "--sides: unknown side 'tuned'" in capsys.readouterr().err
+    # a side whose engine is not installed is refused before anything runs, as `bench actions` does
+    # (a new user without the MuJoCo extra got the lean peer's cells refused one by one, and exit 0)
+    monkeypatch.setitem(sys.modules, "mujoco", None)
+    assert main(["bench", "folder", str(tmp_path), "--sides", "extension,MuJoCo lean"]) == 2
+    assert "--sides: " in capsys.readouterr().err and asked == [
+        ("MuJoCo extension", "MuJoCo lean"),
+        ("file's own settings", "MuJoCo lean"),
+    ]
+    assert main(["bench", "folder", str(tmp_path), "--sides", "extension,MuJoCo lean", "--no-cells"]) == 0
 
 
 def test_a_benchmark_named_after_out_writes_its_tables_there(tmp_path, monkeypatch, capsys):

@@ -823,6 +823,9 @@ def _bench_folder(args: argparse.Namespace) -> int:
 
     _at_least_one(args.repeats)
     sides = _names(args.sides, "--sides", [AS_WRITTEN, *ACTION_SIDES], "side")
+    for side in sides if not args.no_cells else ():
+        if side in ACTION_SIDES:  # an engine whose extra is missing: said before anything runs
+            _need_backend(ACTION_SIDES[side].backend or "pybullet", "--sides")
     folder = Path(args.folder)
     scenes = folder_scenes(folder)
     print(version_line(), flush=True)

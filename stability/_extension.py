@@ -636,14 +636,14 @@ class StabilityExtension:
         (:meth:`PullProof.unchanged <stability._drag.PullProof.unchanged>`, a bound that grows
         with the way along the path; the step after the glide looks at the overlaps again) or
         ``to`` is short of where a stepped pull would next look at them (:meth:`PullProof.unlooked
-        <stability._drag.PullProof.unlooked>`: it asks nothing of them before), a support
-        still carries it (the ground plane, unbounded, always does), and within the way and
-        :data:`TOUCH` it meets only the ground, what its proof keeps and frozen bricks it slides past (:meth:`PullProof.alongside
-        <stability._drag.PullProof.alongside>`). The frozen stack is then the same whatever the
-        pulled brick does on the way: the steps skipped would only have moved the brick itself,
-        along the hand's path at its own height, and tilted it once it slides past its last
-        support's edge (held by what lies on it; it falls from there a little sooner or later,
-        docs/actions.md). Source: stackdsl's own."""
+        <stability._drag.PullProof.unlooked>`: it asks nothing of them before), a support still
+        carries it (the ground plane, unbounded, always does), and within the way and
+        :data:`TOUCH` it meets only the ground, what its proof keeps and frozen bricks it slides
+        past (:meth:`PullProof.alongside <stability._drag.PullProof.alongside>`). The frozen
+        stack is then the same whatever the pulled brick does on the way: the steps skipped would
+        only have moved the brick itself, along the hand's path at its own height, and tilted it
+        once it slides past its last support's edge (held by what lies on it; it falls from there
+        a little sooner or later, docs/actions.md). Source: stackdsl's own."""
         stack, proved = self._stack, self._gliding(body)
         if proved is None:
             return False

@@ -629,15 +629,9 @@ class PullProof:
         changed already. Source: stackdsl's own."""
         if self._seen is None:
             return 0.0
-        seen_pose, seen_at, seen = self._seen
+        _, seen_at, seen = self._seen
+        lost = self._lost(pose)
         coords = shapely.get_coordinates(seen_at)
-        tx, ty = (float(v) for v in np.asarray(pose.position, dtype=float)[:2] - seen_pose.position[:2])
-        travel = math.hypot(tx, ty)
-        turn = turn_between(seen_pose.orientation, pose.orientation)
-        lost = SLACK + turn * self.stack.bodies[self.body].box.half_diagonal * float(seen_at.length)
-        if travel > 0.0:
-            across = coords @ np.array([-ty / travel, tx / travel])
-            lost += travel * float(across.max() - across.min())
         across = coords @ np.array([-self.direction[1], self.direction[0]])
         width = float(across.max() - across.min())
         least = math.inf
@@ -649,6 +643,21 @@ class PullProof:
         if least <= 0.0:
             return 0.0
         return least / width if width > 0.0 else math.inf
+
+    def _lost(self, pose: Pose) -> float:
+        """The most overlap (m^2) the footprint can have lost with any area from where
+        :meth:`overlaps` last found them to ``pose``: ``|t| w + p a r`` (:meth:`unchanged`).
+        Only once they were found."""
+        assert self._seen is not None
+        seen_pose, seen_at, _ = self._seen
+        turn = turn_between(seen_pose.orientation, pose.orientation)
+        tx, ty = (float(v) for v in np.asarray(pose.position, dtype=float)[:2] - seen_pose.position[:2])
+        travel = math.hypot(tx, ty)
+        lost = SLACK + turn * self.stack.bodies[self.body].box.half_diagonal * float(seen_at.length)
+        if travel > 0.0:
+            across = shapely.get_coordinates(seen_at) @ np.array([-ty / travel, tx / travel])
+            lost += travel * float(across.max() - across.min())
+        return lost
 
     def unchanged(self, areas: Mapping[int, float], pose: Pose) -> bool:
         """Can no overlap of the pulled brick, now at ``pose``, have shrunk to ``areas`` (m^2, each
@@ -665,14 +674,7 @@ class PullProof:
         Source: stackdsl's own."""
         if self._seen is None:
             return False
-        seen_pose, seen_at, seen = self._seen
-        turn = turn_between(seen_pose.orientation, pose.orientation)
-        tx, ty = (float(v) for v in np.asarray(pose.position, dtype=float)[:2] - seen_pose.position[:2])
-        travel = math.hypot(tx, ty)
-        lost = SLACK + turn * self.stack.bodies[self.body].box.half_diagonal * float(seen_at.length)
-        if travel > 0.0:
-            across = shapely.get_coordinates(seen_at) @ np.array([-ty / travel, tx / travel])
-            lost += travel * float(across.max() - across.min())
+        seen, lost = self._seen[2], self._lost(pose)
         return all(seen[a] - lost > areas[a] - SHRINK * self.area[a] and (areas[a] <= 0.0 or seen[a] - lost > 0.0) for a in seen)
 
 

@@ -58,10 +58,6 @@ AWAY = np.array([-5000.0, -5000.0, 100.0])
 #: has pulled free (a 1 mm fall takes 14 ms, 3.4 steps at 240 Hz).
 CLEARED = 0.001
 
-#: Steps after a glide's end in which a pulled brick is not asked whether it has cleared what it
-#: lay between (:meth:`Actions._clear`).
-LANDING = 2
-
 #: Metres a hand carries a pulled brick in one glide at most (:meth:`Actions.glide`): its proof
 #: is asked about the way at once, and a proved pull's contact areas are checked again each time a
 #: quarter of one has gone (the middle block of a Jenga level, pulled along its 75 mm, passes a
@@ -116,7 +112,6 @@ class Actions(Subscriber):
         self.away: list[BrickRecord] = []  # taken out of the scene this step: forgotten before the next
         self._taken = 0
         self._carried = False  # a pull under way drags bricks the engine moves (finer steps)
-        self._landed: int | None = None  # the step a glide last ended on
         self._on_path: dict[int, _Guided] = {}  # a pushed brick the extension's proof moves on the hand's path
         self._steady: _Window | None = None  # since when everything has lain still on the shaken ground
         self._every = 1  # steps between two looks at the shake's steady state
@@ -133,8 +128,9 @@ class Actions(Subscriber):
         path, its height resting on what carries it: when the extension says nothing it watches
         can change on the way (:meth:`stability.StabilityExtension.glides`), and every other
         subscriber is quiet, the brick is put where its path has it then, at its own height and
-        orientation (the hand turns it back to its path's as ever once stepped), moving with the hand (:meth:`~stackdsl.engines.protocol.World.carry`), without the steps
-        between. A pull's last steps, a pull that drags what the engine moves (finer steps), a
+        orientation (the hand turns it back to its path's as ever once stepped), moving with the
+        hand (:meth:`~stackdsl.engines.protocol.World.carry`), without the steps between; the way
+        it lags its path comes off the room. A pull's last steps, a pull that drags what the engine moves (finer steps), a
         push and a shake are stepped as ever. Source: stackdsl's own."""
         if len(self.guided) != 1 or self.shake is not None or self.away or self._on_path or self._carried:
             return 0
@@ -145,6 +141,8 @@ class Actions(Subscriber):
         if speed <= 0.0 or any(not s.quiet for s in loop.subscribers if s is not self and s is not self.stability):
             return 0
         room = min(GLIDE, self.stability.extension.glide_room(g.record.body))
+        if room <= 0.0:  # most steps of a pull the engine steps: no pose read for nothing
+            return 0
         (x, y, z), turned = loop.world.pose_floats(g.record.body)
         here = g.start.position + g.velocity * (loop.step * loop.dt - g.since)
         behind = math.hypot(float(here[0]) - x, float(here[1]) - y)  # the brick lags its path by a step or so
@@ -156,7 +154,6 @@ class Actions(Subscriber):
         if not self.stability.extension.glides(g.record.body, to):
             return 0
         loop.world.carry(g.record.body, to, (float(g.velocity[0]), float(g.velocity[1]), float(g.velocity[2])))
-        self._landed = loop.step + steps
         return steps
 
     @property
@@ -290,13 +287,12 @@ class Actions(Subscriber):
         drags = self.stability.extension.drags
         return any(g.kind in ("pull", "push") and drags(g.record.body) for g in self.guided)
 
-    def _clear(self, loop: StepLoop, g: _Guided) -> bool:
+    @staticmethod
+    def _clear(loop: StepLoop, g: _Guided) -> bool:
         """Has the pulled brick of ``g`` cleared what it lay between: :data:`CLEARED` below its
         path and touching nothing? A pulled brick keeps its own vertical motion (it rests on what
-        carries it), so once nothing carries it, it falls; a hand would hold it. Not asked within
-        :data:`LANDING` steps of a glide's end: a brick rocking on a support's edge is carried
-        with its tilt, a hair clear of that edge, and lands back on it."""
-        if g.kind != "pull" or (self._landed is not None and loop.step - self._landed <= LANDING):
+        carries it), so once nothing carries it, it falls; a hand would hold it."""
+        if g.kind != "pull":
             return False
         (_, _, z), _ = loop.world.pose_floats(g.record.body)
         path_z = g.start.position[2] + g.velocity[2] * (loop.now - g.since)

@@ -251,10 +251,14 @@ class Admission:
         contacts: Contacts,
         time: float,
         plan: Plan | None = None,
+        pile: bool = False,
     ) -> list[StabilityEvent]:
         """Freeze the members of an admitted group (``group[0]`` the brick that asked) as
         ``plan`` says (:meth:`plan` when None), each raised out of what it rests on
-        (:meth:`lifts`); the members wake together."""
+        (:meth:`lifts`); the members wake together. ``touching``: what the brick that asked
+        touches, or with ``pile`` (the debris rule's) what the whole group touches: then each
+        event says so, two members as much as more (a pair's asker said "leaning on" bodies
+        only its partner touched)."""
         rec, events = group[0], []
         plan = plan or self.plan(group, polygons)
         names = ", ".join(self.stack.bodies[o].label for o in touching if o != rec.body)
@@ -272,7 +276,7 @@ class Admission:
             held = [b for b in held_by.get(m.body, ()) if b != m.body]
             touched = dict.fromkeys([*(p.other for p in polygons[m.body] if p.other != rec.body), *held, *asker])
             on = names if m is rec else ", ".join(self.stack.bodies[o].label for o in touched)
-            if len(group) > 2:
+            if len(group) > 2 or (pile and len(group) > 1):
                 # the debris rule's (stability._debris): a brick still ringing, frozen with its pile, whose
                 # motion as a whole is under the rest thresholds
                 still = "at rest" if self.stack.rested(m, time) else "still creeping, in a pile at rest as a whole"

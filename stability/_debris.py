@@ -117,7 +117,7 @@ class Debris:
             if o not in inside and (stack.bodies[o].state is not BrickState.ACTIVE or o in edge)
         }
         touching = {o: held[o] for o in stack.ordered(held)}
-        events = self.admission.freeze_group(group, polygons, touching, contacts, time, plan)
+        events = self.admission.freeze_group(group, polygons, touching, contacts, time, plan, pile=True)
         for body, brick in edge.items():  # the frozen members lean on a brick that is still active: watched
             leaning = {m.body for m in group if body in areas.neighbours(m, contacts)}
             if leaning:

@@ -173,3 +173,26 @@ def test_a_pile_solved_with_the_frozen_stack_is_trimmed_of_the_bricks_its_mechan
     assert leaning._with_stack(pile, polygons) is None
     debris, pile, polygons = _pile_on_a_stack()
     assert debris._with_stack(pile[:1], {3: polygons[3]}) is None  # one brick on a stack of two: solved alone
+
+
+PYRAMID_PULLED = """stackdsl: 1
+structure: {pyramid: {base: 3, joint: 1 mm}}
+timing: {interval: 0.5 s, settle: 1 s}
+actions:
+  - remove: {brick: L01.3, at: after level 3, speed: 30 mm/s, direction: +x}
+expect: {stands: true}
+"""
+
+
+def test_a_pair_frozen_as_a_pile_names_what_the_pair_touches_as_the_pair():
+    """A flat pyramid of 3 with 1 mm joints, its end base brick pulled out outward: L02.2 over it
+    tilts onto L01.2 with L03.1 on it, and the debris rule freezes the two together. L03.1 also
+    lies on L02.1, 1 mm from L02.2. The asker's event used to read "leaning on L01.2, L02.1",
+    naming as its own a body only its partner touches; a pair from the debris rule now says what
+    the two touch together, as a larger pile does."""
+    outcome = run_program(compile_scenario(parse_scenario(PYRAMID_PULLED, "pyramid.yaml")))
+    late = [e for e in outcome.events if e.kind == "freeze" and e.time > 3.5 and e.brick in ("L02.2", "L03.1")]
+    assert outcome.collapse is None and late, outcome.events
+    reasons = {e.brick: e.detail for e in late}
+    assert "one of 2 touching bricks frozen together; together they touch L01.2, L02.1" in reasons["L02.2"], reasons
+    assert "leaning on" not in reasons["L02.2"], reasons

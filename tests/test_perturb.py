@@ -140,3 +140,16 @@ def test_a_sweep_listed_not_perturbed_is_not_counted_robust(tmp_path, capsys):
     out = capsys.readouterr().out
     assert any(line.startswith("NOT PERTURBED") and "sweep.yaml" in line for line in out.splitlines())
     assert "1 scenarios perturbed: 1 robust, 0 fragile; 1 not perturbed" in out
+
+
+@pytest.mark.parametrize("count", [1, 3, 4, 7])
+def test_the_heading_names_only_the_kinds_the_reruns_take(count):
+    """`--perturb 3` said "the other engine" in its heading, which only the fourth rerun runs: the
+    heading names the kinds that ``count`` reruns take, each of them a rerun's label."""
+    heading = fragility_lines([], count)[1]
+    labels = [p.label for p in perturbations(count, "mujoco")]
+    assert heading.startswith(f"perturbed {count} times each: ")
+    other = any(label == "on mujoco" for label in labels)
+    assert other == heading.endswith(", the other engine"), (heading, labels)
+    assert ("timestep" in heading) == any("timestep" in label for label in labels)
+    assert ("solver iterations" in heading) == any("iterations" in label for label in labels)

@@ -555,7 +555,8 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
             type=perturb_type,
             default=0,
             help="then rerun every scenario N times under changes that should not matter (a placement jitter of "
-            "10 micrometres, the timestep +-1%%, solver iterations +-10%%, the other engine where the scene allows) "
+            "10 micrometres, the timestep +-1%%, solver iterations +-10%%, the other engine where the scene allows, "
+            "each kind in turn: the other engine is the fourth) "
             "and say, for each verdict, how many held, with the certificate's margin: a verdict that flips is "
             "FRAGILE (exit 1), and what flipped it is named",
         )

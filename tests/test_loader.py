@@ -1245,3 +1245,25 @@ def test_a_mean_beyond_a_double_says_what_was_written_not_inf():
     with pytest.raises(ScenarioError) as err:
         parse_scenario(text, "m.yaml")
     assert "(not finite)" in err.value.message and "got '1111" in err.value.message and ".inf" not in err.value.message
+
+
+@pytest.mark.parametrize(
+    "text, field",
+    [
+        (
+            "structure: {tower: {levels: 2}}\nbrick_types: {finger: {size: [20 mm, 10 mm, 10 mm]}}\n"
+            "actions: [{push: {target: {brick: L02.1}, direction: +x, at: 3 s, pusher: {size: [20 mm, 10 mm, 10 mm]}}}]",
+            "actions[0].push.pusher",
+        ),
+        ("structure: {tower: {levels: 2, brick: {size: [20 mm, 10 mm, 10 mm]}}}", "structure.tower.brick"),
+        ("structure: {pyramid: {base: 2, brick: {size: [20 mm, 10 mm, 10 mm]}}}", "structure.pyramid.brick"),
+    ],
+)
+def test_a_size_written_where_a_brick_types_name_goes_says_where_sizes_go(text, field):
+    """A new user wrote `pusher: {size: [...]}` and read "expected text, got a mapping": a field
+    that names a brick type says so, and where a size goes."""
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(f"stackdsl: 1\n{text}\n", "d.yaml")
+    assert err.value.field == field
+    assert err.value.message.startswith("expected the name of a brick type (kapla, or a name under brick_types:")
+    assert err.value.message.endswith("got a mapping")

@@ -25,6 +25,8 @@ from .bounds import (
 from .grammar import WHOLE, AlsoAccepts, BodyId
 from .units import Angle, angle, within
 
+_BRICK = Field(description="the brick type (built in: kapla, 120 x 24 x 8 mm)", examples=["kapla"])
+
 if TYPE_CHECKING:  # to mypy a float; to pydantic an angle with its bounds
     LeanAngle = float
 else:
@@ -55,7 +57,7 @@ class Tower(StrictModel):
     ``spacing`` and each part of ``shift`` at most 10 m (no brick is longer), ``origin`` within 1 km.
     """
 
-    brick: str = "kapla"
+    brick: Annotated[str, _BRICK] = "kapla"
     levels: Annotated[int, Field(ge=1, le=MAX_LEVELS), WHOLE]
     bricks_per_layer: Annotated[int, Field(ge=1, le=50), WHOLE] = 2
     spacing: Spacing = 0.096
@@ -123,7 +125,7 @@ class BrickPlacement(StrictModel):
     """
 
     id: BodyId | None = None
-    brick: str = "kapla"
+    brick: Annotated[str, _BRICK] = "kapla"
     at: Vector3
     yaw: BoundedAngle = 0.0
     pitch: BoundedAngle = 0.0
@@ -141,7 +143,7 @@ class CardHouse(StrictModel):
     10 m; ``angle`` is in degrees, above 0 and below 60.
     """
 
-    brick: str = "kapla"
+    brick: Annotated[str, _BRICK] = "kapla"
     levels: Annotated[int, Field(ge=1, le=50), WHOLE]
     angle: LeanAngle = 20.0
     spacing: PeakSpacing | None = None

@@ -231,6 +231,9 @@ def _one_error(err: ErrorDetails, source: SourceMap) -> ScenarioError:
         return source.error(loc, f"expected {kind}, got {shown(err.get('input'))} (not finite)")
     elif err["type"] in ("literal_error", "enum"):  # pydantic: "Input should be 'flat' or 'edge'"
         return source.error(loc, _choice(err))
+    elif err["type"] == "string_type" and isinstance(err.get("input"), dict) and "brick type" in (_description(tagged) or ""):
+        # a size written where a type's name goes (`pusher: {size: [...]}`): where sizes go
+        message = "expected the name of a brick type (kapla, or a name under brick_types:, where its size goes)"
     elif err["type"] in _PLAIN:  # pydantic's words for a type, in the language's
         message = _PLAIN[err["type"]](err.get("ctx", {}))
     else:

@@ -8,6 +8,12 @@ would have to move with it that much: the test of a design that freezes a fallen
 one it leans on as one rigid body (docs/results/dominoes.md, "Where the 30 row's time goes").
 
     python docs/results/domino_lean.py [FILE] [--within DEG]
+    python docs/results/domino_lean.py [FILE] --settle    # how long each fallen domino keeps turning
+
+``--settle`` prints instead, for each fallen domino, when it first turned 1 deg (the chain reached
+it), how long after that it came within 5, 1, 0.3 and 0.1 deg of its final lean for good, and when
+the extension froze it after that (the run's last freeze of it): how long the pile behind the
+chain's front really moves, and so how many dominoes stay active at the chain's pace.
 
 Output: docs/results/dominoes.md.
 """
@@ -24,12 +30,13 @@ from stackdsl import compile_scenario, parse_scenario
 from stackdsl.runtime.recorder import record_program
 
 
-def turns(path: Path) -> tuple[list[str], np.ndarray, np.ndarray]:
-    """The row's brick ids, the frames' times (s) and how far each brick has turned from the
+def turns(path: Path) -> tuple[list[str], np.ndarray, np.ndarray, dict[str, float]]:
+    """The row's brick ids, the frames' times (s), how far each brick has turned from the
     orientation it was placed in, at each frame (degrees, shape (bricks, frames); NaN before it
-    is placed)."""
+    is placed), and when the extension last froze each brick (s)."""
     program = compile_scenario(parse_scenario(path.read_text(encoding="utf-8"), str(path)), "extension", None, "pybullet")
-    _, trajectory = record_program(program, 240.0, source=str(path))
+    outcome, trajectory = record_program(program, 240.0, source=str(path))
+    frozen = {e.brick: e.time for e in outcome.events if e.kind == "freeze"}
     frames = list(trajectory.frames())
     turned = np.full((len(trajectory.ids), len(frames)), np.nan)
     placed: dict[int, Rotation] = {}
@@ -37,15 +44,48 @@ def turns(path: Path) -> tuple[list[str], np.ndarray, np.ndarray]:
         for b in np.flatnonzero(~np.isnan(frame.orientations[:, 0])):
             now = Rotation.from_quat(frame.orientations[b])
             turned[b, k] = np.degrees((placed.setdefault(int(b), now).inv() * now).magnitude())
-    return list(trajectory.ids), np.array([f.time for f in frames]), turned
+    return list(trajectory.ids), np.array([f.time for f in frames]), turned, frozen
+
+
+SETTLE = (5.0, 1.0, 0.3, 0.1)
+"""Degrees from its final lean that :func:`settle` times a fallen domino to."""
+
+
+def settle(ids: list[str], times: np.ndarray, up: np.ndarray, frozen: dict[str, float]) -> None:
+    """Print, for each fallen domino, when it first turned 1 deg and how long after that it came
+    for good within each of :data:`SETTLE` of its final lean, and was last frozen; then the medians."""
+    heads = " | ".join(f"within {d:g} deg (s)" for d in SETTLE)
+    print(f"| domino | turned 1 deg at (s) | {heads} | frozen (s) |\n|---|---:|" + "---:|" * (len(SETTLE) + 1))
+    rows = []
+    for i, name in enumerate(ids):
+        final = up[i, -1]
+        moved = np.flatnonzero(up[i] > 1.0)
+        if final < 10.0 or not len(moved):  # standing
+            continue
+        hit = times[moved[0]]
+        after = []
+        for d in SETTLE:
+            off = np.flatnonzero(~(np.abs(up[i] - final) < d))  # NaN (not placed) counts as off
+            after.append(float(times[off[-1] + 1] - hit) if len(off) and off[-1] + 1 < len(times) else 0.0)
+        froze = frozen.get(name, np.nan) - hit
+        rows.append([*after, froze])
+        print(f"| {name} | {hit:.3f} | " + " | ".join(f"{a:.3f}" for a in after) + f" | {froze:.3f} |")
+    if rows:
+        mid = np.nanmedian(np.array(rows), axis=0)
+        print("| median | | " + " | ".join(f"{m:.3f}" for m in mid) + " |")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("file", nargs="?", default="scenarios/dominoes_30.yaml")
     parser.add_argument("--within", type=float, default=1.0, help="degrees from the final tilt (default 1)")
+    parser.add_argument("--settle", action="store_true", help="how long each fallen domino keeps turning")
     args = parser.parse_args()
-    ids, times, up = turns(Path(args.file))
+    ids, times, up, frozen = turns(Path(args.file))
+    if args.settle:
+        print(f"{args.file}: each fallen domino, from when it turned 1 deg to within each of {SETTLE} deg of its lean\n")
+        settle(ids, times, up, frozen)
+        return
     print(f"{args.file}: each fallen domino, and how far the next one turns once it is within {args.within:g} deg\n")
     print("| domino | its lean (deg) | within at (s) | the next turns after (deg) |\n|---|---:|---:|---:|")
     after_turns = []

@@ -630,8 +630,8 @@ class PullProof:
         if self._seen is None:
             return 0.0
         _, seen_at, seen = self._seen
-        lost = self._lost(pose)
         coords = shapely.get_coordinates(seen_at)
+        lost = self._lost(pose, coords)
         across = coords @ np.array([-self.direction[1], self.direction[0]])
         width = float(across.max() - across.min())
         least = math.inf
@@ -644,10 +644,11 @@ class PullProof:
             return 0.0
         return least / width if width > 0.0 else math.inf
 
-    def _lost(self, pose: Pose) -> float:
+    def _lost(self, pose: Pose, coords: np.ndarray | None = None) -> float:
         """The most overlap (m^2) the footprint can have lost with any area from where
         :meth:`overlaps` last found them to ``pose``: ``|t| w + p a r`` (:meth:`unchanged`).
-        Only once they were found."""
+        Only once they were found. ``coords``: the footprint's coordinates as found then, when
+        the caller has them already (shape (k, 2))."""
         assert self._seen is not None
         seen_pose, seen_at, _ = self._seen
         turn = turn_between(seen_pose.orientation, pose.orientation)
@@ -655,7 +656,8 @@ class PullProof:
         travel = math.hypot(tx, ty)
         lost = SLACK + turn * self.stack.bodies[self.body].box.half_diagonal * float(seen_at.length)
         if travel > 0.0:
-            across = shapely.get_coordinates(seen_at) @ np.array([-ty / travel, tx / travel])
+            coords = shapely.get_coordinates(seen_at) if coords is None else coords
+            across = coords @ np.array([-ty / travel, tx / travel])
             lost += travel * float(across.max() - across.min())
         return lost
 

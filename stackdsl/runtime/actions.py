@@ -130,8 +130,9 @@ class Actions(Subscriber):
         subscriber is quiet, the brick is put where its path has it then, at its own height and
         orientation (the hand turns it back to its path's as ever once stepped), moving with the
         hand (:meth:`~stackdsl.engines.protocol.World.carry`), without the steps between; the way
-        it lags its path comes off the room. A pull's last steps, a pull that drags what the engine moves (finer steps), a
-        push and a shake are stepped as ever. Source: stackdsl's own."""
+        it lags its path comes off the room. A pull's last steps, a pull that drags what the
+        engine moves (finer steps), a push and a shake are stepped as ever. Source: stackdsl's
+        own."""
         if len(self.guided) != 1 or self.shake is not None or self.away or self._on_path or self._carried:
             return 0
         g = self.guided[0]

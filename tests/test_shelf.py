@@ -50,6 +50,7 @@ def test_buried_bricks_leave_the_world_and_read_as_they_were():
             assert world.pose(b).position.tolist() == before[b].position.tolist()
             assert world.speeds(b) == (0.0, 0.0)
         assert world.contact_points(sorted(shelved)) == []
+        assert not any(world.touches(b) for b in shelved)  # static, touching only static bodies
         assert world.poses_of(bricks)[0][:, 2] == pytest.approx([0.004 + 0.008 * i for i in range(LEVELS)])
 
 
@@ -240,6 +241,14 @@ def test_merged_bricks_move_as_one_body_and_come_apart_where_they_are():
         seen = {(c.body, c.other) for c in world.contact_points([base])}
         assert seen == {(base, world.ground), (base, middle)}  # named by the brick touched, never the merged body
         assert {c.other for c in world.contact_points([middle])} == {base}
+        assert world.touches(base) and world.touches(middle)  # the merged body's points named by the part nearest
+        assert not world.touches(top) and world.contact_points([top]) == []
+        flying = world.create(spec, Pose.from_euler([0.3, 0.0, 0.5]), spec.mass)
+        world.step()
+        assert not world.touches(flying) and world.contact_points([flying]) == []
+        world.move(flying, Pose.from_euler([0.0, 0.2, 0.004]), spec.mass)
+        world.step()
+        assert world.touches(flying) and world.contact_points([flying])
         there, rode = world.pose(top).position, world.velocity(top)
         world.unmerge([middle, top])
         assert world.pose(top).position.tolist() == pytest.approx(there.tolist(), abs=1e-12)

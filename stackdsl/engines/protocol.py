@@ -219,6 +219,13 @@ class World(Engine, Protocol):
         (a, b, c), (d, e, f) = linear.tolist(), angular.tolist()
         return (a, b, c), (d, e, f)
 
+    def touches(self, body: int) -> bool:
+        """Whether ``body`` touches any body now: :meth:`contact_points` of it is not empty. A
+        hand asks it of a pulled brick at every step once the brick has dropped below its path
+        (:meth:`stackdsl.runtime.actions.Actions.after_step`); an adapter that can answer without
+        building the points does."""
+        return bool(self.contact_points([body]))
+
     # optional capabilities, with their defaults -------------------------------------
     def guide(self, body: int, pose: Pose, velocity: Vec3, hold: bool = True) -> None:
         """Move ``body`` kinematically through the next step: put it at ``pose`` with linear

@@ -297,7 +297,7 @@ class Actions(Subscriber):
             return False
         (_, _, z), _ = loop.world.pose_floats(g.record.body)
         path_z = g.start.position[2] + g.velocity[2] * (loop.now - g.since)
-        return bool(z < path_z - CLEARED) and not loop.world.contact_points([g.record.body])
+        return bool(z < path_z - CLEARED) and not loop.world.touches(g.record.body)
 
     def before_step(self, loop: StepLoop) -> None:
         t = loop.now

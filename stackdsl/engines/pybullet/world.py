@@ -388,6 +388,15 @@ class PyBulletWorld(PyBulletEngine, World):
         points = self._parts(super().contact_points([b for b in bodies if b not in self._merged] + merged))
         return [c for c in points if c.body in asked]
 
+    def touches(self, body: int) -> bool:
+        """Without building the points (a shelved body touches only static bodies; a merged
+        part is answered from its merged body's points)."""
+        if body in self._shelf:
+            return False
+        if body in self._merged:
+            return bool(self.contact_points([body]))
+        return bool(self._client.getContactPoints(bodyA=self._engine_id(body)))
+
     def near(self, body: int, distance: float, among: Collection[int] | None = None) -> list[ContactPoint]:
         """A merged body's parts answer for the whole merged body (what is near any of them), each
         point seen from the part it lies nearest; the parts of one merged body are never near

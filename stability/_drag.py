@@ -62,12 +62,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 import shapely
 from scipy.sparse import coo_matrix
+from shapely import affinity
 from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 
 from ._engine import ContactPoint
 from ._equilibrium import RigidBlock, balanced_vertically, is_level, solve_equilibrium, upward
-from ._geometry import ContactArea, Pose, combined_hull, contains, turn_between
+from ._geometry import ContactArea, Pose, combined_hull, contains, hull_of_union, turn_between
 from ._graph import BrickState
 from ._leaning import pair_friction
 from ._load import Load, LoadNode, Splits, propagate, split_load
@@ -120,6 +121,18 @@ overlap found in floats on its threshold is always looked at."""
 LOOK = 0.0005
 """Metres the pulled brick moves between two looks at its overlaps (2% of a Jenga block's
 width: a look costs a tenth of a millisecond, a step at 40 mm/s moves 0.17 mm)."""
+
+TRACK = 1.0
+"""Metres ahead along the pull that its track on the bricks under it is drawn (:meth:`PullProof.unmoved_below`):
+longer than any brick."""
+
+PRESSED_SLACK = 0.001
+"""Metres by which where a brick is pressed may pass the hull of its supports' contact areas
+(:meth:`PullProof.unmoved_below`): the outer blocks of a Jenga level, 25.5 mm apart, overhang
+the level under them by 0.5 mm, the whole pulled block's width resting on them. A load there
+tips a brick only when it is more than the brick's weight times the distance from its
+centre of mass to the hull's edge (12 mm for a Jenga block) over this, and all of it lies on
+that strip."""
 
 SIDES = 8
 """Sides of the friction pyramid inscribed in each Coulomb cone (it allows only forces the
@@ -586,6 +599,79 @@ class PullProof:
             friction = {s: pair_friction(rec.friction, stack.bodies[s].friction) for s in held_on}
             bricks[t] = Dragged(held_on, shares, friction, np.zeros(2), np.asarray(shares[next(iter(shares))][1][:2]))
         return bricks
+
+    def unmoved_below(self, pose: Pose) -> frozenset[int]:
+        """The frozen bricks under the pulled brick (:attr:`below`), now at ``pose``, that its
+        friction cannot drag whatever load it carries: kept frozen when the proof fails (what it
+        carries falls, or is dragged), when the load on the pulled brick is no longer the report's
+        shares but whatever the engine's falling bricks put on it.
+
+        A brick ``B`` under it is dragged by at most ``mu N`` (``mu`` the pair's friction, ``N``
+        the pulled brick's normal force on ``B``, any size) and pressed down by that same ``N``,
+        which its supports carry with its own weight and what else rests on it. Where each of
+        ``B``'s supports grips it with friction at least ``mu`` and ``N`` acts inside the hull
+        of those supports (the strip the pulled brick slides along, on ``B``: it cannot tip
+        ``B``), a friction force parallel to the drag at each support, ``mu`` times the share
+        of ``N`` it carries, balances the drag, force and twist about the vertical alike (the
+        shares' moments are ``N``'s), whatever ``N``; the rest of the load needs no friction.
+        The same holds down the frozen stack under ``B``, brick by brick: each must rest, on
+        level contacts, only on frozen bricks or the ground, by friction at least ``mu``, and
+        carry what the bricks of the chain put on it inside the hull of its own supports. A
+        pulled brick slides on the bricks under it, level: a pushed one (:attr:`held` False)
+        may tip onto an edge, and keeps nothing so. Empty then, and where a brick fails.
+
+        One engine, tuned, dragged the brick under a pull that felled a KAPLA tower 27.6 mm (its
+        friction on that brick under the tower's weight, which the brick's supports carry too);
+        the other, tuned, did not move it (docs/actions.md, "A pull that fells the tower").
+        Source: stackdsl's own, on Coulomb friction.
+        """
+        stack = self.stack
+        if not self.held or not self.below:
+            return frozenset()
+        pulled = stack.bodies[self.body]
+        at = footprint(pulled.box.half_extents, pose)
+        track = hull_of_union([at, affinity.translate(at, *(TRACK * self.direction))])
+        kept = []
+        for b in self.below:
+            under = stack.bodies.get(b)
+            if under is None or under.state is not BrickState.FROZEN:
+                continue
+            mu = pair_friction(under.friction, pulled.friction)
+            pressed = footprint(under.box.half_extents, stack.pose(under)).intersection(track)
+            if pressed.is_empty or self._carries_unmoved(b, pressed, mu):
+                kept.append(b)
+        return frozenset(kept)
+
+    def _carries_unmoved(self, body: int, pressed: BaseGeometry, mu: float) -> bool:
+        """Does frozen ``body``, pressed within ``pressed`` (shapely), hold any load there against
+        friction ``mu`` times it, with the frozen stack under it (:meth:`unmoved_below`)?"""
+        stack = self.stack
+        chain, todo, regions = {body}, [body], {body: [pressed]}
+        while todo:
+            rec = stack.bodies[todo.pop()]
+            if not rec.rests_on or rec.body in stack.guided:
+                return False
+            for s, area in rec.rests_on.items():
+                support = stack.bodies.get(s)
+                if support is None or float(area.normal[2]) < LEVEL:
+                    return False
+                if support.state is BrickState.GROUND:
+                    if pair_friction(rec.friction, support.friction) < mu:
+                        return False
+                    continue
+                if support.state is not BrickState.FROZEN or s in stack.guided:
+                    return False
+                if pair_friction(rec.friction, support.friction) < mu:
+                    return False
+                regions.setdefault(s, []).append(area.polygon)
+                if s not in chain:
+                    chain.add(s)
+                    todo.append(s)
+        for b in chain:
+            hull = combined_hull(list(stack.bodies[b].rests_on.values())).buffer(PRESSED_SLACK)
+            if not all(hull.contains(r) for r in regions[b]):
+                return False
+        return True
 
     def moved(self, position: np.ndarray) -> bool:
         """Has the pulled brick, now at ``position`` (shape (3,), m), moved :data:`LOOK` since this

@@ -128,6 +128,8 @@ class StabilityExtension:
         self._impacts = Impacts(self._stack, self._tests)
         # pulled bricks whose proof keeps what they touch frozen, with the overlap (m^2) it was proved at
         self._proofs: dict[int, tuple[PullProof, dict[int, float]]] = {}
+        self._under: dict[int, frozenset[int]] = {}  # a pulled brick with no proof -> the bricks under it kept frozen
+        self._felling: set[int] = set()  # pulled bricks without which statics proved the stack above falls
         # guided body -> (stack version, kept, :meth:`_unkept`)
         self._unkept_at: dict[int, tuple[int, frozenset[int], frozenset[int]]] = {}
         self._limits: dict[int, RideLimit] = {}  # a tilted ride's proof, by the pulled brick (:meth:`_tilted`)
@@ -588,6 +590,7 @@ class StabilityExtension:
                 )
                 return events + self._touching(body, time, {})
             reason, falls = f"{reason}; statics does not keep the bricks it slides between frozen: {proof.why}", proof.falls
+            return self._guide(body, time, reason, speed, falls, proof.unmoved_below(stack.pose(stack.bodies[body])))
         return self._guide(body, time, reason, speed, falls)
 
     def driven(self) -> list[str]:
@@ -685,14 +688,23 @@ class StabilityExtension:
             return any(pusher == body and brick not in self._proofs for brick, pusher in self._driven.items())
         return body not in self._proofs
 
-    def _guide(self, body: int, time: float, reason: str, speed: float, falls: bool = False) -> list[StabilityEvent]:
+    def _guide(
+        self, body: int, time: float, reason: str, speed: float, falls: bool = False, under: frozenset[int] = frozenset()
+    ) -> list[StabilityEvent]:
         """:meth:`guide` without a proof: ``body`` wakes with what rests on it and the bricks
         beside; or, when the engine can merge them (:meth:`_riders`), only the bricks resting on
         it and those resting on them wake, with those beside, and everything frozen above rides
         them as one rigid body (:meth:`_rides` ends the ride). With ``falls`` (statics proved
-        that the frozen stack does not stand without ``body``), everything above rides it."""
+        that the frozen stack does not stand without ``body``), everything above rides it.
+        The frozen bricks ``under`` it that its friction cannot drag, whatever it carries
+        (:meth:`stability._drag.PullProof.unmoved_below`), stay frozen as it slides on them."""
         stack = self._stack
         label = stack.bodies[body].label
+        if falls:
+            self._felling.add(body)
+        if under:
+            self._under[body] = under
+            reason += f"; {', '.join(stack.bodies[b].label for b in stack.ordered(under))} under it stay frozen: its friction cannot drag them under any load"
         above = self._above(body)
         beside = self._beside(body, above)
         carried, riders = self._riders(body, above, beside, falls)
@@ -805,6 +817,9 @@ class StabilityExtension:
         what it touched: the harness moves it out of the scene first). Raises KeyError for an
         unknown body, ValueError for a frozen one. Source: stackdsl's own."""
         self._proofs.pop(body, None)
+        self._under.pop(body, None)
+        if body not in self._stack.rides:  # else its ride's end asks it
+            self._felling.discard(body)
         self._unkept_at.pop(body, None)
         self._pushers.discard(body)
         self._driven.pop(body, None)
@@ -876,7 +891,8 @@ class StabilityExtension:
             if b in stack.bodies:
                 events += self.wake(b, time, f"carries what rested on {label}, which a hand moves, beside it: {why}")
         how = f"{self._hand(body)}ed by hand, its proof lost: {why}"
-        return events + self._guide(body, time, how, stack.hand_speed.get(body, 0.0))
+        under = proof.unmoved_below(stack.engine.pose(body))
+        return events + self._guide(body, time, how, stack.hand_speed.get(body, 0.0), under=under)
 
     def _touching(self, body: int, time: float, touched: dict[int, np.ndarray | None]) -> list[StabilityEvent]:
         """Wake the frozen bricks guided ``body`` touches or will within a step, at the faster of
@@ -885,7 +901,10 @@ class StabilityExtension:
         stack, events = self._stack, []
         speed = max(stack.engine.speeds(body)[0], stack.hand_speed.get(body, 0.0))
         proved = self._proofs.get(body)
-        kept = proved[0].kept if proved is not None else frozenset(stack.rides[body].riders if body in stack.rides else ())
+        if proved is not None:
+            kept = proved[0].kept
+        else:
+            kept = frozenset(stack.rides[body].riders if body in stack.rides else ()) | self._under.get(body, frozenset())
         for c in stack.engine.near(body, speed * stack.engine.timestep + TOUCH, self._unkept(body, kept) if kept else None):
             other = stack.bodies.get(c.other)
             if other is None or other.state is BrickState.GROUND or c.other in kept:
@@ -1012,6 +1031,7 @@ class StabilityExtension:
             del self._limits[pulled]
         for key in [k for k in self._shaken_rides if k not in stack.rides]:
             del self._shaken_rides[key]
+        self._felling.intersection_update(stack.rides.keys() | stack.guided)  # a ride ended, its hand gone
         for pulled, (label, riders, ground) in list(stack.rides.items()):
             hand = self._ride_hands.get(pulled, self._hand(pulled))  # a push's ride outlives the push's books
             what = f"rode the {hand} of {label}" if ground is None else f"rode the shaken {label}"
@@ -1039,9 +1059,12 @@ class StabilityExtension:
                     continue
                 # a pull's or push's ride that tipped past its proof falls (the top of a Jenga tower
                 # off its last block): its bricks are said to fall, which an engine may step as
-                # debris; not one that ended with its hand (it may rest tilted where it was left)
+                # debris; not one that ended with its hand (it may rest tilted where it was left),
+                # unless statics proved that the stack above does not stand without the pulled brick
                 frozen = stack.bodies[riders[0]].frozen_pose
-                falling = proved and frozen is not None and tilt_of(stack.engine.pose(riders[0]), frozen)[0] > RIDE_TILT
+                tipped = proved and frozen is not None and tilt_of(stack.engine.pose(riders[0]), frozen)[0] > RIDE_TILT
+                falling = frozen is not None and (tipped or pulled in self._felling)
+                self._felling.discard(pulled)
                 woken = [w.event for w in stack.end_ride(pulled, time, why)]
                 events += [replace(e, falling=True) for e in woken] if falling else woken
         return events

@@ -108,6 +108,16 @@ def test_a_time_off_one_engines_grid_is_offered_one_on_every_engines():
             compile_scenario(parse_scenario(text.replace("0.05 s", "0.1 s"), "t.yaml"), mode, None, backend)
 
 
+def test_a_time_near_one_on_every_grid_is_offered_it_once():
+    """9.0001 s is nearest 9 s on pybullet's grid and on every engine's: a new user read "use a
+    multiple such as 9 s, or 9 s"."""
+    text = "stackdsl: 1\nstructure: {tower: {levels: 2}}\ntiming: {interval: 9.0001 s}\n"
+    with pytest.raises(ScenarioError) as info:
+        program(text)
+    assert "use a multiple such as 9 s, a whole number of steps on every engine and mode" in info.value.message
+    assert "9 s, or 9 s" not in info.value.message
+
+
 @pytest.mark.parametrize(
     ("tail", "field", "where", "write"),
     [

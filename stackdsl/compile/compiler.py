@@ -887,10 +887,9 @@ def _steps(scenario: Scenario, path: FieldPath, seconds: float, dt: float, whose
         such = f"{max(1, round(steps)) * dt:.6g} s"
         common = COMMON_STEP / dt
         if abs(common - round(common)) <= 1e-9 * common:  # this run's step divides every default's grid
-            such += (
-                f", or {max(1, round(seconds / COMMON_STEP)) * COMMON_STEP:.6g} s, a whole number of steps on every "
-                f"engine and mode (a multiple of {COMMON_STEP:g} s)"
-            )
+            everywhere = f"{max(1, round(seconds / COMMON_STEP)) * COMMON_STEP:.6g} s"
+            such = such if everywhere == such else f"{such}, or {everywhere}"
+            such += f", a whole number of steps on every engine and mode (a multiple of {COMMON_STEP:g} s)"
         step = f"({dt * 1000:.4g} ms{whose})"
         if _written(scenario, path):
             raise scenario.source.error(

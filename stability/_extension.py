@@ -702,6 +702,8 @@ class StabilityExtension:
         label = stack.bodies[body].label
         if falls:
             self._felling.add(body)
+        else:  # an id of a brick forgotten may be taken again
+            self._felling.discard(body)
         if under:
             self._under[body] = under
             reason += f"; {', '.join(stack.bodies[b].label for b in stack.ordered(under))} under it stay frozen: its friction cannot drag them under any load"
@@ -1031,7 +1033,8 @@ class StabilityExtension:
             del self._limits[pulled]
         for key in [k for k in self._shaken_rides if k not in stack.rides]:
             del self._shaken_rides[key]
-        self._felling.intersection_update(stack.rides.keys() | stack.guided)  # a ride ended, its hand gone
+        if self._felling:  # a ride ended, its hand gone
+            self._felling.intersection_update(stack.rides.keys() | stack.guided)
         for pulled, (label, riders, ground) in list(stack.rides.items()):
             hand = self._ride_hands.get(pulled, self._hand(pulled))  # a push's ride outlives the push's books
             what = f"rode the {hand} of {label}" if ground is None else f"rode the shaken {label}"

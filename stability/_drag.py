@@ -602,9 +602,13 @@ class PullProof:
 
     def unmoved_below(self, pose: Pose) -> frozenset[int]:
         """The frozen bricks under the pulled brick (:attr:`below`), now at ``pose``, that its
-        friction cannot drag whatever load it carries: kept frozen when the proof fails (what it
-        carries falls, or is dragged), when the load on the pulled brick is no longer the report's
-        shares but whatever the engine's falling bricks put on it.
+        friction cannot drag whatever load it carries: kept frozen when the proof fails because
+        what it carries falls without it (:attr:`falls`), when the load on the pulled brick is no
+        longer the report's shares but whatever the engine's falling bricks put on it. Not where
+        the proof fails on the drag of what it carries, which is then the engine's: bricks kept
+        frozen under the pulled one change the share of the load an engine puts on it, and
+        pybullet dragged the level above further (5 of 22 pulls just under the top of 6- and
+        9-level Jenga towers fell, as on tuned pybullet, where they had stood).
 
         A brick ``B`` under it is dragged by at most ``mu N`` (``mu`` the pair's friction, ``N``
         the pulled brick's normal force on ``B``, any size) and pressed down by that same ``N``,

@@ -590,7 +590,8 @@ class StabilityExtension:
                 )
                 return events + self._touching(body, time, {})
             reason, falls = f"{reason}; statics does not keep the bricks it slides between frozen: {proof.why}", proof.falls
-            return self._guide(body, time, reason, speed, falls, proof.unmoved_below(stack.pose(stack.bodies[body])))
+            under = proof.unmoved_below(stack.pose(stack.bodies[body])) if falls else frozenset()
+            return self._guide(body, time, reason, speed, falls, under)
         return self._guide(body, time, reason, speed, falls)
 
     def driven(self) -> list[str]:
@@ -697,7 +698,8 @@ class StabilityExtension:
         them as one rigid body (:meth:`_rides` ends the ride). With ``falls`` (statics proved
         that the frozen stack does not stand without ``body``), everything above rides it.
         The frozen bricks ``under`` it that its friction cannot drag, whatever it carries
-        (:meth:`stability._drag.PullProof.unmoved_below`), stay frozen as it slides on them."""
+        (:meth:`stability._drag.PullProof.unmoved_below`, asked where ``falls``), stay frozen as
+        it slides on them."""
         stack = self._stack
         label = stack.bodies[body].label
         if falls:
@@ -893,8 +895,7 @@ class StabilityExtension:
             if b in stack.bodies:
                 events += self.wake(b, time, f"carries what rested on {label}, which a hand moves, beside it: {why}")
         how = f"{self._hand(body)}ed by hand, its proof lost: {why}"
-        under = proof.unmoved_below(stack.engine.pose(body))
-        return events + self._guide(body, time, how, stack.hand_speed.get(body, 0.0), under=under)
+        return events + self._guide(body, time, how, stack.hand_speed.get(body, 0.0))
 
     def _touching(self, body: int, time: float, touched: dict[int, np.ndarray | None]) -> list[StabilityEvent]:
         """Wake the frozen bricks guided ``body`` touches or will within a step, at the faster of

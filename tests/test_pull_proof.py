@@ -89,8 +89,7 @@ def test_a_proved_pull_moves_its_brick_alone_and_a_high_side_pull_wakes_the_leve
     if brick == "L03.3":
         assert said.endswith(
             "L05.1, which ties the bricks it drags, carries nothing: a top level's tie, the lightest, is left to the engine"
-            "; L02.1, L02.2, L02.3 under it stay frozen: its friction cannot drag them under any load"
-        )
+        )  # the bricks under it wake: only a pull that fells what it carries keeps them (unmoved_below)
     if not alone:
         dragged = int(brick[1:3]) + 1
         assert {f"L{dragged:02d}.1", f"L{dragged:02d}.2", f"L{dragged:02d}.3"} <= woken

@@ -657,15 +657,11 @@ class PullProof:
                 return False
             for s, area in rec.rests_on.items():
                 support = stack.bodies.get(s)
-                if support is None or float(area.normal[2]) < LEVEL:
+                if support is None or float(area.normal[2]) < LEVEL or pair_friction(rec.friction, support.friction) < mu:
                     return False
                 if support.state is BrickState.GROUND:
-                    if pair_friction(rec.friction, support.friction) < mu:
-                        return False
                     continue
                 if support.state is not BrickState.FROZEN or s in stack.guided:
-                    return False
-                if pair_friction(rec.friction, support.friction) < mu:
                     return False
                 regions.setdefault(s, []).append(area.polygon)
                 if s not in chain:

@@ -129,7 +129,9 @@ class StabilityExtension:
         # pulled bricks whose proof keeps what they touch frozen, with the overlap (m^2) it was proved at
         self._proofs: dict[int, tuple[PullProof, dict[int, float]]] = {}
         self._under: dict[int, frozenset[int]] = {}  # a pulled brick with no proof -> the bricks under it kept frozen
-        self._felling: set[int] = set()  # pulled bricks without which statics proved the stack above falls
+        # pulled bricks without which statics proved the stack above falls (set by each unproved guide, so
+        # that a body id taken again starts afresh; dropped when the brick's ride ends, or it is forgotten)
+        self._felling: set[int] = set()
         # guided body -> (stack version, kept, :meth:`_unkept`)
         self._unkept_at: dict[int, tuple[int, frozenset[int], frozenset[int]]] = {}
         self._limits: dict[int, RideLimit] = {}  # a tilted ride's proof, by the pulled brick (:meth:`_tilted`)
@@ -1034,8 +1036,6 @@ class StabilityExtension:
             del self._limits[pulled]
         for key in [k for k in self._shaken_rides if k not in stack.rides]:
             del self._shaken_rides[key]
-        if self._felling:  # a ride ended, its hand gone
-            self._felling.intersection_update(stack.rides.keys() | stack.guided)
         for pulled, (label, riders, ground) in list(stack.rides.items()):
             hand = self._ride_hands.get(pulled, self._hand(pulled))  # a push's ride outlives the push's books
             what = f"rode the {hand} of {label}" if ground is None else f"rode the shaken {label}"

@@ -742,6 +742,7 @@ def test_merged_bricks_move_as_one_body_and_come_apart_where_they_are():
     assert not world.merge([middle])  # one alone is not merged
     assert world.merge([middle, top])
     assert not world.merge([middle, base])  # merged already, or moving
+    assert list(world.merged_groups().values()) == [(middle, top)]
     for k in range(48):  # a hand slides the base out: friction carries what rests on it
         world.guide(base, Pose.from_euler([0.05 * k / 240, 0.0, 0.004]), (0.05, 0.0, 0.0), hold=False)
         world.step()
@@ -760,6 +761,7 @@ def test_merged_bricks_move_as_one_body_and_come_apart_where_they_are():
     assert positions[2].tolist() == pytest.approx(world.pose(top).position.tolist(), abs=1e-12)
     there, rode = world.pose(top).position, world.velocity(top)
     world.unmerge([middle, top])
+    assert world.merged_groups() == {}
     assert world.pose(top).position.tolist() == pytest.approx(there.tolist(), abs=1e-9)
     assert world.speeds(top) == (0.0, 0.0)  # frozen again
     world.set_frozen(top, False, spec.mass)  # woken in the same step: it moves on as it rode

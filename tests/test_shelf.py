@@ -315,3 +315,49 @@ def test_the_boxes_of_a_merged_body_read_together_are_each_boxs_own_arithmetic_t
                 moves = ((vx + wy * rz - wz * ry, vy + wz * rx - wx * rz, vz + wx * ry - wy * rx), (wx, wy, wz))
                 assert read[body] == (own, moves)
         assert abs(wx) + abs(wy) + abs(wz) > 0.0  # it turned: the arms' products were tested
+
+
+def test_the_bricks_of_a_merged_body_are_measured_from_its_one_pose_as_each_brick_alone():
+    """The collapse monitor measures the bricks one merged body moves from that body's one pose
+    (``Structure.displacements``, the world's ``merged_groups``): each as far from where it was
+    placed as its own pose says (``Structure.displacement``, brick by brick), as the merged body
+    tips and spins, in the ground's frame when the ground has moved, and anew after the bricks
+    were parted, moved and merged again."""
+    from scipy.spatial.transform import Rotation
+
+    from stackdsl.runtime.bricks import BrickRecord, Structure
+
+    spec = _spec_of()
+    rng = np.random.default_rng(5)
+    with pybullet_world(SETTINGS, 0.5, 0.0, shelve=False) as world:
+        structure = Structure(world)
+        bricks = _column(world, spec, 17)
+        for i, body in enumerate(bricks):
+            placed = world.pose(body)
+            structure.add(BrickRecord(f"b{i}", body, spec, i + 1, placed, placed))
+        records = list(structure.records.values())
+
+        def check() -> None:
+            merged = structure.displacements(records)
+            alone = [structure.displacement(r) for r in records]  # in floats, pose by pose
+            assert merged.tolist() == pytest.approx(alone, abs=1e-12)
+
+        for body in bricks[1:]:  # turned and off the centre line: placed where they are not now
+            turned = Rotation.from_euler("z", rng.uniform(-0.3, 0.3)).as_quat()
+            world.move(body, Pose(world.pose(body).position + np.array([*rng.uniform(-0.005, 0.005, size=2), 0.0]), turned), 0.0)
+        assert world.merged_groups() == {}
+        assert world.merge(bricks[1:])
+        assert list(world.merged_groups().values()) == [tuple(bricks[1:])]
+        world.set_frozen(bricks[0], False, spec.mass)
+        for k in range(30):  # the base slides and turns out from under the merged body: it tips and spins
+            world.guide(bricks[0], Pose.from_euler([0.2 * k / 240, 0.0, 0.004], yaw=1.2 * k), (0.2, 0.0, 0.0), hold=False)
+            world.step()
+            structure.offset = (0.001 * k, -0.0005 * k, 0.0)
+            check()
+        assert structure.displacements(records).max() > 0.01  # it moved: the merged body's pose was read
+        world.unmerge(bricks[1:])
+        assert world.merged_groups() == {}
+        for body in bricks[1:9]:  # parted: some of them moved on their own, then merged again
+            world.move(body, Pose(world.pose(body).position + np.array([0.003, 0.0, 0.0])), 0.0)
+        assert world.merge(bricks[1:])
+        check()

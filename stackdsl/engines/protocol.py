@@ -14,7 +14,7 @@ Source: stackdsl's own (the world adapter of dm_control's composer).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import ClassVar, Protocol
 
@@ -265,6 +265,12 @@ class World(Engine, Protocol):
         Default: False (an engine that cannot; pybullet makes a compound body, MuJoCo one free
         body of their geoms, its model compiled again)."""
         return False
+
+    def merged_groups(self) -> Mapping[int, tuple[int, ...]]:
+        """Each merged body now (:meth:`merge`), by a key no later merge takes again: the bodies
+        it moves as one rigid body (the collapse monitor measures them from one pose,
+        :meth:`stackdsl.runtime.bricks.Structure.displacements`). Default: none."""
+        return {}
 
     def unmerge(self, bodies: Sequence[int]) -> None:
         """:meth:`stability.Engine.unmerge`: each a frozen body of its own where it rode to; woken

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Collection
+from collections.abc import Collection, Mapping
 from dataclasses import InitVar, dataclass, field
 
 import numpy as np
@@ -125,6 +125,21 @@ def _half_diagonal(half_extents: tuple[float, float, float]) -> float:
     return float(np.linalg.norm(np.array(half_extents)))
 
 
+def _matrix(
+    orientation: tuple[float, float, float, float],
+) -> tuple[float, float, float, float, float, float, float, float, float]:
+    """The rotation matrix of unit quaternion ``orientation`` (x, y, z, w), row by row, in
+    floats (:attr:`stability.Pose.rotation`'s formula: the per-step measures ask it of every
+    moving brick)."""
+    qx, qy, qz, qw = orientation
+    n = 2.0 / (qx * qx + qy * qy + qz * qz + qw * qw)
+    return (
+        *(1 - n * (qy * qy + qz * qz), n * (qx * qy - qz * qw), n * (qx * qz + qy * qw)),
+        *(n * (qx * qy + qz * qw), 1 - n * (qx * qx + qz * qz), n * (qy * qz - qx * qw)),
+        *(n * (qx * qz - qy * qw), n * (qy * qz + qx * qw), 1 - n * (qx * qx + qy * qy)),
+    )
+
+
 Poses = tuple[np.ndarray, np.ndarray]
 """Bricks' poses, one row a brick: positions (n, 3), m, and unit quaternions (x, y, z, w), (n, 4)."""
 
@@ -192,6 +207,9 @@ class Structure:
         self._cached: tuple[tuple[int, ...], np.ndarray, np.ndarray] = ((), np.zeros((0, 8, 3)), np.zeros((0, 8, 3)))
         # the placed positions, orientations and half diagonals of the bricks last bounded
         self._placed: tuple[tuple[int, ...], np.ndarray, np.ndarray, np.ndarray] = ((), *(np.zeros(0),) * 3)
+        # merged body -> the bodies of it measured, the inverse of the first's rotation matrix
+        # then, their corners then from the first's centre (n * 8, 3, m), where they were placed (n * 8, 3, m)
+        self._merged: dict[int, tuple[tuple[int, ...], np.ndarray, np.ndarray, np.ndarray]] = {}
         # what :meth:`measure` last read, in the order placed, and the rows of the pending bricks
         self._layout: tuple[tuple[tuple[str, ...], ...], list[BrickRecord], list[int]] = ((), [], [])
 
@@ -307,6 +325,8 @@ class Structure:
             return np.zeros(0)
         if len(records) <= FEW:
             return np.array([self.displacement(r) for r in records])
+        if poses is None and (groups := self.world.merged_groups()):
+            return self._merged_displacements(records, groups)
         bodies = tuple(r.body for r in records)
         positions, quaternions = self.poses(records) if poses is None else poses
         if self._cached[0] != bodies:
@@ -318,6 +338,52 @@ class Structure:
         _, local, placed = self._cached
         now = positions[:, None, :] + np.einsum("nij,nkj->nki", Rotation.from_quat(quaternions).as_matrix(), local)
         farthest: np.ndarray = np.sqrt(((now - placed) ** 2).sum(axis=2).max(axis=1))
+        return farthest
+
+    def _merged_displacements(self, records: list[BrickRecord], groups: Mapping[int, tuple[int, ...]]) -> np.ndarray:
+        """:meth:`displacements` of ``records``, those of them that one merged body moves
+        (``groups``, :meth:`World.merged_groups <stackdsl.engines.protocol.World.merged_groups>`)
+        from its one pose: their corners, read in the world once a merge, move with the first
+        one's pose as one rigid body (a Jenga tower's top of 21 bricks rides a pull as one: a
+        product for all, not 21 poses turned). The others as :meth:`displacements` measures them."""
+        rows = {r.body: i for i, r in enumerate(records)}
+        out = np.zeros(len(records))
+        alone = set(range(len(records)))
+        for key, parts in groups.items():
+            mine = [rows[b] for b in parts if b in rows]
+            if len(mine) < 2:
+                continue
+            alone.difference_update(mine)
+            out[mine] = self._rigidly([records[i] for i in mine], key)
+        if alone:
+            rest = sorted(alone)
+            out[rest] = self.displacements(
+                [records[i] for i in rest], None if len(rest) <= FEW else self.poses([records[i] for i in rest])
+            )
+        return out
+
+    def _rigidly(self, records: list[BrickRecord], key: int) -> np.ndarray:
+        """How far each of ``records``, parts of the merged body ``key``, is from where it was
+        placed (:meth:`displacements`), m: their corners where they were when first asked of this
+        merge, turned and moved as the first of them has since (``x -> M x + t``)."""
+        bodies = tuple(r.body for r in records)
+        kept = self._merged.get(key)
+        if kept is None or kept[0] != bodies:
+            positions, quaternions = self.world.poses_of(list(bodies))
+            local = np.stack([r.box.corners(Pose(np.zeros(3))) for r in records])
+            matrices = Rotation.from_quat(quaternions).as_matrix()
+            corners = (positions[:, None, :] + np.einsum("nij,nkj->nki", matrices, local)).reshape(-1, 3)
+            placed = np.concatenate([r.corners for r in records])
+            kept = self._merged[key] = (bodies, matrices[0].T.copy(), corners - positions[0], placed)
+            for old in [k for k in self._merged if k not in self.world.merged_groups()]:
+                del self._merged[old]
+        _, turned, arms, placed = kept
+        (x, y, z), orientation = self.world.pose_floats(bodies[0])
+        ox, oy, oz = self.offset
+        now = arms @ (np.array(_matrix(orientation)).reshape(3, 3) @ turned).T  # each corner from the first's centre
+        now -= placed
+        now += (x - ox, y - oy, z - oz)
+        farthest: np.ndarray = np.sqrt(np.einsum("ij,ij->i", now, now).reshape(len(bodies), -1).max(axis=1))
         return farthest
 
     def poses(self, records: list[BrickRecord]) -> Poses:
@@ -346,11 +412,11 @@ class Structure:
             read = sorted(frozen + list(self.moving.values()), key=_order)
             self._layout = (key, read, [i for i, r in enumerate(read) if r.id in pending])
         _, read, rows = self._layout
-        positions, quaternions = self.poses(read)
         if len(rows) > FEW:  # measured whatever the bound says: one pass over all
-            moved = self.displacements(read, (positions, quaternions))
+            moved = self.displacements(read)
             keep = [i for i, d in enumerate(moved.tolist()) if d > threshold or read[i].id in pending]
             return [read[i] for i in keep], moved[keep]
+        positions, quaternions = self.poses(read)
         if not rows:  # the usual step: only what may have moved is measured
             bound = self.bounds(read, (positions, quaternions))
             rows = [i for i, b in enumerate(bound.tolist()) if b > threshold]
@@ -385,13 +451,10 @@ class Structure:
     def displacement(self, r: BrickRecord) -> float:
         """How far the farthest-moved corner of ``r`` is from where it was placed, m, in floats:
         the corners rotated by the quaternion's matrix (:attr:`stability.Pose.rotation`'s formula)."""
-        (x, y, z), (qx, qy, qz, qw) = self.world.pose_floats(r.body)
+        (x, y, z), orientation = self.world.pose_floats(r.body)
         ox, oy, oz = self.offset
         x, y, z = x - ox, y - oy, z - oz
-        n = 2.0 / (qx * qx + qy * qy + qz * qz + qw * qw)
-        m00, m01, m02 = 1 - n * (qy * qy + qz * qz), n * (qx * qy - qz * qw), n * (qx * qz + qy * qw)
-        m10, m11, m12 = n * (qx * qy + qz * qw), 1 - n * (qx * qx + qz * qz), n * (qy * qz - qx * qw)
-        m20, m21, m22 = n * (qx * qz - qy * qw), n * (qy * qz + qx * qw), 1 - n * (qx * qx + qy * qy)
+        m00, m01, m02, m10, m11, m12, m20, m21, m22 = _matrix(orientation)
         farthest = 0.0
         for a, b, c, px, py, pz in r.corner_rows:  # flat rows and a comparison, not max(): a third faster
             dx = x + m00 * a + m01 * b + m02 * c - px

@@ -34,7 +34,7 @@ Source: stackdsl's own, on MuJoCo 4.0's Python bindings.
 from __future__ import annotations
 
 import math
-from collections.abc import Collection, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -506,6 +506,9 @@ class MuJoCoWorld(World):
             d.mocap_pos[self._mocap[body - 1]] = self._away(body)
         self._placed = True
         return True
+
+    def merged_groups(self) -> Mapping[int, tuple[int, ...]]:
+        return {k: group.bricks for k, group in self._groups.items()}  # a group's number is never taken again
 
     def unmerge(self, bodies: Sequence[int]) -> None:
         """Each of ``bodies`` a frozen brick of its own again, where its box of the merged body

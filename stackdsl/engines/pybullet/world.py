@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from collections.abc import Collection, Iterator, Sequence
+from collections.abc import Collection, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from typing import Any, NamedTuple
 
@@ -344,8 +344,7 @@ class PyBulletWorld(PyBulletEngine, World):
         read = self._poses.get(body)
         if read is None:
             if body in self._merged:
-                self._part_poses(self._merged[body][0])
-                read = self._poses[body]
+                read = self._poses[body] = self._part_pose(*self._merged[body])
             else:
                 read = self._poses[body] = self._read_pose(self._ids.get(body, body))
         return read
@@ -482,6 +481,9 @@ class PyBulletWorld(PyBulletEngine, World):
         self._velocities[group] = _AT_REST
         return True
 
+    def merged_groups(self) -> Mapping[int, tuple[int, ...]]:
+        return self._groups  # a merged body's id is never taken again
+
     def unmerge(self, bodies: Sequence[int]) -> None:
         """Each of ``bodies`` a static body of pybullet's again, where its box of the merged body
         is; the merged body leaves the world."""
@@ -504,17 +506,25 @@ class PyBulletWorld(PyBulletEngine, World):
 
     def _part_poses(self, group: int) -> None:
         """Where each body merged in ``group`` is this step (its box of the merged body), read for
-        all of them at once (the collapse monitor and the substep rule read every brick riding a
-        shaken ground each step: twenty at a time): each arm turned by the merged body's matrix,
-        the arms as one stack of columns (to the bit each arm's own product; a product with the
-        arms' rows as one array rounds differently), then the turns' Hamilton products in
-        floats (numpy's fixed costs on arrays of a few are more than twenty products)."""
+        all of them at once (as they come apart): each arm turned by the merged body's matrix,
+        the arms as one stack of columns (to the bit each arm's own product, :meth:`_part_pose`;
+        a product with the arms' rows as one array rounds differently), then the turns' Hamilton
+        products in floats (numpy's fixed costs on arrays of a few are more than twenty products)."""
         parts = self._frames[group]
         (x, y, z), turn = self._pose_now(group)
         arms = (self._turned(turn) @ parts.arms[:, :, None])[:, :, 0].tolist()
         poses = self._poses
         for body, (px, py, pz), part_turn in zip(self._groups[group], arms, parts.turns, strict=True):
             poses[body] = ((x + px, y + py, z + pz), _product(turn, part_turn))
+
+    def _part_pose(self, group: int, index: int) -> tuple[Vec3, Quat]:
+        """Where the ``index``-th body merged in ``group`` is this step, alone (:meth:`_part_poses`'
+        arithmetic: a ride's rules and the collapse monitor read one brick of a ride of twenty a
+        step, :meth:`stackdsl.runtime.bricks.Structure.displacements`)."""
+        parts = self._frames[group]
+        (x, y, z), turn = self._pose_now(group)
+        px, py, pz = (self._turned(turn) @ parts.arms[index]).tolist()
+        return (x + px, y + py, z + pz), _product(turn, parts.turns[index])
 
     def _turned(self, turn: Quat) -> np.ndarray:
         """:meth:`_matrix` of a merged body's ``turn`` as read this step, once for all its parts

@@ -43,13 +43,26 @@ from ._debris import Debris
 from ._drag import SHRINK, PullProof, footprint
 from ._engine import ContactPoint, Engine
 from ._equilibrium import ContactPolygon
+from ._gap import Gap, near_within
 from ._geometry import FACE_TILT, Box, ContactArea, Plane, Pose, corners_of, face_overlap, signed_inside
 from ._graph import BrickGraph, BrickState, GraphEdge, GraphNode
 from ._impact import Impacts
 from ._leaning import pair_friction
 from ._load import LoadNode, propagate
 from ._lp import within
-from ._ride import AHEAD, MOST_TILT, RIDE_DROP, RIDE_TILT, RideLimit, ShakenRide, felt_gravity, holds_tilted, reach_of, tilt_of
+from ._ride import (
+    AHEAD,
+    MOST_TILT,
+    RIDE_DROP,
+    RIDE_TILT,
+    RideLimit,
+    ShakenRide,
+    felt_gravity,
+    frozen_centre,
+    holds_tilted,
+    reach_of,
+    tilt_of,
+)
 from ._shake import shake_limit, sliding_parts, withstands
 from ._stack import Record, StabilityEvent, Stack
 from ._stack_test import StackTest
@@ -134,6 +147,7 @@ class StabilityExtension:
         self._felling: set[int] = set()
         # guided body -> (stack version, kept, :meth:`_unkept`)
         self._unkept_at: dict[int, tuple[int, frozenset[int], frozenset[int]]] = {}
+        self._gaps: dict[int, Gap | None] = {}  # guided body -> its gap to :meth:`_unkept` (:meth:`_touching`)
         self._limits: dict[int, RideLimit] = {}  # a tilted ride's proof, by the pulled brick (:meth:`_tilted`)
         self._shaken_rides: dict[int, ShakenRide] = {}  # how a shaken ground's riders froze, by its key in stack.rides
         self._pushers: set[int] = set()  # guided bodies a hand pushes with (guided without a pull)
@@ -827,6 +841,7 @@ class StabilityExtension:
         if body not in self._stack.rides:  # else its ride's end asks it
             self._felling.discard(body)
         self._unkept_at.pop(body, None)
+        self._gaps.pop(body, None)
         self._pushers.discard(body)
         self._driven.pop(body, None)
         self._aims.pop(body, None)
@@ -844,6 +859,7 @@ class StabilityExtension:
         del self._driven[brick]
         self._proofs.pop(brick, None)
         self._unkept_at.pop(brick, None)
+        self._gaps.pop(brick, None)
         stack.unguide(brick)
         rec = stack.bodies.get(brick)
         if rec is not None and rec.state is BrickState.ACTIVE:
@@ -910,7 +926,14 @@ class StabilityExtension:
             kept = proved[0].kept
         else:
             kept = frozenset(stack.rides[body].riders if body in stack.rides else ()) | self._under.get(body, frozenset())
-        for c in stack.engine.near(body, speed * stack.engine.timestep + TOUCH, self._unkept(body, kept) if kept else None):
+        reach = speed * stack.engine.timestep + TOUCH
+        if kept:  # what it may touch: the engine asked when it may have come that near (stability._gap)
+            points, self._gaps[body] = near_within(
+                stack, body, stack.bodies[body].box.half_diagonal, self._unkept(body, kept), reach, self._gaps.get(body)
+            )
+        else:
+            points = stack.engine.near(body, reach)
+        for c in points:
             other = stack.bodies.get(c.other)
             if other is None or other.state is BrickState.GROUND or c.other in kept:
                 continue
@@ -1151,7 +1174,10 @@ class StabilityExtension:
         if limit is None:
             touching = frozenset(c.other for c in stack.engine.near(riders[0], TOUCH))
             reach = reach_of(stack, riders)
-            limit = self._limits[pulled] = RideLimit(RIDE_TILT, np.zeros(2), 0.0, touching, reach, velocity, spin, time)
+            span = reach + float(np.linalg.norm(first.frozen_pose.position - frozen_centre(stack, riders)))
+            limit = self._limits[pulled] = RideLimit(
+                RIDE_TILT, np.zeros(2), 0.0, touching, reach, velocity, spin, time, span=span
+            )
         needed, towards, swirl = felt_gravity(limit, now, first.frozen_pose, velocity, spin, time, stack.config.gravity)
         if not limit.covers(needed, towards, swirl):
             tilt, _ = tilt_of(now, first.frozen_pose)
@@ -1163,7 +1189,9 @@ class StabilityExtension:
                 towards = np.array([1.0, 0.0])
             why: str | None = None
             for bound, more in ((min(AHEAD * needed, MOST_TILT), AHEAD * swirl), (min(needed + RIDE_TILT, MOST_TILT), swirl)):
-                why = holds_tilted(stack, riders, bound, towards, more)
+                if limit.loads is None:
+                    limit.loads = propagate(stack.nodes([stack.bodies[b] for b in riders]))
+                why = holds_tilted(stack, riders, bound, towards, more, limit.loads)
                 if why is None:
                     limit.bound, limit.direction, limit.swirl = bound, towards, more
                     break
@@ -1173,7 +1201,10 @@ class StabilityExtension:
         if limit.others[0] != key:
             limit.others = (key, [b for b in stack.bodies if b not in stack.riding and b not in limit.touching and b != pulled])
         others = limit.others[1]
-        hit = next(iter(stack.engine.near(riders[0], TOUCH, others)), None) if others else None
+        hit = None
+        if others:
+            points, limit.gap = near_within(stack, riders[0], limit.span, others, TOUCH, limit.gap)
+            hit = next(iter(points), None)
         if hit is not None:
             return f"{what} as one body until it came within {TOUCH * 1000:g} mm of {stack.bodies[hit.other].label}"
         return None

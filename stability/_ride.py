@@ -33,14 +33,16 @@ body.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
 import shapely
 
+from ._gap import Gap
 from ._geometry import Pose
 from ._leaning import pair_friction
-from ._load import propagate
+from ._load import Load, propagate
 from ._stack import Stack
 
 #: Degrees the gravity a pull's riders feel may tilt from how they froze before a proof is asked
@@ -84,6 +86,9 @@ class RideLimit:
     accel: np.ndarray = field(default_factory=lambda: np.zeros(3))
     turn: np.ndarray = field(default_factory=lambda: np.zeros(3))
     others: tuple[object, list[int]] = field(default_factory=lambda: ((), []))  # the bodies it may come to touch, and what for
+    span: float = 0.0  # m from its first rider's centre to the farthest corner of any rider
+    gap: Gap | None = None  # its gap to the others, as last measured (:func:`stability._gap.near_within`)
+    loads: dict[int, Load] | None = None  # its riders' loads as they froze (:func:`holds_tilted`), found once
 
     def covers(self, needed: float, towards: np.ndarray, swirl: float) -> bool:
         """Whether gravity felt tilted ``needed`` degrees towards ``towards`` (shape (2,)), with a
@@ -224,13 +229,21 @@ def reach_of(stack: Stack, riders: tuple[int, ...]) -> float:
     return float(np.linalg.norm(corners - frozen_centre(stack, riders), axis=1).max())
 
 
-def holds_tilted(stack: Stack, riders: tuple[int, ...], tilt: float, towards: np.ndarray, swirl: float = 0.0) -> str | None:
+def holds_tilted(
+    stack: Stack,
+    riders: tuple[int, ...],
+    tilt: float,
+    towards: np.ndarray,
+    swirl: float = 0.0,
+    loads: Mapping[int, Load] | None = None,
+) -> str | None:
     """Does each of the frozen ``riders`` that rests on riders alone stay where it froze on them
     under gravity tilted by up to ``tilt`` degrees within :data:`SPREAD` of ``towards`` (shape
     (2,), the horizontal part of gravity's direction in their frozen frame), and a horizontal
     acceleration in any direction of up to ``swirl`` times that gravity (a turn about the
     vertical)? None when it does; else why not, in words, naming the first that would slide or
-    tip.
+    tip. ``loads``: what :func:`stability._load.propagate` gives the riders as they froze, when
+    found already (a ride is proved many times; its riders do not change while it lasts).
 
     The report's tests with the tilted gravity (as :func:`stability._shake.withstands` asks them
     of a shaken stack), at the cone's two edges pushed out by ``1 / cos(SPREAD)`` (with upright,
@@ -267,7 +280,8 @@ def holds_tilted(stack: Stack, riders: tuple[int, ...], tilt: float, towards: np
         edges.append((run * (ux * c - uy * s), run * (ux * s + uy * c)))
     part = set(riders)
     recs = [stack.bodies[b] for b in riders]
-    loads = propagate(stack.nodes(recs))
+    if loads is None:
+        loads = propagate(stack.nodes(recs))
     margin = stack.config.com_margin
     for rec in recs:
         if not rec.rests_on or not set(rec.rests_on) <= part:

@@ -432,15 +432,64 @@ def test_a_ride_whose_motion_is_not_finite_ends():
 
 
 def test_a_tilted_ride_ends_when_it_comes_near_a_body_it_did_not_touch():
-    from stability import ContactPoint
+    """The ride's gap to what it did not touch is measured (10 mm clear: the fake engine finds
+    nothing near it) and the engine is not asked again while the ride cannot have come within
+    1.5 mm of anything (it has not moved); once it has moved 9 mm towards block 3 it is asked,
+    finds block 3 within 1.5 mm, and the ride ends."""
+    from stability import ContactPoint, Pose
 
     eng, ext = levels_over_three_blocks(mergeable=True)
     ext.guide(2, 0.8, "pushed", 0.04)
     tilted(eng, 1.0)
+    asked, near = [], eng.near
+    eng.near = lambda body, distance, among=None: asked.append(body) or near(body, distance, among)
     assert not [e for e in ext.update(0.85) if e.kind == "wake"]
+    assert asked.count(6) == 2  # what it touched when it began, and its gap to the rest
     eng.contacts.append(ContactPoint(6, 3, np.array([0.0, 0.03, 0.05]), np.array([0.0, 0.0, 1.0]), 0.0, 0.001))
-    rode = {e.label: e.reason for e in ext.update(0.9) if e.kind == "wake"}
+    assert not [e for e in ext.update(0.9) if e.kind == "wake"]
+    assert asked.count(6) == 2  # not moved: nothing can have come within reach
+    eng.poses[6] = Pose(eng.poses[6].position + np.array([0.0, 0.009, 0.0]), eng.poses[6].orientation)
+    rode = {e.label: e.reason for e in ext.update(0.95) if e.kind == "wake"}
     assert set(rode) == {"up6", "up7"} and "it came within 1.5 mm of b3" in rode["up6"]
+
+
+@pytest.mark.slow
+def test_the_kept_gaps_find_what_the_engine_finds_asked_each_step(monkeypatch):
+    """A KAPLA 4 stack of 10 levels whose L04.1 is pulled at 100 mm/s: levels 5 to 10 ride it
+    and come within 1.5 mm of L03.1. At every step the kept gaps of the pulled brick and of the
+    ride (stability._gap) answer what the engine answers when asked there and then, and the
+    engine was asked for the ride's at under a fifth of them (the pulled brick's, at most: it
+    slides on the bricks of level 3)."""
+    import stability._extension as extension
+    from stability._gap import near_within
+
+    calls, asked, found = [], [], []
+
+    def checked(stack, body, span, others, distance, kept):
+        engine, near = stack.engine, stack.engine.near
+        engine.near = lambda *a: asked.append(a) or near(*a)  # the world's own, counted
+        try:
+            points, gap = near_within(stack, body, span, others, distance, kept)
+        finally:
+            del engine.near
+        exact = stack.engine.near(body, distance, others)
+        assert sorted(c.other for c in points) == sorted(c.other for c in exact)
+        calls.append((span, body))
+        found.extend(points)
+        return points, gap
+
+    monkeypatch.setattr(extension, "near_within", checked)
+    scene = """stackdsl: 1
+structure: {tower: {levels: 10, bricks_per_layer: 2, spacing: 96 mm, turn: 90}}
+timing: {interval: 0.2 s, settle: 0.5 s}
+actions:
+  - remove: {brick: L04.1, at: after level 10, speed: 100 mm/s}
+"""
+    outcome = run_program(compile_scenario(parse_scenario(scene, "kapla.yaml")))
+    ride = max(calls)[1]  # the ride spans more than a brick
+    rides = [body for _, body in calls].count(ride)
+    assert found and rides > 100 and [a[0] for a in asked].count(ride) < rides / 5
+    assert any("came within 1.5 mm of L03.1" in e.detail for e in outcome.events if e.kind == "wake")
 
 
 def test_a_level_stack_that_stands_on_no_vertical_forces_without_the_pulled_block_is_refused_at_once(monkeypatch):

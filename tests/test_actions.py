@@ -572,17 +572,17 @@ def test_a_stays_that_held_says_how_near_its_bricks_came_to_their_limit():
     assert still.passed and still.measured == "levels 1-2 stayed"  # a settled tower: far under 1 mm
     pushed = outcome.model_copy(update={"displacement": {**outcome.displacement, "L01.2": 0.0024}})
     (near,) = evaluate(scenario.expect, pushed, 0.004)
-    assert near.passed and near.measured == "levels 1-2 stayed, moved 2.4 mm at most"
+    assert near.passed and near.measured == "levels 1-2 stayed (moved 2.4 mm at most)"
     beyond = outcome.model_copy(update={"displacement": {**outcome.displacement, "L01.2": 0.0041}})
     (moved,) = evaluate(scenario.expect, beyond, 0.004)
     assert not moved.passed and moved.measured == "level 1 moved"
     cells = [CheckResult("t.yaml", "t", "extension", "report", (v,), None, None, 8.0, 1.0) for v in (still, near)]
-    assert [_cell(c) for c in cells] == ["stands", "stands, levels 1-2 stayed, moved 2.4 mm at most"]
+    assert [_cell(c) for c in cells] == ["stands", "stands, levels 1-2 stayed (moved 2.4 mm at most)"]
     # the stand's largest move said once where it is the stays' too (a new user's cell said it twice)
     drifted = dataclasses.replace(cells[1], drift=0.0024)
     assert _cell(drifted) == "stands, moved 2.4 mm at most, levels 1-2 stayed"
     drifted = dataclasses.replace(cells[1], drift=0.0031)  # a brick the stays does not name moved farther: both
-    assert _cell(drifted) == "stands, moved 3.1 mm at most, levels 1-2 stayed, moved 2.4 mm at most"
+    assert _cell(drifted) == "stands, moved 3.1 mm at most, levels 1-2 stayed (moved 2.4 mm at most)"
 
 
 def test_a_toppled_bound_is_judged_and_said_as_written():

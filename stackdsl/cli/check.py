@@ -487,7 +487,7 @@ def _cell(r: CheckResult) -> str:
     (``collapse 9 from L03.1``), the bricks toppled when the
     file expects a count (``stands, 0 of 5 toppled``), the bricks it expects to move that did
     (``collapse 12, brick L06.2 moved``), the bricks it expects to stay when they moved 1 mm or
-    more (``levels 1-4 stayed, moved 2.4 mm at most``), how far a standing brick moved at most from 1 mm
+    more (``levels 1-4 stayed (moved 2.4 mm at most)``), how far a standing brick moved at most from 1 mm
     (:data:`SHOWN_DRIFT`: ``stands, moved 7.1 mm at most``), where the brick a collapse is named
     after ended when that is within :data:`SHOWN_ENDED` thresholds (``collapse 7 from L06.1, which
     ended 10.5 mm from its place``), how little past its limit a collapse
@@ -507,7 +507,7 @@ def _cell(r: CheckResult) -> str:
     moved = [v.measured for v in r.verdicts if v.name == "moved" and v.passed]
     # and what was to stay, when it moved near its limit (a push that moved level 4 2.4 mm read
     # "collapse 10 from L05.1" beside a setting that moved it 4.8 mm and failed)
-    moved += [v.measured for v in r.verdicts if v.name == "stays" and v.passed and v.measured.endswith(" at most")]
+    moved += [v.measured for v in r.verdicts if v.name == "stays" and v.passed and v.measured.endswith(" at most)")]
     # what failed besides the level: a collapse at the level expected can still fail its 'stays'
     failed = [v.measured for v in r.verdicts if not v.passed and v.name not in ("collapse", "stands", "toppled")]
     # how close a stand came: a new user could not tell a pull that dragged the top level 7.1 mm
@@ -524,7 +524,7 @@ def _cell(r: CheckResult) -> str:
     # level may not on where the collapse began, and a block dragged 10.5 mm in a tower that
     # stands read as a fall
     if near:  # a stand's largest move said once: "stands, moved 1.0 mm at most, ..., levels 1-3 stayed" (it was said twice)
-        moved = [m.removesuffix(f", {near[0]}") for m in moved]
+        moved = [m.removesuffix(f" ({near[0]})") for m in moved]
     head = describe(r.collapse_level) + (f" from {r.first_moved}" if r.collapse_level is not None and r.first_moved else "")
     if ended is not None and r.threshold is not None and ended < SHOWN_ENDED * r.threshold:
         head += f", which ended {millimetres(ended, against=r.threshold)} from its place"

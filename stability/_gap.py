@@ -51,9 +51,10 @@ class Gap:
 def moving_among(stack: Stack, others: Collection[int]) -> list[int]:
     """Those of ``others`` the engine may move: awake bricks and the riders of a ride (frozen,
     merged into a body the engine moves); not frozen bricks, not the ground (a shaken ground
-    is asked of each step: :func:`near_within`)."""
-    riding, bodies = stack.riding, stack.bodies
-    return [b for b in others if b in riding or bodies[b].state not in (BrickState.FROZEN, BrickState.GROUND)]
+    is asked of each step: :func:`near_within`), not a body taken out of the scene since
+    ``others`` was gathered."""
+    riding, bodies, still = stack.riding, stack.bodies, (BrickState.FROZEN, BrickState.GROUND)
+    return [b for b in others if b in riding or ((rec := bodies.get(b)) is not None and rec.state not in still)]
 
 
 def near_within(

@@ -453,6 +453,26 @@ def test_a_tilted_ride_ends_when_it_comes_near_a_body_it_did_not_touch():
     assert set(rode) == {"up6", "up7"} and "it came within 1.5 mm of b3" in rode["up6"]
 
 
+def test_a_body_taken_away_leaves_the_kept_gap_of_a_guided_body_sound():
+    """The pulled block's kept gap (stability._gap) is measured against the bodies it may touch,
+    a moving brick among them; that brick taken out of the scene, the gap is measured anew."""
+    from stability import Box, Pose
+
+    eng, ext = levels_over_three_blocks(mergeable=True)
+    eng.poses[9] = Pose(np.array([0.3, 0.0, 0.0075]))
+    eng.velocities[9] = (np.array([0.1, 0.0, 0.0]), np.zeros(3))
+    ext.add_brick(9, Box(np.array([0.0125, 0.0375, 0.0075]), 0.0098), "loose", friction=0.4)
+    ext.guide(2, 0.8, "pushed", 0.04)
+    asked, near = [], eng.near
+    eng.near = lambda body, distance, among=None: asked.append((body, among)) or near(body, distance, among)
+    ext.update(0.85)
+    assert any(body == 2 and among is not None and 9 in among for body, among in asked)
+    ext.forget(9)
+    asked.clear()
+    ext.update(0.9)  # 9 gone from the stack: no longer read as moving, and the gap measured again
+    assert any(body == 2 for body, _ in asked)
+
+
 @pytest.mark.slow
 def test_the_kept_gaps_find_what_the_engine_finds_asked_each_step(monkeypatch):
     """A KAPLA 4 stack of 10 levels whose L04.1 is pulled at 100 mm/s: levels 5 to 10 ride it

@@ -517,6 +517,14 @@ class PyBulletWorld(PyBulletEngine, World):
         for body, (px, py, pz), part_turn in zip(self._groups[group], arms, parts.turns, strict=True):
             poses[body] = ((x + px, y + py, z + pz), _product(turn, part_turn))
 
+    def poses_of(self, bodies: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+        """The parts of a merged body asked together are read together (:meth:`_part_poses`)."""
+        if self._groups:
+            merged, poses = self._merged, self._poses
+            for group in {merged[b][0] for b in bodies if b in merged and b not in poses}:
+                self._part_poses(group)
+        return super().poses_of(bodies)
+
     def _part_pose(self, group: int, index: int) -> tuple[Vec3, Quat]:
         """Where the ``index``-th body merged in ``group`` is this step, alone (:meth:`_part_poses`'
         arithmetic: a ride's rules and the collapse monitor read one brick of a ride of twenty a

@@ -38,10 +38,12 @@ Quat = tuple[float, float, float, float]
 class Gap:
     """A body's gap (m) to ``others`` (the collection asked of, by identity), as measured
     when it was at ``place`` turned by ``turn`` (m, a unit quaternion x, y, z, w), with the
-    poses then of the others that moved (``moving``, id -> position and quaternion).
+    poses then of the others that moved (``moving``, id -> position and quaternion), and the
+    stack's state that says which move (``state``: :func:`moving_state`).
     Source: stackdsl's own."""
 
     others: Collection[int]
+    state: tuple[object, ...]
     place: Vec3
     turn: Quat
     moving: dict[int, tuple[Vec3, Quat]]
@@ -57,6 +59,12 @@ def moving_among(stack: Stack, others: Collection[int]) -> list[int]:
     return [b for b in others if b in riding or ((rec := bodies.get(b)) is not None and rec.state not in still)]
 
 
+def moving_state(stack: Stack) -> tuple[object, ...]:
+    """What decides which bodies :func:`moving_among` finds: the frozen stack's version (freezes
+    and wakes), the bodies registered and taken away, and the rides under way."""
+    return (stack.version, stack.registrations, tuple(stack.rides))
+
+
 def near_within(
     stack: Stack, body: int, span: float, others: Collection[int], distance: float, kept: Gap | None
 ) -> tuple[list[ContactPoint], Gap | None]:
@@ -65,27 +73,27 @@ def near_within(
     gap to keep. ``span``: metres from the body's centre to its farthest point (a merged ride:
     from its first rider's).
 
-    The engine is asked only when ``kept`` (of the same ``others``, the same moving bodies
-    among them, the ground at rest) less the bound on how far the body and the farthest-moved
+    The engine is asked only when ``kept`` (of the same ``others`` and stack state, the ground
+    at rest: the same moving bodies among them, found once a state, not each step) less the bound on how far the body and the farthest-moved
     moving other have moved since it was measured is within ``distance`` and
     :data:`GAP_SLACK`: the gap is then measured again within :data:`CLEAR`, and the engine
     asked within ``distance`` when something lies that near. Source: stackdsl's own (module
     docstring)."""
     engine = stack.engine
     place, turn = engine.pose_floats(body)
-    moving = moving_among(stack, others)
-    if kept is not None and stack.admitting and kept.others is others and len(moving) == len(kept.moving):
-        if all(b in kept.moving for b in moving):
-            farthest = 0.0
-            for b in moving:
-                there, turned = engine.pose_floats(b)
-                farthest = max(farthest, moved_at_most(*kept.moving[b], there, turned, stack.bodies[b].box.half_diagonal))
-            if kept.gap - moved_at_most(kept.place, kept.turn, place, turn, span) - farthest > distance + GAP_SLACK:
-                return [], kept
+    state = moving_state(stack)
+    if kept is not None and stack.admitting and kept.others is others and kept.state == state:
+        farthest = 0.0
+        for b, (was, turned_was) in kept.moving.items():
+            there, turned = engine.pose_floats(b)
+            farthest = max(farthest, moved_at_most(was, turned_was, there, turned, stack.bodies[b].box.half_diagonal))
+        if kept.gap - moved_at_most(kept.place, kept.turn, place, turn, span) - farthest > distance + GAP_SLACK:
+            return [], kept
     reach = max(CLEAR, distance)
     points = engine.near(body, reach, others)
     gap = min((c.distance for c in points), default=reach)
-    measured = Gap(others, place, turn, {b: engine.pose_floats(b) for b in moving}, gap)
+    moving = {b: engine.pose_floats(b) for b in moving_among(stack, others)}
+    measured = Gap(others, state, place, turn, moving, gap)
     if reach == distance:
         return points, measured
     if gap > distance + GAP_SLACK:

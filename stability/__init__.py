@@ -34,7 +34,7 @@ Source: "Simulating Object Stacking Using Stack Stability", chapter 3.
 from ._certificate import Certificate
 from ._contacts import PlacedBox, contacts_of
 from ._engine import ContactPoint, Engine, FakeEngine
-from ._equilibrium import ContactPolygon, Equilibrium, RigidBlock, is_level, solve_equilibrium
+from ._equilibrium import ContactPolygon, Equilibrium, RigidBlock, balanced_tilted, is_level, solve_equilibrium
 from ._extension import StabilityConfig, StabilityEvent, StabilityExtension
 from ._friction import friction_share
 from ._geometry import Box, ContactArea, Plane, Pose, combined_hull, contains, face_overlap, hull_xy, padded_hull
@@ -76,6 +76,7 @@ __all__ = [
     "StabilityConfig",
     "StabilityEvent",
     "StabilityExtension",
+    "balanced_tilted",
     "breaks_loose",
     "combined_hull",
     "contacts_of",

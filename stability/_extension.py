@@ -1191,7 +1191,7 @@ class StabilityExtension:
             for bound, more in ((min(AHEAD * needed, MOST_TILT), AHEAD * swirl), (min(needed + RIDE_TILT, MOST_TILT), swirl)):
                 if limit.loads is None:
                     limit.loads = propagate(stack.nodes([stack.bodies[b] for b in riders]))
-                why = holds_tilted(stack, riders, bound, towards, more, limit.loads)
+                why = holds_tilted(stack, riders, bound, towards, more, limit.loads, lambda: limit.tied_tilt(stack, riders))
                 if why is None:
                     limit.bound, limit.direction, limit.swirl = bound, towards, more
                     break

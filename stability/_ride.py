@@ -33,12 +33,13 @@ body.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
 import shapely
 
+from ._equilibrium import RigidBlock, balanced_tilted, bare_contacts
 from ._gap import Gap
 from ._geometry import Pose
 from ._leaning import pair_friction
@@ -60,6 +61,15 @@ MOST_TILT = 45.0
 SPREAD = 30.0
 #: Seconds over which a tilted ride's accelerations are taken (:func:`felt_gravity`).
 WINDOW = 0.05
+#: Directions, evenly spread, towards which tied riders are proved to stand (:func:`tied_tilt`).
+TIED_DIRECTIONS = 6
+#: Share of their least friction coefficient that tied riders are first asked to stand tilted
+#: by (:func:`tied_tilt`): just short of where they slide (an engine's contact normals lean by up
+#: to a thousandth: a Jenga tower's top, friction 0.4, holds 0.3999).
+TIED_SHARE = 0.98
+#: Halvings of the tilt asked of tied riders that do not stand at :data:`TIED_SHARE` of their
+#: friction: the tilt found is within 1/8 of that of the most they stand.
+TIED_HALVINGS = 3
 #: How a failed proof of a tilted ride begins, in words (:func:`holds_tilted`).
 FELT = "its bricks feel gravity tilted {tilt:.2f} deg (gravity less the ride's acceleration)"
 
@@ -89,6 +99,13 @@ class RideLimit:
     span: float = 0.0  # m from its first rider's centre to the farthest corner of any rider
     gap: Gap | None = None  # its gap to the others, as last measured (:func:`stability._gap.near_within`)
     loads: dict[int, Load] | None = None  # its riders' loads as they froze (:func:`holds_tilted`), found once
+    tied: float | None = None  # :func:`tied_tilt` of its riders, found when first asked
+
+    def tied_tilt(self, stack: Stack, riders: tuple[int, ...]) -> float:
+        """:func:`tied_tilt` of the ride's ``riders``, found the first time it is asked."""
+        if self.tied is None:
+            self.tied = tied_tilt(stack, riders)
+        return self.tied
 
     def covers(self, needed: float, towards: np.ndarray, swirl: float) -> bool:
         """Whether gravity felt tilted ``needed`` degrees towards ``towards`` (shape (2,)), with a
@@ -236,6 +253,7 @@ def holds_tilted(
     towards: np.ndarray,
     swirl: float = 0.0,
     loads: Mapping[int, Load] | None = None,
+    tied: Callable[[], float] | None = None,
 ) -> str | None:
     """Does each of the frozen ``riders`` that rests on riders alone stay where it froze on them
     under gravity tilted by up to ``tilt`` degrees within :data:`SPREAD` of ``towards`` (shape
@@ -244,6 +262,8 @@ def holds_tilted(
     vertical)? None when it does; else why not, in words, naming the first that would slide or
     tip. ``loads``: what :func:`stability._load.propagate` gives the riders as they froze, when
     found already (a ride is proved many times; its riders do not change while it lasts).
+    ``tied``: gives :func:`tied_tilt` of the riders, when the caller keeps it; asked only when a
+    brick fails the tipping test alone.
 
     The report's tests with the tilted gravity (as :func:`stability._shake.withstands` asks them
     of a shaken stack), at the cone's two edges pushed out by ``1 / cos(SPREAD)`` (with upright,
@@ -252,7 +272,10 @@ def holds_tilted(
     pair's friction coefficient (Coulomb), with ``swirl`` added; and the resultant of a brick and what it carries,
     through its centre of mass above (report 3.3.5), meets its main contact area's plane
     ``rise tan(tilt)`` away from where it acts upright, against the tilt: that point must lie
-    inside the area less the stability model's margin (report 3.3.4). The swirl is asked of
+    inside the area less the stability model's margin (report 3.3.4). A brick that fails that
+    test alone may still be held by the levels that cross it: the riders then hold when, tied
+    to each other, they are proved to stand under the tilt in every direction (:func:`tied_tilt`).
+    The swirl is asked of
     friction alone: a turn about the vertical twists a level tied by the levels above and below
     it, which no block of it tips under alone (the report's test would charge each block with
     the sideways load of everything above it). A rider resting on a
@@ -283,6 +306,7 @@ def holds_tilted(
     if loads is None:
         loads = propagate(stack.nodes(recs))
     margin = stack.config.com_margin
+    tips: str | None = None
     for rec in recs:
         if not rec.rests_on or not set(rec.rests_on) <= part:
             continue
@@ -295,14 +319,76 @@ def holds_tilted(
                     f"{run:.3f} of friction{twist}, and the pair has {mu:.3f}"
                 )
         main, load = rec.main_contact, loads.get(rec.body)
-        if main is None or load is None:
+        if tips is not None or main is None or load is None:
             continue
         rise = float(load.com_above[2]) - main.height
         region = main.polygon.buffer(-margin) if margin > 0 else main.polygon
         x, y = (float(v) for v in load.com_above[:2])
         if not all(shapely.contains_xy(region, x + rise * ex, y + rise * ey) for ex, ey in edges):
-            return (
+            tips = (
                 f"{FELT.format(tilt=tilt)}, and {rec.label} tips: the centre of mass of it and what it carries, "
                 f"{rise * 1000:.1f} mm above its contact area, acts outside it"
             )
-    return None
+    if tips is None:
+        return None
+    most = tied() if tied is not None else tied_tilt(stack, riders)
+    if math.tan(math.radians(tilt)) <= most:
+        return None
+    return (
+        f"{tips}; tied to each other by the levels they cross, the riders are proved to stand up to "
+        f"{math.degrees(math.atan(most)):.2f} deg of tilt in every direction"
+    )
+
+
+def tied_tilt(stack: Stack, riders: tuple[int, ...]) -> float:
+    """The tangent of a tilt of gravity under which, in every direction, the frozen ``riders``
+    that rest on riders alone are proved to stand on each other, those that rest on anything
+    else held as the ride moves them; 0 when none is.
+
+    The report's tipping test (3.3.4-3.3.5) charges each brick alone with the centre of mass of
+    everything it carries: a Jenga level's side block carries 90 mm of the levels above it on
+    its 25 mm width, and fails at a tilt of 8 deg, though the levels above, crossing it, tie it
+    to its neighbours, and the block they make together tips only past 22 deg (two engines' tuned
+    settings, every brick free, keep those bricks within 0.03 deg of each other while a pull tips
+    them 8 deg: docs/actions.md).
+    Rigid-block equilibrium asks what ties them: compressive forces at the contacts among the
+    riders, parallel to the tilted gravity and inside each pair's friction cone, that balance
+    every free rider (:func:`stability._equilibrium.balanced_tilted`). Asked with gravity tilted
+    by ``t`` towards :data:`TIED_DIRECTIONS` directions evenly spread, ``t`` first
+    :data:`TIED_SHARE` of the least friction coefficient of their contacts (where the report's
+    sliding test stops), then by :data:`TIED_HALVINGS` halvings of the interval left: the loads they stand under are a convex set (forces inside
+    friction cones, added, stay inside them), so what holds towards all of them holds ``t
+    cos(pi / TIED_DIRECTIONS)`` in every direction. A contact with a body outside the ride
+    carries nothing here, and a padded contact is its bare points
+    (:func:`stability._equilibrium.bare_contacts`: a line takes no moment about itself), both on
+    the side of caution. A ride's riders do not change while it lasts: it is found once a ride
+    (:attr:`RideLimit.tied`).
+
+    Source: rigid-block equilibrium (Livesley 1978; Whiting et al. 2009) under the tilted
+    gravity of :mod:`stability._shake`; stackdsl's own in asking it of a ride's riders.
+    """
+    part = set(riders)
+    recs = [stack.bodies[b] for b in riders]
+    blocks = {
+        r.body: RigidBlock(r.box.mass, r.frozen_pose.position)
+        for r in recs
+        if r.rests_on and set(r.rests_on) <= part and r.frozen_pose is not None
+    }
+    contacts = bare_contacts([c for r in recs for c in r.contacts if c.other in part and (c.body in blocks or c.other in blocks)])
+    if not blocks or not contacts:
+        return 0.0
+    least = min(c.friction for c in contacts)
+    turns = [2.0 * math.pi * k / TIED_DIRECTIONS for k in range(TIED_DIRECTIONS)]
+    gravity = stack.config.gravity
+
+    def stands(t: float) -> bool:
+        return all(balanced_tilted(blocks, contacts, (t * math.cos(a), t * math.sin(a)), gravity) for a in turns)
+
+    low, high = 0.0, TIED_SHARE * least
+    if stands(high):
+        low = high
+    else:
+        for _ in range(TIED_HALVINGS):
+            middle = (low + high) / 2.0
+            low, high = (middle, high) if stands(middle) else (low, middle)
+    return low * math.cos(math.pi / TIED_DIRECTIONS)

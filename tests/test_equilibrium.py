@@ -316,3 +316,58 @@ def test_a_brick_on_a_face_tilted_by_an_engines_noise_needs_no_friction_beside_a
         "top", "wall", np.array([[-0.06, 0.012, 0.0], [0.06, 0.012, 0.0], [0.0, 0.012, 0.008]]), np.array([0.0, -1.0, 0.0]), 0.5
     )
     assert friction_share(brick, [face, wall]) == 0.0
+
+
+def three_levels_tied(spread=0.0255, levels=3):
+    """Jenga-like levels of three 75 x 25 x 15 mm blocks, each level across the one under it,
+    the lowest on a support: blocks by name, and every crossing as a contact square."""
+    blocks, contacts, below = {}, [], [(f"support{i}", np.array([0.0, s, -0.0075])) for i, s in enumerate((-spread, 0.0, spread))]
+    for k in range(levels):
+        here = []
+        for i, s in enumerate((-spread, 0.0, spread)):
+            centre = np.array([s, 0.0, 0.0075 + 0.015 * k]) if k % 2 == 0 else np.array([0.0, s, 0.0075 + 0.015 * k])
+            name = f"L{k}.{i}"
+            blocks[name] = RigidBlock(0.02, centre)
+            for other, at in below:
+                x, y = (centre[0], at[1]) if k % 2 == 0 else (at[0], centre[1])
+                square = np.array(
+                    [
+                        [x + dx, y + dy, 0.015 * k]
+                        for dx, dy in ((-0.0125, -0.0125), (0.0125, -0.0125), (0.0125, 0.0125), (-0.0125, 0.0125))
+                    ]
+                )
+                contacts.append(ContactPolygon(name, other, square, UP, 0.4))
+            here.append((name, centre))
+        below = here
+    return blocks, contacts
+
+
+@pytest.mark.parametrize("run", [(0.1, 0.0), (0.3, 0.0), (0.0, 0.35), (0.25, -0.25), (0.39, 0.0), (0.41, 0.0)])
+def test_forces_along_a_tilted_gravity_prove_only_what_the_full_program_proves(run):
+    """Tied levels under a tilted gravity: forces parallel to it (stability.balanced_tilted) hold
+    them up to their friction, 0.4 (the levels tip only past 37.5 / 22.5 = 1.7 as a block), and
+    wherever they do the full program (solve_equilibrium with sideways) stands too: the parallel
+    forces are among its forces. Past the friction coefficient no contact can carry them."""
+    from stability import balanced_tilted
+
+    blocks, contacts = three_levels_tied()
+    found = balanced_tilted(blocks, contacts, run)
+    assert found is (math.hypot(*run) < 0.4)
+    if found:
+        assert solve_equilibrium(blocks, contacts, sideways=(9.81 * run[0], 9.81 * run[1]), quick=False).stands
+
+
+def test_a_tilted_gravity_tips_a_post_past_its_half_width_over_its_height_and_not_before():
+    """A post 8 mm wide on the ground with its centre 60 mm up and 2 mm off its middle stands
+    tilted by a run under 2 / 60 towards the near edge, 6 / 60 towards the far one and 12 / 60
+    along, as the report's tipping test with a tilted gravity says, on parallel forces as in the
+    full program; upright it stands whatever the friction."""
+    from stability import balanced_tilted
+
+    post = {"post": RigidBlock(M, np.array([0.002, 0.0, 0.06]))}
+    foot = [ContactPolygon("post", "ground", rectangle(-0.004, 0.004, 0.0), UP, 0.5)]
+    cases = [((0.032, 0.0), True), ((0.035, 0.0), False), ((-0.099, 0.0), True), ((-0.101, 0.0), False)]
+    for run, stands in [*cases, ((0.0, 0.199), True), ((0.0, 0.201), False)]:
+        assert balanced_tilted(post, foot, run) is stands, run
+        assert solve_equilibrium(post, foot, sideways=(9.81 * run[0], 9.81 * run[1]), quick=False).stands is stands
+    assert balanced_tilted(post, [ContactPolygon("post", "ground", rectangle(-0.004, 0.004, 0.0), UP, 0.0)], (0.0, 0.0))

@@ -875,3 +875,68 @@ def test_a_brick_under_a_pull_on_a_slicker_support_than_the_pull_wakes():
     assert "under it stay frozen" not in pulled.detail
     woken = {e.brick for e in outcome.events if e.kind == "wake" and "carries L04.1, which a hand moves" in e.detail}
     assert woken == {"L03.1", "L03.2"}
+
+
+def jenga_tower(levels):
+    """A fake Jenga tower of ``levels`` levels of three 75 x 25 x 15 mm blocks 25.5 mm apart,
+    each level across the one under it, frozen; the middle block of level 2 is body 5."""
+    from stability import Box, FakeEngine, Plane, Pose, StabilityExtension
+
+    eng = FakeEngine()
+    eng.mergeable = True
+    ext = StabilityExtension(eng)
+    ext.add_ground(0, Plane(0.0))
+    along, across = np.array([0.0375, 0.0125, 0.0075]), np.array([0.0125, 0.0375, 0.0075])
+    body, below = 0, []
+    for k in range(levels):
+        here = []
+        for i, s in enumerate((-0.0255, 0.0, 0.0255)):
+            body += 1
+            centre = np.array([0.0, s, 0.0075 + 0.015 * k]) if k % 2 == 0 else np.array([s, 0.0, 0.0075 + 0.015 * k])
+            eng.poses[body] = Pose(centre)
+            ext.add_brick(body, Box(along if k % 2 == 0 else across, 0.0098), f"L{k + 1:02d}.{i + 1}", friction=0.4)
+            if k == 0:
+                eng.touch(body, 0, [[x, s + d, 0.0] for x in (-0.0375, 0.0375) for d in (-0.0125, 0.0125)], normal=[0, 0, 1])
+            for other, at in below:
+                x, y = (centre[0], at[1]) if k % 2 == 1 else (at[0], centre[1])
+                square = [[x + dx, y + dy, 0.015 * k] for dx in (-0.0125, 0.0125) for dy in (-0.0125, 0.0125)]
+                eng.touch(body, other, square, normal=[0, 0, 1])
+            here.append((body, centre))
+        below = here
+    for t in (0.0, 0.1, 0.2, 0.3):
+        ext.update(t)
+    assert {ext.state(b).value for b in range(1, body + 1)} == {"frozen"}
+    return eng, ext
+
+
+@pytest.mark.parametrize(
+    ("levels", "degrees", "rides"), [(14, 10.0, True), (14, 15.0, True), (14, 19.0, False), (24, 14.0, False)]
+)
+def test_a_tilted_ride_of_levels_that_cross_is_proved_tied_not_brick_by_brick(levels, degrees, rides):
+    """The middle block of level 2 pushed, levels 5 up ride it (levels 3 and 4 wake: they rest
+    on it). Tilted 10 or 15 deg across its blocks, the report's tipping test fails level 6's side
+    block alone (the 67.5 mm of levels it carries over its 25 mm width), but the levels above
+    tie it to its neighbours: by rigid-block equilibrium the riders stand up to their friction,
+    0.4 (19 deg over the proof's cone, where level 6 slides), and the ride goes on. Levels 5 to
+    24 tied are a block 300 mm tall on 76.5 mm, which tips past 14 deg: tilted 14 deg the ride
+    ends, its bricks proved to stand up to 12 deg (within an eighth of the most, in every
+    direction)."""
+    from scipy.spatial.transform import Rotation
+
+    from stability import Pose
+
+    eng, ext = jenga_tower(levels)
+    ext.guide(5, 0.4, "pushed", 0.04)
+    (riders,) = eng.merged
+    assert len(riders) == 3 * (levels - 4)
+    assert not [e for e in ext.update(0.45) if e.kind == "wake"]
+    first = riders[0]
+    eng.poses[first] = Pose(eng.poses[first].position, Rotation.from_euler("y", degrees, degrees=True).as_quat())
+    rode = {e.label: e.reason for e in ext.update(0.5) if e.kind == "wake"}
+    assert (not rode) is rides, rode
+    if degrees == 19.0:
+        assert "L06.1 slides on L05.1" in rode["L05.1"]
+    elif not rides:
+        assert "L06.1 tips" in rode["L05.1"] and "tied to each other by the levels they cross" in rode["L05.1"]
+        proved = float(rode["L05.1"].split("proved to stand up to ")[1].split(" deg")[0])
+        assert 10.0 < proved < 14.0

@@ -57,10 +57,9 @@ from ._ride import (
     RIDE_TILT,
     RideLimit,
     ShakenRide,
+    arms_of,
     felt_gravity,
-    frozen_centre,
     holds_tilted,
-    reach_of,
     tilt_of,
 )
 from ._shake import shake_limit, sliding_parts, withstands
@@ -1173,10 +1172,10 @@ class StabilityExtension:
         limit = self._limits.get(pulled)
         if limit is None:
             touching = frozenset(c.other for c in stack.engine.near(riders[0], TOUCH))
-            reach = reach_of(stack, riders)
-            span = reach + float(np.linalg.norm(first.frozen_pose.position - frozen_centre(stack, riders)))
+            froze = [(r.box, r.frozen_pose) for r in (stack.bodies[b] for b in riders) if r.frozen_pose is not None]
+            span, across, rise = arms_of(first.frozen_pose, froze)
             limit = self._limits[pulled] = RideLimit(
-                RIDE_TILT, np.zeros(2), 0.0, touching, reach, velocity, spin, time, span=span
+                RIDE_TILT, np.zeros(2), 0.0, touching, span, across, rise, velocity, spin, time
             )
         needed, towards, swirl = felt_gravity(limit, now, first.frozen_pose, velocity, spin, time, stack.config.gravity)
         if not limit.covers(needed, towards, swirl):

@@ -12,7 +12,7 @@ it then slips or tips.
 The gravity a ride's bricks feel (:func:`felt_gravity`) is gravity less the ride's acceleration
 (d'Alembert), turned into the frame they froze in, and tilted further by the angle of the most
 its spin (``w``) and its angular acceleration about a horizontal axis (``alpha``) add at any of
-its points, ``2 (w^2 + alpha) reach``; its angular acceleration about the vertical (a side pull
+its points, ``(w^2 + alpha) span``; its angular acceleration about the vertical (a side pull
 twists the level it drags) is a swirl, asked of friction alone. A proof holds within
 :data:`SPREAD` of the direction the gravity felt tilts in, for :data:`AHEAD` times the tilt it was
 asked at (the tilt grows: a proof a few times, not one a step).
@@ -33,7 +33,7 @@ body.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -41,7 +41,7 @@ import shapely
 
 from ._equilibrium import RigidBlock, balanced_tilted, bare_contacts
 from ._gap import Gap
-from ._geometry import Pose
+from ._geometry import Box, Pose
 from ._leaning import pair_friction
 from ._load import Load, propagate
 from ._stack import Stack
@@ -80,7 +80,8 @@ class RideLimit:
     feel, within :data:`SPREAD` of ``direction`` (shape (2,), the horizontal part of that gravity
     in the frame the riders froze in; zero: any, within :data:`RIDE_TILT`), and up to ``swirl``
     (a tangent: :func:`felt_gravity`) of turning about the vertical; ``touching``, the
-    bodies it touched when it began; ``reach`` (:func:`reach_of`, m); its first rider's ``velocity`` (m/s) and ``spin`` (rad/s),
+    bodies it touched when it began; ``span``, ``across`` and ``rise`` (:func:`arms_of`, m); its
+    first rider's ``velocity`` (m/s) and ``spin`` (rad/s),
     shape (3,) each, as read at ``when`` (s), the start of the window its accelerations are taken
     over; and those accelerations, ``accel`` (m/s^2, shape (3,)) and ``turn`` (rad/s^2), over the
     last window. Source: stackdsl's own."""
@@ -89,14 +90,15 @@ class RideLimit:
     direction: np.ndarray
     swirl: float
     touching: frozenset[int]
-    reach: float
+    span: float  # m from its first rider's centre to the farthest corner of any rider, as they froze
+    across: float  # m, the same measured across (horizontally)
+    rise: float  # m, the same measured up or down
     velocity: np.ndarray
     spin: np.ndarray
     when: float
     accel: np.ndarray = field(default_factory=lambda: np.zeros(3))
     turn: np.ndarray = field(default_factory=lambda: np.zeros(3))
     others: tuple[object, list[int]] = field(default_factory=lambda: ((), []))  # the bodies it may come to touch, and what for
-    span: float = 0.0  # m from its first rider's centre to the farthest corner of any rider
     gap: Gap | None = None  # its gap to the others, as last measured (:func:`stability._gap.near_within`)
     loads: dict[int, Load] | None = None  # its riders' loads as they froze (:func:`holds_tilted`), found once
     tied: float | None = None  # :func:`tied_tilt` of its riders, found when first asked
@@ -129,16 +131,18 @@ def felt_gravity(
     tangent: the most its angular acceleration about the vertical adds to any point's horizontal
     acceleration, over the gravity felt); from its first rider's pose ``now`` (frozen at
     ``then``), ``velocity`` and ``spin`` read at ``time``, the accelerations over the last
-    :data:`WINDOW` (``limit`` keeps them, with the ride's reach) and ``gravity`` (m/s^2).
+    :data:`WINDOW` (``limit`` keeps them, with the ride's arms) and ``gravity`` (m/s^2).
 
     The bricks of a body accelerating by ``a`` feel gravity minus ``a`` (d'Alembert): the first
-    rider's acceleration, turned into the frozen frame, tilts it; every other point of the ride
-    accelerates by at most ``2 (w^2 + alpha) reach`` more, added as the angle it makes against
+    rider's acceleration, turned into the frozen frame, tilts it; a point ``r`` from the first
+    rider's centre accelerates by ``alpha x r + w x (w x r)`` more, at most ``(w^2 + alpha)
+    span`` (:attr:`RideLimit.span`, the farthest corner), added as the angle it makes against
     the gravity felt (along the direction of the tilt: a margin for what an engine's contacts
     leave of the spin, not a direction of its own). Turning about the vertical tilts nothing: a
     side pull's twist spins a Jenga tower's top up to 0.5 rad/s in 30 ms (12 rad/s^2); what its
-    angular acceleration about the vertical adds, ``2 alpha_z reach``, is the swirl, which the
-    proof asks of friction alone (:func:`holds_tilted`). Accelerations are taken over
+    angular acceleration about the vertical adds, ``alpha_z`` times the farthest horizontal
+    distance from the first rider's centre (``across + rise sin(tilt)``, the riders tilted from
+    how they froze), is the swirl, which the proof asks of friction alone (:func:`holds_tilted`). Accelerations are taken over
     :data:`WINDOW`: an engine's contacts shake a body resting on others by a few rad/s^2 from one
     step to the next (20 rad/s^2 and 1 m/s^2 on a Jenga tower's tipping top in pybullet), which
     moves nothing. A ride falling freely feels no gravity: its tilt is then 90 degrees (nothing
@@ -156,8 +160,9 @@ def felt_gravity(
         return 90.0, felt[:2].copy(), 0.0
     tilt = math.degrees(math.acos(min(1.0, -float(felt[2]) / size)))
     tipping = float(np.hypot(limit.turn[0], limit.turn[1]))  # about a horizontal axis: turning about the vertical is no tilt
-    uneven = 2.0 * (float(np.dot(spin, spin)) + tipping) * limit.reach
-    swirl = 2.0 * abs(float(limit.turn[2])) * limit.reach / size
+    uneven = (float(np.dot(spin, spin)) + tipping) * limit.span
+    across = limit.across + limit.rise * math.sqrt(max(0.0, 1.0 - float(turned[2, 2]) ** 2))  # tilted: rise turns across
+    swirl = abs(float(limit.turn[2])) * across / size
     return tilt + math.degrees(math.atan(uneven / size)), felt[:2].copy(), swirl
 
 
@@ -238,12 +243,22 @@ class ShakenRide:
         return tilt, self.height - (r0 * ax + r1 * ay + r2 * az + position[2])
 
 
-def reach_of(stack: Stack, riders: tuple[int, ...]) -> float:
-    """Metres from the centre of mass of ``riders`` (as they froze) to the farthest corner of any
-    of them. Source: stackdsl's own."""
-    recs = [stack.bodies[b] for b in riders]
-    corners = np.concatenate([r.box.corners(r.frozen_pose) for r in recs if r.frozen_pose is not None])
-    return float(np.linalg.norm(corners - frozen_centre(stack, riders), axis=1).max())
+def arms_of(first: Pose, boxes: Iterable[tuple[Box, Pose]]) -> tuple[float, float, float]:
+    """Metres from ``first`` (a ride's first rider's pose) to the farthest corner of any of
+    ``boxes`` (each a box and its pose; a ride's riders as they froze): straight, across
+    (horizontally) and up or down, each its own farthest. Source: stackdsl's own.
+
+    >>> brick = Box(np.array([0.06, 0.012, 0.004]), 0.01)
+    >>> low, high = Pose(np.array([0.0, 0.0, 0.004])), Pose(np.array([0.0, 0.0, 0.012]))
+    >>> [round(v * 1000, 3) for v in arms_of(low, [(brick, low), (brick, high)])]  # one flat on the other
+    [62.354, 61.188, 12.0]
+    """
+    offsets = np.concatenate([box.corners(pose) for box, pose in boxes]) - first.position
+    return (
+        float(np.linalg.norm(offsets, axis=1).max()),
+        float(np.hypot(offsets[:, 0], offsets[:, 1]).max()),
+        float(np.abs(offsets[:, 2]).max()),
+    )
 
 
 def holds_tilted(

@@ -410,9 +410,12 @@ def test_a_tilted_ride_feels_its_acceleration_as_tilted_gravity():
 
 def test_a_ride_turned_about_the_vertical_asks_friction_for_its_swirl():
     """A side pull twists what rides it: spun up to 0.5 rad/s about the vertical in 0.05 s
-    (10 rad/s^2, 2 alpha reach / g = 0.08 of friction's 0.4) it rides on; spun up to 3 rad/s in
-    0.05 s (60 rad/s^2: 0.49) its bricks would slide on each other, and it ends."""
-    for spin, ends in ((0.5, False), (3.0, True)):
+    (10 rad/s^2; its farthest corner 39.5 mm across from its first rider's centre: alpha times
+    that over g is 0.04 of friction's 0.4) it rides on; spun up to 3 rad/s in 0.05 s (60 rad/s^2:
+    0.24, and 0.06 for the tilt its spin adds) too (a bound twice the ride's reach from its centre
+    of mass asked 0.49 and ended it); spun up to 6 rad/s (120 rad/s^2: 0.48) its bricks would
+    slide on each other, and it ends."""
+    for spin, ends in ((0.5, False), (3.0, False), (6.0, True)):
         eng, ext = levels_over_three_blocks(mergeable=True)
         ext.guide(2, 0.8, "pushed", 0.04)
         assert not [e for e in ext.update(0.85) if e.kind == "wake"]
@@ -940,3 +943,27 @@ def test_a_tilted_ride_of_levels_that_cross_is_proved_tied_not_brick_by_brick(le
         assert "L06.1 tips" in rode["L05.1"] and "tied to each other by the levels they cross" in rode["L05.1"]
         proved = float(rode["L05.1"].split("proved to stand up to ")[1].split(" deg")[0])
         assert 10.0 < proved < 14.0
+
+
+@pytest.mark.parametrize("degrees", [0.0, 20.0, 40.0])
+def test_a_ride_s_swirl_bounds_the_twist_at_its_farthest_corner_and_not_far_beyond(degrees):
+    """The swirl of stability._ride.felt_gravity, times the gravity felt, is at least the
+    horizontal acceleration that a turn about the vertical gives the farthest corner of a column
+    of two bricks from its first brick's centre, the column tilted by 0, 20 or 40 deg, and at most
+    1.5 times it: the farthest corner across as they froze, and what their height turns across."""
+    from scipy.spatial.transform import Rotation
+
+    from stability import Box, Pose
+    from stability._ride import RideLimit, arms_of, felt_gravity
+
+    brick = Box(np.array([0.0125, 0.0375, 0.0075]), 0.0098)
+    low, high = Pose(np.array([0.0, 0.0, 0.0075])), Pose(np.array([0.0, 0.0, 0.0225]))
+    span, across, rise = arms_of(low, [(brick, low), (brick, high)])
+    limit = RideLimit(0.5, np.zeros(2), 0.0, frozenset(), span, across, rise, np.zeros(3), np.zeros(3), 0.0)
+    turn = Rotation.from_euler("x", degrees, degrees=True)
+    now = Pose(low.position, turn.as_quat())
+    alpha = 10.0  # rad/s^2 about the vertical, over the window
+    _, _, swirl = felt_gravity(limit, now, low, np.zeros(3), np.array([0.0, 0.0, alpha * 0.05]), 0.05, 9.81)
+    corners = np.concatenate([brick.corners(low), brick.corners(high)]) - low.position
+    farthest = alpha * float(np.hypot(*turn.apply(corners)[:, :2].T).max())
+    assert farthest <= swirl * 9.81 <= 1.5 * farthest

@@ -34,12 +34,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import shapely
 
-from ._equilibrium import RigidBlock, balanced_tilted, bare_contacts
+from ._equilibrium import ContactPolygon, RigidBlock, balanced_tilted, bare_contacts
 from ._gap import Gap
 from ._geometry import Box, Pose
 from ._leaning import pair_friction
@@ -376,8 +376,10 @@ def tied_tilt(stack: Stack, riders: tuple[int, ...]) -> float:
     cos(pi / TIED_DIRECTIONS)`` in every direction. A contact with a body outside the ride
     carries nothing here, and a padded contact is its bare points
     (:func:`stability._equilibrium.bare_contacts`: a line takes no moment about itself), both on
-    the side of caution. A ride's riders do not change while it lasts: it is found once a ride
-    (:attr:`RideLimit.tied`).
+    the side of caution; with the stability model's margin
+    (:attr:`stability.StabilityConfig.com_margin`), each contact is its area less that margin, as
+    the report's tipping test takes it. A ride's riders do not change while it lasts: it is found
+    once a ride (:attr:`RideLimit.tied`).
 
     Source: rigid-block equilibrium (Livesley 1978; Whiting et al. 2009) under the tilted
     gravity of :mod:`stability._shake`; stackdsl's own in asking it of a ride's riders.
@@ -390,6 +392,9 @@ def tied_tilt(stack: Stack, riders: tuple[int, ...]) -> float:
         if r.rests_on and set(r.rests_on) <= part and r.frozen_pose is not None
     }
     contacts = bare_contacts([c for r in recs for c in r.contacts if c.other in part and (c.body in blocks or c.other in blocks)])
+    margin = stack.config.com_margin
+    if margin > 0.0:
+        contacts = [inset for c in contacts if (inset := _inset(c, margin)) is not None]
     if not blocks or not contacts:
         return 0.0
     least = min(c.friction for c in contacts)
@@ -407,3 +412,15 @@ def tied_tilt(stack: Stack, riders: tuple[int, ...]) -> float:
             middle = (low + high) / 2.0
             low, high = (middle, high) if stands(middle) else (low, middle)
     return low * math.cos(math.pi / TIED_DIRECTIONS)
+
+
+def _inset(contact: ContactPolygon[int], margin: float) -> ContactPolygon[int] | None:
+    """``contact`` with its area, seen from above, less ``margin`` (m) all round, at its mean
+    height; None when nothing is left of it (a line or a point has no area to keep)."""
+    points = np.asarray(contact.points, dtype=float).reshape(-1, 3)
+    area = shapely.convex_hull(shapely.multipoints(points[:, :2])).buffer(-margin)
+    if area.is_empty or area.geom_type != "Polygon":
+        return None
+    corners = np.asarray(area.exterior.coords)[:-1]
+    height = np.full((len(corners), 1), float(points[:, 2].mean()))
+    return replace(contact, points=np.hstack([corners, height]))

@@ -880,14 +880,14 @@ def test_a_brick_under_a_pull_on_a_slicker_support_than_the_pull_wakes():
     assert woken == {"L03.1", "L03.2"}
 
 
-def jenga_tower(levels):
+def jenga_tower(levels, config=None):
     """A fake Jenga tower of ``levels`` levels of three 75 x 25 x 15 mm blocks 25.5 mm apart,
     each level across the one under it, frozen; the middle block of level 2 is body 5."""
     from stability import Box, FakeEngine, Plane, Pose, StabilityExtension
 
     eng = FakeEngine()
     eng.mergeable = True
-    ext = StabilityExtension(eng)
+    ext = StabilityExtension(eng, config)
     ext.add_ground(0, Plane(0.0))
     along, across = np.array([0.0375, 0.0125, 0.0075]), np.array([0.0125, 0.0375, 0.0075])
     body, below = 0, []
@@ -967,3 +967,19 @@ def test_a_ride_s_swirl_bounds_the_twist_at_its_farthest_corner_and_not_far_beyo
     corners = np.concatenate([brick.corners(low), brick.corners(high)]) - low.position
     farthest = alpha * float(np.hypot(*turn.apply(corners)[:, :2].T).max())
     assert farthest <= swirl * 9.81 <= 1.5 * farthest
+
+
+def test_the_stability_model_s_margin_asks_tied_riders_to_stand_that_far_inside_their_contacts():
+    """Levels 5 to 24 of the fake tower riding a push are proved tied to a tilt that their
+    300 mm height over 76.5 mm of contacts limits; asked to stand 5 mm inside each contact's area
+    (the report's tipping test's margin), they are proved to less, and still to some."""
+    from stability import StabilityConfig
+    from stability._ride import tied_tilt
+
+    tilts = []
+    for margin in (0.0, 0.005):
+        eng, ext = jenga_tower(24, StabilityConfig(com_margin=margin))
+        ext.guide(5, 0.4, "pushed", 0.04)
+        (riders,) = eng.merged
+        tilts.append(tied_tilt(ext._stack, riders))
+    assert 0.0 < tilts[1] < tilts[0]

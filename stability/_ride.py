@@ -41,7 +41,7 @@ import shapely
 
 from ._equilibrium import ContactPolygon, RigidBlock, balanced_tilted, bare_contacts
 from ._gap import Gap
-from ._geometry import Box, Pose
+from ._geometry import Box, Pose, hull_xy
 from ._leaning import pair_friction
 from ._load import Load, propagate
 from ._stack import Stack
@@ -418,7 +418,7 @@ def _inset(contact: ContactPolygon[int], margin: float) -> ContactPolygon[int] |
     """``contact`` with its area, seen from above, less ``margin`` (m) all round, at its mean
     height; None when nothing is left of it (a line or a point has no area to keep)."""
     points = np.asarray(contact.points, dtype=float).reshape(-1, 3)
-    area = shapely.convex_hull(shapely.multipoints(points[:, :2])).buffer(-margin)
+    area = hull_xy(points[:, :2]).buffer(-margin)
     if area.is_empty or area.geom_type != "Polygon":
         return None
     corners = np.asarray(area.exterior.coords)[:-1]

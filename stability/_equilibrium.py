@@ -443,7 +443,7 @@ def balanced_tilted(
     the others carry none. Forces all parallel to gravity balance a block when the points where
     they act, carried along that direction to a common level, balance its centre of mass
     carried so: the vertical program of :func:`balanced_vertically` on those points, a tenth of
-    the full program's size (a Jenga tower's top of 36 bricks: 5 ms, where
+    the full program's size (a Jenga tower's top of 36 bricks: 10 ms, where
     :func:`solve_equilibrium` with ``sideways`` takes 60 to 190 ms). Each block's sideways load
     is then carried by the sideways parts of the forces under it less those over it, in the
     proportion of the vertical ones: a uniform tilt asks each contact for ``|run|`` times its

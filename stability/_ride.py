@@ -142,10 +142,10 @@ def felt_gravity(
     side pull's twist spins a Jenga tower's top up to 0.5 rad/s in 30 ms (12 rad/s^2); what its
     angular acceleration about the vertical adds, ``alpha_z`` times the farthest horizontal
     distance from the first rider's centre (``across + rise sin(tilt)``, the riders tilted from
-    how they froze), is the swirl, which the proof asks of friction alone (:func:`holds_tilted`). Accelerations are taken over
-    :data:`WINDOW`: an engine's contacts shake a body resting on others by a few rad/s^2 from one
-    step to the next (20 rad/s^2 and 1 m/s^2 on a Jenga tower's tipping top in pybullet), which
-    moves nothing. A ride falling freely feels no gravity: its tilt is then 90 degrees (nothing
+    how they froze), is the swirl, which the proof asks of friction alone (:func:`holds_tilted`).
+    Accelerations are taken over :data:`WINDOW`: an engine's contacts shake a body resting on
+    others by a few rad/s^2 from one step to the next (20 rad/s^2 and 1 m/s^2 on a Jenga tower's
+    tipping top in pybullet), which moves nothing. A ride falling freely feels no gravity: its tilt is then 90 degrees (nothing
     is proved for it). Source: stackdsl's own (module docstring).
     """
     if time - limit.when >= WINDOW - 1e-9:
@@ -290,12 +290,10 @@ def holds_tilted(
     inside the area less the stability model's margin (report 3.3.4). A brick that fails that
     test alone may still be held by the levels that cross it: the riders then hold when, tied
     to each other, they are proved to stand under the tilt in every direction (:func:`tied_tilt`).
-    The swirl is asked of
-    friction alone: a turn about the vertical twists a level tied by the levels above and below
-    it, which no block of it tips under alone (the report's test would charge each block with
-    the sideways load of everything above it). A rider resting on a
-    brick that is not a rider rests on a body the engine moves: the engine simulates that
-    contact.
+    The swirl is asked of friction alone: a turn about the vertical twists a level tied by the
+    levels above and below it, which no block of it tips under alone (the report's test would
+    charge each block with the sideways load of everything above it). A rider resting on a brick
+    that is not a rider rests on a body the engine moves: the engine simulates that contact.
 
     Raises:
         ValueError: ``tilt`` not in [0, 90) degrees, ``towards`` zero, or ``swirl`` negative.
@@ -371,9 +369,9 @@ def tied_tilt(stack: Stack, riders: tuple[int, ...]) -> float:
     every free rider (:func:`stability._equilibrium.balanced_tilted`). Asked with gravity tilted
     by ``t`` towards :data:`TIED_DIRECTIONS` directions evenly spread, ``t`` first
     :data:`TIED_SHARE` of the least friction coefficient of their contacts (where the report's
-    sliding test stops), then by :data:`TIED_HALVINGS` halvings of the interval left: the loads they stand under are a convex set (forces inside
-    friction cones, added, stay inside them), so what holds towards all of them holds ``t
-    cos(pi / TIED_DIRECTIONS)`` in every direction. A contact with a body outside the ride
+    sliding test stops), then by :data:`TIED_HALVINGS` halvings of the interval left: the loads
+    they stand under are a convex set (forces inside friction cones, added, stay inside them), so
+    what holds towards all of them holds ``t cos(pi / TIED_DIRECTIONS)`` in every direction. A contact with a body outside the ride
     carries nothing here, and a padded contact is its bare points
     (:func:`stability._equilibrium.bare_contacts`: a line takes no moment about itself), both on
     the side of caution; with the stability model's margin

@@ -41,7 +41,7 @@ import numpy as np
 from scipy import sparse
 from scipy.sparse.csgraph import connected_components
 
-from ._lp import OPTIMAL, solve
+from ._lp import OPTIMAL, WarmStart, solve
 
 GRAVITY = 9.81
 
@@ -432,6 +432,7 @@ def balanced_tilted(
     contacts: Sequence[ContactPolygon[BodyKey]],
     run: tuple[float, float],
     gravity: float = GRAVITY,
+    warm: WarmStart | None = None,
 ) -> bool:
     """Do compressive forces parallel to gravity tilted by ``run`` (its horizontal part per
     metre of its drop, (x, y)) hold every free block in ``blocks``? True proves that they stand
@@ -448,7 +449,9 @@ def balanced_tilted(
     is then carried by the sideways parts of the forces under it less those over it, in the
     proportion of the vertical ones: a uniform tilt asks each contact for ``|run|`` times its
     normal force, as the report's sliding test under a tilted gravity does
-    (:mod:`stability._shake`).
+    (:mod:`stability._shake`). ``warm``: the program starts from the basis of the last one
+    solved with it, when of the same shape (:class:`stability._lp.WarmStart`: a search over
+    tilts of the same blocks).
 
     Raises:
         ValueError: a contact without points.
@@ -480,11 +483,14 @@ def balanced_tilted(
         k: RigidBlock(b.mass, np.asarray(b.com, dtype=float) + float(b.com[2]) * np.array([sx, sy, 0.0]))
         for k, b in blocks.items()
     }
-    return _solve_vertical(carried, usable, gravity) is not None
+    return _solve_vertical(carried, usable, gravity, warm) is not None
 
 
 def _solve_vertical(
-    blocks: Mapping[BodyKey, RigidBlock], contacts: Sequence[ContactPolygon[BodyKey]], gravity: float
+    blocks: Mapping[BodyKey, RigidBlock],
+    contacts: Sequence[ContactPolygon[BodyKey]],
+    gravity: float,
+    warm: WarmStart | None = None,
 ) -> Equilibrium[BodyKey] | None:
     """Balance by vertical compressive forces alone: a fast sufficient test.
 
@@ -497,6 +503,7 @@ def _solve_vertical(
     HiGHS's dual simplex can stall on an infeasible program built from engine poses (702
     iterations and 0.55 s, ending in numerical difficulties, for the 51 bricks of a slant
     log cabin at its collapse), where the full program decides in a quarter of that.
+    ``warm``: :class:`stability._lp.WarmStart`.
     """
     keys = list(blocks)
     index = {k: i for i, k in enumerate(keys)}
@@ -516,7 +523,7 @@ def _solve_vertical(
         rhs[3 * index[key]] = b.mass * gravity / weight
     a_eq = sparse.csr_matrix((_cat(vals), (_cat(rows), _cat(cols))), shape=(3 * len(keys), len(owner)))
     budget = max(1, round(VERTICAL_PIVOTS * a_eq.shape[0]))
-    result = solve(np.zeros(len(owner)), a_eq, rhs, iteration_limit=budget)
+    result = solve(np.zeros(len(owner)), a_eq, rhs, iteration_limit=budget, warm=warm)
     if result.status != OPTIMAL:  # no balance, or none found within the budget
         return None
     vertical = np.zeros((len(owner), 3))

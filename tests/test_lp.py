@@ -7,7 +7,7 @@ import pytest
 from scipy import sparse
 from scipy.optimize import linprog
 
-from stability._lp import INFEASIBLE, ITERATION_LIMIT, OPTIMAL, LinearProgram, solve
+from stability._lp import INFEASIBLE, ITERATION_LIMIT, OPTIMAL, LinearProgram, WarmStart, solve
 
 
 def _random_program(seed: int, rows: int = 12, columns: int = 40) -> tuple[np.ndarray, sparse.csr_matrix, np.ndarray]:
@@ -146,3 +146,26 @@ def test_a_program_the_simplex_does_not_finish_in_time_is_solved_by_the_interior
     assert runs == ["choose", "ipm"]
     assert ours.status == OPTIMAL and ours.fun == pytest.approx(theirs.fun, rel=1e-7)
     assert solver.getOptionValue("solver")[1] == "choose"
+
+
+def test_a_sequence_of_programs_warm_started_finds_what_each_finds_alone_in_fewer_iterations():
+    """A search asks one program after another, each a little different: started from the last
+    one's basis it finds each one's optimum, and pivots less; a program of another shape starts
+    from scratch."""
+    cost, a, _ = _random_program(11, rows=40, columns=160)
+    rng = np.random.default_rng(2)
+    warm, pivots = WarmStart(), {"warm": 0, "cold": 0}
+    for _ in range(6):
+        changed = a.copy()
+        changed.data = changed.data * rng.uniform(0.97, 1.03, changed.nnz)
+        rhs = changed @ rng.uniform(0.0, 1.0, a.shape[1])
+        started, alone = solve(cost, changed, rhs, warm=warm), solve(cost, changed, rhs)
+        assert started.status == alone.status == OPTIMAL
+        assert started.fun == pytest.approx(alone.fun, rel=1e-9)
+        pivots["warm"] += started.iterations
+        pivots["cold"] += alone.iterations
+    assert warm.shape == a.shape
+    assert pivots["warm"] < 0.6 * pivots["cold"], pivots
+    other = _random_program(12, rows=10, columns=30)
+    assert solve(*other, warm=warm).fun == pytest.approx(solve(*other).fun, rel=1e-9)
+    assert warm.shape == (10, 30)

@@ -77,11 +77,9 @@ class Debris:
         self._edge: dict[int, Record] = {}  # the last pile's members that touch bricks that still move
         # what :meth:`_pile` and :meth:`_settled` found this step, on this stack, for each brick
         # of the piles they gathered (:meth:`_gathered`)
-        self._found: tuple[tuple[float, int, int], dict[int, Gathered], dict[int, tuple[list[Record], dict[int, Record]]]] = (
-            (-1.0, -1, 0),
-            {},
-            {},
-        )
+        self._found: tuple[
+            tuple[float, int], Contacts | None, dict[int, Gathered], dict[int, tuple[list[Record], dict[int, Record]]]
+        ] = ((-1.0, -1), None, {}, {})
 
     def admit(self, rec: Record, contacts: Contacts, time: float) -> list[StabilityEvent]:
         """Admit ``rec`` with its pile, or the part of it that stands (:meth:`_standing`), when
@@ -367,10 +365,10 @@ class Debris:
         changes the stack's version. A heap that settles asks for each of its resting bricks in
         turn: the 18-level Jenga tower's 39 fallen bricks were refused 114 times, each refusal
         searching the heap again."""
-        key = (time, self.stack.version, id(contacts))
-        if self._found[0] != key:
-            self._found = (key, {}, {})
-        return self._found[1], self._found[2]
+        key = (time, self.stack.version)
+        if self._found[0] != key or self._found[1] is not contacts:  # the step's contacts, read once a step
+            self._found = (key, contacts, {}, {})
+        return self._found[2], self._found[3]
 
     def _pile(self, rec: Record, contacts: Contacts, time: float) -> list[Record]:
         """``rec`` and the active bricks connected to it by contacts, in registration order;

@@ -170,7 +170,7 @@ class Debris:
         frozen = self._frozen_blocks()
         for _ in range(MAX_TRIMS + 1):
             blocks, contacts = self._with_frozen(group, polygons, frozen)
-            result = solve_equilibrium(blocks, contacts, gravity=stack.config.gravity)
+            result = solve_equilibrium(blocks, contacts, gravity=stack.config.gravity, decide=True)
             if result.stands:
                 return group, polygons
             out = result.moving()
@@ -246,7 +246,7 @@ class Debris:
             if earlier:
                 result = self._together(blocks, contacts, earlier)
             else:
-                result = solve_equilibrium(blocks, contacts, gravity=gravity)
+                result = solve_equilibrium(blocks, contacts, gravity=gravity, decide=True)
             if result.stands:
                 return group, polygons
             out = result.moving() & members.keys()
@@ -271,7 +271,7 @@ class Debris:
             for c in r.contacts
             if (c.body in pile or c.other in pile) and stack.bodies[c.other].state is not BrickState.ACTIVE
         ]
-        return solve_equilibrium(together, contacts + remembered, gravity=stack.config.gravity)
+        return solve_equilibrium(together, contacts + remembered, gravity=stack.config.gravity, decide=True)
 
     def _carried(
         self, group: list[Record], polygons: dict[int, list[ContactPolygon[int]]], plan: Plan, earlier: list[Record]
@@ -329,7 +329,7 @@ class Debris:
         contacts remembered from the freezes?"""
         blocks, contacts = self._with_frozen(group, polygons, self._frozen_blocks())
         part, on = connected_part(blocks, contacts, failing)
-        return solve_equilibrium(part, on, gravity=self.stack.config.gravity).stands
+        return solve_equilibrium(part, on, gravity=self.stack.config.gravity, decide=True).stands
 
     def _frozen_blocks(self) -> dict[int, RigidBlock]:
         """Every frozen brick as a free block where it froze."""

@@ -196,6 +196,37 @@ def test_a_ladder_whose_foot_normal_an_engine_tilted_is_judged_on_the_cone(shift
     assert result.stands is cone.stands is (shift_mm < 2.0)
 
 
+@pytest.mark.parametrize(("shift_mm", "fine"), [(0.0, False), (3.0, True), (8.0, False)])
+def test_a_verdict_alone_skips_the_fine_pyramid_when_the_pyramid_around_the_cone_fails(monkeypatch, shift_mm, fine):
+    # The ladder above: standing (no fine program needed), just fallen (the eight-sided pyramid
+    # around the cone still holds it: the 32-sided program decides), and well fallen (the
+    # pyramid around the cone fails it too, and so must the cone: no 32-sided program). The
+    # verdict and its mechanism are the cone's every time.
+    from stability import _equilibrium
+    from stability._equilibrium import FINE_SIDES
+
+    mm = 1e-3
+    wall_normal = np.array([0.64974, -0.76016, 0.0])
+    foot_normal = np.array([7.74e-6, -2.78e-6, 1.0]) / np.linalg.norm([7.74e-6, -2.78e-6, 1.0])
+    wall = [[337.205, -58.374, 77.348], [337.205, -58.374, 79.348], [355.449, -42.78, 79.342], [355.449, -42.78, 77.342]]
+    foot = [[400.998, -133.031, 8.0], [399.698, -131.51, 8.0], [417.942, -115.917, 8.0], [419.241, -117.437, 8.0]]
+    contacts = [
+        ContactPolygon("ladder", "wall", np.array(wall) * mm, wall_normal, 0.5),
+        ContactPolygon("ladder", "step", np.array(foot) * mm, foot_normal, 0.5),
+    ]
+    ladder = {"ladder": RigidBlock(M, np.array([379.419, -89.304, 46.406]) * mm - shift_mm * mm * wall_normal)}
+    cone = solve_equilibrium(ladder, contacts, sides=64)  # near the cone itself
+    sides: list[int] = []
+    program = _equilibrium._solve
+    monkeypatch.setattr(_equilibrium, "_solve", lambda *a, **k: sides.append(a[2]) or program(*a, **k))
+    decided = solve_equilibrium(ladder, contacts, decide=True)
+    assert decided.stands is cone.stands is (shift_mm < 2.0)
+    assert decided.moving() == cone.moving()
+    assert (FINE_SIDES in sides) is fine, sides
+    if not decided.stands:
+        assert 0.0 < decided.tension <= solve_equilibrium(ladder, contacts).tension  # a lower bound of the cone's
+
+
 def slope(angle, mu):
     """A brick on a slope of ``angle`` degrees whose contact has friction ``mu``."""
     a = math.radians(angle)

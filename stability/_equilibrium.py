@@ -185,8 +185,8 @@ def solve_equilibrium(
             so does the cone, and every pyramid inscribed in it: the program's dual (its
             mechanism) is a certificate for them too, and the :data:`FINE_SIDES` program, four
             times the unknowns, is not solved. The tension returned is then a lower bound of
-            the cone's. (On MuJoCo the 18-level Jenga tower's fallen piles failed the fine
-            program 5 times of 5, 150 to 300 ms each.)
+            the cone's. (An 18-level Jenga tower's fallen piles failed the fine program 5
+            times of 5, 150 to 300 ms each.)
 
     Returns:
         :class:`Equilibrium`.

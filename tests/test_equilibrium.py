@@ -174,13 +174,11 @@ def test_every_brick_of_a_toppling_tower_moves_in_its_mechanism_the_base_include
     assert result.moving() == {0, 1, 2, 3}
 
 
-@pytest.mark.parametrize("shift_mm", [0.0, 1.5, 3.0, 5.0])
-def test_a_ladder_whose_foot_normal_an_engine_tilted_is_judged_on_the_cone(shift_mm):
-    # A brick 36 deg from horizontal, its foot on a step brick and its top against a wall, both
-    # at mu 0.5, in a vertical plane 49.5 deg from x: the foot needs its friction between two
-    # edges of an eight-sided pyramid. Its foot normal, as an engine reported it, is off
-    # vertical by 8e-6. It stands on the cone as it is and 1.5 mm nearer the wall; 3 mm on it
-    # falls. The eight-sided program called it fallen as it was (0.32 mN of tension).
+def leaning_ladder(shift_mm: float) -> tuple[dict[str, RigidBlock], list[ContactPolygon[str]]]:
+    """A brick 36 deg from horizontal, its foot on a step brick and its top against a wall, both
+    at mu 0.5, in a vertical plane 49.5 deg from x, its centre of mass moved ``shift_mm`` mm
+    towards the wall: the foot needs its friction between two edges of an eight-sided pyramid.
+    Its foot normal, as an engine reported it, is off vertical by 8e-6."""
     mm = 1e-3
     wall_normal = np.array([0.64974, -0.76016, 0.0])
     foot_normal = np.array([7.74e-6, -2.78e-6, 1.0]) / np.linalg.norm([7.74e-6, -2.78e-6, 1.0])
@@ -191,30 +189,29 @@ def test_a_ladder_whose_foot_normal_an_engine_tilted_is_judged_on_the_cone(shift
         ContactPolygon("ladder", "step", np.array(foot) * mm, foot_normal, 0.5),
     ]
     com = np.array([379.419, -89.304, 46.406]) * mm - shift_mm * mm * wall_normal
-    result = solve_equilibrium({"ladder": RigidBlock(M, com)}, contacts)
-    cone = solve_equilibrium({"ladder": RigidBlock(M, com)}, contacts, sides=64)  # near the cone itself
+    return {"ladder": RigidBlock(M, com)}, contacts
+
+
+@pytest.mark.parametrize("shift_mm", [0.0, 1.5, 3.0, 5.0])
+def test_a_ladder_whose_foot_normal_an_engine_tilted_is_judged_on_the_cone(shift_mm):
+    # The leaning ladder stands on the cone as it is and 1.5 mm nearer the wall; 3 mm on it
+    # falls. The eight-sided program called it fallen as it was (0.32 mN of tension).
+    ladder, contacts = leaning_ladder(shift_mm)
+    result = solve_equilibrium(ladder, contacts)
+    cone = solve_equilibrium(ladder, contacts, sides=64)  # near the cone itself
     assert result.stands is cone.stands is (shift_mm < 2.0)
 
 
 @pytest.mark.parametrize(("shift_mm", "fine"), [(0.0, False), (3.0, True), (8.0, False)])
 def test_a_verdict_alone_skips_the_fine_pyramid_when_the_pyramid_around_the_cone_fails(monkeypatch, shift_mm, fine):
-    # The ladder above: standing (no fine program needed), just fallen (the eight-sided pyramid
+    # The leaning ladder: standing (no fine program needed), just fallen (the eight-sided pyramid
     # around the cone still holds it: the 32-sided program decides), and well fallen (the
     # pyramid around the cone fails it too, and so must the cone: no 32-sided program). The
     # verdict and its mechanism are the cone's every time.
     from stability import _equilibrium
     from stability._equilibrium import FINE_SIDES
 
-    mm = 1e-3
-    wall_normal = np.array([0.64974, -0.76016, 0.0])
-    foot_normal = np.array([7.74e-6, -2.78e-6, 1.0]) / np.linalg.norm([7.74e-6, -2.78e-6, 1.0])
-    wall = [[337.205, -58.374, 77.348], [337.205, -58.374, 79.348], [355.449, -42.78, 79.342], [355.449, -42.78, 77.342]]
-    foot = [[400.998, -133.031, 8.0], [399.698, -131.51, 8.0], [417.942, -115.917, 8.0], [419.241, -117.437, 8.0]]
-    contacts = [
-        ContactPolygon("ladder", "wall", np.array(wall) * mm, wall_normal, 0.5),
-        ContactPolygon("ladder", "step", np.array(foot) * mm, foot_normal, 0.5),
-    ]
-    ladder = {"ladder": RigidBlock(M, np.array([379.419, -89.304, 46.406]) * mm - shift_mm * mm * wall_normal)}
+    ladder, contacts = leaning_ladder(shift_mm)
     cone = solve_equilibrium(ladder, contacts, sides=64)  # near the cone itself
     sides: list[int] = []
     program = _equilibrium._solve

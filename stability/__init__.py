@@ -43,7 +43,7 @@ from ._impact import breaks_loose, kinetic_energy, potential_energy
 from ._leaning import lean_polygon, leaning_stands, pair_friction
 from ._load import Load, LoadNode, propagate, split_load, torque_split
 from ._load_path import load_path, proven, support_piece
-from ._lp import OutOfTime
+from ._lp import OutOfTime, WarmStart
 from ._margin import equilibrium_margin
 from ._placing import GAP as CONTACT_GAP
 from ._placing import Placed, Placing, load_paths_hold
@@ -76,6 +76,7 @@ __all__ = [
     "StabilityConfig",
     "StabilityEvent",
     "StabilityExtension",
+    "WarmStart",
     "balanced_tilted",
     "breaks_loose",
     "combined_hull",

@@ -464,7 +464,7 @@ def balanced_tilted(
     proportion of the vertical ones: a uniform tilt asks each contact for ``|run|`` times its
     normal force, as the report's sliding test under a tilted gravity does
     (:mod:`stability._shake`). ``warm``: the program starts from the basis of the last one
-    solved with it, when of the same shape (:class:`stability._lp.WarmStart`: a search over
+    solved with it, when of the same shape (:class:`stability.WarmStart`: a search over
     tilts of the same blocks).
 
     Raises:
@@ -517,7 +517,7 @@ def _solve_vertical(
     HiGHS's dual simplex can stall on an infeasible program built from engine poses (702
     iterations and 0.55 s, ending in numerical difficulties, for the 51 bricks of a slant
     log cabin at its collapse), where the full program decides in a quarter of that.
-    ``warm``: :class:`stability._lp.WarmStart`.
+    ``warm``: :class:`stability.WarmStart`.
     """
     keys = list(blocks)
     index = {k: i for i, k in enumerate(keys)}

@@ -379,7 +379,7 @@ def tied_tilt(stack: Stack, riders: tuple[int, ...]) -> float:
     (:attr:`stability.StabilityConfig.com_margin`), each contact is its area less that margin, as
     the report's tipping test takes it. A ride's riders do not change while it lasts: it is found
     once a ride (:attr:`RideLimit.tied`), its programs each started from the last one's basis
-    (:class:`stability._lp.WarmStart`: a 30-level tower's 9 programs took 163 ms from scratch).
+    (:class:`stability.WarmStart`: a 30-level tower's 9 programs took 163 ms from scratch).
 
     Source: rigid-block equilibrium (Livesley 1978; Whiting et al. 2009) under the tilted
     gravity of :mod:`stability._shake`; stackdsl's own in asking it of a ride's riders.

@@ -85,6 +85,7 @@ def test_stability_exports():
             "StabilityConfig",
             "StabilityEvent",
             "StabilityExtension",
+            "WarmStart",
             "balanced_tilted",
             "breaks_loose",
             "combined_hull",

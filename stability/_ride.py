@@ -146,8 +146,8 @@ def felt_gravity(
     how they froze), is the swirl, which the proof asks of friction alone (:func:`holds_tilted`).
     Accelerations are taken over :data:`WINDOW`: an engine's contacts shake a body resting on
     others by a few rad/s^2 from one step to the next (20 rad/s^2 and 1 m/s^2 on a Jenga tower's
-    tipping top in pybullet), which moves nothing. A ride falling freely feels no gravity: its tilt is then 90 degrees (nothing
-    is proved for it). Source: stackdsl's own (module docstring).
+    tipping top in pybullet), which moves nothing. A ride falling freely feels no gravity: its
+    tilt is then 90 degrees (nothing is proved for it). Source: stackdsl's own (module docstring).
     """
     if time - limit.when >= WINDOW - 1e-9:
         step = time - limit.when
@@ -372,10 +372,10 @@ def tied_tilt(stack: Stack, riders: tuple[int, ...]) -> float:
     :data:`TIED_SHARE` of the least friction coefficient of their contacts (where the report's
     sliding test stops), then by :data:`TIED_HALVINGS` halvings of the interval left: the loads
     they stand under are a convex set (forces inside friction cones, added, stay inside them), so
-    what holds towards all of them holds ``t cos(pi / TIED_DIRECTIONS)`` in every direction. A contact with a body outside the ride
-    carries nothing here, and a padded contact is its bare points
-    (:func:`stability._equilibrium.bare_contacts`: a line takes no moment about itself), both on
-    the side of caution; with the stability model's margin
+    what holds towards all of them holds ``t cos(pi / TIED_DIRECTIONS)`` in every direction. A
+    contact with a body outside the ride carries nothing here, and a padded contact is its bare
+    points (:func:`stability._equilibrium.bare_contacts`: a line takes no moment about itself),
+    both on the side of caution; with the stability model's margin
     (:attr:`stability.StabilityConfig.com_margin`), each contact is its area less that margin, as
     the report's tipping test takes it. A ride's riders do not change while it lasts: it is found
     once a ride (:attr:`RideLimit.tied`), its programs each started from the last one's basis

@@ -176,6 +176,10 @@ collapse monitor's rest test work in floats, brick by brick (numpy's fixed costs
 step for the poses, the rotations and the corners, are more than a dozen bricks' floats now that
 a merged body's bricks are read at once: 5 bricks riding a shaken ground, 166 to 111 ms a run)."""
 
+BOUND_SLACK = 1e-9
+"""Metres added to :meth:`Structure._within`'s bound, far above its rounding: a ride measured that
+far inside the threshold is measured exactly."""
+
 OVERLAP = 1e-8
 """Square metres two footprints must share for a brick to rest on the other (:meth:`Structure.under`)."""
 
@@ -208,8 +212,14 @@ class Structure:
         # the placed positions, orientations and half diagonals of the bricks last bounded
         self._placed: tuple[tuple[int, ...], np.ndarray, np.ndarray, np.ndarray] = ((), *(np.zeros(0),) * 3)
         # merged body -> the bodies of it measured, the inverse of the first's rotation matrix
-        # then, their corners then from the first's centre (n * 8, 3, m), where they were placed (n * 8, 3, m)
-        self._merged: dict[int, tuple[tuple[int, ...], np.ndarray, np.ndarray, np.ndarray]] = {}
+        # then, their corners then from the first's centre (n * 8, 3, m), where they were placed (n * 8, 3, m),
+        # and the farthest of those corners from the first's centre (m)
+        self._merged: dict[int, tuple[tuple[int, ...], np.ndarray, np.ndarray, np.ndarray, float]] = {}
+        # merged body -> the bodies of it last measured, the first's centre (in the ground's frame, m) and
+        # quaternion (x, y, z, w) then, and the farthest any of them was from where it was placed (m)
+        self._measured: dict[
+            int, tuple[tuple[int, ...], tuple[float, float, float], tuple[float, float, float, float], float]
+        ] = {}
         # what :meth:`measure` last read, in the order placed, and the rows of the pending bricks
         self._layout: tuple[tuple[tuple[str, ...], ...], list[BrickRecord], list[int]] = ((), [], [])
 
@@ -374,17 +384,38 @@ class Structure:
             matrices = Rotation.from_quat(quaternions).as_matrix()
             corners = (positions[:, None, :] + np.einsum("nij,nkj->nki", matrices, local)).reshape(-1, 3)
             placed = np.concatenate([r.corners for r in records])
-            kept = self._merged[key] = (bodies, matrices[0].T.copy(), corners - positions[0], placed)
+            arms = corners - positions[0]
+            reach = float(np.sqrt(np.einsum("ij,ij->i", arms, arms).max()))
+            kept = self._merged[key] = (bodies, matrices[0].T.copy(), arms, placed, reach)
             for old in [k for k in self._merged if k not in self.world.merged_groups()]:
                 del self._merged[old]
-        _, turned, arms, placed = kept
+                self._measured.pop(old, None)
+        _, turned, arms, placed, _ = kept
         (x, y, z), orientation = self.world.pose_floats(bodies[0])
         ox, oy, oz = self.offset
         now = arms @ (np.array(_matrix(orientation)).reshape(3, 3) @ turned).T  # each corner from the first's centre
         now -= placed
         now += (x - ox, y - oy, z - oz)
         farthest: np.ndarray = np.sqrt(np.einsum("ij,ij->i", now, now).reshape(len(bodies), -1).max(axis=1))
+        self._measured[key] = (bodies, (x - ox, y - oy, z - oz), orientation, float(farthest.max()))
         return farthest
+
+    def _within(self, key: int, parts: list[BrickRecord], threshold: float) -> bool:
+        """Whether no corner of ``parts``, the bricks the merged body ``key`` moves, can be more
+        than ``threshold`` m from where it was placed: bounded from their farthest when
+        :meth:`_rigidly` last measured them, plus the most any corner can have moved since as one
+        rigid body (its first part's travel, and the chord its turn sweeps at the farthest corner
+        from that part's centre, 2 r sin(angle / 2)). False when they were not measured so.
+        Source: stackdsl's own."""
+        kept, last = self._merged.get(key), self._measured.get(key)
+        if kept is None or last is None or last[0] != kept[0] or len(parts) != len(kept[0]):
+            return False
+        _, (x0, y0, z0), (ax, ay, az, aw), farthest = last
+        (x, y, z), (qx, qy, qz, qw) = self.world.pose_floats(parts[0].body)
+        ox, oy, oz = self.offset
+        moved = math.sqrt((x - ox - x0) ** 2 + (y - oy - y0) ** 2 + (z - oz - z0) ** 2)
+        cos_half = min(1.0, abs(qx * ax + qy * ay + qz * az + qw * aw))
+        return farthest + moved + 2.0 * kept[4] * math.sqrt(1.0 - cos_half**2) + BOUND_SLACK <= threshold
 
     def poses(self, records: list[BrickRecord]) -> Poses:
         """:data:`Poses` of ``records`` now, in the ground's frame (:attr:`offset`)."""
@@ -399,17 +430,52 @@ class Structure:
         the poses serves all. With more than :data:`FEW` moving bricks and more than :data:`FEW`
         pending, the displacements of all at once; else the others' bound first (:meth:`bounds`,
         in floats up to :data:`FEW` moving bricks: it is never less than the displacement), then
-        the displacements of the bricks it leaves. Source: stackdsl's own."""
+        the displacements of the bricks it leaves.
+
+        The bricks that one merged body moves in the engine (a ride, :meth:`World.merged_groups
+        <stackdsl.engines.protocol.World.merged_groups>`) are measured all at once from its one
+        pose (:meth:`_rigidly`), not brick by brick: the twelve bricks of a single file riding a
+        shaken ground cost the monitor a pose each a step, a fifth of the run. Source: stackdsl's own."""
+        riding = self._riding()
+        if not riding:
+            return self._measure(pending, threshold, self.moving)
+        ridden = {r.id for parts in riding.values() for r in parts}
+        rest = {i: r for i, r in self.moving.items() if i not in ridden}
+        watched, moved = self._measure([i for i in pending if i not in ridden], threshold, rest)
+        found = list(zip(watched, moved.tolist(), strict=True))
+        for key, parts in riding.items():
+            if not any(r.id in pending for r in parts) and self._within(key, parts, threshold):
+                continue  # the usual step of a ride: a bound from one pose
+            rigid = zip(parts, self._rigidly(parts, key).tolist(), strict=True)
+            found += [(r, d) for r, d in rigid if d > threshold or r.id in pending]
+        if not found:
+            return [], _NONE
+        found.sort(key=lambda pair: _order(pair[0]))
+        return [r for r, _ in found], np.array([d for _, d in found])
+
+    def _riding(self) -> dict[int, list[BrickRecord]]:
+        """The moving bricks a merged body moves, two or more, by its key, in the order of its parts."""
+        groups = self.world.merged_groups() if len(self.moving) > 1 else None
+        if not groups:
+            return {}
+        by_body = {r.body: r for r in self.moving.values()}
+        riding = {key: [by_body[b] for b in parts if b in by_body] for key, parts in groups.items()}
+        return {key: parts for key, parts in riding.items() if len(parts) > 1}
+
+    def _measure(
+        self, pending: Collection[str], threshold: float, moving: Mapping[str, BrickRecord]
+    ) -> tuple[list[BrickRecord], np.ndarray]:
+        """:meth:`measure` of the moving bricks ``moving`` (by id), none of them riding."""
         records = self.records
         frozen = [r for r in map(records.__getitem__, pending) if not r.moving]
-        if len(self.moving) <= FEW:  # in floats: numpy's fixed costs are most of it for a few bricks
-            watched = [r for r in self.moving.values() if r.id in pending or self._bound(r) > threshold]
+        if len(moving) <= FEW:  # in floats: numpy's fixed costs are most of it for a few bricks
+            watched = [r for r in moving.values() if r.id in pending or self._bound(r) > threshold]
             if frozen or len(watched) > 1:
                 watched = sorted(frozen + watched, key=_order)
             return watched, self.displacements(watched) if watched else _NONE
-        key = (tuple(pending), tuple(r.id for r in frozen), tuple(self.moving))
+        key = (tuple(pending), tuple(r.id for r in frozen), tuple(moving))
         if self._layout[0] != key:  # the same bricks step after step: sorted once
-            read = sorted(frozen + list(self.moving.values()), key=_order)
+            read = sorted(frozen + list(moving.values()), key=_order)
             self._layout = (key, read, [i for i, r in enumerate(read) if r.id in pending])
         _, read, rows = self._layout
         if len(rows) > FEW:  # measured whatever the bound says: one pass over all

@@ -305,6 +305,26 @@ def test_a_folder_check_that_refuses_its_input_says_why_under_the_table(tmp_path
     assert "exit code 2: check refused bad input" in table and one.summary.replace("|", "/") in table
 
 
+def test_a_folder_s_warnings_are_said_once_under_its_check_and_not_by_each_cell(tmp_path, recwarn):
+    """A scene that warns (two pulls written out of the order of their times) was reported by
+    every run of every cell in Python's words, the compiler's source line included: the check's
+    warning is said once under its table, in stackdsl's words, and a cell's run says none."""
+    from stackdsl.bench.actions import Scene, check_times, format_check_times, run_cell
+
+    text = (
+        "stackdsl: 1\nstructure: {tower: {levels: 2, bricks_per_layer: 3, spacing: 25 mm}}\ntiming: {interval: 0.5 s}\n"
+        "actions:\n  - remove: {brick: L02.1, at: 5 s, speed: 60 mm/s}\n  - remove: {brick: L02.3, at: 4 s, speed: 60 mm/s}\n"
+    )
+    (tmp_path / "late.yaml").write_text(text, encoding="utf-8")
+    times = check_times(tmp_path, ("1", "auto"), repeats=1)
+    (said,) = {w for t in times for w in t.warnings}
+    assert said.startswith(f"{tmp_path / 'late.yaml'}:6:32: warning: actions[1].remove.at: starts at 4 s")
+    table = format_check_times(times, tmp_path, 1)
+    assert table.count(said) == 1 and table.index(said) > table.index("| auto |")
+    run = run_cell(Scene("late.yaml", text, str(tmp_path / "late.yaml")), "extension")
+    assert run.passed and not [w for w in recwarn if "remove.at" in str(w.message)]
+
+
 def test_the_scenes_run_in_the_order_given(monkeypatch, capsys):
     import stackdsl.bench.actions as actions
     from stackdsl.cli.main import main

@@ -33,6 +33,7 @@ import statistics
 import subprocess
 import sys
 import time
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -40,7 +41,7 @@ from pathlib import Path
 from ..batch.guard import SPAWN
 from ..compile.compiler import compile_scenario
 from ..compile.program import Program
-from ..lang.errors import ScenarioError
+from ..lang.errors import ScenarioError, ScenarioWarning
 from ..lang.expectations import Expect, bricks_of, levels_of
 from ..lang.loader import parse_scenario
 from .lean import LeanOutcome
@@ -213,12 +214,16 @@ class Run:
 
 def run_cell(scene: Scene, side: str) -> Run:
     """Run ``scene`` on ``side`` once, timed, after a one-level tower on the same side, untimed
-    (the process's first calls into its engine and libraries); meant for a fresh process."""
+    (the process's first calls into its engine and libraries); meant for a fresh process. The
+    scene's warnings (:class:`ScenarioWarning`) are not shown: a cell is run for its time, as
+    often as it is repeated, and ``stackdsl check`` says them (:func:`check_times` keeps them)."""
     from .bench import LEAN_TOLERANCE
     from .lean_mujoco import run_lean
 
     try:
-        program = program_for(scene.text, scene.source, side)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ScenarioWarning)
+            program = program_for(scene.text, scene.source, side)
     except ScenarioError as exc:
         return Run(scene.name, side, 0.0, None, "refused: " + str(exc).splitlines()[0])
     expect = parse_scenario(scene.text, scene.source).expect
@@ -424,12 +429,14 @@ def folder_scenes(folder: Path) -> list[Scene]:
 @dataclass(frozen=True)
 class CheckTime:
     """``stackdsl check FOLDER -j jobs``: wall seconds of each run (a fresh process each), the
-    exit code of the first and its last line (how many passed and failed)."""
+    exit code of the first, its last line (how many passed and failed) and the warnings it gave
+    (``file:line:col: warning: ...``, each once)."""
 
     jobs: str
     walls: tuple[float, ...]
     exit_code: int
     summary: str = ""
+    warnings: tuple[str, ...] = ()
 
     @property
     def wall(self) -> float:
@@ -443,6 +450,7 @@ def check_times(folder: Path, jobs: Sequence[str] = ("1", "auto"), repeats: int 
     walls: dict[str, list[float]] = {j: [] for j in jobs}
     codes: dict[str, int] = {}
     said: dict[str, str] = {}
+    warned: dict[str, tuple[str, ...]] = {}
     command = [sys.executable, "-m", "stackdsl", "check", str(folder)]
     for _ in range(max(1, repeats)):
         for j in jobs:
@@ -451,7 +459,9 @@ def check_times(folder: Path, jobs: Sequence[str] = ("1", "auto"), repeats: int 
             walls[j].append(time.perf_counter() - start)
             codes.setdefault(j, done.returncode)
             said.setdefault(j, _last_line(done.stdout) or _last_line(done.stderr))  # a refusal says why on stderr
-    return [CheckTime(j, tuple(walls[j]), codes[j], said[j]) for j in jobs]
+            lines = done.stderr.decode(errors="replace").splitlines()
+            warned.setdefault(j, tuple(dict.fromkeys(line for line in lines if ": warning: " in line)))
+    return [CheckTime(j, tuple(walls[j]), codes[j], said[j], warned[j]) for j in jobs]
 
 
 def _last_line(output: bytes) -> str:
@@ -463,7 +473,7 @@ def format_check_times(times: Sequence[CheckTime], folder: Path, files: int) -> 
     """A Markdown table of :func:`check_times`; under it, a note when a run refused bad input
     (exit code 2: its time is of a refusal, not of the folder's runs)."""
     lines = [
-        f"`stackdsl check {folder}` ({files} files), each run a fresh `python -m stackdsl` process:",
+        f"`stackdsl check {folder}` ({files} file{'' if files == 1 else 's'}), each run a fresh `python -m stackdsl` process:",
         "",
         "| -j | wall (s), median | runs (s) | exit code | the first run's last line |",
         "|---|---:|---|---:|---|",
@@ -473,4 +483,7 @@ def format_check_times(times: Sequence[CheckTime], folder: Path, files: int) -> 
         lines.append(f"| {t.jobs} | {t.wall:.1f} | {runs} | {t.exit_code} | {t.summary.replace('|', '/')} |")
     if any(t.exit_code == 2 for t in times):
         lines += ["", "exit code 2: check refused bad input and ran nothing, or only part: its time is not the folder's"]
+    said = dict.fromkeys(w for t in times for w in t.warnings)
+    if said:
+        lines += ["", "its warnings (the cells below compile the same files and do not say them again):", *said]
     return "\n".join(lines)

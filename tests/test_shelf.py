@@ -363,22 +363,31 @@ def test_the_bricks_of_a_merged_body_are_measured_from_its_one_pose_as_each_bric
         check()
 
 
+def _merged_column(world, spec, levels=9):
+    """A column of ``levels`` frozen bricks (:func:`_column`), each a structure brick placed where
+    it is, all but the bottom one merged into one body: the structure and the bricks, bottom first."""
+    from stackdsl.runtime.bricks import BrickRecord, Structure
+
+    structure = Structure(world)
+    bricks = _column(world, spec, levels)
+    for i, body in enumerate(bricks):
+        placed = world.pose(body)
+        structure.add(BrickRecord(f"b{i}", body, spec, i + 1, placed, placed))
+    assert world.merge(bricks[1:])
+    return structure, bricks
+
+
 def test_the_monitor_measures_a_merged_body_s_bricks_from_its_pose_and_skips_them_while_its_bound_holds(monkeypatch):
     """``Structure.measure`` of the bricks one merged body moves (a ride): the same bricks, at the
     same displacements, as measured brick by brick (``Structure.displacement``), the pending ones
     and every one past the threshold, in the order placed, as the merged body slides, tips and
     spins off its base; while the bound from its last measure keeps every one within the
     threshold, they are not measured at all."""
-    from stackdsl.runtime.bricks import BrickRecord, Structure
+    from stackdsl.runtime.bricks import Structure
 
     spec, threshold = _spec_of(), 0.004
     with pybullet_world(SETTINGS, 0.5, 0.0, shelve=False) as world:
-        structure = Structure(world)
-        bricks = _column(world, spec, 9)
-        for i, body in enumerate(bricks):
-            placed = world.pose(body)
-            structure.add(BrickRecord(f"b{i}", body, spec, i + 1, placed, placed))
-        assert world.merge(bricks[1:])
+        structure, bricks = _merged_column(world, spec)
         world.set_frozen(bricks[0], False, spec.mass)
         measured = []
         rigidly = Structure._rigidly
@@ -409,16 +418,9 @@ def test_a_merged_body_turned_in_place_is_measured_again_when_its_turn_may_carry
     the 4 mm threshold (about this axis the top corners move 3.2 mm: the bound is not exact)."""
     from scipy.spatial.transform import Rotation
 
-    from stackdsl.runtime.bricks import BrickRecord, Structure
-
     spec = _spec_of()
     with pybullet_world(SETTINGS, 0.5, 0.0, shelve=False) as world:
-        structure = Structure(world)
-        bricks = _column(world, spec, 9)
-        for i, body in enumerate(bricks):
-            placed = world.pose(body)
-            structure.add(BrickRecord(f"b{i}", body, spec, i + 1, placed, placed))
-        assert world.merge(bricks[1:])
+        structure, bricks = _merged_column(world, spec)
         (key,) = world.merged_groups()
         riders = [structure.records[f"b{i}"] for i in range(1, 9)]
         assert structure.measure({}, 0.004)[0] == []  # measured once, all in place

@@ -1267,3 +1267,83 @@ def test_a_size_written_where_a_brick_types_name_goes_says_where_sizes_go(text, 
     assert err.value.field == field
     assert err.value.message.startswith("expected the name of a brick type (kapla, or a name under brick_types:")
     assert err.value.message.endswith("got a mapping")
+
+
+# libyaml's parser and PyYAML's read alike ---------------------------------------
+
+
+def _composed(kind, text: str):
+    """What composing ``text`` with loader class ``kind`` gives: the plain data with every
+    recorded position, or the error's words; "refused" for a YAML error or a failure libyaml
+    leaves to PyYAML's parser to read again."""
+    source = _loader.SourceMap("f.yaml", tuple(text.splitlines()))
+    try:
+        data = _loader._compose(kind, text, source)
+    except ScenarioError as exc:
+        return ("error", str(exc))
+    except (_loader.yaml.YAMLError, _loader._Refused):
+        return ("refused",)
+    return ("read", repr(data), sorted(source.values.items(), key=repr), sorted(source.keys.items(), key=repr))
+
+
+def _texts(folders: tuple[str, ...], mutations: int, seed: int) -> list[str]:
+    """Every YAML file under 20 kB in the repository's ``folders``, and ``mutations`` of them, each with one to four random edits of YAML's syntax."""
+    import random
+
+    root = Path(__file__).resolve().parent.parent
+    files = [p for d in folders for p in sorted((root / d).rglob("*.yaml"))]
+    texts = [t for p in files if len(t := p.read_text(encoding="utf-8", errors="replace")) < 20000]  # the big ones: slow
+    pieces = [":", " ", "{", "}", "[", "]", ",", '"', "'", "&a ", "*a", "|", ">", "#", "- ", "\n", "\n  ", "---\n",
+              "\\", "\\u12", "~", "1e5", "on", "é", "\r", "\r\n", "\u2028", "😀", ": ", "{a: [b, {c: d}]}", "<<: "]  # fmt: skip
+    rng = random.Random(seed)
+    for _ in range(mutations):
+        text = rng.choice(texts)
+        for _ in range(rng.randint(1, 4)):
+            i = rng.randrange(len(text) + 1)
+            if rng.random() < 0.6:
+                text = text[:i] + rng.choice(pieces) + text[i:]
+            else:
+                text = text[:i] + text[i + rng.randint(1, 5) :]
+        texts.append(text)
+    return texts
+
+
+@pytest.mark.skipif(_loader._FAST is None, reason="PyYAML was built without libyaml: its Python parser reads alone")
+@pytest.mark.parametrize(
+    "folders, mutations",
+    [
+        (("scenarios", "sweeps"), 250),
+        # the hostile corpus and the docs' scenes too: 16446 texts of three seeds agreed when this was written
+        pytest.param(("scenarios", "sweeps", "tests", "docs"), 3000, marks=pytest.mark.slow),
+    ],
+)
+def test_libyaml_reads_every_text_it_is_given_as_pyyamls_parser_does(folders, mutations):
+    """A text libyaml's events compose is read as PyYAML's own parser reads it: the same data,
+    every field at the same line and column, or the same error; one it refuses is read again by
+    PyYAML's parser (tabs, "?", tags and U+FEFF always are)."""
+    texts = [t for t in _texts(folders, mutations, seed=1) if not _loader._PYYAML_ONLY.search(t)]
+    assert len(texts) > mutations / 2
+    read = refused = 0
+    for text in texts:
+        fast = _composed(_loader._FAST, text)
+        if fast == ("refused",):
+            refused += 1
+            continue
+        assert fast == _composed(_loader._Loader, text), text
+        read += fast[0] == "read"
+    assert read > mutations / 10 and refused > mutations / 20, (read, refused)  # both sides of the mutations are tried
+
+
+@pytest.mark.skipif(_loader._FAST is None, reason="PyYAML was built without libyaml: its Python parser reads alone")
+def test_a_plain_file_is_read_by_libyaml_and_one_it_refuses_by_pyyaml(monkeypatch):
+    composed = []
+    original = _loader._compose
+    monkeypatch.setattr(_loader, "_compose", lambda kind, *a: composed.append(kind) or original(kind, *a))
+    scenario("stackdsl: 1\nstructure: {tower: {levels: 2}}\n")
+    assert composed == [_loader._FAST]
+    composed.clear()
+    assert str(error('stackdsl: 1\nname: "ab\\U0011ffff"\n')).startswith("s.yaml:2:12: not valid YAML: ValueError: chr()")
+    assert composed == [_loader._FAST, _loader._Loader]
+    composed.clear()
+    scenario("stackdsl: 1\nname: does it stand?\nstructure: {tower: {levels: 2}}\n")
+    assert composed == [_loader._Loader]

@@ -4,7 +4,12 @@ The file's text is read by :mod:`stackdsl.lang.scenario_file` (a regular file of
 never a FIFO, device or socket; UTF-8; only the characters YAML allows), then composed with
 PyYAML's safe loader into nodes (no object construction), turned into plain data while a side
 table records each field's position, and validated with pydantic; every error is mapped back
-to the nearest YAML node.
+to the nearest YAML node. Where PyYAML was built with libyaml, libyaml's parser gives the events
+(2.6 times faster on a file of 1000 bricks) and PyYAML's Python composer, with the checks below,
+builds the nodes; a text libyaml refuses, or one with a character where the two read apart
+(:data:`_PYYAML_ONLY`), is read by PyYAML's Python parser, whose reading or error is the one
+given: what is refused, where and in what words, is PyYAML's either way (tests/test_loader.py
+compares the two on every YAML file of the repository and thousands of edits of them).
 
 Hostile input fails fast and cleanly: duplicate keys, merge keys, recursive aliases and
 tags other than the plain ones (str, int, float, bool, null, seq, map) are refused;
@@ -20,7 +25,7 @@ from __future__ import annotations
 
 import re
 import warnings
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -165,10 +170,10 @@ def parse_scenario(text: str | Mapping[str, Any], file: str = NO_FILE, seed: int
     return scenario
 
 
-class _Loader(yaml.SafeLoader):
-    """PyYAML's safe loader without YAML 1.1's timestamp, value and merge types, that
-    refuses recursive aliases and nesting deeper than :data:`MAX_DEPTH` while composing,
-    and reads ``1e-4`` as a number, as YAML 1.2 does."""
+class _Checks(yaml.composer.Composer, yaml.resolver.Resolver):
+    """PyYAML's composer and resolver without YAML 1.1's timestamp, value and merge types, that
+    refuse recursive aliases and nesting deeper than :data:`MAX_DEPTH` while composing, and read
+    ``1e-4`` as a number, as YAML 1.2 does; the parser that gives the events is the loader's."""
 
     yaml_implicit_resolvers = {  # noqa: RUF012 (PyYAML's own class attribute, read only)
         first: [(tag, regexp) for tag, regexp in resolvers if tag in _SCALAR_TAGS]
@@ -176,8 +181,7 @@ class _Loader(yaml.SafeLoader):
         for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
     }
 
-    def __init__(self, text: str, source: SourceMap) -> None:
-        super().__init__(text)
+    def _start(self, source: SourceMap) -> None:
         self.source = source
         self.depth = 0
         self.open_anchors: set[str] = set()
@@ -185,8 +189,10 @@ class _Loader(yaml.SafeLoader):
         # names is the anchor's own, whose marks are the anchor's
         self.aliases: dict[tuple[int, int], Any] = {}
 
+    peek_event: Callable[[], Any]  # the parser's, libyaml's or PyYAML's
+
     def compose_node(self, parent: Node | None, index: Any) -> Node | None:
-        event = self.peek_event()  # type: ignore[no-untyped-call]  # PyYAML's stubs leave it untyped
+        event = self.peek_event()
         if isinstance(event, AliasEvent) and event.anchor in self.open_anchors:
             raise self.error(event.start_mark, f"the alias *{event.anchor} is inside the node it names (a recursive alias)")
         if isinstance(event, AliasEvent) and parent is not None and index is not None:
@@ -220,23 +226,100 @@ class _Loader(yaml.SafeLoader):
         )
 
 
+class _Loader(_Checks, yaml.SafeLoader):
+    """:class:`_Checks` on PyYAML's own Python reader, scanner and parser: the reference."""
+
+    def __init__(self, text: str, source: SourceMap) -> None:
+        yaml.SafeLoader.__init__(self, text)
+        self._start(source)
+
+
+try:
+    from yaml._yaml import CParser as _CParser
+except ImportError:  # PyYAML built without libyaml: its Python parser alone
+    _FAST: type[_Checks] | None = None
+else:
+
+    class _FastLoader(_Checks, _CParser, yaml.constructor.SafeConstructor):
+        """:class:`_Checks` on libyaml's parser, its nodes as PyYAML's parser makes them: a plain
+        scalar's style None (libyaml's is ""), an empty value in a flow mapping (``{a: }``) marked
+        just after its colon (libyaml: at the ``}``)."""
+
+        def __init__(self, text: str, source: SourceMap) -> None:
+            _CParser.__init__(self, text)
+            yaml.composer.Composer.__init__(self)
+            yaml.constructor.SafeConstructor.__init__(self)
+            yaml.resolver.Resolver.__init__(self)
+            self._start(source)
+
+        def compose_scalar_node(self, anchor: Any) -> ScalarNode:
+            node = super().compose_scalar_node(anchor)
+            if node.style == "":  # libyaml's plain style; PyYAML's is None
+                node.style = None
+                if node.value == "" and node.start_mark.index == node.end_mark.index:  # no anchor or tag
+                    node.start_mark = node.end_mark = self._after_colon(node.start_mark)
+            return node
+
+        def _after_colon(self, mark: Any) -> Any:
+            """Where PyYAML marks an empty value that libyaml marks at ``mark``: just after its
+            colon when only blanks and line ends lie between (``{a: }``), else ``mark``."""
+            lines, line = self.source.lines, mark.line
+            text = lines[line][: mark.column] if line < len(lines) else ""
+            while not text.strip(" \t") and line > 0:
+                line -= 1
+                text = lines[line]
+            column = len(text.rstrip(" \t"))
+            if not text[:column].endswith(":") or (line, column) == (mark.line, mark.column):
+                return mark
+            return yaml.error.Mark(mark.name, mark.index, line, column, None, 0)  # its index, read nowhere, libyaml's
+
+    _FAST = _FastLoader
+
+
+# where libyaml reads other than PyYAML: tabs and "?" in flow context (YAML 1.2 allows them, PyYAML
+# refuses them), tags ("!@!str", "!x1," in a flow mapping) and columns after a U+FEFF inside the text
+_PYYAML_ONLY = re.compile("[\t?!\ufeff]")
+
+
 def _read_yaml(text: str, source: SourceMap) -> Any:
-    loader = None
+    if _FAST is not None and not _PYYAML_ONLY.search(text):
+        try:
+            return _compose(_FAST, text, source)
+        except (yaml.YAMLError, _Refused):
+            pass  # read again below: PyYAML's Python parser gives the error, or reads what libyaml would not
+    return _compose(_Loader, text, source)
+
+
+class _Refused(Exception):
+    """libyaml failed on a text other than with a YAML error."""
+
+
+def _compose(kind: type[_Checks], text: str, source: SourceMap) -> Any:
+    """Plain data of ``text`` composed by ``kind`` (:class:`_Loader`, or :class:`_FastLoader`, whose
+    YAML errors and failures (as :class:`_Refused`) are left to the caller to read again)."""
+    fast = kind is not _Loader
+    loader: Any = None
     try:
-        loader = _Loader(text, source)
+        loader = kind(text, source)  # type: ignore[call-arg]
         node = loader.get_single_node()
         if node is None:
             raise ScenarioError("the file is empty; a scenario starts with 'stackdsl: 1'", file=source.file)
         return _plain(node, (), loader, source, [MAX_NODES], 1)
     except yaml.MarkedYAMLError as exc:
+        if fast:
+            raise
         raise _marked_error(exc, source) from None
     except yaml.YAMLError as exc:
+        if fast:
+            raise
         raise ScenarioError(f"not valid YAML: {exc}", file=source.file) from None
     except ScenarioError:
         raise
     except Exception as exc:
         if loader is None or not raised_in_library(exc):
             raise  # a bug of ours: not to be dressed up as the user's error
+        if fast:
+            raise _Refused from exc
         # PyYAML failed without a YAML error (e.g. "\U0011ffff", beyond Unicode): where it was reading
         where = loader.get_mark()
         raise loader.error(where, f"not valid YAML: {type(exc).__name__}: {exc}") from None

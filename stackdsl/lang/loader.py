@@ -9,7 +9,8 @@ to the nearest YAML node. Where PyYAML was built with libyaml, libyaml's parser 
 builds the nodes; a text libyaml refuses, or one with a character where the two read apart
 (:data:`_PYYAML_ONLY`), is read by PyYAML's Python parser, whose reading or error is the one
 given: what is refused, where and in what words, is PyYAML's either way (tests/test_loader.py
-compares the two on every YAML file of the repository and thousands of edits of them).
+compares the two on every YAML file of the repository and thousands of edits of them), but for
+an empty value in a flow mapping with a comment after its colon (:meth:`_FastLoader._after_colon`).
 
 Hostile input fails fast and cleanly: duplicate keys, merge keys, recursive aliases and
 tags other than the plain ones (str, int, float, bool, null, seq, map) are refused;
@@ -262,14 +263,20 @@ else:
 
         def _after_colon(self, mark: Any) -> Any:
             """Where PyYAML marks an empty value that libyaml marks at ``mark``: just after its
-            colon when only blanks and line ends lie between (``{a: }``), else ``mark``."""
+            colon when only blanks and line ends lie between (``{a: }``), else ``mark`` (with a
+            comment between, ``{a: # why`` and the ``}`` on the next line, at the ``}``, where
+            PyYAML marks after the colon)."""
             lines, line = self.source.lines, mark.line
             text = lines[line][: mark.column] if line < len(lines) else ""
             while not text.strip(" \t") and line > 0:
                 line -= 1
                 text = lines[line]
             column = len(text.rstrip(" \t"))
-            if not text[:column].endswith(":") or (line, column) == (mark.line, mark.column):
+            if (
+                not text[:column].endswith(":")
+                or (line, column) == (mark.line, mark.column)
+                or (line != mark.line and "#" in text)
+            ):
                 return mark
             return yaml.error.Mark(mark.name, mark.index, line, column, None, 0)  # its index, read nowhere, libyaml's
 

@@ -376,8 +376,9 @@ def test_with_mujocos_sleeping_a_parked_brick_lands_where_it_is_put():
 
 
 SCENARIOS = sorted((ROOT / "scenarios").rglob("*.yaml"))
-#: The two Jenga scenes take 8-12 s each on MuJoCo: in .ci/nightly's slow part (pytest -m slow).
-LONG_ON_MUJOCO = {"jenga_falls", "jenga_stands"}
+#: The two Jenga scenes take 8-12 s each on MuJoCo, the pushed KAPLA block 4-5 s: in .ci/nightly's slow
+#: part (pytest -m slow); the default suite runs every one of them on pybullet (scenarios/).
+LONG_ON_MUJOCO = {"jenga_falls", "jenga_stands", "kapla_push_out"}
 
 
 @pytest.mark.parametrize(

@@ -1,6 +1,7 @@
 """YAML -> Scenario: units, defaults, and errors that point at file:line:col."""
 
 import os
+import random
 import socket
 import textwrap
 from pathlib import Path
@@ -1287,9 +1288,8 @@ def _composed(kind, text: str):
 
 
 def _texts(folders: tuple[str, ...], mutations: int, seed: int) -> list[str]:
-    """Every YAML file under 20 kB in the repository's ``folders``, and ``mutations`` of them, each with one to four random edits of YAML's syntax."""
-    import random
-
+    """Every YAML file under 20 kB in the repository's ``folders``, and ``mutations`` of them,
+    each with one to four random edits of YAML's syntax."""
     root = Path(__file__).resolve().parent.parent
     files = [p for d in folders for p in sorted((root / d).rglob("*.yaml"))]
     texts = [t for p in files if len(t := p.read_text(encoding="utf-8", errors="replace")) < 20000]  # the big ones: slow

@@ -27,7 +27,7 @@ ROOT = Path(__file__).resolve().parents[1]
 PASSING = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nexpect: {stands: true}\n"
 # About a second of CPU per second of settle: raw mode at 10 kHz steps every body every step.
 SLOW = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nengine: {mode: raw, timestep: 0.1 ms}\ntiming: {settle: %d s}\n"
-QUICK = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nengine: {mode: raw}\n"  # 1000 steps: its row comes first
+QUICK = "stackdsl: 1\nstructure: {tower: {levels: 2}}\nengine: {mode: raw}\n"  # 1200 steps: its row comes first
 two_cores = pytest.mark.skipif((os.cpu_count() or 1) < 2, reason="-j 2 needs two cores")
 
 

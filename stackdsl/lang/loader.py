@@ -4,13 +4,13 @@ The file's text is read by :mod:`stackdsl.lang.scenario_file` (a regular file of
 never a FIFO, device or socket; UTF-8; only the characters YAML allows), then composed with
 PyYAML's safe loader into nodes (no object construction), turned into plain data while a side
 table records each field's position, and validated with pydantic; every error is mapped back
-to the nearest YAML node. Where PyYAML was built with libyaml, libyaml's parser gives the events
-(2.6 times faster on a file of 1000 bricks) and PyYAML's Python composer, with the checks below,
-builds the nodes; a text libyaml refuses, or one with a character where the two read apart
-(:data:`_PYYAML_ONLY`), is read by PyYAML's Python parser, whose reading or error is the one
-given: what is refused, where and in what words, is PyYAML's either way (tests/test_loader.py
-compares the two on every YAML file of the repository and thousands of edits of them), but for
-an empty value in a flow mapping with a comment after its colon (:meth:`_FastLoader._after_colon`).
+to the nearest YAML node. Where PyYAML was built with libyaml, libyaml's parser (in C) gives the
+events and PyYAML's Python composer, with the checks below, builds the nodes; a text libyaml
+refuses, or one with a character where the two read apart (:data:`_PYYAML_ONLY`), is read by
+PyYAML's Python parser, whose reading or error is the one given: what is refused, where and in
+what words, is PyYAML's either way (tests/test_loader.py compares the two on every YAML file of
+the repository and thousands of edits of them), but for an empty value in a flow mapping with a
+comment after its colon (:meth:`_FastLoader._after_colon`).
 
 Hostile input fails fast and cleanly: duplicate keys, merge keys, recursive aliases and
 tags other than the plain ones (str, int, float, bool, null, seq, map) are refused;

@@ -256,7 +256,9 @@ def test_a_damaged_or_foreign_trajectory_file_is_bad_input(files, capsys):
 
 def test_a_drawing_of_a_run_stopped_by_its_timeout_is_written_and_exits_1(files, capsys):
     out = files / "x.png"
-    tall = "stackdsl: 1\nstructure: {tower: {levels: 20}}\n"
+    # tuned pybullet (1 ms steps, 150 iterations): seconds of work; a 20-level tower in extension
+    # mode finished inside the 0.05 s on a fast machine
+    tall = "stackdsl: 1\nstructure: {tower: {levels: 20}}\nengine: {mode: tuned}\n"
     (files / "tall.yaml").write_text(tall)
     assert main(["render", str(files / "tall.yaml"), "-o", str(out), "--timeout", "0.05"]) == 1
     assert out.is_file() and "the run was stopped early: timeout after 0.05 s" in capsys.readouterr().err

@@ -227,9 +227,11 @@ def _solve(
     sides: int,
     gravity: float,
     sideways: tuple[float, float] = (0.0, 0.0),
+    warm: WarmStart | None = None,
 ) -> Equilibrium[BodyKey]:
     """The program of :func:`solve_equilibrium` with a pyramid of ``sides`` sides, once (never
-    solved again with :data:`FINE_SIDES`)."""
+    solved again with :data:`FINE_SIDES`), from ``warm``'s basis (:class:`stability.WarmStart`:
+    whether the blocks stand, and the least tension, do not depend on it)."""
     keys = list(blocks)
     if not contacts:  # nothing holds them: every block falls (none at all: they stand)
         return Equilibrium(
@@ -252,7 +254,7 @@ def _solve(
             -block.mass * sideways[1] / weight,
             block.mass * gravity / weight,
         )
-    result = solve(cost, a_eq, rhs)
+    result = solve(cost, a_eq, rhs, warm=warm)
     if result.status != OPTIMAL:
         return Equilibrium(False, float("inf"), (), {k: float("inf") for k in keys}, (), {k: 1.0 for k in keys})
     tension = float(result.fun) * weight

@@ -289,6 +289,19 @@ def test_the_friction_share_of_a_thin_ladder_is_its_closed_form(degrees):
     assert solve_equilibrium(ladder, [ContactPolygon(c.body, c.other, c.points, c.normal, mu * share) for c in contacts]).stands
 
 
+def turned_ladder(degrees, yaw):
+    """A thin ladder ``degrees`` from vertical, turned ``yaw`` degrees about the vertical from
+    the wall's normal, on a floor and against a wall of friction 0.5: its block and contacts."""
+    a, turn = math.radians(degrees), math.radians(yaw)
+    along, across = np.array([math.cos(turn), math.sin(turn), 0.0]), np.array([-math.sin(turn), math.cos(turn), 0.0])
+    foot, top = -L * math.sin(a) * along, np.array([0.0, 0.0, L * math.cos(a)])
+    contacts = [
+        ContactPolygon("ladder", "floor", np.array([foot - 0.01 * across, foot + 0.01 * across]), UP, 0.5),
+        ContactPolygon("ladder", "wall", np.array([top - 0.01 * across, top + 0.01 * across]), np.array([-1.0, 0, 0]), 0.5),
+    ]
+    return {"ladder": RigidBlock(M, (foot + top) / 2)}, contacts
+
+
 @pytest.mark.parametrize(("degrees", "yaw"), [(30, 20), (40, 35), (50, 20)])
 def test_the_friction_share_is_the_fine_pyramids_least_where_eight_sides_need_more(degrees, yaw):
     # a ladder turned about the vertical against a wall needs its wall friction between the
@@ -298,14 +311,7 @@ def test_the_friction_share_is_the_fine_pyramids_least_where_eight_sides_need_mo
     from stability._equilibrium import FINE_SIDES, _solve
     from stability._friction import COARSE_SIDES, FRICTION_STEP
 
-    a, turn = math.radians(degrees), math.radians(yaw)
-    along, across = np.array([math.cos(turn), math.sin(turn), 0.0]), np.array([-math.sin(turn), math.cos(turn), 0.0])
-    foot, top = -L * math.sin(a) * along, np.array([0.0, 0.0, L * math.cos(a)])
-    contacts = [
-        ContactPolygon("ladder", "floor", np.array([foot - 0.01 * across, foot + 0.01 * across]), UP, 0.5),
-        ContactPolygon("ladder", "wall", np.array([top - 0.01 * across, top + 0.01 * across]), np.array([-1.0, 0, 0]), 0.5),
-    ]
-    ladder = {"ladder": RigidBlock(M, (foot + top) / 2)}
+    ladder, contacts = turned_ladder(degrees, yaw)
 
     def scaled(share):
         return [ContactPolygon(c.body, c.other, c.points, c.normal, c.friction * share) for c in contacts]
@@ -313,6 +319,36 @@ def test_the_friction_share_is_the_fine_pyramids_least_where_eight_sides_need_mo
     least = next(k * FRICTION_STEP for k in range(65) if _solve(ladder, scaled(k * FRICTION_STEP), FINE_SIDES, 9.81).stands)
     assert friction_share(ladder, contacts) == least
     assert not _solve(ladder, scaled(least), COARSE_SIDES, 9.81).stands
+
+
+def test_the_friction_shares_programs_start_from_the_last_basis_and_find_the_same_share(monkeypatch):
+    # the bisection's programs differ only in their friction coefficients: each starts from the
+    # basis the last one of its pyramid ended on, in fewer simplex iterations, to the same share
+    import stability._friction as friction
+    from stability import _lp, friction_share
+
+    ladder, contacts = turned_ladder(40, 35)
+    iterations = [0]
+    solve = _lp.LinearProgram.solve
+
+    def counted(self, warm=None):
+        solution = solve(self, warm)
+        iterations[0] += solution.iterations
+        return solution
+
+    monkeypatch.setattr(_lp.LinearProgram, "solve", counted)
+    warm_share, warm_iterations = friction_share(ladder, contacts), iterations[0]
+
+    class Cold:  # a warm start that never keeps a basis
+        shape = basis = None
+
+        def __setattr__(self, name, value):
+            pass
+
+    monkeypatch.setattr(friction, "WarmStart", Cold)
+    iterations[0] = 0
+    assert friction_share(ladder, contacts) == warm_share
+    assert warm_iterations < iterations[0]
 
 
 def test_a_brick_on_a_level_face_needs_no_friction():

@@ -401,6 +401,17 @@ def test_the_throughput_table_gives_each_executors_efficiency_with_and_without_i
     # the pool started within its 6 s: 83% with start-up, 100% once up; Dask's 2 s came before its 5.5 s: 67%, 91%
     assert lines[3].split()[-2:] == ["83%", "100%"] and lines[4].split()[-2:] == ["67%", "91%"]
     assert lines[-2].endswith("yes")
+    assert lines[2].split()[4:6] == ["10.0", "s"] and lines[3].split()[4:6] == ["6.00", "s"]
+
+
+def test_the_throughput_table_shows_a_short_runs_wall_time():
+    # six samples of a small stack took 0.05 s on a fast machine, printed in tenths as 0.0 s
+    from stackdsl.bench.sweep import Throughput, format_throughputs
+
+    rows = [Throughput("1 process (-j 1)", 6, 0.0496), Throughput("2 processes (-j 2)", 6, 0.31, 0.26)]
+    lines = format_throughputs("small: 6 samples on each executor", rows, True).splitlines()
+    assert lines[2].split()[4:6] == ["0.05", "s"] and lines[3].split()[4:6] == ["0.31", "s"]
+    assert lines[3].split()[7:9] == ["0.26", "s"]
 
 
 @pytest.mark.slow  # 8-10 s: in .ci/nightly's slow part

@@ -171,14 +171,14 @@ def format_row(r: Throughput, one: Throughput) -> str:
     within = not r.executor.startswith("Dask")
     total = r.seconds + (0.0 if within else r.startup)
     running = r.seconds - (r.startup if within else 0.0)
-    startup = f"{_seconds(r.startup)} s" if r.startup else "-"
+    startup = f"{wall_text(r.startup)} s" if r.startup else "-"
     return (
-        f"{r.executor:<32} {_seconds(r.seconds):>7} s {r.rate:>10.1f} {startup:>9} "
+        f"{r.executor:<32} {wall_text(r.seconds):>7} s {r.rate:>10.1f} {startup:>9} "
         f"{r.samples / total / (workers * one.rate):>26.0%} {r.samples / running / (workers * one.rate):>8.0%}"
     )
 
 
-def _seconds(seconds: float) -> str:
+def wall_text(seconds: float) -> str:
     """A wall time for the table: hundredths under 10 s (six samples of a small stack take 0.05 s,
     which tenths printed as 0.0), tenths above."""
     return f"{seconds:.2f}" if seconds < 10 else f"{seconds:.1f}"

@@ -555,7 +555,7 @@ def _bench_record(args: argparse.Namespace) -> int:
 
 
 def _bench_sweep(args: argparse.Namespace) -> int:
-    from ..bench.sweep import HEADER, SPIN_UP, Throughput, footer, format_row, loaded, template, throughputs, title
+    from ..bench.sweep import HEADER, SPIN_UP, Throughput, footer, format_row, loaded, template, throughputs, title, wall_text
 
     if args.samples is not None and not 1 <= args.samples <= 100_000:
         raise ScenarioError(f"--samples must be from 1 to 100000, not {args.samples}", file="--samples")
@@ -574,7 +574,9 @@ def _bench_sweep(args: argparse.Namespace) -> int:
     print(footer(same))
     if args.loaded:
         print(f"\nthe same samples with one core kept busy (a spinning process, {SPIN_UP:.0f} s before):", flush=True)
-        busy, load = loaded(t, lambda row: print(f"{row.executor:<32} {row.seconds:>7.1f} s {row.rate:>10.1f}", flush=True))
+        busy, load = loaded(
+            t, lambda row: print(f"{row.executor:<32} {wall_text(row.seconds):>7} s {row.rate:>10.1f}", flush=True)
+        )
         print(f"1-minute load average at the start: {load:.2f}; -j auto / -j 1 wall: {busy[1].seconds / busy[0].seconds:.2f}")
     return OK
 

@@ -250,11 +250,13 @@ def test_a_sample_refused_as_bad_input_stops_the_sweep():
 
 @pytest.mark.parametrize("command", ["sweep", "check"])
 def test_a_grid_value_the_compiler_refuses_is_refused_at_it_before_any_cell_runs(tmp_path, capsys, monkeypatch, command):
+    import stackdsl.batch.check_sweep as check_sweep
     import stackdsl.batch.sweep as sweep_module
 
     ran = []
     real_run_batch = sweep_module.run_batch
-    monkeypatch.setattr(sweep_module, "run_batch", lambda *a: ran.append(a[1]) or real_run_batch(*a))
+    for module in (sweep_module, check_sweep):  # check's batches call check_sweep's own name for it
+        monkeypatch.setattr(module, "run_batch", lambda *a: ran.append(a[1]) or real_run_batch(*a))
     monkeypatch.setattr(sweep_module, "run_sweep", lambda *a, **k: ran.append("sweep") or iter(()))
     text = STACK.format(levels=3, samples=2).replace("shift: {uniform: [-60 mm, 60 mm], per: layer}", "spacing: 96 mm")
     text = text.replace("sweep: {samples: 2}", "sweep:\n  samples: 2\n  grid: {timing.interval: [1 s, 0.5 s, 0.0011 s]}")
@@ -297,10 +299,15 @@ UNREACHABLE = {
 @pytest.mark.parametrize("command", ["sweep", "check"])
 @pytest.mark.parametrize("case", UNREACHABLE, ids=list(UNREACHABLE))
 def test_a_statistic_no_sample_can_pass_is_refused_at_it_before_any_sample_runs(case, command, tmp_path, capsys, monkeypatch):
+    import stackdsl.batch.check_sweep as check_sweep
     import stackdsl.batch.sweep as sweep_module
 
     ran = []
-    monkeypatch.setattr(sweep_module, "run_batch", lambda *a: ran.append(a[1]))
+    # check_sweep, imported here first, binds run_batch by name: patched there too, and undone with
+    # the test (imported while only sweep's was patched, it kept the patch for every later test of
+    # the process, whose sweeps then got no samples: an internal error)
+    for module in (sweep_module, check_sweep):
+        monkeypatch.setattr(module, "run_batch", lambda *a: ran.append(a[1]))
     monkeypatch.setattr(sweep_module, "run_sweep", lambda *a, **k: ran.append("sweep") or iter(()))
     expect, field, says = UNREACHABLE[case]
     text = STACK.format(levels=3, samples=2).replace(

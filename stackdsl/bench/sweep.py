@@ -179,8 +179,12 @@ def format_row(r: Throughput, one: Throughput) -> str:
 
 
 def wall_text(seconds: float) -> str:
-    """A wall time for the table: hundredths under 10 s (six samples of a small stack take 0.05 s,
-    which tenths printed as 0.0), tenths above."""
+    """``seconds`` of wall time as the table prints it, without the unit: hundredths under 10 s
+    (six samples of a small stack took 0.05 s, which tenths printed as 0.0), tenths above.
+
+    >>> wall_text(0.0496), wall_text(12.34)
+    ('0.05', '12.3')
+    """
     return f"{seconds:.2f}" if seconds < 10 else f"{seconds:.1f}"
 
 

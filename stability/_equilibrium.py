@@ -16,7 +16,8 @@ bricks 2 to 2.5 times as fast, with the same tensions and collapse mechanisms).
 Inscribed means every force the pyramid allows the true cone allows too, so the
 linearisation can only call a block unstable that is (barely) stable, never the
 reverse; a program the eight-sided pyramid fails by a small tension is solved again with
-32 sides, which lose at most 0.5% of mu. The first tangent points downhill along the contact (or along x when the
+32 sides, which lose at most 0.5% of mu, from the eight-sided program's optimum (its edges are
+every fourth of the 32: column generation adds only the edges that lower the tension). The first tangent points downhill along the contact (or along x when the
 contact is horizontal), so for planar problems in the x-z plane, the slope, the ladder
 and the V, the pyramid is exact in the direction that matters.
 
@@ -41,7 +42,7 @@ import numpy as np
 from scipy import sparse
 from scipy.sparse.csgraph import connected_components
 
-from ._lp import OPTIMAL, WarmStart, solve
+from ._lp import OPTIMAL, WarmStart, solve, solve_by_columns
 
 GRAVITY = 9.81
 
@@ -209,15 +210,17 @@ def solve_equilibrium(
         vertical = _solve_vertical(blocks, contacts, gravity)
         if vertical is not None:
             return vertical
-    found = _solve(blocks, contacts, sides, gravity, sideways)
+    coarse = WarmStart()  # the basis this program ends on: where the wider and finer pyramids start
+    found = _solve(blocks, contacts, sides, gravity, sideways, warm=coarse)
     total = sum(b.mass for b in blocks.values()) * gravity
     if not found.stands and sides < FINE_SIDES and found.tension < NEAR_TENSION * total:  # the pyramid's, or the blocks'?
         if decide:
             widened = 1.0 / math.cos(math.pi / sides)  # the pyramid's inner radius then is the friction coefficient
-            around = _solve(blocks, [replace(c, friction=c.friction * widened) for c in contacts], sides, gravity, sideways)
+            wider = [replace(c, friction=c.friction * widened) for c in contacts]
+            around = _solve(blocks, wider, sides, gravity, sideways, warm=coarse.copy(), primal=True)
             if not around.stands:
                 return around
-        return solve_equilibrium(blocks, contacts, sides=FINE_SIDES, gravity=gravity, quick=False, sideways=sideways)
+        return _solve(blocks, contacts, FINE_SIDES, gravity, sideways, start=(sides, coarse) if FINE_SIDES % sides == 0 else None)
     return found
 
 
@@ -228,10 +231,20 @@ def _solve(
     gravity: float,
     sideways: tuple[float, float] = (0.0, 0.0),
     warm: WarmStart | None = None,
+    primal: bool = False,
+    start: tuple[int, WarmStart] | None = None,
 ) -> Equilibrium[BodyKey]:
     """The program of :func:`solve_equilibrium` with a pyramid of ``sides`` sides, once (never
     solved again with :data:`FINE_SIDES`), from ``warm``'s basis (:class:`stability.WarmStart`:
-    whether the blocks stand, and the least tension, do not depend on it)."""
+    whether the blocks stand, and the least tension, do not depend on it), by the primal
+    simplex with ``primal``.
+
+    With ``start`` (``coarse`` sides dividing ``sides``, and the basis the program of that
+    pyramid ended on), the program is solved by columns (:func:`stability._lp.solve_by_columns`)
+    from the coarse pyramid's unknowns: its edges are every ``sides // coarse``-th edge of this
+    one (:func:`_tangents`), so its optimum is a feasible start, and only the edges that lower
+    the tension are added. The optimum is the same; where the program has many, the forces and
+    the mechanism found may be another of them."""
     keys = list(blocks)
     if not contacts:  # nothing holds them: every block falls (none at all: they stand)
         return Equilibrium(
@@ -254,7 +267,12 @@ def _solve(
             -block.mass * sideways[1] / weight,
             block.mass * gravity / weight,
         )
-    result = solve(cost, a_eq, rhs, warm=warm)
+    if start is None:
+        result = solve(cost, a_eq, rhs, warm=warm, primal=primal)
+    else:
+        coarse, basis = start
+        edges = np.concatenate([[0], 1 + (sides // coarse) * np.arange(coarse)])  # the tension, the coarse edges
+        result = solve_by_columns(cost, a_eq, rhs, (np.arange(n)[:, None] * per_point + edges).ravel(), basis)
     if result.status != OPTIMAL:
         return Equilibrium(False, float("inf"), (), {k: float("inf") for k in keys}, (), {k: 1.0 for k in keys})
     tension = float(result.fun) * weight

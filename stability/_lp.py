@@ -44,6 +44,13 @@ _STATUS = {
 }
 
 
+_PRIMAL = 4
+"""HiGHS's ``simplex_strategy`` of the primal simplex."""
+
+PRICE = 1e-9
+"""Reduced cost below which :func:`solve_by_columns` adds an unknown left out (HiGHS's own
+tolerance for an optimal basis is 1e-7: a column it would not enter is not added again)."""
+
 _DEADLINE: ContextVar[float | None] = ContextVar("stability_lp_deadline", default=None)
 
 SIMPLEX_SECONDS = 2.0
@@ -121,6 +128,13 @@ class WarmStart:
         self.shape: tuple[int, int] | None = None
         self.basis: HighsBasis | None = None
 
+    def copy(self) -> WarmStart:
+        """Another start from the same basis (a program solved from the copy leaves this one's
+        basis as it was)."""
+        other = WarmStart()
+        other.shape, other.basis = self.shape, self.basis
+        return other
+
 
 class LinearProgram:
     """``min cost x`` subject to ``a_eq x = b_eq``, ``a_ub x <= b_ub`` and ``0 <= x <= upper``,
@@ -133,6 +147,11 @@ class LinearProgram:
         upper: shape (n,), each unknown's upper bound (inf: none); None, none at all.
         iteration_limit: simplex iterations before HiGHS stops (:data:`ITERATION_LIMIT`).
         presolve: let HiGHS simplify the program first (its default).
+        primal: solve by the primal simplex, not HiGHS's choice (the dual): the method for a
+            program started from a basis that is feasible for it, or nearly, but not optimal
+            (a program with more unknowns than the one the basis is of, or the same program
+            with its friction widened: 77 iterations against 1369 by the dual simplex from the
+            same basis).
 
     Raises:
         ValueError: the shapes do not agree, ``a_ub`` comes without ``b_ub`` or the other way
@@ -162,6 +181,7 @@ class LinearProgram:
         upper: np.ndarray | None = None,
         iteration_limit: int | None = None,
         presolve: bool = True,
+        primal: bool = False,
     ) -> None:
         cost = np.asarray(cost, dtype=float)
         b_eq = np.asarray(b_eq, dtype=float)
@@ -201,9 +221,30 @@ class LinearProgram:
             self._solver.setOptionValue("simplex_iteration_limit", int(iteration_limit))
         if not presolve:
             self._solver.setOptionValue("presolve", "off")
+        if primal:
+            self._solver.setOptionValue("simplex_strategy", _PRIMAL)
         self._solver.passModel(lp)
         self._equalities = equalities
         self._limit = float(kHighsInf)  # HiGHS's time limit as last set
+
+    def add_columns(self, cost: np.ndarray, matrix: sparse.spmatrix) -> None:
+        """Add unknowns (>= 0, no upper bound) of costs ``cost`` (shape (k,)) and equality rows'
+        coefficients ``matrix`` (shape (equalities, k)) after the others; the next :meth:`solve`
+        starts from the last basis, the new unknowns at 0. Raises ValueError for a cost or
+        coefficient that is not finite, or a matrix of another shape."""
+        cost = np.asarray(cost, dtype=float)
+        columns = sparse.csc_matrix(matrix)
+        if columns.shape != (self._solver.getNumRow(), len(cost)) or self._equalities != self._solver.getNumRow():
+            raise ValueError(
+                f"{len(cost)} new unknowns of a program of {self._equalities} equalities cannot have a matrix of shape {columns.shape}"
+            )
+        if not (np.isfinite(cost).all() and np.isfinite(columns.data).all()):
+            raise ValueError("a linear program's costs and coefficients must be finite, not NaN or infinite")
+        columns.sort_indices()
+        k = len(cost)
+        self._solver.addCols(
+            k, cost, np.zeros(k), np.full(k, kHighsInf), columns.nnz, columns.indptr[:-1], columns.indices, columns.data
+        )
 
     def set_column(self, column: int, rows: list[int] | np.ndarray, values: list[float] | np.ndarray) -> None:
         """Set the coefficients of ``column`` in ``rows`` to ``values`` (the next :meth:`solve`
@@ -274,6 +315,7 @@ def solve(
     iteration_limit: int | None = None,
     presolve: bool = True,
     warm: WarmStart | None = None,
+    primal: bool = False,
 ) -> Solution:
     """Solve a program once (:class:`LinearProgram`'s arguments and errors), from ``warm``'s
     basis (:meth:`LinearProgram.solve`).
@@ -282,5 +324,57 @@ def solve(
     [2.0]
     """
     return LinearProgram(
-        cost, a_eq, b_eq, a_ub=a_ub, b_ub=b_ub, upper=upper, iteration_limit=iteration_limit, presolve=presolve
+        cost, a_eq, b_eq, a_ub=a_ub, b_ub=b_ub, upper=upper, iteration_limit=iteration_limit, presolve=presolve, primal=primal
     ).solve(warm)
+
+
+def solve_by_columns(
+    cost: np.ndarray, a_eq: sparse.spmatrix | np.ndarray, b_eq: np.ndarray, first: np.ndarray, warm: WarmStart | None = None
+) -> Solution:
+    """Solve ``min cost x`` subject to ``a_eq x = b_eq`` and ``x >= 0`` by column generation:
+    on the unknowns ``first`` alone (indices, shape (k,)) from ``warm``'s basis, a basis of
+    that smaller program; then, while an unknown left out has a negative reduced cost under
+    the equalities' duals (``cost - a_eq.T @ duals`` below :data:`PRICE`), with every such
+    unknown added, by the primal simplex from the basis the last solve ended on. An unknown
+    left out whose reduced cost is not negative cannot lower the optimum, so it is the whole
+    program's, and every unknown not added is 0 in the answer (Dantzig and Wolfe's pricing).
+    When the smaller program has no optimum the whole one is solved from scratch.
+
+    Each pivot then prices the unknowns taken in, not all of them. Measured on the 32-sided
+    friction pyramids of a fallen 40-brick log cabin (276 rows, 16,368 unknowns), started from
+    the optimum of the eight-sided one: 80 ms and 964 pivots over 3 rounds, against 613 ms and
+    2,729 pivots for the whole program from scratch, to the same optimum.
+
+    Raises:
+        ValueError: as :class:`LinearProgram`.
+        OutOfTime: as :meth:`LinearProgram.solve`.
+
+    Source: Dantzig and Wolfe, "Decomposition principle for linear programs" (Operations
+    Research 8, 1960), on HiGHS; stackdsl's own.
+
+    >>> a = np.array([[1.0, 1.0, 1.0]])
+    >>> solution = solve_by_columns(np.array([3.0, 2.0, 1.0]), a, np.array([2.0]), np.array([0]))
+    >>> solution.x.tolist(), solution.fun
+    ([0.0, 0.0, 2.0], 2.0)
+    """
+    cost = np.asarray(cost, dtype=float)
+    matrix = sparse.csc_matrix(a_eq)
+    inside = np.zeros(len(cost), dtype=bool)
+    taken = [np.asarray(first, dtype=int)]
+    inside[taken[0]] = True
+    program = LinearProgram(cost[taken[0]], matrix[:, taken[0]], b_eq, primal=True)
+    solution = program.solve(warm)
+    pivots = solution.iterations
+    while solution.status == OPTIMAL:
+        reduced = cost - matrix.T @ solution.eq_duals
+        new = np.flatnonzero((reduced < -PRICE) & ~inside)
+        if not len(new):
+            x = np.zeros(len(cost))
+            x[np.concatenate(taken)] = solution.x
+            return Solution(OPTIMAL, x, solution.fun, solution.eq_duals, pivots)
+        program.add_columns(cost[new], matrix[:, new])
+        inside[new] = True
+        taken.append(new)
+        solution = program.solve()
+        pivots += solution.iterations
+    return solve(cost, matrix, b_eq)

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from stability import ContactPolygon, RigidBlock, solve_equilibrium
+from stability import ContactPolygon, RigidBlock, WarmStart, solve_equilibrium
 
 M = 0.0106
 W = M * 9.81
@@ -435,3 +435,64 @@ def test_a_tilted_gravity_tips_a_post_past_its_half_width_over_its_height_and_no
         assert balanced_tilted(post, foot, run) is stands, run
         assert solve_equilibrium(post, foot, sideways=(9.81 * run[0], 9.81 * run[1]), quick=False).stands is stands
     assert balanced_tilted(post, [ContactPolygon("post", "ground", rectangle(-0.004, 0.004, 0.0), UP, 0.0)], (0.0, 0.0))
+
+
+def _ladders():
+    """Twenty turned ladders as the free blocks of one program: each needs its wall friction
+    between the eight-sided pyramid's edges, or more friction than there is."""
+    blocks, contacts = {}, []
+    for i, (degrees, yaw) in enumerate((d, y) for d in (30, 38, 40, 44, 50) for y in (10, 20, 35, 50)):
+        ladder, theirs = turned_ladder(degrees, yaw)
+        blocks[f"l{i}"] = ladder["ladder"]
+        contacts += [ContactPolygon(f"l{i}", c.other, c.points, c.normal, c.friction) for c in theirs]
+    return blocks, contacts
+
+
+def test_the_fine_pyramid_starts_from_the_coarse_ones_optimum_and_finds_the_same(monkeypatch):
+    # the 32-sided program is solved by columns from the eight-sided one's edges and basis: the
+    # same least tension and collapse mechanism as the whole program from scratch, in a fraction
+    # of its simplex iterations
+    from stability import _lp
+    from stability._equilibrium import FINE_SIDES, _solve
+
+    blocks, contacts = _ladders()
+    coarse = WarmStart()
+    eight = _solve(blocks, contacts, 8, 9.81, warm=coarse)
+    pivots = []
+    solve = _lp.LinearProgram.solve
+    monkeypatch.setattr(_lp.LinearProgram, "solve", lambda self, warm=None: pivots.append(solve(self, warm)) or pivots[-1])
+    started = _solve(blocks, contacts, FINE_SIDES, 9.81, start=(8, coarse))
+    from_start = sum(p.iterations for p in pivots)
+    pivots.clear()
+    whole = _solve(blocks, contacts, FINE_SIDES, 9.81)
+    assert not eight.stands and eight.tension > started.tension > 0
+    assert started.tension == pytest.approx(whole.tension, rel=1e-9)
+    assert started.moving() == whole.moving() and len(whole.moving()) > 1
+    assert from_start < 0.3 * sum(p.iterations for p in pivots)
+
+
+def test_deciding_asks_the_wider_pyramid_from_the_coarse_basis_and_decides_as_from_scratch(monkeypatch):
+    # with decide, the pyramid around the cone starts from the eight-sided program's basis (by the
+    # primal simplex): whether the blocks stand and the tension are those of the programs solved
+    # from scratch
+    import stability._equilibrium as equilibrium
+    from stability._equilibrium import FINE_SIDES, _solve
+
+    blocks, contacts = _ladders()
+    wider = [ContactPolygon(c.body, c.other, c.points, c.normal, c.friction / math.cos(math.pi / 8)) for c in contacts]
+    for part in (["l2", "l6"], list(blocks)):  # ladders that stand on the cone, and all of them
+        some = {k: blocks[k] for k in part}
+        theirs = [c for c in contacts if c.body in some]
+        decided = solve_equilibrium(some, theirs, decide=True)
+        around = _solve(some, [c for c in wider if c.body in some], 8, 9.81)
+        fine = _solve(some, theirs, FINE_SIDES, 9.81)
+        assert decided.stands == fine.stands
+        assert decided.tension == pytest.approx(fine.tension if around.stands else around.tension, rel=1e-9, abs=1e-12)
+    calls = []
+    real = equilibrium._solve
+    monkeypatch.setattr(equilibrium, "_solve", lambda *a, **k: calls.append(k) or real(*a, **k))
+    solve_equilibrium(blocks, contacts, decide=True)
+    assert [k.get("primal", False) for k in calls][:2] == [False, True] and calls[1]["warm"].basis is not None
+    calls.clear()
+    solve_equilibrium(blocks, contacts)  # without decide: the fine program, by columns from the coarse basis
+    assert len(calls) == 2 and calls[1]["start"] == (8, calls[0]["warm"])

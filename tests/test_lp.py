@@ -7,7 +7,7 @@ import pytest
 from scipy import sparse
 from scipy.optimize import linprog
 
-from stability._lp import INFEASIBLE, ITERATION_LIMIT, OPTIMAL, LinearProgram, WarmStart, solve
+from stability._lp import INFEASIBLE, ITERATION_LIMIT, OPTIMAL, LinearProgram, WarmStart, solve, solve_by_columns
 
 
 def _random_program(seed: int, rows: int = 12, columns: int = 40) -> tuple[np.ndarray, sparse.csr_matrix, np.ndarray]:
@@ -169,3 +169,38 @@ def test_a_sequence_of_programs_warm_started_finds_what_each_finds_alone_in_fewe
     other = _random_program(12, rows=10, columns=30)
     assert solve(*other, warm=warm).fun == pytest.approx(solve(*other).fun, rel=1e-9)
     assert warm.shape == (10, 30)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_a_program_solved_by_columns_has_the_whole_programs_optimum(seed):
+    """From a part of the unknowns that holds a solution, the unknowns whose reduced costs are
+    negative are added until none is: the whole program's optimum, and a solution of it."""
+    rng = np.random.default_rng(seed)
+    cost, a, _ = _random_program(seed, rows=20, columns=200)
+    first = rng.choice(200, 60, replace=False)
+    x = np.zeros(200)
+    x[first] = rng.uniform(0.0, 1.0, 60)
+    b = a @ x
+    ours, whole, part = solve_by_columns(cost, a, b, first), solve(cost, a, b), solve(cost[first], a[:, first], b)
+    assert ours.status == whole.status == part.status == OPTIMAL
+    assert part.fun > whole.fun * (1 + 1e-6)  # the part alone is worse: columns had to be added
+    assert ours.fun == pytest.approx(whole.fun, rel=1e-9)
+    assert np.allclose(a @ ours.x, b, atol=1e-9) and ours.x.min() >= -1e-12
+    assert ours.fun == pytest.approx(cost @ ours.x, rel=1e-9)
+
+
+def test_a_program_whose_first_unknowns_hold_no_solution_is_solved_whole():
+    # x0 alone cannot meet the second row: the whole program is solved from scratch
+    a = np.array([[1.0, 0.0, 1.0], [0.0, 1.0, 1.0]])
+    ours = solve_by_columns(np.array([1.0, 1.0, 1.5]), a, np.array([1.0, 1.0]), np.array([0]))
+    assert ours.status == OPTIMAL and ours.x.tolist() == [0.0, 0.0, 1.0] and ours.fun == 1.5
+
+
+def test_columns_added_to_a_program_are_checked():
+    program = LinearProgram(np.array([1.0]), np.array([[1.0]]), np.array([1.0]))
+    with pytest.raises(ValueError, match="shape"):
+        program.add_columns(np.array([1.0]), sparse.csc_matrix(np.ones((2, 1))))
+    with pytest.raises(ValueError, match="finite"):
+        program.add_columns(np.array([np.nan]), sparse.csc_matrix(np.ones((1, 1))))
+    program.add_columns(np.array([0.5]), sparse.csc_matrix(np.ones((1, 1))))
+    assert program.solve().x.tolist() == [0.0, 1.0]

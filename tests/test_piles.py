@@ -220,3 +220,53 @@ def test_a_settling_heap_is_searched_once_a_step_whichever_brick_asks(monkeypatc
     assert len(searched) > 5  # the heap was asked of, while part of it still moved
     reached = Counter((time, version, brick) for time, version, bricks in searched for brick in bricks)
     assert max(reached.values()) == 1, [k for k, n in reached.items() if n > 1][:5]
+
+
+def test_a_pile_refused_again_and_again_waits_twice_as_long_each_time(monkeypatch):
+    """The same bricks refused by the debris rule k times in a row are asked again only
+    2 ** (k - 1) rest durations after the last refusal (at most 16), not every rest duration: a
+    creeping pile of 40 fallen bricks was solved 19 times in 1 s. Other bricks are not kept
+    waiting, and a pile that is frozen starts again from one rest duration."""
+    from types import SimpleNamespace
+
+    from stability import _debris
+
+    config = SimpleNamespace(rest_duration=0.05, model="equilibrium")
+    stack = SimpleNamespace(version=1, config=config, attempt=lambda m, contacts, time: (m.body, time))
+    bricks = [SimpleNamespace(body=b, clock=SimpleNamespace(since=0.0, fallen=True), failed=None) for b in (3, 4, 5)]
+    pile = list(bricks)
+    stands = [False]
+    solved: list[float] = []
+
+    def admissible(self, group, polygons, earlier):  # type: ignore[no-untyped-def]
+        solved.append(round(now[0], 3))
+        return (group, polygons, {}, []) if stands[0] else ([], {}, {}, [])
+
+    monkeypatch.setattr(_debris.Debris, "_pile", lambda self, rec, contacts, time: list(pile))
+    monkeypatch.setattr(_debris.Debris, "_with_stack", lambda self, group, polygons: None)
+    monkeypatch.setattr(_debris.Debris, "_earlier", lambda self, group, contacts: [])
+    monkeypatch.setattr(_debris.Debris, "_admissible", admissible)
+    areas = SimpleNamespace(polygons=lambda m, around, skip: [], around=lambda m, contacts: {})
+    debris = _debris.Debris(stack, areas, None)  # type: ignore[arg-type]
+    now = [0.0]
+    for step in range(0, 3001, 5):  # 3 s of steps of 5 ms, a new rest clock each step: a creeping pile
+        now[0] = step / 1000
+        for b in pile:
+            b.clock.since = now[0]
+        debris.admit(pile[0], {}, now[0])
+    assert solved == [0.0, 0.05, 0.15, 0.35, 0.75, 1.55, 2.35], solved  # 1, 2, 4, 8, 16, 16 rest durations
+
+    solved.clear()
+    pile = bricks[:2]  # another pile: asked at once
+    now[0] = 2.4
+    debris.admit(pile[0], {}, now[0])
+    assert solved == [2.4]
+
+    debris.admission = SimpleNamespace(freeze_group=lambda *a, **k: [])  # type: ignore[assignment]
+    pile, stands[0] = list(bricks), True
+    stack.ordered = lambda held: list(held)
+    stack.bodies = {}
+    for t in (3.2, 3.25):  # frozen at 3.2 (16 rest durations after 2.35 have passed): no longer waiting
+        now[0] = t
+        debris.admit(pile[0], {}, t)
+    assert solved[1:] == [3.2, 3.25]

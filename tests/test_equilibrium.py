@@ -496,3 +496,45 @@ def test_deciding_asks_the_wider_pyramid_from_the_coarse_basis_and_decides_as_fr
     calls.clear()
     solve_equilibrium(blocks, contacts)  # without decide: the fine program, by columns from the coarse basis
     assert len(calls) == 2 and calls[1]["start"] == (8, calls[0]["warm"])
+
+
+def _one_contacts_generators(contact, blocks, sides, along=None):
+    """The pyramid's edges of one contact, worked out alone: the reference for all at once."""
+    normal = np.asarray(contact.normal, dtype=float)
+    normal = normal / np.linalg.norm(normal)
+    down = np.array([0.0, 0.0, -1.0])
+    first = down - (down @ normal) * normal
+    held = next((blocks[k] for k in (contact.body, contact.other) if k in blocks), None)
+    toward = along if along is not None else None if held is None else held.com - np.asarray(contact.points).mean(axis=0)
+    if np.linalg.norm(first) < 1e-3 and toward is not None:
+        first = toward - (toward @ normal) * normal
+    if np.linalg.norm(first) < 1e-6:
+        axis = np.array([1.0, 0.0, 0.0]) if abs(normal[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        first = axis - (axis @ normal) * normal
+    first = first / np.linalg.norm(first)
+    angles = 2 * np.pi * np.arange(sides) / sides
+    tangents = np.cos(angles)[:, None] * first + np.sin(angles)[:, None] * np.cross(normal, first)
+    return np.vstack([-normal, normal + contact.friction * tangents])
+
+
+@pytest.mark.parametrize("along", [None, (0.3, -0.2, 0.0)])
+def test_every_contacts_pyramid_at_once_is_each_ones_to_the_last_bit(along):
+    # level, nearly level, tilted, vertical and downward contacts, some between two supports: the
+    # edges of all at once are those of each worked out alone, bit for bit (the programs, and so
+    # the goldens, do not move)
+    from stability._equilibrium import _generators, _vertices
+
+    rng = np.random.default_rng(5)
+    normals = [(0, 0, 1.0), (1e-5, -2e-5, 1.0), (1.0, 0, 0), (0, 0, -1.0), (0.3, 0.1, 0.9), tuple(rng.normal(size=3))]
+    blocks = {"a": RigidBlock(M, rng.normal(size=3) * 0.02), "b": RigidBlock(M, rng.normal(size=3) * 0.02)}
+    contacts = []
+    for k in range(60):
+        body, other = (("a", "ground"), ("b", "a"), ("wall", "ground"))[k % 3]
+        points = rng.normal(size=(int(rng.integers(1, 9)), 3)) * 0.01
+        contacts.append(ContactPolygon(body, other, points, np.array(normals[k % len(normals)]), float(rng.uniform(0, 1))))
+    points, owner = _vertices(contacts)
+    way = None if along is None else np.array(along)
+    for sides in (8, 32):
+        together = _generators(contacts, blocks, sides, points, owner, way)
+        alone = np.stack([_one_contacts_generators(c, blocks, sides, way) for c in contacts])
+        assert np.array_equal(together, alone)

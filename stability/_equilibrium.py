@@ -17,9 +17,10 @@ Inscribed means every force the pyramid allows the true cone allows too, so the
 linearisation can only call a block unstable that is (barely) stable, never the
 reverse; a program the eight-sided pyramid fails by a small tension is solved again with
 32 sides, which lose at most 0.5% of mu, from the eight-sided program's optimum (its edges are
-every fourth of the 32: column generation adds only the edges that lower the tension). The first tangent points downhill along the contact (or along x when the
-contact is horizontal), so for planar problems in the x-z plane, the slope, the ladder
-and the V, the pyramid is exact in the direction that matters.
+every fourth of the 32: column generation adds only the edges that lower the tension). The
+first tangent points downhill along the contact (or along x when the contact is horizontal),
+so for planar problems in the x-z plane, the slope, the ladder and the V, the pyramid is
+exact in the direction that matters.
 
 When every contact is (nearly) level, a ten-times smaller program of vertical forces
 alone is tried first: if it balances the blocks, they stand (friction takes the rest);

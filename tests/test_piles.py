@@ -217,7 +217,9 @@ def test_a_settling_heap_is_searched_once_a_step_whichever_brick_asks(monkeypatc
     monkeypatch.setattr(_debris.Debris, "_settled_part", counted)
     outcome = run_program(compile_scenario(parse_scenario(open("scenarios/jenga_falls.yaml").read(), "jenga_falls.yaml")))
     assert outcome.collapse is not None and outcome.collapse.level == 12
-    assert len(searched) > 5  # the heap was asked of, while part of it still moved
+    # the heap was asked of more than once while part of it still moved (4 or 6 times: how the
+    # heap settles moves with round-off, OpenBLAS's AVX-512 kernels against its Haswell ones)
+    assert len(searched) > 3
     reached = Counter((time, version, brick) for time, version, bricks in searched for brick in bricks)
     assert max(reached.values()) == 1, [k for k, n in reached.items() if n > 1][:5]
 

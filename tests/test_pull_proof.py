@@ -3,6 +3,8 @@ and what it does to a run."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, example, given, settings
@@ -512,7 +514,9 @@ actions:
     ride = max(calls)[1]  # the ride spans more than a brick
     rides = [body for _, body in calls].count(ride)
     assert found and rides > 100 and [a[0] for a in asked].count(ride) < rides / 5
-    assert any("came within 1.5 mm of L03.1" in e.detail for e in outcome.events if e.kind == "wake")
+    # L03.1 or L03.2: the tower is symmetric about the pull, and which of the two the ride nears
+    # first is decided by round-off (OpenBLAS's AVX-512 kernels say L03.2, its Haswell ones L03.1)
+    assert any(re.search(r"came within 1\.5 mm of L03\.[12]\b", e.detail) for e in outcome.events if e.kind == "wake")
 
 
 def test_a_level_stack_that_stands_on_no_vertical_forces_without_the_pulled_block_is_refused_at_once(monkeypatch):

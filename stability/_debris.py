@@ -161,7 +161,8 @@ class Debris:
     def _waiting(self, members: frozenset[int], time: float) -> bool:
         """Whether the pile of the bricks ``members``, refused ``k`` times in a row, is still
         waiting: the same bricks are asked again 2 ** (k - 1) rest durations after their last
-        refusal (at most :data:`BACKOFF` of them), not every rest duration. A pile that creeps
+        refusal (doubled at most :data:`BACKOFF` times: 16 rest durations), not every rest
+        duration. A pile that creeps
         at the edge of its friction is refused again and again, each time by a program of its
         every contact: the 40 fallen bricks of a slant log cabin were refused 19 times in 1 s,
         0.3 s of programs each, where the engine steps them 0.1 s of time in 10 ms. Source:

@@ -375,6 +375,28 @@ def test_the_folder_bench_runs_each_scene_on_the_sides_given(tmp_path, monkeypat
     assert main(["bench", "folder", str(tmp_path), "--sides", "extension,MuJoCo lean", "--no-cells"]) == 0
 
 
+@pytest.mark.parametrize(
+    ("argv", "told"),
+    [
+        (["bench", "--sides", "extension", "--families", "upright"], "this table takes --settings, of: raw 240 Hz"),
+        (["bench", "folder", "scenarios", "--settings", "extension report"], "this command takes --sides, of: file's own"),
+        (["bench", "actions", "--settings", "extension report"], "this command takes --sides, of: extension,"),
+    ],
+)
+def test_the_other_bench_commands_option_names_the_one_taken_here(argv, told, capsys):
+    """A new user gave ``bench`` (the speed-against-error table) the ``--sides`` of ``bench
+    actions``, and argparse read 'extension' as a benchmark's name ("invalid choice"); and gave
+    ``bench folder`` the table's ``--settings``. Each is a usage error that names the option this
+    command takes, and its values; nothing runs."""
+    from stackdsl.cli.main import main
+
+    with pytest.raises(SystemExit) as exit_:
+        main(argv)
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert "is not an option of this command" in err and told in err
+
+
 def test_a_benchmark_named_after_out_writes_its_tables_there(tmp_path, monkeypatch, capsys):
     """New users gave ``stackdsl bench --out DIR folder``: it printed its tables and wrote
     nothing, and said nothing of it. The tables now go there too, and the command says where."""

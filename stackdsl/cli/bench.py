@@ -35,6 +35,27 @@ if TYPE_CHECKING:
 MAX_SOLVE_BRICKS = 2 * MAX_LEVELS
 
 
+class _Elsewhere(argparse.Action):
+    """An option of another ``bench`` command, given here: a usage error (exit 2) that names the
+    option this command takes instead, where argparse would read its value as a subcommand's name.
+    Hidden from the help. Source: stackdsl's own."""
+
+    def __init__(self, option_strings: list[str], dest: str, instead: str = "", **kwargs: Any) -> None:
+        super().__init__(option_strings, dest, help=argparse.SUPPRESS, **kwargs)
+        self.instead = instead
+
+    def __call__(
+        self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: Any, option_string: str | None = None
+    ) -> None:
+        parser.error(f"{option_string} is not an option of this command: {self.instead}")
+
+
+_SIDES_ELSEWHERE = (
+    "`stackdsl bench actions` and `stackdsl bench folder` take --sides; this table takes --settings, of: " + ", ".join(SETTINGS)
+)
+_SETTINGS_ELSEWHERE = "the speed-against-error table (`stackdsl bench`) takes --settings; this command takes --sides, of: "
+
+
 def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, modes: list[str]) -> None:
     """Add ``bench`` and its sub-benchmarks to the ``stackdsl`` parser's subcommands."""
     raw = argparse.RawDescriptionHelpFormatter
@@ -58,6 +79,7 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
         default=",".join(DEFAULT_SETTINGS),
         help="comma-separated, of: " + ", ".join(SETTINGS) + " (default: all but MuJoCo lean 1e-4)",
     )
+    p.add_argument("--sides", action=_Elsewhere, instead=_SIDES_ELSEWHERE)
     p.add_argument("--families", default="slant log cabin,single file,upright", help="comma-separated scene families")
     p.add_argument(
         "--upright", default=",".join(map(str, UPRIGHT)), help="comma-separated heights of the upright towers, in levels"
@@ -223,6 +245,7 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
     )
     q.add_argument("--scenes", default=None, help="comma-separated scene names (default: all; see the table)")
     q.add_argument("--sides", default=",".join(ACTION_SIDES), help="comma-separated, of: " + ", ".join(ACTION_SIDES))
+    q.add_argument("--settings", action=_Elsewhere, instead=_SETTINGS_ELSEWHERE + ", ".join(ACTION_SIDES))
     q.add_argument(
         "--repeats", type=int, default=None, help="runs per cell, each in a fresh process (median; default: 3, with --quick 1)"
     )
@@ -243,6 +266,7 @@ def add_bench(sub: Any, parents: list[argparse.ArgumentParser], epilog: str, mod
         help=f"comma-separated, each scenario run on each (default: {AS_WRITTEN!r} and the lean MuJoCo peer), of: "
         + ", ".join([AS_WRITTEN, *ACTION_SIDES]),
     )
+    q.add_argument("--settings", action=_Elsewhere, instead=_SETTINGS_ELSEWHERE + ", ".join([AS_WRITTEN, *ACTION_SIDES]))
     q.set_defaults(func=_bench_folder)
     q = bench.add_parser(
         "pulls", help="the sweep of Jenga pulls: samples a second, the extension against the lean MuJoCo peer, same draws"

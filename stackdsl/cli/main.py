@@ -572,7 +572,10 @@ def _add_scenario_command(sub: Any, name: str, common: argparse.ArgumentParser) 
             "compare",
             parents=[many],
             help=COMMANDS["compare"],
-            description="Run scenario files or folders in every mode, in one run, and print one table.",
+            description="Run scenario files or folders in every mode, in one run, and print one table.\n\n"
+            "The tuned modes are the slow ones (pybullet at 1 kHz with 150 solver iterations): a Jenga\n"
+            "tower with a pull or two takes 30 s to minutes there, and a run past --timeout (100 s by\n"
+            "default) is stopped and its cell fails; give such scenes --timeout 600.",
             epilog=CHECK_STATUS.replace("  0    every expectation held", "  0    in every cell, every expectation held").replace(
                 "  1    an expectation failed", "  1    an expectation failed in some cell"
             ),

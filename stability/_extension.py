@@ -91,6 +91,10 @@ TOUCH = 0.0015
 #: Metres a corner of an active brick that frozen bricks lean on may move before they wake (a
 #: contact pad: within it the two still touch as they did).
 WATCH = 0.001
+#: Metres between a pushed brick whose proof is lost and its pusher beyond which the push has let
+#: it go (:meth:`StabilityExtension._guided`): a finger that drives a block stays within its
+#: collision margin of it; one that passes over a block fallen off the level under it is 17 mm clear.
+LEFT = 0.005
 #: Metres by which a pusher's box, swept along its path, may overlap a brick's box across the path
 #: and still pass it (:meth:`StabilityExtension._pushes`): a side of a finger flush with a
 #: neighbour's face, as written, meets its end along a line, not a face.
@@ -875,8 +879,23 @@ class StabilityExtension:
         for body in sorted(self._stack.guided):
             if body in self._proofs:
                 events += self._reprove(body, time)
+            if self._left_behind(body):
+                self._let_go(body)
+                continue
             events += self._touching(body, time, touched)
         return events, touched
+
+    def _left_behind(self, body: int) -> bool:
+        """Whether ``body`` is a brick a pusher drove (:meth:`_drive`), no proof keeps it, and the
+        pusher is :data:`LEFT` clear of it: the push has let it go before its end, and it is a
+        brick like any other again (:meth:`_let_go`). Driven to the push's end, a Jenga block
+        pushed out of level 3 that fell to the ground beside the tower, the finger passing 17 mm
+        above it, woke the tower's 25 other bricks 13 times in 0.55 s, each "touched by" the
+        block "which a hand moves" at the push's speed, where it lay still. Source: stackdsl's own."""
+        pusher = self._driven.get(body)
+        if pusher is None or body in self._proofs or pusher not in self._stack.bodies:
+            return False
+        return not self._stack.engine.near(pusher, LEFT, (body,))
 
     def _reprove(self, body: int, time: float) -> list[StabilityEvent]:
         """Keep the proof of a pull (:meth:`guide`) or, when it no longer holds (a brick it kept
@@ -1024,7 +1043,8 @@ class StabilityExtension:
         bricks it slides between stay frozen (:class:`stability._drag.PullProof`, asked again as
         it moves); unproved, it wakes with what rests on it and the bricks beside that carry
         that, which stay in the engine while it is driven. Until the push ends (:meth:`forget`
-        of the pusher) it is a guided body: never frozen, and what it touches wakes.
+        of the pusher), or lets it go once no proof keeps it and the pusher is clear of it
+        (:meth:`_left_behind`), it is a guided body: never frozen, and what it touches wakes.
 
         Woken as a plain brick, everything resting on a pushed Jenga block woke, and froze again
         a tenth of a second later on the blocks beside it, the push's drag never weighed: a side

@@ -381,6 +381,29 @@ def test_a_block_pushed_past_its_supports_edge_tips_and_wakes_the_levels_on_it(a
         assert {e.brick for e in tipped} >= {"L05.1", "L05.2", "L05.3"} and 0.039 < travel < 0.099, (travel, tipped)
 
 
+def test_a_pushed_block_the_finger_has_left_is_let_go_before_the_push_ends():
+    """The middle block of level 3 of a 5-level Jenga tower pushed out along its length, 100 mm
+    of finger travel: it tips off level 2 and lands on the ground beside the tower, where the
+    finger passes over it. Driven to the push's end, it woke the bricks it lay against "touched
+    by L03.2, which a hand moves" 11 times at the push's speed, each settling and frozen again
+    (141 wakes; the helper's 9-level tower 298, 2.4 s). Once no proof keeps it and the finger is
+    clear of it, the push lets it go: it is frozen where it lies before the finger is withdrawn,
+    and what it lies against is woken by it once."""
+    text = (
+        JENGA_6.replace("levels: 6", "levels: 5").replace(
+            "brick_types:\n", "brick_types:\n  finger: {size: [10 mm, 10 mm, 10 mm], material: maple}\n"
+        )
+        + "actions:\n  - push: {target: {brick: L03.2}, direction: +x, speed: 30 mm/s, distance: 100 mm,"
+        " at: after level 5, pusher: finger}\nexpect: {moved: L03.2}\n"
+    )
+    outcome = run_program(compile_scenario(parse_scenario(text, "push_off.yaml"), None, None, "pybullet"))
+    released = next(e.time for e in outcome.events if e.kind == "release")
+    landed = [e.time for e in outcome.events if e.kind == "freeze" and e.brick == "L03.2" and "on ground" in e.detail]
+    assert landed and landed[0] < released, (landed, released)
+    touched = [e.brick for e in outcome.events if e.kind == "wake" and "touched by L03.2, which a hand moves" in e.detail]
+    assert touched and len(touched) == len(set(touched)), touched
+
+
 def test_a_pull_of_a_brick_that_has_moved_says_where_the_hand_takes_it():
     """A new user pulled a block out of a tower's debris and nothing said it no longer lay where
     it was placed: the hand takes a brick where it lies, and the pull's line now says how far

@@ -256,15 +256,22 @@ def test_a_block_pushed_out_along_its_length_does_not_drive_the_blocks_beside_it
     assert verdicts["moved"] and outcome.displacement["L04.1"] < 0.001 and outcome.displacement["L04.3"] < 0.001
 
 
+def _jenga_pushed(levels: int, push: str, finger: str = "10 mm, 10 mm, 10 mm", expect: str = "") -> str:
+    """A Jenga tower of ``levels`` whose ``push`` (its mapping's keys but ``at`` and ``pusher``)
+    a maple finger of ``finger`` (its size) gives once the tower is built."""
+    return (
+        JENGA_6.replace("levels: 6", f"levels: {levels}").replace(
+            "brick_types:\n", f"brick_types:\n  finger: {{size: [{finger}], material: maple}}\n"
+        )
+        + f"actions:\n  - push: {{{push}, at: after level {levels}, pusher: finger}}\n"
+        + (f"expect: {expect}\n" if expect else "")
+    )
+
+
 def _pushed_12(brick: str, direction: str, expect: str) -> str:
     """A 12-level Jenga tower whose ``brick`` a finger pushes 30 mm along its length at 40 mm/s."""
-    return (
-        JENGA_6.replace("levels: 6", "levels: 12").replace(
-            "brick_types:\n", "brick_types:\n  finger: {size: [10 mm, 10 mm, 10 mm], material: maple}\n"
-        )
-        + f"actions:\n  - push: {{target: {{brick: {brick}}}, direction: {direction}, speed: 40 mm/s,"
-        " distance: 30 mm, at: after level 12, pusher: finger}\n"
-        f"expect: {expect}\n"
+    return _jenga_pushed(
+        12, f"target: {{brick: {brick}}}, direction: {direction}, speed: 40 mm/s, distance: 30 mm", expect=expect
     )
 
 
@@ -389,13 +396,7 @@ def test_a_pushed_block_the_finger_has_left_is_let_go_before_the_push_ends():
     (141 wakes; the helper's 9-level tower 298, 2.4 s). Once no proof keeps it and the finger is
     clear of it, the push lets it go: it is frozen where it lies before the finger is withdrawn,
     and what it lies against is woken by it once."""
-    text = (
-        JENGA_6.replace("levels: 6", "levels: 5").replace(
-            "brick_types:\n", "brick_types:\n  finger: {size: [10 mm, 10 mm, 10 mm], material: maple}\n"
-        )
-        + "actions:\n  - push: {target: {brick: L03.2}, direction: +x, speed: 30 mm/s, distance: 100 mm,"
-        " at: after level 5, pusher: finger}\nexpect: {moved: L03.2}\n"
-    )
+    text = _jenga_pushed(5, "target: {brick: L03.2}, direction: +x, speed: 30 mm/s, distance: 100 mm", expect="{moved: L03.2}")
     outcome = run_program(compile_scenario(parse_scenario(text, "push_off.yaml"), None, None, "pybullet"))
     released = next(e.time for e in outcome.events if e.kind == "release")
     landed = [e.time for e in outcome.events if e.kind == "freeze" and e.brick == "L03.2" and "on ground" in e.detail]
@@ -454,13 +455,7 @@ def test_a_finger_gliding_over_the_block_under_the_one_it_pushes_leaves_it_froze
     within the touch margin, but its box swept along the push never meets them. They stay frozen,
     and so does the tower above, on the pushed block's proof. Before, the block under it was
     driven as if pushed, its proof failed, and the tower above rode and woke."""
-    text = (
-        JENGA_6.replace("levels: 6", "levels: 8").replace(
-            "brick_types:\n", "brick_types:\n  finger: {size: [20 mm, 12 mm, 12 mm], material: maple}\n"
-        )
-        + "actions:\n  - push: {target: {brick: L04.2}, direction: +y, speed: 20 mm/s, distance: 45 mm,"
-        " at: after level 8, pusher: finger}\n"
-    )
+    text = _jenga_pushed(8, "target: {brick: L04.2}, direction: +y, speed: 20 mm/s, distance: 45 mm", "20 mm, 12 mm, 12 mm")
     outcome = run_program(compile_scenario(parse_scenario(text, "glide.yaml"), None, None, "pybullet"))
     woken = [e for e in outcome.events if e.kind in ("wake", "ride")]
     assert [e.brick for e in woken] == ["L04.2"] and "stay frozen" in woken[0].detail, woken

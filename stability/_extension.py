@@ -892,8 +892,8 @@ class StabilityExtension:
         pushed out of level 3 that fell to the ground beside the tower, the finger passing 17 mm
         above it, woke the tower's 25 other bricks 13 times in 0.55 s, each "touched by" the
         block "which a hand moves" at the push's speed, where it lay still. Source: stackdsl's own."""
-        pusher = self._driven.get(body)
-        if pusher is None or body in self._proofs or pusher not in self._stack.bodies:
+        pusher = self._driven.get(body)  # a pusher forgotten has let go of what it drove (:meth:`forget`)
+        if pusher is None or body in self._proofs:
             return False
         return not self._stack.engine.near(pusher, LEFT, (body,))
 

@@ -393,7 +393,7 @@ def test_a_pushed_block_the_finger_has_left_is_let_go_before_the_push_ends():
     of finger travel: it tips off level 2 and lands on the ground beside the tower, where the
     finger passes over it. Driven to the push's end, it woke the bricks it lay against "touched
     by L03.2, which a hand moves" 11 times at the push's speed, each settling and frozen again
-    (141 wakes; the helper's 9-level tower 298, 2.4 s). Once no proof keeps it and the finger is
+    (141 wakes; a new user's 9-level tower 298, 2.4 s). Once no proof keeps it and the finger is
     clear of it, the push lets it go: it is frozen where it lies before the finger is withdrawn,
     and what it lies against is woken by it once."""
     text = _jenga_pushed(5, "target: {brick: L03.2}, direction: +x, speed: 30 mm/s, distance: 100 mm", expect="{moved: L03.2}")
